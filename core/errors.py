@@ -1,0 +1,93 @@
+"""The one exception family of `core`.
+
+Every message says what is wrong, where (the field or the point), the allowed
+range, and what to do, so a therapist can act on it without a manual.
+"""
+
+from __future__ import annotations
+
+import math
+
+
+class CoreError(Exception):
+    """Base of every error raised by `core`."""
+
+
+class ParameterError(CoreError, ValueError):
+    """A parameter is missing, not finite, or outside its allowed range."""
+
+    def __init__(self, field: str, value: object, allowed: str, why: str = "") -> None:
+        self.field = field
+        self.value = value
+        self.allowed = allowed
+        self.why = why
+        text = f"{field} = {_show(value)} is not allowed; allowed: {allowed}"
+        if why:
+            text += f" ({why})"
+        super().__init__(text)
+
+
+class UnreachableError(CoreError, ValueError):
+    """A point or a path lies outside what the robot or the subject's arm can reach."""
+
+
+class SingularityError(CoreError, ArithmeticError):
+    """A Jacobian or mass matrix is singular where an inverse was required."""
+
+
+def _show(value: object) -> str:
+    if isinstance(value, float):
+        return "NaN" if math.isnan(value) else f"{value:g}"
+    return repr(value)
+
+
+def check_finite(field: str, value: float, unit: str = "") -> float:
+    """Return `value` as a float, refusing NaN, infinities and non-numbers."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(field, value, f"a finite number{_unit(unit)}") from None
+    if not math.isfinite(number):
+        raise ParameterError(field, number, f"a finite number{_unit(unit)}")
+    return number
+
+
+def check_range(
+    field: str,
+    value: float,
+    low: float,
+    high: float,
+    unit: str = "",
+    why: str = "",
+    *,
+    low_open: bool = False,
+) -> float:
+    """Return `value` when it is finite and inside [low, high] (or (low, high])."""
+    number = check_finite(field, value, unit)
+    below = number <= low if low_open else number < low
+    if below or number > high:
+        bracket = "(" if low_open else "["
+        raise ParameterError(
+            field, number, f"{bracket}{low:g}, {high:g}]{_unit(unit)}", why
+        )
+    return number
+
+
+def check_positive(field: str, value: float, unit: str = "", why: str = "") -> float:
+    """Return `value` when it is finite and strictly positive."""
+    number = check_finite(field, value, unit)
+    if number <= 0.0:
+        raise ParameterError(field, number, f"> 0{_unit(unit)}", why)
+    return number
+
+
+def check_non_negative(field: str, value: float, unit: str = "", why: str = "") -> float:
+    """Return `value` when it is finite and zero or positive."""
+    number = check_finite(field, value, unit)
+    if number < 0.0:
+        raise ParameterError(field, number, f">= 0{_unit(unit)}", why)
+    return number
+
+
+def _unit(unit: str) -> str:
+    return f" {unit}" if unit else ""

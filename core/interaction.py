@@ -1,0 +1,206 @@
+"""Physical human–robot interaction: the robot and the subject's arm joined at the handle
+(section 3.4, eq. 3.26–3.38).
+
+Forces here are the force the hand applies to the handle, `hand_force` (the
+sensor's reading, rotated to the global frame): see the sign note in
+`core.robot`. Every function works on plain floats for the 2 ms tick and on
+numpy arrays for whole trials.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from core.arm import ArmModel
+from core.arrays import solve2_damped, xp_of
+from core.errors import SingularityError
+from core.robot import RobotModel
+
+# Below this smallest singular value of J_A (metres per radian) the arm is
+# treated as near-straight and the rates use a damped pseudo-inverse. 0.02 m/rad
+# is reached at about 4° of elbow flexion for a 0.30 m + 0.30 m arm.
+ARM_SINGULAR_THRESHOLD_M = 0.02
+
+
+def sensor_to_global(fx_sensor, fy_sensor, q1, offset_rad=0.0):
+    """Rotate the sensor's planar force into the global frame, eq. 3.35–3.36.
+
+    The sensor turns with link 4, whose absolute angle is θ_R1; `offset_rad` is
+    the sensor's mounting angle on that link (0 in the thesis).
+    """
+    xp = xp_of(q1)
+    angle = q1 + offset_rad
+    c, s = xp.cos(angle), xp.sin(angle)
+    return (c * fx_sensor - s * fy_sensor, s * fx_sensor + c * fy_sensor)
+
+
+def global_to_sensor(fx, fy, q1, offset_rad=0.0):
+    """Inverse of `sensor_to_global`: what the sensor reads for a global force."""
+    return sensor_to_global(fx, fy, -q1, -offset_rad)
+
+
+def subject_angles(robot: RobotModel, arm: ArmModel, q1, q2):
+    """The subject's arm angles (θ_s, θ_e) with the hand on the handle, eq. 3.28."""
+    x, y = robot.position(q1, q2)
+    return arm.ik_terms(x, y)
+
+
+def subject_rates(robot: RobotModel, arm: ArmModel, q1, q2, qd1, qd2, ts, te):
+    """θ̇_A = J_A⁻¹ J_R θ̇_R (eq. 3.32), with a damped pseudo-inverse near the
+    straight-arm singularity. Returns (θ̇_s, θ̇_e, damped)."""
+    r11, r12, r21, r22 = robot.jacobian_terms(q1, q2)
+    vx = r11 * qd1 + r12 * qd2
+    vy = r21 * qd1 + r22 * qd2
+    a11, a12, a21, a22 = arm.jacobian_terms(ts, te)
+    return solve2_damped(a11, a12, a21, a22, vx, vy, ARM_SINGULAR_THRESHOLD_M)
+
+
+def subject_accelerations(
+    robot: RobotModel, arm: ArmModel, q1, q2, qd1, qd2, qdd1, qdd2, ts, te, tsd, ted
+):
+    """θ̈_A = J_A⁻¹ (J̇_R θ̇_R + J_R θ̈_R − J̇_A θ̇_A) (eq. 3.33), damped like the rates.
+    Returns (θ̈_s, θ̈_e, damped)."""
+    r11, r12, r21, r22 = robot.jacobian_terms(q1, q2)
+    d11, d12, d21, d22 = robot.jacobian_dot_terms(q1, q2, qd1, qd2)
+    e11, e12, e21, e22 = arm.jacobian_dot_terms(ts, te, tsd, ted)
+    ax = r11 * qdd1 + r12 * qdd2 + d11 * qd1 + d12 * qd2 - (e11 * tsd + e12 * ted)
+    ay = r21 * qdd1 + r22 * qdd2 + d21 * qd1 + d22 * qd2 - (e21 * tsd + e22 * ted)
+    a11, a12, a21, a22 = arm.jacobian_terms(ts, te)
+    return solve2_damped(a11, a12, a21, a22, ax, ay, ARM_SINGULAR_THRESHOLD_M)
+
+
+def subject_torques(arm: ArmModel, ts, te, tsd, ted, tsdd, tedd, fx, fy):
+    """The subject's net shoulder and elbow torques τ_A from eq. 3.27."""
+    return arm.inverse_dynamics_terms(ts, te, tsd, ted, tsdd, tedd, fx, fy)
+
+
+def subject_robot_torque(robot: RobotModel, q1, q2, fx, fy):
+    """τ_subject = J_Rᵀ F (eq. 3.34): the subject's contribution at the robot's joints."""
+    return robot.joint_torque_terms(q1, q2, fx, fy)
+
+
+@dataclass(frozen=True, slots=True)
+class SubjectState:
+    """Everything the interaction model derives about the subject from one robot sample."""
+
+    force_x_N: float
+    force_y_N: float
+    shoulder_rad: float
+    elbow_rad: float
+    shoulder_rate_rad_s: float
+    elbow_rate_rad_s: float
+    shoulder_acc_rad_s2: float
+    elbow_acc_rad_s2: float
+    shoulder_torque_Nm: float
+    elbow_torque_Nm: float
+    isb_shoulder_rad: float
+    isb_elbow_rad: float
+    damped: bool
+
+
+def subject_state(
+    robot: RobotModel,
+    arm: ArmModel,
+    q1, q2, qd1, qd2, qdd1, qdd2,
+    fx_sensor, fy_sensor,
+    sensor_offset_rad=0.0,
+) -> SubjectState:
+    """Run the whole interaction model (eq. 3.28, 3.32–3.33, 3.35–3.38, 3.27) on one
+    sample or on arrays of samples."""
+    fx, fy = sensor_to_global(fx_sensor, fy_sensor, q1, sensor_offset_rad)
+    ts, te = subject_angles(robot, arm, q1, q2)
+    tsd, ted, damped_rate = subject_rates(robot, arm, q1, q2, qd1, qd2, ts, te)
+    tsdd, tedd, damped_acc = subject_accelerations(
+        robot, arm, q1, q2, qd1, qd2, qdd1, qdd2, ts, te, tsd, ted
+    )
+    tau_s, tau_e = subject_torques(arm, ts, te, tsd, ted, tsdd, tedd, fx, fy)
+    isb_s, isb_e = arm.isb_terms(ts, te)
+    return SubjectState(
+        fx, fy, ts, te, tsd, ted, tsdd, tedd, tau_s, tau_e, isb_s, isb_e,
+        damped_rate | damped_acc,
+    )
+
+
+# ----------------------------------------------------------- coupled dynamics
+def coupled_forward_dynamics(
+    robot: RobotModel, arm: ArmModel, q1, q2, qd1, qd2, tau1, tau2, tau_s, tau_e
+):
+    """Robot and arm joined rigidly at the handle (eq. 3.26–3.27 under 3.28–3.31).
+
+    With G = J_A⁻¹ J_R, θ̇_A = G θ̇_R and θ̈_A = G θ̈_R + g, g = J_A⁻¹(J̇_R θ̇_R − J̇_A θ̇_A):
+
+        (M_R + Gᵀ M_A G) θ̈_R = τ_R − h_R + Gᵀ (τ_A − C_A θ̇_A − M_A g)
+
+    and the hand's force on the handle follows from the arm's equation,
+    F_hand = J_A⁻ᵀ (τ_A − M_A θ̈_A − C_A θ̇_A).
+
+    Plain floats only. Returns (θ̈_R1, θ̈_R2, F_x, F_y, θ_s, θ_e, θ̇_s, θ̇_e).
+    Raises SingularityError when the arm is straight (J_A not invertible).
+    """
+    ts, te = subject_angles(robot, arm, q1, q2)
+    a11, a12, a21, a22 = arm.jacobian_terms(ts, te)
+    det_a = a11 * a22 - a12 * a21
+    if not abs(det_a) > 1e-9 or math.isnan(ts):
+        x, y = robot.position(q1, q2)
+        raise SingularityError(
+            f"the subject's arm is straight or out of reach at ({x:.3f}, {y:.3f}) m; "
+            "the coupled model has no solution there. Keep the handle within the arm's reach."
+        )
+    # J_A⁻¹ entries
+    i11, i12, i21, i22 = a22 / det_a, -a12 / det_a, -a21 / det_a, a11 / det_a
+    r11, r12, r21, r22 = robot.jacobian_terms(q1, q2)
+    g11 = i11 * r11 + i12 * r21
+    g12 = i11 * r12 + i12 * r22
+    g21 = i21 * r11 + i22 * r21
+    g22 = i21 * r12 + i22 * r22
+    tsd = g11 * qd1 + g12 * qd2
+    ted = g21 * qd1 + g22 * qd2
+    d11, d12, d21, d22 = robot.jacobian_dot_terms(q1, q2, qd1, qd2)
+    e11, e12, e21, e22 = arm.jacobian_dot_terms(ts, te, tsd, ted)
+    wx = d11 * qd1 + d12 * qd2 - (e11 * tsd + e12 * ted)
+    wy = d21 * qd1 + d22 * qd2 - (e21 * tsd + e22 * ted)
+    gs = i11 * wx + i12 * wy
+    ge = i21 * wx + i22 * wy
+
+    ma11, ma12, ma22 = arm.mass_terms(ts, te)
+    _, ca12, ca21, _ = arm.coriolis_terms(ts, te, tsd, ted)
+    # arm-side generalised force left after its own bias and the g-part of its inertia
+    ps = tau_s - ca12 * ted - (ma11 * gs + ma12 * ge)
+    pe = tau_e - ca21 * tsd - (ma12 * gs + ma22 * ge)
+
+    mr11, mr12, mr22 = robot.mass_terms(q1, q2)
+    h1, h2 = robot.bias_terms(q1, q2, qd1, qd2)
+    # Gᵀ M_A G
+    t11 = ma11 * g11 + ma12 * g21
+    t12 = ma11 * g12 + ma12 * g22
+    t21 = ma12 * g11 + ma22 * g21
+    t22 = ma12 * g12 + ma22 * g22
+    m11 = mr11 + g11 * t11 + g21 * t21
+    m12 = mr12 + g11 * t12 + g21 * t22
+    m22 = mr22 + g12 * t12 + g22 * t22
+    b1 = tau1 - h1 + g11 * ps + g21 * pe
+    b2 = tau2 - h2 + g12 * ps + g22 * pe
+    det = m11 * m22 - m12 * m12
+    qdd1 = (m22 * b1 - m12 * b2) / det
+    qdd2 = (m11 * b2 - m12 * b1) / det
+
+    tsdd = g11 * qdd1 + g12 * qdd2 + gs
+    tedd = g21 * qdd1 + g22 * qdd2 + ge
+    # J_Aᵀ F = τ_A − M_A θ̈_A − C_A θ̇_A  →  F = J_A⁻ᵀ (…)
+    us = tau_s - (ma11 * tsdd + ma12 * tedd) - ca12 * ted
+    ue = tau_e - (ma12 * tsdd + ma22 * tedd) - ca21 * tsd
+    fx = i11 * us + i21 * ue
+    fy = i12 * us + i22 * ue
+    return (qdd1, qdd2, fx, fy, ts, te, tsd, ted)
+
+
+def coupled_energy(robot: RobotModel, arm: ArmModel, q1, q2, qd1, qd2) -> float:
+    """Kinetic energy of robot and arm plus the robot's stored joint-stiffness energy."""
+    ts, te = subject_angles(robot, arm, q1, q2)
+    tsd, ted, _ = subject_rates(robot, arm, q1, q2, qd1, qd2, ts, te)
+    return (
+        robot.kinetic_energy_terms(q1, q2, qd1, qd2)
+        + robot.potential_energy_terms(q1, q2)
+        + arm.kinetic_energy_terms(ts, te, tsd, ted)
+    )

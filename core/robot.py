@@ -1,0 +1,523 @@
+"""The planar parallelogram rehabilitation robot (section 3.2, eq. 3.1–3.14).
+
+Frames and joints
+-----------------
+The global frame has its origin on the motor axes (Fig. 3.2), x and y in the
+horizontal plane. θ_R1 is the absolute angle of the short link l1, and therefore
+also of the parallel distal link l4; θ_R2 is the absolute angle of l2 and of the
+parallel link l3. The end effector sits at the end of l4:
+
+    P_R = l2 e(θ_R2) + l4 e(θ_R1),   e(θ) = (cos θ, sin θ)          (3.2)
+
+Two levels of API
+-----------------
+* Component functions (`position`, `jacobian_terms`, `mass_terms`, …) take the
+  joint values as separate numbers and return tuples of numbers. They accept
+  plain floats (the 2 ms control tick, a few µs per call) or numpy arrays of
+  any shape (whole trials, vectorised) with the same formula.
+* Array functions (`fk`, `jacobian`, `mass_matrix`, `inverse_dynamics`, …) take
+  and return numpy arrays shaped (..., 2) and (..., 2, 2) for scripting.
+
+Sign of the interaction force
+-----------------------------
+`hand_force` is the force the subject's hand applies to the handle, which is
+what the handle's sensor measures (the F_I of eq. 3.34). Eq. 3.26 writes the
+same coupling as `τ_R − J_Rᵀ F_I` with F_I taken as the force on the hand; the
+two agree with F_I = −hand_force. Here:
+
+    M_R θ̈ + C_R θ̇ + K_R (θ − θ_R0) + J_Rᵀ f_RE + f_RJ = τ_R + J_Rᵀ F_hand   (3.6, 3.26)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from core.arrays import as_pairs, matrix2, xp_of
+from core.errors import (
+    ParameterError,
+    UnreachableError,
+    check_finite,
+    check_non_negative,
+    check_positive,
+)
+from core.motor import MotorParameters
+
+_DEG = math.pi / 180.0
+
+
+@dataclass(frozen=True, slots=True)
+class Link:
+    """One link of Table 3.3: mass, moment of inertia about its centre of gravity,
+    and the centre of gravity in the link's own frame (x along the link)."""
+
+    mass_kg: float
+    inertia_kgm2: float
+    cg_x_m: float
+    cg_y_m: float
+
+    def __post_init__(self) -> None:
+        check_positive("mass_kg", self.mass_kg, "kg")
+        check_positive("inertia_kgm2", self.inertia_kgm2, "kg·m²")
+        check_finite("cg_x_m", self.cg_x_m, "m")
+        check_finite("cg_y_m", self.cg_y_m, "m")
+
+
+THESIS_LINKS = (
+    Link(2.578, 0.022, -0.005, 0.0),
+    Link(3.399, 0.061, 0.001, 0.0),
+    Link(0.062, 0.001, 0.158, 0.0),
+    Link(1.083, 0.010, 0.274, 0.008),
+)
+
+
+@dataclass(frozen=True, slots=True)
+class JointLimits:
+    """Software joint limits of the working branch (radians).
+
+    The thesis gives none. The defaults keep the parallelogram at least 15°
+    from folding flat (where it loses a degree of freedom: det J_R = 0) and
+    cover the table in front of the robot with margin.
+    """
+
+    q1_min_rad: float = 0.0
+    q1_max_rad: float = 315.0 * _DEG
+    q2_min_rad: float = -45.0 * _DEG
+    q2_max_rad: float = 180.0 * _DEG
+    spread_min_rad: float = 15.0 * _DEG
+    spread_max_rad: float = 165.0 * _DEG
+
+    def __post_init__(self) -> None:
+        for low, high in (
+            ("q1_min_rad", "q1_max_rad"),
+            ("q2_min_rad", "q2_max_rad"),
+            ("spread_min_rad", "spread_max_rad"),
+        ):
+            lo = check_finite(low, getattr(self, low), "rad")
+            hi = check_finite(high, getattr(self, high), "rad")
+            if lo >= hi:
+                raise ParameterError(high, hi, f"> {low} = {lo:g} rad")
+        if not (self.spread_min_rad > 0.0 and self.spread_max_rad < math.pi):
+            raise ParameterError(
+                "spread_min_rad", self.spread_min_rad, "(0, π) rad",
+                "θ_R1 − θ_R2 must stay on one side of the flat parallelogram",
+            )
+
+
+@dataclass(frozen=True, slots=True)
+class Friction:
+    """Continuous-velocity friction (the thesis's model family, ref. [5]).
+
+    Joint friction per joint i:  f_RJ,i = Fc_i · tanh(θ̇_i / v_s) + b_i · θ̇_i
+    End-effector friction:       f_RE = Fc_e · tanh(|v| / v_e) · v/|v| + b_e · v
+
+    The thesis gives no numbers. The defaults are a belt-and-disc drive's order
+    of magnitude (0.05 N·m breakaway, 0.02 N·m·s/rad viscous at the joint) and
+    no end-effector friction (an air-bearing or low-friction handle); set them
+    from identification data on a real robot.
+    """
+
+    joint_coulomb_Nm: tuple[float, float] = (0.05, 0.05)
+    joint_viscous_Nms: tuple[float, float] = (0.02, 0.02)
+    joint_smoothing_rad_s: float = 0.01
+    ee_coulomb_N: float = 0.0
+    ee_viscous_Ns_m: float = 0.0
+    ee_smoothing_m_s: float = 0.005
+
+    def __post_init__(self) -> None:
+        for i in range(2):
+            check_non_negative(f"joint_coulomb_Nm[{i}]", self.joint_coulomb_Nm[i], "N·m")
+            check_non_negative(f"joint_viscous_Nms[{i}]", self.joint_viscous_Nms[i], "N·m·s/rad")
+        check_positive("joint_smoothing_rad_s", self.joint_smoothing_rad_s, "rad/s")
+        check_non_negative("ee_coulomb_N", self.ee_coulomb_N, "N")
+        check_non_negative("ee_viscous_Ns_m", self.ee_viscous_Ns_m, "N·s/m")
+        check_positive("ee_smoothing_m_s", self.ee_smoothing_m_s, "m/s")
+
+
+FRICTIONLESS = Friction((0.0, 0.0), (0.0, 0.0))
+
+
+@dataclass(frozen=True, slots=True)
+class Stiffness:
+    """Symmetric joint stiffness K_R and equilibrium θ_R0 of eq. 3.6 (3 + 2 parameters).
+
+    The thesis gives no numbers; the default is no stiffness.
+    """
+
+    k11_Nm_rad: float = 0.0
+    k12_Nm_rad: float = 0.0
+    k22_Nm_rad: float = 0.0
+    q1_rest_rad: float = 0.0
+    q2_rest_rad: float = 0.0
+
+    def __post_init__(self) -> None:
+        check_non_negative("k11_Nm_rad", self.k11_Nm_rad, "N·m/rad")
+        check_non_negative("k22_Nm_rad", self.k22_Nm_rad, "N·m/rad")
+        check_finite("k12_Nm_rad", self.k12_Nm_rad, "N·m/rad")
+        if self.k12_Nm_rad**2 > self.k11_Nm_rad * self.k22_Nm_rad:
+            raise ParameterError(
+                "k12_Nm_rad", self.k12_Nm_rad,
+                f"|k12| <= sqrt(k11·k22) = {math.sqrt(self.k11_Nm_rad * self.k22_Nm_rad):g}",
+                "K_R must be positive semi-definite to store, not create, energy",
+            )
+        check_finite("q1_rest_rad", self.q1_rest_rad, "rad")
+        check_finite("q2_rest_rad", self.q2_rest_rad, "rad")
+
+
+@dataclass(frozen=True, slots=True)
+class RobotModel:
+    """A 2-DOF planar parallelogram robot; the defaults are the thesis robot.
+
+    Link lengths are Table 3.2, masses, inertias and centres of gravity Table 3.3,
+    the drives Table 3.1. `branch` chooses the assembly of the inverse
+    kinematics: +1 keeps θ_R1 − θ_R2 in (0, π) (the default working branch, with
+    every link on the patient's side of the motor axes), −1 the mirror.
+    """
+
+    l1_m: float = 0.100
+    l2_m: float = 0.310
+    l3_m: float = 0.310
+    l4_m: float = 0.375
+    links: tuple[Link, Link, Link, Link] = THESIS_LINKS
+    friction: Friction = field(default_factory=Friction)
+    stiffness: Stiffness = field(default_factory=Stiffness)
+    limits: JointLimits = field(default_factory=JointLimits)
+    motors: tuple[MotorParameters, MotorParameters] = (MotorParameters(), MotorParameters())
+    branch: int = 1
+    alpha: tuple[float, float, float, float] = field(init=False)
+
+    def __post_init__(self) -> None:
+        for name in ("l1_m", "l2_m", "l3_m", "l4_m"):
+            check_positive(name, getattr(self, name), "m")
+        if abs(self.l2_m - self.l3_m) > 1e-9:
+            raise ParameterError(
+                "l3_m", self.l3_m, f"equal to l2_m = {self.l2_m:g} m",
+                "a parallelogram needs equal opposite links",
+            )
+        if self.l4_m <= self.l1_m:
+            raise ParameterError(
+                "l4_m", self.l4_m, f"> l1_m = {self.l1_m:g} m",
+                "the end effector lies beyond the l3–l4 joint",
+            )
+        if len(self.links) != 4:
+            raise ParameterError("links", len(self.links), "exactly 4 links")
+        if self.branch not in (1, -1):
+            raise ParameterError("branch", self.branch, "+1 or -1")
+        object.__setattr__(self, "alpha", self._alphas())
+
+    def _alphas(self) -> tuple[float, float, float, float]:
+        """α1..α4 of eq. 3.11–3.14."""
+        k1, k2, k3, k4 = self.links
+        l1, l2 = self.l1_m, self.l2_m
+        a1 = (
+            (k1.cg_x_m**2 + k1.cg_y_m**2) * k1.mass_kg
+            + k3.mass_kg * l1**2
+            + (k4.cg_x_m**2 + k4.cg_y_m**2) * k4.mass_kg
+            + k1.inertia_kgm2
+            + k4.inertia_kgm2
+        )
+        a2 = k3.mass_kg * l1 * k3.cg_x_m + k4.mass_kg * l2 * k4.cg_x_m
+        a3 = k3.mass_kg * l1 * k3.cg_y_m - k4.mass_kg * l2 * k4.cg_y_m
+        a4 = (
+            (k2.cg_x_m**2 + k2.cg_y_m**2) * k2.mass_kg
+            + k4.mass_kg * l2**2
+            + (k3.cg_x_m**2 + k3.cg_y_m**2) * k3.mass_kg
+            + k2.inertia_kgm2
+            + k3.inertia_kgm2
+        )
+        return (a1, a2, a3, a4)
+
+    # ------------------------------------------------------------------ reach
+    @property
+    def reach_min_m(self) -> float:
+        """Closest reachable distance from the motor axes within the spread limits."""
+        return self._reach(self.limits.spread_max_rad)
+
+    @property
+    def reach_max_m(self) -> float:
+        """Farthest reachable distance from the motor axes within the spread limits."""
+        return self._reach(self.limits.spread_min_rad)
+
+    def _reach(self, spread: float) -> float:
+        l2, l4 = self.l2_m, self.l4_m
+        return math.sqrt(l2 * l2 + l4 * l4 + 2.0 * l2 * l4 * math.cos(spread))
+
+    @property
+    def max_joint_torque_Nm(self) -> tuple[float, float]:
+        return (self.motors[0].max_joint_torque_Nm, self.motors[1].max_joint_torque_Nm)
+
+    # ------------------------------------------------------- component level
+    def position(self, q1, q2):
+        """End-effector position (x, y), eq. 3.2."""
+        xp = xp_of(q1)
+        return (
+            self.l2_m * xp.cos(q2) + self.l4_m * xp.cos(q1),
+            self.l2_m * xp.sin(q2) + self.l4_m * xp.sin(q1),
+        )
+
+    def jacobian_terms(self, q1, q2):
+        """J_R = ∂P_R/∂θ_R as (j11, j12, j21, j22), eq. 3.3.
+
+        Columns follow θ_R = (θ_R1, θ_R2). Eq. 3.3 as printed lists the θ_R2
+        column first; multiplying it by θ̇_R = (θ̇_R1, θ̇_R2) as eq. 3.4 does
+        would swap the joints, so the columns are put in joint order here.
+        """
+        xp = xp_of(q1)
+        s1, c1, s2, c2 = xp.sin(q1), xp.cos(q1), xp.sin(q2), xp.cos(q2)
+        return (-self.l4_m * s1, -self.l2_m * s2, self.l4_m * c1, self.l2_m * c2)
+
+    def jacobian_dot_terms(self, q1, q2, qd1, qd2):
+        """dJ_R/dt as (j11, j12, j21, j22), used in eq. 3.5."""
+        xp = xp_of(q1)
+        s1, c1, s2, c2 = xp.sin(q1), xp.cos(q1), xp.sin(q2), xp.cos(q2)
+        return (
+            -self.l4_m * c1 * qd1,
+            -self.l2_m * c2 * qd2,
+            -self.l4_m * s1 * qd1,
+            -self.l2_m * s2 * qd2,
+        )
+
+    def mass_terms(self, q1, q2):
+        """M_R as (m11, m12, m22), eq. 3.7 with c12, s12 of eq. 3.9–3.10."""
+        xp = xp_of(q1)
+        a1, a2, a3, a4 = self.alpha
+        d = q1 - q2
+        m12 = a2 * xp.cos(d) + a3 * xp.sin(d)
+        return (a1 + 0.0 * d, m12, a4 + 0.0 * d)
+
+    def coriolis_terms(self, q1, q2, qd1, qd2):
+        """C_R as (c11, c12, c21, c22), eq. 3.8 (Christoffel form: Ṁ − 2C is skew)."""
+        xp = xp_of(q1)
+        _, a2, a3, _ = self.alpha
+        d = q1 - q2
+        g = a2 * xp.sin(d) - a3 * xp.cos(d)
+        zero = 0.0 * d
+        return (zero, g * qd2, -g * qd1, zero)
+
+    def friction_terms(self, q1, q2, qd1, qd2):
+        """Joint torques of joint friction f_RJ plus end-effector friction J_Rᵀ f_RE."""
+        xp = xp_of(q1)
+        fr = self.friction
+        f1 = fr.joint_coulomb_Nm[0] * xp.tanh(qd1 / fr.joint_smoothing_rad_s) + (
+            fr.joint_viscous_Nms[0] * qd1
+        )
+        f2 = fr.joint_coulomb_Nm[1] * xp.tanh(qd2 / fr.joint_smoothing_rad_s) + (
+            fr.joint_viscous_Nms[1] * qd2
+        )
+        if fr.ee_coulomb_N == 0.0 and fr.ee_viscous_Ns_m == 0.0:
+            return (f1, f2)
+        j11, j12, j21, j22 = self.jacobian_terms(q1, q2)
+        vx = j11 * qd1 + j12 * qd2
+        vy = j21 * qd1 + j22 * qd2
+        speed = xp.sqrt(vx * vx + vy * vy)
+        # tanh(|v|/v_e)/|v| stays finite at rest: it tends to 1/v_e.
+        coulomb_gain = fr.ee_coulomb_N * _tanh_over(xp, speed, fr.ee_smoothing_m_s)
+        fx = (coulomb_gain + fr.ee_viscous_Ns_m) * vx
+        fy = (coulomb_gain + fr.ee_viscous_Ns_m) * vy
+        return (f1 + j11 * fx + j21 * fy, f2 + j12 * fx + j22 * fy)
+
+    def stiffness_terms(self, q1, q2):
+        """K_R (θ_R − θ_R0) of eq. 3.6."""
+        k = self.stiffness
+        e1 = q1 - k.q1_rest_rad
+        e2 = q2 - k.q2_rest_rad
+        return (k.k11_Nm_rad * e1 + k.k12_Nm_rad * e2, k.k12_Nm_rad * e1 + k.k22_Nm_rad * e2)
+
+    def bias_terms(self, q1, q2, qd1, qd2):
+        """Everything in eq. 3.6 but M_R θ̈: C_R θ̇ + K_R(θ − θ_R0) + J_Rᵀ f_RE + f_RJ."""
+        _, c12, c21, _ = self.coriolis_terms(q1, q2, qd1, qd2)
+        k1, k2 = self.stiffness_terms(q1, q2)
+        f1, f2 = self.friction_terms(q1, q2, qd1, qd2)
+        return (c12 * qd2 + k1 + f1, c21 * qd1 + k2 + f2)
+
+    def inverse_dynamics_terms(self, q1, q2, qd1, qd2, qdd1, qdd2, fx=0.0, fy=0.0):
+        """Joint torques τ_R for a motion and a hand force on the handle (eq. 3.26)."""
+        m11, m12, m22 = self.mass_terms(q1, q2)
+        h1, h2 = self.bias_terms(q1, q2, qd1, qd2)
+        j11, j12, j21, j22 = self.jacobian_terms(q1, q2)
+        return (
+            m11 * qdd1 + m12 * qdd2 + h1 - (j11 * fx + j21 * fy),
+            m12 * qdd1 + m22 * qdd2 + h2 - (j12 * fx + j22 * fy),
+        )
+
+    def forward_dynamics_terms(self, q1, q2, qd1, qd2, tau1, tau2, fx=0.0, fy=0.0):
+        """Joint accelerations θ̈_R for torques and a hand force on the handle (eq. 3.26)."""
+        m11, m12, m22 = self.mass_terms(q1, q2)
+        h1, h2 = self.bias_terms(q1, q2, qd1, qd2)
+        j11, j12, j21, j22 = self.jacobian_terms(q1, q2)
+        r1 = tau1 + j11 * fx + j21 * fy - h1
+        r2 = tau2 + j12 * fx + j22 * fy - h2
+        det = m11 * m22 - m12 * m12
+        return ((m22 * r1 - m12 * r2) / det, (m11 * r2 - m12 * r1) / det)
+
+    def joint_torque_terms(self, q1, q2, fx, fy):
+        """J_Rᵀ F: the joint torques a force F at the end effector produces (eq. 3.34)."""
+        j11, j12, j21, j22 = self.jacobian_terms(q1, q2)
+        return (j11 * fx + j21 * fy, j12 * fx + j22 * fy)
+
+    def kinetic_energy_terms(self, q1, q2, qd1, qd2):
+        """½ θ̇ᵀ M_R θ̇."""
+        m11, m12, m22 = self.mass_terms(q1, q2)
+        return 0.5 * (m11 * qd1 * qd1 + 2.0 * m12 * qd1 * qd2 + m22 * qd2 * qd2)
+
+    def potential_energy_terms(self, q1, q2):
+        """½ (θ − θ_R0)ᵀ K_R (θ − θ_R0): the energy the joint stiffness stores."""
+        k = self.stiffness
+        e1 = q1 - k.q1_rest_rad
+        e2 = q2 - k.q2_rest_rad
+        return 0.5 * (k.k11_Nm_rad * e1 * e1 + 2 * k.k12_Nm_rad * e1 * e2 + k.k22_Nm_rad * e2 * e2)
+
+    def ik_terms(self, x, y):
+        """Joint angles (θ_R1, θ_R2) for an end-effector position, closed form (eq. 3.1).
+
+        Law of cosines on |P|² = l2² + l4² + 2 l2 l4 cos(θ_R1 − θ_R2), on the
+        working branch. Unreachable points give NaN; `ik` raises instead.
+        """
+        xp = xp_of(x)
+        l2, l4 = self.l2_m, self.l4_m
+        cos_spread = (x * x + y * y - l2 * l2 - l4 * l4) / (2.0 * l2 * l4)
+        if xp is math:
+            if not -1.0 <= cos_spread <= 1.0:
+                return (math.nan, math.nan)
+        else:
+            cos_spread = np.where(np.abs(cos_spread) <= 1.0, cos_spread, np.nan)
+        spread = self.branch * xp.acos(cos_spread)
+        q2 = xp.atan2(y, x) - xp.atan2(l4 * xp.sin(spread), l2 + l4 * xp.cos(spread))
+        q2 = _wrap_from(xp, q2, self.limits.q2_min_rad)
+        return (q2 + spread, q2)
+
+    # ----------------------------------------------------------- array level
+    def fk(self, q) -> np.ndarray:
+        """End-effector positions for joint angles q[..., 2] (eq. 3.2)."""
+        q = as_pairs("q", q)
+        return np.stack(self.position(q[..., 0], q[..., 1]), axis=-1)
+
+    def jacobian(self, q) -> np.ndarray:
+        """J_R[..., 2, 2] (eq. 3.3, columns in joint order)."""
+        q = as_pairs("q", q)
+        return matrix2(self.jacobian_terms(q[..., 0], q[..., 1]))
+
+    def jacobian_dot(self, q, qd) -> np.ndarray:
+        """dJ_R/dt[..., 2, 2]."""
+        q, qd = as_pairs("q", q), as_pairs("qd", qd)
+        return matrix2(self.jacobian_dot_terms(q[..., 0], q[..., 1], qd[..., 0], qd[..., 1]))
+
+    def mass_matrix(self, q) -> np.ndarray:
+        """M_R[..., 2, 2] (eq. 3.7)."""
+        q = as_pairs("q", q)
+        m11, m12, m22 = self.mass_terms(q[..., 0], q[..., 1])
+        return matrix2((m11, m12, m12, m22))
+
+    def coriolis_matrix(self, q, qd) -> np.ndarray:
+        """C_R[..., 2, 2] (eq. 3.8)."""
+        q, qd = as_pairs("q", q), as_pairs("qd", qd)
+        return matrix2(self.coriolis_terms(q[..., 0], q[..., 1], qd[..., 0], qd[..., 1]))
+
+    def friction_torque(self, q, qd) -> np.ndarray:
+        """f_RJ + J_Rᵀ f_RE[..., 2]."""
+        q, qd = as_pairs("q", q), as_pairs("qd", qd)
+        return np.stack(
+            self.friction_terms(q[..., 0], q[..., 1], qd[..., 0], qd[..., 1]), axis=-1
+        )
+
+    def inverse_dynamics(self, q, qd, qdd, hand_force=None) -> np.ndarray:
+        """Joint torques τ_R[..., 2] for a motion and the hand's force on the handle."""
+        q, qd, qdd = as_pairs("q", q), as_pairs("qd", qd), as_pairs("qdd", qdd)
+        f = np.zeros(2) if hand_force is None else as_pairs("hand_force", hand_force)
+        return np.stack(
+            self.inverse_dynamics_terms(
+                q[..., 0], q[..., 1], qd[..., 0], qd[..., 1], qdd[..., 0], qdd[..., 1],
+                f[..., 0], f[..., 1],
+            ),
+            axis=-1,
+        )
+
+    def forward_dynamics(self, q, qd, tau, hand_force=None) -> np.ndarray:
+        """Joint accelerations θ̈_R[..., 2] for torques and the hand's force on the handle."""
+        q, qd, tau = as_pairs("q", q), as_pairs("qd", qd), as_pairs("tau", tau)
+        f = np.zeros(2) if hand_force is None else as_pairs("hand_force", hand_force)
+        return np.stack(
+            self.forward_dynamics_terms(
+                q[..., 0], q[..., 1], qd[..., 0], qd[..., 1], tau[..., 0], tau[..., 1],
+                f[..., 0], f[..., 1],
+            ),
+            axis=-1,
+        )
+
+    def joint_torque_from_force(self, q, force) -> np.ndarray:
+        """J_Rᵀ F[..., 2] (eq. 3.34)."""
+        q, force = as_pairs("q", q), as_pairs("force", force)
+        return np.stack(
+            self.joint_torque_terms(q[..., 0], q[..., 1], force[..., 0], force[..., 1]), axis=-1
+        )
+
+    def kinetic_energy(self, q, qd) -> np.ndarray:
+        q, qd = as_pairs("q", q), as_pairs("qd", qd)
+        return self.kinetic_energy_terms(q[..., 0], q[..., 1], qd[..., 0], qd[..., 1])
+
+    def ik(self, p, *, check_limits: bool = True) -> np.ndarray:
+        """Joint angles θ_R[..., 2] for end-effector positions p[..., 2] (eq. 3.1).
+
+        Raises UnreachableError naming the first point out of reach or beyond a
+        joint limit.
+        """
+        p = as_pairs("p", p)
+        q = np.stack(self.ik_terms(p[..., 0], p[..., 1]), axis=-1)
+        flat_p, flat_q = p.reshape(-1, 2), q.reshape(-1, 2)
+        bad = np.flatnonzero(np.isnan(flat_q).any(axis=1))
+        if bad.size:
+            x, y = flat_p[bad[0]]
+            raise UnreachableError(
+                f"point ({x:.3f}, {y:.3f}) m is {math.hypot(x, y):.3f} m from the robot's "
+                f"motor axes; the robot reaches from {abs(self.l4_m - self.l2_m):.3f} to "
+                f"{self.l2_m + self.l4_m:.3f} m. Move the point inside that ring."
+            )
+        if check_limits:
+            for i in range(flat_q.shape[0]):
+                problem = self.limit_problem(flat_q[i, 0], flat_q[i, 1])
+                if problem:
+                    x, y = flat_p[i]
+                    raise UnreachableError(f"point ({x:.3f}, {y:.3f}) m: {problem}")
+        return q
+
+    def limit_problem(self, q1: float, q2: float) -> str:
+        """Why (θ_R1, θ_R2) is outside the joint limits, or '' if it is inside."""
+        lim = self.limits
+        spread = (q1 - q2) * self.branch
+        if spread < lim.spread_min_rad or spread > lim.spread_max_rad:
+            low, high = math.degrees(lim.spread_min_rad), math.degrees(lim.spread_max_rad)
+            return (
+                f"the robot's links would be {math.degrees(spread):.1f}° apart; they must stay "
+                f"within {low:.0f}–{high:.0f}°"
+                " (near 0° or 180° the parallelogram folds flat). Move the point toward the middle"
+                " of the robot's reach."
+            )
+        if not lim.q1_min_rad <= q1 <= lim.q1_max_rad:
+            return (
+                f"joint 1 would be at {math.degrees(q1):.1f}°, outside its limits "
+                f"{math.degrees(lim.q1_min_rad):.0f}–{math.degrees(lim.q1_max_rad):.0f}°"
+            )
+        if not lim.q2_min_rad <= q2 <= lim.q2_max_rad:
+            return (
+                f"joint 2 would be at {math.degrees(q2):.1f}°, outside its limits "
+                f"{math.degrees(lim.q2_min_rad):.0f}–{math.degrees(lim.q2_max_rad):.0f}°"
+            )
+        return ""
+
+
+def _tanh_over(xp, speed, scale):
+    """tanh(speed/scale)/speed, finite (→ 1/scale) at speed 0."""
+    if xp is math:
+        return math.tanh(speed / scale) / speed if speed > 1e-12 else 1.0 / scale
+    safe = np.where(speed > 1e-12, speed, 1.0)
+    return np.where(speed > 1e-12, np.tanh(speed / scale) / safe, 1.0 / scale)
+
+
+def _wrap_from(xp, angle, low):
+    """Wrap `angle` into [low, low + 2π)."""
+    two_pi = 2.0 * math.pi
+    if xp is math:
+        return low + (angle - low) % two_pi
+    return low + np.mod(angle - low, two_pi)

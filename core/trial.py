@@ -1,0 +1,277 @@
+"""A trial's parameters, validated, and the check that the whole path is reachable.
+
+`TrialParameters` refuses any value out of range with the field, the value, the
+allowed range and why. `check_trial` walks the whole path and says whether the
+robot and the subject's arm can follow it, where they cannot, and the joint-angle
+ranges it will ask for. See docs/frames.md for the frames and for why the
+thesis's printed shoulder position is refused.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from core.arm import (
+    BODY_MASS_RANGE_KG,
+    FOREARM_RANGE_M,
+    UPPER_ARM_RANGE_M,
+    ArmModel,
+)
+from core.errors import ParameterError, UnreachableError, check_range
+from core.robot import RobotModel
+from core.trajectory import SHAPES, TIMINGS, Path, Trajectory, make_path
+
+CONTROLLERS = ("smc", "ctpid")
+SIDES = ("right", "left")
+INCH_M = 0.0254
+
+# Position of any point given to a trial: the robot's table is well inside ±1.5 m.
+POSITION_RANGE_M = (-1.5, 1.5)
+RADIUS_RANGE_M = (0.02, 0.25)
+DURATION_RANGE_S = (1.0, 120.0)
+REPETITIONS_RANGE = (1, 100)
+TOLERANCE_RANGE_RAD = (math.radians(1.0), math.radians(90.0))
+TARGETS_RANGE = (2, 16)
+# The arm must stay bent: a straight arm is singular (eq. 3.32 has no inverse)
+# and a fully folded elbow meets the upper arm.
+ELBOW_FLEXION_RANGE_RAD = (math.radians(10.0), math.radians(140.0))
+# Peak speed of the desired path; rehabilitation reaches rarely exceed 0.5 m/s.
+MAX_PATH_SPEED_M_S = 0.5
+
+
+@dataclass(frozen=True, slots=True)
+class TrialParameters:
+    """Everything that defines a trial, in SI units. Defaults are the thesis's
+    experiment (section 3.6) with the shoulder as we read it (docs/frames.md)."""
+
+    shape: str = "d"
+    centre_m: tuple[float, float] = (-0.30, 0.30)
+    radius_m: float = 0.10
+    duration_s: float = 4.0
+    repetitions: int = 5
+    timing: str = "constant_speed"
+    clockwise: bool = True
+    n_targets: int = 8
+    shoulder_m: tuple[float, float] = (-0.12, 0.73)
+    body_mass_kg: float = 91.0
+    upper_arm_m: float = 12 * INCH_M
+    forearm_m: float = 12 * INCH_M
+    side: str = "right"
+    tolerance_rad: float = math.radians(20.0)
+    controller: str = "smc"
+    assistance_level: float = 1.0
+
+    def __post_init__(self) -> None:
+        _choice("shape", self.shape, SHAPES)
+        _choice("timing", self.timing, TIMINGS)
+        _choice("side", self.side, SIDES)
+        _choice("controller", self.controller, CONTROLLERS)
+        object.__setattr__(self, "centre_m", _point("centre_m", self.centre_m))
+        object.__setattr__(self, "shoulder_m", _point("shoulder_m", self.shoulder_m))
+        check_range("radius_m", self.radius_m, *RADIUS_RANGE_M, "m",
+                    "the exercise must fit the robot's table")
+        check_range("duration_s", self.duration_s, *DURATION_RANGE_S, "s")
+        _integer("repetitions", self.repetitions, *REPETITIONS_RANGE)
+        _integer("n_targets", self.n_targets, *TARGETS_RANGE)
+        check_range("body_mass_kg", self.body_mass_kg, *BODY_MASS_RANGE_KG, "kg",
+                    "Winter's segment proportions hold for adults and adolescents")
+        check_range("upper_arm_m", self.upper_arm_m, *UPPER_ARM_RANGE_M, "m",
+                    "shoulder to elbow of an adult")
+        check_range("forearm_m", self.forearm_m, *FOREARM_RANGE_M, "m",
+                    "elbow to wrist of an adult")
+        lo, hi = TOLERANCE_RANGE_RAD
+        check_range("tolerance_rad", self.tolerance_rad, lo, hi, "rad",
+                    f"{math.degrees(lo):.0f}–{math.degrees(hi):.0f}°; beyond 90° a push "
+                    "against the path would count as help")
+        check_range("assistance_level", self.assistance_level, 0.0, 1.0, "",
+                    "0 = no reduction for the subject's effort, 1 = the thesis's full reduction")
+        if not isinstance(self.clockwise, bool):
+            raise ParameterError("clockwise", self.clockwise, "True or False")
+
+    def replace(self, **changes) -> TrialParameters:
+        return dataclasses.replace(self, **changes)
+
+    def arm(self) -> ArmModel:
+        return ArmModel.from_subject(
+            self.body_mass_kg, self.upper_arm_m, self.forearm_m, self.shoulder_m, side=self.side
+        )
+
+    def path(self) -> Path:
+        return make_path(
+            self.shape, self.centre_m, self.radius_m,
+            clockwise=self.clockwise, n_targets=self.n_targets,
+        )
+
+    def trajectory(self) -> Trajectory:
+        return Trajectory(self.path(), self.duration_s, self.repetitions, self.timing)
+
+    def to_dict(self) -> dict:
+        """Plain values (lists for pairs) for JSON, HDF5 attributes and the registry."""
+        return {f.name: _plain(getattr(self, f.name)) for f in dataclasses.fields(self)}
+
+    @classmethod
+    def from_dict(cls, values: dict) -> TrialParameters:
+        """Build from `to_dict` output; unknown keys are refused by name."""
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(values) - names)
+        if unknown:
+            raise ParameterError("parameters", ", ".join(unknown), ", ".join(sorted(names)),
+                                 "unknown trial parameter")
+        pairs = {"centre_m", "shoulder_m"}
+        return cls(**{k: tuple(v) if k in pairs else v for k, v in values.items()})
+
+
+@dataclass(frozen=True, slots=True)
+class TrialCheck:
+    """The outcome of walking a trial's path with the robot and the subject's arm."""
+
+    parameters: TrialParameters
+    points_m: np.ndarray  # (N, 2) along the path
+    robot_ok: np.ndarray  # (N,) bool
+    arm_ok: np.ndarray  # (N,) bool
+    problems: tuple[str, ...]
+    robot_angles_rad: np.ndarray  # (N, 2), NaN where unreachable
+    isb_angles_rad: np.ndarray  # (N, 2) ISB shoulder, elbow; NaN where unreachable
+    shoulder_distance_m: np.ndarray  # (N,)
+    path_length_m: float
+    peak_speed_m_s: float
+    arm: ArmModel = field(repr=False)
+
+    @property
+    def ok(self) -> bool:
+        return not self.problems
+
+    @property
+    def reachable(self) -> np.ndarray:
+        return self.robot_ok & self.arm_ok
+
+    def range_of(self, values: np.ndarray) -> tuple[float, float]:
+        """(min, max) over reachable points, NaN if there are none."""
+        good = values[self.reachable]
+        if good.size == 0:
+            return (math.nan, math.nan)
+        return (float(good.min()), float(good.max()))
+
+    def require_ok(self) -> TrialCheck:
+        if self.problems:
+            raise UnreachableError(self.problems[0])
+        return self
+
+
+def check_trial(
+    parameters: TrialParameters, robot: RobotModel | None = None, spacing_m: float = 0.002
+) -> TrialCheck:
+    """Walk the trial's path and report what the robot and the arm can reach."""
+    robot = robot or RobotModel()
+    arm = parameters.arm()
+    trajectory = parameters.trajectory()
+    points = parameters.path().points(spacing_m)
+    problems: list[str] = []
+
+    # Robot: inside its ring and its joint limits at every point.
+    q1, q2 = robot.ik_terms(points[:, 0], points[:, 1])
+    robot_ok = ~(np.isnan(q1) | np.isnan(q2))
+    robot_problem = ""
+    for i in range(points.shape[0]):
+        if not robot_ok[i]:
+            x, y = points[i]
+            robot_problem = robot_problem or (
+                f"point ({x:.2f}, {y:.2f}) m is {math.hypot(x, y):.2f} m from the robot's motor "
+                f"axes; the robot reaches {robot.l4_m - robot.l2_m:.2f}–"
+                f"{robot.l2_m + robot.l4_m:.2f} m. Move the exercise's centre."
+            )
+            continue
+        reason = robot.limit_problem(q1[i], q2[i])
+        if reason:
+            robot_ok[i] = False
+            x, y = points[i]
+            robot_problem = robot_problem or f"point ({x:.2f}, {y:.2f}) m: {reason}"
+    if robot_problem:
+        problems.append(robot_problem)
+
+    # Arm: within reach, with the elbow neither straight nor folded.
+    dx = points[:, 0] - arm.shoulder_x_m
+    dy = points[:, 1] - arm.shoulder_y_m
+    distance = np.hypot(dx, dy)
+    flex_lo, flex_hi = ELBOW_FLEXION_RANGE_RAD
+    far = arm.reach_at_elbow_flexion(flex_lo)
+    near = arm.reach_at_elbow_flexion(flex_hi)
+    arm_ok = (distance <= far) & (distance >= near)
+    if not arm_ok.all():
+        worst = int(np.argmax(distance)) if distance.max() > far else int(np.argmin(distance))
+        x, y = points[worst]
+        d = distance[worst]
+        if d > arm.reach_max_m:
+            problems.append(
+                f"point ({x:.2f}, {y:.2f}) m is {d:.2f} m from the shoulder; this arm reaches "
+                f"{arm.reach_max_m:.2f} m. Move the exercise or the shoulder closer together."
+            )
+        elif d > far:
+            problems.append(
+                f"point ({x:.2f}, {y:.2f}) m is {d:.3f} m from the shoulder; the arm would be "
+                f"almost straight there (elbow bent less than {math.degrees(flex_lo):.0f}°, "
+                f"reach {far:.3f} m). Move the exercise or the shoulder closer together."
+            )
+        else:
+            problems.append(
+                f"point ({x:.2f}, {y:.2f}) m is only {d:.2f} m from the shoulder; the elbow "
+                f"would bend more than {math.degrees(flex_hi):.0f}° (closest {near:.2f} m). "
+                "Move the exercise away from the shoulder."
+            )
+
+    peak = trajectory.peak_speed_m_s
+    if peak > MAX_PATH_SPEED_M_S:
+        problems.append(
+            f"the path's peak speed would be {peak:.2f} m/s; keep it at most "
+            f"{MAX_PATH_SPEED_M_S:.2f} m/s by giving one traversal more time or a smaller radius "
+            f"(path {trajectory.path.length:.2f} m in {parameters.duration_s:g} s)."
+        )
+
+    ts, te = arm.ik_terms(points[:, 0], points[:, 1])
+    isb = np.column_stack(arm.isb_terms(ts, te))
+    isb[~arm_ok] = np.nan
+    robot_angles = np.column_stack((q1, q2))
+    robot_angles[~robot_ok] = np.nan
+    return TrialCheck(
+        parameters, points, robot_ok, arm_ok, tuple(problems), robot_angles, isb,
+        distance, trajectory.path.length, peak, arm,
+    )
+
+
+def _choice(name: str, value: object, allowed: tuple[str, ...]) -> None:
+    if value not in allowed:
+        raise ParameterError(name, value, "one of " + ", ".join(allowed))
+
+
+def _integer(name: str, value: object, low: int, high: int) -> None:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise ParameterError(name, value, f"a whole number in [{low}, {high}]")
+    check_range(name, value, low, high)
+
+
+def _point(name: str, value) -> tuple[float, float]:
+    try:
+        x, y = value
+    except (TypeError, ValueError):
+        raise ParameterError(name, value, "a pair (x, y) in m") from None
+    return (
+        check_range(f"{name}[x]", x, *POSITION_RANGE_M, "m"),
+        check_range(f"{name}[y]", y, *POSITION_RANGE_M, "m"),
+    )
+
+
+def _plain(value):
+    if isinstance(value, tuple):
+        return [float(v) for v in value]
+    return value
+
+
+THESIS_SUBJECT = TrialParameters()
+"""The healthy subject of section 3.6 on the thesis's D, shoulder as we read it."""
+
+THESIS_AS_PRINTED = TrialParameters(shoulder_m=(0.12, 0.73))
+"""Section 3.6 exactly as printed: part of the D is beyond the arm's reach."""
