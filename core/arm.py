@@ -112,8 +112,9 @@ class ArmModel:
 
         hand:
           "lumped" (default): the hand (0.006 M) grips the handle, so it is a point
-            mass at the distal end of the forearm link and moves with it. Its own
-            rotational inertia (about 2·10⁻⁴ kg·m² for 91 kg) is neglected.
+            mass at the distal end of the forearm link and moves with it. Its
+            rotation is free (wrist and the handle's passive joint), so its own
+            rotational inertia is not carried by the forearm.
           "none": as in the thesis, the hand's mass is left out.
         inertia:
           "winter" (default): segment inertia from Winter's radius of gyration

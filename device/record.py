@@ -33,7 +33,9 @@ class Channel:
 # Frames used below.
 GLOBAL = "global: origin on the motor axes, x and y in the table plane (docs/frames.md)"
 JOINTS = "robot joints (θ_R1 of links l1/l4, θ_R2 of links l2/l3), absolute, global x-axis"
-SENSOR = "force sensor: x', y' in the plane turning with link l4 (θ_R1 + mounting offset), z' normal"
+SENSOR = (
+    "force sensor: x', y' in the plane turning with link l4 (θ_R1 + mounting offset), z' normal"
+)
 ARM = "subject arm: (θ_s, θ_e) absolute, eq. 3.16 convention"
 ISB = "subject arm, ISB display convention (eq. 3.37–3.38): (shoulder, elbow)"
 NONE = "none"

@@ -1,0 +1,39 @@
+"""The one entry point, `rehab`: the window by default, every headless command beside it.
+
+Qt is imported only when the window starts, so the headless commands work on a
+machine without a display, and the window explains a missing display in one
+line instead of a Qt abort.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Sequence
+
+from app.cli import build_parser, run
+
+
+def display_problem(environ=os.environ, platform: str = sys.platform) -> str:
+    """Why a window cannot open here, or '' if it can."""
+    if platform != "linux":
+        return ""
+    if environ.get("QT_QPA_PLATFORM", "").split(":")[0] in ("offscreen", "minimal", "vnc", "eglfs",
+                                                            "linuxfb"):
+        return ""
+    if environ.get("DISPLAY") or environ.get("WAYLAND_DISPLAY"):
+        return ""
+    return (
+        "no display found (neither DISPLAY nor WAYLAND_DISPLAY is set), so the window cannot "
+        "open. Run it from a desktop session, or under a virtual display with "
+        "`xvfb-run rehab gui`; the headless commands (`rehab check`, `rehab run`, …) work here."
+    )
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser, _commands = build_parser()
+    return run(parser, argv, default="check")
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
