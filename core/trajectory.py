@@ -234,7 +234,8 @@ class Trajectory:
         rep = np.floor(t / self.duration_s).astype(int)
         tau = t - rep * self.duration_s
         finished = rep >= self.repetitions
-        tau = np.where(finished, 0.0, np.clip(tau, 0.0, self.duration_s))
+        resting = finished | (t < 0.0)
+        tau = np.where(resting, 0.0, np.clip(tau, 0.0, self.duration_s))
         rep = np.clip(rep, 0, self.repetitions)
         idx = np.clip(np.searchsorted(seg_t, tau, side="right") - 1, 0, len(self.path.segments) - 1)
         out = np.zeros((t.size, 6))
@@ -248,7 +249,6 @@ class Trajectory:
             sk, sdk, sddk = self._timing(tau[sel] - seg_t[k], seg_t[k + 1] - seg_t[k], seg.length)
             s[sel], sd[sel], sdd[sel] = sk, sdk, sddk
             out[sel] = np.column_stack(seg.geometry(sk))
-        resting = finished | (t < 0.0)
         sd = np.where(resting, 0.0, sd)
         sdd = np.where(resting, 0.0, sdd)
         tangent = out[:, 2:4]

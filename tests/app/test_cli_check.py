@@ -1,0 +1,49 @@
+"""The `check` command as a therapist or researcher runs it."""
+
+import pytest
+
+from app.cli import main
+
+
+def test_check_prints_arm_reachability_and_ranges(capsys):
+    assert main(["check"]) == 0
+    out = capsys.readouterr().out
+    assert "Subject's arm" in out
+    assert "100.0 % of the path inside the arm" in out
+    assert "shoulder (ISB)" in out
+    assert "Result: ready to run." in out
+
+
+def test_default_command_is_check(capsys):
+    assert main([]) == 0
+    assert "Result: ready to run." in capsys.readouterr().out
+
+
+def test_thesis_as_printed_is_refused_in_one_line_with_exit_2(capsys):
+    assert main(["check", "--thesis-as-printed"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    assert "0.68 m from the shoulder; this arm reaches 0.61 m" in err[0]
+
+
+@pytest.mark.parametrize(
+    ("args", "needle"),
+    [
+        (["check", "--radius", "-1"], "radius_m"),
+        (["check", "--body-mass", "300"], "body_mass_kg"),
+        (["check", "--tolerance", "nan"], "tolerance_rad"),
+        (["check", "--radius", "abc"], "invalid float"),
+        (["check", "--shape", "square"], "invalid choice"),
+        (["check", "--no-such-option"], "unrecognized"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(args, needle, capsys):
+    try:
+        code = main(args)
+    except SystemExit as exc:  # argparse errors exit from inside parse_args
+        code = exc.code
+    assert code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    assert needle in err[0]
+    assert "Traceback" not in err[0]
