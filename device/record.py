@@ -44,6 +44,8 @@ CHANNELS: tuple[Channel, ...] = (
     Channel("tick", 1, "i8", "1", NONE, "tick index from the start of the trial"),
     Channel("time", 1, "f8", "s", NONE, "nominal trial time, tick × period"),
     Channel("wall_time", 1, "f8", "s", NONE, "monotonic time the sensors were read, from start"),
+    Channel("phase", 1, "u1", "1", NONE,
+            "0 no control, 1 approach to the start point, 2 exercise, 3 hold at the end"),
     Channel("lateness", 1, "f4", "s", NONE, "how late the tick started after its deadline"),
     Channel("compute_time", 1, "f4", "s", NONE, "time from sensor read to torque written"),
     Channel("robot_angle", 2, "f8", "rad", JOINTS, "measured joint angles (encoder, quantised)"),
