@@ -1,0 +1,34 @@
+"""Joint-torque controllers for the 2 ms loop and the performance-based assistance.
+
+* `base`: the `Controller` protocol every controller offers the loop, and
+  `make_controller(name, model, ...)` for the names a trial may choose.
+* `smc`: sliding-mode tracking control (the thesis's controller, section 3.6).
+* `ctpid`: computed-torque PID, eq. 4.1–4.8 (section 4.2).
+* `assistance`: the performance-based scheme of section 3.5 / Fig. 3.6,
+  applied to a controller's torques (reduce only).
+"""
+
+from core.control.assistance import DEFAULT_MIN_FORCE_N, PerformanceAssistance
+from core.control.base import (
+    CONTROLLER_NAMES,
+    LOOP_PERIOD_S,
+    Controller,
+    InverseDynamicsModel,
+    make_controller,
+)
+from core.control.ctpid import ComputedTorquePID, CTPIDGains
+from core.control.smc import SlidingModeController, SMCGains
+
+__all__ = [
+    "CONTROLLER_NAMES",
+    "DEFAULT_MIN_FORCE_N",
+    "LOOP_PERIOD_S",
+    "CTPIDGains",
+    "ComputedTorquePID",
+    "Controller",
+    "InverseDynamicsModel",
+    "PerformanceAssistance",
+    "SMCGains",
+    "SlidingModeController",
+    "make_controller",
+]

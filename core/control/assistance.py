@@ -1,0 +1,180 @@
+"""Performance-based assistance: the robot gives way to a subject who pushes the right way
+(section 3.5, Fig. 3.6, eq. 3.26 and 3.34).
+
+The scheme, each tick
+---------------------
+1. F is the hand's force on the handle in the global frame (the sensor's
+   reading rotated by eq. 3.35–3.36) and d the desired direction of motion
+   (the path's unit tangent, `Trajectory.at(...)[6:8]`).
+2. If |F| < `min_force_N` the force's direction is sensor noise: the scheme
+   is *not active* and the angle is NaN.
+3. The angle between F and d is atan2(|F × d|, F · d) in [0, π]. If it is
+   within `tolerance_rad` (the thesis's 20°, chosen with the therapist), the
+   subject is doing the right thing and the scheme is *active*.
+4. When active, the robot's torque is reduced by the subject's contribution
+   at the joints, τ_subject = J_Rᵀ F (eq. 3.34; it appears on the right of
+   eq. 3.26 beside τ_R), scaled by `level`:
+
+       τ_out,i = τ_i − level · (J_Rᵀ F)_i
+
+   but only *reduced*: per joint, only when level·(J_Rᵀ F)_i has the same sign
+   as τ_i, and never by more than |τ_i| (the torque goes to zero, never
+   flips). A joint whose torque would grow is left as it is.
+
+Why only reduce: the thesis found on the robot that adjusting the torque at
+every instant, or increasing it, stacks on the controller's own aggressive
+correction when the handle is off the path and gives excessive torques and
+discomfort; only reduction was adopted. So |τ_out,i| ≤ |τ_i| always, with the
+same sign or zero, and outside the cone τ_out = τ exactly.
+
+`level` ∈ [0, 1] grades the reduction: 1 is the thesis's full J_Rᵀ F, 0 turns
+it off while still reporting whether the subject is inside the cone (the
+directional-performance metric of section 3.6.1, "78 % within 20°", is the
+share of ticks with `active` true). A therapist fades assistance across
+sessions by changing it, at run time through `set_level`.
+
+What it does in closed loop
+---------------------------
+The reduction acts on the controller's output, not on its reference, so a
+tight tracking controller takes most of it back: the handle falls slightly
+behind and the feedback (SMC's K_D s + K sat, CT-PID's PID) restores the
+torque within a few ticks. Simulated on the thesis D with the subject pushing
+1 N along the path, level 1 versus level 0 changed the robot's RMS torque by
+under 1 %. The scheme is a faithful, safe reading of the thesis; to make the
+subject's effort really replace the robot's, the tracking gains (or the
+feedforward) must be lowered with the level as well.
+
+Default minimum force
+---------------------
+`DEFAULT_MIN_FORCE_N` = 0.25 N, six counts of the sensor's 1/24 N resolution
+per axis. A reading's quantisation error is at most √2/48 N ≈ 0.03 N, which at
+0.25 N moves the direction by at most asin(0.03/0.25) ≈ 7°, a third of the
+default tolerance; below it the cone test would be decided by quantisation.
+It is well under the forces of the thesis's healthy subject (ranges of 0.8 N
+in x and 2.5 N in y, Fig. 3.9).
+
+Where it sits in the tick: controller → `apply` → safety supervisor → motors.
+Plain floats in and out; no allocation beyond the returned tuple.
+"""
+
+from __future__ import annotations
+
+import math
+
+from core.errors import ParameterError, check_range
+from core.trial import TOLERANCE_RANGE_RAD
+
+FORCE_RESOLUTION_N = 1.0 / 24.0
+"""One count of the thesis's ATI Nano25 in Fx and Fy (N)."""
+
+DEFAULT_TOLERANCE_RAD = math.radians(20.0)
+DEFAULT_MIN_FORCE_N = 6.0 * FORCE_RESOLUTION_N
+MIN_FORCE_RANGE_N = (FORCE_RESOLUTION_N, 20.0)
+
+# A direction shorter than this (a resting target) has no heading to compare with.
+_MIN_DIRECTION_SQ = 1.0e-12
+
+
+def check_tolerance(tolerance_rad: float) -> float:
+    lo, hi = TOLERANCE_RANGE_RAD
+    return check_range(
+        "tolerance_rad", tolerance_rad, lo, hi, "rad",
+        f"{math.degrees(lo):.0f}–{math.degrees(hi):.0f}°; beyond 90° a push against the path "
+        "would count as help",
+    )
+
+
+def check_level(level: float) -> float:
+    return check_range(
+        "assistance_level", level, 0.0, 1.0, "",
+        "0 = no reduction for the subject's effort, 1 = the thesis's full reduction J_Rᵀ F",
+    )
+
+
+def check_min_force(min_force_N: float) -> float:
+    lo, hi = MIN_FORCE_RANGE_N
+    return check_range(
+        "min_force_N", min_force_N, lo, hi, "N",
+        "at least one sensor count (1/24 N), below which the force has no direction; "
+        "at most 20 N, above which a weak subject could never be credited",
+    )
+
+
+class PerformanceAssistance:
+    """The scheme of Fig. 3.6 on a robot model; see the module docstring.
+
+    Parameters are validated by name; `level` and `tolerance_rad` may be changed
+    between ticks (`set_level`, `set_tolerance`).
+    """
+
+    __slots__ = ("_level", "_min_force_N", "_min_force_sq", "_robot", "_tolerance_rad")
+
+    def __init__(
+        self,
+        robot,
+        *,
+        tolerance_rad: float = DEFAULT_TOLERANCE_RAD,
+        level: float = 1.0,
+        min_force_N: float = DEFAULT_MIN_FORCE_N,
+    ) -> None:
+        if not callable(getattr(robot, "joint_torque_terms", None)):
+            raise ParameterError(
+                "robot", type(robot).__name__, "a robot model with joint_torque_terms",
+                "the reduction is J_Rᵀ F (eq. 3.34)",
+            )
+        self._robot = robot
+        self._tolerance_rad = check_tolerance(tolerance_rad)
+        self._level = check_level(level)
+        self._min_force_N = check_min_force(min_force_N)
+        self._min_force_sq = self._min_force_N * self._min_force_N
+
+    @property
+    def tolerance_rad(self) -> float:
+        return self._tolerance_rad
+
+    @property
+    def level(self) -> float:
+        return self._level
+
+    @property
+    def min_force_N(self) -> float:
+        return self._min_force_N
+
+    def set_level(self, level: float) -> None:
+        """Change the graded level (0–1); refused by name when out of range."""
+        self._level = check_level(level)
+
+    def set_tolerance(self, tolerance_rad: float) -> None:
+        """Change the cone's half-angle (rad); refused by name when out of range."""
+        self._tolerance_rad = check_tolerance(tolerance_rad)
+
+    def apply(self, q1, q2, tau1, tau2, fx, fy, dir_x, dir_y):
+        """Reduce the controller's torques for the subject's in-direction effort.
+
+        q1, q2: joint angles (rad); tau1, tau2: controller torques (N·m);
+        fx, fy: hand force on the handle, global frame (N); dir_x, dir_y: desired
+        direction of motion (need not be unit length).
+        Returns (tau1_out, tau2_out, active, angle_rad); angle is NaN when |F| is
+        below `min_force_N` or the direction is undefined. NaN inputs leave the
+        torques unchanged and the scheme inactive.
+        """
+        force_sq = fx * fx + fy * fy
+        dir_sq = dir_x * dir_x + dir_y * dir_y
+        # Written as `not >=` so that NaN readings fall on the inactive side.
+        if not (force_sq >= self._min_force_sq) or not (dir_sq > _MIN_DIRECTION_SQ):
+            return (tau1, tau2, False, math.nan)
+        # atan2 of cross and dot stays accurate near 0 and π, where acos of a
+        # normalised dot product loses half its digits.
+        angle = math.atan2(abs(fx * dir_y - fy * dir_x), fx * dir_x + fy * dir_y)
+        if not (angle <= self._tolerance_rad):
+            return (tau1, tau2, False, angle)
+
+        level = self._level
+        g1, g2 = self._robot.joint_torque_terms(q1, q2, fx, fy)
+        r1 = level * g1
+        r2 = level * g2
+        if r1 * tau1 > 0.0:
+            tau1 = tau1 - r1 if abs(r1) < abs(tau1) else 0.0
+        if r2 * tau2 > 0.0:
+            tau2 = tau2 - r2 if abs(r2) < abs(tau2) else 0.0
+        return (tau1, tau2, True, angle)

@@ -1,0 +1,192 @@
+"""Computed-torque PID control, eq. 4.1–4.8 (thesis section 4.2).
+
+Control law
+-----------
+With e = θ_d − θ (4.1), ė = θ̇_d − θ̇ (4.2) and the PID term of eq. 4.7,
+
+    u = M(θ) (θ̈_d + K_p e + K_i ∫e dt + K_d ė) + C(θ, θ̇) θ̇ + f          (4.8)
+
+where f collects stiffness and friction (eq. 4.4). On an exact model the
+robot then obeys, per joint and decoupled, ë + K_d ė + K_p e + K_i ∫e = 0.
+
+Implementation through inverse dynamics
+---------------------------------------
+The controller never builds M and C itself. It forms the commanded
+acceleration a = θ̈_d + K_p e + K_i ∫e + K_d ė and asks the model for
+
+    u = model.inverse_dynamics_terms(θ1, θ2, θ̇1, θ̇2, a1, a2)
+
+For `core.robot.RobotModel` that is M(θ) a + C(θ, θ̇) θ̇ + K_R(θ − θ_R0) +
+J_Rᵀ f_RE + f_RJ — eq. 4.8 term for term (the tests check it against M and C
+by hand). Any other inverse-dynamics model with the same method — the
+learned models of chapter 4 (DeLaN, FNN, RNN) — plugs in unchanged, which is
+exactly the use chapter 4 makes of this controller.
+
+Integral and anti-windup
+------------------------
+∫e is integrated with the tick's `dt_s` (backward rectangle: this tick's error
+counts this tick). Two guards keep it from winding up when the drive cannot
+follow (a blocked handle, a subject holding back, torque limit reached):
+
+* clamping: |K_i ∫e| ≤ `integral_limit_rad_s2` per joint, so the integral alone
+  can never ask for more than that acceleration;
+* conditional integration: while a joint's output was saturated at
+  `torque_limit_Nm` on the previous tick, its integral is not advanced in the
+  direction that would push it further into saturation (e of the same sign as
+  the saturated torque); it may still unwind. The sign test pairs joint i's
+  error with joint i's torque: M's diagonal dominates (|m12| ≤ 0.055 against
+  m11 = 0.114, m22 = 0.168 kg·m² on the thesis robot), so K_i ∫e_i moves τ_i
+  the same way.
+
+Gains (`CTPIDGains`, per joint) and why these values
+----------------------------------------------------
+With an exact model the error obeys s³ + K_d s² + K_p s + K_i = 0. The defaults
+place all three poles at s = −ω with ω = 20 rad/s (3.2 Hz): K_d = 3ω,
+K_p = 3ω², K_i = ω³, critically damped (no oscillation from the PID itself).
+
+kp_1_s2 = 1200 1/s²,  kd_1_s = 60 1/s,  ki_1_s3 = 8000 1/s³
+    Chosen by simulating the D (tests/core/control/test_tracking.py). ω = 14
+    rad/s left 2.7 mm RMS on the constant-speed D with the thesis subject's
+    passive arm on the handle (not in the model, so the loop sees ≈ 2–4 times
+    the inertia it assumes and its poles slow down accordingly); ω = 20 gives
+    1.9 mm, ω = 30 1.6 mm at 50 % more rate noise in the torque (K_d·M
+    multiplies the rate error; one encoder count per 2 ms tick is 0.041 rad/s,
+    and with the raw 2 ms difference as the rate these defaults pass ≈ 0.1–0.17
+    N·m RMS of noise into the torque). ω·0.002 s = 0.04 leaves the discrete
+    loop far from its limit. Routh–Hurwitz needs K_d K_p > K_i (checked); the
+    triple pole has a margin of 9.
+integral_limit_rad_s2 = 5 rad/s²
+    Through M (0.11 and 0.17 kg·m²) that is 0.57 and 0.85 N·m: room for the
+    stiffness and friction chapter 4 found to dominate the real robot's torque
+    (Fig. 4.5–4.6), yet well under the drive's 2.21 N·m, so the integral alone
+    cannot hold the drive saturated. The integral is no help against the
+    transient loads of the D's corners; 10 rad/s² made those up to 0.35 mm worse.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from core.control.base import check_pair, check_torque_limit
+from core.errors import ParameterError
+
+_OMEGA_RAD_S = 20.0
+_GAIN_MAX = 1.0e7  # catches a gain in the wrong unit, not a tuning bound
+
+
+@dataclass(frozen=True, slots=True)
+class CTPIDGains:
+    """Per-joint outer-loop gains of eq. 4.7–4.8; they act on acceleration, so
+    K_p is 1/s², K_i 1/s³, K_d 1/s. See the module docstring for the values."""
+
+    kp_1_s2: tuple[float, float] = (3.0 * _OMEGA_RAD_S**2, 3.0 * _OMEGA_RAD_S**2)
+    ki_1_s3: tuple[float, float] = (_OMEGA_RAD_S**3, _OMEGA_RAD_S**3)
+    kd_1_s: tuple[float, float] = (3.0 * _OMEGA_RAD_S, 3.0 * _OMEGA_RAD_S)
+    integral_limit_rad_s2: tuple[float, float] = (5.0, 5.0)
+
+    def __post_init__(self) -> None:
+        kp = check_pair("kp_1_s2", self.kp_1_s2, "1/s²", 0.0, _GAIN_MAX,
+                        "proportional gain on acceleration; > 0", low_open=True)
+        kd = check_pair("kd_1_s", self.kd_1_s, "1/s", 0.0, _GAIN_MAX,
+                        "derivative gain on acceleration; > 0", low_open=True)
+        ki = check_pair("ki_1_s3", self.ki_1_s3, "1/s³", 0.0, _GAIN_MAX,
+                        "integral gain on acceleration; ≥ 0 (0 = PD)", low_open=False)
+        limit = check_pair("integral_limit_rad_s2", self.integral_limit_rad_s2, "rad/s²",
+                           0.0, _GAIN_MAX, "largest |K_i ∫e|; > 0", low_open=True)
+        for i in range(2):
+            if not ki[i] < kp[i] * kd[i]:
+                raise ParameterError(
+                    f"ki_1_s3[{i}]", ki[i], f"< kp·kd = {kp[i] * kd[i]:g} 1/s³",
+                    "Routh–Hurwitz: s³ + kd s² + kp s + ki has a root in the right half-plane "
+                    "otherwise, so the loop would be unstable even on an exact model",
+                )
+        for name, value in (("kp_1_s2", kp), ("kd_1_s", kd), ("ki_1_s3", ki),
+                            ("integral_limit_rad_s2", limit)):
+            object.__setattr__(self, name, value)
+
+
+class ComputedTorquePID:
+    """Computed-torque PID (eq. 4.8) on any model with `inverse_dynamics_terms`."""
+
+    __slots__ = (
+        "_int1", "_int2", "_kd", "_ki", "_kp", "_limit", "_model", "_sat1", "_sat2",
+        "_z_max", "gains", "torque_limit_Nm",
+    )
+
+    name = "ctpid"
+
+    def __init__(self, model, gains: CTPIDGains | None = None, *, torque_limit_Nm) -> None:
+        if not callable(getattr(model, "inverse_dynamics_terms", None)):
+            raise ParameterError(
+                "model", type(model).__name__, "a model with inverse_dynamics_terms",
+                "eq. 4.8 is evaluated through the model's inverse dynamics",
+            )
+        gains = CTPIDGains() if gains is None else gains
+        if not isinstance(gains, CTPIDGains):
+            raise ParameterError("gains", type(gains).__name__, "a CTPIDGains")
+        self._model = model
+        self.gains = gains
+        self.torque_limit_Nm = check_torque_limit(torque_limit_Nm)
+        self._limit = self.torque_limit_Nm
+        self._kp = gains.kp_1_s2
+        self._ki = gains.ki_1_s3
+        self._kd = gains.kd_1_s
+        # The clamp is kept on ∫e itself (rad·s); with K_i = 0 the integral is unused.
+        self._z_max = tuple(
+            lim / ki if ki > 0.0 else 0.0
+            for lim, ki in zip(gains.integral_limit_rad_s2, gains.ki_1_s3, strict=True)
+        )
+        self._int1 = self._int2 = 0.0
+        self._sat1 = self._sat2 = 0
+
+    @property
+    def integral_rad_s(self) -> tuple[float, float]:
+        """∫e dt per joint (rad·s), for logging and tests."""
+        return (self._int1, self._int2)
+
+    def reset(self) -> None:
+        """Zero the integral and forget the saturation state."""
+        self._int1 = self._int2 = 0.0
+        self._sat1 = self._sat2 = 0
+
+    def step(self, dt_s, q1, q2, qd1, qd2, r1, r2, rd1, rd2, rdd1, rdd2):
+        """Joint torques (N·m) of eq. 4.8 for one tick, limited to `torque_limit_Nm`."""
+        e1 = r1 - q1
+        e2 = r2 - q2
+        z1 = self._int1
+        z2 = self._int2
+        # A NaN or a non-positive dt must not poison the integral for the rest of the trial.
+        if dt_s > 0.0 and math.isfinite(e1) and math.isfinite(e2):
+            # Conditional integration: hold a joint's integral while its output sits on
+            # the limit and this error would push it further into that limit.
+            if not (self._sat1 > 0 and e1 > 0.0) and not (self._sat1 < 0 and e1 < 0.0):
+                z1 += e1 * dt_s
+                zm = self._z_max[0]
+                z1 = zm if z1 > zm else (-zm if z1 < -zm else z1)
+            if not (self._sat2 > 0 and e2 > 0.0) and not (self._sat2 < 0 and e2 < 0.0):
+                z2 += e2 * dt_s
+                zm = self._z_max[1]
+                z2 = zm if z2 > zm else (-zm if z2 < -zm else z2)
+            self._int1 = z1
+            self._int2 = z2
+
+        kp, ki, kd = self._kp, self._ki, self._kd
+        a1 = rdd1 + kp[0] * e1 + ki[0] * z1 + kd[0] * (rd1 - qd1)
+        a2 = rdd2 + kp[1] * e2 + ki[1] * z2 + kd[1] * (rd2 - qd2)
+        tau1, tau2 = self._model.inverse_dynamics_terms(q1, q2, qd1, qd2, a1, a2)
+
+        lim1, lim2 = self._limit
+        if tau1 > lim1:
+            tau1, self._sat1 = lim1, 1
+        elif tau1 < -lim1:
+            tau1, self._sat1 = -lim1, -1
+        else:
+            self._sat1 = 0
+        if tau2 > lim2:
+            tau2, self._sat2 = lim2, 1
+        elif tau2 < -lim2:
+            tau2, self._sat2 = -lim2, -1
+        else:
+            self._sat2 = 0
+        return (tau1, tau2)
