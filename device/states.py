@@ -1,0 +1,92 @@
+"""The loop's state machine: which command each state accepts, and why it refuses the rest.
+
+    idle ──build──▶ built ──connect──▶ connected ──start──▶ running ──stop──▶ stopping ──▶ connected
+                      ▲                    │                                          (file closed)
+                      └────disconnect──────┘
+    any state with the motors powered ──fault──▶ faulted ──clear fault──▶ connected (or built)
+
+Build may be repeated from built or connected to change the trial's parameters between trials.
+E-stop is accepted in every state (in a state without motors it is a no-op that is still
+latched, so a trial cannot start until the therapist clears it).
+"""
+
+from __future__ import annotations
+
+import enum
+
+
+class State(enum.IntEnum):
+    """Loop states; the numeric value is what the record's `state` channel stores."""
+
+    IDLE = 0
+    BUILT = 1
+    CONNECTED = 2
+    RUNNING = 3
+    STOPPING = 4
+    FAULTED = 5
+
+    @property
+    def label(self) -> str:
+        return _LABELS[self]
+
+
+_LABELS = {
+    State.IDLE: "Idle",
+    State.BUILT: "Built",
+    State.CONNECTED: "Connected",
+    State.RUNNING: "Running",
+    State.STOPPING: "Stopping",
+    State.FAULTED: "Fault",
+}
+
+
+class Command(enum.Enum):
+    BUILD = "build"
+    CONNECT = "connect"
+    DISCONNECT = "disconnect"
+    START = "start"
+    STOP = "stop"
+    ESTOP = "e-stop"
+    CLEAR_FAULT = "clear fault"
+    SET_ASSISTANCE = "set assistance level"
+    SHUTDOWN = "shutdown"
+
+
+ALLOWED: dict[State, frozenset[Command]] = {
+    State.IDLE: frozenset({Command.BUILD, Command.ESTOP, Command.SHUTDOWN}),
+    State.BUILT: frozenset({Command.BUILD, Command.CONNECT, Command.ESTOP, Command.SHUTDOWN,
+                            Command.SET_ASSISTANCE}),
+    State.CONNECTED: frozenset({Command.BUILD, Command.DISCONNECT, Command.START, Command.ESTOP,
+                                Command.SET_ASSISTANCE, Command.SHUTDOWN}),
+    State.RUNNING: frozenset({Command.STOP, Command.ESTOP, Command.SET_ASSISTANCE,
+                              Command.SHUTDOWN}),
+    State.STOPPING: frozenset({Command.ESTOP, Command.SHUTDOWN}),
+    State.FAULTED: frozenset({Command.CLEAR_FAULT, Command.ESTOP, Command.DISCONNECT,
+                              Command.SHUTDOWN}),
+}
+
+_WHY = {
+    (State.IDLE, Command.CONNECT): "build the trial first (press Build)",
+    (State.IDLE, Command.START): "build and connect first",
+    (State.BUILT, Command.START): "connect to the robot first (press Connect)",
+    (State.BUILT, Command.STOP): "no trial is running",
+    (State.BUILT, Command.DISCONNECT): "the robot is not connected",
+    (State.CONNECTED, Command.CONNECT): "already connected",
+    (State.CONNECTED, Command.STOP): "no trial is running",
+    (State.RUNNING, Command.BUILD): "stop the trial before changing its parameters",
+    (State.RUNNING, Command.START): "a trial is already running",
+    (State.RUNNING, Command.CONNECT): "already connected and running",
+    (State.RUNNING, Command.DISCONNECT): "stop the trial before disconnecting",
+    (State.STOPPING, Command.START): "the last trial is still being closed; wait a moment",
+    (State.FAULTED, Command.START): "a fault is latched; check the patient, then clear the fault",
+    (State.FAULTED, Command.BUILD): "a fault is latched; clear it first",
+    (State.FAULTED, Command.CONNECT): "a fault is latched; clear it first",
+}
+
+
+def refusal(state: State, command: Command) -> str:
+    """Why `command` is refused in `state`, or '' when it is allowed."""
+    if command in ALLOWED[state]:
+        return ""
+    reason = _WHY.get((state, command), f"not possible while {state.label.lower()}")
+    return f"{command.value} refused: {reason}."
