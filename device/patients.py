@@ -1,0 +1,558 @@
+"""Virtual patients: the net shoulder and elbow torques τ_A of a subject holding the handle.
+
+The simulator integrates the robot and the arm joined at the handle (core.interaction)
+and asks the patient, at every evaluation of the dynamics, for τ_A given the time
+and the arm's state. τ_A is the right-hand side of the arm's equation of motion
+(eq. 3.20, 3.27) in core.arm's absolute angles (θ_s, θ_e):
+
+    M_A θ̈_A + C_A θ̇_A = τ_A − J_Aᵀ F_hand
+
+Muscles act across anatomical joints: the shoulder angle θ_s and the elbow angle
+φ = θ_e − θ_s. Every model below is written in those joint coordinates, as the
+impedance literature reports them, and mapped to τ_A by virtual work
+(τ_sh δθ_s + τ_el δφ = (τ_sh − τ_el) δθ_s + τ_el δθ_e):
+
+    τ_A = (τ_sh − τ_el, τ_el)
+
+The parts of a patient
+----------------------
+* passive tissue (every kind): a relaxed arm's stiffness about the posture it
+  started in and its damping, `PASSIVE_TISSUE`. Relaxed elbow and shoulder
+  stiffness is a few N·m/rad in mid-range, an order of magnitude below the active
+  values; the defaults are order-of-magnitude choices, not identified values.
+* effort (every kind but passive): what the subject does to follow the path.
+  The path becomes a desired arm motion θ_d(t) by the arm's inverse kinematics on
+  the anatomical branch (eq. 3.16, vectorised over the trial with `arm.ik`), its
+  rates and accelerations through J_A (eq. 3.18–3.19); the effort is
+
+      feed-forward   M_A(θ_d) θ̈_d + C_A(θ_d, θ̇_d) θ̇_d − τ_tissue(θ_d, θ̇_d)
+      + impedance    K (θ_d − θ) + B (θ̇_d − θ̇)             (joint coordinates)
+
+  scaled by `effort` (1 for a healthy subject). The feed-forward is the arm's
+  own inverse dynamics (eq. 3.20 for the arm alone) plus what it takes to bend
+  its own passive tissue, so on the desired motion a healthy arm's net torque is
+  exactly M_A θ̈_d + C_A θ̇_d. The subject has no model of the robot: whatever
+  the robot's inertia and friction ask for shows up as tracking error that the
+  impedance corrects (about 10 mm RMS on the thesis's D with the motors off,
+  tests/device/test_sim_patients.py). `HEALTHY_IMPEDANCE` is of the order
+  measured during planar reaching (Gomi & Kawato 1997, Biol. Cybern. 76:163;
+  Burdet et al. 2001, Nature 414:446: shoulder and elbow stiffness 10–20 N·m/rad,
+  cross terms a third of that), with damping ≈ 0.08 s × stiffness, the order of
+  the viscosity-to-stiffness ratio used in arm models (e.g. Tee et al. 2004,
+  Biol. Cybern. 90:368). These are order-of-magnitude values quoted from memory
+  of the literature, not identified on a subject; check them before citing.
+* weak: the same effort scaled by `effort` = 0.4 by default: the paretic arm's
+  voluntary torque after stroke is commonly a third to a half of the other
+  side's.
+* spastic: healthy effort plus a velocity-dependent resistance on each joint
+  (Lance's definition of spasticity: a velocity-dependent increase in the tonic
+  stretch reflex),  τ = −b ω − g (|ω| − ω_th)₊ sign ω,  with ω the joint's rate.
+* tremor: healthy effort plus τ = A sin(2π f t + ϕ) on both joints, f drawn
+  uniformly in 4–6 Hz and ϕ in [0, 2π) from the seed (the band of parkinsonian
+  rest tremor; post-stroke tremor is rarer but of the same order).
+* wrong_way: healthy effort plus, during episodes, a hand force of
+  `wrong_way_force_N` against the desired direction (τ = J_Aᵀ F). The time line
+  is cut into windows of `wrong_way_episode_s / wrong_way_fraction`; each holds
+  one episode at a random offset, so over whole windows the subject pushes the
+  wrong way exactly `wrong_way_fraction` of the time (default 20 %, 0.5 s
+  episodes, 3 N: above the thesis subject's force range of 0.8–2.5 N, Fig. 3.9,
+  and within what the robot's 2.2 N·m joints can resist).
+
+Per-step cost is a few dozen float operations (0.3–0.8 µs): the desired motion
+and the feed-forward are tabulated once per traversal with numpy every
+`TABLE_STEP_S` and interpolated linearly in time as plain Python floats. The
+interpolation matters: a sample-and-hold table is a discontinuous forcing that
+cuts RK4 to first order.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from core.arm import ArmModel
+from core.errors import ParameterError, check_finite, check_non_negative, check_range
+from core.trajectory import Trajectory
+
+PATIENT_KINDS = ("healthy", "weak", "spastic", "tremor", "passive", "wrong_way")
+TABLE_STEP_S = 0.001
+TREMOR_BAND_HZ = (4.0, 6.0)
+# Allowed when the frequency is given rather than drawn: the range of pathological
+# tremors of the arm.
+TREMOR_RANGE_HZ = (3.0, 12.0)
+TREMOR_AMPLITUDE_NM = (0.5, 0.8)
+_TWO_PI = 2.0 * math.pi
+
+
+# ----------------------------------------------------------------- validation
+def _pair(name: str, value) -> tuple[float, float]:
+    try:
+        a, b = value
+    except (TypeError, ValueError):
+        raise ParameterError(name, value, "a pair (shoulder, elbow)") from None
+    return (check_non_negative(f"{name}[0]", a), check_non_negative(f"{name}[1]", b))
+
+
+def _symmetric(name: str, value) -> tuple[float, float, float]:
+    try:
+        a, c, b = value
+    except (TypeError, ValueError):
+        raise ParameterError(name, value, "a triple (shoulder, cross, elbow)") from None
+    a = check_non_negative(f"{name}[shoulder]", a)
+    b = check_non_negative(f"{name}[elbow]", b)
+    c = check_finite(f"{name}[cross]", c)
+    if c * c > a * b:
+        raise ParameterError(
+            f"{name}[cross]", c, f"|cross| <= sqrt(shoulder·elbow) = {math.sqrt(a * b):g}",
+            "the matrix must be positive semi-definite, or the arm would create energy",
+        )
+    return (a, c, b)
+
+
+@runtime_checkable
+class Patient(Protocol):
+    """What the simulator needs from a patient: the arm, the path they are asked to
+    follow, and their net joint torques."""
+
+    arm: ArmModel
+    trajectory: Trajectory
+
+    def torque(self, t_s: float, ts: float, te: float, tsd: float, ted: float):
+        """Net joint torques τ_A = (τ_s, τ_e) in N·m at time `t_s` for the arm's
+        absolute angles (θ_s, θ_e) and rates (eq. 3.20)."""
+
+
+# ------------------------------------------------------------------ parameters
+@dataclass(frozen=True, slots=True)
+class JointImpedance:
+    """Stiffness and damping in joint coordinates (shoulder θ_s, elbow θ_e − θ_s).
+
+    Each is a symmetric matrix given as (shoulder, cross, elbow). Both must be
+    positive semi-definite, or the arm would create energy.
+    """
+
+    stiffness_Nm_rad: tuple[float, float, float]
+    damping_Nms_rad: tuple[float, float, float]
+
+    def __post_init__(self) -> None:
+        object.__setattr__(
+            self, "stiffness_Nm_rad", _symmetric("stiffness_Nm_rad", self.stiffness_Nm_rad)
+        )
+        object.__setattr__(
+            self, "damping_Nms_rad", _symmetric("damping_Nms_rad", self.damping_Nms_rad)
+        )
+
+
+HEALTHY_IMPEDANCE = JointImpedance((15.0, 5.0, 12.0), (1.2, 0.4, 1.0))
+"""Active impedance of a healthy subject reaching in the plane (see the module notes)."""
+
+PASSIVE_TISSUE = JointImpedance((2.0, 0.0, 1.5), (0.2, 0.0, 0.15))
+"""A relaxed arm: passive joint stiffness and damping (see the module notes)."""
+
+
+@dataclass(frozen=True, slots=True)
+class Spasticity:
+    """Velocity-dependent resistance per joint (shoulder, elbow):
+    τ = −b ω − g (|ω| − ω_th)₊ sign ω."""
+
+    threshold_rad_s: tuple[float, float] = (0.5, 0.5)
+    reflex_gain_Nms_rad: tuple[float, float] = (1.5, 2.0)
+    viscous_Nms_rad: tuple[float, float] = (0.3, 0.5)
+
+    def __post_init__(self) -> None:
+        for name in ("threshold_rad_s", "reflex_gain_Nms_rad", "viscous_Nms_rad"):
+            object.__setattr__(self, name, _pair(name, getattr(self, name)))
+
+
+@dataclass(frozen=True, slots=True)
+class Tremor:
+    """A sinusoidal torque on both joints (shoulder, elbow amplitudes)."""
+
+    frequency_hz: float
+    amplitude_Nm: tuple[float, float] = TREMOR_AMPLITUDE_NM
+    phase_rad: float = 0.0
+
+    def __post_init__(self) -> None:
+        check_range("tremor_hz", self.frequency_hz, *TREMOR_RANGE_HZ, "Hz",
+                    "the range of pathological tremors of the arm")
+        object.__setattr__(self, "amplitude_Nm", _pair("tremor_amplitude_Nm", self.amplitude_Nm))
+        check_finite("phase_rad", self.phase_rad, "rad")
+
+
+@dataclass(frozen=True, slots=True)
+class WrongWay:
+    """Episodes of pushing against the desired direction: `fraction` of the time,
+    in episodes of `episode_s`, with a hand force of `force_N`."""
+
+    fraction: float = 0.2
+    episode_s: float = 0.5
+    force_N: float = 3.0
+
+    def __post_init__(self) -> None:
+        check_range("wrong_way_fraction", self.fraction, 0.0, 0.9, "", low_open=True)
+        check_range("wrong_way_episode_s", self.episode_s, 0.01, 60.0, "s")
+        check_range("wrong_way_force_N", self.force_N, 0.0, 50.0, "N",
+                    "a hand force the robot's drives can meet")
+
+
+@dataclass(frozen=True, slots=True)
+class PatientParameters:
+    """Everything that defines a virtual patient besides the arm and the path."""
+
+    kind: str
+    effort: float
+    passive: JointImpedance = PASSIVE_TISSUE
+    active: JointImpedance = HEALTHY_IMPEDANCE
+    spasticity: Spasticity | None = None
+    tremor: Tremor | None = None
+    wrong_way: WrongWay | None = None
+
+    def __post_init__(self) -> None:
+        if self.kind not in PATIENT_KINDS:
+            raise ParameterError("kind", self.kind, "one of " + ", ".join(PATIENT_KINDS))
+        check_range("effort", self.effort, 0.0, 1.0, "",
+                    "the fraction of a healthy subject's effort")
+
+
+# -------------------------------------------------------------------- patient
+class VirtualPatient:
+    """A subject's arm with its own torques: passive tissue, effort and impairment.
+
+    Build it with `make_patient`. The state it keeps is precomputed per trial
+    (the desired motion, the tremor's frequency, the wrong-way episodes); `torque`
+    itself is a pure function of its arguments, so runs are repeatable.
+    """
+
+    __slots__ = (
+        "_active", "_b", "_dt_rate", "_duration", "_effort", "_ep_len", "_ep_window",
+        "_episodes", "_k", "_lf", "_lu", "_n", "_p", "_phi0", "_rest", "_spas", "_table",
+        "_total", "_tremor", "_ts0", "_wrong", "arm", "parameters", "trajectory",
+    )
+
+    def __init__(
+        self, parameters: PatientParameters, arm: ArmModel, trajectory: Trajectory, seed=0
+    ) -> None:
+        self.parameters = parameters
+        self.arm = arm
+        self.trajectory = trajectory
+        rng = np.random.default_rng(seed)
+        x0, y0, *_ = trajectory.at(0.0)
+        ts0, te0 = (float(v) for v in arm.ik(np.array([x0, y0])))
+        self._ts0 = ts0
+        self._phi0 = te0 - ts0
+        self._lu, self._lf = arm.upper_arm_m, arm.forearm_m
+        self._p = parameters.passive.stiffness_Nm_rad + parameters.passive.damping_Nms_rad
+        self._effort = parameters.effort
+        self._active = parameters.kind != "passive"
+        self._k = parameters.active.stiffness_Nm_rad
+        self._b = parameters.active.damping_Nms_rad
+        self._duration = trajectory.duration_s
+        self._total = trajectory.total_duration_s
+        self._dt_rate = 1.0 / TABLE_STEP_S
+        dx0, dy0 = trajectory.at(0.0)[6:8]
+        self._rest = (ts0, self._phi0, 0.0, 0.0, 0.0, 0.0) + (0.0,) * 6 + (dx0, dy0)
+        self._table: list[tuple[float, ...]] = []
+        if self._active:
+            self._table = _desired_motion_table(
+                arm, trajectory, parameters.passive, (ts0, self._phi0)
+            )
+        self._n = len(self._table)
+
+        self._spas = None
+        if parameters.spasticity is not None:
+            s = parameters.spasticity
+            self._spas = (*s.threshold_rad_s, *s.reflex_gain_Nms_rad, *s.viscous_Nms_rad)
+        self._tremor = None
+        if parameters.tremor is not None:
+            tr = parameters.tremor
+            self._tremor = (_TWO_PI * tr.frequency_hz, tr.phase_rad, *tr.amplitude_Nm)
+        self._wrong = None
+        self._episodes: list[float] = []
+        self._ep_len = self._ep_window = 0.0
+        if parameters.wrong_way is not None:
+            ww = parameters.wrong_way
+            self._ep_len = ww.episode_s
+            self._ep_window = ww.episode_s / ww.fraction
+            n_windows = math.ceil(self._total / self._ep_window)
+            offsets = rng.uniform(0.0, self._ep_window - ww.episode_s, n_windows)
+            self._episodes = offsets.tolist()
+            self._wrong = ww.force_N
+
+    # ------------------------------------------------------------ properties
+    @property
+    def kind(self) -> str:
+        return self.parameters.kind
+
+    @property
+    def tremor_frequency_hz(self) -> float:
+        """The tremor's frequency, NaN for a patient without tremor."""
+        tremor = self.parameters.tremor
+        return math.nan if tremor is None else tremor.frequency_hz
+
+    @property
+    def episodes_s(self) -> tuple[tuple[float, float], ...]:
+        """Start and end times of the wrong-way episodes (empty for other kinds)."""
+        out = []
+        for k, offset in enumerate(self._episodes):
+            start = k * self._ep_window + offset
+            if start < self._total:
+                out.append((start, min(start + self._ep_len, self._total)))
+        return tuple(out)
+
+    @property
+    def start_posture_rad(self) -> tuple[float, float]:
+        """Arm angles (θ_s, θ_e) at the path's start, the passive tissue's rest posture."""
+        return (self._ts0, self._ts0 + self._phi0)
+
+    def desired(self, t_s: float) -> tuple[float, ...]:
+        """The desired motion at `t_s` as the patient looks it up:
+        (θ_s, φ, θ̇_s, φ̇, feed-forward τ_s, τ_e, direction x, y), φ = θ_e − θ_s."""
+        row, f = self._lookup(t_s)
+        return (*(row[j] + f * row[j + 6] for j in range(6)), row[12], row[13])
+
+    def _lookup(self, t_s: float):
+        """The table's row for `t_s` and the fraction of a table step past it."""
+        if 0.0 <= t_s < self._total and self._n:
+            u = (t_s % self._duration) * self._dt_rate
+            i = int(u)
+            if i < self._n:
+                return self._table[i], u - i
+            return self._table[-1], 1.0
+        return self._rest, 0.0
+
+    def pushing_wrong_way(self, t_s: float) -> bool:
+        """True during a wrong-way episode."""
+        if self._wrong is None or not 0.0 <= t_s < self._total:
+            return False
+        k = int(t_s / self._ep_window)
+        if k >= len(self._episodes):
+            return False
+        into = t_s - k * self._ep_window - self._episodes[k]
+        return 0.0 <= into < self._ep_len
+
+    # ---------------------------------------------------------------- torque
+    def torque(self, t_s: float, ts: float, te: float, tsd: float, ted: float):
+        """Net joint torques τ_A = (τ_s, τ_e) in N·m (eq. 3.20), absolute-angle convention."""
+        phi = te - ts
+        phid = ted - tsd
+        e_s = self._ts0 - ts
+        if e_s > math.pi:
+            e_s -= _TWO_PI
+        elif e_s < -math.pi:
+            e_s += _TWO_PI
+        e_e = self._phi0 - phi
+        pks, pkc, pke, pbs, pbc, pbe = self._p
+        # joint-coordinate torques: shoulder, elbow
+        sh = pks * e_s + pkc * e_e - pbs * tsd - pbc * phid
+        el = pkc * e_s + pke * e_e - pbc * tsd - pbe * phid
+        gen_s = gen_e = 0.0
+        if self._active:
+            # linear interpolation keeps the effort continuous in time, so the
+            # integrator keeps its order (a sample-and-hold would cut RK4 to first order)
+            row, f = self._lookup(t_s)
+            (ts_d, phi_d, tsd_d, phid_d, ff_s, ff_e,
+             dts, dphi, dtsd, dphid, dff_s, dff_e, dir_x, dir_y) = row
+            ts_d += f * dts
+            phi_d += f * dphi
+            tsd_d += f * dtsd
+            phid_d += f * dphid
+            ff_s += f * dff_s
+            ff_e += f * dff_e
+            d_s = ts_d - ts
+            if d_s > math.pi:
+                d_s -= _TWO_PI
+            elif d_s < -math.pi:
+                d_s += _TWO_PI
+            d_e = phi_d - phi
+            v_s = tsd_d - tsd
+            v_e = phid_d - phid
+            ks, kc, ke = self._k
+            bs, bc, be = self._b
+            w = self._effort
+            sh += w * (ks * d_s + kc * d_e + bs * v_s + bc * v_e)
+            el += w * (kc * d_s + ke * d_e + bc * v_s + be * v_e)
+            gen_s = w * ff_s
+            gen_e = w * ff_e
+            if self._wrong is not None and self.pushing_wrong_way(t_s):
+                # τ = J_Aᵀ F with F against the desired direction (eq. 3.17, 3.27)
+                fx = -self._wrong * dir_x
+                fy = -self._wrong * dir_y
+                gen_s += self._lu * (math.sin(ts) * fx - math.cos(ts) * fy)
+                gen_e += self._lf * (math.sin(te) * fx - math.cos(te) * fy)
+        if self._tremor is not None:
+            omega, phase, amp_s, amp_e = self._tremor
+            wave = math.sin(omega * t_s + phase)
+            sh += amp_s * wave
+            el += amp_e * wave
+        if self._spas is not None:
+            th_s, th_e, g_s, g_e, b_s, b_e = self._spas
+            sh -= _resistance(tsd, th_s, g_s, b_s)
+            el -= _resistance(phid, th_e, g_e, b_e)
+        return (sh - el + gen_s, el + gen_e)
+
+
+def _resistance(rate: float, threshold: float, gain: float, viscous: float) -> float:
+    """b ω + g (|ω| − ω_th)₊ sign ω: opposes the stretch, grows with its speed."""
+    out = viscous * rate
+    if rate > threshold:
+        out += gain * (rate - threshold)
+    elif rate < -threshold:
+        out += gain * (rate + threshold)
+    return out
+
+
+def spastic_resistance_Nm(parameters: Spasticity, shoulder_rate_rad_s, elbow_rate_rad_s):
+    """The spastic resistance (τ_sh, τ_el) for joint rates, in joint coordinates; the
+    patient subtracts it from its torques."""
+    th_s, th_e = parameters.threshold_rad_s
+    g_s, g_e = parameters.reflex_gain_Nms_rad
+    b_s, b_e = parameters.viscous_Nms_rad
+    return (
+        _resistance(shoulder_rate_rad_s, th_s, g_s, b_s),
+        _resistance(elbow_rate_rad_s, th_e, g_e, b_e),
+    )
+
+
+def passive_torque_terms(passive: JointImpedance, rest_rad, ts, phi, tsd, phid):
+    """Generalised torques τ_A (absolute-angle convention) of passive tissue about the
+    joint-coordinate rest posture `rest_rad` = (θ_s, φ), φ = θ_e − θ_s. Floats or arrays."""
+    ks, kc, ke = passive.stiffness_Nm_rad
+    bs, bc, be = passive.damping_Nms_rad
+    e_s = rest_rad[0] - ts
+    e_e = rest_rad[1] - phi
+    sh = ks * e_s + kc * e_e - bs * tsd - bc * phid
+    el = kc * e_s + ke * e_e - bc * tsd - be * phid
+    return (sh - el, el)
+
+
+def _desired_motion_table(
+    arm: ArmModel, trajectory: Trajectory, passive: JointImpedance, rest_rad
+) -> list[tuple[float, ...]]:
+    """The desired arm motion and its feed-forward torque for one traversal, every
+    TABLE_STEP_S: rows of six values (θ_s, φ, θ̇_s, φ̇, τ_ff,s, τ_ff,e), their
+    increments to the next row (for linear interpolation), and the direction (x, y).
+
+    The feed-forward is the arm's inverse dynamics along the desired motion less the
+    passive tissue's torque there: a subject's command also overcomes their own
+    tissue, or a healthy arm would lag the path by the passive torque over the
+    active stiffness (about 2 cm on the thesis's D)."""
+    n = max(1, math.ceil(trajectory.duration_s / TABLE_STEP_S))
+    sample = trajectory.sample(np.arange(n + 1) * TABLE_STEP_S)
+    theta = arm.ik(sample.position_m)  # eq. 3.16 inverted, anatomical branch
+    jac = arm.jacobian(theta)
+    theta_dot = np.linalg.solve(jac, sample.velocity_m_s[..., None])[..., 0]  # eq. 3.18
+    jac_dot = arm.jacobian_dot(theta, theta_dot)
+    rhs = sample.acceleration_m_s2 - np.einsum("nij,nj->ni", jac_dot, theta_dot)
+    theta_ddot = np.linalg.solve(jac, rhs[..., None])[..., 0]  # eq. 3.19
+    feedforward = arm.inverse_dynamics(theta, theta_dot, theta_ddot)  # eq. 3.20
+    phi = theta[:, 1] - theta[:, 0]
+    phi_dot = theta_dot[:, 1] - theta_dot[:, 0]
+    tissue_s, tissue_e = passive_torque_terms(
+        passive, rest_rad, theta[:, 0], phi, theta_dot[:, 0], phi_dot
+    )
+    values = np.column_stack((
+        theta[:, 0], phi, theta_dot[:, 0], phi_dot,
+        feedforward[:, 0] - tissue_s, feedforward[:, 1] - tissue_e,
+    ))
+    rows = np.column_stack((values[:-1], np.diff(values, axis=0), sample.direction[:-1]))
+    return [tuple(row) for row in rows.tolist()]
+
+
+# -------------------------------------------------------------------- factory
+_IMPEDANCE_OPTIONS = ("passive_stiffness_Nm_rad", "passive_damping_Nms_rad")
+_EFFORT_OPTIONS = ("effort", "stiffness_Nm_rad", "damping_Nms_rad")
+_OPTIONS = {
+    "passive": _IMPEDANCE_OPTIONS,
+    "healthy": _IMPEDANCE_OPTIONS + _EFFORT_OPTIONS,
+    "weak": _IMPEDANCE_OPTIONS + _EFFORT_OPTIONS,
+    "spastic": _IMPEDANCE_OPTIONS + _EFFORT_OPTIONS
+    + ("spastic_threshold_rad_s", "reflex_gain_Nms_rad", "spastic_viscous_Nms_rad"),
+    "tremor": _IMPEDANCE_OPTIONS + _EFFORT_OPTIONS + ("tremor_hz", "tremor_amplitude_Nm"),
+    "wrong_way": _IMPEDANCE_OPTIONS + _EFFORT_OPTIONS
+    + ("wrong_way_fraction", "wrong_way_episode_s", "wrong_way_force_N"),
+}
+DEFAULT_EFFORT = {"passive": 0.0, "weak": 0.4}
+"""Effort by kind; every other kind defaults to 1 (a healthy subject's effort)."""
+
+
+def make_patient(
+    kind: str, arm: ArmModel, trajectory: Trajectory, *, seed=0, **options
+) -> VirtualPatient:
+    """A virtual patient of one of PATIENT_KINDS for `arm` following `trajectory`.
+
+    `seed` (an int or a numpy SeedSequence) draws the tremor's frequency and
+    phase and the wrong-way episodes. `options` override the defaults documented
+    in this module; each kind accepts its own (pairs are (shoulder, elbow),
+    matrices (shoulder, cross, elbow)):
+
+      every kind      passive_stiffness_Nm_rad, passive_damping_Nms_rad
+      but passive     effort, stiffness_Nm_rad, damping_Nms_rad
+      spastic         spastic_threshold_rad_s, reflex_gain_Nms_rad, spastic_viscous_Nms_rad
+      tremor          tremor_hz (None: drawn in 4–6 Hz), tremor_amplitude_Nm
+      wrong_way       wrong_way_fraction, wrong_way_episode_s, wrong_way_force_N
+
+    Unknown kinds and options, and values out of range, raise ParameterError
+    naming them. A path out of the arm's reach raises UnreachableError.
+    """
+    if kind not in PATIENT_KINDS:
+        raise ParameterError(
+            "kind", kind, "one of " + ", ".join(PATIENT_KINDS), "no such virtual patient"
+        )
+    allowed = _OPTIONS[kind]
+    for name, value in options.items():
+        if name not in allowed:
+            raise ParameterError(
+                name, value, f"the options of a {kind} patient: " + ", ".join(allowed),
+                "unknown option",
+            )
+    rng = np.random.default_rng(seed)
+
+    # Each value is checked under its option's name before the dataclasses see it.
+    def symmetric(name, default):
+        return _symmetric(name, options.get(name, default))
+
+    def pair(name, default):
+        return _pair(name, options.get(name, default))
+
+    passive = JointImpedance(
+        symmetric("passive_stiffness_Nm_rad", PASSIVE_TISSUE.stiffness_Nm_rad),
+        symmetric("passive_damping_Nms_rad", PASSIVE_TISSUE.damping_Nms_rad),
+    )
+    active = JointImpedance(
+        symmetric("stiffness_Nm_rad", HEALTHY_IMPEDANCE.stiffness_Nm_rad),
+        symmetric("damping_Nms_rad", HEALTHY_IMPEDANCE.damping_Nms_rad),
+    )
+    spasticity = tremor = wrong_way = None
+    if kind == "spastic":
+        default = Spasticity()
+        spasticity = Spasticity(
+            pair("spastic_threshold_rad_s", default.threshold_rad_s),
+            pair("reflex_gain_Nms_rad", default.reflex_gain_Nms_rad),
+            pair("spastic_viscous_Nms_rad", default.viscous_Nms_rad),
+        )
+    if kind == "tremor":
+        # Both draws always happen, so the phase does not depend on whether the
+        # frequency was given.
+        drawn_hz = float(rng.uniform(*TREMOR_BAND_HZ))
+        phase = float(rng.uniform(0.0, _TWO_PI))
+        frequency = options.get("tremor_hz")
+        tremor = Tremor(
+            drawn_hz if frequency is None else frequency,
+            options.get("tremor_amplitude_Nm", TREMOR_AMPLITUDE_NM),
+            phase,
+        )
+    if kind == "wrong_way":
+        default_ww = WrongWay()
+        wrong_way = WrongWay(
+            options.get("wrong_way_fraction", default_ww.fraction),
+            options.get("wrong_way_episode_s", default_ww.episode_s),
+            options.get("wrong_way_force_N", default_ww.force_N),
+        )
+    parameters = PatientParameters(
+        kind, options.get("effort", DEFAULT_EFFORT.get(kind, 1.0)), passive, active,
+        spasticity, tremor, wrong_way,
+    )
+    return VirtualPatient(parameters, arm, trajectory, rng)

@@ -1,0 +1,285 @@
+"""Virtual patients (device.patients): each model's torques against its definition and
+the arm's equations, evaluated directly (no simulation)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from core.errors import ParameterError, UnreachableError
+from core.trial import THESIS_SUBJECT
+from device.patients import (
+    DEFAULT_EFFORT,
+    HEALTHY_IMPEDANCE,
+    PASSIVE_TISSUE,
+    PATIENT_KINDS,
+    TREMOR_BAND_HZ,
+    Patient,
+    Spasticity,
+    make_patient,
+    passive_torque_terms,
+    spastic_resistance_Nm,
+)
+
+ARM = THESIS_SUBJECT.arm()
+TRAJECTORY = THESIS_SUBJECT.trajectory()
+
+
+def random_states(seed, n=25):
+    """Times inside the trial and arm states near the path (θ_s, θ_e, θ̇_s, θ̇_e)."""
+    rng = np.random.default_rng(seed)
+    t = rng.uniform(0.0, TRAJECTORY.total_duration_s, n)
+    theta = ARM.ik(TRAJECTORY.sample(t).position_m) + rng.normal(0.0, 0.05, (n, 2))
+    rates = rng.normal(0.0, 0.8, (n, 2))
+    return [(float(t[i]), *theta[i].tolist(), *rates[i].tolist()) for i in range(n)]
+
+
+def joint_to_generalised(sh, el):
+    """Anatomical joint torques (shoulder, elbow) to τ_A by virtual work."""
+    return np.array([sh - el, el])
+
+
+# ------------------------------------------------------------------ factory
+def test_every_kind_builds_and_speaks_the_patient_protocol():
+    for kind in PATIENT_KINDS:
+        patient = make_patient(kind, ARM, TRAJECTORY, seed=1)
+        assert isinstance(patient, Patient)
+        assert patient.kind == kind
+        tau = patient.torque(0.5, *patient.start_posture_rad, 0.1, -0.1)
+        assert all(math.isfinite(v) for v in tau)
+
+
+def test_unknown_kind_is_refused_with_the_list_of_kinds():
+    with pytest.raises(ParameterError, match="zombie") as info:
+        make_patient("zombie", ARM, TRAJECTORY)
+    for kind in PATIENT_KINDS:
+        assert kind in str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("kind", "options", "name"),
+    [
+        ("healthy", {"stifness_Nm_rad": (1, 0, 1)}, "stifness_Nm_rad"),
+        ("passive", {"effort": 0.5}, "effort"),
+        ("weak", {"tremor_hz": 5.0}, "tremor_hz"),
+        ("weak", {"effort": 1.5}, "effort"),
+        ("healthy", {"stiffness_Nm_rad": (1.0, 5.0, 1.0)}, r"stiffness_Nm_rad\[cross\]"),
+        ("healthy", {"damping_Nms_rad": (1.0, 0.0)}, "damping_Nms_rad"),
+        ("healthy", {"passive_stiffness_Nm_rad": (-1.0, 0.0, 1.0)}, "passive_stiffness"),
+        ("spastic", {"reflex_gain_Nms_rad": (1.0, -2.0)}, r"reflex_gain_Nms_rad\[1\]"),
+        ("spastic", {"spastic_threshold_rad_s": 0.3}, "spastic_threshold_rad_s"),
+        ("tremor", {"tremor_hz": 30.0}, "tremor_hz"),
+        ("tremor", {"tremor_amplitude_Nm": (math.nan, 1.0)}, "tremor_amplitude_Nm"),
+        ("wrong_way", {"wrong_way_fraction": 0.0}, "wrong_way_fraction"),
+        ("wrong_way", {"wrong_way_episode_s": -1.0}, "wrong_way_episode_s"),
+        ("wrong_way", {"wrong_way_force_N": 500.0}, "wrong_way_force_N"),
+    ],
+)
+def test_bad_options_are_refused_by_name(kind, options, name):
+    with pytest.raises(ParameterError, match=name):
+        make_patient(kind, ARM, TRAJECTORY, **options)
+
+
+def test_a_path_out_of_the_arms_reach_is_refused():
+    far = THESIS_SUBJECT.replace(shoulder_m=(0.5, 0.9))
+    with pytest.raises(UnreachableError, match="shoulder"):
+        make_patient("healthy", far.arm(), TRAJECTORY)
+
+
+# ------------------------------------------------------------------ passive
+def test_passive_arm_rests_in_its_starting_posture():
+    patient = make_patient("passive", ARM, TRAJECTORY)
+    ts, te = patient.start_posture_rad
+    np.testing.assert_allclose(ARM.position(ts, te), TRAJECTORY.at(0.0)[:2], atol=1e-12)
+    assert patient.torque(1.0, ts, te, 0.0, 0.0) == pytest.approx((0.0, 0.0), abs=1e-12)
+
+
+def test_passive_tissue_is_a_stiffness_and_a_damper_in_joint_coordinates():
+    """Power balance: τ_Aᵀ θ̇_A equals the joint torques times the joint rates, and
+    the torque is −∂V/∂θ of ½ eᵀ K e plus a damper that only dissipates."""
+    patient = make_patient("passive", ARM, TRAJECTORY)
+    ks, kc, ke = PASSIVE_TISSUE.stiffness_Nm_rad
+    bs, bc, be = PASSIVE_TISSUE.damping_Nms_rad
+    ts0, te0 = patient.start_posture_rad
+    for t, ts, te, tsd, ted in random_states(0):
+        e = np.array([ts - ts0, (te - ts) - (te0 - ts0)])
+        w = np.array([tsd, ted - tsd])
+        joint = -np.array([[ks, kc], [kc, ke]]) @ e - np.array([[bs, bc], [bc, be]]) @ w
+        np.testing.assert_allclose(
+            patient.torque(t, ts, te, tsd, ted), joint_to_generalised(*joint), atol=1e-12
+        )
+        tau = np.array(patient.torque(t, ts, te, tsd, ted))
+        # the vectorised form the healthy feed-forward uses agrees with the per-step one
+        np.testing.assert_allclose(
+            passive_torque_terms(PASSIVE_TISSUE, (ts0, te0 - ts0), ts, te - ts, tsd, ted - tsd),
+            tau, atol=1e-12,
+        )
+        assert tau @ [tsd, ted] == pytest.approx(joint @ w, abs=1e-12)
+        # at rest in a displaced posture the damper is silent: pure spring
+        spring = np.array(patient.torque(t, ts, te, 0.0, 0.0))
+        damper = tau - spring
+        assert damper @ [tsd, ted] <= 1e-12
+
+
+# ------------------------------------------------------------------ healthy
+def desired_by_finite_differences(t, h=1e-4):
+    """The desired arm motion straight from the path, with derivatives by central
+    differences of the inverse kinematics (independent of the patient's J_A algebra)."""
+    theta = ARM.ik(TRAJECTORY.sample(np.array([t - h, t, t + h])).position_m)
+    rate = (theta[2] - theta[0]) / (2 * h)
+    acc = (theta[2] - 2 * theta[1] + theta[0]) / (h * h)
+    return theta[1], rate, acc
+
+
+def test_healthy_effort_on_the_desired_motion_is_the_arms_inverse_dynamics_eq_3_20():
+    """On the desired motion the impedance is silent and the feed-forward, which also
+    overcomes the passive tissue, makes the net torque M_A θ̈_d + C_A θ̇_d."""
+    patient = make_patient("healthy", ARM, TRAJECTORY)
+    # inside the line and the arc of the D, away from the corners where the speed jumps
+    for t in (0.3, 0.9, 1.2, 2.0, 2.6, 3.3, 3.7, 4.9, 7.1):
+        theta, rate, acc = desired_by_finite_differences(t)
+        expected = ARM.inverse_dynamics(theta, rate, acc)
+        got = patient.torque(t, *theta, *rate)
+        np.testing.assert_allclose(got, expected, atol=2e-3)
+        # and it is not trivially zero: the arc needs centripetal torques
+        if 1.6 < t % 4.0 < 3.9:
+            assert np.abs(expected).max() > 0.02
+
+
+def test_healthy_impedance_restores_the_desired_posture_with_a_symmetric_stiffness():
+    """∂τ_A/∂θ_A about the desired posture is −Tᵀ (K_active + K_passive) T: symmetric
+    and negative definite (the arm is pulled back, and conservatively so)."""
+    patient = make_patient("healthy", ARM, TRAJECTORY)
+    t = 1.0
+    theta, rate, _ = desired_by_finite_differences(t)
+    h = 1e-6
+    columns = []
+    for j in range(2):
+        d = np.zeros(2)
+        d[j] = h
+        plus = np.array(patient.torque(t, *(theta + d), *rate))
+        minus = np.array(patient.torque(t, *(theta - d), *rate))
+        columns.append((plus - minus) / (2 * h))
+    stiffness = -np.column_stack(columns)
+    to_joint = np.array([[1.0, 0.0], [-1.0, 1.0]])  # (θ_s, θ_e) → (θ_s, φ)
+
+    def matrix(k):
+        return np.array([[k[0], k[1]], [k[1], k[2]]])
+
+    joint_k = matrix(HEALTHY_IMPEDANCE.stiffness_Nm_rad) + matrix(PASSIVE_TISSUE.stiffness_Nm_rad)
+    np.testing.assert_allclose(stiffness, to_joint.T @ joint_k @ to_joint, rtol=1e-6)
+    np.testing.assert_allclose(stiffness, stiffness.T, atol=1e-6)
+    assert np.all(np.linalg.eigvalsh(stiffness) > 0)
+
+
+def test_weak_effort_is_the_stated_fraction_of_healthy_effort():
+    assert DEFAULT_EFFORT["weak"] == 0.4
+    passive = make_patient("passive", ARM, TRAJECTORY)
+    healthy = make_patient("healthy", ARM, TRAJECTORY)
+    weak = make_patient("weak", ARM, TRAJECTORY)
+    half = make_patient("weak", ARM, TRAJECTORY, effort=0.5)
+    for state in random_states(1):
+        tissue = np.array(passive.torque(*state))
+        effort = np.array(healthy.torque(*state)) - tissue
+        assert np.abs(effort).max() > 1e-3
+        np.testing.assert_allclose(np.array(weak.torque(*state)) - tissue, 0.4 * effort,
+                                   atol=1e-12)
+        np.testing.assert_allclose(np.array(half.torque(*state)) - tissue, 0.5 * effort,
+                                   atol=1e-12)
+
+
+# ------------------------------------------------------------------- tremor
+def test_tremor_frequency_is_drawn_from_the_seed_in_4_to_6_hz():
+    freqs = [make_patient("tremor", ARM, TRAJECTORY, seed=s).tremor_frequency_hz
+             for s in range(40)]
+    low, high = TREMOR_BAND_HZ
+    assert all(low <= f <= high for f in freqs)
+    assert len(set(freqs)) == 40
+    assert max(freqs) - min(freqs) > 1.0  # spread over the band, not clustered
+    again = make_patient("tremor", ARM, TRAJECTORY, seed=7).tremor_frequency_hz
+    assert again == freqs[7]
+    assert make_patient("tremor", ARM, TRAJECTORY, tremor_hz=8.0).tremor_frequency_hz == 8.0
+
+
+def test_tremor_adds_an_oscillation_whose_spectrum_peaks_at_its_frequency():
+    tremor = make_patient("tremor", ARM, TRAJECTORY, seed=3)
+    healthy = make_patient("healthy", ARM, TRAJECTORY, seed=3)
+    ts, te = tremor.start_posture_rad
+    dt = 0.002
+    t = np.arange(2000) * dt  # 4 s, 0.25 Hz bins
+    added = np.array([np.subtract(tremor.torque(ti, ts, te, 0.0, 0.0),
+                                  healthy.torque(ti, ts, te, 0.0, 0.0)) for ti in t])
+    freqs = np.fft.rfftfreq(t.size, dt)
+    for column in added.T:
+        spectrum = np.abs(np.fft.rfft(column * np.hanning(t.size)))
+        assert abs(freqs[np.argmax(spectrum)] - tremor.tremor_frequency_hz) <= 0.25
+    # the elbow carries the larger amplitude (0.8 N·m against the shoulder's 0.5)
+    assert np.abs(added[:, 1]).max() == pytest.approx(0.8, abs=0.01)
+
+
+# ------------------------------------------------------------------ spastic
+def test_spastic_resistance_grows_with_speed_and_only_dissipates():
+    spastic = make_patient("spastic", ARM, TRAJECTORY)
+    healthy = make_patient("healthy", ARM, TRAJECTORY)
+    defaults = Spasticity()
+    t = 1.0
+    ts, te = ARM.ik(np.array(TRAJECTORY.at(t)[:2]))
+    for direction in ((1.0, 0.0), (0.0, 1.0), (0.7, -0.7), (-0.6, -0.8)):
+        magnitudes = []
+        for speed in np.linspace(0.05, 3.0, 30):
+            w = speed * np.array(direction)  # joint rates (shoulder, elbow)
+            tsd, ted = w[0], w[0] + w[1]
+            extra = np.subtract(spastic.torque(t, ts, te, tsd, ted),
+                                healthy.torque(t, ts, te, tsd, ted))
+            assert extra @ [tsd, ted] < 0.0  # power into the arm is negative
+            magnitudes.append(np.linalg.norm(extra))
+            resistance = spastic_resistance_Nm(defaults, *w)
+            np.testing.assert_allclose(extra, joint_to_generalised(*(-np.array(resistance))),
+                                       atol=1e-12)
+        assert np.all(np.diff(magnitudes) > 0)
+
+
+def test_spastic_reflex_engages_above_its_velocity_threshold():
+    p = Spasticity(threshold_rad_s=(0.5, 0.5), reflex_gain_Nms_rad=(1.5, 2.0),
+                   viscous_Nms_rad=(0.3, 0.5))
+    below = [spastic_resistance_Nm(p, 0.0, w)[1] for w in (0.1, 0.2, 0.4)]
+    np.testing.assert_allclose(np.diff(below) / [0.1, 0.2], 0.5)  # viscous slope only
+    above = [spastic_resistance_Nm(p, 0.0, w)[1] for w in (1.0, 1.5)]
+    assert (above[1] - above[0]) / 0.5 == pytest.approx(0.5 + 2.0)  # viscous + reflex
+    assert spastic_resistance_Nm(p, -1.0, 0.0)[0] == pytest.approx(-(0.3 + 1.5 * 0.5))
+
+
+# ---------------------------------------------------------------- wrong way
+def test_wrong_way_episodes_cover_the_stated_fraction_of_the_trial():
+    patient = make_patient("wrong_way", ARM, TRAJECTORY, seed=2)
+    episodes = patient.episodes_s
+    total = TRAJECTORY.total_duration_s
+    covered = sum(end - start for start, end in episodes)
+    # one episode per 2.5 s window: 8 whole windows in 20 s, exactly 20 %
+    assert covered / total == pytest.approx(0.2, abs=1e-9)
+    assert all(end - start == pytest.approx(0.5) for start, end in episodes)
+    t = np.arange(0.0, total, 0.001)
+    flags = np.array([patient.pushing_wrong_way(ti) for ti in t])
+    assert flags.mean() == pytest.approx(0.2, abs=0.002)
+    other = make_patient("wrong_way", ARM, TRAJECTORY, seed=3).episodes_s
+    assert other != episodes
+    assert make_patient("wrong_way", ARM, TRAJECTORY, seed=2).episodes_s == episodes
+    assert not patient.pushing_wrong_way(total + 1.0)
+
+
+def test_wrong_way_pushes_the_hand_against_the_desired_direction():
+    """During an episode the added torque is J_Aᵀ F with F = −3 N along the path
+    (eq. 3.27 at rest), outside it the patient is healthy."""
+    wrong = make_patient("wrong_way", ARM, TRAJECTORY, seed=4)
+    healthy = make_patient("healthy", ARM, TRAJECTORY, seed=4)
+    checked = 0
+    for t, ts, te, tsd, ted in random_states(2, n=200):
+        extra = np.subtract(wrong.torque(t, ts, te, tsd, ted), healthy.torque(t, ts, te, tsd, ted))
+        if not wrong.pushing_wrong_way(t):
+            np.testing.assert_allclose(extra, 0.0, atol=1e-12)
+            continue
+        checked += 1
+        force = np.linalg.solve(ARM.jacobian([ts, te]).T, extra)
+        direction = np.array(wrong.desired(t)[6:8])
+        np.testing.assert_allclose(force, -3.0 * direction, atol=1e-9)
+    assert checked > 10
