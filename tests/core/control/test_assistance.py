@@ -56,6 +56,8 @@ def test_reduces_only_inside_the_cone_and_never_adds_torque(
         assert abs(after) <= abs(before)
         assert after * before >= 0.0
 
+    if abs(math.hypot(fx, fy) - DEFAULT_MIN_FORCE_N) < 1e-9:
+        return  # exactly on the minimum force, rounding may decide either way
     if math.hypot(fx, fy) < DEFAULT_MIN_FORCE_N:
         assert not active
         assert math.isnan(angle)
