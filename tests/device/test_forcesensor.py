@@ -1,0 +1,314 @@
+"""AtiForceSensor over the fake nidaqmx: tare, conversion, newest sample, saturation, errors."""
+
+import ctypes
+import sys
+import warnings
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from device.atical import load_calibration
+from device.errors import BackendError, BackendTimeout, BackendUnavailable, SensorRangeError
+from device.forcesensor import AtiForceSensor
+from device.hardware_settings import ForceSensorSettings
+
+HERE = Path(__file__).parent
+FAKES = HERE / "fakes"
+CAL = HERE / "data" / "FT00000_Nano25_v11.cal"
+RATE_HZ = 1000.0
+TARE = 100
+
+
+def _purge(package: str) -> None:
+    for name in [n for n in sys.modules if n == package or n.startswith(package + ".")]:
+        del sys.modules[name]
+
+
+@pytest.fixture
+def daq(monkeypatch):
+    """The fake nidaqmx first on sys.path, one card "Dev1" and a manual clock."""
+    monkeypatch.syspath_prepend(str(FAKES))
+    for name in [n for n in sys.modules if n == "nidaqmx" or n.startswith("nidaqmx.")]:
+        monkeypatch.delitem(sys.modules, name)
+    from nidaqmx import _fake
+
+    system = _fake.fake_reset()
+    system.clock = _fake.ManualClock()
+    device = _fake.fake_install_device(_fake.FakeDevice("Dev1"))
+    yield SimpleNamespace(fake=_fake, system=system, device=device, clock=system.clock)
+    leaked = set(system.open_tasks)
+    _purge("nidaqmx")
+    assert not leaked, "an NI-DAQmx task was left open"
+
+
+def _settings(**overrides) -> ForceSensorSettings:
+    values = dict(calibration_file=str(CAL), sample_rate_Hz=RATE_HZ, tare_samples=TARE,
+                  read_timeout_s=0.01)
+    values.update(overrides)
+    return ForceSensorSettings(**values)
+
+
+def _open(daq, **overrides) -> AtiForceSensor:
+    sensor = AtiForceSensor(_settings(**overrides), clock=daq.clock.now)
+    sensor.open()
+    return sensor
+
+
+V0 = np.array([0.12, -0.30, 0.05, 1.10, -0.70, 0.20])
+
+
+def test_tare_then_known_gauge_voltages_give_known_forces(daq):
+    daq.device.volts[:6] = V0
+    sensor = _open(daq)
+    np.testing.assert_allclose(sensor.bias_V, V0, atol=1e-15)
+    dv = np.array([0.5, -0.2, 0.1, 0.3, 0.0, -0.4])
+    daq.device.volts[:6] = V0 + dv
+    daq.clock.advance(0.002)
+    fx, fy, fz = sensor.read()
+    # By hand from the file's UserAxis rows Fx, Fy, Fz (N/V):
+    fx_row = [0.21000, -0.34999, 1.62000, -52.40000, -1.04999, 53.10000]
+    fy_row = [-1.10000, 61.20000, 0.74000, -30.30001, 0.48000, -30.90000]
+    fz_row = [30.50000, 0.62000, 31.20000, -0.41000, 30.80000, 0.93000]
+    assert fx == pytest.approx(float(np.dot(fx_row, dv)), abs=1e-9)
+    assert fy == pytest.approx(float(np.dot(fy_row, dv)), abs=1e-9)
+    assert fz == pytest.approx(float(np.dot(fz_row, dv)), abs=1e-9)
+    cal = load_calibration(CAL)
+    np.testing.assert_allclose(sensor.last_ft, cal.matrix_SI @ dv, atol=1e-9)
+    sensor.close()
+
+
+def test_an_unloaded_sensor_reads_zero_after_the_tare_whatever_its_offsets(daq):
+    daq.device.volts[:6] = V0
+    sensor = _open(daq)
+    daq.clock.advance(0.003)
+    assert sensor.read() == pytest.approx((0.0, 0.0, 0.0), abs=1e-9)
+    sensor.close()
+
+
+def test_tare_averages_the_first_samples(daq):
+    wobble = np.array([0.02, -0.01, 0.03, -0.02, 0.01, -0.03])
+    daq.device.source = lambda k: np.concatenate([V0 + wobble * (-1) ** k, np.zeros(10)])
+    sensor = _open(daq)
+    np.testing.assert_allclose(sensor.bias_V, V0, atol=1e-12)  # 100 samples: ± cancel
+    sensor.close()
+
+
+def test_each_read_returns_the_newest_sample(daq):
+    daq.device.source = lambda k: np.full(16, k * 1e-3)
+    sensor = _open(daq)
+    daq.clock.advance(0.0137)
+    sensor.read()
+    newest = daq.system.tasks[-1].in_stream.total_samp_per_chan_acquired - 1
+    assert newest > TARE
+    tared = newest * 1e-3 - sensor.bias_V
+    np.testing.assert_allclose(sensor.last_ft, load_calibration(CAL).matrix_SI @ tared,
+                               atol=1e-9)
+    sensor.close()
+
+
+def test_inputs_are_configured_for_plus_minus_10_V_differential(daq):
+    """A 7 V gauge must read 7 V: the nidaqmx default range (±5 V) would clip it."""
+    sensor = _open(daq)
+    daq.device.volts[0] = 7.0
+    daq.clock.advance(0.002)
+    sensor.read()
+    cal = load_calibration(CAL)
+    assert sensor.last_ft[2] == pytest.approx(cal.matrix_SI[2, 0] * 7.0)
+    task = daq.system.tasks[-1]
+    assert [c.terminal for c in task._channels] == [10106] * 6  # TerminalConfiguration.DIFF
+    assert [(c.min_val, c.max_val) for c in task._channels] == [(-10.0, 10.0)] * 6
+    assert [c.index for c in task._channels] == [0, 1, 2, 3, 4, 5]
+    sensor.close()
+
+
+@pytest.mark.parametrize(("gauge", "volts"), [(3, 9.95), (5, -10.0), (0, float("nan"))])
+def test_a_saturated_or_invalid_gauge_is_refused(daq, gauge, volts):
+    sensor = _open(daq)
+    daq.device.volts[gauge] = volts
+    daq.clock.advance(0.002)
+    with pytest.raises(SensorRangeError, match=f"gauge G{gauge} reads") as info:
+        sensor.read()
+    assert "overloaded or a gauge wire is broken" in str(info.value)
+    assert "Dev1/ai0:5" in str(info.value)
+    sensor.close()
+
+
+def test_a_gauge_just_below_the_saturation_threshold_is_read(daq):
+    sensor = _open(daq, saturation_V=9.9)
+    daq.device.volts[0] = 9.89  # Fz ≈ 302 N, Ty ≈ −5.2 N·m: within range
+    daq.clock.advance(0.002)
+    sensor.read()
+    sensor.close()
+
+
+def test_saturation_during_the_tare_refuses_the_connect(daq):
+    daq.device.volts[4] = -9.99
+    sensor = AtiForceSensor(_settings(), clock=daq.clock.now)
+    with pytest.raises(SensorRangeError, match=r"G4 reads -9\.990 V during the tare"):
+        sensor.open()
+    assert not sensor.is_open
+
+
+def test_a_force_beyond_the_rated_range_is_refused(daq):
+    sensor = _open(daq)
+    daq.device.volts[3], daq.device.volts[5] = -5.0, 5.0  # Fx ≈ 527 N, rated 250 N
+    daq.clock.advance(0.002)
+    with pytest.raises(SensorRangeError, match=r"Fx reads \+52\d\.\d N, beyond .* ±250 N"):
+        sensor.read()
+    sensor.close()
+
+
+def test_driver_missing_is_backend_unavailable(daq):
+    daq.system.driver_installed = False
+    with pytest.raises(BackendUnavailable, match="NI-DAQmx driver is not installed") as info:
+        AtiForceSensor(_settings(), clock=daq.clock.now).open()
+    assert "installdriver" in str(info.value)
+    assert daq.system.tasks_created == 0
+
+
+def test_nidaqmx_not_installed_is_backend_unavailable(monkeypatch):
+    monkeypatch.setitem(sys.modules, "nidaqmx", None)
+    with pytest.raises(BackendUnavailable, match=r"pip install nidaqmx==1\.7\.0"):
+        AtiForceSensor(_settings()).open()
+
+
+def test_nidaqmx_raising_oserror_at_import_is_backend_unavailable(monkeypatch, tmp_path):
+    broken = tmp_path / "nidaqmx"
+    broken.mkdir()
+    (broken / "__init__.py").write_text("raise OSError('cannot load library nicaiu')\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    for name in [n for n in sys.modules if n == "nidaqmx" or n.startswith("nidaqmx.")]:
+        monkeypatch.delitem(sys.modules, name)
+    with pytest.raises(BackendUnavailable, match="OSError: cannot load library nicaiu"):
+        AtiForceSensor(_settings()).open()
+    _purge("nidaqmx")
+
+
+def test_samples_not_yet_available_is_a_timeout(daq):
+    sensor = _open(daq)
+    daq.device.fail_read = -200284
+    with pytest.raises(BackendTimeout, match=r"no sample within 10 ms .*-200284"):
+        sensor.read()
+    sensor.close()
+
+
+def test_a_card_that_stops_acquiring_is_a_timeout(daq):
+    sensor = _open(daq)
+    daq.clock.advance(0.002)
+    sensor.read()
+    daq.device.stall_after = daq.system.tasks[-1].in_stream.total_samp_per_chan_acquired
+    daq.clock.advance(0.005)
+    sensor.read()  # the same sample again, still within read_timeout_s
+    daq.clock.advance(0.006)
+    with pytest.raises(BackendTimeout, match=r"no new sample for 11 ms \(limit 10 ms\)"):
+        sensor.read()
+    sensor.close()
+
+
+def test_a_card_that_never_delivers_the_tare_is_a_timeout(daq):
+    daq.device.stall_after = TARE // 2
+    sensor = AtiForceSensor(_settings(), clock=daq.clock.now)
+    with pytest.raises(BackendTimeout, match="no sample within 1100 ms while starting"):
+        sensor.open()
+    assert not sensor.is_open
+
+
+@pytest.mark.parametrize(
+    ("overrides", "setup", "error", "fragment"),
+    [
+        ({"physical_channels": "Dev9/ai0:5"}, None, BackendUnavailable, "NI device 'Dev9'"),
+        ({"physical_channels": "Dev1/ai12:17"}, None, BackendError, "inputs the card does not"),
+        ({}, "reserved", BackendUnavailable, "in use by another program"),
+        ({}, "disconnected", BackendUnavailable, "cannot be found or accessed"),
+        ({}, "single_ended", BackendError, "terminal_config (DIFF)"),
+    ],
+)
+def test_connect_errors_are_mapped_and_release_the_task(daq, overrides, setup, error, fragment):
+    if setup == "reserved":
+        daq.device.reserved_elsewhere = True
+    elif setup == "disconnected":
+        daq.device.disconnected = True
+    elif setup == "single_ended":
+        daq.device.terminal_configs = ("RSE", "NRSE")
+    sensor = AtiForceSensor(_settings(**overrides), clock=daq.clock.now)
+    with pytest.raises(error) as info:
+        sensor.open()
+    assert fragment in str(info.value)
+    assert not sensor.is_open
+
+
+def test_a_card_unplugged_during_the_session(daq):
+    sensor = _open(daq)
+    daq.device.disconnected = True
+    with pytest.raises(BackendUnavailable, match="'Dev1' cannot be found or accessed"):
+        sensor.read()
+    sensor.close()
+
+
+def test_calibration_problems_stop_the_connect_before_any_task(daq, tmp_path):
+    sensor = AtiForceSensor(_settings(calibration_file=str(tmp_path / "none.cal")))
+    with pytest.raises(BackendError, match=r"none\.cal does not exist"):
+        sensor.open()
+    assert daq.system.tasks_created == 0
+
+
+def test_a_sensor_range_wider_than_the_input_range_is_refused(daq):
+    sensor = AtiForceSensor(_settings(voltage_range_V=5.0, saturation_V=4.9))
+    with pytest.raises(BackendError, match=r"outputs ±10 V but .* voltage_range_V is ±5 V"):
+        sensor.open()
+    assert daq.system.tasks_created == 0
+
+
+def test_close_is_idempotent_and_releases_the_task(daq):
+    sensor = _open(daq)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        sensor.close()
+        sensor.close()
+    assert caught == []
+    assert daq.system.open_tasks == set()
+    assert daq.system.reserved == {}
+    with pytest.raises(BackendError, match="not connected"):
+        sensor.read()
+    sensor.open()  # and it can connect again
+    assert sensor.is_open
+    sensor.close()
+
+
+# -- the fake itself: the behaviours of nidaqmx 1.7.0 the sensor relies on -----------------------
+
+
+def test_fake_nidaqmx_matches_the_real_package(daq):
+    from nidaqmx import constants, errors
+    from nidaqmx.stream_readers import AnalogMultiChannelReader
+    from nidaqmx.task import Task
+
+    assert not issubclass(errors.DaqNotFoundError, errors.DaqError)
+    assert issubclass(errors.DaqReadError, errors.DaqError)
+    assert (constants.TerminalConfiguration.DIFF.value, constants.READ_ALL_AVAILABLE) == (
+        10106, -1,
+    )
+    assert constants.ReadRelativeTo.MOST_RECENT_SAMPLE.value == 10428
+    assert constants.OverwriteMode.OVERWRITE_UNREAD_SAMPLES.value == 10252
+    assert constants.AcquisitionType.CONTINUOUS.value == 10123
+    with Task() as task:
+        task.ai_channels.add_ai_voltage_chan("Dev1/ai0:1")  # default ±5 V, DEFAULT terminal
+        task.timing.cfg_samp_clk_timing(1000.0, sample_mode=constants.AcquisitionType.CONTINUOUS)
+        reader = AnalogMultiChannelReader(task.in_stream)
+        daq.device.volts[0] = 7.0
+        data = np.zeros(2)
+        reader.read_one_sample(data, timeout=1.0)
+        assert data[0] == 5.0  # clipped by the ±5 V default range
+        with pytest.raises(ctypes.ArgumentError, match="data type float64"):
+            reader.read_one_sample(np.zeros(2, dtype=np.float32))
+        with pytest.raises(ctypes.ArgumentError, match="flags"):
+            reader.read_one_sample(np.zeros((2, 2))[:, 0])
+        with pytest.raises(errors.DaqError, match="not shaped correctly") as info:
+            reader.read_one_sample(np.zeros(3))
+        assert info.value.error_code == -1
+        with pytest.raises(AttributeError):
+            task.ai_channels.add_ai_voltage_chan("Dev1/ai2", terminal_config="DIFF")
+    with pytest.warns(errors.DaqResourceWarning, match="already closed"):
+        task.close()

@@ -1,0 +1,403 @@
+"""QuanserBackend against the fake HIL and NI-DAQmx APIs: safe sequence, units, watchdog, errors."""
+
+import logging
+import math
+import sys
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from device.backend import Backend, SensorReading
+from device.errors import BackendError, BackendUnavailable
+from device.forcesensor import AtiForceSensor
+from device.hardware_settings import ForceSensorSettings, HardwareSettings, QuanserSettings
+from device.quanser import QuanserBackend
+
+HERE = Path(__file__).parent
+FAKES = HERE / "fakes"
+CAL = HERE / "data" / "FT00000_Nano25_v11.cal"
+
+K_T = 0.115
+GEAR = 307.0 / 16.0
+COUNTS_PER_JOINT_REV = 4000 * GEAR
+GAIN = 0.5
+HOME = (2.0, 0.5)
+
+
+def _purge(package: str) -> None:
+    for name in [n for n in sys.modules if n == package or n.startswith(package + ".")]:
+        del sys.modules[name]
+
+
+@pytest.fixture
+def rig(monkeypatch):
+    """Fake `quanser` and `nidaqmx` first on sys.path: a Q8-USB and an NI card on one clock."""
+    monkeypatch.syspath_prepend(str(FAKES))
+    for name in [n for n in sys.modules if n.split(".")[0] in ("quanser", "nidaqmx")]:
+        monkeypatch.delitem(sys.modules, name)
+    from nidaqmx import _fake
+    from quanser import hardware
+
+    hardware.fake_reset()
+    system = _fake.fake_reset()
+    clock = _fake.ManualClock()
+    system.clock = clock
+    device = _fake.fake_install_device(_fake.FakeDevice("Dev1"))
+    board = hardware.fake_install_board("q8_usb", "0", clock=clock.now)
+    yield SimpleNamespace(hil=hardware, board=board, device=device, system=system, clock=clock)
+    leaked = set(system.open_tasks)
+    _purge("quanser")
+    _purge("nidaqmx")
+    assert not leaked, "an NI-DAQmx task was left open"
+
+
+def _settings(**quanser) -> HardwareSettings:
+    q = dict(
+        homing_joint_angles_rad=HOME, amplifier_gain_A_per_V=GAIN,
+        encoder_channels=(2, 5), encoder_signs=(1, -1),
+        analog_output_channels=(3, 6), motor_signs=(1, -1),
+        watchdog_timeout_s=0.02,
+    )
+    q.update(quanser)
+    f = ForceSensorSettings(calibration_file=str(CAL), sample_rate_Hz=1000.0, tare_samples=100)
+    return HardwareSettings(QuanserSettings(**q), f, source="robot.toml")
+
+
+def _backend(rig, **quanser) -> QuanserBackend:
+    settings = _settings(**quanser)
+    sensor = AtiForceSensor(settings.force_sensor, clock=rig.clock.now)
+    return QuanserBackend(settings, force_sensor=sensor, clock=rig.clock.now)
+
+
+def _opened(rig, **quanser) -> QuanserBackend:
+    backend = _backend(rig, **quanser)
+    backend.open()
+    return backend
+
+
+def _tick(rig, backend: QuanserBackend, dt_s: float = 0.002) -> SensorReading:
+    rig.clock.advance(dt_s)
+    return backend.read(rig.clock.now())
+
+
+def test_it_is_a_backend(rig):
+    backend = _backend(rig)
+    assert isinstance(backend, Backend)
+    assert backend.name == "quanser"
+
+
+def test_open_follows_the_safe_sequence(rig):
+    backend = _opened(rig)
+    calls = rig.board.calls
+    assert [name for name, _ in calls] == [
+        "open",
+        "set_card_specific_options",
+        "watchdog_clear",
+        "set_analog_output_ranges",
+        "write_analog",
+        "watchdog_set_analog_expiration_state",
+        "watchdog_set_digital_expiration_state",
+        "set_encoder_quadrature_mode",
+        "set_encoder_counts",
+        "watchdog_start",
+    ]
+    args = dict(calls)
+    assert args["open"] == ("q8_usb", "0")
+    assert args["set_card_specific_options"] == ("update_rate=normal;decimation=1", 32)
+    assert args["set_analog_output_ranges"] == ([3, 6], [-10.0, -10.0], [10.0, 10.0])
+    assert args["write_analog"] == (list(range(8)), [0.0] * 8)
+    assert args["watchdog_set_analog_expiration_state"] == (list(range(8)), [0.0] * 8)
+    assert args["watchdog_set_digital_expiration_state"] == (list(range(8)), [2] * 8)
+    assert args["set_encoder_quadrature_mode"] == ([2, 5], [4, 4])  # X4
+    assert args["set_encoder_counts"] == ([2, 5], [0, 0])
+    assert args["watchdog_start"] == (0.02,)
+    # The tare (0.1 s of samples on the shared clock) ran before the 20 ms watchdog started:
+    # had the watchdog been started first, it would have expired by now.
+    assert backend.force_sensor.is_open
+    assert rig.board.watchdog_running
+    assert not rig.board.watchdog_expired
+    _tick(rig, backend)
+    backend.close()
+
+
+def test_legacy_q8_sets_expiration_states_on_all_32_digital_outputs(rig):
+    rig.board = rig.hil.fake_install_board("q8", "0", clock=rig.clock.now)
+    backend = _opened(rig, board_type="q8", card_options="")
+    args = dict(rig.board.calls)
+    assert "set_card_specific_options" not in args
+    assert args["watchdog_set_digital_expiration_state"] == (list(range(32)), [2] * 32)
+    backend.close()
+
+
+def test_counts_become_joint_angles_with_signs_and_homing(rig):
+    rig.board.encoder_position[:] = [7, 8, 12345, 9, 10, -999, 11, 12]  # before Connect
+    backend = _opened(rig)
+    reading = _tick(rig, backend)
+    assert (reading.q1_rad, reading.q2_rad) == HOME  # counts zeroed at the homing pose
+    rig.board.encoder_position[2] += 1000
+    rig.board.encoder_position[5] -= 2000
+    rig.board.encoder_position[[0, 1, 3, 4]] += 777  # other channels must not matter
+    reading = _tick(rig, backend)
+    assert reading.q1_rad == pytest.approx(HOME[0] + 1000 * 2 * math.pi / COUNTS_PER_JOINT_REV)
+    assert reading.q2_rad == pytest.approx(HOME[1] + 2000 * 2 * math.pi / COUNTS_PER_JOINT_REV)
+    assert reading.q1_rad - HOME[0] == pytest.approx(math.radians(4.6906), abs=1e-6)
+    backend.close()
+
+
+def test_reading_carries_the_clock_and_the_tared_forces(rig):
+    backend = _opened(rig)
+    rig.device.volts[:6] = [0.0, 0.1, 0.0, 0.0, 0.0, 0.0]
+    reading = _tick(rig, backend)
+    assert reading.time_s == rig.clock.now()
+    assert (reading.force_x_N, reading.force_y_N, reading.force_z_N) == pytest.approx(
+        (-0.034999, 6.12, 0.062)
+    )
+    backend.close()
+
+
+@pytest.mark.parametrize(
+    ("torques", "limit_V", "volts"),
+    [
+        ((0.5, 0.3), 10.0, (0.5 / (K_T * GEAR) / GAIN, -0.3 / (K_T * GEAR) / GAIN)),
+        ((-0.5, -0.3), 10.0, (-0.5 / (K_T * GEAR) / GAIN, 0.3 / (K_T * GEAR) / GAIN)),
+        ((5.0, -5.0), 10.0, (2.0, 2.0)),  # 2.27 A asked: clamped to the rated 1 A = 2 V
+        ((5.0, 0.5), 1.5, (1.5, -0.5 / (K_T * GEAR) / GAIN)),  # the voltage limit is lower
+        ((-5.0, 5.0), 1.5, (-1.5, -1.5)),
+    ],
+)
+def test_torque_becomes_current_then_volts_with_clamping(rig, torques, limit_V, volts):
+    backend = _opened(rig, output_voltage_limit_V=limit_V)
+    backend.write(*torques)
+    assert rig.board.ao_volts[3] == pytest.approx(volts[0])
+    assert rig.board.ao_volts[6] == pytest.approx(volts[1])
+    others = np.delete(rig.board.ao_volts, [3, 6])
+    assert not others.any()
+    assert backend.commanded_volts == pytest.approx(volts)
+    backend.close()
+
+
+def test_half_a_newton_metre_by_hand(rig):
+    """0.5 N·m / (0.115 N·m/A × 19.1875) = 0.22660 A; at 0.5 A/V that is 0.45319 V."""
+    backend = _backend(rig)
+    assert backend.volts_for_torque(0.5, 0.0)[0] == pytest.approx(0.45319, abs=1e-5)
+
+
+def test_not_finite_torque_is_refused_and_zeroes_the_motors(rig):
+    backend = _opened(rig)
+    backend.write(0.5, 0.5)
+    with pytest.raises(BackendError, match=r"Refused torque command \(nan, 0.5\)"):
+        backend.write(float("nan"), 0.5)
+    assert not rig.board.ao_volts.any()
+    backend.close()
+
+
+def test_signs_agree_with_a_simulated_motor(rig):
+    """Joint 2's encoder counts down and its motor is wired reversed: with both signs
+    set to -1, a positive torque still turns both joints the positive way."""
+    rig.board.plant_counts_per_V_s[:] = 2000.0
+    backend = _opened(rig, encoder_channels=(0, 1), analog_output_channels=(0, 1),
+                      encoder_signs=(1, -1), motor_signs=(1, -1))
+    backend.write(0.3, 0.3)
+    rig.board.advance(0.5)
+    reading = _tick(rig, backend)
+    assert reading.q1_rad > HOME[0]
+    assert reading.q2_rad > HOME[1]
+    backend.close()
+
+
+def test_the_watchdog_is_reloaded_on_every_read(rig):
+    backend = _opened(rig)
+    before = rig.board.call_names().count("watchdog_reload")
+    for _ in range(200):  # 0.4 s: twenty times the watchdog's timeout
+        _tick(rig, backend, 0.002)
+        backend.write(0.1, 0.1)
+    assert rig.board.call_names().count("watchdog_reload") - before == 200
+    assert not rig.board.watchdog_expired
+    backend.close()
+
+
+@pytest.mark.parametrize("blocked_access", ["error", "ignore"])
+def test_watchdog_expiry_stops_the_motors_and_is_reported(rig, blocked_access):
+    rig.board.blocked_access = blocked_access
+    backend = _opened(rig)
+    backend.write(0.5, 0.5)
+    assert rig.board.ao_volts.any()
+    rig.clock.advance(0.05)  # the loop hung for 50 ms
+    with pytest.raises(BackendError, match="Q8 watchdog expired") as info:
+        backend.read(rig.clock.now())
+    assert "within 20 ms" in str(info.value)
+    assert not rig.board.ao_volts.any()  # the card zeroed its outputs by itself
+    if blocked_access == "error":
+        with pytest.raises(BackendError, match="Q8 watchdog expired"):
+            backend.write(0.5, 0.5)
+    else:
+        backend.write(0.5, 0.5)  # silently blocked
+    assert not rig.board.ao_volts.any()
+    backend.safe_state()
+    backend.close()  # a clean close after an expiry: stopped, cleared, zeroed
+    assert not rig.board.watchdog_expired
+    assert rig.board.open_handles == 0
+    reopened = _opened(rig)  # and the next Connect works
+    _tick(rig, reopened)
+    reopened.close()
+
+
+def test_safe_state_never_raises(rig, caplog):
+    backend = _backend(rig)
+    backend.safe_state()  # not open
+    backend.open()
+    backend.write(0.5, -0.5)
+    backend.safe_state()
+    assert not rig.board.ao_volts.any()
+    rig.board.fail["write_analog"] = 113
+    with caplog.at_level(logging.WARNING, logger="device.quanser"):
+        backend.safe_state()
+        backend.safe_state()
+    assert sum("safe_state" in r.message for r in caplog.records) == 1  # once, not every tick
+    rig.board.broken = RuntimeError("USB cable pulled")
+    backend.safe_state()
+    rig.board.broken = None
+    rig.board.fail.clear()
+    backend.close()
+    backend.safe_state()  # closed
+
+
+def test_close_stops_everything_and_is_idempotent(rig):
+    backend = _opened(rig)
+    backend.write(1.0, 1.0)
+    n = len(rig.board.calls)
+    backend.close()
+    assert rig.board.call_names()[n:] == [
+        "watchdog_is_expired", "task_stop_all", "write_analog", "task_delete_all",
+        "watchdog_stop", "close",
+    ]
+    assert dict(rig.board.calls[n:])["write_analog"] == (list(range(8)), [0.0] * 8)
+    assert not rig.board.ao_volts.any()
+    assert not rig.board.watchdog_running
+    assert rig.board.open_handles == 0
+    assert rig.system.open_tasks == set()
+    assert not backend.is_open
+    n = len(rig.board.calls)
+    backend.close()
+    assert len(rig.board.calls) == n
+    with pytest.raises(BackendError, match="not open"):
+        backend.read(0.0)
+    with pytest.raises(BackendError, match="not open"):
+        backend.write(0.0, 0.0)
+
+
+def test_close_with_a_dead_card_still_releases_everything_then_reports(rig):
+    backend = _opened(rig)
+    rig.board.broken = RuntimeError("USB cable pulled")
+    with pytest.raises(BackendError, match=r"incomplete .*USB cable pulled"):
+        backend.close()
+    assert rig.board.open_handles == 0
+    assert rig.system.open_tasks == set()
+    backend.close()
+
+
+def test_board_not_found(rig):
+    backend = _backend(rig, board_identifier="1")
+    with pytest.raises(BackendUnavailable, match="q8_usb board #1 was not found") as info:
+        backend.open()
+    text = str(info.value)
+    assert "HIL error -108" in text
+    assert "board_identifier in robot.toml" in text
+    assert rig.system.tasks_created == 0  # the force sensor was not touched
+    assert not backend.is_open
+
+
+def test_board_in_use(rig):
+    rig.board.in_use_elsewhere = True
+    with pytest.raises(BackendUnavailable, match=r"in use by another program \(HIL error -109"):
+        _backend(rig).open()
+
+
+def test_unknown_encoder_channel(rig):
+    rig.board = rig.hil.fake_install_board("q8_usb", "0", encoders=4, clock=rig.clock.now)
+    backend = _backend(rig)
+    with pytest.raises(BackendError, match=r"no encoder channel \[2, 5\].*encoder_channels"):
+        backend.open()
+    assert rig.board.open_handles == 0
+    assert not rig.board.ao_volts.any()
+
+
+def test_fixed_output_ranges_are_accepted(rig):
+    rig.board.ao_range_programmable = False
+    backend = _opened(rig)
+    backend.close()
+
+
+def test_a_watchdog_that_cannot_start_refuses_the_connect_and_releases_all(rig):
+    rig.board.fail["watchdog_start"] = 614
+    backend = _backend(rig)
+    with pytest.raises(BackendUnavailable, match="refused the watchdog configuration"):
+        backend.open()
+    assert rig.board.open_handles == 0
+    assert rig.system.open_tasks == set()
+    assert not backend.force_sensor.is_open
+
+
+def test_force_sensor_failure_releases_the_card(rig):
+    rig.system.driver_installed = False
+    backend = _backend(rig)
+    with pytest.raises(BackendUnavailable, match="NI-DAQmx driver is not installed"):
+        backend.open()
+    names = rig.board.call_names()
+    assert names[-2:] == ["watchdog_stop", "close"]
+    assert "watchdog_start" not in names
+    assert rig.board.open_handles == 0
+
+
+def test_hil_not_installed(monkeypatch):
+    monkeypatch.setitem(sys.modules, "quanser", None)
+    backend = QuanserBackend(_settings())
+    with pytest.raises(BackendUnavailable, match="python3-quanser-apis") as info:
+        backend.open()
+    assert "quanser_api" in str(info.value)
+
+
+def test_hil_without_native_libraries_raises_oserror_at_import(monkeypatch, tmp_path):
+    package = tmp_path / "quanser"
+    (package / "hardware").mkdir(parents=True)
+    (package / "__init__.py").write_text("")
+    (package / "hardware" / "__init__.py").write_text(
+        "raise OSError(\"cannot load library 'hil': hil.dll not found\")\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    for name in [n for n in sys.modules if n.split(".")[0] == "quanser"]:
+        monkeypatch.delitem(sys.modules, name)
+    with pytest.raises(BackendUnavailable, match="OSError: cannot load library 'hil'"):
+        QuanserBackend(_settings()).open()
+    _purge("quanser")
+
+
+# -- the fake itself: the cffi buffer rules of the real API ---------------------------------------
+
+
+def test_fake_hil_enforces_the_real_buffer_rules(rig):
+    card = rig.hil.HIL("q8_usb", "0")
+    rig.board.encoder_position[:3] = [10, 20, 30]
+    out = np.zeros(2, dtype=np.int32)
+    with pytest.raises(TypeError):
+        card.read_encoder([1, 2], 2, out)
+    with pytest.raises(ValueError, match="contiguous"):
+        card.read_encoder(np.array([[1, 9], [2, 9]], dtype=np.uint32)[:, 0], 2, out)
+    card.read_encoder(np.array([1, 2], dtype=np.int64), 2, out)  # the bytes of 1 are [1, 0]
+    assert out.tolist() == [20, 10]
+    wide = np.zeros(2, dtype=np.int64)
+    card.read_encoder(np.array([1, 2], dtype=np.uint32), 2, wide)
+    assert wide.tolist() == [20 + (30 << 32), 0]  # two int32s written into one int64
+    card.read_encoder(np.array([1, 2], dtype=np.uint32), 2, out)
+    assert out.tolist() == [20, 30]
+    with pytest.raises(rig.hil.HILError) as info:
+        card.read_encoder(np.array([9], dtype=np.uint32), 1, out)
+    assert info.value.error_code == -124
+    assert str(info.value) == "-124"
+    card.close()
+    card.close()  # a no-op when not open
+    with pytest.raises(rig.hil.HILError) as info:
+        rig.hil.HIL("q8_usb", "7")
+    assert info.value.error_code == -108
