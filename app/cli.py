@@ -12,6 +12,7 @@ import math
 import sys
 from collections.abc import Callable, Sequence
 
+from app.errors import AppError
 from core.errors import CoreError
 from core.trajectory import SHAPES, TIMINGS
 from core.trial import (
@@ -22,6 +23,7 @@ from core.trial import (
     TrialParameters,
     check_trial,
 )
+from device.errors import DeviceError
 
 EXIT_OK = 0
 EXIT_BAD_INPUT = 2
@@ -44,7 +46,8 @@ def add_trial_options(parser: argparse.ArgumentParser) -> None:
     reads them; defaults are the thesis's experiment with the shoulder as we read it."""
     d = THESIS_SUBJECT
     group = parser.add_argument_group("trial (lengths in m, angles in degrees)")
-    group.add_argument("--shape", choices=SHAPES, default=d.shape, help="exercise path (default d)")
+    group.add_argument("--shape", "--trajectory", choices=SHAPES, default=d.shape,
+                       help="exercise path (default d)")
     group.add_argument("--centre", nargs=2, type=float, metavar=("X", "Y"), default=d.centre_m,
                        help="D: centre of its straight line; circle/targets/figure8: centre; "
                             "reach: start point (default -0.30 0.30)")
@@ -103,6 +106,64 @@ def trial_from_args(args: argparse.Namespace) -> TrialParameters:
     return base.replace(**changes)
 
 
+def cmd_run(args: argparse.Namespace) -> int:
+    """Simulate a whole trial headless, write its file and print its metrics."""
+    import datetime
+    from pathlib import Path
+
+    from app.headless import save, simulate
+    from app.metricstable import format_metrics
+
+    params = trial_from_args(args)
+    if args.output:
+        path = Path(args.output).expanduser().resolve()
+    else:
+        from app.datadir import locate_data_dir
+
+        stamp = datetime.datetime.now(datetime.UTC).strftime("%Y%m%dT%H%M%SZ")
+        folder = locate_data_dir().ensure("trials", "simulated")
+        path = folder / f"SIM_{args.patient}_{stamp}.h5"
+    if path.exists():
+        raise CommandError(f"{path} already exists; give another --output")
+    bar = ProgressBar(f"simulating {params.repetitions} × {params.duration_s:g} s") \
+        if sys.stderr.isatty() else None
+    trial = simulate(params, patient=args.patient, seed=args.seed,
+                     progress=bar.update if bar else None)
+    if bar:
+        bar.done()
+    analysis = save(trial, path)
+    print(f"Trial {trial.status}: {trial.simulated_s:.1f} s simulated in "
+          f"{trial.elapsed_s:.2f} s ({trial.speed_vs_real_time:.0f}× real time), "
+          f"{args.patient} virtual patient, seed {args.seed}")
+    print(f"File: {path}")
+    print(format_metrics(analysis.metrics))
+    for note in analysis.notes:
+        print(f"  note: {note}")
+    for event in trial.events:
+        if event["kind"] == "fault":
+            print(f"  fault at {event['time_s']:.3f} s: {event['message']}")
+    return EXIT_OK
+
+
+class ProgressBar:
+    """A one-line progress bar on stderr for long commands."""
+
+    def __init__(self, label: str, width: int = 30) -> None:
+        self.label, self.width, self._shown = label, width, -1
+
+    def update(self, fraction: float) -> None:
+        filled = int(fraction * self.width)
+        if filled != self._shown:
+            self._shown = filled
+            bar = "#" * filled + "." * (self.width - filled)
+            sys.stderr.write(f"\r{self.label} [{bar}] {100 * fraction:3.0f} %")
+            sys.stderr.flush()
+
+    def done(self) -> None:
+        self.update(1.0)
+        sys.stderr.write("\n")
+
+
 def cmd_check(args: argparse.Namespace) -> int:
     from app.checkreport import format_check
 
@@ -129,6 +190,21 @@ def build_parser(prog: str = "rehab") -> tuple[Parser, argparse._SubParsersActio
     )
     add_trial_options(check)
     check.set_defaults(func=cmd_check)
+
+    run_cmd = commands.add_parser(
+        "run", help="simulate a whole trial headless, save it and print its metrics",
+        description="Run a trial on the simulator with a virtual patient as fast as it goes, "
+                    "write its trial file and print the metrics table.",
+    )
+    add_trial_options(run_cmd)
+    from device.patients import PATIENT_KINDS
+
+    run_cmd.add_argument("--patient", choices=PATIENT_KINDS, default="healthy",
+                         help="virtual patient (default healthy)")
+    run_cmd.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    run_cmd.add_argument("--output", help="trial file to write (default: a new file in the "
+                                          "data folder's trials/simulated)")
+    run_cmd.set_defaults(func=cmd_run)
     return parser, commands
 
 
@@ -140,7 +216,7 @@ def run(parser: Parser, argv: Sequence[str] | None, default: str) -> int:
     args = parser.parse_args(argv)
     try:
         return args.func(args)
-    except (CommandError, CoreError) as exc:
+    except (CommandError, CoreError, AppError, DeviceError) as exc:
         sys.stderr.write(f"{parser.prog} {args.command}: error: {exc}\n")
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:

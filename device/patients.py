@@ -28,6 +28,12 @@ The parts of a patient
       feed-forward   M_A(θ_d) θ̈_d + C_A(θ_d, θ̇_d) θ̇_d − τ_tissue(θ_d, θ̇_d)
       + impedance    K (θ_d − θ) + B (θ̇_d − θ̇)             (joint coordinates)
 
+  plus an active *drive*: a hand force of `drive_N` along the desired direction
+  (the subject pushes the handle the way it should go, as the thesis's healthy
+  subject did 78 % of the time, Fig. 3.9), with the direction low-passed by a
+  first-order lag of `DRIVE_LAG_S` (muscle activation and anticipation: a subject
+  cannot turn a push round instantly, so the push lags at the D's corners, where
+  the thesis saw its red segments). The whole effort is
   scaled by `effort` (1 for a healthy subject). The feed-forward is the arm's
   own inverse dynamics (eq. 3.20 for the arm alone) plus what it takes to bend
   its own passive tissue, so on the desired motion a healthy arm's net torque is
@@ -50,8 +56,9 @@ The parts of a patient
 * tremor: healthy effort plus τ = A sin(2π f t + ϕ) on both joints, f drawn
   uniformly in 4–6 Hz and ϕ in [0, 2π) from the seed (the band of parkinsonian
   rest tremor; post-stroke tremor is rarer but of the same order).
-* wrong_way: healthy effort plus, during episodes, a hand force of
-  `wrong_way_force_N` against the desired direction (τ = J_Aᵀ F). The time line
+* wrong_way: healthy effort, but during episodes the push turns round: a hand
+  force of `wrong_way_force_N` against the desired direction replaces the drive
+  (τ = J_Aᵀ F). The time line
   is cut into windows of `wrong_way_episode_s / wrong_way_fraction`; each holds
   one episode at a random offset, so over whole windows the subject pushes the
   wrong way exactly `wrong_way_fraction` of the time (default 20 %, 0.5 s
@@ -84,6 +91,12 @@ TREMOR_BAND_HZ = (4.0, 6.0)
 # tremors of the arm.
 TREMOR_RANGE_HZ = (3.0, 12.0)
 TREMOR_AMPLITUDE_NM = (0.5, 0.8)
+DRIVE_N = 1.2
+"""A healthy subject's push along the path: the thesis's subject's force ranged over
+0.8 N (x) and 2.5 N (y) on the D (Fig. 3.9), i.e. about ±1.2 N along the line."""
+DRIVE_LAG_S = 0.15
+"""Time constant of the push's direction (activation and anticipation)."""
+DRIVE_RANGE_N = (0.0, 20.0)
 _TWO_PI = 2.0 * math.pi
 
 
@@ -149,7 +162,7 @@ class JointImpedance:
 HEALTHY_IMPEDANCE = JointImpedance((15.0, 5.0, 12.0), (1.2, 0.4, 1.0))
 """Active impedance of a healthy subject reaching in the plane (see the module notes)."""
 
-PASSIVE_TISSUE = JointImpedance((2.0, 0.0, 1.5), (0.2, 0.0, 0.15))
+PASSIVE_TISSUE = JointImpedance((1.0, 0.0, 0.6), (0.2, 0.0, 0.15))
 """A relaxed arm: passive joint stiffness and damping (see the module notes)."""
 
 
@@ -209,8 +222,11 @@ class PatientParameters:
     spasticity: Spasticity | None = None
     tremor: Tremor | None = None
     wrong_way: WrongWay | None = None
+    drive_N: float = DRIVE_N
 
     def __post_init__(self) -> None:
+        check_range("drive_N", self.drive_N, *DRIVE_RANGE_N, "N",
+                    "a push along the path the robot's drives can meet")
         if self.kind not in PATIENT_KINDS:
             raise ParameterError("kind", self.kind, "one of " + ", ".join(PATIENT_KINDS))
         check_range("effort", self.effort, 0.0, 1.0, "",
@@ -253,11 +269,11 @@ class VirtualPatient:
         self._total = trajectory.total_duration_s
         self._dt_rate = 1.0 / TABLE_STEP_S
         dx0, dy0 = trajectory.at(0.0)[6:8]
-        self._rest = (ts0, self._phi0, 0.0, 0.0, 0.0, 0.0) + (0.0,) * 6 + (dx0, dy0)
+        self._rest = (ts0, self._phi0) + (0.0,) * 14 + (dx0, dy0)
         self._table: list[tuple[float, ...]] = []
         if self._active:
             self._table = _desired_motion_table(
-                arm, trajectory, parameters.passive, (ts0, self._phi0)
+                arm, trajectory, parameters.passive, (ts0, self._phi0), parameters.drive_N
             )
         self._n = len(self._table)
 
@@ -309,9 +325,11 @@ class VirtualPatient:
 
     def desired(self, t_s: float) -> tuple[float, ...]:
         """The desired motion at `t_s` as the patient looks it up:
-        (θ_s, φ, θ̇_s, φ̇, feed-forward τ_s, τ_e, direction x, y), φ = θ_e − θ_s."""
+        (θ_s, φ, θ̇_s, φ̇, feed-forward τ_s, τ_e, direction x, y, drive force x, y),
+        φ = θ_e − θ_s."""
         row, f = self._lookup(t_s)
-        return (*(row[j] + f * row[j + 6] for j in range(6)), row[12], row[13])
+        return (*(row[j] + f * row[j + 8] for j in range(6)), row[16], row[17],
+                row[6] + f * row[14], row[7] + f * row[15])
 
     def _lookup(self, t_s: float):
         """The table's row for `t_s` and the fraction of a table step past it."""
@@ -353,14 +371,16 @@ class VirtualPatient:
             # linear interpolation keeps the effort continuous in time, so the
             # integrator keeps its order (a sample-and-hold would cut RK4 to first order)
             row, f = self._lookup(t_s)
-            (ts_d, phi_d, tsd_d, phid_d, ff_s, ff_e,
-             dts, dphi, dtsd, dphid, dff_s, dff_e, dir_x, dir_y) = row
+            (ts_d, phi_d, tsd_d, phid_d, ff_s, ff_e, drive_x, drive_y,
+             dts, dphi, dtsd, dphid, dff_s, dff_e, ddrive_x, ddrive_y, dir_x, dir_y) = row
             ts_d += f * dts
             phi_d += f * dphi
             tsd_d += f * dtsd
             phid_d += f * dphid
             ff_s += f * dff_s
             ff_e += f * dff_e
+            drive_x += f * ddrive_x
+            drive_y += f * ddrive_y
             d_s = ts_d - ts
             if d_s > math.pi:
                 d_s -= _TWO_PI
@@ -374,14 +394,17 @@ class VirtualPatient:
             w = self._effort
             sh += w * (ks * d_s + kc * d_e + bs * v_s + bc * v_e)
             el += w * (kc * d_s + ke * d_e + bc * v_s + be * v_e)
-            gen_s = w * ff_s
-            gen_e = w * ff_e
+            # the push on the handle: τ = J_Aᵀ F (eq. 3.17, 3.27)
+            sin_s, cos_s, sin_e, cos_e = math.sin(ts), math.cos(ts), math.sin(te), math.cos(te)
+            gen_s = w * (ff_s + self._lu * (sin_s * drive_x - cos_s * drive_y))
+            gen_e = w * (ff_e + self._lf * (sin_e * drive_x - cos_e * drive_y))
             if self._wrong is not None and self.pushing_wrong_way(t_s):
                 # τ = J_Aᵀ F with F against the desired direction (eq. 3.17, 3.27)
-                fx = -self._wrong * dir_x
-                fy = -self._wrong * dir_y
-                gen_s += self._lu * (math.sin(ts) * fx - math.cos(ts) * fy)
-                gen_e += self._lf * (math.sin(te) * fx - math.cos(te) * fy)
+                # the push turns round: the drive is replaced, not outweighed
+                fx = -self._wrong * dir_x - w * drive_x
+                fy = -self._wrong * dir_y - w * drive_y
+                gen_s += self._lu * (sin_s * fx - cos_s * fy)
+                gen_e += self._lf * (sin_e * fx - cos_e * fy)
         if self._tremor is not None:
             omega, phase, amp_s, amp_e = self._tremor
             wave = math.sin(omega * t_s + phase)
@@ -429,11 +452,17 @@ def passive_torque_terms(passive: JointImpedance, rest_rad, ts, phi, tsd, phid):
 
 
 def _desired_motion_table(
-    arm: ArmModel, trajectory: Trajectory, passive: JointImpedance, rest_rad
+    arm: ArmModel, trajectory: Trajectory, passive: JointImpedance, rest_rad,
+    drive_N: float = DRIVE_N,
 ) -> list[tuple[float, ...]]:
-    """The desired arm motion and its feed-forward torque for one traversal, every
-    TABLE_STEP_S: rows of six values (θ_s, φ, θ̇_s, φ̇, τ_ff,s, τ_ff,e), their
-    increments to the next row (for linear interpolation), and the direction (x, y).
+    """The desired arm motion, its feed-forward torque and the push along the path for
+    one traversal, every TABLE_STEP_S: rows of eight values (θ_s, φ, θ̇_s, φ̇,
+    τ_ff,s, τ_ff,e, push F_x, F_y), their increments to the next row (for linear
+    interpolation), and the direction (x, y).
+
+    The push is `drive_N` along the path's direction passed through a first-order
+    lag of DRIVE_LAG_S, run over two traversals so the table holds its periodic
+    steady state (a repetition starts where the last one ended).
 
     The feed-forward is the arm's inverse dynamics along the desired motion less the
     passive tissue's torque there: a subject's command also overcomes their own
@@ -453,17 +482,30 @@ def _desired_motion_table(
     tissue_s, tissue_e = passive_torque_terms(
         passive, rest_rad, theta[:, 0], phi, theta_dot[:, 0], phi_dot
     )
+    push = drive_N * _lagged(sample.direction, TABLE_STEP_S, DRIVE_LAG_S)
     values = np.column_stack((
         theta[:, 0], phi, theta_dot[:, 0], phi_dot,
-        feedforward[:, 0] - tissue_s, feedforward[:, 1] - tissue_e,
+        feedforward[:, 0] - tissue_s, feedforward[:, 1] - tissue_e, push,
     ))
     rows = np.column_stack((values[:-1], np.diff(values, axis=0), sample.direction[:-1]))
     return [tuple(row) for row in rows.tolist()]
 
 
+def _lagged(direction: np.ndarray, dt_s: float, lag_s: float) -> np.ndarray:
+    """A first-order lag of a periodic (N, 2) signal, in its periodic steady state."""
+    a = math.exp(-dt_s / lag_s)
+    doubled = np.vstack((direction, direction))
+    out = np.empty_like(doubled)
+    state = doubled[0]
+    for i, value in enumerate(doubled):
+        state = a * state + (1.0 - a) * value
+        out[i] = state
+    return out[len(direction):]
+
+
 # -------------------------------------------------------------------- factory
 _IMPEDANCE_OPTIONS = ("passive_stiffness_Nm_rad", "passive_damping_Nms_rad")
-_EFFORT_OPTIONS = ("effort", "stiffness_Nm_rad", "damping_Nms_rad")
+_EFFORT_OPTIONS = ("effort", "stiffness_Nm_rad", "damping_Nms_rad", "drive_N")
 _OPTIONS = {
     "passive": _IMPEDANCE_OPTIONS,
     "healthy": _IMPEDANCE_OPTIONS + _EFFORT_OPTIONS,
@@ -489,7 +531,7 @@ def make_patient(
     matrices (shoulder, cross, elbow)):
 
       every kind      passive_stiffness_Nm_rad, passive_damping_Nms_rad
-      but passive     effort, stiffness_Nm_rad, damping_Nms_rad
+      but passive     effort, stiffness_Nm_rad, damping_Nms_rad, drive_N
       spastic         spastic_threshold_rad_s, reflex_gain_Nms_rad, spastic_viscous_Nms_rad
       tremor          tremor_hz (None: drawn in 4–6 Hz), tremor_amplitude_Nm
       wrong_way       wrong_way_fraction, wrong_way_episode_s, wrong_way_force_N
@@ -553,6 +595,6 @@ def make_patient(
         )
     parameters = PatientParameters(
         kind, options.get("effort", DEFAULT_EFFORT.get(kind, 1.0)), passive, active,
-        spasticity, tremor, wrong_way,
+        spasticity, tremor, wrong_way, options.get("drive_N", DRIVE_N),
     )
     return VirtualPatient(parameters, arm, trajectory, rng)

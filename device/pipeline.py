@@ -8,7 +8,8 @@ One tick, in the order of the thesis's scheme (Fig. 3.6):
 `control()` runs everything up to the commanded torque, so the caller can pass it
 through the supervisor and write it to the motors with the least delay; `record()`
 then does the rest (the subject's joint angles, rates and torques, eq. 3.27–3.38)
-and returns the tick's record as a tuple in `device.record.CHANNELS` order.
+and returns the tick's record as plain numbers in `device.record.flat_names()` order,
+ready for `RecordRing.push` or `RecordLog.append`.
 
 Everything per tick is plain floats on precomputed tables; numpy is used only when a
 trial is built (`TrialPlan`) and when it starts (`begin`, which plans the approach
@@ -43,7 +44,6 @@ HOLD_S = 0.5
 """Time the reference rests at the start point after the last repetition."""
 
 PHASE_IDLE, PHASE_APPROACH, PHASE_EXERCISE, PHASE_HOLD = 0, 1, 2, 3
-_NAN2 = (math.nan, math.nan)
 
 
 @dataclass(frozen=True, slots=True)
@@ -162,6 +162,11 @@ class TickPipeline:
     def approach_ticks(self) -> int:
         return self._approach_ticks
 
+    @property
+    def rates(self) -> tuple[float, float]:
+        """The joint-rate estimate of the last `control` call (rad/s)."""
+        return (self._last[1], self._last[2])
+
     def set_assistance_level(self, level: float) -> None:
         self.assistance.set_level(level)
 
@@ -208,17 +213,18 @@ class TickPipeline:
             self.robot, self.arm, q1, q2, qd1, qd2, qdd1, qdd2,
             reading.force_x_N, reading.force_y_N, self.sensor_offset_rad,
         )
+        x, y = self.robot.position(q1, q2)
         return (
             k, k * self.period_s, wall_s, phase, lateness_s, compute_s,
-            (q1, q2), (qd1, qd2), (qdd1, qdd2),
-            (r1, r2), (rd1, rd2), (rdd1, rdd2),
-            (tau1, tau2), (out1, out2), applied,
-            self.robot.position(q1, q2), (xd, yd), (vxd, vyd), (dx, dy),
-            (reading.force_x_N, reading.force_y_N, reading.force_z_N), (fx, fy),
+            q1, q2, qd1, qd2, qdd1, qdd2,
+            r1, r2, rd1, rd2, rdd1, rdd2,
+            tau1, tau2, out1, out2, applied[0], applied[1],
+            x, y, xd, yd, vxd, vyd, dx, dy,
+            reading.force_x_N, reading.force_y_N, reading.force_z_N, fx, fy,
             angle, active,
-            (s.shoulder_rad, s.elbow_rad), (s.shoulder_rate_rad_s, s.elbow_rate_rad_s),
-            (s.shoulder_acc_rad_s2, s.elbow_acc_rad_s2),
-            (s.shoulder_torque_Nm, s.elbow_torque_Nm), (s.isb_shoulder_rad, s.isb_elbow_rad),
+            s.shoulder_rad, s.elbow_rad, s.shoulder_rate_rad_s, s.elbow_rate_rad_s,
+            s.shoulder_acc_rad_s2, s.elbow_acc_rad_s2,
+            s.shoulder_torque_Nm, s.elbow_torque_Nm, s.isb_shoulder_rad, s.isb_elbow_rad,
             s.damped, state, fault,
         )
 
@@ -232,14 +238,17 @@ def idle_record(
     posture for the live view; rates, references and torques are NaN or zero."""
     q1, q2 = reading.q1_rad, reading.q2_rad
     fx, fy = sensor_to_global(reading.force_x_N, reading.force_y_N, q1, sensor_offset_rad)
-    ts, te = arm.ik_terms(*robot.position(q1, q2))
-    isb = arm.isb_terms(ts, te)
+    x, y = robot.position(q1, q2)
+    ts, te = arm.ik_terms(x, y)
+    isb_s, isb_e = arm.isb_terms(ts, te)
+    nan = math.nan
     return (
         k, k * period_s, wall_s, PHASE_IDLE, lateness_s, compute_s,
-        (q1, q2), _NAN2, _NAN2, _NAN2, _NAN2, _NAN2,
-        (0.0, 0.0), (0.0, 0.0), (0.0, 0.0),
-        robot.position(q1, q2), _NAN2, _NAN2, _NAN2,
-        (reading.force_x_N, reading.force_y_N, reading.force_z_N), (fx, fy),
-        math.nan, False,
-        (ts, te), _NAN2, _NAN2, _NAN2, isb, False, state, fault,
+        q1, q2, nan, nan, nan, nan,
+        nan, nan, nan, nan, nan, nan,
+        0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+        x, y, nan, nan, nan, nan, nan, nan,
+        reading.force_x_N, reading.force_y_N, reading.force_z_N, fx, fy,
+        nan, False,
+        ts, te, nan, nan, nan, nan, nan, nan, isb_s, isb_e, False, state, fault,
     )

@@ -9,6 +9,7 @@ with `extend_channels` rather than changing these.
 
 from __future__ import annotations
 
+import struct
 from dataclasses import dataclass
 
 import numpy as np
@@ -102,3 +103,65 @@ def empty_records(n: int, dtype: np.dtype = RECORD_DTYPE) -> np.ndarray:
         if records[name].dtype.kind == "f":
             records[name] = np.nan
     return records
+
+
+# Record layout as plain numbers: what the loop produces per tick and the ring packs.
+_STRUCT_CODES = {
+    ("b", 1): "?",
+    ("i", 1): "b", ("i", 2): "h", ("i", 4): "i", ("i", 8): "q",
+    ("u", 1): "B", ("u", 2): "H", ("u", 4): "I", ("u", 8): "Q",
+    ("f", 2): "e", ("f", 4): "f", ("f", 8): "d",
+}
+
+
+def flat_names(dtype: np.dtype = RECORD_DTYPE) -> tuple[str, ...]:
+    """The order of the plain numbers in a flat record: fields in dtype order,
+    sub-array fields flattened in C order (``robot_angle[0]``, ``robot_angle[1]``, …)."""
+    names = []
+    for name in dtype.names:
+        field = dtype.fields[name][0]
+        if field.subdtype is None:
+            names.append(name)
+        else:
+            names.extend(f"{name}[{','.join(map(str, i))}]" for i in np.ndindex(field.shape))
+    return tuple(names)
+
+
+def record_struct(dtype: np.dtype = RECORD_DTYPE) -> struct.Struct | None:
+    """A struct that packs one record from plain numbers in `flat_names` order, or None
+    when a field has no struct code (strings, nested records, non-native byte order)."""
+    parts = ["="]
+    pos = 0
+    fields = sorted((dtype.fields[n][1], dtype.fields[n][0]) for n in dtype.names)
+    for offset, field in fields:
+        base = field.base
+        code = _STRUCT_CODES.get((base.kind, base.itemsize))
+        if code is None or not base.isnative or base.fields is not None or offset < pos:
+            return None
+        if offset > pos:
+            parts.append(f"{offset - pos}x")
+        count = int(np.prod(field.shape)) if field.shape else 1
+        parts.append(f"{count}{code}")
+        pos = offset + field.itemsize
+    if dtype.itemsize > pos:
+        parts.append(f"{dtype.itemsize - pos}x")
+    return struct.Struct("".join(parts))
+
+
+class RecordLog:
+    """Records kept in memory for a headless run: packed as they come, one array at the end."""
+
+    def __init__(self, dtype: np.dtype = RECORD_DTYPE) -> None:
+        self.dtype = dtype
+        self._pack = record_struct(dtype).pack
+        self._chunks: list[bytes] = []
+
+    def append(self, values) -> None:
+        """One record from plain numbers in `flat_names` order."""
+        self._chunks.append(self._pack(*values))
+
+    def __len__(self) -> int:
+        return len(self._chunks)
+
+    def to_array(self) -> np.ndarray:
+        return np.frombuffer(b"".join(self._chunks), dtype=self.dtype).copy()

@@ -106,7 +106,7 @@ from typing import NamedTuple
 import numpy as np
 
 from device.errors import DeviceError, RecordingError, StateError
-from device.record import RECORD_DTYPE, empty_records
+from device.record import RECORD_DTYPE, empty_records, flat_names, record_struct
 
 try:
     import _posixshmem
@@ -125,13 +125,6 @@ _MAGIC_AT, _VERSION_AT, _CAPACITY_AT, _ITEMSIZE_AT, _DTYPE_CRC_AT, _RECORDED_AT 
 _WRITE_AT, _CLAIM_AT = 8, 9
 _READ_AT = 16
 _FINISHED_AT = 24
-
-_STRUCT_CODES = {
-    ("b", 1): "?",
-    ("i", 1): "b", ("i", 2): "h", ("i", 4): "i", ("i", 8): "q",
-    ("u", 1): "B", ("u", 2): "H", ("u", 4): "I", ("u", 8): "Q",
-    ("f", 2): "e", ("f", 4): "f", ("f", 8): "d",
-}
 
 
 class RingError(DeviceError):
@@ -154,40 +147,6 @@ class Batch(NamedTuple):
     records: np.ndarray
     cursor: int
     lost: int
-
-
-def flat_names(dtype: np.dtype = RECORD_DTYPE) -> tuple[str, ...]:
-    """The order of the plain numbers `RecordRing.push` takes: fields in dtype order,
-    sub-array fields flattened in C order (``robot_angle[0]``, ``robot_angle[1]``, …)."""
-    names = []
-    for name in dtype.names:
-        field = dtype.fields[name][0]
-        if field.subdtype is None:
-            names.append(name)
-        else:
-            names.extend(f"{name}[{','.join(map(str, i))}]" for i in np.ndindex(field.shape))
-    return tuple(names)
-
-
-def _packer(dtype: np.dtype) -> struct.Struct | None:
-    """A struct that writes one record from plain numbers, or None when a field has no
-    struct code (strings, nested records, non-native byte order): then only slot() works."""
-    parts = ["="]
-    pos = 0
-    fields = sorted((dtype.fields[n][1], dtype.fields[n][0]) for n in dtype.names)
-    for offset, field in fields:
-        base = field.base
-        code = _STRUCT_CODES.get((base.kind, base.itemsize))
-        if code is None or not base.isnative or base.fields is not None or offset < pos:
-            return None
-        if offset > pos:
-            parts.append(f"{offset - pos}x")
-        count = int(np.prod(field.shape)) if field.shape else 1
-        parts.append(f"{count}{code}")
-        pos = offset + field.itemsize
-    if dtype.itemsize > pos:
-        parts.append(f"{dtype.itemsize - pos}x")
-    return struct.Struct("".join(parts))
 
 
 def _dtype_crc(dtype: np.dtype) -> int:
@@ -289,7 +248,7 @@ class RecordRing:
             buf, np.uint8, count=capacity * self._itemsize, offset=_HEADER_BYTES
         ).reshape(capacity, self._itemsize)
         self._blank = empty_records(1, dtype).view(np.uint8)
-        packer = _packer(dtype)
+        packer = record_struct(dtype)
         self._pack_into = packer.pack_into if packer is not None else None
         self._finalizer = (
             weakref.finalize(self, _owner_cleanup, name, os.getpid()) if owner else None

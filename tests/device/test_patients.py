@@ -132,9 +132,10 @@ def desired_by_finite_differences(t, h=1e-4):
 
 
 def test_healthy_effort_on_the_desired_motion_is_the_arms_inverse_dynamics_eq_3_20():
-    """On the desired motion the impedance is silent and the feed-forward, which also
-    overcomes the passive tissue, makes the net torque M_A θ̈_d + C_A θ̇_d."""
-    patient = make_patient("healthy", ARM, TRAJECTORY)
+    """With the push along the path off (drive_N=0), on the desired motion the impedance
+    is silent and the feed-forward, which also overcomes the passive tissue, makes the
+    net torque M_A θ̈_d + C_A θ̇_d."""
+    patient = make_patient("healthy", ARM, TRAJECTORY, drive_N=0.0)
     # inside the line and the arc of the D, away from the corners where the speed jumps
     for t in (0.3, 0.9, 1.2, 2.0, 2.6, 3.3, 3.7, 4.9, 7.1):
         theta, rate, acc = desired_by_finite_differences(t)
@@ -149,7 +150,7 @@ def test_healthy_effort_on_the_desired_motion_is_the_arms_inverse_dynamics_eq_3_
 def test_healthy_impedance_restores_the_desired_posture_with_a_symmetric_stiffness():
     """∂τ_A/∂θ_A about the desired posture is −Tᵀ (K_active + K_passive) T: symmetric
     and negative definite (the arm is pulled back, and conservatively so)."""
-    patient = make_patient("healthy", ARM, TRAJECTORY)
+    patient = make_patient("healthy", ARM, TRAJECTORY, drive_N=0.0)
     t = 1.0
     theta, rate, _ = desired_by_finite_differences(t)
     h = 1e-6
@@ -268,8 +269,9 @@ def test_wrong_way_episodes_cover_the_stated_fraction_of_the_trial():
 
 
 def test_wrong_way_pushes_the_hand_against_the_desired_direction():
-    """During an episode the added torque is J_Aᵀ F with F = −3 N along the path
-    (eq. 3.27 at rest), outside it the patient is healthy."""
+    """During an episode the push turns round: compared with a healthy subject the
+    torque differs by J_Aᵀ F with F = −3 N along the path minus the healthy push
+    (eq. 3.27 at rest); outside it the patient is healthy."""
     wrong = make_patient("wrong_way", ARM, TRAJECTORY, seed=4)
     healthy = make_patient("healthy", ARM, TRAJECTORY, seed=4)
     checked = 0
@@ -280,6 +282,7 @@ def test_wrong_way_pushes_the_hand_against_the_desired_direction():
             continue
         checked += 1
         force = np.linalg.solve(ARM.jacobian([ts, te]).T, extra)
-        direction = np.array(wrong.desired(t)[6:8])
-        np.testing.assert_allclose(force, -3.0 * direction, atol=1e-9)
+        desired = wrong.desired(t)
+        direction, push = np.array(desired[6:8]), np.array(desired[8:10])
+        np.testing.assert_allclose(force, -3.0 * direction - push, atol=1e-9)
     assert checked > 10

@@ -1,0 +1,70 @@
+"""A trial's metrics as a table for people: display units (mm, °, %), one line each,
+with what the figure means. The same rows feed the terminal, the report and the window."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from core.metrics import TrialMetrics
+
+
+@dataclass(frozen=True, slots=True)
+class MetricRow:
+    key: str  # TrialMetrics field
+    label: str
+    unit: str  # display unit
+    scale: float  # SI value × scale = display value
+    meaning: str
+
+
+ROWS: tuple[MetricRow, ...] = (
+    MetricRow("rmse_x_m", "Position error, x (RMSE)", "mm", 1000.0,
+              "how far the hand was from the path, sideways"),
+    MetricRow("rmse_y_m", "Position error, y (RMSE)", "mm", 1000.0,
+              "how far the hand was from the path, forward and back"),
+    MetricRow("directional_performance_pct", "Directional performance", "%", 1.0,
+              "share of the time the push pointed the way the path goes"),
+    MetricRow("force_range_x_N", "Force range, x", "N", 1.0, "spread of the sideways push"),
+    MetricRow("force_range_y_N", "Force range, y", "N", 1.0, "spread of the forward push"),
+    MetricRow("shoulder_rom_rad", "Shoulder range of motion (ISB)", "°", 180.0 / math.pi,
+              "how far the shoulder moved"),
+    MetricRow("elbow_rom_rad", "Elbow range of motion (ISB)", "°", 180.0 / math.pi,
+              "how far the elbow moved"),
+    MetricRow("shoulder_torque_range_Nm", "Shoulder torque range", "N·m", 1.0,
+              "spread of the shoulder's effort (raw)"),
+    MetricRow("elbow_torque_range_Nm", "Elbow torque range", "N·m", 1.0,
+              "spread of the elbow's effort (raw)"),
+    MetricRow("shoulder_torque_range_smoothed_Nm", "Shoulder torque range, smoothed", "N·m",
+              1.0, "the same after a 10 Hz zero-lag filter"),
+    MetricRow("elbow_torque_range_smoothed_Nm", "Elbow torque range, smoothed", "N·m", 1.0,
+              "the same after a 10 Hz zero-lag filter"),
+    MetricRow("path_length_ratio", "Path length ratio", "", 1.0,
+              "hand's path over the target's (1 is ideal)"),
+    MetricRow("mean_speed_m_s", "Mean speed", "mm/s", 1000.0, "while moving"),
+    MetricRow("peak_speed_m_s", "Peak speed", "mm/s", 1000.0, ""),
+    MetricRow("movement_time_s", "Movement time", "s", 1.0, ""),
+    MetricRow("sparc", "Smoothness (SPARC)", "", 1.0, "closer to 0 is smoother"),
+    MetricRow("ldlj", "Smoothness (LDLJ)", "", 1.0, "closer to 0 is smoother"),
+    MetricRow("reaction_time_s", "Reaction time (mean)", "s", 1.0, "target shown to movement"),
+    MetricRow("initial_direction_error_rad", "Initial direction error (mean)", "°",
+              180.0 / math.pi, "first 100 ms against the line to the target"),
+    MetricRow("shoulder_elbow_correlation", "Shoulder–elbow correlation", "", 1.0,
+              "how together the two joints moved"),
+)
+
+
+def display_value(metrics: TrialMetrics | dict, row: MetricRow) -> float:
+    value = metrics[row.key] if isinstance(metrics, dict) else getattr(metrics, row.key)
+    return float(value) * row.scale
+
+
+def format_metrics(metrics: TrialMetrics | dict, *, skip_missing: bool = True) -> str:
+    lines = []
+    for row in ROWS:
+        value = display_value(metrics, row)
+        if skip_missing and not math.isfinite(value):
+            continue
+        shown = f"{value:9.2f}" if math.isfinite(value) else "        –"
+        lines.append(f"  {row.label:<34}{shown} {row.unit:<5} {row.meaning}".rstrip())
+    return "\n".join(lines)

@@ -1,0 +1,100 @@
+"""A headless trial end to end: simulate, supervise, write, read back, measure."""
+
+import math
+
+import numpy as np
+import pytest
+
+from app.analysis import analyse
+from app.cli import main
+from app.headless import save, simulate
+from app.trialfile import read_trial
+from core.errors import UnreachableError
+from core.trial import THESIS_AS_PRINTED, THESIS_SUBJECT
+from device.pipeline import PHASE_EXERCISE, PHASE_HOLD
+
+SHORT = THESIS_SUBJECT.replace(repetitions=1)
+
+
+def test_healthy_trial_round_trips_through_its_file(tmp_path):
+    trial = simulate(SHORT, patient="healthy", seed=1)
+    assert trial.status == "complete"
+    path = tmp_path / "trial.h5"
+    analysis = save(trial, path)
+    data = read_trial(path)
+    assert data.status == "complete"
+    assert data.parameters == SHORT
+    for name in trial.records.dtype.names:
+        np.testing.assert_array_equal(data.channels[name], trial.records[name])
+    assert data.metrics["rmse_x_m"] == pytest.approx(analysis.metrics.rmse_x_m)
+    kinds = [e["kind"] for e in data.events]
+    assert kinds[0] == "start"
+    assert kinds[-1] == "stop"
+
+
+def test_the_robot_tracks_the_d_for_a_healthy_subject():
+    trial = simulate(SHORT, patient="healthy")
+    channels = {n: trial.records[n] for n in trial.records.dtype.names}
+    metrics = analyse(channels, SHORT).metrics
+    assert metrics.rmse_x_m < 0.005
+    assert metrics.rmse_y_m < 0.005
+    assert metrics.directional_performance_pct > 50.0
+    assert 0.95 < metrics.path_length_ratio < 1.05
+
+
+def test_phases_follow_each_other_and_the_trial_ends_at_rest():
+    trial = simulate(SHORT)
+    phase = trial.records["phase"]
+    assert np.all(np.diff(phase.astype(int)) >= 0)
+    assert (phase == PHASE_EXERCISE).sum() == round(SHORT.duration_s / 0.002)
+    assert phase[-1] == PHASE_HOLD
+
+
+def test_deterministic_for_a_seed():
+    a = simulate(SHORT, patient="tremor", seed=5).records
+    b = simulate(SHORT, patient="tremor", seed=5).records
+    np.testing.assert_array_equal(a["force_sensor"], b["force_sensor"])
+    c = simulate(SHORT, patient="tremor", seed=6).records
+    assert not np.array_equal(a["force_sensor"], c["force_sensor"])
+
+
+def test_unreachable_trial_is_refused_before_it_starts():
+    with pytest.raises(UnreachableError, match=r"0\.68 m from the shoulder"):
+        simulate(THESIS_AS_PRINTED)
+
+
+def test_torque_never_exceeds_the_drives():
+    trial = simulate(SHORT.replace(duration_s=2.0, timing="minimum_jerk"), patient="spastic")
+    applied = trial.records["torque_applied"]
+    assert np.all(np.abs(applied) <= 0.115 * 307 / 16 + 1e-9)
+
+
+def test_run_command_writes_the_file_and_prints_the_table(tmp_path, capsys):
+    out = tmp_path / "run.h5"
+    code = main(["run", "--patient", "weak", "--trajectory", "d", "--controller", "ctpid",
+                 "--repetitions", "1", "--output", str(out)])
+    assert code == 0
+    text = capsys.readouterr().out
+    assert "Directional performance" in text
+    assert "Trial complete" in text
+    assert read_trial(out).status == "complete"
+
+
+def test_run_refuses_an_existing_file_and_bad_patients(tmp_path, capsys):
+    out = tmp_path / "x.h5"
+    out.write_bytes(b"")
+    assert main(["run", "--repetitions", "1", "--output", str(out)]) == 2
+    assert "already exists" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exc:
+        main(["run", "--patient", "zombie"])
+    assert exc.value.code == 2
+
+
+def test_subject_channels_are_finite_on_the_exercise():
+    trial = simulate(SHORT)
+    exercise = trial.records["phase"] == PHASE_EXERCISE
+    for name in ("subject_angle", "subject_torque", "subject_angle_isb"):
+        assert np.isfinite(trial.records[name][exercise]).all(), name
+    isb = np.degrees(trial.records["subject_angle_isb"][exercise])
+    assert 30 < isb[:, 0].min() < isb[:, 0].max() < 95
+    assert not math.isnan(trial.speed_vs_real_time)
