@@ -18,7 +18,7 @@ from app.analysis import Analysis, analyse
 from core.robot import RobotModel
 from core.trial import TrialParameters
 from device.errors import BackendError
-from device.pipeline import TickPipeline, TrialPlan
+from device.pipeline import TickPipeline, TrialPlan, fill_subject_channels
 from device.record import RecordLog
 from device.simulator import SimulatorBackend
 from device.states import State
@@ -102,7 +102,7 @@ def simulate(
                 backend.write(out1, out2)
                 state = State.FAULTED if fault else State.RUNNING
                 log.append(pipeline.record(k, reading, now, 0.0, 0.0, (out1, out2),
-                                           int(state), int(fault)))
+                                           int(state), int(fault), with_subject=False))
             if supervisor.fault:
                 status = "faulted"
                 events.append(_event(k, period, "fault", supervisor.fault_message,
@@ -115,11 +115,12 @@ def simulate(
     finally:
         backend.safe_state()
         backend.close()
+    records = log.to_array()
+    fill_subject_channels(records, plan)
     if progress is not None:
         progress(1.0)
     return SimulatedTrial(
-        plan, log.to_array(), tuple(events), status, patient, seed,
-        time.perf_counter() - started,
+        plan, records, tuple(events), status, patient, seed, time.perf_counter() - started
     )
 
 

@@ -25,7 +25,7 @@ import numpy as np
 
 from core.control.assistance import PerformanceAssistance
 from core.control.base import make_controller
-from core.interaction import sensor_to_global, subject_state
+from core.interaction import SubjectState, sensor_to_global, subject_state
 from core.robot import RobotModel
 from core.signal import RateEstimator
 from core.trial import TrialParameters, check_trial
@@ -204,15 +204,20 @@ class TickPipeline:
     def record(
         self, k: int, reading: SensorReading, wall_s: float, lateness_s: float,
         compute_s: float, applied: tuple[float, float], state: int, fault: int,
+        with_subject: bool = True,
     ) -> tuple:
-        """The tick's record (CHANNELS order), with the subject model run on it."""
+        """The tick's record (flat_names order), with the subject model run on it.
+
+        A headless run passes with_subject=False and fills the subject's channels for
+        the whole trial at once afterwards (`fill_subject_channels`): same formulas,
+        vectorised."""
         (phase, qd1, qd2, qdd1, qdd2, r1, r2, rd1, rd2, rdd1, rdd2, tau1, tau2, out1, out2,
          xd, yd, vxd, vyd, dx, dy, fx, fy, angle, active) = self._last
         q1, q2 = reading.q1_rad, reading.q2_rad
         s = subject_state(
             self.robot, self.arm, q1, q2, qd1, qd2, qdd1, qdd2,
             reading.force_x_N, reading.force_y_N, self.sensor_offset_rad,
-        )
+        ) if with_subject else _NO_SUBJECT
         x, y = self.robot.position(q1, q2)
         return (
             k, k * self.period_s, wall_s, phase, lateness_s, compute_s,
@@ -227,6 +232,29 @@ class TickPipeline:
             s.shoulder_torque_Nm, s.elbow_torque_Nm, s.isb_shoulder_rad, s.isb_elbow_rad,
             s.damped, state, fault,
         )
+
+
+_NO_SUBJECT = SubjectState(*(math.nan,) * 12, False)
+
+
+def fill_subject_channels(records: np.ndarray, plan: TrialPlan,
+                          sensor_offset_rad: float = 0.0) -> None:
+    """Run the subject model (eq. 3.27–3.38) over whole recorded arrays, in place, on the
+    samples under control (phase ≠ idle)."""
+    sel = records["phase"] != PHASE_IDLE
+    q, qd, qdd = (records[n][sel] for n in ("robot_angle", "robot_rate", "robot_acceleration"))
+    f = records["force_sensor"][sel]
+    s = subject_state(plan.robot, plan.parameters.arm(), q[:, 0], q[:, 1], qd[:, 0], qd[:, 1],
+                      qdd[:, 0], qdd[:, 1], f[:, 0], f[:, 1], sensor_offset_rad)
+    for name, pair in (
+        ("subject_angle", (s.shoulder_rad, s.elbow_rad)),
+        ("subject_rate", (s.shoulder_rate_rad_s, s.elbow_rate_rad_s)),
+        ("subject_acceleration", (s.shoulder_acc_rad_s2, s.elbow_acc_rad_s2)),
+        ("subject_torque", (s.shoulder_torque_Nm, s.elbow_torque_Nm)),
+        ("subject_angle_isb", (s.isb_shoulder_rad, s.isb_elbow_rad)),
+    ):
+        records[name][sel] = np.column_stack(pair)
+    records["singular"][sel] = s.damped
 
 
 def idle_record(

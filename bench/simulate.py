@@ -1,0 +1,74 @@
+"""Headless simulation speed and controller tick cost.
+
+    .venv/bin/python bench/simulate.py [--repetitions N]
+
+Prints, for every virtual patient, the speed of a whole headless trial (the thesis's
+D under SMC: simulator, rate estimate, controller, assistance, supervisor, subject
+model and record, exactly as `rehab run` does it) as a multiple of real time, then
+the simulator's own read+write cost per tick, and the controller tick cost p99 with
+the assistance on (from bench/controllers.py). Figures only, no assertion.
+Goals (issue 4): ≥ 500× real time; controller tick p99 ≤ 50 µs with the assistance.
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from controllers import inputs, run
+
+from app.headless import simulate
+from core.control import PerformanceAssistance, make_controller
+from core.robot import RobotModel
+from core.trial import THESIS_SUBJECT
+from device.patients import PATIENT_KINDS
+from device.simulator import bench_tick
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repetitions", type=int, default=5)
+    args = parser.parse_args()
+    params = THESIS_SUBJECT.replace(repetitions=args.repetitions)
+
+    print(f"Whole headless trial: thesis D, {args.repetitions} × 4 s, SMC, assistance on")
+    print(f"{'patient':<11}{'simulated s':>12}{'wall s':>9}{'× real time':>13}{'µs/tick':>9}")
+    gc.collect()
+    for kind in PATIENT_KINDS:
+        best = None
+        for _ in range(3):
+            trial = simulate(params, patient=kind)
+            if best is None or trial.elapsed_s < best.elapsed_s:
+                best = trial
+        ticks = len(best.records)
+        print(f"{kind:<11}{best.simulated_s:12.1f}{best.elapsed_s:9.3f}"
+              f"{best.speed_vs_real_time:13.0f}{1e6 * best.elapsed_s / ticks:9.1f}")
+
+    print("\nSimulator alone (read + write per 2 ms tick, best of 3)")
+    for (kind, integrator), us in bench_tick(kinds=("healthy", "passive")).items():
+        print(f"{kind:<11}{integrator:<22}{us:6.1f} µs   {2000.0 / us:5.0f}× real time")
+
+    robot = RobotModel()
+    rows = inputs(robot)
+    print("\nController tick (µs), 60 000 ticks along the D")
+    print(f"{'controller':<22}{'p50':>7}{'p99':>7}{'max':>9}")
+    for name in ("smc", "ctpid"):
+        for assisted in (False, True):
+            controller = make_controller(name, robot)
+            assistance = PerformanceAssistance(robot) if assisted else None
+            samples_ns, _ = run(controller, assistance, 60_000, rows)
+            samples = samples_ns / 1000.0
+            label = name + (" + assistance" if assisted else "")
+            print(f"{label:<22}{np.percentile(samples, 50):7.2f}"
+                  f"{np.percentile(samples, 99):7.2f}{samples.max():9.1f}")
+    print("\nGoals: headless ≥ 500× real time; controller + assistance p99 ≤ 50 µs")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,92 @@
+"""The per-tick pipeline: record layout, approach planning, and the subject model per tick
+agreeing with the vectorised one."""
+
+import math
+
+import numpy as np
+import pytest
+
+from core.trial import THESIS_SUBJECT
+from device.pipeline import (
+    PHASE_APPROACH,
+    PHASE_EXERCISE,
+    TickPipeline,
+    TrialPlan,
+    fill_subject_channels,
+    idle_record,
+)
+from device.record import RECORD_DTYPE, RecordLog, flat_names
+from device.simulator import SimulatorBackend
+
+PARAMS = THESIS_SUBJECT.replace(repetitions=1, duration_s=3.0, timing="minimum_jerk")
+
+
+def run_ticks(n, with_subject, start_offset=(0.0, 0.0)):
+    plan = TrialPlan.build(PARAMS)
+    sim = SimulatorBackend.from_trial(PARAMS, "healthy", seed=2)
+    sim.open()
+    pipeline = TickPipeline(plan)
+    log = RecordLog()
+    reading = sim.read(0.0)
+    pipeline.begin(reading.q1_rad + start_offset[0], reading.q2_rad + start_offset[1])
+    for k in range(n):
+        if k:
+            reading = sim.read(k * plan.period_s)
+        tau = pipeline.control(k, reading)
+        sim.write(*tau)
+        log.append(pipeline.record(k, reading, k * 0.002, 0.0, 0.0, tau, 3, 0,
+                                   with_subject=with_subject))
+    sim.close()
+    return plan, pipeline, log.to_array()
+
+
+def test_record_has_one_number_per_flat_field():
+    plan, _, records = run_ticks(5, True)
+    assert records.dtype == RECORD_DTYPE
+    assert len(flat_names()) == 52
+    np.testing.assert_array_equal(records["tick"], np.arange(5))
+    np.testing.assert_allclose(records["time"], np.arange(5) * 0.002)
+    x, y = plan.robot.position(*records["robot_angle"].T)
+    np.testing.assert_allclose(records["position"], np.column_stack((x, y)))
+    assert (records["state"] == 3).all()
+
+
+def test_per_tick_subject_model_equals_the_vectorised_one():
+    plan, _, per_tick = run_ticks(600, True)
+    _, _, later = run_ticks(600, False)
+    assert np.isnan(later["subject_torque"]).all()
+    fill_subject_channels(later, plan)
+    for name in ("subject_angle", "subject_rate", "subject_acceleration", "subject_torque",
+                 "subject_angle_isb", "singular"):
+        np.testing.assert_allclose(later[name], per_tick[name], rtol=1e-10, atol=1e-10,
+                                   err_msg=name)
+
+
+def test_approach_from_elsewhere_then_exercise():
+    plan, pipeline, records = run_ticks(10, True, start_offset=(0.05, -0.03))
+    assert pipeline.approach_ticks >= round(1.0 / 0.002)
+    assert (records["phase"] == PHASE_APPROACH).all()
+    # the approach ends exactly where the exercise starts
+    rows = plan.approach_rows(*(records["robot_angle"][0] + (0.05, -0.03)))
+    assert rows[-1][0:2] == pytest.approx(plan.start_point_m, abs=1e-4)
+    assert math.hypot(rows[-1][2], rows[-1][3]) < 1e-3
+
+
+def test_no_approach_when_already_at_the_start():
+    _, pipeline, records = run_ticks(3, True)
+    assert pipeline.approach_ticks == 0
+    assert (records["phase"] == PHASE_EXERCISE).all()
+
+
+def test_idle_record_fits_the_layout():
+    plan = TrialPlan.build(PARAMS)
+    sim = SimulatorBackend.from_trial(PARAMS, "passive")
+    sim.open()
+    reading = sim.read(0.0)
+    log = RecordLog()
+    log.append(idle_record(plan.robot, PARAMS.arm(), 0, reading, 0.0, 1e-5, 2e-5, 2, 0))
+    record = log.to_array()[0]
+    assert record["phase"] == 0
+    assert np.isfinite(record["subject_angle_isb"]).all()
+    assert np.isnan(record["robot_rate"]).all()
+    np.testing.assert_array_equal(record["torque_applied"], 0.0)
