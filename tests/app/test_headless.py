@@ -98,3 +98,20 @@ def test_subject_channels_are_finite_on_the_exercise():
     isb = np.degrees(trial.records["subject_angle_isb"][exercise])
     assert 30 < isb[:, 0].min() < isb[:, 0].max() < 95
     assert not math.isnan(trial.speed_vs_real_time)
+
+
+@pytest.mark.parametrize("controller", ["smc", "ctpid"])
+@pytest.mark.parametrize("patient", ["healthy", "weak", "spastic", "tremor", "passive",
+                                     "wrong_way"])
+def test_controllers_track_the_d_for_every_virtual_patient(controller, patient):
+    """Bounds: 5 mm RMS per axis for an active subject, 15 mm for a limp arm (the drives'
+    2.21 N·m limit and the supervisor's 0.5 s start ramp meet the arm's inertia and tissue
+    stiffness at the corners); the trial completes."""
+    params = SHORT.replace(controller=controller)
+    trial = simulate(params, patient=patient, seed=3)
+    assert trial.status == "complete"
+    channels = {n: trial.records[n] for n in trial.records.dtype.names}
+    metrics = analyse(channels, params).metrics
+    bound = 0.015 if patient == "passive" else 0.005
+    assert metrics.rmse_x_m < bound
+    assert metrics.rmse_y_m < bound
