@@ -1,0 +1,248 @@
+"""The console's small settings file: one JSON object in the user's config folder.
+
+Where: `$REHAB_CONFIG_DIR/settings.json` when that variable is set and not empty,
+else platformdirs' user config folder for "rehab-console" (on Linux
+~/.config/rehab-console, on Windows %LOCALAPPDATA%\\rehab-console).
+
+Writes are atomic (a temporary file in the same folder, fsynced, then
+`os.replace`), so a crash or a second console never leaves half a file. A file
+that is not a JSON object is renamed `settings.json.corrupt-<UTC time>` and the
+defaults are used, with a logged warning: the therapist loses preferences, never
+the ability to start. A single value of the wrong type falls back to its default
+alone. Keys this version does not know are kept on save, so an older console
+does not erase a newer one's settings.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import datetime
+import json
+import logging
+import os
+import tempfile
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import platformdirs
+
+from app.errors import SettingsError
+from core.errors import CoreError
+from core.trial import TrialParameters
+
+log = logging.getLogger(__name__)
+
+APP_NAME = "rehab-console"
+ENV_CONFIG_DIR = "REHAB_CONFIG_DIR"
+SETTINGS_NAME = "settings.json"
+SETTINGS_VERSION = 1
+_VERSION_KEY = "settings_version"
+
+
+def _optional_text(value: object) -> bool:
+    return value is None or (isinstance(value, str) and value.strip() != "")
+
+
+def _flag(value: object) -> bool:
+    return isinstance(value, bool)
+
+
+def _optional_object(value: object) -> bool:
+    return value is None or isinstance(value, dict)
+
+
+def _optional_string(value: object) -> bool:
+    return value is None or isinstance(value, str)
+
+
+# What each stored value must be; the message completes "give ...".
+_CHECKS: dict[str, tuple[Callable[[object], bool], str]] = {
+    "data_dir": (_optional_text, "a folder path, or null for the default"),
+    "flip_x": (_flag, "true or false"),
+    "flip_y": (_flag, "true or false"),
+    "last_trial_parameters": (_optional_object, "an object of trial parameters, or null"),
+    "window_geometry": (_optional_string, "a string, or null"),
+}
+
+
+@dataclass(frozen=True, slots=True)
+class Settings:
+    """Every setting with its default.
+
+    data_dir: the data folder chosen by the user (REHAB_DATA_DIR still wins).
+    flip_x, flip_y: mirror the live display's axes (display only; data stay in
+        the robot frame).
+    last_trial_parameters: `TrialParameters.to_dict()` of the last trial run,
+        read back through `trial_parameters()`.
+    window_geometry: the window's saved geometry, opaque to everything but ui.
+    extra: keys written by another version of the console, kept untouched.
+    """
+
+    data_dir: str | None = None
+    flip_x: bool = False
+    flip_y: bool = False
+    last_trial_parameters: dict | None = None
+    window_geometry: str | None = None
+    extra: dict = field(default_factory=dict, repr=False)
+
+    def __post_init__(self) -> None:
+        for name, (ok, allowed) in _CHECKS.items():
+            value = getattr(self, name)
+            if not ok(value):
+                raise SettingsError(f"setting {name} = {value!r} is not allowed: give {allowed}")
+        if not isinstance(self.extra, dict):
+            raise SettingsError("setting extra must be a dict of the unknown keys")
+
+    def replace(self, **changes) -> Settings:
+        return dataclasses.replace(self, **changes)
+
+    def trial_parameters(self) -> TrialParameters | None:
+        """The last trial's parameters, or None when none were saved or they no
+        longer validate (an older console's fields, a range since narrowed)."""
+        if self.last_trial_parameters is None:
+            return None
+        try:
+            return TrialParameters.from_dict(self.last_trial_parameters)
+        except (CoreError, TypeError, ValueError) as exc:
+            log.warning("saved trial parameters ignored, defaults used instead: %s", exc)
+            return None
+
+    def with_trial_parameters(self, parameters: TrialParameters) -> Settings:
+        return self.replace(last_trial_parameters=parameters.to_dict())
+
+    def to_json(self) -> dict:
+        values = {name: getattr(self, name) for name in _CHECKS}
+        return {**self.extra, _VERSION_KEY: SETTINGS_VERSION, **values}
+
+
+def config_dir(environ: Mapping[str, str] | None = None) -> Path:
+    """The settings folder: $REHAB_CONFIG_DIR if set and not empty, else platformdirs'."""
+    env = os.environ if environ is None else environ
+    chosen = env.get(ENV_CONFIG_DIR, "").strip()
+    if chosen:
+        return Path(chosen).expanduser().absolute()
+    return Path(platformdirs.user_config_dir(APP_NAME, appauthor=False))
+
+
+def settings_path(environ: Mapping[str, str] | None = None) -> Path:
+    return config_dir(environ) / SETTINGS_NAME
+
+
+def load_settings(path: str | os.PathLike | None = None) -> Settings:
+    """Read the settings; missing, unreadable or corrupt files give the defaults."""
+    path = Path(path) if path is not None else settings_path()
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        log.debug("no settings file at %s: defaults used", path)
+        return Settings()
+    except UnicodeDecodeError:
+        return _set_aside(path, "it is not UTF-8 text")
+    except OSError as exc:
+        log.warning("settings file %s cannot be read (%s): defaults used this time", path, exc)
+        return Settings()
+    try:
+        values = json.loads(text)
+    except json.JSONDecodeError as exc:
+        return _set_aside(path, f"it is not valid JSON ({exc})")
+    if not isinstance(values, dict):
+        return _set_aside(path, "it is not a JSON object")
+    return _from_json(path, values)
+
+
+def save_settings(settings: Settings, path: str | os.PathLike | None = None) -> Path:
+    """Write the settings atomically; raise SettingsError when the folder is not writable."""
+    path = Path(path) if path is not None else settings_path()
+    text = json.dumps(settings.to_json(), indent=2, sort_keys=True, allow_nan=False) + "\n"
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        handle, temporary = tempfile.mkstemp(
+            dir=path.parent, prefix=f".{SETTINGS_NAME}.", suffix=".tmp"
+        )
+    except OSError as exc:
+        raise SettingsError(
+            f"cannot write the settings in {path.parent}: {exc.strerror or exc}. Check the "
+            f"folder's permissions or set {ENV_CONFIG_DIR} to a folder you can write to"
+        ) from exc
+    try:
+        with os.fdopen(handle, "w", encoding="utf-8") as stream:
+            stream.write(text)
+            stream.flush()
+            os.fsync(stream.fileno())
+        os.replace(temporary, path)
+    except OSError as exc:
+        with contextlib.suppress(OSError):
+            os.unlink(temporary)
+        raise SettingsError(
+            f"cannot write the settings file {path}: {exc.strerror or exc}. The previous "
+            "settings are unchanged; free disk space or check the folder's permissions"
+        ) from exc
+    _sync_folder(path.parent)
+    return path
+
+
+def update_settings(path: str | os.PathLike | None = None, **changes) -> Settings:
+    """Load, change the given settings, save, and return the result.
+
+    Two consoles saving at the same moment: the last write wins whole, never a mix.
+    """
+    settings = load_settings(path).replace(**changes)
+    save_settings(settings, path)
+    return settings
+
+
+def _from_json(path: Path, values: dict) -> Settings:
+    chosen = {}
+    for name, (ok, allowed) in _CHECKS.items():
+        if name not in values:
+            continue
+        value = values[name]
+        if ok(value):
+            chosen[name] = value
+        else:
+            log.warning(
+                "setting %s = %r in %s is not allowed (give %s): its default is used",
+                name, value, path, allowed,
+            )
+    extra = {k: v for k, v in values.items() if k not in _CHECKS and k != _VERSION_KEY}
+    return Settings(**chosen, extra=extra)
+
+
+def _set_aside(path: Path, problem: str) -> Settings:
+    stamp = datetime.datetime.now(datetime.UTC).strftime("%Y%m%dT%H%M%SZ")
+    target = path.with_name(f"{path.name}.corrupt-{stamp}")
+    counter = 1
+    while target.exists():
+        counter += 1
+        target = path.with_name(f"{path.name}.corrupt-{stamp}-{counter}")
+    try:
+        os.replace(path, target)
+    except OSError as exc:
+        log.warning(
+            "settings file %s is unusable (%s) and could not be set aside (%s): defaults used",
+            path, problem, exc,
+        )
+        return Settings()
+    log.warning(
+        "settings file %s is unusable (%s): kept as %s for inspection, defaults used",
+        path, problem, target.name,
+    )
+    return Settings()
+
+
+def _sync_folder(folder: Path) -> None:
+    # The rename is durable only once the folder's entry is on disk; Windows has
+    # no directory handles to fsync and makes the rename durable by itself.
+    if os.name != "posix":
+        return
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        with contextlib.suppress(OSError):
+            os.fsync(fd)
+    finally:
+        os.close(fd)

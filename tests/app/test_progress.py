@@ -1,0 +1,166 @@
+"""A patient's progress as a table and as plot-ready series, grouped by parameter set."""
+
+from __future__ import annotations
+
+import datetime
+import math
+
+import numpy as np
+import pytest
+
+from app.datadir import DataDir
+from app.errors import PatientNotFound
+from app.progress import (
+    FILE_MISSING,
+    FILE_OK,
+    FILE_UNCHECKED,
+    FILE_UNREADABLE,
+    HDF5_SIGNATURE,
+    TABLE_COLUMNS,
+    ParameterSet,
+    progress,
+)
+from app.registry import KEY_PARAMETERS, Registry
+from core.trial import TrialParameters
+
+UTC = datetime.UTC
+T0 = datetime.datetime(2024, 3, 4, 10, 0, tzinfo=UTC)
+EASY = TrialParameters(radius_m=0.08, duration_s=6.0)
+HARD = TrialParameters(radius_m=0.12, duration_s=4.0, assistance_level=0.5)
+
+
+@pytest.fixture
+def history(tmp_path):
+    """Six trials over two sessions: harder exercise in session 2, one metric added
+    later, one trial faulted, one file missing and one file damaged."""
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("Pat", "Progress").code
+    plan = [  # session, params, status, rmse, file
+        (1, EASY, "complete", 0.020, "ok"),
+        (1, EASY, "complete", 0.018, "missing"),
+        (1, HARD, "complete", 0.030, "ok"),
+        (2, HARD, "faulted", 0.040, "damaged"),
+        (2, HARD, "complete", 0.026, "ok"),
+        (2, EASY, "complete", 0.015, "ok"),
+    ]
+    for i, (session, params, status, rmse, file) in enumerate(plan):
+        started = T0 + datetime.timedelta(days=7 * (session - 1), minutes=5 * i)
+        begun = registry.begin_trial(code, params, backend="simulator", session_number=session,
+                                     started_at=started)
+        metrics = {"rmse_x_m": rmse, "sparc": math.nan if status == "faulted" else -2.0 + i}
+        if session == 2:
+            metrics["ldlj"] = -6.0 - i  # a metric introduced in a later version
+        registry.finish_trial(begun.trial_id, status, metrics,
+                              ended_at=started + datetime.timedelta(seconds=30))
+        if file == "ok":
+            begun.path.write_bytes(HDF5_SIGNATURE + bytes(100))
+        elif file == "damaged":
+            begun.path.write_bytes(b"half a file")
+    return registry, code
+
+
+def test_rows_are_in_order_with_parameters_status_and_file_state(history):
+    registry, code = history
+    result = progress(registry, code)
+    assert len(result) == 6
+    assert result.session.tolist() == [1, 1, 1, 2, 2, 2]
+    assert result.trial.tolist() == [1, 2, 3, 1, 2, 3]
+    assert [r.file_state for r in result.rows] == [
+        FILE_OK, FILE_MISSING, FILE_OK, FILE_UNREADABLE, FILE_OK, FILE_OK]
+    assert result.file_ok.tolist() == [True, False, True, False, True, True]
+    assert [r.trial.status for r in result.rows][3] == "faulted"
+    assert result.metric_names == ("rmse_x_m", "sparc", "ldlj")
+    # A missing or damaged file does not hide the registry's metrics.
+    assert result.values["rmse_x_m"][1] == 0.018
+    assert result.values["rmse_x_m"][3] == 0.040
+    assert np.isnan(result.values["ldlj"][:3]).all()
+    assert result.values["ldlj"][3:].tolist() == [-9.0, -10.0, -11.0]
+    assert result.time_s[0] == T0.timestamp()
+    assert np.all(np.diff(result.time_s) > 0)
+
+
+def test_parameter_sets_mark_every_trial_and_group_the_series(history):
+    registry, code = history
+    result = progress(registry, code)
+    easy, hard = ParameterSet.of(EASY.to_dict()), ParameterSet.of(HARD.to_dict())
+    assert result.parameter_sets == (easy, hard)
+    assert result.parameter_set_index.tolist() == [0, 0, 1, 1, 1, 0]
+    assert easy.label() == "D, r 8.0 cm, 6 s, ±20°, SMC, assist 1.00"
+    assert hard.assistance_level == 0.5
+
+    by_set = {s.parameter_set: s for s in result.series("rmse_x_m")}
+    assert by_set[easy].trial_index.tolist() == [0, 1, 5]
+    assert by_set[easy].values.tolist() == [0.020, 0.018, 0.015]
+    assert by_set[hard].trial_index.tolist() == [2, 3, 4]
+    assert by_set[hard].session.tolist() == [1, 2, 2]
+    assert by_set[hard].file_ok.tolist() == [True, False, True]
+
+    sparc = {s.parameter_set: s for s in result.series("sparc")}
+    assert sparc[hard].trial_index.tolist() == [2, 4]  # the faulted trial's NaN is dropped
+    with_nan = {s.parameter_set: s for s in result.series("sparc", finite_only=False)}
+    assert with_nan[hard].trial_index.tolist() == [2, 3, 4]
+    ldlj = result.series("ldlj")
+    assert [(s.parameter_set, s.trial_index.tolist()) for s in ldlj] == [
+        (easy, [5]), (hard, [3, 4])]
+    with pytest.raises(KeyError, match=r"no trial of patient .* 'rom_elbow_rad'.*rmse_x_m"):
+        result.series("rom_elbow_rad")
+
+
+def test_equal_exercises_reached_through_unit_conversions_are_one_set():
+    assert ParameterSet.__slots__ == KEY_PARAMETERS  # from_values relies on the order
+    a = ParameterSet.of({"radius_m": 0.1, "tolerance_rad": math.radians(20.0)})
+    b = ParameterSet.of({"radius_m": 0.30000000000000004 / 3,
+                         "tolerance_rad": 20.0 * math.pi / 180.0 + 1e-15})
+    assert a == b
+    assert ParameterSet.of({"radius_m": 0.1}) != ParameterSet.of({"radius_m": 0.1001})
+
+
+def test_table_has_one_row_per_trial_and_one_column_per_metric(history):
+    registry, code = history
+    header, rows = progress(registry, code).table()
+    assert header == (*TABLE_COLUMNS, "rmse_x_m", "sparc", "ldlj")
+    assert len(set(header)) == len(header)
+    assert "set_radius_m" in header
+    assert "set_duration_s" in header
+    assert len(rows) == 6
+    assert all(len(r) == len(header) for r in rows)
+    row = dict(zip(header, rows[1], strict=True))
+    assert (row["session"], row["trial"], row["status"], row["file_state"]) == (
+        1, 2, "complete", FILE_MISSING)
+    assert (row["set_shape"], row["set_radius_m"], row["set_duration_s"]) == ("d", 0.08, 6.0)
+    assert row["date"] == "2024-03-04"
+    assert row["started_at"].startswith("2024-03-04T10:05")
+    assert row["rmse_x_m"] == 0.018
+    assert math.isnan(row["ldlj"])
+
+
+def test_arrays_are_read_only_and_the_file_check_can_be_skipped(history):
+    registry, code = history
+    result = progress(registry, code, check_files=False)
+    assert {r.file_state for r in result.rows} == {FILE_UNCHECKED}
+    assert result.file_ok.all()
+    with pytest.raises(ValueError, match="read-only"):
+        result.values["rmse_x_m"][0] = 0.0
+    with pytest.raises(ValueError, match="read-only"):
+        result.series("rmse_x_m")[0].values[0] = 0.0
+
+
+def test_a_patient_without_trials_and_an_unknown_patient(tmp_path):
+    registry = Registry(DataDir(tmp_path))
+    code = registry.create_patient().code
+    empty = progress(registry, code)
+    assert (len(empty), empty.metric_names, empty.parameter_sets) == (0, (), ())
+    assert empty.table() == (TABLE_COLUMNS, [])
+    with pytest.raises(PatientNotFound):
+        progress(registry, "PZZZZZZ")
+
+
+def test_a_trial_still_recording_appears_without_metrics(history):
+    registry, code = history
+    running = registry.begin_trial(code, EASY, backend="simulator", session_number=2)
+    result = progress(registry, code)
+    last = result.rows[-1]
+    assert (last.trial.id, last.trial.status, last.file_state) == (
+        running.trial_id, "recording", FILE_MISSING)
+    assert last.parameter_set_index == 0
+    assert np.isnan([result.values[name][-1] for name in result.metric_names]).all()

@@ -1,0 +1,135 @@
+"""The settings file: typed values with defaults, atomic writes, and recovery from damage."""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+
+import pytest
+
+from app import settings as settings_module
+from app.errors import SettingsError
+from app.settings import (
+    ENV_CONFIG_DIR,
+    SETTINGS_NAME,
+    Settings,
+    config_dir,
+    load_settings,
+    save_settings,
+    settings_path,
+    update_settings,
+)
+from core.trial import TrialParameters
+
+
+@pytest.fixture
+def config(tmp_path, monkeypatch):
+    folder = tmp_path / "config"
+    monkeypatch.setenv(ENV_CONFIG_DIR, str(folder))
+    return folder
+
+
+def test_config_dir_comes_from_the_environment_or_platformdirs(tmp_path):
+    assert config_dir({ENV_CONFIG_DIR: str(tmp_path)}) == tmp_path
+    default = config_dir({ENV_CONFIG_DIR: "  "})
+    assert default.name == "rehab-console"
+    assert settings_path({}) == default / SETTINGS_NAME
+
+
+def test_missing_file_gives_defaults(config):
+    loaded = load_settings()
+    assert loaded == Settings()
+    assert (loaded.data_dir, loaded.flip_x, loaded.flip_y, loaded.window_geometry) == (
+        None, False, False, None)
+    assert loaded.trial_parameters() is None
+
+
+def test_round_trip_through_the_file(config):
+    params = TrialParameters(radius_m=0.12, controller="ctpid")
+    saved = Settings(data_dir="/srv/rehab", flip_x=True, window_geometry="AdnQywADAAAAAA==")
+    saved = saved.with_trial_parameters(params)
+    path = save_settings(saved)
+    assert path == config / SETTINGS_NAME
+    loaded = load_settings()
+    assert loaded == saved
+    assert loaded.trial_parameters() == params
+    assert json.loads(path.read_text())["settings_version"] == 1
+
+    updated = update_settings(flip_y=True)
+    assert (updated.flip_x, updated.flip_y) == (True, True)
+    assert load_settings() == updated
+
+
+def test_wrong_types_are_refused_when_set(config):
+    with pytest.raises(SettingsError, match="flip_x = 'yes' is not allowed: give true or false"):
+        Settings(flip_x="yes")
+    with pytest.raises(SettingsError, match="data_dir"):
+        update_settings(data_dir="")
+    assert not (config / SETTINGS_NAME).exists()
+
+
+def test_write_is_atomic_and_a_failed_write_keeps_the_old_file(config, monkeypatch):
+    save_settings(Settings(flip_x=True))
+    before = (config / SETTINGS_NAME).read_bytes()
+
+    def refuse(src, dst):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(settings_module.os, "replace", refuse)
+    with pytest.raises(SettingsError, match=r"No space left on device.*previous settings are"):
+        save_settings(Settings(flip_x=False, window_geometry="x"))
+    assert (config / SETTINGS_NAME).read_bytes() == before
+    assert sorted(os.listdir(config)) == [SETTINGS_NAME]  # no temporary left behind
+
+
+def test_unwritable_config_folder_says_what_to_do(tmp_path, monkeypatch):
+    blocker = tmp_path / "file"
+    blocker.write_text("in the way")
+    monkeypatch.setenv(ENV_CONFIG_DIR, str(blocker / "config"))
+    with pytest.raises(SettingsError, match=f"cannot write the settings.*{ENV_CONFIG_DIR}"):
+        save_settings(Settings())
+
+
+@pytest.mark.parametrize("content", [b"{\"flip_x\": tru", b"[1, 2]", b"\xff\xfe\x00garbage"])
+def test_corrupt_file_is_set_aside_and_defaults_used_with_a_warning(config, caplog, content):
+    config.mkdir()
+    (config / SETTINGS_NAME).write_bytes(content)
+    with caplog.at_level(logging.WARNING, logger="app.settings"):
+        loaded = load_settings()
+    assert loaded == Settings()
+    aside = list(config.glob(f"{SETTINGS_NAME}.corrupt-*"))
+    assert len(aside) == 1
+    assert aside[0].read_bytes() == content
+    assert not (config / SETTINGS_NAME).exists()
+    assert "kept as settings.json.corrupt-" in caplog.text
+    # The next save starts a fresh file; the damaged one stays for inspection.
+    save_settings(loaded.replace(flip_y=True))
+    assert load_settings().flip_y is True
+    assert len(list(config.glob(f"{SETTINGS_NAME}.corrupt-*"))) == 1
+
+
+def test_one_bad_value_falls_back_alone_and_unknown_keys_survive(config, caplog):
+    config.mkdir()
+    (config / SETTINGS_NAME).write_text(json.dumps({
+        "flip_x": "sometimes", "flip_y": True, "window_geometry": "g",
+        "from_a_newer_console": {"theme": "dark"},
+    }))
+    with caplog.at_level(logging.WARNING, logger="app.settings"):
+        loaded = load_settings()
+    assert (loaded.flip_x, loaded.flip_y, loaded.window_geometry) == (False, True, "g")
+    assert "flip_x = 'sometimes'" in caplog.text
+    save_settings(loaded.replace(data_dir="/data"))
+    stored = json.loads((config / SETTINGS_NAME).read_text())
+    assert stored["from_a_newer_console"] == {"theme": "dark"}
+    assert stored["data_dir"] == "/data"
+
+
+def test_stale_trial_parameters_are_ignored_with_a_warning(config, caplog):
+    stale = TrialParameters().to_dict() | {"radius_m": 9.0}
+    with caplog.at_level(logging.WARNING, logger="app.settings"):
+        assert Settings(last_trial_parameters=stale).trial_parameters() is None
+        renamed = TrialParameters().to_dict() | {"old_field": 1}
+        assert Settings(last_trial_parameters=renamed).trial_parameters() is None
+    assert "radius_m" in caplog.text
+    assert "old_field" in caplog.text
