@@ -361,6 +361,11 @@ class SafetySupervisor:
         self._sat_since_s = math.nan
         self._ramp_since_s = math.nan
 
+    def restart_ramp(self) -> None:
+        """Ramp the torque limit up from zero again, as after a clear: the loop calls it
+        when a trial starts, after ticks spent connected at zero torque."""
+        self._ramp_since_s = math.nan
+
     # ------------------------------------------------------------------- tick
     def step(
         self,

@@ -1,0 +1,315 @@
+"""The real-time loop in its own process: state machine, trials, fault injection end to end,
+crash safety and leaks. These tests run the real loop, recorder and ring at 2 ms."""
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.trialfile import read_trial
+from core.trial import THESIS_SUBJECT
+from device.client import DeviceClient, LoopLost
+from device.faultinjection import EXPECTED_FAULT
+from device.faults import Fault
+from device.messages import BackendConfig, FaultRaised, RecorderNotice, TrialEnded
+from device.states import State
+from device.trialfile import SubjectInfo
+
+PARAMS = THESIS_SUBJECT.replace(repetitions=1)
+LONG = THESIS_SUBJECT.replace(repetitions=20)
+SUBJECT = SubjectInfo.from_parameters("PTEST01", PARAMS)
+
+pytestmark = pytest.mark.slow
+
+
+def is_(kind):
+    return lambda event: isinstance(event, kind)
+
+
+def closed_file(client, timeout=10.0) -> RecorderNotice:
+    events = client.wait_for(lambda e: isinstance(e, RecorderNotice) and e.kind == "closed",
+                             timeout)
+    return events[-1]
+
+
+@pytest.fixture(scope="module")
+def client():
+    with DeviceClient() as c:
+        yield c
+
+
+def connect(client, params=PARAMS, backend=None):
+    if client.state in (State.CONNECTED, State.FAULTED):
+        client.disconnect()
+    client.estop(False)
+    reply = client.build(params, backend or BackendConfig())
+    assert reply.ok, reply.message
+    reply = client.connect()
+    assert reply.ok, reply.message
+    client.events(0.3)  # let the loop take a few readings
+
+
+def test_commands_out_of_order_are_refused_with_a_reason(client):
+    if client.state != State.IDLE:
+        pytest.skip("needs a fresh loop")
+    reply = client.start_trial("/tmp/never.h5", SUBJECT)
+    assert not reply.ok
+    assert "build and connect first" in reply.message
+    assert not client.connect().ok
+    assert not client.stop().ok
+
+
+def test_a_whole_trial_is_recorded_with_its_timing(client, tmp_path):
+    connect(client)
+    path = tmp_path / "trial.h5"
+    assert client.start_trial(str(path), SUBJECT).ok
+    ended = client.wait_for(is_(TrialEnded), 20)[-1]
+    assert ended.status == "complete"
+    notice = closed_file(client)
+    assert notice.status == "complete"
+    data = read_trial(path)
+    assert data.status == "complete"
+    n = data.n_samples
+    assert n == round(PARAMS.duration_s / 0.002) + 250  # exercise + 0.5 s hold
+    np.testing.assert_array_equal(data.channels["tick"], np.arange(n))
+    assert data.summary["ticks_missing"] == 0
+    # the loop kept time while this test process polled beside it
+    lateness = data.channels["lateness"]
+    assert np.percentile(lateness, 99) < 0.002
+    kinds = [e["kind"] for e in data.events]
+    assert kinds == ["start", "stop"]
+
+
+def test_stop_ends_the_trial_early_and_saves_it(client, tmp_path):
+    connect(client, LONG)
+    path = tmp_path / "stopped.h5"
+    assert client.start_trial(str(path), SUBJECT).ok
+    time.sleep(0.6)
+    assert client.stop().ok
+    assert closed_file(client).status == "stopped_early"
+    client.wait_state(State.CONNECTED, 5)
+    data = read_trial(path)
+    assert data.status == "stopped_early"
+    assert 200 < data.n_samples < 1000
+
+
+def test_a_trial_twice_in_a_row_leaks_nothing(tmp_path):
+    def shm():
+        return {p.name for p in Path("/dev/shm").iterdir()}
+
+    def fds():
+        return len(os.listdir("/proc/self/fd"))
+
+    before_shm, before_fds = shm(), fds()
+    with DeviceClient() as c:
+        connect(c)
+        for i in range(2):
+            path = tmp_path / f"t{i}.h5"
+            assert c.start_trial(str(path), SUBJECT).ok
+            assert closed_file(c, 20).status == "complete"
+            c.wait_state(State.CONNECTED, 5)
+            assert read_trial(path).status == "complete"
+        loop_fds = len(os.listdir(f"/proc/{c.loop_pid}/fd"))
+        path = tmp_path / "t2.h5"
+        assert c.start_trial(str(path), SUBJECT).ok
+        closed_file(c, 20)
+        assert len(os.listdir(f"/proc/{c.loop_pid}/fd")) == loop_fds
+    assert shm() == before_shm
+    assert fds() == before_fds
+
+
+@pytest.mark.parametrize("scenario", sorted(EXPECTED_FAULT))
+def test_backend_faults_zero_the_torque_latch_and_are_recorded(client, tmp_path, scenario):
+    connect(client, LONG, BackendConfig(fault_scenario=scenario, fault_at_s=1.2))
+    client.live_records()  # start the live view from here
+    path = tmp_path / f"{scenario}.h5"
+    assert client.start_trial(str(path), SUBJECT).ok
+    events = client.wait_for(is_(FaultRaised), 10)
+    fault = events[-1]
+    assert fault.code == EXPECTED_FAULT[scenario]
+    assert closed_file(client).status == "faulted"
+    time.sleep(0.1)
+    records = client.live_records()
+    faulted = np.flatnonzero(records["fault"] != 0)
+    assert faulted.size, "the fault never reached the records"
+    first = faulted[0]
+    # zero torque in the first record that carries the fault, and every one after
+    np.testing.assert_array_equal(records["torque_applied"][first:], 0.0)
+    assert records["fault"][first - 1] == 0
+    # latched
+    assert client.state == State.FAULTED
+    assert (records["fault"][first:] == fault.code).all()
+    # recorded as an event in a file that opens afterwards
+    data = read_trial(path)
+    assert data.status == "faulted"
+    faults = [e for e in data.events if e["kind"] == "fault"]
+    assert faults
+    assert faults[0]["values"]["code"] == fault.code
+
+
+def test_estop_zeroes_the_torque_and_latches_until_released_and_cleared(client, tmp_path):
+    connect(client, LONG)
+    client.live_records()
+    path = tmp_path / "estop.h5"
+    assert client.start_trial(str(path), SUBJECT).ok
+    time.sleep(1.0)
+    client.estop(True)
+    fault = client.wait_for(is_(FaultRaised), 5)[-1]
+    assert fault.code == Fault.ESTOP
+    closed_file(client)
+    records = client.live_records()
+    first = np.flatnonzero(records["fault"] != 0)[0]
+    np.testing.assert_array_equal(records["torque_applied"][first:], 0.0)
+    reply = client.clear_fault()
+    assert not reply.ok  # still held
+    assert "cannot be cleared" in reply.message
+    client.estop(False)
+    client.events(0.1)
+    assert client.clear_fault().ok
+    assert client.state == State.CONNECTED
+    assert [e["kind"] for e in read_trial(path).events][-2:] == ["fault", "stop"]
+
+
+def test_lost_heartbeat_stops_the_trial(tmp_path):
+    with DeviceClient(auto_heartbeat=False) as c:
+        c.heartbeat()
+        reply = c.build(LONG)
+        assert reply.ok
+        assert c.connect().ok
+        path = tmp_path / "heartbeat.h5"
+        started = time.monotonic()
+        while time.monotonic() - started < 0.3:
+            c.heartbeat()
+            time.sleep(0.05)
+        assert c.start_trial(str(path), SUBJECT).ok
+        for _ in range(10):
+            c.heartbeat()
+            time.sleep(0.05)
+        silent_from = time.monotonic()
+        fault = c.wait_for(is_(FaultRaised), 5)[-1]
+        assert fault.code == Fault.HEARTBEAT_LOST
+        assert 0.45 < fault.monotonic_s - silent_from < 0.7
+        assert closed_file(c).status == "faulted"
+
+
+def test_stalled_recorder_stops_the_trial_with_recording_lost(tmp_path):
+    with DeviceClient(ring_seconds=0.5) as c:
+        connect(c, LONG)
+        path = tmp_path / "stalled.h5"
+        assert c.start_trial(str(path), SUBJECT).ok
+        time.sleep(0.5)
+        os.kill(c.recorder_pid, signal.SIGSTOP)
+        try:
+            fault = c.wait_for(is_(FaultRaised), 5)[-1]
+        finally:
+            os.kill(c.recorder_pid, signal.SIGCONT)
+        assert fault.code == Fault.RECORDING_LOST
+        notice = closed_file(c)
+        assert notice.status == "recording_lost"
+        data = read_trial(path)
+        assert data.status == "recording_lost"
+        assert data.n_samples > 200
+        assert any(e["kind"] == "fault" for e in data.events)
+
+
+def test_kill_9_of_the_loop_keeps_the_trial_file(tmp_path):
+    with DeviceClient() as c:
+        connect(c, LONG)
+        path = tmp_path / "killed-loop.h5"
+        assert c.start_trial(str(path), SUBJECT).ok
+        time.sleep(2.0)
+        killed_at = time.monotonic()
+        os.kill(c.loop_pid, signal.SIGKILL)
+        events = c.wait_for(lambda e: isinstance(e, RecorderNotice) and e.kind == "closed", 10)
+        events += c.events(0.5)
+        assert any(isinstance(e, LoopLost) for e in events)
+        data = read_trial(path)
+        assert data.status == "faulted"
+        # everything up to the kill, minus at most half a second
+        assert data.time[-1] > 2.0 - 0.5 - 0.1
+        assert time.monotonic() - killed_at < 10
+        assert any("loop process" in e["message"] for e in data.events)
+
+
+def test_kill_9_of_loop_and_recorder_leaves_a_readable_file(tmp_path):
+    with DeviceClient() as c:
+        connect(c, LONG)
+        path = tmp_path / "killed-both.h5"
+        assert c.start_trial(str(path), SUBJECT).ok
+        time.sleep(2.0)
+        elapsed = 2.0
+        os.kill(c.recorder_pid, signal.SIGKILL)
+        os.kill(c.loop_pid, signal.SIGKILL)
+        time.sleep(0.2)
+        data = read_trial(path)
+        assert data.status == "recording"  # never closed: the crash is visible
+        assert data.time[-1] > elapsed - 0.5 - 0.1
+
+
+CONSOLE = textwrap.dedent("""
+    import sys, time
+    from core.trial import THESIS_SUBJECT
+    from device.client import DeviceClient
+    from device.trialfile import SubjectInfo
+
+    def main():
+        params = THESIS_SUBJECT.replace(repetitions=20)
+        c = DeviceClient()
+        c.start()
+        assert c.build(params).ok
+        assert c.connect().ok
+        time.sleep(0.3)
+        assert c.start_trial(sys.argv[1], SubjectInfo.from_parameters("PTEST01", params)).ok
+        print(c.loop_pid, c.recorder_pid, flush=True)
+        time.sleep(60)
+
+    if __name__ == "__main__":
+        main()
+""")
+
+
+def test_kill_9_of_the_console_makes_the_loop_safe_and_close_the_file(tmp_path):
+    script = tmp_path / "console.py"
+    script.write_text(CONSOLE)
+    path = tmp_path / "console-killed.h5"
+    proc = subprocess.Popen([sys.executable, str(script), str(path)], stdout=subprocess.PIPE,
+                            text=True, cwd=Path(__file__).resolve().parents[2])
+    try:
+        loop_pid, recorder_pid = (int(v) for v in proc.stdout.readline().split())
+        time.sleep(1.0)
+        killed_at = time.monotonic()
+        proc.kill()
+        proc.wait(5)
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline and (_alive(loop_pid) or _alive(recorder_pid)):
+            time.sleep(0.05)
+        assert not _alive(loop_pid)
+        assert not _alive(recorder_pid)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(5)
+        proc.stdout.close()
+    data = read_trial(path)
+    assert data.status == "faulted"
+    fault = next(e for e in data.events if e["kind"] == "fault")
+    assert fault["values"]["code"] == Fault.HEARTBEAT_LOST
+    # the loop saw the console's pipe close and reached its safe state within 0.5 s
+    assert fault["values"]["monotonic_s"] - killed_at < 0.5
+    last = np.flatnonzero(data.channels["fault"] != 0)
+    np.testing.assert_array_equal(data.channels["torque_applied"][last], 0.0)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    with open(f"/proc/{pid}/stat") as f:
+        return f.read().split()[2] != "Z"
