@@ -106,6 +106,17 @@ def trial_from_args(args: argparse.Namespace) -> TrialParameters:
     return base.replace(**changes)
 
 
+def patient_overrides(patient) -> dict:
+    """The trial fields a registered patient's own measurements replace."""
+    out = {}
+    for field, value in (("body_mass_kg", patient.body_mass_kg),
+                         ("upper_arm_m", patient.upper_arm_m), ("forearm_m", patient.forearm_m),
+                         ("side", patient.side), ("shoulder_m", patient.shoulder_m)):
+        if value is not None:
+            out[field] = tuple(value) if field == "shoulder_m" else value
+    return out
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     """Simulate a whole trial headless, write its file and print its metrics."""
     import datetime
@@ -115,7 +126,20 @@ def cmd_run(args: argparse.Namespace) -> int:
     from app.metricstable import format_metrics
 
     params = trial_from_args(args)
-    if args.output:
+    begun = None
+    if args.code:
+        from app.cli_records import registry_for
+
+        registry = registry_for(args)
+        patient = registry.patient(args.code)
+        params = params.replace(**patient_overrides(patient))
+        if args.output:
+            raise CommandError("--output cannot be used with --code: a registered trial is "
+                               "written to the patient's folder in the data folder")
+        begun = registry.begin_trial(args.code, params, backend=f"simulator ({args.patient})",
+                                     patient_kind=args.patient)
+        path = begun.path
+    elif args.output:
         path = Path(args.output).expanduser().resolve()
     else:
         from app.datadir import locate_data_dir
@@ -131,7 +155,13 @@ def cmd_run(args: argparse.Namespace) -> int:
                      progress=bar.update if bar else None)
     if bar:
         bar.done()
-    analysis = save(trial, path)
+    analysis = save(trial, path, subject_code=args.code or "SIM")
+    if begun is not None:
+        from app.finalize import finalize_trial
+
+        finalize_trial(registry, begun.trial_id, trial.status)
+        print(f"Registered as patient {args.code}, session {begun.session_number}, "
+              f"trial {begun.trial_number} (id {begun.trial_id})")
     print(f"Trial {trial.status}: {trial.simulated_s:.1f} s simulated in "
           f"{trial.elapsed_s:.2f} s ({trial.speed_vs_real_time:.0f}× real time), "
           f"{args.patient} virtual patient, seed {args.seed}")
@@ -182,6 +212,8 @@ def build_parser(prog: str = "rehab") -> tuple[Parser, argparse._SubParsersActio
         prog=prog,
         description="Clinical console for the planar upper-limb rehabilitation robot.",
     )
+    parser.add_argument("--data-dir", help="data folder (default: REHAB_DATA_DIR, the "
+                                           "setting, or the user data folder)")
     commands = parser.add_subparsers(dest="command", metavar="command", parser_class=Parser)
     check = commands.add_parser(
         "check", help="check a trial's parameters and reachability for a subject",
@@ -204,7 +236,14 @@ def build_parser(prog: str = "rehab") -> tuple[Parser, argparse._SubParsersActio
     run_cmd.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     run_cmd.add_argument("--output", help="trial file to write (default: a new file in the "
                                           "data folder's trials/simulated)")
+    run_cmd.add_argument("--code", help="register the trial for this patient (their body "
+                                        "sizes replace the trial options')")
     run_cmd.set_defaults(func=cmd_run)
+
+    from app.cli_records import add_patient_commands, add_trial_commands
+
+    add_patient_commands(commands)
+    add_trial_commands(commands)
     return parser, commands
 
 

@@ -16,41 +16,50 @@ class MetricRow:
     unit: str  # display unit
     scale: float  # SI value × scale = display value
     meaning: str
+    short: str = ""  # a column heading
+
+    @property
+    def heading(self) -> str:
+        return self.short or self.label
 
 
 ROWS: tuple[MetricRow, ...] = (
     MetricRow("rmse_x_m", "Position error, x (RMSE)", "mm", 1000.0,
-              "how far the hand was from the path, sideways"),
+              "how far the hand was from the path, sideways", short="RMSE x"),
     MetricRow("rmse_y_m", "Position error, y (RMSE)", "mm", 1000.0,
-              "how far the hand was from the path, forward and back"),
+              "how far the hand was from the path, forward and back", short="RMSE y"),
     MetricRow("directional_performance_pct", "Directional performance", "%", 1.0,
-              "share of the time the push pointed the way the path goes"),
-    MetricRow("force_range_x_N", "Force range, x", "N", 1.0, "spread of the sideways push"),
-    MetricRow("force_range_y_N", "Force range, y", "N", 1.0, "spread of the forward push"),
+              "share of the time the push pointed the way the path goes", short="Direction"),
+    MetricRow("force_range_x_N", "Force range, x", "N", 1.0, "spread of the sideways push",
+              short="Force range x"),
+    MetricRow("force_range_y_N", "Force range, y", "N", 1.0, "spread of the forward push",
+              short="Force range y"),
     MetricRow("shoulder_rom_rad", "Shoulder range of motion (ISB)", "°", 180.0 / math.pi,
-              "how far the shoulder moved"),
+              "how far the shoulder moved", short="Shoulder ROM"),
     MetricRow("elbow_rom_rad", "Elbow range of motion (ISB)", "°", 180.0 / math.pi,
-              "how far the elbow moved"),
+              "how far the elbow moved", short="Elbow ROM"),
     MetricRow("shoulder_torque_range_Nm", "Shoulder torque range", "N·m", 1.0,
-              "spread of the shoulder's effort (raw)"),
+              "spread of the shoulder's effort (raw)", short="Shoulder torque"),
     MetricRow("elbow_torque_range_Nm", "Elbow torque range", "N·m", 1.0,
-              "spread of the elbow's effort (raw)"),
+              "spread of the elbow's effort (raw)", short="Elbow torque"),
     MetricRow("shoulder_torque_range_smoothed_Nm", "Shoulder torque range, smoothed", "N·m",
-              1.0, "the same after a 10 Hz zero-lag filter"),
+              1.0, "the same after a 10 Hz zero-lag filter", short="Shoulder torque (10 Hz)"),
     MetricRow("elbow_torque_range_smoothed_Nm", "Elbow torque range, smoothed", "N·m", 1.0,
-              "the same after a 10 Hz zero-lag filter"),
+              "the same after a 10 Hz zero-lag filter", short="Elbow torque (10 Hz)"),
     MetricRow("path_length_ratio", "Path length ratio", "", 1.0,
-              "hand's path over the target's (1 is ideal)"),
-    MetricRow("mean_speed_m_s", "Mean speed", "mm/s", 1000.0, "while moving"),
-    MetricRow("peak_speed_m_s", "Peak speed", "mm/s", 1000.0, ""),
-    MetricRow("movement_time_s", "Movement time", "s", 1.0, ""),
-    MetricRow("sparc", "Smoothness (SPARC)", "", 1.0, "closer to 0 is smoother"),
-    MetricRow("ldlj", "Smoothness (LDLJ)", "", 1.0, "closer to 0 is smoother"),
-    MetricRow("reaction_time_s", "Reaction time (mean)", "s", 1.0, "target shown to movement"),
+              "hand's path over the target's (1 is ideal)", short="Path ratio"),
+    MetricRow("mean_speed_m_s", "Mean speed", "mm/s", 1000.0, "while moving", short="Mean speed"),
+    MetricRow("peak_speed_m_s", "Peak speed", "mm/s", 1000.0, "", short="Peak speed"),
+    MetricRow("movement_time_s", "Movement time", "s", 1.0, "", short="Movement time"),
+    MetricRow("sparc", "Smoothness (SPARC)", "", 1.0, "closer to 0 is smoother", short="SPARC"),
+    MetricRow("ldlj", "Smoothness (LDLJ)", "", 1.0, "closer to 0 is smoother", short="LDLJ"),
+    MetricRow("reaction_time_s", "Reaction time (mean)", "s", 1.0, "target shown to movement",
+              short="Reaction time"),
     MetricRow("initial_direction_error_rad", "Initial direction error (mean)", "°",
-              180.0 / math.pi, "first 100 ms against the line to the target"),
+              180.0 / math.pi, "first 100 ms against the line to the target",
+              short="Initial dir. error"),
     MetricRow("shoulder_elbow_correlation", "Shoulder–elbow correlation", "", 1.0,
-              "how together the two joints moved"),
+              "how together the two joints moved", short="Shoulder–elbow r"),
 )
 
 

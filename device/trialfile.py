@@ -503,6 +503,26 @@ class TrialFileWriter:
             self._file = None
 
 
+def write_metrics(path: str | Path, metrics: Mapping) -> None:
+    """Store a closed trial's metrics in its `/metrics` group (replacing earlier ones).
+
+    The recorder closes the file as soon as the trial ends; the console computes the
+    metrics afterwards and keeps them beside the data with this."""
+    values = _check_metrics(metrics)
+    try:
+        with h5py.File(path, "r+", libver=LIBVER, locking=False) as f:
+            if f.attrs.get("status") == STATUS_RECORDING:
+                raise RecordingError(f"{path} is still being recorded; add metrics after it "
+                                     "closes")
+            group = f.require_group("metrics")
+            for key in list(group.attrs):
+                del group.attrs[key]
+            for key, value in values.items():
+                group.attrs[key] = value
+    except (OSError, RuntimeError, ValueError) as exc:
+        raise _disk_error(Path(path), "store the metrics in", exc) from exc
+
+
 def write_trial(
     path: str | os.PathLike,
     records: np.ndarray,

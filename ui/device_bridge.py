@@ -1,0 +1,189 @@
+"""The window's link to the loop: a worker thread owns the DeviceClient, turns its events
+into Qt signals and drains the ring for the live view. The GUI thread never waits on it.
+
+* Commands go onto a queue the worker takes one at a time (a Build may take a second);
+  each one's answer comes back as `replied(command, ok, message)`.
+* E-stop and the heartbeat are shared counters: `estop()` and `heartbeat()` act at once
+  from the GUI thread, whatever the worker is doing.
+* Records drained by the worker wait in `take_records()` for the window's repaint timer.
+"""
+
+from __future__ import annotations
+
+import logging
+import queue
+import threading
+from dataclasses import dataclass
+
+import numpy as np
+from PySide6.QtCore import QObject, Signal
+
+from core.trial import TrialParameters
+from device.client import DeviceClient, LoopLost
+from device.errors import DeviceError
+from device.loop import LoopConfig
+from device.messages import (
+    BackendConfig,
+    FaultRaised,
+    Notice,
+    RecorderNotice,
+    StateChanged,
+    TrialEnded,
+    TrialStarted,
+)
+from device.record import RECORD_DTYPE
+from device.supervisor import SafetyLimits
+from device.trialfile import SubjectInfo
+
+log = logging.getLogger(__name__)
+
+DRAIN_S = 0.01
+MAX_PENDING = 64
+"""Batches kept for the repaint timer; older ones are dropped if it falls behind (the
+live view is lossy by design, the trial file is not)."""
+
+
+@dataclass(frozen=True, slots=True)
+class _Call:
+    name: str
+    args: tuple
+
+
+class DeviceBridge(QObject):
+    """Signals from the loop, commands to it."""
+
+    state_changed = Signal(int, str)
+    fault_raised = Signal(int, str, dict)
+    trial_started = Signal(str, int, int)  # path, approach ticks, total ticks
+    trial_ended = Signal(str, str, dict)  # path, status, summary
+    file_notice = Signal(str, str, str, str)  # kind, path, status, message
+    notice = Signal(str, str)  # level, message
+    replied = Signal(str, bool, str)  # command, ok, message
+    loop_lost = Signal(str)
+
+    def __init__(self, *, loop_config: LoopConfig | None = None,
+                 client: DeviceClient | None = None) -> None:
+        super().__init__()
+        self.client = client or DeviceClient(loop_config=loop_config, auto_heartbeat=False)
+        self._calls: queue.Queue[_Call | None] = queue.Queue()
+        self._records: list[np.ndarray] = []
+        self._lock = threading.Lock()
+        self._thread: threading.Thread | None = None
+        self._started = threading.Event()
+        self._start_error = ""
+
+    # ------------------------------------------------------------------ life
+    def start(self, timeout: float = 30.0) -> None:
+        """Start the worker and the loop processes; returns once they run."""
+        self._thread = threading.Thread(target=self._work, name="rehab-device", daemon=True)
+        self._thread.start()
+        if not self._started.wait(timeout):
+            raise DeviceError("the control loop did not start within "
+                              f"{timeout:g} s; see the log file")
+        if self._start_error:
+            raise DeviceError(self._start_error)
+
+    def close(self) -> None:
+        if self._thread is None:
+            return
+        self._calls.put(None)
+        self._thread.join(10.0)
+        self._thread = None
+
+    # ------------------------------------------------------------------ safety lines
+    def estop(self, held: bool = True) -> None:
+        self.client.estop(held)
+
+    def heartbeat(self) -> None:
+        self.client.heartbeat()
+
+    # ------------------------------------------------------------------ commands
+    def build(self, parameters: TrialParameters, backend: BackendConfig,
+              limits: SafetyLimits | None = None) -> None:
+        self._calls.put(_Call("build", (parameters, backend, limits)))
+
+    def connect(self) -> None:
+        self._calls.put(_Call("connect", ()))
+
+    def disconnect(self) -> None:
+        self._calls.put(_Call("disconnect", ()))
+
+    def start_trial(self, path: str, subject: SubjectInfo) -> None:
+        self._calls.put(_Call("start_trial", (path, subject)))
+
+    def stop(self) -> None:
+        self._calls.put(_Call("stop", ()))
+
+    def clear_fault(self) -> None:
+        self._calls.put(_Call("clear_fault", ()))
+
+    def set_assistance(self, level: float) -> None:
+        self._calls.put(_Call("set_assistance", (level,)))
+
+    def take_records(self) -> np.ndarray:
+        """Everything drained since the last call, as one array (maybe empty)."""
+        with self._lock:
+            batches, self._records = self._records, []
+        if not batches:
+            return np.empty(0, dtype=RECORD_DTYPE)
+        return batches[0] if len(batches) == 1 else np.concatenate(batches)
+
+    # ------------------------------------------------------------------ worker
+    def _work(self) -> None:
+        try:
+            self.client.start()
+        except (DeviceError, OSError) as exc:
+            self._start_error = f"the control loop could not start: {exc}"
+            self._started.set()
+            return
+        self._started.set()
+        try:
+            while True:
+                try:
+                    call = self._calls.get(timeout=DRAIN_S)
+                except queue.Empty:
+                    call = ...
+                if call is None:
+                    break
+                if call is not ...:
+                    self._call(call)
+                self._drain()
+        finally:
+            self.client.close()
+
+    def _call(self, call: _Call) -> None:
+        try:
+            reply = getattr(self.client, call.name)(*call.args)
+        except DeviceError as exc:
+            self.replied.emit(call.name, False, str(exc))
+            return
+        self.replied.emit(call.name, reply.ok, reply.message)
+
+    def _drain(self) -> None:
+        try:
+            records = self.client.live_records()
+        except DeviceError as exc:
+            log.warning("live view: %s", exc)
+            records = None
+        if records is not None and len(records):
+            with self._lock:
+                self._records.append(records)
+                del self._records[:-MAX_PENDING]
+        for event in self.client.events():
+            self._emit(event)
+
+    def _emit(self, event) -> None:
+        if isinstance(event, StateChanged):
+            self.state_changed.emit(event.state, event.reason)
+        elif isinstance(event, FaultRaised):
+            self.fault_raised.emit(event.code, event.message, event.detail)
+        elif isinstance(event, TrialStarted):
+            self.trial_started.emit(event.path, event.approach_ticks, event.total_ticks)
+        elif isinstance(event, TrialEnded):
+            self.trial_ended.emit(event.path, event.status, event.summary)
+        elif isinstance(event, RecorderNotice):
+            self.file_notice.emit(event.kind, event.path, event.status, event.message)
+        elif isinstance(event, Notice):
+            self.notice.emit(event.level, event.message)
+        elif isinstance(event, LoopLost):
+            self.loop_lost.emit(event.message)
