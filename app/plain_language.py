@@ -1,0 +1,265 @@
+"""Plain words for a trial's figures: the lines a patient reads on the report.
+
+Every sentence is built from the numbers it speaks of; none is stored whole. The
+words avoid the jargon of the therapist's table (no RMSE, ROM, ISB) and say what
+the number means for the person who did the exercise. Numbers are rounded to
+what a person can use: whole %, whole mm, whole degrees.
+
+Inputs are SI (m, rad, N, s) like everything inside; the units people read are
+made here, at the display. A figure that is NaN (its channel was missing, or it
+does not apply to the exercise) gives no sentence rather than a wrong one.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+STANDARD_GRAVITY_M_S2 = 9.80665
+
+SHAPE_NOUNS = {
+    "d": "D",
+    "circle": "circle",
+    "reach": "reach",
+    "targets": "target layout",
+    "figure8": "figure eight",
+}
+SHAPE_NAMES = {
+    "d": "D shape",
+    "circle": "circle",
+    "reach": "straight reach",
+    "targets": "point-to-point targets",
+    "figure8": "figure eight",
+}
+
+
+@dataclass(frozen=True, slots=True)
+class PlainLine:
+    """One line of the patient's part: `text` in big type, `detail` below it.
+
+    key: the figure it speaks of — a core.metrics.TrialMetrics field, 'rmse' (the
+    x and y errors combined) or 'peak_force_N' — so a view can place or test it.
+    """
+
+    key: str
+    text: str
+    detail: str
+
+
+def whole(value: float) -> str:
+    """A number as a person reads it on the report: rounded to a whole number."""
+    return f"{round(value):d}"
+
+
+def position_error_m(rmse_x_m: float, rmse_y_m: float) -> float:
+    """The hand's root-mean-square distance from the moving target, m: the two axes'
+    RMSE combined, since a patient thinks of one distance, not two axes."""
+    return math.hypot(rmse_x_m, rmse_y_m)
+
+
+def seconds_text(seconds: float) -> str:
+    """Whole seconds, or tenths below 10 s, where a whole number could say 0."""
+    if seconds >= 10.0:
+        return f"{seconds:.0f}"
+    return f"{seconds:.1f}".removesuffix(".0")
+
+
+def distance_mm_shown(distance_m: float) -> int:
+    """A distance in whole mm, at least 1: "within 1 mm" is still true of 0.3 mm, and
+    "within 0 mm" would not be."""
+    return max(1, round(distance_m * 1000.0))
+
+
+def distance_text(distance_m: float) -> str:
+    return f"{distance_mm_shown(distance_m)} mm"
+
+
+def mass_text(force_N: float) -> str:
+    """A force as the weight a person would hold up to feel it: easier to picture than N."""
+    kg = force_N / STANDARD_GRAVITY_M_S2
+    if kg < 0.95:
+        # Rounded to 50 g: a finer weight means nothing to someone holding a bag.
+        grams = max(50, 50 * round(kg * 1000.0 / 50.0))
+        return f"{grams} g"
+    return f"{kg:.1f} kg"
+
+
+def direction_line(percent: float, tolerance_rad: float) -> PlainLine:
+    return PlainLine(
+        "directional_performance_pct",
+        f"You kept your push in the right direction {whole(percent)} % of the time.",
+        f"Within {whole(math.degrees(tolerance_rad))}° of the way the path goes. The more of "
+        "the time, the more of the work was yours.",
+    )
+
+
+def position_line(rmse_x_m: float, rmse_y_m: float) -> PlainLine:
+    return PlainLine(
+        "rmse",
+        f"Your hand stayed within {distance_text(position_error_m(rmse_x_m, rmse_y_m))} of "
+        "the path on average.",
+        "The smaller the number, the more closely you followed the shape.",
+    )
+
+
+def shoulder_line(rom_rad: float) -> PlainLine:
+    return PlainLine(
+        "shoulder_rom_rad",
+        f"Your shoulder moved through {whole(math.degrees(rom_rad))}°.",
+        "How far your upper arm turned at the shoulder during the exercise.",
+    )
+
+
+def elbow_line(rom_rad: float) -> PlainLine:
+    return PlainLine(
+        "elbow_rom_rad",
+        f"Your elbow moved through {whole(math.degrees(rom_rad))}°.",
+        "How far your elbow bent and straightened during the exercise.",
+    )
+
+
+def force_line(peak_force_N: float) -> PlainLine:
+    return PlainLine(
+        "peak_force_N",
+        f"Your firmest push on the handle was {whole(peak_force_N)} N.",
+        f"About the effort of holding up {mass_text(peak_force_N)}. What counts most is "
+        "pushing the right way.",
+    )
+
+
+def plain_lines(metrics: Mapping[str, float], *, peak_force_N: float = math.nan,
+                ) -> tuple[PlainLine, ...]:
+    """The patient's lines for a trial's figures (TrialMetrics.to_dict() names, SI).
+    A figure that is missing or NaN is left out."""
+
+    def value(key: str) -> float:
+        return float(metrics.get(key, math.nan))
+
+    lines = []
+    percent = value("directional_performance_pct")
+    tolerance = value("tolerance_rad")
+    if math.isfinite(percent) and math.isfinite(tolerance):
+        lines.append(direction_line(percent, tolerance))
+    rmse_x, rmse_y = value("rmse_x_m"), value("rmse_y_m")
+    if math.isfinite(rmse_x) and math.isfinite(rmse_y):
+        lines.append(position_line(rmse_x, rmse_y))
+    if math.isfinite(value("shoulder_rom_rad")):
+        lines.append(shoulder_line(value("shoulder_rom_rad")))
+    if math.isfinite(value("elbow_rom_rad")):
+        lines.append(elbow_line(value("elbow_rom_rad")))
+    if math.isfinite(peak_force_N):
+        lines.append(force_line(peak_force_N))
+    return tuple(lines)
+
+
+# -- how the trial ended ---------------------------------------------------------------
+
+def status_sentence(status: str, exercised_s: float, planned_s: float) -> str:
+    """What the patient is told about how the trial ended; '' for a complete trial."""
+    done = f"after {seconds_text(exercised_s)} of {seconds_text(planned_s)} seconds"
+    if status == "complete":
+        return ""
+    if status == "stopped_early":
+        return (f"The exercise was stopped early, {done}, so these figures cover only "
+                "part of it.")
+    if status == "faulted":
+        return (f"The robot stopped the exercise for safety {done}, so these figures cover "
+                "only part of it.")
+    if status == "recording_lost":
+        return (f"The recording failed {done}, so part of this trial is missing from "
+                "these figures.")
+    if status == "recording":
+        return ("This trial's file was never closed (it is still being recorded, or the "
+                "recording stopped unexpectedly); these figures cover what was saved.")
+    return f"This trial ended with the status “{status}”; check the figures with your therapist."
+
+
+# -- change since an earlier trial -----------------------------------------------------
+
+VERDICT_WORDS = {
+    "better": "better",
+    "worse": "worse",
+    "same": "the same",
+    "more": "more",
+    "less": "less",
+}
+
+
+def change_sentence(name: str, before_text: str, after_text: str, verdict: str) -> str:
+    """'Push in the right direction: 72 % → 78 %, better'."""
+    return f"{name}: {before_text} → {after_text}, {VERDICT_WORDS[verdict]}"
+
+
+def _cm(radius_m: float) -> str:
+    return f"{radius_m * 100.0:.3g} cm"
+
+
+def _percent(level: float) -> str:
+    return f"{level * 100.0:.0f} %"
+
+
+def parameter_cautions(before: Mapping, after: Mapping) -> tuple[str, ...]:
+    """Why this trial's figures may differ from an earlier one's for reasons other than
+    the patient: one sentence per exercise setting that changed (TrialParameters
+    field names and SI values; a setting missing on either side is not compared)."""
+    sentences = []
+
+    def changed(key: str) -> bool:
+        a, b = before.get(key), after.get(key)
+        if a is None or b is None:
+            return False
+        if isinstance(a, float | int) and isinstance(b, float | int):
+            return not math.isclose(a, b, rel_tol=1e-9, abs_tol=1e-12)
+        return a != b
+
+    shape = after.get("shape")
+    if changed("shape"):
+        sentences.append(
+            f"This trial was a different exercise ({SHAPE_NAMES.get(shape, shape)}; before, "
+            f"{SHAPE_NAMES.get(before['shape'], before['shape'])}), so the figures do not "
+            "compare directly."
+        )
+        # Size and speed of another shape say nothing more.
+        return tuple(sentences)
+    noun = SHAPE_NOUNS.get(shape, "exercise")
+    if changed("radius_m"):
+        r, r0 = after["radius_m"], before["radius_m"]
+        if r > r0:
+            sentences.append(f"This trial used a larger {noun} (radius {_cm(r)}; before, "
+                             f"{_cm(r0)}) — a higher error is expected.")
+        else:
+            sentences.append(f"This trial used a smaller {noun} (radius {_cm(r)}; before, "
+                             f"{_cm(r0)}) — less movement at the shoulder and elbow is "
+                             "expected.")
+    if changed("duration_s"):
+        d, d0 = after["duration_s"], before["duration_s"]
+        if d < d0:
+            sentences.append(f"This trial went faster ({d:g} s per lap; before, {d0:g} s) — "
+                             "a higher error is expected.")
+        else:
+            sentences.append(f"This trial went slower ({d:g} s per lap; before, {d0:g} s) — "
+                             "a lower error is expected.")
+    if changed("tolerance_rad"):
+        t, t0 = (whole(math.degrees(v)) for v in (after["tolerance_rad"],
+                                                  before["tolerance_rad"]))
+        if after["tolerance_rad"] > before["tolerance_rad"]:
+            sentences.append(f"This trial counted a push as the right direction within a wider "
+                             f"angle (±{t}°; before, ±{t0}°) — a higher direction score is "
+                             "expected.")
+        else:
+            sentences.append(f"This trial counted a push as the right direction within a "
+                             f"narrower angle (±{t}°; before, ±{t0}°) — a lower direction "
+                             "score is expected.")
+    if changed("assistance_level"):
+        a, a0 = after["assistance_level"], before["assistance_level"]
+        how = "more" if a > a0 else "less"
+        sentences.append(f"The robot gave way {how} to your own push (assistance level "
+                         f"{_percent(a)}; before, {_percent(a0)}) — the figures may differ "
+                         "for that reason.")
+    if changed("controller"):
+        sentences.append(f"The robot was driven by a different controller "
+                         f"({after['controller'].upper()}; before, "
+                         f"{before['controller'].upper()}) — the figures may differ for that "
+                         "reason.")
+    return tuple(sentences)

@@ -1,0 +1,382 @@
+"""The post-trial report: its content, its words, its comparisons, and the PDF itself."""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime
+import itertools
+import math
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pypdf import PdfReader
+
+from app.errors import AppError, TrialFileError
+from app.headless import save, simulate
+from app.plain_language import mass_text, parameter_cautions, plain_lines
+from app.registry import Registry
+from app.report import (
+    Baseline,
+    build_report,
+    merge_short_runs,
+    report_for_registry_trial,
+    write_report_pdf,
+)
+from app.report_compare import patient_changes, table_rows
+from app.trialfile import read_trial
+from core.trial import THESIS_SUBJECT
+from device.faults import Fault
+from device.pipeline import PHASE_EXERCISE
+from device.trialfile import SubjectInfo, write_trial
+
+SHORT = THESIS_SUBJECT.replace(repetitions=1)
+T0 = datetime.datetime(2024, 5, 2, 9, 30, tzinfo=datetime.UTC)
+FIRST, LAST = "Zenobia", "Quillfeather"
+
+
+def pdf_text(path: Path) -> str:
+    return "\n".join(page.extract_text() for page in PdfReader(path).pages)
+
+
+def stopped(trial, n_samples: int, status: str):
+    """The simulated trial cut after n_samples, ended by a fault or by the therapist."""
+    tick = n_samples
+    if status == "faulted":
+        last = {"time_s": tick * 0.002, "tick": tick, "kind": "fault",
+                "message": Fault.FORCE_LIMIT.banner({"force_N": 63.2, "limit_N": 50.0}),
+                "values": {"fault": "force_limit", "code": int(Fault.FORCE_LIMIT)}}
+    else:
+        last = {"time_s": tick * 0.002, "tick": tick, "kind": "stop",
+                "message": "stopped by the therapist", "values": {}}
+    events = (*[e for e in trial.events if e["kind"] == "start"], last)
+    return dataclasses.replace(trial, records=trial.records[:n_samples], events=events,
+                               status=status)
+
+
+@pytest.fixture(scope="module")
+def healthy_file(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("healthy") / "healthy.h5"
+    save(simulate(SHORT, patient="healthy"), path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def healthy_pdf(healthy_file, tmp_path_factory) -> Path:
+    content = build_report(read_trial(healthy_file))
+    return write_report_pdf(content, tmp_path_factory.mktemp("pdf") / "report.pdf")
+
+
+# -- the PDF -------------------------------------------------------------------------------
+
+def test_the_pdf_has_two_pages_and_the_thesis_figures_computed_from_the_file(
+        healthy_file, healthy_pdf):
+    reader = PdfReader(healthy_pdf)
+    assert len(reader.pages) == 2
+    text = pdf_text(healthy_pdf)
+
+    # Independently of the report's code: the exercise samples of the file.
+    trial = read_trial(healthy_file)
+    ex = trial.channels["phase"] == PHASE_EXERCISE
+    t = trial.channels["time"][ex]
+    error = trial.channels["position"][ex] - trial.channels["position_desired"][ex]
+    rmse_mm = np.sqrt(np.mean(error ** 2, axis=0)) * 1000.0
+    force = trial.channels["force"][ex]
+    direction = trial.channels["direction_desired"][ex]
+    cross = force[:, 0] * direction[:, 1] - force[:, 1] * direction[:, 0]
+    angle = np.arctan2(np.abs(cross), np.sum(force * direction, axis=1))
+    within = (angle <= SHORT.tolerance_rad) & (np.hypot(*force.T) >= 0.25)
+    percent = 100.0 * np.sum(np.diff(t)[within[:-1]]) / (t[-1] - t[0])
+    isb = np.degrees(trial.channels["subject_angle_isb"][ex])
+    rom = isb.max(axis=0) - isb.min(axis=0)
+    torque = trial.channels["subject_torque"][ex]
+    torque_range = torque.max(axis=0) - torque.min(axis=0)
+
+    assert f"x {rmse_mm[0]:.2f} mm, y {rmse_mm[1]:.2f} mm" in text
+    assert f"{percent:.2f} %" in text
+    assert f"right direction {round(percent)} % of the time" in text
+    assert f"range {np.ptp(force[:, 0]):.2f} N" in text
+    assert f"range {np.ptp(force[:, 1]):.2f} N" in text
+    assert f"range of motion {rom[0]:.2f}°" in text
+    assert f"range of motion {rom[1]:.2f}°" in text
+    assert f"range {torque_range[0]:.2f} N·m raw" in text
+    assert f"Your shoulder moved through {round(rom[0])}°" in text
+    for figure in ("Fig. 3.7", "Fig. 3.9", "Fig. 3.11", "Fig. 3.12"):
+        assert figure in text
+    assert "Simulated trial" in text
+
+
+def test_the_pdf_text_is_embedded_truetype(healthy_pdf):
+    fonts = set()
+    for page in PdfReader(healthy_pdf).pages:
+        for font in page["/Resources"]["/Font"].values():
+            font = font.get_object()
+            fonts.add((str(font["/Subtype"]), str(font["/BaseFont"]).split("+")[-1]))
+    assert fonts
+    # Type 42 is written as a CID-keyed TrueType font (Type0 over CIDFontType2).
+    assert all(subtype == "/Type0" and name.startswith("DejaVuSans")
+               for subtype, name in fonts)
+
+
+# -- the patient's words ---------------------------------------------------------------------
+
+def test_plain_lines_say_the_numbers_in_plain_words():
+    lines = {line.key: line for line in plain_lines({
+        "directional_performance_pct": 78.0, "tolerance_rad": math.radians(20.0),
+        "rmse_x_m": 0.00868, "rmse_y_m": 0.00702,
+        "shoulder_rom_rad": math.radians(42.17), "elbow_rom_rad": math.radians(30.65),
+    }, peak_force_N=6.0)}
+    assert lines["directional_performance_pct"].text == (
+        "You kept your push in the right direction 78 % of the time.")
+    assert "20°" in lines["directional_performance_pct"].detail
+    # √(8.68² + 7.02²) = 11.16 mm from the moving target
+    assert lines["rmse"].text == "Your hand stayed within 11 mm of the path on average."
+    assert lines["shoulder_rom_rad"].text == "Your shoulder moved through 42°."
+    assert lines["elbow_rom_rad"].text == "Your elbow moved through 31°."
+    assert "600 g" in lines["peak_force_N"].detail
+    for line in lines.values():
+        for jargon in ("RMSE", "ROM", "ISB", "rad"):
+            assert jargon not in line.text.split()
+
+
+def test_plain_lines_leave_out_missing_figures_and_never_say_zero_mm():
+    lines = plain_lines({"directional_performance_pct": math.nan, "tolerance_rad": 0.35,
+                         "rmse_x_m": 0.0002, "rmse_y_m": 0.0001})
+    assert [line.key for line in lines] == ["rmse"]
+    assert "within 1 mm" in lines[0].text
+    assert mass_text(20.0) == "2.0 kg"
+    assert mass_text(0.1) == "50 g"
+
+
+# -- change since an earlier trial ----------------------------------------------------------
+
+def _metrics(pct, rmse_mm, shoulder_deg=40.0):
+    return {"directional_performance_pct": pct, "rmse_x_m": rmse_mm / 1000.0, "rmse_y_m": 0.0,
+            "shoulder_rom_rad": math.radians(shoulder_deg), "elbow_rom_rad": math.nan}
+
+
+@pytest.mark.parametrize(("before", "after", "direction", "distance"), [
+    (_metrics(60.0, 9.0), _metrics(78.0, 5.0), "better", "better"),
+    (_metrics(78.0, 5.0), _metrics(60.0, 9.0), "worse", "worse"),
+    (_metrics(78.2, 5.2), _metrics(77.9, 4.9), "same", "same"),
+])
+def test_better_and_worse_follow_each_figure_s_direction(before, after, direction, distance):
+    changes = {c.key: c for c in patient_changes(before, after)}
+    assert changes["directional_performance_pct"].verdict == direction
+    assert changes["rmse"].verdict == distance
+    assert "elbow_rom_rad" not in changes  # NaN on both sides: no line
+    text = changes["directional_performance_pct"].text
+    assert text.startswith("Push in the right direction: ")
+    assert text.endswith({"better": "better", "worse": "worse", "same": "the same"}[direction])
+
+
+def test_ranges_of_motion_are_more_or_less_never_better_or_worse():
+    changes = {c.key: c for c in patient_changes(_metrics(70, 5, 30.0), _metrics(70, 5, 45.0))}
+    assert changes["shoulder_rom_rad"].verdict == "more"
+    assert changes["shoulder_rom_rad"].arrow == "↑"
+    assert changes["shoulder_rom_rad"].text == "Shoulder movement: 30° → 45°, more"
+
+
+def test_the_therapist_table_compares_at_two_decimals_with_each_figure_s_goal():
+    now = {"rmse_x_m": 0.004, "directional_performance_pct": 70.0, "path_length_ratio": 1.02,
+           "force_range_x_N": 3.0}
+    earlier = Baseline({"rmse_x_m": 0.006, "directional_performance_pct": 80.0,
+                        "path_length_ratio": 0.95, "force_range_x_N": 3.0})
+    rows = {row.key: row for row in table_rows(now, (earlier,))}
+    assert rows["rmse_x_m"].value_text == "4.00"
+    assert rows["rmse_x_m"].earlier_texts == ("6.00 ↓ better",)
+    assert rows["directional_performance_pct"].verdicts == ("worse",)
+    assert rows["path_length_ratio"].verdicts == ("better",)  # 1.02 is nearer 1 than 0.95
+    assert rows["force_range_x_N"].verdicts == ("same",)
+    assert "sparc" not in rows  # not in this trial: no row
+
+
+def test_a_changed_exercise_comes_with_a_caution():
+    base = THESIS_SUBJECT.to_dict()
+    bigger_faster = THESIS_SUBJECT.replace(radius_m=0.12, duration_s=3.0).to_dict()
+    cautions = parameter_cautions(base, bigger_faster)
+    assert any("larger D" in c and "a higher error is expected" in c for c in cautions)
+    assert any("faster" in c and "3 s per lap" in c for c in cautions)
+    assert parameter_cautions(base, base) == ()
+    wider = THESIS_SUBJECT.replace(tolerance_rad=math.radians(30.0)).to_dict()
+    assert "higher direction score is expected" in parameter_cautions(base, wider)[0]
+    circle = THESIS_SUBJECT.replace(shape="circle", radius_m=0.05).to_dict()
+    (only,) = parameter_cautions(base, circle)
+    assert "different exercise" in only
+
+
+def test_the_report_compares_with_earlier_trials_and_cautions_in_the_pdf(
+        healthy_file, tmp_path):
+    trial = read_trial(healthy_file)
+    earlier = THESIS_SUBJECT.replace(radius_m=0.08, duration_s=6.0)
+    worse = {**trial.metrics, "rmse_x_m": trial.metrics["rmse_x_m"] * 3,
+             "directional_performance_pct": trial.metrics["directional_performance_pct"] - 30}
+    content = build_report(
+        trial,
+        previous_trial=Baseline(worse, earlier.to_dict(), 2, 4),
+        previous_session=Baseline(dict(trial.metrics), THESIS_SUBJECT.to_dict(), 1, 7),
+    )
+    last, session = content.comparisons
+    verdicts = {c.key: c.verdict for c in last.changes}
+    assert verdicts["directional_performance_pct"] == "better"
+    assert verdicts["rmse"] == "better"
+    assert any("larger D" in c for c in last.cautions)
+    assert any("faster (4 s per lap; before, 6 s)" in c for c in last.cautions)
+    assert session.cautions == ()  # same exercise
+    assert {c.verdict for c in session.changes} == {"same"}
+    text = pdf_text(write_report_pdf(content, tmp_path / "r.pdf"))
+    assert "Since last time" in text
+    assert "session 2, trial 4" in text
+    assert "This trial used a larger D" in text
+
+
+# -- Fig. 3.9's runs -------------------------------------------------------------------------
+
+def test_short_runs_are_merged_and_the_runs_tile_the_exercise():
+    t = np.arange(5000) * 0.002  # 10 s
+    rng = np.random.default_rng(1)
+    within = (np.sin(t) > 0) ^ (rng.random(t.size) < 0.05)  # 5 % of samples flipped
+    raw_runs = np.count_nonzero(within[1:] != within[:-1]) + 1
+    runs = merge_short_runs(t, within, 0.05)
+    assert raw_runs > 300
+    assert len(runs) < 10
+    assert runs[0].start == 0
+    assert runs[-1].stop == t.size - 1
+    for a, b in itertools.pairwise(runs):
+        assert b.start == a.stop
+        assert a.within != b.within
+        assert t[a.stop] - t[a.start] >= 0.05
+    # The long stretches keep their state: sin(t) > 0 on (0, π).
+    assert runs[0].within
+    assert t[runs[0].stop] == pytest.approx(math.pi, abs=0.1)
+
+
+def test_runs_already_long_enough_are_kept_as_they_are():
+    t = np.arange(100) * 0.01
+    within = np.r_[np.ones(40, bool), np.zeros(60, bool)]
+    runs = merge_short_runs(t, within, 0.05)
+    assert [(r.within, r.start, r.stop) for r in runs] == [(True, 0, 40), (False, 40, 99)]
+
+
+# -- names -----------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def registry_trials(tmp_path_factory):
+    """A patient with a name, a complete trial in session 1 and two in session 2."""
+    registry = Registry(tmp_path_factory.mktemp("registry") / "data")
+    patient = registry.create_patient(FIRST, LAST)
+    ids = []
+    for session, minutes, params, kind in ((1, 0, SHORT, "weak"),
+                                           (2, 7 * 24 * 60, SHORT, "wrong_way"),
+                                           (2, 7 * 24 * 60 + 10, SHORT.replace(radius_m=0.12),
+                                            "healthy")):
+        started = T0 + datetime.timedelta(minutes=minutes)
+        begun = registry.begin_trial(patient.code, params, backend="simulator",
+                                     session_number=session, started_at=started)
+        analysis = save(simulate(params, patient=kind), begun.path, subject_code=patient.code)
+        registry.finish_trial(begun.trial_id, "complete", analysis.metrics.to_dict(),
+                              ended_at=started + datetime.timedelta(minutes=1))
+        ids.append(begun.trial_id)
+    return registry, patient, ids
+
+
+def test_a_registered_trial_s_report_goes_where_the_data_folder_says_without_names(
+        registry_trials):
+    registry, patient, ids = registry_trials
+    path = report_for_registry_trial(registry, ids[-1])
+    record = registry.trial(ids[-1])
+    assert path == registry.data_dir.report_path(patient.code, 2, 2, record.started_at)
+    text = pdf_text(path)
+    assert patient.code in text
+    assert "session 2, trial 2" in text
+    assert "session 2, trial 1" in text  # the previous trial
+    assert "session 1, trial 1" in text  # the previous session
+    assert "larger D" in text
+    metadata = " ".join(str(v) for v in PdfReader(path).metadata.values())
+    for name in (FIRST, LAST):
+        assert name.lower() not in text.lower()
+        assert name.lower() not in metadata.lower()
+        assert name.encode() not in path.read_bytes()
+
+
+def test_the_first_name_appears_only_when_asked_for_and_never_the_last(registry_trials, tmp_path):
+    registry, _, ids = registry_trials
+    text = pdf_text(report_for_registry_trial(registry, ids[0], tmp_path / "named.pdf",
+                                              include_first_name=True))
+    assert FIRST in text
+    assert LAST.lower() not in text.lower()
+
+
+# -- trials that did not end well, and files that cannot be read ------------------------------
+
+@pytest.mark.parametrize(("status", "words"), [
+    ("faulted", "The robot stopped the exercise for safety after 2 of 4 seconds"),
+    ("stopped_early", "The exercise was stopped early, after 2 of 4 seconds"),
+])
+def test_a_trial_that_ended_early_says_so(tmp_path, status, words):
+    path = tmp_path / "cut.h5"
+    save(stopped(simulate(SHORT), 1000, status), path)
+    content = build_report(read_trial(path))
+    assert content.status == status
+    text = pdf_text(write_report_pdf(content, tmp_path / "cut.pdf"))
+    assert words in text.replace("\n", " ")
+    if status == "faulted":
+        assert "Force on the handle reached 63 N (limit 50 N)" in text
+    else:
+        assert "Force on the handle reached" not in text
+
+
+def test_a_trial_that_ended_before_the_exercise_still_has_a_report(tmp_path):
+    path = tmp_path / "early.h5"
+    trial = stopped(simulate(SHORT), 30, "faulted")  # 60 ms: too short for any figure
+    write_trial(path, trial.records, parameters=SHORT,
+                subject=SubjectInfo.from_parameters("SIM", SHORT), robot=trial.plan.robot,
+                backend="simulator (healthy, seed 0)", sample_period_s=trial.plan.period_s,
+                events=trial.events, status=trial.status)
+    content = build_report(read_trial(path))
+    assert content.metrics is None
+    assert content.path is None
+    assert content.plain == ()
+    text = pdf_text(write_report_pdf(content, tmp_path / "early.pdf"))
+    assert "No exercise was recorded" in text
+    assert len(PdfReader(tmp_path / "early.pdf").pages) == 2
+
+
+@pytest.fixture
+def registered(tmp_path, healthy_file):
+    """A registry holding one complete trial, its file a copy of the healthy one."""
+    registry = Registry(tmp_path / "data")
+    patient = registry.create_patient(FIRST, LAST)
+    begun = registry.begin_trial(patient.code, SHORT, backend="simulator", started_at=T0)
+    shutil.copyfile(healthy_file, begun.path)
+    registry.finish_trial(begun.trial_id, "complete", read_trial(begun.path).metrics,
+                          ended_at=T0 + datetime.timedelta(minutes=1))
+    return registry, begun.trial_id
+
+
+def test_a_missing_trial_file_is_an_error_naming_it(registered):
+    registry, trial_id = registered
+    registry.trial_path(trial_id).unlink()
+    with pytest.raises(TrialFileError, match="does not exist") as error:
+        report_for_registry_trial(registry, trial_id)
+    assert str(registry.trial_path(trial_id)) in str(error.value)
+
+
+def test_a_damaged_trial_file_is_an_error_naming_it(registered):
+    registry, trial_id = registered
+    path = registry.trial_path(trial_id)
+    path.write_bytes(b"not a trial file at all" * 100)
+    with pytest.raises(TrialFileError, match="not an HDF5 file") as error:
+        report_for_registry_trial(registry, trial_id)
+    assert str(path) in str(error.value)
+    assert not list(registry.data_dir.reports_dir.rglob("*.pdf"))
+
+
+def test_a_report_into_a_missing_folder_is_refused_and_leaves_nothing(healthy_file, tmp_path):
+    content = build_report(read_trial(healthy_file), flip_axes=True)
+    with pytest.raises(AppError, match="does not exist"):
+        write_report_pdf(content, tmp_path / "nowhere" / "r.pdf")
+    path = write_report_pdf(content, tmp_path / "r.pdf")
+    assert "Seen from the patient's chair" in pdf_text(path)
+    assert [p.name for p in tmp_path.iterdir()] == ["r.pdf"]  # no temporary file left
