@@ -240,10 +240,16 @@ def build_parser(prog: str = "rehab") -> tuple[Parser, argparse._SubParsersActio
                                         "sizes replace the trial options')")
     run_cmd.set_defaults(func=cmd_run)
 
-    from app.cli_records import add_export_command, add_patient_commands, add_trial_commands
+    from app.cli_records import (
+        add_export_command,
+        add_patient_commands,
+        add_report_command,
+        add_trial_commands,
+    )
 
     add_patient_commands(commands)
     add_trial_commands(commands)
+    add_report_command(commands)
     add_export_command(commands)
     return parser, commands
 

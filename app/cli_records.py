@@ -228,3 +228,29 @@ def cmd_export(args: argparse.Namespace) -> int:
     for failure in result.failed:
         print(f"  not exported: {failure.path}: {failure.reason}")
     return 0 if not result.failed else 1
+
+
+# ------------------------------------------------------------------ reports
+def add_report_command(commands) -> None:
+    parser = commands.add_parser(
+        "report", help="write a trial's post-trial report (PDF)",
+        description="Write the post-trial report of a registered trial: the patient's page "
+                    "in plain words and the therapist's figures.")
+    parser.add_argument("trial_id", type=int, help="the trial's id (see `rehab trials CODE`)")
+    parser.add_argument("--output", help="PDF to write (default: the data folder's reports/)")
+    parser.add_argument("--flip", action="store_true",
+                        help="draw the path as seen from the patient's chair (thesis Fig. 3.7)")
+    parser.add_argument("--first-name", action="store_true",
+                        help="greet the patient by first name in the report")
+    parser.set_defaults(func=cmd_report)
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    from app.report import report_for_registry_trial
+
+    registry = registry_for(args)
+    path = report_for_registry_trial(
+        registry, args.trial_id, _absolute(args.output) if args.output else None,
+        include_first_name=args.first_name, flip_axes=args.flip)
+    print(path)
+    return 0

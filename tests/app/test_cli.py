@@ -1,0 +1,108 @@
+"""Every subcommand as a researcher or therapist types it: the happy path, and bad input
+as one clear line with exit code 2, never a traceback."""
+
+import pytest
+
+from app.cli import main
+from app.trialfile import read_trial
+
+
+def run(args, capsys):
+    try:
+        code = main(args)
+    except SystemExit as exc:  # argparse exits from inside parse_args
+        code = exc.code
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+@pytest.fixture
+def data(tmp_path, monkeypatch):
+    monkeypatch.setenv("REHAB_DATA_DIR", str(tmp_path / "data"))
+    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
+    return tmp_path / "data"
+
+
+@pytest.fixture
+def patient(data, capsys):
+    code, out, _ = run(["patients", "add", "--first-name", "Wilhelmina", "--last-name",
+                        "Quasthoff", "--body-mass", "80", "--upper-arm", "0.30", "--forearm",
+                        "0.29", "--side", "right", "--shoulder", "-0.12", "0.73"], capsys)
+    assert code == 0
+    return out.strip()
+
+
+def test_a_session_from_the_command_line(data, patient, capsys, tmp_path):
+    code, out, _ = run(["patients"], capsys)
+    assert code == 0
+    assert patient in out
+    assert "Quasthoff" in out
+    _, out, _ = run(["patients", "--no-names"], capsys)
+    assert "Quasthoff" not in out
+    code, out, _ = run(["run", "--code", patient, "--repetitions", "1"], capsys)
+    assert code == 0
+    assert "Registered as patient" in out
+    code, out, _ = run(["trials", patient], capsys)
+    assert code == 0
+    assert "complete" in out
+    code, out, _ = run(["progress", patient], capsys)
+    assert code == 0
+    assert "RMSE x" in out
+    code, out, _ = run(["progress", patient, "--csv"], capsys)
+    assert out.splitlines()[0].startswith("trial_id,")
+    code, out, _ = run(["report", "1"], capsys)
+    assert code == 0
+    assert out.strip().endswith(".pdf")
+    code, out, _ = run(["export", "--patient", patient, "--format", "tsv", "--output",
+                        str(tmp_path / "export")], capsys)
+    assert code == 0
+    assert "exported 1 trial" in out
+    # the registered trial's file carries the metrics the registry holds
+    trial_file = next((data / "trials" / patient).glob("*.h5"))
+    assert "rmse_x_m" in read_trial(trial_file).metrics
+    # no name in any file or path the commands wrote
+    for path in data.rglob("*"):
+        assert "Quasthoff" not in str(path)
+        if path.is_file() and path.suffix != ".sqlite3" and "sqlite3" not in path.name:
+            assert b"Quasthoff" not in path.read_bytes(), path
+
+
+@pytest.mark.parametrize(
+    ("args", "needle"),
+    [
+        (["run", "--patient", "zombie"], "invalid choice"),
+        (["run", "--repetitions", "0"], "repetitions"),
+        (["run", "--code", "P000000"], "P000000"),
+        (["patients", "add", "--body-mass", "-5"], "body"),
+        (["patients", "add", "--side", "middle"], "invalid choice"),
+        (["trials", "P000000"], "P000000"),
+        (["progress", "P000000"], "P000000"),
+        (["report", "999"], "999"),
+        (["report", "abc"], "invalid int"),
+        (["export", "--trial", "999"], "999"),
+        (["export", "--format", "csv"], "required"),
+        (["export", "--patient", "P000000", "--format", "xls"], "invalid choice"),
+        (["nonsense"], "invalid choice"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(data, capsys, args, needle):
+    code, _, err = run(args, capsys)
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert needle in lines[0]
+    assert "Traceback" not in err
+
+
+def test_unknown_metric_in_progress_is_refused(data, patient, capsys):
+    run(["run", "--code", patient, "--repetitions", "1"], capsys)
+    code, _, err = run(["progress", patient, "--metric", "happiness"], capsys)
+    assert code == 2
+    assert "unknown metric 'happiness'" in err
+
+
+def test_help_lists_every_command(capsys):
+    code, out, _ = run(["--help"], capsys)
+    assert code == 0
+    for command in ("check", "run", "patients", "trials", "progress", "report", "export"):
+        assert command in out
