@@ -11,7 +11,7 @@ import os
 import sys
 from collections.abc import Sequence
 
-from app.cli import build_parser, run
+from app.cli import CommandError, build_parser, run
 
 
 def display_problem(environ=os.environ, platform: str = sys.platform) -> str:
@@ -30,9 +30,22 @@ def display_problem(environ=os.environ, platform: str = sys.platform) -> str:
     )
 
 
+def cmd_gui(args) -> int:
+    problem = display_problem()
+    if problem:
+        raise CommandError(problem)
+    from ui.gui import run_gui
+
+    return run_gui(font_scale=args.font_scale)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    parser, _commands = build_parser()
-    return run(parser, argv, default="check")
+    parser, commands = build_parser()
+    gui = commands.add_parser("gui", help="the console's window (the default command)",
+                              description="Open the therapist's console window.")
+    gui.add_argument("--font-scale", type=float, help="text size, 0.75-2 (default 1)")
+    gui.set_defaults(func=cmd_gui)
+    return run(parser, argv, default="gui")
 
 
 if __name__ == "__main__":

@@ -1,0 +1,184 @@
+"""The tabs about finished trials: replay (open a file, scrub), the report (plain lines,
+print, PDF) and progress (every trial of a patient, grouped by exercise)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from pypdf import PdfReader
+from PySide6.QtCore import Qt
+from PySide6.QtPrintSupport import QPrinter
+
+from app.datadir import DataDir
+from app.headless import save, simulate
+from app.registry import Registry
+from core.trial import THESIS_SUBJECT
+from ui import theme
+from ui.tabs import ProgressTab, ReplayTab, ReportTab
+from ui.trialview import TrialView
+
+EASY = THESIS_SUBJECT.replace(repetitions=1)
+HARD = THESIS_SUBJECT.replace(repetitions=1, radius_m=0.12, duration_s=5.0)
+
+
+@pytest.fixture(scope="module")
+def history(tmp_path_factory):
+    """A registry with one patient and three saved trials over two sessions, two at the
+    thesis's D and one at a larger, slower D."""
+    registry = Registry(DataDir(tmp_path_factory.mktemp("data")))
+    code = registry.create_patient("Ada", "Lovelace", side="right").code
+    trials = []
+    for session, parameters, patient in ((1, EASY, "weak"), (1, HARD, "healthy"),
+                                         (2, EASY, "healthy")):
+        trial = simulate(parameters, patient=patient, seed=session)
+        begun = registry.begin_trial(code, parameters, backend="simulator",
+                                     session_number=session, patient_kind=patient)
+        analysis = save(trial, begun.path, subject_code=code)
+        registry.finish_trial(begun.trial_id, trial.status, analysis.metrics.to_dict())
+        trials.append((begun, analysis))
+    return registry, code, trials
+
+
+@pytest.fixture(autouse=True)
+def themed(qapp):
+    theme.apply_theme(qapp)
+
+
+def shown(qtbot, widget):
+    qtbot.addWidget(widget)
+    widget.resize(1280, 800)
+    widget.show()
+    qtbot.waitExposed(widget)
+    return widget
+
+
+def test_replay_loads_a_trial_and_the_slider_moves_the_cursor(qtbot, history):
+    registry, code, trials = history
+    tab = shown(qtbot, ReplayTab(registry))
+    tab.set_patient(code)
+    assert tab.trials.count() == 3
+    assert tab.trials.item(0).text().startswith("Session 2, trial 1")
+
+    tab.trials.setCurrentRow(2)  # the oldest: session 1, trial 1
+    with qtbot.waitSignal(tab.view_loaded, timeout=5000) as loaded:
+        qtbot.mouseClick(tab.open_selected, Qt.MouseButton.LeftButton)
+    view = loaded.args[0]
+    assert isinstance(view, TrialView)
+    assert view.finished
+    assert view.source == trials[0][0].path
+    assert view.parameters == EASY
+    assert view.rmse_xy_m[0] == pytest.approx(trials[0][1].metrics.rmse_x_m, rel=1e-9)
+    assert tab.slider.isEnabled()
+    assert tab.slider.maximum() == view.n - 1
+
+    with qtbot.waitSignal(tab.cursor_moved) as moved:
+        tab.slider.setValue(1000)
+    assert moved.args[0] == pytest.approx(view.time[1000])
+    assert view.cursor == pytest.approx(view.time[1000])
+    assert tab.time_label.text() == f"{view.time[1000] - view.time[0]:.1f} s of " \
+                                    f"{view.duration_s:.1f} s"
+    x_cm = view.column("position")[0, 1000] * 100
+    assert f"x {x_cm:.1f} cm".replace("-", "−") in tab.moment["position"].text()
+    assert tab.moment["phase"].text() == "exercise"
+
+    tab.set_cursor(2.0)  # from elsewhere: no echo
+    assert tab.slider.value() == view.index_at(2.0)
+
+
+def test_replay_plays_forward(qtbot, history):
+    registry, _, trials = history
+    tab = shown(qtbot, ReplayTab(registry))
+    with qtbot.waitSignal(tab.view_loaded, timeout=5000):
+        tab.open_file(trials[2][0].path)
+    tab.speed.setCurrentIndex(tab.speed.findData(4.0))
+    times = []
+    tab.cursor_moved.connect(times.append)
+    tab.play.click()
+    qtbot.waitUntil(lambda: len(times) >= 3, timeout=3000)
+    tab.play.click()
+    assert np.all(np.diff(times) > 0)
+    assert tab.play.text() == "Play"
+
+
+def test_replay_of_a_damaged_file_says_why(qtbot, tmp_path):
+    bad = tmp_path / "broken.h5"
+    bad.write_bytes(b"not a trial")
+    tab = shown(qtbot, ReplayTab())
+    with qtbot.waitSignal(tab.load_failed, timeout=5000) as failed:
+        tab.open_file(bad)
+    assert "not an HDF5 file" in failed.args[0]
+    assert "not an HDF5 file" in tab.info.text()
+
+
+def test_report_shows_the_plain_lines_and_prints(qtbot, history, tmp_path):
+    registry, _, trials = history
+    begun, analysis = trials[2]
+    tab = shown(qtbot, ReportTab())
+    assert not tab.pdf_button.isEnabled()
+    with qtbot.waitSignal(tab.report_ready, timeout=5000) as ready:
+        tab.load_registry_trial(registry, begun.trial_id)
+    content = ready.args[0]
+    lines = tab.lines()
+    percent = round(analysis.metrics.directional_performance_pct)
+    assert (f"You kept your push in the right direction {percent} % of the time."
+            in lines)
+    shoulder = round(math.degrees(analysis.metrics.shoulder_rom_rad))
+    assert f"Your shoulder moved through {shoulder}°." in lines
+    assert all(line.text in lines for line in content.plain)
+    # Compared with the previous session's trial at the same exercise.
+    assert any("previous" in text.lower() for text in lines)
+    assert tab.pdf_button.isEnabled()
+
+    printed = tmp_path / "printed.pdf"
+    printer = QPrinter(QPrinter.PrinterMode.HighResolution)
+    printer.setOutputFormat(QPrinter.OutputFormat.PdfFormat)
+    printer.setOutputFileName(str(printed))
+    tab.print_to(printer)
+    text = " ".join(" ".join(page.extract_text().split()) for page in PdfReader(printed).pages)
+    assert "right direction" in text
+    assert "Position error" in text
+
+    saved = tmp_path / "report.pdf"
+    with qtbot.waitSignal(tab.pdf_saved, timeout=20000) as done:
+        tab.save_pdf(saved)
+    assert done.args[0] == saved
+    assert saved.read_bytes().startswith(b"%PDF")
+
+
+def test_report_follows_a_replayed_view(qtbot, history):
+    _, _, trials = history
+    tab = shown(qtbot, ReportTab())
+    live = TrialView(EASY)
+    tab.show_view(live)
+    assert "once the trial is saved" in tab.message.text()
+    view = TrialView(EASY)
+    view.source = trials[0][0].path
+    with qtbot.waitSignal(tab.report_ready, timeout=5000) as ready:
+        tab.show_view(view)
+    assert ready.args[0].source == trials[0][0].path
+
+
+def test_progress_lists_every_trial_grouped_by_exercise(qtbot, history):
+    registry, code, trials = history
+    tab = shown(qtbot, ProgressTab(registry))
+    with qtbot.waitSignal(tab.progress_loaded, timeout=5000):
+        tab.set_patient(code)
+    assert tab.table.rowCount() == 3
+    heads = [tab.table.horizontalHeaderItem(c).text() for c in range(tab.table.columnCount())]
+    column = heads.index("Position error, x (RMSE) (mm)")
+    for row, (_, analysis) in enumerate(trials):
+        assert tab.table.item(row, 0).text() == ("1", "1", "2")[row]
+        assert tab.table.item(row, column).text() == f"{analysis.metrics.rmse_x_m * 1000:.2f}"
+    assert "r 12.0 cm" in tab.table.item(1, 4).text()
+
+    tab.metric_choice.setCurrentIndex(tab.metric_choice.findData("rmse_x_m"))
+    curves = {c.name(): c.getOriginalDataset() for c in tab.plot.getPlotItem().listDataItems()}
+    assert len(curves) == 2  # two exercises, two groups
+    easy = next(v for k, v in curves.items() if "r 10.0 cm" in k)
+    hard = next(v for k, v in curves.items() if "r 12.0 cm" in k)
+    np.testing.assert_array_equal(easy[0], [1, 3])
+    np.testing.assert_array_equal(hard[0], [2])
+    np.testing.assert_allclose(easy[1], [trials[0][1].metrics.rmse_x_m * 1000,
+                                         trials[2][1].metrics.rmse_x_m * 1000])

@@ -1,0 +1,160 @@
+"""The Parameters tab as a therapist uses it: typing values, reading the refusal under the
+field at fault, seeing the unreachable part of the path, fixing it."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from PySide6.QtCore import QPoint, Qt
+
+from app.datadir import DataDir
+from app.registry import Registry
+from core.errors import UnreachableError
+from core.trial import (
+    POSITION_RANGE_M,
+    RADIUS_RANGE_M,
+    THESIS_SUBJECT,
+    TrialParameters,
+    check_trial,
+)
+from ui import theme
+from ui.tabs.parameters import HARDWARE, SIMULATOR, ParametersTab
+
+
+@pytest.fixture
+def tab(qtbot, qapp):
+    theme.apply_theme(qapp)
+    widget = ParametersTab()
+    qtbot.addWidget(widget)
+    widget.resize(1280, 800)
+    widget.show()
+    qtbot.waitExposed(widget)
+    return widget
+
+
+def type_into(qtbot, spin, text: str) -> None:
+    spin.setFocus()
+    spin.selectAll()
+    qtbot.keyClicks(spin, text)
+
+
+def test_shoulder_as_printed_is_refused_with_distances_and_marked_on_the_preview(qtbot, tab):
+    assert tab.problem() == ""
+    with qtbot.waitSignal(tab.parameters_changed, timeout=2000) as signal:
+        type_into(qtbot, tab.shoulder_x, "12")
+    parameters, problem = signal.args
+    assert parameters is None
+    assert "0.68 m from the shoulder" in problem
+    assert "reaches 0.61 m" in problem
+
+    for key in ("centre", "shoulder"):
+        label = tab.errors[key]
+        assert label.isVisible()
+        assert "point (-0.30, 0.20) m is 0.68 m from the shoulder" in label.text()
+        assert "0.61 m" in label.text()
+    assert not tab.errors["radius"].isVisible()
+    assert "Not ready" in tab.status.text()
+    with pytest.raises(UnreachableError, match=r"0\.68 m"):
+        tab.parameters()
+
+    # The preview marks the unreachable points: the ones check_trial finds, in cm.
+    check = check_trial(THESIS_SUBJECT.replace(shoulder_m=(0.12, 0.73)))
+    bad = check.points_m[~check.reachable] * 100
+    xs, ys = tab.path_bad.getData()
+    assert len(xs) > 0
+    for x, y in zip(xs, ys, strict=True):
+        assert np.min(np.hypot(bad[:, 0] - x, bad[:, 1] - y)) < 1e-9
+    shoulder = tab.shoulder_mark.getData()
+    assert (shoulder[0][0], shoulder[1][0]) == pytest.approx((12.0, 73.0))
+
+    with qtbot.waitSignal(tab.parameters_changed, timeout=2000) as signal:
+        type_into(qtbot, tab.shoulder_x, "-12")
+    parameters, problem = signal.args
+    assert problem == ""
+    assert parameters.shoulder_m == (-0.12, 0.73)
+    assert not tab.errors["centre"].isVisible()
+    assert not tab.errors["shoulder"].isVisible()
+    assert len(tab.path_bad.getData()[0]) == 0
+    assert "Ready" in tab.status.text()
+    assert tab.parameters() == parameters
+
+
+def test_too_fast_path_is_refused_under_the_time_field(qtbot, tab):
+    with qtbot.waitSignal(tab.parameters_changed, timeout=2000) as signal:
+        type_into(qtbot, tab.radius, "25")
+        type_into(qtbot, tab.duration, "1")
+        type_into(qtbot, tab.shoulder_y, "90")
+    assert signal.args[0] is None
+    assert "peak speed" in tab.errors["duration"].text()
+    assert tab.errors["duration"].isVisible()
+
+
+def test_spin_boxes_hold_the_allowed_ranges(qtbot, tab):
+    assert tab.radius.minimum() == pytest.approx(RADIUS_RANGE_M[0] * 100)
+    assert tab.radius.maximum() == pytest.approx(RADIUS_RANGE_M[1] * 100)
+    assert tab.centre_x.maximum() == pytest.approx(POSITION_RANGE_M[1] * 100)
+    type_into(qtbot, tab.radius, "99")
+    tab.radius.interpretText()
+    assert tab.radius.value() <= RADIUS_RANGE_M[1] * 100
+    assert tab.radius.suffix() == " cm"
+    assert tab.tolerance.suffix() == "°"
+
+
+def test_set_parameters_round_trips_in_si(qtbot, tab):
+    chosen = TrialParameters(
+        shape="circle", centre_m=(-0.25, 0.35), radius_m=0.08, duration_s=6.5, repetitions=3,
+        timing="minimum_jerk", clockwise=False, shoulder_m=(-0.15, 0.75), body_mass_kg=70.5,
+        upper_arm_m=0.29, forearm_m=0.27, side="right", tolerance_rad=math.radians(30.0),
+        controller="ctpid", assistance_level=0.6)
+    with qtbot.waitSignal(tab.parameters_changed, timeout=2000) as signal:
+        tab.set_parameters(chosen)
+    assert signal.args == [chosen, ""]
+    assert tab.parameters() == chosen
+    assert tab.radius.text() == "8.00 cm"
+    assert tab.tolerance.text() == "30.0°"
+    assert tab.assistance.text() == "60 %"
+
+
+def test_choices_by_combo_and_checkbox(qtbot, tab):
+    with qtbot.waitSignal(tab.parameters_changed, timeout=2000) as signal:
+        tab.controller.setCurrentIndex(tab.controller.findData("ctpid"))
+        box = tab.clockwise
+        qtbot.mouseClick(box, Qt.MouseButton.LeftButton, pos=QPoint(12, box.height() // 2))
+    parameters = signal.args[0]
+    assert parameters.controller == "ctpid"
+    assert parameters.clockwise is False
+
+
+def test_camera_and_backend_choices(qtbot, tab):
+    assert tab.camera_source() is None
+    with qtbot.waitSignal(tab.camera_changed) as signal:
+        tab.with_camera.click()
+    assert signal.args == [0]
+    tab.camera_source_edit.clear()
+    qtbot.keyClicks(tab.camera_source_edit, "/videos/session.mp4")
+    assert tab.camera_source() == "/videos/session.mp4"
+
+    assert tab.backend().name == SIMULATOR
+    assert tab.backend().patient_kind == "healthy"
+    tab.patient_kind.setCurrentIndex(tab.patient_kind.findData("spastic"))
+    assert tab.backend().patient_kind == "spastic"
+    with qtbot.waitSignal(tab.backend_changed):
+        tab.hardware.click()
+    assert tab.backend().name == HARDWARE
+    assert "settings file" in tab.backend_problem()
+    assert tab.errors["settings_path"].isVisible()
+    qtbot.keyClicks(tab.settings_path, "/etc/rehab/robot.toml")
+    assert tab.backend_problem() == ""
+    assert str(tab.backend().settings_path) == "/etc/rehab/robot.toml"
+
+
+def test_a_patients_measurements_fill_the_arm(qtbot, tab, tmp_path):
+    registry = Registry(DataDir(tmp_path / "data"))
+    patient = registry.create_patient("Sam", "Lefty", body_mass_kg=64.0, upper_arm_m=0.28,
+                                      forearm_m=0.26, side="left", shoulder_m=(0.12, 0.73))
+    tab.apply_patient(patient)
+    assert tab.body_mass.value() == 64.0
+    assert tab.side.currentData() == "left"
+    assert tab.upper_arm.text() == "28.00 cm"

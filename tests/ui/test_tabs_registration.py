@@ -1,0 +1,136 @@
+"""The Registration tab: find or register a patient, get the session and trial numbers from
+the registry, have a used number refused with the registry's words."""
+
+from __future__ import annotations
+
+import pytest
+from PySide6.QtCore import Qt
+
+from app.datadir import DataDir
+from app.errors import DuplicateNumberError
+from app.registry import Registry
+from core.trial import THESIS_SUBJECT
+from ui import theme
+from ui.tabs.registration import RegistrationTab
+
+
+@pytest.fixture
+def registry(tmp_path):
+    return Registry(DataDir(tmp_path / "data"))
+
+
+@pytest.fixture
+def tab(qtbot, qapp, registry):
+    theme.apply_theme(qapp)
+    widget = RegistrationTab(registry)
+    qtbot.addWidget(widget)
+    widget.resize(1280, 800)
+    widget.show()
+    qtbot.waitExposed(widget)
+    return widget
+
+
+def click(qtbot, button):
+    qtbot.mouseClick(button, Qt.MouseButton.LeftButton)
+
+
+def fill_new_patient(qtbot, tab, first, last):
+    qtbot.keyClicks(tab.first_name, first)
+    qtbot.keyClicks(tab.last_name, last)
+    for spin, text in ((tab.birth_year, "1961"), (tab.body_mass, "82"),
+                       (tab.upper_arm, "31"), (tab.forearm, "28"),
+                       (tab.shoulder_x, "-12"), (tab.shoulder_y, "73")):
+        spin.setFocus()
+        spin.selectAll()
+        qtbot.keyClicks(spin, text)
+        spin.interpretText()
+
+
+def test_create_patient_numbers_and_duplicate_refused(qtbot, tab, registry):
+    fill_new_patient(qtbot, tab, "Ada", "Lovelace")
+    with qtbot.waitSignal(tab.patient_selected) as chosen:
+        click(qtbot, tab.create_button)
+    patient = chosen.args[0]
+    assert (patient.first_name, patient.last_name, patient.birth_year) == ("Ada", "Lovelace",
+                                                                           1961)
+    assert patient.body_mass_kg == 82.0
+    assert patient.upper_arm_m == pytest.approx(0.31)
+    assert patient.shoulder_m == (-0.12, 0.73)
+    assert registry.patient(patient.code) == patient
+    assert patient.code in tab.patient_label.text()
+    assert (tab.session.value(), tab.trial.value()) == (1, 1)
+    assert tab.session_note.text() == "a new session"
+
+    with qtbot.waitSignal(tab.registered) as registered:
+        click(qtbot, tab.confirm)
+    _, registration = registered.args
+    assert (registration.patient_code, registration.session_number,
+            registration.trial_number, registration.new_session) == (patient.code, 1, 1, True)
+
+    # A trial runs with those numbers; the next ones come from the registry.
+    registry.begin_trial(patient.code, THESIS_SUBJECT, backend="simulator", session_number=1,
+                         trial_number=1)
+    tab.refresh_numbers()
+    assert (tab.session.value(), tab.trial.value()) == (1, 2)
+    assert "1 trial so far" in tab.session_note.text()
+
+    # The therapist types the used number: refused, naming the next free one.
+    tab.trial.setFocus()
+    tab.trial.selectAll()
+    qtbot.keyClicks(tab.trial, "1")
+    with qtbot.assertNotEmitted(tab.registered):
+        click(qtbot, tab.confirm)
+    assert tab.trial_problem.isVisible()
+    assert "already has a trial 1" in tab.trial_problem.text()
+    assert "use 2" in tab.trial_problem.text()
+    assert tab.registration() is None
+
+
+def test_refusal_from_the_registry_is_shown_as_it_says(qtbot, tab, registry):
+    code = registry.create_patient("Alan", "Turing").code
+    registry.begin_trial(code, THESIS_SUBJECT, backend="simulator", session_number=1,
+                         trial_number=1)
+    with pytest.raises(DuplicateNumberError) as refused:
+        registry.begin_trial(code, THESIS_SUBJECT, backend="simulator", session_number=1,
+                             trial_number=1)
+    tab.search()
+    tab.results.setCurrentRow(0)
+    tab.show_refusal(refused.value)
+    assert tab.trial_problem.isVisible()
+    assert str(refused.value) in tab.trial_problem.text()
+
+
+def test_search_by_name_fragment_or_code(qtbot, tab, registry):
+    ada = registry.create_patient("Ada", "Lovelace")
+    registry.create_patient("Grace", "Hopper")
+    qtbot.keyClicks(tab.search_field, "love")
+    qtbot.waitUntil(lambda: tab.results.count() == 1, timeout=2000)
+    assert "Lovelace, Ada" in tab.results.item(0).text()
+    tab.search_field.clear()
+    qtbot.keyClicks(tab.search_field, ada.code)
+    qtbot.waitUntil(lambda: tab.results.count() == 1 and ada.code in tab.results.item(0).text(),
+                    timeout=2000)
+    with qtbot.waitSignal(tab.patient_selected) as chosen:
+        tab.results.setCurrentRow(0)
+    assert chosen.args[0].code == ada.code
+
+
+def test_a_namesake_needs_confirmation(qtbot, tab, registry):
+    first = registry.create_patient("Ada", "Lovelace", birth_year=1950)
+    qtbot.keyClicks(tab.first_name, "ada")
+    qtbot.keyClicks(tab.last_name, "LOVELACE")
+    click(qtbot, tab.create_button)
+    assert tab.create_problem.isVisible()
+    assert first.code in tab.create_problem.text()
+    assert len(registry.patients()) == 1
+    assert tab.same_name.isVisible()
+    tab.same_name.setChecked(True)
+    click(qtbot, tab.create_button)
+    assert len(registry.patients()) == 2
+    assert tab.selected_patient().code != first.code
+
+
+def test_names_are_required_to_register(qtbot, tab, registry):
+    click(qtbot, tab.create_button)
+    assert "first or last name" in tab.create_problem.text()
+    assert registry.patients() == []

@@ -1,0 +1,77 @@
+"""The Video tab: frames from a camera source (a synthetic video file here), the recording
+state, and a clear message when no camera is in use or it cannot be opened."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from ui import theme
+from ui.tabs import VideoTab
+
+
+@pytest.fixture
+def clip(tmp_path):
+    path = tmp_path / "clip.avi"
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"MJPG"), 30.0, (160, 120))
+    for k in range(60):
+        image = np.zeros((120, 160, 3), np.uint8)
+        image[:, : 2 * k + 10] = (0, 0, 230)  # a red bar growing frame by frame (BGR)
+        writer.write(image)
+    writer.release()
+    return path
+
+
+@pytest.fixture
+def tab(qtbot, qapp):
+    theme.apply_theme(qapp)
+    widget = VideoTab()
+    qtbot.addWidget(widget)
+    widget.resize(800, 600)
+    widget.show()
+    qtbot.waitExposed(widget)
+    yield widget
+    widget.close_camera()
+
+
+def test_without_camera_the_tab_says_how_to_enable_one(tab):
+    assert tab.pages.currentIndex() == 0
+    text = tab.message.text()
+    assert "No camera is in use" in text
+    assert "With camera" in text
+    assert "Parameters" in text
+
+
+def test_frames_from_a_video_file_are_shown_with_the_recording_state(qtbot, tab, clip, tmp_path):
+    with qtbot.waitSignal(tab.camera_opened, timeout=5000) as opened:
+        tab.open_camera(str(clip))
+    camera = opened.args[0]
+    assert tab.camera is camera
+    assert tab.pages.currentIndex() == 1
+    qtbot.waitUntil(lambda: tab.shown_frames() >= 5, timeout=5000)
+    image = tab.picture.pixmap().toImage()
+    assert not image.isNull()
+    assert image.width() > 0
+    centre = image.pixelColor(image.width() // 2 - 2, image.height() // 2)
+    left = image.pixelColor(2, image.height() // 2)
+    assert left.red() > 180
+    assert left.blue() < 60
+    assert centre.isValid()
+    assert "Not recording" in tab.state.text()
+
+    camera.start_recording(tmp_path / "trial.mp4")
+    qtbot.waitUntil(lambda: "Recording to trial.mp4" in tab.state.text(), timeout=3000)
+    tab.close_camera()
+    assert not camera.running
+    assert not camera.recording
+    assert tab.pages.currentIndex() == 0
+
+
+def test_a_camera_that_cannot_open_is_explained(qtbot, tab, tmp_path):
+    with qtbot.waitSignal(tab.camera_failed, timeout=5000) as failed:
+        tab.open_camera(str(tmp_path / "missing.mp4"))
+    assert "does not exist" in failed.args[0]
+    assert "cannot be used" in tab.message.text()
+    assert "does not exist" in tab.message.text()
+    assert tab.camera is None

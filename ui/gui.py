@@ -1,0 +1,37 @@
+"""Start the window: Qt, the theme, the data folder and registry, then the loop processes
+once the window is on screen (so it appears in well under two seconds)."""
+
+from __future__ import annotations
+
+import logging
+import sys
+import time
+
+log = logging.getLogger(__name__)
+
+
+def run_gui(font_scale: float | None = None) -> int:
+    started = time.perf_counter()
+    from PySide6.QtCore import QTimer
+    from PySide6.QtWidgets import QApplication
+
+    from app.datadir import locate_data_dir
+    from app.logs import setup_logging
+    from app.registry import Registry
+    from app.settings import load_settings
+    from ui import theme
+    from ui.main_window import MainWindow
+
+    settings = load_settings()
+    data_dir = locate_data_dir(settings)
+    data_dir.ensure_layout()
+    setup_logging(data_dir)
+    app = QApplication.instance() or QApplication(sys.argv[:1])
+    app.setApplicationName("Rehabilitation robot console")
+    theme.apply_theme(app, font_scale or 1.0)
+    window = MainWindow(Registry(data_dir), settings=settings)
+    window.show()
+    QTimer.singleShot(0, lambda: log.info("window shown %.2f s after start",
+                                          time.perf_counter() - started))
+    QTimer.singleShot(50, window.start_device)
+    return app.exec()

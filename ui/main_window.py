@@ -1,0 +1,495 @@
+"""The console's window: the thesis's tabs (Appendix A), the robot buttons and the emergency
+stop on every tab, a fault banner, and a status bar with the loop's state and health.
+
+The window only arranges and forwards: the loop runs in its own process behind
+`DeviceBridge`, files and the registry live in `app`, and anything that touches the disk
+(finishing a trial, writing a report) runs on a worker thread so the window never waits.
+"""
+
+from __future__ import annotations
+
+import base64
+import concurrent.futures
+import contextlib
+import logging
+from pathlib import Path
+
+import numpy as np
+from PySide6.QtCore import QObject, Qt, QTimer, Signal
+from PySide6.QtGui import QKeySequence, QShortcut
+from PySide6.QtWidgets import (
+    QFrame,
+    QHBoxLayout,
+    QLabel,
+    QMainWindow,
+    QMessageBox,
+    QPushButton,
+    QTabWidget,
+    QVBoxLayout,
+    QWidget,
+)
+
+from app.finalize import finalize_trial
+from app.registry import Patient, Registration, Registry
+from app.report import report_for_registry_trial
+from app.settings import Settings, load_settings, save_settings
+from core.trial import TrialParameters
+from device.faults import Fault
+from device.messages import BackendConfig
+from device.pipeline import PERIOD_S
+from device.states import State
+from device.trialfile import SubjectInfo
+from ui import theme
+from ui.device_bridge import DeviceBridge
+from ui.robot_bar import RobotBar
+from ui.tabs import (
+    VIEW_TABS,
+    AnglesTab,
+    ForceTab,
+    InstructionsTab,
+    ParametersTab,
+    ProgressTab,
+    RegistrationTab,
+    ReplayTab,
+    ReportTab,
+    TorquesTab,
+    TrajectoryTab,
+    VideoTab,
+)
+from ui.tabs.parameters import HARDWARE
+from ui.trialview import TrialView
+
+log = logging.getLogger(__name__)
+
+REPAINT_MS = 16  # ~60 Hz; the tabs draw only what is visible
+HEARTBEAT_MS = 100  # the loop faults after 0.5 s without one
+HEALTH_MS = 500
+
+
+class _Done(QObject):
+    """Carries a worker thread's result back to the GUI thread."""
+
+    finished = Signal(object, object, object)  # callback, result, error
+
+
+class MainWindow(QMainWindow):
+    """The therapist's console."""
+
+    def __init__(self, registry: Registry, *, bridge: DeviceBridge | None = None,
+                 settings: Settings | None = None, settings_path: Path | None = None) -> None:
+        super().__init__()
+        self.setWindowTitle("Rehabilitation robot console")
+        self.registry = registry
+        self.settings_path = settings_path
+        self.settings = settings or load_settings(settings_path)
+        self.bridge = bridge or DeviceBridge()
+        self.state = State.IDLE
+        self.built: TrialParameters | None = None
+        self.patient: Patient | None = None
+        self.registration: Registration | None = None
+        self.trial_id: int | None = None
+        self.trial_path: Path | None = None
+        self.unsaved_trial: int | None = None
+        self.live: TrialView | None = None
+        self.shown_view: TrialView | None = None
+        self.fault_code = 0
+        self._late_total = 0
+        self._ticks_total = 0
+        self._lateness: list[np.ndarray] = []
+        self._jobs = concurrent.futures.ThreadPoolExecutor(max_workers=1,
+                                                           thread_name_prefix="console-job")
+        self._done = _Done()
+        self._done.finished.connect(self._job_done)
+
+        self._build_tabs()
+        self._build_layout()
+        self._connect_signals()
+        self._restore()
+        self._refresh_buttons()
+
+        self.repaint_timer = QTimer(self)
+        self.repaint_timer.setInterval(REPAINT_MS)
+        self.repaint_timer.timeout.connect(self._repaint)
+        self.heartbeat_timer = QTimer(self)
+        self.heartbeat_timer.setInterval(HEARTBEAT_MS)
+        self.heartbeat_timer.timeout.connect(self.bridge.heartbeat)
+        self.health_timer = QTimer(self)
+        self.health_timer.setInterval(HEALTH_MS)
+        self.health_timer.timeout.connect(self._show_health)
+
+    # ------------------------------------------------------------------ construction
+    def _build_tabs(self) -> None:
+        self.tabs = QTabWidget()
+        self.tabs.setDocumentMode(True)
+        self.instructions = InstructionsTab()
+        self.registration_tab = RegistrationTab(self.registry)
+        self.parameters_tab = ParametersTab()
+        self.trajectory = TrajectoryTab()
+        self.force = ForceTab()
+        self.angles = AnglesTab()
+        self.torques = TorquesTab()
+        self.video = VideoTab()
+        self.report = ReportTab()
+        self.progress = ProgressTab()
+        self.progress.set_registry(self.registry)
+        self.replay = ReplayTab()
+        self.replay.set_registry(self.registry)
+        for title, tab in (
+            ("Instructions", self.instructions), ("Registration", self.registration_tab),
+            ("Parameters", self.parameters_tab), ("Trajectory performance", self.trajectory),
+            ("End-effector force", self.force), ("Human joint angles", self.angles),
+            ("Human joint torques", self.torques), ("Video", self.video),
+            ("Patient report", self.report), ("Progress", self.progress),
+            ("Replay", self.replay),
+        ):
+            self.tabs.addTab(tab, title)
+        self.view_tabs = [self.tabs.widget(i) for i in range(self.tabs.count())
+                          if isinstance(self.tabs.widget(i), VIEW_TABS)]
+
+    def _build_layout(self) -> None:
+        self.banner = QFrame()
+        self.banner.setObjectName("fault_banner")
+        self.banner.setStyleSheet(
+            f"#fault_banner {{ background: {theme.VERMILLION}; }}"
+            " #fault_banner QLabel { color: white; font-weight: bold; }")
+        self.banner_text = QLabel()
+        self.banner_text.setWordWrap(True)
+        self.clear_button = QPushButton("Clear fault")
+        self.clear_button.setObjectName("clear_fault")
+        self.clear_button.setMinimumHeight(40)
+        row = QHBoxLayout(self.banner)
+        row.addWidget(self.banner_text, 1)
+        row.addWidget(self.clear_button)
+        self.banner.hide()
+
+        self.message = QLabel()
+        self.message.setObjectName("console_message")
+        self.message.setWordWrap(True)
+        self.message.hide()
+
+        self.robot = RobotBar()
+        central = QWidget()
+        column = QVBoxLayout(central)
+        column.setContentsMargins(4, 4, 4, 4)
+        column.addWidget(self.banner)
+        column.addWidget(self.message)
+        column.addWidget(self.tabs, 1)
+        column.addWidget(self.robot)
+        self.setCentralWidget(central)
+
+        self.state_label = QLabel("Idle")
+        self.backend_label = QLabel("")
+        self.health_label = QLabel("loop: –")
+        self.trial_label = QLabel("")
+        bar = self.statusBar()
+        for widget in (self.state_label, self.backend_label, self.trial_label):
+            bar.addWidget(widget)
+        bar.addPermanentWidget(self.health_label)
+
+        # The emergency stop works from every tab and every dialog of the application.
+        self.estop_keys = [QShortcut(QKeySequence(key), self) for key in ("Esc", "Space")]
+        for shortcut in self.estop_keys:
+            shortcut.setContext(Qt.ShortcutContext.ApplicationShortcut)
+            shortcut.activated.connect(self.emergency_stop)
+
+    def _connect_signals(self) -> None:
+        b, r = self.bridge, self.robot
+        b.state_changed.connect(self._on_state)
+        b.fault_raised.connect(self._on_fault)
+        b.trial_started.connect(self._on_trial_started)
+        b.trial_ended.connect(self._on_trial_ended)
+        b.file_notice.connect(self._on_file_notice)
+        b.notice.connect(lambda level, text: self._say(text, level == "error"))
+        b.replied.connect(self._on_reply)
+        b.loop_lost.connect(self._on_loop_lost)
+        r.build_clicked.connect(self.build)
+        r.connect_clicked.connect(self.bridge.connect)
+        r.disconnect_clicked.connect(self.bridge.disconnect)
+        r.start_clicked.connect(self.start_trial)
+        r.stop_clicked.connect(self.bridge.stop)
+        r.save_clicked.connect(self.save_data)
+        r.estop_clicked.connect(self.emergency_stop)
+        self.clear_button.clicked.connect(self.clear_fault)
+        self.registration_tab.registered.connect(self._on_registered)
+        self.registration_tab.patient_selected.connect(self._on_patient)
+        self.parameters_tab.parameters_changed.connect(lambda *_: self._refresh_buttons())
+        self.parameters_tab.camera_changed.connect(self.video.open_camera)
+        self.trajectory.flip_changed.connect(self._on_flip)
+        self.replay.view_loaded.connect(self._on_replay)
+        self.replay.cursor_moved.connect(self._on_cursor)
+        self.tabs.currentChanged.connect(lambda _i: self._show_current())
+
+    def start_device(self) -> None:
+        """Start the loop processes and the timers (after the window is shown)."""
+        try:
+            self.bridge.start()
+        except Exception as exc:  # shown to the therapist, then logged
+            log.exception("the control loop did not start")
+            self._say(f"The robot link could not start: {exc}. Restart the console; if it "
+                      "happens again, see the log file.", problem=True)
+            return
+        self.heartbeat_timer.start()
+        self.repaint_timer.start()
+        self.health_timer.start()
+
+    # ------------------------------------------------------------------ robot buttons
+    def build(self) -> None:
+        try:
+            params = self.parameters_tab.parameters()
+        except Exception as exc:  # ParameterError/UnreachableError: shown as is
+            self._say(f"Build refused: {exc}", problem=True)
+            self.tabs.setCurrentWidget(self.parameters_tab)
+            return
+        choice = self.parameters_tab.backend()
+        if choice.name == HARDWARE:
+            backend = BackendConfig(kind="quanser", hardware_settings=str(choice.settings_path))
+        else:
+            backend = BackendConfig(patient=choice.patient_kind or "healthy")
+        self._pending_build = params
+        self.bridge.build(params, backend)
+        self._say("Building the trial…")
+
+    def start_trial(self) -> None:
+        if self.patient is None or self.registration is None:
+            self._say("Register the patient first (Registration tab: choose the patient and "
+                      "confirm the session and trial numbers).", problem=True)
+            self.tabs.setCurrentWidget(self.registration_tab)
+            return
+        reg = self.registration
+        try:
+            begun = self.registry.begin_trial(
+                self.patient.code, self.built, backend=self.backend_label.text() or "simulator",
+                session_number=reg.session_number, trial_number=reg.trial_number)
+        except Exception as exc:  # RegistryError etc., shown as is
+            self._say(f"Start refused: {exc}", problem=True)
+            self.registration_tab.show_refusal(exc)
+            return
+        self.trial_id = begun.trial_id
+        self.trial_path = begun.path
+        subject = SubjectInfo.from_parameters(self.patient.code, self.built)
+        camera = self.video.camera
+        if camera is not None and camera.running:
+            camera.start_recording(begun.path.with_suffix(".mp4"))
+        self.bridge.start_trial(str(begun.path), subject)
+
+    def save_data(self) -> None:
+        trial_id = self.unsaved_trial
+        if trial_id is None:
+            return
+        self._say("Saving the report…")
+        self._run(lambda: report_for_registry_trial(
+            self.registry, trial_id, flip_axes=self.settings.flip_x or self.settings.flip_y),
+            self._saved)
+
+    def _saved(self, path: Path) -> None:
+        self.unsaved_trial = None
+        self._refresh_buttons()
+        self._say(f"Saved. Trial file and report are in the data folder: {path}")
+
+    def emergency_stop(self) -> None:
+        self.bridge.estop(True)
+        self._show_banner("EMERGENCY STOP pressed: the robot's motors are off. Check the "
+                          "patient, then press Clear fault.")
+
+    def clear_fault(self) -> None:
+        self.bridge.estop(False)
+        self.bridge.clear_fault()
+
+    # ------------------------------------------------------------------ loop events
+    def _on_reply(self, command: str, ok: bool, message: str) -> None:
+        if not ok:
+            self._say(message, problem=True)
+            if command == "clear_fault" and self.fault_code == Fault.ESTOP:
+                self.bridge.estop(True)  # keep it latched: clearing was refused
+            return
+        if command == "build":
+            self.built = self._pending_build
+            self._say("Trial built. Connect to the robot, then Start.")
+        elif command == "clear_fault":
+            self.fault_code = 0
+            self.banner.hide()
+            self._say("Fault cleared.")
+        self._refresh_buttons()
+
+    def _on_state(self, state: int, reason: str) -> None:
+        self.state = State(state)
+        self.state_label.setText(f"<b>{self.state.label}</b>")
+        if self.state == State.CONNECTED and self.built is not None:
+            self.backend_label.setText(reason.replace("connected to the ", ""))
+        self._refresh_buttons()
+
+    def _on_fault(self, code: int, message: str, detail: dict) -> None:
+        self.fault_code = code
+        self._show_banner(f"{Fault(code).label}: {message}")
+
+    def _on_trial_started(self, path: str, approach: int, total: int) -> None:
+        self.live = TrialView(self.built)
+        self.shown_view = self.live
+        self.trial_label.setText(f"recording {Path(path).name}")
+        self.message.hide()
+        if not isinstance(self.tabs.currentWidget(), VIEW_TABS):
+            self.tabs.setCurrentWidget(self.trajectory)
+
+    def _on_trial_ended(self, path: str, status: str, summary: dict) -> None:
+        self.trial_label.setText(f"{Path(path).name}: {status.replace('_', ' ')}")
+        camera = self.video.camera
+        if camera is not None and camera.recording:
+            camera.stop_recording()
+
+    def _on_file_notice(self, kind: str, path: str, status: str, message: str) -> None:
+        if kind == "error":
+            self._say(f"Recording problem: {message}", problem=True)
+        if kind == "closed" and self.trial_id is not None:
+            trial_id = self.trial_id
+            self.trial_id = None
+            self._run(lambda: finalize_trial(self.registry, trial_id, status),
+                      lambda done: self._finalized(trial_id, done))
+
+    def _finalized(self, trial_id: int, done) -> None:
+        self.unsaved_trial = trial_id
+        if self.registration is not None:
+            self.registration_tab.refresh_numbers()
+        self.report.load_registry_trial(self.registry, trial_id)
+        if self.patient is not None:
+            self.progress.set_patient(self.patient.code)
+            self.replay.set_patient(self.patient.code)
+        self.tabs.setCurrentWidget(self.report)
+        self._refresh_buttons()
+
+    def _on_loop_lost(self, message: str) -> None:
+        self._show_banner(message)
+        self.clear_button.setEnabled(False)
+
+    # ------------------------------------------------------------------ other tabs
+    def _on_patient(self, patient: Patient) -> None:
+        self.patient = patient
+        self.parameters_tab.apply_patient(patient)
+        self.progress.set_patient(patient.code)
+        self.replay.set_patient(patient.code)
+
+    def _on_registered(self, patient: Patient, registration: Registration) -> None:
+        self.patient = patient
+        self.registration = registration
+        self._refresh_buttons()
+
+    def _on_flip(self, flip_x: bool, flip_y: bool) -> None:
+        self.settings = self.settings.replace(flip_x=flip_x, flip_y=flip_y)
+        self.parameters_tab.set_flip(flip_x, flip_y)
+        self.report.set_flip(flip_x, flip_y)
+
+    def _on_replay(self, view: TrialView) -> None:
+        self.shown_view = view
+        for tab in self.view_tabs:
+            tab.show_view(view)
+
+    def _on_cursor(self, t: float) -> None:
+        for tab in self.view_tabs:
+            tab.set_cursor(t)
+
+    # ------------------------------------------------------------------ live view
+    def _repaint(self) -> None:
+        records = self.bridge.take_records()
+        if len(records):
+            self._lateness.append(records["lateness"])
+            if self.live is not None and self.state == State.RUNNING:
+                self.live.append(records[records["phase"] > 0])
+        if self.shown_view is self.live and self.live is not None:
+            self._show_current()
+
+    def _show_current(self) -> None:
+        tab = self.tabs.currentWidget()
+        if self.shown_view is not None and isinstance(tab, VIEW_TABS):
+            tab.show_view(self.shown_view)
+
+    def _show_health(self) -> None:
+        if not self._lateness:
+            return
+        lateness = np.concatenate(self._lateness).astype(float)
+        self._lateness = []
+        late = int(np.count_nonzero(lateness > PERIOD_S))
+        self._late_total += late
+        self._ticks_total += lateness.size
+        p99 = 1e3 * float(np.percentile(lateness, 99))
+        share = 100.0 * self._late_total / max(1, self._ticks_total)
+        self.health_label.setText(f"loop: lateness p99 {p99:.2f} ms · late {share:.2f} %"
+                                  + (f" · fault {Fault(self.fault_code).label}"
+                                     if self.fault_code else ""))
+
+    # ------------------------------------------------------------------ helpers
+    def _refresh_buttons(self) -> None:
+        try:
+            self.parameters_tab.parameters()
+            params_ok = not self.parameters_tab.backend_problem()
+        except Exception:  # any refusal just disables Build
+            params_ok = False
+        self.robot.update_for(
+            self.state, can_build=params_ok,
+            can_start=self.built is not None and self.registration is not None,
+            can_save=self.unsaved_trial is not None)
+        self.clear_button.setEnabled(self.state == State.FAULTED or self.fault_code != 0)
+
+    def _show_banner(self, text: str) -> None:
+        self.banner_text.setText(f"{theme.PROBLEM_SIGN} {text}")
+        self.banner.show()
+        self.clear_button.setEnabled(True)
+
+    def _say(self, text: str, problem: bool = False) -> None:
+        colour = theme.PROBLEM_TEXT if problem else theme.TEXT
+        sign = f"{theme.PROBLEM_SIGN} " if problem else ""
+        self.message.setStyleSheet(f"color: {colour}; font-weight: bold;" if problem else "")
+        self.message.setText(f"{sign}{text}")
+        self.message.show()
+        (log.warning if problem else log.info)("%s", text)
+
+    def _run(self, work, callback) -> None:
+        """Run `work` on the job thread; `callback(result)` runs in the GUI thread."""
+        future = self._jobs.submit(work)
+
+        def done(f: concurrent.futures.Future) -> None:
+            error = f.exception()
+            self._done.finished.emit(callback, None if error else f.result(), error)
+
+        future.add_done_callback(done)
+
+    def _job_done(self, callback, result, error) -> None:
+        if error is not None:
+            log.error("background job failed: %s", error)
+            self._say(f"{error}", problem=True)
+            return
+        callback(result)
+
+    # ------------------------------------------------------------------ settings
+    def _restore(self) -> None:
+        s = self.settings
+        if s.window_geometry:
+            self.restoreGeometry(base64.b64decode(s.window_geometry))
+        else:
+            self.resize(1400, 900)
+        params = s.trial_parameters()
+        if params is not None:
+            self.parameters_tab.set_parameters(params)
+        self.trajectory.set_flip(s.flip_x, s.flip_y)
+
+    def closeEvent(self, event) -> None:
+        if self.state == State.RUNNING:
+            answer = QMessageBox.question(
+                self, "A trial is running",
+                "A trial is running. Stop it, save it and close the console?")
+            if answer != QMessageBox.StandardButton.Yes:
+                event.ignore()
+                return
+        geometry = base64.b64encode(bytes(self.saveGeometry())).decode("ascii")
+        settings = self.settings.replace(window_geometry=geometry)
+        # invalid parameters are simply not remembered
+        with contextlib.suppress(Exception):
+            settings = settings.with_trial_parameters(self.parameters_tab.parameters())
+        try:
+            save_settings(settings, self.settings_path)
+        except Exception as exc:  # closing must not fail on settings
+            log.warning("settings not saved: %s", exc)
+        for timer in (self.repaint_timer, self.heartbeat_timer, self.health_timer):
+            timer.stop()
+        self.video.close_camera()
+        self.bridge.close()
+        self._jobs.shutdown(wait=True)
+        super().closeEvent(event)

@@ -1,0 +1,227 @@
+"""Shared pieces of the tabs: styled plots, curves created once, big numbers, the
+within/outside split of a signal, and calls run off the GUI thread.
+
+Every curve is a width-1 cosmetic pen with automatic downsampling and clipping to
+the view, the settings qt-stack.md measured to hold ≥ 50 fps on software
+rendering. Mouse zoom and the context menu are off: a live clinical display
+that a brushed sleeve can rescale is worse than one that always shows the trial.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
+
+import numpy as np
+import pyqtgraph as pg
+from PySide6.QtCore import QObject, Qt, Signal
+from PySide6.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
+
+from ui import theme
+
+# Runs of within/outside shorter than this are merged into their neighbour for
+# display only: at 500 Hz a 20 ms flicker is invisible as a colour but doubles
+# the number of line segments drawn.
+MERGE_RUNS_S = 0.05
+
+
+def make_plot(x_label: str, y_label: str, *, title: str = "", parent=None) -> pg.PlotWidget:
+    widget = pg.PlotWidget(parent=parent)
+    configure_plot(widget.getPlotItem(), x_label, y_label, title=title)
+    return widget
+
+
+def configure_plot(item: pg.PlotItem, x_label: str, y_label: str, *, title: str = "") -> None:
+    item.setMenuEnabled(False)
+    item.setMouseEnabled(x=False, y=False)
+    item.hideButtons()
+    item.showGrid(x=True, y=True, alpha=1.0)  # opaque: see theme.GRID
+    # The axes draw the grid; pyqtgraph stacks them above the data (z 0.5), so opaque
+    # grid lines would cross the curves and markers. Behind the data instead.
+    for name in ("left", "bottom", "right", "top"):
+        item.getAxis(name).setZValue(-1)
+    item.setLabel("bottom", x_label)
+    item.setLabel("left", y_label)
+    if title:
+        item.setTitle(title)
+    theme.register_plot(item)
+
+
+def curve(item: pg.PlotItem, colour: str, *, dashed: bool = False, name: str | None = None,
+          gaps: bool = False, xy: bool = False) -> pg.PlotDataItem:
+    """A curve to feed with setData.
+
+    gaps: the data holds NaN where the line breaks (subsampling keeps NaN; peak
+    downsampling would spread them over whole blocks).
+    xy: a path in the plane rather than a signal over time. pyqtgraph's clipping and
+    automatic downsampling assume increasing x and would cut such a path, so they
+    stay off; thin it with `xy_step` instead.
+    """
+    line = pg.PlotDataItem(pen=theme.pen(colour, dashed=dashed), name=name,
+                           connect="finite" if gaps else "all")
+    # After addItem: PlotItem.addItem overwrites both with its own menu's settings.
+    item.addItem(line)
+    if not xy:
+        line.setDownsampling(auto=True, method="subsample" if gaps else "peak")
+        line.setClipToView(True)
+    return line
+
+
+# A path drawn with more points than this is thinned: at 500 Hz a hand moves well under
+# a pixel between samples, and every point costs paint time at 60 Hz.
+MAX_PATH_POINTS = 5000
+
+
+def xy_step(n: int) -> int:
+    """Stride that keeps a path of n samples under MAX_PATH_POINTS."""
+    return max(1, -(-n // MAX_PATH_POINTS))
+
+
+def cursor_line(item: pg.PlotItem) -> pg.InfiniteLine:
+    """The replay cursor on a time axis, hidden until set."""
+    line = pg.InfiniteLine(angle=90, movable=False, pen=theme.pen(theme.BLACK, dashed=True))
+    line.setZValue(10)
+    line.hide()
+    item.addItem(line, ignoreBounds=True)
+    return line
+
+
+def place_cursor(line: pg.InfiniteLine, t: float | None) -> None:
+    if t is None:
+        line.hide()
+    else:
+        line.setValue(t)
+        line.show()
+
+
+def merge_short_runs(mask: np.ndarray, min_samples: int) -> np.ndarray:
+    """A copy of a boolean mask where runs shorter than `min_samples` take the value of
+    the run before them (the first runs, of the run after)."""
+    mask = np.asarray(mask, dtype=bool)
+    if mask.size == 0 or min_samples <= 1:
+        return mask.copy()
+    change = np.flatnonzero(mask[1:] != mask[:-1]) + 1
+    starts = np.concatenate(([0], change))
+    lengths = np.diff(np.concatenate((starts, [mask.size])))
+    values = mask[starts]
+    long = lengths >= min_samples
+    if not long.any():
+        return np.full(mask.size, values[np.argmax(lengths)])
+    # Each short run takes the value of the nearest long run before it.
+    index = np.where(long, np.arange(values.size), -1)
+    np.maximum.accumulate(index, out=index)
+    first_long = int(np.argmax(long))
+    index[index < 0] = first_long
+    return np.repeat(values[index], lengths)
+
+
+def split_by_mask(values: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(inside, outside): copies of `values` with NaN where the other one draws. The
+    sample after each change is drawn by both, so the two lines meet."""
+    previous = np.empty_like(mask)
+    if mask.size:
+        previous[0] = mask[0]
+        previous[1:] = mask[:-1]
+    inside = np.where(mask | previous, values, np.nan)
+    outside = np.where(~mask | ~previous, values, np.nan)
+    return inside, outside
+
+
+def format_number(value: float, decimals: int = 1) -> str:
+    if value is None or not math.isfinite(value):
+        return "–"
+    return f"{value:.{decimals}f}".replace("-", "−")
+
+
+class BigNumber(QWidget):
+    """A figure to read from across the room: a caption, a large value with its unit,
+    and a line of detail (the range it came from, what it means)."""
+
+    def __init__(self, caption: str, unit: str, *, decimals: int = 1, parent=None) -> None:
+        super().__init__(parent)
+        self.decimals = decimals
+        # A degree sign belongs against the number; set low beside it, it reads as a dot.
+        self._degrees = unit == "°"
+        self.caption = theme.set_role(QLabel(caption), "caption")
+        self.value = theme.set_role(QLabel("–"), "big")
+        self.unit = theme.set_role(QLabel("" if self._degrees else unit), "unit")
+        self.detail = theme.set_role(QLabel(""), "caption")
+        self.detail.setWordWrap(True)
+        self.value.setAccessibleName(caption)
+        row = QHBoxLayout()
+        row.setSpacing(6)
+        row.addWidget(self.value)
+        row.addWidget(self.unit, 0, Qt.AlignmentFlag.AlignBottom)
+        row.addStretch(1)
+        layout = QVBoxLayout(self)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.setSpacing(0)
+        layout.addWidget(self.caption)
+        layout.addLayout(row)
+        layout.addWidget(self.detail)
+
+    def set_value(self, value: float, detail: str = "") -> None:
+        text = format_number(value, self.decimals)
+        if self._degrees and text != "–":
+            text += "°"
+        if self.value.text() != text:
+            self.value.setText(text)
+        if self.detail.text() != detail:
+            self.detail.setText(detail)
+
+    def text(self) -> str:
+        return self.value.text()
+
+
+class Background(QObject):
+    """One job at a time off the GUI thread: file reads, filters over a whole trial,
+    analyses. The result arrives as a signal in the GUI thread; a job submitted
+    while one runs replaces any waiting one (only the newest request matters)."""
+
+    done = Signal(object, object)  # token, result
+    failed = Signal(object, str)  # token, message
+    _finished = Signal(object, object)  # emitted in the worker; queued to the GUI thread
+
+    def __init__(self, parent: QObject | None = None) -> None:
+        super().__init__(parent)
+        executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="ui-background")
+        self._executor = executor
+        self._running: Future | None = None
+        self._waiting: tuple | None = None
+        self._finished.connect(self._deliver)
+        self.destroyed.connect(lambda *_: executor.shutdown(wait=False, cancel_futures=True))
+
+    @property
+    def busy(self) -> bool:
+        return self._running is not None
+
+    def submit(self, token: object, function: Callable, *args) -> None:
+        if self._running is not None:
+            self._waiting = (token, function, args)
+            return
+        self._start(token, function, args)
+
+    def _start(self, token, function, args) -> None:
+        future = self._executor.submit(function, *args)
+        self._running = future
+        future.add_done_callback(lambda f: self._report(token, f))
+
+    def _report(self, token, future: Future) -> None:
+        # RuntimeError: the widget was closed while the job ran, so nobody is listening.
+        with contextlib.suppress(RuntimeError):
+            self._finished.emit(token, future)
+
+    def _deliver(self, token, future: Future) -> None:
+        self._running = None
+        if future.cancelled():
+            return
+        error = future.exception()
+        if error is None:
+            self.done.emit(token, future.result())
+        else:
+            self.failed.emit(token, str(error))
+        if self._waiting is not None:
+            waiting, self._waiting = self._waiting, None
+            self._start(*waiting)

@@ -1,0 +1,75 @@
+"""The Human joint angles tab (thesis Fig. 3.11, A.4): the shoulder and elbow angles in
+the ISB convention (eq. 3.37–3.38), in degrees over the exercise, with each joint's
+range of motion: how far the patient's arm moved, for the therapist to tailor the
+next exercise.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pyqtgraph as pg
+from PySide6.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
+
+from ui import plots, theme
+from ui.trialview import TrialView
+
+JOINTS = ("shoulder", "elbow")
+
+
+class AnglesTab(QWidget):
+    def __init__(self, parent=None) -> None:
+        super().__init__(parent)
+        self._view: TrialView | None = None
+        self._drawn: tuple = ()
+        self.plot = plots.make_plot("time (s)", "angle (°, ISB)")
+        item = self.plot.getPlotItem()
+        legend = item.addLegend(offset=(10, 10), labelTextSize=f"{theme.point_size('caption')}pt")
+        legend.setBrush(pg.mkBrush(255, 255, 255, 220))
+        self.curves = [
+            plots.curve(item, theme.BLUE, name="shoulder"),
+            plots.curve(item, theme.ORANGE, dashed=True, name="elbow"),
+        ]
+        self.cursor_line = plots.cursor_line(item)
+        self.rom = [plots.BigNumber(f"{joint.capitalize()} range of motion", "°")
+                    for joint in JOINTS]
+        note = theme.set_role(QLabel(
+            "Angles as the International Society of Biomechanics defines them (thesis eq. "
+            "3.37–3.38). The elbow angle is 0° with the arm straight and grows as it bends."),
+            "caption")
+        note.setWordWrap(True)
+        side = QVBoxLayout()
+        for number in self.rom:
+            side.addWidget(number)
+        side.addSpacing(12)
+        side.addWidget(note)
+        side.addStretch(1)
+        panel = QWidget()
+        panel.setLayout(side)
+        panel.setMinimumWidth(300)
+        panel.setMaximumWidth(420)
+        layout = QHBoxLayout(self)
+        layout.addWidget(self.plot, 1)
+        layout.addWidget(panel)
+
+    def show_view(self, view: TrialView) -> None:
+        state = (id(view), view.n)
+        if view is self._view and state == self._drawn:
+            plots.place_cursor(self.cursor_line, view.cursor)
+            return
+        self._view = view
+        self._drawn = state
+        ex = view.exercise
+        t = view.time[ex]
+        angles = np.degrees(view.column("subject_angle_isb")[:, ex])
+        for j, line in enumerate(self.curves):
+            line.setData(t, angles[j])
+        low, high = (np.degrees(v) for v in view.range_of("subject_angle_isb"))
+        for j, number in enumerate(self.rom):
+            number.set_value(high[j] - low[j], f"from {plots.format_number(low[j])}° to "
+                                               f"{plots.format_number(high[j])}°")
+        plots.place_cursor(self.cursor_line, view.cursor)
+
+    def set_cursor(self, t: float | None) -> None:
+        if self._view is not None:
+            self._view.cursor = t
+            plots.place_cursor(self.cursor_line, self._view.cursor)

@@ -1,0 +1,637 @@
+"""The Parameters tab (thesis Figs. A.6–A.7): the exercise, the patient's arm, the
+controller and the robot backend, with a live picture of what can be reached.
+
+Fields show the units a therapist reads best (cm for positions and lengths, s,
+kg, °, %) and convert to SI at once; each spin box's limits are the range
+`core.trial.TrialParameters` accepts, so out-of-range values cannot be typed.
+What the limits cannot catch (a path the arm or the robot cannot reach, a path
+too fast) comes from `core.trial.check_trial` and is written under the field to
+change, in its own words with the distances.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pyqtgraph as pg
+from PySide6.QtCore import QRectF, Qt, QTimer, Signal
+from PySide6.QtWidgets import (
+    QButtonGroup,
+    QCheckBox,
+    QComboBox,
+    QDoubleSpinBox,
+    QFileDialog,
+    QFormLayout,
+    QGroupBox,
+    QHBoxLayout,
+    QLabel,
+    QLineEdit,
+    QPushButton,
+    QRadioButton,
+    QScrollArea,
+    QSizePolicy,
+    QSpinBox,
+    QVBoxLayout,
+    QWidget,
+)
+
+from core.arm import BODY_MASS_RANGE_KG, FOREARM_RANGE_M, UPPER_ARM_RANGE_M
+from core.errors import CoreError, ParameterError, UnreachableError
+from core.robot import RobotModel
+from core.trajectory import SHAPES, TIMINGS
+from core.trial import (
+    CONTROLLERS,
+    DURATION_RANGE_S,
+    ELBOW_FLEXION_RANGE_RAD,
+    MAX_PATH_SPEED_M_S,
+    POSITION_RANGE_M,
+    RADIUS_RANGE_M,
+    REPETITIONS_RANGE,
+    SIDES,
+    TARGETS_RANGE,
+    TOLERANCE_RANGE_RAD,
+    TrialCheck,
+    TrialParameters,
+    check_trial,
+)
+from device.patients import PATIENT_KINDS
+from ui import plots, theme
+
+SHAPE_NAMES = {"d": "D shape", "circle": "Circle", "reach": "Reach out and back",
+               "targets": "Targets (centre-out)", "figure8": "Figure eight"}
+TIMING_NAMES = {"constant_speed": "Steady speed", "minimum_jerk": "Smooth start and stop"}
+CONTROLLER_NAMES = {"smc": "Sliding mode (SMC)", "ctpid": "Computed-torque PID"}
+SIDE_NAMES = {"right": "Right arm", "left": "Left arm"}
+PATIENT_NAMES = {"healthy": "Healthy", "weak": "Weak", "spastic": "Spastic", "tremor": "Tremor",
+                 "passive": "Passive (no effort)", "wrong_way": "Pushes the wrong way at times"}
+CM = 100.0
+DEBOUNCE_MS = 120
+UNREACHABLE_MARK_EVERY = 5  # path points are 2 mm apart
+PREVIEW_MARGIN_CM = 8.0
+SIMULATOR = "simulator"
+HARDWARE = "hardware"
+
+
+@dataclass(frozen=True, slots=True)
+class BackendChoice:
+    """The robot the trial runs on: the simulator with a virtual patient, or the real
+    robot with its hardware settings file (device/hardware_settings.py reads it)."""
+
+    name: str  # SIMULATOR or HARDWARE
+    patient_kind: str | None = None
+    settings_path: Path | None = None
+
+
+@functools.cache
+def robot_workspace(robot: RobotModel, step_m: float = 0.005) -> tuple[np.ndarray, QRectF]:
+    """Where the robot's handle can go, as a mask on a grid (x along axis 0) and the
+    rectangle it covers. Computed once per robot: it never changes."""
+    extent = robot.reach_max_m + step_m
+    xs = np.arange(-extent, extent + step_m / 2, step_m)
+    x, y = np.meshgrid(xs, xs, indexing="ij")
+    q1, q2 = robot.ik_terms(x, y)
+    ok = np.isfinite(q1) & np.isfinite(q2)
+    for i in np.flatnonzero(ok):
+        if robot.limit_problem(float(q1.flat[i]), float(q2.flat[i])):
+            ok.flat[i] = False
+    half = step_m / 2
+    rect = QRectF(xs[0] - half, xs[0] - half, xs.size * step_m, xs.size * step_m)
+    return ok, rect
+
+
+def _spin(low: float, high: float, decimals: int, suffix: str, step: float) -> QDoubleSpinBox:
+    box = QDoubleSpinBox()
+    box.setRange(low, high)
+    box.setDecimals(decimals)
+    box.setSuffix(suffix)
+    box.setSingleStep(step)
+    box.setKeyboardTracking(True)
+    box.setAccelerated(True)
+    box.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Fixed)
+    return box
+
+
+def _combo(names: dict[str, str], keys: tuple[str, ...]) -> QComboBox:
+    box = QComboBox()
+    for key in keys:
+        box.addItem(names.get(key, key), key)
+    return box
+
+
+class ParametersTab(QWidget):
+    """Signals:
+    parameters_changed(TrialParameters | None, problem): after every edit (debounced);
+        None with the reason when the values are refused or cannot be reached.
+    camera_changed(camera source or None): int index or file path; None without camera.
+    backend_changed(BackendChoice).
+    """
+
+    parameters_changed = Signal(object, str)
+    camera_changed = Signal(object)
+    backend_changed = Signal(object)
+
+    def __init__(self, robot: RobotModel | None = None, parent=None) -> None:
+        super().__init__(parent)
+        self.robot = robot or RobotModel()
+        self._check: TrialCheck | None = None
+        self._parameters: TrialParameters | None = None
+        self._error: CoreError | None = None
+        self._problem = ""
+        self._loading = False
+        self._debounce = QTimer(self)
+        self._debounce.setSingleShot(True)
+        self._debounce.setInterval(DEBOUNCE_MS)
+        self._debounce.timeout.connect(self.refresh)
+
+        self._build_fields()
+        self._build_preview()
+        form = QWidget()
+        column = QVBoxLayout(form)
+        for group in (self._video_group, self._exercise_group, self._patient_group,
+                      self._control_group, self._backend_group):
+            column.addWidget(group)
+        column.addStretch(1)
+        scroll = QScrollArea()
+        scroll.setWidgetResizable(True)
+        scroll.setWidget(form)
+        scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+        scroll.setMinimumWidth(460)
+
+        right = QVBoxLayout()
+        right.addWidget(theme.set_role(QLabel("What can be reached"), "heading"))
+        right.addWidget(self.preview, 1)
+        right.addWidget(self.legend)
+        right.addWidget(self.summary)
+        right.addWidget(self.status)
+        layout = QHBoxLayout(self)
+        layout.addWidget(scroll, 5)
+        layout.addLayout(right, 6)
+
+        self.set_parameters(TrialParameters())
+        self._connect_edits()
+        self._camera_edited()
+        self._backend_edited()
+
+    # -- fields -------------------------------------------------------------------
+    def _build_fields(self) -> None:
+        self.errors: dict[str, QLabel] = {}
+
+        self.with_camera = QRadioButton("With camera")
+        self.without_camera = QRadioButton("Without camera")
+        self.without_camera.setChecked(True)
+        self._camera_mode = QButtonGroup(self)
+        self._camera_mode.addButton(self.with_camera)
+        self._camera_mode.addButton(self.without_camera)
+        self.camera_source_edit = QLineEdit("0")
+        self.camera_source_edit.setPlaceholderText("0 for the first camera, or a video file")
+        self.camera_source_edit.setAccessibleName("Camera number or video file")
+        self._video_group = QGroupBox("Pose estimation")
+        form = self._form(self._video_group)
+        modes = QHBoxLayout()
+        modes.addWidget(self.with_camera)
+        modes.addWidget(self.without_camera)
+        modes.addStretch(1)
+        form.addRow(modes)
+        self._add(form, "Camera", self.camera_source_edit, "camera")
+        self.camera_hint = theme.set_role(QLabel(
+            "Without a camera the joint angles come from the shoulder position below: "
+            "the shoulder must stay still."), "caption")
+        self.camera_hint.setWordWrap(True)
+        form.addRow(self.camera_hint)
+
+        pos_lo, pos_hi = (v * CM for v in POSITION_RANGE_M)
+        self.shape = _combo(SHAPE_NAMES, SHAPES)
+        self.radius = _spin(RADIUS_RANGE_M[0] * CM, RADIUS_RANGE_M[1] * CM, 2, " cm", 0.5)
+        self.duration = _spin(*DURATION_RANGE_S, 1, " s", 0.5)
+        self.centre_x = _spin(pos_lo, pos_hi, 2, " cm", 1.0)
+        self.centre_y = _spin(pos_lo, pos_hi, 2, " cm", 1.0)
+        self.clockwise = QCheckBox("Clockwise")
+        self.n_targets = QSpinBox()
+        self.n_targets.setRange(*TARGETS_RANGE)
+        self.repetitions = QSpinBox()
+        self.repetitions.setRange(*REPETITIONS_RANGE)
+        self.timing = _combo(TIMING_NAMES, TIMINGS)
+        self._exercise_group = QGroupBox("Exercise")
+        form = self._form(self._exercise_group)
+        self._add(form, "Shape", self.shape, "shape")
+        self._add(form, "Radius", self.radius, "radius")
+        self._add(form, "Time per traversal", self.duration, "duration")
+        self._add(form, "Centre", self._pair(self.centre_x, self.centre_y), "centre")
+        self._add(form, "Direction", self.clockwise, "clockwise")
+        self._add(form, "Targets", self.n_targets, "n_targets")
+        self._add(form, "Repetitions", self.repetitions, "repetitions")
+        self._add(form, "Timing", self.timing, "timing")
+
+        self.body_mass = _spin(*BODY_MASS_RANGE_KG, 1, " kg", 1.0)
+        self.upper_arm = _spin(UPPER_ARM_RANGE_M[0] * CM, UPPER_ARM_RANGE_M[1] * CM, 2, " cm", 0.5)
+        self.forearm = _spin(FOREARM_RANGE_M[0] * CM, FOREARM_RANGE_M[1] * CM, 2, " cm", 0.5)
+        self.side = _combo(SIDE_NAMES, SIDES)
+        self.shoulder_x = _spin(pos_lo, pos_hi, 2, " cm", 1.0)
+        self.shoulder_y = _spin(pos_lo, pos_hi, 2, " cm", 1.0)
+        self._patient_group = QGroupBox("Patient")
+        form = self._form(self._patient_group)
+        self._add(form, "Body mass", self.body_mass, "body_mass")
+        self._add(form, "Upper arm", self.upper_arm, "upper_arm")
+        self._add(form, "Forearm", self.forearm, "forearm")
+        self._add(form, "Side trained", self.side, "side")
+        self._add(form, "Shoulder", self._pair(self.shoulder_x, self.shoulder_y), "shoulder")
+
+        tol_lo, tol_hi = (math.degrees(v) for v in TOLERANCE_RANGE_RAD)
+        self.controller = _combo(CONTROLLER_NAMES, CONTROLLERS)
+        self.tolerance = _spin(tol_lo, tol_hi, 1, "°", 1.0)
+        self.assistance = QSpinBox()
+        self.assistance.setRange(0, 100)
+        self.assistance.setSuffix(" %")
+        self.assistance.setSingleStep(5)
+        self._control_group = QGroupBox("Control")
+        form = self._form(self._control_group)
+        self._add(form, "Controller", self.controller, "controller")
+        self._add(form, "Tolerance angle", self.tolerance, "tolerance")
+        self._add(form, "Assistance", self.assistance, "assistance")
+
+        self.simulator = QRadioButton("Simulator")
+        self.hardware = QRadioButton("Robot hardware")
+        self.simulator.setChecked(True)
+        self._backend_mode = QButtonGroup(self)
+        self._backend_mode.addButton(self.simulator)
+        self._backend_mode.addButton(self.hardware)
+        self.patient_kind = _combo(PATIENT_NAMES, PATIENT_KINDS)
+        self.settings_path = QLineEdit()
+        self.settings_path.setPlaceholderText("hardware settings file (.toml)")
+        self.settings_path.setAccessibleName("Hardware settings file")
+        self.browse = QPushButton("Choose…")
+        self.browse.clicked.connect(self._choose_settings)
+        path_row = QHBoxLayout()
+        path_row.setContentsMargins(0, 0, 0, 0)
+        path_row.addWidget(self.settings_path, 1)
+        path_row.addWidget(self.browse)
+        path_box = QWidget()
+        path_box.setLayout(path_row)
+        self._backend_group = QGroupBox("Robot")
+        form = self._form(self._backend_group)
+        modes = QHBoxLayout()
+        modes.addWidget(self.simulator)
+        modes.addWidget(self.hardware)
+        modes.addStretch(1)
+        form.addRow(modes)
+        self._add(form, "Virtual patient", self.patient_kind, "patient_kind")
+        self._add(form, "Settings file", path_box, "settings_path")
+
+    def _form(self, group: QGroupBox) -> QFormLayout:
+        form = QFormLayout(group)
+        form.setFieldGrowthPolicy(QFormLayout.FieldGrowthPolicy.AllNonFixedFieldsGrow)
+        form.setRowWrapPolicy(QFormLayout.RowWrapPolicy.DontWrapRows)
+        return form
+
+    def _pair(self, x: QDoubleSpinBox, y: QDoubleSpinBox) -> QWidget:
+        box = QWidget()
+        row = QHBoxLayout(box)
+        row.setContentsMargins(0, 0, 0, 0)
+        for name, spin in (("x", x), ("y", y)):
+            row.addWidget(QLabel(name))
+            row.addWidget(spin, 1)
+        return box
+
+    def _add(self, form: QFormLayout, label: str, field: QWidget, key: str) -> None:
+        error = theme.set_role(QLabel(""), "problem")
+        error.setWordWrap(True)
+        error.hide()
+        error.setAccessibleName(f"{label}: problem")
+        self.errors[key] = error
+        holder = QWidget()
+        column = QVBoxLayout(holder)
+        column.setContentsMargins(0, 0, 0, 0)
+        column.setSpacing(2)
+        column.addWidget(field)
+        column.addWidget(error)
+        form.addRow(label, holder)
+        field.setAccessibleName(field.accessibleName() or label)
+
+    def _connect_edits(self) -> None:
+        for spin in (self.radius, self.duration, self.centre_x, self.centre_y, self.body_mass,
+                     self.upper_arm, self.forearm, self.shoulder_x, self.shoulder_y,
+                     self.tolerance, self.n_targets, self.repetitions, self.assistance):
+            spin.valueChanged.connect(self._edited)
+        for combo in (self.shape, self.timing, self.side, self.controller):
+            combo.currentIndexChanged.connect(self._edited)
+        self.clockwise.toggled.connect(self._edited)
+        self.with_camera.toggled.connect(self._camera_edited)
+        self.camera_source_edit.textChanged.connect(self._camera_edited)
+        self.simulator.toggled.connect(self._backend_edited)
+        self.patient_kind.currentIndexChanged.connect(self._backend_edited)
+        self.settings_path.textChanged.connect(self._backend_edited)
+
+    # -- preview ------------------------------------------------------------------
+    def _build_preview(self) -> None:
+        self.preview = plots.make_plot("x (cm)", "y (cm)")
+        item = self.preview.getPlotItem()
+        item.setAspectLocked(True)
+        # The plot works in cm, like the fields.
+        mask, rect = robot_workspace(self.robot)
+        self.workspace = pg.ImageItem(mask.astype(np.uint8))
+        # Translucent, so the grid behind it still shows.
+        self.workspace.setLookupTable(np.array([[255, 255, 255, 0], [196, 202, 210, 130]],
+                                               dtype=np.uint8))
+        self.workspace.setRect(QRectF(rect.x() * CM, rect.y() * CM, rect.width() * CM,
+                                      rect.height() * CM))
+        self.workspace.setZValue(-10)
+        item.addItem(self.workspace, ignoreBounds=True)
+        self.reach_far = plots.curve(item, theme.BLUISH_GREEN, dashed=True, xy=True)
+        self.reach_near = plots.curve(item, theme.BLUISH_GREEN, dashed=True, xy=True)
+        self.path_ok = plots.curve(item, theme.WITHIN, gaps=True, xy=True)
+        self.path_out = plots.curve(item, theme.OUTSIDE, dashed=True, gaps=True, xy=True)
+        self.path_bad = pg.ScatterPlotItem(symbol="x", size=12, pen=theme.pen(theme.OUTSIDE),
+                                           brush=pg.mkBrush(theme.OUTSIDE))
+        item.addItem(self.path_bad)
+        self.start = pg.ScatterPlotItem(symbol="t1", size=14, pen=theme.pen(theme.BLACK),
+                                        brush=pg.mkBrush(theme.BLUE))
+        item.addItem(self.start)
+        self.shoulder_mark = pg.ScatterPlotItem(symbol="o", size=14, pen=theme.pen(theme.BLACK),
+                                                brush=pg.mkBrush(theme.ORANGE))
+        item.addItem(self.shoulder_mark)
+        self.motors_mark = pg.ScatterPlotItem([0.0], [0.0], symbol="s", size=14,
+                                              pen=theme.pen(theme.BLACK),
+                                              brush=pg.mkBrush(theme.BLACK))
+        item.addItem(self.motors_mark)
+        self.legend = theme.set_role(QLabel(
+            f"<span style='color:#8C9096'>■</span> robot can reach &nbsp; "
+            f"<span style='color:{theme.BLUISH_GREEN}'>- - -</span> arm reaches comfortably "
+            f"&nbsp; <span style='color:{theme.WITHIN}'>——</span> path &nbsp; "
+            f"<span style='color:{theme.OUTSIDE}'>✕</span> cannot be reached &nbsp; "
+            f"<span style='color:{theme.ORANGE}'>●</span> shoulder &nbsp; ■ robot motors "
+            f"&nbsp; <span style='color:{theme.BLUE}'>▲</span> start"), "caption")
+        self.legend.setWordWrap(True)
+        self.summary = theme.set_role(QLabel(""), "caption")
+        self.summary.setWordWrap(True)
+        self.status = QLabel("")
+        self.status.setWordWrap(True)
+
+    def set_flip(self, flip_x: bool, flip_y: bool) -> None:
+        """Mirror the preview like the trajectory tab (display only)."""
+        item = self.preview.getPlotItem()
+        item.invertX(flip_x)
+        item.invertY(flip_y)
+
+    def _draw(self, check: TrialCheck | None, values: dict) -> None:
+        sx, sy = (v * CM for v in values["shoulder_m"])
+        self.shoulder_mark.setData([sx], [sy])
+        if check is None:
+            for line in (self.path_ok, self.path_out, self.reach_far, self.reach_near):
+                line.setData([], [])
+            self.path_bad.setData([], [])
+            self.start.setData([], [])
+            return
+        arm = check.arm
+        angles = np.linspace(0.0, 2.0 * math.pi, 181)
+        for line, flexion in ((self.reach_far, ELBOW_FLEXION_RANGE_RAD[0]),
+                              (self.reach_near, ELBOW_FLEXION_RANGE_RAD[1])):
+            r = arm.reach_at_elbow_flexion(flexion) * CM
+            line.setData(sx + r * np.cos(angles), sy + r * np.sin(angles))
+        points = check.points_m * CM
+        ok = check.reachable
+        # Each line also draws the point after it changes, so the two meet.
+        inside, outside = plots.split_by_mask(points, np.repeat(ok[:, None], 2, axis=1))
+        self.path_ok.setData(inside[:, 0], inside[:, 1])
+        self.path_out.setData(outside[:, 0], outside[:, 1])
+        # A cross every centimetre or so: at the path's 2 mm spacing they would merge.
+        bad = np.flatnonzero(~ok)[::UNREACHABLE_MARK_EVERY]
+        self.path_bad.setData(points[bad, 0], points[bad, 1])
+        self.start.setData([points[0, 0]], [points[0, 1]])
+        # Frame the exercise, the shoulder and the robot's base; the reach circles may
+        # run off the edge, the exercise must not.
+        box = np.vstack((points, [[sx, sy], [0.0, 0.0]]))
+        low, high = box.min(axis=0) - PREVIEW_MARGIN_CM, box.max(axis=0) + PREVIEW_MARGIN_CM
+        self.preview.getPlotItem().setRange(xRange=(low[0], high[0]), yRange=(low[1], high[1]),
+                                            padding=0.0)
+
+    # -- values -------------------------------------------------------------------
+    def _values(self) -> dict:
+        def metres(box: QDoubleSpinBox) -> float:
+            # Rounded to the field's resolution, so 30.48 cm is 0.3048 m and not
+            # 0.30479999999999996 m: equal parameters must compare equal.
+            return round(box.value() / CM, box.decimals() + 2)
+
+        return {
+            "shape": self.shape.currentData(),
+            "centre_m": (metres(self.centre_x), metres(self.centre_y)),
+            "radius_m": metres(self.radius),
+            "duration_s": self.duration.value(),
+            "repetitions": self.repetitions.value(),
+            "timing": self.timing.currentData(),
+            "clockwise": self.clockwise.isChecked(),
+            "n_targets": self.n_targets.value(),
+            "shoulder_m": (metres(self.shoulder_x), metres(self.shoulder_y)),
+            "body_mass_kg": self.body_mass.value(),
+            "upper_arm_m": metres(self.upper_arm),
+            "forearm_m": metres(self.forearm),
+            "side": self.side.currentData(),
+            "tolerance_rad": math.radians(self.tolerance.value()),
+            "controller": self.controller.currentData(),
+            "assistance_level": self.assistance.value() / 100.0,
+        }
+
+    def set_parameters(self, parameters: TrialParameters) -> None:
+        """Show these parameters (the last trial's, a patient's); checks them at once."""
+        self._loading = True
+        try:
+            self.shape.setCurrentIndex(self.shape.findData(parameters.shape))
+            self.centre_x.setValue(parameters.centre_m[0] * CM)
+            self.centre_y.setValue(parameters.centre_m[1] * CM)
+            self.radius.setValue(parameters.radius_m * CM)
+            self.duration.setValue(parameters.duration_s)
+            self.repetitions.setValue(parameters.repetitions)
+            self.timing.setCurrentIndex(self.timing.findData(parameters.timing))
+            self.clockwise.setChecked(parameters.clockwise)
+            self.n_targets.setValue(parameters.n_targets)
+            self.shoulder_x.setValue(parameters.shoulder_m[0] * CM)
+            self.shoulder_y.setValue(parameters.shoulder_m[1] * CM)
+            self.body_mass.setValue(parameters.body_mass_kg)
+            self.upper_arm.setValue(parameters.upper_arm_m * CM)
+            self.forearm.setValue(parameters.forearm_m * CM)
+            self.side.setCurrentIndex(self.side.findData(parameters.side))
+            self.tolerance.setValue(math.degrees(parameters.tolerance_rad))
+            self.controller.setCurrentIndex(self.controller.findData(parameters.controller))
+            self.assistance.setValue(round(parameters.assistance_level * 100))
+        finally:
+            self._loading = False
+        self.refresh()
+
+    def apply_patient(self, patient) -> None:
+        """Take a registered patient's measurements (app.registry.Patient)."""
+        current = self._parameters or self._lenient()
+        self.set_parameters(current.replace(**patient.trial_overrides()))
+
+    def _lenient(self) -> TrialParameters:
+        try:
+            return TrialParameters(**self._values())
+        except CoreError:
+            return TrialParameters()
+
+    def parameters(self) -> TrialParameters:
+        """The validated parameters; raises ParameterError or UnreachableError with the
+        reason when they are refused."""
+        self.refresh()
+        if self._parameters is None:
+            raise self._error
+        return self._parameters
+
+    def problem(self) -> str:
+        return self._problem
+
+    def check(self) -> TrialCheck | None:
+        return self._check
+
+    def _edited(self) -> None:
+        if self._loading:
+            return
+        self._enable_for_shape()
+        self._debounce.start()
+
+    def _enable_for_shape(self) -> None:
+        shape = self.shape.currentData()
+        self.n_targets.setEnabled(shape == "targets")
+        self.clockwise.setEnabled(shape in ("d", "circle"))
+
+    def refresh(self) -> None:
+        """Validate and check the current values now, redraw, and emit the outcome."""
+        self._debounce.stop()
+        self._enable_for_shape()
+        values = self._values()
+        for label in self.errors.values():
+            label.hide()
+        self._check = None
+        self._parameters = None
+        self._error: CoreError | None = None
+        try:
+            parameters = TrialParameters(**values)
+        except ParameterError as exc:
+            self._error = exc
+            self._show_error(_field_key(exc.field), str(exc))
+            self._problem = str(exc)
+        else:
+            check = check_trial(parameters, self.robot)
+            self._check = check
+            for key, message in _problem_fields(check):
+                self._show_error(key, message)
+            if check.ok:
+                self._parameters = parameters
+                self._problem = ""
+            else:
+                self._problem = check.problems[0]
+                self._error = UnreachableError(self._problem)
+        self._draw(self._check, values)
+        self._show_summary()
+        self.parameters_changed.emit(self._parameters, self._problem)
+
+    def _show_error(self, key: str, message: str) -> None:
+        label = self.errors.get(key) or self.errors["shape"]
+        text = f"{theme.PROBLEM_SIGN} {message}"
+        label.setText(text if label.isHidden() else f"{label.text()}\n{text}")
+        label.show()
+
+    def _show_summary(self) -> None:
+        check = self._check
+        if check is None:
+            self.summary.setText("")
+        else:
+            text = (f"Path {check.path_length_m * CM:.0f} cm per traversal, fastest "
+                    f"{check.peak_speed_m_s * CM:.0f} cm/s.")
+            if check.reachable.any():
+                sh = [math.degrees(v) for v in check.range_of(check.isb_angles_rad[:, 0])]
+                el = [math.degrees(v) for v in check.range_of(check.isb_angles_rad[:, 1])]
+                text += (f" The shoulder will move {sh[0]:.0f}° to {sh[1]:.0f}°, the elbow "
+                         f"{el[0]:.0f}° to {el[1]:.0f}° (ISB).")
+            self.summary.setText(text)
+        if self._parameters is not None:
+            self.status.setText("Ready: every point of the path can be reached.")
+            theme.set_role(self.status, "ok")
+        else:
+            self.status.setText(f"{theme.PROBLEM_SIGN} Not ready: {self._problem}")
+            theme.set_role(self.status, "problem")
+        self.status.style().unpolish(self.status)
+        self.status.style().polish(self.status)
+
+    # -- camera and backend ----------------------------------------------------------
+    def camera_source(self) -> int | str | None:
+        """The camera number or video file in camera mode; None without camera."""
+        if not self.with_camera.isChecked():
+            return None
+        text = self.camera_source_edit.text().strip()
+        if text.isdigit():
+            return int(text)
+        return text or None
+
+    def _camera_edited(self) -> None:
+        camera = self.with_camera.isChecked()
+        self.camera_source_edit.setEnabled(camera)
+        self.camera_hint.setText(
+            "The camera films the arm; its video is saved beside the trial." if camera else
+            "Without a camera the joint angles come from the shoulder position below: "
+            "the shoulder must stay still.")
+        error = self.errors["camera"]
+        if camera and self.camera_source() is None:
+            error.setText(f"{theme.PROBLEM_SIGN} Give the camera's number (0 for the first "
+                          "camera) or a video file.")
+            error.show()
+        else:
+            error.hide()
+        self.camera_changed.emit(self.camera_source())
+
+    def backend(self) -> BackendChoice:
+        if self.simulator.isChecked():
+            return BackendChoice(SIMULATOR, patient_kind=self.patient_kind.currentData())
+        text = self.settings_path.text().strip()
+        return BackendChoice(HARDWARE, settings_path=Path(text) if text else None)
+
+    def backend_problem(self) -> str:
+        choice = self.backend()
+        if choice.name == HARDWARE and choice.settings_path is None:
+            return "Choose the robot's hardware settings file."
+        return ""
+
+    def _backend_edited(self) -> None:
+        simulator = self.simulator.isChecked()
+        self.patient_kind.setEnabled(simulator)
+        self.settings_path.setEnabled(not simulator)
+        self.browse.setEnabled(not simulator)
+        problem = self.backend_problem()
+        error = self.errors["settings_path"]
+        error.setText(f"{theme.PROBLEM_SIGN} {problem}")
+        error.setVisible(bool(problem))
+        self.backend_changed.emit(self.backend())
+
+    def _choose_settings(self) -> None:
+        path, _ = QFileDialog.getOpenFileName(self, "Hardware settings file", "",
+                                              "Settings (*.toml);;All files (*)")
+        if path:
+            self.settings_path.setText(path)
+
+
+def _field_key(field: str) -> str:
+    """A TrialParameters field (as ParameterError names it) to the row showing it."""
+    name = field.split("[")[0]
+    return {
+        "centre_m": "centre", "shoulder_m": "shoulder", "radius_m": "radius",
+        "duration_s": "duration", "body_mass_kg": "body_mass", "upper_arm_m": "upper_arm",
+        "forearm_m": "forearm", "tolerance_rad": "tolerance", "assistance_level": "assistance",
+    }.get(name, name)
+
+
+def _problem_fields(check: TrialCheck) -> list[tuple[str, str]]:
+    """Each of check_trial's problems with the row(s) it belongs under. check_trial lists
+    the robot's reach first, then the arm's, then the speed."""
+    problems = list(check.problems)
+    placed = []
+    if problems and not check.robot_ok.all():
+        placed.append(("centre", problems.pop(0)))
+    if problems and not check.arm_ok.all():
+        message = problems.pop(0)
+        placed += [("centre", message), ("shoulder", message)]
+    if problems and check.peak_speed_m_s > MAX_PATH_SPEED_M_S:
+        placed.append(("duration", problems.pop(0)))
+    placed += [("shape", message) for message in problems]
+    return placed

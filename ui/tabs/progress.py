@@ -1,0 +1,212 @@
+"""The Progress tab: every figure of every trial of one patient, as a table and as a plot
+of one chosen figure over the trials.
+
+A figure only compares between trials of the same exercise (a larger D makes the
+position error larger while the patient improves), so the plot groups the points
+by parameter set (`app.progress`): one colour, one symbol and one joining line
+per set, named in the legend. The registry query runs off the GUI thread.
+"""
+
+from __future__ import annotations
+
+import pyqtgraph as pg
+from PySide6.QtCore import Qt, Signal
+from PySide6.QtWidgets import (
+    QComboBox,
+    QHBoxLayout,
+    QHeaderView,
+    QLabel,
+    QSplitter,
+    QTableWidget,
+    QTableWidgetItem,
+    QVBoxLayout,
+    QWidget,
+)
+
+from app.metricstable import ROWS
+from app.progress import Progress, progress
+from app.registry import Registry
+from ui import plots, theme
+
+DEFAULT_METRIC = "directional_performance_pct"
+MAX_LABELLED_TICKS = 30
+STATUS_WORDS = {"complete": "complete", "stopped_early": "stopped early",
+                "faulted": "safety stop", "recording_lost": "recording lost",
+                "recording": "recording"}
+
+
+class ProgressTab(QWidget):
+    """Signals: progress_loaded(Progress), progress_failed(message)."""
+
+    progress_loaded = Signal(object)
+    progress_failed = Signal(str)
+
+    def __init__(self, registry: Registry | None = None, parent=None) -> None:
+        super().__init__(parent)
+        self.registry = registry
+        self._code: str | None = None
+        self._progress: Progress | None = None
+        self.background = plots.Background(self)
+        self.background.done.connect(self._loaded)
+        self.background.failed.connect(self._failed)
+
+        self.heading = theme.set_role(QLabel("Progress"), "heading")
+        self.message = theme.set_role(QLabel("Choose a patient on the Registration tab."),
+                                      "caption")
+        self.message.setWordWrap(True)
+        self.metric_choice = QComboBox()
+        self.metric_choice.setAccessibleName("Figure to plot")
+        self.metric_choice.currentIndexChanged.connect(self._draw_plot)
+        top = QHBoxLayout()
+        top.addWidget(self.heading)
+        top.addStretch(1)
+        top.addWidget(QLabel("Figure"))
+        top.addWidget(self.metric_choice)
+
+        self.plot = plots.make_plot("trial (session.trial)", "")
+        item = self.plot.getPlotItem()
+        self.legend = item.addLegend(offset=(10, 10),
+                                     labelTextSize=f"{theme.point_size('caption')}pt")
+        self.legend.setBrush(pg.mkBrush(255, 255, 255, 220))
+        self.table = QTableWidget()
+        self.table.setEditTriggers(QTableWidget.EditTrigger.NoEditTriggers)
+        self.table.verticalHeader().hide()
+        self.table.setAlternatingRowColors(True)
+        splitter = QSplitter(Qt.Orientation.Vertical)
+        splitter.addWidget(self.plot)
+        splitter.addWidget(self.table)
+        splitter.setSizes([500, 300])
+        layout = QVBoxLayout(self)
+        layout.addLayout(top)
+        layout.addWidget(self.message)
+        layout.addWidget(splitter, 1)
+
+    # -- public -------------------------------------------------------------------
+    @property
+    def progress(self) -> Progress | None:
+        return self._progress
+
+    def set_registry(self, registry: Registry) -> None:
+        self.registry = registry
+
+    def set_patient(self, code: str | None) -> None:
+        """Show this patient's progress (None: nobody chosen). Call again after a trial."""
+        self._code = code
+        if code is None or self.registry is None:
+            self._progress = None
+            self._clear()
+            self.message.setText("Choose a patient on the Registration tab.")
+            return
+        self.message.setText("Loading…")
+        registry = self.registry
+        self.background.submit(code, lambda: progress(registry, code))
+
+    def refresh(self) -> None:
+        self.set_patient(self._code)
+
+    # -- results --------------------------------------------------------------------
+    def _loaded(self, code, result: Progress) -> None:
+        if code != self._code:
+            return
+        self._progress = result
+        self.heading.setText(f"Progress of {code}")
+        n = len(result)
+        sets = len(result.parameter_sets)
+        self.message.setText(
+            "No trials yet." if n == 0 else
+            f"{n} trial{'s' if n != 1 else ''} in {len(set(result.session.tolist()))} "
+            f"session{'s' if len(set(result.session.tolist())) != 1 else ''}, "
+            f"{sets} exercise setting{'s' if sets != 1 else ''}. Compare points of the same "
+            "colour and shape: they are the same exercise.")
+        self._fill_metrics(result)
+        self._fill_table(result)
+        self._draw_plot()
+        self.progress_loaded.emit(result)
+
+    def _failed(self, code, message: str) -> None:
+        if code != self._code:
+            return
+        self._progress = None
+        self._clear()
+        self.message.setText(f"{theme.PROBLEM_SIGN} {message}")
+        self.progress_failed.emit(message)
+
+    def _clear(self) -> None:
+        self.table.clear()
+        self.table.setRowCount(0)
+        self.table.setColumnCount(0)
+        self.plot.getPlotItem().clear()
+        self.legend.clear()
+        self.metric_choice.blockSignals(True)
+        self.metric_choice.clear()
+        self.metric_choice.blockSignals(False)
+
+    def _rows(self, result: Progress):
+        return [row for row in ROWS if row.key in result.values]
+
+    def _fill_metrics(self, result: Progress) -> None:
+        current = self.metric_choice.currentData() or DEFAULT_METRIC
+        self.metric_choice.blockSignals(True)
+        self.metric_choice.clear()
+        for row in self._rows(result):
+            label = f"{row.label} ({row.unit})" if row.unit else row.label
+            self.metric_choice.addItem(label, row.key)
+        index = self.metric_choice.findData(current)
+        self.metric_choice.setCurrentIndex(max(index, 0))
+        self.metric_choice.blockSignals(False)
+
+    def _fill_table(self, result: Progress) -> None:
+        rows = self._rows(result)
+        heads = ["Session", "Trial", "Date", "Status", "Exercise",
+                 *(f"{r.label} ({r.unit})" if r.unit else r.label for r in rows)]
+        self.table.clear()
+        self.table.setColumnCount(len(heads))
+        self.table.setRowCount(len(result))
+        self.table.setHorizontalHeaderLabels(heads)
+        for i, summary in enumerate(result.trials):
+            status = STATUS_WORDS.get(summary.status, summary.status)
+            if result.file_states[i] not in ("ok", "unchecked"):
+                status += f" (file {result.file_states[i]})"
+            cells = [str(summary.session_number), str(summary.number),
+                     summary.session_date.isoformat(), status,
+                     result.parameter_sets[int(result.parameter_set_index[i])].label()]
+            cells += [plots.format_number(float(result.values[r.key][i]) * r.scale, 2)
+                      for r in rows]
+            for c, text in enumerate(cells):
+                cell = QTableWidgetItem(text)
+                if c >= 5 or c < 2:
+                    cell.setTextAlignment(Qt.AlignmentFlag.AlignRight
+                                          | Qt.AlignmentFlag.AlignVCenter)
+                self.table.setItem(i, c, cell)
+        self.table.horizontalHeader().setSectionResizeMode(
+            QHeaderView.ResizeMode.ResizeToContents)
+
+    def _draw_plot(self) -> None:
+        result = self._progress
+        item = self.plot.getPlotItem()
+        item.clear()
+        self.legend.clear()
+        key = self.metric_choice.currentData()
+        if result is None or key is None:
+            return
+        row = next(r for r in ROWS if r.key == key)
+        item.setLabel("left", f"{row.label} ({row.unit})" if row.unit else row.label)
+        theme.style_plot(item)
+        for series in result.series(key):
+            i = series.parameter_set_index
+            colour = theme.SERIES[i % len(theme.SERIES)]
+            symbol = theme.SYMBOLS[i % len(theme.SYMBOLS)]
+            line = pg.PlotDataItem(
+                series.trial_index + 1, series.values * row.scale,
+                pen=theme.pen(colour), symbol=symbol, symbolSize=11,
+                symbolPen=theme.pen(colour), symbolBrush=pg.mkBrush(colour),
+                name=series.parameter_set.label())
+            item.addItem(line)
+        axis = item.getAxis("bottom")
+        if len(result) <= MAX_LABELLED_TICKS:
+            axis.setTicks([[(int(k) + 1, f"{s}.{t}") for k, s, t in
+                            zip(result.trial_index, result.session, result.trial, strict=True)]])
+        else:
+            axis.setTicks(None)
+        if len(result):
+            item.setXRange(0.5, len(result) + 0.5, padding=0)

@@ -1,0 +1,386 @@
+"""The Registration tab (thesis Fig. A.2): who the patient is, and which session and
+trial this is.
+
+Patients are found in the registry by a fragment of their name or their code, or
+registered new with the measurements the arm model needs. The session and trial
+numbers are filled in from the registry (the next trial of today's session, else
+trial 1 of a new session) and stay editable; a trial number already used is
+refused with the next free one named. Names stay in the registry: only the
+pseudonymous code leaves this tab.
+"""
+
+from __future__ import annotations
+
+import datetime
+
+from PySide6.QtCore import Qt, QTimer, Signal
+from PySide6.QtWidgets import (
+    QCheckBox,
+    QComboBox,
+    QDoubleSpinBox,
+    QFormLayout,
+    QGroupBox,
+    QHBoxLayout,
+    QLabel,
+    QLineEdit,
+    QListWidget,
+    QListWidgetItem,
+    QPushButton,
+    QSpinBox,
+    QVBoxLayout,
+    QWidget,
+)
+
+from app.errors import RegistryError, SessionNotFound
+from app.registry import BIRTH_YEAR_MIN, Patient, Registration, Registry
+from core.arm import BODY_MASS_RANGE_KG, FOREARM_RANGE_M, UPPER_ARM_RANGE_M
+from core.trial import POSITION_RANGE_M
+from ui import theme
+
+CM = 100.0
+NOT_MEASURED = "not measured"
+SEARCH_DELAY_MS = 150
+MAX_NUMBER = 999_999
+
+
+def _optional_spin(low: float, high: float, decimals: int, suffix: str,
+                   step: float) -> QDoubleSpinBox:
+    """A spin box whose lowest value reads 'not measured' (and means None)."""
+    box = QDoubleSpinBox()
+    box.setDecimals(decimals)
+    box.setRange(low - step, high)
+    box.setSingleStep(step)
+    box.setSuffix(suffix)
+    box.setSpecialValueText(NOT_MEASURED)
+    box.setValue(box.minimum())
+    return box
+
+
+def _optional_value(box: QDoubleSpinBox, scale: float = 1.0) -> float | None:
+    return None if box.value() == box.minimum() else box.value() / scale
+
+
+def describe(patient: Patient) -> str:
+    """One line for the list: name, code and what tells two namesakes apart."""
+    parts = [f"{patient.display_name} — {patient.code}"]
+    if patient.birth_year:
+        parts.append(f"born {patient.birth_year}")
+    if patient.side:
+        parts.append(f"{patient.side} arm")
+    return ", ".join(parts)
+
+
+class RegistrationTab(QWidget):
+    """Signals:
+    patient_selected(Patient): a patient was chosen (their measurements can fill the
+        Parameters tab: ParametersTab.apply_patient).
+    registered(Patient, app.registry.Registration): the therapist confirmed the patient
+        and the numbers for the next trial (begin_trial takes them at Start).
+    """
+
+    patient_selected = Signal(object)
+    registered = Signal(object, object)
+
+    def __init__(self, registry: Registry | None = None, parent=None) -> None:
+        super().__init__(parent)
+        self.registry = registry
+        self._patient: Patient | None = None
+        self._registration: Registration | None = None
+        self._search_timer = QTimer(self)
+        self._search_timer.setSingleShot(True)
+        self._search_timer.setInterval(SEARCH_DELAY_MS)
+        self._search_timer.timeout.connect(self.search)
+
+        # Find
+        self.search_field = QLineEdit()
+        self.search_field.setPlaceholderText("part of a name, or a code")
+        self.search_field.setAccessibleName("Find a patient")
+        self.search_field.setClearButtonEnabled(True)
+        self.search_field.textChanged.connect(lambda _text: self._search_timer.start())
+        self.results = QListWidget()
+        self.results.setAccessibleName("Patients found")
+        self.results.currentItemChanged.connect(self._picked)
+        self.found = theme.set_role(QLabel(""), "caption")
+        find = QGroupBox("Find a patient")
+        column = QVBoxLayout(find)
+        column.addWidget(self.search_field)
+        column.addWidget(self.results, 1)
+        column.addWidget(self.found)
+
+        # New patient
+        self.first_name = QLineEdit()
+        self.last_name = QLineEdit()
+        self.birth_year = QSpinBox()
+        self.birth_year.setRange(BIRTH_YEAR_MIN - 1, datetime.date.today().year)
+        self.birth_year.setSpecialValueText("not given")
+        self.birth_year.setValue(self.birth_year.minimum())
+        self.side = QComboBox()
+        for text, value in (("Right arm", "right"), ("Left arm", "left"), ("Not given", None)):
+            self.side.addItem(text, value)
+        self.body_mass = _optional_spin(*BODY_MASS_RANGE_KG, 1, " kg", 1.0)
+        self.upper_arm = _optional_spin(*(v * CM for v in UPPER_ARM_RANGE_M), 2, " cm", 0.5)
+        self.forearm = _optional_spin(*(v * CM for v in FOREARM_RANGE_M), 2, " cm", 0.5)
+        pos_lo, pos_hi = (v * CM for v in POSITION_RANGE_M)
+        self.shoulder_x = _optional_spin(pos_lo, pos_hi, 2, " cm", 1.0)
+        self.shoulder_y = _optional_spin(pos_lo, pos_hi, 2, " cm", 1.0)
+        self.same_name = QCheckBox("A different person with the same name")
+        self.same_name.hide()
+        self.create_button = QPushButton("Register new patient")
+        self.create_button.clicked.connect(self.create_patient)
+        self.create_problem = self._problem_label()
+        new = QGroupBox("New patient")
+        form = QFormLayout(new)
+        form.addRow("First name", self.first_name)
+        form.addRow("Last name", self.last_name)
+        form.addRow("Year of birth", self.birth_year)
+        form.addRow("Side trained", self.side)
+        form.addRow("Body mass", self.body_mass)
+        form.addRow("Upper arm", self.upper_arm)
+        form.addRow("Forearm", self.forearm)
+        shoulder = QHBoxLayout()
+        shoulder.addWidget(QLabel("x"))
+        shoulder.addWidget(self.shoulder_x, 1)
+        shoulder.addWidget(QLabel("y"))
+        shoulder.addWidget(self.shoulder_y, 1)
+        form.addRow("Shoulder", shoulder)
+        form.addRow(self.same_name)
+        form.addRow(self.create_button)
+        form.addRow(self.create_problem)
+
+        # This trial
+        self.patient_label = theme.set_role(QLabel("No patient chosen"), "lead")
+        self.patient_label.setWordWrap(True)
+        self.session = QSpinBox()
+        self.session.setRange(1, MAX_NUMBER)
+        self.session.setAccessibleName("Session number")
+        self.session.valueChanged.connect(self._session_edited)
+        self.session_note = theme.set_role(QLabel(""), "caption")
+        self.trial = QSpinBox()
+        self.trial.setRange(1, MAX_NUMBER)
+        self.trial.setAccessibleName("Trial number")
+        self.trial.valueChanged.connect(self._numbers_edited)
+        self.trial_problem = self._problem_label()
+        self.confirm = theme.set_role(QPushButton("Use this patient and these numbers"),
+                                      "primary")
+        self.confirm.clicked.connect(self.confirm_registration)
+        self.confirmed = theme.set_role(QLabel(""), "ok")
+        self.confirmed.setWordWrap(True)
+        trial_box = QGroupBox("This trial")
+        form = QFormLayout(trial_box)
+        form.addRow(self.patient_label)
+        form.addRow("Session", self.session)
+        form.addRow("", self.session_note)
+        form.addRow("Trial", self.trial)
+        form.addRow(self.trial_problem)
+        form.addRow(self.confirm)
+        form.addRow(self.confirmed)
+        note = theme.set_role(QLabel(
+            "Names stay in this computer's registry. Files and reports carry only the "
+            "patient's code."), "caption")
+        note.setWordWrap(True)
+        form.addRow(note)
+
+        right = QVBoxLayout()
+        right.addWidget(trial_box)
+        right.addWidget(new)
+        right.addStretch(1)
+        layout = QHBoxLayout(self)
+        layout.addWidget(find, 1)
+        layout.addLayout(right, 1)
+        self._enable_numbers(False)
+        if registry is not None:
+            self.search()
+
+    def _problem_label(self) -> QLabel:
+        label = theme.set_role(QLabel(""), "problem")
+        label.setWordWrap(True)
+        label.hide()
+        return label
+
+    # -- public -------------------------------------------------------------------
+    def set_registry(self, registry: Registry) -> None:
+        self.registry = registry
+        self.search()
+
+    def selected_patient(self) -> Patient | None:
+        return self._patient
+
+    def registration(self) -> Registration | None:
+        """The confirmed patient code and numbers, or None before confirmation."""
+        return self._registration
+
+    def refresh_numbers(self) -> None:
+        """Fill in the registry's numbers again (after a trial was registered)."""
+        if self._patient is None or self.registry is None:
+            return
+        suggestion = self.registry.suggest_registration(self._patient.code)
+        for box, value in ((self.session, suggestion.session_number),
+                           (self.trial, suggestion.trial_number)):
+            box.blockSignals(True)
+            box.setValue(value)
+            box.blockSignals(False)
+        self._session_edited()
+
+    def show_refusal(self, refusal: Exception | str) -> None:
+        """Show the registry's refusal of the numbers (e.g. DuplicateNumberError raised by
+        Registry.begin_trial at Start) under the trial number."""
+        self._registration = None
+        self.confirmed.setText("")
+        self._show(self.trial_problem, str(refusal))
+
+    # -- finding ------------------------------------------------------------------
+    def search(self) -> None:
+        self._search_timer.stop()
+        self.results.clear()
+        if self.registry is None:
+            self.found.setText("No registry is open.")
+            return
+        text = self.search_field.text()
+        try:
+            patients = self.registry.search_patients(text)
+        except RegistryError as exc:
+            self.found.setText(f"{theme.PROBLEM_SIGN} {exc}")
+            return
+        for patient in patients:
+            item = QListWidgetItem(describe(patient))
+            item.setData(Qt.ItemDataRole.UserRole, patient)
+            self.results.addItem(item)
+        self.found.setText(f"{len(patients)} patient{'s' if len(patients) != 1 else ''} found"
+                           if text.strip() else f"{len(patients)} registered")
+        if self._patient is not None:
+            self._select_in_list(self._patient.code)
+
+    def _select_in_list(self, code: str) -> None:
+        for row in range(self.results.count()):
+            item = self.results.item(row)
+            if item.data(Qt.ItemDataRole.UserRole).code == code:
+                self.results.setCurrentItem(item)
+                return
+
+    def _picked(self, item: QListWidgetItem | None, _previous=None) -> None:
+        if item is None:
+            return
+        patient = item.data(Qt.ItemDataRole.UserRole)
+        if self._patient is not None and patient.code == self._patient.code:
+            return
+        self.choose(patient)
+
+    def choose(self, patient: Patient) -> None:
+        """Make this patient the current one and fill in the numbers."""
+        self._patient = patient
+        self._registration = None
+        self.confirmed.setText("")
+        self.patient_label.setText(describe(patient))
+        self._enable_numbers(True)
+        self.refresh_numbers()
+        self.patient_selected.emit(patient)
+
+    # -- creating -------------------------------------------------------------------
+    def create_patient(self) -> Patient | None:
+        self.create_problem.hide()
+        if self.registry is None:
+            self._show(self.create_problem, "No registry is open.")
+            return None
+        first = self.first_name.text().strip() or None
+        last = self.last_name.text().strip() or None
+        if first is None and last is None:
+            self._show(self.create_problem, "Give the patient's first or last name. (A study "
+                       "that keeps no names can register by code from the command line.)")
+            return None
+        namesakes = self.registry.find_patients(first or "", last or "")
+        if namesakes and not self.same_name.isChecked():
+            self.same_name.show()
+            codes = "; ".join(describe(p) for p in namesakes)
+            self._show(self.create_problem,
+                       f"Already registered: {codes}. Choose them from the list, or tick "
+                       f"'{self.same_name.text()}' to register someone new.")
+            self.search_field.setText(" ".join(n for n in (first, last) if n))
+            self.search()
+            return None
+        shoulder = (_optional_value(self.shoulder_x, CM), _optional_value(self.shoulder_y, CM))
+        try:
+            patient = self.registry.create_patient(
+                first, last,
+                birth_year=(None if self.birth_year.value() == self.birth_year.minimum()
+                            else self.birth_year.value()),
+                side=self.side.currentData(),
+                body_mass_kg=_optional_value(self.body_mass),
+                upper_arm_m=_optional_value(self.upper_arm, CM),
+                forearm_m=_optional_value(self.forearm, CM),
+                shoulder_m=None if None in shoulder else shoulder,
+            )
+        except RegistryError as exc:
+            self._show(self.create_problem, str(exc))
+            return None
+        self._clear_new()
+        self.search_field.blockSignals(True)
+        self.search_field.setText(patient.code)
+        self.search_field.blockSignals(False)
+        self.choose(patient)
+        self.search()
+        return patient
+
+    def _clear_new(self) -> None:
+        for edit in (self.first_name, self.last_name):
+            edit.clear()
+        for box in (self.birth_year, self.body_mass, self.upper_arm, self.forearm,
+                    self.shoulder_x, self.shoulder_y):
+            box.setValue(box.minimum())
+        self.same_name.setChecked(False)
+        self.same_name.hide()
+        self.create_problem.hide()
+
+    # -- numbers --------------------------------------------------------------------
+    def _enable_numbers(self, on: bool) -> None:
+        for widget in (self.session, self.trial, self.confirm):
+            widget.setEnabled(on)
+
+    def _session_edited(self) -> None:
+        if self._patient is None or self.registry is None:
+            return
+        sessions = {s.number: s for s in self.registry.sessions(self._patient.code)}
+        session = sessions.get(self.session.value())
+        if session is None:
+            self.session_note.setText("a new session")
+        else:
+            self.session_note.setText(
+                f"continues the session of {session.date.isoformat()} "
+                f"({session.n_trials} trial{'s' if session.n_trials != 1 else ''} so far)")
+        self._numbers_edited()
+
+    def _numbers_edited(self) -> None:
+        self._registration = None
+        self.confirmed.setText("")
+        self.trial_problem.hide()
+
+    def confirm_registration(self) -> Registration | None:
+        """Check the numbers against the registry and, if free, emit `registered`."""
+        patient = self._patient
+        if patient is None or self.registry is None:
+            return None
+        code, session, trial = patient.code, self.session.value(), self.trial.value()
+        try:
+            used = {t.number: t for t in self.registry.trials(code, session)}
+        except SessionNotFound:
+            used = {}
+        except RegistryError as exc:
+            self.show_refusal(exc)
+            return None
+        if trial in used:
+            free = self.registry.next_trial_number(code, session)
+            started = used[trial].started_at.astimezone().strftime("%d %b %Y %H:%M")
+            self.show_refusal(
+                f"Patient {code} session {session} already has a trial {trial} (started "
+                f"{started}); use {free}, the next free number.")
+            return None
+        self.trial_problem.hide()
+        registration = Registration(code, session, trial, new_session=not used and not any(
+            s.number == session for s in self.registry.sessions(code)))
+        self._registration = registration
+        self.confirmed.setText(f"Next trial: {code}, session {session}, trial {trial}.")
+        self.registered.emit(patient, registration)
+        return registration
+
+    def _show(self, label: QLabel, message: str) -> None:
+        label.setText(f"{theme.PROBLEM_SIGN} {message}")
+        label.show()

@@ -1,0 +1,306 @@
+"""The Replay tab: open any past trial (from the patient's list or a file), then move
+through it with a slider or play it back; every other tab follows the cursor.
+
+Reading a trial file is disk work, so it happens off the GUI thread; the loaded
+trial arrives as a `TrialView` (view_loaded), and each move of the slider as a
+time in the trial (cursor_moved). The window hands both to the other tabs.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+from PySide6.QtCore import Qt, QTimer, Signal
+from PySide6.QtWidgets import (
+    QComboBox,
+    QFileDialog,
+    QFormLayout,
+    QGroupBox,
+    QHBoxLayout,
+    QLabel,
+    QListWidget,
+    QListWidgetItem,
+    QPushButton,
+    QSlider,
+    QVBoxLayout,
+    QWidget,
+)
+
+from app.registry import Registry, Trial
+from app.trialfile import read_trial
+from device.faults import Fault
+from device.pipeline import PHASE_APPROACH, PHASE_EXERCISE, PHASE_HOLD, PHASE_IDLE
+from ui import plots, theme
+from ui.trialview import TrialView
+
+PLAY_INTERVAL_MS = 40
+MOMENT_ROWS = (("phase", "Part of the trial"), ("position", "Hand position"),
+               ("force", "Push on the handle"), ("angles", "Shoulder, elbow angle (ISB)"),
+               ("torques", "Shoulder, elbow torque"), ("fault", "Safety"))
+PHASE_WORDS = {PHASE_IDLE: "robot not controlling", PHASE_APPROACH: "moving to the start",
+               PHASE_EXERCISE: "exercise", PHASE_HOLD: "holding at the end"}
+SPEEDS = (0.25, 0.5, 1.0, 2.0, 4.0)
+STATUS_WORDS = {"complete": "complete", "stopped_early": "stopped early",
+                "faulted": "safety stop", "recording_lost": "recording lost",
+                "recording": "not closed"}
+
+
+def load_view(path: Path) -> TrialView:
+    """Read a trial file into a finished view (runs off the GUI thread)."""
+    data = read_trial(path)
+    view = TrialView.from_trial(data)
+    code = data.subject.code if data.subject is not None else "unknown patient"
+    view.title = f"{code} · {path.name}"
+    return view
+
+
+class ReplayTab(QWidget):
+    """Signals: view_loaded(TrialView), cursor_moved(t in s), load_failed(message)."""
+
+    view_loaded = Signal(object)
+    cursor_moved = Signal(float)
+    load_failed = Signal(str)
+
+    def __init__(self, registry: Registry | None = None, parent=None) -> None:
+        super().__init__(parent)
+        self.registry = registry
+        self._code: str | None = None
+        self._view: TrialView | None = None
+        self._loading: Path | None = None
+        self.background = plots.Background(self)
+        self.background.done.connect(self._loaded)
+        self.background.failed.connect(self._failed)
+
+        self.trials = QListWidget()
+        self.trials.setAccessibleName("Trials of this patient")
+        self.trials.itemActivated.connect(self._open_item)
+        self.open_selected = theme.set_role(QPushButton("Open selected trial"), "primary")
+        self.open_selected.clicked.connect(self._open_current)
+        self.open_other = QPushButton("Open file…")
+        self.open_other.clicked.connect(self._choose_file)
+        self.list_heading = theme.set_role(QLabel("Trials"), "heading")
+        left = QVBoxLayout()
+        left.addWidget(self.list_heading)
+        left.addWidget(self.trials, 1)
+        buttons = QHBoxLayout()
+        buttons.addWidget(self.open_selected)
+        buttons.addWidget(self.open_other)
+        left.addLayout(buttons)
+
+        self.title = theme.set_role(QLabel("No trial open"), "heading")
+        self.title.setWordWrap(True)
+        self.info = theme.set_role(QLabel("Choose a trial on the left, or open a file."),
+                                   "caption")
+        self.info.setWordWrap(True)
+        self.slider = QSlider(Qt.Orientation.Horizontal)
+        self.slider.setAccessibleName("Moment in the trial")
+        self.slider.setEnabled(False)
+        self.slider.valueChanged.connect(self._slid)
+        self.time_label = theme.set_role(QLabel("–"), "lead")
+        self.play = QPushButton("Play")
+        self.play.setCheckable(True)
+        self.play.setEnabled(False)
+        self.play.toggled.connect(self._play_toggled)
+        self.speed = QComboBox()
+        for speed in SPEEDS:
+            self.speed.addItem(f"{speed:g}×", speed)
+        self.speed.setCurrentIndex(SPEEDS.index(1.0))
+        self.speed.setAccessibleName("Playback speed")
+        controls = QHBoxLayout()
+        controls.addWidget(self.play)
+        controls.addWidget(self.speed)
+        controls.addWidget(self.time_label, 1)
+        right = QVBoxLayout()
+        right.addWidget(self.title)
+        right.addWidget(self.info)
+        right.addSpacing(12)
+        right.addWidget(self.slider)
+        right.addLayout(controls)
+        right.addWidget(theme.set_role(QLabel(
+            "Move the slider, or press Play: every tab shows the trial at that moment."),
+            "caption"))
+        right.addSpacing(12)
+        moment = QGroupBox("At this moment")
+        form = QFormLayout(moment)
+        self.moment: dict[str, QLabel] = {}
+        for key, label in MOMENT_ROWS:
+            value = QLabel("–")
+            value.setWordWrap(True)
+            self.moment[key] = value
+            form.addRow(theme.set_role(QLabel(label), "caption"), value)
+        right.addWidget(moment)
+        right.addStretch(1)
+
+        layout = QHBoxLayout(self)
+        layout.addLayout(left, 2)
+        layout.addLayout(right, 3)
+
+        self.timer = QTimer(self)
+        self.timer.setInterval(PLAY_INTERVAL_MS)
+        self.timer.timeout.connect(self._advance)
+
+    # -- choosing a trial ------------------------------------------------------------
+    @property
+    def view(self) -> TrialView | None:
+        return self._view
+
+    def set_registry(self, registry: Registry) -> None:
+        self.registry = registry
+
+    def set_patient(self, code: str | None) -> None:
+        """List this patient's trials from the registry (None: clear the list)."""
+        self._code = code
+        self.trials.clear()
+        if code is None or self.registry is None:
+            self.list_heading.setText("Trials")
+            return
+        self.list_heading.setText(f"Trials of {code}")
+        for trial in reversed(self.registry.trials_for_patient(code)):
+            item = QListWidgetItem(_describe(trial))
+            item.setData(Qt.ItemDataRole.UserRole, trial.id)
+            self.trials.addItem(item)
+        if self.trials.count():
+            self.trials.setCurrentRow(0)
+
+    def open_file(self, path: str | Path) -> None:
+        """Load a trial file off the GUI thread; view_loaded or load_failed follows."""
+        path = Path(path)
+        self._loading = path
+        self.play.setChecked(False)
+        self.info.setText(f"Opening {path.name}…")
+        self.background.submit(path, load_view, path)
+
+    def _open_item(self, item: QListWidgetItem) -> None:
+        if self.registry is None:
+            return
+        trial = self.registry.trial(item.data(Qt.ItemDataRole.UserRole))
+        self.open_file(self.registry.trial_path(trial))
+
+    def _open_current(self) -> None:
+        item = self.trials.currentItem()
+        if item is not None:
+            self._open_item(item)
+
+    def _choose_file(self) -> None:
+        start = str(self.registry.data_dir.root) if self.registry is not None else ""
+        path, _ = QFileDialog.getOpenFileName(self, "Open a trial", start,
+                                              "Trial files (*.h5);;All files (*)")
+        if path:
+            self.open_file(path)
+
+    def _loaded(self, path, view: TrialView) -> None:
+        if path != self._loading:
+            return
+        self._loading = None
+        self._view = view
+        self.title.setText(view.title)
+        data_notes = "" if view.finished else " The file was not closed; showing what it holds."
+        self.info.setText(f"{view.duration_s:.1f} s, {view.n} samples.{data_notes}")
+        self.slider.blockSignals(True)
+        self.slider.setRange(0, max(view.n - 1, 0))
+        self.slider.setValue(0)
+        self.slider.setEnabled(view.n > 1)
+        self.slider.blockSignals(False)
+        self.play.setEnabled(view.n > 1)
+        view.cursor = float(view.time[0]) if view.n else None
+        self._show_time()
+        self.view_loaded.emit(view)
+
+    def _failed(self, path, message: str) -> None:
+        if path != self._loading:
+            return
+        self._loading = None
+        self.info.setText(f"{theme.PROBLEM_SIGN} {message}")
+        self.load_failed.emit(message)
+
+    # -- the cursor ------------------------------------------------------------------
+    def set_cursor(self, t: float) -> None:
+        """Move to time t (s) without emitting cursor_moved (the caller knows)."""
+        if self._view is None or self._view.n == 0:
+            return
+        self._view.cursor = t
+        self.slider.blockSignals(True)
+        self.slider.setValue(self._view.current_index)
+        self.slider.blockSignals(False)
+        self._show_time()
+
+    def _slid(self, index: int) -> None:
+        view = self._view
+        if view is None or view.n == 0:
+            return
+        t = float(view.time[min(index, view.n - 1)])
+        view.cursor = t
+        self._show_time()
+        self.cursor_moved.emit(t)
+
+    def _show_time(self) -> None:
+        view = self._view
+        if view is None or view.cursor is None:
+            self.time_label.setText("–")
+            for value in self.moment.values():
+                value.setText("–")
+            return
+        elapsed = view.cursor - float(view.time[0])
+        self.time_label.setText(f"{elapsed:.1f} s of {view.duration_s:.1f} s")
+        for key, text in _moment(view, view.current_index).items():
+            self.moment[key].setText(text)
+
+    def _play_toggled(self, on: bool) -> None:
+        self.play.setText("Pause" if on else "Play")
+        if on and self._view is not None:
+            if self.slider.value() >= self.slider.maximum():
+                self.slider.setValue(0)
+            self.timer.start()
+        else:
+            self.timer.stop()
+
+    def _advance(self) -> None:
+        view = self._view
+        if view is None or view.cursor is None:
+            self.play.setChecked(False)
+            return
+        step = PLAY_INTERVAL_MS / 1000.0 * self.speed.currentData()
+        target = view.cursor + step
+        if target >= float(view.time[-1]):
+            self.slider.setValue(self.slider.maximum())
+            self.play.setChecked(False)
+            return
+        self.slider.setValue(max(view.index_at(target), self.slider.value() + 1))
+
+
+def _moment(view: TrialView, i: int) -> dict[str, str]:
+    """What the recording says at sample i, in the units a therapist reads."""
+    phase = int(view.column("phase")[0, i])
+    x, y = view.column("position")[:, i] * 100.0
+    fx, fy = view.column("force")[:, i]
+    magnitude = math.hypot(fx, fy)
+    if phase != PHASE_EXERCISE:
+        aim = ""
+    elif view.within[i]:
+        aim = f", within {math.degrees(view.tolerance_rad):.0f}° of the path's direction"
+    else:
+        aim = ", not along the path" if math.isfinite(view.column("force_angle")[0, i]) \
+            else ", too light to tell its direction"
+    shoulder, elbow = np.degrees(view.column("subject_angle_isb")[:, i])
+    ts, te = view.column("subject_torque")[:, i]
+    code = int(view.column("fault")[0, i])
+    try:
+        fault = "no fault" if code == 0 else Fault(code).text.cause.split("{")[0].rstrip(" (:")
+    except ValueError:
+        fault = f"fault code {code}"
+    return {
+        "phase": PHASE_WORDS.get(phase, f"phase {phase}"),
+        "position": f"x {plots.format_number(x)} cm, y {plots.format_number(y)} cm",
+        "force": f"{plots.format_number(magnitude, 2)} N{aim}",
+        "angles": f"{plots.format_number(shoulder)}°, {plots.format_number(elbow)}°",
+        "torques": f"{plots.format_number(ts, 2)} N·m, {plots.format_number(te, 2)} N·m",
+        "fault": fault,
+    }
+
+
+def _describe(trial: Trial) -> str:
+    started = trial.started_at.astimezone().strftime("%d %b %Y %H:%M")
+    status = STATUS_WORDS.get(trial.status, trial.status)
+    return f"Session {trial.session_number}, trial {trial.number} — {started} — {status}"

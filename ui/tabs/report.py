@@ -1,0 +1,306 @@
+"""The Report tab: after a trial, what it showed in large plain words, for the patient,
+and the therapist's table beneath, printable and savable as the PDF report.
+
+The content is `app.report.ReportContent`, the same object the PDF draws, so the
+screen and the paper cannot disagree. Building it reads the trial file and
+writing the PDF runs matplotlib: both happen off the GUI thread.
+
+Printing goes through Qt (QPrintDialog) as a text document of the same content:
+the figures are on the other tabs and in the saved PDF.
+"""
+
+from __future__ import annotations
+
+import html
+from pathlib import Path
+
+from PySide6.QtCore import Qt, Signal
+from PySide6.QtGui import QTextDocument
+from PySide6.QtPrintSupport import QPrintDialog, QPrinter
+from PySide6.QtWidgets import (
+    QFileDialog,
+    QFormLayout,
+    QHBoxLayout,
+    QHeaderView,
+    QLabel,
+    QPushButton,
+    QScrollArea,
+    QTableWidget,
+    QTableWidgetItem,
+    QVBoxLayout,
+    QWidget,
+)
+
+from app.registry import Registry
+from app.report import ReportContent, build_report, content_for_registry_trial, write_report_pdf
+from app.trialfile import read_trial
+from ui import plots, theme
+from ui.trialview import TrialView
+
+WAITING = "The report appears here once the trial is saved."
+
+
+def _load_file(path: Path, options: dict) -> ReportContent:
+    return build_report(read_trial(path), **options)
+
+
+class ReportTab(QWidget):
+    """Signals: report_ready(ReportContent), report_failed(message), pdf_saved(Path)."""
+
+    report_ready = Signal(object)
+    report_failed = Signal(str)
+    pdf_saved = Signal(object)
+
+    def __init__(self, parent=None) -> None:
+        super().__init__(parent)
+        self._content: ReportContent | None = None
+        self._source: Path | None = None
+        self._flip_axes = False
+        # Two queues: a newer report request replaces a waiting one, but must never
+        # replace a PDF the therapist asked to save.
+        self.background = plots.Background(self)
+        self.writer = plots.Background(self)
+        for worker in (self.background, self.writer):
+            worker.done.connect(self._done)
+            worker.failed.connect(self._failed)
+
+        self.print_button = QPushButton("Print…")
+        self.print_button.clicked.connect(self.print_report)
+        self.pdf_button = theme.set_role(QPushButton("Save as PDF…"), "primary")
+        self.pdf_button.clicked.connect(self._choose_pdf)
+        self.message = theme.set_role(QLabel(WAITING), "caption")
+        self.message.setWordWrap(True)
+        buttons = QHBoxLayout()
+        buttons.addWidget(self.message, 1)
+        buttons.addWidget(self.print_button)
+        buttons.addWidget(self.pdf_button)
+
+        self.page = QWidget()
+        self.page_layout = QVBoxLayout(self.page)
+        self.page_layout.setSpacing(14)
+        scroll = QScrollArea()
+        scroll.setWidgetResizable(True)
+        scroll.setWidget(self.page)
+        layout = QVBoxLayout(self)
+        layout.addLayout(buttons)
+        layout.addWidget(scroll, 1)
+        self._set_buttons()
+
+    # -- loading ------------------------------------------------------------------
+    @property
+    def content(self) -> ReportContent | None:
+        return self._content
+
+    def set_flip(self, flip_x: bool, flip_y: bool) -> None:
+        """The PDF's path figure follows the display's flip (both axes, as the thesis)."""
+        self._flip_axes = flip_x and flip_y
+
+    def show_view(self, view: TrialView) -> None:
+        """A replayed or saved trial: its report, built once from its file."""
+        if view.source is None:
+            if self._content is None:
+                self.message.setText(WAITING)
+            return
+        if view.source != self._source:
+            self.load_file(view.source)
+
+    def load_file(self, path: str | Path, **options) -> None:
+        """Build the report of a trial file (options go to app.report.build_report)."""
+        self._source = Path(path)
+        options.setdefault("flip_axes", self._flip_axes)
+        self.message.setText("Preparing the report…")
+        self.background.submit(("content", self._source), _load_file, self._source, options)
+
+    def load_registry_trial(self, registry: Registry, trial_id: int) -> None:
+        """A registered trial's report, compared with the patient's earlier trials."""
+        self._source = None
+        self.message.setText("Preparing the report…")
+        flip = self._flip_axes
+        self.background.submit(("content", trial_id),
+                               lambda: content_for_registry_trial(registry, trial_id,
+                                                                  flip_axes=flip))
+
+    def _done(self, token, result) -> None:
+        kind = token[0]
+        if kind == "content":
+            self.show_content(result)
+        elif kind == "pdf":
+            self.message.setText(f"Saved {result}")
+            self.pdf_saved.emit(result)
+
+    def _failed(self, token, message: str) -> None:
+        what = "save the PDF" if token[0] == "pdf" else "prepare the report"
+        self.message.setText(f"{theme.PROBLEM_SIGN} Could not {what}: {message}")
+        theme.set_role(self.message, "problem")
+        self.message.style().polish(self.message)
+        self.report_failed.emit(message)
+
+    # -- drawing ------------------------------------------------------------------
+    def show_content(self, content: ReportContent) -> None:
+        self._content = content
+        self._source = content.source
+        theme.set_role(self.message, "caption")
+        self.message.style().polish(self.message)
+        self.message.setText(f"Report of {content.source.name}")
+        self._clear()
+        add = self.page_layout.addWidget
+        add(theme.set_role(QLabel(content.title), "heading"))
+        header = QFormLayout()
+        for item in content.header:
+            value = QLabel(item.value)
+            value.setWordWrap(True)
+            header.addRow(theme.set_role(QLabel(item.label), "caption"), value)
+        self.page_layout.addLayout(header)
+        if content.status_text:
+            add(self._wrapped(content.status_text, "banner"))
+        for fault in content.faults:
+            add(self._wrapped(f"{theme.PROBLEM_SIGN} {fault}", "problem"))
+        if content.plain:
+            add(theme.set_role(QLabel("How it went"), "heading"))
+        for line in content.plain:
+            pair = QVBoxLayout()
+            pair.setSpacing(2)
+            pair.addWidget(self._wrapped(line.text, "lead"))
+            pair.addWidget(self._wrapped(line.detail, "caption"))
+            self.page_layout.addLayout(pair)
+        for comparison in content.comparisons:
+            add(theme.set_role(QLabel(comparison.title), "heading"))
+            for change in comparison.changes:
+                add(self._wrapped(f"{change.arrow} {change.text}", "body"))
+            for caution in comparison.cautions:
+                add(self._wrapped(caution, "caption"))
+        if content.table:
+            add(theme.set_role(QLabel("For the therapist"), "heading"))
+            add(self._table(content))
+        for note in content.notes:
+            add(self._wrapped(note, "caption"))
+        self.page_layout.addStretch(1)
+        self._set_buttons()
+        self.report_ready.emit(content)
+
+    def _wrapped(self, text: str, role: str) -> QLabel:
+        label = theme.set_role(QLabel(text), role)
+        label.setWordWrap(True)
+        label.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
+        return label
+
+    def _table(self, content: ReportContent) -> QTableWidget:
+        columns = ["Figure", "This trial", *content.table_columns, "What it means"]
+        table = QTableWidget(len(content.table), len(columns))
+        table.setHorizontalHeaderLabels(columns)
+        table.verticalHeader().hide()
+        table.setEditTriggers(QTableWidget.EditTrigger.NoEditTriggers)
+        for r, row in enumerate(content.table):
+            unit = f" {row.unit}" if row.unit and row.unit != "°" else row.unit
+            cells = [row.label, f"{row.value_text}{unit}", *row.earlier_texts, row.meaning]
+            for c, text in enumerate(cells):
+                table.setItem(r, c, QTableWidgetItem(text))
+        header = table.horizontalHeader()
+        header.setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
+        header.setSectionResizeMode(len(columns) - 1, QHeaderView.ResizeMode.Stretch)
+        table.resizeRowsToContents()
+        height = table.horizontalHeader().height() + sum(
+            table.rowHeight(r) for r in range(table.rowCount())) + 4
+        table.setMinimumHeight(height)
+        table.setVerticalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+        return table
+
+    def _clear(self) -> None:
+        while self.page_layout.count():
+            item = self.page_layout.takeAt(0)
+            if item.widget() is not None:
+                item.widget().deleteLater()
+            elif item.layout() is not None:
+                _delete_layout(item.layout())
+
+    def _set_buttons(self) -> None:
+        ready = self._content is not None
+        self.print_button.setEnabled(ready)
+        self.pdf_button.setEnabled(ready)
+
+    def lines(self) -> list[str]:
+        """The texts on the page, top to bottom (what a person reads)."""
+        return _texts(self.page_layout)
+
+    # -- paper --------------------------------------------------------------------
+    def document(self) -> QTextDocument:
+        """The report as a text document for printing."""
+        content = self._content
+        if content is None:
+            raise RuntimeError("no report to print yet")
+        e = html.escape
+        parts = [f"<h1>{e(content.title)}</h1><table>"]
+        parts += [f"<tr><td><b>{e(i.label)}</b></td><td>{e(i.value)}</td></tr>"
+                  for i in content.header]
+        parts.append("</table>")
+        if content.status_text:
+            parts.append(f"<p><b>{e(content.status_text)}</b></p>")
+        parts += [f"<p>{theme.PROBLEM_SIGN} {e(f)}</p>" for f in content.faults]
+        for line in content.plain:
+            parts.append(f"<p style='font-size:16pt'>{e(line.text)}</p><p>{e(line.detail)}</p>")
+        for comparison in content.comparisons:
+            parts.append(f"<h2>{e(comparison.title)}</h2>")
+            parts += [f"<p>{e(c.arrow)} {e(c.text)}</p>" for c in comparison.changes]
+            parts += [f"<p><i>{e(c)}</i></p>" for c in comparison.cautions]
+        if content.table:
+            heads = ["Figure", "This trial", *content.table_columns, "What it means"]
+            parts.append("<h2>For the therapist</h2><table border='1' cellpadding='4' "
+                         "cellspacing='0'><tr>" + "".join(f"<th>{e(h)}</th>" for h in heads)
+                         + "</tr>")
+            for row in content.table:
+                cells = [row.label, f"{row.value_text} {row.unit}".strip(),
+                         *row.earlier_texts, row.meaning]
+                parts.append("<tr>" + "".join(f"<td>{e(c)}</td>" for c in cells) + "</tr>")
+            parts.append("</table>")
+        parts += [f"<p><small>{e(n)}</small></p>" for n in content.notes]
+        document = QTextDocument()
+        document.setHtml("".join(parts))
+        return document
+
+    def print_to(self, printer: QPrinter) -> None:
+        self.document().print_(printer)
+
+    def print_report(self) -> None:
+        if self._content is None:
+            return
+        printer = QPrinter(QPrinter.PrinterMode.HighResolution)
+        dialog = QPrintDialog(printer, self)
+        if dialog.exec() == QPrintDialog.DialogCode.Accepted:
+            self.print_to(printer)
+
+    def save_pdf(self, path: str | Path) -> None:
+        """Write the PDF report (app.report.write_report_pdf) off the GUI thread;
+        pdf_saved(path) follows."""
+        if self._content is None:
+            raise RuntimeError("no report to save yet")
+        self.message.setText("Saving the PDF…")
+        self.writer.submit(("pdf", Path(path)), write_report_pdf, self._content, Path(path))
+
+    def _choose_pdf(self) -> None:
+        if self._content is None:
+            return
+        suggested = self._content.source.with_suffix(".pdf").name
+        path, _ = QFileDialog.getSaveFileName(self, "Save the report", suggested, "PDF (*.pdf)")
+        if path:
+            self.save_pdf(path)
+
+
+def _delete_layout(layout) -> None:
+    while layout.count():
+        item = layout.takeAt(0)
+        if item.widget() is not None:
+            item.widget().deleteLater()
+        elif item.layout() is not None:
+            _delete_layout(item.layout())
+
+
+def _texts(layout) -> list[str]:
+    texts = []
+    for i in range(layout.count()):
+        item = layout.itemAt(i)
+        widget, inner = item.widget(), item.layout()
+        if isinstance(widget, QLabel):
+            texts.append(widget.text())
+        elif inner is not None:
+            texts += _texts(inner)
+    return texts

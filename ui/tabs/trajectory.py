@@ -1,0 +1,160 @@
+"""The Trajectory performance tab (thesis Fig. 3.7, A.9): the hand's path against the
+target, and the two kinds of performance as big numbers: how close (RMSE in x
+and y) and how well aimed (directional performance, the share of the time the
+push pointed within the tolerance of the path's direction).
+
+The thesis draws this plot with both axes reversed so that it matches what the
+patient sees across the robot; the flip is a display setting here (the data
+stay in the robot's frame, docs/frames.md).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pyqtgraph as pg
+from PySide6.QtCore import Signal
+from PySide6.QtWidgets import QCheckBox, QHBoxLayout, QLabel, QVBoxLayout, QWidget
+
+from core.trial import TrialParameters
+from ui import plots, theme
+from ui.trialview import TrialView
+
+MM = 1000.0
+CM = 100.0
+PATH_SPACING_M = 0.002
+
+
+class TrajectoryTab(QWidget):
+    """Signals: flip_changed(flip_x, flip_y) when the therapist mirrors the display
+    (the window stores it in Settings.flip_x / flip_y)."""
+
+    flip_changed = Signal(bool, bool)
+
+    def __init__(self, parent=None) -> None:
+        super().__init__(parent)
+        self._view: TrialView | None = None
+        self._drawn: tuple = ()
+        self._target_for: TrialParameters | None = None
+
+        self.plot = plots.make_plot("x (cm)", "y (cm)")
+        item = self.plot.getPlotItem()
+        item.setAspectLocked(True)
+        self.target = plots.curve(item, theme.TARGET, dashed=True, name="path to follow", xy=True)
+        self.hand = plots.curve(item, theme.WITHIN, name="hand", xy=True)
+        self.desired_mark = pg.ScatterPlotItem(symbol="o", size=16, pen=theme.pen(theme.BLACK),
+                                               brush=pg.mkBrush(None))
+        self.hand_mark = pg.ScatterPlotItem(symbol="o", size=10, pen=theme.pen(theme.BLUE),
+                                            brush=pg.mkBrush(theme.BLUE))
+        item.addItem(self.desired_mark)
+        item.addItem(self.hand_mark)
+
+        self.rmse_x = plots.BigNumber("Position error, x (RMSE)", "mm")
+        self.rmse_y = plots.BigNumber("Position error, y (RMSE)", "mm")
+        self.directional = plots.BigNumber("Directional performance", "%", decimals=0)
+        self.flip_x = QCheckBox("Flip left–right")
+        self.flip_y = QCheckBox("Flip near–far")
+        self.flip_x.setToolTip("Mirror the picture so it matches what the patient sees")
+        self.flip_y.setToolTip("Mirror the picture so it matches what the patient sees")
+        self.flip_x.toggled.connect(self._flip_toggled)
+        self.flip_y.toggled.connect(self._flip_toggled)
+        key = theme.set_role(QLabel(
+            f"<span style='color:{theme.WITHIN}'>——</span> the hand &nbsp; "
+            f"<span style='color:{theme.TARGET}'>- - -</span> the path to follow<br>"
+            "● where the hand is &nbsp; ○ where it should be"), "caption")
+        key.setWordWrap(True)
+
+        side = QVBoxLayout()
+        side.addWidget(self.rmse_x)
+        side.addWidget(self.rmse_y)
+        side.addWidget(self.directional)
+        side.addSpacing(12)
+        side.addWidget(key)
+        side.addWidget(self.flip_x)
+        side.addWidget(self.flip_y)
+        side.addStretch(1)
+        panel = QWidget()
+        panel.setLayout(side)
+        panel.setMinimumWidth(300)
+        panel.setMaximumWidth(420)
+        layout = QHBoxLayout(self)
+        layout.addWidget(self.plot, 1)
+        layout.addWidget(panel)
+
+    # -- flip -------------------------------------------------------------------
+    def set_flip(self, flip_x: bool, flip_y: bool) -> None:
+        """Restore the saved flip (Settings.flip_x, Settings.flip_y) without emitting."""
+        for box, value in ((self.flip_x, flip_x), (self.flip_y, flip_y)):
+            box.blockSignals(True)
+            box.setChecked(value)
+            box.blockSignals(False)
+        self._apply_flip()
+
+    def _flip_toggled(self) -> None:
+        self._apply_flip()
+        self.flip_changed.emit(self.flip_x.isChecked(), self.flip_y.isChecked())
+
+    def _apply_flip(self) -> None:
+        item = self.plot.getPlotItem()
+        item.invertX(self.flip_x.isChecked())
+        item.invertY(self.flip_y.isChecked())
+
+    # -- data -------------------------------------------------------------------
+    def show_view(self, view: TrialView) -> None:
+        state = (id(view), view.n, view.cursor)
+        if view is self._view and state == self._drawn:
+            return
+        self._view = view
+        self._drawn = state
+        self._draw_target(view)
+        ex = view.exercise
+        i = view.current_index
+        if i < 0:
+            self.hand.setData([], [])
+            self.hand_mark.setData([], [])
+            self.desired_mark.setData([], [])
+        else:
+            position = view.column("position")
+            end = min(ex.stop, i + 1)
+            if ex.start < end:
+                # Thinned for drawing, always ending at the newest sample.
+                step = plots.xy_step(end - ex.start)
+                first = ex.start + (end - 1 - ex.start) % step
+                trace = position[:, first:end:step] * CM
+                self.hand.setData(trace[0], trace[1])
+            else:
+                self.hand.setData([], [])
+            self.hand_mark.setData([position[0, i] * CM], [position[1, i] * CM])
+            desired = view.column("position_desired")[:, i]
+            if np.isfinite(desired).all():
+                self.desired_mark.setData([desired[0] * CM], [desired[1] * CM])
+            else:
+                self.desired_mark.setData([], [])
+        rx, ry = view.rmse_xy_m
+        self.rmse_x.set_value(rx * MM, "sideways, over the exercise")
+        self.rmse_y.set_value(ry * MM, "forward and back, over the exercise")
+        tolerance = math.degrees(view.tolerance_rad)
+        self.directional.set_value(
+            view.directional_percent,
+            f"of the time the push pointed within {tolerance:.0f}° of the path's direction")
+
+    def set_cursor(self, t: float | None) -> None:
+        if self._view is not None:
+            self._view.cursor = t
+            self.show_view(self._view)
+
+    def _draw_target(self, view: TrialView) -> None:
+        parameters = view.parameters
+        if parameters is not None:
+            if parameters == self._target_for:
+                return
+            points = parameters.path().points(PATH_SPACING_M) * CM
+            self.target.setData(points[:, 0], points[:, 1])
+            self._target_for = parameters
+            return
+        # A file without parameters: the desired positions are the path.
+        self._target_for = None
+        desired = view.column("position_desired")[:, view.exercise]
+        desired = desired[:, ::plots.xy_step(desired.shape[1])] * CM
+        self.target.setData(desired[0], desired[1])

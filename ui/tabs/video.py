@@ -1,0 +1,181 @@
+"""The Video tab (thesis Fig. A.5): what the camera sees, and whether it is recording.
+
+Frames come from a `device.camera.CameraSource`, which reads on its own thread;
+this tab only picks up the newest frame at most 30 times a second while it is
+visible, so a camera never slows the window. Opening a camera can take a
+second, so it happens off the GUI thread. Without a camera the tab says how to
+turn one on, instead of showing an empty picture.
+"""
+
+from __future__ import annotations
+
+from PySide6.QtCore import QSize, Qt, QTimer, Signal
+from PySide6.QtGui import QImage, QPixmap
+from PySide6.QtWidgets import QLabel, QSizePolicy, QStackedLayout, QVBoxLayout, QWidget
+
+from device.camera import CameraSource
+from ui import plots, theme
+
+FRAME_INTERVAL_MS = 33  # ≤ 30 fps: the camera's own rate; faster would repaint copies
+
+NO_CAMERA = (
+    "<h2>No camera is in use</h2>"
+    "<p>To film the session, open <b>Parameters</b>, choose <b>With camera</b>, and give "
+    "the camera's number (<b>0</b> for the first camera plugged in) or a video file. "
+    "The picture appears here, and the video is saved beside the trial.</p>"
+    "<p>Without a camera the joint angles are worked out from the shoulder position, so "
+    "the patient's shoulder must stay where it was measured.</p>"
+)
+
+
+class VideoTab(QWidget):
+    """Signals: camera_opened(CameraSource), camera_failed(message)."""
+
+    camera_opened = Signal(object)
+    camera_failed = Signal(str)
+
+    def __init__(self, parent=None) -> None:
+        super().__init__(parent)
+        self._camera: CameraSource | None = None
+        self._shown_index = -1
+        self._pending: object = None
+        self.background = plots.Background(self)
+        self.background.done.connect(self._opened)
+        self.background.failed.connect(self._failed)
+
+        self.message = QLabel(NO_CAMERA)
+        self.message.setWordWrap(True)
+        self.message.setAlignment(Qt.AlignmentFlag.AlignCenter)
+        self.message.setMargin(40)
+        self.picture = QLabel()
+        self.picture.setAlignment(Qt.AlignmentFlag.AlignCenter)
+        self.picture.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Ignored)
+        self.picture.setMinimumSize(QSize(160, 120))
+        self.picture.setStyleSheet("background: #111;")
+        self.picture.setAccessibleName("Camera picture")
+        self.state = theme.set_role(QLabel(""), "banner")
+        self.state.setWordWrap(True)
+        picture_page = QWidget()
+        column = QVBoxLayout(picture_page)
+        column.addWidget(self.picture, 1)
+        column.addWidget(self.state)
+        self.pages = QStackedLayout(self)
+        self.pages.addWidget(self.message)
+        self.pages.addWidget(picture_page)
+
+        self.timer = QTimer(self)
+        self.timer.setInterval(FRAME_INTERVAL_MS)
+        self.timer.timeout.connect(self._tick)
+
+    # -- public -------------------------------------------------------------------
+    @property
+    def camera(self) -> CameraSource | None:
+        """The running camera, for the window to start and stop recording with the trial."""
+        return self._camera
+
+    def open_camera(self, source: int | str | None) -> None:
+        """Open a camera number or video file off the GUI thread (None: no camera)."""
+        self.close_camera()
+        if source is None:
+            return
+        self._pending = source
+        self.message.setText(f"<h2>Opening the camera…</h2><p>{source}</p>")
+        self.background.submit(source, lambda: CameraSource(source).start())
+
+    def set_camera(self, camera: CameraSource | None) -> None:
+        """Show an already started camera (None: show how to enable one)."""
+        if camera is not self._camera:
+            self.close_camera()
+        self._camera = camera
+        self._shown_index = -1
+        if camera is None:
+            self.message.setText(NO_CAMERA)
+            self.pages.setCurrentIndex(0)
+            self.timer.stop()
+            return
+        self.pages.setCurrentIndex(1)
+        self._update_state()
+        if self.isVisible():
+            self.timer.start()
+
+    def close_camera(self) -> None:
+        """Stop the camera this tab shows (and any recording it holds)."""
+        self._pending = None
+        camera, self._camera = self._camera, None
+        self.timer.stop()
+        if camera is not None:
+            camera.stop()
+        self.message.setText(NO_CAMERA)
+        self.pages.setCurrentIndex(0)
+
+    def shown_frames(self) -> int:
+        """Index of the frame on screen, -1 before the first."""
+        return self._shown_index
+
+    # -- showing frames -------------------------------------------------------------
+    def showEvent(self, event) -> None:
+        super().showEvent(event)
+        if self._camera is not None:
+            self.timer.start()
+
+    def hideEvent(self, event) -> None:
+        super().hideEvent(event)
+        self.timer.stop()
+
+    def closeEvent(self, event) -> None:
+        self.close_camera()
+        super().closeEvent(event)
+
+    def _tick(self) -> None:
+        camera = self._camera
+        if camera is None:
+            return
+        frame = camera.latest()
+        if frame is not None and frame.index != self._shown_index:
+            image = frame.image
+            height, width = image.shape[:2]
+            qimage = QImage(image.data, width, height, image.strides[0],
+                            QImage.Format.Format_BGR888)
+            pixmap = QPixmap.fromImage(qimage).scaled(
+                self.picture.size(), Qt.AspectRatioMode.KeepAspectRatio,
+                Qt.TransformationMode.SmoothTransformation)
+            self.picture.setPixmap(pixmap)
+            self._shown_index = frame.index
+        self._update_state()
+
+    def _update_state(self) -> None:
+        camera = self._camera
+        if camera is None:
+            return
+        if camera.error:
+            text = f"{theme.PROBLEM_SIGN} {camera.error}"
+        elif camera.recording:
+            text = (f"● Recording to {camera.recording_path.name}: {camera.recorded_frames} "
+                    f"frames at {camera.fps:.0f} per second")
+        elif camera.ended:
+            text = f"{camera.description}: end of the video. Not recording."
+        else:
+            text = (f"{camera.description}, {camera.frame_size[0]}×{camera.frame_size[1]} at "
+                    f"{camera.fps:.0f} frames per second. Not recording: recording starts "
+                    "with the trial.")
+        if self.state.text() != text:
+            self.state.setText(text)
+
+    # -- opening off the GUI thread ---------------------------------------------------
+    def _opened(self, token, camera: CameraSource) -> None:
+        if token != self._pending:
+            camera.stop()  # superseded while it opened
+            return
+        self._pending = None
+        self.set_camera(camera)
+        self.camera_opened.emit(camera)
+
+    def _failed(self, token, message: str) -> None:
+        if token != self._pending:
+            return
+        self._pending = None
+        self.message.setText(f"<h2>{theme.PROBLEM_SIGN} The camera cannot be used</h2>"
+                             f"<p>{message}</p>{NO_CAMERA.split('</h2>', 1)[1]}")
+        self.pages.setCurrentIndex(0)
+        self.camera_failed.emit(message)
+
