@@ -64,6 +64,7 @@ log = logging.getLogger(__name__)
 REPAINT_MS = 16  # ~60 Hz; the tabs draw only what is visible
 HEARTBEAT_MS = 100  # the loop faults after 0.5 s without one
 HEALTH_MS = 500
+CLEAR_DELAY_MS = 20  # ten loop ticks
 
 
 class _Done(QObject):
@@ -136,10 +137,10 @@ class MainWindow(QMainWindow):
         self.replay.set_registry(self.registry)
         for title, tab in (
             ("Instructions", self.instructions), ("Registration", self.registration_tab),
-            ("Parameters", self.parameters_tab), ("Trajectory performance", self.trajectory),
-            ("End-effector force", self.force), ("Human joint angles", self.angles),
-            ("Human joint torques", self.torques), ("Video", self.video),
-            ("Patient report", self.report), ("Progress", self.progress),
+            ("Parameters", self.parameters_tab), ("Trajectory", self.trajectory),
+            ("Force", self.force), ("Joint angles", self.angles),
+            ("Joint torques", self.torques), ("Video", self.video),
+            ("Report", self.report), ("Progress", self.progress),
             ("Replay", self.replay),
         ):
             self.tabs.addTab(tab, title)
@@ -293,7 +294,8 @@ class MainWindow(QMainWindow):
 
     def clear_fault(self) -> None:
         self.bridge.estop(False)
-        self.bridge.clear_fault()
+        # the supervisor clears only once a tick has seen the e-stop released
+        QTimer.singleShot(CLEAR_DELAY_MS, self.bridge.clear_fault)
 
     # ------------------------------------------------------------------ loop events
     def _on_reply(self, command: str, ok: bool, message: str) -> None:
@@ -417,11 +419,8 @@ class MainWindow(QMainWindow):
 
     # ------------------------------------------------------------------ helpers
     def _refresh_buttons(self) -> None:
-        try:
-            self.parameters_tab.parameters()
-            params_ok = not self.parameters_tab.backend_problem()
-        except Exception:  # any refusal just disables Build
-            params_ok = False
+        tab = self.parameters_tab
+        params_ok = tab.check() is not None and not tab.problem() and not tab.backend_problem()
         self.robot.update_for(
             self.state, can_build=params_ok,
             can_start=self.built is not None and self.registration is not None,

@@ -26,7 +26,7 @@ BUTTONS = (
 START_STYLE = "QPushButton:enabled { background: #009E73; color: white; font-weight: bold; }"
 STOP_STYLE = "QPushButton:enabled { background: #D55E00; color: white; font-weight: bold; }"
 ESTOP_STYLE = (
-    "QPushButton { background: #C00000; color: white; font-weight: bold; font-size: 18pt;"
+    "QPushButton { background: #C00000; color: white; font-weight: bold; font-size: 15pt;"
     " border: 3px solid #600000; border-radius: 8px; padding: 6px 18px; }"
     "QPushButton:pressed { background: #800000; }"
 )

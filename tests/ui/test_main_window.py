@@ -1,0 +1,176 @@
+"""A whole session driven as a therapist would: register a patient, enter parameters (one
+refused as unreachable), Build, Connect, Start on the simulator, let the trial run, Save;
+then the file, the report, the progress and the replay; e-stop from every tab; buttons
+out of order disabled. The real loop and recorder processes run behind the window."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PySide6.QtCore import Qt
+
+from app.datadir import DataDir
+from app.registry import Registry
+from app.trialfile import read_trial
+from device.faults import Fault
+from device.states import State
+from ui.main_window import MainWindow
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture
+def window(qtbot, tmp_path, monkeypatch):
+    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
+    registry = Registry(DataDir(tmp_path / "data", "test"))
+    win = MainWindow(registry, settings_path=tmp_path / "config" / "settings.json")
+    qtbot.addWidget(win)
+    win.show()
+    win.start_device()
+    yield win
+    win.close()
+
+
+def enabled(win: MainWindow) -> set[str]:
+    return {name for name, b in win.robot.buttons.items() if b.isEnabled()}
+
+
+def click(qtbot, button) -> None:
+    assert button.isEnabled(), button.text()
+    qtbot.mouseClick(button, Qt.MouseButton.LeftButton)
+
+
+def register_patient(qtbot, win: MainWindow) -> None:
+    tab = win.registration_tab
+    win.tabs.setCurrentWidget(tab)
+    qtbot.keyClicks(tab.first_name, "Ada")
+    qtbot.keyClicks(tab.last_name, "Lovelace")
+    tab.body_mass.setValue(70.0)
+    tab.upper_arm.setValue(30.0)
+    tab.forearm.setValue(28.0)
+    tab.shoulder_x.setValue(-12.0)
+    tab.shoulder_y.setValue(73.0)
+    click(qtbot, tab.create_button)
+    qtbot.waitUntil(lambda: tab.selected_patient() is not None, timeout=5000)
+    click(qtbot, tab.confirm)
+    qtbot.waitUntil(lambda: win.registration is not None, timeout=5000)
+
+
+def short_trial(win: MainWindow) -> None:
+    p = win.parameters_tab
+    p.repetitions.setValue(1)
+    p.duration.setValue(2.0)
+    p.refresh()
+
+
+def test_a_whole_session(qtbot, window, tmp_path):
+    win = window
+    assert enabled(win) == {"build"}  # nothing out of order before Build
+    register_patient(qtbot, win)
+
+    # Parameters: the thesis's printed shoulder is refused with its numbers
+    p = win.parameters_tab
+    win.tabs.setCurrentWidget(p)
+    p.shoulder_x.setValue(12.0)
+    p.refresh()
+    assert "0.68 m from the shoulder; this arm reaches" in p.problem()
+    shown = [label.text() for label in p.errors.values() if label.isVisible()]
+    assert any("0.68 m" in text for text in shown)
+    assert "build" not in enabled(win)
+    p.shoulder_x.setValue(-12.0)
+    short_trial(win)
+    assert p.problem() == ""
+    assert "build" in enabled(win)
+
+    click(qtbot, win.robot.buttons["build"])
+    qtbot.waitUntil(lambda: win.state == State.BUILT, timeout=20000)
+    assert enabled(win) >= {"connect", "build"}
+    assert "start" not in enabled(win)
+    click(qtbot, win.robot.buttons["connect"])
+    qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=20000)
+    assert {"start", "disconnect"} <= enabled(win)
+    assert not {"connect", "stop"} & enabled(win)
+    click(qtbot, win.robot.buttons["start"])
+    qtbot.waitUntil(lambda: win.state == State.RUNNING, timeout=10000)
+    assert enabled(win) == {"stop"}
+    # live view fills while the trial runs
+    qtbot.waitUntil(lambda: win.live is not None and win.live.n > 200, timeout=10000)
+    # the trial completes, is finalised, and the report is shown
+    qtbot.waitUntil(lambda: win.unsaved_trial is not None, timeout=30000)
+    assert win.tabs.currentWidget() is win.report
+    qtbot.waitUntil(lambda: win.report.content is not None, timeout=10000)
+    lines = "\n".join(win.report.lines())
+    assert "%" in lines
+
+    trials = win.registry.trials_for_patient(win.patient.code)
+    assert len(trials) == 1
+    trial = trials[0]
+    assert trial.status == "complete"
+    assert "rmse_x_m" in trial.metrics
+    data = read_trial(win.registry.trial_path(trial))
+    assert data.status == "complete"
+    assert data.n_samples > 1000
+    assert np.isfinite(data.channels["subject_torque"][data.channels["phase"] == 2]).all()
+
+    click(qtbot, win.robot.buttons["save"])
+    qtbot.waitUntil(lambda: win.unsaved_trial is None, timeout=20000)
+    reports = list((tmp_path / "data" / "reports").rglob("*.pdf"))
+    assert len(reports) == 1
+
+    # progress lists the trial; replay opens it and every plot tab follows the cursor
+    win.tabs.setCurrentWidget(win.progress)
+    qtbot.waitUntil(lambda: win.progress.progress is not None
+                    and len(win.progress.progress.trials) == 1, timeout=10000)
+    win.tabs.setCurrentWidget(win.replay)
+    with qtbot.waitSignal(win.replay.view_loaded, timeout=10000):
+        win.replay.open_file(win.registry.trial_path(trial))
+    assert win.shown_view is win.replay.view
+    win.replay.set_cursor(1.0)
+
+
+def test_emergency_stop_from_every_tab(qtbot, window):
+    win = window
+    short_trial(win)
+    click(qtbot, win.robot.buttons["build"])
+    qtbot.waitUntil(lambda: win.state == State.BUILT, timeout=20000)
+    click(qtbot, win.robot.buttons["connect"])
+    qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=20000)
+    for index in range(win.tabs.count()):
+        win.tabs.setCurrentIndex(index)
+        key = Qt.Key.Key_Escape if index % 2 == 0 else Qt.Key.Key_Space
+        qtbot.keyClick(win.tabs.currentWidget(), key)
+        qtbot.waitUntil(lambda: win.state == State.FAULTED, timeout=5000)
+        assert win.fault_code == Fault.ESTOP
+        assert win.banner.isVisible()
+        assert "start" not in enabled(win)
+        click(qtbot, win.clear_button)
+        qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=5000)
+        assert not win.banner.isVisible()
+
+
+def test_no_display_message_is_one_line(monkeypatch, capsys):
+    from ui.launcher import main
+
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    monkeypatch.delenv("QT_QPA_PLATFORM", raising=False)
+    assert main(["gui"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    assert "no display found" in err[0]
+
+
+def test_window_remembers_its_parameters(qtbot, tmp_path, monkeypatch):
+    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
+    settings = tmp_path / "config" / "settings.json"
+    registry = Registry(DataDir(tmp_path / "data", "test"))
+    win = MainWindow(registry, settings_path=settings)
+    qtbot.addWidget(win)
+    win.parameters_tab.radius.setValue(8.0)
+    win.parameters_tab.refresh()
+    win.close()
+    again = MainWindow(registry, settings_path=settings)
+    qtbot.addWidget(again)
+    assert again.parameters_tab.parameters().radius_m == pytest.approx(0.08)
+    again.close()
+    assert Path(settings).exists()
