@@ -41,7 +41,6 @@ from app.report_content import (
     build_report,
     merge_short_runs,
 )
-from app.report_pdf import write_report_pdf
 from app.trialfile import read_trial
 
 __all__ = [
@@ -118,3 +117,11 @@ def report_for_registry_trial(
         path = registry.data_dir.report_path(record.patient_code, record.session_number,
                                              record.number, record.started_at)
     return write_report_pdf(content, path)
+
+
+def write_report_pdf(content: ReportContent, path) -> Path:
+    """Write the report's pages (app.report_pdf). matplotlib is imported here, on first
+    use, so the window and the command line start without it."""
+    from app.report_pdf import write_report_pdf as write
+
+    return write(content, path)

@@ -22,7 +22,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import butter, sosfiltfilt
 
 from core.errors import ParameterError, check_positive
 
@@ -39,6 +38,8 @@ def butterworth_sos(dt_s: float, cutoff_hz: float, order: int = 4) -> np.ndarray
     low-pass has no meaning, and orders outside ORDER_RANGE (higher orders ring
     and need long padding for no benefit on movement data).
     """
+    from scipy.signal import butter  # imported on first use: 0.7 s at start-up otherwise
+
     dt_s = check_positive("dt_s", dt_s, "s")
     nyquist_hz = 0.5 / dt_s
     _check_cutoff(cutoff_hz, nyquist_hz)
@@ -55,6 +56,8 @@ def min_samples(order: int = 4) -> int:
     strictly more samples than its padding.
     """
     _check_order(order)
+    from scipy.signal import butter
+
     sos = butter(order, 0.25, output="sos")
     return _padlen(sos) + 1
 
@@ -114,6 +117,8 @@ def lowpass(
     # memory, so a steep signal end leaves a start-up transient (0.5 on a cubic
     # of slope 36/s at 10 Hz). PAD_PERIODS cutoff periods let it die out.
     padlen = min(n - 1, max(least, math.ceil(PAD_PERIODS / (float(cutoff_hz) * dt_s))))
+    from scipy.signal import sosfiltfilt
+
     filtered = sosfiltfilt(sos, values, axis=0, padlen=padlen)
     if missing is not None:
         filtered[missing] = np.nan

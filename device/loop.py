@@ -139,6 +139,7 @@ class DeviceLoop:
         self.assistance_level: float | None = None
         self.shutdown = False
         self.stopping_since = 0.0
+        self.paused = False
 
     # ------------------------------------------------------------------ main
     def run(self) -> None:
@@ -183,6 +184,13 @@ class DeviceLoop:
                                       State.FAULTED):
                     break
                 supervisor, backend = self.supervisor, self.backend
+                if self.paused:
+                    # Build, Connect and Start compute tables (milliseconds of numpy) at
+                    # zero torque; the schedule restarts from now instead of counting
+                    # the pause as late ticks.
+                    self.paused = False
+                    now = clock()
+                    deadline, lateness, loop_t = now, 0.0, now - t0
             value = self.heartbeat.value
             if value != beat:
                 beat, beat_seen = value, now
@@ -257,6 +265,7 @@ class DeviceLoop:
     def _start_trial(self, command: Start) -> str:
         if self.reading is None:
             return "no sensor reading yet; wait a moment after Connect"
+        self.paused = True
         self.pipeline.begin(self.reading.q1_rad, self.reading.q2_rad)
         if self.assistance_level is not None:
             self.pipeline.set_assistance_level(self.assistance_level)
@@ -360,6 +369,7 @@ class DeviceLoop:
         return f"{type(command).__name__} is not handled"
 
     def _build(self, command: Build) -> str:
+        self.paused = True
         plan = TrialPlan.build(command.parameters, period_s=self.config.period_s)
         reconnect = self.state == State.CONNECTED and self.backend_config is not None and (
             command.backend != self.backend_config or command.backend.kind == "simulator")
@@ -380,6 +390,7 @@ class DeviceLoop:
         return ""
 
     def _connect(self) -> str:
+        self.paused = True
         config = self.backend_config
         backend = make_backend(config, self.plan.parameters, self.plan)
         backend.open()

@@ -29,9 +29,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app.finalize import finalize_trial
 from app.registry import Patient, Registration, Registry
-from app.report import report_for_registry_trial
 from app.settings import Settings, load_settings, save_settings
 from core.trial import TrialParameters
 from device.faults import Fault
@@ -278,6 +276,8 @@ class MainWindow(QMainWindow):
         if trial_id is None:
             return
         self._say("Saving the report…")
+        from app.report import report_for_registry_trial
+
         self._run(lambda: report_for_registry_trial(
             self.registry, trial_id, flip_axes=self.settings.flip_x or self.settings.flip_y),
             self._saved)
@@ -342,6 +342,8 @@ class MainWindow(QMainWindow):
         if kind == "error":
             self._say(f"Recording problem: {message}", problem=True)
         if kind == "closed" and self.trial_id is not None:
+            from app.finalize import finalize_trial
+
             trial_id = self.trial_id
             self.trial_id = None
             self._run(lambda: finalize_trial(self.registry, trial_id, status),
