@@ -53,9 +53,6 @@ from device.states import Command, State, refusal
 from device.supervisor import SafetyLimits, SafetySupervisor
 
 NO_READING = SensorReading(math.nan, math.nan, math.nan, math.nan, math.nan, math.nan)
-RESYNC_S = 0.1
-"""Further behind than this (a stall), the loop restarts its deadlines from now instead
-of running the missed ticks back to back; the supervisor has already faulted."""
 STOPPING_TIMEOUT_S = 2.0
 """Longest wait in Stopping for the recorder to take the trial's last samples."""
 WORKSPACE_MARGIN_M = 0.10
@@ -174,9 +171,11 @@ class DeviceLoop:
         supervisor = self.supervisor
         backend = self.backend
         k = 0
+        overrun = 0.0
         while self.state in (State.CONNECTED, State.RUNNING, State.STOPPING, State.FAULTED):
             now = wait_until(deadline, clock)
-            lateness = now - deadline
+            lateness = max(now - deadline, overrun)
+            overrun = 0.0
             loop_t = now - t0
             if self.console.poll():
                 self._handle_commands()
@@ -248,16 +247,20 @@ class DeviceLoop:
                 break
             k += 1
             deadline += period
-            if clock() - deadline > RESYNC_S:
-                deadline = clock() + period
+            behind = clock() - deadline
+            if behind > 0.0:
+                # Missed deadlines are skipped, not run back to back: a burst of ticks
+                # microseconds apart would read the same sensor sample over and over.
+                # The schedule stays on its 2 ms grid, and the next tick reports how late
+                # the first missed one was, so the lateness watchdog still sees it.
+                deadline += period * math.ceil(behind / period)
+                overrun = behind
 
     # ------------------------------------------------------------------ trial
     def _advance_trial(self, backend: Backend) -> None:
         self.trial_tick += 1
         if self.trial_tick == self.pipeline.approach_ticks:
-            cue = getattr(backend, "cue_patient", None)
-            if cue is not None:
-                cue()  # a virtual patient starts the exercise with the reference
+            _cue_patient(backend)
         if self.trial_tick >= self.pipeline.total_ticks:
             self._end_trial("complete", "trial complete")
             self._set_state(State.STOPPING, "trial complete; saving")
@@ -272,6 +275,8 @@ class DeviceLoop:
         self.supervisor.restart_ramp()
         self.trial_path = command.path
         self.trial_tick = 0
+        if self.pipeline.approach_ticks == 0:
+            _cue_patient(self.backend)
         plan = self.plan
         self._to_recorder(BeginTrial(
             command.path, self.ring.write_count, plan.parameters, command.subject,
@@ -437,6 +442,13 @@ class DeviceLoop:
         except (OSError, EOFError, BrokenPipeError):
             self.recorder = None
             self.recording_failed.value = 1
+
+
+def _cue_patient(backend: Backend) -> None:
+    """A virtual patient starts the exercise together with the reference."""
+    cue = getattr(backend, "cue_patient", None)
+    if cue is not None:
+        cue()
 
 
 def loop_main(console: Connection, recorder: Connection, ring_name: str, estop_flag,

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from app.analysis import analyse
 from app.trialfile import read_trial
 from core.trial import THESIS_SUBJECT
 from device.client import DeviceClient, LoopLost
@@ -84,6 +85,11 @@ def test_a_whole_trial_is_recorded_with_its_timing(client, tmp_path):
     assert np.percentile(lateness, 99) < 0.002
     kinds = [e["kind"] for e in data.events]
     assert kinds == ["start", "stop"]
+    # the robot and the virtual patient followed the D together, as headless
+    metrics = analyse(data.channels, data.parameters).metrics
+    assert metrics.rmse_x_m < 0.005
+    assert metrics.rmse_y_m < 0.005
+    assert metrics.directional_performance_pct > 50
 
 
 def test_stop_ends_the_trial_early_and_saves_it(client, tmp_path):
