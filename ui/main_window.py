@@ -322,7 +322,7 @@ class MainWindow(QMainWindow):
 
     def _on_fault(self, code: int, message: str, detail: dict) -> None:
         self.fault_code = code
-        self._show_banner(f"{Fault(code).label}: {message}")
+        self._show_banner(message)
 
     def _on_trial_started(self, path: str, approach: int, total: int) -> None:
         self.live = TrialView(self.built)
