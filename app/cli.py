@@ -106,17 +106,6 @@ def trial_from_args(args: argparse.Namespace) -> TrialParameters:
     return base.replace(**changes)
 
 
-def patient_overrides(patient) -> dict:
-    """The trial fields a registered patient's own measurements replace."""
-    out = {}
-    for field, value in (("body_mass_kg", patient.body_mass_kg),
-                         ("upper_arm_m", patient.upper_arm_m), ("forearm_m", patient.forearm_m),
-                         ("side", patient.side), ("shoulder_m", patient.shoulder_m)):
-        if value is not None:
-            out[field] = tuple(value) if field == "shoulder_m" else value
-    return out
-
-
 def cmd_run(args: argparse.Namespace) -> int:
     """Simulate a whole trial headless, write its file and print its metrics."""
     import datetime
@@ -132,7 +121,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         registry = registry_for(args)
         patient = registry.patient(args.code)
-        params = params.replace(**patient_overrides(patient))
+        params = params.replace(**patient.trial_overrides())
         if args.output:
             raise CommandError("--output cannot be used with --code: a registered trial is "
                                "written to the patient's folder in the data folder")

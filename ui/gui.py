@@ -4,6 +4,7 @@ once the window is on screen (so it appears in well under two seconds)."""
 from __future__ import annotations
 
 import logging
+import signal
 import sys
 import time
 
@@ -31,6 +32,19 @@ def run_gui(font_scale: float | None = None) -> int:
     theme.apply_theme(app, font_scale or 1.0)
     window = MainWindow(Registry(data_dir), settings=settings)
     window.show()
+
+    def stop(*_args) -> None:
+        # Ctrl+C or a service manager's SIGTERM: close as if by the window's own button,
+        # so a running trial is stopped and saved and the loop processes end cleanly.
+        window.closing_by_signal = True
+        window.close()
+        app.quit()
+
+    signal.signal(signal.SIGINT, stop)
+    signal.signal(signal.SIGTERM, stop)
+    wake = QTimer()
+    wake.timeout.connect(lambda: None)  # gives Python a moment to run its signal handlers
+    wake.start(200)
     QTimer.singleShot(0, lambda: log.info("window shown %.2f s after start",
                                           time.perf_counter() - started))
     QTimer.singleShot(50, window.start_device)

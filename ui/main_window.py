@@ -92,6 +92,7 @@ class MainWindow(QMainWindow):
         self.live: TrialView | None = None
         self.shown_view: TrialView | None = None
         self.fault_code = 0
+        self.closing_by_signal = False
         self._late_total = 0
         self._ticks_total = 0
         self._lateness: list[np.ndarray] = []
@@ -472,7 +473,7 @@ class MainWindow(QMainWindow):
         self.trajectory.set_flip(s.flip_x, s.flip_y)
 
     def closeEvent(self, event) -> None:
-        if self.state == State.RUNNING:
+        if self.state == State.RUNNING and not self.closing_by_signal:
             answer = QMessageBox.question(
                 self, "A trial is running",
                 "A trial is running. Stop it, save it and close the console?")

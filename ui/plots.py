@@ -225,3 +225,22 @@ class Background(QObject):
         if self._waiting is not None:
             waiting, self._waiting = self._waiting, None
             self._start(*waiting)
+
+
+def plot_with_panel(owner: QWidget, plot: QWidget, numbers, extras) -> None:
+    """The live tabs' layout: the plot on the left, the big numbers and then notes and
+    switches in a panel on the right."""
+    side = QVBoxLayout()
+    for number in numbers:
+        side.addWidget(number)
+    side.addSpacing(12)
+    for widget in extras:
+        side.addWidget(widget)
+    side.addStretch(1)
+    panel = QWidget()
+    panel.setLayout(side)
+    panel.setMinimumWidth(300)
+    panel.setMaximumWidth(420)
+    layout = QHBoxLayout(owner)
+    layout.addWidget(plot, 1)
+    layout.addWidget(panel)

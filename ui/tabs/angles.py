@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pyqtgraph as pg
-from PySide6.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
+from PySide6.QtWidgets import QLabel, QWidget
 
 from ui import plots, theme
 from ui.trialview import TrialView
@@ -37,19 +37,7 @@ class AnglesTab(QWidget):
             "3.37–3.38). The elbow angle is 0° with the arm straight and grows as it bends."),
             "caption")
         note.setWordWrap(True)
-        side = QVBoxLayout()
-        for number in self.rom:
-            side.addWidget(number)
-        side.addSpacing(12)
-        side.addWidget(note)
-        side.addStretch(1)
-        panel = QWidget()
-        panel.setLayout(side)
-        panel.setMinimumWidth(300)
-        panel.setMaximumWidth(420)
-        layout = QHBoxLayout(self)
-        layout.addWidget(self.plot, 1)
-        layout.addWidget(panel)
+        plots.plot_with_panel(self, self.plot, self.rom, (note,))
 
     def show_view(self, view: TrialView) -> None:
         state = (id(view), view.n)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 
 import pyqtgraph as pg
-from PySide6.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
+from PySide6.QtWidgets import QLabel, QWidget
 
 from ui import plots, theme
 from ui.trialview import TrialView
@@ -45,19 +45,7 @@ class ForceTab(QWidget):
         self.key = theme.set_role(QLabel(""), "caption")
         self.key.setWordWrap(True)
         self._set_key(math.radians(20.0))
-        side = QVBoxLayout()
-        for number in (*self.ranges, self.directional):
-            side.addWidget(number)
-        side.addSpacing(12)
-        side.addWidget(self.key)
-        side.addStretch(1)
-        panel = QWidget()
-        panel.setLayout(side)
-        panel.setMinimumWidth(300)
-        panel.setMaximumWidth(420)
-        layout = QHBoxLayout(self)
-        layout.addWidget(self.graphics, 1)
-        layout.addWidget(panel)
+        plots.plot_with_panel(self, self.graphics, (*self.ranges, self.directional), (self.key,))
 
     def _set_key(self, tolerance_rad: float) -> None:
         degrees = math.degrees(tolerance_rad)

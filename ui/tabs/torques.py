@@ -15,7 +15,7 @@ import time
 import numpy as np
 import pyqtgraph as pg
 from PySide6.QtCore import Signal
-from PySide6.QtWidgets import QCheckBox, QHBoxLayout, QLabel, QVBoxLayout, QWidget
+from PySide6.QtWidgets import QCheckBox, QLabel, QWidget
 
 from core.metrics import DEFAULT_TORQUE_CUTOFF_HZ, value_range
 from core.signal import lowpass, min_samples
@@ -67,20 +67,7 @@ class TorquesTab(QWidget):
         self.smoothing.toggled.connect(self._smoothing_toggled)
         self.note = theme.set_role(QLabel("Raw torques, as computed every 2 ms."), "caption")
         self.note.setWordWrap(True)
-        side = QVBoxLayout()
-        for number in self.ranges:
-            side.addWidget(number)
-        side.addSpacing(12)
-        side.addWidget(self.smoothing)
-        side.addWidget(self.note)
-        side.addStretch(1)
-        panel = QWidget()
-        panel.setLayout(side)
-        panel.setMinimumWidth(300)
-        panel.setMaximumWidth(420)
-        layout = QHBoxLayout(self)
-        layout.addWidget(self.plot, 1)
-        layout.addWidget(panel)
+        plots.plot_with_panel(self, self.plot, self.ranges, (self.smoothing, self.note))
 
     # -- public -------------------------------------------------------------------
     def set_smoothing(self, on: bool) -> None:

@@ -15,7 +15,7 @@ import math
 import numpy as np
 import pyqtgraph as pg
 from PySide6.QtCore import Signal
-from PySide6.QtWidgets import QCheckBox, QHBoxLayout, QLabel, QVBoxLayout, QWidget
+from PySide6.QtWidgets import QCheckBox, QLabel, QWidget
 
 from core.trial import TrialParameters
 from ui import plots, theme
@@ -65,22 +65,8 @@ class TrajectoryTab(QWidget):
             "● where the hand is &nbsp; ○ where it should be"), "caption")
         key.setWordWrap(True)
 
-        side = QVBoxLayout()
-        side.addWidget(self.rmse_x)
-        side.addWidget(self.rmse_y)
-        side.addWidget(self.directional)
-        side.addSpacing(12)
-        side.addWidget(key)
-        side.addWidget(self.flip_x)
-        side.addWidget(self.flip_y)
-        side.addStretch(1)
-        panel = QWidget()
-        panel.setLayout(side)
-        panel.setMinimumWidth(300)
-        panel.setMaximumWidth(420)
-        layout = QHBoxLayout(self)
-        layout.addWidget(self.plot, 1)
-        layout.addWidget(panel)
+        plots.plot_with_panel(self, self.plot, (self.rmse_x, self.rmse_y, self.directional),
+                              (key, self.flip_x, self.flip_y))
 
     # -- flip -------------------------------------------------------------------
     def set_flip(self, flip_x: bool, flip_y: bool) -> None:
