@@ -137,6 +137,7 @@ class DeviceLoop:
         self.shutdown = False
         self.stopping_since = 0.0
         self.paused = False
+        self.t0 = 0.0
 
     # ------------------------------------------------------------------ main
     def run(self) -> None:
@@ -162,7 +163,7 @@ class DeviceLoop:
         cfg = self.config
         period = cfg.period_s
         clock = time.perf_counter
-        t0 = clock()
+        t0 = self.t0 = clock()
         deadline = t0 + period
         beat = self.heartbeat.value
         beat_seen = t0
@@ -294,7 +295,11 @@ class DeviceLoop:
         time_s = tick * self.plan.period_s
         self._to_recorder(TrialEvent(time_s, tick, "stop", message, values or {}))
         summary = {"approach_s": self.pipeline.approach_ticks * self.plan.period_s,
-                   "ticks": float(tick)}
+                   "ticks": float(tick),
+                   # wall_time is perf_counter() − this; on Linux both perf_counter and
+                   # time.monotonic read CLOCK_MONOTONIC, so camera frames stamped with
+                   # time.monotonic() line up with the samples (device.camera).
+                   "wall_time_origin_monotonic_s": self.t0}
         self.end_seq = self.ring.write_count
         self._to_recorder(EndTrial(self.end_seq, status, summary))
         self._send(TrialEnded(self.trial_path, status, summary))

@@ -319,3 +319,16 @@ def _alive(pid: int) -> bool:
         return False
     with open(f"/proc/{pid}/stat") as f:
         return f.read().split()[2] != "Z"
+
+
+def test_hardware_without_its_driver_is_refused_at_connect(client):
+    if client.state in (State.CONNECTED, State.FAULTED):
+        client.disconnect()
+    settings = Path(__file__).resolve().parents[2] / "resources" / "hardware.example.toml"
+    reply = client.build(PARAMS, BackendConfig(kind="quanser", hardware_settings=str(settings)))
+    assert reply.ok, reply.message
+    reply = client.connect()
+    assert not reply.ok
+    assert "connect failed" in reply.message
+    assert "Quanser" in reply.message or "quanser" in reply.message
+    assert client.state == State.BUILT
