@@ -175,3 +175,24 @@ def test_window_remembers_its_parameters(qtbot, tmp_path, monkeypatch):
     assert again.parameters_tab.parameters().radius_m == pytest.approx(0.08)
     again.close()
     assert Path(settings).exists()
+
+
+def test_space_types_in_text_fields_but_stops_the_robot_elsewhere(qtbot, tmp_path, monkeypatch):
+    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
+    win = MainWindow(Registry(DataDir(tmp_path / "data", "test")),
+                     settings_path=tmp_path / "config" / "settings.json")
+    qtbot.addWidget(win)
+    pressed = []
+    monkeypatch.setattr(win.bridge, "estop", lambda held=True: pressed.append(held))
+    win.show()
+    field = win.registration_tab.first_name
+    win.tabs.setCurrentWidget(win.registration_tab)
+    field.setFocus()
+    qtbot.keyClick(field, Qt.Key.Key_Space)
+    assert field.text() == " "
+    assert pressed == []
+    qtbot.keyClick(win.tabs, Qt.Key.Key_Space)
+    assert pressed == [True]
+    qtbot.keyClick(field, Qt.Key.Key_Escape)  # Esc stops the robot even while typing
+    assert pressed == [True, True]
+    win.close()
