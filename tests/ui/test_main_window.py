@@ -185,6 +185,8 @@ def test_space_types_in_text_fields_but_stops_the_robot_elsewhere(qtbot, tmp_pat
     pressed = []
     monkeypatch.setattr(win.bridge, "estop", lambda held=True: pressed.append(held))
     win.show()
+    win.activateWindow()  # application shortcuts act in the application's active window
+    qtbot.waitUntil(win.isActiveWindow, timeout=2000)
     field = win.registration_tab.first_name
     win.tabs.setCurrentWidget(win.registration_tab)
     field.setFocus()
