@@ -48,7 +48,8 @@ def run_trial(seconds: float, folder: Path, label: str, window: bool,
     params = THESIS_SUBJECT.replace(repetitions=reps)
     path = folder / f"{label}.h5"
     fps = float("nan")
-    with DeviceClient(loop_config=LoopConfig(cpu=cpu)) as client:
+    config = LoopConfig() if cpu is None else LoopConfig(cpu=None if cpu < 0 else cpu)
+    with DeviceClient(loop_config=config) as client:
         assert client.build(params).ok
         assert client.connect().ok
         time.sleep(0.5)
@@ -164,7 +165,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=60.0)
     parser.add_argument("--only", choices=("alone", "window"))
-    parser.add_argument("--cpu", type=int, help="pin the loop to this CPU (default: none)")
+    parser.add_argument("--cpu", type=int, help="pin the loop to this CPU; -1: no pinning "
+                                                "(default: the last CPU, as the console does)")
     args = parser.parse_args()
     runs = []
     with tempfile.TemporaryDirectory() as folder:

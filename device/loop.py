@@ -47,7 +47,7 @@ from device.messages import (
     TrialStarted,
 )
 from device.pipeline import PERIOD_S, TickPipeline, TrialPlan, idle_record
-from device.realtime import prepare_process, wait_until
+from device.realtime import LAST_CPU, prepare_process, wait_until
 from device.ring import RecordRing
 from device.states import Command, State, refusal
 from device.supervisor import SafetyLimits, SafetySupervisor
@@ -68,7 +68,7 @@ _COMMANDS = {
 @dataclass(frozen=True, slots=True)
 class LoopConfig:
     period_s: float = PERIOD_S
-    cpu: int | None = None
+    cpu: int | None = LAST_CPU  # None: any CPU
     realtime: bool = True
 
 

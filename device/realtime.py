@@ -42,6 +42,11 @@ def wait_until(deadline_s: float, clock=time.perf_counter, sleep=time.sleep) -> 
     return now
 
 
+LAST_CPU = -1
+"""`cpu` value for the highest-numbered CPU the process may use (the one the OS gives
+least to interrupt handling on most machines)."""
+
+
 def prepare_process(cpu: int | None = None, priority: int = 50) -> list[str]:
     """Make this process as real-time as the OS allows. Returns what could not be done,
     one line each (also logged as warnings), so the caller can show it."""
@@ -65,6 +70,8 @@ def prepare_process(cpu: int | None = None, priority: int = 50) -> list[str]:
     if cpu is not None and hasattr(os, "sched_setaffinity"):
         try:
             available = os.sched_getaffinity(0)
+            if cpu == LAST_CPU:
+                cpu = max(available)
             if cpu in available and len(available) > 1:
                 os.sched_setaffinity(0, {cpu})
             else:

@@ -70,8 +70,9 @@ def test_a_whole_trial_is_recorded_with_its_timing(client, tmp_path):
     connect(client)
     path = tmp_path / "trial.h5"
     assert client.start_trial(str(path), SUBJECT).ok
-    ended = client.wait_for(is_(TrialEnded), 20)[-1]
-    assert ended.status == "complete"
+    events = client.wait_for(is_(TrialEnded), 20)
+    faults = [e.message for e in events if isinstance(e, FaultRaised)]
+    assert events[-1].status == "complete", faults
     notice = closed_file(client)
     assert notice.status == "complete"
     data = read_trial(path)
@@ -118,7 +119,8 @@ def test_a_trial_twice_in_a_row_leaks_nothing(tmp_path):
         for i in range(2):
             path = tmp_path / f"t{i}.h5"
             assert c.start_trial(str(path), SUBJECT).ok
-            assert closed_file(c, 20).status == "complete"
+            notice = closed_file(c, 20)
+            assert notice.status == "complete", read_trial(path).events
             c.wait_state(State.CONNECTED, 5)
             assert read_trial(path).status == "complete"
         loop_fds = len(os.listdir(f"/proc/{c.loop_pid}/fd"))
@@ -195,8 +197,8 @@ def test_lost_heartbeat_stops_the_trial(tmp_path):
             time.sleep(0.05)
         assert c.start_trial(str(path), SUBJECT).ok
         for _ in range(10):
-            c.heartbeat()
             time.sleep(0.05)
+            c.heartbeat()
         silent_from = time.monotonic()
         fault = c.wait_for(is_(FaultRaised), 5)[-1]
         assert fault.code == Fault.HEARTBEAT_LOST
