@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+from app.plain_language import SHAPE_NAMES
 from core.trial import TrialCheck
 
 
@@ -14,7 +15,7 @@ def format_check(check: TrialCheck) -> str:
     arm = check.arm
     lines = [
         "Trial",
-        f"  exercise        {_shape_name(p.shape)}, centre ({p.centre_m[0]:+.3f}, "
+        f"  exercise        {SHAPE_NAMES[p.shape]}, centre ({p.centre_m[0]:+.3f}, "
         f"{p.centre_m[1]:+.3f}) m, radius {p.radius_m:.3f} m",
         f"  timing          {p.duration_s:g} s per traversal × {p.repetitions}, "
         f"{p.timing.replace('_', ' ')}",
@@ -54,16 +55,6 @@ def format_check(check: TrialCheck) -> str:
     lines += ["", "Result: " + ("ready to run." if check.ok else "refused.")]
     lines += [f"  {problem}" for problem in check.problems]
     return "\n".join(lines)
-
-
-def _shape_name(shape: str) -> str:
-    return {
-        "d": "D shape",
-        "circle": "circle",
-        "reach": "straight reach",
-        "targets": "point-to-point targets",
-        "figure8": "figure eight",
-    }[shape]
 
 
 def _share(mask) -> str:

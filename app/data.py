@@ -63,10 +63,15 @@ import numpy as np
 
 from app.errors import AppError, TrialFileError
 from app.export_columns import column_values, components, table_columns
-from app.trialfile import TrialData, read_trial
-from core.errors import CoreError
+from app.trialfile import (
+    TrialData,
+    group_attributes,
+    parameters_from_attributes,
+    plain_attribute,
+    read_trial,
+    subject_from_attributes,
+)
 from core.trial import TrialParameters
-from device.errors import RecordingError
 from device.pipeline import PHASE_EXERCISE
 from device.trialfile import FORMAT_NAME, FORMAT_VERSION, STATUS_RECORDING, SubjectInfo
 
@@ -385,7 +390,7 @@ def _parameter_values(attrs: Mapping) -> dict:
 def _read_info(path: Path) -> TrialInfo | None:
     """The quick path: attributes only. None when the file needs the full reader."""
     with h5py.File(path, "r") as f:
-        attrs = {key: _plain(value) for key, value in f.attrs.items()}
+        attrs = {key: plain_attribute(value) for key, value in f.attrs.items()}
         version = attrs.get("format_version")
         period = attrs.get("sample_period_s")
         status = attrs.get("status")
@@ -401,25 +406,12 @@ def _read_info(path: Path) -> TrialInfo | None:
         n = lengths.pop() if lengths else 0
         if n and "tick" in f["timeseries"] and f["timeseries/tick"][n - 1] == -1:
             return None
-        metrics = {k: float(v) for k, v in f["metrics"].attrs.items()} if "metrics" in f else {}
-        summary = ({k: _plain(v) for k, v in f["summary"].attrs.items()}
-                   if "summary" in f else {})
-    notes: list[str] = []
+        metrics = {k: float(v) for k, v in group_attributes(f, "metrics").items()}
+        summary = group_attributes(f, "summary")
     values = _parameter_values(attrs)
-    parameters = None
-    if values:
-        try:
-            parameters = TrialParameters.from_dict(values)
-        except (CoreError, TypeError, ValueError) as exc:
-            notes.append(f"the trial parameters could not be rebuilt ({exc}); the stored "
-                         "values are in parameter_values")
-    else:
-        notes.append("the file has no readable 'parameters' attribute")
-    subject = None
-    try:
-        subject = SubjectInfo.from_dict(json.loads(attrs["subject"]))
-    except (KeyError, TypeError, ValueError, AttributeError, RecordingError) as exc:
-        notes.append(f"the subject data could not be read ({exc})")
+    parameters, notes = parameters_from_attributes(attrs)
+    subject, subject_notes = subject_from_attributes(attrs)
+    notes += subject_notes
     return TrialInfo(
         path=path, status=status, subject=subject, parameters=parameters,
         parameter_values=MappingProxyType(values), metrics=MappingProxyType(metrics),
@@ -429,14 +421,6 @@ def _read_info(path: Path) -> TrialInfo | None:
         software_version=str(attrs.get("software_version", "")), format_version=version,
         notes=tuple(notes),
     )
-
-
-def _plain(value):
-    if isinstance(value, bytes | np.bytes_):
-        return bytes(value).rstrip(b"\0").decode("utf-8", "replace")
-    if isinstance(value, np.generic):
-        return value.item()
-    return value
 
 
 def _array(values: list) -> np.ndarray:

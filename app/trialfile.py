@@ -177,7 +177,7 @@ def _open_error(path: Path, exc: OSError) -> TrialFileError:
 
 
 def _read(path: Path, f: h5py.File) -> TrialData:
-    attrs = {key: _plain(value) for key, value in f.attrs.items()}
+    attrs = {key: plain_attribute(value) for key, value in f.attrs.items()}
     _check_format(path, attrs)
     notes: list[str] = []
     for name in ("timeseries", "channels", "events"):
@@ -204,9 +204,9 @@ def _read(path: Path, f: h5py.File) -> TrialData:
     channels, trim_notes = _read_channels(datasets)
     notes += trim_notes
 
-    parameters, note = _parameters(attrs)
+    parameters, note = parameters_from_attributes(attrs)
     notes += note
-    subject, note = _subject(attrs)
+    subject, note = subject_from_attributes(attrs)
     notes += note
     robot, note = _json_attr(attrs, "robot")
     notes += note
@@ -224,8 +224,8 @@ def _read(path: Path, f: h5py.File) -> TrialData:
         robot=robot if isinstance(robot, dict) else {},
         backend=str(attrs.get("backend", "")),
         events=events,
-        metrics={k: float(v) for k, v in _group_attrs(f, "metrics").items()},
-        summary=_group_attrs(f, "summary"),
+        metrics={k: float(v) for k, v in group_attributes(f, "metrics").items()},
+        summary=group_attributes(f, "summary"),
         status=status,
         sample_period_s=float(attrs["sample_period_s"]),
         format_version=int(attrs["format_version"]),
@@ -286,7 +286,8 @@ def _read_channels(datasets: dict[str, h5py.Dataset]) -> tuple[dict, list[str]]:
     return channels, notes
 
 
-def _parameters(attrs: dict) -> tuple[TrialParameters | None, list[str]]:
+def parameters_from_attributes(attrs: dict) -> tuple[TrialParameters | None, list[str]]:
+    """The trial's parameters from a file's root attributes, or None with why."""
     values, notes = _json_attr(attrs, "parameters")
     if values is None:
         return None, notes
@@ -297,7 +298,8 @@ def _parameters(attrs: dict) -> tuple[TrialParameters | None, list[str]]:
                       "are in attrs['parameters']"]
 
 
-def _subject(attrs: dict) -> tuple[SubjectInfo | None, list[str]]:
+def subject_from_attributes(attrs: dict) -> tuple[SubjectInfo | None, list[str]]:
+    """The subject from a file's root attributes, or None with why."""
     values, notes = _json_attr(attrs, "subject")
     if values is None:
         return None, notes
@@ -341,10 +343,11 @@ def _events(dataset: h5py.Dataset) -> tuple[list[dict], list[str]]:
     return events, notes
 
 
-def _group_attrs(f: h5py.File, name: str) -> dict:
+def group_attributes(f: h5py.File, name: str) -> dict:
+    """A group's attributes as plain values, {} when the group is absent."""
     if name not in f:
         return {}
-    return {key: _plain(value) for key, value in f[name].attrs.items()}
+    return {key: plain_attribute(value) for key, value in f[name].attrs.items()}
 
 
 def _text(value) -> str:
@@ -353,7 +356,7 @@ def _text(value) -> str:
     return str(value)
 
 
-def _plain(value):
+def plain_attribute(value):
     """Attribute values as Python scalars and str; arrays stay arrays."""
     if isinstance(value, bytes | np.bytes_ | str):
         return _text(value)
