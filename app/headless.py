@@ -3,6 +3,13 @@
 The same per-tick pipeline, safety supervisor and trial file as a live trial; only the
 pacing differs (simulated time advances tick by tick instead of waiting for the clock).
 Researchers use it to try parameters and virtual patients; the tests use it end to end.
+
+Two engines run the same ticks. "compiled" (device.compiled, numba) runs a usual
+trial several hundred times faster than real time; "python" is the reference
+implementation the live loop also uses. The default, "auto", takes the compiled
+engine and hands the trial to the Python one when the configuration has no compiled
+form or a tick leaves the ordinary (a fault): the Python engine replays it from the
+start, deterministically, and writes the fault's event with its cause and values.
 """
 
 from __future__ import annotations
@@ -15,8 +22,10 @@ from pathlib import Path
 import numpy as np
 
 from app.analysis import Analysis, analyse
+from core.errors import ParameterError
 from core.robot import RobotModel
 from core.trial import TrialParameters
+from device.compiled import trial as compiled
 from device.errors import BackendError
 from device.pipeline import TickPipeline, TrialPlan, fill_subject_channels
 from device.record import RecordLog
@@ -26,6 +35,7 @@ from device.supervisor import SafetySupervisor
 from device.trialfile import SubjectInfo, write_trial
 
 Progress = Callable[[float], None]
+ENGINES = ("auto", "compiled", "python")
 
 
 @dataclass(frozen=True, slots=True)
@@ -39,6 +49,10 @@ class SimulatedTrial:
     patient: str
     seed: int
     elapsed_s: float
+    engine: str = "python"
+    """Which engine produced the records: "compiled" or "python"."""
+    handed_over: str = ""
+    """Why an "auto" run left the compiled engine ('' when it did not)."""
 
     @property
     def simulated_s(self) -> float:
@@ -57,6 +71,7 @@ def simulate(
     robot: RobotModel | None = None,
     progress: Progress | None = None,
     patient_options: dict | None = None,
+    engine: str = "auto",
 ) -> SimulatedTrial:
     """Run a trial on the simulator with a virtual patient of kind `patient`.
 
@@ -64,18 +79,36 @@ def simulate(
     The safety supervisor watches every tick as in a live trial; a fault (or a
     backend failure, which it turns into one) ends the trial as "faulted" with the
     cause as an event, and the samples up to it are kept.
+
+    `engine` is one of ENGINES (module notes). "compiled" refuses a configuration
+    without a compiled form instead of falling back.
     """
+    if engine not in ENGINES:
+        raise ParameterError("engine", engine, "one of " + ", ".join(ENGINES))
     plan = TrialPlan.build(parameters, robot)
     backend = SimulatorBackend.from_trial(
         parameters, patient, seed=seed, robot=plan.robot, patient_options=patient_options
     )
     pipeline = TickPipeline(plan)
     supervisor = SafetySupervisor(plan.robot)
+    started = time.perf_counter()
+    handed_over = ""
+    if engine != "python":
+        outcome = compiled.run(backend, pipeline, supervisor, progress)
+        if isinstance(outcome, np.ndarray):
+            return _finish(plan, outcome, [
+                _event(0, plan.period_s, "start", "trial started",
+                       {"patient": patient, "seed": seed}),
+                _event(len(outcome), plan.period_s, "stop", "trial complete", {}),
+            ], "complete", patient, seed, started, "compiled", "", progress)
+        if engine == "compiled" and outcome.tick == 0:
+            raise ParameterError("engine", engine, "a configuration with a compiled form",
+                                 outcome.reason)
+        handed_over = f"tick {outcome.tick}: {outcome.reason}"
     log = RecordLog()
     events: list[dict] = []
     status = "complete"
     period = plan.period_s
-    started = time.perf_counter()
     backend.open()
     try:
         reading = backend.read(0.0)
@@ -115,13 +148,17 @@ def simulate(
     finally:
         backend.safe_state()
         backend.close()
-    records = log.to_array()
+    return _finish(plan, log.to_array(), events, status, patient, seed, started, "python",
+                   handed_over, progress)
+
+
+def _finish(plan, records, events, status, patient, seed, started, engine, handed_over,
+            progress) -> SimulatedTrial:
     fill_subject_channels(records, plan)
     if progress is not None:
         progress(1.0)
-    return SimulatedTrial(
-        plan, records, tuple(events), status, patient, seed, time.perf_counter() - started
-    )
+    return SimulatedTrial(plan, records, tuple(events), status, patient, seed,
+                          time.perf_counter() - started, engine, handed_over)
 
 
 def save(trial: SimulatedTrial, path: Path, *, subject_code: str = "SIM") -> Analysis:
@@ -138,7 +175,7 @@ def save(trial: SimulatedTrial, path: Path, *, subject_code: str = "SIM") -> Ana
         sample_period_s=trial.plan.period_s,
         events=trial.events,
         status=trial.status,
-        summary={"speed_vs_real_time": trial.speed_vs_real_time,
+        summary={"speed_vs_real_time": trial.speed_vs_real_time, "engine": trial.engine,
                  "exercise_start_s": analysis.exercise_start_s},
         metrics=analysis.metrics.to_dict(),
     )

@@ -1,6 +1,7 @@
 """Timing of the 2 ms loop, alone and beside a live pyqtgraph window.
 
     .venv/bin/python bench/loop_jitter.py [--seconds 60] [--only alone|window]
+                                          [--engine compiled|python]
     xvfb-run -a .venv/bin/python bench/loop_jitter.py        # a real (virtual) X display
 
 Runs the real loop process (simulator backend, healthy virtual patient, thesis D, SMC,
@@ -20,6 +21,7 @@ Figures only. Goals (issue 5): beside the window, lateness p99 ≤ 0.25 ms, max 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import tempfile
 import time
@@ -43,12 +45,14 @@ WINDOW_S = 10.0
 
 
 def run_trial(seconds: float, folder: Path, label: str, window: bool,
-              cpu: int | None = None) -> dict:
+              cpu: int | None = None, compiled: bool = True) -> dict:
     reps = max(1, round(seconds / THESIS_SUBJECT.duration_s))
     params = THESIS_SUBJECT.replace(repetitions=reps)
     path = folder / f"{label}.h5"
     fps = float("nan")
-    config = LoopConfig() if cpu is None else LoopConfig(cpu=None if cpu < 0 else cpu)
+    config = LoopConfig(compiled=compiled)
+    if cpu is not None:
+        config = dataclasses.replace(config, cpu=None if cpu < 0 else cpu)
     with DeviceClient(loop_config=config) as client:
         assert client.build(params).ok
         assert client.connect().ok
@@ -87,7 +91,8 @@ def _drain(client: DeviceClient, seconds: float, seen: list) -> None:
 
 
 def _window(client: DeviceClient, seconds: float, seen: list) -> float:
-    os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+    if not os.environ.get("DISPLAY"):
+        os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
     import pyqtgraph as pg
     from PySide6.QtCore import QTimer
     from PySide6.QtWidgets import QApplication
@@ -165,6 +170,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=60.0)
     parser.add_argument("--only", choices=("alone", "window"))
+    parser.add_argument("--engine", choices=("compiled", "python"), default="compiled",
+                        help="the loop's running tick: compiled (the default) or Python")
     parser.add_argument("--cpu", type=int, help="pin the loop to this CPU; -1: no pinning "
                                                 "(default: the last CPU, as the console does)")
     args = parser.parse_args()
@@ -173,8 +180,8 @@ def main() -> None:
         for label in ("alone", "window"):
             if args.only in (None, label):
                 runs.append(run_trial(args.seconds, Path(folder), label, label == "window",
-                                      args.cpu))
-    print(f"Loop timing over {args.seconds:g} s trials (display: "
+                                      args.cpu, args.engine == "compiled"))
+    print(f"Loop timing over {args.seconds:g} s trials, {args.engine} tick (display: "
           f"{os.environ.get('QT_QPA_PLATFORM') or os.environ.get('DISPLAY', '?')})")
     print(f"{'run':<8}{'ticks':>7}{'p50 ms':>8}{'p99 ms':>8}{'p99.9 ms':>10}{'max ms':>8}"
           f"{'late %':>8}{'compute p99 µs':>16}{'window fps':>12}  status")

@@ -4,9 +4,12 @@
 
 Prints, for every virtual patient, the speed of a whole headless trial (the thesis's
 D under SMC: simulator, rate estimate, controller, assistance, supervisor, subject
-model and record, exactly as `rehab run` does it) as a multiple of real time, then
-the simulator's own read+write cost per tick, and the controller tick cost p99 with
-the assistance on (from bench/controllers.py). Figures only, no assertion.
+model and record, exactly as `rehab run` does it) as a multiple of real time, with
+the compiled engine (the default) and the Python reference engine; then what the
+compiled engine's first trial in a fresh process costs (loading the compiled
+kernels from the cache, or compiling them when the cache is empty), the simulator's
+own read+write cost per tick in Python, and the controller tick cost p99 with the
+assistance on (from bench/controllers.py). Figures only, no assertion.
 Goals (issue 4): ≥ 500× real time; controller tick p99 ≤ 50 µs with the assistance.
 """
 
@@ -14,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import gc
+import subprocess
 import sys
 from pathlib import Path
 
@@ -37,18 +41,33 @@ def main() -> None:
     args = parser.parse_args()
     params = THESIS_SUBJECT.replace(repetitions=args.repetitions)
 
-    print(f"Whole headless trial: thesis D, {args.repetitions} × 4 s, SMC, assistance on")
-    print(f"{'patient':<11}{'simulated s':>12}{'wall s':>9}{'× real time':>13}{'µs/tick':>9}")
+    print(f"Whole headless trial: thesis D, {args.repetitions} × 4 s, SMC, assistance on "
+          "(best of 3)")
+    print(f"{'patient':<11}{'engine':<10}{'simulated s':>12}{'wall s':>9}{'× real time':>13}"
+          f"{'µs/tick':>9}")
+    simulate(params.replace(repetitions=1))  # load the compiled kernels (reported below)
     gc.collect()
     for kind in PATIENT_KINDS:
-        best = None
-        for _ in range(3):
-            trial = simulate(params, patient=kind)
-            if best is None or trial.elapsed_s < best.elapsed_s:
-                best = trial
-        ticks = len(best.records)
-        print(f"{kind:<11}{best.simulated_s:12.1f}{best.elapsed_s:9.3f}"
-              f"{best.speed_vs_real_time:13.0f}{1e6 * best.elapsed_s / ticks:9.1f}")
+        for engine in ("compiled", "python"):
+            best = None
+            for _ in range(3):
+                trial = simulate(params, patient=kind, engine=engine)
+                if best is None or trial.elapsed_s < best.elapsed_s:
+                    best = trial
+            ticks = len(best.records)
+            print(f"{kind:<11}{engine:<10}{best.simulated_s:12.1f}{best.elapsed_s:9.3f}"
+                  f"{best.speed_vs_real_time:13.0f}{1e6 * best.elapsed_s / ticks:9.1f}")
+
+    print("\nFirst compiled trial in a fresh process (healthy), from the kernel cache")
+    code = ("import time; t = time.perf_counter(); from app.headless import simulate; "
+            "from core.trial import THESIS_SUBJECT as T; i = time.perf_counter(); "
+            f"r = simulate(T.replace(repetitions={args.repetitions})); "
+            "print(f'{i - t:.2f} {r.elapsed_s:.2f} {r.speed_vs_real_time:.0f}')")
+    root = Path(__file__).resolve().parents[1]
+    line = subprocess.run([sys.executable, "-c", code], cwd=root, capture_output=True,
+                          text=True, check=True).stdout.split()
+    print(f"import {line[0]} s, trial {line[1]} s ({line[2]}× real time including the "
+          "kernels' load)")
 
     print("\nSimulator alone (read + write per 2 ms tick, best of 3)")
     for (kind, integrator), us in bench_tick(kinds=("healthy", "passive")).items():

@@ -277,6 +277,11 @@ class RateEstimator:
         self.rate = float(rate)
         self.acceleration = float(acceleration)
 
+    @property
+    def primed(self) -> bool:
+        """Whether the tracker has its first angle (after `reset(angle)` or one `update`)."""
+        return self._primed
+
     def update(self, angle: float) -> tuple[float, float]:
         """Take one measured angle (rad); return (rate rad/s, acceleration rad/s²)."""
         if not self._primed:
@@ -291,6 +296,11 @@ class RateEstimator:
         self.rate = rate + self._beta_dt * residual
         self.acceleration += self._gamma_dt2 * residual
         return (self.rate, self.acceleration)
+
+    @property
+    def coefficients(self) -> tuple[float, float, float, float, float]:
+        """(dt, dt²/2, α, β/dt, 2γ/dt²): the numbers `update` works with."""
+        return (self._dt, self._half_dt2, self._alpha, self._beta_dt, self._gamma_dt2)
 
     @property
     def gains(self) -> tuple[float, float, float]:

@@ -182,12 +182,16 @@ class DeviceClient:
             if remaining <= 0:
                 raise DeviceError(f"the loop did not answer {type(command).__name__} within "
                                   f"{timeout:g} s")
+            reply = None
             for event in self._receive(min(remaining, 0.05)):
-                if isinstance(event, Reply) and event.id == ident:
-                    return event
+                if reply is None and isinstance(event, Reply) and event.id == ident:
+                    reply = event  # what came with it in the same batch stays queued
+                    continue
                 self._pending.append(event)
                 if isinstance(event, LoopLost):
                     raise DeviceError(event.message)
+            if reply is not None:
+                return reply
 
     def build(self, parameters: TrialParameters, backend: BackendConfig | None = None,
               limits: SafetyLimits | None = None, timeout: float = 30.0) -> Reply:

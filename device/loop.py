@@ -17,6 +17,7 @@ State machine: device.states. Faults: device.supervisor (latched until cleared).
 from __future__ import annotations
 
 import dataclasses
+import faulthandler
 import math
 import time
 from dataclasses import dataclass
@@ -24,6 +25,8 @@ from multiprocessing.connection import Connection
 
 from core.trial import TrialParameters
 from device.backend import Backend, SensorReading
+from device.compiled.looptick import CompiledTick, unsupported_live
+from device.compiled.warmup import load_kernels
 from device.errors import BackendError, DeviceError, StateError
 from device.faults import Fault
 from device.messages import (
@@ -65,11 +68,20 @@ _COMMANDS = {
 }
 
 
+SLACK_S = 200e-6
+"""Time before each deadline for commands and for rehearsing the compiled tick on a
+copy of its state (device.compiled.looptick): enough for a command and a cold
+rehearsal, short enough that the caches are still warm when the real tick runs."""
+
+
 @dataclass(frozen=True, slots=True)
 class LoopConfig:
     period_s: float = PERIOD_S
     cpu: int | None = LAST_CPU  # None: any CPU
     realtime: bool = True
+    compiled: bool = True
+    """Run the simulator's trial ticks compiled (device.compiled.looptick) when the
+    configuration allows; False keeps every tick in Python."""
 
 
 def make_backend(config: BackendConfig, params: TrialParameters, plan: TrialPlan) -> Backend:
@@ -138,6 +150,7 @@ class DeviceLoop:
         self.stopping_since = 0.0
         self.paused = False
         self.t0 = 0.0
+        self.compiled: CompiledTick | None = None
 
     # ------------------------------------------------------------------ main
     def run(self) -> None:
@@ -174,11 +187,12 @@ class DeviceLoop:
         k = 0
         overrun = 0.0
         while self.state in (State.CONNECTED, State.RUNNING, State.STOPPING, State.FAULTED):
-            now = wait_until(deadline, clock)
-            lateness = max(now - deadline, overrun)
-            overrun = 0.0
-            loop_t = now - t0
+            # The slack before the deadline: commands, then a rehearsal of the tick, so
+            # that the tick itself is only sensors → torque (its compute time).
+            wait_until(deadline - SLACK_S, clock)
             if self.console.poll():
+                if self.compiled is not None:
+                    self.compiled.hand_back()
                 self._handle_commands()
                 if self.state not in (State.CONNECTED, State.RUNNING, State.STOPPING,
                                       State.FAULTED):
@@ -189,35 +203,59 @@ class DeviceLoop:
                     # zero torque; the schedule restarts from now instead of counting
                     # the pause as late ticks.
                     self.paused = False
-                    now = clock()
-                    deadline, lateness, loop_t = now, 0.0, now - t0
+                    deadline, overrun = clock() + SLACK_S, 0.0
+                self._take_over()
+            compiled = self.compiled
+            if compiled is not None and compiled.active and self.state == State.RUNNING:
+                compiled.warm(self.trial_tick, deadline - t0)
+            now = wait_until(deadline, clock)
+            lateness = max(now - deadline, overrun)
+            overrun = 0.0
+            loop_t = now - t0
             value = self.heartbeat.value
             if value != beat:
                 beat, beat_seen = value, now
             beat_age = math.inf if self.console_lost else now - beat_seen
-            try:
-                reading = backend.read(loop_t)
-            except BackendError as exc:
-                reading = exc
-            running = self.state == State.RUNNING and isinstance(reading, SensorReading)
-            if running:
-                tau1, tau2 = self.pipeline.control(self.trial_tick, reading)
-                rate1, rate2 = self.pipeline.rates
-            else:
-                tau1 = tau2 = rate1 = rate2 = 0.0
-            lost = bool(self.recording_failed.value) or (overwrite() and self.state ==
-                                                         State.RUNNING)
-            out1, out2, fault = supervisor.step(
-                loop_t, reading, rate1, rate2, tau1, tau2, lateness, beat_age,
-                bool(self.estop_flag.value), lost,
-            )
-            try:
-                backend.write(out1, out2)
-            except BackendError:
-                backend.safe_state()
-            compute = clock() - now
-            if running:
+            estop = bool(self.estop_flag.value)
+            written = None
+            if compiled is not None and compiled.active and self.state == State.RUNNING:
+                lost = bool(self.recording_failed.value) or overwrite()
+                written = compiled.tick(self.trial_tick, loop_t, lateness, beat_age, estop,
+                                        lost)
+            if written is not None:
+                # an ordinary running tick, done compiled; anything else comes back here
+                # undone and runs below in Python
+                out1, out2 = written
+                fault = Fault.NONE
+                compute = clock() - now
+                reading = SensorReading._make(compiled.reading())
                 self.reading = reading
+                self.pipeline.set_last_tick(compiled.last_tick())
+                running = True
+            else:
+                try:
+                    reading = backend.read(loop_t)
+                except BackendError as exc:
+                    reading = exc
+                running = self.state == State.RUNNING and isinstance(reading, SensorReading)
+                if running:
+                    tau1, tau2 = self.pipeline.control(self.trial_tick, reading)
+                    rate1, rate2 = self.pipeline.rates
+                else:
+                    tau1 = tau2 = rate1 = rate2 = 0.0
+                lost = bool(self.recording_failed.value) or (overwrite() and self.state ==
+                                                             State.RUNNING)
+                out1, out2, fault = supervisor.step(
+                    loop_t, reading, rate1, rate2, tau1, tau2, lateness, beat_age, estop, lost,
+                )
+                try:
+                    backend.write(out1, out2)
+                except BackendError:
+                    backend.safe_state()
+                compute = clock() - now
+                if running:
+                    self.reading = reading
+            if running:
                 record = self.pipeline.record(
                     self.trial_tick, reading, loop_t, lateness, compute, (out1, out2),
                     int(self.state), int(fault))
@@ -246,6 +284,8 @@ class DeviceLoop:
             if self.console_lost and self.state != State.RUNNING:
                 self.shutdown = True
                 break
+            if compiled is not None and (self.state != State.RUNNING or not compiled.active):
+                compiled = self._take_over()
             k += 1
             deadline += period
             behind = clock() - deadline
@@ -261,10 +301,26 @@ class DeviceLoop:
     def _advance_trial(self, backend: Backend) -> None:
         self.trial_tick += 1
         if self.trial_tick == self.pipeline.approach_ticks:
+            if self.compiled is not None:
+                self.compiled.hand_back()  # taken over again after this tick
             _cue_patient(backend)
         if self.trial_tick >= self.pipeline.total_ticks:
             self._end_trial("complete", "trial complete")
             self._set_state(State.STOPPING, "trial complete; saving")
+
+    def _take_over(self) -> CompiledTick | None:
+        """Let the compiled tick run the trial's next tick, if there is one and it may;
+        drop it once the trial is over. Returns the compiled tick (None when dropped)."""
+        compiled = self.compiled
+        if compiled is None:
+            return None
+        if self.state != State.RUNNING:
+            compiled.hand_back()
+            self.compiled = None
+            return None
+        if not compiled.active:
+            compiled.take_over()
+        return compiled
 
     def _start_trial(self, command: Start) -> str:
         if self.reading is None:
@@ -278,6 +334,11 @@ class DeviceLoop:
         self.trial_tick = 0
         if self.pipeline.approach_ticks == 0:
             _cue_patient(self.backend)
+        self.compiled = None
+        if self.config.compiled and not unsupported_live(self.backend, self.pipeline,
+                                                         self.supervisor):
+            self.compiled = CompiledTick(self.backend, self.pipeline, self.supervisor)
+            self.compiled.take_over()
         plan = self.plan
         self._to_recorder(BeginTrial(
             command.path, self.ring.write_count, plan.parameters, command.subject,
@@ -410,6 +471,8 @@ class DeviceLoop:
             self.pipeline.set_assistance_level(self.assistance_level)
         self.backend = backend
         self.supervisor = SafetySupervisor(self.plan.robot, self.limits)
+        if self.config.compiled and config.kind == "simulator":
+            load_kernels()  # a first call inside a tick would stall it (device.compiled)
         self.fault_reported = Fault.NONE
         self.reading = None
         self._set_state(State.CONNECTED, f"connected to the {config.label}")
@@ -459,6 +522,7 @@ def _cue_patient(backend: Backend) -> None:
 def loop_main(console: Connection, recorder: Connection, ring_name: str, estop_flag,
               heartbeat, recording_failed, config: LoopConfig) -> None:
     """Entry point of the loop process."""
+    faulthandler.enable()  # a crash in compiled code still leaves a traceback on stderr
     problems = prepare_process(config.cpu) if config.realtime else []
     ring = RecordRing.attach(ring_name)
     loop = DeviceLoop(console, recorder, ring, estop_flag, heartbeat, recording_failed, config)

@@ -245,7 +245,8 @@ class VirtualPatient:
     __slots__ = (
         "_active", "_b", "_dt_rate", "_duration", "_effort", "_ep_len", "_ep_window",
         "_episodes", "_k", "_lf", "_lu", "_n", "_p", "_phi0", "_rest", "_spas", "_table",
-        "_total", "_tremor", "_ts0", "_wrong", "arm", "parameters", "trajectory",
+        "_table_array", "_total", "_tremor", "_ts0", "_wrong", "arm", "parameters",
+        "trajectory",
     )
 
     def __init__(
@@ -271,10 +272,12 @@ class VirtualPatient:
         dx0, dy0 = trajectory.at(0.0)[6:8]
         self._rest = (ts0, self._phi0) + (0.0,) * 14 + (dx0, dy0)
         self._table: list[tuple[float, ...]] = []
+        self._table_array = np.empty((0, 18))
         if self._active:
-            self._table = _desired_motion_table(
+            self._table_array = _desired_motion_table(
                 arm, trajectory, parameters.passive, (ts0, self._phi0), parameters.drive_N
             )
+            self._table = [tuple(row) for row in self._table_array.tolist()]
         self._n = len(self._table)
 
         self._spas = None
@@ -322,6 +325,19 @@ class VirtualPatient:
     def start_posture_rad(self) -> tuple[float, float]:
         """Arm angles (θ_s, θ_e) at the path's start, the passive tissue's rest posture."""
         return (self._ts0, self._ts0 + self._phi0)
+
+    def kernel_view(self) -> dict:
+        """The numbers `torque` works from, for the compiled simulator
+        (device.compiled.dynamics.patient_arrays)."""
+        return {
+            "active": self._active, "effort": self._effort, "ts0": self._ts0,
+            "phi0": self._phi0, "lu": self._lu, "lf": self._lf, "passive": self._p,
+            "stiffness": self._k, "damping": self._b, "duration": self._duration,
+            "total": self._total, "dt_rate": self._dt_rate, "table": self._table_array,
+            "tremor": self._tremor, "spasticity": self._spas, "episodes": self._episodes,
+            "wrong_force": self._wrong, "ep_len": self._ep_len, "ep_window": self._ep_window,
+            "rest_direction": self._rest[16:18],
+        }
 
     def desired(self, t_s: float) -> tuple[float, ...]:
         """The desired motion at `t_s` as the patient looks it up:
@@ -454,7 +470,7 @@ def passive_torque_terms(passive: JointImpedance, rest_rad, ts, phi, tsd, phid):
 def _desired_motion_table(
     arm: ArmModel, trajectory: Trajectory, passive: JointImpedance, rest_rad,
     drive_N: float = DRIVE_N,
-) -> list[tuple[float, ...]]:
+) -> np.ndarray:
     """The desired arm motion, its feed-forward torque and the push along the path for
     one traversal, every TABLE_STEP_S: rows of eight values (θ_s, φ, θ̇_s, φ̇,
     τ_ff,s, τ_ff,e, push F_x, F_y), their increments to the next row (for linear
@@ -487,8 +503,7 @@ def _desired_motion_table(
         theta[:, 0], phi, theta_dot[:, 0], phi_dot,
         feedforward[:, 0] - tissue_s, feedforward[:, 1] - tissue_e, push,
     ))
-    rows = np.column_stack((values[:-1], np.diff(values, axis=0), sample.direction[:-1]))
-    return [tuple(row) for row in rows.tolist()]
+    return np.column_stack((values[:-1], np.diff(values, axis=0), sample.direction[:-1]))
 
 
 def _lagged(direction: np.ndarray, dt_s: float, lag_s: float) -> np.ndarray:

@@ -19,7 +19,7 @@ from wherever the handle is to the path's start point).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -58,6 +58,8 @@ class TrialPlan:
     robot: RobotModel
     period_s: float
     exercise_rows: tuple  # per tick: (xd, yd, vxd, vyd, dx, dy, r1, r2, rd1, rd2, rdd1, rdd2)
+    exercise_table: np.ndarray = field(compare=False, repr=False)
+    """The same rows as one (N, 12) array, for the compiled engine."""
 
     @classmethod
     def build(
@@ -74,7 +76,7 @@ class TrialPlan:
         table = np.column_stack(
             (sample.position_m, sample.velocity_m_s, sample.direction, q, qd, qdd)
         )
-        return cls(parameters, robot, period_s, tuple(map(tuple, table.tolist())))
+        return cls(parameters, robot, period_s, tuple(map(tuple, table.tolist())), table)
 
     @property
     def exercise_ticks(self) -> int:
@@ -87,12 +89,16 @@ class TrialPlan:
     def approach_rows(self, q1: float, q2: float) -> tuple:
         """Reference rows from the handle's pose to the path's start: a minimum-jerk
         straight line at about APPROACH_SPEED_M_S, at least APPROACH_MIN_S long."""
+        return tuple(map(tuple, self.approach_table(q1, q2).tolist()))
+
+    def approach_table(self, q1: float, q2: float) -> np.ndarray:
+        """`approach_rows` as one (N, 12) array (N = 0 when the handle is at the start)."""
         robot = self.robot
         x0, y0 = robot.position(q1, q2)
         x1, y1 = self.start_point_m
         distance = math.hypot(x1 - x0, y1 - y0)
         if distance < APPROACH_SKIP_M:
-            return ()
+            return np.empty((0, 12))
         duration = max(APPROACH_MIN_S, distance / APPROACH_SPEED_M_S)
         n = math.ceil(duration / self.period_s)
         u = np.arange(n) * self.period_s / duration
@@ -109,8 +115,7 @@ class TrialPlan:
         rhs = acc - np.einsum("nij,nj->ni", robot.jacobian_dot(q, qd), qd)
         qdd = np.linalg.solve(jac, rhs[..., None])[..., 0]
         direction = np.tile([ux, uy], (n, 1))
-        table = np.column_stack((pos, vel, direction, q, qd, qdd))
-        return tuple(map(tuple, table.tolist()))
+        return np.column_stack((pos, vel, direction, q, qd, qdd))
 
 
 class TickPipeline:
@@ -141,14 +146,16 @@ class TickPipeline:
         self._est2 = RateEstimator(plan.period_s, rate_cutoff_hz)
         self._rows: tuple = plan.exercise_rows
         self._approach_ticks = 0
+        self._table = plan.exercise_table
         self._last = None
 
     # ------------------------------------------------------------------ trial
     def begin(self, q1: float, q2: float) -> None:
         """Start a trial from the handle's current pose: plan the approach, reset state."""
-        approach = self.plan.approach_rows(q1, q2)
+        approach = self.plan.approach_table(q1, q2)
         self._approach_ticks = len(approach)
-        self._rows = approach + self.plan.exercise_rows
+        self._rows = tuple(map(tuple, approach.tolist())) + self.plan.exercise_rows
+        self._table = np.vstack((approach, self.plan.exercise_table))
         self.controller.reset()
         self._est1.reset(q1)
         self._est2.reset(q2)
@@ -159,6 +166,17 @@ class TickPipeline:
         return len(self._rows) + round(HOLD_S / self.period_s)
 
     @property
+    def reference_rows(self) -> np.ndarray:
+        """The reference of the trial `begin` planned, one row per tick of approach and
+        exercise: (x_d, y_d, ẋ_d, ẏ_d, direction x, y, θ_d1, θ_d2, θ̇_d1, θ̇_d2, θ̈_d1, θ̈_d2)."""
+        return self._table
+
+    @property
+    def rate_estimators(self) -> tuple[RateEstimator, RateEstimator]:
+        """The joint-rate trackers of joints 1 and 2."""
+        return (self._est1, self._est2)
+
+    @property
     def approach_ticks(self) -> int:
         return self._approach_ticks
 
@@ -166,6 +184,16 @@ class TickPipeline:
     def rates(self) -> tuple[float, float]:
         """The joint-rate estimate of the last `control` call (rad/s)."""
         return (self._last[1], self._last[2])
+
+    @property
+    def last_tick(self) -> tuple | None:
+        """What the last `control` computed, as `record` reads it (None before the first)."""
+        return self._last
+
+    def set_last_tick(self, values: tuple) -> None:
+        """Set what `record` and `rates` read, as a compiled `control` computed it (the
+        25 values of `last_tick`, plain floats)."""
+        self._last = values
 
     def set_assistance_level(self, level: float) -> None:
         self.assistance.set_level(level)

@@ -81,12 +81,14 @@ from core.trial import THESIS_SUBJECT, TrialParameters
 from device.backend import SensorReading
 from device.errors import BackendError, SensorRangeError, StateError
 from device.patients import Patient, make_patient
-from device.sensors import ForceSensorModel, gaussian_triples
+from device.sensors import ForceSensorModel
 
 INTEGRATORS = ("rk4", "semi_implicit_euler")
 DYNAMICS = ("fused", "reference")
 DEFAULT_STEP_S = 0.001
 MAX_STEP_S = 0.001
+NOISE_BLOCK = 4096
+"""Sensor-noise triples drawn from the generator at a time."""
 _TWO_PI = 2.0 * math.pi
 # A waiting patient's clock: this far before the exercise's start, the desired
 # motion is the start posture at rest (finite, so the tremor's sine stays defined).
@@ -296,6 +298,16 @@ class SimulatorBackend:
         return self.time_s - self._patient_t0
 
     # ------------------------------------------------------------ validation
+    def noise_generator(self) -> np.random.Generator:
+        """A new generator of the force sensor's noise, as `open` starts it: the
+        sensor's child seed of `seed`, independent of the patient's."""
+        return np.random.default_rng(_child_seed(self.seed, 1))
+
+    @property
+    def start_angles_rad(self) -> tuple[float, float]:
+        """The robot's joint angles at rest at the path's start, where `open` puts it."""
+        return self._q0
+
     @property
     def time_s(self) -> float:
         """Simulated time of the last reading."""
@@ -325,10 +337,25 @@ class SimulatorBackend:
         self._cached_k1 = True
         self._state = (self._q0[0], self._q0[1], 0.0, 0.0)
         # the sensor noise has its own child seed, independent of the patient's (child 0)
-        self._noise = gaussian_triples(np.random.default_rng(_child_seed(self.seed, 1))).__next__
+        self._noise_rng = self.noise_generator()
+        self._draw_noise_block()
         self._last = self._evaluate_safely(-self._patient_t0, *self._state, 0.0, 0.0, True)
         self._last_tau = (0.0, 0.0)
         self._reading = self._sample(0, self._state[0], self._state[1], self._last)
+
+    def _draw_noise_block(self) -> None:
+        # drawn a block at a time (numpy stays off the per-tick path); the rows come in
+        # the generator's order whatever the block size, so runs repeat for a seed
+        self._noise_block = self._noise_rng.standard_normal((NOISE_BLOCK, 3))
+        self._noise_rows = self._noise_block.tolist()
+        self._noise_pos = 0
+
+    def _noise(self) -> list[float]:
+        if self._noise_pos == NOISE_BLOCK:
+            self._draw_noise_block()
+        row = self._noise_rows[self._noise_pos]
+        self._noise_pos += 1
+        return row
 
     def _evaluate_safely(self, t, q1, q2, qd1, qd2, tau1, tau2, full):
         try:
@@ -452,6 +479,53 @@ def _check_seed(seed) -> None:
 def _child_seed(seed: int, index: int) -> np.random.SeedSequence:
     """The `index`-th independent stream of `seed` (what SeedSequence.spawn gives)."""
     return np.random.SeedSequence(int(seed), spawn_key=(index,))
+
+
+# ------------------------------------------------------- compiled hand-over
+@dataclass(frozen=True, slots=True)
+class SimulatorSnapshot:
+    """Everything `read` and `write` change, for the compiled tick (device.compiled) to
+    take over the simulation and hand it back unchanged."""
+
+    steps: int
+    state: tuple[float, float, float, float]
+    torque: tuple[float, float]
+    last_torque: tuple[float, float]
+    last: tuple
+    reading: SensorReading
+    cached_k1: bool
+    patient_t0: float
+    anchor: float | None
+    noise_block: np.ndarray
+    noise_pos: int
+
+
+def snapshot(simulator: SimulatorBackend) -> SimulatorSnapshot:
+    """The simulator's state now (the noise block is shared, not copied)."""
+    s = simulator
+    return SimulatorSnapshot(
+        s._steps, s._state, (s._tau1, s._tau2), s._last_tau, s._last, s._reading,
+        s._cached_k1, s._patient_t0, s._anchor, s._noise_block, s._noise_pos,
+    )
+
+
+def restore(simulator: SimulatorBackend, snap: SimulatorSnapshot) -> None:
+    """Put the simulator in the state `snap` describes (plain floats, as `read` keeps it).
+    The noise block must be the simulator's own current block or the next rows of its
+    stream are lost."""
+    s = simulator
+    if snap.noise_block is not s._noise_block:
+        raise StateError("a snapshot can only restore the noise block it was taken with")
+    s._steps = int(snap.steps)
+    s._state = tuple(float(v) for v in snap.state)
+    s._tau1, s._tau2 = (float(v) for v in snap.torque)
+    s._last_tau = tuple(float(v) for v in snap.last_torque)
+    s._last = tuple(float(v) for v in snap.last)
+    s._reading = _reading(float(v) for v in snap.reading)
+    s._cached_k1 = bool(snap.cached_k1)
+    s._patient_t0 = float(snap.patient_t0)
+    s._anchor = None if snap.anchor is None else float(snap.anchor)
+    s._noise_pos = int(snap.noise_pos)
 
 
 # ------------------------------------------------------------------ dynamics

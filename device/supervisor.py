@@ -300,6 +300,12 @@ class SafetySupervisor:
         return (self._full1, self._full2)
 
     @property
+    def reach_band_m(self) -> tuple[float, float]:
+        """Distances from the motor axes the handle must stay within (the reach ring less
+        the workspace margin)."""
+        return (self._reach_min, self._reach_max)
+
+    @property
     def fault(self) -> Fault:
         """The latched fault, Fault.NONE when the torque is allowed through."""
         return self._fault
@@ -360,6 +366,29 @@ class SafetySupervisor:
         self._fault_detail = {}
         self._sat_since_s = math.nan
         self._ramp_since_s = math.nan
+
+    _HISTORY = ("_prev_valid", "_prev_t", "_prev_q1", "_prev_q2", "_prev_x", "_prev_y",
+                "_stale_run", "_sat_since_s", "_ramp_since_s", "_late_run")
+
+    def history(self) -> tuple:
+        """What `step` carries from tick to tick while no fault is latched (previous
+        sample, stale and late counts, saturation and ramp start times), in the order
+        of device.compiled.guard's state, for the compiled tick to take over."""
+        return tuple(getattr(self, name) for name in self._HISTORY)
+
+    def restore_history(self, values) -> None:
+        """Take back the history the compiled tick carried on (see `history`). The
+        condition of the last tick is then 'no fault': the compiled tick only runs
+        ticks on which every check passed."""
+        prev_valid, *floats, stale, sat, ramp, late = values
+        self._prev_valid = bool(prev_valid)
+        self._prev_t, self._prev_q1, self._prev_q2, self._prev_x, self._prev_y = (
+            float(v) for v in floats)
+        self._stale_run = int(stale)
+        self._sat_since_s = float(sat)
+        self._ramp_since_s = float(ramp)
+        self._late_run = int(late)
+        self._condition = _NONE
 
     def restart_ramp(self) -> None:
         """Ramp the torque limit up from zero again, as after a clear: the loop calls it

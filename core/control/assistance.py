@@ -129,6 +129,11 @@ class PerformanceAssistance:
         self._min_force_sq = self._min_force_N * self._min_force_N
 
     @property
+    def robot(self):
+        """The robot model whose J_Rᵀ turns the subject's force into joint torques."""
+        return self._robot
+
+    @property
     def tolerance_rad(self) -> float:
         return self._tolerance_rad
 

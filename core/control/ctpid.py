@@ -141,9 +141,30 @@ class ComputedTorquePID:
         self._sat1 = self._sat2 = 0
 
     @property
+    def model(self):
+        """The inverse-dynamics model eq. 4.8 is evaluated through."""
+        return self._model
+
+    @property
+    def integral_limit_rad_s(self) -> tuple[float, float]:
+        """The clamp on ∫e dt per joint (rad·s): integral_limit_rad_s2 / K_i (0 when K_i = 0)."""
+        return self._z_max
+
+    @property
     def integral_rad_s(self) -> tuple[float, float]:
         """∫e dt per joint (rad·s), for logging and tests."""
         return (self._int1, self._int2)
+
+    @property
+    def state(self) -> tuple[float, float, int, int]:
+        """(∫e₁, ∫e₂, saturation sign of joint 1, of joint 2): what `step` carries over."""
+        return (self._int1, self._int2, self._sat1, self._sat2)
+
+    def restore_state(self, state) -> None:
+        """Take back a `state` (a compiled copy of this controller ran in between)."""
+        int1, int2, sat1, sat2 = state
+        self._int1, self._int2 = float(int1), float(int2)
+        self._sat1, self._sat2 = int(sat1), int(sat2)
 
     def reset(self) -> None:
         """Zero the integral and forget the saturation state."""

@@ -163,6 +163,11 @@ class SlidingModeController:
         self._k_robust = gains.k_robust_Nm
         self._boundary_inv = (1.0 / gains.boundary_rad_s[0], 1.0 / gains.boundary_rad_s[1])
 
+    @property
+    def model(self):
+        """The robot model the law uses (M̂, Ĉ, stiffness and friction)."""
+        return self._model
+
     def reset(self) -> None:
         """Nothing to forget: the law has no internal state."""
 

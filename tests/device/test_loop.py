@@ -18,6 +18,7 @@ from core.trial import THESIS_SUBJECT
 from device.client import DeviceClient, LoopLost
 from device.faultinjection import EXPECTED_FAULT
 from device.faults import Fault
+from device.loop import LoopConfig
 from device.messages import BackendConfig, FaultRaised, RecorderNotice, TrialEnded
 from device.states import State
 from device.trialfile import SubjectInfo
@@ -67,6 +68,16 @@ def test_commands_out_of_order_are_refused_with_a_reason(client):
 
 
 def test_a_whole_trial_is_recorded_with_its_timing(client, tmp_path):
+    """The simulator's trial ticks run compiled (device.compiled.looptick) by default."""
+    whole_trial(client, tmp_path)
+
+
+def test_a_whole_trial_with_every_tick_in_python(tmp_path):
+    with DeviceClient(loop_config=LoopConfig(compiled=False)) as python_loop:
+        whole_trial(python_loop, tmp_path)
+
+
+def whole_trial(client, tmp_path):
     connect(client)
     path = tmp_path / "trial.h5"
     assert client.start_trial(str(path), SUBJECT).ok
@@ -91,6 +102,9 @@ def test_a_whole_trial_is_recorded_with_its_timing(client, tmp_path):
     assert metrics.rmse_x_m < 0.005
     assert metrics.rmse_y_m < 0.005
     assert metrics.directional_performance_pct > 50
+    compute = data.channels["compute_time"]
+    assert np.all(compute > 0.0)
+    assert np.percentile(compute, 50) < 0.001
 
 
 def test_stop_ends_the_trial_early_and_saves_it(client, tmp_path):
@@ -169,7 +183,7 @@ def test_estop_zeroes_the_torque_and_latches_until_released_and_cleared(client, 
     time.sleep(1.0)
     client.estop(True)
     fault = client.wait_for(is_(FaultRaised), 5)[-1]
-    assert fault.code == Fault.ESTOP
+    assert fault.code == Fault.ESTOP, fault.message
     closed_file(client)
     records = client.live_records()
     first = np.flatnonzero(records["fault"] != 0)[0]
