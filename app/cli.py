@@ -141,7 +141,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     bar = ProgressBar(f"simulating {params.repetitions} × {params.duration_s:g} s") \
         if sys.stderr.isatty() else None
     trial = simulate(params, patient=args.patient, seed=args.seed,
-                     progress=bar.update if bar else None)
+                     progress=bar.update if bar else None, engine=args.engine)
     if bar:
         bar.done()
     analysis = save(trial, path, subject_code=args.code or "SIM")
@@ -152,8 +152,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"Registered as patient {args.code}, session {begun.session_number}, "
               f"trial {begun.trial_number} (id {begun.trial_id})")
     print(f"Trial {trial.status}: {trial.simulated_s:.1f} s simulated in "
-          f"{trial.elapsed_s:.2f} s ({trial.speed_vs_real_time:.0f}× real time), "
-          f"{args.patient} virtual patient, seed {args.seed}")
+          f"{trial.elapsed_s:.2f} s ({trial.speed_vs_real_time:.0f}× real time, "
+          f"{trial.engine} engine), {args.patient} virtual patient, seed {args.seed}")
     print(f"File: {path}")
     print(format_metrics(analysis.metrics))
     for note in analysis.notes:
@@ -227,6 +227,9 @@ def build_parser(prog: str = "rehab") -> tuple[Parser, argparse._SubParsersActio
                                           "data folder's trials/simulated)")
     run_cmd.add_argument("--code", help="register the trial for this patient (their body "
                                         "sizes replace the trial options')")
+    run_cmd.add_argument("--engine", choices=("auto", "compiled", "python"), default="auto",
+                         help="auto (default): compiled, handing faults to Python; python: "
+                              "the reference implementation the live loop also uses")
     run_cmd.set_defaults(func=cmd_run)
 
     from app.cli_records import (

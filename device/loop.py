@@ -286,6 +286,8 @@ class DeviceLoop:
                 break
             if compiled is not None and (self.state != State.RUNNING or not compiled.active):
                 compiled = self._take_over()
+            if compiled is not None:
+                compiled.keep_noise()  # here, well before the next deadline
             k += 1
             deadline += period
             behind = clock() - deadline

@@ -350,8 +350,21 @@ class SimulatorBackend:
         self._noise_rows = self._noise_block.tolist()
         self._noise_pos = 0
 
+    def top_up_noise(self, rows: int) -> None:
+        """Make sure at least `rows` noise triples are left in the current block, drawing
+        the next block now if not. The stream keeps its order (the rows left come first),
+        so the readings are the same as without: the live loop calls this between ticks
+        so that no tick pays for a draw (device.compiled.looptick)."""
+        left = len(self._noise_rows) - self._noise_pos
+        if left >= rows:
+            return
+        fresh = self._noise_rng.standard_normal((max(NOISE_BLOCK, rows), 3))
+        self._noise_block = np.vstack((self._noise_block[self._noise_pos:], fresh))
+        self._noise_rows = self._noise_block.tolist()
+        self._noise_pos = 0
+
     def _noise(self) -> list[float]:
-        if self._noise_pos == NOISE_BLOCK:
+        if self._noise_pos == len(self._noise_rows):
             self._draw_noise_block()
         row = self._noise_rows[self._noise_pos]
         self._noise_pos += 1

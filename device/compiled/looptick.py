@@ -31,6 +31,8 @@ from device.simulator import SimulatorSnapshot, restore, snapshot
 
 _X, _Z, _W = dyn.X_SIZE, ctl.Z_SIZE, guard.W_SIZE
 _SHADOW = _X + _Z + _W + ctl.C_SIZE + 15  # warm_tick's copies of x, z, w, c and scratch
+NOISE_RESERVE = 1000
+"""Sensor-noise rows (2 s of ticks) kept ahead of the compiled tick."""
 
 
 def unsupported_live(backend, pipeline, supervisor) -> str:
@@ -110,6 +112,14 @@ class CompiledTick:
         ctl.restore_pipeline(self.pipeline, self._z, self._c)
         self.supervisor.restore_history(self._w.tolist())
         self.active = False
+
+    def keep_noise(self, reserve: int = NOISE_RESERVE) -> None:
+        """Between ticks: when fewer than `reserve` sensor-noise rows are left, let the
+        simulator draw the next block now, so that no tick is handed back for it."""
+        if self.active and len(self._noise) - int(self._x[dyn.X_NOISE]) < reserve:
+            self.hand_back()
+            self.backend.top_up_noise(reserve)
+            self.take_over()
 
     # ----------------------------------------------------------------- tick
     def tick(self, tick: int, loop_t: float, lateness_s: float, heartbeat_age_s: float,

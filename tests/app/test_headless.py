@@ -77,7 +77,15 @@ def test_run_command_writes_the_file_and_prints_the_table(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "Directional performance" in text
     assert "Trial complete" in text
+    assert "compiled engine" in text
     assert read_trial(out).status == "complete"
+
+
+def test_run_command_can_take_the_python_engine(tmp_path, capsys):
+    out = tmp_path / "python.h5"
+    assert main(["run", "--repetitions", "1", "--engine", "python", "--output", str(out)]) == 0
+    assert "python engine" in capsys.readouterr().out
+    assert read_trial(out).summary["engine"] == "python"
 
 
 def test_run_refuses_an_existing_file_and_bad_patients(tmp_path, capsys):
