@@ -3,9 +3,9 @@ install script asks whether the cache is warm before paying for numba's import).
 
 numba invalidates a cached function only when its own file changes, not when a
 kernel it calls from another file does, so the directory is keyed by a hash of every
-file in this package: any edit starts a fresh cache. Set REHAB_NUMBA_CACHE to put it
-elsewhere; where no directory is writable it is None and the kernels are compiled
-in memory only.
+file in this package (and of where it is): any edit starts a fresh cache. Set
+REHAB_NUMBA_CACHE to put it elsewhere; where no directory is writable it is None and
+the kernels are compiled in memory only.
 """
 
 from __future__ import annotations
@@ -19,7 +19,8 @@ _PACKAGE = Path(__file__).resolve().parent
 
 
 def _source_hash() -> str:
-    digest = hashlib.sha256()
+    # numba files its cache under the source's path too: two checkouts get two caches
+    digest = hashlib.sha256(str(_PACKAGE).encode())
     for path in sorted(_PACKAGE.glob("*.py")):
         digest.update(path.name.encode())
         digest.update(path.read_bytes())

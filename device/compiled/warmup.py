@@ -19,6 +19,7 @@ from pathlib import Path
 from device.compiled.cachedir import CACHE_DIR, is_warm
 
 _loaded = False
+STALE_AFTER_S = 7 * 24 * 3600.0
 
 
 def load_kernels() -> float:
@@ -53,15 +54,18 @@ def load_kernels() -> float:
     return time.perf_counter() - started
 
 
-def prune_stale_caches() -> list[Path]:
+def prune_stale_caches(older_than_s: float = STALE_AFTER_S) -> list[Path]:
     """Remove the caches of earlier versions of the kernels beside this one (each source
-    edit keys a new directory); returns what was removed."""
+    edit keys a new directory) once untouched for `older_than_s`, so that another
+    checkout in use keeps its own; returns what was removed."""
     if CACHE_DIR is None:
         return []
     removed = []
+    cutoff = time.time() - older_than_s
     for sibling in CACHE_DIR.parent.iterdir():
         if (sibling != CACHE_DIR and sibling.is_dir() and len(sibling.name) == 16
-                and all(ch in "0123456789abcdef" for ch in sibling.name)):
+                and all(ch in "0123456789abcdef" for ch in sibling.name)
+                and sibling.stat().st_mtime < cutoff):
             shutil.rmtree(sibling, ignore_errors=True)
             removed.append(sibling)
     return removed

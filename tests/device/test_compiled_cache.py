@@ -1,6 +1,9 @@
 """The compiled kernels' cache: keyed by the source, known warm only when it holds
 every kernel the Python side calls."""
 
+import os
+import time
+
 from device.compiled import cachedir, warmup
 
 
@@ -24,11 +27,16 @@ def test_the_cache_directory_is_keyed_by_the_source():
 def test_stale_caches_of_earlier_sources_are_pruned(tmp_path, monkeypatch):
     current = tmp_path / "0123456789abcdef"
     stale = tmp_path / "fedcba9876543210"
+    recent = tmp_path / "aaaaaaaaaaaaaaaa"  # another checkout, in use
     other = tmp_path / "keep-me"
-    for folder in (current, stale, other):
+    for folder in (current, stale, recent, other):
         folder.mkdir()
+    month_ago = time.time() - 30 * 24 * 3600
+    os.utime(stale, (month_ago, month_ago))
+    os.utime(other, (month_ago, month_ago))
     monkeypatch.setattr(warmup, "CACHE_DIR", current)
     assert warmup.prune_stale_caches() == [stale]
     assert current.exists()
+    assert recent.exists()
     assert other.exists()
     assert not stale.exists()
