@@ -151,9 +151,10 @@ def cmd_run(args: argparse.Namespace) -> int:
         finalize_trial(registry, begun.trial_id, trial.status)
         print(f"Registered as patient {args.code}, session {begun.session_number}, "
               f"trial {begun.trial_number} (id {begun.trial_id})")
+    loaded = f"; its kernels loaded in {trial.load_s:.2f} s first" if trial.load_s else ""
     print(f"Trial {trial.status}: {trial.simulated_s:.1f} s simulated in "
           f"{trial.elapsed_s:.2f} s ({trial.speed_vs_real_time:.0f}× real time, "
-          f"{trial.engine} engine), {args.patient} virtual patient, seed {args.seed}")
+          f"{trial.engine} engine{loaded}), {args.patient} virtual patient, seed {args.seed}")
     print(f"File: {path}")
     print(format_metrics(analysis.metrics))
     for note in analysis.notes:

@@ -26,6 +26,7 @@ from core.errors import ParameterError
 from core.robot import RobotModel
 from core.trial import TrialParameters
 from device.compiled import trial as compiled
+from device.compiled.warmup import load_kernels
 from device.errors import BackendError
 from device.pipeline import TickPipeline, TrialPlan, fill_subject_channels
 from device.record import RecordLog
@@ -53,6 +54,8 @@ class SimulatedTrial:
     """Which engine produced the records: "compiled" or "python"."""
     handed_over: str = ""
     """Why an "auto" run left the compiled engine ('' when it did not)."""
+    load_s: float = 0.0
+    """Time spent loading the compiled kernels before the run (once per process)."""
 
     @property
     def simulated_s(self) -> float:
@@ -91,6 +94,7 @@ def simulate(
     )
     pipeline = TickPipeline(plan)
     supervisor = SafetySupervisor(plan.robot)
+    load_s = 0.0 if engine == "python" else load_kernels(("headless",))
     started = time.perf_counter()
     handed_over = ""
     if engine != "python":
@@ -100,7 +104,7 @@ def simulate(
                 _event(0, plan.period_s, "start", "trial started",
                        {"patient": patient, "seed": seed}),
                 _event(len(outcome), plan.period_s, "stop", "trial complete", {}),
-            ], "complete", patient, seed, started, "compiled", "", progress)
+            ], "complete", patient, seed, started, "compiled", "", progress, load_s)
         if engine == "compiled" and outcome.tick == 0:
             raise ParameterError("engine", engine, "a configuration with a compiled form",
                                  outcome.reason)
@@ -149,16 +153,16 @@ def simulate(
         backend.safe_state()
         backend.close()
     return _finish(plan, log.to_array(), events, status, patient, seed, started, "python",
-                   handed_over, progress)
+                   handed_over, progress, load_s)
 
 
 def _finish(plan, records, events, status, patient, seed, started, engine, handed_over,
-            progress) -> SimulatedTrial:
+            progress, load_s) -> SimulatedTrial:
     fill_subject_channels(records, plan)
     if progress is not None:
         progress(1.0)
     return SimulatedTrial(plan, records, tuple(events), status, patient, seed,
-                          time.perf_counter() - started, engine, handed_over)
+                          time.perf_counter() - started, engine, handed_over, load_s)
 
 
 def save(trial: SimulatedTrial, path: Path, *, subject_code: str = "SIM") -> Analysis:

@@ -62,12 +62,12 @@ def main() -> None:
     code = ("import time; t = time.perf_counter(); from app.headless import simulate; "
             "from core.trial import THESIS_SUBJECT as T; i = time.perf_counter(); "
             f"r = simulate(T.replace(repetitions={args.repetitions})); "
-            "print(f'{i - t:.2f} {r.elapsed_s:.2f} {r.speed_vs_real_time:.0f}')")
+            "print(f'{i - t:.2f} {r.load_s:.2f} {r.elapsed_s:.3f} {r.speed_vs_real_time:.0f}')")
     root = Path(__file__).resolve().parents[1]
     line = subprocess.run([sys.executable, "-c", code], cwd=root, capture_output=True,
                           text=True, check=True).stdout.split()
-    print(f"import {line[0]} s, trial {line[1]} s ({line[2]}× real time including the "
-          "kernels' load)")
+    print(f"import {line[0]} s, loading the kernels {line[1]} s, then the trial {line[2]} s "
+          f"({line[3]}× real time)")
 
     print("\nSimulator alone (read + write per 2 ms tick, best of 3)")
     for (kind, integrator), us in bench_tick(kinds=("healthy", "passive")).items():

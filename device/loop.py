@@ -474,7 +474,7 @@ class DeviceLoop:
         self.backend = backend
         self.supervisor = SafetySupervisor(self.plan.robot, self.limits)
         if self.config.compiled and config.kind == "simulator":
-            load_kernels()  # a first call inside a tick would stall it (device.compiled)
+            load_kernels(("loop",))  # a first call inside a tick would stall it
         self.fault_reported = Fault.NONE
         self.reading = None
         self._set_state(State.CONNECTED, f"connected to the {config.label}")

@@ -18,15 +18,17 @@ from pathlib import Path
 
 from device.compiled.cachedir import CACHE_DIR, is_warm
 
-_loaded = False
+GROUPS = ("headless", "loop")
+"""The headless trial's kernels and the live loop's."""
+_loaded: set[str] = set()
 STALE_AFTER_S = 7 * 24 * 3600.0
 
 
-def load_kernels() -> float:
-    """Call each kernel once on placeholder arrays of the real types (their results
-    are thrown away); returns the seconds it took, 0 when already done here."""
-    global _loaded
-    if _loaded:
+def load_kernels(groups: tuple[str, ...] = GROUPS) -> float:
+    """Call the kernels of `groups` once on placeholder arrays of the real types (their
+    results are thrown away); returns the seconds it took, 0 when already done here."""
+    todo = [group for group in groups if group not in _loaded]
+    if not todo:
         return 0.0
     started = time.perf_counter()
     import numpy as np
@@ -43,14 +45,16 @@ def load_kernels() -> float:
     episodes = np.zeros(1)
     x, z, w, c = (np.zeros(n) for n in (dyn.X_SIZE, ctl.Z_SIZE, guard.W_SIZE, ctl.C_SIZE))
     scratch = np.zeros(15)
-    dyn.reset(sc, p, table, episodes, 0.0, 0.0, noise, x)
-    run_ticks(0, 0, 0.002, rows, 0, sc, p, table, episodes, x, noise, kc, z, gc, w, c,
-              scratch, np.zeros(1, dtype=RECORD_DTYPE))
-    loop_tick(0, 0.0, 0.0, 0.0, False, False, rows, 0, sc, p, table, episodes, x, noise, kc,
-              z, gc, w, c, scratch, np.zeros(dyn.X_SIZE + ctl.Z_SIZE + guard.W_SIZE))
-    warm_tick(0, 0.0, rows, 0, sc, p, table, episodes, x, noise, kc, z, gc, w,
-              np.zeros(_SHADOW))
-    _loaded = True
+    if "headless" in todo:
+        dyn.reset(sc, p, table, episodes, 0.0, 0.0, noise, x)
+        run_ticks(0, 0, 0.002, rows, 0, sc, p, table, episodes, x, noise, kc, z, gc, w, c,
+                  scratch, np.zeros(1, dtype=RECORD_DTYPE))
+    if "loop" in todo:
+        loop_tick(0, 0.0, 0.0, 0.0, False, False, rows, 0, sc, p, table, episodes, x, noise,
+                  kc, z, gc, w, c, scratch, np.zeros(dyn.X_SIZE + ctl.Z_SIZE + guard.W_SIZE))
+        warm_tick(0, 0.0, rows, 0, sc, p, table, episodes, x, noise, kc, z, gc, w,
+                  np.zeros(_SHADOW))
+    _loaded.update(todo)
     return time.perf_counter() - started
 
 
