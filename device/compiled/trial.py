@@ -3,11 +3,12 @@
 `run` takes the very objects a Python headless run uses (the SimulatorBackend, the
 TickPipeline and the SafetySupervisor), reads their constants, runs every tick in
 one compiled loop and returns the records, identical to what the Python loop of
-app.headless would have produced. It returns None (and leaves the objects as they
-were) when the configuration has no compiled form (`unsupported` says why) or when
+app.headless would have produced. It returns an `Abandoned` (the tick and the
+reason) when the configuration has no compiled form (`unsupported` says why) or when
 a tick leaves the ordinary: a safety check trips, the simulated arm goes straight,
-the force sensor saturates. The caller then runs the trial in Python, which
-replays it deterministically and reports the event exactly.
+the force sensor saturates. The caller then runs the trial in Python from the start
+(open and begin reset the objects), which replays it deterministically and reports
+the event exactly.
 """
 
 from __future__ import annotations

@@ -7,6 +7,7 @@ import pytest
 from app.headless import simulate
 from core.control.base import make_controller
 from core.errors import ParameterError
+from core.robot import Friction, RobotModel, Stiffness
 from core.trial import THESIS_SUBJECT
 from device.compiled import trial as compiled
 from device.patients import PATIENT_KINDS
@@ -55,6 +56,21 @@ def test_other_exercises_and_settings_give_the_python_records(changes):
     fast, slow = both(params, patient="weak", seed=2)
     assert fast.engine == "compiled"
     assert_same_records(fast.records, slow.records)
+
+
+def test_a_robot_with_handle_friction_and_joint_stiffness_gives_the_python_records():
+    """The branches the thesis robot's defaults leave off: friction at the handle
+    (smooth Coulomb and viscous) and a joint spring, in the plant and in both laws."""
+    robot = RobotModel(
+        friction=Friction(ee_coulomb_N=0.4, ee_viscous_Ns_m=0.8),
+        stiffness=Stiffness(k11_Nm_rad=0.3, k12_Nm_rad=0.05, k22_Nm_rad=0.2,
+                            q1_rest_rad=1.6, q2_rest_rad=0.9),
+    )
+    for controller in ("smc", "ctpid"):
+        fast, slow = both(SHORT.replace(controller=controller), patient="spastic", seed=1,
+                          robot=robot)
+        assert fast.engine == "compiled"
+        assert_same_records(fast.records, slow.records)
 
 
 def test_a_fault_is_handed_to_the_python_engine_which_reports_it():
