@@ -136,6 +136,19 @@ class AtiForceSensor:
         return self._calibration
 
     @property
+    def rated_range_N(self) -> tuple[float, float] | None:
+        """(planar, normal) rated range from the calibration's `max` values: the lower of
+        Fx and Fy, and Fz, in N. None before the calibration is loaded or when the file
+        gives no maxima."""
+        cal = self._calibration
+        if cal is None:
+            return None
+        fx, fy, fz = cal.max_loads_SI[:3]
+        if not (fx > 0.0 and fy > 0.0 and fz > 0.0):
+            return None
+        return (min(fx, fy), fz)
+
+    @property
     def bias_V(self) -> np.ndarray:
         """The tare voltages G0..G5 (a copy)."""
         return self._bias.copy()

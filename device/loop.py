@@ -23,6 +23,7 @@ import time
 from dataclasses import dataclass
 from multiprocessing.connection import Connection
 
+from core.errors import ParameterError
 from core.trial import TrialParameters
 from device.backend import Backend, SensorReading
 from device.compiled.looptick import CompiledTick, unsupported_live
@@ -109,6 +110,16 @@ def make_backend(config: BackendConfig, params: TrialParameters, plan: TrialPlan
         backend = FaultInjectingBackend(backend, config.fault_scenario, at_s=config.fault_at_s,
                                         **dict(config.fault_options))
     return backend
+
+
+def limits_for_backend(limits: SafetyLimits, backend: Backend) -> SafetyLimits:
+    """The supervisor's limits with the force sensor's rated range where the backend
+    knows it from the sensor's calibration (the hardware backend, once open)."""
+    inner = getattr(backend, "inner", backend)  # under a FaultInjectingBackend
+    rated = getattr(inner, "force_sensor_range_N", None)
+    if rated is None:
+        return limits
+    return limits.for_sensor(*rated)
 
 
 def sensor_offset_for(config: BackendConfig) -> float:
@@ -467,6 +478,12 @@ class DeviceLoop:
         config = self.backend_config
         backend = make_backend(config, self.plan.parameters, self.plan)
         backend.open()
+        try:
+            self.limits = limits_for_backend(self.limits, backend)
+        except ParameterError as exc:
+            backend.safe_state()
+            backend.close()
+            return f"connect refused: {exc}"
         self.sensor_offset_rad = sensor_offset_for(config)
         self.pipeline = TickPipeline(self.plan, sensor_offset_rad=self.sensor_offset_rad)
         if self.assistance_level is not None:

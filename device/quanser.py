@@ -166,6 +166,12 @@ class QuanserBackend:
         """The analog-output volts of the last write (after sign and clamps)."""
         return (float(self._volts[0]), float(self._volts[1]))
 
+    @property
+    def force_sensor_range_N(self) -> tuple[float, float] | None:
+        """The handle sensor's rated (planar, normal) range from its calibration file, once
+        opened; the safety supervisor takes its saturation and force ceilings from it."""
+        return self.force_sensor.rated_range_N
+
     def volts_for_torque(self, torque1_Nm: float, torque2_Nm: float) -> tuple[float, float]:
         """Amplifier volts for joint torques: τ/(K_T·gear) × sign, clamped to the rated
         current, ÷ amplifier gain, clamped to the output voltage limit."""

@@ -186,6 +186,24 @@ class SafetyLimits:
     def replace(self, **changes) -> SafetyLimits:
         return dataclasses.replace(self, **changes)
 
+    def for_sensor(self, planar_range_N: float, normal_range_N: float,
+                   source: str = "the force sensor's calibration") -> SafetyLimits:
+        """These limits with the sensor's rated ranges (from its calibration file, say).
+        Refused by name when the force limit is above the new ceiling, so a therapist's
+        limit is never above what the sensor can still measure."""
+        planar = check_positive("sensor_planar_range_N", planar_range_N, "N", source)
+        normal = check_positive("sensor_normal_range_N", normal_range_N, "N", source)
+        ceiling = FORCE_CEILING_FRACTION * planar
+        if self.force_limit_N > ceiling:
+            raise ParameterError(
+                "force_limit_N", self.force_limit_N,
+                f"at most {ceiling:g} N ({FORCE_CEILING_FRACTION:.0%} of the sensor's range)",
+                f"{source} rates the sensor for {planar:g} N in the plane; lower the force "
+                "limit in the Parameters tab, or fit a sensor with a larger range",
+            )
+        return dataclasses.replace(self, sensor_planar_range_N=planar,
+                                   sensor_normal_range_N=normal)
+
     def around_path(self, points_m, margin_m: float = 0.10) -> SafetyLimits:
         """These limits with `region_m` the bounding box of the path's points plus a margin.
 

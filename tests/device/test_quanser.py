@@ -401,3 +401,30 @@ def test_fake_hil_enforces_the_real_buffer_rules(rig):
     with pytest.raises(rig.hil.HILError) as info:
         rig.hil.HIL("q8_usb", "7")
     assert info.value.error_code == -108
+
+
+def test_the_supervisor_takes_the_sensor_range_from_its_calibration(rig):
+    """The thesis's Nano25 is calibrated for 250 N in the plane (this .cal says so):
+    the supervisor's saturation and force ceilings follow the file, not a constant."""
+    from device.loop import limits_for_backend
+    from device.supervisor import SafetyLimits
+
+    backend = _opened(rig)
+    planar, normal = backend.force_sensor_range_N
+    assert planar == pytest.approx(250.0)
+    assert normal > planar
+    limits = limits_for_backend(SafetyLimits(), backend)
+    assert limits.sensor_planar_range_N == planar
+    assert limits.sensor_normal_range_N == normal
+    backend.close()
+
+
+def test_a_force_limit_above_a_smaller_sensor_is_refused_by_name():
+    from core.errors import ParameterError
+    from device.supervisor import SafetyLimits
+
+    small = SafetyLimits(force_limit_N=150.0)
+    with pytest.raises(ParameterError, match="force_limit_N") as error:
+        small.for_sensor(125.0, 500.0, "FT12345.cal")
+    assert "FT12345.cal rates the sensor for 125 N" in str(error.value)
+    assert SafetyLimits().for_sensor(125.0, 500.0).force_ceiling_N == 100.0
