@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import datetime
 import logging
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -65,3 +66,46 @@ def finalize_trial(registry: Registry, trial_id: int, status: str | None = None)
     for note in notes:
         log.info("trial %s: %s", trial_id, note)
     return Finalized(trial_id, path, status, analysis, tuple(notes))
+
+
+STILL_WRITTEN_S = 10.0
+"""A trial file modified this recently may be a live trial of another console on the same
+data folder (the recorder flushes every 0.5 s): it is left alone."""
+
+
+def finish_interrupted(registry: Registry, *, now: float | None = None,
+                       still_written_s: float = STILL_WRITTEN_S) -> list[str]:
+    """Finish the trials the registry still lists as recording: a console that closed
+    abnormally during a trial (a crash, a power cut) leaves them so, although the
+    recorder closed the file or it holds all but the last half second.
+
+    Each is finalized from its file (its status, else recording_lost, and its
+    metrics); a missing or unreadable file finishes it as recording_lost. Returns one
+    line per trial for the therapist, and logs them."""
+    now = time.time() if now is None else now
+    lines = []
+    for trial in registry.unfinished_trials():
+        path = registry.trial_path(trial)
+        label = f"trial {trial.id} ({path.name})"
+        try:
+            if now - path.stat().st_mtime < still_written_s:
+                continue
+        except OSError:
+            registry.finish_trial(trial.id, "recording_lost", {},
+                                  datetime.datetime.now(datetime.UTC))
+            lines.append(f"{label} was interrupted and its file is missing; "
+                         "it is listed as recording lost")
+            continue
+        try:
+            done = finalize_trial(registry, trial.id)
+        except AppError as exc:
+            registry.finish_trial(trial.id, "recording_lost", {},
+                                  datetime.datetime.now(datetime.UTC))
+            lines.append(f"{label} was interrupted and its file cannot be read ({exc}); "
+                         "it is listed as recording lost")
+            continue
+        lines.append(f"{label} was interrupted; its file was kept and it is now listed "
+                     f"as {done.status.replace('_', ' ')}")
+    for line in lines:
+        log.warning("%s", line)
+    return lines

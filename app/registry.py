@@ -784,6 +784,14 @@ class Registry:
                                 (session_id,)).fetchall()
         return _trials_from_rows(rows)
 
+    def unfinished_trials(self) -> list[Trial]:
+        """Every trial still recording, oldest first (after a console's crash, those
+        `app.finalize.finish_interrupted` finishes)."""
+        with self._read() as conn:
+            rows = conn.execute(_TRIAL_SELECT + " WHERE t.status = 'recording' ORDER BY t.id"
+                                ).fetchall()
+        return _trials_from_rows(rows)
+
     def trials_for_patient(self, code: str) -> list[Trial]:
         """Every trial of a patient, by session number then trial number."""
         with self._read() as conn:

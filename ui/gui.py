@@ -49,6 +49,7 @@ def run_gui(font_scale: float | None = None) -> int:
     QTimer.singleShot(0, lambda: log.info("window shown %.2f s after start",
                                           time.perf_counter() - started))
     QTimer.singleShot(50, window.start_device)
+    QTimer.singleShot(100, window.finish_interrupted_trials)
     # Start-up objects never die: moving them out of the collector's reach keeps its
     # passes short (the progress query's p99 falls from ~70 to ~30 ms, bench/registry.py).
     QTimer.singleShot(1000, gc.freeze)

@@ -29,6 +29,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from app.finalize import finish_interrupted
 from app.registry import Patient, Registration, Registry
 from app.settings import Settings, load_settings, save_settings
 from core.trial import TrialParameters
@@ -442,6 +443,16 @@ class MainWindow(QMainWindow):
         self.message.setText(f"{sign}{text}")
         self.message.show()
         (log.warning if problem else log.info)("%s", text)
+
+    def finish_interrupted_trials(self) -> None:
+        """At start-up: trials a crashed console left recording are finished from their
+        files (app.finalize.finish_interrupted), and the therapist is told which."""
+        def said(lines: list[str]) -> None:
+            if lines:
+                more = f" (and {len(lines) - 1} more; see the log)" if len(lines) > 1 else ""
+                self._say(lines[0][0].upper() + lines[0][1:] + more, problem=True)
+
+        self._run(lambda: finish_interrupted(self.registry), said)
 
     def _run(self, work, callback) -> None:
         """Run `work` on the job thread; `callback(result)` runs in the GUI thread."""

@@ -12,6 +12,7 @@ from PySide6.QtCore import Qt
 from app.datadir import DataDir
 from app.registry import Registry
 from app.trialfile import read_trial
+from core.trial import THESIS_SUBJECT
 from device.faults import Fault
 from device.states import State
 from ui.main_window import MainWindow
@@ -197,4 +198,20 @@ def test_space_types_in_text_fields_but_stops_the_robot_elsewhere(qtbot, tmp_pat
     assert pressed == [True]
     qtbot.keyClick(field, Qt.Key.Key_Escape)  # Esc stops the robot even while typing
     assert pressed == [True, True]
+    win.close()
+
+
+def test_trials_a_crash_left_recording_are_finished_and_announced(qtbot, tmp_path,
+                                                                  monkeypatch):
+    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
+    registry = Registry(DataDir(tmp_path / "data", "test"))
+    code = registry.create_patient("Ada", "Lovelace", body_mass_kg=91.0).code
+    begun = registry.begin_trial(code, THESIS_SUBJECT, backend="simulator")
+    win = MainWindow(registry, settings_path=tmp_path / "config" / "settings.json")
+    qtbot.addWidget(win)
+    win.show()
+    win.finish_interrupted_trials()
+    qtbot.waitUntil(lambda: win.message.isVisible(), timeout=5000)
+    assert "was interrupted and its file is missing" in win.message.text()
+    assert registry.trial(begun.trial_id).status == "recording_lost"
     win.close()
