@@ -148,7 +148,9 @@ def test_a_trial_twice_in_a_row_leaks_nothing(tmp_path):
 
 @pytest.mark.parametrize("scenario", sorted(EXPECTED_FAULT))
 def test_backend_faults_zero_the_torque_latch_and_are_recorded(client, tmp_path, scenario):
-    connect(client, LONG, BackendConfig(fault_scenario=scenario, fault_at_s=1.2))
+    # loop time counts from Connect: 2 s leaves a loaded machine time to start the trial
+    # before the fault fires (at 1.2 s a slow Start once found it already latched)
+    connect(client, LONG, BackendConfig(fault_scenario=scenario, fault_at_s=2.0))
     client.live_records()  # start the live view from here
     path = tmp_path / f"{scenario}.h5"
     assert client.start_trial(str(path), SUBJECT).ok
