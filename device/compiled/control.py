@@ -334,15 +334,16 @@ def pipeline_state(pipeline) -> np.ndarray:
     return z
 
 
-def restore_pipeline(pipeline, z: np.ndarray, c: np.ndarray) -> None:
+def restore_pipeline(pipeline, z: np.ndarray, c: np.ndarray | None) -> None:
     """Hand the state `control` carried on back to the pipeline's own objects, and the
-    last tick's values (c) to `record`."""
+    last tick's values (c, when a tick ran) to `record`."""
     values = z.tolist()
     for i, est in zip((Z_ANGLE1, Z_ANGLE2), pipeline.rate_estimators, strict=True):
         est.reset(values[i], values[i + 1], values[i + 2])
     if isinstance(pipeline.controller, ComputedTorquePID):
         pipeline.controller.restore_state(values[Z_INT1:Z_SAT2 + 1])
-    pipeline.set_last_tick(last_tick(c))
+    if c is not None:
+        pipeline.set_last_tick(last_tick(c))
 
 
 def last_tick(c: np.ndarray) -> tuple:

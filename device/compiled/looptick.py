@@ -62,6 +62,7 @@ class CompiledTick:
         self._rows = pipeline.reference_rows
         self._approach_ticks = 0
         self._noise = np.zeros((1, 3))
+        self._ticked = False  # whether c holds a tick since take_over
         self.active = False
 
     # ------------------------------------------------------------ hand-over
@@ -93,6 +94,7 @@ class CompiledTick:
         self._kc[ctl.K_TOLERANCE] = pipeline.assistance.tolerance_rad
         self._rows = pipeline.reference_rows
         self._approach_ticks = pipeline.approach_ticks
+        self._ticked = False
         self.active = True
         return ""
 
@@ -109,7 +111,7 @@ class CompiledTick:
             bool(x[dyn.X_CACHED]), x[dyn.X_T0], x[dyn.X_ANCHOR], self._noise,
             int(x[dyn.X_NOISE]),
         ))
-        ctl.restore_pipeline(self.pipeline, self._z, self._c)
+        ctl.restore_pipeline(self.pipeline, self._z, self._c if self._ticked else None)
         self.supervisor.restore_history(self._w.tolist())
         self.active = False
 
@@ -135,6 +137,7 @@ class CompiledTick:
         if status != dyn.OK:
             self.hand_back()
             return None
+        self._ticked = True
         return out1, out2
 
     def warm(self, tick: int, loop_t: float) -> None:
