@@ -65,11 +65,11 @@ The parts of a patient
   episodes, 3 N: above the thesis subject's force range of 0.8–2.5 N, Fig. 3.9,
   and within what the robot's 2.2 N·m joints can resist).
 
-Per-step cost is a few dozen float operations (0.3–0.8 µs): the desired motion
-and the feed-forward are tabulated once per traversal with numpy every
-`TABLE_STEP_S` and interpolated linearly in time as plain Python floats. The
-interpolation matters: a sample-and-hold table is a discontinuous forcing that
-cuts RK4 to first order.
+The desired motion and the feed-forward are tabulated once per traversal with numpy
+every `TABLE_STEP_S` and interpolated linearly in time. The interpolation matters: a
+sample-and-hold table is a discontinuous forcing that cuts RK4 to first order. The
+torque itself is compiled (device.compiled.dynamics.patient_torque), so the simulator
+folds it into its compiled dynamics.
 """
 
 from __future__ import annotations
@@ -244,8 +244,8 @@ class VirtualPatient:
 
     __slots__ = (
         "_active", "_b", "_dt_rate", "_duration", "_effort", "_ep_len", "_ep_window",
-        "_episodes", "_k", "_lf", "_lu", "_n", "_p", "_phi0", "_rest", "_spas", "_table",
-        "_table_array", "_total", "_tremor", "_ts0", "_wrong", "arm", "parameters",
+        "_episodes", "_k", "_kernel", "_lf", "_lu", "_n", "_p", "_phi0", "_rest", "_spas",
+        "_table", "_table_array", "_total", "_tremor", "_ts0", "_wrong", "arm", "parameters",
         "trajectory",
     )
 
@@ -271,6 +271,7 @@ class VirtualPatient:
         self._dt_rate = 1.0 / TABLE_STEP_S
         dx0, dy0 = trajectory.at(0.0)[6:8]
         self._rest = (ts0, self._phi0) + (0.0,) * 14 + (dx0, dy0)
+        self._kernel = None
         self._table: list[tuple[float, ...]] = []
         self._table_array = np.empty((0, 18))
         if self._active:
@@ -369,68 +370,19 @@ class VirtualPatient:
 
     # ---------------------------------------------------------------- torque
     def torque(self, t_s: float, ts: float, te: float, tsd: float, ted: float):
-        """Net joint torques τ_A = (τ_s, τ_e) in N·m (eq. 3.20), absolute-angle convention."""
-        phi = te - ts
-        phid = ted - tsd
-        e_s = self._ts0 - ts
-        if e_s > math.pi:
-            e_s -= _TWO_PI
-        elif e_s < -math.pi:
-            e_s += _TWO_PI
-        e_e = self._phi0 - phi
-        pks, pkc, pke, pbs, pbc, pbe = self._p
-        # joint-coordinate torques: shoulder, elbow
-        sh = pks * e_s + pkc * e_e - pbs * tsd - pbc * phid
-        el = pkc * e_s + pke * e_e - pbc * tsd - pbe * phid
-        gen_s = gen_e = 0.0
-        if self._active:
-            # linear interpolation keeps the effort continuous in time, so the
-            # integrator keeps its order (a sample-and-hold would cut RK4 to first order)
-            row, f = self._lookup(t_s)
-            (ts_d, phi_d, tsd_d, phid_d, ff_s, ff_e, drive_x, drive_y,
-             dts, dphi, dtsd, dphid, dff_s, dff_e, ddrive_x, ddrive_y, dir_x, dir_y) = row
-            ts_d += f * dts
-            phi_d += f * dphi
-            tsd_d += f * dtsd
-            phid_d += f * dphid
-            ff_s += f * dff_s
-            ff_e += f * dff_e
-            drive_x += f * ddrive_x
-            drive_y += f * ddrive_y
-            d_s = ts_d - ts
-            if d_s > math.pi:
-                d_s -= _TWO_PI
-            elif d_s < -math.pi:
-                d_s += _TWO_PI
-            d_e = phi_d - phi
-            v_s = tsd_d - tsd
-            v_e = phid_d - phid
-            ks, kc, ke = self._k
-            bs, bc, be = self._b
-            w = self._effort
-            sh += w * (ks * d_s + kc * d_e + bs * v_s + bc * v_e)
-            el += w * (kc * d_s + ke * d_e + bc * v_s + be * v_e)
-            # the push on the handle: τ = J_Aᵀ F (eq. 3.17, 3.27)
-            sin_s, cos_s, sin_e, cos_e = math.sin(ts), math.cos(ts), math.sin(te), math.cos(te)
-            gen_s = w * (ff_s + self._lu * (sin_s * drive_x - cos_s * drive_y))
-            gen_e = w * (ff_e + self._lf * (sin_e * drive_x - cos_e * drive_y))
-            if self._wrong is not None and self.pushing_wrong_way(t_s):
-                # τ = J_Aᵀ F with F against the desired direction (eq. 3.17, 3.27)
-                # the push turns round: the drive is replaced, not outweighed
-                fx = -self._wrong * dir_x - w * drive_x
-                fy = -self._wrong * dir_y - w * drive_y
-                gen_s += self._lu * (sin_s * fx - cos_s * fy)
-                gen_e += self._lf * (sin_e * fx - cos_e * fy)
-        if self._tremor is not None:
-            omega, phase, amp_s, amp_e = self._tremor
-            wave = math.sin(omega * t_s + phase)
-            sh += amp_s * wave
-            el += amp_e * wave
-        if self._spas is not None:
-            th_s, th_e, g_s, g_e, b_s, b_e = self._spas
-            sh -= _resistance(tsd, th_s, g_s, b_s)
-            el -= _resistance(phid, th_e, g_e, b_e)
-        return (sh - el + gen_s, el + gen_e)
+        """Net joint torques τ_A = (τ_s, τ_e) in N·m (eq. 3.20), absolute-angle convention.
+
+        The model of the module notes, compiled (device.compiled.dynamics.patient_torque,
+        which the simulator folds into its dynamics): passive tissue, then the effort
+        (impedance about the desired motion, feed-forward and the push, linearly
+        interpolated in time so the integrator keeps its order), the wrong-way push,
+        tremor and spastic resistance."""
+        if self._kernel is None:
+            from device.compiled import dynamics  # numba only once a torque is asked for
+
+            self._kernel = (dynamics.patient_torque, *dynamics.patient_arrays(self))
+        kernel, constants, table, episodes = self._kernel
+        return kernel(constants, table, episodes, t_s, ts, te, tsd, ted)
 
 
 def _resistance(rate: float, threshold: float, gain: float, viscous: float) -> float:

@@ -17,12 +17,13 @@ and the force of the hand on the handle comes out of the arm's equation
 drives' limit as the amplifier would; τ_A is the patient's (device.patients),
 asked for at every evaluation.
 
-For speed the default `dynamics="fused"` evaluates those equations in one
-function on plain floats with the patient's call folded in (no repeated
-inverse kinematics, the arm's trigonometry done algebraically); it is the same
-algebra, held equal to `coupled_forward_dynamics` by the tests.
-`dynamics="reference"` calls `core.interaction.coupled_forward_dynamics` itself
-(about twice the cost) for validation runs.
+For speed `dynamics="fused"` (the default for a device.patients.VirtualPatient)
+evaluates those equations in one compiled function with the patient's torque folded
+in (no repeated inverse kinematics, the arm's trigonometry done algebraically;
+device.compiled.dynamics.evaluate); it is the same algebra, held equal to
+`coupled_forward_dynamics` by the tests. `dynamics="reference"` calls
+`core.interaction.coupled_forward_dynamics` itself, for validation runs and for
+any other object of the Patient protocol, whose torque is plain Python.
 
 Integrator
 ----------
@@ -80,7 +81,7 @@ from core.robot import RobotModel
 from core.trial import THESIS_SUBJECT, TrialParameters
 from device.backend import SensorReading
 from device.errors import BackendError, SensorRangeError, StateError
-from device.patients import Patient, make_patient
+from device.patients import Patient, VirtualPatient, make_patient
 from device.sensors import ForceSensorModel
 
 INTEGRATORS = ("rk4", "semi_implicit_euler")
@@ -149,7 +150,7 @@ class SimulatorBackend:
         sensor: ForceSensorModel | None = None,
         step_s: float = DEFAULT_STEP_S,
         integrator: str = "semi_implicit_euler",
-        dynamics: str = "fused",
+        dynamics: str | None = None,
         patient_waits: bool = False,
     ) -> None:
         if not isinstance(patient, Patient):
@@ -160,8 +161,17 @@ class SimulatorBackend:
             )
         if integrator not in INTEGRATORS:
             raise ParameterError("integrator", integrator, "one of " + ", ".join(INTEGRATORS))
+        compilable = isinstance(patient, VirtualPatient)
+        if dynamics is None:
+            dynamics = "fused" if compilable else "reference"
         if dynamics not in DYNAMICS:
             raise ParameterError("dynamics", dynamics, "one of " + ", ".join(DYNAMICS))
+        if dynamics == "fused" and not compilable:
+            raise ParameterError(
+                "dynamics", dynamics, "reference for this patient",
+                f"the fused dynamics are compiled with a VirtualPatient's torque; a "
+                f"{type(patient).__name__} runs the reference dynamics",
+            )
         _check_seed(seed)
         self.step_s = check_range(
             "step_s", step_s, 0.0, MAX_STEP_S, "s",
@@ -179,7 +189,7 @@ class SimulatorBackend:
             raise ParameterError("patient_waits", patient_waits, "True or False")
         self.patient_waits = patient_waits
         if dynamics == "fused":
-            self._evaluate = _fused_dynamics(self.robot, self.arm, patient)
+            self._evaluate = _fused_dynamics(self)
         else:
             self._evaluate = _reference_dynamics(self.robot, self.arm, patient)
         self._max_torque = self.robot.max_joint_torque_Nm
@@ -542,137 +552,41 @@ def restore(simulator: SimulatorBackend, snap: SimulatorSnapshot) -> None:
 
 
 # ------------------------------------------------------------------ dynamics
-def _fused_dynamics(robot: RobotModel, arm, patient):
+def _fused_dynamics(simulator: SimulatorBackend):
     """`evaluate(t, q1, q2, qd1, qd2, τ1, τ2, full)` for the coupled robot and arm.
 
     The algebra of core.interaction.coupled_forward_dynamics, flattened on plain
-    floats with the patient's torque computed from the arm's state in between.
+    floats with the patient's torque computed from the arm's state in between,
+    compiled: device.compiled.dynamics.evaluate, which the compiled engines use too.
     Returns (θ̈_R1, θ̈_R2) or, with `full`, a 15-tuple: θ̈_R1, θ̈_R2, F_x, F_y,
     θ_s, θ_e, θ̇_s, θ̇_e, θ̈_s, θ̈_e, τ_s, τ_e and the inverse coupled mass
     matrix (n11, n12, n22) that maps a change of motor torque to θ̈_R.
-    Raises SingularityError when the arm is straight or out of reach.
+    Raises SingularityError when the arm is straight or out of reach, and
+    OverflowError when a full evaluation is not finite.
     """
-    sin, cos, atan2, acos, sqrt, tanh = math.sin, math.cos, math.atan2, math.acos, math.sqrt, \
-        math.tanh
-    l2, l4 = robot.l2_m, robot.l4_m
-    a1, a2, a3, a4 = robot.alpha
-    fr = robot.friction
-    fc1, fc2 = fr.joint_coulomb_Nm
-    fv1, fv2 = fr.joint_viscous_Nms
-    inv_vs = 1.0 / fr.joint_smoothing_rad_s
-    joint_friction = bool(fc1 or fc2 or fv1 or fv2)
-    ee_c, ee_v, ee_vs = fr.ee_coulomb_N, fr.ee_viscous_Ns_m, fr.ee_smoothing_m_s
-    ee_friction = bool(ee_c or ee_v)
-    st = robot.stiffness
-    k11, k12, k22, q10, q20 = (
-        st.k11_Nm_rad, st.k12_Nm_rad, st.k22_Nm_rad, st.q1_rest_rad, st.q2_rest_rad
-    )
-    stiff = bool(k11 or k12 or k22)
-    lu, lf = arm.upper_arm_m, arm.forearm_m
-    sx, sy = arm.shoulder_x_m, arm.shoulder_y_m
-    A11, A22, K = arm.a11, arm.a22, arm.coupling
-    sign = float(arm.elbow_sign)
-    lulf2 = lu * lu + lf * lf
-    inv_2lulf = 1.0 / (2.0 * lu * lf)
-    lulf = lu * lf
-    inv_lf = 1.0 / lf
-    patient_torque = patient.torque
+    from device.compiled import dynamics as compiled  # numba only where it is used
+
+    constants = compiled.simulator_constants(simulator)
+    p, table, episodes = compiled.patient_arrays(simulator.patient)
+    out = np.empty(15)
+    kernel, ok, isfinite = compiled.evaluate, compiled.OK, math.isfinite
 
     def evaluate(t, q1, q2, qd1, qd2, tau1, tau2, full):
-        s1, c1, s2, c2 = sin(q1), cos(q1), sin(q2), cos(q2)
-        vx = sx - l2 * c2 - l4 * c1  # shoulder minus hand (eq. 3.28)
-        vy = sy - l2 * s2 - l4 * s1
-        d2 = vx * vx + vy * vy
-        ce = (d2 - lulf2) * inv_2lulf  # cos of the elbow angle θ_e − θ_s
-        if not -1.0 < ce < 1.0:
+        if kernel(constants, p, table, episodes, t, q1, q2, qd1, qd2, tau1, tau2, out) != ok:
             raise SingularityError("the arm is straight or out of reach")
-        se = sign * sqrt(1.0 - ce * ce)  # anatomical branch
-        det_a = lulf * se  # det J_A
-        if not abs(det_a) > _ARM_DET_MIN:
-            raise SingularityError("the arm is straight")
-        # e(θ_s) from (l_u I + l_f R(φ)) e(θ_s) = S − P, whose matrix has determinant |S − P|²
-        p = lu + lf * ce
-        q = lf * se
-        cts = (p * vx + q * vy) / d2
-        sts = (p * vy - q * vx) / d2
-        cte = (vx - lu * cts) * inv_lf
-        ste = (vy - lu * sts) * inv_lf
-        ts = atan2(sts, cts)
-        te = ts + sign * acos(ce)
-        # J_A (eq. 3.17) and its inverse; J_R (eq. 3.3)
-        j11, j12, j21, j22 = lu * sts, lf * ste, -lu * cts, -lf * cte
-        i11, i12, i21, i22 = j22 / det_a, -j12 / det_a, -j21 / det_a, j11 / det_a
-        r11, r12, r21, r22 = -l4 * s1, -l2 * s2, l4 * c1, l2 * c2
-        g11 = i11 * r11 + i12 * r21
-        g12 = i11 * r12 + i12 * r22
-        g21 = i21 * r11 + i22 * r21
-        g22 = i21 * r12 + i22 * r22
-        tsd = g11 * qd1 + g12 * qd2  # eq. 3.32
-        ted = g21 * qd1 + g22 * qd2
-        # J̇_R θ̇_R − J̇_A θ̇_A, the velocity part of eq. 3.33
-        qq1, qq2, tt1, tt2 = qd1 * qd1, qd2 * qd2, tsd * tsd, ted * ted
-        wx = -l4 * c1 * qq1 - l2 * c2 * qq2 - lu * cts * tt1 - lf * cte * tt2
-        wy = -l4 * s1 * qq1 - l2 * s2 * qq2 - lu * sts * tt1 - lf * ste * tt2
-        gs = i11 * wx + i12 * wy
-        ge = i21 * wx + i22 * wy
-
-        tau_s, tau_e = patient_torque(t, ts, te, tsd, ted)
-
-        ma12 = K * ce
-        gk = K * se  # C_A = [[0, −gk θ̇_e], [gk θ̇_s, 0]]
-        ps = tau_s + gk * tt2 - A11 * gs - ma12 * ge
-        pe = tau_e - gk * tt1 - ma12 * gs - A22 * ge
-
-        cd = c1 * c2 + s1 * s2  # cos(θ_R1 − θ_R2), eq. 3.9
-        sd = s1 * c2 - c1 * s2
-        mr12 = a2 * cd + a3 * sd
-        gr = a2 * sd - a3 * cd  # eq. 3.8
-        h1 = gr * qq2
-        h2 = -gr * qq1
-        if stiff:
-            e1, e2 = q1 - q10, q2 - q20
-            h1 += k11 * e1 + k12 * e2
-            h2 += k12 * e1 + k22 * e2
-        if joint_friction:
-            h1 += fc1 * tanh(qd1 * inv_vs) + fv1 * qd1
-            h2 += fc2 * tanh(qd2 * inv_vs) + fv2 * qd2
-        if ee_friction:
-            ex = r11 * qd1 + r12 * qd2
-            ey = r21 * qd1 + r22 * qd2
-            speed = sqrt(ex * ex + ey * ey)
-            gain = ee_c * (tanh(speed / ee_vs) / speed if speed > 1e-12 else 1.0 / ee_vs) + ee_v
-            h1 += gain * (r11 * ex + r21 * ey)
-            h2 += gain * (r12 * ex + r22 * ey)
-
-        t11 = A11 * g11 + ma12 * g21
-        t12 = A11 * g12 + ma12 * g22
-        t21 = ma12 * g11 + A22 * g21
-        t22 = ma12 * g12 + A22 * g22
-        m11 = a1 + g11 * t11 + g21 * t21
-        m12 = mr12 + g11 * t12 + g21 * t22
-        m22 = a4 + g12 * t12 + g22 * t22
-        b1 = tau1 - h1 + g11 * ps + g21 * pe
-        b2 = tau2 - h2 + g12 * ps + g22 * pe
-        det = m11 * m22 - m12 * m12
-        qdd1 = (m22 * b1 - m12 * b2) / det
-        qdd2 = (m11 * b2 - m12 * b1) / det
+        values = out.tolist()  # plain floats: a numpy scalar slows every later step
         if not full:
-            return qdd1, qdd2
-        tsdd = g11 * qdd1 + g12 * qdd2 + gs
-        tedd = g21 * qdd1 + g22 * qdd2 + ge
-        # eq. 3.27 solved for the hand's force: F = J_A⁻ᵀ (τ_A − M_A θ̈_A − C_A θ̇_A)
-        us = tau_s - A11 * tsdd - ma12 * tedd + gk * tt2
-        ue = tau_e - ma12 * tsdd - A22 * tedd - gk * tt1
-        return (
-            qdd1, qdd2, i11 * us + i21 * ue, i12 * us + i22 * ue, ts, te, tsd, ted, tsdd, tedd,
-            tau_s, tau_e, m22 / det, -m12 / det, m11 / det,
-        )
+            return values[0], values[1]
+        if not isfinite(sum(values)):
+            raise OverflowError("the coupled dynamics are not finite")
+        return tuple(values)
 
     return evaluate
 
 
 def _reference_dynamics(robot: RobotModel, arm, patient):
-    """`evaluate` as `_fused_dynamics`, through core.interaction.coupled_forward_dynamics.
+    """`evaluate` as `_fused_dynamics`, through core.interaction.coupled_forward_dynamics
+    and the patient's own `torque`.
 
     The patient needs the arm's state before its torque is known; the coupled
     dynamics return it, so the first call (with τ_A = 0) gives the state and the

@@ -52,7 +52,8 @@ def _writable_cache_dir() -> Path | None:
 CACHE_DIR = _writable_cache_dir()
 
 
-ENTRY_KERNELS = ("trial.run_ticks", "looptick.loop_tick", "looptick.warm_tick")
+ENTRY_KERNELS = ("dynamics.evaluate", "dynamics.patient_torque", "trial.run_ticks",
+                 "looptick.loop_tick", "looptick.warm_tick")
 """The kernels called from Python (the others are compiled into them)."""
 
 

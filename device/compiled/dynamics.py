@@ -1,9 +1,10 @@
 """The simulator's physics, compiled: the robot coupled to a virtual patient's arm, the
 patient's torques and the sensors.
 
-The same algebra as device.simulator's fused dynamics (eq. 3.6, 3.20, 3.27–3.33) and
-device.patients.VirtualPatient.torque, statement for statement, so the results agree
-bit for bit; the module notes there explain the physics. Constants travel in flat
+The only implementation of the simulator's fused dynamics (eq. 3.6, 3.20, 3.27–3.33)
+and of the virtual patients' torques: device.simulator and device.patients call these
+kernels, and the tests hold them to core.interaction.coupled_forward_dynamics; the
+module notes of those two modules explain the physics. Constants travel in flat
 float arrays whose layout is the index names below, filled by `simulator_constants`
 and `patient_arrays` from the Python objects.
 """
@@ -131,7 +132,8 @@ def _pushing_wrong_way(p, episodes, t_s):
 
 @kernel
 def patient_torque(p, table, episodes, t_s, ts, te, tsd, ted):
-    """VirtualPatient.torque: net joint torques τ_A (eq. 3.20), absolute-angle convention."""
+    """Net joint torques τ_A (eq. 3.20) of a virtual patient, absolute-angle convention
+    (VirtualPatient.torque; the model is in device.patients' module notes)."""
     phi = te - ts
     phid = ted - tsd
     e_s = p[P_TS0] - ts
@@ -208,9 +210,9 @@ def patient_torque(p, table, episodes, t_s, ts, te, tsd, ted):
 
 @kernel
 def evaluate(c, p, table, episodes, t, q1, q2, qd1, qd2, tau1, tau2, out):
-    """The fused coupled dynamics of device.simulator: writes θ̈_R1, θ̈_R2, F_x, F_y,
-    θ_s, θ_e, θ̇_s, θ̇_e, θ̈_s, θ̈_e, τ_s, τ_e and the inverse coupled mass (n11, n12,
-    n22) into out[0:15]; returns OK or ARM_STRAIGHT."""
+    """The fused coupled dynamics (device.simulator's `dynamics="fused"`): writes
+    θ̈_R1, θ̈_R2, F_x, F_y, θ_s, θ_e, θ̇_s, θ̇_e, θ̈_s, θ̈_e, τ_s, τ_e and the inverse
+    coupled mass (n11, n12, n22) into out[0:15]; returns OK or ARM_STRAIGHT."""
     l2 = c[S_L2]
     l4 = c[S_L4]
     lu = c[S_LU]

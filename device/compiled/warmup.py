@@ -18,8 +18,9 @@ from pathlib import Path
 
 from device.compiled.cachedir import CACHE_DIR, is_warm
 
-GROUPS = ("headless", "loop")
-"""The headless trial's kernels and the live loop's."""
+GROUPS = ("simulator", "headless", "loop")
+"""The Python simulator's (its dynamics and the patients' torques), the headless
+trial's and the live loop's."""
 _loaded: set[str] = set()
 STALE_AFTER_S = 7 * 24 * 3600.0
 
@@ -45,6 +46,9 @@ def load_kernels(groups: tuple[str, ...] = GROUPS) -> float:
     episodes = np.zeros(1)
     x, z, w, c = (np.zeros(n) for n in (dyn.X_SIZE, ctl.Z_SIZE, guard.W_SIZE, ctl.C_SIZE))
     scratch = np.zeros(15)
+    if "simulator" in todo:
+        dyn.evaluate(sc, p, table, episodes, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, scratch)
+        dyn.patient_torque(p, table, episodes, 0.0, 0.0, 0.0, 0.0, 0.0)
     if "headless" in todo:
         dyn.reset(sc, p, table, episodes, 0.0, 0.0, noise, x)
         run_ticks(0, 0, 0.002, rows, 0, sc, p, table, episodes, x, noise, kc, z, gc, w, c,

@@ -16,6 +16,9 @@ def test_the_cache_is_warm_only_with_every_entry_kernel(tmp_path, monkeypatch):
     (index / "looptick.loop_tick-150.py311.nbi").write_bytes(b"")
     assert not cachedir.is_warm()
     (index / "looptick.warm_tick-190.py311.nbi").write_bytes(b"")
+    assert not cachedir.is_warm()
+    (index / "dynamics.evaluate-240.py311.nbi").write_bytes(b"")
+    (index / "dynamics.patient_torque-130.py311.nbi").write_bytes(b"")
     assert cachedir.is_warm()
 
 

@@ -412,6 +412,15 @@ def test_a_non_finite_state_stops_the_simulation_with_a_backend_error():
     assert sim.time_s == 0.0
 
 
+def test_another_patient_runs_the_reference_dynamics_and_fused_is_refused_by_name():
+    """The fused dynamics are compiled with a VirtualPatient's torque; any other object of
+    the Patient protocol is simulated through core.interaction instead."""
+    assert SimulatorBackend(_BrokenPatient()).dynamics == "reference"
+    with pytest.raises(ParameterError, match="dynamics") as error:
+        SimulatorBackend(_BrokenPatient(), dynamics="fused")
+    assert "_BrokenPatient runs the reference dynamics" in str(error.value)
+
+
 def test_a_force_beyond_the_sensors_range_is_a_sensor_range_error():
     sim = simulator("passive", sensor=ForceSensorModel(noise_xy_N=0.0, noise_z_N=0.0,
                                                        limit_xy_N=1.0))
