@@ -79,6 +79,22 @@ def xy_step(n: int) -> int:
     return max(1, -(-n // MAX_PATH_POINTS))
 
 
+def legend(item: pg.PlotItem) -> pg.LegendItem:
+    """The plot's legend in the top left, in caption type on a light backing."""
+    box = item.addLegend(offset=(10, 10), labelTextSize=f"{theme.point_size('caption')}pt")
+    box.setBrush(pg.mkBrush(255, 255, 255, 220))
+    return box
+
+
+def joint_curves(item: pg.PlotItem) -> list[pg.PlotDataItem]:
+    """A legend and the shoulder (solid blue) and elbow (dashed orange) curves."""
+    legend(item)
+    return [
+        curve(item, theme.BLUE, name="shoulder"),
+        curve(item, theme.ORANGE, dashed=True, name="elbow"),
+    ]
+
+
 def cursor_line(item: pg.PlotItem) -> pg.InfiniteLine:
     """The replay cursor on a time axis, hidden until set."""
     line = pg.InfiniteLine(angle=90, movable=False, pen=theme.pen(theme.BLACK, dashed=True))

@@ -7,7 +7,6 @@ next exercise.
 from __future__ import annotations
 
 import numpy as np
-import pyqtgraph as pg
 from PySide6.QtWidgets import QLabel, QWidget
 
 from ui import plots, theme
@@ -23,12 +22,7 @@ class AnglesTab(QWidget):
         self._drawn: tuple = ()
         self.plot = plots.make_plot("time (s)", "angle (°, ISB)")
         item = self.plot.getPlotItem()
-        legend = item.addLegend(offset=(10, 10), labelTextSize=f"{theme.point_size('caption')}pt")
-        legend.setBrush(pg.mkBrush(255, 255, 255, 220))
-        self.curves = [
-            plots.curve(item, theme.BLUE, name="shoulder"),
-            plots.curve(item, theme.ORANGE, dashed=True, name="elbow"),
-        ]
+        self.curves = plots.joint_curves(item)
         self.cursor_line = plots.cursor_line(item)
         self.rom = [plots.BigNumber(f"{joint.capitalize()} range of motion", "°")
                     for joint in JOINTS]

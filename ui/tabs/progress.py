@@ -65,9 +65,7 @@ class ProgressTab(QWidget):
 
         self.plot = plots.make_plot("trial (session.trial)", "")
         item = self.plot.getPlotItem()
-        self.legend = item.addLegend(offset=(10, 10),
-                                     labelTextSize=f"{theme.point_size('caption')}pt")
-        self.legend.setBrush(pg.mkBrush(255, 255, 255, 220))
+        self.legend = plots.legend(item)
         self.table = QTableWidget()
         self.table.setEditTriggers(QTableWidget.EditTrigger.NoEditTriggers)
         self.table.verticalHeader().hide()

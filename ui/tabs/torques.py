@@ -13,7 +13,6 @@ from __future__ import annotations
 import time
 
 import numpy as np
-import pyqtgraph as pg
 from PySide6.QtCore import Signal
 from PySide6.QtWidgets import QCheckBox, QLabel, QWidget
 
@@ -52,12 +51,7 @@ class TorquesTab(QWidget):
 
         self.plot = plots.make_plot("time (s)", "torque (N·m)")
         item = self.plot.getPlotItem()
-        legend = item.addLegend(offset=(10, 10), labelTextSize=f"{theme.point_size('caption')}pt")
-        legend.setBrush(pg.mkBrush(255, 255, 255, 220))
-        self.curves = [
-            plots.curve(item, theme.BLUE, name="shoulder"),
-            plots.curve(item, theme.ORANGE, dashed=True, name="elbow"),
-        ]
+        self.curves = plots.joint_curves(item)
         self.cursor_line = plots.cursor_line(item)
         self.ranges = [plots.BigNumber(f"{joint.capitalize()} torque range", "N·m", decimals=2)
                        for joint in JOINTS]
