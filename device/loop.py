@@ -26,8 +26,6 @@ from multiprocessing.connection import Connection
 from core.errors import ParameterError
 from core.trial import TrialParameters
 from device.backend import Backend, SensorReading
-from device.compiled.looptick import CompiledTick, unsupported_live
-from device.compiled.warmup import load_kernels
 from device.errors import BackendError, DeviceError, StateError
 from device.faults import Fault
 from device.messages import (
@@ -161,7 +159,7 @@ class DeviceLoop:
         self.stopping_since = 0.0
         self.paused = False
         self.t0 = 0.0
-        self.compiled: CompiledTick | None = None
+        self.compiled = None  # device.compiled.looptick.CompiledTick during a trial
 
     # ------------------------------------------------------------------ main
     def run(self) -> None:
@@ -321,7 +319,7 @@ class DeviceLoop:
             self._end_trial("complete", "trial complete")
             self._set_state(State.STOPPING, "trial complete; saving")
 
-    def _take_over(self) -> CompiledTick | None:
+    def _take_over(self):
         """Let the compiled tick run the trial's next tick, if there is one and it may;
         drop it once the trial is over. Returns the compiled tick (None when dropped)."""
         compiled = self.compiled
@@ -348,9 +346,12 @@ class DeviceLoop:
         if self.pipeline.approach_ticks == 0:
             _cue_patient(self.backend)
         self.compiled = None
-        if self.config.compiled and not unsupported_live(self.backend, self.pipeline,
-                                                         self.supervisor):
-            self.compiled = CompiledTick(self.backend, self.pipeline, self.supervisor)
+        if self.config.compiled:
+            # imported here: numba belongs in the loop process, not in the console's
+            from device.compiled.looptick import CompiledTick, unsupported_live
+
+            if not unsupported_live(self.backend, self.pipeline, self.supervisor):
+                self.compiled = CompiledTick(self.backend, self.pipeline, self.supervisor)
             self.compiled.take_over()
         plan = self.plan
         self._to_recorder(BeginTrial(
@@ -491,6 +492,8 @@ class DeviceLoop:
         self.backend = backend
         self.supervisor = SafetySupervisor(self.plan.robot, self.limits)
         if self.config.compiled and config.kind == "simulator":
+            from device.compiled.warmup import load_kernels
+
             load_kernels(("loop",))  # a first call inside a tick would stall it
         self.fault_reported = Fault.NONE
         self.reading = None
