@@ -352,7 +352,7 @@ class DeviceLoop:
 
             if not unsupported_live(self.backend, self.pipeline, self.supervisor):
                 self.compiled = CompiledTick(self.backend, self.pipeline, self.supervisor)
-            self.compiled.take_over()
+                self.compiled.take_over()
         plan = self.plan
         self._to_recorder(BeginTrial(
             command.path, self.ring.write_count, plan.parameters, command.subject,
