@@ -4,11 +4,27 @@
 
 `read` and `write` are called once per 2 ms tick; they must not allocate more
 than a small tuple, log, or block beyond the hardware's own latency.
+
+Every backend also says whose clock its robot lives on (`timing`):
+
+* REAL_TIME: a real robot keeps moving while the loop stalls, with the last torque held
+  and no one watching. The loop passes it the wall clock and the safety supervisor's
+  late-tick watchdog guards it (device.supervisor, docs/safety.md H13).
+* SIMULATED: the robot exists only when the loop steps it. The loop passes it the
+  nominal time (tick × period), so a tick that starts late steps it by one period like
+  any other: a stall of the computer delays the simulation and pushes no one. The
+  lateness is still measured, recorded and shown; it is never a fault.
 """
 
 from __future__ import annotations
 
 from typing import NamedTuple, Protocol, runtime_checkable
+
+REAL_TIME = "real"
+"""A backend whose robot moves on the wall clock: the late-tick watchdog applies."""
+SIMULATED = "simulated"
+"""A backend the loop steps by the nominal period: lateness is recorded, never a fault."""
+TIMINGS = (REAL_TIME, SIMULATED)
 
 
 class SensorReading(NamedTuple):
@@ -34,6 +50,8 @@ class Backend(Protocol):
     """A robot, real or simulated."""
 
     name: str
+    timing: str
+    """REAL_TIME or SIMULATED (see the module notes)."""
 
     def open(self) -> None:
         """Connect to the device and make it ready with zero torque. Raises BackendError."""

@@ -19,14 +19,18 @@ hang               read blocks up to `block_s`, then raises    BACKEND_TIMEOUT
                    BackendTimeout (the device stopped
                    answering); the next tick is late too
 late               one read sleeps `sleep_s`, then answers     LATE_TICK (from the
-                   normally                                    loop's lateness)
+                   normally                                    loop's lateness, on a
+                                                               REAL_TIME backend)
 workspace_exit     q1 driven at `rate_rad_s` (slow enough not  WORKSPACE
                    to be overspeed) until the links fold
 overspeed          q1 driven at `rate_rad_s` (above the        JOINT_SPEED
                    speed limit, below an encoder jump)
 =================  ==========================================  ==========================
 
-`EXPECTED_FAULT` maps each scenario to that code, for the loop's tests.
+`EXPECTED_FAULT` maps each scenario to that code, for the loop's tests. The wrapper
+runs on its inner backend's clock (`timing`): a `late` read on the simulator is
+measured and recorded but faults nothing (device.backend), so a test of the
+watchdog wraps a simulator built with REAL_TIME timing, as hardware is.
 
 The hang never blocks a test forever: each read waits at most `block_s` on an
 event, and `release()` (or `close()`) wakes it at once, so a loop test can
@@ -54,6 +58,7 @@ from __future__ import annotations
 import math
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from core.errors import ParameterError, check_non_negative, check_positive, check_range
@@ -119,6 +124,7 @@ class FaultInjectingBackend:
         sleep_s: float = 0.015,
         block_s: float = 0.1,
         rate_rad_s: float | None = None,
+        sleep: Callable[[float], None] = time.sleep,
     ) -> None:
         if scenario not in EXPECTED_FAULT:
             raise ParameterError("scenario", scenario, ", ".join(SCENARIOS))
@@ -141,6 +147,7 @@ class FaultInjectingBackend:
         check_range("force_N", force_N, -1000.0, 1000.0, "N")
         self.inner = inner
         self.name = f"{inner.name}+{scenario}"
+        self.timing = inner.timing
         self.scenario = scenario
         self.at_s = float(at_s)
         self.duration_s = float(duration_s)
@@ -150,6 +157,7 @@ class FaultInjectingBackend:
         self.sleep_s = float(sleep_s)
         self.block_s = float(block_s)
         self.rate_rad_s = float(rate_rad_s)
+        self._sleep = sleep
         self._fired_at_s: float | None = None
         self._frozen: SensorReading | None = None
         self._release = threading.Event()
@@ -194,7 +202,7 @@ class FaultInjectingBackend:
         if scenario == "exception":
             raise BackendError(f"injected: {self.inner.name} read failed")
         if scenario == "late":
-            time.sleep(self.sleep_s)
+            self._sleep(self.sleep_s)
             return self.inner.read(now_s)
         reading = self.inner.read(now_s)
         if scenario == "stale":

@@ -11,6 +11,14 @@ Why a process and not a thread: a thread beside a live pyqtgraph window missed 4
 (ARCHITECTURE.md). It is also a safety boundary: if the console dies, the pipe closes and
 the loop stops the trial at once and puts the robot in its safe state by itself.
 
+Time: the loop keeps absolute 2 ms deadlines on the wall clock and records how late
+each tick started. What a late tick means depends on whose clock the robot lives on
+(device.backend): a real robot gets the wall clock, and the supervisor faults a tick
+more than 10 ms late; a simulated one is stepped by exactly one period per tick, so a
+stall of the host delays the simulation, is recorded and shown, and stops nothing.
+Before a real robot is opened, Connect checks for a second whether this machine wakes
+the loop on time and tells the therapist when it does not.
+
 State machine: device.states. Faults: device.supervisor (latched until cleared).
 """
 
@@ -25,7 +33,7 @@ from multiprocessing.connection import Connection
 
 from core.errors import ParameterError
 from core.trial import TrialParameters
-from device.backend import Backend, SensorReading
+from device.backend import REAL_TIME, SIMULATED, TIMINGS, Backend, SensorReading
 from device.errors import BackendError, DeviceError, StateError
 from device.faults import Fault
 from device.messages import (
@@ -49,7 +57,13 @@ from device.messages import (
     TrialStarted,
 )
 from device.pipeline import PERIOD_S, TickPipeline, TrialPlan, idle_record
-from device.realtime import LAST_CPU, prepare_process, wait_until
+from device.realtime import (
+    LAST_CPU,
+    measure_wakeups,
+    prepare_process,
+    timing_warning,
+    wait_until,
+)
 from device.ring import RecordRing
 from device.states import Command, State, refusal
 from device.supervisor import SafetyLimits, SafetySupervisor
@@ -81,17 +95,26 @@ class LoopConfig:
     compiled: bool = True
     """Run the simulator's trial ticks compiled (device.compiled.looptick) when the
     configuration allows; False keeps every tick in Python."""
+    timing_check_s: float = 1.0
+    """How long Connect measures this machine's wake-up lateness before it opens a
+    REAL_TIME backend (device.realtime.timing_warning); 0 skips the check."""
 
 
 def make_backend(config: BackendConfig, params: TrialParameters, plan: TrialPlan) -> Backend:
     """The backend a BackendConfig names, built inside the loop process."""
+    if config.timing not in (None, *TIMINGS):
+        raise BackendError(f"unknown timing {config.timing!r}; use {' or '.join(TIMINGS)}")
     if config.kind == "simulator":
         from device.simulator import SimulatorBackend
 
         backend: Backend = SimulatorBackend.from_trial(
-            params, config.patient, seed=config.seed, robot=plan.robot, patient_waits=True
+            params, config.patient, seed=config.seed, robot=plan.robot, patient_waits=True,
+            timing=config.timing or SIMULATED,
         )
     elif config.kind == "quanser":
+        if config.timing == SIMULATED:
+            raise BackendError("the real robot moves on the wall clock; simulated timing "
+                               "is only for the simulator")
         from device.hardware_settings import load_hardware_settings
         from device.quanser import QuanserBackend
 
@@ -159,6 +182,7 @@ class DeviceLoop:
         self.stopping_since = 0.0
         self.paused = False
         self.t0 = 0.0
+        self.trial_start_sample_s = 0.0
         self.compiled = None  # device.compiled.looptick.CompiledTick during a trial
 
     # ------------------------------------------------------------------ main
@@ -193,6 +217,7 @@ class DeviceLoop:
         overwrite = self.ring.would_overwrite_unrecorded
         supervisor = self.supervisor
         backend = self.backend
+        simulated = backend.timing == SIMULATED
         k = 0
         overrun = 0.0
         while self.state in (State.CONNECTED, State.RUNNING, State.STOPPING, State.FAULTED):
@@ -207,6 +232,7 @@ class DeviceLoop:
                                       State.FAULTED):
                     break
                 supervisor, backend = self.supervisor, self.backend
+                simulated = backend.timing == SIMULATED
                 if self.paused:
                     # Build, Connect and Start compute tables (milliseconds of numpy) at
                     # zero torque; the schedule restarts from now instead of counting
@@ -216,11 +242,19 @@ class DeviceLoop:
                 self._take_over()
             compiled = self.compiled
             if compiled is not None and compiled.active and self.state == State.RUNNING:
-                compiled.warm(self.trial_tick, deadline - t0)
+                compiled.warm(self.trial_tick, k * period if simulated else deadline - t0)
             now = wait_until(deadline, clock)
             lateness = max(now - deadline, overrun)
             overrun = 0.0
             loop_t = now - t0
+            # The robot's clock (device.backend): a real robot moves on the wall clock, so
+            # its supervisor must see how late the tick is; a simulated one is stepped by
+            # one period per tick, and on its clock no tick is late. The wall-clock
+            # lateness is recorded either way.
+            if simulated:
+                robot_t, robot_lateness = k * period, 0.0
+            else:
+                robot_t, robot_lateness = loop_t, lateness
             value = self.heartbeat.value
             if value != beat:
                 beat, beat_seen = value, now
@@ -229,8 +263,8 @@ class DeviceLoop:
             written = None
             if compiled is not None and compiled.active and self.state == State.RUNNING:
                 lost = bool(self.recording_failed.value) or overwrite()
-                written = compiled.tick(self.trial_tick, loop_t, lateness, beat_age, estop,
-                                        lost)
+                written = compiled.tick(self.trial_tick, robot_t, robot_lateness, beat_age,
+                                        estop, lost)
             if written is not None:
                 # an ordinary running tick, done compiled; anything else comes back here
                 # undone and runs below in Python
@@ -243,7 +277,7 @@ class DeviceLoop:
                 running = True
             else:
                 try:
-                    reading = backend.read(loop_t)
+                    reading = backend.read(robot_t)
                 except BackendError as exc:
                     reading = exc
                 running = self.state == State.RUNNING and isinstance(reading, SensorReading)
@@ -255,7 +289,8 @@ class DeviceLoop:
                 lost = bool(self.recording_failed.value) or (overwrite() and self.state ==
                                                              State.RUNNING)
                 out1, out2, fault = supervisor.step(
-                    loop_t, reading, rate1, rate2, tau1, tau2, lateness, beat_age, estop, lost,
+                    robot_t, reading, rate1, rate2, tau1, tau2, robot_lateness, beat_age, estop,
+                    lost,
                 )
                 try:
                     backend.write(out1, out2)
@@ -343,6 +378,7 @@ class DeviceLoop:
         self.supervisor.restart_ramp()
         self.trial_path = command.path
         self.trial_tick = 0
+        self.trial_start_sample_s = self.reading.time_s
         if self.pipeline.approach_ticks == 0:
             _cue_patient(self.backend)
         self.compiled = None
@@ -374,7 +410,11 @@ class DeviceLoop:
                    # wall_time is perf_counter() − this; on Linux both perf_counter and
                    # time.monotonic read CLOCK_MONOTONIC, so camera frames stamped with
                    # time.monotonic() line up with the samples (device.camera).
-                   "wall_time_origin_monotonic_s": self.t0}
+                   "wall_time_origin_monotonic_s": self.t0,
+                   # the robot's own clock over the trial: ticks × period on the
+                   # simulator however late the ticks, monotonic seconds on hardware
+                   "robot_clock_s": self.reading.time_s - self.trial_start_sample_s,
+                   "timing": self.backend.timing}
         self.end_seq = self.ring.write_count
         self._to_recorder(EndTrial(self.end_seq, status, summary))
         self._send(TrialEnded(self.trial_path, status, summary))
@@ -478,6 +518,8 @@ class DeviceLoop:
         self.paused = True
         config = self.backend_config
         backend = make_backend(config, self.plan.parameters, self.plan)
+        if backend.timing == REAL_TIME and self.config.timing_check_s > 0.0:
+            self._check_timing()
         backend.open()
         try:
             self.limits = limits_for_backend(self.limits, backend)
@@ -499,6 +541,16 @@ class DeviceLoop:
         self.reading = None
         self._set_state(State.CONNECTED, f"connected to the {config.label}")
         return ""
+
+    def _check_timing(self) -> None:
+        """Before a real robot is powered: would this machine's wake-ups trip the
+        late-tick watchdog? If so, say so in plain words (the Connect goes on)."""
+        limits = self.limits
+        late = measure_wakeups(self.config.timing_check_s)
+        warning = timing_warning(late, limits.late_tick_s, limits.late_run_ticks,
+                                 self.config.period_s)
+        if warning:
+            self._send(Notice("warning", warning))
 
     def _disconnect_backend(self) -> None:
         backend, self.backend = self.backend, None

@@ -28,6 +28,10 @@ class BackendConfig:
     quanser: `hardware_settings` is the TOML file of docs/hardware.md.
     `fault_scenario` wraps the backend in device.faultinjection.FaultInjectingBackend
     (commissioning and tests), with `fault_options` as keyword arguments.
+    `timing` (device.backend): None for the backend's own (the simulator is stepped
+    by the nominal period, hardware runs on the wall clock); "real" runs the simulator
+    on the wall clock with the hardware's late-tick watchdog, to rehearse on a PC how
+    the real robot's loop would be timed there.
     """
 
     kind: str = "simulator"
@@ -37,11 +41,13 @@ class BackendConfig:
     fault_scenario: str | None = None
     fault_at_s: float = 1.0
     fault_options: tuple[tuple[str, object], ...] = ()
+    timing: str | None = None
 
     @property
     def label(self) -> str:
         if self.kind == "simulator":
-            return f"simulator ({self.patient}, seed {self.seed})"
+            clock = ", on the wall clock" if self.timing == "real" else ""
+            return f"simulator ({self.patient}, seed {self.seed}{clock})"
         return f"quanser ({self.hardware_settings})"
 
 

@@ -54,7 +54,7 @@ import numpy as np
 
 from core.motor import MotorParameters
 from core.robot import RobotModel
-from device.backend import SensorReading
+from device.backend import REAL_TIME, SensorReading
 from device.errors import BackendError, BackendUnavailable
 from device.forcesensor import AtiForceSensor
 from device.hardware_settings import HardwareSettings
@@ -116,6 +116,7 @@ class QuanserBackend:
     """
 
     name = "quanser"
+    timing = REAL_TIME  # a real robot: the loop's late-tick watchdog guards it
 
     def __init__(
         self,

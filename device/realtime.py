@@ -11,6 +11,11 @@
 * Garbage collection frozen and disabled in the loop process: a collection of the
   young generation can take milliseconds, and the loop allocates only small tuples
   that reference counting frees at once.
+
+Whatever the loop does, it cannot wake up earlier than the OS wakes it. `measure_wakeups`
+measures that floor (the loop's sleep, nothing else), and `timing_warning` says in plain
+words when it would trip the hardware's late-tick watchdog: the loop runs it before it
+connects a real robot, and bench/wakeup.py prints it for a longer stretch.
 """
 
 from __future__ import annotations
@@ -21,6 +26,7 @@ import gc
 import logging
 import os
 import time
+from collections.abc import Callable, Sequence
 
 log = logging.getLogger(__name__)
 
@@ -84,3 +90,49 @@ def prepare_process(cpu: int | None = None, priority: int = 50) -> list[str]:
     for problem in problems:
         log.warning("real-time setup: %s", problem)
     return problems
+
+
+WAKEUP_SLEEP_S = 0.0015
+"""The sleep `measure_wakeups` times: the loop's own sleep before its spin."""
+
+
+def measure_wakeups(seconds: float, sleep_s: float = WAKEUP_SLEEP_S,
+                    clock: Callable[[], float] = time.perf_counter,
+                    sleep: Callable[[float], None] = time.sleep) -> list[float]:
+    """Sleep `sleep_s` again and again for about `seconds`; return how late (s) each
+    wake-up came. Call it from a process prepared as the loop is (`prepare_process`)."""
+    late: list[float] = []
+    end = clock() + seconds
+    start = clock()
+    while start < end:
+        sleep(sleep_s)
+        woke = clock()
+        late.append(max(0.0, woke - start - sleep_s))
+        start = woke
+    return late
+
+
+def timing_warning(late_s: Sequence[float], late_tick_s: float, late_run_ticks: int,
+                   period_s: float) -> str:
+    """'' when wake-ups this late would not trip the late-tick watchdog (one tick more
+    than `late_tick_s` late, or `late_run_ticks` in a row each over a period late);
+    otherwise what the therapist should know and do, in one paragraph."""
+    if not late_s:
+        return ""
+    worst = max(late_s)
+    run = longest = 0
+    for value in late_s:
+        run = run + 1 if value > period_s else 0
+        longest = max(longest, run)
+    if worst <= late_tick_s and longest < late_run_ticks:
+        return ""
+    if worst > late_tick_s:
+        what = (f"the control loop woke up as much as {worst * 1e3:.1f} ms late (the robot "
+                f"stops itself at {late_tick_s * 1e3:.0f} ms)")
+    else:
+        what = (f"the control loop woke up more than one period late {longest} times in a "
+                f"row (the robot stops itself at {late_run_ticks})")
+    return ("This computer is not keeping the robot's timing: in a timing check just now "
+            f"{what}. A trial on the robot would probably stop with \"the control loop ran "
+            "late\". Close other programs and try again; a clinic PC needs a real-time "
+            "kernel or a CPU kept for the loop (docs/hardware.md, Timing).")

@@ -56,6 +56,13 @@ k·0.002 in headless runs). The patient's own clock starts there too, unless the
 simulator was built with `patient_waits=True`: then the patient holds the path's
 start until `cue_patient()` (call it with the trial's first exercise tick).
 
+`timing` (device.backend) tells the live loop which clock to pass: SIMULATED (the
+default) gets the nominal time, tick × period, so every tick steps the robot and
+the patient by one period however late it started; REAL_TIME gets the wall clock
+and the hardware's late-tick watchdog, to rehearse on a PC how the real robot's
+loop would be timed there (a stall then catches up in one read, as a real arm
+would have moved on).
+
 Sensors
 -------
 Encoders: `robot.motors[i].quantise_joint_angle` (its arithmetic, inlined).
@@ -79,7 +86,7 @@ from core.errors import ParameterError, SingularityError, check_finite, check_ra
 from core.interaction import coupled_forward_dynamics
 from core.robot import RobotModel
 from core.trial import THESIS_SUBJECT, TrialParameters
-from device.backend import SensorReading
+from device.backend import SIMULATED, TIMINGS, SensorReading
 from device.errors import BackendError, SensorRangeError, StateError
 from device.patients import Patient, VirtualPatient, make_patient
 from device.sensors import ForceSensorModel
@@ -136,7 +143,8 @@ class SimulatorBackend:
     `device.patients.Patient` protocol: its arm, its trajectory, its torques).
     `robot` defaults to the thesis robot (with its default friction), `sensor` to
     the Nano25 of Table 3.1, `seed` draws the sensor noise; `step_s` (≤ 1 ms),
-    `integrator` and `dynamics` are described in the module notes.
+    `integrator`, `dynamics`, `patient_waits` and `timing` are described in the module
+    notes.
     """
 
     name = "simulator"
@@ -152,6 +160,7 @@ class SimulatorBackend:
         integrator: str = "semi_implicit_euler",
         dynamics: str | None = None,
         patient_waits: bool = False,
+        timing: str = SIMULATED,
     ) -> None:
         if not isinstance(patient, Patient):
             raise ParameterError(
@@ -159,6 +168,11 @@ class SimulatorBackend:
                 "an object with arm, trajectory and torque(t_s, ts, te, tsd, ted)",
                 "build one with device.patients.make_patient",
             )
+        if timing not in TIMINGS:
+            raise ParameterError("timing", timing, "one of " + ", ".join(TIMINGS),
+                                 "simulated steps by the nominal period; real runs on the "
+                                 "wall clock with the hardware's late-tick watchdog")
+        self.timing = timing
         if integrator not in INTEGRATORS:
             raise ParameterError("integrator", integrator, "one of " + ", ".join(INTEGRATORS))
         compilable = isinstance(patient, VirtualPatient)

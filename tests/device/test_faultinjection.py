@@ -12,7 +12,7 @@ import pytest
 from core.errors import ParameterError
 from core.robot import RobotModel
 from core.trajectory import Trajectory, d_shape
-from device.backend import Backend, SensorReading
+from device.backend import REAL_TIME, Backend, SensorReading
 from device.errors import BackendError, BackendTimeout
 from device.faultinjection import (
     EXPECTED_FAULT,
@@ -33,6 +33,7 @@ class PathBackend:
     """A robot whose handle walks the thesis's D at 0.25 m/s with a light hand on it."""
 
     name = "path"
+    timing = REAL_TIME
 
     def __init__(self):
         self.trajectory = Trajectory(d_shape((-0.30, 0.30), 0.10), 2.06, 100)
@@ -65,10 +66,23 @@ def first_tick_at_or_after(at_s):
     return next(k * PERIOD for k in itertools.count() if k * PERIOD >= at_s)
 
 
-def run_loop(backend, until_s=3.0, injection=None):
+class ManualClock:
+    """The loop's time spent in reads, in these tests: it moves only when a read sleeps
+    (the `late` scenario's `sleep`), so a tick's lateness is what the test injected,
+    never how promptly this machine woke up."""
+
+    def __init__(self):
+        self.slept_s = 0.0
+
+    def sleep(self, seconds):
+        self.slept_s += seconds
+
+
+def run_loop(backend, until_s=3.0, injection=None, clock=None):
     """The loop's order on a simulated clock: read → rates by difference → supervisor →
-    write. A read that overruns its period makes the next tick late by the overrun.
-    Returns (time of the tick that latched a fault or None, supervisor)."""
+    write. A read that overruns its period (on `clock`) makes the next tick late by the
+    overrun. Returns (time of the tick that latched a fault or None, supervisor)."""
+    clock = clock or ManualClock()
     sup = SafetySupervisor(ROBOT)
     backend.open()
     previous = None
@@ -76,12 +90,12 @@ def run_loop(backend, until_s=3.0, injection=None):
     lateness = 0.0
     for k in range(round(until_s / PERIOD)):
         now = k * PERIOD
-        started = time.perf_counter()
+        started = clock.slept_s
         try:
             reading = backend.read(now)
         except BackendError as exc:
             reading = exc
-        overrun = time.perf_counter() - started - PERIOD
+        overrun = clock.slept_s - started - PERIOD
         if isinstance(reading, SensorReading):
             if previous is not None and reading.time_s > previous.time_s:
                 dt = reading.time_s - previous.time_s
@@ -125,8 +139,9 @@ DETECTION_BOUND_S = {
 @pytest.mark.parametrize("scenario", SCENARIOS)
 def test_each_scenario_latches_its_fault_in_the_loop(scenario):
     options = {"block_s": 0.02} if scenario == "hang" else {}
-    backend = FaultInjectingBackend(PathBackend(), scenario, AT_S, **options)
-    detected, sup = run_loop(backend)
+    clock = ManualClock()
+    backend = FaultInjectingBackend(PathBackend(), scenario, AT_S, sleep=clock.sleep, **options)
+    detected, sup = run_loop(backend, clock=clock)
     assert detected is not None, f"{scenario}: no fault"
     first = first_tick_at_or_after(AT_S)
     assert backend.fired_at_s == first
@@ -251,9 +266,15 @@ def test_a_lateness_sleep_is_at_least_what_was_asked():
     started = time.perf_counter()
     backend.read(0.0)
     assert time.perf_counter() - started >= 0.015
-    started = time.perf_counter()
-    backend.read(PERIOD)
-    assert time.perf_counter() - started < 0.015  # one read only
+
+
+def test_a_lateness_sleeps_once():
+    slept = []
+    backend = FaultInjectingBackend(PathBackend(), "late", 0.0, sleep_s=0.015,
+                                    sleep=slept.append)
+    for k in range(3):
+        backend.read(k * PERIOD)
+    assert slept == [0.015]
 
 
 def test_a_hung_read_times_out_and_keeps_timing_out():

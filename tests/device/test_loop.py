@@ -92,9 +92,15 @@ def whole_trial(client, tmp_path):
     assert n == round(PARAMS.duration_s / 0.002) + 250  # exercise + 0.5 s hold
     np.testing.assert_array_equal(data.channels["tick"], np.arange(n))
     assert data.summary["ticks_missing"] == 0
-    # the loop kept time while this test process polled beside it
+    # every tick's lateness is measured and kept; on the simulator it faults nothing, and
+    # the simulated robot moved by exactly one period per tick (bench/loop_jitter.py has
+    # the timing figures: a test cannot bet on how promptly this machine wakes the loop)
     lateness = data.channels["lateness"]
-    assert np.percentile(lateness, 99) < 0.002
+    assert np.isfinite(lateness).all()
+    assert (lateness >= 0.0).all()
+    assert data.summary["timing"] == "simulated"
+    assert data.summary["robot_clock_s"] == pytest.approx(data.summary["ticks"] * 0.002,
+                                                          abs=1e-9)
     kinds = [e["kind"] for e in data.events]
     assert kinds == ["start", "stop"]
     # the robot and the virtual patient followed the D together, as headless
@@ -103,8 +109,8 @@ def whole_trial(client, tmp_path):
     assert metrics.rmse_y_m < 0.005
     assert metrics.directional_performance_pct > 50
     compute = data.channels["compute_time"]
+    assert np.isfinite(compute).all()
     assert np.all(compute > 0.0)
-    assert np.percentile(compute, 50) < 0.001
 
 
 def test_stop_ends_the_trial_early_and_saves_it(client, tmp_path):
@@ -146,17 +152,26 @@ def test_a_trial_twice_in_a_row_leaks_nothing(tmp_path):
     assert fds() == before_fds
 
 
-@pytest.mark.parametrize("scenario", sorted(EXPECTED_FAULT))
-def test_backend_faults_zero_the_torque_latch_and_are_recorded(client, tmp_path, scenario):
-    # loop time counts from Connect: 2 s leaves a loaded machine time to start the trial
+# The late-tick watchdog guards a robot on the wall clock (hardware); on the simulator's own
+# clock no tick is late, so `late` is injected into a simulator on the wall clock.
+SCENARIO_TIMING = {scenario: "real" if scenario == "late" else None
+                   for scenario in sorted(EXPECTED_FAULT)}
+
+
+@pytest.mark.parametrize(("scenario", "timing"), SCENARIO_TIMING.items())
+def test_backend_faults_zero_the_torque_latch_and_are_recorded(client, tmp_path, scenario,
+                                                               timing):
+    # robot time counts from Connect: 2 s leaves a loaded machine time to start the trial
     # before the fault fires (at 1.2 s a slow Start once found it already latched)
-    connect(client, LONG, BackendConfig(fault_scenario=scenario, fault_at_s=2.0))
+    connect(client, LONG, BackendConfig(fault_scenario=scenario, fault_at_s=2.0, timing=timing))
     client.live_records()  # start the live view from here
     path = tmp_path / f"{scenario}.h5"
     assert client.start_trial(str(path), SUBJECT).ok
     events = client.wait_for(is_(FaultRaised), 10)
     fault = events[-1]
-    assert fault.code == EXPECTED_FAULT[scenario]
+    assert fault.code == EXPECTED_FAULT[scenario], fault.message
+    if scenario == "late":
+        assert fault.detail["lateness_s"] > fault.detail["limit_s"] == 0.010
     assert closed_file(client).status == "faulted"
     time.sleep(0.1)
     records = client.live_records()
@@ -175,6 +190,27 @@ def test_backend_faults_zero_the_torque_latch_and_are_recorded(client, tmp_path,
     faults = [e for e in data.events if e["kind"] == "fault"]
     assert faults
     assert faults[0]["values"]["code"] == fault.code
+
+
+def test_a_late_tick_on_the_simulator_is_recorded_and_stops_nothing(client, tmp_path):
+    """A 15 ms stall in the middle of a simulated trial: the trial completes, the stall is
+    in the file's lateness, and the simulated robot was stepped by one period at it."""
+    connect(client, PARAMS, BackendConfig(fault_scenario="late", fault_at_s=1.5,
+                                          fault_options=(("sleep_s", 0.015),)))
+    path = tmp_path / "late.h5"
+    assert client.start_trial(str(path), SUBJECT).ok
+    events = client.wait_for(is_(TrialEnded), 20)
+    assert not [e for e in events if isinstance(e, FaultRaised)]
+    assert events[-1].status == "complete"
+    closed_file(client)
+    data = read_trial(path)
+    assert data.status == "complete"
+    assert data.summary["ticks_missing"] == 0
+    # the tick after the slow read started at least 15 − 2 ms late (float32 in the file)
+    assert data.channels["lateness"].max() >= 0.013 - 1e-6
+    assert data.summary["timing"] == "simulated"
+    assert data.summary["robot_clock_s"] == pytest.approx(data.summary["ticks"] * 0.002,
+                                                          abs=1e-9)
 
 
 def test_estop_zeroes_the_torque_and_latches_until_released_and_cleared(client, tmp_path):
@@ -214,12 +250,20 @@ def test_lost_heartbeat_stops_the_trial(tmp_path):
         assert c.start_trial(str(path), SUBJECT).ok
         for _ in range(10):
             time.sleep(0.05)
+            silent_from = time.monotonic()  # before the last beat: the loop saw it after
             c.heartbeat()
-        silent_from = time.monotonic()
         fault = c.wait_for(is_(FaultRaised), 5)[-1]
         assert fault.code == Fault.HEARTBEAT_LOST
-        assert 0.45 < fault.monotonic_s - silent_from < 0.7
+        limit = fault.detail["limit_s"]
+        # not before the timeout, however promptly the loop woke
+        assert fault.monotonic_s - silent_from > limit
         assert closed_file(c).status == "faulted"
+        # and on the first tick after it: the tick before still had its heartbeat in time
+        data = read_trial(path)
+        first = np.flatnonzero(data.channels["fault"] != 0)[0]
+        wall = data.channels["wall_time"]
+        age = fault.detail["heartbeat_age_s"]
+        assert limit < age <= limit + (wall[first] - wall[first - 1]) + 1e-9
 
 
 def test_stalled_recorder_stops_the_trial_with_recording_lost(tmp_path):
@@ -247,7 +291,9 @@ def test_kill_9_of_the_loop_keeps_the_trial_file(tmp_path):
         connect(c, LONG)
         path = tmp_path / "killed-loop.h5"
         assert c.start_trial(str(path), SUBJECT).ok
+        c.live_records()  # the live view from the trial's start
         time.sleep(2.0)
+        seen = c.live_records()["tick"]
         killed_at = time.monotonic()
         os.kill(c.loop_pid, signal.SIGKILL)
         events = c.wait_for(lambda e: isinstance(e, RecorderNotice) and e.kind == "closed", 10)
@@ -255,8 +301,10 @@ def test_kill_9_of_the_loop_keeps_the_trial_file(tmp_path):
         assert any(isinstance(e, LoopLost) for e in events)
         data = read_trial(path)
         assert data.status == "faulted"
-        # everything up to the kill, minus at most half a second
-        assert data.time[-1] > 2.0 - 0.5 - 0.1
+        # every record the loop pushed before the kill: at least all the live view saw
+        assert seen.size > 0
+        assert data.channels["tick"][-1] >= seen[-1]
+        assert data.summary["ticks_missing"] == 0
         assert time.monotonic() - killed_at < 10
         assert any("loop process" in e["message"] for e in data.events)
 
@@ -266,14 +314,17 @@ def test_kill_9_of_loop_and_recorder_leaves_a_readable_file(tmp_path):
         connect(c, LONG)
         path = tmp_path / "killed-both.h5"
         assert c.start_trial(str(path), SUBJECT).ok
+        c.live_records()  # the live view from the trial's start
         time.sleep(2.0)
-        elapsed = 2.0
+        seen = c.live_records()["time"]
         os.kill(c.recorder_pid, signal.SIGKILL)
         os.kill(c.loop_pid, signal.SIGKILL)
         time.sleep(0.2)
         data = read_trial(path)
         assert data.status == "recording"  # never closed: the crash is visible
-        assert data.time[-1] > elapsed - 0.5 - 0.1
+        # all but the last half second of what the loop had pushed (the recorder flushes
+        # every 0.25 s)
+        assert data.time[-1] > seen[-1] - 0.5 - 0.1
 
 
 CONSOLE = textwrap.dedent("""
@@ -324,6 +375,8 @@ def test_kill_9_of_the_console_makes_the_loop_safe_and_close_the_file(tmp_path):
     assert data.status == "faulted"
     fault = next(e for e in data.events if e["kind"] == "fault")
     assert fault["values"]["code"] == Fault.HEARTBEAT_LOST
+    # seen through the console's pipe closing, not the heartbeat's timeout
+    assert fault["values"]["heartbeat"] == "no heartbeat received"
     # the loop saw the console's pipe close and reached its safe state within 0.5 s
     assert fault["values"]["monotonic_s"] - killed_at < 0.5
     last = np.flatnonzero(data.channels["fault"] != 0)
