@@ -15,17 +15,17 @@ import tempfile
 import time
 from pathlib import Path
 
-from app.export import export_trial, export_trials
-from app.export_plan import source_for_path
+from app.exports.plan import source_for_path
+from app.exports.run import export_trial, export_trials
 from core.trial import THESIS_SUBJECT
-from device.trialfile import SubjectInfo, write_trial
+from device.recording.trialfile import SubjectInfo, write_trial
 
 DURATION_S = 60.0
 SAMPLES = 30_000
 
 
 def make_trial(path: Path) -> Path:
-    from app.headless import simulate
+    from app.trials.headless import simulate
 
     parameters = THESIS_SUBJECT.replace(repetitions=int(DURATION_S // THESIS_SUBJECT.duration_s))
     run = simulate(parameters, patient="healthy", seed=0)

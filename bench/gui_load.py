@@ -35,15 +35,15 @@ os.environ.setdefault("QT_QPA_PLATFORM", "offscreen" if not os.environ.get("DISP
 from PySide6.QtCore import QEvent, QObject, QTimer
 from PySide6.QtWidgets import QApplication, QGridLayout, QTabWidget, QWidget
 
-from app.trialfile import read_trial
+from app.trials.reader import read_trial
 from core.trial import THESIS_SUBJECT
-from device.messages import BackendConfig
-from device.pipeline import PERIOD_S
-from device.trialfile import SubjectInfo
+from device.loop.messages import BackendConfig
+from device.loop.pipeline import PERIOD_S
+from device.recording.trialfile import SubjectInfo
 from ui import theme
 from ui.device_bridge import DeviceBridge
 from ui.tabs import AnglesTab, ForceTab, TorquesTab, TrajectoryTab
-from ui.trialview import TrialView
+from ui.views.trialview import TrialView
 
 
 class PaintCounter(QObject):

@@ -32,17 +32,17 @@ from pathlib import Path
 
 import numpy as np
 
-from app.trialfile import read_trial
+from app.trials.reader import read_trial
 from core.trial import THESIS_SUBJECT
-from device.client import DeviceClient
-from device.loop import LoopConfig
-from device.messages import BackendConfig, RecorderNotice
-from device.pipeline import PERIOD_S, TickPipeline, TrialPlan
-from device.record import RECORD_DTYPE
-from device.ring import RecordRing
-from device.simulator import SimulatorBackend
-from device.supervisor import SafetyLimits
-from device.trialfile import SubjectInfo
+from device.loop.client import DeviceClient
+from device.loop.messages import BackendConfig, RecorderNotice
+from device.loop.pipeline import PERIOD_S, TickPipeline, TrialPlan
+from device.loop.process import LoopConfig
+from device.recording.record import RECORD_DTYPE
+from device.recording.ring import RecordRing
+from device.recording.trialfile import SubjectInfo
+from device.safety.supervisor import SafetyLimits
+from device.sim.simulator import SimulatorBackend
 
 CURVES = 8
 WINDOW_S = 10.0

@@ -26,9 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
-from app.datadir import DataDir
-from app.progress import HDF5_SIGNATURE, progress
-from app.registry import Registry
+from app.records.datadir import DataDir
+from app.records.registry import Registry
+from app.reports.progress import HDF5_SIGNATURE, progress
 from core.metrics import TrialMetrics
 from core.trial import TrialParameters
 

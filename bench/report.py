@@ -19,11 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
-from app.headless import save, simulate
-from app.report import build_report, write_report_pdf
-from app.trialfile import read_trial
+from app.reports.build import build_report, write_report_pdf
+from app.trials.headless import save, simulate
+from app.trials.reader import read_trial
 from core.trial import THESIS_SUBJECT
-from device.patients import PATIENT_KINDS
+from device.sim.patients import PATIENT_KINDS
 
 GOAL_S = 2.0
 

@@ -1,7 +1,7 @@
 """Cost of the shared-memory record ring: the loop's per-tick push and the readers' drain.
 
 Run: .venv/bin/python bench/ring.py [--pushes N] [--records N]
-Prints push cost p50 / p99 / max in µs for one full record (device.record.RECORD_DTYPE)
+Prints push cost p50 / p99 / max in µs for one full record (device.recording.record.RECORD_DTYPE)
 written the ways the loop can write it, then drain throughput in records/s and MB/s:
 copying out of a filled ring in batches (one process), and end to end with the writer
 in its own process pushing flat out while this process drains as the recorder.
@@ -16,8 +16,8 @@ import time
 
 import numpy as np
 
-from device.record import RECORD_DTYPE
-from device.ring import RecordRing, flat_names
+from device.recording.record import RECORD_DTYPE
+from device.recording.ring import RecordRing, flat_names
 
 CAPACITY = 8192
 

@@ -27,12 +27,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from controllers import inputs, run
 
-from app.headless import simulate
+from app.trials.headless import simulate
 from core.control import PerformanceAssistance, make_controller
 from core.robot import RobotModel
 from core.trial import THESIS_SUBJECT
-from device.patients import PATIENT_KINDS
-from device.simulator import bench_tick
+from device.sim.patients import PATIENT_KINDS
+from device.sim.simulator import bench_tick
 
 
 def main() -> None:
@@ -59,7 +59,7 @@ def main() -> None:
                   f"{best.speed_vs_real_time:13.0f}{1e6 * best.elapsed_s / ticks:9.1f}")
 
     print("\nFirst compiled trial in a fresh process (healthy), from the kernel cache")
-    code = ("import time; t = time.perf_counter(); from app.headless import simulate; "
+    code = ("import time; t = time.perf_counter(); from app.trials.headless import simulate; "
             "from core.trial import THESIS_SUBJECT as T; i = time.perf_counter(); "
             f"r = simulate(T.replace(repetitions={args.repetitions})); "
             "print(f'{i - t:.2f} {r.load_s:.2f} {r.elapsed_s:.3f} {r.speed_vs_real_time:.0f}')")

@@ -19,14 +19,14 @@ import argparse
 
 import numpy as np
 
-from device.realtime import (
+from device.loop.realtime import (
     LAST_CPU,
     WAKEUP_SLEEP_S,
     measure_wakeups,
     prepare_process,
     timing_warning,
 )
-from device.supervisor import SafetyLimits
+from device.safety.supervisor import SafetyLimits
 
 
 def main() -> None:

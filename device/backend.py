@@ -9,7 +9,7 @@ Every backend also says whose clock its robot lives on (`timing`):
 
 * REAL_TIME: a real robot keeps moving while the loop stalls, with the last torque held
   and no one watching. The loop passes it the wall clock and the safety supervisor's
-  late-tick watchdog guards it (device.supervisor, docs/safety.md H13).
+  late-tick watchdog guards it (device.safety.supervisor, docs/safety.md H13).
 * SIMULATED: the robot exists only when the loop steps it. The loop passes it the
   nominal time (tick × period), so a tick that starts late steps it by one period like
   any other: a stall of the computer delays the simulation and pushes no one. The

@@ -25,9 +25,9 @@ import cv2  # noqa: E402
 import numpy as np  # noqa: E402
 from PySide6.QtWidgets import QApplication  # noqa: E402
 
-from app.datadir import DataDir  # noqa: E402
-from app.headless import save, simulate  # noqa: E402
-from app.registry import Registry  # noqa: E402
+from app.records.datadir import DataDir  # noqa: E402
+from app.records.registry import Registry  # noqa: E402
+from app.trials.headless import save, simulate  # noqa: E402
 from core.trial import THESIS_AS_PRINTED, THESIS_SUBJECT  # noqa: E402
 from ui import theme  # noqa: E402
 from ui.tabs import (  # noqa: E402
@@ -43,7 +43,7 @@ from ui.tabs import (  # noqa: E402
     TrajectoryTab,
     VideoTab,
 )
-from ui.trialview import TrialView  # noqa: E402
+from ui.views.trialview import TrialView  # noqa: E402
 
 SIZE = (1280, 800)
 

@@ -9,10 +9,10 @@ from __future__ import annotations
 import argparse
 import math
 
-from app.analysis import analyse
-from app.headless import simulate
+from app.trials.analysis import analyse
+from app.trials.headless import simulate
 from core.trial import THESIS_SUBJECT
-from device.patients import PATIENT_KINDS
+from device.sim.patients import PATIENT_KINDS
 
 ROWS = (
     # (label, metric key, display scale, unit, thesis value)

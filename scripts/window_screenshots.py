@@ -25,9 +25,9 @@ def main() -> int:
         os.environ["REHAB_CONFIG_DIR"] = str(Path(folder) / "config")
         from PySide6.QtWidgets import QApplication
 
-        from app.datadir import locate_data_dir
-        from app.registry import Registry
-        from device.states import State
+        from app.records.datadir import locate_data_dir
+        from app.records.registry import Registry
+        from device.loop.states import State
         from ui import theme
         from ui.main_window import MainWindow
 

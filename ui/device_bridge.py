@@ -19,10 +19,9 @@ import numpy as np
 from PySide6.QtCore import QObject, Signal
 
 from core.trial import TrialParameters
-from device.client import DeviceClient, LoopLost
 from device.errors import DeviceError
-from device.loop import LoopConfig
-from device.messages import (
+from device.loop.client import DeviceClient, LoopLost
+from device.loop.messages import (
     BackendConfig,
     FaultRaised,
     Notice,
@@ -31,9 +30,10 @@ from device.messages import (
     TrialEnded,
     TrialStarted,
 )
-from device.record import RECORD_DTYPE
-from device.supervisor import SafetyLimits
-from device.trialfile import SubjectInfo
+from device.loop.process import LoopConfig
+from device.recording.record import RECORD_DTYPE
+from device.recording.trialfile import SubjectInfo
+from device.safety.supervisor import SafetyLimits
 
 log = logging.getLogger(__name__)
 

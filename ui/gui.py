@@ -17,10 +17,10 @@ def run_gui(font_scale: float | None = None) -> int:
     from PySide6.QtCore import QTimer
     from PySide6.QtWidgets import QApplication
 
-    from app.datadir import locate_data_dir
-    from app.logs import setup_logging
-    from app.registry import Registry
-    from app.settings import load_settings
+    from app.records.datadir import locate_data_dir
+    from app.records.logs import setup_logging
+    from app.records.registry import Registry
+    from app.records.settings import load_settings
     from ui import theme
     from ui.main_window import MainWindow
 

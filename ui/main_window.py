@@ -29,15 +29,15 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app.finalize import finish_interrupted
-from app.registry import Patient, Registration, Registry
-from app.settings import Settings, load_settings, save_settings
+from app.records.registry import Patient, Registration, Registry
+from app.records.settings import Settings, load_settings, save_settings
+from app.trials.finalize import finish_interrupted
 from core.trial import TrialParameters
-from device.faults import Fault
-from device.messages import BackendConfig
-from device.pipeline import PERIOD_S
-from device.states import State
-from device.trialfile import SubjectInfo
+from device.loop.messages import BackendConfig
+from device.loop.pipeline import PERIOD_S
+from device.loop.states import State
+from device.recording.trialfile import SubjectInfo
+from device.safety.faults import Fault
 from ui import theme
 from ui.device_bridge import DeviceBridge
 from ui.robot_bar import RobotBar
@@ -56,7 +56,7 @@ from ui.tabs import (
     VideoTab,
 )
 from ui.tabs.parameters import HARDWARE
-from ui.trialview import TrialView
+from ui.views.trialview import TrialView
 
 log = logging.getLogger(__name__)
 
@@ -278,7 +278,7 @@ class MainWindow(QMainWindow):
         if trial_id is None:
             return
         self._say("Saving the report…")
-        from app.report import report_for_registry_trial
+        from app.reports.build import report_for_registry_trial
 
         self._run(lambda: report_for_registry_trial(
             self.registry, trial_id, flip_axes=self.settings.flip_x or self.settings.flip_y),
@@ -344,7 +344,7 @@ class MainWindow(QMainWindow):
         if kind == "error":
             self._say(f"Recording problem: {message}", problem=True)
         if kind == "closed" and self.trial_id is not None:
-            from app.finalize import finalize_trial
+            from app.trials.finalize import finalize_trial
 
             trial_id = self.trial_id
             self.trial_id = None
@@ -446,7 +446,7 @@ class MainWindow(QMainWindow):
 
     def finish_interrupted_trials(self) -> None:
         """At start-up: trials a crashed console left recording are finished from their
-        files (app.finalize.finish_interrupted), and the therapist is told which."""
+        files (app.trials.finalize.finish_interrupted), and the therapist is told which."""
         def said(lines: list[str]) -> None:
             if lines:
                 more = f" (and {len(lines) - 1} more; see the log)" if len(lines) > 1 else ""

@@ -11,7 +11,7 @@ from PySide6.QtCore import Qt, Signal
 from PySide6.QtGui import QKeySequence
 from PySide6.QtWidgets import QHBoxLayout, QPushButton, QSizePolicy, QWidget
 
-from device.states import State
+from device.loop.states import State
 
 # (name, label, key) in the order of a session
 BUTTONS = (

@@ -5,8 +5,8 @@ live loop's running tick on the simulator.
 Why: a tick in Python costs about 25 µs (the interpreter, not the arithmetic): 80–100×
 real time headless, and 100–200 µs at the 99th percentile in the sleeping loop
 process. Compiled, a headless trial runs at about 1,000× real time and the loop's
-tick at 20–40 µs p99. The Python classes (device.simulator, device.patients,
-core.control, device.supervisor) stay the reference and the owners of the state:
+tick at 20–40 µs p99. The Python classes (device.sim.simulator, device.sim.patients,
+core.control, device.safety.supervisor) stay the reference and the owners of the state:
 anything unusual (a learned model in the controller, RK4, a custom patient, the
 hardware) runs there, and the compiled path must give the same records bit for bit
 on the configurations it accepts (tests/device/test_compiled*.py). Anything out of

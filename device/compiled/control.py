@@ -55,7 +55,7 @@ def unsupported_controller(pipeline) -> str:
 
 
 def controller_constants(pipeline) -> np.ndarray:
-    """The flat constants of a device.pipeline.TickPipeline's controller, assistance and
+    """The flat constants of a device.loop.pipeline.TickPipeline's controller, assistance and
     rate estimators (see `unsupported_controller` for what is accepted)."""
     controller = pipeline.controller
     model = controller.model

@@ -2,7 +2,7 @@
 patient's torques and the sensors.
 
 The only implementation of the simulator's fused dynamics (eq. 3.6, 3.20, 3.27–3.33)
-and of the virtual patients' torques: device.simulator and device.patients call these
+and of the virtual patients' torques: device.sim.simulator and device.sim.patients call these
 kernels, and the tests hold them to core.interaction.coupled_forward_dynamics; the
 module notes of those two modules explain the physics. Constants travel in flat
 float arrays whose layout is the index names below, filled by `simulator_constants`
@@ -46,7 +46,7 @@ _ARM_DET_MIN = 1e-9
 
 
 def simulator_constants(simulator) -> np.ndarray:
-    """The flat constants of a device.simulator.SimulatorBackend."""
+    """The flat constants of a device.sim.simulator.SimulatorBackend."""
     robot, arm, sensor = simulator.robot, simulator.arm, simulator.sensor
     fr, st = robot.friction, robot.stiffness
     lu, lf = arm.upper_arm_m, arm.forearm_m
@@ -78,7 +78,7 @@ def simulator_constants(simulator) -> np.ndarray:
 
 def patient_arrays(patient) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(constants, desired-motion table, wrong-way episode offsets) of a
-    device.patients.VirtualPatient, from its `kernel_view()`."""
+    device.sim.patients.VirtualPatient, from its `kernel_view()`."""
     view = patient.kernel_view()
     c = np.zeros(P_SIZE)
     c[P_ACTIVE] = view["active"]
@@ -133,7 +133,7 @@ def _pushing_wrong_way(p, episodes, t_s):
 @kernel
 def patient_torque(p, table, episodes, t_s, ts, te, tsd, ted):
     """Net joint torques τ_A (eq. 3.20) of a virtual patient, absolute-angle convention
-    (VirtualPatient.torque; the model is in device.patients' module notes)."""
+    (VirtualPatient.torque; the model is in device.sim.patients' module notes)."""
     phi = te - ts
     phid = ted - tsd
     e_s = p[P_TS0] - ts
@@ -210,7 +210,7 @@ def patient_torque(p, table, episodes, t_s, ts, te, tsd, ted):
 
 @kernel
 def evaluate(c, p, table, episodes, t, q1, q2, qd1, qd2, tau1, tau2, out):
-    """The fused coupled dynamics (device.simulator's `dynamics="fused"`): writes
+    """The fused coupled dynamics (device.sim.simulator's `dynamics="fused"`): writes
     θ̈_R1, θ̈_R2, F_x, F_y, θ_s, θ_e, θ̇_s, θ̇_e, θ̈_s, θ̈_e, τ_s, τ_e and the inverse
     coupled mass (n11, n12, n22) into out[0:15]; returns OK or ARM_STRAIGHT."""
     l2 = c[S_L2]

@@ -1,6 +1,6 @@
 """The safety supervisor's per-tick work, compiled.
 
-`check` is device.supervisor.SafetySupervisor.step for a tick with a sensor reading:
+`check` is device.safety.supervisor.SafetySupervisor.step for a tick with a sensor reading:
 it keeps the same sample history, saturation timer, late-tick count and restart
 ramp, and clamps the torque the same way. It does not build fault events: when
 any check would trip it returns TRIPPED, and the caller hands the tick to the
@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 from device.compiled.jit import kernel
-from device.supervisor import SENSOR_SATURATION_FRACTION
+from device.safety.supervisor import SENSOR_SATURATION_FRACTION
 
 (G_PERIOD, G_HALF_PERIOD, G_FULL1, G_FULL2, G_SATURATION_S, G_RAMP_S, G_JOINT_SPEED,
  G_EE_SPEED, G_FORCE, G_PLANAR_SAT, G_NORMAL_SAT, G_JUMP, G_STALE, G_LATE_TICK, G_REACH_MIN,
@@ -32,7 +32,7 @@ CLEAR, TRIPPED = 0, 1
 
 
 def supervisor_constants(supervisor) -> np.ndarray:
-    """The flat constants of a device.supervisor.SafetySupervisor."""
+    """The flat constants of a device.safety.supervisor.SafetySupervisor."""
     lim = supervisor.limits
     robot = supervisor.robot
     g = np.zeros(G_SIZE)

@@ -26,8 +26,8 @@ from device.compiled import dynamics as dyn
 from device.compiled import guard
 from device.compiled.jit import kernel
 from device.compiled.trial import TRIPPED, unsupported
-from device.faults import Fault
-from device.simulator import SimulatorSnapshot, restore, snapshot
+from device.safety.faults import Fault
+from device.sim.simulator import SimulatorSnapshot, restore, snapshot
 
 _X, _Z, _W = dyn.X_SIZE, ctl.Z_SIZE, guard.W_SIZE
 _SHADOW = _X + _Z + _W + ctl.C_SIZE + 15  # warm_tick's copies of x, z, w, c and scratch

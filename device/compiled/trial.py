@@ -3,7 +3,7 @@
 `run` takes the very objects a Python headless run uses (the SimulatorBackend, the
 TickPipeline and the SafetySupervisor), reads their constants, runs every tick in
 one compiled loop and returns the records, identical to what the Python loop of
-app.headless would have produced. It returns an `Abandoned` (the tick and the
+app.trials.headless would have produced. It returns an `Abandoned` (the tick and the
 reason) when the configuration has no compiled form (`unsupported` says why) or when
 a tick leaves the ordinary: a safety check trips, the simulated arm goes straight,
 the force sensor saturates. The caller then runs the trial in Python from the start
@@ -23,9 +23,9 @@ from device.compiled import control as ctl
 from device.compiled import dynamics as dyn
 from device.compiled import guard
 from device.compiled.jit import kernel
-from device.patients import VirtualPatient
-from device.record import RECORD_DTYPE
-from device.states import State
+from device.loop.states import State
+from device.recording.record import RECORD_DTYPE
+from device.sim.patients import VirtualPatient
 
 TRIPPED = 10  # beyond the simulator's own failure codes (device.compiled.dynamics)
 _RUNNING = int(State.RUNNING)
@@ -43,7 +43,7 @@ class Abandoned:
 def unsupported(backend, pipeline, supervisor, *, patient_may_wait: bool = False) -> str:
     """Why this trial cannot run compiled, or '' when it can. A headless run needs a
     patient who starts at once; the live loop cues its patient (patient_may_wait)."""
-    from device.simulator import SimulatorBackend  # the simulator imports nothing from here
+    from device.sim.simulator import SimulatorBackend  # the simulator imports nothing from here
 
     if type(backend) is not SimulatorBackend:
         return f"the backend is a {type(backend).__name__}, not the simulator"
@@ -114,7 +114,7 @@ _REASONS = {
 @kernel
 def run_ticks(k0, k1, period, rows, approach_ticks, sc, p, table, episodes, x, noise,
               kc, z, gc, w, c, scratch, out):
-    """Ticks k0..k1−1 of app.headless.simulate's loop: (next tick, status)."""
+    """Ticks k0..k1−1 of app.trials.headless.simulate's loop: (next tick, status)."""
     nan = math.nan
     for k in range(k0, k1):
         now = k * period

@@ -39,7 +39,7 @@ def load_kernels(groups: tuple[str, ...] = GROUPS) -> float:
     from device.compiled import guard
     from device.compiled.looptick import _SHADOW, loop_tick, warm_tick
     from device.compiled.trial import run_ticks
-    from device.record import RECORD_DTYPE
+    from device.recording.record import RECORD_DTYPE
 
     sc, p, kc, gc = (np.zeros(n) for n in (dyn.S_SIZE, dyn.P_SIZE, ctl.K_SIZE, guard.G_SIZE))
     table, rows, noise = np.zeros((1, 18)), np.zeros((1, 12)), np.zeros((1, 3))

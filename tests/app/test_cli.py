@@ -3,8 +3,8 @@ as one clear line with exit code 2, never a traceback."""
 
 import pytest
 
-from app.cli import main
-from app.trialfile import read_trial
+from app.cli.main import main
+from app.trials.reader import read_trial
 
 
 def run(args, capsys):

@@ -2,7 +2,7 @@
 
 import pytest
 
-from app.cli import main
+from app.cli.main import main
 
 
 def test_check_prints_arm_reachability_and_ranges(capsys):

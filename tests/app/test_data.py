@@ -12,12 +12,12 @@ import h5py
 import numpy as np
 import pytest
 
-import app.data as data_module
-from app.data import Study, Trial, load_study, load_trial, read_info
+import app.exports.loader as data_module
 from app.errors import AppError, TrialFileError
-from app.headless import save, simulate
+from app.exports.loader import Study, Trial, load_study, load_trial, read_info
+from app.trials.headless import save, simulate
 from core.trial import THESIS_SUBJECT, TrialParameters
-from device.pipeline import PHASE_EXERCISE
+from device.loop.pipeline import PHASE_EXERCISE
 
 D = THESIS_SUBJECT.replace(repetitions=1)
 CIRCLE = D.replace(shape="circle", radius_m=0.07)
@@ -217,7 +217,7 @@ def test_module_example_runs(tmp_path, monkeypatch, capsys):
     doc = inspect.getdoc(data_module)
     block = doc.split("::\n", 1)[1].split("\n\n`Trial`", 1)[0]
     monkeypatch.chdir(tmp_path)
-    exec(compile(textwrap.dedent(block), "app/data.py (example)", "exec"), {})
+    exec(compile(textwrap.dedent(block), "app/exports/loader.py (example)", "exec"), {})
     out = capsys.readouterr().out
     assert "broken.h5" in out
     assert "not an HDF5 file" in out

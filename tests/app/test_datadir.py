@@ -10,8 +10,9 @@ import time
 import platformdirs
 import pytest
 
-from app import datadir as datadir_module
-from app.datadir import (
+from app.errors import DataDirError
+from app.records import datadir as datadir_module
+from app.records.datadir import (
     ENV_DATA_DIR,
     LAYOUT,
     SOURCE_DEFAULT,
@@ -22,9 +23,14 @@ from app.datadir import (
     locate_data_dir,
     trial_stem,
 )
-from app.errors import DataDirError
-from app.logs import LOG_PREFIX, DailyFileHandler, log_file_for, setup_logging, shutdown_logging
-from app.settings import ENV_CONFIG_DIR, Settings, save_settings
+from app.records.logs import (
+    LOG_PREFIX,
+    DailyFileHandler,
+    log_file_for,
+    setup_logging,
+    shutdown_logging,
+)
+from app.records.settings import ENV_CONFIG_DIR, Settings, save_settings
 
 UTC = datetime.UTC
 STARTED = datetime.datetime(2024, 5, 2, 9, 30, 15, 999_000, tzinfo=UTC)

@@ -16,11 +16,13 @@ import numpy as np
 import pytest
 import scipy.io
 
-import app.export_files as export_files_module
-from app.data import load_trial
-from app.datadir import DataDir
+import app.exports.files as export_files_module
 from app.errors import AppError
-from app.export import (
+from app.exports.bids import CHANNEL_TYPES, bids_units
+from app.exports.columns import components, format_values, table_columns, unit_suffix
+from app.exports.loader import load_trial
+from app.exports.mat import matlab_name
+from app.exports.run import (
     ExportError,
     OutputExistsError,
     TrialSource,
@@ -30,14 +32,12 @@ from app.export import (
     export_trial,
     export_trials,
 )
-from app.export_bids import CHANNEL_TYPES, bids_units
-from app.export_columns import components, format_values, table_columns, unit_suffix
-from app.export_mat import matlab_name
-from app.headless import simulate
-from app.registry import Registry
+from app.records.datadir import DataDir
+from app.records.registry import Registry
+from app.trials.headless import simulate
 from core.trial import THESIS_SUBJECT
-from device.record import GLOBAL, JOINTS
-from device.trialfile import SubjectInfo, write_trial
+from device.recording.record import GLOBAL, JOINTS
+from device.recording.trialfile import SubjectInfo, write_trial
 
 D = THESIS_SUBJECT.replace(repetitions=1)
 FIRST, LAST = "Zebulon", "Quaxworth"  # distinctive: no channel, unit or word contains them

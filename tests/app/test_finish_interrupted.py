@@ -4,10 +4,10 @@ start, and a trial another console may still be recording is left alone."""
 import os
 import time
 
-from app.datadir import DataDir
-from app.finalize import finish_interrupted
-from app.headless import save, simulate
-from app.registry import Registry
+from app.records.datadir import DataDir
+from app.records.registry import Registry
+from app.trials.finalize import finish_interrupted
+from app.trials.headless import save, simulate
 from core.trial import THESIS_SUBJECT
 
 PARAMS = THESIS_SUBJECT.replace(repetitions=1)

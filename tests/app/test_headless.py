@@ -5,13 +5,13 @@ import math
 import numpy as np
 import pytest
 
-from app.analysis import analyse
-from app.cli import main
-from app.headless import save, simulate
-from app.trialfile import read_trial
+from app.cli.main import main
+from app.trials.analysis import analyse
+from app.trials.headless import save, simulate
+from app.trials.reader import read_trial
 from core.errors import UnreachableError
 from core.trial import THESIS_AS_PRINTED, THESIS_SUBJECT
-from device.pipeline import PHASE_EXERCISE, PHASE_HOLD
+from device.loop.pipeline import PHASE_EXERCISE, PHASE_HOLD
 
 SHORT = THESIS_SUBJECT.replace(repetitions=1)
 

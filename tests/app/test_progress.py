@@ -8,9 +8,10 @@ import math
 import numpy as np
 import pytest
 
-from app.datadir import DataDir
 from app.errors import PatientNotFound
-from app.progress import (
+from app.records.datadir import DataDir
+from app.records.registry import KEY_PARAMETERS, Registry
+from app.reports.progress import (
     FILE_MISSING,
     FILE_OK,
     FILE_UNCHECKED,
@@ -20,7 +21,6 @@ from app.progress import (
     ParameterSet,
     progress,
 )
-from app.registry import KEY_PARAMETERS, Registry
 from core.trial import TrialParameters
 
 UTC = datetime.UTC

@@ -15,7 +15,6 @@ from pathlib import Path
 
 import pytest
 
-from app.datadir import CODE_PATTERN, DataDir
 from app.errors import (
     DuplicateNumberError,
     InvalidRecordError,
@@ -25,7 +24,8 @@ from app.errors import (
     SessionNotFound,
     TrialNotFound,
 )
-from app.registry import (
+from app.records.datadir import CODE_PATTERN, DataDir
+from app.records.registry import (
     KEY_PARAMETERS,
     MIGRATE_V1_TO_V2,
     SCHEMA_V1,

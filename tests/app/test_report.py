@@ -14,22 +14,22 @@ import pytest
 from pypdf import PdfReader
 
 from app.errors import AppError, TrialFileError
-from app.headless import save, simulate
-from app.plain_language import mass_text, parameter_cautions, plain_lines
-from app.registry import Registry
-from app.report import (
+from app.records.registry import Registry
+from app.reports.build import (
     Baseline,
     build_report,
     merge_short_runs,
     report_for_registry_trial,
     write_report_pdf,
 )
-from app.report_compare import patient_changes, table_rows
-from app.trialfile import read_trial
+from app.reports.compare import patient_changes, table_rows
+from app.reports.plain_language import mass_text, parameter_cautions, plain_lines
+from app.trials.headless import save, simulate
+from app.trials.reader import read_trial
 from core.trial import THESIS_SUBJECT
-from device.faults import Fault
-from device.pipeline import PHASE_EXERCISE
-from device.trialfile import SubjectInfo, write_trial
+from device.loop.pipeline import PHASE_EXERCISE
+from device.recording.trialfile import SubjectInfo, write_trial
+from device.safety.faults import Fault
 
 SHORT = THESIS_SUBJECT.replace(repetitions=1)
 T0 = datetime.datetime(2024, 5, 2, 9, 30, tzinfo=datetime.UTC)

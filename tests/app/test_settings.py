@@ -8,9 +8,9 @@ import os
 
 import pytest
 
-from app import settings as settings_module
 from app.errors import SettingsError
-from app.settings import (
+from app.records import settings as settings_module
+from app.records.settings import (
     ENV_CONFIG_DIR,
     SETTINGS_NAME,
     Settings,
@@ -95,7 +95,7 @@ def test_unwritable_config_folder_says_what_to_do(tmp_path, monkeypatch):
 def test_corrupt_file_is_set_aside_and_defaults_used_with_a_warning(config, caplog, content):
     config.mkdir()
     (config / SETTINGS_NAME).write_bytes(content)
-    with caplog.at_level(logging.WARNING, logger="app.settings"):
+    with caplog.at_level(logging.WARNING, logger="app.records.settings"):
         loaded = load_settings()
     assert loaded == Settings()
     aside = list(config.glob(f"{SETTINGS_NAME}.corrupt-*"))
@@ -115,7 +115,7 @@ def test_one_bad_value_falls_back_alone_and_unknown_keys_survive(config, caplog)
         "flip_x": "sometimes", "flip_y": True, "window_geometry": "g",
         "from_a_newer_console": {"theme": "dark"},
     }))
-    with caplog.at_level(logging.WARNING, logger="app.settings"):
+    with caplog.at_level(logging.WARNING, logger="app.records.settings"):
         loaded = load_settings()
     assert (loaded.flip_x, loaded.flip_y, loaded.window_geometry) == (False, True, "g")
     assert "flip_x = 'sometimes'" in caplog.text
@@ -127,7 +127,7 @@ def test_one_bad_value_falls_back_alone_and_unknown_keys_survive(config, caplog)
 
 def test_stale_trial_parameters_are_ignored_with_a_warning(config, caplog):
     stale = TrialParameters().to_dict() | {"radius_m": 9.0}
-    with caplog.at_level(logging.WARNING, logger="app.settings"):
+    with caplog.at_level(logging.WARNING, logger="app.records.settings"):
         assert Settings(last_trial_parameters=stale).trial_parameters() is None
         renamed = TrialParameters().to_dict() | {"old_field": 1}
         assert Settings(last_trial_parameters=renamed).trial_parameters() is None

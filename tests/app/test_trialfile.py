@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 from app.errors import AppError, TrialFileError
-from app.trialfile import read_trial
+from app.trials.reader import read_trial
 from core.trial import THESIS_SUBJECT
-from device.record import CHANNELS, RECORD_DTYPE, Channel, extend_channels
-from device.trialfile import FORMAT_VERSION, SubjectInfo, write_trial
+from device.recording.record import CHANNELS, RECORD_DTYPE, Channel, extend_channels
+from device.recording.trialfile import FORMAT_VERSION, SubjectInfo, write_trial
 
 ROOT = Path(__file__).resolve().parents[2]
 PERIOD_S = 0.002
@@ -117,8 +117,8 @@ def test_extended_channels_round_trip(tmp_path):
 WRITER = textwrap.dedent("""
     import sys
     from core.trial import THESIS_SUBJECT
-    from device.record import RECORD_DTYPE
-    from device.trialfile import SubjectInfo, TrialFileWriter
+    from device.recording.record import RECORD_DTYPE
+    from device.recording.trialfile import SubjectInfo, TrialFileWriter
     writer = TrialFileWriter(sys.argv[1], parameters=THESIS_SUBJECT,
                              subject=SubjectInfo.from_parameters("P-9", THESIS_SUBJECT),
                              robot={"name": "sim"}, backend="simulator", sample_period_s=0.002,

@@ -6,7 +6,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from device.atical import (
+from device.errors import BackendError
+from device.hardware.atical import (
     FORCE_UNITS_TO_N,
     TORQUE_UNITS_TO_NM,
     CalibrationFileError,
@@ -14,7 +15,6 @@ from device.atical import (
     parse_calibration,
     tool_transform_matrix,
 )
-from device.errors import BackendError
 
 DATA = Path(__file__).parent / "data"
 V11 = DATA / "FT00000_Nano25_v11.cal"

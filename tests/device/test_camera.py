@@ -9,7 +9,7 @@ import cv2
 import numpy as np
 import pytest
 
-from device.camera import (
+from device.camera.capture import (
     TIMESTAMPS_HEADER,
     CameraSource,
     read_timestamps,

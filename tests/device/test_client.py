@@ -1,8 +1,8 @@
 """The console's side of the device link, on fake pipes: no event is ever dropped."""
 
-from device.client import DeviceClient
-from device.messages import Reply, StateChanged, TrialEnded
-from device.states import State
+from device.loop.client import DeviceClient
+from device.loop.messages import Reply, StateChanged, TrialEnded
+from device.loop.states import State
 
 
 class FakePipe:

@@ -4,16 +4,16 @@ anything out of the ordinary back to it."""
 import numpy as np
 import pytest
 
-from app.headless import simulate
+from app.trials.headless import simulate
 from core.control.base import make_controller
 from core.errors import ParameterError
 from core.robot import Friction, RobotModel, Stiffness
 from core.trial import THESIS_SUBJECT
 from device.compiled import trial as compiled
-from device.patients import PATIENT_KINDS
-from device.pipeline import TickPipeline, TrialPlan
-from device.simulator import SimulatorBackend
-from device.supervisor import SafetySupervisor
+from device.loop.pipeline import TickPipeline, TrialPlan
+from device.safety.supervisor import SafetySupervisor
+from device.sim.patients import PATIENT_KINDS
+from device.sim.simulator import SimulatorBackend
 
 SHORT = THESIS_SUBJECT.replace(repetitions=1)
 

@@ -8,11 +8,11 @@ import pytest
 
 from core.trial import THESIS_SUBJECT
 from device.compiled.looptick import CompiledTick, unsupported_live
-from device.faultinjection import FaultInjectingBackend
-from device.faults import Fault
-from device.pipeline import TickPipeline, TrialPlan
-from device.simulator import NOISE_BLOCK, SimulatorBackend, snapshot
-from device.supervisor import SafetySupervisor
+from device.loop.pipeline import TickPipeline, TrialPlan
+from device.safety.faults import Fault
+from device.safety.supervisor import SafetySupervisor
+from device.sim.faultinjection import FaultInjectingBackend
+from device.sim.simulator import NOISE_BLOCK, SimulatorBackend, snapshot
 
 PARAMS = THESIS_SUBJECT.replace(repetitions=3)
 PERIOD = 0.002

@@ -14,15 +14,15 @@ from core.robot import RobotModel
 from core.trajectory import Trajectory, d_shape
 from device.backend import REAL_TIME, Backend, SensorReading
 from device.errors import BackendError, BackendTimeout
-from device.faultinjection import (
+from device.safety.faults import Fault
+from device.safety.supervisor import SafetySupervisor
+from device.sim.faultinjection import (
     EXPECTED_FAULT,
     LOOP_SCENARIOS,
     SCENARIOS,
     FaultInjectingBackend,
     LoopFaultInjection,
 )
-from device.faults import Fault
-from device.supervisor import SafetySupervisor
 
 ROBOT = RobotModel()
 PERIOD = 0.002

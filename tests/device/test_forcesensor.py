@@ -9,10 +9,10 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from device.atical import load_calibration
 from device.errors import BackendError, BackendTimeout, BackendUnavailable, SensorRangeError
-from device.forcesensor import AtiForceSensor
-from device.hardware_settings import ForceSensorSettings
+from device.hardware.atical import load_calibration
+from device.hardware.forcesensor import AtiForceSensor
+from device.hardware.settings import ForceSensorSettings
 
 HERE = Path(__file__).parent
 FAKES = HERE / "fakes"

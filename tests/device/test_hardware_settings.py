@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 
 from device.errors import BackendError
-from device.hardware_settings import (
+from device.hardware.settings import (
     ForceSensorSettings,
     HardwareSettingsError,
     QuanserSettings,

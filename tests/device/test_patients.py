@@ -1,4 +1,4 @@
-"""Virtual patients (device.patients): each model's torques against its definition and
+"""Virtual patients (device.sim.patients): each model's torques against its definition and
 the arm's equations, evaluated directly (no simulation)."""
 
 import math
@@ -8,7 +8,7 @@ import pytest
 
 from core.errors import ParameterError, UnreachableError
 from core.trial import THESIS_SUBJECT
-from device.patients import (
+from device.sim.patients import (
     DEFAULT_EFFORT,
     HEALTHY_IMPEDANCE,
     PASSIVE_TISSUE,

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from core.trial import THESIS_SUBJECT
-from device.pipeline import (
+from device.loop.pipeline import (
     PHASE_APPROACH,
     PHASE_EXERCISE,
     TickPipeline,
@@ -15,8 +15,8 @@ from device.pipeline import (
     fill_subject_channels,
     idle_record,
 )
-from device.record import RECORD_DTYPE, RecordLog, flat_names
-from device.simulator import SimulatorBackend
+from device.recording.record import RECORD_DTYPE, RecordLog, flat_names
+from device.sim.simulator import SimulatorBackend
 
 PARAMS = THESIS_SUBJECT.replace(repetitions=1, duration_s=3.0, timing="minimum_jerk")
 

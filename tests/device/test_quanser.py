@@ -11,9 +11,9 @@ import pytest
 
 from device.backend import Backend, SensorReading
 from device.errors import BackendError, BackendUnavailable
-from device.forcesensor import AtiForceSensor
-from device.hardware_settings import ForceSensorSettings, HardwareSettings, QuanserSettings
-from device.quanser import QuanserBackend
+from device.hardware.forcesensor import AtiForceSensor
+from device.hardware.quanser import QuanserBackend
+from device.hardware.settings import ForceSensorSettings, HardwareSettings, QuanserSettings
 
 HERE = Path(__file__).parent
 FAKES = HERE / "fakes"
@@ -252,7 +252,7 @@ def test_safe_state_never_raises(rig, caplog):
     backend.safe_state()
     assert not rig.board.ao_volts.any()
     rig.board.fail["write_analog"] = 113
-    with caplog.at_level(logging.WARNING, logger="device.quanser"):
+    with caplog.at_level(logging.WARNING, logger="device.hardware.quanser"):
         backend.safe_state()
         backend.safe_state()
     assert sum("safe_state" in r.message for r in caplog.records) == 1  # once, not every tick
@@ -406,8 +406,8 @@ def test_fake_hil_enforces_the_real_buffer_rules(rig):
 def test_the_supervisor_takes_the_sensor_range_from_its_calibration(rig):
     """The thesis's Nano25 is calibrated for 250 N in the plane (this .cal says so):
     the supervisor's saturation and force ceilings follow the file, not a constant."""
-    from device.loop import limits_for_backend
-    from device.supervisor import SafetyLimits
+    from device.loop.process import limits_for_backend
+    from device.safety.supervisor import SafetyLimits
 
     backend = _opened(rig)
     planar, normal = backend.force_sensor_range_N
@@ -421,7 +421,7 @@ def test_the_supervisor_takes_the_sensor_range_from_its_calibration(rig):
 
 def test_a_force_limit_above_a_smaller_sensor_is_refused_by_name():
     from core.errors import ParameterError
-    from device.supervisor import SafetyLimits
+    from device.safety.supervisor import SafetyLimits
 
     small = SafetyLimits(force_limit_N=150.0)
     with pytest.raises(ParameterError, match="force_limit_N") as error:

@@ -25,8 +25,8 @@ import numpy as np
 import pytest
 
 from device.errors import DeviceError, RecordingError, StateError
-from device.record import RECORD_DTYPE, Channel, extend_channels
-from device.ring import (
+from device.recording.record import RECORD_DTYPE, Channel, extend_channels
+from device.recording.ring import (
     SHM_DIR,
     RecordingLost,
     RecordRing,
@@ -694,10 +694,10 @@ def test_killed_owner_leaves_a_readable_segment_that_reclaim_removes(prefix, spa
 
 _TRACKER_SCRIPT = """
 import multiprocessing as mp, os, signal, subprocess, sys
-from device.ring import RecordRing, reclaim_stale
+from device.recording.ring import RecordRing, reclaim_stale
 
 PREFIX = sys.argv[1]
-ATTACH = "from device.ring import RecordRing; r = RecordRing.attach({!r}); r.close()"
+ATTACH = "from device.recording.ring import RecordRing; r = RecordRing.attach({!r}); r.close()"
 
 def attach_and_close(name):
     ring = RecordRing.attach(name)

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from core.trial import THESIS_SUBJECT
-from device.sensors import ForceSensorModel
-from device.simulator import SimulatorBackend
+from device.sim.sensors import ForceSensorModel
+from device.sim.simulator import SimulatorBackend
 
 TICK_S = 0.002
 QUIET = ForceSensorModel(noise_xy_N=0.0, noise_z_N=0.0)

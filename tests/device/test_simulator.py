@@ -1,4 +1,4 @@
-"""The simulator backend (device.simulator): protocol, time, sensors, and the physics
+"""The simulator backend (device.sim.simulator): protocol, time, sensors, and the physics
 of the coupled robot and arm against the thesis's equations and invariants."""
 
 import math
@@ -13,9 +13,9 @@ from core.robot import FRICTIONLESS, Friction, RobotModel, Stiffness
 from core.trial import THESIS_SUBJECT, TrialParameters
 from device.backend import Backend, SensorReading
 from device.errors import BackendError, SensorRangeError, StateError
-from device.patients import PATIENT_KINDS, make_patient
-from device.sensors import ForceSensorModel
-from device.simulator import SimulatorBackend
+from device.sim.patients import PATIENT_KINDS, make_patient
+from device.sim.sensors import ForceSensorModel
+from device.sim.simulator import SimulatorBackend
 
 TICK_S = 0.002
 QUIET = ForceSensorModel(noise_xy_N=0.0, noise_z_N=0.0)

@@ -2,7 +2,7 @@
 
 import pytest
 
-from device.states import ALLOWED, Command, State, refusal
+from device.loop.states import ALLOWED, Command, State, refusal
 
 
 @pytest.mark.parametrize(

@@ -18,8 +18,8 @@ from core.robot import RobotModel
 from core.trajectory import Trajectory, d_shape
 from device.backend import SensorReading
 from device.errors import BackendError, BackendTimeout, SensorRangeError, StateError
-from device.faults import Fault
-from device.supervisor import SafetyLimits, SafetySupervisor
+from device.safety.faults import Fault
+from device.safety.supervisor import SafetyLimits, SafetySupervisor
 
 ROBOT = RobotModel()
 PERIOD = 0.002

@@ -8,18 +8,18 @@ from types import SimpleNamespace
 import pytest
 
 from core.trial import THESIS_SUBJECT
-from device import loop as loop_module
 from device.backend import REAL_TIME, SIMULATED
 from device.errors import BackendError
-from device.faultinjection import FaultInjectingBackend
-from device.loop import DeviceLoop, LoopConfig, make_backend
-from device.messages import BackendConfig, Build, Connect, Notice, Reply
-from device.pipeline import TrialPlan
-from device.realtime import measure_wakeups, timing_warning
-from device.ring import RecordRing
-from device.simulator import SimulatorBackend
-from device.states import State
-from device.supervisor import SafetyLimits
+from device.loop import process as loop_module
+from device.loop.messages import BackendConfig, Build, Connect, Notice, Reply
+from device.loop.pipeline import TrialPlan
+from device.loop.process import DeviceLoop, LoopConfig, make_backend
+from device.loop.realtime import measure_wakeups, timing_warning
+from device.loop.states import State
+from device.recording.ring import RecordRing
+from device.safety.supervisor import SafetyLimits
+from device.sim.faultinjection import FaultInjectingBackend
+from device.sim.simulator import SimulatorBackend
 
 PARAMS = THESIS_SUBJECT.replace(repetitions=1)
 LIMITS = SafetyLimits()

@@ -18,11 +18,11 @@ import h5py
 import numpy as np
 import pytest
 
-import device.trialfile as trialfile
+import device.recording.trialfile as trialfile
 from core.trial import THESIS_SUBJECT
 from device.errors import RecordingError
-from device.record import CHANNELS, RECORD_DTYPE, Channel, extend_channels
-from device.trialfile import (
+from device.recording.record import CHANNELS, RECORD_DTYPE, Channel, extend_channels
+from device.recording.trialfile import (
     EVENT_MESSAGE_BYTES,
     FORMAT_NAME,
     FORMAT_VERSION,
@@ -365,7 +365,7 @@ WRITER_IN_FOLDER = textwrap.dedent("""
     import sys
     from core.trial import THESIS_SUBJECT
     from device.errors import RecordingError
-    from device.trialfile import SubjectInfo, TrialFileWriter
+    from device.recording.trialfile import SubjectInfo, TrialFileWriter
     try:
         TrialFileWriter(sys.argv[1], parameters=THESIS_SUBJECT,
                         subject=SubjectInfo.from_parameters("P-1", THESIS_SUBJECT),
@@ -420,8 +420,8 @@ def test_a_nearly_full_disk_stops_the_recording_while_the_file_can_be_closed(
 FILLING_WRITER = textwrap.dedent("""
     import os, sys
     from device.errors import RecordingError
-    from device.record import RECORD_DTYPE
-    from device.trialfile import SubjectInfo, TrialFileWriter
+    from device.recording.record import RECORD_DTYPE
+    from device.recording.trialfile import SubjectInfo, TrialFileWriter
     from core.trial import THESIS_SUBJECT
     writer = TrialFileWriter(sys.argv[1], parameters=THESIS_SUBJECT,
                              subject=SubjectInfo.from_parameters("P-1", THESIS_SUBJECT),

@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 from PySide6.QtCore import Qt
 
-from app.datadir import DataDir
-from app.registry import Registry
-from app.trialfile import read_trial
+from app.records.datadir import DataDir
+from app.records.registry import Registry
+from app.trials.reader import read_trial
 from core.trial import THESIS_SUBJECT
-from device.faults import Fault
-from device.states import State
+from device.loop.states import State
+from device.safety.faults import Fault
 from ui.main_window import MainWindow
 
 pytestmark = pytest.mark.slow

@@ -11,13 +11,13 @@ from pypdf import PdfReader
 from PySide6.QtCore import Qt
 from PySide6.QtPrintSupport import QPrinter
 
-from app.datadir import DataDir
-from app.headless import save, simulate
-from app.registry import Registry
+from app.records.datadir import DataDir
+from app.records.registry import Registry
+from app.trials.headless import save, simulate
 from core.trial import THESIS_SUBJECT
 from ui import theme
 from ui.tabs import ProgressTab, ReplayTab, ReportTab
-from ui.trialview import TrialView
+from ui.views.trialview import TrialView
 
 EASY = THESIS_SUBJECT.replace(repetitions=1)
 HARD = THESIS_SUBJECT.replace(repetitions=1, radius_m=0.12, duration_s=5.0)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import re
 
-from device.faults import Fault
+from device.safety.faults import Fault
 from ui.tabs import TABS, InstructionsTab
 
 

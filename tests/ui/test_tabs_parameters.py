@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from PySide6.QtCore import QPoint, Qt
 
-from app.datadir import DataDir
-from app.registry import Registry
+from app.records.datadir import DataDir
+from app.records.registry import Registry
 from core.errors import UnreachableError
 from core.trial import (
     POSITION_RANGE_M,

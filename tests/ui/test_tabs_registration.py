@@ -6,9 +6,9 @@ from __future__ import annotations
 import pytest
 from PySide6.QtCore import Qt
 
-from app.datadir import DataDir
 from app.errors import DuplicateNumberError
-from app.registry import Registry
+from app.records.datadir import DataDir
+from app.records.registry import Registry
 from core.trial import THESIS_SUBJECT
 from ui import theme
 from ui.tabs.registration import RegistrationTab

@@ -1,6 +1,6 @@
 """The tabs that draw a trial (trajectory, force, joint angles, joint torques), fed a
 simulated trial live in batches and as a finished view: their big numbers equal
-app.analysis on the same data and their curves hold the data."""
+app.trials.analysis on the same data and their curves hold the data."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import math
 import numpy as np
 import pytest
 
-from app.analysis import analyse
-from app.headless import simulate
+from app.trials.analysis import analyse
+from app.trials.headless import simulate
 from core.metrics import DEFAULT_TORQUE_CUTOFF_HZ
 from core.signal import lowpass
 from core.trial import THESIS_SUBJECT
@@ -24,7 +24,7 @@ from ui.tabs import (
     TrajectoryTab,
     ViewTab,
 )
-from ui.trialview import TrialView
+from ui.views.trialview import TrialView
 
 PARAMETERS = THESIS_SUBJECT.replace(repetitions=2)
 

@@ -1,17 +1,18 @@
-"""TrialView: live batches into growing buffers, figures equal to app.analysis, replay cursor."""
+"""TrialView: live batches into growing buffers, figures equal to app.trials.analysis,
+replay cursor."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from app.analysis import analyse
-from app.headless import save, simulate
-from app.trialfile import read_trial
+from app.trials.analysis import analyse
+from app.trials.headless import save, simulate
+from app.trials.reader import read_trial
 from core.metrics import directional_performance
 from core.trial import THESIS_SUBJECT
-from device.pipeline import PHASE_EXERCISE
-from ui.trialview import VIEW_CHANNELS, TrialView
+from device.loop.pipeline import PHASE_EXERCISE
+from ui.views.trialview import VIEW_CHANNELS, TrialView
 
 PARAMETERS = THESIS_SUBJECT.replace(repetitions=1)
 

@@ -22,7 +22,7 @@ from ui.tabs.report import ReportTab
 from ui.tabs.torques import TorquesTab
 from ui.tabs.trajectory import TrajectoryTab
 from ui.tabs.video import VideoTab
-from ui.trialview import TrialView
+from ui.views.trialview import TrialView
 
 
 @runtime_checkable

@@ -10,7 +10,7 @@ import numpy as np
 from PySide6.QtWidgets import QLabel, QWidget
 
 from ui import plots, theme
-from ui.trialview import TrialView
+from ui.views.trialview import TrialView
 
 JOINTS = ("shoulder", "elbow")
 

@@ -14,7 +14,7 @@ import pyqtgraph as pg
 from PySide6.QtWidgets import QLabel, QWidget
 
 from ui import plots, theme
-from ui.trialview import TrialView
+from ui.views.trialview import TrialView
 
 AXES = ("x", "y")
 MEANING = {"x": "sideways", "y": "forward and back"}

@@ -58,7 +58,7 @@ from core.trial import (
     TrialParameters,
     check_trial,
 )
-from device.patients import PATIENT_KINDS
+from device.sim.patients import PATIENT_KINDS
 from ui import plots, theme
 
 SHAPE_NAMES = {"d": "D shape", "circle": "Circle", "reach": "Reach out and back",
@@ -79,7 +79,7 @@ HARDWARE = "hardware"
 @dataclass(frozen=True, slots=True)
 class BackendChoice:
     """The robot the trial runs on: the simulator with a virtual patient, or the real
-    robot with its hardware settings file (device/hardware_settings.py reads it)."""
+    robot with its hardware settings file (device/hardware/settings.py reads it)."""
 
     name: str  # SIMULATOR or HARDWARE
     patient_kind: str | None = None
@@ -461,7 +461,7 @@ class ParametersTab(QWidget):
         self.refresh()
 
     def apply_patient(self, patient) -> None:
-        """Take a registered patient's measurements (app.registry.Patient)."""
+        """Take a registered patient's measurements (app.records.registry.Patient)."""
         current = self._parameters or self._lenient()
         self.set_parameters(current.replace(**patient.trial_overrides()))
 

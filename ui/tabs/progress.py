@@ -3,7 +3,7 @@ of one chosen figure over the trials.
 
 A figure only compares between trials of the same exercise (a larger D makes the
 position error larger while the patient improves), so the plot groups the points
-by parameter set (`app.progress`): one colour, one symbol and one joining line
+by parameter set (`app.reports.progress`): one colour, one symbol and one joining line
 per set, named in the legend. The registry query runs off the GUI thread.
 """
 
@@ -23,9 +23,9 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app.metricstable import ROWS
-from app.progress import Progress, progress
-from app.registry import Registry
+from app.records.registry import Registry
+from app.reports.metrics_table import ROWS
+from app.reports.progress import Progress, progress
 from ui import plots, theme
 
 DEFAULT_METRIC = "directional_performance_pct"

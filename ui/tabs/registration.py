@@ -32,7 +32,7 @@ from PySide6.QtWidgets import (
 )
 
 from app.errors import RegistryError, SessionNotFound
-from app.registry import BIRTH_YEAR_MIN, Patient, Registration, Registry
+from app.records.registry import BIRTH_YEAR_MIN, Patient, Registration, Registry
 from core.arm import BODY_MASS_RANGE_KG, FOREARM_RANGE_M, UPPER_ARM_RANGE_M
 from core.trial import POSITION_RANGE_M
 from ui import theme
@@ -74,7 +74,7 @@ class RegistrationTab(QWidget):
     """Signals:
     patient_selected(Patient): a patient was chosen (their measurements can fill the
         Parameters tab: ParametersTab.apply_patient).
-    registered(Patient, app.registry.Registration): the therapist confirmed the patient
+    registered(Patient, app.records.registry.Registration): the therapist confirmed the patient
         and the numbers for the next trial (begin_trial takes them at Start).
     """
 

@@ -28,12 +28,12 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app.registry import Registry, Trial
-from app.trialfile import read_trial
-from device.faults import Fault
-from device.pipeline import PHASE_APPROACH, PHASE_EXERCISE, PHASE_HOLD, PHASE_IDLE
+from app.records.registry import Registry, Trial
+from app.trials.reader import read_trial
+from device.loop.pipeline import PHASE_APPROACH, PHASE_EXERCISE, PHASE_HOLD, PHASE_IDLE
+from device.safety.faults import Fault
 from ui import plots, theme
-from ui.trialview import TrialView
+from ui.views.trialview import TrialView
 
 PLAY_INTERVAL_MS = 40
 MOMENT_ROWS = (("phase", "Part of the trial"), ("position", "Hand position"),

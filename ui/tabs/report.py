@@ -1,7 +1,7 @@
 """The Report tab: after a trial, what it showed in large plain words, for the patient,
 and the therapist's table beneath, printable and savable as the PDF report.
 
-The content is `app.report.ReportContent`, the same object the PDF draws, so the
+The content is `app.reports.build.ReportContent`, the same object the PDF draws, so the
 screen and the paper cannot disagree. Building it reads the trial file and
 writing the PDF runs matplotlib: both happen off the GUI thread.
 
@@ -31,11 +31,16 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app.registry import Registry
-from app.report import ReportContent, build_report, content_for_registry_trial, write_report_pdf
-from app.trialfile import read_trial
+from app.records.registry import Registry
+from app.reports.build import (
+    ReportContent,
+    build_report,
+    content_for_registry_trial,
+    write_report_pdf,
+)
+from app.trials.reader import read_trial
 from ui import plots, theme
-from ui.trialview import TrialView
+from ui.views.trialview import TrialView
 
 WAITING = "The report appears here once the trial is saved."
 
@@ -105,7 +110,7 @@ class ReportTab(QWidget):
             self.load_file(view.source)
 
     def load_file(self, path: str | Path, **options) -> None:
-        """Build the report of a trial file (options go to app.report.build_report)."""
+        """Build the report of a trial file (options go to app.reports.build.build_report)."""
         self._source = Path(path)
         options.setdefault("flip_axes", self._flip_axes)
         self.message.setText("Preparing the report…")
@@ -269,7 +274,7 @@ class ReportTab(QWidget):
             self.print_to(printer)
 
     def save_pdf(self, path: str | Path) -> None:
-        """Write the PDF report (app.report.write_report_pdf) off the GUI thread;
+        """Write the PDF report (app.reports.build.write_report_pdf) off the GUI thread;
         pdf_saved(path) follows."""
         if self._content is None:
             raise RuntimeError("no report to save yet")

@@ -19,7 +19,7 @@ from PySide6.QtWidgets import QCheckBox, QLabel, QWidget
 from core.metrics import DEFAULT_TORQUE_CUTOFF_HZ, value_range
 from core.signal import lowpass, min_samples
 from ui import plots, theme
-from ui.trialview import TrialView
+from ui.views.trialview import TrialView
 
 JOINTS = ("shoulder", "elbow")
 LIVE_SMOOTHING_INTERVAL_S = 1.0

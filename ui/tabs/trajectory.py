@@ -19,7 +19,7 @@ from PySide6.QtWidgets import QCheckBox, QLabel, QWidget
 
 from core.trial import TrialParameters
 from ui import plots, theme
-from ui.trialview import TrialView
+from ui.views.trialview import TrialView
 
 MM = 1000.0
 CM = 100.0

@@ -1,6 +1,6 @@
 """The Video tab (thesis Fig. A.5): what the camera sees, and whether it is recording.
 
-Frames come from a `device.camera.CameraSource`, which reads on its own thread;
+Frames come from a `device.camera.capture.CameraSource`, which reads on its own thread;
 this tab only picks up the newest frame at most 30 times a second while it is
 visible, so a camera never slows the window. Opening a camera can take a
 second, so it happens off the GUI thread. Without a camera the tab says how to
@@ -13,7 +13,7 @@ from PySide6.QtCore import QSize, Qt, QTimer, Signal
 from PySide6.QtGui import QImage, QPixmap
 from PySide6.QtWidgets import QLabel, QSizePolicy, QStackedLayout, QVBoxLayout, QWidget
 
-from device.camera import CameraSource
+from device.camera.capture import CameraSource
 from ui import plots, theme
 
 FRAME_INTERVAL_MS = 33  # ≤ 30 fps: the camera's own rate; faster would repaint copies

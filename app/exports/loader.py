@@ -1,0 +1,439 @@
+"""The researcher's loader: a trial file as named arrays with its metadata, a folder of
+them as a study table.
+
+Example (tests/app/test_data.py runs it)::
+
+    from app.exports.loader import load_study, load_trial
+
+    trial = load_trial("trial.h5")
+    xy_m = trial["position"]                          # (N, 2): x, y in m, global frame
+    print(trial.units["position"], trial.frames["position"])
+    t_s = trial.channel("time", exercise_only=True)   # the exercise phase only
+    print(trial.parameters.shape, trial.parameter_values["radius_m"], trial.status)
+    print(trial.subject.code, trial.metrics["rmse_x_m"], len(trial.events))
+    columns = trial.table()                           # flat: {"position_x_m": ..., ...}
+
+    study = load_study("study")                       # every .h5 file below the folder
+    for failure in study.failed:                      # unreadable files, and why
+        print(failure.path, failure.reason)
+    rmse_m = study.column("metric_rmse_x_m")          # one value per readable trial
+    circles = study.where(lambda row: row["parameter_shape"] == "circle")
+    for trial in circles:                             # each file is read when reached
+        print(trial.path.name, trial.n_samples, trial.exercise.sum())
+
+`Trial` behaves as a read-only mapping of channel name to array (in the file's
+order) and carries `units`, `frames`, `descriptions`, `parameters` (a
+`TrialParameters`, or None if the stored values no longer validate) and
+`parameter_values` (the stored values as a plain dict, always there), `subject`,
+`metrics`, `events`, `summary`, `status`, `notes` (what was recovered from a
+file left open by a crash) and `exercise` (True in the exercise phase).
+`trial.table()` gives one 1-D array per channel component, named as in the
+CSV export (app.exports.columns), ready for `pandas.DataFrame(trial.table())`.
+
+`load_study` reads only the metadata of each file (milliseconds each, no
+samples) into one row per readable trial. Row keys:
+
+* `file` (the path relative to the study folder), `status`, `created_utc`,
+  `backend`, `software_version`, `format_version`, `n_samples`,
+  `sample_period_s`, `recorded_s` (n_samples × sample_period_s);
+* `subject_code`, `subject_body_mass_kg`, `subject_upper_arm_m`,
+  `subject_forearm_m`, `subject_side`;
+* `parameter_<name>` for every trial parameter, points split into x and y
+  (`parameter_centre_x_m`, `parameter_centre_y_m`);
+* `metric_<name>` for every metric (the prefixes keep metrics such as
+  `duration_s` apart from the parameter of that name).
+
+A key a trial lacks is None in its row. Unreadable files do not stop the walk:
+`study.failed` lists each with the reason, as the console's reader gives it.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import os
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass, replace
+from pathlib import Path
+from types import MappingProxyType
+
+import h5py
+import numpy as np
+
+from app.errors import AppError, TrialFileError
+from app.exports.columns import column_values, components, table_columns
+from app.trials.reader import (
+    TrialData,
+    group_attributes,
+    parameters_from_attributes,
+    plain_attribute,
+    read_trial,
+    subject_from_attributes,
+)
+from core.trial import TrialParameters
+from device.loop.pipeline import PHASE_EXERCISE
+from device.recording.trialfile import FORMAT_NAME, FORMAT_VERSION, STATUS_RECORDING, SubjectInfo
+
+log = logging.getLogger(__name__)
+
+Progress = Callable[[float], None]
+
+_INFO_KEYS = ("file", "status", "created_utc", "backend", "software_version", "format_version",
+              "n_samples", "sample_period_s", "recorded_s")
+_SUBJECT_KEYS = ("code", "body_mass_kg", "upper_arm_m", "forearm_m", "side")
+
+
+@dataclass(frozen=True, slots=True)
+class TrialInfo:
+    """A trial file's metadata, without its samples."""
+
+    path: Path
+    status: str
+    subject: SubjectInfo | None
+    parameters: TrialParameters | None
+    parameter_values: Mapping
+    metrics: Mapping[str, float]
+    summary: Mapping
+    attributes: Mapping
+    sample_period_s: float
+    n_samples: int
+    created_utc: str
+    backend: str
+    software_version: str
+    format_version: int
+    notes: tuple[str, ...]
+
+    @property
+    def sampling_frequency_hz(self) -> float:
+        return 1.0 / self.sample_period_s
+
+    @property
+    def recorded_s(self) -> float:
+        """Samples × sample period: the time the file covers, s."""
+        return self.n_samples * self.sample_period_s
+
+    @property
+    def task(self) -> str | None:
+        """The exercise's shape (d, circle, reach, targets, figure8), if recorded."""
+        shape = self.parameter_values.get("shape")
+        return shape if isinstance(shape, str) else None
+
+    def row(self, folder: Path | None = None) -> dict:
+        """The trial's metadata as one flat row (keys as in the module's doc)."""
+        try:
+            file = self.path.relative_to(folder).as_posix() if folder else self.path.name
+        except ValueError:
+            file = self.path.as_posix()
+        row = {
+            "file": file,
+            "status": self.status,
+            "created_utc": self.created_utc,
+            "backend": self.backend,
+            "software_version": self.software_version,
+            "format_version": self.format_version,
+            "n_samples": self.n_samples,
+            "sample_period_s": self.sample_period_s,
+            "recorded_s": self.recorded_s,
+        }
+        subject = self.subject.to_dict() if self.subject else {}
+        row |= {f"subject_{key}": subject.get(key) for key in _SUBJECT_KEYS}
+        row |= flat_parameters(self.parameter_values)
+        row |= {f"metric_{name}": value for name, value in self.metrics.items()}
+        return row
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Trial(TrialInfo):
+    """A whole trial: its metadata and its channels, each a read-only array with
+    one row per sample. `trial[name]` is the channel; iterating gives the names."""
+
+    arrays: Mapping[str, np.ndarray]
+    units: Mapping[str, str]
+    frames: Mapping[str, str]
+    descriptions: Mapping[str, str]
+    events: tuple[dict, ...]
+
+    # Arrays have no single truth value, so equality is identity.
+    __eq__ = object.__eq__
+    __hash__ = object.__hash__
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        try:
+            return self.arrays[name]
+        except KeyError:
+            raise KeyError(f"the trial has no channel {name!r}; it has "
+                           f"{', '.join(self.arrays)}") from None
+
+    def __contains__(self, name: object) -> bool:
+        return name in self.arrays
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.arrays)
+
+    def __len__(self) -> int:
+        return len(self.arrays)
+
+    def keys(self):
+        return self.arrays.keys()
+
+    def items(self):
+        return self.arrays.items()
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(self.arrays)
+
+    @property
+    def time(self) -> np.ndarray:
+        """Nominal trial time of each sample, s."""
+        return self["time"]
+
+    @property
+    def exercise(self) -> np.ndarray:
+        """True for the samples of the exercise phase (not the approach, not the hold)."""
+        if "phase" not in self.arrays:
+            raise TrialFileError(self.path, "has no 'phase' channel, so its exercise phase "
+                                 "is unknown", "Use the whole trial (exercise_only=False).")
+        mask = np.asarray(self.arrays["phase"]) == PHASE_EXERCISE
+        mask.flags.writeable = False
+        return mask
+
+    def channel(self, name: str, exercise_only: bool = False) -> np.ndarray:
+        """One channel, all samples or only those of the exercise phase."""
+        values = self[name]
+        return values[self.exercise] if exercise_only else values
+
+    def components(self, name: str) -> tuple[str, ...]:
+        """The component labels of a channel ('x', 'y'; '1', '2'; 'shoulder', 'elbow'…)."""
+        values = self[name]
+        width = 1 if values.ndim == 1 else int(np.prod(values.shape[1:]))
+        return components(self.frames.get(name, ""), width)
+
+    def table(self, exercise_only: bool = False) -> dict[str, np.ndarray]:
+        """One 1-D array per channel component, named as the CSV export names them."""
+        arrays = self.arrays
+        if exercise_only:
+            mask = self.exercise
+            arrays = {name: values[mask] for name, values in arrays.items()}
+        columns = table_columns(arrays, self.units, self.frames, self.descriptions)
+        return {c.name: column_values(arrays, c) for c in columns}
+
+    def events_of(self, kind: str) -> list[dict]:
+        """The events of one kind ('start', 'stop', 'fault', 'mark', 'note'…)."""
+        return [e for e in self.events if e["kind"] == kind]
+
+
+@dataclass(frozen=True, slots=True)
+class Failure:
+    """A file that could not be read, and why."""
+
+    path: Path
+    reason: str
+
+
+@dataclass(frozen=True, slots=True)
+class Study:
+    """The readable trials of a folder as rows, and the files that could not be read.
+    Iterating reads the trials one at a time."""
+
+    folder: Path
+    infos: tuple[TrialInfo, ...]
+    rows: tuple[dict, ...]
+    failed: tuple[Failure, ...]
+
+    def __len__(self) -> int:
+        return len(self.infos)
+
+    def __iter__(self) -> Iterator[Trial]:
+        return self.trials()
+
+    @property
+    def paths(self) -> tuple[Path, ...]:
+        return tuple(info.path for info in self.infos)
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        """Every row key, in first-seen order."""
+        seen: dict[str, None] = {}
+        for row in self.rows:
+            seen.update(dict.fromkeys(row))
+        return tuple(seen)
+
+    def trials(self) -> Iterator[Trial]:
+        """Each trial in full, read when reached (raises TrialFileError if a file
+        changed since the study was loaded and can no longer be read)."""
+        for info in self.infos:
+            yield load_trial(info.path)
+
+    def column(self, name: str) -> np.ndarray:
+        """One row key over all trials: int64 or float64 (NaN where missing) for
+        numbers, bool for flags, else an object array (None where missing)."""
+        if self.rows and not any(name in row for row in self.rows):
+            raise KeyError(f"the study has no column {name!r}; it has {', '.join(self.columns)}")
+        return _array([row.get(name) for row in self.rows])
+
+    def table(self) -> dict[str, np.ndarray]:
+        """Every column as an array (see `column`)."""
+        return {name: _array([row.get(name) for row in self.rows]) for name in self.columns}
+
+    def where(self, keep: Callable[[dict], bool]) -> Study:
+        """The trials whose row passes `keep`; `failed` stays as it is."""
+        chosen = [(info, row) for info, row in zip(self.infos, self.rows, strict=True)
+                  if keep(row)]
+        return replace(self, infos=tuple(i for i, _ in chosen), rows=tuple(r for _, r in chosen))
+
+
+def load_trial(path: str | os.PathLike) -> Trial:
+    """Read a whole trial file; raises TrialFileError if it cannot be trusted."""
+    return _trial(read_trial(path))
+
+
+def read_info(path: str | os.PathLike) -> TrialInfo:
+    """Read a trial file's metadata without its samples; raises TrialFileError."""
+    path = Path(path)
+    try:
+        info = _read_info(path)
+    except (OSError, RuntimeError, ValueError, KeyError, TypeError) as exc:
+        log.debug("%s: quick metadata read failed (%s); reading it whole", path, exc)
+        info = None
+    if info is None:
+        # Anything unusual (not closed, damaged, not a trial file) goes through the
+        # console's reader, which recovers what it can or says what is wrong.
+        return _info(read_trial(path))
+    return info
+
+
+def load_study(folder: str | os.PathLike, pattern: str = "**/*.h5", *,
+               progress: Progress | None = None) -> Study:
+    """The metadata of every file matching `pattern` below `folder`, in path order.
+    Files that cannot be read are listed in `failed`, with the reason."""
+    folder = Path(folder).expanduser().absolute()
+    if not folder.is_dir():
+        raise AppError(f"the study folder {folder} does not exist or is not a folder; "
+                       "give the folder that holds the trial files")
+    paths = sorted(p for p in folder.glob(pattern) if p.is_file())
+    infos, failed = [], []
+    for i, path in enumerate(paths):
+        try:
+            infos.append(read_info(path))
+        except AppError as exc:
+            log.warning("study %s: %s skipped: %s", folder, path, exc)
+            failed.append(Failure(path, str(exc)))
+        if progress is not None:
+            progress((i + 1) / len(paths))
+    rows = tuple(info.row(folder) for info in infos)
+    return Study(folder, tuple(infos), rows, tuple(failed))
+
+
+def flat_parameters(values: Mapping) -> dict:
+    """`parameter_<name>` for each value; points (pairs) split into x and y before the
+    unit (`centre_m` → `parameter_centre_x_m`, `parameter_centre_y_m`)."""
+    row = {}
+    for name, value in values.items():
+        if isinstance(value, list | tuple) and len(value) == 2 and name.endswith("_m"):
+            base = name[:-2]
+            row[f"parameter_{base}_x_m"], row[f"parameter_{base}_y_m"] = value
+        elif isinstance(value, list | tuple):
+            row |= {f"parameter_{name}_{i + 1}": v for i, v in enumerate(value)}
+        else:
+            row[f"parameter_{name}"] = value
+    return row
+
+
+# -- building ------------------------------------------------------------------
+
+
+def _info_values(data: TrialData) -> dict:
+    return {
+        "path": data.path,
+        "status": data.status,
+        "subject": data.subject,
+        "parameters": data.parameters,
+        "parameter_values": MappingProxyType(_parameter_values(data.attrs)),
+        "metrics": MappingProxyType(dict(data.metrics)),
+        "summary": MappingProxyType(dict(data.summary)),
+        "attributes": MappingProxyType(dict(data.attrs)),
+        "sample_period_s": data.sample_period_s,
+        "n_samples": data.n_samples,
+        "created_utc": data.created_utc,
+        "backend": data.backend,
+        "software_version": data.software_version,
+        "format_version": data.format_version,
+        "notes": data.notes,
+    }
+
+
+def _info(data: TrialData) -> TrialInfo:
+    return TrialInfo(**_info_values(data))
+
+
+def _trial(data: TrialData) -> Trial:
+    return Trial(
+        **_info_values(data),
+        arrays=MappingProxyType(dict(data.channels)),
+        units=MappingProxyType(dict(data.units)),
+        frames=MappingProxyType(dict(data.frames)),
+        descriptions=MappingProxyType(dict(data.descriptions)),
+        events=tuple(data.events),
+    )
+
+
+def _parameter_values(attrs: Mapping) -> dict:
+    try:
+        values = json.loads(attrs.get("parameters", "{}"))
+    except (TypeError, ValueError):
+        return {}
+    return values if isinstance(values, dict) else {}
+
+
+def _read_info(path: Path) -> TrialInfo | None:
+    """The quick path: attributes only. None when the file needs the full reader."""
+    with h5py.File(path, "r") as f:
+        attrs = {key: plain_attribute(value) for key, value in f.attrs.items()}
+        version = attrs.get("format_version")
+        period = attrs.get("sample_period_s")
+        status = attrs.get("status")
+        if (attrs.get("format") != FORMAT_NAME or not isinstance(version, int)
+                or isinstance(version, bool) or not 1 <= version <= FORMAT_VERSION
+                or not isinstance(period, float) or not math.isfinite(period) or period <= 0
+                or not isinstance(status, str) or status == STATUS_RECORDING
+                or not all(name in f for name in ("timeseries", "channels", "events"))):
+            return None
+        lengths = {d.shape[0] for d in f["timeseries"].values()}
+        if len(lengths) > 1:
+            return None
+        n = lengths.pop() if lengths else 0
+        if n and "tick" in f["timeseries"] and f["timeseries/tick"][n - 1] == -1:
+            return None
+        metrics = {k: float(v) for k, v in group_attributes(f, "metrics").items()}
+        summary = group_attributes(f, "summary")
+    values = _parameter_values(attrs)
+    parameters, notes = parameters_from_attributes(attrs)
+    subject, subject_notes = subject_from_attributes(attrs)
+    notes += subject_notes
+    return TrialInfo(
+        path=path, status=status, subject=subject, parameters=parameters,
+        parameter_values=MappingProxyType(values), metrics=MappingProxyType(metrics),
+        summary=MappingProxyType(summary), attributes=MappingProxyType(attrs),
+        sample_period_s=period, n_samples=n, created_utc=str(attrs.get("created_utc", "")),
+        backend=str(attrs.get("backend", "")),
+        software_version=str(attrs.get("software_version", "")), format_version=version,
+        notes=tuple(notes),
+    )
+
+
+def _array(values: list) -> np.ndarray:
+    present = [v for v in values if v is not None]
+    if present and all(isinstance(v, bool | np.bool_) for v in present):
+        if len(present) == len(values):
+            return np.array(values, dtype=bool)
+    elif present and all(isinstance(v, int | float | np.number) for v in present):
+        if len(present) == len(values) and all(isinstance(v, int | np.integer)
+                                               for v in present):
+            return np.array(values, dtype=np.int64)
+        return np.array([np.nan if v is None else v for v in values], dtype=np.float64)
+    out = np.empty(len(values), dtype=object)
+    out[:] = values
+    return out
+

@@ -1,0 +1,106 @@
+"""Which trials an export covers, and what it produced.
+
+A `TrialSource` is one trial file with what the export needs to name its
+outputs: the stem of its files, the subfolder they go in, and, when known, the
+patient's pseudonymous code and the session and trial numbers. From the
+registry all of these are known; from a folder they are read from the console's
+file names (``<code>_S003_T012_<UTC>.h5``, app.records.datadir.trial_stem), and files
+named otherwise keep their own stem and leave the numbers to the export.
+Names of people are never part of a source: the registry is asked for them only
+when an export is told to include them.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path, PurePosixPath
+
+from app.errors import AppError
+from app.exports.loader import Failure
+from app.records.datadir import CODE_PATTERN
+from app.records.registry import Registry
+
+_CONSOLE_STEM = re.compile(
+    rf"(?P<code>{CODE_PATTERN.pattern})_S(?P<session>\d+)_T(?P<trial>\d+)_\d{{8}}T\d{{6}}Z"
+)
+
+
+@dataclass(frozen=True, slots=True)
+class TrialSource:
+    """One trial file to export. `folder` is the subfolder (relative, '/'-separated)
+    its CSV/TSV/.mat outputs go in; '' for the export folder itself."""
+
+    path: Path
+    stem: str
+    folder: str = ""
+    participant: str | None = None
+    session: int | None = None
+    run: int | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class ExportResult:
+    """What an export wrote: every file, how many trials, and the trials it could not
+    read (the export goes on past them)."""
+
+    folder: Path
+    files: tuple[Path, ...]
+    exported: int
+    failed: tuple[Failure, ...]
+
+
+def source_for_path(path: str | os.PathLike, folder: str = "") -> TrialSource:
+    """A source for one file, with the numbers its name carries if it is a console name."""
+    path = Path(path)
+    match = _CONSOLE_STEM.fullmatch(path.stem)
+    if match is None:
+        return TrialSource(path, path.stem, folder)
+    return TrialSource(path, path.stem, folder, match["code"], int(match["session"]),
+                       int(match["trial"]))
+
+
+def sources_from_folder(folder: str | os.PathLike, pattern: str = "**/*.h5") -> list[TrialSource]:
+    """Every file matching `pattern` below `folder`, in path order; the outputs of
+    each go in the same relative subfolder as the file."""
+    folder = Path(folder).expanduser().absolute()
+    if not folder.is_dir():
+        raise AppError(f"the folder {folder} does not exist or is not a folder; give the "
+                       "folder that holds the trial files")
+    paths = sorted(p for p in folder.glob(pattern) if p.is_file())
+    return [source_for_path(p, _relative_folder(p, folder)) for p in paths]
+
+
+def _relative_folder(path: Path, folder: Path) -> str:
+    relative = path.parent.relative_to(folder).as_posix()
+    return "" if relative == "." else relative
+
+
+def sources_from_registry(registry: Registry, codes: str | Iterable[str]) -> list[TrialSource]:
+    """Every trial of these patients, by session and trial number; each patient's
+    outputs go in a subfolder named by their code."""
+    codes = [codes] if isinstance(codes, str) else list(codes)
+    sources = []
+    for code in codes:
+        for trial in registry.trials_for_patient(code):
+            sources.append(TrialSource(
+                path=registry.trial_path(trial),
+                stem=PurePosixPath(trial.file).stem,
+                folder=code,
+                participant=code,
+                session=trial.session_number,
+                run=trial.number,
+            ))
+    return sources
+
+
+def registry_names(registry: Registry, codes: str | Iterable[str]) -> dict[str, tuple]:
+    """{code: (first_name, last_name)}: only for exports told to include names."""
+    codes = [codes] if isinstance(codes, str) else list(codes)
+    names = {}
+    for code in codes:
+        patient = registry.patient(code)
+        names[code] = (patient.first_name, patient.last_name)
+    return names

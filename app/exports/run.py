@@ -1,0 +1,278 @@
+"""Exports for researchers: one trial, a patient's trials, or a folder of them, as CSV,
+TSV, MATLAB .mat or a BIDS-motion dataset.
+
+Formats (each module's doc has the details):
+
+* ``csv`` / ``tsv`` (app.exports.table): ``<stem>.csv`` with one row per sample and
+  one column per channel component (``position_x_m``), a second header line with
+  the units, every value exact unless `digits` is given; side files
+  ``<stem>_columns``, ``_events``, ``_metrics`` and ``_trial`` (metadata and
+  parameters);
+* ``mat`` (app.exports.mat): ``<stem>.mat``, v5, compressed, with the HDF5 file's
+  names (``timeseries.position``, ``units``, ``frames``, ``parameters``…);
+* ``bids`` (app.exports.bids): a BIDS 1.9 dataset with the motion extension.
+
+`exercise_only=True` keeps only the samples of the exercise phase (CSV/TSV/.mat;
+a BIDS run is always the whole recording, with its events).
+
+Batch exports (`export_patient`, `export_patients`, `export_folder`,
+`export_trials`) put each trial's files in a subfolder (the patient's code, or
+the trial file's own subfolder of the source folder) and write ``trials.csv``
+(``trials.tsv`` for TSV), one row per exported trial with its metadata and
+metrics (app.exports.loader's row keys, after `participant`, `session`, `trial` and
+`export_file`). A trial file that cannot be read is skipped and listed in the
+result's `failed`; `progress(fraction)` is called as trials are done.
+
+Privacy: exports hold pseudonymous codes, never names, and every file name is
+built from codes and numbers. With `include_names=True` (registry exports only)
+the names go in one place: ``names.csv`` (participant, first_name, last_name) for
+CSV/TSV/.mat, the first_name and last_name columns of participants.tsv for BIDS.
+
+Safety: nothing is overwritten unless `overwrite=True` — an export that would
+replace a file is refused before anything is written — and every file is
+written under a temporary name and moved into place when complete. A
+destination that cannot be written raises ExportError naming the folder.
+"""
+
+from __future__ import annotations
+
+import csv
+import logging
+import math
+import os
+from collections.abc import Callable, Iterable, Mapping
+from pathlib import Path
+
+from app.errors import AppError
+from app.exports.bids import export_bids
+from app.exports.columns import check_digits
+from app.exports.files import (
+    ExportError,
+    OutputExistsError,
+    output,
+    prepare_folder,
+    refuse_existing,
+)
+from app.exports.loader import Failure, Trial, load_trial
+from app.exports.mat import write_mat
+from app.exports.plan import (
+    ExportResult,
+    TrialSource,
+    registry_names,
+    source_for_path,
+    sources_from_folder,
+    sources_from_registry,
+)
+from app.exports.table import table_outputs, write_table
+from app.records.registry import Registry
+
+__all__ = [
+    "FORMATS",
+    "ExportError",
+    "ExportResult",
+    "OutputExistsError",
+    "TrialSource",
+    "export_bids",
+    "export_folder",
+    "export_patient",
+    "export_patients",
+    "export_trial",
+    "export_trials",
+]
+
+log = logging.getLogger(__name__)
+
+FORMATS = ("csv", "tsv", "mat", "bids")
+Progress = Callable[[float], None]
+
+
+def export_trial(
+    source: Trial | str | os.PathLike,
+    folder: str | os.PathLike,
+    *,
+    format: str = "csv",
+    stem: str | None = None,
+    exercise_only: bool = False,
+    digits: int | None = None,
+    overwrite: bool = False,
+) -> tuple[Path, ...]:
+    """Export one trial (a loaded Trial or a trial file) as CSV, TSV or .mat into
+    `folder`; files are named `stem` (default: the trial file's). Returns the paths."""
+    _check_format(format, allowed=("csv", "tsv", "mat"))
+    check_digits(digits)
+    trial = source if isinstance(source, Trial) else load_trial(source)
+    folder = prepare_folder(folder)
+    stem = stem or trial.path.stem
+    refuse_existing(_outputs(format, folder, stem), overwrite)
+    return _write(trial, format, folder, stem, exercise_only, digits, overwrite)
+
+
+def export_trials(
+    sources: Iterable[TrialSource | str | os.PathLike],
+    folder: str | os.PathLike,
+    *,
+    format: str = "csv",
+    names: Mapping[str, tuple[str | None, str | None]] | None = None,
+    exercise_only: bool = False,
+    digits: int | None = None,
+    overwrite: bool = False,
+    progress: Progress | None = None,
+) -> ExportResult:
+    """Export many trials into `folder` (see the module's doc for the layout).
+    `names` ({code: (first, last)}) is written only to names.csv / participants.tsv."""
+    _check_format(format)
+    check_digits(digits)
+    sources = [s if isinstance(s, TrialSource) else source_for_path(s) for s in sources]
+    if format == "bids":
+        if exercise_only or digits is not None:
+            raise ExportError("a BIDS run is always the whole recording with every value "
+                              "exact: exercise_only and digits apply to csv, tsv and mat only")
+        return export_bids(sources, folder, names=names, overwrite=overwrite, progress=progress)
+    root = prepare_folder(folder)
+    suffix = ".tsv" if format == "tsv" else ".csv"
+    index = root / f"trials{suffix}"
+    names_file = root / f"names{suffix}"
+    planned = {source: _outputs(format, root / source.folder, source.stem) for source in sources}
+    _refuse_duplicates(planned)
+    refuse_existing([*(p for paths in planned.values() for p in paths), index,
+                     *([names_file] if names else [])], overwrite)
+
+    written: list[Path] = []
+    rows: list[dict] = []
+    failed: list[Failure] = []
+    if progress is not None:
+        progress(0.0)
+    for i, (source, paths) in enumerate(planned.items()):
+        try:
+            trial = load_trial(source.path)
+        except AppError as exc:
+            failed.append(Failure(source.path, str(exc)))
+        else:
+            written += _write(trial, format, root / source.folder, source.stem, exercise_only,
+                              digits, overwrite)
+            rows.append({"participant": source.participant, "session": source.session,
+                         "trial": source.run,
+                         "export_file": paths[0].relative_to(root).as_posix(),
+                         **trial.row()})
+        if progress is not None:
+            progress((i + 1) / len(planned))
+    written.append(_write_index(index, rows, suffix, overwrite))
+    if names:
+        written.append(_write_names(names_file, names, suffix, overwrite))
+    log.info("%s export to %s: %d trial(s), %d file(s) written, %d trial(s) unreadable",
+             format, root, len(rows), len(written), len(failed))
+    return ExportResult(root, tuple(written), len(rows), tuple(failed))
+
+
+def export_patients(
+    registry: Registry,
+    codes: Iterable[str],
+    folder: str | os.PathLike,
+    *,
+    format: str = "csv",
+    include_names: bool = False,
+    exercise_only: bool = False,
+    digits: int | None = None,
+    overwrite: bool = False,
+    progress: Progress | None = None,
+) -> ExportResult:
+    """Export every trial of these patients from the registry (one subfolder per
+    patient code for CSV/TSV/.mat; one BIDS participant each)."""
+    codes = list(codes)
+    sources = sources_from_registry(registry, codes)
+    names = registry_names(registry, codes) if include_names else None
+    return export_trials(sources, folder, format=format, names=names,
+                         exercise_only=exercise_only, digits=digits, overwrite=overwrite,
+                         progress=progress)
+
+
+def export_patient(
+    registry: Registry,
+    code: str,
+    folder: str | os.PathLike,
+    **options,
+) -> ExportResult:
+    """Export every trial of one patient (options as for `export_patients`)."""
+    return export_patients(registry, [code], folder, **options)
+
+
+def export_folder(
+    source_folder: str | os.PathLike,
+    folder: str | os.PathLike,
+    *,
+    pattern: str = "**/*.h5",
+    **options,
+) -> ExportResult:
+    """Export every trial file matching `pattern` below `source_folder` (a study):
+    CSV/TSV/.mat outputs mirror its subfolders. Options as for `export_trials`."""
+    return export_trials(sources_from_folder(source_folder, pattern), folder, **options)
+
+
+# -- helpers -------------------------------------------------------------------
+
+
+def _check_format(format: str, allowed: tuple[str, ...] = FORMATS) -> None:
+    if format not in allowed:
+        hint = " (a BIDS dataset is written by export_trials or export_patient)" if (
+            format == "bids") else ""
+        raise ExportError(f"export format {format!r}: give one of {', '.join(allowed)}{hint}")
+
+
+def _outputs(format: str, folder: Path, stem: str) -> tuple[Path, ...]:
+    if format == "mat":
+        return (folder / f"{stem}.mat",)
+    return table_outputs(folder, stem, f".{format}")
+
+
+def _write(trial: Trial, format: str, folder: Path, stem: str, exercise_only: bool,
+           digits: int | None, overwrite: bool) -> tuple[Path, ...]:
+    if format == "mat":
+        return (write_mat(trial, folder / f"{stem}.mat", exercise_only=exercise_only,
+                          overwrite=overwrite),)
+    return write_table(trial, folder, stem, suffix=f".{format}", exercise_only=exercise_only,
+                       digits=digits, overwrite=overwrite)
+
+
+def _refuse_duplicates(planned: Mapping[TrialSource, tuple[Path, ...]]) -> None:
+    first: dict[Path, Path] = {}
+    for source, paths in planned.items():
+        if paths[0] in first:
+            raise ExportError(
+                f"{first[paths[0]]} and {source.path} would both be exported as "
+                f"{paths[0]}. Nothing was written. Export them to different folders"
+            )
+        first[paths[0]] = source.path
+
+
+def _write_index(path: Path, rows: list[dict], suffix: str, overwrite: bool) -> Path:
+    columns: dict[str, None] = {}
+    for row in rows:
+        columns.update(dict.fromkeys(row))
+    with output(path, overwrite=overwrite, text=True) as stream:
+        writer = csv.writer(stream, delimiter="\t" if suffix == ".tsv" else ",",
+                            lineterminator="\n")
+        writer.writerow(columns)
+        writer.writerows([_cell(row.get(c)) for c in columns] for row in rows)
+    return path
+
+
+def _write_names(path: Path, names: Mapping, suffix: str, overwrite: bool) -> Path:
+    with output(path, overwrite=overwrite, text=True) as stream:
+        writer = csv.writer(stream, delimiter="\t" if suffix == ".tsv" else ",",
+                            lineterminator="\n")
+        writer.writerow(("participant", "first_name", "last_name"))
+        writer.writerows((code, first or "", last or "")
+                         for code, (first, last) in sorted(names.items()))
+    return path
+
+
+def _cell(value) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        if math.isfinite(value):
+            return repr(value)
+        return "NaN" if math.isnan(value) else ("Inf" if value > 0 else "-Inf")
+    return str(value)

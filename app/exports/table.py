@@ -1,0 +1,133 @@
+"""CSV and TSV export of one trial: a samples file and four small side files.
+
+For a stem S (`.csv` with commas, `.tsv` with tabs; UTF-8, ``\\n`` line ends):
+
+==================  ===============================================================
+``S.csv``           one row per sample, one column per channel component, named as
+                    in app.exports.columns (``position_x_m``…). **Two header lines**:
+                    the column names, then each column's units exactly as in the
+                    trial file (``m``, ``rad/s``, ``N*m``; ``1`` for dimensionless
+                    numbers, codes and flags). Numbers read back exactly by default
+                    (see app.exports.columns for `digits`); NaN is ``NaN``.
+``S_columns.csv``   column, channel, component, units, frame, description
+``S_events.csv``    time_s, tick, kind, message, values (the event's JSON object)
+``S_metrics.csv``   metric, value (names carry their units; NaN = undefined)
+``S_trial.csv``     key, value: status, sample period, subject code and
+                    anthropometry, every parameter (the row keys of app.exports.loader), and
+                    which samples the samples file holds (``rows``: all/exercise)
+==================  ===============================================================
+
+Why a second header line rather than ``name [unit]``: the names stay identifiers
+(``df.position_x_m``, MATLAB variable names) and already end in their unit, while
+the line gives the exact unit text for tools that keep units. Reading it:
+
+* pandas: ``pd.read_csv(path, skiprows=[1])``, or ``header=[0, 1]`` for
+  (name, unit) column pairs;
+* MATLAB: ``o = detectImportOptions(path); o.VariableNamesLine = 1;
+  o.VariableUnitsLine = 2; o.DataLines = [3 Inf]; T = readtable(path, o);``
+* Python's csv module: the first row is the names, the second the units;
+* spreadsheets open it directly (where the decimal mark is a comma, import it
+  with "." as the decimal separator).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import TextIO
+
+import numpy as np
+
+from app.exports.columns import (
+    Column,
+    check_digits,
+    column_values,
+    format_values,
+    table_columns,
+)
+from app.exports.files import output
+from app.exports.loader import Trial
+
+CHUNK_ROWS = 4096  # keeps memory flat: the text of one chunk at a time
+SIDE_FILES = ("columns", "events", "metrics", "trial")
+DELIMITERS = {".csv": ",", ".tsv": "\t"}
+
+
+def table_outputs(folder: Path, stem: str, suffix: str) -> tuple[Path, ...]:
+    """The files `write_table` writes for this stem, samples file first."""
+    return (folder / f"{stem}{suffix}",
+            *(folder / f"{stem}_{side}{suffix}" for side in SIDE_FILES))
+
+
+def write_table(trial: Trial, folder: Path, stem: str, *, suffix: str = ".csv",
+                exercise_only: bool = False, digits: int | None = None,
+                overwrite: bool = False) -> tuple[Path, ...]:
+    """Write the samples file and its side files; returns their paths."""
+    digits = check_digits(digits)
+    delimiter = DELIMITERS[suffix]
+    samples, columns_file, events_file, metrics_file, trial_file = table_outputs(
+        folder, stem, suffix)
+    arrays = trial.arrays
+    if exercise_only:
+        mask = trial.exercise
+        arrays = {name: values[mask] for name, values in arrays.items()}
+    columns = table_columns(arrays, trial.units, trial.frames, trial.descriptions)
+    n = next(iter(arrays.values())).shape[0] if arrays else 0
+
+    with output(samples, overwrite=overwrite, text=True) as stream:
+        header = csv.writer(stream, delimiter=delimiter, lineterminator="\n")
+        header.writerow([c.name for c in columns])
+        header.writerow([c.units for c in columns])
+        write_samples(stream, arrays, columns, delimiter, digits=digits)
+
+    _write_rows(columns_file, delimiter, overwrite,
+                ("column", "channel", "component", "units", "frame", "description"),
+                [(c.name, c.channel, c.component, c.units, c.frame, c.description)
+                 for c in columns])
+    _write_rows(events_file, delimiter, overwrite,
+                ("time_s", "tick", "kind", "message", "values"),
+                [(_number(e["time_s"], digits), e["tick"], e["kind"], e["message"],
+                  json.dumps(e["values"], ensure_ascii=False)) for e in trial.events])
+    _write_rows(metrics_file, delimiter, overwrite, ("metric", "value"),
+                [(name, _number(value, digits)) for name, value in trial.metrics.items()])
+    info = {key: value for key, value in trial.row().items() if not key.startswith("metric_")}
+    info |= {"rows": "exercise" if exercise_only else "all", "rows_written": n,
+             "notes": " | ".join(trial.notes)}
+    _write_rows(trial_file, delimiter, overwrite, ("key", "value"),
+                [(key, _text(value, digits)) for key, value in info.items()])
+    return samples, columns_file, events_file, metrics_file, trial_file
+
+
+def write_samples(stream: TextIO, arrays: Mapping[str, np.ndarray], columns: Sequence[Column],
+                  delimiter: str, *, digits: int | None = None, missing: str = "NaN") -> None:
+    """One line per sample, the columns' values separated by `delimiter`."""
+    n = next(iter(arrays.values())).shape[0] if arrays else 0
+    for start in range(0, n, CHUNK_ROWS):
+        stop = min(start + CHUNK_ROWS, n)
+        texts = [format_values(column_values(arrays, c)[start:stop], digits=digits,
+                               missing=missing) for c in columns]
+        stream.write("\n".join(map(delimiter.join, zip(*texts, strict=True))))
+        stream.write("\n")
+
+
+def _write_rows(path: Path, delimiter: str, overwrite: bool, header: tuple, rows: list) -> None:
+    with output(path, overwrite=overwrite, text=True) as stream:
+        writer = csv.writer(stream, delimiter=delimiter, lineterminator="\n")
+        writer.writerow(header)
+        writer.writerows(rows)
+
+
+def _number(value: float, digits: int | None) -> str:
+    return format_values(np.array([value], dtype=np.float64), digits=digits)[0]
+
+
+def _text(value, digits: int | None) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, float):
+        return _number(value, digits)
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return str(value)

@@ -1,0 +1,127 @@
+"""A trial's post-trial report for the patient and the therapist: one PDF of two A4
+pages, the report of the thesis's GUI (Appendix A.4, A.6–A.8; section 3.6).
+
+Why matplotlib's PDF backend: the report is mostly plots (Fig. 3.7, 3.9, 3.11,
+3.12) and matplotlib, already a dependency, draws them as vector graphics and
+writes the PDF itself; reportlab would add a dependency and still need
+matplotlib for the plots, and Qt's QPdfWriter is out of reach because `app` must
+not import Qt (ARCHITECTURE.md). Text is embedded as TrueType (pdf.fonttype 42),
+so it can be searched, copied and extracted.
+
+The parts, each with one job:
+
+* app.reports.content — `build_report`: the content as plain data
+  (`ReportContent`), which the window's report view draws as well;
+* app.reports.plain_language — the patient's sentences, built from the numbers;
+* app.reports.compare — the change since earlier trials and the cautions when
+  the exercise differed;
+* app.reports.pdf — `write_report_pdf`: the pages.
+
+Names: the report shows the patient's pseudonymous code. A first name appears
+only when the caller passes it (`first_name=`, or `include_first_name=True`
+here); nothing looks a name up by default, and the last name never appears.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from app.records.datadir import REPORTS
+from app.records.registry import Registry
+from app.reports.compare import Baseline, Comparison, TableRow
+from app.reports.content import (
+    AnglesFigure,
+    ForceFigure,
+    HeaderItem,
+    PathFigure,
+    ReportContent,
+    Run,
+    TorquesFigure,
+    build_report,
+    merge_short_runs,
+)
+from app.trials.reader import read_trial
+
+__all__ = [
+    "AnglesFigure",
+    "Baseline",
+    "Comparison",
+    "ForceFigure",
+    "HeaderItem",
+    "PathFigure",
+    "ReportContent",
+    "Run",
+    "TableRow",
+    "TorquesFigure",
+    "build_report",
+    "content_for_registry_trial",
+    "merge_short_runs",
+    "report_for_registry_trial",
+    "write_report_pdf",
+]
+
+
+def content_for_registry_trial(
+    registry: Registry,
+    trial_id: int,
+    *,
+    include_first_name: bool = False,
+    flip_axes: bool = False,
+) -> ReportContent:
+    """The report of a registered trial: its file read, compared with the patient's
+    previous complete trial and the last complete trial of their previous session
+    (from the registry's figures, so a missing earlier file does not matter).
+
+    Raises TrialNotFound for an unknown id and TrialFileError, naming the file,
+    when the trial's file is missing or damaged.
+    """
+    record = registry.trial(trial_id)
+    data = read_trial(registry.trial_path(record))
+    first_name = None
+    if include_first_name:
+        first_name = registry.patient(record.patient_code).first_name
+    return build_report(
+        data,
+        previous_trial=registry.previous_trial(trial_id),
+        previous_session=registry.previous_trial(trial_id, earlier_session=True),
+        first_name=first_name,
+        flip_axes=flip_axes,
+        patient_code=record.patient_code,
+        session_number=record.session_number,
+        trial_number=record.number,
+        started_at=record.started_at,
+        # The registry holds how the trial ended once it is finished; before that
+        # the file's own status says more (e.g. still recording).
+        status=record.status if record.finished else None,
+    )
+
+
+def report_for_registry_trial(
+    registry: Registry,
+    trial_id: int,
+    path: str | os.PathLike | None = None,
+    *,
+    include_first_name: bool = False,
+    flip_axes: bool = False,
+) -> Path:
+    """Write a registered trial's report and return its path: by default the data
+    folder's reports/<code>/<code>_S…_T…_<time>.pdf (DataDir.report_path), replacing
+    an earlier report of the same trial."""
+    content = content_for_registry_trial(registry, trial_id,
+                                         include_first_name=include_first_name,
+                                         flip_axes=flip_axes)
+    if path is None:
+        record = registry.trial(trial_id)
+        registry.data_dir.ensure(REPORTS, record.patient_code)
+        path = registry.data_dir.report_path(record.patient_code, record.session_number,
+                                             record.number, record.started_at)
+    return write_report_pdf(content, path)
+
+
+def write_report_pdf(content: ReportContent, path) -> Path:
+    """Write the report's pages (app.reports.pdf). matplotlib is imported here, on first
+    use, so the window and the command line start without it."""
+    from app.reports.pdf import write_report_pdf as write
+
+    return write(content, path)

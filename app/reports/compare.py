@@ -1,0 +1,302 @@
+"""A trial against an earlier one: which figures went which way, and whether the
+exercise itself changed so that the comparison needs a caution.
+
+Better or worse depends on the figure: a smaller position error is better, a
+higher directional performance is better; for ranges of motion, forces and
+torques the goal depends on the patient and the exercise (the thesis, section
+3.6.3: the goal "may" be to increase them), so they are said to be more or
+less, never better or worse.
+
+The patient's lines compare the numbers as the patient sees them, rounded (whole
+%, mm, degrees): two numbers that print the same are "the same", so the report
+never calls 78 % → 78 % better. The therapist's table compares at its own
+precision (two decimals).
+"""
+
+from __future__ import annotations
+
+import datetime
+import enum
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+
+from app.records.registry import Trial
+from app.reports.metrics_table import ROWS, MetricRow
+from app.reports.plain_language import (
+    change_sentence,
+    distance_mm_shown,
+    distance_text,
+    parameter_cautions,
+    position_error_m,
+    whole,
+)
+from app.trials.reader import TrialData
+from core.trial import TrialParameters
+
+
+class Goal(enum.Enum):
+    HIGHER = "higher"
+    LOWER = "lower"
+    TOWARD_ONE = "toward one"
+    NONE = "none"
+
+
+GOALS: dict[str, Goal] = {
+    "rmse_x_m": Goal.LOWER,
+    "rmse_y_m": Goal.LOWER,
+    "directional_performance_pct": Goal.HIGHER,
+    "path_length_ratio": Goal.TOWARD_ONE,
+    # Both are negative; closer to 0 is smoother (core.smoothness).
+    "sparc": Goal.HIGHER,
+    "ldlj": Goal.HIGHER,
+    "reaction_time_s": Goal.LOWER,
+    "initial_direction_error_rad": Goal.LOWER,
+}
+"""Which way is better for a figure (TrialMetrics names); any other figure has no
+better or worse, only more or less."""
+
+UP, DOWN, SAME = "↑", "↓", "="
+
+
+@dataclass(frozen=True, slots=True)
+class Baseline:
+    """What a trial is compared with: an earlier trial's figures (TrialMetrics.to_dict()
+    names, SI) and, when known, its parameters (TrialParameters.to_dict()) and numbers."""
+
+    metrics: Mapping[str, float]
+    parameters: Mapping | None = None
+    session_number: int | None = None
+    trial_number: int | None = None
+    date: datetime.date | None = None
+
+    def describe(self) -> str:
+        """'session 2, trial 3, 1 May 2024', from what is known."""
+        parts = []
+        if self.session_number is not None:
+            parts.append(f"session {self.session_number}")
+        if self.trial_number is not None:
+            parts.append(f"trial {self.trial_number}")
+        if self.date is not None:
+            parts.append(date_text(self.date))
+        return ", ".join(parts)
+
+    def same_trial(self, other: Baseline) -> bool:
+        return (self.session_number is not None and self.trial_number is not None
+                and (self.session_number, self.trial_number)
+                == (other.session_number, other.trial_number))
+
+
+BaselineSource = Baseline | TrialData | Trial | Mapping
+
+
+def as_baseline(source: BaselineSource | None) -> Baseline | None:
+    """A Baseline from a read trial file, a registry record, or a plain metrics mapping
+    (figures only: no parameters, so no caution can be given)."""
+    if source is None or isinstance(source, Baseline):
+        return source
+    if isinstance(source, Trial):
+        return Baseline(dict(source.metrics), dict(source.parameters), source.session_number,
+                        source.number, source.session_date)
+    if isinstance(source, TrialData):
+        parameters = source.parameters.to_dict() if source.parameters is not None else None
+        return Baseline(dict(source.metrics), parameters, date=_file_date(source))
+    if isinstance(source, Mapping):
+        return Baseline({k: float(v) for k, v in source.items()})
+    raise TypeError(
+        f"cannot compare with a {type(source).__name__}: give a TrialData, a registry Trial, "
+        "a Baseline or a mapping of metric names to values"
+    )
+
+
+def date_text(day: datetime.date) -> str:
+    """'1 May 2024' (English month names whatever the locale, like the rest of the report)."""
+    return f"{day.day} {_MONTHS[day.month - 1]} {day.year}"
+
+
+_MONTHS = ("January", "February", "March", "April", "May", "June", "July", "August",
+           "September", "October", "November", "December")
+
+
+def _file_date(trial: TrialData) -> datetime.date | None:
+    try:
+        return datetime.datetime.fromisoformat(trial.created_utc).astimezone().date()
+    except ValueError:
+        return None
+
+
+# -- the patient's lines ----------------------------------------------------------------
+
+@dataclass(frozen=True, slots=True)
+class Change:
+    """One figure before and after. verdict: better, worse, same, more or less;
+    arrow: which way the number went (↑, ↓, =)."""
+
+    key: str
+    name: str
+    before: float
+    after: float
+    before_text: str
+    after_text: str
+    verdict: str
+    arrow: str
+    text: str
+
+
+@dataclass(frozen=True, slots=True)
+class Comparison:
+    """The change since one earlier trial: `title` names it, `changes` are the
+    patient's lines, `cautions` say which settings of the exercise differed."""
+
+    kind: str  # "previous trial", "previous session", or both joined by " and "
+    title: str
+    baseline: Baseline
+    changes: tuple[Change, ...]
+    cautions: tuple[str, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class _PatientFigure:
+    key: str
+    name: str
+    goal: Goal
+    value: Callable[[Mapping[str, float]], float]  # SI, from the metrics
+    shown: Callable[[float], float]  # the number the patient reads, rounded
+    text: Callable[[float], str]
+
+
+def _metric(key: str) -> Callable[[Mapping[str, float]], float]:
+    return lambda metrics: float(metrics.get(key, math.nan))
+
+
+def _position(metrics: Mapping[str, float]) -> float:
+    return position_error_m(float(metrics.get("rmse_x_m", math.nan)),
+                            float(metrics.get("rmse_y_m", math.nan)))
+
+
+_PATIENT_FIGURES = (
+    _PatientFigure("directional_performance_pct", "Push in the right direction", Goal.HIGHER,
+                   _metric("directional_performance_pct"), lambda v: float(round(v)),
+                   lambda v: f"{whole(v)} %"),
+    _PatientFigure("rmse", "Distance from the path", Goal.LOWER, _position,
+                   lambda v: float(distance_mm_shown(v)),
+                   distance_text),
+    _PatientFigure("shoulder_rom_rad", "Shoulder movement", Goal.NONE,
+                   _metric("shoulder_rom_rad"), lambda v: float(round(math.degrees(v))),
+                   lambda v: f"{whole(math.degrees(v))}°"),
+    _PatientFigure("elbow_rom_rad", "Elbow movement", Goal.NONE, _metric("elbow_rom_rad"),
+                   lambda v: float(round(math.degrees(v))),
+                   lambda v: f"{whole(math.degrees(v))}°"),
+)
+
+
+def verdict(goal: Goal, before: float, after: float) -> str:
+    """better / worse / same for a figure with a goal, more / less / same without."""
+    if after == before:
+        return "same"
+    if goal is Goal.NONE:
+        return "more" if after > before else "less"
+    if goal is Goal.TOWARD_ONE:
+        if abs(after - 1.0) == abs(before - 1.0):
+            return "same"
+        return "better" if abs(after - 1.0) < abs(before - 1.0) else "worse"
+    improved = after > before if goal is Goal.HIGHER else after < before
+    return "better" if improved else "worse"
+
+
+def arrow(before: float, after: float) -> str:
+    return SAME if after == before else (UP if after > before else DOWN)
+
+
+def patient_changes(before: Mapping[str, float], after: Mapping[str, float],
+                    ) -> tuple[Change, ...]:
+    """The patient's figures that both trials have, compared as the patient reads them."""
+    changes = []
+    for figure in _PATIENT_FIGURES:
+        a, b = figure.value(before), figure.value(after)
+        if not (math.isfinite(a) and math.isfinite(b)):
+            continue
+        shown_a, shown_b = figure.shown(a), figure.shown(b)
+        word = verdict(figure.goal, shown_a, shown_b)
+        text_a, text_b = figure.text(a), figure.text(b)
+        changes.append(Change(figure.key, figure.name, a, b, text_a, text_b, word,
+                              arrow(shown_a, shown_b),
+                              change_sentence(figure.name, text_a, text_b, word)))
+    return tuple(changes)
+
+
+PARTIAL_CAUTION = ("This trial did not run to its end, so its figures cover only part of "
+                   "the exercise and compare poorly with a whole trial.")
+UNKNOWN_SETTINGS_CAUTION = ("The settings of the earlier trial are not known, so a change of "
+                            "exercise cannot be ruled out.")
+
+
+def compare(kind: str, baseline: Baseline, metrics: Mapping[str, float],
+            parameters: TrialParameters | None, *, partial: bool = False) -> Comparison:
+    """This trial (its metrics and parameters) against `baseline`; `partial`: this
+    trial did not run to its end."""
+    described = baseline.describe()
+    title = f"Since your {kind}" + (f" ({described})" if described else "")
+    cautions: tuple[str, ...] = (PARTIAL_CAUTION,) if partial else ()
+    if baseline.parameters is not None and parameters is not None:
+        cautions += parameter_cautions(baseline.parameters, parameters.to_dict())
+    elif baseline.parameters is None:
+        cautions += (UNKNOWN_SETTINGS_CAUTION,)
+    return Comparison(kind, title, baseline, patient_changes(baseline.metrics, metrics),
+                      cautions)
+
+
+# -- the therapist's table ----------------------------------------------------------------
+
+@dataclass(frozen=True, slots=True)
+class TableRow:
+    """One figure of the therapist's table in display units: this trial's value and,
+    per comparison, the earlier value with the change ('' when there is none)."""
+
+    key: str
+    label: str
+    unit: str
+    meaning: str
+    value: float  # display units
+    value_text: str
+    earlier_texts: tuple[str, ...]
+    verdicts: tuple[str, ...]
+
+
+def number_text(value: float) -> str:
+    """A table figure: two decimals, like the terminal's table (app.reports.metrics_table)."""
+    return f"{value:.2f}" if math.isfinite(value) else "–"
+
+
+def metric_text(row: MetricRow, value_si: float) -> str:
+    """'8.68 mm', '78.00 %', '42.17°', '0.84 N': a figure with its display unit."""
+    shown = number_text(value_si * row.scale)
+    if not row.unit:
+        return shown
+    return f"{shown}{row.unit}" if row.unit == "°" else f"{shown} {row.unit}"
+
+
+def table_rows(metrics: Mapping[str, float], baselines: tuple[Baseline, ...],
+               ) -> tuple[TableRow, ...]:
+    """Every row of app.reports.metrics_table.ROWS this trial has a value for."""
+    rows = []
+    for row in ROWS:
+        value = float(metrics.get(row.key, math.nan)) * row.scale
+        if not math.isfinite(value):
+            continue
+        texts, verdicts = [], []
+        goal = GOALS.get(row.key, Goal.NONE)
+        for baseline in baselines:
+            earlier = float(baseline.metrics.get(row.key, math.nan)) * row.scale
+            if not math.isfinite(earlier):
+                texts.append("–")
+                verdicts.append("")
+                continue
+            # Compared at the table's precision, as the reader sees the two numbers.
+            a, b = float(number_text(earlier)), float(number_text(value))
+            word = verdict(goal, a, b)
+            texts.append(f"{number_text(earlier)} {arrow(a, b)} {word}")
+            verdicts.append(word)
+        rows.append(TableRow(row.key, row.label, row.unit, row.meaning, value,
+                             number_text(value), tuple(texts), tuple(verdicts)))
+    return tuple(rows)

@@ -1,0 +1,71 @@
+"""From a trial's recorded channels to its metrics: which samples count, and how the
+recorded arrays map onto `core.metrics.compute_metrics`.
+
+Only the exercise phase counts (not the approach to the start point, not the hold
+at the end). Samples where the subject model had no solution (NaN joint angles,
+e.g. an arm stretched straight) leave the joint figures out rather than the whole
+trial, and the note says so.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from app.errors import AppError
+from core.metrics import TrialMetrics, compute_metrics
+from core.reaches import reaches_from_trajectory
+from core.trial import TrialParameters
+from device.loop.pipeline import PHASE_EXERCISE
+
+
+@dataclass(frozen=True, slots=True)
+class Analysis:
+    metrics: TrialMetrics
+    exercise_start_s: float
+    notes: tuple[str, ...]
+
+
+def exercise_mask(channels: Mapping[str, np.ndarray]) -> np.ndarray:
+    return np.asarray(channels["phase"]) == PHASE_EXERCISE
+
+
+def analyse(channels: Mapping[str, np.ndarray], parameters: TrialParameters) -> Analysis:
+    """Metrics of the exercise phase of a recorded trial (channels by record name)."""
+    mask = exercise_mask(channels)
+    notes: list[str] = []
+    if mask.sum() < 64:
+        raise AppError(
+            f"the trial has only {int(mask.sum())} samples of exercise; "
+            "at least 64 (0.13 s) are needed for its figures"
+        )
+    t = np.asarray(channels["time"])[mask]
+    start = float(t[0])
+
+    def take(name: str):
+        values = np.asarray(channels[name])[mask]
+        if np.isfinite(values).all():
+            return values
+        notes.append(f"{name} has {int((~np.isfinite(values)).any(axis=-1).sum())} samples "
+                     "without a value; its figures are left out")
+        return None
+
+    trajectory = parameters.trajectory()
+    reaches = None
+    if parameters.shape in ("targets", "reach"):
+        reaches = reaches_from_trajectory(trajectory)
+        reaches = [replace(r, onset_s=r.onset_s + start) for r in reaches]
+    metrics = compute_metrics(
+        t,
+        np.asarray(channels["position"])[mask],
+        desired_position_m=take("position_desired"),
+        desired_direction=take("direction_desired"),
+        force_N=take("force"),
+        isb_angles_rad=take("subject_angle_isb"),
+        torque_Nm=take("subject_torque"),
+        tolerance_rad=parameters.tolerance_rad,
+        reaches=reaches,
+    )
+    return Analysis(metrics, start, tuple(notes))

@@ -1,0 +1,111 @@
+"""After a trial's file is closed: its metrics, stored in the file and in the registry.
+
+The recorder closes the trial file the moment the trial ends (complete, stopped or
+faulted); this step runs afterwards, off the loop and off the window's thread. A trial
+too short to measure (a fault in the first instants) is still registered, with no metrics
+and a note saying why.
+"""
+
+from __future__ import annotations
+
+import datetime
+import logging
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from app.errors import AppError
+from app.records.registry import Registry
+from app.trials.analysis import Analysis, analyse
+from app.trials.reader import read_trial
+from device.errors import RecordingError
+from device.recording.trialfile import write_metrics
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True, slots=True)
+class Finalized:
+    trial_id: int
+    path: Path
+    status: str
+    analysis: Analysis | None
+    notes: tuple[str, ...]
+
+
+def finalize_trial(registry: Registry, trial_id: int, status: str | None = None) -> Finalized:
+    """Analyse the trial's file, write its metrics into it and into the registry.
+
+    `status` defaults to the one the file records (complete, stopped_early, faulted,
+    recording_lost). Raises AppError when the file cannot be read at all.
+    """
+    trial = registry.trial(trial_id)
+    path = registry.trial_path(trial)
+    data = read_trial(path)
+    status = status or data.status
+    if status == "recording":
+        status = "recording_lost"  # never closed: the recorder died with it
+    notes = list(data.notes)
+    analysis = None
+    metrics: dict[str, float] = {}
+    try:
+        analysis = analyse(data.channels, data.parameters)
+    except AppError as exc:
+        notes.append(f"no metrics: {exc}")
+    except ValueError as exc:  # core refuses data it cannot measure, naming the field
+        notes.append(f"no metrics: {exc}")
+    else:
+        metrics = analysis.metrics.to_dict()
+        notes.extend(analysis.notes)
+        if data.status != "recording":
+            try:
+                write_metrics(path, metrics)
+            except RecordingError as exc:
+                notes.append(f"metrics not stored in the file: {exc}")
+    registry.finish_trial(trial_id, status, metrics, datetime.datetime.now(datetime.UTC))
+    for note in notes:
+        log.info("trial %s: %s", trial_id, note)
+    return Finalized(trial_id, path, status, analysis, tuple(notes))
+
+
+STILL_WRITTEN_S = 10.0
+"""A trial file modified this recently may be a live trial of another console on the same
+data folder (the recorder flushes every 0.5 s): it is left alone."""
+
+
+def finish_interrupted(registry: Registry, *, now: float | None = None,
+                       still_written_s: float = STILL_WRITTEN_S) -> list[str]:
+    """Finish the trials the registry still lists as recording: a console that closed
+    abnormally during a trial (a crash, a power cut) leaves them so, although the
+    recorder closed the file or it holds all but the last half second.
+
+    Each is finalized from its file (its status, else recording_lost, and its
+    metrics); a missing or unreadable file finishes it as recording_lost. Returns one
+    line per trial for the therapist, and logs them."""
+    now = time.time() if now is None else now
+    lines = []
+    for trial in registry.unfinished_trials():
+        path = registry.trial_path(trial)
+        label = f"trial {trial.id} ({path.name})"
+        try:
+            if now - path.stat().st_mtime < still_written_s:
+                continue
+        except OSError:
+            registry.finish_trial(trial.id, "recording_lost", {},
+                                  datetime.datetime.now(datetime.UTC))
+            lines.append(f"{label} was interrupted and its file is missing; "
+                         "it is listed as recording lost")
+            continue
+        try:
+            done = finalize_trial(registry, trial.id)
+        except AppError as exc:
+            registry.finish_trial(trial.id, "recording_lost", {},
+                                  datetime.datetime.now(datetime.UTC))
+            lines.append(f"{label} was interrupted and its file cannot be read ({exc}); "
+                         "it is listed as recording lost")
+            continue
+        lines.append(f"{label} was interrupted; its file was kept and it is now listed "
+                     f"as {done.status.replace('_', ' ')}")
+    for line in lines:
+        log.warning("%s", line)
+    return lines

@@ -1,0 +1,279 @@
+"""The console's side of the device link: starts the loop and recorder processes, sends
+typed commands, reads their events, drains the ring for the live view. Qt-free.
+
+One owner: the window runs a `DeviceClient` on a worker thread (ui.device_bridge); the
+headless command line uses it directly. `estop()` and `heartbeat()` only touch shared
+counters, so any thread may call them at any time.
+
+Process layout::
+
+    console process ── DeviceClient ── owns the ring (shared memory) and the pipes
+        ├── loop process      (device.loop.process.loop_main): the 2 ms loop, the backend
+        └── recorder process  (device.recording.recorder.recorder_main): ring → trial file
+
+If the loop dies, the recorder closes the trial file itself and the client reports it;
+if the console dies, the loop sees its pipe close, stops the trial and makes the robot
+safe, and both children exit.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import multiprocessing as mp
+import threading
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from core.trial import TrialParameters
+from device.errors import DeviceError
+from device.loop.messages import (
+    BackendConfig,
+    Build,
+    ClearFault,
+    Connect,
+    Disconnect,
+    Reply,
+    SetAssistance,
+    Shutdown,
+    Start,
+    StateChanged,
+    Stop,
+)
+from device.loop.process import LoopConfig, loop_main
+from device.loop.states import State
+from device.recording.record import RECORD_DTYPE
+from device.recording.recorder import recorder_main
+from device.recording.ring import RecordRing, reclaim_stale
+from device.recording.trialfile import SubjectInfo
+from device.safety.supervisor import SafetyLimits
+
+RING_SECONDS = 16.0
+HEARTBEAT_S = 0.1
+
+
+@dataclass(frozen=True, slots=True)
+class LoopLost:
+    """The loop process ended without being asked to (killed, crashed)."""
+
+    exitcode: int | None
+    message: str
+
+
+class DeviceClient:
+    """Start, command and watch the loop; read its records."""
+
+    def __init__(self, *, ring_seconds: float = RING_SECONDS,
+                 loop_config: LoopConfig | None = None, auto_heartbeat: bool = True) -> None:
+        self.loop_config = loop_config or LoopConfig()
+        self.ring_capacity = max(64, round(ring_seconds / self.loop_config.period_s))
+        self.auto_heartbeat = auto_heartbeat
+        self.state = State.IDLE
+        self.ring: RecordRing | None = None
+        self._ids = itertools.count(1)
+        self._pending: list = []
+        self._live_cursor = 0
+        self._stop_beats = threading.Event()
+        self._beats: threading.Thread | None = None
+        self._loop = self._recorder = None
+        self._conn = self._notices = None
+        self._lost_reported = False
+
+    # ------------------------------------------------------------------ life
+    def start(self) -> None:
+        """Create the ring and start the loop and recorder processes (state Idle)."""
+        if self._loop is not None:
+            raise DeviceError("the device link is already started")
+        ctx = mp.get_context("spawn")
+        reclaim_stale()
+        self.ring = RecordRing.create(self.ring_capacity, RECORD_DTYPE)
+        self.estop_flag = ctx.RawValue("b", 0)
+        self.heartbeat_counter = ctx.RawValue("q", 0)
+        self.recording_failed = ctx.RawValue("b", 0)
+        console_end, loop_end = ctx.Pipe(duplex=True)
+        to_recorder_read, to_recorder_write = ctx.Pipe(duplex=False)
+        notices_read, notices_write = ctx.Pipe(duplex=False)
+        self._recorder = ctx.Process(
+            target=recorder_main, name="rehab-recorder",
+            args=(to_recorder_read, notices_write, self.ring.name, self.recording_failed),
+        )
+        self._loop = ctx.Process(
+            target=loop_main, name="rehab-loop",
+            args=(loop_end, to_recorder_write, self.ring.name, self.estop_flag,
+                  self.heartbeat_counter, self.recording_failed, self.loop_config),
+        )
+        self._recorder.start()
+        self._loop.start()
+        # Only the children keep these ends, so a child's death shows as end of file.
+        for end in (loop_end, to_recorder_read, to_recorder_write, notices_write):
+            end.close()
+        self._conn, self._notices = console_end, notices_read
+        self._live_cursor = self.ring.write_count
+        if self.auto_heartbeat:
+            self._beats = threading.Thread(target=self._beat, name="rehab-heartbeat",
+                                           daemon=True)
+            self._beats.start()
+
+    def close(self, timeout: float = 5.0) -> None:
+        """Shut the loop down (a running trial is stopped and saved), wait for both
+        processes and release the ring. Safe to call twice."""
+        self._stop_beats.set()
+        if self._loop is None:
+            return
+        if self._loop.is_alive():
+            with contextlib.suppress(OSError, EOFError):
+                self._conn.send(Shutdown(next(self._ids)))
+        for proc in (self._loop, self._recorder):
+            proc.join(timeout)
+            if proc.is_alive():
+                proc.terminate()
+                proc.join(1.0)
+        for conn in (self._conn, self._notices):
+            conn.close()
+        self.ring.close()
+        self.ring.unlink()
+        self._loop = self._recorder = None
+
+    def __enter__(self) -> DeviceClient:
+        self.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    @property
+    def loop_pid(self) -> int | None:
+        return None if self._loop is None else self._loop.pid
+
+    @property
+    def recorder_pid(self) -> int | None:
+        return None if self._recorder is None else self._recorder.pid
+
+    # ------------------------------------------------------------------ safety lines
+    def estop(self, held: bool = True) -> None:
+        """Press (or release) the emergency stop: the loop zeroes the torque on its next
+        tick and latches the fault until it is released and cleared."""
+        self.estop_flag.value = 1 if held else 0
+
+    def heartbeat(self) -> None:
+        """Tell the loop the console is alive; it must come at least every 0.5 s."""
+        self.heartbeat_counter.value += 1
+
+    def _beat(self) -> None:
+        while not self._stop_beats.wait(HEARTBEAT_S):
+            self.heartbeat()
+
+    # ------------------------------------------------------------------ commands
+    def send(self, command) -> int:
+        try:
+            self._conn.send(command)
+        except (OSError, EOFError) as exc:
+            raise DeviceError("the control loop is not running; restart the console") from exc
+        return command.id
+
+    def request(self, command, timeout: float = 10.0) -> Reply:
+        """Send a command and wait for its reply; other events stay queued for `events`."""
+        ident = self.send(command)
+        deadline = time.monotonic() + timeout
+        while True:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise DeviceError(f"the loop did not answer {type(command).__name__} within "
+                                  f"{timeout:g} s")
+            reply = None
+            for event in self._receive(min(remaining, 0.05)):
+                if reply is None and isinstance(event, Reply) and event.id == ident:
+                    reply = event  # what came with it in the same batch stays queued
+                    continue
+                self._pending.append(event)
+                if isinstance(event, LoopLost):
+                    raise DeviceError(event.message)
+            if reply is not None:
+                return reply
+
+    def build(self, parameters: TrialParameters, backend: BackendConfig | None = None,
+              limits: SafetyLimits | None = None, timeout: float = 30.0) -> Reply:
+        return self.request(Build(next(self._ids), parameters, backend or BackendConfig(),
+                                  limits), timeout)
+
+    def connect(self, timeout: float = 30.0) -> Reply:
+        return self.request(Connect(next(self._ids)), timeout)
+
+    def disconnect(self) -> Reply:
+        return self.request(Disconnect(next(self._ids)))
+
+    def start_trial(self, path: str, subject: SubjectInfo) -> Reply:
+        return self.request(Start(next(self._ids), str(path), subject))
+
+    def stop(self) -> Reply:
+        return self.request(Stop(next(self._ids)))
+
+    def clear_fault(self) -> Reply:
+        return self.request(ClearFault(next(self._ids)))
+
+    def set_assistance(self, level: float) -> Reply:
+        return self.request(SetAssistance(next(self._ids), level))
+
+    # ------------------------------------------------------------------ events and data
+    def events(self, timeout: float = 0.0) -> list:
+        """Everything the loop and the recorder said since the last call."""
+        out, self._pending = self._pending, []
+        out.extend(self._receive(timeout))
+        return out
+
+    def _receive(self, timeout: float) -> list:
+        out = []
+        for conn in (self._conn, self._notices):
+            try:
+                while conn.poll(timeout if conn is self._conn and not out else 0):
+                    out.append(conn.recv())
+            except (EOFError, OSError):
+                if conn is self._conn and not self._lost_reported:
+                    self._lost_reported = True
+                    code = None if self._loop is None else self._loop.exitcode
+                    out.append(LoopLost(code, "the control loop process ended unexpectedly; "
+                                              "the robot is unpowered by its watchdog. Restart "
+                                              "the console before the next trial."))
+        for event in out:
+            if isinstance(event, StateChanged):
+                self.state = State(event.state)
+        return out
+
+    def wait_for(self, predicate, timeout: float = 10.0) -> list:
+        """Collect events until one satisfies `predicate`; returns all of them."""
+        seen = []
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            for event in self.events(0.05):
+                seen.append(event)
+                if predicate(event):
+                    return seen
+        raise DeviceError(f"timed out after {timeout:g} s waiting; saw {seen[-5:]!r}")
+
+    def wait_state(self, state: State, timeout: float = 10.0) -> None:
+        """Return once the loop is in `state` (at once if it already is)."""
+        if self.state == state:
+            return
+        self.wait_for(lambda event: self.state == state, timeout)
+
+    def wait_for_samples(self, n: int = 1, timeout: float = 10.0) -> list:
+        """Return once the loop has pushed `n` more records (ticks with a sensor reading)
+        than when called, collecting the events that came meanwhile: after Connect, the
+        loop has a reading for Start once this returns."""
+        target = self.ring.write_count + n
+        seen = []
+        deadline = time.monotonic() + timeout
+        while self.ring.write_count < target:
+            if time.monotonic() > deadline:
+                raise DeviceError(f"the loop pushed no sample within {timeout:g} s; saw "
+                                  f"{seen[-5:]!r}")
+            seen += self.events(0.005)
+        return seen
+
+    def live_records(self, max_n: int | None = None) -> np.ndarray:
+        """Records pushed since the last call (lossy: skips ahead if the ring wrapped)."""
+        batch = self.ring.read_new(self._live_cursor, max_n)
+        self._live_cursor = batch.cursor
+        return batch.records

@@ -1,0 +1,194 @@
+"""What the processes of a live trial say to each other: typed, picklable messages.
+
+    console (client) ──commands──▶ loop ──trial messages──▶ recorder
+           ◀────────events─────────┘                           │
+           ◀──────────────────────recorder notices─────────────┘
+
+E-stop and the heartbeat do not travel as messages: they are shared counters the loop
+reads every tick (device.loop.client), so neither waits behind anything.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from core.trial import TrialParameters
+from device.recording.trialfile import SubjectInfo
+from device.safety.supervisor import SafetyLimits
+
+# ------------------------------------------------------------------ backends
+BACKEND_KINDS = ("simulator", "quanser")
+
+
+@dataclass(frozen=True, slots=True)
+class BackendConfig:
+    """Which robot the loop drives. Built inside the loop process at Connect.
+
+    simulator: `patient` is a virtual patient kind (device.sim.patients.PATIENT_KINDS).
+    quanser: `hardware_settings` is the TOML file of docs/hardware.md.
+    `fault_scenario` wraps the backend in device.sim.faultinjection.FaultInjectingBackend
+    (commissioning and tests), with `fault_options` as keyword arguments.
+    `timing` (device.backend): None for the backend's own (the simulator is stepped
+    by the nominal period, hardware runs on the wall clock); "real" runs the simulator
+    on the wall clock with the hardware's late-tick watchdog, to rehearse on a PC how
+    the real robot's loop would be timed there.
+    """
+
+    kind: str = "simulator"
+    patient: str = "healthy"
+    seed: int = 0
+    hardware_settings: str | None = None
+    fault_scenario: str | None = None
+    fault_at_s: float = 1.0
+    fault_options: tuple[tuple[str, object], ...] = ()
+    timing: str | None = None
+
+    @property
+    def label(self) -> str:
+        if self.kind == "simulator":
+            clock = ", on the wall clock" if self.timing == "real" else ""
+            return f"simulator ({self.patient}, seed {self.seed}{clock})"
+        return f"quanser ({self.hardware_settings})"
+
+
+# ------------------------------------------------------------------ commands
+@dataclass(frozen=True, slots=True)
+class Build:
+    id: int
+    parameters: TrialParameters
+    backend: BackendConfig = field(default_factory=BackendConfig)
+    limits: SafetyLimits | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Connect:
+    id: int
+
+
+@dataclass(frozen=True, slots=True)
+class Disconnect:
+    id: int
+
+
+@dataclass(frozen=True, slots=True)
+class Start:
+    """Start a trial recorded to `path` (chosen by the app from the registry)."""
+
+    id: int
+    path: str
+    subject: SubjectInfo
+
+
+@dataclass(frozen=True, slots=True)
+class Stop:
+    id: int
+
+
+@dataclass(frozen=True, slots=True)
+class ClearFault:
+    id: int
+
+
+@dataclass(frozen=True, slots=True)
+class SetAssistance:
+    id: int
+    level: float
+
+
+@dataclass(frozen=True, slots=True)
+class Shutdown:
+    id: int
+
+
+COMMAND_TYPES = (Build, Connect, Disconnect, Start, Stop, ClearFault, SetAssistance, Shutdown)
+
+
+# ------------------------------------------------------------------ events to the console
+@dataclass(frozen=True, slots=True)
+class Reply:
+    """The answer to one command: done, or refused with the reason."""
+
+    id: int
+    ok: bool
+    message: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class StateChanged:
+    state: int  # device.loop.states.State
+    reason: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class FaultRaised:
+    code: int  # device.safety.faults.Fault
+    message: str
+    detail: dict
+    time_s: float
+    monotonic_s: float  # time.monotonic() in the loop when it was detected
+
+
+@dataclass(frozen=True, slots=True)
+class TrialStarted:
+    path: str
+    approach_ticks: int
+    total_ticks: int
+
+
+@dataclass(frozen=True, slots=True)
+class TrialEnded:
+    path: str
+    status: str  # complete | stopped_early | faulted | recording_lost
+    summary: dict
+
+
+@dataclass(frozen=True, slots=True)
+class Notice:
+    """Something the therapist or technician should know (real-time setup, a warning)."""
+
+    level: str  # "info" | "warning" | "error"
+    message: str
+
+
+# ------------------------------------------------------------------ loop → recorder
+@dataclass(frozen=True, slots=True)
+class BeginTrial:
+    """Records from ring sequence number `first_seq` on belong to the trial at `path`."""
+
+    path: str
+    first_seq: int
+    parameters: TrialParameters
+    subject: SubjectInfo
+    robot: dict
+    backend: str
+    sample_period_s: float
+
+
+@dataclass(frozen=True, slots=True)
+class TrialEvent:
+    time_s: float
+    tick: int
+    kind: str
+    message: str
+    values: dict
+
+
+@dataclass(frozen=True, slots=True)
+class EndTrial:
+    """The trial's records end before ring sequence number `end_seq`."""
+
+    end_seq: int
+    status: str
+    summary: dict
+
+
+# ------------------------------------------------------------------ recorder → console
+@dataclass(frozen=True, slots=True)
+class RecorderNotice:
+    """The recorder opened or closed a trial file, or could not write it."""
+
+    kind: str  # "opened" | "closed" | "error"
+    path: str
+    status: str = ""
+    message: str = ""
+    samples: int = 0

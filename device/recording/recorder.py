@@ -1,0 +1,228 @@
+"""The recorder: drains the loop's ring in batches into the trial file, in its own process.
+
+It never talks to the robot and the loop never waits for it. It reads the ring every
+`POLL_S`, writes the records of the trial (ring sequence numbers from `BeginTrial.first_seq`
+to `EndTrial.end_seq`) and flushes at least every `FLUSH_S`, so a crash loses at most that
+much. Records outside a trial (connected, at zero torque) are read and dropped, so the ring
+never fills with them.
+
+If the disk fails, the recorder raises the shared `recording_failed` flag (the loop's
+supervisor turns it into a RECORDING_LOST fault and stops the trial) and keeps draining.
+If the loop process dies (its pipe reaches end of file), the recorder writes every record
+the loop had pushed, adds a "loop process lost" event and closes the file as "faulted".
+
+Ordering: the loop sends BeginTrial before it pushes the trial's first record, and the
+recorder reads the ring *before* it reads its messages, so a record of a trial is never
+seen before the message that opens the trial.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import time
+from multiprocessing.connection import Connection
+
+import numpy as np
+
+from device.errors import DeviceError, RecordingError
+from device.loop.messages import BeginTrial, EndTrial, RecorderNotice, TrialEvent
+from device.recording.ring import RecordRing
+from device.recording.trialfile import TrialFileWriter
+
+log = logging.getLogger(__name__)
+
+POLL_S = 0.05
+FLUSH_S = 0.25
+BATCH = 8192
+
+
+class Recorder:
+    """Drains one ring into trial files; one file at a time."""
+
+    def __init__(self, ring: RecordRing, console: Connection | None, failed_flag=None) -> None:
+        self.ring = ring
+        self.console = console
+        self.failed_flag = failed_flag
+        self.cursor = ring.recorder_cursor
+        self.writer: TrialFileWriter | None = None
+        self.first_seq = 0
+        self.end_seq: int | None = None
+        self.end_message: EndTrial | None = None
+        self.last_flush = time.monotonic()
+        self.failed = False
+        self.samples = 0
+
+    # ------------------------------------------------------------------ main
+    def run(self, loop: Connection) -> None:
+        """Until the loop's pipe closes: read the ring, then the messages, then write."""
+        while True:
+            records, seq0 = self._read()
+            loop_alive = True
+            messages = []
+            try:
+                while loop.poll():
+                    messages.append(loop.recv())
+            except (EOFError, OSError):
+                loop_alive = False
+            self._handle(records, seq0, messages)
+            if not loop_alive:
+                self._loop_lost()
+                return
+            self._flush_if_due()
+            if loop.poll(POLL_S):
+                continue
+
+    def _read(self, up_to: int | None = None) -> tuple[np.ndarray, int]:
+        """New records from the ring (all of them, or up to sequence `up_to`)."""
+        seq0 = self.cursor
+        chunks = []
+        while True:
+            limit = BATCH if up_to is None else max(0, min(BATCH, up_to - self.cursor))
+            if limit == 0:
+                break
+            batch = self.ring.read_new(self.cursor, limit)
+            if len(batch.records) == 0:
+                break
+            chunks.append(batch.records)
+            self.cursor = batch.cursor
+            self.ring.commit_read(self.cursor)
+        if not chunks:
+            return np.empty(0, dtype=self.ring.dtype), seq0
+        return np.concatenate(chunks) if len(chunks) > 1 else chunks[0], seq0
+
+    def _handle(self, records: np.ndarray, seq0: int, messages: list) -> None:
+        pending, pending_seq = records, seq0
+        for message in messages:
+            if isinstance(message, BeginTrial):
+                self._write(pending, pending_seq)  # anything of an earlier trial
+                pending, pending_seq = _after(pending, pending_seq, message.first_seq)
+                self._open(message)
+            elif isinstance(message, TrialEvent):
+                self._event(message)
+            elif isinstance(message, EndTrial):
+                # records up to end_seq were pushed before this message was sent
+                more, _ = self._read(up_to=message.end_seq)
+                pending = np.concatenate((pending, more)) if len(more) else pending
+                self._write(pending, pending_seq, end_seq=message.end_seq)
+                pending, pending_seq = _after(pending, pending_seq, message.end_seq)
+                self._close(message.status, message.summary)
+        self._write(pending, pending_seq)
+
+    # ------------------------------------------------------------------ file
+    def _open(self, message: BeginTrial) -> None:
+        if self.writer is not None:
+            self._close("stopped_early", {})
+        self.first_seq = message.first_seq
+        self.samples = 0
+        try:
+            self.writer = TrialFileWriter(
+                message.path, parameters=message.parameters, subject=message.subject,
+                robot=message.robot, backend=message.backend,
+                sample_period_s=message.sample_period_s, channels=_channels_for(self.ring),
+            )
+        except (DeviceError, OSError) as exc:
+            self._fail(message.path, f"cannot create the trial file: {exc}")
+            return
+        self._notify("opened", message.path)
+
+    def _write(self, records: np.ndarray, seq0: int, end_seq: int | None = None) -> None:
+        if self.writer is None or self.failed or len(records) == 0:
+            return
+        start = max(0, self.first_seq - seq0)
+        stop = len(records) if end_seq is None else max(0, min(len(records), end_seq - seq0))
+        if stop <= start:
+            return
+        try:
+            self.writer.append(records[start:stop])
+        except (DeviceError, OSError) as exc:
+            self._fail(str(self.writer.path), str(exc))
+            return
+        self.samples += stop - start
+
+    def _event(self, message: TrialEvent) -> None:
+        if self.writer is None or self.failed:
+            return
+        try:
+            self.writer.add_event(message.time_s, message.tick, message.kind, message.message,
+                                  message.values)
+        except (DeviceError, OSError) as exc:
+            self._fail(str(self.writer.path), str(exc))
+
+    def _close(self, status: str, summary: dict) -> None:
+        writer, self.writer = self.writer, None
+        if writer is None:
+            return
+        if self.failed:
+            status = "recording_lost"
+        try:
+            path = writer.close(status, summary)
+        except (DeviceError, OSError) as exc:
+            self._notify("error", str(writer.path), status, f"could not close the file: {exc}")
+            return
+        self._notify("closed", str(path), status, samples=self.samples)
+        self.failed = False
+        if self.failed_flag is not None:
+            self.failed_flag.value = 0
+
+    def _flush_if_due(self) -> None:
+        if self.writer is None or self.failed:
+            return
+        now = time.monotonic()
+        if now - self.last_flush >= FLUSH_S:
+            self.last_flush = now
+            try:
+                self.writer.flush()
+            except (DeviceError, OSError) as exc:
+                self._fail(str(self.writer.path), str(exc))
+
+    def _fail(self, path: str, reason: str) -> None:
+        self.failed = True
+        if self.failed_flag is not None:
+            self.failed_flag.value = 1
+        log.error("recording failed for %s: %s", path, reason)
+        self._notify("error", path, "recording_lost", reason)
+
+    def _loop_lost(self) -> None:
+        """The loop process is gone: keep what it pushed and close the file as faulted."""
+        records, seq0 = self._read()
+        self._write(records, seq0)
+        if self.writer is not None:
+            self._event(TrialEvent(float("nan"), -1, "fault",
+                                   "the control loop process stopped unexpectedly; the robot's "
+                                   "amplifier watchdog and the backend's close hold it safe",
+                                   {"cause": "loop process lost"}))
+            self._close("faulted", {"loop_process_lost": 1.0})
+
+    def _notify(self, kind: str, path: str, status: str = "", message: str = "",
+                samples: int = 0) -> None:
+        if self.console is None:
+            return
+        # a console that is gone cannot be told; the file is what matters
+        with contextlib.suppress(OSError, EOFError, BrokenPipeError):
+            self.console.send(RecorderNotice(kind, path, status, message, samples))
+
+
+def _after(records: np.ndarray, seq0: int, seq: int) -> tuple[np.ndarray, int]:
+    """The records from sequence number `seq` on."""
+    skip = max(0, min(len(records), seq - seq0))
+    return records[skip:], seq0 + skip
+
+
+def _channels_for(ring: RecordRing):
+    from device.recording.record import CHANNELS, RECORD_DTYPE
+
+    if ring.dtype == RECORD_DTYPE:
+        return CHANNELS
+    raise RecordingError("the ring carries extra channels; pass them to the recorder")
+
+
+def recorder_main(loop_conn, console_conn, ring_name: str, failed_flag) -> None:
+    """Entry point of the recorder process."""
+    logging.basicConfig(level=logging.INFO)
+    ring = RecordRing.attach(ring_name)
+    try:
+        Recorder(ring, console_conn, failed_flag).run(loop_conn)
+    finally:
+        ring.close()
+        console_conn.close()
