@@ -35,9 +35,10 @@ import numpy as np
 from app.trials.reader import read_trial
 from core.trial import THESIS_SUBJECT
 from device.loop.client import DeviceClient
-from device.loop.messages import BackendConfig, RecorderNotice
+from device.loop.messages import BackendConfig
 from device.loop.pipeline import PERIOD_S, TickPipeline, TrialPlan
 from device.loop.process import LoopConfig
+from device.recording.messages import RecorderNotice
 from device.recording.record import RECORD_DTYPE
 from device.recording.ring import RecordRing
 from device.recording.trialfile import SubjectInfo

@@ -25,12 +25,12 @@ from device.loop.messages import (
     BackendConfig,
     FaultRaised,
     Notice,
-    RecorderNotice,
     StateChanged,
     TrialEnded,
     TrialStarted,
 )
 from device.loop.process import LoopConfig
+from device.recording.messages import RecorderNotice
 from device.recording.record import RECORD_DTYPE
 from device.recording.trialfile import SubjectInfo
 from device.safety.supervisor import SafetyLimits

@@ -4,7 +4,8 @@
            ◀────────events─────────┘                           │
            ◀──────────────────────recorder notices─────────────┘
 
-E-stop and the heartbeat do not travel as messages: they are shared counters the loop
+The loop's messages to the recorder, and the recorder's notices to the console, are in
+device.recording.messages. E-stop and the heartbeat do not travel as messages: they are shared counters the loop
 reads every tick (device.loop.client), so neither waits behind anything.
 """
 
@@ -148,47 +149,3 @@ class Notice:
 
     level: str  # "info" | "warning" | "error"
     message: str
-
-
-# ------------------------------------------------------------------ loop → recorder
-@dataclass(frozen=True, slots=True)
-class BeginTrial:
-    """Records from ring sequence number `first_seq` on belong to the trial at `path`."""
-
-    path: str
-    first_seq: int
-    parameters: TrialParameters
-    subject: SubjectInfo
-    robot: dict
-    backend: str
-    sample_period_s: float
-
-
-@dataclass(frozen=True, slots=True)
-class TrialEvent:
-    time_s: float
-    tick: int
-    kind: str
-    message: str
-    values: dict
-
-
-@dataclass(frozen=True, slots=True)
-class EndTrial:
-    """The trial's records end before ring sequence number `end_seq`."""
-
-    end_seq: int
-    status: str
-    summary: dict
-
-
-# ------------------------------------------------------------------ recorder → console
-@dataclass(frozen=True, slots=True)
-class RecorderNotice:
-    """The recorder opened or closed a trial file, or could not write it."""
-
-    kind: str  # "opened" | "closed" | "error"
-    path: str
-    status: str = ""
-    message: str = ""
-    samples: int = 0

@@ -37,12 +37,10 @@ from device.backend import REAL_TIME, SIMULATED, TIMINGS, Backend, SensorReading
 from device.errors import BackendError, DeviceError, StateError
 from device.loop.messages import (
     BackendConfig,
-    BeginTrial,
     Build,
     ClearFault,
     Connect,
     Disconnect,
-    EndTrial,
     FaultRaised,
     Notice,
     Reply,
@@ -52,7 +50,6 @@ from device.loop.messages import (
     StateChanged,
     Stop,
     TrialEnded,
-    TrialEvent,
     TrialStarted,
 )
 from device.loop.pipeline import PERIOD_S, TickPipeline, TrialPlan, idle_record
@@ -64,6 +61,7 @@ from device.loop.realtime import (
     wait_until,
 )
 from device.loop.states import Command, State, refusal
+from device.recording.messages import BeginTrial, EndTrial, TrialEvent
 from device.recording.ring import RecordRing
 from device.safety.faults import Fault
 from device.safety.supervisor import SafetyLimits, SafetySupervisor

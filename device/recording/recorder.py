@@ -26,7 +26,7 @@ from multiprocessing.connection import Connection
 import numpy as np
 
 from device.errors import DeviceError, RecordingError
-from device.loop.messages import BeginTrial, EndTrial, RecorderNotice, TrialEvent
+from device.recording.messages import BeginTrial, EndTrial, RecorderNotice, TrialEvent
 from device.recording.ring import RecordRing
 from device.recording.trialfile import TrialFileWriter
 

@@ -16,9 +16,10 @@ from app.trials.analysis import analyse
 from app.trials.reader import read_trial
 from core.trial import THESIS_SUBJECT
 from device.loop.client import DeviceClient, LoopLost
-from device.loop.messages import BackendConfig, FaultRaised, RecorderNotice, TrialEnded
+from device.loop.messages import BackendConfig, FaultRaised, TrialEnded
 from device.loop.process import LoopConfig
 from device.loop.states import State
+from device.recording.messages import RecorderNotice
 from device.recording.trialfile import SubjectInfo
 from device.safety.faults import Fault
 from device.sim.faultinjection import EXPECTED_FAULT
