@@ -42,7 +42,7 @@ from device.recording.messages import RecorderNotice
 from device.recording.record import RECORD_DTYPE
 from device.recording.ring import RecordRing
 from device.recording.trialfile import SubjectInfo
-from device.safety.supervisor import SafetyLimits
+from device.safety.limits import SafetyLimits
 from device.sim.simulator import SimulatorBackend
 
 CURVES = 8

@@ -26,7 +26,7 @@ from device.loop.realtime import (
     prepare_process,
     timing_warning,
 )
-from device.safety.supervisor import SafetyLimits
+from device.safety.limits import SafetyLimits
 
 
 def main() -> None:

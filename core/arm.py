@@ -36,8 +36,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from core.arrays import as_pairs, matrix2, xp_of
+from core import arm_terms as terms
+from core.arrays import as_pairs, matrix2
 from core.errors import ParameterError, UnreachableError, check_finite, check_positive, check_range
+from core.kernels import suited
 
 # Winter (2009), Table 4.1: segment mass / body mass, centre of mass / segment
 # length from the proximal end, radius of gyration about the centre of mass /
@@ -76,6 +78,8 @@ class ArmModel:
     a11: float = field(init=False)
     a22: float = field(init=False)
     coupling: float = field(init=False)
+    constants: tuple[float, ...] = field(init=False, repr=False, compare=False)
+    """The vector the formulas of core.arm_terms take (its ARM_* names)."""
 
     def __post_init__(self) -> None:
         check_range("upper_arm_m", self.upper_arm_m, *UPPER_ARM_RANGE_M, "m")
@@ -95,6 +99,14 @@ class ArmModel:
         object.__setattr__(self, "a11", iu + mu * cu * cu + mf * self.upper_arm_m**2)
         object.__setattr__(self, "a22", i_f + mf * cf * cf)
         object.__setattr__(self, "coupling", mf * self.upper_arm_m * cf)
+        values = {
+            terms.ARM_LU: self.upper_arm_m, terms.ARM_LF: self.forearm_m,
+            terms.ARM_SX: self.shoulder_x_m, terms.ARM_SY: self.shoulder_y_m,
+            terms.ARM_A11: self.a11, terms.ARM_A22: self.a22, terms.ARM_K: self.coupling,
+            terms.ARM_SIGN: self.elbow_sign,
+        }
+        object.__setattr__(self, "constants",
+                           tuple(float(values[i]) for i in range(terms.ARM_SIZE)))
 
     @classmethod
     def from_subject(
@@ -178,95 +190,51 @@ class ArmModel:
         return 1 if self.side == "right" else -1
 
     # ------------------------------------------------------- component level
+    # Each takes plain floats or numpy arrays of one shape and runs the kernel of the
+    # same name in core.arm_terms, the one copy of each formula.
     def position(self, ts, te):
         """Hand position (x, y), eq. 3.16."""
-        xp = xp_of(ts)
-        return (
-            self.shoulder_x_m - self.upper_arm_m * xp.cos(ts) - self.forearm_m * xp.cos(te),
-            self.shoulder_y_m - self.upper_arm_m * xp.sin(ts) - self.forearm_m * xp.sin(te),
-        )
+        return suited(terms.position, ts)(self.constants, ts, te)
 
     def elbow_position(self, ts, te):
         """Elbow position (x, y)."""
-        xp = xp_of(ts)
-        return (
-            self.shoulder_x_m - self.upper_arm_m * xp.cos(ts),
-            self.shoulder_y_m - self.upper_arm_m * xp.sin(ts),
-        )
+        return suited(terms.elbow_position, ts)(self.constants, ts, te)
 
     def jacobian_terms(self, ts, te):
         """J_A = ∂P_A/∂θ_A as (j11, j12, j21, j22), eq. 3.17."""
-        xp = xp_of(ts)
-        lu, lf = self.upper_arm_m, self.forearm_m
-        return (lu * xp.sin(ts), lf * xp.sin(te), -lu * xp.cos(ts), -lf * xp.cos(te))
+        return suited(terms.jacobian_terms, ts)(self.constants, ts, te)
 
     def jacobian_dot_terms(self, ts, te, tsd, ted):
         """dJ_A/dt as (j11, j12, j21, j22), used in eq. 3.19."""
-        xp = xp_of(ts)
-        lu, lf = self.upper_arm_m, self.forearm_m
-        return (
-            lu * xp.cos(ts) * tsd,
-            lf * xp.cos(te) * ted,
-            lu * xp.sin(ts) * tsd,
-            lf * xp.sin(te) * ted,
-        )
+        return suited(terms.jacobian_dot_terms, ts)(self.constants, ts, te, tsd, ted)
 
     def mass_terms(self, ts, te):
         """M_A as (m11, m12, m22), derived for the absolute angles of eq. 3.16."""
-        xp = xp_of(ts)
-        d = te - ts
-        return (self.a11 + 0.0 * d, self.coupling * xp.cos(d), self.a22 + 0.0 * d)
+        return suited(terms.mass_terms, ts)(self.constants, ts, te)
 
     def coriolis_terms(self, ts, te, tsd, ted):
         """C_A as (c11, c12, c21, c22), Christoffel form (Ṁ_A − 2C_A skew)."""
-        xp = xp_of(ts)
-        d = te - ts
-        g = self.coupling * xp.sin(d)
-        zero = 0.0 * d
-        return (zero, -g * ted, g * tsd, zero)
+        return suited(terms.coriolis_terms, ts)(self.constants, ts, te, tsd, ted)
 
     def inverse_dynamics_terms(self, ts, te, tsd, ted, tsdd, tedd, fx=0.0, fy=0.0):
         """Net joint torques τ_A (shoulder, elbow) for a motion and the hand's force
         on the handle, eq. 3.27: τ_A = M_A θ̈_A + C_A θ̇_A + J_Aᵀ F_hand."""
-        m11, m12, m22 = self.mass_terms(ts, te)
-        _, c12, c21, _ = self.coriolis_terms(ts, te, tsd, ted)
-        j11, j12, j21, j22 = self.jacobian_terms(ts, te)
-        return (
-            m11 * tsdd + m12 * tedd + c12 * ted + j11 * fx + j21 * fy,
-            m12 * tsdd + m22 * tedd + c21 * tsd + j12 * fx + j22 * fy,
-        )
+        return suited(terms.inverse_dynamics_terms, ts)(
+            self.constants, ts, te, tsd, ted, tsdd, tedd, fx, fy)
 
     def forward_dynamics_terms(self, ts, te, tsd, ted, tau_s, tau_e, fx=0.0, fy=0.0):
         """Joint accelerations θ̈_A for net joint torques and the hand's force (eq. 3.27)."""
-        m11, m12, m22 = self.mass_terms(ts, te)
-        _, c12, c21, _ = self.coriolis_terms(ts, te, tsd, ted)
-        j11, j12, j21, j22 = self.jacobian_terms(ts, te)
-        r1 = tau_s - c12 * ted - (j11 * fx + j21 * fy)
-        r2 = tau_e - c21 * tsd - (j12 * fx + j22 * fy)
-        det = m11 * m22 - m12 * m12
-        return ((m22 * r1 - m12 * r2) / det, (m11 * r2 - m12 * r1) / det)
+        return suited(terms.forward_dynamics_terms, ts)(
+            self.constants, ts, te, tsd, ted, tau_s, tau_e, fx, fy)
 
     def kinetic_energy_terms(self, ts, te, tsd, ted):
         """½ θ̇_Aᵀ M_A θ̇_A."""
-        m11, m12, m22 = self.mass_terms(ts, te)
-        return 0.5 * (m11 * tsd * tsd + 2.0 * m12 * tsd * ted + m22 * ted * ted)
+        return suited(terms.kinetic_energy_terms, ts)(self.constants, ts, te, tsd, ted)
 
     def ik_terms(self, x, y):
         """Joint angles (θ_s, θ_e) for a hand position on the anatomical branch
         (elbow flexed the way an elbow bends). Unreachable points give NaN."""
-        xp = xp_of(x)
-        lu, lf = self.upper_arm_m, self.forearm_m
-        vx = self.shoulder_x_m - x
-        vy = self.shoulder_y_m - y
-        cos_elbow = (vx * vx + vy * vy - lu * lu - lf * lf) / (2.0 * lu * lf)
-        if xp is math:
-            if not -1.0 <= cos_elbow <= 1.0:
-                return (math.nan, math.nan)
-        else:
-            cos_elbow = np.where(np.abs(cos_elbow) <= 1.0, cos_elbow, np.nan)
-        elbow = self.elbow_sign * xp.acos(cos_elbow)
-        ts = xp.atan2(vy, vx) - xp.atan2(lf * xp.sin(elbow), lu + lf * xp.cos(elbow))
-        return (ts, ts + elbow)
+        return suited(terms.ik_terms, x)(self.constants, x, y)
 
     def isb_terms(self, ts, te):
         """Display angles in the ISB convention (eq. 3.37–3.38), radians.

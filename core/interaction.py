@@ -13,9 +13,26 @@ import math
 from dataclasses import dataclass
 
 from core.arm import ArmModel
-from core.arrays import solve2_damped, xp_of
+from core.arm_terms import (
+    coriolis_terms as arm_coriolis,
+    ik_terms as arm_ik,
+    jacobian_dot_terms as arm_jacobian_dot,
+    jacobian_terms as arm_jacobian,
+    mass_terms as arm_mass,
+)
+from core.arrays import solve2_damped
 from core.errors import SingularityError
+from core.kernels import kernel, suited
 from core.robot import RobotModel
+from core.robot_terms import (
+    bias_terms as robot_bias,
+    jacobian_dot_terms as robot_jacobian_dot,
+    jacobian_terms as robot_jacobian,
+    mass_terms as robot_mass,
+    position as robot_position,
+)
+
+xp = math
 
 # Below this smallest singular value of J_A (metres per radian) the arm is
 # treated as near-straight and the rates use a damped pseudo-inverse. 0.02 m/rad
@@ -24,14 +41,19 @@ ARM_SINGULAR_THRESHOLD_M = 0.02
 
 
 def sensor_to_global(fx_sensor, fy_sensor, q1, offset_rad=0.0):
-    """Rotate the sensor's planar force into the global frame, eq. 3.35–3.36.
+    """Rotate the sensor's planar force into the global frame, eq. 3.35–3.36 (the kernel
+    `rotated_to_global`, on floats or arrays)."""
+    return suited(rotated_to_global, q1)(fx_sensor, fy_sensor, q1, offset_rad)
 
-    The sensor turns with link 4, whose absolute angle is θ_R1; `offset_rad` is
-    the sensor's mounting angle on that link (0 in the thesis).
-    """
-    xp = xp_of(q1)
+
+@kernel
+def rotated_to_global(fx_sensor, fy_sensor, q1, offset_rad):
+    """The sensor's planar force in the global frame, eq. 3.35–3.36. The sensor turns
+    with link 4, whose absolute angle is θ_R1; `offset_rad` is the sensor's mounting
+    angle on that link (0 in the thesis)."""
     angle = q1 + offset_rad
-    c, s = xp.cos(angle), xp.sin(angle)
+    c = xp.cos(angle)
+    s = xp.sin(angle)
     return (c * fx_sensor - s * fy_sensor, s * fx_sensor + c * fy_sensor)
 
 
@@ -123,54 +145,90 @@ def subject_state(
 
 
 # ----------------------------------------------------------- coupled dynamics
+ARM_DET_MIN_M2 = 1e-9
+"""|det J_A| (m²) below which the arm counts as straight: the coupled model has no
+solution there."""
+
+
 def coupled_forward_dynamics(
     robot: RobotModel, arm: ArmModel, q1, q2, qd1, qd2, tau1, tau2, tau_s, tau_e
 ):
-    """Robot and arm joined rigidly at the handle (eq. 3.26–3.27 under 3.28–3.31).
-
-    With G = J_A⁻¹ J_R, θ̇_A = G θ̇_R and θ̈_A = G θ̈_R + g, g = J_A⁻¹(J̇_R θ̇_R − J̇_A θ̇_A):
-
-        (M_R + Gᵀ M_A G) θ̈_R = τ_R − h_R + Gᵀ (τ_A − C_A θ̇_A − M_A g)
-
-    and the hand's force on the handle follows from the arm's equation,
-    F_hand = J_A⁻ᵀ (τ_A − M_A θ̈_A − C_A θ̇_A).
+    """Robot and arm joined rigidly at the handle (eq. 3.26–3.27 under 3.28–3.31), for
+    given net arm torques τ_A: the kernels `arm_state` and `coupled_motion` on the
+    models' constants.
 
     Plain floats only. Returns (θ̈_R1, θ̈_R2, F_x, F_y, θ_s, θ_e, θ̇_s, θ̇_e).
     Raises SingularityError when the arm is straight (J_A not invertible).
     """
-    ts, te = subject_angles(robot, arm, q1, q2)
-    a11, a12, a21, a22 = arm.jacobian_terms(ts, te)
-    det_a = a11 * a22 - a12 * a21
-    if not abs(det_a) > 1e-9 or math.isnan(ts):
+    r, a = robot.constants, arm.constants
+    ok, ts, te, tsd, ted = arm_state(r, a, q1, q2, qd1, qd2)
+    if not ok:
         x, y = robot.position(q1, q2)
         raise SingularityError(
             f"the subject's arm is straight or out of reach at ({x:.3f}, {y:.3f}) m; "
             "the coupled model has no solution there. Keep the handle within the arm's reach."
         )
+    qdd1, qdd2, fx, fy, *_ = coupled_motion(r, a, q1, q2, qd1, qd2, tau1, tau2, tau_s, tau_e,
+                                            ts, te, tsd, ted)
+    return (qdd1, qdd2, fx, fy, ts, te, tsd, ted)
+
+
+@kernel
+def arm_state(r, a, q1, q2, qd1, qd2):
+    """The arm's angles and rates with the hand on the handle (eq. 3.28, 3.32, exact:
+    θ̇_A = J_A⁻¹ J_R θ̇_R): (ok, θ_s, θ_e, θ̇_s, θ̇_e), ok False where the arm is straight
+    or out of reach. `r` and `a` are the robot's and the arm's constants."""
+    x, y = robot_position(r, q1, q2)
+    ts, te = arm_ik(a, x, y)
+    a11, a12, a21, a22 = arm_jacobian(a, ts, te)
+    det_a = a11 * a22 - a12 * a21
+    if not abs(det_a) > ARM_DET_MIN_M2 or math.isnan(ts):
+        return (False, ts, te, 0.0, 0.0)
+    r11, r12, r21, r22 = robot_jacobian(r, q1, q2)
+    vx = r11 * qd1 + r12 * qd2
+    vy = r21 * qd1 + r22 * qd2
+    return (True, ts, te, (a22 * vx - a12 * vy) / det_a, (a11 * vy - a21 * vx) / det_a)
+
+
+@kernel
+def coupled_motion(r, a, q1, q2, qd1, qd2, tau1, tau2, tau_s, tau_e, ts, te, tsd, ted):
+    """The coupled robot and arm's accelerations for motor torques τ_R and net arm
+    torques τ_A, at the arm state `arm_state` gave. With G = J_A⁻¹ J_R, θ̇_A = G θ̇_R and
+    θ̈_A = G θ̈_R + g, g = J_A⁻¹(J̇_R θ̇_R − J̇_A θ̇_A):
+
+        (M_R + Gᵀ M_A G) θ̈_R = τ_R − h_R + Gᵀ (τ_A − C_A θ̇_A − M_A g)
+
+    and the hand's force on the handle follows from the arm's equation,
+    F_hand = J_A⁻ᵀ (τ_A − M_A θ̈_A − C_A θ̇_A). Returns (θ̈_R1, θ̈_R2, F_x, F_y,
+    θ̈_s, θ̈_e, n11, n12, n22), the last three the inverse coupled mass, which maps a
+    change of motor torque to θ̈_R (the accelerations are affine in τ_R)."""
+    a11, a12, a21, a22 = arm_jacobian(a, ts, te)
+    det_a = a11 * a22 - a12 * a21
     # J_A⁻¹ entries
-    i11, i12, i21, i22 = a22 / det_a, -a12 / det_a, -a21 / det_a, a11 / det_a
-    r11, r12, r21, r22 = robot.jacobian_terms(q1, q2)
+    i11 = a22 / det_a
+    i12 = -a12 / det_a
+    i21 = -a21 / det_a
+    i22 = a11 / det_a
+    r11, r12, r21, r22 = robot_jacobian(r, q1, q2)
     g11 = i11 * r11 + i12 * r21
     g12 = i11 * r12 + i12 * r22
     g21 = i21 * r11 + i22 * r21
     g22 = i21 * r12 + i22 * r22
-    tsd = g11 * qd1 + g12 * qd2
-    ted = g21 * qd1 + g22 * qd2
-    d11, d12, d21, d22 = robot.jacobian_dot_terms(q1, q2, qd1, qd2)
-    e11, e12, e21, e22 = arm.jacobian_dot_terms(ts, te, tsd, ted)
+    d11, d12, d21, d22 = robot_jacobian_dot(r, q1, q2, qd1, qd2)
+    e11, e12, e21, e22 = arm_jacobian_dot(a, ts, te, tsd, ted)
     wx = d11 * qd1 + d12 * qd2 - (e11 * tsd + e12 * ted)
     wy = d21 * qd1 + d22 * qd2 - (e21 * tsd + e22 * ted)
     gs = i11 * wx + i12 * wy
     ge = i21 * wx + i22 * wy
 
-    ma11, ma12, ma22 = arm.mass_terms(ts, te)
-    _, ca12, ca21, _ = arm.coriolis_terms(ts, te, tsd, ted)
+    ma11, ma12, ma22 = arm_mass(a, ts, te)
+    _, ca12, ca21, _ = arm_coriolis(a, ts, te, tsd, ted)
     # arm-side generalised force left after its own bias and the g-part of its inertia
     ps = tau_s - ca12 * ted - (ma11 * gs + ma12 * ge)
     pe = tau_e - ca21 * tsd - (ma12 * gs + ma22 * ge)
 
-    mr11, mr12, mr22 = robot.mass_terms(q1, q2)
-    h1, h2 = robot.bias_terms(q1, q2, qd1, qd2)
+    mr11, mr12, mr22 = robot_mass(r, q1, q2)
+    h1, h2 = robot_bias(r, q1, q2, qd1, qd2)
     # Gᵀ M_A G
     t11 = ma11 * g11 + ma12 * g21
     t12 = ma11 * g12 + ma12 * g22
@@ -192,7 +250,7 @@ def coupled_forward_dynamics(
     ue = tau_e - (ma12 * tsdd + ma22 * tedd) - ca21 * tsd
     fx = i11 * us + i21 * ue
     fy = i12 * us + i22 * ue
-    return (qdd1, qdd2, fx, fy, ts, te, tsd, ted)
+    return (qdd1, qdd2, fx, fy, tsdd, tedd, m22 / det, -m12 / det, m11 / det)
 
 
 def coupled_energy(robot: RobotModel, arm: ArmModel, q1, q2, qd1, qd2) -> float:

@@ -35,7 +35,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from core.arrays import as_pairs, matrix2, xp_of
+from core import robot_terms as terms
+from core.arrays import as_pairs, matrix2
 from core.errors import (
     ParameterError,
     UnreachableError,
@@ -43,6 +44,7 @@ from core.errors import (
     check_non_negative,
     check_positive,
 )
+from core.kernels import suited
 from core.motor import MotorParameters
 
 _DEG = math.pi / 180.0
@@ -187,6 +189,8 @@ class RobotModel:
     motors: tuple[MotorParameters, MotorParameters] = (MotorParameters(), MotorParameters())
     branch: int = 1
     alpha: tuple[float, float, float, float] = field(init=False)
+    constants: tuple[float, ...] = field(init=False, repr=False, compare=False)
+    """The vector the formulas of core.robot_terms take (its R_* names)."""
 
     def __post_init__(self) -> None:
         for name in ("l1_m", "l2_m", "l3_m", "l4_m"):
@@ -206,6 +210,26 @@ class RobotModel:
         if self.branch not in (1, -1):
             raise ParameterError("branch", self.branch, "+1 or -1")
         object.__setattr__(self, "alpha", self._alphas())
+        object.__setattr__(self, "constants", self._constants())
+
+    def _constants(self) -> tuple[float, ...]:
+        fr, st, lim = self.friction, self.stiffness, self.limits
+        values = {
+            terms.R_L2: self.l2_m, terms.R_L4: self.l4_m,
+            terms.R_A1: self.alpha[0], terms.R_A2: self.alpha[1], terms.R_A3: self.alpha[2],
+            terms.R_A4: self.alpha[3],
+            terms.R_FC1: fr.joint_coulomb_Nm[0], terms.R_FC2: fr.joint_coulomb_Nm[1],
+            terms.R_FV1: fr.joint_viscous_Nms[0], terms.R_FV2: fr.joint_viscous_Nms[1],
+            terms.R_VS: fr.joint_smoothing_rad_s, terms.R_EE_C: fr.ee_coulomb_N,
+            terms.R_EE_V: fr.ee_viscous_Ns_m, terms.R_EE_VS: fr.ee_smoothing_m_s,
+            terms.R_K11: st.k11_Nm_rad, terms.R_K12: st.k12_Nm_rad, terms.R_K22: st.k22_Nm_rad,
+            terms.R_Q10: st.q1_rest_rad, terms.R_Q20: st.q2_rest_rad,
+            terms.R_BRANCH: self.branch,
+            terms.R_Q1_MIN: lim.q1_min_rad, terms.R_Q1_MAX: lim.q1_max_rad,
+            terms.R_Q2_MIN: lim.q2_min_rad, terms.R_Q2_MAX: lim.q2_max_rad,
+            terms.R_SPREAD_MIN: lim.spread_min_rad, terms.R_SPREAD_MAX: lim.spread_max_rad,
+        }
+        return tuple(float(values[i]) for i in range(terms.R_SIZE))
 
     def _alphas(self) -> tuple[float, float, float, float]:
         """α1..α4 of eq. 3.11–3.14."""
@@ -249,13 +273,12 @@ class RobotModel:
         return (self.motors[0].max_joint_torque_Nm, self.motors[1].max_joint_torque_Nm)
 
     # ------------------------------------------------------- component level
+    # Each takes plain floats (the 2 ms tick) or numpy arrays of one shape (whole
+    # trials) and runs the kernel of the same name in core.robot_terms, the one copy
+    # of each formula.
     def position(self, q1, q2):
         """End-effector position (x, y), eq. 3.2."""
-        xp = xp_of(q1)
-        return (
-            self.l2_m * xp.cos(q2) + self.l4_m * xp.cos(q1),
-            self.l2_m * xp.sin(q2) + self.l4_m * xp.sin(q1),
-        )
+        return suited(terms.position, q1)(self.constants, q1, q2)
 
     def jacobian_terms(self, q1, q2):
         """J_R = ∂P_R/∂θ_R as (j11, j12, j21, j22), eq. 3.3.
@@ -264,110 +287,53 @@ class RobotModel:
         column first; multiplying it by θ̇_R = (θ̇_R1, θ̇_R2) as eq. 3.4 does
         would swap the joints, so the columns are put in joint order here.
         """
-        xp = xp_of(q1)
-        s1, c1, s2, c2 = xp.sin(q1), xp.cos(q1), xp.sin(q2), xp.cos(q2)
-        return (-self.l4_m * s1, -self.l2_m * s2, self.l4_m * c1, self.l2_m * c2)
+        return suited(terms.jacobian_terms, q1)(self.constants, q1, q2)
 
     def jacobian_dot_terms(self, q1, q2, qd1, qd2):
         """dJ_R/dt as (j11, j12, j21, j22), used in eq. 3.5."""
-        xp = xp_of(q1)
-        s1, c1, s2, c2 = xp.sin(q1), xp.cos(q1), xp.sin(q2), xp.cos(q2)
-        return (
-            -self.l4_m * c1 * qd1,
-            -self.l2_m * c2 * qd2,
-            -self.l4_m * s1 * qd1,
-            -self.l2_m * s2 * qd2,
-        )
+        return suited(terms.jacobian_dot_terms, q1)(self.constants, q1, q2, qd1, qd2)
 
     def mass_terms(self, q1, q2):
         """M_R as (m11, m12, m22), eq. 3.7 with c12, s12 of eq. 3.9–3.10."""
-        xp = xp_of(q1)
-        a1, a2, a3, a4 = self.alpha
-        d = q1 - q2
-        m12 = a2 * xp.cos(d) + a3 * xp.sin(d)
-        return (a1 + 0.0 * d, m12, a4 + 0.0 * d)
+        return suited(terms.mass_terms, q1)(self.constants, q1, q2)
 
     def coriolis_terms(self, q1, q2, qd1, qd2):
         """C_R as (c11, c12, c21, c22), eq. 3.8 (Christoffel form: Ṁ − 2C is skew)."""
-        xp = xp_of(q1)
-        _, a2, a3, _ = self.alpha
-        d = q1 - q2
-        g = a2 * xp.sin(d) - a3 * xp.cos(d)
-        zero = 0.0 * d
-        return (zero, g * qd2, -g * qd1, zero)
+        return suited(terms.coriolis_terms, q1)(self.constants, q1, q2, qd1, qd2)
 
     def friction_terms(self, q1, q2, qd1, qd2):
         """Joint torques of joint friction f_RJ plus end-effector friction J_Rᵀ f_RE."""
-        xp = xp_of(q1)
-        fr = self.friction
-        f1 = fr.joint_coulomb_Nm[0] * xp.tanh(qd1 / fr.joint_smoothing_rad_s) + (
-            fr.joint_viscous_Nms[0] * qd1
-        )
-        f2 = fr.joint_coulomb_Nm[1] * xp.tanh(qd2 / fr.joint_smoothing_rad_s) + (
-            fr.joint_viscous_Nms[1] * qd2
-        )
-        if fr.ee_coulomb_N == 0.0 and fr.ee_viscous_Ns_m == 0.0:
-            return (f1, f2)
-        j11, j12, j21, j22 = self.jacobian_terms(q1, q2)
-        vx = j11 * qd1 + j12 * qd2
-        vy = j21 * qd1 + j22 * qd2
-        speed = xp.sqrt(vx * vx + vy * vy)
-        # tanh(|v|/v_e)/|v| stays finite at rest: it tends to 1/v_e.
-        coulomb_gain = fr.ee_coulomb_N * _tanh_over(xp, speed, fr.ee_smoothing_m_s)
-        fx = (coulomb_gain + fr.ee_viscous_Ns_m) * vx
-        fy = (coulomb_gain + fr.ee_viscous_Ns_m) * vy
-        return (f1 + j11 * fx + j21 * fy, f2 + j12 * fx + j22 * fy)
+        return suited(terms.friction_terms, q1)(self.constants, q1, q2, qd1, qd2)
 
     def stiffness_terms(self, q1, q2):
         """K_R (θ_R − θ_R0) of eq. 3.6."""
-        k = self.stiffness
-        e1 = q1 - k.q1_rest_rad
-        e2 = q2 - k.q2_rest_rad
-        return (k.k11_Nm_rad * e1 + k.k12_Nm_rad * e2, k.k12_Nm_rad * e1 + k.k22_Nm_rad * e2)
+        return suited(terms.stiffness_terms, q1)(self.constants, q1, q2)
 
     def bias_terms(self, q1, q2, qd1, qd2):
         """Everything in eq. 3.6 but M_R θ̈: C_R θ̇ + K_R(θ − θ_R0) + J_Rᵀ f_RE + f_RJ."""
-        _, c12, c21, _ = self.coriolis_terms(q1, q2, qd1, qd2)
-        k1, k2 = self.stiffness_terms(q1, q2)
-        f1, f2 = self.friction_terms(q1, q2, qd1, qd2)
-        return (c12 * qd2 + k1 + f1, c21 * qd1 + k2 + f2)
+        return suited(terms.bias_terms, q1)(self.constants, q1, q2, qd1, qd2)
 
     def inverse_dynamics_terms(self, q1, q2, qd1, qd2, qdd1, qdd2, fx=0.0, fy=0.0):
         """Joint torques τ_R for a motion and a hand force on the handle (eq. 3.26)."""
-        m11, m12, m22 = self.mass_terms(q1, q2)
-        h1, h2 = self.bias_terms(q1, q2, qd1, qd2)
-        j11, j12, j21, j22 = self.jacobian_terms(q1, q2)
-        return (
-            m11 * qdd1 + m12 * qdd2 + h1 - (j11 * fx + j21 * fy),
-            m12 * qdd1 + m22 * qdd2 + h2 - (j12 * fx + j22 * fy),
-        )
+        return suited(terms.inverse_dynamics_terms, q1)(
+            self.constants, q1, q2, qd1, qd2, qdd1, qdd2, fx, fy)
 
     def forward_dynamics_terms(self, q1, q2, qd1, qd2, tau1, tau2, fx=0.0, fy=0.0):
         """Joint accelerations θ̈_R for torques and a hand force on the handle (eq. 3.26)."""
-        m11, m12, m22 = self.mass_terms(q1, q2)
-        h1, h2 = self.bias_terms(q1, q2, qd1, qd2)
-        j11, j12, j21, j22 = self.jacobian_terms(q1, q2)
-        r1 = tau1 + j11 * fx + j21 * fy - h1
-        r2 = tau2 + j12 * fx + j22 * fy - h2
-        det = m11 * m22 - m12 * m12
-        return ((m22 * r1 - m12 * r2) / det, (m11 * r2 - m12 * r1) / det)
+        return suited(terms.forward_dynamics_terms, q1)(
+            self.constants, q1, q2, qd1, qd2, tau1, tau2, fx, fy)
 
     def joint_torque_terms(self, q1, q2, fx, fy):
         """J_Rᵀ F: the joint torques a force F at the end effector produces (eq. 3.34)."""
-        j11, j12, j21, j22 = self.jacobian_terms(q1, q2)
-        return (j11 * fx + j21 * fy, j12 * fx + j22 * fy)
+        return suited(terms.joint_torque_terms, q1)(self.constants, q1, q2, fx, fy)
 
     def kinetic_energy_terms(self, q1, q2, qd1, qd2):
         """½ θ̇ᵀ M_R θ̇."""
-        m11, m12, m22 = self.mass_terms(q1, q2)
-        return 0.5 * (m11 * qd1 * qd1 + 2.0 * m12 * qd1 * qd2 + m22 * qd2 * qd2)
+        return suited(terms.kinetic_energy_terms, q1)(self.constants, q1, q2, qd1, qd2)
 
     def potential_energy_terms(self, q1, q2):
         """½ (θ − θ_R0)ᵀ K_R (θ − θ_R0): the energy the joint stiffness stores."""
-        k = self.stiffness
-        e1 = q1 - k.q1_rest_rad
-        e2 = q2 - k.q2_rest_rad
-        return 0.5 * (k.k11_Nm_rad * e1 * e1 + 2 * k.k12_Nm_rad * e1 * e2 + k.k22_Nm_rad * e2 * e2)
+        return suited(terms.potential_energy_terms, q1)(self.constants, q1, q2)
 
     def ik_terms(self, x, y):
         """Joint angles (θ_R1, θ_R2) for an end-effector position, closed form (eq. 3.1).
@@ -375,18 +341,7 @@ class RobotModel:
         Law of cosines on |P|² = l2² + l4² + 2 l2 l4 cos(θ_R1 − θ_R2), on the
         working branch. Unreachable points give NaN; `ik` raises instead.
         """
-        xp = xp_of(x)
-        l2, l4 = self.l2_m, self.l4_m
-        cos_spread = (x * x + y * y - l2 * l2 - l4 * l4) / (2.0 * l2 * l4)
-        if xp is math:
-            if not -1.0 <= cos_spread <= 1.0:
-                return (math.nan, math.nan)
-        else:
-            cos_spread = np.where(np.abs(cos_spread) <= 1.0, cos_spread, np.nan)
-        spread = self.branch * xp.acos(cos_spread)
-        q2 = xp.atan2(y, x) - xp.atan2(l4 * xp.sin(spread), l2 + l4 * xp.cos(spread))
-        q2 = _wrap_from(xp, q2, self.limits.q2_min_rad)
-        return (q2 + spread, q2)
+        return suited(terms.ik_terms, x)(self.constants, x, y)
 
     # ----------------------------------------------------------- array level
     def fk(self, q) -> np.ndarray:
@@ -483,10 +438,12 @@ class RobotModel:
         return q
 
     def limit_problem(self, q1: float, q2: float) -> str:
-        """Why (θ_R1, θ_R2) is outside the joint limits, or '' if it is inside."""
+        """Why (θ_R1, θ_R2) is outside the joint limits, or '' if it is inside
+        (core.robot_terms.limit_violation, in words)."""
         lim = self.limits
-        spread = (q1 - q2) * self.branch
-        if spread < lim.spread_min_rad or spread > lim.spread_max_rad:
+        violation = terms.limit_violation(self.constants, q1, q2)
+        if violation == terms.SPREAD_OUTSIDE:
+            spread = (q1 - q2) * self.branch
             low, high = math.degrees(lim.spread_min_rad), math.degrees(lim.spread_max_rad)
             return (
                 f"the robot's links would be {math.degrees(spread):.1f}° apart; they must stay "
@@ -494,30 +451,14 @@ class RobotModel:
                 " (near 0° or 180° the parallelogram folds flat). Move the point toward the middle"
                 " of the robot's reach."
             )
-        if not lim.q1_min_rad <= q1 <= lim.q1_max_rad:
+        if violation == terms.Q1_OUTSIDE:
             return (
                 f"joint 1 would be at {math.degrees(q1):.1f}°, outside its limits "
                 f"{math.degrees(lim.q1_min_rad):.0f}–{math.degrees(lim.q1_max_rad):.0f}°"
             )
-        if not lim.q2_min_rad <= q2 <= lim.q2_max_rad:
+        if violation == terms.Q2_OUTSIDE:
             return (
                 f"joint 2 would be at {math.degrees(q2):.1f}°, outside its limits "
                 f"{math.degrees(lim.q2_min_rad):.0f}–{math.degrees(lim.q2_max_rad):.0f}°"
             )
         return ""
-
-
-def _tanh_over(xp, speed, scale):
-    """tanh(speed/scale)/speed, finite (→ 1/scale) at speed 0."""
-    if xp is math:
-        return math.tanh(speed / scale) / speed if speed > 1e-12 else 1.0 / scale
-    safe = np.where(speed > 1e-12, speed, 1.0)
-    return np.where(speed > 1e-12, np.tanh(speed / scale) / safe, 1.0 / scale)
-
-
-def _wrap_from(xp, angle, low):
-    """Wrap `angle` into [low, low + 2π)."""
-    two_pi = 2.0 * math.pi
-    if xp is math:
-        return low + (angle - low) % two_pi
-    return low + np.mod(angle - low, two_pi)

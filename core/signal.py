@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from core.errors import ParameterError, check_positive
+from core.kernels import kernel
 
 NAN_POLICIES = ("raise", "interpolate")
 ORDER_RANGE = (1, 8)
@@ -252,20 +253,25 @@ class RateEstimator:
 
     The first `update` initialises the angle and returns zero rate and
     acceleration. Plain floats only: no numpy in the tick.
+
+    The formula is the kernel `track` below (compiled in the loop, core.kernels);
+    this class validates the cutoff, holds the constants and the state, and primes.
     """
 
-    __slots__ = ("_alpha", "_beta_dt", "_dt", "_gamma_dt2", "_half_dt2", "_primed",
-                 "acceleration", "angle", "cutoff_hz", "dt_s", "rate")
+    __slots__ = ("_constants", "_primed", "_state", "cutoff_hz", "dt_s")
 
     def __init__(self, dt_s: float, cutoff_hz: float) -> None:
         self.dt_s = check_positive("dt_s", dt_s, "s")
         self.cutoff_hz = _check_cutoff(cutoff_hz, 0.5 / self.dt_s)
         xi = math.exp(-2.0 * math.pi * self.cutoff_hz * self.dt_s)
-        self._dt = self.dt_s
-        self._half_dt2 = 0.5 * self.dt_s * self.dt_s
-        self._alpha = 1.0 - xi**3
-        self._beta_dt = 1.5 * (1.0 - xi) ** 2 * (1.0 + xi) / self.dt_s
-        self._gamma_dt2 = (1.0 - xi) ** 3 / (self.dt_s * self.dt_s)
+        self._constants = (
+            self.dt_s,
+            0.5 * self.dt_s * self.dt_s,
+            1.0 - xi**3,
+            1.5 * (1.0 - xi) ** 2 * (1.0 + xi) / self.dt_s,
+            (1.0 - xi) ** 3 / (self.dt_s * self.dt_s),
+        )
+        self._state = [0.0, 0.0, 0.0]
         self.reset()
 
     def reset(self, angle: float | None = None, rate: float = 0.0,
@@ -273,40 +279,68 @@ class RateEstimator:
         """Forget the past. With `angle` given, start from that state; otherwise
         the next `update` initialises from its angle."""
         self._primed = angle is not None
-        self.angle = 0.0 if angle is None else float(angle)
-        self.rate = float(rate)
-        self.acceleration = float(acceleration)
+        self._state[:] = (0.0 if angle is None else float(angle), float(rate),
+                          float(acceleration))
 
     @property
     def primed(self) -> bool:
         """Whether the tracker has its first angle (after `reset(angle)` or one `update`)."""
         return self._primed
 
+    @property
+    def angle(self) -> float:
+        """The tracked angle (rad)."""
+        return self._state[0]
+
+    @property
+    def rate(self) -> float:
+        """The rate estimate (rad/s)."""
+        return self._state[1]
+
+    @property
+    def acceleration(self) -> float:
+        """The acceleration estimate (rad/s²)."""
+        return self._state[2]
+
     def update(self, angle: float) -> tuple[float, float]:
         """Take one measured angle (rad); return (rate rad/s, acceleration rad/s²)."""
+        state = self._state
         if not self._primed:
             self._primed = True
-            self.angle = angle
-            return (self.rate, self.acceleration)
-        dt = self._dt
-        predicted = self.angle + self.rate * dt + self.acceleration * self._half_dt2
-        rate = self.rate + self.acceleration * dt
-        residual = angle - predicted
-        self.angle = predicted + self._alpha * residual
-        self.rate = rate + self._beta_dt * residual
-        self.acceleration += self._gamma_dt2 * residual
-        return (self.rate, self.acceleration)
+            state[0] = angle
+        else:
+            track(self._constants, state, 0, angle)
+        return (state[1], state[2])
 
     @property
     def coefficients(self) -> tuple[float, float, float, float, float]:
-        """(dt, dt²/2, α, β/dt, 2γ/dt²): the numbers `update` works with."""
-        return (self._dt, self._half_dt2, self._alpha, self._beta_dt, self._gamma_dt2)
+        """(dt, dt²/2, α, β/dt, 2γ/dt²): the constants vector of `track`."""
+        return self._constants
 
     @property
     def gains(self) -> tuple[float, float, float]:
         """(α, β, γ) of the tracker, for reports and tests."""
         dt = self.dt_s
-        return (self._alpha, self._beta_dt * dt, 0.5 * self._gamma_dt2 * dt * dt)
+        _, _, alpha, beta_dt, gamma_dt2 = self._constants
+        return (alpha, beta_dt * dt, 0.5 * gamma_dt2 * dt * dt)
+
+
+# The constants of `track` (RateEstimator.coefficients).
+T_DT, T_HALF_DT2, T_ALPHA, T_BETA_DT, T_GAMMA_DT2, T_SIZE = range(6)
+
+
+@kernel
+def track(c, z, i, angle):
+    """One tick of the α-β-γ tracker (RateEstimator) whose state (angle, rate,
+    acceleration) is z[i], z[i + 1], z[i + 2]: predict with constant acceleration,
+    correct by the residual, in place."""
+    dt = c[T_DT]
+    predicted = z[i] + z[i + 1] * dt + z[i + 2] * c[T_HALF_DT2]
+    rate = z[i + 1] + z[i + 2] * dt
+    residual = angle - predicted
+    z[i] = predicted + c[T_ALPHA] * residual
+    z[i + 1] = rate + c[T_BETA_DT] * residual
+    z[i + 2] += c[T_GAMMA_DT2] * residual
 
 
 # ------------------------------------------------------------------ recordings

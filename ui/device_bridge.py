@@ -33,7 +33,7 @@ from device.loop.process import LoopConfig
 from device.recording.messages import RecorderNotice
 from device.recording.record import RECORD_DTYPE
 from device.recording.trialfile import SubjectInfo
-from device.safety.supervisor import SafetyLimits
+from device.safety.limits import SafetyLimits
 
 log = logging.getLogger(__name__)
 

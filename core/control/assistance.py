@@ -62,6 +62,8 @@ from __future__ import annotations
 import math
 
 from core.errors import ParameterError, check_range
+from core.kernels import kernel
+from core.robot_terms import R_SIZE, joint_torque_terms
 from core.trial import TOLERANCE_RANGE_RAD
 
 FORCE_RESOLUTION_N = 1.0 / 24.0
@@ -100,14 +102,19 @@ def check_min_force(min_force_N: float) -> float:
     )
 
 
+# The constants vector of `assisted_torques` (PerformanceAssistance.constants).
+A_TOLERANCE, A_LEVEL, A_MIN_FORCE_SQ, A_SIZE = range(4)
+
+
 class PerformanceAssistance:
     """The scheme of Fig. 3.6 on a robot model; see the module docstring.
 
-    Parameters are validated by name; `level` and `tolerance_rad` may be changed
-    between ticks (`set_level`, `set_tolerance`).
+    The scheme is the kernel `assisted_torques` (compiled in the loop,
+    core.kernels); this class validates its parameters and holds them. `level` and
+    `tolerance_rad` may be changed between ticks (`set_level`, `set_tolerance`).
     """
 
-    __slots__ = ("_level", "_min_force_N", "_min_force_sq", "_robot", "_tolerance_rad")
+    __slots__ = ("_robot", "constants")
 
     def __init__(
         self,
@@ -117,16 +124,14 @@ class PerformanceAssistance:
         level: float = 1.0,
         min_force_N: float = DEFAULT_MIN_FORCE_N,
     ) -> None:
-        if not callable(getattr(robot, "joint_torque_terms", None)):
+        if len(getattr(robot, "constants", ())) != R_SIZE:
             raise ParameterError(
-                "robot", type(robot).__name__, "a robot model with joint_torque_terms",
-                "the reduction is J_Rᵀ F (eq. 3.34)",
+                "robot", type(robot).__name__, "a core.robot.RobotModel",
+                "the reduction is J_Rᵀ F (eq. 3.34), from the robot's Jacobian",
             )
         self._robot = robot
-        self._tolerance_rad = check_tolerance(tolerance_rad)
-        self._level = check_level(level)
-        self._min_force_N = check_min_force(min_force_N)
-        self._min_force_sq = self._min_force_N * self._min_force_N
+        minimum = check_min_force(min_force_N)
+        self.constants = [check_tolerance(tolerance_rad), check_level(level), minimum * minimum]
 
     @property
     def robot(self):
@@ -135,23 +140,23 @@ class PerformanceAssistance:
 
     @property
     def tolerance_rad(self) -> float:
-        return self._tolerance_rad
+        return self.constants[A_TOLERANCE]
 
     @property
     def level(self) -> float:
-        return self._level
+        return self.constants[A_LEVEL]
 
     @property
     def min_force_N(self) -> float:
-        return self._min_force_N
+        return math.sqrt(self.constants[A_MIN_FORCE_SQ])
 
     def set_level(self, level: float) -> None:
         """Change the graded level (0–1); refused by name when out of range."""
-        self._level = check_level(level)
+        self.constants[A_LEVEL] = check_level(level)
 
     def set_tolerance(self, tolerance_rad: float) -> None:
         """Change the cone's half-angle (rad); refused by name when out of range."""
-        self._tolerance_rad = check_tolerance(tolerance_rad)
+        self.constants[A_TOLERANCE] = check_tolerance(tolerance_rad)
 
     def apply(self, q1, q2, tau1, tau2, fx, fy, dir_x, dir_y):
         """Reduce the controller's torques for the subject's in-direction effort.
@@ -163,23 +168,30 @@ class PerformanceAssistance:
         below `min_force_N` or the direction is undefined. NaN inputs leave the
         torques unchanged and the scheme inactive.
         """
-        force_sq = fx * fx + fy * fy
-        dir_sq = dir_x * dir_x + dir_y * dir_y
-        # Written as `not >=` so that NaN readings fall on the inactive side.
-        if not (force_sq >= self._min_force_sq) or not (dir_sq > _MIN_DIRECTION_SQ):
-            return (tau1, tau2, False, math.nan)
-        # atan2 of cross and dot stays accurate near 0 and π, where acos of a
-        # normalised dot product loses half its digits.
-        angle = math.atan2(abs(fx * dir_y - fy * dir_x), fx * dir_x + fy * dir_y)
-        if not (angle <= self._tolerance_rad):
-            return (tau1, tau2, False, angle)
+        return assisted_torques(self._robot.constants, self.constants, q1, q2, tau1, tau2,
+                                fx, fy, dir_x, dir_y)
 
-        level = self._level
-        g1, g2 = self._robot.joint_torque_terms(q1, q2, fx, fy)
-        r1 = level * g1
-        r2 = level * g2
-        if r1 * tau1 > 0.0:
-            tau1 = tau1 - r1 if abs(r1) < abs(tau1) else 0.0
-        if r2 * tau2 > 0.0:
-            tau2 = tau2 - r2 if abs(r2) < abs(tau2) else 0.0
-        return (tau1, tau2, True, angle)
+
+@kernel
+def assisted_torques(robot, a, q1, q2, tau1, tau2, fx, fy, dir_x, dir_y):
+    """PerformanceAssistance.apply on a RobotModel's constants `robot` and the scheme's
+    constants `a`: (τ1, τ2, active, angle)."""
+    force_sq = fx * fx + fy * fy
+    dir_sq = dir_x * dir_x + dir_y * dir_y
+    # Written as `not >=` so that NaN readings fall on the inactive side.
+    if not (force_sq >= a[A_MIN_FORCE_SQ]) or not (dir_sq > _MIN_DIRECTION_SQ):
+        return (tau1, tau2, False, math.nan)
+    # atan2 of cross and dot stays accurate near 0 and π, where acos of a
+    # normalised dot product loses half its digits.
+    angle = math.atan2(abs(fx * dir_y - fy * dir_x), fx * dir_x + fy * dir_y)
+    if not (angle <= a[A_TOLERANCE]):
+        return (tau1, tau2, False, angle)
+    level = a[A_LEVEL]
+    g1, g2 = joint_torque_terms(robot, q1, q2, fx, fy)
+    r1 = level * g1
+    r2 = level * g2
+    if r1 * tau1 > 0.0:
+        tau1 = tau1 - r1 if abs(r1) < abs(tau1) else 0.0
+    if r2 * tau2 > 0.0:
+        tau2 = tau2 - r2 if abs(r2) < abs(tau2) else 0.0
+    return (tau1, tau2, True, angle)

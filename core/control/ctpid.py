@@ -70,6 +70,8 @@ from dataclasses import dataclass
 
 from core.control.base import check_pair, check_torque_limit
 from core.errors import ParameterError
+from core.kernels import kernel
+from core.robot_terms import R_SIZE, inverse_dynamics_terms
 
 _OMEGA_RAD_S = 20.0
 _GAIN_MAX = 1.0e7  # catches a gain in the wrong unit, not a tuning bound
@@ -106,13 +108,24 @@ class CTPIDGains:
             object.__setattr__(self, name, value)
 
 
-class ComputedTorquePID:
-    """Computed-torque PID (eq. 4.8) on any model with `inverse_dynamics_terms`."""
+# The gains vector of the kernels (ComputedTorquePID.constants), per joint; ∫e's clamp
+# is kept on ∫e itself (rad·s): integral_limit_rad_s2 / K_i, 0 when K_i = 0.
+(C_KP1, C_KP2, C_KI1, C_KI2, C_KD1, C_KD2, C_ZMAX1, C_ZMAX2, C_LIM1, C_LIM2,
+ C_SIZE) = range(11)
+# The state between ticks: ∫e per joint and the sign of each joint's saturation.
+I_INT1, I_INT2, I_SAT1, I_SAT2, I_SIZE = range(5)
 
-    __slots__ = (
-        "_int1", "_int2", "_kd", "_ki", "_kp", "_limit", "_model", "_sat1", "_sat2",
-        "_z_max", "gains", "torque_limit_Nm",
-    )
+
+class ComputedTorquePID:
+    """Computed-torque PID (eq. 4.8) on any model with `inverse_dynamics_terms`.
+
+    The law is the kernels below (compiled in the loop, core.kernels): on a
+    RobotModel the whole step is `ctpid_torques`; on any other model (a learned one)
+    the same `ctpid_acceleration` and `ctpid_limit` run around the model's own
+    inverse dynamics. This class validates and holds the gains and the state.
+    """
+
+    __slots__ = ("_model", "_robot", "_state", "constants", "gains", "torque_limit_Nm")
 
     name = "ctpid"
 
@@ -126,19 +139,17 @@ class ComputedTorquePID:
         if not isinstance(gains, CTPIDGains):
             raise ParameterError("gains", type(gains).__name__, "a CTPIDGains")
         self._model = model
+        robot = getattr(model, "constants", None)
+        self._robot = robot if robot is not None and len(robot) == R_SIZE else None
         self.gains = gains
         self.torque_limit_Nm = check_torque_limit(torque_limit_Nm)
-        self._limit = self.torque_limit_Nm
-        self._kp = gains.kp_1_s2
-        self._ki = gains.ki_1_s3
-        self._kd = gains.kd_1_s
-        # The clamp is kept on ∫e itself (rad·s); with K_i = 0 the integral is unused.
-        self._z_max = tuple(
+        z_max = tuple(
             lim / ki if ki > 0.0 else 0.0
             for lim, ki in zip(gains.integral_limit_rad_s2, gains.ki_1_s3, strict=True)
         )
-        self._int1 = self._int2 = 0.0
-        self._sat1 = self._sat2 = 0
+        self.constants = (*gains.kp_1_s2, *gains.ki_1_s3, *gains.kd_1_s, *z_max,
+                          *self.torque_limit_Nm)
+        self._state = [0.0, 0.0, 0.0, 0.0]
 
     @property
     def model(self):
@@ -148,66 +159,91 @@ class ComputedTorquePID:
     @property
     def integral_limit_rad_s(self) -> tuple[float, float]:
         """The clamp on ∫e dt per joint (rad·s): integral_limit_rad_s2 / K_i (0 when K_i = 0)."""
-        return self._z_max
+        return (self.constants[C_ZMAX1], self.constants[C_ZMAX2])
 
     @property
     def integral_rad_s(self) -> tuple[float, float]:
         """∫e dt per joint (rad·s), for logging and tests."""
-        return (self._int1, self._int2)
+        return (self._state[I_INT1], self._state[I_INT2])
 
     @property
     def state(self) -> tuple[float, float, int, int]:
         """(∫e₁, ∫e₂, saturation sign of joint 1, of joint 2): what `step` carries over."""
-        return (self._int1, self._int2, self._sat1, self._sat2)
-
-    def restore_state(self, state) -> None:
-        """Take back a `state` (a compiled copy of this controller ran in between)."""
-        int1, int2, sat1, sat2 = state
-        self._int1, self._int2 = float(int1), float(int2)
-        self._sat1, self._sat2 = int(sat1), int(sat2)
+        z = self._state
+        return (z[I_INT1], z[I_INT2], int(z[I_SAT1]), int(z[I_SAT2]))
 
     def reset(self) -> None:
         """Zero the integral and forget the saturation state."""
-        self._int1 = self._int2 = 0.0
-        self._sat1 = self._sat2 = 0
+        self._state[:] = (0.0, 0.0, 0.0, 0.0)
 
     def step(self, dt_s, q1, q2, qd1, qd2, r1, r2, rd1, rd2, rdd1, rdd2):
         """Joint torques (N·m) of eq. 4.8 for one tick, limited to `torque_limit_Nm`."""
-        e1 = r1 - q1
-        e2 = r2 - q2
-        z1 = self._int1
-        z2 = self._int2
-        # A NaN or a non-positive dt must not poison the integral for the rest of the trial.
-        if dt_s > 0.0 and math.isfinite(e1) and math.isfinite(e2):
-            # Conditional integration: hold a joint's integral while its output sits on
-            # the limit and this error would push it further into that limit.
-            if not (self._sat1 > 0 and e1 > 0.0) and not (self._sat1 < 0 and e1 < 0.0):
-                z1 += e1 * dt_s
-                zm = self._z_max[0]
-                z1 = zm if z1 > zm else (-zm if z1 < -zm else z1)
-            if not (self._sat2 > 0 and e2 > 0.0) and not (self._sat2 < 0 and e2 < 0.0):
-                z2 += e2 * dt_s
-                zm = self._z_max[1]
-                z2 = zm if z2 > zm else (-zm if z2 < -zm else z2)
-            self._int1 = z1
-            self._int2 = z2
-
-        kp, ki, kd = self._kp, self._ki, self._kd
-        a1 = rdd1 + kp[0] * e1 + ki[0] * z1 + kd[0] * (rd1 - qd1)
-        a2 = rdd2 + kp[1] * e2 + ki[1] * z2 + kd[1] * (rd2 - qd2)
+        if self._robot is not None:
+            return ctpid_torques(self._robot, self.constants, self._state, dt_s, q1, q2, qd1,
+                                 qd2, r1, r2, rd1, rd2, rdd1, rdd2)
+        a1, a2 = ctpid_acceleration(self.constants, self._state, dt_s, q1, q2, qd1, qd2,
+                                    r1, r2, rd1, rd2, rdd1, rdd2)
         tau1, tau2 = self._model.inverse_dynamics_terms(q1, q2, qd1, qd2, a1, a2)
+        return ctpid_limit(self.constants, self._state, tau1, tau2)
 
-        lim1, lim2 = self._limit
-        if tau1 > lim1:
-            tau1, self._sat1 = lim1, 1
-        elif tau1 < -lim1:
-            tau1, self._sat1 = -lim1, -1
-        else:
-            self._sat1 = 0
-        if tau2 > lim2:
-            tau2, self._sat2 = lim2, 1
-        elif tau2 < -lim2:
-            tau2, self._sat2 = -lim2, -1
-        else:
-            self._sat2 = 0
-        return (tau1, tau2)
+
+@kernel
+def ctpid_acceleration(gains, z, dt_s, q1, q2, qd1, qd2, r1, r2, rd1, rd2, rdd1, rdd2):
+    """The commanded acceleration a = θ̈_d + K_p e + K_i ∫e + K_d ė of eq. 4.8, with ∫e
+    advanced in the state z (clamped, and held while its joint is saturated and the
+    error would push it further in; the module notes)."""
+    e1 = r1 - q1
+    e2 = r2 - q2
+    z1 = z[I_INT1]
+    z2 = z[I_INT2]
+    # A NaN or a non-positive dt must not poison the integral for the rest of the trial.
+    if dt_s > 0.0 and math.isfinite(e1) and math.isfinite(e2):
+        sat1 = z[I_SAT1]
+        sat2 = z[I_SAT2]
+        if not (sat1 > 0 and e1 > 0.0) and not (sat1 < 0 and e1 < 0.0):
+            z1 += e1 * dt_s
+            zm = gains[C_ZMAX1]
+            z1 = zm if z1 > zm else (-zm if z1 < -zm else z1)
+        if not (sat2 > 0 and e2 > 0.0) and not (sat2 < 0 and e2 < 0.0):
+            z2 += e2 * dt_s
+            zm = gains[C_ZMAX2]
+            z2 = zm if z2 > zm else (-zm if z2 < -zm else z2)
+        z[I_INT1] = z1
+        z[I_INT2] = z2
+    a1 = rdd1 + gains[C_KP1] * e1 + gains[C_KI1] * z1 + gains[C_KD1] * (rd1 - qd1)
+    a2 = rdd2 + gains[C_KP2] * e2 + gains[C_KI2] * z2 + gains[C_KD2] * (rd2 - qd2)
+    return (a1, a2)
+
+
+@kernel
+def ctpid_limit(gains, z, tau1, tau2):
+    """The inverse dynamics' torques clipped to the drive limit, each joint's
+    saturation sign kept in z for the next tick's conditional integration."""
+    lim1 = gains[C_LIM1]
+    lim2 = gains[C_LIM2]
+    if tau1 > lim1:
+        tau1 = lim1
+        z[I_SAT1] = 1.0
+    elif tau1 < -lim1:
+        tau1 = -lim1
+        z[I_SAT1] = -1.0
+    else:
+        z[I_SAT1] = 0.0
+    if tau2 > lim2:
+        tau2 = lim2
+        z[I_SAT2] = 1.0
+    elif tau2 < -lim2:
+        tau2 = -lim2
+        z[I_SAT2] = -1.0
+    else:
+        z[I_SAT2] = 0.0
+    return (tau1, tau2)
+
+
+@kernel
+def ctpid_torques(robot, gains, z, dt_s, q1, q2, qd1, qd2, r1, r2, rd1, rd2, rdd1, rdd2):
+    """One tick of eq. 4.8 on a RobotModel's constants `robot` (core.robot_terms)."""
+    a1, a2 = ctpid_acceleration(gains, z, dt_s, q1, q2, qd1, qd2, r1, r2, rd1, rd2, rdd1,
+                                rdd2)
+    tau1, tau2 = inverse_dynamics_terms(robot, q1, q2, qd1, qd2, a1, a2, 0.0, 0.0)
+    return ctpid_limit(gains, z, tau1, tau2)

@@ -92,6 +92,8 @@ from dataclasses import dataclass
 
 from core.control.base import check_pair, check_torque_limit
 from core.errors import ParameterError
+from core.kernels import kernel
+from core.robot_terms import R_SIZE, coriolis_terms, friction_terms, mass_terms, stiffness_terms
 
 # Upper bounds that catch a typo (a gain in the wrong unit) rather than tune.
 _LAMBDA_MAX_1_S = 100.0  # Λ·dt ≤ 0.2 at the 2 ms tick
@@ -127,29 +129,30 @@ class SMCGains:
             object.__setattr__(self, field, value)
 
 
-_NEEDS = ("mass_terms", "coriolis_terms", "stiffness_terms", "friction_terms")
+# The gains vector of `smc_torques` (SlidingModeController.constants), per joint.
+(S_LAM1, S_LAM2, S_KD1, S_KD2, S_K1, S_K2, S_INV_PHI1, S_INV_PHI2, S_LIM1, S_LIM2,
+ S_SIZE) = range(11)
 
 
 class SlidingModeController:
     """Slotine–Li sliding-mode controller on a `RobotModel` (see the module docstring).
 
+    The law is the kernel `smc_torques` (compiled in the loop, core.kernels); this
+    class validates the gains and the limit and holds them as its `constants`.
     Stateless apart from its parameters: `reset` has nothing to forget.
     """
 
-    __slots__ = (
-        "_boundary_inv", "_k_d", "_k_robust", "_lam", "_limit", "_model", "gains",
-        "torque_limit_Nm",
-    )
+    __slots__ = ("_model", "constants", "gains", "torque_limit_Nm")
 
     name = "smc"
 
     def __init__(self, model, gains: SMCGains | None = None, *, torque_limit_Nm) -> None:
-        missing = [m for m in _NEEDS if not callable(getattr(model, m, None))]
-        if missing:
+        if len(getattr(model, "constants", ())) != R_SIZE:
             raise ParameterError(
-                "model", type(model).__name__, "a robot model with " + ", ".join(_NEEDS),
-                "the sliding-mode law needs M, C, stiffness and friction separately; "
-                "missing " + ", ".join(missing),
+                "model", type(model).__name__,
+                "a core.robot.RobotModel (mass, Coriolis, stiffness and friction terms)",
+                "the sliding-mode law needs M, C, stiffness and friction separately, as "
+                "core.robot_terms computes them from a RobotModel's constants",
             )
         gains = SMCGains() if gains is None else gains
         if not isinstance(gains, SMCGains):
@@ -157,11 +160,9 @@ class SlidingModeController:
         self._model = model
         self.gains = gains
         self.torque_limit_Nm = check_torque_limit(torque_limit_Nm)
-        self._limit = self.torque_limit_Nm
-        self._lam = gains.lambda_1_s
-        self._k_d = gains.k_d_Nms_rad
-        self._k_robust = gains.k_robust_Nm
-        self._boundary_inv = (1.0 / gains.boundary_rad_s[0], 1.0 / gains.boundary_rad_s[1])
+        self.constants = (*gains.lambda_1_s, *gains.k_d_Nms_rad, *gains.k_robust_Nm,
+                          1.0 / gains.boundary_rad_s[0], 1.0 / gains.boundary_rad_s[1],
+                          *self.torque_limit_Nm)
 
     @property
     def model(self):
@@ -173,43 +174,49 @@ class SlidingModeController:
 
     def sliding_variable(self, q1, q2, qd1, qd2, r1, r2, rd1, rd2) -> tuple[float, float]:
         """s = ė + Λ e (rad/s), for logging and tests."""
-        lam1, lam2 = self._lam
+        lam1, lam2 = self.gains.lambda_1_s
         return (rd1 - qd1 + lam1 * (r1 - q1), rd2 - qd2 + lam2 * (r2 - q2))
 
     def step(self, dt_s, q1, q2, qd1, qd2, r1, r2, rd1, rd2, rdd1, rdd2):
         """Joint torques (N·m) of the sliding-mode law for one tick; `dt_s` is unused."""
-        lam1, lam2 = self._lam
-        e1 = r1 - q1
-        e2 = r2 - q2
-        ed1 = rd1 - qd1
-        ed2 = rd2 - qd2
-        s1 = ed1 + lam1 * e1
-        s2 = ed2 + lam2 * e2
-        vr1 = rd1 + lam1 * e1
-        vr2 = rd2 + lam2 * e2
-        ar1 = rdd1 + lam1 * ed1
-        ar2 = rdd2 + lam2 * ed2
+        return smc_torques(self._model.constants, self.constants, q1, q2, qd1, qd2,
+                           r1, r2, rd1, rd2, rdd1, rdd2)
 
-        model = self._model
-        m11, m12, m22 = model.mass_terms(q1, q2)
-        c11, c12, c21, c22 = model.coriolis_terms(q1, q2, qd1, qd2)
-        k1, k2 = model.stiffness_terms(q1, q2)
-        f1, f2 = model.friction_terms(q1, q2, vr1, vr2)
 
-        x1 = s1 * self._boundary_inv[0]
-        x1 = 1.0 if x1 > 1.0 else (-1.0 if x1 < -1.0 else x1)
-        x2 = s2 * self._boundary_inv[1]
-        x2 = 1.0 if x2 > 1.0 else (-1.0 if x2 < -1.0 else x2)
+@kernel
+def smc_torques(robot, gains, q1, q2, qd1, qd2, r1, r2, rd1, rd2, rdd1, rdd2):
+    """τ = M̂ θ̈_r + Ĉ θ̇_r + K̂_R(θ − θ_R0) + f̂(θ̇_r) + K_D s + K sat(s/Φ), clipped to the
+    drive limit (the module notes). `robot` is a RobotModel's constants, `gains` the
+    controller's (S_* names)."""
+    lam1 = gains[S_LAM1]
+    lam2 = gains[S_LAM2]
+    e1 = r1 - q1
+    e2 = r2 - q2
+    ed1 = rd1 - qd1
+    ed2 = rd2 - qd2
+    s1 = ed1 + lam1 * e1
+    s2 = ed2 + lam2 * e2
+    vr1 = rd1 + lam1 * e1
+    vr2 = rd2 + lam2 * e2
+    ar1 = rdd1 + lam1 * ed1
+    ar2 = rdd2 + lam2 * ed2
 
-        tau1 = (
-            m11 * ar1 + m12 * ar2 + c11 * vr1 + c12 * vr2 + k1 + f1
-            + self._k_d[0] * s1 + self._k_robust[0] * x1
-        )
-        tau2 = (
-            m12 * ar1 + m22 * ar2 + c21 * vr1 + c22 * vr2 + k2 + f2
-            + self._k_d[1] * s2 + self._k_robust[1] * x2
-        )
-        lim1, lim2 = self._limit
-        tau1 = lim1 if tau1 > lim1 else (-lim1 if tau1 < -lim1 else tau1)
-        tau2 = lim2 if tau2 > lim2 else (-lim2 if tau2 < -lim2 else tau2)
-        return (tau1, tau2)
+    m11, m12, m22 = mass_terms(robot, q1, q2)
+    c11, c12, c21, c22 = coriolis_terms(robot, q1, q2, qd1, qd2)
+    k1, k2 = stiffness_terms(robot, q1, q2)
+    f1, f2 = friction_terms(robot, q1, q2, vr1, vr2)
+
+    x1 = s1 * gains[S_INV_PHI1]
+    x1 = 1.0 if x1 > 1.0 else (-1.0 if x1 < -1.0 else x1)
+    x2 = s2 * gains[S_INV_PHI2]
+    x2 = 1.0 if x2 > 1.0 else (-1.0 if x2 < -1.0 else x2)
+
+    tau1 = (m11 * ar1 + m12 * ar2 + c11 * vr1 + c12 * vr2 + k1 + f1
+            + gains[S_KD1] * s1 + gains[S_K1] * x1)
+    tau2 = (m12 * ar1 + m22 * ar2 + c21 * vr1 + c22 * vr2 + k2 + f2
+            + gains[S_KD2] * s2 + gains[S_K2] * x2)
+    lim1 = gains[S_LIM1]
+    lim2 = gains[S_LIM2]
+    tau1 = lim1 if tau1 > lim1 else (-lim1 if tau1 < -lim1 else tau1)
+    tau2 = lim2 if tau2 > lim2 else (-lim2 if tau2 < -lim2 else tau2)
+    return (tau1, tau2)

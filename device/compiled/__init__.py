@@ -1,22 +1,20 @@
-"""The compiled tick: the simulator, the controllers, the assistance and the safety
-supervisor's per-tick arithmetic, compiled with numba for headless trials and for the
-live loop's running tick on the simulator.
+"""The compiled flavour of the per-tick kernels: numba, its cache, and loading ahead of use.
 
-Why: a tick in Python costs about 25 µs (the interpreter, not the arithmetic): 80–100×
-real time headless, and 100–200 µs at the 99th percentile in the sleeping loop
-process. Compiled, a headless trial runs at about 1,000× real time and the loop's
-tick at 20–40 µs p99. The Python classes (device.sim.simulator, device.sim.patients,
-core.control, device.safety.supervisor) stay the reference and the owners of the state:
-anything unusual (a learned model in the controller, RK4, a custom patient, the
-hardware) runs there, and the compiled path must give the same records bit for bit
-on the configurations it accepts (tests/device/test_compiled*.py). Anything out of
-the ordinary in a compiled run (a safety check that trips, an arm stretched
-straight, a sensor over its range) is handed back to the Python path, which runs it
-again and writes the exact event.
+Every per-tick formula (the robot's and the arm's terms, the coupled dynamics, the
+virtual patients, the simulator's integrator and sensors, the rate trackers, the
+controllers, the assistance, the safety supervisor's checks, the tick engine) is
+written once, as a kernel in the package it belongs to (core.kernels says what a
+kernel is). This package only compiles those same functions: `jit.compiled(f)` is f
+compiled with every kernel it calls; `cachedir` says where numba keeps the machine code
+and why it is keyed by the kernels' sources; `warmup` compiles or loads the kernels
+before a tick or a timed run needs them.
 
-Modules: `cachedir` and `jit` (numba set-up and its cache), `dynamics` (coupled robot
-and arm, virtual patients, sensors), `control` (rate estimator, SMC, CT-PID,
-assistance), `guard` (the supervisor's checks and clamp), `trial` (a headless trial),
-`looptick` (the live loop's running tick, with its hand-over to the Python objects),
-`warmup` (loading the kernels ahead of use). docs/performance.md has the figures.
+Why compile: a tick interpreted costs tens of µs (the interpreter, not the arithmetic);
+compiled, a headless trial runs at about a thousand times real time and the loop's tick
+at tens of µs at its 99th percentile (docs/performance.md). Interpreted, the same
+kernels are the reference the tests hold the compiled ones to, bit for bit.
+
+May import core, device.sim, device.loop, device.safety (to compile and warm their
+kernels) and numba. Nothing outside the loop process and the headless run imports it,
+so the console's window never loads numba.
 """

@@ -3,7 +3,8 @@ install script asks whether the cache is warm before paying for numba's import).
 
 numba invalidates a cached function only when its own file changes, not when a
 kernel it calls from another file does, so the directory is keyed by a hash of every
-file in this package (and of where it is): any edit starts a fresh cache. Set
+source the kernels may come from (core and device, core.kernels) and of where they
+are: any edit there starts a fresh cache. Set
 REHAB_NUMBA_CACHE to put it elsewhere; where no directory is writable it is None and
 the kernels are compiled in memory only.
 """
@@ -16,14 +17,17 @@ import tempfile
 from pathlib import Path
 
 _PACKAGE = Path(__file__).resolve().parent
+_SOURCES = (_PACKAGE.parents[1] / "core", _PACKAGE.parent)
+"""Where kernels live: core and device (this package's parent)."""
 
 
 def _source_hash() -> str:
     # numba files its cache under the source's path too: two checkouts get two caches
     digest = hashlib.sha256(str(_PACKAGE).encode())
-    for path in sorted(_PACKAGE.glob("*.py")):
-        digest.update(path.name.encode())
-        digest.update(path.read_bytes())
+    for root in _SOURCES:
+        for path in sorted(root.rglob("*.py")):
+            digest.update(str(path.relative_to(root.parent)).encode())
+            digest.update(path.read_bytes())
     return digest.hexdigest()[:16]
 
 
@@ -52,9 +56,10 @@ def _writable_cache_dir() -> Path | None:
 CACHE_DIR = _writable_cache_dir()
 
 
-ENTRY_KERNELS = ("dynamics.evaluate", "dynamics.patient_torque", "trial.run_ticks",
-                 "looptick.loop_tick", "looptick.warm_tick")
-"""The kernels called from Python (the others are compiled into them)."""
+ENTRY_KERNELS = ("engine.run_ticks", "engine.supervised_command", "checks.supervise",
+                 "pipeline.control", "physics.read", "physics.write", "physics.reset")
+"""The kernels called from Python, as numba names their cache files (<module>.<name>);
+the others are compiled into them."""
 
 
 def is_warm() -> bool:

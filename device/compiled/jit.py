@@ -1,19 +1,32 @@
-"""numba, set up once for the compiled tick: one decorator and an on-disk cache
-(device.compiled.cachedir says where, and why it is keyed by the source)."""
+"""numba, set up once: the compiled flavour of the kernels and its on-disk cache.
+
+`compiled(f)` is the kernel `f` (core.kernels) compiled in nopython mode, with every
+kernel it calls compiled too and bound in its private globals (core.kernels.Flavour):
+the same code the interpreted calls run, so the two give the same numbers.
+Floating-point errors give inf/NaN as in numpy (error_model="numpy") rather than
+exceptions: the kernels test their results for finiteness where it matters. The cache
+(device.compiled.cachedir) is keyed by the kernels' sources.
+"""
 
 from __future__ import annotations
 
 from numba import njit
 from numba.core import config
 
+from core.kernels import Flavour
 from device.compiled.cachedir import CACHE_DIR
 
 if CACHE_DIR is not None:
     config.CACHE_DIR = str(CACHE_DIR)
 
 
-def kernel(function):
-    """Compile `function` in nopython mode. Floating-point errors give inf/NaN as in
-    numpy (error_model="numpy") rather than exceptions: the kernels test their
-    results for finiteness and hand anything odd back to the Python path."""
+def _jit(function):
     return njit(cache=CACHE_DIR is not None, nogil=True, error_model="numpy")(function)
+
+
+COMPILED = Flavour(wrap=_jit)
+
+
+def compiled(function):
+    """The compiled `function` (a kernel): one dispatcher per kernel per process."""
+    return COMPILED.of(function)

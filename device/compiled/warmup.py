@@ -18,46 +18,53 @@ from pathlib import Path
 
 from device.compiled.cachedir import CACHE_DIR, is_warm
 
-GROUPS = ("simulator", "headless", "loop")
-"""The Python simulator's (its dynamics and the patients' torques), the headless
-trial's and the live loop's."""
+GROUPS = ("headless", "loop")
+"""The headless run's kernels (run_ticks and the simulator's physics) and the live loop's
+(the tick engine's, the supervisor's and the simulator's)."""
 _loaded: set[str] = set()
 STALE_AFTER_S = 7 * 24 * 3600.0
 
 
 def load_kernels(groups: tuple[str, ...] = GROUPS) -> float:
-    """Call the kernels of `groups` once on placeholder arrays of the real types (their
-    results are thrown away); returns the seconds it took, 0 when already done here."""
+    """Run the kernels of `groups` once, compiled, on a real simulated trial's objects
+    (the results are thrown away), so that their first call, which compiles or loads them,
+    happens here and not in a tick; returns the seconds it took, 0 when already done."""
     todo = [group for group in groups if group not in _loaded]
     if not todo:
         return 0.0
     started = time.perf_counter()
     import numpy as np
 
-    from device.compiled import control as ctl
-    from device.compiled import dynamics as dyn
-    from device.compiled import guard
-    from device.compiled.looptick import _SHADOW, loop_tick, warm_tick
-    from device.compiled.trial import run_ticks
-    from device.recording.record import RECORD_DTYPE
+    from core.trial import THESIS_SUBJECT
+    from device.loop.engine import ROW_SIZE, TickEngine, run_ticks
+    from device.loop.pipeline import TickPipeline, TrialPlan
+    from device.safety.supervisor import SafetySupervisor
+    from device.sim.simulator import SimulatorBackend
 
-    sc, p, kc, gc = (np.zeros(n) for n in (dyn.S_SIZE, dyn.P_SIZE, ctl.K_SIZE, guard.G_SIZE))
-    table, rows, noise = np.zeros((1, 18)), np.zeros((1, 12)), np.zeros((1, 3))
-    episodes = np.zeros(1)
-    x, z, w, c = (np.zeros(n) for n in (dyn.X_SIZE, ctl.Z_SIZE, guard.W_SIZE, ctl.C_SIZE))
-    scratch = np.zeros(15)
-    if "simulator" in todo:
-        dyn.evaluate(sc, p, table, episodes, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, scratch)
-        dyn.patient_torque(p, table, episodes, 0.0, 0.0, 0.0, 0.0, 0.0)
-    if "headless" in todo:
-        dyn.reset(sc, p, table, episodes, 0.0, 0.0, noise, x)
-        run_ticks(0, 0, 0.002, rows, 0, sc, p, table, episodes, x, noise, kc, z, gc, w, c,
-                  scratch, np.zeros(1, dtype=RECORD_DTYPE))
-    if "loop" in todo:
-        loop_tick(0, 0.0, 0.0, 0.0, False, False, rows, 0, sc, p, table, episodes, x, noise,
-                  kc, z, gc, w, c, scratch, np.zeros(dyn.X_SIZE + ctl.Z_SIZE + guard.W_SIZE))
-        warm_tick(0, 0.0, rows, 0, sc, p, table, episodes, x, noise, kc, z, gc, w,
-                  np.zeros(_SHADOW))
+    for controller in ("smc", "ctpid"):
+        params = THESIS_SUBJECT.replace(repetitions=1, controller=controller)
+        plan = TrialPlan.build(params)
+        simulator = SimulatorBackend.from_trial(params, robot=plan.robot, compiled=True)
+        pipeline = TickPipeline(plan, compiled=True)
+        supervisor = SafetySupervisor(plan.robot)
+        simulator.open()
+        reading = simulator.read(0.0)
+        pipeline.begin(reading.q1_rad, reading.q2_rad)
+        if "loop" in todo:
+            engine = TickEngine(simulator, pipeline, supervisor)
+            engine.step(None, 0.002, 0.0, 0.0, False, False)
+            engine.step(0, 0.004, 0.0, 0.0, False, False)
+            pipeline.control(1, simulator.read(0.006))
+        if "headless" in todo:
+            (r, a, c, p, table, episodes), flavour, scratch = simulator.physics
+            v = pipeline.vectors
+            flavour(run_ticks)(
+                0, 1, plan.period_s, r, a, c, p, table, episodes, simulator.state,
+                simulator.noise, scratch, pipeline.kind, v.robot, v.model, v.tracker, v.gains,
+                v.assist, v.rates, v.integral, v.rows, pipeline.approach_ticks,
+                pipeline.sensor_offset_rad, v.last, supervisor.constants, supervisor.state,
+                np.zeros((1, ROW_SIZE)))
+        simulator.close()
     _loaded.update(todo)
     return time.perf_counter() - started
 

@@ -48,7 +48,7 @@ from device.recording.record import RECORD_DTYPE
 from device.recording.recorder import recorder_main
 from device.recording.ring import RecordRing, reclaim_stale
 from device.recording.trialfile import SubjectInfo
-from device.safety.supervisor import SafetyLimits
+from device.safety.limits import SafetyLimits
 
 RING_SECONDS = 16.0
 HEARTBEAT_S = 0.1

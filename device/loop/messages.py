@@ -5,8 +5,9 @@
            ◀──────────────────────recorder notices─────────────┘
 
 The loop's messages to the recorder, and the recorder's notices to the console, are in
-device.recording.messages. E-stop and the heartbeat do not travel as messages: they are shared counters the loop
-reads every tick (device.loop.client), so neither waits behind anything.
+device.recording.messages. E-stop and the heartbeat do not travel as messages: they are
+shared counters the loop reads every tick (device.loop.client), so neither waits behind
+anything.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from dataclasses import dataclass, field
 
 from core.trial import TrialParameters
 from device.recording.trialfile import SubjectInfo
-from device.safety.supervisor import SafetyLimits
+from device.safety.limits import SafetyLimits
 
 # ------------------------------------------------------------------ backends
 BACKEND_KINDS = ("simulator", "quanser")

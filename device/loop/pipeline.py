@@ -23,11 +23,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from core.control.assistance import PerformanceAssistance
+from core.control.assistance import A_LEVEL, PerformanceAssistance, assisted_torques
 from core.control.base import make_controller
-from core.interaction import SubjectState, sensor_to_global, subject_state
+from core.control.ctpid import I_SIZE, ComputedTorquePID, ctpid_torques
+from core.control.smc import SlidingModeController, smc_torques
+from core.errors import ParameterError
+from core.interaction import SubjectState, rotated_to_global, sensor_to_global, subject_state
+from core.kernels import interpreted, kernel
 from core.robot import RobotModel
-from core.signal import RateEstimator
+from core.robot_terms import R_SIZE
+from core.signal import RateEstimator, track
 from core.trial import TrialParameters, check_trial
 from device.backend import SensorReading
 
@@ -119,7 +124,14 @@ class TrialPlan:
 
 
 class TickPipeline:
-    """The state one trial's ticks share: estimators, controller, assistance, reference."""
+    """The state one trial's ticks share: rate trackers, controller, assistance, reference.
+
+    The tick itself is the kernel `control` below, run interpreted on this object's
+    vectors (Python tuples and lists) or, with `compiled=True`, compiled on float
+    arrays, which is what the loop's tick engine and the headless run use
+    (device.loop.engine). A controller the kernel does not know (a computed-torque PID
+    on a learned model, say) runs interpreted, through its own `step`.
+    """
 
     def __init__(
         self,
@@ -129,6 +141,7 @@ class TickPipeline:
         rate_cutoff_hz: float = RATE_CUTOFF_HZ,
         controller=None,
         min_force_N: float | None = None,
+        compiled: bool = False,
     ) -> None:
         self.plan = plan
         params = plan.parameters
@@ -142,39 +155,66 @@ class TickPipeline:
             self.robot, tolerance_rad=params.tolerance_rad, level=params.assistance_level,
             **options,
         )
-        self._est1 = RateEstimator(plan.period_s, rate_cutoff_hz)
-        self._est2 = RateEstimator(plan.period_s, rate_cutoff_hz)
-        self._rows: tuple = plan.exercise_rows
+        self.rate_estimator = RateEstimator(plan.period_s, rate_cutoff_hz)
+        self.kind = _controller_kind(self.controller)
+        if compiled and self.kind == GENERIC:
+            raise ParameterError(
+                "compiled", compiled, "False for this controller",
+                f"a {type(self.controller).__name__} on a {type(self.controller.model).__name__}"
+                " has no compiled form; it runs interpreted through its own step",
+            )
+        self.compiled = compiled
+        self._make = _arrays if compiled else _python
+        self.vectors = Vectors(
+            robot=self._make(self.robot.constants),
+            model=self._make(getattr(self.controller.model, "constants", ())),
+            tracker=self._make(self.rate_estimator.coefficients),
+            gains=self._make(getattr(self.controller, "constants", ())),
+            assist=self._make(self.assistance.constants),
+            rates=self._make([0.0] * Z_SIZE),
+            integral=self._make([0.0] * I_SIZE),
+            last=self._make([0.0] * C_SIZE),
+            rows=self._table(plan.exercise_table),
+        )
         self._approach_ticks = 0
-        self._table = plan.exercise_table
-        self._last = None
+        self._ticked = False
+        self.replacements = _replacements(self.controller, self.kind)
+        """What an interpreted `control` replaces (a controller's own step), for the
+        kernels that call it (device.loop.engine)."""
+        if compiled:
+            from device.compiled.jit import compiled as compile_kernel  # numba only here
+
+            self._control = compile_kernel(control)
+        else:
+            self._control = interpreted(control, self.replacements)
+
+    def _table(self, table: np.ndarray):
+        if self.compiled:
+            return np.ascontiguousarray(table, dtype=float) if len(table) else np.zeros((1, 12))
+        return tuple(map(tuple, table.tolist()))
 
     # ------------------------------------------------------------------ trial
     def begin(self, q1: float, q2: float) -> None:
         """Start a trial from the handle's current pose: plan the approach, reset state."""
         approach = self.plan.approach_table(q1, q2)
         self._approach_ticks = len(approach)
-        self._rows = tuple(map(tuple, approach.tolist())) + self.plan.exercise_rows
-        self._table = np.vstack((approach, self.plan.exercise_table))
+        self.vectors.rows = self._table(np.vstack((approach, self.plan.exercise_table)))
         self.controller.reset()
-        self._est1.reset(q1)
-        self._est2.reset(q2)
+        v = self.vectors
+        v.rates[:] = self._make([q1, 0.0, 0.0, q2, 0.0, 0.0])
+        v.integral[:] = self._make([0.0] * I_SIZE)
+        self._ticked = False
 
     @property
     def total_ticks(self) -> int:
         """Approach + exercise + hold: when the trial is complete."""
-        return len(self._rows) + round(HOLD_S / self.period_s)
+        return len(self.vectors.rows) + round(HOLD_S / self.period_s)
 
     @property
     def reference_rows(self) -> np.ndarray:
         """The reference of the trial `begin` planned, one row per tick of approach and
         exercise: (x_d, y_d, ẋ_d, ẏ_d, direction x, y, θ_d1, θ_d2, θ̇_d1, θ̇_d2, θ̈_d1, θ̈_d2)."""
-        return self._table
-
-    @property
-    def rate_estimators(self) -> tuple[RateEstimator, RateEstimator]:
-        """The joint-rate trackers of joints 1 and 2."""
-        return (self._est1, self._est2)
+        return np.asarray(self.vectors.rows, dtype=float)
 
     @property
     def approach_ticks(self) -> int:
@@ -183,51 +223,43 @@ class TickPipeline:
     @property
     def rates(self) -> tuple[float, float]:
         """The joint-rate estimate of the last `control` call (rad/s)."""
-        return (self._last[1], self._last[2])
+        last = self.vectors.last
+        return (float(last[C_QD1]), float(last[C_QD2]))
 
     @property
     def last_tick(self) -> tuple | None:
         """What the last `control` computed, as `record` reads it (None before the first)."""
-        return self._last
+        if not self._ticked:
+            return None
+        values = [float(v) for v in self.vectors.last]
+        values[C_PHASE] = int(values[C_PHASE])
+        values[C_ACTIVE] = bool(values[C_ACTIVE])
+        return tuple(values)
 
-    def set_last_tick(self, values: tuple) -> None:
-        """Set what `record` and `rates` read, as a compiled `control` computed it (the
-        25 values of `last_tick`, plain floats)."""
-        self._last = values
+    def ticked(self) -> None:
+        """`control` ran outside `control` (the tick engine ran the kernel itself)."""
+        self._ticked = True
 
     def set_assistance_level(self, level: float) -> None:
         self.assistance.set_level(level)
+        self.vectors.assist[A_LEVEL] = self.assistance.level
+
+    def reset_controller(self) -> None:
+        """Forget the controller's integral (after a fault held the torque at zero)."""
+        self.controller.reset()
+        self.vectors.integral[:] = self._make([0.0] * I_SIZE)
 
     # ------------------------------------------------------------------ per tick
     def control(self, k: int, reading: SensorReading) -> tuple[float, float]:
         """Commanded joint torques for tick k of the trial (before the supervisor)."""
-        q1, q2 = reading.q1_rad, reading.q2_rad
-        qd1, qdd1 = self._est1.update(q1)
-        qd2, qdd2 = self._est2.update(q2)
-        rows = self._rows
-        if k < len(rows):
-            row = rows[k]
-            phase = PHASE_APPROACH if k < self._approach_ticks else PHASE_EXERCISE
-        else:
-            row = rows[-1]
-            row = (row[0], row[1], 0.0, 0.0, row[4], row[5], row[6], row[7], 0.0, 0.0, 0.0, 0.0)
-            phase = PHASE_HOLD
-        xd, yd, vxd, vyd, dx, dy, r1, r2, rd1, rd2, rdd1, rdd2 = row
-        tau1, tau2 = self.controller.step(
-            self.period_s, q1, q2, qd1, qd2, r1, r2, rd1, rd2, rdd1, rdd2
-        )
-        fx, fy = sensor_to_global(
-            reading.force_x_N, reading.force_y_N, q1, self.sensor_offset_rad
-        )
-        out1, out2, active, angle = self.assistance.apply(q1, q2, tau1, tau2, fx, fy, dx, dy)
-        if phase != PHASE_EXERCISE:
-            # The subject's effort counts only on the exercise, not on the way to it.
-            out1, out2, active = tau1, tau2, False
-        self._last = (
-            phase, qd1, qd2, qdd1, qdd2, r1, r2, rd1, rd2, rdd1, rdd2, tau1, tau2, out1, out2,
-            xd, yd, vxd, vyd, dx, dy, fx, fy, angle, active,
-        )
-        return out1, out2
+        v = self.vectors
+        self._control(self.kind, v.robot, v.model, v.tracker, v.gains, v.assist, v.rates,
+                      v.integral, k, v.rows,
+                      self._approach_ticks, self.period_s, self.sensor_offset_rad,
+                      reading.q1_rad, reading.q2_rad, reading.force_x_N, reading.force_y_N,
+                      v.last)
+        self._ticked = True
+        return (float(v.last[C_OUT1]), float(v.last[C_OUT2]))
 
     def record(
         self, k: int, reading: SensorReading, wall_s: float, lateness_s: float,
@@ -239,27 +271,164 @@ class TickPipeline:
         A headless run passes with_subject=False and fills the subject's channels for
         the whole trial at once afterwards (`fill_subject_channels`): same formulas,
         vectorised."""
-        (phase, qd1, qd2, qdd1, qdd2, r1, r2, rd1, rd2, rdd1, rdd2, tau1, tau2, out1, out2,
-         xd, yd, vxd, vyd, dx, dy, fx, fy, angle, active) = self._last
+        last = self.last_tick
         q1, q2 = reading.q1_rad, reading.q2_rad
         s = subject_state(
-            self.robot, self.arm, q1, q2, qd1, qd2, qdd1, qdd2,
+            self.robot, self.arm, q1, q2, last[C_QD1], last[C_QD2], last[C_QDD1], last[C_QDD2],
             reading.force_x_N, reading.force_y_N, self.sensor_offset_rad,
         ) if with_subject else _NO_SUBJECT
-        x, y = self.robot.position(q1, q2)
-        return (
-            k, k * self.period_s, wall_s, phase, lateness_s, compute_s,
-            q1, q2, qd1, qd2, qdd1, qdd2,
-            r1, r2, rd1, rd2, rdd1, rdd2,
-            tau1, tau2, out1, out2, applied[0], applied[1],
-            x, y, xd, yd, vxd, vyd, dx, dy,
-            reading.force_x_N, reading.force_y_N, reading.force_z_N, fx, fy,
-            angle, active,
-            s.shoulder_rad, s.elbow_rad, s.shoulder_rate_rad_s, s.elbow_rate_rad_s,
-            s.shoulder_acc_rad_s2, s.elbow_acc_rad_s2,
-            s.shoulder_torque_Nm, s.elbow_torque_Nm, s.isb_shoulder_rad, s.isb_elbow_rad,
-            s.damped, state, fault,
-        )
+        return record_values(k, k * self.period_s, wall_s, lateness_s, compute_s, reading,
+                             last, applied, self.robot.position(q1, q2), s, state, fault)
+
+
+def record_values(tick, time_s, wall_s, lateness_s, compute_s, reading, last, applied,
+                  position, subject, state, fault) -> tuple:
+    """A record's values in `flat_names` order, from a tick's SensorReading, what
+    `control` left (C_*), the torques applied, the handle's position and the subject
+    model's SubjectState: plain numbers for one tick, or arrays for many (a SensorReading
+    and a SubjectState of arrays, `last` indexed by C_* first)."""
+    r, c, s = reading, last, subject
+    return (
+        tick, time_s, wall_s, c[C_PHASE], lateness_s, compute_s,
+        r.q1_rad, r.q2_rad, c[C_QD1], c[C_QD2], c[C_QDD1], c[C_QDD2],
+        c[C_R1], c[C_R2], c[C_RD1], c[C_RD2], c[C_RDD1], c[C_RDD2],
+        c[C_TAU1], c[C_TAU2], c[C_OUT1], c[C_OUT2], applied[0], applied[1],
+        position[0], position[1], c[C_XD], c[C_YD], c[C_VXD], c[C_VYD], c[C_DX], c[C_DY],
+        r.force_x_N, r.force_y_N, r.force_z_N, c[C_FX], c[C_FY], c[C_ANGLE], c[C_ACTIVE],
+        s.shoulder_rad, s.elbow_rad, s.shoulder_rate_rad_s, s.elbow_rate_rad_s,
+        s.shoulder_acc_rad_s2, s.elbow_acc_rad_s2, s.shoulder_torque_Nm, s.elbow_torque_Nm,
+        s.isb_shoulder_rad, s.isb_elbow_rad, s.damped, state, fault,
+    )
+
+
+@dataclass(slots=True)
+class Vectors:
+    """What the `control` kernel works on: the robot's constants, the controller's model's
+    (core.robot_terms), the rate tracker's, the controller's gains, the assistance's
+    constants; the trackers' state (angle,
+    rate, acceleration of each joint, Z_*), the controller's integral (core.control.ctpid
+    I_*), the last tick's values (C_*), and the reference rows."""
+
+    robot: object
+    model: object
+    tracker: object
+    gains: object
+    assist: object
+    rates: object
+    integral: object
+    last: object
+    rows: object
+
+
+# The trackers' state in `rates`.
+Z_ANGLE1, Z_RATE1, Z_ACC1, Z_ANGLE2, Z_RATE2, Z_ACC2, Z_SIZE = range(7)
+# What `control` leaves in `last`, the record's view of the tick (TickPipeline.last_tick).
+(C_PHASE, C_QD1, C_QD2, C_QDD1, C_QDD2, C_R1, C_R2, C_RD1, C_RD2, C_RDD1, C_RDD2, C_TAU1,
+ C_TAU2, C_OUT1, C_OUT2, C_XD, C_YD, C_VXD, C_VYD, C_DX, C_DY, C_FX, C_FY, C_ANGLE, C_ACTIVE,
+ C_SIZE) = range(26)
+# Which law `controller_torques` runs.
+SMC, CTPID, GENERIC = 0, 1, 2
+
+
+def _controller_kind(controller) -> int:
+    on_a_robot_model = len(getattr(controller.model, "constants", ())) == R_SIZE
+    if type(controller) is SlidingModeController and on_a_robot_model:
+        return SMC
+    if type(controller) is ComputedTorquePID and on_a_robot_model:
+        return CTPID
+    return GENERIC
+
+
+def _python(values):
+    return list(values)
+
+
+def _arrays(values):
+    return np.asarray(values, dtype=float).copy()
+
+
+def _replacements(controller, kind: int) -> dict:
+    """What the interpreted `control` replaces for a controller the kernels do not know:
+    its own `step` in place of `controller_torques`."""
+    if kind != GENERIC:
+        return {}
+    step = controller.step
+
+    def own_law(kind, model, gains, integral, dt_s, q1, q2, qd1, qd2, r1, r2, rd1, rd2,
+                rdd1, rdd2):
+        return step(dt_s, q1, q2, qd1, qd2, r1, r2, rd1, rd2, rdd1, rdd2)
+
+    return {"controller_torques": own_law}
+
+
+@kernel
+def controller_torques(kind, model, gains, integral, dt_s, q1, q2, qd1, qd2, r1, r2, rd1, rd2,
+                       rdd1, rdd2):
+    """The trial's controller: the sliding-mode law or the computed-torque PID
+    (core.control), on its model's constants."""
+    if kind == SMC:
+        return smc_torques(model, gains, q1, q2, qd1, qd2, r1, r2, rd1, rd2, rdd1, rdd2)
+    return ctpid_torques(model, gains, integral, dt_s, q1, q2, qd1, qd2, r1, r2, rd1, rd2,
+                         rdd1, rdd2)
+
+
+@kernel
+def control(kind, robot, model, tracker, gains, assist, rates, integral, tick, rows,
+            approach_ticks, period_s, sensor_offset_rad, q1, q2, force_x, force_y, last):
+    """One tick up to the commanded torque, in the order of Fig. 3.6: rate estimate →
+    reference → controller → performance-based assistance. Writes `last` (C_*); the
+    command is last[C_OUT1], last[C_OUT2]."""
+    track(tracker, rates, Z_ANGLE1, q1)
+    track(tracker, rates, Z_ANGLE2, q2)
+    qd1 = rates[Z_RATE1]
+    qdd1 = rates[Z_ACC1]
+    qd2 = rates[Z_RATE2]
+    qdd2 = rates[Z_ACC2]
+    n = len(rows)
+    if tick < n:
+        row = rows[tick]
+        phase = PHASE_APPROACH if tick < approach_ticks else PHASE_EXERCISE
+        xd, yd, vxd, vyd, dx, dy = row[0], row[1], row[2], row[3], row[4], row[5]
+        r1, r2, rd1, rd2, rdd1, rdd2 = row[6], row[7], row[8], row[9], row[10], row[11]
+    else:
+        # the hold: at rest at the last reference point
+        row = rows[n - 1]
+        phase = PHASE_HOLD
+        xd, yd, vxd, vyd, dx, dy = row[0], row[1], 0.0, 0.0, row[4], row[5]
+        r1, r2, rd1, rd2, rdd1, rdd2 = row[6], row[7], 0.0, 0.0, 0.0, 0.0
+    tau1, tau2 = controller_torques(kind, model, gains, integral, period_s, q1, q2, qd1, qd2,
+                                    r1, r2, rd1, rd2, rdd1, rdd2)
+    fx, fy = rotated_to_global(force_x, force_y, q1, sensor_offset_rad)
+    out1, out2, active, angle = assisted_torques(robot, assist, q1, q2, tau1, tau2, fx, fy,
+                                                 dx, dy)
+    if phase != PHASE_EXERCISE:
+        # The subject's effort counts only on the exercise, not on the way to it.
+        out1, out2, active = tau1, tau2, False
+    last[C_PHASE] = phase
+    last[C_QD1] = qd1
+    last[C_QD2] = qd2
+    last[C_QDD1] = qdd1
+    last[C_QDD2] = qdd2
+    last[C_R1] = r1
+    last[C_R2] = r2
+    last[C_RD1] = rd1
+    last[C_RD2] = rd2
+    last[C_RDD1] = rdd1
+    last[C_RDD2] = rdd2
+    last[C_TAU1] = tau1
+    last[C_TAU2] = tau2
+    last[C_OUT1] = out1
+    last[C_OUT2] = out2
+    last[C_XD] = xd
+    last[C_YD] = yd
+    last[C_VXD] = vxd
+    last[C_VYD] = vyd
+    last[C_DX] = dx
+    last[C_DY] = dy
+    last[C_FX] = fx
+    last[C_FY] = fy
+    last[C_ANGLE] = angle
+    last[C_ACTIVE] = 1.0 if active else 0.0
 
 
 _NO_SUBJECT = SubjectState(*(math.nan,) * 12, False)

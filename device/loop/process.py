@@ -1,15 +1,19 @@
 """The 2 ms control loop, in its own process.
 
-Every tick while connected: read the sensors → (running: pipeline → controller →
-assistance) → safety supervisor → write the torques → push one record into the ring.
-Commands arrive on a pipe polled once per tick; e-stop and the console's heartbeat are
-shared counters read every tick. The loop never logs, never touches a file and never
-waits on anything but its own deadline.
+Every period while a backend is connected the loop waits for its deadline, runs one
+tick of the tick engine (device.loop.engine: sensors → while a trial runs, rate
+estimate, reference, controller, assistance → safety supervisor → motors), pushes the
+tick's record into the ring and lets the state it is in do its part (a running trial
+advances, a stopping one waits for its file). Commands arrive on a pipe and are taken
+in the slack before each deadline; e-stop and the console's heartbeat are shared
+counters read every tick. The loop never logs, never touches a file and never waits on
+anything but its own deadline.
 
 Why a process and not a thread: a thread beside a live pyqtgraph window missed 4–9 % of
 2 ms deadlines on a 2-core machine because of the GIL; a process keeps ~1 %
-(ARCHITECTURE.md). It is also a safety boundary: if the console dies, the pipe closes and
-the loop stops the trial at once and puts the robot in its safe state by itself.
+(docs/architecture.md). It is also a safety boundary: if the console dies, the pipe
+closes and the loop stops the trial at once and puts the robot in its safe state by
+itself.
 
 Time: the loop keeps absolute 2 ms deadlines on the wall clock and records how late
 each tick started. What a late tick means depends on whose clock the robot lives on
@@ -17,9 +21,13 @@ each tick started. What a late tick means depends on whose clock the robot lives
 more than 10 ms late; a simulated one is stepped by exactly one period per tick, so a
 stall of the host delays the simulation, is recorded and shown, and stops nothing.
 Before a real robot is opened, Connect checks for a second whether this machine wakes
-the loop on time and tells the therapist when it does not.
+the loop on time and tells the therapist when it does not. `LoopConfig(clock="own")`
+gives the loop a clock of its own (device.loop.realtime.OwnClock) on which only an
+injected delay makes a tick late, so the watchdog can be proved on any machine.
 
-State machine: device.loop.states. Faults: device.safety.supervisor (latched until cleared).
+States: device.loop.states (which command leads where); each state's behaviour is
+here: what entering and leaving it does (`_entered`, `_leaving`) and what it does every
+tick (`_during`). Faults: device.safety (latched until cleared).
 """
 
 from __future__ import annotations
@@ -35,6 +43,7 @@ from core.errors import ParameterError
 from core.trial import TrialParameters
 from device.backend import REAL_TIME, SIMULATED, TIMINGS, Backend, SensorReading
 from device.errors import BackendError, DeviceError, StateError
+from device.loop.engine import TickEngine
 from device.loop.messages import (
     BackendConfig,
     Build,
@@ -52,25 +61,28 @@ from device.loop.messages import (
     TrialEnded,
     TrialStarted,
 )
-from device.loop.pipeline import PERIOD_S, TickPipeline, TrialPlan, idle_record
+from device.loop.pipeline import PERIOD_S, TickPipeline, TrialPlan
 from device.loop.realtime import (
+    CLOCKS,
     LAST_CPU,
     measure_wakeups,
     prepare_process,
     timing_warning,
-    wait_until,
 )
-from device.loop.states import Command, State, refusal
+from device.loop.states import TRANSITIONS, Command, State, refusal
 from device.recording.messages import BeginTrial, EndTrial, TrialEvent
 from device.recording.ring import RecordRing
 from device.safety.faults import Fault
-from device.safety.supervisor import SafetyLimits, SafetySupervisor
+from device.safety.limits import SafetyLimits
+from device.safety.supervisor import SafetySupervisor
 
-NO_READING = SensorReading(math.nan, math.nan, math.nan, math.nan, math.nan, math.nan)
 STOPPING_TIMEOUT_S = 2.0
 """Longest wait in Stopping for the recorder to take the trial's last samples."""
 WORKSPACE_MARGIN_M = 0.10
 """The end effector may leave the exercise's path by this much before WORKSPACE trips."""
+NOISE_RESERVE = 1000
+"""Simulated sensor-noise rows (2 s of ticks) kept ahead, drawn between ticks so that no
+tick pays for a draw."""
 
 _COMMANDS = {
     Build: Command.BUILD, Connect: Command.CONNECT, Disconnect: Command.DISCONNECT,
@@ -80,9 +92,11 @@ _COMMANDS = {
 
 
 SLACK_S = 200e-6
-"""Time before each deadline for commands and for rehearsing the compiled tick on a
-copy of its state (device.compiled.looptick): enough for a command and a cold
-rehearsal, short enough that the caches are still warm when the real tick runs."""
+"""Time before each deadline for commands: enough for one, short enough that the tick's
+code and data are still warm in the caches when it runs."""
+
+LATER = object()
+"""A command handler's answer when it is carried out at the next tick (its reply then)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -91,15 +105,19 @@ class LoopConfig:
     cpu: int | None = LAST_CPU  # None: any CPU
     realtime: bool = True
     compiled: bool = True
-    """Run the simulator's trial ticks compiled (device.compiled.looptick) when the
-    configuration allows; False keeps every tick in Python."""
+    """Run the tick's kernels compiled (device.loop.engine); False runs them interpreted."""
     timing_check_s: float = 1.0
     """How long Connect measures this machine's wake-up lateness before it opens a
     REAL_TIME backend (device.loop.realtime.timing_warning); 0 skips the check."""
+    clock: str = "wall"
+    """The loop's clock (device.loop.realtime.CLOCKS): "wall", or "own" to prove the
+    watchdog by injection whatever the machine's stalls (see the module notes)."""
 
 
-def make_backend(config: BackendConfig, params: TrialParameters, plan: TrialPlan) -> Backend:
-    """The backend a BackendConfig names, built inside the loop process."""
+def make_backend(config: BackendConfig, params: TrialParameters, plan: TrialPlan,
+                 sleep=time.sleep) -> Backend:
+    """The backend a BackendConfig names, built inside the loop process. `sleep` is how a
+    fault-injected slow read waits (the loop's clock's)."""
     if config.timing not in (None, *TIMINGS):
         raise BackendError(f"unknown timing {config.timing!r}; use {' or '.join(TIMINGS)}")
     if config.kind == "simulator":
@@ -127,7 +145,7 @@ def make_backend(config: BackendConfig, params: TrialParameters, plan: TrialPlan
         from device.sim.faultinjection import FaultInjectingBackend
 
         backend = FaultInjectingBackend(backend, config.fault_scenario, at_s=config.fault_at_s,
-                                        **dict(config.fault_options))
+                                        sleep=sleep, **dict(config.fault_options))
     return backend
 
 
@@ -150,7 +168,7 @@ def sensor_offset_for(config: BackendConfig) -> float:
 
 
 class DeviceLoop:
-    """The loop's state and its tick. One instance per loop process."""
+    """The loop's state and its ticks. One instance per loop process."""
 
     def __init__(self, console: Connection, recorder: Connection | None, ring: RecordRing,
                  estop_flag, heartbeat, recording_failed, config: LoopConfig) -> None:
@@ -161,6 +179,7 @@ class DeviceLoop:
         self.heartbeat = heartbeat
         self.recording_failed = recording_failed
         self.config = config
+        self.clock = CLOCKS[config.clock]()
         self.state = State.IDLE
         self.console_lost = False
         self.plan: TrialPlan | None = None
@@ -169,6 +188,7 @@ class DeviceLoop:
         self.backend: Backend | None = None
         self.supervisor: SafetySupervisor | None = None
         self.pipeline: TickPipeline | None = None
+        self.engine: TickEngine | None = None
         self.sensor_offset_rad = 0.0
         self.reading: SensorReading | None = None
         self.trial_path = ""
@@ -181,15 +201,15 @@ class DeviceLoop:
         self.paused = False
         self.t0 = 0.0
         self.trial_start_sample_s = 0.0
-        self.compiled = None  # device.compiled.looptick.CompiledTick during a trial
+        self.later: list = []  # commands carried out at the next tick
 
     # ------------------------------------------------------------------ main
     def run(self) -> None:
         while not self.shutdown:
-            if self.state in (State.IDLE, State.BUILT):
-                self._idle_wait()
+            if self.state.ticking:
+                self._ticks()
             else:
-                self._run_connected()
+                self._idle_wait()
         self._disconnect_backend()
 
     def _idle_wait(self) -> None:
@@ -203,172 +223,121 @@ class DeviceLoop:
         if self.console_lost:
             self.shutdown = True
 
-    def _run_connected(self) -> None:
-        cfg = self.config
-        period = cfg.period_s
-        clock = time.perf_counter
-        t0 = self.t0 = clock()
-        deadline = t0 + period
-        beat = self.heartbeat.value
-        beat_seen = t0
-        push = self.ring.push
-        overwrite = self.ring.would_overwrite_unrecorded
-        supervisor = self.supervisor
-        backend = self.backend
-        simulated = backend.timing == SIMULATED
+    def _ticks(self) -> None:
+        """Every period while connected: wait → commands in the slack → wait → tick."""
+        clock, period = self.clock, self.config.period_s
+        self.t0 = clock.now()
+        deadline, overrun = self.t0 + period, 0.0
+        self._beat = (self.heartbeat.value, self.t0)
         k = 0
-        overrun = 0.0
-        while self.state in (State.CONNECTED, State.RUNNING, State.STOPPING, State.FAULTED):
-            # The slack before the deadline: commands, then a rehearsal of the tick, so
-            # that the tick itself is only sensors → torque (its compute time).
-            wait_until(deadline - SLACK_S, clock)
-            if self.console.poll():
-                if self.compiled is not None:
-                    self.compiled.hand_back()
+        while self.state.ticking and not self.shutdown:
+            clock.wait_until(deadline - SLACK_S)
+            if self._commands_waiting():
                 self._handle_commands()
-                if self.state not in (State.CONNECTED, State.RUNNING, State.STOPPING,
-                                      State.FAULTED):
+                if not self.state.ticking:
                     break
-                supervisor, backend = self.supervisor, self.backend
-                simulated = backend.timing == SIMULATED
-                if self.paused:
-                    # Build, Connect and Start compute tables (milliseconds of numpy) at
-                    # zero torque; the schedule restarts from now instead of counting
-                    # the pause as late ticks.
-                    self.paused = False
-                    deadline, overrun = clock() + SLACK_S, 0.0
-                self._take_over()
-            compiled = self.compiled
-            if compiled is not None and compiled.active and self.state == State.RUNNING:
-                compiled.warm(self.trial_tick, k * period if simulated else deadline - t0)
-            now = wait_until(deadline, clock)
-            lateness = max(now - deadline, overrun)
-            overrun = 0.0
-            loop_t = now - t0
-            # The robot's clock (device.backend): a real robot moves on the wall clock, so
-            # its supervisor must see how late the tick is; a simulated one is stepped by
-            # one period per tick, and on its clock no tick is late. The wall-clock
-            # lateness is recorded either way.
-            if simulated:
-                robot_t, robot_lateness = k * period, 0.0
-            else:
-                robot_t, robot_lateness = loop_t, lateness
-            value = self.heartbeat.value
-            if value != beat:
-                beat, beat_seen = value, now
-            beat_age = math.inf if self.console_lost else now - beat_seen
-            estop = bool(self.estop_flag.value)
-            written = None
-            if compiled is not None and compiled.active and self.state == State.RUNNING:
-                lost = bool(self.recording_failed.value) or overwrite()
-                written = compiled.tick(self.trial_tick, robot_t, robot_lateness, beat_age,
-                                        estop, lost)
-            if written is not None:
-                # an ordinary running tick, done compiled; anything else comes back here
-                # undone and runs below in Python
-                out1, out2 = written
-                fault = Fault.NONE
-                compute = clock() - now
-                reading = SensorReading._make(compiled.reading())
-                self.reading = reading
-                self.pipeline.set_last_tick(compiled.last_tick())
-                running = True
-            else:
-                try:
-                    reading = backend.read(robot_t)
-                except BackendError as exc:
-                    reading = exc
-                running = self.state == State.RUNNING and isinstance(reading, SensorReading)
-                if running:
-                    tau1, tau2 = self.pipeline.control(self.trial_tick, reading)
-                    rate1, rate2 = self.pipeline.rates
-                else:
-                    tau1 = tau2 = rate1 = rate2 = 0.0
-                lost = bool(self.recording_failed.value) or (overwrite() and self.state ==
-                                                             State.RUNNING)
-                out1, out2, fault = supervisor.step(
-                    robot_t, reading, rate1, rate2, tau1, tau2, robot_lateness, beat_age, estop,
-                    lost,
-                )
-                try:
-                    backend.write(out1, out2)
-                except BackendError:
-                    backend.safe_state()
-                compute = clock() - now
-                if running:
-                    self.reading = reading
-            if running:
-                record = self.pipeline.record(
-                    self.trial_tick, reading, loop_t, lateness, compute, (out1, out2),
-                    int(self.state), int(fault))
-            else:
-                if isinstance(reading, SensorReading):
-                    self.reading = reading
-                else:
-                    reading = NO_READING  # a failed read still leaves its tick in the record
-                tick = self.trial_tick if self.state == State.RUNNING else k
-                record = idle_record(
-                    self.plan.robot, self.pipeline.arm, tick, reading, loop_t, lateness,
-                    compute, int(self.state), int(fault), period, self.sensor_offset_rad)
-            if not overwrite():
-                push(record)
-            if fault and fault != self.fault_reported:
-                self._on_fault(fault, loop_t)
-            elif running:
-                self._advance_trial(backend)
-            elif self.state == State.STOPPING:
-                if self.ring.recorder_cursor >= self.end_seq:
-                    self._set_state(State.CONNECTED, "the trial file has all its samples")
-                elif now - self.stopping_since > STOPPING_TIMEOUT_S:
-                    self._send(Notice("warning", "the recorder did not confirm the last "
-                                                 "samples; check the trial file"))
-                    self._set_state(State.CONNECTED, "stopped without the recorder's answer")
+                deadline, overrun = self._after_a_pause(deadline, overrun)
+            now = clock.wait_until(deadline)
+            self._tick(k, now, max(now - deadline, overrun))
             if self.console_lost and self.state != State.RUNNING:
                 self.shutdown = True
-                break
-            if compiled is not None and (self.state != State.RUNNING or not compiled.active):
-                compiled = self._take_over()
-            if compiled is not None:
-                compiled.keep_noise()  # here, well before the next deadline
+            top_up = getattr(self.backend, "top_up_noise", None)
+            if top_up is not None:
+                top_up(NOISE_RESERVE)  # here, well before the next deadline
             k += 1
-            deadline += period
-            behind = clock() - deadline
-            if behind > 0.0:
-                # Missed deadlines are skipped, not run back to back: a burst of ticks
-                # microseconds apart would read the same sensor sample over and over.
-                # The schedule stays on its 2 ms grid, and the next tick reports how late
-                # the first missed one was, so the lateness watchdog still sees it.
-                deadline += period * math.ceil(behind / period)
-                overrun = behind
+            deadline, overrun = self._after_a_pause(*_next_deadline(deadline, clock.now(),
+                                                                    period))
+
+    def _after_a_pause(self, deadline: float, overrun: float) -> tuple[float, float]:
+        """Build, Connect and Start compute tables (milliseconds of numpy) at zero torque;
+        after them the schedule restarts from now instead of counting the pause as late
+        ticks."""
+        if not self.paused:
+            return deadline, overrun
+        self.paused = False
+        return self.clock.now() + SLACK_S, 0.0
+
+    def _tick(self, k: int, now: float, lateness: float) -> None:
+        """One tick: the engine's step on the robot's clock, its record into the ring, then
+        the state's part, and the commands that waited for this tick."""
+        wall_t = now - self.t0
+        # The robot's clock (device.backend): a real robot moves on the wall clock, so
+        # its supervisor must see how late the tick is; a simulated one is stepped by
+        # one period per tick, and on its clock no tick is late. The wall-clock
+        # lateness is recorded either way.
+        if self.backend.timing == SIMULATED:
+            robot_t, robot_lateness = k * self.config.period_s, 0.0
+        else:
+            robot_t, robot_lateness = wall_t, lateness
+        value = self.heartbeat.value
+        if value != self._beat[0]:
+            self._beat = (value, now)
+        beat_age = math.inf if self.console_lost else now - self._beat[1]
+        running = self.state == State.RUNNING
+        overwrite = self.ring.would_overwrite_unrecorded
+        lost = bool(self.recording_failed.value) or (running and overwrite())
+        done = self.engine.step(self.trial_tick if running else None, robot_t, robot_lateness,
+                                beat_age, bool(self.estop_flag.value), lost, self.clock.now)
+        if isinstance(done.reading, SensorReading):
+            self.reading = done.reading
+        record = self.engine.record(done, self.trial_tick if running else k, wall_t, lateness,
+                                    int(self.state), running)
+        if not overwrite():
+            self.ring.push(record)
+        if done.fault and done.fault != self.fault_reported:
+            self._on_fault(done.fault, wall_t)
+        else:
+            self._during(now)
+        if self.later:
+            later, self.later = self.later, []
+            for command in later:
+                self._command(command, after_a_tick=True)
+
+    # ------------------------------------------------------------------ states
+    def _during(self, now: float) -> None:
+        """What the state does every tick after the engine's step."""
+        if self.state == State.RUNNING:
+            self.trial_tick += 1
+            if self.trial_tick == self.pipeline.approach_ticks:
+                _cue_patient(self.backend)
+            if self.trial_tick >= self.pipeline.total_ticks:
+                self._end_trial("complete", "trial complete")
+                self._enter(State.STOPPING, "trial complete; saving")
+        elif self.state == State.STOPPING:
+            if self.ring.recorder_cursor >= self.end_seq:
+                self._enter(State.CONNECTED, "the trial file has all its samples")
+            elif now - self.stopping_since > STOPPING_TIMEOUT_S:
+                self._send(Notice("warning", "the recorder did not confirm the last "
+                                             "samples; check the trial file"))
+                self._enter(State.CONNECTED, "stopped without the recorder's answer")
+
+    def _enter(self, state: State, reason: str) -> None:
+        """Leave the current state for `state` (both do their part) and tell the console."""
+        if state == self.state:
+            return
+        self._leaving(self.state, state)
+        self.state = state
+        self._entered(state)
+        self._send(StateChanged(int(state), reason))
+
+    def _entered(self, state: State) -> None:
+        if state == State.STOPPING:
+            self.stopping_since = self.clock.now()
+        elif state == State.CONNECTED and self.pipeline is not None:
+            # after a fault or a trial: the controller's integral ran against zero torque
+            self.pipeline.reset_controller()
+
+    def _leaving(self, state: State, to: State) -> None:
+        if state.ticking and not to.ticking and self.later:
+            # no tick will come to carry out what waited for one: answer it now
+            later, self.later = self.later, []
+            for command in later:
+                kind = _COMMANDS[type(command)]
+                self._send(Reply(command.id, False, f"{kind.value} refused: the robot was "
+                                                    "disconnected before it could be done."))
 
     # ------------------------------------------------------------------ trial
-    def _advance_trial(self, backend: Backend) -> None:
-        self.trial_tick += 1
-        if self.trial_tick == self.pipeline.approach_ticks:
-            if self.compiled is not None:
-                self.compiled.hand_back()  # taken over again after this tick
-            _cue_patient(backend)
-        if self.trial_tick >= self.pipeline.total_ticks:
-            self._end_trial("complete", "trial complete")
-            self._set_state(State.STOPPING, "trial complete; saving")
-
-    def _take_over(self):
-        """Let the compiled tick run the trial's next tick, if there is one and it may;
-        drop it once the trial is over. Returns the compiled tick (None when dropped)."""
-        compiled = self.compiled
-        if compiled is None:
-            return None
-        if self.state != State.RUNNING:
-            compiled.hand_back()
-            self.compiled = None
-            return None
-        if not compiled.active:
-            compiled.take_over()
-        return compiled
-
     def _start_trial(self, command: Start) -> str:
-        if self.reading is None:
-            return "no sensor reading yet; wait a moment after Connect"
         self.paused = True
         self.pipeline.begin(self.reading.q1_rad, self.reading.q2_rad)
         if self.assistance_level is not None:
@@ -379,14 +348,6 @@ class DeviceLoop:
         self.trial_start_sample_s = self.reading.time_s
         if self.pipeline.approach_ticks == 0:
             _cue_patient(self.backend)
-        self.compiled = None
-        if self.config.compiled:
-            # imported here: numba belongs in the loop process, not in the console's
-            from device.compiled.looptick import CompiledTick, unsupported_live
-
-            if not unsupported_live(self.backend, self.pipeline, self.supervisor):
-                self.compiled = CompiledTick(self.backend, self.pipeline, self.supervisor)
-                self.compiled.take_over()
         plan = self.plan
         self._to_recorder(BeginTrial(
             command.path, self.ring.write_count, plan.parameters, command.subject,
@@ -396,7 +357,6 @@ class DeviceLoop:
                                      {"approach_ticks": self.pipeline.approach_ticks}))
         self._send(TrialStarted(command.path, self.pipeline.approach_ticks,
                                 self.pipeline.total_ticks))
-        self._set_state(State.RUNNING, "trial started")
         return ""
 
     def _end_trial(self, status: str, message: str, values: dict | None = None) -> None:
@@ -430,9 +390,15 @@ class DeviceLoop:
             status = "recording_lost" if fault == Fault.RECORDING_LOST else "faulted"
             self._end_trial(status, f"stopped by a fault: {fault.label}")
         self._send(FaultRaised(int(fault), sup.fault_message, detail, loop_t, detected))
-        self._set_state(State.FAULTED, sup.fault_message)
+        self._enter(State.FAULTED, sup.fault_message)
 
     # ------------------------------------------------------------------ commands
+    def _commands_waiting(self) -> bool:
+        try:
+            return self.console.poll()
+        except (EOFError, OSError):
+            return True
+
     def _handle_commands(self) -> None:
         try:
             while self.console.poll():
@@ -440,58 +406,29 @@ class DeviceLoop:
         except (EOFError, OSError):
             self.console_lost = True
 
-    def _command(self, command) -> None:
+    def _command(self, command, after_a_tick: bool = False) -> None:
+        """Carry out an allowed command and reply; a refused one is answered with why. A
+        command that needs a tick first (a Start before the first reading, a ClearFault,
+        which must see the cause gone on a fresh tick) waits for the next one."""
         kind = _COMMANDS.get(type(command))
         if kind is None:
             return
-        reason = refusal(self.state, kind)
+        state = self.state
+        reason = refusal(state, kind)
         if not reason:
             try:
-                reason = self._do(command)
+                outcome = _HANDLERS[kind](self, command, after_a_tick)
             except (DeviceError, ValueError) as exc:
-                reason = f"{kind.value} failed: {exc}"
+                outcome = f"{kind.value} failed: {exc}"
+            if outcome is LATER:
+                self.later.append(command)
+                return
+            reason, why = outcome if isinstance(outcome, tuple) else (outcome, "")
+            if not reason and self.state == state:
+                self._enter(TRANSITIONS[(state, kind)], why)
         self._send(Reply(command.id, not reason, reason))
 
-    def _do(self, command) -> str:
-        """Carry out an allowed command; returns '' or why it could not be done."""
-        if isinstance(command, Build):
-            return self._build(command)
-        if isinstance(command, Connect):
-            return self._connect()
-        if isinstance(command, Disconnect):
-            self._disconnect_backend()
-            self._set_state(State.BUILT, "disconnected")
-            return ""
-        if isinstance(command, Start):
-            return self._start_trial(command)
-        if isinstance(command, Stop):
-            self._end_trial("stopped_early", "stopped by the therapist")
-            self._set_state(State.STOPPING, "trial stopped; saving")
-            return ""
-        if isinstance(command, ClearFault):
-            try:
-                self.supervisor.clear()
-            except StateError as exc:
-                return str(exc)
-            self.fault_reported = Fault.NONE
-            if self.pipeline is not None:
-                self.pipeline.controller.reset()
-            self._set_state(State.CONNECTED, "fault cleared")
-            return ""
-        if isinstance(command, SetAssistance):
-            self.assistance_level = command.level
-            if self.pipeline is not None:
-                self.pipeline.set_assistance_level(command.level)
-            return ""
-        if isinstance(command, Shutdown):
-            if self.state == State.RUNNING:
-                self._end_trial("stopped_early", "console closed")
-            self.shutdown = True
-            self._set_state(State.IDLE, "shutting down")
-            return ""
-        return f"{type(command).__name__} is not handled"
-
-    def _build(self, command: Build) -> str:
+    def _do_build(self, command: Build, after_a_tick: bool):
         self.paused = True
         plan = TrialPlan.build(command.parameters, period_s=self.config.period_s)
         reconnect = self.state == State.CONNECTED and self.backend_config is not None and (
@@ -501,21 +438,71 @@ class DeviceLoop:
         limits = (command.limits or SafetyLimits()).around_path(
             plan.parameters.path().points(), WORKSPACE_MARGIN_M)
         self.plan, self.backend_config, self.limits = plan, command.backend, limits
-        self.pipeline = TickPipeline(plan, sensor_offset_rad=self.sensor_offset_rad)
-        if self.assistance_level is not None:
-            self.pipeline.set_assistance_level(self.assistance_level)
+        self.pipeline = self._new_pipeline()
         if reconnect:
             # the virtual patient follows the new exercise: rebuild the simulator
             self._disconnect_backend()
-            return self._connect()
-        if self.state == State.IDLE:
-            self._set_state(State.BUILT, "trial built")
+            refused = self._open_backend()
+            if refused:
+                self._enter(State.BUILT, "the robot could not be reconnected")
+                return refused
+            return "", f"connected to the {self.backend_config.label}"
+        if self.engine is not None and self.state.ticking:
+            self.engine = TickEngine(self.backend, self.pipeline, self.supervisor)
+        return "", "trial built"
+
+    def _do_connect(self, command: Connect, after_a_tick: bool):
+        refused = self._open_backend()
+        return refused, f"connected to the {self.backend_config.label}"
+
+    def _do_disconnect(self, command: Disconnect, after_a_tick: bool):
+        self._disconnect_backend()
+        return "", "disconnected"
+
+    def _do_start(self, command: Start, after_a_tick: bool):
+        if self.reading is None:
+            return LATER  # the first tick after Connect has not read the sensors yet
+        return self._start_trial(command), "trial started"
+
+    def _do_stop(self, command: Stop, after_a_tick: bool):
+        self._end_trial("stopped_early", "stopped by the therapist")
+        return "", "trial stopped; saving"
+
+    def _do_clear_fault(self, command: ClearFault, after_a_tick: bool):
+        if not after_a_tick:
+            return LATER  # the e-stop released a moment ago is seen by the next tick
+        try:
+            self.supervisor.clear()
+        except StateError as exc:
+            return str(exc)
+        self.fault_reported = Fault.NONE
+        return "", "fault cleared"
+
+    def _do_set_assistance(self, command: SetAssistance, after_a_tick: bool):
+        self.assistance_level = command.level
+        if self.pipeline is not None:
+            self.pipeline.set_assistance_level(command.level)
         return ""
 
-    def _connect(self) -> str:
+    def _do_shutdown(self, command: Shutdown, after_a_tick: bool):
+        if self.state == State.RUNNING:
+            self._end_trial("stopped_early", "console closed")
+        self.shutdown = True
+        return "", "shutting down"
+
+    def _new_pipeline(self) -> TickPipeline:
+        pipeline = TickPipeline(self.plan, sensor_offset_rad=self.sensor_offset_rad,
+                                compiled=self.config.compiled)
+        if self.assistance_level is not None:
+            pipeline.set_assistance_level(self.assistance_level)
+        return pipeline
+
+    def _open_backend(self) -> str:
+        """Make and open the configured backend with its supervisor and tick engine: ''
+        or why not."""
         self.paused = True
         config = self.backend_config
-        backend = make_backend(config, self.plan.parameters, self.plan)
+        backend = make_backend(config, self.plan.parameters, self.plan, self.clock.sleep)
         if backend.timing == REAL_TIME and self.config.timing_check_s > 0.0:
             self._check_timing()
         backend.open()
@@ -526,18 +513,16 @@ class DeviceLoop:
             backend.close()
             return f"connect refused: {exc}"
         self.sensor_offset_rad = sensor_offset_for(config)
-        self.pipeline = TickPipeline(self.plan, sensor_offset_rad=self.sensor_offset_rad)
-        if self.assistance_level is not None:
-            self.pipeline.set_assistance_level(self.assistance_level)
+        self.pipeline = self._new_pipeline()
         self.backend = backend
         self.supervisor = SafetySupervisor(self.plan.robot, self.limits)
-        if self.config.compiled and config.kind == "simulator":
+        if self.config.compiled:
             from device.compiled.warmup import load_kernels
 
             load_kernels(("loop",))  # a first call inside a tick would stall it
+        self.engine = TickEngine(backend, self.pipeline, self.supervisor)
         self.fault_reported = Fault.NONE
         self.reading = None
-        self._set_state(State.CONNECTED, f"connected to the {config.label}")
         return ""
 
     def _check_timing(self) -> None:
@@ -560,12 +545,6 @@ class DeviceLoop:
                 self._send(Notice("warning", f"while disconnecting: {exc}"))
 
     # ------------------------------------------------------------------ messages
-    def _set_state(self, state: State, reason: str) -> None:
-        if state == State.STOPPING:
-            self.stopping_since = time.perf_counter()
-        self.state = state
-        self._send(StateChanged(int(state), reason))
-
     def _send(self, message) -> None:
         if self.console_lost:
             return
@@ -582,6 +561,28 @@ class DeviceLoop:
         except (OSError, EOFError, BrokenPipeError):
             self.recorder = None
             self.recording_failed.value = 1
+
+
+_HANDLERS = {
+    Command.BUILD: DeviceLoop._do_build, Command.CONNECT: DeviceLoop._do_connect,
+    Command.DISCONNECT: DeviceLoop._do_disconnect, Command.START: DeviceLoop._do_start,
+    Command.STOP: DeviceLoop._do_stop, Command.CLEAR_FAULT: DeviceLoop._do_clear_fault,
+    Command.SET_ASSISTANCE: DeviceLoop._do_set_assistance,
+    Command.SHUTDOWN: DeviceLoop._do_shutdown,
+}
+"""What each command does; where it leads is device.loop.states.TRANSITIONS."""
+
+
+def _next_deadline(deadline: float, now: float, period: float) -> tuple[float, float]:
+    """The next deadline on the period's grid after `deadline`, and how late `now` is
+    for it. Missed deadlines are skipped, not run back to back: a burst of ticks
+    microseconds apart would read the same sensor sample over and over. The next tick
+    reports how late the first missed one was, so the lateness watchdog still sees it."""
+    deadline += period
+    behind = now - deadline
+    if behind <= 0.0:
+        return deadline, 0.0
+    return deadline + period * math.ceil(behind / period), behind
 
 
 def _cue_patient(backend: Backend) -> None:

@@ -48,6 +48,56 @@ def wait_until(deadline_s: float, clock=time.perf_counter, sleep=time.sleep) -> 
     return now
 
 
+class WallClock:
+    """The loop's clock: perf_counter, with `wait_until`'s sleep-then-spin."""
+
+    name = "wall"
+
+    def now(self) -> float:
+        return time.perf_counter()
+
+    def wait_until(self, deadline_s: float) -> float:
+        return wait_until(deadline_s)
+
+    def sleep(self, seconds: float) -> None:
+        time.sleep(seconds)
+
+
+class OwnClock:
+    """A clock of the loop's own, for proving the late-tick watchdog by injection on a
+    machine whose host stalls its processes now and then (a shared VM).
+
+    It advances by the loop's own waits, always to the deadline exactly, and by the
+    delays it is told of with `sleep` (a fault-injected slow read sleeps on it); never
+    by the time the host took from the process. So a tick is late on this clock only
+    where a test made it late, and the watchdog's verdict does not depend on the machine.
+    The loop still paces itself on the wall clock (it really sleeps), so the console's
+    heartbeat and the recorder see a loop that runs in real time.
+    """
+
+    name = "own"
+
+    def __init__(self) -> None:
+        self._now = time.perf_counter()
+
+    def now(self) -> float:
+        return self._now
+
+    def wait_until(self, deadline_s: float) -> float:
+        remaining = deadline_s - self._now
+        if remaining > 0.0:
+            time.sleep(remaining)
+            self._now = deadline_s
+        return self._now
+
+    def sleep(self, seconds: float) -> None:
+        time.sleep(seconds)
+        self._now += seconds
+
+
+CLOCKS = {"wall": WallClock, "own": OwnClock}
+
+
 LAST_CPU = -1
 """`cpu` value for the highest-numbered CPU the process may use (the one the OS gives
 least to interrupt handling on most machines)."""

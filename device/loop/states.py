@@ -29,6 +29,11 @@ class State(enum.IntEnum):
     def label(self) -> str:
         return _LABELS[self]
 
+    @property
+    def ticking(self) -> bool:
+        """A backend is connected: the loop ticks every period."""
+        return self in TICKING
+
 
 _LABELS = {
     State.IDLE: "Idle",
@@ -52,18 +57,37 @@ class Command(enum.Enum):
     SHUTDOWN = "shutdown"
 
 
-ALLOWED: dict[State, frozenset[Command]] = {
-    State.IDLE: frozenset({Command.BUILD, Command.ESTOP, Command.SHUTDOWN}),
-    State.BUILT: frozenset({Command.BUILD, Command.CONNECT, Command.ESTOP, Command.SHUTDOWN,
-                            Command.SET_ASSISTANCE}),
-    State.CONNECTED: frozenset({Command.BUILD, Command.DISCONNECT, Command.START, Command.ESTOP,
-                                Command.SET_ASSISTANCE, Command.SHUTDOWN}),
-    State.RUNNING: frozenset({Command.STOP, Command.ESTOP, Command.SET_ASSISTANCE,
-                              Command.SHUTDOWN}),
-    State.STOPPING: frozenset({Command.ESTOP, Command.SHUTDOWN}),
-    State.FAULTED: frozenset({Command.CLEAR_FAULT, Command.ESTOP, Command.DISCONNECT,
-                              Command.SHUTDOWN}),
+TICKING = frozenset({State.CONNECTED, State.RUNNING, State.STOPPING, State.FAULTED})
+"""The states with a backend connected: the loop ticks every period in these."""
+
+_EVERY_STATE = tuple(State)
+
+TRANSITIONS: dict[tuple[State, Command], State] = {
+    (State.IDLE, Command.BUILD): State.BUILT,
+    (State.BUILT, Command.BUILD): State.BUILT,
+    (State.CONNECTED, Command.BUILD): State.CONNECTED,
+    (State.BUILT, Command.CONNECT): State.CONNECTED,
+    (State.CONNECTED, Command.DISCONNECT): State.BUILT,
+    (State.FAULTED, Command.DISCONNECT): State.BUILT,
+    (State.CONNECTED, Command.START): State.RUNNING,
+    (State.RUNNING, Command.STOP): State.STOPPING,
+    (State.FAULTED, Command.CLEAR_FAULT): State.CONNECTED,
+    **{(state, Command.SET_ASSISTANCE): state
+       for state in (State.BUILT, State.CONNECTED, State.RUNNING)},
+    # a level, read every tick (device.loop.client), not a command that moves the state
+    **{(state, Command.ESTOP): state for state in _EVERY_STATE},
+    **{(state, Command.SHUTDOWN): State.IDLE for state in _EVERY_STATE},
 }
+"""Where each command allowed in a state leads when it succeeds (a command that fails
+leaves the state as it was). Faults are not commands: any ticking state goes to FAULTED
+when the supervisor latches one; the loop's own events (a trial complete, its file
+closed) are in device.loop.process."""
+
+ALLOWED: dict[State, frozenset[Command]] = {
+    state: frozenset(command for (where, command) in TRANSITIONS if where == state)
+    for state in State
+}
+"""The commands each state accepts (TRANSITIONS' keys)."""
 
 _WHY = {
     (State.IDLE, Command.CONNECT): "build the trial first (press Build)",

@@ -68,8 +68,9 @@ The parts of a patient
 The desired motion and the feed-forward are tabulated once per traversal with numpy
 every `TABLE_STEP_S` and interpolated linearly in time. The interpolation matters: a
 sample-and-hold table is a discontinuous forcing that cuts RK4 to first order. The
-torque itself is compiled (device.compiled.dynamics.patient_torque), so the simulator
-folds it into its compiled dynamics.
+torque itself is the kernel `patient_torque` (core.kernels): `VirtualPatient.torque`
+runs it interpreted, the simulator folds it, compiled, into its dynamics
+(device.sim.physics).
 """
 
 from __future__ import annotations
@@ -82,6 +83,7 @@ import numpy as np
 
 from core.arm import ArmModel
 from core.errors import ParameterError, check_finite, check_non_negative, check_range
+from core.kernels import kernel
 from core.trajectory import Trajectory
 
 PATIENT_KINDS = ("healthy", "weak", "spastic", "tremor", "passive", "wrong_way")
@@ -242,12 +244,8 @@ class VirtualPatient:
     itself is a pure function of its arguments, so runs are repeatable.
     """
 
-    __slots__ = (
-        "_active", "_b", "_dt_rate", "_duration", "_effort", "_ep_len", "_ep_window",
-        "_episodes", "_k", "_kernel", "_lf", "_lu", "_n", "_p", "_phi0", "_rest", "_spas",
-        "_table", "_table_array", "_total", "_tremor", "_ts0", "_wrong", "arm", "parameters",
-        "trajectory",
-    )
+    __slots__ = ("_episodes", "_table", "arm", "constants", "episodes", "parameters", "table",
+                 "trajectory")
 
     def __init__(
         self, parameters: PatientParameters, arm: ArmModel, trajectory: Trajectory, seed=0
@@ -258,48 +256,30 @@ class VirtualPatient:
         rng = np.random.default_rng(seed)
         x0, y0, *_ = trajectory.at(0.0)
         ts0, te0 = (float(v) for v in arm.ik(np.array([x0, y0])))
-        self._ts0 = ts0
-        self._phi0 = te0 - ts0
-        self._lu, self._lf = arm.upper_arm_m, arm.forearm_m
-        self._p = parameters.passive.stiffness_Nm_rad + parameters.passive.damping_Nms_rad
-        self._effort = parameters.effort
-        self._active = parameters.kind != "passive"
-        self._k = parameters.active.stiffness_Nm_rad
-        self._b = parameters.active.damping_Nms_rad
-        self._duration = trajectory.duration_s
-        self._total = trajectory.total_duration_s
-        self._dt_rate = 1.0 / TABLE_STEP_S
         dx0, dy0 = trajectory.at(0.0)[6:8]
-        self._rest = (ts0, self._phi0) + (0.0,) * 14 + (dx0, dy0)
-        self._kernel = None
-        self._table: list[tuple[float, ...]] = []
-        self._table_array = np.empty((0, 18))
-        if self._active:
-            self._table_array = _desired_motion_table(
-                arm, trajectory, parameters.passive, (ts0, self._phi0), parameters.drive_N
+        table = np.empty((0, 18))
+        if parameters.kind != "passive":
+            table = _desired_motion_table(
+                arm, trajectory, parameters.passive, (ts0, te0 - ts0), parameters.drive_N
             )
-            self._table = [tuple(row) for row in self._table_array.tolist()]
-        self._n = len(self._table)
-
-        self._spas = None
-        if parameters.spasticity is not None:
-            s = parameters.spasticity
-            self._spas = (*s.threshold_rad_s, *s.reflex_gain_Nms_rad, *s.viscous_Nms_rad)
-        self._tremor = None
-        if parameters.tremor is not None:
-            tr = parameters.tremor
-            self._tremor = (_TWO_PI * tr.frequency_hz, tr.phase_rad, *tr.amplitude_Nm)
-        self._wrong = None
-        self._episodes: list[float] = []
-        self._ep_len = self._ep_window = 0.0
+        episodes: list[float] = []
+        ep_len = ep_window = 0.0
         if parameters.wrong_way is not None:
             ww = parameters.wrong_way
-            self._ep_len = ww.episode_s
-            self._ep_window = ww.episode_s / ww.fraction
-            n_windows = math.ceil(self._total / self._ep_window)
-            offsets = rng.uniform(0.0, self._ep_window - ww.episode_s, n_windows)
-            self._episodes = offsets.tolist()
-            self._wrong = ww.force_N
+            ep_len = ww.episode_s
+            ep_window = ww.episode_s / ww.fraction
+            n_windows = math.ceil(trajectory.total_duration_s / ep_window)
+            episodes = rng.uniform(0.0, ep_window - ww.episode_s, n_windows).tolist()
+        self.constants = _constants(parameters, arm, trajectory, ts0, te0 - ts0, len(table),
+                                    ep_len, ep_window, len(episodes), (dx0, dy0))
+        """The vector `patient_torque` works from (its P_* names)."""
+        # The kernels index a table row and the episodes: kept as numpy arrays for the
+        # compiled simulator (never empty: numba wants a 2-D float array) and as Python
+        # rows for the interpreted calls here, which they make several times faster.
+        self.table = table if len(table) else np.zeros((1, 18))
+        self.episodes = np.array(episodes if episodes else [0.0])
+        self._table = [tuple(row) for row in self.table.tolist()]
+        self._episodes = self.episodes.tolist()
 
     # ------------------------------------------------------------ properties
     @property
@@ -315,77 +295,129 @@ class VirtualPatient:
     @property
     def episodes_s(self) -> tuple[tuple[float, float], ...]:
         """Start and end times of the wrong-way episodes (empty for other kinds)."""
+        c = self.constants
         out = []
-        for k, offset in enumerate(self._episodes):
-            start = k * self._ep_window + offset
-            if start < self._total:
-                out.append((start, min(start + self._ep_len, self._total)))
+        for k in range(int(c[P_EPISODES])):
+            start = k * c[P_EP_WINDOW] + self._episodes[k]
+            if start < c[P_TOTAL]:
+                out.append((start, min(start + c[P_EP_LEN], c[P_TOTAL])))
         return tuple(out)
 
     @property
     def start_posture_rad(self) -> tuple[float, float]:
         """Arm angles (θ_s, θ_e) at the path's start, the passive tissue's rest posture."""
-        return (self._ts0, self._ts0 + self._phi0)
-
-    def kernel_view(self) -> dict:
-        """The numbers `torque` works from, for the compiled simulator
-        (device.compiled.dynamics.patient_arrays)."""
-        return {
-            "active": self._active, "effort": self._effort, "ts0": self._ts0,
-            "phi0": self._phi0, "lu": self._lu, "lf": self._lf, "passive": self._p,
-            "stiffness": self._k, "damping": self._b, "duration": self._duration,
-            "total": self._total, "dt_rate": self._dt_rate, "table": self._table_array,
-            "tremor": self._tremor, "spasticity": self._spas, "episodes": self._episodes,
-            "wrong_force": self._wrong, "ep_len": self._ep_len, "ep_window": self._ep_window,
-            "rest_direction": self._rest[16:18],
-        }
+        return (self.constants[P_TS0], self.constants[P_TS0] + self.constants[P_PHI0])
 
     def desired(self, t_s: float) -> tuple[float, ...]:
         """The desired motion at `t_s` as the patient looks it up:
         (θ_s, φ, θ̇_s, φ̇, feed-forward τ_s, τ_e, direction x, y, drive force x, y),
         φ = θ_e − θ_s."""
-        row, f = self._lookup(t_s)
-        return (*(row[j] + f * row[j + 8] for j in range(6)), row[16], row[17],
-                row[6] + f * row[14], row[7] + f * row[15])
-
-    def _lookup(self, t_s: float):
-        """The table's row for `t_s` and the fraction of a table step past it."""
-        if 0.0 <= t_s < self._total and self._n:
-            u = (t_s % self._duration) * self._dt_rate
-            i = int(u)
-            if i < self._n:
-                return self._table[i], u - i
-            return self._table[-1], 1.0
-        return self._rest, 0.0
+        return desired_motion(self.constants, self._table, t_s)
 
     def pushing_wrong_way(self, t_s: float) -> bool:
         """True during a wrong-way episode."""
-        if self._wrong is None or not 0.0 <= t_s < self._total:
-            return False
-        k = int(t_s / self._ep_window)
-        if k >= len(self._episodes):
-            return False
-        into = t_s - k * self._ep_window - self._episodes[k]
-        return 0.0 <= into < self._ep_len
+        return pushing_wrong_way(self.constants, self._episodes, t_s)
 
     # ---------------------------------------------------------------- torque
     def torque(self, t_s: float, ts: float, te: float, tsd: float, ted: float):
-        """Net joint torques τ_A = (τ_s, τ_e) in N·m (eq. 3.20), absolute-angle convention.
-
-        The model of the module notes, compiled (device.compiled.dynamics.patient_torque,
-        which the simulator folds into its dynamics): passive tissue, then the effort
-        (impedance about the desired motion, feed-forward and the push, linearly
-        interpolated in time so the integrator keeps its order), the wrong-way push,
-        tremor and spastic resistance."""
-        if self._kernel is None:
-            from device.compiled import dynamics  # numba only once a torque is asked for
-
-            self._kernel = (dynamics.patient_torque, *dynamics.patient_arrays(self))
-        kernel, constants, table, episodes = self._kernel
-        return kernel(constants, table, episodes, t_s, ts, te, tsd, ted)
+        """Net joint torques τ_A = (τ_s, τ_e) in N·m (eq. 3.20), absolute-angle convention:
+        the kernel `patient_torque` (the model of the module notes: passive tissue, then
+        the effort, impedance about the desired motion, feed-forward and the push,
+        linearly interpolated in time so the integrator keeps its order, the wrong-way
+        push, tremor and spastic resistance)."""
+        return patient_torque(self.constants, self._table, self._episodes, t_s, ts, te, tsd,
+                              ted)
 
 
-def _resistance(rate: float, threshold: float, gain: float, viscous: float) -> float:
+# The constants vector of `patient_torque` (VirtualPatient.constants).
+(P_ACTIVE, P_EFFORT, P_TS0, P_PHI0, P_LU, P_LF, P_PKS, P_PKC, P_PKE, P_PBS, P_PBC, P_PBE,
+ P_KS, P_KC, P_KE, P_BS, P_BC, P_BE, P_DURATION, P_TOTAL, P_DT_RATE, P_ROWS, P_TREMOR,
+ P_OMEGA, P_PHASE, P_AMP_S, P_AMP_E, P_SPASTIC, P_TH_S, P_TH_E, P_G_S, P_G_E, P_VB_S, P_VB_E,
+ P_WRONG, P_WRONG_N, P_EP_LEN, P_EP_WINDOW, P_EPISODES, P_REST_DX, P_REST_DY, P_SIZE) = range(42)
+
+
+def _constants(parameters: PatientParameters, arm: ArmModel, trajectory: Trajectory,
+               ts0: float, phi0: float, rows: int, ep_len: float, ep_window: float,
+               episodes: int, rest_direction) -> tuple[float, ...]:
+    c = [0.0] * P_SIZE
+    c[P_ACTIVE] = float(parameters.kind != "passive")
+    c[P_EFFORT] = parameters.effort
+    c[P_TS0], c[P_PHI0], c[P_LU], c[P_LF] = ts0, phi0, arm.upper_arm_m, arm.forearm_m
+    c[P_PKS:P_PBE + 1] = parameters.passive.stiffness_Nm_rad + parameters.passive.damping_Nms_rad
+    c[P_KS:P_KE + 1] = parameters.active.stiffness_Nm_rad
+    c[P_BS:P_BE + 1] = parameters.active.damping_Nms_rad
+    c[P_DURATION] = trajectory.duration_s
+    c[P_TOTAL] = trajectory.total_duration_s
+    c[P_DT_RATE] = 1.0 / TABLE_STEP_S
+    c[P_ROWS] = rows
+    if parameters.tremor is not None:
+        tr = parameters.tremor
+        c[P_TREMOR] = 1.0
+        c[P_OMEGA:P_AMP_E + 1] = (_TWO_PI * tr.frequency_hz, tr.phase_rad, *tr.amplitude_Nm)
+    if parameters.spasticity is not None:
+        sp = parameters.spasticity
+        c[P_SPASTIC] = 1.0
+        c[P_TH_S:P_VB_E + 1] = (*sp.threshold_rad_s, *sp.reflex_gain_Nms_rad,
+                                *sp.viscous_Nms_rad)
+    if parameters.wrong_way is not None:
+        c[P_WRONG] = 1.0
+        c[P_WRONG_N] = parameters.wrong_way.force_N
+    c[P_EP_LEN], c[P_EP_WINDOW], c[P_EPISODES] = ep_len, ep_window, episodes
+    c[P_REST_DX], c[P_REST_DY] = rest_direction
+    return tuple(float(v) for v in c)
+
+
+@kernel
+def table_position(p, t_s):
+    """Where `t_s` falls in the desired-motion table: (row, fraction of a step past it);
+    row −1 outside the exercise's time (the patient rests at the start posture)."""
+    n = int(p[P_ROWS])
+    if 0.0 <= t_s < p[P_TOTAL] and n:
+        u = (t_s % p[P_DURATION]) * p[P_DT_RATE]
+        i = int(u)
+        if i < n:
+            return i, u - i
+        return n - 1, 1.0
+    return -1, 0.0
+
+
+@kernel
+def desired_motion(p, table, t_s):
+    """(θ_s, φ, θ̇_s, φ̇, τ_ff,s, τ_ff,e, direction x, y, drive x, y) at `t_s`, linearly
+    interpolated in the table (at rest at the start posture outside the exercise)."""
+    i, f = table_position(p, t_s)
+    if i < 0:
+        return (p[P_TS0], p[P_PHI0], 0.0, 0.0, 0.0, 0.0, p[P_REST_DX], p[P_REST_DY], 0.0,
+                0.0)
+    row = table[i]
+    return (row[0] + f * row[8], row[1] + f * row[9], row[2] + f * row[10],
+            row[3] + f * row[11], row[4] + f * row[12], row[5] + f * row[13], row[16],
+            row[17], row[6] + f * row[14], row[7] + f * row[15])
+
+
+@kernel
+def pushing_wrong_way(p, episodes, t_s):
+    """True during a wrong-way episode."""
+    if p[P_WRONG] == 0.0 or not 0.0 <= t_s < p[P_TOTAL]:
+        return False
+    k = int(t_s / p[P_EP_WINDOW])
+    if k >= int(p[P_EPISODES]):
+        return False
+    into = t_s - k * p[P_EP_WINDOW] - episodes[k]
+    return 0.0 <= into < p[P_EP_LEN]
+
+
+@kernel
+def passive_tissue(ks, kc, ke, bs, bc, be, e_s, e_e, tsd, phid):
+    """The passive tissue's torques (τ_sh, τ_el) in joint coordinates for the joints'
+    distance (e_s, e_e) to the rest posture and their rates. Floats or arrays."""
+    sh = ks * e_s + kc * e_e - bs * tsd - bc * phid
+    el = kc * e_s + ke * e_e - bc * tsd - be * phid
+    return (sh, el)
+
+
+@kernel
+def spastic_resistance(rate, threshold, gain, viscous):
     """b ω + g (|ω| − ω_th)₊ sign ω: opposes the stretch, grows with its speed."""
     out = viscous * rate
     if rate > threshold:
@@ -395,6 +427,57 @@ def _resistance(rate: float, threshold: float, gain: float, viscous: float) -> f
     return out
 
 
+@kernel
+def patient_torque(p, table, episodes, t_s, ts, te, tsd, ted):
+    """Net joint torques τ_A (eq. 3.20) of a virtual patient, absolute-angle convention
+    (VirtualPatient.torque; the model is in the module notes)."""
+    phi = te - ts
+    phid = ted - tsd
+    e_s = p[P_TS0] - ts
+    # the shoulder's distance to its rest posture the short way round
+    if e_s > math.pi:
+        e_s -= _TWO_PI
+    elif e_s < -math.pi:
+        e_s += _TWO_PI
+    sh, el = passive_tissue(p[P_PKS], p[P_PKC], p[P_PKE], p[P_PBS], p[P_PBC], p[P_PBE],
+                            e_s, p[P_PHI0] - phi, tsd, phid)
+    gen_s = 0.0
+    gen_e = 0.0
+    if p[P_ACTIVE] != 0.0:
+        ts_d, phi_d, tsd_d, phid_d, ff_s, ff_e, dir_x, dir_y, drive_x, drive_y = (
+            desired_motion(p, table, t_s))
+        d_s = ts_d - ts
+        if d_s > math.pi:
+            d_s -= _TWO_PI
+        elif d_s < -math.pi:
+            d_s += _TWO_PI
+        d_e = phi_d - phi
+        v_s = tsd_d - tsd
+        v_e = phid_d - phid
+        w = p[P_EFFORT]
+        sh += w * (p[P_KS] * d_s + p[P_KC] * d_e + p[P_BS] * v_s + p[P_BC] * v_e)
+        el += w * (p[P_KC] * d_s + p[P_KE] * d_e + p[P_BC] * v_s + p[P_BE] * v_e)
+        sin_s = math.sin(ts)
+        cos_s = math.cos(ts)
+        sin_e = math.sin(te)
+        cos_e = math.cos(te)
+        gen_s = w * (ff_s + p[P_LU] * (sin_s * drive_x - cos_s * drive_y))
+        gen_e = w * (ff_e + p[P_LF] * (sin_e * drive_x - cos_e * drive_y))
+        if pushing_wrong_way(p, episodes, t_s):
+            fx = -p[P_WRONG_N] * dir_x - w * drive_x
+            fy = -p[P_WRONG_N] * dir_y - w * drive_y
+            gen_s += p[P_LU] * (sin_s * fx - cos_s * fy)
+            gen_e += p[P_LF] * (sin_e * fx - cos_e * fy)
+    if p[P_TREMOR] != 0.0:
+        wave = math.sin(p[P_OMEGA] * t_s + p[P_PHASE])
+        sh += p[P_AMP_S] * wave
+        el += p[P_AMP_E] * wave
+    if p[P_SPASTIC] != 0.0:
+        sh -= spastic_resistance(tsd, p[P_TH_S], p[P_G_S], p[P_VB_S])
+        el -= spastic_resistance(phid, p[P_TH_E], p[P_G_E], p[P_VB_E])
+    return (sh - el + gen_s, el + gen_e)
+
+
 def spastic_resistance_Nm(parameters: Spasticity, shoulder_rate_rad_s, elbow_rate_rad_s):
     """The spastic resistance (τ_sh, τ_el) for joint rates, in joint coordinates; the
     patient subtracts it from its torques."""
@@ -402,20 +485,16 @@ def spastic_resistance_Nm(parameters: Spasticity, shoulder_rate_rad_s, elbow_rat
     g_s, g_e = parameters.reflex_gain_Nms_rad
     b_s, b_e = parameters.viscous_Nms_rad
     return (
-        _resistance(shoulder_rate_rad_s, th_s, g_s, b_s),
-        _resistance(elbow_rate_rad_s, th_e, g_e, b_e),
+        spastic_resistance(shoulder_rate_rad_s, th_s, g_s, b_s),
+        spastic_resistance(elbow_rate_rad_s, th_e, g_e, b_e),
     )
 
 
 def passive_torque_terms(passive: JointImpedance, rest_rad, ts, phi, tsd, phid):
     """Generalised torques τ_A (absolute-angle convention) of passive tissue about the
     joint-coordinate rest posture `rest_rad` = (θ_s, φ), φ = θ_e − θ_s. Floats or arrays."""
-    ks, kc, ke = passive.stiffness_Nm_rad
-    bs, bc, be = passive.damping_Nms_rad
-    e_s = rest_rad[0] - ts
-    e_e = rest_rad[1] - phi
-    sh = ks * e_s + kc * e_e - bs * tsd - bc * phid
-    el = kc * e_s + ke * e_e - bc * tsd - be * phid
+    sh, el = passive_tissue(*passive.stiffness_Nm_rad, *passive.damping_Nms_rad,
+                            rest_rad[0] - ts, rest_rad[1] - phi, tsd, phid)
     return (sh - el, el)
 
 

@@ -17,13 +17,11 @@ and the force of the hand on the handle comes out of the arm's equation
 drives' limit as the amplifier would; τ_A is the patient's (device.sim.patients),
 asked for at every evaluation.
 
-For speed `dynamics="fused"` (the default for a device.sim.patients.VirtualPatient)
-evaluates those equations in one compiled function with the patient's torque folded
-in (no repeated inverse kinematics, the arm's trigonometry done algebraically;
-device.compiled.dynamics.evaluate); it is the same algebra, held equal to
-`coupled_forward_dynamics` by the tests. `dynamics="reference"` calls
-`core.interaction.coupled_forward_dynamics` itself, for validation runs and for
-any other object of the Patient protocol, whose torque is plain Python.
+The equations are kernels (device.sim.physics, on core.interaction's
+`arm_state` and `coupled_motion`): compiled by numba (`compiled=True`, the default for
+a device.sim.patients.VirtualPatient, whose torque is a kernel too), or interpreted for
+any other object of the Patient protocol, whose torque is plain Python, and for
+reference runs (`compiled=False`): the same code either way, so the same numbers.
 
 Integrator
 ----------
@@ -82,17 +80,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from core.errors import ParameterError, SingularityError, check_finite, check_range
-from core.interaction import coupled_forward_dynamics
+from core.errors import ParameterError, check_finite, check_range
+from core.kernels import interpreted
 from core.robot import RobotModel
 from core.trial import THESIS_SUBJECT, TrialParameters
 from device.backend import SIMULATED, TIMINGS, SensorReading
 from device.errors import BackendError, SensorRangeError, StateError
+from device.sim import physics
 from device.sim.patients import Patient, VirtualPatient, make_patient
 from device.sim.sensors import ForceSensorModel
 
 INTEGRATORS = ("rk4", "semi_implicit_euler")
-DYNAMICS = ("fused", "reference")
 DEFAULT_STEP_S = 0.001
 MAX_STEP_S = 0.001
 NOISE_BLOCK = 4096
@@ -143,8 +141,9 @@ class SimulatorBackend:
     `device.sim.patients.Patient` protocol: its arm, its trajectory, its torques).
     `robot` defaults to the thesis robot (with its default friction), `sensor` to
     the Nano25 of Table 3.1, `seed` draws the sensor noise; `step_s` (≤ 1 ms),
-    `integrator`, `dynamics`, `patient_waits` and `timing` are described in the module
-    notes.
+    `integrator`, `compiled`, `patient_waits` and `timing` are described in the module
+    notes. The physics are device.sim.physics's kernels on this object's vectors
+    (`constants`, `state`, `noise`), which the loop's tick engine uses as they are.
     """
 
     name = "simulator"
@@ -158,7 +157,7 @@ class SimulatorBackend:
         sensor: ForceSensorModel | None = None,
         step_s: float = DEFAULT_STEP_S,
         integrator: str = "semi_implicit_euler",
-        dynamics: str | None = None,
+        compiled: bool | None = None,
         patient_waits: bool = False,
         timing: str = SIMULATED,
     ) -> None:
@@ -176,21 +175,21 @@ class SimulatorBackend:
         if integrator not in INTEGRATORS:
             raise ParameterError("integrator", integrator, "one of " + ", ".join(INTEGRATORS))
         compilable = isinstance(patient, VirtualPatient)
-        if dynamics is None:
-            dynamics = "fused" if compilable else "reference"
-        if dynamics not in DYNAMICS:
-            raise ParameterError("dynamics", dynamics, "one of " + ", ".join(DYNAMICS))
-        if dynamics == "fused" and not compilable:
+        if compiled is None:
+            compiled = compilable
+        if compiled and not compilable:
             raise ParameterError(
-                "dynamics", dynamics, "reference for this patient",
-                f"the fused dynamics are compiled with a VirtualPatient's torque; a "
-                f"{type(patient).__name__} runs the reference dynamics",
+                "compiled", compiled, "False for this patient",
+                f"the compiled physics take a VirtualPatient's torque; a "
+                f"{type(patient).__name__} is simulated interpreted, with its own torque",
             )
         _check_seed(seed)
         self.step_s = check_range(
             "step_s", step_s, 0.0, MAX_STEP_S, "s",
             "the simulator's internal step must resolve the 2 ms loop", low_open=True,
         )
+        if not isinstance(patient_waits, bool):
+            raise ParameterError("patient_waits", patient_waits, "True or False")
         self.patient = patient
         self.robot = robot if robot is not None else RobotModel()
         self.arm = patient.arm
@@ -198,25 +197,8 @@ class SimulatorBackend:
         self.sensor = sensor if sensor is not None else ForceSensorModel()
         self.seed = int(seed)
         self.integrator = integrator
-        self.dynamics = dynamics
-        if not isinstance(patient_waits, bool):
-            raise ParameterError("patient_waits", patient_waits, "True or False")
+        self.compiled = bool(compiled)
         self.patient_waits = patient_waits
-        if dynamics == "fused":
-            self._evaluate = _fused_dynamics(self)
-        else:
-            self._evaluate = _reference_dynamics(self.robot, self.arm, patient)
-        self._max_torque = self.robot.max_joint_torque_Nm
-        sn = self.sensor
-        self._sensor_constants = (
-            sn.offset_rad, sn.noise_xy_N, sn.noise_z_N, sn.normal_load_N, sn.resolution_xy_N,
-            sn.resolution_z_N, sn.limit_xy_N, sn.limit_z_N,
-        )
-        # MotorParameters.quantise_joint_angle's arithmetic, inlined in `_sample` (the two
-        # method calls cost 0.6 µs a tick); the tests hold the two equal bit for bit
-        self._counts_per_rev = (
-            self.robot.motors[0].counts_per_joint_rev, self.robot.motors[1].counts_per_joint_rev
-        )
         x0, y0, *_ = self.trajectory.at(0.0)
         q1, q2 = self.robot.ik_terms(x0, y0)
         if math.isnan(q1):
@@ -225,6 +207,12 @@ class SimulatorBackend:
                 "the simulation starts at rest at the path's start",
             )
         self._q0 = (q1, q2)
+        self.constants = _constants(self)
+        """The sensors' and the integrator's constants (device.physics' S_* names)."""
+        self._kernels = _Kernels(self)
+        self.state = self._kernels.vector(physics.X_SIZE)
+        """The simulator's state (device.sim.physics' X_* names)."""
+        self._scratch = self._kernels.vector(physics.SCRATCH_SIZE)
         self._is_open = False
         self._reset()
 
@@ -261,45 +249,37 @@ class SimulatorBackend:
         """Advance to `now_s` (whole steps, torques held) and sample the sensors."""
         if not self._is_open:
             raise StateError("the simulator is not open; call open() before read()")
-        if self._anchor is None:
-            if now_s - now_s != 0.0:
-                raise BackendError(
-                    f"read() got now_s = {now_s}; pass the loop's clock in seconds, finite"
-                )
-            self._anchor = now_s
-        # whole steps that fit before now_s (a hair of tolerance for k·0.002 round-off)
-        ahead = (now_s - self._anchor) * self._rate - self._steps + 1e-7
-        if ahead >= 1.0 and ahead != math.inf:
-            self._advance(int(ahead))
-        elif not ahead < 1.0:
-            raise BackendError(
-                f"read() got now_s = {now_s}; pass the loop's clock in seconds, finite"
-            )
+        self.top_up_noise(1)
+        status = self._kernels.read(self.state, now_s, self.noise, self._scratch)
+        if status != physics.OK:
+            raise self.failure(status, now_s)
+        steps = self.state[physics.X_STEPS]
+        if steps != self._sampled_at:
+            # a new sample; a read that did not advance gives the same one again (stale)
+            self._sampled_at = steps
+            self._reading = self.reading
         return self._reading
 
     def write(self, torque1_Nm: float, torque2_Nm: float) -> None:
         """Command joint torques; the drives saturate at the motors' limit."""
-        # plain floats: a numpy scalar would slow every later step threefold
+        # plain floats: a numpy scalar would slow every later step
         torque1_Nm = float(torque1_Nm)
         torque2_Nm = float(torque2_Nm)
-        if torque1_Nm - torque1_Nm != 0.0 or torque2_Nm - torque2_Nm != 0.0:
+        if not (math.isfinite(torque1_Nm) and math.isfinite(torque2_Nm)):
             raise BackendError(
                 f"torque command ({torque1_Nm}, {torque2_Nm}) N·m is not finite; the "
                 "controller's output is broken. The motors were left at their last command."
             )
-        m1, m2 = self._max_torque
-        self._tau1 = m1 if torque1_Nm > m1 else -m1 if torque1_Nm < -m1 else torque1_Nm
-        self._tau2 = m2 if torque2_Nm > m2 else -m2 if torque2_Nm < -m2 else torque2_Nm
+        self._kernels.write(self.state, torque1_Nm, torque2_Nm)
 
     def safe_state(self) -> None:
         """Zero the motor torques."""
-        self._tau1 = 0.0
-        self._tau2 = 0.0
+        self.state[physics.X_TAU1] = 0.0
+        self.state[physics.X_TAU2] = 0.0
 
     def close(self) -> None:
         """Zero the torques and stop; safe to call twice."""
-        self._tau1 = 0.0
-        self._tau2 = 0.0
+        self.safe_state()
         self._is_open = False
 
     # ----------------------------------------------------------------- patient
@@ -313,13 +293,13 @@ class SimulatorBackend:
         starts at the first read, as a headless run wants.
         """
         start = self.time_s if at_s is None else check_finite("at_s", at_s, "s")
-        self._patient_t0 = start
-        self._cached_k1 = False  # the patient's torque at this instant changed
+        self.state[physics.X_T0] = start
+        self.state[physics.X_CACHED] = 0.0  # the patient's torque at this instant changed
 
     @property
     def patient_time_s(self) -> float:
         """Time on the patient's clock (since their cue; negative while waiting)."""
-        return self.time_s - self._patient_t0
+        return self.time_s - float(self.state[physics.X_T0])
 
     # ------------------------------------------------------------ validation
     def noise_generator(self) -> np.random.Generator:
@@ -335,73 +315,95 @@ class SimulatorBackend:
     @property
     def time_s(self) -> float:
         """Simulated time of the last reading."""
-        return self._steps * self.step_s
+        return float(self.state[physics.X_STEPS]) * self.step_s
+
+    @property
+    def reading(self) -> SensorReading:
+        """The last reading."""
+        at = physics.X_READING
+        return _reading(float(v) for v in self.state[at:at + 6])
 
     @property
     def truth(self) -> SimulatorTruth:
         """The true state, force and torques at the last reading."""
-        q1, q2, qd1, qd2 = self._state
-        r = self._last
+        x = self.state
+        r = [float(v) for v in x[physics.X_LAST:physics.X_LAST + 12]]
         return SimulatorTruth(
-            self._steps * self.step_s, q1, q2, qd1, qd2, r[0], r[1], r[2], r[3], r[4], r[5],
-            r[6], r[7], r[8], r[9], r[10], r[11], self._last_tau[0], self._last_tau[1],
+            self.time_s, float(x[physics.X_Q1]), float(x[physics.X_Q2]),
+            float(x[physics.X_QD1]), float(x[physics.X_QD2]), *r,
+            float(x[physics.X_LAST_TAU1]), float(x[physics.X_LAST_TAU2]),
         )
+
+    @property
+    def physics(self):
+        """What the tick engine needs to run device.sim.physics on this simulator: the
+        constant vectors (r, a, c, p, table, episodes), the flavour (a function from a
+        kernel to the callable the simulator runs) and the scratch."""
+        return self._kernels.arrays, self._kernels.flavour, self._scratch
+
+    @property
+    def replacements(self) -> dict:
+        """What an interpreted flavour of the physics replaces (the patient's own torque
+        for a patient that is not a VirtualPatient), for kernels that call them."""
+        return self._kernels.replacements
 
     def hand_position_m(self) -> tuple[float, float]:
         """The handle's true position (eq. 3.2)."""
-        return self.robot.position(self._state[0], self._state[1])
+        return self.robot.position(float(self.state[physics.X_Q1]),
+                                   float(self.state[physics.X_Q2]))
+
+    # ------------------------------------------------------------------ noise
+    def top_up_noise(self, rows: int) -> None:
+        """Make sure at least `rows` noise triples are left, drawing the next block now if
+        not. The stream keeps its order (the rows left come first), so the readings are
+        the same however it is cut into blocks: the live loop calls this between ticks so
+        that no tick pays for a draw."""
+        used = int(self.state[physics.X_NOISE])
+        if len(self.noise) - used >= rows:
+            return
+        fresh = self._noise_rng.standard_normal((max(NOISE_BLOCK, rows), 3))
+        left = np.asarray(self.noise[used:], dtype=float).reshape(-1, 3)
+        self.noise = self._kernels.rows(np.vstack((left, fresh)))
+        self.state[physics.X_NOISE] = 0.0
+
+    def next_noise(self, n: int) -> list[list[float]]:
+        """The next `n` noise triples the sensor will use (for tests: they are not used)."""
+        self.top_up_noise(n)
+        used = int(self.state[physics.X_NOISE])
+        return [[float(v) for v in row] for row in self.noise[used:used + n]]
 
     # --------------------------------------------------------------- private
     def _reset(self) -> None:
-        self._rate = 1.0 / self.step_s
-        self._steps = 0
-        self._anchor: float | None = None
-        self._tau1 = self._tau2 = 0.0
-        self._patient_t0 = _WAITING_S if self.patient_waits else 0.0
-        self._cached_k1 = True
-        self._state = (self._q0[0], self._q0[1], 0.0, 0.0)
         # the sensor noise has its own child seed, independent of the patient's (child 0)
         self._noise_rng = self.noise_generator()
-        self._draw_noise_block()
-        self._last = self._evaluate_safely(-self._patient_t0, *self._state, 0.0, 0.0, True)
-        self._last_tau = (0.0, 0.0)
-        self._reading = self._sample(0, self._state[0], self._state[1], self._last)
+        self.noise = self._kernels.rows(self._noise_rng.standard_normal((NOISE_BLOCK, 3)))
+        self.state[physics.X_NOISE] = 0.0
+        t0 = _WAITING_S if self.patient_waits else 0.0
+        status = self._kernels.reset(*self._q0, t0, self.state, self.noise, self._scratch)
+        if status != physics.OK:
+            raise self.failure(status, 0.0)
+        self._sampled_at = 0.0
+        self._reading = self.reading
 
-    def _draw_noise_block(self) -> None:
-        # drawn a block at a time (numpy stays off the per-tick path); the rows come in
-        # the generator's order whatever the block size, so runs repeat for a seed
-        self._noise_block = self._noise_rng.standard_normal((NOISE_BLOCK, 3))
-        self._noise_rows = self._noise_block.tolist()
-        self._noise_pos = 0
-
-    def top_up_noise(self, rows: int) -> None:
-        """Make sure at least `rows` noise triples are left in the current block, drawing
-        the next block now if not. The stream keeps its order (the rows left come first),
-        so the readings are the same as without: the live loop calls this between ticks
-        so that no tick pays for a draw (device.compiled.looptick)."""
-        left = len(self._noise_rows) - self._noise_pos
-        if left >= rows:
-            return
-        fresh = self._noise_rng.standard_normal((max(NOISE_BLOCK, rows), 3))
-        self._noise_block = np.vstack((self._noise_block[self._noise_pos:], fresh))
-        self._noise_rows = self._noise_block.tolist()
-        self._noise_pos = 0
-
-    def _noise(self) -> list[float]:
-        if self._noise_pos == len(self._noise_rows):
-            self._draw_noise_block()
-        row = self._noise_rows[self._noise_pos]
-        self._noise_pos += 1
-        return row
-
-    def _evaluate_safely(self, t, q1, q2, qd1, qd2, tau1, tau2, full):
-        try:
-            return self._evaluate(t, q1, q2, qd1, qd2, tau1, tau2, full)
-        except (SingularityError, ZeroDivisionError, ValueError, OverflowError) as error:
-            raise self._failure(t, q1, q2, qd1, qd2) from error
-
-    def _failure(self, t, q1, q2, qd1, qd2) -> BackendError:
-        if not all(math.isfinite(v) for v in (q1, q2, qd1, qd2)):
+    def failure(self, status: int, now_s: float) -> BackendError:
+        """The error a physics status means (device.sim.physics), as `read` raises it, with
+        what the last failed call left in the scratch."""
+        if status == physics.BAD_TIME:
+            return BackendError(
+                f"read() got now_s = {now_s}; pass the loop's clock in seconds, finite")
+        scratch = [float(v) for v in self._scratch]
+        if status == physics.SENSOR_RANGE:
+            fxs, fys, fzs = scratch[:3]
+            limit_xy, limit_z = self.sensor.limit_xy_N, self.sensor.limit_z_N
+            return SensorRangeError(
+                f"the handle's force sensor reads ({fxs:.1f}, {fys:.1f}, {fzs:.1f}) N at "
+                f"t = {self.time_s + self.step_s:.3f} s, beyond its range of {limit_xy:g} N "
+                f"horizontal and {limit_z:g} N normal (Table 3.1). Stop the trial; the "
+                "simulated subject is pushing against a stalled or runaway robot."
+            )
+        t, q1, q2, qd1, qd2 = scratch[physics.FAILED_AT:physics.FAILED_AT + 5]
+        if status == physics.NOT_FINITE or not all(
+                math.isfinite(v) for v in (q1, q2, qd1, qd2)):
             return BackendError(
                 f"the simulation's state became non-finite at t = {t:.3f} s (joint rates "
                 f"{qd1:.3g}, {qd2:.3g} rad/s); a torque or the patient model blew up. Stop the "
@@ -417,92 +419,68 @@ class SimulatorBackend:
             "controller)."
         )
 
-    def _advance(self, n: int) -> None:
-        tau1, tau2 = self._tau1, self._tau2
-        h = self.step_s
-        t0 = self._patient_t0
-        q1, q2, qd1, qd2 = self._state
-        evaluate = self._evaluate
-        last = self._last
-        rk4 = self.integrator == "rk4"
-        steps = self._steps
-        t = steps * h - t0  # the patient's time: from their cue to start
-        try:
-            for i in range(n):
-                if i == 0 and self._cached_k1:
-                    # The last reading's accelerations, with the torque change through
-                    # the inverse coupled mass: they are affine in τ_R.
-                    dt1 = tau1 - self._last_tau[0]
-                    dt2 = tau2 - self._last_tau[1]
-                    a1 = last[0] + last[12] * dt1 + last[13] * dt2
-                    a2 = last[1] + last[13] * dt1 + last[14] * dt2
-                else:
-                    a1, a2 = evaluate(t, q1, q2, qd1, qd2, tau1, tau2, False)
-                if rk4:
-                    hh = 0.5 * h
-                    tm = t + hh
-                    v1b, v2b = qd1 + hh * a1, qd2 + hh * a2
-                    b1, b2 = evaluate(tm, q1 + hh * qd1, q2 + hh * qd2, v1b, v2b, tau1, tau2,
-                                      False)
-                    v1c, v2c = qd1 + hh * b1, qd2 + hh * b2
-                    c1, c2 = evaluate(tm, q1 + hh * v1b, q2 + hh * v2b, v1c, v2c, tau1, tau2,
-                                      False)
-                    v1d, v2d = qd1 + h * c1, qd2 + h * c2
-                    d1, d2 = evaluate(t + h, q1 + h * v1c, q2 + h * v2c, v1d, v2d, tau1, tau2,
-                                      False)
-                    h6 = h / 6.0
-                    q1 += h6 * (qd1 + 2.0 * (v1b + v1c) + v1d)
-                    q2 += h6 * (qd2 + 2.0 * (v2b + v2c) + v2d)
-                    qd1 += h6 * (a1 + 2.0 * (b1 + c1) + d1)
-                    qd2 += h6 * (a2 + 2.0 * (b2 + c2) + d2)
-                else:
-                    qd1 += h * a1
-                    qd2 += h * a2
-                    q1 += h * qd1
-                    q2 += h * qd2
-                steps += 1
-                t = steps * h - t0
-                total = q1 + q2 + qd1 + qd2
-                if total - total != 0.0:
-                    raise OverflowError
-            last = evaluate(t, q1, q2, qd1, qd2, tau1, tau2, True)
-        except (SingularityError, ZeroDivisionError, ValueError, OverflowError) as error:
-            # the simulator stays at its last reading, which was sound
-            raise self._failure(t + t0, q1, q2, qd1, qd2) from error
-        self._reading = self._sample(steps, q1, q2, last)  # may raise: commit after it
-        self._state = (q1, q2, qd1, qd2)
-        self._steps = steps
-        self._last = last
-        self._last_tau = (tau1, tau2)
-        self._cached_k1 = True
 
-    def _sample(self, steps: int, q1: float, q2: float, last: tuple) -> SensorReading:
-        """The sensors' reading of the state (θ_R at step `steps`, `last` evaluation)."""
-        fx, fy = last[2], last[3]
-        offset, noise_xy, noise_z, load, rxy, rz, limit_xy, limit_z = self._sensor_constants
-        # eq. 3.35–3.36 inverted: the sensor turns with link 4 (θ_R1) plus its mounting
-        angle = q1 + offset
-        c, s = math.cos(angle), math.sin(angle)
-        n1, n2, n3 = self._noise()
-        # noise on the analogue signal, then the ADC's quantisation (device.sim.sensors)
-        fxs = math.floor((c * fx + s * fy + noise_xy * n1) / rxy + 0.5) * rxy
-        fys = math.floor((c * fy - s * fx + noise_xy * n2) / rxy + 0.5) * rxy
-        fzs = math.floor((load + noise_z * n3) / rz + 0.5) * rz
-        if not (-limit_xy <= fxs <= limit_xy and -limit_xy <= fys <= limit_xy
-                and -limit_z <= fzs <= limit_z):
-            raise SensorRangeError(
-                f"the handle's force sensor reads ({fxs:.1f}, {fys:.1f}, {fzs:.1f}) N at "
-                f"t = {steps * self.step_s:.3f} s, beyond its range of {limit_xy:g} N "
-                f"horizontal and {limit_z:g} N normal (Table 3.1). Stop the trial; the "
-                "simulated subject is pushing against a stalled or runaway robot."
-            )
-        cpr1, cpr2 = self._counts_per_rev
-        return _reading((
-            steps * self.step_s,
-            round(q1 * cpr1 / _TWO_PI) * 2.0 * math.pi / cpr1,
-            round(q2 * cpr2 / _TWO_PI) * 2.0 * math.pi / cpr2,
-            fxs, fys, fzs,
-        ))
+class _Kernels:
+    """device.sim.physics's read, write and reset bound to one simulator's constants, in
+    the flavour the simulator runs: compiled on float arrays, or interpreted on Python
+    tuples and lists (several times faster there than numpy scalars), with the patient's
+    own torque when it is not a VirtualPatient's (`replacements`)."""
+
+    def __init__(self, simulator: SimulatorBackend) -> None:
+        patient = simulator.patient
+        self.replacements: dict = {}
+        if isinstance(patient, VirtualPatient):
+            model = (patient.constants, patient.table, patient.episodes)
+        else:
+            model = ((), np.zeros((1, 18)), np.zeros(1))
+
+            def own_torque(p, table, episodes, t_s, ts, te, tsd, ted):
+                return patient.torque(t_s, ts, te, tsd, ted)
+
+            self.replacements = {"patient_torque": own_torque}
+        constants = (simulator.robot.constants, simulator.arm.constants, simulator.constants)
+        self._compiled = simulator.compiled
+        if self._compiled:
+            from device.compiled.jit import compiled  # numba only where it is used
+
+            vectors = tuple(np.asarray(v, dtype=float) for v in (*constants, model[0]))
+            self.arrays = (*vectors, np.ascontiguousarray(model[1], dtype=float),
+                           np.asarray(model[2], dtype=float))
+            self.flavour = compiled
+        else:
+            self.arrays = (*constants, model[0], [tuple(row) for row in model[1].tolist()],
+                           model[2].tolist())
+            self.flavour = lambda f: interpreted(f, self.replacements)
+        read, write, reset = (self.flavour(f) for f in (physics.read, physics.write,
+                                                          physics.reset))
+        r, a, c, p, table, episodes = self.arrays
+        self.read = lambda x, now, noise, scratch: read(r, a, c, p, table, episodes, x, now,
+                                                        noise, scratch)
+        self.write = lambda x, tau1, tau2: write(c, x, tau1, tau2)
+        self.reset = lambda q1, q2, t0, x, noise, scratch: reset(r, a, c, p, table, episodes,
+                                                                 q1, q2, t0, x, noise, scratch)
+
+    def vector(self, size: int):
+        return np.zeros(size) if self._compiled else [0.0] * size
+
+    def rows(self, block: np.ndarray):
+        return np.ascontiguousarray(block) if self._compiled else block.tolist()
+
+
+def _constants(simulator: SimulatorBackend) -> tuple[float, ...]:
+    sn, robot = simulator.sensor, simulator.robot
+    values = {
+        physics.S_OFFSET: sn.offset_rad, physics.S_NOISE_XY: sn.noise_xy_N,
+        physics.S_NOISE_Z: sn.noise_z_N, physics.S_LOAD: sn.normal_load_N,
+        physics.S_RXY: sn.resolution_xy_N, physics.S_RZ: sn.resolution_z_N,
+        physics.S_LIMIT_XY: sn.limit_xy_N, physics.S_LIMIT_Z: sn.limit_z_N,
+        physics.S_CPR1: robot.motors[0].counts_per_joint_rev,
+        physics.S_CPR2: robot.motors[1].counts_per_joint_rev,
+        physics.S_STEP: simulator.step_s, physics.S_RATE: 1.0 / simulator.step_s,
+        physics.S_MAX1: robot.max_joint_torque_Nm[0], physics.S_MAX2: robot.max_joint_torque_Nm[1],
+        physics.S_RK4: float(simulator.integrator == "rk4"),
+    }
+    return tuple(float(values[i]) for i in range(physics.S_SIZE))
 
 
 _reading = SensorReading._make
@@ -516,119 +494,6 @@ def _check_seed(seed) -> None:
 def _child_seed(seed: int, index: int) -> np.random.SeedSequence:
     """The `index`-th independent stream of `seed` (what SeedSequence.spawn gives)."""
     return np.random.SeedSequence(int(seed), spawn_key=(index,))
-
-
-# ------------------------------------------------------- compiled hand-over
-@dataclass(frozen=True, slots=True)
-class SimulatorSnapshot:
-    """Everything `read` and `write` change, for the compiled tick (device.compiled) to
-    take over the simulation and hand it back unchanged."""
-
-    steps: int
-    state: tuple[float, float, float, float]
-    torque: tuple[float, float]
-    last_torque: tuple[float, float]
-    last: tuple
-    reading: SensorReading
-    cached_k1: bool
-    patient_t0: float
-    anchor: float | None
-    noise_block: np.ndarray
-    noise_pos: int
-
-
-def snapshot(simulator: SimulatorBackend) -> SimulatorSnapshot:
-    """The simulator's state now (the noise block is shared, not copied)."""
-    s = simulator
-    return SimulatorSnapshot(
-        s._steps, s._state, (s._tau1, s._tau2), s._last_tau, s._last, s._reading,
-        s._cached_k1, s._patient_t0, s._anchor, s._noise_block, s._noise_pos,
-    )
-
-
-def restore(simulator: SimulatorBackend, snap: SimulatorSnapshot) -> None:
-    """Put the simulator in the state `snap` describes (plain floats, as `read` keeps it).
-    The noise block must be the simulator's own current block or the next rows of its
-    stream are lost."""
-    s = simulator
-    if snap.noise_block is not s._noise_block:
-        raise StateError("a snapshot can only restore the noise block it was taken with")
-    s._steps = int(snap.steps)
-    s._state = tuple(float(v) for v in snap.state)
-    s._tau1, s._tau2 = (float(v) for v in snap.torque)
-    s._last_tau = tuple(float(v) for v in snap.last_torque)
-    s._last = tuple(float(v) for v in snap.last)
-    s._reading = _reading(float(v) for v in snap.reading)
-    s._cached_k1 = bool(snap.cached_k1)
-    s._patient_t0 = float(snap.patient_t0)
-    s._anchor = None if snap.anchor is None else float(snap.anchor)
-    s._noise_pos = int(snap.noise_pos)
-
-
-# ------------------------------------------------------------------ dynamics
-def _fused_dynamics(simulator: SimulatorBackend):
-    """`evaluate(t, q1, q2, qd1, qd2, τ1, τ2, full)` for the coupled robot and arm.
-
-    The algebra of core.interaction.coupled_forward_dynamics, flattened on plain
-    floats with the patient's torque computed from the arm's state in between,
-    compiled: device.compiled.dynamics.evaluate, which the compiled engines use too.
-    Returns (θ̈_R1, θ̈_R2) or, with `full`, a 15-tuple: θ̈_R1, θ̈_R2, F_x, F_y,
-    θ_s, θ_e, θ̇_s, θ̇_e, θ̈_s, θ̈_e, τ_s, τ_e and the inverse coupled mass
-    matrix (n11, n12, n22) that maps a change of motor torque to θ̈_R.
-    Raises SingularityError when the arm is straight or out of reach, and
-    OverflowError when a full evaluation is not finite.
-    """
-    from device.compiled import dynamics as compiled  # numba only where it is used
-
-    constants = compiled.simulator_constants(simulator)
-    p, table, episodes = compiled.patient_arrays(simulator.patient)
-    out = np.empty(15)
-    kernel, ok, isfinite = compiled.evaluate, compiled.OK, math.isfinite
-
-    def evaluate(t, q1, q2, qd1, qd2, tau1, tau2, full):
-        if kernel(constants, p, table, episodes, t, q1, q2, qd1, qd2, tau1, tau2, out) != ok:
-            raise SingularityError("the arm is straight or out of reach")
-        values = out.tolist()  # plain floats: a numpy scalar slows every later step
-        if not full:
-            return values[0], values[1]
-        if not isfinite(sum(values)):
-            raise OverflowError("the coupled dynamics are not finite")
-        return tuple(values)
-
-    return evaluate
-
-
-def _reference_dynamics(robot: RobotModel, arm, patient):
-    """`evaluate` as `_fused_dynamics`, through core.interaction.coupled_forward_dynamics
-    and the patient's own `torque`.
-
-    The patient needs the arm's state before its torque is known; the coupled
-    dynamics return it, so the first call (with τ_A = 0) gives the state and the
-    second the motion.
-    """
-
-    def evaluate(t, q1, q2, qd1, qd2, tau1, tau2, full):
-        *_, ts, te, tsd, ted = coupled_forward_dynamics(
-            robot, arm, q1, q2, qd1, qd2, tau1, tau2, 0.0, 0.0
-        )
-        tau_s, tau_e = patient.torque(t, ts, te, tsd, ted)
-        qdd1, qdd2, fx, fy, *_ = coupled_forward_dynamics(
-            robot, arm, q1, q2, qd1, qd2, tau1, tau2, tau_s, tau_e
-        )
-        if not full:
-            return qdd1, qdd2
-        tsdd, tedd = arm.forward_dynamics_terms(ts, te, tsd, ted, tau_s, tau_e, fx, fy)
-        # the inverse coupled mass from the response to unit torques (validation only)
-        u1 = coupled_forward_dynamics(robot, arm, q1, q2, qd1, qd2, tau1 + 1.0, tau2,
-                                      tau_s, tau_e)
-        u2 = coupled_forward_dynamics(robot, arm, q1, q2, qd1, qd2, tau1, tau2 + 1.0,
-                                      tau_s, tau_e)
-        return (
-            qdd1, qdd2, fx, fy, ts, te, tsd, ted, tsdd, tedd, tau_s, tau_e,
-            u1[0] - qdd1, u2[0] - qdd1, u2[1] - qdd2,
-        )
-
-    return evaluate
 
 
 # --------------------------------------------------------------------- bench

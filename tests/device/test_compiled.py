@@ -1,5 +1,6 @@
-"""The compiled headless engine gives the Python engine's records bit for bit, and hands
-anything out of the ordinary back to it."""
+"""The compiled headless engine gives the interpreted (Python) engine's records bit for
+bit: both run the same kernels (core.kernels), so any difference is a bug of the
+compiler or of a kernel that is not what numba can compile faithfully."""
 
 import numpy as np
 import pytest
@@ -9,7 +10,7 @@ from core.control.base import make_controller
 from core.errors import ParameterError
 from core.robot import Friction, RobotModel, Stiffness
 from core.trial import THESIS_SUBJECT
-from device.compiled import trial as compiled
+from device.loop.engine import run_trial
 from device.loop.pipeline import TickPipeline, TrialPlan
 from device.safety.supervisor import SafetySupervisor
 from device.sim.patients import PATIENT_KINDS
@@ -73,20 +74,19 @@ def test_a_robot_with_handle_friction_and_joint_stiffness_gives_the_python_recor
         assert_same_records(fast.records, slow.records)
 
 
-def test_a_fault_is_handed_to_the_python_engine_which_reports_it():
+def test_a_fault_stops_both_engines_at_the_same_tick_with_the_same_event():
     """A subject pushing 50 N the wrong way drives the handle over the speed limit: the
-    compiled run stops at that tick and the Python engine replays the trial to write
-    the fault with its values."""
+    compiled and the interpreted ticks latch the same fault at the same tick, and the
+    supervisor words it the same (it runs the same checks on the same numbers)."""
     options = {"patient": "wrong_way", "seed": 0, "patient_options": {
         "wrong_way_force_N": 50.0, "wrong_way_fraction": 0.9, "wrong_way_episode_s": 5.0}}
-    auto = simulate(SHORT, **options)
-    slow = simulate(SHORT, engine="python", **options)
-    assert slow.status == "faulted"
-    assert auto.engine == "python"
-    fault_tick = slow.events[-1]["tick"]
-    assert auto.handed_over == f"tick {fault_tick}: a safety check tripped"
-    assert auto.events == slow.events
-    assert_same_records(auto.records, slow.records)
+    fast, slow = both(SHORT, **options)
+    assert fast.status == slow.status == "faulted"
+    assert fast.events == slow.events
+    assert fast.events[-1]["values"]["fault"] in ("joint_speed", "ee_speed")
+    assert_same_records(fast.records, slow.records)
+    assert fast.records["fault"][-1] != 0
+    np.testing.assert_array_equal(fast.records["torque_applied"][-1], 0.0)
 
 
 def test_an_unknown_engine_is_refused_by_name():
@@ -94,31 +94,40 @@ def test_an_unknown_engine_is_refused_by_name():
         simulate(SHORT, engine="fortran")
 
 
-def objects(**simulator_options):
+class LearnedModel:
+    """An inverse-dynamics model of chapter 4's kind: no constants for the kernels. It
+    counts its calls and answers a torque the kernels' laws could not give."""
+
+    max_joint_torque_Nm = (2.0, 2.0)
+
+    def __init__(self):
+        self.calls = 0
+
+    def inverse_dynamics_terms(self, q1, q2, qd1, qd2, qdd1, qdd2, fx=0.0, fy=0.0):
+        self.calls += 1
+        return (0.0125, -0.0125)
+
+
+def test_a_controller_the_kernels_do_not_know_runs_interpreted_through_its_own_step():
     plan = TrialPlan.build(SHORT)
-    backend = SimulatorBackend.from_trial(SHORT, "healthy", robot=plan.robot,
-                                          **simulator_options)
-    return plan, backend, TickPipeline(plan), SafetySupervisor(plan.robot)
+    model = LearnedModel()
+    controller = make_controller("ctpid", model)
+    with pytest.raises(ParameterError, match="compiled") as error:
+        TickPipeline(plan, controller=controller, compiled=True)
+    assert "LearnedModel" in str(error.value)
+    pipeline = TickPipeline(plan, controller=controller)
+    simulator = SimulatorBackend.from_trial(SHORT, "healthy", robot=plan.robot,
+                                            compiled=False)
+    outcome = run_trial(simulator, pipeline, SafetySupervisor(plan.robot))
+    assert outcome.status == "complete"
+    # every tick asked the learned model, and its answer is the controller's torque
+    assert model.calls == len(outcome.records)
+    np.testing.assert_array_equal(outcome.records["torque_controller"],
+                                  [[0.0125, -0.0125]] * len(outcome.records))
 
 
-def test_configurations_without_a_compiled_form_are_named():
-    plan, backend, pipeline, supervisor = objects()
-    assert compiled.unsupported(backend, pipeline, supervisor) == ""
-
-    _, rk4, _, _ = objects(integrator="rk4")
-    assert "rk4" in compiled.unsupported(rk4, pipeline, supervisor)
-
-    _, waiting, _, _ = objects(patient_waits=True)
-    assert "waits" in compiled.unsupported(waiting, pipeline, supervisor)
-
-    class LearnedModel:  # an inverse-dynamics model of chapter 4's kind
-        max_joint_torque_Nm = (2.0, 2.0)
-
-        def inverse_dynamics_terms(self, q1, q2, qd1, qd2, qdd1, qdd2, fx=0.0, fy=0.0):
-            return (0.0, 0.0)
-
-    learned = TickPipeline(plan, controller=make_controller("ctpid", LearnedModel()))
-    assert "LearnedModel" in compiled.unsupported(backend, learned, supervisor)
-    outcome = compiled.run(backend, learned, supervisor)
-    assert isinstance(outcome, compiled.Abandoned)
-    assert outcome.tick == 0
+def test_a_headless_run_needs_one_flavour():
+    plan = TrialPlan.build(SHORT)
+    simulator = SimulatorBackend.from_trial(SHORT, "healthy", robot=plan.robot, compiled=True)
+    with pytest.raises(ValueError, match="one flavour"):
+        run_trial(simulator, TickPipeline(plan), SafetySupervisor(plan.robot))

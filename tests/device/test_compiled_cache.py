@@ -3,6 +3,7 @@ every kernel the Python side calls."""
 
 import os
 import time
+from pathlib import Path
 
 from device.compiled import cachedir, warmup
 
@@ -12,14 +13,30 @@ def test_the_cache_is_warm_only_with_every_entry_kernel(tmp_path, monkeypatch):
     assert not cachedir.is_warm()
     index = tmp_path / "compiled_0123"
     index.mkdir()
-    (index / "trial.run_ticks-170.py311.nbi").write_bytes(b"")
-    (index / "looptick.loop_tick-150.py311.nbi").write_bytes(b"")
+    first, *rest = cachedir.ENTRY_KERNELS
+    (index / f"{first}-170.py311.nbi").write_bytes(b"")
+    (index / "robot_terms.mass_terms-150.py311.nbi").write_bytes(b"")  # not an entry
     assert not cachedir.is_warm()
-    (index / "looptick.warm_tick-190.py311.nbi").write_bytes(b"")
+    for name in rest[:-1]:
+        (index / f"{name}-190.py311.nbi").write_bytes(b"")
     assert not cachedir.is_warm()
-    (index / "dynamics.evaluate-240.py311.nbi").write_bytes(b"")
-    (index / "dynamics.patient_torque-130.py311.nbi").write_bytes(b"")
+    (index / f"{rest[-1]}-240.py311.nbi").write_bytes(b"")
     assert cachedir.is_warm()
+
+
+def test_every_entry_kernel_is_in_a_warm_cache():
+    """The names are numba's own: after load_kernels the real cache holds them all."""
+    warmup.load_kernels()
+    assert cachedir.is_warm()
+
+
+def test_the_cache_key_covers_the_kernels_in_core_too():
+    """A kernel in core compiled into the loop's tick must start a fresh cache when it
+    changes (numba would not notice: the caller's file did not change)."""
+    import core.robot_terms
+
+    sources = [path for root in cachedir._SOURCES for path in root.rglob("*.py")]
+    assert Path(core.robot_terms.__file__).resolve() in [p.resolve() for p in sources]
 
 
 def test_the_cache_directory_is_keyed_by_the_source():

@@ -407,7 +407,7 @@ def test_the_supervisor_takes_the_sensor_range_from_its_calibration(rig):
     """The thesis's Nano25 is calibrated for 250 N in the plane (this .cal says so):
     the supervisor's saturation and force ceilings follow the file, not a constant."""
     from device.loop.process import limits_for_backend
-    from device.safety.supervisor import SafetyLimits
+    from device.safety.limits import SafetyLimits
 
     backend = _opened(rig)
     planar, normal = backend.force_sensor_range_N
@@ -421,7 +421,7 @@ def test_the_supervisor_takes_the_sensor_range_from_its_calibration(rig):
 
 def test_a_force_limit_above_a_smaller_sensor_is_refused_by_name():
     from core.errors import ParameterError
-    from device.safety.supervisor import SafetyLimits
+    from device.safety.limits import SafetyLimits
 
     small = SafetyLimits(force_limit_N=150.0)
     with pytest.raises(ParameterError, match="force_limit_N") as error:

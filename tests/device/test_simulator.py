@@ -15,7 +15,7 @@ from device.backend import Backend, SensorReading
 from device.errors import BackendError, SensorRangeError, StateError
 from device.sim.patients import PATIENT_KINDS, make_patient
 from device.sim.sensors import ForceSensorModel
-from device.sim.simulator import SimulatorBackend
+from device.sim.simulator import INTEGRATORS, SimulatorBackend
 
 TICK_S = 0.002
 QUIET = ForceSensorModel(noise_xy_N=0.0, noise_z_N=0.0)
@@ -150,7 +150,7 @@ def test_bad_simulator_options_are_refused_by_name():
         ({"step_s": 0.002}, "step_s"),
         ({"step_s": 0.0}, "step_s"),
         ({"integrator": "euler"}, "integrator"),
-        ({"dynamics": "fast"}, "dynamics"),
+        ({"timing": "fast"}, "timing"),
         ({"seed": -1}, "seed"),
         ({"seed": 1.5}, "seed"),
     ):
@@ -349,20 +349,48 @@ def test_motor_work_equals_the_energy_gained():
     assert work == pytest.approx(gained, rel=1e-4)
 
 
-def test_fused_dynamics_match_core_coupled_forward_dynamics():
-    """The simulator's flattened dynamics against core.interaction's, on a robot with
-    every term switched on (joint and end-effector friction, stiffness)."""
-    robot = RobotModel(
-        friction=Friction((0.05, 0.04), (0.02, 0.03), ee_coulomb_N=0.3, ee_viscous_Ns_m=0.5),
-        stiffness=Stiffness(0.5, 0.1, 0.4, 1.0, 2.0),
-    )
-    fused = simulator("spastic", robot=robot, integrator="rk4")
-    reference = simulator("spastic", robot=robot, integrator="rk4", dynamics="reference")
-    for (_, tf), (_, tr) in zip(track(fused, 1.0), track(reference, 1.0), strict=True):
-        np.testing.assert_allclose(
-            [getattr(tf, f) for f in tf.__slots__], [getattr(tr, f) for f in tr.__slots__],
-            rtol=1e-7, atol=1e-9,
-        )
+ALL_TERMS = RobotModel(
+    friction=Friction((0.05, 0.04), (0.02, 0.03), ee_coulomb_N=0.3, ee_viscous_Ns_m=0.5),
+    stiffness=Stiffness(0.5, 0.1, 0.4, 1.0, 2.0),
+)
+"""A robot with every term of eq. 3.6 switched on: joint and end-effector friction,
+stiffness."""
+
+
+@pytest.mark.parametrize("integrator", INTEGRATORS)
+def test_the_interpreted_simulator_is_the_compiled_one_bit_for_bit(integrator):
+    """The same physics kernels (device.sim.physics), run by numba and by Python, on a
+    robot with every term on and a spastic patient: every reading and every true value
+    equal."""
+    compiled = simulator("spastic", robot=ALL_TERMS, integrator=integrator, compiled=True)
+    interpreted = simulator("spastic", robot=ALL_TERMS, integrator=integrator, compiled=False)
+    for (rc, tc), (ri, ti) in zip(track(compiled, 0.5), track(interpreted, 0.5), strict=True):
+        assert rc == ri
+        assert tc == ti
+
+
+def test_the_simulated_motion_obeys_both_equations_of_motion():
+    """At every reading the simulator's accelerations and hand force satisfy the robot's
+    eq. 3.26 and the arm's eq. 3.27, checked with RobotModel's and ArmModel's own inverse
+    dynamics, and the patient's torque is the one it reports: the coupled solve
+    (core.interaction.coupled_motion) is right, not just consistent with itself."""
+    sim = simulator("spastic", robot=ALL_TERMS, integrator="rk4")
+    worst_robot = worst_arm = 0.0
+    previous = (0.0, 0.0)
+    for _, tr in track(sim, 1.0):
+        tau = ALL_TERMS.inverse_dynamics_terms(
+            tr.q1_rad, tr.q2_rad, tr.q1_rate_rad_s, tr.q2_rate_rad_s, tr.q1_acc_rad_s2,
+            tr.q2_acc_rad_s2, tr.force_x_N, tr.force_y_N)
+        worst_robot = max(worst_robot, abs(tau[0] - tr.torque1_Nm), abs(tau[1] - tr.torque2_Nm))
+        arm = sim.arm.inverse_dynamics_terms(
+            tr.shoulder_rad, tr.elbow_rad, tr.shoulder_rate_rad_s, tr.elbow_rate_rad_s,
+            tr.shoulder_acc_rad_s2, tr.elbow_acc_rad_s2, tr.force_x_N, tr.force_y_N)
+        worst_arm = max(worst_arm, abs(arm[0] - tr.shoulder_torque_Nm),
+                        abs(arm[1] - tr.elbow_torque_Nm))
+        previous = (tr.torque1_Nm, tr.torque2_Nm)
+    assert previous != (0.0, 0.0)  # the motors did work
+    assert worst_robot < 1e-9
+    assert worst_arm < 1e-9
 
 
 # --------------------------------------------------------------- failures
@@ -412,13 +440,13 @@ def test_a_non_finite_state_stops_the_simulation_with_a_backend_error():
     assert sim.time_s == 0.0
 
 
-def test_another_patient_runs_the_reference_dynamics_and_fused_is_refused_by_name():
-    """The fused dynamics are compiled with a VirtualPatient's torque; any other object of
-    the Patient protocol is simulated through core.interaction instead."""
-    assert SimulatorBackend(_BrokenPatient()).dynamics == "reference"
-    with pytest.raises(ParameterError, match="dynamics") as error:
-        SimulatorBackend(_BrokenPatient(), dynamics="fused")
-    assert "_BrokenPatient runs the reference dynamics" in str(error.value)
+def test_another_patient_runs_interpreted_and_compiled_is_refused_by_name():
+    """The compiled physics take a VirtualPatient's torque; any other object of the
+    Patient protocol is simulated by the same kernels interpreted, with its own torque."""
+    assert SimulatorBackend(_BrokenPatient()).compiled is False
+    with pytest.raises(ParameterError, match="compiled") as error:
+        SimulatorBackend(_BrokenPatient(), compiled=True)
+    assert "a _BrokenPatient is simulated interpreted" in str(error.value)
 
 
 def test_a_force_beyond_the_sensors_range_is_a_sensor_range_error():

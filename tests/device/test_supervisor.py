@@ -9,8 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given
-from hypothesis import strategies as st
+from hypothesis import given, strategies as st
 
 from core.errors import ParameterError
 from core.motor import MotorParameters
@@ -19,7 +18,8 @@ from core.trajectory import Trajectory, d_shape
 from device.backend import SensorReading
 from device.errors import BackendError, BackendTimeout, SensorRangeError, StateError
 from device.safety.faults import Fault
-from device.safety.supervisor import SafetyLimits, SafetySupervisor
+from device.safety.limits import SafetyLimits
+from device.safety.supervisor import SafetySupervisor
 
 ROBOT = RobotModel()
 PERIOD = 0.002

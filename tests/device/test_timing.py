@@ -17,7 +17,7 @@ from device.loop.process import DeviceLoop, LoopConfig, make_backend
 from device.loop.realtime import measure_wakeups, timing_warning
 from device.loop.states import State
 from device.recording.ring import RecordRing
-from device.safety.supervisor import SafetyLimits
+from device.safety.limits import SafetyLimits
 from device.sim.faultinjection import FaultInjectingBackend
 from device.sim.simulator import SimulatorBackend
 
