@@ -29,8 +29,9 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app.records.registry import Patient, Registration, Registry
+from app.records.registry import Patient, Registration
 from app.records.settings import Settings, load_settings, save_settings
+from app.records.store import RecordStore
 from app.trials.finalize import finish_interrupted
 from core.trial import TrialParameters
 from device.loop.messages import BackendConfig
@@ -75,7 +76,7 @@ class _Done(QObject):
 class MainWindow(QMainWindow):
     """The therapist's console."""
 
-    def __init__(self, registry: Registry, *, bridge: DeviceBridge | None = None,
+    def __init__(self, registry: RecordStore, *, bridge: DeviceBridge | None = None,
                  settings: Settings | None = None, settings_path: Path | None = None) -> None:
         super().__init__()
         self.setWindowTitle("Rehabilitation robot console")

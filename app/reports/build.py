@@ -28,7 +28,7 @@ import os
 from pathlib import Path
 
 from app.records.datadir import REPORTS
-from app.records.registry import Registry
+from app.records.store import RecordStore
 from app.reports.compare import Baseline, Comparison, TableRow
 from app.reports.content import (
     AnglesFigure,
@@ -63,7 +63,7 @@ __all__ = [
 
 
 def content_for_registry_trial(
-    registry: Registry,
+    registry: RecordStore,
     trial_id: int,
     *,
     include_first_name: bool = False,
@@ -98,7 +98,7 @@ def content_for_registry_trial(
 
 
 def report_for_registry_trial(
-    registry: Registry,
+    registry: RecordStore,
     trial_id: int,
     path: str | os.PathLike | None = None,
     *,

@@ -23,7 +23,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app.records.registry import Registry
+from app.records.store import RecordStore
 from app.reports.metrics_table import ROWS
 from app.reports.progress import Progress, progress
 from ui import plots, theme
@@ -41,7 +41,7 @@ class ProgressTab(QWidget):
     progress_loaded = Signal(object)
     progress_failed = Signal(str)
 
-    def __init__(self, registry: Registry | None = None, parent=None) -> None:
+    def __init__(self, registry: RecordStore | None = None, parent=None) -> None:
         super().__init__(parent)
         self.registry = registry
         self._code: str | None = None
@@ -84,7 +84,7 @@ class ProgressTab(QWidget):
     def progress(self) -> Progress | None:
         return self._progress
 
-    def set_registry(self, registry: Registry) -> None:
+    def set_registry(self, registry: RecordStore) -> None:
         self.registry = registry
 
     def set_patient(self, code: str | None) -> None:

@@ -28,7 +28,8 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app.records.registry import Registry, Trial
+from app.records.registry import Trial
+from app.records.store import RecordStore
 from app.trials.reader import read_trial
 from device.loop.pipeline import PHASE_APPROACH, PHASE_EXERCISE, PHASE_HOLD, PHASE_IDLE
 from device.safety.faults import Fault
@@ -63,7 +64,7 @@ class ReplayTab(QWidget):
     cursor_moved = Signal(float)
     load_failed = Signal(str)
 
-    def __init__(self, registry: Registry | None = None, parent=None) -> None:
+    def __init__(self, registry: RecordStore | None = None, parent=None) -> None:
         super().__init__(parent)
         self.registry = registry
         self._code: str | None = None
@@ -146,7 +147,7 @@ class ReplayTab(QWidget):
     def view(self) -> TrialView | None:
         return self._view
 
-    def set_registry(self, registry: Registry) -> None:
+    def set_registry(self, registry: RecordStore) -> None:
         self.registry = registry
 
     def set_patient(self, code: str | None) -> None:

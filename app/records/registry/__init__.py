@@ -1,7 +1,8 @@
 """The registry of patients, sessions and trials: one SQLite file in the data folder.
 
-`Registry` is the one entry point. It is composed of one part per table or
-concern, each a module here:
+`Registry` is the one entry point; it implements `app.records.store.RecordStore`,
+the interface the rest of app and ui use. It is composed of one part per table
+or concern, each a module here:
 
 * database — connections, the write and read transactions, SQLite's errors as
   the registry's own, the online backup and the integrity checks;
