@@ -60,6 +60,7 @@ from core.trial import (
 )
 from device.sim.patients import PATIENT_KINDS
 from ui import plots, theme
+from ui.views import samples
 
 SHAPE_NAMES = {"d": "D shape", "circle": "Circle", "reach": "Reach out and back",
                "targets": "Targets (centre-out)", "figure8": "Figure eight"}
@@ -394,7 +395,7 @@ class ParametersTab(QWidget):
         points = check.points_m * CM
         ok = check.reachable
         # Each line also draws the point after it changes, so the two meet.
-        inside, outside = plots.split_by_mask(points, np.repeat(ok[:, None], 2, axis=1))
+        inside, outside = samples.split_by_mask(points, np.repeat(ok[:, None], 2, axis=1))
         self.path_ok.setData(inside[:, 0], inside[:, 1])
         self.path_out.setData(outside[:, 0], outside[:, 1])
         # A cross every centimetre or so: at the path's 2 mm spacing they would merge.

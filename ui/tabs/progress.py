@@ -27,6 +27,7 @@ from app.records.store import RecordStore
 from app.reports.metrics_table import ROWS
 from app.reports.progress import Progress, progress
 from ui import plots, theme
+from ui.views.numbers import format_number
 
 DEFAULT_METRIC = "directional_performance_pct"
 MAX_LABELLED_TICKS = 30
@@ -168,7 +169,7 @@ class ProgressTab(QWidget):
             cells = [str(summary.session_number), str(summary.number),
                      summary.session_date.isoformat(), status,
                      result.parameter_sets[int(result.parameter_set_index[i])].label()]
-            cells += [plots.format_number(float(result.values[r.key][i]) * r.scale, 2)
+            cells += [format_number(float(result.values[r.key][i]) * r.scale, 2)
                       for r in rows]
             for c, text in enumerate(cells):
                 cell = QTableWidgetItem(text)

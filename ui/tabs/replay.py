@@ -34,6 +34,7 @@ from app.trials.reader import read_trial
 from device.loop.pipeline import PHASE_APPROACH, PHASE_EXERCISE, PHASE_HOLD, PHASE_IDLE
 from device.safety.faults import Fault
 from ui import plots, theme
+from ui.views.numbers import format_number
 from ui.views.trialview import TrialView
 
 PLAY_INTERVAL_MS = 40
@@ -293,10 +294,10 @@ def _moment(view: TrialView, i: int) -> dict[str, str]:
         fault = f"fault code {code}"
     return {
         "phase": PHASE_WORDS.get(phase, f"phase {phase}"),
-        "position": f"x {plots.format_number(x)} cm, y {plots.format_number(y)} cm",
-        "force": f"{plots.format_number(magnitude, 2)} N{aim}",
-        "angles": f"{plots.format_number(shoulder)}°, {plots.format_number(elbow)}°",
-        "torques": f"{plots.format_number(ts, 2)} N·m, {plots.format_number(te, 2)} N·m",
+        "position": f"x {format_number(x)} cm, y {format_number(y)} cm",
+        "force": f"{format_number(magnitude, 2)} N{aim}",
+        "angles": f"{format_number(shoulder)}°, {format_number(elbow)}°",
+        "torques": f"{format_number(ts, 2)} N·m, {format_number(te, 2)} N·m",
         "fault": fault,
     }
 
