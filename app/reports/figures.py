@@ -1,7 +1,8 @@
 """The arrays and captions of the report's figures (thesis section 3.6): the hand's path
 against the target (Fig. 3.7), the force on the handle in blue/red runs (Fig. 3.9),
 the ISB joint angles (Fig. 3.11) and the joint torques (Fig. 3.12), as plain data
-over the exercise phase, for the PDF (app.reports.pdf_plots) and the window.
+over the exercise phase (part of app.reports.content.ReportContent), which the PDF
+draws (app.reports.pdf_plots).
 
 Fig. 3.9's blue and red runs: every sample is within (the push points within
 the tolerance of the path's direction) or outside; sensor noise flips a sample
