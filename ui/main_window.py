@@ -338,7 +338,7 @@ class MainWindow(QMainWindow):
             trial_id = self.trial_id
             self.trial_id = None
             self.jobs.run(lambda: finalize_trial(self.registry, trial_id, status),
-                      lambda done: self._finalized(trial_id, done))
+                          lambda done: self._finalized(trial_id, done))
 
     def _finalized(self, trial_id: int, done) -> None:
         self.unsaved_trial = trial_id
