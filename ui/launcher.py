@@ -11,7 +11,8 @@ import os
 import sys
 from collections.abc import Sequence
 
-from app.cli.main import CommandError, build_parser, run
+from app.cli.common import CommandError
+from app.cli.main import build_parser, run
 
 
 def display_problem(environ=os.environ, platform: str = sys.platform) -> str:

@@ -3,19 +3,18 @@ stop on every tab, a fault banner, and a status bar with the loop's state and he
 
 The window only arranges and forwards: the loop runs in its own process behind
 `DeviceBridge`, files and the registry live in `app`, and anything that touches the disk
-(finishing a trial, writing a report) runs on a worker thread so the window never waits.
+(finishing a trial, writing a report) runs on the job thread (`ui.jobs`) so the window
+never waits. The loop's health in the status bar is `ui.views.loop_health`.
 """
 
 from __future__ import annotations
 
 import base64
-import concurrent.futures
 import contextlib
 import logging
 from pathlib import Path
 
-import numpy as np
-from PySide6.QtCore import QObject, Qt, QTimer, Signal
+from PySide6.QtCore import Qt, QTimer
 from PySide6.QtGui import QKeySequence, QShortcut
 from PySide6.QtWidgets import (
     QFrame,
@@ -29,19 +28,21 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app.records.registry import Patient, Registration, Registry
+from app.records.registry import Patient, Registration
 from app.records.settings import Settings, load_settings, save_settings
+from app.records.store import RecordStore
 from app.trials.finalize import finish_interrupted
 from core.trial import TrialParameters
 from device.loop.messages import BackendConfig
-from device.loop.pipeline import PERIOD_S
 from device.loop.states import State
 from device.recording.trialfile import SubjectInfo
 from device.safety.faults import Fault
 from ui import theme
 from ui.device_bridge import DeviceBridge
+from ui.jobs import Jobs
 from ui.robot_bar import RobotBar
 from ui.tabs import (
+    TABS,
     VIEW_TABS,
     AnglesTab,
     ForceTab,
@@ -56,6 +57,7 @@ from ui.tabs import (
     VideoTab,
 )
 from ui.tabs.parameters import HARDWARE
+from ui.views.loop_health import LoopHealth
 from ui.views.trialview import TrialView
 
 log = logging.getLogger(__name__)
@@ -66,16 +68,10 @@ HEALTH_MS = 500
 CLEAR_DELAY_MS = 20  # ten loop ticks
 
 
-class _Done(QObject):
-    """Carries a worker thread's result back to the GUI thread."""
-
-    finished = Signal(object, object, object)  # callback, result, error
-
-
 class MainWindow(QMainWindow):
     """The therapist's console."""
 
-    def __init__(self, registry: Registry, *, bridge: DeviceBridge | None = None,
+    def __init__(self, registry: RecordStore, *, bridge: DeviceBridge | None = None,
                  settings: Settings | None = None, settings_path: Path | None = None) -> None:
         super().__init__()
         self.setWindowTitle("Rehabilitation robot console")
@@ -94,13 +90,9 @@ class MainWindow(QMainWindow):
         self.shown_view: TrialView | None = None
         self.fault_code = 0
         self.closing_by_signal = False
-        self._late_total = 0
-        self._ticks_total = 0
-        self._lateness: list[np.ndarray] = []
-        self._jobs = concurrent.futures.ThreadPoolExecutor(max_workers=1,
-                                                           thread_name_prefix="console-job")
-        self._done = _Done()
-        self._done.finished.connect(self._job_done)
+        self.loop_health = LoopHealth()
+        self.jobs = Jobs()
+        self.jobs.failed.connect(self._job_failed)
 
         self._build_tabs()
         self._build_layout()
@@ -135,15 +127,12 @@ class MainWindow(QMainWindow):
         self.progress.set_registry(self.registry)
         self.replay = ReplayTab()
         self.replay.set_registry(self.registry)
-        for title, tab in (
-            ("Instructions", self.instructions), ("Registration", self.registration_tab),
-            ("Parameters", self.parameters_tab), ("Trajectory", self.trajectory),
-            ("Force", self.force), ("Joint angles", self.angles),
-            ("Joint torques", self.torques), ("Video", self.video),
-            ("Report", self.report), ("Progress", self.progress),
-            ("Replay", self.replay),
-        ):
-            self.tabs.addTab(tab, title)
+        made = (self.instructions, self.registration_tab, self.parameters_tab, self.trajectory,
+                self.force, self.angles, self.torques, self.video, self.report, self.progress,
+                self.replay)
+        by_class = {type(tab): tab for tab in made}
+        for title, cls in TABS:  # in the thesis's order, with the titles it uses
+            self.tabs.addTab(by_class[cls], title)
         self.view_tabs = [self.tabs.widget(i) for i in range(self.tabs.count())
                           if isinstance(self.tabs.widget(i), VIEW_TABS)]
 
@@ -280,7 +269,7 @@ class MainWindow(QMainWindow):
         self._say("Saving the report…")
         from app.reports.build import report_for_registry_trial
 
-        self._run(lambda: report_for_registry_trial(
+        self.jobs.run(lambda: report_for_registry_trial(
             self.registry, trial_id, flip_axes=self.settings.flip_x or self.settings.flip_y),
             self._saved)
 
@@ -348,8 +337,8 @@ class MainWindow(QMainWindow):
 
             trial_id = self.trial_id
             self.trial_id = None
-            self._run(lambda: finalize_trial(self.registry, trial_id, status),
-                      lambda done: self._finalized(trial_id, done))
+            self.jobs.run(lambda: finalize_trial(self.registry, trial_id, status),
+                          lambda done: self._finalized(trial_id, done))
 
     def _finalized(self, trial_id: int, done) -> None:
         self.unsaved_trial = trial_id
@@ -396,7 +385,7 @@ class MainWindow(QMainWindow):
     def _repaint(self) -> None:
         records = self.bridge.take_records()
         if len(records):
-            self._lateness.append(records["lateness"])
+            self.loop_health.add(records["lateness"])
             if self.live is not None and self.state == State.RUNNING:
                 self.live.append(records[records["phase"] > 0])
         if self.shown_view is self.live and self.live is not None:
@@ -408,18 +397,9 @@ class MainWindow(QMainWindow):
             tab.show_view(self.shown_view)
 
     def _show_health(self) -> None:
-        if not self._lateness:
-            return
-        lateness = np.concatenate(self._lateness).astype(float)
-        self._lateness = []
-        late = int(np.count_nonzero(lateness > PERIOD_S))
-        self._late_total += late
-        self._ticks_total += lateness.size
-        p99 = 1e3 * float(np.percentile(lateness, 99))
-        share = 100.0 * self._late_total / max(1, self._ticks_total)
-        self.health_label.setText(f"loop: lateness p99 {p99:.2f} ms · late {share:.2f} %"
-                                  + (f" · fault {Fault(self.fault_code).label}"
-                                     if self.fault_code else ""))
+        text = self.loop_health.text(self.fault_code)
+        if text is not None:
+            self.health_label.setText(text)
 
     # ------------------------------------------------------------------ helpers
     def _refresh_buttons(self) -> None:
@@ -452,24 +432,11 @@ class MainWindow(QMainWindow):
                 more = f" (and {len(lines) - 1} more; see the log)" if len(lines) > 1 else ""
                 self._say(lines[0][0].upper() + lines[0][1:] + more, problem=True)
 
-        self._run(lambda: finish_interrupted(self.registry), said)
+        self.jobs.run(lambda: finish_interrupted(self.registry), said)
 
-    def _run(self, work, callback) -> None:
-        """Run `work` on the job thread; `callback(result)` runs in the GUI thread."""
-        future = self._jobs.submit(work)
-
-        def done(f: concurrent.futures.Future) -> None:
-            error = f.exception()
-            self._done.finished.emit(callback, None if error else f.result(), error)
-
-        future.add_done_callback(done)
-
-    def _job_done(self, callback, result, error) -> None:
-        if error is not None:
-            log.error("background job failed: %s", error)
-            self._say(f"{error}", problem=True)
-            return
-        callback(result)
+    def _job_failed(self, error: Exception) -> None:
+        log.error("background job failed: %s", error)
+        self._say(f"{error}", problem=True)
 
     # ------------------------------------------------------------------ settings
     def _restore(self) -> None:
@@ -504,5 +471,5 @@ class MainWindow(QMainWindow):
             timer.stop()
         self.video.close_camera()
         self.bridge.close()
-        self._jobs.shutdown(wait=True)
+        self.jobs.shutdown()
         super().closeEvent(event)

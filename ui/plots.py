@@ -1,5 +1,5 @@
-"""Shared pieces of the tabs: styled plots, curves created once, big numbers, the
-within/outside split of a signal, and calls run off the GUI thread.
+"""Shared pieces of the tabs: styled plots, curves created once, big numbers, and calls
+run off the GUI thread. Which samples they draw is ui.views.samples.
 
 Every curve is a width-1 cosmetic pen with automatic downsampling and clipping to
 the view, the settings qt-stack.md measured to hold ≥ 50 fps on software
@@ -10,21 +10,15 @@ that a brushed sleeve can rescale is worse than one that always shows the trial.
 from __future__ import annotations
 
 import contextlib
-import math
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 
-import numpy as np
 import pyqtgraph as pg
 from PySide6.QtCore import QObject, Qt, Signal
 from PySide6.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
 
 from ui import theme
-
-# Runs of within/outside shorter than this are merged into their neighbour for
-# display only: at 500 Hz a 20 ms flicker is invisible as a colour but doubles
-# the number of line segments drawn.
-MERGE_RUNS_S = 0.05
+from ui.views.numbers import format_number
 
 
 def make_plot(x_label: str, y_label: str, *, title: str = "", parent=None) -> pg.PlotWidget:
@@ -57,7 +51,7 @@ def curve(item: pg.PlotItem, colour: str, *, dashed: bool = False, name: str | N
     downsampling would spread them over whole blocks).
     xy: a path in the plane rather than a signal over time. pyqtgraph's clipping and
     automatic downsampling assume increasing x and would cut such a path, so they
-    stay off; thin it with `xy_step` instead.
+    stay off; thin it with `ui.views.samples.xy_step` instead.
     """
     line = pg.PlotDataItem(pen=theme.pen(colour, dashed=dashed), name=name,
                            connect="finite" if gaps else "all")
@@ -67,16 +61,6 @@ def curve(item: pg.PlotItem, colour: str, *, dashed: bool = False, name: str | N
         line.setDownsampling(auto=True, method="subsample" if gaps else "peak")
         line.setClipToView(True)
     return line
-
-
-# A path drawn with more points than this is thinned: at 500 Hz a hand moves well under
-# a pixel between samples, and every point costs paint time at 60 Hz.
-MAX_PATH_POINTS = 5000
-
-
-def xy_step(n: int) -> int:
-    """Stride that keeps a path of n samples under MAX_PATH_POINTS."""
-    return max(1, -(-n // MAX_PATH_POINTS))
 
 
 def legend(item: pg.PlotItem) -> pg.LegendItem:
@@ -110,45 +94,6 @@ def place_cursor(line: pg.InfiniteLine, t: float | None) -> None:
     else:
         line.setValue(t)
         line.show()
-
-
-def merge_short_runs(mask: np.ndarray, min_samples: int) -> np.ndarray:
-    """A copy of a boolean mask where runs shorter than `min_samples` take the value of
-    the run before them (the first runs, of the run after)."""
-    mask = np.asarray(mask, dtype=bool)
-    if mask.size == 0 or min_samples <= 1:
-        return mask.copy()
-    change = np.flatnonzero(mask[1:] != mask[:-1]) + 1
-    starts = np.concatenate(([0], change))
-    lengths = np.diff(np.concatenate((starts, [mask.size])))
-    values = mask[starts]
-    long = lengths >= min_samples
-    if not long.any():
-        return np.full(mask.size, values[np.argmax(lengths)])
-    # Each short run takes the value of the nearest long run before it.
-    index = np.where(long, np.arange(values.size), -1)
-    np.maximum.accumulate(index, out=index)
-    first_long = int(np.argmax(long))
-    index[index < 0] = first_long
-    return np.repeat(values[index], lengths)
-
-
-def split_by_mask(values: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(inside, outside): copies of `values` with NaN where the other one draws. The
-    sample after each change is drawn by both, so the two lines meet."""
-    previous = np.empty_like(mask)
-    if mask.size:
-        previous[0] = mask[0]
-        previous[1:] = mask[:-1]
-    inside = np.where(mask | previous, values, np.nan)
-    outside = np.where(~mask | ~previous, values, np.nan)
-    return inside, outside
-
-
-def format_number(value: float, decimals: int = 1) -> str:
-    if value is None or not math.isfinite(value):
-        return "–"
-    return f"{value:.{decimals}f}".replace("-", "−")
 
 
 class BigNumber(QWidget):

@@ -1,4 +1,4 @@
-"""The clinic's records on the command line: patients, trials, progress.
+"""The clinic's records on the command line: `rehab patients` and `rehab trials`.
 
 Each command opens the registry of the data folder (REHAB_DATA_DIR, the setting, or the
 default; `--data-dir` overrides) and prints plain columns. Names are shown only by
@@ -10,23 +10,8 @@ from __future__ import annotations
 import argparse
 import math
 
-from app.records.datadir import DataDir, locate_data_dir
-from app.records.registry import Registry
-from app.reports.metrics_table import ROWS
-from app.reports.progress import progress
+from app.cli.common import mm, num, registry_for
 from core.trial import SIDES
-
-
-def registry_for(args: argparse.Namespace) -> Registry:
-    if getattr(args, "data_dir", None):
-        return Registry(DataDir(_absolute(args.data_dir), "command line"))
-    return Registry(locate_data_dir())
-
-
-def _absolute(text: str):
-    from pathlib import Path
-
-    return Path(text).expanduser().resolve()
 
 
 # ------------------------------------------------------------------ patients
@@ -79,21 +64,12 @@ def cmd_patients_add(args: argparse.Namespace) -> int:
 
 
 # ------------------------------------------------------------------ trials
-def add_trial_commands(commands) -> None:
+def add_trials_command(commands) -> None:
     parser = commands.add_parser("trials", help="a patient's trials with their key figures",
                                  description="List a patient's trials: session, trial, "
                                              "status, exercise and key figures.")
     parser.add_argument("code", help="the patient's code (see `rehab patients`)")
     parser.set_defaults(func=cmd_trials)
-
-    prog = commands.add_parser("progress", help="a patient's metrics across sessions",
-                               description="Every metric of every trial of a patient, with "
-                                           "the exercise it was done at.")
-    prog.add_argument("code", help="the patient's code")
-    prog.add_argument("--metric", action="append", dest="metrics",
-                      help="metric to show (repeatable; default: the thesis's figures)")
-    prog.add_argument("--csv", action="store_true", help="all columns as CSV")
-    prog.set_defaults(func=cmd_progress)
 
 
 def cmd_trials(args: argparse.Namespace) -> int:
@@ -108,149 +84,9 @@ def cmd_trials(args: argparse.Namespace) -> int:
         p = t.parameters
         exercise = f"{p.get('shape', '?')} r {1000 * p.get('radius_m', math.nan):.0f} mm, " \
                    f"{p.get('duration_s', math.nan):g} s"
-        rmse = f"{_mm(t.metrics.get('rmse_x_m'))}/{_mm(t.metrics.get('rmse_y_m'))}"
+        rmse = f"{mm(t.metrics.get('rmse_x_m'))}/{mm(t.metrics.get('rmse_y_m'))}"
         direction = t.metrics.get("directional_performance_pct")
         started = t.started_at.strftime("%Y-%m-%d %H:%M") if t.started_at else "-"
         print(f"{t.id:>5} {t.session_number:>7} {t.number:>5}  {started:<20}{t.status:<15}"
-              f"{exercise:<26}{rmse:>13}{_num(direction):>12}")
-    return 0
-
-
-def cmd_progress(args: argparse.Namespace) -> int:
-    registry = registry_for(args)
-    prog = progress(registry, args.code)
-    header, rows = prog.table()
-    if args.csv:
-        import csv
-        import sys
-
-        writer = csv.writer(sys.stdout)
-        writer.writerow(header)
-        writer.writerows(rows)
-        return 0
-    if not rows:
-        print(f"patient {args.code} has no trials yet")
-        return 0
-    wanted = args.metrics or ["rmse_x_m", "rmse_y_m", "directional_performance_pct",
-                              "shoulder_rom_rad", "elbow_rom_rad"]
-    unknown = [m for m in wanted if m not in header]
-    if unknown:
-        from app.cli.main import CommandError
-
-        raise CommandError(f"unknown metric {unknown[0]!r}; known: "
-                           + ", ".join(prog.metric_names))
-    rows_by_key = {r.key: r for r in ROWS}
-    labels = [rows_by_key[m].heading if m in rows_by_key else m for m in wanted]
-    print(f"Progress of {args.code}: {len(rows)} trials, "
-          f"{len(prog.parameter_sets)} exercise settings")
-    for i, parameter_set in enumerate(prog.parameter_sets):
-        print(f"  set {i + 1}: {parameter_set.label()}")
-    print(f"{'session':>7} {'trial':>5} {'set':>3}  {'status':<15}"
-          + "".join(f"{label:>18}" for label in labels))
-    index = {name: header.index(name) for name in wanted}
-    for row, set_index in zip(rows, prog.parameter_set_index.tolist(), strict=True):
-        cells = []
-        for m in wanted:
-            value = row[index[m]]
-            scale = rows_by_key[m].scale if m in rows_by_key else 1.0
-            unit = rows_by_key[m].unit if m in rows_by_key else ""
-            cells.append(f"{_num(value * scale if _finite(value) else None)} {unit}".rstrip())
-        print(f"{row[1]:>7} {row[2]:>5} {set_index + 1:>3}  {row[5]:<15}"
-              + "".join(f"{c:>18}" for c in cells))
-    return 0
-
-
-def _finite(value) -> bool:
-    return isinstance(value, int | float) and math.isfinite(value)
-
-
-def _mm(value) -> str:
-    return f"{1000 * value:.1f}" if _finite(value) else "–"
-
-
-def _num(value) -> str:
-    return f"{value:.1f}" if _finite(value) else "–"
-
-
-# ------------------------------------------------------------------ exports
-def add_export_command(commands) -> None:
-    from app.exports.run import FORMATS
-
-    parser = commands.add_parser(
-        "export", help="export trials as CSV, TSV, MATLAB .mat or a BIDS-motion folder",
-        description="Export trials for analysis. Exports never contain names unless "
-                    "--include-names is given.")
-    what = parser.add_mutually_exclusive_group(required=True)
-    what.add_argument("--trial", type=int, action="append", dest="trial_ids", metavar="ID",
-                      help="a registered trial (repeatable)")
-    what.add_argument("--patient", action="append", dest="codes", metavar="CODE",
-                      help="every trial of a patient (repeatable)")
-    what.add_argument("--folder", help="every trial file below this folder (a study)")
-    parser.add_argument("--format", choices=FORMATS, default="csv")
-    parser.add_argument("--output", help="destination folder (default: the data folder's "
-                                         "exports/<format>)")
-    parser.add_argument("--exercise-only", action="store_true",
-                        help="only the exercise phase (not the approach and the hold)")
-    parser.add_argument("--digits", type=int, help="significant digits in text exports "
-                                                   "(default: exact)")
-    parser.add_argument("--include-names", action="store_true",
-                        help="include the patients' names (only in a names file)")
-    parser.add_argument("--overwrite", action="store_true")
-    parser.set_defaults(func=cmd_export)
-
-
-def cmd_export(args: argparse.Namespace) -> int:
-    import sys
-
-    from app.cli.main import ProgressBar
-    from app.exports.run import export_folder, export_patients, export_trials
-
-    registry = registry_for(args)
-    output = _absolute(args.output) if args.output else \
-        registry.data_dir.ensure("exports", args.format)
-    bar = ProgressBar(f"exporting {args.format}") if sys.stderr.isatty() else None
-    options = {"format": args.format, "overwrite": args.overwrite,
-               "progress": bar.update if bar else None}
-    if args.format != "bids":
-        options.update(exercise_only=args.exercise_only, digits=args.digits)
-    if args.folder:
-        result = export_folder(_absolute(args.folder), output, **options)
-    elif args.codes:
-        result = export_patients(registry, args.codes, output,
-                                 include_names=args.include_names, **options)
-    else:
-        paths = [registry.trial_path(registry.trial(i)) for i in args.trial_ids]
-        result = export_trials(paths, output, **options)
-    if bar:
-        bar.done()
-    print(f"exported {result.exported} trial(s) to {result.folder} "
-          f"({len(result.files)} files)")
-    for failure in result.failed:
-        print(f"  not exported: {failure.path}: {failure.reason}")
-    return 0 if not result.failed else 1
-
-
-# ------------------------------------------------------------------ reports
-def add_report_command(commands) -> None:
-    parser = commands.add_parser(
-        "report", help="write a trial's post-trial report (PDF)",
-        description="Write the post-trial report of a registered trial: the patient's page "
-                    "in plain words and the therapist's figures.")
-    parser.add_argument("trial_id", type=int, help="the trial's id (see `rehab trials CODE`)")
-    parser.add_argument("--output", help="PDF to write (default: the data folder's reports/)")
-    parser.add_argument("--flip", action="store_true",
-                        help="draw the path as seen from the patient's chair (thesis Fig. 3.7)")
-    parser.add_argument("--first-name", action="store_true",
-                        help="greet the patient by first name in the report")
-    parser.set_defaults(func=cmd_report)
-
-
-def cmd_report(args: argparse.Namespace) -> int:
-    from app.reports.build import report_for_registry_trial
-
-    registry = registry_for(args)
-    path = report_for_registry_trial(
-        registry, args.trial_id, _absolute(args.output) if args.output else None,
-        include_first_name=args.first_name, flip_axes=args.flip)
-    print(path)
+              f"{exercise:<26}{rmse:>13}{num(direction):>12}")
     return 0

@@ -37,14 +37,8 @@ Where this deviates from BIDS 1.9.0 (and why):
 
 * Entity order is the specification's (task, tracksys, run), so run comes
   after tracksys, not before it.
-* Angles are in rad, not the deg that JNTANG channels SHOULD use: SI units
-  throughout the console; `units` says rad.
-* Channel types: the robot's joint angles are absolute link angles and the
-  subject's arm-frame angles absolute segment angles, so they are ORNT (rotation
-  about z, the table normal); the ISB angles are JNTANG. BIDS 1.9 has no type for
-  angular velocity (GYRO is a gyroscope), force or torque: those and the
-  loop's codes, flags and timing are MISC; wall_time is LATENCY.
-* Units are written in CMIXF form (``N.m``); dimensionless channels have ``n/a``.
+* Channel types and units: see app.exports.bids_channels (angles in rad, force
+  and torque as MISC, CMIXF units).
 * participants.tsv has neither age nor sex (the trial files do not hold them;
   age would also identify), and custom columns body_mass_kg, upper_arm_m,
   forearm_m, side.
@@ -69,21 +63,11 @@ from pathlib import Path
 import numpy as np
 
 from app.errors import AppError
-from app.exports.columns import (
-    FRAME_ARM,
-    FRAME_GLOBAL,
-    FRAME_ISB,
-    FRAME_JOINTS,
-    FRAME_NONE,
-    FRAME_SENSOR,
-    Column,
-    table_columns,
-)
+from app.exports.bids_channels import CHANNEL_TYPES, FRAMES, BidsChannel, bids_channels
 from app.exports.files import ExportError, output, prepare_folder, refuse_existing, write_text
 from app.exports.loader import Failure, Trial, TrialInfo, load_trial, read_info
 from app.exports.plan import ExportResult, TrialSource
 from app.exports.table import write_samples
-from device.recording.record import ARM, GLOBAL, ISB, JOINTS, SENSOR
 from device.recording.trialfile import software_version
 
 log = logging.getLogger(__name__)
@@ -92,8 +76,6 @@ BIDS_VERSION = "1.9.0"
 MANUFACTURER = "Quanser"
 MODEL_NAME = "planar 2-DOF parallelogram end-effector upper-limb rehabilitation robot"
 DEFAULT_DATASET_NAME = "Upper-limb rehabilitation robot trials"
-CHANNEL_TYPES = ("ACCEL", "ANGACCEL", "GYRO", "JNTANG", "LATENCY", "MAGN", "MISC", "ORNT",
-                 "POS", "VEL")
 RUN_FILES = ("motion.tsv", "motion.json", "channels.tsv", "channels.json", "events.tsv",
              "events.json")
 PARTICIPANT_COLUMNS = ("participant_id", "body_mass_kg", "upper_arm_m", "forearm_m", "side")
@@ -101,19 +83,6 @@ NAME_COLUMNS = ("first_name", "last_name")
 
 _NOT_LABEL = re.compile(r"[^A-Za-z0-9]")
 _TSV_BREAKS = re.compile(r"[\t\r\n]")
-_SEGMENTS = {"shoulder": "upper_arm", "elbow": "forearm"}
-# Our frames for people reading channels.json. The global frame's axes are
-# fixed to the subject's seat (docs/frames.md): +x to the subject's left, +y
-# behind them (they face -y), z up, hence LPS.
-_FRAMES = {
-    FRAME_GLOBAL: {"SpatialAxes": "LPS", "RotationRule": "right-hand",
-                   "Description": GLOBAL + "; z normal to the table, up; angles "
-                   "counter-clockwise from +x seen from above"},
-    FRAME_JOINTS: {"RotationRule": "right-hand", "Description": JOINTS},
-    FRAME_SENSOR: {"Description": SENSOR},
-    FRAME_ARM: {"RotationRule": "right-hand", "Description": ARM},
-    FRAME_ISB: {"Description": ISB},
-}
 _PATHS = {"d": "a D-shaped path", "circle": "a circle", "reach": "a straight reach",
           "targets": "centre-out reaches to targets", "figure8": "a figure of eight"}
 _EVENT_KINDS = {
@@ -125,20 +94,6 @@ _EVENT_KINDS = {
 }
 
 Progress = Callable[[float], None]
-
-
-@dataclass(frozen=True, slots=True)
-class BidsChannel:
-    """One row of `_channels.tsv` and the column of the trial it holds."""
-
-    name: str
-    component: str
-    type: str
-    tracked_point: str
-    units: str
-    reference_frame: str
-    description: str
-    column: Column
 
 
 @dataclass(frozen=True, slots=True)
@@ -168,24 +123,6 @@ class _Run:
 def bids_label(text: str) -> str:
     """A BIDS label: letters and digits only."""
     return _NOT_LABEL.sub("", text)
-
-
-def bids_units(units: str) -> str:
-    """CMIXF units: `N*m` → `N.m`; dimensionless `1` → `n/a`."""
-    text = units.strip()
-    return "n/a" if text in ("", "1") else text.replace("*", ".")
-
-
-def bids_channels(trial: Trial) -> tuple[BidsChannel, ...]:
-    """The `_channels.tsv` rows of a trial, in the order of the `_motion.tsv` columns."""
-    rows = []
-    for column in table_columns(trial.arrays, trial.units, trial.frames, trial.descriptions):
-        kind, component, point = _classify(column)
-        rows.append(BidsChannel(
-            column.name, component, kind, point, bids_units(column.units),
-            column.frame if column.frame in _FRAMES else "n/a", column.description, column,
-        ))
-    return tuple(rows)
 
 
 def export_bids(
@@ -295,7 +232,7 @@ def _write_run(trial: Trial, run: _Run, paths: dict[str, Path], overwrite: bool)
         "reference_frame": {
             "Description": "the frame the channel's numbers are expressed in "
                            "(docs/data-format.md of the console)",
-            "Levels": {frame: _FRAMES[frame] for frame in frames},
+            "Levels": {frame: FRAMES[frame] for frame in frames},
         },
         "sampling_frequency": {"Description": "sampling rate of the channel", "Units": "Hz"},
         "description": {"Description": "what the channel is, as the trial file says"},
@@ -340,28 +277,6 @@ def _motion_sidecar(trial: Trial, run: _Run, channels: Sequence[BidsChannel]) ->
         "TrialParameters": dict(trial.parameter_values),
     }
     return sidecar
-
-
-def _classify(column: Column) -> tuple[str, str, str]:
-    """(type, component, tracked_point) of a column (the module's doc says why)."""
-    units, frame, part = column.units, column.frame, column.component
-    if frame == FRAME_GLOBAL:
-        kind = {"m": "POS", "m/s": "VEL", "m/s^2": "ACCEL"}.get(units, "MISC")
-        return kind, part or "n/a", "handle"
-    if frame == FRAME_SENSOR:
-        return "MISC", part or "n/a", "force_sensor"
-    if frame == FRAME_JOINTS:
-        kind = {"rad": "ORNT", "rad/s^2": "ANGACCEL"}.get(units, "MISC")
-        return kind, "z", f"robot_joint{part}"
-    if frame == FRAME_ARM:
-        kind = {"rad": "ORNT", "rad/s^2": "ANGACCEL"}.get(units, "MISC")
-        moving = units in ("rad", "rad/s", "rad/s^2")
-        return kind, "z", _SEGMENTS.get(part, part) if moving else part
-    if frame == FRAME_ISB:
-        return ("JNTANG" if units == "rad" else "MISC"), "n/a", part or "n/a"
-    if frame == FRAME_NONE:
-        return ("LATENCY" if column.channel == "wall_time" else "MISC"), "n/a", "robot"
-    return "MISC", "n/a", column.channel
 
 
 def _task_description(values: Mapping) -> str:

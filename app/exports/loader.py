@@ -1,7 +1,7 @@
 """The researcher's loader: a trial file as named arrays with its metadata, a folder of
 them as a study table.
 
-Example (tests/app/test_data.py runs it)::
+Example (tests/app/exports/test_loader.py runs it)::
 
     from app.exports.loader import load_study, load_trial
 

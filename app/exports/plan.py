@@ -21,7 +21,7 @@ from pathlib import Path, PurePosixPath
 from app.errors import AppError
 from app.exports.loader import Failure
 from app.records.datadir import CODE_PATTERN
-from app.records.registry import Registry
+from app.records.store import RecordStore
 
 _CONSOLE_STEM = re.compile(
     rf"(?P<code>{CODE_PATTERN.pattern})_S(?P<session>\d+)_T(?P<trial>\d+)_\d{{8}}T\d{{6}}Z"
@@ -78,7 +78,7 @@ def _relative_folder(path: Path, folder: Path) -> str:
     return "" if relative == "." else relative
 
 
-def sources_from_registry(registry: Registry, codes: str | Iterable[str]) -> list[TrialSource]:
+def sources_from_registry(registry: RecordStore, codes: str | Iterable[str]) -> list[TrialSource]:
     """Every trial of these patients, by session and trial number; each patient's
     outputs go in a subfolder named by their code."""
     codes = [codes] if isinstance(codes, str) else list(codes)
@@ -96,7 +96,7 @@ def sources_from_registry(registry: Registry, codes: str | Iterable[str]) -> lis
     return sources
 
 
-def registry_names(registry: Registry, codes: str | Iterable[str]) -> dict[str, tuple]:
+def registry_names(registry: RecordStore, codes: str | Iterable[str]) -> dict[str, tuple]:
     """{code: (first_name, last_name)}: only for exports told to include names."""
     codes = [codes] if isinstance(codes, str) else list(codes)
     names = {}

@@ -64,7 +64,7 @@ from app.exports.plan import (
     sources_from_registry,
 )
 from app.exports.table import table_outputs, write_table
-from app.records.registry import Registry
+from app.records.store import RecordStore
 
 __all__ = [
     "FORMATS",
@@ -165,7 +165,7 @@ def export_trials(
 
 
 def export_patients(
-    registry: Registry,
+    registry: RecordStore,
     codes: Iterable[str],
     folder: str | os.PathLike,
     *,
@@ -187,7 +187,7 @@ def export_patients(
 
 
 def export_patient(
-    registry: Registry,
+    registry: RecordStore,
     code: str,
     folder: str | os.PathLike,
     **options,

@@ -12,10 +12,12 @@ The parts, each with one job:
 
 * app.reports.content — `build_report`: the content as plain data
   (`ReportContent`), which the window's report view draws as well;
+* app.reports.figures — the arrays and captions of the report's figures;
 * app.reports.plain_language — the patient's sentences, built from the numbers;
 * app.reports.compare — the change since earlier trials and the cautions when
   the exercise differed;
-* app.reports.pdf — `write_report_pdf`: the pages.
+* app.reports.pdf — `write_report_pdf`: the pages, laid out on the sheets of
+  app.reports.pdf_sheet with the plots of app.reports.pdf_plots.
 
 Names: the report shows the patient's pseudonymous code. A first name appears
 only when the caller passes it (`first_name=`, or `include_first_name=True`
@@ -28,17 +30,15 @@ import os
 from pathlib import Path
 
 from app.records.datadir import REPORTS
-from app.records.registry import Registry
+from app.records.store import RecordStore
 from app.reports.compare import Baseline, Comparison, TableRow
-from app.reports.content import (
+from app.reports.content import HeaderItem, ReportContent, build_report
+from app.reports.figures import (
     AnglesFigure,
     ForceFigure,
-    HeaderItem,
     PathFigure,
-    ReportContent,
     Run,
     TorquesFigure,
-    build_report,
     merge_short_runs,
 )
 from app.trials.reader import read_trial
@@ -63,7 +63,7 @@ __all__ = [
 
 
 def content_for_registry_trial(
-    registry: Registry,
+    registry: RecordStore,
     trial_id: int,
     *,
     include_first_name: bool = False,
@@ -98,7 +98,7 @@ def content_for_registry_trial(
 
 
 def report_for_registry_trial(
-    registry: Registry,
+    registry: RecordStore,
     trial_id: int,
     path: str | os.PathLike | None = None,
     *,

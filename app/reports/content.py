@@ -6,26 +6,17 @@ they cannot disagree.
 
 Only the exercise phase counts (app.trials.analysis): the figures and the plots start
 when the exercise starts (time 0 on the plots) and leave out the approach to the
-start point and the hold at the end.
-
-Fig. 3.9's blue and red runs: every sample is within (the push points within
-the tolerance of the path's direction) or outside; sensor noise flips a sample
-now and then, which would draw thousands of specks. Runs shorter than
-`min_run_s` (50 ms, or 1/400 of the exercise when that is longer, about the
-width of a dash on the page) are merged into the runs around them, shortest
-first, for the drawing only: the percentage is computed from every sample.
+start point and the hold at the end. The figures' arrays and captions are built
+by app.reports.figures; this module adds the texts around them.
 """
 
 from __future__ import annotations
 
 import datetime
-import heapq
 import math
 import re
 from dataclasses import dataclass
 from pathlib import Path
-
-import numpy as np
 
 from app.errors import AppError, TrialFileError
 from app.reports.compare import (
@@ -36,10 +27,16 @@ from app.reports.compare import (
     as_baseline,
     compare,
     date_text,
-    metric_text,
     table_rows,
 )
-from app.reports.metrics_table import ROWS
+from app.reports.figures import (
+    AnglesFigure,
+    Figures,
+    ForceFigure,
+    PathFigure,
+    TorquesFigure,
+    report_figures,
+)
 from app.reports.plain_language import (
     SHAPE_NAMES,
     PlainLine,
@@ -49,22 +46,11 @@ from app.reports.plain_language import (
 from app.trials.analysis import analyse, exercise_mask
 from app.trials.reader import TrialData
 from core.errors import CoreError
-from core.metrics import (
-    DEFAULT_FILTER_ORDER,
-    DEFAULT_MIN_FORCE_N,
-    DEFAULT_TORQUE_CUTOFF_HZ,
-    TrialMetrics,
-    directional_performance,
-)
-from core.signal import lowpass
+from core.metrics import TrialMetrics
 from core.trial import TrialParameters
 from device.recording.trialfile import STATUS_RECORDING
 
-MIN_RUN_S = 0.05
-OUTLINE_SPACING_M = 0.002
-RUNS_PER_AXIS = 400
 MIN_EXERCISE_SAMPLES = 64  # app.trials.analysis refuses fewer
-_ROW_BY_KEY = {row.key: row for row in ROWS}
 _NUMBERS_IN_NAME = re.compile(r"_S(\d{3,})_T(\d{3,})_")
 
 STATUS_WORDS = {
@@ -83,63 +69,6 @@ TIMING_WORDS = {"constant_speed": "steady speed", "minimum_jerk": "smooth start 
 class HeaderItem:
     label: str
     value: str
-
-
-@dataclass(frozen=True, slots=True)
-class Run:
-    """Samples start…stop (inclusive; the next run starts at this one's stop, so the
-    drawn lines join) all within the tolerance, or all outside it."""
-
-    within: bool
-    start: int
-    stop: int
-
-
-@dataclass(frozen=True, slots=True, eq=False)
-class PathFigure:
-    """Fig. 3.7: the hand's path against the target, in the global frame (m).
-    flip_axes: draw both axes reversed, as the thesis shows them — the view from
-    the patient's chair (docs/frames.md: the patient sits on +y facing −y)."""
-
-    position_m: np.ndarray
-    desired_m: np.ndarray
-    outline_m: np.ndarray  # the whole exercise's path, also where the trial did not reach
-    runs: tuple[Run, ...]
-    flip_axes: bool
-    caption: str
-
-
-@dataclass(frozen=True, slots=True, eq=False)
-class ForceFigure:
-    """Fig. 3.9: the hand's force Fx, Fy (N) over the exercise, in blue/red runs."""
-
-    t_s: np.ndarray
-    force_N: np.ndarray
-    runs: tuple[Run, ...]
-    titles: tuple[str, str]
-    within_label: str
-    outside_label: str
-    caption: str
-
-
-@dataclass(frozen=True, slots=True, eq=False)
-class AnglesFigure:
-    """Fig. 3.11: ISB shoulder and elbow angles (rad, eq. 3.37–3.38) with their ROM."""
-
-    t_s: np.ndarray
-    isb_rad: np.ndarray
-    labels: tuple[str, str]
-
-
-@dataclass(frozen=True, slots=True, eq=False)
-class TorquesFigure:
-    """Fig. 3.12: shoulder and elbow torques (N·m), raw and low-passed, with ranges."""
-
-    t_s: np.ndarray
-    raw_Nm: np.ndarray
-    smoothed_Nm: np.ndarray
-    labels: tuple[str, str]
-    caption: str
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -233,10 +162,9 @@ def build_report(
         notes.append(f"only {n_exercise} samples of exercise were recorded (at least "
                      f"{MIN_EXERCISE_SAMPLES} are needed), so the trial has no figures")
     values = metrics.to_dict() if metrics is not None else {}
-    figures = _Figures()
+    figures = Figures()
     if metrics is not None:
-        figures = _figures(trial, parameters, _Series(trial, mask, exercise_start), metrics,
-                           flip_axes)
+        figures = report_figures(trial, parameters, mask, exercise_start, metrics, flip_axes)
         notes += figures.notes
     comparisons = _comparisons(previous_trial, previous_session, values, parameters,
                                partial=status != "complete")
@@ -287,83 +215,7 @@ def build_report(
     )
 
 
-def merge_short_runs(t_s: np.ndarray, within: np.ndarray, min_run_s: float) -> tuple[Run, ...]:
-    """The runs of equal `within`, with every run shorter than `min_run_s` merged into
-    its neighbours, shortest first (see the module's doc). Sample k holds over
-    [t_k, t_{k+1}), as in core.metrics.directional_performance."""
-    within = np.asarray(within, dtype=bool)
-    n = within.size
-    if n == 0:
-        return ()
-    change = np.flatnonzero(within[1:] != within[:-1]) + 1
-    starts = np.concatenate(([0], change)).tolist()
-    ends = np.concatenate((change, [n - 1])).tolist()  # a run's last drawn sample
-    t = np.asarray(t_s, dtype=float)
-    state = [bool(within[s]) for s in starts]
-    duration = [float(t[e] - t[s]) for s, e in zip(starts, ends, strict=True)]
-    count = len(starts)
-    previous = list(range(-1, count - 1))
-    following = [*range(1, count), -1]
-    alive = [True] * count
-    heap = [(d, i) for i, d in enumerate(duration) if d < min_run_s]
-    heapq.heapify(heap)
-    while heap:
-        d, i = heapq.heappop(heap)
-        if not alive[i] or d != duration[i]:
-            continue  # merged away, or grown since it was queued
-        before, after = previous[i], following[i]
-        if before == -1 and after == -1:
-            break  # the only run left
-        # Flipping the run joins it to both neighbours (they hold the other state).
-        keep = before if before != -1 else after
-        first = before if before != -1 else i
-        last = after if after != -1 else i
-        starts[keep], ends[keep] = starts[first], ends[last]
-        for gone in {first, i, last} - {keep}:
-            alive[gone] = False
-        duration[keep] = float(t[ends[keep]] - t[starts[keep]])
-        previous[keep] = previous[first]
-        following[keep] = following[last]
-        if previous[keep] != -1:
-            following[previous[keep]] = keep
-        if following[keep] != -1:
-            previous[following[keep]] = keep
-        if duration[keep] < min_run_s:
-            heapq.heappush(heap, (duration[keep], keep))
-    return tuple(Run(state[i], starts[i], ends[i]) for i in range(count) if alive[i])
-
-
 # -- pieces ------------------------------------------------------------------------------
-
-@dataclass(frozen=True, slots=True)
-class _Figures:
-    path: PathFigure | None = None
-    force: ForceFigure | None = None
-    angles: AnglesFigure | None = None
-    torques: TorquesFigure | None = None
-    peak_force_N: float = math.nan
-    notes: tuple[str, ...] = ()
-
-
-def _figures(trial: TrialData, parameters: TrialParameters, series: _Series,
-             metrics: TrialMetrics, flip_axes: bool) -> _Figures:
-    runs, min_run = _runs(series, parameters, metrics)
-    notes = ()
-    if runs:
-        notes = (f"the path and Fig. 3.9 draw runs shorter than {min_run * 1000:.0f} ms in "
-                 "the colour around them; the percentage counts every sample",)
-    peak = math.nan
-    if series.force is not None:
-        peak = float(np.max(np.hypot(series.force[:, 0], series.force[:, 1])))
-    return _Figures(
-        _path_figure(series, runs, metrics, flip_axes, parameters),
-        _force_figure(series, runs, metrics),
-        _angles_figure(series, metrics),
-        _torques_figure(series, metrics, trial.sample_period_s),
-        peak,
-        notes,
-    )
-
 
 def _comparisons(previous_trial: BaselineSource | None, previous_session: BaselineSource | None,
                  values: dict[str, float], parameters: TrialParameters, *,
@@ -379,111 +231,6 @@ def _comparisons(previous_trial: BaselineSource | None, previous_session: Baseli
         baselines = [("previous trial, the last of your previous session", baselines[0][1])]
     return tuple(compare(kind, baseline, values, parameters, partial=partial)
                  for kind, baseline in baselines)
-
-
-class _Series:
-    """The exercise phase's arrays; a channel that is missing is None."""
-
-    def __init__(self, trial: TrialData, mask: np.ndarray, start_s: float) -> None:
-        channels = trial.channels
-
-        def take(name: str) -> np.ndarray | None:
-            values = channels.get(name)
-            return None if values is None else np.asarray(values, dtype=float)[mask]
-
-        self.t = np.asarray(channels["time"], dtype=float)[mask] - start_s
-        self.position = take("position")
-        self.desired = take("position_desired")
-        self.direction = take("direction_desired")
-        self.force = take("force")
-        self.isb = take("subject_angle_isb")
-        self.torque = take("subject_torque")
-
-
-def _finite(values: np.ndarray | None) -> bool:
-    return values is not None and bool(np.isfinite(values).all())
-
-
-def _runs(series: _Series, parameters: TrialParameters,
-          metrics: TrialMetrics) -> tuple[tuple[Run, ...], float]:
-    if not (_finite(series.force) and _finite(series.direction)):
-        return (), MIN_RUN_S
-    min_force = metrics.min_force_N if math.isfinite(metrics.min_force_N) \
-        else DEFAULT_MIN_FORCE_N
-    within = directional_performance(series.t, series.force, series.direction,
-                                     parameters.tolerance_rad, min_force).within
-    min_run = max(MIN_RUN_S, float(series.t[-1] - series.t[0]) / RUNS_PER_AXIS)
-    return merge_short_runs(series.t, within, min_run), min_run
-
-
-def _text(key: str, value_si: float) -> str:
-    return metric_text(_ROW_BY_KEY[key], value_si)
-
-
-def _path_figure(series: _Series, runs: tuple[Run, ...], metrics: TrialMetrics,
-                 flip_axes: bool, parameters: TrialParameters) -> PathFigure | None:
-    if series.position is None or series.desired is None:
-        return None
-    parts = [f"Position error (RMSE): x {_text('rmse_x_m', metrics.rmse_x_m)}, "
-             f"y {_text('rmse_y_m', metrics.rmse_y_m)}"]
-    if math.isfinite(metrics.directional_performance_pct):
-        parts.append(f"Directional performance (±{math.degrees(metrics.tolerance_rad):.0f}°): "
-                     f"{_text('directional_performance_pct', metrics.directional_performance_pct)}")
-    outline = parameters.path().points(OUTLINE_SPACING_M)
-    return PathFigure(series.position, series.desired, outline, runs, flip_axes,
-                      " · ".join(parts))
-
-
-def _force_figure(series: _Series, runs: tuple[Run, ...],
-                  metrics: TrialMetrics) -> ForceFigure | None:
-    if series.force is None:
-        return None
-    tolerance = f"{math.degrees(metrics.tolerance_rad):.0f}°"
-    x_range = _text("force_range_x_N", metrics.force_range_x_N)
-    y_range = _text("force_range_y_N", metrics.force_range_y_N)
-    return ForceFigure(
-        series.t, series.force, runs,
-        (f"Hand's force on the handle, x — range {x_range}",
-         f"Hand's force on the handle, y — range {y_range}"),
-        f"push within ±{tolerance} of the path's direction",
-        f"outside ±{tolerance}, or weaker than {metrics.min_force_N:.2f} N",
-        f"within ±{tolerance} for "
-        f"{_text('directional_performance_pct', metrics.directional_performance_pct)} of the "
-        "exercise time (directional performance)",
-    )
-
-
-def _angles_figure(series: _Series, metrics: TrialMetrics) -> AnglesFigure | None:
-    if series.isb is None or not np.isfinite(series.isb).any():
-        return None
-    return AnglesFigure(series.t, series.isb, (
-        f"Shoulder (ISB), range of motion {_text('shoulder_rom_rad', metrics.shoulder_rom_rad)}",
-        f"Elbow (ISB), range of motion {_text('elbow_rom_rad', metrics.elbow_rom_rad)}",
-    ))
-
-
-def _torques_figure(series: _Series, metrics: TrialMetrics,
-                    dt_s: float) -> TorquesFigure | None:
-    if series.torque is None or not np.isfinite(series.torque).any():
-        return None
-    try:
-        smoothed = lowpass(series.torque, dt_s, DEFAULT_TORQUE_CUTOFF_HZ, DEFAULT_FILTER_ORDER,
-                           nan_policy="interpolate", name="subject_torque")
-    except CoreError:
-        smoothed = np.full_like(series.torque, np.nan)  # too short to filter
-    labels = tuple(
-        f"{joint.capitalize()} — range {_text(f'{joint}_torque_range_Nm', raw)} raw, "
-        f"{_text(f'{joint}_torque_range_smoothed_Nm', smooth)} smoothed"
-        for joint, raw, smooth in (
-            ("shoulder", metrics.shoulder_torque_range_Nm,
-             metrics.shoulder_torque_range_smoothed_Nm),
-            ("elbow", metrics.elbow_torque_range_Nm, metrics.elbow_torque_range_smoothed_Nm),
-        )
-    )
-    return TorquesFigure(
-        series.t, series.torque, smoothed, labels,
-        f"Raw (faint) and low-passed at {DEFAULT_TORQUE_CUTOFF_HZ:g} Hz, zero lag (bold)",
-    )
 
 
 def _exercise_text(p: TrialParameters) -> str:

@@ -8,85 +8,59 @@ with its blue/red runs (Fig. 3.9), the ISB joint angles (Fig. 3.11), the joint
 torques (Fig. 3.12), every figure in a table beside the earlier trials', and the
 notes.
 
-Figures are built with `matplotlib.figure.Figure` and never through pyplot, so no
-global figure list holds them and no interactive backend is involved. Fonts are
-DejaVu Sans (shipped with matplotlib, so it is there on every machine and covers
-°, ±, ·, → and the arrows) embedded as TrueType (pdf.fonttype 42): the text stays
-text, searchable and extractable. Colours are Okabe–Ito, safe for colour-blind
-readers, and every colour has a line style too (within solid, outside dashed).
-
-Lines are laid out top to bottom and wrapped by each text's measured width;
-when page 1's texts leave too little room for the path, they are drawn smaller
-(down to 80 %; the patient's own lines to 92 %) rather than spill onto a third
-page. Long time series are thinned to their per-bucket minima and maxima
-(`MAX_LINE_POINTS` a line), so a 20-minute trial draws as fast as a short one
-and keeps the peaks its ranges are made of.
+This module writes the file and lays the texts and tables out on the pages; the
+sheet, its type and colours are app.reports.pdf_sheet, the plots
+app.reports.pdf_plots. When page 1's texts leave too little room for the path,
+they are drawn smaller (down to 80 %; the patient's own lines to 92 %) rather
+than spill onto a third page.
 """
 
 from __future__ import annotations
 
-import functools
 import logging
-import math
 import os
 import secrets
-import textwrap
 from pathlib import Path
 
 import matplotlib
-import numpy as np
-from matplotlib.axes import Axes
 from matplotlib.backends.backend_pdf import PdfPages
 from matplotlib.figure import Figure
-from matplotlib.font_manager import FontProperties
 from matplotlib.patches import Rectangle
-from matplotlib.textpath import TextToPath
 
 from app.errors import AppError
 from app.reports.compare import Comparison
-from app.reports.content import AnglesFigure, ReportContent, Run, TorquesFigure
+from app.reports.content import ReportContent
+from app.reports.pdf_plots import (
+    PATH_ABOVE_IN,
+    PATH_BELOW_IN,
+    force_plots,
+    joint_plots,
+    path_plot,
+)
+from app.reports.pdf_sheet import (
+    BANNER_FILL,
+    BOTTOM_IN,
+    GREY,
+    INK,
+    LEADING,
+    LEFT_IN,
+    PAGE_IN,
+    RC,
+    RIGHT_IN,
+    TEXT_W_IN,
+    VERDICT_COLOURS,
+    VERMILLION,
+    Sheet,
+    fit,
+    wrap,
+)
 from app.reports.plain_language import VERDICT_WORDS
 
 log = logging.getLogger(__name__)
 
-PAGE_IN = (8.27, 11.69)  # A4
-LEFT_IN, RIGHT_IN, TOP_IN, BOTTOM_IN = 0.6, 0.6, 0.5, 0.45
-TEXT_W_IN = PAGE_IN[0] - LEFT_IN - RIGHT_IN
-LEADING = 1.3
-
-BLUE = "#0072B2"
-VERMILLION = "#D55E00"
-PURPLE = "#CC79A7"
-GREEN = "#009E73"
-INK = "#1A1A1A"
-GREY = "#595959"
-TARGET_GREY = "#C8C8C8"
-BANNER_FILL = "#FBE9DD"
-VERDICT_COLOURS = {"better": BLUE, "worse": VERMILLION}
-MAX_LINE_POINTS = 2500
 MIN_PATH_IN = 2.5
-# Page 1 around the path's axes: gap, heading and legend above; tick labels, axis
-# label and the two caption lines below.
-PATH_ABOVE_IN = 0.62
-PATH_BELOW_IN = 0.8
 MIN_SCALE = 0.8
 PRIMARY_MIN_SCALE = 0.92
-
-RC = {
-    "pdf.fonttype": 42,
-    "font.family": "DejaVu Sans",
-    "font.size": 8.5,
-    "axes.titlesize": 9,
-    "axes.labelsize": 8.5,
-    "xtick.labelsize": 8,
-    "ytick.labelsize": 8,
-    "legend.fontsize": 7.5,
-    "axes.edgecolor": GREY,
-    "axes.linewidth": 0.6,
-    "lines.solid_capstyle": "butt",
-    "lines.dash_capstyle": "butt",
-    "path.simplify": True,
-}
 
 
 def write_report_pdf(content: ReportContent, path: str | os.PathLike) -> Path:
@@ -135,93 +109,7 @@ def _write_error(path: Path, exc: OSError) -> AppError:
                     "folder is writable and the disk has space, or choose another place")
 
 
-# -- layout ------------------------------------------------------------------------------
-
-class _Sheet:
-    """One page filled from the top: `y_in` is the next free height from the top edge."""
-
-    def __init__(self, scale: float = 1.0) -> None:
-        self.fig = Figure(figsize=PAGE_IN)
-        self.scale = scale
-        self.y_in = TOP_IN
-
-    @property
-    def room_in(self) -> float:
-        return PAGE_IN[1] - BOTTOM_IN - self.y_in
-
-    def fy(self, y_in: float) -> float:
-        return 1.0 - y_in / PAGE_IN[1]
-
-    def fx(self, x_in: float) -> float:
-        return x_in / PAGE_IN[0]
-
-    def text(self, text: str, size: float, *, x_in: float = LEFT_IN,
-             width_in: float = TEXT_W_IN, scaled: bool = True, advance: bool = True,
-             **style) -> float:
-        """Draw `text` wrapped to `width_in`; returns the height it took (inches)."""
-        size = size * self.scale if scaled else size
-        lines = wrap(text, size, width_in, style.get("weight", "normal"))
-        step = size * LEADING / 72.0
-        colour = style.pop("color", INK)
-        for i, line in enumerate(lines):
-            self.fig.text(self.fx(x_in), self.fy(self.y_in + i * step), line, fontsize=size,
-                          va="top", ha="left", color=colour, **style)
-        height = len(lines) * step
-        if advance:
-            self.y_in += height
-        return height
-
-    def gap(self, inches: float) -> None:
-        self.y_in += inches * self.scale
-
-    def rule(self) -> None:
-        self.fig.add_artist(matplotlib.lines.Line2D(
-            [self.fx(LEFT_IN), self.fx(PAGE_IN[0] - RIGHT_IN)], [self.fy(self.y_in)] * 2,
-            color=TARGET_GREY, linewidth=0.8))
-
-    def axes(self, height_in: float, *, x_in: float = LEFT_IN,
-             width_in: float = TEXT_W_IN) -> Axes:
-        """Axes whose frame spans `height_in` below y_in (labels go outside it)."""
-        return self.fig.add_axes((self.fx(x_in), self.fy(self.y_in + height_in),
-                                  width_in / PAGE_IN[0], height_in / PAGE_IN[1]))
-
-
-def wrap(text: str, size_pt: float, width_in: float, weight: str = "normal") -> list[str]:
-    """`text` in lines that fit `width_in`, by the text's own average character width
-    in DejaVu Sans (measured once per text: exact per line would cost ~1 ms a word)."""
-    if not text:
-        return [""]
-    chars = max(8, int(len(text) * 0.97 * width_in * 72.0 / _width_pt(text, size_pt, weight)))
-    return textwrap.wrap(text, chars) or [""]
-
-
-@functools.lru_cache(maxsize=1024)
-def _width_pt(text: str, size_pt: float, weight: str) -> float:
-    font = FontProperties(family=RC["font.family"], size=size_pt, weight=weight)
-    width, _, _ = _TEXT_TO_PATH.get_text_width_height_descent(text, font, ismath=False)
-    return max(width, 1.0)
-
-
-_TEXT_TO_PATH = TextToPath()
-
-
-# -- page 1 ------------------------------------------------------------------------------
-
-def _first_page(content: ReportContent) -> Figure:
-    scale = 1.0
-    while True:
-        sheet = _Sheet(scale)
-        _page_one_texts(sheet, content)
-        if sheet.room_in - PATH_ABOVE_IN - PATH_BELOW_IN >= MIN_PATH_IN or scale <= MIN_SCALE:
-            break
-        scale = round(scale - 0.05, 2)
-    log.debug("report page 1 drawn at %.0f %% of the full text size", 100 * scale)
-    sheet.gap(0.15)
-    _path_plot(sheet, content)
-    return sheet.fig
-
-
-def _title(sheet: _Sheet, content: ReportContent, title: str, size: float = 20) -> None:
+def _title(sheet: Sheet, content: ReportContent, title: str, size: float = 20) -> None:
     sheet.text(title, size, weight="bold", advance=False)
     who = content.patient_code + (f" · {content.first_name}" if content.first_name else "")
     numbers = " · ".join(part for part in (
@@ -238,7 +126,23 @@ def _title(sheet: _Sheet, content: ReportContent, title: str, size: float = 20) 
     sheet.gap(0.1)
 
 
-def _page_one_texts(sheet: _Sheet, content: ReportContent) -> None:
+# -- page 1 ------------------------------------------------------------------------------
+
+def _first_page(content: ReportContent) -> Figure:
+    scale = 1.0
+    while True:
+        sheet = Sheet(scale)
+        _page_one_texts(sheet, content)
+        if sheet.room_in - PATH_ABOVE_IN - PATH_BELOW_IN >= MIN_PATH_IN or scale <= MIN_SCALE:
+            break
+        scale = round(scale - 0.05, 2)
+    log.debug("report page 1 drawn at %.0f %% of the full text size", 100 * scale)
+    sheet.gap(0.15)
+    path_plot(sheet, content.path)
+    return sheet.fig
+
+
+def _page_one_texts(sheet: Sheet, content: ReportContent) -> None:
     _title(sheet, content, content.title)
     label_w = 0.85
     for item in content.header:
@@ -280,7 +184,7 @@ def _page_one_texts(sheet: _Sheet, content: ReportContent) -> None:
     _changes_table(sheet, content.comparisons)
 
 
-def _changes_table(sheet: _Sheet, comparisons: tuple[Comparison, ...]) -> None:
+def _changes_table(sheet: Sheet, comparisons: tuple[Comparison, ...]) -> None:
     """The patient's figures now and then: one row a figure, one column an earlier trial;
     then the cautions, each once, saying which comparison it concerns."""
     name_w, now_w = 2.45, 1.05
@@ -336,7 +240,7 @@ def _changes_table(sheet: _Sheet, comparisons: tuple[Comparison, ...]) -> None:
         sheet.gap(0.02)
 
 
-def _banner(sheet: _Sheet, text: str) -> None:
+def _banner(sheet: Sheet, text: str) -> None:
     sheet.gap(0.1)
     pad = 0.08
     top = sheet.y_in
@@ -350,184 +254,23 @@ def _banner(sheet: _Sheet, text: str) -> None:
         facecolor=BANNER_FILL, edgecolor=VERMILLION, linewidth=1.2, zorder=-1))
 
 
-def _path_plot(sheet: _Sheet, content: ReportContent) -> None:
-    figure = content.path
-    if figure is None:
-        sheet.text("No path to show: the trial has no exercise samples of the hand's "
-                   "position.", 11, color=GREY)
-        return
-    sheet.text("Your hand's path and the target path (Fig. 3.7)", 12, weight="bold")
-    handles = [
-        matplotlib.lines.Line2D([], [], color=TARGET_GREY, linewidth=7, label="target path"),
-        matplotlib.lines.Line2D([], [], color=INK, marker="o", markersize=6, linestyle="none",
-                                label="start"),
-        *_run_handles(figure.runs, "your hand: pushing the right way",
-                      "your hand: pushing another way"),
-    ]
-    _legend_at(sheet, handles, LEFT_IN, ncols=4)
-    height = max(1.0, sheet.room_in - PATH_BELOW_IN)
-    ax = sheet.axes(height, x_in=LEFT_IN + 0.55, width_in=TEXT_W_IN - 0.55)
-    desired = figure.desired_m * 1000.0
-    position = figure.position_m * 1000.0
-    outline = figure.outline_m * 1000.0
-    ax.plot(outline[:, 0], outline[:, 1], color=TARGET_GREY, linewidth=7,
-            solid_capstyle="round", zorder=1)
-    _draw_runs(ax, position[:, 0], position[:, 1], figure.runs, linewidth=1.6)
-    ax.plot(*desired[0], marker="o", markersize=6, color=INK, linestyle="none", zorder=4)
-    _direction_arrow(ax, outline)
-    # The box shrinks to the data's shape, so millimetres are equal both ways.
-    ax.set_aspect("equal", adjustable="box")
-    ax.set_anchor("C")
-    ax.margins(0.08)
-    ax.set_xlabel("x (mm)")
-    ax.set_ylabel("y (mm)")
-    if figure.flip_axes:
-        ax.invert_xaxis()
-        ax.invert_yaxis()
-        view = "Seen from the patient's chair: both axes reversed, as in the thesis's Fig. 3.7."
-    else:
-        view = "Seen from above, in the robot's frame (the patient sits at the top, facing down)."
-    _light_grid(ax)
-    sheet.y_in += height + 0.42
-    sheet.text(figure.caption, 9.5, scaled=False)
-    sheet.text(view, 8.5, color=GREY, scaled=False)
-
-
-def _legend_at(sheet: _Sheet, handles: list, x_in: float, *, ncols: int,
-               size: float = 8) -> None:
-    """A legend as a row of its own at the sheet's current height."""
-    sheet.fig.legend(handles=handles, loc="upper left",
-                     bbox_to_anchor=(sheet.fx(x_in), sheet.fy(sheet.y_in)), ncols=ncols,
-                     frameon=False, borderaxespad=0.0, borderpad=0.0, fontsize=size,
-                     handlelength=2.6, columnspacing=1.4)
-    rows = math.ceil(len(handles) / ncols)
-    sheet.y_in += rows * size * 1.55 / 72.0 + 0.05
-
-
-def _direction_arrow(ax: Axes, desired_mm: np.ndarray) -> None:
-    """An arrow along the first few percent of the target path: the way to go."""
-    steps = np.hypot(*np.diff(desired_mm, axis=0).T)
-    along = np.concatenate(([0.0], np.cumsum(steps)))
-    if along[-1] <= 0:
-        return
-    k = int(np.searchsorted(along, 0.06 * along[-1]))
-    k = min(max(k, 1), len(desired_mm) - 1)
-    ax.annotate("", xy=desired_mm[k], xytext=desired_mm[0],
-                arrowprops={"arrowstyle": "-|>", "color": INK, "linewidth": 1.2,
-                            "shrinkA": 4, "shrinkB": 0}, zorder=5)
-
-
 # -- page 2 ------------------------------------------------------------------------------
 
 def _second_page(content: ReportContent) -> Figure:
-    sheet = _Sheet()
+    sheet = Sheet()
     _title(sheet, content, "For the therapist", size=16)
-    time_label = "time since the exercise started (s)"
     label_room = 0.55
     x0 = LEFT_IN + label_room
-    plot_w = TEXT_W_IN - label_room
-
-    force = content.force
-    if force is not None:
-        sheet.text("Force on the handle (Fig. 3.9)", 10, weight="bold", advance=False)
-        sheet.text(force.caption, 8.5, color=GREY, x_in=LEFT_IN + 2.35,
-                   width_in=TEXT_W_IN - 2.35)
-        sheet.gap(0.04)
-        handles = _run_handles(force.runs, force.within_label, force.outside_label)
-        if handles:
-            _legend_at(sheet, handles, LEFT_IN, ncols=2)
-        sheet.gap(0.2)
-        height = 0.95
-        top = None
-        for axis in range(2):
-            ax = sheet.axes(height, x_in=x0, width_in=plot_w)
-            ax.set_title(force.titles[axis], loc="left", pad=3)
-            ax.axhline(0.0, color=TARGET_GREY, linewidth=0.6, zorder=0)
-            _draw_runs(ax, force.t_s, force.force_N[:, axis], force.runs, linewidth=1.2)
-            ax.set_ylabel("N")
-            ax.set_xlim(force.t_s[0], force.t_s[-1])
-            _light_grid(ax)
-            if top is None:
-                top = ax
-                ax.tick_params(labelbottom=False)
-                sheet.y_in += height + 0.27
-            else:
-                ax.sharex(top)
-                ax.set_xlabel(time_label)
-                sheet.y_in += height + 0.45
-
+    if content.force is not None:
+        force_plots(sheet, content.force, x0, TEXT_W_IN - label_room)
     if content.angles is not None or content.torques is not None:
-        between = 0.35
-        half = (TEXT_W_IN - 2 * label_room - between) / 2
-        x1 = x0 + half + between + label_room
-        top_in = sheet.y_in
-        height = 1.25
-        bottom_in = top_in
-        for figure, x, title, draw in (
-            (content.angles, x0, "Joint angles, ISB (Fig. 3.11)", _angles_plot),
-            (content.torques, x1, "Joint torques (Fig. 3.12)", _torques_plot),
-        ):
-            if figure is None:
-                continue
-            sheet.y_in = top_in
-            sheet.text(title, 10, weight="bold", x_in=x - label_room)
-            sheet.gap(0.03)
-            _legend_at(sheet, draw(figure), x - label_room, ncols=1, size=7.5)
-            sheet.gap(0.04)
-            ax = sheet.axes(height, x_in=x, width_in=half)
-            _plot_series(ax, figure)
-            ax.set_xlabel(time_label)
-            sheet.y_in += height + 0.42
-            if figure is content.torques:
-                sheet.text(figure.caption, 7.5, color=GREY, x_in=x - label_room,
-                           width_in=half + label_room)
-            bottom_in = max(bottom_in, sheet.y_in)
-        sheet.y_in = bottom_in + 0.1
-
+        joint_plots(sheet, content.angles, content.torques, x0, label_room)
     _table(sheet, content)
     _notes(sheet, content)
     return sheet.fig
 
 
-def _light_grid(ax: Axes) -> None:
-    ax.grid(True, color="#E6E6E6", linewidth=0.5)
-    ax.set_axisbelow(True)
-
-
-_JOINT_STYLES = ((PURPLE, "-"), (GREEN, "-."))
-
-
-def _angles_plot(figure: AnglesFigure) -> list:
-    return [matplotlib.lines.Line2D([], [], color=c, linestyle=ls, linewidth=1.4, label=label)
-            for (c, ls), label in zip(_JOINT_STYLES, figure.labels, strict=True)]
-
-
-def _torques_plot(figure: TorquesFigure) -> list:
-    return [matplotlib.lines.Line2D([], [], color=c, linestyle=ls, linewidth=1.6, label=label)
-            for (c, ls), label in zip(_JOINT_STYLES, figure.labels, strict=True)]
-
-
-def _plot_series(ax: Axes, figure: AnglesFigure | TorquesFigure) -> None:
-    t = figure.t_s
-    for column, (colour, style) in enumerate(_JOINT_STYLES):
-        if isinstance(figure, AnglesFigure):
-            x, y = _envelope(t, np.degrees(figure.isb_rad[:, column]))
-            ax.plot(x, y, color=colour, linestyle=style, linewidth=1.4)
-        else:
-            x, y = _envelope(t, figure.raw_Nm[:, column])
-            ax.plot(x, y, color=colour, linewidth=0.6, alpha=0.35)
-            x, y = _envelope(t, figure.smoothed_Nm[:, column])
-            ax.plot(x, y, color=colour, linestyle=style, linewidth=1.6)
-    if isinstance(figure, AnglesFigure):
-        ax.set_ylabel("angle (°)")
-    else:
-        ax.axhline(0.0, color=TARGET_GREY, linewidth=0.6, zorder=0)
-        ax.set_ylabel("torque (N·m)")
-    ax.set_xlim(t[0], t[-1])
-    _light_grid(ax)
-
-
-def _table(sheet: _Sheet, content: ReportContent) -> None:
+def _table(sheet: Sheet, content: ReportContent) -> None:
     if not content.table:
         return
     sheet.text("Every figure of this trial", 11, weight="bold")
@@ -565,20 +308,14 @@ def _table(sheet: _Sheet, content: ReportContent) -> None:
             if j >= 2:
                 colour = VERDICT_COLOURS.get(row.verdicts[j - 2], INK)
             sheet.y_in = y
-            sheet.fig.text(sheet.fx(x + 0.04), sheet.fy(y), _fit(cell, size, w - 0.08),
+            sheet.fig.text(sheet.fx(x + 0.04), sheet.fy(y), fit(cell, size, w - 0.08),
                            fontsize=size, va="top", ha="left", color=colour,
                            weight="bold" if j == 1 else "normal")
         sheet.y_in = y + row_h
     sheet.gap(0.12)
 
 
-def _fit(text: str, size: float, width_in: float) -> str:
-    """`text`, cut with an ellipsis if it would run past `width_in`."""
-    lines = wrap(text, size, width_in)
-    return text if len(lines) == 1 else lines[0].rstrip() + "…"
-
-
-def _notes(sheet: _Sheet, content: ReportContent) -> None:
+def _notes(sheet: Sheet, content: ReportContent) -> None:
     notes = [f"Fault at {fault}" for fault in content.faults] + list(content.notes)
     size = 7.5
     step = size * LEADING / 72.0
@@ -594,73 +331,3 @@ def _notes(sheet: _Sheet, content: ReportContent) -> None:
         sheet.text("• " + note, size, color=GREY, scaled=False)
     sheet.fig.text(sheet.fx(LEFT_IN), sheet.fy(PAGE_IN[1] - BOTTOM_IN + 0.2), footer,
                    fontsize=7, color=GREY, va="top")
-
-
-# -- drawing helpers -----------------------------------------------------------------------
-
-def _draw_runs(ax: Axes, x: np.ndarray, y: np.ndarray, runs: tuple[Run, ...], *,
-               linewidth: float) -> None:
-    """Within runs solid blue, outside runs dashed vermillion; one black line when
-    there are no runs (no force or direction to judge by)."""
-    if not runs:
-        xs, ys = _envelope(x, y) if x.ndim == 1 and _is_time(x) else (x, y)
-        ax.plot(xs, ys, color=INK, linewidth=linewidth, zorder=3)
-        return
-    budget = max(2, MAX_LINE_POINTS // max(1, len(runs)))
-    for run in runs:
-        part = slice(run.start, run.stop + 1)
-        xs, ys = _thin(x[part], y[part], max(budget, int(MAX_LINE_POINTS * (run.stop + 1 -
-                                                                            run.start)
-                                                          / max(1, len(x)))))
-        if run.within:
-            ax.plot(xs, ys, color=BLUE, linewidth=linewidth, linestyle="-", zorder=3)
-        else:
-            ax.plot(xs, ys, color=VERMILLION, linewidth=linewidth, linestyle=(0, (3.5, 1.8)),
-                    zorder=3)
-
-
-def _run_handles(runs: tuple[Run, ...], within: str, outside: str) -> list:
-    handles = []
-    if runs:
-        handles += [
-            matplotlib.lines.Line2D([], [], color=BLUE, linewidth=1.6, label=within),
-            matplotlib.lines.Line2D([], [], color=VERMILLION, linewidth=1.6,
-                                    linestyle=(0, (3.5, 1.8)), label=outside),
-        ]
-    return handles
-
-
-def _is_time(x: np.ndarray) -> bool:
-    return x.size < 2 or bool(np.all(np.diff(x) >= 0))
-
-
-def _thin(x: np.ndarray, y: np.ndarray, max_points: int) -> tuple[np.ndarray, np.ndarray]:
-    """At most about `max_points` points, keeping each stretch's extremes (time series)
-    or every k-th point (a path); the ends are always kept."""
-    if x.size <= max_points:
-        return x, y
-    if _is_time(x):
-        return _envelope(x, y, max_points)
-    index = np.unique(np.r_[np.linspace(0, x.size - 1, max_points).astype(int), x.size - 1])
-    return x[index], y[index]
-
-
-def _envelope(t: np.ndarray, y: np.ndarray,
-              max_points: int = MAX_LINE_POINTS) -> tuple[np.ndarray, np.ndarray]:
-    """Min-max decimation: per bucket, the lowest and highest sample in time order, so
-    a long trial's peaks (which set the ranges shown) survive the thinning."""
-    n = t.size
-    if n <= max_points:
-        return t, y
-    size = math.ceil(n / max(1, max_points // 2))
-    buckets = math.ceil(n / size)
-    padded = np.full(buckets * size, np.nan)
-    padded[:n] = y
-    padded = padded.reshape(buckets, size)
-    missing = np.isnan(padded)
-    base = np.arange(buckets) * size
-    low = base + np.argmin(np.where(missing, np.inf, padded), axis=1)
-    high = base + np.argmax(np.where(missing, -np.inf, padded), axis=1)
-    index = np.unique(np.concatenate(([0, n - 1], np.minimum(low, n - 1),
-                                      np.minimum(high, n - 1))))
-    return t[index], y[index]

@@ -21,7 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.records.registry import KEY_PARAMETERS, Registry, TrialSummary, parameter_key
+from app.records.registry import KEY_PARAMETERS, TrialSummary, parameter_key
+from app.records.store import RecordStore
 
 FILE_OK = "ok"
 FILE_MISSING = "missing"
@@ -190,7 +191,7 @@ class Progress:
         return header, rows
 
 
-def progress(registry: Registry, code: str, *, check_files: bool = True) -> Progress:
+def progress(registry: RecordStore, code: str, *, check_files: bool = True) -> Progress:
     """The progress of the patient with this code (PatientNotFound if none)."""
     trials = registry.trial_summaries(code)
     n = len(trials)

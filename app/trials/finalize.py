@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from app.errors import AppError
-from app.records.registry import Registry
+from app.records.store import RecordStore
 from app.trials.analysis import Analysis, analyse
 from app.trials.reader import read_trial
 from device.errors import RecordingError
@@ -33,7 +33,7 @@ class Finalized:
     notes: tuple[str, ...]
 
 
-def finalize_trial(registry: Registry, trial_id: int, status: str | None = None) -> Finalized:
+def finalize_trial(registry: RecordStore, trial_id: int, status: str | None = None) -> Finalized:
     """Analyse the trial's file, write its metrics into it and into the registry.
 
     `status` defaults to the one the file records (complete, stopped_early, faulted,
@@ -73,7 +73,7 @@ STILL_WRITTEN_S = 10.0
 data folder (the recorder flushes every 0.5 s): it is left alone."""
 
 
-def finish_interrupted(registry: Registry, *, now: float | None = None,
+def finish_interrupted(registry: RecordStore, *, now: float | None = None,
                        still_written_s: float = STILL_WRITTEN_S) -> list[str]:
     """Finish the trials the registry still lists as recording: a console that closed
     abnormally during a trial (a crash, a power cut) leaves them so, although the

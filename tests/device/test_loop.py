@@ -69,7 +69,7 @@ def test_commands_out_of_order_are_refused_with_a_reason(client):
 
 
 def test_a_whole_trial_is_recorded_with_its_timing(client, tmp_path):
-    """The simulator's trial ticks run compiled (device.compiled.looptick) by default."""
+    """The tick engine runs compiled by default (device.loop.engine)."""
     whole_trial(client, tmp_path)
 
 

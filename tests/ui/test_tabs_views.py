@@ -14,7 +14,7 @@ from app.trials.headless import simulate
 from core.metrics import DEFAULT_TORQUE_CUTOFF_HZ
 from core.signal import lowpass
 from core.trial import THESIS_SUBJECT
-from ui import plots, theme
+from ui import theme
 from ui.tabs import (
     VIEW_TABS,
     AnglesTab,
@@ -24,6 +24,7 @@ from ui.tabs import (
     TrajectoryTab,
     ViewTab,
 )
+from ui.views import samples
 from ui.views.trialview import TrialView
 
 PARAMETERS = THESIS_SUBJECT.replace(repetitions=2)
@@ -108,7 +109,7 @@ def test_a_long_trace_is_thinned_for_drawing_but_ends_at_the_hand(qtbot, records
     view = TrialView.from_records(long, PARAMETERS)
     tab.show_view(view)
     x, y = tab.hand.getOriginalDataset()
-    assert 1000 < len(x) <= plots.MAX_PATH_POINTS
+    assert 1000 < len(x) <= samples.MAX_PATH_POINTS
     last = view.exercise.stop - 1
     assert (x[-1], y[-1]) == pytest.approx(tuple(view.column("position")[:, last] * 100))
 
@@ -138,8 +139,8 @@ def test_force_segments_follow_the_within_mask(qtbot, view, records, metrics):
     tab = shown(qtbot, ForceTab())
     tab.show_view(view)
     ex = view.exercise
-    min_run = round(plots.MERGE_RUNS_S / view.sample_period_s)
-    mask = plots.merge_short_runs(view.within[ex], min_run)
+    min_run = round(samples.MERGE_RUNS_S / view.sample_period_s)
+    mask = samples.merge_short_runs(view.within[ex], min_run)
     assert 0 < mask.sum() < mask.size
     force = exercise(records)["force"]
     for a in range(2):
@@ -163,14 +164,6 @@ def test_force_segments_follow_the_within_mask(qtbot, view, records, metrics):
     tab.set_cursor(3.0)
     assert all(line.isVisible() and line.value() == pytest.approx(view.time[view.index_at(3.0)])
                for line in tab.cursors)
-
-
-def test_merge_short_runs_only_flips_short_runs():
-    mask = np.array([1] * 30 + [0] * 3 + [1] * 30 + [0] * 40 + [1] * 2, dtype=bool)
-    merged = plots.merge_short_runs(mask, 10)
-    expected = np.array([1] * 63 + [0] * 42, dtype=bool)
-    np.testing.assert_array_equal(merged, expected)
-    np.testing.assert_array_equal(plots.merge_short_runs(mask, 1), mask)
 
 
 def test_angles_rom_and_curves(qtbot, view, records, metrics):

@@ -10,6 +10,7 @@ import numpy as np
 from PySide6.QtWidgets import QLabel, QWidget
 
 from ui import plots, theme
+from ui.views.numbers import format_number
 from ui.views.trialview import TrialView
 
 JOINTS = ("shoulder", "elbow")
@@ -47,8 +48,8 @@ class AnglesTab(QWidget):
             line.setData(t, angles[j])
         low, high = (np.degrees(v) for v in view.range_of("subject_angle_isb"))
         for j, number in enumerate(self.rom):
-            number.set_value(high[j] - low[j], f"from {plots.format_number(low[j])}° to "
-                                               f"{plots.format_number(high[j])}°")
+            number.set_value(high[j] - low[j], f"from {format_number(low[j])}° to "
+                                               f"{format_number(high[j])}°")
         plots.place_cursor(self.cursor_line, view.cursor)
 
     def set_cursor(self, t: float | None) -> None:

@@ -2,7 +2,7 @@
 x and y over the exercise, blue and solid while it pointed within the tolerance of
 the path's direction, vermillion and dashed while it did not, with each axis's range.
 
-Runs shorter than `plots.MERGE_RUNS_S` are merged into their neighbour for the
+Runs shorter than `ui.views.samples.MERGE_RUNS_S` are merged into their neighbour for the
 picture only; the percentage and the ranges count every sample.
 """
 
@@ -14,6 +14,8 @@ import pyqtgraph as pg
 from PySide6.QtWidgets import QLabel, QWidget
 
 from ui import plots, theme
+from ui.views import samples
+from ui.views.numbers import format_number
 from ui.views.trialview import TrialView
 
 AXES = ("x", "y")
@@ -68,18 +70,18 @@ class ForceTab(QWidget):
         ex = view.exercise
         t = view.time[ex]
         period = view.sample_period_s * view.stride
-        mask = plots.merge_short_runs(view.within[ex], round(plots.MERGE_RUNS_S / period))
+        mask = samples.merge_short_runs(view.within[ex], round(samples.MERGE_RUNS_S / period))
         force = view.column("force")
         for a in range(len(AXES)):
-            inside, outside = plots.split_by_mask(force[a, ex], mask)
+            inside, outside = samples.split_by_mask(force[a, ex], mask)
             self.inside[a].setData(t, inside)
             self.outside[a].setData(t, outside)
         low, high = view.range_of("force")
         for a, axis in enumerate(AXES):
             self.ranges[a].set_value(
                 high[a] - low[a],
-                f"{MEANING[axis]}: from {plots.format_number(low[a], 2)} to "
-                f"{plots.format_number(high[a], 2)} N")
+                f"{MEANING[axis]}: from {format_number(low[a], 2)} to "
+                f"{format_number(high[a], 2)} N")
         self.directional.set_value(
             view.directional_percent,
             f"of the exercise time within {math.degrees(view.tolerance_rad):.0f}° of the "

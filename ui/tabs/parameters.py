@@ -7,18 +7,22 @@ kg, °, %) and convert to SI at once; each spin box's limits are the range
 What the limits cannot catch (a path the arm or the robot cannot reach, a path
 too fast) comes from `core.trial.check_trial` and is written under the field to
 change, in its own words with the distances.
+
+The picture is `ui.reach_preview.ReachPreview`, and what the check says (the
+picture's geometry, the summary, which field a problem goes under) is
+`ui.views.reach`, computed without Qt. What is left here is one job, the form
+itself, and it is a little over 500 lines because the form is large: five groups
+(camera, exercise, patient, control, robot) of some twenty fields, each built,
+converted to SI and back, and given a place for its problem.
 """
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-import pyqtgraph as pg
-from PySide6.QtCore import QRectF, Qt, QTimer, Signal
+from PySide6.QtCore import Qt, QTimer, Signal
 from PySide6.QtWidgets import (
     QButtonGroup,
     QCheckBox,
@@ -46,8 +50,6 @@ from core.trajectory import SHAPES, TIMINGS
 from core.trial import (
     CONTROLLERS,
     DURATION_RANGE_S,
-    ELBOW_FLEXION_RANGE_RAD,
-    MAX_PATH_SPEED_M_S,
     POSITION_RANGE_M,
     RADIUS_RANGE_M,
     REPETITIONS_RANGE,
@@ -59,7 +61,15 @@ from core.trial import (
     check_trial,
 )
 from device.sim.patients import PATIENT_KINDS
-from ui import plots, theme
+from ui import theme
+from ui.reach_preview import ReachPreview
+from ui.views.reach import (
+    CM,
+    check_summary,
+    field_key,
+    problem_fields,
+    reach_picture,
+)
 
 SHAPE_NAMES = {"d": "D shape", "circle": "Circle", "reach": "Reach out and back",
                "targets": "Targets (centre-out)", "figure8": "Figure eight"}
@@ -68,10 +78,7 @@ CONTROLLER_NAMES = {"smc": "Sliding mode (SMC)", "ctpid": "Computed-torque PID"}
 SIDE_NAMES = {"right": "Right arm", "left": "Left arm"}
 PATIENT_NAMES = {"healthy": "Healthy", "weak": "Weak", "spastic": "Spastic", "tremor": "Tremor",
                  "passive": "Passive (no effort)", "wrong_way": "Pushes the wrong way at times"}
-CM = 100.0
 DEBOUNCE_MS = 120
-UNREACHABLE_MARK_EVERY = 5  # path points are 2 mm apart
-PREVIEW_MARGIN_CM = 8.0
 SIMULATOR = "simulator"
 HARDWARE = "hardware"
 
@@ -84,23 +91,6 @@ class BackendChoice:
     name: str  # SIMULATOR or HARDWARE
     patient_kind: str | None = None
     settings_path: Path | None = None
-
-
-@functools.cache
-def robot_workspace(robot: RobotModel, step_m: float = 0.005) -> tuple[np.ndarray, QRectF]:
-    """Where the robot's handle can go, as a mask on a grid (x along axis 0) and the
-    rectangle it covers. Computed once per robot: it never changes."""
-    extent = robot.reach_max_m + step_m
-    xs = np.arange(-extent, extent + step_m / 2, step_m)
-    x, y = np.meshgrid(xs, xs, indexing="ij")
-    q1, q2 = robot.ik_terms(x, y)
-    ok = np.isfinite(q1) & np.isfinite(q2)
-    for i in np.flatnonzero(ok):
-        if robot.limit_problem(float(q1.flat[i]), float(q2.flat[i])):
-            ok.flat[i] = False
-    half = step_m / 2
-    rect = QRectF(xs[0] - half, xs[0] - half, xs.size * step_m, xs.size * step_m)
-    return ok, rect
 
 
 def _spin(low: float, high: float, decimals: int, suffix: str, step: float) -> QDoubleSpinBox:
@@ -148,7 +138,11 @@ class ParametersTab(QWidget):
         self._debounce.timeout.connect(self.refresh)
 
         self._build_fields()
-        self._build_preview()
+        self.preview = ReachPreview(self.robot)
+        self.summary = theme.set_role(QLabel(""), "caption")
+        self.summary.setWordWrap(True)
+        self.status = QLabel("")
+        self.status.setWordWrap(True)
         form = QWidget()
         column = QVBoxLayout(form)
         for group in (self._video_group, self._exercise_group, self._patient_group,
@@ -164,7 +158,6 @@ class ParametersTab(QWidget):
         right = QVBoxLayout()
         right.addWidget(theme.set_role(QLabel("What can be reached"), "heading"))
         right.addWidget(self.preview, 1)
-        right.addWidget(self.legend)
         right.addWidget(self.summary)
         right.addWidget(self.status)
         layout = QHBoxLayout(self)
@@ -326,87 +319,19 @@ class ParametersTab(QWidget):
         self.settings_path.textChanged.connect(self._backend_edited)
 
     # -- preview ------------------------------------------------------------------
-    def _build_preview(self) -> None:
-        self.preview = plots.make_plot("x (cm)", "y (cm)")
-        item = self.preview.getPlotItem()
-        item.setAspectLocked(True)
-        # The plot works in cm, like the fields.
-        mask, rect = robot_workspace(self.robot)
-        self.workspace = pg.ImageItem(mask.astype(np.uint8))
-        # Translucent, so the grid behind it still shows.
-        self.workspace.setLookupTable(np.array([[255, 255, 255, 0], [196, 202, 210, 130]],
-                                               dtype=np.uint8))
-        self.workspace.setRect(QRectF(rect.x() * CM, rect.y() * CM, rect.width() * CM,
-                                      rect.height() * CM))
-        self.workspace.setZValue(-10)
-        item.addItem(self.workspace, ignoreBounds=True)
-        self.reach_far = plots.curve(item, theme.BLUISH_GREEN, dashed=True, xy=True)
-        self.reach_near = plots.curve(item, theme.BLUISH_GREEN, dashed=True, xy=True)
-        self.path_ok = plots.curve(item, theme.WITHIN, gaps=True, xy=True)
-        self.path_out = plots.curve(item, theme.OUTSIDE, dashed=True, gaps=True, xy=True)
-        self.path_bad = pg.ScatterPlotItem(symbol="x", size=12, pen=theme.pen(theme.OUTSIDE),
-                                           brush=pg.mkBrush(theme.OUTSIDE))
-        item.addItem(self.path_bad)
-        self.start = pg.ScatterPlotItem(symbol="t1", size=14, pen=theme.pen(theme.BLACK),
-                                        brush=pg.mkBrush(theme.BLUE))
-        item.addItem(self.start)
-        self.shoulder_mark = pg.ScatterPlotItem(symbol="o", size=14, pen=theme.pen(theme.BLACK),
-                                                brush=pg.mkBrush(theme.ORANGE))
-        item.addItem(self.shoulder_mark)
-        self.motors_mark = pg.ScatterPlotItem([0.0], [0.0], symbol="s", size=14,
-                                              pen=theme.pen(theme.BLACK),
-                                              brush=pg.mkBrush(theme.BLACK))
-        item.addItem(self.motors_mark)
-        self.legend = theme.set_role(QLabel(
-            f"<span style='color:#8C9096'>■</span> robot can reach &nbsp; "
-            f"<span style='color:{theme.BLUISH_GREEN}'>- - -</span> arm reaches comfortably "
-            f"&nbsp; <span style='color:{theme.WITHIN}'>——</span> path &nbsp; "
-            f"<span style='color:{theme.OUTSIDE}'>✕</span> cannot be reached &nbsp; "
-            f"<span style='color:{theme.ORANGE}'>●</span> shoulder &nbsp; ■ robot motors "
-            f"&nbsp; <span style='color:{theme.BLUE}'>▲</span> start"), "caption")
-        self.legend.setWordWrap(True)
-        self.summary = theme.set_role(QLabel(""), "caption")
-        self.summary.setWordWrap(True)
-        self.status = QLabel("")
-        self.status.setWordWrap(True)
+    @property
+    def path_bad(self):
+        """The preview's crosses on the points that cannot be reached."""
+        return self.preview.path_bad
+
+    @property
+    def shoulder_mark(self):
+        """The preview's mark of the shoulder."""
+        return self.preview.shoulder_mark
 
     def set_flip(self, flip_x: bool, flip_y: bool) -> None:
         """Mirror the preview like the trajectory tab (display only)."""
-        item = self.preview.getPlotItem()
-        item.invertX(flip_x)
-        item.invertY(flip_y)
-
-    def _draw(self, check: TrialCheck | None, values: dict) -> None:
-        sx, sy = (v * CM for v in values["shoulder_m"])
-        self.shoulder_mark.setData([sx], [sy])
-        if check is None:
-            for line in (self.path_ok, self.path_out, self.reach_far, self.reach_near):
-                line.setData([], [])
-            self.path_bad.setData([], [])
-            self.start.setData([], [])
-            return
-        arm = check.arm
-        angles = np.linspace(0.0, 2.0 * math.pi, 181)
-        for line, flexion in ((self.reach_far, ELBOW_FLEXION_RANGE_RAD[0]),
-                              (self.reach_near, ELBOW_FLEXION_RANGE_RAD[1])):
-            r = arm.reach_at_elbow_flexion(flexion) * CM
-            line.setData(sx + r * np.cos(angles), sy + r * np.sin(angles))
-        points = check.points_m * CM
-        ok = check.reachable
-        # Each line also draws the point after it changes, so the two meet.
-        inside, outside = plots.split_by_mask(points, np.repeat(ok[:, None], 2, axis=1))
-        self.path_ok.setData(inside[:, 0], inside[:, 1])
-        self.path_out.setData(outside[:, 0], outside[:, 1])
-        # A cross every centimetre or so: at the path's 2 mm spacing they would merge.
-        bad = np.flatnonzero(~ok)[::UNREACHABLE_MARK_EVERY]
-        self.path_bad.setData(points[bad, 0], points[bad, 1])
-        self.start.setData([points[0, 0]], [points[0, 1]])
-        # Frame the exercise, the shoulder and the robot's base; the reach circles may
-        # run off the edge, the exercise must not.
-        box = np.vstack((points, [[sx, sy], [0.0, 0.0]]))
-        low, high = box.min(axis=0) - PREVIEW_MARGIN_CM, box.max(axis=0) + PREVIEW_MARGIN_CM
-        self.preview.getPlotItem().setRange(xRange=(low[0], high[0]), yRange=(low[1], high[1]),
-                                            padding=0.0)
+        self.preview.set_flip(flip_x, flip_y)
 
     # -- values -------------------------------------------------------------------
     def _values(self) -> dict:
@@ -510,12 +435,12 @@ class ParametersTab(QWidget):
             parameters = TrialParameters(**values)
         except ParameterError as exc:
             self._error = exc
-            self._show_error(_field_key(exc.field), str(exc))
+            self._show_error(field_key(exc.field), str(exc))
             self._problem = str(exc)
         else:
             check = check_trial(parameters, self.robot)
             self._check = check
-            for key, message in _problem_fields(check):
+            for key, message in problem_fields(check):
                 self._show_error(key, message)
             if check.ok:
                 self._parameters = parameters
@@ -523,7 +448,8 @@ class ParametersTab(QWidget):
             else:
                 self._problem = check.problems[0]
                 self._error = UnreachableError(self._problem)
-        self._draw(self._check, values)
+        picture = None if self._check is None else reach_picture(self._check, values["shoulder_m"])
+        self.preview.show_picture(picture, values["shoulder_m"])
         self._show_summary()
         self.parameters_changed.emit(self._parameters, self._problem)
 
@@ -534,18 +460,7 @@ class ParametersTab(QWidget):
         label.show()
 
     def _show_summary(self) -> None:
-        check = self._check
-        if check is None:
-            self.summary.setText("")
-        else:
-            text = (f"Path {check.path_length_m * CM:.0f} cm per traversal, fastest "
-                    f"{check.peak_speed_m_s * CM:.0f} cm/s.")
-            if check.reachable.any():
-                sh = [math.degrees(v) for v in check.range_of(check.isb_angles_rad[:, 0])]
-                el = [math.degrees(v) for v in check.range_of(check.isb_angles_rad[:, 1])]
-                text += (f" The shoulder will move {sh[0]:.0f}° to {sh[1]:.0f}°, the elbow "
-                         f"{el[0]:.0f}° to {el[1]:.0f}° (ISB).")
-            self.summary.setText(text)
+        self.summary.setText("" if self._check is None else check_summary(self._check))
         if self._parameters is not None:
             self.status.setText("Ready: every point of the path can be reached.")
             theme.set_role(self.status, "ok")
@@ -609,29 +524,3 @@ class ParametersTab(QWidget):
                                               "Settings (*.toml);;All files (*)")
         if path:
             self.settings_path.setText(path)
-
-
-def _field_key(field: str) -> str:
-    """A TrialParameters field (as ParameterError names it) to the row showing it."""
-    name = field.split("[")[0]
-    return {
-        "centre_m": "centre", "shoulder_m": "shoulder", "radius_m": "radius",
-        "duration_s": "duration", "body_mass_kg": "body_mass", "upper_arm_m": "upper_arm",
-        "forearm_m": "forearm", "tolerance_rad": "tolerance", "assistance_level": "assistance",
-    }.get(name, name)
-
-
-def _problem_fields(check: TrialCheck) -> list[tuple[str, str]]:
-    """Each of check_trial's problems with the row(s) it belongs under. check_trial lists
-    the robot's reach first, then the arm's, then the speed."""
-    problems = list(check.problems)
-    placed = []
-    if problems and not check.robot_ok.all():
-        placed.append(("centre", problems.pop(0)))
-    if problems and not check.arm_ok.all():
-        message = problems.pop(0)
-        placed += [("centre", message), ("shoulder", message)]
-    if problems and check.peak_speed_m_s > MAX_PATH_SPEED_M_S:
-        placed.append(("duration", problems.pop(0)))
-    placed += [("shape", message) for message in problems]
-    return placed

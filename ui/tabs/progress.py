@@ -23,16 +23,19 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app.records.registry import Registry
+from app.records.store import RecordStore
 from app.reports.metrics_table import ROWS
 from app.reports.progress import Progress, progress
 from ui import plots, theme
+from ui.views.progress_table import (
+    metric_heading,
+    metric_rows,
+    progress_summary,
+    progress_table,
+)
 
 DEFAULT_METRIC = "directional_performance_pct"
 MAX_LABELLED_TICKS = 30
-STATUS_WORDS = {"complete": "complete", "stopped_early": "stopped early",
-                "faulted": "safety stop", "recording_lost": "recording lost",
-                "recording": "recording"}
 
 
 class ProgressTab(QWidget):
@@ -41,7 +44,7 @@ class ProgressTab(QWidget):
     progress_loaded = Signal(object)
     progress_failed = Signal(str)
 
-    def __init__(self, registry: Registry | None = None, parent=None) -> None:
+    def __init__(self, registry: RecordStore | None = None, parent=None) -> None:
         super().__init__(parent)
         self.registry = registry
         self._code: str | None = None
@@ -84,7 +87,7 @@ class ProgressTab(QWidget):
     def progress(self) -> Progress | None:
         return self._progress
 
-    def set_registry(self, registry: Registry) -> None:
+    def set_registry(self, registry: RecordStore) -> None:
         self.registry = registry
 
     def set_patient(self, code: str | None) -> None:
@@ -108,14 +111,7 @@ class ProgressTab(QWidget):
             return
         self._progress = result
         self.heading.setText(f"Progress of {code}")
-        n = len(result)
-        sets = len(result.parameter_sets)
-        self.message.setText(
-            "No trials yet." if n == 0 else
-            f"{n} trial{'s' if n != 1 else ''} in {len(set(result.session.tolist()))} "
-            f"session{'s' if len(set(result.session.tolist())) != 1 else ''}, "
-            f"{sets} exercise setting{'s' if sets != 1 else ''}. Compare points of the same "
-            "colour and shape: they are the same exercise.")
+        self.message.setText(progress_summary(result))
         self._fill_metrics(result)
         self._fill_table(result)
         self._draw_plot()
@@ -139,40 +135,26 @@ class ProgressTab(QWidget):
         self.metric_choice.clear()
         self.metric_choice.blockSignals(False)
 
-    def _rows(self, result: Progress):
-        return [row for row in ROWS if row.key in result.values]
-
     def _fill_metrics(self, result: Progress) -> None:
         current = self.metric_choice.currentData() or DEFAULT_METRIC
         self.metric_choice.blockSignals(True)
         self.metric_choice.clear()
-        for row in self._rows(result):
-            label = f"{row.label} ({row.unit})" if row.unit else row.label
-            self.metric_choice.addItem(label, row.key)
+        for row in metric_rows(result):
+            self.metric_choice.addItem(metric_heading(row), row.key)
         index = self.metric_choice.findData(current)
         self.metric_choice.setCurrentIndex(max(index, 0))
         self.metric_choice.blockSignals(False)
 
     def _fill_table(self, result: Progress) -> None:
-        rows = self._rows(result)
-        heads = ["Session", "Trial", "Date", "Status", "Exercise",
-                 *(f"{r.label} ({r.unit})" if r.unit else r.label for r in rows)]
+        table = progress_table(result)
         self.table.clear()
-        self.table.setColumnCount(len(heads))
-        self.table.setRowCount(len(result))
-        self.table.setHorizontalHeaderLabels(heads)
-        for i, summary in enumerate(result.trials):
-            status = STATUS_WORDS.get(summary.status, summary.status)
-            if result.file_states[i] not in ("ok", "unchecked"):
-                status += f" (file {result.file_states[i]})"
-            cells = [str(summary.session_number), str(summary.number),
-                     summary.session_date.isoformat(), status,
-                     result.parameter_sets[int(result.parameter_set_index[i])].label()]
-            cells += [plots.format_number(float(result.values[r.key][i]) * r.scale, 2)
-                      for r in rows]
+        self.table.setColumnCount(len(table.headings))
+        self.table.setRowCount(len(table.rows))
+        self.table.setHorizontalHeaderLabels(table.headings)
+        for i, cells in enumerate(table.rows):
             for c, text in enumerate(cells):
                 cell = QTableWidgetItem(text)
-                if c >= 5 or c < 2:
+                if table.right_aligned(c):
                     cell.setTextAlignment(Qt.AlignmentFlag.AlignRight
                                           | Qt.AlignmentFlag.AlignVCenter)
                 self.table.setItem(i, c, cell)
@@ -188,7 +170,7 @@ class ProgressTab(QWidget):
         if result is None or key is None:
             return
         row = next(r for r in ROWS if r.key == key)
-        item.setLabel("left", f"{row.label} ({row.unit})" if row.unit else row.label)
+        item.setLabel("left", metric_heading(row))
         theme.style_plot(item)
         for series in result.series(key):
             i = series.parameter_set_index

@@ -32,7 +32,8 @@ from PySide6.QtWidgets import (
 )
 
 from app.errors import RegistryError, SessionNotFound
-from app.records.registry import BIRTH_YEAR_MIN, Patient, Registration, Registry
+from app.records.registry import BIRTH_YEAR_MIN, Patient, Registration
+from app.records.store import RecordStore
 from core.arm import BODY_MASS_RANGE_KG, FOREARM_RANGE_M, UPPER_ARM_RANGE_M
 from core.trial import POSITION_RANGE_M
 from ui import theme
@@ -81,7 +82,7 @@ class RegistrationTab(QWidget):
     patient_selected = Signal(object)
     registered = Signal(object, object)
 
-    def __init__(self, registry: Registry | None = None, parent=None) -> None:
+    def __init__(self, registry: RecordStore | None = None, parent=None) -> None:
         super().__init__(parent)
         self.registry = registry
         self._patient: Patient | None = None
@@ -198,7 +199,7 @@ class RegistrationTab(QWidget):
         return label
 
     # -- public -------------------------------------------------------------------
-    def set_registry(self, registry: Registry) -> None:
+    def set_registry(self, registry: RecordStore) -> None:
         self.registry = registry
         self.search()
 

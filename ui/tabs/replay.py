@@ -8,10 +8,8 @@ time in the trial (cursor_moved). The window hands both to the other tabs.
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
-import numpy as np
 from PySide6.QtCore import Qt, QTimer, Signal
 from PySide6.QtWidgets import (
     QComboBox,
@@ -28,23 +26,14 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app.records.registry import Registry, Trial
+from app.records.store import RecordStore
 from app.trials.reader import read_trial
-from device.loop.pipeline import PHASE_APPROACH, PHASE_EXERCISE, PHASE_HOLD, PHASE_IDLE
-from device.safety.faults import Fault
 from ui import plots, theme
+from ui.views.moment import MOMENT_ROWS, describe_trial, moment
 from ui.views.trialview import TrialView
 
 PLAY_INTERVAL_MS = 40
-MOMENT_ROWS = (("phase", "Part of the trial"), ("position", "Hand position"),
-               ("force", "Push on the handle"), ("angles", "Shoulder, elbow angle (ISB)"),
-               ("torques", "Shoulder, elbow torque"), ("fault", "Safety"))
-PHASE_WORDS = {PHASE_IDLE: "robot not controlling", PHASE_APPROACH: "moving to the start",
-               PHASE_EXERCISE: "exercise", PHASE_HOLD: "holding at the end"}
 SPEEDS = (0.25, 0.5, 1.0, 2.0, 4.0)
-STATUS_WORDS = {"complete": "complete", "stopped_early": "stopped early",
-                "faulted": "safety stop", "recording_lost": "recording lost",
-                "recording": "not closed"}
 
 
 def load_view(path: Path) -> TrialView:
@@ -63,7 +52,7 @@ class ReplayTab(QWidget):
     cursor_moved = Signal(float)
     load_failed = Signal(str)
 
-    def __init__(self, registry: Registry | None = None, parent=None) -> None:
+    def __init__(self, registry: RecordStore | None = None, parent=None) -> None:
         super().__init__(parent)
         self.registry = registry
         self._code: str | None = None
@@ -146,7 +135,7 @@ class ReplayTab(QWidget):
     def view(self) -> TrialView | None:
         return self._view
 
-    def set_registry(self, registry: Registry) -> None:
+    def set_registry(self, registry: RecordStore) -> None:
         self.registry = registry
 
     def set_patient(self, code: str | None) -> None:
@@ -158,7 +147,7 @@ class ReplayTab(QWidget):
             return
         self.list_heading.setText(f"Trials of {code}")
         for trial in reversed(self.registry.trials_for_patient(code)):
-            item = QListWidgetItem(_describe(trial))
+            item = QListWidgetItem(describe_trial(trial))
             item.setData(Qt.ItemDataRole.UserRole, trial.id)
             self.trials.addItem(item)
         if self.trials.count():
@@ -244,7 +233,7 @@ class ReplayTab(QWidget):
             return
         elapsed = view.cursor - float(view.time[0])
         self.time_label.setText(f"{elapsed:.1f} s of {view.duration_s:.1f} s")
-        for key, text in _moment(view, view.current_index).items():
+        for key, text in moment(view, view.current_index).items():
             self.moment[key].setText(text)
 
     def _play_toggled(self, on: bool) -> None:
@@ -268,39 +257,3 @@ class ReplayTab(QWidget):
             self.play.setChecked(False)
             return
         self.slider.setValue(max(view.index_at(target), self.slider.value() + 1))
-
-
-def _moment(view: TrialView, i: int) -> dict[str, str]:
-    """What the recording says at sample i, in the units a therapist reads."""
-    phase = int(view.column("phase")[0, i])
-    x, y = view.column("position")[:, i] * 100.0
-    fx, fy = view.column("force")[:, i]
-    magnitude = math.hypot(fx, fy)
-    if phase != PHASE_EXERCISE:
-        aim = ""
-    elif view.within[i]:
-        aim = f", within {math.degrees(view.tolerance_rad):.0f}° of the path's direction"
-    else:
-        aim = ", not along the path" if math.isfinite(view.column("force_angle")[0, i]) \
-            else ", too light to tell its direction"
-    shoulder, elbow = np.degrees(view.column("subject_angle_isb")[:, i])
-    ts, te = view.column("subject_torque")[:, i]
-    code = int(view.column("fault")[0, i])
-    try:
-        fault = "no fault" if code == 0 else Fault(code).text.cause.split("{")[0].rstrip(" (:")
-    except ValueError:
-        fault = f"fault code {code}"
-    return {
-        "phase": PHASE_WORDS.get(phase, f"phase {phase}"),
-        "position": f"x {plots.format_number(x)} cm, y {plots.format_number(y)} cm",
-        "force": f"{plots.format_number(magnitude, 2)} N{aim}",
-        "angles": f"{plots.format_number(shoulder)}°, {plots.format_number(elbow)}°",
-        "torques": f"{plots.format_number(ts, 2)} N·m, {plots.format_number(te, 2)} N·m",
-        "fault": fault,
-    }
-
-
-def _describe(trial: Trial) -> str:
-    started = trial.started_at.astimezone().strftime("%d %b %Y %H:%M")
-    status = STATUS_WORDS.get(trial.status, trial.status)
-    return f"Session {trial.session_number}, trial {trial.number} — {started} — {status}"

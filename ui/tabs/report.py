@@ -31,7 +31,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app.records.registry import Registry
+from app.records.store import RecordStore
 from app.reports.build import (
     ReportContent,
     build_report,
@@ -116,7 +116,7 @@ class ReportTab(QWidget):
         self.message.setText("Preparing the report…")
         self.background.submit(("content", self._source), _load_file, self._source, options)
 
-    def load_registry_trial(self, registry: Registry, trial_id: int) -> None:
+    def load_registry_trial(self, registry: RecordStore, trial_id: int) -> None:
         """A registered trial's report, compared with the patient's earlier trials."""
         self._source = None
         self.message.setText("Preparing the report…")

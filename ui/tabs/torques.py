@@ -19,6 +19,7 @@ from PySide6.QtWidgets import QCheckBox, QLabel, QWidget
 from core.metrics import DEFAULT_TORQUE_CUTOFF_HZ, value_range
 from core.signal import lowpass, min_samples
 from ui import plots, theme
+from ui.views.numbers import format_number
 from ui.views.trialview import TrialView
 
 JOINTS = ("shoulder", "elbow")
@@ -97,8 +98,8 @@ class TorquesTab(QWidget):
             line.setData(t, torque[j, ex])
         low, high = view.range_of("subject_torque")
         for j, number in enumerate(self.ranges):
-            number.set_value(high[j] - low[j], f"raw: from {plots.format_number(low[j], 2)} "
-                                               f"to {plots.format_number(high[j], 2)} N·m")
+            number.set_value(high[j] - low[j], f"raw: from {format_number(low[j], 2)} "
+                                               f"to {format_number(high[j], 2)} N·m")
         self.note.setText("Raw torques, as computed every 2 ms.")
 
     def _draw_smoothed(self) -> None:

@@ -19,6 +19,7 @@ from PySide6.QtWidgets import QCheckBox, QLabel, QWidget
 
 from core.trial import TrialParameters
 from ui import plots, theme
+from ui.views import samples
 from ui.views.trialview import TrialView
 
 MM = 1000.0
@@ -105,7 +106,7 @@ class TrajectoryTab(QWidget):
             end = min(ex.stop, i + 1)
             if ex.start < end:
                 # Thinned for drawing, always ending at the newest sample.
-                step = plots.xy_step(end - ex.start)
+                step = samples.xy_step(end - ex.start)
                 first = ex.start + (end - 1 - ex.start) % step
                 trace = position[:, first:end:step] * CM
                 self.hand.setData(trace[0], trace[1])
@@ -142,5 +143,5 @@ class TrajectoryTab(QWidget):
         # A file without parameters: the desired positions are the path.
         self._target_for = None
         desired = view.column("position_desired")[:, view.exercise]
-        desired = desired[:, ::plots.xy_step(desired.shape[1])] * CM
+        desired = desired[:, ::samples.xy_step(desired.shape[1])] * CM
         self.target.setData(desired[0], desired[1])

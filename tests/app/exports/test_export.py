@@ -18,7 +18,7 @@ import scipy.io
 
 import app.exports.files as export_files_module
 from app.errors import AppError
-from app.exports.bids import CHANNEL_TYPES, bids_units
+from app.exports.bids_channels import CHANNEL_TYPES, bids_units
 from app.exports.columns import components, format_values, table_columns, unit_suffix
 from app.exports.loader import load_trial
 from app.exports.mat import matlab_name

@@ -18,7 +18,7 @@ from core.trial import THESIS_SUBJECT
 from device.recording.record import CHANNELS, RECORD_DTYPE, Channel, extend_channels
 from device.recording.trialfile import FORMAT_VERSION, SubjectInfo, write_trial
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 PERIOD_S = 0.002
 PARAMETERS = THESIS_SUBJECT.replace(shape="circle", radius_m=0.07, controller="ctpid")
 SUBJECT = SubjectInfo("S-07", 68.5, 0.29, 0.27, "left")

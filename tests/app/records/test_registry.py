@@ -34,7 +34,7 @@ from app.records.registry import (
 )
 from core.trial import TrialParameters
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 UTC = datetime.UTC
 T0 = datetime.datetime(2024, 5, 2, 9, 30, tzinfo=UTC)
 CHILD_TIMEOUT_S = 60.0

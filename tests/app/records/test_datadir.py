@@ -5,7 +5,12 @@ from __future__ import annotations
 import datetime
 import logging
 import os
+import pickle
+import shutil
+import tempfile
 import time
+import warnings
+from pathlib import Path
 
 import platformdirs
 import pytest
@@ -104,17 +109,81 @@ def test_a_folder_that_refuses_writes_is_reported_with_its_source(tmp_path, monk
         data.ensure("trials")
 
 
-@pytest.mark.skipif(not hasattr(os, "geteuid") or os.geteuid() == 0,
-                    reason="root writes through permission bits")
-def test_a_read_only_folder_is_refused(tmp_path):
-    folder = tmp_path / "ro"
-    folder.mkdir()
-    folder.chmod(0o500)
-    try:
-        with pytest.raises(DataDirError, match="cannot write"):
-            DataDir(folder).ensure()
-    finally:
+UNPRIVILEGED = 65534  # nobody and nogroup: what a root test drops to
+
+
+def unprivileged(call, *args):
+    """call(*args) as a user that permission bits bind: in this process, unless the tests
+    run as root (as in CI), whom the bits do not bind; then in a forked child that drops
+    to uid and gid 65534 first. Returns the call's result, or raises its exception here
+    (a failed drop raises too, so nothing passes by accident)."""
+    if os.geteuid() != 0:
+        return call(*args)
+    read, write = os.pipe()
+    with warnings.catch_warnings():
+        # Python 3.12 warns about fork in a threaded process; the child only makes a
+        # few system calls and exits, taking no lock another thread could hold.
+        warnings.filterwarnings("ignore", r".*multi-threaded.*fork", DeprecationWarning)
+        pid = os.fork()
+    if pid == 0:  # the child: never returns into pytest
+        try:
+            os.close(read)
+            try:
+                os.setgroups([])
+                os.setgid(UNPRIVILEGED)
+                os.setuid(UNPRIVILEGED)
+                outcome = ("returned", call(*args))
+            except BaseException as exc:
+                outcome = ("raised", exc)
+            with os.fdopen(write, "wb") as stream:
+                pickle.dump(outcome, stream)
+        finally:
+            os._exit(0)
+    os.close(write)
+    with os.fdopen(read, "rb") as stream:
+        data = stream.read()
+    os.waitpid(pid, 0)
+    kind, value = pickle.loads(data)  # EOFError if the child died without a word
+    if kind == "raised":
+        raise value
+    return value
+
+
+@pytest.fixture
+def own_folder(tmp_path):
+    """make(name, mode): a folder the user `unprivileged` runs as owns, with `mode`. As
+    root it is made where that user can reach it (tmp_path's parents are private)."""
+    if os.geteuid() != 0:
+        base = tmp_path
+    else:
+        base = Path(tempfile.mkdtemp(prefix="rehab-unprivileged-"))
+        base.chmod(0o755)
+    made = []
+
+    def make(name: str, mode: int) -> Path:
+        folder = base / name
+        folder.mkdir()
+        if os.geteuid() == 0:
+            os.chown(folder, UNPRIVILEGED, UNPRIVILEGED)
+        folder.chmod(mode)
+        made.append(folder)
+        return folder
+
+    yield make
+    for folder in made:
         folder.chmod(0o700)
+    if base is not tmp_path:
+        shutil.rmtree(base)
+
+
+def test_a_read_only_folder_is_refused(own_folder):
+    folder = own_folder("ro", 0o500)
+    with pytest.raises(DataDirError, match="cannot write"):
+        unprivileged(DataDir(folder).ensure)
+    # The same user, in a folder of theirs they may write in, is not refused: the
+    # refusal above is the permission bits', not the test's reach.
+    writable = own_folder("rw", 0o700)
+    assert unprivileged(DataDir(writable).ensure, "trials") == writable / "trials"
 
 
 # -- names ---------------------------------------------------------------------------------

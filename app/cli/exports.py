@@ -1,0 +1,63 @@
+"""`rehab export`: registered trials, a patient's trials or a study's folder of trial files
+as CSV, TSV, MATLAB .mat or a BIDS-motion dataset (app.exports.run). Exports never
+contain names unless --include-names is given."""
+
+from __future__ import annotations
+
+import argparse
+
+from app.cli.common import absolute, progress_bar, registry_for
+
+
+def add_export_command(commands) -> None:
+    from app.exports.run import FORMATS
+
+    parser = commands.add_parser(
+        "export", help="export trials as CSV, TSV, MATLAB .mat or a BIDS-motion folder",
+        description="Export trials for analysis. Exports never contain names unless "
+                    "--include-names is given.")
+    what = parser.add_mutually_exclusive_group(required=True)
+    what.add_argument("--trial", type=int, action="append", dest="trial_ids", metavar="ID",
+                      help="a registered trial (repeatable)")
+    what.add_argument("--patient", action="append", dest="codes", metavar="CODE",
+                      help="every trial of a patient (repeatable)")
+    what.add_argument("--folder", help="every trial file below this folder (a study)")
+    parser.add_argument("--format", choices=FORMATS, default="csv")
+    parser.add_argument("--output", help="destination folder (default: the data folder's "
+                                         "exports/<format>)")
+    parser.add_argument("--exercise-only", action="store_true",
+                        help="only the exercise phase (not the approach and the hold)")
+    parser.add_argument("--digits", type=int, help="significant digits in text exports "
+                                                   "(default: exact)")
+    parser.add_argument("--include-names", action="store_true",
+                        help="include the patients' names (only in a names file)")
+    parser.add_argument("--overwrite", action="store_true")
+    parser.set_defaults(func=cmd_export)
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    from app.exports.run import export_folder, export_patients, export_trials
+
+    registry = registry_for(args)
+    output = absolute(args.output) if args.output else \
+        registry.data_dir.ensure("exports", args.format)
+    bar = progress_bar(f"exporting {args.format}")
+    options = {"format": args.format, "overwrite": args.overwrite,
+               "progress": bar.update if bar else None}
+    if args.format != "bids":
+        options.update(exercise_only=args.exercise_only, digits=args.digits)
+    if args.folder:
+        result = export_folder(absolute(args.folder), output, **options)
+    elif args.codes:
+        result = export_patients(registry, args.codes, output,
+                                 include_names=args.include_names, **options)
+    else:
+        paths = [registry.trial_path(registry.trial(i)) for i in args.trial_ids]
+        result = export_trials(paths, output, **options)
+    if bar:
+        bar.done()
+    print(f"exported {result.exported} trial(s) to {result.folder} "
+          f"({len(result.files)} files)")
+    for failure in result.failed:
+        print(f"  not exported: {failure.path}: {failure.reason}")
+    return 0 if not result.failed else 1

@@ -1,0 +1,91 @@
+"""What the command line writes for patients and therapists: `rehab report` (a trial's
+PDF, app.reports.build) and `rehab progress` (a patient's figures across sessions,
+app.reports.progress), each from the data folder's registry."""
+
+from __future__ import annotations
+
+import argparse
+
+from app.cli.common import CommandError, absolute, finite, num, registry_for
+from app.reports.metrics_table import ROWS
+from app.reports.progress import progress
+
+
+# ------------------------------------------------------------------ progress
+def add_progress_command(commands) -> None:
+    prog = commands.add_parser("progress", help="a patient's metrics across sessions",
+                               description="Every metric of every trial of a patient, with "
+                                           "the exercise it was done at.")
+    prog.add_argument("code", help="the patient's code")
+    prog.add_argument("--metric", action="append", dest="metrics",
+                      help="metric to show (repeatable; default: the thesis's figures)")
+    prog.add_argument("--csv", action="store_true", help="all columns as CSV")
+    prog.set_defaults(func=cmd_progress)
+
+
+def cmd_progress(args: argparse.Namespace) -> int:
+    registry = registry_for(args)
+    prog = progress(registry, args.code)
+    header, rows = prog.table()
+    if args.csv:
+        import csv
+        import sys
+
+        writer = csv.writer(sys.stdout)
+        writer.writerow(header)
+        writer.writerows(rows)
+        return 0
+    if not rows:
+        print(f"patient {args.code} has no trials yet")
+        return 0
+    wanted = args.metrics or ["rmse_x_m", "rmse_y_m", "directional_performance_pct",
+                              "shoulder_rom_rad", "elbow_rom_rad"]
+    unknown = [m for m in wanted if m not in header]
+    if unknown:
+        raise CommandError(f"unknown metric {unknown[0]!r}; known: "
+                           + ", ".join(prog.metric_names))
+    rows_by_key = {r.key: r for r in ROWS}
+    labels = [rows_by_key[m].heading if m in rows_by_key else m for m in wanted]
+    print(f"Progress of {args.code}: {len(rows)} trials, "
+          f"{len(prog.parameter_sets)} exercise settings")
+    for i, parameter_set in enumerate(prog.parameter_sets):
+        print(f"  set {i + 1}: {parameter_set.label()}")
+    print(f"{'session':>7} {'trial':>5} {'set':>3}  {'status':<15}"
+          + "".join(f"{label:>18}" for label in labels))
+    index = {name: header.index(name) for name in wanted}
+    for row, set_index in zip(rows, prog.parameter_set_index.tolist(), strict=True):
+        cells = []
+        for m in wanted:
+            value = row[index[m]]
+            scale = rows_by_key[m].scale if m in rows_by_key else 1.0
+            unit = rows_by_key[m].unit if m in rows_by_key else ""
+            cells.append(f"{num(value * scale if finite(value) else None)} {unit}".rstrip())
+        print(f"{row[1]:>7} {row[2]:>5} {set_index + 1:>3}  {row[5]:<15}"
+              + "".join(f"{c:>18}" for c in cells))
+    return 0
+
+
+# ------------------------------------------------------------------ report
+def add_report_command(commands) -> None:
+    parser = commands.add_parser(
+        "report", help="write a trial's post-trial report (PDF)",
+        description="Write the post-trial report of a registered trial: the patient's page "
+                    "in plain words and the therapist's figures.")
+    parser.add_argument("trial_id", type=int, help="the trial's id (see `rehab trials CODE`)")
+    parser.add_argument("--output", help="PDF to write (default: the data folder's reports/)")
+    parser.add_argument("--flip", action="store_true",
+                        help="draw the path as seen from the patient's chair (thesis Fig. 3.7)")
+    parser.add_argument("--first-name", action="store_true",
+                        help="greet the patient by first name in the report")
+    parser.set_defaults(func=cmd_report)
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    from app.reports.build import report_for_registry_trial
+
+    registry = registry_for(args)
+    path = report_for_registry_trial(
+        registry, args.trial_id, absolute(args.output) if args.output else None,
+        include_first_name=args.first_name, flip_axes=args.flip)
+    print(path)
+    return 0

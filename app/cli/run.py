@@ -1,0 +1,88 @@
+"""`rehab run`: a whole trial simulated headless with a virtual patient, as fast as it goes
+(app.trials.headless), its file written and its metrics printed; with `--code`, registered
+for a patient whose body sizes replace the trial options'."""
+
+from __future__ import annotations
+
+import argparse
+
+from app.cli.common import EXIT_OK, CommandError, progress_bar, registry_for
+from app.cli.trial_options import add_trial_options, trial_from_args
+
+
+def add_run_command(commands) -> None:
+    run_cmd = commands.add_parser(
+        "run", help="simulate a whole trial headless, save it and print its metrics",
+        description="Run a trial on the simulator with a virtual patient as fast as it goes, "
+                    "write its trial file and print the metrics table.",
+    )
+    add_trial_options(run_cmd)
+    from device.sim.patients import PATIENT_KINDS
+
+    run_cmd.add_argument("--patient", choices=PATIENT_KINDS, default="healthy",
+                         help="virtual patient (default healthy)")
+    run_cmd.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    run_cmd.add_argument("--output", help="trial file to write (default: a new file in the "
+                                          "data folder's trials/simulated)")
+    run_cmd.add_argument("--code", help="register the trial for this patient (their body "
+                                        "sizes replace the trial options')")
+    run_cmd.add_argument("--engine", choices=("auto", "compiled", "python"), default="auto",
+                         help="auto (default): compiled, handing faults to Python; python: "
+                              "the reference implementation the live loop also uses")
+    run_cmd.set_defaults(func=cmd_run)
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    """Simulate a whole trial headless, write its file and print its metrics."""
+    import datetime
+    from pathlib import Path
+
+    from app.reports.metrics_table import format_metrics
+    from app.trials.headless import save, simulate
+
+    params = trial_from_args(args)
+    begun = None
+    if args.code:
+        registry = registry_for(args)
+        patient = registry.patient(args.code)
+        params = params.replace(**patient.trial_overrides())
+        if args.output:
+            raise CommandError("--output cannot be used with --code: a registered trial is "
+                               "written to the patient's folder in the data folder")
+        begun = registry.begin_trial(args.code, params, backend=f"simulator ({args.patient})",
+                                     patient_kind=args.patient)
+        path = begun.path
+    elif args.output:
+        path = Path(args.output).expanduser().resolve()
+    else:
+        from app.records.datadir import locate_data_dir
+
+        stamp = datetime.datetime.now(datetime.UTC).strftime("%Y%m%dT%H%M%SZ")
+        folder = locate_data_dir().ensure("trials", "simulated")
+        path = folder / f"SIM_{args.patient}_{stamp}.h5"
+    if path.exists():
+        raise CommandError(f"{path} already exists; give another --output")
+    bar = progress_bar(f"simulating {params.repetitions} × {params.duration_s:g} s")
+    trial = simulate(params, patient=args.patient, seed=args.seed,
+                     progress=bar.update if bar else None, engine=args.engine)
+    if bar:
+        bar.done()
+    analysis = save(trial, path, subject_code=args.code or "SIM")
+    if begun is not None:
+        from app.trials.finalize import finalize_trial
+
+        finalize_trial(registry, begun.trial_id, trial.status)
+        print(f"Registered as patient {args.code}, session {begun.session_number}, "
+              f"trial {begun.trial_number} (id {begun.trial_id})")
+    loaded = f"; its kernels loaded in {trial.load_s:.2f} s first" if trial.load_s else ""
+    print(f"Trial {trial.status}: {trial.simulated_s:.1f} s simulated in "
+          f"{trial.elapsed_s:.2f} s ({trial.speed_vs_real_time:.0f}× real time, "
+          f"{trial.engine} engine{loaded}), {args.patient} virtual patient, seed {args.seed}")
+    print(f"File: {path}")
+    print(format_metrics(analysis.metrics))
+    for note in analysis.notes:
+        print(f"  note: {note}")
+    for event in trial.events:
+        if event["kind"] == "fault":
+            print(f"  fault at {event['time_s']:.3f} s: {event['message']}")
+    return EXIT_OK

@@ -1,0 +1,84 @@
+"""The options that define a trial, shared by `rehab check` and `rehab run`.
+
+Lengths in metres; angles in degrees as a therapist reads them; the defaults are
+the thesis's experiment with the shoulder as we read it (core.trial.THESIS_SUBJECT).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from core.trajectory import SHAPES, TIMINGS
+from core.trial import (
+    CONTROLLERS,
+    SIDES,
+    THESIS_AS_PRINTED,
+    THESIS_SUBJECT,
+    TrialParameters,
+)
+
+
+def add_trial_options(parser: argparse.ArgumentParser) -> None:
+    """Options that define a trial. Lengths in metres; angles in degrees as a therapist
+    reads them; defaults are the thesis's experiment with the shoulder as we read it."""
+    d = THESIS_SUBJECT
+    group = parser.add_argument_group("trial (lengths in m, angles in degrees)")
+    group.add_argument("--shape", "--trajectory", choices=SHAPES, default=d.shape,
+                       help="exercise path (default d)")
+    group.add_argument("--centre", nargs=2, type=float, metavar=("X", "Y"), default=d.centre_m,
+                       help="D: centre of its straight line; circle/targets/figure8: centre; "
+                            "reach: start point (default -0.30 0.30)")
+    group.add_argument("--radius", type=float, default=d.radius_m,
+                       help="radius; for a reach, half its length (default 0.10)")
+    group.add_argument("--duration", type=float, default=d.duration_s,
+                       help="seconds per traversal (default 4)")
+    group.add_argument("--repetitions", type=int, default=d.repetitions,
+                       help="traversals (default 5)")
+    group.add_argument("--timing", choices=TIMINGS, default=d.timing,
+                       help="constant speed as in the thesis, or minimum jerk per segment")
+    group.add_argument("--counter-clockwise", action="store_true", help="reverse the direction")
+    group.add_argument("--targets", type=int, default=d.n_targets, dest="n_targets",
+                       help="number of targets for --shape targets (default 8)")
+    group.add_argument("--shoulder", nargs=2, type=float, metavar=("X", "Y"),
+                       default=d.shoulder_m, help="subject's shoulder (default -0.12 0.73)")
+    group.add_argument("--body-mass", type=float, default=d.body_mass_kg,
+                       help="body mass in kg (default 91)")
+    group.add_argument("--upper-arm", type=float, default=d.upper_arm_m,
+                       help="shoulder to elbow in m (default 0.3048)")
+    group.add_argument("--forearm", type=float, default=d.forearm_m,
+                       help="elbow to wrist in m (default 0.3048)")
+    group.add_argument("--side", choices=SIDES, default=d.side, help="arm in use")
+    group.add_argument("--tolerance", type=float, default=math.degrees(d.tolerance_rad),
+                       help="directional tolerance in degrees (default 20)")
+    group.add_argument("--controller", choices=CONTROLLERS, default=d.controller)
+    group.add_argument("--assistance", type=float, default=100 * d.assistance_level,
+                       help="share of the subject's effort the robot gives way to, "
+                            "0-100 %% (default 100, the thesis's scheme)")
+    group.add_argument("--thesis-as-printed", action="store_true",
+                       help="use section 3.6 exactly as printed (shoulder at +0.12 m: refused)")
+
+
+def trial_from_args(args: argparse.Namespace) -> TrialParameters:
+    """TrialParameters from parsed options; raises core.errors.ParameterError."""
+    base = THESIS_AS_PRINTED if args.thesis_as_printed else THESIS_SUBJECT
+    changes = {
+        "shape": args.shape,
+        "centre_m": tuple(args.centre),
+        "radius_m": args.radius,
+        "duration_s": args.duration,
+        "repetitions": args.repetitions,
+        "timing": args.timing,
+        "clockwise": not args.counter_clockwise,
+        "n_targets": args.n_targets,
+        "body_mass_kg": args.body_mass,
+        "upper_arm_m": args.upper_arm,
+        "forearm_m": args.forearm,
+        "side": args.side,
+        "tolerance_rad": math.radians(args.tolerance),
+        "controller": args.controller,
+        "assistance_level": args.assistance / 100.0,
+    }
+    if not args.thesis_as_printed:
+        changes["shoulder_m"] = tuple(args.shoulder)
+    return base.replace(**changes)

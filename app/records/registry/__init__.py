@@ -1,0 +1,94 @@
+"""The registry of patients, sessions and trials: one SQLite file in the data folder.
+
+`Registry` is the one entry point; it implements `app.records.store.RecordStore`,
+the interface the rest of app and ui use. It is composed of one part per table
+or concern, each a module here:
+
+* database — connections, the write and read transactions, SQLite's errors as
+  the registry's own, the online backup and the integrity checks;
+* schema — the DDL of every version and the migration on opening;
+* patients — registering and finding patients (pseudonymous codes);
+* sessions — a patient's sittings and their numbers;
+* trials — numbering (`suggest_registration`), `begin_trial` at Start,
+  `finish_trial` at Stop, and listing;
+* queries — the progress rows (`trial_summaries`) and `previous_trial`;
+* values — the checks of what is given and the JSON of parameters and metrics.
+
+Storage in short (each module's docstring says more):
+
+* `PRAGMA user_version` is the schema version; an older registry is copied
+  aside and migrated in one transaction on opening; a newer one is refused.
+* WAL journal (readers never block the writer), foreign keys on, a busy timeout,
+  `synchronous=FULL` (a registered trial survives a power cut).
+* Two consoles on one data folder: every write is a `BEGIN IMMEDIATE`
+  transaction, so the one that reads the next number is the one that inserts
+  it; the other waits (busy timeout) and then sees it. UNIQUE constraints on
+  (patient, session number) and (session, trial number) back this up.
+* Parameters and metrics are JSON text, so a new metric needs no schema change.
+* Every connection lives for one call, so a `Registry` holds no connection and
+  may be used from several threads.
+
+Names live only in the `patients` table and never reach the log; every file is
+named by code. WAL needs a local disk: on a network share use one console per
+data folder.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from app.records.datadir import DataDir
+from app.records.registry.database import BUSY_TIMEOUT_S
+from app.records.registry.patients import BIRTH_YEAR_MIN, CODE_LENGTH, Patient, Patients, new_code
+from app.records.registry.queries import Queries, TrialSummary
+from app.records.registry.schema import (
+    MIGRATE_V1_TO_V2,
+    MIGRATIONS,
+    SCHEMA_V1,
+    SCHEMA_VERSION,
+    Schema,
+)
+from app.records.registry.sessions import Session, Sessions
+from app.records.registry.trials import (
+    KEY_PARAMETERS,
+    BegunTrial,
+    Registration,
+    Trial,
+    Trials,
+    parameter_key,
+)
+from app.records.registry.values import NAME_MAX_CHARS, TEXT_MAX_CHARS
+
+__all__ = [
+    "BIRTH_YEAR_MIN",
+    "BUSY_TIMEOUT_S",
+    "CODE_LENGTH",
+    "KEY_PARAMETERS",
+    "MIGRATE_V1_TO_V2",
+    "MIGRATIONS",
+    "NAME_MAX_CHARS",
+    "SCHEMA_V1",
+    "SCHEMA_VERSION",
+    "TEXT_MAX_CHARS",
+    "BegunTrial",
+    "Patient",
+    "Registration",
+    "Registry",
+    "Session",
+    "Trial",
+    "TrialSummary",
+    "new_code",
+    "parameter_key",
+]
+
+
+class Registry(Schema, Patients, Sessions, Trials, Queries):
+    """The registry of one data folder. Opening it creates or migrates the database."""
+
+    def __init__(self, data_dir: DataDir | str | Path) -> None:
+        if not isinstance(data_dir, DataDir):
+            data_dir = DataDir(Path(data_dir).expanduser().absolute())
+        self.data_dir = data_dir
+        self.path = data_dir.registry_path
+        data_dir.ensure()
+        self._migrate()

@@ -1,0 +1,120 @@
+"""The registry's SQLite file: a connection per call, the two kinds of transaction, SQLite's
+errors as the registry's own (saying what to do), and the whole-file copy and checks.
+
+Every connection lives for one call and is closed by a context manager, so a
+`Database` holds no connection and may be used from several threads. Each
+connection has foreign keys on, a busy timeout and `synchronous=FULL` (a
+registered trial survives a power cut). Every write is a `BEGIN IMMEDIATE`
+transaction: the console that reads the next number is the one that inserts it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import sqlite3
+from collections.abc import Iterator
+from pathlib import Path
+
+from app.errors import RegistryError, SchemaError
+
+BUSY_TIMEOUT_S = 10.0
+
+
+class Database:
+    """Connections to the registry file at `path` (set by the registry that opens it)."""
+
+    path: Path
+
+    @contextlib.contextmanager
+    def _connection(self) -> Iterator[sqlite3.Connection]:
+        try:
+            conn = sqlite3.connect(self.path, timeout=BUSY_TIMEOUT_S, isolation_level=None)
+        except sqlite3.Error as exc:
+            raise self._database_error(exc) from exc
+        try:
+            conn.execute("PRAGMA foreign_keys = ON")
+            conn.execute(f"PRAGMA busy_timeout = {int(BUSY_TIMEOUT_S * 1000)}")
+            conn.execute("PRAGMA synchronous = FULL")
+            yield conn
+        except sqlite3.IntegrityError as exc:
+            raise RegistryError(
+                f"the registry refused a change ({exc}); nothing was saved. Reload and try again"
+            ) from exc
+        except sqlite3.Error as exc:
+            raise self._database_error(exc) from exc
+        finally:
+            conn.close()
+
+    @contextlib.contextmanager
+    def _write(self) -> Iterator[sqlite3.Connection]:
+        """One write transaction, taken at once: BEGIN IMMEDIATE makes the read of
+        a next number and its insert atomic across processes."""
+        with self._connection() as conn:
+            conn.execute("BEGIN IMMEDIATE")
+            try:
+                yield conn
+            except BaseException:
+                rollback(conn)
+                raise
+            conn.execute("COMMIT")
+
+    @contextlib.contextmanager
+    def _read(self) -> Iterator[sqlite3.Connection]:
+        """A read transaction: several SELECTs see one snapshot."""
+        with self._connection() as conn:
+            conn.execute("BEGIN")
+            try:
+                yield conn
+            finally:
+                rollback(conn)  # nothing to keep: ends the snapshot
+
+    def _database_error(self, exc: sqlite3.Error) -> RegistryError:
+        text = str(exc)
+        if "locked" in text or "busy" in text:
+            return RegistryError(
+                f"the registry {self.path} is busy: another console is writing to it "
+                f"(waited up to {BUSY_TIMEOUT_S:g} s). Try again; if it persists, close the "
+                "other console"
+            )
+        if isinstance(exc, sqlite3.DatabaseError) and "not a database" in text:
+            return SchemaError(
+                f"{self.path} is not a registry database ({text}). Move it aside and "
+                "restore the registry from a backup"
+            )
+        return RegistryError(
+            f"the registry {self.path} cannot be used: {text}. Check the disk and its free "
+            "space; restore from a backup if the file is damaged"
+        )
+
+    # -- the whole file --------------------------------------------------------------
+    def backup(self, target: str | Path) -> Path:
+        """A consistent copy of the registry (SQLite's online backup), safe while
+        other consoles write: for a researcher's export or before a risky change."""
+        target = Path(target)
+        with self._connection() as conn:
+            try:
+                target.parent.mkdir(parents=True, exist_ok=True)
+                with contextlib.closing(sqlite3.connect(target)) as copy:
+                    conn.backup(copy)
+            except (OSError, sqlite3.Error) as exc:
+                raise RegistryError(
+                    f"cannot write a copy of the registry to {target}: {exc}. Choose a "
+                    "writable folder with free space"
+                ) from exc
+        return target
+
+    def integrity_check(self) -> list[str]:
+        """SQLite's integrity and foreign-key checks: an empty list when sound."""
+        with self._connection() as conn:
+            problems = [r[0] for r in conn.execute("PRAGMA integrity_check") if r[0] != "ok"]
+            problems += [f"{table} row {rowid} points to a missing {parent}"
+                         for table, rowid, parent, _ in conn.execute("PRAGMA foreign_key_check")]
+        return problems
+
+
+def rollback(conn: sqlite3.Connection) -> None:
+    """End the connection's transaction, if SQLite has not already."""
+    # SQLite rolls back by itself after some errors (disk full); a second
+    # ROLLBACK would then raise and hide the first error.
+    if conn.in_transaction:
+        conn.execute("ROLLBACK")

@@ -1,0 +1,280 @@
+"""The registry's patients: who they are, their arm's measurements, and finding them.
+
+Here the patient is found by name (`find_patients`, what the registration tab
+checks before `create_patient`, which gives a new patient a pseudonymous code).
+Names live only in the `patients` table and never reach the log; every file is
+named by code. Names are matched ignoring case and accents.
+"""
+
+from __future__ import annotations
+
+import datetime
+import logging
+import secrets
+import sqlite3
+import unicodedata
+from dataclasses import dataclass
+from pathlib import Path
+
+from app.errors import InvalidRecordError, PatientNotFound, RegistryError
+from app.records.datadir import CODE_ALPHABET, CODE_PATTERN
+from app.records.registry.database import Database
+from app.records.registry.values import (
+    NAME_MAX_CHARS,
+    TEXT_MAX_CHARS,
+    checked_text,
+    utc_now,
+    utc_text,
+)
+from core.arm import BODY_MASS_RANGE_KG, FOREARM_RANGE_M, UPPER_ARM_RANGE_M
+from core.errors import CoreError, check_range
+from core.trial import POSITION_RANGE_M, SIDES
+
+# The registry's one logger, named as it was before the registry had modules.
+log = logging.getLogger(__package__)
+
+CODE_LENGTH = 6
+BIRTH_YEAR_MIN = 1900
+
+_PATIENT_COLUMNS = ("code", "first_name", "last_name", "birth_year", "side", "body_mass_kg",
+                    "upper_arm_m", "forearm_m", "shoulder_x_m", "shoulder_y_m", "notes",
+                    "created_at")
+_CHANGEABLE = {"first_name", "last_name", "birth_year", "side", "body_mass_kg", "upper_arm_m",
+               "forearm_m", "shoulder_m", "notes"}
+
+
+@dataclass(frozen=True, slots=True)
+class Patient:
+    """A patient as the clinic registered them. `code` is the only identifier
+    that leaves the registry; names may be None (a study may keep none)."""
+
+    code: str
+    first_name: str | None
+    last_name: str | None
+    birth_year: int | None
+    side: str | None
+    body_mass_kg: float | None
+    upper_arm_m: float | None
+    forearm_m: float | None
+    shoulder_m: tuple[float, float] | None
+    notes: str
+    created_at: datetime.datetime
+
+    @property
+    def display_name(self) -> str:
+        """'Last, First' for the window; the code when no name was entered."""
+        names = [n for n in (self.last_name, self.first_name) if n]
+        return ", ".join(names) if names else self.code
+
+    def trial_overrides(self) -> dict:
+        """The TrialParameters fields this patient defines, for
+        `TrialParameters.replace(**patient.trial_overrides())`."""
+        values = {
+            "side": self.side,
+            "body_mass_kg": self.body_mass_kg,
+            "upper_arm_m": self.upper_arm_m,
+            "forearm_m": self.forearm_m,
+            "shoulder_m": self.shoulder_m,
+        }
+        return {k: v for k, v in values.items() if v is not None}
+
+
+class Patients(Database):
+    """Registering, changing and finding patients."""
+
+    def create_patient(
+        self,
+        first_name: str | None = None,
+        last_name: str | None = None,
+        *,
+        birth_year: int | None = None,
+        side: str | None = None,
+        body_mass_kg: float | None = None,
+        upper_arm_m: float | None = None,
+        forearm_m: float | None = None,
+        shoulder_m: tuple[float, float] | None = None,
+        notes: str = "",
+    ) -> Patient:
+        """Register a patient and give them a new pseudonymous code. Two patients may
+        share a name: look for an existing one first (`find_patients`)."""
+        values = _patient_values(
+            first_name=first_name, last_name=last_name, birth_year=birth_year, side=side,
+            body_mass_kg=body_mass_kg, upper_arm_m=upper_arm_m, forearm_m=forearm_m,
+            shoulder_m=shoulder_m, notes=notes,
+        )
+        values["created_at"] = utc_text(utc_now())
+        with self._write() as conn:
+            for _ in range(20):
+                code = new_code()
+                if not conn.execute("SELECT 1 FROM patients WHERE code = ?",
+                                    (code,)).fetchone():
+                    break
+            else:  # pragma: no cover - 20 collisions in 10⁹ codes
+                raise RegistryError("could not draw an unused patient code; try again")
+            values["code"] = code
+            columns = ", ".join(values)
+            marks = ", ".join("?" * len(values))
+            conn.execute(f"INSERT INTO patients ({columns}) VALUES ({marks})",
+                         tuple(values.values()))
+            patient = patient_by_code(conn, self.path, code)
+        log.info("patient %s registered", code)
+        return patient
+
+    def update_patient(self, code: str, /, **changes) -> Patient:
+        """Change any of create_patient's fields; the code and creation time stay."""
+        unknown = sorted(set(changes) - _CHANGEABLE)
+        if unknown:
+            raise InvalidRecordError(
+                f"patient field(s) {', '.join(unknown)} cannot be changed; give any of "
+                f"{', '.join(sorted(_CHANGEABLE))}"
+            )
+        with self._write() as conn:
+            current = patient_by_code(conn, self.path, code)
+            merged = {name: getattr(current, name) for name in _CHANGEABLE} | changes
+            values = _patient_values(**merged)
+            assignments = ", ".join(f"{name} = ?" for name in values)
+            conn.execute(f"UPDATE patients SET {assignments} WHERE code = ?",
+                         (*values.values(), code))
+            patient = patient_by_code(conn, self.path, code)
+        log.info("patient %s updated (%s)", code, ", ".join(sorted(changes)))
+        return patient
+
+    def patient(self, code: str) -> Patient:
+        with self._read() as conn:
+            return patient_by_code(conn, self.path, code)
+
+    def patients(self) -> list[Patient]:
+        """Every patient, by last name, first name, then code."""
+        with self._read() as conn:
+            rows = conn.execute(f"SELECT {', '.join(_PATIENT_COLUMNS)} FROM patients").fetchall()
+        return sorted((_patient_from_row(r) for r in rows), key=_patient_order)
+
+    def find_patients(self, first_name: str, last_name: str) -> list[Patient]:
+        """Patients with exactly this name, ignoring case and accents: what the
+        registration tab checks before creating a patient."""
+        first, last = _fold(first_name), _fold(last_name)
+        return [p for p in self.patients()
+                if _fold(p.first_name) == first and _fold(p.last_name) == last]
+
+    def search_patients(self, text: str, limit: int | None = 50) -> list[Patient]:
+        """Patients whose code starts with `text`, or whose first or last name
+        contains every word of it (ignoring case and accents)."""
+        words = _fold(text).split()
+        if not words:
+            found = self.patients()
+        else:
+            prefix = text.strip().upper()
+            found = [
+                p for p in self.patients()
+                if p.code.startswith(prefix)
+                or all(w in _fold(p.first_name) or w in _fold(p.last_name) for w in words)
+            ]
+        return found if limit is None else found[:limit]
+
+
+# -- lookups the other tables share ---------------------------------------------------
+def patient_by_code(conn: sqlite3.Connection, registry: Path, code: str) -> Patient:
+    """The patient with this code; PatientNotFound naming the registry file if none."""
+    row = conn.execute(f"SELECT {', '.join(_PATIENT_COLUMNS)} FROM patients WHERE code = ?",
+                       (code,)).fetchone()
+    if row is None:
+        raise PatientNotFound(
+            f"no patient has the code {code!r} in the registry {registry}; search by "
+            "name or code to find the right one"
+        )
+    return _patient_from_row(row)
+
+
+def patient_id(conn: sqlite3.Connection, registry: Path, code: str) -> int:
+    """The row id of the patient with this code (PatientNotFound if none)."""
+    row = conn.execute("SELECT id FROM patients WHERE code = ?", (code,)).fetchone()
+    if row is None:
+        patient_by_code(conn, registry, code)  # raises PatientNotFound with its message
+    return row[0]
+
+
+def new_code() -> str:
+    """A fresh pseudonymous code: 'P' and 6 random Crockford base32 characters."""
+    return "P" + "".join(secrets.choice(CODE_ALPHABET) for _ in range(CODE_LENGTH))
+
+
+def is_code(code: object) -> bool:
+    return isinstance(code, str) and CODE_PATTERN.fullmatch(code) is not None
+
+
+# -- values ------------------------------------------------------------------------------
+def _fold(text: str | None) -> str:
+    """Case- and accent-free form for matching names typed differently."""
+    if not text:
+        return ""
+    decomposed = unicodedata.normalize("NFKD", text.casefold())
+    return "".join(c for c in decomposed if not unicodedata.combining(c)).strip()
+
+
+def _patient_order(patient: Patient) -> tuple:
+    return (_fold(patient.last_name), _fold(patient.first_name), patient.code)
+
+
+def _optional_name(name: str, value: object) -> str | None:
+    if value is None:
+        return None
+    return checked_text(name, value, NAME_MAX_CHARS) or None
+
+
+def _optional_range(name: str, value: object, low: float, high: float, unit: str,
+                    why: str = "") -> float | None:
+    if value is None:
+        return None
+    try:
+        return check_range(name, value, low, high, unit, why)
+    except CoreError as exc:
+        raise InvalidRecordError(str(exc)) from None
+
+
+def _patient_values(*, first_name, last_name, birth_year, side, body_mass_kg, upper_arm_m,
+                    forearm_m, shoulder_m, notes) -> dict:
+    this_year = datetime.date.today().year
+    if birth_year is not None and (
+        isinstance(birth_year, bool) or not isinstance(birth_year, int)
+        or not BIRTH_YEAR_MIN <= birth_year <= this_year
+    ):
+        raise InvalidRecordError(
+            f"birth_year = {birth_year!r} is not allowed; give a year {BIRTH_YEAR_MIN}-"
+            f"{this_year}, or None"
+        )
+    if side is not None and side not in SIDES:
+        raise InvalidRecordError(f"side = {side!r}: give one of {', '.join(SIDES)}, or None "
+                                 "(the affected side)")
+    if shoulder_m is None:
+        shoulder = (None, None)
+    else:
+        try:
+            x, y = shoulder_m
+        except (TypeError, ValueError):
+            raise InvalidRecordError(
+                f"shoulder_m = {shoulder_m!r}: give a pair (x, y) in m in the robot frame"
+            ) from None
+        shoulder = (_optional_range("shoulder_m[x]", x, *POSITION_RANGE_M, "m"),
+                    _optional_range("shoulder_m[y]", y, *POSITION_RANGE_M, "m"))
+    return {
+        "first_name": _optional_name("first_name", first_name),
+        "last_name": _optional_name("last_name", last_name),
+        "birth_year": birth_year,
+        "side": side,
+        "body_mass_kg": _optional_range("body_mass_kg", body_mass_kg, *BODY_MASS_RANGE_KG,
+                                        "kg", "Winter's segment proportions hold for adults"),
+        "upper_arm_m": _optional_range("upper_arm_m", upper_arm_m, *UPPER_ARM_RANGE_M, "m",
+                                       "shoulder to elbow of an adult"),
+        "forearm_m": _optional_range("forearm_m", forearm_m, *FOREARM_RANGE_M, "m",
+                                     "elbow to wrist of an adult"),
+        "shoulder_x_m": shoulder[0],
+        "shoulder_y_m": shoulder[1],
+        "notes": checked_text("notes", notes if notes is not None else "", TEXT_MAX_CHARS),
+    }
+
+
+def _patient_from_row(row: tuple) -> Patient:
+    (code, first, last, birth_year, side, mass, upper, fore, sx, sy, notes, created) = row
+    shoulder = None if sx is None or sy is None else (sx, sy)
+    return Patient(code, first, last, birth_year, side, mass, upper, fore, shoulder, notes,
+                   datetime.datetime.fromisoformat(created))

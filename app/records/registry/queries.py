@@ -1,0 +1,123 @@
+"""Questions across a patient's trials: the progress rows (`trial_summaries`) and the
+trial to compare a new one with (`previous_trial`).
+
+The progress query reads one patient's trials through the two UNIQUE indexes in
+order, with no sort, has SQLite extract the few key parameters, and parses all
+the rows' metrics in one json.loads (bench/registry.py measures it).
+"""
+
+from __future__ import annotations
+
+import datetime
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+from app.errors import InvalidRecordError
+from app.records.registry.database import Database
+from app.records.registry.patients import patient_id
+from app.records.registry.trials import (
+    KEY_PARAMETERS,
+    TRIAL_SELECT,
+    Trial,
+    trial_by_id,
+    trial_from_row,
+)
+from app.records.registry.values import parse_metrics
+from device.recording.trialfile import STATUS_RECORDING, STATUSES
+
+_ALL_STATUSES = (STATUS_RECORDING, *STATUSES)
+
+# SQLite extracts the few parameters that matter: parsing every trial's whole
+# parameter object in Python was a fifth of the progress query's time.
+_SUMMARY_SELECT = f"""
+    SELECT t.id, s.number, s.date, t.number, t.status, t.started_at, t.file,
+           {", ".join(f"json_extract(t.parameters, '$.{name}')" for name in KEY_PARAMETERS)},
+           t.metrics
+    FROM trials t
+    JOIN sessions s ON s.id = t.session_id
+    WHERE s.patient_id = ?
+    ORDER BY s.number, t.number
+"""
+
+
+@dataclass(frozen=True, slots=True)
+class TrialSummary:
+    """A trial as a list or the progress view needs it: the KEY_PARAMETERS values
+    (in that order, None where absent) instead of every parameter."""
+
+    id: int
+    session_number: int
+    session_date: datetime.date
+    number: int
+    status: str
+    started_at: datetime.datetime
+    file: str
+    key_parameters: tuple  # as stored; parameter_key() makes them comparable
+    metrics: dict[str, float]
+
+
+class Queries(Database):
+    """Reading across a patient's trials."""
+
+    def trial_summaries(self, code: str) -> list[TrialSummary]:
+        """Every trial of a patient, by session then trial number, without the full
+        parameters: the progress query (about half the cost of trials_for_patient)."""
+        with self._read() as conn:
+            rows = conn.execute(_SUMMARY_SELECT, (patient_id(conn, self.path, code),)).fetchall()
+        if not rows:
+            return []
+        metrics = parse_metrics(row[-1] for row in rows)
+        date = datetime.date.fromisoformat
+        moment = datetime.datetime.fromisoformat
+        k = len(KEY_PARAMETERS)
+        # Most trials share a few parameter sets: one tuple per set, not per trial,
+        # keeps fewer objects alive for the garbage collector to walk.
+        shared: dict[tuple, tuple] = {}
+        return [
+            TrialSummary(r[0], r[1], date(r[2]), r[3], r[4], moment(r[5]), r[6],
+                         shared.setdefault(r[7:7 + k], r[7:7 + k]), values)
+            for r, values in zip(rows, metrics, strict=True)
+        ]
+
+    def previous_trial(
+        self,
+        trial_id: int,
+        *,
+        earlier_session: bool = False,
+        same_parameters: bool = False,
+        statuses: Iterable[str] = ("complete",),
+    ) -> Trial | None:
+        """The patient's latest trial before this one, to report the change since.
+
+        earlier_session: only trials of earlier sessions (change since the last session).
+        same_parameters: only trials done at the same KEY_PARAMETERS, where the
+            metrics compare directly.
+        statuses: the statuses that count (by default complete trials only).
+        """
+        statuses = tuple(statuses)
+        unknown = sorted(set(statuses) - set(_ALL_STATUSES))
+        if unknown:
+            raise InvalidRecordError(
+                f"status(es) {', '.join(unknown)}: give any of {', '.join(_ALL_STATUSES)}"
+            )
+        with self._read() as conn:
+            trial = trial_by_id(conn, self.path, trial_id)
+            patient = patient_id(conn, self.path, trial.patient_code)
+            if earlier_session:
+                before = "s.number < ?"
+                args: tuple = (trial.session_number,)
+            else:
+                before = "(s.number < ? OR (s.number = ? AND t.number < ?))"
+                args = (trial.session_number, trial.session_number, trial.number)
+            marks = ", ".join("?" * len(statuses)) or "NULL"
+            rows = conn.execute(
+                TRIAL_SELECT + f" WHERE s.patient_id = ? AND {before} AND t.status IN ({marks})"
+                " ORDER BY s.number DESC, t.number DESC",
+                (patient, *args, *statuses),
+            )
+            key = trial.key_parameters()
+            for row in rows:
+                candidate = trial_from_row(row)
+                if not same_parameters or candidate.key_parameters() == key:
+                    return candidate
+        return None

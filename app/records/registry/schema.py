@@ -1,0 +1,148 @@
+"""The registry's tables and their history: the DDL of every schema version and the
+migration of an older registry to this console's.
+
+* `PRAGMA user_version` is the schema version; `MIGRATIONS` lists the forward
+  steps from 0, the first of which is the historic v1 DDL, kept as it shipped.
+* Opening an older registry copies it aside (`registry.sqlite3.v1-<UTC>.bak`)
+  and migrates it in one transaction; a newer one is refused.
+* The journal is WAL (readers never block the writer). WAL needs a local disk:
+  on a network share use one console per data folder.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime
+import logging
+import sqlite3
+
+from app.errors import SchemaError
+from app.records.registry.database import Database, rollback
+
+# The registry's one logger, named as it was before the registry had modules.
+log = logging.getLogger(__package__)
+
+# Historic: the DDL exactly as v1 shipped. Never edit; add a migration instead.
+SCHEMA_V1 = (
+    """CREATE TABLE patients (
+        id INTEGER PRIMARY KEY,
+        code TEXT NOT NULL UNIQUE,
+        first_name TEXT,
+        last_name TEXT,
+        birth_year INTEGER,
+        side TEXT CHECK (side IS NULL OR side IN ('right', 'left')),
+        body_mass_kg REAL,
+        upper_arm_m REAL,
+        forearm_m REAL,
+        shoulder_x_m REAL,
+        shoulder_y_m REAL,
+        notes TEXT NOT NULL DEFAULT '',
+        created_at TEXT NOT NULL
+    )""",
+    """CREATE TABLE sessions (
+        id INTEGER PRIMARY KEY,
+        patient_id INTEGER NOT NULL REFERENCES patients (id) ON DELETE RESTRICT,
+        number INTEGER NOT NULL CHECK (number >= 1),
+        date TEXT NOT NULL,
+        therapist TEXT NOT NULL DEFAULT '',
+        notes TEXT NOT NULL DEFAULT '',
+        UNIQUE (patient_id, number)
+    )""",
+    """CREATE TABLE trials (
+        id INTEGER PRIMARY KEY,
+        session_id INTEGER NOT NULL REFERENCES sessions (id) ON DELETE RESTRICT,
+        number INTEGER NOT NULL CHECK (number >= 1),
+        parameters TEXT NOT NULL,
+        file TEXT NOT NULL UNIQUE,
+        metrics TEXT NOT NULL DEFAULT '{}',
+        status TEXT NOT NULL CHECK (status IN
+            ('recording', 'complete', 'stopped_early', 'faulted', 'recording_lost')),
+        started_at TEXT NOT NULL,
+        ended_at TEXT,
+        patient_kind TEXT,
+        UNIQUE (session_id, number)
+    )""",
+)
+
+# v2: which backend ran each trial (NULL for trials registered before v2, when
+# it was not kept), and where a session took place (clinic room, home visit).
+MIGRATE_V1_TO_V2 = (
+    "ALTER TABLE trials ADD COLUMN backend TEXT",
+    "ALTER TABLE sessions ADD COLUMN location TEXT NOT NULL DEFAULT ''",
+)
+
+MIGRATIONS: tuple[tuple[int, tuple[str, ...]], ...] = (
+    (1, SCHEMA_V1),
+    (2, MIGRATE_V1_TO_V2),
+)
+SCHEMA_VERSION = MIGRATIONS[-1][0]
+
+
+class Schema(Database):
+    """The schema version of the registry file, and bringing it up to date."""
+
+    def schema_version(self) -> int:
+        with self._connection() as conn:
+            return conn.execute("PRAGMA user_version").fetchone()[0]
+
+    def _migrate(self) -> None:
+        with self._connection() as conn:
+            mode = conn.execute("PRAGMA journal_mode = WAL").fetchone()[0]
+            if mode.lower() != "wal":
+                log.warning("registry %s: journal mode is %s, not WAL (a network disk?); "
+                            "use one console at a time on this data folder", self.path, mode)
+            version = conn.execute("PRAGMA user_version").fetchone()[0]
+            if version > SCHEMA_VERSION:
+                raise self._too_new(version)
+            if version == SCHEMA_VERSION:
+                return
+            if version > 0:
+                self._back_up(conn, version)
+            conn.execute("BEGIN IMMEDIATE")
+            try:
+                # Another console may have migrated while this one waited for the lock.
+                version = conn.execute("PRAGMA user_version").fetchone()[0]
+                if version > SCHEMA_VERSION:
+                    raise self._too_new(version)
+                for target, statements in MIGRATIONS:
+                    if target <= version:
+                        continue
+                    try:
+                        for statement in statements:
+                            conn.execute(statement)
+                    except sqlite3.Error as exc:
+                        raise SchemaError(
+                            f"the registry {self.path} could not be updated to schema "
+                            f"v{target} ({exc}); nothing was changed, it is still v{version}. "
+                            "Keep the file and report this with it"
+                        ) from exc
+                    conn.execute(f"PRAGMA user_version = {target}")
+                    log.info("registry %s: schema migrated from v%d to v%d",
+                             self.path, target - 1, target)
+                problems = conn.execute("PRAGMA foreign_key_check").fetchall()
+                if problems:
+                    raise SchemaError(
+                        f"registry {self.path}: {len(problems)} record(s) point to missing "
+                        "patients or sessions; the migration was not applied. Restore the "
+                        "registry from a backup"
+                    )
+            except BaseException:
+                rollback(conn)
+                raise
+            conn.execute("COMMIT")
+
+    def _too_new(self, version: int) -> SchemaError:
+        return SchemaError(
+            f"the registry {self.path} has schema v{version}, written by a newer console; "
+            f"this one reads up to v{SCHEMA_VERSION}. Update the console"
+        )
+
+    def _back_up(self, conn: sqlite3.Connection, version: int) -> None:
+        stamp = datetime.datetime.now(datetime.UTC).strftime("%Y%m%dT%H%M%SZ")
+        target = self.path.with_name(f"{self.path.name}.v{version}-{stamp}.bak")
+        if target.exists():
+            return
+        with contextlib.closing(sqlite3.connect(target)) as copy:
+            conn.backup(copy)
+        log.info("registry %s: copy of schema v%d kept as %s before migrating",
+                 self.path, version, target.name)

@@ -1,0 +1,175 @@
+"""The registry's sessions: one sitting of a patient, numbered from 1 per patient.
+
+A session is opened explicitly (`open_session`) or by the first trial registered in
+it (`begin_trial` in app.records.registry.trials). A number already used is
+refused, naming the next free one; the UNIQUE constraint on (patient, session
+number) backs this up when two consoles number at once.
+"""
+
+from __future__ import annotations
+
+import datetime
+import logging
+import sqlite3
+from dataclasses import dataclass
+from pathlib import Path
+
+from app.errors import DuplicateNumberError, InvalidRecordError, SessionNotFound
+from app.records.registry.database import Database
+from app.records.registry.patients import patient_id
+from app.records.registry.values import (
+    NAME_MAX_CHARS,
+    TEXT_MAX_CHARS,
+    check_number,
+    checked_text,
+)
+
+# The registry's one logger, named as it was before the registry had modules.
+log = logging.getLogger(__package__)
+
+_SESSION_SELECT = """
+    SELECT s.id, p.code, s.number, s.date, s.therapist, s.location, s.notes,
+           (SELECT count(*) FROM trials t WHERE t.session_id = s.id)
+    FROM sessions s JOIN patients p ON p.id = s.patient_id
+"""
+_CHANGEABLE = {"date", "therapist", "location", "notes"}
+
+
+@dataclass(frozen=True, slots=True)
+class Session:
+    """One sitting: `number` counts a patient's sessions; `date` is the local day."""
+
+    id: int
+    patient_code: str
+    number: int
+    date: datetime.date
+    therapist: str
+    location: str
+    notes: str
+    n_trials: int
+
+
+class Sessions(Database):
+    """Opening, changing and listing a patient's sessions."""
+
+    def next_session_number(self, code: str) -> int:
+        with self._read() as conn:
+            return next_session_number_of(conn, patient_id(conn, self.path, code))
+
+    def open_session(
+        self,
+        code: str,
+        *,
+        number: int | None = None,
+        date: datetime.date | None = None,
+        therapist: str = "",
+        location: str = "",
+        notes: str = "",
+    ) -> Session:
+        """Start a new session for the patient: `number` defaults to the next one;
+        a number already used is refused, naming the next free one."""
+        date = date or datetime.date.today()
+        with self._write() as conn:
+            patient = patient_id(conn, self.path, code)
+            if number is None:
+                number = next_session_number_of(conn, patient)
+            else:
+                check_number("session number", number)
+                taken = conn.execute(
+                    "SELECT date FROM sessions WHERE patient_id = ? AND number = ?",
+                    (patient, number),
+                ).fetchone()
+                if taken:
+                    free = next_session_number_of(conn, patient)
+                    raise DuplicateNumberError(
+                        f"patient {code} already has a session {number} (on {taken[0]}); "
+                        f"use {free}, the next free number, or continue session {number} by "
+                        "registering a trial in it"
+                    )
+            session_id = insert_session(conn, patient, number, date, therapist, location, notes)
+            session = _session_by_id(conn, session_id)
+        log.info("patient %s: session %d opened", code, number)
+        return session
+
+    def update_session(self, code: str, number: int, /, **changes) -> Session:
+        """Change a session's date, therapist, location or notes."""
+        unknown = sorted(set(changes) - _CHANGEABLE)
+        if unknown:
+            raise InvalidRecordError(
+                f"session field(s) {', '.join(unknown)} cannot be changed; give any of "
+                f"{', '.join(sorted(_CHANGEABLE))}"
+            )
+        values = {}
+        for name, value in changes.items():
+            if name == "date":
+                if not isinstance(value, datetime.date):
+                    raise InvalidRecordError(f"session date {value!r}: give a datetime.date")
+                values[name] = value.isoformat()
+            else:
+                values[name] = checked_text(f"session {name}", value, TEXT_MAX_CHARS)
+        with self._write() as conn:
+            session_id = session_id_of(conn, self.path, code, number)
+            if values:
+                assignments = ", ".join(f"{name} = ?" for name in values)
+                conn.execute(f"UPDATE sessions SET {assignments} WHERE id = ?",
+                             (*values.values(), session_id))
+            return _session_by_id(conn, session_id)
+
+    def session(self, code: str, number: int) -> Session:
+        with self._read() as conn:
+            return _session_by_id(conn, session_id_of(conn, self.path, code, number))
+
+    def sessions(self, code: str) -> list[Session]:
+        """The patient's sessions by number."""
+        with self._read() as conn:
+            patient = patient_id(conn, self.path, code)
+            rows = conn.execute(_SESSION_SELECT + " WHERE s.patient_id = ? ORDER BY s.number",
+                                (patient,)).fetchall()
+        return [_session_from_row(r) for r in rows]
+
+
+# -- shared with the trials ------------------------------------------------------------
+def session_id_of(conn: sqlite3.Connection, registry: Path, code: str, number: int) -> int:
+    """The row id of the patient's session `number` (SessionNotFound if none)."""
+    patient = patient_id(conn, registry, code)
+    row = conn.execute("SELECT id FROM sessions WHERE patient_id = ? AND number = ?",
+                       (patient, number)).fetchone()
+    if row is None:
+        raise SessionNotFound(
+            f"patient {code} has no session {number}; their sessions are listed by "
+            "Registry.sessions"
+        )
+    return row[0]
+
+
+def next_session_number_of(conn: sqlite3.Connection, patient: int) -> int:
+    """The number after the patient's highest session number (1 for the first)."""
+    row = conn.execute("SELECT max(number) FROM sessions WHERE patient_id = ?",
+                       (patient,)).fetchone()
+    return (row[0] or 0) + 1
+
+
+def insert_session(conn: sqlite3.Connection, patient: int, number: int,
+                   date: datetime.date, therapist: str, location: str, notes: str) -> int:
+    """Insert a session row (number already checked); returns its id."""
+    if not isinstance(date, datetime.date):
+        raise InvalidRecordError(f"session date {date!r}: give a datetime.date")
+    cursor = conn.execute(
+        "INSERT INTO sessions (patient_id, number, date, therapist, location, notes) "
+        "VALUES (?, ?, ?, ?, ?, ?)",
+        (patient, number, date.isoformat(), checked_text("therapist", therapist, NAME_MAX_CHARS),
+         checked_text("location", location, NAME_MAX_CHARS),
+         checked_text("notes", notes, TEXT_MAX_CHARS)),
+    )
+    return cursor.lastrowid
+
+
+def _session_by_id(conn: sqlite3.Connection, session_id: int) -> Session:
+    row = conn.execute(_SESSION_SELECT + " WHERE s.id = ?", (session_id,)).fetchone()
+    return _session_from_row(row)
+
+
+def _session_from_row(row: tuple) -> Session:
+    session_id, code, number, date, therapist, location, notes, n_trials = row
+    return Session(session_id, code, number, datetime.date.fromisoformat(date), therapist,
+                   location, notes, n_trials)

@@ -1,0 +1,372 @@
+"""The registry's trials: numbering them as the registration tab does, registering one at
+Start, recording how it ended at Stop, and listing them.
+
+Registration follows the thesis's registration tab (Appendix A.2): the therapist
+gives the patient, a session number and a trial number. The numbers are filled in
+(`suggest_registration`) and stay editable: `begin_trial` takes the numbers the
+therapist confirmed, continues or opens that session, and refuses a trial number
+already used, naming the next free one; `finish_trial` records the status and
+metrics at Stop. The UNIQUE constraint on (session, trial number) backs the
+numbering up when two consoles register at once.
+"""
+
+from __future__ import annotations
+
+import datetime
+import json
+import logging
+import math
+import sqlite3
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+from app.errors import DuplicateNumberError, InvalidRecordError, RegistryError, TrialNotFound
+from app.records.datadir import TRIALS, DataDir
+from app.records.registry.database import Database
+from app.records.registry.patients import is_code, patient_id
+from app.records.registry.sessions import (
+    insert_session,
+    next_session_number_of,
+    session_id_of,
+)
+from app.records.registry.values import (
+    NAME_MAX_CHARS,
+    aware,
+    check_number,
+    checked_text,
+    metrics_json,
+    metrics_json_ready,
+    parameters_dict,
+    parse_metrics,
+    utc_now,
+    utc_text,
+)
+from core.trial import TrialParameters
+from device.recording.trialfile import STATUS_RECORDING, STATUSES
+from device.sim.patients import PATIENT_KINDS
+
+# The registry's one logger, named as it was before the registry had modules.
+log = logging.getLogger(__package__)
+
+KEY_PARAMETERS = ("shape", "radius_m", "duration_s", "tolerance_rad", "assistance_level",
+                  "controller")
+"""The parameters that change what a trial's metrics mean: compare trials done at
+equal values of these (progress, previous_trial(same_parameters=True))."""
+
+TRIAL_SELECT = """
+    SELECT t.id, p.code, s.number, s.date, t.number, t.parameters, t.file, t.metrics,
+           t.status, t.started_at, t.ended_at, t.backend, t.patient_kind
+    FROM trials t
+    JOIN sessions s ON s.id = t.session_id
+    JOIN patients p ON p.id = s.patient_id
+"""
+"""A trial row as `trial_from_row` and `trials_from_rows` read it; add WHERE and ORDER BY."""
+
+
+@dataclass(frozen=True, slots=True)
+class Trial:
+    """One trial, Start to Stop. `file` is relative to the data folder, with '/';
+    `parameters` is `TrialParameters.to_dict()`; `metrics` maps names to floats
+    (NaN where a metric was undefined). `backend` is None for trials registered
+    before schema v2."""
+
+    id: int
+    patient_code: str
+    session_number: int
+    session_date: datetime.date
+    number: int
+    parameters: dict
+    file: str
+    metrics: dict[str, float]
+    status: str
+    started_at: datetime.datetime
+    ended_at: datetime.datetime | None
+    backend: str | None
+    patient_kind: str | None
+
+    @property
+    def finished(self) -> bool:
+        return self.status != STATUS_RECORDING
+
+    def key_parameters(self) -> tuple:
+        """KEY_PARAMETERS values, comparable between trials (see parameter_key)."""
+        return parameter_key(self.parameters.get(name) for name in KEY_PARAMETERS)
+
+    def trial_parameters(self) -> TrialParameters:
+        """The parameters as a validated TrialParameters (raises CoreError if they no
+        longer validate, e.g. a range narrowed since the trial was run)."""
+        return TrialParameters.from_dict(self.parameters)
+
+
+@dataclass(frozen=True, slots=True)
+class Registration:
+    """The numbers the registration tab proposes; the therapist may change them."""
+
+    patient_code: str
+    session_number: int
+    trial_number: int
+    new_session: bool
+
+
+@dataclass(frozen=True, slots=True)
+class BegunTrial:
+    """What `begin_trial` hands to the recorder: the id to finish later and the
+    file to write (absolute; its folder exists)."""
+
+    trial_id: int
+    patient_code: str
+    session_number: int
+    trial_number: int
+    path: Path
+    file: str
+    started_at: datetime.datetime
+
+
+class Trials(Database):
+    """Numbering, registering, finishing and listing trials. Trial files live in
+    `data_dir` (set by the registry that opens the file)."""
+
+    data_dir: DataDir
+
+    # -- registration ------------------------------------------------------------------
+    def suggest_registration(self, code: str, today: datetime.date | None = None) -> Registration:
+        """The numbers to pre-fill: the next trial of today's session when the
+        patient's latest session is today, else trial 1 of the next session."""
+        today = today or datetime.date.today()
+        with self._read() as conn:
+            return _suggest(conn, code, patient_id(conn, self.path, code), today)
+
+    def next_trial_number(self, code: str, session_number: int) -> int:
+        """The next trial number in a session (1 when the session does not exist yet)."""
+        with self._read() as conn:
+            patient = patient_id(conn, self.path, code)
+            row = conn.execute("SELECT id FROM sessions WHERE patient_id = ? AND number = ?",
+                               (patient, session_number)).fetchone()
+            return 1 if row is None else _next_trial_number_in(conn, row[0])
+
+    def begin_trial(
+        self,
+        code: str,
+        parameters: TrialParameters | Mapping,
+        *,
+        backend: str,
+        session_number: int | None = None,
+        trial_number: int | None = None,
+        patient_kind: str | None = None,
+        therapist: str = "",
+        location: str = "",
+        started_at: datetime.datetime | None = None,
+    ) -> BegunTrial:
+        """Register a trial as it starts (status 'recording') and return its id and file.
+
+        `session_number` None: today's session if the latest is today, else a new
+        one. A session number that does not exist yet opens that session (dated
+        the start's local day, with `therapist` and `location`). `trial_number`
+        None: the next in the session; a number already used raises
+        DuplicateNumberError naming the next free one. `patient_kind` names the
+        virtual patient of a simulated trial.
+        """
+        started_at = aware(started_at or utc_now(), "started_at")
+        params = parameters_dict(parameters)
+        backend = checked_text("backend", backend, NAME_MAX_CHARS)
+        if not backend:
+            raise InvalidRecordError("backend is empty: give the name of the robot backend "
+                                     "that runs the trial (e.g. 'simulator')")
+        if patient_kind is not None and patient_kind not in PATIENT_KINDS:
+            raise InvalidRecordError(
+                f"patient_kind {patient_kind!r}: give one of {', '.join(PATIENT_KINDS)} for a "
+                "simulated trial, or None for a real patient"
+            )
+        for name, number in (("session number", session_number),
+                             ("trial number", trial_number)):
+            if number is not None:
+                check_number(name, number)
+        # The folder is made outside the transaction: the write lock is held for
+        # database work only.
+        if is_code(code):
+            self.data_dir.ensure(TRIALS, code)
+        local_day = started_at.astimezone().date()
+        with self._write() as conn:
+            patient = patient_id(conn, self.path, code)
+            if session_number is None:
+                session_number = _suggest(conn, code, patient, local_day).session_number
+            row = conn.execute("SELECT id FROM sessions WHERE patient_id = ? AND number = ?",
+                               (patient, session_number)).fetchone()
+            if row is None:
+                session_id = insert_session(conn, patient, session_number, local_day,
+                                            therapist, location, "")
+                log.info("patient %s: session %d opened", code, session_number)
+            else:
+                session_id = row[0]
+            if trial_number is None:
+                trial_number = _next_trial_number_in(conn, session_id)
+            else:
+                taken = conn.execute(
+                    "SELECT started_at FROM trials WHERE session_id = ? AND number = ?",
+                    (session_id, trial_number),
+                ).fetchone()
+                if taken:
+                    free = _next_trial_number_in(conn, session_id)
+                    raise DuplicateNumberError(
+                        f"patient {code} session {session_number} already has a trial "
+                        f"{trial_number} (started {taken[0]}); use {free}, the next free "
+                        "number, or leave the trial number empty to number it automatically"
+                    )
+            file = self.data_dir.trial_file(code, session_number, trial_number, started_at)
+            cursor = conn.execute(
+                "INSERT INTO trials (session_id, number, parameters, file, metrics, status, "
+                "started_at, backend, patient_kind) VALUES (?, ?, ?, ?, '{}', ?, ?, ?, ?)",
+                (session_id, trial_number, json.dumps(params), file, STATUS_RECORDING,
+                 utc_text(started_at), backend, patient_kind),
+            )
+            trial_id = cursor.lastrowid
+        log.info("trial %d registered: patient %s session %d trial %d (%s)",
+                 trial_id, code, session_number, trial_number, backend)
+        return BegunTrial(trial_id, code, session_number, trial_number,
+                          self.data_dir.resolve(file), file, started_at)
+
+    # -- the end of a trial ------------------------------------------------------------
+    def finish_trial(
+        self,
+        trial_id: int,
+        status: str,
+        metrics: Mapping[str, float],
+        ended_at: datetime.datetime | None = None,
+    ) -> Trial:
+        """Record how a trial ended: status one of complete, stopped_early, faulted,
+        recording_lost; metrics as computed (NaN allowed). A trial is finished once."""
+        if status not in STATUSES:
+            raise InvalidRecordError(
+                f"trial status {status!r}: give one of {', '.join(STATUSES)}"
+            )
+        ended_at = aware(ended_at or utc_now(), "ended_at")
+        stored = metrics_json(metrics)
+        with self._write() as conn:
+            trial = trial_by_id(conn, self.path, trial_id)
+            if trial.finished:
+                raise RegistryError(
+                    f"trial {trial_id} was already finished ({trial.status} at "
+                    f"{trial.ended_at}); use update_metrics to store recomputed metrics"
+                )
+            if ended_at < trial.started_at:
+                raise InvalidRecordError(
+                    f"trial {trial_id} would end at {ended_at.isoformat()}, before it started "
+                    f"({trial.started_at.isoformat()}): check the computer's clock"
+                )
+            conn.execute("UPDATE trials SET status = ?, metrics = ?, ended_at = ? WHERE id = ?",
+                         (status, stored, utc_text(ended_at), trial_id))
+            trial = trial_by_id(conn, self.path, trial_id)
+        log.info("trial %d finished: %s, %d metric(s)", trial_id, status, len(trial.metrics))
+        return trial
+
+    def update_metrics(self, trial_id: int, metrics: Mapping[str, float], *,
+                       replace: bool = False) -> Trial:
+        """Store recomputed metrics: merged into the trial's (or replacing them all)."""
+        checked = json.loads(metrics_json(metrics))
+        with self._write() as conn:
+            trial = trial_by_id(conn, self.path, trial_id)
+            merged = checked if replace else {**metrics_json_ready(trial.metrics), **checked}
+            conn.execute("UPDATE trials SET metrics = ? WHERE id = ?",
+                         (json.dumps(merged, allow_nan=False), trial_id))
+            return trial_by_id(conn, self.path, trial_id)
+
+    # -- reading -----------------------------------------------------------------------
+    def trial(self, trial_id: int) -> Trial:
+        with self._read() as conn:
+            return trial_by_id(conn, self.path, trial_id)
+
+    def trials(self, code: str, session_number: int) -> list[Trial]:
+        """The trials of one session, by number."""
+        with self._read() as conn:
+            session_id = session_id_of(conn, self.path, code, session_number)
+            rows = conn.execute(TRIAL_SELECT + " WHERE t.session_id = ? ORDER BY t.number",
+                                (session_id,)).fetchall()
+        return trials_from_rows(rows)
+
+    def unfinished_trials(self) -> list[Trial]:
+        """Every trial still recording, oldest first (after a console's crash, those
+        `app.trials.finalize.finish_interrupted` finishes)."""
+        with self._read() as conn:
+            rows = conn.execute(TRIAL_SELECT + " WHERE t.status = 'recording' ORDER BY t.id"
+                                ).fetchall()
+        return trials_from_rows(rows)
+
+    def trials_for_patient(self, code: str) -> list[Trial]:
+        """Every trial of a patient, by session number then trial number."""
+        with self._read() as conn:
+            patient = patient_id(conn, self.path, code)
+            rows = conn.execute(
+                TRIAL_SELECT + " WHERE s.patient_id = ? ORDER BY s.number, t.number",
+                (patient,),
+            ).fetchall()
+        return trials_from_rows(rows)
+
+    def trial_path(self, trial: Trial | int) -> Path:
+        """The absolute path of a trial's file (which may be missing)."""
+        if not isinstance(trial, Trial):
+            trial = self.trial(trial)
+        return self.data_dir.resolve(trial.file)
+
+
+# -- shared with the queries -----------------------------------------------------------
+def parameter_key(values: Iterable) -> tuple:
+    """Parameter values made comparable: floats to 9 significant digits, so that
+    one exercise reached through different unit conversions is one exercise."""
+    return tuple(
+        float(f"{v:.9g}") if isinstance(v, float) and math.isfinite(v) else v for v in values
+    )
+
+
+def trial_by_id(conn: sqlite3.Connection, registry: Path, trial_id: int) -> Trial:
+    """The trial with this id; TrialNotFound naming the registry file if none."""
+    row = conn.execute(TRIAL_SELECT + " WHERE t.id = ?", (trial_id,)).fetchone()
+    if row is None:
+        raise TrialNotFound(
+            f"no trial has the id {trial_id!r} in the registry {registry}; list the "
+            "patient's trials to find it"
+        )
+    return trial_from_row(row)
+
+
+def trial_from_row(row: tuple) -> Trial:
+    return trials_from_rows([row])[0]
+
+
+def trials_from_rows(rows: list[tuple]) -> list[Trial]:
+    """TRIAL_SELECT rows as Trials."""
+    # One json.loads over all rows instead of two per row: listing a patient's
+    # trials costs mostly JSON parsing, and this removes the per-call overhead.
+    if not rows:
+        return []
+    parameters = json.loads("[" + ",".join(r[5] for r in rows) + "]")
+    metrics = parse_metrics(r[7] for r in rows)
+    trials = []
+    for row, params, values in zip(rows, parameters, metrics, strict=True):
+        (trial_id, code, session_number, session_date, number, _, file, _, status,
+         started_at, ended_at, backend, patient_kind) = row
+        trials.append(Trial(
+            trial_id, code, session_number, datetime.date.fromisoformat(session_date), number,
+            params, file, values, status, datetime.datetime.fromisoformat(started_at),
+            None if ended_at is None else datetime.datetime.fromisoformat(ended_at),
+            backend, patient_kind,
+        ))
+    return trials
+
+
+# -- numbering -------------------------------------------------------------------------
+def _next_trial_number_in(conn: sqlite3.Connection, session_id: int) -> int:
+    row = conn.execute("SELECT max(number) FROM trials WHERE session_id = ?",
+                       (session_id,)).fetchone()
+    return (row[0] or 0) + 1
+
+
+def _suggest(conn: sqlite3.Connection, code: str, patient: int,
+             today: datetime.date) -> Registration:
+    latest = conn.execute(
+        "SELECT id, number, date FROM sessions WHERE patient_id = ? ORDER BY number DESC "
+        "LIMIT 1", (patient,),
+    ).fetchone()
+    if latest is not None and latest[2] == today.isoformat():
+        return Registration(code, latest[1], _next_trial_number_in(conn, latest[0]), False)
+    return Registration(code, next_session_number_of(conn, patient), 1, True)

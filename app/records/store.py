@@ -1,0 +1,119 @@
+"""The records' interface: what the rest of app and ui ask of the clinic's records.
+
+`RecordStore` lists the calls app (trials, reports, exports, the command line)
+and ui (the window and its tabs) make, and nothing else, so that another store
+can take the place of the one SQLite registry of a data folder
+(`app.records.registry.Registry`, which implements it): for example one
+registry shared by several robot stations in a PostgreSQL database. Such a
+store keeps the registry's contract: the same records (`Patient`, `Session`,
+`Trial`, …), the same exceptions (app.errors), numbering that two consoles
+cannot both take, and trial files under its `data_dir`.
+
+The registry's other calls (changing a patient or session, opening a session by
+hand, recomputed metrics, backup and integrity checks, the schema version) are
+for maintenance and tests, and stay the registry's own.
+
+Code that receives a store types it `RecordStore`; code that opens one (the
+command line, the window's start-up) makes a `Registry`.
+"""
+
+from __future__ import annotations
+
+import datetime
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Protocol, runtime_checkable
+
+from app.records.datadir import DataDir
+from app.records.registry.patients import Patient
+from app.records.registry.queries import TrialSummary
+from app.records.registry.sessions import Session
+from app.records.registry.trials import BegunTrial, Registration, Trial
+from core.trial import TrialParameters
+
+
+@runtime_checkable
+class RecordStore(Protocol):
+    """Patients, sessions and trials, as `app.records.registry.Registry` keeps them
+    (its methods' docstrings say what each call does)."""
+
+    @property
+    def data_dir(self) -> DataDir:
+        """The data folder the trial files and reports live in."""
+        ...
+
+    # -- patients ------------------------------------------------------------------
+    def create_patient(
+        self,
+        first_name: str | None = None,
+        last_name: str | None = None,
+        *,
+        birth_year: int | None = None,
+        side: str | None = None,
+        body_mass_kg: float | None = None,
+        upper_arm_m: float | None = None,
+        forearm_m: float | None = None,
+        shoulder_m: tuple[float, float] | None = None,
+        notes: str = "",
+    ) -> Patient: ...
+
+    def patient(self, code: str) -> Patient: ...
+
+    def patients(self) -> list[Patient]: ...
+
+    def find_patients(self, first_name: str, last_name: str) -> list[Patient]: ...
+
+    def search_patients(self, text: str, limit: int | None = 50) -> list[Patient]: ...
+
+    # -- sessions and numbering ----------------------------------------------------
+    def sessions(self, code: str) -> list[Session]: ...
+
+    def suggest_registration(self, code: str,
+                             today: datetime.date | None = None) -> Registration: ...
+
+    def next_trial_number(self, code: str, session_number: int) -> int: ...
+
+    # -- trials --------------------------------------------------------------------
+    def begin_trial(
+        self,
+        code: str,
+        parameters: TrialParameters | Mapping,
+        *,
+        backend: str,
+        session_number: int | None = None,
+        trial_number: int | None = None,
+        patient_kind: str | None = None,
+        therapist: str = "",
+        location: str = "",
+        started_at: datetime.datetime | None = None,
+    ) -> BegunTrial: ...
+
+    def finish_trial(
+        self,
+        trial_id: int,
+        status: str,
+        metrics: Mapping[str, float],
+        ended_at: datetime.datetime | None = None,
+    ) -> Trial: ...
+
+    def trial(self, trial_id: int) -> Trial: ...
+
+    def trials(self, code: str, session_number: int) -> list[Trial]: ...
+
+    def trials_for_patient(self, code: str) -> list[Trial]: ...
+
+    def unfinished_trials(self) -> list[Trial]: ...
+
+    def trial_path(self, trial: Trial | int) -> Path: ...
+
+    # -- across trials -------------------------------------------------------------
+    def trial_summaries(self, code: str) -> list[TrialSummary]: ...
+
+    def previous_trial(
+        self,
+        trial_id: int,
+        *,
+        earlier_session: bool = False,
+        same_parameters: bool = False,
+        statuses: Iterable[str] = ("complete",),
+    ) -> Trial | None: ...

@@ -1,0 +1,265 @@
+"""The report's plots, each drawn onto a `Sheet` (app.reports.pdf_sheet) below its current
+height: the hand's path against the target (Fig. 3.7) on page 1; the force on the
+handle (Fig. 3.9), the ISB joint angles (Fig. 3.11) and the joint torques
+(Fig. 3.12) on page 2.
+
+Every colour has a line style too: within the tolerance solid blue, outside it
+dashed vermillion; shoulder solid purple, elbow dash-dotted green. Long time
+series are thinned to their per-bucket minima and maxima (`MAX_LINE_POINTS` a
+line), so a 20-minute trial draws as fast as a short one and keeps the peaks its
+ranges are made of.
+"""
+
+from __future__ import annotations
+
+import math
+
+import matplotlib.lines
+import numpy as np
+from matplotlib.axes import Axes
+
+from app.reports.figures import AnglesFigure, ForceFigure, PathFigure, Run, TorquesFigure
+from app.reports.pdf_sheet import (
+    BLUE,
+    GREEN,
+    GREY,
+    INK,
+    LEFT_IN,
+    PURPLE,
+    TARGET_GREY,
+    TEXT_W_IN,
+    VERMILLION,
+    Sheet,
+)
+
+MAX_LINE_POINTS = 2500
+# Page 1 around the path's axes: gap, heading and legend above; tick labels, axis
+# label and the two caption lines below.
+PATH_ABOVE_IN = 0.62
+PATH_BELOW_IN = 0.8
+TIME_LABEL = "time since the exercise started (s)"
+
+_JOINT_STYLES = ((PURPLE, "-"), (GREEN, "-."))
+
+
+# -- page 1 ------------------------------------------------------------------------------
+
+def path_plot(sheet: Sheet, figure: PathFigure | None) -> None:
+    """Fig. 3.7 in the rest of the page: heading, legend, the path, its captions."""
+    if figure is None:
+        sheet.text("No path to show: the trial has no exercise samples of the hand's "
+                   "position.", 11, color=GREY)
+        return
+    sheet.text("Your hand's path and the target path (Fig. 3.7)", 12, weight="bold")
+    handles = [
+        matplotlib.lines.Line2D([], [], color=TARGET_GREY, linewidth=7, label="target path"),
+        matplotlib.lines.Line2D([], [], color=INK, marker="o", markersize=6, linestyle="none",
+                                label="start"),
+        *run_handles(figure.runs, "your hand: pushing the right way",
+                     "your hand: pushing another way"),
+    ]
+    sheet.legend(handles, LEFT_IN, ncols=4)
+    height = max(1.0, sheet.room_in - PATH_BELOW_IN)
+    ax = sheet.axes(height, x_in=LEFT_IN + 0.55, width_in=TEXT_W_IN - 0.55)
+    desired = figure.desired_m * 1000.0
+    position = figure.position_m * 1000.0
+    outline = figure.outline_m * 1000.0
+    ax.plot(outline[:, 0], outline[:, 1], color=TARGET_GREY, linewidth=7,
+            solid_capstyle="round", zorder=1)
+    _draw_runs(ax, position[:, 0], position[:, 1], figure.runs, linewidth=1.6)
+    ax.plot(*desired[0], marker="o", markersize=6, color=INK, linestyle="none", zorder=4)
+    _direction_arrow(ax, outline)
+    # The box shrinks to the data's shape, so millimetres are equal both ways.
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_anchor("C")
+    ax.margins(0.08)
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    if figure.flip_axes:
+        ax.invert_xaxis()
+        ax.invert_yaxis()
+        view = "Seen from the patient's chair: both axes reversed, as in the thesis's Fig. 3.7."
+    else:
+        view = "Seen from above, in the robot's frame (the patient sits at the top, facing down)."
+    _light_grid(ax)
+    sheet.y_in += height + 0.42
+    sheet.text(figure.caption, 9.5, scaled=False)
+    sheet.text(view, 8.5, color=GREY, scaled=False)
+
+
+def _direction_arrow(ax: Axes, desired_mm: np.ndarray) -> None:
+    """An arrow along the first few percent of the target path: the way to go."""
+    steps = np.hypot(*np.diff(desired_mm, axis=0).T)
+    along = np.concatenate(([0.0], np.cumsum(steps)))
+    if along[-1] <= 0:
+        return
+    k = int(np.searchsorted(along, 0.06 * along[-1]))
+    k = min(max(k, 1), len(desired_mm) - 1)
+    ax.annotate("", xy=desired_mm[k], xytext=desired_mm[0],
+                arrowprops={"arrowstyle": "-|>", "color": INK, "linewidth": 1.2,
+                            "shrinkA": 4, "shrinkB": 0}, zorder=5)
+
+
+# -- page 2 ------------------------------------------------------------------------------
+
+def force_plots(sheet: Sheet, force: ForceFigure, x0: float, plot_w: float) -> None:
+    """Fig. 3.9: heading, caption, legend, and Fx over Fy sharing their time axis."""
+    sheet.text("Force on the handle (Fig. 3.9)", 10, weight="bold", advance=False)
+    sheet.text(force.caption, 8.5, color=GREY, x_in=LEFT_IN + 2.35,
+               width_in=TEXT_W_IN - 2.35)
+    sheet.gap(0.04)
+    handles = run_handles(force.runs, force.within_label, force.outside_label)
+    if handles:
+        sheet.legend(handles, LEFT_IN, ncols=2)
+    sheet.gap(0.2)
+    height = 0.95
+    top = None
+    for axis in range(2):
+        ax = sheet.axes(height, x_in=x0, width_in=plot_w)
+        ax.set_title(force.titles[axis], loc="left", pad=3)
+        ax.axhline(0.0, color=TARGET_GREY, linewidth=0.6, zorder=0)
+        _draw_runs(ax, force.t_s, force.force_N[:, axis], force.runs, linewidth=1.2)
+        ax.set_ylabel("N")
+        ax.set_xlim(force.t_s[0], force.t_s[-1])
+        _light_grid(ax)
+        if top is None:
+            top = ax
+            ax.tick_params(labelbottom=False)
+            sheet.y_in += height + 0.27
+        else:
+            ax.sharex(top)
+            ax.set_xlabel(TIME_LABEL)
+            sheet.y_in += height + 0.45
+
+
+def joint_plots(sheet: Sheet, angles: AnglesFigure | None, torques: TorquesFigure | None,
+                x0: float, label_room: float) -> None:
+    """Fig. 3.11 and 3.12 side by side (either may be missing), then below both."""
+    between = 0.35
+    half = (TEXT_W_IN - 2 * label_room - between) / 2
+    x1 = x0 + half + between + label_room
+    top_in = sheet.y_in
+    height = 1.25
+    bottom_in = top_in
+    for figure, x, title in (
+        (angles, x0, "Joint angles, ISB (Fig. 3.11)"),
+        (torques, x1, "Joint torques (Fig. 3.12)"),
+    ):
+        if figure is None:
+            continue
+        sheet.y_in = top_in
+        sheet.text(title, 10, weight="bold", x_in=x - label_room)
+        sheet.gap(0.03)
+        sheet.legend(_joint_handles(figure), x - label_room, ncols=1, size=7.5)
+        sheet.gap(0.04)
+        ax = sheet.axes(height, x_in=x, width_in=half)
+        _plot_series(ax, figure)
+        ax.set_xlabel(TIME_LABEL)
+        sheet.y_in += height + 0.42
+        if figure is torques:
+            sheet.text(figure.caption, 7.5, color=GREY, x_in=x - label_room,
+                       width_in=half + label_room)
+        bottom_in = max(bottom_in, sheet.y_in)
+    sheet.y_in = bottom_in + 0.1
+
+
+def _joint_handles(figure: AnglesFigure | TorquesFigure) -> list:
+    width = 1.4 if isinstance(figure, AnglesFigure) else 1.6
+    return [matplotlib.lines.Line2D([], [], color=c, linestyle=ls, linewidth=width, label=label)
+            for (c, ls), label in zip(_JOINT_STYLES, figure.labels, strict=True)]
+
+
+def _plot_series(ax: Axes, figure: AnglesFigure | TorquesFigure) -> None:
+    t = figure.t_s
+    for column, (colour, style) in enumerate(_JOINT_STYLES):
+        if isinstance(figure, AnglesFigure):
+            x, y = _envelope(t, np.degrees(figure.isb_rad[:, column]))
+            ax.plot(x, y, color=colour, linestyle=style, linewidth=1.4)
+        else:
+            x, y = _envelope(t, figure.raw_Nm[:, column])
+            ax.plot(x, y, color=colour, linewidth=0.6, alpha=0.35)
+            x, y = _envelope(t, figure.smoothed_Nm[:, column])
+            ax.plot(x, y, color=colour, linestyle=style, linewidth=1.6)
+    if isinstance(figure, AnglesFigure):
+        ax.set_ylabel("angle (°)")
+    else:
+        ax.axhline(0.0, color=TARGET_GREY, linewidth=0.6, zorder=0)
+        ax.set_ylabel("torque (N·m)")
+    ax.set_xlim(t[0], t[-1])
+    _light_grid(ax)
+
+
+# -- drawing helpers -----------------------------------------------------------------------
+
+def _light_grid(ax: Axes) -> None:
+    ax.grid(True, color="#E6E6E6", linewidth=0.5)
+    ax.set_axisbelow(True)
+
+
+def _draw_runs(ax: Axes, x: np.ndarray, y: np.ndarray, runs: tuple[Run, ...], *,
+               linewidth: float) -> None:
+    """Within runs solid blue, outside runs dashed vermillion; one black line when
+    there are no runs (no force or direction to judge by)."""
+    if not runs:
+        xs, ys = _envelope(x, y) if x.ndim == 1 and _is_time(x) else (x, y)
+        ax.plot(xs, ys, color=INK, linewidth=linewidth, zorder=3)
+        return
+    budget = max(2, MAX_LINE_POINTS // max(1, len(runs)))
+    for run in runs:
+        part = slice(run.start, run.stop + 1)
+        xs, ys = _thin(x[part], y[part], max(budget, int(MAX_LINE_POINTS * (run.stop + 1 -
+                                                                            run.start)
+                                                          / max(1, len(x)))))
+        if run.within:
+            ax.plot(xs, ys, color=BLUE, linewidth=linewidth, linestyle="-", zorder=3)
+        else:
+            ax.plot(xs, ys, color=VERMILLION, linewidth=linewidth, linestyle=(0, (3.5, 1.8)),
+                    zorder=3)
+
+
+def run_handles(runs: tuple[Run, ...], within: str, outside: str) -> list:
+    """Legend entries for the within/outside lines; none without runs."""
+    handles = []
+    if runs:
+        handles += [
+            matplotlib.lines.Line2D([], [], color=BLUE, linewidth=1.6, label=within),
+            matplotlib.lines.Line2D([], [], color=VERMILLION, linewidth=1.6,
+                                    linestyle=(0, (3.5, 1.8)), label=outside),
+        ]
+    return handles
+
+
+def _is_time(x: np.ndarray) -> bool:
+    return x.size < 2 or bool(np.all(np.diff(x) >= 0))
+
+
+def _thin(x: np.ndarray, y: np.ndarray, max_points: int) -> tuple[np.ndarray, np.ndarray]:
+    """At most about `max_points` points, keeping each stretch's extremes (time series)
+    or every k-th point (a path); the ends are always kept."""
+    if x.size <= max_points:
+        return x, y
+    if _is_time(x):
+        return _envelope(x, y, max_points)
+    index = np.unique(np.r_[np.linspace(0, x.size - 1, max_points).astype(int), x.size - 1])
+    return x[index], y[index]
+
+
+def _envelope(t: np.ndarray, y: np.ndarray,
+              max_points: int = MAX_LINE_POINTS) -> tuple[np.ndarray, np.ndarray]:
+    """Min-max decimation: per bucket, the lowest and highest sample in time order, so
+    a long trial's peaks (which set the ranges shown) survive the thinning."""
+    n = t.size
+    if n <= max_points:
+        return t, y
+    size = math.ceil(n / max(1, max_points // 2))
+    buckets = math.ceil(n / size)
+    padded = np.full(buckets * size, np.nan)
+    padded[:n] = y
+    padded = padded.reshape(buckets, size)
+    missing = np.isnan(padded)
+    base = np.arange(buckets) * size
+    low = base + np.argmin(np.where(missing, np.inf, padded), axis=1)
+    high = base + np.argmax(np.where(missing, -np.inf, padded), axis=1)
+    index = np.unique(np.concatenate(([0, n - 1], np.minimum(low, n - 1),
+                                      np.minimum(high, n - 1))))
+    return t[index], y[index]

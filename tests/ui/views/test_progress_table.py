@@ -1,0 +1,73 @@
+"""A patient's progress as the Progress tab's words and table, without Qt."""
+
+from __future__ import annotations
+
+import datetime
+
+import pytest
+
+from app.records.datadir import DataDir
+from app.records.registry import Registry
+from app.reports.metrics_table import ROWS
+from app.reports.progress import progress
+from core.trial import THESIS_SUBJECT
+from ui.views.progress_table import (
+    LEADING_HEADINGS,
+    ProgressTable,
+    metric_heading,
+    metric_rows,
+    progress_summary,
+    progress_table,
+)
+
+T0 = datetime.datetime(2024, 5, 2, 9, 30, tzinfo=datetime.UTC)
+
+
+@pytest.fixture
+def history(tmp_path):
+    """Three trials over two sessions at two exercises; the files were never written."""
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("Ada", "Lovelace").code
+    for session, radius, status, rmse in ((1, 0.10, "complete", 0.004),
+                                          (1, 0.12, "stopped_early", 0.006),
+                                          (2, 0.10, "complete", 0.003)):
+        begun = registry.begin_trial(code, THESIS_SUBJECT.replace(radius_m=radius),
+                                     backend="simulator", session_number=session,
+                                     started_at=T0 + datetime.timedelta(days=session))
+        registry.finish_trial(begun.trial_id, status,
+                              {"rmse_x_m": rmse, "directional_performance_pct": 61.25},
+                              T0 + datetime.timedelta(days=session, minutes=1))
+    return progress(registry, code)
+
+
+def test_the_summary_counts_trials_sessions_and_settings(history):
+    assert progress_summary(history) == (
+        "3 trials in 2 sessions, 2 exercise settings. Compare points of the same colour "
+        "and shape: they are the same exercise.")
+
+
+def test_one_row_a_trial_with_status_file_state_exercise_and_figures(history):
+    table = progress_table(history)
+    figures = metric_rows(history)
+    assert [row.key for row in figures] == ["rmse_x_m", "directional_performance_pct"]
+    assert table.headings == (*LEADING_HEADINGS, "Position error, x (RMSE) (mm)",
+                              "Directional performance (%)")
+    first, second, third = table.rows
+    assert first[:2] == ("1", "1")
+    assert third[:2] == ("2", "1")
+    assert first[3] == "complete (file missing)"
+    assert second[3] == "stopped early (file missing)"
+    assert first[4] == history.parameter_sets[0].label() == third[4] != second[4]
+    assert first[5:] == ("4.00", "61.25")
+    assert third[5] == "3.00"
+
+
+def test_numbers_are_right_aligned_and_words_left():
+    assert [ProgressTable.right_aligned(c) for c in range(7)] == [
+        True, True, False, False, False, True, True]
+
+
+def test_a_figures_heading_carries_its_unit():
+    by_key = {row.key: row for row in ROWS}
+    assert metric_heading(by_key["rmse_x_m"]) == "Position error, x (RMSE) (mm)"
+    assert all(metric_heading(row).startswith(row.label) for row in ROWS)
