@@ -32,7 +32,7 @@ def _purge(package: str) -> None:
 
 
 @pytest.fixture
-def rig(monkeypatch):
+def fake_rig(monkeypatch):
     """Fake `quanser` and `nidaqmx` first on sys.path: a Q8-USB and an NI card on one clock."""
     monkeypatch.syspath_prepend(str(FAKES))
     for name in [n for n in sys.modules if n.split(".")[0] in ("quanser", "nidaqmx")]:
@@ -65,32 +65,32 @@ def _settings(**quanser) -> HardwareSettings:
     return HardwareSettings(QuanserSettings(**q), f, source="robot.toml")
 
 
-def _backend(rig, **quanser) -> QuanserBackend:
+def _backend(fake_rig, **quanser) -> QuanserBackend:
     settings = _settings(**quanser)
-    sensor = AtiForceSensor(settings.force_sensor, clock=rig.clock.now)
-    return QuanserBackend(settings, force_sensor=sensor, clock=rig.clock.now)
+    sensor = AtiForceSensor(settings.force_sensor, clock=fake_rig.clock.now)
+    return QuanserBackend(settings, force_sensor=sensor, clock=fake_rig.clock.now)
 
 
-def _opened(rig, **quanser) -> QuanserBackend:
-    backend = _backend(rig, **quanser)
+def _opened(fake_rig, **quanser) -> QuanserBackend:
+    backend = _backend(fake_rig, **quanser)
     backend.open()
     return backend
 
 
-def _tick(rig, backend: QuanserBackend, dt_s: float = 0.002) -> SensorReading:
-    rig.clock.advance(dt_s)
-    return backend.read(rig.clock.now())
+def _tick(fake_rig, backend: QuanserBackend, dt_s: float = 0.002) -> SensorReading:
+    fake_rig.clock.advance(dt_s)
+    return backend.read(fake_rig.clock.now())
 
 
-def test_it_is_a_backend(rig):
-    backend = _backend(rig)
+def test_it_is_a_backend(fake_rig):
+    backend = _backend(fake_rig)
     assert isinstance(backend, Backend)
     assert backend.name == "quanser"
 
 
-def test_open_follows_the_safe_sequence(rig):
-    backend = _opened(rig)
-    calls = rig.board.calls
+def test_open_follows_the_safe_sequence(fake_rig):
+    backend = _opened(fake_rig)
+    calls = fake_rig.board.calls
     assert [name for name, _ in calls] == [
         "open",
         "set_card_specific_options",
@@ -116,41 +116,41 @@ def test_open_follows_the_safe_sequence(rig):
     # The tare (0.1 s of samples on the shared clock) ran before the 20 ms watchdog started:
     # had the watchdog been started first, it would have expired by now.
     assert backend.force_sensor.is_open
-    assert rig.board.watchdog_running
-    assert not rig.board.watchdog_expired
-    _tick(rig, backend)
+    assert fake_rig.board.watchdog_running
+    assert not fake_rig.board.watchdog_expired
+    _tick(fake_rig, backend)
     backend.close()
 
 
-def test_legacy_q8_sets_expiration_states_on_all_32_digital_outputs(rig):
-    rig.board = rig.hil.fake_install_board("q8", "0", clock=rig.clock.now)
-    backend = _opened(rig, board_type="q8", card_options="")
-    args = dict(rig.board.calls)
+def test_legacy_q8_sets_expiration_states_on_all_32_digital_outputs(fake_rig):
+    fake_rig.board = fake_rig.hil.fake_install_board("q8", "0", clock=fake_rig.clock.now)
+    backend = _opened(fake_rig, board_type="q8", card_options="")
+    args = dict(fake_rig.board.calls)
     assert "set_card_specific_options" not in args
     assert args["watchdog_set_digital_expiration_state"] == (list(range(32)), [2] * 32)
     backend.close()
 
 
-def test_counts_become_joint_angles_with_signs_and_homing(rig):
-    rig.board.encoder_position[:] = [7, 8, 12345, 9, 10, -999, 11, 12]  # before Connect
-    backend = _opened(rig)
-    reading = _tick(rig, backend)
+def test_counts_become_joint_angles_with_signs_and_homing(fake_rig):
+    fake_rig.board.encoder_position[:] = [7, 8, 12345, 9, 10, -999, 11, 12]  # before Connect
+    backend = _opened(fake_rig)
+    reading = _tick(fake_rig, backend)
     assert (reading.q1_rad, reading.q2_rad) == HOME  # counts zeroed at the homing pose
-    rig.board.encoder_position[2] += 1000
-    rig.board.encoder_position[5] -= 2000
-    rig.board.encoder_position[[0, 1, 3, 4]] += 777  # other channels must not matter
-    reading = _tick(rig, backend)
+    fake_rig.board.encoder_position[2] += 1000
+    fake_rig.board.encoder_position[5] -= 2000
+    fake_rig.board.encoder_position[[0, 1, 3, 4]] += 777  # other channels must not matter
+    reading = _tick(fake_rig, backend)
     assert reading.q1_rad == pytest.approx(HOME[0] + 1000 * 2 * math.pi / COUNTS_PER_JOINT_REV)
     assert reading.q2_rad == pytest.approx(HOME[1] + 2000 * 2 * math.pi / COUNTS_PER_JOINT_REV)
     assert reading.q1_rad - HOME[0] == pytest.approx(math.radians(4.6906), abs=1e-6)
     backend.close()
 
 
-def test_reading_carries_the_clock_and_the_tared_forces(rig):
-    backend = _opened(rig)
-    rig.device.volts[:6] = [0.0, 0.1, 0.0, 0.0, 0.0, 0.0]
-    reading = _tick(rig, backend)
-    assert reading.time_s == rig.clock.now()
+def test_reading_carries_the_clock_and_the_tared_forces(fake_rig):
+    backend = _opened(fake_rig)
+    fake_rig.device.volts[:6] = [0.0, 0.1, 0.0, 0.0, 0.0, 0.0]
+    reading = _tick(fake_rig, backend)
+    assert reading.time_s == fake_rig.clock.now()
     assert (reading.force_x_N, reading.force_y_N, reading.force_z_N) == pytest.approx(
         (-0.034999, 6.12, 0.062)
     )
@@ -167,188 +167,189 @@ def test_reading_carries_the_clock_and_the_tared_forces(rig):
         ((-5.0, 5.0), 1.5, (-1.5, -1.5)),
     ],
 )
-def test_torque_becomes_current_then_volts_with_clamping(rig, torques, limit_V, volts):
-    backend = _opened(rig, output_voltage_limit_V=limit_V)
+def test_torque_becomes_current_then_volts_with_clamping(fake_rig, torques, limit_V, volts):
+    backend = _opened(fake_rig, output_voltage_limit_V=limit_V)
     backend.write(*torques)
-    assert rig.board.ao_volts[3] == pytest.approx(volts[0])
-    assert rig.board.ao_volts[6] == pytest.approx(volts[1])
-    others = np.delete(rig.board.ao_volts, [3, 6])
+    assert fake_rig.board.ao_volts[3] == pytest.approx(volts[0])
+    assert fake_rig.board.ao_volts[6] == pytest.approx(volts[1])
+    others = np.delete(fake_rig.board.ao_volts, [3, 6])
     assert not others.any()
     assert backend.commanded_volts == pytest.approx(volts)
     backend.close()
 
 
-def test_half_a_newton_metre_by_hand(rig):
+def test_half_a_newton_metre_by_hand(fake_rig):
     """0.5 N·m / (0.115 N·m/A × 19.1875) = 0.22660 A; at 0.5 A/V that is 0.45319 V."""
-    backend = _backend(rig)
+    backend = _backend(fake_rig)
     assert backend.volts_for_torque(0.5, 0.0)[0] == pytest.approx(0.45319, abs=1e-5)
 
 
-def test_not_finite_torque_is_refused_and_zeroes_the_motors(rig):
-    backend = _opened(rig)
+def test_not_finite_torque_is_refused_and_zeroes_the_motors(fake_rig):
+    backend = _opened(fake_rig)
     backend.write(0.5, 0.5)
     with pytest.raises(BackendError, match=r"Refused torque command \(nan, 0.5\)"):
         backend.write(float("nan"), 0.5)
-    assert not rig.board.ao_volts.any()
+    assert not fake_rig.board.ao_volts.any()
     backend.close()
 
 
-def test_signs_agree_with_a_simulated_motor(rig):
+def test_signs_agree_with_a_simulated_motor(fake_rig):
     """Joint 2's encoder counts down and its motor is wired reversed: with both signs
     set to -1, a positive torque still turns both joints the positive way."""
-    rig.board.plant_counts_per_V_s[:] = 2000.0
-    backend = _opened(rig, encoder_channels=(0, 1), analog_output_channels=(0, 1),
+    fake_rig.board.plant_counts_per_V_s[:] = 2000.0
+    backend = _opened(fake_rig, encoder_channels=(0, 1), analog_output_channels=(0, 1),
                       encoder_signs=(1, -1), motor_signs=(1, -1))
     backend.write(0.3, 0.3)
-    rig.board.advance(0.5)
-    reading = _tick(rig, backend)
+    fake_rig.board.advance(0.5)
+    reading = _tick(fake_rig, backend)
     assert reading.q1_rad > HOME[0]
     assert reading.q2_rad > HOME[1]
     backend.close()
 
 
-def test_the_watchdog_is_reloaded_on_every_read(rig):
-    backend = _opened(rig)
-    before = rig.board.call_names().count("watchdog_reload")
+def test_the_watchdog_is_reloaded_on_every_read(fake_rig):
+    backend = _opened(fake_rig)
+    before = fake_rig.board.call_names().count("watchdog_reload")
     for _ in range(200):  # 0.4 s: twenty times the watchdog's timeout
-        _tick(rig, backend, 0.002)
+        _tick(fake_rig, backend, 0.002)
         backend.write(0.1, 0.1)
-    assert rig.board.call_names().count("watchdog_reload") - before == 200
-    assert not rig.board.watchdog_expired
+    assert fake_rig.board.call_names().count("watchdog_reload") - before == 200
+    assert not fake_rig.board.watchdog_expired
     backend.close()
 
 
 @pytest.mark.parametrize("blocked_access", ["error", "ignore"])
-def test_watchdog_expiry_stops_the_motors_and_is_reported(rig, blocked_access):
-    rig.board.blocked_access = blocked_access
-    backend = _opened(rig)
+def test_watchdog_expiry_stops_the_motors_and_is_reported(fake_rig, blocked_access):
+    fake_rig.board.blocked_access = blocked_access
+    backend = _opened(fake_rig)
     backend.write(0.5, 0.5)
-    assert rig.board.ao_volts.any()
-    rig.clock.advance(0.05)  # the loop hung for 50 ms
+    assert fake_rig.board.ao_volts.any()
+    fake_rig.clock.advance(0.05)  # the loop hung for 50 ms
     with pytest.raises(BackendError, match="Q8 watchdog expired") as info:
-        backend.read(rig.clock.now())
+        backend.read(fake_rig.clock.now())
     assert "within 20 ms" in str(info.value)
-    assert not rig.board.ao_volts.any()  # the card zeroed its outputs by itself
+    assert not fake_rig.board.ao_volts.any()  # the card zeroed its outputs by itself
     if blocked_access == "error":
         with pytest.raises(BackendError, match="Q8 watchdog expired"):
             backend.write(0.5, 0.5)
     else:
         backend.write(0.5, 0.5)  # silently blocked
-    assert not rig.board.ao_volts.any()
+    assert not fake_rig.board.ao_volts.any()
     backend.safe_state()
     backend.close()  # a clean close after an expiry: stopped, cleared, zeroed
-    assert not rig.board.watchdog_expired
-    assert rig.board.open_handles == 0
-    reopened = _opened(rig)  # and the next Connect works
-    _tick(rig, reopened)
+    assert not fake_rig.board.watchdog_expired
+    assert fake_rig.board.open_handles == 0
+    reopened = _opened(fake_rig)  # and the next Connect works
+    _tick(fake_rig, reopened)
     reopened.close()
 
 
-def test_safe_state_never_raises(rig, caplog):
-    backend = _backend(rig)
+def test_safe_state_never_raises(fake_rig, caplog):
+    backend = _backend(fake_rig)
     backend.safe_state()  # not open
     backend.open()
     backend.write(0.5, -0.5)
     backend.safe_state()
-    assert not rig.board.ao_volts.any()
-    rig.board.fail["write_analog"] = 113
+    assert not fake_rig.board.ao_volts.any()
+    fake_rig.board.fail["write_analog"] = 113
     with caplog.at_level(logging.WARNING, logger="device.hardware.quanser"):
         backend.safe_state()
         backend.safe_state()
     assert sum("safe_state" in r.message for r in caplog.records) == 1  # once, not every tick
-    rig.board.broken = RuntimeError("USB cable pulled")
+    fake_rig.board.broken = RuntimeError("USB cable pulled")
     backend.safe_state()
-    rig.board.broken = None
-    rig.board.fail.clear()
+    fake_rig.board.broken = None
+    fake_rig.board.fail.clear()
     backend.close()
     backend.safe_state()  # closed
 
 
-def test_close_stops_everything_and_is_idempotent(rig):
-    backend = _opened(rig)
+def test_close_stops_everything_and_is_idempotent(fake_rig):
+    backend = _opened(fake_rig)
     backend.write(1.0, 1.0)
-    n = len(rig.board.calls)
+    n = len(fake_rig.board.calls)
     backend.close()
-    assert rig.board.call_names()[n:] == [
+    assert fake_rig.board.call_names()[n:] == [
         "watchdog_is_expired", "task_stop_all", "write_analog", "task_delete_all",
         "watchdog_stop", "close",
     ]
-    assert dict(rig.board.calls[n:])["write_analog"] == (list(range(8)), [0.0] * 8)
-    assert not rig.board.ao_volts.any()
-    assert not rig.board.watchdog_running
-    assert rig.board.open_handles == 0
-    assert rig.system.open_tasks == set()
+    assert dict(fake_rig.board.calls[n:])["write_analog"] == (list(range(8)), [0.0] * 8)
+    assert not fake_rig.board.ao_volts.any()
+    assert not fake_rig.board.watchdog_running
+    assert fake_rig.board.open_handles == 0
+    assert fake_rig.system.open_tasks == set()
     assert not backend.is_open
-    n = len(rig.board.calls)
+    n = len(fake_rig.board.calls)
     backend.close()
-    assert len(rig.board.calls) == n
+    assert len(fake_rig.board.calls) == n
     with pytest.raises(BackendError, match="not open"):
         backend.read(0.0)
     with pytest.raises(BackendError, match="not open"):
         backend.write(0.0, 0.0)
 
 
-def test_close_with_a_dead_card_still_releases_everything_then_reports(rig):
-    backend = _opened(rig)
-    rig.board.broken = RuntimeError("USB cable pulled")
+def test_close_with_a_dead_card_still_releases_everything_then_reports(fake_rig):
+    backend = _opened(fake_rig)
+    fake_rig.board.broken = RuntimeError("USB cable pulled")
     with pytest.raises(BackendError, match=r"incomplete .*USB cable pulled"):
         backend.close()
-    assert rig.board.open_handles == 0
-    assert rig.system.open_tasks == set()
+    assert fake_rig.board.open_handles == 0
+    assert fake_rig.system.open_tasks == set()
     backend.close()
 
 
-def test_board_not_found(rig):
-    backend = _backend(rig, board_identifier="1")
+def test_board_not_found(fake_rig):
+    backend = _backend(fake_rig, board_identifier="1")
     with pytest.raises(BackendUnavailable, match="q8_usb board #1 was not found") as info:
         backend.open()
     text = str(info.value)
     assert "HIL error -108" in text
     assert "board_identifier in robot.toml" in text
-    assert rig.system.tasks_created == 0  # the force sensor was not touched
+    assert fake_rig.system.tasks_created == 0  # the force sensor was not touched
     assert not backend.is_open
 
 
-def test_board_in_use(rig):
-    rig.board.in_use_elsewhere = True
+def test_board_in_use(fake_rig):
+    fake_rig.board.in_use_elsewhere = True
     with pytest.raises(BackendUnavailable, match=r"in use by another program \(HIL error -109"):
-        _backend(rig).open()
+        _backend(fake_rig).open()
 
 
-def test_unknown_encoder_channel(rig):
-    rig.board = rig.hil.fake_install_board("q8_usb", "0", encoders=4, clock=rig.clock.now)
-    backend = _backend(rig)
+def test_unknown_encoder_channel(fake_rig):
+    fake_rig.board = fake_rig.hil.fake_install_board("q8_usb", "0", encoders=4,
+                                                     clock=fake_rig.clock.now)
+    backend = _backend(fake_rig)
     with pytest.raises(BackendError, match=r"no encoder channel \[2, 5\].*encoder_channels"):
         backend.open()
-    assert rig.board.open_handles == 0
-    assert not rig.board.ao_volts.any()
+    assert fake_rig.board.open_handles == 0
+    assert not fake_rig.board.ao_volts.any()
 
 
-def test_fixed_output_ranges_are_accepted(rig):
-    rig.board.ao_range_programmable = False
-    backend = _opened(rig)
+def test_fixed_output_ranges_are_accepted(fake_rig):
+    fake_rig.board.ao_range_programmable = False
+    backend = _opened(fake_rig)
     backend.close()
 
 
-def test_a_watchdog_that_cannot_start_refuses_the_connect_and_releases_all(rig):
-    rig.board.fail["watchdog_start"] = 614
-    backend = _backend(rig)
+def test_a_watchdog_that_cannot_start_refuses_the_connect_and_releases_all(fake_rig):
+    fake_rig.board.fail["watchdog_start"] = 614
+    backend = _backend(fake_rig)
     with pytest.raises(BackendUnavailable, match="refused the watchdog configuration"):
         backend.open()
-    assert rig.board.open_handles == 0
-    assert rig.system.open_tasks == set()
+    assert fake_rig.board.open_handles == 0
+    assert fake_rig.system.open_tasks == set()
     assert not backend.force_sensor.is_open
 
 
-def test_force_sensor_failure_releases_the_card(rig):
-    rig.system.driver_installed = False
-    backend = _backend(rig)
+def test_force_sensor_failure_releases_the_card(fake_rig):
+    fake_rig.system.driver_installed = False
+    backend = _backend(fake_rig)
     with pytest.raises(BackendUnavailable, match="NI-DAQmx driver is not installed"):
         backend.open()
-    names = rig.board.call_names()
+    names = fake_rig.board.call_names()
     assert names[-2:] == ["watchdog_stop", "close"]
     assert "watchdog_start" not in names
-    assert rig.board.open_handles == 0
+    assert fake_rig.board.open_handles == 0
 
 
 def test_hil_not_installed(monkeypatch):
@@ -377,9 +378,9 @@ def test_hil_without_native_libraries_raises_oserror_at_import(monkeypatch, tmp_
 # -- the fake itself: the cffi buffer rules of the real API ---------------------------------------
 
 
-def test_fake_hil_enforces_the_real_buffer_rules(rig):
-    card = rig.hil.HIL("q8_usb", "0")
-    rig.board.encoder_position[:3] = [10, 20, 30]
+def test_fake_hil_enforces_the_real_buffer_rules(fake_rig):
+    card = fake_rig.hil.HIL("q8_usb", "0")
+    fake_rig.board.encoder_position[:3] = [10, 20, 30]
     out = np.zeros(2, dtype=np.int32)
     with pytest.raises(TypeError):
         card.read_encoder([1, 2], 2, out)
@@ -392,24 +393,24 @@ def test_fake_hil_enforces_the_real_buffer_rules(rig):
     assert wide.tolist() == [20 + (30 << 32), 0]  # two int32s written into one int64
     card.read_encoder(np.array([1, 2], dtype=np.uint32), 2, out)
     assert out.tolist() == [20, 30]
-    with pytest.raises(rig.hil.HILError) as info:
+    with pytest.raises(fake_rig.hil.HILError) as info:
         card.read_encoder(np.array([9], dtype=np.uint32), 1, out)
     assert info.value.error_code == -124
     assert str(info.value) == "-124"
     card.close()
     card.close()  # a no-op when not open
-    with pytest.raises(rig.hil.HILError) as info:
-        rig.hil.HIL("q8_usb", "7")
+    with pytest.raises(fake_rig.hil.HILError) as info:
+        fake_rig.hil.HIL("q8_usb", "7")
     assert info.value.error_code == -108
 
 
-def test_the_supervisor_takes_the_sensor_range_from_its_calibration(rig):
+def test_the_supervisor_takes_the_sensor_range_from_its_calibration(fake_rig):
     """The thesis's Nano25 is calibrated for 250 N in the plane (this .cal says so):
     the supervisor's saturation and force ceilings follow the file, not a constant."""
     from device.loop.process import limits_for_backend
     from device.safety.supervisor import SafetyLimits
 
-    backend = _opened(rig)
+    backend = _opened(fake_rig)
     planar, normal = backend.force_sensor_range_N
     assert planar == pytest.approx(250.0)
     assert normal > planar
