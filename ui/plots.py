@@ -2,9 +2,10 @@
 within/outside split of a signal, and calls run off the GUI thread.
 
 Every curve is a width-1 cosmetic pen with automatic downsampling and clipping to
-the view, the settings qt-stack.md measured to hold ≥ 50 fps on software
-rendering. Mouse zoom and the context menu are off: a live clinical display
-that a brushed sleeve can rescale is worse than one that always shows the trial.
+the view, the settings measured to hold ≥ 50 fps on software rendering
+(docs/architecture.md, The window and its Qt stack). Mouse zoom and the context
+menu are off: a live clinical display that a brushed sleeve can rescale is worse
+than one that always shows the trial.
 """
 
 from __future__ import annotations

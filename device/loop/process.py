@@ -8,7 +8,7 @@ waits on anything but its own deadline.
 
 Why a process and not a thread: a thread beside a live pyqtgraph window missed 4–9 % of
 2 ms deadlines on a 2-core machine because of the GIL; a process keeps ~1 %
-(ARCHITECTURE.md). It is also a safety boundary: if the console dies, the pipe closes and
+(docs/architecture.md). It is also a safety boundary: if the console dies, the pipe closes and
 the loop stops the trial at once and puts the robot in its safe state by itself.
 
 Time: the loop keeps absolute 2 ms deadlines on the wall clock and records how late
