@@ -13,7 +13,8 @@ window runs a trial, and cold start to a usable window.
    from the trial file the recorder wrote.
 3. Cold start: `rehab gui` in a fresh Python process, from launch to the window's first
    paint, median of 3.
-Goals (issue 7): ≥ 50 fps; loop figures as in issue 5; cold start ≤ 2 s. Figures only.
+Goals (docs/performance.md): ≥ 50 fps; loop figures as bench/loop_jitter.py's; cold start ≤ 2 s.
+Figures only.
 """
 
 from __future__ import annotations

@@ -17,7 +17,7 @@ read to torque written), the window's repaint rate, and what recording costs the
 ring push per tick, measured here on the same record). By default the simulator is
 stepped by the nominal period and lateness faults nothing (device.backend); `--timing
 real` runs it on the wall clock with the hardware's watchdog, as the real robot would be.
-Figures only. Goals (issue 5): beside the window, lateness p99 ≤ 0.25 ms, max ≤ 2 ms,
+Figures only. Goals (docs/performance.md): beside the window, lateness p99 ≤ 0.25 ms, max ≤ 2 ms,
 ≤ 0.1 % late, compute p99 ≤ 50 µs, recording ≤ 1 % of the tick.
 """
 

@@ -10,7 +10,7 @@ compiled engine's first trial in a fresh process costs (loading the compiled
 kernels from the cache, or compiling them when the cache is empty), the simulator's
 own read+write cost per tick in Python, and the controller tick cost p99 with the
 assistance on (from bench/controllers.py). Figures only, no assertion.
-Goals (issue 4): ≥ 500× real time; controller tick p99 ≤ 50 µs with the assistance.
+Goals (docs/performance.md): ≥ 500× real time; controller tick p99 ≤ 50 µs with the assistance.
 """
 
 from __future__ import annotations

@@ -2,9 +2,10 @@
 run off the GUI thread. Which samples they draw is ui.views.samples.
 
 Every curve is a width-1 cosmetic pen with automatic downsampling and clipping to
-the view, the settings qt-stack.md measured to hold ≥ 50 fps on software
-rendering. Mouse zoom and the context menu are off: a live clinical display
-that a brushed sleeve can rescale is worse than one that always shows the trial.
+the view, the settings measured to hold ≥ 50 fps on software rendering
+(docs/architecture.md, The window and its Qt stack). Mouse zoom and the context
+menu are off: a live clinical display that a brushed sleeve can rescale is worse
+than one that always shows the trial.
 """
 
 from __future__ import annotations

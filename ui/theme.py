@@ -10,8 +10,9 @@ numbers, touch targets and the plots' axis fonts all grow with it, so a clinic
 can set the whole window for a patient who reads from two metres away.
 
 pyqtgraph's global options are set here too: white background and antialiasing
-on, which qt-stack.md measured to keep ≥ 50 fps with the width-1 cosmetic pens
-every curve here uses (wider pens with antialiasing fall to 6–8 fps).
+on, which was measured to keep ≥ 50 fps with the width-1 cosmetic pens
+every curve here uses (wider pens with antialiasing fall to 6–8 fps; docs/architecture.md,
+The window and its Qt stack).
 """
 
 from __future__ import annotations
@@ -207,7 +208,7 @@ def set_role(widget, role: str):
 
 
 def pen(colour: str, *, dashed: bool = False) -> QPen:
-    """A width-1 cosmetic pen: the only width that keeps live plots ≥ 50 fps (qt-stack.md)."""
+    """A width-1 cosmetic pen: the only width that keeps live plots ≥ 50 fps (module notes)."""
     qpen = pg.mkPen(colour, width=1)
     qpen.setCosmetic(True)
     if dashed:

@@ -5,7 +5,7 @@ Why matplotlib's PDF backend: the report is mostly plots (Fig. 3.7, 3.9, 3.11,
 3.12) and matplotlib, already a dependency, draws them as vector graphics and
 writes the PDF itself; reportlab would add a dependency and still need
 matplotlib for the plots, and Qt's QPdfWriter is out of reach because `app` must
-not import Qt (ARCHITECTURE.md). Text is embedded as TrueType (pdf.fonttype 42),
+not import Qt (docs/architecture.md, Layers). Text is embedded as TrueType (pdf.fonttype 42),
 so it can be searched, copied and extracted.
 
 The parts, each with one job:

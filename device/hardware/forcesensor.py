@@ -8,8 +8,9 @@ in order; the ATI calibration matrix turns them into forces and torques
 
 Timing: continuous acquisition, newest sample on demand
 -------------------------------------------------------
-Of the three ways in shared/reference/hardware-apis.md §3 to get a low-latency
-sample, we use (b): the card samples continuously on its own clock
+Of the three ways NI-DAQmx offers to get a low-latency sample (a: on demand, b: the
+newest sample of a continuous buffer, c: hardware-timed single point; docs/hardware.md,
+Timing), we use (b): the card samples continuously on its own clock
 (`sample_rate_Hz`, 2 kHz by default) into a circular buffer that may overwrite
 unread samples, and every read asks for the most recent one
 (`relative_to = MOST_RECENT_SAMPLE`, `offset = -1`). Why:

@@ -1,7 +1,7 @@
 """Fake of `quanser.hardware` (Quanser HIL Python API) with a simulated Q8-series board.
 
 Same names, signatures and return conventions as the real cffi wrapper, and its
-buffer rules (shared/reference/hardware-apis.md §1):
+buffer rules (docs/hardware.md, Testing without the hardware):
 
 * channel, count, volt and enum arrays go to C through `ffi.from_buffer`: any
   buffer-protocol object is accepted, a `list` raises TypeError, a non-contiguous
@@ -17,7 +17,7 @@ every analog output and tristate on every digital output before `watchdog_start`
 (else -614); once the timeout passes without `watchdog_reload`, the outputs go
 to their expiration states, `watchdog_reload` returns False and hardware access
 stays blocked until `watchdog_clear`. Which error a blocked access raises on the
-real card is not known (hardware-apis.md marks it unverified), so a board can be
+real card is not known (docs/hardware.md lists it as unverified), so a board can be
 set to raise `FAKE_BLOCKED_ACCESS_CODE` (default) or to ignore blocked writes.
 
 The control surface for tests (`fake_*`, `FakeBoard`) is not part of the real API.
