@@ -27,8 +27,9 @@ def add_run_command(commands) -> None:
     run_cmd.add_argument("--code", help="register the trial for this patient (their body "
                                         "sizes replace the trial options')")
     run_cmd.add_argument("--engine", choices=("auto", "compiled", "python"), default="auto",
-                         help="auto (default): compiled, handing faults to Python; python: "
-                              "the reference implementation the live loop also uses")
+                         help="auto (default) or compiled: the tick's kernels compiled; "
+                              "python: the same kernels interpreted (the reference: the same "
+                              "samples, slower)")
     run_cmd.set_defaults(func=cmd_run)
 
 
