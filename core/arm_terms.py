@@ -21,69 +21,79 @@ xp = math
 (ARM_LU, ARM_LF, ARM_SX, ARM_SY, ARM_A11, ARM_A22, ARM_K, ARM_SIGN, ARM_SIZE) = range(9)
 
 
+# What `trig` gives, the sines and cosines every term below is made of.
+T_SS, T_CS, T_SE, T_CE, T_SD, T_CD = range(6)
+
+
 @kernel
-def position(a, ts, te):
+def trig(ts, te):
+    """(sin θ_s, cos θ_s, sin θ_e, cos θ_e, sin(θ_e − θ_s), cos(θ_e − θ_s)): computed once
+    per state for the `*_of` kernels (see core.robot_terms.trig)."""
+    d = te - ts
+    return (xp.sin(ts), xp.cos(ts), xp.sin(te), xp.cos(te), xp.sin(d), xp.cos(d))
+
+
+@kernel
+def position_of(a, t):
     """Hand position (x, y), eq. 3.16."""
-    return (a[ARM_SX] - a[ARM_LU] * xp.cos(ts) - a[ARM_LF] * xp.cos(te),
-            a[ARM_SY] - a[ARM_LU] * xp.sin(ts) - a[ARM_LF] * xp.sin(te))
+    return (a[ARM_SX] - a[ARM_LU] * t[T_CS] - a[ARM_LF] * t[T_CE],
+            a[ARM_SY] - a[ARM_LU] * t[T_SS] - a[ARM_LF] * t[T_SE])
 
 
 @kernel
-def elbow_position(a, ts, te):
-    """Elbow position (x, y); it does not depend on θ_e."""
-    return (a[ARM_SX] - a[ARM_LU] * xp.cos(ts), a[ARM_SY] - a[ARM_LU] * xp.sin(ts))
+def elbow_position_of(a, t):
+    """Elbow position (x, y)."""
+    return (a[ARM_SX] - a[ARM_LU] * t[T_CS], a[ARM_SY] - a[ARM_LU] * t[T_SS])
 
 
 @kernel
-def jacobian_terms(a, ts, te):
+def jacobian_of(a, t):
     """J_A = ∂P_A/∂θ_A as (j11, j12, j21, j22), eq. 3.17."""
     lu = a[ARM_LU]
     lf = a[ARM_LF]
-    return (lu * xp.sin(ts), lf * xp.sin(te), -lu * xp.cos(ts), -lf * xp.cos(te))
+    return (lu * t[T_SS], lf * t[T_SE], -lu * t[T_CS], -lf * t[T_CE])
 
 
 @kernel
-def jacobian_dot_terms(a, ts, te, tsd, ted):
+def jacobian_dot_of(a, t, tsd, ted):
     """dJ_A/dt as (j11, j12, j21, j22), used in eq. 3.19."""
     lu = a[ARM_LU]
     lf = a[ARM_LF]
-    return (lu * xp.cos(ts) * tsd, lf * xp.cos(te) * ted, lu * xp.sin(ts) * tsd,
-            lf * xp.sin(te) * ted)
+    return (lu * t[T_CS] * tsd, lf * t[T_CE] * ted, lu * t[T_SS] * tsd, lf * t[T_SE] * ted)
 
 
 @kernel
-def mass_terms(a, ts, te):
+def mass_of(a, t):
     """M_A as (m11, m12, m22), derived for the absolute angles of eq. 3.16."""
-    d = te - ts
-    return (a[ARM_A11] + 0.0 * d, a[ARM_K] * xp.cos(d), a[ARM_A22] + 0.0 * d)
+    cd = t[T_CD]
+    return (a[ARM_A11] + 0.0 * cd, a[ARM_K] * cd, a[ARM_A22] + 0.0 * cd)
 
 
 @kernel
-def coriolis_terms(a, ts, te, tsd, ted):
+def coriolis_of(a, t, tsd, ted):
     """C_A as (c11, c12, c21, c22), Christoffel form (Ṁ_A − 2C_A skew)."""
-    d = te - ts
-    g = a[ARM_K] * xp.sin(d)
-    zero = 0.0 * d
+    g = a[ARM_K] * t[T_SD]
+    zero = 0.0 * t[T_SD]
     return (zero, -g * ted, g * tsd, zero)
 
 
 @kernel
-def inverse_dynamics_terms(a, ts, te, tsd, ted, tsdd, tedd, fx, fy):
+def inverse_dynamics_of(a, t, tsd, ted, tsdd, tedd, fx, fy):
     """Net joint torques τ_A (shoulder, elbow) for a motion and the hand's force on the
     handle, eq. 3.27: τ_A = M_A θ̈_A + C_A θ̇_A + J_Aᵀ F_hand."""
-    m11, m12, m22 = mass_terms(a, ts, te)
-    _, c12, c21, _ = coriolis_terms(a, ts, te, tsd, ted)
-    j11, j12, j21, j22 = jacobian_terms(a, ts, te)
+    m11, m12, m22 = mass_of(a, t)
+    _, c12, c21, _ = coriolis_of(a, t, tsd, ted)
+    j11, j12, j21, j22 = jacobian_of(a, t)
     return (m11 * tsdd + m12 * tedd + c12 * ted + j11 * fx + j21 * fy,
             m12 * tsdd + m22 * tedd + c21 * tsd + j12 * fx + j22 * fy)
 
 
 @kernel
-def forward_dynamics_terms(a, ts, te, tsd, ted, tau_s, tau_e, fx, fy):
+def forward_dynamics_of(a, t, tsd, ted, tau_s, tau_e, fx, fy):
     """Joint accelerations θ̈_A for net joint torques and the hand's force (eq. 3.27)."""
-    m11, m12, m22 = mass_terms(a, ts, te)
-    _, c12, c21, _ = coriolis_terms(a, ts, te, tsd, ted)
-    j11, j12, j21, j22 = jacobian_terms(a, ts, te)
+    m11, m12, m22 = mass_of(a, t)
+    _, c12, c21, _ = coriolis_of(a, t, tsd, ted)
+    j11, j12, j21, j22 = jacobian_of(a, t)
     r1 = tau_s - c12 * ted - (j11 * fx + j21 * fy)
     r2 = tau_e - c21 * tsd - (j12 * fx + j22 * fy)
     det = m11 * m22 - m12 * m12
@@ -91,22 +101,91 @@ def forward_dynamics_terms(a, ts, te, tsd, ted, tau_s, tau_e, fx, fy):
 
 
 @kernel
-def kinetic_energy_terms(a, ts, te, tsd, ted):
+def kinetic_energy_of(a, t, tsd, ted):
     """½ θ̇_Aᵀ M_A θ̇_A."""
-    m11, m12, m22 = mass_terms(a, ts, te)
+    m11, m12, m22 = mass_of(a, t)
     return 0.5 * (m11 * tsd * tsd + 2.0 * m12 * tsd * ted + m22 * ted * ted)
+
+
+# The same terms of joint angles, for one term at a time (ArmModel's methods).
+@kernel
+def position(a, ts, te):
+    return position_of(a, trig(ts, te))
+
+
+@kernel
+def elbow_position(a, ts, te):
+    return elbow_position_of(a, trig(ts, te))
+
+
+@kernel
+def jacobian_terms(a, ts, te):
+    return jacobian_of(a, trig(ts, te))
+
+
+@kernel
+def jacobian_dot_terms(a, ts, te, tsd, ted):
+    return jacobian_dot_of(a, trig(ts, te), tsd, ted)
+
+
+@kernel
+def mass_terms(a, ts, te):
+    return mass_of(a, trig(ts, te))
+
+
+@kernel
+def coriolis_terms(a, ts, te, tsd, ted):
+    return coriolis_of(a, trig(ts, te), tsd, ted)
+
+
+@kernel
+def inverse_dynamics_terms(a, ts, te, tsd, ted, tsdd, tedd, fx, fy):
+    return inverse_dynamics_of(a, trig(ts, te), tsd, ted, tsdd, tedd, fx, fy)
+
+
+@kernel
+def forward_dynamics_terms(a, ts, te, tsd, ted, tau_s, tau_e, fx, fy):
+    return forward_dynamics_of(a, trig(ts, te), tsd, ted, tau_s, tau_e, fx, fy)
+
+
+@kernel
+def kinetic_energy_terms(a, ts, te, tsd, ted):
+    return kinetic_energy_of(a, trig(ts, te), tsd, ted)
+
+
+@kernel
+def ik_of(a, x, y):
+    """Joint angles (θ_s, θ_e) for a hand position on the anatomical branch (the elbow
+    flexed the way an elbow bends), with their trig (as `trig` gives it): (θ_s, θ_e,
+    trig). Unreachable points give NaN.
+
+    From the shoulder to the hand, v = S − P = l_u e(θ_s) + l_f e(θ_e) (eq. 3.16). The
+    law of cosines gives the elbow, cos(θ_e − θ_s) = (|v|² − l_u² − l_f²)/(2 l_u l_f),
+    its sine takes the elbow's sign, and e(θ_s) and e(θ_e) follow from v by solving the
+    2×2 system in closed form: two inverse trigonometric functions and no sine or cosine
+    of an angle, which the coupled dynamics take twice a step."""
+    lu = a[ARM_LU]
+    lf = a[ARM_LF]
+    sign = a[ARM_SIGN]
+    vx = a[ARM_SX] - x
+    vy = a[ARM_SY] - y
+    d2 = vx * vx + vy * vy
+    cd = (d2 - lu * lu - lf * lf) / (2.0 * lu * lf)
+    cd = where(abs(cd) <= 1.0, cd, xp.nan)
+    sd = sign * xp.sqrt(1.0 - cd * cd)
+    pp = lu + lf * cd
+    qq = lf * sd
+    cs = (pp * vx + qq * vy) / d2
+    ss = (pp * vy - qq * vx) / d2
+    ce = (vx - lu * cs) / lf
+    se = (vy - lu * ss) / lf
+    ts = xp.atan2(ss, cs)
+    return (ts, ts + sign * xp.acos(cd), (ss, cs, se, ce, sd, cd))
 
 
 @kernel
 def ik_terms(a, x, y):
     """Joint angles (θ_s, θ_e) for a hand position on the anatomical branch (the elbow
     flexed the way an elbow bends). Unreachable points give NaN."""
-    lu = a[ARM_LU]
-    lf = a[ARM_LF]
-    vx = a[ARM_SX] - x
-    vy = a[ARM_SY] - y
-    cos_elbow = (vx * vx + vy * vy - lu * lu - lf * lf) / (2.0 * lu * lf)
-    cos_elbow = where(abs(cos_elbow) <= 1.0, cos_elbow, xp.nan)
-    elbow = a[ARM_SIGN] * xp.acos(cos_elbow)
-    ts = xp.atan2(vy, vx) - xp.atan2(lf * xp.sin(elbow), lu + lf * xp.cos(elbow))
-    return (ts, ts + elbow)
+    ts, te, _ = ik_of(a, x, y)
+    return (ts, te)

@@ -14,22 +14,24 @@ from dataclasses import dataclass
 
 from core.arm import ArmModel
 from core.arm_terms import (
-    coriolis_terms as arm_coriolis,
-    ik_terms as arm_ik,
-    jacobian_dot_terms as arm_jacobian_dot,
-    jacobian_terms as arm_jacobian,
-    mass_terms as arm_mass,
+    coriolis_of as arm_coriolis_of,
+    ik_of as arm_ik_of,
+    inverse_dynamics_of as arm_inverse_dynamics_of,
+    jacobian_dot_of as arm_jacobian_dot_of,
+    jacobian_of as arm_jacobian_of,
+    mass_of as arm_mass_of,
 )
 from core.arrays import solve2_damped
 from core.errors import SingularityError
 from core.kernels import kernel, suited
 from core.robot import RobotModel
 from core.robot_terms import (
-    bias_terms as robot_bias,
-    jacobian_dot_terms as robot_jacobian_dot,
-    jacobian_terms as robot_jacobian,
-    mass_terms as robot_mass,
-    position as robot_position,
+    bias_of as robot_bias_of,
+    jacobian_dot_of as robot_jacobian_dot_of,
+    jacobian_of as robot_jacobian_of,
+    mass_of as robot_mass_of,
+    position_of as robot_position_of,
+    trig as robot_trig,
 )
 
 xp = math
@@ -71,11 +73,7 @@ def subject_angles(robot: RobotModel, arm: ArmModel, q1, q2):
 def subject_rates(robot: RobotModel, arm: ArmModel, q1, q2, qd1, qd2, ts, te):
     """θ̇_A = J_A⁻¹ J_R θ̇_R (eq. 3.32), with a damped pseudo-inverse near the
     straight-arm singularity. Returns (θ̇_s, θ̇_e, damped)."""
-    r11, r12, r21, r22 = robot.jacobian_terms(q1, q2)
-    vx = r11 * qd1 + r12 * qd2
-    vy = r21 * qd1 + r22 * qd2
-    a11, a12, a21, a22 = arm.jacobian_terms(ts, te)
-    return solve2_damped(a11, a12, a21, a22, vx, vy, ARM_SINGULAR_THRESHOLD_M)
+    return _rates(robot.jacobian_terms(q1, q2), arm.jacobian_terms(ts, te), qd1, qd2)
 
 
 def subject_accelerations(
@@ -83,13 +81,27 @@ def subject_accelerations(
 ):
     """θ̈_A = J_A⁻¹ (J̇_R θ̇_R + J_R θ̈_R − J̇_A θ̇_A) (eq. 3.33), damped like the rates.
     Returns (θ̈_s, θ̈_e, damped)."""
-    r11, r12, r21, r22 = robot.jacobian_terms(q1, q2)
-    d11, d12, d21, d22 = robot.jacobian_dot_terms(q1, q2, qd1, qd2)
-    e11, e12, e21, e22 = arm.jacobian_dot_terms(ts, te, tsd, ted)
+    return _accelerations(robot.jacobian_terms(q1, q2), arm.jacobian_terms(ts, te),
+                          robot.jacobian_dot_terms(q1, q2, qd1, qd2),
+                          arm.jacobian_dot_terms(ts, te, tsd, ted), qd1, qd2, qdd1, qdd2,
+                          tsd, ted)
+
+
+def _rates(robot_jacobian, arm_jacobian, qd1, qd2):
+    r11, r12, r21, r22 = robot_jacobian
+    vx = r11 * qd1 + r12 * qd2
+    vy = r21 * qd1 + r22 * qd2
+    return solve2_damped(*arm_jacobian, vx, vy, ARM_SINGULAR_THRESHOLD_M)
+
+
+def _accelerations(robot_jacobian, arm_jacobian, robot_jacobian_dot, arm_jacobian_dot,
+                   qd1, qd2, qdd1, qdd2, tsd, ted):
+    r11, r12, r21, r22 = robot_jacobian
+    d11, d12, d21, d22 = robot_jacobian_dot
+    e11, e12, e21, e22 = arm_jacobian_dot
     ax = r11 * qdd1 + r12 * qdd2 + d11 * qd1 + d12 * qd2 - (e11 * tsd + e12 * ted)
     ay = r21 * qdd1 + r22 * qdd2 + d21 * qd1 + d22 * qd2 - (e21 * tsd + e22 * ted)
-    a11, a12, a21, a22 = arm.jacobian_terms(ts, te)
-    return solve2_damped(a11, a12, a21, a22, ax, ay, ARM_SINGULAR_THRESHOLD_M)
+    return solve2_damped(*arm_jacobian, ax, ay, ARM_SINGULAR_THRESHOLD_M)
 
 
 def subject_torques(arm: ArmModel, ts, te, tsd, ted, tsdd, tedd, fx, fy):
@@ -129,14 +141,22 @@ def subject_state(
     sensor_offset_rad=0.0,
 ) -> SubjectState:
     """Run the whole interaction model (eq. 3.28, 3.32–3.33, 3.35–3.38, 3.27) on one
-    sample or on arrays of samples."""
-    fx, fy = sensor_to_global(fx_sensor, fy_sensor, q1, sensor_offset_rad)
-    ts, te = subject_angles(robot, arm, q1, q2)
-    tsd, ted, damped_rate = subject_rates(robot, arm, q1, q2, qd1, qd2, ts, te)
-    tsdd, tedd, damped_acc = subject_accelerations(
-        robot, arm, q1, q2, qd1, qd2, qdd1, qdd2, ts, te, tsd, ted
-    )
-    tau_s, tau_e = subject_torques(arm, ts, te, tsd, ted, tsdd, tedd, fx, fy)
+    sample or on arrays of samples, each state's sines taken once (core.robot_terms.trig)."""
+    def k(function):
+        return suited(function, q1)
+
+    r, a = robot.constants, arm.constants
+    fx, fy = k(rotated_to_global)(fx_sensor, fy_sensor, q1, sensor_offset_rad)
+    rt = k(robot_trig)(q1, q2)
+    x, y = k(robot_position_of)(r, rt)
+    ts, te, at = k(arm_ik_of)(a, x, y)
+    robot_jacobian = k(robot_jacobian_of)(r, rt)
+    arm_jacobian = k(arm_jacobian_of)(a, at)
+    tsd, ted, damped_rate = _rates(robot_jacobian, arm_jacobian, qd1, qd2)
+    tsdd, tedd, damped_acc = _accelerations(
+        robot_jacobian, arm_jacobian, k(robot_jacobian_dot_of)(r, rt, qd1, qd2),
+        k(arm_jacobian_dot_of)(a, at, tsd, ted), qd1, qd2, qdd1, qdd2, tsd, ted)
+    tau_s, tau_e = k(arm_inverse_dynamics_of)(a, at, tsd, ted, tsdd, tedd, fx, fy)
     isb_s, isb_e = arm.isb_terms(ts, te)
     return SubjectState(
         fx, fy, ts, te, tsd, ted, tsdd, tedd, tau_s, tau_e, isb_s, isb_e,
@@ -161,40 +181,44 @@ def coupled_forward_dynamics(
     Raises SingularityError when the arm is straight (J_A not invertible).
     """
     r, a = robot.constants, arm.constants
-    ok, ts, te, tsd, ted = arm_state(r, a, q1, q2, qd1, qd2)
+    ok, ts, te, tsd, ted, rt, at = arm_state(r, a, q1, q2, qd1, qd2)
     if not ok:
         x, y = robot.position(q1, q2)
         raise SingularityError(
             f"the subject's arm is straight or out of reach at ({x:.3f}, {y:.3f}) m; "
             "the coupled model has no solution there. Keep the handle within the arm's reach."
         )
-    qdd1, qdd2, fx, fy, *_ = coupled_motion(r, a, q1, q2, qd1, qd2, tau1, tau2, tau_s, tau_e,
-                                            ts, te, tsd, ted)
+    qdd1, qdd2, fx, fy, *_ = coupled_motion(r, a, rt, at, q1, q2, qd1, qd2, tau1, tau2, tau_s,
+                                            tau_e, tsd, ted)
     return (qdd1, qdd2, fx, fy, ts, te, tsd, ted)
 
 
 @kernel
 def arm_state(r, a, q1, q2, qd1, qd2):
     """The arm's angles and rates with the hand on the handle (eq. 3.28, 3.32, exact:
-    θ̇_A = J_A⁻¹ J_R θ̇_R): (ok, θ_s, θ_e, θ̇_s, θ̇_e), ok False where the arm is straight
-    or out of reach. `r` and `a` are the robot's and the arm's constants."""
-    x, y = robot_position(r, q1, q2)
-    ts, te = arm_ik(a, x, y)
-    a11, a12, a21, a22 = arm_jacobian(a, ts, te)
+    θ̇_A = J_A⁻¹ J_R θ̇_R): (ok, θ_s, θ_e, θ̇_s, θ̇_e, the robot's trig, the arm's trig),
+    ok False where the arm is straight or out of reach. `r` and `a` are the robot's
+    and the arm's constants; the trig (core.robot_terms.trig, core.arm_terms.trig) is
+    for `coupled_motion`, so that the state's sines are taken once."""
+    rt = robot_trig(q1, q2)
+    x, y = robot_position_of(r, rt)
+    ts, te, at = arm_ik_of(a, x, y)
+    a11, a12, a21, a22 = arm_jacobian_of(a, at)
     det_a = a11 * a22 - a12 * a21
     if not abs(det_a) > ARM_DET_MIN_M2 or math.isnan(ts):
-        return (False, ts, te, 0.0, 0.0)
-    r11, r12, r21, r22 = robot_jacobian(r, q1, q2)
+        return (False, ts, te, 0.0, 0.0, rt, at)
+    r11, r12, r21, r22 = robot_jacobian_of(r, rt)
     vx = r11 * qd1 + r12 * qd2
     vy = r21 * qd1 + r22 * qd2
-    return (True, ts, te, (a22 * vx - a12 * vy) / det_a, (a11 * vy - a21 * vx) / det_a)
+    return (True, ts, te, (a22 * vx - a12 * vy) / det_a, (a11 * vy - a21 * vx) / det_a, rt,
+            at)
 
 
 @kernel
-def coupled_motion(r, a, q1, q2, qd1, qd2, tau1, tau2, tau_s, tau_e, ts, te, tsd, ted):
+def coupled_motion(r, a, rt, at, q1, q2, qd1, qd2, tau1, tau2, tau_s, tau_e, tsd, ted):
     """The coupled robot and arm's accelerations for motor torques τ_R and net arm
-    torques τ_A, at the arm state `arm_state` gave. With G = J_A⁻¹ J_R, θ̇_A = G θ̇_R and
-    θ̈_A = G θ̈_R + g, g = J_A⁻¹(J̇_R θ̇_R − J̇_A θ̇_A):
+    torques τ_A, at the arm state `arm_state` gave (with its trig rt, at). With
+    G = J_A⁻¹ J_R, θ̇_A = G θ̇_R and θ̈_A = G θ̈_R + g, g = J_A⁻¹(J̇_R θ̇_R − J̇_A θ̇_A):
 
         (M_R + Gᵀ M_A G) θ̈_R = τ_R − h_R + Gᵀ (τ_A − C_A θ̇_A − M_A g)
 
@@ -202,33 +226,33 @@ def coupled_motion(r, a, q1, q2, qd1, qd2, tau1, tau2, tau_s, tau_e, ts, te, tsd
     F_hand = J_A⁻ᵀ (τ_A − M_A θ̈_A − C_A θ̇_A). Returns (θ̈_R1, θ̈_R2, F_x, F_y,
     θ̈_s, θ̈_e, n11, n12, n22), the last three the inverse coupled mass, which maps a
     change of motor torque to θ̈_R (the accelerations are affine in τ_R)."""
-    a11, a12, a21, a22 = arm_jacobian(a, ts, te)
+    a11, a12, a21, a22 = arm_jacobian_of(a, at)
     det_a = a11 * a22 - a12 * a21
     # J_A⁻¹ entries
     i11 = a22 / det_a
     i12 = -a12 / det_a
     i21 = -a21 / det_a
     i22 = a11 / det_a
-    r11, r12, r21, r22 = robot_jacobian(r, q1, q2)
+    r11, r12, r21, r22 = robot_jacobian_of(r, rt)
     g11 = i11 * r11 + i12 * r21
     g12 = i11 * r12 + i12 * r22
     g21 = i21 * r11 + i22 * r21
     g22 = i21 * r12 + i22 * r22
-    d11, d12, d21, d22 = robot_jacobian_dot(r, q1, q2, qd1, qd2)
-    e11, e12, e21, e22 = arm_jacobian_dot(a, ts, te, tsd, ted)
+    d11, d12, d21, d22 = robot_jacobian_dot_of(r, rt, qd1, qd2)
+    e11, e12, e21, e22 = arm_jacobian_dot_of(a, at, tsd, ted)
     wx = d11 * qd1 + d12 * qd2 - (e11 * tsd + e12 * ted)
     wy = d21 * qd1 + d22 * qd2 - (e21 * tsd + e22 * ted)
     gs = i11 * wx + i12 * wy
     ge = i21 * wx + i22 * wy
 
-    ma11, ma12, ma22 = arm_mass(a, ts, te)
-    _, ca12, ca21, _ = arm_coriolis(a, ts, te, tsd, ted)
+    ma11, ma12, ma22 = arm_mass_of(a, at)
+    _, ca12, ca21, _ = arm_coriolis_of(a, at, tsd, ted)
     # arm-side generalised force left after its own bias and the g-part of its inertia
     ps = tau_s - ca12 * ted - (ma11 * gs + ma12 * ge)
     pe = tau_e - ca21 * tsd - (ma12 * gs + ma22 * ge)
 
-    mr11, mr12, mr22 = robot_mass(r, q1, q2)
-    h1, h2 = robot_bias(r, q1, q2, qd1, qd2)
+    mr11, mr12, mr22 = robot_mass_of(r, rt)
+    h1, h2 = robot_bias_of(r, rt, q1, q2, qd1, qd2)
     # Gᵀ M_A G
     t11 = ma11 * g11 + ma12 * g21
     t12 = ma11 * g12 + ma12 * g22

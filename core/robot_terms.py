@@ -29,41 +29,50 @@ _TWO_PI = 2.0 * math.pi
 _SPEED_AT_REST_M_S = 1e-12
 
 
+# What `trig` gives, the sines and cosines every term below is made of.
+T_S1, T_C1, T_S2, T_C2, T_SD, T_CD = range(6)
+
+
 @kernel
-def position(r, q1, q2):
+def trig(q1, q2):
+    """(sin θ1, cos θ1, sin θ2, cos θ2, sin(θ1 − θ2), cos(θ1 − θ2)): computed once per
+    state, so that a tick that needs several terms (the coupled dynamics, a controller)
+    does not take the same sine again for each (the `*_of` kernels take it)."""
+    d = q1 - q2
+    return (xp.sin(q1), xp.cos(q1), xp.sin(q2), xp.cos(q2), xp.sin(d), xp.cos(d))
+
+
+@kernel
+def position_of(r, t):
     """End-effector position (x, y), eq. 3.2."""
-    return (r[R_L2] * xp.cos(q2) + r[R_L4] * xp.cos(q1),
-            r[R_L2] * xp.sin(q2) + r[R_L4] * xp.sin(q1))
+    return (r[R_L2] * t[T_C2] + r[R_L4] * t[T_C1], r[R_L2] * t[T_S2] + r[R_L4] * t[T_S1])
 
 
 @kernel
-def jacobian_terms(r, q1, q2):
+def jacobian_of(r, t):
     """J_R = ∂P_R/∂θ_R as (j11, j12, j21, j22), eq. 3.3, columns in joint order."""
-    return (-r[R_L4] * xp.sin(q1), -r[R_L2] * xp.sin(q2), r[R_L4] * xp.cos(q1),
-            r[R_L2] * xp.cos(q2))
+    return (-r[R_L4] * t[T_S1], -r[R_L2] * t[T_S2], r[R_L4] * t[T_C1], r[R_L2] * t[T_C2])
 
 
 @kernel
-def jacobian_dot_terms(r, q1, q2, qd1, qd2):
+def jacobian_dot_of(r, t, qd1, qd2):
     """dJ_R/dt as (j11, j12, j21, j22), used in eq. 3.5."""
-    return (-r[R_L4] * xp.cos(q1) * qd1, -r[R_L2] * xp.cos(q2) * qd2,
-            -r[R_L4] * xp.sin(q1) * qd1, -r[R_L2] * xp.sin(q2) * qd2)
+    return (-r[R_L4] * t[T_C1] * qd1, -r[R_L2] * t[T_C2] * qd2, -r[R_L4] * t[T_S1] * qd1,
+            -r[R_L2] * t[T_S2] * qd2)
 
 
 @kernel
-def mass_terms(r, q1, q2):
+def mass_of(r, t):
     """M_R as (m11, m12, m22), eq. 3.7 with c12, s12 of eq. 3.9–3.10."""
-    d = q1 - q2
-    m12 = r[R_A2] * xp.cos(d) + r[R_A3] * xp.sin(d)
-    return (r[R_A1] + 0.0 * d, m12, r[R_A4] + 0.0 * d)
+    cd = t[T_CD]
+    return (r[R_A1] + 0.0 * cd, r[R_A2] * cd + r[R_A3] * t[T_SD], r[R_A4] + 0.0 * cd)
 
 
 @kernel
-def coriolis_terms(r, q1, q2, qd1, qd2):
+def coriolis_of(r, t, qd1, qd2):
     """C_R as (c11, c12, c21, c22), eq. 3.8 (Christoffel form: Ṁ − 2C is skew)."""
-    d = q1 - q2
-    g = r[R_A2] * xp.sin(d) - r[R_A3] * xp.cos(d)
-    zero = 0.0 * d
+    g = r[R_A2] * t[T_SD] - r[R_A3] * t[T_CD]
+    zero = 0.0 * t[T_SD]
     return (zero, g * qd2, -g * qd1, zero)
 
 
@@ -75,14 +84,14 @@ def tanh_over(speed, scale):
 
 
 @kernel
-def friction_terms(r, q1, q2, qd1, qd2):
+def friction_of(r, t, qd1, qd2):
     """Joint torques of joint friction f_RJ plus end-effector friction J_Rᵀ f_RE
     (core.robot.Friction)."""
     f1 = r[R_FC1] * xp.tanh(qd1 / r[R_VS]) + (r[R_FV1] * qd1)
     f2 = r[R_FC2] * xp.tanh(qd2 / r[R_VS]) + (r[R_FV2] * qd2)
     if r[R_EE_C] == 0.0 and r[R_EE_V] == 0.0:
         return (f1, f2)
-    j11, j12, j21, j22 = jacobian_terms(r, q1, q2)
+    j11, j12, j21, j22 = jacobian_of(r, t)
     vx = j11 * qd1 + j12 * qd2
     vy = j21 * qd1 + j22 * qd2
     speed = xp.sqrt(vx * vx + vy * vy)
@@ -101,30 +110,30 @@ def stiffness_terms(r, q1, q2):
 
 
 @kernel
-def bias_terms(r, q1, q2, qd1, qd2):
+def bias_of(r, t, q1, q2, qd1, qd2):
     """Everything in eq. 3.6 but M_R θ̈: C_R θ̇ + K_R(θ − θ_R0) + J_Rᵀ f_RE + f_RJ."""
-    _, c12, c21, _ = coriolis_terms(r, q1, q2, qd1, qd2)
+    _, c12, c21, _ = coriolis_of(r, t, qd1, qd2)
     k1, k2 = stiffness_terms(r, q1, q2)
-    f1, f2 = friction_terms(r, q1, q2, qd1, qd2)
+    f1, f2 = friction_of(r, t, qd1, qd2)
     return (c12 * qd2 + k1 + f1, c21 * qd1 + k2 + f2)
 
 
 @kernel
-def inverse_dynamics_terms(r, q1, q2, qd1, qd2, qdd1, qdd2, fx, fy):
+def inverse_dynamics_of(r, t, q1, q2, qd1, qd2, qdd1, qdd2, fx, fy):
     """Joint torques τ_R for a motion and a hand force on the handle (eq. 3.26)."""
-    m11, m12, m22 = mass_terms(r, q1, q2)
-    h1, h2 = bias_terms(r, q1, q2, qd1, qd2)
-    j11, j12, j21, j22 = jacobian_terms(r, q1, q2)
+    m11, m12, m22 = mass_of(r, t)
+    h1, h2 = bias_of(r, t, q1, q2, qd1, qd2)
+    j11, j12, j21, j22 = jacobian_of(r, t)
     return (m11 * qdd1 + m12 * qdd2 + h1 - (j11 * fx + j21 * fy),
             m12 * qdd1 + m22 * qdd2 + h2 - (j12 * fx + j22 * fy))
 
 
 @kernel
-def forward_dynamics_terms(r, q1, q2, qd1, qd2, tau1, tau2, fx, fy):
+def forward_dynamics_of(r, t, q1, q2, qd1, qd2, tau1, tau2, fx, fy):
     """Joint accelerations θ̈_R for torques and a hand force on the handle (eq. 3.26)."""
-    m11, m12, m22 = mass_terms(r, q1, q2)
-    h1, h2 = bias_terms(r, q1, q2, qd1, qd2)
-    j11, j12, j21, j22 = jacobian_terms(r, q1, q2)
+    m11, m12, m22 = mass_of(r, t)
+    h1, h2 = bias_of(r, t, q1, q2, qd1, qd2)
+    j11, j12, j21, j22 = jacobian_of(r, t)
     r1 = tau1 + j11 * fx + j21 * fy - h1
     r2 = tau2 + j12 * fx + j22 * fy - h2
     det = m11 * m22 - m12 * m12
@@ -132,16 +141,16 @@ def forward_dynamics_terms(r, q1, q2, qd1, qd2, tau1, tau2, fx, fy):
 
 
 @kernel
-def joint_torque_terms(r, q1, q2, fx, fy):
+def joint_torque_of(r, t, fx, fy):
     """J_Rᵀ F: the joint torques a force F at the end effector produces (eq. 3.34)."""
-    j11, j12, j21, j22 = jacobian_terms(r, q1, q2)
+    j11, j12, j21, j22 = jacobian_of(r, t)
     return (j11 * fx + j21 * fy, j12 * fx + j22 * fy)
 
 
 @kernel
-def kinetic_energy_terms(r, q1, q2, qd1, qd2):
+def kinetic_energy_of(r, t, qd1, qd2):
     """½ θ̇ᵀ M_R θ̇."""
-    m11, m12, m22 = mass_terms(r, q1, q2)
+    m11, m12, m22 = mass_of(r, t)
     return 0.5 * (m11 * qd1 * qd1 + 2.0 * m12 * qd1 * qd2 + m22 * qd2 * qd2)
 
 
@@ -151,6 +160,62 @@ def potential_energy_terms(r, q1, q2):
     e1 = q1 - r[R_Q10]
     e2 = q2 - r[R_Q20]
     return 0.5 * (r[R_K11] * e1 * e1 + 2 * r[R_K12] * e1 * e2 + r[R_K22] * e2 * e2)
+
+
+# The same terms of joint angles, for one term at a time (RobotModel's methods).
+@kernel
+def position(r, q1, q2):
+    return position_of(r, trig(q1, q2))
+
+
+@kernel
+def jacobian_terms(r, q1, q2):
+    return jacobian_of(r, trig(q1, q2))
+
+
+@kernel
+def jacobian_dot_terms(r, q1, q2, qd1, qd2):
+    return jacobian_dot_of(r, trig(q1, q2), qd1, qd2)
+
+
+@kernel
+def mass_terms(r, q1, q2):
+    return mass_of(r, trig(q1, q2))
+
+
+@kernel
+def coriolis_terms(r, q1, q2, qd1, qd2):
+    return coriolis_of(r, trig(q1, q2), qd1, qd2)
+
+
+@kernel
+def friction_terms(r, q1, q2, qd1, qd2):
+    return friction_of(r, trig(q1, q2), qd1, qd2)
+
+
+@kernel
+def bias_terms(r, q1, q2, qd1, qd2):
+    return bias_of(r, trig(q1, q2), q1, q2, qd1, qd2)
+
+
+@kernel
+def inverse_dynamics_terms(r, q1, q2, qd1, qd2, qdd1, qdd2, fx, fy):
+    return inverse_dynamics_of(r, trig(q1, q2), q1, q2, qd1, qd2, qdd1, qdd2, fx, fy)
+
+
+@kernel
+def forward_dynamics_terms(r, q1, q2, qd1, qd2, tau1, tau2, fx, fy):
+    return forward_dynamics_of(r, trig(q1, q2), q1, q2, qd1, qd2, tau1, tau2, fx, fy)
+
+
+@kernel
+def joint_torque_terms(r, q1, q2, fx, fy):
+    return joint_torque_of(r, trig(q1, q2), fx, fy)
+
+
+@kernel
+def kinetic_energy_terms(r, q1, q2, qd1, qd2):
+    return kinetic_energy_of(r, trig(q1, q2), qd1, qd2)
 
 
 @kernel

@@ -93,7 +93,7 @@ from dataclasses import dataclass
 from core.control.base import check_pair, check_torque_limit
 from core.errors import ParameterError
 from core.kernels import kernel
-from core.robot_terms import R_SIZE, coriolis_terms, friction_terms, mass_terms, stiffness_terms
+from core.robot_terms import R_SIZE, coriolis_of, friction_of, mass_of, stiffness_terms, trig
 
 # Upper bounds that catch a typo (a gain in the wrong unit) rather than tune.
 _LAMBDA_MAX_1_S = 100.0  # Λ·dt ≤ 0.2 at the 2 ms tick
@@ -201,10 +201,11 @@ def smc_torques(robot, gains, q1, q2, qd1, qd2, r1, r2, rd1, rd2, rdd1, rdd2):
     ar1 = rdd1 + lam1 * ed1
     ar2 = rdd2 + lam2 * ed2
 
-    m11, m12, m22 = mass_terms(robot, q1, q2)
-    c11, c12, c21, c22 = coriolis_terms(robot, q1, q2, qd1, qd2)
+    t = trig(q1, q2)
+    m11, m12, m22 = mass_of(robot, t)
+    c11, c12, c21, c22 = coriolis_of(robot, t, qd1, qd2)
     k1, k2 = stiffness_terms(robot, q1, q2)
-    f1, f2 = friction_terms(robot, q1, q2, vr1, vr2)
+    f1, f2 = friction_of(robot, t, vr1, vr2)
 
     x1 = s1 * gains[S_INV_PHI1]
     x1 = 1.0 if x1 > 1.0 else (-1.0 if x1 < -1.0 else x1)

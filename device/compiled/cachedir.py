@@ -56,8 +56,9 @@ def _writable_cache_dir() -> Path | None:
 CACHE_DIR = _writable_cache_dir()
 
 
-ENTRY_KERNELS = ("engine.run_ticks", "engine.supervised_command", "checks.supervise",
-                 "pipeline.control", "physics.read", "physics.write", "physics.reset")
+ENTRY_KERNELS = ("engine.run_ticks", "engine.simulated_tick", "engine.supervised_command",
+                 "checks.supervise", "pipeline.control", "physics.read", "physics.write",
+                 "physics.reset")
 """The kernels called from Python, as numba names their cache files (<module>.<name>);
 the others are compiled into them."""
 

@@ -39,6 +39,7 @@ def load_kernels(groups: tuple[str, ...] = GROUPS) -> float:
     from device.loop.engine import ROW_SIZE, TickEngine, run_ticks
     from device.loop.pipeline import TickPipeline, TrialPlan
     from device.safety.supervisor import SafetySupervisor
+    from device.sim.faultinjection import FaultInjectingBackend
     from device.sim.simulator import SimulatorBackend
 
     for controller in ("smc", "ctpid"):
@@ -51,10 +52,17 @@ def load_kernels(groups: tuple[str, ...] = GROUPS) -> float:
         reading = simulator.read(0.0)
         pipeline.begin(reading.q1_rad, reading.q2_rad)
         if "loop" in todo:
+            # the simulator's tick in one call, and the tick around any other backend's
+            # read and write (here the simulator's, through the fault-injecting wrapper)
             engine = TickEngine(simulator, pipeline, supervisor)
+            engine.rehearse(None, 0.002)
             engine.step(None, 0.002, 0.0, 0.0, False, False)
             engine.step(0, 0.004, 0.0, 0.0, False, False)
-            pipeline.control(1, simulator.read(0.006))
+            wrapped = TickEngine(FaultInjectingBackend(simulator, "nan", at_s=1e9), pipeline,
+                                 supervisor)
+            wrapped.step(None, 0.006, 0.0, 0.0, False, False)
+            wrapped.step(1, 0.008, 0.0, 0.0, False, False)
+            pipeline.control(2, simulator.read(0.010))
         if "headless" in todo:
             (r, a, c, p, table, episodes), flavour, scratch = simulator.physics
             v = pipeline.vectors
@@ -63,7 +71,7 @@ def load_kernels(groups: tuple[str, ...] = GROUPS) -> float:
                 simulator.noise, scratch, pipeline.kind, v.robot, v.model, v.tracker, v.gains,
                 v.assist, v.rates, v.integral, v.rows, pipeline.approach_ticks,
                 pipeline.sensor_offset_rad, v.last, supervisor.constants, supervisor.state,
-                np.zeros((1, ROW_SIZE)))
+                np.zeros((ROW_SIZE, 1)))
         simulator.close()
     _loaded.update(todo)
     return time.perf_counter() - started

@@ -22,7 +22,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.lib.recfunctions import unstructured_to_structured
 
 from core.interaction import SubjectState
 from core.kernels import interpreted, kernel
@@ -46,13 +45,15 @@ from device.safety.faults import Fault
 from device.safety.supervisor import SafetySupervisor
 from device.sim import physics
 from device.sim.physics import X_READING, read, write
+from device.sim.simulator import SimulatorBackend
 
 FAULT_LATCHED = 10
 """`run_ticks` stopped because the supervisor latched a fault (beyond the simulator's own
 failure codes, device.sim.physics)."""
 
-# One headless tick's row in `run_ticks`' output: the reading, what `control` left, the
-# torques written and the fault code.
+# What `run_ticks` leaves of one tick, in its output's column for the tick (one row per
+# quantity, so that each is contiguous for the records): the reading, what `control`
+# left, the torques written and the fault code.
 ROW_READING = 0
 ROW_LAST = ROW_READING + 6
 ROW_APPLIED = ROW_LAST + C_SIZE
@@ -75,6 +76,35 @@ def supervised_command(kind, robot, model, tracker, gains, assist, rates, integr
                      recording_lost, 0)
 
 
+@kernel
+def simulated_tick(running, tick, now_s, r, a, c, p, table, episodes, x, noise, scratch, kind,
+                   robot, model, tracker, gains, assist, rates, integral, rows, approach_ticks,
+                   period_s, sensor_offset_rad, last, g, w, lateness_s, heartbeat_age_s, estop,
+                   recording_lost):
+    """One tick on the simulator in one call (what `TickEngine.step` does with a backend,
+    with the simulator's own read and write): (status, torque1, torque2, fault), status
+    the simulator's failure (then nothing else ran) or OK."""
+    status = read(r, a, c, p, table, episodes, x, now_s, noise, scratch)
+    if status != physics.OK:
+        return status, 0.0, 0.0, 0
+    t = x[X_READING]
+    q1 = x[X_READING + 1]
+    q2 = x[X_READING + 2]
+    fx = x[X_READING + 3]
+    fy = x[X_READING + 4]
+    fz = x[X_READING + 5]
+    if running:
+        out1, out2, code = supervised_command(
+            kind, robot, model, tracker, gains, assist, rates, integral, tick, rows,
+            approach_ticks, period_s, sensor_offset_rad, last, g, w, now_s, t, q1, q2, fx, fy,
+            fz, lateness_s, heartbeat_age_s, estop, recording_lost)
+    else:
+        out1, out2, code = supervise(robot, g, w, now_s, t, q1, q2, fx, fy, fz, 0.0, 0.0, 0.0,
+                                     0.0, lateness_s, heartbeat_age_s, estop, recording_lost, 0)
+    write(c, x, out1, out2)
+    return physics.OK, out1, out2, code
+
+
 @dataclass(frozen=True, slots=True)
 class Tick:
     """What one tick did: the torques written, the latched fault, the sensor reading (or
@@ -93,7 +123,11 @@ class TickEngine:
     `compiled` runs `supervised_command` and `supervise` compiled, which needs the
     pipeline built with `compiled=True` (its vectors are then float arrays); otherwise
     both run interpreted. The objects keep their state: the engine only runs the
-    kernels on their vectors.
+    kernels on their vectors. On a compiled simulator the whole tick, the simulator's
+    read and write included, is one call (`simulated_tick`: the same kernels, without
+    four trips between Python and compiled code), and `rehearse` runs the coming tick
+    on copies of the state in the slack before its deadline, so that the tick itself
+    finds its code and data in the caches.
     """
 
     def __init__(self, backend, pipeline: TickPipeline, supervisor: SafetySupervisor) -> None:
@@ -111,6 +145,39 @@ class TickEngine:
             self._supervise = supervise
         self._robot = (np.asarray(supervisor.robot.constants, dtype=float) if self.compiled
                        else supervisor.robot.constants)
+        self._simulated = None
+        if self.compiled and isinstance(backend, SimulatorBackend) and backend.compiled:
+            from device.compiled.jit import compiled
+
+            self._simulated = compiled(simulated_tick)
+            self._shadow = {}
+
+    def _simulated_arguments(self, running: bool, tick: int, now_s: float, shadow: bool):
+        sim, p, sup = self.backend, self.pipeline, self.supervisor
+        v = p.vectors
+        (r, a, c, pt, table, episodes), _, scratch = sim.physics
+        state = (sim.state, scratch, v.rates, v.integral, v.last, sup.state)
+        if shadow:
+            copies = self._shadow.get("copies")
+            if copies is None:
+                copies = self._shadow["copies"] = tuple(np.empty_like(s) for s in state)
+            for copy, original in zip(copies, state, strict=True):
+                copy[:] = original
+            state = copies
+        x, scratch, rates, integral, last, w = state
+        return (running, tick, now_s, r, a, c, pt, table, episodes, x, sim.noise, scratch,
+                p.kind, v.robot, v.model, v.tracker, v.gains, v.assist, rates, integral, v.rows,
+                p.approach_ticks, p.period_s, p.sensor_offset_rad, last, sup.constants, w)
+
+    def rehearse(self, tick: int | None, now_s: float) -> None:
+        """Run the coming tick on copies of the state and throw the result away (on a
+        compiled simulator; nothing otherwise): the real tick then finds its code and
+        data warm in the caches. Call it in the slack before the deadline."""
+        if self._simulated is None:
+            return
+        self.backend.top_up_noise(1)
+        self._simulated(*self._simulated_arguments(tick is not None, tick or 0, now_s, True),
+                        0.0, 0.0, False, False)
 
     def step(self, tick: int | None, now_s: float, lateness_s: float, heartbeat_age_s: float,
              estop: bool, recording_lost: bool, clock: Callable[[], float] = time.perf_counter,
@@ -118,6 +185,9 @@ class TickEngine:
         """One tick at robot time `now_s`: trial tick `tick` of the pipeline, or None while
         no trial runs (zero torque; the supervisor still watches)."""
         started = clock()
+        if self._simulated is not None:
+            return self._simulated_step(tick, now_s, lateness_s, heartbeat_age_s, estop,
+                                        recording_lost, clock, started)
         backend, sup, v = self.backend, self.supervisor, self.pipeline.vectors
         try:
             reading = backend.read(now_s)
@@ -142,6 +212,31 @@ class TickEngine:
             backend.write(out1, out2)
         except BackendError:
             backend.safe_state()
+        return Tick(out1, out2, Fault(code), reading, clock() - started)
+
+    def _simulated_step(self, tick, now_s, lateness_s, heartbeat_age_s, estop, recording_lost,
+                        clock, started) -> Tick:
+        sim, sup = self.backend, self.supervisor
+        before = sup.state[W_FAULT]
+        sim.top_up_noise(1)
+        status, out1, out2, code = self._simulated(
+            *self._simulated_arguments(tick is not None, tick or 0, now_s, False), lateness_s,
+            heartbeat_age_s, estop, recording_lost)
+        if status == physics.OK:
+            reading = sim.sampled()
+            if tick is not None:
+                self.pipeline.ticked()
+        else:
+            # the simulator could not read: as its `read` would have raised, the supervisor
+            # turns the error into its fault and zero torque
+            reading = sim.failure(status, now_s)
+            _, read_error = sup.read_values(reading)
+            out1, out2, code = self._supervise(
+                self._robot, sup.constants, sup.state, now_s, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+                0.0, 0.0, 0.0, 0.0, lateness_s, heartbeat_age_s, estop, recording_lost,
+                read_error)
+            sim.write(out1, out2)
+        sup.after_tick(before)
         return Tick(out1, out2, Fault(code), reading, clock() - started)
 
     def record(self, done: Tick, tick: int, wall_s: float, lateness_s: float, state: int,
@@ -171,8 +266,8 @@ def run_ticks(k0, k1, period_s, r, a, c, p, table, episodes, x, noise, scratch, 
     """Ticks k0…k1−1 of a headless trial on the simulator (device.sim.physics' vectors
     r…scratch), at robot time k × period: each reads the sensors (tick 0 takes the
     reading made before it), runs `supervised_command` and writes the torque, and
-    leaves its row (ROW_*) in out[k]. Returns (the next tick, status): the simulator's
-    failure, FAULT_LATCHED after the row of the tick that latched a fault, or OK."""
+    leaves what it did in out[:, k] (ROW_*). Returns (the next tick, status): the
+    simulator's failure, FAULT_LATCHED after the tick that latched a fault, or OK."""
     for k in range(k0, k1):
         now_s = k * period_s
         if k:
@@ -190,14 +285,13 @@ def run_ticks(k0, k1, period_s, r, a, c, p, table, episodes, x, noise, scratch, 
             approach_ticks, period_s, sensor_offset_rad, last, g, w, now_s, t, q1, q2, fx, fy,
             fz, 0.0, 0.0, False, False)
         write(c, x, out1, out2)
-        row = out[k]
         for j in range(6):
-            row[ROW_READING + j] = x[X_READING + j]
+            out[ROW_READING + j, k] = x[X_READING + j]
         for j in range(C_SIZE):
-            row[ROW_LAST + j] = last[j]
-        row[ROW_APPLIED] = out1
-        row[ROW_APPLIED + 1] = out2
-        row[ROW_FAULT] = code
+            out[ROW_LAST + j, k] = last[j]
+        out[ROW_APPLIED, k] = out1
+        out[ROW_APPLIED + 1, k] = out2
+        out[ROW_FAULT, k] = code
         if code != 0:
             return k + 1, FAULT_LATCHED
     return k1, physics.OK
@@ -235,7 +329,7 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
     else:
         ticks = interpreted(run_ticks, {**simulator.replacements, **pipeline.replacements})
     v = pipeline.vectors
-    out = np.full((total, ROW_SIZE), math.nan)
+    out = np.full((ROW_SIZE, total), math.nan)
     step = max(1, -(-total // _CHUNKS))
     done, status = 0, physics.OK
     try:
@@ -252,14 +346,16 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
             pipeline.ticked()
         if status == FAULT_LATCHED:
             supervisor.after_tick(0.0)
-            return HeadlessOutcome(records_from_rows(out[:done], pipeline), "faulted", done - 1,
+            return HeadlessOutcome(records_from_rows(out[:, :done], pipeline), "faulted",
+                                   done - 1,
                                    supervisor.fault_message, supervisor.fault_detail)
         if status != physics.OK:
             # the simulator failed to read tick `done`: the supervisor turns it into its
             # fault (no record: there was no reading)
             error = simulator.failure(status, done * period)
             supervisor.step(done * period, error, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, False, False)
-            return HeadlessOutcome(records_from_rows(out[:done], pipeline), "faulted", done,
+            return HeadlessOutcome(records_from_rows(out[:, :done], pipeline), "faulted",
+                                   done,
                                    supervisor.fault_message, supervisor.fault_detail)
     finally:
         simulator.safe_state()
@@ -268,21 +364,38 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
 
 
 def records_from_rows(rows: np.ndarray, pipeline: TickPipeline) -> np.ndarray:
-    """`run_ticks`' rows as records (record_values, column by column): wall time the
-    robot's time, no lateness or compute time, the subject's channels NaN."""
-    n = len(rows)
+    """`run_ticks`' output (ROW_* by tick) as records (record_values, channel by channel):
+    wall time the robot's time, no lateness or compute time, the subject's channels NaN."""
+    n = rows.shape[1]
     tick = np.arange(n)
     time_s = tick * pipeline.period_s
-    reading = SensorReading(*rows[:, ROW_READING:ROW_READING + 6].T)
-    fault = rows[:, ROW_FAULT]
+    rows = np.ascontiguousarray(rows)
+    reading = SensorReading(*rows[ROW_READING:ROW_READING + 6])
+    fault = rows[ROW_FAULT]
     state = np.where(fault != 0, int(State.FAULTED), int(State.RUNNING))
     nan = np.full(n, math.nan)
     subject = SubjectState(*(nan,) * 12, np.zeros(n, dtype=bool))
     zeros = np.zeros(n)
     values = record_values(tick, time_s, time_s, zeros, zeros, reading,
-                           rows[:, ROW_LAST:ROW_LAST + C_SIZE].T,
-                           rows[:, ROW_APPLIED:ROW_APPLIED + 2].T,
+                           rows[ROW_LAST:ROW_LAST + C_SIZE], rows[ROW_APPLIED:ROW_APPLIED + 2],
                            pipeline.robot.position(reading.q1_rad, reading.q2_rad), subject,
                            state, fault)
-    flat = np.column_stack([np.broadcast_to(np.asarray(v, dtype=float), n) for v in values])
-    return unstructured_to_structured(flat, dtype=RECORD_DTYPE)
+    records = np.empty(n, dtype=RECORD_DTYPE)
+    for (name, component), value in zip(_FLAT_FIELDS, values, strict=True):
+        if component is None:
+            records[name] = value
+        else:
+            records[name][:, component] = value
+    return records
+
+
+def _flat_fields(dtype: np.dtype) -> tuple[tuple[str, int | None], ...]:
+    """(field, component) of each value of a record in flat_names order."""
+    fields = []
+    for name in dtype.names:
+        shape = dtype.fields[name][0].shape
+        fields.extend([(name, None)] if not shape else [(name, i) for i in range(shape[0])])
+    return tuple(fields)
+
+
+_FLAT_FIELDS = _flat_fields(RECORD_DTYPE)

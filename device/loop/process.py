@@ -237,6 +237,9 @@ class DeviceLoop:
                 if not self.state.ticking:
                     break
                 deadline, overrun = self._after_a_pause(deadline, overrun)
+            running = self.state == State.RUNNING
+            self.engine.rehearse(self.trial_tick if running else None,
+                                 self._robot_time(k, deadline - self.t0)[0])
             now = clock.wait_until(deadline)
             self._tick(k, now, max(now - deadline, overrun))
             if self.console_lost and self.state != State.RUNNING:
@@ -261,14 +264,8 @@ class DeviceLoop:
         """One tick: the engine's step on the robot's clock, its record into the ring, then
         the state's part, and the commands that waited for this tick."""
         wall_t = now - self.t0
-        # The robot's clock (device.backend): a real robot moves on the wall clock, so
-        # its supervisor must see how late the tick is; a simulated one is stepped by
-        # one period per tick, and on its clock no tick is late. The wall-clock
-        # lateness is recorded either way.
-        if self.backend.timing == SIMULATED:
-            robot_t, robot_lateness = k * self.config.period_s, 0.0
-        else:
-            robot_t, robot_lateness = wall_t, lateness
+        robot_t, on_time = self._robot_time(k, wall_t)
+        robot_lateness = 0.0 if on_time else lateness
         value = self.heartbeat.value
         if value != self._beat[0]:
             self._beat = (value, now)
@@ -292,6 +289,15 @@ class DeviceLoop:
             later, self.later = self.later, []
             for command in later:
                 self._command(command, after_a_tick=True)
+
+    def _robot_time(self, k: int, wall_t: float) -> tuple[float, bool]:
+        """The robot's clock at tick k (device.backend), and whether every tick is on time
+        on it: a real robot moves on the wall clock, so its supervisor must see how late
+        the tick is; a simulated one is stepped by one period per tick, and on its clock
+        no tick is late. The wall-clock lateness is recorded either way."""
+        if self.backend.timing == SIMULATED:
+            return k * self.config.period_s, True
+        return wall_t, False
 
     # ------------------------------------------------------------------ states
     def _during(self, now: float) -> None:

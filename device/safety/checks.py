@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 
 from core.kernels import kernel
-from core.robot_terms import WITHIN_LIMITS, jacobian_terms, limit_violation, position
+from core.robot_terms import WITHIN_LIMITS, jacobian_of, limit_violation, position_of, trig
 from device.safety.faults import Fault
 
 (G_PERIOD, G_HALF_PERIOD, G_FULL1, G_FULL2, G_SATURATION_S, G_RAMP_S, G_JOINT_SPEED,
@@ -74,12 +74,13 @@ def count_late(g, w, lateness_s):
 
 
 @kernel
-def follow_sample(r, g, w, t, q1, q2):
+def follow_sample(r, g, w, t, q1, q2, rt):
     """Update the previous sample and the stale count with this one (kept up to date
     whatever the outcome, so the checks are sound again on the tick after a clear).
     Returns (jump joint 0/1/2, its change, the jump limit, the sample gap, the two
-    joints' and the handle's speeds by difference, the handle's x, y)."""
-    x, y = position(r, q1, q2)
+    joints' and the handle's speeds by difference, the handle's x, y). `rt` is the
+    sample's trig (core.robot_terms.trig)."""
+    x, y = position_of(r, rt)
     jump_joint = 0
     jump_change = jump_limit = sample_dt = 0.0
     diff_rate1 = diff_rate2 = diff_speed = 0.0
@@ -227,10 +228,10 @@ def check_joint_speed(g, rate1, rate2, diff_rate1, diff_rate2):
 
 
 @kernel
-def check_ee_speed(r, g, q1, q2, rate1, rate2, diff_speed):
+def check_ee_speed(r, g, rt, rate1, rate2, diff_speed):
     """EE_SPEED: the handle faster than the limit, J_R θ̇ by the rate estimate, or by
     difference of its positions (speed, source)."""
-    j11, j12, j21, j22 = jacobian_terms(r, q1, q2)
+    j11, j12, j21, j22 = jacobian_of(r, rt)
     speed = length(j11 * rate1 + j12 * rate2, j21 * rate1 + j22 * rate2)
     if speed > g[G_EE_SPEED]:
         return (_EE_SPEED, speed, FROM_RATE_ESTIMATE, 0.0, 0.0)
@@ -270,9 +271,11 @@ def first_failure(r, g, w, now_s, t, q1, q2, fx, fy, fz, rate1, rate2, torque1, 
     jump_joint = 0
     jump_change = jump_limit = sample_dt = 0.0
     diff_rate1 = diff_rate2 = diff_speed = x = y = 0.0
+    rt = (0.0, 1.0, 0.0, 1.0, 0.0, 1.0)  # trig(0, 0): a reading that failed has no angles
     if read_error == _NONE and finite[0] == _NONE:
+        rt = trig(q1, q2)
         (jump_joint, jump_change, jump_limit, sample_dt, diff_rate1, diff_rate2, diff_speed,
-         x, y) = follow_sample(r, g, w, t, q1, q2)
+         x, y) = follow_sample(r, g, w, t, q1, q2, rt)
     else:
         w[W_PREV_VALID] = 0.0
         w[W_STALE_RUN] = 0.0
@@ -297,7 +300,7 @@ def first_failure(r, g, w, now_s, t, q1, q2, fx, fy, fz, rate1, rate2, torque1, 
     if found[0] == _NONE:
         found = check_joint_speed(g, rate1, rate2, diff_rate1, diff_rate2)
     if found[0] == _NONE:
-        found = check_ee_speed(r, g, q1, q2, rate1, rate2, diff_speed)
+        found = check_ee_speed(r, g, rt, rate1, rate2, diff_speed)
     if found[0] == _NONE:
         found = check_heartbeat(g, heartbeat_age_s)
     if found[0] == _NONE and recording_lost:

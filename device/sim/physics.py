@@ -51,30 +51,30 @@ _TWO_PI = 2.0 * math.pi
 
 
 @kernel
-def evaluate(r, a, p, table, episodes, t, q1, q2, qd1, qd2, tau1, tau2, out, at):
+def evaluate(r, a, p, table, episodes, t, q1, q2, qd1, qd2, tau1, tau2, out, into):
     """The coupled dynamics at patient time `t` with the patient's torque asked for at
-    the arm's state: writes EVALUATION values into out[at:]; OK or ARM_STRAIGHT."""
-    ok, ts, te, tsd, ted = arm_state(r, a, q1, q2, qd1, qd2)
+    the arm's state: writes EVALUATION values into out[into:]; OK or ARM_STRAIGHT."""
+    ok, ts, te, tsd, ted, rt, at = arm_state(r, a, q1, q2, qd1, qd2)
     if not ok:
         return ARM_STRAIGHT
     tau_s, tau_e = patient_torque(p, table, episodes, t, ts, te, tsd, ted)
     qdd1, qdd2, fx, fy, tsdd, tedd, n11, n12, n22 = coupled_motion(
-        r, a, q1, q2, qd1, qd2, tau1, tau2, tau_s, tau_e, ts, te, tsd, ted)
-    out[at] = qdd1
-    out[at + 1] = qdd2
-    out[at + 2] = fx
-    out[at + 3] = fy
-    out[at + 4] = ts
-    out[at + 5] = te
-    out[at + 6] = tsd
-    out[at + 7] = ted
-    out[at + 8] = tsdd
-    out[at + 9] = tedd
-    out[at + 10] = tau_s
-    out[at + 11] = tau_e
-    out[at + 12] = n11
-    out[at + 13] = n12
-    out[at + 14] = n22
+        r, a, rt, at, q1, q2, qd1, qd2, tau1, tau2, tau_s, tau_e, tsd, ted)
+    out[into] = qdd1
+    out[into + 1] = qdd2
+    out[into + 2] = fx
+    out[into + 3] = fy
+    out[into + 4] = ts
+    out[into + 5] = te
+    out[into + 6] = tsd
+    out[into + 7] = ted
+    out[into + 8] = tsdd
+    out[into + 9] = tedd
+    out[into + 10] = tau_s
+    out[into + 11] = tau_e
+    out[into + 12] = n11
+    out[into + 13] = n12
+    out[into + 14] = n22
     return OK
 
 

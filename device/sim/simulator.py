@@ -253,9 +253,13 @@ class SimulatorBackend:
         status = self._kernels.read(self.state, now_s, self.noise, self._scratch)
         if status != physics.OK:
             raise self.failure(status, now_s)
+        return self.sampled()
+
+    def sampled(self) -> SensorReading:
+        """The last reading, after device.sim.physics' read ran on `state` (here or in the
+        tick engine): the same object again when it did not advance (a stale sample)."""
         steps = self.state[physics.X_STEPS]
         if steps != self._sampled_at:
-            # a new sample; a read that did not advance gives the same one again (stale)
             self._sampled_at = steps
             self._reading = self.reading
         return self._reading
@@ -321,7 +325,8 @@ class SimulatorBackend:
     def reading(self) -> SensorReading:
         """The last reading."""
         at = physics.X_READING
-        return _reading(float(v) for v in self.state[at:at + 6])
+        values = self.state[at:at + 6]
+        return _reading(values.tolist() if self.compiled else values)
 
     @property
     def truth(self) -> SimulatorTruth:

@@ -36,8 +36,13 @@ class Rig:
         self.backend.open()
         self.trial_tick = None
 
+    rehearse = False
+
     def tick(self, k, now, lateness=0.0, beat_age=0.0, estop=False, lost=False):
-        """One tick: (torques, fault, record) as the loop keeps them."""
+        """One tick: (torques, fault, record) as the loop keeps them (rehearsed first in the
+        slack before its deadline when `rehearse`, as the loop does)."""
+        if self.rehearse:
+            self.engine.rehearse(self.trial_tick, now)
         done = self.engine.step(self.trial_tick, now, lateness, beat_age, estop, lost)
         self.reading = done.reading
         running = self.trial_tick is not None
@@ -63,11 +68,12 @@ def same(a, b):
                for x, y in zip(a, b, strict=True))
 
 
-def run_both(ticks, changes=None, **rig_options):
+def run_both(ticks, changes=None, rehearse=False, **rig_options):
     """Idle ticks after Connect, then a trial, on both engines, with the jitter and one
     stall of a real loop's robot times; every tick compared. `changes` maps a tick to
     what is different on it (lateness, heartbeat age, e-stop, lost recording)."""
     rigs = Rig(True, **rig_options), Rig(False, **rig_options)
+    rigs[0].rehearse = rehearse
     rng = np.random.default_rng(0)
     times = (np.arange(ticks + 40) * PERIOD + rng.uniform(0.0, 0.0003, ticks + 40))
     times[len(times) // 2:] += 0.007
@@ -114,6 +120,12 @@ def test_a_fault_is_latched_the_same_with_the_same_detail(change, fault):
     assert fast.supervisor.fault_message == slow.supervisor.fault_message
 
 
+def test_rehearsing_each_tick_changes_nothing():
+    """The rehearsal runs the coming tick on copies: the ticks that follow are the same
+    as without it (the interpreted engine never rehearses)."""
+    run_both(1500, rehearse=True, changes={1200: {"estop": True}})
+
+
 def test_late_ticks_in_a_row_trip_the_run_rule_on_the_tenth():
     changes = {k: {"lateness": 0.003} for k in range(600, 610)}
     _, outputs = run_both(700, changes=changes)
@@ -145,7 +157,9 @@ def test_a_failed_read_zeroes_the_torque_and_still_leaves_a_record():
 
 
 def test_a_write_that_fails_puts_the_backend_in_its_safe_state():
-    rig = Rig(True)
+    """A backend other than the simulator (a vendor's, here the fault-injecting wrapper)
+    is written to by the engine, which must catch its failure."""
+    rig = Rig(True, scenario="nan")
 
     def broken(torque1, torque2):
         raise BackendError("the amplifier did not answer")

@@ -113,9 +113,9 @@ def test_the_coupled_dynamics_compiled_are_the_interpreted_ones():
     for q1, q2, v1, v2, _, _, t1, t2, f1, f2 in poses():
         state = arm_state(ROBOT.constants, ARM.constants, q1, q2, v1, v2)
         assert same(closure(R, A, q1, q2, v1, v2), state)
-        ok, ts, te, tsd, ted = state
+        ok, _, _, tsd, ted, rt, at = state
         if ok:
-            args = (q1, q2, v1, v2, t1, t2, f1, f2, ts, te, tsd, ted)
+            args = (rt, at, q1, q2, v1, v2, t1, t2, f1, f2, tsd, ted)
             assert same(motion(R, A, *args), coupled_motion(ROBOT.constants, ARM.constants,
                                                             *args))
 
