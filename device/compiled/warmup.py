@@ -12,15 +12,19 @@ the install script runs this module so a fresh install starts with a full cache
 from __future__ import annotations
 
 import shutil
+import subprocess
 import sys
 import time
 from pathlib import Path
 
 from device.compiled.cachedir import CACHE_DIR, is_warm
 
-GROUPS = ("headless", "loop")
-"""The headless run's kernels (run_ticks and the simulator's physics) and the live loop's
-(the tick engine's, the supervisor's and the simulator's)."""
+GROUPS = ("physics", "control", "headless", "loop")
+"""The simulator's physics; the pipeline's control and the supervisor; the headless run
+(run_ticks); the live loop's tick engine (the simulator's tick in one call, and the
+tick around another backend's read and write). The last two call the first two, which
+share only the robot's terms: a cold cache compiles those two at once in two processes
+(`compile_in_parallel`)."""
 _loaded: set[str] = set()
 STALE_AFTER_S = 7 * 24 * 3600.0
 
@@ -36,44 +40,73 @@ def load_kernels(groups: tuple[str, ...] = GROUPS) -> float:
     import numpy as np
 
     from core.trial import THESIS_SUBJECT
-    from device.loop.engine import ROW_SIZE, TickEngine, run_ticks
+    from device.backend import SensorReading
+    from device.compiled.jit import compiled
+    from device.loop.engine import ROW_SIZE, TickEngine, run_ticks, supervised_command
     from device.loop.pipeline import TickPipeline, TrialPlan
+    from device.safety.checks import supervise
     from device.safety.supervisor import SafetySupervisor
     from device.sim.faultinjection import FaultInjectingBackend
     from device.sim.simulator import SimulatorBackend
 
-    for controller in ("smc", "ctpid"):
-        params = THESIS_SUBJECT.replace(repetitions=1, controller=controller)
-        plan = TrialPlan.build(params)
+    params = THESIS_SUBJECT.replace(repetitions=1)
+    plan = TrialPlan.build(params)
+    pipeline = TickPipeline(plan, compiled=True)
+    supervisor = SafetySupervisor(plan.robot)
+    robot = np.asarray(plan.robot.constants)
+    q1, q2 = plan.robot.ik_terms(*plan.start_point_m)
+    reading = SensorReading(0.0, q1, q2, 0.0, 0.0, 0.0)
+    simulator = None
+    if todo != ["control"]:
         simulator = SimulatorBackend.from_trial(params, robot=plan.robot, compiled=True)
-        pipeline = TickPipeline(plan, compiled=True)
-        supervisor = SafetySupervisor(plan.robot)
-        simulator.open()
-        reading = simulator.read(0.0)
-        pipeline.begin(reading.q1_rad, reading.q2_rad)
-        if "loop" in todo:
-            # the simulator's tick in one call, and the tick around any other backend's
-            # read and write (here the simulator's, through the fault-injecting wrapper)
-            engine = TickEngine(simulator, pipeline, supervisor)
-            engine.rehearse(None, 0.002)
-            engine.step(None, 0.002, 0.0, 0.0, False, False)
-            engine.step(0, 0.004, 0.0, 0.0, False, False)
-            wrapped = TickEngine(FaultInjectingBackend(simulator, "nan", at_s=1e9), pipeline,
-                                 supervisor)
-            wrapped.step(None, 0.006, 0.0, 0.0, False, False)
-            wrapped.step(1, 0.008, 0.0, 0.0, False, False)
-            pipeline.control(2, simulator.read(0.010))
-        if "headless" in todo:
-            (r, a, c, p, table, episodes), flavour, scratch = simulator.physics
-            v = pipeline.vectors
-            flavour(run_ticks)(
-                0, 1, plan.period_s, r, a, c, p, table, episodes, simulator.state,
-                simulator.noise, scratch, pipeline.kind, v.robot, v.model, v.tracker, v.gains,
-                v.assist, v.rates, v.integral, v.rows, pipeline.approach_ticks,
-                pipeline.sensor_offset_rad, v.last, supervisor.constants, supervisor.state,
-                np.zeros((ROW_SIZE, 1)))
+        simulator.open()  # the physics: reset …
+        reading = simulator.read(0.0)  # … read
+        simulator.write(0.0, 0.0)  # … and write
+    pipeline.begin(reading.q1_rad, reading.q2_rad)
+    v, g, w = pipeline.vectors, supervisor.constants, supervisor.state
+    if "control" in todo:
+        pipeline.control(0, reading)
+        compiled(supervise)(robot, g, w, 0.0, *reading, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, False,
+                            False, 0.0)
+        compiled(supervised_command)(
+            pipeline.kind, v.robot, v.model, v.tracker, v.gains, v.assist, v.rates, v.integral,
+            1, v.rows, pipeline.approach_ticks, pipeline.period_s, pipeline.sensor_offset_rad,
+            v.last, g, w, 0.0, *reading, 0.0, 0.0, False, False)
+    if "headless" in todo:
+        (r, a, c, p, table, episodes), flavour, scratch = simulator.physics
+        flavour(run_ticks)(
+            0, 1, plan.period_s, r, a, c, p, table, episodes, simulator.state, simulator.noise,
+            scratch, pipeline.kind, v.robot, v.model, v.tracker, v.gains, v.assist, v.rates,
+            v.integral, v.rows, pipeline.approach_ticks, pipeline.sensor_offset_rad, v.last,
+            g, w, np.zeros((ROW_SIZE, 1)), False, False)
+    if "loop" in todo:
+        # the simulator's tick in one call, and the tick around any other backend's read
+        # and write (here the simulator's, through the fault-injecting wrapper)
+        engine = TickEngine(simulator, pipeline, supervisor)
+        engine.rehearse(None, 0.002)
+        engine.step(None, 0.002, 0.0, 0.0, False, False)
+        engine.step(0, 0.004, 0.0, 0.0, False, False)
+        wrapped = TickEngine(FaultInjectingBackend(simulator, "nan", at_s=1e9), pipeline,
+                             supervisor)
+        wrapped.step(None, 0.006, 0.0, 0.0, False, False)
+        wrapped.step(1, 0.008, 0.0, 0.0, False, False)
+    if simulator is not None:
         simulator.close()
     _loaded.update(todo)
+    return time.perf_counter() - started
+
+
+def compile_in_parallel() -> float:
+    """Fill a cold cache: the physics and the control kernels compiled at once in two
+    processes (numba compiles in one thread; a cache entry is written whole or not at
+    all, so two processes compiling a shared term write the same entry), then everything
+    here, mostly from the cache. Returns the seconds it took."""
+    started = time.perf_counter()
+    workers = [subprocess.Popen([sys.executable, "-m", "device.compiled.warmup", "--group",
+                                 group]) for group in ("physics", "control")]
+    for worker in workers:
+        worker.wait()
+    load_kernels()
     return time.perf_counter() - started
 
 
@@ -95,10 +128,13 @@ def prune_stale_caches(older_than_s: float = STALE_AFTER_S) -> list[Path]:
 
 
 if __name__ == "__main__":
+    if "--group" in sys.argv:
+        load_kernels((sys.argv[sys.argv.index("--group") + 1],))
+        sys.exit(0)
     if is_warm() and "--force" not in sys.argv:
         sys.exit(0)
     print("Compiling the simulator's kernels (once, about a minute at most)…", file=sys.stderr)
     prune_stale_caches()
-    seconds = load_kernels()
+    seconds = compile_in_parallel()
     print(f"compiled kernels ready in {seconds:.1f} s (cache: {CACHE_DIR or 'none'})",
           file=sys.stderr)

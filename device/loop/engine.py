@@ -73,7 +73,7 @@ def supervised_command(kind, robot, model, tracker, gains, assist, rates, integr
             approach_ticks, period_s, sensor_offset_rad, q1, q2, fx, fy, last)
     return supervise(robot, g, w, now_s, t, q1, q2, fx, fy, fz, last[C_QD1], last[C_QD2],
                      last[C_OUT1], last[C_OUT2], lateness_s, heartbeat_age_s, estop,
-                     recording_lost, 0)
+                     recording_lost, 0.0)
 
 
 @kernel
@@ -100,7 +100,8 @@ def simulated_tick(running, tick, now_s, r, a, c, p, table, episodes, x, noise, 
             fz, lateness_s, heartbeat_age_s, estop, recording_lost)
     else:
         out1, out2, code = supervise(robot, g, w, now_s, t, q1, q2, fx, fy, fz, 0.0, 0.0, 0.0,
-                                     0.0, lateness_s, heartbeat_age_s, estop, recording_lost, 0)
+                                     0.0, lateness_s, heartbeat_age_s, estop, recording_lost,
+                                     0.0)
     write(c, x, out1, out2)
     return physics.OK, out1, out2, code
 
@@ -206,7 +207,7 @@ class TickEngine:
         else:
             out1, out2, code = self._supervise(
                 self._robot, sup.constants, sup.state, now_s, *values, 0.0, 0.0, 0.0, 0.0,
-                lateness_s, heartbeat_age_s, estop, recording_lost, read_error)
+                lateness_s, heartbeat_age_s, estop, recording_lost, float(read_error))
         sup.after_tick(before)
         try:
             backend.write(out1, out2)
@@ -234,7 +235,7 @@ class TickEngine:
             out1, out2, code = self._supervise(
                 self._robot, sup.constants, sup.state, now_s, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
                 0.0, 0.0, 0.0, 0.0, lateness_s, heartbeat_age_s, estop, recording_lost,
-                read_error)
+                float(read_error))
             sim.write(out1, out2)
         sup.after_tick(before)
         return Tick(out1, out2, Fault(code), reading, clock() - started)
@@ -262,7 +263,7 @@ NO_READING = SensorReading(math.nan, math.nan, math.nan, math.nan, math.nan, mat
 @kernel
 def run_ticks(k0, k1, period_s, r, a, c, p, table, episodes, x, noise, scratch, kind, robot,
               model, tracker, gains, assist, rates, integral, rows, approach_ticks,
-              sensor_offset_rad, last, g, w, out):
+              sensor_offset_rad, last, g, w, out, estop, recording_lost):
     """Ticks k0…k1−1 of a headless trial on the simulator (device.sim.physics' vectors
     r…scratch), at robot time k × period: each reads the sensors (tick 0 takes the
     reading made before it), runs `supervised_command` and writes the torque, and
@@ -283,7 +284,7 @@ def run_ticks(k0, k1, period_s, r, a, c, p, table, episodes, x, noise, scratch, 
         out1, out2, code = supervised_command(
             kind, robot, model, tracker, gains, assist, rates, integral, k, rows,
             approach_ticks, period_s, sensor_offset_rad, last, g, w, now_s, t, q1, q2, fx, fy,
-            fz, 0.0, 0.0, False, False)
+            fz, 0.0, 0.0, estop, recording_lost)
         write(c, x, out1, out2)
         for j in range(6):
             out[ROW_READING + j, k] = x[X_READING + j]
@@ -341,7 +342,7 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
                 simulator.state, simulator.noise, scratch, pipeline.kind, v.robot, v.model,
                 v.tracker, v.gains, v.assist, v.rates, v.integral, v.rows,
                 pipeline.approach_ticks, pipeline.sensor_offset_rad, v.last,
-                supervisor.constants, supervisor.state, out)
+                supervisor.constants, supervisor.state, out, False, False)
         if done:
             pipeline.ticked()
         if status == FAULT_LATCHED:

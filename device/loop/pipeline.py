@@ -378,8 +378,10 @@ def control(kind, robot, model, tracker, gains, assist, rates, integral, tick, r
     """One tick up to the commanded torque, in the order of Fig. 3.6: rate estimate →
     reference → controller → performance-based assistance. Writes `last` (C_*); the
     command is last[C_OUT1], last[C_OUT2]."""
-    track(tracker, rates, Z_ANGLE1, q1)
-    track(tracker, rates, Z_ANGLE2, q2)
+    for joint in range(2):
+        # the tracker's offset a loop variable, not a literal: numba would compile `track`
+        # once for each literal offset
+        track(tracker, rates, (Z_ANGLE2 - Z_ANGLE1) * joint, q1 if joint == 0 else q2)
     qd1 = rates[Z_RATE1]
     qdd1 = rates[Z_ACC1]
     qd2 = rates[Z_RATE2]

@@ -261,10 +261,12 @@ def first_failure(r, g, w, now_s, t, q1, q2, fx, fy, fz, rate1, rate2, torque1, 
                   lateness_s, heartbeat_age_s, estop, recording_lost, read_error):
     """Update the history and run the checks in order, most informative cause first:
     (code, d0, d1, d2, d3) of the first that fails, code 0 when all pass. `read_error`
-    is the fault code of a sensor read that raised (0 when it did not)."""
+    is the fault code of a sensor read that raised, as a float (0.0 when it did not): numba
+    compiles a separate copy of a kernel for each literal int it is passed, and the
+    kernels that call this pass none."""
     count_late(g, w, lateness_s)
     nothing = (_NONE, 0.0, 0.0, 0.0, 0.0)
-    if read_error == _NONE:
+    if read_error == 0.0:
         finite = check_finite(now_s, t, q1, q2, fx, fy, fz, rate1, rate2, torque1, torque2)
     else:
         finite = nothing
@@ -272,7 +274,7 @@ def first_failure(r, g, w, now_s, t, q1, q2, fx, fy, fz, rate1, rate2, torque1, 
     jump_change = jump_limit = sample_dt = 0.0
     diff_rate1 = diff_rate2 = diff_speed = x = y = 0.0
     rt = (0.0, 1.0, 0.0, 1.0, 0.0, 1.0)  # trig(0, 0): a reading that failed has no angles
-    if read_error == _NONE and finite[0] == _NONE:
+    if read_error == 0.0 and finite[0] == _NONE:
         rt = trig(q1, q2)
         (jump_joint, jump_change, jump_limit, sample_dt, diff_rate1, diff_rate2, diff_speed,
          x, y) = follow_sample(r, g, w, t, q1, q2, rt)
@@ -282,8 +284,8 @@ def first_failure(r, g, w, now_s, t, q1, q2, fx, fy, fz, rate1, rate2, torque1, 
     time_saturation(g, w, now_s, torque1, torque2)
     if estop:
         return (_ESTOP, 0.0, 0.0, 0.0, 0.0)
-    if read_error != _NONE:
-        return (read_error, 0.0, 0.0, 0.0, 0.0)
+    if read_error != 0.0:
+        return (int(read_error), 0.0, 0.0, 0.0, 0.0)
     if finite[0] != _NONE:
         return finite
     found = check_late(g, w, lateness_s)

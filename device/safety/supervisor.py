@@ -219,7 +219,7 @@ class SafetySupervisor:
         out1, out2, code = supervise(
             self._robot.constants, self.constants, self.state, now_s, *values, rate1_rad_s,
             rate2_rad_s, torque1_Nm, torque2_Nm, lateness_s, heartbeat_age_s, estop,
-            recording_lost, read_error)
+            recording_lost, float(read_error))
         self.after_tick(before)
         return (out1, out2, Fault(code))
 

@@ -118,13 +118,12 @@ def sample(c, x, steps, q1, q2, scratch, noise):
 
 
 @kernel
-def _failed(status, scratch, t, q1, q2, qd1, qd2):
+def _failed_at(scratch, t, q1, q2, qd1, qd2):
     scratch[FAILED_AT] = t
     scratch[FAILED_AT + 1] = q1
     scratch[FAILED_AT + 2] = q2
     scratch[FAILED_AT + 3] = qd1
     scratch[FAILED_AT + 4] = qd2
-    return status
 
 
 @kernel
@@ -155,7 +154,8 @@ def advance(r, a, c, p, table, episodes, x, n, noise, scratch):
             status = evaluate(r, a, p, table, episodes, t, q1, q2, qd1, qd2, tau1, tau2,
                               scratch, 0)
             if status != OK:
-                return _failed(status, scratch, t + t0, q1, q2, qd1, qd2)
+                _failed_at(scratch, t + t0, q1, q2, qd1, qd2)
+                return status
             a1 = scratch[0]
             a2 = scratch[1]
         if rk4:
@@ -166,7 +166,8 @@ def advance(r, a, c, p, table, episodes, x, n, noise, scratch):
             status = evaluate(r, a, p, table, episodes, tm, q1 + hh * qd1, q2 + hh * qd2,
                               v1b, v2b, tau1, tau2, scratch, 0)
             if status != OK:
-                return _failed(status, scratch, t + t0, q1, q2, qd1, qd2)
+                _failed_at(scratch, t + t0, q1, q2, qd1, qd2)
+                return status
             b1 = scratch[0]
             b2 = scratch[1]
             v1c = qd1 + hh * b1
@@ -174,7 +175,8 @@ def advance(r, a, c, p, table, episodes, x, n, noise, scratch):
             status = evaluate(r, a, p, table, episodes, tm, q1 + hh * v1b, q2 + hh * v2b,
                               v1c, v2c, tau1, tau2, scratch, 0)
             if status != OK:
-                return _failed(status, scratch, t + t0, q1, q2, qd1, qd2)
+                _failed_at(scratch, t + t0, q1, q2, qd1, qd2)
+                return status
             c1 = scratch[0]
             c2 = scratch[1]
             v1d = qd1 + h * c1
@@ -182,7 +184,8 @@ def advance(r, a, c, p, table, episodes, x, n, noise, scratch):
             status = evaluate(r, a, p, table, episodes, t + h, q1 + h * v1c, q2 + h * v2c,
                               v1d, v2d, tau1, tau2, scratch, 0)
             if status != OK:
-                return _failed(status, scratch, t + t0, q1, q2, qd1, qd2)
+                _failed_at(scratch, t + t0, q1, q2, qd1, qd2)
+                return status
             d1 = scratch[0]
             d2 = scratch[1]
             h6 = h / 6.0
@@ -199,13 +202,16 @@ def advance(r, a, c, p, table, episodes, x, n, noise, scratch):
         steps += 1
         t = steps * h - t0
         if not math.isfinite(q1 + q2 + qd1 + qd2):
-            return _failed(NOT_FINITE, scratch, t + t0, q1, q2, qd1, qd2)
+            _failed_at(scratch, t + t0, q1, q2, qd1, qd2)
+            return NOT_FINITE
     status = evaluate(r, a, p, table, episodes, t, q1, q2, qd1, qd2, tau1, tau2, scratch, 0)
     if status != OK:
-        return _failed(status, scratch, t + t0, q1, q2, qd1, qd2)
+        _failed_at(scratch, t + t0, q1, q2, qd1, qd2)
+        return status
     for j in range(EVALUATION):
         if not math.isfinite(scratch[j]):
-            return _failed(NOT_FINITE, scratch, t + t0, q1, q2, qd1, qd2)
+            _failed_at(scratch, t + t0, q1, q2, qd1, qd2)
+            return NOT_FINITE
     status = sample(c, x, steps, q1, q2, scratch, noise)
     if status != OK:
         return status
@@ -263,8 +269,9 @@ def reset(r, a, c, p, table, episodes, q1, q2, t0, x, noise, scratch):
     x[X_NOISE] = start
     status = evaluate(r, a, p, table, episodes, -t0, q1, q2, 0.0, 0.0, 0.0, 0.0, scratch, 0)
     if status != OK:
-        return _failed(status, scratch, 0.0, q1, q2, 0.0, 0.0)
+        _failed_at(scratch, 0.0, q1, q2, 0.0, 0.0)
+        return status
     for j in range(EVALUATION):
         x[X_LAST + j] = scratch[j]
     x[X_CACHED] = 1.0
-    return sample(c, x, 0, q1, q2, scratch, noise)
+    return sample(c, x, int(x[X_STEPS]), q1, q2, scratch, noise)
