@@ -27,7 +27,13 @@ injected delay makes a tick late, so the watchdog can be proved on any machine.
 
 States: device.loop.states (which command leads where); each state's behaviour is
 here: what entering and leaving it does (`_entered`, `_leaving`) and what it does every
-tick (`_during`). Faults: device.safety (latched until cleared).
+tick (`_during`). Faults: device.safety (latched until cleared). Which backend it drives:
+device.loop.backends.
+
+Why one module of some 550 lines: it is one object, the loop process's state (the
+connection, the trial, the commands waiting for a tick) and the three things that
+change it (the ticks, the commands, the faults); each piece reads and writes that state,
+and split across modules they would pass it around or reach into each other.
 """
 
 from __future__ import annotations
@@ -40,9 +46,9 @@ from dataclasses import dataclass
 from multiprocessing.connection import Connection
 
 from core.errors import ParameterError
-from core.trial import TrialParameters
-from device.backend import REAL_TIME, SIMULATED, TIMINGS, Backend, SensorReading
+from device.backend import REAL_TIME, SIMULATED, Backend, SensorReading
 from device.errors import BackendError, DeviceError, StateError
+from device.loop.backends import limits_for_backend, make_backend, sensor_offset_for
 from device.loop.engine import TickEngine
 from device.loop.messages import (
     BackendConfig,
@@ -112,59 +118,6 @@ class LoopConfig:
     clock: str = "wall"
     """The loop's clock (device.loop.realtime.CLOCKS): "wall", or "own" to prove the
     watchdog by injection whatever the machine's stalls (see the module notes)."""
-
-
-def make_backend(config: BackendConfig, params: TrialParameters, plan: TrialPlan,
-                 sleep=time.sleep) -> Backend:
-    """The backend a BackendConfig names, built inside the loop process. `sleep` is how a
-    fault-injected slow read waits (the loop's clock's)."""
-    if config.timing not in (None, *TIMINGS):
-        raise BackendError(f"unknown timing {config.timing!r}; use {' or '.join(TIMINGS)}")
-    if config.kind == "simulator":
-        from device.sim.simulator import SimulatorBackend
-
-        backend: Backend = SimulatorBackend.from_trial(
-            params, config.patient, seed=config.seed, robot=plan.robot, patient_waits=True,
-            timing=config.timing or SIMULATED,
-        )
-    elif config.kind == "quanser":
-        if config.timing == SIMULATED:
-            raise BackendError("the real robot moves on the wall clock; simulated timing "
-                               "is only for the simulator")
-        from device.hardware.quanser import QuanserBackend
-        from device.hardware.settings import load_hardware_settings
-
-        if not config.hardware_settings:
-            raise BackendError("the hardware backend needs its settings file "
-                               "(docs/hardware.md); choose it in the Parameters tab")
-        settings = load_hardware_settings(config.hardware_settings)
-        backend = QuanserBackend(settings, plan.robot.motors)
-    else:
-        raise BackendError(f"unknown backend {config.kind!r}; use simulator or quanser")
-    if config.fault_scenario:
-        from device.sim.faultinjection import FaultInjectingBackend
-
-        backend = FaultInjectingBackend(backend, config.fault_scenario, at_s=config.fault_at_s,
-                                        sleep=sleep, **dict(config.fault_options))
-    return backend
-
-
-def limits_for_backend(limits: SafetyLimits, backend: Backend) -> SafetyLimits:
-    """The supervisor's limits with the force sensor's rated range where the backend
-    knows it from the sensor's calibration (the hardware backend, once open)."""
-    inner = getattr(backend, "inner", backend)  # under a FaultInjectingBackend
-    rated = getattr(inner, "force_sensor_range_N", None)
-    if rated is None:
-        return limits
-    return limits.for_sensor(*rated)
-
-
-def sensor_offset_for(config: BackendConfig) -> float:
-    if config.kind == "quanser" and config.hardware_settings:
-        from device.hardware.settings import load_hardware_settings
-
-        return load_hardware_settings(config.hardware_settings).force_sensor.mounting_offset_rad
-    return 0.0
 
 
 class DeviceLoop:

@@ -1,5 +1,9 @@
 """The shared-memory ring buffer between the 2 ms loop and its readers.
 
+(Some 580 lines for one data structure: its cross-process protocol, the lifetime of the
+segment when any of three processes dies, and the reclaiming of segments a crash left
+behind only make sense together.)
+
 The loop process writes one fixed-size record per tick; the recorder (must see every
 record) and the live view (may skip ahead) copy them out from other processes. One
 `RecordRing` is one POSIX shared-memory segment: a 256-byte header of int64 counters,

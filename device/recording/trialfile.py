@@ -1,6 +1,8 @@
 """The trial file: one HDF5 file per trial, written live by the recorder.
 
-The layout is specified in docs/data-format.md; this module is its only writer.
+The layout is specified in docs/data-format.md; this module is its only writer. (Some 750
+lines: the format's rules, HDF5's SWMR constraints and the crash and full-disk handling
+below are one job, each rule written next to the writing it governs.)
 
 Crash safety, in brief (the document has the reasoning):
 

@@ -20,7 +20,7 @@ import math
 
 from core.interaction import arm_state, coupled_motion
 from core.kernels import kernel
-from device.sim.patients import patient_torque
+from device.sim.patient_torque import patient_torque
 
 # The sensors' and the integrator's constants (SimulatorBackend.constants).
 (S_OFFSET, S_NOISE_XY, S_NOISE_Z, S_LOAD, S_RXY, S_RZ, S_LIMIT_XY, S_LIMIT_Z, S_CPR1,

@@ -37,7 +37,7 @@ stiffness, 3·10⁻⁵ without) that does not grow over 20 s. Those errors vanis
 under the sensors' resolution, so the cheap integrator is the default.
 `integrator="rk4"` (classical Runge–Kutta, same 1 ms step, 8 evaluations per
 tick, about 3× the cost) brings the same figures to 10⁻⁹ rad, 10⁻⁷ N and 10⁻¹²:
-use it to validate physics. `bench_tick` measures both.
+use it to validate physics. bench/simulate.py measures both.
 
 The first evaluation of each tick reuses the one made for the previous
 reading: the accelerations at the sampled state are affine in the motor torque,
@@ -74,7 +74,6 @@ repeatable for a seed.
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -499,50 +498,3 @@ def _check_seed(seed) -> None:
 def _child_seed(seed: int, index: int) -> np.random.SeedSequence:
     """The `index`-th independent stream of `seed` (what SeedSequence.spawn gives)."""
     return np.random.SeedSequence(int(seed), spawn_key=(index,))
-
-
-# --------------------------------------------------------------------- bench
-def bench_tick(
-    kinds=("passive", "healthy", "weak", "spastic", "tremor", "wrong_way"),
-    *,
-    seconds: float = 4.0,
-    integrators=INTEGRATORS,
-    trial: TrialParameters = THESIS_SUBJECT,
-    repeats: int = 3,
-) -> dict[tuple[str, str], float]:
-    """Wall-clock µs of one headless tick of the simulator alone (read at k·2 ms,
-    then write), per (patient kind, integrator): the best of `repeats` runs.
-
-    A first run with a joint PD on the path records the torques; the timed runs
-    replay them, so the motion is a trial's and no controller is on the clock.
-    For bench/simulate.py; prints nothing.
-    """
-    ticks = round(seconds / 0.002)
-    robot = RobotModel()
-    q_ref, qd_ref, _ = trial.trajectory().joint_reference(robot, np.arange(ticks) * 0.002)
-    results = {}
-    for integrator in integrators:
-        for kind in kinds:
-            sim = SimulatorBackend.from_trial(trial, kind, robot=robot, integrator=integrator)
-            sim.open()
-            torques = []
-            for k in range(ticks):
-                sim.read(k * 0.002)
-                tr = sim.truth
-                torques.append((
-                    30.0 * (q_ref[k, 0] - tr.q1_rad) + (qd_ref[k, 0] - tr.q1_rate_rad_s),
-                    30.0 * (q_ref[k, 1] - tr.q2_rad) + (qd_ref[k, 1] - tr.q2_rate_rad_s),
-                ))
-                sim.write(*torques[-1])
-            times = [k * 0.002 for k in range(ticks)]
-            best = math.inf
-            for _ in range(repeats):
-                sim.open()
-                read, write = sim.read, sim.write
-                start = time.perf_counter()
-                for now, (tau1, tau2) in zip(times, torques, strict=True):
-                    read(now)
-                    write(tau1, tau2)
-                best = min(best, time.perf_counter() - start)
-            results[(kind, integrator)] = best / ticks * 1e6
-    return results

@@ -21,7 +21,8 @@ from device.compiled.jit import compiled
 from device.loop.pipeline import TickPipeline, TrialPlan
 from device.safety import checks
 from device.safety.supervisor import SafetySupervisor
-from device.sim.patients import PATIENT_KINDS, make_patient, patient_torque
+from device.sim.patient_torque import patient_torque
+from device.sim.patients import PATIENT_KINDS, make_patient
 
 ROBOT = RobotModel(
     friction=Friction((0.05, 0.04), (0.02, 0.03), ee_coulomb_N=0.3, ee_viscous_Ns_m=0.5),

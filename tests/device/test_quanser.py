@@ -779,7 +779,7 @@ def test_fake_hil_enforces_the_real_buffer_rules(fake_rig):
 def test_the_supervisor_takes_the_sensor_range_from_its_calibration(fake_rig):
     """The thesis's Nano25 is calibrated for 250 N in the plane (this .cal says so):
     the supervisor's saturation and force ceilings follow the file, not a constant."""
-    from device.loop.process import limits_for_backend
+    from device.loop.backends import limits_for_backend
     from device.safety.limits import SafetyLimits
 
     backend = _opened(fake_rig)

@@ -11,9 +11,10 @@ from core.trial import THESIS_SUBJECT
 from device.backend import REAL_TIME, SIMULATED
 from device.errors import BackendError
 from device.loop import process as loop_module
+from device.loop.backends import make_backend
 from device.loop.messages import BackendConfig, Build, Connect, Notice, Reply
 from device.loop.pipeline import TrialPlan
-from device.loop.process import DeviceLoop, LoopConfig, make_backend
+from device.loop.process import DeviceLoop, LoopConfig
 from device.loop.realtime import measure_wakeups, timing_warning
 from device.loop.states import State
 from device.recording.ring import RecordRing

@@ -1,0 +1,68 @@
+"""Which backend the loop drives: built inside the loop process from a BackendConfig at
+Connect (a simulator with its virtual patient, or the Quanser hardware with its settings
+file, either perhaps wrapped in fault injection), and what the supervisor takes from it.
+"""
+
+from __future__ import annotations
+
+import time
+
+from core.trial import TrialParameters
+from device.backend import SIMULATED, TIMINGS, Backend
+from device.errors import BackendError
+from device.loop.messages import BackendConfig
+from device.loop.pipeline import TrialPlan
+from device.safety.limits import SafetyLimits
+
+
+def make_backend(config: BackendConfig, params: TrialParameters, plan: TrialPlan,
+                 sleep=time.sleep) -> Backend:
+    """The backend a BackendConfig names, built inside the loop process. `sleep` is how a
+    fault-injected slow read waits (the loop's clock's)."""
+    if config.timing not in (None, *TIMINGS):
+        raise BackendError(f"unknown timing {config.timing!r}; use {' or '.join(TIMINGS)}")
+    if config.kind == "simulator":
+        from device.sim.simulator import SimulatorBackend
+
+        backend: Backend = SimulatorBackend.from_trial(
+            params, config.patient, seed=config.seed, robot=plan.robot, patient_waits=True,
+            timing=config.timing or SIMULATED,
+        )
+    elif config.kind == "quanser":
+        if config.timing == SIMULATED:
+            raise BackendError("the real robot moves on the wall clock; simulated timing "
+                               "is only for the simulator")
+        from device.hardware.quanser import QuanserBackend
+        from device.hardware.settings import load_hardware_settings
+
+        if not config.hardware_settings:
+            raise BackendError("the hardware backend needs its settings file "
+                               "(docs/hardware.md); choose it in the Parameters tab")
+        settings = load_hardware_settings(config.hardware_settings)
+        backend = QuanserBackend(settings, plan.robot.motors)
+    else:
+        raise BackendError(f"unknown backend {config.kind!r}; use simulator or quanser")
+    if config.fault_scenario:
+        from device.sim.faultinjection import FaultInjectingBackend
+
+        backend = FaultInjectingBackend(backend, config.fault_scenario, at_s=config.fault_at_s,
+                                        sleep=sleep, **dict(config.fault_options))
+    return backend
+
+
+def limits_for_backend(limits: SafetyLimits, backend: Backend) -> SafetyLimits:
+    """The supervisor's limits with the force sensor's rated range where the backend
+    knows it from the sensor's calibration (the hardware backend, once open)."""
+    inner = getattr(backend, "inner", backend)  # under a FaultInjectingBackend
+    rated = getattr(inner, "force_sensor_range_N", None)
+    if rated is None:
+        return limits
+    return limits.for_sensor(*rated)
+
+
+def sensor_offset_for(config: BackendConfig) -> float:
+    if config.kind == "quanser" and config.hardware_settings:
+        from device.hardware.settings import load_hardware_settings
+
+        return load_hardware_settings(config.hardware_settings).force_sensor.mounting_offset_rad
+    return 0.0
