@@ -14,7 +14,8 @@ compiled, a headless trial runs at about a thousand times real time and the loop
 at tens of µs at its 99th percentile (docs/performance.md). Interpreted, the same
 kernels are the reference the tests hold the compiled ones to, bit for bit.
 
-May import core, device.sim, device.loop, device.safety (to compile and warm their
-kernels) and numba. Nothing outside the loop process and the headless run imports it,
-so the console's window never loads numba.
+May import core, device.backend, device.sim, device.loop and device.safety (`warmup`,
+to run their kernels once) and numba (`jit`). `jit` is imported only where a kernel runs
+compiled: in the loop process, a headless run and the warm-up, so the console's window
+never loads numba.
 """

@@ -1,6 +1,14 @@
 """The simulated robot: the thesis robot with a virtual patient on its handle, the
 patients themselves, the simulated sensors, and fault injection for any backend.
 
-May import core, device.backend and device.errors. Never device.hardware: a simulation
-never touches a vendor API.
+`simulator` is the backend (SimulatorBackend); `physics` its per-tick kernels (the
+coupled dynamics with the patient's torque, the integrator, the sensors, read, write,
+reset); `patients` the Patient protocol and the virtual patients (VirtualPatient,
+make_patient); `patient_torque` a virtual patient's torque as a kernel; `sensors` the
+force sensor's model; `faultinjection` FaultInjectingBackend, which wraps any backend.
+
+May import core, device.backend, device.errors, and device.safety's fault codes (fault
+injection); device.compiled only lazily, when a simulator is built compiled. Never
+device.hardware (a simulation never touches a vendor API), device.loop or
+device.recording.
 """
