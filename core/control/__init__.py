@@ -2,10 +2,18 @@
 
 * `base`: the `Controller` protocol every controller offers the loop, and
   `make_controller(name, model, ...)` for the names a trial may choose.
-* `smc`: sliding-mode tracking control (the thesis's controller, section 3.6).
-* `ctpid`: computed-torque PID, eq. 4.1–4.8 (section 4.2).
+* `smc`: sliding-mode tracking control (the thesis's controller, section 3.6); the
+  law is the kernel `smc_torques`.
+* `ctpid`: computed-torque PID, eq. 4.1–4.8 (section 4.2); the kernels
+  `ctpid_acceleration`, `ctpid_limit` and, on a RobotModel, `ctpid_torques`.
 * `assistance`: the performance-based scheme of section 3.5 / Fig. 3.6,
-  applied to a controller's torques (reduce only).
+  applied to a controller's torques (reduce only); the kernel `assisted_torques`.
+
+The laws are kernels (core.kernels): the classes validate their parameters, hold them
+as constants vectors, and their `step` (the assistance's `apply`) runs the kernels
+interpreted. The loop's pipeline (device.loop.pipeline) runs the same kernels on those
+vectors, compiled in the loop process and in headless runs, and a controller the kernels do not know through
+its own `step`.
 """
 
 from core.control.assistance import DEFAULT_MIN_FORCE_N, PerformanceAssistance

@@ -1,6 +1,6 @@
 """The one interface every joint-torque controller offers the 2 ms loop, and its factory.
 
-The loop (device layer) calls, once per tick,
+Every controller offers, once per tick,
 
     tau1, tau2 = controller.step(dt_s, q1, q2, qd1, qd2, r1, r2, rd1, rd2, rdd1, rdd2)
 
@@ -9,9 +9,14 @@ reference joint angle, rate and acceleration (θ_d, θ̇_d, θ̈_d; rad, rad/s,
 rad/s²) from `Trajectory.joint_reference` (eq. 3.1, 3.4, 3.5), all plain floats.
 It returns the joint torques τ_R (N·m) the motors should apply, already limited
 to the controller's `torque_limit_Nm`. `dt_s` is the time since the previous
-tick (the loop measures it; nominally 0.002 s) and only integrating controllers
-use it. `reset()` forgets any internal state (an integral), for a new trial or
+tick (the loop's pipeline passes its nominal period, 0.002 s) and only integrating
+controllers use it. `reset()` forgets any internal state (an integral), for a new trial or
 after the safety supervisor has held the robot in its safe state.
+
+The loop's pipeline (device.loop.pipeline) runs the two controllers here, on a
+RobotModel, through their kernels on the controller's `constants` (the law their `step`
+runs); any other controller, such as the computed-torque PID on a learned model, it runs
+interpreted through `step`.
 
 Why plain floats: a call through numpy costs ~1 µs per operation on scalars,
 so a controller written with numpy spends more time dispatching than computing.
