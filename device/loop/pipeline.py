@@ -11,9 +11,10 @@ then does the rest (the subject's joint angles, rates and torques, eq. 3.27–3.
 and returns the tick's record as plain numbers in `device.recording.record.flat_names()` order,
 ready for `RecordRing.push` or `RecordLog.append`.
 
-Everything per tick is plain floats on precomputed tables; numpy is used only when a
-trial is built (`TrialPlan`) and when it starts (`begin`, which plans the approach
-from wherever the handle is to the path's start point).
+`control` is a kernel (core.kernels) on precomputed tables and flat vectors: Python
+tuples and lists interpreted, float arrays compiled; `record` works on plain floats.
+numpy computes only when a trial is built (`TrialPlan`) and when it starts (`begin`, which
+plans the approach from wherever the handle is to the path's start point).
 """
 
 from __future__ import annotations

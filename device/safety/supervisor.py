@@ -1,8 +1,9 @@
 """The safety supervisor: the last word between the controller and the motors, every 2 ms tick.
 
-The loop calls `SafetySupervisor.step` once per tick with what it measured and
-what the controller (after the performance-based assistance) wants to command.
-`step` returns the torques to write and the latched fault code:
+One tick of the supervisor (`SafetySupervisor.step`, or the loop's tick engine
+running the same kernel on this object's vectors) takes what the loop measured and
+what the controller (after the performance-based assistance) wants to command, and
+returns the torques to write and the latched fault code:
 
 * Torque above the drive's limit is clamped, not a fault: both joints are
   scaled by the same factor, which keeps each sign and the direction of the
