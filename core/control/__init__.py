@@ -12,8 +12,8 @@
 The laws are kernels (core.kernels): the classes validate their parameters, hold them
 as constants vectors, and their `step` (the assistance's `apply`) runs the kernels
 interpreted. The loop's pipeline (device.loop.pipeline) runs the same kernels on those
-vectors, compiled in the loop process and in headless runs, and a controller the kernels do not know through
-its own `step`.
+vectors, compiled in the loop process and in headless runs, and a controller the
+kernels do not know through its own `step`.
 """
 
 from core.control.assistance import DEFAULT_MIN_FORCE_N, PerformanceAssistance
