@@ -237,15 +237,9 @@ class ArmModel:
         return suited(terms.ik_terms, x)(self.constants, x, y)
 
     def isb_terms(self, ts, te):
-        """Display angles in the ISB convention (eq. 3.37–3.38), radians.
-
-        Right arm: shoulder = 90° − θ_s, elbow = θ_e − θ_s. A left arm is the mirror
-        image (θ → 180° − θ), which gives shoulder = θ_s − 90°, elbow = θ_s − θ_e,
-        so both arms read the same for the same posture.
-        """
-        if self.side == "right":
-            return (0.5 * math.pi - ts, te - ts)
-        return (ts - 0.5 * math.pi, ts - te)
+        """Display angles in the ISB convention (eq. 3.37–3.38), radians (core.arm_terms.isb_of:
+        the same reading for a right and a left arm in the same posture)."""
+        return terms.isb_of(self.constants, ts, te)
 
     # ----------------------------------------------------------- array level
     def fk(self, theta) -> np.ndarray:

@@ -189,3 +189,13 @@ def ik_terms(a, x, y):
     flexed the way an elbow bends). Unreachable points give NaN."""
     ts, te, _ = ik_of(a, x, y)
     return (ts, te)
+
+
+@kernel
+def isb_of(a, ts, te):
+    """Display angles in the ISB convention (eq. 3.37–3.38), radians. Right arm: shoulder
+    = 90° − θ_s, elbow = θ_e − θ_s; a left arm is the mirror image (θ → 180° − θ), which
+    gives shoulder = θ_s − 90°, elbow = θ_s − θ_e: the elbow's sign times the right arm's,
+    so both arms read the same for the same posture."""
+    sign = a[ARM_SIGN]
+    return (sign * (0.5 * xp.pi - ts), sign * (te - ts))

@@ -10,20 +10,20 @@ numpy arrays for whole trials.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 from core.arm import ArmModel
 from core.arm_terms import (
     coriolis_of as arm_coriolis_of,
     ik_of as arm_ik_of,
     inverse_dynamics_of as arm_inverse_dynamics_of,
+    isb_of as arm_isb_of,
     jacobian_dot_of as arm_jacobian_dot_of,
     jacobian_of as arm_jacobian_of,
     mass_of as arm_mass_of,
 )
-from core.arrays import solve2_damped
 from core.errors import SingularityError
-from core.kernels import kernel, suited
+from core.kernels import kernel, suited, where
 from core.robot import RobotModel
 from core.robot_terms import (
     bias_of as robot_bias_of,
@@ -73,7 +73,8 @@ def subject_angles(robot: RobotModel, arm: ArmModel, q1, q2):
 def subject_rates(robot: RobotModel, arm: ArmModel, q1, q2, qd1, qd2, ts, te):
     """θ̇_A = J_A⁻¹ J_R θ̇_R (eq. 3.32), with a damped pseudo-inverse near the
     straight-arm singularity. Returns (θ̇_s, θ̇_e, damped)."""
-    return _rates(robot.jacobian_terms(q1, q2), arm.jacobian_terms(ts, te), qd1, qd2)
+    return suited(arm_rates, q1)(robot.jacobian_terms(q1, q2), arm.jacobian_terms(ts, te),
+                                 qd1, qd2)
 
 
 def subject_accelerations(
@@ -81,27 +82,10 @@ def subject_accelerations(
 ):
     """θ̈_A = J_A⁻¹ (J̇_R θ̇_R + J_R θ̈_R − J̇_A θ̇_A) (eq. 3.33), damped like the rates.
     Returns (θ̈_s, θ̈_e, damped)."""
-    return _accelerations(robot.jacobian_terms(q1, q2), arm.jacobian_terms(ts, te),
-                          robot.jacobian_dot_terms(q1, q2, qd1, qd2),
-                          arm.jacobian_dot_terms(ts, te, tsd, ted), qd1, qd2, qdd1, qdd2,
-                          tsd, ted)
-
-
-def _rates(robot_jacobian, arm_jacobian, qd1, qd2):
-    r11, r12, r21, r22 = robot_jacobian
-    vx = r11 * qd1 + r12 * qd2
-    vy = r21 * qd1 + r22 * qd2
-    return solve2_damped(*arm_jacobian, vx, vy, ARM_SINGULAR_THRESHOLD_M)
-
-
-def _accelerations(robot_jacobian, arm_jacobian, robot_jacobian_dot, arm_jacobian_dot,
-                   qd1, qd2, qdd1, qdd2, tsd, ted):
-    r11, r12, r21, r22 = robot_jacobian
-    d11, d12, d21, d22 = robot_jacobian_dot
-    e11, e12, e21, e22 = arm_jacobian_dot
-    ax = r11 * qdd1 + r12 * qdd2 + d11 * qd1 + d12 * qd2 - (e11 * tsd + e12 * ted)
-    ay = r21 * qdd1 + r22 * qdd2 + d21 * qd1 + d22 * qd2 - (e21 * tsd + e22 * ted)
-    return solve2_damped(*arm_jacobian, ax, ay, ARM_SINGULAR_THRESHOLD_M)
+    return suited(arm_accelerations, q1)(
+        robot.jacobian_terms(q1, q2), arm.jacobian_terms(ts, te),
+        robot.jacobian_dot_terms(q1, q2, qd1, qd2), arm.jacobian_dot_terms(ts, te, tsd, ted),
+        qd1, qd2, qdd1, qdd2, tsd, ted)
 
 
 def subject_torques(arm: ArmModel, ts, te, tsd, ted, tsdd, tedd, fx, fy):
@@ -114,8 +98,7 @@ def subject_robot_torque(robot: RobotModel, q1, q2, fx, fy):
     return robot.joint_torque_terms(q1, q2, fx, fy)
 
 
-@dataclass(frozen=True, slots=True)
-class SubjectState:
+class SubjectState(NamedTuple):
     """Everything the interaction model derives about the subject from one robot sample."""
 
     force_x_N: float
@@ -141,27 +124,87 @@ def subject_state(
     sensor_offset_rad=0.0,
 ) -> SubjectState:
     """Run the whole interaction model (eq. 3.28, 3.32–3.33, 3.35–3.38, 3.27) on one
-    sample or on arrays of samples, each state's sines taken once (core.robot_terms.trig)."""
-    def k(function):
-        return suited(function, q1)
+    sample or on arrays of samples: the kernel `subject_motion`."""
+    return SubjectState(*suited(subject_motion, q1)(
+        robot.constants, arm.constants, q1, q2, qd1, qd2, qdd1, qdd2, fx_sensor, fy_sensor,
+        sensor_offset_rad))
 
-    r, a = robot.constants, arm.constants
-    fx, fy = k(rotated_to_global)(fx_sensor, fy_sensor, q1, sensor_offset_rad)
-    rt = k(robot_trig)(q1, q2)
-    x, y = k(robot_position_of)(r, rt)
-    ts, te, at = k(arm_ik_of)(a, x, y)
-    robot_jacobian = k(robot_jacobian_of)(r, rt)
-    arm_jacobian = k(arm_jacobian_of)(a, at)
-    tsd, ted, damped_rate = _rates(robot_jacobian, arm_jacobian, qd1, qd2)
-    tsdd, tedd, damped_acc = _accelerations(
-        robot_jacobian, arm_jacobian, k(robot_jacobian_dot_of)(r, rt, qd1, qd2),
-        k(arm_jacobian_dot_of)(a, at, tsd, ted), qd1, qd2, qdd1, qdd2, tsd, ted)
-    tau_s, tau_e = k(arm_inverse_dynamics_of)(a, at, tsd, ted, tsdd, tedd, fx, fy)
-    isb_s, isb_e = arm.isb_terms(ts, te)
-    return SubjectState(
-        fx, fy, ts, te, tsd, ted, tsdd, tedd, tau_s, tau_e, isb_s, isb_e,
-        damped_rate | damped_acc,
-    )
+
+@kernel
+def subject_motion(r, a, q1, q2, qd1, qd2, qdd1, qdd2, fx_sensor, fy_sensor, offset_rad):
+    """The subject's state from one robot sample, SubjectState's values in its order: the
+    hand's force in the global frame (eq. 3.35–3.36), the arm's angles (eq. 3.28), rates
+    and accelerations (eq. 3.32–3.33, damped near the straight arm), net torques
+    (eq. 3.27) and ISB display angles (eq. 3.37–3.38). Each state's sines are taken once."""
+    fx, fy = rotated_to_global(fx_sensor, fy_sensor, q1, offset_rad)
+    rt = robot_trig(q1, q2)
+    x, y = robot_position_of(r, rt)
+    ts, te, at = arm_ik_of(a, x, y)
+    robot_jacobian = robot_jacobian_of(r, rt)
+    arm_jacobian = arm_jacobian_of(a, at)
+    tsd, ted, damped_rate = arm_rates(robot_jacobian, arm_jacobian, qd1, qd2)
+    tsdd, tedd, damped_acc = arm_accelerations(
+        robot_jacobian, arm_jacobian, robot_jacobian_dot_of(r, rt, qd1, qd2),
+        arm_jacobian_dot_of(a, at, tsd, ted), qd1, qd2, qdd1, qdd2, tsd, ted)
+    tau_s, tau_e = arm_inverse_dynamics_of(a, at, tsd, ted, tsdd, tedd, fx, fy)
+    isb_s, isb_e = arm_isb_of(a, ts, te)
+    return (fx, fy, ts, te, tsd, ted, tsdd, tedd, tau_s, tau_e, isb_s, isb_e,
+            damped_rate | damped_acc)
+
+
+@kernel
+def arm_rates(robot_jacobian, arm_jacobian, qd1, qd2):
+    """θ̇_A = J_A⁻¹ J_R θ̇_R (eq. 3.32), damped near the straight arm: (θ̇_s, θ̇_e, damped)."""
+    r11, r12, r21, r22 = robot_jacobian
+    a11, a12, a21, a22 = arm_jacobian
+    vx = r11 * qd1 + r12 * qd2
+    vy = r21 * qd1 + r22 * qd2
+    return damped_solve(a11, a12, a21, a22, vx, vy, ARM_SINGULAR_THRESHOLD_M)
+
+
+@kernel
+def arm_accelerations(robot_jacobian, arm_jacobian, robot_jacobian_dot, arm_jacobian_dot,
+                      qd1, qd2, qdd1, qdd2, tsd, ted):
+    """θ̈_A = J_A⁻¹ (J̇_R θ̇_R + J_R θ̈_R − J̇_A θ̇_A) (eq. 3.33), damped like the rates."""
+    r11, r12, r21, r22 = robot_jacobian
+    a11, a12, a21, a22 = arm_jacobian
+    d11, d12, d21, d22 = robot_jacobian_dot
+    e11, e12, e21, e22 = arm_jacobian_dot
+    ax = r11 * qdd1 + r12 * qdd2 + d11 * qd1 + d12 * qd2 - (e11 * tsd + e12 * ted)
+    ay = r21 * qdd1 + r22 * qdd2 + d21 * qd1 + d22 * qd2 - (e21 * tsd + e22 * ted)
+    return damped_solve(a11, a12, a21, a22, ax, ay, ARM_SINGULAR_THRESHOLD_M)
+
+
+@kernel
+def smallest_singular_value(a, b, c, d):
+    """σ_min of [[a, b], [c, d]] in closed form."""
+    total = a * a + b * b + c * c + d * d
+    det = a * d - b * c
+    disc = total * total - 4.0 * det * det
+    disc = where(disc > 0.0, disc, 0.0)
+    half = 0.5 * (total - xp.sqrt(disc))
+    return xp.sqrt(where(half > 0.0, half, 0.0))
+
+
+@kernel
+def damped_solve(a, b, c, d, r1, r2, threshold):
+    """Solve [[a, b], [c, d]] x = r, damped near a singularity: (x1, x2, damped).
+
+    The normal equations (AᵀA + λ²I) x = Aᵀ r with λ² = threshold² − σ_min² where that
+    is positive and 0 elsewhere: the exact solution where σ_min ≥ threshold, the damped
+    least-squares one below it, growing smoothly from zero, so the result has no jump
+    where damping starts."""
+    sigma = smallest_singular_value(a, b, c, d)
+    lam2 = threshold * threshold - sigma * sigma
+    damped = lam2 > 0.0
+    lam2 = where(damped, lam2, 0.0)
+    p11 = a * a + c * c + lam2
+    p12 = a * b + c * d
+    p22 = b * b + d * d + lam2
+    s1 = a * r1 + c * r2
+    s2 = b * r1 + d * r2
+    det = p11 * p22 - p12 * p12
+    return ((p22 * s1 - p12 * s2) / det, (p11 * s2 - p12 * s1) / det, damped)
 
 
 # ----------------------------------------------------------- coupled dynamics

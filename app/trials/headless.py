@@ -25,7 +25,7 @@ from core.robot import RobotModel
 from core.trial import TrialParameters
 from device.compiled.warmup import load_kernels
 from device.loop.engine import run_trial
-from device.loop.pipeline import TickPipeline, TrialPlan, fill_subject_channels
+from device.loop.pipeline import TickPipeline, TrialPlan
 from device.recording.trialfile import SubjectInfo, write_trial
 from device.safety.supervisor import SafetySupervisor
 from device.sim.simulator import SimulatorBackend
@@ -102,7 +102,6 @@ def simulate(
         events.append(_event(outcome.fault_tick, period, "fault", outcome.fault_message,
                              outcome.fault_detail))
     records = outcome.records
-    fill_subject_channels(records, plan)
     if progress is not None:
         progress(1.0)
     return SimulatedTrial(plan, records, tuple(events), outcome.status, patient, seed,

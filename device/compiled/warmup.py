@@ -76,7 +76,8 @@ def load_kernels(groups: tuple[str, ...] = GROUPS) -> float:
         (r, a, c, p, table, episodes), flavour, scratch = simulator.physics
         flavour(run_ticks)(
             0, 1, plan.period_s, r, a, c, p, table, episodes, simulator.state, simulator.noise,
-            scratch, pipeline.kind, v.robot, v.model, v.tracker, v.gains, v.assist, v.rates,
+            scratch, pipeline.kind, v.robot, v.arm, v.model, v.tracker, v.gains, v.assist,
+            v.rates,
             v.integral, v.rows, pipeline.approach_ticks, pipeline.sensor_offset_rad, v.last,
             g, w, np.zeros((ROW_SIZE, 1)), False, False)
     if "loop" in todo:
@@ -133,7 +134,7 @@ if __name__ == "__main__":
         sys.exit(0)
     if is_warm() and "--force" not in sys.argv:
         sys.exit(0)
-    print("Compiling the simulator's kernels (once, about a minute at most)…", file=sys.stderr)
+    print("Compiling the tick's kernels (once, under a minute)…", file=sys.stderr)
     prune_stale_caches()
     seconds = compile_in_parallel()
     print(f"compiled kernels ready in {seconds:.1f} s (cache: {CACHE_DIR or 'none'})",

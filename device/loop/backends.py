@@ -16,9 +16,10 @@ from device.safety.limits import SafetyLimits
 
 
 def make_backend(config: BackendConfig, params: TrialParameters, plan: TrialPlan,
-                 sleep=time.sleep) -> Backend:
+                 sleep=time.sleep, compiled: bool = True) -> Backend:
     """The backend a BackendConfig names, built inside the loop process. `sleep` is how a
-    fault-injected slow read waits (the loop's clock's)."""
+    fault-injected slow read waits (the loop's clock's); `compiled` runs a simulator's
+    physics compiled (else interpreted, as LoopConfig(compiled=False) asks)."""
     if config.timing not in (None, *TIMINGS):
         raise BackendError(f"unknown timing {config.timing!r}; use {' or '.join(TIMINGS)}")
     if config.kind == "simulator":
@@ -26,7 +27,7 @@ def make_backend(config: BackendConfig, params: TrialParameters, plan: TrialPlan
 
         backend: Backend = SimulatorBackend.from_trial(
             params, config.patient, seed=config.seed, robot=plan.robot, patient_waits=True,
-            timing=config.timing or SIMULATED,
+            timing=config.timing or SIMULATED, compiled=compiled,
         )
     elif config.kind == "quanser":
         if config.timing == SIMULATED:

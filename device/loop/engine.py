@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from core.interaction import SubjectState
+from core.interaction import SubjectState, subject_motion
 from core.kernels import interpreted, kernel
 from device.backend import SensorReading
 from device.errors import BackendError
@@ -32,6 +32,8 @@ from device.loop.pipeline import (
     C_OUT2,
     C_QD1,
     C_QD2,
+    C_QDD1,
+    C_QDD2,
     C_SIZE,
     TickPipeline,
     control,
@@ -58,7 +60,8 @@ ROW_READING = 0
 ROW_LAST = ROW_READING + 6
 ROW_APPLIED = ROW_LAST + C_SIZE
 ROW_FAULT = ROW_APPLIED + 2
-ROW_SIZE = ROW_FAULT + 1
+ROW_SUBJECT = ROW_FAULT + 1  # the subject's state (core.interaction.SubjectState's order)
+ROW_SIZE = ROW_SUBJECT + 13
 _CHUNKS = 100  # a headless run reports its progress this many times
 
 
@@ -261,8 +264,29 @@ NO_READING = SensorReading(math.nan, math.nan, math.nan, math.nan, math.nan, mat
 
 # ------------------------------------------------------------------- headless
 @kernel
+def store_subject(out, k, subject):
+    """Column k's subject rows from one `subject_motion` result (SubjectState's order).
+    Written out because the result mixes floats and a bool: compiled code cannot index
+    such a tuple with a loop variable."""
+    fx, fy, ts, te, tsd, ted, tsdd, tedd, tau_s, tau_e, isb_s, isb_e, damped = subject
+    out[ROW_SUBJECT, k] = fx
+    out[ROW_SUBJECT + 1, k] = fy
+    out[ROW_SUBJECT + 2, k] = ts
+    out[ROW_SUBJECT + 3, k] = te
+    out[ROW_SUBJECT + 4, k] = tsd
+    out[ROW_SUBJECT + 5, k] = ted
+    out[ROW_SUBJECT + 6, k] = tsdd
+    out[ROW_SUBJECT + 7, k] = tedd
+    out[ROW_SUBJECT + 8, k] = tau_s
+    out[ROW_SUBJECT + 9, k] = tau_e
+    out[ROW_SUBJECT + 10, k] = isb_s
+    out[ROW_SUBJECT + 11, k] = isb_e
+    out[ROW_SUBJECT + 12, k] = 1.0 if damped else 0.0
+
+
+@kernel
 def run_ticks(k0, k1, period_s, r, a, c, p, table, episodes, x, noise, scratch, kind, robot,
-              model, tracker, gains, assist, rates, integral, rows, approach_ticks,
+              arm, model, tracker, gains, assist, rates, integral, rows, approach_ticks,
               sensor_offset_rad, last, g, w, out, estop, recording_lost):
     """Ticks k0…k1−1 of a headless trial on the simulator (device.sim.physics' vectors
     r…scratch), at robot time k × period: each reads the sensors (tick 0 takes the
@@ -293,6 +317,9 @@ def run_ticks(k0, k1, period_s, r, a, c, p, table, episodes, x, noise, scratch, 
         out[ROW_APPLIED, k] = out1
         out[ROW_APPLIED + 1, k] = out2
         out[ROW_FAULT, k] = code
+        store_subject(out, k, subject_motion(
+            robot, arm, q1, q2, last[C_QD1], last[C_QD2], last[C_QDD1], last[C_QDD2], fx, fy,
+            sensor_offset_rad))
         if code != 0:
             return k + 1, FAULT_LATCHED
     return k1, physics.OK
@@ -300,8 +327,8 @@ def run_ticks(k0, k1, period_s, r, a, c, p, table, episodes, x, noise, scratch, 
 
 @dataclass(frozen=True, slots=True)
 class HeadlessOutcome:
-    """A headless trial's records (subject channels still NaN: fill_subject_channels),
-    its status, and the fault's message and detail when it faulted."""
+    """A headless trial's records, its status, and the fault's message and detail when it
+    faulted."""
 
     records: np.ndarray
     status: str
@@ -339,7 +366,7 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
                 progress(done / total)
             done, status = ticks(
                 done, min(total, done + step), period, r, a, c, p, table, episodes,
-                simulator.state, simulator.noise, scratch, pipeline.kind, v.robot, v.model,
+                simulator.state, simulator.noise, scratch, pipeline.kind, v.robot, v.arm, v.model,
                 v.tracker, v.gains, v.assist, v.rates, v.integral, v.rows,
                 pipeline.approach_ticks, pipeline.sensor_offset_rad, v.last,
                 supervisor.constants, supervisor.state, out, False, False)
@@ -366,7 +393,7 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
 
 def records_from_rows(rows: np.ndarray, pipeline: TickPipeline) -> np.ndarray:
     """`run_ticks`' output (ROW_* by tick) as records (record_values, channel by channel):
-    wall time the robot's time, no lateness or compute time, the subject's channels NaN."""
+    wall time the robot's time, no lateness or compute time."""
     n = rows.shape[1]
     tick = np.arange(n)
     time_s = tick * pipeline.period_s
@@ -374,8 +401,7 @@ def records_from_rows(rows: np.ndarray, pipeline: TickPipeline) -> np.ndarray:
     reading = SensorReading(*rows[ROW_READING:ROW_READING + 6])
     fault = rows[ROW_FAULT]
     state = np.where(fault != 0, int(State.FAULTED), int(State.RUNNING))
-    nan = np.full(n, math.nan)
-    subject = SubjectState(*(nan,) * 12, np.zeros(n, dtype=bool))
+    subject = SubjectState(*rows[ROW_SUBJECT:ROW_SUBJECT + 13])
     zeros = np.zeros(n)
     values = record_values(tick, time_s, time_s, zeros, zeros, reading,
                            rows[ROW_LAST:ROW_LAST + C_SIZE], rows[ROW_APPLIED:ROW_APPLIED + 2],

@@ -29,7 +29,12 @@ from core.control.base import make_controller
 from core.control.ctpid import I_SIZE, ComputedTorquePID, ctpid_torques
 from core.control.smc import SlidingModeController, smc_torques
 from core.errors import ParameterError
-from core.interaction import SubjectState, rotated_to_global, sensor_to_global, subject_state
+from core.interaction import (
+    SubjectState,
+    rotated_to_global,
+    sensor_to_global,
+    subject_motion,
+)
 from core.kernels import interpreted, kernel
 from core.robot import RobotModel
 from core.robot_terms import R_SIZE
@@ -168,6 +173,7 @@ class TickPipeline:
         self._make = _arrays if compiled else _python
         self.vectors = Vectors(
             robot=self._make(self.robot.constants),
+            arm=self._make(self.arm.constants),
             model=self._make(getattr(self.controller.model, "constants", ())),
             tracker=self._make(self.rate_estimator.coefficients),
             gains=self._make(getattr(self.controller, "constants", ())),
@@ -186,8 +192,10 @@ class TickPipeline:
             from device.compiled.jit import compiled as compile_kernel  # numba only here
 
             self._control = compile_kernel(control)
+            self._subject = compile_kernel(subject_motion)
         else:
             self._control = interpreted(control, self.replacements)
+            self._subject = subject_motion
 
     def _table(self, table: np.ndarray):
         if self.compiled:
@@ -265,19 +273,15 @@ class TickPipeline:
     def record(
         self, k: int, reading: SensorReading, wall_s: float, lateness_s: float,
         compute_s: float, applied: tuple[float, float], state: int, fault: int,
-        with_subject: bool = True,
     ) -> tuple:
-        """The tick's record (flat_names order), with the subject model run on it.
-
-        A headless run passes with_subject=False and fills the subject's channels for
-        the whole trial at once afterwards (`fill_subject_channels`): same formulas,
-        vectorised."""
+        """The tick's record (flat_names order), with the subject model run on it."""
         last = self.last_tick
         q1, q2 = reading.q1_rad, reading.q2_rad
-        s = subject_state(
-            self.robot, self.arm, q1, q2, last[C_QD1], last[C_QD2], last[C_QDD1], last[C_QDD2],
+        v = self.vectors
+        s = SubjectState(*self._subject(
+            v.robot, v.arm, q1, q2, last[C_QD1], last[C_QD2], last[C_QDD1], last[C_QDD2],
             reading.force_x_N, reading.force_y_N, self.sensor_offset_rad,
-        ) if with_subject else _NO_SUBJECT
+        ))
         return record_values(k, k * self.period_s, wall_s, lateness_s, compute_s, reading,
                              last, applied, self.robot.position(q1, q2), s, state, fault)
 
@@ -304,13 +308,15 @@ def record_values(tick, time_s, wall_s, lateness_s, compute_s, reading, last, ap
 
 @dataclass(slots=True)
 class Vectors:
-    """What the `control` kernel works on: the robot's constants, the controller's model's
-    (core.robot_terms), the rate tracker's, the controller's gains, the assistance's
+    """What the `control` kernel works on: the robot's constants, the arm's (for the
+    subject's state in the record), the controller's model's (core.robot_terms), the rate
+    tracker's, the controller's gains, the assistance's
     constants; the trackers' state (angle,
     rate, acceleration of each joint, Z_*), the controller's integral (core.control.ctpid
     I_*), the last tick's values (C_*), and the reference rows."""
 
     robot: object
+    arm: object
     model: object
     tracker: object
     gains: object
@@ -432,29 +438,6 @@ def control(kind, robot, model, tracker, gains, assist, rates, integral, tick, r
     last[C_FY] = fy
     last[C_ANGLE] = angle
     last[C_ACTIVE] = 1.0 if active else 0.0
-
-
-_NO_SUBJECT = SubjectState(*(math.nan,) * 12, False)
-
-
-def fill_subject_channels(records: np.ndarray, plan: TrialPlan,
-                          sensor_offset_rad: float = 0.0) -> None:
-    """Run the subject model (eq. 3.27–3.38) over whole recorded arrays, in place, on the
-    samples under control (phase ≠ idle)."""
-    sel = records["phase"] != PHASE_IDLE
-    q, qd, qdd = (records[n][sel] for n in ("robot_angle", "robot_rate", "robot_acceleration"))
-    f = records["force_sensor"][sel]
-    s = subject_state(plan.robot, plan.parameters.arm(), q[:, 0], q[:, 1], qd[:, 0], qd[:, 1],
-                      qdd[:, 0], qdd[:, 1], f[:, 0], f[:, 1], sensor_offset_rad)
-    for name, pair in (
-        ("subject_angle", (s.shoulder_rad, s.elbow_rad)),
-        ("subject_rate", (s.shoulder_rate_rad_s, s.elbow_rate_rad_s)),
-        ("subject_acceleration", (s.shoulder_acc_rad_s2, s.elbow_acc_rad_s2)),
-        ("subject_torque", (s.shoulder_torque_Nm, s.elbow_torque_Nm)),
-        ("subject_angle_isb", (s.isb_shoulder_rad, s.isb_elbow_rad)),
-    ):
-        records[name][sel] = np.column_stack(pair)
-    records["singular"][sel] = s.damped
 
 
 def idle_record(

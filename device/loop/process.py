@@ -461,7 +461,8 @@ class DeviceLoop:
         or why not."""
         self.paused = True
         config = self.backend_config
-        backend = make_backend(config, self.plan.parameters, self.plan, self.clock.sleep)
+        backend = make_backend(config, self.plan.parameters, self.plan, self.clock.sleep,
+                               self.config.compiled)
         if backend.timing == REAL_TIME and self.config.timing_check_s > 0.0:
             self._check_timing()
         backend.open()
