@@ -40,7 +40,6 @@ from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
-import scipy.io
 
 from app.exports.files import output
 from app.exports.loader import Trial
@@ -114,6 +113,10 @@ def mat_variables(trial: Trial, *, exercise_only: bool = False) -> dict:
 def write_mat(trial: Trial, path: Path, *, exercise_only: bool = False,
               overwrite: bool = False) -> Path:
     """Write one trial as a compressed MATLAB v5 file."""
+    # imported here: scipy.io costs about 0.5 s, which every start of the window and of
+    # `rehab` would otherwise pay for an export few of them make
+    import scipy.io
+
     variables = mat_variables(trial, exercise_only=exercise_only)
     with output(path, overwrite=overwrite) as stream:
         scipy.io.savemat(stream, variables, format="5", do_compression=True,
