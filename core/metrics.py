@@ -109,6 +109,8 @@ class TrialMetrics:
         reach_sparc, reach_ldlj: means over the reaches where they are defined
         (core.reaches); the initial direction error is the mean of the
         absolute angles (rad), the signed ones are in `reaches`.
+    robot_work_J, patient_work_J, robot_negative_work_J, robot_work_share: who did the
+        work (`mechanical_work`), NaN without the robot's torques and angles.
     shoulder_elbow_correlation: Pearson correlation of the ISB shoulder and
         elbow angle series (−1…1); NaN when either does not vary.
     within_intervals_s, outside_intervals_s: Fig. 3.9's blue and red runs (s);
@@ -150,6 +152,10 @@ class TrialMetrics:
     within_intervals_s: tuple[Interval, ...] = ()
     outside_intervals_s: tuple[Interval, ...] = ()
     reaches: tuple[ReachMetrics, ...] = ()
+    robot_work_J: float = math.nan
+    patient_work_J: float = math.nan
+    robot_negative_work_J: float = math.nan
+    robot_work_share: float = math.nan
 
     def to_dict(self) -> dict[str, float]:
         """Every scalar figure as a plain float, keyed by field name (SI units,
@@ -163,6 +169,43 @@ class TrialMetrics:
 
 
 # ------------------------------------------------------------------ formulas
+@dataclass(frozen=True, slots=True)
+class MechanicalWork:
+    """Who did the work over a stretch of a trial (J).
+
+    robot_J: net work of the motors on the robot, Σ τ_R · Δθ_R (eq. 3.6's input).
+    patient_J: net work of the hand on the handle, Σ F · Δp (F the hand's force on the
+        handle, global frame, eq. 3.34's F).
+    robot_negative_J: the robot's braking, Σ min(τ_R · Δθ_R, 0) summed per sample over
+        both joints together (≤ 0): work the robot took out of the motion.
+    robot_share: max(robot_J, 0) / (max(robot_J, 0) + max(patient_J, 0)), the robot's
+        share of the positive net work (NaN when neither did any).
+    """
+
+    robot_J: float
+    patient_J: float
+    robot_negative_J: float
+    robot_share: float
+
+
+def mechanical_work(torque_Nm, angle_rad, force_N, position_m) -> MechanicalWork:
+    """The robot's and the patient's work from a trial's samples: torques (N, 2) held
+    from each sample to the next (the drives' zero-order hold) times the joints' change
+    of angle (N, 2), and the hand's force (N, 2) times the handle's displacement (N, 2),
+    each force taken as the mean of the step's two samples."""
+    torque = np.asarray(torque_Nm, dtype=float)
+    angle = np.asarray(angle_rad, dtype=float)
+    force = np.asarray(force_N, dtype=float)
+    position = np.asarray(position_m, dtype=float)
+    robot_power = np.sum(torque[:-1] * np.diff(angle, axis=0), axis=1)
+    patient = float(np.sum(0.5 * (force[1:] + force[:-1]) * np.diff(position, axis=0)))
+    robot = float(np.sum(robot_power))
+    negative = float(np.sum(np.minimum(robot_power, 0.0)))
+    positive = max(robot, 0.0) + max(patient, 0.0)
+    share = max(robot, 0.0) / positive if positive > 0.0 else math.nan
+    return MechanicalWork(robot, patient, negative, share)
+
+
 def rmse_xy(position_m, desired_position_m) -> tuple[float, float]:
     """Root-mean-square error per axis (m): √(mean_k (p_k − p_d,k)²), Fig. 3.7."""
     error = np.asarray(position_m, dtype=float) - np.asarray(desired_position_m, dtype=float)
@@ -268,6 +311,8 @@ def compute_metrics(
     force_N=None,
     isb_angles_rad=None,
     torque_Nm=None,
+    robot_torque_Nm=None,
+    robot_angle_rad=None,
     tolerance_rad: float = DEFAULT_TOLERANCE_RAD,
     min_force_N: float = DEFAULT_MIN_FORCE_N,
     reaches: Sequence[Reach] | None = None,
@@ -284,7 +329,9 @@ def compute_metrics(
     hand/end-effector position; desired_position_m (N, 2); desired_direction
     (N, 2) unit path tangent; force_N (N, 2) the hand's force on the handle in
     the global frame; isb_angles_rad (N, 2) ISB shoulder, elbow; torque_Nm
-    (N, 2) subject's shoulder, elbow torques. Every array must be finite; the
+    (N, 2) subject's shoulder, elbow torques; robot_torque_Nm (N, 2) the torques the
+    drives applied and robot_angle_rad (N, 2) the joints' angles (with force_N, for
+    `mechanical_work`). Every array must be finite; the
     figures of a channel left as None are NaN.
 
     Hand speed is the norm of the derivative of the position after the zero-lag
@@ -353,6 +400,12 @@ def compute_metrics(
         trial_sparc = sparc(speed, dt_s)
         trial_ldlj = ldlj(velocity[first:last + 1], dt_s) if last - first >= 3 else nan
 
+    work = MechanicalWork(nan, nan, nan, nan)
+    if robot_torque_Nm is not None and robot_angle_rad is not None and force_N is not None:
+        work = mechanical_work(as_series("robot_torque_Nm", robot_torque_Nm, n, 2),
+                               as_series("robot_angle_rad", robot_angle_rad, n, 2),
+                               force, position)
+
     per_reach: tuple[ReachMetrics, ...] = ()
     if reaches:
         per_reach = reach_metrics(
@@ -396,4 +449,8 @@ def compute_metrics(
         within_intervals_s=within,
         outside_intervals_s=outside,
         reaches=per_reach,
+        robot_work_J=work.robot_J,
+        patient_work_J=work.patient_J,
+        robot_negative_work_J=work.robot_negative_J,
+        robot_work_share=work.robot_share,
     )

@@ -26,6 +26,8 @@ from core.robot import RobotModel
 from core.trajectory import SHAPES, TIMINGS, Path, Trajectory, make_path
 
 CONTROLLERS = ("smc", "ctpid")
+ASSIST_MODES = ("thesis", "as-needed")
+"""The assistance modes (core.control.guidance, which names them too, imports these)."""
 SIDES = ("right", "left")
 INCH_M = 0.0254
 
@@ -64,12 +66,21 @@ class TrialParameters:
     tolerance_rad: float = math.radians(20.0)
     controller: str = "smc"
     assistance_level: float = 1.0
+    assist: str = "thesis"
+    """The assistance mode (core.control.guidance.ASSIST_MODES): "thesis", Fig. 3.6 as
+    printed (the tracking controller on the clock with the reduce-only cut), or
+    "as-needed", the guidance of core.control.guidance. Trials recorded before the modes
+    existed read as "thesis", which is what they ran."""
+    gains: str = ""
+    """Changes to the controller's and the guidance's default gains, one line such as
+    "smc.lambda_1_s=25; guidance.delay_s=0.5" (core.control.gains), kept canonical."""
 
     def __post_init__(self) -> None:
         _choice("shape", self.shape, SHAPES)
         _choice("timing", self.timing, TIMINGS)
         _choice("side", self.side, SIDES)
         _choice("controller", self.controller, CONTROLLERS)
+        _choice("assist", self.assist, ASSIST_MODES)
         object.__setattr__(self, "centre_m", _point("centre_m", self.centre_m))
         object.__setattr__(self, "shoulder_m", _point("shoulder_m", self.shoulder_m))
         check_range("radius_m", self.radius_m, *RADIUS_RANGE_M, "m",
@@ -88,9 +99,15 @@ class TrialParameters:
                     f"{math.degrees(lo):.0f}–{math.degrees(hi):.0f}°; beyond 90° a push "
                     "against the path would count as help")
         check_range("assistance_level", self.assistance_level, 0.0, 1.0, "",
-                    "0 = no reduction for the subject's effort, 1 = the thesis's full reduction")
+                    "0 = no help for the subject's effort (thesis: no reduction; as-needed: "
+                    "the channel alone), 1 = full help")
         if not isinstance(self.clockwise, bool):
             raise ParameterError("clockwise", self.clockwise, "True or False")
+        if self.gains != "":
+            # imported here: core.control builds on this module
+            from core.control.gains import canonical_gains
+
+            object.__setattr__(self, "gains", canonical_gains(self.gains))
 
     def replace(self, **changes) -> TrialParameters:
         return dataclasses.replace(self, **changes)

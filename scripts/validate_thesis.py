@@ -2,6 +2,7 @@
 and the same table for every virtual patient. Prints a markdown table for docs/validation.md.
 
 Run: .venv/bin/python scripts/validate_thesis.py [--repetitions 5] [--seed 0]
+     [--plant ideal|realistic] [--assist thesis|as-needed]
 """
 
 from __future__ import annotations
@@ -36,17 +37,23 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repetitions", type=int, default=5)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--plant", choices=("ideal", "realistic"), default="ideal",
+                        help="the simulated robot (device.sim.plant; default ideal, as in "
+                             "docs/validation.md's table)")
+    parser.add_argument("--assist", choices=("thesis", "as-needed"), default="thesis",
+                        help="the assistance mode (default thesis: the thesis's scheme)")
     args = parser.parse_args()
-    params = THESIS_SUBJECT.replace(repetitions=args.repetitions)
+    params = THESIS_SUBJECT.replace(repetitions=args.repetitions, assist=args.assist)
     results = {}
     for kind in PATIENT_KINDS:
-        trial = simulate(params, patient=kind, seed=args.seed)
+        trial = simulate(params, patient=kind, seed=args.seed, plant=args.plant)
         channels = {n: trial.records[n] for n in trial.records.dtype.names}
         results[kind] = (trial.status, analyse(channels, params).metrics.to_dict())
     kinds = list(PATIENT_KINDS)
     print(f"Thesis D (line centred at (−0.30, 0.30) m, r = 0.10 m, 4 s per traversal, constant "
           f"speed), {args.repetitions} traversals, SMC, 20° tolerance, assistance 100 %, "
-          f"91 kg subject with 12 in segments, shoulder (−0.12, 0.73) m, seed {args.seed}.\n")
+          f"91 kg subject with 12 in segments, shoulder (−0.12, 0.73) m, seed {args.seed}, "
+          f"{args.plant} plant, {args.assist} assistance.\n")
     print("| figure | thesis | " + " | ".join(kinds) + " |")
     print("|---|---|" + "---|" * len(kinds))
     for label, key, scale, unit, thesis in ROWS:

@@ -203,6 +203,7 @@ class MainWindow(QMainWindow):
         self.registration_tab.registered.connect(self._on_registered)
         self.registration_tab.patient_selected.connect(self._on_patient)
         self.parameters_tab.parameters_changed.connect(lambda *_: self._refresh_buttons())
+        self.parameters_tab.assistance_changed.connect(self._assistance_changed)
         self.parameters_tab.camera_changed.connect(self.video.open_camera)
         self.trajectory.flip_changed.connect(self._on_flip)
         self.replay.view_loaded.connect(self._on_replay)
@@ -277,6 +278,13 @@ class MainWindow(QMainWindow):
         self.unsaved_trial = None
         self._refresh_buttons()
         self._say(f"Saved. Trial file and report are in the data folder: {path}")
+
+    def _assistance_changed(self, level: float) -> None:
+        """A connected robot takes the new assistance level at once, mid-trial too (the
+        trial file keeps an event of the change)."""
+        if self.state in (State.CONNECTED, State.RUNNING):
+            self.bridge.set_assistance(level)
+            self._say(f"Assistance set to {level:.0%}; the robot uses it from now on.")
 
     def emergency_stop(self) -> None:
         self.bridge.estop(True)

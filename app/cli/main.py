@@ -16,6 +16,7 @@ from collections.abc import Sequence
 from app.cli.check import add_check_command
 from app.cli.common import EXIT_BAD_INPUT, CommandError, Parser
 from app.cli.exports import add_export_command
+from app.cli.gains import add_gains_command
 from app.cli.records import add_patient_commands, add_trials_command
 from app.cli.reports import add_progress_command, add_report_command
 from app.cli.run import add_run_command
@@ -32,6 +33,7 @@ COMMAND_GROUPS = (
     add_progress_command,
     add_report_command,
     add_export_command,
+    add_gains_command,
 )
 
 

@@ -30,6 +30,13 @@ def add_run_command(commands) -> None:
                          help="auto (default) or compiled: the tick's kernels compiled; "
                               "python: the same kernels interpreted (the reference: the same "
                               "samples, slower)")
+    from device.sim.plant import PLANTS
+
+    run_cmd.add_argument("--plant", choices=PLANTS, default="realistic",
+                         help="the simulated robot: realistic (default), its own masses, "
+                              "friction, stiffness, drive gain and a 2 ms drive delay drawn "
+                              "by the seed around the controller's model; ideal: the model "
+                              "itself")
     run_cmd.set_defaults(func=cmd_run)
 
 
@@ -65,7 +72,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise CommandError(f"{path} already exists; give another --output")
     bar = progress_bar(f"simulating {params.repetitions} × {params.duration_s:g} s")
     trial = simulate(params, patient=args.patient, seed=args.seed,
-                     progress=bar.update if bar else None, engine=args.engine)
+                     progress=bar.update if bar else None, engine=args.engine,
+                     plant=args.plant)
     if bar:
         bar.done()
     analysis = save(trial, path, subject_code=args.code or "SIM")
@@ -78,7 +86,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     loaded = f"; its kernels loaded in {trial.load_s:.2f} s first" if trial.load_s else ""
     print(f"Trial {trial.status}: {trial.simulated_s:.1f} s simulated in "
           f"{trial.elapsed_s:.2f} s ({trial.speed_vs_real_time:.0f}× real time, "
-          f"{trial.engine} engine{loaded}), {args.patient} virtual patient, seed {args.seed}")
+          f"{trial.engine} engine{loaded}), {args.patient} virtual patient, seed {args.seed}, "
+          f"{args.plant} plant, {params.assist} assistance")
     print(f"File: {path}")
     print(format_metrics(analysis.metrics))
     for note in analysis.notes:

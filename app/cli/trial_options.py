@@ -11,6 +11,7 @@ import math
 
 from core.trajectory import SHAPES, TIMINGS
 from core.trial import (
+    ASSIST_MODES,
     CONTROLLERS,
     SIDES,
     THESIS_AS_PRINTED,
@@ -52,9 +53,19 @@ def add_trial_options(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--tolerance", type=float, default=math.degrees(d.tolerance_rad),
                        help="directional tolerance in degrees (default 20)")
     group.add_argument("--controller", choices=CONTROLLERS, default=d.controller)
+    group.add_argument("--assist", choices=ASSIST_MODES, default="as-needed",
+                       help="as-needed (default): a compliant channel whose reference moves "
+                            "with the patient, help along the path the patient earns back; "
+                            "thesis: the tracking controller on the clock with the thesis's "
+                            "reduce-only cut (Fig. 3.6 as printed)")
     group.add_argument("--assistance", type=float, default=100 * d.assistance_level,
-                       help="share of the subject's effort the robot gives way to, "
-                            "0-100 %% (default 100, the thesis's scheme)")
+                       help="assistance level, 0-100 %% (default 100): as-needed, the help "
+                            "along the path; thesis, the share of the subject's effort the "
+                            "robot gives way to")
+    group.add_argument("--gains", default="", metavar="CHANGES",
+                       help="changes to the controller's and the guidance's gains, e.g. "
+                            "\"smc.lambda_1_s=25; guidance.delay_s=0.5\" (rehab gains lists "
+                            "them); saved with the trial")
     group.add_argument("--thesis-as-printed", action="store_true",
                        help="use section 3.6 exactly as printed (shoulder at +0.12 m: refused)")
 
@@ -78,6 +89,8 @@ def trial_from_args(args: argparse.Namespace) -> TrialParameters:
         "tolerance_rad": math.radians(args.tolerance),
         "controller": args.controller,
         "assistance_level": args.assistance / 100.0,
+        "assist": args.assist,
+        "gains": args.gains,
     }
     if not args.thesis_as_printed:
         changes["shoulder_m"] = tuple(args.shoulder)

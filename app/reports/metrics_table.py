@@ -58,6 +58,13 @@ ROWS: tuple[MetricRow, ...] = (
     MetricRow("initial_direction_error_rad", "Initial direction error (mean)", "°",
               180.0 / math.pi, "first 100 ms against the line to the target",
               short="Initial dir. error"),
+    MetricRow("robot_work_J", "Robot's net work", "J", 1.0,
+              "what the motors put into the movement (negative: they held it back)",
+              short="Robot work"),
+    MetricRow("patient_work_J", "Patient's net work", "J", 1.0,
+              "what the hand put into the handle", short="Patient work"),
+    MetricRow("robot_work_share", "Robot's share of the work", "%", 100.0,
+              "of the positive work; lower means the patient did more", short="Robot share"),
     MetricRow("shoulder_elbow_correlation", "Shoulder–elbow correlation", "", 1.0,
               "how together the two joints moved", short="Shoulder–elbow r"),
 )

@@ -65,6 +65,8 @@ def analyse(channels: Mapping[str, np.ndarray], parameters: TrialParameters) -> 
         force_N=take("force"),
         isb_angles_rad=take("subject_angle_isb"),
         torque_Nm=take("subject_torque"),
+        robot_torque_Nm=take("torque_applied") if "torque_applied" in channels else None,
+        robot_angle_rad=take("robot_angle") if "robot_angle" in channels else None,
         tolerance_rad=parameters.tolerance_rad,
         reaches=reaches,
     )

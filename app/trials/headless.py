@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from app.trials.analysis import Analysis, analyse
+from core.control.guidance import GuidanceGains
 from core.errors import ParameterError
 from core.robot import RobotModel
 from core.trial import TrialParameters
@@ -49,6 +50,13 @@ class SimulatedTrial:
     """Which engine produced the records: "compiled" or "python"."""
     load_s: float = 0.0
     """Time spent loading the compiled kernels before the run (once per process)."""
+    plant: dict | None = None
+    """The simulated robot's parameters (device.sim.plant.Plant.describe)."""
+    guidance: GuidanceGains | None = None
+    """The as-needed mode's gains (None in the thesis mode)."""
+    feedforward_N: np.ndarray | None = None
+    """The as-needed mode's learned feedforward per repetition and bin
+    (TickPipeline.feedforward_history)."""
 
     @property
     def simulated_s(self) -> float:
@@ -68,6 +76,8 @@ def simulate(
     progress: Progress | None = None,
     patient_options: dict | None = None,
     engine: str = "auto",
+    plant: str = "realistic",
+    guidance: GuidanceGains | None = None,
 ) -> SimulatedTrial:
     """Run a trial on the simulator with a virtual patient of kind `patient`.
 
@@ -78,7 +88,10 @@ def simulate(
 
     `engine` is one of ENGINES: "compiled" runs the ticks' kernels compiled (numba),
     "python" interpreted (the reference: the same code, the same samples bit for bit,
-    a few hundred times slower), "auto" compiled.
+    a few hundred times slower), "auto" compiled. `plant` is the simulated robot
+    (device.sim.plant.PLANTS): "realistic", its own parameters drawn by the seed around
+    the controller's model, or "ideal", the model itself. `guidance` sets the as-needed
+    mode's gains (core.control.guidance; its defaults otherwise).
     """
     if engine not in ENGINES:
         raise ParameterError("engine", engine, "one of " + ", ".join(ENGINES))
@@ -88,9 +101,9 @@ def simulate(
     load_s = load_kernels(("headless",)) if compiled else 0.0
     backend = SimulatorBackend.from_trial(
         parameters, patient, seed=seed, robot=plan.robot, patient_options=patient_options,
-        compiled=compiled,
+        compiled=compiled, plant=plant,
     )
-    pipeline = TickPipeline(plan, compiled=compiled)
+    pipeline = TickPipeline(plan, compiled=compiled, guidance=guidance)
     supervisor = SafetySupervisor(plan.robot)
     started = time.perf_counter()
     outcome = run_trial(backend, pipeline, supervisor, progress)
@@ -106,7 +119,8 @@ def simulate(
         progress(1.0)
     return SimulatedTrial(plan, records, tuple(events), outcome.status, patient, seed,
                           time.perf_counter() - started, "compiled" if compiled else "python",
-                          load_s)
+                          load_s, backend.plant.describe(), pipeline.guidance,
+                          pipeline.feedforward_history)
 
 
 def save(trial: SimulatedTrial, path: Path, *, subject_code: str = "SIM") -> Analysis:
@@ -124,8 +138,10 @@ def save(trial: SimulatedTrial, path: Path, *, subject_code: str = "SIM") -> Ana
         events=trial.events,
         status=trial.status,
         summary={"speed_vs_real_time": trial.speed_vs_real_time, "engine": trial.engine,
-                 "exercise_start_s": analysis.exercise_start_s},
+                 "exercise_start_s": analysis.exercise_start_s,
+                 **_plant_summary(trial.plant)},
         metrics=analysis.metrics.to_dict(),
+        assistance=_assistance(trial),
     )
     return analysis
 
@@ -133,3 +149,24 @@ def save(trial: SimulatedTrial, path: Path, *, subject_code: str = "SIM") -> Ana
 def _event(tick: int, period: float, kind: str, message: str, values: dict) -> dict:
     return {"time_s": tick * period, "tick": tick, "kind": kind, "message": message,
             "values": values}
+
+
+def _plant_summary(plant: dict | None) -> dict:
+    """The simulated plant as the summary's scalars: its kind, and every parameter as
+    JSON (device.sim.plant.Plant.describe)."""
+    if plant is None:
+        return {}
+    import json
+
+    return {"plant": plant["kind"], "plant_parameters": json.dumps(plant)}
+
+
+def _assistance(trial: SimulatedTrial) -> dict:
+    """The assistance group of the trial file: the mode, the level, and in the as-needed
+    mode its gains and the learned feedforward (N) per repetition and bin."""
+    params = trial.plan.parameters
+    out: dict = {"mode": params.assist, "level": params.assistance_level}
+    if trial.guidance is not None:
+        out.update(trial.guidance.to_dict())
+        out["feedforward_N"] = trial.feedforward_N
+    return out

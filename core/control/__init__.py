@@ -1,4 +1,5 @@
-"""Joint-torque controllers for the 2 ms loop and the performance-based assistance.
+"""Joint-torque controllers for the 2 ms loop, the performance-based assistance and the
+as-needed guidance.
 
 * `base`: the `Controller` protocol every controller offers the loop, and
   `make_controller(name, model, ...)` for the names a trial may choose.
@@ -7,7 +8,11 @@
 * `ctpid`: computed-torque PID, eq. 4.1–4.8 (section 4.2); the kernels
   `ctpid_acceleration`, `ctpid_limit` and, on a RobotModel, `ctpid_torques`.
 * `assistance`: the performance-based scheme of section 3.5 / Fig. 3.6,
-  applied to a controller's torques (reduce only); the kernel `assisted_torques`.
+  applied to a controller's torques (reduce only): the `thesis` assistance mode; the
+  kernels `cone_test` and `assisted_torques`.
+* `guidance`: the `as-needed` mode: a compliant channel whose reference moves with the
+  patient, help along the path the patient earns back, a feedforward learned over the
+  repetitions with forgetting; the kernel `guidance_command`, its gains `GuidanceGains`.
 
 The laws are kernels (core.kernels): the classes validate their parameters, hold them
 as constants vectors, and their `step` (the assistance's `apply`) runs the kernels
@@ -25,6 +30,7 @@ from core.control.base import (
     make_controller,
 )
 from core.control.ctpid import ComputedTorquePID, CTPIDGains
+from core.control.guidance import GuidanceGains
 from core.control.smc import SlidingModeController, SMCGains
 
 __all__ = [
@@ -34,6 +40,7 @@ __all__ = [
     "CTPIDGains",
     "ComputedTorquePID",
     "Controller",
+    "GuidanceGains",
     "InverseDynamicsModel",
     "PerformanceAssistance",
     "SMCGains",

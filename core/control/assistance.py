@@ -33,16 +33,25 @@ directional-performance metric of section 3.6.1, "78 % within 20°", is the
 share of ticks with `active` true). A therapist fades assistance across
 sessions by changing it, at run time through `set_level`.
 
-What it does in closed loop
----------------------------
-The reduction acts on the controller's output, not on its reference, so a
-tight tracking controller takes most of it back: the handle falls slightly
-behind and the feedback (SMC's K_D s + K sat, CT-PID's PID) restores the
-torque within a few ticks. Simulated on the thesis D with the subject pushing
-1 N along the path, level 1 versus level 0 changed the robot's RMS torque by
-under 1 %. The scheme is a faithful, safe reading of the thesis; to make the
-subject's effort really replace the robot's, the tracking gains (or the
-feedforward) must be lowered with the level as well.
+What it does in closed loop, and why so little
+----------------------------------------------
+Next to nothing. On the thesis D with the sliding-mode controller (5 × 4 s, seed 0,
+`rehab run --assist thesis`), level 1 changes the robot's RMS torque by 0.2 % for the
+healthy virtual patient on the ideal plant and 1.0 % on the realistic one, and by under
+0.02 % for the weak patient. The reason is the sign rule: the stiff tracker on a fixed
+clock has already cancelled the subject's push before the scheme sees it, so inside the
+cone the controller's torque has the opposite sign to J_Rᵀ F on 67–99 % of the joint-ticks
+(healthy, weak, tremor and wrong-way patients, both plants), and a cut there would raise
+|τ|, which the reduce-only rule forbids. (Measured with the records' torque_controller
+and J_Rᵀ force over the in-cone exercise ticks; docs/validation.md, Assistance.) It is
+not, as this note once said, the feedback restoring a cut: there is hardly a cut to
+restore. Worse, the fixed clock brakes a subject who moves ahead of it: the robot does
+−1.6 J of work on the healthy virtual patient's +2.2 J.
+
+The scheme is kept as the `thesis` assistance mode, Fig. 3.6 as printed. The `as-needed`
+mode (core.control.guidance) does what the thesis meant: its reference moves with the
+patient, so their effort replaces the robot's. This module's `cone_test` is shared by
+both.
 
 Default minimum force
 ---------------------
@@ -173,18 +182,27 @@ class PerformanceAssistance:
 
 
 @kernel
-def assisted_torques(robot, a, q1, q2, tau1, tau2, fx, fy, dir_x, dir_y):
-    """PerformanceAssistance.apply on a RobotModel's constants `robot` and the scheme's
-    constants `a`: (τ1, τ2, active, angle)."""
+def cone_test(a, fx, fy, dir_x, dir_y):
+    """Whether the hand's force (fx, fy) lies within the tolerance cone about the desired
+    direction (steps 2–3 of the module notes): (active, angle), the angle NaN when the
+    force is below the minimum or the direction undefined (NaN inputs: inactive)."""
     force_sq = fx * fx + fy * fy
     dir_sq = dir_x * dir_x + dir_y * dir_y
     # Written as `not >=` so that NaN readings fall on the inactive side.
     if not (force_sq >= a[A_MIN_FORCE_SQ]) or not (dir_sq > _MIN_DIRECTION_SQ):
-        return (tau1, tau2, False, math.nan)
+        return (False, math.nan)
     # atan2 of cross and dot stays accurate near 0 and π, where acos of a
     # normalised dot product loses half its digits.
     angle = math.atan2(abs(fx * dir_y - fy * dir_x), fx * dir_x + fy * dir_y)
-    if not (angle <= a[A_TOLERANCE]):
+    return (angle <= a[A_TOLERANCE], angle)
+
+
+@kernel
+def assisted_torques(robot, a, q1, q2, tau1, tau2, fx, fy, dir_x, dir_y):
+    """PerformanceAssistance.apply on a RobotModel's constants `robot` and the scheme's
+    constants `a`: (τ1, τ2, active, angle)."""
+    active, angle = cone_test(a, fx, fy, dir_x, dir_y)
+    if not active:
         return (tau1, tau2, False, angle)
     level = a[A_LEVEL]
     g1, g2 = joint_torque_terms(robot, q1, q2, fx, fy)

@@ -66,14 +66,14 @@ _CHUNKS = 100  # a headless run reports its progress this many times
 
 
 @kernel
-def supervised_command(kind, robot, model, tracker, gains, assist, rates, integral, tick,
-                       rows, approach_ticks, period_s, sensor_offset_rad, last, g, w, now_s,
-                       t, q1, q2, fx, fy, fz, lateness_s, heartbeat_age_s, estop,
+def supervised_command(kind, robot, model, tracker, gains, assist, guide, rates, integral,
+                       guided, tick, rows, approach_ticks, period_s, sensor_offset_rad, last,
+                       g, w, now_s, t, q1, q2, fx, fy, fz, lateness_s, heartbeat_age_s, estop,
                        recording_lost):
     """A running tick between the sensors and the motors: the pipeline's command
     (writes `last`) through the supervisor: (torque1, torque2, fault) to write."""
-    control(kind, robot, model, tracker, gains, assist, rates, integral, tick, rows,
-            approach_ticks, period_s, sensor_offset_rad, q1, q2, fx, fy, last)
+    control(kind, robot, model, tracker, gains, assist, guide, rates, integral, guided, tick,
+            rows, approach_ticks, period_s, sensor_offset_rad, q1, q2, fx, fy, last)
     return supervise(robot, g, w, now_s, t, q1, q2, fx, fy, fz, last[C_QD1], last[C_QD2],
                      last[C_OUT1], last[C_OUT2], lateness_s, heartbeat_age_s, estop,
                      recording_lost, 0.0)
@@ -81,9 +81,9 @@ def supervised_command(kind, robot, model, tracker, gains, assist, rates, integr
 
 @kernel
 def simulated_tick(running, tick, now_s, r, a, c, p, table, episodes, x, noise, scratch, kind,
-                   robot, model, tracker, gains, assist, rates, integral, rows, approach_ticks,
-                   period_s, sensor_offset_rad, last, g, w, lateness_s, heartbeat_age_s, estop,
-                   recording_lost):
+                   robot, model, tracker, gains, assist, guide, rates, integral, guided, rows,
+                   approach_ticks, period_s, sensor_offset_rad, last, g, w, lateness_s,
+                   heartbeat_age_s, estop, recording_lost):
     """One tick on the simulator in one call (what `TickEngine.step` does with a backend,
     with the simulator's own read and write): (status, torque1, torque2, fault), status
     the simulator's failure (then nothing else ran) or OK."""
@@ -98,9 +98,9 @@ def simulated_tick(running, tick, now_s, r, a, c, p, table, episodes, x, noise, 
     fz = x[X_READING + 5]
     if running:
         out1, out2, code = supervised_command(
-            kind, robot, model, tracker, gains, assist, rates, integral, tick, rows,
-            approach_ticks, period_s, sensor_offset_rad, last, g, w, now_s, t, q1, q2, fx, fy,
-            fz, lateness_s, heartbeat_age_s, estop, recording_lost)
+            kind, robot, model, tracker, gains, assist, guide, rates, integral, guided, tick,
+            rows, approach_ticks, period_s, sensor_offset_rad, last, g, w, now_s, t, q1, q2,
+            fx, fy, fz, lateness_s, heartbeat_age_s, estop, recording_lost)
     else:
         out1, out2, code = supervise(robot, g, w, now_s, t, q1, q2, fx, fy, fz, 0.0, 0.0, 0.0,
                                      0.0, lateness_s, heartbeat_age_s, estop, recording_lost,
@@ -160,7 +160,7 @@ class TickEngine:
         sim, p, sup = self.backend, self.pipeline, self.supervisor
         v = p.vectors
         (r, a, c, pt, table, episodes), _, scratch = sim.physics
-        state = (sim.state, scratch, v.rates, v.integral, v.last, sup.state)
+        state = (sim.state, scratch, v.rates, v.integral, v.guided, v.last, sup.state)
         if shadow:
             copies = self._shadow.get("copies")
             if copies is None:
@@ -168,10 +168,11 @@ class TickEngine:
             for copy, original in zip(copies, state, strict=True):
                 copy[:] = original
             state = copies
-        x, scratch, rates, integral, last, w = state
+        x, scratch, rates, integral, guided, last, w = state
         return (running, tick, now_s, r, a, c, pt, table, episodes, x, sim.noise, scratch,
-                p.kind, v.robot, v.model, v.tracker, v.gains, v.assist, rates, integral, v.rows,
-                p.approach_ticks, p.period_s, p.sensor_offset_rad, last, sup.constants, w)
+                p.kind, v.robot, v.model, v.tracker, v.gains, v.assist, v.guide, rates, integral,
+                guided, v.rows, p.approach_ticks, p.period_s, p.sensor_offset_rad, last,
+                sup.constants, w)
 
     def rehearse(self, tick: int | None, now_s: float) -> None:
         """Run the coming tick on copies of the state and throw the result away (on a
@@ -202,10 +203,10 @@ class TickEngine:
         if tick is not None and not read_error:
             p = self.pipeline
             out1, out2, code = self._command(
-                p.kind, v.robot, v.model, v.tracker, v.gains, v.assist, v.rates, v.integral,
-                tick, v.rows, p.approach_ticks, p.period_s, p.sensor_offset_rad, v.last,
-                sup.constants, sup.state, now_s, *values, lateness_s, heartbeat_age_s, estop,
-                recording_lost)
+                p.kind, v.robot, v.model, v.tracker, v.gains, v.assist, v.guide, v.rates,
+                v.integral, v.guided, tick, v.rows, p.approach_ticks, p.period_s,
+                p.sensor_offset_rad, v.last, sup.constants, sup.state, now_s, *values,
+                lateness_s, heartbeat_age_s, estop, recording_lost)
             p.ticked()
         else:
             out1, out2, code = self._supervise(
@@ -286,8 +287,8 @@ def store_subject(out, k, subject):
 
 @kernel
 def run_ticks(k0, k1, period_s, r, a, c, p, table, episodes, x, noise, scratch, kind, robot,
-              arm, model, tracker, gains, assist, rates, integral, rows, approach_ticks,
-              sensor_offset_rad, last, g, w, out, estop, recording_lost):
+              arm, model, tracker, gains, assist, guide, rates, integral, guided, rows,
+              approach_ticks, sensor_offset_rad, last, g, w, out, estop, recording_lost):
     """Ticks k0…k1−1 of a headless trial on the simulator (device.sim.physics' vectors
     r…scratch), at robot time k × period: each reads the sensors (tick 0 takes the
     reading made before it), runs `supervised_command` and writes the torque, and
@@ -306,9 +307,9 @@ def run_ticks(k0, k1, period_s, r, a, c, p, table, episodes, x, noise, scratch, 
         fy = x[X_READING + 4]
         fz = x[X_READING + 5]
         out1, out2, code = supervised_command(
-            kind, robot, model, tracker, gains, assist, rates, integral, k, rows,
-            approach_ticks, period_s, sensor_offset_rad, last, g, w, now_s, t, q1, q2, fx, fy,
-            fz, 0.0, 0.0, estop, recording_lost)
+            kind, robot, model, tracker, gains, assist, guide, rates, integral, guided, k,
+            rows, approach_ticks, period_s, sensor_offset_rad, last, g, w, now_s, t, q1, q2,
+            fx, fy, fz, 0.0, 0.0, estop, recording_lost)
         write(c, x, out1, out2)
         for j in range(6):
             out[ROW_READING + j, k] = x[X_READING + j]
@@ -367,7 +368,7 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
             done, status = ticks(
                 done, min(total, done + step), period, r, a, c, p, table, episodes,
                 simulator.state, simulator.noise, scratch, pipeline.kind, v.robot, v.arm, v.model,
-                v.tracker, v.gains, v.assist, v.rates, v.integral, v.rows,
+                v.tracker, v.gains, v.assist, v.guide, v.rates, v.integral, v.guided, v.rows,
                 pipeline.approach_ticks, pipeline.sensor_offset_rad, v.last,
                 supervisor.constants, supervisor.state, out, False, False)
         if done:

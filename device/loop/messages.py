@@ -44,6 +44,9 @@ class BackendConfig:
     fault_at_s: float = 1.0
     fault_options: tuple[tuple[str, object], ...] = ()
     timing: str | None = None
+    plant: str = "realistic"
+    """The simulated robot (device.sim.plant.PLANTS): its own parameters drawn around the
+    controller's model by the seed, or the model itself."""
 
     @property
     def label(self) -> str:

@@ -27,6 +27,17 @@ import numpy as np
 from core.control.assistance import A_LEVEL, PerformanceAssistance, assisted_torques
 from core.control.base import make_controller
 from core.control.ctpid import I_SIZE, ComputedTorquePID, ctpid_torques
+from core.control.gains import built
+from core.control.guidance import (
+    GC_DELAY_ROWS,
+    GC_ON,
+    GS_KEPT,
+    GS_U,
+    OFF,
+    GuidanceGains,
+    guidance_command,
+    state_size,
+)
 from core.control.smc import SlidingModeController, smc_torques
 from core.errors import ParameterError
 from core.interaction import (
@@ -147,6 +158,7 @@ class TickPipeline:
         rate_cutoff_hz: float = RATE_CUTOFF_HZ,
         controller=None,
         min_force_N: float | None = None,
+        guidance: GuidanceGains | None = None,
         compiled: bool = False,
     ) -> None:
         self.plan = plan
@@ -155,13 +167,25 @@ class TickPipeline:
         self.arm = params.arm()
         self.period_s = plan.period_s
         self.sensor_offset_rad = sensor_offset_rad
-        self.controller = controller or make_controller(params.controller, self.robot)
+        self.controller = controller or make_controller(
+            params.controller, self.robot, gains=built(params.controller, params.gains))
         options = {} if min_force_N is None else {"min_force_N": min_force_N}
         self.assistance = PerformanceAssistance(
             self.robot, tolerance_rad=params.tolerance_rad, level=params.assistance_level,
             **options,
         )
         self.rate_estimator = RateEstimator(plan.period_s, rate_cutoff_hz)
+        self.guidance = None
+        """The as-needed mode's gains (core.control.guidance), None in the thesis mode."""
+        guide, guided = OFF, [0.0] * state_size(1, 0)
+        if params.assist == "as-needed":
+            self.guidance = guidance if guidance is not None else built("guidance",
+                                                                        params.gains)
+            if not isinstance(self.guidance, GuidanceGains):
+                raise ParameterError("guidance", type(guidance).__name__, "a GuidanceGains")
+            guide = self.guidance.constants(period_s=plan.period_s,
+                                            repetition_s=params.duration_s)
+            guided = [0.0] * state_size(self.guidance.bins, params.repetitions)
         self.kind = _controller_kind(self.controller)
         if compiled and self.kind == GENERIC:
             raise ParameterError(
@@ -178,8 +202,10 @@ class TickPipeline:
             tracker=self._make(self.rate_estimator.coefficients),
             gains=self._make(getattr(self.controller, "constants", ())),
             assist=self._make(self.assistance.constants),
+            guide=self._make(guide),
             rates=self._make([0.0] * Z_SIZE),
             integral=self._make([0.0] * I_SIZE),
+            guided=self._make(guided),
             last=self._make([0.0] * C_SIZE),
             rows=self._table(plan.exercise_table),
         )
@@ -212,12 +238,30 @@ class TickPipeline:
         v = self.vectors
         v.rates[:] = self._make([q1, 0.0, 0.0, q2, 0.0, 0.0])
         v.integral[:] = self._make([0.0] * I_SIZE)
+        v.guided[:] = self._make([0.0] * len(v.guided))
         self._ticked = False
 
     @property
     def total_ticks(self) -> int:
-        """Approach + exercise + hold: when the trial is complete."""
-        return len(self.vectors.rows) + round(HOLD_S / self.period_s)
+        """Approach + exercise + hold: when the trial is complete. In the as-needed mode
+        the exercise may run up to the guidance's delay past the clock."""
+        return (len(self.vectors.rows) + round(HOLD_S / self.period_s)
+                + int(self.vectors.guide[GC_DELAY_ROWS]))
+
+    @property
+    def feedforward_history(self) -> np.ndarray:
+        """The as-needed mode's learned feedforward (N along the path) in each bin at the
+        end of each repetition, (repetitions, bins); empty in the thesis mode. A
+        repetition the trial did not finish is NaN."""
+        if self.guidance is None:
+            return np.empty((0, 0))
+        bins, reps = self.guidance.bins, self.plan.parameters.repetitions
+        state = np.asarray(self.vectors.guided, dtype=float)
+        history = state[GS_U + bins:GS_U + bins * (reps + 1)].reshape(reps, bins).copy()
+        done = int(state[GS_KEPT])
+        if done < reps:
+            history[done:] = math.nan
+        return history
 
     @property
     def reference_rows(self) -> np.ndarray:
@@ -262,8 +306,8 @@ class TickPipeline:
     def control(self, k: int, reading: SensorReading) -> tuple[float, float]:
         """Commanded joint torques for tick k of the trial (before the supervisor)."""
         v = self.vectors
-        self._control(self.kind, v.robot, v.model, v.tracker, v.gains, v.assist, v.rates,
-                      v.integral, k, v.rows,
+        self._control(self.kind, v.robot, v.model, v.tracker, v.gains, v.assist, v.guide,
+                      v.rates, v.integral, v.guided, k, v.rows,
                       self._approach_ticks, self.period_s, self.sensor_offset_rad,
                       reading.q1_rad, reading.q2_rad, reading.force_x_N, reading.force_y_N,
                       v.last)
@@ -310,10 +354,11 @@ def record_values(tick, time_s, wall_s, lateness_s, compute_s, reading, last, ap
 class Vectors:
     """What the `control` kernel works on: the robot's constants, the arm's (for the
     subject's state in the record), the controller's model's (core.robot_terms), the rate
-    tracker's, the controller's gains, the assistance's
-    constants; the trackers' state (angle,
+    tracker's, the controller's gains, the assistance's constants, the guidance's
+    (core.control.guidance GC_*, all zero in the thesis mode); the trackers' state (angle,
     rate, acceleration of each joint, Z_*), the controller's integral (core.control.ctpid
-    I_*), the last tick's values (C_*), and the reference rows."""
+    I_*), the guidance's state (GS_*), the last tick's values (C_*), and the reference
+    rows."""
 
     robot: object
     arm: object
@@ -321,8 +366,10 @@ class Vectors:
     tracker: object
     gains: object
     assist: object
+    guide: object
     rates: object
     integral: object
+    guided: object
     last: object
     rows: object
 
@@ -380,8 +427,8 @@ def controller_torques(kind, model, gains, integral, dt_s, q1, q2, qd1, qd2, r1,
 
 
 @kernel
-def control(kind, robot, model, tracker, gains, assist, rates, integral, tick, rows,
-            approach_ticks, period_s, sensor_offset_rad, q1, q2, force_x, force_y, last):
+def control(kind, robot, model, tracker, gains, assist, guide, rates, integral, guided, tick,
+            rows, approach_ticks, period_s, sensor_offset_rad, q1, q2, force_x, force_y, last):
     """One tick up to the commanded torque, in the order of Fig. 3.6: rate estimate →
     reference → controller → performance-based assistance. Writes `last` (C_*); the
     command is last[C_OUT1], last[C_OUT2]."""
@@ -405,14 +452,26 @@ def control(kind, robot, model, tracker, gains, assist, rates, integral, tick, r
         phase = PHASE_HOLD
         xd, yd, vxd, vyd, dx, dy = row[0], row[1], 0.0, 0.0, row[4], row[5]
         r1, r2, rd1, rd2, rdd1, rdd2 = row[6], row[7], 0.0, 0.0, 0.0, 0.0
-    tau1, tau2 = controller_torques(kind, model, gains, integral, period_s, q1, q2, qd1, qd2,
-                                    r1, r2, rd1, rd2, rdd1, rdd2)
     fx, fy = rotated_to_global(force_x, force_y, q1, sensor_offset_rad)
-    out1, out2, active, angle = assisted_torques(robot, assist, q1, q2, tau1, tau2, fx, fy,
-                                                 dx, dy)
-    if phase != PHASE_EXERCISE:
-        # The subject's effort counts only on the exercise, not on the way to it.
-        out1, out2, active = tau1, tau2, False
+    if guide[GC_ON] != 0.0 and approach_ticks <= tick < n + guide[GC_DELAY_ROWS]:
+        # As needed (core.control.guidance): the reference is where the patient is, or
+        # the clock's row less the delay, whichever is further on.
+        phase = PHASE_EXERCISE
+        sigma, here, tau1, tau2, out1, out2, active, angle = guidance_command(
+            robot, guide, assist, guided, rows, approach_ticks, tick, q1, q2, qd1, qd2, fx, fy)
+        row = rows[sigma]
+        xd, yd, vxd, vyd = row[0], row[1], row[2], row[3]
+        r1, r2, rd1, rd2, rdd1, rdd2 = row[6], row[7], row[8], row[9], row[10], row[11]
+        # the desired direction where the hand is, the one its cone test used
+        dx, dy = rows[here][4], rows[here][5]
+    else:
+        tau1, tau2 = controller_torques(kind, model, gains, integral, period_s, q1, q2, qd1,
+                                        qd2, r1, r2, rd1, rd2, rdd1, rdd2)
+        out1, out2, active, angle = assisted_torques(robot, assist, q1, q2, tau1, tau2, fx,
+                                                     fy, dx, dy)
+        if phase != PHASE_EXERCISE:
+            # The subject's effort counts only on the exercise, not on the way to it.
+            out1, out2, active = tau1, tau2, False
     last[C_PHASE] = phase
     last[C_QD1] = qd1
     last[C_QD2] = qd2

@@ -441,6 +441,13 @@ class DeviceLoop:
         self.assistance_level = command.level
         if self.pipeline is not None:
             self.pipeline.set_assistance_level(command.level)
+        if self.state == State.RUNNING:
+            # the trial file's parameters hold the level it started with: say when and to
+            # what the therapist changed it
+            tick = self.trial_tick
+            self._to_recorder(TrialEvent(tick * self.plan.period_s, tick, "assistance",
+                                         f"assistance level set to {command.level:.0%}",
+                                         {"level": command.level}))
         return ""
 
     def _do_shutdown(self, command: Shutdown, after_a_tick: bool):

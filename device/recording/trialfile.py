@@ -340,7 +340,8 @@ class TrialFileWriter:
             )
 
     def close(
-        self, status: str, summary: Mapping | None = None, metrics: Mapping | None = None
+        self, status: str, summary: Mapping | None = None, metrics: Mapping | None = None,
+        assistance: Mapping | None = None,
     ) -> Path:
         """Finish the file with the trial's status, summary and metrics.
 
@@ -348,7 +349,9 @@ class TrialFileWriter:
         lateness statistics) is merged with `summary`; the caller's keys win, since
         the recorder may know more (e.g. samples the ring buffer dropped).
         After a write error, close with status "recording_lost": the file handle
-        is released and the status written if the disk allows.
+        is released and the status written if the disk allows. `assistance` goes to the
+        group of that name: numbers and strings as its attributes (the mode, its
+        gains), arrays as its datasets (the learned feedforward per repetition).
         """
         if self._closed:
             raise RecordingError(f"{self._path} is already closed")
@@ -358,6 +361,10 @@ class TrialFileWriter:
             )
         extra = _check_scalars("summary", summary or {})
         metric_values = _check_metrics(metrics or {})
+        assist_arrays = {k: np.asarray(v, dtype=float) for k, v in (assistance or {}).items()
+                         if isinstance(v, np.ndarray)}
+        assist_values = _check_scalars("assistance", {
+            k: v for k, v in (assistance or {}).items() if k not in assist_arrays})
 
         try:
             computed = self._computed_summary()
@@ -383,6 +390,12 @@ class TrialFileWriter:
             group = f.require_group("metrics")
             for key, value in metric_values.items():
                 group.attrs[key] = value
+            if assistance:
+                group = f.require_group("assistance")
+                for key, value in assist_values.items():
+                    group.attrs[key] = value
+                for key, value in assist_arrays.items():
+                    group.create_dataset(key, data=value, fletcher32=True)
             self._flush()
         except (OSError, RuntimeError, ValueError) as exc:
             raise _disk_error(self._path, f"close (status {status!r})", exc) from exc
@@ -539,6 +552,7 @@ def write_trial(
     status: str = "complete",
     summary: Mapping | None = None,
     metrics: Mapping | None = None,
+    assistance: Mapping | None = None,
 ) -> Path:
     """Write a whole trial held in memory (headless runs, tests, conversions).
 
@@ -558,7 +572,7 @@ def write_trial(
     except BaseException:
         writer.close("recording_lost")
         raise
-    return writer.close(status, summary, metrics)
+    return writer.close(status, summary, metrics, assistance)
 
 
 # -- helpers ----------------------------------------------------------------

@@ -3,8 +3,10 @@ patients themselves, the simulated sensors, and fault injection for any backend.
 
 `simulator` is the backend (SimulatorBackend); `physics` its per-tick kernels (the
 coupled dynamics with the patient's torque, the integrator, the sensors, read, write,
-reset); `patients` the Patient protocol and the virtual patients (VirtualPatient,
-make_patient); `patient_torque` a virtual patient's torque as a kernel; `sensors` the
+reset); `plant` what it simulates (the ideal plant, the controller's model, or a
+realistic one drawn around it); `patients` the Patient protocol and the virtual patients
+(VirtualPatient, make_patient); `patient_torque` a virtual patient's torque as a kernel;
+`learning` a patient's trial-to-trial adaptation (learning and slacking); `sensors` the
 force sensor's model; `faultinjection` FaultInjectingBackend, which wraps any backend.
 
 May import core, device.backend, device.errors, and device.safety's fault codes (fault

@@ -24,7 +24,7 @@ from device.sim.patient_torque import patient_torque
 
 # The sensors' and the integrator's constants (SimulatorBackend.constants).
 (S_OFFSET, S_NOISE_XY, S_NOISE_Z, S_LOAD, S_RXY, S_RZ, S_LIMIT_XY, S_LIMIT_Z, S_CPR1,
- S_CPR2, S_STEP, S_RATE, S_MAX1, S_MAX2, S_RK4, S_SIZE) = range(16)
+ S_CPR2, S_STEP, S_RATE, S_MAX1, S_MAX2, S_RK4, S_DELAY, S_GAIN1, S_GAIN2, S_SIZE) = range(19)
 
 # The state: steps taken, θ_R and θ̇_R, the torque held and the one of the last full
 # evaluation, the patient's cue, the clock's anchor, whether the last evaluation may be
@@ -37,7 +37,9 @@ EVALUATION = 15
 """What `evaluate` writes: θ̈_R1, θ̈_R2, F_x, F_y, θ_s, θ_e, θ̇_s, θ̇_e, θ̈_s, θ̈_e, τ_s, τ_e
 and the inverse coupled mass (n11, n12, n22)."""
 X_READING = X_LAST + EVALUATION
-X_SIZE = X_READING + 6
+X_PENDING = X_READING + 6
+"""The command waiting for the drives when they are a tick late (S_DELAY)."""
+X_SIZE = X_PENDING + 2
 
 SCRATCH_SIZE = EVALUATION + 5
 FAILED_AT = EVALUATION
@@ -249,11 +251,22 @@ def read(r, a, c, p, table, episodes, x, now_s, noise, scratch):
 
 @kernel
 def write(c, x, tau1, tau2):
-    """Hold a torque command; the drives saturate at the motors' limit."""
+    """Hold a torque command; the drives saturate at the motors' limit, give the torque
+    times their gain (1 on the ideal plant; device.sim.plant), and, when S_DELAY is set,
+    apply the command one write later (the amplifier's and the transport's delay)."""
     m1 = c[S_MAX1]
     m2 = c[S_MAX2]
-    x[X_TAU1] = m1 if tau1 > m1 else -m1 if tau1 < -m1 else tau1
-    x[X_TAU2] = m2 if tau2 > m2 else -m2 if tau2 < -m2 else tau2
+    tau1 = c[S_GAIN1] * (m1 if tau1 > m1 else -m1 if tau1 < -m1 else tau1)
+    tau2 = c[S_GAIN2] * (m2 if tau2 > m2 else -m2 if tau2 < -m2 else tau2)
+    if c[S_DELAY] != 0.0:
+        held1 = x[X_PENDING]
+        held2 = x[X_PENDING + 1]
+        x[X_PENDING] = tau1
+        x[X_PENDING + 1] = tau2
+        tau1 = held1
+        tau2 = held2
+    x[X_TAU1] = tau1
+    x[X_TAU2] = tau2
 
 
 @kernel

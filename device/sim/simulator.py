@@ -87,6 +87,7 @@ from device.backend import SIMULATED, TIMINGS, SensorReading
 from device.errors import BackendError, SensorRangeError, StateError
 from device.sim import physics
 from device.sim.patients import Patient, VirtualPatient, make_patient
+from device.sim.plant import Plant
 from device.sim.sensors import ForceSensorModel
 
 INTEGRATORS = ("rk4", "semi_implicit_euler")
@@ -152,6 +153,7 @@ class SimulatorBackend:
         patient: Patient,
         *,
         robot: RobotModel | None = None,
+        plant: Plant | None = None,
         seed: int = 0,
         sensor: ForceSensorModel | None = None,
         step_s: float = DEFAULT_STEP_S,
@@ -190,7 +192,15 @@ class SimulatorBackend:
         if not isinstance(patient_waits, bool):
             raise ParameterError("patient_waits", patient_waits, "True or False")
         self.patient = patient
-        self.robot = robot if robot is not None else RobotModel()
+        if plant is not None and robot is not None and robot != plant.robot:
+            raise ParameterError("robot", "a second robot", "None when a plant is given",
+                                 "the plant's robot is the one simulated")
+        if plant is not None and not isinstance(plant, Plant):
+            raise ParameterError("plant", type(plant).__name__, "a device.sim.plant.Plant")
+        self.robot = plant.robot if plant is not None else (
+            robot if robot is not None else RobotModel())
+        self.plant = plant if plant is not None else Plant.ideal(self.robot)
+        """What is simulated (device.sim.plant): the robot, the drives' delay and gain."""
         self.arm = patient.arm
         self.trajectory = patient.trajectory
         self.sensor = sensor if sensor is not None else ForceSensorModel()
@@ -223,20 +233,27 @@ class SimulatorBackend:
         *,
         seed: int = 0,
         patient_options: Mapping[str, object] | None = None,
+        plant: str = "ideal",
         **options,
     ) -> SimulatorBackend:
         """A simulator for `trial` with a patient of `kind` (device.sim.patients.PATIENT_KINDS).
 
-        `seed` sets both the patient's draws and the sensor noise (through
-        independent child seeds); `patient_options` go to make_patient and
-        `options` to the constructor.
+        `seed` sets the patient's draws, the sensor noise and a realistic plant's
+        parameters (through independent child seeds); `patient_options` go to
+        make_patient; `plant` is "ideal" (the robot simulated is `options["robot"]`,
+        the controller's model) or "realistic" (device.sim.plant, drawn around it);
+        the other `options` go to the constructor.
         """
         _check_seed(seed)
         built = make_patient(
             kind, trial.arm(), trial.trajectory(), seed=_child_seed(seed, 0),
             **dict(patient_options or {}),
         )
-        return cls(built, seed=seed, **options)
+        nominal = options.pop("robot", None) or RobotModel()
+        x0, y0, *_ = built.trajectory.at(0.0)
+        rest = nominal.ik_terms(x0, y0)
+        return cls(built, seed=seed, plant=Plant.of_kind(plant, nominal, seed, rest),
+                   **options)
 
     # --------------------------------------------------------------- protocol
     def open(self) -> None:
@@ -279,6 +296,8 @@ class SimulatorBackend:
         """Zero the motor torques."""
         self.state[physics.X_TAU1] = 0.0
         self.state[physics.X_TAU2] = 0.0
+        self.state[physics.X_PENDING] = 0.0
+        self.state[physics.X_PENDING + 1] = 0.0
 
     def close(self) -> None:
         """Zero the torques and stop; safe to call twice."""
@@ -483,6 +502,9 @@ def _constants(simulator: SimulatorBackend) -> tuple[float, ...]:
         physics.S_STEP: simulator.step_s, physics.S_RATE: 1.0 / simulator.step_s,
         physics.S_MAX1: robot.max_joint_torque_Nm[0], physics.S_MAX2: robot.max_joint_torque_Nm[1],
         physics.S_RK4: float(simulator.integrator == "rk4"),
+        physics.S_DELAY: float(simulator.plant.actuator_delay),
+        physics.S_GAIN1: simulator.plant.torque_gain[0],
+        physics.S_GAIN2: simulator.plant.torque_gain[1],
     }
     return tuple(float(values[i]) for i in range(physics.S_SIZE))
 

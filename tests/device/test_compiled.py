@@ -44,7 +44,18 @@ def test_every_patient_and_controller_gives_the_python_records(patient, controll
     assert_same_records(fast.records, slow.records)
 
 
+@pytest.mark.parametrize("patient", PATIENT_KINDS)
+def test_the_as_needed_mode_gives_the_python_records(patient):
+    fast, slow = both(SHORT.replace(assist="as-needed", repetitions=2), patient=patient,
+                      seed=5)
+    assert fast.status == slow.status == "complete"
+    assert_same_records(fast.records, slow.records)
+    assert np.array_equal(fast.feedforward_N, slow.feedforward_N)
+
+
 @pytest.mark.parametrize("changes", [
+    {"assist": "as-needed", "controller": "ctpid", "assistance_level": 0.3},
+    {"assist": "as-needed", "shape": "reach", "centre_m": (-0.25, 0.40), "radius_m": 0.05},
     {"timing": "minimum_jerk", "repetitions": 2},
     {"assistance_level": 0.4, "tolerance_rad": 0.6, "clockwise": False},
     {"shape": "circle"},

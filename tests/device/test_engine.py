@@ -91,17 +91,21 @@ def run_both(ticks, changes=None, rehearse=False, **rig_options):
     return rigs, outputs
 
 
-@pytest.mark.parametrize(("patient", "controller"), [("healthy", "smc"), ("tremor", "ctpid")])
-def test_a_whole_trial_is_the_same_compiled_and_interpreted(patient, controller):
+@pytest.mark.parametrize(("patient", "controller", "assist"), [
+    ("healthy", "smc", "thesis"), ("tremor", "ctpid", "thesis"),
+    ("wrong_way", "smc", "as-needed")])
+def test_a_whole_trial_is_the_same_compiled_and_interpreted(patient, controller, assist):
     """The approach, the cue, the exercise, a 7 ms stall: every torque, fault and record
     value equal, and the objects' state after it."""
-    params = PARAMS.replace(controller=controller)
+    params = PARAMS.replace(controller=controller, assist=assist)
     (fast, slow), outputs = run_both(2500, patient=patient, params=params)
     assert all(fault is Fault.NONE for _, fault, _ in outputs)
     assert max(abs(t) for torques, _, _ in outputs for t in torques) > 0.1  # it did work
     np.testing.assert_array_equal(fast.supervisor.state, slow.supervisor.state)
     assert np.asarray(fast.pipeline.vectors.rates).tolist() == list(slow.pipeline.vectors.rates)
     assert fast.backend.truth == slow.backend.truth
+    assert np.asarray(fast.pipeline.vectors.guided).tolist() == list(
+        slow.pipeline.vectors.guided)
 
 
 @pytest.mark.parametrize(("change", "fault"), [
@@ -120,10 +124,12 @@ def test_a_fault_is_latched_the_same_with_the_same_detail(change, fault):
     assert fast.supervisor.fault_message == slow.supervisor.fault_message
 
 
-def test_rehearsing_each_tick_changes_nothing():
+@pytest.mark.parametrize("assist", ["thesis", "as-needed"])
+def test_rehearsing_each_tick_changes_nothing(assist):
     """The rehearsal runs the coming tick on copies: the ticks that follow are the same
     as without it (the interpreted engine never rehearses)."""
-    run_both(1500, rehearse=True, changes={1200: {"estop": True}})
+    run_both(1500, rehearse=True, changes={1200: {"estop": True}},
+             params=PARAMS.replace(assist=assist))
 
 
 def test_late_ticks_in_a_row_trip_the_run_rule_on_the_tenth():

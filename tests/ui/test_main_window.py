@@ -94,6 +94,14 @@ def test_a_whole_session(qtbot, window, tmp_path):
     click(qtbot, win.robot.buttons["start"])
     qtbot.waitUntil(lambda: win.state == State.RUNNING, timeout=10000)
     assert enabled(win) == {"stop"}
+    assert win.built.assist == "as-needed"  # the window's default mode
+    # the therapist lowers the assistance while the trial runs: the robot takes it live
+    win.tabs.setCurrentWidget(p)
+    p.assistance.setFocus()
+    p.assistance.selectAll()
+    qtbot.keyClicks(p.assistance, "40")
+    qtbot.keyClick(p.assistance, Qt.Key.Key_Return)
+    assert "Assistance set to 40%" in win.message.text()
     # live view fills while the trial runs
     qtbot.waitUntil(lambda: win.live is not None and win.live.n > 200, timeout=10000)
     # the trial completes, is finalised, and the report is shown
@@ -113,6 +121,9 @@ def test_a_whole_session(qtbot, window, tmp_path):
     assert data.status == "complete"
     assert data.n_samples > 1000
     assert np.isfinite(data.channels["subject_torque"][data.channels["phase"] == 2]).all()
+    changes = [e for e in data.events if e["kind"] == "assistance"]
+    assert changes
+    assert changes[-1]["values"]["level"] == pytest.approx(0.4)
 
     click(qtbot, win.robot.buttons["save"])
     qtbot.waitUntil(lambda: win.unsaved_trial is None, timeout=20000)

@@ -158,3 +158,35 @@ def test_a_patients_measurements_fill_the_arm(qtbot, tab, tmp_path):
     assert tab.body_mass.value() == 64.0
     assert tab.side.currentData() == "left"
     assert tab.upper_arm.text() == "28.00 cm"
+
+
+def test_the_assistance_mode_is_chosen_shown_and_the_level_announced_at_once(qtbot, tab):
+    assert tab.parameters().assist == "as-needed"  # the window's default
+    names = [tab.assist.itemText(i) for i in range(tab.assist.count())]
+    assert any("As needed" in n for n in names)
+    assert any("Thesis" in n for n in names)
+    tab.assist.setCurrentIndex(tab.assist.findData("thesis"))
+    tab.refresh()
+    assert tab.parameters().assist == "thesis"
+    tab.set_parameters(THESIS_SUBJECT.replace(assist="as-needed", assistance_level=0.5))
+    assert tab.assist.currentData() == "as-needed"
+    assert tab.assistance.value() == 50
+    with qtbot.waitSignal(tab.assistance_changed, timeout=500) as signal:
+        tab.assistance.setValue(30)
+    assert signal.args == [pytest.approx(0.3)]
+
+
+def test_a_researcher_sets_a_gain_and_a_bad_one_is_refused_under_the_field(qtbot, tab):
+    with qtbot.waitSignal(tab.parameters_changed, timeout=2000) as signal:
+        type_into(qtbot, tab.gains, "smc.lambda_1_s=500")
+    parameters, problem = signal.args
+    assert parameters is None
+    assert "smc.lambda_1_s" in problem
+    assert tab.errors["gains"].isVisible()
+    assert "100" in tab.errors["gains"].text()
+    with qtbot.waitSignal(tab.parameters_changed, timeout=2000) as signal:
+        type_into(qtbot, tab.gains, "guidance.delay_s = 0.5 ; smc.lambda_1_s=25")
+    parameters, problem = signal.args
+    assert problem == ""
+    assert parameters.gains == "guidance.delay_s=0.5; smc.lambda_1_s=25,25"
+    assert not tab.errors["gains"].isVisible()

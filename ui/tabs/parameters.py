@@ -48,6 +48,7 @@ from core.errors import CoreError, ParameterError, UnreachableError
 from core.robot import RobotModel
 from core.trajectory import SHAPES, TIMINGS
 from core.trial import (
+    ASSIST_MODES,
     CONTROLLERS,
     DURATION_RANGE_S,
     POSITION_RANGE_M,
@@ -75,6 +76,8 @@ SHAPE_NAMES = {"d": "D shape", "circle": "Circle", "reach": "Reach out and back"
                "targets": "Targets (centre-out)", "figure8": "Figure eight"}
 TIMING_NAMES = {"constant_speed": "Steady speed", "minimum_jerk": "Smooth start and stop"}
 CONTROLLER_NAMES = {"smc": "Sliding mode (SMC)", "ctpid": "Computed-torque PID"}
+ASSIST_NAMES = {"as-needed": "As needed: gives way as the patient does more",
+                "thesis": "Thesis (Fig. 3.6): fixed clock, reduce-only"}
 SIDE_NAMES = {"right": "Right arm", "left": "Left arm"}
 PATIENT_NAMES = {"healthy": "Healthy", "weak": "Weak", "spastic": "Spastic", "tremor": "Tremor",
                  "passive": "Passive (no effort)", "wrong_way": "Pushes the wrong way at times"}
@@ -121,6 +124,9 @@ class ParametersTab(QWidget):
     """
 
     parameters_changed = Signal(object, str)
+    assistance_changed = Signal(float)
+    """The assistance level (0–1) the therapist set, at once (not debounced): a running
+    trial takes it live."""
     camera_changed = Signal(object)
     backend_changed = Signal(object)
 
@@ -164,7 +170,9 @@ class ParametersTab(QWidget):
         layout.addWidget(scroll, 5)
         layout.addLayout(right, 6)
 
-        self.set_parameters(TrialParameters())
+        # the window starts in the as-needed mode; TrialParameters' defaults are the
+        # thesis's experiment
+        self.set_parameters(TrialParameters(assist="as-needed"))
         self._connect_edits()
         self._camera_edited()
         self._backend_edited()
@@ -235,6 +243,7 @@ class ParametersTab(QWidget):
 
         tol_lo, tol_hi = (math.degrees(v) for v in TOLERANCE_RANGE_RAD)
         self.controller = _combo(CONTROLLER_NAMES, CONTROLLERS)
+        self.assist = _combo(ASSIST_NAMES, ASSIST_MODES)
         self.tolerance = _spin(tol_lo, tol_hi, 1, "°", 1.0)
         self.assistance = QSpinBox()
         self.assistance.setRange(0, 100)
@@ -242,9 +251,16 @@ class ParametersTab(QWidget):
         self.assistance.setSingleStep(5)
         self._control_group = QGroupBox("Control")
         form = self._form(self._control_group)
+        self._add(form, "Assistance mode", self.assist, "assist")
         self._add(form, "Controller", self.controller, "controller")
         self._add(form, "Tolerance angle", self.tolerance, "tolerance")
         self._add(form, "Assistance", self.assistance, "assistance")
+        self.gains = QLineEdit()
+        self.gains.setPlaceholderText("defaults; e.g. smc.lambda_1_s=25; guidance.delay_s=0.5")
+        self.gains.setToolTip("For researchers: changes to the controller's and the "
+                              "guidance's gains, saved with the trial. `rehab gains` lists "
+                              "every gain with its default and range.")
+        self._add(form, "Gains (advanced)", self.gains, "gains")
 
         self.simulator = QRadioButton("Simulator")
         self.hardware = QRadioButton("Robot hardware")
@@ -309,8 +325,10 @@ class ParametersTab(QWidget):
                      self.upper_arm, self.forearm, self.shoulder_x, self.shoulder_y,
                      self.tolerance, self.n_targets, self.repetitions, self.assistance):
             spin.valueChanged.connect(self._edited)
-        for combo in (self.shape, self.timing, self.side, self.controller):
+        for combo in (self.shape, self.timing, self.side, self.controller, self.assist):
             combo.currentIndexChanged.connect(self._edited)
+        self.assistance.valueChanged.connect(self._assistance_edited)
+        self.gains.textChanged.connect(self._edited)
         self.clockwise.toggled.connect(self._edited)
         self.with_camera.toggled.connect(self._camera_edited)
         self.camera_source_edit.textChanged.connect(self._camera_edited)
@@ -357,6 +375,8 @@ class ParametersTab(QWidget):
             "tolerance_rad": math.radians(self.tolerance.value()),
             "controller": self.controller.currentData(),
             "assistance_level": self.assistance.value() / 100.0,
+            "assist": self.assist.currentData(),
+            "gains": self.gains.text(),
         }
 
     def set_parameters(self, parameters: TrialParameters) -> None:
@@ -381,6 +401,8 @@ class ParametersTab(QWidget):
             self.tolerance.setValue(math.degrees(parameters.tolerance_rad))
             self.controller.setCurrentIndex(self.controller.findData(parameters.controller))
             self.assistance.setValue(round(parameters.assistance_level * 100))
+            self.assist.setCurrentIndex(self.assist.findData(parameters.assist))
+            self.gains.setText(parameters.gains)
         finally:
             self._loading = False
         self.refresh()
@@ -394,7 +416,7 @@ class ParametersTab(QWidget):
         try:
             return TrialParameters(**self._values())
         except CoreError:
-            return TrialParameters()
+            return TrialParameters(assist="as-needed")
 
     def parameters(self) -> TrialParameters:
         """The validated parameters; raises ParameterError or UnreachableError with the
@@ -409,6 +431,10 @@ class ParametersTab(QWidget):
 
     def check(self) -> TrialCheck | None:
         return self._check
+
+    def _assistance_edited(self, percent: int) -> None:
+        if not self._loading:
+            self.assistance_changed.emit(percent / 100.0)
 
     def _edited(self) -> None:
         if self._loading:

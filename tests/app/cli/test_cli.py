@@ -83,6 +83,10 @@ def test_a_session_from_the_command_line(data, patient, capsys, tmp_path):
         (["export", "--format", "csv"], "required"),
         (["export", "--patient", "P000000", "--format", "xls"], "invalid choice"),
         (["nonsense"], "invalid choice"),
+        (["run", "--assist", "lots"], "invalid choice"),
+        (["run", "--plant", "perfect"], "invalid choice"),
+        (["run", "--gains", "smc.lambda_1_s=500"], "smc.lambda_1_s[0]"),
+        (["check", "--gains", "pid.kp=3"], "no gains called 'pid'"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(data, capsys, args, needle):
@@ -104,5 +108,35 @@ def test_unknown_metric_in_progress_is_refused(data, patient, capsys):
 def test_help_lists_every_command(capsys):
     code, out, _ = run(["--help"], capsys)
     assert code == 0
-    for command in ("check", "run", "patients", "trials", "progress", "report", "export"):
+    for command in ("check", "run", "patients", "trials", "progress", "report", "export",
+                    "gains"):
         assert command in out
+
+
+def test_run_chooses_the_assistance_and_the_plant_and_prints_who_did_the_work(data, capsys,
+                                                                          tmp_path):
+    code, out, _ = run(["run", "--repetitions", "1", "--output", str(tmp_path / "a.h5")],
+                       capsys)
+    assert code == 0
+    assert "realistic plant, as-needed assistance" in out  # the defaults
+    for label in ("Robot's net work", "Patient's net work", "Robot's share of the work"):
+        assert label in out
+    trial = read_trial(tmp_path / "a.h5")
+    assert trial.parameters.assist == "as-needed"
+    code, out, _ = run(["run", "--repetitions", "1", "--assist", "thesis", "--plant", "ideal",
+                        "--output", str(tmp_path / "b.h5")], capsys)
+    assert code == 0
+    assert "ideal plant, thesis assistance" in out
+    assert read_trial(tmp_path / "b.h5").parameters.assist == "thesis"
+
+
+def test_a_researcher_lists_the_gains_and_runs_a_trial_with_changed_ones(data, capsys,
+                                                                        tmp_path):
+    code, out, _ = run(["gains"], capsys)
+    assert code == 0
+    assert "smc.lambda_1_s" in out
+    assert "guidance.delay_s" in out
+    code, out, _ = run(["run", "--repetitions", "1", "--gains", "guidance.delay_s=0.6",
+                        "--output", str(tmp_path / "g.h5")], capsys)
+    assert code == 0
+    assert read_trial(tmp_path / "g.h5").parameters.gains == "guidance.delay_s=0.6"

@@ -1,0 +1,150 @@
+"""What the assistance modes do in closed loop (the assistance issue's outcomes): on the
+realistic plant, the as-needed mode gives way as the patient does more, does not brake a
+good patient, tracks every patient, keeps a learning patient working; the thesis mode,
+on the ideal plant, is what it always was, bit for bit.
+
+Work W over the exercise phase: the robot's Σ τ_applied · Δθ_R, the patient's Σ F · Δp
+at the handle; the robot's share max(W_robot, 0) / (max(W_robot, 0) + max(W_patient, 0))
+(core.metrics.mechanical_work). bench/assistance.py prints the whole table."""
+
+import hashlib
+import itertools
+import json
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.trials.adaptation import run_course
+from app.trials.analysis import analyse
+from app.trials.headless import simulate
+from core.control.guidance import GuidanceGains
+from core.trial import THESIS_SUBJECT
+from device.sim.patients import PATIENT_KINDS
+
+GOLDEN = Path(__file__).parents[2] / "device" / "data" / "thesis_ideal_records.json"
+
+
+@cache
+def run(patient: str, assist: str, plant: str = "realistic"):
+    params = THESIS_SUBJECT.replace(assist=assist)
+    trial = simulate(params, patient=patient, seed=0, plant=plant)
+    channels = {n: trial.records[n] for n in trial.records.dtype.names}
+    return trial, analyse(channels, params).metrics
+
+
+def test_the_robots_share_of_the_work_falls_as_the_patient_does_more():
+    share = {p: run(p, "as-needed")[1].robot_work_share for p in ("passive", "weak",
+                                                                    "healthy")}
+    assert share["passive"] > share["weak"] > share["healthy"]
+    assert share["passive"] >= 0.80
+    assert share["healthy"] <= 0.25
+
+
+def test_a_healthy_patient_is_not_braked():
+    m = run("healthy", "as-needed")[1]
+    assert max(-m.robot_work_J, 0.0) <= 0.10 * m.patient_work_J
+    thesis = run("healthy", "thesis")[1]
+    assert -thesis.robot_work_J > 0.25 * thesis.patient_work_J  # what it replaces
+
+
+def test_the_weak_patient_gets_a_fifth_less_work_than_the_thesis_scheme_gives():
+    as_needed = run("weak", "as-needed")[1].robot_work_J
+    thesis = run("weak", "thesis")[1].robot_work_J
+    assert as_needed <= 0.8 * thesis
+
+
+@pytest.mark.parametrize("patient", PATIENT_KINDS)
+def test_every_patient_is_tracked_within_its_bound(patient):
+    trial, m = run(patient, "as-needed")
+    assert trial.status == "complete"
+    bound = 0.015 if patient == "wrong_way" else 0.010
+    assert max(m.rmse_x_m, m.rmse_y_m) <= bound
+
+
+def test_the_help_along_the_path_is_bounded_by_its_limit_times_the_distance():
+    """The only source of energy in the guidance is the help along the path, in
+    [0, help_limit_N] along the tangent: its work is at most the limit × the distance the
+    handle travelled, whatever the patient does."""
+    for patient in ("passive", "wrong_way", "spastic"):
+        trial, _ = run(patient, "as-needed")
+        r = trial.records
+        ex = r["phase"] == 2
+        helped = (r["torque_commanded"] - r["torque_controller"])[ex][:-1]
+        work = float(np.sum(helped * np.diff(r["robot_angle"][ex], axis=0)))
+        distance = float(np.sum(np.hypot(*np.diff(r["position"][ex], axis=0).T)))
+        assert work <= GuidanceGains().help_limit_N * distance
+        assert work > 0.0 or patient != "passive"
+
+
+def test_without_help_the_channel_gives_the_passive_patient_no_more_than_it_stored():
+    """At level 0 the guidance is a spring-damper across the path, and a share of the
+    robot's friction compensated (less than the friction): the energy it can give the
+    patient is the spring's, ½ K_n e², and the hand is not moved along the path."""
+    params = THESIS_SUBJECT.replace(assist="as-needed", assistance_level=0.0,
+                                    repetitions=2)
+    trial = simulate(params, patient="passive", seed=0, plant="ideal")
+    r = trial.records
+    ex = r["phase"] == 2
+    given = -float(np.sum(0.5 * (r["force"][ex][1:] + r["force"][ex][:-1])
+                          * np.diff(r["position"][ex], axis=0)))
+    error = np.hypot(*(r["position"] - r["position_desired"])[ex].T).max()
+    stored = 0.5 * GuidanceGains().channel_stiffness_N_m * error ** 2
+    assert given <= stored + 1e-3
+    travelled = float(np.sum(np.hypot(*np.diff(r["position"][ex], axis=0).T)))
+    assert travelled < 0.05  # the D is 1 m over two repetitions
+    thesis = simulate(params.replace(assist="thesis", assistance_level=1.0),
+                      patient="passive", seed=0, plant="ideal").records
+    tex = thesis["phase"] == 2
+    thesis_given = -float(np.sum(0.5 * (thesis["force"][tex][1:] + thesis["force"][tex][:-1])
+                                 * np.diff(thesis["position"][tex], axis=0)))
+    assert thesis_given > 100 * max(given, 1e-3)  # the clock tracker drives the arm
+
+
+def test_a_learning_patient_keeps_working_under_as_needed_and_slacks_under_full_help():
+    as_needed = run_course(THESIS_SUBJECT.replace(assist="as-needed"), patient="weak",
+                           trials=20)
+    full = run_course(THESIS_SUBJECT.replace(assist="thesis"), patient="weak", trials=20)
+    assert as_needed[-1].share >= 0.80
+    assert full[-1].share <= 0.6
+    shares = [t.share for t in full]
+    assert all(b <= a + 1e-12 for a, b in itertools.pairwise(shares))
+    # the robot's share of the work grows as the patient slacks under full help
+    assert full[-1].robot_work_share > full[0].robot_work_share
+
+
+def test_a_course_is_the_same_for_the_same_seed():
+    a = run_course(THESIS_SUBJECT.replace(assist="as-needed", repetitions=1),
+                   patient="healthy", trials=3)
+    b = run_course(THESIS_SUBJECT.replace(assist="as-needed", repetitions=1),
+                   patient="healthy", trials=3)
+    assert a == b
+
+
+def test_the_realistic_plant_is_not_the_model_and_is_drawn_by_the_seed():
+    a = simulate(THESIS_SUBJECT.replace(repetitions=1), seed=1)
+    b = simulate(THESIS_SUBJECT.replace(repetitions=1), seed=1)
+    c = simulate(THESIS_SUBJECT.replace(repetitions=1), seed=2)
+    ideal = simulate(THESIS_SUBJECT.replace(repetitions=1), seed=1, plant="ideal")
+    assert a.plant == b.plant != c.plant
+    assert a.plant["kind"] == "realistic"
+    assert a.plant["actuator_delay_periods"] == 1
+    assert ideal.plant["kind"] == "ideal"
+    assert ideal.plant["actuator_delay_periods"] == 0
+    assert not np.array_equal(a.records["position"], ideal.records["position"])
+    assert np.array_equal(a.records["position"], b.records["position"])
+
+
+def test_the_thesis_mode_on_the_ideal_plant_reproduces_the_earlier_trials_bit_for_bit():
+    """The records of the tree before the assistance modes (interpreted engine: plain
+    Python floats, no compiler in between), hashed channel by channel."""
+    golden = json.loads(GOLDEN.read_text())
+    for key, hashes in golden.items():
+        patient, controller = key.split("-")
+        params = THESIS_SUBJECT.replace(repetitions=1, controller=controller)
+        assert params.assist == "thesis"
+        r = simulate(params, patient=patient, seed=3, engine="python", plant="ideal").records
+        for name, digest in hashes.items():
+            got = hashlib.sha256(np.ascontiguousarray(r[name]).tobytes()).hexdigest()[:16]
+            assert got == digest, f"{key}: channel {name} changed"
