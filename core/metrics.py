@@ -111,6 +111,9 @@ class TrialMetrics:
         absolute angles (rad), the signed ones are in `reaches`.
     robot_work_J, patient_work_J, robot_negative_work_J, robot_work_share: who did the
         work (`mechanical_work`), NaN without the robot's torques and angles.
+    led_pct: % of the trial time the patient led, the as-needed robot adding no help
+        along the path (core.control.guidance: the patient within the delay of the
+        clock, or ahead of it); NaN in the thesis mode, which has no such help.
     shoulder_elbow_correlation: Pearson correlation of the ISB shoulder and
         elbow angle series (−1…1); NaN when either does not vary.
     within_intervals_s, outside_intervals_s: Fig. 3.9's blue and red runs (s);
@@ -156,6 +159,7 @@ class TrialMetrics:
     patient_work_J: float = math.nan
     robot_negative_work_J: float = math.nan
     robot_work_share: float = math.nan
+    led_pct: float = math.nan
 
     def to_dict(self) -> dict[str, float]:
         """Every scalar figure as a plain float, keyed by field name (SI units,
@@ -313,6 +317,7 @@ def compute_metrics(
     torque_Nm=None,
     robot_torque_Nm=None,
     robot_angle_rad=None,
+    help_torque_Nm=None,
     tolerance_rad: float = DEFAULT_TOLERANCE_RAD,
     min_force_N: float = DEFAULT_MIN_FORCE_N,
     reaches: Sequence[Reach] | None = None,
@@ -331,7 +336,8 @@ def compute_metrics(
     the global frame; isb_angles_rad (N, 2) ISB shoulder, elbow; torque_Nm
     (N, 2) subject's shoulder, elbow torques; robot_torque_Nm (N, 2) the torques the
     drives applied and robot_angle_rad (N, 2) the joints' angles (with force_N, for
-    `mechanical_work`). Every array must be finite; the
+    `mechanical_work`); help_torque_Nm (N, 2) the as-needed robot's help along the path
+    at the joints (for `led_pct`). Every array must be finite; the
     figures of a channel left as None are NaN.
 
     Hand speed is the norm of the derivative of the position after the zero-lag
@@ -406,6 +412,12 @@ def compute_metrics(
                                as_series("robot_angle_rad", robot_angle_rad, n, 2),
                                force, position)
 
+    led = nan
+    if help_torque_Nm is not None:
+        helped = np.any(np.abs(as_series("help_torque_Nm", help_torque_Nm, n, 2)) > 1e-9,
+                        axis=1)
+        led = 100.0 * (1.0 - float(np.mean(helped)))
+
     per_reach: tuple[ReachMetrics, ...] = ()
     if reaches:
         per_reach = reach_metrics(
@@ -453,4 +465,5 @@ def compute_metrics(
         patient_work_J=work.patient_J,
         robot_negative_work_J=work.robot_negative_J,
         robot_work_share=work.robot_share,
+        led_pct=led,
     )

@@ -350,6 +350,7 @@ class MainWindow(QMainWindow):
 
     def _finalized(self, trial_id: int, done) -> None:
         self.unsaved_trial = trial_id
+        self.parameters_tab.show_proposal(done.proposal)
         if self.registration is not None:
             self.registration_tab.refresh_numbers()
         self.report.load_registry_trial(self.registry, trial_id)
@@ -366,6 +367,7 @@ class MainWindow(QMainWindow):
     # ------------------------------------------------------------------ other tabs
     def _on_patient(self, patient: Patient) -> None:
         self.patient = patient
+        self.parameters_tab.show_proposal(None)  # a proposal belongs to its patient
         self.parameters_tab.apply_patient(patient)
         self.progress.set_patient(patient.code)
         self.replay.set_patient(patient.code)

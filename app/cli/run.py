@@ -26,6 +26,9 @@ def add_run_command(commands) -> None:
                                           "data folder's trials/simulated)")
     run_cmd.add_argument("--code", help="register the trial for this patient (their body "
                                         "sizes replace the trial options')")
+    run_cmd.add_argument("--as-proposed", action="store_true",
+                         help="with --code: take the assistance, speed and tolerance the "
+                              "console proposed after the patient's last trial")
     run_cmd.add_argument("--engine", choices=("auto", "compiled", "python"), default="auto",
                          help="auto (default) or compiled: the tick's kernels compiled; "
                               "python: the same kernels interpreted (the reference: the same "
@@ -49,11 +52,15 @@ def cmd_run(args: argparse.Namespace) -> int:
     from app.trials.headless import save, simulate
 
     params = trial_from_args(args)
+    if args.as_proposed and not args.code:
+        raise CommandError("--as-proposed needs --code: a proposal belongs to a patient")
     begun = None
     if args.code:
         registry = registry_for(args)
         patient = registry.patient(args.code)
         params = params.replace(**patient.trial_overrides())
+        if args.as_proposed:
+            params = _as_proposed(registry, args.code, params)
         if args.output:
             raise CommandError("--output cannot be used with --code: a registered trial is "
                                "written to the patient's folder in the data folder")
@@ -80,9 +87,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     if begun is not None:
         from app.trials.finalize import finalize_trial
 
-        finalize_trial(registry, begun.trial_id, trial.status)
+        done = finalize_trial(registry, begun.trial_id, trial.status)
         print(f"Registered as patient {args.code}, session {begun.session_number}, "
               f"trial {begun.trial_number} (id {begun.trial_id})")
+        if done.proposal is not None:
+            print(f"Proposed for the next trial: {done.proposal.reason}")
     loaded = f"; its kernels loaded in {trial.load_s:.2f} s first" if trial.load_s else ""
     print(f"Trial {trial.status}: {trial.simulated_s:.1f} s simulated in "
           f"{trial.elapsed_s:.2f} s ({trial.speed_vs_real_time:.0f}× real time, "
@@ -96,3 +105,16 @@ def cmd_run(args: argparse.Namespace) -> int:
         if event["kind"] == "fault":
             print(f"  fault at {event['time_s']:.3f} s: {event['message']}")
     return EXIT_OK
+
+
+def _as_proposed(registry, code: str, params):
+    """`params` with the pending proposal after the patient's last trial applied."""
+    from app.trials.progression import Proposal
+
+    pending = [p for p in registry.proposals_for_patient(code) if p.decision == "pending"]
+    if not pending:
+        raise CommandError(f"patient {code} has no proposal waiting: run a trial first, or "
+                           "leave out --as-proposed")
+    proposal = Proposal.from_dict(pending[-1].proposal)
+    print(f"As proposed: {proposal.reason}")
+    return proposal.applied_to(params)

@@ -26,6 +26,7 @@ from typing import Protocol, runtime_checkable
 
 from app.records.datadir import DataDir
 from app.records.registry.patients import Patient
+from app.records.registry.proposals import StoredProposal
 from app.records.registry.queries import TrialSummary
 from app.records.registry.sessions import Session
 from app.records.registry.trials import BegunTrial, Registration, Trial
@@ -108,6 +109,13 @@ class RecordStore(Protocol):
 
     # -- across trials -------------------------------------------------------------
     def trial_summaries(self, code: str) -> list[TrialSummary]: ...
+
+    # -- progression (app.trials.progression) --------------------------------------
+    def record_proposal(self, trial_id: int, proposal: dict) -> StoredProposal: ...
+
+    def proposal(self, trial_id: int) -> StoredProposal | None: ...
+
+    def proposals_for_patient(self, code: str) -> list[StoredProposal]: ...
 
     def previous_trial(
         self,

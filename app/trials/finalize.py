@@ -17,6 +17,7 @@ from pathlib import Path
 from app.errors import AppError
 from app.records.store import RecordStore
 from app.trials.analysis import Analysis, analyse
+from app.trials.progression import Proposal, propose
 from app.trials.reader import read_trial
 from device.errors import RecordingError
 from device.recording.trialfile import write_metrics
@@ -31,6 +32,8 @@ class Finalized:
     status: str
     analysis: Analysis | None
     notes: tuple[str, ...]
+    proposal: Proposal | None = None
+    """What the console proposes for the patient's next trial (app.trials.progression)."""
 
 
 def finalize_trial(registry: RecordStore, trial_id: int, status: str | None = None) -> Finalized:
@@ -63,9 +66,12 @@ def finalize_trial(registry: RecordStore, trial_id: int, status: str | None = No
             except RecordingError as exc:
                 notes.append(f"metrics not stored in the file: {exc}")
     registry.finish_trial(trial_id, status, metrics, datetime.datetime.now(datetime.UTC))
+    proposal = propose(data.parameters, metrics, status)
+    registry.record_proposal(trial_id, proposal.to_dict())
+    log.info("trial %s: proposed for the next trial: %s", trial_id, proposal.reason)
     for note in notes:
         log.info("trial %s: %s", trial_id, note)
-    return Finalized(trial_id, path, status, analysis, tuple(notes))
+    return Finalized(trial_id, path, status, analysis, tuple(notes), proposal)
 
 
 STILL_WRITTEN_S = 10.0

@@ -104,7 +104,7 @@ class GuidanceGains:
 
     channel_stiffness_N_m: float = 800.0
     channel_damping_Ns_m: float = 25.0
-    channel_limit_N: float = 8.0
+    channel_limit_N: float = 5.0
     lead_stiffness_N_m: float = 300.0
     lead_damping_Ns_m: float = 20.0
     help_limit_N: float = 5.0

@@ -107,6 +107,9 @@ def test_a_whole_session(qtbot, window, tmp_path):
     # the trial completes, is finalised, and the report is shown
     qtbot.waitUntil(lambda: win.unsaved_trial is not None, timeout=30000)
     assert win.tabs.currentWidget() is win.report
+    # the console proposes the next trial's settings in the Parameters tab
+    assert not win.parameters_tab._proposal_group.isHidden()
+    assert win.registry.proposal(win.unsaved_trial).decision == "pending"
     qtbot.waitUntil(lambda: win.report.content is not None, timeout=10000)
     lines = "\n".join(win.report.lines())
     assert "%" in lines

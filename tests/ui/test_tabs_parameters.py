@@ -190,3 +190,19 @@ def test_a_researcher_sets_a_gain_and_a_bad_one_is_refused_under_the_field(qtbot
     assert problem == ""
     assert parameters.gains == "guidance.delay_s=0.5; smc.lambda_1_s=25,25"
     assert not tab.errors["gains"].isVisible()
+
+
+def test_the_proposal_for_the_next_trial_is_shown_and_taken_with_one_click(qtbot, tab):
+    from app.trials.progression import propose
+
+    current = tab.parameters()
+    proposal = propose(current, {"led_pct": 88.0}, "complete")  # the as-needed default
+    tab.show_proposal(proposal)
+    assert tab._proposal_group.isVisible()
+    assert "88 %" in tab.proposal_text.text()
+    qtbot.mouseClick(tab.use_proposal, Qt.MouseButton.LeftButton)
+    assert tab.parameters().assistance_level == pytest.approx(0.9)
+    assert tab.assistance.value() == 90
+    assert not tab.use_proposal.isVisible()
+    tab.show_proposal(None)
+    assert not tab._proposal_group.isVisible()

@@ -149,8 +149,21 @@ class ParametersTab(QWidget):
         self.summary.setWordWrap(True)
         self.status = QLabel("")
         self.status.setWordWrap(True)
+        # the console's proposal for the next trial (app.trials.progression), shown after a
+        # trial until the therapist uses it or changes anything
+        self.proposal_text = QLabel("")
+        self.proposal_text.setWordWrap(True)
+        self.use_proposal = QPushButton("Use the proposal")
+        self.use_proposal.clicked.connect(self._use_proposal)
+        self._proposal = None
+        self._proposal_group = QGroupBox("Proposed for the next trial")
+        row = QHBoxLayout(self._proposal_group)
+        row.addWidget(self.proposal_text, 1)
+        row.addWidget(self.use_proposal)
+        self._proposal_group.hide()
         form = QWidget()
         column = QVBoxLayout(form)
+        column.addWidget(self._proposal_group)
         for group in (self._video_group, self._exercise_group, self._patient_group,
                       self._control_group, self._backend_group):
             column.addWidget(group)
@@ -406,6 +419,25 @@ class ParametersTab(QWidget):
         finally:
             self._loading = False
         self.refresh()
+
+    def show_proposal(self, proposal) -> None:
+        """Show the console's proposal for the next trial (app.trials.progression.Proposal),
+        or hide it (None); a proposal that changes nothing is shown without the button."""
+        self._proposal = proposal
+        if proposal is None:
+            self._proposal_group.hide()
+            return
+        self.proposal_text.setText(proposal.reason[:1].upper() + proposal.reason[1:] + ".")
+        self.use_proposal.setVisible(proposal.change != "none")
+        self._proposal_group.show()
+
+    def _use_proposal(self) -> None:
+        if self._proposal is None:
+            return
+        current = self._parameters or self._lenient()
+        self.set_parameters(self._proposal.applied_to(current))
+        self.proposal_text.setText(self.proposal_text.text() + " Taken: press Build.")
+        self.use_proposal.hide()
 
     def apply_patient(self, patient) -> None:
         """Take a registered patient's measurements (app.records.registry.Patient)."""

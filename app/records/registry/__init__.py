@@ -12,6 +12,7 @@ or concern, each a module here:
 * trials — numbering (`suggest_registration`), `begin_trial` at Start,
   `finish_trial` at Stop, and listing;
 * queries — the progress rows (`trial_summaries`) and `previous_trial`;
+* proposals — the console's proposal for the next trial and the therapist's decision;
 * values — the checks of what is given and the JSON of parameters and metrics.
 
 Storage in short (each module's docstring says more):
@@ -40,9 +41,11 @@ from pathlib import Path
 from app.records.datadir import DataDir
 from app.records.registry.database import BUSY_TIMEOUT_S
 from app.records.registry.patients import BIRTH_YEAR_MIN, CODE_LENGTH, Patient, Patients, new_code
+from app.records.registry.proposals import Proposals, StoredProposal
 from app.records.registry.queries import Queries, TrialSummary
 from app.records.registry.schema import (
     MIGRATE_V1_TO_V2,
+    MIGRATE_V2_TO_V3,
     MIGRATIONS,
     SCHEMA_V1,
     SCHEMA_VERSION,
@@ -65,6 +68,7 @@ __all__ = [
     "CODE_LENGTH",
     "KEY_PARAMETERS",
     "MIGRATE_V1_TO_V2",
+    "MIGRATE_V2_TO_V3",
     "MIGRATIONS",
     "NAME_MAX_CHARS",
     "SCHEMA_V1",
@@ -75,6 +79,7 @@ __all__ = [
     "Registration",
     "Registry",
     "Session",
+    "StoredProposal",
     "Trial",
     "TrialSummary",
     "new_code",
@@ -82,7 +87,7 @@ __all__ = [
 ]
 
 
-class Registry(Schema, Patients, Sessions, Trials, Queries):
+class Registry(Schema, Patients, Sessions, Proposals, Trials, Queries):
     """The registry of one data folder. Opening it creates or migrates the database."""
 
     def __init__(self, data_dir: DataDir | str | Path) -> None:
@@ -92,3 +97,4 @@ class Registry(Schema, Patients, Sessions, Trials, Queries):
         self.path = data_dir.registry_path
         data_dir.ensure()
         self._migrate()
+

@@ -71,9 +71,24 @@ MIGRATE_V1_TO_V2 = (
     "ALTER TABLE sessions ADD COLUMN location TEXT NOT NULL DEFAULT ''",
 )
 
+# v3: the console's proposal for the trial after each trial (app.trials.progression) and
+# what the therapist did with it; trials before v3 have none.
+MIGRATE_V2_TO_V3 = (
+    """CREATE TABLE proposals (
+        trial_id INTEGER PRIMARY KEY REFERENCES trials (id) ON DELETE RESTRICT,
+        proposal TEXT NOT NULL,
+        decision TEXT NOT NULL DEFAULT 'pending'
+            CHECK (decision IN ('pending', 'accepted', 'changed', 'kept')),
+        next_trial_id INTEGER REFERENCES trials (id) ON DELETE RESTRICT,
+        proposed_at TEXT NOT NULL,
+        decided_at TEXT
+    )""",
+)
+
 MIGRATIONS: tuple[tuple[int, tuple[str, ...]], ...] = (
     (1, SCHEMA_V1),
     (2, MIGRATE_V1_TO_V2),
+    (3, MIGRATE_V2_TO_V3),
 )
 SCHEMA_VERSION = MIGRATIONS[-1][0]
 

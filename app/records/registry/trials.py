@@ -221,10 +221,16 @@ class Trials(Database):
                  utc_text(started_at), backend, patient_kind),
             )
             trial_id = cursor.lastrowid
+            self._trial_begun(conn, patient, trial_id, params)
         log.info("trial %d registered: patient %s session %d trial %d (%s)",
                  trial_id, code, session_number, trial_number, backend)
         return BegunTrial(trial_id, code, session_number, trial_number,
                           self.data_dir.resolve(file), file, started_at)
+
+    def _trial_begun(self, conn: sqlite3.Connection, patient: int, trial_id: int,
+                     parameters: dict) -> None:
+        """Called in begin_trial's transaction once the trial is inserted; the registry's
+        proposals decide the patient's pending one here (app.records.registry.proposals)."""
 
     # -- the end of a trial ------------------------------------------------------------
     def finish_trial(

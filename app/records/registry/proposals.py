@@ -1,0 +1,116 @@
+"""The registry's proposals: after each finished trial, what the console proposed for the
+next one (app.trials.progression) and what the therapist did with it.
+
+A proposal is `pending` until the patient's next trial starts; `begin_trial` then marks
+it `accepted` (the next trial ran the proposed assistance, speed and tolerance),
+`kept` (it ran the same as the trial before, against a proposed change) or `changed`
+(anything else), and links the trial that followed. The history of a patient's
+progression is their proposals beside their trials' parameters, which the trials table
+keeps.
+"""
+
+from __future__ import annotations
+
+import datetime
+import json
+import math
+import sqlite3
+from dataclasses import dataclass
+
+from app.errors import InvalidRecordError
+from app.records.registry.database import Database
+from app.records.registry.patients import patient_id
+from app.records.registry.trials import trial_by_id
+from core.trial import TrialParameters
+
+DECISIONS = ("pending", "accepted", "changed", "kept")
+_TOLERANCE = 1e-9
+
+
+@dataclass(frozen=True, slots=True)
+class StoredProposal:
+    """A proposal as the registry keeps it (its values in Proposal.to_dict's form)."""
+
+    trial_id: int
+    proposal: dict
+    decision: str
+    next_trial_id: int | None
+    proposed_at: str
+    decided_at: str | None
+
+
+class Proposals(Database):
+    """Keeping the proposal after a trial, deciding it when the next trial starts. Comes
+    before Trials in the registry's bases, so that its `_trial_begun` is the one called."""
+
+    def record_proposal(self, trial_id: int, proposal: dict) -> StoredProposal:
+        """Keep the proposal made after trial `trial_id` (replacing a pending one)."""
+        text = json.dumps(proposal, allow_nan=False, sort_keys=True)
+        now = _now()
+        with self._write() as conn:
+            trial_by_id(conn, self.path, trial_id)  # refuses an unknown trial
+            row = conn.execute("SELECT decision FROM proposals WHERE trial_id = ?",
+                               (trial_id,)).fetchone()
+            if row is not None and row[0] != "pending":
+                raise InvalidRecordError(
+                    f"trial {trial_id}'s proposal was already {row[0]}; it is kept as it was")
+            conn.execute("INSERT OR REPLACE INTO proposals (trial_id, proposal, proposed_at) "
+                         "VALUES (?, ?, ?)", (trial_id, text, now))
+        return self.proposal(trial_id)
+
+    def proposal(self, trial_id: int) -> StoredProposal | None:
+        with self._read() as conn:
+            row = conn.execute(_SELECT + " WHERE trial_id = ?", (trial_id,)).fetchone()
+        return None if row is None else _stored(row)
+
+    def proposals_for_patient(self, code: str) -> list[StoredProposal]:
+        with self._read() as conn:
+            pid = patient_id(conn, self.path, code)
+            rows = conn.execute(
+                _SELECT + " WHERE trial_id IN (SELECT t.id FROM trials t JOIN sessions s "
+                "ON s.id = t.session_id WHERE s.patient_id = ?) ORDER BY trial_id",
+                (pid,)).fetchall()
+        return [_stored(r) for r in rows]
+
+    def _trial_begun(self, conn: sqlite3.Connection, patient: int, trial_id: int,
+                     parameters: dict) -> None:
+        """At Start, in begin_trial's transaction (Trials._trial_begun): the patient's
+        pending proposal decided by the parameters the new trial started with."""
+        row = conn.execute(
+            _SELECT + " WHERE decision = 'pending' AND trial_id IN (SELECT t.id FROM "
+            "trials t JOIN sessions s ON s.id = t.session_id WHERE s.patient_id = ? "
+            "AND t.id != ?) ORDER BY trial_id DESC LIMIT 1", (patient, trial_id),
+        ).fetchone()
+        if row is None:
+            return
+        stored = _stored(row)
+        before = trial_by_id(conn, self.path, stored.trial_id).trial_parameters()
+        decision = _decision(stored.proposal, before, TrialParameters.from_dict(parameters))
+        conn.execute("UPDATE proposals SET decision = ?, next_trial_id = ?, decided_at = ? "
+                     "WHERE trial_id = ?", (decision, trial_id, _now(), stored.trial_id))
+
+
+_SELECT = ("SELECT trial_id, proposal, decision, next_trial_id, proposed_at, decided_at "
+           "FROM proposals")
+_KEYS = ("assistance_level", "duration_s", "tolerance_rad")
+
+
+def _decision(proposal: dict, before: TrialParameters, after: TrialParameters) -> str:
+    def same(values: dict | TrialParameters) -> bool:
+        get = values.get if isinstance(values, dict) else lambda k: getattr(values, k)
+        return all(math.isclose(float(get(k)), getattr(after, k), abs_tol=_TOLERANCE)
+                   for k in _KEYS)
+
+    if same(proposal):
+        return "accepted"
+    if same(before):
+        return "kept"
+    return "changed"
+
+
+def _stored(row: tuple) -> StoredProposal:
+    return StoredProposal(int(row[0]), json.loads(row[1]), row[2], row[3], row[4], row[5])
+
+
+def _now() -> str:
+    return datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")

@@ -1,0 +1,112 @@
+"""Progression between trials (app.trials.progression): one step harder above 80 % of the
+time in the cone, easier below 60 %, the same near 70 %; the registry keeps each proposal
+and what the therapist did with it; the command line and a course of trials use it."""
+
+import math
+
+import pytest
+
+from app.records.datadir import DataDir
+from app.records.registry import Registry
+from app.trials.finalize import finalize_trial
+from app.trials.headless import save, simulate
+from app.trials.progression import Proposal, propose
+from core.trial import THESIS_SUBJECT
+
+P = THESIS_SUBJECT  # the thesis mode: success is the time inside the cone
+
+
+def dp(pct):
+    return {"directional_performance_pct": pct}
+
+
+def test_in_the_as_needed_mode_success_is_the_share_the_patient_led():
+    as_needed = P.replace(assist="as-needed")
+    figures = {"directional_performance_pct": 40.0, "led_pct": 90.0}
+    step = propose(as_needed, figures, "complete")
+    assert step.change == "assistance"
+    assert "kept up without help 90 %" in step.reason
+    assert propose(P, figures, "complete").change == "speed"  # thesis: 40 % in the cone
+
+
+def test_a_patient_who_does_well_gets_less_assistance_then_speed_then_tolerance():
+    step = propose(P, dp(85.0), "complete")
+    assert step.change == "assistance"
+    assert step.assistance_level == pytest.approx(0.9)
+    assert "85 %" in step.reason
+    assert "100% → 90%" in step.reason
+    faster = propose(P.replace(assistance_level=0.0), dp(90.0), "complete")
+    assert faster.change == "speed"
+    assert faster.duration_s == pytest.approx(3.6)
+    # at the path's fastest allowed speed only the tolerance is left
+    fastest = P.replace(assistance_level=0.0, duration_s=1.0)
+    narrower = propose(fastest, dp(90.0), "complete")
+    assert narrower.change == "tolerance"
+    assert math.degrees(narrower.tolerance_rad) == pytest.approx(18.0)
+
+
+def test_a_patient_who_struggles_gets_the_tolerance_back_then_assistance_then_time():
+    wider = propose(P.replace(tolerance_rad=math.radians(14.0)), dp(40.0), "complete")
+    assert wider.change == "tolerance"
+    assert math.degrees(wider.tolerance_rad) == pytest.approx(16.0)
+    more = propose(P.replace(assistance_level=0.5), dp(40.0), "complete")
+    assert more.change == "assistance"
+    assert more.assistance_level == pytest.approx(0.6)
+    slower = propose(P, dp(40.0), "complete")
+    assert slower.change == "speed"
+    assert slower.duration_s == pytest.approx(4.4)
+
+
+@pytest.mark.parametrize(("metrics", "status", "needle"), [
+    (dp(70.0), "complete", "the same again"),
+    (dp(95.0), "faulted", "did not complete (faulted)"),
+    ({}, "complete", "no figure to go by"),
+])
+def test_otherwise_the_same_again_with_the_reason(metrics, status, needle):
+    same = propose(P, metrics, status)
+    assert same.change == "none"
+    assert (same.assistance_level, same.duration_s) == (P.assistance_level, P.duration_s)
+    assert needle in same.reason
+
+
+def test_the_registry_keeps_each_proposal_and_what_the_therapist_did(tmp_path):
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("Ada", "Example", body_mass_kg=91.0).code
+    params = P.replace(assist="as-needed", repetitions=1)
+
+    def trial(parameters):
+        begun = registry.begin_trial(code, parameters, backend="simulator")
+        save(simulate(parameters, patient="healthy"), begun.path, subject_code=code)
+        return begun.trial_id, finalize_trial(registry, begun.trial_id)
+
+    first, done = trial(params)
+    assert done.proposal is not None
+    assert registry.proposal(first).decision == "pending"
+    proposal = Proposal.from_dict(registry.proposal(first).proposal)
+    second, _ = trial(proposal.applied_to(params))
+    decided = registry.proposal(first)
+    assert decided.next_trial_id == second
+    assert decided.decision == "accepted"  # the proposal's values, whatever it changed
+    third, _ = trial(params.replace(duration_s=6.0))  # the therapist chose otherwise
+    assert registry.proposal(second).decision == "changed"
+    history = registry.proposals_for_patient(code)
+    assert [p.trial_id for p in history] == [first, second, third]
+    assert history[-1].decision == "pending"
+
+
+def test_the_command_line_proposes_and_runs_as_proposed(tmp_path, monkeypatch, capsys):
+    from app.cli.main import main
+
+    monkeypatch.setenv("REHAB_DATA_DIR", str(tmp_path / "data"))
+    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
+    assert main(["patients", "add", "--first-name", "Ada", "--last-name", "Example",
+                 "--body-mass", "91", "--upper-arm", "0.3048", "--forearm", "0.3048",
+                 "--side", "right", "--shoulder", "-0.12", "0.73"]) == 0
+    code = capsys.readouterr().out.strip()
+    assert main(["run", "--code", code, "--repetitions", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "Proposed for the next trial:" in out
+    assert main(["run", "--code", code, "--repetitions", "1", "--as-proposed"]) == 0
+    assert "As proposed:" in capsys.readouterr().out
+    registry = Registry(DataDir(tmp_path / "data"))
+    assert registry.proposals_for_patient(code)[0].decision == "accepted"
