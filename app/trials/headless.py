@@ -26,7 +26,7 @@ from core.robot import RobotModel
 from core.trial import TrialParameters
 from device.compiled.warmup import load_kernels
 from device.loop.engine import run_trial
-from device.loop.pipeline import TickPipeline, TrialPlan
+from device.loop.pipeline import TickPipeline, TrialPlan, assistance_group
 from device.recording.trialfile import SubjectInfo, write_trial
 from device.safety.supervisor import SafetySupervisor
 from device.sim.simulator import SimulatorBackend
@@ -141,7 +141,7 @@ def save(trial: SimulatedTrial, path: Path, *, subject_code: str = "SIM") -> Ana
                  "exercise_start_s": analysis.exercise_start_s,
                  **_plant_summary(trial.plant)},
         metrics=analysis.metrics.to_dict(),
-        assistance=_assistance(trial),
+        assistance=assistance_group(params, trial.guidance, trial.feedforward_N),
     )
     return analysis
 
@@ -159,14 +159,3 @@ def _plant_summary(plant: dict | None) -> dict:
     import json
 
     return {"plant": plant["kind"], "plant_parameters": json.dumps(plant)}
-
-
-def _assistance(trial: SimulatedTrial) -> dict:
-    """The assistance group of the trial file: the mode, the level, and in the as-needed
-    mode its gains and the learned feedforward (N) per repetition and bin."""
-    params = trial.plan.parameters
-    out: dict = {"mode": params.assist, "level": params.assistance_level}
-    if trial.guidance is not None:
-        out.update(trial.guidance.to_dict())
-        out["feedforward_N"] = trial.feedforward_N
-    return out

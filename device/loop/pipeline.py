@@ -330,6 +330,18 @@ class TickPipeline:
                              last, applied, self.robot.position(q1, q2), s, state, fault)
 
 
+def assistance_group(parameters: TrialParameters, guidance: GuidanceGains | None,
+                     feedforward_N: np.ndarray) -> dict:
+    """The trial file's /assistance group (docs/data-format.md): the mode, the level the
+    trial started with and, in the as-needed mode, the guidance's gains and its learned
+    feedforward per repetition and bin (TickPipeline.feedforward_history)."""
+    out: dict = {"mode": parameters.assist, "level": parameters.assistance_level}
+    if guidance is not None:
+        out.update(guidance.to_dict())
+        out["feedforward_N"] = np.asarray(feedforward_N, dtype=float)
+    return out
+
+
 def record_values(tick, time_s, wall_s, lateness_s, compute_s, reading, last, applied,
                   position, subject, state, fault) -> tuple:
     """A record's values in `flat_names` order, from a tick's SensorReading, what

@@ -67,7 +67,7 @@ from device.loop.messages import (
     TrialEnded,
     TrialStarted,
 )
-from device.loop.pipeline import PERIOD_S, TickPipeline, TrialPlan
+from device.loop.pipeline import PERIOD_S, TickPipeline, TrialPlan, assistance_group
 from device.loop.realtime import (
     CLOCKS,
     LAST_CPU,
@@ -333,7 +333,9 @@ class DeviceLoop:
                    "robot_clock_s": self.reading.time_s - self.trial_start_sample_s,
                    "timing": self.backend.timing}
         self.end_seq = self.ring.write_count
-        self._to_recorder(EndTrial(self.end_seq, status, summary))
+        pipeline = self.pipeline
+        self._to_recorder(EndTrial(self.end_seq, status, summary, assistance_group(
+            self.plan.parameters, pipeline.guidance, pipeline.feedforward_history)))
         self._send(TrialEnded(self.trial_path, status, summary))
 
     def _on_fault(self, fault: Fault, loop_t: float) -> None:

@@ -44,6 +44,8 @@ class EndTrial:
     end_seq: int
     status: str
     summary: dict
+    assistance: dict | None = None
+    """The trial file's /assistance group (docs/data-format.md), or None."""
 
 
 # ------------------------------------------------------------------ recorder → console

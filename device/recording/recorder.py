@@ -106,7 +106,7 @@ class Recorder:
                 pending = np.concatenate((pending, more)) if len(more) else pending
                 self._write(pending, pending_seq, end_seq=message.end_seq)
                 pending, pending_seq = _after(pending, pending_seq, message.end_seq)
-                self._close(message.status, message.summary)
+                self._close(message.status, message.summary, message.assistance)
         self._write(pending, pending_seq)
 
     # ------------------------------------------------------------------ file
@@ -149,14 +149,14 @@ class Recorder:
         except (DeviceError, OSError) as exc:
             self._fail(str(self.writer.path), str(exc))
 
-    def _close(self, status: str, summary: dict) -> None:
+    def _close(self, status: str, summary: dict, assistance: dict | None = None) -> None:
         writer, self.writer = self.writer, None
         if writer is None:
             return
         if self.failed:
             status = "recording_lost"
         try:
-            path = writer.close(status, summary)
+            path = writer.close(status, summary, None, assistance)
         except (DeviceError, OSError) as exc:
             self._notify("error", str(writer.path), status, f"could not close the file: {exc}")
             return

@@ -124,6 +124,11 @@ def test_a_whole_session(qtbot, window, tmp_path):
     assert data.status == "complete"
     assert data.n_samples > 1000
     assert np.isfinite(data.channels["subject_torque"][data.channels["phase"] == 2]).all()
+    import h5py
+
+    with h5py.File(win.registry.trial_path(trial), "r") as f:  # the live trial's group
+        assert f["assistance"].attrs["mode"] == "as-needed"
+        assert f["assistance/feedforward_N"].shape == (1, 20)
     changes = [e for e in data.events if e["kind"] == "assistance"]
     assert changes
     assert changes[-1]["values"]["level"] == pytest.approx(0.4)

@@ -172,3 +172,25 @@ def test_the_as_needed_mode_is_stable_for_every_patient_level_and_speed(patient)
             rms = np.sqrt(np.mean(off ** 2))
             assert rms < (0.005 if (level, duration) == (1.0, 4.0) else 0.025)
             assert off.max() < 0.06
+
+
+def test_the_trial_file_keeps_the_mode_its_gains_the_learned_force_and_the_work(tmp_path):
+    import h5py
+
+    from app.trials.headless import save
+
+    params = THESIS_SUBJECT.replace(assist="as-needed", repetitions=2,
+                                    gains="guidance.delay_s=0.4")
+    trial = simulate(params, patient="passive", seed=0)
+    save(trial, tmp_path / "t.h5")
+    with h5py.File(tmp_path / "t.h5", "r") as f:
+        group = f["assistance"]
+        assert group.attrs["mode"] == "as-needed"
+        assert group.attrs["delay_s"] == pytest.approx(0.4)
+        learned = group["feedforward_N"][()]
+        assert learned.shape == (2, GuidanceGains().bins)
+        assert np.array_equal(learned, trial.feedforward_N)
+        assert learned[1].sum() > learned[0].sum() > 0.0  # it learns the limp arm's need
+        assert f["summary"].attrs["plant"] == "realistic"
+        for key in ("robot_work_J", "patient_work_J", "robot_work_share", "led_pct"):
+            assert np.isfinite(f["metrics"].attrs[key])
