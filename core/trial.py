@@ -81,6 +81,15 @@ class TrialParameters:
         _choice("side", self.side, SIDES)
         _choice("controller", self.controller, CONTROLLERS)
         _choice("assist", self.assist, ASSIST_MODES)
+        # numbers as numbers: a string or a flag is refused by name, numpy scalars become
+        # plain floats and ints (they reach JSON and HDF5 attributes)
+        for name in _REAL_FIELDS:
+            object.__setattr__(self, name, _real(name, getattr(self, name)))
+        for name in ("repetitions", "n_targets"):
+            value = getattr(self, name)
+            _integer(name, value, *(REPETITIONS_RANGE if name == "repetitions"
+                                    else TARGETS_RANGE))
+            object.__setattr__(self, name, int(value))
         object.__setattr__(self, "centre_m", _point("centre_m", self.centre_m))
         object.__setattr__(self, "shoulder_m", _point("shoulder_m", self.shoulder_m))
         check_range("radius_m", self.radius_m, *RADIUS_RANGE_M, "m",
@@ -262,6 +271,17 @@ def check_trial(
 def _choice(name: str, value: object, allowed: tuple[str, ...]) -> None:
     if value not in allowed:
         raise ParameterError(name, value, "one of " + ", ".join(allowed))
+
+
+_REAL_FIELDS = ("radius_m", "duration_s", "body_mass_kg", "upper_arm_m", "forearm_m",
+                "tolerance_rad", "assistance_level")
+
+
+def _real(name: str, value: object) -> float:
+    if isinstance(value, bool | np.bool_) or not isinstance(value, int | float | np.integer
+                                                            | np.floating):
+        raise ParameterError(name, value, "a number", "give it as a number, not as text")
+    return float(value)
 
 
 def _integer(name: str, value: object, low: int, high: int) -> None:

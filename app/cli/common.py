@@ -63,6 +63,22 @@ def registry_for(args: argparse.Namespace) -> Registry:
     return Registry(locate_data_dir())
 
 
+SQLITE_INT_MAX = 2**63 - 1
+
+
+def record_id(text: str) -> int:
+    """An argparse type for a registry id: a whole number from 1 to SQLite's largest."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid int value: {text!r} (a trial's id is a "
+                                         "whole number; `rehab trials CODE` lists them)") from None
+    if not 1 <= value <= SQLITE_INT_MAX:
+        raise argparse.ArgumentTypeError(f"{text} is not a trial id: ids are whole numbers "
+                                         "from 1 (`rehab trials CODE` lists them)")
+    return value
+
+
 def absolute(text: str) -> Path:
     """A path typed on the command line, with ~ expanded, made absolute."""
     return Path(text).expanduser().resolve()

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import argparse
 
-from app.cli.common import absolute, progress_bar, registry_for
+from app.cli.common import CommandError, absolute, progress_bar, record_id, registry_for
 
 
 def add_export_command(commands) -> None:
@@ -17,7 +17,7 @@ def add_export_command(commands) -> None:
         description="Export trials for analysis. Exports never contain names unless "
                     "--include-names is given.")
     what = parser.add_mutually_exclusive_group(required=True)
-    what.add_argument("--trial", type=int, action="append", dest="trial_ids", metavar="ID",
+    what.add_argument("--trial", type=record_id, action="append", dest="trial_ids", metavar="ID",
                       help="a registered trial (repeatable)")
     what.add_argument("--patient", action="append", dest="codes", metavar="CODE",
                       help="every trial of a patient (repeatable)")
@@ -46,7 +46,10 @@ def cmd_export(args: argparse.Namespace) -> int:
                "progress": bar.update if bar else None}
     if args.format != "bids":
         options.update(exercise_only=args.exercise_only, digits=args.digits)
-    if args.folder:
+    if args.folder is not None:
+        if not args.folder.strip():
+            raise CommandError("--folder is empty: give the folder that holds the study's "
+                               "trial files")
         result = export_folder(absolute(args.folder), output, **options)
     elif args.codes:
         result = export_patients(registry, args.codes, output,

@@ -10,6 +10,7 @@ The `gui` command is added by `ui.launcher`, which owns the only entry point.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Sequence
 
@@ -56,6 +57,9 @@ def run(parser: Parser, argv: Sequence[str] | None, default: str) -> int:
     if not argv or (argv[0].startswith("-") and argv[0] not in ("-h", "--help")):
         argv.insert(0, default)
     args = parser.parse_args(argv)
+    # whatever the shell's umask: every file the console writes (trial files, the registry,
+    # reports, exports, settings, logs) is its user's only (README, Where the data goes)
+    os.umask(0o077)
     try:
         return args.func(args)
     except (CommandError, CoreError, AppError, DeviceError) as exc:
@@ -64,6 +68,12 @@ def run(parser: Parser, argv: Sequence[str] | None, default: str) -> int:
     except KeyboardInterrupt:
         sys.stderr.write(f"{parser.prog} {args.command}: interrupted\n")
         return 130
+    except BrokenPipeError:
+        # the reader went away (`rehab … | head`): what it wanted it has; the rest is not
+        # an error, and Python must not print one at exit when it flushes stdout
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0
 
 
 def main(argv: Sequence[str] | None = None) -> int:

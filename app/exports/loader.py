@@ -294,7 +294,9 @@ def read_info(path: str | os.PathLike) -> TrialInfo:
     path = Path(path)
     try:
         info = _read_info(path)
-    except (OSError, RuntimeError, ValueError, KeyError, TypeError) as exc:
+    except (OSError, RuntimeError, ValueError, KeyError, TypeError, AttributeError,
+            IndexError) as exc:
+        # a damaged layout (a group where a dataset should be, …) surfaces as any of these
         log.debug("%s: quick metadata read failed (%s); reading it whole", path, exc)
         info = None
     if info is None:
@@ -320,6 +322,13 @@ def load_study(folder: str | os.PathLike, pattern: str = "**/*.h5", *,
         except AppError as exc:
             log.warning("study %s: %s skipped: %s", folder, path, exc)
             failed.append(Failure(path, str(exc)))
+        except (OSError, RuntimeError, ValueError, KeyError, TypeError, AttributeError,
+                IndexError) as exc:
+            # one damaged file must not end the study: it is listed with its reason
+            reason = (f"{path.name} could not be read as a trial file ({type(exc).__name__}: "
+                      f"{exc}); it is left out")
+            log.warning("study %s: %s", folder, reason)
+            failed.append(Failure(path, reason))
         if progress is not None:
             progress((i + 1) / len(paths))
     rows = tuple(info.row(folder) for info in infos)

@@ -45,6 +45,10 @@ ENV_DATA_DIR = "REHAB_DATA_DIR"
 REGISTRY_NAME = "registry.sqlite3"
 TRIALS = "trials"
 REPORTS = "reports"
+PRIVATE_FOLDER = 0o700
+PRIVATE_FILE = 0o600
+"""The modes of the data folder's folders and files: its user's only (README, Where the
+data goes)."""
 EXPORTS = "exports"
 LOGS = "logs"
 LAYOUT = (TRIALS, REPORTS, EXPORTS, LOGS)
@@ -158,8 +162,27 @@ class DataDir:
                 f"{folder} is a file, not a folder. Move it, or choose another data folder "
                 f"(setting data_dir, or {ENV_DATA_DIR})"
             )
+        self._make_private(folder)
         self._probe(folder)
         return folder
+
+    def _make_private(self, folder: Path) -> None:
+        """The data folder and every folder in it open to their user only (0700), whatever
+        the umask or an earlier console left: they hold patients' data."""
+        here = folder
+        while True:
+            try:
+                if here.stat().st_mode & 0o777 != PRIVATE_FOLDER:
+                    os.chmod(here, PRIVATE_FOLDER)
+            except OSError as exc:
+                raise DataDirError(
+                    f"cannot make {here} private to its user ({exc.strerror or exc}); the "
+                    "data folder must be yours: choose another data folder (setting "
+                    f"data_dir, or {ENV_DATA_DIR})"
+                ) from exc
+            if here == self.root or self.root not in here.parents:
+                return
+            here = here.parent
 
     def ensure_layout(self) -> Path:
         """Create the root and its standard sub-folders; return the root."""
@@ -224,3 +247,19 @@ class DataDir:
 
 def _absolute(text: str) -> Path:
     return Path(text).expanduser().absolute()
+
+
+def private_files(path: Path) -> None:
+    """`path` and SQLite's files beside it (-wal, -shm) readable by their user only
+    (PRIVATE_FILE), whatever the umask they were created with. SQLite gives the journal
+    files the database's mode, so doing it once after opening holds."""
+    for candidate in (path, path.with_name(path.name + "-wal"),
+                      path.with_name(path.name + "-shm")):
+        try:
+            if candidate.stat().st_mode & 0o777 != PRIVATE_FILE:
+                os.chmod(candidate, PRIVATE_FILE)
+        except FileNotFoundError:
+            continue
+        except OSError as exc:
+            raise DataDirError(f"cannot make {candidate} private to its user "
+                               f"({exc.strerror or exc}); the data folder must be yours") from exc

@@ -18,6 +18,7 @@ from __future__ import annotations
 import datetime
 import logging
 import logging.handlers
+import os
 import re
 import sys
 import threading
@@ -61,6 +62,13 @@ class DailyFileHandler(logging.handlers.TimedRotatingFileHandler):
                          backupCount=0, encoding="utf-8")
         self.rolloverAt = self.computeRollover(int(clock()))
         self.prune()
+
+    def _open(self):
+        """The day's file, readable by its user only whatever the umask (a log names
+        patients' codes and their trials' events)."""
+        stream = super()._open()
+        os.chmod(self.baseFilename, 0o600)
+        return stream
 
     def shouldRollover(self, record: logging.LogRecord) -> bool:
         return self.clock() >= self.rolloverAt

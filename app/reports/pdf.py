@@ -80,11 +80,13 @@ def write_report_pdf(content: ReportContent, path: str | os.PathLike) -> Path:
         "Creator": "rehab-console",
         "Subject": "Post-trial report of a planar upper-limb rehabilitation robot",
     }
-    # Not tempfile.mkstemp: its files are private (0600), and a report must get the
-    # same permissions as any file the console writes (the user's umask).
+    # Private (0600) whatever the umask, as every file of the data folder: a report holds
+    # a patient's figures (and, when asked, their first name).
     temporary = path.with_name(f".{path.name}.{os.getpid()}-{secrets.token_hex(4)}.part")
     try:
-        handle = temporary.open("xb")
+        handle = os.fdopen(os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600),
+                           "wb")
+        os.chmod(temporary, 0o600)
     except OSError as exc:
         raise _write_error(path, exc) from exc
     try:

@@ -426,6 +426,8 @@ class TrialFileWriter:
         try:
             # "w-" fails if the file appeared since the check above.
             self._file = h5py.File(self._path, "w-", libver=LIBVER)
+            # a trial holds a patient's data: readable by its user only, whatever the umask
+            os.chmod(self._path, 0o600)
         except (OSError, RuntimeError) as exc:
             raise _disk_error(self._path, "create", exc) from exc
 

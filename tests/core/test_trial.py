@@ -101,3 +101,21 @@ def test_every_shape_can_be_checked(shape):
     check = check_trial(params)
     assert check.points_m.shape[0] > 10
     assert check.path_length_m > 0
+
+
+@pytest.mark.parametrize(("field", "value"), [
+    ("radius_m", "0.1"), ("duration_s", True), ("assistance_level", None),
+    ("repetitions", 3.0), ("repetitions", "3"),
+])
+def test_a_number_given_as_text_or_a_flag_is_refused_by_name(field, value):
+    with pytest.raises(ParameterError, match=field):
+        TrialParameters(**{field: value})
+
+
+def test_numpy_numbers_become_plain_ones_that_json_and_hdf5_take():
+    import json
+
+    p = TrialParameters(repetitions=np.int64(3), radius_m=np.float32(0.08))
+    assert type(p.repetitions) is int
+    assert type(p.radius_m) is float
+    assert json.loads(json.dumps(p.to_dict()))["repetitions"] == 3

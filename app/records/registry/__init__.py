@@ -38,7 +38,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from app.records.datadir import DataDir
+from app.records.datadir import DataDir, private_files
 from app.records.registry.database import BUSY_TIMEOUT_S
 from app.records.registry.patients import BIRTH_YEAR_MIN, CODE_LENGTH, Patient, Patients, new_code
 from app.records.registry.proposals import Proposals, StoredProposal
@@ -97,4 +97,5 @@ class Registry(Schema, Patients, Sessions, Proposals, Trials, Queries):
         self.path = data_dir.registry_path
         data_dir.ensure()
         self._migrate()
+        private_files(self.path)
 

@@ -11,6 +11,7 @@ transaction: the console that reads the next number is the one that inserts it.
 from __future__ import annotations
 
 import contextlib
+import os
 import sqlite3
 from collections.abc import Iterator
 from pathlib import Path
@@ -96,6 +97,7 @@ class Database:
                 target.parent.mkdir(parents=True, exist_ok=True)
                 with contextlib.closing(sqlite3.connect(target)) as copy:
                     conn.backup(copy)
+                os.chmod(target, 0o600)  # a copy of the patients' records: its user's only
             except (OSError, sqlite3.Error) as exc:
                 raise RegistryError(
                     f"cannot write a copy of the registry to {target}: {exc}. Choose a "

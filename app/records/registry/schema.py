@@ -17,6 +17,7 @@ import logging
 import sqlite3
 
 from app.errors import SchemaError
+from app.records.datadir import private_files
 from app.records.registry.database import Database, rollback
 
 # The registry's one logger, named as it was before the registry had modules.
@@ -159,5 +160,6 @@ class Schema(Database):
             return
         with contextlib.closing(sqlite3.connect(target)) as copy:
             conn.backup(copy)
+        private_files(target)
         log.info("registry %s: copy of schema v%d kept as %s before migrating",
                  self.path, version, target.name)

@@ -84,6 +84,10 @@ def test_a_session_from_the_command_line(data, patient, capsys, tmp_path):
         (["export", "--patient", "P000000", "--format", "xls"], "invalid choice"),
         (["nonsense"], "invalid choice"),
         (["run", "--assist", "lots"], "invalid choice"),
+        (["report", "99999999999999999999999"], "not a trial id"),
+        (["report", "0"], "not a trial id"),
+        (["export", "--trial", "99999999999999999999999", "--format", "csv"], "not a trial id"),
+        (["export", "--folder", "", "--format", "csv"], "--folder is empty"),
         (["run", "--plant", "perfect"], "invalid choice"),
         (["run", "--gains", "smc.lambda_1_s=500"], "smc.lambda_1_s[0]"),
         (["check", "--gains", "pid.kp=3"], "no gains called 'pid'"),
@@ -140,3 +144,44 @@ def test_a_researcher_lists_the_gains_and_runs_a_trial_with_changed_ones(data, c
                         "--output", str(tmp_path / "g.h5")], capsys)
     assert code == 0
     assert read_trial(tmp_path / "g.h5").parameters.gains == "guidance.delay_s=0.6"
+
+
+def test_a_report_never_overwrites_a_file_it_was_not_asked_to(data, patient, capsys,
+                                                            tmp_path):
+    run(["run", "--code", patient, "--repetitions", "1"], capsys)
+    registry_file = data / "registry.sqlite3"
+    before = registry_file.stat().st_size
+    code, _, err = run(["report", "1", "--output", str(registry_file)], capsys)
+    assert code == 2
+    assert ".pdf" in err
+    code, _, err = run(["report", "1", "--output", str(data / "trials" / "x.pdf")], capsys)
+    assert code == 2
+    assert "inside the data folder" in err
+    assert registry_file.stat().st_size >= before
+    code, out, _ = run(["patients"], capsys)
+    assert patient in out  # every patient is still there
+    existing = tmp_path / "mine.pdf"
+    existing.write_bytes(b"the therapist's own file")
+    code, _, err = run(["report", "1", "--output", str(existing)], capsys)
+    assert code == 2
+    assert "already exists" in err
+    assert existing.read_bytes() == b"the therapist's own file"
+    code, out, _ = run(["report", "1", "--output", str(existing), "--force"], capsys)
+    assert code == 0
+    assert existing.read_bytes().startswith(b"%PDF")
+
+
+def test_a_reader_that_goes_away_is_not_an_error(tmp_path):
+    """`rehab … | head`: the pipe closes under the command; it ends quietly, exit 0."""
+    import subprocess
+    import sys
+
+    script = ("import os, sys\n"
+              "r, w = os.pipe(); os.close(r); os.dup2(w, 1)\n"
+              "from app.cli.main import main\n"
+              "sys.exit(main(['gains']))\n")
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          timeout=120, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "Traceback" not in done.stderr
+    assert done.stderr == ""

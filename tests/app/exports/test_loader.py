@@ -223,3 +223,24 @@ def test_module_example_runs(tmp_path, monkeypatch, capsys):
     assert "not an HDF5 file" in out
     assert "circle.h5" in out
     assert "d.h5" not in out.replace("broken.h5", "")
+
+
+@pytest.mark.parametrize("damage", ["timeseries_is_a_dataset", "channel_is_a_group"])
+def test_one_file_with_a_damaged_layout_lands_in_failed_and_the_study_goes_on(
+        trial_path, tmp_path, damage):
+    folder = tmp_path / "study"
+    folder.mkdir()
+    shutil.copy(trial_path, folder / "good.h5")
+    bad = folder / "bad.h5"
+    shutil.copy(trial_path, bad)
+    with h5py.File(bad, "r+") as f:
+        if damage == "timeseries_is_a_dataset":
+            del f["timeseries"]
+            f.create_dataset("timeseries", data=[1, 2, 3])
+        else:
+            del f["timeseries/time"]
+            f["timeseries"].create_group("time")
+    study = load_study(folder)
+    assert [info.path.name for info in study.infos] == ["good.h5"]
+    assert [failure.path.name for failure in study.failed] == ["bad.h5"]
+    assert study.failed[0].reason  # with its reason
