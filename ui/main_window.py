@@ -313,6 +313,10 @@ class MainWindow(QMainWindow):
         self._refresh_buttons()
 
     def _on_state(self, state: int, reason: str) -> None:
+        if State(state) != self.state:
+            # the clinic's events in the day's log: build, connect, start, stop, faults
+            log.info("robot %s → %s%s", self.state.label, State(state).label,
+                     f": {reason}" if reason else "")
         self.state = State(state)
         self.state_label.setText(f"<b>{self.state.label}</b>")
         if self.state == State.CONNECTED and self.built is not None:
@@ -320,10 +324,13 @@ class MainWindow(QMainWindow):
         self._refresh_buttons()
 
     def _on_fault(self, code: int, message: str, detail: dict) -> None:
+        log.warning("fault %s: %s %s", Fault(code).label if code in Fault._value2member_map_
+                    else code, message, {k: v for k, v in detail.items() if k != "monotonic_s"})
         self.fault_code = code
         self._show_banner(message)
 
     def _on_trial_started(self, path: str, approach: int, total: int) -> None:
+        log.info("trial started: %s (%d ticks)", Path(path).name, total)
         self.live = TrialView(self.built)
         self.shown_view = self.live
         self.trial_label.setText(f"recording {Path(path).name}")
@@ -332,6 +339,7 @@ class MainWindow(QMainWindow):
             self.tabs.setCurrentWidget(self.trajectory)
 
     def _on_trial_ended(self, path: str, status: str, summary: dict) -> None:
+        log.info("trial ended: %s, %s", Path(path).name, status)
         self.trial_label.setText(f"{Path(path).name}: {status.replace('_', ' ')}")
         camera = self.video.camera
         if camera is not None and camera.recording:

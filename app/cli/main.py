@@ -43,8 +43,7 @@ def build_parser(prog: str = "rehab") -> tuple[Parser, argparse._SubParsersActio
         prog=prog,
         description="Clinical console for the planar upper-limb rehabilitation robot.",
     )
-    parser.add_argument("--data-dir", help="data folder (default: REHAB_DATA_DIR, the "
-                                           "setting, or the user data folder)")
+    parser.add_argument("--data-dir", help=DATA_DIR_HELP)
     commands = parser.add_subparsers(dest="command", metavar="command", parser_class=Parser)
     for add_commands in COMMAND_GROUPS:
         add_commands(commands)
@@ -54,8 +53,12 @@ def build_parser(prog: str = "rehab") -> tuple[Parser, argparse._SubParsersActio
 def run(parser: Parser, argv: Sequence[str] | None, default: str) -> int:
     """Parse and run one command, turning every expected failure into one line and exit 2."""
     argv = list(sys.argv[1:] if argv is None else argv)
-    if not argv or (argv[0].startswith("-") and argv[0] not in ("-h", "--help")):
+    names = _command_names(parser)
+    options_only = not argv or (argv[0].startswith("-") and argv[0] not in ("-h", "--help"))
+    if options_only and not any(a in names for a in argv):
+        # no command given (`rehab`, `rehab --data-dir D`): the entry point's default
         argv.insert(0, default)
+    _data_dir_everywhere(parser)
     args = parser.parse_args(argv)
     # whatever the shell's umask: every file the console writes (trial files, the registry,
     # reports, exports, settings, logs) is its user's only (README, Where the data goes)
@@ -74,6 +77,26 @@ def run(parser: Parser, argv: Sequence[str] | None, default: str) -> int:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return 0
+
+
+DATA_DIR_HELP = "data folder (default: REHAB_DATA_DIR, the setting, or the user data folder)"
+
+
+def _command_names(parser: argparse.ArgumentParser) -> set[str]:
+    return {name for action in parser._actions
+            if isinstance(action, argparse._SubParsersAction) for name in action.choices}
+
+
+def _data_dir_everywhere(parser: argparse.ArgumentParser) -> None:
+    """`--data-dir` before the command, after it, or after its action (`rehab patients add
+    --data-dir D`): every command and action takes it, and the one given wins."""
+    for action in parser._actions:
+        if not isinstance(action, argparse._SubParsersAction):
+            continue
+        for sub in action.choices.values():
+            if not any("--data-dir" in a.option_strings for a in sub._actions):
+                sub.add_argument("--data-dir", default=argparse.SUPPRESS, help=DATA_DIR_HELP)
+            _data_dir_everywhere(sub)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

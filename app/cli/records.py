@@ -22,6 +22,11 @@ def add_patient_commands(commands) -> None:
     parser.add_argument("--no-names", action="store_true", help="show codes only")
     parser.set_defaults(func=cmd_patients)
     sub = parser.add_subparsers(dest="action", metavar="action", parser_class=type(parser))
+    listing = sub.add_parser("list", help="list the patients (the same as no action)",
+                             description="List the registered patients.")
+    listing.add_argument("--search", help="part of a name, or the start of a code")
+    listing.add_argument("--no-names", action="store_true", help="show codes only")
+    listing.set_defaults(func=cmd_patients)
     add = sub.add_parser("add", help="register a new patient (prints the new code)",
                          description="Register a new patient. SI units: kg and m.")
     add.add_argument("--first-name")

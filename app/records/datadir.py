@@ -87,6 +87,15 @@ def locate_data_dir(
         settings = load_settings()
     if settings.data_dir:
         return DataDir(_absolute(settings.data_dir), SOURCE_SETTING)
+    if settings.damaged:
+        # the damaged settings may have named another folder: the default would start an
+        # empty registry beside the real one
+        raise DataDirError(
+            f"the settings file was damaged and is kept as {settings.damaged}; the data "
+            "folder it named cannot be read back. Set the data folder again "
+            f"({ENV_DATA_DIR}=<folder>, or data_dir in the settings), or delete that file "
+            f"to use the default folder {default_data_dir()}"
+        )
     return DataDir(default_data_dir(), SOURCE_DEFAULT)
 
 
@@ -172,8 +181,11 @@ class DataDir:
         here = folder
         while True:
             try:
-                if here.stat().st_mode & 0o777 != PRIVATE_FOLDER:
-                    os.chmod(here, PRIVATE_FOLDER)
+                # only the group's and others' bits are taken away: a folder its user made
+                # read-only stays read-only (and is refused as such below)
+                bits = here.stat().st_mode & 0o777
+                if bits & ~PRIVATE_FOLDER:
+                    os.chmod(here, bits & PRIVATE_FOLDER)
             except OSError as exc:
                 raise DataDirError(
                     f"cannot make {here} private to its user ({exc.strerror or exc}); the "
@@ -250,14 +262,16 @@ def _absolute(text: str) -> Path:
 
 
 def private_files(path: Path) -> None:
-    """`path` and SQLite's files beside it (-wal, -shm) readable by their user only
-    (PRIVATE_FILE), whatever the umask they were created with. SQLite gives the journal
+    """`path` and SQLite's files beside it (-wal, -shm) readable by their user only (the
+    group's and others' bits taken away), whatever the umask they were created
+    with. SQLite gives the journal
     files the database's mode, so doing it once after opening holds."""
     for candidate in (path, path.with_name(path.name + "-wal"),
                       path.with_name(path.name + "-shm")):
         try:
-            if candidate.stat().st_mode & 0o777 != PRIVATE_FILE:
-                os.chmod(candidate, PRIVATE_FILE)
+            bits = candidate.stat().st_mode & 0o777
+            if bits & ~PRIVATE_FILE:
+                os.chmod(candidate, bits & PRIVATE_FILE)
         except FileNotFoundError:
             continue
         except OSError as exc:

@@ -135,7 +135,15 @@ def setup_logging(
             _remove("stderr", root)
         if root.level == logging.NOTSET or root.level > level:
             root.setLevel(level)
+        for name in QUIET_LIBRARIES:
+            # their INFO is chatter (206 of 218 lines of a day's log were fontTools');
+            # their warnings still reach the log
+            logging.getLogger(name).setLevel(logging.WARNING)
         return Path(_installed["file"].baseFilename)
+
+
+QUIET_LIBRARIES = ("fontTools", "matplotlib", "PIL", "numba", "h5py", "urllib3")
+"""Libraries whose INFO and DEBUG lines are kept out of the clinic's log."""
 
 
 def shutdown_logging() -> None:

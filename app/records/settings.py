@@ -21,6 +21,7 @@ import datetime
 import json
 import logging
 import os
+import re
 import tempfile
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -86,6 +87,9 @@ class Settings:
     last_trial_parameters: dict | None = None
     window_geometry: str | None = None
     extra: dict = field(default_factory=dict, repr=False)
+    damaged: str | None = field(default=None, compare=False)
+    """The damaged settings file kept aside whose data folder could not be read back, or
+    None: then the data folder is not known (locate_data_dir refuses to guess)."""
 
     def __post_init__(self) -> None:
         for name, (ok, allowed) in _CHECKS.items():
@@ -136,6 +140,11 @@ def load_settings(path: str | os.PathLike | None = None) -> Settings:
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
+        kept = sorted(path.parent.glob(f"{path.name}.corrupt-*"))
+        if kept:
+            # an earlier start set a damaged file aside: until someone looks at it, the
+            # data folder it may have named is unknown, not the default
+            return Settings(damaged=str(kept[-1]))
         log.debug("no settings file at %s: defaults used", path)
         return Settings()
     except UnicodeDecodeError:
@@ -217,6 +226,7 @@ def _set_aside(path: Path, problem: str) -> Settings:
     while target.exists():
         counter += 1
         target = path.with_name(f"{path.name}.corrupt-{stamp}-{counter}")
+    recovered = _data_dir_in(path)
     try:
         os.replace(path, target)
     except OSError as exc:
@@ -224,12 +234,39 @@ def _set_aside(path: Path, problem: str) -> Settings:
             "settings file %s is unusable (%s) and could not be set aside (%s): defaults used",
             path, problem, exc,
         )
-        return Settings()
+        return Settings(data_dir=recovered, damaged=None if recovered else str(path))
     log.warning(
-        "settings file %s is unusable (%s): kept as %s for inspection, defaults used",
+        "settings file %s is unusable (%s): kept as %s for inspection, defaults used%s",
         path, problem, target.name,
+        f" but its data folder {recovered}" if recovered else "",
     )
-    return Settings()
+    if recovered:
+        # the data folder is what matters: the rest (window, last parameters) can wait
+        settings = Settings(data_dir=recovered)
+        with contextlib.suppress(SettingsError):
+            save_settings(settings, path)
+        return settings
+    return Settings(damaged=str(target))
+
+
+_DATA_DIR_ENTRY = re.compile(r'"data_dir"\s*:\s*("(?:[^"\\]|\\.)*")')
+
+
+def _data_dir_in(path: Path) -> str | None:
+    """The data folder a damaged settings file still names (a truncated file often keeps
+    its first keys whole), or None."""
+    try:
+        text = path.read_bytes().decode("utf-8", errors="replace")
+    except OSError:
+        return None
+    found = _DATA_DIR_ENTRY.search(text)
+    if found is None:
+        return None
+    try:
+        value = json.loads(found.group(1))
+    except ValueError:
+        return None
+    return value if isinstance(value, str) and value.strip() else None
 
 
 def _sync_folder(folder: Path) -> None:

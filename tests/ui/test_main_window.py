@@ -64,7 +64,8 @@ def short_trial(win: MainWindow) -> None:
     p.refresh()
 
 
-def test_a_whole_session(qtbot, window, tmp_path):
+def test_a_whole_session(qtbot, window, tmp_path, caplog):
+    caplog.set_level("INFO", logger="ui.main_window")
     win = window
     assert enabled(win) == {"build"}  # nothing out of order before Build
     register_patient(qtbot, win)
@@ -133,6 +134,9 @@ def test_a_whole_session(qtbot, window, tmp_path):
     assert changes
     assert changes[-1]["values"]["level"] == pytest.approx(0.4)
 
+    # the clinic's events are in the log: connect, start, the end of the trial
+    for needle in ("→ connected", "trial started", "trial ended"):
+        assert needle in caplog.text.lower(), needle
     click(qtbot, win.robot.buttons["save"])
     qtbot.waitUntil(lambda: win.unsaved_trial is None, timeout=20000)
     reports = list((tmp_path / "data" / "reports").rglob("*.pdf"))

@@ -50,6 +50,7 @@ from app.records.registry.schema import (
     SCHEMA_V1,
     SCHEMA_VERSION,
     Schema,
+    check_registry_file,
 )
 from app.records.registry.sessions import Session, Sessions
 from app.records.registry.trials import (
@@ -96,6 +97,7 @@ class Registry(Schema, Patients, Sessions, Proposals, Trials, Queries):
         self.data_dir = data_dir
         self.path = data_dir.registry_path
         data_dir.ensure()
+        check_registry_file(self.path, data_dir.trials_dir)
         self._migrate()
         private_files(self.path)
 

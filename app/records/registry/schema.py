@@ -14,9 +14,11 @@ from __future__ import annotations
 import contextlib
 import datetime
 import logging
+import shutil
 import sqlite3
+from pathlib import Path
 
-from app.errors import SchemaError
+from app.errors import RegistryError, SchemaError
 from app.records.datadir import private_files
 from app.records.registry.database import Database, rollback
 
@@ -163,3 +165,40 @@ class Schema(Database):
         private_files(target)
         log.info("registry %s: copy of schema v%d kept as %s before migrating",
                  self.path, version, target.name)
+
+
+SQLITE_HEADER = b"SQLite format 3\x00"
+
+
+def check_registry_file(path: Path, trials_dir: Path) -> None:
+    """Refuse a registry file that would be taken for a new, empty one: a file of 0 bytes
+    or that is not a SQLite database (a copy is kept beside it, the file left as it is),
+    one that cannot be read, and a missing registry beside existing trial files. Opening
+    any of them would start an empty registry and orphan every trial recorded so far."""
+    try:
+        with path.open("rb") as stream:
+            header = stream.read(len(SQLITE_HEADER))
+    except FileNotFoundError:
+        kept = next(iter(trials_dir.rglob("*.h5")), None) if trials_dir.is_dir() else None
+        if kept is not None:
+            count = sum(1 for _ in trials_dir.rglob("*.h5"))
+            raise RegistryError(
+                f"the registry {path} is missing, but {trials_dir} holds {count} trial "
+                "file(s): restore the registry from a backup (a registry.sqlite3.v*.bak "
+                "beside it, or your own copy), or move the trials folder away to start a "
+                "new registry; the console will not start an empty one beside them") from None
+        return
+    except OSError as exc:
+        raise RegistryError(f"the registry {path} cannot be read ({exc.strerror or exc}); "
+                            "check its permissions, or restore it from a backup") from exc
+    if header == SQLITE_HEADER:
+        return
+    stamp = datetime.datetime.now(datetime.UTC).strftime("%Y%m%dT%H%M%SZ")
+    kept = path.with_name(f"{path.name}.damaged-{stamp}")
+    with contextlib.suppress(OSError):
+        shutil.copy2(path, kept)
+    what = "empty (0 bytes)" if not header else "not a SQLite database"
+    raise SchemaError(
+        f"{path} is not a registry database ({what}); nothing was changed and a copy is kept as "
+        f"{kept.name}. Restore the registry from a backup (a registry.sqlite3.v*.bak beside "
+        "it, or your own copy) and start again")

@@ -185,3 +185,21 @@ def test_a_reader_that_goes_away_is_not_an_error(tmp_path):
     assert done.returncode == 0, done.stderr
     assert "Traceback" not in done.stderr
     assert done.stderr == ""
+
+
+@pytest.mark.parametrize("where", ["before", "after", "after_the_action"])
+def test_data_dir_is_taken_before_or_after_the_command(tmp_path, monkeypatch, capsys, where):
+    monkeypatch.delenv("REHAB_DATA_DIR", raising=False)
+    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
+    folder = str(tmp_path / "elsewhere")
+    add = ["patients", "add", "--first-name", "Ada", "--last-name", "Example",
+           "--body-mass", "70"]
+    argv = {"before": ["--data-dir", folder, *add], "after": [*add[:1], "--data-dir", folder,
+                                                             *add[1:]],
+            "after_the_action": [*add, "--data-dir", folder]}[where]
+    code, out, err = run(argv, capsys)
+    assert code == 0, err
+    assert (tmp_path / "elsewhere" / "registry.sqlite3").exists()
+    code, listed, _ = run(["patients", "list", "--data-dir", folder], capsys)
+    assert code == 0
+    assert out.strip() in listed

@@ -305,3 +305,19 @@ def test_a_new_file_each_day_and_old_days_deleted(tmp_path):
     assert not ageing.exists()
     assert kept.exists()
     assert other.exists()
+
+
+def test_library_chatter_stays_out_of_the_clinics_log(tmp_path, clean_logging):
+    """206 of 218 lines of a day's log were fontTools' INFO when a report was written."""
+    path = setup_logging(DataDir(tmp_path / "data"))
+    logging.getLogger("fontTools.subset").info("maxp pruned")
+    logging.getLogger("matplotlib.font_manager").info("found a font")
+    logging.getLogger("fontTools.ttLib").warning("a damaged font table")
+    logging.getLogger("app.trials").info("trial 3 finished")
+    for handler in logging.getLogger().handlers:
+        handler.flush()
+    text = path.read_text(encoding="utf-8")
+    assert "maxp pruned" not in text
+    assert "found a font" not in text
+    assert "a damaged font table" in text
+    assert "trial 3 finished" in text

@@ -425,3 +425,34 @@ def test_two_processes_numbering_at_once_take_distinct_numbers(tmp_path, spawn):
     assert registry.integrity_check() == []
     assert [t.number for t in registry.trials(code, 1)] == list(range(1, 101))
     assert query(data.registry_path, "PRAGMA integrity_check") == [("ok",)]
+
+
+@pytest.mark.parametrize("content", [b"", b"\x00" * 4096, b"PK\x03\x04 a zip, not a registry"])
+def test_an_empty_or_foreign_registry_file_is_refused_and_kept_as_it_was(tmp_path, content):
+    """A 0-byte registry used to be taken for a new one: every patient gone, every trial
+    file orphaned."""
+    data = DataDir(tmp_path / "data")
+    data.ensure()
+    data.registry_path.write_bytes(content)
+    with pytest.raises(RegistryError,
+                       match=r"not a registry database \((empty|not a SQLite).*backup"):
+        Registry(data)
+    assert data.registry_path.read_bytes() == content  # nothing was changed
+    kept = list(data.root.glob("registry.sqlite3.damaged-*"))
+    assert len(kept) == 1
+    assert kept[0].read_bytes() == content
+
+
+def test_a_missing_registry_beside_trial_files_is_refused(tmp_path):
+    data = DataDir(tmp_path / "data")
+    registry = Registry(data)
+    code = registry.create_patient("Ada", "Example", body_mass_kg=70.0).code
+    begun = registry.begin_trial(code, TrialParameters(), backend="simulator")
+    begun.path.parent.mkdir(parents=True, exist_ok=True)
+    begun.path.write_bytes(b"a trial")
+    data.registry_path.unlink()
+    for suffix in ("-wal", "-shm"):
+        data.registry_path.with_name("registry.sqlite3" + suffix).unlink(missing_ok=True)
+    with pytest.raises(RegistryError, match=r"missing, but .* holds 1 trial file"):
+        Registry(data)
+    assert not data.registry_path.exists()

@@ -133,3 +133,38 @@ def test_stale_trial_parameters_are_ignored_with_a_warning(config, caplog):
         assert Settings(last_trial_parameters=renamed).trial_parameters() is None
     assert "radius_m" in caplog.text
     assert "old_field" in caplog.text
+
+
+def test_a_truncated_file_keeps_its_data_folder(config, tmp_path, monkeypatch):
+    """A truncated settings.json used to send the console to the default data folder, so
+    the next patient landed in a new, empty registry."""
+    from app.records.datadir import ENV_DATA_DIR, locate_data_dir
+
+    monkeypatch.delenv(ENV_DATA_DIR, raising=False)
+    chosen = tmp_path / "clinic data"
+    full = json.dumps({"data_dir": str(chosen), "flip_x": True,
+                       "last_trial_parameters": TrialParameters().to_dict()})
+    config.mkdir()
+    (config / SETTINGS_NAME).write_text(full[: len(full) // 2])  # cut mid-way
+    assert locate_data_dir().root == chosen
+    assert load_settings().data_dir == str(chosen)  # written back whole
+    assert len(list(config.glob(f"{SETTINGS_NAME}.corrupt-*"))) == 1
+
+
+def test_a_damaged_file_without_its_data_folder_is_refused_until_someone_looks(
+        config, tmp_path, monkeypatch):
+    from app.errors import DataDirError
+    from app.records.datadir import ENV_DATA_DIR, locate_data_dir
+
+    monkeypatch.delenv(ENV_DATA_DIR, raising=False)
+    config.mkdir()
+    (config / SETTINGS_NAME).write_text('{"flip_x": true, "data_d')
+    for _ in range(2):  # at this start and at the next
+        with pytest.raises(DataDirError, match=r"settings file was damaged.*corrupt-"):
+            locate_data_dir()
+    monkeypatch.setenv(ENV_DATA_DIR, str(tmp_path / "d"))
+    assert locate_data_dir().root == tmp_path / "d"
+    monkeypatch.delenv(ENV_DATA_DIR)
+    for kept in config.glob(f"{SETTINGS_NAME}.corrupt-*"):
+        kept.unlink()  # the therapist looked, and chose the default
+    assert locate_data_dir().source == "default"
