@@ -201,8 +201,13 @@ def _read(path: Path, f: h5py.File) -> TrialData:
             )
     order += sorted(set(series) - set(order))
     datasets = {name: series[name] for name in order}
-    channels, trim_notes = _read_channels(datasets)
+    for name, dataset in datasets.items():
+        if not isinstance(dataset, h5py.Dataset):
+            raise TrialFileError(path, f"is damaged: /timeseries/{name} is not a dataset",
+                                 _RESTORE + ".")
+    channels, trim_notes = _read_channels(path, datasets)
     notes += trim_notes
+    _check_samples(path, channels)
 
     parameters, note = parameters_from_attributes(attrs)
     notes += note
@@ -261,7 +266,34 @@ def _check_format(path: Path, attrs: dict) -> None:
         raise TrialFileError(path, f"has an invalid sample_period_s {period!r}", _RESTORE + ".")
 
 
-def _read_channels(datasets: dict[str, h5py.Dataset]) -> tuple[dict, list[str]]:
+def _check_samples(path: Path, channels: dict) -> None:
+    """What every trial file's samples satisfy, whoever wrote it: `tick` whole numbers
+    from 0 that only increase, and `time` finite seconds that only increase. A file that
+    breaks one was damaged (a bit flipped in a
+    file written before checksums, an edited file) and is refused, naming the dataset."""
+    def refuse(name: str, problem: str) -> None:
+        raise TrialFileError(path, f"is damaged: /timeseries/{name} {problem}", _RESTORE + ".")
+
+    for name in ("tick", "time"):
+        values = channels.get(name)
+        if values is None or values.size == 0:
+            continue
+        if values.dtype.kind not in ("iu" if name == "tick" else "f"):
+            refuse(name, f"holds {values.dtype} values, not "
+                   + ("whole numbers" if name == "tick" else "seconds"))
+        if name == "time" and not np.isfinite(values).all():
+            bad = int(np.flatnonzero(~np.isfinite(values))[0])
+            refuse(name, f"is {values[bad]} at sample {bad}")
+        if name == "tick" and values[0] < 0:
+            refuse(name, f"starts at {values[0]}, below 0")
+        step = np.diff(values.astype(float) if name == "time" else values)
+        if values.size > 1 and not (step > 0).all():
+            bad = int(np.flatnonzero(~(step > 0))[0])
+            refuse(name, f"goes from {values[bad]} to {values[bad + 1]} at sample {bad + 1}; "
+                   "it only ever increases")
+
+
+def _read_channels(path: Path, datasets: dict[str, h5py.Dataset]) -> tuple[dict, list[str]]:
     notes = []
     lengths = {name: d.shape[0] for name, d in datasets.items()}
     n = min(lengths.values(), default=0)
@@ -271,7 +303,15 @@ def _read_channels(datasets: dict[str, h5py.Dataset]) -> tuple[dict, list[str]]:
             f"the channels had unequal lengths ({n} to {longest} samples), as when the recorder "
             f"stops between writes; every channel was trimmed to the shortest, {n} samples"
         )
-    channels = {name: d[:n] for name, d in datasets.items()}
+    channels = {}
+    for name, dataset in datasets.items():
+        try:
+            channels[name] = dataset[:n]
+        except OSError as exc:
+            # Fletcher-32 (and any other filter) fails the read of a damaged chunk
+            raise TrialFileError(
+                path, f"is damaged: /timeseries/{name} does not match its checksum ({exc}); "
+                "a bit changed on the disk or in a copy", _RESTORE + ".") from exc
     # Rows extended but never written read as the fill value; -1 is no tick.
     tick = channels.get("tick")
     if tick is not None and tick.ndim == 1 and n and tick[-1] == -1:

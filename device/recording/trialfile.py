@@ -239,7 +239,7 @@ class TrialFileWriter:
             ]
             self._events = f.create_dataset(
                 "events", shape=(0,), maxshape=(None,), dtype=EVENT_DTYPE,
-                chunks=(EVENT_CHUNK_ROWS,),
+                chunks=(EVENT_CHUNK_ROWS,), fletcher32=True,
             )
             if live:
                 f.swmr_mode = True
@@ -599,9 +599,11 @@ def _check_channels(channels: tuple[Channel, ...]) -> None:
 def _create_channel_dataset(group: h5py.Group, channel: Channel, chunk_rows: int) -> h5py.Dataset:
     dtype = np.dtype(channel.dtype)
     tail = () if channel.width == 1 else (channel.width,)
+    # Fletcher-32 on every chunk: a bit flipped on the disk or in a copy is an error on
+    # read (app.trials.reader names the dataset), not a silently wrong number
     dataset = group.create_dataset(
         channel.name, shape=(0, *tail), maxshape=(None, *tail), dtype=dtype,
-        chunks=(chunk_rows, *tail), fillvalue=_fill_value(dtype),
+        chunks=(chunk_rows, *tail), fillvalue=_fill_value(dtype), fletcher32=True,
     )
     dataset.attrs["units"] = channel.units
     dataset.attrs["frame"] = channel.frame
