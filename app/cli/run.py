@@ -8,6 +8,8 @@ import argparse
 
 from app.cli.common import EXIT_OK, CommandError, progress_bar, registry_for
 from app.cli.trial_options import add_trial_options, trial_from_args
+from app.errors import AppError
+from device.errors import DeviceError
 
 
 def add_run_command(commands) -> None:
@@ -83,7 +85,14 @@ def cmd_run(args: argparse.Namespace) -> int:
                      plant=args.plant)
     if bar:
         bar.done()
-    analysis = save(trial, path, subject_code=args.code or "SIM")
+    try:
+        analysis = save(trial, path, subject_code=args.code or "SIM")
+    except (DeviceError, AppError, OSError) as exc:
+        if begun is not None:
+            # register only what exists: the trial's file could not be written
+            registry.withdraw_trial(begun.trial_id, str(exc))
+            raise CommandError(f"{exc} (the trial was not registered)") from exc
+        raise
     if begun is not None:
         from app.trials.finalize import finalize_trial
 

@@ -72,6 +72,13 @@ class Proposals(Database):
                 (pid,)).fetchall()
         return [_stored(r) for r in rows]
 
+    def _trial_withdrawn(self, conn: sqlite3.Connection, trial_id: int) -> None:
+        """A trial withdrawn (Trials.withdraw_trial) never ran: the proposal it decided is
+        pending again, and one made after it goes with it."""
+        conn.execute("UPDATE proposals SET decision = 'pending', next_trial_id = NULL, "
+                     "decided_at = NULL WHERE next_trial_id = ?", (trial_id,))
+        conn.execute("DELETE FROM proposals WHERE trial_id = ?", (trial_id,))
+
     def _trial_begun(self, conn: sqlite3.Connection, patient: int, trial_id: int,
                      parameters: dict) -> None:
         """At Start, in begin_trial's transaction (Trials._trial_begun): the patient's

@@ -227,6 +227,23 @@ class Trials(Database):
         return BegunTrial(trial_id, code, session_number, trial_number,
                           self.data_dir.resolve(file), file, started_at)
 
+    def withdraw_trial(self, trial_id: int, why: str) -> None:
+        """Take back a trial registered at Start whose file was never written (a headless
+        run refused for lack of disk space, say): the registry keeps only trials that
+        exist. Refused for a finished trial or one whose file exists."""
+        with self._write() as conn:
+            trial = trial_by_id(conn, self.path, trial_id)
+            if trial.finished or self.data_dir.resolve(trial.file).exists():
+                raise RegistryError(
+                    f"trial {trial_id} has its file or has finished; it stays registered")
+            self._trial_withdrawn(conn, trial_id)
+            conn.execute("DELETE FROM trials WHERE id = ?", (trial_id,))
+        log.warning("trial %d withdrawn, its file was never written: %s", trial_id, why)
+
+    def _trial_withdrawn(self, conn: sqlite3.Connection, trial_id: int) -> None:
+        """Called in withdraw_trial's transaction before the trial's row goes (the
+        proposals it decided go back to pending: app.records.registry.proposals)."""
+
     def _trial_begun(self, conn: sqlite3.Connection, patient: int, trial_id: int,
                      parameters: dict) -> None:
         """Called in begin_trial's transaction once the trial is inserted; the registry's

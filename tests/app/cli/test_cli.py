@@ -203,3 +203,21 @@ def test_data_dir_is_taken_before_or_after_the_command(tmp_path, monkeypatch, ca
     code, listed, _ = run(["patients", "list", "--data-dir", folder], capsys)
     assert code == 0
     assert out.strip() in listed
+
+
+def test_a_full_disk_registers_nothing_and_says_so_in_one_line(data, patient, capsys,
+                                                               monkeypatch):
+    """A refused `rehab run --code` used to leave a trial 'recording' with no file."""
+    from app.records.datadir import DataDir
+    from app.records.registry import Registry
+    from device.recording import trialfile
+
+    monkeypatch.setattr(trialfile, "_free_bytes", lambda folder: 1024)  # 1 KiB free
+    code, _, err = run(["run", "--code", patient, "--repetitions", "1"], capsys)
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1
+    assert "free" in lines[0]
+    assert "not registered" in lines[0]
+    assert Registry(DataDir(data)).trials_for_patient(patient) == []
+    assert not list((data / "trials").rglob("*.h5"))
