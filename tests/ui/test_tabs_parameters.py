@@ -206,3 +206,31 @@ def test_the_proposal_for_the_next_trial_is_shown_and_taken_with_one_click(qtbot
     assert not tab.use_proposal.isVisible()
     tab.show_proposal(None)
     assert not tab._proposal_group.isVisible()
+
+
+def _wheel(widget, steps: int) -> None:
+    from PySide6.QtCore import QPoint, QPointF
+    from PySide6.QtGui import QWheelEvent
+    from PySide6.QtWidgets import QApplication
+
+    centre = QPointF(widget.width() / 2, widget.height() / 2)
+    event = QWheelEvent(centre, widget.mapToGlobal(centre), QPoint(0, 0),
+                        QPoint(0, 120 * steps), Qt.MouseButton.NoButton,
+                        Qt.KeyboardModifier.NoModifier, Qt.ScrollPhase.NoScrollPhase, False)
+    QApplication.sendEvent(widget, event)
+
+
+def test_scrolling_the_form_never_changes_a_field_under_the_pointer(qtbot, tab):
+    """Repetitions 5 → 1 unnoticed while a therapist scrolled the form."""
+    tab.repetitions.setValue(5)
+    tab.radius.setValue(10.0)
+    tab.shape.setFocus()  # the focus is elsewhere
+    for field in (tab.repetitions, tab.radius, tab.timing):
+        before = field.value() if hasattr(field, "value") else field.currentIndex()
+        _wheel(field, -3)
+        after = field.value() if hasattr(field, "value") else field.currentIndex()
+        assert after == before, field
+    tab.repetitions.setFocus()  # clicked into: now the wheel is meant for it
+    qtbot.waitUntil(tab.repetitions.hasFocus, timeout=1000)
+    _wheel(tab.repetitions, -1)
+    assert tab.repetitions.value() == 4

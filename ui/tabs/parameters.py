@@ -38,7 +38,6 @@ from PySide6.QtWidgets import (
     QRadioButton,
     QScrollArea,
     QSizePolicy,
-    QSpinBox,
     QVBoxLayout,
     QWidget,
 )
@@ -63,6 +62,7 @@ from core.trial import (
 )
 from device.sim.patients import PATIENT_KINDS
 from ui import theme
+from ui.fields import ComboBox, DoubleSpinBox, SpinBox
 from ui.reach_preview import ReachPreview
 from ui.views.reach import (
     CM,
@@ -97,7 +97,7 @@ class BackendChoice:
 
 
 def _spin(low: float, high: float, decimals: int, suffix: str, step: float) -> QDoubleSpinBox:
-    box = QDoubleSpinBox()
+    box = DoubleSpinBox()
     box.setRange(low, high)
     box.setDecimals(decimals)
     box.setSuffix(suffix)
@@ -109,7 +109,7 @@ def _spin(low: float, high: float, decimals: int, suffix: str, step: float) -> Q
 
 
 def _combo(names: dict[str, str], keys: tuple[str, ...]) -> QComboBox:
-    box = QComboBox()
+    box = ComboBox()
     for key in keys:
         box.addItem(names.get(key, key), key)
     return box
@@ -224,9 +224,9 @@ class ParametersTab(QWidget):
         self.centre_x = _spin(pos_lo, pos_hi, 2, " cm", 1.0)
         self.centre_y = _spin(pos_lo, pos_hi, 2, " cm", 1.0)
         self.clockwise = QCheckBox("Clockwise")
-        self.n_targets = QSpinBox()
+        self.n_targets = SpinBox()
         self.n_targets.setRange(*TARGETS_RANGE)
-        self.repetitions = QSpinBox()
+        self.repetitions = SpinBox()
         self.repetitions.setRange(*REPETITIONS_RANGE)
         self.timing = _combo(TIMING_NAMES, TIMINGS)
         self._exercise_group = QGroupBox("Exercise")
@@ -258,7 +258,7 @@ class ParametersTab(QWidget):
         self.controller = _combo(CONTROLLER_NAMES, CONTROLLERS)
         self.assist = _combo(ASSIST_NAMES, ASSIST_MODES)
         self.tolerance = _spin(tol_lo, tol_hi, 1, "°", 1.0)
-        self.assistance = QSpinBox()
+        self.assistance = SpinBox()
         self.assistance.setRange(0, 100)
         self.assistance.setSuffix(" %")
         self.assistance.setSingleStep(5)

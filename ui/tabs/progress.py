@@ -12,7 +12,6 @@ from __future__ import annotations
 import pyqtgraph as pg
 from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import (
-    QComboBox,
     QHBoxLayout,
     QHeaderView,
     QLabel,
@@ -27,6 +26,7 @@ from app.records.store import RecordStore
 from app.reports.metrics_table import ROWS
 from app.reports.progress import Progress, progress
 from ui import plots, theme
+from ui.fields import ComboBox
 from ui.views.progress_table import (
     metric_heading,
     metric_rows,
@@ -57,7 +57,7 @@ class ProgressTab(QWidget):
         self.message = theme.set_role(QLabel("Choose a patient on the Registration tab."),
                                       "caption")
         self.message.setWordWrap(True)
-        self.metric_choice = QComboBox()
+        self.metric_choice = ComboBox()
         self.metric_choice.setAccessibleName("Figure to plot")
         self.metric_choice.currentIndexChanged.connect(self._draw_plot)
         top = QHBoxLayout()

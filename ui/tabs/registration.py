@@ -16,7 +16,6 @@ import datetime
 from PySide6.QtCore import Qt, QTimer, Signal
 from PySide6.QtWidgets import (
     QCheckBox,
-    QComboBox,
     QDoubleSpinBox,
     QFormLayout,
     QGroupBox,
@@ -26,7 +25,6 @@ from PySide6.QtWidgets import (
     QListWidget,
     QListWidgetItem,
     QPushButton,
-    QSpinBox,
     QVBoxLayout,
     QWidget,
 )
@@ -37,6 +35,7 @@ from app.records.store import RecordStore
 from core.arm import BODY_MASS_RANGE_KG, FOREARM_RANGE_M, UPPER_ARM_RANGE_M
 from core.trial import POSITION_RANGE_M
 from ui import theme
+from ui.fields import ComboBox, DoubleSpinBox, SpinBox
 
 CM = 100.0
 NOT_MEASURED = "not measured"
@@ -47,7 +46,7 @@ MAX_NUMBER = 999_999
 def _optional_spin(low: float, high: float, decimals: int, suffix: str,
                    step: float) -> QDoubleSpinBox:
     """A spin box whose lowest value reads 'not measured' (and means None)."""
-    box = QDoubleSpinBox()
+    box = DoubleSpinBox()
     box.setDecimals(decimals)
     box.setRange(low - step, high)
     box.setSingleStep(step)
@@ -111,11 +110,11 @@ class RegistrationTab(QWidget):
         # New patient
         self.first_name = QLineEdit()
         self.last_name = QLineEdit()
-        self.birth_year = QSpinBox()
+        self.birth_year = SpinBox()
         self.birth_year.setRange(BIRTH_YEAR_MIN - 1, datetime.date.today().year)
         self.birth_year.setSpecialValueText("not given")
         self.birth_year.setValue(self.birth_year.minimum())
-        self.side = QComboBox()
+        self.side = ComboBox()
         for text, value in (("Right arm", "right"), ("Left arm", "left"), ("Not given", None)):
             self.side.addItem(text, value)
         self.body_mass = _optional_spin(*BODY_MASS_RANGE_KG, 1, " kg", 1.0)
@@ -151,12 +150,12 @@ class RegistrationTab(QWidget):
         # This trial
         self.patient_label = theme.set_role(QLabel("No patient chosen"), "lead")
         self.patient_label.setWordWrap(True)
-        self.session = QSpinBox()
+        self.session = SpinBox()
         self.session.setRange(1, MAX_NUMBER)
         self.session.setAccessibleName("Session number")
         self.session.valueChanged.connect(self._session_edited)
         self.session_note = theme.set_role(QLabel(""), "caption")
-        self.trial = QSpinBox()
+        self.trial = SpinBox()
         self.trial.setRange(1, MAX_NUMBER)
         self.trial.setAccessibleName("Trial number")
         self.trial.valueChanged.connect(self._numbers_edited)
