@@ -70,9 +70,13 @@ def test_create_patient_numbers_and_duplicate_refused(qtbot, tab, registry):
     # A trial runs with those numbers; the next ones come from the registry.
     registry.begin_trial(patient.code, THESIS_SUBJECT, backend="simulator", session_number=1,
                          trial_number=1)
-    tab.refresh_numbers()
+    with qtbot.waitSignal(tab.registered) as registered:
+        tab.refresh_numbers()
     assert (tab.session.value(), tab.trial.value()) == (1, 2)
     assert "1 trial so far" in tab.session_note.text()
+    # the numbers shown are the ones the next Start uses
+    assert registered.args[1].trial_number == 2
+    assert tab.registration().trial_number == 2
 
     # The therapist types the used number: refused, naming the next free one.
     tab.trial.setFocus()

@@ -213,6 +213,7 @@ class RegistrationTab(QWidget):
         """Fill in the registry's numbers again (after a trial was registered)."""
         if self._patient is None or self.registry is None:
             return
+        was_confirmed = self._registration is not None
         suggestion = self.registry.suggest_registration(self._patient.code)
         for box, value in ((self.session, suggestion.session_number),
                            (self.trial, suggestion.trial_number)):
@@ -220,6 +221,10 @@ class RegistrationTab(QWidget):
             box.setValue(value)
             box.blockSignals(False)
         self._session_edited()
+        if was_confirmed:
+            # the therapist confirmed this patient: the next trial takes the next number
+            # at once, the one shown (Start used to keep the old one and be refused)
+            self.confirm_registration()
 
     def show_refusal(self, refusal: Exception | str) -> None:
         """Show the registry's refusal of the numbers (e.g. DuplicateNumberError raised by

@@ -208,10 +208,11 @@ class Trials(Database):
                 ).fetchone()
                 if taken:
                     free = _next_trial_number_in(conn, session_id)
+                    when = datetime.datetime.fromisoformat(taken[0]).astimezone()
                     raise DuplicateNumberError(
                         f"patient {code} session {session_number} already has a trial "
-                        f"{trial_number} (started {taken[0]}); use {free}, the next free "
-                        "number, or leave the trial number empty to number it automatically"
+                        f"{trial_number} (started {when:%d %b %Y %H:%M}); use {free}, the "
+                        "next free number"
                     )
             file = self.data_dir.trial_file(code, session_number, trial_number, started_at)
             cursor = conn.execute(

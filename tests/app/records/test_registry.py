@@ -456,3 +456,22 @@ def test_a_missing_registry_beside_trial_files_is_refused(tmp_path):
     with pytest.raises(RegistryError, match=r"missing, but .* holds 1 trial file"):
         Registry(data)
     assert not data.registry_path.exists()
+
+
+def test_a_used_number_is_refused_in_words_for_people(tmp_path):
+    """The refusal used to show a raw timestamp with microseconds and advise leaving a
+    spin box 'empty'."""
+    import re
+
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("Ada", "Example").code
+    registry.begin_trial(code, TrialParameters(), backend="simulator", session_number=1,
+                         trial_number=1)
+    with pytest.raises(DuplicateNumberError) as refused:
+        registry.begin_trial(code, TrialParameters(), backend="simulator", session_number=1,
+                             trial_number=1)
+    text = str(refused.value)
+    assert re.search(r"started \d{2} \w{3} \d{4} \d{2}:\d{2}\)", text)
+    assert not re.search(r"\d{2}:\d{2}:\d{2}\.\d+", text)
+    assert "empty" not in text
+    assert "use 2, the next free number" in text
