@@ -328,6 +328,14 @@ class MainWindow(QMainWindow):
                     else code, message, {k: v for k, v in detail.items() if k != "monotonic_s"})
         self.fault_code = code
         self._show_banner(message)
+        if detail.get("cause") == "recorder process stopped" and self.trial_id is not None:
+            # no recorder is left to close the file and say so: finish the trial from
+            # what reached its file, as a crash's trial is finished at the next start
+            from app.trials.finalize import finalize_lost
+
+            trial_id, self.trial_id = self.trial_id, None
+            self.jobs.run(lambda: finalize_lost(self.registry, trial_id),
+                          lambda done: self._finalized(trial_id, done))
 
     def _on_trial_started(self, path: str, approach: int, total: int) -> None:
         log.info("trial started: %s (%d ticks)", Path(path).name, total)

@@ -74,6 +74,21 @@ def finalize_trial(registry: RecordStore, trial_id: int, status: str | None = No
     return Finalized(trial_id, path, status, analysis, tuple(notes), proposal)
 
 
+def finalize_lost(registry: RecordStore, trial_id: int) -> Finalized:
+    """Finish a trial whose recording was lost mid-way (its recorder died): from what
+    reached its file when that can be read, else as recording_lost with no metrics and a
+    note saying why. Never leaves it 'recording'."""
+    try:
+        return finalize_trial(registry, trial_id, "recording_lost")
+    except AppError as exc:
+        registry.finish_trial(trial_id, "recording_lost", {},
+                              datetime.datetime.now(datetime.UTC))
+        note = f"the file could not be read ({exc}); the trial is listed as recording lost"
+        log.warning("trial %s: %s", trial_id, note)
+        return Finalized(trial_id, registry.trial_path(trial_id), "recording_lost", None,
+                         (note,))
+
+
 STILL_WRITTEN_S = 10.0
 """A trial file modified this recently may be a live trial of another console on the same
 data folder (the recorder flushes every 0.5 s): it is left alone."""

@@ -41,6 +41,7 @@ from __future__ import annotations
 import dataclasses
 import faulthandler
 import math
+import select
 import time
 from dataclasses import dataclass
 from multiprocessing.connection import Connection
@@ -127,6 +128,12 @@ class DeviceLoop:
                  estop_flag, heartbeat, recording_failed, config: LoopConfig) -> None:
         self.console = console
         self.recorder = recorder
+        # The recorder's death shows at once as an error on our end of its pipe (its end
+        # is closed by the system): no heartbeat to miss on a slow disk, no wait for the
+        # ring to fill (it took about 16 s).
+        self._recorder_watch = select.poll()
+        self._recorder_watch.register(recorder.fileno(), select.POLLERR)
+        self.recorder_gone = False
         self.ring = ring
         self.estop_flag = estop_flag
         self.heartbeat = heartbeat
@@ -225,7 +232,10 @@ class DeviceLoop:
         beat_age = math.inf if self.console_lost else now - self._beat[1]
         running = self.state == State.RUNNING
         overwrite = self.ring.would_overwrite_unrecorded
-        lost = bool(self.recording_failed.value) or (running and overwrite())
+        if running and k % RECORDER_CHECK_TICKS == 0 and not self.recorder_gone:
+            self.recorder_gone = bool(self._recorder_watch.poll(0))
+        lost = (bool(self.recording_failed.value) or (running and overwrite())
+                or (running and self.recorder_gone))
         done = self.engine.step(self.trial_tick if running else None, robot_t, robot_lateness,
                                 beat_age, bool(self.estop_flag.value), lost, self.clock.now)
         if isinstance(done.reading, SensorReading):
@@ -344,14 +354,19 @@ class DeviceLoop:
         detail = dict(sup.fault_detail)
         detected = time.monotonic()
         detail["monotonic_s"] = detected
+        message = sup.fault_message
+        if fault == Fault.RECORDING_LOST and self.recorder_gone:
+            # the right cause: not the disk, the process that writes to it
+            message = RECORDER_GONE
+            detail["cause"] = "recorder process stopped"
         if self.state == State.RUNNING:
             tick = self.trial_tick
             self._to_recorder(TrialEvent(tick * self.plan.period_s, tick, "fault",
-                                         sup.fault_message, detail))
+                                         message, detail))
             status = "recording_lost" if fault == Fault.RECORDING_LOST else "faulted"
             self._end_trial(status, f"stopped by a fault: {fault.label}")
-        self._send(FaultRaised(int(fault), sup.fault_message, detail, loop_t, detected))
-        self._enter(State.FAULTED, sup.fault_message)
+        self._send(FaultRaised(int(fault), message, detail, loop_t, detected))
+        self._enter(State.FAULTED, message)
 
     # ------------------------------------------------------------------ commands
     def _commands_waiting(self) -> bool:
@@ -531,6 +546,12 @@ class DeviceLoop:
             self.recorder = None
             self.recording_failed.value = 1
 
+
+RECORDER_CHECK_TICKS = 25
+"""How often (ticks: 50 ms) a running trial checks that the recorder is still there."""
+RECORDER_GONE = ("The recorder stopped, so nothing more of this trial could be saved; the "
+                 "motors were stopped. The trial's file keeps what reached it, and the "
+                 "trial is marked incomplete. Restart the console before the next trial")
 
 _HANDLERS = {
     Command.BUILD: DeviceLoop._do_build, Command.CONNECT: DeviceLoop._do_connect,

@@ -324,6 +324,40 @@ def test_kill_9_of_the_loop_keeps_the_trial_file(tmp_path):
         assert any("loop process" in e["message"] for e in data.events)
 
 
+def test_kill_9_of_the_recorder_stops_the_trial_at_once_with_its_cause(tmp_path):
+    """The loop used to go on driving the patient with nothing recorded until the ring
+    filled (about 16 s), and then blamed the disk."""
+    with DeviceClient() as c:
+        connect(c, LONG)
+        path = tmp_path / "killed-recorder.h5"
+        assert c.start_trial(str(path), SUBJECT).ok
+        c.live_records()
+        deadline = time.monotonic() + 20
+        flushed = 0
+        while not flushed:  # until the recorder has created the file and flushed some
+            assert time.monotonic() < deadline, "the recorder never flushed"
+            time.sleep(0.1)
+            flushed = read_trial(path).n_samples if path.exists() else 0
+        os.kill(c.recorder_pid, signal.SIGKILL)
+        killed_at = c.live_records()["tick"][-1]
+        events = c.wait_for(is_(FaultRaised), 10)
+        fault = next(e for e in events if isinstance(e, FaultRaised))
+        assert fault.code == Fault.RECORDING_LOST
+        assert "recorder stopped" in fault.message
+        assert fault.detail["cause"] == "recorder process stopped"
+        # counted in the loop's ticks, not in how promptly this machine woke anyone:
+        # within 0.5 s (250 ticks) of the last tick seen after the kill
+        time.sleep(0.1)
+        records = c.live_records()
+        faulted = records[records["fault"] == int(Fault.RECORDING_LOST)]
+        assert faulted.size
+        assert faulted["tick"][0] - killed_at <= 250
+        assert (faulted["torque_applied"] == 0.0).all()
+        data = read_trial(path)
+        assert data.status == "recording"  # not closed: finished from its file (finalize)
+        assert data.n_samples >= flushed, data.notes
+
+
 def test_kill_9_of_loop_and_recorder_leaves_a_readable_file(tmp_path):
     with DeviceClient() as c:
         connect(c, LONG)

@@ -238,3 +238,31 @@ def test_trials_a_crash_left_recording_are_finished_and_announced(qtbot, tmp_pat
     assert "was interrupted and its file is missing" in win.message.text()
     assert registry.trial(begun.trial_id).status == "recording_lost"
     win.close()
+
+
+def test_a_dead_recorder_stops_the_trial_and_the_window_finishes_it(qtbot, window):
+    """kill -9 of the recorder mid-trial: the fault names the recorder, and the trial is
+    finished in the registry from what reached its file (recording lost), not left
+    'recording' until the next start."""
+    import os
+    import signal
+
+    win = window
+    register_patient(qtbot, win)
+    p = win.parameters_tab
+    p.repetitions.setValue(20)
+    p.refresh()
+    click(qtbot, win.robot.buttons["build"])
+    qtbot.waitUntil(lambda: win.state == State.BUILT, timeout=20000)
+    click(qtbot, win.robot.buttons["connect"])
+    qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=20000)
+    click(qtbot, win.robot.buttons["start"])
+    qtbot.waitUntil(lambda: win.state == State.RUNNING, timeout=10000)
+    trial_path = win.trial_path
+    qtbot.waitUntil(lambda: trial_path.exists(), timeout=20000)
+    os.kill(win.bridge.client.recorder_pid, signal.SIGKILL)
+    qtbot.waitUntil(lambda: win.state == State.FAULTED, timeout=10000)
+    assert "recorder stopped" in win.banner_text.text()
+    qtbot.waitUntil(lambda: win.unsaved_trial is not None, timeout=20000)
+    trial = win.registry.trials_for_patient(win.patient.code)[0]
+    assert trial.status == "recording_lost"

@@ -40,3 +40,19 @@ def test_interrupted_trials_are_finished_from_their_files(tmp_path):
     assert [t.id for t in registry.unfinished_trials()] == [live.trial_id]
     assert finish_interrupted(registry, now=time.time() + 60) != []
     assert registry.unfinished_trials() == []
+
+
+def test_a_trial_whose_recorder_died_is_finished_whatever_its_file_holds(tmp_path):
+    from app.trials.finalize import finalize_lost
+
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("Ada", "Lovelace", body_mass_kg=91.0).code
+    readable, unreadable = (registry.begin_trial(code, PARAMS, backend="simulator")
+                            for _ in range(2))
+    save(simulate(PARAMS, patient="healthy"), readable.path, subject_code=code)
+    unreadable.path.write_bytes(b"cut off by a killed recorder")
+    for begun in (readable, unreadable):
+        done = finalize_lost(registry, begun.trial_id)
+        assert done.status == "recording_lost"
+        assert registry.trial(begun.trial_id).status == "recording_lost"
+    assert "could not be read" in done.notes[0]
