@@ -85,18 +85,16 @@ class TrialParameters:
         # plain floats and ints (they reach JSON and HDF5 attributes)
         for name in _REAL_FIELDS:
             object.__setattr__(self, name, _real(name, getattr(self, name)))
-        for name in ("repetitions", "n_targets"):
+        for name, allowed in (("repetitions", REPETITIONS_RANGE),
+                              ("n_targets", TARGETS_RANGE)):
             value = getattr(self, name)
-            _integer(name, value, *(REPETITIONS_RANGE if name == "repetitions"
-                                    else TARGETS_RANGE))
+            _integer(name, value, *allowed)
             object.__setattr__(self, name, int(value))
         object.__setattr__(self, "centre_m", _point("centre_m", self.centre_m))
         object.__setattr__(self, "shoulder_m", _point("shoulder_m", self.shoulder_m))
         check_range("radius_m", self.radius_m, *RADIUS_RANGE_M, "m",
                     "the exercise must fit the robot's table")
         check_range("duration_s", self.duration_s, *DURATION_RANGE_S, "s")
-        _integer("repetitions", self.repetitions, *REPETITIONS_RANGE)
-        _integer("n_targets", self.n_targets, *TARGETS_RANGE)
         check_range("body_mass_kg", self.body_mass_kg, *BODY_MASS_RANGE_KG, "kg",
                     "Winter's segment proportions hold for adults and adolescents")
         check_range("upper_arm_m", self.upper_arm_m, *UPPER_ARM_RANGE_M, "m",

@@ -83,7 +83,7 @@ vectors; the law is the kernel `guidance_command` (core.kernels), compiled in th
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 from core.control.assistance import A_LEVEL, A_MIN_FORCE_SQ, cone_test
 from core.errors import ParameterError, check_range
@@ -129,8 +129,6 @@ class GuidanceGains:
             check_range(f.name, value, low, high, unit, why)
 
     def replace(self, **changes) -> GuidanceGains:
-        from dataclasses import replace
-
         return replace(self, **changes)
 
     def to_dict(self) -> dict:
@@ -207,12 +205,11 @@ OFF = (0.0,) * GC_SIZE
 
 # The state (`state_size(bins, repetitions)` floats): whether the exercise has begun,
 # the patient's row σ_h and the reference's σ_r, the relief ρ, the bin and repetition
-# the reference is in, the visit's lag sum and count, the feedforward force now, then
-# the help along the path now, how many repetitions' forces are kept, the furthest row
-# the hand has reached, then the learned
-# force per bin, then its value at the end of each repetition.
-(GS_STARTED, GS_SIGMA_H, GS_SIGMA_R, GS_RHO, GS_BIN, GS_REP, GS_LAG_SUM, GS_LAG_N, GS_FF,
- GS_HELP, GS_KEPT, GS_FURTHEST, GS_U) = range(13)
+# the reference is in, the visit's lag sum and count, how many repetitions' forces are
+# kept, the furthest row the hand has reached, then the learned force per bin, then its
+# value at the end of each repetition.
+(GS_STARTED, GS_SIGMA_H, GS_SIGMA_R, GS_RHO, GS_BIN, GS_REP, GS_LAG_SUM, GS_LAG_N,
+ GS_KEPT, GS_FURTHEST, GS_U) = range(11)
 WINDOW_BACK_ROWS = 25
 """How far back (rows, 50 ms at the path's pace) the patient's row is searched: a patient
 pushed back by a wrong-way push is followed, a long way back only over several ticks."""
@@ -411,8 +408,6 @@ def guidance_command(robot, g, a, s, rows, first, tick, q1, q2, qd1, qd2, fx, fy
         help_t += u
         help_t = 0.0 if help_t < 0.0 else (g[GC_HELP_MAX] if help_t > g[GC_HELP_MAX]
                                            else help_t)
-    s[GS_FF] = u
-    s[GS_HELP] = help_t
 
     k1, k2 = stiffness_terms(robot, q1, q2)
     f1, f2 = friction_of(robot, t, qd1, qd2)
