@@ -132,7 +132,8 @@ class DeviceLoop:
         # is closed by the system): no heartbeat to miss on a slow disk, no wait for the
         # ring to fill (it took about 16 s).
         self._recorder_watch = select.poll()
-        self._recorder_watch.register(recorder.fileno(), select.POLLERR)
+        if recorder is not None:
+            self._recorder_watch.register(recorder.fileno(), select.POLLERR)
         self.recorder_gone = False
         self.ring = ring
         self.estop_flag = estop_flag
