@@ -324,8 +324,8 @@ class MainWindow(QMainWindow):
         self._refresh_buttons()
 
     def _on_fault(self, code: int, message: str, detail: dict) -> None:
-        log.warning("fault %s: %s %s", Fault(code).label if code in Fault._value2member_map_
-                    else code, message, {k: v for k, v in detail.items() if k != "monotonic_s"})
+        log.warning("fault %s: %s %s", Fault(code).label, message,
+                    {k: v for k, v in detail.items() if k != "monotonic_s"})
         self.fault_code = code
         self._show_banner(message)
         if detail.get("cause") == "recorder process stopped" and self.trial_id is not None:

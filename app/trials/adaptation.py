@@ -44,7 +44,7 @@ def felt_error(records, parameters: TrialParameters) -> float:
     trajectory = parameters.trajectory()
     patient_t = np.minimum(t - t[0], trajectory.total_duration_s)
     intended = trajectory.sample(patient_t).position_m
-    return intent_error_m(t, records["position"][mask], intended)
+    return intent_error_m(records["position"][mask], intended)
 
 
 def run_course(parameters: TrialParameters, *, patient: str = "weak", trials: int = 20,

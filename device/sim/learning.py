@@ -58,11 +58,11 @@ class TrialToTrialAdaptation:
         return 0.0 if value < 0.0 else (1.0 if value > 1.0 else value)
 
 
-def intent_error_m(t_s, position_m, intended_m) -> float:
+def intent_error_m(position_m, intended_m) -> float:
     """RMS distance (m) of the hand from where the patient meant it to be: positions
-    (N, 2) and intended positions (N, 2) at the times t_s (N,)."""
+    (N, 2) and intended positions (N, 2), sample by sample; NaN for no samples."""
     position = np.asarray(position_m, dtype=float)
     intended = np.asarray(intended_m, dtype=float)
-    if len(np.asarray(t_s)) == 0:
+    if len(position) == 0:
         return math.nan
     return float(np.sqrt(np.mean(np.sum((position - intended) ** 2, axis=1))))
