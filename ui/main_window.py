@@ -17,12 +17,15 @@ from pathlib import Path
 from PySide6.QtCore import Qt, QTimer
 from PySide6.QtGui import QKeySequence, QShortcut
 from PySide6.QtWidgets import (
+    QDialog,
     QFrame,
     QHBoxLayout,
     QLabel,
     QMainWindow,
     QMessageBox,
+    QPlainTextEdit,
     QPushButton,
+    QSizePolicy,
     QTabWidget,
     QVBoxLayout,
     QWidget,
@@ -56,8 +59,9 @@ from ui.tabs import (
     TrajectoryTab,
     VideoTab,
 )
-from ui.tabs.parameters import HARDWARE
+from ui.tabs.parameters import HARDWARE, SIMULATOR, BackendChoice
 from ui.views.loop_health import LoopHealth
+from ui.views.messages import Messages
 from ui.views.trialview import TrialView
 
 log = logging.getLogger(__name__)
@@ -66,6 +70,11 @@ REPAINT_MS = 16  # ~60 Hz; the tabs draw only what is visible
 HEARTBEAT_MS = 100  # the loop faults after 0.5 s without one
 HEALTH_MS = 500
 CLEAR_DELAY_MS = 20  # ten loop ticks
+MESSAGE_LINES = 2
+"""Lines of text the event line and the fault banner have: fixed, so that no message can
+grow the window and push the emergency stop off the screen (the full text is the tooltip
+and in the history)."""
+CONNECTED_STATES = (State.CONNECTED, State.RUNNING, State.STOPPING)
 
 
 class MainWindow(QMainWindow):
@@ -91,6 +100,8 @@ class MainWindow(QMainWindow):
         self.fault_code = 0
         self.closing_by_signal = False
         self.loop_health = LoopHealth()
+        self.messages = Messages()
+        self.history_dialog: QDialog | None = None
         self.jobs = Jobs()
         self.jobs.failed.connect(self._job_failed)
 
@@ -144,6 +155,10 @@ class MainWindow(QMainWindow):
             " #fault_banner QLabel { color: white; font-weight: bold; }")
         self.banner_text = QLabel()
         self.banner_text.setWordWrap(True)
+        lines = self.banner_text.fontMetrics().lineSpacing() * MESSAGE_LINES
+        self.banner_text.setFixedHeight(lines)
+        self.banner.setFixedHeight(max(lines, 40) + 16)
+        self.banner_text.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Fixed)
         self.clear_button = QPushButton("Clear fault")
         self.clear_button.setObjectName("clear_fault")
         self.clear_button.setMinimumHeight(40)
@@ -152,17 +167,28 @@ class MainWindow(QMainWindow):
         row.addWidget(self.clear_button)
         self.banner.hide()
 
+        # the event line always holds its place (empty when nothing is current): showing
+        # or hiding it must not move the tabs or the robot buttons under the mouse
         self.message = QLabel()
         self.message.setObjectName("console_message")
         self.message.setWordWrap(True)
-        self.message.hide()
+        self.message.setFixedHeight(self.message.fontMetrics().lineSpacing() * MESSAGE_LINES)
+        self.message.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Fixed)
+        self.history_button = QPushButton("History…")
+        self.history_button.setObjectName("message_history")
+        self.history_button.setToolTip("Everything the console said today, with its time")
+        self.history_button.clicked.connect(self.show_history)
+        message_row = QHBoxLayout()
+        message_row.setContentsMargins(0, 0, 0, 0)
+        message_row.addWidget(self.message, 1)
+        message_row.addWidget(self.history_button)
 
         self.robot = RobotBar()
         central = QWidget()
         column = QVBoxLayout(central)
         column.setContentsMargins(4, 4, 4, 4)
         column.addWidget(self.banner)
-        column.addWidget(self.message)
+        column.addLayout(message_row)
         column.addWidget(self.tabs, 1)
         column.addWidget(self.robot)
         self.setCentralWidget(central)
@@ -267,29 +293,41 @@ class MainWindow(QMainWindow):
         trial_id = self.unsaved_trial
         if trial_id is None:
             return
-        self._say("Saving the report…")
+        self._say("Saving the report and the MATLAB file…")
+        from app.exports.run import export_trial
         from app.reports.build import report_for_registry_trial
 
-        self.jobs.run(lambda: report_for_registry_trial(
-            self.registry, trial_id, flip_axes=self.settings.flip_x or self.settings.flip_y),
-            self._saved)
+        flip = self.settings.flip_x or self.settings.flip_y
 
-    def _saved(self, path: Path) -> None:
+        def save() -> tuple[Path, Path]:
+            # the thesis window's Save data wrote MATLAB data (A.3): the trial's .mat goes
+            # beside its report, named as its trial file; saving again replaces both
+            pdf = report_for_registry_trial(self.registry, trial_id, flip_axes=flip)
+            source = self.registry.trial_path(self.registry.trial(trial_id))
+            mat = export_trial(source, pdf.parent, format="mat", overwrite=True)[0]
+            return pdf, mat
+
+        self.jobs.run(save, self._saved)
+
+    def _saved(self, paths: tuple[Path, Path]) -> None:
+        pdf, mat = paths
         self.unsaved_trial = None
         self._refresh_buttons()
-        self._say(f"Saved. Trial file and report are in the data folder: {path}")
+        self._say(f"Saved: the report {pdf.name} and the MATLAB file {mat.name}, in "
+                  f"{pdf.parent}")
 
     def _assistance_changed(self, level: float) -> None:
         """A connected robot takes the new assistance level at once, mid-trial too (the
         trial file keeps an event of the change)."""
         if self.state in (State.CONNECTED, State.RUNNING):
             self.bridge.set_assistance(level)
-            self._say(f"Assistance set to {level:.0%}; the robot uses it from now on.")
+            self._say(f"Assistance set to {level:.0%}; the robot uses it from now on.",
+                      states=CONNECTED_STATES)
 
     def emergency_stop(self) -> None:
         self.bridge.estop(True)
-        self._show_banner("EMERGENCY STOP pressed: the robot's motors are off. Check the "
-                          "patient, then press Clear fault.")
+        # the supervisor's own words for it, as the loop will report it (one wording)
+        self._show_banner(Fault.ESTOP.banner())
 
     def clear_fault(self) -> None:
         self.bridge.estop(False)
@@ -305,11 +343,12 @@ class MainWindow(QMainWindow):
             return
         if command == "build":
             self.built = self._pending_build
-            self._say("Trial built. Connect to the robot, then Start.")
+            self._say("Trial built. Connect to the robot, then Start.", states=(State.BUILT,))
         elif command == "clear_fault":
             self.fault_code = 0
             self.banner.hide()
-            self._say("Fault cleared.")
+            self.messages.clear_fault()
+            self._say("Fault cleared.", states=(State.IDLE, State.BUILT, *CONNECTED_STATES))
         self._refresh_buttons()
 
     def _on_state(self, state: int, reason: str) -> None:
@@ -318,9 +357,14 @@ class MainWindow(QMainWindow):
             log.info("robot %s → %s%s", self.state.label, State(state).label,
                      f": {reason}" if reason else "")
         self.state = State(state)
+        self.messages.set_state(self.state)
+        self._show_message()
         self.state_label.setText(f"<b>{self.state.label}</b>")
         if self.state == State.CONNECTED and self.built is not None:
             self.backend_label.setText(reason.replace("connected to the ", ""))
+        if self.state == State.CONNECTED and self.start_needs():
+            self._say(f"Connected. Start needs {self.start_needs()}.",
+                      states=(State.CONNECTED,))
         self._refresh_buttons()
 
     def _on_fault(self, code: int, message: str, detail: dict) -> None:
@@ -342,7 +386,8 @@ class MainWindow(QMainWindow):
         self.live = TrialView(self.built)
         self.shown_view = self.live
         self.trial_label.setText(f"recording {Path(path).name}")
-        self.message.hide()
+        self._say(f"Trial running: {Path(path).name}. Stop (F6) ends it early.",
+                  states=(State.RUNNING,))
         if not isinstance(self.tabs.currentWidget(), VIEW_TABS):
             self.tabs.setCurrentWidget(self.trajectory)
 
@@ -434,21 +479,54 @@ class MainWindow(QMainWindow):
         self.robot.update_for(
             self.state, can_build=params_ok,
             can_start=self.built is not None and self.registration is not None,
-            can_save=self.unsaved_trial is not None)
+            can_save=self.unsaved_trial is not None, start_needs=self.start_needs())
         self.clear_button.setEnabled(self.state == State.FAULTED or self.fault_code != 0)
+
+    def start_needs(self) -> str:
+        """What Start waits for beyond the robot's state, in words ("" when nothing)."""
+        if self.registration is None:
+            return ("a registered patient: Registration tab, choose the patient and press "
+                    "Confirm")
+        if self.built is None:
+            return "a built trial: press Build"
+        return ""
 
     def _show_banner(self, text: str) -> None:
         self.banner_text.setText(f"{theme.PROBLEM_SIGN} {text}")
+        self.banner_text.setToolTip(text)
         self.banner.show()
         self.clear_button.setEnabled(True)
+        self.messages.set_fault(text)
+        self._show_message()
 
-    def _say(self, text: str, problem: bool = False) -> None:
+    def _say(self, text: str, problem: bool = False, states=None) -> None:
+        """A new event line; `states`: the robot states it stays current in (it leaves the
+        line, not the history, when the robot leaves them; ui.views.messages)."""
+        self.messages.say(text, problem=problem, states=states)
+        self._show_message()
+        (log.warning if problem else log.info)("%s", text)
+
+    def _show_message(self) -> None:
+        event = self.messages.last
+        problem = event is not None and event.problem
         colour = theme.PROBLEM_TEXT if problem else theme.TEXT
         sign = f"{theme.PROBLEM_SIGN} " if problem else ""
         self.message.setStyleSheet(f"color: {colour}; font-weight: bold;" if problem else "")
-        self.message.setText(f"{sign}{text}")
-        self.message.show()
-        (log.warning if problem else log.info)("%s", text)
+        self.message.setText("" if event is None else f"{sign}{event.text}")
+        self.message.setToolTip("" if event is None else event.text)
+
+    def show_history(self) -> QDialog:
+        """Everything said this session, oldest first, in a window of its own."""
+        dialog = QDialog(self)
+        dialog.setWindowTitle("What the console said")
+        text = QPlainTextEdit("\n".join(self.messages.history()) or "Nothing yet.")
+        text.setReadOnly(True)
+        layout = QVBoxLayout(dialog)
+        layout.addWidget(text)
+        dialog.resize(700, 400)
+        dialog.show()
+        self.history_dialog = dialog
+        return dialog
 
     def finish_interrupted_trials(self) -> None:
         """At start-up: trials a crashed console left recording are finished from their
@@ -474,6 +552,9 @@ class MainWindow(QMainWindow):
         params = s.trial_parameters()
         if params is not None:
             self.parameters_tab.set_parameters(params)
+        self.parameters_tab.set_backend(BackendChoice(
+            HARDWARE if s.robot == "hardware" else SIMULATOR, patient_kind=s.virtual_patient,
+            settings_path=Path(s.hardware_settings) if s.hardware_settings else None))
         self.trajectory.set_flip(s.flip_x, s.flip_y)
 
     def closeEvent(self, event) -> None:
@@ -485,7 +566,13 @@ class MainWindow(QMainWindow):
                 event.ignore()
                 return
         geometry = base64.b64encode(bytes(self.saveGeometry())).decode("ascii")
-        settings = self.settings.replace(window_geometry=geometry)
+        choice = self.parameters_tab.backend()
+        settings = self.settings.replace(
+            window_geometry=geometry,
+            robot="hardware" if choice.name == HARDWARE else "simulator",
+            virtual_patient=choice.patient_kind or self.settings.virtual_patient,
+            hardware_settings=(str(choice.settings_path) if choice.settings_path
+                               else self.settings.hardware_settings))
         # invalid parameters are simply not remembered
         with contextlib.suppress(Exception):
             settings = settings.with_trial_parameters(self.parameters_tab.parameters())

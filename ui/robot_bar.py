@@ -23,8 +23,11 @@ BUTTONS = (
     ("save", "Save data", "F7"),
 )
 
-START_STYLE = "QPushButton:enabled { background: #009E73; color: white; font-weight: bold; }"
-STOP_STYLE = "QPushButton:enabled { background: #D55E00; color: white; font-weight: bold; }"
+# A disabled Start or Stop looks like every other disabled button: plain, greyed, not bold.
+START_STYLE = ("QPushButton:enabled { background: #009E73; color: white; font-weight: bold; }"
+               " QPushButton:disabled { font-weight: normal; }")
+STOP_STYLE = ("QPushButton:enabled { background: #D55E00; color: white; font-weight: bold; }"
+              " QPushButton:disabled { font-weight: normal; }")
 ESTOP_STYLE = (
     "QPushButton { background: #C00000; color: white; font-weight: bold; font-size: 15pt;"
     " border: 3px solid #600000; border-radius: 8px; padding: 6px 18px; }"
@@ -71,8 +74,9 @@ class RobotBar(QWidget):
         self.update_for(State.IDLE, can_build=False, can_start=False, can_save=False)
 
     def update_for(self, state: State, *, can_build: bool, can_start: bool,
-                   can_save: bool) -> None:
-        """Enable each button only where its command is allowed in `state`."""
+                   can_save: bool, start_needs: str = "") -> None:
+        """Enable each button only where its command is allowed in `state`; `start_needs`
+        says what Start still needs when only that keeps it greyed (its tooltip)."""
         enabled = {
             "build": can_build and state in (State.IDLE, State.BUILT, State.CONNECTED),
             "connect": state == State.BUILT,
@@ -83,3 +87,6 @@ class RobotBar(QWidget):
         }
         for name, on in enabled.items():
             self.buttons[name].setEnabled(on)
+        start = self.buttons["start"]
+        start.setToolTip(f"Start needs {start_needs}" if start_needs and not enabled["start"]
+                         else "Start the trial (F5)")

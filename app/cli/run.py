@@ -51,7 +51,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from app.reports.metrics_table import format_metrics
-    from app.trials.headless import save, simulate
+    from app.trials.headless import simulate_to_file
 
     params = trial_from_args(args)
     if args.as_proposed and not args.code:
@@ -80,19 +80,29 @@ def cmd_run(args: argparse.Namespace) -> int:
     if path.exists():
         raise CommandError(f"{path} already exists; give another --output")
     bar = progress_bar(f"simulating {params.repetitions} × {params.duration_s:g} s")
-    trial = simulate(params, patient=args.patient, seed=args.seed,
-                     progress=bar.update if bar else None, engine=args.engine,
-                     plant=args.plant)
-    if bar:
-        bar.done()
     try:
-        analysis = save(trial, path, subject_code=args.code or "SIM")
+        # straight into the file, block by block: memory stays flat in the trial's length
+        trial, analysis, problem = simulate_to_file(
+            params, path, subject_code=args.code or "SIM", patient=args.patient,
+            seed=args.seed, progress=bar.update if bar else None, engine=args.engine,
+            plant=args.plant)
     except (DeviceError, AppError, OSError) as exc:
+        if bar:
+            bar.done()
         if begun is not None:
+            if path.exists():
+                # what reached the file before the failure is kept and registered
+                from app.trials.finalize import finalize_lost
+
+                finalize_lost(registry, begun.trial_id)
+                raise CommandError(f"{exc} (the trial is registered as recording lost, "
+                                   "with what reached its file)") from exc
             # register only what exists: the trial's file could not be written
             registry.withdraw_trial(begun.trial_id, str(exc))
             raise CommandError(f"{exc} (the trial was not registered)") from exc
         raise
+    if bar:
+        bar.done()
     if begun is not None:
         from app.trials.finalize import finalize_trial
 
@@ -107,9 +117,12 @@ def cmd_run(args: argparse.Namespace) -> int:
           f"{trial.engine} engine{loaded}), {args.patient} virtual patient, seed {args.seed}, "
           f"{args.plant} plant, {params.assist} assistance")
     print(f"File: {path}")
-    print(format_metrics(analysis.metrics))
-    for note in analysis.notes:
-        print(f"  note: {note}")
+    if analysis is None:
+        print(f"No figures: {problem}")
+    else:
+        print(format_metrics(analysis.metrics))
+        for note in analysis.notes:
+            print(f"  note: {note}")
     for event in trial.events:
         if event["kind"] == "fault":
             print(f"  fault at {event['time_s']:.3f} s: {event['message']}")

@@ -58,6 +58,10 @@ def _optional_string(value: object) -> bool:
     return value is None or isinstance(value, str)
 
 
+def _robot_choice(value: object) -> bool:
+    return value in ("simulator", "hardware")
+
+
 # What each stored value must be; the message completes "give ...".
 _CHECKS: dict[str, tuple[Callable[[object], bool], str]] = {
     "data_dir": (_optional_text, "a folder path, or null for the default"),
@@ -65,6 +69,9 @@ _CHECKS: dict[str, tuple[Callable[[object], bool], str]] = {
     "flip_y": (_flag, "true or false"),
     "last_trial_parameters": (_optional_object, "an object of trial parameters, or null"),
     "window_geometry": (_optional_string, "a string, or null"),
+    "robot": (_robot_choice, '"simulator" or "hardware"'),
+    "virtual_patient": (_optional_text, "a virtual patient's kind (healthy, weak, …), or null"),
+    "hardware_settings": (_optional_text, "the hardware settings file's path, or null"),
 }
 
 
@@ -78,6 +85,9 @@ class Settings:
     last_trial_parameters: `TrialParameters.to_dict()` of the last trial run,
         read back through `trial_parameters()`.
     window_geometry: the window's saved geometry, opaque to everything but ui.
+    robot, virtual_patient, hardware_settings: the robot the Parameters tab last chose
+        ("simulator" with its virtual patient's kind, or "hardware" with its settings
+        file), so a restart does not quietly go back to a healthy virtual patient.
     extra: keys written by another version of the console, kept untouched.
     """
 
@@ -86,6 +96,9 @@ class Settings:
     flip_y: bool = False
     last_trial_parameters: dict | None = None
     window_geometry: str | None = None
+    robot: str = "simulator"
+    virtual_patient: str | None = None
+    hardware_settings: str | None = None
     extra: dict = field(default_factory=dict, repr=False)
     damaged: str | None = field(default=None, compare=False)
     """The damaged settings file kept aside whose data folder could not be read back, or

@@ -125,5 +125,6 @@ class RecordStore(Protocol):
         *,
         earlier_session: bool = False,
         same_parameters: bool = False,
+        same_shape: bool = False,
         statuses: Iterable[str] = ("complete",),
     ) -> Trial | None: ...

@@ -83,8 +83,10 @@ def content_for_registry_trial(
         first_name = registry.patient(record.patient_code).first_name
     return build_report(
         data,
-        previous_trial=registry.previous_trial(trial_id),
-        previous_session=registry.previous_trial(trial_id, earlier_session=True),
+        # like with like: the latest earlier trial of the same shape (content says which)
+        previous_trial=registry.previous_trial(trial_id, same_shape=True),
+        previous_session=registry.previous_trial(trial_id, earlier_session=True,
+                                                 same_shape=True),
         first_name=first_name,
         flip_axes=flip_axes,
         patient_code=record.patient_code,

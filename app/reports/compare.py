@@ -148,7 +148,7 @@ class Comparison:
     """The change since one earlier trial: `title` names it, `changes` are the
     patient's lines, `cautions` say which settings of the exercise differed."""
 
-    kind: str  # "previous trial", "previous session", or both joined by " and "
+    kind: str  # "previous D trial", "previous session's D trial", or both joined by " and "
     title: str
     baseline: Baseline
     changes: tuple[Change, ...]
@@ -276,6 +276,20 @@ def metric_text(row: MetricRow, value_si: float) -> str:
     return f"{shown}{row.unit}" if row.unit == "°" else f"{shown} {row.unit}"
 
 
+PATIENT_RESOLUTION = {"mm": 1.0, "%": 1.0, "°": 1.0}
+"""Display unit → the step a change must reach to count, as the patient's page rounds it
+(plain_language: whole mm, whole %, whole degrees)."""
+
+
+def _resolved(row: MetricRow, value: float) -> float:
+    step = PATIENT_RESOLUTION.get(row.unit)
+    if step is None:
+        return float(number_text(value))
+    shown = round(value / step) * step
+    # the patient reads a distance as at least 1 mm (plain_language.distance_mm_shown)
+    return max(shown, 1.0) if row.unit == "mm" else shown
+
+
 def table_rows(metrics: Mapping[str, float], baselines: tuple[Baseline, ...],
                ) -> tuple[TableRow, ...]:
     """Every row of app.reports.metrics_table.ROWS this trial has a value for."""
@@ -292,10 +306,13 @@ def table_rows(metrics: Mapping[str, float], baselines: tuple[Baseline, ...],
                 texts.append("–")
                 verdicts.append("")
                 continue
-            # Compared at the table's precision, as the reader sees the two numbers.
-            a, b = float(number_text(earlier)), float(number_text(value))
+            # Compared at the patient's resolution where the patient reads the figure's
+            # unit (whole mm, %, degrees), else at the table's: the table never says
+            # "worse" where the patient's page says "the same".
+            a, b = _resolved(row, earlier), _resolved(row, value)
             word = verdict(goal, a, b)
-            texts.append(f"{number_text(earlier)} {arrow(a, b)} {word}")
+            # the cell reads as the change *to* this trial, not as a verdict on the earlier
+            texts.append(f"was {number_text(earlier)}: now {arrow(a, b)} {word}")
             verdicts.append(word)
         rows.append(TableRow(row.key, row.label, row.unit, row.meaning, value,
                              number_text(value), tuple(texts), tuple(verdicts)))

@@ -45,6 +45,7 @@ from app.reports.plain_language import (
 )
 from app.trials.analysis import analyse, exercise_mask
 from app.trials.reader import TrialData
+from app.units import assistance_percent, point_cm
 from core.errors import CoreError
 from core.metrics import TrialMetrics
 from core.trial import TrialParameters
@@ -221,14 +222,17 @@ def _comparisons(previous_trial: BaselineSource | None, previous_session: Baseli
                  values: dict[str, float], parameters: TrialParameters, *,
                  partial: bool) -> tuple[Comparison, ...]:
     baselines: list[tuple[str, Baseline]] = []
-    for kind, source in (("previous trial", previous_trial),
-                         ("previous session", previous_session)):
+    # the earlier trials are of the same shape (app.reports.build): say so
+    shape = SHAPE_NAMES.get(parameters.shape, parameters.shape)
+    for kind, source in ((f"previous {shape} trial", previous_trial),
+                         (f"previous session's {shape} trial", previous_session)):
         baseline = as_baseline(source)
         if baseline is not None:
             baselines.append((kind, baseline))
     if len(baselines) == 2 and baselines[0][1].same_trial(baselines[1][1]):
         # Trial 1 of a session: its previous trial is the last of the previous session.
-        baselines = [("previous trial, the last of your previous session", baselines[0][1])]
+        baselines = [(f"previous {shape} trial, the last of your previous session",
+                      baselines[0][1])]
     return tuple(compare(kind, baseline, values, parameters, partial=partial)
                  for kind, baseline in baselines)
 
@@ -249,10 +253,11 @@ def _exercise_text(p: TrialParameters) -> str:
 
 
 def _settings_text(p: TrialParameters) -> str:
-    return (f"{p.controller.upper()} controller, assistance level {p.assistance_level * 100:.0f} %"
-            f", direction tolerance ±{math.degrees(p.tolerance_rad):.0f}°; centre "
-            f"({p.centre_m[0] * 1000:.0f}, {p.centre_m[1] * 1000:.0f}) mm, shoulder "
-            f"({p.shoulder_m[0] * 1000:.0f}, {p.shoulder_m[1] * 1000:.0f}) mm, {p.side} arm")
+    # positions in the form's unit (app.units): the therapist compares them with it
+    return (f"{p.controller.upper()} controller, assistance level "
+            f"{assistance_percent(p.assistance_level)}, direction tolerance "
+            f"±{math.degrees(p.tolerance_rad):.0f}°; centre {point_cm(p.centre_m)}, shoulder "
+            f"{point_cm(p.shoulder_m)}, {p.side} arm")
 
 
 def _header(code: str, first_name: str | None, session: int | None, number: int | None,
@@ -283,7 +288,7 @@ def _header(code: str, first_name: str | None, session: int | None, number: int 
 
 def _column_title(comparison: Comparison) -> str:
     described = comparison.baseline.describe()
-    title = "Previous session" if comparison.kind == "previous session" else "Previous trial"
+    title = comparison.kind[0].upper() + comparison.kind[1:]
     return f"{title} ({described})" if described else title
 
 

@@ -31,6 +31,7 @@ from app.reports.pdf_sheet import (
     VERMILLION,
     Sheet,
 )
+from app.units import CM_PER_M
 
 MAX_LINE_POINTS = 2500
 # Page 1 around the path's axes: gap, heading and legend above; tick labels, axis
@@ -50,7 +51,7 @@ def path_plot(sheet: Sheet, figure: PathFigure | None) -> None:
         sheet.text("No path to show: the trial has no exercise samples of the hand's "
                    "position.", 11, color=GREY)
         return
-    sheet.text("Your hand's path and the target path (Fig. 3.7)", 12, weight="bold")
+    sheet.text("Your hand's path and the target path", 12, weight="bold")
     handles = [
         matplotlib.lines.Line2D([], [], color=TARGET_GREY, linewidth=7, label="target path"),
         matplotlib.lines.Line2D([], [], color=INK, marker="o", markersize=6, linestyle="none",
@@ -61,20 +62,21 @@ def path_plot(sheet: Sheet, figure: PathFigure | None) -> None:
     sheet.legend(handles, LEFT_IN, ncols=4)
     height = max(1.0, sheet.room_in - PATH_BELOW_IN)
     ax = sheet.axes(height, x_in=LEFT_IN + 0.55, width_in=TEXT_W_IN - 0.55)
-    desired = figure.desired_m * 1000.0
-    position = figure.position_m * 1000.0
-    outline = figure.outline_m * 1000.0
+    # the path in the form's unit (app.units): cm, as the window's Trajectory tab draws it
+    desired = figure.desired_m * CM_PER_M
+    position = figure.position_m * CM_PER_M
+    outline = figure.outline_m * CM_PER_M
     ax.plot(outline[:, 0], outline[:, 1], color=TARGET_GREY, linewidth=7,
             solid_capstyle="round", zorder=1)
     _draw_runs(ax, position[:, 0], position[:, 1], figure.runs, linewidth=1.6)
     ax.plot(*desired[0], marker="o", markersize=6, color=INK, linestyle="none", zorder=4)
     _direction_arrow(ax, outline)
-    # The box shrinks to the data's shape, so millimetres are equal both ways.
+    # The box shrinks to the data's shape, so centimetres are equal both ways.
     ax.set_aspect("equal", adjustable="box")
     ax.set_anchor("C")
     ax.margins(0.08)
-    ax.set_xlabel("x (mm)")
-    ax.set_ylabel("y (mm)")
+    ax.set_xlabel("x (cm)")
+    ax.set_ylabel("y (cm)")
     if figure.flip_axes:
         ax.invert_xaxis()
         ax.invert_yaxis()
@@ -87,15 +89,15 @@ def path_plot(sheet: Sheet, figure: PathFigure | None) -> None:
     sheet.text(view, 8.5, color=GREY, scaled=False)
 
 
-def _direction_arrow(ax: Axes, desired_mm: np.ndarray) -> None:
+def _direction_arrow(ax: Axes, desired_cm: np.ndarray) -> None:
     """An arrow along the first few percent of the target path: the way to go."""
-    steps = np.hypot(*np.diff(desired_mm, axis=0).T)
+    steps = np.hypot(*np.diff(desired_cm, axis=0).T)
     along = np.concatenate(([0.0], np.cumsum(steps)))
     if along[-1] <= 0:
         return
     k = int(np.searchsorted(along, 0.06 * along[-1]))
-    k = min(max(k, 1), len(desired_mm) - 1)
-    ax.annotate("", xy=desired_mm[k], xytext=desired_mm[0],
+    k = min(max(k, 1), len(desired_cm) - 1)
+    ax.annotate("", xy=desired_cm[k], xytext=desired_cm[0],
                 arrowprops={"arrowstyle": "-|>", "color": INK, "linewidth": 1.2,
                             "shrinkA": 4, "shrinkB": 0}, zorder=5)
 

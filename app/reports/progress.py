@@ -23,6 +23,7 @@ import numpy as np
 
 from app.records.registry import KEY_PARAMETERS, TrialSummary, parameter_key
 from app.records.store import RecordStore
+from app.units import assistance_percent
 
 FILE_OK = "ok"
 FILE_MISSING = "missing"
@@ -75,7 +76,7 @@ class ParameterSet:
         if self.controller is not None:
             parts.append(self.controller.upper())
         if self.assistance_level is not None:
-            parts.append(f"assist {self.assistance_level:.2f}")
+            parts.append(f"assistance {assistance_percent(self.assistance_level)}")
         return ", ".join(parts)
 
 

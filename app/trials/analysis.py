@@ -28,6 +28,12 @@ class Analysis:
     notes: tuple[str, ...]
 
 
+CHANNELS_USED = ("time", "phase", "position", "position_desired", "direction_desired", "force",
+                 "subject_angle_isb", "subject_torque", "torque_applied", "robot_angle",
+                 "torque_commanded", "torque_controller")
+"""The recorded channels `analyse` reads (a long trial's analysis reads only these back)."""
+
+
 def exercise_mask(channels: Mapping[str, np.ndarray]) -> np.ndarray:
     return np.asarray(channels["phase"]) == PHASE_EXERCISE
 

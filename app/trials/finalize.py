@@ -16,7 +16,7 @@ from pathlib import Path
 
 from app.errors import AppError
 from app.records.store import RecordStore
-from app.trials.analysis import Analysis, analyse
+from app.trials.analysis import CHANNELS_USED, Analysis, analyse
 from app.trials.progression import Proposal, propose
 from app.trials.reader import read_trial
 from device.errors import RecordingError
@@ -44,7 +44,7 @@ def finalize_trial(registry: RecordStore, trial_id: int, status: str | None = No
     """
     trial = registry.trial(trial_id)
     path = registry.trial_path(trial)
-    data = read_trial(path)
+    data = read_trial(path, CHANNELS_USED)  # only what the metrics need: a long trial
     status = status or data.status
     if status == "recording":
         status = "recording_lost"  # never closed: the recorder died with it

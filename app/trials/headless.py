@@ -19,15 +19,16 @@ from pathlib import Path
 
 import numpy as np
 
-from app.trials.analysis import Analysis, analyse
+from app.errors import AppError
+from app.trials.analysis import CHANNELS_USED, Analysis, analyse
 from core.control.guidance import GuidanceGains
 from core.errors import ParameterError
 from core.robot import RobotModel
-from core.trial import TrialParameters
+from core.trial import TrialParameters, check_trial
 from device.compiled.warmup import load_kernels
-from device.loop.engine import run_trial
-from device.loop.pipeline import TickPipeline, TrialPlan, assistance_group
-from device.recording.trialfile import SubjectInfo, write_trial
+from device.loop.engine import Sink, run_trial
+from device.loop.pipeline import PERIOD_S, TickPipeline, TrialPlan, assistance_group
+from device.recording.trialfile import SubjectInfo, TrialFileWriter
 from device.safety.supervisor import SafetySupervisor
 from device.sim.simulator import SimulatorBackend
 
@@ -57,10 +58,14 @@ class SimulatedTrial:
     feedforward_N: np.ndarray | None = None
     """The as-needed mode's learned feedforward per repetition and bin
     (TickPipeline.feedforward_history)."""
+    n_ticks: int = -1
+    """How many ticks ran (the records' length, or what went to the file when the run
+    streamed them: then `records` is empty)."""
 
     @property
     def simulated_s(self) -> float:
-        return len(self.records) * self.plan.period_s
+        n = len(self.records) if self.n_ticks < 0 else self.n_ticks
+        return n * self.plan.period_s
 
     @property
     def speed_vs_real_time(self) -> float:
@@ -78,6 +83,7 @@ def simulate(
     engine: str = "auto",
     plant: str = "realistic",
     guidance: GuidanceGains | None = None,
+    sink: Sink | None = None,
 ) -> SimulatedTrial:
     """Run a trial on the simulator with a virtual patient of kind `patient`.
 
@@ -91,7 +97,9 @@ def simulate(
     a few hundred times slower), "auto" compiled. `plant` is the simulated robot
     (device.sim.plant.PLANTS): "realistic", its own parameters drawn by the seed around
     the controller's model, or "ideal", the model itself. `guidance` sets the as-needed
-    mode's gains (core.control.guidance; its defaults otherwise).
+    mode's gains (core.control.guidance; its defaults otherwise). With a `sink`, the
+    records go to it block by block (device.loop.engine.run_trial) and the result holds
+    none: `simulate_to_file` uses it so a long trial's memory stays flat.
     """
     if engine not in ENGINES:
         raise ParameterError("engine", engine, "one of " + ", ".join(ENGINES))
@@ -106,11 +114,11 @@ def simulate(
     pipeline = TickPipeline(plan, compiled=compiled, guidance=guidance)
     supervisor = SafetySupervisor(plan.robot)
     started = time.perf_counter()
-    outcome = run_trial(backend, pipeline, supervisor, progress)
+    outcome = run_trial(backend, pipeline, supervisor, progress, sink)
     period = plan.period_s
     events = [_event(0, period, "start", "trial started", {"patient": patient, "seed": seed})]
     if outcome.status == "complete":
-        events.append(_event(len(outcome.records), period, "stop", "trial complete", {}))
+        events.append(_event(outcome.n_ticks, period, "stop", "trial complete", {}))
     else:
         events.append(_event(outcome.fault_tick, period, "fault", outcome.fault_message,
                              outcome.fault_detail))
@@ -120,30 +128,91 @@ def simulate(
     return SimulatedTrial(plan, records, tuple(events), outcome.status, patient, seed,
                           time.perf_counter() - started, "compiled" if compiled else "python",
                           load_s, backend.plant.describe(), pipeline.guidance,
-                          pipeline.feedforward_history)
+                          pipeline.feedforward_history, outcome.n_ticks)
 
 
 def save(trial: SimulatedTrial, path: Path, *, subject_code: str = "SIM") -> Analysis:
-    """Analyse a simulated trial and write its file; returns the analysis."""
+    """Analyse a simulated trial held in memory and write its file; returns the analysis
+    (refuses, writing nothing, when the trial has too little exercise for its figures)."""
     params = trial.plan.parameters
     channels = {name: trial.records[name] for name in trial.records.dtype.names}
     analysis = analyse(channels, params)
-    write_trial(
-        path, trial.records,
-        parameters=params,
-        subject=SubjectInfo.from_parameters(subject_code, params),
-        robot=trial.plan.robot,
-        backend=f"simulator ({trial.patient}, seed {trial.seed})",
-        sample_period_s=trial.plan.period_s,
-        events=trial.events,
-        status=trial.status,
-        summary={"speed_vs_real_time": trial.speed_vs_real_time, "engine": trial.engine,
-                 "exercise_start_s": analysis.exercise_start_s,
-                 **_plant_summary(trial.plant)},
-        metrics=analysis.metrics.to_dict(),
-        assistance=assistance_group(params, trial.guidance, trial.feedforward_N),
-    )
+    writer = _writer(path, params, trial.plan.robot, trial.plan.period_s, trial.patient,
+                     trial.seed, subject_code)
+    try:
+        writer.append(trial.records)
+    except BaseException:
+        writer.close("recording_lost")
+        raise
+    _finish(writer, trial, analysis)
     return analysis
+
+
+def simulate_to_file(
+    parameters: TrialParameters,
+    path: Path,
+    *,
+    subject_code: str = "SIM",
+    patient: str = "healthy",
+    seed: int = 0,
+    robot: RobotModel | None = None,
+    progress: Progress | None = None,
+    **options,
+) -> tuple[SimulatedTrial, Analysis | None, str]:
+    """`simulate` straight into the trial file at `path`, block by block, so memory stays
+    flat whatever the trial's length (a 100 × 120 s trial is 6 million ticks); the metrics
+    come from the channels they need, read back from the file before it is closed.
+
+    Returns the trial (without its records), its analysis and "" or, when the trial had
+    too little exercise for its figures (a fault in the approach), None and why: the
+    file is kept with its samples, events and status either way. A failure to write
+    closes the file as "recording_lost" and raises. `options` are `simulate`'s.
+    """
+    robot = robot or RobotModel()
+    check_trial(parameters, robot).require_ok()  # refused before a file exists
+    writer = _writer(path, parameters, robot, PERIOD_S, patient, seed, subject_code)
+    try:
+        trial = simulate(parameters, patient=patient, seed=seed, robot=robot,
+                         progress=progress, sink=writer.append, **options)
+        channels = writer.read_back(CHANNELS_USED)
+    except BaseException:
+        writer.close("recording_lost")
+        raise
+    try:
+        analysis, problem = analyse(channels, parameters), ""
+    except AppError as exc:
+        analysis, problem = None, str(exc)
+    del channels
+    _finish(writer, trial, analysis)
+    return trial, analysis, problem
+
+
+def _writer(path: Path, parameters: TrialParameters, robot: RobotModel, period_s: float,
+            patient: str, seed: int, subject_code: str) -> TrialFileWriter:
+    return TrialFileWriter(
+        path, parameters=parameters,
+        subject=SubjectInfo.from_parameters(subject_code, parameters), robot=robot,
+        backend=f"simulator ({patient}, seed {seed})", sample_period_s=period_s, live=False,
+        flush_interval_s=None,
+    )
+
+
+def _finish(writer: TrialFileWriter, trial: SimulatedTrial, analysis: Analysis | None) -> None:
+    """The trial's events, status, summary, metrics and assistance into its file."""
+    try:
+        for event in trial.events:
+            writer.add_event(event["time_s"], event["tick"], event["kind"], event["message"],
+                             event.get("values"))
+    except BaseException:
+        writer.close("recording_lost")
+        raise
+    summary = {"speed_vs_real_time": trial.speed_vs_real_time, "engine": trial.engine,
+               **_plant_summary(trial.plant)}
+    if analysis is not None:
+        summary["exercise_start_s"] = analysis.exercise_start_s
+    writer.close(trial.status, summary,
+                 analysis.metrics.to_dict() if analysis is not None else None,
+                 assistance_group(trial.plan.parameters, trial.guidance, trial.feedforward_N))
 
 
 def _event(tick: int, period: float, kind: str, message: str, values: dict) -> dict:

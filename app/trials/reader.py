@@ -13,6 +13,7 @@ import math
 import os
 import re
 import time
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -72,13 +73,17 @@ class TrialData:
         return self.status != STATUS_RECORDING
 
 
-def read_trial(path: str | os.PathLike) -> TrialData:
-    """Read a trial file; raise TrialFileError if it cannot be trusted."""
+def read_trial(path: str | os.PathLike, channels: Iterable[str] | None = None) -> TrialData:
+    """Read a trial file; raise TrialFileError if it cannot be trusted.
+
+    `channels` names the channels to read (with `tick` and `time`, which every read
+    checks), for a reader that needs only some of a long trial's samples in memory (the
+    metrics); all of them by default."""
     path = Path(path)
     _check_file(path)
     f = _open(path)
     try:
-        return _read(path, f)
+        return _read(path, f, None if channels is None else {"tick", "time", *channels})
     except TrialFileError:
         raise
     except (OSError, RuntimeError, ValueError, KeyError, TypeError) as exc:
@@ -176,7 +181,7 @@ def _open_error(path: Path, exc: OSError) -> TrialFileError:
 # -- reading ----------------------------------------------------------------
 
 
-def _read(path: Path, f: h5py.File) -> TrialData:
+def _read(path: Path, f: h5py.File, only: set[str] | None) -> TrialData:
     attrs = {key: plain_attribute(value) for key, value in f.attrs.items()}
     _check_format(path, attrs)
     notes: list[str] = []
@@ -205,7 +210,7 @@ def _read(path: Path, f: h5py.File) -> TrialData:
         if not isinstance(dataset, h5py.Dataset):
             raise TrialFileError(path, f"is damaged: /timeseries/{name} is not a dataset",
                                  _RESTORE + ".")
-    channels, trim_notes = _read_channels(path, datasets)
+    channels, trim_notes = _read_channels(path, datasets, only)
     notes += trim_notes
     _check_samples(path, channels)
 
@@ -293,7 +298,8 @@ def _check_samples(path: Path, channels: dict) -> None:
                    "it only ever increases")
 
 
-def _read_channels(path: Path, datasets: dict[str, h5py.Dataset]) -> tuple[dict, list[str]]:
+def _read_channels(path: Path, datasets: dict[str, h5py.Dataset],
+                   only: set[str] | None = None) -> tuple[dict, list[str]]:
     notes = []
     lengths = {name: d.shape[0] for name, d in datasets.items()}
     n = min(lengths.values(), default=0)
@@ -305,6 +311,8 @@ def _read_channels(path: Path, datasets: dict[str, h5py.Dataset]) -> tuple[dict,
         )
     channels = {}
     for name, dataset in datasets.items():
+        if only is not None and name not in only:
+            continue  # its length still counts above: every channel is trimmed alike
         try:
             channels[name] = dataset[:n]
         except OSError as exc:

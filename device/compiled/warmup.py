@@ -78,7 +78,7 @@ def load_kernels(groups: tuple[str, ...] = GROUPS) -> float:
             0, 1, plan.period_s, r, a, c, p, table, episodes, simulator.state, simulator.noise,
             scratch, pipeline.kind, v.robot, v.arm, v.model, v.tracker, v.gains, v.assist,
             v.guide, v.rates, v.integral, v.guided, v.rows, pipeline.approach_ticks,
-            pipeline.sensor_offset_rad, v.last, g, w, np.zeros((ROW_SIZE, 1)), False, False)
+            pipeline.sensor_offset_rad, v.last, g, w, np.zeros((ROW_SIZE, 1)), 0, False, False)
     if "loop" in todo:
         # the simulator's tick in one call, and the tick around any other backend's read
         # and write (here the simulator's, through the fault-injecting wrapper)

@@ -51,9 +51,21 @@ def make_backend(config: BackendConfig, params: TrialParameters, plan: TrialPlan
     return backend
 
 
+SIMULATED_HEARTBEAT_TIMEOUT_S = 5.0
+"""The heartbeat limit on a simulated robot. A console that dies is seen at once, through
+its pipe closing; what the 0.5 s limit adds is a window that hangs. On a shared clinic PC
+the window's thread is held for more than 0.5 s now and then (seen at 0.54–0.57 s under
+load), and on the simulator that must not end a trial: no one is driven by it. The real
+robot keeps 0.5 s (SafetyLimits), as it keeps the late-tick watchdog."""
+
+
 def limits_for_backend(limits: SafetyLimits, backend: Backend) -> SafetyLimits:
-    """The supervisor's limits with the force sensor's rated range where the backend
-    knows it from the sensor's calibration (the hardware backend, once open)."""
+    """The supervisor's limits for `backend`: the force sensor's rated range where the
+    backend knows it from the sensor's calibration (the hardware backend, once open); the
+    simulated robot's heartbeat limit on SIMULATED timing."""
+    if backend.timing == SIMULATED:
+        limits = limits.replace(heartbeat_timeout_s=max(limits.heartbeat_timeout_s,
+                                                        SIMULATED_HEARTBEAT_TIMEOUT_S))
     inner = getattr(backend, "inner", backend)  # under a FaultInjectingBackend
     rated = getattr(inner, "force_sensor_range_N", None)
     if rated is None:

@@ -63,6 +63,9 @@ ROW_FAULT = ROW_APPLIED + 2
 ROW_SUBJECT = ROW_FAULT + 1  # the subject's state (core.interaction.SubjectState's order)
 ROW_SIZE = ROW_SUBJECT + 13
 _CHUNKS = 100  # a headless run reports its progress this many times
+BLOCK_TICKS = 25_000
+"""A headless run that streams its records holds this many ticks at once (50 s at 2 ms):
+its memory stays the same whatever the trial's length."""
 
 
 @kernel
@@ -288,11 +291,13 @@ def store_subject(out, k, subject):
 @kernel
 def run_ticks(k0, k1, period_s, r, a, c, p, table, episodes, x, noise, scratch, kind, robot,
               arm, model, tracker, gains, assist, guide, rates, integral, guided, rows,
-              approach_ticks, sensor_offset_rad, last, g, w, out, estop, recording_lost):
+              approach_ticks, sensor_offset_rad, last, g, w, out, base, estop,
+              recording_lost):
     """Ticks k0…k1−1 of a headless trial on the simulator (device.sim.physics' vectors
     r…scratch), at robot time k × period: each reads the sensors (tick 0 takes the
     reading made before it), runs `supervised_command` and writes the torque, and
-    leaves what it did in out[:, k] (ROW_*). Returns (the next tick, status): the
+    leaves what it did in out[:, k − base] (ROW_*: `out` holds the block of ticks from
+    `base`). Returns (the next tick, status): the
     simulator's failure, FAULT_LATCHED after the tick that latched a fault, or OK."""
     for k in range(k0, k1):
         now_s = k * period_s
@@ -311,14 +316,15 @@ def run_ticks(k0, k1, period_s, r, a, c, p, table, episodes, x, noise, scratch, 
             rows, approach_ticks, period_s, sensor_offset_rad, last, g, w, now_s, t, q1, q2,
             fx, fy, fz, 0.0, 0.0, estop, recording_lost)
         write(c, x, out1, out2)
+        i = k - base
         for j in range(6):
-            out[ROW_READING + j, k] = x[X_READING + j]
+            out[ROW_READING + j, i] = x[X_READING + j]
         for j in range(C_SIZE):
-            out[ROW_LAST + j, k] = last[j]
-        out[ROW_APPLIED, k] = out1
-        out[ROW_APPLIED + 1, k] = out2
-        out[ROW_FAULT, k] = code
-        store_subject(out, k, subject_motion(
+            out[ROW_LAST + j, i] = last[j]
+        out[ROW_APPLIED, i] = out1
+        out[ROW_APPLIED + 1, i] = out2
+        out[ROW_FAULT, i] = code
+        store_subject(out, i, subject_motion(
             robot, arm, q1, q2, last[C_QD1], last[C_QD2], last[C_QDD1], last[C_QDD2], fx, fy,
             sensor_offset_rad))
         if code != 0:
@@ -328,21 +334,32 @@ def run_ticks(k0, k1, period_s, r, a, c, p, table, episodes, x, noise, scratch, 
 
 @dataclass(frozen=True, slots=True)
 class HeadlessOutcome:
-    """A headless trial's records, its status, and the fault's message and detail when it
-    faulted."""
+    """A headless trial's records (none when they went to a sink), how many ticks ran,
+    its status, and the fault's message and detail when it faulted."""
 
     records: np.ndarray
     status: str
     fault_tick: int = -1
     fault_message: str = ""
     fault_detail: dict | None = None
+    n_ticks: int = 0
+
+
+Sink = Callable[[np.ndarray], None]
+"""Takes each block of a headless trial's records, in tick order (a trial file writer's
+append)."""
 
 
 def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
-              progress: Callable[[float], None] | None = None) -> HeadlessOutcome:
+              progress: Callable[[float], None] | None = None,
+              sink: Sink | None = None) -> HeadlessOutcome:
     """A whole trial on `simulator` without a clock: robot time k × period, run by
     `run_ticks` in the pipeline's flavour (compiled with a compiled pipeline and
-    simulator, interpreted otherwise)."""
+    simulator, interpreted otherwise).
+
+    With a `sink`, the records go to it block by block (BLOCK_TICKS at a time, the last
+    block up to the fault when there is one) and the outcome holds none: memory does not
+    grow with the trial's length. Without one, the outcome holds them all."""
     if pipeline.compiled != simulator.compiled:
         raise ValueError("a headless run needs the simulator and the pipeline in one flavour "
                          "(both compiled or both interpreted)")
@@ -358,45 +375,66 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
     else:
         ticks = interpreted(run_ticks, {**simulator.replacements, **pipeline.replacements})
     v = pipeline.vectors
-    out = np.full((ROW_SIZE, total), math.nan)
-    step = max(1, -(-total // _CHUNKS))
-    done, status = 0, physics.OK
+    block = total if sink is None else min(total, BLOCK_TICKS)
+    out = np.full((ROW_SIZE, block), math.nan)
+    kept: list[np.ndarray] = []
+    step = max(1, min(block, -(-total // _CHUNKS)))
+    base, done, status = 0, 0, physics.OK
+
+    def hand_over(n: int) -> None:
+        # the block's first n ticks as records, to the sink or kept
+        records = records_from_rows(out[:, :n], pipeline, base)
+        if sink is None:
+            kept.append(records)
+        else:
+            sink(records)
+
+    def outcome(status_name: str, fault_tick: int = -1) -> HeadlessOutcome:
+        records = kept[0] if len(kept) == 1 else (
+            np.concatenate(kept) if kept else np.empty(0, dtype=RECORD_DTYPE))
+        if status_name == "complete":
+            return HeadlessOutcome(records, status_name, n_ticks=done)
+        return HeadlessOutcome(records, status_name, fault_tick, supervisor.fault_message,
+                               supervisor.fault_detail, done)
+
     try:
         while done < total and status == physics.OK:
             if progress is not None:
                 progress(done / total)
             done, status = ticks(
-                done, min(total, done + step), period, r, a, c, p, table, episodes,
-                simulator.state, simulator.noise, scratch, pipeline.kind, v.robot, v.arm, v.model,
-                v.tracker, v.gains, v.assist, v.guide, v.rates, v.integral, v.guided, v.rows,
-                pipeline.approach_ticks, pipeline.sensor_offset_rad, v.last,
-                supervisor.constants, supervisor.state, out, False, False)
+                done, min(total, done + step, base + block), period, r, a, c, p, table,
+                episodes, simulator.state, simulator.noise, scratch, pipeline.kind, v.robot,
+                v.arm, v.model, v.tracker, v.gains, v.assist, v.guide, v.rates, v.integral,
+                v.guided, v.rows, pipeline.approach_ticks, pipeline.sensor_offset_rad, v.last,
+                supervisor.constants, supervisor.state, out, base, False, False)
+            if done == base + block or done == total or status != physics.OK:
+                hand_over(done - base)
+                base = done
+                out.fill(math.nan)
         if done:
             pipeline.ticked()
         if status == FAULT_LATCHED:
             supervisor.after_tick(0.0)
-            return HeadlessOutcome(records_from_rows(out[:, :done], pipeline), "faulted",
-                                   done - 1,
-                                   supervisor.fault_message, supervisor.fault_detail)
+            return outcome("faulted", done - 1)
         if status != physics.OK:
             # the simulator failed to read tick `done`: the supervisor turns it into its
             # fault (no record: there was no reading)
             error = simulator.failure(status, done * period)
             supervisor.step(done * period, error, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, False, False)
-            return HeadlessOutcome(records_from_rows(out[:, :done], pipeline), "faulted",
-                                   done,
-                                   supervisor.fault_message, supervisor.fault_detail)
+            return outcome("faulted", done)
     finally:
         simulator.safe_state()
         simulator.close()
-    return HeadlessOutcome(records_from_rows(out, pipeline), "complete")
+    return outcome("complete")
 
 
-def records_from_rows(rows: np.ndarray, pipeline: TickPipeline) -> np.ndarray:
-    """`run_ticks`' output (ROW_* by tick) as records (record_values, channel by channel):
-    wall time the robot's time, no lateness or compute time."""
+def records_from_rows(rows: np.ndarray, pipeline: TickPipeline,
+                      first_tick: int = 0) -> np.ndarray:
+    """`run_ticks`' output (ROW_* by tick, from tick `first_tick`) as records
+    (record_values, channel by channel): wall time the robot's time, no lateness or
+    compute time."""
     n = rows.shape[1]
-    tick = np.arange(n)
+    tick = np.arange(first_tick, first_tick + n)
     time_s = tick * pipeline.period_s
     rows = np.ascontiguousarray(rows)
     reading = SensorReading(*rows[ROW_READING:ROW_READING + 6])

@@ -67,6 +67,9 @@ LIBVER = ("v110", "v110")
 # chunk of the widest channel stays well under h5py's 1 MiB per-dataset cache.
 CHUNK_ROWS = 1024
 EVENT_CHUNK_ROWS = 64
+CHUNK_CACHE_BYTES = 256 * 2**10
+"""HDF5's chunk cache per dataset while writing: a few chunks, enough for the partial chunk
+at the end of each batch."""
 
 # Room kept free so that `close` can always finish the file (see `flush`).
 MIN_FREE_BYTES = 64 * 2**20
@@ -404,6 +407,19 @@ class TrialFileWriter:
             self._abandon()
         return self._path
 
+    def read_back(self, names: Iterable[str]) -> dict[str, np.ndarray]:
+        """The samples written so far of the channels `names` (those the file has), read
+        back from the open file: a headless run computes its metrics from the file it
+        streamed, holding only the channels they need."""
+        self._check_writable()
+        try:
+            self._flush()
+            series = self._file["timeseries"]
+            return {name: series[name][: self._n] for name in names if name in series}
+        except (OSError, RuntimeError, ValueError) as exc:
+            self._failed = str(exc)
+            raise _disk_error(self._path, "read back the samples of", exc) from exc
+
     # -- internals -----------------------------------------------------------
 
     def _open_new(self) -> None:
@@ -425,7 +441,9 @@ class TrialFileWriter:
             )
         try:
             # "w-" fails if the file appeared since the check above.
-            self._file = h5py.File(self._path, "w-", libver=LIBVER)
+            # A small chunk cache: HDF5's default (1 MiB a dataset) holds the last MiB of
+            # every channel, 30+ MiB that a writer appending in order never reads back.
+            self._file = h5py.File(self._path, "w-", libver=LIBVER, rdcc_nbytes=CHUNK_CACHE_BYTES)
             # a trial holds a patient's data: readable by its user only, whatever the umask
             os.chmod(self._path, 0o600)
         except (OSError, RuntimeError) as exc:

@@ -76,7 +76,7 @@ _TEXT: dict[Fault, FaultText] = {
     Fault.NONE: FaultText("No fault", ""),
     Fault.ESTOP: FaultText(
         "Emergency stop pressed",
-        "make sure the patient is safe, release the emergency stop, then clear the fault",
+        "the motors are off. Make sure the patient is safe, then press Clear fault",
     ),
     Fault.HEARTBEAT_LOST: FaultText(
         "The console window stopped answering the robot ({heartbeat}; limit {limit_s:.2f} s)",

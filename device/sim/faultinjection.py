@@ -21,6 +21,9 @@ hang               read blocks up to `block_s`, then raises    BACKEND_TIMEOUT
 late               one read sleeps `sleep_s`, then answers     LATE_TICK (from the
                    normally                                    loop's lateness, on a
                                                                REAL_TIME backend)
+stalls             one read every `every_s` sleeps `sleep_s`,  LATE_TICK on a REAL_TIME
+                   as the host's stalls of a shared machine    backend; none on the
+                   do (a session with late ticks throughout)   simulator
 workspace_exit     q1 driven at `rate_rad_s` (slow enough not  WORKSPACE
                    to be overspeed) until the links fold
 overspeed          q1 driven at `rate_rad_s` (above the        JOINT_SPEED
@@ -74,6 +77,7 @@ EXPECTED_FAULT: dict[str, Fault] = {
     "exception": Fault.BACKEND_ERROR,
     "hang": Fault.BACKEND_TIMEOUT,
     "late": Fault.LATE_TICK,
+    "stalls": Fault.LATE_TICK,
     "workspace_exit": Fault.WORKSPACE,
     "overspeed": Fault.JOINT_SPEED,
 }
@@ -89,6 +93,7 @@ _DEFAULT_DURATION_S = {
     "exception": 0.0,
     "hang": math.inf,
     "late": 0.0,
+    "stalls": math.inf,
     "workspace_exit": math.inf,
     "overspeed": math.inf,
 }
@@ -108,7 +113,8 @@ class FaultInjectingBackend:
     jump_rad (encoder_jump, default 0.5 rad), force_N (force_spike, 100 N: past the
     default 50 N limit, inside the sensor's range), field (nan: a SensorReading
     field, default 'q1_rad'), sleep_s (late, 0.015 s), block_s (hang, 0.1 s per
-    read), rate_rad_s (workspace_exit 1.0 rad/s, overspeed 8.0 rad/s).
+    read), rate_rad_s (workspace_exit 1.0 rad/s, overspeed 8.0 rad/s), every_s
+    (stalls, 1.0 s of loop time between stalls).
     """
 
     def __init__(
@@ -124,6 +130,7 @@ class FaultInjectingBackend:
         sleep_s: float = 0.015,
         block_s: float = 0.1,
         rate_rad_s: float | None = None,
+        every_s: float = 1.0,
         sleep: Callable[[float], None] = time.sleep,
     ) -> None:
         if scenario not in EXPECTED_FAULT:
@@ -145,6 +152,7 @@ class FaultInjectingBackend:
         check_range("rate_rad_s", rate_rad_s, -50.0, 50.0, "rad/s",
                     "a ramp on joint 1; above 50 rad/s it would be an encoder jump")
         check_range("force_N", force_N, -1000.0, 1000.0, "N")
+        check_positive("every_s", every_s, "s")
         self.inner = inner
         self.name = f"{inner.name}+{scenario}"
         self.timing = inner.timing
@@ -157,6 +165,8 @@ class FaultInjectingBackend:
         self.sleep_s = float(sleep_s)
         self.block_s = float(block_s)
         self.rate_rad_s = float(rate_rad_s)
+        self.every_s = float(every_s)
+        self._next_stall_s = self.at_s
         self._sleep = sleep
         self._fired_at_s: float | None = None
         self._frozen: SensorReading | None = None
@@ -203,6 +213,11 @@ class FaultInjectingBackend:
             raise BackendError(f"injected: {self.inner.name} read failed")
         if scenario == "late":
             self._sleep(self.sleep_s)
+            return self.inner.read(now_s)
+        if scenario == "stalls":
+            if now_s >= self._next_stall_s:
+                self._next_stall_s = now_s + self.every_s
+                self._sleep(self.sleep_s)
             return self.inner.read(now_s)
         reading = self.inner.read(now_s)
         if scenario == "stale":

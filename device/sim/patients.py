@@ -289,11 +289,18 @@ class VirtualPatient:
         """The vector `patient_torque` works from (its P_* names)."""
         # The kernels index a table row and the episodes: kept as numpy arrays for the
         # compiled simulator (never empty: numba wants a 2-D float array) and as Python
-        # rows for the interpreted calls here, which they make several times faster.
+        # rows for the interpreted calls here, which they make several times faster. The
+        # rows are made at the first such call: a long trial's take hundreds of MB, and a
+        # compiled run never needs them.
         self.table = table if len(table) else np.zeros((1, 18))
         self.episodes = np.array(episodes if episodes else [0.0])
-        self._table = [tuple(row) for row in self.table.tolist()]
+        self._table = None
         self._episodes = self.episodes.tolist()
+
+    def _rows(self) -> list[tuple]:
+        if self._table is None:
+            self._table = [tuple(row) for row in self.table.tolist()]
+        return self._table
 
     # ------------------------------------------------------------ properties
     @property
@@ -326,7 +333,7 @@ class VirtualPatient:
         """The desired motion at `t_s` as the patient looks it up:
         (θ_s, φ, θ̇_s, φ̇, feed-forward τ_s, τ_e, direction x, y, drive force x, y),
         φ = θ_e − θ_s."""
-        return desired_motion(self.constants, self._table, t_s)
+        return desired_motion(self.constants, self._rows(), t_s)
 
     def pushing_wrong_way(self, t_s: float) -> bool:
         """True during a wrong-way episode."""
@@ -339,7 +346,7 @@ class VirtualPatient:
         the effort, impedance about the desired motion, feed-forward and the push,
         linearly interpolated in time so the integrator keeps its order, the wrong-way
         push, tremor and spastic resistance)."""
-        return patient_torque(self.constants, self._table, self._episodes, t_s, ts, te, tsd,
+        return patient_torque(self.constants, self._rows(), self._episodes, t_s, ts, te, tsd,
                               ted)
 
 

@@ -131,6 +131,7 @@ def test_without_the_fault_the_loop_runs_clean():
 DETECTION_BOUND_S = {
     "stale": 5 * PERIOD,  # five samples in a row with the same time stamp
     "late": PERIOD,  # the tick after the slow read starts late
+    "stalls": PERIOD,  # the same, at the first stall
     "workspace_exit": 1.5,  # the links fold at 1 rad/s
     "overspeed": PERIOD,  # the ramp starts from zero at the first affected read
 }
@@ -275,6 +276,19 @@ def test_a_lateness_sleeps_once():
     for k in range(3):
         backend.read(k * PERIOD)
     assert slept == [0.015]
+
+
+def test_stalls_sleep_once_every_so_often_and_pass_the_readings_through():
+    """The host's stalls of a shared machine: one read every `every_s` of loop time sleeps
+    `sleep_s`, the readings are the inner backend's own."""
+    slept = []
+    reference = PathBackend()
+    backend = FaultInjectingBackend(PathBackend(), "stalls", 0.5, sleep_s=0.05, every_s=1.0,
+                                    sleep=slept.append)
+    for k in range(1600):  # 3.2 s of loop time
+        now = k * PERIOD
+        assert backend.read(now) == reference.read(now)
+    assert slept == [0.05] * 3  # at 0.5, 1.5 and 2.5 s
 
 
 def test_a_hung_read_times_out_and_keeps_timing_out():

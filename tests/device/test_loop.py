@@ -15,6 +15,7 @@ import pytest
 from app.trials.analysis import analyse
 from app.trials.reader import read_trial
 from core.trial import THESIS_SUBJECT
+from device.loop.backends import SIMULATED_HEARTBEAT_TIMEOUT_S
 from device.loop.client import DeviceClient, LoopLost
 from device.loop.messages import BackendConfig, FaultRaised, TrialEnded
 from device.loop.process import LoopConfig
@@ -155,7 +156,10 @@ def test_a_trial_twice_in_a_row_leaks_nothing(tmp_path):
     assert fds() == before_fds
 
 
-@pytest.mark.parametrize("scenario", [s for s in sorted(EXPECTED_FAULT) if s != "late"])
+# late and stalls fault only on the wall clock (hardware); on the simulator a slow read is
+# recorded and shown but faults nothing (their own tests below and in tests/ui)
+@pytest.mark.parametrize("scenario", [s for s in sorted(EXPECTED_FAULT)
+                                      if s not in ("late", "stalls")])
 def test_backend_faults_zero_the_torque_latch_and_are_recorded(client, tmp_path, scenario):
     # robot time counts from Connect: 2 s leaves a loaded machine time to start the trial
     # before the fault fires (at 1.2 s a slow Start once found it already latched)
@@ -267,9 +271,10 @@ def test_lost_heartbeat_stops_the_trial(tmp_path):
             time.sleep(0.05)
             silent_from = time.monotonic()  # before the last beat: the loop saw it after
             c.heartbeat()
-        fault = c.wait_for(is_(FaultRaised), 5)[-1]
+        fault = c.wait_for(is_(FaultRaised), 15)[-1]
         assert fault.code == Fault.HEARTBEAT_LOST
         limit = fault.detail["limit_s"]
+        assert limit == SIMULATED_HEARTBEAT_TIMEOUT_S  # a simulated robot's own limit
         # not before the timeout, however promptly the loop woke
         assert fault.monotonic_s - silent_from > limit
         assert closed_file(c).status == "faulted"

@@ -155,3 +155,19 @@ def test_the_simulator_connects_without_a_timing_check(in_process_loop):
     rig.result["late"] = [0.5]
     assert _connect(rig, BackendConfig()) == []
     assert rig.calls == []
+
+
+def test_the_heartbeat_limit_is_the_robots_on_hardware_and_longer_on_the_simulator():
+    """A window held up for half a second on a busy PC ends no simulated trial; the real
+    robot (REAL_TIME timing) keeps the 0.5 s limit."""
+    from device.loop.backends import SIMULATED_HEARTBEAT_TIMEOUT_S, limits_for_backend
+    from device.safety.limits import SafetyLimits
+
+    class Timed:
+        def __init__(self, timing):
+            self.timing = timing
+
+    limits = SafetyLimits()
+    assert limits_for_backend(limits, Timed("real")).heartbeat_timeout_s == 0.5
+    assert limits_for_backend(limits, Timed("simulated")).heartbeat_timeout_s == (
+        SIMULATED_HEARTBEAT_TIMEOUT_S)

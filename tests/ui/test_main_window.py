@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from PySide6.QtCore import Qt
+from PySide6.QtWidgets import QPlainTextEdit
 
 from app.records.datadir import DataDir
 from app.records.registry import Registry
@@ -141,6 +142,12 @@ def test_a_whole_session(qtbot, window, tmp_path, caplog):
     qtbot.waitUntil(lambda: win.unsaved_trial is None, timeout=20000)
     reports = list((tmp_path / "data" / "reports").rglob("*.pdf"))
     assert len(reports) == 1
+    # beside it, the trial as MATLAB data named as its trial file (thesis A.3)
+    mat = reports[0].parent / win.registry.trial_path(trial).with_suffix(".mat").name
+    assert mat.exists()
+    import scipy.io
+
+    assert "timeseries" in scipy.io.loadmat(mat)
 
     # progress lists the trial; replay opens it and every plot tab follows the cursor
     win.tabs.setCurrentWidget(win.progress)
@@ -193,10 +200,14 @@ def test_window_remembers_its_parameters(qtbot, tmp_path, monkeypatch):
     qtbot.addWidget(win)
     win.parameters_tab.radius.setValue(8.0)
     win.parameters_tab.refresh()
+    tab = win.parameters_tab
+    tab.patient_kind.setCurrentIndex(tab.patient_kind.findData("weak"))
     win.close()
     again = MainWindow(registry, settings_path=settings)
     qtbot.addWidget(again)
     assert again.parameters_tab.parameters().radius_m == pytest.approx(0.08)
+    # the virtual patient chosen survives a restart (it went back to Healthy)
+    assert again.parameters_tab.backend().patient_kind == "weak"
     again.close()
     assert Path(settings).exists()
 
@@ -234,7 +245,7 @@ def test_trials_a_crash_left_recording_are_finished_and_announced(qtbot, tmp_pat
     qtbot.addWidget(win)
     win.show()
     win.finish_interrupted_trials()
-    qtbot.waitUntil(lambda: win.message.isVisible(), timeout=5000)
+    qtbot.waitUntil(lambda: "interrupted" in win.message.text(), timeout=5000)
     assert "was interrupted and its file is missing" in win.message.text()
     assert registry.trial(begun.trial_id).status == "recording_lost"
     win.close()
@@ -266,3 +277,96 @@ def test_a_dead_recorder_stops_the_trial_and_the_window_finishes_it(qtbot, windo
     qtbot.waitUntil(lambda: win.unsaved_trial is not None, timeout=20000)
     trial = win.registry.trials_for_patient(win.patient.code)[0]
     assert trial.status == "recording_lost"
+
+
+def test_three_trials_in_a_row_with_the_host_stalling_50_ms(qtbot, window, monkeypatch):
+    """A shared clinic PC stalls the loop for 50 ms now and then (injected: one read every
+    0.5 s of loop time sleeps 50 ms). On the simulator a late tick is recorded and shown
+    but ends nothing: three Starts in one window session give three complete trials, each
+    recording its stalls, each registered with its own number."""
+    import ui.main_window as main_window
+    from device.loop.messages import BackendConfig
+
+    def stalling(**kwargs):
+        return BackendConfig(**kwargs, fault_scenario="stalls", fault_at_s=0.2,
+                             fault_options=(("sleep_s", 0.05), ("every_s", 0.5)))
+
+    monkeypatch.setattr(main_window, "BackendConfig", stalling)
+    win = window
+    register_patient(qtbot, win)
+    short_trial(win)
+    click(qtbot, win.robot.buttons["build"])
+    qtbot.waitUntil(lambda: win.state == State.BUILT, timeout=20000)
+    click(qtbot, win.robot.buttons["connect"])
+    qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=20000)
+    for n in (1, 2, 3):
+        click(qtbot, win.robot.buttons["start"])
+        qtbot.waitUntil(lambda: win.unsaved_trial is not None, timeout=60000)
+        click(qtbot, win.robot.buttons["save"])
+        qtbot.waitUntil(lambda: win.unsaved_trial is None, timeout=20000)
+        qtbot.waitUntil(lambda: "start" in enabled(win), timeout=20000)
+        trials = win.registry.trials_for_patient(win.patient.code)
+        assert len(trials) == n
+    assert [t.status for t in trials] == ["complete"] * 3
+    assert len({t.number for t in trials}) == 3
+    for trial in trials:
+        data = read_trial(win.registry.trial_path(trial))
+        assert data.status == "complete"
+        assert np.nanmax(data.channels["lateness"]) >= 0.04  # the stalls are in the file
+
+
+def test_messages_and_banners_never_grow_the_window_or_hide_the_emergency_stop(
+        qtbot, tmp_path, monkeypatch):
+    """A 1000 px screen: twenty long messages and banners later the window is as tall as
+    before and the emergency stop is inside it, where the mouse finds it."""
+    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
+    registry = Registry(DataDir(tmp_path / "data", "test"))
+    win = MainWindow(registry, settings_path=tmp_path / "config" / "settings.json")
+    qtbot.addWidget(win)
+    win.resize(1280, 940)
+    win.show()
+    qtbot.waitExposed(win)
+    height = win.height()
+    long = "The control loop ran late and this sentence goes on and on " * 6
+    win._say(long)
+    win._show_banner(long)  # the banner takes its fixed place
+    hint = win.minimumSizeHint().height()
+    for k in range(20):
+        win._say(f"{k}: {long}", problem=k % 2 == 0)
+        win._show_banner(f"{k}: {long}")
+        qtbot.wait(1)
+    assert win.height() == height
+    assert win.minimumSizeHint().height() == hint
+    estop = win.robot.estop
+    corner = estop.mapTo(win, estop.rect().bottomRight())
+    assert win.rect().contains(corner)
+    assert win.banner_text.toolTip().endswith(long)  # the whole text is one hover away
+    assert win.message.text() == ""  # a banner takes the event line under it away
+    win._say(f"after: {long}")
+    assert win.message.toolTip().endswith(long)
+    assert win.height() == height
+    dialog = win.show_history()
+    assert "19: The control loop" in dialog.findChild(QPlainTextEdit).toPlainText()
+    win.close()
+
+
+def test_start_says_what_it_waits_for_and_the_estop_has_one_wording(qtbot, window):
+    """Built and connected with no patient registered: Start is greyed and says why (its
+    tooltip and the event line); the e-stop's banner uses the supervisor's words."""
+    win = window
+    short_trial(win)
+    click(qtbot, win.robot.buttons["build"])
+    qtbot.waitUntil(lambda: win.state == State.BUILT, timeout=20000)
+    assert win.message.text().startswith("Trial built")
+    click(qtbot, win.robot.buttons["connect"])
+    qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=20000)
+    start = win.robot.buttons["start"]
+    assert not start.isEnabled()
+    assert "registered patient" in start.toolTip()
+    assert "Start needs a registered patient" in win.message.text()
+    assert "Connect to the robot" not in win.message.text()  # the stale advice is gone
+    win.emergency_stop()
+    assert "release" not in win.banner_text.text()
+    assert Fault.ESTOP.banner() in win.banner_text.text()
+    qtbot.waitUntil(lambda: win.state == State.FAULTED, timeout=5000)
+    assert Fault.ESTOP.banner() in win.banner_text.text()

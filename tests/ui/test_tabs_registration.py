@@ -138,3 +138,18 @@ def test_names_are_required_to_register(qtbot, tab, registry):
     click(qtbot, tab.create_button)
     assert "first or last name" in tab.create_problem.text()
     assert registry.patients() == []
+
+
+def test_picking_a_patient_shows_their_stored_measurements(qtbot, tab, registry):
+    """Choosing a patient shows what the registry holds for them (in the form's units), so
+    the therapist sees which body values the trial will use."""
+    measured = registry.create_patient("Ada", "Lovelace", body_mass_kg=82.0, upper_arm_m=0.31,
+                                       forearm_m=0.28, shoulder_m=(-0.12, 0.73))
+    bare = registry.create_patient("Alan", "Turing")
+    tab.search()
+    tab.choose(measured)
+    text = tab.measurements_label.text()
+    for part in ("82.0 kg", "upper arm 31.0 cm", "forearm 28.0 cm", "(-12.0, 73.0) cm"):
+        assert part in text, part
+    tab.choose(bare)
+    assert "No measurements stored" in tab.measurements_label.text()

@@ -96,6 +96,14 @@ def test_trajectory_numbers_and_path_live(qtbot, records, metrics):
     tx, ty = tab.target.getOriginalDataset()
     path = PARAMETERS.path().points(0.002) * 100
     np.testing.assert_allclose(np.column_stack((tx, ty)), path)
+    # beneath the path, the error on each axis against time (thesis A.7), in mm
+    for axis, line in enumerate(tab.error_curves):
+        t, error = line.getOriginalDataset()
+        np.testing.assert_allclose(t, done["time"])
+        np.testing.assert_allclose(
+            error, (done["position"][:, axis] - done["position_desired"][:, axis]) * 1000)
+    rms = np.sqrt(np.mean(tab.error_curves[0].getOriginalDataset()[1] ** 2))
+    assert rms == pytest.approx(metrics.rmse_x_m * 1000, rel=1e-6)
 
 
 def test_a_long_trace_is_thinned_for_drawing_but_ends_at_the_hand(qtbot, records):

@@ -554,6 +554,20 @@ class ParametersTab(QWidget):
             error.hide()
         self.camera_changed.emit(self.camera_source())
 
+    def set_backend(self, choice: BackendChoice) -> None:
+        """Show this robot choice (the one the settings remember); an unknown virtual
+        patient's kind leaves the list as it is."""
+        if choice.name == HARDWARE:
+            self.hardware.setChecked(True)
+            if choice.settings_path is not None:
+                self.settings_path.setText(str(choice.settings_path))
+        else:
+            self.simulator.setChecked(True)
+            index = self.patient_kind.findData(choice.patient_kind)
+            if index >= 0:
+                self.patient_kind.setCurrentIndex(index)
+        self._backend_edited()
+
     def backend(self) -> BackendChoice:
         if self.simulator.isChecked():
             return BackendChoice(SIMULATOR, patient_kind=self.patient_kind.currentData())

@@ -9,6 +9,7 @@ per set, named in the legend. The registry query runs off the GUI thread.
 
 from __future__ import annotations
 
+import numpy as np
 import pyqtgraph as pg
 from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import (
@@ -32,6 +33,8 @@ from ui.views.progress_table import (
     metric_rows,
     progress_summary,
     progress_table,
+    tick_label,
+    value_span,
 )
 
 DEFAULT_METRIC = "directional_performance_pct"
@@ -172,21 +175,41 @@ class ProgressTab(QWidget):
         row = next(r for r in ROWS if r.key == key)
         item.setLabel("left", metric_heading(row))
         theme.style_plot(item)
+        complete = np.array([t.status == "complete" for t in result.trials])
+        shown: list[np.ndarray] = []
         for series in result.series(key):
             i = series.parameter_set_index
             colour = theme.SERIES[i % len(theme.SERIES)]
             symbol = theme.SYMBOLS[i % len(theme.SYMBOLS)]
+            values = series.values * row.scale
+            shown.append(values)
             line = pg.PlotDataItem(
-                series.trial_index + 1, series.values * row.scale,
+                series.trial_index + 1, values,
                 pen=theme.pen(colour), symbol=symbol, symbolSize=11,
                 symbolPen=theme.pen(colour), symbolBrush=pg.mkBrush(colour),
                 name=series.parameter_set.label())
             item.addItem(line)
+            # a trial that did not run to its end (stopped, a safety fault, a lost
+            # recording) is drawn hollow: its figures cover only part of the exercise
+            partial = ~complete[series.trial_index]
+            if partial.any():
+                item.addItem(pg.ScatterPlotItem(
+                    series.trial_index[partial] + 1, values[partial], symbol=symbol, size=15,
+                    pen=theme.pen(theme.VERMILLION), brush=pg.mkBrush("w")))
+        if (~complete).any():
+            self.legend.addItem(pg.ScatterPlotItem(symbol="o", size=12,
+                                                   pen=theme.pen(theme.VERMILLION),
+                                                   brush=pg.mkBrush("w")),
+                                "did not run to its end")
         axis = item.getAxis("bottom")
         if len(result) <= MAX_LABELLED_TICKS:
-            axis.setTicks([[(int(k) + 1, f"{s}.{t}") for k, s, t in
+            # "S1 T2", not "1.2": session and trial, not a decimal
+            axis.setTicks([[(int(k) + 1, tick_label(s, t)) for k, s, t in
                             zip(result.trial_index, result.session, result.trial, strict=True)]])
         else:
             axis.setTicks(None)
         if len(result):
             item.setXRange(0.5, len(result) + 0.5, padding=0)
+            low, high = value_span(np.concatenate(shown) if shown else np.array([]), row.unit)
+            if low < high:
+                item.setYRange(low, high, padding=0.05)

@@ -32,6 +32,7 @@ from PySide6.QtWidgets import (
 from app.errors import RegistryError, SessionNotFound
 from app.records.registry import BIRTH_YEAR_MIN, Patient, Registration
 from app.records.store import RecordStore
+from app.units import cm, point_cm
 from core.arm import BODY_MASS_RANGE_KG, FOREARM_RANGE_M, UPPER_ARM_RANGE_M
 from core.trial import POSITION_RANGE_M
 from ui import theme
@@ -68,6 +69,26 @@ def describe(patient: Patient) -> str:
     if patient.side:
         parts.append(f"{patient.side} arm")
     return ", ".join(parts)
+
+
+def measurements(patient: Patient) -> str:
+    """The patient's stored measurements, in the form's units (kg, cm), and what happens
+    to the ones not stored."""
+    parts = []
+    if patient.body_mass_kg is not None:
+        parts.append(f"body mass {patient.body_mass_kg:.1f} kg")
+    if patient.upper_arm_m is not None:
+        parts.append(f"upper arm {cm(patient.upper_arm_m)}")
+    if patient.forearm_m is not None:
+        parts.append(f"forearm {cm(patient.forearm_m)}")
+    if patient.shoulder_m is not None:
+        parts.append(f"shoulder at {point_cm(patient.shoulder_m)}")
+    if not parts:
+        return ("No measurements stored: the Parameters tab's body and shoulder values are "
+                "used.")
+    missing = 4 - len(parts)
+    rest = " The others come from the Parameters tab." if missing else ""
+    return "Stored: " + ", ".join(parts) + ". The Parameters tab now uses them." + rest
 
 
 class RegistrationTab(QWidget):
@@ -150,6 +171,9 @@ class RegistrationTab(QWidget):
         # This trial
         self.patient_label = theme.set_role(QLabel("No patient chosen"), "lead")
         self.patient_label.setWordWrap(True)
+        self.measurements_label = QLabel("")
+        self.measurements_label.setObjectName("patient_measurements")
+        self.measurements_label.setWordWrap(True)
         self.session = SpinBox()
         self.session.setRange(1, MAX_NUMBER)
         self.session.setAccessibleName("Session number")
@@ -168,6 +192,7 @@ class RegistrationTab(QWidget):
         trial_box = QGroupBox("This trial")
         form = QFormLayout(trial_box)
         form.addRow(self.patient_label)
+        form.addRow(self.measurements_label)
         form.addRow("Session", self.session)
         form.addRow("", self.session_note)
         form.addRow("Trial", self.trial)
@@ -276,6 +301,7 @@ class RegistrationTab(QWidget):
         self._registration = None
         self.confirmed.setText("")
         self.patient_label.setText(describe(patient))
+        self.measurements_label.setText(measurements(patient))
         self._enable_numbers(True)
         self.refresh_numbers()
         self.patient_selected.emit(patient)

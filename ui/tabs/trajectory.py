@@ -1,7 +1,8 @@
-"""The Trajectory performance tab (thesis Fig. 3.7, A.9): the hand's path against the
-target, and the two kinds of performance as big numbers: how close (RMSE in x
-and y) and how well aimed (directional performance, the share of the time the
-push pointed within the tolerance of the path's direction).
+"""The Trajectory performance tab (thesis Fig. 3.7, A.7, A.9): the hand's path against the
+target, the position error in x and in y against time beneath it (the thesis window's
+"position performance" plots, A.7), and the two kinds of performance as big numbers: how
+close (RMSE in x and y) and how well aimed (directional performance, the share of the time
+the push pointed within the tolerance of the path's direction).
 
 The thesis draws this plot with both axes reversed so that it matches what the
 patient sees across the robot; the flip is a display setting here (the data
@@ -15,7 +16,7 @@ import math
 import numpy as np
 import pyqtgraph as pg
 from PySide6.QtCore import Signal
-from PySide6.QtWidgets import QCheckBox, QLabel, QWidget
+from PySide6.QtWidgets import QCheckBox, QLabel, QVBoxLayout, QWidget
 
 from core.trial import TrialParameters
 from ui import plots, theme
@@ -51,6 +52,21 @@ class TrajectoryTab(QWidget):
         item.addItem(self.desired_mark)
         item.addItem(self.hand_mark)
 
+        # the error on each axis against time: where in the trial the hand left the path
+        self.error_plot = plots.make_plot("time (s)", "position error (mm)")
+        errors = self.error_plot.getPlotItem()
+        plots.legend(errors)
+        self.error_curves = [plots.curve(errors, theme.BLUE, name="x (sideways)"),
+                             plots.curve(errors, theme.ORANGE, dashed=True,
+                                         name="y (forward and back)")]
+        self.cursor_line = plots.cursor_line(errors)
+        self.error_plot.setMaximumHeight(220)
+        both = QWidget()
+        stack = QVBoxLayout(both)
+        stack.setContentsMargins(0, 0, 0, 0)
+        stack.addWidget(self.plot, 3)
+        stack.addWidget(self.error_plot, 1)
+
         self.rmse_x = plots.BigNumber("Position error, x (RMSE)", "mm")
         self.rmse_y = plots.BigNumber("Position error, y (RMSE)", "mm")
         self.directional = plots.BigNumber("Directional performance", "%", decimals=0)
@@ -66,7 +82,7 @@ class TrajectoryTab(QWidget):
             "● where the hand is &nbsp; ○ where it should be"), "caption")
         key.setWordWrap(True)
 
-        plots.plot_with_panel(self, self.plot, (self.rmse_x, self.rmse_y, self.directional),
+        plots.plot_with_panel(self, both, (self.rmse_x, self.rmse_y, self.directional),
                               (key, self.flip_x, self.flip_y))
 
     # -- flip -------------------------------------------------------------------
@@ -101,8 +117,11 @@ class TrajectoryTab(QWidget):
             self.hand.setData([], [])
             self.hand_mark.setData([], [])
             self.desired_mark.setData([], [])
+            for line in self.error_curves:
+                line.setData([], [])
         else:
             position = view.column("position")
+            self._draw_errors(view, position, min(ex.stop, i + 1))
             end = min(ex.stop, i + 1)
             if ex.start < end:
                 # Thinned for drawing, always ending at the newest sample.
@@ -125,6 +144,20 @@ class TrajectoryTab(QWidget):
         self.directional.set_value(
             view.directional_percent,
             f"of the time the push pointed within {tolerance:.0f}° of the path's direction")
+
+    def _draw_errors(self, view: TrialView, position: np.ndarray, end: int) -> None:
+        """Hand minus desired position on each axis, in mm, over the exercise up to `end`."""
+        ex = view.exercise
+        if end <= ex.start:
+            for line in self.error_curves:
+                line.setData([], [])
+            return
+        span = slice(ex.start, end)
+        error = (position[:, span] - view.column("position_desired")[:, span]) * MM
+        t = view.time[span]
+        for axis, line in enumerate(self.error_curves):
+            line.setData(t, error[axis])
+        plots.place_cursor(self.cursor_line, view.cursor)
 
     def set_cursor(self, t: float | None) -> None:
         if self._view is not None:

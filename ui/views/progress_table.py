@@ -6,6 +6,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from app.reports.metrics_table import ROWS, MetricRow
 from app.reports.progress import FILE_OK, FILE_UNCHECKED, Progress
 from ui.views.numbers import format_number
@@ -66,3 +68,32 @@ def progress_table(result: Progress) -> ProgressTable:
         rows.append(tuple(cells))
     return ProgressTable((*LEADING_HEADINGS, *(metric_heading(r) for r in figures)),
                          tuple(rows))
+
+
+def tick_label(session: int, trial: int) -> str:
+    """A trial on the progress plot's x axis: 'S1 T2' (never '1.2', which reads as a
+    decimal)."""
+    return f"S{session} T{trial}"
+
+
+MIN_SPAN = {"%": 10.0, "mm": 2.0, "°": 10.0}
+"""The least y span the progress plot shows, by display unit: one trial (or trials that
+hardly differ) must not zoom 17.8–18.6 % to the whole height."""
+
+
+def value_span(values: np.ndarray, unit: str) -> tuple[float, float]:
+    """The y range for the plotted values: theirs, widened about its middle to at least
+    MIN_SPAN of the unit (percentages kept within 0–100)."""
+    finite = values[np.isfinite(values)]
+    if finite.size == 0:
+        return 0.0, 0.0
+    low, high = float(finite.min()), float(finite.max())
+    least = MIN_SPAN.get(unit, 0.0) or max(abs(high) * 0.2, 1e-9)
+    if high - low < least:
+        middle = (high + low) / 2.0
+        low, high = middle - least / 2.0, middle + least / 2.0
+    if unit == "%":
+        low, high = max(0.0, low), min(100.0, high)
+        if high - low < least:
+            low, high = (0.0, least) if low == 0.0 else (100.0 - least, 100.0)
+    return low, high

@@ -85,6 +85,7 @@ class Queries(Database):
         *,
         earlier_session: bool = False,
         same_parameters: bool = False,
+        same_shape: bool = False,
         statuses: Iterable[str] = ("complete",),
     ) -> Trial | None:
         """The patient's latest trial before this one, to report the change since.
@@ -92,6 +93,8 @@ class Queries(Database):
         earlier_session: only trials of earlier sessions (change since the last session).
         same_parameters: only trials done at the same KEY_PARAMETERS, where the
             metrics compare directly.
+        same_shape: only trials of the same exercise shape (a D with a D, not with a
+            circle done in between), which is what a report compares.
         statuses: the statuses that count (by default complete trials only).
         """
         statuses = tuple(statuses)
@@ -118,6 +121,10 @@ class Queries(Database):
             key = trial.key_parameters()
             for row in rows:
                 candidate = trial_from_row(row)
-                if not same_parameters or candidate.key_parameters() == key:
-                    return candidate
+                if same_parameters and candidate.key_parameters() != key:
+                    continue
+                if same_shape and (candidate.parameters.get("shape")
+                                   != trial.parameters.get("shape")):
+                    continue
+                return candidate
         return None

@@ -250,6 +250,20 @@ def test_previous_trial_for_change_since_last_trial_and_last_session(registry, p
     assert len(KEY_PARAMETERS) == 6
 
 
+def test_previous_trial_of_the_same_shape_skips_a_circle_done_in_between(registry, patient):
+    """A report compares like with like: D, circle, D → the last D's previous is the
+    first D, not the circle."""
+    ids = []
+    for i, shape in enumerate(("d", "circle", "d")):
+        begun = begin(registry, patient.code, parameters=TrialParameters(shape=shape),
+                      started_at=T0 + datetime.timedelta(minutes=i))
+        registry.finish_trial(begun.trial_id, "complete", {"rmse_x_m": 0.01})
+        ids.append(begun.trial_id)
+    assert registry.previous_trial(ids[2]).id == ids[1]
+    assert registry.previous_trial(ids[2], same_shape=True).id == ids[0]
+    assert registry.previous_trial(ids[1], same_shape=True) is None
+
+
 def test_trials_for_patient_are_in_session_then_trial_order(registry, patient):
     for session, trial in [(2, 1), (1, 2), (1, 1), (2, 3)]:
         begin(registry, patient.code, session_number=session, trial_number=trial)

@@ -85,7 +85,7 @@ def test_parameter_sets_mark_every_trial_and_group_the_series(history):
     easy, hard = ParameterSet.of(EASY.to_dict()), ParameterSet.of(HARD.to_dict())
     assert result.parameter_sets == (easy, hard)
     assert result.parameter_set_index.tolist() == [0, 0, 1, 1, 1, 0]
-    assert easy.label() == "D, r 8.0 cm, 6 s, ±20°, SMC, assist 1.00"
+    assert easy.label() == "D, r 8.0 cm, 6 s, ±20°, SMC, assistance 100 %"
     assert hard.assistance_level == 0.5
 
     by_set = {s.parameter_set: s for s in result.series("rmse_x_m")}

@@ -102,8 +102,13 @@ def test_the_pdf_has_two_pages_and_the_thesis_figures_computed_from_the_file(
     assert f"range of motion {rom[1]:.2f}°" in text
     assert f"range {torque_range[0]:.2f} N·m raw" in text
     assert f"Your shoulder moved through {round(rom[0])}°" in text
-    for figure in ("Fig. 3.7", "Fig. 3.9", "Fig. 3.11", "Fig. 3.12"):
-        assert figure in text
+    # the therapist's page names the thesis's figures; the patient's page is plain words
+    therapist = reader.pages[1].extract_text()
+    for figure in ("Fig. 3.9", "Fig. 3.11", "Fig. 3.12"):
+        assert figure in therapist
+    patient = reader.pages[0].extract_text()
+    for jargon in ("Fig.", "close other programs", " ms ", "runs shorter"):
+        assert jargon not in patient, jargon
     assert "Simulated trial" in text
 
 
@@ -185,11 +190,25 @@ def test_the_therapist_table_compares_at_two_decimals_with_each_figure_s_goal():
                         "path_length_ratio": 0.95, "force_range_x_N": 3.0})
     rows = {row.key: row for row in table_rows(now, (earlier,))}
     assert rows["rmse_x_m"].value_text == "4.00"
-    assert rows["rmse_x_m"].earlier_texts == ("6.00 ↓ better",)
+    assert rows["rmse_x_m"].earlier_texts == ("was 6.00: now ↓ better",)
     assert rows["directional_performance_pct"].verdicts == ("worse",)
     assert rows["path_length_ratio"].verdicts == ("better",)  # 1.02 is nearer 1 than 0.95
     assert rows["force_range_x_N"].verdicts == ("same",)
     assert "sparc" not in rows  # not in this trial: no row
+
+
+def test_the_table_never_says_worse_where_the_patients_page_says_the_same():
+    """1.02 mm → 1.06 mm: the patient reads "within 1 mm" twice, "the same"; the table
+    says "same" too (it compares at the patient's whole mm, %, degrees), and its cell
+    reads as the change to this trial."""
+    before = {"rmse_x_m": 0.00102, "rmse_y_m": 0.00102, "directional_performance_pct": 78.2}
+    after = {"rmse_x_m": 0.00106, "rmse_y_m": 0.00106, "directional_performance_pct": 78.4}
+    patient = {c.key: c.verdict for c in patient_changes(before, after)}
+    rows = {row.key: row for row in table_rows(after, (Baseline(before),))}
+    assert patient["rmse"] == rows["rmse_x_m"].verdicts[0] == "same"
+    assert patient["directional_performance_pct"] == "same"
+    assert rows["directional_performance_pct"].verdicts == ("same",)
+    assert rows["rmse_x_m"].earlier_texts == ("was 1.02: now = same",)
 
 
 def test_a_changed_exercise_comes_with_a_caution():

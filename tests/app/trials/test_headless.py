@@ -123,3 +123,88 @@ def test_controllers_track_the_d_for_every_virtual_patient(controller, patient):
     bound = 0.015 if patient == "passive" else 0.005
     assert metrics.rmse_x_m < bound
     assert metrics.rmse_y_m < bound
+
+
+# --- a long trial streams to its file (issue: memory grew with the trial's length) ------
+
+
+def test_a_streamed_trial_holds_one_block_at_a_time_and_writes_what_memory_would(
+        tmp_path, monkeypatch):
+    """simulate_to_file hands the records to the file in blocks of at most BLOCK_TICKS
+    (here made small so a short trial has several), keeps none itself, and the file it
+    writes has the same samples and metrics as the whole trial held in memory."""
+    from app.trials.headless import simulate_to_file
+    from device.loop import engine
+
+    monkeypatch.setattr(engine, "BLOCK_TICKS", 700)
+    params = THESIS_SUBJECT.replace(repetitions=2)
+    blocks = []
+    writer_append = engine.run_trial
+
+    def watching(*args, **kwargs):
+        sink = kwargs.pop("sink", None) if "sink" in kwargs else args[4]
+        args = args[:4]
+
+        def counting(records):
+            blocks.append(len(records))
+            sink(records)
+
+        return writer_append(*args, sink=counting)
+
+    monkeypatch.setattr("app.trials.headless.run_trial", watching)
+    streamed, analysis, problem = simulate_to_file(params, tmp_path / "streamed.h5", seed=3)
+    assert problem == ""
+    assert len(streamed.records) == 0  # nothing kept in memory
+    assert len(blocks) > 3
+    assert max(blocks) <= 700
+    assert sum(blocks) == streamed.n_ticks
+
+    monkeypatch.undo()
+    whole = simulate(params, seed=3)
+    reference = save(whole, tmp_path / "whole.h5")
+    a, b = read_trial(tmp_path / "streamed.h5"), read_trial(tmp_path / "whole.h5")
+    assert a.n_samples == b.n_samples == streamed.n_ticks
+    for name in b.channels:
+        np.testing.assert_array_equal(a.channels[name], b.channels[name], err_msg=name)
+    np.testing.assert_equal(a.metrics, b.metrics)  # NaN (no reaches) equal to NaN
+    np.testing.assert_equal(analysis.metrics.to_dict(), reference.metrics.to_dict())
+    assert [e["kind"] for e in a.events] == [e["kind"] for e in b.events]
+    assert a.status == b.status == "complete"
+
+
+def test_a_streamed_trial_without_figures_keeps_its_file_and_says_why(tmp_path, monkeypatch):
+    """A trial that faulted (here a subject pushing 50 N the wrong way) and that has too
+    little exercise for its figures: the file is kept with its samples, its fault and its
+    status, and the reason comes back instead of the figures (no exception: the trial
+    happened and is registered)."""
+    from app.errors import AppError
+    from app.trials.headless import simulate_to_file
+
+    def too_short(channels, parameters):
+        raise AppError("the trial has only 3 samples of exercise; at least 64 are needed")
+
+    monkeypatch.setattr("app.trials.headless.analyse", too_short)
+    trial, analysis, problem = simulate_to_file(
+        SHORT, tmp_path / "t.h5", patient="wrong_way", patient_options={
+            "wrong_way_force_N": 50.0, "wrong_way_fraction": 0.9, "wrong_way_episode_s": 5.0})
+    assert trial.status == "faulted"
+    assert analysis is None
+    assert "samples of exercise" in problem
+    data = read_trial(tmp_path / "t.h5")
+    assert data.status == "faulted"
+    assert data.n_samples == trial.n_ticks
+    assert data.events[-1]["kind"] == "fault"
+    assert not data.metrics
+
+
+def test_the_analysis_reads_only_the_channels_it_needs(tmp_path):
+    """finalize reads back CHANNELS_USED (with tick and time), not the whole trial."""
+    from app.trials.analysis import CHANNELS_USED
+
+    save(simulate(THESIS_SUBJECT.replace(repetitions=1)), tmp_path / "t.h5")
+    data = read_trial(tmp_path / "t.h5", CHANNELS_USED)
+    assert set(data.channels) == {"tick", "time", *CHANNELS_USED} & set(
+        read_trial(tmp_path / "t.h5").channels)
+    np.testing.assert_equal(
+        analyse(data.channels, data.parameters).metrics.to_dict(),
+        analyse(read_trial(tmp_path / "t.h5").channels, data.parameters).metrics.to_dict())

@@ -71,3 +71,26 @@ def test_a_figures_heading_carries_its_unit():
     by_key = {row.key: row for row in ROWS}
     assert metric_heading(by_key["rmse_x_m"]) == "Position error, x (RMSE) (mm)"
     assert all(metric_heading(row).startswith(row.label) for row in ROWS)
+
+
+def test_progress_ticks_read_as_session_and_trial_not_decimals():
+    from ui.views.progress_table import tick_label
+
+    assert tick_label(1, 2) == "S1 T2"
+
+
+def test_one_trial_does_not_zoom_the_axis_to_a_sliver():
+    """17.8–18.6 % filled the whole height: the span is at least 10 % (kept in 0–100),
+    2 mm for errors; a wide spread keeps its own range."""
+    import numpy as np
+
+    from ui.views.progress_table import value_span
+
+    low, high = value_span(np.array([17.8, 18.6]), "%")
+    assert high - low >= 10.0
+    assert low <= 17.8
+    assert high >= 18.6
+    assert value_span(np.array([99.0]), "%") == (90.0, 100.0)
+    assert value_span(np.array([2.0, 40.0]), "%") == (2.0, 40.0)
+    low, high = value_span(np.array([3.0, 3.1, np.nan]), "mm")
+    assert high - low == 2.0

@@ -1,0 +1,41 @@
+"""The display unit of each quantity a person reads, once for the whole console: the
+window's forms and plots, the reports, the PDFs and the command line's tables.
+
+Inside, everything is SI (metres, radians, a level from 0 to 1). At the screen:
+
+=====================================  =======  ==========================================
+quantity                               unit     where
+=====================================  =======  ==========================================
+positions and sizes of the set-up      cm       the form, the path plots (window, PDF), the
+(centre, shoulder, radius, arm)                 report's Settings line, stored measurements
+position errors (RMSE, per axis)       mm       the big numbers, the error plot, tables
+speeds                                 mm/s     tables
+angles (joints, tolerance)             °        everywhere
+assistance level                       %        the form, the report, the progress table
+=====================================  =======  ==========================================
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+CM_PER_M = 100.0
+"""Positions and sizes of the set-up are shown in cm."""
+MM_PER_M = 1000.0
+"""Position errors are shown in mm."""
+
+
+def cm(length_m: float, decimals: int = 1) -> str:
+    """'30.0 cm'."""
+    return f"{length_m * CM_PER_M:.{decimals}f} cm"
+
+
+def point_cm(point_m: Sequence[float], decimals: int = 1) -> str:
+    """'(-12.0, 73.0) cm'."""
+    x, y = (v * CM_PER_M for v in point_m)
+    return f"({x:.{decimals}f}, {y:.{decimals}f}) cm"
+
+
+def assistance_percent(level: float) -> str:
+    """'40 %': the assistance level (0–1 inside) as the form shows it."""
+    return f"{level * 100:.0f} %"
