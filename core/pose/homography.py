@@ -40,6 +40,9 @@ DEFAULT_INLIER_MM = 25.0
 MIN_INLIER_FRACTION = 0.5
 MIN_PAIRS = 8
 RANSAC_ITERATIONS = 500
+MODELS = ("auto", "affine", "projective")
+# The F statistic above which the two perspective parameters earn their place.
+AFFINE_F_LIMIT = 20.0
 
 
 class PoorFitError(CoreError, ValueError):
@@ -104,13 +107,24 @@ def fit_from_handle(
     *,
     max_residual_mm: float = DEFAULT_MAX_RESIDUAL_MM,
     inlier_mm: float = DEFAULT_INLIER_MM,
+    model: str = "auto",
     seed: int = 0,
 ) -> Homography:
     """H from the detected wrist (N, 2) px against the handle's positions (N, 2) m at the
     same instants; rows with a NaN (gaps) are left out. RANSAC, then Huber least squares
     on the inliers. Raises PoorFitError when fewer than half the pairs agree or the
-    residual exceeds `max_residual_mm`."""
+    residual exceeds `max_residual_mm`.
+
+    `model`: "projective" (8 parameters), "affine" (6: a camera square to the table), or
+    "auto": the affine map unless the projective one fits the inliers significantly
+    better (an F-test at F > AFFINE_F_LIMIT). Why: the handle covers only the exercise's
+    patch of the table, while the shoulder and elbow lie up to half a metre beyond it; the
+    two perspective parameters, weakly fixed by a small patch, then extrapolate the
+    detector's noise into centimetres at the shoulder. A camera tilted enough for its
+    perspective to show within the patch is still fitted projectively."""
     check_positive("max_residual_mm", max_residual_mm, "mm")
+    if model not in MODELS:
+        raise ParameterError("model", model, " or ".join(repr(m) for m in MODELS))
     check_positive("inlier_mm", inlier_mm, "mm")
     src, dst, rows = _pairs(wrist_px, handle_m)
     if src.shape[0] < MIN_PAIRS:
@@ -149,6 +163,13 @@ def fit_from_handle(
     # the refined map may take in pairs RANSAC's sample missed
     inliers = _distances(h, src, dst) < tolerance_m
     h = _refine(h, src[inliers], dst[inliers], tolerance_m / 3.0)
+    if model != "projective":
+        affine = _refine(_affine(src[inliers], dst[inliers]), src[inliers], dst[inliers],
+                         tolerance_m / 3.0, affine=True)
+        if model == "affine" or not _projective_needed(affine, h, src[inliers],
+                                                       dst[inliers]):
+            h = affine
+            inliers = _distances(h, src, dst) < tolerance_m
     mask = np.zeros(np.asarray(wrist_px).shape[0], bool)
     mask[rows[inliers]] = True
     return _checked(h, src[inliers], dst[inliers], mask, "handle", max_residual_mm)
@@ -231,6 +252,23 @@ def _dlt(src: np.ndarray, dst: np.ndarray) -> np.ndarray | None:
     return h / h[2, 2]
 
 
+def _affine(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
+    """The least-squares affine map (last row 0, 0, 1)."""
+    a = np.column_stack((src, np.ones(len(src))))
+    coefficients, *_ = np.linalg.lstsq(a, dst, rcond=None)
+    return np.vstack((coefficients.T, [0.0, 0.0, 1.0]))
+
+
+def _projective_needed(affine, projective, src, dst) -> bool:
+    """An F-test of the projective map's two extra parameters against the affine map."""
+    rss_a = float(np.sum(_distances(affine, src, dst) ** 2))
+    rss_p = float(np.sum(_distances(projective, src, dst) ** 2))
+    dof = 2 * len(src) - 8
+    if dof <= 0 or rss_p <= 0:
+        return rss_p < rss_a
+    return ((rss_a - rss_p) / 2.0) / (rss_p / dof) > AFFINE_F_LIMIT
+
+
 def _degenerate(points: np.ndarray) -> bool:
     """True when some three of the points are (nearly) on one line."""
     n = len(points)
@@ -252,15 +290,22 @@ def _distances(h: np.ndarray, src: np.ndarray, dst: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(d), d, np.inf)
 
 
-def _refine(h: np.ndarray, src: np.ndarray, dst: np.ndarray, huber_m: float | None):
-    """Least squares on the error in the plane (Huber loss when `huber_m` is given), from h."""
-    def residuals(p):
-        return (apply(np.append(p, 1.0).reshape(3, 3), src) - dst).ravel()
+def _refine(h: np.ndarray, src: np.ndarray, dst: np.ndarray, huber_m: float | None,
+            *, affine: bool = False):
+    """Least squares on the error in the plane (Huber loss when `huber_m` is given), from h;
+    `affine` keeps the last row (0, 0, 1)."""
+    n = 6 if affine else 8
 
-    result = least_squares(residuals, h.ravel()[:8], method="trf",
+    def matrix(p):
+        return np.append(p, [0.0, 0.0, 1.0][n - 6:]).reshape(3, 3)
+
+    def residuals(p):
+        return (apply(matrix(p), src) - dst).ravel()
+
+    result = least_squares(residuals, h.ravel()[:n], method="trf",
                            loss="huber" if huber_m else "linear",
                            f_scale=huber_m if huber_m else 1.0, x_scale="jac")
-    refined = np.append(result.x, 1.0).reshape(3, 3)
+    refined = matrix(result.x)
     return refined if np.all(np.isfinite(refined)) else h
 
 
@@ -278,3 +323,56 @@ def _checked(h, src, dst, inliers, method, max_residual_mm, *, exact=False) -> H
             "points")
     return Homography(h, 0.0 if exact else rms, 0.0 if exact else worst, inliers, method,
                       exact)
+
+
+def refine_with_lengths(
+    fit: Homography,
+    wrist_px,
+    handle_m,
+    shoulder_px,
+    elbow_px,
+    upper_arm_m: float,
+    forearm_m: float,
+    *,
+    max_residual_mm: float = DEFAULT_MAX_RESIDUAL_MM,
+) -> Homography:
+    """Refine a handle fit with what is known of the arm beyond the handle's patch: in the
+    plane the elbow lies `forearm_m` from the handle and the shoulder `upper_arm_m` from the
+    elbow (the subject's measured segments, eq. 3.16). The handle alone fixes the map only
+    where the handle went; these tie it down where the elbow and the shoulder are, without
+    assuming where the shoulder is (so its drift stays measurable). Projective least
+    squares with a Huber loss over the handle's inliers and every frame with a visible
+    shoulder and elbow; the residual reported is still the handle's, in mm."""
+    wrist = np.asarray(wrist_px, dtype=float)
+    handle = np.asarray(handle_m, dtype=float)
+    shoulder = np.asarray(shoulder_px, dtype=float)
+    elbow = np.asarray(elbow_px, dtype=float)
+    inl = fit.inliers & np.isfinite(wrist).all(axis=1) & np.isfinite(handle).all(axis=1)
+    fore = np.isfinite(elbow).all(axis=1) & np.isfinite(handle).all(axis=1)
+    upper = np.isfinite(elbow).all(axis=1) & np.isfinite(shoulder).all(axis=1)
+    if fore.sum() < MIN_PAIRS or upper.sum() < MIN_PAIRS:
+        return fit
+    src, dst = wrist[inl], handle[inl]
+    huber = DEFAULT_INLIER_MM / 3000.0
+
+    def residuals(p):
+        h = np.append(p, 1.0).reshape(3, 3)
+        e_fore = apply(h, elbow[fore])
+        e_up = apply(h, elbow[upper])
+        s_up = apply(h, shoulder[upper])
+        return np.concatenate((
+            (apply(h, src) - dst).ravel(),
+            np.linalg.norm(e_fore - handle[fore], axis=1) - forearm_m,
+            np.linalg.norm(s_up - e_up, axis=1) - upper_arm_m,
+        ))
+
+    result = least_squares(residuals, fit.matrix.ravel()[:8], method="trf", loss="huber",
+                           f_scale=huber, x_scale="jac")
+    h = np.append(result.x, 1.0).reshape(3, 3)
+    if not np.all(np.isfinite(h)):
+        return fit
+    distances = _distances(h, wrist, handle)
+    inliers = fit.inliers & (distances < DEFAULT_INLIER_MM / 1000.0)
+    src_ok = np.isfinite(distances) & inliers
+    return _checked(h, wrist[src_ok], handle[src_ok], inliers, fit.method + "+arm",
+                    max_residual_mm)

@@ -119,3 +119,22 @@ def test_marked_points_that_cannot_fix_a_map_are_refused():
     px[2] = np.nan
     with pytest.raises(ParameterError, match="finite pixels"):
         fit_from_points(px, marks4)
+
+
+def test_auto_keeps_the_affine_map_unless_the_perspective_shows():
+    plane = handle_path(300)
+    rng = np.random.default_rng(6)
+    noise = rng.normal(0, 2.0, (300, 2))
+    square = camera(tilt=0.0)
+    square[2] = [0.0, 0.0, 1.0]  # a camera square to the table: affine
+    fit = fit_from_handle(apply(np.linalg.inv(square), plane) + noise, plane)
+    assert np.allclose(fit.matrix[2, :2], 0.0)
+    tilted = camera(tilt=1.5)  # strongly tilted: the projective terms are needed
+    fit = fit_from_handle(apply(np.linalg.inv(tilted), plane) + noise, plane)
+    assert not np.allclose(fit.matrix[2, :2], 0.0)
+    forced = fit_from_handle(apply(np.linalg.inv(tilted), plane) + noise, plane,
+                             model="affine", max_residual_mm=100)
+    assert np.allclose(forced.matrix[2, :2], 0.0)
+    assert forced.residual_mm > fit.residual_mm
+    with pytest.raises(ParameterError, match="model"):
+        fit_from_handle(apply(np.linalg.inv(tilted), plane), plane, model="cubic")
