@@ -2,19 +2,38 @@
 
 Frames come from a `device.camera.capture.CameraSource`, which reads on its own thread;
 this tab only picks up the newest frame at most 30 times a second while it is
-visible, so a camera never slows the window. Opening a camera can take a
+visible, so a camera never slows the window. With *Show the pose* ticked, MediaPipe
+Pose runs on the live frames on a worker thread of its own (`device.camera.live`) and
+the arm's keypoints are drawn over the picture; the 2 ms loop, in its own process, never
+waits for it. Opening a camera can take a
 second, so it happens off the GUI thread. Without a camera the tab says how to
 turn one on, instead of showing an empty picture.
 """
 
 from __future__ import annotations
 
-from PySide6.QtCore import QSize, Qt, QTimer, Signal
-from PySide6.QtGui import QImage, QPixmap
-from PySide6.QtWidgets import QLabel, QSizePolicy, QStackedLayout, QVBoxLayout, QWidget
+import itertools
 
+import numpy as np
+from PySide6.QtCore import QPointF, QSize, Qt, QTimer, Signal
+from PySide6.QtGui import QColor, QImage, QPainter, QPen, QPixmap
+from PySide6.QtWidgets import (
+    QCheckBox,
+    QLabel,
+    QSizePolicy,
+    QStackedLayout,
+    QVBoxLayout,
+    QWidget,
+)
+
+from core.pose.keypoints import ELBOW, OTHER_SHOULDER, SHOULDER, WRIST
 from device.camera.capture import CameraSource
+from device.camera.detector import MediaPipePose
+from device.camera.live import LivePose
 from ui import plots, theme
+
+POSE_COLOUR = theme.YELLOW  # over skin, cloth and a grey table alike
+POSE_DOT_PX = 5
 
 FRAME_INTERVAL_MS = 33  # ≤ 30 fps: the camera's own rate; faster would repaint copies
 
@@ -55,9 +74,17 @@ class VideoTab(QWidget):
         self.picture.setAccessibleName("Camera picture")
         self.state = theme.set_role(QLabel(""), "banner")
         self.state.setWordWrap(True)
+        self.pose_box = QCheckBox("Show the pose: the arm's keypoints from the picture "
+                                  "(MediaPipe, on this computer)")
+        self.pose_box.setAccessibleName("Show the pose")
+        self.pose_box.toggled.connect(self._pose_toggled)
+        self.pose_side = "right"
+        self._live: LivePose | None = None
+        self._overlaid = 0
         picture_page = QWidget()
         column = QVBoxLayout(picture_page)
         column.addWidget(self.picture, 1)
+        column.addWidget(self.pose_box)
         column.addWidget(self.state)
         self.pages = QStackedLayout(self)
         self.pages.addWidget(self.message)
@@ -94,12 +121,15 @@ class VideoTab(QWidget):
             self.timer.stop()
             return
         self.pages.setCurrentIndex(1)
+        if self.pose_box.isChecked():
+            self._pose_toggled(True)
         self._update_state()
         if self.isVisible():
             self.timer.start()
 
     def close_camera(self) -> None:
         """Stop the camera this tab shows (and any recording it holds)."""
+        self._stop_pose()
         self._pending = None
         camera, self._camera = self._camera, None
         self.timer.stop()
@@ -111,6 +141,50 @@ class VideoTab(QWidget):
     def shown_frames(self) -> int:
         """Index of the frame on screen, -1 before the first."""
         return self._shown_index
+
+    @property
+    def live_pose(self) -> LivePose | None:
+        return self._live
+
+    def overlaid_frames(self) -> int:
+        """How many pictures were shown with keypoints drawn over them."""
+        return self._overlaid
+
+    # -- live pose ----------------------------------------------------------------------
+    def _pose_toggled(self, on: bool) -> None:
+        self._stop_pose()
+        if on and self._camera is not None:
+            side = self.pose_side
+            self._live = LivePose(self._camera, lambda: MediaPipePose(side, video=True)).start()
+        self._update_state()
+
+    def _stop_pose(self) -> None:
+        live, self._live = self._live, None
+        if live is not None:
+            live.stop()
+
+    def _draw_pose(self, pixmap: QPixmap, image_width: int) -> bool:
+        live = self._live
+        result = live.latest() if live is not None else None
+        if result is None:
+            return False
+        points = result.keypoints.gapped()
+        scale = pixmap.width() / image_width
+        painter = QPainter(pixmap)
+        painter.setRenderHint(QPainter.RenderHint.Antialiasing)
+        pen = QPen(QColor(POSE_COLOUR), 3)
+        painter.setPen(pen)
+        painter.setBrush(QColor(POSE_COLOUR))
+        chain = [points[i] * scale for i in (OTHER_SHOULDER, SHOULDER, ELBOW, WRIST)]
+        for a, b in itertools.pairwise(chain):
+            if np.isfinite(a).all() and np.isfinite(b).all():
+                painter.drawLine(QPointF(float(a[0]), float(a[1])),
+                                 QPointF(float(b[0]), float(b[1])))
+        for p in chain:
+            if np.isfinite(p).all():
+                painter.drawEllipse(QPointF(float(p[0]), float(p[1])), POSE_DOT_PX, POSE_DOT_PX)
+        painter.end()
+        return True
 
     # -- showing frames -------------------------------------------------------------
     def showEvent(self, event) -> None:
@@ -139,6 +213,8 @@ class VideoTab(QWidget):
             pixmap = QPixmap.fromImage(qimage).scaled(
                 self.picture.size(), Qt.AspectRatioMode.KeepAspectRatio,
                 Qt.TransformationMode.SmoothTransformation)
+            if self._draw_pose(pixmap, width):
+                self._overlaid += 1
             self.picture.setPixmap(pixmap)
             self._shown_index = frame.index
         self._update_state()
@@ -158,6 +234,14 @@ class VideoTab(QWidget):
             text = (f"{camera.description}, {camera.frame_size[0]}×{camera.frame_size[1]} at "
                     f"{camera.fps:.0f} frames per second. Not recording: recording starts "
                     "with the trial.")
+        live = self._live
+        if live is not None:
+            if live.error:
+                text += f" {theme.PROBLEM_SIGN} {live.error}"
+            elif live.latest() is None:
+                text += " Pose: starting the model…"
+            else:
+                text += f" Pose: {live.rate_fps:.0f} pictures a second."
         if self.state.text() != text:
             self.state.setText(text)
 
