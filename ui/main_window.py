@@ -305,6 +305,7 @@ class MainWindow(QMainWindow):
             return
         if command == "build":
             self.built = self._pending_build
+            self.video.pose_side = self.built.side  # the live pose follows the arm in use
             self._say("Trial built. Connect to the robot, then Start.")
         elif command == "clear_fault":
             self.fault_code = 0
