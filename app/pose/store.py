@@ -7,6 +7,7 @@ run as before it.
 from __future__ import annotations
 
 import json
+import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -148,3 +149,26 @@ def _plain(value):
     if isinstance(value, np.generic):
         return value.item()
     return value
+
+
+def comparison_lines(group: dict | None) -> list[str]:
+    """The camera against the solver in words for a report (degrees and centimetres):
+    one line per joint, as Table 3.4, and one for the shoulder; [] without a pose."""
+    if not group:
+        return []
+    a = group["attrs"]
+    lines = []
+    for joint in ("shoulder", "elbow"):
+        rmse = a.get(f"camera_vs_solver_{joint}_rmse_rad", float("nan"))
+        bias = a.get(f"camera_vs_solver_{joint}_bias_rad", float("nan"))
+        lines.append(f"camera vs equation solver, {joint} (ISB): {math.degrees(rmse):.2f}° "
+                     f"RMSE, {math.degrees(bias):+.2f}° bias (video {a.get('video', '?')}, "
+                     "thesis Table 3.4's comparison)")
+    drift = a.get("shoulder_max_drift_m", float("nan"))
+    limit = a.get("shoulder_drift_limit_m", float("nan"))
+    text = f"camera: the shoulder moved up to {100 * drift:.1f} cm during the trial"
+    if a.get("shoulder_drift_exceeded"):
+        text += (f", more than the {100 * limit:.1f} cm allowed: the solver's angles assume "
+                 "it still")
+    lines.append(text)
+    return lines

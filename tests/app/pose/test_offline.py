@@ -242,3 +242,18 @@ def test_the_command_refuses_bad_options(trial, capsys, argv):
     assert main(["pose", str(path), *argv]) == 2
     _, err = capsys.readouterr()
     assert err.count("\n") == 1
+
+
+def test_the_report_carries_the_comparison(trial):
+    from app.reports.build import build_report
+
+    path, filmed = trial
+    assert not any("camera vs equation solver" in n
+                   for n in build_report(read_trial(path)).notes)
+    estimate_pose(path, ReplayDetector(filmed))
+    notes = build_report(read_trial(path)).notes
+    lines = [n for n in notes if n.startswith("camera vs equation solver")]
+    assert len(lines) == 2
+    assert "shoulder (ISB)" in lines[0]
+    assert "° RMSE" in lines[0]
+    assert any(n.startswith("camera: the shoulder moved up to") for n in notes)
