@@ -342,6 +342,7 @@ class MainWindow(QMainWindow):
         log.info("trial started: %s (%d ticks)", Path(path).name, total)
         self.live = TrialView(self.built)
         self.shown_view = self.live
+        self.video.close_replay()  # the live camera again, not a past trial's video
         self.trial_label.setText(f"recording {Path(path).name}")
         self.message.hide()
         if not isinstance(self.tabs.currentWidget(), VIEW_TABS):
@@ -403,10 +404,15 @@ class MainWindow(QMainWindow):
         self.shown_view = view
         for tab in self.view_tabs:
             tab.show_view(view)
+        # the trial's video follows the slider too (the Video tab shows its last frame)
+        self.video.show_replay(view.video)
+        if view.video is not None and view.n:
+            self.video.seek(view.cursor if view.cursor is not None else float(view.time[0]))
 
     def _on_cursor(self, t: float) -> None:
         for tab in self.view_tabs:
             tab.set_cursor(t)
+        self.video.seek(t)
 
     # ------------------------------------------------------------------ live view
     def _repaint(self) -> None:

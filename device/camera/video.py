@@ -115,3 +115,31 @@ def frames(info: VideoInfo) -> Iterator[tuple[int, np.ndarray]]:
             index += 1
     finally:
         capture.release()
+
+
+class VideoReader:
+    """Random access to a video's frames, for replay: `read(index)` is the picture at that
+    frame (BGR), or None past the end. Keeps the file open; reading on in order is cheap,
+    a jump seeks."""
+
+    def __init__(self, info: VideoInfo) -> None:
+        self.info = info
+        self._cv2 = _cv2()
+        self._capture = self._cv2.VideoCapture(str(info.path))
+        if not self._capture.isOpened():
+            raise VideoError(f"video {info.path} cannot be decoded: the file is damaged")
+        self._next = 0
+
+    def read(self, index: int) -> np.ndarray | None:
+        if self._capture is None or not 0 <= index < self.info.frames:
+            return None
+        if index != self._next:
+            self._capture.set(self._cv2.CAP_PROP_POS_FRAMES, index)
+        ok, image = self._capture.read()
+        self._next = index + 1 if ok else -1
+        return image if ok else None
+
+    def close(self) -> None:
+        capture, self._capture = self._capture, None
+        if capture is not None:
+            capture.release()

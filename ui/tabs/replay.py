@@ -26,6 +26,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from app.pose.replay import ReplayVideo
 from app.records.store import RecordStore
 from app.trials.reader import read_trial
 from ui import plots, theme
@@ -37,9 +38,11 @@ SPEEDS = (0.25, 0.5, 1.0, 2.0, 4.0)
 
 
 def load_view(path: Path) -> TrialView:
-    """Read a trial file into a finished view (runs off the GUI thread)."""
+    """Read a trial file into a finished view, with its video when one was recorded (runs
+    off the GUI thread)."""
     data = read_trial(path)
     view = TrialView.from_trial(data)
+    view.video = ReplayVideo.open(data)  # its video, to follow the slider (None without)
     code = data.subject.code if data.subject is not None else "unknown patient"
     view.title = f"{code} · {path.name}"
     return view

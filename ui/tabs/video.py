@@ -26,6 +26,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from app.pose.replay import ReplayVideo
 from core.pose.keypoints import ELBOW, OTHER_SHOULDER, SHOULDER, WRIST
 from device.camera.capture import CameraSource
 from device.camera.detector import MediaPipePose
@@ -81,6 +82,8 @@ class VideoTab(QWidget):
         self.pose_side = "right"
         self._live: LivePose | None = None
         self._overlaid = 0
+        self._replay: ReplayVideo | None = None
+        self._replay_index = -1
         picture_page = QWidget()
         column = QVBoxLayout(picture_page)
         column.addWidget(self.picture, 1)
@@ -130,6 +133,9 @@ class VideoTab(QWidget):
     def close_camera(self) -> None:
         """Stop the camera this tab shows (and any recording it holds)."""
         self._stop_pose()
+        replay, self._replay = self._replay, None
+        if replay is not None:
+            replay.close()
         self._pending = None
         camera, self._camera = self._camera, None
         self.timer.stop()
@@ -168,28 +174,63 @@ class VideoTab(QWidget):
         result = live.latest() if live is not None else None
         if result is None:
             return False
-        points = result.keypoints.gapped()
-        scale = pixmap.width() / image_width
-        painter = QPainter(pixmap)
-        painter.setRenderHint(QPainter.RenderHint.Antialiasing)
-        pen = QPen(QColor(POSE_COLOUR), 3)
-        painter.setPen(pen)
-        painter.setBrush(QColor(POSE_COLOUR))
-        chain = [points[i] * scale for i in (OTHER_SHOULDER, SHOULDER, ELBOW, WRIST)]
-        for a, b in itertools.pairwise(chain):
-            if np.isfinite(a).all() and np.isfinite(b).all():
-                painter.drawLine(QPointF(float(a[0]), float(a[1])),
-                                 QPointF(float(b[0]), float(b[1])))
-        for p in chain:
-            if np.isfinite(p).all():
-                painter.drawEllipse(QPointF(float(p[0]), float(p[1])), POSE_DOT_PX, POSE_DOT_PX)
-        painter.end()
+        _draw_keypoints(pixmap, image_width, result.keypoints.gapped())
         return True
+
+    # -- replay -------------------------------------------------------------------------
+    def show_replay(self, video: ReplayVideo | None) -> None:
+        """Follow a replayed trial's video with the slider (None: no video for it). A live
+        camera, if one is open, is shown again when the replay ends (close_replay)."""
+        self.close_replay()
+        self._replay = video
+        if video is not None:
+            self.timer.stop()
+            self.pages.setCurrentIndex(1)
+            self.state.setText(f"Replay of {video.name}: move the Replay tab's slider.")
+
+    def close_replay(self) -> None:
+        replay, self._replay = self._replay, None
+        if replay is not None:
+            replay.close()
+            if self._camera is not None:
+                self.set_camera(self._camera)
+            else:
+                self.pages.setCurrentIndex(0)
+
+    def replayed_frame(self) -> int:
+        """The replayed video's frame on screen, -1 when none."""
+        return self._replay_index
+
+    def seek(self, t: float) -> None:
+        """Show the replayed video's frame taken at trial time t, with its keypoints."""
+        replay = self._replay
+        if replay is None:
+            return
+        frame = replay.frame_at(t)
+        if frame is None:
+            self.picture.clear()
+            self._replay_index = -1
+            self.state.setText(f"Replay of {replay.name}: no picture at {t:.2f} s.")
+            return
+        image = frame.image
+        height, width = image.shape[:2]
+        qimage = QImage(image.data, width, height, image.strides[0],
+                        QImage.Format.Format_BGR888)
+        pixmap = QPixmap.fromImage(qimage).scaled(
+            self.picture.size(), Qt.AspectRatioMode.KeepAspectRatio,
+            Qt.TransformationMode.SmoothTransformation)
+        if frame.keypoints_px is not None:
+            _draw_keypoints(pixmap, width, frame.keypoints_px)
+        self.picture.setPixmap(pixmap)
+        self._replay_index = frame.index
+        pose = "" if frame.keypoints_px is not None else " (no pose: run rehab pose on it)"
+        self.state.setText(f"Replay of {replay.name}: frame {frame.index} at "
+                           f"{frame.time_s:.2f} s{pose}.")
 
     # -- showing frames -------------------------------------------------------------
     def showEvent(self, event) -> None:
         super().showEvent(event)
-        if self._camera is not None:
+        if self._camera is not None and self._replay is None:
             self.timer.start()
 
     def hideEvent(self, event) -> None:
@@ -202,7 +243,7 @@ class VideoTab(QWidget):
 
     def _tick(self) -> None:
         camera = self._camera
-        if camera is None:
+        if camera is None or self._replay is not None:
             return
         frame = camera.latest()
         if frame is not None and frame.index != self._shown_index:
@@ -263,3 +304,23 @@ class VideoTab(QWidget):
         self.pages.setCurrentIndex(0)
         self.camera_failed.emit(message)
 
+
+
+def _draw_keypoints(pixmap: QPixmap, image_width: int, points) -> None:
+    """The arm's keypoints (4, 2) in the picture's pixels (gaps NaN) over its scaled copy:
+    the shoulders joined, the arm as a chain, a dot on each."""
+    scale = pixmap.width() / image_width
+    painter = QPainter(pixmap)
+    painter.setRenderHint(QPainter.RenderHint.Antialiasing)
+    painter.setPen(QPen(QColor(POSE_COLOUR), 3))
+    painter.setBrush(QColor(POSE_COLOUR))
+    chain = [np.asarray(points[i], dtype=float) * scale
+             for i in (OTHER_SHOULDER, SHOULDER, ELBOW, WRIST)]
+    for a, b in itertools.pairwise(chain):
+        if np.isfinite(a).all() and np.isfinite(b).all():
+            painter.drawLine(QPointF(float(a[0]), float(a[1])),
+                             QPointF(float(b[0]), float(b[1])))
+    for p in chain:
+        if np.isfinite(p).all():
+            painter.drawEllipse(QPointF(float(p[0]), float(p[1])), POSE_DOT_PX, POSE_DOT_PX)
+    painter.end()

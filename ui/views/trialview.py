@@ -83,6 +83,7 @@ class TrialView:
         self.finished = False
         self.source: Path | None = None  # the file a replayed trial came from
         self.pose: PoseView | None = None  # the camera's angles, when `rehab pose` ran
+        self.video = None  # a replayed trial's video (app.pose.replay.ReplayVideo), if any
         self.title = ""
         self._cursor: float | None = None
         self._n = 0
