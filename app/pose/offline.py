@@ -110,8 +110,8 @@ def estimate_pose(
     _check_coverage(trial, video, stamps_t)
     if isinstance(reference, str | os.PathLike):
         reference = read_reference_csv(reference)
-    if not hasattr(detector, "detect"):
-        detector = detector(trial.parameters.side)
+    if isinstance(detector, type) or not hasattr(detector, "detect"):
+        detector = detector(trial.parameters.side)  # a factory, or the detector's class
     index, px, vis = _detect(video, detector, progress)
     keep = index < stamps_t.size
     index, px, vis = index[keep], px[keep], vis[keep]
