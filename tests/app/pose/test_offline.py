@@ -257,3 +257,41 @@ def test_the_report_carries_the_comparison(trial):
     assert "shoulder (ISB)" in lines[0]
     assert "° RMSE" in lines[0]
     assert any(n.startswith("camera: the shoulder moved up to") for n in notes)
+
+
+def test_four_marked_points_replace_the_handle_fit(trial, tmp_path, capsys, monkeypatch):
+    from core.pose.homography import apply
+
+    path, filmed = trial
+    marks_m = np.array([[-0.55, 0.15], [0.05, 0.15], [0.05, 0.80], [-0.55, 0.80]])
+    marks_px = apply(filmed.camera, marks_m)
+    marks = tmp_path / "marks.csv"
+    marks.write_text("u_px,v_px,x_m,y_m\n" + "".join(
+        f"{u:.3f},{v:.3f},{x},{y}\n" for (u, v), (x, y) in zip(marks_px, marks_m, strict=True)))
+    import device.camera.detector as detector
+
+    monkeypatch.setattr(detector, "MediaPipePose",
+                        lambda side, video: ReplayDetector(filmed, side))
+    assert main(["pose", str(path), "--marks", str(marks)]) == 0
+    out, _ = capsys.readouterr()
+    assert "points fit from 4 points: exact" in out
+    attrs = read_pose(path)["attrs"]
+    assert attrs["fit_method"] == "points"
+    assert attrs["camera_vs_solver_shoulder_rmse_rad"] < np.radians(1.0)
+    assert attrs["camera_vs_solver_elbow_rmse_rad"] < np.radians(1.0)
+
+
+@pytest.mark.parametrize(("text", "match"), [
+    ("x,y\n1,2\n", "first line must be u_px,v_px,x_m,y_m"),
+    ("u_px,v_px,x_m,y_m\n1,2,3\n", "four numbers"),
+    ("u_px,v_px,x_m,y_m\n1,2,0.1,0.2\n3,4,0.3,0.4\n", "2 marked points"),
+])
+def test_marked_points_that_cannot_be_used_are_refused_in_one_line(trial, tmp_path, capsys,
+                                                                   text, match):
+    path, _ = trial
+    marks = tmp_path / "marks.csv"
+    marks.write_text(text)
+    assert main(["pose", str(path), "--marks", str(marks)]) == 2
+    _, err = capsys.readouterr()
+    assert err.count("\n") == 1
+    assert match in err
