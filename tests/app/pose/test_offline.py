@@ -295,3 +295,24 @@ def test_marked_points_that_cannot_be_used_are_refused_in_one_line(trial, tmp_pa
     _, err = capsys.readouterr()
     assert err.count("\n") == 1
     assert match in err
+
+
+def test_a_registered_trial_is_found_by_its_id(tmp_path, monkeypatch, capsys):
+    """`rehab pose 1`: the registry's trial 1, whose file has no video beside it: the refusal
+    names the file the registry points to."""
+    monkeypatch.setenv("REHAB_DATA_DIR", str(tmp_path / "data"))
+    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
+    assert main(["patients", "add", "--first-name", "Ada", "--last-name", "Example",
+                 "--body-mass", "80", "--upper-arm", "0.30", "--forearm", "0.29", "--side",
+                 "right", "--shoulder", "-0.12", "0.73"]) == 0
+    code = capsys.readouterr().out.strip()
+    assert main(["run", "--code", code, "--repetitions", "1"]) == 0
+    capsys.readouterr()
+    assert main(["pose", "1"]) == 2
+    _, err = capsys.readouterr()
+    assert err.count("\n") == 1
+    assert f"{code}_S" in err
+    assert "does not exist" in err
+    assert main(["pose", "99"]) == 2
+    _, err = capsys.readouterr()
+    assert err.count("\n") == 1
