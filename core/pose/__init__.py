@@ -7,7 +7,8 @@ residual in mm), `angles` (shoulder and elbow angles from table-plane keypoints 
 convention, eq. 3.16, the shoulder's position and drift, the equation solver with the
 camera's shoulder), `timebase` (video frames onto the trial's clock and its 2 ms samples,
 gaps kept), `compare` (camera against solver, or either against reference angles: RMSE and
-bias per joint, as Table 3.4). The detector that finds keypoints in a picture is not
+bias per joint, as Table 3.4), `pipeline` (all of it in order, after the detector). The
+detector that finds keypoints in a picture is not
 here (device.camera.detector); everything here works on its output.
 
 May import numpy, scipy and the rest of core.

@@ -13,7 +13,9 @@ from pixels (u right, v down) to the global frame (m, docs/frames.md). Two ways 
   a blur), so the fit is robust: RANSAC over four-point samples picks the consistent
   pairs, then a Huber-loss least squares on those refines H against the error in the
   plane. The wrist is not the handle's centre (the hand grips it a few cm further on), so
-  the residual includes that offset as well as the detector's noise.
+  the residual includes that offset as well as the detector's noise. The map is affine
+  unless the data show perspective (`model`), and `refine_with_lengths` then ties it down
+  beyond the handle's patch with the subject's segment lengths.
 * `fit_from_points`: four or more marks on the table whose positions were measured, found
   in the picture by hand when the robot is still; with exactly four the map is exact and
   there is nothing to check it against, so the residual is reported as 0 with that said.
