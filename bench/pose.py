@@ -1,7 +1,8 @@
 """Pose estimation: throughput of the offline pipeline at 640×480 on one core, and the
 camera's agreement with the equation solver on a filmed simulated trial.
 
-Run: .venv/bin/python bench/pose.py [--frames N] [--seeds S]
+Run: .venv/bin/python bench/pose.py [--frames N] [--seeds S] [--all-cores]
+                                    [--only throughput|rmse]
 Throughput: a 640×480 MJPG video of N frames (default 600) of the astronaut photograph
 (scikit-image, a real upper body) drifting across the picture is decoded and run through
 MediaPipe Pose 0.10.14 in tracking mode, as `rehab pose` does; then the geometry after
@@ -44,7 +45,7 @@ def astronaut_video(path: Path, n: int) -> Path:
     return path
 
 
-def throughput(n: int) -> None:
+def throughput(n: int, cores: str) -> None:
     import cv2
 
     from app.pose.synthetic import film
@@ -105,7 +106,7 @@ def throughput(n: int) -> None:
 
     ms = 1000 * np.asarray(per_frame)
     total_s = detect_s + geometry_s * decoded / geometry_frames
-    print(f"pose throughput, 640×480, one core ({decoded} frames, person seen in {seen})")
+    print(f"pose throughput, 640×480, {cores} ({decoded} frames, person seen in {seen})")
     print(f"  MediaPipe Pose, made and warmed up   {1000 * made_s:7.0f} ms")
     print(f"  decoding alone                      {decoded / decode_s:7.0f} fps")
     print(f"  detector (tracking mode)            {decoded / sum(per_frame):7.1f} fps "
@@ -165,11 +166,16 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=600)
     parser.add_argument("--seeds", type=int, default=5)
+    parser.add_argument("--all-cores", action="store_true",
+                        help="do not pin the process to one core")
+    parser.add_argument("--only", choices=("throughput", "rmse"))
     args = parser.parse_args()
-    if hasattr(os, "sched_setaffinity"):
+    if hasattr(os, "sched_setaffinity") and not args.all_cores:
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
-    throughput(args.frames)
-    agreement(args.seeds)
+    if args.only in (None, "throughput"):
+        throughput(args.frames, "all cores" if args.all_cores else "one core")
+    if args.only in (None, "rmse"):
+        agreement(args.seeds)
 
 
 if __name__ == "__main__":
