@@ -95,3 +95,15 @@ def test_a_camera_that_sees_something_else_is_refused(trial):
     video.keypoints_px[:, 2] = rng.uniform(0, 640, video.keypoints_px[:, 2].shape)
     with pytest.raises(PoorFitError, match=r"only \d+ of \d+ wrist detections agree"):
         run(trial, video)
+
+
+def test_a_left_arm_reads_the_same_within_one_degree(tmp_path):
+    """The mirror image: a left arm, its shoulder on the other side of the same D."""
+    parameters = THESIS_SUBJECT.replace(repetitions=2, side="left", shoulder_m=(-0.48, 0.73))
+    path = tmp_path / "left.h5"
+    save(simulate(parameters, seed=1), path)
+    left = read_trial(path)
+    _, result = run(left, film(left, seed=1))
+    for joint in result.errors:
+        assert joint.rmse_rad < np.radians(1.0)
+        assert abs(joint.bias_rad) < np.radians(0.5)
