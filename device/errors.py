@@ -34,3 +34,13 @@ class StateError(DeviceError):
 
 class RecordingError(DeviceError):
     """The trial file could not be created, written or closed."""
+
+
+class VideoError(DeviceError):
+    """A trial's video cannot be used: missing, corrupt, empty, or not matching its
+    timestamps or the trial."""
+
+
+class PoseModelError(DeviceError):
+    """The pose model cannot run here: not installed as the setup installs it, another
+    OpenCV build in the way, or a model that would need a download."""

@@ -343,6 +343,7 @@ class MainWindow(QMainWindow):
             return
         if command == "build":
             self.built = self._pending_build
+            self.video.pose_side = self.built.side  # the live pose follows the arm in use
             self._say("Trial built. Connect to the robot, then Start.", states=(State.BUILT,))
         elif command == "clear_fault":
             self.fault_code = 0
@@ -385,6 +386,7 @@ class MainWindow(QMainWindow):
         log.info("trial started: %s (%d ticks)", Path(path).name, total)
         self.live = TrialView(self.built)
         self.shown_view = self.live
+        self.video.close_replay()  # the live camera again, not a past trial's video
         self.trial_label.setText(f"recording {Path(path).name}")
         self._say(f"Trial running: {Path(path).name}. Stop (F6) ends it early.",
                   states=(State.RUNNING,))
@@ -447,10 +449,15 @@ class MainWindow(QMainWindow):
         self.shown_view = view
         for tab in self.view_tabs:
             tab.show_view(view)
+        # the trial's video follows the slider too (the Video tab shows its last frame)
+        self.video.show_replay(view.video)
+        if view.video is not None and view.n:
+            self.video.seek(view.cursor if view.cursor is not None else float(view.time[0]))
 
     def _on_cursor(self, t: float) -> None:
         for tab in self.view_tabs:
             tab.set_cursor(t)
+        self.video.seek(t)
 
     # ------------------------------------------------------------------ live view
     def _repaint(self) -> None:

@@ -18,6 +18,7 @@ from app.cli.check import add_check_command
 from app.cli.common import EXIT_BAD_INPUT, CommandError, Parser
 from app.cli.exports import add_export_command
 from app.cli.gains import add_gains_command
+from app.cli.pose import add_pose_command
 from app.cli.records import add_patient_commands, add_trials_command
 from app.cli.reports import add_progress_command, add_report_command
 from app.cli.run import add_run_command
@@ -34,6 +35,7 @@ COMMAND_GROUPS = (
     add_progress_command,
     add_report_command,
     add_export_command,
+    add_pose_command,
     add_gains_command,
 )
 

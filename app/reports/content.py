@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from app.errors import AppError, TrialFileError
+from app.pose.store import comparison_lines, read_pose
 from app.reports.compare import (
     Baseline,
     BaselineSource,
@@ -169,6 +170,11 @@ def build_report(
         notes += figures.notes
     comparisons = _comparisons(previous_trial, previous_session, values, parameters,
                                partial=status != "complete")
+    if trial.path.is_file():
+        try:
+            notes += comparison_lines(read_pose(trial.path))  # `rehab pose` ran on its video
+        except AppError as exc:
+            notes.append(str(exc))
 
     numbers = _NUMBERS_IN_NAME.search(trial.path.name)
     if session_number is None and numbers:

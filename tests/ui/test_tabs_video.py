@@ -6,6 +6,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 import pytest
+from PySide6.QtGui import QColor
 
 from ui import theme
 from ui.tabs import VideoTab
@@ -75,3 +76,42 @@ def test_a_camera_that_cannot_open_is_explained(qtbot, tab, tmp_path):
     assert "cannot be used" in tab.message.text()
     assert "does not exist" in tab.message.text()
     assert tab.camera is None
+
+
+@pytest.fixture
+def astronaut_clip(tmp_path):
+    from skimage import data
+
+    path = tmp_path / "astronaut.avi"
+    image = np.ascontiguousarray(data.astronaut()[:, :, ::-1])
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"MJPG"), 30.0, (512, 512))
+    for _ in range(300):  # 10 s: time for the model to start on a busy machine
+        writer.write(image)
+    writer.release()
+    return path
+
+
+def test_the_pose_is_drawn_over_the_live_picture(qtbot, tab, astronaut_clip):
+    """MediaPipe on the live frames on its own worker; the keypoints drawn in the theme's
+    yellow at the shoulders, and the rate in the state line."""
+    with qtbot.waitSignal(tab.camera_opened, timeout=5000):
+        tab.open_camera(str(astronaut_clip))
+    assert tab.live_pose is None
+    tab.pose_box.setChecked(True)
+    assert tab.live_pose is not None
+    qtbot.waitUntil(lambda: tab.overlaid_frames() >= 3, timeout=30000)
+    result = tab.live_pose.latest()
+    pixmap = tab.picture.pixmap()
+    scale = pixmap.width() / 512
+    x, y = result.keypoints.xy_px[0] * scale
+    colour = pixmap.toImage().pixelColor(round(float(x)), round(float(y)))
+    yellow = QColor(theme.YELLOW)
+    assert abs(colour.red() - yellow.red()) < 40
+    assert abs(colour.green() - yellow.green()) < 40
+    assert abs(colour.blue() - yellow.blue()) < 60
+    qtbot.waitUntil(lambda: "pictures a second" in tab.state.text(), timeout=5000)
+    live = tab.live_pose
+    tab.pose_box.setChecked(False)
+    assert tab.live_pose is None
+    assert not live.running
+    tab.close_camera()

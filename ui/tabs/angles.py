@@ -14,6 +14,8 @@ from ui.views.numbers import format_number
 from ui.views.trialview import TrialView
 
 JOINTS = ("shoulder", "elbow")
+NO_POSE = ("No camera angles for this trial. With a video recorded beside it, "
+           "`rehab pose` adds them here beside the solver's.")
 
 
 class AnglesTab(QWidget):
@@ -24,6 +26,12 @@ class AnglesTab(QWidget):
         self.plot = plots.make_plot("time (s)", "angle (°, ISB)")
         item = self.plot.getPlotItem()
         self.curves = plots.joint_curves(item)
+        # the camera's angles (rehab pose), beside the solver's: lighter, dotted
+        self.camera_curves = [
+            plots.curve(item, theme.SKY_BLUE, dashed=True, name="shoulder, camera", gaps=True),
+            plots.curve(item, theme.VERMILLION, dashed=True, name="elbow, camera",
+                        gaps=True),
+        ]
         self.cursor_line = plots.cursor_line(item)
         self.rom = [plots.BigNumber(f"{joint.capitalize()} range of motion", "°")
                     for joint in JOINTS]
@@ -32,7 +40,10 @@ class AnglesTab(QWidget):
             "3.37–3.38). The elbow angle is 0° with the arm straight and grows as it bends."),
             "caption")
         note.setWordWrap(True)
-        plots.plot_with_panel(self, self.plot, self.rom, (note,))
+        self.camera_note = theme.set_role(QLabel(NO_POSE), "caption")
+        self.camera_note.setWordWrap(True)
+        self.camera_note.setAccessibleName("Camera against the solver")
+        plots.plot_with_panel(self, self.plot, self.rom, (note, self.camera_note))
 
     def show_view(self, view: TrialView) -> None:
         state = (id(view), view.n)
@@ -50,6 +61,18 @@ class AnglesTab(QWidget):
         for j, number in enumerate(self.rom):
             number.set_value(high[j] - low[j], f"from {format_number(low[j])}° to "
                                                f"{format_number(high[j])}°")
+        pose = view.pose
+        if pose is None:
+            for line in self.camera_curves:
+                line.setData([], [])
+            self.camera_note.setText(NO_POSE)
+        else:
+            keep = (pose.time_s >= t[0]) & (pose.time_s <= t[-1]) if t.size else pose.time_s < 0
+            camera = np.degrees(pose.angle_isb_rad[keep])
+            for j, line in enumerate(self.camera_curves):
+                # gaps stay gaps: pyqtgraph breaks the line at NaN
+                line.setData(pose.time_s[keep], camera[:, j])
+            self.camera_note.setText(pose.comparison_text())
         plots.place_cursor(self.cursor_line, view.cursor)
 
     def set_cursor(self, t: float | None) -> None:

@@ -20,12 +20,14 @@ from PySide6.QtWidgets import (
     QLabel,
     QListWidget,
     QListWidgetItem,
+    QProgressBar,
     QPushButton,
     QSlider,
     QVBoxLayout,
     QWidget,
 )
 
+from app.pose.replay import ReplayVideo
 from app.records.store import RecordStore
 from app.trials.reader import read_trial
 from ui import plots, theme
@@ -36,10 +38,22 @@ PLAY_INTERVAL_MS = 40
 SPEEDS = (0.25, 0.5, 1.0, 2.0, 4.0)
 
 
+def pose_then_view(path: Path, progress) -> TrialView:
+    """Pose estimation of a trial's video into its file (app.pose.offline, MediaPipe), then
+    the trial read again with it (runs off the GUI thread)."""
+    from app.pose.offline import estimate_pose
+    from device.camera.detector import MediaPipePose
+
+    estimate_pose(path, lambda side: MediaPipePose(side, video=True), progress=progress)
+    return load_view(path)
+
+
 def load_view(path: Path) -> TrialView:
-    """Read a trial file into a finished view (runs off the GUI thread)."""
+    """Read a trial file into a finished view, with its video when one was recorded (runs
+    off the GUI thread)."""
     data = read_trial(path)
     view = TrialView.from_trial(data)
+    view.video = ReplayVideo.open(data)  # its video, to follow the slider (None without)
     code = data.subject.code if data.subject is not None else "unknown patient"
     view.title = f"{code} · {path.name}"
     return view
@@ -110,6 +124,32 @@ class ReplayTab(QWidget):
         right.addWidget(theme.set_role(QLabel(
             "Move the slider, or press Play: every tab shows the trial at that moment."),
             "caption"))
+        self.pose_button = QPushButton("Joint angles from the video")
+        self.pose_button.setToolTip("Pose estimation of this trial's video (MediaPipe): the "
+                                    "camera's angles beside the solver's on the Joint angles "
+                                    "tab, and the shoulder's drift")
+        self.pose_button.setEnabled(False)
+        self.pose_button.clicked.connect(self.run_pose)
+        self.pose_progress = QProgressBar()
+        self.pose_progress.setRange(0, 100)
+        self.pose_progress.setAccessibleName("Pose estimation progress")
+        self.pose_progress.hide()
+        self.pose_status = theme.set_role(QLabel(""), "caption")
+        self.pose_status.setWordWrap(True)
+        pose_row = QHBoxLayout()
+        pose_row.addWidget(self.pose_button)
+        pose_row.addWidget(self.pose_progress, 1)
+        right.addLayout(pose_row)
+        right.addWidget(self.pose_status)
+        self.pose_job = plots.Background(self)
+        self.pose_job.done.connect(self._pose_done)
+        self.pose_job.failed.connect(self._pose_failed)
+        self._pose_fraction = 0.0
+        self._loading_after_pose: Path | None = None
+        self.pose_timer = QTimer(self)
+        self.pose_timer.setInterval(100)
+        self.pose_timer.timeout.connect(
+            lambda: self.pose_progress.setValue(round(100 * self._pose_fraction)))
         right.addSpacing(12)
         moment = QGroupBox("At this moment")
         form = QFormLayout(moment)
@@ -195,7 +235,50 @@ class ReplayTab(QWidget):
         self.play.setEnabled(view.n > 1)
         view.cursor = float(view.time[0]) if view.n else None
         self._show_time()
+        has_video = view.video is not None and view.finished and view.source is not None
+        self.pose_button.setEnabled(has_video and not self.pose_job.busy)
+        if not has_video:
+            self.pose_status.setText("No video was recorded with this trial.")
+        elif self._loading_after_pose is not path:
+            self.pose_status.setText("")
         self.view_loaded.emit(view)
+
+    # -- pose estimation of the trial's video ------------------------------------------
+    def run_pose(self) -> None:
+        """Run pose estimation on the open trial's video off the GUI thread, with progress;
+        the trial is shown again with the camera's angles when it is done."""
+        view = self._view
+        if view is None or view.source is None or self.pose_job.busy:
+            return
+        self._pose_fraction = 0.0
+        self.pose_progress.setValue(0)
+        self.pose_progress.show()
+        self.pose_button.setEnabled(False)
+        self.pose_status.setText(f"Finding the arm in {view.video.name}…")
+        self.pose_timer.start()
+
+        def progress(fraction: float) -> None:
+            self._pose_fraction = fraction  # read by the GUI thread's timer
+
+        self.pose_job.submit(view.source, pose_then_view, view.source, progress)
+
+    def _pose_done(self, path, view: TrialView) -> None:
+        self.pose_timer.stop()
+        self.pose_progress.hide()
+        pose = view.pose
+        self.pose_status.setText(
+            "Done: the camera's angles are on the Joint angles tab." if pose is not None
+            else "Done.")
+        self._loading = path
+        self._loading_after_pose = path
+        self._loaded(path, view)
+        self._loading_after_pose = None
+
+    def _pose_failed(self, path, message: str) -> None:
+        self.pose_timer.stop()
+        self.pose_progress.hide()
+        self.pose_button.setEnabled(self._view is not None and self._view.video is not None)
+        self.pose_status.setText(f"{theme.PROBLEM_SIGN} {message}")
 
     def _failed(self, path, message: str) -> None:
         if path != self._loading:

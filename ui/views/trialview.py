@@ -23,11 +23,14 @@ from pathlib import Path
 
 import numpy as np
 
+from app.errors import AppError
+from app.pose.store import read_pose
 from app.trials.reader import TrialData
 from core.metrics import DEFAULT_TOLERANCE_RAD, rmse_xy
 from core.trial import TrialParameters
 from device.loop.pipeline import PERIOD_S, PHASE_EXERCISE
 from device.recording.record import RECORD_DTYPE
+from ui.views.pose import PoseView
 
 # The channels the tabs draw; the rest stay in the trial file.
 VIEW_CHANNELS = (
@@ -79,6 +82,8 @@ class TrialView:
         self.metrics: dict[str, float] | None = None  # the analysis, once the trial is over
         self.finished = False
         self.source: Path | None = None  # the file a replayed trial came from
+        self.pose: PoseView | None = None  # the camera's angles, when `rehab pose` ran
+        self.video = None  # a replayed trial's video (app.pose.replay.ReplayVideo), if any
         self.title = ""
         self._cursor: float | None = None
         self._n = 0
@@ -131,6 +136,10 @@ class TrialView:
         view.metrics = dict(data.metrics) or None
         view.finished = data.closed
         view.source = data.path
+        try:
+            view.pose = PoseView.from_group(read_pose(data.path), data.time)
+        except AppError:
+            view.pose = None  # a damaged pose group must not stop the replay of the trial
         return view
 
     def append(self, records: np.ndarray) -> None:

@@ -1,0 +1,212 @@
+"""Pose estimation of a recorded trial, after it (Appendix A.5.1): its video through the
+detector frame by frame, the geometry of core.pose, and the result into the trial file's
+`/pose` group.
+
+Everything that can make a video unusable is checked before the trial file is opened for
+writing, and said in one line (VideoError); a failed run leaves the file as it was.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from app.pose.store import PoseRun, write_pose
+from app.trials.reader import TrialData, read_trial
+from core.pose.angles import DEFAULT_DRIFT_LIMIT_M
+from core.pose.compare import JointError, ReferenceAngles, joint_errors, read_reference_csv
+from core.pose.homography import DEFAULT_MAX_RESIDUAL_MM, Homography, fit_from_points
+from core.pose.keypoints import DEFAULT_MIN_VISIBILITY
+from core.pose.pipeline import PoseResult, pose_from_keypoints
+from core.pose.timebase import covered_span, frame_times, resample
+from device.camera.detector import MEDIAPIPE_VERSION, PoseDetector
+from device.camera.video import VideoInfo, frames, open_video
+from device.errors import VideoError
+
+Progress = Callable[[float], None]
+VIDEO_SUFFIXES = (".mp4", ".avi")
+# The video may start or end this much inside the trial (the camera starts recording
+# when the trial begins, a frame or two late); more is a video shorter than the trial.
+COVERAGE_SLACK_S = 1.0
+# Smaller pictures than this hold too few pixels per arm for the detector.
+MIN_FRAME_SIZE = (160, 120)
+ORIGIN_KEY = "wall_time_origin_monotonic_s"
+
+
+@dataclass(frozen=True, slots=True)
+class OfflinePose:
+    """The result of `estimate_pose`: the pipeline's result, the video used, and against a
+    reference when one was given."""
+
+    trial: TrialData
+    video: VideoInfo
+    result: PoseResult
+    reference_errors: dict[str, tuple[JointError, JointError]] | None
+
+
+def default_video(trial_path: Path) -> Path:
+    """The video the console records beside a trial: trial.mp4 (or .avi)."""
+    for suffix in VIDEO_SUFFIXES:
+        candidate = trial_path.with_suffix(suffix)
+        if candidate.is_file():
+            return candidate
+    return trial_path.with_suffix(VIDEO_SUFFIXES[0])
+
+
+def read_marks(path: str | os.PathLike) -> Homography:
+    """Four or more marked points as CSV `u_px,v_px,x_m,y_m` (the picture's pixels and the
+    mark's measured position in the global frame) -> the camera map."""
+    path = Path(path)
+    try:
+        with path.open(newline="", encoding="utf-8") as f:
+            rows = [r for r in csv.reader(f) if r and any(c.strip() for c in r)]
+    except (OSError, UnicodeDecodeError) as exc:
+        raise VideoError(f"marked points {path} cannot be read ({exc})") from exc
+    if not rows or [c.strip() for c in rows[0]] != ["u_px", "v_px", "x_m", "y_m"]:
+        raise VideoError(f"marked points {path}: the first line must be u_px,v_px,x_m,y_m")
+    try:
+        values = np.array([[float(c) for c in r] for r in rows[1:]], dtype=float)
+    except ValueError:
+        raise VideoError(f"marked points {path}: every row must be four numbers") from None
+    if values.ndim != 2 or values.shape[1] != 4:
+        raise VideoError(f"marked points {path}: every row must be four numbers")
+    return fit_from_points(values[:, :2], values[:, 2:])
+
+
+def estimate_pose(
+    trial_path: str | os.PathLike,
+    detector: PoseDetector | Callable[[str], PoseDetector],
+    *,
+    video_path: str | os.PathLike | None = None,
+    homography: Homography | None = None,
+    reference: ReferenceAngles | str | os.PathLike | None = None,
+    video_start_s: float | None = None,
+    min_visibility: float = DEFAULT_MIN_VISIBILITY,
+    max_residual_mm: float = DEFAULT_MAX_RESIDUAL_MM,
+    drift_limit_m: float = DEFAULT_DRIFT_LIMIT_M,
+    model_name: str = f"MediaPipe Pose {MEDIAPIPE_VERSION}, full model (complexity 1)",
+    progress: Progress | None = None,
+    write: bool = True,
+) -> OfflinePose:
+    """Run pose estimation on a closed trial and its video; write `/pose` when `write`.
+
+    `detector`: a PoseDetector, or a function of the arm's side that makes one (made only
+    once the video and the trial have been checked). `video_start_s`: the trial time of
+    the video's first frame, for a trial file without the loop's wall-time origin."""
+    trial_path = Path(trial_path)
+    trial = read_trial(trial_path)
+    _check_trial(trial)
+    video = open_video(video_path if video_path is not None else default_video(trial_path))
+    if video.width < MIN_FRAME_SIZE[0] or video.height < MIN_FRAME_SIZE[1]:
+        raise VideoError(f"video {video.path} is {video.width}×{video.height} px; pose "
+                         f"estimation needs at least {MIN_FRAME_SIZE[0]}×{MIN_FRAME_SIZE[1]}")
+    stamps_t = _frame_trial_times(trial, video, video_start_s)
+    _check_coverage(trial, video, stamps_t)
+    if isinstance(reference, str | os.PathLike):
+        reference = read_reference_csv(reference)
+    if isinstance(detector, type) or not hasattr(detector, "detect"):
+        detector = detector(trial.parameters.side)  # a factory, or the detector's class
+    index, px, vis = _detect(video, detector, progress)
+    keep = index < stamps_t.size
+    index, px, vis = index[keep], px[keep], vis[keep]
+    c = trial.channels
+    result = pose_from_keypoints(
+        trial.parameters.arm(), c["time"], c["position"], c["subject_angle"],
+        stamps_t[index], px, vis, homography=homography, min_visibility=min_visibility,
+        max_residual_mm=max_residual_mm, drift_limit_m=drift_limit_m)
+    reference_errors = None
+    if reference is not None:
+        reference_errors = _against_reference(trial, result, reference, stamps_t)
+    if write:
+        write_pose(trial_path, result, PoseRun(video.path.name, model_name, min_visibility,
+                                               max_residual_mm, drift_limit_m, index, px, vis))
+    return OfflinePose(trial, video, result, reference_errors)
+
+
+def _check_trial(trial: TrialData) -> None:
+    if not trial.closed:
+        raise VideoError(f"trial {trial.path} is still being recorded (or was left open by a "
+                         "crash and not finished yet); run pose estimation after it ends")
+    if trial.parameters is None:
+        raise VideoError(f"trial {trial.path} has no readable parameters, so the subject's "
+                         "arm is unknown")
+    missing = [n for n in ("time", "wall_time", "position", "subject_angle")
+               if n not in trial.channels]
+    if missing:
+        raise VideoError(f"trial {trial.path} lacks the channel {missing[0]}")
+    if trial.n_samples < 2:
+        raise VideoError(f"trial {trial.path} holds {trial.n_samples} samples; nothing to "
+                         "compare the video with")
+
+
+def _frame_trial_times(trial: TrialData, video: VideoInfo, video_start_s) -> np.ndarray:
+    c = trial.channels
+    if video_start_s is not None:
+        start = float(video_start_s)
+        if not math.isfinite(start):
+            raise VideoError(f"the video's start time {video_start_s!r} is not a number")
+        return start + (video.stamps_s - video.stamps_s[0])
+    origin = trial.summary.get(ORIGIN_KEY)
+    if origin is None or not math.isfinite(float(origin)):
+        raise VideoError(
+            f"trial {trial.path} does not record when its clock started on the camera's "
+            "clock (a simulated run, or an older console); give the trial time of the "
+            "video's first frame (--video-start-s)")
+    return frame_times(video.stamps_s, float(origin), c["wall_time"], c["time"])
+
+
+def _check_coverage(trial: TrialData, video: VideoInfo, stamps_t: np.ndarray) -> None:
+    t = trial.channels["time"]
+    late, early = covered_span(stamps_t, t)
+    if late > COVERAGE_SLACK_S or early > COVERAGE_SLACK_S:
+        raise VideoError(
+            f"video {video.path.name} covers the trial from {stamps_t[0]:.1f} s to "
+            f"{stamps_t[-1]:.1f} s, but the trial runs from {t[0]:.1f} s to {t[-1]:.1f} s: "
+            "the video is shorter than the trial (or belongs to another trial)")
+
+
+def _detect(video: VideoInfo, detector: PoseDetector, progress: Progress | None):
+    index, px, vis = [], [], []
+    total = max(video.frames, 1)
+    try:
+        for i, image in frames(video):
+            k = detector.detect(image)
+            index.append(i)
+            px.append(k.xy_px)
+            vis.append(k.visibility)
+            if progress is not None:
+                progress(min(1.0, (i + 1) / total))
+    finally:
+        detector.close()
+    if len(index) < 2:
+        raise VideoError(f"video {video.path} decodes to {len(index)} frame(s); the file is "
+                         "damaged or the recording was cut short")
+    if len(index) < video.frames - 1:
+        raise VideoError(f"video {video.path} stops decoding at frame {len(index)} of "
+                         f"{video.frames}: the file is damaged (cut short while recorded?)")
+    return np.array(index), np.array(px, dtype=float), np.array(vis, dtype=float)
+
+
+def _against_reference(trial, result: PoseResult, reference: ReferenceAngles, stamps_t):
+    """Camera and solver against reference ISB angles, at the reference's instants."""
+    c = trial.channels
+    if reference.frame is not None:
+        if reference.frame.max() >= stamps_t.size:
+            raise VideoError(f"the reference names frame {int(reference.frame.max())}, but the "
+                             f"video has {stamps_t.size} frames")
+        at = stamps_t[reference.frame]
+    else:
+        at = reference.time_s
+    arm = trial.parameters.arm()
+    solver = arm.isb_angles(resample(c["time"], c["subject_angle"], at, angles=True,
+                                     max_gap_s=10 * trial.sample_period_s))
+    camera = resample(c["time"], result.angle_isb, at, angles=True,
+                      max_gap_s=10 * trial.sample_period_s)
+    return {"solver": joint_errors(reference.isb_rad, solver),
+            "camera": joint_errors(reference.isb_rad, camera)}

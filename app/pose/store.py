@@ -1,0 +1,174 @@
+"""The `/pose` group of a trial file: what the camera saw of the trial, written after it
+(docs/data-format.md, "/pose"). Replaced whole when pose estimation runs again; the rest
+of the file is never touched, so a trial file is as readable after a failed or repeated
+run as before it.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from app.errors import TrialFileError
+from core.pose.keypoints import KEYPOINT_NAMES
+from core.pose.pipeline import PoseResult
+from device.errors import RecordingError
+from device.recording.trialfile import LIBVER, STATUS_RECORDING, utc_now_iso
+
+GROUP = "pose"
+# dataset: (units, frame, description)
+DATASETS = {
+    "frame_time": ("s", "none", "each video frame's time on the trial's clock "
+                   "(as /timeseries/time)"),
+    "frame_index": ("1", "none", "the frame's position in the video file, 0-based"),
+    "frame_keypoints_px": ("px", "image", "detected keypoints (shoulder, elbow, wrist, other "
+                           "shoulder) in pixels, x right, y down; NaN where not visible"),
+    "frame_visibility": ("1", "none", "the detector's visibility of each keypoint, 0-1"),
+    "frame_keypoints": ("m", "global", "the same keypoints in the table plane; NaN in gaps"),
+    "angle": ("rad", "arm", "camera's subject joint angles at each sample (eq. 3.16 "
+              "convention); NaN in gaps"),
+    "angle_isb": ("rad", "isb", "camera's subject joint angles for display (eq. 3.37-3.38)"),
+    "shoulder": ("m", "global", "camera's shoulder position at each sample; NaN in gaps"),
+    "shoulder_drift": ("m", "none", "distance of the camera's shoulder from its start position"),
+    "solver_angle_camera_shoulder": ("rad", "arm", "the equation solver (eq. 3.28) rerun with "
+                                     "the camera's shoulder instead of the fixed one"),
+    "homography": ("1", "none", "3x3 map from pixels [u, v, 1] to the table plane [x, y, 1] "
+                   "in m, up to scale"),
+}
+
+
+@dataclass(frozen=True, slots=True)
+class PoseRun:
+    """How the pose was obtained, kept beside it: the video file, the model, the settings."""
+
+    video: str
+    model: str
+    min_visibility: float
+    max_residual_mm: float
+    drift_limit_m: float
+    frame_index: np.ndarray
+    keypoints_px: np.ndarray
+    visibility: np.ndarray
+
+
+def write_pose(path: str | os.PathLike, result: PoseResult, run: PoseRun) -> None:
+    """Replace the trial file's `/pose` group with `result`. Refuses a file still being
+    recorded."""
+    path = Path(path)
+    values = {
+        "frame_time": result.frame_time_s,
+        "frame_index": np.asarray(run.frame_index, dtype=np.int64),
+        "frame_keypoints_px": np.asarray(run.keypoints_px, dtype=float),
+        "frame_visibility": np.asarray(run.visibility, dtype=float),
+        "frame_keypoints": result.keypoints_m,
+        "angle": result.angle,
+        "angle_isb": result.angle_isb,
+        "shoulder": result.shoulder_m,
+        "shoulder_drift": result.drift.drift_m,
+        "solver_angle_camera_shoulder": result.solver_angle_camera_shoulder,
+        "homography": result.homography.matrix,
+    }
+    attrs = {
+        "created_utc": utc_now_iso(),
+        "video": run.video,
+        "model": run.model,
+        "keypoints": json.dumps(list(KEYPOINT_NAMES)),
+        "min_visibility": float(run.min_visibility),
+        "frames": int(result.frames),
+        "frames_seen": int(result.frames_seen),
+        "fit_method": result.homography.method,
+        "fit_exact": np.uint8(result.homography.exact),
+        "fit_residual_mm": float(result.homography.residual_mm),
+        "fit_max_residual_mm": float(result.homography.max_residual_mm),
+        "fit_limit_mm": float(run.max_residual_mm),
+        "fit_inliers": int(result.homography.n_inliers),
+        "shoulder_start_m": np.asarray(result.drift.start_m, dtype=float),
+        "shoulder_max_drift_m": result.drift.max_drift_m,
+        "shoulder_rms_drift_m": result.drift.rms_drift_m,
+        "shoulder_offset_m": result.drift.offset_m,
+        "shoulder_drift_limit_m": float(run.drift_limit_m),
+        "shoulder_drift_exceeded": np.uint8(result.drift.exceeded),
+        "shoulder_time_over_limit_s": result.drift.time_over_s,
+    }
+    for joint in result.errors:
+        attrs.update(joint.to_dict("camera_vs_solver_"))
+    for joint in result.errors_camera_shoulder:
+        attrs.update(joint.to_dict("camera_vs_solver_camera_shoulder_"))
+    try:
+        with h5py.File(path, "r+", libver=LIBVER, locking=False) as f:
+            if f.attrs.get("status") == STATUS_RECORDING:
+                raise RecordingError(f"{path} is still being recorded; run pose estimation "
+                                     "after the trial has ended")
+            if GROUP in f:
+                del f[GROUP]
+            group = f.create_group(GROUP)
+            for key, value in attrs.items():
+                group.attrs[key] = value
+            for name, value in values.items():
+                units, frame, description = DATASETS[name]
+                data = np.ascontiguousarray(value)
+                ds = group.create_dataset(name, data=data, fletcher32=True,
+                                          chunks=data.shape if data.size else None)
+                ds.attrs["units"] = units
+                ds.attrs["frame"] = frame
+                ds.attrs["description"] = description
+    except (OSError, RuntimeError, ValueError) as exc:
+        raise RecordingError(f"cannot store the pose in {path}: {exc}. Check the disk has "
+                             "space and the file is not open in another program") from exc
+
+
+def read_pose(path: str | os.PathLike) -> dict | None:
+    """The `/pose` group as {"attrs": {...}, name: array, ...}, or None when the trial has
+    none."""
+    path = Path(path)
+    try:
+        with h5py.File(path, "r", locking=False) as f:
+            if GROUP not in f:
+                return None
+            group = f[GROUP]
+            out = {"attrs": {k: _plain(v) for k, v in group.attrs.items()}}
+            for name in group:
+                out[name] = group[name][()]
+            return out
+    except (OSError, RuntimeError, ValueError, KeyError) as exc:
+        raise TrialFileError(path, f"its pose group cannot be read ({exc})",
+                             "Run `rehab pose` on the trial again") from exc
+
+
+def _plain(value):
+    if isinstance(value, bytes):
+        return value.decode()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def comparison_lines(group: dict | None) -> list[str]:
+    """The camera against the solver in words for a report (degrees and centimetres):
+    one line per joint, as Table 3.4, and one for the shoulder; [] without a pose."""
+    if not group:
+        return []
+    a = group["attrs"]
+    lines = []
+    for joint in ("shoulder", "elbow"):
+        rmse = a.get(f"camera_vs_solver_{joint}_rmse_rad", float("nan"))
+        bias = a.get(f"camera_vs_solver_{joint}_bias_rad", float("nan"))
+        lines.append(f"camera vs equation solver, {joint} (ISB): {math.degrees(rmse):.2f}° "
+                     f"RMSE, {math.degrees(bias):+.2f}° bias (video {a.get('video', '?')}, "
+                     "thesis Table 3.4's comparison)")
+    drift = a.get("shoulder_max_drift_m", float("nan"))
+    limit = a.get("shoulder_drift_limit_m", float("nan"))
+    text = f"camera: the shoulder moved up to {100 * drift:.1f} cm during the trial"
+    if a.get("shoulder_drift_exceeded"):
+        text += (f", more than the {100 * limit:.1f} cm allowed: the solver's angles assume "
+                 "it still")
+    lines.append(text)
+    return lines

@@ -1,0 +1,69 @@
+"""Live pose on a running camera source: the real model on the astronaut photograph
+played as a camera, keypoints published per frame, the rate, a clean stop, and a detector
+that cannot start said in one line."""
+
+from __future__ import annotations
+
+import time
+
+import cv2
+import numpy as np
+import pytest
+from skimage import data
+
+from core.pose.keypoints import OTHER_SHOULDER, SHOULDER
+from device.camera.capture import CameraSource
+from device.camera.detector import MediaPipePose
+from device.camera.live import LivePose
+from device.errors import PoseModelError
+
+
+@pytest.fixture
+def astronaut_clip(tmp_path):
+    path = tmp_path / "astronaut.avi"
+    image = np.ascontiguousarray(data.astronaut()[:, :, ::-1])
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"MJPG"), 30.0, (512, 512))
+    for _ in range(300):  # 10 s at 30 fps: time for the model to start on a busy machine
+        writer.write(image)
+    writer.release()
+    return path
+
+
+def wait_for(condition, timeout_s=30.0):
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        assert time.monotonic() < deadline, "timed out"
+        time.sleep(0.01)
+
+
+def test_keypoints_of_the_live_frames_are_published(astronaut_clip):
+    camera = CameraSource(astronaut_clip).start()
+    live = LivePose(camera, lambda: MediaPipePose("right", video=True)).start()
+    try:
+        wait_for(lambda: live.latest() is not None and live.latest().frame_index >= 5)
+        result = live.latest()
+        assert np.allclose(result.keypoints.xy_px[SHOULDER], [113, 240], atol=12)
+        assert np.allclose(result.keypoints.xy_px[OTHER_SHOULDER], [306, 257], atol=12)
+        assert result.time_s <= time.monotonic()
+        wait_for(lambda: live.rate_fps > 0)
+    finally:
+        live.stop()
+        camera.stop()
+    assert not live.running
+    assert live.error is None
+
+
+def test_a_detector_that_cannot_start_is_said_in_one_line(astronaut_clip):
+    camera = CameraSource(astronaut_clip).start()
+
+    def refused():
+        raise PoseModelError("model_complexity=2 (heavy model) is not bundled")
+
+    live = LivePose(camera, refused).start()
+    try:
+        wait_for(lambda: not live.running)
+    finally:
+        live.stop()
+        camera.stop()
+    assert live.error == "live pose cannot start: model_complexity=2 (heavy model) is not bundled"
+    assert live.latest() is None
