@@ -55,7 +55,8 @@ def add_learn_commands(commands) -> None:
     train.add_argument("--folds", type=_whole, default=5,
                        help="k of k-fold cross-validation (default 5; 1: one validation "
                             "split of 20 %% of the cycles)")
-    train.add_argument("--batch-size", type=_whole, default=512, help="default 512")
+    train.add_argument("--batch-size", type=_whole,
+                       help="samples a step (default 512; rnn: 16 sequences)")
     train.add_argument("--learning-rate", type=_positive,
                        help="Adam's first step size, decayed to 1e-4 along a cosine "
                             "(default fnn and rnn 3e-3, delan 1e-2)")

@@ -24,6 +24,7 @@ from core.learning import jaxmodels as jm, networks as nw
 
 DEFAULT_HIDDEN = {"fnn": [24, 24], "rnn": [12], "delan": [16, 16]}
 DEFAULT_LEARNING_RATE = {"fnn": 3e-3, "rnn": 3e-3, "delan": 1e-2}
+DEFAULT_BATCH = {"fnn": 512, "rnn": 16, "delan": 512}  # samples; the GRU's: sequences
 
 
 @dataclass(frozen=True)
@@ -34,7 +35,7 @@ class TrainingOptions:
     hidden: tuple[int, ...] = ()
     dissipation_hidden: tuple[int, ...] = (8,)
     epochs: int = 100
-    batch_size: int = 512
+    batch_size: int | None = None      # default: DEFAULT_BATCH
     learning_rate: float | None = None  # Adam's first step (default: DEFAULT_LEARNING_RATE)
     final_learning_rate: float = 1e-4  # cosine decay over the epochs
     patience: int = 20                 # epochs without a better validation error
@@ -56,6 +57,7 @@ class TrainingOptions:
         out["dissipation_hidden"] = list(self.dissipation_hidden)
         out["cyclic"] = list(self.cyclic)
         out["learning_rate"] = self.first_learning_rate()
+        out["batch_size"] = self.batch_size or DEFAULT_BATCH[self.kind]
         return out
 
     def first_learning_rate(self) -> float:
@@ -165,51 +167,62 @@ def train(q, qd, qdd, tau, cycle, options: TrainingOptions,
         mask = batch["mask"][..., None]
         return jnp.sum(error * mask, axis=tuple(range(error.ndim - 1))), jnp.sum(mask)
 
+    sets = []
+    for validation_cycles in groups:
+        is_validation = np.isin(cycle, validation_cycles)
+        sets.append((_batches(spec, *(a[~is_validation] for a in (q, qd, qdd, tau, cycle)),
+                              options.window),
+                     _batches(spec, *(a[is_validation] for a in (q, qd, qdd, tau, cycle)),
+                              options.window)))
+    # one batch shape, one step count and one optimiser for every fold: compiled once
+    smallest = min(len(train_set["y"]) for train_set, _ in sets)
+    batch_size = min(options.batch_size or DEFAULT_BATCH[options.kind], smallest)
+    steps = smallest // batch_size
+    rate = options.first_learning_rate()
+    schedule = optax.cosine_decay_schedule(
+        rate, options.epochs * steps, alpha=min(1.0, options.final_learning_rate / rate))
+    optimiser = optax.adam(schedule)
+
+    @jax.jit
+    def step(params, state, batch):
+        loss, grads = jax.value_and_grad(loss_fn)(params, batch)
+        updates, state = optimiser.update(grads, state, params)
+        return optax.apply_updates(params, updates), state, loss
+
     squared_error = jax.jit(squared_error)
+
+    def validation_error(params, val_set):
+        """Squared error per force over the validation set, in batches of the training's
+        shape (the last one padded and masked), and the sample count."""
+        total, samples = 0.0, 0.0
+        for a in range(0, len(val_set["y"]), batch_size):
+            chunk = {k: v[a:a + batch_size] for k, v in val_set.items()}
+            pad = batch_size - len(chunk["y"])
+            if pad:
+                chunk = {k: np.concatenate([v, np.zeros((pad, *v.shape[1:]))])
+                         for k, v in chunk.items()}
+            sse, count = squared_error(params, chunk)
+            total, samples = total + np.asarray(sse), samples + float(count)
+        return total, samples
+
     folds, start_time = [], time.perf_counter()
     total_epochs = options.epochs * len(groups)
-    for index, validation_cycles in enumerate(groups):
-        is_validation = np.isin(cycle, validation_cycles)
-        train_set = _batches(spec, *(a[~is_validation] for a in (q, qd, qdd, tau, cycle)),
-                             options.window)
-        val_set = _batches(spec, *(a[is_validation] for a in (q, qd, qdd, tau, cycle)),
-                           options.window)
-        count = len(train_set["y"])
-        batch_size = min(options.batch_size, count)
-        steps = count // batch_size
-        rate = options.first_learning_rate()
-        schedule = optax.cosine_decay_schedule(
-            rate, options.epochs * steps, alpha=min(1.0, options.final_learning_rate / rate))
-        optimiser = optax.adam(schedule)
+    output_var = np.asarray(spec["output_std"]) ** 2
+    for index, (validation_cycles, (train_set, val_set)) in enumerate(
+            zip(groups, sets, strict=True)):
         params = {k: jnp.asarray(v) for k, v in
                   nw.init_params(spec, options.seed * 1000 + index).items()}
         state = optimiser.init(params)
-        train_device = {k: jnp.asarray(v) for k, v in train_set.items()}
-
-        @jax.jit
-        def epoch(params, state, key, data=train_device, steps=steps, size=batch_size,
-                  optimiser=optimiser):
-            order = jax.random.permutation(key, len(data["y"]))[: steps * size]
-            order = order.reshape(steps, size)
-
-            def step(carry, rows):
-                p, s = carry
-                batch = {k: v[rows] for k, v in data.items()}
-                loss, grads = jax.value_and_grad(loss_fn)(p, batch)
-                updates, s = optimiser.update(grads, s, p)
-                return (optax.apply_updates(p, updates), s), loss
-
-            (params, state), losses = jax.lax.scan(step, (params, state), order)
-            return params, state, jnp.mean(losses)
-
-        key = jax.random.PRNGKey(options.seed * 1000 + index)
+        order_rng = np.random.default_rng(options.seed * 1000 + index)
+        count = len(train_set["y"])
         best, best_params, best_epoch, epochs_run = np.inf, params, 0, 0
         for e in range(options.epochs):
-            key, sub = jax.random.split(key)
-            params, state, _ = epoch(params, state, sub)
-            sse, samples = squared_error(params, val_set)
-            val = float(np.sum(np.asarray(sse) / np.asarray(spec["output_std"]) ** 2)
-                        / float(samples) / spec["dof"])
+            order = order_rng.permutation(count)[: steps * batch_size].reshape(steps, -1)
+            for rows in order:
+                params, state, _ = step(params, state, {k: v[rows] for k, v in
+                                                        train_set.items()})
+            sse, samples = validation_error(params, val_set)
+            val = float(np.sum(sse / output_var) / samples / spec["dof"])
             epochs_run = e + 1
             if val < best:
                 best, best_params, best_epoch = val, params, e + 1
@@ -217,8 +230,8 @@ def train(q, qd, qdd, tau, cycle, options: TrainingOptions,
                 progress((index * options.epochs + e + 1) / total_epochs)
             if e + 1 - best_epoch >= options.patience:
                 break
-        sse, samples = squared_error(best_params, val_set)
-        rmse = np.sqrt(np.asarray(sse) / float(samples))
+        sse, samples = validation_error(best_params, val_set)
+        rmse = np.sqrt(sse / samples)
         folds.append({"fold": index, "validation_cycles": len(validation_cycles),
                       "best_epoch": best_epoch, "epochs_run": epochs_run,
                       "validation_loss": best, "validation_rmse": rmse.tolist(),
