@@ -69,7 +69,9 @@ def add_learn_commands(commands) -> None:
                             "models' positions (default: those the file names; none: give "
                             "the option alone)")
     train.add_argument("--mass-scale", type=_positive, default=3.0,
-                       help="DeLaN: unit of its Cholesky factor (default 3)")
+                       help="DeLaN: unit of its Cholesky factor, of the order of √ of the "
+                            "mass matrix's entries (default 3, for the pendulum; 0.5 for "
+                            "the robot)")
     train.add_argument("--name", help="the model's name (default: the output file's stem)")
     train.set_defaults(func=cmd_train)
 

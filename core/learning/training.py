@@ -46,7 +46,9 @@ class TrainingOptions:
     coulomb_speed_fraction: float = 0.01
     cyclic: tuple[int, ...] = ()       # coordinates the dynamics does not depend on
     activation: str = "tanh"           # the DeLaN's hidden layers (tanh or softplus)
-    mass_scale: float = 3.0            # the DeLaN's Cholesky factor's unit, √(kg) or √(kg·m²)
+    # the DeLaN's Cholesky factor's unit, of the order of √ of the mass matrix's entries:
+    # 3 for the pendulum (11 kg, 3.3 kg·m²), 0.5 for the robot (0.1–0.2 kg·m²)
+    mass_scale: float = 3.0
     def __post_init__(self) -> None:
         if self.kind not in nw.KINDS:
             raise ValueError(f"unknown model {self.kind!r}; one of {', '.join(nw.KINDS)}")

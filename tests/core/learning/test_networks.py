@@ -113,3 +113,21 @@ def test_default_sizes_are_those_of_table_2_1():
 def test_unknown_kind_refused():
     with pytest.raises(ValueError, match="unknown model kind 'svm'"):
         nw.param_shapes({"kind": "svm", "dof": 2, "hidden": [3], "position_inputs": [0, 1]})
+
+
+@pytest.mark.parametrize(("kind", "activation"), [("fnn", "tanh"), ("rnn", "tanh"),
+                                                  ("delan", "tanh"), ("delan", "softplus")])
+def test_tick_model_equals_batch_inference(kind, activation):
+    """What the loop would call, one sample at a time, gives the batch inference's forces."""
+    from core.learning.tick import TickModel
+
+    spec = spec_for(kind, 2, hidden=(7,) if kind == "rnn" else (6, 5), activation=activation,
+                    cyclic=(0,))
+    params = random_params(spec, 8)
+    q, qd, qdd = samples(2, 30, 9)
+    batch = inference.predict(spec, params, q, qd, qdd)
+    tick = TickModel(spec, params)
+    ticks = np.array([tick.forces(q[i], qd[i], qdd[i]) for i in range(30)])
+    np.testing.assert_allclose(ticks, batch, rtol=1e-12, atol=1e-12)
+    tick.reset()
+    np.testing.assert_allclose(tick.forces(q[0], qd[0], qdd[0]), batch[0], rtol=1e-12)
