@@ -39,6 +39,22 @@ def add_learn_commands(commands) -> None:
                                "with the thesis's speeds)")
     pendulum.set_defaults(func=cmd_pendulum)
 
+    robot = actions.add_parser(
+        "robot-data", help="recorded trials as robot dynamics data (thesis section 4.3)",
+        description="Write the exercise samples of trial files as a dynamics data file: "
+                    "joint angles, rates, accelerations and the applied torque, one cycle "
+                    "per trial.")
+    robot.add_argument("--trials", nargs="+", required=True, help="trial files (HDF5)")
+    robot.add_argument("--output", required=True, help="dynamics data file to write")
+    robot.add_argument("--acceleration", choices=("desired", "estimated"), default="desired",
+                       help="the reference's accelerations (default, as the thesis) or the "
+                            "estimated ones")
+    robot.add_argument("--without-hand-force", action="store_true",
+                       help="take the hand force's torque J_Rᵀ F out of the torque "
+                            "(section 4.4.1)")
+    robot.add_argument("--system", help="the system's name (default: rehab-robot-<backend>)")
+    robot.set_defaults(func=cmd_robot_data)
+
     train = actions.add_parser(
         "train", help="train a model on a dynamics data file",
         description="Train a model on a dynamics data file (its held-out cycles left out) "
@@ -104,6 +120,18 @@ def cmd_pendulum(args: argparse.Namespace) -> int:
     cycles = len(data.description["cycle_speeds_rad_s"])
     held_text = f", cycle at {held:g} rad/s held out" if held is not None else ""
     print(f"{absolute(args.output)}: {len(data):,} samples, {cycles} cycles{held_text}")
+    return EXIT_OK
+
+
+def cmd_robot_data(args: argparse.Namespace) -> int:
+    from app.learning.dataset import write_dataset
+    from app.learning.workflow import robot_dataset
+
+    data = robot_dataset([absolute(p) for p in args.trials], acceleration=args.acceleration,
+                         without_hand_force=args.without_hand_force, system=args.system)
+    write_dataset(absolute(args.output), data)
+    print(f"{absolute(args.output)}: {len(data):,} samples, {len(args.trials)} trials, "
+          f"system {data.system}")
     return EXIT_OK
 
 

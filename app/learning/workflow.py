@@ -124,3 +124,51 @@ def evaluate_file(model_path: str | Path, data_path: str | Path,
     rmse = np.sqrt(np.mean((predicted - part.tau) ** 2, axis=0))
     return Evaluation(dict(zip(data.forces, map(float, rmse), strict=True)),
                       model.parameters, len(part), int(np.unique(part.cycle).size), which)
+
+
+ROBOT_COORDINATES = ("theta_R1", "theta_R2")
+ROBOT_FORCES = ("tau_R1", "tau_R2")
+EXERCISE_PHASE = 2  # the `phase` channel: 2 while the exercise runs (docs/data-format.md)
+
+
+def robot_dataset(trial_paths: Sequence[str | Path], *, acceleration: str = "desired",
+                  without_hand_force: bool = False, system: str | None = None) -> Dataset:
+    """Recorded trials as robot dynamics data (thesis section 4.3): the exercise's joint
+    angles, rates, accelerations (the reference's, as the thesis trained on, or the
+    estimated ones) and the torque applied, one cycle per trial. With `without_hand_force`
+    the hand force's share, J_Rᵀ F (eq. 3.34), is taken out of the torque: what section
+    4.4.1 asks of eq. 4.9."""
+    from app.trials.reader import read_trial
+    from core.robot import RobotModel
+
+    if acceleration not in ("desired", "estimated"):
+        raise DatasetError("", f"acceleration {acceleration!r} is neither 'desired' nor "
+                           "'estimated'", "Choose one.")
+    if not trial_paths:
+        raise DatasetError("", "no trial files given", "Give one or more trial files.")
+    robot = RobotModel()
+    parts, systems = [], set()
+    for index, path in enumerate(trial_paths):
+        trial = read_trial(path)
+        c = trial.channels
+        rows = c["phase"] == EXERCISE_PHASE
+        if not rows.any():
+            raise DatasetError(path, "has no exercise samples", "Give a trial that ran.")
+        q, qd = c["robot_angle"][rows], c["robot_rate"][rows]
+        qdd = c["robot_acceleration_desired" if acceleration == "desired"
+                else "robot_acceleration"][rows]
+        tau = c["torque_applied"][rows].copy()
+        if without_hand_force:
+            # eq. 3.26: τ_R = M θ̈ + h − J_Rᵀ F, so the robot alone would have needed
+            # τ_R + J_Rᵀ F (J_Rᵀ F of eq. 3.34, the hand's force on the handle)
+            F = c["force"][rows]
+            tau += np.stack(robot.joint_torque_terms(q[:, 0], q[:, 1], F[:, 0], F[:, 1]),
+                            axis=-1)
+        keep = np.all(np.isfinite(np.hstack([q, qd, qdd, tau])), axis=1)
+        parts.append((q[keep], qd[keep], qdd[keep], tau[keep], np.full(keep.sum(), index)))
+        systems.add(trial.backend.split(" (")[0])
+    name = system or "rehab-robot-" + "-".join(sorted(systems))
+    arrays = [np.concatenate([p[i] for p in parts]) for i in range(5)]
+    description = {"trials": [Path(p).name for p in trial_paths], "acceleration": acceleration,
+                   "without_hand_force": without_hand_force}
+    return Dataset(*arrays, name, ROBOT_COORDINATES, ROBOT_FORCES, description)

@@ -169,3 +169,48 @@ def test_console_starts_without_jax():
                             env={"QT_QPA_PLATFORM": "offscreen", "PATH": "/usr/bin:/bin"},
                             check=False)
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+@pytest.fixture(scope="module")
+def trials(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("trials")
+    for shape in ("d", "circle"):
+        assert main(["run", "--patient", "weak", "--trajectory", shape, "--repetitions", "1",
+                     "--output", str(folder / f"{shape}.h5")]) == 0
+    return folder
+
+
+def test_robot_data_from_recorded_trials(trials, tmp_path, capsys):
+    """The exercise's samples of each trial, one cycle each; the torque applied, or with
+    the hand force's share J_Rᵀ F (eq. 3.34) taken out."""
+    from app.learning.dataset import read_dataset
+    from app.trials.reader import read_trial
+    from core.robot import RobotModel
+
+    paths = [str(trials / "d.h5"), str(trials / "circle.h5")]
+    code, out, _ = run(["learn", "robot-data", "--trials", *paths, "--output",
+                        str(tmp_path / "r.h5")], capsys)
+    assert code == 0
+    assert "2 trials, system rehab-robot-simulator" in out
+    assert run(["learn", "robot-data", "--trials", *paths, "--output", str(tmp_path / "w.h5"),
+                "--without-hand-force", "--acceleration", "estimated"], capsys)[0] == 0
+    data, clean = read_dataset(tmp_path / "r.h5"), read_dataset(tmp_path / "w.h5")
+    trial = read_trial(paths[0]).channels
+    rows = trial["phase"] == 2
+    first = data.cycle == 0
+    assert first.sum() == rows.sum()
+    np.testing.assert_array_equal(data.tau[first], trial["torque_applied"][rows])
+    np.testing.assert_array_equal(data.qdd[first], trial["robot_acceleration_desired"][rows])
+    np.testing.assert_array_equal(clean.qdd[first], trial["robot_acceleration"][rows])
+    q, F = trial["robot_angle"][rows], trial["force"][rows]
+    jtf = np.stack(RobotModel().joint_torque_terms(q[:, 0], q[:, 1], F[:, 0], F[:, 1]), -1)
+    np.testing.assert_allclose(clean.tau[first] - data.tau[first], jtf, rtol=1e-12, atol=1e-12)
+    assert np.abs(jtf).max() > 0.05  # the weak patient's push is in the torque
+    assert data.forces == ("tau_R1", "tau_R2")
+
+
+def test_robot_data_refuses_a_missing_trial(tmp_path, capsys):
+    code, _, err = run(["learn", "robot-data", "--trials", str(tmp_path / "none.h5"),
+                        "--output", str(tmp_path / "r.h5")], capsys)
+    assert code == 2
+    assert "none.h5" in err
