@@ -77,14 +77,22 @@ def train_file(data_path: str | Path, output: str | Path, kind: str, *,
     train_data = data.select(keep)
     from core.learning.training import TrainingOptions, train  # JAX: only now
 
-    opts = TrainingOptions(kind=kind, cyclic=indices, **options)
+    try:
+        opts = TrainingOptions(kind=kind, cyclic=indices, **options)
+    except ValueError as exc:
+        raise DatasetError(data_path, f"cannot train on it: {exc}", "Change the options.") \
+            from None
     needed = max(opts.folds, 2)
     if np.unique(train_data.cycle).size < needed:
         raise DatasetError(data_path, f"has {np.unique(train_data.cycle).size} training "
                            f"cycles; {opts.folds}-fold cross-validation needs {needed}",
                            "Give more cycles, or fewer --folds.")
-    result = train(train_data.q, train_data.qd, train_data.qdd, train_data.tau,
-                   train_data.cycle, opts, progress=progress)
+    try:
+        result = train(train_data.q, train_data.qd, train_data.qdd, train_data.tau,
+                       train_data.cycle, opts, progress=progress)
+    except ValueError as exc:  # options that do not fit these data (core.learning.training)
+        raise DatasetError(data_path, f"cannot train on it: {exc}",
+                           "Change the options or the data.") from None
     summary = train_data.summary()
     summary["file"] = Path(data_path).name
     summary["held_out_cycles"] = data.description.get("held_out_cycles", [])

@@ -120,6 +120,8 @@ def test_bad_input_is_one_line_and_exit_2(files, trained, tmp_path, capsys):
         (["learn", "train", "--model", "fnn", "--data", p, "--output",
           str(tmp_path / "m.json"), "--cyclic", "y9"], "has no coordinate y9"),
         (["learn", "train", "--model", "fnn", "--data", p, "--output",
+          str(tmp_path / "m.json"), "--cyclic", "x1", "theta2"], "at least one must remain"),
+        (["learn", "train", "--model", "fnn", "--data", p, "--output",
           str(tmp_path / "m.json"), "--hidden", "8,x"], "is not sizes such as 16,16"),
         (["learn", "train", "--model", "fnn", "--data", p, "--output",
           str(tmp_path / "m.json"), "--learning-rate", "-1"], "must be a finite number > 0"),
