@@ -2,7 +2,8 @@
 the sliding inverted pendulum's data (eq. 2.36–2.39), `train` fits a feed-forward network,
 a GRU or a Deep Lagrangian Network to a dynamics data file, `evaluate` prints a model's RMSE
 per generalised force on any file in that format (docs/data-format.md, "Dynamics data").
-JAX is imported only when `train` runs."""
+`robot-data` turns recorded trial files into robot data. JAX is imported only when
+`train` runs."""
 
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ MODELS = ("fnn", "rnn", "delan")
 
 def add_learn_commands(commands) -> None:
     learn = commands.add_parser(
-        "learn", help="learned inverse dynamics: pendulum data, train, evaluate",
+        "learn", help="learned inverse dynamics: pendulum and robot data, train, evaluate",
         description="Learned inverse dynamics (thesis sections 2.5, 4.4): make the "
                     "sliding inverted pendulum's data, train FNN, RNN (GRU) or DeLaN "
                     "models on a dynamics data file, evaluate them on any such file.",
