@@ -1,7 +1,7 @@
 """The headless command line: `rehab <command> [options]`: the parser and the dispatch.
 
 Each command group is a module of its own (app.cli.check, .run, .records,
-.reports, .exports) that adds its subcommands and runs them; this module puts
+.reports, .exports, .learn) that adds its subcommands and runs them; this module puts
 them in one parser, in the order `rehab --help` lists them, and turns every
 expected failure into one line on stderr with exit code 2 — never a traceback.
 The `gui` command is added by `ui.launcher`, which owns the only entry point.
@@ -19,6 +19,7 @@ from app.cli.common import EXIT_BAD_INPUT, CommandError, Parser
 from app.cli.exports import add_export_command
 from app.cli.gains import add_gains_command
 from app.cli.pose import add_pose_command
+from app.cli.learn import add_learn_commands
 from app.cli.records import add_patient_commands, add_trials_command
 from app.cli.reports import add_progress_command, add_report_command
 from app.cli.run import add_run_command
@@ -37,6 +38,7 @@ COMMAND_GROUPS = (
     add_export_command,
     add_pose_command,
     add_gains_command,
+    add_learn_commands,
 )
 
 

@@ -1,0 +1,202 @@
+"""`rehab learn`: learned inverse dynamics (thesis sections 2.5 and 4.4). `pendulum` writes
+the sliding inverted pendulum's data (eq. 2.36–2.39), `train` fits a feed-forward network,
+a GRU or a Deep Lagrangian Network to a dynamics data file, `evaluate` prints a model's RMSE
+per generalised force on any file in that format (docs/data-format.md, "Dynamics data").
+`robot-data` turns recorded trial files into robot data. JAX is imported only when
+`train` runs."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+
+from app.cli.common import EXIT_OK, CommandError, absolute, progress_bar
+
+MODELS = ("fnn", "rnn", "delan")
+
+
+def add_learn_commands(commands) -> None:
+    learn = commands.add_parser(
+        "learn", help="learned inverse dynamics: pendulum and robot data, train, evaluate",
+        description="Learned inverse dynamics (thesis sections 2.5, 4.4): make the "
+                    "sliding inverted pendulum's data, train FNN, RNN (GRU) or DeLaN "
+                    "models on a dynamics data file, evaluate them on any such file.",
+    )
+    actions = learn.add_subparsers(dest="action", metavar="action", required=True,
+                                   parser_class=type(learn))
+
+    pendulum = actions.add_parser(
+        "pendulum", help="write the sliding inverted pendulum's data (eq. 2.36–2.39)",
+        description="Write the thesis's pendulum data: the rod driven at constant speeds "
+                    "from −45° to 45°, 101 samples a cycle; by default 1,000 cycles at "
+                    "1 … 10 rad/s (101,000 samples), the 5 rad/s cycle marked held out.")
+    pendulum.add_argument("--output", required=True, help="HDF5 file to write")
+    pendulum.add_argument("--speeds", type=_positive, nargs="+", metavar="RAD_S",
+                          help="the rod's speeds, one cycle each (default: the thesis's "
+                               "1,000 speeds); none is held out unless --held-out names it")
+    pendulum.add_argument("--held-out", type=_positive, metavar="RAD_S",
+                          help="the speed of the cycle kept out of training (default 5 "
+                               "with the thesis's speeds)")
+    pendulum.set_defaults(func=cmd_pendulum)
+
+    robot = actions.add_parser(
+        "robot-data", help="recorded trials as robot dynamics data (thesis section 4.3)",
+        description="Write the exercise samples of trial files as a dynamics data file: "
+                    "joint angles, rates, accelerations and the applied torque, one cycle "
+                    "per trial.")
+    robot.add_argument("--trials", nargs="+", required=True, help="trial files (HDF5)")
+    robot.add_argument("--output", required=True, help="dynamics data file to write")
+    robot.add_argument("--acceleration", choices=("desired", "estimated"), default="desired",
+                       help="the reference's accelerations (default, as the thesis) or the "
+                            "estimated ones")
+    robot.add_argument("--without-hand-force", action="store_true",
+                       help="take the hand force's torque J_Rᵀ F out of the torque "
+                            "(section 4.4.1)")
+    robot.add_argument("--system", help="the system's name (default: rehab-robot-<backend>)")
+    robot.set_defaults(func=cmd_robot_data)
+
+    train = actions.add_parser(
+        "train", help="train a model on a dynamics data file",
+        description="Train a model on a dynamics data file (its held-out cycles left out) "
+                    "with Adam, early stopping and k-fold cross-validation over its "
+                    "cycles, seeds fixed; write the model file.")
+    train.add_argument("--model", choices=MODELS, required=True,
+                       help="fnn: feed-forward network; rnn: GRU; delan: Deep Lagrangian "
+                            "Network with a learned dissipative term")
+    train.add_argument("--data", required=True, help="dynamics data file (HDF5)")
+    train.add_argument("--output", required=True, help="model file to write (JSON)")
+    train.add_argument("--hidden", type=_layers, metavar="N[,N…]",
+                       help="hidden layer sizes (default fnn 24,24; rnn 12; delan 16,16)")
+    train.add_argument("--epochs", type=_whole, default=100, help="at most (default 100)")
+    train.add_argument("--folds", type=_whole, default=5,
+                       help="k of k-fold cross-validation (default 5; 1: one validation "
+                            "split of 20 %% of the cycles)")
+    train.add_argument("--batch-size", type=_whole,
+                       help="samples a step (default 512; rnn: 16 sequences)")
+    train.add_argument("--learning-rate", type=_positive,
+                       help="Adam's first step size, decayed to 1e-4 along a cosine "
+                            "(default fnn and rnn 3e-3, delan 1e-2)")
+    train.add_argument("--patience", type=_whole, default=20,
+                       help="epochs without a better validation error before stopping "
+                            "(default 20)")
+    train.add_argument("--seed", type=int, default=0, help="default 0")
+    train.add_argument("--cyclic", nargs="*", metavar="COORDINATE",
+                       help="coordinates the dynamics does not depend on, left out of the "
+                            "models' positions (default: those the file names; none: give "
+                            "the option alone)")
+    train.add_argument("--mass-scale", type=_positive, default=3.0,
+                       help="DeLaN: unit of its Cholesky factor, of the order of √ of the "
+                            "mass matrix's entries (default 3, for the pendulum; 0.5 for "
+                            "the robot)")
+    train.add_argument("--name", help="the model's name (default: the output file's stem)")
+    train.set_defaults(func=cmd_train)
+
+    evaluate = actions.add_parser(
+        "evaluate", help="a model's RMSE per generalised force on a dynamics data file",
+        description="Evaluate a model file on a dynamics data file: RMSE of each "
+                    "generalised force, on the file's held-out cycles if it marks some, "
+                    "else on all of it.")
+    evaluate.add_argument("--model", required=True, help="model file (JSON)")
+    evaluate.add_argument("--data", required=True, help="dynamics data file (HDF5)")
+    evaluate.add_argument("--all-cycles", action="store_true",
+                          help="every cycle, the held-out ones and the trained ones")
+    evaluate.add_argument("--json", action="store_true",
+                          help='one JSON object: {"rmse": {force: value}, "parameters": N}')
+    evaluate.set_defaults(func=cmd_evaluate)
+
+
+def cmd_pendulum(args: argparse.Namespace) -> int:
+    from app.learning.workflow import make_pendulum_file
+    from core.learning.pendulum import HELD_OUT_SPEED_RAD_S
+
+    held = args.held_out
+    if held is None and args.speeds is None:
+        held = HELD_OUT_SPEED_RAD_S
+    if held is not None and args.speeds is not None and not any(
+            math.isclose(held, s, rel_tol=0, abs_tol=1e-9) for s in args.speeds):
+        raise CommandError(f"--held-out {held:g} is none of --speeds: the held-out cycle "
+                           "must be one of the speeds")
+    data = make_pendulum_file(absolute(args.output), args.speeds, held)
+    cycles = len(data.description["cycle_speeds_rad_s"])
+    held_text = f", cycle at {held:g} rad/s held out" if held is not None else ""
+    print(f"{absolute(args.output)}: {len(data):,} samples, {cycles} cycles{held_text}")
+    return EXIT_OK
+
+
+def cmd_robot_data(args: argparse.Namespace) -> int:
+    from app.learning.dataset import write_dataset
+    from app.learning.workflow import robot_dataset
+
+    data = robot_dataset([absolute(p) for p in args.trials], acceleration=args.acceleration,
+                         without_hand_force=args.without_hand_force, system=args.system)
+    write_dataset(absolute(args.output), data)
+    print(f"{absolute(args.output)}: {len(data):,} samples, {len(args.trials)} trials, "
+          f"system {data.system}")
+    return EXIT_OK
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    from app.learning.workflow import train_file
+
+    options = {"epochs": args.epochs, "folds": args.folds, "batch_size": args.batch_size,
+               "learning_rate": args.learning_rate, "patience": args.patience,
+               "seed": args.seed, "mass_scale": args.mass_scale}
+    if args.hidden:
+        options["hidden"] = args.hidden
+    bar = progress_bar(f"training {args.model}")
+    trained = train_file(absolute(args.data), absolute(args.output), args.model,
+                         cyclic=args.cyclic, name=args.name,
+                         progress=bar.update if bar else None, **options)
+    if bar:
+        bar.done()
+    rmse = ", ".join(f"{k} {v:.4g}" for k, v in trained.cross_validation_rmse.items())
+    print(f"{trained.path}: {args.model}, {trained.parameters} parameters, "
+          f"{trained.samples:,} training samples, {trained.training_seconds:.1f} s; "
+          f"cross-validation RMSE {rmse}")
+    return EXIT_OK
+
+
+def cmd_evaluate(args: argparse.Namespace) -> int:
+    from app.learning.workflow import evaluate_file
+
+    result = evaluate_file(absolute(args.model), absolute(args.data), args.all_cycles)
+    if args.json:
+        print(json.dumps({"rmse": result.rmse, "parameters": result.parameters}))
+        return EXIT_OK
+    print(f"{result.samples:,} samples, {result.cycles} cycles ({result.which}); "
+          f"{result.parameters} parameters")
+    width = max(len(k) for k in result.rmse)
+    for force, value in result.rmse.items():
+        print(f"  RMSE {force:<{width}}  {value:.6g}")
+    return EXIT_OK
+
+
+def _positive(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not math.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"{text} must be a finite number > 0")
+    return value
+
+
+def _whole(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text} must be 1 or more")
+    return value
+
+
+def _layers(text: str) -> tuple[int, ...]:
+    try:
+        sizes = tuple(int(part) for part in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not sizes such as 16,16") from None
+    if not sizes or any(s < 1 or s > 4096 for s in sizes):
+        raise argparse.ArgumentTypeError(f"{text}: each layer has 1 … 4096 units")
+    return sizes

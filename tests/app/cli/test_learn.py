@@ -1,0 +1,218 @@
+"""`rehab learn` as a researcher types it: make the pendulum's data, train each model,
+evaluate it (text and JSON), and bad input as one line with exit code 2."""
+
+import json
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+import pytest
+
+from app.cli.main import main
+
+SPEEDS = ["1", "2", "3", "4", "5", "6", "7", "8"]
+
+
+def run(args, capsys):
+    try:
+        code = main(args)
+    except SystemExit as exc:
+        code = exc.code
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("learn")
+    assert main(["learn", "pendulum", "--output", str(folder / "p.h5"), "--speeds", *SPEEDS,
+                 "--held-out", "5"]) == 0
+    return folder
+
+
+@pytest.fixture(scope="module")
+def trained(files):
+    """One tiny model of each kind, trained from the command line."""
+    paths = {}
+    for kind in ("fnn", "rnn", "delan"):
+        paths[kind] = files / f"{kind}.json"
+        assert main(["learn", "train", "--model", kind, "--data", str(files / "p.h5"),
+                     "--output", str(paths[kind]), "--epochs", "4", "--folds", "2",
+                     "--hidden", "6"]) == 0
+    return paths
+
+
+def test_pendulum_writes_the_thesis_data_set(tmp_path, capsys):
+    code, out, _ = run(["learn", "pendulum", "--output", str(tmp_path / "p.h5")], capsys)
+    assert code == 0
+    assert "101,000 samples, 1000 cycles, cycle at 5 rad/s held out" in out
+    with h5py.File(tmp_path / "p.h5") as f:
+        assert f["q"].shape == (101_000, 2)
+        assert f.attrs["system"] == "sliding-inverted-pendulum"
+
+
+@pytest.mark.parametrize("kind", ["fnn", "rnn", "delan"])
+def test_train_then_evaluate(files, trained, kind, capsys):
+    document = json.loads(trained[kind].read_text())
+    assert document["model"]["kind"] == kind
+    assert document["data"]["samples"] == 707  # 7 cycles, the 5 rad/s one held out
+    assert document["data"]["held_out_cycles"] == [4]
+    assert document["hyper_parameters"]["folds"] == 2
+    assert len(document["metrics"]["folds"]) == 2
+    code, out, _ = run(["learn", "evaluate", "--model", str(trained[kind]),
+                        "--data", str(files / "p.h5")], capsys)
+    assert code == 0
+    assert "101 samples, 1 cycles (held-out cycles)" in out
+    assert "RMSE f" in out
+    assert "RMSE tau" in out
+    code, out, _ = run(["learn", "evaluate", "--model", str(trained[kind]),
+                        "--data", str(files / "p.h5"), "--json"], capsys)
+    result = json.loads(out)
+    assert set(result) == {"rmse", "parameters"}
+    assert set(result["rmse"]) == {"f", "tau"}
+    assert result["parameters"] == document["parameters"]
+    assert all(np.isfinite(v) and v > 0 for v in result["rmse"].values())
+
+
+def test_evaluate_computes_the_rmse(files, trained, capsys):
+    """The printed RMSE is the model's error on the held-out cycle, recomputed here."""
+    from app.learning.dataset import read_dataset
+    from app.learning.modelfile import read_model
+    from core.learning.inference import predict
+
+    data, model = read_dataset(files / "p.h5"), read_model(trained["fnn"])
+    rows = data.cycle == 4
+    pred = predict(model.spec, model.params, data.q[rows], data.qd[rows], data.qdd[rows])
+    expected = np.sqrt(np.mean((pred - data.tau[rows]) ** 2, axis=0))
+    _, out, _ = run(["learn", "evaluate", "--model", str(trained["fnn"]), "--data",
+                     str(files / "p.h5"), "--json"], capsys)
+    np.testing.assert_allclose([json.loads(out)["rmse"][k] for k in ("f", "tau")], expected,
+                               rtol=1e-12)
+    _, out, _ = run(["learn", "evaluate", "--model", str(trained["fnn"]), "--data",
+                     str(files / "p.h5"), "--all-cycles"], capsys)
+    assert "808 samples, 8 cycles (all cycles)" in out
+
+
+def test_evaluate_a_researchers_file_by_its_force_names(files, trained, tmp_path, capsys):
+    with h5py.File(files / "p.h5") as src, h5py.File(tmp_path / "own.h5", "w") as f:
+        for name in ("q", "qd", "qdd", "tau", "cycle"):
+            f[name] = src[name][:202]
+        f.attrs["system"] = "sliding-inverted-pendulum"
+        f.attrs["forces"] = '["push", "torque"]'
+    code, out, _ = run(["learn", "evaluate", "--model", str(trained["delan"]), "--data",
+                        str(tmp_path / "own.h5"), "--json"], capsys)
+    assert code == 0
+    assert set(json.loads(out)["rmse"]) == {"push", "torque"}
+
+
+def test_bad_input_is_one_line_and_exit_2(files, trained, tmp_path, capsys):
+    p = str(files / "p.h5")
+    cases = [
+        (["learn", "train", "--model", "svm", "--data", p, "--output", "m.json"],
+         "invalid choice: 'svm'"),
+        (["learn", "train", "--model", "fnn", "--data", str(tmp_path / "none.h5"),
+          "--output", str(tmp_path / "m.json")], "no such file"),
+        (["learn", "train", "--model", "fnn", "--data", p, "--output",
+          str(tmp_path / "m.json"), "--epochs", "0"], "must be 1 or more"),
+        (["learn", "train", "--model", "fnn", "--data", p, "--output",
+          str(tmp_path / "m.json"), "--folds", "9"], "has 7 training cycles; 9-fold"),
+        (["learn", "train", "--model", "fnn", "--data", p, "--output",
+          str(tmp_path / "m.json"), "--cyclic", "y9"], "has no coordinate y9"),
+        (["learn", "train", "--model", "fnn", "--data", p, "--output",
+          str(tmp_path / "m.json"), "--cyclic", "x1", "theta2"], "at least one must remain"),
+        (["learn", "train", "--model", "fnn", "--data", p, "--output",
+          str(tmp_path / "m.json"), "--hidden", "8,x"], "is not sizes such as 16,16"),
+        (["learn", "train", "--model", "fnn", "--data", p, "--output",
+          str(tmp_path / "m.json"), "--learning-rate", "-1"], "must be a finite number > 0"),
+        (["learn", "evaluate", "--model", str(tmp_path / "none.json"), "--data", p],
+         "missing: no such file"),
+        (["learn", "evaluate", "--model", p, "--data", p], "is not a JSON model file"),
+        (["learn", "pendulum", "--output", str(tmp_path / "x.h5"), "--speeds", "1", "2",
+          "--held-out", "5"], "--held-out 5 is none of --speeds"),
+        (["learn", "pendulum", "--output", str(tmp_path / "x.h5"), "--speeds", "0"],
+         "must be a finite number > 0"),
+        (["learn", "pendulum", "--output", str(tmp_path / "no" / "x.h5")], "cannot be written"),
+    ]
+    for args, message in cases:
+        code, _, err = run(args, capsys)
+        assert code == 2, args
+        assert message in err, (args, err)
+        assert len(err.strip().splitlines()) == 1, err
+        assert "Traceback" not in err
+
+
+def test_a_corrupt_or_foreign_model_is_refused_by_name(files, trained, tmp_path, capsys):
+    text = trained["fnn"].read_text().replace('"epochs": 4', '"epochs": 5')
+    (tmp_path / "edited.json").write_text(text)
+    code, _, err = run(["learn", "evaluate", "--model", str(tmp_path / "edited.json"),
+                        "--data", str(files / "p.h5")], capsys)
+    assert code == 2
+    assert "content hash" in err
+    with h5py.File(files / "p.h5") as src, h5py.File(tmp_path / "robot.h5", "w") as f:
+        for name in ("q", "qd", "qdd", "tau", "cycle"):
+            f[name] = src[name][:101]
+        f.attrs["system"] = "rehab-robot"
+    code, _, err = run(["learn", "evaluate", "--model", str(trained["fnn"]),
+                        "--data", str(tmp_path / "robot.h5")], capsys)
+    assert code == 2
+    assert "system: the model was trained on 'sliding-inverted-pendulum'" in err
+
+
+def test_console_starts_without_jax():
+    """The CLI, the window's modules and the loop import no JAX (import contract in
+    pyproject.toml); only `rehab learn train` loads it, when it runs."""
+    code = ("import sys, app.cli.main, app.cli.learn, app.learning.workflow, "
+            "app.learning.modelfile, core.learning.inference, ui.launcher, ui.main_window, "
+            "device.loop.process, core.control; "
+            "bad = sorted(m for m in sys.modules if m.split('.')[0] in ('jax', 'jaxlib', "
+            "'optax')); print(bad); sys.exit(1 if bad else 0)")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                            env={"QT_QPA_PLATFORM": "offscreen", "PATH": "/usr/bin:/bin"},
+                            check=False)
+    assert result.returncode == 0, result.stdout + result.stderr
+
+
+@pytest.fixture(scope="module")
+def trials(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("trials")
+    for shape in ("d", "circle"):
+        assert main(["run", "--patient", "weak", "--trajectory", shape, "--repetitions", "1",
+                     "--output", str(folder / f"{shape}.h5")]) == 0
+    return folder
+
+
+def test_robot_data_from_recorded_trials(trials, tmp_path, capsys):
+    """The exercise's samples of each trial, one cycle each; the torque applied, or with
+    the hand force's share J_Rᵀ F (eq. 3.34) taken out."""
+    from app.learning.dataset import read_dataset
+    from app.trials.reader import read_trial
+    from core.robot import RobotModel
+
+    paths = [str(trials / "d.h5"), str(trials / "circle.h5")]
+    code, out, _ = run(["learn", "robot-data", "--trials", *paths, "--output",
+                        str(tmp_path / "r.h5")], capsys)
+    assert code == 0
+    assert "2 trials, system rehab-robot-simulator" in out
+    assert run(["learn", "robot-data", "--trials", *paths, "--output", str(tmp_path / "w.h5"),
+                "--without-hand-force", "--acceleration", "estimated"], capsys)[0] == 0
+    data, clean = read_dataset(tmp_path / "r.h5"), read_dataset(tmp_path / "w.h5")
+    trial = read_trial(paths[0]).channels
+    rows = trial["phase"] == 2
+    first = data.cycle == 0
+    assert first.sum() == rows.sum()
+    np.testing.assert_array_equal(data.tau[first], trial["torque_applied"][rows])
+    np.testing.assert_array_equal(data.qdd[first], trial["robot_acceleration_desired"][rows])
+    np.testing.assert_array_equal(clean.qdd[first], trial["robot_acceleration"][rows])
+    q, F = trial["robot_angle"][rows], trial["force"][rows]
+    jtf = np.stack(RobotModel().joint_torque_terms(q[:, 0], q[:, 1], F[:, 0], F[:, 1]), -1)
+    np.testing.assert_allclose(clean.tau[first] - data.tau[first], jtf, rtol=1e-12, atol=1e-12)
+    assert np.abs(jtf).max() > 0.05  # the weak patient's push is in the torque
+    assert data.forces == ("tau_R1", "tau_R2")
+
+
+def test_robot_data_refuses_a_missing_trial(tmp_path, capsys):
+    code, _, err = run(["learn", "robot-data", "--trials", str(tmp_path / "none.h5"),
+                        "--output", str(tmp_path / "r.h5")], capsys)
+    assert code == 2
+    assert "none.h5" in err
