@@ -16,6 +16,7 @@ from collections.abc import Sequence
 
 from app.cli.check import add_check_command
 from app.cli.common import EXIT_BAD_INPUT, CommandError, Parser
+from app.cli.emg import add_emg_commands
 from app.cli.exports import add_export_command
 from app.cli.gains import add_gains_command
 from app.cli.records import add_patient_commands, add_trials_command
@@ -35,6 +36,7 @@ COMMAND_GROUPS = (
     add_report_command,
     add_export_command,
     add_gains_command,
+    add_emg_commands,
 )
 
 

@@ -1,0 +1,114 @@
+"""An EMG recording into a trial file, on the trial's clock.
+
+Two clocks meet here (docs/data-format.md, "EMG"):
+
+* A file exported by the EMG software has its own time from 0 at its start. Trial
+  time = file time + `offset_s`; 0 (the default) says the EMG recording was started
+  with the trial (a trigger from the robot, or both started together), and the file
+  says so in `/emg` `clock`. A lab that knows the delay between the two starts gives it.
+* A live capture (device.emg.capture) stamps its samples on the monotonic clock. The
+  loop's `wall_time` is monotonic time less the trial's origin, which the trial file
+  keeps (`/summary` `wall_time_origin_monotonic_s`), and each sample has its nominal
+  trial `time`; `trial_time_from_monotonic` maps through both, so EMG lines up with the
+  samples even where ticks were late.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from app.errors import AppError
+from app.trials.reader import TrialData, read_trial
+from device.emg.files import EmgData, read_emg_file
+from device.recording.emgfile import write_emg
+
+ORIGIN_KEY = "wall_time_origin_monotonic_s"
+
+
+class EmgImportError(AppError):
+    """EMG cannot be put into a trial as asked; the message is the one line shown."""
+
+
+@dataclass(frozen=True, slots=True)
+class Imported:
+    trial: Path
+    names: tuple[str, ...]
+    muscles: tuple[str, ...]
+    rate_hz: float
+    n_samples: int
+    first_s: float
+    last_s: float
+    covers: float  # share of the trial's duration the EMG covers
+    notes: tuple[str, ...]
+
+
+def trial_time_from_monotonic(trial: TrialData, monotonic_s) -> np.ndarray:
+    """Trial time of monotonic stamps (time.monotonic(), pylsl.local_clock(): both
+    CLOCK_MONOTONIC on Linux), through the trial's wall_time and its origin; beyond
+    the trial's samples, extended at one sample period per period."""
+    origin = trial.summary.get(ORIGIN_KEY)
+    if origin is None:
+        raise EmgImportError(f"trial file {trial.path.name} has no {ORIGIN_KEY} in its summary "
+                             "(a headless or older trial): import the EMG from a file with "
+                             "--offset instead")
+    wall = np.asarray(monotonic_s, dtype=float) - float(origin)
+    w, t = trial.channels["wall_time"], trial.channels["time"]
+    out = np.interp(wall, w, t)
+    before, after = wall < w[0], wall > w[-1]
+    out[before] = t[0] + (wall[before] - w[0])
+    out[after] = t[-1] + (wall[after] - w[-1])
+    return out
+
+
+def muscles_for(data_names: tuple[str, ...], muscles: list[str] | None) -> tuple[str, ...]:
+    """The muscle under each electrode: as given (one per channel, in order), or the
+    channel's own name."""
+    if not muscles:
+        return data_names
+    if len(muscles) != len(data_names):
+        raise EmgImportError(f"{len(muscles)} muscles given for {len(data_names)} EMG channels "
+                             f"({', '.join(data_names)}); give one per channel, in that order")
+    if len(set(muscles)) != len(muscles):
+        raise EmgImportError("a muscle is named twice; give each channel its own muscle")
+    return tuple(muscles)
+
+
+def store(trial: TrialData, data: EmgData, trial_time_s: np.ndarray, *, muscles, clock: str,
+          offset_s: float, replace: bool) -> Imported:
+    names = muscles_for(data.names, muscles)
+    write_emg(trial.path, names=data.names, muscles=names, rate_hz=data.rate_hz,
+              time_s=trial_time_s, samples=data.samples, source=data.source, clock=clock,
+              offset_s=offset_s, source_file=data.path.name, replace=replace)
+    duration = trial.n_samples * trial.sample_period_s
+    inside = np.clip(trial_time_s, 0.0, duration)
+    covers = float(inside[-1] - inside[0]) / duration if duration > 0 else 0.0
+    notes = list(data.notes)
+    if covers < 0.99:
+        notes.append(f"the EMG covers {100 * covers:.0f} % of the trial "
+                     f"({trial_time_s[0]:.2f}–{trial_time_s[-1]:.2f} s of {duration:.2f} s)")
+    return Imported(trial.path, data.names, names, data.rate_hz, trial_time_s.size,
+                    float(trial_time_s[0]), float(trial_time_s[-1]), covers, tuple(notes))
+
+
+def import_emg_file(
+    trial_path: str | os.PathLike,
+    emg_path: str | os.PathLike,
+    *,
+    muscles: list[str] | None = None,
+    offset_s: float = 0.0,
+    replace: bool = False,
+) -> Imported:
+    """Read an exported EMG file (device.emg.files) and store it in the trial's `/emg`."""
+    trial = read_trial(trial_path)
+    if not trial.closed:
+        raise EmgImportError(f"trial file {trial.path.name} is still being recorded; import "
+                             "the EMG after the trial ends")
+    data = read_emg_file(emg_path)
+    clock = ("file time + offset_s: the EMG recording started with the trial" if offset_s == 0
+             else "file time + offset_s: the delay between the two starts, as given")
+    return store(trial, data, data.t_s + float(offset_s), muscles=muscles, clock=clock,
+                 offset_s=float(offset_s), replace=replace)
