@@ -152,10 +152,10 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 
 def cmd_streams(args: argparse.Namespace) -> int:
-    from device.emg.lsl import find_streams
-
     if not (np.isfinite(args.wait) and 0 < args.wait <= 60):
         raise CommandError(f"--wait {args.wait}: give a time in (0, 60] s")
+    from device.emg.lsl import find_streams
+
     streams = find_streams(args.wait)
     if not streams:
         print(f"no Lab Streaming Layer stream seen in {args.wait:g} s")

@@ -15,6 +15,7 @@ Two clocks meet here (docs/data-format.md, "EMG"):
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -112,3 +113,28 @@ def import_emg_file(
              else "file time + offset_s: the delay between the two starts, as given")
     return store(trial, data, data.t_s + float(offset_s), muscles=muscles, clock=clock,
                  offset_s=float(offset_s), replace=replace)
+
+
+def import_capture(trial_path: str | os.PathLike, captured, *, names, muscles=None,
+                   source: str, replace: bool = False) -> Imported:
+    """Store a live capture (device.emg.capture.Captured, monotonic stamps) in a closed
+    trial file, its stamps mapped onto the trial's clock (trial_time_from_monotonic)."""
+    trial = read_trial(trial_path)
+    if not trial.closed:
+        raise EmgImportError(f"trial file {trial.path.name} is still being recorded; store "
+                             "the EMG after the trial ends")
+    if captured.stamps_s.size < 2:
+        raise EmgImportError(f"no EMG was captured{': ' + captured.error if captured.error else ''}"
+                             "; check the EMG source's status before the next trial")
+    data = EmgData(tuple(names), captured.rate_hz, captured.stamps_s, captured.samples, source,
+                   Path(source))
+    notes = []
+    if captured.missing:
+        notes.append(f"{captured.missing} samples missing in the capture")
+    if captured.error:
+        notes.append(f"the capture ended early: {captured.error}")
+    done = store(trial, data, trial_time_from_monotonic(trial, captured.stamps_s),
+                 muscles=muscles, clock="monotonic stamps through /summary "
+                 "wall_time_origin_monotonic_s and /timeseries/wall_time", offset_s=0.0,
+                 replace=replace)
+    return dataclasses.replace(done, notes=(*done.notes, *notes))
