@@ -135,6 +135,9 @@ class LslEmgInlet:
     def open(self, timeout_s: float = 3.0) -> LslEmgInlet:
         try:
             self._inlet.open_stream(timeout=timeout_s)
+            # the first clock-offset estimate takes a while; have it before the trial, not
+            # in the first read (which would then hold the first samples back)
+            self.clock_offset_s = self._inlet.time_correction(timeout=timeout_s)
         except Exception as exc:  # pylsl raises its TimeoutError or LostError
             raise LslError(f"the LSL stream {self.summary.name!r} did not open in "
                            f"{timeout_s:g} s ({type(exc).__name__})") from None
@@ -143,9 +146,10 @@ class LslEmgInlet:
     def read(self, timeout_s: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """Samples waiting (up to a second's worth): (monotonic stamps (k,), values (k, C))."""
         try:
+            # min_samples=1: return as soon as anything came, not when the buffer is full
             _, stamps = self._inlet.pull_chunk(timeout=timeout_s,
                                                max_samples=self._buffer.shape[0],
-                                               dest_obj=self._buffer)
+                                               dest_obj=self._buffer, min_samples=1)
         except Exception as exc:  # pylsl's LostError: the sender went away
             raise LslError(f"the LSL stream {self.summary.name!r} was lost "
                            f"({type(exc).__name__}); check the EMG software") from None
