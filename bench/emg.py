@@ -124,7 +124,7 @@ def loop(seconds: float, with_emg: bool, folder: Path) -> dict:
     from device.recording.trialfile import SubjectInfo
 
     params = THESIS_SUBJECT.replace(repetitions=max(1, round(seconds / 4.0)))
-    path = folder / f"loop-{'emg' if with_emg else 'alone'}.h5"
+    path = folder / f"loop-{'emg' if with_emg else 'alone'}-{uuid.uuid4().hex[:6]}.h5"
     sender = capture = outlet = None
     if with_emg:
         name = f"bench-emg-{uuid.uuid4().hex[:8]}"

@@ -130,3 +130,49 @@ def write_contractions(folder: str | os.PathLike, subject: Subject, session: int
 
 # The thesis's design (section 5.2.1): 4 subjects; session 1 two trials, session 2 one.
 THESIS_SESSIONS = ((1, 2), (2, 1))
+
+
+def thesis_design(folder: str | os.PathLike, *, subjects: int = 4, muscles=THESIS_MUSCLES,
+                  bad_mvc: dict[int, dict[str, float]] | None = None,
+                  engine: str = "auto") -> list[tuple[Subject, int, Path]]:
+    """The thesis's data set, synthetic: each subject's sessions (THESIS_SESSIONS), each
+    session's MVC contractions stored in its trials (app.emg.session.session_mvc).
+    `bad_mvc` {subject: {muscle: share}} (default: subject 2's anterior deltoid at 15 % of
+    a maximal effort, so its reach reads near 90 % MVC and more, as the thesis's subject 2
+    did). Returns (subject, session, trial file) in order."""
+    from app.emg.session import Contraction, session_mvc
+
+    folder = Path(folder)
+    bad_mvc = {2: {"anterior_deltoid": 0.15}} if bad_mvc is None else bad_mvc
+    out = []
+    for number in range(1, subjects + 1):
+        subject = Subject.drawn(number, muscles=muscles, bad_mvc=bad_mvc.get(number))
+        for session, n_trials in THESIS_SESSIONS:
+            paths = []
+            for k in range(n_trials):
+                path = folder / f"S{number}_session{session}_trial{k + 1}.h5"
+                record_trial(path, subject, seed=10 * session + k, engine=engine)
+                paths.append(path)
+            contractions = write_contractions(folder, subject, session)
+            session_mvc(paths, [Contraction(m, p, ch) for m, (p, ch) in contractions.items()],
+                        full_scale_V=subject.electrodes.full_scale_V)
+            out += [(subject, session, p) for p in paths]
+    return out
+
+
+def model_data(path: str | os.PathLike, subject: int, *, step: int = 10):
+    """A trial's exercise as a core.emg.models.TrialSet: the % MVC envelopes and the
+    anatomical torques on every `step`-th tick where both are known."""
+    from app.emg.session import trial_envelopes
+    from app.trials.reader import read_trial
+    from core.emg.models import TrialSet
+
+    path = Path(path)
+    trial = read_trial(path)
+    env = trial_envelopes(path)
+    torques = joint_torques(trial.channels["subject_torque"])
+    keep = (trial.channels["phase"] == 2) & np.isfinite(env.values).all(axis=1) \
+        & np.isfinite(torques).all(axis=1)
+    index = np.flatnonzero(keep)[::step]
+    return TrialSet(env.values[index], torques[index], subject, path.stem,
+                    step * trial.sample_period_s)
