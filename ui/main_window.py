@@ -45,6 +45,7 @@ from ui.tabs import (
     TABS,
     VIEW_TABS,
     AnglesTab,
+    EmgTab,
     ForceTab,
     InstructionsTab,
     ParametersTab,
@@ -121,6 +122,7 @@ class MainWindow(QMainWindow):
         self.force = ForceTab()
         self.angles = AnglesTab()
         self.torques = TorquesTab()
+        self.emg = EmgTab()
         self.video = VideoTab()
         self.report = ReportTab()
         self.progress = ProgressTab()
@@ -128,8 +130,8 @@ class MainWindow(QMainWindow):
         self.replay = ReplayTab()
         self.replay.set_registry(self.registry)
         made = (self.instructions, self.registration_tab, self.parameters_tab, self.trajectory,
-                self.force, self.angles, self.torques, self.video, self.report, self.progress,
-                self.replay)
+                self.force, self.angles, self.torques, self.emg, self.video, self.report,
+                self.progress, self.replay)
         by_class = {type(tab): tab for tab in made}
         for title, cls in TABS:  # in the thesis's order, with the titles it uses
             self.tabs.addTab(by_class[cls], title)

@@ -1,0 +1,67 @@
+"""The EMG tab: % MVC envelopes over the joint torques for a saved trial, the MVC's quality,
+and one line when there is nothing to show."""
+
+import shutil
+
+import h5py
+import pytest
+
+from app.emg.session import Contraction, session_mvc
+from app.emg.subjects import Subject, record_trial, write_contractions
+from app.trials.reader import read_trial
+from ui.tabs import TABS, VIEW_TABS, EmgTab
+from ui.views.emg import emg_view
+from ui.views.trialview import TrialView
+
+
+@pytest.fixture(scope="module")
+def trial_with_emg(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("emgtab")
+    subject = Subject.drawn(2, bad_mvc={"anterior_deltoid": 0.08})
+    synthetic = record_trial(folder / "t.h5", subject, seed=0, engine="python")
+    plain = shutil.copy(synthetic.path, folder / "no_mvc.h5")
+    contractions = write_contractions(folder, subject, session=1)
+    session_mvc([synthetic.path], [Contraction(m, p, ch) for m, (p, ch) in contractions.items()])
+    return synthetic.path, plain
+
+
+def test_the_tab_is_a_view_tab_after_the_torques():
+    titles = [t for t, _ in TABS]
+    assert titles.index("EMG") == titles.index("Joint torques") + 1
+    assert EmgTab in VIEW_TABS
+
+
+def test_a_saved_trial_shows_envelopes_and_flags_the_bad_mvc(qtbot, trial_with_emg):
+    path, _ = trial_with_emg
+    tab = EmgTab()
+    qtbot.addWidget(tab)
+    view = TrialView.from_trial(read_trial(path))
+    tab.show_view(view)
+    assert [c.name() for c in tab.curves] == ["biceps", "triceps", "anterior_deltoid"]
+    x, _ = tab.curves[2].getData()
+    assert len(x) == view.n
+    text = tab.status.text()
+    assert "anterior deltoid: up to" in text
+    assert "lower than the trial's activity" in text
+    assert "biceps: up to" in text
+    assert text.count("MVC ok") == 2
+    tab.set_cursor(1.0)
+    assert tab.cursors[0].isVisible()
+    assert tab.cursors[0].value() == pytest.approx(1.0)
+
+
+def test_nothing_to_show_is_one_line(qtbot, trial_with_emg, tmp_path):
+    _, no_mvc = trial_with_emg
+    assert "no MVC for biceps" in emg_view(no_mvc).message
+    assert "No trial file yet" in emg_view(None).message
+    bare = shutil.copy(no_mvc, tmp_path / "bare.h5")
+    with h5py.File(bare, "r+") as f:
+        del f["emg"]
+    assert "has no EMG" in emg_view(bare).message
+    tab = EmgTab()
+    qtbot.addWidget(tab)
+    live = TrialView.from_trial(read_trial(no_mvc))
+    live.finished = False
+    tab.show_view(live)
+    assert tab.status.text() == "EMG shows here when the trial is saved."
+    assert tab.curves == []
