@@ -255,3 +255,23 @@ def leave_one_subject_out(make_model, trials) -> list[Validation]:
     subjects = sorted({t.subject for t in trials})
     return [validate(make_model, trials, {t.name for t in trials if t.subject == s},
                      f"leave subject {s} out") for s in subjects]
+
+
+class ModelRefused(ParameterError):
+    """A model that did not pass its held-out validation was asked to estimate the
+    patient's torque."""
+
+    def __init__(self, validation: Validation) -> None:
+        super().__init__("model", validation.model, "a model whose held-out validation passes",
+                         validation.why_not)
+
+
+def torque_estimator(model, validation: Validation):
+    """The model, to stand in for the force sensor's estimate of the patient's torque (the
+    thesis's cHRI aim), only if its held-out validation passed; otherwise ModelRefused,
+    whose message says why (Validation.why_not)."""
+    if validation.model != model.name:
+        raise ParameterError("validation", validation.model, f"a validation of {model.name}")
+    if not validation.usable:
+        raise ModelRefused(validation)
+    return model

@@ -105,3 +105,18 @@ def test_bad_inputs_are_refused():
     trials = [_trial(1, 0)]
     with pytest.raises(ParameterError, match="test_names"):
         validate(LinearModel, trials, {"S1T0"}, "all held out")
+
+
+def test_only_a_model_that_passed_held_out_may_estimate_the_patients_torque():
+    from core.emg.models import ModelRefused, torque_estimator
+
+    trials = [_trial(1, k) for k in range(3)]
+    model = MuscleModel(MUSCLES).fit(trials[:2])
+    passed = validate(lambda: MuscleModel(MUSCLES), trials, {"S1T2"}, "new trial")
+    assert torque_estimator(model, passed) is model
+    failed = Validation("muscle model", "leave subject 2 out", ("x",),
+                        Score((3.0, 3.0), (0.1, 0.2)), Score((3.0, 3.0), (0.1, 0.2)))
+    with pytest.raises(ModelRefused, match="does not generalise"):
+        torque_estimator(model, failed)
+    with pytest.raises(ParameterError, match="a validation of muscle model"):
+        torque_estimator(model, Validation("network", "x", ("x",), failed.score, failed.score))
