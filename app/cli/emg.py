@@ -53,6 +53,21 @@ def add_emg_commands(commands) -> None:
     p.add_argument("trial", help="trial id or trial file")
     p.set_defaults(func=cmd_show)
 
+    p = sub.add_parser("demo", help="write a synthetic subject's trial and MVC files to try",
+                       description="Simulate a trial of a synthetic subject (a virtual patient "
+                                   "whose joint torques drive a muscle model, app.emg.subjects) "
+                                   "with its EMG in the trial file, and write its MVC "
+                                   "contractions as CSV files, to try `rehab emg mvc` and "
+                                   "`rehab emg show` on.")
+    p.add_argument("folder", help="where to write (created; existing files are kept)")
+    p.add_argument("--subject", type=int, default=2, help="which synthetic subject (1-99)")
+    p.add_argument("--bad-mvc", type=float, metavar="SHARE",
+                   help="the anterior deltoid's MVC effort as a share of a maximum, e.g. 0.15 "
+                        "(the thesis's subject 2)")
+    p.add_argument("--engine", choices=("auto", "python"), default="auto",
+                   help=argparse.SUPPRESS)
+    p.set_defaults(func=cmd_demo)
+
     p = sub.add_parser("streams", help="list the Lab Streaming Layer's streams on the network")
     p.add_argument("--wait", type=float, default=2.0, metavar="S", help="how long to look")
     p.set_defaults(func=cmd_streams)
@@ -162,4 +177,27 @@ def cmd_streams(args: argparse.Namespace) -> int:
     for s in streams:
         print(f"{s.name!r} type {s.type!r}: {s.channel_count} channels at "
               f"{s.nominal_rate_hz:g} Hz from {s.hostname} ({s.source_id or 'no source id'})")
+    return 0
+
+
+def cmd_demo(args: argparse.Namespace) -> int:
+    from app.emg.subjects import Subject, record_trial, write_contractions
+
+    if not 1 <= args.subject <= 99:
+        raise CommandError(f"--subject {args.subject}: give a number from 1 to 99")
+    if args.bad_mvc is not None and not 0.01 <= args.bad_mvc <= 1.0:
+        raise CommandError(f"--bad-mvc {args.bad_mvc}: give a share from 0.01 to 1")
+    folder = absolute(args.folder)
+    trial = folder / f"synthetic_S{args.subject}.h5"
+    if trial.exists():
+        raise CommandError(f"{trial} already exists; give another folder")
+    folder.mkdir(parents=True, exist_ok=True)
+    bad = {"anterior_deltoid": args.bad_mvc} if args.bad_mvc is not None else None
+    subject = Subject.drawn(args.subject, bad_mvc=bad)
+    record_trial(trial, subject, seed=0, engine=args.engine)
+    contractions = write_contractions(folder, subject, session=1)
+    print(f"wrote {trial}")
+    options = " ".join(f"--contraction {m}={p}:{ch}" for m, (p, ch) in contractions.items())
+    print(f"next: rehab emg mvc {trial} {options}")
+    print(f"then: rehab emg show {trial}")
     return 0

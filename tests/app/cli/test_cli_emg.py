@@ -70,6 +70,21 @@ def test_mvc_then_show_in_percent_of_mvc(made, tmp_path, capsys):
     assert all("%" in line for line in lines)
 
 
+def test_demo_writes_a_trial_to_try_the_commands_on(tmp_path, capsys):
+    code, out, err = run(["emg", "demo", str(tmp_path / "demo"), "--bad-mvc", "0.08",
+                          "--engine", "python"], capsys)
+    assert code == 0, err
+    mvc_command = next(line for line in out.splitlines() if line.startswith("next: "))
+    code, out, err = run(mvc_command.removeprefix("next: rehab ").split(), capsys)
+    assert code == 0, err
+    assert "anterior_deltoid" in out
+    assert "FLAGGED: below_trial_activity" in out
+    assert "warning: anterior_deltoid: the trial reaches" in out
+    code, _, err = run(["emg", "demo", str(tmp_path / "demo"), "--engine", "python"], capsys)
+    assert code == 2
+    assert "already exists" in err
+
+
 @pytest.mark.parametrize(("args", "expected"), [
     (["emg", "import", "missing.h5", "x.csv"], "no such trial file"),
     (["emg", "show", "99"], "99"),
@@ -82,6 +97,8 @@ def test_mvc_then_show_in_percent_of_mvc(made, tmp_path, capsys):
     (["emg", "show", "{plain}"], "has no EMG"),
     (["emg", "streams", "--wait", "0"], "--wait"),
     (["emg", "frobnicate"], "invalid choice"),
+    (["emg", "demo", "{plain}.d", "--subject", "0"], "--subject 0"),
+    (["emg", "demo", "{plain}.d", "--bad-mvc", "2"], "--bad-mvc 2"),
     (["emg", "mvc", "{plain}", "--contraction", "b=f", "--mains", "55"], "invalid choice"),
 ])
 def test_bad_input_is_one_line_and_exit_2(made, tmp_path, capsys, args, expected):
