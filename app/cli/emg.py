@@ -53,6 +53,21 @@ def add_emg_commands(commands) -> None:
     p.add_argument("trial", help="trial id or trial file")
     p.set_defaults(func=cmd_show)
 
+    p = sub.add_parser("record", help="record a live EMG source to a CSV (e.g. an MVC, guided)",
+                       description="Record a Trigno base station (Trigno Control Utility) or an "
+                                   "LSL EMG stream for a few seconds into a plain CSV. With "
+                                   "--muscle, guide an MVC: prompt the contraction, then check "
+                                   "it (too short, saturated) at once.")
+    p.add_argument("source", help="trigno:HOST, avanti:HOST or lsl:STREAM_NAME")
+    p.add_argument("--seconds", type=float, default=5.0, help="how long (default 5 s)")
+    p.add_argument("--output", required=True, help="the CSV to write (not replaced)")
+    p.add_argument("--muscle", help="guide and check an MVC of this muscle")
+    p.add_argument("--channel", type=int, default=1,
+                   help="the muscle's channel, from 1 (default 1)")
+    p.add_argument("--command-port", type=int, default=50040, help=argparse.SUPPRESS)
+    p.add_argument("--data-port", type=int, help=argparse.SUPPRESS)
+    p.set_defaults(func=cmd_record)
+
     p = sub.add_parser("demo", help="write a synthetic subject's trial and MVC files to try",
                        description="Simulate a trial of a synthetic subject (a virtual patient "
                                    "whose joint torques drive a muscle model, app.emg.subjects) "
@@ -200,4 +215,65 @@ def cmd_demo(args: argparse.Namespace) -> int:
     options = " ".join(f"--contraction {m}={p}:{ch}" for m, (p, ch) in contractions.items())
     print(f"next: rehab emg mvc {trial} {options}")
     print(f"then: rehab emg show {trial}")
+    return 0
+
+
+def _open_source(args):
+    from device.emg.lsl import LslEmgInlet
+    from device.emg.trigno import TrignoClient
+
+    kind, sep, where = args.source.partition(":")
+    if not sep or not where or kind not in ("trigno", "avanti", "lsl"):
+        raise CommandError(f"{args.source!r}: give trigno:HOST, avanti:HOST or lsl:STREAM_NAME")
+    if kind == "lsl":
+        return LslEmgInlet(where).open(), f"lsl:{where}"
+    client = TrignoClient(where, model=kind, command_port=args.command_port,
+                          data_port=args.data_port).open()
+    client.start()
+    return client, f"{kind}:{where}"
+
+
+def cmd_record(args: argparse.Namespace) -> int:
+    import time
+
+    from core.emg.mvc import mvc_from_contraction
+    from device.emg.capture import EmgCapture
+    from device.emg.files import write_plain_csv
+
+    if not (np.isfinite(args.seconds) and 0.2 <= args.seconds <= 600):
+        raise CommandError(f"--seconds {args.seconds}: give 0.2 to 600 s")
+    output = absolute(args.output)
+    if output.exists():
+        raise CommandError(f"--output {output} already exists; give another name")
+    if not output.parent.is_dir():
+        raise CommandError(f"--output {output}: the folder {output.parent} does not exist")
+    source, label = _open_source(args)
+    capture = EmgCapture(source).start()
+    if args.muscle:
+        print(f"Contract the {args.muscle} as hard as you can, and hold it "
+              f"({args.seconds:g} s) … now", flush=True)
+    time.sleep(args.seconds)
+    captured = capture.stop()
+    if args.muscle:
+        print("Relax.")
+    if captured.samples.shape[0] < 2:
+        raise CommandError(f"no EMG came from {label}" + (f": {captured.error}"
+                                                         if captured.error else ""))
+    width = captured.samples.shape[1]
+    if not 1 <= args.channel <= width:
+        raise CommandError(f"--channel {args.channel}: the source has channels 1 to {width}")
+    names = tuple(f"EMG{i + 1}" for i in range(width))
+    write_plain_csv(output, names, captured.stamps_s - captured.stamps_s[0], captured.samples)
+    print(f"recorded {captured.samples.shape[0]} samples of {width} channels at "
+          f"{captured.rate_hz:g} Hz from {label} into {output}"
+          + (f"; {captured.missing} missing" if captured.missing else ""))
+    if captured.error:
+        print(f"warning: the source stopped early: {captured.error}")
+    if args.muscle:
+        mvc = mvc_from_contraction(captured.samples[:, args.channel - 1], captured.rate_hz,
+                                   args.muscle)
+        print(f"{args.muscle}: MVC {1e6 * mvc.value_V:.0f} µV, held {mvc.hold_s:.2f} s: "
+              + ("ok" if mvc.ok else "FLAGGED: " + ", ".join(mvc.flags)))
+        for reason in mvc.reasons:
+            print(f"warning: {reason}")
     return 0

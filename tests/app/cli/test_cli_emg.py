@@ -3,12 +3,14 @@
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from app.cli.main import main
 from app.emg.subjects import Subject, record_trial, write_contractions
 from app.trials.headless import save, simulate
 from core.trial import THESIS_SUBJECT
+from device.emg.files import read_emg_file
 from device.recording.emgfile import read_emg
 
 DATA = Path(__file__).parents[2] / "data" / "emg"
@@ -85,6 +87,33 @@ def test_demo_writes_a_trial_to_try_the_commands_on(tmp_path, capsys):
     assert "already exists" in err
 
 
+def test_record_a_guided_mvc_from_the_fake_trigno(tmp_path, capsys):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "trigno_server", Path(__file__).parents[2] / "device" / "fakes" / "trigno_server.py")
+    fake = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(fake)
+    out_file = tmp_path / "mvc.csv"
+    with fake.FakeTrignoServer() as server:
+        code, out, err = run(["emg", "record", "trigno:127.0.0.1", "--seconds", "0.6",
+                              "--output", str(out_file), "--muscle", "biceps", "--channel", "3",
+                              "--command-port", str(server.command_port),
+                              "--data-port", str(server.data_port)], capsys)
+    assert code == 0, err
+    assert "Contract the biceps as hard as you can" in out
+    assert "channels at 1925.93 Hz from trigno:127.0.0.1" in out
+    # 0.6 s cannot hold a maximal effort for a second: flagged at once
+    assert "FLAGGED: too_short" in out
+    data = read_emg_file(out_file)
+    assert data.samples.shape[1] == 16
+    np.testing.assert_allclose(data.samples[:, 2],
+                               fake.default_signal(np.arange(data.t_s.size))[:, 2], rtol=1e-6)
+    code, _, err = run(["emg", "record", "trigno:127.0.0.1", "--output", str(out_file)], capsys)
+    assert code == 2
+    assert "already exists" in err
+
+
 @pytest.mark.parametrize(("args", "expected"), [
     (["emg", "import", "missing.h5", "x.csv"], "no such trial file"),
     (["emg", "show", "99"], "99"),
@@ -96,6 +125,10 @@ def test_demo_writes_a_trial_to_try_the_commands_on(tmp_path, capsys):
     (["emg", "mvc", "{plain}", "--contraction", f"biceps={DATA / 'plain.csv'}"], "has no EMG"),
     (["emg", "show", "{plain}"], "has no EMG"),
     (["emg", "streams", "--wait", "0"], "--wait"),
+    (["emg", "record", "usb:x", "--output", "{plain}.csv"], "give trigno:HOST"),
+    (["emg", "record", "lsl:x", "--output", "{plain}.csv", "--seconds", "0"], "--seconds 0"),
+    (["emg", "record", "trigno:127.0.0.1", "--output", "{plain}.csv", "--command-port", "1"],
+     "connection refused"),
     (["emg", "frobnicate"], "invalid choice"),
     (["emg", "demo", "{plain}.d", "--subject", "0"], "--subject 0"),
     (["emg", "demo", "{plain}.d", "--bad-mvc", "2"], "--bad-mvc 2"),
