@@ -219,18 +219,9 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 
 def _open_source(args):
-    from device.emg.lsl import LslEmgInlet
-    from device.emg.trigno import TrignoClient
+    from app.emg.live import open_source
 
-    kind, sep, where = args.source.partition(":")
-    if not sep or not where or kind not in ("trigno", "avanti", "lsl"):
-        raise CommandError(f"{args.source!r}: give trigno:HOST, avanti:HOST or lsl:STREAM_NAME")
-    if kind == "lsl":
-        return LslEmgInlet(where).open(), f"lsl:{where}"
-    client = TrignoClient(where, model=kind, command_port=args.command_port,
-                          data_port=args.data_port).open()
-    client.start()
-    return client, f"{kind}:{where}"
+    return open_source(args.source, command_port=args.command_port, data_port=args.data_port)
 
 
 def cmd_record(args: argparse.Namespace) -> int:

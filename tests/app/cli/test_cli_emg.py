@@ -125,7 +125,7 @@ def test_record_a_guided_mvc_from_the_fake_trigno(tmp_path, capsys):
     (["emg", "mvc", "{plain}", "--contraction", f"biceps={DATA / 'plain.csv'}"], "has no EMG"),
     (["emg", "show", "{plain}"], "has no EMG"),
     (["emg", "streams", "--wait", "0"], "--wait"),
-    (["emg", "record", "usb:x", "--output", "{plain}.csv"], "give trigno:HOST"),
+    (["emg", "record", "usb:x", "--output", "{plain}.csv"], "give trigno:HOST, avanti:HOST or lsl"),
     (["emg", "record", "lsl:x", "--output", "{plain}.csv", "--seconds", "0"], "--seconds 0"),
     (["emg", "record", "trigno:127.0.0.1", "--output", "{plain}.csv", "--command-port", "1"],
      "connection refused"),
