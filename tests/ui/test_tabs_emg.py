@@ -65,3 +65,48 @@ def test_nothing_to_show_is_one_line(qtbot, trial_with_emg, tmp_path):
     tab.show_view(live)
     assert tab.status.text() == "EMG shows here when the trial is saved."
     assert tab.curves == []
+
+
+def _fake_trigno():
+    import importlib.util
+    from pathlib import Path
+
+    spec = importlib.util.spec_from_file_location(
+        "trigno_server", Path(__file__).parents[1] / "device" / "fakes" / "trigno_server.py")
+    fake = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(fake)
+    return fake
+
+
+def test_a_live_trigno_streams_its_envelopes_and_disconnects(qtbot):
+    fake = _fake_trigno()
+    tab = EmgTab()
+    qtbot.addWidget(tab)
+    with fake.FakeTrignoServer() as server:
+        tab.source_edit.setText("trigno:127.0.0.1")
+        tab.source_ports = {"command_port": server.command_port,
+                            "data_port": server.data_port}
+        tab.connect_button.click()
+        qtbot.waitUntil(lambda: tab.live_status.text().startswith("Streaming from "
+                                                                  "trigno:127.0.0.1"),
+                        timeout=10000)
+        qtbot.waitUntil(lambda: len(tab.live_curves) == 16, timeout=10000)
+        x, y = tab.live_curves[15].getData()
+        # channel 16 of the fake: 16 µV × a sine, RMS 16/√2 µV
+        assert y[-1] == pytest.approx(16 / 2 ** 0.5, rel=0.1)
+        assert x[-1] <= 0.0  # seconds before now
+        tab.connect_button.click()
+        assert tab.capture is None
+        assert tab.live_status.text().startswith("Disconnected from trigno:127.0.0.1 after")
+        assert tab.connect_button.text() == "Connect EMG"
+
+
+def test_a_bad_live_source_is_one_line(qtbot):
+    tab = EmgTab()
+    qtbot.addWidget(tab)
+    tab.source_edit.setText("usb:x")
+    tab.connect_button.click()
+    qtbot.waitUntil(lambda: "give trigno:HOST" in tab.live_status.text(), timeout=10000)
+    assert "\n" not in tab.live_status.text()
+    assert tab.connect_button.isEnabled()
+    assert tab.capture is None
