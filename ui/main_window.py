@@ -365,6 +365,16 @@ class MainWindow(QMainWindow):
             self.trial_id = None
             self.jobs.run(lambda: finalize_trial(self.registry, trial_id, status),
                           lambda done: self._finalized(trial_id, done))
+            if self.emg.capture is not None:
+                # the live EMG source streams on; this trial's part goes into its file
+                # after the metrics (one job thread: in that order)
+                from app.emg.importing import store_live_capture
+
+                captured, label = self.emg.capture.snapshot(), self.emg.live_label
+                self.jobs.run(lambda: store_live_capture(path, captured, label),
+                              lambda done: self._say(
+                                  f"EMG stored with the trial: {len(done.names)} channels, "
+                                  f"{done.n_samples} samples from {label}"))
 
     def _finalized(self, trial_id: int, done) -> None:
         self.unsaved_trial = trial_id

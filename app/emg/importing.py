@@ -116,10 +116,18 @@ def import_emg_file(
 
 
 def import_capture(trial_path: str | os.PathLike, captured, *, names, muscles=None,
-                   source: str, replace: bool = False) -> Imported:
+                   source: str, replace: bool = False, margin_s: float | None = None) -> Imported:
     """Store a live capture (device.emg.capture.Captured, monotonic stamps) in a closed
-    trial file, its stamps mapped onto the trial's clock (trial_time_from_monotonic)."""
+    trial file, its stamps mapped onto the trial's clock (trial_time_from_monotonic).
+    With `margin_s`, only the samples from `margin_s` before the trial to `margin_s` after
+    it are kept (a source that streams across trials)."""
     trial = read_trial(trial_path)
+    if margin_s is not None and captured.stamps_s.size:
+        t = trial_time_from_monotonic(trial, captured.stamps_s)
+        end = trial.n_samples * trial.sample_period_s
+        keep = (t >= -margin_s) & (t <= end + margin_s)
+        captured = dataclasses.replace(captured, stamps_s=captured.stamps_s[keep],
+                                       samples=captured.samples[keep])
     if not trial.closed:
         raise EmgImportError(f"trial file {trial.path.name} is still being recorded; store "
                              "the EMG after the trial ends")
@@ -138,3 +146,29 @@ def import_capture(trial_path: str | os.PathLike, captured, *, names, muscles=No
                  "wall_time_origin_monotonic_s and /timeseries/wall_time", offset_s=0.0,
                  replace=replace)
     return dataclasses.replace(done, notes=(*done.notes, *notes))
+
+
+LIVE_MARGIN_S = 2.0
+BUSY_RETRY_S = 10.0
+
+
+def store_live_capture(trial_path: str | os.PathLike, captured, label: str) -> Imported:
+    """What the window does when a trial's file closes while a live source streams: the
+    capture's samples from LIVE_MARGIN_S before the trial to as long after, channels named
+    EMG1…, into the trial's `/emg`."""
+    import time
+
+    from device.errors import RecordingError
+
+    names = tuple(f"EMG{i + 1}" for i in range(captured.samples.shape[1]))
+    deadline = time.monotonic() + BUSY_RETRY_S
+    while True:
+        try:
+            return import_capture(trial_path, captured, names=names, source=label,
+                                  margin_s=LIVE_MARGIN_S)
+        except RecordingError as exc:
+            # the window may be reading the file for its report this very moment; HDF5
+            # refuses to open it for writing meanwhile
+            if "already open" not in str(exc) or time.monotonic() > deadline:
+                raise
+            time.sleep(0.1)

@@ -97,6 +97,11 @@ class EmgCapture:
             self.source.close()
         except DeviceError as exc:
             self.error = self.error or str(exc)
+        return self.snapshot()
+
+    def snapshot(self) -> Captured:
+        """Everything captured so far, without stopping (a trial that ends while the source
+        goes on streaming for the next one)."""
         with self._lock:
             chunks = list(self._chunks)
         rate = float(self.source.rate_hz)

@@ -2,8 +2,9 @@
 above the joint torques on the same time axis, with each MVC's quality, for a saved trial
 (after the trial, and in replay). And a live source (a Trigno base station or an LSL
 stream, app.emg.live): its status and the last seconds' RMS envelopes per channel in µV,
-read on the capture's own thread (device.emg.capture), never in the loop. Live EMG is not
-yet stored with the trial from here: record it with `rehab emg record` or import it."""
+read on the capture's own thread (device.emg.capture), never in the loop. While it
+streams, the window stores each trial's part of it in the trial's file when the file
+closes (app.emg.importing.store_live_capture)."""
 
 from __future__ import annotations
 
