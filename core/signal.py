@@ -103,6 +103,28 @@ def lowpass(
     filter's padding (see `min_samples`).
     """
     sos = butterworth_sos(dt_s, cutoff_hz, order)
+    # scipy's default padding (a few samples) is far shorter than the filter's
+    # memory, so a steep signal end leaves a start-up transient (0.5 on a cubic
+    # of slope 36/s at 10 Hz). PAD_PERIODS cutoff periods let it die out.
+    return zero_lag(signal, sos, PAD_PERIODS / (float(cutoff_hz) * dt_s),
+                    nan_policy=nan_policy, name=name, what=f"an order-{order} filter")
+
+
+def zero_lag(
+    signal,
+    sos: np.ndarray,
+    pad_samples: float,
+    *,
+    nan_policy: str = "raise",
+    name: str = "signal",
+    what: str = "the filter",
+) -> np.ndarray:
+    """Any digital filter `sos` (second-order sections) run forwards then backwards along
+    axis 0 (scipy.signal.sosfiltfilt): no phase shift, the single pass's magnitude
+    squared. Each end is padded by odd reflection over `pad_samples` (at least
+    sosfiltfilt's default, at most the signal less one sample), with the NaN policy
+    and the checks of `lowpass`, which is this with a Butterworth low-pass. The EMG
+    band-pass and mains notch (core.emg.processing) run through here too."""
     values, missing = _prepare(signal, name, nan_policy)
     n = values.shape[0]
     least = _padlen(sos)
@@ -110,14 +132,11 @@ def lowpass(
         raise ParameterError(
             name,
             f"{n} samples",
-            f"at least {least + 1} samples for an order-{order} filter",
+            f"at least {least + 1} samples for {what}",
             f"the zero-lag filter pads each end with at least {least} samples; "
             "record longer or lower the order",
         )
-    # scipy's default padding (a few samples) is far shorter than the filter's
-    # memory, so a steep signal end leaves a start-up transient (0.5 on a cubic
-    # of slope 36/s at 10 Hz). PAD_PERIODS cutoff periods let it die out.
-    padlen = min(n - 1, max(least, math.ceil(PAD_PERIODS / (float(cutoff_hz) * dt_s))))
+    padlen = min(n - 1, max(least, math.ceil(pad_samples)))
     from scipy.signal import sosfiltfilt
 
     filtered = sosfiltfilt(sos, values, axis=0, padlen=padlen)

@@ -11,6 +11,7 @@ into Qt signals and drains the ring for the live view. The GUI thread never wait
 from __future__ import annotations
 
 import logging
+import math
 import queue
 import threading
 from dataclasses import dataclass
@@ -62,9 +63,13 @@ class DeviceBridge(QObject):
     loop_lost = Signal(str)
 
     def __init__(self, *, loop_config: LoopConfig | None = None,
-                 client: DeviceClient | None = None) -> None:
+                 client: DeviceClient | None = None, lsl_outlet=None) -> None:
         super().__init__()
         self.client = client or DeviceClient(loop_config=loop_config, auto_heartbeat=False)
+        # the robot's state and events on the Lab Streaming Layer (device.emg.lsl's
+        # RobotStateOutlet), published from this worker thread, never from the loop
+        self.lsl_outlet = lsl_outlet
+        self._origin = math.nan
         self._calls: queue.Queue[_Call | None] = queue.Queue()
         self._records: list[np.ndarray] = []
         self._lock = threading.Lock()
@@ -169,8 +174,28 @@ class DeviceBridge(QObject):
             with self._lock:
                 self._records.append(records)
                 del self._records[:-MAX_PENDING]
+            if self.lsl_outlet is not None and math.isfinite(self._origin):
+                self._publish(self.lsl_outlet.push_records, records, self._origin)
         for event in self.client.events():
             self._emit(event)
+            if self.lsl_outlet is not None:
+                self._publish_event(event)
+
+    def _publish(self, push, *args) -> None:
+        try:
+            push(*args)
+        except Exception as exc:  # the outlet must never take the live view down with it
+            log.warning("LSL outlet stopped: %s", exc)
+            self.lsl_outlet = None
+
+    def _publish_event(self, event) -> None:
+        if isinstance(event, TrialStarted):
+            self._origin = event.wall_time_origin_monotonic_s
+            self._publish(self.lsl_outlet.push_event, "start", "")
+        elif isinstance(event, TrialEnded):
+            self._publish(self.lsl_outlet.push_event, "stop", event.status)
+        elif isinstance(event, FaultRaised):
+            self._publish(self.lsl_outlet.push_event, "fault", event.message)
 
     def _emit(self, event) -> None:
         if isinstance(event, StateChanged):

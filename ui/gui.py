@@ -12,7 +12,7 @@ import time
 log = logging.getLogger(__name__)
 
 
-def run_gui(font_scale: float | None = None) -> int:
+def run_gui(font_scale: float | None = None, lsl_outlet: bool = False) -> int:
     started = time.perf_counter()
     from PySide6.QtCore import QTimer
     from PySide6.QtWidgets import QApplication
@@ -31,7 +31,13 @@ def run_gui(font_scale: float | None = None) -> int:
     app = QApplication.instance() or QApplication(sys.argv[:1])
     app.setApplicationName("Rehabilitation robot console")
     theme.apply_theme(app, font_scale or 1.0)
-    window = MainWindow(Registry(data_dir), settings=settings)
+    bridge = None
+    if lsl_outlet:
+        from device.emg.lsl import RobotStateOutlet
+        from ui.device_bridge import DeviceBridge
+
+        bridge = DeviceBridge(lsl_outlet=RobotStateOutlet())
+    window = MainWindow(Registry(data_dir), settings=settings, bridge=bridge)
     window.show()
 
     def stop(*_args) -> None:

@@ -37,7 +37,7 @@ def cmd_gui(args) -> int:
         raise CommandError(problem)
     from ui.gui import run_gui
 
-    return run_gui(font_scale=args.font_scale)
+    return run_gui(font_scale=args.font_scale, lsl_outlet=args.lsl_outlet)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -45,6 +45,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     gui = commands.add_parser("gui", help="the console's window (the default command)",
                               description="Open the therapist's console window.")
     gui.add_argument("--font-scale", type=float, help="text size, 0.75-2 (default 1)")
+    gui.add_argument("--lsl-outlet", action="store_true",
+                     help="publish the robot's state and events on the Lab Streaming Layer "
+                          "while trials run (streams rehab-robot, rehab-robot-events)")
     gui.set_defaults(func=cmd_gui)
     return run(parser, argv, default="gui")
 

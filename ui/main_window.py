@@ -48,6 +48,7 @@ from ui.tabs import (
     TABS,
     VIEW_TABS,
     AnglesTab,
+    EmgTab,
     ForceTab,
     InstructionsTab,
     ParametersTab,
@@ -132,6 +133,7 @@ class MainWindow(QMainWindow):
         self.force = ForceTab()
         self.angles = AnglesTab()
         self.torques = TorquesTab()
+        self.emg = EmgTab()
         self.video = VideoTab()
         self.report = ReportTab()
         self.progress = ProgressTab()
@@ -139,8 +141,8 @@ class MainWindow(QMainWindow):
         self.replay = ReplayTab()
         self.replay.set_registry(self.registry)
         made = (self.instructions, self.registration_tab, self.parameters_tab, self.trajectory,
-                self.force, self.angles, self.torques, self.video, self.report, self.progress,
-                self.replay)
+                self.force, self.angles, self.torques, self.emg, self.video, self.report,
+                self.progress, self.replay)
         by_class = {type(tab): tab for tab in made}
         for title, cls in TABS:  # in the thesis's order, with the titles it uses
             self.tabs.addTab(by_class[cls], title)
@@ -410,6 +412,16 @@ class MainWindow(QMainWindow):
             self.trial_id = None
             self.jobs.run(lambda: finalize_trial(self.registry, trial_id, status),
                           lambda done: self._finalized(trial_id, done))
+            if self.emg.capture is not None:
+                # the live EMG source streams on; this trial's part goes into its file
+                # after the metrics (one job thread: in that order)
+                from app.emg.importing import store_live_capture
+
+                captured, label = self.emg.capture.snapshot(), self.emg.live_label
+                self.jobs.run(lambda: store_live_capture(path, captured, label),
+                              lambda done: self._say(
+                                  f"EMG stored with the trial: {len(done.names)} channels, "
+                                  f"{done.n_samples} samples from {label}"))
 
     def _finalized(self, trial_id: int, done) -> None:
         self.unsaved_trial = trial_id

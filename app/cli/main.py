@@ -16,10 +16,11 @@ from collections.abc import Sequence
 
 from app.cli.check import add_check_command
 from app.cli.common import EXIT_BAD_INPUT, CommandError, Parser
+from app.cli.emg import add_emg_commands
 from app.cli.exports import add_export_command
 from app.cli.gains import add_gains_command
-from app.cli.pose import add_pose_command
 from app.cli.learn import add_learn_commands
+from app.cli.pose import add_pose_command
 from app.cli.records import add_patient_commands, add_trials_command
 from app.cli.reports import add_progress_command, add_report_command
 from app.cli.run import add_run_command
@@ -39,6 +40,7 @@ COMMAND_GROUPS = (
     add_pose_command,
     add_gains_command,
     add_learn_commands,
+    add_emg_commands,
 )
 
 

@@ -32,6 +32,7 @@ from app.reports.compare import (
 )
 from app.reports.figures import (
     AnglesFigure,
+    EmgFigure,
     Figures,
     ForceFigure,
     PathFigure,
@@ -105,6 +106,7 @@ class ReportContent:
     exercised_s: float  # exercise time recorded
     planned_s: float  # exercise time the parameters asked for
     peak_force_N: float  # largest |F| of the exercise; NaN without a force channel
+    emg: EmgFigure | None = None  # chapter 5: % MVC envelopes, when the trial has EMG
 
 
 # -- building it -------------------------------------------------------------------------
@@ -219,6 +221,7 @@ def build_report(
         exercised_s=exercised_s,
         planned_s=planned_s,
         peak_force_N=figures.peak_force_N,
+        emg=figures.emg,
     )
 
 

@@ -97,6 +97,41 @@ class TorquesFigure:
     caption: str
 
 
+@dataclass(frozen=True, slots=True, eq=False)
+class EmgFigure:
+    """Chapter 5: each muscle's RMS envelope in % MVC over the exercise, on the torques' time
+    axis, and one line per muscle on its MVC's quality."""
+
+    t_s: np.ndarray
+    percent: np.ndarray  # (N, muscles)
+    muscles: tuple[str, ...]
+    quality: tuple[str, ...]
+
+
+def emg_figure(trial: TrialData, mask: np.ndarray, start_s: float) -> EmgFigure | None:
+    """The EMG figure of a trial with EMG and an MVC per muscle, else None."""
+    from app.emg.importing import EmgImportError
+    from app.emg.session import trial_envelopes
+    from device.errors import DeviceError
+    from device.recording.emgfile import read_emg
+
+    try:
+        if read_emg(trial.path) is None:
+            return None
+        env = trial_envelopes(trial.path)
+    except (EmgImportError, DeviceError, CoreError):
+        return None
+    words = {"too_short": "too short", "saturated": "saturated",
+             "below_trial_activity": "lower than the trial's own activity: not a maximal "
+                                     "effort, record it again"}
+    quality = tuple(f"{m.replace('_', ' ')}: MVC "
+                    + ("sound" if not env.flags[m] else
+                       "; ".join(words.get(f, f) for f in env.flags[m]))
+                    for m in env.muscles)
+    t = np.asarray(trial.channels["time"], dtype=float)[mask] - start_s
+    return EmgFigure(t, 100.0 * env.values[mask], env.muscles, quality)
+
+
 def merge_short_runs(t_s: np.ndarray, within: np.ndarray, min_run_s: float) -> tuple[Run, ...]:
     """The runs of equal `within`, with every run shorter than `min_run_s` merged into
     its neighbours, shortest first (see the module's doc). Sample k holds over
@@ -153,6 +188,7 @@ class Figures:
     angles: AnglesFigure | None = None
     torques: TorquesFigure | None = None
     peak_force_N: float = math.nan
+    emg: EmgFigure | None = None
     notes: tuple[str, ...] = ()
 
 
@@ -175,7 +211,8 @@ def report_figures(trial: TrialData, parameters: TrialParameters, mask: np.ndarr
         _angles_figure(series, metrics),
         _torques_figure(series, metrics, trial.sample_period_s),
         peak,
-        notes,
+        notes=notes,
+        emg=emg_figure(trial, mask, start_s),
     )
 
 

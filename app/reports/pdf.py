@@ -33,6 +33,7 @@ from app.reports.content import ReportContent
 from app.reports.pdf_plots import (
     PATH_ABOVE_IN,
     PATH_BELOW_IN,
+    emg_plots,
     force_plots,
     joint_plots,
     path_plot,
@@ -92,6 +93,8 @@ def write_report_pdf(content: ReportContent, path: str | os.PathLike) -> Path:
     try:
         with handle, matplotlib.rc_context(RC):
             pages = (_first_page(content), _second_page(content))
+            if content.emg is not None:
+                pages += (_emg_page(content),)
             with PdfPages(handle, metadata=metadata) as pdf:
                 for page in pages:
                     pdf.savefig(page)
@@ -269,6 +272,13 @@ def _second_page(content: ReportContent) -> Figure:
         joint_plots(sheet, content.angles, content.torques, x0, label_room)
     _table(sheet, content)
     _notes(sheet, content)
+    return sheet.fig
+
+
+def _emg_page(content: ReportContent) -> Figure:
+    sheet = Sheet()
+    _title(sheet, content, "Muscle activity (surface EMG)", size=16)
+    emg_plots(sheet, content.emg, content.torques, LEFT_IN + 0.55, TEXT_W_IN - 0.55)
     return sheet.fig
 
 

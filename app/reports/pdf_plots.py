@@ -18,7 +18,14 @@ import matplotlib.lines
 import numpy as np
 from matplotlib.axes import Axes
 
-from app.reports.figures import AnglesFigure, ForceFigure, PathFigure, Run, TorquesFigure
+from app.reports.figures import (
+    AnglesFigure,
+    EmgFigure,
+    ForceFigure,
+    PathFigure,
+    Run,
+    TorquesFigure,
+)
 from app.reports.pdf_sheet import (
     BLUE,
     GREEN,
@@ -163,6 +170,43 @@ def joint_plots(sheet: Sheet, angles: AnglesFigure | None, torques: TorquesFigur
                        width_in=half + label_room)
         bottom_in = max(bottom_in, sheet.y_in)
     sheet.y_in = bottom_in + 0.1
+
+
+_MUSCLE_STYLES = ((BLUE, "-"), (VERMILLION, "--"), (GREEN, "-."), (PURPLE, ":"))
+
+
+def emg_plots(sheet: Sheet, emg: EmgFigure, torques: TorquesFigure | None, x0: float,
+              width: float) -> None:
+    """Each muscle's envelope in % MVC above the joint torques, on one time axis, then a line
+    per muscle on its MVC."""
+    height = 2.2
+    handles = [matplotlib.lines.Line2D([], [], color=c, linestyle=ls, linewidth=1.4,
+                                       label=m.replace("_", " "))
+               for (c, ls), m in zip(_MUSCLE_STYLES, emg.muscles, strict=False)]
+    sheet.text("Envelopes in % of the session's MVC (RMS, 0.125 s window)", 10, weight="bold")
+    sheet.gap(0.03)
+    sheet.legend(handles, x0 - 0.55, ncols=len(handles), size=7.5)
+    sheet.gap(0.04)
+    ax = sheet.axes(height, x_in=x0, width_in=width)
+    for i, (colour, style) in enumerate(_MUSCLE_STYLES[:len(emg.muscles)]):
+        x, y = _envelope(emg.t_s, emg.percent[:, i])
+        ax.plot(x, y, color=colour, linestyle=style, linewidth=1.2)
+    ax.set_ylabel("% MVC")
+    ax.set_xlim(emg.t_s[0], emg.t_s[-1])
+    _light_grid(ax)
+    sheet.y_in += height + 0.42
+    if torques is not None:
+        sheet.text("Joint torques on the same time axis (Fig. 3.12)", 10, weight="bold")
+        sheet.gap(0.03)
+        sheet.legend(_joint_handles(torques), x0 - 0.55, ncols=2, size=7.5)
+        sheet.gap(0.04)
+        ax = sheet.axes(height, x_in=x0, width_in=width)
+        _plot_series(ax, torques)
+        ax.set_xlim(emg.t_s[0], emg.t_s[-1])
+        ax.set_xlabel(TIME_LABEL)
+        sheet.y_in += height + 0.5
+    for line in emg.quality:
+        sheet.text(line, 9, color=INK if line.endswith("sound") else VERMILLION)
 
 
 def _joint_handles(figure: AnglesFigure | TorquesFigure) -> list:

@@ -138,6 +138,9 @@ class TrialStarted:
     path: str
     approach_ticks: int
     total_ticks: int
+    # monotonic time of wall_time 0 (the loop's clock origin): what puts live records on
+    # other instruments' clocks (the LSL outlet, device.emg.lsl)
+    wall_time_origin_monotonic_s: float = float("nan")
 
 
 @dataclass(frozen=True, slots=True)

@@ -326,7 +326,7 @@ class DeviceLoop:
         self._to_recorder(TrialEvent(0.0, 0, "start", "trial started",
                                      {"approach_ticks": self.pipeline.approach_ticks}))
         self._send(TrialStarted(command.path, self.pipeline.approach_ticks,
-                                self.pipeline.total_ticks))
+                                self.pipeline.total_ticks, self.t0))
         return ""
 
     def _end_trial(self, status: str, message: str, values: dict | None = None) -> None:

@@ -12,6 +12,7 @@ from __future__ import annotations
 from typing import Protocol, runtime_checkable
 
 from ui.tabs.angles import AnglesTab
+from ui.tabs.emg import EmgTab
 from ui.tabs.force import ForceTab
 from ui.tabs.instructions import InstructionsTab
 from ui.tabs.parameters import BackendChoice, ParametersTab
@@ -41,18 +42,20 @@ TABS = (
     ("Force", ForceTab),
     ("Joint angles", AnglesTab),
     ("Joint torques", TorquesTab),
+    ("EMG", EmgTab),
     ("Video", VideoTab),
     ("Report", ReportTab),
     ("Progress", ProgressTab),
     ("Replay", ReplayTab),
 )
-VIEW_TABS = (TrajectoryTab, ForceTab, AnglesTab, TorquesTab)
+VIEW_TABS = (TrajectoryTab, ForceTab, AnglesTab, TorquesTab, EmgTab)
 
 __all__ = [
     "TABS",
     "VIEW_TABS",
     "AnglesTab",
     "BackendChoice",
+    "EmgTab",
     "ForceTab",
     "InstructionsTab",
     "ParametersTab",

@@ -1,0 +1,270 @@
+"""`rehab emg …`: surface EMG beside a trial: import a recording into the trial file
+(app.emg.importing), the session's MVC per muscle with its quality check
+(app.emg.session), a trial's envelopes in % MVC, and the Lab Streaming Layer's streams
+(device.emg.lsl)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from app.cli.common import CommandError, Parser, absolute, registry_for
+
+
+def add_emg_commands(commands) -> None:
+    emg = commands.add_parser(
+        "emg", help="surface EMG: import, MVC, envelopes, LSL streams",
+        description="Surface EMG beside a trial (thesis chapter 5). TRIAL is a trial's id "
+                    "(`rehab trials CODE`) or the path of its .h5 file.")
+    sub = emg.add_subparsers(dest="emg_command", metavar="subcommand", required=True,
+                             parser_class=Parser)
+
+    p = sub.add_parser("import", help="store an exported EMG file in a trial",
+                       description="Read a Delsys Trigno CSV export or a plain CSV with a time "
+                                   "column (docs/data-format.md, EMG) and store it in the "
+                                   "trial's file on the trial's clock.")
+    p.add_argument("trial", help="trial id or trial file")
+    p.add_argument("file", help="the EMG file (.csv)")
+    p.add_argument("--muscles", help="comma-separated muscle under each EMG channel, in order "
+                                     "(default: the channel names)")
+    p.add_argument("--offset", type=float, default=0.0, metavar="S",
+                   help="trial time of the EMG file's time 0, s (default 0: started together)")
+    p.add_argument("--replace", action="store_true", help="replace EMG the trial already has")
+    p.set_defaults(func=cmd_import)
+
+    p = sub.add_parser("mvc", help="the session's MVC per muscle, checked, stored in its trials",
+                       description="Compute each muscle's MVC (the maximum RMS envelope, window "
+                                   "0.125 s, overlap 0.0625 s unless given) from its contraction "
+                                   "recording, flag a contraction that is too short, saturated "
+                                   "or lower than the trials' own activity, and store it in "
+                                   "every trial given.")
+    p.add_argument("trials", nargs="+", help="the session's trials (ids or files)")
+    p.add_argument("--contraction", action="append", required=True, metavar="MUSCLE=FILE[:CH]",
+                   help="a muscle's MVC recording, and its channel when the file has several "
+                        "(repeat for each muscle)")
+    _processing_options(p)
+    p.add_argument("--full-scale", type=float, metavar="V",
+                   help="the amplifier's full scale in V, to detect saturation (Trigno: 0.011)")
+    p.set_defaults(func=cmd_mvc)
+
+    p = sub.add_parser("show", help="a trial's EMG: channels, MVCs, % MVC figures")
+    p.add_argument("trial", help="trial id or trial file")
+    p.set_defaults(func=cmd_show)
+
+    p = sub.add_parser("record", help="record a live EMG source to a CSV (e.g. an MVC, guided)",
+                       description="Record a Trigno base station (Trigno Control Utility) or an "
+                                   "LSL EMG stream for a few seconds into a plain CSV. With "
+                                   "--muscle, guide an MVC: prompt the contraction, then check "
+                                   "it (too short, saturated) at once.")
+    p.add_argument("source", help="trigno:HOST, avanti:HOST or lsl:STREAM_NAME")
+    p.add_argument("--seconds", type=float, default=5.0, help="how long (default 5 s)")
+    p.add_argument("--output", required=True, help="the CSV to write (not replaced)")
+    p.add_argument("--muscle", help="guide and check an MVC of this muscle")
+    p.add_argument("--channel", type=int, default=1,
+                   help="the muscle's channel, from 1 (default 1)")
+    p.add_argument("--command-port", type=int, default=50040, help=argparse.SUPPRESS)
+    p.add_argument("--data-port", type=int, help=argparse.SUPPRESS)
+    p.set_defaults(func=cmd_record)
+
+    p = sub.add_parser("demo", help="write a synthetic subject's trial and MVC files to try",
+                       description="Simulate a trial of a synthetic subject (a virtual patient "
+                                   "whose joint torques drive a muscle model, app.emg.subjects) "
+                                   "with its EMG in the trial file, and write its MVC "
+                                   "contractions as CSV files, to try `rehab emg mvc` and "
+                                   "`rehab emg show` on.")
+    p.add_argument("folder", help="where to write (created; existing files are kept)")
+    p.add_argument("--subject", type=int, default=2, help="which synthetic subject (1-99)")
+    p.add_argument("--bad-mvc", type=float, metavar="SHARE",
+                   help="the anterior deltoid's MVC effort as a share of a maximum, e.g. 0.15 "
+                        "(the thesis's subject 2)")
+    p.add_argument("--engine", choices=("auto", "python"), default="auto",
+                   help=argparse.SUPPRESS)
+    p.set_defaults(func=cmd_demo)
+
+    p = sub.add_parser("streams", help="list the Lab Streaming Layer's streams on the network")
+    p.add_argument("--wait", type=float, default=2.0, metavar="S", help="how long to look")
+    p.set_defaults(func=cmd_streams)
+
+
+def _processing_options(p) -> None:
+    p.add_argument("--mains", default="50", choices=("50", "60", "none"),
+                   help="mains frequency to notch, Hz (default 50)")
+    p.add_argument("--window", type=float, default=0.125, metavar="S", help="RMS window, s")
+    p.add_argument("--overlap", type=float, default=0.0625, metavar="S", help="RMS overlap, s")
+
+
+def _settings(args):
+    from core.emg.processing import EmgSettings
+
+    mains = None if args.mains == "none" else float(args.mains)
+    return EmgSettings(mains_hz=mains, window_s=args.window, overlap_s=args.overlap)
+
+
+def trial_file(args: argparse.Namespace, text: str) -> Path:
+    """A trial given as its registry id or as a file."""
+    if text.isdigit():
+        return registry_for(args).trial_path(int(text))
+    path = absolute(text)
+    if not path.exists():
+        raise CommandError(f"{text}: no such trial file (give a trial id or an .h5 file)")
+    return path
+
+
+def cmd_import(args: argparse.Namespace) -> int:
+    from app.emg.importing import import_emg_file
+
+    muscles = [m.strip() for m in args.muscles.split(",")] if args.muscles else None
+    if not np.isfinite(args.offset):
+        raise CommandError(f"--offset {args.offset}: give a finite number of seconds")
+    done = import_emg_file(trial_file(args, args.trial), absolute(args.file), muscles=muscles,
+                           offset_s=args.offset, replace=args.replace)
+    print(f"stored {len(done.names)} EMG channels ({', '.join(done.muscles)}) at "
+          f"{done.rate_hz:g} Hz, {done.n_samples} samples, trial time "
+          f"{done.first_s:.3f}–{done.last_s:.3f} s, in {done.trial.name}")
+    for note in done.notes:
+        print(f"note: {note}")
+    return 0
+
+
+def _contraction(text: str):
+    from app.emg.session import Contraction
+
+    muscle, sep, rest = text.partition("=")
+    if not sep or not muscle.strip() or not rest.strip():
+        raise CommandError(f"--contraction {text!r}: write MUSCLE=FILE or MUSCLE=FILE:CHANNEL")
+    path, _, channel = rest.partition(":") if not Path(rest).exists() else (rest, "", "")
+    return Contraction(muscle.strip(), absolute(path), channel.strip() or None)
+
+
+def cmd_mvc(args: argparse.Namespace) -> int:
+    from app.emg.session import session_mvc
+
+    contractions = [_contraction(c) for c in args.contraction]
+    trials = [trial_file(args, t) for t in args.trials]
+    results = session_mvc(trials, contractions, settings=_settings(args),
+                          full_scale_V=args.full_scale)
+    print(f"{'muscle':<20} {'MVC':>10} {'held':>7}  quality")
+    for mvc in results:
+        quality = "ok" if mvc.ok else "FLAGGED: " + ", ".join(mvc.flags)
+        print(f"{mvc.muscle:<20} {1e6 * mvc.value_V:>7.0f} µV {mvc.hold_s:>5.2f} s  {quality}")
+    for mvc in results:
+        for reason in mvc.reasons:
+            print(f"warning: {reason}")
+    print(f"stored in {len(trials)} trial file(s)")
+    return 0
+
+
+def cmd_show(args: argparse.Namespace) -> int:
+    from app.emg.session import trial_emg, trial_envelopes
+
+    path = trial_file(args, args.trial)
+    emg = trial_emg(path)
+    print(f"{path.name}: {len(emg.names)} EMG channels at {emg.rate_hz:g} Hz, "
+          f"{emg.time_s.size} samples, trial time {emg.time_s[0]:.3f}–{emg.time_s[-1]:.3f} s "
+          f"({emg.attrs.get('source')}, {emg.attrs.get('source_file')})")
+    if not emg.mvc:
+        print("no MVC yet: rehab emg mvc TRIAL --contraction MUSCLE=FILE …")
+        return 0
+    env = trial_envelopes(path)
+    print(f"{'muscle':<20} {'MVC':>10} {'median':>8} {'p95':>8} {'max':>8}  quality")
+    for c, muscle in enumerate(env.muscles):
+        v = env.values[:, c]
+        v = v[np.isfinite(v)]
+        cells = [f"{100 * np.percentile(v, q):>6.1f} %" for q in (50, 95, 100)] if v.size \
+            else ["—"] * 3
+        flags = env.flags[muscle]
+        print(f"{muscle:<20} {1e6 * emg.mvc[muscle]['value_V']:>7.0f} µV "
+              + " ".join(f"{c:>8}" for c in cells)
+              + ("  ok" if not flags else "  FLAGGED: " + ", ".join(flags)))
+    return 0
+
+
+def cmd_streams(args: argparse.Namespace) -> int:
+    if not (np.isfinite(args.wait) and 0 < args.wait <= 60):
+        raise CommandError(f"--wait {args.wait}: give a time in (0, 60] s")
+    from device.emg.lsl import find_streams
+
+    streams = find_streams(args.wait)
+    if not streams:
+        print(f"no Lab Streaming Layer stream seen in {args.wait:g} s")
+    for s in streams:
+        print(f"{s.name!r} type {s.type!r}: {s.channel_count} channels at "
+              f"{s.nominal_rate_hz:g} Hz from {s.hostname} ({s.source_id or 'no source id'})")
+    return 0
+
+
+def cmd_demo(args: argparse.Namespace) -> int:
+    from app.emg.subjects import Subject, record_trial, write_contractions
+
+    if not 1 <= args.subject <= 99:
+        raise CommandError(f"--subject {args.subject}: give a number from 1 to 99")
+    if args.bad_mvc is not None and not 0.01 <= args.bad_mvc <= 1.0:
+        raise CommandError(f"--bad-mvc {args.bad_mvc}: give a share from 0.01 to 1")
+    folder = absolute(args.folder)
+    trial = folder / f"synthetic_S{args.subject}.h5"
+    if trial.exists():
+        raise CommandError(f"{trial} already exists; give another folder")
+    folder.mkdir(parents=True, exist_ok=True)
+    bad = {"anterior_deltoid": args.bad_mvc} if args.bad_mvc is not None else None
+    subject = Subject.drawn(args.subject, bad_mvc=bad)
+    record_trial(trial, subject, seed=0, engine=args.engine)
+    contractions = write_contractions(folder, subject, session=1)
+    print(f"wrote {trial}")
+    options = " ".join(f"--contraction {m}={p}:{ch}" for m, (p, ch) in contractions.items())
+    print(f"next: rehab emg mvc {trial} {options}")
+    print(f"then: rehab emg show {trial}")
+    return 0
+
+
+def _open_source(args):
+    from app.emg.live import open_source
+
+    return open_source(args.source, command_port=args.command_port, data_port=args.data_port)
+
+
+def cmd_record(args: argparse.Namespace) -> int:
+    import time
+
+    from core.emg.mvc import mvc_from_contraction
+    from device.emg.capture import EmgCapture
+    from device.emg.files import write_plain_csv
+
+    if not (np.isfinite(args.seconds) and 0.2 <= args.seconds <= 600):
+        raise CommandError(f"--seconds {args.seconds}: give 0.2 to 600 s")
+    output = absolute(args.output)
+    if output.exists():
+        raise CommandError(f"--output {output} already exists; give another name")
+    if not output.parent.is_dir():
+        raise CommandError(f"--output {output}: the folder {output.parent} does not exist")
+    source, label = _open_source(args)
+    capture = EmgCapture(source).start()
+    if args.muscle:
+        print(f"Contract the {args.muscle} as hard as you can, and hold it "
+              f"({args.seconds:g} s) … now", flush=True)
+    time.sleep(args.seconds)
+    captured = capture.stop()
+    if args.muscle:
+        print("Relax.")
+    if captured.samples.shape[0] < 2:
+        raise CommandError(f"no EMG came from {label}" + (f": {captured.error}"
+                                                         if captured.error else ""))
+    width = captured.samples.shape[1]
+    if not 1 <= args.channel <= width:
+        raise CommandError(f"--channel {args.channel}: the source has channels 1 to {width}")
+    names = tuple(f"EMG{i + 1}" for i in range(width))
+    write_plain_csv(output, names, captured.stamps_s - captured.stamps_s[0], captured.samples)
+    print(f"recorded {captured.samples.shape[0]} samples of {width} channels at "
+          f"{captured.rate_hz:g} Hz from {label} into {output}"
+          + (f"; {captured.missing} missing" if captured.missing else ""))
+    if captured.error:
+        print(f"warning: the source stopped early: {captured.error}")
+    if args.muscle:
+        mvc = mvc_from_contraction(captured.samples[:, args.channel - 1], captured.rate_hz,
+                                   args.muscle)
+        print(f"{args.muscle}: MVC {1e6 * mvc.value_V:.0f} µV, held {mvc.hold_s:.2f} s: "
+              + ("ok" if mvc.ok else "FLAGGED: " + ", ".join(mvc.flags)))
+        for reason in mvc.reasons:
+            print(f"warning: {reason}")
+    return 0

@@ -1,0 +1,174 @@
+"""An EMG recording into a trial file, on the trial's clock.
+
+Two clocks meet here (docs/data-format.md, "EMG"):
+
+* A file exported by the EMG software has its own time from 0 at its start. Trial
+  time = file time + `offset_s`; 0 (the default) says the EMG recording was started
+  with the trial (a trigger from the robot, or both started together), and the file
+  says so in `/emg` `clock`. A lab that knows the delay between the two starts gives it.
+* A live capture (device.emg.capture) stamps its samples on the monotonic clock. The
+  loop's `wall_time` is monotonic time less the trial's origin, which the trial file
+  keeps (`/summary` `wall_time_origin_monotonic_s`), and each sample has its nominal
+  trial `time`; `trial_time_from_monotonic` maps through both, so EMG lines up with the
+  samples even where ticks were late.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from app.errors import AppError
+from app.trials.reader import TrialData, read_trial
+from device.emg.files import EmgData, read_emg_file
+from device.recording.emgfile import write_emg
+
+ORIGIN_KEY = "wall_time_origin_monotonic_s"
+
+
+class EmgImportError(AppError):
+    """EMG cannot be put into a trial as asked; the message is the one line shown."""
+
+
+@dataclass(frozen=True, slots=True)
+class Imported:
+    trial: Path
+    names: tuple[str, ...]
+    muscles: tuple[str, ...]
+    rate_hz: float
+    n_samples: int
+    first_s: float
+    last_s: float
+    covers: float  # share of the trial's duration the EMG covers
+    notes: tuple[str, ...]
+
+
+def trial_time_from_monotonic(trial: TrialData, monotonic_s) -> np.ndarray:
+    """Trial time of monotonic stamps (time.monotonic(), pylsl.local_clock(): both
+    CLOCK_MONOTONIC on Linux), through the trial's wall_time and its origin; beyond
+    the trial's samples, extended at one sample period per period."""
+    origin = trial.summary.get(ORIGIN_KEY)
+    if origin is None:
+        raise EmgImportError(f"trial file {trial.path.name} has no {ORIGIN_KEY} in its summary "
+                             "(a headless or older trial): import the EMG from a file with "
+                             "--offset instead")
+    wall = np.asarray(monotonic_s, dtype=float) - float(origin)
+    w, t = trial.channels["wall_time"], trial.channels["time"]
+    out = np.interp(wall, w, t)
+    before, after = wall < w[0], wall > w[-1]
+    out[before] = t[0] + (wall[before] - w[0])
+    out[after] = t[-1] + (wall[after] - w[-1])
+    return out
+
+
+def muscles_for(data_names: tuple[str, ...], muscles: list[str] | None) -> tuple[str, ...]:
+    """The muscle under each electrode: as given (one per channel, in order), or the
+    channel's own name."""
+    if not muscles:
+        return data_names
+    if len(muscles) != len(data_names):
+        raise EmgImportError(f"{len(muscles)} muscles given for {len(data_names)} EMG channels "
+                             f"({', '.join(data_names)}); give one per channel, in that order")
+    if len(set(muscles)) != len(muscles):
+        raise EmgImportError("a muscle is named twice; give each channel its own muscle")
+    return tuple(muscles)
+
+
+def store(trial: TrialData, data: EmgData, trial_time_s: np.ndarray, *, muscles, clock: str,
+          offset_s: float, replace: bool) -> Imported:
+    names = muscles_for(data.names, muscles)
+    write_emg(trial.path, names=data.names, muscles=names, rate_hz=data.rate_hz,
+              time_s=trial_time_s, samples=data.samples, source=data.source, clock=clock,
+              offset_s=offset_s, source_file=data.path.name, replace=replace)
+    duration = trial.n_samples * trial.sample_period_s
+    inside = np.clip(trial_time_s, 0.0, duration)
+    covers = float(inside[-1] - inside[0]) / duration if duration > 0 else 0.0
+    notes = list(data.notes)
+    if covers < 0.99:
+        notes.append(f"the EMG covers {100 * covers:.0f} % of the trial "
+                     f"({trial_time_s[0]:.2f}–{trial_time_s[-1]:.2f} s of {duration:.2f} s)")
+    return Imported(trial.path, data.names, names, data.rate_hz, trial_time_s.size,
+                    float(trial_time_s[0]), float(trial_time_s[-1]), covers, tuple(notes))
+
+
+def import_emg_file(
+    trial_path: str | os.PathLike,
+    emg_path: str | os.PathLike,
+    *,
+    muscles: list[str] | None = None,
+    offset_s: float = 0.0,
+    replace: bool = False,
+) -> Imported:
+    """Read an exported EMG file (device.emg.files) and store it in the trial's `/emg`."""
+    trial = read_trial(trial_path)
+    if not trial.closed:
+        raise EmgImportError(f"trial file {trial.path.name} is still being recorded; import "
+                             "the EMG after the trial ends")
+    data = read_emg_file(emg_path)
+    clock = ("file time + offset_s: the EMG recording started with the trial" if offset_s == 0
+             else "file time + offset_s: the delay between the two starts, as given")
+    return store(trial, data, data.t_s + float(offset_s), muscles=muscles, clock=clock,
+                 offset_s=float(offset_s), replace=replace)
+
+
+def import_capture(trial_path: str | os.PathLike, captured, *, names, muscles=None,
+                   source: str, replace: bool = False, margin_s: float | None = None) -> Imported:
+    """Store a live capture (device.emg.capture.Captured, monotonic stamps) in a closed
+    trial file, its stamps mapped onto the trial's clock (trial_time_from_monotonic).
+    With `margin_s`, only the samples from `margin_s` before the trial to `margin_s` after
+    it are kept (a source that streams across trials)."""
+    trial = read_trial(trial_path)
+    if margin_s is not None and captured.stamps_s.size:
+        t = trial_time_from_monotonic(trial, captured.stamps_s)
+        end = trial.n_samples * trial.sample_period_s
+        keep = (t >= -margin_s) & (t <= end + margin_s)
+        captured = dataclasses.replace(captured, stamps_s=captured.stamps_s[keep],
+                                       samples=captured.samples[keep])
+    if not trial.closed:
+        raise EmgImportError(f"trial file {trial.path.name} is still being recorded; store "
+                             "the EMG after the trial ends")
+    if captured.stamps_s.size < 2:
+        raise EmgImportError(f"no EMG was captured{': ' + captured.error if captured.error else ''}"
+                             "; check the EMG source's status before the next trial")
+    data = EmgData(tuple(names), captured.rate_hz, captured.stamps_s, captured.samples, source,
+                   Path(source))
+    notes = []
+    if captured.missing:
+        notes.append(f"{captured.missing} samples missing in the capture")
+    if captured.error:
+        notes.append(f"the capture ended early: {captured.error}")
+    done = store(trial, data, trial_time_from_monotonic(trial, captured.stamps_s),
+                 muscles=muscles, clock="monotonic stamps through /summary "
+                 "wall_time_origin_monotonic_s and /timeseries/wall_time", offset_s=0.0,
+                 replace=replace)
+    return dataclasses.replace(done, notes=(*done.notes, *notes))
+
+
+LIVE_MARGIN_S = 2.0
+BUSY_RETRY_S = 10.0
+
+
+def store_live_capture(trial_path: str | os.PathLike, captured, label: str) -> Imported:
+    """What the window does when a trial's file closes while a live source streams: the
+    capture's samples from LIVE_MARGIN_S before the trial to as long after, channels named
+    EMG1…, into the trial's `/emg`."""
+    import time
+
+    from device.errors import RecordingError
+
+    names = tuple(f"EMG{i + 1}" for i in range(captured.samples.shape[1]))
+    deadline = time.monotonic() + BUSY_RETRY_S
+    while True:
+        try:
+            return import_capture(trial_path, captured, names=names, source=label,
+                                  margin_s=LIVE_MARGIN_S)
+        except RecordingError as exc:
+            # the window may be reading the file for its report this very moment; HDF5
+            # refuses to open it for writing meanwhile
+            if "already open" not in str(exc) or time.monotonic() > deadline:
+                raise
+            time.sleep(0.1)

@@ -1,0 +1,118 @@
+"""Capturing a live EMG source on its own thread while a trial runs.
+
+A source is anything with `read(timeout_s) -> (monotonic stamps (k,), samples (k, C))`,
+`rate_hz` and `close()`: the Trigno client (device.emg.trigno) or an LSL inlet
+(device.emg.lsl). The capture runs in the console process, never in the loop process:
+the loop neither waits for it nor shares a lock with it, so EMG cannot hold the trial
+up (bench/emg.py measures the loop beside it). A source that fails ends the capture
+and keeps what it had; `error` says why, and the trial goes on.
+"""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from device.errors import DeviceError
+
+
+class EmgSource(Protocol):
+    rate_hz: float
+
+    def read(self, timeout_s: float = 0.1) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def close(self) -> None: ...
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Captured:
+    """What a capture recorded: monotonic stamps (M,), samples (M, C), the source's rate,
+    the samples the stamps say are missing, and the error that ended it (or "")."""
+
+    stamps_s: np.ndarray
+    samples: np.ndarray
+    rate_hz: float
+    missing: int
+    error: str
+
+
+class EmgCapture:
+    """Reads a source on a daemon thread from `start()` until `stop()`."""
+
+    def __init__(self, source: EmgSource, *, channels=None, latest_s: float = 5.0) -> None:
+        self.source = source
+        self.channels = None if channels is None else list(channels)
+        self._chunks: list[tuple[np.ndarray, np.ndarray]] = []
+        self._lock = threading.Lock()  # the capture's own lock: the loop never takes it
+        self._running = threading.Event()
+        self._thread: threading.Thread | None = None
+        self.error = ""
+        self.latest_s = latest_s
+
+    def start(self) -> EmgCapture:
+        self._running.set()
+        self._thread = threading.Thread(target=self._run, name="emg-capture", daemon=True)
+        self._thread.start()
+        return self
+
+    def _run(self) -> None:
+        while self._running.is_set():
+            try:
+                stamps, samples = self.source.read(0.05)
+            except DeviceError as exc:
+                self.error = str(exc)
+                self._running.clear()
+                return
+            if stamps.size:
+                if self.channels is not None:
+                    samples = samples[:, self.channels]
+                with self._lock:
+                    self._chunks.append((stamps, np.asarray(samples, dtype=float)))
+
+    @property
+    def running(self) -> bool:
+        return self._running.is_set()
+
+    def latest(self) -> tuple[np.ndarray, np.ndarray]:
+        """The last `latest_s` seconds captured (for a live view), copied."""
+        with self._lock:
+            chunks = list(self._chunks[-max(1, int(self.latest_s * 50)):])
+        if not chunks:
+            return np.empty(0), np.empty((0, 0))
+        t = np.concatenate([c[0] for c in chunks])
+        x = np.concatenate([c[1] for c in chunks])
+        keep = t >= t[-1] - self.latest_s
+        return t[keep], x[keep]
+
+    def stop(self, timeout_s: float = 2.0) -> Captured:
+        """Stop reading, close the source, and return the whole recording. A source with a
+        better origin at the end (the Trigno client's `origin_s`) restamps it evenly."""
+        self._running.clear()
+        if self._thread is not None:
+            self._thread.join(timeout_s)
+        try:
+            self.source.close()
+        except DeviceError as exc:
+            self.error = self.error or str(exc)
+        return self.snapshot()
+
+    def snapshot(self) -> Captured:
+        """Everything captured so far, without stopping (a trial that ends while the source
+        goes on streaming for the next one)."""
+        with self._lock:
+            chunks = list(self._chunks)
+        rate = float(self.source.rate_hz)
+        if not chunks:
+            width = 0 if self.channels is None else len(self.channels)
+            return Captured(np.empty(0), np.empty((0, width)), rate, 0, self.error)
+        t = np.concatenate([c[0] for c in chunks])
+        x = np.concatenate([c[1] for c in chunks])
+        origin = getattr(self.source, "origin_s", None)
+        if origin is not None:
+            t = origin + np.arange(t.size) / rate
+        span = (t[-1] - t[0]) * rate + 1 if t.size > 1 else t.size
+        missing = max(0, round(span) - t.size)
+        return Captured(t, x, rate, missing, self.error)

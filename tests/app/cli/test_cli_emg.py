@@ -1,0 +1,144 @@
+"""`rehab emg …` as a researcher types it: import, MVC, show; bad input as one line and exit 2."""
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.cli.main import main
+from app.emg.subjects import Subject, record_trial, write_contractions
+from app.trials.headless import save, simulate
+from core.trial import THESIS_SUBJECT
+from device.emg.files import read_emg_file
+from device.recording.emgfile import read_emg
+
+DATA = Path(__file__).parents[2] / "data" / "emg"
+
+
+def run(args, capsys):
+    try:
+        code = main(args)
+    except SystemExit as exc:
+        code = exc.code
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+@pytest.fixture(autouse=True)
+def data(tmp_path, monkeypatch):
+    monkeypatch.setenv("REHAB_DATA_DIR", str(tmp_path / "data"))
+    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
+
+
+@pytest.fixture(scope="module")
+def made(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("emg")
+    plain = folder / "plain.h5"
+    save(simulate(THESIS_SUBJECT.replace(repetitions=1), engine="python"), plain)
+    subject = Subject.drawn(1)
+    synthetic = record_trial(folder / "synthetic.h5", subject, seed=0, engine="python")
+    return plain, synthetic.path, write_contractions(folder, subject, session=1)
+
+
+def test_import_the_trigno_sample_then_show(made, tmp_path, capsys):
+    trial = shutil.copy(made[0], tmp_path / "t.h5")
+    code, out, err = run(["emg", "import", str(trial), str(DATA / "trigno_export.csv"),
+                          "--muscles", "biceps,triceps,anterior_deltoid"], capsys)
+    assert code == 0, err
+    assert "stored 3 EMG channels (biceps, triceps, anterior_deltoid) at 1925.93 Hz" in out
+    assert "ACC1.X" in out  # the skipped accelerometer is said
+    assert read_emg(trial).muscles == ("biceps", "triceps", "anterior_deltoid")
+    code, out, _ = run(["emg", "show", str(trial)], capsys)
+    assert code == 0
+    assert "no MVC yet" in out
+
+
+def test_mvc_then_show_in_percent_of_mvc(made, tmp_path, capsys):
+    trial = shutil.copy(made[1], tmp_path / "s.h5")
+    args = ["emg", "mvc", str(trial), "--full-scale", "0.011"]
+    for muscle, (path, channel) in made[2].items():
+        args += ["--contraction", f"{muscle}={path}:{channel}"]
+    code, out, err = run(args, capsys)
+    assert code == 0, err
+    assert out.count(" ok") == 3
+    assert "stored in 1 trial file(s)" in out
+    code, out, _ = run(["emg", "show", str(trial)], capsys)
+    assert code == 0
+    lines = [line for line in out.splitlines() if line.startswith(("biceps", "triceps",
+                                                                   "anterior_deltoid"))]
+    assert len(lines) == 3
+    assert all(line.rstrip().endswith("ok") for line in lines)
+    assert all("%" in line for line in lines)
+
+
+def test_demo_writes_a_trial_to_try_the_commands_on(tmp_path, capsys):
+    code, out, err = run(["emg", "demo", str(tmp_path / "demo"), "--bad-mvc", "0.08",
+                          "--engine", "python"], capsys)
+    assert code == 0, err
+    mvc_command = next(line for line in out.splitlines() if line.startswith("next: "))
+    code, out, err = run(mvc_command.removeprefix("next: rehab ").split(), capsys)
+    assert code == 0, err
+    assert "anterior_deltoid" in out
+    assert "FLAGGED: below_trial_activity" in out
+    assert "warning: anterior_deltoid: the trial reaches" in out
+    code, _, err = run(["emg", "demo", str(tmp_path / "demo"), "--engine", "python"], capsys)
+    assert code == 2
+    assert "already exists" in err
+
+
+def test_record_a_guided_mvc_from_the_fake_trigno(tmp_path, capsys):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "trigno_server", Path(__file__).parents[2] / "device" / "fakes" / "trigno_server.py")
+    fake = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(fake)
+    out_file = tmp_path / "mvc.csv"
+    with fake.FakeTrignoServer() as server:
+        code, out, err = run(["emg", "record", "trigno:127.0.0.1", "--seconds", "0.6",
+                              "--output", str(out_file), "--muscle", "biceps", "--channel", "3",
+                              "--command-port", str(server.command_port),
+                              "--data-port", str(server.data_port)], capsys)
+    assert code == 0, err
+    assert "Contract the biceps as hard as you can" in out
+    assert "channels at 1925.93 Hz from trigno:127.0.0.1" in out
+    # 0.6 s cannot hold a maximal effort for a second: flagged at once
+    assert "FLAGGED: too_short" in out
+    data = read_emg_file(out_file)
+    assert data.samples.shape[1] == 16
+    np.testing.assert_allclose(data.samples[:, 2],
+                               fake.default_signal(np.arange(data.t_s.size))[:, 2], rtol=1e-6)
+    code, _, err = run(["emg", "record", "trigno:127.0.0.1", "--output", str(out_file)], capsys)
+    assert code == 2
+    assert "already exists" in err
+
+
+@pytest.mark.parametrize(("args", "expected"), [
+    (["emg", "import", "missing.h5", "x.csv"], "no such trial file"),
+    (["emg", "show", "99"], "99"),
+    (["emg", "import", "{plain}", "missing.csv"], "no such file"),
+    (["emg", "import", "{plain}", str(DATA / "plain.csv"), "--offset", "nan"], "--offset"),
+    (["emg", "import", "{plain}", str(DATA / "plain.csv"), "--muscles", "a,b"],
+     "2 muscles given for 3"),
+    (["emg", "mvc", "{plain}", "--contraction", "biceps"], "MUSCLE=FILE"),
+    (["emg", "mvc", "{plain}", "--contraction", f"biceps={DATA / 'plain.csv'}"], "has no EMG"),
+    (["emg", "show", "{plain}"], "has no EMG"),
+    (["emg", "streams", "--wait", "0"], "--wait"),
+    (["emg", "record", "usb:x", "--output", "{plain}.csv"], "give trigno:HOST, avanti:HOST or lsl"),
+    (["emg", "record", "lsl:x", "--output", "{plain}.csv", "--seconds", "0"], "--seconds 0"),
+    (["emg", "record", "trigno:127.0.0.1", "--output", "{plain}.csv", "--command-port", "1"],
+     "connection refused"),
+    (["emg", "frobnicate"], "invalid choice"),
+    (["emg", "demo", "{plain}.d", "--subject", "0"], "--subject 0"),
+    (["emg", "demo", "{plain}.d", "--bad-mvc", "2"], "--bad-mvc 2"),
+    (["emg", "mvc", "{plain}", "--contraction", "b=f", "--mains", "55"], "invalid choice"),
+])
+def test_bad_input_is_one_line_and_exit_2(made, tmp_path, capsys, args, expected):
+    trial = shutil.copy(made[0], tmp_path / "p.h5")
+    args = [a.replace("{plain}", str(trial)) for a in args]
+    code, _, err = run(args, capsys)
+    assert code == 2
+    assert expected in err
+    assert len(err.strip().splitlines()) == 1
+    assert "Traceback" not in err

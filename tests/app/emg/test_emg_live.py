@@ -1,0 +1,122 @@
+"""Live EMG beside a trial: a capture from the fake Trigno Control Utility and from an LSL
+stream, stored in the trial file on the trial's clock; a source lost mid-trial keeps what
+it had and says why."""
+
+import importlib.util
+import shutil
+import time
+import uuid
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pylsl
+import pytest
+
+from app.emg.importing import EmgImportError, import_capture
+from app.trials.headless import save, simulate
+from core.trial import THESIS_SUBJECT
+from device.emg.capture import EmgCapture
+from device.emg.lsl import LslEmgInlet
+from device.emg.trigno import TrignoClient
+from device.recording.emgfile import read_emg
+
+_spec = importlib.util.spec_from_file_location(
+    "trigno_server", Path(__file__).parents[2] / "device" / "fakes" / "trigno_server.py")
+fake = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(fake)
+
+
+@pytest.fixture(scope="module")
+def plain_trial(tmp_path_factory):
+    path = tmp_path_factory.mktemp("trial") / "trial.h5"
+    save(simulate(THESIS_SUBJECT.replace(repetitions=1), engine="python"), path)
+    return path
+
+
+def _live_trial(plain_trial, tmp_path, origin):
+    path = shutil.copy(plain_trial, tmp_path / "live.h5")
+    with h5py.File(path, "r+") as f:  # as a live trial's recorder writes it
+        f["summary"].attrs["wall_time_origin_monotonic_s"] = origin
+    return path
+
+
+def _capture_until(capture, n, timeout=20.0):
+    deadline = time.monotonic() + timeout
+    while capture.running and capture.latest()[0].size < n:
+        assert time.monotonic() < deadline, "no EMG arrived"
+        time.sleep(0.02)
+
+
+def test_a_trigno_capture_lands_in_the_trial_on_its_clock(plain_trial, tmp_path):
+    origin = time.monotonic()
+    with fake.FakeTrignoServer() as server:
+        client = TrignoClient("127.0.0.1", command_port=server.command_port,
+                              data_port=server.data_port).open()
+        client.start()
+        capture = EmgCapture(client, channels=[0, 1, 2]).start()
+        _capture_until(capture, 800)
+        captured = capture.stop()
+    assert captured.error == ""
+    assert captured.missing == 0
+    trial = _live_trial(plain_trial, tmp_path, origin)
+    done = import_capture(trial, captured, names=("EMG1", "EMG2", "EMG3"),
+                          muscles=["biceps", "triceps", "anterior_deltoid"], source="trigno-tcp")
+    emg = read_emg(trial)
+    n = emg.samples.shape[0]
+    np.testing.assert_array_equal(emg.samples,
+                                  fake.default_signal(np.arange(n))[:, :3].astype(float))
+    assert emg.rate_hz == pytest.approx(26 / 0.0135)
+    # captured after the origin: trial time 0 …, within the few seconds the test took
+    assert 0.0 <= emg.time_s[0] < 10.0
+    np.testing.assert_allclose(np.diff(emg.time_s), 0.0135 / 26, rtol=1e-6)
+    assert "wall_time_origin_monotonic_s" in emg.attrs["clock"]
+    assert done.muscles == ("biceps", "triceps", "anterior_deltoid")
+
+
+def test_an_lsl_capture_lands_in_the_trial(plain_trial, tmp_path):
+    name = f"test-{uuid.uuid4().hex[:12]}"
+    outlet = pylsl.StreamOutlet(pylsl.StreamInfo(name, "EMG", 4, 2000.0, pylsl.cf_float32,
+                                                 name))
+    inlet = LslEmgInlet(name, channels=4, rate_hz=2000.0, timeout_s=5.0).open(5.0)
+    deadline = time.monotonic() + 10
+    while not outlet.have_consumers():
+        assert time.monotonic() < deadline
+        time.sleep(0.01)
+    origin = time.monotonic()
+    capture = EmgCapture(inlet).start()
+    sent = np.arange(4000 * 4, dtype=np.float32).reshape(4000, 4) * 1e-7
+    stamps = origin + 1.0 + np.arange(4000) / 2000.0
+    outlet.push_chunk(sent, timestamp=stamps.tolist())
+    _capture_until(capture, 4000)
+    captured = capture.stop()
+    trial = _live_trial(plain_trial, tmp_path, origin)
+    import_capture(trial, captured, names=("a", "b", "c", "d"), source=f"lsl:{name}")
+    emg = read_emg(trial)
+    np.testing.assert_allclose(emg.samples, sent.astype(float))
+    # the sender's stamps, mapped: 1 s after the origin is trial time 1 s
+    np.testing.assert_allclose(emg.time_s, 1.0 + np.arange(4000) / 2000.0, atol=5e-3)
+
+
+def test_a_source_lost_mid_trial_keeps_what_it_had(plain_trial, tmp_path):
+    origin = time.monotonic()
+    with fake.FakeTrignoServer() as server:
+        server.fake_drop_data_after = 260
+        client = TrignoClient("127.0.0.1", command_port=server.command_port,
+                              data_port=server.data_port).open()
+        client.start()
+        capture = EmgCapture(client).start()
+        deadline = time.monotonic() + 20
+        while capture.running:
+            assert time.monotonic() < deadline
+            time.sleep(0.02)
+        captured = capture.stop()
+    assert "closed the EMG data connection" in captured.error
+    assert captured.samples.shape == (260, 16)
+    trial = _live_trial(plain_trial, tmp_path, origin)
+    done = import_capture(trial, captured, names=tuple(f"EMG{i}" for i in range(1, 17)),
+                          source="trigno-tcp")
+    assert any("ended early" in n for n in done.notes)
+    empty = EmgCapture(client).stop()
+    with pytest.raises(EmgImportError, match="no EMG was captured"):
+        import_capture(trial, empty, names=(), source="trigno-tcp", replace=True)

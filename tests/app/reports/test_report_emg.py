@@ -1,0 +1,53 @@
+"""The report of a trial with EMG has a third page: each muscle's % MVC envelope above the
+joint torques, and each MVC's quality in words."""
+
+import shutil
+
+import h5py
+import numpy as np
+import pytest
+from pypdf import PdfReader
+
+from app.emg.session import Contraction, session_mvc
+from app.emg.subjects import Subject, record_trial, write_contractions
+from app.reports.build import write_report_pdf
+from app.reports.content import build_report
+from app.trials.reader import read_trial
+
+
+@pytest.fixture(scope="module")
+def subject_2(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("report_emg")
+    subject = Subject.drawn(2, bad_mvc={"anterior_deltoid": 0.08})
+    synthetic = record_trial(folder / "P1_S001_T001.h5", subject, seed=0, engine="python")
+    contractions = write_contractions(folder, subject, session=1)
+    session_mvc([synthetic.path], [Contraction(m, p, ch) for m, (p, ch) in contractions.items()])
+    return synthetic.path, folder
+
+
+def test_a_trial_with_emg_reports_its_envelopes_and_the_bad_mvc(subject_2):
+    path, folder = subject_2
+    content = build_report(read_trial(path))
+    emg = content.emg
+    assert emg is not None
+    assert emg.muscles == ("biceps", "triceps", "anterior_deltoid")
+    assert emg.percent.shape == (emg.t_s.size, 3)
+    assert emg.t_s[0] == pytest.approx(0.0, abs=0.01)  # from the exercise's start
+    assert np.nanmax(emg.percent[:, 2]) > 80.0  # the bad MVC reads as most of an MVC
+    assert emg.quality[0] == "biceps: MVC sound"
+    assert "not a maximal effort" in emg.quality[2]
+    pdf = PdfReader(write_report_pdf(content, folder / "report.pdf"))
+    assert len(pdf.pages) == 3
+    text = pdf.pages[2].extract_text()
+    assert "Muscle activity (surface EMG)" in text
+    assert "record it again" in text
+
+
+def test_a_trial_without_mvc_has_no_emg_page(subject_2, tmp_path):
+    path, _ = subject_2
+    bare = shutil.copy(path, tmp_path / "P1_S001_T002.h5")
+    with h5py.File(bare, "r+") as f:
+        del f["emg/mvc"]
+    content = build_report(read_trial(bare))
+    assert content.emg is None
+    assert len(PdfReader(write_report_pdf(content, tmp_path / "r.pdf")).pages) == 2

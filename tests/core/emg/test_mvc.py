@@ -1,0 +1,104 @@
+"""The MVC and its quality check: too short, saturated, lower than the trial's own activity
+(the check that would have caught the thesis's subject 2)."""
+
+import numpy as np
+import pytest
+
+from core.emg.mvc import (
+    BELOW_TRIAL,
+    SATURATED,
+    TOO_SHORT,
+    MvcCriteria,
+    check_against_trial,
+    mvc_from_contraction,
+)
+from core.emg.processing import EmgSettings, envelope
+from core.emg.synthetic import MUSCLES, Electrodes, emg_from_excitations, mvc_contraction
+from core.errors import ParameterError
+
+ELECTRODES = Electrodes()
+FS = ELECTRODES.rate_hz
+SETTINGS = EmgSettings(mains_hz=50.0)
+
+
+def _mvc(muscle="biceps", electrodes=ELECTRODES, full_scale=ELECTRODES.full_scale_V, **kw):
+    i = MUSCLES.index(muscle)
+    t, emg = mvc_contraction(muscle, electrodes, **kw)
+    return t, mvc_from_contraction(emg[:, i], FS, muscle, settings=SETTINGS,
+                                   full_scale_V=full_scale)
+
+
+def test_a_good_contraction_gives_the_max_rms_envelope_and_no_flag():
+    _t, emg = mvc_contraction("triceps", ELECTRODES, seed=4)
+    result = mvc_from_contraction(emg[:, 1], FS, "triceps", settings=SETTINGS,
+                                  full_scale_V=ELECTRODES.full_scale_V)
+    assert result.ok
+    assert result.flags == ()
+    assert result.reasons == ()
+    assert result.value_V == pytest.approx(envelope(emg[:, 1], FS, SETTINGS).values.max())
+    assert 1.0 < result.hold_s <= 3.7
+    assert 1.0 <= result.peak_time_s <= 4.6  # within the hold
+    assert result.to_dict()["flags"] == []
+
+
+def test_a_short_contraction_is_flagged():
+    _, result = _mvc(hold_s=0.4)
+    assert result.flags == (TOO_SHORT,)
+    assert "held" in result.reasons[0]
+    assert "3–5 s" in result.reasons[0]
+
+
+def test_a_saturated_contraction_is_flagged_with_or_without_the_range():
+    loud = Electrodes(gain_V=(0.012, 0.8e-3, 0.9e-3, 0.7e-3))
+    _, known = _mvc(electrodes=loud)
+    assert SATURATED in known.flags
+    assert "limit" in " ".join(known.reasons)
+    _, unknown = _mvc(electrodes=loud, full_scale=None)  # flat tops repeat the extreme value
+    assert SATURATED in unknown.flags
+    _, clean = _mvc(full_scale=None)
+    assert clean.ok
+
+
+def test_an_mvc_below_the_trials_activity_is_flagged_subject_2():
+    """Subject 2's deltoid: the MVC effort was 40 % of a maximum, so a trial at 35 % of the
+    true maximum reads as nearly 90 % MVC. The good muscles pass."""
+    bad = ELECTRODES.with_bad_mvc("anterior_deltoid", 0.4)
+    t = np.arange(0.0, 20.0, 0.002)
+    u = np.zeros((t.size, 4))
+    u[:, :] = 0.2 + 0.15 * np.sin(2 * np.pi * 0.25 * t)[:, None]  # up to 35 % of a maximum
+    _, trial = emg_from_excitations(u, 0.002, bad, seed=7)
+    trial_env = envelope(trial, FS, SETTINGS).values
+    for i, muscle in enumerate(MUSCLES[:3]):
+        _, contraction = mvc_contraction(muscle, bad, seed=20 + i)
+        mvc = mvc_from_contraction(contraction[:, i], FS, muscle, settings=SETTINGS)
+        checked = check_against_trial(mvc, trial_env[:, i])
+        if muscle == "anterior_deltoid":
+            assert checked.flags == (BELOW_TRIAL,)
+            assert "anterior_deltoid" in checked.reasons[0]
+            assert "% MVC" in checked.reasons[0]
+            # it reads about 90 %: the thesis's figure
+            assert 0.7 < trial_env[:, i].max() / mvc.value_V < 1.2
+        else:
+            assert checked.ok, checked.reasons
+    # flagging twice keeps one flag
+    again = check_against_trial(checked, trial_env[:, 2])
+    assert again.flags.count(BELOW_TRIAL) <= 1
+
+
+def test_check_against_an_empty_trial_changes_nothing():
+    _, result = _mvc()
+    assert check_against_trial(result, np.array([np.nan])) is result
+
+
+def test_criteria_and_recordings_are_validated():
+    with pytest.raises(ParameterError, match="min_hold_s"):
+        MvcCriteria(min_hold_s=0.0)
+    with pytest.raises(ParameterError, match="hold_fraction"):
+        MvcCriteria(hold_fraction=1.5)
+    with pytest.raises(ParameterError, match="one muscle"):
+        mvc_from_contraction(np.zeros((4000, 2)), FS, "biceps")
+    with pytest.raises(ParameterError, match="no EMG"):
+        mvc_from_contraction(np.zeros(4000), FS, "biceps")
+    with pytest.raises(ParameterError, match="full_scale_V"):
+        mvc_from_contraction(np.random.default_rng(0).standard_normal(4000), FS, "b",
+                             full_scale_V=-1.0)

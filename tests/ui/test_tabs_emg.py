@@ -1,0 +1,112 @@
+"""The EMG tab: % MVC envelopes over the joint torques for a saved trial, the MVC's quality,
+and one line when there is nothing to show."""
+
+import shutil
+
+import h5py
+import pytest
+
+from app.emg.session import Contraction, session_mvc
+from app.emg.subjects import Subject, record_trial, write_contractions
+from app.trials.reader import read_trial
+from ui.tabs import TABS, VIEW_TABS, EmgTab
+from ui.views.emg import emg_view
+from ui.views.trialview import TrialView
+
+
+@pytest.fixture(scope="module")
+def trial_with_emg(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("emgtab")
+    subject = Subject.drawn(2, bad_mvc={"anterior_deltoid": 0.08})
+    synthetic = record_trial(folder / "t.h5", subject, seed=0, engine="python")
+    plain = shutil.copy(synthetic.path, folder / "no_mvc.h5")
+    contractions = write_contractions(folder, subject, session=1)
+    session_mvc([synthetic.path], [Contraction(m, p, ch) for m, (p, ch) in contractions.items()])
+    return synthetic.path, plain
+
+
+def test_the_tab_is_a_view_tab_after_the_torques():
+    titles = [t for t, _ in TABS]
+    assert titles.index("EMG") == titles.index("Joint torques") + 1
+    assert EmgTab in VIEW_TABS
+
+
+def test_a_saved_trial_shows_envelopes_and_flags_the_bad_mvc(qtbot, trial_with_emg):
+    path, _ = trial_with_emg
+    tab = EmgTab()
+    qtbot.addWidget(tab)
+    view = TrialView.from_trial(read_trial(path))
+    tab.show_view(view)
+    assert [c.name() for c in tab.curves] == ["biceps", "triceps", "anterior_deltoid"]
+    x, _ = tab.curves[2].getData()
+    assert len(x) == view.n
+    text = tab.status.text()
+    assert "anterior deltoid: up to" in text
+    assert "lower than the trial's activity" in text
+    assert "biceps: up to" in text
+    assert text.count("MVC ok") == 2
+    tab.set_cursor(1.0)
+    assert tab.cursors[0].isVisible()
+    assert tab.cursors[0].value() == pytest.approx(1.0)
+
+
+def test_nothing_to_show_is_one_line(qtbot, trial_with_emg, tmp_path):
+    _, no_mvc = trial_with_emg
+    assert "no MVC for biceps" in emg_view(no_mvc).message
+    assert "No trial file yet" in emg_view(None).message
+    bare = shutil.copy(no_mvc, tmp_path / "bare.h5")
+    with h5py.File(bare, "r+") as f:
+        del f["emg"]
+    assert "has no EMG" in emg_view(bare).message
+    tab = EmgTab()
+    qtbot.addWidget(tab)
+    live = TrialView.from_trial(read_trial(no_mvc))
+    live.finished = False
+    tab.show_view(live)
+    assert tab.status.text() == "EMG shows here when the trial is saved."
+    assert tab.curves == []
+
+
+def _fake_trigno():
+    import importlib.util
+    from pathlib import Path
+
+    spec = importlib.util.spec_from_file_location(
+        "trigno_server", Path(__file__).parents[1] / "device" / "fakes" / "trigno_server.py")
+    fake = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(fake)
+    return fake
+
+
+def test_a_live_trigno_streams_its_envelopes_and_disconnects(qtbot):
+    fake = _fake_trigno()
+    tab = EmgTab()
+    qtbot.addWidget(tab)
+    with fake.FakeTrignoServer() as server:
+        tab.source_edit.setText("trigno:127.0.0.1")
+        tab.source_ports = {"command_port": server.command_port,
+                            "data_port": server.data_port}
+        tab.connect_button.click()
+        qtbot.waitUntil(lambda: tab.live_status.text().startswith("Streaming from "
+                                                                  "trigno:127.0.0.1"),
+                        timeout=10000)
+        qtbot.waitUntil(lambda: len(tab.live_curves) == 16, timeout=10000)
+        x, y = tab.live_curves[15].getData()
+        # channel 16 of the fake: 16 µV × a sine, RMS 16/√2 µV
+        assert y[-1] == pytest.approx(16 / 2 ** 0.5, rel=0.1)
+        assert x[-1] <= 0.0  # seconds before now
+        tab.connect_button.click()
+        assert tab.capture is None
+        assert tab.live_status.text().startswith("Disconnected from trigno:127.0.0.1 after")
+        assert tab.connect_button.text() == "Connect EMG"
+
+
+def test_a_bad_live_source_is_one_line(qtbot):
+    tab = EmgTab()
+    qtbot.addWidget(tab)
+    tab.source_edit.setText("usb:x")
+    tab.connect_button.click()
+    qtbot.waitUntil(lambda: "give trigno:HOST" in tab.live_status.text(), timeout=10000)
+    assert "\n" not in tab.live_status.text()
+    assert tab.connect_button.isEnabled()
+    assert tab.capture is None
