@@ -238,8 +238,20 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     if drop:
         config.hook.pytest_deselected(items=drop)
         items[:] = keep
+    items[:] = sorted(items, key=_runs_jax)  # stable: the order is kept otherwise
     if rig is not None and used and not config.option.collectonly:
         _probe(rig)
+
+
+JAX_TESTS = ("tests/core/learning/", "tests/app/learning/", "tests/app/cli/test_learn.py")
+"""Tests that run JAX computations. They run last: once JAX has started its threads, a fork
+(multiprocessing's default start on Linux, which several tests of the registry, the ring
+and the data folder use) may deadlock, and JAX warns of it, which fails the test."""
+
+
+def _runs_jax(item: pytest.Item) -> bool:
+    path = item.path.as_posix()
+    return any(part in path for part in JAX_TESTS)
 
 
 def _probe(rig: RigConfig) -> None:

@@ -478,8 +478,11 @@ def test_the_format_document_lists_every_channel_and_status():
 
 
 def test_the_python_examples_in_the_format_document_run(tmp_path, monkeypatch, capsys):
-    blocks = DOC.read_text(encoding="utf-8").split("```python\n")[1:]
-    assert len(blocks) == 2
+    blocks = [b.split("```")[0] for b in DOC.read_text(encoding="utf-8").split("```python\n")[1:]]
+    assert len(blocks) == 3
+    swmr_block = next(b for b in blocks if "swmr=True" in b)
+    emg_block = next(b for b in blocks if "emg/samples" in b)
+    plain_block = next(b for b in blocks if b not in (swmr_block, emg_block))
     records = ramp_records(0, 50, RECORD_DTYPE)
     write_trial(tmp_path / "trial.h5", records, parameters=PARAMETERS, subject=SUBJECT,
                 robot=ROBOT, backend="simulator", sample_period_s=PERIOD_S,
@@ -487,10 +490,22 @@ def test_the_python_examples_in_the_format_document_run(tmp_path, monkeypatch, c
                 metrics={"rms_error_m": 0.01})
     monkeypatch.chdir(tmp_path)
     swmr, plain = {}, {}
-    exec(blocks[0].split("```")[0], swmr)
-    exec(blocks[1].split("```")[0], plain)
+    exec(swmr_block, swmr)
+    exec(plain_block, plain)
     assert capsys.readouterr().out.startswith("50 samples so far\n")
     np.testing.assert_array_equal(plain["xy"], records["position"])
     assert plain["channels"] == [c.name for c in CHANNELS]
     assert plain["parameters"] == PARAMETERS.to_dict()
     assert plain["metrics"] == {"rms_error_m": 0.01}
+    # the EMG example, on the same file with EMG stored (device.recording.emgfile)
+    from device.recording.emgfile import write_emg
+
+    emg = np.arange(20.0).reshape(10, 2) * 1e-4
+    write_emg(tmp_path / "trial.h5", names=["EMG1", "EMG2"], muscles=["biceps", "triceps"],
+              rate_hz=1000.0, time_s=np.arange(10) / 1000.0, samples=emg, source="test",
+              clock="trial clock", offset_s=0.0)
+    read: dict = {}
+    exec(emg_block, read)
+    np.testing.assert_array_equal(read["emg"], emg)
+    assert read["muscles"] == ["biceps", "triceps"]
+    assert read["rate_hz"] == 1000.0

@@ -234,3 +234,12 @@ def test_scrolling_the_form_never_changes_a_field_under_the_pointer(qtbot, tab):
     qtbot.waitUntil(tab.repetitions.hasFocus, timeout=1000)
     _wheel(tab.repetitions, -1)
     assert tab.repetitions.value() == 4
+
+
+def test_the_centre_field_says_what_it_places_for_each_shape(qtbot, tab):
+    """As the thesis's form does: for the D, the centre of its straight line."""
+    for shape, words in (("d", "D's straight line"), ("circle", "of the circle"),
+                         ("reach", "Start of the reach"), ("targets", "Home")):
+        tab.shape.setCurrentIndex(tab.shape.findData(shape))
+        tab.refresh()
+        assert words in tab.labels["centre"].text(), shape

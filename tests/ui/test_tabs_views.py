@@ -211,6 +211,23 @@ def test_torques_ranges_and_smoothing_toggle(qtbot, view, records, metrics):
     np.testing.assert_allclose(y, raw[:, 0])
 
 
+def test_the_robots_share_of_the_work_is_shown_live_and_equals_the_trials_metric(
+        qtbot, records, metrics):
+    """Fed in batches as the window feeds it, the running work equals the analysis's
+    (core.metrics.mechanical_work over the whole exercise), and the Torques tab shows the
+    robot's share in %: where the therapist sees the robot give way during a trial."""
+    live = TrialView(PARAMETERS, initial_capacity=256)
+    for i in range(0, len(records), 37):
+        live.append(records[i:i + 37])
+    robot, patient = live.work_J
+    assert robot == pytest.approx(metrics.robot_work_J, rel=1e-9, abs=1e-12)
+    assert patient == pytest.approx(metrics.patient_work_J, rel=1e-9, abs=1e-12)
+    assert live.robot_work_share == pytest.approx(metrics.robot_work_share, rel=1e-9)
+    tab = shown(qtbot, TorquesTab())
+    tab.show_view(live)
+    assert tab.work_share.text() == f"{metrics.robot_work_share * 100:.0f}"
+
+
 def test_live_smoothing_is_throttled(qtbot, records):
     tab = shown(qtbot, TorquesTab())
     tab.set_smoothing(True)

@@ -86,6 +86,16 @@ SIMULATOR = "simulator"
 HARDWARE = "hardware"
 
 
+CENTRE_LABELS = {
+    "d": "Centre of the D's straight line",
+    "circle": "Centre of the circle",
+    "reach": "Start of the reach",
+    "targets": "Home, at the centre of the targets",
+    "figure8": "Centre of the figure eight",
+}
+"""The Centre field's label for each shape: the point the path is placed by."""
+
+
 @dataclass(frozen=True, slots=True)
 class BackendChoice:
     """The robot the trial runs on: the simulator with a virtual patient, or the real
@@ -193,6 +203,7 @@ class ParametersTab(QWidget):
     # -- fields -------------------------------------------------------------------
     def _build_fields(self) -> None:
         self.errors: dict[str, QLabel] = {}
+        self.labels: dict[str, QLabel] = {}
 
         self.with_camera = QRadioButton("With camera")
         self.without_camera = QRadioButton("Without camera")
@@ -331,6 +342,7 @@ class ParametersTab(QWidget):
         column.addWidget(field)
         column.addWidget(error)
         form.addRow(label, holder)
+        self.labels[key] = form.labelForField(holder)
         field.setAccessibleName(field.accessibleName() or label)
 
     def _connect_edits(self) -> None:
@@ -478,6 +490,11 @@ class ParametersTab(QWidget):
         shape = self.shape.currentData()
         self.n_targets.setEnabled(shape == "targets")
         self.clockwise.setEnabled(shape in ("d", "circle"))
+        # what "centre" means depends on the shape: the thesis's form names the D's
+        # straight line (Appendix A)
+        label = self.labels.get("centre")
+        if label is not None:
+            label.setText(CENTRE_LABELS.get(shape, "Centre"))
 
     def refresh(self) -> None:
         """Validate and check the current values now, redraw, and emit the outcome."""

@@ -56,13 +56,17 @@ class TorquesTab(QWidget):
         self.cursor_line = plots.cursor_line(item)
         self.ranges = [plots.BigNumber(f"{joint.capitalize()} torque range", "N·m", decimals=2)
                        for joint in JOINTS]
+        # who moved the handle: the robot gives way as the patient does more (the
+        # as-needed assistance), and this is where the therapist sees it during a trial
+        self.work_share = plots.BigNumber("Robot's share of the work", "%", decimals=0)
         self.smoothing = QCheckBox(f"Smooth ({DEFAULT_TORQUE_CUTOFF_HZ:g} Hz low-pass)")
         self.smoothing.setToolTip("The raw torques carry the noise of differentiated encoder "
                                   "angles; smoothing removes what is faster than human movement")
         self.smoothing.toggled.connect(self._smoothing_toggled)
         self.note = theme.set_role(QLabel("Raw torques, as computed every 2 ms."), "caption")
         self.note.setWordWrap(True)
-        plots.plot_with_panel(self, self.plot, self.ranges, (self.smoothing, self.note))
+        plots.plot_with_panel(self, self.plot, (*self.ranges, self.work_share),
+                              (self.smoothing, self.note))
 
     # -- public -------------------------------------------------------------------
     def set_smoothing(self, on: bool) -> None:
@@ -82,6 +86,7 @@ class TorquesTab(QWidget):
             self._draw_smoothed()
         else:
             self._draw_raw(view)
+        self._draw_work(view)
         plots.place_cursor(self.cursor_line, view.cursor)
 
     def set_cursor(self, t: float | None) -> None:
@@ -90,6 +95,13 @@ class TorquesTab(QWidget):
             plots.place_cursor(self.cursor_line, self._view.cursor)
 
     # -- drawing ------------------------------------------------------------------
+    def _draw_work(self, view: TrialView) -> None:
+        robot, patient = view.work_J
+        share = view.robot_work_share
+        detail = (f"robot {format_number(robot, 2)} J, patient {format_number(patient, 2)} J, "
+                  "over the exercise so far")
+        self.work_share.set_value(share * 100.0, detail)
+
     def _draw_raw(self, view: TrialView) -> None:
         ex = view.exercise
         t = view.time[ex]

@@ -26,7 +26,7 @@ import numpy as np
 from app.errors import AppError
 from app.pose.store import read_pose
 from app.trials.reader import TrialData
-from core.metrics import DEFAULT_TOLERANCE_RAD, rmse_xy
+from core.metrics import DEFAULT_TOLERANCE_RAD, mechanical_work, rmse_xy
 from core.trial import TrialParameters
 from device.loop.pipeline import PERIOD_S, PHASE_EXERCISE
 from device.recording.record import RECORD_DTYPE
@@ -105,6 +105,10 @@ class TrialView:
         self._first_t = math.nan
         self._last_t = math.nan
         self._last_within = False
+        # who did the work so far (core.metrics.mechanical_work over every exercise step)
+        self._robot_J = 0.0
+        self._patient_J = 0.0
+        self._last_work: np.ndarray | None = None  # the last exercise record, for its step
         self._low = {n: np.full(_layout(n)[1], np.inf) for n in RANGED_CHANNELS}
         self._high = {n: np.full(_layout(n)[1], -np.inf) for n in RANGED_CHANNELS}
 
@@ -235,6 +239,7 @@ class TrialView:
         self._last_t = float(t[-1])
         self._last_within = bool(within[-1])
         self._ex_count += len(batch)
+        self._add_work(batch)
         for name in RANGED_CHANNELS:
             values = batch[name].reshape(len(batch), -1)
             finite = np.isfinite(values)
@@ -243,6 +248,22 @@ class TrialView:
                                           np.where(finite, values, np.inf).min(axis=0))
                 self._high[name] = np.fmax(self._high[name],
                                            np.where(finite, values, -np.inf).max(axis=0))
+
+    def _add_work(self, batch: np.ndarray) -> None:
+        """The batch's steps of work, with the step from the previous batch's last sample:
+        the sums are the trial's, whatever its cut into batches."""
+        names = ("torque_applied", "robot_angle", "force", "position")
+        if not all(name in batch.dtype.names for name in names):
+            return
+        steps = batch if self._last_work is None else np.concatenate((self._last_work, batch))
+        self._last_work = batch[-1:].copy()
+        if len(steps) < 2:
+            return
+        done = mechanical_work(steps["torque_applied"], steps["robot_angle"],
+                               steps["force"][:, :2], steps["position"])
+        if math.isfinite(done.robot_J) and math.isfinite(done.patient_J):
+            self._robot_J += done.robot_J
+            self._patient_J += done.patient_J
 
     # -- sizes ------------------------------------------------------------------
     def __len__(self) -> int:
@@ -306,6 +327,21 @@ class TrialView:
         if not self._ex_count or not span > 0:
             return math.nan
         return 100.0 * self._within_time / span
+
+    @property
+    def work_J(self) -> tuple[float, float]:
+        """(robot, patient) work over the exercise so far (J), as app.trials.analysis."""
+        if self._ex_count < 2:
+            return (math.nan, math.nan)
+        return (self._robot_J, self._patient_J)
+
+    @property
+    def robot_work_share(self) -> float:
+        """The robot's share of the positive work so far (0–1), as the trial's metric
+        robot_work_share (core.metrics.MechanicalWork)."""
+        robot, patient = self.work_J
+        positive = max(robot, 0.0) + max(patient, 0.0)
+        return max(robot, 0.0) / positive if positive > 0.0 else math.nan
 
     def range_of(self, name: str) -> tuple[np.ndarray, np.ndarray]:
         """(lowest, highest) per component over the exercise so far; NaN before any."""
