@@ -410,7 +410,8 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
             if done == base + block or done == total or status != physics.OK:
                 hand_over(done - base)
                 base = done
-                out.fill(math.nan)
+                if done < total and status == physics.OK:
+                    out.fill(math.nan)  # the next block starts clean
         if done:
             pipeline.ticked()
         if status == FAULT_LATCHED:

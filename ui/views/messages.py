@@ -65,10 +65,12 @@ class Messages:
 
     def set_fault(self, text: str) -> None:
         """A fault latched (its banner): the event line under it is no longer current."""
+        # the window shows an e-stop at the press and again when the loop reports it:
+        # one fault, one line in the history
+        if text and text != self.fault:
+            self._history.append(Event(text, True, self._clock(), None))
         self.fault = text
         self._last = None
-        if text:
-            self._history.append(Event(text, True, self._clock(), None))
 
     def clear_fault(self) -> None:
         self.fault = ""

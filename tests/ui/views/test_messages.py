@@ -34,7 +34,9 @@ def test_a_new_emergency_stop_takes_the_fault_cleared_line_away():
     m.set_state(State.CONNECTED)
     m.say("Fault cleared.", states=(State.CONNECTED,))
     m.set_fault("Emergency stop pressed — the motors are off.")
+    m.set_fault("Emergency stop pressed — the motors are off.")  # the loop reports it too
     assert m.last is None
+    assert sum("Emergency stop" in line for line in m.history()) == 1
     assert m.fault.startswith("Emergency stop")
     assert m.history()[-1].endswith("⚠ Emergency stop pressed — the motors are off.")
 
