@@ -363,8 +363,11 @@ class MainWindow(QMainWindow):
         self.messages.set_state(self.state)
         self._show_message()
         self.state_label.setText(f"<b>{self.state.label}</b>")
-        if self.state == State.CONNECTED and self.built is not None:
-            self.backend_label.setText(reason.replace("connected to the ", ""))
+        if (self.state == State.CONNECTED and self.built is not None
+                and reason.startswith("connected to the ")):
+            # only Connect names the robot: other ways back to CONNECTED (a trial's file
+            # complete, a fault cleared) give their own reason, not a robot's name
+            self.backend_label.setText(reason.removeprefix("connected to the "))
         if self.state == State.CONNECTED and self.start_needs():
             self._say(f"Connected. Start needs {self.start_needs()}.",
                       states=(State.CONNECTED,))

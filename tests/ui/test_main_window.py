@@ -308,6 +308,9 @@ def test_three_trials_in_a_row_with_the_host_stalling_50_ms(qtbot, window, monke
         trials = win.registry.trials_for_patient(win.patient.code)
         assert len(trials) == n
     assert [t.status for t in trials] == ["complete"] * 3
+    # the status bar still names the robot, not the last state change's reason
+    assert "simulator" in win.backend_label.text()
+    assert "trial file" not in win.backend_label.text()
     assert len({t.number for t in trials}) == 3
     for trial in trials:
         data = read_trial(win.registry.trial_path(trial))
