@@ -7,7 +7,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from PySide6.QtCore import Qt
 
 from app.emg.importing import LIVE_MARGIN_S
 from app.records.datadir import DataDir
@@ -15,6 +14,7 @@ from app.records.registry import Registry
 from device.errors import RecordingError
 from device.loop.states import State
 from device.recording.emgfile import read_emg
+from tests.ui.session import click, register_patient, short_trial
 from ui.main_window import MainWindow
 
 pytestmark = pytest.mark.slow
@@ -32,11 +32,6 @@ def _stored(path) -> bool:
         return False
 
 
-def click(qtbot, button) -> None:
-    assert button.isEnabled(), button.text()
-    qtbot.mouseClick(button, Qt.MouseButton.LeftButton)
-
-
 def test_live_emg_is_stored_with_the_trial_when_its_file_closes(qtbot, tmp_path, monkeypatch):
     monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
     registry = Registry(DataDir(tmp_path / "data", "test"))
@@ -46,22 +41,8 @@ def test_live_emg_is_stored_with_the_trial_when_its_file_closes(qtbot, tmp_path,
     win.start_device()
     with fake.FakeTrignoServer() as server:
         try:
-            tab = win.registration_tab
-            qtbot.keyClicks(tab.first_name, "Ada")
-            qtbot.keyClicks(tab.last_name, "Lovelace")
-            tab.body_mass.setValue(70.0)
-            tab.upper_arm.setValue(30.0)
-            tab.forearm.setValue(28.0)
-            tab.shoulder_x.setValue(-12.0)
-            tab.shoulder_y.setValue(73.0)
-            click(qtbot, tab.create_button)
-            qtbot.waitUntil(lambda: tab.selected_patient() is not None, timeout=5000)
-            click(qtbot, tab.confirm)
-            qtbot.waitUntil(lambda: win.registration is not None, timeout=5000)
-            p = win.parameters_tab
-            p.repetitions.setValue(1)
-            p.duration.setValue(2.0)
-            p.refresh()
+            register_patient(qtbot, win)
+            short_trial(win)
             emg = win.emg
             emg.source_edit.setText("trigno:127.0.0.1")
             emg.source_ports = {"command_port": server.command_port,

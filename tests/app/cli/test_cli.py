@@ -3,17 +3,8 @@ as one clear line with exit code 2, never a traceback."""
 
 import pytest
 
-from app.cli.main import main
 from app.trials.reader import read_trial
-
-
-def run(args, capsys):
-    try:
-        code = main(args)
-    except SystemExit as exc:  # argparse exits from inside parse_args
-        code = exc.code
-    out = capsys.readouterr()
-    return code, out.out, out.err
+from tests.app.cli.running import run
 
 
 @pytest.fixture

@@ -6,23 +6,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.cli.main import main
 from app.emg.subjects import Subject, record_trial, write_contractions
 from app.trials.headless import save, simulate
 from core.trial import THESIS_SUBJECT
 from device.emg.files import read_emg_file
 from device.recording.emgfile import read_emg
+from tests.app.cli.running import run
 
 DATA = Path(__file__).parents[2] / "data" / "emg"
 
-
-def run(args, capsys):
-    try:
-        code = main(args)
-    except SystemExit as exc:
-        code = exc.code
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 @pytest.fixture(autouse=True)

@@ -10,17 +10,10 @@ import numpy as np
 import pytest
 
 from app.cli.main import main
+from tests.app.cli.running import run
 
 SPEEDS = ["1", "2", "3", "4", "5", "6", "7", "8"]
 
-
-def run(args, capsys):
-    try:
-        code = main(args)
-    except SystemExit as exc:
-        code = exc.code
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 @pytest.fixture(scope="module")

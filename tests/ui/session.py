@@ -1,0 +1,40 @@
+"""What a therapist does in the window, for the tests that drive a whole session: press a
+robot button, register a patient, set up a short trial."""
+
+from __future__ import annotations
+
+from PySide6.QtCore import Qt
+
+from ui.main_window import MainWindow
+
+
+def enabled(win: MainWindow) -> set[str]:
+    return {name for name, b in win.robot.buttons.items() if b.isEnabled()}
+
+
+def click(qtbot, button) -> None:
+    assert button.isEnabled(), button.text()
+    qtbot.mouseClick(button, Qt.MouseButton.LeftButton)
+
+
+def register_patient(qtbot, win: MainWindow) -> None:
+    tab = win.registration_tab
+    win.tabs.setCurrentWidget(tab)
+    qtbot.keyClicks(tab.first_name, "Ada")
+    qtbot.keyClicks(tab.last_name, "Lovelace")
+    tab.body_mass.setValue(70.0)
+    tab.upper_arm.setValue(30.0)
+    tab.forearm.setValue(28.0)
+    tab.shoulder_x.setValue(-12.0)
+    tab.shoulder_y.setValue(73.0)
+    click(qtbot, tab.create_button)
+    qtbot.waitUntil(lambda: tab.selected_patient() is not None, timeout=5000)
+    click(qtbot, tab.confirm)
+    qtbot.waitUntil(lambda: win.registration is not None, timeout=5000)
+
+
+def short_trial(win: MainWindow) -> None:
+    p = win.parameters_tab
+    p.repetitions.setValue(1)
+    p.duration.setValue(2.0)
+    p.refresh()
