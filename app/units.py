@@ -9,7 +9,7 @@ quantity                               unit     where
 positions and sizes of the set-up      cm       the form, the path plots (window, PDF), the
 (centre, shoulder, radius, arm)                 report's Settings line, stored measurements
 position errors (RMSE, per axis)       mm       the big numbers, the error plot, tables
-speeds                                 mm/s     tables
+speeds                                 mm/s     tables, the window's path summary
 angles (joints, tolerance)             °        everywhere
 assistance level                       %        the form, the report, the progress table
 =====================================  =======  ==========================================
@@ -19,10 +19,18 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+from core.trial import MessageUnits
+
 CM_PER_M = 100.0
 """Positions and sizes of the set-up are shown in cm."""
 MM_PER_M = 1000.0
 """Position errors are shown in mm."""
+MM_S_PER_M_S = 1000.0
+"""Speeds are shown in mm/s."""
+
+SCREEN = MessageUnits(length="cm", per_m=CM_PER_M, decimals=1,
+                      speed="mm/s", per_m_s=MM_S_PER_M_S, speed_decimals=0)
+"""The units of the trial check's refusals in the window (core.trial.check_trial)."""
 
 
 def cm(length_m: float, decimals: int = 1) -> str:

@@ -25,13 +25,15 @@ from core.trial import THESIS_SUBJECT
 def course(patient: str, trials: int):
     params = THESIS_SUBJECT.replace(assist="as-needed")
     rows = []
+    proposal = None  # the proposal each trial ran with: it sets the next one's step
     for _ in range(trials):
         trial = simulate(params, patient=patient, seed=0)
         channels = {n: trial.records[n] for n in trial.records.dtype.names}
         metrics = analyse(channels, params).metrics.to_dict()
         rows.append((params, metrics["directional_performance_pct"], metrics["led_pct"],
                      trial.status))
-        params = propose(params, metrics, trial.status).applied_to(params)
+        proposal = propose(params, metrics, trial.status, proposal)
+        params = proposal.applied_to(params)
     return rows
 
 

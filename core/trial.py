@@ -46,6 +46,33 @@ MAX_PATH_SPEED_M_S = 0.5
 
 
 @dataclass(frozen=True, slots=True)
+class MessageUnits:
+    """The units `check_trial` writes its refusals in. SI by default, as the command line
+    takes its lengths; the window passes the screen's (app.units.SCREEN: cm and mm/s), so
+    a refusal reads in the unit of the field it is about."""
+
+    length: str = "m"
+    per_m: float = 1.0
+    decimals: int = 2  # a length to about a centimetre
+    speed: str = "m/s"
+    per_m_s: float = 1.0
+    speed_decimals: int = 2
+
+    def of_length(self, length_m: float, extra_decimals: int = 0) -> str:
+        return f"{length_m * self.per_m:.{self.decimals + extra_decimals}f} {self.length}"
+
+    def of_point(self, point_m) -> str:
+        x, y = (v * self.per_m for v in point_m)
+        return f"({x:.{self.decimals}f}, {y:.{self.decimals}f}) {self.length}"
+
+    def of_speed(self, speed_m_s: float) -> str:
+        return f"{speed_m_s * self.per_m_s:.{self.speed_decimals}f} {self.speed}"
+
+
+SI_UNITS = MessageUnits()
+
+
+@dataclass(frozen=True, slots=True)
 class TrialParameters:
     """Everything that defines a trial, in SI units. Defaults are the thesis's
     experiment (section 3.6) with the shoulder as we read it (docs/frames.md)."""
@@ -187,10 +214,13 @@ class TrialCheck:
 
 
 def check_trial(
-    parameters: TrialParameters, robot: RobotModel | None = None, spacing_m: float = 0.002
+    parameters: TrialParameters, robot: RobotModel | None = None, spacing_m: float = 0.002,
+    units: MessageUnits = SI_UNITS,
 ) -> TrialCheck:
-    """Walk the trial's path and report what the robot and the arm can reach."""
+    """Walk the trial's path and report what the robot and the arm can reach; the problems
+    are written in `units`."""
     robot = robot or RobotModel()
+    u = units
     arm = parameters.arm()
     trajectory = parameters.trajectory()
     points = parameters.path().points(spacing_m)
@@ -204,16 +234,16 @@ def check_trial(
         if not robot_ok[i]:
             x, y = points[i]
             robot_problem = robot_problem or (
-                f"point ({x:.2f}, {y:.2f}) m is {math.hypot(x, y):.2f} m from the robot's motor "
-                f"axes; the robot reaches {robot.l4_m - robot.l2_m:.2f}–"
-                f"{robot.l2_m + robot.l4_m:.2f} m. Move the exercise's centre."
+                f"point {u.of_point((x, y))} is {u.of_length(math.hypot(x, y))} from the "
+                f"robot's motor axes; the robot reaches {u.of_length(robot.l4_m - robot.l2_m)}–"
+                f"{u.of_length(robot.l2_m + robot.l4_m)}. Move the exercise's centre."
             )
             continue
         reason = robot.limit_problem(q1[i], q2[i])
         if reason:
             robot_ok[i] = False
             x, y = points[i]
-            robot_problem = robot_problem or f"point ({x:.2f}, {y:.2f}) m: {reason}"
+            robot_problem = robot_problem or f"point {u.of_point((x, y))}: {reason}"
     if robot_problem:
         problems.append(robot_problem)
 
@@ -231,28 +261,32 @@ def check_trial(
         d = distance[worst]
         if d > arm.reach_max_m:
             problems.append(
-                f"point ({x:.2f}, {y:.2f}) m is {d:.2f} m from the shoulder; this arm reaches "
-                f"{arm.reach_max_m:.2f} m. Move the exercise or the shoulder closer together."
+                f"point {u.of_point((x, y))} is {u.of_length(d)} from the shoulder; this arm "
+                f"reaches {u.of_length(arm.reach_max_m)}. Move the exercise or the shoulder "
+                "closer together."
             )
         elif d > far:
             problems.append(
-                f"point ({x:.2f}, {y:.2f}) m is {d:.3f} m from the shoulder; the arm would be "
-                f"almost straight there (elbow bent less than {math.degrees(flex_lo):.0f}°, "
-                f"reach {far:.3f} m). Move the exercise or the shoulder closer together."
+                f"point {u.of_point((x, y))} is {u.of_length(d, 1)} from the shoulder; the arm "
+                f"would be almost straight there (elbow bent less than "
+                f"{math.degrees(flex_lo):.0f}°, reach {u.of_length(far, 1)}). Move the exercise "
+                "or the shoulder closer together."
             )
         else:
             problems.append(
-                f"point ({x:.2f}, {y:.2f}) m is only {d:.2f} m from the shoulder; the elbow "
-                f"would bend more than {math.degrees(flex_hi):.0f}° (closest {near:.2f} m). "
+                f"point {u.of_point((x, y))} is only {u.of_length(d)} from the shoulder; the "
+                f"elbow would bend more than {math.degrees(flex_hi):.0f}° (closest "
+                f"{u.of_length(near)}). "
                 "Move the exercise away from the shoulder."
             )
 
     peak = trajectory.peak_speed_m_s
     if peak > MAX_PATH_SPEED_M_S:
         problems.append(
-            f"the path's peak speed would be {peak:.2f} m/s; keep it at most "
-            f"{MAX_PATH_SPEED_M_S:.2f} m/s by giving one traversal more time or a smaller radius "
-            f"(path {trajectory.path.length:.2f} m in {parameters.duration_s:g} s)."
+            f"the path's peak speed would be {u.of_speed(peak)}; keep it at most "
+            f"{u.of_speed(MAX_PATH_SPEED_M_S)} by giving one traversal more time or a smaller "
+            f"radius (path {u.of_length(trajectory.path.length)} in "
+            f"{parameters.duration_s:g} s)."
         )
 
     ts, te = arm.ik_terms(points[:, 0], points[:, 1])

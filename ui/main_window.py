@@ -94,6 +94,7 @@ class MainWindow(QMainWindow):
         self.patient: Patient | None = None
         self.registration: Registration | None = None
         self.trial_id: int | None = None
+        self.trial_fault = ""  # the fault that ended the running trial, if one did
         self.trial_path: Path | None = None
         self.unsaved_trial: int | None = None
         self.live: TrialView | None = None
@@ -160,6 +161,10 @@ class MainWindow(QMainWindow):
         lines = self.banner_text.fontMetrics().lineSpacing() * MESSAGE_LINES
         self.banner_text.setFixedHeight(lines)
         self.banner.setFixedHeight(max(lines, 40) + 16)
+        # its place is kept while hidden: a fault never pushes the window taller (issue 13 #3)
+        policy = self.banner.sizePolicy()
+        policy.setRetainSizeWhenHidden(True)
+        self.banner.setSizePolicy(policy)
         self.banner_text.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Fixed)
         self.clear_button = QPushButton("Clear fault")
         self.clear_button.setObjectName("clear_fault")
@@ -284,6 +289,7 @@ class MainWindow(QMainWindow):
             self.registration_tab.show_refusal(exc)
             return
         self.trial_id = begun.trial_id
+        self.trial_fault = ""
         self.trial_path = begun.path
         subject = SubjectInfo.from_parameters(self.patient.code, self.built)
         camera = self.video.camera
@@ -377,6 +383,8 @@ class MainWindow(QMainWindow):
         log.warning("fault %s: %s %s", Fault(code).label, message,
                     {k: v for k, v in detail.items() if k != "monotonic_s"})
         self.fault_code = code
+        if self.trial_id is not None:
+            self.trial_fault = message  # kept with the trial in the registry (finalize)
         self._show_banner(message)
         if detail.get("cause") == "recorder process stopped" and self.trial_id is not None:
             # no recorder is left to close the file and say so: finish the trial from
@@ -384,7 +392,7 @@ class MainWindow(QMainWindow):
             from app.trials.finalize import finalize_lost
 
             trial_id, self.trial_id = self.trial_id, None
-            self.jobs.run(lambda: finalize_lost(self.registry, trial_id),
+            self.jobs.run(lambda: finalize_lost(self.registry, trial_id, message),
                           lambda done: self._finalized(trial_id, done))
 
     def _on_trial_started(self, path: str, approach: int, total: int) -> None:
@@ -411,9 +419,9 @@ class MainWindow(QMainWindow):
         if kind == "closed" and self.trial_id is not None:
             from app.trials.finalize import finalize_trial
 
-            trial_id = self.trial_id
+            trial_id, reason = self.trial_id, self.trial_fault
             self.trial_id = None
-            self.jobs.run(lambda: finalize_trial(self.registry, trial_id, status),
+            self.jobs.run(lambda: finalize_trial(self.registry, trial_id, status, reason),
                           lambda done: self._finalized(trial_id, done))
             if self.emg.capture is not None:
                 # the live EMG source streams on; this trial's part goes into its file

@@ -11,6 +11,7 @@ import argparse
 import math
 
 from app.cli.common import mm, num, registry_for
+from app.units import cm
 from core.trial import SIDES
 
 
@@ -87,11 +88,13 @@ def cmd_trials(args: argparse.Namespace) -> int:
           f"{'exercise':<26}{'RMSE x/y mm':>13}{'direction %':>12}")
     for t in trials:
         p = t.parameters
-        exercise = f"{p.get('shape', '?')} r {1000 * p.get('radius_m', math.nan):.0f} mm, " \
+        exercise = f"{p.get('shape', '?')} r {cm(p.get('radius_m', math.nan))}, " \
                    f"{p.get('duration_s', math.nan):g} s"
         rmse = f"{mm(t.metrics.get('rmse_x_m'))}/{mm(t.metrics.get('rmse_y_m'))}"
         direction = t.metrics.get("directional_performance_pct")
         started = t.started_at.strftime("%Y-%m-%d %H:%M") if t.started_at else "-"
         print(f"{t.id:>5} {t.session_number:>7} {t.number:>5}  {started:<20}{t.status:<15}"
               f"{exercise:<26}{rmse:>13}{num(direction):>12}")
+        if t.end_reason:
+            print(f"{'':>21}ended: {t.end_reason}")
     return 0

@@ -94,7 +94,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                 # what reached the file before the failure is kept and registered
                 from app.trials.finalize import finalize_lost
 
-                finalize_lost(registry, begun.trial_id)
+                finalize_lost(registry, begun.trial_id, str(exc))
                 raise CommandError(f"{exc} (the trial is registered as recording lost, "
                                    "with what reached its file)") from exc
             # register only what exists: the trial's file could not be written
@@ -106,7 +106,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     if begun is not None:
         from app.trials.finalize import finalize_trial
 
-        done = finalize_trial(registry, begun.trial_id, trial.status)
+        # analysed once, by the run: the registry takes its figures
+        done = finalize_trial(registry, begun.trial_id, trial.status, analysis=analysis)
         print(f"Registered as patient {args.code}, session {begun.session_number}, "
               f"trial {begun.trial_number} (id {begun.trial_id})")
         if done.proposal is not None:

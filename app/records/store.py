@@ -95,6 +95,7 @@ class RecordStore(Protocol):
         status: str,
         metrics: Mapping[str, float],
         ended_at: datetime.datetime | None = None,
+        reason: str = "",
     ) -> Trial: ...
 
     def trial(self, trial_id: int) -> Trial: ...

@@ -96,6 +96,7 @@ def content_for_registry_trial(
         # The registry holds how the trial ended once it is finished; before that
         # the file's own status says more (e.g. still recording).
         status=record.status if record.finished else None,
+        end_reason=record.end_reason,
     )
 
 

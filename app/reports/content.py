@@ -33,6 +33,7 @@ from app.reports.compare import (
 from app.reports.figures import (
     AnglesFigure,
     EmgFigure,
+    FeedforwardFigure,
     Figures,
     ForceFigure,
     PathFigure,
@@ -47,7 +48,7 @@ from app.reports.plain_language import (
 )
 from app.trials.analysis import analyse, exercise_mask
 from app.trials.reader import TrialData
-from app.units import assistance_percent, point_cm
+from app.units import CM_PER_M, assistance_percent, point_cm
 from core.errors import CoreError
 from core.metrics import TrialMetrics
 from core.trial import TrialParameters
@@ -107,6 +108,7 @@ class ReportContent:
     planned_s: float  # exercise time the parameters asked for
     peak_force_N: float  # largest |F| of the exercise; NaN without a force channel
     emg: EmgFigure | None = None  # chapter 5: % MVC envelopes, when the trial has EMG
+    feedforward: FeedforwardFigure | None = None  # as-needed: the help learned per repetition
 
 
 # -- building it -------------------------------------------------------------------------
@@ -123,6 +125,7 @@ def build_report(
     trial_number: int | None = None,
     started_at: datetime.datetime | None = None,
     status: str | None = None,
+    end_reason: str = "",
 ) -> ReportContent:
     """The report of a read trial file.
 
@@ -131,7 +134,9 @@ def build_report(
     comparison out. first_name appears only when given here: the report never looks
     a name up by itself. patient_code, session_number, trial_number, started_at and
     status override what the file says (the registry knows them better); the numbers
-    default to those in the file's name (app.records.datadir.trial_stem).
+    default to those in the file's name (app.records.datadir.trial_stem). end_reason,
+    the registry's words for why the trial ended, is shown as a fault when the file
+    does not hold it (a dead recorder, a full disk).
     """
     parameters = trial.parameters
     if parameters is None:
@@ -189,6 +194,8 @@ def build_report(
     code = patient_code or (trial.subject.code if trial.subject is not None else "unknown")
     faults = tuple(f"{e['time_s']:.2f} s: {e['message']}" for e in trial.events
                    if e.get("kind") == "fault")
+    if end_reason and not any(fault.endswith(end_reason) for fault in faults):
+        faults += (end_reason,)
     exercised_s = n_exercise * trial.sample_period_s
     planned_s = parameters.duration_s * parameters.repetitions
     simulated = trial.backend.startswith("simulator")
@@ -222,6 +229,7 @@ def build_report(
         planned_s=planned_s,
         peak_force_N=figures.peak_force_N,
         emg=figures.emg,
+        feedforward=figures.feedforward,
     )
 
 
@@ -248,9 +256,9 @@ def _comparisons(previous_trial: BaselineSource | None, previous_session: Baseli
 
 def _exercise_text(p: TrialParameters) -> str:
     shape = SHAPE_NAMES.get(p.shape, p.shape)
-    radius = f"{p.radius_m * 100:.3g} cm"
+    radius = f"{p.radius_m * CM_PER_M:.3g} cm"
     size = {
-        "reach": f"straight reach of {p.radius_m * 200:.3g} cm",
+        "reach": f"straight reach of {2 * p.radius_m * CM_PER_M:.3g} cm",
         "targets": f"{p.n_targets} targets {radius} from the centre",
         "figure8": f"figure eight of two {radius} loops",
     }.get(p.shape, f"{shape}, radius {radius}")

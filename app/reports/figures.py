@@ -132,6 +132,34 @@ def emg_figure(trial: TrialData, mask: np.ndarray, start_s: float) -> EmgFigure 
     return EmgFigure(t, 100.0 * env.values[mask], env.muscles, quality)
 
 
+@dataclass(frozen=True, slots=True, eq=False)
+class FeedforwardFigure:
+    """The as-needed mode's learned feedforward (core.control.guidance): the force along
+    the path it had learned in each bin of one repetition, at the end of each repetition
+    (the trial file's /assistance/feedforward_N), and the level the trial ran at."""
+
+    percent_of_repetition: np.ndarray  # (bins,) the bins' centres, % of one repetition
+    force_N: np.ndarray  # (repetitions finished, bins)
+    limit_N: float
+    level: float
+
+
+def feedforward_figure(trial: TrialData) -> FeedforwardFigure | None:
+    """The learned feedforward of an as-needed trial that finished a repetition, else None
+    (the thesis mode learns none)."""
+    assistance = trial.assistance
+    history = np.asarray(assistance.get("feedforward_N", np.empty((0, 0))), dtype=float)
+    if history.ndim != 2 or history.size == 0:
+        return None
+    finished = history[np.isfinite(history).all(axis=1)]
+    if finished.shape[0] == 0:
+        return None
+    bins = history.shape[1]
+    return FeedforwardFigure((np.arange(bins) + 0.5) / bins * 100.0, finished,
+                             float(assistance.get("feedforward_limit_N", math.nan)),
+                             float(assistance.get("level", math.nan)))
+
+
 def merge_short_runs(t_s: np.ndarray, within: np.ndarray, min_run_s: float) -> tuple[Run, ...]:
     """The runs of equal `within`, with every run shorter than `min_run_s` merged into
     its neighbours, shortest first (see the module's doc). Sample k holds over
@@ -190,6 +218,7 @@ class Figures:
     peak_force_N: float = math.nan
     emg: EmgFigure | None = None
     notes: tuple[str, ...] = ()
+    feedforward: FeedforwardFigure | None = None
 
 
 def report_figures(trial: TrialData, parameters: TrialParameters, mask: np.ndarray,
@@ -213,6 +242,7 @@ def report_figures(trial: TrialData, parameters: TrialParameters, mask: np.ndarr
         peak,
         notes=notes,
         emg=emg_figure(trial, mask, start_s),
+        feedforward=feedforward_figure(trial),
     )
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from app.units import MM_PER_M, MM_S_PER_M_S
 from core.metrics import TrialMetrics
 
 
@@ -24,9 +25,9 @@ class MetricRow:
 
 
 ROWS: tuple[MetricRow, ...] = (
-    MetricRow("rmse_x_m", "Position error, x (RMSE)", "mm", 1000.0,
+    MetricRow("rmse_x_m", "Position error, x (RMSE)", "mm", MM_PER_M,
               "how far the hand was from the path, sideways", short="RMSE x"),
-    MetricRow("rmse_y_m", "Position error, y (RMSE)", "mm", 1000.0,
+    MetricRow("rmse_y_m", "Position error, y (RMSE)", "mm", MM_PER_M,
               "how far the hand was from the path, forward and back", short="RMSE y"),
     MetricRow("directional_performance_pct", "Directional performance", "%", 1.0,
               "share of the time the push pointed the way the path goes", short="Direction"),
@@ -48,8 +49,9 @@ ROWS: tuple[MetricRow, ...] = (
               "the same after a 10 Hz zero-lag filter", short="Elbow torque (10 Hz)"),
     MetricRow("path_length_ratio", "Path length ratio", "", 1.0,
               "hand's path over the target's (1 is ideal)", short="Path ratio"),
-    MetricRow("mean_speed_m_s", "Mean speed", "mm/s", 1000.0, "while moving", short="Mean speed"),
-    MetricRow("peak_speed_m_s", "Peak speed", "mm/s", 1000.0, "", short="Peak speed"),
+    MetricRow("mean_speed_m_s", "Mean speed", "mm/s", MM_S_PER_M_S, "while moving",
+              short="Mean speed"),
+    MetricRow("peak_speed_m_s", "Peak speed", "mm/s", MM_S_PER_M_S, "", short="Peak speed"),
     MetricRow("movement_time_s", "Movement time", "s", 1.0, "", short="Movement time"),
     MetricRow("sparc", "Smoothness (SPARC)", "", 1.0, "closer to 0 is smoother", short="SPARC"),
     MetricRow("ldlj", "Smoothness (LDLJ)", "", 1.0, "closer to 0 is smoother", short="LDLJ"),

@@ -6,7 +6,8 @@ the previous trial and session with cautions where the exercise differed; and th
 hand's path against the target (Fig. 3.7). Page 2 is for the therapist: the force
 with its blue/red runs (Fig. 3.9), the ISB joint angles (Fig. 3.11), the joint
 torques (Fig. 3.12), every figure in a table beside the earlier trials', and the
-notes.
+notes. A trial with EMG gets a page of its envelopes beside the torques (chapter 5), and
+an as-needed trial a page of the help the robot learned along the path, per repetition.
 
 This module writes the file and lays the texts and tables out on the pages; the
 sheet, its type and colours are app.reports.pdf_sheet, the plots
@@ -34,6 +35,7 @@ from app.reports.pdf_plots import (
     PATH_ABOVE_IN,
     PATH_BELOW_IN,
     emg_plots,
+    feedforward_plot,
     force_plots,
     joint_plots,
     path_plot,
@@ -95,6 +97,8 @@ def write_report_pdf(content: ReportContent, path: str | os.PathLike) -> Path:
             pages = (_first_page(content), _second_page(content))
             if content.emg is not None:
                 pages += (_emg_page(content),)
+            if content.feedforward is not None:
+                pages += (_assistance_page(content),)
             with PdfPages(handle, metadata=metadata) as pdf:
                 for page in pages:
                     pdf.savefig(page)
@@ -279,6 +283,13 @@ def _emg_page(content: ReportContent) -> Figure:
     sheet = Sheet()
     _title(sheet, content, "Muscle activity (surface EMG)", size=16)
     emg_plots(sheet, content.emg, content.torques, LEFT_IN + 0.55, TEXT_W_IN - 0.55)
+    return sheet.fig
+
+
+def _assistance_page(content: ReportContent) -> Figure:
+    sheet = Sheet()
+    _title(sheet, content, "The robot's help (as-needed assistance)", size=16)
+    feedforward_plot(sheet, content.feedforward, LEFT_IN + 0.55, TEXT_W_IN - 0.55)
     return sheet.fig
 
 

@@ -21,6 +21,7 @@ from matplotlib.axes import Axes
 from app.reports.figures import (
     AnglesFigure,
     EmgFigure,
+    FeedforwardFigure,
     ForceFigure,
     PathFigure,
     Run,
@@ -207,6 +208,37 @@ def emg_plots(sheet: Sheet, emg: EmgFigure, torques: TorquesFigure | None, x0: f
         sheet.y_in += height + 0.5
     for line in emg.quality:
         sheet.text(line, 9, color=INK if line.endswith("sound") else VERMILLION)
+
+
+def feedforward_plot(sheet: Sheet, figure: FeedforwardFigure, x0: float,
+                     width: float) -> None:
+    """The help the robot learned along the path, one line per finished repetition, the
+    first light and the last dark, so a therapist sees it grow where the patient needed
+    pulling and fade where they did the work (core.control.guidance)."""
+    height = 2.6
+    reps = figure.force_N.shape[0]
+    sheet.text("The help the robot learned along the path, at the end of each repetition",
+               10, weight="bold")
+    sheet.gap(0.03)
+    first, last = figure.force_N[0], figure.force_N[-1]
+    sheet.text(f"Repetition 1: up to {np.max(first):.1f} N; repetition {reps}: up to "
+               f"{np.max(last):.1f} N (limit {figure.limit_N:g} N, at an assistance level of "
+               f"{figure.level * 100:.0f} %).", 9)
+    sheet.gap(0.06)
+    ax = sheet.axes(height, x_in=x0, width_in=width)
+    for k, row in enumerate(figure.force_N):
+        shade = 0.25 + 0.75 * (k + 1) / reps  # later repetitions darker
+        ax.plot(figure.percent_of_repetition, row, color=BLUE, alpha=shade, linewidth=1.3,
+                label=f"repetition {k + 1}" if k in (0, reps - 1) else None)
+    if math.isfinite(figure.limit_N):
+        ax.axhline(figure.limit_N, color=GREY, linestyle=":", linewidth=1.0)
+    ax.set_xlim(0.0, 100.0)
+    ax.set_ylim(bottom=0.0)
+    ax.set_xlabel("% of one repetition of the path")
+    ax.set_ylabel("learned force along the path (N)")
+    ax.legend(loc="center right", fontsize=7.5, frameon=False)
+    _light_grid(ax)
+    sheet.y_in += height + 0.5
 
 
 def _joint_handles(figure: AnglesFigure | TorquesFigure) -> list:

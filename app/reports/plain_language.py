@@ -16,6 +16,8 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
+from app.units import CM_PER_M, MM_PER_M, assistance_percent
+
 STANDARD_GRAVITY_M_S2 = 9.80665
 
 SHAPE_NOUNS = {
@@ -68,7 +70,7 @@ def seconds_text(seconds: float) -> str:
 def distance_mm_shown(distance_m: float) -> int:
     """A distance in whole mm, at least 1: "within 1 mm" is still true of 0.3 mm, and
     "within 0 mm" would not be."""
-    return max(1, round(distance_m * 1000.0))
+    return max(1, round(distance_m * MM_PER_M))
 
 
 def distance_text(distance_m: float) -> str:
@@ -192,11 +194,7 @@ def change_sentence(name: str, before_text: str, after_text: str, verdict: str) 
 
 
 def _cm(radius_m: float) -> str:
-    return f"{radius_m * 100.0:.3g} cm"
-
-
-def _percent(level: float) -> str:
-    return f"{level * 100.0:.0f} %"
+    return f"{radius_m * CM_PER_M:.3g} cm"
 
 
 def parameter_cautions(before: Mapping, after: Mapping) -> tuple[str, ...]:
@@ -255,8 +253,8 @@ def parameter_cautions(before: Mapping, after: Mapping) -> tuple[str, ...]:
         a, a0 = after["assistance_level"], before["assistance_level"]
         how = "more" if a > a0 else "less"
         sentences.append(f"The robot gave way {how} to your own push (assistance level "
-                         f"{_percent(a)}; before, {_percent(a0)}) — the figures may differ "
-                         "for that reason.")
+                         f"{assistance_percent(a)}; before, {assistance_percent(a0)}) — the "
+                         "figures may differ for that reason.")
     if changed("controller"):
         sentences.append(f"The robot was driven by a different controller "
                          f"({after['controller'].upper()}; before, "

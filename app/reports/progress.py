@@ -23,7 +23,7 @@ import numpy as np
 
 from app.records.registry import KEY_PARAMETERS, TrialSummary, parameter_key
 from app.records.store import RecordStore
-from app.units import assistance_percent
+from app.units import assistance_percent, cm
 
 FILE_OK = "ok"
 FILE_MISSING = "missing"
@@ -68,7 +68,7 @@ class ParameterSet:
         shape = self.shape or "?"
         parts = [shape.upper() if shape == "d" else shape]  # the thesis writes "the D"
         if self.radius_m is not None:
-            parts.append(f"r {self.radius_m * 100:.1f} cm")
+            parts.append(f"r {cm(self.radius_m)}")
         if self.duration_s is not None:
             parts.append(f"{self.duration_s:g} s")
         if self.tolerance_rad is not None:

@@ -36,37 +36,36 @@ class Finalized:
     """What the console proposes for the patient's next trial (app.trials.progression)."""
 
 
-def finalize_trial(registry: RecordStore, trial_id: int, status: str | None = None) -> Finalized:
+def finalize_trial(registry: RecordStore, trial_id: int, status: str | None = None,
+                   reason: str = "", analysis: Analysis | None = None) -> Finalized:
     """Analyse the trial's file, write its metrics into it and into the registry.
 
     `status` defaults to the one the file records (complete, stopped_early, faulted,
-    recording_lost). Raises AppError when the file cannot be read at all.
+    recording_lost); `reason`, why it ended so, to the file's last fault (the registry
+    keeps it: issue 13 #18). `analysis`, when the caller has just analysed the trial and
+    written its metrics into the file (a headless run), is taken as is instead of
+    reading the samples back and analysing them again. Raises AppError when the file
+    cannot be read at all.
     """
     trial = registry.trial(trial_id)
     path = registry.trial_path(trial)
-    data = read_trial(path, CHANNELS_USED)  # only what the metrics need: a long trial
+    # only what the metrics need (a long trial), or none when they are given
+    data = read_trial(path, () if analysis is not None else CHANNELS_USED)
     status = status or data.status
     if status == "recording":
         status = "recording_lost"  # never closed: the recorder died with it
     notes = list(data.notes)
-    analysis = None
     metrics: dict[str, float] = {}
-    try:
-        analysis = analyse(data.channels, data.parameters)
-    except AppError as exc:
-        notes.append(f"no metrics: {exc}")
-    except ValueError as exc:  # core refuses data it cannot measure, naming the field
-        notes.append(f"no metrics: {exc}")
-    else:
+    if analysis is not None:
         metrics = analysis.metrics.to_dict()
         notes.extend(analysis.notes)
-        if data.status != "recording":
-            try:
-                write_metrics(path, metrics)
-            except RecordingError as exc:
-                notes.append(f"metrics not stored in the file: {exc}")
-    registry.finish_trial(trial_id, status, metrics, datetime.datetime.now(datetime.UTC))
-    proposal = propose(data.parameters, metrics, status)
+    else:
+        analysis, metrics = _analyse_into(path, data, notes)
+    # a complete trial needs no reason; any other keeps the one given or the file's
+    reason = "" if status == "complete" else reason or last_fault(data.events)
+    registry.finish_trial(trial_id, status, metrics, datetime.datetime.now(datetime.UTC),
+                          reason)
+    proposal = propose(data.parameters, metrics, status, _ran_with(registry, trial))
     registry.record_proposal(trial_id, proposal.to_dict())
     log.info("trial %s: proposed for the next trial: %s", trial_id, proposal.reason)
     for note in notes:
@@ -74,15 +73,49 @@ def finalize_trial(registry: RecordStore, trial_id: int, status: str | None = No
     return Finalized(trial_id, path, status, analysis, tuple(notes), proposal)
 
 
-def finalize_lost(registry: RecordStore, trial_id: int) -> Finalized:
+def _ran_with(registry: RecordStore, trial) -> Proposal | None:
+    """The proposal this trial ran with (accepted at its Start), which sets the next
+    proposal's step (app.trials.progression), or None."""
+    for stored in registry.proposals_for_patient(trial.patient_code):
+        if stored.next_trial_id == trial.id and stored.decision == "accepted":
+            return Proposal.from_dict(stored.proposal)
+    return None
+
+
+def _analyse_into(path: Path, data, notes: list[str]) -> tuple[Analysis | None, dict]:
+    """The trial's analysis and metrics, written into its file when it was closed; a
+    trial that cannot be measured gets a note instead."""
+    try:
+        analysis = analyse(data.channels, data.parameters)
+    except (AppError, ValueError) as exc:  # core refuses data it cannot measure, naming it
+        notes.append(f"no metrics: {exc}")
+        return None, {}
+    metrics = analysis.metrics.to_dict()
+    notes.extend(analysis.notes)
+    if data.status != "recording":
+        try:
+            write_metrics(path, metrics)
+        except RecordingError as exc:
+            notes.append(f"metrics not stored in the file: {exc}")
+    return analysis, metrics
+
+
+def last_fault(events: list[dict]) -> str:
+    """The message of the file's last fault event, '' when it has none."""
+    faults = [event["message"] for event in events if event["kind"] == "fault"]
+    return faults[-1] if faults else ""
+
+
+def finalize_lost(registry: RecordStore, trial_id: int, reason: str = "") -> Finalized:
     """Finish a trial whose recording was lost mid-way (its recorder died): from what
     reached its file when that can be read, else as recording_lost with no metrics and a
-    note saying why. Never leaves it 'recording'."""
+    note saying why. Never leaves it 'recording'; `reason` (the fault the window saw) is
+    kept in the registry, since the file cannot have it."""
     try:
-        return finalize_trial(registry, trial_id, "recording_lost")
+        return finalize_trial(registry, trial_id, "recording_lost", reason)
     except AppError as exc:
         registry.finish_trial(trial_id, "recording_lost", {},
-                              datetime.datetime.now(datetime.UTC))
+                              datetime.datetime.now(datetime.UTC), reason)
         note = f"the file could not be read ({exc}); the trial is listed as recording lost"
         log.warning("trial %s: %s", trial_id, note)
         return Finalized(trial_id, registry.trial_path(trial_id), "recording_lost", None,

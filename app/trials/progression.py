@@ -27,6 +27,15 @@ The steps:
   tolerance back up to the thesis's 20° first, then more assistance, then slower;
 * in between, or after a trial that did not complete, the same again.
 
+The assistance moves as a staircase: each time it turns back (raised after a trial that
+lowered it, or lowered after one that raised it) its step is halved, down to
+`LEVEL_STEP_MIN` and in whole percent as the form sets it (10, 5, 2 %), so it settles
+between two levels instead of swinging between them.
+With a fixed 10 % step the weak virtual patient led 85 % of the exercise at 40 % help and
+9 % at 30 %, and the proposals alternated between the two for ever (bench/progression.py).
+The step travels with the proposal (`level_step`, signed: the change it made), and the
+trial that ran with an accepted proposal passes it on (`propose(..., previous=...)`).
+
 One change at a time, so that the patient's next figures say what it did. The proposal
 names its reason in one line with display units; the registry keeps it and what the
 therapist decided (app.records.registry.proposals).
@@ -37,12 +46,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from app.units import assistance_percent
 from core.errors import CoreError
 from core.trial import DURATION_RANGE_S, TrialParameters, check_trial
 
 HARDER_AT_PCT = 80.0
 EASIER_AT_PCT = 60.0
 LEVEL_STEP = 0.1
+LEVEL_STEP_MIN = 0.02
 SPEED_STEP = 0.1
 TOLERANCE_STEP_DEG = 2.0
 TOLERANCE_MIN_DEG = 10.0
@@ -60,6 +71,9 @@ class Proposal:
     tolerance_rad: float
     change: str
     reason: str
+    level_step: float = 0.0
+    """The change of the assistance level this proposal makes (signed, 0 when it changes
+    something else), from which the next proposal's step follows (the module notes)."""
 
     def applied_to(self, parameters: TrialParameters) -> TrialParameters:
         return parameters.replace(assistance_level=self.assistance_level,
@@ -68,13 +82,27 @@ class Proposal:
     def to_dict(self) -> dict:
         return {"assistance_level": self.assistance_level, "duration_s": self.duration_s,
                 "tolerance_rad": self.tolerance_rad, "change": self.change,
-                "reason": self.reason}
+                "reason": self.reason, "level_step": self.level_step}
 
     @classmethod
     def from_dict(cls, values: dict) -> Proposal:
+        # proposals stored before the staircase have no step: a full step then
         return cls(float(values["assistance_level"]), float(values["duration_s"]),
                    float(values["tolerance_rad"]), str(values["change"]),
-                   str(values["reason"]))
+                   str(values["reason"]), float(values.get("level_step", 0.0)))
+
+
+def level_step(direction: int, previous: Proposal | None) -> float:
+    """The assistance's next change, signed (`direction` −1 less help, +1 more): the last
+    step's size again, halved (down to LEVEL_STEP_MIN) when it turns back."""
+    last = previous.level_step if previous is not None else 0.0
+    if last == 0.0:
+        return direction * LEVEL_STEP
+    size = abs(last)
+    if last * direction < 0:
+        # halved in whole percent (the form's unit), so a proposal can be accepted as is
+        size = max(LEVEL_STEP_MIN, math.floor(round(size * 100) / 2) / 100)
+    return direction * size
 
 
 def success(parameters: TrialParameters, metrics: dict) -> tuple[float, str]:
@@ -88,9 +116,11 @@ def success(parameters: TrialParameters, metrics: dict) -> tuple[float, str]:
     return pct, f"pushed the right way {pct:.0f} % of the time"
 
 
-def propose(parameters: TrialParameters, metrics: dict, status: str) -> Proposal:
+def propose(parameters: TrialParameters, metrics: dict, status: str,
+            previous: Proposal | None = None) -> Proposal:
     """The proposal after a trial run with `parameters`, its `metrics` (TrialMetrics'
-    names) and `status`."""
+    names) and `status`; `previous`, the proposal that trial ran with, if it did, sets
+    the assistance's step (the module notes)."""
     level, duration, tolerance = (parameters.assistance_level, parameters.duration_s,
                                   parameters.tolerance_rad)
 
@@ -107,9 +137,10 @@ def propose(parameters: TrialParameters, metrics: dict, status: str) -> Proposal
         return same(f"{shown}, near the {TARGET_PCT:.0f} % aimed at: the same again")
     if pct >= HARDER_AT_PCT:
         if level > 0.0:
-            new = round(max(0.0, level - LEVEL_STEP), 2)
+            new = round(max(0.0, level + level_step(-1, previous)), 2)
             return Proposal(new, duration, tolerance, "assistance",
-                            f"{shown}: less assistance, {level:.0%} → {new:.0%}")
+                            f"{shown}: less assistance, {assistance_percent(level)} → "
+                            f"{assistance_percent(new)}", round(new - level, 2))
         faster = round(duration * (1.0 - SPEED_STEP), 2)
         if faster >= DURATION_RANGE_S[0] and _reachable(parameters.replace(duration_s=faster)):
             return Proposal(level, faster, tolerance, "speed",
@@ -128,9 +159,10 @@ def propose(parameters: TrialParameters, metrics: dict, status: str) -> Proposal
                         f"{shown}: a wider tolerance, {math.degrees(tolerance):.0f}° → "
                         f"{wider:.0f}°")
     if level < 1.0:
-        new = round(min(1.0, level + LEVEL_STEP), 2)
+        new = round(min(1.0, level + level_step(+1, previous)), 2)
         return Proposal(new, duration, tolerance, "assistance",
-                        f"{shown}: more assistance, {level:.0%} → {new:.0%}")
+                        f"{shown}: more assistance, {assistance_percent(level)} → "
+                        f"{assistance_percent(new)}", round(new - level, 2))
     slower = round(min(DURATION_RANGE_S[1], duration * (1.0 + SPEED_STEP)), 2)
     if slower > duration:
         return Proposal(level, slower, tolerance, "speed",

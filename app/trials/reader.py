@@ -14,7 +14,7 @@ import os
 import re
 import time
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import h5py
@@ -57,6 +57,10 @@ class TrialData:
     created_utc: str
     attrs: dict
     notes: tuple[str, ...]
+    assistance: dict = field(default_factory=dict)
+    """The /assistance group (docs/data-format.md): its attributes (the mode, the level,
+    the guidance's gains) and its arrays (`feedforward_N`, repetitions × bins); {} in a
+    file written before the modes existed."""
 
     @property
     def time(self) -> np.ndarray:
@@ -243,6 +247,7 @@ def _read(path: Path, f: h5py.File, only: set[str] | None) -> TrialData:
         created_utc=str(attrs.get("created_utc", "")),
         attrs=attrs,
         notes=tuple(notes),
+        assistance=_assistance(f),
     )
 
 
@@ -389,6 +394,15 @@ def _events(dataset: h5py.Dataset) -> tuple[list[dict], list[str]]:
             "values": values,
         })
     return events, notes
+
+
+def _assistance(f: h5py.File) -> dict:
+    group = f.get("assistance")
+    if not isinstance(group, h5py.Group):
+        return {}
+    arrays = {name: np.asarray(item[()], dtype=float) for name, item in group.items()
+              if isinstance(item, h5py.Dataset)}
+    return {**group_attributes(f, "assistance"), **arrays}
 
 
 def group_attributes(f: h5py.File, name: str) -> dict:

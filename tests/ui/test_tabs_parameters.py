@@ -46,17 +46,19 @@ def test_shoulder_as_printed_is_refused_with_distances_and_marked_on_the_preview
         type_into(qtbot, tab.shoulder_x, "12")
     parameters, problem = signal.args
     assert parameters is None
-    assert "0.68 m from the shoulder" in problem
-    assert "reaches 0.61 m" in problem
+    # in the form's unit, cm (issue 13 #6: the refusal was in metres)
+    assert "67.6 cm from the shoulder" in problem
+    assert "reaches 61.0 cm" in problem
 
     for key in ("centre", "shoulder"):
         label = tab.errors[key]
         assert label.isVisible()
-        assert "point (-0.30, 0.20) m is 0.68 m from the shoulder" in label.text()
-        assert "0.61 m" in label.text()
+        assert "point (-30.0, 20.0) cm is 67.6 cm from the shoulder" in label.text()
+        assert "61.0 cm" in label.text()
+        assert " m " not in label.text()
     assert not tab.errors["radius"].isVisible()
     assert "Not ready" in tab.status.text()
-    with pytest.raises(UnreachableError, match=r"0\.68 m"):
+    with pytest.raises(UnreachableError, match=r"67\.6 cm"):
         tab.parameters()
 
     # The preview marks the unreachable points: the ones check_trial finds, in cm.

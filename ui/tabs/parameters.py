@@ -42,6 +42,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from app.units import SCREEN
 from core.arm import BODY_MASS_RANGE_KG, FOREARM_RANGE_M, UPPER_ARM_RANGE_M
 from core.errors import CoreError, ParameterError, UnreachableError
 from core.robot import RobotModel
@@ -513,7 +514,7 @@ class ParametersTab(QWidget):
             self._show_error(field_key(exc.field), str(exc))
             self._problem = str(exc)
         else:
-            check = check_trial(parameters, self.robot)
+            check = check_trial(parameters, self.robot, units=SCREEN)
             self._check = check
             for key, message in problem_fields(check):
                 self._show_error(key, message)

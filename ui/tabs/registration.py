@@ -18,6 +18,7 @@ from PySide6.QtWidgets import (
     QCheckBox,
     QDoubleSpinBox,
     QFormLayout,
+    QFrame,
     QGroupBox,
     QHBoxLayout,
     QLabel,
@@ -25,6 +26,7 @@ from PySide6.QtWidgets import (
     QListWidget,
     QListWidgetItem,
     QPushButton,
+    QScrollArea,
     QVBoxLayout,
     QWidget,
 )
@@ -32,13 +34,12 @@ from PySide6.QtWidgets import (
 from app.errors import RegistryError, SessionNotFound
 from app.records.registry import BIRTH_YEAR_MIN, Patient, Registration
 from app.records.store import RecordStore
-from app.units import cm, point_cm
+from app.units import CM_PER_M as CM, cm, point_cm
 from core.arm import BODY_MASS_RANGE_KG, FOREARM_RANGE_M, UPPER_ARM_RANGE_M
 from core.trial import POSITION_RANGE_M
 from ui import theme
 from ui.fields import ComboBox, DoubleSpinBox, SpinBox
 
-CM = 100.0
 NOT_MEASURED = "not measured"
 SEARCH_DELAY_MS = 150
 MAX_NUMBER = 999_999
@@ -205,13 +206,21 @@ class RegistrationTab(QWidget):
         note.setWordWrap(True)
         form.addRow(note)
 
-        right = QVBoxLayout()
+        forms = QWidget()
+        right = QVBoxLayout(forms)
+        right.setContentsMargins(0, 0, 0, 0)
         right.addWidget(trial_box)
         right.addWidget(new)
         right.addStretch(1)
+        # the two forms scroll rather than make the window taller than a laptop's screen
+        scroll = QScrollArea()
+        scroll.setWidgetResizable(True)
+        scroll.setWidget(forms)
+        scroll.setFrameShape(QFrame.Shape.NoFrame)
+        scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
         layout = QHBoxLayout(self)
         layout.addWidget(find, 1)
-        layout.addLayout(right, 1)
+        layout.addWidget(scroll, 1)
         self._enable_numbers(False)
         if registry is not None:
             self.search()

@@ -18,13 +18,12 @@ import pyqtgraph as pg
 from PySide6.QtCore import Signal
 from PySide6.QtWidgets import QCheckBox, QLabel, QVBoxLayout, QWidget
 
+from app.units import CM_PER_M as CM, MM_PER_M as MM
 from core.trial import TrialParameters
 from ui import plots, theme
 from ui.views import samples
 from ui.views.trialview import TrialView
 
-MM = 1000.0
-CM = 100.0
 PATH_SPACING_M = 0.002
 
 

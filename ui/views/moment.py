@@ -8,6 +8,7 @@ import math
 import numpy as np
 
 from app.records.registry import Trial
+from app.units import CM_PER_M
 from device.loop.pipeline import PHASE_APPROACH, PHASE_EXERCISE, PHASE_HOLD, PHASE_IDLE
 from device.safety.faults import Fault
 from ui.views.numbers import format_number
@@ -27,7 +28,7 @@ STATUS_WORDS = {"complete": "complete", "stopped_early": "stopped early",
 def moment(view: TrialView, i: int) -> dict[str, str]:
     """What the recording says at sample i, in the units a therapist reads."""
     phase = int(view.column("phase")[0, i])
-    x, y = view.column("position")[:, i] * 100.0
+    x, y = view.column("position")[:, i] * CM_PER_M
     fx, fy = view.column("force")[:, i]
     magnitude = math.hypot(fx, fy)
     if phase != PHASE_EXERCISE:

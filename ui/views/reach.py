@@ -15,11 +15,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from app.units import CM_PER_M as CM, MM_S_PER_M_S
 from core.robot import RobotModel
 from core.trial import ELBOW_FLEXION_RANGE_RAD, MAX_PATH_SPEED_M_S, TrialCheck
 from ui.views.samples import split_by_mask
 
-CM = 100.0
 UNREACHABLE_MARK_EVERY = 5  # path points are 2 mm apart
 PREVIEW_MARGIN_CM = 8.0
 REACH_CIRCLE_POINTS = 181
@@ -83,7 +83,7 @@ def reach_picture(check: TrialCheck, shoulder_m: tuple[float, float]) -> ReachPi
 def check_summary(check: TrialCheck) -> str:
     """The path's length and speed, and the joint ranges it asks for (ISB, degrees)."""
     text = (f"Path {check.path_length_m * CM:.0f} cm per traversal, fastest "
-            f"{check.peak_speed_m_s * CM:.0f} cm/s.")
+            f"{check.peak_speed_m_s * MM_S_PER_M_S:.0f} mm/s.")
     if check.reachable.any():
         sh = [math.degrees(v) for v in check.range_of(check.isb_angles_rad[:, 0])]
         el = [math.degrees(v) for v in check.range_of(check.isb_angles_rad[:, 1])]

@@ -88,10 +88,18 @@ MIGRATE_V2_TO_V3 = (
     )""",
 )
 
+# v4: why a trial ended as it did, in the words the therapist saw (a fault's message, a
+# lost recording's cause), so it survives in the registry even when the trial file does
+# not hold it (a full disk, a dead recorder); '' for trials before v4 and normal ends.
+MIGRATE_V3_TO_V4 = (
+    "ALTER TABLE trials ADD COLUMN end_reason TEXT NOT NULL DEFAULT ''",
+)
+
 MIGRATIONS: tuple[tuple[int, tuple[str, ...]], ...] = (
     (1, SCHEMA_V1),
     (2, MIGRATE_V1_TO_V2),
     (3, MIGRATE_V2_TO_V3),
+    (4, MIGRATE_V3_TO_V4),
 )
 SCHEMA_VERSION = MIGRATIONS[-1][0]
 

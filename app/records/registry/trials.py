@@ -56,7 +56,7 @@ equal values of these (progress, previous_trial(same_parameters=True))."""
 
 TRIAL_SELECT = """
     SELECT t.id, p.code, s.number, s.date, t.number, t.parameters, t.file, t.metrics,
-           t.status, t.started_at, t.ended_at, t.backend, t.patient_kind
+           t.status, t.started_at, t.ended_at, t.backend, t.patient_kind, t.end_reason
     FROM trials t
     JOIN sessions s ON s.id = t.session_id
     JOIN patients p ON p.id = s.patient_id
@@ -84,6 +84,9 @@ class Trial:
     ended_at: datetime.datetime | None
     backend: str | None
     patient_kind: str | None
+    end_reason: str = ""
+    """Why the trial ended so (a fault's message, a lost recording's cause); '' when it
+    ended normally or was registered before schema v4."""
 
     @property
     def finished(self) -> bool:
@@ -257,9 +260,12 @@ class Trials(Database):
         status: str,
         metrics: Mapping[str, float],
         ended_at: datetime.datetime | None = None,
+        reason: str = "",
     ) -> Trial:
         """Record how a trial ended: status one of complete, stopped_early, faulted,
-        recording_lost; metrics as computed (NaN allowed). A trial is finished once."""
+        recording_lost; metrics as computed (NaN allowed); `reason`, why it ended so (a
+        fault's message), kept here because the file may not hold it. A trial is finished
+        once."""
         if status not in STATUSES:
             raise InvalidRecordError(
                 f"trial status {status!r}: give one of {', '.join(STATUSES)}"
@@ -278,10 +284,12 @@ class Trials(Database):
                     f"trial {trial_id} would end at {ended_at.isoformat()}, before it started "
                     f"({trial.started_at.isoformat()}): check the computer's clock"
                 )
-            conn.execute("UPDATE trials SET status = ?, metrics = ?, ended_at = ? WHERE id = ?",
-                         (status, stored, utc_text(ended_at), trial_id))
+            conn.execute("UPDATE trials SET status = ?, metrics = ?, ended_at = ?, "
+                         "end_reason = ? WHERE id = ?",
+                         (status, stored, utc_text(ended_at), str(reason), trial_id))
             trial = trial_by_id(conn, self.path, trial_id)
-        log.info("trial %d finished: %s, %d metric(s)", trial_id, status, len(trial.metrics))
+        log.info("trial %d finished: %s, %d metric(s)%s", trial_id, status, len(trial.metrics),
+                 f" ({reason})" if reason else "")
         return trial
 
     def update_metrics(self, trial_id: int, metrics: Mapping[str, float], *,
@@ -368,12 +376,12 @@ def trials_from_rows(rows: list[tuple]) -> list[Trial]:
     trials = []
     for row, params, values in zip(rows, parameters, metrics, strict=True):
         (trial_id, code, session_number, session_date, number, _, file, _, status,
-         started_at, ended_at, backend, patient_kind) = row
+         started_at, ended_at, backend, patient_kind, end_reason) = row
         trials.append(Trial(
             trial_id, code, session_number, datetime.date.fromisoformat(session_date), number,
             params, file, values, status, datetime.datetime.fromisoformat(started_at),
             None if ended_at is None else datetime.datetime.fromisoformat(ended_at),
-            backend, patient_kind,
+            backend, patient_kind, end_reason,
         ))
     return trials
 

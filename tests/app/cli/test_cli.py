@@ -1,6 +1,7 @@
 """Every subcommand as a researcher or therapist types it: the happy path, and bad input
 as one clear line with exit code 2, never a traceback."""
 
+import numpy as np
 import pytest
 
 from app.trials.reader import read_trial
@@ -212,3 +213,43 @@ def test_a_full_disk_registers_nothing_and_says_so_in_one_line(data, patient, ca
     assert "not registered" in lines[0]
     assert Registry(DataDir(data)).trials_for_patient(patient) == []
     assert not list((data / "trials").rglob("*.h5"))
+
+
+def test_a_registered_run_is_analysed_once(data, patient, capsys, monkeypatch):
+    """`rehab run --code` used to analyse the trial twice: in the run, then again when
+    registering it. The registry takes the run's figures."""
+    from app.records.datadir import DataDir
+    from app.records.registry import Registry
+
+    def again(channels, parameters):
+        raise AssertionError("the trial was analysed a second time")
+
+    monkeypatch.setattr("app.trials.finalize.analyse", again)
+    code, _out, err = run(["run", "--code", patient, "--repetitions", "1"], capsys)
+    assert code == 0, err
+    trial, = Registry(DataDir(data)).trials_for_patient(patient)
+    assert trial.status == "complete"
+    from app.trials.reader import read_trial
+
+    stored = read_trial(Registry(DataDir(data)).trial_path(trial), ()).metrics
+    assert trial.metrics["rmse_x_m"] > 0.0
+    assert trial.metrics.keys() == stored.keys()
+    np.testing.assert_equal(list(trial.metrics.values()), [stored[k] for k in trial.metrics])
+
+
+def test_trials_lists_why_a_trial_ended_and_the_radius_in_cm(data, patient, capsys):
+    """The set-up's sizes in cm as the form shows them (issue 13 #6: the list said
+    'r 100 mm'); a trial that did not complete says why under its row (#18)."""
+    from app.records.datadir import DataDir
+    from app.records.registry import Registry
+    from core.trial import THESIS_SUBJECT
+
+    registry = Registry(DataDir(data))
+    begun = registry.begin_trial(patient, THESIS_SUBJECT, backend="simulator")
+    registry.finish_trial(begun.trial_id, "recording_lost", {},
+                          reason="the disk is full: free some space")
+    code, out, _ = run(["trials", patient], capsys)
+    assert code == 0
+    assert "r 10.0 cm" in out
+    assert " mm," not in out
+    assert "ended: the disk is full: free some space" in out

@@ -399,3 +399,53 @@ def test_a_report_into_a_missing_folder_is_refused_and_leaves_nothing(healthy_fi
     path = write_report_pdf(content, tmp_path / "r.pdf")
     assert "Seen from the patient's chair" in pdf_text(path)
     assert [p.name for p in tmp_path.iterdir()] == ["r.pdf"]  # no temporary file left
+
+
+def test_an_as_needed_trial_gets_a_page_of_the_help_the_robot_learned(tmp_path):
+    """Issue 12 #8: the learned feedforward per repetition, in the report a researcher and
+    a therapist get: a third page with one line per repetition and the figures in words."""
+    params = THESIS_SUBJECT.replace(repetitions=3, assist="as-needed")
+    path = tmp_path / "passive.h5"
+    save(simulate(params, patient="passive"), path)
+    data = read_trial(path)
+    history = data.assistance["feedforward_N"]
+    assert history.shape[0] == 3
+    assert data.assistance["mode"] == "as-needed"
+    content = build_report(data)
+    figure = content.feedforward
+    np.testing.assert_array_equal(figure.force_N, history)
+    assert figure.percent_of_repetition[0] > 0
+    assert figure.percent_of_repetition[-1] < 100
+    pdf = write_report_pdf(content, tmp_path / "passive.pdf")
+    assert len(PdfReader(pdf).pages) == 3
+    text = PdfReader(pdf).pages[2].extract_text()
+    assert "The help the robot learned along the path" in text
+    assert f"Repetition 1: up to {history[0].max():.1f} N" in text
+    assert f"repetition 3: up to {history[2].max():.1f} N" in text
+    # the thesis mode learns nothing: no such page
+    assert build_report(read_trial(write_trial_thesis(tmp_path))).feedforward is None
+
+
+def write_trial_thesis(folder: Path) -> Path:
+    path = folder / "thesis.h5"
+    save(simulate(SHORT, patient="passive"), path)
+    return path
+
+
+def test_the_report_says_why_a_trial_ended_when_its_file_cannot(tmp_path):
+    """Issue 13 #18: a trial whose recorder died has no fault event in its file; the
+    registry keeps the words and the report shows them."""
+    from app.records.datadir import DataDir
+    from app.reports.build import content_for_registry_trial
+    from app.trials.finalize import finalize_lost
+
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("Ada", "Lovelace", body_mass_kg=91.0).code
+    begun = registry.begin_trial(code, SHORT, backend="simulator")
+    save(stopped(simulate(SHORT, patient="healthy"), 1500, "stopped_early"), begun.path,
+         subject_code=code)
+    finalize_lost(registry, begun.trial_id, "the recorder process stopped: restart")
+    content = content_for_registry_trial(registry, begun.trial_id)
+    assert "the recorder process stopped: restart" in content.faults
+    assert ("Fault", "the recorder process stopped: restart") in [
+        (item.label, item.value) for item in content.header]

@@ -56,3 +56,34 @@ def test_a_trial_whose_recorder_died_is_finished_whatever_its_file_holds(tmp_pat
         assert done.status == "recording_lost"
         assert registry.trial(begun.trial_id).status == "recording_lost"
     assert "could not be read" in done.notes[0]
+
+
+def test_the_registry_keeps_why_a_trial_ended(tmp_path):
+    """Issue 13 #18: the fault's words survive in the registry: from the file's last fault
+    event, or (a dead recorder, a full disk: the file cannot hold it) as the caller saw
+    it. A complete trial has none."""
+    from app.trials.finalize import finalize_lost, finalize_trial
+
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("Ada", "Lovelace", body_mass_kg=91.0).code
+    faulted, complete, lost, unreadable = (
+        registry.begin_trial(code, PARAMS, backend="simulator") for _ in range(4))
+    pushed = simulate(PARAMS, patient="wrong_way", patient_options={
+        "wrong_way_force_N": 50.0, "wrong_way_fraction": 0.9, "wrong_way_episode_s": 5.0})
+    assert pushed.status == "faulted"
+    save(pushed, faulted.path, subject_code=code)
+    save(simulate(PARAMS, patient="healthy"), complete.path, subject_code=code)
+    save(simulate(PARAMS, patient="healthy"), lost.path, subject_code=code)
+    unreadable.path.write_bytes(b"cut off")
+
+    finalize_trial(registry, faulted.trial_id)
+    finalize_trial(registry, complete.trial_id, reason="ignored: it completed")
+    finalize_lost(registry, lost.trial_id, "the recorder process stopped")
+    finalize_lost(registry, unreadable.trial_id, "the disk is full")
+
+    fault = [e for e in pushed.events if e["kind"] == "fault"][-1]["message"]
+    assert fault
+    assert registry.trial(faulted.trial_id).end_reason == fault
+    assert registry.trial(complete.trial_id).end_reason == ""
+    assert registry.trial(lost.trial_id).end_reason == "the recorder process stopped"
+    assert registry.trial(unreadable.trial_id).end_reason == "the disk is full"

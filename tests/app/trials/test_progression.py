@@ -34,7 +34,7 @@ def test_a_patient_who_does_well_gets_less_assistance_then_speed_then_tolerance(
     assert step.change == "assistance"
     assert step.assistance_level == pytest.approx(0.9)
     assert "85 %" in step.reason
-    assert "100% → 90%" in step.reason
+    assert "100 % → 90 %" in step.reason  # the form's unit, as everywhere
     faster = propose(P.replace(assistance_level=0.0), dp(90.0), "complete")
     assert faster.change == "speed"
     assert faster.duration_s == pytest.approx(3.6)
@@ -43,6 +43,33 @@ def test_a_patient_who_does_well_gets_less_assistance_then_speed_then_tolerance(
     narrower = propose(fastest, dp(90.0), "complete")
     assert narrower.change == "tolerance"
     assert math.degrees(narrower.tolerance_rad) == pytest.approx(18.0)
+
+
+def test_the_assistance_settles_as_a_staircase_instead_of_swinging():
+    """Issue 12 #4: with a fixed 10 % step the weak patient's proposals alternated 40 % ↔
+    30 % for ever (it led 85 % at 40 % help, 9 % at 30 %). Each turn back halves the step,
+    in whole percent: 10, 5, 2 %, then 2 % on."""
+    as_needed = P.replace(assist="as-needed", assistance_level=0.4)
+    led = {"directional_performance_pct": 50.0}
+
+    def after(params, pct, previous):
+        return propose(params, {**led, "led_pct": pct}, "complete", previous)
+
+    down = after(as_needed, 85.0, None)  # does well at 40 %: 30 %
+    assert (down.assistance_level, down.level_step) == (pytest.approx(0.3), -0.1)
+    up = after(down.applied_to(as_needed), 9.0, down)  # falls behind at 30 %: back, half
+    assert up.assistance_level == pytest.approx(0.35)
+    assert up.level_step == pytest.approx(0.05)
+    assert "30 % → 35 %" in up.reason
+    down2 = after(up.applied_to(as_needed), 85.0, up)  # turns back again: 2 %
+    assert down2.assistance_level == pytest.approx(0.33)
+    again = after(down2.applied_to(as_needed), 9.0, down2)
+    assert again.assistance_level == pytest.approx(0.35)  # 2 % is the smallest step
+    same_way = after(down.applied_to(as_needed), 90.0, down)  # on the same way: same step
+    assert same_way.assistance_level == pytest.approx(0.2)
+    # a proposal stored before the staircase has no step: a full one
+    old = Proposal.from_dict({k: v for k, v in down.to_dict().items() if k != "level_step"})
+    assert after(down.applied_to(as_needed), 9.0, old).assistance_level == pytest.approx(0.4)
 
 
 def test_a_patient_who_struggles_gets_the_tolerance_back_then_assistance_then_time():
@@ -110,3 +137,21 @@ def test_the_command_line_proposes_and_runs_as_proposed(tmp_path, monkeypatch, c
     assert "As proposed:" in capsys.readouterr().out
     registry = Registry(DataDir(tmp_path / "data"))
     assert registry.proposals_for_patient(code)[0].decision == "accepted"
+
+
+def test_the_trial_that_ran_with_a_proposal_passes_its_step_on(tmp_path):
+    """finalize_trial gives propose the proposal the trial ran with (accepted at Start),
+    so the registry's course of trials is the staircase the tests above check."""
+    from app.trials.finalize import _ran_with
+
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("Ada", "Lovelace", body_mass_kg=91.0).code
+    first = registry.begin_trial(code, P, backend="simulator")
+    registry.finish_trial(first.trial_id, "complete", {})
+    proposal = propose(P, dp(85.0), "complete")
+    registry.record_proposal(first.trial_id, proposal.to_dict())
+    second = registry.begin_trial(code, proposal.applied_to(P), backend="simulator")
+    assert _ran_with(registry, registry.trial(second.trial_id)) == proposal
+    assert _ran_with(registry, registry.trial(first.trial_id)) is None
+    changed = registry.begin_trial(code, P.replace(duration_s=6.0), backend="simulator")
+    assert _ran_with(registry, registry.trial(changed.trial_id)) is None  # not its proposal

@@ -63,7 +63,7 @@ def test_the_summary_gives_length_speed_and_joint_ranges():
     check = check_trial(THESIS_SUBJECT)
     text = check_summary(check)
     assert text.startswith(f"Path {check.path_length_m * 100:.0f} cm per traversal, fastest "
-                           f"{check.peak_speed_m_s * 100:.0f} cm/s.")
+                           f"{check.peak_speed_m_s * 1000:.0f} mm/s.")
     low, high = (math.degrees(v) for v in check.range_of(check.isb_angles_rad[:, 1]))
     assert f"the elbow {low:.0f}° to {high:.0f}° (ISB)" in text
 
