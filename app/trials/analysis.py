@@ -42,11 +42,13 @@ def analyse(channels: Mapping[str, np.ndarray], parameters: TrialParameters) -> 
     """Metrics of the exercise phase of a recorded trial (channels by record name)."""
     mask = exercise_mask(channels)
     notes: list[str] = []
-    if mask.sum() < 64:
+    n_exercise = int(mask.sum())
+    if n_exercise < 64:
         raise AppError(
-            f"the trial has only {int(mask.sum())} samples of exercise; "
+            f"the trial has only {n_exercise} samples of exercise; "
             "at least 64 (0.13 s) are needed for its figures"
         )
+    mask = _as_slice(mask, n_exercise)
     t = np.asarray(channels["time"])[mask]
     start = float(t[0])
 
@@ -78,6 +80,16 @@ def analyse(channels: Mapping[str, np.ndarray], parameters: TrialParameters) -> 
         reaches=reaches,
     )
     return Analysis(metrics, start, tuple(notes))
+
+
+def _as_slice(mask: np.ndarray, n_true: int) -> np.ndarray | slice:
+    """The exercise phase is one run of ticks: taken as a slice, the channels are views,
+    not copies (a long trial's analysis held each exercise channel twice, issue 13 #21).
+    A mask with gaps stays a mask."""
+    first = int(np.argmax(mask))
+    if mask[first:first + n_true].all():
+        return slice(first, first + n_true)
+    return mask
 
 
 def _help(channels: Mapping[str, np.ndarray], mask: np.ndarray):
