@@ -54,7 +54,7 @@ import logging
 import math
 import os
 from collections.abc import Callable, Iterator, Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import MappingProxyType
 
@@ -68,6 +68,7 @@ from app.trials.reader import (
     group_attributes,
     parameters_from_attributes,
     plain_attribute,
+    read_groups,
     read_trial,
     subject_from_attributes,
 )
@@ -153,6 +154,10 @@ class Trial(TrialInfo):
     frames: Mapping[str, str]
     descriptions: Mapping[str, str]
     events: tuple[dict, ...]
+    groups: Mapping[str, Mapping] = field(default_factory=dict)
+    """The groups beside the samples that the file has (app.trials.reader.BESIDE_GROUPS:
+    `assistance`, `pose`, `emg`), each with its own time base: attributes, arrays and
+    subgroups by name (docs/data-format.md)."""
 
     # Arrays have no single truth value, so equality is identity.
     __eq__ = object.__eq__
@@ -385,6 +390,7 @@ def _trial(data: TrialData) -> Trial:
         frames=MappingProxyType(dict(data.frames)),
         descriptions=MappingProxyType(dict(data.descriptions)),
         events=tuple(data.events),
+        groups=MappingProxyType(read_groups(data.path)),
     )
 
 

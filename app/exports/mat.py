@@ -23,7 +23,16 @@ Variables (`S = load('trial.mat')`):
                 robot as JSON text)
 ``export``      struct: ``source_file``, ``rows`` ('all' or 'exercise'),
                 ``exported_utc``, ``software_version``
+``assistance``  struct, when the file has the group: the mode, level and gains, and
+                ``feedforward_N`` (repetitions × bins)
+``pose``        struct, when ``rehab pose`` ran: the camera's keypoints per frame and its
+                angles, shoulder and drift per sample, as in the file's /pose
+``emg``         struct, when the trial has EMG: ``time``, ``samples``, ``channels``
+                (columns) and ``mvc`` (one struct per muscle), as in the file's /emg
 ==============  =================================================================
+
+The three groups keep their own time bases (frames, EMG samples) and are exported
+whole, also with the exercise's rows only.
 
 Names that are not MATLAB identifiers (a channel of a later instrument, a metric
 starting with ``_`` or longer than 63 characters) become one: characters other
@@ -107,6 +116,7 @@ def mat_variables(trial: Trial, *, exercise_only: bool = False) -> dict:
             "exported_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
             "software_version": software_version(),
         },
+        **{name: _struct(group) for name, group in trial.groups.items()},
     }
 
 
@@ -137,6 +147,8 @@ def _value(value):
         return np.array(bool(value))
     if isinstance(value, Mapping):
         return _struct(value)
+    if isinstance(value, np.ndarray) and value.dtype == object:
+        return _cells(value.ravel())  # text columns
     if isinstance(value, list | tuple):
         if all(isinstance(v, int | float) and not isinstance(v, bool) for v in value):
             return np.array(value, dtype=np.float64).reshape(1, -1)

@@ -396,6 +396,52 @@ def _events(dataset: h5py.Dataset) -> tuple[list[dict], list[str]]:
     return events, notes
 
 
+BESIDE_GROUPS = ("assistance", "pose", "emg")
+"""The groups written beside a trial's samples, each with its own layout and time base
+(docs/data-format.md): the assistance's learned feedforward, the camera's pose, the EMG."""
+
+
+def read_groups(path: str | os.PathLike, names: Iterable[str] = BESIDE_GROUPS) -> dict:
+    """The named groups the file has, each as a dict: its attributes, its datasets as
+    arrays (a table of columns as a dict of columns, text decoded) and its subgroups as
+    dicts, for a researcher's export (app.exports); raises TrialFileError naming the file
+    when one cannot be read."""
+    path = Path(path)
+    f = _open(path)
+    try:
+        return {name: _group_dict(f[name]) for name in names
+                if isinstance(f.get(name), h5py.Group)}
+    except (OSError, RuntimeError, ValueError, KeyError, TypeError) as exc:
+        raise TrialFileError(path, f"is damaged: reading its groups failed ({exc})",
+                             _RESTORE + ".") from exc
+    finally:
+        f.close()
+
+
+def _group_dict(group: h5py.Group) -> dict:
+    out = {key: plain_attribute(value) for key, value in group.attrs.items()}
+    for name, item in group.items():
+        if isinstance(item, h5py.Group):
+            out[name] = _group_dict(item)
+            continue
+        values = item[()]
+        if isinstance(values, np.ndarray) and values.dtype.names:
+            out[name] = {column: _column(values[column]) for column in values.dtype.names}
+        else:
+            out[name] = _column(values)
+    return out
+
+
+def _column(values):
+    """Text (bytes from HDF5) as str, numbers as they are."""
+    if isinstance(values, bytes):
+        return values.decode("utf-8", "replace")
+    if isinstance(values, np.ndarray) and values.dtype.kind in "OS":
+        return np.array([_column(v) for v in values.ravel()], dtype=object).reshape(
+            values.shape)
+    return values
+
+
 def _assistance(f: h5py.File) -> dict:
     group = f.get("assistance")
     if not isinstance(group, h5py.Group):

@@ -543,3 +543,35 @@ def test_bad_options_are_refused(trial, registry, tmp_path):
         export_patients(registry, [code], tmp_path, format="bids", exercise_only=True)
     with pytest.raises(AppError):
         export_folder(tmp_path / "missing", tmp_path / "out")
+
+
+def test_mat_holds_the_groups_beside_the_samples(tmp_path):
+    """The learned feedforward (/assistance) and a table of columns (/emg/channels-like)
+    reach the .mat and the loader: a researcher gets everything the file holds."""
+    import h5py
+
+    from app.trials.headless import save
+
+    params = D.replace(repetitions=2, assist="as-needed")
+    path = tmp_path / "asneeded.h5"
+    save(simulate(params, patient="passive"), path)
+    with h5py.File(path, "r+") as f:  # a group with text columns and a subgroup, as /emg
+        group = f.create_group("emg")
+        group.attrs["rate_hz"] = 1925.926
+        table = np.array([("EMG1", "biceps_brachii")],
+                         dtype=[("name", h5py.string_dtype()), ("muscle", h5py.string_dtype())])
+        group.create_dataset("channels", data=table)
+        group.create_group("mvc").create_group("biceps_brachii").attrs["mvc_V"] = 0.5
+    trial = load_trial(path)
+    assert set(trial.groups) == {"assistance", "emg"}
+    feedforward = trial.groups["assistance"]["feedforward_N"]
+    assert feedforward.shape[0] == 2
+    (out,) = export_trial(trial, tmp_path, format="mat")
+    mat = scipy.io.loadmat(out)
+    assistance = mat["assistance"][0, 0]
+    np.testing.assert_array_equal(assistance["feedforward_N"], feedforward)
+    assert assistance["mode"][0] == "as-needed"
+    emg = mat["emg"][0, 0]
+    assert emg["rate_hz"][0, 0] == pytest.approx(1925.926)
+    assert emg["channels"][0, 0]["muscle"][0, 0][0] == "biceps_brachii"
+    assert emg["mvc"][0, 0]["biceps_brachii"][0, 0]["mvc_V"][0, 0] == 0.5

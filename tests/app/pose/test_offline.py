@@ -316,3 +316,22 @@ def test_a_registered_trial_is_found_by_its_id(tmp_path, monkeypatch, capsys):
     assert main(["pose", "99"]) == 2
     _, err = capsys.readouterr()
     assert err.count("\n") == 1
+
+
+def test_the_pose_reaches_the_researchers_export(trial, tmp_path):
+    """Issue 14: the camera's angles, shoulder and drift per sample and its keypoints per
+    frame are in the .mat export (and the loader), as in the file's /pose."""
+    import scipy.io
+
+    from app.exports.loader import load_trial
+    from app.exports.run import export_trial
+
+    path, filmed = trial
+    estimate_pose(path, ReplayDetector(filmed))
+    loaded = load_trial(path)
+    assert "pose" in loaded.groups
+    (out,) = export_trial(loaded, tmp_path / "out", format="mat")
+    pose = scipy.io.loadmat(out)["pose"][0, 0]
+    np.testing.assert_array_equal(pose["angle_isb"], read_pose(path)["angle_isb"])
+    assert pose["frame_keypoints_px"].shape == (filmed.stamps_s.size, 4, 2)
+    assert pose["video"][0] == "trial.avi"
