@@ -37,6 +37,7 @@ from app.reports.figures import (
     Figures,
     ForceFigure,
     PathFigure,
+    PoseFigure,
     TorquesFigure,
     report_figures,
 )
@@ -109,6 +110,7 @@ class ReportContent:
     peak_force_N: float  # largest |F| of the exercise; NaN without a force channel
     emg: EmgFigure | None = None  # chapter 5: % MVC envelopes, when the trial has EMG
     feedforward: FeedforwardFigure | None = None  # as-needed: the help learned per repetition
+    pose: PoseFigure | None = None  # the camera against the solver, after `rehab pose`
 
 
 # -- building it -------------------------------------------------------------------------
@@ -230,6 +232,7 @@ def build_report(
         peak_force_N=figures.peak_force_N,
         emg=figures.emg,
         feedforward=figures.feedforward,
+        pose=figures.pose,
     )
 
 

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from app.errors import AppError
 from app.reports.compare import metric_text
 from app.reports.metrics_table import ROWS
 from app.trials.reader import TrialData
@@ -160,6 +161,40 @@ def feedforward_figure(trial: TrialData) -> FeedforwardFigure | None:
                              float(assistance.get("level", math.nan)))
 
 
+@dataclass(frozen=True, slots=True, eq=False)
+class PoseFigure:
+    """Thesis Table 3.4 as a figure: the camera's ISB angles beside the equation solver's
+    over the exercise, and the shoulder's drift the solver assumes away (the trial file's
+    /pose, written by `rehab pose`), with the comparison in words."""
+
+    t_s: np.ndarray
+    solver_isb_rad: np.ndarray  # (N, 2)
+    camera_isb_rad: np.ndarray  # (N, 2), NaN in the camera's gaps
+    drift_m: np.ndarray  # (N,)
+    drift_limit_m: float
+    lines: tuple[str, ...]
+
+
+def pose_figure(trial: TrialData, mask: np.ndarray, start_s: float) -> PoseFigure | None:
+    """The pose figure of a trial `rehab pose` ran on, else None."""
+    from app.pose.store import comparison_lines, read_pose
+
+    if not trial.path.is_file() or "subject_angle_isb" not in trial.channels:
+        return None
+    try:
+        pose = read_pose(trial.path)
+    except AppError:
+        return None  # the report's notes say why (content)
+    if pose is None:
+        return None
+    t = np.asarray(trial.channels["time"], dtype=float)[mask] - start_s
+    return PoseFigure(t, np.asarray(trial.channels["subject_angle_isb"], dtype=float)[mask],
+                      np.asarray(pose["angle_isb"], dtype=float)[mask],
+                      np.asarray(pose["shoulder_drift"], dtype=float)[mask],
+                      float(pose["attrs"].get("shoulder_drift_limit_m", math.nan)),
+                      tuple(comparison_lines(pose)))
+
+
 def merge_short_runs(t_s: np.ndarray, within: np.ndarray, min_run_s: float) -> tuple[Run, ...]:
     """The runs of equal `within`, with every run shorter than `min_run_s` merged into
     its neighbours, shortest first (see the module's doc). Sample k holds over
@@ -219,6 +254,7 @@ class Figures:
     emg: EmgFigure | None = None
     notes: tuple[str, ...] = ()
     feedforward: FeedforwardFigure | None = None
+    pose: PoseFigure | None = None
 
 
 def report_figures(trial: TrialData, parameters: TrialParameters, mask: np.ndarray,
@@ -243,6 +279,7 @@ def report_figures(trial: TrialData, parameters: TrialParameters, mask: np.ndarr
         notes=notes,
         emg=emg_figure(trial, mask, start_s),
         feedforward=feedforward_figure(trial),
+        pose=pose_figure(trial, mask, start_s),
     )
 
 

@@ -7,7 +7,8 @@ hand's path against the target (Fig. 3.7). Page 2 is for the therapist: the forc
 with its blue/red runs (Fig. 3.9), the ISB joint angles (Fig. 3.11), the joint
 torques (Fig. 3.12), every figure in a table beside the earlier trials', and the
 notes. A trial with EMG gets a page of its envelopes beside the torques (chapter 5), and
-an as-needed trial a page of the help the robot learned along the path, per repetition.
+an as-needed trial a page of the help the robot learned along the path, per repetition,
+and a trial `rehab pose` ran on a page of the camera's angles against the solver's.
 
 This module writes the file and lays the texts and tables out on the pages; the
 sheet, its type and colours are app.reports.pdf_sheet, the plots
@@ -39,6 +40,7 @@ from app.reports.pdf_plots import (
     force_plots,
     joint_plots,
     path_plot,
+    pose_plots,
 )
 from app.reports.pdf_sheet import (
     BANNER_FILL,
@@ -99,6 +101,8 @@ def write_report_pdf(content: ReportContent, path: str | os.PathLike) -> Path:
                 pages += (_emg_page(content),)
             if content.feedforward is not None:
                 pages += (_assistance_page(content),)
+            if content.pose is not None:
+                pages += (_pose_page(content),)
             with PdfPages(handle, metadata=metadata) as pdf:
                 for page in pages:
                     pdf.savefig(page)
@@ -290,6 +294,13 @@ def _assistance_page(content: ReportContent) -> Figure:
     sheet = Sheet()
     _title(sheet, content, "The robot's help (as-needed assistance)", size=16)
     feedforward_plot(sheet, content.feedforward, LEFT_IN + 0.55, TEXT_W_IN - 0.55)
+    return sheet.fig
+
+
+def _pose_page(content: ReportContent) -> Figure:
+    sheet = Sheet()
+    _title(sheet, content, "The camera against the equation solver (Table 3.4)", size=16)
+    pose_plots(sheet, content.pose, LEFT_IN + 0.55, TEXT_W_IN - 0.55)
     return sheet.fig
 
 

@@ -24,6 +24,7 @@ from app.reports.figures import (
     FeedforwardFigure,
     ForceFigure,
     PathFigure,
+    PoseFigure,
     Run,
     TorquesFigure,
 )
@@ -239,6 +240,49 @@ def feedforward_plot(sheet: Sheet, figure: FeedforwardFigure, x0: float,
     ax.legend(loc="center right", fontsize=7.5, frameon=False)
     _light_grid(ax)
     sheet.y_in += height + 0.5
+
+
+def pose_plots(sheet: Sheet, figure: PoseFigure, x0: float, width: float) -> None:
+    """Thesis Table 3.4 drawn: each ISB joint angle from the equation solver (solid) and
+    the camera (dotted, broken where it saw nothing), then the shoulder's drift against
+    the therapist's limit, then the comparison in words."""
+    height = 2.1
+    sheet.text("Joint angles (ISB): the equation solver against the camera", 10,
+               weight="bold")
+    sheet.gap(0.03)
+    handles = [matplotlib.lines.Line2D([], [], color=c, linestyle=ls, linewidth=1.4, label=lb)
+               for c, ls, lb in ((PURPLE, "-", "shoulder, solver"),
+                                 (PURPLE, ":", "shoulder, camera"),
+                                 (GREEN, "-", "elbow, solver"), (GREEN, ":", "elbow, camera"))]
+    sheet.legend(handles, x0 - 0.55, ncols=4, size=7.5)
+    sheet.gap(0.04)
+    ax = sheet.axes(height, x_in=x0, width_in=width)
+    for j, colour in enumerate((PURPLE, GREEN)):
+        x, y = _thin(figure.t_s, np.degrees(figure.solver_isb_rad[:, j]), MAX_LINE_POINTS)
+        ax.plot(x, y, color=colour, linewidth=1.2)
+        x, y = _thin(figure.t_s, np.degrees(figure.camera_isb_rad[:, j]), MAX_LINE_POINTS)
+        ax.plot(x, y, color=colour, linestyle=":", linewidth=1.4)
+    ax.set_ylabel("angle (°)")
+    ax.set_xlim(figure.t_s[0], figure.t_s[-1])
+    _light_grid(ax)
+    sheet.y_in += height + 0.42
+    sheet.text("The shoulder's drift, seen by the camera (the solver assumes it still)", 10,
+               weight="bold")
+    sheet.gap(0.06)
+    ax = sheet.axes(1.5, x_in=x0, width_in=width)
+    x, y = _thin(figure.t_s, figure.drift_m * CM_PER_M, MAX_LINE_POINTS)
+    ax.plot(x, y, color=BLUE, linewidth=1.2)
+    if math.isfinite(figure.drift_limit_m):
+        ax.axhline(figure.drift_limit_m * CM_PER_M, color=VERMILLION, linestyle="--",
+                   linewidth=1.0)
+    ax.set_ylim(bottom=0.0)
+    ax.set_xlim(figure.t_s[0], figure.t_s[-1])
+    ax.set_xlabel(TIME_LABEL)
+    ax.set_ylabel("drift (cm)")
+    _light_grid(ax)
+    sheet.y_in += 1.5 + 0.5
+    for line in figure.lines:
+        sheet.text(line, 9)
 
 
 def _joint_handles(figure: AnglesFigure | TorquesFigure) -> list:

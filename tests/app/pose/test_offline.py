@@ -335,3 +335,32 @@ def test_the_pose_reaches_the_researchers_export(trial, tmp_path):
     np.testing.assert_array_equal(pose["angle_isb"], read_pose(path)["angle_isb"])
     assert pose["frame_keypoints_px"].shape == (filmed.stamps_s.size, 4, 2)
     assert pose["video"][0] == "trial.avi"
+
+
+def test_the_report_draws_the_camera_against_the_solver(trial, tmp_path):
+    """Issue 14: Table 3.4's comparison in the PDF: a page with the camera's angles
+    beside the solver's, the shoulder's drift and the comparison in words."""
+    from pypdf import PdfReader
+
+    from app.reports.build import build_report, write_report_pdf
+
+    path, filmed = trial
+    assert build_report(read_trial(path)).pose is None  # no pose yet, no page
+    estimate_pose(path, ReplayDetector(filmed))
+    content = build_report(read_trial(path))
+    figure = content.pose
+    pose = read_pose(path)
+    data = read_trial(path)
+    assert figure.camera_isb_rad.shape == figure.solver_isb_rad.shape
+    assert figure.t_s[0] == 0.0
+    from app.trials.analysis import exercise_mask
+
+    exercise = exercise_mask(data.channels)
+    np.testing.assert_array_equal(figure.drift_m, pose["shoulder_drift"][exercise])
+    np.testing.assert_array_equal(figure.camera_isb_rad, pose["angle_isb"][exercise])
+    pdf = write_report_pdf(content, tmp_path / "report.pdf")
+    pages = PdfReader(pdf).pages
+    assert len(pages) == 3
+    text = pages[2].extract_text()
+    assert "The camera against the equation solver" in text
+    assert "camera vs equation solver, shoulder (ISB)" in text
