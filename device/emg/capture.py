@@ -87,6 +87,29 @@ class EmgCapture:
         keep = t >= t[-1] - self.latest_s
         return t[keep], x[keep]
 
+    @property
+    def last_stamp_s(self) -> float | None:
+        """Monotonic stamp of the newest sample read, or None before the first."""
+        with self._lock:
+            return float(self._chunks[-1][0][-1]) if self._chunks else None
+
+    def between(self, start_s: float, end_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """The samples stamped from `start_s` to `end_s` (monotonic), copied: one
+        contraction of a guided MVC. Only the chunks that reach the span are joined, so
+        the cost is that of the span, not of everything captured since `start()`."""
+        with self._lock:
+            chunks = []
+            for stamps, samples in reversed(self._chunks):
+                if stamps[-1] < start_s:
+                    break
+                chunks.append((stamps, samples))
+        if not chunks:
+            return np.empty(0), np.empty((0, 0))
+        t = np.concatenate([c[0] for c in reversed(chunks)])
+        x = np.concatenate([c[1] for c in reversed(chunks)])
+        keep = (t >= start_s) & (t <= end_s)
+        return t[keep], x[keep]
+
     def stop(self, timeout_s: float = 2.0) -> Captured:
         """Stop reading, close the source, and return the whole recording. A source with a
         better origin at the end (the Trigno client's `origin_s`) restamps it evenly."""
