@@ -77,6 +77,11 @@ class SessionMvcs:
     records: dict[str, MvcRecord] = field(default_factory=dict)
     trials: list[Path] = field(default_factory=list)
 
+    def copy(self) -> SessionMvcs:
+        """A copy another thread may read while this one records the next MVC."""
+        return SessionMvcs(self.patient, self.session, dict(self.channels),
+                           dict(self.records), list(self.trials))
+
     def belongs_to(self, patient: str, session: int) -> bool:
         return (self.patient, self.session) == (patient, session)
 

@@ -95,6 +95,10 @@ class EmgTab(QWidget):
         self.live_timer = QTimer(self)
         self.live_timer.setInterval(LIVE_REFRESH_MS)
         self.live_timer.timeout.connect(self._draw_live)
+        # filtering the last seconds takes ~10 ms (bench/emg.py): off the GUI thread,
+        # which repaints the live plots every 16 ms
+        self.live_worker = plots.Background(self)
+        self.live_worker.done.connect(self._show_live)
         self._build_protocol()
         stack = QWidget()
         column = QVBoxLayout(stack)
@@ -265,9 +269,14 @@ class EmgTab(QWidget):
             return
         if not self.isVisible():
             return
+        if self.live_worker.busy:
+            return  # the last refresh is still being computed: skip this one
         t, x = capture.latest()
-        view = live_emg_view(t, x, capture.source.rate_hz, self.session)
-        if view is None:
+        session = None if self.session is None else self.session.copy()
+        self.live_worker.submit(None, live_emg_view, t, x, capture.source.rate_hz, session)
+
+    def _show_live(self, _token, view) -> None:
+        if view is None or self.capture is None:
             return
         item = self.live_plot.getPlotItem()
         names = tuple(words(n) for n in view.names)
