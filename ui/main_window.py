@@ -362,6 +362,7 @@ class MainWindow(QMainWindow):
             log.info("robot %s → %s%s", self.state.label, State(state).label,
                      f": {reason}" if reason else "")
         self.state = State(state)
+        self.emg.trial_running = self.state in (State.RUNNING, State.STOPPING)
         self.messages.set_state(self.state)
         self._show_message()
         self.state_label.setText(f"<b>{self.state.label}</b>")

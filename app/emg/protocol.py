@@ -56,8 +56,8 @@ def words(muscle: str) -> str:
 @dataclass(frozen=True, slots=True)
 class MvcRecord:
     """One muscle's MVC as recorded live: the contraction's own result (too short,
-    saturated) and where it came from; the check against trials is made afresh
-    against every trial of the session (`SessionMvcs.checked`)."""
+    saturated) and where it came from; the check against trials is made afresh against
+    every trial of the session each time one is stored (`store_trial`)."""
 
     mvc: Mvc
     channel: int  # index in the source's channels, from 0
@@ -84,13 +84,6 @@ class SessionMvcs:
 
     def belongs_to(self, patient: str, session: int) -> bool:
         return (self.patient, self.session) == (patient, session)
-
-    def checked(self) -> dict[str, Mvc]:
-        """Each muscle's MVC checked against every trial of the session that has its EMG."""
-        from app.emg.session import check_with_trials
-
-        return check_with_trials(self.trials, [r.mvc for r in self.records.values()],
-                                 settings_of={m: r.settings for m, r in self.records.items()})
 
     def measured(self) -> list[tuple]:
         """The MVCs as app.emg.session.store_mvcs takes them: (Mvc, source, channel,

@@ -151,3 +151,26 @@ def test_a_missing_stream_and_a_refused_base_station_are_one_line_each(qtbot, wi
     qtbot.waitUntil(lambda: "connection refused" in win.message.text(), timeout=10000)
     assert "start the Trigno Control Utility" in win.message.text()
     assert emg.live_status.text().startswith("⚠ no Trigno Control Utility")
+
+
+def test_the_mvcs_belong_to_the_registered_session(qtbot, window, server):
+    win = window
+    register_patient(qtbot, win)
+    connect_trigno(qtbot, win, server)
+    short_protocol(win)
+    record(qtbot, win, "biceps")
+    session = win.emg.session
+    code = win.patient.code
+    win.emg.set_session(code, session.session)  # the same session registered again
+    assert win.emg.session is session
+    assert "biceps" in session.records
+    # the biceps' electrode moved to another channel: its MVC no longer holds
+    win.emg.channel_boxes["biceps"].setValue(5)
+    assert "biceps" not in session.records
+    assert "its channel changed" in win.emg.mvc_labels["biceps"].text()
+    assert session.channels["biceps"] == 4
+    record(qtbot, win, "biceps")
+    assert session.records["biceps"].channel == 4
+    win.emg.set_session(code, session.session + 1)  # the next session starts without MVCs
+    assert win.emg.session.records == {}
+    assert win.emg.mvc_labels["biceps"].text() == "no MVC yet"

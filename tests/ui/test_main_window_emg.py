@@ -120,7 +120,12 @@ def test_the_session_mvcs_give_live_and_stored_percent_mvc(qtbot, tmp_path, monk
                                                                    strict=True)})
                 return True
 
-            _run_trial(qtbot, win, lambda: qtbot.waitUntil(in_percent, timeout=20000))
+            def during() -> None:
+                qtbot.waitUntil(in_percent, timeout=20000)
+                click(qtbot, emg.record_buttons["biceps"])  # an MVC mid-trial: refused
+                assert "A trial is running: record the MVCs before" in win.message.text()
+
+            _run_trial(qtbot, win, during)
             assert set(live) == {"biceps brachii", "triceps brachii", "anterior deltoid"}
             assert live["biceps brachii"] == pytest.approx(40, rel=0.1)
             assert live["triceps brachii"] == pytest.approx(25, rel=0.1)

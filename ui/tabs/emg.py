@@ -114,6 +114,7 @@ class EmgTab(QWidget):
         """The guided MVC protocol: each muscle's source channel, its MVC and a button to
         record it; the rest and push durations; the prompt with the countdown."""
         self.session: SessionMvcs | None = None
+        self.trial_running = False  # the window says so: no MVC while a trial runs
         self.clock = time.monotonic  # the protocol's clock (a test may give its own)
         self.guided = None
         self.guided_channel = 0
@@ -334,6 +335,9 @@ class EmgTab(QWidget):
                     "patient's session.")
         if self.capture is None:
             return "Connect an EMG source first (source above, then Connect EMG)."
+        if self.trial_running:
+            return ("A trial is running: record the MVCs before the session's trials or "
+                    "between them.")
         if self.guided is not None or self.measurer.busy:
             return "An MVC is being recorded: wait for it, or Cancel."
         return ""
