@@ -425,7 +425,7 @@ class MainWindow(QMainWindow):
         job thread: in that order). With the session's MVC protocol under way, the
         muscles' channels under their names and the session's MVCs, checked against this
         trial too (app.emg.protocol.store_trial); else every channel as it came. A source
-        that died during the trial gives what it had before."""
+        that died (or was disconnected) during the trial gives what it had before."""
         emg = self.emg
         if emg.capture is not None:
             captured, label, died = emg.capture.snapshot(), emg.live_label, False

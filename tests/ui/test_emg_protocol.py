@@ -173,4 +173,17 @@ def test_the_mvcs_belong_to_the_registered_session(qtbot, window, server):
     assert session.records["biceps"].channel == 4
     win.emg.set_session(code, session.session + 1)  # the next session starts without MVCs
     assert win.emg.session.records == {}
-    assert win.emg.mvc_labels["biceps"].text() == "no MVC yet"
+    assert win.emg.mvc_labels["biceps"].text() == "biceps brachii: no MVC yet"
+
+
+def test_a_source_that_dies_between_trials_is_one_line_and_leaves_nothing_to_store(
+        qtbot, window, server):
+    win = window
+    connect_trigno(qtbot, win, server)
+    server.fake_drop_data_after = server.sent + 100
+    qtbot.waitUntil(lambda: win.emg.capture is None, timeout=20000)
+    lost = [line for line in win.messages.history() if "closed the EMG data connection" in line]
+    assert len(lost) == 1
+    assert "check the source, then Connect EMG" in lost[0]
+    assert win.emg.lost is None  # no trial was running: the next one must not get old EMG
+    assert win.emg.connect_button.text() == "Connect EMG"

@@ -115,7 +115,7 @@ class EmgTab(QWidget):
         record it; the rest and push durations; the prompt with the countdown."""
         self.session: SessionMvcs | None = None
         self.trial_running = False  # the window says so: no MVC while a trial runs
-        self.clock = time.monotonic  # the protocol's clock (a test may give its own)
+        self.clock = time.monotonic  # the clock of the capture's stamps (device.emg)
         self.guided = None
         self.guided_channel = 0
         self.protocol_box = QGroupBox("MVC protocol (one per muscle per session)")
@@ -137,7 +137,7 @@ class EmgTab(QWidget):
             button.clicked.connect(lambda _=False, m=muscle: self.record_mvc(m))
             self.record_buttons[muscle] = button
             grid.addWidget(button, row, 2)
-            label = theme.set_role(QLabel("no MVC yet"), "caption")
+            label = theme.set_role(QLabel(f"{words(muscle)}: no MVC yet"), "caption")
             label.setWordWrap(True)
             self.mvc_labels[muscle] = label
             grid.addWidget(label, len(THESIS_MUSCLES) + 2 + row, 0, 1, 3)
@@ -248,9 +248,9 @@ class EmgTab(QWidget):
             captured = capture.stop()
             if self.guided is not None:
                 self.cancel_mvc()
+            # a trial running now keeps what came before the source stopped
+            self.lost = (captured, self.live_label) if self.trial_running else None
             if died:
-                # a trial running now keeps what came before the source died
-                self.lost = (captured, self.live_label)
                 text = (f"EMG source {self.live_label} stopped after "
                         f"{captured.samples.shape[0]} samples: {captured.error or 'no data'}. "
                         "The trial goes on without EMG; check the source, then Connect EMG.")
@@ -299,8 +299,8 @@ class EmgTab(QWidget):
         if self.session is not None and self.session.belongs_to(patient, session):
             return
         self.session = SessionMvcs(patient, session, self._channels())
-        for label in self.mvc_labels.values():
-            label.setText("no MVC yet")
+        for muscle, label in self.mvc_labels.items():
+            label.setText(f"{words(muscle)}: no MVC yet")
         self.prompt.setText(f"Session {session} of {patient}: record each muscle's MVC.")
 
     def _channels(self) -> dict[str, int]:
@@ -311,7 +311,8 @@ class EmgTab(QWidget):
             return
         self.session.channels[muscle] = value - 1
         if self.session.records.pop(muscle, None) is not None:
-            self.mvc_labels[muscle].setText("no MVC yet (its channel changed: record it)")
+            self.mvc_labels[muscle].setText(f"{words(muscle)}: no MVC yet (its channel "
+                                            "changed: record it again)")
 
     def record_mvc(self, muscle: str) -> None:
         """Guide one muscle's MVC: rest, push with a countdown, then its MVC and quality."""
