@@ -395,6 +395,13 @@ class MainWindow(QMainWindow):
         self.live = TrialView(self.built)
         self.shown_view = self.live
         self.video.close_replay()  # the live camera again, not a past trial's video
+        if self.emg.capture is not None:
+            # the EMG before this trial's margin was stored with the trials before it
+            import time
+
+            from app.emg.importing import LIVE_MARGIN_S
+
+            self.emg.capture.forget_before(time.monotonic() - 2 * LIVE_MARGIN_S)
         self.trial_label.setText(f"recording {Path(path).name}")
         self._say(f"Trial running: {Path(path).name}. Stop (F6) ends it early.",
                   states=(State.RUNNING,))
