@@ -178,10 +178,26 @@ def test_the_mvcs_belong_to_the_registered_session(qtbot, window, server):
 
 def test_a_source_that_dies_between_trials_is_one_line_and_leaves_nothing_to_store(
         qtbot, window, server):
+    """…and an MVC under way when it dies, or cancelled, records nothing."""
     win = window
+    emg = win.emg
+    register_patient(qtbot, win)
     connect_trigno(qtbot, win, server)
+    emg.rest_seconds.setValue(0.0)
+    emg.push_seconds.setValue(10.0)
+    click(qtbot, emg.record_buttons["triceps"])
+    qtbot.waitUntil(lambda: "PUSH" in emg.prompt.text(), timeout=5000)
+    assert not emg.record_buttons["biceps"].isEnabled()  # one MVC at a time
+    click(qtbot, emg.cancel_button)
+    assert emg.prompt.text() == "triceps brachii: cancelled; nothing recorded."
+    click(qtbot, emg.record_buttons["biceps"])
+    qtbot.waitUntil(lambda: "PUSH" in emg.prompt.text(), timeout=5000)
     server.fake_drop_data_after = server.sent + 100
     qtbot.waitUntil(lambda: win.emg.capture is None, timeout=20000)
+    assert emg.prompt.text() == ("biceps brachii: the EMG source stopped; nothing recorded. "
+                                 "Connect it again, then record.")
+    assert emg.session.records == {}
+    assert emg.record_buttons["biceps"].isEnabled()
     lost = [line for line in win.messages.history() if "closed the EMG data connection" in line]
     assert len(lost) == 1
     assert "check the source, then Connect EMG" in lost[0]

@@ -154,7 +154,7 @@ class EmgTab(QWidget):
         grid.addWidget(self.push_seconds, n, 1)
         self.cancel_button = QPushButton("Cancel")
         self.cancel_button.setEnabled(False)
-        self.cancel_button.clicked.connect(self.cancel_mvc)
+        self.cancel_button.clicked.connect(lambda _=False: self.cancel_mvc())
         grid.addWidget(self.cancel_button, n, 2)
         self.prompt = theme.set_role(QLabel("Register the patient, connect the EMG source, "
                                             "then record each muscle's MVC."), "heading")
@@ -247,7 +247,8 @@ class EmgTab(QWidget):
             died = not capture.running
             captured = capture.stop()
             if self.guided is not None:
-                self.cancel_mvc()
+                self.cancel_mvc("the EMG source stopped; nothing recorded. Connect it "
+                                "again, then record" if died else "")
             # a trial running now keeps what came before the source stopped
             self.lost = (captured, self.live_label) if self.trial_running else None
             if died:
@@ -350,10 +351,11 @@ class EmgTab(QWidget):
             box.setEnabled(not on)
         self.cancel_button.setEnabled(on)
 
-    def cancel_mvc(self) -> None:
+    def cancel_mvc(self, why: str = "") -> None:
         self.protocol_timer.stop()
         if self.guided is not None:
-            self.prompt.setText(f"{words(self.guided.muscle)}: cancelled; nothing recorded.")
+            self.prompt.setText(f"{words(self.guided.muscle)}: "
+                                f"{why or 'cancelled; nothing recorded'}.")
         self.guided = None
         self._set_recording(False)
 
