@@ -1,16 +1,20 @@
 """Surface EMG: processing cost, the LSL inlet at 2 kHz × 16 channels, and the loop beside EMG.
 
-    .venv/bin/python bench/emg.py [--seconds 20] [--only processing|lsl|loop]
+    .venv/bin/python bench/emg.py [--seconds 20] [--only processing|window|lsl|loop]
 
 1. processing: the whole chain (DC offset, band-pass 20–450 Hz, 50 Hz notch, RMS envelope
    0.125 s / 0.0625 s; core.emg.processing.envelope) on 60 s of 4-channel EMG at 2 kHz,
    per second of EMG; and the RMS envelope alone.
-2. lsl: a sender process pushes 16 channels at 2 kHz in chunks of 20 samples (every
+2. window: what the EMG tab computes on its worker at each live refresh (every
+   0.2 s): the last 5 s of a 16-channel Trigno stream (1926 Hz) as three muscles' % MVC
+   envelopes (ui.views.emg.live_emg_view); and, on its worker, one guided MVC from a 5 s
+   push (app.emg.protocol.contraction_mvc).
+3. lsl: a sender process pushes 16 channels at 2 kHz in chunks of 20 samples (every
    10 ms, as EMG software does), each sample stamped with local_clock() when it was
    made and carrying its index; this process reads them through device.emg.lsl's inlet
    for `--seconds`. Latency: receive time − sample stamp (p50, p99, max); dropped: indices
    that never arrived.
-3. loop: the real 2 ms loop process (simulator, thesis D, recorder), once with this
+4. loop: the real 2 ms loop process (simulator, thesis D, recorder), once with this
    process only draining the ring, once with an EMG capture of the 2 kHz × 16 LSL stream
    running here and the robot's state published on LSL (device.emg.lsl.RobotStateOutlet):
    the loop's lateness p99 / max and late ticks, side by side.
@@ -52,6 +56,38 @@ def processing(seconds: float = 60.0) -> tuple[float, float]:
         t2 = time.perf_counter()
         best_full, best_rms = min(best_full, t1 - t0), min(best_rms, t2 - t1)
     return 1e3 * best_full / seconds, 1e3 * best_rms / seconds
+
+
+# ------------------------------------------------------------------ the window
+def window(repeats: int = 50) -> tuple[float, float, float]:
+    """(p50, max) ms of one live refresh in % MVC, and ms of one MVC from a 5 s push."""
+    from app.emg.protocol import MvcRecord, SessionMvcs, contraction_mvc
+    from core.emg.processing import EmgSettings
+    from core.emg.synthetic import TRIGNO_RATE_HZ
+    from ui.views.emg import live_emg_view
+
+    rate = TRIGNO_RATE_HZ
+    rng = np.random.default_rng(0)
+    x = 1e-4 * rng.standard_normal((int(5 * rate), CHANNELS))
+    t = np.arange(x.shape[0]) / rate
+    settings = EmgSettings()
+    session = SessionMvcs("bench", 1)
+    contraction_mvc(t, x, rate, "biceps", 0, settings=settings, full_scale_V=0.011,
+                    wanted_s=5.0)  # the filters' first call, not the MVC's cost
+    t0 = time.perf_counter()
+    for muscle, channel in session.channels.items():
+        mvc = contraction_mvc(t, x, rate, muscle, channel, settings=settings,
+                              full_scale_V=0.011, wanted_s=5.0)
+        session.records[muscle] = MvcRecord(mvc, channel, "bench", settings)
+    mvc_ms = 1e3 * (time.perf_counter() - t0) / len(session.channels)
+    costs = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        view = live_emg_view(t, x, rate, session)
+        costs.append(time.perf_counter() - t0)
+    assert view is not None
+    assert view.unit == "% MVC"
+    return 1e3 * float(np.median(costs)), 1e3 * max(costs), mvc_ms
 
 
 # ------------------------------------------------------------------ LSL
@@ -169,7 +205,7 @@ def loop(seconds: float, with_emg: bool, folder: Path) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=20.0)
-    parser.add_argument("--only", choices=("processing", "lsl", "loop"))
+    parser.add_argument("--only", choices=("processing", "window", "lsl", "loop"))
     parser.add_argument("--repeats", type=int, default=1,
                         help="loop runs of each kind, alternated (the machine's load varies)")
     args = parser.parse_args()
@@ -177,6 +213,11 @@ def main() -> None:
         full, rms = processing()
         print(f"processing, per second of 4-channel 2 kHz EMG: whole chain {full:.2f} ms "
               f"(band-pass, notch, RMS envelope), RMS envelope alone {rms:.3f} ms")
+    if args.only in (None, "window"):
+        p50, worst, mvc_ms = window()
+        print(f"EMG tab, one live refresh (5 s × 16 channels at 1926 Hz, 3 muscles in % MVC): "
+              f"p50 {p50:.1f} ms, max {worst:.1f} ms, every 200 ms, on the tab's worker; one MVC "
+              f"from a 5 s push {mvc_ms:.1f} ms")
     if args.only in (None, "lsl"):
         r = lsl_stream(args.seconds)
         print(f"LSL inlet, {CHANNELS} channels at {RATE_HZ:g} Hz for {args.seconds:g} s: "

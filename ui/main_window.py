@@ -242,6 +242,8 @@ class MainWindow(QMainWindow):
         self.replay.view_loaded.connect(self._on_replay)
         self.replay.cursor_moved.connect(self._on_cursor)
         self.tabs.currentChanged.connect(lambda _i: self._show_current())
+        self.emg.said.connect(lambda text, problem: self._say(text, problem))
+        self.emg.mvc_recorded.connect(self._store_session_mvcs)
 
     def start_device(self) -> None:
         """Start the loop processes and the timers (after the window is shown)."""
@@ -366,6 +368,7 @@ class MainWindow(QMainWindow):
             log.info("robot %s → %s%s", self.state.label, State(state).label,
                      f": {reason}" if reason else "")
         self.state = State(state)
+        self.emg.trial_running = self.state in (State.RUNNING, State.STOPPING)
         self.messages.set_state(self.state)
         self._show_message()
         self.state_label.setText(f"<b>{self.state.label}</b>")
@@ -400,6 +403,13 @@ class MainWindow(QMainWindow):
         self.live = TrialView(self.built)
         self.shown_view = self.live
         self.video.close_replay()  # the live camera again, not a past trial's video
+        if self.emg.capture is not None:
+            # the EMG before this trial's margin was stored with the trials before it
+            import time
+
+            from app.emg.importing import LIVE_MARGIN_S
+
+            self.emg.capture.forget_before(time.monotonic() - 2 * LIVE_MARGIN_S)
         self.trial_label.setText(f"recording {Path(path).name}")
         self._say(f"Trial running: {Path(path).name}. Stop (F6) ends it early.",
                   states=(State.RUNNING,))
@@ -423,16 +433,59 @@ class MainWindow(QMainWindow):
             self.trial_id = None
             self.jobs.run(lambda: finalize_trial(self.registry, trial_id, status, reason),
                           lambda done: self._finalized(trial_id, done))
-            if self.emg.capture is not None:
-                # the live EMG source streams on; this trial's part goes into its file
-                # after the metrics (one job thread: in that order)
-                from app.emg.importing import store_live_capture
+            self._store_trial_emg(path)
 
-                captured, label = self.emg.capture.snapshot(), self.emg.live_label
-                self.jobs.run(lambda: store_live_capture(path, captured, label),
-                              lambda done: self._say(
-                                  f"EMG stored with the trial: {len(done.names)} channels, "
-                                  f"{done.n_samples} samples from {label}"))
+    def _store_trial_emg(self, path: str) -> None:
+        """The live EMG source's part of the trial into its file, after the metrics (one
+        job thread: in that order). With the session's MVC protocol under way, the
+        muscles' channels under their names and the session's MVCs, checked against this
+        trial too (app.emg.protocol.store_trial); else every channel as it came. A source
+        that died (or was disconnected) during the trial gives what it had before."""
+        emg = self.emg
+        if emg.capture is not None:
+            captured, label, died = emg.capture.snapshot(), emg.live_label, False
+        elif emg.lost is not None:
+            (captured, label), died, emg.lost = emg.lost, True, None
+        else:
+            return
+        session = emg.session
+        ended = " up to where the source stopped" if died else ""
+        if session is None or not session.records:
+            # no MVC protocol under way: every channel as it came, named EMG1…
+            from app.emg.importing import store_live_capture
+
+            self.jobs.run(lambda: store_live_capture(path, captured, label),
+                          lambda done: self._say(
+                              f"EMG stored with the trial{ended}: {len(done.names)} channels, "
+                              f"{done.n_samples} samples from {label}"))
+            return
+        from app.emg.protocol import store_trial
+
+        def stored(result) -> None:
+            done, checked = result
+            self._say(f"EMG stored with the trial{ended}: {', '.join(done.muscles)}, "
+                      f"{done.n_samples} samples from {label}, in % of the session's MVCs")
+            for mvc in checked.values():
+                if not mvc.ok:
+                    emg.show_mvc(mvc)
+
+        self.jobs.run(lambda: store_trial(path, captured, label, session), stored)
+
+    def _store_session_mvcs(self, _muscle: str) -> None:
+        """An MVC recorded again: the session's trials so far are normalised by it too, as
+        `rehab emg mvc` stores one MVC in all the session's trials."""
+        session = self.emg.session
+        if session is None or not session.trials:
+            return
+        from app.emg.session import store_mvcs
+
+        trials = list(session.trials)
+        from app.emg.importing import when_free
+
+        measured = session.measured()
+        self.jobs.run(lambda: when_free(lambda: store_mvcs(trials, measured)),
+                      lambda _checked: self._say(f"The session's MVCs are stored in its "
+                                                 f"{len(trials)} trial(s) so far."))
 
     def _finalized(self, trial_id: int, done) -> None:
         self.unsaved_trial = trial_id
@@ -461,6 +514,7 @@ class MainWindow(QMainWindow):
     def _on_registered(self, patient: Patient, registration: Registration) -> None:
         self.patient = patient
         self.registration = registration
+        self.emg.set_session(patient.code, registration.session_number)
         self._refresh_buttons()
 
     def _on_flip(self, flip_x: bool, flip_y: bool) -> None:

@@ -1,7 +1,8 @@
 """`rehab emg …`: surface EMG beside a trial: import a recording into the trial file
 (app.emg.importing), the session's MVC per muscle with its quality check
-(app.emg.session), a trial's envelopes in % MVC, and the Lab Streaming Layer's streams
-(device.emg.lsl)."""
+(app.emg.session), a trial's envelopes in % MVC, an EMG-to-torque model validated held
+out and refused for the assistance unless it passes (app.emg.validation), and the Lab
+Streaming Layer's streams (device.emg.lsl)."""
 
 from __future__ import annotations
 
@@ -67,6 +68,23 @@ def add_emg_commands(commands) -> None:
     p.add_argument("--command-port", type=int, default=50040, help=argparse.SUPPRESS)
     p.add_argument("--data-port", type=int, help=argparse.SUPPRESS)
     p.set_defaults(func=cmd_record)
+
+    p = sub.add_parser("model", help="validate an EMG-to-torque model held out; refuse it "
+                                     "for the assistance unless it passes",
+                       description="Fit an EMG-to-joint-torque model (linear baseline, the "
+                                   "thesis's network, or the muscle model) on the trials' "
+                                   "%% MVC envelopes and torques, and score it held out: on "
+                                   "the --test trials, or leaving one subject out. With "
+                                   "--for-assistance, refuse (exit 2, saying why) a model "
+                                   "that does not reach held-out R² 0.60 at both joints or "
+                                   "does not beat the linear baseline.")
+    p.add_argument("trials", nargs="+", help="trials with EMG and MVCs (ids or files)")
+    p.add_argument("--model", choices=("linear", "network", "muscle"), default="network")
+    p.add_argument("--test", action="append", metavar="TRIAL",
+                   help="a trial to hold out (repeat; default: leave one subject out)")
+    p.add_argument("--for-assistance", action="store_true",
+                   help="require the model to pass, as the patient's force estimate")
+    p.set_defaults(func=cmd_model)
 
     p = sub.add_parser("demo", help="write a synthetic subject's trial and MVC files to try",
                        description="Simulate a trial of a synthetic subject (a virtual patient "
@@ -178,6 +196,27 @@ def cmd_show(args: argparse.Namespace) -> int:
         print(f"{muscle:<20} {1e6 * emg.mvc[muscle]['value_V']:>7.0f} µV "
               + " ".join(f"{c:>8}" for c in cells)
               + ("  ok" if not flags else "  FLAGGED: " + ", ".join(flags)))
+    return 0
+
+
+def cmd_model(args: argparse.Namespace) -> int:
+    from app.emg.validation import approve, check_model
+    from core.emg.models import USABLE_R2
+
+    trials = [trial_file(args, t) for t in args.trials]
+    test = [trial_file(args, t) for t in args.test] if args.test else None
+    validations, model = check_model(trials, args.model, test=test)
+    print(f"{model.name}, held out, against the linear baseline (RMSE N·m, R²; shoulder, "
+          f"elbow); passes at R² ≥ {USABLE_R2:.2f} at both joints and beating the baseline")
+    for v in validations:
+        s, b = v.score, v.baseline
+        print(f"{v.split:<24} RMSE {s.rmse_Nm[0]:.2f}, {s.rmse_Nm[1]:.2f}  R² {s.r2[0]:.2f}, "
+              f"{s.r2[1]:.2f}   baseline RMSE {b.rmse_Nm[0]:.2f}, {b.rmse_Nm[1]:.2f}  R² "
+              f"{b.r2[0]:.2f}, {b.r2[1]:.2f}   {'passes' if v.usable else 'fails'}")
+    if args.for_assistance:
+        approve(model, validations)
+        print(f"{model.name} passed every held-out validation: it may stand in for the force "
+              "sensor as the patient's force estimate")
     return 0
 
 

@@ -156,19 +156,28 @@ def store_live_capture(trial_path: str | os.PathLike, captured, label: str) -> I
     """What the window does when a trial's file closes while a live source streams: the
     capture's samples from LIVE_MARGIN_S before the trial to as long after, channels named
     EMG1…, into the trial's `/emg`."""
+    names = tuple(f"EMG{i + 1}" for i in range(captured.samples.shape[1]))
+    return when_free(lambda: import_capture(trial_path, captured, names=names, source=label,
+                                            margin_s=LIVE_MARGIN_S))
+
+
+# what HDF5 says when another thread of the window holds the file open this very moment
+# (for its report): for writing, or with the other locking flag
+BUSY_WORDS = ("already open", "file locking flag values don't match")
+
+
+def when_free(work):
+    """`work()` (reading and writing a trial file), tried again for up to BUSY_RETRY_S while
+    HDF5 refuses to open the file because the window is reading it for its report."""
     import time
 
     from device.errors import RecordingError
 
-    names = tuple(f"EMG{i + 1}" for i in range(captured.samples.shape[1]))
     deadline = time.monotonic() + BUSY_RETRY_S
     while True:
         try:
-            return import_capture(trial_path, captured, names=names, source=label,
-                                  margin_s=LIVE_MARGIN_S)
+            return work()
         except RecordingError as exc:
-            # the window may be reading the file for its report this very moment; HDF5
-            # refuses to open it for writing meanwhile
-            if "already open" not in str(exc) or time.monotonic() > deadline:
+            if not any(w in str(exc) for w in BUSY_WORDS) or time.monotonic() > deadline:
                 raise
             time.sleep(0.1)

@@ -8,6 +8,26 @@ from __future__ import annotations
 from app.emg.importing import EmgImportError
 
 FORMS = "trigno:HOST, avanti:HOST or lsl:STREAM_NAME"
+KINDS = {"trigno": "Trigno base station (host)", "avanti": "Avanti / Trigno+ (host)",
+         "lsl": "LSL stream (name)"}
+# the amplifier's range, for the MVC's saturation check; unknown for an LSL stream, whose
+# clipping shows as repeated extremes instead (core.emg.mvc)
+FULL_SCALE_V = {"trigno": 0.011}
+
+
+def source_spec(kind: str, where: str) -> str:
+    """The words for `open_source` from a chosen kind and a typed host or stream name; a
+    typed `word:WHERE` is taken as it is (and refused by `open_source` if the word is not
+    one of KINDS)."""
+    where = where.strip()
+    typed, sep, _ = where.partition(":")
+    if sep and typed.isalpha():
+        return where
+    return f"{kind}:{where}"
+
+
+def full_scale_of(label: str) -> float | None:
+    return FULL_SCALE_V.get(label.partition(":")[0])
 
 
 def open_source(spec: str, *, command_port: int = 50040, data_port: int | None = None,

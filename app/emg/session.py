@@ -81,7 +81,7 @@ def session_mvc(
     groups = [(Path(t), trial_emg(t)) for t in trials]
     if not groups:
         raise EmgImportError("no trial given: the MVC is stored with the session's trials")
-    results = []
+    measured = []
     for contraction in contractions:
         channel_names = {m: n for _, g in groups for n, m in zip(g.names, g.muscles,
                                                                    strict=True)}
@@ -94,20 +94,56 @@ def session_mvc(
         mvc = mvc_from_contraction(data.samples[:, index], data.rate_hz, contraction.muscle,
                                    settings=settings, full_scale_V=full_scale_V,
                                    criteria=criteria)
-        for _, group in groups:
-            if contraction.muscle in group.muscles:
-                c = group.channel_of(contraction.muscle)
-                trial_env = envelope(group.samples[:, c], group.rate_hz, settings)
-                mvc = check_against_trial(mvc, trial_env.values, criteria)
-        results.append((mvc, data.path.name, data.names[index]))
+        measured.append((mvc, data.path.name, data.names[index], settings))
+    checked = _store(groups, measured, criteria)
+    return [checked[mvc.muscle] for mvc, *_ in measured]
+
+
+def check_with_trials(trials, mvcs: list[Mvc], *, settings_of: dict[str, EmgSettings],
+                      criteria: MvcCriteria | None = None, groups=None) -> dict[str, Mvc]:
+    """Each MVC checked against the activity of its muscle in every trial given that has
+    it (core.emg.mvc.check_against_trial), the trial's envelope processed with the MVC's
+    own settings, over the trial's own samples only: a live capture's margins before and
+    after it may hold the session's MVCs themselves."""
+    groups = groups if groups is not None else [(Path(t), trial_emg(t)) for t in trials]
+    spans = {}
+    out = {}
+    for mvc in mvcs:
+        for path, group in groups:
+            if mvc.muscle in group.muscles:
+                if path not in spans:
+                    t = read_trial(path, channels=()).time
+                    spans[path] = (t[0], t[-1])
+                c = group.channel_of(mvc.muscle)
+                env = envelope(group.samples[:, c], group.rate_hz, settings_of[mvc.muscle],
+                               t0_s=group.time_s[0])
+                first, last = spans[path]
+                inside = (env.t_s >= first) & (env.t_s <= last)
+                mvc = check_against_trial(mvc, env.values[inside], criteria)
+        out[mvc.muscle] = mvc
+    return out
+
+
+def store_mvcs(trials, measured, criteria: MvcCriteria | None = None) -> dict[str, Mvc]:
+    """MVCs measured from their contractions, `measured` [(Mvc, source, channel,
+    EmgSettings)], checked against every trial given and stored in each trial that has
+    the muscle (`/emg/mvc`); returns the checked MVC of each muscle."""
+    return _store([(Path(t), trial_emg(t)) for t in trials], measured, criteria)
+
+
+def _store(groups, measured, criteria) -> dict[str, Mvc]:
+    checked = check_with_trials((), [m for m, *_ in measured], groups=groups,
+                                settings_of={m.muscle: s for m, _, _, s in measured},
+                                criteria=criteria)
     for path, group in groups:
         entries = {}
-        for mvc, source, channel in results:
+        for mvc, source, channel, settings in measured:
             if mvc.muscle in group.muscles:
-                entries[mvc.muscle] = {**mvc.to_dict(), "source_file": source,
+                entries[mvc.muscle] = {**checked[mvc.muscle].to_dict(), "source_file": source,
                                        "channel": channel, "settings": settings.to_dict()}
-        write_mvc(path, entries)
-    return [mvc for mvc, _, _ in results]
+        if entries:
+            write_mvc(path, entries)
+    return checked
 
 
 def _settings(entry: dict) -> EmgSettings:

@@ -51,6 +51,7 @@ class EmgCapture:
         self._thread: threading.Thread | None = None
         self.error = ""
         self.latest_s = latest_s
+        self._forgotten = 0  # samples dropped by forget_before, for the even restamp
 
     def start(self) -> EmgCapture:
         self._running.set()
@@ -87,6 +88,42 @@ class EmgCapture:
         keep = t >= t[-1] - self.latest_s
         return t[keep], x[keep]
 
+    @property
+    def last_stamp_s(self) -> float | None:
+        """Monotonic stamp of the newest sample read, or None before the first."""
+        with self._lock:
+            return float(self._chunks[-1][0][-1]) if self._chunks else None
+
+    def between(self, start_s: float, end_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """The samples stamped from `start_s` to `end_s` (monotonic), copied: one
+        contraction of a guided MVC. Only the chunks that reach the span are joined, so
+        the cost is that of the span, not of everything captured since `start()`."""
+        with self._lock:
+            chunks = []
+            for stamps, samples in reversed(self._chunks):
+                if stamps[-1] < start_s:
+                    break
+                chunks.append((stamps, samples))
+        if not chunks:
+            return np.empty(0), np.empty((0, 0))
+        t = np.concatenate([c[0] for c in reversed(chunks)])
+        x = np.concatenate([c[1] for c in reversed(chunks)])
+        keep = (t >= start_s) & (t <= end_s)
+        return t[keep], x[keep]
+
+    def forget_before(self, t_s: float) -> int:
+        """Drop the chunks wholly before monotonic time `t_s`: a source that streams across
+        a whole clinic session (16 channels at 2 kHz: about 0.9 GB an hour) keeps only
+        what the next trial may still need. Returns the samples dropped."""
+        with self._lock:
+            keep = 0
+            while keep < len(self._chunks) and self._chunks[keep][0][-1] < t_s:
+                keep += 1
+            dropped = sum(c[0].size for c in self._chunks[:keep])
+            del self._chunks[:keep]
+            self._forgotten += dropped
+        return dropped
+
     def stop(self, timeout_s: float = 2.0) -> Captured:
         """Stop reading, close the source, and return the whole recording. A source with a
         better origin at the end (the Trigno client's `origin_s`) restamps it evenly."""
@@ -103,7 +140,7 @@ class EmgCapture:
         """Everything captured so far, without stopping (a trial that ends while the source
         goes on streaming for the next one)."""
         with self._lock:
-            chunks = list(self._chunks)
+            chunks, forgotten = list(self._chunks), self._forgotten
         rate = float(self.source.rate_hz)
         if not chunks:
             width = 0 if self.channels is None else len(self.channels)
@@ -112,7 +149,7 @@ class EmgCapture:
         x = np.concatenate([c[1] for c in chunks])
         origin = getattr(self.source, "origin_s", None)
         if origin is not None:
-            t = origin + np.arange(t.size) / rate
+            t = origin + (forgotten + np.arange(t.size)) / rate
         span = (t[-1] - t[0]) * rate + 1 if t.size > 1 else t.size
         missing = max(0, round(span) - t.size)
         return Captured(t, x, rate, missing, self.error)

@@ -38,3 +38,31 @@ def short_trial(win: MainWindow) -> None:
     p.repetitions.setValue(1)
     p.duration.setValue(2.0)
     p.refresh()
+
+
+def open_window(qtbot, tmp_path, monkeypatch, *, start_device: bool = True) -> MainWindow:
+    """The console's window on a fresh registry and settings under `tmp_path`, shown, its
+    loop started unless asked not to (a test of tabs alone needs none)."""
+    from app.records.datadir import DataDir
+    from app.records.registry import Registry
+
+    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
+    registry = Registry(DataDir(tmp_path / "data", "test"))
+    win = MainWindow(registry, settings_path=tmp_path / "config" / "settings.json")
+    qtbot.addWidget(win)
+    win.show()
+    if start_device:
+        win.start_device()
+    return win
+
+
+def fake_trigno():
+    """The fake Trigno Control Utility of the device tests (tests/device/fakes)."""
+    import importlib.util
+    from pathlib import Path
+
+    spec = importlib.util.spec_from_file_location(
+        "trigno_server", Path(__file__).parents[1] / "device" / "fakes" / "trigno_server.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module

@@ -16,7 +16,7 @@ from app.trials.reader import read_trial
 from core.trial import THESIS_SUBJECT
 from device.loop.states import State
 from device.safety.faults import Fault
-from tests.ui.session import click, enabled, register_patient, short_trial
+from tests.ui.session import click, enabled, open_window, register_patient, short_trial
 from ui.main_window import MainWindow
 
 pytestmark = pytest.mark.slow
@@ -24,12 +24,7 @@ pytestmark = pytest.mark.slow
 
 @pytest.fixture
 def window(qtbot, tmp_path, monkeypatch):
-    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
-    registry = Registry(DataDir(tmp_path / "data", "test"))
-    win = MainWindow(registry, settings_path=tmp_path / "config" / "settings.json")
-    qtbot.addWidget(win)
-    win.show()
-    win.start_device()
+    win = open_window(qtbot, tmp_path, monkeypatch)
     yield win
     win.close()
 

@@ -1,44 +1,65 @@
 """A trial run in the window while a live EMG source streams (the fake Trigno Control
 Utility): when the trial's file closes, its part of the EMG is stored in the file on the
-trial's clock, and the source streams on. The real loop and recorder run behind."""
-
-import importlib.util
-from pathlib import Path
+trial's clock, and the source streams on; with the session's MVCs recorded in the window,
+the EMG tab shows each muscle in % MVC while the trial runs and the file keeps them; a
+source that dies mid-trial is one line and the trial completes. The real loop and
+recorder run behind."""
 
 import numpy as np
 import pytest
 
 from app.emg.importing import LIVE_MARGIN_S
-from app.records.datadir import DataDir
-from app.records.registry import Registry
+from app.trials.reader import read_trial
+from core.emg.synthetic import THESIS_MUSCLES
 from device.errors import RecordingError
 from device.loop.states import State
 from device.recording.emgfile import read_emg
-from tests.ui.session import click, register_patient, short_trial
-from ui.main_window import MainWindow
+from tests.ui.session import click, fake_trigno, open_window, register_patient, short_trial
+from tests.ui.test_emg_protocol import Muscles, connect_trigno, record, short_protocol
+from ui.views.emg import emg_view
 
 pytestmark = pytest.mark.slow
 
-_spec = importlib.util.spec_from_file_location(
-    "trigno_server", Path(__file__).parents[1] / "device" / "fakes" / "trigno_server.py")
-fake = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(fake)
+fake = fake_trigno()
 
 
-def _stored(path) -> bool:
-    try:
-        return path is not None and read_emg(path) is not None
-    except RecordingError:  # still being recorded
-        return False
+def _readable(qtbot, read):
+    """`read()` once it gives something: the file may still be recorded, or be read for
+    the report at that moment in the window's job thread (HDF5 then refuses to open it)."""
+    found = []
+
+    def there() -> bool:
+        try:
+            value = read()
+        except (RecordingError, OSError):
+            return False
+        found[:] = [value]
+        return value is not None
+
+    qtbot.waitUntil(there, timeout=20000)
+    return found[0]
+
+
+def _stored(qtbot, path):
+    return _readable(qtbot, lambda: read_emg(path))
+
+
+def _run_trial(qtbot, win, during=None) -> None:
+    """Build, connect, start; `during()` while it runs; back to CONNECTED."""
+    if win.built is None:
+        click(qtbot, win.robot.buttons["build"])
+        qtbot.waitUntil(lambda: win.state == State.BUILT, timeout=120000)  # may compile
+        click(qtbot, win.robot.buttons["connect"])
+        qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=20000)
+    click(qtbot, win.robot.buttons["start"])
+    qtbot.waitUntil(lambda: win.state == State.RUNNING, timeout=10000)
+    if during is not None:
+        during()
+    qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=60000)
 
 
 def test_live_emg_is_stored_with_the_trial_when_its_file_closes(qtbot, tmp_path, monkeypatch):
-    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
-    registry = Registry(DataDir(tmp_path / "data", "test"))
-    win = MainWindow(registry, settings_path=tmp_path / "config" / "settings.json")
-    qtbot.addWidget(win)
-    win.show()
-    win.start_device()
+    win = open_window(qtbot, tmp_path, monkeypatch)
     with fake.FakeTrignoServer() as server:
         try:
             register_patient(qtbot, win)
@@ -49,17 +70,10 @@ def test_live_emg_is_stored_with_the_trial_when_its_file_closes(qtbot, tmp_path,
                                 "data_port": server.data_port}
             click(qtbot, emg.connect_button)
             qtbot.waitUntil(lambda: emg.capture is not None, timeout=10000)
-            click(qtbot, win.robot.buttons["build"])
-            qtbot.waitUntil(lambda: win.state == State.BUILT, timeout=120000)  # may compile
-            click(qtbot, win.robot.buttons["connect"])
-            qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=20000)
-            click(qtbot, win.robot.buttons["start"])
-            qtbot.waitUntil(lambda: win.state == State.RUNNING, timeout=10000)
-            qtbot.waitUntil(lambda: win.state != State.RUNNING, timeout=60000)
+            _run_trial(qtbot, win)
             qtbot.waitUntil(lambda: "EMG stored with the trial" in win.message.text(),
                             timeout=60000)
-            assert _stored(win.trial_path)
-            stored = read_emg(win.trial_path)
+            stored = _stored(qtbot, win.trial_path)
             assert stored.samples.shape[1] == 16
             assert stored.attrs["source"] == "trigno:127.0.0.1"
             duration = 2.0 + 10.0  # at most: approach, exercise, hold
@@ -74,4 +88,94 @@ def test_live_emg_is_stored_with_the_trial_when_its_file_closes(qtbot, tmp_path,
             assert emg.capture.running  # streams on
         finally:
             emg.stop_live()
+            win.close()
+
+
+def test_the_session_mvcs_give_live_and_stored_percent_mvc(qtbot, tmp_path, monkeypatch):
+    """MVCs recorded in the window; the deltoid's with too little effort. During the trial
+    the EMG tab scrolls each muscle in % MVC; after it, the trial's file has the muscles'
+    EMG with the session's MVCs, and the deltoid's is flagged as lower than the trial."""
+    win = open_window(qtbot, tmp_path, monkeypatch)
+    with fake.FakeTrignoServer() as server:
+        server.signal = Muscles(server.rate_hz)
+        try:
+            register_patient(qtbot, win)
+            short_trial(win)
+            connect_trigno(qtbot, win, server)
+            short_protocol(win)
+            server.signal.level[2] = 1e-4  # the deltoid pushed at a fraction of its best
+            for muscle in THESIS_MUSCLES:
+                assert record(qtbot, win, muscle)[0].endswith(": ok")
+            # the reach: biceps at 40 % MVC, triceps at 25 %, the deltoid at 400 %
+            server.signal.level[:3] = (0.8e-4, 0.5e-4, 4e-4)
+            emg = win.emg
+            win.tabs.setCurrentWidget(emg)
+            live = {}
+
+            def in_percent() -> bool:
+                names = [c.name() for c in emg.live_curves]
+                if emg.live_unit != "% MVC" or len(names) != 3:
+                    return False
+                live.update({n: c.getData()[1][-1] for n, c in zip(names, emg.live_curves,
+                                                                   strict=True)})
+                return True
+
+            def during() -> None:
+                qtbot.waitUntil(in_percent, timeout=20000)
+                click(qtbot, emg.record_buttons["biceps"])  # an MVC mid-trial: refused
+                assert "A trial is running: record the MVCs before" in win.message.text()
+
+            _run_trial(qtbot, win, during)
+            assert set(live) == {"biceps brachii", "triceps brachii", "anterior deltoid"}
+            assert live["biceps brachii"] == pytest.approx(40, rel=0.1)
+            assert live["triceps brachii"] == pytest.approx(25, rel=0.1)
+            assert live["anterior deltoid"] == pytest.approx(400, rel=0.1)
+            qtbot.waitUntil(lambda: "in % of the session's MVCs" in
+                            "\n".join(win.messages.history()), timeout=60000)
+            stored = _stored(qtbot, win.trial_path)
+            assert stored.muscles == THESIS_MUSCLES
+            assert stored.names == ("EMG1", "EMG2", "EMG3")
+            assert stored.mvc["anterior_deltoid"]["flags"] == ["below_trial_activity"]
+            assert stored.mvc["biceps"]["flags"] == []
+            history = "\n".join(win.messages.history())
+            assert "anterior deltoid: MVC" in history
+            assert "lower than the trial's activity. Record again." in history
+            assert "lower than the trial's activity" in emg.mvc_labels["anterior_deltoid"].text()
+            view = _readable(qtbot, lambda: emg_view(win.trial_path) if
+                             not emg_view(win.trial_path).message else None)
+            biceps = view.percent[:, view.muscles.index("biceps")]
+            assert np.nanmedian(biceps) == pytest.approx(40, rel=0.1)
+        finally:
+            win.emg.stop_live()
+            win.close()
+
+
+def test_a_stream_that_dies_mid_trial_is_one_line_and_the_trial_completes(
+        qtbot, tmp_path, monkeypatch):
+    win = open_window(qtbot, tmp_path, monkeypatch)
+    with fake.FakeTrignoServer() as server:
+        try:
+            register_patient(qtbot, win)
+            short_trial(win)
+            connect_trigno(qtbot, win, server)
+
+            def die() -> None:
+                server.fake_drop_data_after = server.sent + 200
+                qtbot.waitUntil(lambda: win.emg.capture is None, timeout=20000)
+
+            _run_trial(qtbot, win, die)
+            qtbot.waitUntil(lambda: "EMG stored with the trial up to where the source stopped"
+                            in "\n".join(win.messages.history()), timeout=60000)
+            history = win.messages.history()
+            lost = [line for line in history if "closed the EMG data connection" in line]
+            assert len(lost) == 1
+            assert "The trial goes on without EMG" in lost[0]
+            assert "⚠" in lost[0]
+            trial = _readable(qtbot, lambda: read_trial(win.trial_path))
+            assert trial.closed
+            assert trial.status == "complete"
+            stored = _stored(qtbot, win.trial_path)
+            assert stored.samples.shape[0] > 0
+        finally:
+            win.emg.stop_live()
             win.close()

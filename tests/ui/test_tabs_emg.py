@@ -9,6 +9,7 @@ import pytest
 from app.emg.session import Contraction, session_mvc
 from app.emg.subjects import Subject, record_trial, write_contractions
 from app.trials.reader import read_trial
+from tests.ui.session import fake_trigno
 from ui.tabs import TABS, VIEW_TABS, EmgTab
 from ui.views.emg import emg_view
 from ui.views.trialview import TrialView
@@ -67,27 +68,17 @@ def test_nothing_to_show_is_one_line(qtbot, trial_with_emg, tmp_path):
     assert tab.curves == []
 
 
-def _fake_trigno():
-    import importlib.util
-    from pathlib import Path
-
-    spec = importlib.util.spec_from_file_location(
-        "trigno_server", Path(__file__).parents[1] / "device" / "fakes" / "trigno_server.py")
-    fake = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(fake)
-    return fake
-
-
 def test_a_live_trigno_streams_its_envelopes_and_disconnects(qtbot):
-    fake = _fake_trigno()
+    fake = fake_trigno()
     tab = EmgTab()
     qtbot.addWidget(tab)
+    tab.show()  # a hidden tab draws nothing
     with fake.FakeTrignoServer() as server:
         tab.source_edit.setText("trigno:127.0.0.1")
         tab.source_ports = {"command_port": server.command_port,
                             "data_port": server.data_port}
         tab.connect_button.click()
-        qtbot.waitUntil(lambda: tab.live_status.text().startswith("Streaming from "
+        qtbot.waitUntil(lambda: tab.live_status.text().startswith("EMG streaming from "
                                                                   "trigno:127.0.0.1"),
                         timeout=10000)
         qtbot.waitUntil(lambda: len(tab.live_curves) == 16, timeout=10000)

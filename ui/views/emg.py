@@ -42,3 +42,39 @@ def emg_view(path: Path | None) -> EmgView:
     except (AppError, CoreError, DeviceError) as exc:
         return EmgView(message=str(exc))
     return EmgView(env.time_s, 100.0 * env.values, env.muscles, env.flags)
+
+
+LIVE_MIN_S = 0.5  # the band-pass's start-up needs some signal before an envelope means much
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class LiveEmgView:
+    """The live source's last seconds as the tab draws them: each muscle's envelope in
+    % MVC once the session has its MVC (app.emg.protocol.live_percent, processed like the
+    MVC), otherwise each channel's RMS envelope in µV; stamped in s before now."""
+
+    t_s: np.ndarray
+    values: np.ndarray  # (K, C) in `unit`
+    names: tuple[str, ...]
+    unit: str
+
+
+def live_emg_view(stamps_s, samples, rate_hz: float, session=None) -> LiveEmgView | None:
+    """None until the source has given LIVE_MIN_S of EMG."""
+    from app.emg.protocol import live_percent
+    from core.emg.processing import rms_envelope
+
+    t = np.asarray(stamps_s, dtype=float)
+    if t.size < max(2, round(LIVE_MIN_S * rate_hz)):
+        return None
+    x = np.asarray(samples, dtype=float)
+    try:
+        mapped = session.muscles_with_mvc() if session is not None else ()
+        if mapped and all(session.channels[m] < x.shape[1] for m in mapped):
+            env, muscles = live_percent(t, x, rate_hz, session)
+            return LiveEmgView(env.t_s, 100.0 * env.values, muscles, "% MVC")
+        env = rms_envelope(x - x.mean(axis=0), rate_hz, t0_s=t[0] - t[-1])
+    except CoreError:  # too little signal yet for the filters: the next refresh will do
+        return None
+    return LiveEmgView(env.t_s, 1e6 * env.values,
+                       tuple(f"EMG{i + 1}" for i in range(env.values.shape[1])), "µV")

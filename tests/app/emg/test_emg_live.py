@@ -120,3 +120,26 @@ def test_a_source_lost_mid_trial_keeps_what_it_had(plain_trial, tmp_path):
     empty = EmgCapture(client).stop()
     with pytest.raises(EmgImportError, match="no EMG was captured"):
         import_capture(trial, empty, names=(), source="trigno-tcp", replace=True)
+
+
+def test_a_capture_forgets_what_came_before_and_keeps_its_clock():
+    """A source streaming across a session keeps only what the next trial may need; the
+    samples kept keep their stamps on the even Trigno clock and their values."""
+    with fake.FakeTrignoServer() as server:
+        client = TrignoClient("127.0.0.1", command_port=server.command_port,
+                              data_port=server.data_port).open()
+        client.start()
+        capture = EmgCapture(client).start()
+        _capture_until(capture, 1200)
+        middle = capture.latest()[0][600]
+        dropped = capture.forget_before(middle)
+        assert 0 < dropped <= 600
+        _capture_until(capture, 1200)
+        captured = capture.stop()
+    assert captured.error == ""
+    k = dropped + np.arange(captured.samples.shape[0])
+    np.testing.assert_array_equal(captured.samples, fake.default_signal(k).astype(float))
+    np.testing.assert_allclose(captured.stamps_s, client.origin_s + k / client.rate_hz,
+                               rtol=0, atol=1e-9)
+    assert captured.stamps_s[0] <= middle
+    assert captured.missing == 0

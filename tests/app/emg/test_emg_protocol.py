@@ -1,0 +1,194 @@
+"""The guided MVC protocol's parts without a window (app.emg.protocol): the steps on an
+injected clock, the contraction's MVC and its refusals, a trial's live EMG stored under
+the muscles' names with the session's MVCs checked against it, the live % MVC, and the
+source words (app.emg.live.source_spec)."""
+
+import shutil
+
+import h5py
+import numpy as np
+import pytest
+
+from app.emg.importing import EmgImportError
+from app.emg.live import full_scale_of, source_spec
+from app.emg.protocol import (
+    PUSH,
+    REST,
+    SETTLE_S,
+    WAITING,
+    GuidedMvc,
+    MvcRecord,
+    SessionMvcs,
+    contraction_mvc,
+    live_percent,
+    store_trial,
+)
+from app.emg.session import trial_envelopes
+from app.trials.headless import save, simulate
+from core.emg.mvc import BELOW_TRIAL
+from core.emg.processing import EmgSettings
+from core.trial import THESIS_SUBJECT
+from device.emg.capture import Captured
+from device.recording.emgfile import read_emg
+
+RATE = 2000.0
+
+
+class Clock:
+    def __init__(self) -> None:
+        self.now = 100.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def wave(n: int, levels, rate=RATE) -> np.ndarray:
+    """(n, len(levels)) 97.3 Hz waves of the given amplitudes (V): RMS level/√2 (no
+    period of a whole number of samples, so no extreme repeats as clipping would)."""
+    k = np.arange(n)[:, None]
+    return np.sin(2 * np.pi * 97.3 * k / rate) * np.asarray(levels)[None, :]
+
+
+def test_the_steps_follow_the_clock():
+    clock = Clock()
+    guided = GuidedMvc("biceps", rest_s=3.0, push_s=5.0, clock=clock)
+    step = guided.step()
+    assert step.phase == REST
+    assert step.text.startswith("biceps brachii: rest")
+    clock.now += 3.2
+    step = guided.step()
+    assert step.phase == PUSH
+    assert step.text.startswith("biceps brachii: PUSH as hard as you can: bend the elbow")
+    assert step.text.endswith("… 5 s")
+    clock.now += 4.0
+    assert guided.step().text.endswith("… 1 s")
+    clock.now += 1.0
+    assert guided.step().phase == WAITING
+    assert guided.push_span == (103.0, 108.0)
+    assert not guided.ready(None)
+    assert not guided.ready(107.9)
+    assert guided.ready(108.0)
+    assert not guided.late()
+    clock.now = 108.0 + SETTLE_S + 0.01
+    assert guided.late()
+
+
+@pytest.mark.parametrize(("rest", "push"), [(-1.0, 5.0), (3.0, 0.0), (float("nan"), 5.0)])
+def test_impossible_durations_are_refused(rest, push):
+    with pytest.raises(EmgImportError, match="give a rest of 0 s or more"):
+        GuidedMvc("biceps", rest_s=rest, push_s=push)
+
+
+def test_a_contraction_gives_its_mvc_and_refuses_what_is_not_one():
+    settings = EmgSettings()
+    x = wave(int(3 * RATE), [1e-4, 4e-4])
+    t = np.arange(x.shape[0]) / RATE
+    mvc = contraction_mvc(t, x, RATE, "triceps", 1, settings=settings, full_scale_V=0.011,
+                          wanted_s=3.0)
+    assert mvc.ok
+    assert mvc.value_V == pytest.approx(4e-4 / 2 ** 0.5, rel=0.02)
+    with pytest.raises(EmgImportError, match="no EMG came during the contraction"):
+        contraction_mvc(t[:1], x[:1], RATE, "triceps", 1, settings=settings,
+                        full_scale_V=None, wanted_s=3.0)
+    with pytest.raises(EmgImportError, match="channel 3 is not in the source"):
+        contraction_mvc(t, x, RATE, "triceps", 2, settings=settings, full_scale_V=None,
+                        wanted_s=3.0)
+    with pytest.raises(EmgImportError, match=r"only 3\.0 s of EMG came during the 5 s"):
+        contraction_mvc(t, x, RATE, "triceps", 1, settings=settings, full_scale_V=None,
+                        wanted_s=5.0)
+
+
+@pytest.fixture(scope="module")
+def plain_trial(tmp_path_factory):
+    path = tmp_path_factory.mktemp("trial") / "trial.h5"
+    save(simulate(THESIS_SUBJECT.replace(repetitions=1), engine="python"), path)
+    return path
+
+
+def _session_with_mvcs(levels) -> SessionMvcs:
+    """MVCs of biceps, triceps and deltoid on channels 3, 1 and 2 from waves of `levels`."""
+    session = SessionMvcs("P1", 1, channels={"biceps": 2, "triceps": 0, "anterior_deltoid": 1})
+    settings = EmgSettings()
+    for muscle, level in zip(("biceps", "triceps", "anterior_deltoid"), levels, strict=True):
+        x = wave(int(3 * RATE), [level])
+        mvc = contraction_mvc(np.arange(x.shape[0]) / RATE, x, RATE, muscle, 0,
+                              settings=settings, full_scale_V=None, wanted_s=3.0)
+        session.records[muscle] = MvcRecord(mvc, session.channels[muscle], "trigno:x", settings)
+    return session
+
+
+def test_a_trials_live_emg_is_stored_by_muscle_with_the_session_mvcs(plain_trial, tmp_path):
+    origin = 5000.0
+    path = shutil.copy(plain_trial, tmp_path / "live.h5")
+    with h5py.File(path, "r+") as f:
+        f["summary"].attrs["wall_time_origin_monotonic_s"] = origin
+        duration = f["timeseries/time"][-1]
+    # the trial's activity: triceps (ch 1) at half its MVC, deltoid (ch 2) above its MVC
+    n = int((duration + 1.0) * RATE)
+    captured = Captured(origin - 0.5 + np.arange(n) / RATE, wave(n, [1e-4, 3e-4, 1e-4, 9.0]),
+                        RATE, 0, "")
+    session = _session_with_mvcs([2e-4, 2e-4, 2e-4])
+    done, checked = store_trial(path, captured, "trigno:x", session)
+    assert done.muscles == ("biceps", "triceps", "anterior_deltoid")
+    emg = read_emg(path)
+    assert emg.names == ("EMG3", "EMG1", "EMG2")
+    np.testing.assert_allclose(emg.samples[:, 0], captured.samples[:, 2])
+    assert set(emg.mvc) == {"biceps", "triceps", "anterior_deltoid"}
+    assert checked["triceps"].ok
+    assert checked["biceps"].ok
+    assert BELOW_TRIAL in checked["anterior_deltoid"].flags
+    assert emg.mvc["anterior_deltoid"]["flags"] == [BELOW_TRIAL]
+    assert emg.mvc["triceps"]["channel"] == "EMG1"
+    assert session.trials == [path]
+    env = trial_envelopes(path)
+    inside = np.isfinite(env.values).all(axis=1)
+    triceps = env.values[inside, env.muscles.index("triceps")]
+    assert np.median(triceps) == pytest.approx(0.5, rel=0.05)
+    # a muscle's channel beyond what the source has is refused, naming it
+    session.channels["biceps"] = 7
+    with pytest.raises(EmgImportError, match="channel 8 is chosen for a muscle"):
+        store_trial(path, captured, "trigno:x", session)
+
+
+def test_the_live_envelopes_are_in_percent_of_each_mvc():
+    session = _session_with_mvcs([2e-4, 4e-4, 1e-4])
+    del session.records["anterior_deltoid"]  # not recorded yet: not shown in % MVC
+    x = wave(int(2 * RATE), [1e-4, 3e-4, 1e-4])  # triceps (ch 1) at 1e-4, biceps (ch 3) 1e-4
+    t = 10.0 + np.arange(x.shape[0]) / RATE
+    env, muscles = live_percent(t, x, RATE, session)
+    assert muscles == ("biceps", "triceps")
+    middle = env.values[5:-5]
+    np.testing.assert_allclose(middle[:, 0], 0.5, rtol=0.05)
+    np.testing.assert_allclose(middle[:, 1], 0.25, rtol=0.05)
+    assert env.t_s[-1] <= 0.0
+    assert env.t_s[0] >= -2.0
+
+
+def test_the_source_words():
+    assert source_spec("trigno", " 192.168.1.20 ") == "trigno:192.168.1.20"
+    assert source_spec("lsl", "Delsys EMG") == "lsl:Delsys EMG"
+    assert source_spec("trigno", "lsl:emg") == "lsl:emg"
+    assert source_spec("trigno", "usb:x") == "usb:x"  # refused by open_source, in words
+    assert full_scale_of("trigno:h") == 0.011
+    assert full_scale_of("lsl:emg") is None
+
+
+def test_only_the_trials_own_samples_are_checked_against_the_mvc(plain_trial, tmp_path):
+    """A live capture's margin before the trial may hold the MVC contraction itself (or a
+    harder push): that is not the trial's activity."""
+    origin = 5000.0
+    path = shutil.copy(plain_trial, tmp_path / "live.h5")
+    with h5py.File(path, "r+") as f:
+        f["summary"].attrs["wall_time_origin_monotonic_s"] = origin
+        duration = f["timeseries/time"][-1]
+    before = int(1.5 * RATE)
+    n = before + int((duration + 0.5) * RATE)
+    levels = np.full((n, 3), 0.6e-4)  # the reach: 30 % MVC
+    levels[:before] = 2.4e-4  # the last push before the trial: 120 %
+    captured = Captured(origin - 1.5 + np.arange(n) / RATE, wave(n, [1.0] * 3) * levels,
+                        RATE, 0, "")
+    session = _session_with_mvcs([2e-4, 2e-4, 2e-4])
+    session.channels = {"biceps": 0, "triceps": 1, "anterior_deltoid": 2}
+    _, checked = store_trial(path, captured, "trigno:x", session)
+    assert all(mvc.ok for mvc in checked.values()), [m.reasons for m in checked.values()]
+    assert read_emg(path).time_s[0] < -1.0  # the margin is stored all the same
