@@ -9,13 +9,6 @@ from tests.app.cli.running import run
 
 
 @pytest.fixture
-def data(tmp_path, monkeypatch):
-    monkeypatch.setenv("REHAB_DATA_DIR", str(tmp_path / "data"))
-    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
-    return tmp_path / "data"
-
-
-@pytest.fixture
 def patient(data, capsys):
     code, out, _ = run(["patients", "add", "--first-name", "Wilhelmina", "--last-name",
                         "Quasthoff", "--body-mass", "80", "--upper-arm", "0.30", "--forearm",

@@ -17,10 +17,7 @@ DATA = Path(__file__).parents[2] / "data" / "emg"
 
 
 
-@pytest.fixture(autouse=True)
-def data(tmp_path, monkeypatch):
-    monkeypatch.setenv("REHAB_DATA_DIR", str(tmp_path / "data"))
-    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
+pytestmark = pytest.mark.usefixtures("data")  # the folders of tests/app/cli/conftest.py
 
 
 @pytest.fixture(scope="module")

@@ -11,11 +11,7 @@ from app.emg.session import Contraction, session_mvc
 from app.emg.subjects import Subject, record_trial, write_contractions
 from tests.app.cli.running import run
 
-
-@pytest.fixture(autouse=True)
-def data(tmp_path, monkeypatch):
-    monkeypatch.setenv("REHAB_DATA_DIR", str(tmp_path / "data"))
-    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
+pytestmark = pytest.mark.usefixtures("data")  # the folders of tests/app/cli/conftest.py
 
 
 @pytest.fixture(scope="module")
