@@ -207,6 +207,15 @@ def set_role(widget, role: str):
     return widget
 
 
+def switch_role(widget, role: str):
+    """Change a shown widget's text role: the style sheet applies only once it is polished
+    again."""
+    set_role(widget, role)
+    widget.style().unpolish(widget)
+    widget.style().polish(widget)
+    return widget
+
+
 def pen(colour: str, *, dashed: bool = False) -> QPen:
     """A width-1 cosmetic pen: the only width that keeps live plots ≥ 50 fps (module notes)."""
     qpen = pg.mkPen(colour, width=1)

@@ -106,6 +106,8 @@ def _deg(value: float) -> str:
 
 
 def _print(outcome) -> None:
+    from app.pose.offline import reference_lines
+
     r = outcome.result
     print(f"{outcome.trial.path.name}: {r.frames} frames of {outcome.video.path.name}, "
           f"{r.frames_seen} with the whole arm seen")
@@ -126,8 +128,6 @@ def _print(outcome) -> None:
               + ", ".join(f"{j.joint} {_deg(j.rmse_rad)} RMSE" for j in moved))
     if outcome.reference_errors:
         print("against the reference angles (other − reference):")
-        for source, joints in outcome.reference_errors.items():
-            print(f"  {source:<7}" + ", ".join(
-                f"{j.joint} {_deg(j.rmse_rad)} RMSE, {_deg(j.bias_rad)} bias ({j.n})"
-                for j in joints))
+        for line in reference_lines(outcome.reference_errors):
+            print(f"  {line}")
     print(f"written to {outcome.trial.path} (/pose)")

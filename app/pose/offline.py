@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from app.pose.store import PoseRun, write_pose
+from app.pose.store import PoseRun, read_pose, write_pose
 from app.trials.reader import TrialData, read_trial
 from core.pose.angles import DEFAULT_DRIFT_LIMIT_M
 from core.pose.compare import JointError, ReferenceAngles, joint_errors, read_reference_csv
@@ -122,7 +122,13 @@ def estimate_pose(
         max_residual_mm=max_residual_mm, drift_limit_m=drift_limit_m)
     reference_errors = None
     if reference is not None:
-        reference_errors = _against_reference(trial, result, reference, stamps_t)
+        def times_of(frames: np.ndarray) -> np.ndarray:
+            if frames.max() >= stamps_t.size:
+                raise VideoError(f"the reference names frame {int(frames.max())}, but the "
+                                 f"video has {stamps_t.size} frames")
+            return stamps_t[frames]
+
+        reference_errors = _against_reference(trial, result.angle_isb, reference, times_of)
     if write:
         write_pose(trial_path, result, PoseRun(video.path.name, model_name, min_visibility,
                                                max_residual_mm, drift_limit_m, index, px, vis))
@@ -193,20 +199,51 @@ def _detect(video: VideoInfo, detector: PoseDetector, progress: Progress | None)
     return np.array(index), np.array(px, dtype=float), np.array(vis, dtype=float)
 
 
-def _against_reference(trial, result: PoseResult, reference: ReferenceAngles, stamps_t):
-    """Camera and solver against reference ISB angles, at the reference's instants."""
+def compare_with_reference(trial_path: str | os.PathLike,
+                           reference: ReferenceAngles | str | os.PathLike
+                           ) -> dict[str, tuple[JointError, JointError]]:
+    """Thesis Table 3.4 after the fact: the solver's and the camera's angles (the trial's
+    stored /pose) against reference angles from a goniometer or motion capture, for a
+    trial `rehab pose` has already run on. A reference by frame is placed with the
+    frames' times the pose run kept."""
+    trial = read_trial(trial_path)
+    _check_trial(trial)
+    pose = read_pose(trial_path)
+    if pose is None:
+        raise VideoError(f"trial {Path(trial_path).name} has no camera angles yet: run "
+                         "`rehab pose` on it (with its video) first")
+    if isinstance(reference, str | os.PathLike):
+        reference = read_reference_csv(reference)
+    kept, times = np.asarray(pose["frame_index"]), np.asarray(pose["frame_time"])
+
+    def times_of(frames: np.ndarray) -> np.ndarray:
+        at = np.minimum(np.searchsorted(kept, frames), kept.size - 1)
+        missing = frames[kept[at] != frames]
+        if missing.size:
+            raise VideoError(f"the reference names frame {int(missing[0])}, but the pose run "
+                             f"kept frames {int(kept[0])}–{int(kept[-1])} of the video")
+        return times[at]
+
+    return _against_reference(trial, pose["angle_isb"], reference, times_of)
+
+
+def reference_lines(errors: dict[str, tuple[JointError, JointError]]) -> list[str]:
+    """The comparison with reference angles in words, one line per source (degrees)."""
+    return [f"{source}: " + ", ".join(
+        f"{j.joint} {math.degrees(j.rmse_rad):.2f}° RMSE, {math.degrees(j.bias_rad):+.2f}° bias "
+        f"({j.n} samples)" for j in joints) for source, joints in errors.items()]
+
+
+def _against_reference(trial, camera_isb: np.ndarray, reference: ReferenceAngles,
+                       times_of: Callable[[np.ndarray], np.ndarray]):
+    """Camera and solver against reference ISB angles, at the reference's instants
+    (`times_of` places a reference given by video frame on the trial's clock)."""
     c = trial.channels
-    if reference.frame is not None:
-        if reference.frame.max() >= stamps_t.size:
-            raise VideoError(f"the reference names frame {int(reference.frame.max())}, but the "
-                             f"video has {stamps_t.size} frames")
-        at = stamps_t[reference.frame]
-    else:
-        at = reference.time_s
+    at = times_of(reference.frame) if reference.frame is not None else reference.time_s
     arm = trial.parameters.arm()
     solver = arm.isb_angles(resample(c["time"], c["subject_angle"], at, angles=True,
                                      max_gap_s=10 * trial.sample_period_s))
-    camera = resample(c["time"], result.angle_isb, at, angles=True,
+    camera = resample(c["time"], camera_isb, at, angles=True,
                       max_gap_s=10 * trial.sample_period_s)
     return {"solver": joint_errors(reference.isb_rad, solver),
             "camera": joint_errors(reference.isb_rad, camera)}

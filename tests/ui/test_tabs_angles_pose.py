@@ -94,3 +94,49 @@ def test_without_a_pose_the_panel_says_how_to_get_one(qtbot, qapp, tmp_path):
     assert "rehab pose" in tab.camera_note.text()
     assert tab.camera_curves[0].getOriginalDataset()[0] is None or \
         len(tab.camera_curves[0].getOriginalDataset()[0]) == 0
+
+
+def test_a_researcher_compares_solver_and_camera_with_reference_angles(qtbot, qapp, posed,
+                                                                       tmp_path, monkeypatch):
+    """Table 3.4's validation as a tool in the window: the button takes a CSV of reference
+    angles and the panel gives the solver's and the camera's error against it; a bad CSV
+    is one line that says what the file needs."""
+    from PySide6.QtCore import Qt
+    from PySide6.QtWidgets import QFileDialog
+
+    from app.pose.offline import compare_with_reference, reference_lines
+
+    theme.apply_theme(qapp)
+    tab = AnglesTab()
+    qtbot.addWidget(tab)
+    tab.show()
+    assert not tab.reference_button.isEnabled()  # nothing shown yet
+    data = read_trial(posed)
+    tab.show_view(TrialView.from_trial(data))
+    assert tab.reference_button.isEnabled()
+    # the goniometer read the solver's own angles, 1° high, every 0.5 s
+    times = np.arange(0.5, data.time[-1] - 0.5, 0.5)
+    isb = np.degrees(np.column_stack([
+        np.interp(times, data.time, data.channels["subject_angle_isb"][:, j]) for j in (0, 1)]))
+    good = tmp_path / "goniometer.csv"
+    good.write_text("time_s,shoulder_deg,elbow_deg\n" + "".join(
+        f"{t:.3f},{a + 1.0:.4f},{b + 1.0:.4f}\n" for t, (a, b) in zip(times, isb, strict=True)))
+    monkeypatch.setattr(QFileDialog, "getOpenFileName",
+                        staticmethod(lambda *a, **k: (str(good), "CSV files (*.csv)")))
+    qtbot.mouseClick(tab.reference_button, Qt.MouseButton.LeftButton)
+    qtbot.waitUntil(lambda: "other − reference" in tab.reference_note.text(), timeout=20000)
+    text = tab.reference_note.text()
+    for line in reference_lines(compare_with_reference(posed, good)):
+        assert line in text
+    assert "solver: shoulder 1.00° RMSE, -1.00° bias" in text
+    assert "camera: shoulder" in text
+
+    bad = tmp_path / "bad.csv"
+    bad.write_text("when,shoulder,elbow\n1,2,3\n")
+    monkeypatch.setattr(QFileDialog, "getOpenFileName",
+                        staticmethod(lambda *a, **k: (str(bad), "CSV files (*.csv)")))
+    qtbot.mouseClick(tab.reference_button, Qt.MouseButton.LeftButton)
+    qtbot.waitUntil(lambda: theme.PROBLEM_SIGN in tab.reference_note.text(), timeout=20000)
+    assert "must name frame or time_s, and shoulder_deg and elbow_deg" in \
+        tab.reference_note.text()
+    assert "\n" not in tab.reference_note.text()

@@ -6,10 +6,13 @@ next exercise.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
-from PySide6.QtWidgets import QLabel, QWidget
+from PySide6.QtWidgets import QFileDialog, QLabel, QPushButton, QWidget
 
 from ui import plots, theme
+from ui.jobs import Jobs
 from ui.views.numbers import format_number
 from ui.views.trialview import TrialView
 
@@ -43,7 +46,22 @@ class AnglesTab(QWidget):
         self.camera_note = theme.set_role(QLabel(NO_POSE), "caption")
         self.camera_note.setWordWrap(True)
         self.camera_note.setAccessibleName("Camera against the solver")
-        plots.plot_with_panel(self, self.plot, self.rom, (note, self.camera_note))
+        # Table 3.4's own validation as a tool: the solver and the camera against a
+        # goniometer's or a motion-capture system's angles (core.pose.compare's CSV)
+        self.reference_button = QPushButton("Compare with reference angles…")
+        self.reference_button.setToolTip(
+            "A CSV with a header frame or time_s, shoulder_deg, elbow_deg (ISB angles, as a "
+            "goniometer reads them); for a trial `rehab pose` has run on")
+        self.reference_button.clicked.connect(self.choose_reference)
+        self.reference_button.setEnabled(False)
+        self.reference_note = theme.set_role(QLabel(""), "caption")
+        self.reference_note.setWordWrap(True)
+        self.reference_note.setAccessibleName("Against the reference angles")
+        self.jobs = Jobs(self)
+        self.jobs.failed.connect(self._reference_failed)
+        plots.plot_with_panel(self, self.plot, self.rom,
+                              (note, self.camera_note, self.reference_button,
+                               self.reference_note))
 
     def show_view(self, view: TrialView) -> None:
         state = (id(view), view.n)
@@ -73,7 +91,36 @@ class AnglesTab(QWidget):
                 # gaps stay gaps: pyqtgraph breaks the line at NaN
                 line.setData(pose.time_s[keep], camera[:, j])
             self.camera_note.setText(pose.comparison_text())
+        self.reference_button.setEnabled(pose is not None and view.source is not None)
         plots.place_cursor(self.cursor_line, view.cursor)
+
+    def choose_reference(self) -> None:
+        path, _ = QFileDialog.getOpenFileName(self, "Reference angles", "",
+                                              "CSV files (*.csv);;All files (*)")
+        if path:
+            self.compare_reference(Path(path))
+
+    def compare_reference(self, reference: Path) -> None:
+        """The solver and the camera against the angles in `reference`, on the job
+        thread; the result (or why not) in the panel."""
+        from app.pose.offline import compare_with_reference, reference_lines
+
+        view = self._view
+        if view is None or view.source is None:
+            return
+        trial = Path(view.source)
+        self.reference_note.setText(f"Comparing with {reference.name}…")
+        theme.switch_role(self.reference_note, "caption")
+        self.jobs.run(lambda: reference_lines(compare_with_reference(trial, reference)),
+                      lambda lines: self._show_reference(reference, lines))
+
+    def _show_reference(self, reference: Path, lines: list[str]) -> None:
+        self.reference_note.setText(f"Against {reference.name} (other − reference):\n"
+                                    + "\n".join(lines))
+
+    def _reference_failed(self, error: Exception) -> None:
+        theme.switch_role(self.reference_note, "problem")
+        self.reference_note.setText(f"{theme.PROBLEM_SIGN} {error}")
 
     def set_cursor(self, t: float | None) -> None:
         if self._view is not None:

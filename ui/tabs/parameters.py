@@ -539,12 +539,10 @@ class ParametersTab(QWidget):
         self.summary.setText("" if self._check is None else check_summary(self._check))
         if self._parameters is not None:
             self.status.setText("Ready: every point of the path can be reached.")
-            theme.set_role(self.status, "ok")
+            theme.switch_role(self.status, "ok")
         else:
             self.status.setText(f"{theme.PROBLEM_SIGN} Not ready: {self._problem}")
-            theme.set_role(self.status, "problem")
-        self.status.style().unpolish(self.status)
-        self.status.style().polish(self.status)
+            theme.switch_role(self.status, "problem")
 
     # -- camera and backend ----------------------------------------------------------
     def camera_source(self) -> int | str | None:

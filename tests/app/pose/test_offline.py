@@ -364,3 +364,22 @@ def test_the_report_draws_the_camera_against_the_solver(trial, tmp_path):
     text = pages[2].extract_text()
     assert "The camera against the equation solver" in text
     assert "camera vs equation solver, shoulder (ISB)" in text
+
+
+def test_reference_angles_after_the_fact_use_the_stored_pose(trial, tmp_path):
+    """compare_with_reference: the same errors as when given to the pose run; refused in
+    one line before a pose run, or for a frame the run kept no time for."""
+    from app.pose.offline import compare_with_reference
+
+    path, filmed = trial
+    with pytest.raises(VideoError, match="has no camera angles yet: run `rehab pose`"):
+        compare_with_reference(path, tmp_path / "never_read.csv")
+    reference = tmp_path / "frames.csv"
+    reference.write_text("frame,shoulder_deg,elbow_deg\n10,40,60\n20,45,70\n30,50,80\n")
+    during = estimate_pose(path, ReplayDetector(filmed), reference=reference).reference_errors
+    after = compare_with_reference(path, reference)
+    assert after == during
+    beyond = tmp_path / "beyond.csv"
+    beyond.write_text(f"frame,shoulder_deg,elbow_deg\n{filmed.stamps_s.size + 5},40,60\n")
+    with pytest.raises(VideoError, match=r"names frame \d+, but the pose run kept frames 0–"):
+        compare_with_reference(path, beyond)
