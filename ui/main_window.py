@@ -15,7 +15,7 @@ import logging
 from pathlib import Path
 
 from PySide6.QtCore import Qt, QTimer
-from PySide6.QtGui import QKeySequence, QShortcut
+from PySide6.QtGui import QFont, QFontMetrics, QKeySequence, QShortcut
 from PySide6.QtWidgets import (
     QDialog,
     QFrame,
@@ -158,7 +158,7 @@ class MainWindow(QMainWindow):
             " #fault_banner QLabel { color: white; font-weight: bold; }")
         self.banner_text = QLabel()
         self.banner_text.setWordWrap(True)
-        lines = self.banner_text.fontMetrics().lineSpacing() * MESSAGE_LINES
+        lines = _lines_height(self.banner_text, MESSAGE_LINES)
         self.banner_text.setFixedHeight(lines)
         self.banner.setFixedHeight(max(lines, 40) + 16)
         # its place is kept while hidden: a fault never pushes the window taller (issue 13 #3)
@@ -179,7 +179,7 @@ class MainWindow(QMainWindow):
         self.message = QLabel()
         self.message.setObjectName("console_message")
         self.message.setWordWrap(True)
-        self.message.setFixedHeight(self.message.fontMetrics().lineSpacing() * MESSAGE_LINES)
+        self.message.setFixedHeight(_lines_height(self.message, MESSAGE_LINES))
         self.message.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Fixed)
         self.history_button = QPushButton("History…")
         self.history_button.setObjectName("message_history")
@@ -670,3 +670,13 @@ class MainWindow(QMainWindow):
         self.bridge.close()
         self.jobs.shutdown()
         super().closeEvent(event)
+
+
+def _lines_height(label: QLabel, lines: int) -> int:
+    """The height of `lines` lines of a word-wrapped label, in bold (a fault or a problem is
+    shown bold), from the top: a longer text shows its first lines whole and the rest
+    stays in its tooltip and the history, instead of half lines cut at top and bottom."""
+    label.setAlignment(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignTop)
+    font = QFont(label.font())
+    font.setBold(True)
+    return QFontMetrics(font).lineSpacing() * lines

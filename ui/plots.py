@@ -16,7 +16,14 @@ from concurrent.futures import Future, ThreadPoolExecutor
 
 import pyqtgraph as pg
 from PySide6.QtCore import QObject, Qt, Signal
-from PySide6.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
+from PySide6.QtWidgets import (
+    QFrame,
+    QHBoxLayout,
+    QLabel,
+    QScrollArea,
+    QVBoxLayout,
+    QWidget,
+)
 
 from ui import theme
 from ui.views.numbers import format_number
@@ -201,8 +208,25 @@ def plot_with_panel(owner: QWidget, plot: QWidget, numbers, extras) -> None:
     side.addStretch(1)
     panel = QWidget()
     panel.setLayout(side)
-    panel.setMinimumWidth(300)
-    panel.setMaximumWidth(420)
+    scroll = vertical_scroll(panel, 300, 420)
     layout = QHBoxLayout(owner)
     layout.addWidget(plot, 1)
-    layout.addWidget(panel)
+    layout.addWidget(scroll)
+
+
+def vertical_scroll(content: QWidget, min_width: int, max_width: int | None = None
+                    ) -> QScrollArea:
+    """`content` in an area that scrolls up and down rather than make the window taller
+    than a laptop's screen, at least `min_width` (at most `max_width`) wide beside its
+    scroll bar, and never narrower than its widest row: nothing is cut at the right."""
+    scroll = QScrollArea()
+    scroll.setWidgetResizable(True)
+    scroll.setWidget(content)
+    scroll.setFrameShape(QFrame.Shape.NoFrame)
+    scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+    bar = scroll.verticalScrollBar().sizeHint().width()
+    widest = content.minimumSizeHint().width()
+    scroll.setMinimumWidth(max(min_width, widest) + bar)
+    if max_width is not None:
+        scroll.setMaximumWidth(max(max_width, widest) + bar)
+    return scroll

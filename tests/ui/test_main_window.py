@@ -348,3 +348,33 @@ def test_start_says_what_it_waits_for_and_the_estop_has_one_wording(qtbot, windo
     assert Fault.ESTOP.banner() in win.banner_text.text()
     qtbot.waitUntil(lambda: win.state == State.FAULTED, timeout=5000)
     assert Fault.ESTOP.banner() in win.banner_text.text()
+
+
+def test_every_tab_fits_a_laptop_screen_without_cutting_its_panel(qtbot, tmp_path,
+                                                                  monkeypatch):
+    """At 1366 × 738 (a laptop below its title bar), with the console's theme: the side
+    panels and forms scroll instead of growing the window, and none is cut at its right
+    edge (the EMG tab's MVC protocol hid its Record buttons under the panel's edge)."""
+    from PySide6.QtCore import Qt
+    from PySide6.QtWidgets import QApplication, QScrollArea
+
+    from ui import theme
+
+    theme.apply_theme(QApplication.instance())
+    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
+    win = MainWindow(Registry(DataDir(tmp_path / "data", "test")),
+                     settings_path=tmp_path / "config" / "settings.json")
+    qtbot.addWidget(win)
+    win.resize(1366, 738)
+    win.show()
+    qtbot.waitExposed(win)
+    assert win.height() == 738
+    for index in range(win.tabs.count()):
+        win.tabs.setCurrentIndex(index)
+        QApplication.processEvents()
+        for area in win.tabs.currentWidget().findChildren(QScrollArea):
+            if (area.isVisible() and area.widget() is not None and
+                    area.horizontalScrollBarPolicy() == Qt.ScrollBarPolicy.ScrollBarAlwaysOff):
+                needed = area.widget().minimumSizeHint().width()
+                assert needed <= area.viewport().width(), win.tabs.tabText(index)
+    win.close()

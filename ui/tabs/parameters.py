@@ -22,7 +22,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from PySide6.QtCore import Qt, QTimer, Signal
+from PySide6.QtCore import QTimer, Signal
 from PySide6.QtWidgets import (
     QButtonGroup,
     QCheckBox,
@@ -36,7 +36,6 @@ from PySide6.QtWidgets import (
     QLineEdit,
     QPushButton,
     QRadioButton,
-    QScrollArea,
     QSizePolicy,
     QVBoxLayout,
     QWidget,
@@ -62,7 +61,7 @@ from core.trial import (
     check_trial,
 )
 from device.sim.patients import PATIENT_KINDS
-from ui import theme
+from ui import plots, theme
 from ui.fields import ComboBox, DoubleSpinBox, SpinBox
 from ui.reach_preview import ReachPreview
 from ui.views.reach import (
@@ -179,11 +178,7 @@ class ParametersTab(QWidget):
                       self._control_group, self._backend_group):
             column.addWidget(group)
         column.addStretch(1)
-        scroll = QScrollArea()
-        scroll.setWidgetResizable(True)
-        scroll.setWidget(form)
-        scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
-        scroll.setMinimumWidth(460)
+        scroll = plots.vertical_scroll(form, 460)
 
         right = QVBoxLayout()
         right.addWidget(theme.set_role(QLabel("What can be reached"), "heading"))

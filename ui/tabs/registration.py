@@ -18,7 +18,6 @@ from PySide6.QtWidgets import (
     QCheckBox,
     QDoubleSpinBox,
     QFormLayout,
-    QFrame,
     QGroupBox,
     QHBoxLayout,
     QLabel,
@@ -26,7 +25,6 @@ from PySide6.QtWidgets import (
     QListWidget,
     QListWidgetItem,
     QPushButton,
-    QScrollArea,
     QVBoxLayout,
     QWidget,
 )
@@ -37,7 +35,7 @@ from app.records.store import RecordStore
 from app.units import CM_PER_M as CM, cm, point_cm
 from core.arm import BODY_MASS_RANGE_KG, FOREARM_RANGE_M, UPPER_ARM_RANGE_M
 from core.trial import POSITION_RANGE_M
-from ui import theme
+from ui import plots, theme
 from ui.fields import ComboBox, DoubleSpinBox, SpinBox
 
 NOT_MEASURED = "not measured"
@@ -213,11 +211,7 @@ class RegistrationTab(QWidget):
         right.addWidget(new)
         right.addStretch(1)
         # the two forms scroll rather than make the window taller than a laptop's screen
-        scroll = QScrollArea()
-        scroll.setWidgetResizable(True)
-        scroll.setWidget(forms)
-        scroll.setFrameShape(QFrame.Shape.NoFrame)
-        scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+        scroll = plots.vertical_scroll(forms, 0)
         layout = QHBoxLayout(self)
         layout.addWidget(find, 1)
         layout.addWidget(scroll, 1)
