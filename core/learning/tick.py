@@ -145,6 +145,10 @@ class LearnedInverseDynamics:
         self.tick = TickModel(spec, params)
         self.name = name
 
+    def reset(self) -> None:
+        """A recurrent model's state back to zero (the controller's reset, each trial)."""
+        self.tick.reset()
+
     def inverse_dynamics_terms(self, q1, q2, qd1, qd2, qdd1, qdd2):
         tau = self.tick.forces(np.array([q1, q2]), np.array([qd1, qd2]),
                                np.array([qdd1, qdd2]))
