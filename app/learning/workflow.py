@@ -134,6 +134,9 @@ def evaluate_file(model_path: str | Path, data_path: str | Path,
                       model.parameters, len(part), int(np.unique(part.cycle).size), which)
 
 
+ROBOT_SYSTEM_PREFIX = "rehab-robot"
+"""What the `system` of robot data begins with (`robot_dataset` names it
+rehab-robot-<backend>): a model trained on such data is a model of the robot."""
 ROBOT_COORDINATES = ("theta_R1", "theta_R2")
 ROBOT_FORCES = ("tau_R1", "tau_R2")
 EXERCISE_PHASE = 2  # the `phase` channel: 2 while the exercise runs (docs/data-format.md)
@@ -189,7 +192,7 @@ def robot_dataset(trial_paths: Sequence[str | Path], *, acceleration: str = "des
             raise DatasetError(path, exc.problem, exc.advice) from None
         parts.append((q, qd, qdd, tau, np.full(len(q), index)))
         systems.add(trial.backend.split(" (")[0])
-    name = system or "rehab-robot-" + "-".join(sorted(systems))
+    name = system or f"{ROBOT_SYSTEM_PREFIX}-" + "-".join(sorted(systems))
     arrays = [np.concatenate([p[i] for p in parts]) for i in range(5)]
     description = {"trials": [Path(p).name for p in trial_paths], "acceleration": acceleration,
                    "without_hand_force": without_hand_force}

@@ -136,14 +136,18 @@ class LearnedInverseDynamics:
     """A trained model of a 2-joint robot in place of M, C and f in the computed-torque PID
     (eq. 4.8, core.control.ctpid): `inverse_dynamics_terms(θ1, θ2, θ̇1, θ̇2, a1, a2)` is the
     model's torque for the commanded acceleration a. A recurrent model is stepped once a
-    call, so one controller owns it. `name` is what the console shows: "learned: <name>"."""
+    call, so one controller owns it. `name` is what the console shows: "learned: <name>".
+    It pickles (plain dicts and arrays): the console sends it to the loop process."""
 
-    def __init__(self, spec: dict, params: dict, name: str = "model") -> None:
+    def __init__(self, spec: dict, params: dict, name: str = "model",
+                 content_sha256: str = "") -> None:
         if spec["dof"] != 2:
             raise ValueError(f"a model of {spec['dof']} coordinates cannot drive the 2-joint "
                              "robot")
         self.tick = TickModel(spec, params)
         self.name = name
+        self.content_sha256 = content_sha256
+        """The model file's SHA-256 (app.learning.modelfile), what the trial file records."""
 
     def reset(self) -> None:
         """A recurrent model's state back to zero (the controller's reset, each trial)."""

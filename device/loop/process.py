@@ -46,6 +46,8 @@ import time
 from dataclasses import dataclass
 from multiprocessing.connection import Connection
 
+from core.control.ctpid import ComputedTorquePID
+from core.control.gains import built
 from core.errors import ParameterError
 from device.backend import REAL_TIME, SIMULATED, Backend, SensorReading
 from device.errors import BackendError, DeviceError, StateError
@@ -149,6 +151,8 @@ class DeviceLoop:
         self.backend: Backend | None = None
         self.supervisor: SafetySupervisor | None = None
         self.pipeline: TickPipeline | None = None
+        self.model = None
+        """The learned model the built trial's CT-PID runs on (Build.model), or None."""
         self.engine: TickEngine | None = None
         self.sensor_offset_rad = 0.0
         self.reading: SensorReading | None = None
@@ -407,6 +411,9 @@ class DeviceLoop:
 
     def _do_build(self, command: Build, after_a_tick: bool):
         self.paused = True
+        refused = learned_model_refusal(command.parameters, command.model)
+        if refused:
+            return refused
         plan = TrialPlan.build(command.parameters, period_s=self.config.period_s)
         reconnect = self.state == State.CONNECTED and self.backend_config is not None and (
             command.backend != self.backend_config or command.backend.kind == "simulator")
@@ -415,6 +422,7 @@ class DeviceLoop:
         limits = (command.limits or SafetyLimits()).around_path(
             plan.parameters.path().points(), WORKSPACE_MARGIN_M)
         self.plan, self.backend_config, self.limits = plan, command.backend, limits
+        self.model = command.model
         self.pipeline = self._new_pipeline()
         if reconnect:
             # the virtual patient follows the new exercise: rebuild the simulator
@@ -475,8 +483,16 @@ class DeviceLoop:
         return "", "shutting down"
 
     def _new_pipeline(self) -> TickPipeline:
+        controller = None
+        if self.model is not None:
+            # eq. 4.8 on the learned model, with the trial's gains; it has no compiled form,
+            # so this trial's tick runs interpreted (docs/performance.md: it fits the 2 ms)
+            controller = ComputedTorquePID(
+                self.model, built("ctpid", self.plan.parameters.gains),
+                torque_limit_Nm=self.plan.robot.max_joint_torque_Nm)
         pipeline = TickPipeline(self.plan, sensor_offset_rad=self.sensor_offset_rad,
-                                compiled=self.config.compiled)
+                                controller=controller,
+                                compiled=self.config.compiled and controller is None)
         if self.assistance_level is not None:
             pipeline.set_assistance_level(self.assistance_level)
         return pipeline
@@ -562,6 +578,24 @@ _HANDLERS = {
     Command.SHUTDOWN: DeviceLoop._do_shutdown,
 }
 """What each command does; where it leads is device.loop.states.TRANSITIONS."""
+
+
+def learned_model_refusal(parameters, model) -> str:
+    """Why a Build's learned model does not fit its parameters ("" when it does): the
+    parameters name a model (`learned_model`, `learned_model_sha256`) and the console sends
+    the very one, checked (app.learning.library), or neither."""
+    name, sha = parameters.learned_model, parameters.learned_model_sha256
+    if model is None:
+        return (f"build refused: the trial names the learned model '{name}' but the console "
+                "sent none; build it again from the Parameters tab") if name else ""
+    if not name:
+        return "build refused: a learned model was sent for a trial that names none"
+    if getattr(model, "name", None) != name or getattr(model, "content_sha256", None) != sha:
+        return (f"build refused: the learned model sent is not '{name}' with hash "
+                f"{sha[:12] or '(none)'}; build it again from the Parameters tab")
+    if not callable(getattr(model, "inverse_dynamics_terms", None)):
+        return "build refused: the learned model has no inverse dynamics"
+    return ""
 
 
 def _next_deadline(deadline: float, now: float, period: float) -> tuple[float, float]:
