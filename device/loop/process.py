@@ -410,10 +410,10 @@ class DeviceLoop:
         self._send(Reply(command.id, not reason, reason))
 
     def _do_build(self, command: Build, after_a_tick: bool):
-        self.paused = True
         refused = learned_model_refusal(command.parameters, command.model)
         if refused:
             return refused
+        self.paused = True
         plan = TrialPlan.build(command.parameters, period_s=self.config.period_s)
         reconnect = self.state == State.CONNECTED and self.backend_config is not None and (
             command.backend != self.backend_config or command.backend.kind == "simulator")
