@@ -19,12 +19,11 @@ app.learning.closedloop).
    console's 20 rad/s and softer ones), the mean over the held-out trials of the RMS
    tracking error in x and y (mm), the worst trial's larger one, and the RMS torque per
    joint (N·m). A faulted trial is counted and left out of the means.
-4. Times the live loop's tick with a learned model (`--tick-ticks`, default one held-out
-   trial): device.loop.engine.TickEngine.step as the loop process runs it for a
-   "CT-PID (learned: …)" trial, the compiled simulator's read and write around the
-   interpreted pipeline (a learned model's controller has no compiled form), p50 / p99 /
-   max of the compute time from the sensor read to the torque written, against the 2 ms
-   period; beside it the same trial with the analytic CT-PID, interpreted and compiled.
+4. Times the live loop's tick over one held-out trial: device.loop.engine.TickEngine.step
+   as the loop process runs it on the compiled simulator, with the analytic CT-PID and
+   with a DeLaN's and an FNN's, each compiled (the loop's default; a learned model through
+   core.learning.kernel) and interpreted: p50 / p99 / max of the compute time from the
+   sensor read to the torque written, against the 2 ms period.
 """
 
 from __future__ import annotations
@@ -113,25 +112,28 @@ def main() -> None:
             else:
                 print(f"{name:<30}{'-':>7}{'-':>7}{'-':>10}{'-':>8}{'-':>8}{faults:8d}")
     print("\nthe live loop's tick (TickEngine.step on the compiled simulator), µs")
-    print(f"{'controller':<30}{'p50':>8}{'p99':>8}{'max':>9}{'of 2 ms (p99)':>15}")
+    print(f"{'controller':<36}{'p50':>8}{'p99':>8}{'max':>9}{'of 2 ms (p99)':>15}")
     trial = cl.HELD_OUT_TRIALS[1].replace(controller="ctpid")
     load_kernels(("loop",))
-    ticking = {"CT-PID nominal, compiled": None, "CT-PID nominal, interpreted": nominal,
+    ticking = {"CT-PID nominal": nominal,
                **{f"CT-PID {n}": models[n] for n in ("delan (robot)", "fnn (robot+arm)")}}
     for name, model in ticking.items():
-        controller = None if model is None else cl.ctpid(model, cl.soft_gains(20.0), nominal)
-        us = tick_costs(trial, plant, controller, nominal) * 1e6
-        p50, p99 = np.percentile(us, [50, 99])
-        print(f"{name:<30}{p50:8.0f}{p99:8.0f}{us.max():9.0f}{p99 / 2000:14.0%}")
+        for compiled in (True, False):
+            controller = cl.ctpid(model, cl.soft_gains(20.0), nominal)
+            us = tick_costs(trial, plant, controller, nominal, compiled) * 1e6
+            p50, p99 = np.percentile(us, [50, 99])
+            label = f"{name}, {'compiled' if compiled else 'interpreted'}"
+            print(f"{label:<36}{p50:8.0f}{p99:8.0f}{us.max():9.0f}{p99 / 2000:14.0%}")
     print(f"\ntotal {time.perf_counter() - started:.0f} s")
 
 
-def tick_costs(parameters, plant, controller, robot) -> np.ndarray:
-    """Compute time (s) of each tick of one trial as the loop process runs it."""
+def tick_costs(parameters, plant, controller, robot, compiled: bool) -> np.ndarray:
+    """Compute time (s) of each tick of one trial as the loop process runs it, its pipeline
+    compiled (the loop's default) or interpreted."""
     plan = TrialPlan.build(parameters, robot)
     patient = make_patient(cl.PATIENT, parameters.arm(), parameters.trajectory(), seed=0)
     backend = SimulatorBackend(patient, seed=0, plant=plant, compiled=True)
-    pipeline = TickPipeline(plan, controller=controller, compiled=controller is None)
+    pipeline = TickPipeline(plan, controller=controller, compiled=compiled)
     engine = TickEngine(backend, pipeline, SafetySupervisor(plan.robot))
     backend.open()
     reading = backend.read(0.0)

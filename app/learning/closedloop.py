@@ -111,16 +111,18 @@ class Run:
 
 
 def run_on_plant(parameters: TrialParameters, plant: Plant, controller=None, *,
-                 robot: RobotModel | None = None, seed: int = 0) -> Run:
-    """One trial on `plant` with the passive patient, headless and interpreted (a learned
-    model's controller has no compiled form), through the console's own pipeline, safety
-    supervisor and simulator. `controller` defaults to the trial's own (its `controller`
-    field) on `robot`, the controller's nominal model."""
+                 robot: RobotModel | None = None, seed: int = 0,
+                 compiled: bool = False) -> Run:
+    """One trial on `plant` with the passive patient, headless, through the console's own
+    pipeline, safety supervisor and simulator: interpreted (any controller; a learned model
+    through its numpy tick) or `compiled` (numba: the analytic controllers, and an FNN or a
+    DeLaN through core.learning.kernel). `controller` defaults to the trial's own (its
+    `controller` field) on `robot`, the controller's nominal model."""
     robot = robot or RobotModel()
     plan = TrialPlan.build(parameters, robot)
     patient = make_patient(PATIENT, parameters.arm(), parameters.trajectory(), seed=seed)
-    backend = SimulatorBackend(patient, seed=seed, plant=plant, compiled=False)
-    pipeline = TickPipeline(plan, controller=controller, compiled=False)
+    backend = SimulatorBackend(patient, seed=seed, plant=plant, compiled=compiled)
+    pipeline = TickPipeline(plan, controller=controller, compiled=compiled)
     outcome = run_trial(backend, pipeline, SafetySupervisor(plan.robot))
     return Run(outcome.records, outcome.status, outcome.fault_message)
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from core.learning import networks as nw
+from core.learning.kernel import pack
 
 
 def _softplus(x):
@@ -147,6 +148,13 @@ class LearnedInverseDynamics:
         self.tick = TickModel(spec, params)
         self.name = name
         self.content_sha256 = content_sha256
+        try:
+            weights = pack(spec, params)
+        except ValueError:  # a GRU, or a model that leaves out a joint angle
+            weights = None
+        self.kernel_weights = weights
+        """The model as the compiled loop's kernel takes it (core.learning.kernel), None
+        when it has no compiled form; then its controller runs interpreted."""
         """The model file's SHA-256 (app.learning.modelfile), what the trial file records."""
 
     def reset(self) -> None:

@@ -70,7 +70,13 @@ from device.loop.messages import (
     TrialEnded,
     TrialStarted,
 )
-from device.loop.pipeline import PERIOD_S, TickPipeline, TrialPlan, assistance_group
+from device.loop.pipeline import (
+    PERIOD_S,
+    TickPipeline,
+    TrialPlan,
+    assistance_group,
+    has_compiled_form,
+)
 from device.loop.realtime import (
     CLOCKS,
     LAST_CPU,
@@ -485,14 +491,15 @@ class DeviceLoop:
     def _new_pipeline(self) -> TickPipeline:
         controller = None
         if self.model is not None:
-            # eq. 4.8 on the learned model, with the trial's gains; it has no compiled form,
-            # so this trial's tick runs interpreted (docs/performance.md: it fits the 2 ms)
+            # eq. 4.8 on the learned model, with the trial's gains; an FNN or a DeLaN runs
+            # compiled (core.learning.kernel), another model interpreted through its step
             controller = ComputedTorquePID(
                 self.model, built("ctpid", self.plan.parameters.gains),
                 torque_limit_Nm=self.plan.robot.max_joint_torque_Nm)
         pipeline = TickPipeline(self.plan, sensor_offset_rad=self.sensor_offset_rad,
                                 controller=controller,
-                                compiled=self.config.compiled and controller is None)
+                                compiled=self.config.compiled and (
+                                    controller is None or has_compiled_form(self.model)))
         if self.assistance_level is not None:
             pipeline.set_assistance_level(self.assistance_level)
         return pipeline

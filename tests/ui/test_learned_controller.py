@@ -159,7 +159,7 @@ def test_a_trial_runs_on_a_learned_model_and_its_file_names_it(qtbot, window, mo
     # the model drove the robot: its CT-PID, replayed on the recorded ticks, gives the
     # recorded controller torque, and the analytic model's does not; the D was followed
     model = inverse_dynamics(robot_model(models, "fnn-robot"))
-    assert replayed_error(data, model) < 1e-9
+    assert replayed_error(data, model) < 1e-6  # the loop ran it compiled
     assert replayed_error(data, RobotModel()) > 1e-3
     assert trial.metrics["rmse_x_m"] < 0.01
     assert trial.metrics["rmse_y_m"] < 0.01

@@ -60,6 +60,22 @@ def test_a_learned_model_of_robot_and_arm_tracks_a_held_out_trial(nominal, plant
     assert not without_content < 0.8 * pid, (without_content, pid)
 
 
+def test_the_compiled_loop_runs_the_learned_model_as_the_interpreted_one(nominal, plant,
+                                                                        learned):
+    # the loop runs an FNN or a DeLaN compiled (core.learning.kernel), headless runs and
+    # the bench interpreted (core.learning.tick): the same trial either way
+    from device.compiled.warmup import load_kernels
+
+    load_kernels(("headless",))
+    model = LearnedInverseDynamics(learned.spec, learned.params, "fnn")
+    runs = [cl.run_on_plant(HELD_OUT, plant, cl.ctpid(model, GAINS, nominal), robot=nominal,
+                            compiled=compiled) for compiled in (False, True)]
+    assert [r.status for r in runs] == ["complete", "complete"]
+    interpreted, fast = (r.records for r in runs)
+    assert np.max(np.abs(fast["position"] - interpreted["position"])) < 1e-9  # m
+    assert np.max(np.abs(fast["torque_applied"] - interpreted["torque_applied"])) < 1e-6
+
+
 def test_the_unknown_robot_is_not_the_model(nominal, plant):
     # the comparison is worth something only if the plant differs from the nominal model
     # in what eq. 4.9 leaves to learn: friction, stiffness, drive delay
