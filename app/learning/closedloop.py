@@ -112,28 +112,29 @@ class Run:
 
 def run_on_plant(parameters: TrialParameters, plant: Plant, controller=None, *,
                  robot: RobotModel | None = None, seed: int = 0,
-                 compiled: bool = False) -> Run:
+                 compiled: bool = False, patient: str = PATIENT) -> Run:
     """One trial on `plant` with the passive patient, headless, through the console's own
     pipeline, safety supervisor and simulator: interpreted (any controller; a learned model
     through its numpy tick) or `compiled` (numba: the analytic controllers, and an FNN or a
     DeLaN through core.learning.kernel). `controller` defaults to the trial's own (its
-    `controller` field) on `robot`, the controller's nominal model."""
+    `controller` field) on `robot`, the controller's nominal model; `patient` is the
+    virtual patient's kind (device.sim.patients)."""
     robot = robot or RobotModel()
     plan = TrialPlan.build(parameters, robot)
-    patient = make_patient(PATIENT, parameters.arm(), parameters.trajectory(), seed=seed)
-    backend = SimulatorBackend(patient, seed=seed, plant=plant, compiled=compiled)
+    subject = make_patient(patient, parameters.arm(), parameters.trajectory(), seed=seed)
+    backend = SimulatorBackend(subject, seed=seed, plant=plant, compiled=compiled)
     pipeline = TickPipeline(plan, controller=controller, compiled=compiled)
     outcome = run_trial(backend, pipeline, SafetySupervisor(plan.robot))
     return Run(outcome.records, outcome.status, outcome.fault_message)
 
 
 def training_runs(plant: Plant, trials: Sequence[TrialParameters] = TRAINING_TRIALS, *,
-                  robot: RobotModel | None = None) -> list[Run]:
+                  robot: RobotModel | None = None, patient: str = PATIENT) -> list[Run]:
     """`trials` run on `plant` by their own controller (the sliding-mode one by default),
     each with its own sensor-noise seed; refused if one faults (no data to learn from)."""
     runs = []
     for index, parameters in enumerate(trials):
-        run = run_on_plant(parameters, plant, robot=robot, seed=index)
+        run = run_on_plant(parameters, plant, robot=robot, seed=index, patient=patient)
         if run.status != "complete":
             raise RuntimeError(f"training trial {index} ({describe(parameters)}) faulted: "
                                f"{run.fault}")
