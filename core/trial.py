@@ -275,12 +275,13 @@ def check_trial(
     )
 
 
-_MODEL_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}")
+MODEL_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}")
+"""What a learned model's name may be (a trial's `learned_model`, a model file's stem)."""
 _SHA256 = re.compile(r"[0-9a-f]{64}")
 
 
 def _learned_model(controller: str, name: object, sha256: object) -> None:
-    if not isinstance(name, str) or (name and not _MODEL_NAME.fullmatch(name)):
+    if not isinstance(name, str) or (name and not MODEL_NAME.fullmatch(name)):
         raise ParameterError("learned_model", name, "a model file's name: letters, digits, "
                              ". _ -, at most 100", "the name of a file in the models folder")
     if name and controller != "ctpid":

@@ -17,6 +17,7 @@ from pathlib import Path
 from app.learning.modelfile import ModelFile, ModelFileError, read_model
 from app.learning.workflow import ROBOT_SYSTEM_PREFIX
 from core.learning.tick import LearnedInverseDynamics
+from core.trial import MODEL_NAME
 
 SUFFIX = ".json"
 CONTROL_KINDS = ("delan", "fnn")
@@ -24,11 +25,14 @@ CONTROL_KINDS = ("delan", "fnn")
 
 
 def model_names(folder: str | Path) -> list[str]:
-    """The names of the model files in `folder` (none when it does not exist), sorted."""
+    """The names of the model files in `folder` (none when it does not exist), sorted; a
+    file whose stem is no model name (core.trial.MODEL_NAME: letters, digits, . _ -) is
+    left out, as a trial could not name it."""
     folder = Path(folder)
     if not folder.is_dir():
         return []
-    return sorted(p.stem for p in folder.iterdir() if p.suffix == SUFFIX and p.is_file())
+    return sorted(p.stem for p in folder.iterdir()
+                  if p.suffix == SUFFIX and p.is_file() and MODEL_NAME.fullmatch(p.stem))
 
 
 def model_path(folder: str | Path, name: str) -> Path:

@@ -35,6 +35,7 @@ def test_the_folder_lists_its_model_files_by_name(tmp_path):
     save(folder, "fnn-b")
     save(folder, "delan-a", "delan")
     (folder / "notes.txt").write_text("not a model")
+    save(folder, "with space")  # no trial could name it
     (folder / "sub.json").mkdir()
     assert model_names(folder) == ["delan-a", "fnn-b"]
 
