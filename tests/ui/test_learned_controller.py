@@ -70,6 +70,9 @@ def models(tmp_path):
     document["weights"]["net.1.b"]["values"][0] += 0.5  # a weight changed by hand
     (folder / "edited.json").write_text(json.dumps(document))
     write_model(folder / "deleted.json", "deleted", spec, params, ROBOT_DATA, {}, {})
+    gru = {**spec, "kind": "rnn", "hidden": [4]}
+    write_model(folder / "gru.json", "gru", gru,
+                {k: np.zeros(s) for k, s in nw.param_shapes(gru).items()}, ROBOT_DATA, {}, {})
     return folder
 
 
@@ -111,7 +114,7 @@ def test_saved_models_appear_and_bad_ones_refuse_the_build(qtbot, window, models
     labels = [p.controller.itemText(i) for i in range(p.controller.count())]
     assert labels == ["Sliding mode (SMC)", "Computed-torque PID",
                       *(f"CT-PID (learned: {n})" for n in
-                        ("deleted", "edited", "fnn-robot", "pendulum", "three-joints"))]
+                        ("deleted", "edited", "fnn-robot", "gru", "pendulum", "three-joints"))]
     short_trial(win)
 
     # the file went after it was listed: the choice stays, the Build says it is missing
@@ -124,6 +127,8 @@ def test_saved_models_appear_and_bad_ones_refuse_the_build(qtbot, window, models
         qtbot, win, "CT-PID (learned: pendulum)", "system")
     assert "the model takes 3 coordinates, the robot has 2 joints" in refused(
         qtbot, win, "CT-PID (learned: three-joints)", "input size")
+    assert "a rnn model cannot drive the robot" in refused(
+        qtbot, win, "CT-PID (learned: gru)", "kind")
     # a model saved while the console runs appears when the Parameters tab is shown again
     spec, params = fitted_fnn(RobotModel(), hidden=8)
     write_model(models / "later.json", "later", spec, params, ROBOT_DATA, {}, {})
