@@ -423,6 +423,32 @@ def has_compiled_form(model) -> bool:
     return getattr(model, "kernel_weights", None) is not None
 
 
+def learned_controller(model, plan: TrialPlan) -> ComputedTorquePID:
+    """The computed-torque PID (eq. 4.8) of a trial that names a learned model: `model`
+    (core.learning.tick.LearnedInverseDynamics) in place of M, C and f, the trial's ctpid
+    gains, the robot's drive limits."""
+    return ComputedTorquePID(model, built("ctpid", plan.parameters.gains),
+                             torque_limit_Nm=plan.robot.max_joint_torque_Nm)
+
+
+def learned_model_refusal(parameters: TrialParameters, model) -> str:
+    """Why a learned model given with a trial does not fit its parameters ("" when it
+    does): the parameters name a model (`learned_model`, `learned_model_sha256`) and the
+    very one, checked (app.learning.library), comes with them, or neither."""
+    name, sha = parameters.learned_model, parameters.learned_model_sha256
+    if model is None:
+        return (f"the trial names the learned model '{name}' but none was given with it; "
+                "build the trial again") if name else ""
+    if not name:
+        return "a learned model was given for a trial that names none; build the trial again"
+    if getattr(model, "name", None) != name or getattr(model, "content_sha256", None) != sha:
+        return (f"the learned model given is not '{name}' with hash {sha[:12] or '(none)'}; "
+                "build the trial again")
+    if not callable(getattr(model, "inverse_dynamics_terms", None)):
+        return "the learned model given has no inverse dynamics; build the trial again"
+    return ""
+
+
 def _python(values):
     return list(values)
 

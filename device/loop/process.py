@@ -46,8 +46,6 @@ import time
 from dataclasses import dataclass
 from multiprocessing.connection import Connection
 
-from core.control.ctpid import ComputedTorquePID
-from core.control.gains import built
 from core.errors import ParameterError
 from device.backend import REAL_TIME, SIMULATED, Backend, SensorReading
 from device.errors import BackendError, DeviceError, StateError
@@ -76,6 +74,8 @@ from device.loop.pipeline import (
     TrialPlan,
     assistance_group,
     has_compiled_form,
+    learned_controller,
+    learned_model_refusal,
 )
 from device.loop.realtime import (
     CLOCKS,
@@ -418,7 +418,7 @@ class DeviceLoop:
     def _do_build(self, command: Build, after_a_tick: bool):
         refused = learned_model_refusal(command.parameters, command.model)
         if refused:
-            return refused
+            return f"build refused: {refused}"
         self.paused = True
         plan = TrialPlan.build(command.parameters, period_s=self.config.period_s)
         reconnect = self.state == State.CONNECTED and self.backend_config is not None and (
@@ -491,11 +491,9 @@ class DeviceLoop:
     def _new_pipeline(self) -> TickPipeline:
         controller = None
         if self.model is not None:
-            # eq. 4.8 on the learned model, with the trial's gains; an FNN or a DeLaN runs
-            # compiled (core.learning.kernel), another model interpreted through its step
-            controller = ComputedTorquePID(
-                self.model, built("ctpid", self.plan.parameters.gains),
-                torque_limit_Nm=self.plan.robot.max_joint_torque_Nm)
+            # an FNN or a DeLaN runs compiled (core.learning.kernel), another model
+            # interpreted through its step
+            controller = learned_controller(self.model, self.plan)
         pipeline = TickPipeline(self.plan, sensor_offset_rad=self.sensor_offset_rad,
                                 controller=controller,
                                 compiled=self.config.compiled and (
@@ -585,24 +583,6 @@ _HANDLERS = {
     Command.SHUTDOWN: DeviceLoop._do_shutdown,
 }
 """What each command does; where it leads is device.loop.states.TRANSITIONS."""
-
-
-def learned_model_refusal(parameters, model) -> str:
-    """Why a Build's learned model does not fit its parameters ("" when it does): the
-    parameters name a model (`learned_model`, `learned_model_sha256`) and the console sends
-    the very one, checked (app.learning.library), or neither."""
-    name, sha = parameters.learned_model, parameters.learned_model_sha256
-    if model is None:
-        return (f"build refused: the trial names the learned model '{name}' but the console "
-                "sent none; build it again from the Parameters tab") if name else ""
-    if not name:
-        return "build refused: a learned model was sent for a trial that names none"
-    if getattr(model, "name", None) != name or getattr(model, "content_sha256", None) != sha:
-        return (f"build refused: the learned model sent is not '{name}' with hash "
-                f"{sha[:12] or '(none)'}; build it again from the Parameters tab")
-    if not callable(getattr(model, "inverse_dynamics_terms", None)):
-        return "build refused: the learned model has no inverse dynamics"
-    return ""
 
 
 def _next_deadline(deadline: float, now: float, period: float) -> tuple[float, float]:

@@ -466,7 +466,8 @@ def test_a_build_with_a_learned_model_it_does_not_name_is_refused(client):
                            learned_model_sha256="a" * 64)
     reply = client.build(named)
     assert not reply.ok
-    assert "names the learned model 'fnn-robot' but the console sent none" in reply.message
+    assert ("build refused: the trial names the learned model 'fnn-robot' but none was given"
+            in reply.message)
     spec = {"kind": "fnn", "dof": 2, "hidden": [2], "position_inputs": [0, 1],
             "input_mean": [0.0] * 6, "input_std": [1.0] * 6, "output_mean": [0.0] * 2,
             "output_std": [1.0] * 2}
@@ -475,7 +476,7 @@ def test_a_build_with_a_learned_model_it_does_not_name_is_refused(client):
     other = LearnedInverseDynamics(spec, params, "fnn-robot", content_sha256="b" * 64)
     reply = client.build(named, model=other)
     assert not reply.ok
-    assert "is not 'fnn-robot' with hash aaaaaaaaaaaa" in reply.message
+    assert "the learned model given is not 'fnn-robot' with hash aaaaaaaaaaaa" in reply.message
     reply = client.build(PARAMS, model=other)
     assert not reply.ok
-    assert "a learned model was sent for a trial that names none" in reply.message
+    assert "a learned model was given for a trial that names none" in reply.message

@@ -235,3 +235,18 @@ def test_train_writes_into_the_data_folders_models_by_default(trials, tmp_path, 
     code, _, err = run([*args, "--name", "my model"], capsys)
     assert code == 2
     assert "is not a model name" in err
+    # a headless trial on it: its file names the model and its hash
+    from app.learning.modelfile import read_model
+    from app.trials.reader import read_trial
+
+    trial = tmp_path / "t.h5"
+    code, out, err = run(["run", "--learned-model", "fnn-r", "--repetitions", "1",
+                          "--output", str(trial)], capsys)
+    assert code == 0, err
+    parameters = read_trial(trial).parameters
+    assert (parameters.controller, parameters.learned_model) == ("ctpid", "fnn-r")
+    assert parameters.learned_model_sha256 == read_model(folder / "fnn-r.json").content_sha256
+    code, _, err = run(["run", "--learned-model", "nothing", "--output",
+                        str(tmp_path / "u.h5")], capsys)
+    assert code == 2
+    assert "nothing.json: missing: no such file" in err
