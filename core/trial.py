@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -101,6 +102,13 @@ class TrialParameters:
     gains: str = ""
     """Changes to the controller's and the guidance's default gains, one line such as
     "smc.lambda_1_s=25; guidance.delay_s=0.5" (core.control.gains), kept canonical."""
+    learned_model: str = ""
+    """The learned model (chapter 4) the computed-torque PID runs on in place of the
+    analytic M, C and f: a model file's name in the data folder's models/ (app.learning.
+    library), "" for the analytic model. Only with controller "ctpid"."""
+    learned_model_sha256: str = ""
+    """The content hash of that model file as the trial used it (set when the trial is
+    built; "" while it is only chosen)."""
 
     def __post_init__(self) -> None:
         _choice("shape", self.shape, SHAPES)
@@ -137,6 +145,7 @@ class TrialParameters:
                     "the channel alone), 1 = full help")
         if not isinstance(self.clockwise, bool):
             raise ParameterError("clockwise", self.clockwise, "True or False")
+        _learned_model(self.controller, self.learned_model, self.learned_model_sha256)
         if self.gains != "":
             # imported here: core.control builds on this module
             from core.control.gains import canonical_gains
@@ -298,6 +307,27 @@ def check_trial(
         parameters, points, robot_ok, arm_ok, tuple(problems), robot_angles, isb,
         distance, trajectory.path.length, peak, arm,
     )
+
+
+MODEL_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}")
+"""What a learned model's name may be (a trial's `learned_model`, a model file's stem)."""
+_SHA256 = re.compile(r"[0-9a-f]{64}")
+
+
+def _learned_model(controller: str, name: object, sha256: object) -> None:
+    if not isinstance(name, str) or (name and not MODEL_NAME.fullmatch(name)):
+        raise ParameterError("learned_model", name, "a model file's name: letters, digits, "
+                             ". _ -, at most 100", "the name of a file in the models folder")
+    if name and controller != "ctpid":
+        raise ParameterError("learned_model", name, "empty with controller " + repr(controller),
+                             "a learned model stands in for M, C and f of the computed-torque "
+                             "PID (controller 'ctpid') only")
+    if not isinstance(sha256, str) or (sha256 and not _SHA256.fullmatch(sha256)):
+        raise ParameterError("learned_model_sha256", sha256, "64 lower-case hex digits or "
+                             "empty", "the model file's SHA-256")
+    if sha256 and not name:
+        raise ParameterError("learned_model_sha256", sha256, "empty without a learned_model",
+                             "a hash belongs to a model")
 
 
 def _choice(name: str, value: object, allowed: tuple[str, ...]) -> None:

@@ -104,8 +104,9 @@ class DeviceBridge(QObject):
 
     # ------------------------------------------------------------------ commands
     def build(self, parameters: TrialParameters, backend: BackendConfig,
-              limits: SafetyLimits | None = None) -> None:
-        self._calls.put(_Call("build", (parameters, backend, limits)))
+              limits: SafetyLimits | None = None, model=None) -> None:
+        """`model`: the learned model the parameters name (device.loop.messages.Build)."""
+        self._calls.put(_Call("build", (parameters, backend, limits, 30.0, model)))
 
     def connect(self) -> None:
         self._calls.put(_Call("connect", ()))

@@ -130,6 +130,7 @@ class MainWindow(QMainWindow):
         self.instructions = InstructionsTab()
         self.registration_tab = RegistrationTab(self.registry)
         self.parameters_tab = ParametersTab()
+        self.refresh_learned_models()
         self.trajectory = TrajectoryTab()
         self.force = ForceTab()
         self.angles = AnglesTab()
@@ -244,6 +245,8 @@ class MainWindow(QMainWindow):
         self.tabs.currentChanged.connect(lambda _i: self._show_current())
         self.emg.said.connect(lambda text, problem: self._say(text, problem))
         self.emg.mvc_recorded.connect(self._store_session_mvcs)
+        # a model saved while the console runs appears when the Parameters tab is shown
+        self.tabs.currentChanged.connect(self._tab_shown)
 
     def start_device(self) -> None:
         """Start the loop processes and the timers (after the window is shown)."""
@@ -266,14 +269,42 @@ class MainWindow(QMainWindow):
             self._say(f"Build refused: {exc}", problem=True)
             self.tabs.setCurrentWidget(self.parameters_tab)
             return
+        model = None
+        if params.learned_model:
+            # the model file is read and checked here, at each Build: missing, corrupt
+            # (hash), another system's or size's model is refused with its reason
+            from app.learning.library import inverse_dynamics, robot_model
+            from app.learning.modelfile import ModelFileError
+
+            try:
+                checked = robot_model(self.registry.data_dir.models_dir, params.learned_model)
+            except ModelFileError as exc:
+                self._say(f"Build refused: {exc}", problem=True)
+                self.tabs.setCurrentWidget(self.parameters_tab)
+                return
+            params = params.replace(learned_model_sha256=checked.content_sha256)
+            model = inverse_dynamics(checked)
         choice = self.parameters_tab.backend()
         if choice.name == HARDWARE:
             backend = BackendConfig(kind="quanser", hardware_settings=str(choice.settings_path))
         else:
             backend = BackendConfig(patient=choice.patient_kind or "healthy")
         self._pending_build = params
-        self.bridge.build(params, backend)
+        if model is None:
+            self.bridge.build(params, backend)
+        else:
+            self.bridge.build(params, backend, model=model)
         self._say("Building the trial…")
+
+    def _tab_shown(self, _index: int) -> None:
+        if self.tabs.currentWidget() is self.parameters_tab:
+            self.refresh_learned_models()
+
+    def refresh_learned_models(self) -> None:
+        """Offer the model files in the data folder's models/ in the controller choice."""
+        from app.learning.library import model_names
+
+        self.parameters_tab.set_learned_models(model_names(self.registry.data_dir.models_dir))
 
     def start_trial(self) -> None:
         if self.patient is None or self.registration is None:

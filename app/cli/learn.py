@@ -65,7 +65,10 @@ def add_learn_commands(commands) -> None:
                        help="fnn: feed-forward network; rnn: GRU; delan: Deep Lagrangian "
                             "Network with a learned dissipative term")
     train.add_argument("--data", required=True, help="dynamics data file (HDF5)")
-    train.add_argument("--output", required=True, help="model file to write (JSON)")
+    train.add_argument("--output", help="model file to write (JSON; default: the data "
+                                        "folder's models/NAME.json, where the Parameters "
+                                        "tab offers a robot model as 'CT-PID (learned: "
+                                        "NAME)')")
     train.add_argument("--hidden", type=_layers, metavar="N[,N…]",
                        help="hidden layer sizes (default fnn 24,24; rnn 12; delan 16,16)")
     train.add_argument("--epochs", type=_whole, default=100, help="at most (default 100)")
@@ -89,7 +92,8 @@ def add_learn_commands(commands) -> None:
                        help="DeLaN: unit of its Cholesky factor, of the order of √ of the "
                             "mass matrix's entries (default 3, for the pendulum; 0.5 for "
                             "the robot)")
-    train.add_argument("--name", help="the model's name (default: the output file's stem)")
+    train.add_argument("--name", help="the model's name (default: the output file's stem; "
+                                      "without --output, MODEL-DATA from the two files)")
     train.set_defaults(func=cmd_train)
 
     evaluate = actions.add_parser(
@@ -144,9 +148,24 @@ def cmd_train(args: argparse.Namespace) -> int:
                "seed": args.seed, "mass_scale": args.mass_scale}
     if args.hidden:
         options["hidden"] = args.hidden
+    output, name = args.output and absolute(args.output), args.name
+    if output is None:
+        from pathlib import Path
+
+        from app.records.datadir import locate_data_dir
+        from core.trial import MODEL_NAME
+
+        name = name or f"{args.model}-{Path(args.data).stem}"
+        if not MODEL_NAME.fullmatch(name):
+            raise CommandError(f"--name {name!r} is not a model name: letters, digits, . _ - "
+                               "(at most 100), so that a trial can name it")
+        output = locate_data_dir().ensure("models") / f"{name}.json"
+        if output.exists():
+            raise CommandError(f"{output} already exists; give another --name, or --output "
+                               "to replace a file")
     bar = progress_bar(f"training {args.model}")
-    trained = train_file(absolute(args.data), absolute(args.output), args.model,
-                         cyclic=args.cyclic, name=args.name,
+    trained = train_file(absolute(args.data), output, args.model,
+                         cyclic=args.cyclic, name=name,
                          progress=bar.update if bar else None, **options)
     if bar:
         bar.done()

@@ -42,6 +42,10 @@ def add_run_command(commands) -> None:
                               "friction, stiffness, drive gain and a 2 ms drive delay drawn "
                               "by the seed around the controller's model; ideal: the model "
                               "itself")
+    run_cmd.add_argument("--learned-model", metavar="NAME",
+                         help="run the computed-torque PID on this learned model, a file "
+                              "NAME.json in the data folder's models/ (`rehab learn train` "
+                              "writes there), checked as the Parameters tab's Build checks it")
     run_cmd.set_defaults(func=cmd_run)
 
 
@@ -54,6 +58,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     from app.trials.headless import simulate_to_file
 
     params = trial_from_args(args)
+    model = None
+    if args.learned_model:
+        params, model = _with_learned_model(params, args.learned_model)
     if args.as_proposed and not args.code:
         raise CommandError("--as-proposed needs --code: a proposal belongs to a patient")
     begun = None
@@ -85,7 +92,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         trial, analysis, problem = simulate_to_file(
             params, path, subject_code=args.code or "SIM", patient=args.patient,
             seed=args.seed, progress=bar.update if bar else None, engine=args.engine,
-            plant=args.plant)
+            plant=args.plant, model=model)
     except (DeviceError, AppError, OSError) as exc:
         if bar:
             bar.done()
@@ -128,6 +135,23 @@ def cmd_run(args: argparse.Namespace) -> int:
         if event["kind"] == "fault":
             print(f"  fault at {event['time_s']:.3f} s: {event['message']}")
     return EXIT_OK
+
+
+def _with_learned_model(params, name: str):
+    """`params` on the computed-torque PID with the learned model `name` (its hash set),
+    and the model, read from the data folder's models/ and checked (app.learning.library);
+    ModelFileError (one line, its reason) otherwise."""
+    from app.learning.library import inverse_dynamics, robot_model
+    from app.records.datadir import locate_data_dir
+    from core.trial import MODEL_NAME
+
+    if not MODEL_NAME.fullmatch(name):
+        raise CommandError(f"--learned-model {name!r} is not a model name: letters, digits, "
+                           ". _ - (the stem of a file in the data folder's models/)")
+    checked = robot_model(locate_data_dir().models_dir, name)
+    params = params.replace(controller="ctpid", learned_model=name,
+                            learned_model_sha256=checked.content_sha256)
+    return params, inverse_dynamics(checked)
 
 
 def _as_proposed(registry, code: str, params):

@@ -30,7 +30,7 @@ FORMAT_VERSION = 1
 
 class ModelFileError(AppError):
     """A model file cannot be used; `reason` names the fault: `missing`, `format`,
-    `content hash`, `input size`, `system`."""
+    `content hash`, `input size`, `system`, and for control (app.learning.library) `kind`."""
 
     def __init__(self, path: object, reason: str, problem: str, advice: str) -> None:
         self.path, self.reason = path, reason

@@ -134,9 +134,36 @@ def evaluate_file(model_path: str | Path, data_path: str | Path,
                       model.parameters, len(part), int(np.unique(part.cycle).size), which)
 
 
+ROBOT_SYSTEM_PREFIX = "rehab-robot"
+"""What the `system` of robot data begins with (`robot_dataset` names it
+rehab-robot-<backend>): a model trained on such data is a model of the robot."""
 ROBOT_COORDINATES = ("theta_R1", "theta_R2")
 ROBOT_FORCES = ("tau_R1", "tau_R2")
 EXERCISE_PHASE = 2  # the `phase` channel: 2 while the exercise runs (docs/data-format.md)
+
+
+def robot_samples(channels, robot, *, acceleration: str = "desired",
+                  without_hand_force: bool = False):
+    """One trial's exercise samples (q, qd, qdd, tau), each (N, 2), from its channels by
+    record name (a trial file's, or a headless run's records): see `robot_dataset`.
+    Samples with a missing value are left out."""
+    if acceleration not in ("desired", "estimated"):
+        raise DatasetError("", f"acceleration {acceleration!r} is neither 'desired' nor "
+                           "'estimated'", "Choose one.")
+    rows = np.asarray(channels["phase"]) == EXERCISE_PHASE
+    if not rows.any():
+        raise DatasetError("", "has no exercise samples", "Give a trial that ran.")
+    q, qd = channels["robot_angle"][rows], channels["robot_rate"][rows]
+    qdd = channels["robot_acceleration_desired" if acceleration == "desired"
+                   else "robot_acceleration"][rows]
+    tau = np.array(channels["torque_applied"][rows], dtype=float)
+    if without_hand_force:
+        # eq. 3.26: τ_R = M θ̈ + h − J_Rᵀ F, so the robot alone would have needed
+        # τ_R + J_Rᵀ F (J_Rᵀ F of eq. 3.34, the hand's force on the handle)
+        F = channels["force"][rows]
+        tau += np.stack(robot.joint_torque_terms(q[:, 0], q[:, 1], F[:, 0], F[:, 1]), axis=-1)
+    keep = np.all(np.isfinite(np.hstack([q, qd, qdd, tau])), axis=1)
+    return q[keep], qd[keep], qdd[keep], tau[keep]
 
 
 def robot_dataset(trial_paths: Sequence[str | Path], *, acceleration: str = "desired",
@@ -158,24 +185,14 @@ def robot_dataset(trial_paths: Sequence[str | Path], *, acceleration: str = "des
     parts, systems = [], set()
     for index, path in enumerate(trial_paths):
         trial = read_trial(path)
-        c = trial.channels
-        rows = c["phase"] == EXERCISE_PHASE
-        if not rows.any():
-            raise DatasetError(path, "has no exercise samples", "Give a trial that ran.")
-        q, qd = c["robot_angle"][rows], c["robot_rate"][rows]
-        qdd = c["robot_acceleration_desired" if acceleration == "desired"
-                else "robot_acceleration"][rows]
-        tau = c["torque_applied"][rows].copy()
-        if without_hand_force:
-            # eq. 3.26: τ_R = M θ̈ + h − J_Rᵀ F, so the robot alone would have needed
-            # τ_R + J_Rᵀ F (J_Rᵀ F of eq. 3.34, the hand's force on the handle)
-            F = c["force"][rows]
-            tau += np.stack(robot.joint_torque_terms(q[:, 0], q[:, 1], F[:, 0], F[:, 1]),
-                            axis=-1)
-        keep = np.all(np.isfinite(np.hstack([q, qd, qdd, tau])), axis=1)
-        parts.append((q[keep], qd[keep], qdd[keep], tau[keep], np.full(keep.sum(), index)))
+        try:
+            q, qd, qdd, tau = robot_samples(trial.channels, robot, acceleration=acceleration,
+                                            without_hand_force=without_hand_force)
+        except DatasetError as exc:
+            raise DatasetError(path, exc.problem, exc.advice) from None
+        parts.append((q, qd, qdd, tau, np.full(len(q), index)))
         systems.add(trial.backend.split(" (")[0])
-    name = system or "rehab-robot-" + "-".join(sorted(systems))
+    name = system or f"{ROBOT_SYSTEM_PREFIX}-" + "-".join(sorted(systems))
     arrays = [np.concatenate([p[i] for p in parts]) for i in range(5)]
     description = {"trials": [Path(p).name for p in trial_paths], "acceleration": acceleration,
                    "without_hand_force": without_hand_force}

@@ -18,6 +18,8 @@ Layout inside it::
     reports/<code>/...                one per trial, named like its trial file
     exports/                          CSV, .mat and bundles for researchers
     logs/rehab-console-2024-05-01.log one per day (app.records.logs)
+    models/<name>.json                learned robot models the CT-PID may run on
+                                      (app.learning.library; made when first needed)
 
 Every file name is built from the patient's pseudonymous code, the session and
 trial numbers and a UTC time — never from a name, which lives only in the
@@ -51,6 +53,7 @@ PRIVATE_FILE = 0o600
 data goes)."""
 EXPORTS = "exports"
 LOGS = "logs"
+MODELS = "models"
 LAYOUT = (TRIALS, REPORTS, EXPORTS, LOGS)
 TRIAL_SUFFIX = ".h5"
 
@@ -152,6 +155,10 @@ class DataDir:
     @property
     def logs_dir(self) -> Path:
         return self.root / LOGS
+
+    @property
+    def models_dir(self) -> Path:
+        return self.root / MODELS
 
     def ensure(self, *parts: str) -> Path:
         """Create root/parts (and any parent) if missing, check it is writable, return it."""

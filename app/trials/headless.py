@@ -27,7 +27,15 @@ from core.robot import RobotModel
 from core.trial import TrialParameters, check_trial
 from device.compiled.warmup import load_kernels
 from device.loop.engine import Sink, run_trial
-from device.loop.pipeline import PERIOD_S, TickPipeline, TrialPlan, assistance_group
+from device.loop.pipeline import (
+    PERIOD_S,
+    TickPipeline,
+    TrialPlan,
+    assistance_group,
+    has_compiled_form,
+    learned_controller,
+    learned_model_refusal,
+)
 from device.recording.trialfile import SubjectInfo, TrialFileWriter
 from device.safety.supervisor import SafetySupervisor
 from device.sim.simulator import SimulatorBackend
@@ -84,6 +92,7 @@ def simulate(
     plant: str = "realistic",
     guidance: GuidanceGains | None = None,
     sink: Sink | None = None,
+    model=None,
 ) -> SimulatedTrial:
     """Run a trial on the simulator with a virtual patient of kind `patient`.
 
@@ -99,19 +108,27 @@ def simulate(
     the controller's model, or "ideal", the model itself. `guidance` sets the as-needed
     mode's gains (core.control.guidance; its defaults otherwise). With a `sink`, the
     records go to it block by block (device.loop.engine.run_trial) and the result holds
-    none: `simulate_to_file` uses it so a long trial's memory stays flat.
+    none: `simulate_to_file` uses it so a long trial's memory stays flat. `model` is the
+    learned model the parameters name (`learned_model`; app.learning.library checks it):
+    the computed-torque PID runs on it, compiled for an FNN or a DeLaN.
     """
     if engine not in ENGINES:
         raise ParameterError("engine", engine, "one of " + ", ".join(ENGINES))
     plan = TrialPlan.build(parameters, robot)
-    compiled = engine != "python"
+    refused = learned_model_refusal(parameters, model)
+    if refused:
+        raise ParameterError("model", getattr(model, "name", None), "the model the trial "
+                             "names", refused)
+    controller = None if model is None else learned_controller(model, plan)
+    # a learned model without a compiled form (a GRU) runs interpreted through its step
+    compiled = engine != "python" and (model is None or has_compiled_form(model))
     # load the compiled kernels before anything is timed (from the cache: a fraction of a s)
     load_s = load_kernels(("headless",)) if compiled else 0.0
     backend = SimulatorBackend.from_trial(
         parameters, patient, seed=seed, robot=plan.robot, patient_options=patient_options,
         compiled=compiled, plant=plant,
     )
-    pipeline = TickPipeline(plan, compiled=compiled, guidance=guidance)
+    pipeline = TickPipeline(plan, compiled=compiled, guidance=guidance, controller=controller)
     supervisor = SafetySupervisor(plan.robot)
     started = time.perf_counter()
     outcome = run_trial(backend, pipeline, supervisor, progress, sink)

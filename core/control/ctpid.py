@@ -173,8 +173,12 @@ class ComputedTorquePID:
         return (z[I_INT1], z[I_INT2], int(z[I_SAT1]), int(z[I_SAT2]))
 
     def reset(self) -> None:
-        """Zero the integral and forget the saturation state."""
+        """Zero the integral and forget the saturation state (and a model's own state: a
+        recurrent model starts each trial from its zero state)."""
         self._state[:] = (0.0, 0.0, 0.0, 0.0)
+        reset_model = getattr(self._model, "reset", None)
+        if callable(reset_model):
+            reset_model()
 
     def step(self, dt_s, q1, q2, qd1, qd2, r1, r2, rd1, rd2, rdd1, rdd2):
         """Joint torques (N·m) of eq. 4.8 for one tick, limited to `torque_limit_Nm`."""
@@ -247,3 +251,20 @@ def ctpid_torques(robot, gains, z, dt_s, q1, q2, qd1, qd2, r1, r2, rd1, rd2, rdd
                                 rdd2)
     tau1, tau2 = inverse_dynamics_terms(robot, q1, q2, qd1, qd2, a1, a2, 0.0, 0.0)
     return ctpid_limit(gains, z, tau1, tau2)
+
+
+class DiagonalInertia:
+    """No model: eq. 4.8 with M held at its diagonal at one posture and C = f = 0, so the
+    law is a plain PID per joint whose torque gains are the acceleration gains times that
+    joint's inertia (kp·m_ii N·m/rad, …): the "PID alone" chapter 4's models are compared
+    with, tuned by the same gains as the computed-torque PID."""
+
+    __slots__ = ("inertia_kgm2", "max_joint_torque_Nm")
+
+    def __init__(self, robot, q_rad) -> None:
+        M = robot.mass_matrix(q_rad)
+        self.inertia_kgm2 = (float(M[0, 0]), float(M[1, 1]))
+        self.max_joint_torque_Nm = robot.max_joint_torque_Nm
+
+    def inverse_dynamics_terms(self, q1, q2, qd1, qd2, qdd1, qdd2, fx=0.0, fy=0.0):
+        return (self.inertia_kgm2[0] * qdd1, self.inertia_kgm2[1] * qdd2)

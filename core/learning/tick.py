@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from core.learning import networks as nw
+from core.learning.kernel import pack
 
 
 def _softplus(x):
@@ -136,14 +137,29 @@ class LearnedInverseDynamics:
     """A trained model of a 2-joint robot in place of M, C and f in the computed-torque PID
     (eq. 4.8, core.control.ctpid): `inverse_dynamics_terms(θ1, θ2, θ̇1, θ̇2, a1, a2)` is the
     model's torque for the commanded acceleration a. A recurrent model is stepped once a
-    call, so one controller owns it. `name` is what the console shows: "learned: <name>"."""
+    call, so one controller owns it. `name` is what the console shows: "learned: <name>".
+    It pickles (plain dicts and arrays): the console sends it to the loop process."""
 
-    def __init__(self, spec: dict, params: dict, name: str = "model") -> None:
+    def __init__(self, spec: dict, params: dict, name: str = "model",
+                 content_sha256: str = "") -> None:
         if spec["dof"] != 2:
             raise ValueError(f"a model of {spec['dof']} coordinates cannot drive the 2-joint "
                              "robot")
         self.tick = TickModel(spec, params)
         self.name = name
+        self.content_sha256 = content_sha256
+        try:
+            weights = pack(spec, params)
+        except ValueError:  # a GRU, or a model that leaves out a joint angle
+            weights = None
+        self.kernel_weights = weights
+        """The model as the compiled loop's kernel takes it (core.learning.kernel), None
+        when it has no compiled form; then its controller runs interpreted."""
+        """The model file's SHA-256 (app.learning.modelfile), what the trial file records."""
+
+    def reset(self) -> None:
+        """A recurrent model's state back to zero (the controller's reset, each trial)."""
+        self.tick.reset()
 
     def inverse_dynamics_terms(self, q1, q2, qd1, qd2, qdd1, qdd2):
         tau = self.tick.forces(np.array([q1, q2]), np.array([qd1, qd2]),

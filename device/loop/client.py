@@ -194,9 +194,11 @@ class DeviceClient:
                 return reply
 
     def build(self, parameters: TrialParameters, backend: BackendConfig | None = None,
-              limits: SafetyLimits | None = None, timeout: float = 30.0) -> Reply:
+              limits: SafetyLimits | None = None, timeout: float = 30.0,
+              model=None) -> Reply:
+        """Build a trial; `model` is the learned model its parameters name (Build.model)."""
         return self.request(Build(next(self._ids), parameters, backend or BackendConfig(),
-                                  limits), timeout)
+                                  limits, model), timeout)
 
     def connect(self, timeout: float = 30.0) -> Reply:
         return self.request(Connect(next(self._ids)), timeout)

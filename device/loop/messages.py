@@ -59,10 +59,16 @@ class BackendConfig:
 # ------------------------------------------------------------------ commands
 @dataclass(frozen=True, slots=True)
 class Build:
+    """Build a trial. `model` is the learned model the trial's parameters name
+    (`learned_model`, its hash `learned_model_sha256`): a core.learning.tick.
+    LearnedInverseDynamics the console read and checked (app.learning.library), None for
+    the analytic model."""
+
     id: int
     parameters: TrialParameters
     backend: BackendConfig = field(default_factory=BackendConfig)
     limits: SafetyLimits | None = None
+    model: object | None = None
 
 
 @dataclass(frozen=True, slots=True)

@@ -26,7 +26,13 @@ import numpy as np
 
 from core.control.assistance import A_LEVEL, PerformanceAssistance, assisted_torques
 from core.control.base import make_controller
-from core.control.ctpid import I_SIZE, ComputedTorquePID, ctpid_torques
+from core.control.ctpid import (
+    I_SIZE,
+    ComputedTorquePID,
+    ctpid_acceleration,
+    ctpid_limit,
+    ctpid_torques,
+)
 from core.control.gains import built
 from core.control.guidance import (
     GC_DELAY_ROWS,
@@ -47,6 +53,7 @@ from core.interaction import (
     subject_motion,
 )
 from core.kernels import interpreted, kernel
+from core.learning.kernel import learned_torques
 from core.robot import RobotModel
 from core.robot_terms import R_SIZE
 from core.signal import RateEstimator, track
@@ -186,7 +193,7 @@ class TickPipeline:
             guide = self.guidance.constants(period_s=plan.period_s,
                                             repetition_s=params.duration_s)
             guided = [0.0] * state_size(self.guidance.bins, params.repetitions)
-        self.kind = _controller_kind(self.controller)
+        self.kind = _controller_kind(self.controller, compiled)
         if compiled and self.kind == GENERIC:
             raise ParameterError(
                 "compiled", compiled, "False for this controller",
@@ -198,7 +205,8 @@ class TickPipeline:
         self.vectors = Vectors(
             robot=self._make(self.robot.constants),
             arm=self._make(self.arm.constants),
-            model=self._make(getattr(self.controller.model, "constants", ())),
+            model=self._make(self.controller.model.kernel_weights if self.kind == LEARNED
+                             else getattr(self.controller.model, "constants", ())),
             tracker=self._make(self.rate_estimator.coefficients),
             gains=self._make(getattr(self.controller, "constants", ())),
             assist=self._make(self.assistance.constants),
@@ -393,16 +401,52 @@ Z_ANGLE1, Z_RATE1, Z_ACC1, Z_ANGLE2, Z_RATE2, Z_ACC2, Z_SIZE = range(7)
  C_TAU2, C_OUT1, C_OUT2, C_XD, C_YD, C_VXD, C_VYD, C_DX, C_DY, C_FX, C_FY, C_ANGLE, C_ACTIVE,
  C_SIZE) = range(26)
 # Which law `controller_torques` runs.
-SMC, CTPID, GENERIC = 0, 1, 2
+SMC, CTPID, GENERIC, LEARNED = 0, 1, 2, 3
 
 
-def _controller_kind(controller) -> int:
+def _controller_kind(controller, compiled: bool) -> int:
     on_a_robot_model = len(getattr(controller.model, "constants", ())) == R_SIZE
     if type(controller) is SlidingModeController and on_a_robot_model:
         return SMC
     if type(controller) is ComputedTorquePID and on_a_robot_model:
         return CTPID
+    if (compiled and type(controller) is ComputedTorquePID
+            and has_compiled_form(controller.model)):
+        # interpreted, the numpy tick (its own step) is the faster of the two
+        return LEARNED
     return GENERIC
+
+
+def has_compiled_form(model) -> bool:
+    """Whether `model` (a controller's) is a learned model the kernels compute
+    (core.learning.kernel: an FNN or a DeLaN of the robot)."""
+    return getattr(model, "kernel_weights", None) is not None
+
+
+def learned_controller(model, plan: TrialPlan) -> ComputedTorquePID:
+    """The computed-torque PID (eq. 4.8) of a trial that names a learned model: `model`
+    (core.learning.tick.LearnedInverseDynamics) in place of M, C and f, the trial's ctpid
+    gains, the robot's drive limits."""
+    return ComputedTorquePID(model, built("ctpid", plan.parameters.gains),
+                             torque_limit_Nm=plan.robot.max_joint_torque_Nm)
+
+
+def learned_model_refusal(parameters: TrialParameters, model) -> str:
+    """Why a learned model given with a trial does not fit its parameters ("" when it
+    does): the parameters name a model (`learned_model`, `learned_model_sha256`) and the
+    very one, checked (app.learning.library), comes with them, or neither."""
+    name, sha = parameters.learned_model, parameters.learned_model_sha256
+    if model is None:
+        return (f"the trial names the learned model '{name}' but none was given with it; "
+                "build the trial again") if name else ""
+    if not name:
+        return "a learned model was given for a trial that names none; build the trial again"
+    if getattr(model, "name", None) != name or getattr(model, "content_sha256", None) != sha:
+        return (f"the learned model given is not '{name}' with hash {sha[:12] or '(none)'}; "
+                "build the trial again")
+    if not callable(getattr(model, "inverse_dynamics_terms", None)):
+        return "the learned model given has no inverse dynamics; build the trial again"
+    return ""
 
 
 def _python(values):
@@ -434,6 +478,12 @@ def controller_torques(kind, model, gains, integral, dt_s, q1, q2, qd1, qd2, r1,
     (core.control), on its model's constants."""
     if kind == SMC:
         return smc_torques(model, gains, q1, q2, qd1, qd2, r1, r2, rd1, rd2, rdd1, rdd2)
+    if kind == LEARNED:
+        # eq. 4.8 with the learned model's inverse dynamics (core.learning.kernel)
+        a1, a2 = ctpid_acceleration(gains, integral, dt_s, q1, q2, qd1, qd2, r1, r2, rd1,
+                                    rd2, rdd1, rdd2)
+        tau1, tau2 = learned_torques(model, q1, q2, qd1, qd2, a1, a2)
+        return ctpid_limit(gains, integral, tau1, tau2)
     return ctpid_torques(model, gains, integral, dt_s, q1, q2, qd1, qd2, r1, r2, rd1, rd2,
                          rdd1, rdd2)
 

@@ -68,7 +68,15 @@ from device.loop.messages import (
     TrialEnded,
     TrialStarted,
 )
-from device.loop.pipeline import PERIOD_S, TickPipeline, TrialPlan, assistance_group
+from device.loop.pipeline import (
+    PERIOD_S,
+    TickPipeline,
+    TrialPlan,
+    assistance_group,
+    has_compiled_form,
+    learned_controller,
+    learned_model_refusal,
+)
 from device.loop.realtime import (
     CLOCKS,
     LAST_CPU,
@@ -149,6 +157,8 @@ class DeviceLoop:
         self.backend: Backend | None = None
         self.supervisor: SafetySupervisor | None = None
         self.pipeline: TickPipeline | None = None
+        self.model = None
+        """The learned model the built trial's CT-PID runs on (Build.model), or None."""
         self.engine: TickEngine | None = None
         self.sensor_offset_rad = 0.0
         self.reading: SensorReading | None = None
@@ -406,6 +416,9 @@ class DeviceLoop:
         self._send(Reply(command.id, not reason, reason))
 
     def _do_build(self, command: Build, after_a_tick: bool):
+        refused = learned_model_refusal(command.parameters, command.model)
+        if refused:
+            return f"build refused: {refused}"
         self.paused = True
         plan = TrialPlan.build(command.parameters, period_s=self.config.period_s)
         reconnect = self.state == State.CONNECTED and self.backend_config is not None and (
@@ -415,6 +428,7 @@ class DeviceLoop:
         limits = (command.limits or SafetyLimits()).around_path(
             plan.parameters.path().points(), WORKSPACE_MARGIN_M)
         self.plan, self.backend_config, self.limits = plan, command.backend, limits
+        self.model = command.model
         self.pipeline = self._new_pipeline()
         if reconnect:
             # the virtual patient follows the new exercise: rebuild the simulator
@@ -475,8 +489,15 @@ class DeviceLoop:
         return "", "shutting down"
 
     def _new_pipeline(self) -> TickPipeline:
+        controller = None
+        if self.model is not None:
+            # an FNN or a DeLaN runs compiled (core.learning.kernel), another model
+            # interpreted through its step
+            controller = learned_controller(self.model, self.plan)
         pipeline = TickPipeline(self.plan, sensor_offset_rad=self.sensor_offset_rad,
-                                compiled=self.config.compiled)
+                                controller=controller,
+                                compiled=self.config.compiled and (
+                                    controller is None or has_compiled_form(self.model)))
         if self.assistance_level is not None:
             pipeline.set_assistance_level(self.assistance_level)
         return pipeline

@@ -119,3 +119,17 @@ def test_numpy_numbers_become_plain_ones_that_json_and_hdf5_take():
     assert type(p.repetitions) is int
     assert type(p.radius_m) is float
     assert json.loads(json.dumps(p.to_dict()))["repetitions"] == 3
+
+
+def test_a_learned_model_is_named_for_the_computed_torque_pid_only():
+    chosen = TrialParameters(controller="ctpid", learned_model="delan-robot.v2",
+                             learned_model_sha256="0123456789abcdef" * 4)
+    assert TrialParameters.from_dict(chosen.to_dict()) == chosen
+    with pytest.raises(ParameterError, match="computed-torque PID"):
+        TrialParameters(controller="smc", learned_model="delan-robot")
+    with pytest.raises(ParameterError, match="a model file's name"):
+        TrialParameters(controller="ctpid", learned_model="../../etc/passwd")
+    with pytest.raises(ParameterError, match="64 lower-case hex digits"):
+        TrialParameters(controller="ctpid", learned_model="m", learned_model_sha256="abc")
+    with pytest.raises(ParameterError, match="a hash belongs to a model"):
+        TrialParameters(controller="ctpid", learned_model_sha256="0" * 64)

@@ -457,3 +457,26 @@ def test_hardware_without_its_driver_is_refused_at_connect(client):
     assert "connect failed" in reply.message
     assert "Quanser" in reply.message or "quanser" in reply.message
     assert client.state == State.BUILT
+
+
+def test_a_build_with_a_learned_model_it_does_not_name_is_refused(client):
+    from core.learning.tick import LearnedInverseDynamics
+
+    named = PARAMS.replace(controller="ctpid", learned_model="fnn-robot",
+                           learned_model_sha256="a" * 64)
+    reply = client.build(named)
+    assert not reply.ok
+    assert ("build refused: the trial names the learned model 'fnn-robot' but none was given"
+            in reply.message)
+    spec = {"kind": "fnn", "dof": 2, "hidden": [2], "position_inputs": [0, 1],
+            "input_mean": [0.0] * 6, "input_std": [1.0] * 6, "output_mean": [0.0] * 2,
+            "output_std": [1.0] * 2}
+    params = {"net.0.W": np.zeros((6, 2)), "net.0.b": np.zeros(2),
+              "net.1.W": np.zeros((2, 2)), "net.1.b": np.zeros(2)}
+    other = LearnedInverseDynamics(spec, params, "fnn-robot", content_sha256="b" * 64)
+    reply = client.build(named, model=other)
+    assert not reply.ok
+    assert "the learned model given is not 'fnn-robot' with hash aaaaaaaaaaaa" in reply.message
+    reply = client.build(PARAMS, model=other)
+    assert not reply.ok
+    assert "a learned model was given for a trial that names none" in reply.message

@@ -76,6 +76,9 @@ SHAPE_NAMES = {"d": "D shape", "circle": "Circle", "reach": "Reach out and back"
                "targets": "Targets (centre-out)", "figure8": "Figure eight"}
 TIMING_NAMES = {"constant_speed": "Steady speed", "minimum_jerk": "Smooth start and stop"}
 CONTROLLER_NAMES = {"smc": "Sliding mode (SMC)", "ctpid": "Computed-torque PID"}
+LEARNED = "learned:"
+"""The controller choice's data for "CT-PID (learned: <name>)": LEARNED + the model's name
+(a file in the data folder's models/, app.learning.library)."""
 ASSIST_NAMES = {"as-needed": "As needed: gives way as the patient does more",
                 "thesis": "Thesis (Fig. 3.6): fixed clock, reduce-only"}
 SIDE_NAMES = {"right": "Right arm", "left": "Left arm"}
@@ -116,6 +119,17 @@ def _spin(low: float, high: float, decimals: int, suffix: str, step: float) -> Q
     box.setAccelerated(True)
     box.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Fixed)
     return box
+
+
+def _learned_label(name: str) -> str:
+    return f"CT-PID (learned: {name})"
+
+
+def _controller_fields(key: str) -> dict:
+    """The trial's controller fields for the controller choice's data."""
+    if key.startswith(LEARNED):
+        return {"controller": "ctpid", "learned_model": key[len(LEARNED):]}
+    return {"controller": key}
 
 
 def _combo(names: dict[str, str], keys: tuple[str, ...]) -> QComboBox:
@@ -394,7 +408,7 @@ class ParametersTab(QWidget):
             "forearm_m": metres(self.forearm),
             "side": self.side.currentData(),
             "tolerance_rad": math.radians(self.tolerance.value()),
-            "controller": self.controller.currentData(),
+            **_controller_fields(self.controller.currentData()),
             "assistance_level": self.assistance.value() / 100.0,
             "assist": self.assist.currentData(),
             "gains": self.gains.text(),
@@ -420,13 +434,38 @@ class ParametersTab(QWidget):
             self.forearm.setValue(parameters.forearm_m * CM)
             self.side.setCurrentIndex(self.side.findData(parameters.side))
             self.tolerance.setValue(math.degrees(parameters.tolerance_rad))
-            self.controller.setCurrentIndex(self.controller.findData(parameters.controller))
+            key = (LEARNED + parameters.learned_model if parameters.learned_model
+                   else parameters.controller)
+            if self.controller.findData(key) < 0:
+                # a trial's model no longer in the folder: shown, so Build says it is missing
+                self.controller.addItem(_learned_label(parameters.learned_model), key)
+            self.controller.setCurrentIndex(self.controller.findData(key))
             self.assistance.setValue(round(parameters.assistance_level * 100))
             self.assist.setCurrentIndex(self.assist.findData(parameters.assist))
             self.gains.setText(parameters.gains)
         finally:
             self._loading = False
         self.refresh()
+
+    def set_learned_models(self, names) -> None:
+        """Offer "CT-PID (learned: <name>)" for each of these model names, after the
+        analytic controllers; the current choice is kept (added if it is a model no longer
+        among them, so that Build can say so)."""
+        current = self.controller.currentData()
+        keys = [*CONTROLLERS, *(LEARNED + n for n in names)]
+        if current is not None and current not in keys:
+            keys.append(current)
+        self._loading = True
+        try:
+            self.controller.clear()
+            for key in keys:
+                label = (_learned_label(key[len(LEARNED):]) if key.startswith(LEARNED)
+                         else CONTROLLER_NAMES.get(key, key))
+                self.controller.addItem(label, key)
+            if current is not None:
+                self.controller.setCurrentIndex(self.controller.findData(current))
+        finally:
+            self._loading = False
 
     def show_proposal(self, proposal) -> None:
         """Show the console's proposal for the next trial (app.trials.progression.Proposal),

@@ -156,7 +156,8 @@ def test_console_starts_without_jax():
     """The CLI, the window's modules and the loop import no JAX (import contract in
     pyproject.toml); only `rehab learn train` loads it, when it runs."""
     code = ("import sys, app.cli.main, app.cli.learn, app.learning.workflow, "
-            "app.learning.modelfile, core.learning.inference, ui.launcher, ui.main_window, "
+            "app.learning.modelfile, app.learning.library, app.learning.closedloop, "
+            "core.learning.inference, core.learning.kernel, ui.launcher, ui.main_window, "
             "device.loop.process, core.control; "
             "bad = sorted(m for m in sys.modules if m.split('.')[0] in ('jax', 'jaxlib', "
             "'optax')); print(bad); sys.exit(1 if bad else 0)")
@@ -209,3 +210,43 @@ def test_robot_data_refuses_a_missing_trial(tmp_path, capsys):
                         "--output", str(tmp_path / "r.h5")], capsys)
     assert code == 2
     assert "none.h5" in err
+
+
+def test_train_writes_into_the_data_folders_models_by_default(trials, tmp_path, capsys,
+                                                                monkeypatch):
+    """A robot model trained without --output lands where the Parameters tab offers it."""
+    from app.learning.library import model_names, robot_model
+
+    monkeypatch.setenv("REHAB_DATA_DIR", str(tmp_path / "data"))
+    paths = [str(trials / "d.h5"), str(trials / "circle.h5")]
+    assert run(["learn", "robot-data", "--trials", *paths, "--output", str(tmp_path / "r.h5"),
+                "--without-hand-force", "--acceleration", "estimated"], capsys)[0] == 0
+    args = ["learn", "train", "--model", "fnn", "--data", str(tmp_path / "r.h5"),
+            "--epochs", "2", "--folds", "1", "--hidden", "4"]
+    code, out, _ = run(args, capsys)
+    assert code == 0
+    folder = tmp_path / "data" / "models"
+    assert model_names(folder) == ["fnn-r"]
+    assert str(folder / "fnn-r.json") in out
+    assert robot_model(folder, "fnn-r").spec["kind"] == "fnn"
+    code, _, err = run(args, capsys)  # the same name again: refused, not replaced
+    assert code == 2
+    assert "fnn-r.json already exists; give another --name" in err
+    code, _, err = run([*args, "--name", "my model"], capsys)
+    assert code == 2
+    assert "is not a model name" in err
+    # a headless trial on it: its file names the model and its hash
+    from app.learning.modelfile import read_model
+    from app.trials.reader import read_trial
+
+    trial = tmp_path / "t.h5"
+    code, out, err = run(["run", "--learned-model", "fnn-r", "--repetitions", "1",
+                          "--output", str(trial)], capsys)
+    assert code == 0, err
+    parameters = read_trial(trial).parameters
+    assert (parameters.controller, parameters.learned_model) == ("ctpid", "fnn-r")
+    assert parameters.learned_model_sha256 == read_model(folder / "fnn-r.json").content_sha256
+    code, _, err = run(["run", "--learned-model", "nothing", "--output",
+                        str(tmp_path / "u.h5")], capsys)
+    assert code == 2
+    assert "nothing.json: missing: no such file" in err

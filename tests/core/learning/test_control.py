@@ -11,9 +11,10 @@ import math
 import numpy as np
 import pytest
 
-from core.control.ctpid import ComputedTorquePID, CTPIDGains
+from core.control.ctpid import ComputedTorquePID, CTPIDGains, DiagonalInertia
+from core.learning import networks as nw
 from core.learning.tick import LearnedInverseDynamics
-from core.learning.training import TrainingOptions, train
+from core.learning.training import TrainingOptions, make_spec, train
 from core.robot import RobotModel
 
 DT = 0.002
@@ -46,18 +47,6 @@ def learned(robot, q0):
     return LearnedInverseDynamics(result.spec, result.params, "delan-robot")
 
 
-class PIDOnly:
-    """No model: the PID's acceleration through a constant inertia, the mass matrix's
-    diagonal at the start (eq. 4.8 without C and f)."""
-
-    def __init__(self, robot, q0):
-        M = robot.mass_matrix(q0)
-        self.m = (M[0, 0], M[1, 1])
-
-    def inverse_dynamics_terms(self, q1, q2, qd1, qd2, a1, a2):
-        return self.m[0] * a1, self.m[1] * a2
-
-
 def tracking_rmse(robot, q0, model) -> float:
     controller = ComputedTorquePID(model, GAINS, torque_limit_Nm=robot.max_joint_torque_Nm)
     q, qd = q0.copy(), np.zeros(2)
@@ -79,7 +68,7 @@ def tracking_rmse(robot, q0, model) -> float:
 def test_learned_model_tracks_as_the_exact_model(robot, q0, learned):
     nominal = tracking_rmse(robot, q0, robot)
     with_learned = tracking_rmse(robot, q0, learned)
-    without_model = tracking_rmse(robot, q0, PIDOnly(robot, q0))
+    without_model = tracking_rmse(robot, q0, DiagonalInertia(robot, q0))
     assert abs(with_learned - nominal) < 0.05 * nominal, (with_learned, nominal)
     assert with_learned < 0.8 * without_model, (with_learned, without_model)
 
@@ -90,3 +79,20 @@ def test_a_model_of_another_size_cannot_drive_the_robot():
             "output_std": [1.0] * 3}
     with pytest.raises(ValueError, match="3 coordinates cannot drive the 2-joint robot"):
         LearnedInverseDynamics(spec, {})
+
+
+def test_the_controllers_reset_starts_a_recurrent_model_from_its_zero_state(robot, q0):
+    # a trial's first tick must not depend on the last trial's: pipeline.begin resets the
+    # controller, which resets its model
+    rng = np.random.default_rng(1)
+    q, qd, qdd = (rng.normal(size=(50, 2)) for _ in range(3))
+    spec = make_spec(TrainingOptions(kind="rnn"), q, qd, qdd, q + qd)
+    params = {k: rng.normal(scale=0.5, size=s) for k, s in nw.param_shapes(spec).items()}
+    model = LearnedInverseDynamics(spec, params, "gru")
+    controller = ComputedTorquePID(model, GAINS, torque_limit_Nm=(1e6, 1e6))  # unclipped
+    args = (DT, *q0, 0.0, 0.0, *(q0 + 0.01), 0.1, 0.1, 0.0, 0.0)
+    first = controller.step(*args)
+    assert controller.step(*args) != first  # the state moved on
+    controller.reset()
+    assert not model.tick.h.any()
+    assert controller.step(*args) == first

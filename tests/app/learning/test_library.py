@@ -1,0 +1,68 @@
+"""The learned robot models a trial may run on (app.learning.library): listed by name from
+the models folder, each refusal by its reason, and the checked model as CT-PID's model."""
+
+import numpy as np
+import pytest
+
+from app.learning.library import inverse_dynamics, model_names, robot_model
+from app.learning.modelfile import ModelFileError, write_model
+from core.learning import networks as nw
+
+ROBOT = {"system": "rehab-robot-simulator", "dof": 2}
+
+
+def spec_of(kind: str, dof: int = 2) -> dict:
+    spec = {"kind": kind, "dof": dof, "hidden": [3], "position_inputs": list(range(dof)),
+            "input_mean": [0.0] * 3 * dof, "input_std": [1.0] * 3 * dof,
+            "output_mean": [0.0] * dof, "output_std": [1.0] * dof}
+    if kind == "delan":
+        spec.update(dissipation_hidden=[2], activation="tanh", mass_scale=0.5,
+                    potential_scale=1.0, coulomb_speed_fraction=0.01)
+    return spec
+
+
+def save(folder, name, kind="fnn", data=ROBOT, dof=2):
+    spec = spec_of(kind, dof)
+    rng = np.random.default_rng(0)
+    params = {k: rng.normal(size=s) for k, s in nw.param_shapes(spec).items()}
+    return write_model(folder / f"{name}.json", name, spec, params, data, {}, {})
+
+
+def test_the_folder_lists_its_model_files_by_name(tmp_path):
+    assert model_names(tmp_path / "models") == []  # no folder yet: none
+    folder = tmp_path / "models"
+    folder.mkdir()
+    save(folder, "fnn-b")
+    save(folder, "delan-a", "delan")
+    (folder / "notes.txt").write_text("not a model")
+    save(folder, "with space")  # no trial could name it
+    (folder / "sub.json").mkdir()
+    assert model_names(folder) == ["delan-a", "fnn-b"]
+
+
+def test_a_good_model_drives_the_ctpid(tmp_path):
+    save(tmp_path, "delan-a", "delan")
+    model = robot_model(tmp_path, "delan-a")
+    learned = inverse_dynamics(model)
+    assert learned.name == "delan-a"
+    assert learned.content_sha256 == model.content_sha256
+    tau = learned.inverse_dynamics_terms(2.0, 1.0, 0.1, -0.1, 1.0, 2.0)
+    assert np.all(np.isfinite(tau))
+
+
+@pytest.mark.parametrize(("name", "kind", "data", "dof", "reason", "words"), [
+    ("gone", None, None, 2, "missing", "no such file"),
+    ("pendulum", "fnn", {"system": "sliding-inverted-pendulum"}, 2, "system",
+     "trained on 'sliding-inverted-pendulum', not on the robot"),
+    ("three", "fnn", ROBOT, 3, "input size", "takes 3 coordinates, the robot has 2 joints"),
+    ("gru", "rnn", ROBOT, 2, "kind", "a rnn model cannot drive the robot"),
+])
+def test_a_model_that_cannot_drive_the_robot_is_refused_by_its_reason(
+        tmp_path, name, kind, data, dof, reason, words):
+    if kind is not None:
+        save(tmp_path, name, kind, data, dof)
+    with pytest.raises(ModelFileError) as caught:
+        robot_model(tmp_path, name)
+    assert caught.value.reason == reason
+    assert words in str(caught.value)
+    assert "\n" not in str(caught.value)
