@@ -1,5 +1,5 @@
 """What a therapist does in the window, for the tests that drive a whole session: press a
-robot button, register a patient, set up a short trial."""
+robot button, register a patient, set up a short trial, build, connect and start it."""
 
 from __future__ import annotations
 
@@ -38,6 +38,19 @@ def short_trial(win: MainWindow) -> None:
     p.repetitions.setValue(1)
     p.duration.setValue(2.0)
     p.refresh()
+
+
+def build_connect_start(qtbot, win: MainWindow) -> None:
+    """Build, Connect and Start as the therapist presses them, each once its state
+    allows; returns with the trial running."""
+    from device.loop.states import State
+
+    click(qtbot, win.robot.buttons["build"])
+    qtbot.waitUntil(lambda: win.state == State.BUILT, timeout=20000)
+    click(qtbot, win.robot.buttons["connect"])
+    qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=20000)
+    click(qtbot, win.robot.buttons["start"])
+    qtbot.waitUntil(lambda: win.state == State.RUNNING, timeout=10000)
 
 
 def open_window(qtbot, tmp_path, monkeypatch, *, start_device: bool = True) -> MainWindow:

@@ -23,7 +23,7 @@ from core.control.ctpid import ComputedTorquePID, CTPIDGains
 from core.learning import networks as nw
 from core.robot import RobotModel
 from device.loop.states import State
-from tests.ui.session import click, register_patient, short_trial
+from tests.ui.session import build_connect_start, click, register_patient, short_trial
 from ui.main_window import MainWindow
 
 pytestmark = pytest.mark.slow
@@ -146,12 +146,7 @@ def test_a_trial_runs_on_a_learned_model_and_its_file_names_it(qtbot, window, mo
     p.assist.setCurrentIndex(p.assist.findData("thesis"))  # the reference on the clock
     choose(win, "CT-PID (learned: fnn-robot)")
     assert win.parameters_tab.parameters().learned_model == "fnn-robot"
-    click(qtbot, win.robot.buttons["build"])
-    qtbot.waitUntil(lambda: win.state == State.BUILT, timeout=20000)
-    click(qtbot, win.robot.buttons["connect"])
-    qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=20000)
-    click(qtbot, win.robot.buttons["start"])
-    qtbot.waitUntil(lambda: win.state == State.RUNNING, timeout=10000)
+    build_connect_start(qtbot, win)
     qtbot.waitUntil(lambda: win.unsaved_trial is not None, timeout=60000)
 
     trial = win.registry.trials_for_patient(win.patient.code)[0]

@@ -16,7 +16,14 @@ from app.trials.reader import read_trial
 from core.trial import THESIS_SUBJECT
 from device.loop.states import State
 from device.safety.faults import Fault
-from tests.ui.session import click, enabled, open_window, register_patient, short_trial
+from tests.ui.session import (
+    build_connect_start,
+    click,
+    enabled,
+    open_window,
+    register_patient,
+    short_trial,
+)
 from ui.main_window import MainWindow
 
 pytestmark = pytest.mark.slow
@@ -227,12 +234,7 @@ def test_a_dead_recorder_stops_the_trial_and_the_window_finishes_it(qtbot, windo
     p = win.parameters_tab
     p.repetitions.setValue(20)
     p.refresh()
-    click(qtbot, win.robot.buttons["build"])
-    qtbot.waitUntil(lambda: win.state == State.BUILT, timeout=20000)
-    click(qtbot, win.robot.buttons["connect"])
-    qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=20000)
-    click(qtbot, win.robot.buttons["start"])
-    qtbot.waitUntil(lambda: win.state == State.RUNNING, timeout=10000)
+    build_connect_start(qtbot, win)
     trial_path = win.trial_path
     qtbot.waitUntil(lambda: trial_path.exists(), timeout=20000)
     os.kill(win.bridge.client.recorder_pid, signal.SIGKILL)
