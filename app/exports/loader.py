@@ -404,7 +404,7 @@ def _parameter_values(attrs: Mapping) -> dict:
 
 def _read_info(path: Path) -> TrialInfo | None:
     """The quick path: attributes only. None when the file needs the full reader."""
-    with h5py.File(path, "r") as f:
+    with h5py.File(path, "r", locking=False) as f:  # as app.trials.reader opens it
         attrs = {key: plain_attribute(value) for key, value in f.attrs.items()}
         version = attrs.get("format_version")
         period = attrs.get("sample_period_s")

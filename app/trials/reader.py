@@ -139,13 +139,17 @@ def _open(path: Path) -> h5py.File:
         try:
             # A closed file opens normally. One being recorded (or left behind by a
             # crash) carries HDF5's "open for writing" flag and opens only as an
-            # SWMR reader, which sees every flushed sample.
+            # SWMR reader, which sees every flushed sample. Without HDF5's file locks,
+            # as every other open of a trial file in the window's process (the metrics,
+            # the EMG and the pose written beside it): HDF5 refuses a second open of a
+            # file in one process with the other locking flag ("file locking flag values
+            # don't match"), which failed a read while the window stored a trial's EMG.
             try:
-                return h5py.File(path, "r")
+                return h5py.File(path, "r", locking=False)
             except OSError as exc:
                 if not _open_for_write(exc):
                     raise
-            return h5py.File(path, "r", swmr=True)
+            return h5py.File(path, "r", swmr=True, locking=False)
         except OSError as exc:
             if _open_for_write(exc) and time.monotonic() < deadline:
                 time.sleep(_BUSY_PAUSE_S)

@@ -388,3 +388,21 @@ def test_a_time_stored_as_text_is_refused(tmp_path):
         f["timeseries"].create_dataset("time", data=np.array([b"0.0"] * 600))
     with pytest.raises(TrialFileError, match="/timeseries/time holds"):
         read_trial(path)
+
+
+def test_a_trial_file_reads_while_the_window_writes_beside_it(tmp_path):
+    """The window stores a trial's EMG, pose and metrics with HDF5's file locks off; a read
+    of the same file at that moment (the report, the Replay tab) used to fail with "file
+    locking flag values don't match" (seen in tests/ui/test_main_window_emg.py)."""
+    import h5py
+
+    from app.exports.loader import read_info
+    from app.trials.headless import save, simulate
+    from core.trial import THESIS_SUBJECT
+    from device.recording.trialfile import LIBVER
+
+    path = tmp_path / "t.h5"
+    save(simulate(THESIS_SUBJECT.replace(repetitions=1)), path)
+    with h5py.File(path, "r+", libver=LIBVER, locking=False):  # as device.recording.emgfile
+        assert read_trial(path).n_samples > 0
+        assert read_info(path).n_samples > 0
