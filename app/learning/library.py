@@ -24,6 +24,12 @@ CONTROL_KINDS = ("delan", "fnn")
 """The model kinds the computed-torque PID may run on."""
 
 
+def learned_label(name: str) -> str:
+    """How the console names the controller on a learned model, in the Parameters tab's
+    choice and in the report: 'CT-PID (learned: <name>)'."""
+    return f"CT-PID (learned: {name})"
+
+
 def model_names(folder: str | Path) -> list[str]:
     """The names of the model files in `folder` (none when it does not exist), sorted; a
     file whose stem is no model name (core.trial.MODEL_NAME: letters, digits, . _ -) is

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from app.errors import AppError, TrialFileError
+from app.learning.library import learned_label
 from app.pose.store import comparison_lines, read_pose
 from app.reports.compare import (
     Baseline,
@@ -272,9 +273,14 @@ def _exercise_text(p: TrialParameters) -> str:
             f"{TIMING_WORDS.get(p.timing, p.timing)}{turn}")
 
 
+CONTROLLER_WORDS = {"smc": "SMC", "ctpid": "CT-PID"}
+
+
 def _settings_text(p: TrialParameters) -> str:
     # positions in the form's unit (app.units): the therapist compares them with it
-    return (f"{p.controller.upper()} controller, assistance level "
+    controller = learned_label(p.learned_model) if p.learned_model else \
+        CONTROLLER_WORDS.get(p.controller, p.controller)
+    return (f"{controller} controller, assistance level "
             f"{assistance_percent(p.assistance_level)}, direction tolerance "
             f"±{math.degrees(p.tolerance_rad):.0f}°; centre {point_cm(p.centre_m)}, shoulder "
             f"{point_cm(p.shoulder_m)}, {p.side} arm")

@@ -41,6 +41,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from app.learning.library import learned_label
 from app.units import SCREEN
 from core.arm import BODY_MASS_RANGE_KG, FOREARM_RANGE_M, UPPER_ARM_RANGE_M
 from core.errors import CoreError, ParameterError, UnreachableError
@@ -119,10 +120,6 @@ def _spin(low: float, high: float, decimals: int, suffix: str, step: float) -> Q
     box.setAccelerated(True)
     box.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Fixed)
     return box
-
-
-def _learned_label(name: str) -> str:
-    return f"CT-PID (learned: {name})"
 
 
 def _controller_fields(key: str) -> dict:
@@ -438,7 +435,7 @@ class ParametersTab(QWidget):
                    else parameters.controller)
             if self.controller.findData(key) < 0:
                 # a trial's model no longer in the folder: shown, so Build says it is missing
-                self.controller.addItem(_learned_label(parameters.learned_model), key)
+                self.controller.addItem(learned_label(parameters.learned_model), key)
             self.controller.setCurrentIndex(self.controller.findData(key))
             self.assistance.setValue(round(parameters.assistance_level * 100))
             self.assist.setCurrentIndex(self.assist.findData(parameters.assist))
@@ -459,7 +456,7 @@ class ParametersTab(QWidget):
         try:
             self.controller.clear()
             for key in keys:
-                label = (_learned_label(key[len(LEARNED):]) if key.startswith(LEARNED)
+                label = (learned_label(key[len(LEARNED):]) if key.startswith(LEARNED)
                          else CONTROLLER_NAMES.get(key, key))
                 self.controller.addItem(label, key)
             if current is not None:

@@ -449,3 +449,16 @@ def test_the_report_says_why_a_trial_ended_when_its_file_cannot(tmp_path):
     assert "the recorder process stopped: restart" in content.faults
     assert ("Fault", "the recorder process stopped: restart") in [
         (item.label, item.value) for item in content.header]
+
+
+def test_the_settings_line_names_the_controller_and_a_learned_model(healthy_file):
+    """The report's Settings line says which controller ran, as the Parameters tab names
+    it: a learned model by its name (issue 15), positions in cm."""
+    from app.reports.content import _settings_text
+
+    header = {item.label: item.value for item in build_report(read_trial(healthy_file)).header}
+    assert header["Settings"].startswith("SMC controller, assistance level 100 %")
+    assert "centre (-30.0, 30.0) cm" in header["Settings"]
+    learned = SHORT.replace(controller="ctpid", learned_model="fnn-robot")
+    assert _settings_text(learned).startswith("CT-PID (learned: fnn-robot) controller")
+    assert _settings_text(SHORT.replace(controller="ctpid")).startswith("CT-PID controller")
