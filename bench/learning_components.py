@@ -13,10 +13,10 @@ from __future__ import annotations
 
 import argparse
 
-import numpy as np
-
+from app.learning.components import plot_components, torque_components
+from app.learning.dataset import pendulum_dataset
 from app.learning.modelfile import read_model
-from core.learning import inference, pendulum as pd
+from core.learning import pendulum as pd
 
 
 def main() -> None:
@@ -25,49 +25,15 @@ def main() -> None:
     parser.add_argument("--output", default="docs/figures/learning-delan-components.png")
     args = parser.parse_args()
     model = read_model(args.model)
-    if model.spec["kind"] != "delan":
-        raise SystemExit(f"{args.model} is a {model.spec['kind']}, not a DeLaN")
     p = pd.Pendulum()
-    d = pd.generate([pd.HELD_OUT_SPEED_RAD_S])
-    terms = inference.delan_terms(model.spec, model.params, d.q, d.qd, d.qdd)
-    theta, rate = d.q[:, 1], d.qd[:, 1]
-    truth = {
-        "inertial H q̈": np.einsum("nij,nj->ni", p.mass_matrix(theta), d.qdd),
-        "Coriolis, centrifugal": p.coriolis(theta, rate),
-        "gravitational ∂V/∂q": p.gravity(theta),
-        # eq. 2.36 has no such term: the data's f is the generalised force, which the
-        # DeLaN's d(q, q̇) would be zero for on an exact decomposition
-        "dissipative d(q, q̇)": np.zeros_like(d.tau),
-    }
-    learned = {"inertial H q̈": terms.inertial, "Coriolis, centrifugal": terms.coriolis,
-               "gravitational ∂V/∂q": terms.gravity,
-               "dissipative d(q, q̇)": terms.dissipative}
+    data = pendulum_dataset(pd.generate([pd.HELD_OUT_SPEED_RAD_S], p), p)
+    c = torque_components(model, data)
     print(f"{'component':<28} {'RMSE f (N)':>11} {'RMSE τ (N·m)':>13}")
-    for name in truth:
-        e = np.sqrt(np.mean((learned[name] - truth[name]) ** 2, axis=0))
-        print(f"{name:<28} {e[0]:>11.3f} {e[1]:>13.3f}")
-    e = np.sqrt(np.mean((terms.total - d.tau) ** 2, axis=0))
-    print(f"{'total (f, τ)':<28} {e[0]:>11.4f} {e[1]:>13.4f}")
-    import matplotlib
+    for name, e in c.rmse().items():
+        print(f"{name:<28} {e[0]:>11.4f} {e[1]:>13.4f}")
+    plot_components(c, args.output, title=f"{args.model}: the 5 rad/s cycle")
+    print(f"figure: {args.output}  (rehab learn components does the same for any file)")
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(4, 2, figsize=(9, 9), sharex=True)
-    deg = np.degrees(theta)
-    for row, name in enumerate(truth):
-        for col, force in enumerate(("f (N)", "τ (N·m)")):
-            ax = axes[row, col]
-            ax.plot(deg, truth[name][:, col], color="black", label="analytic (eq. 2.36)")
-            ax.plot(deg, learned[name][:, col], color="tab:orange", linestyle="--",
-                    label="DeLaN")
-            ax.set_title(f"{name}: {force}", fontsize=9)
-    axes[0, 0].legend(fontsize=8)
-    for ax in axes[-1]:
-        ax.set_xlabel("θ2 (°), 5 rad/s cycle")
-    fig.tight_layout()
-    fig.savefig(args.output, dpi=110)
-    print(f"figure: {args.output}")
 
 
 if __name__ == "__main__":

@@ -269,10 +269,12 @@ def check_trial(
         x, y = points[worst]
         d = distance[worst]
         if d > arm.reach_max_m:
+            # one decimal more when the two would read the same ("0.61 m … reaches 0.61 m")
+            more = int(u.of_length(d) == u.of_length(arm.reach_max_m))
             problems.append(
-                f"point {u.of_point((x, y))} is {u.of_length(d)} from the shoulder; this arm "
-                f"reaches {u.of_length(arm.reach_max_m)}. Move the exercise or the shoulder "
-                "closer together."
+                f"point {u.of_point((x, y))} is {u.of_length(d, more)} from the shoulder; this "
+                f"arm reaches {u.of_length(arm.reach_max_m, more)}. Move the exercise or the "
+                "shoulder closer together."
             )
         elif d > far:
             problems.append(

@@ -109,6 +109,19 @@ def add_learn_commands(commands) -> None:
                           help='one JSON object: {"rmse": {force: value}, "parameters": N}')
     evaluate.set_defaults(func=cmd_evaluate)
 
+    components = actions.add_parser(
+        "components", help="a DeLaN's torque components against the analytic model's",
+        description="The inertial, Coriolis/centrifugal, potential and dissipative torques "
+                    "a DeLaN learned, against the system's own model (the pendulum of "
+                    "eq. 2.36, or the console's nominal robot), on the data file's held-out "
+                    "cycles or one --cycle: RMSE per component, and the plot as a PNG "
+                    "(thesis Figs. 2.16-2.18, 4.5-4.6).")
+    components.add_argument("--model", required=True, help="DeLaN model file (JSON)")
+    components.add_argument("--data", required=True, help="dynamics data file (HDF5)")
+    components.add_argument("--output", required=True, help="PNG file to write")
+    components.add_argument("--cycle", type=int, help="this cycle only (a trial, a sweep)")
+    components.set_defaults(func=cmd_components)
+
 
 def cmd_pendulum(args: argparse.Namespace) -> int:
     from app.learning.workflow import make_pendulum_file
@@ -188,6 +201,24 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     width = max(len(k) for k in result.rmse)
     for force, value in result.rmse.items():
         print(f"  RMSE {force:<{width}}  {value:.6g}")
+    return EXIT_OK
+
+
+def cmd_components(args: argparse.Namespace) -> int:
+    from app.learning.components import COMPONENTS, components_file, plot_components
+
+    output = absolute(args.output)
+    if output.exists():
+        raise CommandError(f"{output} already exists; give another --output")
+    c = components_file(absolute(args.model), absolute(args.data), cycle=args.cycle)
+    rmse = c.rmse()
+    print(f"{c.tau.shape[0]:,} samples of {c.system}: RMSE against the analytic model")
+    print(f"  {'component':<12}" + "".join(f"{force:>12}" for force in c.forces))
+    for name in (*COMPONENTS, "total"):
+        label = "total (data)" if name == "total" else name
+        print(f"  {label:<12}" + "".join(f"{v:>12.4g}" for v in rmse[name]))
+    plot_components(c, output, title=f"{absolute(args.model).name} on {c.system}")
+    print(f"figure: {output}")
     return EXIT_OK
 
 

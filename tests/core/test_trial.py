@@ -133,3 +133,11 @@ def test_a_learned_model_is_named_for_the_computed_torque_pid_only():
         TrialParameters(controller="ctpid", learned_model="m", learned_model_sha256="abc")
     with pytest.raises(ParameterError, match="a hash belongs to a model"):
         TrialParameters(controller="ctpid", learned_model_sha256="0" * 64)
+
+
+def test_a_point_just_out_of_reach_reads_as_out_of_reach():
+    """'0.61 m from the shoulder; this arm reaches 0.61 m' said nothing: when the two round
+    alike they get one decimal more."""
+    far = THESIS_SUBJECT.replace(shape="figure8")
+    problem = check_trial(far).problems[0]
+    assert "is 0.613 m from the shoulder; this arm reaches 0.610 m" in problem

@@ -250,3 +250,53 @@ def test_train_writes_into_the_data_folders_models_by_default(trials, tmp_path, 
                         str(tmp_path / "u.h5")], capsys)
     assert code == 2
     assert "nothing.json: missing: no such file" in err
+
+
+def test_components_of_a_delan_against_the_analytic_model(files, trained, tmp_path, capsys):
+    """`rehab learn components`: the DeLaN's inertial, Coriolis, potential and dissipative
+    torques against the pendulum's own (eq. 2.36), RMSE printed, plot written; the learned
+    components add up to the model's output and the analytic ones to the data."""
+    from app.learning.components import COMPONENTS, components_file
+
+    out = tmp_path / "components.png"
+    code, text, err = run(["learn", "components", "--model", str(trained["delan"]),
+                           "--data", str(files / "p.h5"), "--output", str(out)], capsys)
+    assert code == 0, err
+    assert out.read_bytes().startswith(b"\x89PNG")
+    assert "sliding-inverted-pendulum: RMSE against the analytic model" in text
+    for name in (*COMPONENTS, "total (data)"):
+        assert f"  {name}" in text
+    c = components_file(trained["delan"], files / "p.h5")
+    np.testing.assert_allclose(sum(c.learned[n] for n in COMPONENTS), c.total, atol=1e-9)
+    np.testing.assert_allclose(sum(c.analytic[n] for n in COMPONENTS), c.tau, atol=1e-6)
+    assert np.all(c.rmse()["total"] > 0)
+    code, _, err = run(["learn", "components", "--model", str(trained["delan"]), "--data",
+                        str(files / "p.h5"), "--output", str(out)], capsys)
+    assert code == 2
+    assert "already exists" in err
+    code, _, err = run(["learn", "components", "--model", str(trained["fnn"]), "--data",
+                        str(files / "p.h5"), "--output", str(tmp_path / "f.png")], capsys)
+    assert code == 2
+    assert "only a DeLaN separates its torque into components" in err
+    code, _, err = run(["learn", "components", "--model", str(trained["delan"]), "--data",
+                        str(files / "p.h5"), "--output", str(tmp_path / "c.png"),
+                        "--cycle", "99"], capsys)
+    assert code == 2
+    assert "has no cycle 99" in err
+
+
+def test_the_robots_analytic_components_are_its_inverse_dynamics(trials, tmp_path, capsys):
+    """For robot data the analytic side is the nominal robot (eq. 3.6-3.8): its four
+    components add up to its inverse dynamics with no hand force."""
+    from app.learning.components import COMPONENTS, analytic_components
+    from app.learning.dataset import read_dataset
+    from core.robot import RobotModel
+
+    assert run(["learn", "robot-data", "--trials", str(trials / "d.h5"), "--output",
+                str(tmp_path / "r.h5")], capsys)[0] == 0
+    data = read_dataset(tmp_path / "r.h5")
+    parts = analytic_components(data.system, data.q, data.qd, data.qdd)
+    np.testing.assert_allclose(sum(parts[n] for n in COMPONENTS),
+                               RobotModel().inverse_dynamics(data.q, data.qd, data.qdd),
+                               rtol=1e-12, atol=1e-12)
+    assert np.abs(parts["dissipative"]).max() > 0  # the robot's friction is in it
