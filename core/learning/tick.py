@@ -5,6 +5,8 @@ The tests hold it equal to the batch inference."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from core.learning import networks as nw
@@ -13,6 +15,26 @@ from core.learning.kernel import pack
 
 def _softplus(x):
     return np.logaddexp(0.0, x)
+
+
+def _softplus_float(x: float) -> float:
+    return max(x, 0.0) + math.log1p(math.exp(-abs(x)))
+
+
+def _joined_LV(layers: dict) -> list | None:
+    """The DeLaN's L and V perceptrons as one: their first layers side by side (they read
+    the same positions), the later ones block-diagonal, so each layer is one product; None
+    when their depths differ. The outputs are L's, then V's."""
+    L, V = layers["L"], layers["V"]
+    if len(L) != len(V):
+        return None
+    joined = [(np.concatenate([L[0][0], V[0][0]], axis=1), np.concatenate([L[0][1], V[0][1]]))]
+    for (WL, bL), (WV, bV) in zip(L[1:], V[1:], strict=True):
+        W = np.zeros((WL.shape[0] + WV.shape[0], WL.shape[1] + WV.shape[1]))
+        W[:WL.shape[0], :WL.shape[1]] = WL
+        W[WL.shape[0]:, WL.shape[1]:] = WV
+        joined.append((W, np.concatenate([bL, bV])))
+    return joined
 
 
 class TickModel:
@@ -51,6 +73,10 @@ class TickModel:
             self.coulomb = _softplus(params["coulomb"]) * self.out_std
             self.coulomb_speed = spec["coulomb_speed_fraction"] * std[n:2 * n]
             self.tanh = spec["activation"] == "tanh"
+            self.joined = _joined_LV(self.layers) if n == 2 else None
+            self._stacked = np.vstack((np.zeros(len(self.used)), self.tangent.T))
+            self.dissipation = (self.viscous.tolist(), self.coulomb.tolist(),
+                                np.asarray(self.coulomb_speed, dtype=float).tolist())
 
     def reset(self) -> None:
         if self.kind == "rnn":
@@ -100,6 +126,8 @@ class TickModel:
 
     def delan_forces(self, q, qd, qdd) -> np.ndarray:
         """H q̈ + Ḣ q̇ − ½ ∂(q̇ᵀ H q̇)/∂q + ∂V/∂q + d(q, q̇) for one sample."""
+        if self.joined is not None:
+            return self._delan_two(q, qd, qdd)
         n = self.n
         qn = (q[self.used] - self.q_mean) / self.q_std
         out, d_out = self._mlp_tangent("L", qn)
@@ -123,6 +151,63 @@ class TickModel:
         s = self._mlp_s(qn)
         return (force + s * self.out_std + self.viscous * qd
                 + self.coulomb * np.tanh(qd / self.coulomb_speed))
+
+    def _delan_two(self, q, qd, qdd) -> np.ndarray:
+        """`delan_forces` for two coordinates (the robot, the pendulum), the same formulas
+        with the few numpy calls a tick can afford: the L and V networks run as one
+        (`_joined_LV`), and the 2×2 algebra of H, ∂H/∂q_k and the Coriolis terms in
+        plain floats (numpy's per-call cost, not arithmetic, set the general path's 95 µs)."""
+        qn = (q[self.used] - self.q_mean) / self.q_std
+        # row 0 the layer's values, rows 1.. their derivatives along each q_k: one product
+        # a layer carries both
+        X = self._stacked
+        X[0] = qn
+        layers = self.joined
+        for W, b in layers[:-1]:
+            Y = X @ W
+            z = Y[0] + b
+            if self.tanh:
+                y = np.tanh(z)
+                Y[1:] *= 1.0 - y * y
+            else:
+                Y[1:] *= 1.0 / (1.0 + np.exp(-z))
+                y = _softplus(z)
+            Y[0] = y
+            X = Y
+        W, b = layers[-1]
+        Y = X @ W
+        Y[0] += b
+        rows = Y.tolist()
+        out, d = rows[0], rows[1:]  # L's three outputs, then V; d[k][m] = ∂out_m/∂q_k
+        c = self.scale
+        o0, o1, o2 = out[0], out[1], out[2]
+        l00 = c * _softplus_float(o0) + nw.DIAGONAL_EPS
+        l11 = c * _softplus_float(o1) + nw.DIAGONAL_EPS
+        l10 = c * o2
+        s0, s1 = c / (1.0 + math.exp(-o0)), c / (1.0 + math.exp(-o1))
+        v1, v2 = float(qd[0]), float(qd[1])
+        a1, a2 = float(qdd[0]), float(qdd[1])
+        h00, h01, h11 = l00 * l00, l00 * l10, l10 * l10 + l11 * l11
+        f1 = h00 * a1 + h01 * a2
+        f2 = h01 * a1 + h11 * a2
+        kinetic = [0.0, 0.0]
+        for k, vk in ((0, v1), (1, v2)):  # ∂H/∂q_k = ∂L_k Lᵀ + L ∂L_kᵀ
+            dl00, dl11, dl10 = s0 * d[k][0], s1 * d[k][1], c * d[k][2]
+            g00 = 2.0 * l00 * dl00
+            g01 = dl00 * l10 + l00 * dl10
+            g11 = 2.0 * (l10 * dl10 + l11 * dl11)
+            w1, w2 = g00 * v1 + g01 * v2, g01 * v1 + g11 * v2
+            f1 += w1 * vk
+            f2 += w2 * vk
+            kinetic[k] = v1 * w1 + v2 * w2
+        p = self.spec["potential_scale"]
+        s = (self._mlp_s(qn) * self.out_std).tolist()
+        vis, cou, speed = self.dissipation
+        return np.array([
+            f1 - 0.5 * kinetic[0] + p * d[0][3] + s[0] + vis[0] * v1
+            + cou[0] * math.tanh(v1 / speed[0]),
+            f2 - 0.5 * kinetic[1] + p * d[1][3] + s[1] + vis[1] * v2
+            + cou[1] * math.tanh(v2 / speed[1])])
 
     def _mlp_s(self, x):
         layers = self.layers["s"]

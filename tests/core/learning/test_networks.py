@@ -115,16 +115,17 @@ def test_unknown_kind_refused():
         nw.param_shapes({"kind": "svm", "dof": 2, "hidden": [3], "position_inputs": [0, 1]})
 
 
-@pytest.mark.parametrize(("kind", "activation"), [("fnn", "tanh"), ("rnn", "tanh"),
-                                                  ("delan", "tanh"), ("delan", "softplus")])
-def test_tick_model_equals_batch_inference(kind, activation):
+@pytest.mark.parametrize(("kind", "activation", "dof"), [
+    ("fnn", "tanh", 2), ("rnn", "tanh", 2), ("delan", "tanh", 2), ("delan", "softplus", 2),
+    ("delan", "tanh", 3)])  # two coordinates take the DeLaN's fast path, three the general
+def test_tick_model_equals_batch_inference(kind, activation, dof):
     """What the loop would call, one sample at a time, gives the batch inference's forces."""
     from core.learning.tick import TickModel
 
-    spec = spec_for(kind, 2, hidden=(7,) if kind == "rnn" else (6, 5), activation=activation,
-                    cyclic=(0,))
+    spec = spec_for(kind, dof, hidden=(7,) if kind == "rnn" else (6, 5),
+                    activation=activation, cyclic=(0,))
     params = random_params(spec, 8)
-    q, qd, qdd = samples(2, 30, 9)
+    q, qd, qdd = samples(dof, 30, 9)
     batch = inference.predict(spec, params, q, qd, qdd)
     tick = TickModel(spec, params)
     ticks = np.array([tick.forces(q[i], qd[i], qdd[i]) for i in range(30)])
