@@ -158,9 +158,7 @@ class MainWindow(QMainWindow):
             f"#fault_banner {{ background: {theme.VERMILLION}; }}"
             " #fault_banner QLabel { color: white; font-weight: bold; }")
         self.banner_text = QLabel()
-        self.banner_text.setWordWrap(True)
-        lines = _lines_height(self.banner_text, MESSAGE_LINES)
-        self.banner_text.setFixedHeight(lines)
+        lines = _fixed_lines(self.banner_text, MESSAGE_LINES)
         self.banner.setFixedHeight(max(lines, 40) + 16)
         # its place is kept while hidden: a fault never pushes the window taller (issue 13 #3)
         policy = self.banner.sizePolicy()
@@ -179,8 +177,7 @@ class MainWindow(QMainWindow):
         # or hiding it must not move the tabs or the robot buttons under the mouse
         self.message = QLabel()
         self.message.setObjectName("console_message")
-        self.message.setWordWrap(True)
-        self.message.setFixedHeight(_lines_height(self.message, MESSAGE_LINES))
+        _fixed_lines(self.message, MESSAGE_LINES)
         self.message.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Fixed)
         self.history_button = QPushButton("History…")
         self.history_button.setObjectName("message_history")
@@ -703,11 +700,15 @@ class MainWindow(QMainWindow):
         super().closeEvent(event)
 
 
-def _lines_height(label: QLabel, lines: int) -> int:
-    """The height of `lines` lines of a word-wrapped label, in bold (a fault or a problem is
-    shown bold), from the top: a longer text shows its first lines whole and the rest
-    stays in its tooltip and the history, instead of half lines cut at top and bottom."""
+def _fixed_lines(label: QLabel, lines: int) -> int:
+    """Make `label` a word-wrapped box of `lines` lines, as tall as they are in bold (a
+    fault or a problem is shown bold), filled from the top: a longer text shows its first
+    lines whole and the rest stays in its tooltip and the history, instead of half lines
+    cut at top and bottom. Returns the height."""
+    label.setWordWrap(True)
     label.setAlignment(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignTop)
     font = QFont(label.font())
     font.setBold(True)
-    return QFontMetrics(font).lineSpacing() * lines
+    height = QFontMetrics(font).lineSpacing() * lines
+    label.setFixedHeight(height)
+    return height
