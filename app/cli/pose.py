@@ -36,6 +36,9 @@ def add_pose_command(commands) -> None:
                         help="refuse a camera map whose residual exceeds this (default 15)")
     parser.add_argument("--min-visibility", type=float, default=0.5,
                         help="keypoints the model sees less surely are gaps (default 0.5)")
+    parser.add_argument("--every", type=int, default=1, metavar="K",
+                        help="the detector on every K-th frame only (1-10, default 1): for a "
+                             "computer too slow for the model at the camera's rate")
     parser.add_argument("--video-start-s", type=float,
                         help="the trial time of the video's first frame, for a trial file "
                              "that does not record its clock's start (simulated runs)")
@@ -43,13 +46,16 @@ def add_pose_command(commands) -> None:
 
 
 def cmd_pose(args: argparse.Namespace) -> int:
-    from app.pose.offline import estimate_pose, read_marks
+    from app.pose.offline import MAX_DETECT_EVERY, estimate_pose, read_marks
     from device.camera.detector import MediaPipePose
 
     for name, value in (("--drift-limit-cm", args.drift_limit_cm),
                         ("--max-residual-mm", args.max_residual_mm)):
         if not (math.isfinite(value) and value > 0):
             raise CommandError(f"{name} {value:g}: give a positive number")
+    if not 1 <= args.every <= MAX_DETECT_EVERY:
+        raise CommandError(f"--every {args.every}: give a whole number of frames from 1 to "
+                           f"{MAX_DETECT_EVERY}")
     if not 0.0 <= args.min_visibility <= 1.0:
         raise CommandError(f"--min-visibility {args.min_visibility:g}: give a number from 0 "
                            "to 1")
@@ -63,7 +69,7 @@ def cmd_pose(args: argparse.Namespace) -> int:
         reference=absolute(args.reference) if args.reference else None,
         video_start_s=args.video_start_s, min_visibility=args.min_visibility,
         max_residual_mm=args.max_residual_mm, drift_limit_m=args.drift_limit_cm / 100.0,
-        progress=progress.update)
+        progress=progress.update, detect_every=args.every)
     progress.done()
     _print(outcome)
     return 0

@@ -19,6 +19,7 @@ import numpy as np
 
 from app.pose.store import PoseRun, read_pose, write_pose
 from app.trials.reader import TrialData, read_trial
+from core.errors import ParameterError
 from core.pose.angles import DEFAULT_DRIFT_LIMIT_M
 from core.pose.compare import JointError, ReferenceAngles, joint_errors, read_reference_csv
 from core.pose.homography import DEFAULT_MAX_RESIDUAL_MM, Homography, fit_from_points
@@ -48,6 +49,11 @@ class OfflinePose:
     video: VideoInfo
     result: PoseResult
     reference_errors: dict[str, tuple[JointError, JointError]] | None
+
+
+MAX_DETECT_EVERY = 10
+"""The detector on at least every 10th frame: 3 a second at 30 fps, still several a
+repetition of the thesis's 4 s D."""
 
 
 def default_video(trial_path: Path) -> Path:
@@ -93,12 +99,21 @@ def estimate_pose(
     model_name: str = f"MediaPipe Pose {MEDIAPIPE_VERSION}, full model (complexity 1)",
     progress: Progress | None = None,
     write: bool = True,
+    detect_every: int = 1,
 ) -> OfflinePose:
     """Run pose estimation on a closed trial and its video; write `/pose` when `write`.
 
     `detector`: a PoseDetector, or a function of the arm's side that makes one (made only
     once the video and the trial have been checked). `video_start_s`: the trial time of
-    the video's first frame, for a trial file without the loop's wall-time origin."""
+    the video's first frame, for a trial file without the loop's wall-time origin.
+    `detect_every`: run the detector on every k-th frame only (1–MAX_DETECT_EVERY), for a
+    computer too slow for the model at the camera's rate: the others are left out as a
+    dropped frame is, and the 2 ms series is interpolated between the frames seen
+    (bench/pose.py --every measures what it costs in agreement)."""
+    if isinstance(detect_every, bool) or not isinstance(detect_every, int) or \
+            not 1 <= detect_every <= MAX_DETECT_EVERY:
+        raise ParameterError("detect_every", detect_every,
+                             f"a whole number of frames from 1 to {MAX_DETECT_EVERY}")
     trial_path = Path(trial_path)
     trial = read_trial(trial_path)
     _check_trial(trial)
@@ -112,7 +127,7 @@ def estimate_pose(
         reference = read_reference_csv(reference)
     if isinstance(detector, type) or not hasattr(detector, "detect"):
         detector = detector(trial.parameters.side)  # a factory, or the detector's class
-    index, px, vis = _detect(video, detector, progress)
+    index, px, vis = _detect(video, detector, progress, detect_every)
     keep = index < stamps_t.size
     index, px, vis = index[keep], px[keep], vis[keep]
     c = trial.channels
@@ -131,7 +146,8 @@ def estimate_pose(
         reference_errors = _against_reference(trial, result.angle_isb, reference, times_of)
     if write:
         write_pose(trial_path, result, PoseRun(video.path.name, model_name, min_visibility,
-                                               max_residual_mm, drift_limit_m, index, px, vis))
+                                               max_residual_mm, drift_limit_m, index, px, vis,
+                                               detect_every))
     return OfflinePose(trial, video, result, reference_errors)
 
 
@@ -177,11 +193,16 @@ def _check_coverage(trial: TrialData, video: VideoInfo, stamps_t: np.ndarray) ->
             "the video is shorter than the trial (or belongs to another trial)")
 
 
-def _detect(video: VideoInfo, detector: PoseDetector, progress: Progress | None):
+def _detect(video: VideoInfo, detector: PoseDetector, progress: Progress | None,
+            every: int = 1):
     index, px, vis = [], [], []
     total = max(video.frames, 1)
+    decoded = 0
     try:
         for i, image in frames(video):
+            decoded = i + 1
+            if i % every:
+                continue  # decoded all the same: a damaged file is found where it breaks
             k = detector.detect(image)
             index.append(i)
             px.append(k.xy_px)
@@ -193,8 +214,8 @@ def _detect(video: VideoInfo, detector: PoseDetector, progress: Progress | None)
     if len(index) < 2:
         raise VideoError(f"video {video.path} decodes to {len(index)} frame(s); the file is "
                          "damaged or the recording was cut short")
-    if len(index) < video.frames - 1:
-        raise VideoError(f"video {video.path} stops decoding at frame {len(index)} of "
+    if decoded < video.frames - 1:
+        raise VideoError(f"video {video.path} stops decoding at frame {decoded} of "
                          f"{video.frames}: the file is damaged (cut short while recorded?)")
     return np.array(index), np.array(px, dtype=float), np.array(vis, dtype=float)
 
@@ -220,8 +241,11 @@ def compare_with_reference(trial_path: str | os.PathLike,
         at = np.minimum(np.searchsorted(kept, frames), kept.size - 1)
         missing = frames[kept[at] != frames]
         if missing.size:
+            every = int(pose["attrs"].get("detect_every", 1))
+            which = f"every {every}th frame from" if every > 1 else "frames"
             raise VideoError(f"the reference names frame {int(missing[0])}, but the pose run "
-                             f"kept frames {int(kept[0])}–{int(kept[-1])} of the video")
+                             f"kept {which} {int(kept[0])}–{int(kept[-1])} of the video; give "
+                             "the reference by time_s, or run `rehab pose` on every frame")
         return times[at]
 
     return _against_reference(trial, pose["angle_isb"], reference, times_of)

@@ -55,6 +55,8 @@ class PoseRun:
     frame_index: np.ndarray
     keypoints_px: np.ndarray
     visibility: np.ndarray
+    detect_every: int = 1
+    """The detector ran on every k-th frame (app.pose.offline.estimate_pose)."""
 
 
 def write_pose(path: str | os.PathLike, result: PoseResult, run: PoseRun) -> None:
@@ -80,6 +82,7 @@ def write_pose(path: str | os.PathLike, result: PoseResult, run: PoseRun) -> Non
         "model": run.model,
         "keypoints": json.dumps(list(KEYPOINT_NAMES)),
         "min_visibility": float(run.min_visibility),
+        "detect_every": int(run.detect_every),
         "frames": int(result.frames),
         "frames_seen": int(result.frames_seen),
         "fit_method": result.homography.method,
