@@ -14,46 +14,19 @@ from app.pose.store import read_pose
 from app.pose.synthetic import film
 from app.trials.headless import save, simulate
 from app.trials.reader import read_trial
-from core.pose.keypoints import ArmKeypoints
 from core.trial import THESIS_SUBJECT
+from tests.pose_film import ReplayDetector, write_video
 from ui import theme
 from ui.tabs import AnglesTab
 from ui.views.trialview import TrialView
 
 
-class ReplayDetector:
-    """Reports what a known camera saw of the trial, frame after frame (app.pose.synthetic)."""
-
-    side = "right"
-
-    def __init__(self, filmed):
-        self.filmed, self.calls = filmed, 0
-
-    def detect(self, image_bgr):
-        k = ArmKeypoints(self.filmed.keypoints_px[self.calls], self.filmed.visibility[self.calls])
-        self.calls += 1
-        return k
-
-    def close(self):
-        pass
-
-
 @pytest.fixture(scope="module")
 def posed(tmp_path_factory):
-    import cv2
-
-    from device.camera.capture import TIMESTAMPS_HEADER, timestamps_path
-
     path = tmp_path_factory.mktemp("posed") / "trial.h5"
     save(simulate(THESIS_SUBJECT.replace(repetitions=1), seed=3), path)
     filmed = film(read_trial(path), seed=2)
-    video = path.with_suffix(".avi")
-    writer = cv2.VideoWriter(str(video), cv2.VideoWriter.fourcc(*"MJPG"), 30.0, (640, 480))
-    for _ in range(filmed.stamps_s.size):
-        writer.write(np.zeros((480, 640, 3), np.uint8))
-    writer.release()
-    timestamps_path(video).write_text(TIMESTAMPS_HEADER + "".join(
-        f"{k},{s:.6f}\n" for k, s in enumerate(filmed.stamps_s)))
+    write_video(path.with_suffix(".avi"), filmed.stamps_s, grey=lambda k: 0)
     estimate_pose(path, ReplayDetector(filmed), video_start_s=filmed.true_frame_t_s[0])
     return path
 

@@ -4,37 +4,19 @@ video the model finds nobody in is refused in one line and the trial stays as it
 
 from __future__ import annotations
 
-import cv2
 import h5py
-import numpy as np
 import pytest
 
 from app.pose.store import read_pose
 from app.pose.synthetic import film
 from app.trials.headless import save, simulate
 from app.trials.reader import read_trial
-from core.pose.keypoints import ArmKeypoints
 from core.trial import THESIS_SUBJECT
-from device.camera.capture import TIMESTAMPS_HEADER, timestamps_path
+from tests.pose_film import ReplayDetector, write_video
 from ui import theme
 from ui.tabs.replay import ReplayTab
 
 ORIGIN = 9000.0
-
-
-class ReplayDetector:
-    """Reports what a known camera saw of the trial (app.pose.synthetic), frame by frame."""
-
-    def __init__(self, filmed, side="right"):
-        self.filmed, self.side, self.calls = filmed, side, 0
-
-    def detect(self, image_bgr):
-        k = ArmKeypoints(self.filmed.keypoints_px[self.calls], self.filmed.visibility[self.calls])
-        self.calls += 1
-        return k
-
-    def close(self):
-        pass
 
 
 @pytest.fixture
@@ -44,13 +26,7 @@ def recorded(tmp_path):
     with h5py.File(path, "r+") as f:
         f["summary"].attrs["wall_time_origin_monotonic_s"] = ORIGIN
     filmed = film(read_trial(path), seed=5, origin_s=ORIGIN)
-    video = path.with_suffix(".avi")
-    writer = cv2.VideoWriter(str(video), cv2.VideoWriter.fourcc(*"MJPG"), 30.0, (640, 480))
-    for _ in range(filmed.stamps_s.size):
-        writer.write(np.full((480, 640, 3), 80, np.uint8))
-    writer.release()
-    timestamps_path(video).write_text(TIMESTAMPS_HEADER + "".join(
-        f"{k},{s:.6f}\n" for k, s in enumerate(filmed.stamps_s)))
+    write_video(path.with_suffix(".avi"), filmed.stamps_s, grey=lambda k: 80)
     return path, filmed
 
 

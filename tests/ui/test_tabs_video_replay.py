@@ -4,7 +4,6 @@ replays without one."""
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 import pytest
 from PySide6.QtGui import QColor
@@ -14,26 +13,11 @@ from app.pose.replay import ReplayVideo
 from app.pose.synthetic import film
 from app.trials.headless import save, simulate
 from app.trials.reader import read_trial
-from core.pose.keypoints import SHOULDER, ArmKeypoints
+from core.pose.keypoints import SHOULDER
 from core.trial import THESIS_SUBJECT
-from device.camera.capture import TIMESTAMPS_HEADER, timestamps_path
+from tests.pose_film import ReplayDetector, write_video
 from ui import theme
 from ui.tabs import VideoTab
-
-
-class ReplayDetector:
-    side = "right"
-
-    def __init__(self, filmed):
-        self.filmed, self.calls = filmed, 0
-
-    def detect(self, image_bgr):
-        k = ArmKeypoints(self.filmed.keypoints_px[self.calls], self.filmed.visibility[self.calls])
-        self.calls += 1
-        return k
-
-    def close(self):
-        pass
 
 
 def grey(k: int) -> int:
@@ -45,13 +29,8 @@ def recorded(tmp_path_factory):
     path = tmp_path_factory.mktemp("replay") / "trial.h5"
     save(simulate(THESIS_SUBJECT.replace(repetitions=1), seed=5), path)
     filmed = film(read_trial(path), seed=4)
-    video = path.with_suffix(".avi")
-    writer = cv2.VideoWriter(str(video), cv2.VideoWriter.fourcc(*"MJPG"), 30.0, (640, 480))
-    for k in range(filmed.stamps_s.size):  # frame k is a flat grey that tells its index
-        writer.write(np.full((480, 640, 3), grey(k), np.uint8))
-    writer.release()
-    timestamps_path(video).write_text(TIMESTAMPS_HEADER + "".join(
-        f"{k},{s:.6f}\n" for k, s in enumerate(filmed.stamps_s)))
+    # frame k is a flat grey that tells its index
+    write_video(path.with_suffix(".avi"), filmed.stamps_s, grey=grey)
     estimate_pose(path, ReplayDetector(filmed), video_start_s=filmed.true_frame_t_s[0])
     return path, filmed
 

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import shutil
 
-import cv2
 import h5py
 import numpy as np
 import pytest
@@ -21,43 +20,17 @@ from core.pose.keypoints import ArmKeypoints
 from core.trial import THESIS_SUBJECT
 from device.camera.capture import TIMESTAMPS_HEADER, timestamps_path
 from device.errors import VideoError
+from tests import pose_film as film_tools
+from tests.pose_film import SIZE, write_video
 
 ORIGIN = 7000.0
-SIZE = (640, 480)
 
 
-class ReplayDetector:
-    """A PoseDetector that reports, frame after frame, what a known camera saw (the
-    synthetic film): the pipeline after the detector runs exactly as on the real model."""
+class ReplayDetector(film_tools.ReplayDetector):
+    """The film's detector, checking that each picture is the video's size."""
 
-    def __init__(self, video, side="right"):
-        self.side = side
-        self.video = video
-        self.calls = 0
-        self.closed = False
-
-    def detect(self, image_bgr):
-        assert image_bgr.shape == (SIZE[1], SIZE[0], 3)
-        k = ArmKeypoints(self.video.keypoints_px[self.calls], self.video.visibility[self.calls])
-        self.calls += 1
-        return k
-
-    def close(self):
-        self.closed = True
-
-
-def write_video(path, n_frames, stamps, size=SIZE):
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"MJPG"), 30.0, size)
-    assert writer.isOpened()
-    frame = np.full((size[1], size[0], 3), 90, np.uint8)
-    for _ in range(n_frames):
-        writer.write(frame)
-    writer.release()
-    with timestamps_path(path).open("w") as f:
-        f.write(TIMESTAMPS_HEADER)
-        for k, s in enumerate(stamps):
-            f.write(f"{k},{s:.6f}\n")
-    return path
+    def __init__(self, filmed, side="right"):
+        super().__init__(filmed, side, size=SIZE)
 
 
 @pytest.fixture(scope="module")
@@ -69,7 +42,7 @@ def recorded(tmp_path_factory):
     with h5py.File(path, "r+") as f:
         f["summary"].attrs["wall_time_origin_monotonic_s"] = ORIGIN
     filmed = film(read_trial(path), seed=1, origin_s=ORIGIN)
-    write_video(path.with_suffix(".avi"), filmed.stamps_s.size, filmed.stamps_s)
+    write_video(path.with_suffix(".avi"), filmed.stamps_s)
     return path, filmed
 
 
@@ -148,13 +121,13 @@ def unusable(trial, how: str):
     elif how == "corrupt":
         video.write_bytes(np.random.default_rng(0).bytes(50_000))
     elif how == "too small":
-        write_video(video, stamps.size, stamps, size=(64, 48))
+        write_video(video, stamps, size=(64, 48))
     elif how == "not its timestamps":
-        write_video(video, stamps.size // 2, stamps)
+        write_video(video, stamps, n_frames=stamps.size // 2)
         timestamps_path(video).write_text(TIMESTAMPS_HEADER + "".join(
             f"{k},{s:.6f}\n" for k, s in enumerate(stamps)))
     elif how == "shorter than the trial":
-        write_video(video, stamps.size // 2, stamps[: stamps.size // 2])
+        write_video(video, stamps[: stamps.size // 2])
     elif how == "no timestamps":
         timestamps_path(video).unlink()
     elif how == "cut short while decoding":
@@ -399,8 +372,8 @@ def test_the_detector_on_every_kth_frame(trial):
     class EveryThird(ReplayDetector):
         def detect(self, image_bgr):
             seen.append(self.calls)
-            k = ArmKeypoints(self.video.keypoints_px[self.calls],
-                             self.video.visibility[self.calls])
+            k = ArmKeypoints(self.filmed.keypoints_px[self.calls],
+                             self.filmed.visibility[self.calls])
             self.calls += 3  # the next frame it is shown
             return k
 
