@@ -54,7 +54,7 @@ import logging
 import math
 import os
 from collections.abc import Callable, Iterator, Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from types import MappingProxyType
 
@@ -154,14 +154,18 @@ class Trial(TrialInfo):
     frames: Mapping[str, str]
     descriptions: Mapping[str, str]
     events: tuple[dict, ...]
-    groups: Mapping[str, Mapping] = field(default_factory=dict)
-    """The groups beside the samples that the file has (app.trials.reader.BESIDE_GROUPS:
-    `assistance`, `pose`, `emg`), each with its own time base: attributes, arrays and
-    subgroups by name (docs/data-format.md)."""
 
     # Arrays have no single truth value, so equality is identity.
     __eq__ = object.__eq__
     __hash__ = object.__hash__
+
+    @property
+    def groups(self) -> Mapping[str, Mapping]:
+        """The groups beside the samples that the file has (app.trials.reader.BESIDE_GROUPS:
+        `assistance`, `pose`, `emg`), each with its own time base: attributes, arrays and
+        subgroups by name (docs/data-format.md). Read from the file when asked (the `.mat`
+        export): a CSV or BIDS export of a trial with an hour of EMG need not load it."""
+        return MappingProxyType(read_groups(self.path))
 
     def __getitem__(self, name: str) -> np.ndarray:
         try:
@@ -390,7 +394,6 @@ def _trial(data: TrialData) -> Trial:
         frames=MappingProxyType(dict(data.frames)),
         descriptions=MappingProxyType(dict(data.descriptions)),
         events=tuple(data.events),
-        groups=MappingProxyType(read_groups(data.path)),
     )
 
 
