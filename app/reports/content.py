@@ -180,7 +180,9 @@ def build_report(
         notes += figures.notes
     comparisons = _comparisons(previous_trial, previous_session, values, parameters,
                                partial=status != "complete")
-    if trial.path.is_file():
+    if figures.pose is not None:
+        notes += list(figures.pose.lines)  # read once, with the figure
+    elif trial.path.is_file():
         try:
             notes += comparison_lines(read_pose(trial.path))  # `rehab pose` ran on its video
         except AppError as exc:
