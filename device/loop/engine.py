@@ -20,6 +20,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -350,16 +351,28 @@ Sink = Callable[[np.ndarray], None]
 append)."""
 
 
+class Feed(Protocol):
+    """What a headless trial tells between its ticks, as a live console would between
+    the loop's: called with each `every_ticks` ticks' records as they are made, it may
+    set what the next ticks use (an estimate of the patient's force from EMG made from
+    those ticks, app.emg.feed)."""
+
+    every_ticks: int
+
+    def __call__(self, records: np.ndarray) -> None: ...
+
+
 def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
               progress: Callable[[float], None] | None = None,
-              sink: Sink | None = None) -> HeadlessOutcome:
+              sink: Sink | None = None, feed: Feed | None = None) -> HeadlessOutcome:
     """A whole trial on `simulator` without a clock: robot time k × period, run by
     `run_ticks` in the pipeline's flavour (compiled with a compiled pipeline and
     simulator, interpreted otherwise).
 
     With a `sink`, the records go to it block by block (BLOCK_TICKS at a time, the last
     block up to the fault when there is one) and the outcome holds none: memory does not
-    grow with the trial's length. Without one, the outcome holds them all."""
+    grow with the trial's length. Without one, the outcome holds them all. A `feed` is
+    called with the records of every `feed.every_ticks` ticks before the next run."""
     if pipeline.compiled != simulator.compiled:
         raise ValueError("a headless run needs the simulator and the pipeline in one flavour "
                          "(both compiled or both interpreted)")
@@ -379,6 +392,8 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
     out = np.full((ROW_SIZE, block), math.nan)
     kept: list[np.ndarray] = []
     step = max(1, min(block, -(-total // _CHUNKS)))
+    if feed is not None:
+        step = max(1, min(step, int(feed.every_ticks)))
     base, done, status = 0, 0, physics.OK
 
     def hand_over(n: int) -> None:
@@ -401,12 +416,15 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
         while done < total and status == physics.OK:
             if progress is not None:
                 progress(done / total)
+            start = done
             done, status = ticks(
                 done, min(total, done + step, base + block), period, r, a, c, p, table,
                 episodes, simulator.state, simulator.noise, scratch, pipeline.kind, v.robot,
                 v.arm, v.model, v.tracker, v.gains, v.assist, v.guide, v.rates, v.integral,
                 v.guided, v.rows, pipeline.approach_ticks, pipeline.sensor_offset_rad, v.last,
                 supervisor.constants, supervisor.state, out, base, False, False)
+            if feed is not None and done > start:
+                feed(records_from_rows(out[:, start - base:done - base], pipeline, start))
             if done == base + block or done == total or status != physics.OK:
                 hand_over(done - base)
                 base = done
