@@ -70,9 +70,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     model = None
     if args.learned_model:
         params, model = _with_learned_model(params, args.learned_model)
-    feed = None
+    feed, options = None, {}
     if args.force_estimate is not None:
         params, feed = _with_force_estimate(params, args)
+        if args.patient != "passive":
+            # the synthetic subject pushes along the path as in the trials it was recorded in
+            options["patient_options"] = {"drive_N": feed.subject.drive_N}
     elif args.emg_subject != 1:
         raise CommandError("--emg-subject needs --force-estimate: the subject's EMG feeds the "
                            "estimate")
@@ -107,7 +110,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         trial, analysis, problem = simulate_to_file(
             params, path, subject_code=args.code or "SIM", patient=args.patient,
             seed=args.seed, progress=bar.update if bar else None, engine=args.engine,
-            plant=args.plant, model=model, feed=feed)
+            plant=args.plant, model=model, feed=feed, **options)
     except (DeviceError, AppError, OSError) as exc:
         if bar:
             bar.done()

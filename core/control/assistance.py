@@ -215,10 +215,13 @@ class PerformanceAssistance:
 def judged_force(a, tick, fx, fy):
     """The patient's force the scheme judges at `tick`: the sensor's (fx, fy), or, when
     the scheme judges an estimate (`PerformanceAssistance.judge_estimate`), the latest
-    one, NaN (no push: the scheme inactive) once it is older than its limit."""
+    one, NaN (no push: the scheme inactive) once it is older than its limit or when it
+    was made for a later tick than this one."""
     if a[A_ESTIMATED] == 0.0:
         return (fx, fy)
-    if not (tick - a[A_EST_TICK] <= a[A_EST_MAX_AGE]):
+    age = tick - a[A_EST_TICK]
+    # an estimate for a tick still to come is one from another trial's count: none
+    if not (0.0 <= age <= a[A_EST_MAX_AGE]):
         return (math.nan, math.nan)
     return (a[A_EST_FX], a[A_EST_FY])
 

@@ -259,6 +259,8 @@ class TickPipeline:
         v.rates[:] = self._make([q1, 0.0, 0.0, q2, 0.0, 0.0])
         v.integral[:] = self._make([0.0] * I_SIZE)
         v.guided[:] = self._make([0.0] * len(v.guided))
+        # no estimate of the patient's force carries over from a trial before
+        self.set_force_estimate(math.nan, math.nan, -math.inf)
         self._ticked = False
 
     @property

@@ -193,6 +193,8 @@ def test_an_estimate_of_the_force_stands_in_for_the_sensor_and_is_dropped_when_s
     limit = round(ESTIMATE_MAX_AGE_S / 0.002)
     assert judged_force(a.constants, 100 + limit, 1.0, 2.0) == (3.0, -1.0)
     assert all(math.isnan(v) for v in judged_force(a.constants, 101 + limit, 1.0, 2.0))
+    # one made for a later tick (another trial's count) is none either
+    assert all(math.isnan(v) for v in judged_force(a.constants, 99, 1.0, 2.0))
     # a lost estimate leaves the scheme inactive and the torque as the controller's
     a.set_estimate(math.nan, math.nan, 200)
     fx, fy = judged_force(a.constants, 200, 1.0, 2.0)
