@@ -76,6 +76,7 @@ class DeviceBridge(QObject):
         self._thread: threading.Thread | None = None
         self._started = threading.Event()
         self._start_error = ""
+        self._force_feed = None
 
     # ------------------------------------------------------------------ life
     def start(self, timeout: float = 30.0) -> None:
@@ -126,6 +127,12 @@ class DeviceBridge(QObject):
     def set_assistance(self, level: float) -> None:
         self._calls.put(_Call("set_assistance", (level,)))
 
+    def set_force_feed(self, feed) -> None:
+        """While a trial on a force estimate runs: `feed(records)` (app.emg.live_feed.
+        LiveForceFeed) is called on this bridge's worker thread with each batch drained,
+        and what it returns, (F_x, F_y, tick), goes to the loop; None stops it."""
+        self._force_feed = feed
+
     def take_records(self) -> np.ndarray:
         """Everything drained since the last call, as one array (maybe empty)."""
         with self._lock:
@@ -172,6 +179,9 @@ class DeviceBridge(QObject):
             log.warning("live view: %s", exc)
             records = None
         if records is not None and len(records):
+            feed = self._force_feed
+            if feed is not None:
+                self._feed_estimate(feed, records)
             with self._lock:
                 self._records.append(records)
                 del self._records[:-MAX_PENDING]
@@ -181,6 +191,16 @@ class DeviceBridge(QObject):
             self._emit(event)
             if self.lsl_outlet is not None:
                 self._publish_event(event)
+
+    def _feed_estimate(self, feed, records) -> None:
+        try:
+            estimate = feed(records)
+            if estimate is not None:
+                self.client.send_force_estimate(*estimate)
+        except Exception as exc:  # no estimate: the loop judges no push, the trial goes on
+            log.warning("force estimate stopped: %s", exc)
+            feed.lost = f"the estimate stopped ({exc}); the assistance gives no way"
+            self._force_feed = None
 
     def _publish(self, push, *args) -> None:
         try:

@@ -42,6 +42,7 @@ from device.recording.trialfile import SubjectInfo
 from device.safety.faults import Fault
 from ui import theme
 from ui.device_bridge import DeviceBridge
+from ui.force_estimate import ForceEstimateControl
 from ui.jobs import Jobs
 from ui.robot_bar import RobotBar
 from ui.tabs import (
@@ -130,6 +131,7 @@ class MainWindow(QMainWindow):
         self.instructions = InstructionsTab()
         self.registration_tab = RegistrationTab(self.registry)
         self.parameters_tab = ParametersTab()
+        self.force_estimate = ForceEstimateControl(self)
         self.refresh_learned_models()
         self.trajectory = TrajectoryTab()
         self.force = ForceTab()
@@ -281,6 +283,11 @@ class MainWindow(QMainWindow):
                 return
             params = params.replace(learned_model_sha256=checked.content_sha256)
             model = inverse_dynamics(checked)
+        # an EMG model for the patient's force: read and checked, with the EMG tab's source
+        # and MVCs, at each Build
+        params = self.force_estimate.checked(params)
+        if params is None:
+            return
         choice = self.parameters_tab.backend()
         if choice.name == HARDWARE:
             backend = BackendConfig(kind="quanser", hardware_settings=str(choice.settings_path))
@@ -298,10 +305,22 @@ class MainWindow(QMainWindow):
             self.refresh_learned_models()
 
     def refresh_learned_models(self) -> None:
-        """Offer the model files in the data folder's models/ in the controller choice."""
+        """Offer the model files in the data folder's models/ in the controller choice, and
+        the approved EMG models in models/emg/ in the Patient's force choice."""
+        from app.emg.modelfile import emg_model_names
         from app.learning.library import model_names
 
-        self.parameters_tab.set_learned_models(model_names(self.registry.data_dir.models_dir))
+        models = self.registry.data_dir.models_dir
+        self.parameters_tab.set_learned_models(model_names(models))
+        self.parameters_tab.set_emg_models(emg_model_names(models))
+
+    def say(self, text: str, problem: bool = False) -> None:
+        """A new line in the message line (and its history)."""
+        self._say(text, problem=problem)
+
+    def refuse_build(self, reason: str) -> None:
+        self._say(f"Build refused: {reason}", problem=True)
+        self.tabs.setCurrentWidget(self.parameters_tab)
 
     def start_trial(self) -> None:
         if self.patient is None or self.registration is None:
@@ -441,6 +460,7 @@ class MainWindow(QMainWindow):
         self.trial_label.setText(f"recording {Path(path).name}")
         self._say(f"Trial running: {Path(path).name}. Stop (F6) ends it early.",
                   states=(State.RUNNING,))
+        self.force_estimate.trial_started(self.built)
         if not isinstance(self.tabs.currentWidget(), VIEW_TABS):
             self.tabs.setCurrentWidget(self.trajectory)
 
@@ -462,6 +482,8 @@ class MainWindow(QMainWindow):
             self.jobs.run(lambda: finalize_trial(self.registry, trial_id, status, reason),
                           lambda done: self._finalized(trial_id, done))
             self._store_trial_emg(path)
+        if kind == "closed":
+            self.force_estimate.trial_closed(path)
 
     def _store_trial_emg(self, path: str) -> None:
         """The live EMG source's part of the trial into its file, after the metrics (one
@@ -573,6 +595,7 @@ class MainWindow(QMainWindow):
                 self.live.append(records[records["phase"] > 0])
         if self.shown_view is self.live and self.live is not None:
             self._show_current()
+        self.force_estimate.poll()
 
     def _show_current(self) -> None:
         tab = self.tabs.currentWidget()

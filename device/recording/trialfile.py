@@ -558,6 +558,33 @@ def write_metrics(path: str | Path, metrics: Mapping) -> None:
         raise _disk_error(Path(path), "store the metrics in", exc) from exc
 
 
+def add_assistance(path: str | Path, values: Mapping) -> None:
+    """Add to a closed trial's `/assistance` group what the console learnt beside the loop
+    (a live trial's estimates of the patient's force, app.emg.live_feed): numbers and
+    strings as attributes, arrays as checksummed float64 datasets, as `close` writes them.
+    A name the group already holds is refused: nothing there is overwritten."""
+    arrays = {k: np.asarray(v, dtype=float) for k, v in values.items()
+              if isinstance(v, np.ndarray)}
+    scalars = _check_scalars("assistance", {k: v for k, v in values.items()
+                                            if k not in arrays})
+    try:
+        with h5py.File(path, "r+", libver=LIBVER, locking=False) as f:
+            if f.attrs.get("status") == STATUS_RECORDING:
+                raise RecordingError(f"{path} is still being recorded; add to its assistance "
+                                     "after it closes")
+            group = f.require_group("assistance")
+            taken = sorted((set(group.attrs) | set(group)) & (set(arrays) | set(scalars)))
+            if taken:
+                raise RecordingError(f"{Path(path).name} already has {', '.join(taken)} in "
+                                     "/assistance; nothing was changed")
+            for key, value in scalars.items():
+                group.attrs[key] = value
+            for key, value in arrays.items():
+                group.create_dataset(key, data=value, fletcher32=True)
+    except (OSError, RuntimeError, ValueError) as exc:
+        raise _disk_error(Path(path), "store the assistance's estimates in", exc) from exc
+
+
 def write_trial(
     path: str | os.PathLike,
     records: np.ndarray,

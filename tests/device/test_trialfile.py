@@ -509,3 +509,27 @@ def test_the_python_examples_in_the_format_document_run(tmp_path, monkeypatch, c
     np.testing.assert_array_equal(read["emg"], emg)
     assert read["muscles"] == ["biceps", "triceps"]
     assert read["rate_hz"] == 1000.0
+
+
+def test_the_console_adds_to_a_closed_trial_s_assistance_and_overwrites_nothing(tmp_path):
+    """add_assistance: a live trial's estimates of the patient's force, stored after the
+    recorder closed the file; what the group holds is never replaced."""
+    from device.errors import RecordingError
+    from device.recording.trialfile import add_assistance
+
+    records = random_records(50, RECORD_DTYPE, np.random.default_rng(5))
+    path = write_trial(tmp_path / "t.h5", records, parameters=PARAMETERS, subject=SUBJECT,
+                       robot=ROBOT, backend="headless", sample_period_s=PERIOD_S,
+                       assistance={"mode": "thesis", "level": 1.0})
+    add_assistance(path, {"estimate_model": "s1", "estimate_force": np.ones((3, 2))})
+    with h5py.File(path, "r") as f:
+        a = f["assistance"]
+        assert a.attrs["mode"] == "thesis"
+        assert a.attrs["estimate_model"] == "s1"
+        assert a["estimate_force"].shape == (3, 2)
+        assert a["estimate_force"].fletcher32
+    with pytest.raises(RecordingError, match="already has estimate_force, mode"):
+        add_assistance(path, {"mode": "as-needed", "estimate_force": np.zeros((1, 2))})
+    with h5py.File(path, "r") as f:
+        assert f["assistance"].attrs["mode"] == "thesis"
+        assert f["assistance/estimate_force"][0, 0] == 1.0

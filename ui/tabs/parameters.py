@@ -77,6 +77,14 @@ SHAPE_NAMES = {"d": "D shape", "circle": "Circle", "reach": "Reach out and back"
                "targets": "Targets (centre-out)", "figure8": "Figure eight"}
 TIMING_NAMES = {"constant_speed": "Steady speed", "minimum_jerk": "Smooth start and stop"}
 CONTROLLER_NAMES = {"smc": "Sliding mode (SMC)", "ctpid": "Computed-torque PID"}
+SENSOR_LABEL = "Force sensor"
+
+
+def emg_label(name: str) -> str:
+    """How the Patient's force choice names an EMG model."""
+    return f"EMG model: {name}"
+
+
 LEARNED = "learned:"
 """The controller choice's data for "CT-PID (learned: <name>)": LEARNED + the model's name
 (a file in the data folder's models/, app.learning.library)."""
@@ -286,6 +294,14 @@ class ParametersTab(QWidget):
         self._add(form, "Controller", self.controller, "controller")
         self._add(form, "Tolerance angle", self.tolerance, "tolerance")
         self._add(form, "Assistance", self.assistance, "assistance")
+        # what the assistance judges the patient's push by: the handle's force sensor, or
+        # an approved EMG model's estimate (models/emg, `rehab emg model --save`)
+        self.force_source = ComboBox()
+        self.force_source.addItem(SENSOR_LABEL, "")
+        self.force_source.setToolTip("What the assistance judges the patient's push by. An "
+                                     "EMG model needs the EMG source connected and each of "
+                                     "its muscles' MVCs recorded on the EMG tab.")
+        self._add(form, "Patient's force", self.force_source, "force_estimate")
         self.gains = QLineEdit()
         self.gains.setPlaceholderText("defaults; e.g. smc.lambda_1_s=25; guidance.delay_s=0.5")
         self.gains.setToolTip("For researchers: changes to the controller's and the "
@@ -357,7 +373,8 @@ class ParametersTab(QWidget):
                      self.upper_arm, self.forearm, self.shoulder_x, self.shoulder_y,
                      self.tolerance, self.n_targets, self.repetitions, self.assistance):
             spin.valueChanged.connect(self._edited)
-        for combo in (self.shape, self.timing, self.side, self.controller, self.assist):
+        for combo in (self.shape, self.timing, self.side, self.controller, self.assist,
+                      self.force_source):
             combo.currentIndexChanged.connect(self._edited)
         self.assistance.valueChanged.connect(self._assistance_edited)
         self.gains.textChanged.connect(self._edited)
@@ -409,6 +426,7 @@ class ParametersTab(QWidget):
             "assistance_level": self.assistance.value() / 100.0,
             "assist": self.assist.currentData(),
             "gains": self.gains.text(),
+            "force_estimate": self.force_source.currentData() or "",
         }
 
     def set_parameters(self, parameters: TrialParameters) -> None:
@@ -440,6 +458,12 @@ class ParametersTab(QWidget):
             self.assistance.setValue(round(parameters.assistance_level * 100))
             self.assist.setCurrentIndex(self.assist.findData(parameters.assist))
             self.gains.setText(parameters.gains)
+            if self.force_source.findData(parameters.force_estimate) < 0:
+                # a trial's EMG model no longer in the folder: shown, so Build says so
+                self.force_source.addItem(emg_label(parameters.force_estimate),
+                                          parameters.force_estimate)
+            self.force_source.setCurrentIndex(
+                self.force_source.findData(parameters.force_estimate))
         finally:
             self._loading = False
         self.refresh()
@@ -461,6 +485,22 @@ class ParametersTab(QWidget):
                 self.controller.addItem(label, key)
             if current is not None:
                 self.controller.setCurrentIndex(self.controller.findData(current))
+        finally:
+            self._loading = False
+
+    def set_emg_models(self, names) -> None:
+        """Offer "EMG model: <name>" for each approved EMG model after the force sensor;
+        the current choice is kept (added if no longer among them, so that Build says so)."""
+        current = self.force_source.currentData() or ""
+        keys = ["", *names]
+        if current not in keys:
+            keys.append(current)
+        self._loading = True
+        try:
+            self.force_source.clear()
+            for key in keys:
+                self.force_source.addItem(emg_label(key) if key else SENSOR_LABEL, key)
+            self.force_source.setCurrentIndex(self.force_source.findData(current))
         finally:
             self._loading = False
 

@@ -99,6 +99,7 @@ def field_key(field: str) -> str:
         "centre_m": "centre", "shoulder_m": "shoulder", "radius_m": "radius",
         "duration_s": "duration", "body_mass_kg": "body_mass", "upper_arm_m": "upper_arm",
         "forearm_m": "forearm", "tolerance_rad": "tolerance", "assistance_level": "assistance",
+        "force_estimate_sha256": "force_estimate",
     }.get(name, name)
 
 

@@ -1,0 +1,153 @@
+"""A trial in the window whose assistance judges the patient's force estimated from EMG
+(Parameters: "Patient's force: EMG model: <name>"), as a therapist runs it: Build is
+refused, saying why, until the EMG source is connected and the model's muscles have their
+MVCs; then the estimates go to the loop while the trial runs, the loop judges them, and the
+trial's file keeps them; a source that dies mid-trial is said once and the assistance
+stops giving way. The real loop, recorder and fake Trigno Control Utility run behind."""
+
+import math
+
+import h5py
+import numpy as np
+import pytest
+
+from app.emg.feed import SyntheticEmgFeed
+from app.emg.modelfile import save_approved
+from app.emg.subjects import Subject
+from app.emg.validation import check_model
+from app.records.datadir import DataDir
+from core.emg.force import in_cone
+from core.emg.synthetic import THESIS_MUSCLES
+from device.loop.states import State
+from tests.emg_subjects import WIDE_CONE_RAD, record_session
+from tests.ui.session import click, fake_trigno, open_window, register_patient, short_trial
+from tests.ui.test_emg_protocol import Muscles, connect_trigno, record, short_protocol
+from tests.ui.test_main_window_emg import _readable
+
+pytestmark = pytest.mark.slow
+
+fake = fake_trigno()
+
+
+@pytest.fixture(scope="module")
+def approved(tmp_path_factory):
+    """An EMG model of synthetic subject 1 that passed, for a 30° cone."""
+    session = record_session(tmp_path_factory.mktemp("subject"))
+    return check_model(session, "network", test=[session[-1]], as_live=True,
+                       latency_s=SyntheticEmgFeed.latency_of(Subject.drawn(1)))
+
+
+def _choose(qtbot, win, name: str) -> None:
+    tab = win.parameters_tab
+    win.tabs.setCurrentWidget(tab)  # the choice's list is read from the data folder here
+    tab.force_source.setCurrentIndex(tab.force_source.findData(name))
+    tab.tolerance.setValue(math.degrees(WIDE_CONE_RAD))
+    tab.refresh()
+
+
+def test_a_trial_judged_by_emg_runs_and_keeps_its_estimates(qtbot, tmp_path, monkeypatch,
+                                                            approved):
+    save_approved(DataDir(tmp_path / "data", "test").models_dir, "s1", approved)
+    win = open_window(qtbot, tmp_path, monkeypatch)
+    with fake.FakeTrignoServer() as server:
+        server.signal = Muscles(server.rate_hz)
+        try:
+            register_patient(qtbot, win)
+            short_trial(win)
+            _choose(qtbot, win, "s1")
+            assert win.parameters_tab.force_source.currentText() == "EMG model: s1"
+            # no EMG source yet: refused in words, on the Parameters tab
+            click(qtbot, win.robot.buttons["build"])
+            assert "connect the EMG source on the EMG tab first" in win.message.text()
+            assert win.state != State.BUILT
+            connect_trigno(qtbot, win, server)
+            click(qtbot, win.robot.buttons["build"])
+            assert "record the MVC of biceps, triceps, anterior_deltoid" in win.message.text()
+            short_protocol(win)
+            for muscle in THESIS_MUSCLES:
+                assert record(qtbot, win, muscle)[0].endswith(": ok")
+            server.signal.level[:3] = (0.6e-4, 0.4e-4, 0.8e-4)  # 20-40 % MVC in the reach
+            click(qtbot, win.robot.buttons["build"])
+            qtbot.waitUntil(lambda: win.state == State.BUILT, timeout=120000)
+            click(qtbot, win.robot.buttons["connect"])
+            qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=20000)
+            click(qtbot, win.robot.buttons["start"])
+            qtbot.waitUntil(lambda: win.state == State.RUNNING, timeout=10000)
+            assert "estimated from EMG by s1" in "\n".join(win.messages.history())
+            qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=60000)
+            qtbot.waitUntil(lambda: "EMG estimates of the patient's force" in
+                            "\n".join(win.messages.history()), timeout=60000)
+            path = win.trial_path
+
+            def estimates():
+                with h5py.File(path, "r", locking=False) as f:
+                    if "estimate_force" not in f.get("assistance", {}):
+                        return None  # not closed yet, or the estimates not yet stored
+                    a = f["assistance"]
+                    return (a["estimate_tick"][()].astype(int), a["estimate_force"][()],
+                            f["timeseries/assistance_active"][()],
+                            f["timeseries/direction_desired"][()],
+                            f["timeseries/phase"][()], a.attrs["estimate_model"])
+
+            ticks, force, active, direction, phase, name = _readable(qtbot, estimates)
+            assert name == "s1"
+            assert len(ticks) > 10
+            # the loop judged what the window sent: on the tick after each estimate, the
+            # records' cone decision is the estimate's
+            after = ticks + 1
+            exercise = phase[after] == 2
+            judged = in_cone(force[exercise], direction[after][exercise], WIDE_CONE_RAD)
+            assert np.mean(judged == active[after][exercise].astype(bool)) > 0.9
+        finally:
+            win.emg.stop_live()
+            win.close()
+
+
+def test_an_emg_source_that_dies_mid_trial_stops_the_giving_way(qtbot, tmp_path, monkeypatch,
+                                                               approved):
+    save_approved(DataDir(tmp_path / "data", "test").models_dir, "s1", approved)
+    win = open_window(qtbot, tmp_path, monkeypatch)
+    with fake.FakeTrignoServer() as server:
+        server.signal = Muscles(server.rate_hz)
+        try:
+            register_patient(qtbot, win)
+            p = win.parameters_tab
+            p.repetitions.setValue(1)
+            p.duration.setValue(6.0)
+            _choose(qtbot, win, "s1")
+            connect_trigno(qtbot, win, server)
+            short_protocol(win)
+            for muscle in THESIS_MUSCLES:
+                record(qtbot, win, muscle)
+            click(qtbot, win.robot.buttons["build"])
+            qtbot.waitUntil(lambda: win.state == State.BUILT, timeout=120000)
+            click(qtbot, win.robot.buttons["connect"])
+            qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=20000)
+            click(qtbot, win.robot.buttons["start"])
+            qtbot.waitUntil(lambda: win.state == State.RUNNING, timeout=10000)
+            qtbot.waitUntil(lambda: win.force_estimate.feed is not None
+                            and len(win.force_estimate.feed.log.tick) > 5, timeout=20000)
+            server.fake_drop_data_after = server.sent + 200  # the base station goes away
+            qtbot.waitUntil(lambda: "EMG estimate lost" in "\n".join(win.messages.history()),
+                            timeout=20000)
+            qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=60000)
+            lost = [line for line in win.messages.history() if "EMG estimate lost" in line]
+            assert len(lost) == 1  # said once, not at every estimate
+            path = win.trial_path
+
+            def channels():
+                with h5py.File(path, "r", locking=False) as f:
+                    if "estimate_tick" not in f.get("assistance", {}):
+                        return None  # not closed yet, or the estimates not yet stored
+                    a = f["assistance"]
+                    return (a["estimate_tick"][()].astype(int),
+                            f["timeseries/assistance_active"][()], f["timeseries/phase"][()])
+
+            ticks, active, phase = _readable(qtbot, channels)
+            # from 0.25 s after the last estimate the loop judged no push: no giving way
+            later = np.arange(active.size) > ticks[-1] + round(0.25 / 0.002)
+            assert (later & (phase == 2)).any()
+            assert not active[later].any()
+        finally:
+            win.emg.stop_live()
+            win.close()
