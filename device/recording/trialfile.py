@@ -407,15 +407,27 @@ class TrialFileWriter:
             self._abandon()
         return self._path
 
-    def read_back(self, names: Iterable[str]) -> dict[str, np.ndarray]:
-        """The samples written so far of the channels `names` (those the file has), read
-        back from the open file: a headless run computes its metrics from the file it
-        streamed, holding only the channels they need."""
+    def channel_names(self) -> tuple[str, ...]:
+        """The channels the file has."""
+        self._check_writable()
+        return tuple(self._file["timeseries"])
+
+    def read_stretch(self, name: str, first: int, stop: int) -> np.ndarray:
+        """Samples first…stop−1 (of those written so far) of the channel `name`, read back
+        from the open file: a long headless trial's analysis reads its channels a block
+        at a time (core.blockwise). Call `flush_for_reading` once before."""
+        self._check_writable()
+        try:
+            return self._file["timeseries"][name][max(0, first):min(stop, self._n)]
+        except (OSError, RuntimeError, ValueError) as exc:
+            self._failed = str(exc)
+            raise _disk_error(self._path, "read back the samples of", exc) from exc
+
+    def flush_for_reading(self) -> None:
+        """Write out what is buffered, so that `read_stretch` sees every sample."""
         self._check_writable()
         try:
             self._flush()
-            series = self._file["timeseries"]
-            return {name: series[name][: self._n] for name in names if name in series}
         except (OSError, RuntimeError, ValueError) as exc:
             self._failed = str(exc)
             raise _disk_error(self._path, "read back the samples of", exc) from exc
