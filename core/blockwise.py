@@ -434,3 +434,66 @@ def _reaches(trial: _Trial, position: _Smoothed, reaches: Sequence[Reach], fract
                                  position.rate(lo, hi), [reach], onset_fraction=fraction,
                                  min_peak_speed_m_s=min_peak, initial_window_s=window_s))
     return tuple(out)
+
+
+def percentiles_of_blocks(blocks: Callable[[], Iterator[np.ndarray]], n: int,
+                          percents: Sequence[float]) -> list[float]:
+    """np.percentile (its default, linear) of `n` finite float values that `blocks()` gives
+    a block at a time, each time it is called, without holding them: each order
+    statistic the percentiles need is found by a radix selection on the values' bit
+    patterns (an order-preserving key), 16 bits a pass over the blocks."""
+    if n < 1:
+        raise ParameterError("values", "none", "at least one finite value")
+    wanted = []
+    for percent in percents:
+        index = (n - 1) * (float(percent) / 100.0)  # numpy's virtual index, "linear"
+        if index >= n - 1:
+            wanted.append((n - 1, n - 1, 0.0))
+        else:
+            below = math.floor(index)
+            wanted.append((below, below + 1, index - below))
+    ranks = sorted({r for below, above, _ in wanted for r in (below, above)})
+    found = _order_statistics(blocks, ranks)
+    out = []
+    for below, above, t in wanted:
+        a, b = found[below], found[above]
+        diff = b - a  # numpy's _lerp
+        out.append(float(a + diff * t) if t < 0.5 else float(b - diff * (1.0 - t)))
+    return out
+
+
+def _order_statistics(blocks, ranks: list[int]) -> dict[int, float]:
+    """The values of the given 0-based ranks among the blocks' values."""
+    first = next(iter(blocks()))
+    kind = np.dtype(first.dtype if first.dtype.kind == "f" else float)
+    width = kind.itemsize * 8
+    unsigned = np.dtype(f"u{kind.itemsize}")
+    top = np.array(1, dtype=unsigned) << np.array(width - 1, dtype=unsigned)
+
+    def keys(values):
+        bits = np.ascontiguousarray(values, dtype=kind).view(unsigned)
+        return np.where(bits & top, ~bits, bits | top)
+
+    # per rank: the key's bits found so far and the rank left within them
+    known = {r: (0, r) for r in ranks}
+    for level in range(width // 16):
+        shift = np.array(width - 16 * (level + 1), dtype=unsigned)
+        prefixes = {prefix for prefix, _ in known.values()}
+        counts = {prefix: np.zeros(1 << 16, dtype=np.int64) for prefix in prefixes}
+        for block in blocks():
+            k = keys(block)
+            high = k >> (shift + np.array(16, dtype=unsigned)) if level else None
+            digit = ((k >> shift) & np.array(0xFFFF, dtype=unsigned)).astype(np.int64)
+            for prefix, count in counts.items():
+                chosen = digit if level == 0 else digit[high == prefix]
+                count += np.bincount(chosen, minlength=1 << 16)
+        for r, (prefix, left) in known.items():
+            cumulative = np.cumsum(counts[prefix])
+            d = int(np.searchsorted(cumulative, left, side="right"))
+            known[r] = ((prefix << 16) | d, left - (int(cumulative[d - 1]) if d else 0))
+    out = {}
+    for r, (key, _) in known.items():
+        bits = np.array([key], dtype=unsigned)
+        bits = np.where(bits & top, bits ^ top, ~bits)
+        out[r] = float(bits.view(kind)[0])
+    return out

@@ -96,8 +96,8 @@ def _spectral_arc(freq_hz: np.ndarray, magnitude: np.ndarray, peak: float,
     return -total
 
 
-FOLD = 2**19
-"""Spectrum bins computed at once by `sparc_of_blocks` (8 MiB of complex numbers)."""
+FOLD = 2**18
+"""Spectrum bins computed at once by `sparc_of_blocks` (4 MiB of complex numbers)."""
 
 
 def sparc_of_blocks(
@@ -134,14 +134,16 @@ def sparc_of_blocks(
     for c in range(passes):
         folded = np.zeros(size, dtype=complex)
         start = 0
+        ramp = None  # e^(−2πi·c·j/N) for j within a block
         for block in blocks():
             values = np.asarray(block, dtype=float)
             if not (np.isfinite(values).all() and (values >= 0.0).all()):
                 raise ParameterError("speed_m_s", "a negative or non-finite sample",
                                      "a speed: finite, ≥ 0")
-            index = np.arange(start, start + len(values))
-            turn = (c * index) % n_fft  # whole turns dropped exactly, in integers
-            modulated = values * np.exp(-2j * math.pi * (turn / n_fft))
+            if ramp is None or len(ramp) < len(values):
+                ramp = np.exp(-2j * math.pi * (c * np.arange(len(values)) / n_fft))
+            turn = (c * start) % n_fft  # the block's first sample: whole turns dropped
+            modulated = values * (ramp[:len(values)] * np.exp(-2j * math.pi * turn / n_fft))
             at = start % size
             while len(modulated):
                 take = min(len(modulated), size - at)
@@ -151,9 +153,8 @@ def sparc_of_blocks(
             start += len(values)
         if start != n_samples:
             raise ParameterError("blocks", f"{start} samples", f"{n_samples} samples")
-        found = np.abs(np.fft.fft(folded))
         taken = magnitude[c::passes]
-        taken[:] = found[:len(taken)]
+        taken[:] = np.abs(np.fft.fft(folded)[:len(taken)])
     peak = float(magnitude[0])
     if peak == 0.0:
         return math.nan

@@ -275,7 +275,7 @@ def test_a_trial_analysed_a_block_at_a_time_has_the_whole_arrays_figures(
     assert blocks.notes == whole.notes
     assert blocks.exercise_start_s == whole.exercise_start_s
     assert len(blocks.metrics.reaches) == len(whole.metrics.reaches)
-    margin = math.ceil(MARGIN_PERIODS / (10.0 * 0.002))
+    margin = math.ceil(MARGIN_PERIODS / (10.0 * 0.002)) + 1  # from the median step
     assert max(reads) <= 1000 + 2 * margin + 2
 
 
@@ -300,7 +300,7 @@ def test_a_streamed_trials_analysis_reads_the_file_a_block_at_a_time(tmp_path, m
     streamed, analysis, problem = simulate_to_file(params, tmp_path / "t.h5", seed=3)
     assert problem == ""
     assert streamed.n_ticks > 5 * 1000
-    margin = math.ceil(core.blockwise.MARGIN_PERIODS / (10.0 * 0.002))
+    margin = math.ceil(core.blockwise.MARGIN_PERIODS / (10.0 * 0.002)) + 1
     assert reads
     assert max(reads) <= 1000 + 2 * margin + 2
     whole = simulate(params, seed=3)
