@@ -5,6 +5,10 @@ Only the exercise phase counts (not the approach to the start point, not the hol
 at the end). Samples where the subject model had no solution (NaN joint angles,
 e.g. an arm stretched straight) leave the joint figures out rather than the whole
 trial, and the note says so.
+
+`analyse` works on channels held in memory; `analyse_stored` reads them a block at a time
+(core.blockwise), for a headless trial too long to hold (issue 13 #21), to the same
+figures within rounding.
 """
 
 from __future__ import annotations

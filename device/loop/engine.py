@@ -217,9 +217,8 @@ class TickEngine:
             out1, out2, code = self._command(
                 p.kind, v.robot, v.model, v.tracker, v.gains, v.assist, v.guide, v.rates,
                 v.integral, v.guided, tick, v.rows, p.rows_from, p.n_rows, p.approach_ticks,
-                p.period_s,
-                p.sensor_offset_rad, v.last, sup.constants, sup.state, now_s, *values,
-                lateness_s, heartbeat_age_s, estop, recording_lost)
+                p.period_s, p.sensor_offset_rad, v.last, sup.constants, sup.state, now_s,
+                *values, lateness_s, heartbeat_age_s, estop, recording_lost)
             p.ticked()
         else:
             out1, out2, code = self._supervise(

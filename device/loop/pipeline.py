@@ -13,14 +13,16 @@ ready for `RecordRing.push` or `RecordLog.append`.
 
 `control` is a kernel (core.kernels) on precomputed tables and flat vectors: Python
 tuples and lists interpreted, float arrays compiled; `record` works on plain floats.
-numpy computes only when a trial is built (`TrialPlan`) and when it starts (`begin`, which
-plans the approach from wherever the handle is to the path's start point).
+numpy computes only when a trial is built (`TrialPlan`), when it starts (`begin`, which
+plans the approach from wherever the handle is to the path's start point and, in the live
+loop, computes every reference row) and, in a headless run, between blocks of ticks
+(`load_rows`: the next rows of the reference, so that a long trial's is never held whole).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -83,24 +85,31 @@ class TrialPlan:
     at a time (`reference`).
 
     Built once (the Build button): refuses unreachable or absurd parameters with
-    the reason before anything moves. It holds no per-tick table: a 100 × 120 s trial's
-    reference is 6 million rows (576 MB), so the pipeline asks for the rows it is about
-    to use (TickPipeline.load_rows).
+    the reason before anything moves. `tabulated` computes the whole reference then (the
+    live loop: Build is a command at zero torque, and Start then only plans the approach);
+    otherwise it holds no per-tick table, since a 100 × 120 s trial's reference is
+    6 million rows (576 MB): a headless run asks for the rows it is about to use
+    (TickPipeline.load_rows).
     """
 
     parameters: TrialParameters
     robot: RobotModel
     period_s: float
     trajectory: Trajectory = field(compare=False, repr=False)
+    table: np.ndarray | None = field(default=None, compare=False, repr=False)
+    """The whole reference (`reference`'s rows), when built `tabulated`."""
 
     @classmethod
     def build(
         cls, parameters: TrialParameters, robot: RobotModel | None = None,
-        period_s: float = PERIOD_S,
+        period_s: float = PERIOD_S, *, tabulated: bool = False,
     ) -> TrialPlan:
         robot = robot or RobotModel()
         check_trial(parameters, robot).require_ok()
-        return cls(parameters, robot, period_s, parameters.trajectory())
+        plan = cls(parameters, robot, period_s, parameters.trajectory())
+        if tabulated:
+            plan = replace(plan, table=plan.reference(0, plan.exercise_ticks))
+        return plan
 
     def reference(self, first: int, stop: int) -> np.ndarray:
         """The exercise's reference at ticks first…stop−1 as one (N, 12) array: (xd, yd,
@@ -108,6 +117,8 @@ class TrialPlan:
         function of its tick alone (t = tick × period), so any stretch has the rows the
         whole table would have, bit for bit."""
         first, stop = max(0, first), min(stop, self.exercise_ticks)
+        if self.table is not None:
+            return self.table[first:max(first, stop)]
         t = np.arange(first, max(first, stop)) * self.period_s
         sample = self.trajectory.sample(t)
         q, qd, qdd = self.trajectory.joint_reference(self.robot, t)

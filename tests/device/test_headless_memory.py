@@ -105,4 +105,8 @@ def test_any_stretch_of_the_reference_is_the_whole_tables_rows():
     pieces = np.vstack([plan.reference(a, b) for a, b in itertools.pairwise(bounds)])
     np.testing.assert_array_equal(pieces, whole)
     assert plan.start_point_m == (whole[0, 0], whole[0, 1])
+    # the live loop's plan computes it all at Build: the same rows
+    tabulated = TrialPlan.build(plan.parameters, tabulated=True)
+    np.testing.assert_array_equal(tabulated.table, whole)
+    np.testing.assert_array_equal(tabulated.reference(17, 4000), whole[17:4000])
     assert len(plan.reference(n - 5, n + 10)) == 5  # clipped to the exercise
