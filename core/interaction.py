@@ -21,6 +21,7 @@ from core.arm_terms import (
     jacobian_dot_of as arm_jacobian_dot_of,
     jacobian_of as arm_jacobian_of,
     mass_of as arm_mass_of,
+    trig as arm_trig,
 )
 from core.errors import SingularityError
 from core.kernels import kernel, suited, where
@@ -91,6 +92,14 @@ def subject_accelerations(
 def subject_torques(arm: ArmModel, ts, te, tsd, ted, tsdd, tedd, fx, fy):
     """The subject's net shoulder and elbow torques τ_A from eq. 3.27."""
     return arm.inverse_dynamics_terms(ts, te, tsd, ted, tsdd, tedd, fx, fy)
+
+
+def subject_hand_force(arm: ArmModel, ts, te, tsd, ted, tsdd, tedd, tau_s, tau_e):
+    """The hand's force that the subject's net torques τ_A imply (eq. 3.27 solved for F,
+    the kernel `hand_force_from_torques`), on floats or arrays: (F_x, F_y, damped)."""
+    at = suited(arm_trig, ts)(ts, te)
+    return suited(hand_force_from_torques, ts)(arm.constants, at, tsd, ted, tsdd, tedd,
+                                               tau_s, tau_e)
 
 
 def subject_robot_torque(robot: RobotModel, q1, q2, fx, fy):
@@ -205,6 +214,20 @@ def damped_solve(a, b, c, d, r1, r2, threshold):
     s2 = b * r1 + d * r2
     det = p11 * p22 - p12 * p12
     return ((p22 * s1 - p12 * s2) / det, (p11 * s2 - p12 * s1) / det, damped)
+
+
+@kernel
+def hand_force_from_torques(a, at, tsd, ted, tsdd, tedd, tau_s, tau_e):
+    """The hand's force on the handle that net arm torques τ_A imply, eq. 3.27 solved for
+    F: J_Aᵀ F = τ_A − (M_A θ̈_A + C_A θ̇_A), damped near the straight arm like the rates
+    (there the torques say nothing of a push along the arm): (F_x, F_y, damped). `a` is
+    the arm's constants and `at` its trig (core.arm_terms.trig); used to turn an
+    estimate of the patient's torques (from EMG, thesis chapter 5) into the force the
+    assistance judges."""
+    motion_s, motion_e = arm_inverse_dynamics_of(a, at, tsd, ted, tsdd, tedd, 0.0, 0.0)
+    j11, j12, j21, j22 = arm_jacobian_of(a, at)
+    return damped_solve(j11, j21, j12, j22, tau_s - motion_s, tau_e - motion_e,
+                        ARM_SINGULAR_THRESHOLD_M)
 
 
 # ----------------------------------------------------------- coupled dynamics

@@ -109,6 +109,13 @@ class TrialParameters:
     learned_model_sha256: str = ""
     """The content hash of that model file as the trial used it (set when the trial is
     built; "" while it is only chosen)."""
+    force_estimate: str = ""
+    """The EMG-to-torque model (chapter 5, the cHRI aim) whose estimate of the patient's
+    force the assistance judges in place of the force sensor's reading: an EMG model
+    file's name in the data folder's models/emg/ (app.emg.modelfile; only a model that
+    passed its held-out validation is ever saved there), "" for the sensor."""
+    force_estimate_sha256: str = ""
+    """The content hash of that model file as the trial used it."""
 
     def __post_init__(self) -> None:
         _choice("shape", self.shape, SHAPES)
@@ -146,6 +153,8 @@ class TrialParameters:
         if not isinstance(self.clockwise, bool):
             raise ParameterError("clockwise", self.clockwise, "True or False")
         _learned_model(self.controller, self.learned_model, self.learned_model_sha256)
+        _model_name("force_estimate", self.force_estimate, "an EMG model file's name")
+        _model_hash("force_estimate_sha256", self.force_estimate_sha256, self.force_estimate)
         if self.gains != "":
             # imported here: core.control builds on this module
             from core.control.gains import canonical_gains
@@ -316,20 +325,28 @@ MODEL_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}")
 _SHA256 = re.compile(r"[0-9a-f]{64}")
 
 
-def _learned_model(controller: str, name: object, sha256: object) -> None:
+def _model_name(field: str, name: object, what: str = "a model file's name") -> None:
     if not isinstance(name, str) or (name and not MODEL_NAME.fullmatch(name)):
-        raise ParameterError("learned_model", name, "a model file's name: letters, digits, "
-                             ". _ -, at most 100", "the name of a file in the models folder")
+        raise ParameterError(field, name, what + ": letters, digits, . _ -, at most 100",
+                             "the name of a file in the models folder")
+
+
+def _model_hash(field: str, sha256: object, name: str) -> None:
+    if not isinstance(sha256, str) or (sha256 and not _SHA256.fullmatch(sha256)):
+        raise ParameterError(field, sha256, "64 lower-case hex digits or empty",
+                             "the model file's SHA-256")
+    if sha256 and not name:
+        raise ParameterError(field, sha256, "empty without its model",
+                             "a hash belongs to a model")
+
+
+def _learned_model(controller: str, name: object, sha256: object) -> None:
+    _model_name("learned_model", name)
     if name and controller != "ctpid":
         raise ParameterError("learned_model", name, "empty with controller " + repr(controller),
                              "a learned model stands in for M, C and f of the computed-torque "
                              "PID (controller 'ctpid') only")
-    if not isinstance(sha256, str) or (sha256 and not _SHA256.fullmatch(sha256)):
-        raise ParameterError("learned_model_sha256", sha256, "64 lower-case hex digits or "
-                             "empty", "the model file's SHA-256")
-    if sha256 and not name:
-        raise ParameterError("learned_model_sha256", sha256, "empty without a learned_model",
-                             "a hash belongs to a model")
+    _model_hash("learned_model_sha256", sha256, name)
 
 
 def _choice(name: str, value: object, allowed: tuple[str, ...]) -> None:

@@ -7,11 +7,13 @@ Streaming Layer's streams (device.emg.lsl)."""
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 import numpy as np
 
 from app.cli.common import CommandError, Parser, absolute, registry_for
+from core.trial import MODEL_NAME
 
 
 def add_emg_commands(commands) -> None:
@@ -84,6 +86,13 @@ def add_emg_commands(commands) -> None:
                    help="a trial to hold out (repeat; default: leave one subject out)")
     p.add_argument("--for-assistance", action="store_true",
                    help="require the model to pass, as the patient's force estimate")
+    p.add_argument("--latency", type=float, default=0.05, metavar="S",
+                   help="with --for-assistance: how late the live EMG source delivers each "
+                        "sample (s, default 0.05; `bench/emg.py --only lsl` measures an LSL "
+                        "stream's); the held-out trials are replayed with it")
+    p.add_argument("--save", metavar="NAME",
+                   help="with --for-assistance: save the passing model as NAME in the data "
+                        "folder's models/emg/, for `rehab run --force-estimate NAME`")
     p.set_defaults(func=cmd_model)
 
     p = sub.add_parser("demo", help="write a synthetic subject's trial and MVC files to try",
@@ -201,22 +210,47 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 def cmd_model(args: argparse.Namespace) -> int:
     from app.emg.validation import approve, check_model
+    from core.emg.force import USABLE_CONE_AGREEMENT
     from core.emg.models import USABLE_R2
 
+    if not (np.isfinite(args.latency) and 0.0 <= args.latency <= 1.0):
+        raise CommandError(f"--latency {args.latency}: give a delay from 0 to 1 s")
+    if args.save is not None and not args.for_assistance:
+        raise CommandError("--save needs --for-assistance: only a model that passes its "
+                           "held-out validation is saved to feed the assistance")
+    if args.save is not None and not MODEL_NAME.fullmatch(args.save):
+        raise CommandError(f"--save {args.save!r} is not a model name: letters, digits, . _ - "
+                           "(at most 100)")
     trials = [trial_file(args, t) for t in args.trials]
     test = [trial_file(args, t) for t in args.test] if args.test else None
-    validations, model = check_model(trials, args.model, test=test)
+    # a model for the assistance learns from the envelopes the live console will give it
+    checked = check_model(trials, args.model, test=test, as_live=args.for_assistance,
+                          latency_s=args.latency)
+    validations, model = checked.validations, checked.model
     print(f"{model.name}, held out, against the linear baseline (RMSE N·m, R²; shoulder, "
-          f"elbow); passes at R² ≥ {USABLE_R2:.2f} at both joints and beating the baseline")
+          f"elbow); passes at R² ≥ {USABLE_R2:.2f} at both joints, beating the baseline, and "
+          f"with the force it implies judged as the sensor's on ≥ "
+          f"{USABLE_CONE_AGREEMENT:.0%} of the samples (replayed as the live console would)")
     for v in validations:
-        s, b = v.score, v.baseline
+        s, b, f = v.score, v.baseline, v.force
+        force = "" if f is None else (
+            f"   force RMSE {f.rmse_N[0]:.2f}, {f.rmse_N[1]:.2f} N, cone judged alike "
+            f"{f.cone_agreement:.0%} ({math.degrees(f.tolerance_rad):.0f}°)")
         print(f"{v.split:<24} RMSE {s.rmse_Nm[0]:.2f}, {s.rmse_Nm[1]:.2f}  R² {s.r2[0]:.2f}, "
               f"{s.r2[1]:.2f}   baseline RMSE {b.rmse_Nm[0]:.2f}, {b.rmse_Nm[1]:.2f}  R² "
-              f"{b.r2[0]:.2f}, {b.r2[1]:.2f}   {'passes' if v.usable else 'fails'}")
+              f"{b.r2[0]:.2f}, {b.r2[1]:.2f}{force}   {'passes' if v.usable else 'fails'}")
     if args.for_assistance:
         approve(model, validations)
         print(f"{model.name} passed every held-out validation: it may stand in for the force "
               "sensor as the patient's force estimate")
+    if args.save is not None:
+        from app.emg.modelfile import FOLDER, save_approved
+
+        data_dir = registry_for(args).data_dir
+        data_dir.ensure(data_dir.models_dir.name, FOLDER)  # private to its user, like the rest
+        path = save_approved(data_dir.models_dir, args.save, checked)
+        print(f"saved as {args.save} ({path}); use it with `rehab run --force-estimate "
+              f"{args.save}`")
     return 0
 
 

@@ -46,6 +46,15 @@ def add_run_command(commands) -> None:
                          help="run the computed-torque PID on this learned model, a file "
                               "NAME.json in the data folder's models/ (`rehab learn train` "
                               "writes there), checked as the Parameters tab's Build checks it")
+    run_cmd.add_argument("--force-estimate", metavar="NAME",
+                         help="the assistance judges the patient's force estimated from EMG "
+                              "by this approved EMG model (models/emg/NAME.json, `rehab emg "
+                              "model --for-assistance --save NAME`) instead of the force "
+                              "sensor's; the EMG is a synthetic subject's, made from the "
+                              "virtual patient's torques as the trial runs")
+    run_cmd.add_argument("--emg-subject", type=int, default=1, metavar="N",
+                         help="with --force-estimate: which synthetic subject's muscles and "
+                              "electrodes make the EMG (1-99, default 1)")
     run_cmd.set_defaults(func=cmd_run)
 
 
@@ -61,6 +70,15 @@ def cmd_run(args: argparse.Namespace) -> int:
     model = None
     if args.learned_model:
         params, model = _with_learned_model(params, args.learned_model)
+    feed, options = None, {}
+    if args.force_estimate is not None:
+        params, feed = _with_force_estimate(params, args)
+        if args.patient != "passive":
+            # the synthetic subject pushes along the path as in the trials it was recorded in
+            options["patient_options"] = {"drive_N": feed.subject.drive_N}
+    elif args.emg_subject != 1:
+        raise CommandError("--emg-subject needs --force-estimate: the subject's EMG feeds the "
+                           "estimate")
     if args.as_proposed and not args.code:
         raise CommandError("--as-proposed needs --code: a proposal belongs to a patient")
     begun = None
@@ -92,7 +110,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         trial, analysis, problem = simulate_to_file(
             params, path, subject_code=args.code or "SIM", patient=args.patient,
             seed=args.seed, progress=bar.update if bar else None, engine=args.engine,
-            plant=args.plant, model=model)
+            plant=args.plant, model=model, feed=feed, **options)
     except (DeviceError, AppError, OSError) as exc:
         if bar:
             bar.done()
@@ -152,6 +170,32 @@ def _with_learned_model(params, name: str):
     params = params.replace(controller="ctpid", learned_model=name,
                             learned_model_sha256=checked.content_sha256)
     return params, inverse_dynamics(checked)
+
+
+def _with_force_estimate(params, args):
+    """`params` naming the approved EMG model (its hash set), and the feed that makes the
+    synthetic subject's EMG and the estimate from it (app.emg.feed)."""
+    from app.emg.feed import SyntheticEmgFeed
+    from app.emg.modelfile import emg_model
+    from app.emg.subjects import Subject
+    from app.records.datadir import locate_data_dir
+    from core.trial import MODEL_NAME
+    from device.loop.pipeline import PERIOD_S
+
+    name = args.force_estimate
+    if not MODEL_NAME.fullmatch(name):
+        raise CommandError(f"--force-estimate {name!r} is not a model name: letters, digits, "
+                           ". _ - (the stem of a file in the data folder's models/emg/)")
+    if not 1 <= args.emg_subject <= 99:
+        raise CommandError(f"--emg-subject {args.emg_subject}: give a number from 1 to 99")
+    checked = emg_model(locate_data_dir().models_dir, name)
+    subject = Subject.drawn(args.emg_subject, patient=args.patient, muscles=checked.muscles)
+    refused = checked.refusal(params, SyntheticEmgFeed.latency_of(subject))
+    if refused:
+        raise CommandError(refused)
+    params = params.replace(force_estimate=name, force_estimate_sha256=checked.content_sha256)
+    return params, SyntheticEmgFeed(subject, checked, params.arm(), period_s=PERIOD_S,
+                                    seed=args.seed)
 
 
 def _as_proposed(registry, code: str, params):

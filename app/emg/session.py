@@ -21,7 +21,7 @@ import numpy as np
 from app.emg.importing import EmgImportError
 from app.trials.reader import read_trial
 from core.emg.mvc import Mvc, MvcCriteria, check_against_trial, mvc_from_contraction
-from core.emg.processing import EmgSettings, envelope, normalise, on_time_base
+from core.emg.processing import EmgSettings, as_known, envelope, normalise, on_time_base
 from device.emg.files import read_emg_file
 from device.recording.emgfile import EmgGroup, read_emg, write_mvc
 
@@ -147,17 +147,13 @@ def _store(groups, measured, criteria) -> dict[str, Mvc]:
 
 
 def _settings(entry: dict) -> EmgSettings:
-    s = entry.get("settings") or {}
-    return EmgSettings(band_hz=tuple(s.get("band_hz", (20.0, 450.0))),
-                       band_order=int(s.get("band_order", 4)), mains_hz=s.get("mains_hz", 50.0),
-                       notch_quality=float(s.get("notch_quality", 30.0)),
-                       window_s=float(s.get("window_s", 0.125)),
-                       overlap_s=float(s.get("overlap_s", 0.0625)))
+    return EmgSettings.from_dict(entry.get("settings"))
 
 
-def trial_envelopes(path: str | os.PathLike) -> TrialEnvelopes:
+def trial_envelopes(path: str | os.PathLike, *, as_live: bool = False) -> TrialEnvelopes:
     """The trial's envelopes in fractions of MVC on its ticks; refuses a muscle without
-    an MVC, naming it."""
+    an MVC, naming it. `as_live`: each tick gets the envelope a live console had then,
+    its window ending there (core.emg.processing.as_known), not centred on it."""
     trial = read_trial(path)
     emg = trial_emg(path)
     missing = [m for m in emg.muscles if m not in emg.mvc]
@@ -169,6 +165,8 @@ def trial_envelopes(path: str | os.PathLike) -> TrialEnvelopes:
     for c, muscle in enumerate(emg.muscles):
         entry = emg.mvc[muscle]
         env = envelope(emg.samples[:, c], emg.rate_hz, _settings(entry), t0_s=emg.time_s[0])
+        if as_live:
+            env = as_known(env, emg.rate_hz, _settings(entry))
         # the envelope's stamps are on an even grid from the first sample; EMG on the
         # trial's clock may run a hair fast or slow, so map the stamps through its time
         k = (env.t_s - emg.time_s[0]) * emg.rate_hz

@@ -160,19 +160,29 @@ def thesis_design(folder: str | os.PathLike, *, subjects: int = 4, muscles=THESI
     return out
 
 
-def model_data(path: str | os.PathLike, subject: int, *, step: int = 10):
+def model_data(path: str | os.PathLike, subject: int, *, step: int = 10,
+               as_live: bool = False):
     """A trial's exercise as a core.emg.models.TrialSet: the % MVC envelopes and the
-    anatomical torques on every `step`-th tick where both are known."""
+    anatomical torques on every `step`-th tick where both are known, with the arm's
+    state, the sensor's force and the cone there (core.emg.force.ForceContext). `as_live`:
+    the envelopes a live console had at each tick (app.emg.session.trial_envelopes), to
+    train a model for the assistance on what it will be given."""
     from app.emg.session import trial_envelopes
     from app.trials.reader import read_trial
+    from core.emg.force import ForceContext
     from core.emg.models import TrialSet
 
     path = Path(path)
     trial = read_trial(path)
-    env = trial_envelopes(path)
+    env = trial_envelopes(path, as_live=as_live)
     torques = joint_torques(trial.channels["subject_torque"])
     keep = (trial.channels["phase"] == 2) & np.isfinite(env.values).all(axis=1) \
         & np.isfinite(torques).all(axis=1)
     index = np.flatnonzero(keep)[::step]
+    ch = trial.channels
+    context = ForceContext(trial.parameters.arm(), ch["subject_angle"][index],
+                           ch["subject_rate"][index], ch["subject_acceleration"][index],
+                           ch["force"][index], ch["direction_desired"][index],
+                           trial.parameters.tolerance_rad)
     return TrialSet(env.values[index], torques[index], subject, path.stem,
-                    step * trial.sample_period_s)
+                    step * trial.sample_period_s, context)

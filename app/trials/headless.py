@@ -26,7 +26,7 @@ from core.errors import ParameterError
 from core.robot import RobotModel
 from core.trial import TrialParameters, check_trial
 from device.compiled.warmup import load_kernels
-from device.loop.engine import Sink, run_trial
+from device.loop.engine import Feed, Sink, run_trial
 from device.loop.pipeline import (
     PERIOD_S,
     TickPipeline,
@@ -69,6 +69,8 @@ class SimulatedTrial:
     n_ticks: int = -1
     """How many ticks ran (the records' length, or what went to the file when the run
     streamed them: then `records` is empty)."""
+    estimate: dict | None = None
+    """With a force estimate (app.emg.feed), its entries for the /assistance group."""
 
     @property
     def simulated_s(self) -> float:
@@ -93,6 +95,7 @@ def simulate(
     guidance: GuidanceGains | None = None,
     sink: Sink | None = None,
     model=None,
+    feed: Feed | None = None,
 ) -> SimulatedTrial:
     """Run a trial on the simulator with a virtual patient of kind `patient`.
 
@@ -110,7 +113,9 @@ def simulate(
     records go to it block by block (device.loop.engine.run_trial) and the result holds
     none: `simulate_to_file` uses it so a long trial's memory stays flat. `model` is the
     learned model the parameters name (`learned_model`; app.learning.library checks it):
-    the computed-torque PID runs on it, compiled for an FNN or a DeLaN.
+    the computed-torque PID runs on it, compiled for an FNN or a DeLaN. A `feed`
+    (app.emg.feed) gives the assistance its estimate of the patient's force between
+    ticks, for parameters that name one (`force_estimate`).
     """
     if engine not in ENGINES:
         raise ParameterError("engine", engine, "one of " + ", ".join(ENGINES))
@@ -129,9 +134,14 @@ def simulate(
         compiled=compiled, plant=plant,
     )
     pipeline = TickPipeline(plan, compiled=compiled, guidance=guidance, controller=controller)
+    if bool(parameters.force_estimate) != (feed is not None):
+        raise ParameterError("feed", type(feed).__name__, "a feed of the force estimate "
+                             "exactly when the parameters name one (force_estimate)")
+    if feed is not None:
+        feed.attach(pipeline)
     supervisor = SafetySupervisor(plan.robot)
     started = time.perf_counter()
-    outcome = run_trial(backend, pipeline, supervisor, progress, sink)
+    outcome = run_trial(backend, pipeline, supervisor, progress, sink, feed)
     period = plan.period_s
     events = [_event(0, period, "start", "trial started", {"patient": patient, "seed": seed})]
     if outcome.status == "complete":
@@ -145,7 +155,8 @@ def simulate(
     return SimulatedTrial(plan, records, tuple(events), outcome.status, patient, seed,
                           time.perf_counter() - started, "compiled" if compiled else "python",
                           load_s, backend.plant.describe(), pipeline.guidance,
-                          pipeline.feedforward_history, outcome.n_ticks)
+                          pipeline.feedforward_history, outcome.n_ticks,
+                          None if feed is None else feed.assistance_entries())
 
 
 def save(trial: SimulatedTrial, path: Path, *, subject_code: str = "SIM") -> Analysis:
@@ -207,6 +218,9 @@ def simulate_to_file(
         writer.close("recording_lost")
         raise
     _finish(writer, trial, analysis)
+    feed = options.get("feed")
+    if feed is not None:
+        feed.store_emg(path)
     return trial, analysis, problem
 
 
@@ -235,7 +249,8 @@ def _finish(writer: TrialFileWriter, trial: SimulatedTrial, analysis: Analysis |
         summary["exercise_start_s"] = analysis.exercise_start_s
     writer.close(trial.status, summary,
                  analysis.metrics.to_dict() if analysis is not None else None,
-                 assistance_group(trial.plan.parameters, trial.guidance, trial.feedforward_N))
+                 {**assistance_group(trial.plan.parameters, trial.guidance, trial.feedforward_N),
+                  **(trial.estimate or {})})
 
 
 def _event(tick: int, period: float, kind: str, message: str, values: dict) -> dict:

@@ -111,8 +111,16 @@ def check_min_force(min_force_N: float) -> float:
     )
 
 
-# The constants vector of `assisted_torques` (PerformanceAssistance.constants).
-A_TOLERANCE, A_LEVEL, A_MIN_FORCE_SQ, A_SIZE = range(4)
+# The constants vector of `assisted_torques` (PerformanceAssistance.constants): the cone,
+# the level, and the estimate of the patient's force that stands in for the sensor's
+# (`judged_force`), with the tick it was made for and how old it may grow.
+(A_TOLERANCE, A_LEVEL, A_MIN_FORCE_SQ, A_ESTIMATED, A_EST_FX, A_EST_FY, A_EST_TICK,
+ A_EST_MAX_AGE, A_SIZE) = range(9)
+
+ESTIMATE_MAX_AGE_S = 0.25
+"""How old an estimate of the patient's force may be before the scheme stops judging by
+it (s): four hops of the thesis's RMS envelope (0.0625 s). An EMG stream that stops, or
+a console that stalls, leaves the robot giving full help, never judging a stale push."""
 
 
 class PerformanceAssistance:
@@ -140,7 +148,8 @@ class PerformanceAssistance:
             )
         self._robot = robot
         minimum = check_min_force(min_force_N)
-        self.constants = [check_tolerance(tolerance_rad), check_level(level), minimum * minimum]
+        self.constants = [check_tolerance(tolerance_rad), check_level(level), minimum * minimum,
+                          0.0, math.nan, math.nan, -math.inf, 0.0]
 
     @property
     def robot(self):
@@ -167,6 +176,27 @@ class PerformanceAssistance:
         """Change the cone's half-angle (rad); refused by name when out of range."""
         self.constants[A_TOLERANCE] = check_tolerance(tolerance_rad)
 
+    @property
+    def estimated(self) -> bool:
+        """Whether the scheme judges an estimate of the patient's force (from EMG) in
+        place of the force sensor's reading."""
+        return self.constants[A_ESTIMATED] != 0.0
+
+    def judge_estimate(self, period_s: float, max_age_s: float = ESTIMATE_MAX_AGE_S) -> None:
+        """Judge the patient's force by the estimate `set_estimate` gives from now on, for
+        ticks of `period_s`; an estimate older than `max_age_s` counts as none."""
+        check_range("max_age_s", max_age_s, period_s, 5.0, "s",
+                    "at least one tick; an estimate seconds old says nothing of the push now")
+        self.constants[A_ESTIMATED] = 1.0
+        self.constants[A_EST_MAX_AGE] = max_age_s / period_s
+
+    def set_estimate(self, fx: float, fy: float, tick: int) -> None:
+        """The latest estimate of the hand's force (global frame, N) and the tick it
+        describes; NaN when the estimate is lost (the scheme then gives no way)."""
+        self.constants[A_EST_FX] = float(fx)
+        self.constants[A_EST_FY] = float(fy)
+        self.constants[A_EST_TICK] = float(tick)
+
     def apply(self, q1, q2, tau1, tau2, fx, fy, dir_x, dir_y):
         """Reduce the controller's torques for the subject's in-direction effort.
 
@@ -179,6 +209,21 @@ class PerformanceAssistance:
         """
         return assisted_torques(self._robot.constants, self.constants, q1, q2, tau1, tau2,
                                 fx, fy, dir_x, dir_y)
+
+
+@kernel
+def judged_force(a, tick, fx, fy):
+    """The patient's force the scheme judges at `tick`: the sensor's (fx, fy), or, when
+    the scheme judges an estimate (`PerformanceAssistance.judge_estimate`), the latest
+    one, NaN (no push: the scheme inactive) once it is older than its limit or when it
+    was made for a later tick than this one."""
+    if a[A_ESTIMATED] == 0.0:
+        return (fx, fy)
+    age = tick - a[A_EST_TICK]
+    # an estimate for a tick still to come is one from another trial's count: none
+    if not (0.0 <= age <= a[A_EST_MAX_AGE]):
+        return (math.nan, math.nan)
+    return (a[A_EST_FX], a[A_EST_FY])
 
 
 @kernel

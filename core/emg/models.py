@@ -18,15 +18,25 @@ Outputs: the subject's anatomical (shoulder, elbow) torques, N·m. Three models:
 `validate` scores a model on a split: RMSE (N·m) and R² = 1 − SSE/SST per joint on the
 test trials, with the linear baseline's beside it. A model may feed the assistance as an
 estimate of the patient's torque only if, held out, its R² reaches `USABLE_R2` at both
-joints (and beats the baseline); `usable` says so and why not.
+joints, it beats the baseline, and the force its torques imply judges the patient's push
+as the force sensor does on `USABLE_CONE_AGREEMENT` of the samples (core.emg.force: the
+assistance's cone test is what the estimate is for); `usable` says so and why not.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from core.emg.force import (
+    USABLE_CONE_AGREEMENT,
+    ForceContext,
+    ForceScore,
+    force_score,
+    joined,
+)
 from core.errors import ParameterError
 
 USABLE_R2 = 0.6
@@ -45,11 +55,17 @@ class TrialSet:
     subject: int
     name: str
     dt_s: float
+    context: ForceContext | None = None
+    """The samples' arm states, sensor force and cone, to score the force the torques
+    imply (core.emg.force); None where the trial has none."""
 
     def __post_init__(self) -> None:
         if self.u.ndim != 2 or self.torques.shape != (self.u.shape[0], 2):
             raise ParameterError("u, torques", (self.u.shape, self.torques.shape),
                                  "(N, muscles) and (N, 2)")
+        if self.context is not None and len(self.context) != self.u.shape[0]:
+            raise ParameterError("context", f"{len(self.context)} samples",
+                                 f"one per envelope sample ({self.u.shape[0]})")
 
 
 def _stack(trials, what):
@@ -67,6 +83,15 @@ class LinearModel:
 
     def predict(self, trial: TrialSet) -> np.ndarray:
         return np.column_stack((trial.u, np.ones(len(trial.u)))) @ self.W
+
+    def to_dict(self) -> dict:
+        return {"model": self.name, "W": _listed(self.W)}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> LinearModel:
+        model = cls()
+        model.W = _array(d, "W", 2)
+        return model
 
 
 class FeedForwardNetwork:
@@ -121,6 +146,25 @@ class FeedForwardNetwork:
         W1, b1, W2, b2 = self._unpack(self.w, self.m)
         X = (trial.u - self.u_mean) / self.u_std
         return (np.tanh(X @ W1 + b1) @ W2 + b2) * self.y_std + self.y_mean
+
+    def to_dict(self) -> dict:
+        return {"model": self.name, "hidden": self.hidden, "weight_decay": self.decay,
+                "seed": self.seed, "max_iterations": self.max_iterations, "inputs": self.m,
+                "w": _listed(self.w), **{k: _listed(getattr(self, k)) for k in _SCALING}}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> FeedForwardNetwork:
+        model = cls(int(d["hidden"]), float(d["weight_decay"]), int(d["seed"]),
+                    int(d["max_iterations"]))
+        model.m = int(d["inputs"])
+        model.w = _array(d, "w", 1)
+        if model.w.size != model.m * model.hidden + 3 * model.hidden + 2:
+            raise ParameterError("w", f"{model.w.size} weights",
+                                 f"{model.m * model.hidden + 3 * model.hidden + 2} for "
+                                 f"{model.m} inputs and {model.hidden} hidden units")
+        for k in _SCALING:
+            setattr(model, k, _array(d, k, 1))
+        return model
 
 
 def activation(u: np.ndarray, dt_s: float, rise_s: float, fall_s: float,
@@ -182,6 +226,57 @@ class MuscleModel:
         a = activation(trial.u, trial.dt_s, *self.dynamics)
         return np.column_stack([self._columns(a, j) @ self.weights[j] for j in range(2)])
 
+    def to_dict(self) -> dict:
+        return {"model": self.name, "muscles": list(self.muscles),
+                "delays_s": list(self.delays_s),
+                "time_constants_s": [list(t) for t in self.time_constants_s],
+                "dynamics": list(self.dynamics), "weights": [_listed(w) for w in self.weights]}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> MuscleModel:
+        model = cls(tuple(d["muscles"]), delays_s=tuple(d["delays_s"]),
+                    time_constants_s=tuple(tuple(t) for t in d["time_constants_s"]))
+        model.dynamics = tuple(float(v) for v in d["dynamics"])
+        model.weights = [np.asarray(w, dtype=float) for w in d["weights"]]
+        for j, w in enumerate(model.weights):
+            width = model._columns(np.zeros((1, len(model.muscles))), j).shape[1]
+            if w.shape != (width,):
+                raise ParameterError("weights", f"{w.shape} at the {JOINTS[j]}",
+                                     f"({width},) for the muscles {', '.join(model.muscles)}")
+        return model
+
+
+_SCALING = ("u_mean", "u_std", "y_mean", "y_std")
+
+
+def _listed(values) -> list:
+    return np.asarray(values, dtype=float).tolist()
+
+
+def _array(d: dict, key: str, ndim: int) -> np.ndarray:
+    a = np.asarray(d[key], dtype=float)
+    if a.ndim != ndim or not np.isfinite(a).all():
+        raise ParameterError(key, f"an array of shape {a.shape}", f"{ndim}-D, finite")
+    return a
+
+
+def model_from_dict(d: dict):
+    """A fitted model from its `to_dict` (the EMG model file's "model")."""
+    kinds = {c.name: c for c in (LinearModel, FeedForwardNetwork, MuscleModel)}
+    kind = d.get("model") if isinstance(d, dict) else None
+    if kind not in kinds:
+        raise ParameterError("model", kind, "one of " + ", ".join(kinds))
+    return kinds[kind].from_dict(d)
+
+
+def inputs_of(model) -> int:
+    """How many muscles' envelopes the fitted model takes."""
+    if isinstance(model, LinearModel):
+        return model.W.shape[0] - 1
+    if isinstance(model, FeedForwardNetwork):
+        return model.m
+    return len(model.muscles)
+
 
 @dataclass(frozen=True, slots=True)
 class Score:
@@ -208,10 +303,38 @@ class Validation:
     baseline: Score
     threshold_r2: float = USABLE_R2
     notes: tuple[str, ...] = field(default=())
+    force: ForceScore | None = None
+    """The force the held-out torques imply against the sensor's (core.emg.force); None
+    when the test trials carry no force to score it on."""
+    threshold_agreement: float = USABLE_CONE_AGREEMENT
 
     @property
     def usable(self) -> bool:
         return not self.why_not
+
+    def to_dict(self) -> dict:
+        return {"model": self.model, "split": self.split, "test": list(self.test),
+                "rmse_Nm": list(self.score.rmse_Nm), "r2": list(self.score.r2),
+                "baseline_rmse_Nm": list(self.baseline.rmse_Nm),
+                "baseline_r2": list(self.baseline.r2), "threshold_r2": self.threshold_r2,
+                "force": None if self.force is None else self.force.to_dict(),
+                "threshold_agreement": self.threshold_agreement}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> Validation:
+        def pair(key):
+            values = tuple(float(v) for v in d[key])
+            if len(values) != 2:
+                raise ParameterError(key, list(values), "two values (shoulder, elbow)")
+            return values
+
+        return cls(str(d["model"]), str(d["split"]), tuple(map(str, d["test"])),
+                   Score(pair("rmse_Nm"), pair("r2")),
+                   Score(pair("baseline_rmse_Nm"), pair("baseline_r2")),
+                   float(d["threshold_r2"]),
+                   force=None if d.get("force") is None else ForceScore.from_dict(d["force"]),
+                   threshold_agreement=float(d.get("threshold_agreement",
+                                                   USABLE_CONE_AGREEMENT)))
 
     @property
     def why_not(self) -> str:
@@ -226,12 +349,23 @@ class Validation:
         if worse and self.model != LinearModel.name:
             return (f"{self.model}, held out ({self.split}): no better than the linear "
                     f"baseline at the {', '.join(worse)}")
+        if self.force is None:
+            return (f"{self.model}, held out ({self.split}): its test trials have no force "
+                    "sensor recording to check the force it implies against")
+        if not self.force.cone_agreement >= self.threshold_agreement:
+            return (f"{self.model}, held out ({self.split}): the force it implies agrees "
+                    f"with the sensor's on {self.force.cone_agreement:.0%} of the samples "
+                    f"about the {math.degrees(self.force.tolerance_rad):.0f}° tolerance "
+                    f"cone, below {self.threshold_agreement:.0%}; it would judge the "
+                    "patient's push wrongly too often")
         return ""
 
 
-def validate(make_model, trials, test_names, split: str) -> Validation:
+def validate(make_model, trials, test_names, split: str, judge=None) -> Validation:
     """Fit `make_model()` and the baseline on every trial not in `test_names`, score both on
-    the test trials together."""
+    the test trials together. The force the model implies is scored by `judge(model,
+    test trials)` → ForceScore, or, without one, sample by sample on the test trials'
+    contexts (core.emg.force.force_score) when they all have one."""
     train = [t for t in trials if t.name not in test_names]
     test = [t for t in trials if t.name in test_names]
     if not train or not test:
@@ -241,8 +375,13 @@ def validate(make_model, trials, test_names, split: str) -> Validation:
     actual = _stack(test, "torques")
     predicted = np.concatenate([model.predict(t) for t in test])
     base = np.concatenate([baseline.predict(t) for t in test])
+    force = None
+    if judge is not None:
+        force = judge(model, test)
+    elif all(t.context is not None for t in test):
+        force = force_score(predicted, joined(t.context for t in test))
     return Validation(model.name, split, tuple(t.name for t in test), score(predicted, actual),
-                      score(base, actual))
+                      score(base, actual), force=force)
 
 
 def in_sample(make_model, trial: TrialSet) -> Score:
@@ -251,10 +390,10 @@ def in_sample(make_model, trial: TrialSet) -> Score:
     return score(model.predict(trial), trial.torques)
 
 
-def leave_one_subject_out(make_model, trials) -> list[Validation]:
+def leave_one_subject_out(make_model, trials, judge=None) -> list[Validation]:
     subjects = sorted({t.subject for t in trials})
     return [validate(make_model, trials, {t.name for t in trials if t.subject == s},
-                     f"leave subject {s} out") for s in subjects]
+                     f"leave subject {s} out", judge) for s in subjects]
 
 
 class ModelRefused(ParameterError):

@@ -77,6 +77,17 @@ class EmgSettings:
                 "mains_hz": self.mains_hz, "notch_quality": self.notch_quality,
                 "window_s": self.window_s, "overlap_s": self.overlap_s}
 
+    @classmethod
+    def from_dict(cls, d: dict | None) -> EmgSettings:
+        """`to_dict`'s settings, the defaults for what a dictionary leaves out (an MVC
+        stored before a setting existed)."""
+        d = d or {}
+        return cls(band_hz=tuple(d.get("band_hz", DEFAULT_BAND_HZ)),
+                   band_order=int(d.get("band_order", 4)), mains_hz=d.get("mains_hz", 50.0),
+                   notch_quality=float(d.get("notch_quality", 30.0)),
+                   window_s=float(d.get("window_s", THESIS_WINDOW_S)),
+                   overlap_s=float(d.get("overlap_s", THESIS_OVERLAP_S)))
+
 
 @dataclass(frozen=True, slots=True, eq=False)
 class Envelope:
@@ -205,6 +216,15 @@ def envelope(emg, fs_hz: float, settings: EmgSettings | None = None,
     settings = settings or EmgSettings()
     return rms_envelope(clean(emg, fs_hz, settings), fs_hz, settings.window_s,
                         settings.overlap_s, t0_s)
+
+
+def as_known(envelope: Envelope, fs_hz: float, settings: EmgSettings | None = None) -> Envelope:
+    """The envelope stamped when it is known, at the end of its window rather than its
+    centre: what a live estimate has at each moment (half a window, 0.062 s with the
+    thesis's settings, later than the centred stamp)."""
+    settings = settings or EmgSettings()
+    window, _ = window_samples(fs_hz, settings.window_s, settings.overlap_s)
+    return Envelope(envelope.t_s + 0.5 * (window - 1) / float(fs_hz), envelope.values)
 
 
 # ------------------------------------------------------------------ normalising and time base

@@ -89,6 +89,13 @@ def joint_torques(tau_A) -> np.ndarray:
     return np.stack((t[..., 0] + t[..., 1], t[..., 1]), axis=-1)
 
 
+def absolute_torques(torques_Nm) -> np.ndarray:
+    """The arm's τ_A in absolute angles from anatomical (shoulder, elbow) torques: the
+    inverse of `joint_torques`, τ_A = (τ_sh − τ_el, τ_el)."""
+    t = np.asarray(torques_Nm, dtype=float)
+    return np.stack((t[..., 0] - t[..., 1], t[..., 1]), axis=-1)
+
+
 def activations_from_torques(torques_Nm, model: MuscleModel | None = None) -> np.ndarray:
     """Activations (N, 4), in [0, 1], that produce the anatomical torques (N, 2) exactly
     (module docstring); activations above 1 are clipped (the torque asked exceeds the
@@ -206,14 +213,32 @@ def _replace(electrodes: Electrodes, **changes) -> Electrodes:
     return replace(electrodes, **changes)
 
 
+def _carrier_filter(rate_hz: float, band_hz):
+    from scipy.signal import butter
+
+    return butter(4, band_hz, btype="bandpass", output="sos", fs=rate_hz)
+
+
 def _carrier(n: int, rate_hz: float, band_hz, rng: np.random.Generator, width: int) -> np.ndarray:
     """Unit-RMS Gaussian noise band-limited to `band_hz` (the interference pattern)."""
-    from scipy.signal import butter, sosfilt
+    from scipy.signal import sosfilt
 
-    sos = butter(4, band_hz, btype="bandpass", output="sos", fs=rate_hz)
     lead = round(0.5 * rate_hz)  # the filter's start-up, discarded
-    noise = sosfilt(sos, rng.standard_normal((n + lead, width)), axis=0)[lead:]
+    noise = sosfilt(_carrier_filter(rate_hz, band_hz), rng.standard_normal((n + lead, width)),
+                    axis=0)[lead:]
     return noise / noise.std(axis=0)
+
+
+def _recorded(level, carrier, t, electrodes: Electrodes, noise, phase) -> np.ndarray:
+    """What the electrodes record (V) of excitation `level` (M, 4) on unit `carrier`
+    noise at times `t`: each muscle's signal at its gain, mixed by the crosstalk, plus
+    the amplifier's `noise` (unit normal, (M, 4)) and the mains at `phase`, clipped at
+    the amplifier's full scale."""
+    sources = level * np.asarray(electrodes.gain_V) * carrier
+    emg = sources @ electrodes.mixing().T
+    emg += electrodes.noise_V * noise
+    emg += electrodes.mains_V * np.sin(2.0 * np.pi * electrodes.mains_hz * t[:, None] + phase)
+    return np.clip(emg, -electrodes.full_scale_V, electrodes.full_scale_V)
 
 
 def emg_from_excitations(
@@ -236,13 +261,75 @@ def emg_from_excitations(
     t = t0_s + np.arange(int(np.floor(duration * electrodes.rate_hz)) + 1) / electrodes.rate_hz
     grid = t0_s + np.arange(u.shape[0]) * dt_s
     level = np.column_stack([np.interp(t, grid, u[:, j]) for j in range(len(MUSCLES))])
-    sources = level * np.asarray(electrodes.gain_V) * _carrier(
-        t.size, electrodes.rate_hz, electrodes.band_hz, rng, len(MUSCLES))
-    emg = sources @ electrodes.mixing().T
-    emg += electrodes.noise_V * rng.standard_normal(emg.shape)
+    carrier = _carrier(t.size, electrodes.rate_hz, electrodes.band_hz, rng, len(MUSCLES))
+    noise = rng.standard_normal((t.size, len(MUSCLES)))
     phase = rng.uniform(0.0, 2.0 * np.pi, len(MUSCLES))
-    emg += electrodes.mains_V * np.sin(2.0 * np.pi * electrodes.mains_hz * t[:, None] + phase)
-    return t, np.clip(emg, -electrodes.full_scale_V, electrodes.full_scale_V)
+    return t, _recorded(level, carrier, t, electrodes, noise, phase)
+
+
+class EmgStream:
+    """Synthetic EMG made while the torques come, as a live source gives it: `push` takes
+    each new stretch of a subject's anatomical torques (ticks `dt_s` apart) and returns
+    the EMG it lets the stream record.
+
+    The same model as `emg_from_excitations` after `excitation_from_activations`, made
+    causal: the excitation's rate is a backward difference; the band-pass of the carrier
+    keeps its state from stretch to stretch (so the EMG has no seams) and is scaled to
+    unit RMS by the filter's own noise gain; and since EMG leads the force by the
+    electromechanical delay, the EMG of time t is known once the torque of t + delay is,
+    so what `push` returns runs `delay_s` behind the newest torque."""
+
+    def __init__(self, model: MuscleModel, electrodes: Electrodes, dt_s: float, *,
+                 seed: int = 0, t0_s: float = 0.0) -> None:
+        from scipy.signal import sosfilt, sosfilt_zi
+
+        self.model, self.electrodes = model, electrodes
+        self.dt_s = check_positive("dt_s", dt_s, "s")
+        self._rng = np.random.default_rng(seed)
+        width = len(MUSCLES)
+        self._sos = _carrier_filter(electrodes.rate_hz, electrodes.band_hz)
+        self._zi = np.repeat(sosfilt_zi(self._sos)[:, :, None], width, axis=2) * 0.0
+        # the filter's RMS gain on unit white noise, measured once on a long stretch
+        probe = sosfilt(self._sos, np.random.default_rng(0).standard_normal(200_000))
+        self._gain = float(probe[round(0.5 * electrodes.rate_hz):].std())
+        self._phase = self._rng.uniform(0.0, 2.0 * np.pi, width)
+        self._last: np.ndarray | None = None  # the activation before this stretch
+        self._grid_t = np.empty(0)
+        self._grid_u = np.empty((0, width))
+        self._next = 0  # the next EMG sample's index from t0
+        self.t0_s = float(t0_s)
+
+    def push(self, t_s, torques_Nm) -> tuple[np.ndarray, np.ndarray]:
+        """The EMG (K, 4) and its times (K,) that the torques (N, 2) at times t_s (N,)
+        release: every EMG sample up to the newest torque's time less the delay."""
+        from scipy.signal import sosfilt
+
+        t = np.asarray(t_s, dtype=float)
+        a = activations_from_torques(np.nan_to_num(torques_Nm), self.model)
+        if t.size == 0:
+            return np.empty(0), np.empty((0, len(MUSCLES)))
+        before = self._last if self._last is not None else a[0]
+        rate = np.diff(np.vstack((before, a)), axis=0) / self.dt_s
+        tau = np.where(rate > 0.0, self.model.activation_tau_s, self.model.deactivation_tau_s)
+        u = np.clip(a + tau * rate, 0.0, 1.0)
+        self._last = a[-1].copy()
+        # the excitation of time t drives the force of t + delay: stamp it earlier
+        self._grid_t = np.concatenate((self._grid_t[-1:], t - self.model.delay_s))
+        self._grid_u = np.vstack((self._grid_u[-1:], u))
+        rate_hz = self.electrodes.rate_hz
+        last = int(np.floor((self._grid_t[-1] - self.t0_s) * rate_hz))
+        k = np.arange(max(self._next, int(np.ceil((self._grid_t[0] - self.t0_s) * rate_hz))),
+                      last + 1)
+        self._next = last + 1
+        times = self.t0_s + k / rate_hz
+        width = len(MUSCLES)
+        level = np.column_stack([np.interp(times, self._grid_t, self._grid_u[:, j])
+                                 for j in range(width)])
+        carrier, self._zi = sosfilt(self._sos, self._rng.standard_normal((k.size, width)),
+                                    axis=0, zi=self._zi)
+        noise = self._rng.standard_normal((k.size, width))
+        return times, _recorded(level, carrier / self._gain, times, self.electrodes, noise,
+                                self._phase)
 
 
 def mvc_contraction(

@@ -35,6 +35,7 @@ from device.loop.messages import (
     ClearFault,
     Connect,
     Disconnect,
+    ForceEstimate,
     Reply,
     SetAssistance,
     Shutdown,
@@ -217,6 +218,14 @@ class DeviceClient:
 
     def set_assistance(self, level: float) -> Reply:
         return self.request(SetAssistance(next(self._ids), level))
+
+    def send_force_estimate(self, fx_N: float, fy_N: float, tick: int) -> None:
+        """The latest estimate of the patient's force for the trial's tick `tick` (from
+        EMG), sent without waiting: the loop takes it between two ticks."""
+        try:
+            self._conn.send(ForceEstimate(float(fx_N), float(fy_N), int(tick)))
+        except (OSError, EOFError) as exc:
+            raise DeviceError("the control loop is not running; restart the console") from exc
 
     # ------------------------------------------------------------------ events and data
     def events(self, timeout: float = 0.0) -> list:

@@ -20,6 +20,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -365,9 +366,20 @@ Sink = Callable[[np.ndarray], None]
 append)."""
 
 
+class Feed(Protocol):
+    """What a headless trial tells between its ticks, as a live console would between
+    the loop's: called with each `every_ticks` ticks' records as they are made, it may
+    set what the next ticks use (an estimate of the patient's force from EMG made from
+    those ticks, app.emg.feed)."""
+
+    every_ticks: int
+
+    def __call__(self, records: np.ndarray) -> None: ...
+
+
 def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
               progress: Callable[[float], None] | None = None,
-              sink: Sink | None = None) -> HeadlessOutcome:
+              sink: Sink | None = None, feed: Feed | None = None) -> HeadlessOutcome:
     """A whole trial on `simulator` without a clock: robot time k × period, run by
     `run_ticks` in the pipeline's flavour (compiled with a compiled pipeline and
     simulator, interpreted otherwise).
@@ -376,7 +388,8 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
     block up to the fault when there is one) and the outcome holds none: memory does not
     grow with the trial's length. Without one, the outcome holds them all. Either way the
     reference rows are loaded a block's worth at a time, when the ticks need them
-    (NEED_ROWS), and the sensor noise is drawn before each call for its ticks."""
+    (NEED_ROWS), and the sensor noise is drawn before each call for its ticks. A `feed` is
+    called with the records of every `feed.every_ticks` ticks before the next run."""
     if pipeline.compiled != simulator.compiled:
         raise ValueError("a headless run needs the simulator and the pipeline in one flavour "
                          "(both compiled or both interpreted)")
@@ -396,6 +409,8 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
     out = np.full((ROW_SIZE, block), math.nan)
     kept: list[np.ndarray] = []
     step = max(1, min(block, -(-total // _CHUNKS)))
+    if feed is not None:
+        step = max(1, min(step, int(feed.every_ticks)))
     base, done, status = 0, 0, physics.OK
 
     def hand_over(n: int) -> None:
@@ -414,12 +429,14 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
         return HeadlessOutcome(records, status_name, fault_tick, supervisor.fault_message,
                                supervisor.fault_detail, done)
 
+    start = stop = 0  # the stretch of ticks one call runs (resumed after NEED_ROWS)
     try:
         while done < total and status == physics.OK:
-            if progress is not None:
-                progress(done / total)
-            stop = min(total, done + step, base + block)
-            simulator.top_up_noise(stop - done + 1)  # a noise row a tick, none drawn in it
+            if done == stop:
+                if progress is not None:
+                    progress(done / total)
+                start, stop = done, min(total, done + step, base + block)
+                simulator.top_up_noise(stop - done + 1)  # a noise row a tick, none drawn in it
             done, status = ticks(
                 done, stop, period, r, a, c, p, table, episodes, simulator.state,
                 simulator.noise, scratch, pipeline.kind, v.robot, v.arm, v.model, v.tracker,
@@ -427,11 +444,13 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
                 pipeline.rows_from, pipeline.n_rows, pipeline.approach_ticks,
                 pipeline.sensor_offset_rad, v.last, supervisor.constants, supervisor.state, out,
                 base, False, False)
-            if status == NEED_ROWS:
+            if status == NEED_ROWS:  # load them and go on with the same stretch
                 lo, hi = pipeline.rows_needed(done)
                 pipeline.load_rows(lo - ROWS_BEHIND, hi + rows_at_once)
                 status = physics.OK
                 continue
+            if feed is not None and done > start:
+                feed(records_from_rows(out[:, start - base:done - base], pipeline, start))
             if done == base + block or done == total or status != physics.OK:
                 hand_over(done - base)
                 base = done

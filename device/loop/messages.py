@@ -114,6 +114,19 @@ class Shutdown:
 COMMAND_TYPES = (Build, Connect, Disconnect, Start, Stop, ClearFault, SetAssistance, Shutdown)
 
 
+@dataclass(frozen=True, slots=True)
+class ForceEstimate:
+    """The console's latest estimate of the patient's force on the handle (global frame,
+    N; NaN when it has none), made from EMG for the trial's tick `tick`: data, not a
+    command, so neither answered nor bound to a state. The loop hands it to the
+    assistance of a trial that names a force estimate (TickPipeline.set_force_estimate)
+    and drops it otherwise."""
+
+    fx_N: float
+    fy_N: float
+    tick: int
+
+
 # ------------------------------------------------------------------ events to the console
 @dataclass(frozen=True, slots=True)
 class Reply:

@@ -26,7 +26,15 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from core.control.assistance import A_LEVEL, PerformanceAssistance, assisted_torques
+from core.control.assistance import (
+    A_EST_FX,
+    A_EST_FY,
+    A_EST_TICK,
+    A_LEVEL,
+    PerformanceAssistance,
+    assisted_torques,
+    judged_force,
+)
 from core.control.base import make_controller
 from core.control.ctpid import (
     I_SIZE,
@@ -201,6 +209,10 @@ class TickPipeline:
             self.robot, tolerance_rad=params.tolerance_rad, level=params.assistance_level,
             **options,
         )
+        if params.force_estimate:
+            # the assistance judges an estimate of the patient's force (from EMG), which the
+            # console gives between ticks (set_force_estimate)
+            self.assistance.judge_estimate(plan.period_s)
         self.rate_estimator = RateEstimator(plan.period_s, rate_cutoff_hz)
         self.guidance = None
         """The as-needed mode's gains (core.control.guidance), None in the thesis mode."""
@@ -278,6 +290,8 @@ class TickPipeline:
         v.rates[:] = self._make([q1, 0.0, 0.0, q2, 0.0, 0.0])
         v.integral[:] = self._make([0.0] * I_SIZE)
         v.guided[:] = self._make([0.0] * len(v.guided))
+        # no estimate of the patient's force carries over from a trial before
+        self.set_force_estimate(math.nan, math.nan, -math.inf)
         self._ticked = False
 
     def rows(self, first: int, stop: int) -> np.ndarray:
@@ -302,6 +316,13 @@ class TickPipeline:
         """The lowest and highest row tick `tick` may read (the kernel `rows_needed`)."""
         v = self.vectors
         return rows_needed(v.guide, v.guided, self._approach_ticks, tick, self.n_rows)
+
+    @property
+    def reference_rows(self) -> np.ndarray:
+        """The reference rows loaded, from row `rows_from` (after `begin` in the live loop,
+        every row of the approach and the exercise): (x_d, y_d, ẋ_d, ẏ_d, direction x, y,
+        θ_d1, θ_d2, θ̇_d1, θ̇_d2, θ̈_d1, θ̈_d2)."""
+        return np.asarray(self.vectors.rows, dtype=float)
 
     @property
     def loaded_rows(self) -> int:
@@ -357,6 +378,14 @@ class TickPipeline:
     def set_assistance_level(self, level: float) -> None:
         self.assistance.set_level(level)
         self.vectors.assist[A_LEVEL] = self.assistance.level
+
+    def set_force_estimate(self, fx: float, fy: float, tick: int) -> None:
+        """The latest estimate of the patient's force on the handle (global frame, N; NaN
+        when lost) for tick `tick`, which the assistance judges in place of the sensor's
+        when the trial names a force estimate (TrialParameters.force_estimate)."""
+        self.assistance.set_estimate(fx, fy, tick)
+        for index in (A_EST_FX, A_EST_FY, A_EST_TICK):
+            self.vectors.assist[index] = self.assistance.constants[index]
 
     def reset_controller(self) -> None:
         """Forget the controller's integral (after a fault held the torque at zero)."""
@@ -587,13 +616,15 @@ def control(kind, robot, model, tracker, gains, assist, guide, rates, integral, 
         xd, yd, vxd, vyd, dx, dy = row[0], row[1], 0.0, 0.0, row[4], row[5]
         r1, r2, rd1, rd2, rdd1, rdd2 = row[6], row[7], 0.0, 0.0, 0.0, 0.0
     fx, fy = rotated_to_global(force_x, force_y, q1, sensor_offset_rad)
+    # the force the assistance judges: the sensor's, or an estimate from EMG (chapter 5)
+    px, py = judged_force(assist, tick, fx, fy)
     if guide[GC_ON] != 0.0 and approach_ticks <= tick < n + guide[GC_DELAY_ROWS]:
         # As needed (core.control.guidance): the reference is where the patient is, or
         # the clock's row less the delay, whichever is further on.
         phase = PHASE_EXERCISE
         sigma, here, tau1, tau2, out1, out2, active, angle = guidance_command(
             robot, guide, assist, guided, rows, rows_from, n, approach_ticks, tick, q1, q2, qd1,
-            qd2, fx, fy)
+            qd2, px, py)
         row = rows[sigma - rows_from]
         xd, yd, vxd, vyd = row[0], row[1], row[2], row[3]
         r1, r2, rd1, rd2, rdd1, rdd2 = row[6], row[7], row[8], row[9], row[10], row[11]
@@ -602,8 +633,8 @@ def control(kind, robot, model, tracker, gains, assist, guide, rates, integral, 
     else:
         tau1, tau2 = controller_torques(kind, model, gains, integral, period_s, q1, q2, qd1,
                                         qd2, r1, r2, rd1, rd2, rdd1, rdd2)
-        out1, out2, active, angle = assisted_torques(robot, assist, q1, q2, tau1, tau2, fx,
-                                                     fy, dx, dy)
+        out1, out2, active, angle = assisted_torques(robot, assist, q1, q2, tau1, tau2, px,
+                                                     py, dx, dy)
         if phase != PHASE_EXERCISE:
             # The subject's effort counts only on the exercise, not on the way to it.
             out1, out2, active = tau1, tau2, False

@@ -58,6 +58,7 @@ from device.loop.messages import (
     Connect,
     Disconnect,
     FaultRaised,
+    ForceEstimate,
     Notice,
     Reply,
     SetAssistance,
@@ -397,6 +398,10 @@ class DeviceLoop:
         """Carry out an allowed command and reply; a refused one is answered with why. A
         command that needs a tick first (a Start before the first reading, a ClearFault,
         which must see the cause gone on a fresh tick) waits for the next one."""
+        if isinstance(command, ForceEstimate):
+            if self.pipeline is not None and self.pipeline.assistance.estimated:
+                self.pipeline.set_force_estimate(command.fx_N, command.fy_N, command.tick)
+            return
         kind = _COMMANDS.get(type(command))
         if kind is None:
             return

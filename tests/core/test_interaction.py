@@ -20,6 +20,7 @@ from core.interaction import (
     subject_state,
 )
 from core.robot import FRICTIONLESS, RobotModel
+from core.trial import THESIS_SUBJECT
 
 ROBOT = RobotModel()
 ARM = ArmModel.from_subject(91.0, 0.3048, 0.3048, (-0.12, 0.73))
@@ -166,3 +167,25 @@ def test_straight_arm_is_refused_by_the_coupled_model():
     q = ROBOT.ik(far, check_limits=False)
     with pytest.raises(SingularityError, match="straight"):
         coupled_forward_dynamics(ROBOT, ARM, *q, 0, 0, 0, 0, 0, 0)
+
+
+@given(ts=st.floats(0.2, 1.4), bend=st.floats(0.4, 2.2),
+       rates=st.lists(st.floats(-2.0, 2.0), min_size=4, max_size=4),
+       fx=st.floats(-20.0, 20.0), fy=st.floats(-20.0, 20.0))
+def test_the_torques_eq_3_27_gives_for_a_force_give_that_force_back(ts, bend, rates, fx, fy):
+    """Eq. 5.1 solved for the hand's force (the EMG estimate's last step) inverts eq. 3.27
+    wherever the arm is bent enough for the torques to tell the force (no damping)."""
+    from core.interaction import subject_hand_force, subject_torques
+
+    arm = THESIS_SUBJECT.arm()
+    te = ts + bend
+    tau = subject_torques(arm, ts, te, *rates, fx, fy)
+    gx, gy, damped = subject_hand_force(arm, ts, te, *rates, *tau)
+    if not damped:
+        assert gx == pytest.approx(fx, abs=1e-9)
+        assert gy == pytest.approx(fy, abs=1e-9)
+    # arrays give the same as floats
+    gxs, gys, _ = subject_hand_force(arm, np.array([ts]), np.array([te]),
+                                     *(np.array([r]) for r in rates), np.array([tau[0]]),
+                                     np.array([tau[1]]))
+    assert (gxs[0], gys[0]) == pytest.approx((gx, gy), abs=1e-12)

@@ -480,3 +480,46 @@ def test_a_build_with_a_learned_model_it_does_not_name_is_refused(client):
     reply = client.build(PARAMS, model=other)
     assert not reply.ok
     assert "a learned model was given for a trial that names none" in reply.message
+
+
+def test_the_loop_judges_the_console_s_force_estimate_and_drops_a_stale_one(client, tmp_path):
+    """A trial that names a force estimate (EMG in place of the sensor): the console sends
+    estimates between ticks without waiting for an answer; the loop's assistance judges
+    them (a limp arm, which the sensor reads being dragged along, is judged to push along
+    the path), and once they stop coming, judges no push. The test sends every 20 ms and
+    stamps each estimate with the newest tick it has seen; the loop keeps one for 0.25 s,
+    so a stall of the test process shorter than that changes nothing."""
+    params = PARAMS.replace(force_estimate="emg-test")
+    connect(client, params, BackendConfig(patient="passive"))
+    path = tmp_path / "estimated.h5"
+    assert client.start_trial(str(path), SUBJECT).ok
+    client.live_records()
+    sent_until, seen = None, []
+    started = time.monotonic()
+    while time.monotonic() - started < 20.0:
+        records = client.live_records()
+        if len(records) and records[-1]["tick"] * 0.002 < 2.5:
+            # 5 N along the desired direction of the tick the console last saw
+            last = records[-1]
+            dx, dy = last["direction_desired"]
+            client.send_force_estimate(5.0 * dx, 5.0 * dy, int(last["tick"]))
+            sent_until = int(last["tick"])
+        seen += client.events()
+        if any(isinstance(e, RecorderNotice) and e.kind == "closed" for e in seen):
+            break
+        time.sleep(0.02)
+    assert [e.status for e in seen if isinstance(e, TrialEnded)] == ["complete"]
+    ch = read_trial(path).channels
+    exercise = ch["phase"] == 2
+    judged = ch["assistance_active"]
+    sending = exercise & (ch["tick"] > 50) & (ch["tick"] <= sent_until)
+    assert judged[sending].mean() > 0.9
+    # the sensor's force, the limp arm dragged along, would have been judged otherwise
+    from core.emg.force import in_cone
+
+    by_sensor = in_cone(ch["force"][sending], ch["direction_desired"][sending],
+                        params.tolerance_rad)
+    assert by_sensor.mean() < 0.5
+    stale = exercise & (ch["tick"] > sent_until + round(0.25 / 0.002))
+    assert stale.any()
+    assert not judged[stale].any()

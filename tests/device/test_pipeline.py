@@ -99,3 +99,40 @@ def test_idle_record_fits_the_layout():
     assert np.isfinite(record["subject_angle_isb"]).all()
     assert np.isnan(record["robot_rate"]).all()
     np.testing.assert_array_equal(record["torque_applied"], 0.0)
+
+
+@pytest.mark.parametrize("compiled", [False, True], ids=["interpreted", "compiled"])
+def test_a_trial_on_a_force_estimate_judges_the_estimate_not_the_sensor(compiled):
+    """TrialParameters.force_estimate (EMG in place of the force sensor, chapter 5): the
+    cone test takes the estimate the console sets between ticks; the sensor's reading is
+    still recorded as it is; an estimate that stops coming is dropped after its limit."""
+    from core.control.assistance import ESTIMATE_MAX_AGE_S
+
+    params = PARAMS.replace(force_estimate="emg-model")
+    plan = TrialPlan.build(params)
+    sim = SimulatorBackend.from_trial(params, "passive", seed=2, compiled=compiled)
+    sim.open()
+    pipeline = TickPipeline(plan, compiled=compiled)
+    reading = sim.read(0.0)
+    pipeline.begin(reading.q1_rad, reading.q2_rad)
+    active, forces = [], []
+    stale = round(ESTIMATE_MAX_AGE_S / plan.period_s)
+    for k in range(61 + stale):
+        if k:
+            reading = sim.read(k * plan.period_s)
+        if k < 60:
+            # 5 N along the path where the reference is: the passive arm does not push
+            dx, dy = pipeline.reference_rows[min(k, len(pipeline.reference_rows) - 1)][4:6]
+            pipeline.set_force_estimate(5.0 * dx, 5.0 * dy, k)
+        tau = pipeline.control(k, reading)
+        sim.write(*tau)
+        record = pipeline.record(k, reading, k * 0.002, 0.0, 0.0, tau, 3, 0)
+        active.append(pipeline.last_tick is not None and record[flat_names().index(
+            "assistance_active")])
+        forces.append(record[flat_names().index("force_sensor[0]")])
+    sim.close()
+    assert all(active[1:60])  # judged by the estimate: inside the cone
+    assert active[59 + stale]  # the last estimate at its age limit still counts
+    assert not active[60 + stale]  # one tick older: no push at all
+    # the sensor's reading is what the record keeps
+    assert max(abs(f) for f in forces) < 1.0

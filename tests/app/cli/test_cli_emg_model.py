@@ -10,6 +10,7 @@ import pytest
 from app.emg.session import Contraction, session_mvc
 from app.emg.subjects import Subject, record_trial, write_contractions
 from tests.app.cli.running import run
+from tests.emg_subjects import record_session
 
 pytestmark = pytest.mark.usefixtures("data")  # the folders of tests/app/cli/conftest.py
 
@@ -47,20 +48,92 @@ def test_a_model_that_does_not_generalise_is_refused_saying_why(trials, capsys):
     assert out.count("fails") == 2
 
 
-def test_a_model_that_passes_held_out_may_feed_the_assistance(trials, capsys):
+def test_a_model_whose_torques_pass_is_still_refused_when_its_force_misjudges_the_cone(
+        trials, data, capsys):
+    """Held-out torque R² above 0.9, but the force those torques imply, replayed as the
+    live console would get it, judges the 20° cone as the sensor does on too few samples:
+    refused, and nothing saved."""
     held = str(trials[1])  # subject 1's second trial
     code, out, err = run(["emg", "model", *map(str, trials), "--model", "network",
-                          "--test", held, "--for-assistance"], capsys)
-    assert code == 0, err
+                          "--test", held, "--for-assistance", "--save", "net"], capsys)
+    assert code == 2
     assert "held-out trials" in out
-    assert "passes" in out
-    assert "network passed every held-out validation" in out
-    # the same split does not pass the muscle model, which does not reach 0.60 at the
-    # shoulder
+    assert "cone judged alike" in out
+    assert "about the 20° tolerance cone, below 80%" in err
+    assert err.count("\n") == 1
+    assert not (data / "models" / "emg" / "net.json").exists()
+    # the muscle model does not even reach 0.60 at the shoulder on this split
     code, _, err = run(["emg", "model", *map(str, trials), "--model", "muscle", "--test",
                         held, "--for-assistance"], capsys)
     assert code == 2
     assert "muscle model, held out (held-out trials): shoulder R²" in err
+
+
+@pytest.fixture(scope="module")
+def wide(tmp_path_factory):
+    """Subject 1's session with a 30° cone: the cone its EMG estimate is shown to judge."""
+    return record_session(tmp_path_factory.mktemp("wide"))
+
+
+def test_a_passing_model_is_saved_and_feeds_a_trial_s_assistance(wide, data, capsys):
+    """`rehab emg model --for-assistance --save NAME`, then `rehab run --force-estimate
+    NAME`: the trial's assistance judges the force estimated from the subject's EMG."""
+    code, out, err = run(["emg", "model", *map(str, wide), "--test", str(wide[-1]),
+                          "--for-assistance", "--latency", "0.04", "--save", "s1"], capsys)
+    assert code == 0, err
+    assert "network passed every held-out validation" in out
+    saved = data / "models" / "emg" / "s1.json"
+    assert f"saved as s1 ({saved})" in out
+    assert saved.stat().st_mode & 0o777 == 0o600
+    assert (data / "models" / "emg").stat().st_mode & 0o777 == 0o700
+    before = saved.read_bytes()
+    # a second save under the name is refused; the first file is kept as it was
+    code, _, err = run(["emg", "model", *map(str, wide), "--test", str(wide[-1]),
+                        "--for-assistance", "--latency", "0.04", "--save", "s1"], capsys)
+    assert code == 2
+    assert "already exists" in err
+    assert saved.read_bytes() == before
+
+    out_file = data.parent / "emg-fed.h5"
+    code, out, err = run(["run", "--force-estimate", "s1", "--tolerance", "30",
+                          "--repetitions", "1", "--output", str(out_file)], capsys)
+    assert code == 0, err
+    assert "Trial complete" in out
+    with h5py.File(out_file, "r") as f:
+        assert f["parameters"].attrs["force_estimate"] == "s1"
+        assert len(f["assistance/estimate_force"]) > 40  # one every 0.0625 s
+        assert "emg" in f
+        assert "mvc" in f["emg"]
+
+    # refusals, one line each: a cone narrower than validated, a missing model, a
+    # subject with another electromechanical delay than the model was validated for
+    for argv, expected in (
+            (["--tolerance", "20"], "validated with a 30° tolerance cone"),
+            (["--force-estimate", "nope"], "missing"),
+            (["--force-estimate", "../s1"], "is not a model name"),
+            (["--emg-subject", "3"], "needs --force-estimate")):
+        args = ["run", "--repetitions", "1", "--output", str(data.parent / "x.h5")]
+        if "--force-estimate" not in argv and "--emg-subject" not in argv:
+            args += ["--force-estimate", "s1"]
+        code, _, err = run([*args, *argv], capsys)
+        assert code == 2, argv
+        assert expected in err, err
+        assert err.count("\n") == 1
+    assert not (data.parent / "x.h5").exists()
+
+
+def test_save_needs_for_assistance_and_a_name(wide, capsys):
+    code, _, err = run(["emg", "model", *map(str, wide), "--save", "x"], capsys)
+    assert code == 2
+    assert "--save needs --for-assistance" in err
+    code, _, err = run(["emg", "model", *map(str, wide), "--for-assistance", "--save",
+                        "a/b"], capsys)
+    assert code == 2
+    assert "is not a model name" in err
+    code, _, err = run(["emg", "model", *map(str, wide), "--for-assistance", "--latency",
+                        "nan"], capsys)
+    assert code == 2
+    assert "--latency nan" in err
 
 
 @pytest.mark.parametrize(("make_args", "expected"), [

@@ -49,6 +49,7 @@ def _options(parser: argparse.ArgumentParser):
                tuple(action.choices) if action.choices else ())
 
 
+ROOT = Path(__file__).resolve().parents[3]
 PARSER, _ = build_parser()
 COMMANDS = sorted(path for path, _ in _leaves(PARSER))
 
@@ -61,6 +62,11 @@ def data_dir(tmp_path_factory) -> Path:
     simulate_to_file(THESIS_SUBJECT.replace(repetitions=1, duration_s=3.0),
                      folder / "trial.h5")
     return folder
+
+
+def _visible(folder: Path) -> list[str]:
+    """The folder's entries, without the tools' hidden caches (.hypothesis, .pytest_cache)."""
+    return sorted(p.name for p in folder.iterdir() if not p.name.startswith("."))
 
 
 def _argv(draw, path: tuple[str, ...], folder: Path) -> list[str]:
@@ -87,6 +93,13 @@ def _argv(draw, path: tuple[str, ...], folder: Path) -> list[str]:
 @pytest.mark.parametrize("path", COMMANDS, ids=" ".join)
 def test_every_command_ends_in_one_line_or_success(path, data_dir, monkeypatch):
     monkeypatch.setenv("REHAB_DATA_DIR", str(data_dir / "data"))
+    # fuzzed relative paths ("0", ".") are written where the command runs: in a scratch
+    # folder, not in the checkout (a run from the repository's root once left a trial
+    # file named "0" and a synthetic EMG subject there)
+    checkout = _visible(ROOT)
+    scratch = data_dir / "cwd"
+    scratch.mkdir(exist_ok=True)
+    monkeypatch.chdir(scratch)
 
     @settings(max_examples=12, deadline=None, derandomize=True,
               suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
@@ -109,6 +122,7 @@ def test_every_command_ends_in_one_line_or_success(path, data_dir, monkeypatch):
             assert lines, f"rehab {' '.join(argv)}: exit 2 with nothing said"
 
     check()
+    assert _visible(ROOT) == checkout, "the fuzz wrote into the checkout"
 
 
 def test_the_fuzz_reaches_every_command():

@@ -175,3 +175,29 @@ def test_runtime_changes_are_validated_and_keep_the_old_value():
 def test_robot_without_jacobian_is_refused():
     with pytest.raises(ParameterError, match="robot"):
         PerformanceAssistance(object())
+
+
+def test_an_estimate_of_the_force_stands_in_for_the_sensor_and_is_dropped_when_stale():
+    """The EMG path (chapter 5): the scheme judges the estimate, not the sensor, and an
+    estimate older than its limit counts as no push at all (the robot gives full help)."""
+    from core.control.assistance import ESTIMATE_MAX_AGE_S, judged_force
+
+    a = PerformanceAssistance(ROBOT)
+    assert judged_force(a.constants, 10, 1.0, 2.0) == (1.0, 2.0)  # the sensor's
+    a.judge_estimate(0.002)
+    assert a.estimated
+    # no estimate yet: nothing to judge
+    assert all(math.isnan(v) for v in judged_force(a.constants, 10, 1.0, 2.0))
+    a.set_estimate(3.0, -1.0, 100)
+    assert judged_force(a.constants, 100, 1.0, 2.0) == (3.0, -1.0)
+    limit = round(ESTIMATE_MAX_AGE_S / 0.002)
+    assert judged_force(a.constants, 100 + limit, 1.0, 2.0) == (3.0, -1.0)
+    assert all(math.isnan(v) for v in judged_force(a.constants, 101 + limit, 1.0, 2.0))
+    # one made for a later tick (another trial's count) is none either
+    assert all(math.isnan(v) for v in judged_force(a.constants, 99, 1.0, 2.0))
+    # a lost estimate leaves the scheme inactive and the torque as the controller's
+    a.set_estimate(math.nan, math.nan, 200)
+    fx, fy = judged_force(a.constants, 200, 1.0, 2.0)
+    assert a.apply(*Q, 1.0, -1.0, fx, fy, 1.0, 0.0)[:3] == (1.0, -1.0, False)
+    with pytest.raises(ParameterError, match="max_age_s"):
+        a.judge_estimate(0.002, max_age_s=0.001)

@@ -129,3 +129,39 @@ def test_the_amplifier_clips_at_full_scale():
 def test_bad_models_are_refused(make, field):
     with pytest.raises(ParameterError, match=field):
         make()
+
+
+def test_the_stream_makes_the_emg_as_the_torques_come_causally_and_without_seams():
+    """EmgStream (the live synthetic source): fed in stretches of 31 ticks, its EMG is one
+    evenly sampled signal up to the newest torque less the delay, and its envelope is the
+    batch generator's to within the noise: the same activations behind it."""
+    from core.emg.synthetic import EmgStream, absolute_torques
+
+    t, torques = _torques(12.0)
+    model, electrodes = MuscleModel(), Electrodes()
+    stream = EmgStream(model, electrodes, DT, seed=3)
+    times, samples = [], []
+    for i in range(0, t.size, 31):
+        ts, x = stream.push(t[i:i + 31], torques[i:i + 31])
+        if ts.size:
+            # what a stretch releases runs the electromechanical delay behind its torque
+            assert ts[-1] <= t[min(i + 30, t.size - 1)] - model.delay_s + 1e-12
+        times.append(ts)
+        samples.append(x)
+    ts, x = np.concatenate(times), np.vstack(samples)
+    step = np.diff(ts)
+    assert step == pytest.approx(np.full(step.size, 1.0 / electrodes.rate_hz), rel=1e-9)
+    assert ts[0] == 0.0
+    batch_t, batch = emg_from_excitations(excitation_from_activations(
+        activations_from_torques(torques, model), DT, model), DT, electrodes, seed=3)
+    streamed = envelope(x, electrodes.rate_hz, t0_s=ts[0])
+    made = envelope(batch, electrodes.rate_hz, t0_s=batch_t[0])
+    inside = (made.t_s > 1.0) & (made.t_s < ts[-1] - 0.2)
+    a = np.column_stack([np.interp(made.t_s[inside], streamed.t_s, streamed.values[:, j])
+                         for j in range(4)])
+    b = made.values[inside]
+    # the same envelope to within the noise of two different draws
+    assert np.corrcoef(a[:, 0], b[:, 0])[0, 1] > 0.9
+    assert np.median(np.abs(a - b) / np.maximum(b, 1e-6)) < 0.2
+    # absolute_torques is joint_torques' inverse
+    assert absolute_torques(joint_torques(torques)) == pytest.approx(torques)
