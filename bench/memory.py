@@ -4,7 +4,8 @@
 
 Each trial runs in a fresh process exactly as `rehab run --output FILE` does it
 (app.trials.headless.simulate_to_file: the records go to the file block by block, the
-metrics come from the channels they need, read back) and prints that process's peak
+reference is computed a block at a time, the metrics come from the channels they need,
+read back a block at a time) and prints that process's peak
 resident memory (VmHWM) after it, the simulated length, and the memory per simulated
 second above a 4 s trial's. Figures only, no assertion. Goal (docs/performance.md):
 ≤ 300 MB whatever the length.

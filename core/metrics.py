@@ -197,6 +197,13 @@ def mechanical_work(torque_Nm, angle_rad, force_N, position_m) -> MechanicalWork
     from each sample to the next (the drives' zero-order hold) times the joints' change
     of angle (N, 2), and the hand's force (N, 2) times the handle's displacement (N, 2),
     each force taken as the mean of the step's two samples."""
+    return work_shares(*work_terms(torque_Nm, angle_rad, force_N, position_m))
+
+
+def work_terms(torque_Nm, angle_rad, force_N, position_m) -> tuple[float, float, float]:
+    """`mechanical_work`'s sums over the steps between the samples given: (the robot's net
+    work, the patient's, the robot's braking), J. Stretches that share their end samples
+    add up to the whole trial's."""
     torque = np.asarray(torque_Nm, dtype=float)
     angle = np.asarray(angle_rad, dtype=float)
     force = np.asarray(force_N, dtype=float)
@@ -205,6 +212,12 @@ def mechanical_work(torque_Nm, angle_rad, force_N, position_m) -> MechanicalWork
     patient = float(np.sum(0.5 * (force[1:] + force[:-1]) * np.diff(position, axis=0)))
     robot = float(np.sum(robot_power))
     negative = float(np.sum(np.minimum(robot_power, 0.0)))
+    return robot, patient, negative
+
+
+def work_shares(robot: float, patient: float, negative: float) -> MechanicalWork:
+    """`mechanical_work` from its sums (`work_terms`): the robot's share of the positive
+    net work."""
     positive = max(robot, 0.0) + max(patient, 0.0)
     share = max(robot, 0.0) / positive if positive > 0.0 else math.nan
     return MechanicalWork(robot, patient, negative, share)
@@ -251,12 +264,7 @@ def directional_performance(
     sample_interval(t)
     force = as_series("force_N", force_N, t.size, 2)
     direction = as_series("desired_direction", desired_direction, t.size, 2)
-    cross = force[:, 0] * direction[:, 1] - force[:, 1] * direction[:, 0]
-    dot = np.sum(force * direction, axis=1)
-    angle = np.arctan2(np.abs(cross), dot)
-    strong = np.hypot(force[:, 0], force[:, 1]) >= min_force_N
-    defined = np.hypot(direction[:, 0], direction[:, 1]) > 0.0
-    within = strong & defined & (angle <= tolerance_rad)
+    within = force_within(force, direction, tolerance_rad, min_force_N)
 
     held = within[:-1]
     change = np.flatnonzero(held[1:] != held[:-1]) + 1
@@ -274,6 +282,18 @@ def directional_performance(
             outside.append(interval)
     percent = 100.0 * within_time / float(t[-1] - t[0])
     return DirectionalPerformance(within, percent, tuple(inside), tuple(outside))
+
+
+def force_within(force: np.ndarray, direction: np.ndarray, tolerance_rad: float,
+                 min_force_N: float) -> np.ndarray:
+    """Per sample, whether the force (N, 2) points within `tolerance_rad` of the desired
+    direction (N, 2) and is at least `min_force_N` (`directional_performance`)."""
+    cross = force[:, 0] * direction[:, 1] - force[:, 1] * direction[:, 0]
+    dot = np.sum(force * direction, axis=1)
+    angle = np.arctan2(np.abs(cross), dot)
+    strong = np.hypot(force[:, 0], force[:, 1]) >= min_force_N
+    defined = np.hypot(direction[:, 0], direction[:, 1]) > 0.0
+    return strong & defined & (angle <= tolerance_rad)
 
 
 def pearson(a, b) -> float:
@@ -425,8 +445,21 @@ def compute_metrics(
             min_peak_speed_m_s=min_peak_speed_m_s, initial_window_s=initial_window_s,
         )
 
+    return assemble(float(t[-1] - t[0]), rmse, direction_pct, tolerance_rad, min_force_N,
+                    force_range, rom, torque_range, smoothed_range, path_length,
+                    desired_length, peak, onset, offset, mean_speed, trial_sparc, trial_ldlj,
+                    correlation, within, outside, per_reach, work, led)
+
+
+def assemble(duration_s, rmse, direction_pct, tolerance_rad, min_force_N, force_range, rom,
+             torque_range, smoothed_range, path_length, desired_length, peak, onset, offset,
+             mean_speed, trial_sparc, trial_ldlj, correlation, within, outside, per_reach,
+             work, led) -> TrialMetrics:
+    """TrialMetrics from its figures as `compute_metrics` (or core.blockwise) found them:
+    the ratios and the means over the reaches derived here."""
+    nan = math.nan
     return TrialMetrics(
-        duration_s=float(t[-1] - t[0]),
+        duration_s=duration_s,
         rmse_x_m=rmse[0],
         rmse_y_m=rmse[1],
         directional_performance_pct=direction_pct,

@@ -5,16 +5,22 @@ Only the exercise phase counts (not the approach to the start point, not the hol
 at the end). Samples where the subject model had no solution (NaN joint angles,
 e.g. an arm stretched straight) leave the joint figures out rather than the whole
 trial, and the note says so.
+
+`analyse` works on channels held in memory; `analyse_stored` reads them a block at a time
+(core.blockwise), for a headless trial too long to hold (issue 13 #21), to the same
+figures within rounding.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from app.errors import AppError
+from core import blockwise
+from core.blockwise import compute_metrics_blockwise, spans
 from core.metrics import TrialMetrics, compute_metrics
 from core.reaches import reaches_from_trajectory
 from core.trial import TrialParameters
@@ -38,16 +44,25 @@ def exercise_mask(channels: Mapping[str, np.ndarray]) -> np.ndarray:
     return np.asarray(channels["phase"]) == PHASE_EXERCISE
 
 
+MIN_EXERCISE = 64
+
+
+def _too_short(n_exercise: int) -> AppError:
+    return AppError(f"the trial has only {n_exercise} samples of exercise; "
+                    f"at least {MIN_EXERCISE} (0.13 s) are needed for its figures")
+
+
+def _no_value(name: str, count: int) -> str:
+    return f"{name} has {count} samples without a value; its figures are left out"
+
+
 def analyse(channels: Mapping[str, np.ndarray], parameters: TrialParameters) -> Analysis:
     """Metrics of the exercise phase of a recorded trial (channels by record name)."""
     mask = exercise_mask(channels)
     notes: list[str] = []
     n_exercise = int(mask.sum())
-    if n_exercise < 64:
-        raise AppError(
-            f"the trial has only {n_exercise} samples of exercise; "
-            "at least 64 (0.13 s) are needed for its figures"
-        )
+    if n_exercise < MIN_EXERCISE:
+        raise _too_short(n_exercise)
     mask = _as_slice(mask, n_exercise)
     t = np.asarray(channels["time"])[mask]
     start = float(t[0])
@@ -56,15 +71,9 @@ def analyse(channels: Mapping[str, np.ndarray], parameters: TrialParameters) -> 
         values = np.asarray(channels[name])[mask]
         if np.isfinite(values).all():
             return values
-        notes.append(f"{name} has {int((~np.isfinite(values)).any(axis=-1).sum())} samples "
-                     "without a value; its figures are left out")
+        notes.append(_no_value(name, int((~np.isfinite(values)).any(axis=-1).sum())))
         return None
 
-    trajectory = parameters.trajectory()
-    reaches = None
-    if parameters.shape in ("targets", "reach"):
-        reaches = reaches_from_trajectory(trajectory)
-        reaches = [replace(r, onset_s=r.onset_s + start) for r in reaches]
     metrics = compute_metrics(
         t,
         np.asarray(channels["position"])[mask],
@@ -77,9 +86,89 @@ def analyse(channels: Mapping[str, np.ndarray], parameters: TrialParameters) -> 
         robot_angle_rad=take("robot_angle") if "robot_angle" in channels else None,
         help_torque_Nm=_help(channels, mask) if parameters.assist == "as-needed" else None,
         tolerance_rad=parameters.tolerance_rad,
-        reaches=reaches,
+        reaches=_reaches(parameters, start),
     )
     return Analysis(metrics, start, tuple(notes))
+
+
+def _reaches(parameters: TrialParameters, start_s: float):
+    """The reaches of a targets or reach exercise, their onsets in the trial's time."""
+    if parameters.shape not in ("targets", "reach"):
+        return None
+    return [replace(r, onset_s=r.onset_s + start_s)
+            for r in reaches_from_trajectory(parameters.trajectory())]
+
+
+ReadStretch = Callable[[str, int, int], np.ndarray]
+"""Samples first…stop−1 of a recorded channel (TrialFileWriter.read_stretch)."""
+ROLES = (("desired_position_m", "position_desired"), ("desired_direction", "direction_desired"),
+         ("force_N", "force"), ("isb_angles_rad", "subject_angle_isb"),
+         ("torque_Nm", "subject_torque"), ("robot_torque_Nm", "torque_applied"),
+         ("robot_angle_rad", "robot_angle"))
+"""compute_metrics' arguments and the channels `analyse` gives them, in its order."""
+
+
+def analyse_stored(read: ReadStretch, n_ticks: int, names: Sequence[str],
+                   parameters: TrialParameters, *, block: int | None = None) -> Analysis:
+    """`analyse` of a trial of n_ticks whose channels (`names`) are read a block of `block`
+    samples at a time, for a trial too long to hold (core.blockwise: the same figures
+    to rounding, without Fig. 3.9's intervals; the same notes). An exercise phase with a
+    gap is analysed whole, as `analyse` does. `block` None: core.blockwise.BLOCK."""
+    block = block or blockwise.BLOCK
+    first, n = _exercise_run(read, n_ticks, block)
+    if n < 0:
+        return analyse({name: read(name, 0, n_ticks) for name in CHANNELS_USED
+                        if name in names}, parameters)
+    if n < MIN_EXERCISE:
+        raise _too_short(n)
+
+    def stretch(name: str, a: int, b: int) -> np.ndarray:
+        return np.asarray(read(name, first + a, first + b), dtype=float)
+
+    notes: list[str] = []
+    channel = {"t_s": "time", "position_m": "position"}
+    for role, name in ROLES:
+        if name not in names:
+            continue
+        missing = sum(int((~np.isfinite(stretch(name, a, b))).any(axis=-1).sum())
+                      for a, b in spans(n, block))
+        if missing:
+            notes.append(_no_value(name, missing))
+        else:
+            channel[role] = name
+    help_channels = ("torque_commanded", "torque_controller")
+    helped = parameters.assist == "as-needed" and all(h in names for h in help_channels)
+    if helped:
+        helped = all(np.isfinite(stretch(help_channels[0], a, b)
+                                 - stretch(help_channels[1], a, b)).all()
+                     for a, b in spans(n, block))
+
+    def read_role(role: str, a: int, b: int) -> np.ndarray:
+        if role == "help_torque_Nm":
+            return stretch(help_channels[0], a, b) - stretch(help_channels[1], a, b)
+        return stretch(channel[role], a, b)
+
+    start = float(stretch("time", 0, 1)[0])
+    given = [*channel, *(["help_torque_Nm"] if helped else [])]
+    metrics = compute_metrics_blockwise(read_role, n, given,
+                                        tolerance_rad=parameters.tolerance_rad,
+                                        reaches=_reaches(parameters, start), block=block)
+    return Analysis(metrics, start, tuple(notes))
+
+
+def _exercise_run(read: ReadStretch, n_ticks: int, block: int) -> tuple[int, int]:
+    """(first tick, ticks) of the exercise phase read a block at a time; (0, −1) when it
+    is not one run of ticks."""
+    first, count, last = -1, 0, -1
+    for a, b in spans(n_ticks, block):
+        ticks = np.flatnonzero(np.asarray(read("phase", a, b)) == PHASE_EXERCISE)
+        if len(ticks):
+            first = a + int(ticks[0]) if first < 0 else first
+            last = a + int(ticks[-1])
+            count += len(ticks)
+    if count and last - first + 1 != count:
+        return 0, -1
+    return max(first, 0), count
 
 
 def _as_slice(mask: np.ndarray, n_true: int) -> np.ndarray | slice:

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from app.errors import AppError
-from app.trials.analysis import CHANNELS_USED, Analysis, analyse
+from app.trials.analysis import Analysis, analyse, analyse_stored
 from core.control.guidance import GuidanceGains
 from core.errors import ParameterError
 from core.robot import RobotModel
@@ -189,7 +189,9 @@ def simulate_to_file(
 ) -> tuple[SimulatedTrial, Analysis | None, str]:
     """`simulate` straight into the trial file at `path`, block by block, so memory stays
     flat whatever the trial's length (a 100 × 120 s trial is 6 million ticks); the metrics
-    come from the channels they need, read back from the file before it is closed.
+    come from the channels they need, read back from the file a block at a time before
+    it is closed (app.trials.analysis.analyse_stored: the figures of `analyse` to
+    rounding, without Fig. 3.9's intervals, which the file does not keep).
 
     Returns the trial (without its records), its analysis and "" or, when the trial had
     too little exercise for its figures (a fault in the approach), None and why: the
@@ -202,15 +204,19 @@ def simulate_to_file(
     try:
         trial = simulate(parameters, patient=patient, seed=seed, robot=robot,
                          progress=progress, sink=writer.append, **options)
-        channels = writer.read_back(CHANNELS_USED)
+        writer.flush_for_reading()
+        names = writer.channel_names()
     except BaseException:
         writer.close("recording_lost")
         raise
     try:
-        analysis, problem = analyse(channels, parameters), ""
+        analysis, problem = analyse_stored(writer.read_stretch, trial.n_ticks, names,
+                                           parameters), ""
     except AppError as exc:
         analysis, problem = None, str(exc)
-    del channels
+    except BaseException:
+        writer.close("recording_lost")
+        raise
     _finish(writer, trial, analysis)
     feed = options.get("feed")
     if feed is not None:

@@ -269,17 +269,24 @@ def keep_repetition(g, s, rep_index):
 
 
 @kernel
-def nearest_row(rows, first, last, around, x, y):
-    """The row in [around − back, around + ahead] ∩ [first, last] nearest to (x, y); `first`
-    is the lowest row it may be."""
+def search_window(first, last, around):
+    """The rows `nearest_row` searches: [around − back, around + ahead] ∩ [first, last]."""
     lo = around - WINDOW_BACK_ROWS
     hi = around + WINDOW_AHEAD_ROWS
     lo = first if lo < first else lo
     hi = last if hi > last else hi
+    return lo, hi
+
+
+@kernel
+def nearest_row(rows, rows_from, first, last, around, x, y):
+    """The row in [around − back, around + ahead] ∩ [first, last] nearest to (x, y); `first`
+    is the lowest row it may be. `rows` holds the path's rows from row `rows_from`."""
+    lo, hi = search_window(first, last, around)
     best = lo
     best_d = math.inf
     for i in range(lo, hi + 1):
-        row = rows[i]
+        row = rows[i - rows_from]
         dx = row[0] - x
         dy = row[1] - y
         d = dx * dx + dy * dy
@@ -290,15 +297,41 @@ def nearest_row(rows, first, last, around, x, y):
 
 
 @kernel
-def guidance_command(robot, g, a, s, rows, first, tick, q1, q2, qd1, qd2, fx, fy):
+def lowest_row(s, first):
+    """The lowest row the hand's row may be found at: not before the exercise's first,
+    nor more than BEHIND_FURTHEST_ROWS behind the furthest reached."""
+    lowest = int(s[GS_FURTHEST]) - BEHIND_FURTHEST_ROWS
+    return first if lowest < first else lowest
+
+
+@kernel
+def guidance_rows(g, s, first, last, tick):
+    """The lowest and highest row `guidance_command` may read at `tick`, from the state `s`
+    before it (rows first…last the exercise's): the hand's row is searched around the
+    last one (`search_window`), the reference is that or the clock's row less the
+    delay. A headless run loads the rows a stretch of ticks needs from this, so the
+    whole path need not be held (device.loop.engine.run_ticks)."""
+    if s[GS_STARTED] == 0.0:
+        lo, hi = search_window(first, last, first)
+    else:
+        lo, hi = search_window(lowest_row(s, first), last, int(s[GS_SIGMA_H]))
+    clock = tick - int(g[GC_DELAY_ROWS])
+    clock = last if clock > last else (first if clock < first else clock)
+    return (clock if clock < lo else lo, clock if clock > hi else hi)
+
+
+@kernel
+def guidance_command(robot, g, a, s, rows, rows_from, n_rows, first, tick, q1, q2, qd1, qd2,
+                     fx, fy):
     """One tick of the guidance (the module notes): (reference row σ_r, the hand's row
     σ_h, τ1, τ2 without the help, τ1, τ2 with it, whether the force is in the cone, its
     angle). `robot` is
     the controller's RobotModel constants, `g` the guidance's constants, `a` the
     assistance's (its tolerance cone, minimum force and level), `s` the state, `rows`
-    the trial's reference rows with the exercise from row `first`; (fx, fy) the hand's
-    force (global frame, N)."""
-    last = len(rows) - 1
+    the trial's reference rows from row `rows_from` (at least those `guidance_rows`
+    names) of its n_rows, with the exercise from row `first`; (fx, fy) the hand's force
+    (global frame, N)."""
+    last = n_rows - 1
     if s[GS_STARTED] == 0.0:
         s[GS_STARTED] = 1.0
         s[GS_SIGMA_H] = first
@@ -315,9 +348,8 @@ def guidance_command(robot, g, a, s, rows, first, tick, q1, q2, qd1, qd2, fx, fy
     vx = j11 * qd1 + j12 * qd2
     vy = j21 * qd1 + j22 * qd2
 
-    lowest = int(s[GS_FURTHEST]) - BEHIND_FURTHEST_ROWS
-    sigma_h = nearest_row(rows, first if lowest < first else lowest, last,
-                          int(s[GS_SIGMA_H]), x, y)
+    sigma_h = nearest_row(rows, rows_from, lowest_row(s, first), last, int(s[GS_SIGMA_H]),
+                          x, y)
     if sigma_h > s[GS_FURTHEST]:
         s[GS_FURTHEST] = sigma_h
     clock = tick - int(g[GC_DELAY_ROWS])
@@ -326,7 +358,7 @@ def guidance_command(robot, g, a, s, rows, first, tick, q1, q2, qd1, qd2, fx, fy
     s[GS_SIGMA_H] = sigma_h
     s[GS_SIGMA_R] = sigma_r
     # across the path and its direction where the hand is; the lead towards the reference
-    here = rows[sigma_h]
+    here = rows[sigma_h - rows_from]
     tx = here[4]
     ty = here[5]
     norm = math.sqrt(tx * tx + ty * ty)
@@ -343,7 +375,7 @@ def guidance_command(robot, g, a, s, rows, first, tick, q1, q2, qd1, qd2, fx, fy
     e_n = math.sqrt(ex * ex + ey * ey)
     v_n = vx * nx + vy * ny
     v_t = vx * tx + vy * ty
-    row = rows[sigma_r]
+    row = rows[sigma_r - rows_from]
     # how far the reference leads: the chord from the hand's point of the path to it
     # (within a few cm of path, chord and arc differ by under 1 %)
     ax = row[0] - here[0]

@@ -70,15 +70,17 @@ def load_kernels(groups: tuple[str, ...] = GROUPS) -> float:
                             False, 0.0)
         compiled(supervised_command)(
             pipeline.kind, v.robot, v.model, v.tracker, v.gains, v.assist, v.guide, v.rates,
-            v.integral, v.guided, 1, v.rows, pipeline.approach_ticks, pipeline.period_s,
-            pipeline.sensor_offset_rad, v.last, g, w, 0.0, *reading, 0.0, 0.0, False, False)
+            v.integral, v.guided, 1, v.rows, pipeline.rows_from, pipeline.n_rows,
+            pipeline.approach_ticks, pipeline.period_s, pipeline.sensor_offset_rad, v.last, g,
+            w, 0.0, *reading, 0.0, 0.0, False, False)
     if "headless" in todo:
         (r, a, c, p, table, episodes), flavour, scratch = simulator.physics
         flavour(run_ticks)(
             0, 1, plan.period_s, r, a, c, p, table, episodes, simulator.state, simulator.noise,
             scratch, pipeline.kind, v.robot, v.arm, v.model, v.tracker, v.gains, v.assist,
-            v.guide, v.rates, v.integral, v.guided, v.rows, pipeline.approach_ticks,
-            pipeline.sensor_offset_rad, v.last, g, w, np.zeros((ROW_SIZE, 1)), 0, False, False)
+            v.guide, v.rates, v.integral, v.guided, v.rows, pipeline.rows_from,
+            pipeline.n_rows, pipeline.approach_ticks, pipeline.sensor_offset_rad, v.last, g, w,
+            np.zeros((ROW_SIZE, 1)), 0, False, False)
     if "loop" in todo:
         # the simulator's tick in one call, and the tick around any other backend's read
         # and write (here the simulator's, through the fault-injecting wrapper)

@@ -40,6 +40,7 @@ from device.loop.pipeline import (
     control,
     idle_record,
     record_values,
+    rows_needed,
 )
 from device.loop.states import State
 from device.recording.record import RECORD_DTYPE
@@ -53,6 +54,9 @@ from device.sim.simulator import SimulatorBackend
 FAULT_LATCHED = 10
 """`run_ticks` stopped because the supervisor latched a fault (beyond the simulator's own
 failure codes, device.sim.physics)."""
+NEED_ROWS = 11
+"""`run_ticks` stopped before a tick that reads reference rows it was not given
+(pipeline.rows_needed): load them (TickPipeline.load_rows) and go on from that tick."""
 
 # What `run_ticks` leaves of one tick, in its output's column for the tick (one row per
 # quantity, so that each is contiguous for the records): the reading, what `control`
@@ -65,19 +69,24 @@ ROW_SUBJECT = ROW_FAULT + 1  # the subject's state (core.interaction.SubjectStat
 ROW_SIZE = ROW_SUBJECT + 13
 _CHUNKS = 100  # a headless run reports its progress this many times
 BLOCK_TICKS = 25_000
-"""A headless run that streams its records holds this many ticks at once (50 s at 2 ms):
-its memory stays the same whatever the trial's length."""
+"""A headless run that streams its records holds this many ticks at once (50 s at 2 ms),
+and this many rows of the reference: its memory stays the same whatever the trial's
+length."""
+ROWS_BEHIND = 500
+"""Rows loaded before the lowest a tick needs: the as-needed guidance may search up to
+BEHIND_FURTHEST_ROWS + WINDOW_BACK_ROWS (core.control.guidance) behind where it was."""
 
 
 @kernel
 def supervised_command(kind, robot, model, tracker, gains, assist, guide, rates, integral,
-                       guided, tick, rows, approach_ticks, period_s, sensor_offset_rad, last,
-                       g, w, now_s, t, q1, q2, fx, fy, fz, lateness_s, heartbeat_age_s, estop,
-                       recording_lost):
+                       guided, tick, rows, rows_from, n_rows, approach_ticks, period_s,
+                       sensor_offset_rad, last, g, w, now_s, t, q1, q2, fx, fy, fz, lateness_s,
+                       heartbeat_age_s, estop, recording_lost):
     """A running tick between the sensors and the motors: the pipeline's command
     (writes `last`) through the supervisor: (torque1, torque2, fault) to write."""
     control(kind, robot, model, tracker, gains, assist, guide, rates, integral, guided, tick,
-            rows, approach_ticks, period_s, sensor_offset_rad, q1, q2, fx, fy, last)
+            rows, rows_from, n_rows, approach_ticks, period_s, sensor_offset_rad, q1, q2, fx,
+            fy, last)
     return supervise(robot, g, w, now_s, t, q1, q2, fx, fy, fz, last[C_QD1], last[C_QD2],
                      last[C_OUT1], last[C_OUT2], lateness_s, heartbeat_age_s, estop,
                      recording_lost, 0.0)
@@ -86,8 +95,8 @@ def supervised_command(kind, robot, model, tracker, gains, assist, guide, rates,
 @kernel
 def simulated_tick(running, tick, now_s, r, a, c, p, table, episodes, x, noise, scratch, kind,
                    robot, model, tracker, gains, assist, guide, rates, integral, guided, rows,
-                   approach_ticks, period_s, sensor_offset_rad, last, g, w, lateness_s,
-                   heartbeat_age_s, estop, recording_lost):
+                   rows_from, n_rows, approach_ticks, period_s, sensor_offset_rad, last, g, w,
+                   lateness_s, heartbeat_age_s, estop, recording_lost):
     """One tick on the simulator in one call (what `TickEngine.step` does with a backend,
     with the simulator's own read and write): (status, torque1, torque2, fault), status
     the simulator's failure (then nothing else ran) or OK."""
@@ -103,8 +112,8 @@ def simulated_tick(running, tick, now_s, r, a, c, p, table, episodes, x, noise, 
     if running:
         out1, out2, code = supervised_command(
             kind, robot, model, tracker, gains, assist, guide, rates, integral, guided, tick,
-            rows, approach_ticks, period_s, sensor_offset_rad, last, g, w, now_s, t, q1, q2,
-            fx, fy, fz, lateness_s, heartbeat_age_s, estop, recording_lost)
+            rows, rows_from, n_rows, approach_ticks, period_s, sensor_offset_rad, last, g, w,
+            now_s, t, q1, q2, fx, fy, fz, lateness_s, heartbeat_age_s, estop, recording_lost)
     else:
         out1, out2, code = supervise(robot, g, w, now_s, t, q1, q2, fx, fy, fz, 0.0, 0.0, 0.0,
                                      0.0, lateness_s, heartbeat_age_s, estop, recording_lost,
@@ -175,8 +184,8 @@ class TickEngine:
         x, scratch, rates, integral, guided, last, w = state
         return (running, tick, now_s, r, a, c, pt, table, episodes, x, sim.noise, scratch,
                 p.kind, v.robot, v.model, v.tracker, v.gains, v.assist, v.guide, rates, integral,
-                guided, v.rows, p.approach_ticks, p.period_s, p.sensor_offset_rad, last,
-                sup.constants, w)
+                guided, v.rows, p.rows_from, p.n_rows, p.approach_ticks, p.period_s,
+                p.sensor_offset_rad, last, sup.constants, w)
 
     def rehearse(self, tick: int | None, now_s: float) -> None:
         """Run the coming tick on copies of the state and throw the result away (on a
@@ -208,9 +217,9 @@ class TickEngine:
             p = self.pipeline
             out1, out2, code = self._command(
                 p.kind, v.robot, v.model, v.tracker, v.gains, v.assist, v.guide, v.rates,
-                v.integral, v.guided, tick, v.rows, p.approach_ticks, p.period_s,
-                p.sensor_offset_rad, v.last, sup.constants, sup.state, now_s, *values,
-                lateness_s, heartbeat_age_s, estop, recording_lost)
+                v.integral, v.guided, tick, v.rows, p.rows_from, p.n_rows, p.approach_ticks,
+                p.period_s, p.sensor_offset_rad, v.last, sup.constants, sup.state, now_s,
+                *values, lateness_s, heartbeat_age_s, estop, recording_lost)
             p.ticked()
         else:
             out1, out2, code = self._supervise(
@@ -292,15 +301,21 @@ def store_subject(out, k, subject):
 @kernel
 def run_ticks(k0, k1, period_s, r, a, c, p, table, episodes, x, noise, scratch, kind, robot,
               arm, model, tracker, gains, assist, guide, rates, integral, guided, rows,
-              approach_ticks, sensor_offset_rad, last, g, w, out, base, estop,
-              recording_lost):
+              rows_from, n_rows, approach_ticks, sensor_offset_rad, last, g, w, out, base,
+              estop, recording_lost):
     """Ticks k0…k1−1 of a headless trial on the simulator (device.sim.physics' vectors
     r…scratch), at robot time k × period: each reads the sensors (tick 0 takes the
     reading made before it), runs `supervised_command` and writes the torque, and
     leaves what it did in out[:, k − base] (ROW_*: `out` holds the block of ticks from
-    `base`). Returns (the next tick, status): the
-    simulator's failure, FAULT_LATCHED after the tick that latched a fault, or OK."""
+    `base`). `rows` holds the reference rows from row `rows_from` of the trial's
+    n_rows. Returns (the next tick, status): the simulator's failure, FAULT_LATCHED
+    after the tick that latched a fault, NEED_ROWS before a tick that would read a row
+    `rows` does not hold (nothing of it ran), or OK."""
+    held = rows_from + len(rows)
     for k in range(k0, k1):
+        lo, hi = rows_needed(guide, guided, approach_ticks, k, n_rows)
+        if lo < rows_from or hi >= held:
+            return k, NEED_ROWS
         now_s = k * period_s
         if k:
             status = read(r, a, c, p, table, episodes, x, now_s, noise, scratch)
@@ -314,8 +329,8 @@ def run_ticks(k0, k1, period_s, r, a, c, p, table, episodes, x, noise, scratch, 
         fz = x[X_READING + 5]
         out1, out2, code = supervised_command(
             kind, robot, model, tracker, gains, assist, guide, rates, integral, guided, k,
-            rows, approach_ticks, period_s, sensor_offset_rad, last, g, w, now_s, t, q1, q2,
-            fx, fy, fz, 0.0, 0.0, estop, recording_lost)
+            rows, rows_from, n_rows, approach_ticks, period_s, sensor_offset_rad, last, g, w,
+            now_s, t, q1, q2, fx, fy, fz, 0.0, 0.0, estop, recording_lost)
         write(c, x, out1, out2)
         i = k - base
         for j in range(6):
@@ -371,7 +386,9 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
 
     With a `sink`, the records go to it block by block (BLOCK_TICKS at a time, the last
     block up to the fault when there is one) and the outcome holds none: memory does not
-    grow with the trial's length. Without one, the outcome holds them all. A `feed` is
+    grow with the trial's length. Without one, the outcome holds them all. Either way the
+    reference rows are loaded a block's worth at a time, when the ticks need them
+    (NEED_ROWS), and the sensor noise is drawn before each call for its ticks. A `feed` is
     called with the records of every `feed.every_ticks` ticks before the next run."""
     if pipeline.compiled != simulator.compiled:
         raise ValueError("a headless run needs the simulator and the pipeline in one flavour "
@@ -379,9 +396,8 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
     period = pipeline.period_s
     simulator.open()
     reading = simulator.read(0.0)
-    pipeline.begin(reading.q1_rad, reading.q2_rad)
+    pipeline.begin(reading.q1_rad, reading.q2_rad, load=False)
     total = pipeline.total_ticks
-    simulator.top_up_noise(total + 1)  # one noise row per tick: none is drawn in the loop
     (r, a, c, p, table, episodes), flavour, scratch = simulator.physics
     if pipeline.compiled:
         ticks = flavour(run_ticks)
@@ -389,6 +405,7 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
         ticks = interpreted(run_ticks, {**simulator.replacements, **pipeline.replacements})
     v = pipeline.vectors
     block = total if sink is None else min(total, BLOCK_TICKS)
+    rows_at_once = min(total, BLOCK_TICKS)
     out = np.full((ROW_SIZE, block), math.nan)
     kept: list[np.ndarray] = []
     step = max(1, min(block, -(-total // _CHUNKS)))
@@ -412,17 +429,26 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
         return HeadlessOutcome(records, status_name, fault_tick, supervisor.fault_message,
                                supervisor.fault_detail, done)
 
+    start = stop = 0  # the stretch of ticks one call runs (resumed after NEED_ROWS)
     try:
         while done < total and status == physics.OK:
-            if progress is not None:
-                progress(done / total)
-            start = done
+            if done == stop:
+                if progress is not None:
+                    progress(done / total)
+                start, stop = done, min(total, done + step, base + block)
+                simulator.top_up_noise(stop - done + 1)  # a noise row a tick, none drawn in it
             done, status = ticks(
-                done, min(total, done + step, base + block), period, r, a, c, p, table,
-                episodes, simulator.state, simulator.noise, scratch, pipeline.kind, v.robot,
-                v.arm, v.model, v.tracker, v.gains, v.assist, v.guide, v.rates, v.integral,
-                v.guided, v.rows, pipeline.approach_ticks, pipeline.sensor_offset_rad, v.last,
-                supervisor.constants, supervisor.state, out, base, False, False)
+                done, stop, period, r, a, c, p, table, episodes, simulator.state,
+                simulator.noise, scratch, pipeline.kind, v.robot, v.arm, v.model, v.tracker,
+                v.gains, v.assist, v.guide, v.rates, v.integral, v.guided, v.rows,
+                pipeline.rows_from, pipeline.n_rows, pipeline.approach_ticks,
+                pipeline.sensor_offset_rad, v.last, supervisor.constants, supervisor.state, out,
+                base, False, False)
+            if status == NEED_ROWS:  # load them and go on with the same stretch
+                lo, hi = pipeline.rows_needed(done)
+                pipeline.load_rows(lo - ROWS_BEHIND, hi + rows_at_once)
+                status = physics.OK
+                continue
             if feed is not None and done > start:
                 feed(records_from_rows(out[:, start - base:done - base], pipeline, start))
             if done == base + block or done == total or status != physics.OK:

@@ -13,14 +13,16 @@ ready for `RecordRing.push` or `RecordLog.append`.
 
 `control` is a kernel (core.kernels) on precomputed tables and flat vectors: Python
 tuples and lists interpreted, float arrays compiled; `record` works on plain floats.
-numpy computes only when a trial is built (`TrialPlan`) and when it starts (`begin`, which
-plans the approach from wherever the handle is to the path's start point).
+numpy computes only when a trial is built (`TrialPlan`), when it starts (`begin`, which
+plans the approach from wherever the handle is to the path's start point and, in the live
+loop, computes every reference row) and, in a headless run, between blocks of ticks
+(`load_rows`: the next rows of the reference, so that a long trial's is never held whole).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -50,6 +52,7 @@ from core.control.guidance import (
     OFF,
     GuidanceGains,
     guidance_command,
+    guidance_rows,
     state_size,
 )
 from core.control.smc import SlidingModeController, smc_torques
@@ -65,6 +68,7 @@ from core.learning.kernel import learned_torques
 from core.robot import RobotModel
 from core.robot_terms import R_SIZE
 from core.signal import RateEstimator, track
+from core.trajectory import Trajectory
 from core.trial import TrialParameters, check_trial
 from device.backend import SensorReading
 
@@ -85,43 +89,59 @@ PHASE_IDLE, PHASE_APPROACH, PHASE_EXERCISE, PHASE_HOLD = 0, 1, 2, 3
 
 @dataclass(frozen=True, slots=True)
 class TrialPlan:
-    """A validated trial with its reference precomputed at the loop rate.
+    """A validated trial whose reference is computed at the loop rate, a stretch of ticks
+    at a time (`reference`).
 
     Built once (the Build button): refuses unreachable or absurd parameters with
-    the reason before anything moves.
+    the reason before anything moves. `tabulated` computes the whole reference then (the
+    live loop: Build is a command at zero torque, and Start then only plans the approach);
+    otherwise it holds no per-tick table, since a 100 × 120 s trial's reference is
+    6 million rows (576 MB): a headless run asks for the rows it is about to use
+    (TickPipeline.load_rows).
     """
 
     parameters: TrialParameters
     robot: RobotModel
     period_s: float
-    exercise_table: np.ndarray = field(compare=False, repr=False)
-    """The reference per tick as one (N, 12) array: (xd, yd, vxd, vyd, dx, dy, r1, r2, rd1,
-    rd2, rdd1, rdd2). Held once, as numbers: as Python tuples a 600 s trial's took 160 MB."""
+    trajectory: Trajectory = field(compare=False, repr=False)
+    table: np.ndarray | None = field(default=None, compare=False, repr=False)
+    """The whole reference (`reference`'s rows), when built `tabulated`."""
 
     @classmethod
     def build(
         cls, parameters: TrialParameters, robot: RobotModel | None = None,
-        period_s: float = PERIOD_S,
+        period_s: float = PERIOD_S, *, tabulated: bool = False,
     ) -> TrialPlan:
         robot = robot or RobotModel()
         check_trial(parameters, robot).require_ok()
-        trajectory = parameters.trajectory()
-        n = round(trajectory.total_duration_s / period_s)
-        t = np.arange(n) * period_s
-        sample = trajectory.sample(t)
-        q, qd, qdd = trajectory.joint_reference(robot, t)
-        table = np.column_stack(
+        plan = cls(parameters, robot, period_s, parameters.trajectory())
+        if tabulated:
+            plan = replace(plan, table=plan.reference(0, plan.exercise_ticks))
+        return plan
+
+    def reference(self, first: int, stop: int) -> np.ndarray:
+        """The exercise's reference at ticks first…stop−1 as one (N, 12) array: (xd, yd,
+        vxd, vyd, dx, dy, r1, r2, rd1, rd2, rdd1, rdd2) (eq. 3.1, 3.4, 3.5). Each row is a
+        function of its tick alone (t = tick × period), so any stretch has the rows the
+        whole table would have, bit for bit."""
+        first, stop = max(0, first), min(stop, self.exercise_ticks)
+        if self.table is not None:
+            return self.table[first:max(first, stop)]
+        t = np.arange(first, max(first, stop)) * self.period_s
+        sample = self.trajectory.sample(t)
+        q, qd, qdd = self.trajectory.joint_reference(self.robot, t)
+        return np.column_stack(
             (sample.position_m, sample.velocity_m_s, sample.direction, q, qd, qdd)
         )
-        return cls(parameters, robot, period_s, table)
 
     @property
     def exercise_ticks(self) -> int:
-        return len(self.exercise_table)
+        return round(self.trajectory.total_duration_s / self.period_s)
 
     @property
     def start_point_m(self) -> tuple[float, float]:
-        return (float(self.exercise_table[0, 0]), float(self.exercise_table[0, 1]))
+        row = self.reference(0, 1)[0]
+        return (float(row[0]), float(row[1]))
 
     def approach_rows(self, q1: float, q2: float) -> tuple:
         """Reference rows from the handle's pose to the path's start: a minimum-jerk
@@ -227,9 +247,14 @@ class TickPipeline:
             integral=self._make([0.0] * I_SIZE),
             guided=self._make(guided),
             last=self._make([0.0] * C_SIZE),
-            rows=self._table(plan.exercise_table),
+            rows=self._table(np.empty((0, 12))),
         )
+        self._approach = np.empty((0, 12))
         self._approach_ticks = 0
+        self.rows_from = 0
+        """The first row (tick) of the approach and exercise the loaded rows hold."""
+        self.n_rows = 0
+        """How many rows the trial's approach and exercise have (`begin`)."""
         self._ticked = False
         self.replacements = _replacements(self.controller, self.kind)
         """What an interpreted `control` replaces (a controller's own step), for the
@@ -249,11 +274,17 @@ class TickPipeline:
         return tuple(map(tuple, table.tolist()))
 
     # ------------------------------------------------------------------ trial
-    def begin(self, q1: float, q2: float) -> None:
-        """Start a trial from the handle's current pose: plan the approach, reset state."""
-        approach = self.plan.approach_table(q1, q2)
-        self._approach_ticks = len(approach)
-        self.vectors.rows = self._table(np.vstack((approach, self.plan.exercise_table)))
+    def begin(self, q1: float, q2: float, *, load: bool = True) -> None:
+        """Start a trial from the handle's current pose: plan the approach, reset state.
+
+        With `load` every row of the approach and the exercise is loaded at once (the
+        live loop: no tick waits for rows); a headless run passes False and loads the
+        rows a stretch of ticks needs before it (`load_rows`, `rows_needed`), so that its
+        memory does not grow with the trial's length."""
+        self._approach = self.plan.approach_table(q1, q2)
+        self._approach_ticks = len(self._approach)
+        self.n_rows = self._approach_ticks + self.plan.exercise_ticks
+        self.load_rows(0, self.n_rows if load else 1)
         self.controller.reset()
         v = self.vectors
         v.rates[:] = self._make([q1, 0.0, 0.0, q2, 0.0, 0.0])
@@ -263,11 +294,46 @@ class TickPipeline:
         self.set_force_estimate(math.nan, math.nan, -math.inf)
         self._ticked = False
 
+    def rows(self, first: int, stop: int) -> np.ndarray:
+        """Rows first…stop−1 of the trial's reference, the approach `begin` planned then
+        the exercise (TrialPlan.reference), as one (N, 12) array."""
+        approach = self._approach[max(0, first):max(0, min(stop, self._approach_ticks))]
+        if stop <= self._approach_ticks:
+            return approach
+        exercise = self.plan.reference(max(first, self._approach_ticks) - self._approach_ticks,
+                                       stop - self._approach_ticks)
+        return np.vstack((approach, exercise)) if len(approach) else exercise
+
+    def load_rows(self, first: int, stop: int) -> None:
+        """Make rows first…stop−1 of the reference (clipped to the trial's, and at least
+        one: the hold reads the last) the ones the tick reads."""
+        first = max(0, min(first, self.n_rows - 1))
+        stop = max(first + 1, min(stop, self.n_rows))
+        self.vectors.rows = self._table(self.rows(first, stop))
+        self.rows_from = first
+
+    def rows_needed(self, tick: int) -> tuple[int, int]:
+        """The lowest and highest row tick `tick` may read (the kernel `rows_needed`)."""
+        v = self.vectors
+        return rows_needed(v.guide, v.guided, self._approach_ticks, tick, self.n_rows)
+
+    @property
+    def reference_rows(self) -> np.ndarray:
+        """The reference rows loaded, from row `rows_from` (after `begin` in the live loop,
+        every row of the approach and the exercise): (x_d, y_d, ẋ_d, ẏ_d, direction x, y,
+        θ_d1, θ_d2, θ̇_d1, θ̇_d2, θ̈_d1, θ̈_d2)."""
+        return np.asarray(self.vectors.rows, dtype=float)
+
+    @property
+    def loaded_rows(self) -> int:
+        """How many rows of the reference are held now."""
+        return len(self.vectors.rows)
+
     @property
     def total_ticks(self) -> int:
         """Approach + exercise + hold: when the trial is complete. In the as-needed mode
         the exercise may run up to the guidance's delay past the clock."""
-        return (len(self.vectors.rows) + round(HOLD_S / self.period_s)
+        return (self.n_rows + round(HOLD_S / self.period_s)
                 + int(self.vectors.guide[GC_DELAY_ROWS]))
 
     @property
@@ -284,12 +350,6 @@ class TickPipeline:
         if done < reps:
             history[done:] = math.nan
         return history
-
-    @property
-    def reference_rows(self) -> np.ndarray:
-        """The reference of the trial `begin` planned, one row per tick of approach and
-        exercise: (x_d, y_d, ẋ_d, ẏ_d, direction x, y, θ_d1, θ_d2, θ̇_d1, θ̇_d2, θ̈_d1, θ̈_d2)."""
-        return np.asarray(self.vectors.rows, dtype=float)
 
     @property
     def approach_ticks(self) -> int:
@@ -337,7 +397,7 @@ class TickPipeline:
         """Commanded joint torques for tick k of the trial (before the supervisor)."""
         v = self.vectors
         self._control(self.kind, v.robot, v.model, v.tracker, v.gains, v.assist, v.guide,
-                      v.rates, v.integral, v.guided, k, v.rows,
+                      v.rates, v.integral, v.guided, k, v.rows, self.rows_from, self.n_rows,
                       self._approach_ticks, self.period_s, self.sensor_offset_rad,
                       reading.q1_rad, reading.q2_rad, reading.force_x_N, reading.force_y_N,
                       v.last)
@@ -400,7 +460,8 @@ class Vectors:
     (core.control.guidance GC_*, all zero in the thesis mode); the trackers' state (angle,
     rate, acceleration of each joint, Z_*), the controller's integral (core.control.ctpid
     I_*), the guidance's state (GS_*), the last tick's values (C_*), and the reference
-    rows."""
+    rows loaded (TickPipeline.load_rows: all of them in the live loop, a block's worth in a
+    headless run)."""
 
     robot: object
     arm: object
@@ -511,11 +572,29 @@ def controller_torques(kind, model, gains, integral, dt_s, q1, q2, qd1, qd2, r1,
 
 
 @kernel
+def rows_needed(guide, guided, approach_ticks, tick, n_rows):
+    """The lowest and highest reference row `control` reads at `tick`, from the state
+    before it: the tick's own row (the last one in the hold) and, while the as-needed
+    mode guides, the rows the guidance may search or lead to
+    (core.control.guidance.guidance_rows)."""
+    own = tick if tick < n_rows else n_rows - 1
+    lo = own
+    hi = own
+    if guide[GC_ON] != 0.0 and approach_ticks <= tick < n_rows + guide[GC_DELAY_ROWS]:
+        low, high = guidance_rows(guide, guided, approach_ticks, n_rows - 1, tick)
+        lo = low if low < lo else lo
+        hi = high if high > hi else hi
+    return lo, hi
+
+
+@kernel
 def control(kind, robot, model, tracker, gains, assist, guide, rates, integral, guided, tick,
-            rows, approach_ticks, period_s, sensor_offset_rad, q1, q2, force_x, force_y, last):
+            rows, rows_from, n_rows, approach_ticks, period_s, sensor_offset_rad, q1, q2,
+            force_x, force_y, last):
     """One tick up to the commanded torque, in the order of Fig. 3.6: rate estimate →
     reference → controller → performance-based assistance. Writes `last` (C_*); the
-    command is last[C_OUT1], last[C_OUT2]."""
+    command is last[C_OUT1], last[C_OUT2]. `rows` holds rows rows_from… of the trial's
+    n_rows reference rows (approach then exercise), at least those `rows_needed` names."""
     for joint in range(2):
         # the tracker's offset a loop variable, not a literal: numba would compile `track`
         # once for each literal offset
@@ -524,15 +603,15 @@ def control(kind, robot, model, tracker, gains, assist, guide, rates, integral, 
     qdd1 = rates[Z_ACC1]
     qd2 = rates[Z_RATE2]
     qdd2 = rates[Z_ACC2]
-    n = len(rows)
+    n = n_rows
     if tick < n:
-        row = rows[tick]
+        row = rows[tick - rows_from]
         phase = PHASE_APPROACH if tick < approach_ticks else PHASE_EXERCISE
         xd, yd, vxd, vyd, dx, dy = row[0], row[1], row[2], row[3], row[4], row[5]
         r1, r2, rd1, rd2, rdd1, rdd2 = row[6], row[7], row[8], row[9], row[10], row[11]
     else:
         # the hold: at rest at the last reference point
-        row = rows[n - 1]
+        row = rows[n - 1 - rows_from]
         phase = PHASE_HOLD
         xd, yd, vxd, vyd, dx, dy = row[0], row[1], 0.0, 0.0, row[4], row[5]
         r1, r2, rd1, rd2, rdd1, rdd2 = row[6], row[7], 0.0, 0.0, 0.0, 0.0
@@ -544,12 +623,13 @@ def control(kind, robot, model, tracker, gains, assist, guide, rates, integral, 
         # the clock's row less the delay, whichever is further on.
         phase = PHASE_EXERCISE
         sigma, here, tau1, tau2, out1, out2, active, angle = guidance_command(
-            robot, guide, assist, guided, rows, approach_ticks, tick, q1, q2, qd1, qd2, px, py)
-        row = rows[sigma]
+            robot, guide, assist, guided, rows, rows_from, n, approach_ticks, tick, q1, q2, qd1,
+            qd2, px, py)
+        row = rows[sigma - rows_from]
         xd, yd, vxd, vyd = row[0], row[1], row[2], row[3]
         r1, r2, rd1, rd2, rdd1, rdd2 = row[6], row[7], row[8], row[9], row[10], row[11]
         # the desired direction where the hand is, the one its cone test used
-        dx, dy = rows[here][4], rows[here][5]
+        dx, dy = rows[here - rows_from][4], rows[here - rows_from][5]
     else:
         tau1, tau2 = controller_torques(kind, model, gains, integral, period_s, q1, q2, qd1,
                                         qd2, r1, r2, rd1, rd2, rdd1, rdd2)

@@ -425,7 +425,9 @@ class DeviceLoop:
         if refused:
             return f"build refused: {refused}"
         self.paused = True
-        plan = TrialPlan.build(command.parameters, period_s=self.config.period_s)
+        # the whole reference now, at zero torque, so that Start only plans the approach
+        plan = TrialPlan.build(command.parameters, period_s=self.config.period_s,
+                               tabulated=True)
         reconnect = self.state == State.CONNECTED and self.backend_config is not None and (
             command.backend != self.backend_config or command.backend.kind == "simulator")
         if reconnect and command.backend.kind != self.backend_config.kind:

@@ -43,6 +43,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from core.blockwise import percentiles_of_blocks
 from core.trial import SIDES, TrialParameters
 from device.errors import RecordingError
 from device.recording.record import CHANNELS, Channel
@@ -62,6 +63,8 @@ DISTRIBUTION = "rehab-console"
 # v2.0 with this HDF5, whose object encodings the HDF5 1.10/1.14 inside MATLAB
 # and older h5py builds may not read.
 LIBVER = ("v110", "v110")
+SUMMARY_BLOCK = 100_000
+"""Samples of a timing channel read at once for the summary `close` computes."""
 
 # About two seconds of samples at 500 Hz per chunk: few chunks per dataset, and a
 # chunk of the widest channel stays well under h5py's 1 MiB per-dataset cache.
@@ -407,15 +410,27 @@ class TrialFileWriter:
             self._abandon()
         return self._path
 
-    def read_back(self, names: Iterable[str]) -> dict[str, np.ndarray]:
-        """The samples written so far of the channels `names` (those the file has), read
-        back from the open file: a headless run computes its metrics from the file it
-        streamed, holding only the channels they need."""
+    def channel_names(self) -> tuple[str, ...]:
+        """The channels the file has."""
+        self._check_writable()
+        return tuple(self._file["timeseries"])
+
+    def read_stretch(self, name: str, first: int, stop: int) -> np.ndarray:
+        """Samples first…stop−1 (of those written so far) of the channel `name`, read back
+        from the open file: a long headless trial's analysis reads its channels a block
+        at a time (core.blockwise). Call `flush_for_reading` once before."""
+        self._check_writable()
+        try:
+            return self._file["timeseries"][name][max(0, first):min(stop, self._n)]
+        except (OSError, RuntimeError, ValueError) as exc:
+            self._failed = str(exc)
+            raise _disk_error(self._path, "read back the samples of", exc) from exc
+
+    def flush_for_reading(self) -> None:
+        """Write out what is buffered, so that `read_stretch` sees every sample."""
         self._check_writable()
         try:
             self._flush()
-            series = self._file["timeseries"]
-            return {name: series[name][: self._n] for name in names if name in series}
         except (OSError, RuntimeError, ValueError) as exc:
             self._failed = str(exc)
             raise _disk_error(self._path, "read back the samples of", exc) from exc
@@ -510,25 +525,43 @@ class TrialFileWriter:
         }
         series = self._file["timeseries"]
         if self._n and "tick" in series:
-            tick = series["tick"][: self._n]
-            summary["first_tick"] = np.int64(tick[0])
-            summary["last_tick"] = np.int64(tick[-1])
-            summary["ticks_missing"] = np.int64(max(0, int(tick[-1] - tick[0] + 1) - self._n))
+            first, last = int(series["tick"][0]), int(series["tick"][self._n - 1])
+            summary["first_tick"] = np.int64(first)
+            summary["last_tick"] = np.int64(last)
+            summary["ticks_missing"] = np.int64(max(0, last - first + 1 - self._n))
         for name in ("lateness", "compute_time"):
             if not self._n or name not in series:
                 continue
-            values = series[name][: self._n].astype(np.float64)
-            values = values[np.isfinite(values)]
-            if values.size == 0:
-                continue
-            summary[f"{name}_mean_s"] = float(values.mean())
-            summary[f"{name}_p50_s"] = float(np.percentile(values, 50))
-            summary[f"{name}_p99_s"] = float(np.percentile(values, 99))
-            summary[f"{name}_max_s"] = float(values.max())
-            if name == "lateness":
-                # A tick that starts a whole period late has missed its deadline.
-                summary["late_fraction"] = float(np.mean(values >= period))
+            summary.update(self._timing_summary(name, series[name], period))
         return summary
+
+    def _timing_summary(self, name: str, channel, period: float) -> dict:
+        """A timing channel's mean, p50, p99 and max over its finite samples (and, for the
+        lateness, the share of ticks a whole period late), read SUMMARY_BLOCK samples at
+        a time: a 100 × 120 s trial's channel is 6 million samples."""
+
+        def blocks():
+            for first in range(0, self._n, SUMMARY_BLOCK):
+                values = channel[first:min(self._n, first + SUMMARY_BLOCK)]
+                yield values[np.isfinite(values)]
+
+        n = total = late = 0
+        worst = -math.inf
+        for values in blocks():
+            if len(values):
+                n += len(values)
+                total += float(np.sum(values, dtype=np.float64))
+                worst = max(worst, float(values.max()))
+                late += int(np.count_nonzero(values.astype(np.float64) >= period))
+        if n == 0:
+            return {}
+        p50, p99 = percentiles_of_blocks(blocks, n, (50, 99))
+        out = {f"{name}_mean_s": total / n, f"{name}_p50_s": p50, f"{name}_p99_s": p99,
+               f"{name}_max_s": worst}
+        if name == "lateness":
+            # A tick that starts a whole period late has missed its deadline.
+            out["late_fraction"] = late / n
+        return out
 
     def _abandon(self) -> None:
         if self._file is not None:

@@ -533,3 +533,44 @@ def test_the_console_adds_to_a_closed_trial_s_assistance_and_overwrites_nothing(
     with h5py.File(path, "r") as f:
         assert f["assistance"].attrs["mode"] == "thesis"
         assert f["assistance/estimate_force"][0, 0] == 1.0
+
+
+def test_the_timing_summary_reads_its_channels_a_block_at_a_time(tmp_path, monkeypatch):
+    """Issue 13 #21: close() computed the lateness and compute-time summary from the
+    whole channels, and read the whole tick channel for its first and last tick (at
+    6 million ticks, 150 MB at the end of a headless trial). Now no read of those
+    channels is longer than SUMMARY_BLOCK, and the figures are numpy's on the whole."""
+    monkeypatch.setattr(trialfile, "SUMMARY_BLOCK", 1000)
+    rng = np.random.default_rng(5)
+    records = random_records(5500, RECORD_DTYPE, rng)
+    records["lateness"] = np.abs(rng.normal(0.0, 0.002, 5500)).astype(np.float32)
+    records["lateness"][17] = np.nan
+    reads = []
+    getitem = h5py.Dataset.__getitem__
+
+    def watched(self, selection):
+        values = getitem(self, selection)
+        if self.name.rsplit("/", 1)[-1] in ("tick", "lateness", "compute_time"):
+            reads.append(np.size(values))
+        return values
+
+    writer = open_writer(tmp_path / "t.h5", live=False)
+    writer.append(records)
+    monkeypatch.setattr(h5py.Dataset, "__getitem__", watched)
+    writer.close("complete")
+    monkeypatch.undo()
+    assert reads
+    assert max(reads) <= 1000
+    with h5py.File(tmp_path / "t.h5", "r") as f:
+        summary = dict(f["summary"].attrs)
+    for name in ("lateness", "compute_time"):
+        values = records[name].astype(np.float64)
+        values = values[np.isfinite(values)]
+        assert summary[f"{name}_p50_s"] == np.percentile(values, 50)
+        assert summary[f"{name}_p99_s"] == np.percentile(values, 99)
+        assert summary[f"{name}_max_s"] == values.max()
+        assert summary[f"{name}_mean_s"] == pytest.approx(values.mean(), rel=1e-12)
+    late = records["lateness"].astype(np.float64)
+    late = late[np.isfinite(late)]
+    assert summary["late_fraction"] == np.mean(late >= PERIOD_S)
+    assert (summary["first_tick"], summary["last_tick"]) == (0, 5499)

@@ -14,6 +14,17 @@ from core.trial import THESIS_AS_PRINTED, THESIS_SUBJECT
 from device.loop.pipeline import PHASE_EXERCISE, PHASE_HOLD
 
 SHORT = THESIS_SUBJECT.replace(repetitions=1)
+FIGURES_RTOL = 1e-9
+"""How close a figure computed a block at a time is to the whole-array one (rounding: the
+block sums' order, the filters' block boundaries, the spectrum's folding)."""
+
+
+def same_figures(a: dict, b: dict) -> None:
+    """Equal figures to FIGURES_RTOL (NaN equal to NaN, as for a trial without reaches)."""
+    assert a.keys() == b.keys()
+    for name in a:
+        np.testing.assert_allclose(a[name], b[name], rtol=FIGURES_RTOL, atol=0.0,
+                                   err_msg=name)
 
 
 def test_healthy_trial_round_trips_through_its_file(tmp_path):
@@ -166,8 +177,9 @@ def test_a_streamed_trial_holds_one_block_at_a_time_and_writes_what_memory_would
     assert a.n_samples == b.n_samples == streamed.n_ticks
     for name in b.channels:
         np.testing.assert_array_equal(a.channels[name], b.channels[name], err_msg=name)
-    np.testing.assert_equal(a.metrics, b.metrics)  # NaN (no reaches) equal to NaN
-    np.testing.assert_equal(analysis.metrics.to_dict(), reference.metrics.to_dict())
+    # the streamed analysis reads the file a block at a time: the same figures to rounding
+    same_figures(a.metrics, b.metrics)
+    same_figures(analysis.metrics.to_dict(), reference.metrics.to_dict())
     assert [e["kind"] for e in a.events] == [e["kind"] for e in b.events]
     assert a.status == b.status == "complete"
 
@@ -180,10 +192,10 @@ def test_a_streamed_trial_without_figures_keeps_its_file_and_says_why(tmp_path, 
     from app.errors import AppError
     from app.trials.headless import simulate_to_file
 
-    def too_short(channels, parameters):
+    def too_short(read, n_ticks, names, parameters):
         raise AppError("the trial has only 3 samples of exercise; at least 64 are needed")
 
-    monkeypatch.setattr("app.trials.headless.analyse", too_short)
+    monkeypatch.setattr("app.trials.headless.analyse_stored", too_short)
     trial, analysis, problem = simulate_to_file(
         SHORT, tmp_path / "t.h5", patient="wrong_way", patient_options={
             "wrong_way_force_N": 50.0, "wrong_way_fraction": 0.9, "wrong_way_episode_s": 5.0})
@@ -229,3 +241,69 @@ def test_the_exercise_is_analysed_in_place_and_figures_do_not_change(monkeypatch
     monkeypatch.setattr(analysis, "_as_slice", lambda mask, n: mask)  # as before
     np.testing.assert_equal(analyse(channels, trial.plan.parameters).metrics.to_dict(),
                             by_slice)
+
+
+@pytest.mark.parametrize(("params", "patient"), [
+    (THESIS_SUBJECT.replace(repetitions=4), "tremor"),
+    (THESIS_SUBJECT.replace(repetitions=3, assist="as-needed", controller="ctpid"),
+     "wrong_way"),
+    (THESIS_SUBJECT.replace(repetitions=3, shape="targets"), "weak"),
+])
+def test_a_trial_analysed_a_block_at_a_time_has_the_whole_arrays_figures(
+        monkeypatch, params, patient):
+    """Issue 13 #21: every figure of a trial analysed in blocks of 1,000 samples (its speed's
+    spectrum folded into 4,096 bins, several passes) equals the whole-array analysis
+    (`analyse`, the reference) to FIGURES_RTOL, the notes too; and no channel is read
+    more than a block and the filter's margins at a time."""
+    import core.smoothness
+    from app.trials.analysis import analyse_stored
+    from core.blockwise import MARGIN_PERIODS
+
+    monkeypatch.setattr(core.smoothness, "FOLD", 4096)
+    trial = simulate(params, patient=patient, seed=7)
+    channels = {n: trial.records[n] for n in trial.records.dtype.names}
+    reads = []
+
+    def read(name, first, stop):
+        reads.append(stop - first)
+        return channels[name][first:stop]
+
+    whole = analyse(channels, params)
+    blocks = analyse_stored(read, len(trial.records), list(channels), params, block=1000)
+    assert len(trial.records) > 5 * 1000
+    same_figures(blocks.metrics.to_dict(), whole.metrics.to_dict())
+    assert blocks.notes == whole.notes
+    assert blocks.exercise_start_s == whole.exercise_start_s
+    assert len(blocks.metrics.reaches) == len(whole.metrics.reaches)
+    margin = math.ceil(MARGIN_PERIODS / (10.0 * 0.002)) + 1  # from the median step
+    assert max(reads) <= 1000 + 2 * margin + 2
+
+
+def test_a_streamed_trials_analysis_reads_the_file_a_block_at_a_time(tmp_path, monkeypatch):
+    """rehab run's analysis (simulate_to_file) never asks the trial file for more than a
+    block of a channel (plus the low-pass's margins), whatever the trial's length, and its
+    figures are the whole trial's."""
+    import core.blockwise
+    from app.trials.headless import simulate_to_file
+    from device.recording.trialfile import TrialFileWriter
+
+    monkeypatch.setattr(core.blockwise, "BLOCK", 1000)
+    reads = []
+    read_stretch = TrialFileWriter.read_stretch
+
+    def watched(self, name, first, stop):
+        reads.append(stop - first)
+        return read_stretch(self, name, first, stop)
+
+    monkeypatch.setattr(TrialFileWriter, "read_stretch", watched)
+    params = THESIS_SUBJECT.replace(repetitions=3)
+    streamed, analysis, problem = simulate_to_file(params, tmp_path / "t.h5", seed=3)
+    assert problem == ""
+    assert streamed.n_ticks > 5 * 1000
+    margin = math.ceil(core.blockwise.MARGIN_PERIODS / (10.0 * 0.002)) + 1
+    assert reads
+    assert max(reads) <= 1000 + 2 * margin + 2
+    whole = simulate(params, seed=3)
+    reference = analyse({n: whole.records[n] for n in whole.records.dtype.names}, params)
+    same_figures(analysis.metrics.to_dict(), reference.metrics.to_dict())
+    np.testing.assert_equal(read_trial(tmp_path / "t.h5").metrics, analysis.metrics.to_dict())

@@ -49,8 +49,8 @@ def tick(gains, state, k, x, y, *, vx=0.0, vy=0.0, force=(0.0, 0.0), level=1.0):
     qd2 = (-j21 * vx + j11 * vy) / det
     assist = PerformanceAssistance(ROBOT, level=level).constants
     c = gains.constants(period_s=PERIOD, repetition_s=len(ROWS) * PERIOD)
-    return guidance_command(ROBOT.constants, c, assist, state, ROWS, 0, k, q1, q2, qd1, qd2,
-                            *force)
+    return guidance_command(ROBOT.constants, c, assist, state, ROWS, 0, len(ROWS), 0, k, q1, q2,
+                            qd1, qd2, *force)
 
 
 def handle_force(q, tau_minus_base):
@@ -152,7 +152,8 @@ def test_the_feedforward_learns_from_lag_and_forgets_when_the_patient_keeps_up()
     def visit(k, behind_rows):
         x = ROWS[max(k - behind_rows, 0)][0]
         q = at(x, ROWS[0][1])
-        guidance_command(ROBOT.constants, c, assist, s, ROWS, 0, k, *q, 0.0, 0.0, 0.0, 0.0)
+        guidance_command(ROBOT.constants, c, assist, s, ROWS, 0, len(ROWS), 0, k, *q, 0.0, 0.0,
+                         0.0, 0.0)
 
     for k in range(rows_per_rep):  # one repetition 10 rows (2 mm) behind
         visit(k, 10)
