@@ -76,7 +76,8 @@ def add_learn_commands(commands) -> None:
                        help="k of k-fold cross-validation (default 5; 1: one validation "
                             "split of 20 %% of the cycles)")
     train.add_argument("--batch-size", type=_whole,
-                       help="samples a step (default 512; rnn: 16 sequences)")
+                       help="samples a step (default fnn 512, delan 128; rnn: 16 "
+                            "sequences)")
     train.add_argument("--learning-rate", type=_positive,
                        help="Adam's first step size, decayed to 1e-4 along a cosine "
                             "(default fnn and rnn 3e-3, delan 1e-2)")
