@@ -90,7 +90,8 @@ def test_early_stopping_stops(known):
     result = train(*data, TrainingOptions(kind="fnn", hidden=(4,), epochs=400, patience=3,
                                           batch_size=256, folds=1, learning_rate=0.5))
     assert all(f["epochs_run"] < 400 for f in result.metrics["folds"])
-    assert all(f["epochs_run"] - f["best_epoch"] <= 3 for f in result.metrics["folds"])
+    # it watches from the schedule's middle: 3 epochs without a better error after epoch 200
+    assert all(f["epochs_run"] - max(f["best_epoch"], 200) == 3 for f in result.metrics["folds"])
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
