@@ -1,8 +1,11 @@
 """Table 2.1 reproduced and beaten: FNN, GRU and DeLaN on the thesis's pendulum data
 (eq. 2.36–2.39), and Fig. 2.15 (error against the number of training cycles).
 
-Run: .venv/bin/python bench/learning.py [--epochs 100] [--folds 5] [--sizes 5 10 25 …]
+Run: .venv/bin/python bench/learning.py [--epochs 100] [--folds 5] [--models delan fnn rnn]
+     [--batch-size N] [--no-average-weights] [--sizes 5 10 25 …]
      [--figure docs/figures/learning-fig-2-15.png] [--no-figure-2-15]
+(--batch-size and --no-average-weights: the training as it was before 2026-12-02, for the
+DeLaN --batch-size 512 --no-average-weights.)
 Prints, for each model: parameters, training time on this CPU, RMSE of f and τ on the
 held-out 5 rad/s cycle (Table 2.1's test), on cycles at speeds between the training speeds
 (never trained on) and beyond them (extrapolation, 0.5 and 11–12 rad/s); then the RMSE of τ
@@ -30,8 +33,9 @@ def rmse(model, data) -> np.ndarray:
     return np.sqrt(np.mean((pred - data.tau) ** 2, axis=0))
 
 
-def fit(kind, data, epochs, folds, seed=0):
-    options = TrainingOptions(kind=kind, epochs=epochs, folds=folds, cyclic=(0,), seed=seed)
+def fit(kind, data, epochs, folds, seed=0, **options):
+    options = TrainingOptions(kind=kind, epochs=epochs, folds=folds, cyclic=(0,), seed=seed,
+                              **options)
     return train(data.q, data.qd, data.qdd, data.tau, data.cycle, options)
 
 
@@ -62,10 +66,16 @@ def main() -> None:
     parser.add_argument("--epochs", type=int, default=100)
     parser.add_argument("--folds", type=int, default=5)
     parser.add_argument("--models", nargs="+", default=["delan", "fnn", "rnn"])
+    parser.add_argument("--batch-size", type=int, help="every model's (default: its own)")
+    parser.add_argument("--no-average-weights", action="store_true",
+                        help="validate and keep the last step's weights, not their average")
     parser.add_argument("--sizes", type=int, nargs="+", default=[5, 10, 25, 50, 100, 250])
     parser.add_argument("--figure", default="docs/figures/learning-fig-2-15.png")
     parser.add_argument("--no-figure-2-15", action="store_true")
     args = parser.parse_args()
+    options = {"average_weights": not args.no_average_weights}
+    if args.batch_size:
+        options["batch_size"] = args.batch_size
 
     data = pd.generate()
     test = pd.held_out_mask(data)
@@ -79,7 +89,7 @@ def main() -> None:
     full = {}
     for kind in args.models:
         t0 = time.perf_counter()
-        model = fit(kind, train_data, args.epochs, args.folds)
+        model = fit(kind, train_data, args.epochs, args.folds, **options)
         seconds = time.perf_counter() - t0
         full[kind] = model
         r_held, r_between, r_beyond = rmse(model, held), rmse(model, between), rmse(model, beyond)
@@ -101,7 +111,7 @@ def main() -> None:
         part = subset(train_data, np.isin(train_data.cycle, chosen))
         row = []
         for kind in args.models:
-            model = fit(kind, part, args.epochs, min(args.folds, size))
+            model = fit(kind, part, args.epochs, min(args.folds, size), **options)
             row.append(rmse(model, held)[1])
             curves[kind].append(row[-1])
         print(f"{size:>7} " + " ".join(f"{v:>9.4f}" for v in row), flush=True)

@@ -76,13 +76,15 @@ def add_learn_commands(commands) -> None:
                        help="k of k-fold cross-validation (default 5; 1: one validation "
                             "split of 20 %% of the cycles)")
     train.add_argument("--batch-size", type=_whole,
-                       help="samples a step (default 512; rnn: 16 sequences)")
+                       help="samples a step (default fnn 512, delan 128; rnn: 16 "
+                            "sequences)")
     train.add_argument("--learning-rate", type=_positive,
                        help="Adam's first step size, decayed to 1e-4 along a cosine "
                             "(default fnn and rnn 3e-3, delan 1e-2)")
     train.add_argument("--patience", type=_whole, default=20,
-                       help="epochs without a better validation error before stopping "
-                            "(default 20)")
+                       help="epochs without a better validation error before stopping, "
+                            "counted from the middle of --epochs, once the rate has come "
+                            "down to half (default 20)")
     train.add_argument("--seed", type=int, default=0, help="default 0")
     train.add_argument("--cyclic", nargs="*", metavar="COORDINATE",
                        help="coordinates the dynamics does not depend on, left out of the "
