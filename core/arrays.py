@@ -19,3 +19,28 @@ def matrix2(terms) -> np.ndarray:
     """Stack row-major 2×2 entries (a, b, c, d) into an array of shape (..., 2, 2)."""
     a, b, c, d = np.broadcast_arrays(*(np.asarray(t, dtype=float) for t in terms))
     return np.stack((np.stack((a, b), axis=-1), np.stack((c, d), axis=-1)), axis=-2)
+
+
+def solve2(matrices, vectors) -> np.ndarray:
+    """x with A x = b for each 2×2 A (..., 2, 2) and b (..., 2), by Cramer's rule. Written
+    out rather than numpy.linalg.solve: LAPACK's result depends in its last bits on the
+    CPU's kernels (a trial recorded on one machine would not repeat bit for bit on
+    another), and these are plain IEEE products and sums everywhere."""
+    a = np.asarray(matrices, dtype=float)
+    b = np.asarray(vectors, dtype=float)
+    a11, a12, a21, a22 = a[..., 0, 0], a[..., 0, 1], a[..., 1, 0], a[..., 1, 1]
+    det = a11 * a22 - a12 * a21
+    return np.stack(((a22 * b[..., 0] - a12 * b[..., 1]) / det,
+                     (a11 * b[..., 1] - a21 * b[..., 0]) / det), axis=-1)
+
+
+def joint_motion(model, position_m, velocity_m_s, acceleration_m_s2):
+    """The joint angles, rates and accelerations (N, 2 each) of a two-joint model, the
+    robot (eq. 3.1, 3.4, 3.5) or the arm (eq. 3.16, 3.18, 3.19), whose end follows the
+    given Cartesian motion: θ = IK(P), θ̇ = J⁻¹ Ṗ, θ̈ = J⁻¹ (P̈ − J̇ θ̇)."""
+    q = model.ik(position_m)
+    jac = model.jacobian(q)
+    qd = solve2(jac, velocity_m_s)
+    rhs = np.asarray(acceleration_m_s2, dtype=float) - np.einsum(
+        "nij,nj->ni", model.jacobian_dot(q, qd), qd)
+    return q, qd, solve2(jac, rhs)

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from core.arrays import joint_motion
 from core.errors import ParameterError, check_positive, check_range
 from core.robot import RobotModel
 
@@ -297,10 +298,5 @@ class Trajectory:
         Returns (q, qd, qdd), each shape (N, 2). Raises UnreachableError.
         """
         sample = self.sample(t_s)
-        q = robot.ik(sample.position_m)
-        jac = robot.jacobian(q)
-        qd = np.linalg.solve(jac, sample.velocity_m_s[..., None])[..., 0]
-        jd = robot.jacobian_dot(q, qd)
-        rhs = sample.acceleration_m_s2 - np.einsum("nij,nj->ni", jd, qd)
-        qdd = np.linalg.solve(jac, rhs[..., None])[..., 0]
-        return q, qd, qdd
+        return joint_motion(robot, sample.position_m, sample.velocity_m_s,
+                            sample.acceleration_m_s2)

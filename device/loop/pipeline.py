@@ -26,6 +26,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from core.arrays import joint_motion
 from core.control.assistance import (
     A_EST_FX,
     A_EST_FY,
@@ -166,11 +167,7 @@ class TrialPlan:
         pos = np.column_stack((x0 + ux * distance * s, y0 + uy * distance * s))
         vel = np.column_stack((ux * distance * sd, uy * distance * sd))
         acc = np.column_stack((ux * distance * sdd, uy * distance * sdd))
-        q = robot.ik(pos)
-        jac = robot.jacobian(q)
-        qd = np.linalg.solve(jac, vel[..., None])[..., 0]
-        rhs = acc - np.einsum("nij,nj->ni", robot.jacobian_dot(q, qd), qd)
-        qdd = np.linalg.solve(jac, rhs[..., None])[..., 0]
+        q, qd, qdd = joint_motion(robot, pos, vel, acc)
         direction = np.tile([ux, uy], (n, 1))
         return np.column_stack((pos, vel, direction, q, qd, qdd))
 

@@ -82,6 +82,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from core.arm import ArmModel
+from core.arrays import joint_motion
 from core.errors import ParameterError, check_finite, check_non_negative, check_range
 from core.trajectory import Trajectory
 from device.sim.patient_torque import (
@@ -389,12 +390,9 @@ def _desired_motion_table(
     active stiffness (about 2 cm on the thesis's D)."""
     n = max(1, math.ceil(trajectory.duration_s / TABLE_STEP_S))
     sample = trajectory.sample(np.arange(n + 1) * TABLE_STEP_S)
-    theta = arm.ik(sample.position_m)  # eq. 3.16 inverted, anatomical branch
-    jac = arm.jacobian(theta)
-    theta_dot = np.linalg.solve(jac, sample.velocity_m_s[..., None])[..., 0]  # eq. 3.18
-    jac_dot = arm.jacobian_dot(theta, theta_dot)
-    rhs = sample.acceleration_m_s2 - np.einsum("nij,nj->ni", jac_dot, theta_dot)
-    theta_ddot = np.linalg.solve(jac, rhs[..., None])[..., 0]  # eq. 3.19
+    # eq. 3.16 inverted (the anatomical branch), 3.18, 3.19
+    theta, theta_dot, theta_ddot = joint_motion(arm, sample.position_m, sample.velocity_m_s,
+                                                sample.acceleration_m_s2)
     feedforward = arm.inverse_dynamics(theta, theta_dot, theta_ddot)  # eq. 3.20
     phi = theta[:, 1] - theta[:, 0]
     phi_dot = theta_dot[:, 1] - theta_dot[:, 0]

@@ -234,3 +234,15 @@ def test_other_robots_are_describable():
     q = other.ik([-0.2, 0.5])
     np.testing.assert_allclose(other.fk(q), [-0.2, 0.5], atol=1e-12)
     assert other.alpha != ROBOT.alpha
+
+
+def test_the_closed_form_2x2_solve_is_numpy_s_to_rounding():
+    """core.arrays.solve2, which the references use in place of numpy.linalg.solve (whose
+    last bits depend on the CPU's LAPACK kernels)."""
+    from core.arrays import solve2
+
+    rng = np.random.default_rng(0)
+    a = rng.normal(size=(200, 2, 2)) + 3 * np.eye(2)
+    b = rng.normal(size=(200, 2))
+    np.testing.assert_allclose(solve2(a, b), np.linalg.solve(a, b[..., None])[..., 0],
+                               rtol=1e-12, atol=1e-12)
