@@ -27,8 +27,7 @@ import numpy as np
 
 from app.emg.feed import SyntheticEmgFeed
 from app.emg.modelfile import emg_model, save_approved
-from app.emg.session import Contraction, session_mvc
-from app.emg.subjects import Subject, record_trial, write_contractions
+from app.emg.subjects import Subject, record_session
 from app.emg.validation import check_model
 from app.trials.headless import simulate_to_file
 from app.trials.reader import read_trial
@@ -46,17 +45,6 @@ class LostEmgFeed(SyntheticEmgFeed):
 
     def __call__(self, records) -> None:
         self._pipeline.set_force_estimate(math.nan, math.nan, int(records[-1]["tick"]))
-
-
-def record(folder: Path, subject: Subject, trials: int, repetitions: int, tolerance: float):
-    params = THESIS_SUBJECT.replace(repetitions=repetitions, assistance_level=0.0,
-                                    tolerance_rad=tolerance)
-    paths = [record_trial(folder / f"S{subject.number}_trial{k + 1}.h5", subject, seed=k,
-                          parameters=params).path for k in range(trials)]
-    contractions = write_contractions(folder, subject, session=1)
-    session_mvc(paths, [Contraction(m, p, ch) for m, (p, ch) in contractions.items()],
-                full_scale_V=subject.electrodes.full_scale_V)
-    return paths
 
 
 def closed_loop(folder: Path, model, subject: Subject, assist: str, tolerance: float,
@@ -123,7 +111,8 @@ def main() -> None:
             tolerance = math.radians(degrees)
             folder = Path(tmp) / f"t{degrees:g}"
             folder.mkdir()
-            paths = record(folder, subject, args.trials, args.repetitions, tolerance)
+            paths = record_session(folder, subject, trials=args.trials,
+                                   repetitions=args.repetitions, tolerance_rad=tolerance)
             started = time.perf_counter()
             # the held-out trial replayed with the synthetic stream's own lateness
             checked = check_model(paths, args.model, test=[paths[-1]], as_live=True,

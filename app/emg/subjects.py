@@ -128,6 +128,27 @@ def write_contractions(folder: str | os.PathLike, subject: Subject, session: int
     return out
 
 
+def record_session(folder: str | os.PathLike, subject: Subject, *, trials: int = 3,
+                   repetitions: int = 2, tolerance_rad: float | None = None,
+                   session: int = 1) -> list[Path]:
+    """One session of a subject for an EMG model that is to feed the assistance: `trials`
+    trials of `repetitions` repetitions of the thesis's D with the motors giving no help
+    (at `tolerance_rad`, the cone the model will be validated for; default the thesis's),
+    and the session's MVCs stored in each (app.emg.session.session_mvc)."""
+    from app.emg.session import Contraction, session_mvc
+
+    folder = Path(folder)
+    params = THESIS_SUBJECT.replace(repetitions=repetitions, assistance_level=0.0)
+    if tolerance_rad is not None:
+        params = params.replace(tolerance_rad=tolerance_rad)
+    paths = [record_trial(folder / f"S{subject.number}_session{session}_w{k + 1}.h5", subject,
+                          seed=k, parameters=params).path for k in range(trials)]
+    contractions = write_contractions(folder, subject, session)
+    session_mvc(paths, [Contraction(m, p, ch) for m, (p, ch) in contractions.items()],
+                full_scale_V=subject.electrodes.full_scale_V)
+    return paths
+
+
 # The thesis's design (section 5.2.1): 4 subjects; session 1 two trials, session 2 one.
 THESIS_SESSIONS = ((1, 2), (2, 1))
 

@@ -20,7 +20,13 @@ from core.emg.force import in_cone
 from core.emg.synthetic import THESIS_MUSCLES
 from device.loop.states import State
 from tests.emg_subjects import WIDE_CONE_RAD, record_session
-from tests.ui.session import click, fake_trigno, open_window, register_patient, short_trial
+from tests.ui.session import (
+    build_connect_start,
+    click,
+    fake_trigno,
+    open_window,
+    register_patient,
+)
 from tests.ui.test_emg_protocol import Muscles, connect_trigno, record, short_protocol
 from tests.ui.test_main_window_emg import _readable
 
@@ -37,12 +43,22 @@ def approved(tmp_path_factory):
                        latency_s=SyntheticEmgFeed.latency_of(Subject.drawn(1)))
 
 
-def _choose(qtbot, win, name: str) -> None:
+def _choose(qtbot, win, name: str, duration_s: float = 2.0) -> None:
+    """Register the patient; one repetition of `duration_s`, the 30° cone, the model."""
+    register_patient(qtbot, win)
     tab = win.parameters_tab
+    tab.repetitions.setValue(1)
+    tab.duration.setValue(duration_s)
     win.tabs.setCurrentWidget(tab)  # the choice's list is read from the data folder here
     tab.force_source.setCurrentIndex(tab.force_source.findData(name))
     tab.tolerance.setValue(math.degrees(WIDE_CONE_RAD))
     tab.refresh()
+
+
+def _record_mvcs(qtbot, win) -> None:
+    short_protocol(win)
+    for muscle in THESIS_MUSCLES:
+        assert record(qtbot, win, muscle)[0].endswith(": ok")
 
 
 def test_a_trial_judged_by_emg_runs_and_keeps_its_estimates(qtbot, tmp_path, monkeypatch,
@@ -52,8 +68,6 @@ def test_a_trial_judged_by_emg_runs_and_keeps_its_estimates(qtbot, tmp_path, mon
     with fake.FakeTrignoServer() as server:
         server.signal = Muscles(server.rate_hz)
         try:
-            register_patient(qtbot, win)
-            short_trial(win)
             _choose(qtbot, win, "s1")
             assert win.parameters_tab.force_source.currentText() == "EMG model: s1"
             # no EMG source yet: refused in words, on the Parameters tab
@@ -63,16 +77,9 @@ def test_a_trial_judged_by_emg_runs_and_keeps_its_estimates(qtbot, tmp_path, mon
             connect_trigno(qtbot, win, server)
             click(qtbot, win.robot.buttons["build"])
             assert "record the MVC of biceps, triceps, anterior_deltoid" in win.message.text()
-            short_protocol(win)
-            for muscle in THESIS_MUSCLES:
-                assert record(qtbot, win, muscle)[0].endswith(": ok")
+            _record_mvcs(qtbot, win)
             server.signal.level[:3] = (0.6e-4, 0.4e-4, 0.8e-4)  # 20-40 % MVC in the reach
-            click(qtbot, win.robot.buttons["build"])
-            qtbot.waitUntil(lambda: win.state == State.BUILT, timeout=120000)
-            click(qtbot, win.robot.buttons["connect"])
-            qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=20000)
-            click(qtbot, win.robot.buttons["start"])
-            qtbot.waitUntil(lambda: win.state == State.RUNNING, timeout=10000)
+            build_connect_start(qtbot, win)
             assert "estimated from EMG by s1" in "\n".join(win.messages.history())
             qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=60000)
             qtbot.waitUntil(lambda: "EMG estimates of the patient's force" in
@@ -110,21 +117,10 @@ def test_an_emg_source_that_dies_mid_trial_stops_the_giving_way(qtbot, tmp_path,
     with fake.FakeTrignoServer() as server:
         server.signal = Muscles(server.rate_hz)
         try:
-            register_patient(qtbot, win)
-            p = win.parameters_tab
-            p.repetitions.setValue(1)
-            p.duration.setValue(6.0)
-            _choose(qtbot, win, "s1")
+            _choose(qtbot, win, "s1", duration_s=6.0)
             connect_trigno(qtbot, win, server)
-            short_protocol(win)
-            for muscle in THESIS_MUSCLES:
-                record(qtbot, win, muscle)
-            click(qtbot, win.robot.buttons["build"])
-            qtbot.waitUntil(lambda: win.state == State.BUILT, timeout=120000)
-            click(qtbot, win.robot.buttons["connect"])
-            qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=20000)
-            click(qtbot, win.robot.buttons["start"])
-            qtbot.waitUntil(lambda: win.state == State.RUNNING, timeout=10000)
+            _record_mvcs(qtbot, win)
+            build_connect_start(qtbot, win)
             qtbot.waitUntil(lambda: win.force_estimate.feed is not None
                             and len(win.force_estimate.feed.log.tick) > 5, timeout=20000)
             server.fake_drop_data_after = server.sent + 200  # the base station goes away
