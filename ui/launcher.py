@@ -14,16 +14,35 @@ from collections.abc import Sequence
 from app.cli.common import CommandError
 from app.cli.main import build_parser, run
 
+X_LIBRARIES = {"xcb-cursor": "libxcb-cursor0", "xcb-icccm": "libxcb-icccm4",
+               "xcb-keysyms": "libxcb-keysyms1", "xkbcommon-x11": "libxkbcommon-x11-0"}
+"""The libraries Qt's X platform plugin loads beyond a bare system's (Qt 6.5 and later
+abort without xcb-cursor), by the Debian/Ubuntu package that has each."""
 
-def display_problem(environ=os.environ, platform: str = sys.platform) -> str:
+
+def _find_library(name: str) -> str | None:
+    import ctypes.util
+
+    return ctypes.util.find_library(name)
+
+
+def display_problem(environ=os.environ, platform: str = sys.platform,
+                    find_library=_find_library) -> str:
     """Why a window cannot open here, or '' if it can."""
     if platform != "linux":
         return ""
-    if environ.get("QT_QPA_PLATFORM", "").split(":")[0] in ("offscreen", "minimal", "vnc", "eglfs",
-                                                            "linuxfb"):
+    chosen = environ.get("QT_QPA_PLATFORM", "").split(":")[0]
+    if chosen in ("offscreen", "minimal", "vnc", "eglfs", "linuxfb"):
         return ""
-    if environ.get("DISPLAY") or environ.get("WAYLAND_DISPLAY"):
+    if environ.get("WAYLAND_DISPLAY") and chosen != "xcb":
         return ""
+    if environ.get("DISPLAY"):
+        missing = [package for name, package in X_LIBRARIES.items() if not find_library(name)]
+        if not missing:
+            return ""
+        return (f"the X libraries the window needs are missing ({', '.join(missing)}), so "
+                f"it cannot open. Install them (`sudo apt install {' '.join(missing)}`); the "
+                "headless commands (`rehab check`, `rehab run`, …) work without them.")
     return (
         "no display found (neither DISPLAY nor WAYLAND_DISPLAY is set), so the window cannot "
         "open. Run it from a desktop session, or under a virtual display with "
