@@ -51,6 +51,9 @@ TARGETS = {"robot": True, "robot+arm": False}  # name: the hand's J_Rᵀ F added
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--epochs", type=int, default=60)
+    parser.add_argument("--no-average-weights", action="store_true",
+                        help="keep the last step's weights, not their average over an epoch")
+    parser.add_argument("--batch-size", type=int, help="every model's (default: its own)")
     parser.add_argument("--omega", type=float, nargs="+", default=[20.0, 5.0],
                         help="outer-loop bandwidths, rad/s (default 20, the console's, and 5)")
     parser.add_argument("--acceleration", choices=("estimated", "desired"),
@@ -72,7 +75,8 @@ def main() -> None:
     for target, data in samples.items():
         for kind in KINDS:
             options = TrainingOptions(kind=kind, epochs=args.epochs, folds=1, seed=0,
-                                      mass_scale=0.5)
+                                      mass_scale=0.5, batch_size=args.batch_size,
+                                      average_weights=not args.no_average_weights)
             result = train(*data, options)
             name = f"{kind} ({target})"
             models[name] = LearnedInverseDynamics(result.spec, result.params, name)

@@ -1,8 +1,9 @@
 """The one training loop for the three models (thesis section 2.5: Adam, k-fold
 cross-validation): mean squared error on the generalised forces scaled by their spread,
 Adam (optax) with a cosine decay of its rate, early stopping on each fold's validation
-cycles, seeds fixed so a run repeats itself. What is validated and kept is the weights'
-moving average over about the last epoch's steps (`average_weights`, Polyak averaging).
+cycles, seeds fixed so a run repeats itself. From the schedule's middle on, what is
+validated and kept is the weights' moving average over about the last epoch's steps
+(`average_weights`, Polyak's tail averaging); before it, the steps' own weights.
 Folds are made of whole cycles, so a recurrent model sees whole sequences and no cycle is
 both trained and validated on.
 
@@ -198,8 +199,7 @@ def train(q, qd, qdd, tau, cycle, options: TrainingOptions,
     optimiser = optax.adam(schedule)
 
     # the average's weight on its past: 1 − 1/steps, a memory of about one epoch; it starts
-    # at the initial weights, whose share is e^−k after k epochs (37 % after the first, so a
-    # model kept at its first epoch is pulled toward them; nil by the pendulum's epoch 100)
+    # at the schedule's middle from the weights there (below)
     past = 1.0 - 1.0 / steps if options.average_weights else 0.0
 
     @jax.jit
@@ -244,15 +244,22 @@ def train(q, qd, qdd, tau, cycle, options: TrainingOptions,
         best, best_params, best_epoch, epochs_run = np.inf, params, 0, 0
         average = params
         for e in range(options.epochs):
+            if e == watch_from:
+                # the average starts where the rate has come down (Polyak's tail average):
+                # before, the weights kept are the steps' own, so a model whose best epoch
+                # is an early one (the robot's data: the 1st to the 11th of 60) is not
+                # pulled toward its initial weights (37 % of an average a epoch old)
+                average = params
             order = order_rng.permutation(count)[: steps * batch_size].reshape(steps, -1)
             for rows in order:
                 params, state, average, _ = step(params, state, average,
                                                  {k: v[rows] for k, v in train_set.items()})
-            sse, samples = validation_error(average, val_set)
+            kept = average if e >= watch_from else params
+            sse, samples = validation_error(kept, val_set)
             val = float(np.sum(sse / output_var) / samples / spec["dof"])
             epochs_run = e + 1
             if val < best:
-                best, best_params, best_epoch = val, average, e + 1
+                best, best_params, best_epoch = val, kept, e + 1
             if progress is not None:
                 progress((index * options.epochs + e + 1) / total_epochs)
             if e + 1 - max(best_epoch, watch_from) >= options.patience:

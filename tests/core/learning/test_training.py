@@ -97,7 +97,8 @@ def test_early_stopping_stops(known):
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
 def test_averaged_weights_beat_the_last_steps_at_a_high_rate(known, seed):
     """At a high constant rate Adam's steps jitter the weights; the weights averaged over
-    about an epoch's steps (the default) validate lower than the last step's."""
+    about an epoch's steps (the default, from the schedule's middle on) validate lower than
+    the steps' own."""
     data, _ = known
     losses = {}
     for average in (True, False):
@@ -105,7 +106,7 @@ def test_averaged_weights_beat_the_last_steps_at_a_high_rate(known, seed):
             kind="fnn", hidden=(8,), epochs=40, batch_size=32, folds=1, learning_rate=0.1,
             final_learning_rate=0.1, patience=40, seed=seed, average_weights=average))
         losses[average] = result.metrics["folds"][0]["validation_loss"]
-    assert losses[True] < 0.75 * losses[False], losses
+    assert losses[True] < 0.9 * losses[False], losses
 
 
 def test_delan_default_batch_converges_further_than_512_samples():
@@ -130,3 +131,4 @@ def test_bad_options_refused(known, options, message):
     data, _ = known
     with pytest.raises(ValueError, match=message):
         train(*data, TrainingOptions(**options))
+
