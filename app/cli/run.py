@@ -175,7 +175,7 @@ def _with_learned_model(params, name: str):
 def _with_force_estimate(params, args):
     """`params` naming the approved EMG model (its hash set), and the feed that makes the
     synthetic subject's EMG and the estimate from it (app.emg.feed)."""
-    from app.emg.feed import SyntheticEmgFeed
+    from app.emg.feed import MAX_SECONDS, SyntheticEmgFeed
     from app.emg.modelfile import emg_model
     from app.emg.subjects import Subject
     from app.records.datadir import locate_data_dir
@@ -188,6 +188,10 @@ def _with_force_estimate(params, args):
                            ". _ - (the stem of a file in the data folder's models/emg/)")
     if not 1 <= args.emg_subject <= 99:
         raise CommandError(f"--emg-subject {args.emg_subject}: give a number from 1 to 99")
+    if params.repetitions * params.duration_s > MAX_SECONDS:
+        raise CommandError(f"--force-estimate keeps the trial's EMG: give at most "
+                           f"{MAX_SECONDS:g} s of exercise (this trial has "
+                           f"{params.repetitions * params.duration_s:g} s)")
     checked = emg_model(locate_data_dir().models_dir, name)
     subject = Subject.drawn(args.emg_subject, patient=args.patient, muscles=checked.muscles)
     refused = checked.refusal(params, SyntheticEmgFeed.latency_of(subject))

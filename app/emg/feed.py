@@ -24,7 +24,7 @@ from app.emg.estimate import ArmState, ForceEstimator
 from app.emg.modelfile import EmgModelFile
 from core.emg.mvc import mvc_from_contraction
 from core.emg.synthetic import MUSCLES, EmgStream, joint_torques, mvc_contraction
-from core.errors import ParameterError
+from core.errors import ParameterError, check_range
 
 HOP_S = 0.0625
 MAX_SECONDS = 1800.0
@@ -81,7 +81,6 @@ class SyntheticEmgFeed:
         self.log = EstimateLog()
         self._times: list[np.ndarray] = []
         self._samples: list[np.ndarray] = []
-        self._kept_s = 0.0
         self._pipeline = None
 
     @staticmethod
@@ -100,16 +99,14 @@ class SyntheticEmgFeed:
             raise ParameterError("pipeline", "a trial on the force sensor",
                                  "a trial that names a force estimate",
                                  "set TrialParameters.force_estimate")
+        check_range("trial duration", pipeline.total_ticks * pipeline.period_s, 0.0,
+                    MAX_SECONDS, "s", "the feed keeps the trial's EMG; run a shorter trial")
         self._pipeline = pipeline
 
     def __call__(self, records: np.ndarray) -> None:
         t_emg, emg = self.stream.push(records["time"], joint_torques(
             np.nan_to_num(records["subject_torque"])))
         if t_emg.size:
-            self._kept_s += t_emg.size / self.subject.electrodes.rate_hz
-            if self._kept_s > MAX_SECONDS:
-                raise ParameterError("duration", f"over {MAX_SECONDS:g} s",
-                                     f"at most {MAX_SECONDS:g} s with a force estimate")
             self._times.append(t_emg)
             self._samples.append(emg[:, self.channels])
         last = records[-1]

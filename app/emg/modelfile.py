@@ -21,7 +21,12 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 from app.emg.validation import ModelNotApproved, approve
-from app.learning.modelfile import ModelFileError, content_hash, software_versions
+from app.learning.modelfile import (
+    ModelFileError,
+    checked_document,
+    content_hash,
+    software_versions,
+)
 from core.emg.force import USABLE_CONE_AGREEMENT
 from core.emg.models import USABLE_R2, Validation, inputs_of, model_from_dict
 from core.emg.processing import EmgSettings
@@ -134,26 +139,10 @@ def save_approved(models_dir: str | Path, name: str, checked) -> Path:
 def read_emg_model(path: str | Path, muscles=None) -> EmgModelFile:
     """Read and check an EMG model file; with `muscles`, refuse a model that takes others."""
     path = Path(path)
-    if not path.is_file():
-        raise ModelFileError(path, "missing", "no such file",
-                             "Save one with `rehab emg model TRIALS --for-assistance --save "
-                             "NAME`.")
-    try:
-        document = json.loads(path.read_text())
-    except (ValueError, UnicodeDecodeError, OSError):
-        raise ModelFileError(path, "format", "is not a JSON model file",
-                             "Give a file written by `rehab emg model --save`.") from None
-    if not isinstance(document, dict) or document.get("format") != FORMAT:
-        raise ModelFileError(path, "format", "is not an EMG model file of this console",
-                             "Give a file written by `rehab emg model --save`.")
-    if document.get("format_version", 0) > FORMAT_VERSION:
-        raise ModelFileError(path, "format", f"is format version "
-                             f"{document.get('format_version')}, newer than this console's",
-                             "Update the console.")
-    if document.get("content_sha256") != content_hash(document):
-        raise ModelFileError(path, "content hash", "the file's content does not match its "
-                             "SHA-256 (edited or damaged)", "Save the model again from its "
-                             "trials, or restore the file from its copy.")
+    document = checked_document(path, FORMAT, FORMAT_VERSION,
+                                "rehab emg model --for-assistance --save NAME",
+                                "Save the model again from its trials, or restore the file "
+                                "from its copy.", noun="an EMG model file")
     try:
         model = model_from_dict(document["model"])
         taken = tuple(str(m) for m in document["muscles"])

@@ -110,28 +110,38 @@ def write_model(path: str | Path, name: str, spec: dict, params: dict, data: dic
     return path
 
 
+def checked_document(path: Path, format_name: str, version: int, written_by: str,
+                     again: str, noun: str = "a model file") -> dict:
+    """A model file's JSON document, read and checked: there, JSON, of `format_name`, not
+    of a newer version than `version`, its content matching its SHA-256. `written_by` is
+    the command that writes such files, `again` what to do when the hash does not match,
+    `noun` what such a file is called; ModelFileError otherwise."""
+    if not path.is_file():
+        raise ModelFileError(path, "missing", "no such file",
+                             f"Check the path, or make one with `{written_by}`.")
+    try:
+        document = json.loads(path.read_text())
+    except (ValueError, UnicodeDecodeError, OSError):
+        raise ModelFileError(path, "format", "is not a JSON model file",
+                             f"Give a file written by `{written_by}`.") from None
+    if not isinstance(document, dict) or document.get("format") != format_name:
+        raise ModelFileError(path, "format", f"is not {noun} of this console",
+                             f"Give a file written by `{written_by}`.")
+    if document.get("format_version", 0) > version:
+        raise ModelFileError(path, "format", f"is format version "
+                             f"{document.get('format_version')}, newer than this console's "
+                             f"{version}", "Update the console.")
+    if document.get("content_sha256") != content_hash(document):
+        raise ModelFileError(path, "content hash", "the file's content does not match its "
+                             "SHA-256 (edited or damaged)", again)
+    return document
+
+
 def read_model(path: str | Path) -> ModelFile:
     """Read and check a model file."""
     path = Path(path)
-    if not path.is_file():
-        raise ModelFileError(path, "missing", "no such file",
-                             "Check the path, or train one with `rehab learn train`.")
-    try:
-        document = json.loads(path.read_text())
-    except (ValueError, UnicodeDecodeError):
-        raise ModelFileError(path, "format", "is not a JSON model file",
-                             "Give a file written by `rehab learn train`.") from None
-    if not isinstance(document, dict) or document.get("format") != FORMAT:
-        raise ModelFileError(path, "format", "is not a model file of this console",
-                             "Give a file written by `rehab learn train`.")
-    if document.get("format_version", 0) > FORMAT_VERSION:
-        raise ModelFileError(path, "format", f"is format version "
-                             f"{document.get('format_version')}, newer than this console's "
-                             f"{FORMAT_VERSION}", "Update the console.")
-    if document.get("content_sha256") != content_hash(document):
-        raise ModelFileError(path, "content hash", "the file's content does not match its "
-                             "SHA-256 (edited or damaged)", "Train the model again or "
-                             "restore the file from its copy.")
+    document = checked_document(path, FORMAT, FORMAT_VERSION, "rehab learn train",
+                                "Train the model again or restore the file from its copy.")
     try:
         spec = document["model"]
         expected = nw.param_shapes(spec)

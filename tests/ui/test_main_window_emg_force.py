@@ -61,89 +61,92 @@ def _record_mvcs(qtbot, win) -> None:
         assert record(qtbot, win, muscle)[0].endswith(": ok")
 
 
-def test_a_trial_judged_by_emg_runs_and_keeps_its_estimates(qtbot, tmp_path, monkeypatch,
-                                                            approved):
+@pytest.fixture
+def console(qtbot, tmp_path, monkeypatch, approved):
+    """The window on a data folder holding the approved model "s1", and a fake Trigno
+    streaming muscles whose levels a test sets."""
     save_approved(DataDir(tmp_path / "data", "test").models_dir, "s1", approved)
     win = open_window(qtbot, tmp_path, monkeypatch)
     with fake.FakeTrignoServer() as server:
         server.signal = Muscles(server.rate_hz)
-        try:
-            _choose(qtbot, win, "s1")
-            assert win.parameters_tab.force_source.currentText() == "EMG model: s1"
-            # no EMG source yet: refused in words, on the Parameters tab
-            click(qtbot, win.robot.buttons["build"])
-            assert "connect the EMG source on the EMG tab first" in win.message.text()
-            assert win.state != State.BUILT
-            connect_trigno(qtbot, win, server)
-            click(qtbot, win.robot.buttons["build"])
-            assert "record the MVC of biceps, triceps, anterior_deltoid" in win.message.text()
-            _record_mvcs(qtbot, win)
-            server.signal.level[:3] = (0.6e-4, 0.4e-4, 0.8e-4)  # 20-40 % MVC in the reach
-            build_connect_start(qtbot, win)
-            assert "estimated from EMG by s1" in "\n".join(win.messages.history())
-            qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=60000)
-            qtbot.waitUntil(lambda: "EMG estimates of the patient's force" in
-                            "\n".join(win.messages.history()), timeout=60000)
-            path = win.trial_path
-
-            def estimates():
-                with h5py.File(path, "r", locking=False) as f:
-                    if "estimate_force" not in f.get("assistance", {}):
-                        return None  # not closed yet, or the estimates not yet stored
-                    a = f["assistance"]
-                    return (a["estimate_tick"][()].astype(int), a["estimate_force"][()],
-                            f["timeseries/assistance_active"][()],
-                            f["timeseries/direction_desired"][()],
-                            f["timeseries/phase"][()], a.attrs["estimate_model"])
-
-            ticks, force, active, direction, phase, name = _readable(qtbot, estimates)
-            assert name == "s1"
-            assert len(ticks) > 10
-            # the loop judged what the window sent: on the tick after each estimate, the
-            # records' cone decision is the estimate's
-            after = ticks + 1
-            exercise = phase[after] == 2
-            judged = in_cone(force[exercise], direction[after][exercise], WIDE_CONE_RAD)
-            assert np.mean(judged == active[after][exercise].astype(bool)) > 0.9
-        finally:
-            win.emg.stop_live()
-            win.close()
+        yield win, server
 
 
-def test_an_emg_source_that_dies_mid_trial_stops_the_giving_way(qtbot, tmp_path, monkeypatch,
-                                                               approved):
-    save_approved(DataDir(tmp_path / "data", "test").models_dir, "s1", approved)
-    win = open_window(qtbot, tmp_path, monkeypatch)
-    with fake.FakeTrignoServer() as server:
-        server.signal = Muscles(server.rate_hz)
-        try:
-            _choose(qtbot, win, "s1", duration_s=6.0)
-            connect_trigno(qtbot, win, server)
-            _record_mvcs(qtbot, win)
-            build_connect_start(qtbot, win)
-            qtbot.waitUntil(lambda: win.force_estimate.feed is not None
-                            and len(win.force_estimate.feed.log.tick) > 5, timeout=20000)
-            server.fake_drop_data_after = server.sent + 200  # the base station goes away
-            qtbot.waitUntil(lambda: "EMG estimate lost" in "\n".join(win.messages.history()),
-                            timeout=20000)
-            qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=60000)
-            lost = [line for line in win.messages.history() if "EMG estimate lost" in line]
-            assert len(lost) == 1  # said once, not at every estimate
-            path = win.trial_path
+def test_a_trial_judged_by_emg_runs_and_keeps_its_estimates(qtbot, console):
+    win, server = console
+    try:
+        _choose(qtbot, win, "s1")
+        assert win.parameters_tab.force_source.currentText() == "EMG model: s1"
+        # no EMG source yet: refused in words, on the Parameters tab
+        click(qtbot, win.robot.buttons["build"])
+        assert "connect the EMG source on the EMG tab first" in win.message.text()
+        assert win.state != State.BUILT
+        connect_trigno(qtbot, win, server)
+        click(qtbot, win.robot.buttons["build"])
+        assert "record the MVC of biceps, triceps, anterior_deltoid" in win.message.text()
+        _record_mvcs(qtbot, win)
+        server.signal.level[:3] = (0.6e-4, 0.4e-4, 0.8e-4)  # 20-40 % MVC in the reach
+        build_connect_start(qtbot, win)
+        assert "estimated from EMG by s1" in "\n".join(win.messages.history())
+        qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=60000)
+        qtbot.waitUntil(lambda: "EMG estimates of the patient's force" in
+                        "\n".join(win.messages.history()), timeout=60000)
+        path = win.trial_path
 
-            def channels():
-                with h5py.File(path, "r", locking=False) as f:
-                    if "estimate_tick" not in f.get("assistance", {}):
-                        return None  # not closed yet, or the estimates not yet stored
-                    a = f["assistance"]
-                    return (a["estimate_tick"][()].astype(int),
-                            f["timeseries/assistance_active"][()], f["timeseries/phase"][()])
+        def estimates():
+            with h5py.File(path, "r", locking=False) as f:
+                if "estimate_force" not in f.get("assistance", {}):
+                    return None  # not closed yet, or the estimates not yet stored
+                a = f["assistance"]
+                return (a["estimate_tick"][()].astype(int), a["estimate_force"][()],
+                        f["timeseries/assistance_active"][()],
+                        f["timeseries/direction_desired"][()],
+                        f["timeseries/phase"][()], a.attrs["estimate_model"])
 
-            ticks, active, phase = _readable(qtbot, channels)
-            # from 0.25 s after the last estimate the loop judged no push: no giving way
-            later = np.arange(active.size) > ticks[-1] + round(0.25 / 0.002)
-            assert (later & (phase == 2)).any()
-            assert not active[later].any()
-        finally:
-            win.emg.stop_live()
-            win.close()
+        ticks, force, active, direction, phase, name = _readable(qtbot, estimates)
+        assert name == "s1"
+        assert len(ticks) > 10
+        # the loop judged what the window sent: on the tick after each estimate, the
+        # records' cone decision is the estimate's
+        after = ticks + 1
+        exercise = phase[after] == 2
+        judged = in_cone(force[exercise], direction[after][exercise], WIDE_CONE_RAD)
+        assert np.mean(judged == active[after][exercise].astype(bool)) > 0.9
+    finally:
+        win.emg.stop_live()
+        win.close()
+
+
+def test_an_emg_source_that_dies_mid_trial_stops_the_giving_way(qtbot, console):
+    win, server = console
+    try:
+        _choose(qtbot, win, "s1", duration_s=6.0)
+        connect_trigno(qtbot, win, server)
+        _record_mvcs(qtbot, win)
+        build_connect_start(qtbot, win)
+        qtbot.waitUntil(lambda: win.force_estimate.feed is not None
+                        and len(win.force_estimate.feed.log.tick) > 5, timeout=20000)
+        server.fake_drop_data_after = server.sent + 200  # the base station goes away
+        qtbot.waitUntil(lambda: "EMG estimate lost" in "\n".join(win.messages.history()),
+                        timeout=20000)
+        qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=60000)
+        lost = [line for line in win.messages.history() if "EMG estimate lost" in line]
+        assert len(lost) == 1  # said once, not at every estimate
+        path = win.trial_path
+
+        def channels():
+            with h5py.File(path, "r", locking=False) as f:
+                if "estimate_tick" not in f.get("assistance", {}):
+                    return None  # not closed yet, or the estimates not yet stored
+                a = f["assistance"]
+                return (a["estimate_tick"][()].astype(int),
+                        f["timeseries/assistance_active"][()], f["timeseries/phase"][()])
+
+        ticks, active, phase = _readable(qtbot, channels)
+        # from 0.25 s after the last estimate the loop judged no push: no giving way
+        later = np.arange(active.size) > ticks[-1] + round(0.25 / 0.002)
+        assert (later & (phase == 2)).any()
+        assert not active[later].any()
+    finally:
+        win.emg.stop_live()
+        win.close()

@@ -111,7 +111,8 @@ def test_a_passing_model_is_saved_and_feeds_a_trial_s_assistance(wide, data, cap
             (["--tolerance", "20"], "validated with a 30° tolerance cone"),
             (["--force-estimate", "nope"], "missing"),
             (["--force-estimate", "../s1"], "is not a model name"),
-            (["--emg-subject", "3"], "needs --force-estimate")):
+            (["--emg-subject", "3"], "needs --force-estimate"),
+            (["--repetitions", "100", "--duration", "20"], "give at most 1800 s of exercise")):
         args = ["run", "--repetitions", "1", "--output", str(data.parent / "x.h5")]
         if "--force-estimate" not in argv and "--emg-subject" not in argv:
             args += ["--force-estimate", "s1"]
