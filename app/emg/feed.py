@@ -42,11 +42,27 @@ class EstimateLog:
     torques_Nm: list[tuple[float, float]] = field(default_factory=list)
     force_N: list[tuple[float, float]] = field(default_factory=list)
 
+    def add(self, tick: int, made) -> None:
+        """One estimate (app.emg.estimate.Estimate) set at `tick`."""
+        self.tick.append(tick)
+        self.emg_time_s.append(made.time_s)
+        self.torques_Nm.append(made.torques_Nm)
+        self.force_N.append(made.force_N)
+
     def arrays(self) -> dict[str, np.ndarray]:
         return {"tick": np.asarray(self.tick, dtype=np.int64),
                 "emg_time": np.asarray(self.emg_time_s, dtype=float),
                 "torque": np.asarray(self.torques_Nm, dtype=float).reshape(-1, 2),
                 "force": np.asarray(self.force_N, dtype=float).reshape(-1, 2)}
+
+    def entries(self, model: EmgModelFile, hop_s: float, source: str,
+                arrays: dict | None = None, **more) -> dict:
+        """The trial file's /assistance entries (docs/data-format.md): the model, how
+        often and from what, and one row per estimate (`arrays`, default `arrays()`)."""
+        arrays = self.arrays() if arrays is None else arrays
+        return {"estimate_model": model.name, "estimate_model_sha256": model.content_sha256,
+                "estimate_hop_s": hop_s, "estimate_source": source, **more,
+                **{f"estimate_{k}": v for k, v in arrays.items()}}
 
 
 class SyntheticEmgFeed:
@@ -118,11 +134,7 @@ class SyntheticEmgFeed:
             self._pipeline.set_force_estimate(math.nan, math.nan, tick)
             return
         self._pipeline.set_force_estimate(*made.force_N, tick)
-        log = self.log
-        log.tick.append(tick)
-        log.emg_time_s.append(made.time_s)
-        log.torques_Nm.append(made.torques_Nm)
-        log.force_N.append(made.force_N)
+        self.log.add(tick, made)
 
     def _recent(self) -> tuple[np.ndarray, np.ndarray]:
         need = self.estimator.history_samples
@@ -140,13 +152,9 @@ class SyntheticEmgFeed:
     def assistance_entries(self) -> dict:
         """The estimates for the trial file's /assistance group (docs/data-format.md):
         which model and subject, and one row per estimate."""
-        arrays = self.log.arrays()
-        return {"estimate_model": self.model.name,
-                "estimate_model_sha256": self.model.content_sha256,
-                "estimate_subject": int(self.subject.number),
-                "estimate_hop_s": self.every_ticks * self.period_s,
-                "estimate_source": "synthetic EMG (app.emg.feed)",
-                **{f"estimate_{k}": v for k, v in arrays.items()}}
+        return self.log.entries(self.model, self.every_ticks * self.period_s,
+                                "synthetic EMG (app.emg.feed)",
+                                estimate_subject=int(self.subject.number))
 
     def store_emg(self, path: str | os.PathLike) -> None:
         """The trial's EMG and the session's MVCs into the closed trial file's `/emg`."""

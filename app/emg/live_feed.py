@@ -81,11 +81,7 @@ class LiveForceFeed:
             self.lost = "too little EMG yet for an estimate"
             return (math.nan, math.nan, tick)
         self.lost = ""
-        log = self.log
-        log.tick.append(tick)
-        log.emg_time_s.append(made.time_s)
-        log.torques_Nm.append(made.torques_Nm)
-        log.force_N.append(made.force_N)
+        self.log.add(tick, made)
         return (*made.force_N, tick)
 
     def assistance_entries(self, to_trial_time=None) -> dict:
@@ -95,10 +91,7 @@ class LiveForceFeed:
         arrays = self.log.arrays()
         if to_trial_time is not None and arrays["emg_time"].size:
             arrays["emg_time"] = np.asarray(to_trial_time(arrays["emg_time"]), dtype=float)
-        return {"estimate_model": self.model.name,
-                "estimate_model_sha256": self.model.content_sha256,
-                "estimate_hop_s": HOP_S, "estimate_source": "live EMG (app.emg.live_feed)",
-                **{f"estimate_{k}": v for k, v in arrays.items()}}
+        return self.log.entries(self.model, HOP_S, "live EMG (app.emg.live_feed)", arrays)
 
     def store(self, path) -> int:
         """The estimates into the closed trial file's /assistance; how many."""

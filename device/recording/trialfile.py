@@ -367,10 +367,7 @@ class TrialFileWriter:
             )
         extra = _check_scalars("summary", summary or {})
         metric_values = _check_metrics(metrics or {})
-        assist_arrays = {k: np.asarray(v, dtype=float) for k, v in (assistance or {}).items()
-                         if isinstance(v, np.ndarray)}
-        assist_values = _check_scalars("assistance", {
-            k: v for k, v in (assistance or {}).items() if k not in assist_arrays})
+        assist_values, assist_arrays = _assistance_parts(assistance or {})
 
         try:
             computed = self._computed_summary()
@@ -397,11 +394,7 @@ class TrialFileWriter:
             for key, value in metric_values.items():
                 group.attrs[key] = value
             if assistance:
-                group = f.require_group("assistance")
-                for key, value in assist_values.items():
-                    group.attrs[key] = value
-                for key, value in assist_arrays.items():
-                    group.create_dataset(key, data=value, fletcher32=True)
+                _write_assistance(f.require_group("assistance"), assist_values, assist_arrays)
             self._flush()
         except (OSError, RuntimeError, ValueError) as exc:
             raise _disk_error(self._path, f"close (status {status!r})", exc) from exc
@@ -596,10 +589,7 @@ def add_assistance(path: str | Path, values: Mapping) -> None:
     (a live trial's estimates of the patient's force, app.emg.live_feed): numbers and
     strings as attributes, arrays as checksummed float64 datasets, as `close` writes them.
     A name the group already holds is refused: nothing there is overwritten."""
-    arrays = {k: np.asarray(v, dtype=float) for k, v in values.items()
-              if isinstance(v, np.ndarray)}
-    scalars = _check_scalars("assistance", {k: v for k, v in values.items()
-                                            if k not in arrays})
+    scalars, arrays = _assistance_parts(values)
     try:
         with h5py.File(path, "r+", libver=LIBVER, locking=False) as f:
             if f.attrs.get("status") == STATUS_RECORDING:
@@ -610,12 +600,25 @@ def add_assistance(path: str | Path, values: Mapping) -> None:
             if taken:
                 raise RecordingError(f"{Path(path).name} already has {', '.join(taken)} in "
                                      "/assistance; nothing was changed")
-            for key, value in scalars.items():
-                group.attrs[key] = value
-            for key, value in arrays.items():
-                group.create_dataset(key, data=value, fletcher32=True)
+            _write_assistance(group, scalars, arrays)
     except (OSError, RuntimeError, ValueError) as exc:
         raise _disk_error(Path(path), "store the assistance's estimates in", exc) from exc
+
+
+def _assistance_parts(values: Mapping) -> tuple[dict, dict]:
+    """The `/assistance` group's values as (checked scalars for its attributes, float64
+    arrays for its datasets)."""
+    arrays = {k: np.asarray(v, dtype=float) for k, v in values.items()
+              if isinstance(v, np.ndarray)}
+    return _check_scalars("assistance", {k: v for k, v in values.items()
+                                         if k not in arrays}), arrays
+
+
+def _write_assistance(group: h5py.Group, scalars: Mapping, arrays: Mapping) -> None:
+    for key, value in scalars.items():
+        group.attrs[key] = value
+    for key, value in arrays.items():
+        group.create_dataset(key, data=value, fletcher32=True)
 
 
 def write_trial(
