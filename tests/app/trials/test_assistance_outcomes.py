@@ -114,6 +114,24 @@ def test_a_learning_patient_keeps_working_under_as_needed_and_slacks_under_full_
     assert full[-1].robot_work_share > full[0].robot_work_share
 
 
+def test_a_healthy_learning_patient_keeps_working_when_the_console_s_proposals_are_taken():
+    """Held at the same settings the healthy patient settles under the goal (the module
+    notes of app.trials.adaptation say why); taking the proposals keeps it working,
+    while fixed full assistance lets it slack."""
+    params = THESIS_SUBJECT.replace(assist="as-needed")
+    taken = run_course(params, patient="healthy", trials=20, follow_proposals=True)
+    fixed = run_course(params, patient="healthy", trials=20)
+    full = run_course(THESIS_SUBJECT.replace(assist="thesis"), patient="healthy", trials=20)
+    assert taken[-1].share >= 0.80
+    assert full[-1].share <= 0.5
+    assert fixed[-1].share < taken[-1].share
+    # the proposals made it harder: first no assistance, then faster
+    assert taken[-1].assistance_level == 0.0
+    assert taken[-1].duration_s < params.duration_s
+    assert {t.duration_s for t in fixed} == {params.duration_s}
+    assert all(t.status == "complete" for t in taken)
+
+
 def test_a_course_is_the_same_for_the_same_seed():
     a = run_course(THESIS_SUBJECT.replace(assist="as-needed", repetitions=1),
                    patient="healthy", trials=3)
