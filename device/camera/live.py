@@ -4,7 +4,9 @@ thread of its own, its keypoints published for the window to draw.
 
 It never touches the loop: the 2 ms loop runs in its own process and reads no camera. It
 takes the newest frame whenever it is free, so a slow detector skips frames instead of
-falling behind; `rate_fps` says how many it keeps up with.
+falling behind; `rate_fps` says how many it keeps up with. The worker gives way to the
+loop (device.background): a lower priority and the CPUs the loop does not take, for
+itself and the model's own threads, which it starts.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from core.pose.keypoints import ArmKeypoints
+from device.background import give_way_to_the_loop
 from device.camera.capture import CameraSource
 from device.camera.detector import PoseDetector
 
@@ -37,11 +40,16 @@ class LiveKeypoints:
 class LivePose:
     """start() makes the detector (on the worker) and runs it; latest() is the newest
     result; stop() ends it. A detector that cannot be made or fails sets `error` and
-    stops the worker."""
+    stops the worker. With `give_way` (the default) the worker gives way to the loop;
+    `give_way_problems` says what the OS refused of it. False keeps the window's priority
+    (bench/pose_live.py measures both)."""
 
-    def __init__(self, camera: CameraSource, make_detector: Callable[[], PoseDetector]):
+    def __init__(self, camera: CameraSource, make_detector: Callable[[], PoseDetector],
+                 give_way: bool = True):
         self.camera = camera
         self.make_detector = make_detector
+        self.give_way = give_way
+        self.give_way_problems: list[str] = []
         self.error: str | None = None
         self._latest: LiveKeypoints | None = None
         self._lock = threading.Lock()
@@ -80,6 +88,9 @@ class LivePose:
         return (len(done) - 1) / (done[-1] - done[0])
 
     def _run(self) -> None:
+        if self.give_way:
+            # before the detector is made: its thread pool inherits priority and CPUs
+            self.give_way_problems = give_way_to_the_loop()
         try:
             detector = self.make_detector()
         except Exception as exc:  # the model's own errors name themselves

@@ -28,6 +28,8 @@ import os
 import time
 from collections.abc import Callable, Sequence
 
+from device.background import loop_cpu
+
 log = logging.getLogger(__name__)
 
 SPIN_MARGIN_S = 0.0003
@@ -100,7 +102,8 @@ CLOCKS = {"wall": WallClock, "own": OwnClock}
 
 LAST_CPU = -1
 """`cpu` value for the highest-numbered CPU the process may use (the one the OS gives
-least to interrupt handling on most machines)."""
+least to interrupt handling on most machines), which background work keeps off
+(device.background)."""
 
 
 def prepare_process(cpu: int | None = None, priority: int = 50) -> list[str]:
@@ -127,7 +130,7 @@ def prepare_process(cpu: int | None = None, priority: int = 50) -> list[str]:
         try:
             available = os.sched_getaffinity(0)
             if cpu == LAST_CPU:
-                cpu = max(available)
+                cpu = loop_cpu(available)
             if cpu in available and len(available) > 1:
                 os.sched_setaffinity(0, {cpu})
             else:

@@ -4,6 +4,8 @@ that cannot start said in one line."""
 
 from __future__ import annotations
 
+import os
+import threading
 import time
 
 import cv2
@@ -12,6 +14,7 @@ import pytest
 from skimage import data
 
 from core.pose.keypoints import OTHER_SHOULDER, SHOULDER
+from device.background import BACKGROUND_NICE
 from device.camera.capture import CameraSource
 from device.camera.detector import MediaPipePose
 from device.camera.live import LivePose
@@ -67,3 +70,28 @@ def test_a_detector_that_cannot_start_is_said_in_one_line(astronaut_clip):
         camera.stop()
     assert live.error == "live pose cannot start: model_complexity=2 (heavy model) is not bundled"
     assert live.latest() is None
+
+
+def test_the_live_pose_worker_and_its_model_give_way_to_the_loop(astronaut_clip):
+    """The worker lowers its own priority before it makes the model, so the model's
+    threads run behind the loop too; the caller's thread keeps its priority."""
+    seen = {}
+
+    def make():
+        tid = threading.get_native_id()
+        seen["nice"] = os.getpriority(os.PRIO_PROCESS, tid)
+        seen["cpus"] = os.sched_getaffinity(0)
+        return MediaPipePose("right", video=True)
+
+    mine = os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
+    camera = CameraSource(astronaut_clip).start()
+    live = LivePose(camera, make).start()
+    try:
+        wait_for(lambda: live.latest() is not None)
+    finally:
+        live.stop()
+        camera.stop()
+    assert live.give_way_problems == []
+    assert seen["nice"] == min(19, mine + BACKGROUND_NICE)
+    assert len(seen["cpus"]) == max(1, len(os.sched_getaffinity(0)) - 1)
+    assert os.getpriority(os.PRIO_PROCESS, threading.get_native_id()) == mine

@@ -115,3 +115,21 @@ def test_the_pose_is_drawn_over_the_live_picture(qtbot, tab, astronaut_clip):
     assert tab.live_pose is None
     assert not live.running
     tab.close_camera()
+
+
+def test_a_live_pose_the_os_will_not_put_behind_the_loop_says_so(qtbot, tab, astronaut_clip,
+                                                                monkeypatch):
+    """Where the OS refuses a lower priority, the pose still runs and the state line says
+    it competes with the loop."""
+    def refused(*_):
+        raise PermissionError(1, "Operation not permitted")
+
+    monkeypatch.setattr("device.background.os.setpriority", refused)
+    with qtbot.waitSignal(tab.camera_opened, timeout=5000):
+        tab.open_camera(str(astronaut_clip))
+    tab.pose_box.setChecked(True)
+    qtbot.waitUntil(lambda: "pictures a second" in tab.state.text(), timeout=30000)
+    qtbot.waitUntil(lambda: "competes with the loop" in tab.state.text(), timeout=5000)
+    assert "could not lower the background work's priority" in tab.state.text()
+    tab.pose_box.setChecked(False)
+    tab.close_camera()

@@ -283,6 +283,8 @@ class VideoTab(QWidget):
                 text += " Pose: starting the model…"
             else:
                 text += f" Pose: {live.rate_fps:.0f} pictures a second."
+            if live.give_way_problems and not live.error:
+                text += f" {theme.PROBLEM_SIGN} {live.give_way_problems[0]}"
         if self.state.text() != text:
             self.state.setText(text)
 
