@@ -45,6 +45,26 @@ def test_a_patient_who_does_well_gets_less_assistance_then_speed_then_tolerance(
     assert math.degrees(narrower.tolerance_rad) == pytest.approx(18.0)
 
 
+def test_a_patient_the_robot_hardly_helped_gets_faster_first_with_the_help_kept():
+    """In the as-needed mode, a patient who led 95 % of the exercise or more was helped in
+    at most 5 % of it: less help would change little, so the path gets faster, and only
+    at the fastest pace does the help go down. The thesis mode is as before."""
+    as_needed = P.replace(assist="as-needed")
+    led = {"directional_performance_pct": 40.0}
+    faster = propose(as_needed, {**led, "led_pct": 99.0}, "complete")
+    assert faster.change == "speed"
+    assert (faster.assistance_level, faster.duration_s) == (1.0, pytest.approx(3.6))
+    assert "hardly needed" in faster.reason
+    assert "the assistance stays at 100 %" in faster.reason
+    fastest = as_needed.replace(duration_s=1.0)
+    less = propose(fastest, {**led, "led_pct": 99.0}, "complete")
+    assert less.change == "assistance"
+    assert less.assistance_level == pytest.approx(0.9)
+    helped = propose(as_needed, {**led, "led_pct": 94.0}, "complete")  # helped 6 %
+    assert helped.change == "assistance"
+    assert propose(P, dp(99.0), "complete").change == "assistance"  # the thesis mode
+
+
 def test_the_assistance_settles_as_a_staircase_instead_of_swinging():
     """Issue 12 #4: with a fixed 10 % step the weak patient's proposals alternated 40 % ↔
     30 % for ever (it led 85 % at 40 % help, 9 % at 30 %). Each turn back halves the step,
