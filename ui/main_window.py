@@ -268,15 +268,18 @@ class MainWindow(QMainWindow):
             self._say(f"Build refused: {exc}", problem=True)
             self.tabs.setCurrentWidget(self.parameters_tab)
             return
+        choice = self.parameters_tab.backend()
         model = None
         if params.learned_model:
             # the model file is read and checked here, at each Build: missing, corrupt
-            # (hash), another system's or size's model is refused with its reason
+            # (hash), another system's or size's model, or on the robot a model not of
+            # that robot's own trials, is refused with its reason
             from app.learning.library import inverse_dynamics, robot_model
             from app.learning.modelfile import ModelFileError
 
             try:
-                checked = robot_model(self.registry.data_dir.models_dir, params.learned_model)
+                checked = robot_model(self.registry.data_dir.models_dir, params.learned_model,
+                                      "quanser" if choice.name == HARDWARE else "simulator")
             except ModelFileError as exc:
                 self._say(f"Build refused: {exc}", problem=True)
                 self.tabs.setCurrentWidget(self.parameters_tab)
@@ -288,7 +291,6 @@ class MainWindow(QMainWindow):
         params = self.force_estimate.checked(params)
         if params is None:
             return
-        choice = self.parameters_tab.backend()
         if choice.name == HARDWARE:
             backend = BackendConfig(kind="quanser", hardware_settings=str(choice.settings_path))
         else:

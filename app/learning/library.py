@@ -8,6 +8,14 @@ weights that do not fit its sizes or takes other than the robot's two joint coor
 (`input size`), was trained on another system's data (`system`: a pendulum model is not a
 robot model), or is a recurrent model (`kind`: its state ran away in closed loop,
 docs/validation.md, "Learned inverse dynamics in the computed-torque PID").
+
+On a real robot only a model of that robot may drive it (`another robot`): its data must
+come from trials on that backend alone (`system` rehab-robot-quanser). A model trained on
+simulated trials has learned the simulator's dynamics (the ideal plant's or a realistic
+one drawn around the nominal model), not the robot's belts, friction and handle, and its
+computed-torque PID would command that model's torques on the robot; trials of both
+backends mixed are refused as well. On the simulator any robot model may run: that harms
+no one and is how a model of the robot is compared with the simulator.
 """
 
 from __future__ import annotations
@@ -45,9 +53,14 @@ def model_path(folder: str | Path, name: str) -> Path:
     return Path(folder) / f"{name}{SUFFIX}"
 
 
-def robot_model(folder: str | Path, name: str) -> ModelFile:
+SIMULATOR_BACKEND = "simulator"
+
+
+def robot_model(folder: str | Path, name: str,
+                backend: str = SIMULATOR_BACKEND) -> ModelFile:
     """The model file `name` in `folder`, read and checked as a model of the robot's
-    inverse dynamics for the computed-torque PID; ModelFileError otherwise."""
+    inverse dynamics for the computed-torque PID on `backend` (a BackendConfig's kind:
+    "simulator" or "quanser"); ModelFileError otherwise."""
     path = model_path(folder, name)
     model = read_model(path)
     if model.spec.get("dof") != 2:
@@ -63,6 +76,12 @@ def robot_model(folder: str | Path, name: str) -> ModelFile:
         raise ModelFileError(path, "kind", f"a {model.spec.get('kind')} model cannot drive "
                              "the robot (a recurrent model's state ran away in closed loop)",
                              "Choose a DeLaN or FNN model.")
+    own = f"{ROBOT_SYSTEM_PREFIX}-{backend}"
+    if backend != SIMULATOR_BACKEND and system != own:
+        raise ModelFileError(path, "another robot", f"the model was trained on '{system}', "
+                             f"not on this robot's own trials ('{own}')",
+                             "Train a model on trials recorded on this robot "
+                             "(`rehab learn robot-data`), or run on the simulator.")
     return model
 
 

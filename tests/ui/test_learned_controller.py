@@ -1,6 +1,7 @@
 """The controller choice "CT-PID (learned: <name>)", as a researcher and a therapist meet
 it: model files saved in the data folder's models/ appear by name; Build refuses a missing,
-corrupt, another system's or another size's model with one line naming the reason; a good
+corrupt, another system's or another size's model, and on the robot a model of simulated
+trials, with one line naming the reason; a good
 model's trial runs on the simulator with the model in the loop, and its trial file records
 the model's name and content hash. The real loop and recorder processes run behind the
 window.
@@ -129,6 +130,12 @@ def test_saved_models_appear_and_bad_ones_refuse_the_build(qtbot, window, models
         qtbot, win, "CT-PID (learned: three-joints)", "input size")
     assert "a rnn model cannot drive the robot" in refused(
         qtbot, win, "CT-PID (learned: gru)", "kind")
+    # on the robot, a model of simulated trials would command the simulator's dynamics
+    p.hardware.click()
+    p.settings_path.setText(str(models.parent / "robot.toml"))
+    assert "not on this robot's own trials ('rehab-robot-quanser')" in refused(
+        qtbot, win, "CT-PID (learned: fnn-robot)", "another robot")
+    p.simulator.click()
     # a model saved while the console runs appears when the Parameters tab is shown again
     spec, params = fitted_fnn(RobotModel(), hidden=8)
     write_model(models / "later.json", "later", spec, params, ROBOT_DATA, {}, {})

@@ -66,3 +66,24 @@ def test_a_model_that_cannot_drive_the_robot_is_refused_by_its_reason(
     assert caught.value.reason == reason
     assert words in str(caught.value)
     assert "\n" not in str(caught.value)
+
+
+@pytest.mark.parametrize(("system", "on_robot"), [
+    ("rehab-robot-quanser", True),
+    ("rehab-robot-simulator", False),
+    ("rehab-robot-quanser-simulator", False),  # simulated trials mixed in
+    ("rehab-robot-lab", False),  # a name given by hand says nothing of the trials
+])
+def test_on_the_robot_only_a_model_of_its_own_trials_drives_it(tmp_path, system, on_robot):
+    save(tmp_path, "m", "fnn", {"system": system, "dof": 2})
+    assert robot_model(tmp_path, "m").name == "m"  # the simulator takes any robot model
+    if on_robot:
+        assert robot_model(tmp_path, "m", "quanser").name == "m"
+        return
+    with pytest.raises(ModelFileError) as caught:
+        robot_model(tmp_path, "m", "quanser")
+    assert caught.value.reason == "another robot"
+    text = str(caught.value)
+    assert f"trained on '{system}', not on this robot's own trials" in text
+    assert "rehab learn robot-data" in text
+    assert "\n" not in text
