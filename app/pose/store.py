@@ -19,7 +19,7 @@ from app.errors import TrialFileError
 from core.pose.keypoints import KEYPOINT_NAMES
 from core.pose.pipeline import PoseResult
 from device.errors import RecordingError
-from device.recording.trialfile import LIBVER, STATUS_RECORDING, utc_now_iso
+from device.recording.trialfile import STATUS_RECORDING, open_for_update, utc_now_iso
 
 GROUP = "pose"
 # dataset: (units, frame, description)
@@ -104,7 +104,7 @@ def write_pose(path: str | os.PathLike, result: PoseResult, run: PoseRun) -> Non
     for joint in result.errors_camera_shoulder:
         attrs.update(joint.to_dict("camera_vs_solver_camera_shoulder_"))
     try:
-        with h5py.File(path, "r+", libver=LIBVER, locking=False) as f:
+        with open_for_update(path) as f:
             if f.attrs.get("status") == STATUS_RECORDING:
                 raise RecordingError(f"{path} is still being recorded; run pose estimation "
                                      "after the trial has ended")

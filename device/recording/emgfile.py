@@ -22,7 +22,7 @@ import h5py
 import numpy as np
 
 from device.errors import RecordingError
-from device.recording.trialfile import LIBVER, STATUS_RECORDING, utc_now_iso
+from device.recording.trialfile import STATUS_RECORDING, open_for_update, utc_now_iso
 
 GROUP = "emg"
 CHUNK_ROWS = 4096  # about 2 s at the Trigno's rate
@@ -74,7 +74,7 @@ def write_emg(
                              f"and {len(muscles)} muscles do not fit together")
     path = Path(path)
     try:
-        with h5py.File(path, "r+", libver=LIBVER, locking=False) as f:
+        with open_for_update(path) as f:
             _check_closed(f, path)
             if GROUP in f:
                 if not replace:
@@ -109,7 +109,7 @@ def write_mvc(path: str | os.PathLike, values: Mapping[str, Mapping]) -> None:
     reasons and whatever else describes it (numbers, strings; lists and dicts as JSON)."""
     path = Path(path)
     try:
-        with h5py.File(path, "r+", libver=LIBVER, locking=False) as f:
+        with open_for_update(path) as f:
             _check_closed(f, path)
             if GROUP not in f:
                 raise RecordingError(f"{path.name} has no EMG; import the trial's EMG first "

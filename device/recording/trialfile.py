@@ -564,6 +564,37 @@ class TrialFileWriter:
             self._file = None
 
 
+ALREADY_OPEN = "already open for read-only"
+"""HDF5's words when a file this process has open for reading is opened for writing."""
+UPDATE_WAIT_S = 10.0
+"""How long an update of a closed trial file waits for a reader in this process."""
+UPDATE_RETRY_S = 0.05
+
+
+@contextlib.contextmanager
+def open_for_update(path: str | Path, *, wait_s: float | None = None,
+                    sleep=time.sleep, clock=time.monotonic):
+    """A closed trial file opened to add to it (metrics, estimates, EMG, pose).
+
+    In one process HDF5 refuses to open a file for writing while it is open for reading,
+    whatever the file locking: the window's report or replay, or a researcher's loader in
+    the same Python, may hold it at that moment. Such a reader holds it briefly, so the
+    update waits for it (up to `wait_s`, by default UPDATE_WAIT_S, trying every
+    UPDATE_RETRY_S) instead of failing and losing what it was to store. Any other error
+    is raised at once."""
+    deadline = clock() + (UPDATE_WAIT_S if wait_s is None else wait_s)
+    while True:
+        try:
+            f = h5py.File(path, "r+", libver=LIBVER, locking=False)
+            break
+        except OSError as exc:
+            if ALREADY_OPEN not in str(exc) or clock() >= deadline:
+                raise
+        sleep(UPDATE_RETRY_S)
+    with f:
+        yield f
+
+
 def write_metrics(path: str | Path, metrics: Mapping) -> None:
     """Store a closed trial's metrics in its `/metrics` group (replacing earlier ones).
 
@@ -571,7 +602,7 @@ def write_metrics(path: str | Path, metrics: Mapping) -> None:
     metrics afterwards and keeps them beside the data with this."""
     values = _check_metrics(metrics)
     try:
-        with h5py.File(path, "r+", libver=LIBVER, locking=False) as f:
+        with open_for_update(path) as f:
             if f.attrs.get("status") == STATUS_RECORDING:
                 raise RecordingError(f"{path} is still being recorded; add metrics after it "
                                      "closes")
@@ -591,7 +622,7 @@ def add_assistance(path: str | Path, values: Mapping) -> None:
     A name the group already holds is refused: nothing there is overwritten."""
     scalars, arrays = _assistance_parts(values)
     try:
-        with h5py.File(path, "r+", libver=LIBVER, locking=False) as f:
+        with open_for_update(path) as f:
             if f.attrs.get("status") == STATUS_RECORDING:
                 raise RecordingError(f"{path} is still being recorded; add to its assistance "
                                      "after it closes")
@@ -834,7 +865,10 @@ def _disk_error(path: Path, action: str, exc: BaseException) -> RecordingError:
     if code is None:
         match = _ERRNO_IN_MESSAGE.search(str(exc))
         code = int(match.group(1)) if match else None
-    if code == errno.ENOSPC or code == errno.EDQUOT or code == errno.EFBIG:
+    if ALREADY_OPEN in str(exc):
+        advice = (f"it stayed open for reading in this console for over {UPDATE_WAIT_S:g} s "
+                  "(a replay, a report or a loader of it): close that, then store again")
+    elif code == errno.ENOSPC or code == errno.EDQUOT or code == errno.EFBIG:
         advice = ("the disk (or this user's quota, or the file size limit) is full: free "
                   "space or set the data directory to a larger disk")
     elif code in (errno.EACCES, errno.EPERM, errno.EROFS):

@@ -535,6 +535,85 @@ def test_the_console_adds_to_a_closed_trial_s_assistance_and_overwrites_nothing(
         assert f["assistance/estimate_force"][0, 0] == 1.0
 
 
+def closed_trial(tmp_path) -> Path:
+    records = random_records(50, RECORD_DTYPE, np.random.default_rng(5))
+    return write_trial(tmp_path / "t.h5", records, parameters=PARAMETERS, subject=SUBJECT,
+                       robot=ROBOT, backend="headless", sample_period_s=PERIOD_S)
+
+
+def test_an_update_waits_for_a_reader_in_this_process_instead_of_losing_what_it_stores(
+        tmp_path, monkeypatch):
+    """In one process HDF5 will not open a file for writing while it is open for reading
+    (the window's report or replay, a loader). A live trial's EMG estimates were lost that
+    way ("file is already open for read-only", a fresh-clone check on 2026-12-02): the
+    store now waits for the reader, as every update of a closed trial file does."""
+    import threading
+
+    from device.recording.trialfile import add_assistance, write_metrics
+
+    path = closed_trial(tmp_path)
+    reader = h5py.File(path, "r", locking=False)
+    original, tries, tried_again = h5py.File, [], threading.Event()
+
+    def counted(*args, **kwargs):
+        if args[1:2] == ("r+",):
+            tries.append(args[0])
+            if len(tries) == 2:
+                tried_again.set()
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(h5py, "File", counted)
+    errors = []
+
+    def store():
+        try:
+            add_assistance(path, {"estimate_model": "s1", "estimate_force": np.ones((3, 2))})
+            write_metrics(path, {"rmse_x_m": 0.001})
+        except Exception as exc:  # kept for the assertion below
+            errors.append(exc)
+
+    writer = threading.Thread(target=store)
+    writer.start()
+    assert tried_again.wait(30)  # refused while the reader holds it, and tried again
+    reader.close()
+    writer.join(30)
+    assert errors == []
+    with original(path, "r") as f:
+        assert f["assistance"].attrs["estimate_model"] == "s1"
+        assert f["metrics"].attrs["rmse_x_m"] == 0.001
+
+
+def test_a_reader_that_never_lets_go_is_named_not_the_disk(tmp_path, monkeypatch):
+    """The wait is bounded (UPDATE_WAIT_S); then the line says who holds the file."""
+    from device.recording.trialfile import add_assistance
+
+    path = closed_trial(tmp_path)
+    clock = [0.0]
+
+    def sleep(seconds):
+        clock[0] += seconds
+
+    with h5py.File(path, "r", locking=False):
+        with (pytest.raises(OSError, match="already open for read-only"),
+              trialfile.open_for_update(path, wait_s=1.0, sleep=sleep, clock=lambda: clock[0])):
+            pass
+        assert clock[0] == pytest.approx(1.0, abs=trialfile.UPDATE_RETRY_S)
+        monkeypatch.setattr(trialfile, "UPDATE_WAIT_S", 0.0)
+        with pytest.raises(RecordingError) as caught:
+            add_assistance(path, {"estimate_model": "s1"})
+    text = str(caught.value)
+    assert "open for reading in this console" in text
+    assert "close that, then store again" in text
+    assert "disk" not in text
+    assert "\n" not in text
+    # another error is not waited on
+    waited = clock[0]
+    with (pytest.raises(OSError, match=r"No such file|unable to open"),
+          trialfile.open_for_update(tmp_path / "none.h5", sleep=sleep, clock=lambda: clock[0])):
+        pass
+    assert clock[0] == waited
+
+
 def test_the_timing_summary_reads_its_channels_a_block_at_a_time(tmp_path, monkeypatch):
     """Issue 13 #21: close() computed the lateness and compute-time summary from the
     whole channels, and read the whole tick channel for its first and last tick (at

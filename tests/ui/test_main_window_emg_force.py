@@ -132,6 +132,10 @@ def test_an_emg_source_that_dies_mid_trial_stops_the_giving_way(qtbot, console):
         qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=60000)
         lost = [line for line in win.messages.history() if "EMG estimate lost" in line]
         assert len(lost) == 1  # said once, not at every estimate
+        # the estimates made before the source died are stored with the trial
+        qtbot.waitUntil(lambda: "EMG estimates of the patient's force" in
+                        "\n".join(win.messages.history()), timeout=60000)
+        assert not [line for line in win.messages.history() if "could not store" in line]
         path = win.trial_path
 
         def channels():
