@@ -41,6 +41,10 @@ With a fixed 10 % step the weak virtual patient led 85 % of the exercise at 40 %
 9 % at 30 %, and the proposals alternated between the two for ever (bench/progression.py).
 The step travels with the proposal (`level_step`, signed: the change it made), and the
 trial that ran with an accepted proposal passes it on (`propose(..., previous=...)`).
+The traversal time moves as a staircase too (`speed_step`, the relative change: 10 %,
+then 5 %, then 2.5 %). With a fixed 10 % step the wrong-way virtual patient, who keeps up
+to about 1.5 s per traversal with full help, was proposed 1.40 s (31 % led) and 1.54 s
+in turn for ever (bench/progression.py).
 
 One change at a time, so that the patient's next figures say what it did. The proposal
 names its reason in one line with display units; the registry keeps it and what the
@@ -62,6 +66,7 @@ EASIER_AT_PCT = 60.0
 LEVEL_STEP = 0.1
 LEVEL_STEP_MIN = 0.02
 SPEED_STEP = 0.1
+SPEED_STEP_MIN = 0.025
 TOLERANCE_STEP_DEG = 2.0
 TOLERANCE_MIN_DEG = 10.0
 TOLERANCE_DEFAULT_DEG = 20.0
@@ -81,6 +86,9 @@ class Proposal:
     level_step: float = 0.0
     """The change of the assistance level this proposal makes (signed, 0 when it changes
     something else), from which the next proposal's step follows (the module notes)."""
+    speed_step: float = 0.0
+    """The relative change of the traversal time this proposal makes (signed: −0.1 is
+    10 % shorter, 0 when it changes something else), the speed's staircase."""
 
     def applied_to(self, parameters: TrialParameters) -> TrialParameters:
         return parameters.replace(assistance_level=self.assistance_level,
@@ -89,27 +97,44 @@ class Proposal:
     def to_dict(self) -> dict:
         return {"assistance_level": self.assistance_level, "duration_s": self.duration_s,
                 "tolerance_rad": self.tolerance_rad, "change": self.change,
-                "reason": self.reason, "level_step": self.level_step}
+                "reason": self.reason, "level_step": self.level_step,
+                "speed_step": self.speed_step}
 
     @classmethod
     def from_dict(cls, values: dict) -> Proposal:
-        # proposals stored before the staircase have no step: a full step then
+        # proposals stored before the staircases have no steps: a full step then
         return cls(float(values["assistance_level"]), float(values["duration_s"]),
                    float(values["tolerance_rad"]), str(values["change"]),
-                   str(values["reason"]), float(values.get("level_step", 0.0)))
+                   str(values["reason"]), float(values.get("level_step", 0.0)),
+                   float(values.get("speed_step", 0.0)))
+
+
+def _staircase(direction: int, last: float, full: float, smallest: float, halve) -> float:
+    """The next signed step (`direction` −1 or +1) after the signed step `last` (0: none
+    yet): the same size again, `halve`d down to `smallest` when it turns back."""
+    if last == 0.0:
+        return direction * full
+    size = abs(last)
+    if last * direction < 0:
+        size = max(smallest, halve(size))
+    return direction * size
 
 
 def level_step(direction: int, previous: Proposal | None) -> float:
     """The assistance's next change, signed (`direction` −1 less help, +1 more): the last
     step's size again, halved (down to LEVEL_STEP_MIN) when it turns back."""
     last = previous.level_step if previous is not None else 0.0
-    if last == 0.0:
-        return direction * LEVEL_STEP
-    size = abs(last)
-    if last * direction < 0:
-        # halved in whole percent (the form's unit), so a proposal can be accepted as is
-        size = max(LEVEL_STEP_MIN, math.floor(round(size * 100) / 2) / 100)
-    return direction * size
+    # halved in whole percent (the form's unit), so a proposal can be accepted as is
+    return _staircase(direction, last, LEVEL_STEP, LEVEL_STEP_MIN,
+                      lambda size: math.floor(round(size * 100) / 2) / 100)
+
+
+def speed_step(direction: int, previous: Proposal | None) -> float:
+    """The traversal time's next relative change, signed (`direction` −1 faster, +1
+    slower): the last one's size again, halved (down to SPEED_STEP_MIN) when it turns
+    back."""
+    last = previous.speed_step if previous is not None else 0.0
+    return _staircase(direction, last, SPEED_STEP, SPEED_STEP_MIN, lambda size: size / 2)
 
 
 def success(parameters: TrialParameters, metrics: dict) -> tuple[float, str]:
@@ -152,7 +177,8 @@ def propose(parameters: TrialParameters, metrics: dict, status: str,
         hardly_helped = parameters.assist == "as-needed" and pct >= HARDLY_HELPED_PCT
         if level > 0.0 and not hardly_helped:
             return less_assistance()
-        faster = round(duration * (1.0 - SPEED_STEP), 2)
+        step = speed_step(-1, previous)
+        faster = round(duration * (1.0 + step), 2)
         if faster >= DURATION_RANGE_S[0] and _reachable(parameters.replace(duration_s=faster)):
             why = (f"{shown} with no assistance" if level == 0.0 else
                    f"{shown}, so the assistance was hardly needed")
@@ -160,7 +186,7 @@ def propose(parameters: TrialParameters, metrics: dict, status: str,
                     if level > 0.0 else "")
             return Proposal(level, faster, tolerance, "speed",
                             f"{why}: faster, {duration:g} s → {faster:g} s per "
-                            f"traversal{kept}")
+                            f"traversal{kept}", speed_step=step)
         if level > 0.0:
             return less_assistance()
         narrower = max(TOLERANCE_MIN_DEG, math.degrees(tolerance) - TOLERANCE_STEP_DEG)
@@ -180,11 +206,12 @@ def propose(parameters: TrialParameters, metrics: dict, status: str,
         return Proposal(new, duration, tolerance, "assistance",
                         f"{shown}: more assistance, {assistance_percent(level)} → "
                         f"{assistance_percent(new)}", round(new - level, 2))
-    slower = round(min(DURATION_RANGE_S[1], duration * (1.0 + SPEED_STEP)), 2)
+    step = speed_step(+1, previous)
+    slower = round(min(DURATION_RANGE_S[1], duration * (1.0 + step)), 2)
     if slower > duration:
         return Proposal(level, slower, tolerance, "speed",
                         f"{shown} with full assistance: slower, {duration:g} s → "
-                        f"{slower:g} s per traversal")
+                        f"{slower:g} s per traversal", speed_step=step)
     return same(f"{shown} at the easiest settings: the same again")
 
 

@@ -92,6 +92,33 @@ def test_the_assistance_settles_as_a_staircase_instead_of_swinging():
     assert after(down.applied_to(as_needed), 9.0, old).assistance_level == pytest.approx(0.4)
 
 
+def test_the_pace_settles_as_a_staircase_instead_of_swinging():
+    """The wrong-way patient kept up at 1.56 s per traversal and not at 1.40 s even with
+    full help, and a fixed 10 % step proposed the two in turn for ever. Each turn back
+    halves the step: 10, 5, 2.5 %, then 2.5 % on."""
+    as_needed = P.replace(assist="as-needed", duration_s=1.56)
+    led = {"directional_performance_pct": 20.0}
+
+    def after(params, pct, previous):
+        return propose(params, {**led, "led_pct": pct}, "complete", previous)
+
+    faster = after(as_needed, 97.0, None)
+    assert (faster.duration_s, faster.speed_step) == (pytest.approx(1.4), -0.1)
+    slower = after(faster.applied_to(as_needed), 31.0, faster)  # falls behind: back, half
+    assert (slower.duration_s, slower.speed_step) == (pytest.approx(1.47), 0.05)
+    assert "1.4 s → 1.47 s" in slower.reason
+    again = after(slower.applied_to(as_needed), 97.0, slower)
+    assert (again.duration_s, again.speed_step) == (pytest.approx(1.43), -0.025)
+    back = after(again.applied_to(as_needed), 31.0, again)
+    assert back.speed_step == 0.025  # the smallest step
+    same_way = after(faster.applied_to(as_needed), 97.0, faster)  # on the same way: same
+    assert same_way.duration_s == pytest.approx(1.26)
+    # a proposal stored before the pace's staircase has no step: a full one
+    old = Proposal.from_dict({k: v for k, v in faster.to_dict().items() if k != "speed_step"})
+    assert after(faster.applied_to(as_needed), 31.0, old).duration_s == pytest.approx(1.54)
+    assert Proposal.from_dict(slower.to_dict()) == slower
+
+
 def test_a_patient_who_struggles_gets_the_tolerance_back_then_assistance_then_time():
     wider = propose(P.replace(tolerance_rad=math.radians(14.0)), dp(40.0), "complete")
     assert wider.change == "tolerance"
