@@ -89,22 +89,10 @@ def test_a_trial_judged_by_emg_runs_and_keeps_its_estimates(qtbot, console):
         build_connect_start(qtbot, win)
         assert "estimated from EMG by s1" in "\n".join(win.messages.history())
         qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=60000)
-        qtbot.waitUntil(lambda: "EMG estimates of the patient's force" in
-                        "\n".join(win.messages.history()), timeout=60000)
-        path = win.trial_path
-
-        def estimates():
-            with h5py.File(path, "r", locking=False) as f:
-                if "estimate_force" not in f.get("assistance", {}):
-                    return None  # not closed yet, or the estimates not yet stored
-                a = f["assistance"]
-                return (a["estimate_tick"][()].astype(int), a["estimate_force"][()],
-                        f["timeseries/assistance_active"][()],
-                        f["timeseries/direction_desired"][()],
-                        f["timeseries/phase"][()], a.attrs["estimate_model"])
-
-        ticks, force, active, direction, phase, name = _readable(qtbot, estimates)
-        assert name == "s1"
+        stored = _stored_estimates(qtbot, win)
+        ticks, force, active, direction, phase = (stored[k] for k in (
+            "tick", "force", "assistance_active", "direction_desired", "phase"))
+        assert stored["model"] == "s1"
         assert len(ticks) > 10
         # the loop judged what the window sent: on the tick after each estimate, the
         # records' cone decision is the estimate's
@@ -115,6 +103,27 @@ def test_a_trial_judged_by_emg_runs_and_keeps_its_estimates(qtbot, console):
     finally:
         win.emg.stop_live()
         win.close()
+
+
+def _stored_estimates(qtbot, win) -> dict:
+    """The trial's stored EMG estimates (`tick`, `force`, `model`) and the records they
+    were judged against, once the window says it stored them; none failed to store."""
+    qtbot.waitUntil(lambda: "EMG estimates of the patient's force" in
+                    "\n".join(win.messages.history()), timeout=60000)
+    assert not [line for line in win.messages.history() if "could not store" in line]
+    path = win.trial_path
+
+    def estimates():
+        with h5py.File(path, "r", locking=False) as f:
+            if "estimate_force" not in f.get("assistance", {}):
+                return None  # not closed yet, or the estimates not yet stored
+            a = f["assistance"]
+            return {"tick": a["estimate_tick"][()].astype(int),
+                    "force": a["estimate_force"][()], "model": a.attrs["estimate_model"],
+                    **{name: f[f"timeseries/{name}"][()] for name in
+                       ("assistance_active", "direction_desired", "phase")}}
+
+    return _readable(qtbot, estimates)
 
 
 def test_an_emg_source_that_dies_mid_trial_stops_the_giving_way(qtbot, console):
@@ -133,20 +142,8 @@ def test_an_emg_source_that_dies_mid_trial_stops_the_giving_way(qtbot, console):
         lost = [line for line in win.messages.history() if "EMG estimate lost" in line]
         assert len(lost) == 1  # said once, not at every estimate
         # the estimates made before the source died are stored with the trial
-        qtbot.waitUntil(lambda: "EMG estimates of the patient's force" in
-                        "\n".join(win.messages.history()), timeout=60000)
-        assert not [line for line in win.messages.history() if "could not store" in line]
-        path = win.trial_path
-
-        def channels():
-            with h5py.File(path, "r", locking=False) as f:
-                if "estimate_tick" not in f.get("assistance", {}):
-                    return None  # not closed yet, or the estimates not yet stored
-                a = f["assistance"]
-                return (a["estimate_tick"][()].astype(int),
-                        f["timeseries/assistance_active"][()], f["timeseries/phase"][()])
-
-        ticks, active, phase = _readable(qtbot, channels)
+        stored = _stored_estimates(qtbot, win)
+        ticks, active, phase = (stored[k] for k in ("tick", "assistance_active", "phase"))
         # from 0.25 s after the last estimate the loop judged no push: no giving way
         later = np.arange(active.size) > ticks[-1] + round(0.25 / 0.002)
         assert (later & (phase == 2)).any()
