@@ -406,7 +406,7 @@ def test_a_nearly_full_disk_stops_the_recording_while_the_file_can_be_closed(
     path = tmp_path / "t.h5"
     writer = open_writer(path)
     writer.append(ramp_records(0, 100, RECORD_DTYPE))
-    monkeypatch.setattr(trialfile, "_free_bytes", lambda folder: 10 * 2**20)
+    monkeypatch.setattr(trialfile.writer, "_free_bytes", lambda folder: 10 * 2**20)
     with pytest.raises(RecordingError, match=r"sample 100: only 10 MiB free"):
         writer.flush()
     with pytest.raises(RecordingError, match="recording_lost"):
@@ -598,7 +598,7 @@ def test_a_reader_that_never_lets_go_is_named_not_the_disk(tmp_path, monkeypatch
               trialfile.open_for_update(path, wait_s=1.0, sleep=sleep, clock=lambda: clock[0])):
             pass
         assert clock[0] == pytest.approx(1.0, abs=trialfile.UPDATE_RETRY_S)
-        monkeypatch.setattr(trialfile, "UPDATE_WAIT_S", 0.0)
+        monkeypatch.setattr(trialfile.update, "UPDATE_WAIT_S", 0.0)
         with pytest.raises(RecordingError) as caught:
             add_assistance(path, {"estimate_model": "s1"})
     text = str(caught.value)
@@ -619,7 +619,7 @@ def test_the_timing_summary_reads_its_channels_a_block_at_a_time(tmp_path, monke
     whole channels, and read the whole tick channel for its first and last tick (at
     6 million ticks, 150 MB at the end of a headless trial). Now no read of those
     channels is longer than SUMMARY_BLOCK, and the figures are numpy's on the whole."""
-    monkeypatch.setattr(trialfile, "SUMMARY_BLOCK", 1000)
+    monkeypatch.setattr(trialfile.writer, "SUMMARY_BLOCK", 1000)
     rng = np.random.default_rng(5)
     records = random_records(5500, RECORD_DTYPE, rng)
     records["lateness"] = np.abs(rng.normal(0.0, 0.002, 5500)).astype(np.float32)

@@ -195,9 +195,9 @@ def test_a_full_disk_registers_nothing_and_says_so_in_one_line(data, patient, ca
     """A refused `rehab run --code` used to leave a trial 'recording' with no file."""
     from app.records.datadir import DataDir
     from app.records.registry import Registry
-    from device.recording import trialfile
+    from device.recording.trialfile import writer
 
-    monkeypatch.setattr(trialfile, "_free_bytes", lambda folder: 1024)  # 1 KiB free
+    monkeypatch.setattr(writer, "_free_bytes", lambda folder: 1024)  # 1 KiB free
     code, _, err = run(["run", "--code", patient, "--repetitions", "1"], capsys)
     assert code == 2
     lines = err.strip().splitlines()
