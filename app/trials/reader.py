@@ -21,6 +21,7 @@ import h5py
 import numpy as np
 
 from app.errors import TrialFileError
+from app.trials.assistance_timeline import AssistanceInEffect, assistance_in_effect
 from core.errors import CoreError
 from core.trial import TrialParameters
 from device.errors import RecordingError
@@ -75,6 +76,21 @@ class TrialData:
     def closed(self) -> bool:
         """False while recording, or when the recorder stopped without closing the file."""
         return self.status != STATUS_RECORDING
+
+    def assistance_in_effect(self) -> AssistanceInEffect:
+        """The assistance levels the trial ran with, from its `assistance_level` channel (or,
+        in a file without it, the built level and the `assistance` events): `.at_start`,
+        `.at_end` (of the exercise), `.changes`, `.summary()` ('100 % → 60 % at 5.8 s');
+        app.trials.assistance_timeline. A partial read needs its CHANNELS_NEEDED."""
+        built = (self.parameters.assistance_level if self.parameters is not None
+                 else float(self.assistance.get("level", math.nan)))
+        return assistance_in_effect(self.channels, self.events, built, self.sample_period_s,
+                                    self.summary)
+
+    def assistance_timeline(self) -> tuple[tuple[float, float], ...]:
+        """((0.0, level at the exercise's start), (t, new level), …), t in s from the
+        exercise's start, levels 0–1: what the trial ran, never the form."""
+        return self.assistance_in_effect().timeline
 
 
 def read_trial(path: str | os.PathLike, channels: Iterable[str] | None = None) -> TrialData:
