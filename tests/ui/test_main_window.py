@@ -252,14 +252,14 @@ def test_three_trials_in_a_row_with_the_host_stalling_50_ms(qtbot, window, monke
     0.5 s of loop time sleeps 50 ms). On the simulator a late tick is recorded and shown
     but ends nothing: three Starts in one window session give three complete trials, each
     recording its stalls, each registered with its own number."""
-    import ui.main_window as main_window
+    import ui.window.trial as window_trial
     from device.loop.messages import BackendConfig
 
     def stalling(**kwargs):
         return BackendConfig(**kwargs, fault_scenario="stalls", fault_at_s=0.2,
                              fault_options=(("sleep_s", 0.05), ("every_s", 0.5)))
 
-    monkeypatch.setattr(main_window, "BackendConfig", stalling)
+    monkeypatch.setattr(window_trial, "BackendConfig", stalling)
     win = window
     register_patient(qtbot, win)
     short_trial(win)

@@ -1,0 +1,132 @@
+"""The window's words: the event line above the tabs (what just happened, while it
+applies), its history (everything said today, with the time) and the status bar (the
+robot's state, the robot, the trial, the loop's health).
+
+The event line and the fault banner have a fixed number of lines (`fixed_lines`), so no
+message can grow the window and push the emergency stop off the screen; the whole text is
+the tooltip and in the history. What stays current and when it goes is
+`ui.views.messages`; the loop's health in words is `ui.views.loop_health`.
+"""
+
+from __future__ import annotations
+
+import logging
+
+from PySide6.QtCore import Qt
+from PySide6.QtGui import QFont, QFontMetrics
+from PySide6.QtWidgets import (
+    QDialog,
+    QHBoxLayout,
+    QLabel,
+    QPlainTextEdit,
+    QPushButton,
+    QSizePolicy,
+    QVBoxLayout,
+)
+
+from app.trials.finalize import finish_interrupted
+from ui import theme
+
+log = logging.getLogger("ui.main_window")  # the clinic's day log names the window
+
+MESSAGE_LINES = 2
+"""Lines of text the event line and the fault banner have: fixed, so that no message can
+grow the window and push the emergency stop off the screen (the full text is the tooltip
+and in the history)."""
+
+
+class MessageLine:
+    """The event line, its history and the status bar (a part of MainWindow)."""
+
+    def _build_message_row(self) -> QHBoxLayout:
+        # the event line always holds its place (empty when nothing is current): showing
+        # or hiding it must not move the tabs or the robot buttons under the mouse
+        self.message = QLabel()
+        self.message.setObjectName("console_message")
+        fixed_lines(self.message, MESSAGE_LINES)
+        self.message.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Fixed)
+        self.history_button = QPushButton("History…")
+        self.history_button.setObjectName("message_history")
+        self.history_button.setToolTip("Everything the console said today, with its time")
+        self.history_button.clicked.connect(self.show_history)
+        message_row = QHBoxLayout()
+        message_row.setContentsMargins(0, 0, 0, 0)
+        message_row.addWidget(self.message, 1)
+        message_row.addWidget(self.history_button)
+        return message_row
+
+    def _build_status_bar(self) -> None:
+        self.state_label = QLabel("Idle")
+        self.backend_label = QLabel("")
+        self.health_label = QLabel("loop: –")
+        self.trial_label = QLabel("")
+        bar = self.statusBar()
+        for widget in (self.state_label, self.backend_label, self.trial_label):
+            bar.addWidget(widget)
+        bar.addPermanentWidget(self.health_label)
+
+    def say(self, text: str, problem: bool = False) -> None:
+        """A new line in the message line (and its history)."""
+        self._say(text, problem=problem)
+
+    def _say(self, text: str, problem: bool = False, states=None) -> None:
+        """A new event line; `states`: the robot states it stays current in (it leaves the
+        line, not the history, when the robot leaves them; ui.views.messages)."""
+        self.messages.say(text, problem=problem, states=states)
+        self._show_message()
+        (log.warning if problem else log.info)("%s", text)
+
+    def _show_message(self) -> None:
+        event = self.messages.last
+        problem = event is not None and event.problem
+        colour = theme.PROBLEM_TEXT if problem else theme.TEXT
+        sign = f"{theme.PROBLEM_SIGN} " if problem else ""
+        self.message.setStyleSheet(f"color: {colour}; font-weight: bold;" if problem else "")
+        self.message.setText("" if event is None else f"{sign}{event.text}")
+        self.message.setToolTip("" if event is None else event.text)
+
+    def show_history(self) -> QDialog:
+        """Everything said this session, oldest first, in a window of its own."""
+        dialog = QDialog(self)
+        dialog.setWindowTitle("What the console said")
+        text = QPlainTextEdit("\n".join(self.messages.history()) or "Nothing yet.")
+        text.setReadOnly(True)
+        layout = QVBoxLayout(dialog)
+        layout.addWidget(text)
+        dialog.resize(700, 400)
+        dialog.show()
+        self.history_dialog = dialog
+        return dialog
+
+    def _show_health(self) -> None:
+        text = self.loop_health.text(self.fault_code)
+        if text is not None:
+            self.health_label.setText(text)
+
+    def finish_interrupted_trials(self) -> None:
+        """At start-up: trials a crashed console left recording are finished from their
+        files (app.trials.finalize.finish_interrupted), and the therapist is told which."""
+        def said(lines: list[str]) -> None:
+            if lines:
+                more = f" (and {len(lines) - 1} more; see the log)" if len(lines) > 1 else ""
+                self._say(lines[0][0].upper() + lines[0][1:] + more, problem=True)
+
+        self.jobs.run(lambda: finish_interrupted(self.registry), said)
+
+    def _job_failed(self, error: Exception) -> None:
+        log.error("background job failed: %s", error)
+        self._say(f"{error}", problem=True)
+
+
+def fixed_lines(label: QLabel, lines: int) -> int:
+    """Make `label` a word-wrapped box of `lines` lines, as tall as they are in bold (a
+    fault or a problem is shown bold), filled from the top: a longer text shows its first
+    lines whole and the rest stays in its tooltip and the history, instead of half lines
+    cut at top and bottom. Returns the height."""
+    label.setWordWrap(True)
+    label.setAlignment(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignTop)
+    font = QFont(label.font())
+    font.setBold(True)
+    height = QFontMetrics(font).lineSpacing() * lines
+    label.setFixedHeight(height)
+    return height

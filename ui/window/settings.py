@@ -1,0 +1,67 @@
+"""What the window remembers between sessions (its size and place, the last parameters,
+the robot chosen, the axes' flip: app.records.settings) and closing it: asked first while a
+trial runs, then the settings saved, the timers, the camera, the loop and the job thread
+stopped."""
+
+from __future__ import annotations
+
+import base64
+import contextlib
+import logging
+from pathlib import Path
+
+from PySide6.QtWidgets import QMessageBox
+
+from app.records.settings import save_settings
+from device.loop.states import State
+from ui.tabs.parameters import HARDWARE, SIMULATOR, BackendChoice
+
+log = logging.getLogger("ui.main_window")
+
+
+class RememberedSettings:
+    """Restore at start, save at close (a part of MainWindow)."""
+
+    def _restore(self) -> None:
+        s = self.settings
+        if s.window_geometry:
+            self.restoreGeometry(base64.b64decode(s.window_geometry))
+        else:
+            self.resize(1400, 900)
+        params = s.trial_parameters()
+        if params is not None:
+            self.parameters_tab.set_parameters(params)
+        self.parameters_tab.set_backend(BackendChoice(
+            HARDWARE if s.robot == "hardware" else SIMULATOR, patient_kind=s.virtual_patient,
+            settings_path=Path(s.hardware_settings) if s.hardware_settings else None))
+        self.trajectory.set_flip(s.flip_x, s.flip_y)
+
+    def closeEvent(self, event) -> None:
+        if self.state == State.RUNNING and not self.closing_by_signal:
+            answer = QMessageBox.question(
+                self, "A trial is running",
+                "A trial is running. Stop it, save it and close the console?")
+            if answer != QMessageBox.StandardButton.Yes:
+                event.ignore()
+                return
+        geometry = base64.b64encode(bytes(self.saveGeometry())).decode("ascii")
+        choice = self.parameters_tab.backend()
+        settings = self.settings.replace(
+            window_geometry=geometry,
+            robot="hardware" if choice.name == HARDWARE else "simulator",
+            virtual_patient=choice.patient_kind or self.settings.virtual_patient,
+            hardware_settings=(str(choice.settings_path) if choice.settings_path
+                               else self.settings.hardware_settings))
+        # invalid parameters are simply not remembered
+        with contextlib.suppress(Exception):
+            settings = settings.with_trial_parameters(self.parameters_tab.parameters())
+        try:
+            save_settings(settings, self.settings_path)
+        except Exception as exc:  # closing must not fail on settings
+            log.warning("settings not saved: %s", exc)
+        for timer in (self.repaint_timer, self.heartbeat_timer, self.health_timer):
+            timer.stop()
+        self.video.close_camera()
+        self.bridge.close()
+        self.jobs.shutdown()
+        super().closeEvent(event)
