@@ -86,7 +86,13 @@ from device.loop.realtime import (
     timing_warning,
 )
 from device.loop.states import TRANSITIONS, Command, State, refusal
-from device.recording.messages import BeginTrial, EndTrial, TrialEvent
+from device.recording.messages import (
+    DISK_SHORT,
+    WRITE_FAILED,
+    BeginTrial,
+    EndTrial,
+    TrialEvent,
+)
 from device.recording.ring import RecordRing
 from device.safety.faults import Fault
 from device.safety.limits import SafetyLimits
@@ -367,10 +373,8 @@ class DeviceLoop:
         detected = time.monotonic()
         detail["monotonic_s"] = detected
         message = sup.fault_message
-        if fault == Fault.RECORDING_LOST and self.recorder_gone:
-            # the right cause: not the disk, the process that writes to it
-            message = RECORDER_GONE
-            detail["cause"] = "recorder process stopped"
+        if fault == Fault.RECORDING_LOST:
+            message = self._recording_cause(detail) or message
         if self.state == State.RUNNING:
             tick = self.trial_tick
             self._to_recorder(TrialEvent(tick * self.plan.period_s, tick, "fault",
@@ -379,6 +383,19 @@ class DeviceLoop:
             self._end_trial(status, f"stopped by a fault: {fault.label}")
         self._send(FaultRaised(int(fault), message, detail, loop_t, detected))
         self._enter(State.FAULTED, message)
+
+    def _recording_cause(self, detail: dict) -> str:
+        """Why the recording was lost, in the therapist's words, with its cause in the
+        fault's detail; '' when it is the ring overflowing (the supervisor's own words)."""
+        if self.recorder_gone:
+            # the right cause: not the disk, the process that writes to it
+            detail["cause"] = "recorder process stopped"
+            return RECORDER_GONE
+        cause = RECORDING_CAUSES.get(int(self.recording_failed.value))
+        if cause is None:
+            return ""
+        detail["cause"], message = cause
+        return message
 
     # ------------------------------------------------------------------ commands
     def _commands_waiting(self) -> bool:
@@ -581,6 +598,17 @@ RECORDER_CHECK_TICKS = 25
 RECORDER_GONE = ("The recorder stopped, so nothing more of this trial could be saved; the "
                  "motors were stopped. The trial's file keeps what reached it, and the "
                  "trial is marked incomplete. Restart the console before the next trial")
+
+RECORDING_CAUSES = {
+    WRITE_FAILED: ("write error", "The trial file could not be written (a disk error), so "
+                   "the motors were stopped. The file keeps what was saved before the error "
+                   "and the trial is marked incomplete. Check the disk before the next trial"),
+    DISK_SHORT: ("disk full", "The disk holding the trial files is full, so the motors were "
+                 "stopped. Every sample so far is saved in the trial's file, which is marked "
+                 "incomplete. Free space on that disk before the next trial"),
+}
+"""What the recorder's flag says (device.recording.messages), as the fault's cause and
+message."""
 
 _HANDLERS = {
     Command.BUILD: DeviceLoop._do_build, Command.CONNECT: DeviceLoop._do_connect,

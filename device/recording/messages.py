@@ -58,3 +58,15 @@ class RecorderNotice:
     status: str = ""
     message: str = ""
     samples: int = 0
+
+
+# ------------------------------------------------------------------ recorder → loop
+# What the recorder's shared `recording_failed` flag holds (the loop reads it every tick
+# and faults RECORDING_LOST while it is not RECORDING_OK), so the fault names the cause.
+RECORDING_OK = 0
+WRITE_FAILED = 1
+"""A write to the trial file failed (a disk error, the file system gone)."""
+DISK_SHORT = 2
+"""The disk is full: the recorder ends the trial's file on the space it holds."""
+RECORDER_STOPPING = 3
+"""The recorder process was told to stop (SIGINT, SIGTERM, SIGHUP)."""

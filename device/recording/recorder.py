@@ -6,8 +6,12 @@ to `EndTrial.end_seq`) and flushes at least every `FLUSH_S`, so a crash loses at
 much. Records outside a trial (connected, at zero torque) are read and dropped, so the ring
 never fills with them.
 
-If the disk fails, the recorder raises the shared `recording_failed` flag (the loop's
-supervisor turns it into a RECORDING_LOST fault and stops the trial) and keeps draining.
+If the disk fails, the recorder raises the shared `recording_failed` flag with the cause
+(device.recording.messages: the loop's supervisor turns it into a RECORDING_LOST fault
+naming it and stops the trial) and keeps draining. A full disk is not a failure of the
+file: the writer holds space beyond the file's end (device.recording.trialfile.reserve),
+so the recorder says why in the file, writes the trial's last samples into what is held
+and closes the file as `recording_lost` with nothing lost.
 If the loop process dies (its pipe reaches end of file), the recorder writes every record
 the loop had pushed, adds a "loop process lost" event and closes the file as "faulted".
 
@@ -26,9 +30,18 @@ from multiprocessing.connection import Connection
 import numpy as np
 
 from device.errors import DeviceError, RecordingError
-from device.recording.messages import BeginTrial, EndTrial, RecorderNotice, TrialEvent
+from device.recording.messages import (
+    DISK_SHORT,
+    RECORDING_OK,
+    WRITE_FAILED,
+    BeginTrial,
+    EndTrial,
+    RecorderNotice,
+    TrialEvent,
+)
 from device.recording.ring import RecordRing
 from device.recording.trialfile import TrialFileWriter
+from device.recording.trialfile.reserve import SpaceShort
 
 log = logging.getLogger(__name__)
 
@@ -51,7 +64,11 @@ class Recorder:
         self.end_message: EndTrial | None = None
         self.last_flush = time.monotonic()
         self.failed = False
+        self.short = ""
+        """Why the disk is short, once it is: the file ends on the space it holds."""
         self.samples = 0
+        self.last_sample = (float("nan"), -1)
+        """The trial time and tick of the last sample written."""
 
     # ------------------------------------------------------------------ main
     def run(self, loop: Connection) -> None:
@@ -115,6 +132,8 @@ class Recorder:
             self._close("stopped_early", {})
         self.first_seq = message.first_seq
         self.samples = 0
+        self.short = ""
+        self.last_sample = (float("nan"), -1)
         try:
             self.writer = TrialFileWriter(
                 message.path, parameters=message.parameters, subject=message.subject,
@@ -122,7 +141,8 @@ class Recorder:
                 sample_period_s=message.sample_period_s, channels=_channels_for(self.ring),
             )
         except (DeviceError, OSError) as exc:
-            self._fail(message.path, f"cannot create the trial file: {exc}")
+            self._fail(message.path, f"cannot create the trial file: {exc}",
+                       DISK_SHORT if isinstance(exc, SpaceShort) else WRITE_FAILED)
             return
         self._notify("opened", message.path)
 
@@ -133,12 +153,16 @@ class Recorder:
         stop = len(records) if end_seq is None else max(0, min(len(records), end_seq - seq0))
         if stop <= start:
             return
+        written = records[start:stop]
         try:
-            self.writer.append(records[start:stop])
+            self.writer.append(written)
+        except SpaceShort as exc:
+            self._space_short(str(exc))  # after the batch went in
         except (DeviceError, OSError) as exc:
             self._fail(str(self.writer.path), str(exc))
             return
         self.samples += stop - start
+        self.last_sample = (float(written["time"][-1]), int(written["tick"][-1]))
 
     def _event(self, message: TrialEvent) -> None:
         if self.writer is None or self.failed:
@@ -153,17 +177,21 @@ class Recorder:
         writer, self.writer = self.writer, None
         if writer is None:
             return
-        if self.failed:
+        if self.failed or self.short:
             status = "recording_lost"
         try:
             path = writer.close(status, summary, None, assistance)
+        except SpaceShort as exc:
+            # every sample is in the file, which reads as it is; only its status is not
+            self._notify("closed", str(writer.path), status, str(exc), samples=self.samples)
         except (DeviceError, OSError) as exc:
             self._notify("error", str(writer.path), status, f"could not close the file: {exc}")
             return
-        self._notify("closed", str(path), status, samples=self.samples)
+        else:
+            self._notify("closed", str(path), status, samples=self.samples)
         self.failed = False
-        if self.failed_flag is not None:
-            self.failed_flag.value = 0
+        self.short = ""
+        self._flag(RECORDING_OK)
 
     def _flush_if_due(self) -> None:
         if self.writer is None or self.failed:
@@ -173,15 +201,34 @@ class Recorder:
             self.last_flush = now
             try:
                 self.writer.flush()
+            except SpaceShort as exc:
+                self._space_short(str(exc))
             except (DeviceError, OSError) as exc:
                 self._fail(str(self.writer.path), str(exc))
 
-    def _fail(self, path: str, reason: str) -> None:
+    def _fail(self, path: str, reason: str, cause: int = WRITE_FAILED) -> None:
         self.failed = True
-        if self.failed_flag is not None:
-            self.failed_flag.value = 1
+        self._flag(cause)
         log.error("recording failed for %s: %s", path, reason)
         self._notify("error", path, "recording_lost", reason)
+
+    def _space_short(self, reason: str) -> None:
+        """The disk is full: the loop is told (it stops the trial), the file says why, and
+        the trial's last samples go into the space the file holds."""
+        if self.short:
+            return
+        self.short = reason
+        self._flag(DISK_SHORT)
+        path = str(self.writer.path)
+        log.error("recording stops for %s: %s", path, reason)
+        self._notify("error", path, "recording_lost", reason)
+        time_s, tick = self.last_sample
+        self._event(TrialEvent(time_s, tick, "recording", reason,
+                               {"cause": "disk full", "samples_saved": self.samples}))
+
+    def _flag(self, cause: int) -> None:
+        if self.failed_flag is not None:
+            self.failed_flag.value = cause
 
     def _loop_lost(self) -> None:
         """The loop process is gone: keep what it pushed and close the file as faulted."""

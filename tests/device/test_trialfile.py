@@ -2,6 +2,7 @@
 
 import ctypes
 import datetime
+import errno
 import importlib.metadata
 import inspect
 import json
@@ -30,6 +31,8 @@ from device.recording.trialfile import (
     TrialFileWriter,
     write_trial,
 )
+from device.recording.trialfile.reserve import SpaceShort
+from tests.device.smalldisk import DISK_KIND, SmallDisk
 
 ROOT = Path(__file__).resolve().parents[2]
 PERIOD_S = 0.002
@@ -405,9 +408,31 @@ def test_a_nearly_full_disk_stops_the_recording_while_the_file_can_be_closed(
 
     path = tmp_path / "t.h5"
     writer = open_writer(path)
+    assert writer.space_held
     writer.append(ramp_records(0, 100, RECORD_DTYPE))
     monkeypatch.setattr(trialfile.writer, "_free_bytes", lambda folder: 10 * 2**20)
-    with pytest.raises(RecordingError, match=r"sample 100: only 10 MiB free"):
+    with pytest.raises(SpaceShort, match=r"sample 100: only 10 MiB free"):
+        writer.flush()
+    # said once; the trial's last samples go into the space the file holds
+    writer.append(ramp_records(100, 10, RECORD_DTYPE))
+    writer.flush()
+    writer.close("recording_lost")
+    with h5py.File(path, "r") as f:
+        assert f.attrs["status"] == "recording_lost"
+        assert f["timeseries/tick"].shape == (110,)
+
+
+def test_where_no_space_can_be_held_a_nearly_full_disk_ends_the_writing(tmp_path, monkeypatch):
+    def unsupported(*_args):
+        raise OSError(errno.EOPNOTSUPP, "Operation not supported")
+
+    monkeypatch.setattr(trialfile.reserve, "fallocate", unsupported)
+    path = tmp_path / "t.h5"
+    writer = open_writer(path)
+    assert not writer.space_held
+    writer.append(ramp_records(0, 100, RECORD_DTYPE))
+    monkeypatch.setattr(trialfile.writer, "_free_bytes", lambda folder: 10 * 2**20)
+    with pytest.raises(SpaceShort, match=r"sample 100: only 10 MiB free"):
         writer.flush()
     with pytest.raises(RecordingError, match="recording_lost"):
         writer.append(ramp_records(100, 10, RECORD_DTYPE))
@@ -415,6 +440,42 @@ def test_a_nearly_full_disk_stops_the_recording_while_the_file_can_be_closed(
     with h5py.File(path, "r") as f:
         assert f.attrs["status"] == "recording_lost"
         assert f["timeseries/tick"].shape == (100,)
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    disk = SmallDisk(tmp_path, 16)
+    try:
+        yield disk
+    finally:
+        disk.close()
+
+
+@pytest.mark.parametrize("kind", [DISK_KIND])
+def test_a_disk_filled_by_another_program_keeps_every_sample_readable(small_disk, kind):
+    """Issue 28 #2: a disk filled to 100 % by another program during a live trial left the
+    file flagged open for writing and unreadable ("file is not already open for SWMR
+    writing"), every sample lost. The writer now holds space beyond the file's end, so
+    the trial's last samples, its events and the close all find room."""
+    path = small_disk.root / "t.h5"
+    writer = open_writer(path, min_free_bytes=0)
+    writer.append(ramp_records(0, 1500, RECORD_DTYPE))
+    writer.flush()
+    small_disk.fill()
+    writer.append(ramp_records(1500, 600, RECORD_DTYPE))  # 1.2 s more of the trial
+    with pytest.raises(SpaceShort, match="full"):
+        writer.flush()
+    writer.add_event(4.2, 2100, "fault", "recording lost", {"cause": "disk full"})
+    writer.append(ramp_records(2100, 50, RECORD_DTYPE))  # until the loop's stop
+    writer.close("recording_lost", {"samples_saved": 2150})
+    assert not writer.close_problem
+    for swmr in (False, True):
+        with h5py.File(path, "r", swmr=swmr) as f:
+            assert f.attrs["status"] == "recording_lost"
+            np.testing.assert_array_equal(f["timeseries/tick"][()], np.arange(2150))
+            assert f["events"][-1]["kind"] == b"fault"
+            assert f["summary"].attrs["samples_saved"] == 2150
+    small_disk.free()
 
 
 FILLING_WRITER = textwrap.dedent("""
@@ -619,7 +680,7 @@ def test_the_timing_summary_reads_its_channels_a_block_at_a_time(tmp_path, monke
     whole channels, and read the whole tick channel for its first and last tick (at
     6 million ticks, 150 MB at the end of a headless trial). Now no read of those
     channels is longer than SUMMARY_BLOCK, and the figures are numpy's on the whole."""
-    monkeypatch.setattr(trialfile.writer, "SUMMARY_BLOCK", 1000)
+    monkeypatch.setattr(trialfile.summary, "SUMMARY_BLOCK", 1000)
     rng = np.random.default_rng(5)
     records = random_records(5500, RECORD_DTYPE, rng)
     records["lateness"] = np.abs(rng.normal(0.0, 0.002, 5500)).astype(np.float32)

@@ -1,8 +1,9 @@
 """The trial file: one HDF5 file per trial, written live by the recorder (docs/data-format.md).
 
-By job: `layout` (the format's names, tables and rules), `writer` (writing a trial, live or
-whole), `update` (adding to a closed trial: metrics, estimates, EMG, pose). Reading is
-app.trials.reader's.
+By job: `layout` (the format's names, tables and rules), `writer` (writing a trial live),
+`whole` (a whole trial at once), `reserve` (the disk space a file holds), `summary` (what
+close computes), `update` (adding to a closed trial: metrics, estimates, EMG, pose).
+Reading is app.trials.reader's.
 """
 
 from device.recording.trialfile.layout import (
@@ -25,7 +26,8 @@ from device.recording.trialfile.layout import (
     utc_now_iso,
 )
 from device.recording.trialfile.update import add_assistance, open_for_update, write_metrics
-from device.recording.trialfile.writer import TrialFileWriter, write_trial
+from device.recording.trialfile.whole import write_trial
+from device.recording.trialfile.writer import TrialFileWriter
 
 __all__ = [
     "ALREADY_OPEN", "CHUNK_ROWS", "EVENT_DTYPE", "EVENT_KIND_BYTES", "EVENT_MESSAGE_BYTES",

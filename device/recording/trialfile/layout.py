@@ -39,8 +39,6 @@ DISTRIBUTION = "rehab-console"
 # v2.0 with this HDF5, whose object encodings the HDF5 1.10/1.14 inside MATLAB
 # and older h5py builds may not read.
 LIBVER = ("v110", "v110")
-SUMMARY_BLOCK = 100_000
-"""Samples of a timing channel read at once for the summary `close` computes."""
 
 # About two seconds of samples at 500 Hz per chunk: few chunks per dataset, and a
 # chunk of the widest channel stays well under h5py's 1 MiB per-dataset cache.
@@ -306,6 +304,31 @@ def _check_scalars(what: str, values: Mapping) -> dict:
                 f"{what} {key} = {value!r}: give a number or a string (one value per key)"
             )
     return out
+
+
+def _check_records(path: Path, dtype: np.dtype, records: np.ndarray) -> None:
+    """Records a writer of `dtype` may append to the file at `path`, or why not."""
+    if records.ndim != 1 or records.dtype.names is None:
+        raise RecordingError(
+            f"records for {path} must be a 1-D structured array, got shape "
+            f"{records.shape} of dtype {records.dtype}"
+        )
+    expected = set(dtype.names)
+    given = set(records.dtype.names)
+    if given != expected:
+        missing = sorted(expected - given)
+        unknown = sorted(given - expected)
+        raise RecordingError(
+            f"records for {path} do not match its channels (missing: "
+            f"{', '.join(missing) or 'none'}; unknown: {', '.join(unknown) or 'none'}). "
+            "Open the writer with the channels the loop records (device.recording.record)."
+        )
+    for name in dtype.names:
+        if records.dtype[name] != dtype[name]:
+            raise RecordingError(
+                f"records for {path}: channel {name} is {records.dtype[name]}, "
+                f"the file expects {dtype[name]}"
+            )
 
 
 def _check_metrics(values: Mapping) -> dict:

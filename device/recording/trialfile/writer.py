@@ -1,5 +1,5 @@
-"""Writing a trial file while the trial runs (`TrialFileWriter`, the recorder's) or whole
-from memory (`write_trial`, headless runs and tests). The layout is in
+"""Writing a trial file while the trial runs (`TrialFileWriter`, the recorder's; the whole
+trial at once is device.recording.trialfile.whole's). The layout is in
 device.recording.trialfile.layout and docs/data-format.md.
 
 Crash safety, in brief (the document has the reasoning):
@@ -17,8 +17,13 @@ Crash safety, in brief (the document has the reasoning):
 * `close` ends SWMR (which clears the "open for writing" flag) and reopens the
   file normally to add the status, summary and metrics, because HDF5 does not
   support creating attributes under SWMR.
-* A write that fails for want of space leaves HDF5 unable to close the file, so
-  the writer stops while `min_free_bytes` are still free.
+* A write that fails for want of space leaves HDF5 unable to close the file, and a
+  reopen that fails so leaves it flagged "open for writing" and unreadable. So a live
+  writer holds disk space beyond the file's end (device.recording.trialfile.reserve:
+  `reserve_bytes`, topped up at every flush), which nothing else can take: when the disk
+  can no longer give it, or fewer than `min_free_bytes` are free, `flush` raises
+  SpaceShort once, the trial's last samples still go into what is held, and `close`
+  reopens the file only when the room it needs is held.
 """
 
 from __future__ import annotations
@@ -27,13 +32,12 @@ import contextlib
 import math
 import os
 import time
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from pathlib import Path
 
 import h5py
 import numpy as np
 
-from core.blockwise import percentiles_of_blocks
 from core.trial import TrialParameters
 from device.errors import RecordingError
 from device.recording.record import CHANNELS, Channel
@@ -48,11 +52,11 @@ from device.recording.trialfile.layout import (
     MIN_FREE_BYTES,
     STATUS_RECORDING,
     STATUSES,
-    SUMMARY_BLOCK,
     SubjectInfo,
     _assistance_parts,
     _check_channels,
     _check_metrics,
+    _check_records,
     _check_scalars,
     _create_channel_dataset,
     _disk_error,
@@ -66,6 +70,8 @@ from device.recording.trialfile.layout import (
     software_version,
     utc_now_iso,
 )
+from device.recording.trialfile.reserve import CLOSE_BYTES, RESERVE_BYTES, HeldSpace, SpaceShort
+from device.recording.trialfile.summary import computed_summary
 
 
 class TrialFileWriter:
@@ -74,7 +80,9 @@ class TrialFileWriter:
     `live=True` switches the file to SWMR after the header so viewers can read it
     during the trial; `write_trial` uses `live=False` for headless runs.
     `durable=True` fsyncs on every flush so a power cut, not only a crash, keeps
-    every flushed sample.
+    every flushed sample. `reserve_bytes`: disk space held beyond the file's end
+    (device.recording.trialfile.reserve), by default RESERVE_BYTES for a live file and
+    none for a whole one.
     """
 
     def __init__(
@@ -92,6 +100,7 @@ class TrialFileWriter:
         flush_interval_s: float | None = 0.5,
         chunk_rows: int = CHUNK_ROWS,
         min_free_bytes: int = MIN_FREE_BYTES,
+        reserve_bytes: int | None = None,
     ) -> None:
         self._path = Path(path)
         self._channels = tuple(channels)
@@ -105,6 +114,13 @@ class TrialFileWriter:
         self._failed: str | None = None
         self._file: h5py.File | None = None
         self._last_flush = time.monotonic()
+        self._reserve_bytes = (RESERVE_BYTES if live else 0) if reserve_bytes is None \
+            else int(reserve_bytes)
+        self._space: HeldSpace | None = None
+        self._short: str | None = None
+        """Why the disk is short, once it is: the recording ends on what is held."""
+        self.close_problem = ""
+        """What `close` could not add for want of space ('' when nothing)."""
 
         _check_channels(self._channels)
         if not (isinstance(sample_period_s, int | float) and math.isfinite(sample_period_s)
@@ -119,6 +135,9 @@ class TrialFileWriter:
         if not isinstance(chunk_rows, int) or chunk_rows < 1:
             raise RecordingError(f"chunk_rows = {chunk_rows!r}: give a whole number >= 1")
         self._dtype = np.dtype([c.numpy_field for c in self._channels])
+        # what one append may add beyond its records: a new chunk of every channel and
+        # of the events, and HDF5's metadata blocks
+        self._growth_bytes = chunk_rows * self._dtype.itemsize + 2**18
         self._bytes_per_minute = self._dtype.itemsize / sample_period_s * 60.0
         robot_json = _to_json("robot", _plain_mapping(robot))
         header = {
@@ -138,6 +157,7 @@ class TrialFileWriter:
 
         self._open_new()
         try:
+            self._hold_reserve()
             f = self._file
             for name, value in header.items():
                 f.attrs[name] = value
@@ -160,6 +180,7 @@ class TrialFileWriter:
             self._flush()
         except (RecordingError, OSError, RuntimeError, ValueError) as exc:
             self._abandon()
+            self._release()
             # The file is ours and unusable without its header.
             with contextlib.suppress(OSError):
                 self._path.unlink(missing_ok=True)
@@ -189,16 +210,28 @@ class TrialFileWriter:
     def closed(self) -> bool:
         return self._closed
 
+    @property
+    def short_of_space(self) -> str | None:
+        """Why the disk is short, once it is (else None)."""
+        return self._short
+
+    @property
+    def space_held(self) -> bool:
+        """Whether disk space is held for this file (False where the file system cannot,
+        device.recording.trialfile.reserve)."""
+        return self._space is not None and self._space.held
+
     # -- writing -------------------------------------------------------------
 
     def append(self, records: np.ndarray) -> None:
         """Append a batch of records (the writer's dtype; field order may differ)."""
         self._check_writable()
         records = np.asarray(records)
-        self._check_records(records)
+        _check_records(self._path, self._dtype, records)
         n = records.shape[0]
         if n == 0:
             return
+        self._check_room(records.nbytes)
         start, stop = self._n, self._n + n
         try:
             # One dataset at a time, extent then data: a crash part way leaves the
@@ -221,6 +254,7 @@ class TrialFileWriter:
         """Record a start, stop, fault, mark... `values` goes in as JSON."""
         self._check_writable()
         row = _event_row(time_s, tick, kind, message, values)
+        self._check_room(row.nbytes)
         try:
             self._events.resize(self._n_events + 1, axis=0)
             self._events[self._n_events] = row
@@ -233,10 +267,10 @@ class TrialFileWriter:
     def flush(self) -> None:
         """Make every sample and event so far survive a crash (and, if durable, a power cut).
 
-        Raises RecordingError when the disk is nearly full, after flushing: HDF5 does
-        not recover from a write that fails for want of space (the file stays
-        readable to the last flush but can no longer be closed properly), so the
-        writer stops while `min_free_bytes` remain for `close` to finish the file.
+        Raises SpaceShort once, after flushing, when the disk runs short: fewer than
+        `min_free_bytes` free, or the reserve held beyond the file's end can no longer be
+        topped up (another program filled the disk, or the trial did). The writer then
+        takes further samples only into what is held, and `close` finishes the file.
         """
         self._check_writable()
         try:
@@ -244,14 +278,27 @@ class TrialFileWriter:
         except (OSError, RuntimeError) as exc:
             self._failed = str(exc)
             raise _disk_error(self._path, "flush", exc) from exc
+        if self._short is not None:
+            return
+        problem = self._space.top_up() if self._space is not None else ""
         free = _free_bytes(self._path.parent)
         if free is not None and free < self._min_free_bytes:
-            self._failed = self._space_problem(free)
-            raise RecordingError(
-                f"stopped recording to trial file {self._path} at sample {self._n}: "
-                f"{self._failed}. Every sample so far is saved; close it with status "
-                "'recording_lost'."
-            )
+            problem = self._space_problem(free)
+        if not problem:
+            return
+        self._short = problem
+        held = self._space is not None and self._space.held
+        if not held:
+            # nothing held: a write that fails for want of space would leave the file
+            # unclosable, so nothing more is written
+            self._failed = problem
+        raise SpaceShort(
+            f"stopped recording to trial file {self._path} at sample {self._n}: {problem}. "
+            "Every sample so far is saved; "
+            + ("the space held for the file takes the trial's last samples and closes it "
+               "with status 'recording_lost'." if held else
+               "close it with status 'recording_lost'.")
+        )
 
     def close(
         self, status: str, summary: Mapping | None = None, metrics: Mapping | None = None,
@@ -278,7 +325,7 @@ class TrialFileWriter:
         assist_values, assist_arrays = _assistance_parts(assistance or {})
 
         try:
-            computed = self._computed_summary()
+            computed = computed_summary(self._file, self._n, self._n_events)
         except (OSError, RuntimeError, ValueError, KeyError):
             # After a write error the file may not read back; the counts still hold.
             computed = {"n_samples": np.int64(self._n), "n_events": np.int64(self._n_events)}
@@ -288,6 +335,12 @@ class TrialFileWriter:
                 # HDF5 does not allow new attributes or groups under SWMR.
                 self._file.close()
                 self._file = None
+                if not self._room_to_close():
+                    self.close_problem = (
+                        f"{self._short or 'the disk is full'}: every sample and event is "
+                        "in the file, its status and summary could not be added")
+                    raise SpaceShort(f"trial file {self._path} closed without its status: "
+                                     f"{self.close_problem}")
                 # Without locking: a viewer holding the file open (SWMR readers keep a
                 # shared lock) must not stop the status from being written. No other
                 # writer can exist, since this writer created the file exclusively.
@@ -309,6 +362,7 @@ class TrialFileWriter:
         finally:
             self._closed = True
             self._abandon()
+            self._release()
         return self._path
 
     def channel_names(self) -> tuple[str, ...]:
@@ -347,9 +401,7 @@ class TrialFileWriter:
             )
         free = _free_bytes(parent)
         if free is not None and free < self._min_free_bytes:
-            raise RecordingError(
-                f"cannot create trial file {self._path}: {self._space_problem(free)}"
-            )
+            raise SpaceShort(f"cannot create trial file {self._path}: {self._space_problem(free)}")
         if self._path.exists():
             raise RecordingError(
                 f"cannot create trial file {self._path}: a file of that name exists, and trial "
@@ -368,7 +420,8 @@ class TrialFileWriter:
     def _space_problem(self, free: int) -> str:
         return (
             f"only {free / 2**20:.0f} MiB free on the disk holding {self._path.parent}; the "
-            f"recorder keeps {self._min_free_bytes / 2**20:.0f} MiB in reserve and a trial "
+            f"recorder stops a trial while fewer than {self._min_free_bytes / 2**20:.0f} MiB "
+            "are free; a trial "
             f"takes about {self._bytes_per_minute / 2**20:.0f} MiB per minute. Free space or "
             "set the data directory to a larger disk"
         )
@@ -382,29 +435,6 @@ class TrialFileWriter:
                 "Close it with status 'recording_lost' and check the disk."
             )
 
-    def _check_records(self, records: np.ndarray) -> None:
-        if records.ndim != 1 or records.dtype.names is None:
-            raise RecordingError(
-                f"records for {self._path} must be a 1-D structured array, got shape "
-                f"{records.shape} of dtype {records.dtype}"
-            )
-        expected = set(self._dtype.names)
-        given = set(records.dtype.names)
-        if given != expected:
-            missing = sorted(expected - given)
-            unknown = sorted(given - expected)
-            raise RecordingError(
-                f"records for {self._path} do not match its channels (missing: "
-                f"{', '.join(missing) or 'none'}; unknown: {', '.join(unknown) or 'none'}). "
-                "Open the writer with the channels the loop records (device.recording.record)."
-            )
-        for name in self._dtype.names:
-            if records.dtype[name] != self._dtype[name]:
-                raise RecordingError(
-                    f"records for {self._path}: channel {name} is {records.dtype[name]}, "
-                    f"the file expects {self._dtype[name]}"
-                )
-
     def _maybe_flush(self) -> None:
         if self._flush_interval_s is None:
             return
@@ -417,52 +447,45 @@ class TrialFileWriter:
             os.fsync(self._file.id.get_vfd_handle())
         self._last_flush = time.monotonic()
 
-    def _computed_summary(self) -> dict:
-        period = float(self._file.attrs["sample_period_s"])
-        summary: dict = {
-            "n_samples": np.int64(self._n),
-            "n_events": np.int64(self._n_events),
-            "duration_s": self._n * period,
-        }
-        series = self._file["timeseries"]
-        if self._n and "tick" in series:
-            first, last = int(series["tick"][0]), int(series["tick"][self._n - 1])
-            summary["first_tick"] = np.int64(first)
-            summary["last_tick"] = np.int64(last)
-            summary["ticks_missing"] = np.int64(max(0, last - first + 1 - self._n))
-        for name in ("lateness", "compute_time"):
-            if not self._n or name not in series:
-                continue
-            summary.update(self._timing_summary(name, series[name], period))
-        return summary
+    def _hold_reserve(self) -> None:
+        """Hold the file's reserve from its first byte on; a disk that cannot give it
+        refuses the trial file before a sample is due."""
+        if not self._reserve_bytes:
+            return
+        self._space = HeldSpace(self._path, self._reserve_bytes)
+        problem = self._space.top_up()
+        if problem:
+            raise SpaceShort(f"cannot create trial file {self._path}: {problem}. Free space "
+                             "or set the data directory to a larger disk")
 
-    def _timing_summary(self, name: str, channel, period: float) -> dict:
-        """A timing channel's mean, p50, p99 and max over its finite samples (and, for the
-        lateness, the share of ticks a whole period late), read SUMMARY_BLOCK samples at
-        a time: a 100 × 120 s trial's channel is 6 million samples."""
+    def _check_room(self, nbytes: int) -> None:
+        """Once the disk is short, a write goes only into the space held, and never into
+        the part kept for `close`."""
+        if self._short is None or self._space is None:
+            return
+        room = self._space.room()
+        if room is not None and room < nbytes + self._growth_bytes + CLOSE_BYTES:
+            self._failed = f"{self._short}, and the space held for it is used up"
+            raise RecordingError(
+                f"stopped writing trial file {self._path} at sample {self._n}: "
+                f"{self._failed}. Close it with status 'recording_lost'."
+            )
 
-        def blocks():
-            for first in range(0, self._n, SUMMARY_BLOCK):
-                values = channel[first:min(self._n, first + SUMMARY_BLOCK)]
-                yield values[np.isfinite(values)]
+    def _room_to_close(self) -> bool:
+        """Whether the reopen of `close` can have the space it writes into: what is held
+        (topped up once more if the disk has it), or, where nothing can be held, the disk's
+        own free space."""
+        space = self._space
+        if space is None or not space.held:
+            return True
+        room = space.room()
+        if room is not None and room >= CLOSE_BYTES:
+            return True
+        return space.hold_more(CLOSE_BYTES)
 
-        n = total = late = 0
-        worst = -math.inf
-        for values in blocks():
-            if len(values):
-                n += len(values)
-                total += float(np.sum(values, dtype=np.float64))
-                worst = max(worst, float(values.max()))
-                late += int(np.count_nonzero(values.astype(np.float64) >= period))
-        if n == 0:
-            return {}
-        p50, p99 = percentiles_of_blocks(blocks, n, (50, 99))
-        out = {f"{name}_mean_s": total / n, f"{name}_p50_s": p50, f"{name}_p99_s": p99,
-               f"{name}_max_s": worst}
-        if name == "lateness":
-            # A tick that starts a whole period late has missed its deadline.
-            out["late_fraction"] = late / n
-        return out
+    def _release(self) -> None:
+        if self._space is not None:
+            self._space.release()
 
     def _abandon(self) -> None:
         if self._file is not None:
@@ -470,44 +493,3 @@ class TrialFileWriter:
             with contextlib.suppress(OSError, RuntimeError):
                 self._file.close()
             self._file = None
-
-
-def write_trial(
-    path: str | os.PathLike,
-    records: np.ndarray,
-    *,
-    parameters: TrialParameters,
-    subject: SubjectInfo,
-    robot: Mapping | object,
-    backend: str,
-    sample_period_s: float,
-    channels: tuple[Channel, ...] = CHANNELS,
-    events: Iterable[Mapping] = (),
-    status: str = "complete",
-    summary: Mapping | None = None,
-    metrics: Mapping | None = None,
-    assistance: Mapping | None = None,
-) -> Path:
-    """Write a whole trial held in memory (headless runs, tests, conversions).
-
-    Events are mappings with time_s, tick, kind, message and optional values, as
-    the reader returns them.
-    """
-    writer = TrialFileWriter(
-        path, parameters=parameters, subject=subject, robot=robot, backend=backend,
-        sample_period_s=sample_period_s, channels=channels, live=False,
-        flush_interval_s=None,
-    )
-    try:
-        writer.append(records)
-        for event in events:
-            writer.add_event(event["time_s"], event["tick"], event["kind"], event["message"],
-                             event.get("values"))
-    except BaseException:
-        writer.close("recording_lost")
-        raise
-    return writer.close(status, summary, metrics, assistance)
-
-
-# -- helpers ----------------------------------------------------------------
-
