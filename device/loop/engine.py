@@ -270,7 +270,8 @@ class TickEngine:
             reading = NO_READING  # a failed read still leaves its tick in the record
         p = self.pipeline
         return idle_record(p.robot, p.arm, tick, reading, wall_s, lateness_s, done.compute_s,
-                           state, int(done.fault), p.period_s, p.sensor_offset_rad)
+                           state, int(done.fault), p.period_s, p.sensor_offset_rad,
+                           p.assistance.level if running else math.nan)
 
 
 NO_READING = SensorReading(math.nan, math.nan, math.nan, math.nan, math.nan, math.nan)

@@ -443,7 +443,7 @@ def record_values(tick, time_s, wall_s, lateness_s, compute_s, reading, last, ap
         c[C_TAU1], c[C_TAU2], c[C_OUT1], c[C_OUT2], applied[0], applied[1],
         position[0], position[1], c[C_XD], c[C_YD], c[C_VXD], c[C_VYD], c[C_DX], c[C_DY],
         r.force_x_N, r.force_y_N, r.force_z_N, c[C_FX], c[C_FY], c[C_ANGLE], c[C_ACTIVE],
-        s.shoulder_rad, s.elbow_rad, s.shoulder_rate_rad_s, s.elbow_rate_rad_s,
+        c[C_LEVEL], s.shoulder_rad, s.elbow_rad, s.shoulder_rate_rad_s, s.elbow_rate_rad_s,
         s.shoulder_acc_rad_s2, s.elbow_acc_rad_s2, s.shoulder_torque_Nm, s.elbow_torque_Nm,
         s.isb_shoulder_rad, s.isb_elbow_rad, s.damped, state, fault,
     )
@@ -476,10 +476,11 @@ class Vectors:
 
 # The trackers' state in `rates`.
 Z_ANGLE1, Z_RATE1, Z_ACC1, Z_ANGLE2, Z_RATE2, Z_ACC2, Z_SIZE = range(7)
-# What `control` leaves in `last`, the record's view of the tick (TickPipeline.last_tick).
+# What `control` leaves in `last`, the record's view of the tick (TickPipeline.last_tick);
+# C_LEVEL is the assistance level the tick ran with (the record's `assistance_level`).
 (C_PHASE, C_QD1, C_QD2, C_QDD1, C_QDD2, C_R1, C_R2, C_RD1, C_RD2, C_RDD1, C_RDD2, C_TAU1,
  C_TAU2, C_OUT1, C_OUT2, C_XD, C_YD, C_VXD, C_VYD, C_DX, C_DY, C_FX, C_FY, C_ANGLE, C_ACTIVE,
- C_SIZE) = range(26)
+ C_LEVEL, C_SIZE) = range(27)
 # Which law `controller_torques` runs.
 SMC, CTPID, GENERIC, LEARNED = 0, 1, 2, 3
 
@@ -660,15 +661,18 @@ def control(kind, robot, model, tracker, gains, assist, guide, rates, integral, 
     last[C_FY] = fy
     last[C_ANGLE] = angle
     last[C_ACTIVE] = 1.0 if active else 0.0
+    last[C_LEVEL] = assist[A_LEVEL]
 
 
 def idle_record(
     robot: RobotModel, arm, k: int, reading: SensorReading, wall_s: float, lateness_s: float,
     compute_s: float, state: int, fault: int, period_s: float = PERIOD_S,
-    sensor_offset_rad: float = 0.0,
+    sensor_offset_rad: float = 0.0, assistance_level: float = math.nan,
 ) -> tuple:
     """A record while connected without control (zero torque): sensors and the subject's
-    posture for the live view; rates, references and torques are NaN or zero."""
+    posture for the live view; rates, references and torques are NaN or zero. The
+    assistance level is the trial's in effect when a running tick failed to read its
+    sensors, NaN while no trial runs."""
     q1, q2 = reading.q1_rad, reading.q2_rad
     fx, fy = sensor_to_global(reading.force_x_N, reading.force_y_N, q1, sensor_offset_rad)
     x, y = robot.position(q1, q2)
@@ -682,6 +686,6 @@ def idle_record(
         0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
         x, y, nan, nan, nan, nan, nan, nan,
         reading.force_x_N, reading.force_y_N, reading.force_z_N, fx, fy,
-        nan, False,
+        nan, False, assistance_level,
         ts, te, nan, nan, nan, nan, nan, nan, isb_s, isb_e, False, state, fault,
     )

@@ -173,7 +173,6 @@ class DeviceLoop:
         self.trial_tick = 0
         self.end_seq = 0
         self.fault_reported = Fault.NONE
-        self.assistance_level: float | None = None
         self.shutdown = False
         self.stopping_since = 0.0
         self.paused = False
@@ -327,8 +326,9 @@ class DeviceLoop:
     def _start_trial(self, command: Start) -> str:
         self.paused = True
         self.pipeline.begin(self.reading.q1_rad, self.reading.q2_rad)
-        if self.assistance_level is not None:
-            self.pipeline.set_assistance_level(self.assistance_level)
+        # every trial starts from its own settings: a live change belonged to the trial it
+        # was made in (issue 27: one made between trials ran every later trial at it)
+        self.pipeline.set_assistance_level(self.plan.parameters.assistance_level)
         self.supervisor.restart_ramp()
         self.trial_path = command.path
         self.trial_tick = 0
@@ -494,16 +494,14 @@ class DeviceLoop:
         return "", "fault cleared"
 
     def _do_set_assistance(self, command: SetAssistance, after_a_tick: bool):
-        self.assistance_level = command.level
-        if self.pipeline is not None:
-            self.pipeline.set_assistance_level(command.level)
-        if self.state == State.RUNNING:
-            # the trial file's parameters hold the level it started with: say when and to
-            # what the therapist changed it
-            tick = self.trial_tick
-            self._to_recorder(TrialEvent(tick * self.plan.period_s, tick, "assistance",
-                                         f"assistance level set to {command.level:.0%}",
-                                         {"level": command.level}))
+        """A live change of the running trial's level (only Running accepts it: between
+        trials the level is the built trial's). The record's `assistance_level` carries
+        it from the next tick; the event says when and to what the therapist changed it."""
+        self.pipeline.set_assistance_level(command.level)
+        tick = self.trial_tick
+        self._to_recorder(TrialEvent(tick * self.plan.period_s, tick, "assistance",
+                                     f"assistance level set to {command.level:.0%}",
+                                     {"level": self.pipeline.assistance.level}))
         return ""
 
     def _do_shutdown(self, command: Shutdown, after_a_tick: bool):
@@ -522,8 +520,6 @@ class DeviceLoop:
                                 controller=controller,
                                 compiled=self.config.compiled and (
                                     controller is None or has_compiled_form(self.model)))
-        if self.assistance_level is not None:
-            pipeline.set_assistance_level(self.assistance_level)
         return pipeline
 
     def _open_backend(self) -> str:

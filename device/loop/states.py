@@ -72,8 +72,9 @@ TRANSITIONS: dict[tuple[State, Command], State] = {
     (State.CONNECTED, Command.START): State.RUNNING,
     (State.RUNNING, Command.STOP): State.STOPPING,
     (State.FAULTED, Command.CLEAR_FAULT): State.CONNECTED,
-    **{(state, Command.SET_ASSISTANCE): state
-       for state in (State.BUILT, State.CONNECTED, State.RUNNING)},
+    # a live change of the running trial's level; between trials the level is the
+    # built trial's own (issue 27: a change kept for later trials ran them unseen)
+    (State.RUNNING, Command.SET_ASSISTANCE): State.RUNNING,
     # a level, read every tick (device.loop.client), not a command that moves the state
     **{(state, Command.ESTOP): state for state in _EVERY_STATE},
     **{(state, Command.SHUTDOWN): State.IDLE for state in _EVERY_STATE},
@@ -105,6 +106,9 @@ _WHY = {
     (State.FAULTED, Command.START): "a fault is latched; check the patient, then clear the fault",
     (State.FAULTED, Command.BUILD): "a fault is latched; clear it first",
     (State.FAULTED, Command.CONNECT): "a fault is latched; clear it first",
+    **{(state, Command.SET_ASSISTANCE): "no trial is running: the next trial runs the "
+       "level it is built with (set it in the form and press Build)"
+       for state in (State.IDLE, State.BUILT, State.CONNECTED, State.STOPPING, State.FAULTED)},
 }
 
 

@@ -70,6 +70,9 @@ CHANNELS: tuple[Channel, ...] = (
             "angle between the force and the desired direction (NaN when the force is too small)"),
     Channel("assistance_active", 1, "u1", "1", NONE,
             "1 when the force was within tolerance and the robot torque was reduced"),
+    Channel("assistance_level", 1, "f8", "1", NONE,
+            "assistance level in effect (0-1): the trial's own, or the therapist's live "
+            "change from the tick it was taken; NaN while no trial runs"),
     Channel("subject_angle", 2, "f8", "rad", ARM, "subject joint angles (eq. 3.28)"),
     Channel("subject_rate", 2, "f8", "rad/s", ARM, "subject joint rates (eq. 3.32)"),
     Channel("subject_acceleration", 2, "f8", "rad/s^2", ARM,

@@ -42,7 +42,7 @@ def run_ticks(n, start_offset=(0.0, 0.0)):
 def test_record_has_one_number_per_flat_field():
     plan, _, records = run_ticks(5)
     assert records.dtype == RECORD_DTYPE
-    assert len(flat_names()) == 52
+    assert len(flat_names()) == 53
     np.testing.assert_array_equal(records["tick"], np.arange(5))
     np.testing.assert_allclose(records["time"], np.arange(5) * 0.002)
     x, y = plan.robot.position(*records["robot_angle"].T)

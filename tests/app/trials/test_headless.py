@@ -307,3 +307,13 @@ def test_a_streamed_trials_analysis_reads_the_file_a_block_at_a_time(tmp_path, m
     reference = analyse({n: whole.records[n] for n in whole.records.dtype.names}, params)
     same_figures(analysis.metrics.to_dict(), reference.metrics.to_dict())
     np.testing.assert_equal(read_trial(tmp_path / "t.h5").metrics, analysis.metrics.to_dict())
+
+
+def test_every_tick_records_the_level_it_ran_with_in_both_engines():
+    """The per-tick assistance level (issue 27): a headless trial runs its built level at
+    every tick, compiled and interpreted alike."""
+    params = SHORT.replace(assist="as-needed", assistance_level=0.6)
+    fast = simulate(params, patient="weak", seed=1)
+    slow = simulate(params, patient="weak", seed=1, engine="python")
+    np.testing.assert_array_equal(fast.records["assistance_level"], 0.6)
+    np.testing.assert_array_equal(slow.records["assistance_level"], 0.6)

@@ -1,0 +1,111 @@
+"""Each trial runs its own settings, and its file records them per tick (issue 27, item 2).
+
+The reproducer of the issue through DeviceClient: build at 100 %, connect,
+set_assistance(0.2), disconnect, build at 100 % again, connect, run. On 5c1cec4 the trial
+ran exactly like one built at 20 % (the robot's |τ| sum over the exercise 793 against
+978 at 100 %, led 40 % against 86 %) while its file said 100 % and held no event. These
+tests run the real loop and recorder at 2 ms; what they compare is the trial's figures,
+never how promptly the machine woke the loop."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from app.trials.analysis import analyse
+from app.trials.reader import read_trial
+from core.trial import THESIS_SUBJECT
+from device.loop.client import DeviceClient
+from device.loop.messages import BackendConfig, TrialEnded
+from device.loop.states import State
+from device.recording.messages import RecorderNotice
+from device.recording.trialfile import SubjectInfo
+
+pytestmark = pytest.mark.slow
+
+FULL = THESIS_SUBJECT.replace(assist="as-needed", assistance_level=1.0, repetitions=2)
+WEAK = BackendConfig(patient="weak", seed=0)
+SUBJECT = SubjectInfo.from_parameters("PTEST01", FULL)
+
+
+@pytest.fixture(scope="module")
+def client():
+    with DeviceClient() as c:
+        yield c
+
+
+def _connect(client, params):
+    if client.state in (State.CONNECTED, State.FAULTED):
+        assert client.disconnect().ok
+    assert client.build(params, WEAK).ok
+    assert client.connect().ok
+    client.wait_for_samples(10)
+
+
+def _run(client, path, during=None):
+    """Start a trial, optionally do `during(client)` while it runs, wait for its file."""
+    reply = client.start_trial(str(path), SUBJECT)
+    assert reply.ok, reply.message
+    if during is not None:
+        client.wait_for_samples(1500)  # into the exercise (the approach is about 1 s)
+        during(client)
+    ended = client.wait_for(lambda e: isinstance(e, TrialEnded), 60)[-1]
+    assert ended.status == "complete"
+    client.wait_for(lambda e: isinstance(e, RecorderNotice) and e.kind == "closed", 10)
+    client.wait_state(State.CONNECTED, 5)
+    return read_trial(path)
+
+
+def _figures(data) -> tuple[float, float]:
+    """The robot's |τ| summed over the exercise's ticks (N·m) and the share led (%)."""
+    exercise = data.channels["phase"] == 2
+    tau = float(np.abs(data.channels["torque_applied"][exercise]).sum())
+    return tau, analyse(data.channels, data.parameters).metrics.led_pct
+
+
+def test_a_level_set_between_trials_does_not_run_the_next_trial(client, tmp_path):
+    _connect(client, FULL)
+    reference = _figures(_run(client, tmp_path / "full.h5"))
+    _connect(client, FULL.replace(assistance_level=0.2))
+    low = _figures(_run(client, tmp_path / "low.h5"))
+    # 20 % is another trial, and the test can tell: the weak virtual patient led 89 % of
+    # two D's at 100 % and 22 % at 20 % (headless, seed 0)
+    assert low[1] < reference[1] - 30.0, (low, reference)
+
+    # the issue's sequence
+    _connect(client, FULL)
+    refused = client.set_assistance(0.2)
+    assert not refused.ok
+    assert "no trial is running" in refused.message
+    assert "Build" in refused.message
+    assert client.disconnect().ok
+    _connect(client, FULL)
+    data = _run(client, tmp_path / "reproducer.h5")
+    tau, led = _figures(data)
+    assert abs(led - reference[1]) < 5.0, (led, reference, low)
+    assert tau == pytest.approx(reference[0], rel=0.03), (tau, reference, low)
+    # what ran is what the file says, tick by tick
+    np.testing.assert_array_equal(data.channels["assistance_level"], 1.0)
+    assert [e for e in data.events if e["kind"] == "assistance"] == []
+
+
+def test_a_live_change_is_recorded_per_tick_and_belongs_to_its_trial_only(client, tmp_path):
+    _connect(client, FULL)
+
+    def lower(c):
+        reply = c.set_assistance(0.4)
+        assert reply.ok, reply.message
+
+    changed = _run(client, tmp_path / "changed.h5", lower)
+    levels = changed.channels["assistance_level"]
+    (event,) = [e for e in changed.events if e["kind"] == "assistance"]
+    assert event["values"] == {"level": 0.4}
+    ticks = changed.channels["tick"]
+    np.testing.assert_array_equal(levels[ticks < event["tick"]], 1.0)
+    np.testing.assert_array_equal(levels[ticks >= event["tick"]], 0.4)
+    ran = changed.assistance_in_effect()
+    assert (ran.at_start, ran.at_end) == (1.0, 0.4)
+
+    # Start again without a Build: the next trial runs its own 100 % again
+    again = _run(client, tmp_path / "again.h5")
+    np.testing.assert_array_equal(again.channels["assistance_level"], 1.0)
