@@ -24,6 +24,7 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Protocol, runtime_checkable
 
+from app.records.assistance import AssistanceInEffect
 from app.records.datadir import DataDir
 from app.records.registry.patients import Patient
 from app.records.registry.proposals import StoredProposal
@@ -96,6 +97,7 @@ class RecordStore(Protocol):
         metrics: Mapping[str, float],
         ended_at: datetime.datetime | None = None,
         reason: str = "",
+        assistance: AssistanceInEffect | None = None,
     ) -> Trial: ...
 
     def trial(self, trial_id: int) -> Trial: ...
@@ -119,6 +121,8 @@ class RecordStore(Protocol):
     def proposal(self, trial_id: int) -> StoredProposal | None: ...
 
     def proposals_for_patient(self, code: str) -> list[StoredProposal]: ...
+
+    def pending_proposal(self, code: str) -> StoredProposal | None: ...
 
     def previous_trial(
         self,

@@ -19,11 +19,10 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 
 import numpy as np
 
-from app.units import assistance_percent
+from app.records.assistance import AssistanceInEffect
 
 CHANNEL = "assistance_level"
 """The per-tick channel of the level in effect (device.recording.record)."""
@@ -34,53 +33,7 @@ CHANNELS_NEEDED = (CHANNEL, "phase")
 the timeline, besides `tick` and `time`, which every read has."""
 PHASE_EXERCISE = 2
 
-
-@dataclass(frozen=True, slots=True)
-class AssistanceInEffect:
-    """The levels a trial ran with (0–1).
-
-    `timeline` is ((0.0, level at the exercise's start), (t, level), …): the start, then
-    each change during the exercise with its time from the exercise's start (s)."""
-
-    timeline: tuple[tuple[float, float], ...]
-
-    @property
-    def at_start(self) -> float:
-        """The level the exercise started at."""
-        return self.timeline[0][1]
-
-    @property
-    def at_end(self) -> float:
-        """The level in effect at the end of the exercise (its last tick)."""
-        return self.timeline[-1][1]
-
-    @property
-    def changes(self) -> tuple[tuple[float, float], ...]:
-        """The changes during the exercise, (time from its start s, new level)."""
-        return self.timeline[1:]
-
-    @property
-    def changed(self) -> bool:
-        return len(self.timeline) > 1
-
-    def summary(self) -> str:
-        """In plain words with display units: '100 %', or '100 % → 60 % at 5.8 s' (each
-        change in turn, its time from the exercise's start)."""
-        text = assistance_percent(self.at_start)
-        for time_s, level in self.changes:
-            text += f" → {assistance_percent(level)} at {time_s:.1f} s"
-        return text
-
-    def to_dict(self) -> dict:
-        """Plain values for JSON (the registry): start, end and the changes."""
-        return {"start": self.at_start, "end": self.at_end,
-                "changes": [[t, level] for t, level in self.changes]}
-
-    @classmethod
-    def from_dict(cls, values: Mapping) -> AssistanceInEffect:
-        start = float(values["start"])
-        changes = tuple((float(t), float(level)) for t, level in values.get("changes", ()))
-        return cls(((0.0, start), *changes))
+__all__ = ["CHANNEL", "CHANNELS_NEEDED", "EVENT", "AssistanceInEffect", "assistance_in_effect"]
 
 
 def assistance_in_effect(

@@ -15,10 +15,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from app.errors import AppError
+from app.records.assistance import AssistanceInEffect
 from app.records.store import RecordStore
 from app.trials.analysis import CHANNELS_USED, Analysis, analyse
+from app.trials.assistance_timeline import CHANNELS_NEEDED
 from app.trials.progression import Proposal, propose
-from app.trials.reader import read_trial
+from app.trials.reader import TrialData, read_trial
 from device.errors import RecordingError
 from device.recording.trialfile import write_metrics
 
@@ -38,7 +40,9 @@ class Finalized:
 
 def finalize_trial(registry: RecordStore, trial_id: int, status: str | None = None,
                    reason: str = "", analysis: Analysis | None = None) -> Finalized:
-    """Analyse the trial's file, write its metrics into it and into the registry.
+    """Analyse the trial's file, write its metrics into it and into the registry, with the
+    assistance levels it ran (its file's, never the form's), and propose the next trial
+    from what it ran: the level in effect at the end of its exercise.
 
     `status` defaults to the one the file records (complete, stopped_early, faulted,
     recording_lost); `reason`, why it ended so, to the file's last fault (the registry
@@ -49,8 +53,9 @@ def finalize_trial(registry: RecordStore, trial_id: int, status: str | None = No
     """
     trial = registry.trial(trial_id)
     path = registry.trial_path(trial)
-    # only what the metrics need (a long trial), or none when they are given
-    data = read_trial(path, () if analysis is not None else CHANNELS_USED)
+    # only what the metrics and the levels need (a long trial)
+    data = read_trial(path, CHANNELS_NEEDED if analysis is not None
+                      else (*CHANNELS_USED, *CHANNELS_NEEDED))
     status = status or data.status
     if status == "recording":
         status = "recording_lost"  # never closed: the recorder died with it
@@ -63,14 +68,29 @@ def finalize_trial(registry: RecordStore, trial_id: int, status: str | None = No
         analysis, metrics = _analyse_into(path, data, notes)
     # a complete trial needs no reason; any other keeps the one given or the file's
     reason = "" if status == "complete" else reason or last_fault(data.events)
+    ran = _levels(data, notes)
     registry.finish_trial(trial_id, status, metrics, datetime.datetime.now(datetime.UTC),
-                          reason)
-    proposal = propose(data.parameters, metrics, status, _ran_with(registry, trial))
+                          reason, ran)
+    parameters = data.parameters
+    if parameters is not None and ran is not None:
+        # the next trial starts from where this one ended, not from how it was built
+        parameters = parameters.replace(assistance_level=ran.at_end)
+    proposal = propose(parameters, metrics, status, _ran_with(registry, trial))
     registry.record_proposal(trial_id, proposal.to_dict())
     log.info("trial %s: proposed for the next trial: %s", trial_id, proposal.reason)
     for note in notes:
         log.info("trial %s: %s", trial_id, note)
     return Finalized(trial_id, path, status, analysis, tuple(notes), proposal)
+
+
+def _levels(data: TrialData, notes: list[str]) -> AssistanceInEffect | None:
+    """The levels the trial ran with, None (and a note) when its file cannot say."""
+    ran = data.assistance_in_effect()
+    if all(0.0 <= level <= 1.0 for _, level in ran.timeline):
+        return ran
+    notes.append("the assistance levels it ran with are not known: the file holds neither "
+                 "its parameters nor the per-tick level")
+    return None
 
 
 def _ran_with(registry: RecordStore, trial) -> Proposal | None:

@@ -46,6 +46,16 @@ then 5 %, then 2.5 %). With a fixed 10 % step the wrong-way virtual patient, who
 to about 1.5 s per traversal with full help, was proposed 1.40 s (31 % led) and 1.54 s
 in turn for ever (bench/progression.py).
 
+A proposal changes only settings that act in the trial's mode. In the thesis mode the
+assistance level hardly acts at all: level 1 against 0 changes the robot's RMS torque over
+the exercise by 0.01–0.19 % and the time in the cone by under 0.4 points (four virtual
+patients, both plants, seed 0; core.control.assistance says why, docs/validation.md
+gives the table), so there the level is never proposed: a harder step is a faster path,
+then a narrower tolerance; an easier one a wider tolerance back to 20°, then a slower
+path. The level a proposal keeps is the one in effect at the end of the trial's
+exercise (app.trials.finalize gives `propose` the parameters as they ran), so a trial the
+therapist lowered to 60 % is followed by a step from 60 %, not from its built level.
+
 One change at a time, so that the patient's next figures say what it did. The proposal
 names its reason in one line with display units; the registry keeps it and what the
 therapist decided (app.records.registry.proposals).
@@ -150,9 +160,10 @@ def success(parameters: TrialParameters, metrics: dict) -> tuple[float, str]:
 
 def propose(parameters: TrialParameters, metrics: dict, status: str,
             previous: Proposal | None = None) -> Proposal:
-    """The proposal after a trial run with `parameters`, its `metrics` (TrialMetrics'
-    names) and `status`; `previous`, the proposal that trial ran with, if it did, sets
-    the assistance's step (the module notes)."""
+    """The proposal after a trial run with `parameters` (as it ran: the assistance level
+    in effect at the end of its exercise), its `metrics` (TrialMetrics' names) and
+    `status`; `previous`, the proposal that trial ran with, if it did, sets the steps (the
+    module notes). In the thesis mode the level is kept (it does not act there)."""
     level, duration, tolerance = (parameters.assistance_level, parameters.duration_s,
                                   parameters.tolerance_rad)
 
@@ -167,6 +178,7 @@ def propose(parameters: TrialParameters, metrics: dict, status: str,
         return same("no figure to go by was measured: the same again")
     if EASIER_AT_PCT < pct < HARDER_AT_PCT:
         return same(f"{shown}, near the {TARGET_PCT:.0f} % aimed at: the same again")
+    level_acts = level_acts_in(parameters.assist)
     if pct >= HARDER_AT_PCT:
         def less_assistance() -> Proposal:
             new = round(max(0.0, level + level_step(-1, previous)), 2)
@@ -174,20 +186,20 @@ def propose(parameters: TrialParameters, metrics: dict, status: str,
                             f"{shown}: less assistance, {assistance_percent(level)} → "
                             f"{assistance_percent(new)}", round(new - level, 2))
 
+        helping = level_acts and level > 0.0
         hardly_helped = parameters.assist == "as-needed" and pct >= HARDLY_HELPED_PCT
-        if level > 0.0 and not hardly_helped:
+        if helping and not hardly_helped:
             return less_assistance()
         step = speed_step(-1, previous)
         faster = round(duration * (1.0 + step), 2)
         if faster >= DURATION_RANGE_S[0] and _reachable(parameters.replace(duration_s=faster)):
-            why = (f"{shown} with no assistance" if level == 0.0 else
-                   f"{shown}, so the assistance was hardly needed")
-            kept = (f" (the assistance stays at {assistance_percent(level)})"
-                    if level > 0.0 else "")
+            why = (shown if not level_acts else f"{shown} with no assistance"
+                   if level == 0.0 else f"{shown}, so the assistance was hardly needed")
+            kept = f" (the assistance stays at {assistance_percent(level)})" if helping else ""
             return Proposal(level, faster, tolerance, "speed",
                             f"{why}: faster, {duration:g} s → {faster:g} s per "
                             f"traversal{kept}", speed_step=step)
-        if level > 0.0:
+        if helping:
             return less_assistance()
         narrower = max(TOLERANCE_MIN_DEG, math.degrees(tolerance) - TOLERANCE_STEP_DEG)
         if narrower < math.degrees(tolerance) - 1e-9:
@@ -201,7 +213,7 @@ def propose(parameters: TrialParameters, metrics: dict, status: str,
         return Proposal(level, duration, math.radians(wider), "tolerance",
                         f"{shown}: a wider tolerance, {math.degrees(tolerance):.0f}° → "
                         f"{wider:.0f}°")
-    if level < 1.0:
+    if level_acts and level < 1.0:
         new = round(min(1.0, level + level_step(+1, previous)), 2)
         return Proposal(new, duration, tolerance, "assistance",
                         f"{shown}: more assistance, {assistance_percent(level)} → "
@@ -209,10 +221,18 @@ def propose(parameters: TrialParameters, metrics: dict, status: str,
     step = speed_step(+1, previous)
     slower = round(min(DURATION_RANGE_S[1], duration * (1.0 + step)), 2)
     if slower > duration:
+        helped = " with full assistance" if level_acts else ""
         return Proposal(level, slower, tolerance, "speed",
-                        f"{shown} with full assistance: slower, {duration:g} s → "
+                        f"{shown}{helped}: slower, {duration:g} s → "
                         f"{slower:g} s per traversal", speed_step=step)
     return same(f"{shown} at the easiest settings: the same again")
+
+
+def level_acts_in(assist: str) -> bool:
+    """Whether the assistance level acts in this mode enough to be proposed: in the
+    as-needed mode it sets the help along the path; in the thesis mode it scales a cut the
+    sign rule all but forbids (the module notes)."""
+    return assist == "as-needed"
 
 
 def _reachable(parameters: TrialParameters) -> bool:

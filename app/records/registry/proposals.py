@@ -2,11 +2,13 @@
 next one (app.trials.progression) and what the therapist did with it.
 
 A proposal is `pending` until the patient's next trial starts; `begin_trial` then marks
-it `accepted` (the next trial ran the proposed assistance, speed and tolerance),
-`kept` (it ran the same as the trial before, against a proposed change) or `changed`
-(anything else), and links the trial that followed. The history of a patient's
-progression is their proposals beside their trials' parameters, which the trials table
-keeps.
+it `accepted` (the next trial is the proposal applied to the trial before: every
+parameter equal, the proposed assistance, speed and tolerance and the rest as before),
+`kept` (every parameter as the trial before, against a proposed change) or `changed`
+(anything else: another shape, mode or size is never "accepted"), and links the trial
+that followed. `pending_proposal` gives the one waiting, after a restart too. The history
+of a patient's progression is their proposals beside their trials' parameters, which the
+trials table keeps.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from app.errors import InvalidRecordError
 from app.records.registry.database import Database
 from app.records.registry.patients import patient_id
 from app.records.registry.trials import trial_by_id
+from core.errors import CoreError
 from core.trial import TrialParameters
 
 DECISIONS = ("pending", "accepted", "changed", "kept")
@@ -72,6 +75,13 @@ class Proposals(Database):
                 (pid,)).fetchall()
         return [_stored(r) for r in rows]
 
+    def pending_proposal(self, code: str) -> StoredProposal | None:
+        """The proposal waiting for the patient's next trial (the one the next Start
+        decides), None when none waits: what the window offers again after a restart."""
+        with self._read() as conn:
+            row = conn.execute(_PENDING, (patient_id(conn, self.path, code), -1)).fetchone()
+        return None if row is None else _stored(row)
+
     def _trial_withdrawn(self, conn: sqlite3.Connection, trial_id: int) -> None:
         """A trial withdrawn (Trials.withdraw_trial) never ran: the proposal it decided is
         pending again, and one made after it goes with it."""
@@ -83,11 +93,7 @@ class Proposals(Database):
                      parameters: dict) -> None:
         """At Start, in begin_trial's transaction (Trials._trial_begun): the patient's
         pending proposal decided by the parameters the new trial started with."""
-        row = conn.execute(
-            _SELECT + " WHERE decision = 'pending' AND trial_id IN (SELECT t.id FROM "
-            "trials t JOIN sessions s ON s.id = t.session_id WHERE s.patient_id = ? "
-            "AND t.id != ?) ORDER BY trial_id DESC LIMIT 1", (patient, trial_id),
-        ).fetchone()
+        row = conn.execute(_PENDING, (patient, trial_id)).fetchone()
         if row is None:
             return
         stored = _stored(row)
@@ -99,20 +105,40 @@ class Proposals(Database):
 
 _SELECT = ("SELECT trial_id, proposal, decision, next_trial_id, proposed_at, decided_at "
            "FROM proposals")
+_PENDING = (_SELECT + " WHERE decision = 'pending' AND trial_id IN (SELECT t.id FROM trials t "
+            "JOIN sessions s ON s.id = t.session_id WHERE s.patient_id = ? AND t.id != ?) "
+            "ORDER BY trial_id DESC LIMIT 1")
+"""The patient's pending proposal (patient id, a trial id to leave out)."""
 _KEYS = ("assistance_level", "duration_s", "tolerance_rad")
+"""What a proposal sets (app.trials.progression.Proposal.applied_to)."""
 
 
 def _decision(proposal: dict, before: TrialParameters, after: TrialParameters) -> str:
-    def same(values: dict | TrialParameters) -> bool:
-        get = values.get if isinstance(values, dict) else lambda k: getattr(values, k)
-        return all(math.isclose(float(get(k)), getattr(after, k), abs_tol=_TOLERANCE)
-                   for k in _KEYS)
-
-    if same(proposal):
+    """accepted: `after` is the proposal applied to `before`, every parameter equal;
+    kept: `after` is `before`; changed: anything else."""
+    try:
+        proposed = before.replace(**{key: float(proposal[key]) for key in _KEYS})
+    except (CoreError, KeyError, TypeError, ValueError):
+        proposed = None  # a proposal no longer valid (a range narrowed since) is not taken
+    if proposed is not None and _same(proposed, after):
         return "accepted"
-    if same(before):
+    if _same(before, after):
         return "kept"
     return "changed"
+
+
+def _same(a: TrialParameters, b: TrialParameters) -> bool:
+    """Every parameter equal, numbers to 1e-9 (one value through two unit conversions)."""
+    def equal(x, y) -> bool:
+        if isinstance(x, list | tuple) and isinstance(y, list | tuple):
+            return len(x) == len(y) and all(map(equal, x, y))
+        if isinstance(x, float | int) and isinstance(y, float | int) and not (
+                isinstance(x, bool) or isinstance(y, bool)):
+            return math.isclose(x, y, rel_tol=0.0, abs_tol=_TOLERANCE)
+        return x == y
+
+    left, right = a.to_dict(), b.to_dict()
+    return left.keys() == right.keys() and all(equal(left[k], right[k]) for k in left)
 
 
 def _stored(row: tuple) -> StoredProposal:

@@ -13,12 +13,14 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 
 from app.errors import InvalidRecordError
+from app.records.assistance import AssistanceInEffect
 from app.records.registry.database import Database
 from app.records.registry.patients import patient_id
 from app.records.registry.trials import (
     KEY_PARAMETERS,
     TRIAL_SELECT,
     Trial,
+    assistance_from_json,
     trial_by_id,
     trial_from_row,
 )
@@ -32,6 +34,7 @@ _ALL_STATUSES = (STATUS_RECORDING, *STATUSES)
 _SUMMARY_SELECT = f"""
     SELECT t.id, s.number, s.date, t.number, t.status, t.started_at, t.file,
            {", ".join(f"json_extract(t.parameters, '$.{name}')" for name in KEY_PARAMETERS)},
+           coalesce(json_extract(t.parameters, '$.assist'), 'thesis'), t.assistance,
            t.metrics
     FROM trials t
     JOIN sessions s ON s.id = t.session_id
@@ -54,6 +57,11 @@ class TrialSummary:
     file: str
     key_parameters: tuple  # as stored; parameter_key() makes them comparable
     metrics: dict[str, float]
+    assist: str = "thesis"
+    """The assistance mode (parameters' `assist`; "thesis" for trials before the modes)."""
+    assistance: AssistanceInEffect | None = None
+    """The levels the trial ran with (Trial.assistance); None when only the built level,
+    in `key_parameters`, is known."""
 
 
 class Queries(Database):
@@ -75,7 +83,8 @@ class Queries(Database):
         shared: dict[tuple, tuple] = {}
         return [
             TrialSummary(r[0], r[1], date(r[2]), r[3], r[4], moment(r[5]), r[6],
-                         shared.setdefault(r[7:7 + k], r[7:7 + k]), values)
+                         shared.setdefault(r[7:7 + k], r[7:7 + k]), values, r[7 + k],
+                         assistance_from_json(r[8 + k]))
             for r, values in zip(rows, metrics, strict=True)
         ]
 

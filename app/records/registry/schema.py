@@ -95,11 +95,20 @@ MIGRATE_V3_TO_V4 = (
     "ALTER TABLE trials ADD COLUMN end_reason TEXT NOT NULL DEFAULT ''",
 )
 
+# v5: the assistance levels each trial ran with, read from its file when it was finished
+# (app.records.assistance.AssistanceInEffect.to_dict: the level at the exercise's start,
+# at its end and each live change with its time), not the level it was built with; NULL
+# for trials before v5 and until a trial is finished.
+MIGRATE_V4_TO_V5 = (
+    "ALTER TABLE trials ADD COLUMN assistance TEXT",
+)
+
 MIGRATIONS: tuple[tuple[int, tuple[str, ...]], ...] = (
     (1, SCHEMA_V1),
     (2, MIGRATE_V1_TO_V2),
     (3, MIGRATE_V2_TO_V3),
     (4, MIGRATE_V3_TO_V4),
+    (5, MIGRATE_V4_TO_V5),
 )
 SCHEMA_VERSION = MIGRATIONS[-1][0]
 

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from app.errors import DuplicateNumberError, InvalidRecordError, RegistryError, TrialNotFound
+from app.records.assistance import AssistanceInEffect
 from app.records.datadir import TRIALS, DataDir
 from app.records.registry.database import Database
 from app.records.registry.patients import is_code, patient_id
@@ -56,7 +57,8 @@ equal values of these (progress, previous_trial(same_parameters=True))."""
 
 TRIAL_SELECT = """
     SELECT t.id, p.code, s.number, s.date, t.number, t.parameters, t.file, t.metrics,
-           t.status, t.started_at, t.ended_at, t.backend, t.patient_kind, t.end_reason
+           t.status, t.started_at, t.ended_at, t.backend, t.patient_kind, t.end_reason,
+           t.assistance
     FROM trials t
     JOIN sessions s ON s.id = t.session_id
     JOIN patients p ON p.id = s.patient_id
@@ -87,10 +89,21 @@ class Trial:
     end_reason: str = ""
     """Why the trial ended so (a fault's message, a lost recording's cause); '' when it
     ended normally or was registered before schema v4."""
+    assistance: AssistanceInEffect | None = None
+    """The assistance levels the trial ran with, read from its file when it was finished
+    (start, end, each live change with its time); None before it finished, for a trial
+    registered before schema v5 or whose file could not be read: then only its built
+    level (`parameters`) is known."""
 
     @property
     def finished(self) -> bool:
         return self.status != STATUS_RECORDING
+
+    @property
+    def assist(self) -> str:
+        """The assistance mode it ran (set at Build, never changed during a trial);
+        "thesis" for trials recorded before the modes existed, which is what they ran."""
+        return str(self.parameters.get("assist", "thesis"))
 
     def key_parameters(self) -> tuple:
         """KEY_PARAMETERS values, comparable between trials (see parameter_key)."""
@@ -261,17 +274,20 @@ class Trials(Database):
         metrics: Mapping[str, float],
         ended_at: datetime.datetime | None = None,
         reason: str = "",
+        assistance: AssistanceInEffect | None = None,
     ) -> Trial:
         """Record how a trial ended: status one of complete, stopped_early, faulted,
         recording_lost; metrics as computed (NaN allowed); `reason`, why it ended so (a
-        fault's message), kept here because the file may not hold it. A trial is finished
-        once."""
+        fault's message), kept here because the file may not hold it; `assistance`, the
+        levels it ran with as its file recorded them (None when the file could not say).
+        A trial is finished once."""
         if status not in STATUSES:
             raise InvalidRecordError(
                 f"trial status {status!r}: give one of {', '.join(STATUSES)}"
             )
         ended_at = aware(ended_at or utc_now(), "ended_at")
         stored = metrics_json(metrics)
+        levels = assistance_json(assistance)
         with self._write() as conn:
             trial = trial_by_id(conn, self.path, trial_id)
             if trial.finished:
@@ -285,8 +301,8 @@ class Trials(Database):
                     f"({trial.started_at.isoformat()}): check the computer's clock"
                 )
             conn.execute("UPDATE trials SET status = ?, metrics = ?, ended_at = ?, "
-                         "end_reason = ? WHERE id = ?",
-                         (status, stored, utc_text(ended_at), str(reason), trial_id))
+                         "end_reason = ?, assistance = ? WHERE id = ?",
+                         (status, stored, utc_text(ended_at), str(reason), levels, trial_id))
             trial = trial_by_id(conn, self.path, trial_id)
         log.info("trial %d finished: %s, %d metric(s)%s", trial_id, status, len(trial.metrics),
                  f" ({reason})" if reason else "")
@@ -376,14 +392,30 @@ def trials_from_rows(rows: list[tuple]) -> list[Trial]:
     trials = []
     for row, params, values in zip(rows, parameters, metrics, strict=True):
         (trial_id, code, session_number, session_date, number, _, file, _, status,
-         started_at, ended_at, backend, patient_kind, end_reason) = row
+         started_at, ended_at, backend, patient_kind, end_reason, levels) = row
         trials.append(Trial(
             trial_id, code, session_number, datetime.date.fromisoformat(session_date), number,
             params, file, values, status, datetime.datetime.fromisoformat(started_at),
             None if ended_at is None else datetime.datetime.fromisoformat(ended_at),
-            backend, patient_kind, end_reason,
+            backend, patient_kind, end_reason, assistance_from_json(levels),
         ))
     return trials
+
+
+def assistance_json(assistance: AssistanceInEffect | None) -> str | None:
+    """The levels a trial ran with as stored (None: not known)."""
+    if assistance is None:
+        return None
+    if not isinstance(assistance, AssistanceInEffect):
+        raise InvalidRecordError("assistance: give an app.records.assistance."
+                                 "AssistanceInEffect, or None when the file could not say")
+    values = assistance.to_dict()
+    AssistanceInEffect.from_dict(values)  # refuses levels out of 0-1, NaN
+    return json.dumps(values, allow_nan=False)
+
+
+def assistance_from_json(text: str | None) -> AssistanceInEffect | None:
+    return None if text is None else AssistanceInEffect.from_dict(json.loads(text))
 
 
 # -- numbering -------------------------------------------------------------------------

@@ -329,18 +329,19 @@ def test_a_v1_registry_is_backed_up_and_migrated_keeping_its_records(tmp_path):
     path = make_v1_registry(tmp_path / "data")
     registry = Registry(DataDir(tmp_path / "data"))
 
-    assert registry.schema_version() == SCHEMA_VERSION == 4
+    assert registry.schema_version() == SCHEMA_VERSION == 5
     assert query(path, "SELECT count(*) FROM proposals") == [(0,)]
     assert query(path, "PRAGMA journal_mode") == [("wal",)]
     trial_columns = {row[1] for row in query(path, "PRAGMA table_info(trials)")}
     session_columns = {row[1] for row in query(path, "PRAGMA table_info(sessions)")}
-    assert {"backend", "end_reason"} <= trial_columns
+    assert {"backend", "end_reason", "assistance"} <= trial_columns
     assert "location" in session_columns
     old = registry.trials_for_patient("PABC234")
     assert len(old) == 1
     assert (old[0].backend, old[0].metrics, old[0].status) == (None, {"rmse_x_m": 0.02},
                                                                 "complete")
     assert old[0].end_reason == ""
+    assert old[0].assistance is None  # only the built level is known
     assert registry.session("PABC234", 1).location == ""
     assert registry.patient("PABC234").last_name == "Record"
 

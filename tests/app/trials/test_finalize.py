@@ -87,3 +87,38 @@ def test_the_registry_keeps_why_a_trial_ended(tmp_path):
     assert registry.trial(complete.trial_id).end_reason == ""
     assert registry.trial(lost.trial_id).end_reason == "the recorder process stopped"
     assert registry.trial(unreadable.trial_id).end_reason == "the disk is full"
+
+
+def test_the_registry_and_the_next_proposal_take_the_level_the_trial_ended_at(tmp_path):
+    """Issue 27, item 5: a trial built at 100 % that the therapist lowered to 60 % during
+    its exercise was stored and followed as a 100 % trial ("100 % → 90 %", more help than
+    the patient just had). Its file's per-tick level (as the live loop records it) is what
+    the registry and the proposal read."""
+    import numpy as np
+
+    from app.trials.finalize import finalize_trial
+    from app.trials.headless import SimulatedTrial
+
+    params = THESIS_SUBJECT.replace(assist="as-needed", repetitions=2)
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("Ada", "Lovelace", body_mass_kg=91.0).code
+    begun = registry.begin_trial(code, params, backend="simulator")
+    trial = simulate(params, patient="weak", seed=0)
+    records = trial.records.copy()
+    exercise = np.flatnonzero(records["phase"] == 2)
+    change = int(exercise[0]) + 2900  # 5.8 s into the exercise
+    records["assistance_level"][change:] = 0.6
+    event = {"time_s": change * 0.002, "tick": change, "kind": "assistance",
+             "message": "assistance level set to 60%", "values": {"level": 0.6}}
+    changed = SimulatedTrial(**{**{f: getattr(trial, f) for f in trial.__slots__},
+                                "records": records, "events": (*trial.events, event)})
+    save(changed, begun.path, subject_code=code)
+
+    done = finalize_trial(registry, begun.trial_id)
+
+    stored = registry.trial(begun.trial_id).assistance
+    assert stored.summary() == "100 % → 60 % at 5.8 s"
+    assert (stored.at_start, stored.at_end) == (1.0, 0.6)
+    assert done.proposal.change == "assistance"  # the weak patient led about 89 %
+    assert "60 % → 50 %" in done.proposal.reason
+    assert done.proposal.assistance_level == 0.5
