@@ -23,6 +23,7 @@ from app.trials.progression import Proposal, propose
 from app.trials.reader import TrialData, read_trial
 from device.errors import RecordingError
 from device.recording.trialfile import write_metrics
+from device.recording.trialfile.recover import clear_open_flags
 
 log = logging.getLogger(__name__)
 
@@ -120,6 +121,19 @@ def _analyse_into(path: Path, data, notes: list[str]) -> tuple[Analysis | None, 
     return analysis, metrics
 
 
+def unflag(path: Path) -> None:
+    """Clear the "open for writing" flags a dead writer left in the trial file at `path`
+    (device.recording.trialfile.recover), so that it reads again; only for a trial whose
+    writer is known to be dead. A file that cannot be cleared is left as it is, for the
+    reader to say what is wrong with it."""
+    try:
+        if clear_open_flags(path):
+            log.warning("%s: its writer died with it open; its open-for-writing flags were "
+                        "cleared so that it reads again", path.name)
+    except (OSError, RecordingError) as exc:
+        log.warning("%s: its open-for-writing flags could not be cleared: %s", path.name, exc)
+
+
 def last_fault(events: list[dict]) -> str:
     """The message of the file's last fault event, '' when it has none."""
     faults = [event["message"] for event in events if event["kind"] == "fault"]
@@ -131,6 +145,7 @@ def finalize_lost(registry: RecordStore, trial_id: int, reason: str = "") -> Fin
     reached its file when that can be read, else as recording_lost with no metrics and a
     note saying why. Never leaves it 'recording'; `reason` (the fault the window saw) is
     kept in the registry, since the file cannot have it."""
+    unflag(registry.trial_path(trial_id))
     try:
         return finalize_trial(registry, trial_id, "recording_lost", reason)
     except AppError as exc:
@@ -170,6 +185,7 @@ def finish_interrupted(registry: RecordStore, *, now: float | None = None,
             lines.append(f"{label} was interrupted and its file is missing; "
                          "it is listed as recording lost")
             continue
+        unflag(path)
         try:
             done = finalize_trial(registry, trial.id)
         except AppError as exc:

@@ -74,7 +74,8 @@ def write_emg(
                              f"and {len(muscles)} muscles do not fit together")
     path = Path(path)
     try:
-        with open_for_update(path) as f:
+        # room for the arrays, their checksums and the group's metadata
+        with open_for_update(path, reserve_bytes=t.nbytes + x.nbytes + 2**20) as f:
             _check_closed(f, path)
             if GROUP in f:
                 if not replace:

@@ -714,3 +714,28 @@ def test_the_timing_summary_reads_its_channels_a_block_at_a_time(tmp_path, monke
     late = late[np.isfinite(late)]
     assert summary["late_fraction"] == np.mean(late >= PERIOD_S)
     assert (summary["first_tick"], summary["last_tick"]) == (0, 5499)
+
+
+@pytest.mark.parametrize("kind", [DISK_KIND])
+def test_an_addition_on_a_full_disk_leaves_the_file_as_it_was(small_disk, kind):
+    """Issue 28 #2: the metrics, EMG or pose added after a trial opened the file for writing
+    on a full disk; the write failed and left it flagged open for writing, unreadable. Now
+    the space for the addition is held first: on a full disk nothing is added, in one
+    line, and the file reads as before."""
+    path = small_disk.root / "t.h5"
+    writer = open_writer(path, min_free_bytes=0)
+    writer.append(ramp_records(0, 2000, RECORD_DTYPE))
+    writer.close("complete")
+    small_disk.fill()
+    with pytest.raises(SpaceShort, match=r"nothing was added to t\.h5") as caught:
+        trialfile.write_metrics(path, {f"metric_{i}": float(i) for i in range(200)})
+    assert "\n" not in str(caught.value)
+    for swmr in (False, True):
+        with h5py.File(path, "r", swmr=swmr) as f:
+            assert f.attrs["status"] == "complete"
+            assert f["timeseries/tick"].shape == (2000,)
+            assert not f["metrics"].attrs
+    small_disk.free()
+    trialfile.write_metrics(path, {"rmse_x_m": 0.01})  # with room again, it is added
+    with h5py.File(path, "r") as f:
+        assert f["metrics"].attrs["rmse_x_m"] == 0.01

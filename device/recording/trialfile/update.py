@@ -1,5 +1,9 @@
 """Adding to a closed trial file what the console computes after the trial: its metrics,
-the assistance's estimates (and, through `open_for_update`, EMG and pose)."""
+the assistance's estimates (and, through `open_for_update`, EMG and pose).
+
+Every addition first holds disk space for what it writes (device.recording.trialfile.
+reserve): HDF5 flags a file "open for writing" as it opens it for writing, and a write
+that then failed for want of space left the flag set and the trial unreadable."""
 
 from __future__ import annotations
 
@@ -22,12 +26,22 @@ from device.recording.trialfile.layout import (
     _disk_error,
     _write_assistance,
 )
+from device.recording.trialfile.reserve import hold_for_update
+
+UPDATE_RESERVE_BYTES = 2**20
+"""Held for an addition that says nothing of its size: metrics and estimates take a few
+KiB. One that writes arrays (EMG, pose) passes its own `reserve_bytes`."""
 
 
 @contextlib.contextmanager
 def open_for_update(path: str | Path, *, wait_s: float | None = None,
-                    sleep=time.sleep, clock=time.monotonic):
+                    sleep=time.sleep, clock=time.monotonic,
+                    reserve_bytes: int = UPDATE_RESERVE_BYTES):
     """A closed trial file opened to add to it (metrics, estimates, EMG, pose).
+
+    `reserve_bytes` are held on the disk before the file is opened, and what is left of
+    them given back after it is closed: on a disk that cannot give them, SpaceShort (a
+    RecordingError) is raised and the file is left as it was.
 
     In one process HDF5 refuses to open a file for writing while it is open for reading,
     whatever the file locking: the window's report or replay, or a researcher's loader in
@@ -36,16 +50,20 @@ def open_for_update(path: str | Path, *, wait_s: float | None = None,
     UPDATE_RETRY_S) instead of failing and losing what it was to store. Any other error
     is raised at once."""
     deadline = clock() + (UPDATE_WAIT_S if wait_s is None else wait_s)
-    while True:
-        try:
-            f = h5py.File(path, "r+", libver=LIBVER, locking=False)
-            break
-        except OSError as exc:
-            if ALREADY_OPEN not in str(exc) or clock() >= deadline:
-                raise
-        sleep(UPDATE_RETRY_S)
-    with f:
-        yield f
+    space = hold_for_update(path, reserve_bytes)
+    try:
+        while True:
+            try:
+                f = h5py.File(path, "r+", libver=LIBVER, locking=False)
+                break
+            except OSError as exc:
+                if ALREADY_OPEN not in str(exc) or clock() >= deadline:
+                    raise
+            sleep(UPDATE_RETRY_S)
+        with f:
+            yield f
+    finally:
+        space.release()
 
 
 def write_metrics(path: str | Path, metrics: Mapping) -> None:

@@ -4,6 +4,8 @@ start, and a trial another console may still be recording is left alone."""
 import os
 import time
 
+import pytest
+
 from app.records.datadir import DataDir
 from app.records.registry import Registry
 from app.trials.finalize import finish_interrupted
@@ -122,3 +124,62 @@ def test_the_registry_and_the_next_proposal_take_the_level_the_trial_ended_at(tm
     assert done.proposal.change == "assistance"  # the weak patient led about 89 %
     assert "60 % → 50 %" in done.proposal.reason
     assert done.proposal.assistance_level == 0.5
+
+
+KILLED_IN_THE_CLOSE = """
+import os, sys
+from app.trials.headless import simulate
+from core.trial import THESIS_SUBJECT
+from device.recording.trialfile import SubjectInfo, TrialFileWriter
+
+params = THESIS_SUBJECT.replace(repetitions=1)
+trial = simulate(params, patient="healthy")
+writer = TrialFileWriter(sys.argv[1], parameters=params,
+                         subject=SubjectInfo.from_parameters(sys.argv[2], params),
+                         robot={}, backend="simulator", sample_period_s=0.002)
+writer.append(trial.records)
+writer.flush()
+writer.close("complete")  # the reopen below is the close's, killed half way
+import h5py
+f = h5py.File(sys.argv[1], "r+", libver=("v110", "v110"), locking=False)
+f.attrs["status"] = "complete"
+f.require_group("metrics").attrs["rmse_x_m"] = 0.5
+f.flush()
+os.kill(os.getpid(), 9)
+"""
+
+
+def test_a_file_whose_writer_was_killed_while_adding_to_it_is_finished_from_its_samples(
+        tmp_path):
+    """Issue 28 #2: a writer killed while it had a trial file open for writing (the close's
+    reopen, the metrics, EMG) left it flagged "open for writing"; no reader could open it
+    ("file is not already open for SWMR writing") and the trial was listed as lost with
+    no figures. The next start clears the flags of the dead writer (as h5clear -s) and
+    finishes the trial from its samples."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import h5py
+
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("Ada", "Lovelace", body_mass_kg=91.0).code
+    begun = registry.begin_trial(code, PARAMS, backend="simulator")
+    begun.path.parent.mkdir(parents=True, exist_ok=True)
+    root = Path(__file__).resolve().parents[3]
+    ran = subprocess.run([sys.executable, "-c", KILLED_IN_THE_CLOSE, str(begun.path), code],
+                         cwd=root, capture_output=True, text=True, timeout=300)
+    assert ran.returncode == -9, ran.stderr
+    with pytest.raises(OSError, match="open for write"):
+        h5py.File(begun.path, "r")
+    an_hour_ago = time.time() - 3600
+    os.utime(begun.path, (an_hour_ago, an_hour_ago))
+
+    lines = finish_interrupted(registry)
+
+    trial = registry.trial(begun.trial_id)
+    assert "its file was kept" in lines[0]
+    assert trial.status == "complete"
+    assert trial.metrics["rmse_x_m"] < 0.005  # from its samples, not the half-written 0.5
+    with h5py.File(begun.path, "r") as f:
+        assert f["timeseries/tick"].shape[0] > 1000
