@@ -459,9 +459,8 @@ def test_a_disk_filled_by_another_program_keeps_every_sample_readable(small_disk
     the trial's last samples, its events and the close all find room."""
     path = small_disk.root / "t.h5"
     writer = open_writer(path, min_free_bytes=0)
+    small_disk.fill()  # from the first sample on: the space held since the header
     writer.append(ramp_records(0, 1500, RECORD_DTYPE))
-    writer.flush()
-    small_disk.fill()
     writer.append(ramp_records(1500, 600, RECORD_DTYPE))  # 1.2 s more of the trial
     with pytest.raises(SpaceShort, match="full"):
         writer.flush()

@@ -157,7 +157,6 @@ class TrialFileWriter:
 
         self._open_new()
         try:
-            self._hold_reserve()
             f = self._file
             for name, value in header.items():
                 f.attrs[name] = value
@@ -178,6 +177,8 @@ class TrialFileWriter:
             if live:
                 f.swmr_mode = True
             self._flush()
+            # after the header: starting SWMR gives back blocks past the file's end
+            self._hold_reserve()
         except (RecordingError, OSError, RuntimeError, ValueError) as exc:
             self._abandon()
             self._release()
