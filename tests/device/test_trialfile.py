@@ -738,3 +738,28 @@ def test_an_addition_on_a_full_disk_leaves_the_file_as_it_was(small_disk, kind):
     trialfile.write_metrics(path, {"rmse_x_m": 0.01})  # with room again, it is added
     with h5py.File(path, "r") as f:
         assert f["metrics"].attrs["rmse_x_m"] == 0.01
+
+
+def test_a_trial_file_appears_under_its_name_only_once_it_reads(tmp_path, monkeypatch):
+    """A reader polling for the trial's file (the live replay, a test of a killed recorder)
+    met it while its header was written, flagged open for plain writing: 'file is not
+    already open for SWMR writing', read as damaged. The file is now made under a hidden
+    name and linked to its own once an SWMR reader can open it."""
+    path = tmp_path / "t.h5"
+    seen = []
+    publish = TrialFileWriter._publish
+
+    def watched(self):
+        seen.append(path.exists())
+        with h5py.File(self._making, "r", swmr=True) as f:  # readable before it is named
+            seen.append(f.attrs["status"])
+        publish(self)
+
+    monkeypatch.setattr(TrialFileWriter, "_publish", watched)
+    writer = open_writer(path)
+    assert seen == [False, "recording"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.h5"]
+    writer.close("complete")
+    with pytest.raises(RecordingError, match="a file of that name exists"):
+        open_writer(path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.h5"]

@@ -90,6 +90,7 @@ class HeldSpace:
         self.short = ""
         self.unsupported = ""
         self._fd = os.open(self.path, os.O_RDWR | getattr(os, "O_CLOEXEC", 0))
+        # named by the folder it is in, which a file keeps when it is renamed or linked
 
     def size(self) -> int:
         return os.fstat(self._fd).st_size

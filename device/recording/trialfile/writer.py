@@ -4,11 +4,12 @@ device.recording.trialfile.layout and docs/data-format.md.
 
 Crash safety, in brief (the document has the reasoning):
 
-* The file is written in place under its final name, never as a `.part` that is
-  renamed at the end: after a kill -9 or a power cut the file the registry points
-  to is already there and readable, and a rename would fail on Windows while a
-  viewer holds the file open. Whether a trial finished is recorded inside the
-  file (`status`), so it survives copies.
+* The file is written in place under its final name (made under a hidden one until
+  its header is written), never as a `.part` that is renamed at the end: after a
+  kill -9 or a power cut the file the registry points to is already there and
+  readable, and a rename would fail on Windows while a viewer holds the file open.
+  Whether a trial finished is recorded inside the file (`status`), so it survives
+  copies.
 * Everything but the samples and events is written before the file switches to
   SWMR mode; from then on only appends happen, which SWMR keeps consistent on disk.
 * `flush` pushes HDF5's caches to the file and fsyncs it, so a power cut loses at
@@ -42,7 +43,6 @@ from core.trial import TrialParameters
 from device.errors import RecordingError
 from device.recording.record import CHANNELS, Channel
 from device.recording.trialfile.layout import (
-    CHUNK_CACHE_BYTES,
     CHUNK_ROWS,
     EVENT_CHUNK_ROWS,
     EVENT_DTYPE,
@@ -70,6 +70,7 @@ from device.recording.trialfile.layout import (
     software_version,
     utc_now_iso,
 )
+from device.recording.trialfile.making import make_file, making_name, publish
 from device.recording.trialfile.reserve import CLOSE_BYTES, RESERVE_BYTES, HeldSpace, SpaceShort
 from device.recording.trialfile.summary import computed_summary
 
@@ -113,6 +114,7 @@ class TrialFileWriter:
         self._closed = False
         self._failed: str | None = None
         self._file: h5py.File | None = None
+        self._making: Path | None = making_name(self._path)
         self._last_flush = time.monotonic()
         self._reserve_bytes = (RESERVE_BYTES if live else 0) if reserve_bytes is None \
             else int(reserve_bytes)
@@ -179,12 +181,14 @@ class TrialFileWriter:
             self._flush()
             # after the header: starting SWMR gives back blocks past the file's end
             self._hold_reserve()
+            self._publish()
         except (RecordingError, OSError, RuntimeError, ValueError) as exc:
             self._abandon()
             self._release()
             # The file is ours and unusable without its header.
             with contextlib.suppress(OSError):
-                self._path.unlink(missing_ok=True)
+                if self._making is not None:
+                    os.unlink(self._making)
             if isinstance(exc, RecordingError):
                 raise
             raise _disk_error(self._path, "write the header of", exc) from exc
@@ -394,29 +398,14 @@ class TrialFileWriter:
     # -- internals -----------------------------------------------------------
 
     def _open_new(self) -> None:
-        parent = self._path.parent
-        if not parent.is_dir():
-            raise RecordingError(
-                f"cannot create trial file {self._path}: the folder {parent} does not exist. "
-                "Check the data directory setting or create the folder."
-            )
-        free = _free_bytes(parent)
+        free = _free_bytes(self._path.parent)
         if free is not None and free < self._min_free_bytes:
             raise SpaceShort(f"cannot create trial file {self._path}: {self._space_problem(free)}")
-        if self._path.exists():
-            raise RecordingError(
-                f"cannot create trial file {self._path}: a file of that name exists, and trial "
-                "files are never overwritten. Choose another name or move the old file."
-            )
-        try:
-            # "w-" fails if the file appeared since the check above.
-            # A small chunk cache: HDF5's default (1 MiB a dataset) holds the last MiB of
-            # every channel, 30+ MiB that a writer appending in order never reads back.
-            self._file = h5py.File(self._path, "w-", libver=LIBVER, rdcc_nbytes=CHUNK_CACHE_BYTES)
-            # a trial holds a patient's data: readable by its user only, whatever the umask
-            os.chmod(self._path, 0o600)
-        except (OSError, RuntimeError) as exc:
-            raise _disk_error(self._path, "create", exc) from exc
+        self._file = make_file(self._path, self._making)
+
+    def _publish(self) -> None:
+        publish(self._making, self._path)
+        self._making = None
 
     def _space_problem(self, free: int) -> str:
         return (
@@ -453,7 +442,7 @@ class TrialFileWriter:
         refuses the trial file before a sample is due."""
         if not self._reserve_bytes:
             return
-        self._space = HeldSpace(self._path, self._reserve_bytes)
+        self._space = HeldSpace(self._making, self._reserve_bytes)
         problem = self._space.top_up()
         if problem:
             raise SpaceShort(f"cannot create trial file {self._path}: {problem}. Free space "
