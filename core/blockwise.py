@@ -44,6 +44,7 @@ from core.metrics import (
     _cross,
     assemble,
     force_within,
+    helped_samples,
     work_shares,
     work_terms,
 )
@@ -163,7 +164,7 @@ def _figures(read, n, given, trial, dt_s, speed_file, tolerance_rad, min_force_N
                 smooth_low, smooth_high = _low_high(torque.values(a, b), smooth_low,
                                                     smooth_high)
         if has("help_torque_Nm"):
-            helped += int(np.sum(np.any(np.abs(read("help_torque_Nm", a, b)) > 1e-9, axis=1)))
+            helped += int(np.sum(helped_samples(read("help_torque_Nm", a, b))))
         speed = np.hypot(*position.rate(a, b).T)
         speed.tofile(speed_file)
         path_length += float(np.trapezoid(with_last("s", speed), with_last("t", t)))

@@ -192,6 +192,19 @@ class MechanicalWork:
     robot_share: float
 
 
+HELP_TORQUE_ZERO_NM = 1e-9
+"""A help torque at or under this is none: the as-needed robot added nothing along the path
+(the difference of two torques it computed, zero but for rounding when it did not help)."""
+
+
+def helped_samples(help_torque_Nm) -> np.ndarray:
+    """Per sample, whether the as-needed robot helped along the path: any joint's help
+    torque (N, 2; core.control.guidance) beyond HELP_TORQUE_ZERO_NM. `led_pct` is the
+    share of samples without."""
+    return np.any(np.abs(np.asarray(help_torque_Nm, dtype=float)) > HELP_TORQUE_ZERO_NM,
+                  axis=1)
+
+
 def mechanical_work(torque_Nm, angle_rad, force_N, position_m) -> MechanicalWork:
     """The robot's and the patient's work from a trial's samples: torques (N, 2) held
     from each sample to the next (the drives' zero-order hold) times the joints' change
@@ -434,9 +447,8 @@ def compute_metrics(
 
     led = nan
     if help_torque_Nm is not None:
-        helped = np.any(np.abs(as_series("help_torque_Nm", help_torque_Nm, n, 2)) > 1e-9,
-                        axis=1)
-        led = 100.0 * (1.0 - float(np.mean(helped)))
+        led = 100.0 * (1.0 - float(np.mean(
+            helped_samples(as_series("help_torque_Nm", help_torque_Nm, n, 2)))))
 
     per_reach: tuple[ReachMetrics, ...] = ()
     if reaches:

@@ -226,7 +226,6 @@ class MainWindow(TrialActions, TrialEmg, FaultLatch, MessageLine, RememberedSett
     def _on_flip(self, flip_x: bool, flip_y: bool) -> None:
         self.settings = self.settings.replace(flip_x=flip_x, flip_y=flip_y)
         self.parameters_tab.set_flip(flip_x, flip_y)
-        self.report.set_flip(flip_x, flip_y)
 
     def _on_replay(self, view: TrialView) -> None:
         self.shown_view = view

@@ -70,7 +70,8 @@ def add_report_command(commands) -> None:
     parser = commands.add_parser(
         "report", help="write a trial's post-trial report (PDF)",
         description="Write the post-trial report of a registered trial: the patient's page "
-                    "in plain words and the therapist's figures.")
+                    "in plain words (the path drawn as seen from the patient's seat) and the "
+                    "therapist's figures.")
     parser.add_argument("trial_id", type=record_id,
                         help="the trial's id (see `rehab trials CODE`)")
     parser.add_argument("--output", help="PDF to write (default: the data folder's reports/); "
@@ -78,8 +79,6 @@ def add_report_command(commands) -> None:
     parser.add_argument("--force", action="store_true",
                         help="replace the --output file if it exists (never one of the "
                              "console's own files)")
-    parser.add_argument("--flip", action="store_true",
-                        help="draw the path as seen from the patient's chair (thesis Fig. 3.7)")
     parser.add_argument("--first-name", action="store_true",
                         help="greet the patient by first name in the report")
     parser.set_defaults(func=cmd_report)
@@ -91,7 +90,7 @@ def cmd_report(args: argparse.Namespace) -> int:
     registry = registry_for(args)
     output = _checked_output(registry, args.output, args.force) if args.output else None
     path = report_for_registry_trial(registry, args.trial_id, output,
-                                     include_first_name=args.first_name, flip_axes=args.flip)
+                                     include_first_name=args.first_name)
     print(path)
     return 0
 

@@ -26,12 +26,15 @@ here); nothing looks a name up by default, and the last name never appears.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from pathlib import Path
 
+from app.errors import AppError
 from app.records.datadir import REPORTS
+from app.records.registry import Trial
 from app.records.store import RecordStore
-from app.reports.compare import Baseline, Comparison, TableRow
+from app.reports.compare import Baseline, Comparison, TableRow, as_baseline
 from app.reports.content import HeaderItem, ReportContent, build_report
 from app.reports.figures import (
     AnglesFigure,
@@ -41,6 +44,7 @@ from app.reports.figures import (
     TorquesFigure,
     merge_short_runs,
 )
+from app.trials.assistance_timeline import CHANNELS_NEEDED
 from app.trials.reader import read_trial
 
 __all__ = [
@@ -67,7 +71,6 @@ def content_for_registry_trial(
     trial_id: int,
     *,
     include_first_name: bool = False,
-    flip_axes: bool = False,
 ) -> ReportContent:
     """The report of a registered trial: its file read, compared with the patient's
     previous complete trial and the last complete trial of their previous session
@@ -81,14 +84,12 @@ def content_for_registry_trial(
     first_name = None
     if include_first_name:
         first_name = registry.patient(record.patient_code).first_name
+    last_trial, last_session = earlier_like(registry, record)
     return build_report(
         data,
-        # like with like: the latest earlier trial of the same shape (content says which)
-        previous_trial=registry.previous_trial(trial_id, same_shape=True),
-        previous_session=registry.previous_trial(trial_id, earlier_session=True,
-                                                 same_shape=True),
+        previous_trial=registry_baseline(registry, last_trial),
+        previous_session=registry_baseline(registry, last_session),
         first_name=first_name,
-        flip_axes=flip_axes,
         patient_code=record.patient_code,
         session_number=record.session_number,
         trial_number=record.number,
@@ -100,20 +101,58 @@ def content_for_registry_trial(
     )
 
 
+def earlier_like(registry: RecordStore, record: Trial) -> tuple[Trial | None, Trial | None]:
+    """Like with like: the patient's latest complete trial before this one of the same
+    shape in the same assistance mode, and the latest such trial of an earlier session
+    (content says which shape; the comparison says when the rest of the settings
+    differ). A trial of the other mode is another exercise: its success figure is
+    another one (app.reports.plain_language.SUCCESS_KEYS)."""
+    order = (record.session_number, record.number)
+
+    def like(other: Trial) -> bool:
+        return (other.status == "complete"
+                and (other.session_number, other.number) < order
+                and other.parameters.get("shape") == record.parameters.get("shape")
+                and _mode(other) == _mode(record))
+
+    earlier = sorted((t for t in registry.trials_for_patient(record.patient_code) if like(t)),
+                     key=lambda t: (t.session_number, t.number))
+    last_trial = earlier[-1] if earlier else None
+    sessions = [t for t in earlier if t.session_number < record.session_number]
+    return last_trial, sessions[-1] if sessions else None
+
+
+def _mode(trial: Trial) -> str:
+    return trial.parameters.get("assist", "thesis")
+
+
+def registry_baseline(registry: RecordStore, trial: Trial | None) -> Baseline | None:
+    """An earlier registered trial to compare with: its figures and settings from the
+    registry, and the assistance levels it ran at from its file (None, so that it is not
+    compared, when the file cannot be read: the level it was built with is not what it
+    ran)."""
+    if trial is None:
+        return None
+    baseline = as_baseline(trial)
+    try:
+        data = read_trial(registry.trial_path(trial), channels=CHANNELS_NEEDED)
+    except AppError:
+        return baseline
+    return dataclasses.replace(baseline, levels=data.assistance_in_effect())
+
+
 def report_for_registry_trial(
     registry: RecordStore,
     trial_id: int,
     path: str | os.PathLike | None = None,
     *,
     include_first_name: bool = False,
-    flip_axes: bool = False,
 ) -> Path:
     """Write a registered trial's report and return its path: by default the data
     folder's reports/<code>/<code>_S…_T…_<time>.pdf (DataDir.report_path), replacing
     an earlier report of the same trial."""
     content = content_for_registry_trial(registry, trial_id,
-                                         include_first_name=include_first_name,
-                                         flip_axes=flip_axes)
+                                         include_first_name=include_first_name)
     if path is None:
         record = registry.trial(trial_id)
         registry.data_dir.ensure(REPORTS, record.patient_code)

@@ -1,5 +1,13 @@
-"""A trial against an earlier one: which figures went which way, and whether the
-exercise itself changed so that the comparison needs a caution.
+"""A trial against an earlier one: which figures went which way, and whether the two
+compare at all.
+
+Two trials compare only when both ran the whole exercise at the same settings: a trial
+cut short (stopped, faulted, e-stopped) covers only part of the exercise, and another
+size, pace, tolerance, mode or help from the robot (the levels the trials ran at,
+app.trials.assistance_timeline, not the ones they were built with) changes what the
+figures mean.
+Otherwise the numbers are shown side by side with the reason, and no verdict: neither
+page of the report, nor the window, calls such a change better or worse (issue 27).
 
 Better or worse depends on the figure: a smaller position error is better, a
 higher directional performance is better; for ranges of motion, forces and
@@ -25,13 +33,15 @@ from app.records.registry import Trial
 from app.reports.metrics_table import ROWS, MetricRow
 from app.reports.plain_language import (
     change_sentence,
-    distance_mm_shown,
-    distance_text,
+    help_caution,
     parameter_cautions,
     position_error_m,
+    success_key,
     whole,
 )
+from app.trials.assistance_timeline import AssistanceInEffect
 from app.trials.reader import TrialData
+from app.units import MM_PER_M
 from core.trial import TrialParameters
 
 
@@ -52,6 +62,8 @@ GOALS: dict[str, Goal] = {
     "ldlj": Goal.HIGHER,
     "reaction_time_s": Goal.LOWER,
     "initial_direction_error_rad": Goal.LOWER,
+    "led_pct": Goal.HIGHER,
+    "rmse": Goal.LOWER,
 }
 """Which way is better for a figure (TrialMetrics names); any other figure has no
 better or worse, only more or less."""
@@ -69,6 +81,8 @@ class Baseline:
     session_number: int | None = None
     trial_number: int | None = None
     date: datetime.date | None = None
+    levels: AssistanceInEffect | None = None
+    """The assistance levels the earlier trial ran at; None when not known."""
 
     def describe(self) -> str:
         """'session 2, trial 3, 1 May 2024', from what is known."""
@@ -100,7 +114,8 @@ def as_baseline(source: BaselineSource | None) -> Baseline | None:
                         source.number, source.session_date)
     if isinstance(source, TrialData):
         parameters = source.parameters.to_dict() if source.parameters is not None else None
-        return Baseline(dict(source.metrics), parameters, date=_file_date(source))
+        return Baseline(dict(source.metrics), parameters, date=_file_date(source),
+                        levels=source.assistance_in_effect())
     if isinstance(source, Mapping):
         return Baseline({k: float(v) for k, v in source.items()})
     raise TypeError(
@@ -129,8 +144,9 @@ def _file_date(trial: TrialData) -> datetime.date | None:
 
 @dataclass(frozen=True, slots=True)
 class Change:
-    """One figure before and after. verdict: better, worse, same, more or less;
-    arrow: which way the number went (↑, ↓, =)."""
+    """One figure before and after. verdict: better, worse, same, more or less, or ''
+    when the trials do not compare (Comparison.comparable); arrow: which way the number
+    went (↑, ↓, =), '' likewise."""
 
     key: str
     name: str
@@ -145,14 +161,20 @@ class Change:
 
 @dataclass(frozen=True, slots=True)
 class Comparison:
-    """The change since one earlier trial: `title` names it, `changes` are the
-    patient's lines, `cautions` say which settings of the exercise differed."""
+    """The change since one earlier trial: `title` names it, `changes` are the patient's
+    figures, `cautions` say why the two trials do not compare (this one cut short, a
+    setting or the robot's help differed); none when they do."""
 
     kind: str  # "previous D trial", "previous session's D trial", or both joined by " and "
     title: str
     baseline: Baseline
     changes: tuple[Change, ...]
     cautions: tuple[str, ...]
+    label: str = ""  # a column's heading: "Last trial", "Last session"
+
+    @property
+    def comparable(self) -> bool:
+        return not self.cautions
 
 
 @dataclass(frozen=True, slots=True)
@@ -169,25 +191,28 @@ def _metric(key: str) -> Callable[[Mapping[str, float]], float]:
     return lambda metrics: float(metrics.get(key, math.nan))
 
 
-def _position(metrics: Mapping[str, float]) -> float:
-    return position_error_m(float(metrics.get("rmse_x_m", math.nan)),
-                            float(metrics.get("rmse_y_m", math.nan)))
+def _percent(key: str, name: str) -> _PatientFigure:
+    return _PatientFigure(key, name, GOALS[key], _metric(key), lambda v: float(round(v)),
+                          lambda v: f"{whole(v)} %")
 
 
-_PATIENT_FIGURES = (
-    _PatientFigure("directional_performance_pct", "Push in the right direction", Goal.HIGHER,
-                   _metric("directional_performance_pct"), lambda v: float(round(v)),
-                   lambda v: f"{whole(v)} %"),
-    _PatientFigure("rmse", "Distance from the path", Goal.LOWER, _position,
-                   lambda v: float(distance_mm_shown(v)),
-                   distance_text),
-    _PatientFigure("shoulder_rom_rad", "Shoulder movement", Goal.NONE,
-                   _metric("shoulder_rom_rad"), lambda v: float(round(math.degrees(v))),
-                   lambda v: f"{whole(math.degrees(v))}°"),
-    _PatientFigure("elbow_rom_rad", "Elbow movement", Goal.NONE, _metric("elbow_rom_rad"),
-                   lambda v: float(round(math.degrees(v))),
-                   lambda v: f"{whole(math.degrees(v))}°"),
-)
+def _degrees(key: str, name: str) -> _PatientFigure:
+    return _PatientFigure(key, name, Goal.NONE, _metric(key),
+                          lambda v: float(round(math.degrees(v))),
+                          lambda v: f"{whole(math.degrees(v))}°")
+
+
+_JOINTS = (_degrees("shoulder_rom_rad", "Shoulder movement"),
+           _degrees("elbow_rom_rad", "Elbow movement"))
+PATIENT_FIGURES = {
+    "as-needed": (_percent("led_pct", "Led the movement"), *_JOINTS),
+    "thesis": (_percent("directional_performance_pct", "Pushed in the right direction"),
+               *_JOINTS),
+}
+"""The figures the patient's page compares, per assistance mode: the mode's own success
+figure first (plain_language.SUCCESS_KEYS), then the joints' movement. The distance
+from the path is not among them: the robot keeps the hand on the path in both modes, so
+its change is mostly the robot's (plain_language.position_line)."""
 
 
 def verdict(goal: Goal, before: float, after: float) -> str:
@@ -208,42 +233,59 @@ def arrow(before: float, after: float) -> str:
     return SAME if after == before else (UP if after > before else DOWN)
 
 
-def patient_changes(before: Mapping[str, float], after: Mapping[str, float],
-                    ) -> tuple[Change, ...]:
-    """The patient's figures that both trials have, compared as the patient reads them."""
+def patient_changes(before: Mapping[str, float], after: Mapping[str, float], *,
+                    mode: str = "thesis", comparable: bool = True) -> tuple[Change, ...]:
+    """The patient's figures that both trials have, compared as the patient reads them;
+    without a verdict or an arrow when the trials do not compare."""
     changes = []
-    for figure in _PATIENT_FIGURES:
+    for figure in PATIENT_FIGURES.get(mode, PATIENT_FIGURES["thesis"]):
         a, b = figure.value(before), figure.value(after)
         if not (math.isfinite(a) and math.isfinite(b)):
             continue
         shown_a, shown_b = figure.shown(a), figure.shown(b)
-        word = verdict(figure.goal, shown_a, shown_b)
         text_a, text_b = figure.text(a), figure.text(b)
-        changes.append(Change(figure.key, figure.name, a, b, text_a, text_b, word,
-                              arrow(shown_a, shown_b),
-                              change_sentence(figure.name, text_a, text_b, word)))
+        if comparable:
+            word = verdict(figure.goal, shown_a, shown_b)
+            changes.append(Change(figure.key, figure.name, a, b, text_a, text_b, word,
+                                  arrow(shown_a, shown_b),
+                                  change_sentence(figure.name, text_a, text_b, word)))
+        else:
+            changes.append(Change(figure.key, figure.name, a, b, text_a, text_b, "", "",
+                                  f"{figure.name}: {text_a} then, {text_b} now"))
     return tuple(changes)
 
 
 PARTIAL_CAUTION = ("This trial did not run to its end, so its figures cover only part of "
-                   "the exercise and compare poorly with a whole trial.")
-UNKNOWN_SETTINGS_CAUTION = ("The settings of the earlier trial are not known, so a change of "
-                            "exercise cannot be ruled out.")
+                   "the exercise and do not compare with a whole trial.")
+UNKNOWN_SETTINGS_CAUTION = ("The settings of the earlier trial are not known, so its figures "
+                            "are not compared.")
+UNKNOWN_HELP_CAUTION = ("The robot's help in the earlier trial is not known, so its figures "
+                        "are not compared.")
 
 
 def compare(kind: str, baseline: Baseline, metrics: Mapping[str, float],
-            parameters: TrialParameters | None, *, partial: bool = False) -> Comparison:
-    """This trial (its metrics and parameters) against `baseline`; `partial`: this
-    trial did not run to its end."""
+            parameters: TrialParameters | None, *, partial: bool = False,
+            levels: AssistanceInEffect | None = None, label: str = "") -> Comparison:
+    """This trial (its metrics, parameters and the levels it ran at) against `baseline`;
+    `partial`: this trial did not run to its end. Any caution means the two do not
+    compare (module notes)."""
     described = baseline.describe()
     title = f"Since your {kind}" + (f" ({described})" if described else "")
     cautions: tuple[str, ...] = (PARTIAL_CAUTION,) if partial else ()
     if baseline.parameters is not None and parameters is not None:
         cautions += parameter_cautions(baseline.parameters, parameters.to_dict())
+        if levels is not None:
+            if baseline.levels is None:
+                cautions += (UNKNOWN_HELP_CAUTION,)
+            else:
+                cautions += tuple(c for c in (help_caution(baseline.levels, levels),) if c)
     elif baseline.parameters is None:
         cautions += (UNKNOWN_SETTINGS_CAUTION,)
-    return Comparison(kind, title, baseline, patient_changes(baseline.metrics, metrics),
-                      cautions)
+    mode = parameters.assist if parameters is not None else "thesis"
+    return Comparison(kind, title, baseline,
+                      patient_changes(baseline.metrics, metrics, mode=mode,
+                                      comparable=not cautions),
+                      cautions, label or kind[0].upper() + kind[1:])
 
 
 # -- the therapist's table ----------------------------------------------------------------
@@ -290,18 +332,50 @@ def _resolved(row: MetricRow, value: float) -> float:
     return max(shown, 1.0) if row.unit == "mm" else shown
 
 
-def table_rows(metrics: Mapping[str, float], baselines: tuple[Baseline, ...],
-               ) -> tuple[TableRow, ...]:
-    """Every row of app.reports.metrics_table.ROWS this trial has a value for."""
-    rows = []
+POSITION_ROW = MetricRow("rmse", "Position error, x and y together (RMSE)", "mm", MM_PER_M,
+                         "the patient's page's distance from the path", short="RMSE")
+"""The patient's distance from the path (plain_language.position_error_m) as a row of the
+therapist's table, so the two pages speak of the same number."""
+
+
+def _with_position(metrics: Mapping[str, float]) -> dict[str, float]:
+    values = dict(metrics)
+    values["rmse"] = position_error_m(float(metrics.get("rmse_x_m", math.nan)),
+                                      float(metrics.get("rmse_y_m", math.nan)))
+    return values
+
+
+def table_order(mode: str) -> tuple[MetricRow, ...]:
+    """The therapist's rows: the mode's success figure first (plain_language.SUCCESS_KEYS),
+    then app.reports.metrics_table.ROWS with the combined position error after y's."""
+    first = success_key(mode)
+    rows: list[MetricRow] = [row for row in ROWS if row.key == first]
     for row in ROWS:
+        if row.key != first:
+            rows.append(row)
+        if row.key == "rmse_y_m":
+            rows.append(POSITION_ROW)
+    return tuple(rows)
+
+
+def table_rows(metrics: Mapping[str, float], baselines: tuple[Baseline, ...], *,
+               mode: str = "thesis", comparable: tuple[bool, ...] | None = None,
+               ) -> tuple[TableRow, ...]:
+    """Every row of `table_order(mode)` this trial has a value for, each earlier trial's
+    value beside it, with the change only where the trials compare (`comparable`, one
+    flag per baseline; all by default): the same rule as the patient's page."""
+    comparable = comparable if comparable is not None else (True,) * len(baselines)
+    metrics = _with_position(metrics)
+    earlier_metrics = [_with_position(b.metrics) for b in baselines]
+    rows = []
+    for row in table_order(mode):
         value = float(metrics.get(row.key, math.nan)) * row.scale
         if not math.isfinite(value):
             continue
         texts, verdicts = [], []
         goal = GOALS.get(row.key, Goal.NONE)
-        for baseline in baselines:
-            earlier = float(baseline.metrics.get(row.key, math.nan)) * row.scale
+        for before, compared in zip(earlier_metrics, comparable, strict=True):
+            earlier = float(before.get(row.key, math.nan)) * row.scale
             if not math.isfinite(earlier):
                 texts.append("–")
                 verdicts.append("")
@@ -309,6 +383,10 @@ def table_rows(metrics: Mapping[str, float], baselines: tuple[Baseline, ...],
             # Compared at the patient's resolution where the patient reads the figure's
             # unit (whole mm, %, degrees), else at the table's: the table never says
             # "worse" where the patient's page says "the same".
+            if not compared:
+                texts.append(f"was {number_text(earlier)}")
+                verdicts.append("")
+                continue
             a, b = _resolved(row, earlier), _resolved(row, value)
             word = verdict(goal, a, b)
             # the cell reads as the change *to* this trial, not as a verdict on the earlier

@@ -45,20 +45,33 @@ from app.reports.figures import (
 from app.reports.plain_language import (
     SHAPE_NAMES,
     PlainLine,
+    help_text,
     plain_lines,
+    seconds_text,
     status_sentence,
 )
 from app.trials.analysis import analyse, exercise_mask
+from app.trials.assistance_timeline import AssistanceInEffect
 from app.trials.reader import TrialData
 from app.units import CM_PER_M, assistance_percent, point_cm
 from core.errors import CoreError
 from core.metrics import TrialMetrics
 from core.trial import TrialParameters
 from device.recording.trialfile import STATUS_RECORDING
+from device.safety.faults import Fault
+
+ESTOP_CAUSE = Fault.ESTOP.banner().split(" — ")[0]
 
 MIN_EXERCISE_SAMPLES = 64  # app.trials.analysis refuses fewer
 _NUMBERS_IN_NAME = re.compile(r"_S(\d{3,})_T(\d{3,})_")
 
+PATIENT_STATUS_WORDS = {
+    "complete": "at its end",
+    "stopped_early": "stopped early",
+    "faulted": "stopped by the robot",
+    "recording_lost": "recording lost",
+    STATUS_RECORDING: "recording not finished",
+}
 STATUS_WORDS = {
     "complete": "complete",
     "stopped_early": "stopped early (by the therapist or the stop button)",
@@ -92,9 +105,16 @@ class ReportContent:
     started_at: datetime.datetime | None
     status: str
     header: tuple[HeaderItem, ...]
+    """The patient's header: the trial, the exercise, the robot's help, how it ended, in
+    plain words (no coordinates, seeds, instructions or file names)."""
+    therapist_header: tuple[HeaderItem, ...]
+    """The therapist's: every setting with the positions, the robot (a simulator's seed),
+    how the trial ended, each fault with what to do, the file."""
     status_text: str  # for the patient; '' when the trial is complete
     faults: tuple[str, ...]
     simulated: bool
+    mode: str  # the assistance mode (core.trial.ASSIST_MODES)
+    levels: AssistanceInEffect  # the levels it ran at (app.trials.assistance_timeline)
     plain: tuple[PlainLine, ...]
     comparisons: tuple[Comparison, ...]
     table: tuple[TableRow, ...]
@@ -122,7 +142,6 @@ def build_report(
     previous_trial: BaselineSource | None = None,
     previous_session: BaselineSource | None = None,
     first_name: str | None = None,
-    flip_axes: bool = False,
     patient_code: str | None = None,
     session_number: int | None = None,
     trial_number: int | None = None,
@@ -176,10 +195,11 @@ def build_report(
     values = metrics.to_dict() if metrics is not None else {}
     figures = Figures()
     if metrics is not None:
-        figures = report_figures(trial, parameters, mask, exercise_start, metrics, flip_axes)
+        figures = report_figures(trial, parameters, mask, exercise_start, metrics)
         notes += figures.notes
+    levels = trial.assistance_in_effect()
     comparisons = _comparisons(previous_trial, previous_session, values, parameters,
-                               partial=status != "complete")
+                               partial=status != "complete", levels=levels)
     if figures.pose is not None:
         notes += list(figures.pose.lines)  # read once, with the figure
     elif trial.path.is_file():
@@ -197,10 +217,12 @@ def build_report(
     if started_at is not None and started_at.tzinfo is not None:
         started_at = started_at.astimezone()  # the clinic's clock, not UTC
     code = patient_code or (trial.subject.code if trial.subject is not None else "unknown")
-    faults = tuple(f"{e['time_s']:.2f} s: {e['message']}" for e in trial.events
-                   if e.get("kind") == "fault")
+    fault_events = [e for e in trial.events if e.get("kind") == "fault"]
+    faults = tuple(f"{e['time_s']:.2f} s: {e['message']}" for e in fault_events)
     if end_reason and not any(fault.endswith(end_reason) for fault in faults):
         faults += (end_reason,)
+    emergency_stop = any((e.get("values") or {}).get("fault") == Fault.ESTOP.label
+                         for e in fault_events) or end_reason.startswith(ESTOP_CAUSE)
     exercised_s = n_exercise * trial.sample_period_s
     planned_s = parameters.duration_s * parameters.repetitions
     simulated = trial.backend.startswith("simulator")
@@ -215,13 +237,21 @@ def build_report(
         started_at=started_at,
         status=status,
         header=_header(code, first_name, session_number, trial_number, started_at,
-                       parameters, status, faults, trial.backend, exercised_s, planned_s),
-        status_text=status_sentence(status, exercised_s, planned_s),
+                       parameters, levels, status, emergency_stop, exercised_s, planned_s),
+        therapist_header=_therapist_header(parameters, levels, status, faults, trial.backend,
+                                           exercised_s, planned_s, trial.path),
+        status_text=status_sentence(status, exercised_s, planned_s,
+                                    emergency_stop=emergency_stop),
         faults=faults,
         simulated=simulated,
-        plain=plain_lines(values, peak_force_N=figures.peak_force_N) if values else (),
+        mode=parameters.assist,
+        levels=levels,
+        plain=plain_lines(values, mode=parameters.assist,
+                          peak_force_N=figures.peak_force_N) if values else (),
         comparisons=comparisons,
-        table=table_rows(values, tuple(c.baseline for c in comparisons)) if values else (),
+        table=table_rows(values, tuple(c.baseline for c in comparisons),
+                         mode=parameters.assist,
+                         comparable=tuple(c.comparable for c in comparisons)) if values else (),
         table_columns=tuple(_column_title(c) for c in comparisons),
         path=figures.path,
         force=figures.force,
@@ -243,21 +273,23 @@ def build_report(
 
 def _comparisons(previous_trial: BaselineSource | None, previous_session: BaselineSource | None,
                  values: dict[str, float], parameters: TrialParameters, *,
-                 partial: bool) -> tuple[Comparison, ...]:
-    baselines: list[tuple[str, Baseline]] = []
+                 partial: bool, levels: AssistanceInEffect) -> tuple[Comparison, ...]:
+    baselines: list[tuple[str, str, Baseline]] = []
     # the earlier trials are of the same shape (app.reports.build): say so
     shape = SHAPE_NAMES.get(parameters.shape, parameters.shape)
-    for kind, source in ((f"previous {shape} trial", previous_trial),
-                         (f"previous session's {shape} trial", previous_session)):
+    for kind, label, source in ((f"previous {shape} trial", "Last trial", previous_trial),
+                                (f"previous session's {shape} trial", "Last session",
+                                 previous_session)):
         baseline = as_baseline(source)
         if baseline is not None:
-            baselines.append((kind, baseline))
-    if len(baselines) == 2 and baselines[0][1].same_trial(baselines[1][1]):
+            baselines.append((kind, label, baseline))
+    if len(baselines) == 2 and baselines[0][2].same_trial(baselines[1][2]):
         # Trial 1 of a session: its previous trial is the last of the previous session.
         baselines = [(f"previous {shape} trial, the last of your previous session",
-                      baselines[0][1])]
-    return tuple(compare(kind, baseline, values, parameters, partial=partial)
-                 for kind, baseline in baselines)
+                      "Last trial (last session)", baselines[0][2])]
+    return tuple(compare(kind, baseline, values, parameters, partial=partial, levels=levels,
+                         label=label)
+                 for kind, label, baseline in baselines)
 
 
 def _exercise_text(p: TrialParameters) -> str:
@@ -278,46 +310,74 @@ def _exercise_text(p: TrialParameters) -> str:
 CONTROLLER_WORDS = {"smc": "SMC", "ctpid": "CT-PID"}
 
 
-def _settings_text(p: TrialParameters) -> str:
+MODE_WORDS = {"as-needed": "as-needed", "thesis": "thesis-mode"}
+
+
+def _settings_text(p: TrialParameters, levels: AssistanceInEffect) -> str:
     # positions in the form's unit (app.units): the therapist compares them with it
     controller = learned_label(p.learned_model) if p.learned_model else \
         CONTROLLER_WORDS.get(p.controller, p.controller)
-    return (f"{controller} controller, assistance level "
-            f"{assistance_percent(p.assistance_level)}, direction tolerance "
-            f"±{math.degrees(p.tolerance_rad):.0f}°; centre {point_cm(p.centre_m)}, shoulder "
-            f"{point_cm(p.shoulder_m)}, {p.side} arm")
+    return (f"{controller} controller, {MODE_WORDS.get(p.assist, p.assist)} assistance "
+            f"at {levels.summary()} (built at {assistance_percent(p.assistance_level)}), "
+            f"direction tolerance ±{math.degrees(p.tolerance_rad):.0f}°; centre "
+            f"{point_cm(p.centre_m)}, shoulder {point_cm(p.shoulder_m)}, {p.side} arm")
 
 
-def _header(code: str, first_name: str | None, session: int | None, number: int | None,
-            started_at: datetime.datetime | None, p: TrialParameters, status: str,
-            faults: tuple[str, ...], backend: str, exercised_s: float,
-            planned_s: float) -> tuple[HeaderItem, ...]:
-    who = f"{code} ({first_name})" if first_name else code
-    trial_words = ", ".join(part for part in (
+def _trial_words(session: int | None, number: int | None,
+                 started_at: datetime.datetime | None) -> str:
+    return ", ".join(part for part in (
         f"session {session}" if session is not None else "",
         f"trial {number}" if number is not None else "",
         (f"{date_text(started_at.date())}, {started_at:%H:%M}"
          if started_at is not None else ""),
-    ) if part)
+    ) if part) or "–"
+
+
+def _header(code: str, first_name: str | None, session: int | None, number: int | None,
+            started_at: datetime.datetime | None, p: TrialParameters, levels: AssistanceInEffect,
+            status: str, emergency_stop: bool, exercised_s: float,
+            planned_s: float) -> tuple[HeaderItem, ...]:
+    """The patient's header (ReportContent.header)."""
+    who = f"{code} ({first_name})" if first_name else code
+    ended = "stopped with the emergency stop" if emergency_stop else \
+        PATIENT_STATUS_WORDS.get(status, status)
+    if status != "complete":
+        ended += f" after {seconds_text(exercised_s)} of {seconds_text(planned_s)} s"
+    return (
+        HeaderItem("Patient", who),
+        HeaderItem("Trial", _trial_words(session, number, started_at)),
+        HeaderItem("Exercise", _exercise_text(p)),
+        HeaderItem("Robot's help", help_text(p.assist, levels)),
+        HeaderItem("Ended", ended),
+    )
+
+
+def _therapist_header(p: TrialParameters, levels: AssistanceInEffect, status: str,
+                      faults: tuple[str, ...], backend: str, exercised_s: float,
+                      planned_s: float, source: Path) -> tuple[HeaderItem, ...]:
+    """The therapist's header (ReportContent.therapist_header)."""
     status_words = STATUS_WORDS.get(status, status)
     if status != "complete":
         status_words += f" — {exercised_s:.1f} s of {planned_s:g} s of exercise recorded"
     items = [
-        HeaderItem("Patient", who),
-        HeaderItem("Trial", trial_words or "–"),
-        HeaderItem("Exercise", _exercise_text(p)),
-        HeaderItem("Settings", _settings_text(p)),
+        HeaderItem("Settings", _settings_text(p, levels)),
         HeaderItem("Robot", backend or "–"),
         HeaderItem("Status", status_words),
     ]
     items += [HeaderItem("Fault", fault) for fault in faults]
+    items.append(HeaderItem("File", source.name))
     return tuple(items)
 
 
 def _column_title(comparison: Comparison) -> str:
-    described = comparison.baseline.describe()
+    """'Previous D shape trial (session 2, trial 1, 9 May 2024)', with '; not compared'
+    when the trials do not compare (the patient's page says the same, and why)."""
+    details = [comparison.baseline.describe()]
+    if not comparison.comparable:
+        details.append("not compared")
+    detail = "; ".join(d for d in details if d)
     title = comparison.kind[0].upper() + comparison.kind[1:]
-    return f"{title} ({described})" if described else title
+    return f"{title} ({detail})" if detail else title
 
 
 def _file_time(trial: TrialData) -> datetime.datetime | None:

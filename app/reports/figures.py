@@ -23,6 +23,7 @@ import numpy as np
 from app.errors import AppError
 from app.reports.compare import metric_text
 from app.reports.metrics_table import ROWS
+from app.trials.analysis import help_torque
 from app.trials.reader import TrialData
 from core.errors import CoreError
 from core.metrics import (
@@ -31,6 +32,7 @@ from core.metrics import (
     DEFAULT_TORQUE_CUTOFF_HZ,
     TrialMetrics,
     directional_performance,
+    helped_samples,
 )
 from core.signal import lowpass
 from core.trial import TrialParameters
@@ -53,16 +55,20 @@ class Run:
 
 @dataclass(frozen=True, slots=True, eq=False)
 class PathFigure:
-    """Fig. 3.7: the hand's path against the target, in the global frame (m).
-    flip_axes: draw both axes reversed, as the thesis shows them — the view from
-    the patient's chair (docs/frames.md: the patient sits on +y facing −y)."""
+    """Fig. 3.7: the hand's path against the target, in the global frame (m), for the
+    patient's page, which draws it as the patient sees it (docs/frames.md: the patient
+    sits on +y facing −y, so both axes reversed, as the thesis's Fig. 3.7 shows it).
+
+    runs: the stretches of the hand's path in the mode's own terms, `run_labels` saying
+    what a run `within` and one outside mean: in the thesis mode the push within the
+    tolerance of the path's direction (Fig. 3.9's runs); in the as-needed mode where the
+    patient led and where the robot helped along the path (core.metrics.led_pct)."""
 
     position_m: np.ndarray
     desired_m: np.ndarray
     outline_m: np.ndarray  # the whole exercise's path, also where the trial did not reach
     runs: tuple[Run, ...]
-    flip_axes: bool
-    caption: str
+    run_labels: tuple[str, str]
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -137,12 +143,12 @@ def emg_figure(trial: TrialData, mask: np.ndarray, start_s: float) -> EmgFigure 
 class FeedforwardFigure:
     """The as-needed mode's learned feedforward (core.control.guidance): the force along
     the path it had learned in each bin of one repetition, at the end of each repetition
-    (the trial file's /assistance/feedforward_N), and the level the trial ran at."""
+    (the trial file's /assistance/feedforward_N), and the levels the trial ran at."""
 
     percent_of_repetition: np.ndarray  # (bins,) the bins' centres, % of one repetition
     force_N: np.ndarray  # (repetitions finished, bins)
     limit_N: float
-    level: float
+    levels: str  # '100 % → 60 % at 5.8 s' (app.trials.assistance_timeline)
 
 
 def feedforward_figure(trial: TrialData) -> FeedforwardFigure | None:
@@ -158,7 +164,7 @@ def feedforward_figure(trial: TrialData) -> FeedforwardFigure | None:
     bins = history.shape[1]
     return FeedforwardFigure((np.arange(bins) + 0.5) / bins * 100.0, finished,
                              float(assistance.get("feedforward_limit_N", math.nan)),
-                             float(assistance.get("level", math.nan)))
+                             trial.assistance_in_effect().summary())
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -258,7 +264,7 @@ class Figures:
 
 
 def report_figures(trial: TrialData, parameters: TrialParameters, mask: np.ndarray,
-                   start_s: float, metrics: TrialMetrics, flip_axes: bool) -> Figures:
+                   start_s: float, metrics: TrialMetrics) -> Figures:
     """The figures of a trial whose exercise (the samples in `mask`, from `start_s`)
     was analysed into `metrics`."""
     series = _Series(trial, mask, start_s)
@@ -270,8 +276,15 @@ def report_figures(trial: TrialData, parameters: TrialParameters, mask: np.ndarr
     peak = math.nan
     if series.force is not None:
         peak = float(np.max(np.hypot(series.force[:, 0], series.force[:, 1])))
+    path_runs, labels = runs, DIRECTION_RUN_LABELS
+    if parameters.assist == "as-needed":
+        path_runs, labels = (), LED_RUN_LABELS
+        help_torque_Nm = help_torque(trial.channels, mask)
+        if help_torque_Nm is not None:
+            path_runs = merge_short_runs(series.t, ~helped_samples(help_torque_Nm),
+                                         _min_run(series))
     return Figures(
-        _path_figure(series, runs, metrics, flip_axes, parameters),
+        _path_figure(series, path_runs, labels, parameters),
         _force_figure(series, runs, metrics),
         _angles_figure(series, metrics),
         _torques_figure(series, metrics, trial.sample_period_s),
@@ -316,26 +329,28 @@ def _runs(series: _Series, parameters: TrialParameters,
         else DEFAULT_MIN_FORCE_N
     within = directional_performance(series.t, series.force, series.direction,
                                      parameters.tolerance_rad, min_force).within
-    min_run = max(MIN_RUN_S, float(series.t[-1] - series.t[0]) / RUNS_PER_AXIS)
+    min_run = _min_run(series)
     return merge_short_runs(series.t, within, min_run), min_run
+
+
+def _min_run(series: _Series) -> float:
+    return max(MIN_RUN_S, float(series.t[-1] - series.t[0]) / RUNS_PER_AXIS)
 
 
 def _text(key: str, value_si: float) -> str:
     return metric_text(_ROW_BY_KEY[key], value_si)
 
 
-def _path_figure(series: _Series, runs: tuple[Run, ...], metrics: TrialMetrics,
-                 flip_axes: bool, parameters: TrialParameters) -> PathFigure | None:
+DIRECTION_RUN_LABELS = ("your hand: pushing the right way", "your hand: pushing another way")
+LED_RUN_LABELS = ("your hand: you led", "your hand: the robot helped you along")
+
+
+def _path_figure(series: _Series, runs: tuple[Run, ...],
+                 labels: tuple[str, str], parameters: TrialParameters) -> PathFigure | None:
     if series.position is None or series.desired is None:
         return None
-    parts = [f"Position error (RMSE): x {_text('rmse_x_m', metrics.rmse_x_m)}, "
-             f"y {_text('rmse_y_m', metrics.rmse_y_m)}"]
-    if math.isfinite(metrics.directional_performance_pct):
-        parts.append(f"Directional performance (±{math.degrees(metrics.tolerance_rad):.0f}°): "
-                     f"{_text('directional_performance_pct', metrics.directional_performance_pct)}")
     outline = parameters.path().points(OUTLINE_SPACING_M)
-    return PathFigure(series.position, series.desired, outline, runs, flip_axes,
-                      " · ".join(parts))
+    return PathFigure(series.position, series.desired, outline, runs, labels)
 
 
 def _force_figure(series: _Series, runs: tuple[Run, ...],

@@ -30,7 +30,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
 from app.errors import AppError
-from app.reports.compare import Comparison
+from app.reports.compare import Comparison, TableRow
 from app.reports.content import ReportContent
 from app.reports.pdf_plots import (
     PATH_ABOVE_IN,
@@ -64,6 +64,7 @@ from app.reports.plain_language import VERDICT_WORDS
 log = logging.getLogger(__name__)
 
 MIN_PATH_IN = 2.5
+FOOTER_IN = 0.1  # room kept above the footer line
 MIN_SCALE = 0.8
 PRIMARY_MIN_SCALE = 0.92
 
@@ -96,13 +97,7 @@ def write_report_pdf(content: ReportContent, path: str | os.PathLike) -> Path:
         raise _write_error(path, exc) from exc
     try:
         with handle, matplotlib.rc_context(RC):
-            pages = (_first_page(content), _second_page(content))
-            if content.emg is not None:
-                pages += (_emg_page(content),)
-            if content.feedforward is not None:
-                pages += (_assistance_page(content),)
-            if content.pose is not None:
-                pages += (_pose_page(content),)
+            pages = report_pages(content)
             with PdfPages(handle, metadata=metadata) as pdf:
                 for page in pages:
                     pdf.savefig(page)
@@ -115,6 +110,20 @@ def write_report_pdf(content: ReportContent, path: str | os.PathLike) -> Path:
         raise
     log.info("report written: %s", path)
     return path
+
+
+def report_pages(content: ReportContent) -> tuple[Figure, ...]:
+    """The report's pages as matplotlib figures, in order (drawn under RC): the patient's,
+    the therapist's (and its continuation), then EMG, the as-needed help, the pose."""
+    with matplotlib.rc_context(RC):
+        pages = (_first_page(content), *_second_page(content))
+        if content.emg is not None:
+            pages += (_emg_page(content),)
+        if content.feedforward is not None:
+            pages += (_assistance_page(content),)
+        if content.pose is not None:
+            pages += (_pose_page(content),)
+    return pages
 
 
 def _write_error(path: Path, exc: OSError) -> AppError:
@@ -156,40 +165,39 @@ def _first_page(content: ReportContent) -> Figure:
 
 
 def _page_one_texts(sheet: Sheet, content: ReportContent) -> None:
+    """The patient's page: plain words only (no coordinates, seeds, instructions to the
+    therapist or file names: those are on page 2)."""
     _title(sheet, content, content.title)
-    label_w = 0.85
+    label_w = 1.0
     for item in content.header:
-        if item.label == "Patient" or (item.label == "Robot" and content.simulated):
-            continue  # in the title, or in the simulation's line below
+        if item.label == "Patient":
+            continue  # in the title
         sheet.text(item.label, 9, weight="bold", color=GREY, advance=False)
-        sheet.text(item.value, 9, x_in=LEFT_IN + label_w, width_in=TEXT_W_IN - label_w,
-                   color=VERMILLION if item.label == "Fault" else INK)
+        sheet.text(item.value, 9, x_in=LEFT_IN + label_w, width_in=TEXT_W_IN - label_w)
         sheet.gap(0.02)
     if content.simulated:
         sheet.gap(0.04)
-        robot = next((i.value for i in content.header if i.label == "Robot"), "simulator")
-        sheet.text(f"Simulated trial — {robot}: the robot and the patient were the "
-                   "simulator's models, not a person.", 9, color=GREY)
+        sheet.text("Simulated trial: the robot and the patient were the simulator's models, "
+                   "not a person.", 9, color=GREY)
     if content.status_text:
         _banner(sheet, content.status_text)
     sheet.gap(0.18)
 
-    sheet.text("How it went", 16 * max(sheet.scale, PRIMARY_MIN_SCALE), weight="bold",
-               scaled=False)
+    primary = max(sheet.scale, PRIMARY_MIN_SCALE)
+    sheet.text("How it went", 16 * primary, weight="bold", scaled=False)
     sheet.gap(0.06)
     if not content.plain:
         sheet.text("No exercise was recorded in this trial, so there is nothing to show.", 13)
-    for line in content.plain:
-        # The patient's own lines shrink least: they are what the page is for.
-        sheet.text(line.text, 14 * max(sheet.scale, PRIMARY_MIN_SCALE), weight="bold",
-                   scaled=False)
+    for k, line in enumerate(content.plain):
+        # The headline (the mode's success figure) largest; the patient's own lines
+        # shrink least: they are what the page is for.
+        sheet.text(line.text, (17 if k == 0 else 14) * primary, weight="bold", scaled=False)
         sheet.gap(0.02)
         sheet.text(line.detail, 10, color=GREY)
         sheet.gap(0.07)
 
     sheet.gap(0.1)
-    sheet.text("Since last time", 16 * max(sheet.scale, PRIMARY_MIN_SCALE), weight="bold",
-               scaled=False)
+    sheet.text("Since last time", 16 * primary, weight="bold", scaled=False)
     sheet.gap(0.06)
     if not content.comparisons:
         sheet.text("There is no earlier trial to compare with yet.", 12)
@@ -198,23 +206,28 @@ def _page_one_texts(sheet: Sheet, content: ReportContent) -> None:
 
 
 def _changes_table(sheet: Sheet, comparisons: tuple[Comparison, ...]) -> None:
-    """The patient's figures now and then: one row a figure, one column an earlier trial;
-    then the cautions, each once, saying which comparison it concerns."""
-    name_w, now_w = 2.45, 1.05
-    other_w = (TEXT_W_IN - name_w - now_w) / len(comparisons)
-    xs = [LEFT_IN + name_w + now_w + i * other_w for i in range(len(comparisons))]
-    top = sheet.y_in
-    sheet.y_in = top
-    sheet.text("This trial", 10, weight="bold", color=GREY, x_in=LEFT_IN + name_w,
-               width_in=now_w, advance=False)
-    bottom = top
-    for comparison, x in zip(comparisons, xs, strict=True):
+    """The patient's figures then and now, oldest on the left, then one column per
+    earlier trial with the change *to this trial* (an arrow and a word), or "not
+    compared" when the trials do not compare; then why, each reason once."""
+    name_w, value_w = 1.9, 0.9
+    earliest_first = comparisons[::-1]
+    change_w = (TEXT_W_IN - name_w - value_w * (len(comparisons) + 1)) / len(comparisons)
+    value_x = [LEFT_IN + name_w + i * value_w for i in range(len(comparisons) + 1)]
+    change_x = [value_x[-1] + value_w + i * change_w for i in range(len(comparisons))]
+    top = bottom = sheet.y_in
+    for comparison, x in zip(earliest_first, value_x, strict=False):
         sheet.y_in = top
-        sheet.text(comparison.kind[0].upper() + comparison.kind[1:], 10, weight="bold",
-                   color=GREY, x_in=x, width_in=other_w - 0.05)
+        sheet.text(comparison.label, 10, weight="bold", color=GREY, x_in=x,
+                   width_in=value_w - 0.05)
         described = comparison.baseline.describe()
         if described:
-            sheet.text(described, 8.5, color=GREY, x_in=x, width_in=other_w - 0.05)
+            sheet.text(described, 7.5, color=GREY, x_in=x, width_in=value_w - 0.05)
+        bottom = max(bottom, sheet.y_in)
+    for title, x, w in (("This trial", value_x[-1], value_w),
+                        *((f"Change since {c.label.lower()}", x, change_w)
+                          for c, x in zip(comparisons, change_x, strict=True))):
+        sheet.y_in = top
+        sheet.text(title, 10, weight="bold", color=GREY, x_in=x, width_in=w - 0.05)
         bottom = max(bottom, sheet.y_in)
     sheet.y_in = bottom + 0.04 * sheet.scale
     keys: dict[str, tuple[str, str]] = {}
@@ -225,31 +238,39 @@ def _changes_table(sheet: Sheet, comparisons: tuple[Comparison, ...]) -> None:
         sheet.text("No figure of the earlier trials compares with this one.", 12)
     for key, (name, now_text) in keys.items():
         row_top = sheet.y_in
-        sheet.text(name, 12, width_in=name_w - 0.05, advance=False)
-        sheet.text(now_text, 12, weight="bold", x_in=LEFT_IN + name_w, width_in=now_w,
+        name_h = sheet.text(name, 12, width_in=name_w - 0.05, advance=False)  # may wrap
+        sheet.text(now_text, 12, weight="bold", x_in=value_x[-1], width_in=value_w,
                    advance=False)
-        for comparison, x in zip(comparisons, xs, strict=True):
+        for comparison, x in zip(earliest_first, value_x, strict=False):
+            change = next((c for c in comparison.changes if c.key == key), None)
+            sheet.y_in = row_top
+            sheet.text(change.before_text if change else "–", 12, x_in=x, width_in=value_w,
+                       advance=False)
+        for comparison, x in zip(comparisons, change_x, strict=True):
             change = next((c for c in comparison.changes if c.key == key), None)
             sheet.y_in = row_top
             if change is None:
-                sheet.text("–", 12, x_in=x, width_in=other_w, advance=False)
-                continue
-            word = VERDICT_WORDS[change.verdict]
-            sheet.text(f"{change.before_text}  {change.arrow} {word}", 12, x_in=x,
-                       width_in=other_w - 0.05, advance=False,
-                       color=VERDICT_COLOURS.get(change.verdict, INK),
-                       weight="bold" if change.verdict in VERDICT_COLOURS else "normal")
-        sheet.y_in = row_top + 12 * sheet.scale * LEADING / 72.0 + 0.03 * sheet.scale
+                sheet.text("–", 12, x_in=x, width_in=change_w, advance=False)
+            elif not change.verdict:
+                sheet.text("not compared", 10, x_in=x, width_in=change_w - 0.05,
+                           advance=False, color=GREY)
+            else:
+                sheet.text(f"{change.arrow} {VERDICT_WORDS[change.verdict]}", 12, x_in=x,
+                           width_in=change_w - 0.05, advance=False,
+                           color=VERDICT_COLOURS.get(change.verdict, INK),
+                           weight="bold" if change.verdict in VERDICT_COLOURS else "normal")
+        sheet.y_in = row_top + max(name_h, 12 * sheet.scale * LEADING / 72.0) \
+            + 0.03 * sheet.scale
 
     cautions: dict[str, list[str]] = {}
     for comparison in comparisons:
         for caution in comparison.cautions:
-            cautions.setdefault(caution, []).append(comparison.kind)
+            cautions.setdefault(caution, []).append(comparison.label.lower())
     if cautions:
         sheet.gap(0.05)
-    for caution, kinds in cautions.items():
-        which = "" if len(kinds) == len(comparisons) else f" ({kinds[0]} only)"
-        sheet.text(f"Note{which}: {caution}", 10, color=GREY)
+    for caution, labels in cautions.items():
+        which = "" if len(labels) == len(comparisons) else f" with the {labels[0]}"
+        sheet.text(f"Not compared{which}: {caution[0].lower()}{caution[1:]}", 10, color=GREY)
         sheet.gap(0.02)
 
 
@@ -269,18 +290,49 @@ def _banner(sheet: Sheet, text: str) -> None:
 
 # -- page 2 ------------------------------------------------------------------------------
 
-def _second_page(content: ReportContent) -> Figure:
+def _second_page(content: ReportContent) -> tuple[Figure, ...]:
+    """The therapist's page, and as many more as its notes need."""
     sheet = Sheet()
     _title(sheet, content, "For the therapist", size=16)
+    _therapist_header(sheet, content)
     label_room = 0.55
     x0 = LEFT_IN + label_room
     if content.force is not None:
         force_plots(sheet, content.force, x0, TEXT_W_IN - label_room)
     if content.angles is not None or content.torques is not None:
         joint_plots(sheet, content.angles, content.torques, x0, label_room)
-    _table(sheet, content)
-    _notes(sheet, content)
-    return sheet.fig
+    pages = [sheet]
+
+    def next_page() -> None:
+        sheet = Sheet()
+        _title(sheet, content, "For the therapist (continued)", size=16)
+        pages.append(sheet)
+
+    rows = list(content.table)
+    while rows:
+        rows = _table(pages[-1], content, rows, continued=len(rows) < len(content.table))
+        if rows:
+            next_page()
+    notes = [f"Fault at {fault}" for fault in content.faults] + list(content.notes)
+    total = len(notes)
+    while notes:
+        notes = _notes(pages[-1], notes, continued=len(notes) < total)
+        if notes:
+            next_page()
+    for page in pages:
+        _footer(page, content)
+    return tuple(page.fig for page in pages)
+
+
+def _therapist_header(sheet: Sheet, content: ReportContent) -> None:
+    label_w = 0.85
+    for item in content.therapist_header:
+        if item.label == "File":
+            continue  # in every page's footer
+        sheet.text(item.label, 8, weight="bold", color=GREY, advance=False, scaled=False)
+        sheet.text(item.value, 8, x_in=LEFT_IN + label_w, width_in=TEXT_W_IN - label_w,
+                   color=VERMILLION if item.label == "Fault" else INK, scaled=False)
+    sheet.gap(0.1)
 
 
 def _emg_page(content: ReportContent) -> Figure:
@@ -304,10 +356,17 @@ def _pose_page(content: ReportContent) -> Figure:
     return sheet.fig
 
 
-def _table(sheet: Sheet, content: ReportContent) -> None:
-    if not content.table:
-        return
-    sheet.text("Every figure of this trial", 11, weight="bold")
+def _table(sheet: Sheet, content: ReportContent, rows: list[TableRow], *,
+           continued: bool) -> list[TableRow]:
+    """Draw the rows of the table that fit on this sheet, under its headings; return the
+    rest, for the next page."""
+    row_h = 0.15
+    size = 8
+    bottom_in = PAGE_IN[1] - BOTTOM_IN - FOOTER_IN
+    if not rows or sheet.y_in + 0.9 + 2 * row_h > bottom_in:
+        return rows  # not even the headings and two rows: all on the next page
+    sheet.text("Every figure of this trial" + (" (continued)" if continued else ""), 11,
+               weight="bold")
     sheet.gap(0.06)
     columns = ("Figure", "This trial", *content.table_columns)
     n_earlier = len(content.table_columns)
@@ -316,8 +375,6 @@ def _table(sheet: Sheet, content: ReportContent) -> None:
     lefts = [LEFT_IN, LEFT_IN + label_w]
     lefts += [LEFT_IN + label_w + value_w + i * earlier_w for i in range(n_earlier)]
     widths = [label_w, value_w] + [earlier_w] * n_earlier
-    row_h = 0.16
-    size = 8
     top = bottom = sheet.y_in
     for column, x, w in zip(columns, lefts, widths, strict=True):
         sheet.y_in = top
@@ -328,8 +385,10 @@ def _table(sheet: Sheet, content: ReportContent) -> None:
                        color=GREY, scaled=False)
         bottom = max(bottom, sheet.y_in)
     sheet.y_in = max(bottom, top + row_h) + 0.03
-    for i, row in enumerate(content.table):
+    for i, row in enumerate(rows):
         y = sheet.y_in
+        if y + row_h > bottom_in:
+            return rows[i:]
         if i % 2 == 0:
             sheet.fig.add_artist(Rectangle(
                 (sheet.fx(LEFT_IN), sheet.fy(y + row_h - 0.03)), TEXT_W_IN / PAGE_IN[0],
@@ -347,21 +406,26 @@ def _table(sheet: Sheet, content: ReportContent) -> None:
                            weight="bold" if j == 1 else "normal")
         sheet.y_in = y + row_h
     sheet.gap(0.12)
+    return []
 
 
-def _notes(sheet: Sheet, content: ReportContent) -> None:
-    notes = [f"Fault at {fault}" for fault in content.faults] + list(content.notes)
+def _notes(sheet: Sheet, notes: list[str], *, continued: bool) -> list[str]:
+    """Draw the notes that fit on this sheet above its footer; return the rest, for the
+    next page (never a pointer to notes that are somewhere else)."""
     size = 7.5
     step = size * LEADING / 72.0
-    footer = f"rehab-console · {content.source.name}"
-    if notes:
-        sheet.text("Notes", 9, weight="bold", scaled=False)
+    bottom = PAGE_IN[1] - BOTTOM_IN - FOOTER_IN
+    if sheet.y_in + 2 * step > bottom:
+        return notes
+    sheet.text("Notes (continued)" if continued else "Notes", 9, weight="bold", scaled=False)
     for k, note in enumerate(notes):
         lines = wrap("• " + note, size, TEXT_W_IN)
-        if sheet.y_in + (len(lines) + 1) * step > PAGE_IN[1] - BOTTOM_IN:
-            sheet.text(f"… and {len(notes) - k} more note(s): see the trial file's notes.",
-                       size, color=GREY, scaled=False)
-            break
+        if sheet.y_in + len(lines) * step > bottom:
+            return notes[k:]
         sheet.text("• " + note, size, color=GREY, scaled=False)
-    sheet.fig.text(sheet.fx(LEFT_IN), sheet.fy(PAGE_IN[1] - BOTTOM_IN + 0.2), footer,
-                   fontsize=7, color=GREY, va="top")
+    return []
+
+
+def _footer(sheet: Sheet, content: ReportContent) -> None:
+    sheet.fig.text(sheet.fx(LEFT_IN), sheet.fy(PAGE_IN[1] - BOTTOM_IN + 0.2),
+                   f"rehab-console · {content.source.name}", fontsize=7, color=GREY, va="top")

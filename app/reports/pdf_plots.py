@@ -55,23 +55,25 @@ _JOINT_STYLES = ((PURPLE, "-"), (GREEN, "-."))
 # -- page 1 ------------------------------------------------------------------------------
 
 def path_plot(sheet: Sheet, figure: PathFigure | None) -> None:
-    """Fig. 3.7 in the rest of the page: heading, legend, the path, its captions."""
+    """Fig. 3.7 in the rest of the page, as the patient sees it from their seat: the
+    patient sits on +y facing −y (docs/frames.md), so both axes reversed (the robot's
+    side at the top, the patient's right on the right). No coordinates: a scale bar
+    gives the size."""
     if figure is None:
         sheet.text("No path to show: the trial has no exercise samples of the hand's "
                    "position.", 11, color=GREY)
         return
-    sheet.text("Your hand's path and the target path", 12, weight="bold")
+    sheet.text("Your hand's path and the path to follow", 12, weight="bold")
     handles = [
-        matplotlib.lines.Line2D([], [], color=TARGET_GREY, linewidth=7, label="target path"),
+        matplotlib.lines.Line2D([], [], color=TARGET_GREY, linewidth=7, label="path to follow"),
         matplotlib.lines.Line2D([], [], color=INK, marker="o", markersize=6, linestyle="none",
                                 label="start"),
-        *run_handles(figure.runs, "your hand: pushing the right way",
-                     "your hand: pushing another way"),
+        *run_handles(figure.runs, *figure.run_labels),
     ]
     sheet.legend(handles, LEFT_IN, ncols=4)
+    sheet.y_in += 0.2  # the robot's side is written above the drawing
     height = max(1.0, sheet.room_in - PATH_BELOW_IN)
-    ax = sheet.axes(height, x_in=LEFT_IN + 0.55, width_in=TEXT_W_IN - 0.55)
-    # the path in the form's unit (app.units): cm, as the window's Trajectory tab draws it
+    ax = sheet.axes(height, x_in=LEFT_IN, width_in=TEXT_W_IN)
     desired = figure.desired_m * CM_PER_M
     position = figure.position_m * CM_PER_M
     outline = figure.outline_m * CM_PER_M
@@ -83,19 +85,35 @@ def path_plot(sheet: Sheet, figure: PathFigure | None) -> None:
     # The box shrinks to the data's shape, so centimetres are equal both ways.
     ax.set_aspect("equal", adjustable="box")
     ax.set_anchor("C")
-    ax.margins(0.08)
-    ax.set_xlabel("x (cm)")
-    ax.set_ylabel("y (cm)")
-    if figure.flip_axes:
-        ax.invert_xaxis()
-        ax.invert_yaxis()
-        view = "Seen from the patient's chair: both axes reversed, as in the thesis's Fig. 3.7."
-    else:
-        view = "Seen from above, in the robot's frame (the patient sits at the top, facing down)."
-    _light_grid(ax)
-    sheet.y_in += height + 0.42
-    sheet.text(figure.caption, 9.5, scaled=False)
-    sheet.text(view, 8.5, color=GREY, scaled=False)
+    ax.margins(0.12)
+    ax.invert_xaxis()
+    ax.invert_yaxis()
+    ax.set_xticks([])
+    ax.set_yticks([])
+    for spine in ax.spines.values():
+        spine.set_visible(False)
+    _scale_bar(ax, np.vstack((outline, position)))
+    ax.text(0.5, 1.0, "the robot's side", transform=ax.transAxes, ha="center", va="bottom",
+            fontsize=8.5, color=GREY)
+    ax.text(0.5, 0.0, "you sit here", transform=ax.transAxes, ha="center", va="top",
+            fontsize=8.5, color=GREY)
+    sheet.y_in += height + 0.3
+    sheet.text("Seen from your seat, as you sat at the table.", 9.5, color=GREY,
+               scaled=False)
+
+
+def _scale_bar(ax: Axes, points_cm: np.ndarray) -> None:
+    """A bar of a round length (1, 2, 5, 10 or 20 cm, about a fifth of the drawing's
+    width) in the bottom left corner as the patient sees it, with its length."""
+    span = float(np.ptp(points_cm[:, 0]))
+    length = next((c for c in (20.0, 10.0, 5.0, 2.0, 1.0) if c <= 0.3 * span), 1.0)
+    # reversed axes: the patient's bottom left is the largest x and y
+    x0 = float(points_cm[:, 0].max())
+    y0 = float(points_cm[:, 1].max()) + 0.06 * max(span, float(np.ptp(points_cm[:, 1])))
+    ax.plot([x0, x0 - length], [y0, y0], color=INK, linewidth=2.0, solid_capstyle="butt",
+            zorder=5)
+    ax.annotate(f"{length:g} cm", (x0 - length / 2.0, y0), xytext=(0, -3),
+                textcoords="offset points", ha="center", va="top", fontsize=8, color=INK)
 
 
 def _direction_arrow(ax: Axes, desired_cm: np.ndarray) -> None:
@@ -123,7 +141,7 @@ def force_plots(sheet: Sheet, force: ForceFigure, x0: float, plot_w: float) -> N
     if handles:
         sheet.legend(handles, LEFT_IN, ncols=2)
     sheet.gap(0.2)
-    height = 0.95
+    height = 0.75
     top = None
     for axis in range(2):
         ax = sheet.axes(height, x_in=x0, width_in=plot_w)
@@ -150,7 +168,7 @@ def joint_plots(sheet: Sheet, angles: AnglesFigure | None, torques: TorquesFigur
     half = (TEXT_W_IN - 2 * label_room - between) / 2
     x1 = x0 + half + between + label_room
     top_in = sheet.y_in
-    height = 1.25
+    height = 0.95
     bottom_in = top_in
     for figure, x, title in (
         (angles, x0, "Joint angles, ISB (Fig. 3.11)"),
@@ -223,8 +241,8 @@ def feedforward_plot(sheet: Sheet, figure: FeedforwardFigure, x0: float,
     sheet.gap(0.03)
     first, last = figure.force_N[0], figure.force_N[-1]
     sheet.text(f"Repetition 1: up to {np.max(first):.1f} N; repetition {reps}: up to "
-               f"{np.max(last):.1f} N (limit {figure.limit_N:g} N, at an assistance level of "
-               f"{figure.level * 100:.0f} %).", 9)
+               f"{np.max(last):.1f} N (limit {figure.limit_N:g} N; the assistance level "
+               f"ran at {figure.levels}).", 9)
     sheet.gap(0.06)
     ax = sheet.axes(height, x_in=x0, width_in=width)
     for k, row in enumerate(figure.force_N):

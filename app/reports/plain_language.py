@@ -16,7 +16,8 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from app.units import CM_PER_M, MM_PER_M, assistance_percent
+from app.trials.assistance_timeline import AssistanceInEffect
+from app.units import CM_PER_M, MM_PER_M
 
 STANDARD_GRAVITY_M_S2 = 9.80665
 
@@ -88,20 +89,54 @@ def mass_text(force_N: float) -> str:
 
 
 def direction_line(percent: float, tolerance_rad: float) -> PlainLine:
+    """The thesis mode's success figure (section 3.6.1): the patient's own push."""
     return PlainLine(
         "directional_performance_pct",
-        f"You kept your push in the right direction {whole(percent)} % of the time.",
+        f"You pushed in the right direction {whole(percent)} % of the time.",
         f"Within {whole(math.degrees(tolerance_rad))}° of the way the path goes. The more of "
-        "the time, the more of the work was yours.",
+        "the time, the more the robot gave way to your own push.",
     )
 
 
-def position_line(rmse_x_m: float, rmse_y_m: float) -> PlainLine:
+def led_line(percent: float) -> PlainLine:
+    """The as-needed mode's success figure (core.control.guidance): the share of the
+    exercise the patient kept up with the path without the robot's help along it."""
+    return PlainLine(
+        "led_pct",
+        f"You led the movement {whole(percent)} % of the time.",
+        "For that time you kept up with the path by yourself; the rest of the time the "
+        "robot helped you along it.",
+    )
+
+
+POSITION_DETAIL = {
+    "as-needed": "The robot holds the handle near the path while you move along it, so this "
+                 "number is mostly the robot's doing.",
+    "thesis": "In this mode the robot moves the handle along the path on a clock, so this "
+              "number is mostly the robot's doing.",
+}
+
+
+def position_line(rmse_x_m: float, rmse_y_m: float, mode: str = "thesis") -> PlainLine:
+    """The distance from the path, credited to whom it belongs: in both modes the robot
+    keeps the hand on the path (a compliant channel, or a stiff tracker on a clock)."""
     return PlainLine(
         "rmse",
-        f"Your hand stayed within {distance_text(position_error_m(rmse_x_m, rmse_y_m))} of "
-        "the path on average.",
-        "The smaller the number, the more closely you followed the shape.",
+        f"The robot kept your hand within {distance_text(position_error_m(rmse_x_m, rmse_y_m))}"
+        " of the path on average.",
+        POSITION_DETAIL.get(mode, POSITION_DETAIL["thesis"]),
+    )
+
+
+def work_line(robot_share: float) -> PlainLine:
+    """Who moved the handle: the patient's share of the positive net work
+    (core.metrics.mechanical_work), the robot's the rest."""
+    yours = 100.0 - 100.0 * robot_share
+    return PlainLine(
+        "robot_work_share",
+        f"You did {whole(yours)} % of the work of moving the handle; the robot did "
+        f"{whole(100.0 * robot_share)} %.",
+        "Counted over the whole exercise, from your push and the robot's motors.",
     )
 
 
@@ -125,43 +160,65 @@ def force_line(peak_force_N: float) -> PlainLine:
     return PlainLine(
         "peak_force_N",
         f"Your firmest push on the handle was {whole(peak_force_N)} N.",
-        f"About the effort of holding up {mass_text(peak_force_N)}. What counts most is "
-        "pushing the right way.",
+        f"About the effort of holding up {mass_text(peak_force_N)}.",
     )
 
 
-def plain_lines(metrics: Mapping[str, float], *, peak_force_N: float = math.nan,
-                ) -> tuple[PlainLine, ...]:
-    """The patient's lines for a trial's figures (TrialMetrics.to_dict() names, SI).
-    A figure that is missing or NaN is left out."""
+SUCCESS_KEYS = {"as-needed": "led_pct", "thesis": "directional_performance_pct"}
+"""Each assistance mode's own success figure (app.trials.progression.success aims the
+next trial at it): the report's headline."""
+
+
+def success_key(mode: str) -> str:
+    return SUCCESS_KEYS.get(mode, SUCCESS_KEYS["thesis"])
+
+
+def plain_lines(metrics: Mapping[str, float], *, mode: str = "thesis",
+                peak_force_N: float = math.nan) -> tuple[PlainLine, ...]:
+    """The patient's lines for a trial's figures (TrialMetrics.to_dict() names, SI), the
+    mode's success figure first (the headline). A figure that is missing or NaN is left
+    out. In the as-needed mode the direction of the push is not the patient's figure:
+    the robot is nearly transparent along the path, so the force on the handle is only
+    what moving it takes (app.trials.progression)."""
 
     def value(key: str) -> float:
         return float(metrics.get(key, math.nan))
 
     lines = []
-    percent = value("directional_performance_pct")
-    tolerance = value("tolerance_rad")
-    if math.isfinite(percent) and math.isfinite(tolerance):
-        lines.append(direction_line(percent, tolerance))
-    rmse_x, rmse_y = value("rmse_x_m"), value("rmse_y_m")
-    if math.isfinite(rmse_x) and math.isfinite(rmse_y):
-        lines.append(position_line(rmse_x, rmse_y))
+    if mode == "as-needed":
+        if math.isfinite(value("led_pct")):
+            lines.append(led_line(value("led_pct")))
+    else:
+        percent, tolerance = value("directional_performance_pct"), value("tolerance_rad")
+        if math.isfinite(percent) and math.isfinite(tolerance):
+            lines.append(direction_line(percent, tolerance))
+    share = value("robot_work_share")
+    if math.isfinite(share):
+        lines.append(work_line(min(max(share, 0.0), 1.0)))
     if math.isfinite(value("shoulder_rom_rad")):
         lines.append(shoulder_line(value("shoulder_rom_rad")))
     if math.isfinite(value("elbow_rom_rad")):
         lines.append(elbow_line(value("elbow_rom_rad")))
     if math.isfinite(peak_force_N):
         lines.append(force_line(peak_force_N))
+    rmse_x, rmse_y = value("rmse_x_m"), value("rmse_y_m")
+    if math.isfinite(rmse_x) and math.isfinite(rmse_y):
+        lines.append(position_line(rmse_x, rmse_y, mode))
     return tuple(lines)
 
 
 # -- how the trial ended ---------------------------------------------------------------
 
-def status_sentence(status: str, exercised_s: float, planned_s: float) -> str:
-    """What the patient is told about how the trial ended; '' for a complete trial."""
+def status_sentence(status: str, exercised_s: float, planned_s: float, *,
+                    emergency_stop: bool = False) -> str:
+    """What the patient is told about how the trial ended; '' for a complete trial.
+    Plain words only: what to do about a fault is the therapist's page's."""
     done = f"after {seconds_text(exercised_s)} of {seconds_text(planned_s)} seconds"
     if status == "complete":
         return ""
+    if status == "faulted" and emergency_stop:
+        return (f"The exercise was stopped with the emergency stop {done}, so these figures "
+                "cover only part of it.")
     if status == "stopped_early":
         return (f"The exercise was stopped early, {done}, so these figures cover only "
                 "part of it.")
@@ -172,9 +229,37 @@ def status_sentence(status: str, exercised_s: float, planned_s: float) -> str:
         return (f"The recording failed {done}, so part of this trial is missing from "
                 "these figures.")
     if status == "recording":
-        return ("This trial's file was never closed (it is still being recorded, or the "
-                "recording stopped unexpectedly); these figures cover what was saved.")
+        return ("This trial's recording was not finished, so these figures cover only what "
+                "was saved.")
     return f"This trial ended with the status “{status}”; check the figures with your therapist."
+
+
+MODE_MEANING = {
+    "as-needed": "you lead, the robot helps when you fall behind",
+    "thesis": "the robot guides the handle along the path on a clock",
+}
+"""The assistance modes (core.trial.ASSIST_MODES) in the patient's words."""
+
+HELP_MEANING = {
+    "as-needed": "help along the path when you fall behind",
+    "thesis": "how far the robot gives way to your push",
+}
+"""What the assistance level means in each mode, for the patient (core.control.guidance,
+core.control.assistance)."""
+
+
+def help_text(mode: str, levels: AssistanceInEffect) -> str:
+    """'100 % → 60 % at 5.8 s (help along the path when you fall behind)': the levels the
+    trial ran at (app.trials.assistance_timeline), and what they mean in its mode."""
+    return f"{levels.summary()} ({HELP_MEANING.get(mode, HELP_MEANING['thesis'])})"
+
+
+def same_help(before: AssistanceInEffect, after: AssistanceInEffect) -> bool:
+    """Whether two trials ran with the same help: one level each, the same, held through
+    the exercise (a level changed mid-trial compares with nothing: its figures mix two
+    settings). Levels are set in whole percent (the form's unit)."""
+    return (not before.changed and not after.changed
+            and round(before.at_start * 100.0) == round(after.at_start * 100.0))
 
 
 # -- change since an earlier trial -----------------------------------------------------
@@ -200,7 +285,9 @@ def _cm(radius_m: float) -> str:
 def parameter_cautions(before: Mapping, after: Mapping) -> tuple[str, ...]:
     """Why this trial's figures may differ from an earlier one's for reasons other than
     the patient: one sentence per exercise setting that changed (TrialParameters
-    field names and SI values; a setting missing on either side is not compared)."""
+    field names and SI values; a setting missing on either side is not compared). The
+    assistance level is not among them: what counts is the levels the trials ran at
+    (`help_caution`), not the ones they were built with."""
     sentences = []
 
     def changed(key: str) -> bool:
@@ -212,6 +299,10 @@ def parameter_cautions(before: Mapping, after: Mapping) -> tuple[str, ...]:
         return a != b
 
     shape = after.get("shape")
+    if changed("assist"):
+        now, then = (MODE_MEANING.get(v, v) for v in (after["assist"], before["assist"]))
+        sentences.append(f"This trial used another kind of help from the robot ({now}; "
+                         f"before, {then}), so the figures do not compare directly.")
     if changed("shape"):
         sentences.append(
             f"This trial was a different exercise ({SHAPE_NAMES.get(shape, shape)}; before, "
@@ -249,15 +340,18 @@ def parameter_cautions(before: Mapping, after: Mapping) -> tuple[str, ...]:
             sentences.append(f"This trial counted a push as the right direction within a "
                              f"narrower angle (±{t}°; before, ±{t0}°) — a lower direction "
                              "score is expected.")
-    if changed("assistance_level"):
-        a, a0 = after["assistance_level"], before["assistance_level"]
-        how = "more" if a > a0 else "less"
-        sentences.append(f"The robot gave way {how} to your own push (assistance level "
-                         f"{assistance_percent(a)}; before, {assistance_percent(a0)}) — the "
-                         "figures may differ for that reason.")
     if changed("controller"):
         sentences.append(f"The robot was driven by a different controller "
                          f"({after['controller'].upper()}; before, "
                          f"{before['controller'].upper()}) — the figures may differ for that "
                          "reason.")
     return tuple(sentences)
+
+
+def help_caution(before: AssistanceInEffect, after: AssistanceInEffect) -> str:
+    """Why the figures may differ: the robot's help differed between the trials (the
+    levels they ran at, changes during them included); '' when it was the same."""
+    if same_help(before, after):
+        return ""
+    return (f"The robot's help was different ({after.summary()}; before, "
+            f"{before.summary()}), so the figures do not compare directly.")

@@ -84,7 +84,7 @@ def analyse(channels: Mapping[str, np.ndarray], parameters: TrialParameters) -> 
         torque_Nm=take("subject_torque"),
         robot_torque_Nm=take("torque_applied") if "torque_applied" in channels else None,
         robot_angle_rad=take("robot_angle") if "robot_angle" in channels else None,
-        help_torque_Nm=_help(channels, mask) if parameters.assist == "as-needed" else None,
+        help_torque_Nm=help_torque(channels, mask) if parameters.assist == "as-needed" else None,
         tolerance_rad=parameters.tolerance_rad,
         reaches=_reaches(parameters, start),
     )
@@ -181,7 +181,7 @@ def _as_slice(mask: np.ndarray, n_true: int) -> np.ndarray | slice:
     return mask
 
 
-def _help(channels: Mapping[str, np.ndarray], mask: np.ndarray):
+def help_torque(channels: Mapping[str, np.ndarray], mask: np.ndarray):
     """The as-needed robot's help along the path at the joints: what it commanded beyond
     its channel and transparency torques (core.control.guidance), over the exercise."""
     if "torque_commanded" not in channels or "torque_controller" not in channels:

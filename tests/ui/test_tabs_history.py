@@ -122,7 +122,7 @@ def test_report_shows_the_plain_lines_and_prints(qtbot, history, tmp_path):
     content = ready.args[0]
     lines = tab.lines()
     percent = round(analysis.metrics.directional_performance_pct)
-    assert (f"You kept your push in the right direction {percent} % of the time."
+    assert (f"You pushed in the right direction {percent} % of the time."
             in lines)
     shoulder = round(math.degrees(analysis.metrics.shoulder_rom_rad))
     assert f"Your shoulder moved through {shoulder}°." in lines

@@ -1,5 +1,8 @@
-"""The Report tab: after a trial, what it showed in large plain words, for the patient,
-and the therapist's table beneath, printable and savable as the PDF report.
+"""The Report tab: after a trial, what it showed in large plain words, for the patient
+(the mode's own success figure first, the change since last time, no coordinates, seeds,
+file names or instructions to the therapist), then the therapist's part beneath (every
+setting, each fault with what to do, every figure, the notes); printable and savable as
+the PDF report, whose page 1 and page 2 are these two parts.
 
 The content is `app.reports.build.ReportContent`, the same object the PDF draws, so the
 screen and the paper cannot disagree. Building it reads the trial file and
@@ -60,7 +63,6 @@ class ReportTab(QWidget):
         super().__init__(parent)
         self._content: ReportContent | None = None
         self._source: Path | None = None
-        self._flip_axes = False
         # Two queues: a newer report request replaces a waiting one, but must never
         # replace a PDF the therapist asked to save.
         self.background = plots.Background(self)
@@ -96,10 +98,6 @@ class ReportTab(QWidget):
     def content(self) -> ReportContent | None:
         return self._content
 
-    def set_flip(self, flip_x: bool, flip_y: bool) -> None:
-        """The PDF's path figure follows the display's flip (both axes, as the thesis)."""
-        self._flip_axes = flip_x and flip_y
-
     def show_view(self, view: TrialView) -> None:
         """A replayed or saved trial: its report, built once from its file."""
         if view.source is None:
@@ -112,7 +110,6 @@ class ReportTab(QWidget):
     def load_file(self, path: str | Path, **options) -> None:
         """Build the report of a trial file (options go to app.reports.build.build_report)."""
         self._source = Path(path)
-        options.setdefault("flip_axes", self._flip_axes)
         self.message.setText("Preparing the report…")
         self.background.submit(("content", self._source), _load_file, self._source, options)
 
@@ -120,10 +117,8 @@ class ReportTab(QWidget):
         """A registered trial's report, compared with the patient's earlier trials."""
         self._source = None
         self.message.setText("Preparing the report…")
-        flip = self._flip_axes
         self.background.submit(("content", trial_id),
-                               lambda: content_for_registry_trial(registry, trial_id,
-                                                                  flip_axes=flip))
+                               lambda: content_for_registry_trial(registry, trial_id))
 
     def _done(self, token, result) -> None:
         kind = token[0]
@@ -146,36 +141,37 @@ class ReportTab(QWidget):
         self._source = content.source
         theme.set_role(self.message, "caption")
         self.message.style().polish(self.message)
-        self.message.setText(f"Report of {content.source.name}")
+        self.message.setText(f"Report of {_which(content)}")
         self._clear()
         add = self.page_layout.addWidget
+        # -- the patient's part (the PDF's page 1)
         add(theme.set_role(QLabel(content.title), "heading"))
-        header = QFormLayout()
-        for item in content.header:
-            value = QLabel(item.value)
-            value.setWordWrap(True)
-            header.addRow(theme.set_role(QLabel(item.label), "caption"), value)
-        self.page_layout.addLayout(header)
+        self.page_layout.addLayout(_form(content.header))
+        if content.simulated:
+            add(self._wrapped(SIMULATED, "caption"))
         if content.status_text:
             add(self._wrapped(content.status_text, "banner"))
-        for fault in content.faults:
-            add(self._wrapped(f"{theme.PROBLEM_SIGN} {fault}", "problem"))
         if content.plain:
             add(theme.set_role(QLabel("How it went"), "heading"))
-        for line in content.plain:
+        for k, line in enumerate(content.plain):
             pair = QVBoxLayout()
             pair.setSpacing(2)
-            pair.addWidget(self._wrapped(line.text, "lead"))
+            # the headline, the mode's own success figure, largest
+            pair.addWidget(self._wrapped(line.text, "big" if k == 0 else "lead"))
             pair.addWidget(self._wrapped(line.detail, "caption"))
             self.page_layout.addLayout(pair)
+        if content.comparisons:
+            add(theme.set_role(QLabel("Since last time"), "heading"))
         for comparison in content.comparisons:
-            add(theme.set_role(QLabel(comparison.title), "heading"))
+            add(theme.set_role(QLabel(comparison.title), "lead"))
             for change in comparison.changes:
-                add(self._wrapped(f"{change.arrow} {change.text}", "body"))
+                add(self._wrapped(_change_text(change), "body"))
             for caution in comparison.cautions:
-                add(self._wrapped(caution, "caption"))
+                add(self._wrapped(_not_compared(caution), "caption"))
+        # -- the therapist's part (the PDF's page 2)
+        add(theme.set_role(QLabel("For the therapist"), "heading"))
+        self.page_layout.addLayout(_form(content.therapist_header, problem="Fault"))
         if content.table:
-            add(theme.set_role(QLabel("For the therapist"), "heading"))
             add(self._table(content))
         for note in content.notes:
             add(self._wrapped(note, "caption"))
@@ -229,29 +225,37 @@ class ReportTab(QWidget):
 
     # -- paper --------------------------------------------------------------------
     def document(self) -> QTextDocument:
-        """The report as a text document for printing."""
+        """The report as a text document for printing: the patient's part, then the
+        therapist's, as on the screen."""
         content = self._content
         if content is None:
             raise RuntimeError("no report to print yet")
         e = html.escape
-        parts = [f"<h1>{e(content.title)}</h1><table>"]
-        parts += [f"<tr><td><b>{e(i.label)}</b></td><td>{e(i.value)}</td></tr>"
-                  for i in content.header]
-        parts.append("</table>")
+
+        def rows(items) -> str:
+            return "<table>" + "".join(f"<tr><td><b>{e(i.label)}</b></td><td>{e(i.value)}</td>"
+                                       "</tr>" for i in items) + "</table>"
+
+        parts = [f"<h1>{e(content.title)}</h1>", rows(content.header)]
+        if content.simulated:
+            parts.append(f"<p><small>{e(SIMULATED)}</small></p>")
         if content.status_text:
             parts.append(f"<p><b>{e(content.status_text)}</b></p>")
-        parts += [f"<p>{theme.PROBLEM_SIGN} {e(f)}</p>" for f in content.faults]
-        for line in content.plain:
-            parts.append(f"<p style='font-size:16pt'>{e(line.text)}</p><p>{e(line.detail)}</p>")
+        for k, line in enumerate(content.plain):
+            size = 20 if k == 0 else 16
+            parts.append(f"<p style='font-size:{size}pt'><b>{e(line.text)}</b></p>"
+                         f"<p>{e(line.detail)}</p>")
+        if content.comparisons:
+            parts.append("<h2>Since last time</h2>")
         for comparison in content.comparisons:
-            parts.append(f"<h2>{e(comparison.title)}</h2>")
-            parts += [f"<p>{e(c.arrow)} {e(c.text)}</p>" for c in comparison.changes]
-            parts += [f"<p><i>{e(c)}</i></p>" for c in comparison.cautions]
+            parts.append(f"<h3>{e(comparison.title)}</h3>")
+            parts += [f"<p>{e(_change_text(c))}</p>" for c in comparison.changes]
+            parts += [f"<p><i>{e(_not_compared(c))}</i></p>" for c in comparison.cautions]
+        parts += ["<h2>For the therapist</h2>", rows(content.therapist_header)]
         if content.table:
             heads = ["Figure", "This trial", *content.table_columns, "What it means"]
-            parts.append("<h2>For the therapist</h2><table border='1' cellpadding='4' "
-                         "cellspacing='0'><tr>" + "".join(f"<th>{e(h)}</th>" for h in heads)
-                         + "</tr>")
+            parts.append("<table border='1' cellpadding='4' cellspacing='0'><tr>"
+                         + "".join(f"<th>{e(h)}</th>" for h in heads) + "</tr>")
             for row in content.table:
                 cells = [row.label, f"{row.value_text} {row.unit}".strip(),
                          *row.earlier_texts, row.meaning]
@@ -288,6 +292,40 @@ class ReportTab(QWidget):
         path, _ = QFileDialog.getSaveFileName(self, "Save the report", suggested, "PDF (*.pdf)")
         if path:
             self.save_pdf(path)
+
+
+SIMULATED = ("Simulated trial: the robot and the patient were the simulator's models, not a "
+             "person.")
+
+
+def _which(content: ReportContent) -> str:
+    """'session 2, trial 3', or the file's name when the numbers are not known."""
+    if content.session_number is None or content.trial_number is None:
+        return content.source.name
+    return f"session {content.session_number}, trial {content.trial_number}"
+
+
+def _change_text(change) -> str:
+    """'↑ Led the movement: 62 % → 78 %, better', or, when the trials do not compare,
+    the numbers alone."""
+    return f"{change.arrow} {change.text}" if change.arrow else change.text
+
+
+def _not_compared(caution: str) -> str:
+    """'Not compared: this trial did not run to its end, …' (app.reports.compare)."""
+    return f"Not compared: {caution[0].lower()}{caution[1:]}"
+
+
+def _form(items, problem: str = "") -> QFormLayout:
+    form = QFormLayout()
+    for item in items:
+        value = QLabel(item.value)
+        value.setWordWrap(True)
+        value.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
+        if item.label == problem:
+            theme.set_role(value, "problem")
+        form.addRow(theme.set_role(QLabel(item.label), "caption"), value)
+    return form
 
 
 def _delete_layout(layout) -> None:

@@ -103,12 +103,10 @@ class TrialActions:
         from app.exports.run import export_trial
         from app.reports.build import report_for_registry_trial
 
-        flip = self.settings.flip_x or self.settings.flip_y
-
         def save() -> tuple[Path, Path]:
             # the thesis window's Save data wrote MATLAB data (A.3): the trial's .mat goes
             # beside its report, named as its trial file; saving again replaces both
-            pdf = report_for_registry_trial(self.registry, trial_id, flip_axes=flip)
+            pdf = report_for_registry_trial(self.registry, trial_id)
             source = self.registry.trial_path(self.registry.trial(trial_id))
             mat = export_trial(source, pdf.parent, format="mat", overwrite=True)[0]
             return pdf, mat

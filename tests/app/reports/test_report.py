@@ -24,6 +24,7 @@ from app.reports.build import (
 )
 from app.reports.compare import patient_changes, table_rows
 from app.reports.plain_language import mass_text, parameter_cautions, plain_lines
+from app.trials.assistance_timeline import AssistanceInEffect
 from app.trials.headless import save, simulate
 from app.trials.reader import read_trial
 from core.trial import THESIS_SUBJECT
@@ -93,9 +94,10 @@ def test_the_pdf_has_two_pages_and_the_thesis_figures_computed_from_the_file(
     torque = trial.channels["subject_torque"][ex]
     torque_range = torque.max(axis=0) - torque.min(axis=0)
 
-    assert f"x {rmse_mm[0]:.2f} mm, y {rmse_mm[1]:.2f} mm" in text
+    assert f"Position error, x (RMSE) (mm) {rmse_mm[0]:.2f}" in text
+    assert f"Position error, y (RMSE) (mm) {rmse_mm[1]:.2f}" in text
     assert f"{percent:.2f} %" in text
-    assert f"right direction {round(percent)} % of the time" in text
+    assert f"You pushed in the right direction {round(percent)} % of the time" in text
     assert f"range {np.ptp(force[:, 0]):.2f} N" in text
     assert f"range {np.ptp(force[:, 1]):.2f} N" in text
     assert f"range of motion {rom[0]:.2f}°" in text
@@ -133,10 +135,10 @@ def test_plain_lines_say_the_numbers_in_plain_words():
         "shoulder_rom_rad": math.radians(42.17), "elbow_rom_rad": math.radians(30.65),
     }, peak_force_N=6.0)}
     assert lines["directional_performance_pct"].text == (
-        "You kept your push in the right direction 78 % of the time.")
+        "You pushed in the right direction 78 % of the time.")
     assert "20°" in lines["directional_performance_pct"].detail
-    # √(8.68² + 7.02²) = 11.16 mm from the moving target
-    assert lines["rmse"].text == "Your hand stayed within 11 mm of the path on average."
+    # √(8.68² + 7.02²) = 11.16 mm from the moving target, the robot's doing (issue 27 #8)
+    assert lines["rmse"].text == "The robot kept your hand within 11 mm of the path on average."
     assert lines["shoulder_rom_rad"].text == "Your shoulder moved through 42°."
     assert lines["elbow_rom_rad"].text == "Your elbow moved through 31°."
     assert "600 g" in lines["peak_force_N"].detail
@@ -161,18 +163,18 @@ def _metrics(pct, rmse_mm, shoulder_deg=40.0):
             "shoulder_rom_rad": math.radians(shoulder_deg), "elbow_rom_rad": math.nan}
 
 
-@pytest.mark.parametrize(("before", "after", "direction", "distance"), [
-    (_metrics(60.0, 9.0), _metrics(78.0, 5.0), "better", "better"),
-    (_metrics(78.0, 5.0), _metrics(60.0, 9.0), "worse", "worse"),
-    (_metrics(78.2, 5.2), _metrics(77.9, 4.9), "same", "same"),
+@pytest.mark.parametrize(("before", "after", "direction"), [
+    (_metrics(60.0, 9.0), _metrics(78.0, 5.0), "better"),
+    (_metrics(78.0, 5.0), _metrics(60.0, 9.0), "worse"),
+    (_metrics(78.2, 5.2), _metrics(77.9, 4.9), "same"),
 ])
-def test_better_and_worse_follow_each_figure_s_direction(before, after, direction, distance):
+def test_better_and_worse_follow_each_figure_s_direction(before, after, direction):
     changes = {c.key: c for c in patient_changes(before, after)}
     assert changes["directional_performance_pct"].verdict == direction
-    assert changes["rmse"].verdict == distance
+    assert "rmse" not in changes  # the robot's doing: not the patient's change
     assert "elbow_rom_rad" not in changes  # NaN on both sides: no line
     text = changes["directional_performance_pct"].text
-    assert text.startswith("Push in the right direction: ")
+    assert text.startswith("Pushed in the right direction: ")
     assert text.endswith({"better": "better", "worse": "worse", "same": "the same"}[direction])
 
 
@@ -198,14 +200,13 @@ def test_the_therapist_table_compares_at_two_decimals_with_each_figure_s_goal():
 
 
 def test_the_table_never_says_worse_where_the_patients_page_says_the_same():
-    """1.02 mm → 1.06 mm: the patient reads "within 1 mm" twice, "the same"; the table
-    says "same" too (it compares at the patient's whole mm, %, degrees), and its cell
-    reads as the change to this trial."""
+    """78.2 % → 78.4 %: the patient reads 78 % twice, "the same"; the table says "same"
+    too (it compares at the patient's whole mm, %, degrees), and its cell reads as the
+    change to this trial."""
     before = {"rmse_x_m": 0.00102, "rmse_y_m": 0.00102, "directional_performance_pct": 78.2}
     after = {"rmse_x_m": 0.00106, "rmse_y_m": 0.00106, "directional_performance_pct": 78.4}
     patient = {c.key: c.verdict for c in patient_changes(before, after)}
     rows = {row.key: row for row in table_rows(after, (Baseline(before),))}
-    assert patient["rmse"] == rows["rmse_x_m"].verdicts[0] == "same"
     assert patient["directional_performance_pct"] == "same"
     assert rows["directional_performance_pct"].verdicts == ("same",)
     assert rows["rmse_x_m"].earlier_texts == ("was 1.02: now = same",)
@@ -231,23 +232,24 @@ def test_the_report_compares_with_earlier_trials_and_cautions_in_the_pdf(
     earlier = THESIS_SUBJECT.replace(radius_m=0.08, duration_s=6.0)
     worse = {**trial.metrics, "rmse_x_m": trial.metrics["rmse_x_m"] * 3,
              "directional_performance_pct": trial.metrics["directional_performance_pct"] - 30}
+    full = AssistanceInEffect(((0.0, 1.0),))
     content = build_report(
         trial,
-        previous_trial=Baseline(worse, earlier.to_dict(), 2, 4),
-        previous_session=Baseline(dict(trial.metrics), THESIS_SUBJECT.to_dict(), 1, 7),
+        previous_trial=Baseline(worse, earlier.to_dict(), 2, 4, levels=full),
+        previous_session=Baseline(dict(trial.metrics), SHORT.to_dict(), 1, 7, levels=full),
     )
     last, session = content.comparisons
-    verdicts = {c.key: c.verdict for c in last.changes}
-    assert verdicts["directional_performance_pct"] == "better"
-    assert verdicts["rmse"] == "better"
+    # another size and pace: the numbers side by side, no verdict (issue 27 #8)
+    assert {c.verdict for c in last.changes} == {""}
     assert any("larger D" in c for c in last.cautions)
     assert any("faster (4 s per lap; before, 6 s)" in c for c in last.cautions)
-    assert session.cautions == ()  # same exercise
+    assert session.cautions == ()  # same exercise, same help
     assert {c.verdict for c in session.changes} == {"same"}
     text = pdf_text(write_report_pdf(content, tmp_path / "r.pdf"))
     assert "Since last time" in text
     assert "session 2, trial 4" in text
-    assert "This trial used a larger D" in text
+    assert "Not compared with the last trial: this trial used a larger D" in text
+    assert "not compared" in text
 
 
 # -- Fig. 3.9's runs -------------------------------------------------------------------------
@@ -393,11 +395,11 @@ def test_a_damaged_trial_file_is_an_error_naming_it(registered):
 
 
 def test_a_report_into_a_missing_folder_is_refused_and_leaves_nothing(healthy_file, tmp_path):
-    content = build_report(read_trial(healthy_file), flip_axes=True)
+    content = build_report(read_trial(healthy_file))
     with pytest.raises(AppError, match="does not exist"):
         write_report_pdf(content, tmp_path / "nowhere" / "r.pdf")
     path = write_report_pdf(content, tmp_path / "r.pdf")
-    assert "Seen from the patient's chair" in pdf_text(path)
+    assert "Seen from your seat" in pdf_text(path)
     assert [p.name for p in tmp_path.iterdir()] == ["r.pdf"]  # no temporary file left
 
 
@@ -448,7 +450,7 @@ def test_the_report_says_why_a_trial_ended_when_its_file_cannot(tmp_path):
     content = content_for_registry_trial(registry, begun.trial_id)
     assert "the recorder process stopped: restart" in content.faults
     assert ("Fault", "the recorder process stopped: restart") in [
-        (item.label, item.value) for item in content.header]
+        (item.label, item.value) for item in content.therapist_header]
 
 
 def test_the_settings_line_names_the_controller_and_a_learned_model(healthy_file):
@@ -456,9 +458,13 @@ def test_the_settings_line_names_the_controller_and_a_learned_model(healthy_file
     it: a learned model by its name (issue 15), positions in cm."""
     from app.reports.content import _settings_text
 
-    header = {item.label: item.value for item in build_report(read_trial(healthy_file)).header}
-    assert header["Settings"].startswith("SMC controller, assistance level 100 %")
+    header = {item.label: item.value
+              for item in build_report(read_trial(healthy_file)).therapist_header}
+    assert header["Settings"].startswith("SMC controller, thesis-mode assistance at 100 % "
+                                         "(built at 100 %)")
     assert "centre (-30.0, 30.0) cm" in header["Settings"]
     learned = SHORT.replace(controller="ctpid", learned_model="fnn-robot")
-    assert _settings_text(learned).startswith("CT-PID (learned: fnn-robot) controller")
-    assert _settings_text(SHORT.replace(controller="ctpid")).startswith("CT-PID controller")
+    full = AssistanceInEffect(((0.0, 1.0),))
+    assert _settings_text(learned, full).startswith("CT-PID (learned: fnn-robot) controller")
+    assert _settings_text(SHORT.replace(controller="ctpid"), full).startswith(
+        "CT-PID controller")

@@ -1,0 +1,69 @@
+"""Issue 27 #8 on the screen: the Report tab's part for the patient (above "For the
+therapist") says what the PDF's page 1 says, in the same order: the mode's own success
+figure first, no verdict for a trial cut short, no instructions to the therapist,
+coordinates, seeds or file names; the therapist's part below keeps the detail."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from app.records.datadir import DataDir
+from app.records.registry import Registry
+from core.trial import THESIS_SUBJECT
+from tests.app.reports.made import cut, register
+from ui import theme
+from ui.tabs import ReportTab
+
+AS_NEEDED = THESIS_SUBJECT.replace(repetitions=2, assist="as-needed")
+
+
+@pytest.fixture(scope="module")
+def course(tmp_path_factory):
+    registry = Registry(DataDir(tmp_path_factory.mktemp("data")))
+    code = registry.create_patient("Ada", "Example", side="right").code
+    complete = register(registry, code, AS_NEEDED, session=1, seed=1)
+    estop = register(registry, code, AS_NEEDED, session=1, seed=2, minutes=10,
+                     edit=lambda trial: cut(trial, 0.4, "faulted"))
+    return registry, complete, estop
+
+
+@pytest.fixture
+def tab(qtbot, qapp):
+    theme.apply_theme(qapp)
+    tab = ReportTab()
+    qtbot.addWidget(tab)
+    tab.resize(1280, 800)
+    tab.show()
+    qtbot.waitExposed(tab)
+    return tab
+
+
+def test_the_patient_part_of_a_cut_short_trial_is_for_the_patient(qtbot, tab, course):
+    registry, _, estop = course
+    with qtbot.waitSignal(tab.report_ready, timeout=10000) as ready:
+        tab.load_registry_trial(registry, estop)
+    content = ready.args[0]
+    lines = tab.lines()
+    split = lines.index("For the therapist")
+    patient, therapist = lines[:split], lines[split:]
+    text = "\n".join(patient)
+    # the headline, the mode's own success figure, first under "How it went"
+    assert patient[patient.index("How it went") + 1] == (
+        f"You led the movement {round(content.metrics.led_pct)} % of the time.")
+    assert "stopped with the emergency stop" in text
+    for word in ("Clear fault", "Make sure", "seed", ".h5", "Settings"):
+        assert word not in text, word
+    assert not re.search(r"\(-?\d+(\.\d+)?, -?\d+(\.\d+)?\)", text)
+    since = text.split("Since last time", 1)[1]
+    for word in ("better", "worse", "the same", "↑", "↓"):
+        assert word not in since, word
+    assert "Not compared: this trial did not run to its end" in since
+    # the therapist's part keeps the detail
+    detail = "\n".join(therapist)
+    assert "Make sure the patient is safe, then press Clear fault" in detail
+    assert "seed 2" in detail
+    assert content.source.name in detail
+    # the line above the page names the trial, not its file
+    assert tab.message.text() == "Report of session 1, trial 2"
