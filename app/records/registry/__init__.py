@@ -21,6 +21,9 @@ Storage in short (each module's docstring says more):
   aside and migrated in one transaction on opening; a newer one is refused.
 * WAL journal (readers never block the writer), foreign keys on, a busy timeout,
   `synchronous=FULL` (a registered trial survives a power cut).
+* On a disk too full for a WAL reader's `-shm` and `-wal` files, reads come from an
+  in-memory copy of the committed state (`snapshot`: the file and the WAL's committed
+  frames), and a write is refused saying the disk is full.
 * Two consoles on one data folder: every write is a `BEGIN IMMEDIATE`
   transaction, so the one that reads the next number is the one that inserts
   it; the other waits (busy timeout) and then sees it. UNIQUE constraints on

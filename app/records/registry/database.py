@@ -2,7 +2,11 @@
 errors as the registry's own (saying what to do), and the whole-file copy and checks.
 
 Every connection lives for one call and is closed by a context manager, so a
-`Database` holds no connection and may be used from several threads. Each
+`Database` holds no connection and may be used from several threads. A read that
+cannot open its connection for want of room on the disk (WAL mode makes every reader
+map, and maybe create, the `-shm` and `-wal` files) reads the registry's committed state
+from an in-memory copy instead (`snapshot`), so a full disk still lets everything be
+read; writes then fail, saying the disk is full. Each
 connection has foreign keys on, a busy timeout and `synchronous=FULL` (a
 registered trial survives a power cut). Every write is a `BEGIN IMMEDIATE`
 transaction: the console that reads the next number is the one that inserts it.
@@ -11,12 +15,16 @@ transaction: the console that reads the next number is the one that inserts it.
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import sqlite3
 from collections.abc import Iterator
 from pathlib import Path
 
 from app.errors import RegistryError, SchemaError
+from app.records.registry.snapshot import needs_snapshot, snapshot_connection
+
+log = logging.getLogger(__package__)
 
 BUSY_TIMEOUT_S = 10.0
 
@@ -62,12 +70,43 @@ class Database:
     @contextlib.contextmanager
     def _read(self) -> Iterator[sqlite3.Connection]:
         """A read transaction: several SELECTs see one snapshot."""
-        with self._connection() as conn:
+        conn = self._reader()
+        try:
             conn.execute("BEGIN")
             try:
                 yield conn
             finally:
                 rollback(conn)  # nothing to keep: ends the snapshot
+        except sqlite3.Error as exc:
+            raise self._database_error(exc) from exc
+        finally:
+            conn.close()
+
+    def _reader(self) -> sqlite3.Connection:
+        """A connection for reading: the file's, or on a disk without room for what a WAL
+        reader writes, the committed state in memory (`snapshot`)."""
+        try:
+            conn = sqlite3.connect(self.path, timeout=BUSY_TIMEOUT_S, isolation_level=None)
+        except sqlite3.Error as exc:
+            return self._snapshot(exc)
+        try:
+            conn.execute(f"PRAGMA busy_timeout = {int(BUSY_TIMEOUT_S * 1000)}")
+            conn.execute("PRAGMA user_version").fetchone()  # maps the WAL's index
+        except sqlite3.Error as exc:
+            conn.close()
+            return self._snapshot(exc)
+        return conn
+
+    def _snapshot(self, exc: sqlite3.Error) -> sqlite3.Connection:
+        if not needs_snapshot(exc):
+            raise self._database_error(exc) from exc
+        try:
+            conn = snapshot_connection(self.path)
+        except (OSError, sqlite3.Error):
+            raise self._database_error(exc) from exc
+        log.info("registry %s read from a copy in memory: %s (the disk is full?)",
+                 self.path, exc)
+        return conn
 
     def _database_error(self, exc: sqlite3.Error) -> RegistryError:
         text = str(exc)
@@ -81,6 +120,11 @@ class Database:
             return SchemaError(
                 f"{self.path} is not a registry database ({text}). Move it aside and "
                 "restore the registry from a backup"
+            )
+        if needs_snapshot(exc):
+            return RegistryError(
+                f"the registry {self.path} cannot be written: {text}; the disk holding it is "
+                "probably full. Free space on it, then try again; nothing was saved"
             )
         return RegistryError(
             f"the registry {self.path} cannot be used: {text}. Check the disk and its free "

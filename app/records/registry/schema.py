@@ -21,6 +21,7 @@ from pathlib import Path
 from app.errors import RegistryError, SchemaError
 from app.records.datadir import private_files
 from app.records.registry.database import Database, rollback
+from app.records.registry.snapshot import needs_snapshot
 
 # The registry's one logger, named as it was before the registry had modules.
 log = logging.getLogger(__package__)
@@ -117,10 +118,24 @@ class Schema(Database):
     """The schema version of the registry file, and bringing it up to date."""
 
     def schema_version(self) -> int:
-        with self._connection() as conn:
+        with self._read() as conn:
             return conn.execute("PRAGMA user_version").fetchone()[0]
 
     def _migrate(self) -> None:
+        try:
+            self._bring_up_to_date()
+        except RegistryError as exc:
+            if not isinstance(exc.__cause__, sqlite3.Error) or not needs_snapshot(exc.__cause__):
+                raise
+            # a full disk: a registry already up to date is read from a copy in memory
+            version = self.schema_version()
+            if version != SCHEMA_VERSION:
+                raise RegistryError(
+                    f"the registry {self.path} needs an update to schema v{SCHEMA_VERSION} "
+                    f"(it is v{version}), which cannot be written: {exc.__cause__}. Free "
+                    "space on its disk, then try again") from exc
+
+    def _bring_up_to_date(self) -> None:
         with self._connection() as conn:
             mode = conn.execute("PRAGMA journal_mode = WAL").fetchone()[0]
             if mode.lower() != "wal":
