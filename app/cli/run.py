@@ -23,7 +23,10 @@ def add_run_command(commands) -> None:
 
     run_cmd.add_argument("--patient", choices=PATIENT_KINDS, default="healthy",
                          help="virtual patient (default healthy)")
-    run_cmd.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    run_cmd.add_argument("--seed", type=int, default=None,
+                         help="the simulator's seed (the virtual patient's draws, the sensor "
+                              "noise, the realistic plant), a whole number from 0; default: "
+                              "a new one for every trial, printed and kept in its file")
     run_cmd.add_argument("--output", help="trial file to write (default: a new file in the "
                                           "data folder's trials/simulated)")
     run_cmd.add_argument("--code", help="register the trial for this patient (their body "
@@ -67,6 +70,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     from app.trials.headless import simulate_to_file
 
     params = trial_from_args(args)
+    if args.seed is not None and args.seed < 0:
+        raise CommandError(f"--seed {args.seed}: give a whole number from 0, or leave it out "
+                           "for a new seed")
+    from device.sim.simulator import draw_seed
+
+    args.seed = draw_seed() if args.seed is None else args.seed
     model = None
     if args.learned_model:
         params, model = _with_learned_model(params, args.learned_model)
@@ -91,7 +100,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         if args.output:
             raise CommandError("--output cannot be used with --code: a registered trial is "
                                "written to the patient's folder in the data folder")
-        begun = registry.begin_trial(args.code, params, backend=f"simulator ({args.patient})",
+        begun = registry.begin_trial(args.code, params,
+                                     backend=f"simulator ({args.patient}, seed {args.seed})",
                                      patient_kind=args.patient)
         path = begun.path
     elif args.output:

@@ -98,6 +98,7 @@ class RecordStore(Protocol):
         ended_at: datetime.datetime | None = None,
         reason: str = "",
         assistance: AssistanceInEffect | None = None,
+        backend: str | None = None,
     ) -> Trial: ...
 
     def trial(self, trial_id: int) -> Trial: ...

@@ -71,7 +71,7 @@ def finalize_trial(registry: RecordStore, trial_id: int, status: str | None = No
     reason = "" if status == "complete" else reason or last_fault(data.events)
     ran = _levels(data, notes)
     registry.finish_trial(trial_id, status, metrics, datetime.datetime.now(datetime.UTC),
-                          reason, ran)
+                          reason, ran, data.backend or None)
     parameters = data.parameters
     if parameters is not None and ran is not None:
         # the next trial starts from where this one ended, not from how it was built

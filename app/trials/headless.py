@@ -38,7 +38,7 @@ from device.loop.pipeline import (
 )
 from device.recording.trialfile import SubjectInfo, TrialFileWriter
 from device.safety.supervisor import SafetySupervisor
-from device.sim.simulator import SimulatorBackend
+from device.sim.simulator import SimulatorBackend, draw_seed
 
 Progress = Callable[[float], None]
 ENGINES = ("auto", "compiled", "python")
@@ -86,7 +86,7 @@ def simulate(
     parameters: TrialParameters,
     *,
     patient: str = "healthy",
-    seed: int = 0,
+    seed: int | None = 0,
     robot: RobotModel | None = None,
     progress: Progress | None = None,
     patient_options: dict | None = None,
@@ -115,8 +115,11 @@ def simulate(
     learned model the parameters name (`learned_model`; app.learning.library checks it):
     the computed-torque PID runs on it, compiled for an FNN or a DeLaN. A `feed`
     (app.emg.feed) gives the assistance its estimate of the patient's force between
-    ticks, for parameters that name one (`force_estimate`).
+    ticks, for parameters that name one (`force_estimate`). `seed` None draws a new one
+    (device.sim.simulator.draw_seed; the result's `seed` says which).
     """
+    if seed is None:
+        seed = draw_seed()
     if engine not in ENGINES:
         raise ParameterError("engine", engine, "one of " + ", ".join(ENGINES))
     plan = TrialPlan.build(parameters, robot)
@@ -182,7 +185,7 @@ def simulate_to_file(
     *,
     subject_code: str = "SIM",
     patient: str = "healthy",
-    seed: int = 0,
+    seed: int | None = 0,
     robot: RobotModel | None = None,
     progress: Progress | None = None,
     **options,
@@ -200,6 +203,7 @@ def simulate_to_file(
     """
     robot = robot or RobotModel()
     check_trial(parameters, robot).require_ok()  # refused before a file exists
+    seed = draw_seed() if seed is None else seed  # the file names the one it ran
     writer = _writer(path, parameters, robot, PERIOD_S, patient, seed, subject_code)
     try:
         trial = simulate(parameters, patient=patient, seed=seed, robot=robot,

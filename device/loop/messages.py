@@ -34,11 +34,15 @@ class BackendConfig:
     by the nominal period, hardware runs on the wall clock); "real" runs the simulator
     on the wall clock with the hardware's late-tick watchdog, to rehearse on a PC how
     the real robot's loop would be timed there.
+    `seed`: None (the default) draws a new seed for every trial (device.sim.simulator.
+    draw_seed: at Connect, and again at a Start after a trial ran on that one), so a
+    course of simulated trials varies as a person's would; a whole number fixes one, for
+    every trial. The seed each trial ran is in its file (`backend`, the start event).
     """
 
     kind: str = "simulator"
     patient: str = "healthy"
-    seed: int = 0
+    seed: int | None = None
     hardware_settings: str | None = None
     fault_scenario: str | None = None
     fault_at_s: float = 1.0
@@ -52,7 +56,8 @@ class BackendConfig:
     def label(self) -> str:
         if self.kind == "simulator":
             clock = ", on the wall clock" if self.timing == "real" else ""
-            return f"simulator ({self.patient}, seed {self.seed}{clock})"
+            seed = "a new seed each trial" if self.seed is None else f"seed {self.seed}"
+            return f"simulator ({self.patient}, {seed}{clock})"
         return f"quanser ({self.hardware_settings})"
 
 

@@ -162,6 +162,11 @@ class DeviceLoop:
         self.backend_config: BackendConfig | None = None
         self.limits: SafetyLimits | None = None
         self.backend: Backend | None = None
+        self.opened: BackendConfig | None = None
+        """The backend open now as it was made: `backend_config` with the seed drawn for
+        it when the trial's config draws one per trial (BackendConfig.seed None)."""
+        self.seed_used = False
+        """A trial ran on the simulator open now: the next Start draws a new seed."""
         self.supervisor: SafetySupervisor | None = None
         self.pipeline: TickPipeline | None = None
         self.model = None
@@ -336,12 +341,15 @@ class DeviceLoop:
         if self.pipeline.approach_ticks == 0:
             _cue_patient(self.backend)
         plan = self.plan
+        self.seed_used = True
         self._to_recorder(BeginTrial(
             command.path, self.ring.write_count, plan.parameters, command.subject,
-            dataclasses.asdict(plan.robot), self.backend_config.label, plan.period_s,
+            dataclasses.asdict(plan.robot), self.opened.label, plan.period_s,
         ))
-        self._to_recorder(TrialEvent(0.0, 0, "start", "trial started",
-                                     {"approach_ticks": self.pipeline.approach_ticks}))
+        started = {"approach_ticks": self.pipeline.approach_ticks}
+        if self.opened.kind == "simulator":
+            started["seed"] = self.opened.seed  # the file runs again with it
+        self._to_recorder(TrialEvent(0.0, 0, "start", "trial started", started))
         self._send(TrialStarted(command.path, self.pipeline.approach_ticks,
                                 self.pipeline.total_ticks, self.t0))
         return ""
@@ -461,20 +469,29 @@ class DeviceLoop:
             if refused:
                 self._enter(State.BUILT, "the robot could not be reconnected")
                 return refused
-            return "", f"connected to the {self.backend_config.label}"
+            return "", f"connected to the {self.opened.label}"
         if self.engine is not None and self.state.ticking:
             self.engine = TickEngine(self.backend, self.pipeline, self.supervisor)
         return "", "trial built"
 
     def _do_connect(self, command: Connect, after_a_tick: bool):
         refused = self._open_backend()
-        return refused, f"connected to the {self.backend_config.label}"
+        return refused, f"connected to the {self.opened.label}"
 
     def _do_disconnect(self, command: Disconnect, after_a_tick: bool):
         self._disconnect_backend()
         return "", "disconnected"
 
     def _do_start(self, command: Start, after_a_tick: bool):
+        if self.seed_used and self.backend_config.kind == "simulator" and (
+                self.backend_config.seed is None):
+            # a new virtual patient and sensor noise for this trial, at rest at the path's
+            # start (a course of simulated trials varies as a person's would)
+            self._disconnect_backend()
+            refused = self._open_backend(check_timing=False)
+            if refused:
+                self._enter(State.BUILT, "the simulator could not be reopened")
+                return f"start refused: {refused}"
         if self.reading is None:
             return LATER  # the first tick after Connect has not read the sensors yet
         return self._start_trial(command), "trial started"
@@ -522,14 +539,19 @@ class DeviceLoop:
                                     controller is None or has_compiled_form(self.model)))
         return pipeline
 
-    def _open_backend(self) -> str:
-        """Make and open the configured backend with its supervisor and tick engine: ''
-        or why not."""
+    def _open_backend(self, check_timing: bool = True) -> str:
+        """Make and open the configured backend with its supervisor and tick engine (a
+        simulator with a seed drawn now when its config draws one per trial): '' or why
+        not."""
         self.paused = True
         config = self.backend_config
+        if config.kind == "simulator" and config.seed is None:
+            from device.sim.simulator import draw_seed  # as make_backend: the simulator's
+
+            config = dataclasses.replace(config, seed=draw_seed())
         backend = make_backend(config, self.plan.parameters, self.plan, self.clock.sleep,
                                self.config.compiled)
-        if backend.timing == REAL_TIME and self.config.timing_check_s > 0.0:
+        if backend.timing == REAL_TIME and check_timing and self.config.timing_check_s > 0.0:
             self._check_timing()
         backend.open()
         try:
@@ -549,6 +571,7 @@ class DeviceLoop:
         self.engine = TickEngine(backend, self.pipeline, self.supervisor)
         self.fault_reported = Fault.NONE
         self.reading = None
+        self.opened, self.seed_used = config, False
         return ""
 
     def _check_timing(self) -> None:

@@ -74,6 +74,7 @@ repeatable for a seed.
 from __future__ import annotations
 
 import math
+import secrets
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -510,6 +511,18 @@ def _constants(simulator: SimulatorBackend) -> tuple[float, ...]:
 
 
 _reading = SensorReading._make
+
+
+SEEDS = 1_000_000
+"""How many seeds `draw_seed` draws from: six digits, easy to read back and to type into
+`rehab run --seed`."""
+
+
+def draw_seed() -> int:
+    """A new seed for a simulated trial (the operating system's randomness): a course of
+    simulated trials at one setting varies as a person's would, each trial's seed kept in
+    its file to run it again."""
+    return secrets.randbelow(SEEDS)
 
 
 def _check_seed(seed) -> None:

@@ -109,3 +109,27 @@ def test_a_live_change_is_recorded_per_tick_and_belongs_to_its_trial_only(client
     # Start again without a Build: the next trial runs its own 100 % again
     again = _run(client, tmp_path / "again.h5")
     np.testing.assert_array_equal(again.channels["assistance_level"], 1.0)
+
+
+def test_each_simulated_trial_draws_its_own_seed_unless_one_is_fixed(client, tmp_path):
+    """Issue 27, item 16: every trial ran with seed 0, so a course of trials at one setting
+    gave the same figures and Progress on the simulator never changed."""
+    drawn = BackendConfig(patient="tremor")  # seed None: a new one per trial
+    assert "a new seed each trial" in drawn.label
+    if client.state in (State.CONNECTED, State.FAULTED):
+        assert client.disconnect().ok
+    assert client.build(FULL, drawn).ok
+    assert client.connect().ok
+    client.wait_for_samples(10)
+    trials = [_run(client, tmp_path / f"course{i}.h5") for i in range(3)]
+    seeds = [next(e["values"]["seed"] for e in t.events if e["kind"] == "start")
+             for t in trials]
+    assert len(set(seeds)) == 3, seeds
+    for data, seed in zip(trials, seeds, strict=True):
+        assert data.backend == f"simulator (tremor, seed {seed})"
+    figures = [_figures(t) for t in trials]
+    assert len({round(tau, 6) for tau, _ in figures}) == 3, figures  # they vary
+    # a fixed seed is every trial's
+    _connect(client, FULL)  # WEAK: seed 0
+    fixed = [_run(client, tmp_path / f"fixed{i}.h5") for i in range(2)]
+    assert {t.backend for t in fixed} == {"simulator (weak, seed 0)"}

@@ -275,12 +275,14 @@ class Trials(Database):
         ended_at: datetime.datetime | None = None,
         reason: str = "",
         assistance: AssistanceInEffect | None = None,
+        backend: str | None = None,
     ) -> Trial:
         """Record how a trial ended: status one of complete, stopped_early, faulted,
         recording_lost; metrics as computed (NaN allowed); `reason`, why it ended so (a
         fault's message), kept here because the file may not hold it; `assistance`, the
-        levels it ran with as its file recorded them (None when the file could not say).
-        A trial is finished once."""
+        levels it ran with as its file recorded them (None when the file could not say);
+        `backend`, the robot as the file names it (a simulator's seed of this trial), in
+        place of the one given at Start (None keeps that). A trial is finished once."""
         if status not in STATUSES:
             raise InvalidRecordError(
                 f"trial status {status!r}: give one of {', '.join(STATUSES)}"
@@ -288,6 +290,8 @@ class Trials(Database):
         ended_at = aware(ended_at or utc_now(), "ended_at")
         stored = metrics_json(metrics)
         levels = assistance_json(assistance)
+        if backend is not None:
+            backend = checked_text("backend", backend, NAME_MAX_CHARS) or None
         with self._write() as conn:
             trial = trial_by_id(conn, self.path, trial_id)
             if trial.finished:
@@ -301,8 +305,10 @@ class Trials(Database):
                     f"({trial.started_at.isoformat()}): check the computer's clock"
                 )
             conn.execute("UPDATE trials SET status = ?, metrics = ?, ended_at = ?, "
-                         "end_reason = ?, assistance = ? WHERE id = ?",
-                         (status, stored, utc_text(ended_at), str(reason), levels, trial_id))
+                         "end_reason = ?, assistance = ?, backend = coalesce(?, backend) "
+                         "WHERE id = ?",
+                         (status, stored, utc_text(ended_at), str(reason), levels, backend,
+                          trial_id))
             trial = trial_by_id(conn, self.path, trial_id)
         log.info("trial %d finished: %s, %d metric(s)%s", trial_id, status, len(trial.metrics),
                  f" ({reason})" if reason else "")

@@ -124,6 +124,8 @@ def test_the_registry_and_the_next_proposal_take_the_level_the_trial_ended_at(tm
     assert done.proposal.change == "assistance"  # the weak patient led about 89 %
     assert "60 % → 50 %" in done.proposal.reason
     assert done.proposal.assistance_level == 0.5
+    # the robot as the file names it, with the simulator's seed of this trial
+    assert registry.trial(begun.trial_id).backend == "simulator (weak, seed 0)"
 
 
 KILLED_IN_THE_CLOSE = """

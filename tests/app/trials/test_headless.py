@@ -317,3 +317,26 @@ def test_every_tick_records_the_level_it_ran_with_in_both_engines():
     slow = simulate(params, patient="weak", seed=1, engine="python")
     np.testing.assert_array_equal(fast.records["assistance_level"], 0.6)
     np.testing.assert_array_equal(slow.records["assistance_level"], 0.6)
+
+
+def test_rehab_run_draws_a_new_seed_unless_one_is_given(tmp_path, capsys, monkeypatch):
+    """Issue 27, item 16: a course of `rehab run` at one setting varies; --seed fixes it."""
+    import re
+
+    monkeypatch.setenv("REHAB_DATA_DIR", str(tmp_path / "data"))
+
+    def run(name, *more):
+        path = tmp_path / name
+        assert main(["run", "--patient", "tremor", "--repetitions", "1", "--output",
+                     str(path), *more]) == 0
+        seed = int(re.search(r"seed (\d+)", capsys.readouterr().out).group(1))
+        data = read_trial(path)
+        assert data.backend == f"simulator (tremor, seed {seed})"
+        return seed, data.metrics["rmse_x_m"]
+
+    drawn = [run(f"drawn{i}.h5") for i in range(3)]
+    assert len({seed for seed, _ in drawn}) == 3
+    assert len({rmse for _, rmse in drawn}) == 3  # the figures vary as a person's would
+    assert run("a.h5", "--seed", "5") == run("b.h5", "--seed", "5")
+    assert main(["run", "--seed", "-1", "--output", str(tmp_path / "c.h5")]) == 2
+    assert "--seed -1" in capsys.readouterr().err
