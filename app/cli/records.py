@@ -11,7 +11,7 @@ import argparse
 import math
 
 from app.cli.common import mm, num, registry_for
-from app.units import cm
+from app.units import assistance_percent, cm
 from core.trial import SIDES
 
 
@@ -84,17 +84,36 @@ def cmd_trials(args: argparse.Namespace) -> int:
     if not trials:
         print(f"patient {args.code} has no trials yet")
         return 0
+    proposals = {p.trial_id: p for p in registry.proposals_for_patient(args.code)}
     print(f"{'id':>5} {'session':>7} {'trial':>5}  {'started (UTC)':<20}{'status':<15}"
-          f"{'exercise':<26}{'RMSE x/y mm':>13}{'direction %':>12}")
+          f"{'exercise':<26}{'RMSE x/y mm':>13}{'direction %':>12}{'led %':>7}  "
+          f"{'mode':<10}assistance")
     for t in trials:
         p = t.parameters
         exercise = f"{p.get('shape', '?')} r {cm(p.get('radius_m', math.nan))}, " \
                    f"{p.get('duration_s', math.nan):g} s"
         rmse = f"{mm(t.metrics.get('rmse_x_m'))}/{mm(t.metrics.get('rmse_y_m'))}"
         direction = t.metrics.get("directional_performance_pct")
+        led = t.metrics.get("led_pct")
         started = t.started_at.strftime("%Y-%m-%d %H:%M") if t.started_at else "-"
         print(f"{t.id:>5} {t.session_number:>7} {t.number:>5}  {started:<20}{t.status:<15}"
-              f"{exercise:<26}{rmse:>13}{num(direction):>12}")
+              f"{exercise:<26}{rmse:>13}{num(direction):>12}{num(led):>7}  "
+              f"{t.assist:<10}{_levels(t)}")
+        if t.backend:
+            print(f"{'':>21}robot: {t.backend}")
+        stored = proposals.get(t.id)
+        if stored is not None:
+            print(f"{'':>21}proposed: {stored.proposal.get('reason', '?')} "
+                  f"({stored.decision})")
         if t.end_reason:
             print(f"{'':>21}ended: {t.end_reason}")
     return 0
+
+
+def _levels(trial) -> str:
+    """The levels the trial ran ('100 % → 60 % at 5.8 s'), or the built one when the
+    registry does not know them (a trial before it kept them, or not finished)."""
+    if trial.assistance is not None:
+        return trial.assistance.summary()
+    built = trial.parameters.get("assistance_level")
+    return "-" if built is None else f"{assistance_percent(built)} as built"

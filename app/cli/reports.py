@@ -7,8 +7,14 @@ from __future__ import annotations
 import argparse
 
 from app.cli.common import CommandError, absolute, finite, num, record_id, registry_for
+from app.records.outcomes import OUTCOME_COLUMNS, patient_outcomes
 from app.reports.metrics_table import ROWS
 from app.reports.progress import progress
+
+
+def _cell(value):
+    """A CSV cell: '' for a value not known."""
+    return "" if value is None else value
 
 
 # ------------------------------------------------------------------ progress
@@ -19,7 +25,10 @@ def add_progress_command(commands) -> None:
     prog.add_argument("code", help="the patient's code")
     prog.add_argument("--metric", action="append", dest="metrics",
                       help="metric to show (repeatable; default: the thesis's figures)")
-    prog.add_argument("--csv", action="store_true", help="all columns as CSV")
+    prog.add_argument("--csv", action="store_true",
+                      help="all columns as CSV, with what each trial ran and what followed "
+                           "it (the assistance mode, the levels in effect, the proposal and "
+                           "its decision, why it ended, the robot)")
     prog.set_defaults(func=cmd_progress)
 
 
@@ -31,9 +40,14 @@ def cmd_progress(args: argparse.Namespace) -> int:
         import csv
         import sys
 
+        outcomes = patient_outcomes(registry, args.code)
+        backends = {t.id: t.backend for t in registry.trials_for_patient(args.code)}
         writer = csv.writer(sys.stdout)
-        writer.writerow(header)
-        writer.writerows(rows)
+        writer.writerow((*header, *OUTCOME_COLUMNS, "backend"))
+        for row in rows:
+            ran = outcomes.get(row[0], {})
+            writer.writerow((*row, *(_cell(ran.get(name)) for name in OUTCOME_COLUMNS),
+                             backends.get(row[0]) or ""))
         return 0
     if not rows:
         print(f"patient {args.code} has no trials yet")

@@ -21,6 +21,7 @@ from pathlib import Path, PurePosixPath
 from app.errors import AppError
 from app.exports.loader import Failure
 from app.records.datadir import CODE_PATTERN
+from app.records.outcomes import proposal_columns, trial_outcome
 from app.records.store import RecordStore
 
 _CONSOLE_STEM = re.compile(
@@ -39,6 +40,9 @@ class TrialSource:
     participant: str | None = None
     session: int | None = None
     run: int | None = None
+    outcome: tuple[tuple[str, object], ...] = ()
+    """From the registry: the proposal made after the trial, the decision on it and why
+    the trial ended (app.records.outcomes), as (column, value) pairs; () from a folder."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -84,7 +88,9 @@ def sources_from_registry(registry: RecordStore, codes: str | Iterable[str]) -> 
     codes = [codes] if isinstance(codes, str) else list(codes)
     sources = []
     for code in codes:
+        proposals = {p.trial_id: p for p in registry.proposals_for_patient(code)}
         for trial in registry.trials_for_patient(code):
+            outcome = trial_outcome(trial, proposals.get(trial.id))
             sources.append(TrialSource(
                 path=registry.trial_path(trial),
                 stem=PurePosixPath(trial.file).stem,
@@ -92,6 +98,8 @@ def sources_from_registry(registry: RecordStore, codes: str | Iterable[str]) -> 
                 participant=code,
                 session=trial.session_number,
                 run=trial.number,
+                outcome=tuple((k, outcome[k]) for k in (*proposal_columns(None),
+                                                        "end_reason")),
             ))
     return sources
 

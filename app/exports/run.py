@@ -20,7 +20,9 @@ Batch exports (`export_patient`, `export_patients`, `export_folder`,
 the trial file's own subfolder of the source folder) and write ``trials.csv``
 (``trials.tsv`` for TSV), one row per exported trial with its metadata and
 metrics (app.exports.loader's row keys, after `participant`, `session`, `trial` and
-`export_file`). A trial file that cannot be read is skipped and listed in the
+`export_file`), then what the trial ran and what followed it (app.records.outcomes:
+the assistance mode, the levels as built and as they ran, the proposal and its decision,
+why it ended). A trial file that cannot be read is skipped and listed in the
 result's `failed`; `progress(fraction)` is called as trials are done.
 
 Privacy: exports hold pseudonymous codes, never names, and every file name is
@@ -64,7 +66,9 @@ from app.exports.plan import (
     sources_from_registry,
 )
 from app.exports.table import table_outputs, write_table
+from app.records.outcomes import OUTCOME_COLUMNS, level_columns, proposal_columns
 from app.records.store import RecordStore
+from app.trials.assistance_timeline import assistance_in_effect
 
 __all__ = [
     "FORMATS",
@@ -153,7 +157,7 @@ def export_trials(
             rows.append({"participant": source.participant, "session": source.session,
                          "trial": source.run,
                          "export_file": paths[0].relative_to(root).as_posix(),
-                         **trial.row()})
+                         **trial.row(), **ran_columns(trial, source)})
         if progress is not None:
             progress((i + 1) / len(planned))
     written.append(_write_index(index, rows, suffix, overwrite))
@@ -209,6 +213,26 @@ def export_folder(
 
 
 # -- helpers -------------------------------------------------------------------
+
+
+def ran_columns(trial: Trial, source: TrialSource) -> dict:
+    """trials.csv's columns of what the trial ran and what followed it
+    (app.records.outcomes.OUTCOME_COLUMNS): the mode and the levels from its file, the
+    proposal and its decision from the registry (empty from a folder), why it ended from
+    the registry or else the file's last fault."""
+    values = trial.parameter_values
+    built = values.get("assistance_level")
+    built = float(built) if isinstance(built, int | float) else None
+    ran = None if built is None else assistance_in_effect(
+        trial.arrays, trial.events, built, trial.sample_period_s, trial.summary)
+    faults = [e["message"] for e in trial.events if e["kind"] == "fault"]
+    columns = {**level_columns(str(values.get("assist", "thesis")), built, ran),
+               **proposal_columns(None),
+               "end_reason": "" if trial.status == "complete" else (faults[-1] if faults
+                                                                    else "")}
+    columns |= dict(source.outcome)
+    return {name: columns[name] for name in OUTCOME_COLUMNS}
+
 
 
 def _check_format(format: str, allowed: tuple[str, ...] = FORMATS) -> None:
