@@ -95,7 +95,7 @@ def test_the_three_places_say_what_each_trial_ran_and_what_followed(course, caps
 
 
 def test_a_folder_export_reads_the_levels_and_the_fault_from_the_files(course, capsys):
-    tmp_path, code = course
+    tmp_path, _ = course
     assert main(["export", "--folder", str(tmp_path / "data" / "trials"), "--output",
                  str(tmp_path / "study")]) == 0
     capsys.readouterr()
