@@ -18,7 +18,11 @@ Every backend also says whose clock its robot lives on (`timing`):
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
 from typing import NamedTuple, Protocol, runtime_checkable
+
+import numpy as np
 
 REAL_TIME = "real"
 """A backend whose robot moves on the wall clock: the late-tick watchdog applies."""
@@ -67,3 +71,46 @@ class Backend(Protocol):
 
     def close(self) -> None:
         """Zero the motors and release the device. Safe to call twice."""
+
+
+# ------------------------------------------------------------------ the force sensor's zero
+TARE_SPREAD_LIMIT_N = 0.18
+"""How much the in-plane force may move (RMS about its mean) while the handle's force sensor
+takes its zero at Connect: three times the noise of a still Nano25 in the plane (one count,
+1/24 N, per axis: √2/24 ≈ 0.06 N; Table 3.1). A hand on the handle moves more than that
+(a grip settling, physiological tremor), and a zero taken under it would read its push as
+the patient's every tick after (docs/hardware.md, Tare)."""
+
+
+@dataclass(frozen=True, slots=True)
+class Tare:
+    """How the force sensor's zero went at Connect: how long it averaged, how much the
+    force in the plane moved meanwhile (RMS about its mean, N) and the limit it was held to."""
+
+    duration_s: float
+    spread_N: float
+    limit_N: float
+
+    @property
+    def under_load(self) -> bool:
+        return not self.spread_N <= self.limit_N
+
+    def refusal(self) -> str:
+        """One line for the therapist when the zero was taken under load, else ''."""
+        if not self.under_load:
+            return ""
+        return (f"the force sensor's zero was taken with a force on the handle: the force "
+                f"moved by {self.spread_N:.2f} N during the {self.duration_s:g} s zero at "
+                f"Connect, beyond the sensor's noise ({self.limit_N:.2f} N). Take the hands "
+                "off the handle and connect again")
+
+
+def tare_of(force_x_N, force_y_N, duration_s: float, limit_N: float) -> Tare:
+    """The Tare of the in-plane forces a sensor read during its zero (any frame turning
+    with the plane: the spread does not depend on it)."""
+    fx = np.asarray(force_x_N, dtype=float)
+    fy = np.asarray(force_y_N, dtype=float)
+    if not fx.size:
+        return Tare(duration_s, math.nan, limit_N)
+    spread = math.sqrt(float(np.mean((fx - fx.mean()) ** 2 + (fy - fy.mean()) ** 2)))
+    return Tare(duration_s, spread, limit_N)

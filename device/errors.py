@@ -28,6 +28,10 @@ class SensorRangeError(BackendError):
     """A sensor reading is out of its physical range or not finite."""
 
 
+class TareUnderLoad(BackendError):
+    """The force sensor's zero at Connect was taken with a force on the handle."""
+
+
 class StateError(DeviceError):
     """A command arrived in a state that does not allow it."""
 

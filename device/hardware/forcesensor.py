@@ -31,7 +31,12 @@ not advanced for `read_timeout_s`.
 
 Tare: the robot must be at rest with nobody touching the handle when `open()` is
 called (the console asks for this at Connect); the first `tare_samples` samples
-are averaged into v_bias. A saturated gauge during the tare is refused.
+are averaged into v_bias. A saturated gauge during the tare is refused, and so is a
+zero taken under load: a hand on the handle moves the force by more than the sensor's
+noise during the tare (`tare_spread_limit_N`, RMS in the plane about its mean;
+device.backend.Tare), and a zero taken under it would read its push as the patient's
+every tick after. A perfectly steady load cannot be told from the gauges' own offsets;
+a hand is never that steady.
 
 Saturation: a gauge at or beyond `saturation_V` (9.9 V of the ±10 V span) means
 an overloaded sensor or a broken gauge wire; the reading is refused with
@@ -49,7 +54,14 @@ from typing import Any
 
 import numpy as np
 
-from device.errors import BackendError, BackendTimeout, BackendUnavailable, SensorRangeError
+from device.backend import Tare, tare_of
+from device.errors import (
+    BackendError,
+    BackendTimeout,
+    BackendUnavailable,
+    SensorRangeError,
+    TareUnderLoad,
+)
 from device.hardware.atical import AXIS_NAMES, AtiCalibration, load_calibration
 from device.hardware.settings import ForceSensorSettings
 
@@ -126,6 +138,8 @@ class AtiForceSensor:
         self._over = np.zeros(NUM_GAUGES, dtype=bool)
         self._last_total = -1
         self._last_new_s = math.nan
+        self.tare: Tare | None = None
+        """How the zero at the last `open()` went (None before one)."""
 
     # -- state
     @property
@@ -251,7 +265,14 @@ class AtiForceSensor:
                     "overloaded or a gauge wire is broken. Make sure nobody touches the handle, "
                     "check the ATI cable and interface power, then connect again."
                 )
-        self._bias[:] = samples.mean(axis=1)
+        bias = samples.mean(axis=1)
+        # the in-plane force of every sample about the mean: what moved during the zero
+        fx, fy = self._matrix[:2] @ (samples - bias[:, None])
+        self.tare = tare_of(fx, fy, s.tare_samples / s.sample_rate_Hz, s.tare_spread_limit_N)
+        refused = self.tare.refusal()
+        if refused:
+            raise TareUnderLoad(refused[0].upper() + refused[1:] + ".")
+        self._bias[:] = bias
         self._in_stream.relative_to = c.ReadRelativeTo.MOST_RECENT_SAMPLE
         self._in_stream.offset = -1
         self._last_total = self._in_stream.total_samp_per_chan_acquired

@@ -168,6 +168,12 @@ class QuanserBackend:
         return (float(self._volts[0]), float(self._volts[1]))
 
     @property
+    def tare(self):
+        """How the force sensor's zero at the last `open()` went (device.backend.Tare),
+        None before one."""
+        return self.force_sensor.tare
+
+    @property
     def force_sensor_range_N(self) -> tuple[float, float] | None:
         """The handle sensor's rated (planar, normal) range from its calibration file, once
         opened; the safety supervisor takes its saturation and force ceilings from it."""

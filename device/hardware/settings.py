@@ -21,6 +21,7 @@ from dataclasses import MISSING, dataclass, fields
 from pathlib import Path
 from typing import Any
 
+from device.backend import TARE_SPREAD_LIMIT_N
 from device.errors import BackendError
 
 BOARD_TYPES = ("q8_usb", "q8")
@@ -170,6 +171,7 @@ class ForceSensorSettings:
     calibration_index: int = 1
     mounting_offset_rad: float = 0.0
     tare_samples: int = 500
+    tare_spread_limit_N: float = TARE_SPREAD_LIMIT_N
     read_timeout_s: float = 0.01
     saturation_V: float = 9.9
 
@@ -285,6 +287,11 @@ def _check_force(v: Mapping[str, Any], where: str) -> dict[str, Any]:
         f, "mounting_offset_rad", v["mounting_offset_rad"], -math.pi, math.pi, "rad"
     )
     out["tare_samples"] = _integer(f, "tare_samples", v["tare_samples"], 1, 100_000)
+    out["tare_spread_limit_N"] = _number(
+        f, "tare_spread_limit_N", v["tare_spread_limit_N"], 0.01, 5.0, "N",
+        "how much the force may move during the zero at Connect before it is refused as "
+        "taken with a hand on the handle (device.backend.TARE_SPREAD_LIMIT_N)",
+    )
     out["read_timeout_s"] = _number(f, "read_timeout_s", v["read_timeout_s"], 0.001, 1.0, "s")
     out["saturation_V"] = _number(
         f, "saturation_V", v["saturation_V"], 0.0, out["voltage_range_V"], "V",

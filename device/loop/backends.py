@@ -28,6 +28,7 @@ def make_backend(config: BackendConfig, params: TrialParameters, plan: TrialPlan
         backend: Backend = SimulatorBackend.from_trial(
             params, config.patient, seed=config.seed, robot=plan.robot, patient_waits=True,
             timing=config.timing or SIMULATED, compiled=compiled, plant=config.plant,
+            push_at_connect_N=config.push_at_connect_N,
         )
     elif config.kind == "quanser":
         if config.timing == SIMULATED:

@@ -51,6 +51,9 @@ class BackendConfig:
     plant: str = "realistic"
     """The simulated robot (device.sim.plant.PLANTS): its own parameters drawn around the
     controller's model by the seed, or the model itself."""
+    push_at_connect_N: tuple[float, float] = (0.0, 0.0)
+    """A simulated hand pushing the handle while the force sensor takes its zero at
+    Connect (global frame, N; device.sim.simulator): to see the zero refused."""
 
     @property
     def label(self) -> str:
@@ -172,6 +175,23 @@ class TrialEnded:
     path: str
     status: str  # complete | stopped_early | faulted | recording_lost
     summary: dict
+
+
+@dataclass(frozen=True, slots=True)
+class SensorZeroed:
+    """The handle's force sensor took its zero at Connect with nothing on the handle (a
+    zero under load refuses the Connect instead, in one line): sent before the Connect's
+    reply, so the window can say "zero taken" (device.backend.Tare)."""
+
+    duration_s: float
+    spread_N: float
+    """How much the force in the plane moved during the zero (RMS about its mean, N)."""
+    limit_N: float
+
+    @property
+    def message(self) -> str:
+        return (f"zero taken: the force sensor's zero at Connect ({self.duration_s:g} s, "
+                f"the force moved {self.spread_N:.2f} N, within the sensor's noise)")
 
 
 @dataclass(frozen=True, slots=True)

@@ -61,6 +61,7 @@ from device.loop.messages import (
     ForceEstimate,
     Notice,
     Reply,
+    SensorZeroed,
     SetAssistance,
     Shutdown,
     Start,
@@ -554,6 +555,11 @@ class DeviceLoop:
         if backend.timing == REAL_TIME and check_timing and self.config.timing_check_s > 0.0:
             self._check_timing()
         backend.open()
+        tare = getattr(getattr(backend, "inner", backend), "tare", None)
+        if tare is not None:
+            # before the Connect's reply: the window shows "zero taken" (a zero under load
+            # raised TareUnderLoad in open(): the Connect failed with its one line)
+            self._send(SensorZeroed(tare.duration_s, tare.spread_N, tare.limit_N))
         try:
             self.limits = limits_for_backend(self.limits, backend)
         except ParameterError as exc:

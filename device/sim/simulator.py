@@ -69,6 +69,15 @@ inverted, with the mounting offset), Gaussian noise added, then quantised to
 1/24 N horizontal and 1/48 N normal (Table 3.1; device.sim.sensors). Noise comes
 from a numpy Generator seeded by `seed`, drawn in blocks, so runs are
 repeatable for a seed.
+
+The zero at Connect: `open()` takes the sensor's zero as the hardware does, averaging
+0.25 s of samples at 2 kHz (docs/hardware.md, Tare), and refuses one taken under load
+(device.backend.Tare: the force moved beyond the sensor's noise). Nobody touches the
+handle unless told to: `push_at_connect_N` is a virtual patient's hand taking hold of
+the handle as the zero starts, its push (global frame, N) rising with a 50 ms time
+constant and trembling at 10 Hz by 5 % (physiological tremor, 8–12 Hz), with the
+sensor's noise and resolution on top, drawn from a child seed of its own. A zero that
+passes is taken as exact: what a push within the noise leaves is within the noise.
 """
 
 from __future__ import annotations
@@ -84,8 +93,8 @@ from core.errors import ParameterError, check_finite, check_range
 from core.kernels import interpreted
 from core.robot import RobotModel
 from core.trial import THESIS_SUBJECT, TrialParameters
-from device.backend import SIMULATED, TIMINGS, SensorReading
-from device.errors import BackendError, SensorRangeError, StateError
+from device.backend import SIMULATED, TARE_SPREAD_LIMIT_N, TIMINGS, SensorReading, Tare, tare_of
+from device.errors import BackendError, SensorRangeError, StateError, TareUnderLoad
 from device.sim import physics
 from device.sim.patients import Patient, VirtualPatient, make_patient
 from device.sim.plant import Plant
@@ -96,6 +105,14 @@ DEFAULT_STEP_S = 0.001
 MAX_STEP_S = 0.001
 NOISE_BLOCK = 4096
 """Sensor-noise triples drawn from the generator at a time."""
+TARE_S = 0.25
+TARE_RATE_HZ = 2000.0
+"""The zero at Connect: 0.25 s of samples at 2 kHz, as the hardware's default settings."""
+GRIP_RISE_S = 0.05
+GRIP_TREMOR_HZ = 10.0
+GRIP_TREMOR_FRACTION = 0.05
+"""A hand taking hold of the handle (`push_at_connect_N`): its push rises with this time
+constant and trembles at this frequency by this fraction of itself."""
 _TWO_PI = 2.0 * math.pi
 # A waiting patient's clock: this far before the exercise's start, the desired
 # motion is the start posture at rest (finite, so the tremor's sine stays defined).
@@ -162,6 +179,7 @@ class SimulatorBackend:
         compiled: bool | None = None,
         patient_waits: bool = False,
         timing: str = SIMULATED,
+        push_at_connect_N: tuple[float, float] = (0.0, 0.0),
     ) -> None:
         if not isinstance(patient, Patient):
             raise ParameterError(
@@ -209,6 +227,16 @@ class SimulatorBackend:
         self.integrator = integrator
         self.compiled = bool(compiled)
         self.patient_waits = patient_waits
+        try:
+            push = tuple(float(v) for v in push_at_connect_N)
+        except (TypeError, ValueError):
+            push = ()
+        if len(push) != 2 or not all(math.isfinite(v) for v in push):
+            raise ParameterError("push_at_connect_N", push_at_connect_N,
+                                 "(fx, fy) in N, finite", "a hand's push at Connect")
+        self.push_at_connect_N = push
+        self.tare: Tare | None = None
+        """How the zero at the last `open()` went (None before one)."""
         x0, y0, *_ = self.trajectory.at(0.0)
         q1, q2 = self.robot.ik_terms(x0, y0)
         if math.isnan(q1):
@@ -258,9 +286,25 @@ class SimulatorBackend:
 
     # --------------------------------------------------------------- protocol
     def open(self) -> None:
-        """Reset to rest at the path's start with zero torque; the next read is time 0."""
+        """Take the force sensor's zero (TareUnderLoad when taken under load), then reset
+        to rest at the path's start with zero torque; the next read is time 0."""
+        self.tare = self._take_zero()
+        refused = self.tare.refusal()
+        if refused:
+            raise TareUnderLoad(refused[0].upper() + refused[1:] + ".")
         self._reset()
         self._is_open = True
+
+    def _take_zero(self) -> Tare:
+        """The zero's samples as the sensor reads them (the module notes)."""
+        rng = np.random.default_rng(_child_seed(self.seed, 2))
+        t = np.arange(round(TARE_S * TARE_RATE_HZ)) / TARE_RATE_HZ
+        grip = (1.0 - np.exp(-t / GRIP_RISE_S)) * (1.0 + GRIP_TREMOR_FRACTION * np.sin(
+            2.0 * math.pi * GRIP_TREMOR_HZ * t + rng.uniform(0.0, 2.0 * math.pi)))
+        sensor, step = self.sensor, self.sensor.resolution_xy_N
+        forces = [np.round((push * grip + sensor.noise_xy_N * rng.standard_normal(t.size))
+                           / step) * step for push in self.push_at_connect_N]
+        return tare_of(*forces, TARE_S, TARE_SPREAD_LIMIT_N)
 
     def read(self, now_s: float) -> SensorReading:
         """Advance to `now_s` (whole steps, torques held) and sample the sensors."""

@@ -17,7 +17,13 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from device.errors import BackendError, BackendTimeout, BackendUnavailable, SensorRangeError
+from device.errors import (
+    BackendError,
+    BackendTimeout,
+    BackendUnavailable,
+    SensorRangeError,
+    TareUnderLoad,
+)
 from device.hardware.atical import load_calibration
 from device.hardware.forcesensor import AtiForceSensor
 from device.hardware.settings import ForceSensorSettings
@@ -303,10 +309,43 @@ def test_tare_then_known_gauge_voltages_give_known_forces(daq):
 
 
 def test_tare_averages_the_first_samples(daq):
-    wobble = np.array([0.02, -0.01, 0.03, -0.02, 0.01, -0.03])
+    # a wobble within the sensor's noise (a few hundredths of a newton)
+    wobble = np.array([0.2, -0.1, 0.3, -0.2, 0.1, -0.3]) * 1e-3
     daq.device.source = lambda k: np.concatenate([V0 + wobble * (-1) ** k, np.zeros(10)])
     sensor = _open(daq)
     np.testing.assert_allclose(sensor.bias_V, V0, atol=1e-12)  # 100 samples: ± cancel
+    assert not sensor.tare.under_load
+    assert sensor.tare.spread_N < 0.1
+    sensor.close()
+
+
+def _hand(push_N: float, k: int) -> np.ndarray:
+    """Gauge voltages of a hand taking hold of the handle at the tare's start: its push
+    along x rises with 50 ms and trembles at 10 Hz by 5 % (device.sim.simulator's model)."""
+    t = k / RATE_HZ
+    force = push_N * (1.0 - np.exp(-t / 0.05)) * (1.0 + 0.05 * np.sin(2 * np.pi * 10 * t))
+    ft = np.array([force, 0.3 * force, 0.0, 0.0, 0.0, 0.0])
+    return np.linalg.lstsq(load_calibration(CAL).matrix_SI, ft, rcond=None)[0]
+
+
+def test_a_zero_taken_with_a_hand_on_the_handle_refuses_the_connect_in_one_line(daq):
+    """Issue 27, item 9: the sensor averages its first 0.25 s at Connect as its zero; a
+    hand on the handle then made every later reading off by its push. Refused, saying what
+    to do; the sensor stays closed."""
+    daq.device.source = lambda k: np.concatenate([V0 + _hand(2.0, k), np.zeros(10)])
+    sensor = AtiForceSensor(_settings(), clock=daq.clock.now)
+    with pytest.raises(TareUnderLoad) as refused:
+        sensor.open()
+    message = str(refused.value)
+    assert "\n" not in message
+    assert "zero was taken with a force on the handle" in message
+    assert "Take the hands off the handle and connect again" in message
+    assert sensor.tare.spread_N > sensor.tare.limit_N == 0.18
+    assert not sensor.is_open
+    # a push within the sensor's noise is a zero like any other
+    daq.device.source = lambda k: np.concatenate([V0 + _hand(0.05, k), np.zeros(10)])
+    sensor = _open(daq)
+    assert not sensor.tare.under_load
     sensor.close()
 
 

@@ -75,7 +75,7 @@ def test_the_example_file_loads_with_the_documented_values():
 def test_every_key_of_the_example_is_documented_by_a_comment_above_it():
     lines = EXAMPLE.read_text(encoding="utf-8").splitlines()
     keys = [i for i, line in enumerate(lines) if line and line[0].isalpha()]
-    assert len(keys) == 21
+    assert len(keys) == 22
     for i in keys:
         assert lines[i - 1].startswith("#"), lines[i]
 
