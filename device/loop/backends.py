@@ -23,10 +23,12 @@ def make_backend(config: BackendConfig, params: TrialParameters, plan: TrialPlan
     if config.timing not in (None, *TIMINGS):
         raise BackendError(f"unknown timing {config.timing!r}; use {' or '.join(TIMINGS)}")
     if config.kind == "simulator":
-        from device.sim.simulator import SimulatorBackend
+        from device.sim.simulator import SimulatorBackend, draw_seed
 
+        # the loop draws the trial's seed itself, to name it (BackendConfig.seed None)
+        seed = draw_seed() if config.seed is None else config.seed
         backend: Backend = SimulatorBackend.from_trial(
-            params, config.patient, seed=config.seed, robot=plan.robot, patient_waits=True,
+            params, config.patient, seed=seed, robot=plan.robot, patient_waits=True,
             timing=config.timing or SIMULATED, compiled=compiled, plant=config.plant,
             push_at_connect_N=config.push_at_connect_N,
         )
