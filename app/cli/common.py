@@ -12,8 +12,12 @@ import math
 import sys
 from pathlib import Path
 
+from app.errors import AppError
 from app.records.datadir import DataDir, locate_data_dir
 from app.records.registry import Registry
+from app.records.safewrite import check_output
+from device.safeinput import check_file, check_folder
+from device.safewrite import folded, os_reason, shown
 
 EXIT_OK = 0
 EXIT_BAD_INPUT = 2
@@ -27,7 +31,7 @@ class Parser(argparse.ArgumentParser):
     """argparse with one-line errors that point to --help."""
 
     def error(self, message: str) -> None:
-        sys.stderr.write(f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+        sys.stderr.write(f"{self.prog}: error: {folded(message)} (see {self.prog} --help)\n")
         raise SystemExit(EXIT_BAD_INPUT)
 
 
@@ -55,12 +59,21 @@ def progress_bar(label: str) -> ProgressBar | None:
     return ProgressBar(label) if sys.stderr.isatty() else None
 
 
-def registry_for(args: argparse.Namespace) -> Registry:
-    """The registry of the data folder: `--data-dir`, else REHAB_DATA_DIR, the setting
-    or the default (app.records.datadir.locate_data_dir)."""
-    if getattr(args, "data_dir", None):
-        return Registry(DataDir(absolute(args.data_dir), "command line"))
-    return Registry(locate_data_dir())
+def data_dir_for(args: argparse.Namespace) -> DataDir:
+    """The data folder: `--data-dir`, else REHAB_DATA_DIR, the setting or the default
+    (app.records.datadir.locate_data_dir); nothing is created here."""
+    if getattr(args, "data_dir", None) is not None:
+        if not args.data_dir.strip():
+            raise CommandError("--data-dir is empty: give the data folder")
+        return DataDir(absolute(args.data_dir), "command line")
+    return locate_data_dir()
+
+
+def registry_for(args: argparse.Namespace, *, create: bool = False) -> Registry:
+    """The registry of the data folder (data_dir_for). Only `create` (`rehab patients add`)
+    starts a registry where there is none, in a new or empty folder; every other command
+    refuses a missing one in one line saying what the folder holds, and creates nothing."""
+    return Registry(data_dir_for(args), create=create)
 
 
 SQLITE_INT_MAX = 2**63 - 1
@@ -68,20 +81,75 @@ SQLITE_INT_MAX = 2**63 - 1
 
 def record_id(text: str) -> int:
     """An argparse type for a registry id: a whole number from 1 to SQLite's largest."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"invalid int value: {text!r} (a trial's id is a "
-                                         "whole number; `rehab trials CODE` lists them)") from None
+    stripped = text.strip()
+    if not (stripped.isascii() and stripped.lstrip("+-").isdigit()):
+        raise argparse.ArgumentTypeError(f"invalid int value: {shown(text)!r} (a trial's id is "
+                                         "a whole number; `rehab trials CODE` lists them)")
+    # a digit string of thousands of digits is refused before int() is asked to read it
+    value = int(stripped) if len(stripped) <= 20 else SQLITE_INT_MAX + 1
     if not 1 <= value <= SQLITE_INT_MAX:
-        raise argparse.ArgumentTypeError(f"{text} is not a trial id: ids are whole numbers "
+        raise argparse.ArgumentTypeError(f"{shown(text)} is not a trial id: ids are whole numbers "
                                          "from 1 (`rehab trials CODE` lists them)")
     return value
 
 
 def absolute(text: str) -> Path:
-    """A path typed on the command line, with ~ expanded, made absolute."""
-    return Path(text).expanduser().resolve()
+    """A path typed on the command line, with ~ expanded, made absolute (links resolved);
+    what the system refuses (a link loop, a name too long) is one line."""
+    try:
+        return Path(text).expanduser().resolve()
+    except (OSError, RuntimeError, ValueError, RecursionError) as exc:
+        reason = "a symbolic link loops back on itself on the way to it" if isinstance(
+            exc, RuntimeError) and "loop" in str(exc).lower() else os_reason(exc)
+        raise CommandError(f"{shown(text)}: {reason}; give another path") from None
+
+
+def output_path(args: argparse.Namespace, text: str, *, overwrite: bool = False,
+                inputs=(), suffixes: tuple[str, ...] = (), what: str = "--output") -> Path:
+    """A file the command is to write, checked before any work is done: never over a file
+    without --overwrite, never anything a data folder owns, never one of the command's
+    `inputs` (app.records.safewrite.check_output); the write itself checks again."""
+    if not text.strip():
+        raise CommandError(f"{what} is empty: give a file name")
+    if suffixes and not text.lower().endswith(suffixes):
+        raise CommandError(f"{what} {shown(text)}: give a file name ending in "
+                           f"{' or '.join(suffixes)}")
+    return check_output(text, overwrite=overwrite, roots=data_roots(args), inputs=inputs,
+                        what=what)
+
+
+def input_file(text: str, what: str, *, max_bytes: int | None = None) -> Path:
+    """A file the command is to read, checked before any reader opens it: a plain file (not
+    a folder, a pipe, a device), no larger than `max_bytes` (device.safeinput)."""
+    if not text.strip():
+        raise CommandError(f"{what} is empty: give a file")
+    return check_file(absolute(text), what=what, max_bytes=max_bytes)
+
+
+def input_folder(text: str, what: str) -> Path:
+    if not text.strip():
+        raise CommandError(f"{what} is empty: give a folder")
+    return check_folder(absolute(text), what=what)
+
+
+def trial_id_or_none(text: str) -> int | None:
+    """The registry id `text` names (ASCII digits only: '²' is a digit to str.isdigit), or
+    None when it is not digits (then it is a path); an id out of range is refused."""
+    text = text.strip()
+    if not (text.isascii() and text.isdigit()):
+        return None
+    if len(text) > 19 or not 1 <= int(text) <= SQLITE_INT_MAX:
+        raise CommandError(f"{shown(text)} is not a trial id: ids are whole numbers from 1 to "
+                           f"{SQLITE_INT_MAX} (`rehab trials CODE` lists them)")
+    return int(text)
+
+
+def data_roots(args: argparse.Namespace) -> tuple[Path, ...]:
+    """The command's data folder, when it can be told, for the outputs' checks."""
+    try:
+        return (data_dir_for(args).root,)
+    except (AppError, CommandError):
+        return ()
 
 
 def finite(value) -> bool:

@@ -12,7 +12,18 @@ from pathlib import Path
 
 import numpy as np
 
-from app.cli.common import CommandError, Parser, absolute, registry_for
+from app.cli.common import (
+    CommandError,
+    Parser,
+    absolute,
+    data_dir_for,
+    data_roots,
+    input_file,
+    output_path,
+    registry_for,
+    trial_id_or_none,
+)
+from app.records.safewrite import check_output_folder
 from core.trial import MODEL_NAME
 
 
@@ -52,7 +63,7 @@ def add_emg_commands(commands) -> None:
                    help="the amplifier's full scale in V, to detect saturation (Trigno: 0.011)")
     p.set_defaults(func=cmd_mvc)
 
-    p = sub.add_parser("show", help="a trial's EMG: channels, MVCs, % MVC figures")
+    p = sub.add_parser("show", help="a trial's EMG: channels, MVCs, %% MVC figures")
     p.add_argument("trial", help="trial id or trial file")
     p.set_defaults(func=cmd_show)
 
@@ -63,7 +74,9 @@ def add_emg_commands(commands) -> None:
                                    "it (too short, saturated) at once.")
     p.add_argument("source", help="trigno:HOST, avanti:HOST or lsl:STREAM_NAME")
     p.add_argument("--seconds", type=float, default=5.0, help="how long (default 5 s)")
-    p.add_argument("--output", required=True, help="the CSV to write (not replaced)")
+    p.add_argument("--output", required=True, help="the CSV to write (an existing file is "
+                                                   "kept unless --overwrite)")
+    p.add_argument("--overwrite", action="store_true", help="replace the --output file")
     p.add_argument("--muscle", help="guide and check an MVC of this muscle")
     p.add_argument("--channel", type=int, default=1,
                    help="the muscle's channel, from 1 (default 1)")
@@ -131,12 +144,13 @@ def _settings(args):
 
 def trial_file(args: argparse.Namespace, text: str) -> Path:
     """A trial given as its registry id or as a file."""
-    if text.isdigit():
-        return registry_for(args).trial_path(int(text))
+    number = trial_id_or_none(text)
+    if number is not None:
+        return registry_for(args).trial_path(number)
     path = absolute(text)
     if not path.exists():
         raise CommandError(f"{text}: no such trial file (give a trial id or an .h5 file)")
-    return path
+    return input_file(str(path), "trial file")
 
 
 def cmd_import(args: argparse.Namespace) -> int:
@@ -145,7 +159,8 @@ def cmd_import(args: argparse.Namespace) -> int:
     muscles = [m.strip() for m in args.muscles.split(",")] if args.muscles else None
     if not np.isfinite(args.offset):
         raise CommandError(f"--offset {args.offset}: give a finite number of seconds")
-    done = import_emg_file(trial_file(args, args.trial), absolute(args.file), muscles=muscles,
+    done = import_emg_file(trial_file(args, args.trial), input_file(args.file, "EMG file"),
+                           muscles=muscles,
                            offset_s=args.offset, replace=args.replace)
     print(f"stored {len(done.names)} EMG channels ({', '.join(done.muscles)}) at "
           f"{done.rate_hz:g} Hz, {done.n_samples} samples, trial time "
@@ -162,7 +177,8 @@ def _contraction(text: str):
     if not sep or not muscle.strip() or not rest.strip():
         raise CommandError(f"--contraction {text!r}: write MUSCLE=FILE or MUSCLE=FILE:CHANNEL")
     path, _, channel = rest.partition(":") if not Path(rest).exists() else (rest, "", "")
-    return Contraction(muscle.strip(), absolute(path), channel.strip() or None)
+    return Contraction(muscle.strip(), input_file(path, f"--contraction {muscle.strip()}"),
+                       channel.strip() or None)
 
 
 def cmd_mvc(args: argparse.Namespace) -> int:
@@ -246,7 +262,7 @@ def cmd_model(args: argparse.Namespace) -> int:
     if args.save is not None:
         from app.emg.modelfile import FOLDER, save_approved
 
-        data_dir = registry_for(args).data_dir
+        data_dir = data_dir_for(args)
         data_dir.ensure(data_dir.models_dir.name, FOLDER)  # private to its user, like the rest
         path = save_approved(data_dir.models_dir, args.save, checked)
         print(f"saved as {args.save} ({path}); use it with `rehab run --force-estimate "
@@ -269,19 +285,24 @@ def cmd_streams(args: argparse.Namespace) -> int:
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
-    from app.emg.subjects import Subject, record_trial, write_contractions
+    from app.emg.subjects import Subject, contraction_path, record_trial, write_contractions
 
     if not 1 <= args.subject <= 99:
         raise CommandError(f"--subject {args.subject}: give a number from 1 to 99")
     if args.bad_mvc is not None and not 0.01 <= args.bad_mvc <= 1.0:
         raise CommandError(f"--bad-mvc {args.bad_mvc}: give a share from 0.01 to 1")
+    if not args.folder.strip():
+        raise CommandError("the folder is empty: give where to write")
     folder = absolute(args.folder)
-    trial = folder / f"synthetic_S{args.subject}.h5"
-    if trial.exists():
-        raise CommandError(f"{trial} already exists; give another folder")
-    folder.mkdir(parents=True, exist_ok=True)
     bad = {"anterior_deltoid": args.bad_mvc} if args.bad_mvc is not None else None
     subject = Subject.drawn(args.subject, bad_mvc=bad)
+    # every file it will write checked first: existing files are kept, none half-made
+    check_output_folder(folder, roots=data_roots(args), what="the demo folder")
+    trial = output_path(args, str(folder / f"synthetic_S{args.subject}.h5"),
+                        what="the demo's trial")
+    for muscle in subject.muscles:
+        output_path(args, str(contraction_path(folder, subject, 1, muscle)),
+                    what="the demo's MVC file")
     record_trial(trial, subject, seed=0, engine=args.engine)
     contractions = write_contractions(folder, subject, session=1)
     print(f"wrote {trial}")
@@ -306,11 +327,7 @@ def cmd_record(args: argparse.Namespace) -> int:
 
     if not (np.isfinite(args.seconds) and 0.2 <= args.seconds <= 600):
         raise CommandError(f"--seconds {args.seconds}: give 0.2 to 600 s")
-    output = absolute(args.output)
-    if output.exists():
-        raise CommandError(f"--output {output} already exists; give another name")
-    if not output.parent.is_dir():
-        raise CommandError(f"--output {output}: the folder {output.parent} does not exist")
+    output = output_path(args, args.output, overwrite=args.overwrite)
     source, label = _open_source(args)
     capture = EmgCapture(source).start()
     if args.muscle:
@@ -327,7 +344,8 @@ def cmd_record(args: argparse.Namespace) -> int:
     if not 1 <= args.channel <= width:
         raise CommandError(f"--channel {args.channel}: the source has channels 1 to {width}")
     names = tuple(f"EMG{i + 1}" for i in range(width))
-    write_plain_csv(output, names, captured.stamps_s - captured.stamps_s[0], captured.samples)
+    write_plain_csv(output, names, captured.stamps_s - captured.stamps_s[0], captured.samples,
+                    overwrite=args.overwrite)
     print(f"recorded {captured.samples.shape[0]} samples of {width} channels at "
           f"{captured.rate_hz:g} Hz from {label} into {output}"
           + (f"; {captured.missing} missing" if captured.missing else ""))

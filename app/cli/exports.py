@@ -6,7 +6,15 @@ from __future__ import annotations
 
 import argparse
 
-from app.cli.common import CommandError, absolute, progress_bar, record_id, registry_for
+from app.cli.common import (
+    CommandError,
+    absolute,
+    data_dir_for,
+    input_folder,
+    progress_bar,
+    record_id,
+    registry_for,
+)
 
 
 def add_export_command(commands) -> None:
@@ -38,19 +46,26 @@ def add_export_command(commands) -> None:
 def cmd_export(args: argparse.Namespace) -> int:
     from app.exports.run import export_folder, export_patients, export_trials
 
-    registry = registry_for(args)
-    output = absolute(args.output) if args.output else \
-        registry.data_dir.ensure("exports", args.format)
+    if args.folder is not None:
+        if not args.folder.strip():
+            raise CommandError("--folder is empty: give the folder that holds the study's "
+                               "trial files")
+        source = input_folder(args.folder, "--folder")
+    else:
+        registry = registry_for(args)  # before anything is made: a typo makes nothing
+    if args.output is not None:
+        if not args.output.strip():
+            raise CommandError("--output is empty: give the destination folder")
+        output = absolute(args.output)  # checked and made by the export (app.exports.files)
+    else:
+        output = data_dir_for(args).ensure("exports", args.format)
     bar = progress_bar(f"exporting {args.format}")
     options = {"format": args.format, "overwrite": args.overwrite,
                "progress": bar.update if bar else None}
     if args.format != "bids":
         options.update(exercise_only=args.exercise_only, digits=args.digits)
     if args.folder is not None:
-        if not args.folder.strip():
-            raise CommandError("--folder is empty: give the folder that holds the study's "
-                               "trial files")
-        result = export_folder(absolute(args.folder), output, **options)
+        result = export_folder(source, output, **options)
     elif args.codes:
         result = export_patients(registry, args.codes, output,
                                  include_names=args.include_names, **options)

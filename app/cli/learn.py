@@ -11,7 +11,14 @@ import argparse
 import json
 import math
 
-from app.cli.common import EXIT_OK, CommandError, absolute, progress_bar
+from app.cli.common import (
+    EXIT_OK,
+    CommandError,
+    absolute,
+    data_dir_for,
+    output_path,
+    progress_bar,
+)
 
 MODELS = ("fnn", "rnn", "delan")
 
@@ -31,7 +38,9 @@ def add_learn_commands(commands) -> None:
         description="Write the thesis's pendulum data: the rod driven at constant speeds "
                     "from −45° to 45°, 101 samples a cycle; by default 1,000 cycles at "
                     "1 … 10 rad/s (101,000 samples), the 5 rad/s cycle marked held out.")
-    pendulum.add_argument("--output", required=True, help="HDF5 file to write")
+    pendulum.add_argument("--output", required=True, help="HDF5 file to write (an existing "
+                                                          "file is kept unless --overwrite)")
+    _overwrite_option(pendulum)
     pendulum.add_argument("--speeds", type=_positive, nargs="+", metavar="RAD_S",
                           help="the rod's speeds, one cycle each (default: the thesis's "
                                "1,000 speeds); none is held out unless --held-out names it")
@@ -46,7 +55,10 @@ def add_learn_commands(commands) -> None:
                     "joint angles, rates, accelerations and the applied torque, one cycle "
                     "per trial.")
     robot.add_argument("--trials", nargs="+", required=True, help="trial files (HDF5)")
-    robot.add_argument("--output", required=True, help="dynamics data file to write")
+    robot.add_argument("--output", required=True, help="dynamics data file to write (an "
+                                                       "existing file is kept unless "
+                                                       "--overwrite)")
+    _overwrite_option(robot)
     robot.add_argument("--acceleration", choices=("desired", "estimated"), default="desired",
                        help="the reference's accelerations (default, as the thesis) or the "
                             "estimated ones")
@@ -68,7 +80,9 @@ def add_learn_commands(commands) -> None:
     train.add_argument("--output", help="model file to write (JSON; default: the data "
                                         "folder's models/NAME.json, where the Parameters "
                                         "tab offers a robot model as 'CT-PID (learned: "
-                                        "NAME)')")
+                                        "NAME)'); an existing file is kept unless "
+                                        "--overwrite")
+    _overwrite_option(train)
     train.add_argument("--hidden", type=_layers, metavar="N[,N…]",
                        help="hidden layer sizes (default fnn 24,24; rnn 12; delan 16,16)")
     train.add_argument("--epochs", type=_whole, default=100, help="at most (default 100)")
@@ -120,7 +134,9 @@ def add_learn_commands(commands) -> None:
                     "(thesis Figs. 2.16-2.18, 4.5-4.6).")
     components.add_argument("--model", required=True, help="DeLaN model file (JSON)")
     components.add_argument("--data", required=True, help="dynamics data file (HDF5)")
-    components.add_argument("--output", required=True, help="PNG file to write")
+    components.add_argument("--output", required=True, help="PNG file to write (an existing "
+                                                            "file is kept unless --overwrite)")
+    _overwrite_option(components)
     components.add_argument("--cycle", type=int, help="this cycle only (a trial, a sweep)")
     components.set_defaults(func=cmd_components)
 
@@ -136,10 +152,11 @@ def cmd_pendulum(args: argparse.Namespace) -> int:
             math.isclose(held, s, rel_tol=0, abs_tol=1e-9) for s in args.speeds):
         raise CommandError(f"--held-out {held:g} is none of --speeds: the held-out cycle "
                            "must be one of the speeds")
-    data = make_pendulum_file(absolute(args.output), args.speeds, held)
+    output = output_path(args, args.output, overwrite=args.overwrite)
+    data = make_pendulum_file(output, args.speeds, held, overwrite=args.overwrite)
     cycles = len(data.description["cycle_speeds_rad_s"])
     held_text = f", cycle at {held:g} rad/s held out" if held is not None else ""
-    print(f"{absolute(args.output)}: {len(data):,} samples, {cycles} cycles{held_text}")
+    print(f"{output}: {len(data):,} samples, {cycles} cycles{held_text}")
     return EXIT_OK
 
 
@@ -147,10 +164,12 @@ def cmd_robot_data(args: argparse.Namespace) -> int:
     from app.learning.dataset import write_dataset
     from app.learning.workflow import robot_dataset
 
-    data = robot_dataset([absolute(p) for p in args.trials], acceleration=args.acceleration,
+    trials = [absolute(p) for p in args.trials]
+    output = output_path(args, args.output, overwrite=args.overwrite, inputs=trials)
+    data = robot_dataset(trials, acceleration=args.acceleration,
                          without_hand_force=args.without_hand_force, system=args.system)
-    write_dataset(absolute(args.output), data)
-    print(f"{absolute(args.output)}: {len(data):,} samples, {len(args.trials)} trials, "
+    write_dataset(output, data, overwrite=args.overwrite)
+    print(f"{output}: {len(data):,} samples, {len(args.trials)} trials, "
           f"system {data.system}")
     return EXIT_OK
 
@@ -163,25 +182,30 @@ def cmd_train(args: argparse.Namespace) -> int:
                "seed": args.seed, "mass_scale": args.mass_scale}
     if args.hidden:
         options["hidden"] = args.hidden
-    output, name = args.output and absolute(args.output), args.name
-    if output is None:
-        from pathlib import Path
-
-        from app.records.datadir import locate_data_dir
+    data = absolute(args.data)
+    name, owned = args.name, args.output is None
+    if args.output is not None:
+        # checked before the training, which may take minutes, and again when written
+        output = output_path(args, args.output, overwrite=args.overwrite, inputs=[data])
+    else:
         from core.trial import MODEL_NAME
 
-        name = name or f"{args.model}-{Path(args.data).stem}"
+        name = name or f"{args.model}-{data.stem}"
         if not MODEL_NAME.fullmatch(name):
             raise CommandError(f"--name {name!r} is not a model name: letters, digits, . _ - "
                                "(at most 100), so that a trial can name it")
-        output = locate_data_dir().ensure("models") / f"{name}.json"
+        if args.overwrite:
+            raise CommandError("--overwrite needs --output: a model in the data folder's "
+                               "models/ is never replaced (trials name it); give another "
+                               "--name")
+        output = data_dir_for(args).ensure("models") / f"{name}.json"
         if output.exists():
-            raise CommandError(f"{output} already exists; give another --name, or --output "
-                               "to replace a file")
+            raise CommandError(f"{output} already exists and is kept (trials may name it); "
+                               "give another --name")
     bar = progress_bar(f"training {args.model}")
-    trained = train_file(absolute(args.data), output, args.model,
-                         cyclic=args.cyclic, name=name,
-                         progress=bar.update if bar else None, **options)
+    trained = train_file(data, output, args.model, cyclic=args.cyclic, name=name,
+                         progress=bar.update if bar else None, overwrite=args.overwrite,
+                         owned=owned, **options)
     if bar:
         bar.done()
     rmse = ", ".join(f"{k} {v:.4g}" for k, v in trained.cross_validation_rmse.items())
@@ -209,19 +233,25 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 def cmd_components(args: argparse.Namespace) -> int:
     from app.learning.components import COMPONENTS, components_file, plot_components
 
-    output = absolute(args.output)
-    if output.exists():
-        raise CommandError(f"{output} already exists; give another --output")
-    c = components_file(absolute(args.model), absolute(args.data), cycle=args.cycle)
+    model, data = absolute(args.model), absolute(args.data)
+    output = output_path(args, args.output, overwrite=args.overwrite, inputs=[model, data],
+                         suffixes=(".png",))
+    c = components_file(model, data, cycle=args.cycle)
     rmse = c.rmse()
     print(f"{c.tau.shape[0]:,} samples of {c.system}: RMSE against the analytic model")
     print(f"  {'component':<12}" + "".join(f"{force:>12}" for force in c.forces))
     for name in (*COMPONENTS, "total"):
         label = "total (data)" if name == "total" else name
         print(f"  {label:<12}" + "".join(f"{v:>12.4g}" for v in rmse[name]))
-    plot_components(c, output, title=f"{absolute(args.model).name} on {c.system}")
+    plot_components(c, output, title=f"{model.name} on {c.system}", overwrite=args.overwrite)
     print(f"figure: {output}")
     return EXIT_OK
+
+
+def _overwrite_option(parser) -> None:
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace the --output file if it exists (never a file the data "
+                             "folder keeps: its registry, trial files, models)")
 
 
 def _positive(text: str) -> float:

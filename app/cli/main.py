@@ -10,6 +10,8 @@ The `gui` command is added by `ui.launcher`, which owns the only entry point.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import logging
 import os
 import sys
 from collections.abc import Sequence
@@ -27,6 +29,9 @@ from app.cli.run import add_run_command
 from app.errors import AppError
 from core.errors import CoreError
 from device.errors import DeviceError
+from device.safewrite import folded, os_reason, shown
+
+log = logging.getLogger(__name__)
 
 # Each adds its subcommands to the parser's `commands`, in the order of the help.
 COMMAND_GROUPS = (
@@ -65,24 +70,107 @@ def run(parser: Parser, argv: Sequence[str] | None, default: str) -> int:
         # no command given (`rehab`, `rehab --data-dir D`): the entry point's default
         argv.insert(0, default)
     _data_dir_everywhere(parser)
+    # a path typed in bytes that are not UTF-8 reaches Python as surrogates: printed back
+    # as the same bytes, not as an encoding error
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(AttributeError, ValueError):
+            stream.reconfigure(errors="surrogateescape")
     args = parser.parse_args(argv)
     # whatever the shell's umask: every file the console writes (trial files, the registry,
-    # reports, exports, settings, logs) is its user's only (README, Where the data goes)
+    # reports, exports, settings, logs) is its user's only (README, Where the data goes);
+    # the writers apply the modes themselves too (device.safewrite)
     os.umask(0o077)
+    command = " ".join(filter(None, (args.command, getattr(args, "action", None),
+                                     getattr(args, "emg_command", None))))
+    with _warnings_said_on_success(parser, command) as outcome:
+        outcome.code = _run_command(parser, args, command)
+    return outcome.code
+
+
+class _Outcome:
+    code = EXIT_BAD_INPUT
+
+
+class _Warnings(logging.Handler):
+    """The log's warnings of one command, each on one line."""
+
+    def __init__(self) -> None:
+        super().__init__(logging.WARNING)
+        self.lines: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        with contextlib.suppress(Exception):
+            self.lines.append(folded(record.getMessage()))
+
+
+@contextlib.contextmanager
+def _warnings_said_on_success(parser, command: str):
+    """The log's warnings printed after a command that succeeded, one line each; after a
+    refusal its one line is all that is said (Python would otherwise print them, and
+    tracebacks, on stderr by itself). Where logging is set up already (the window, the
+    tests), it is left alone."""
+    root = logging.getLogger()
+    outcome = _Outcome()
+    if root.handlers:
+        yield outcome
+        return
+    said = _Warnings()
+    root.addHandler(said)
+    try:
+        yield outcome
+    finally:
+        root.removeHandler(said)
+    if outcome.code == 0:
+        for line in said.lines:
+            sys.stderr.write(f"{parser.prog} {command}: warning: {line}\n")
+
+
+def _run_command(parser, args: argparse.Namespace, command: str) -> int:
     try:
         return args.func(args)
     except (CommandError, CoreError, AppError, DeviceError) as exc:
-        sys.stderr.write(f"{parser.prog} {args.command}: error: {exc}\n")
-        return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
-        sys.stderr.write(f"{parser.prog} {args.command}: interrupted\n")
-        return 130
+        return refuse(parser, command, one_line(exc))
     except BrokenPipeError:
         # the reader went away (`rehab … | head`): what it wanted it has; the rest is not
         # an error, and Python must not print one at exit when it flushes stdout
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return 0
+    except OSError as exc:  # what the system said of a file the command was given
+        where = f"{shown(exc.filename)}: " if exc.filename else ""
+        return refuse(parser, command, f"{where}{os_reason(exc)}")
+    except MemoryError:
+        return refuse(parser, command, "the input is too large to hold in memory: check the "
+                                       "files given are the right ones")
+    except RecursionError:
+        return refuse(parser, command, "the input is nested too deeply to read")
+    except KeyboardInterrupt as exc:
+        notes = "".join(f" ({folded(note)})" for note in getattr(exc, "__notes__", ()))
+        sys.stderr.write(f"{parser.prog} {command}: interrupted{notes}\n")
+        return 130
+    except Exception as exc:  # a bug: one line here, the traceback to the log if one is kept
+        log.exception("rehab %s failed", command)
+        sys.stderr.write(f"{parser.prog} {command}: internal error ({type(exc).__name__}: "
+                         f"{one_line(exc)}); this is a bug: please report it with the "
+                         "command\n")
+        return EXIT_INTERNAL
+
+
+EXIT_INTERNAL = 70
+"""A failure no input should cause (sysexits' EX_SOFTWARE): the fuzz test counts it."""
+
+
+def one_line(exc: BaseException) -> str:
+    """The exception's message on one line, with the notes added to it (app.trials.registered
+    says there what became of a refused trial)."""
+    notes = [folded(note) for note in getattr(exc, "__notes__", ())]
+    text = folded(exc) or type(exc).__name__
+    return text + "".join(f" ({note})" for note in notes if note)
+
+
+def refuse(parser: argparse.ArgumentParser, command: str, message: str) -> int:
+    sys.stderr.write(f"{parser.prog} {command}: error: {message}\n")
+    return EXIT_BAD_INPUT
 
 
 DATA_DIR_HELP = "data folder (default: REHAB_DATA_DIR, the setting, or the user data folder)"

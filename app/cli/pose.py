@@ -10,7 +10,8 @@ import math
 import sys
 from pathlib import Path
 
-from app.cli.common import CommandError, ProgressBar, absolute, registry_for
+from app.cli.common import CommandError, ProgressBar, input_file, registry_for, trial_id_or_none
+from device.safeinput import MAX_TEXT_BYTES
 
 # Without a terminal, progress is a line at every tenth.
 _TENTHS = 10
@@ -59,14 +60,22 @@ def cmd_pose(args: argparse.Namespace) -> int:
     if not 0.0 <= args.min_visibility <= 1.0:
         raise CommandError(f"--min-visibility {args.min_visibility:g}: give a number from 0 "
                            "to 1")
+    if args.video_start_s is not None and not math.isfinite(args.video_start_s):
+        raise CommandError(f"--video-start-s {args.video_start_s}: give a finite time in s")
     path = _trial_path(args)
-    homography = read_marks(absolute(args.marks)) if args.marks else None
+    # every file named is a plain file of a sensible size before any reader opens it
+    marks = input_file(args.marks, "--marks", max_bytes=MAX_TEXT_BYTES) \
+        if args.marks is not None else None
+    reference = input_file(args.reference, "--reference", max_bytes=MAX_TEXT_BYTES) \
+        if args.reference is not None else None
+    video = input_file(args.video, "--video") if args.video is not None else None
+    homography = read_marks(marks) if marks is not None else None
     progress = _Progress(f"pose {path.name}")
     outcome = estimate_pose(
         path, lambda side: MediaPipePose(side, video=True),
-        video_path=absolute(args.video) if args.video else None,
+        video_path=video,
         homography=homography,
-        reference=absolute(args.reference) if args.reference else None,
+        reference=reference,
         video_start_s=args.video_start_s, min_visibility=args.min_visibility,
         max_residual_mm=args.max_residual_mm, drift_limit_m=args.drift_limit_cm / 100.0,
         progress=progress.update, detect_every=args.every)
@@ -79,10 +88,11 @@ def _trial_path(args) -> Path:
     text = args.trial.strip()
     if not text:
         raise CommandError("give the trial file (.h5) or a registered trial's id")
-    if text.isdigit():
+    number = trial_id_or_none(text)
+    if number is not None:
         registry = registry_for(args)
-        return registry.trial_path(registry.trial(int(text)))
-    return absolute(text)
+        return registry.trial_path(registry.trial(number))
+    return input_file(args.trial, "trial file")
 
 
 class _Progress:

@@ -59,7 +59,8 @@ def cmd_patients(args: argparse.Namespace) -> int:
 
 
 def cmd_patients_add(args: argparse.Namespace) -> int:
-    registry = registry_for(args)
+    # the first patient starts a registry (in a new or empty folder only)
+    registry = registry_for(args, create=True)
     patient = registry.create_patient(
         args.first_name, args.last_name, birth_year=args.birth_year, side=args.side,
         body_mass_kg=args.body_mass, upper_arm_m=args.upper_arm, forearm_m=args.forearm,

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import argparse
 
-from app.cli.common import CommandError, absolute, finite, num, record_id, registry_for
+from app.cli.common import CommandError, finite, num, output_path, record_id, registry_for
 from app.records.outcomes import OUTCOME_COLUMNS, patient_outcomes
 from app.reports.metrics_table import ROWS
 from app.reports.progress import progress
@@ -89,8 +89,8 @@ def add_report_command(commands) -> None:
     parser.add_argument("trial_id", type=record_id,
                         help="the trial's id (see `rehab trials CODE`)")
     parser.add_argument("--output", help="PDF to write (default: the data folder's reports/); "
-                                          "an existing file is kept unless --force")
-    parser.add_argument("--force", action="store_true",
+                                          "an existing file is kept unless --overwrite")
+    parser.add_argument("--overwrite", "--force", action="store_true", dest="overwrite",
                         help="replace the --output file if it exists (never one of the "
                              "console's own files)")
     parser.add_argument("--first-name", action="store_true",
@@ -102,30 +102,11 @@ def cmd_report(args: argparse.Namespace) -> int:
     from app.reports.build import report_for_registry_trial
 
     registry = registry_for(args)
-    output = _checked_output(registry, args.output, args.force) if args.output else None
+    output = None
+    if args.output is not None:
+        # inside the data folder only below its reports/ or exports/ (app.records.safewrite)
+        output = output_path(args, args.output, overwrite=args.overwrite, suffixes=(".pdf",))
     path = report_for_registry_trial(registry, args.trial_id, output,
                                      include_first_name=args.first_name)
     print(path)
     return 0
-
-
-def _checked_output(registry, text: str, force: bool):
-    """The --output path, refused when it is not a .pdf, when it is one of the console's
-    own files (anything in the data folder outside reports/ and exports/), or when it
-    exists and --force was not given: a report never overwrites what it was not asked to."""
-    path = absolute(text)
-    if path.suffix.lower() != ".pdf":
-        raise CommandError(f"--output {path}: give a file name ending in .pdf")
-    data = registry.data_dir
-    root = data.root.resolve()
-    if path.is_relative_to(root) and not (path.is_relative_to(root / data.reports_dir.name)
-                                          or path.is_relative_to(root / data.exports_dir.name)):
-        raise CommandError(f"--output {path} is inside the data folder, where the console "
-                           "keeps its own files; write the report elsewhere or to its "
-                           "reports/ folder")
-    if path.is_dir():
-        raise CommandError(f"--output {path} is a folder; give a file name ending in .pdf")
-    if path.exists() and not force:
-        raise CommandError(f"--output {path} already exists; give another name, or --force "
-                           "to replace it")
-    return path

@@ -6,10 +6,15 @@ from __future__ import annotations
 
 import argparse
 
-from app.cli.common import EXIT_OK, CommandError, progress_bar, registry_for
+from app.cli.common import (
+    EXIT_OK,
+    CommandError,
+    data_dir_for,
+    output_path,
+    progress_bar,
+    registry_for,
+)
 from app.cli.trial_options import add_trial_options, trial_from_args
-from app.errors import AppError
-from device.errors import DeviceError
 
 
 def add_run_command(commands) -> None:
@@ -64,10 +69,9 @@ def add_run_command(commands) -> None:
 def cmd_run(args: argparse.Namespace) -> int:
     """Simulate a whole trial headless, write its file and print its metrics."""
     import datetime
-    from pathlib import Path
 
     from app.reports.metrics_table import format_metrics
-    from app.trials.headless import simulate_to_file
+    from app.trials.registered import registered_trial
 
     params = trial_from_args(args)
     if args.seed is not None and args.seed < 0:
@@ -78,7 +82,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     args.seed = draw_seed() if args.seed is None else args.seed
     model = None
     if args.learned_model:
-        params, model = _with_learned_model(params, args.learned_model)
+        params, model = _with_learned_model(params, args.learned_model, data_dir_for(args))
     feed, options = None, {}
     if args.force_estimate is not None:
         params, feed = _with_force_estimate(params, args)
@@ -90,54 +94,35 @@ def cmd_run(args: argparse.Namespace) -> int:
                            "estimate")
     if args.as_proposed and not args.code:
         raise CommandError("--as-proposed needs --code: a proposal belongs to a patient")
+    run = {"subject_code": args.code or "SIM", "patient": args.patient, "seed": args.seed,
+           "engine": args.engine, "plant": args.plant, "model": model, "feed": feed, **options}
     begun = None
     if args.code:
+        if args.output:
+            raise CommandError("--output cannot be used with --code: a registered trial is "
+                               "written to the patient's folder in the data folder")
         registry = registry_for(args)
         patient = registry.patient(args.code)
         params = params.replace(**patient.trial_overrides())
         if args.as_proposed:
             params = _as_proposed(registry, args.code, params)
-        if args.output:
-            raise CommandError("--output cannot be used with --code: a registered trial is "
-                               "written to the patient's folder in the data folder")
-        begun = registry.begin_trial(args.code, params,
-                                     backend=f"simulator ({args.patient}, seed {args.seed})",
-                                     patient_kind=args.patient)
-        path = begun.path
-    elif args.output:
-        path = Path(args.output).expanduser().resolve()
+        # the row and the file begin and end together: a refused or failed run leaves no
+        # trial 'recording' without its file (app.trials.registered)
+        with registered_trial(registry, args.code, params,
+                              backend=f"simulator ({args.patient}, seed {args.seed})",
+                              patient_kind=args.patient) as begun:
+            path = begun.path
+            trial, analysis, problem = _simulate(params, path, run)
     else:
-        from app.records.datadir import locate_data_dir
-
-        stamp = datetime.datetime.now(datetime.UTC).strftime("%Y%m%dT%H%M%SZ")
-        folder = locate_data_dir().ensure("trials", "simulated")
-        path = folder / f"SIM_{args.patient}_{stamp}.h5"
-    if path.exists():
-        raise CommandError(f"{path} already exists; give another --output")
-    bar = progress_bar(f"simulating {params.repetitions} × {params.duration_s:g} s")
-    try:
-        # straight into the file, block by block: memory stays flat in the trial's length
-        trial, analysis, problem = simulate_to_file(
-            params, path, subject_code=args.code or "SIM", patient=args.patient,
-            seed=args.seed, progress=bar.update if bar else None, engine=args.engine,
-            plant=args.plant, model=model, feed=feed, **options)
-    except (DeviceError, AppError, OSError) as exc:
-        if bar:
-            bar.done()
-        if begun is not None:
+        if args.output:
+            path = output_path(args, args.output)
+        else:
+            stamp = datetime.datetime.now(datetime.UTC).strftime("%Y%m%dT%H%M%SZ")
+            folder = data_dir_for(args).ensure("trials", "simulated")
+            path = folder / f"SIM_{args.patient}_{stamp}.h5"
             if path.exists():
-                # what reached the file before the failure is kept and registered
-                from app.trials.finalize import finalize_lost
-
-                finalize_lost(registry, begun.trial_id, str(exc))
-                raise CommandError(f"{exc} (the trial is registered as recording lost, "
-                                   "with what reached its file)") from exc
-            # register only what exists: the trial's file could not be written
-            registry.withdraw_trial(begun.trial_id, str(exc))
-            raise CommandError(f"{exc} (the trial was not registered)") from exc
-        raise
-    if bar:
-        bar.done()
+                raise CommandError(f"{path} already exists; run again in a second")
+        trial, analysis, problem = _simulate(params, path, run)
     if begun is not None:
         from app.trials.finalize import finalize_trial
 
@@ -165,18 +150,30 @@ def cmd_run(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _with_learned_model(params, name: str):
+def _simulate(params, path, run: dict):
+    """simulate_to_file with a progress bar on a terminal."""
+    from app.trials.headless import simulate_to_file
+
+    bar = progress_bar(f"simulating {params.repetitions} × {params.duration_s:g} s")
+    try:
+        # straight into the file, block by block: memory stays flat in the trial's length
+        return simulate_to_file(params, path, progress=bar.update if bar else None, **run)
+    finally:
+        if bar:
+            bar.done()
+
+
+def _with_learned_model(params, name: str, data_dir):
     """`params` on the computed-torque PID with the learned model `name` (its hash set),
     and the model, read from the data folder's models/ and checked (app.learning.library);
     ModelFileError (one line, its reason) otherwise."""
     from app.learning.library import inverse_dynamics, robot_model
-    from app.records.datadir import locate_data_dir
     from core.trial import MODEL_NAME
 
     if not MODEL_NAME.fullmatch(name):
         raise CommandError(f"--learned-model {name!r} is not a model name: letters, digits, "
                            ". _ - (the stem of a file in the data folder's models/)")
-    checked = robot_model(locate_data_dir().models_dir, name)
+    checked = robot_model(data_dir.models_dir, name)
     params = params.replace(controller="ctpid", learned_model=name,
                             learned_model_sha256=checked.content_sha256)
     return params, inverse_dynamics(checked)
@@ -188,7 +185,6 @@ def _with_force_estimate(params, args):
     from app.emg.feed import MAX_SECONDS, SyntheticEmgFeed
     from app.emg.modelfile import emg_model
     from app.emg.subjects import Subject
-    from app.records.datadir import locate_data_dir
     from core.trial import MODEL_NAME
     from device.loop.pipeline import PERIOD_S
 
@@ -202,7 +198,7 @@ def _with_force_estimate(params, args):
         raise CommandError(f"--force-estimate keeps the trial's EMG: give at most "
                            f"{MAX_SECONDS:g} s of exercise (this trial has "
                            f"{params.repetitions * params.duration_s:g} s)")
-    checked = emg_model(locate_data_dir().models_dir, name)
+    checked = emg_model(data_dir_for(args).models_dir, name)
     subject = Subject.drawn(args.emg_subject, patient=args.patient, muscles=checked.muscles)
     refused = checked.refusal(params, SyntheticEmgFeed.latency_of(subject))
     if refused:

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -27,11 +26,13 @@ from app.learning.modelfile import (
     content_hash,
     software_versions,
 )
+from app.records.safewrite import OutputRefused, write_text
 from core.emg.force import USABLE_CONE_AGREEMENT
 from core.emg.models import USABLE_R2, Validation, inputs_of, model_from_dict
 from core.emg.processing import EmgSettings
 from core.errors import ParameterError
 from core.trial import MODEL_NAME
+from device.safewrite import make_private_folders
 
 FORMAT = "rehab-console-emg-model"
 FORMAT_VERSION = 1
@@ -126,11 +127,10 @@ def save_approved(models_dir: str | Path, name: str, checked) -> Path:
     }
     document["content_sha256"] = content_hash(document)
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with path.open("x") as f:  # never over a file written meanwhile
-            os.chmod(path, 0o600)  # the data folder is private to its user
-            f.write(json.dumps(document, indent=1, allow_nan=False) + "\n")
-    except OSError as exc:
+        make_private_folders(path.parent)
+        # whole or not at all, never over a file written meanwhile, 0600 (app.records.safewrite)
+        write_text(path, json.dumps(document, indent=1, allow_nan=False) + "\n", owned=True)
+    except OutputRefused as exc:
         raise ModelFileError(path, "format", f"cannot be written ({exc})",
                              "Choose a data folder you can write to, with space.") from None
     return path

@@ -36,6 +36,7 @@ from core.emg.synthetic import (
 from core.trial import THESIS_SUBJECT, TrialParameters
 from device.emg.files import write_plain_csv
 from device.recording.emgfile import write_emg
+from device.safewrite import make_private_folders
 
 SYNTHETIC_SOURCE = "synthetic"
 
@@ -110,11 +111,17 @@ def record_trial(path: str | os.PathLike, subject: Subject, *, seed: int,
     return SyntheticTrial(path, subject, torques, excitation, records["time"].copy())
 
 
+def contraction_path(folder: str | os.PathLike, subject: Subject, session: int,
+                     muscle: str) -> Path:
+    """Where write_contractions puts a muscle's contraction."""
+    return Path(folder) / f"S{subject.number}_session{session}_mvc_{muscle}.csv"
+
+
 def write_contractions(folder: str | os.PathLike, subject: Subject, session: int) -> dict:
     """The subject's MVC contraction of each of its muscles for one session, each a plain
-    CSV with the subject's channels; returns {muscle: path}."""
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
+    CSV with the subject's channels (new files: an existing one is kept and refused,
+    device.safewrite); returns {muscle: path}."""
+    folder = make_private_folders(folder)
     channels = [MUSCLES.index(m) for m in subject.muscles]
     names = tuple(f"EMG{i + 1}" for i in range(len(channels)))
     out = {}
@@ -122,7 +129,7 @@ def write_contractions(folder: str | os.PathLike, subject: Subject, session: int
         t, emg = mvc_contraction(muscle, subject.electrodes,
                                  seed=100 * subject.number + 10 * session
                                  + MUSCLES.index(muscle))
-        path = folder / f"S{subject.number}_session{session}_mvc_{muscle}.csv"
+        path = contraction_path(folder, subject, session, muscle)
         write_plain_csv(path, names, t, emg[:, channels])
         out[muscle] = (path, names[subject.muscles.index(muscle)])
     return out

@@ -66,7 +66,7 @@ from app.errors import AppError
 from app.exports.bids_channels import CHANNEL_TYPES, FRAMES, BidsChannel, bids_channels
 from app.exports.files import ExportError, output, prepare_folder, refuse_existing, write_text
 from app.exports.loader import Failure, Trial, TrialInfo, load_trial, read_info
-from app.exports.plan import ExportResult, TrialSource
+from app.exports.plan import ExportResult, TrialSource, one_trial
 from app.exports.table import write_samples
 from device.recording.trialfile import software_version
 
@@ -151,12 +151,13 @@ def export_bids(
     if progress is not None:
         progress(0.0)
     for i, run in enumerate(runs):
-        try:
-            trial = load_trial(run.source.path)
-        except AppError as exc:
-            failed.append(Failure(run.source.path, str(exc)))
-        else:
-            written += _write_run(trial, run, run.paths(root), overwrite)
+        paths = run.paths(root)
+        files = one_trial(run.source.path,
+                          lambda run=run, paths=paths: _write_run(load_trial(run.source.path),
+                                                                  run, paths, overwrite),
+                          failed, paths.values())
+        if files is not None:
+            written += files
             exported.append(run)
         if progress is not None:
             progress((i + 1) / len(runs))

@@ -1,11 +1,11 @@
 """Writing export files safely: never over an existing file unless asked, never half a file.
 
-Every output is written to a hidden temporary file beside its final name and
-moved into place only when complete, so an interrupted export (a full disk, a
-crash) leaves no truncated file behind. Without `overwrite` the move refuses a
-name that exists, even one created by another program after the export
-checked: on file systems without hard links (FAT, exFAT, some network shares)
-that last-moment check falls back to an exists test.
+Every output goes through the console's one guarded write (app.records.safewrite,
+device.safewrite): a hidden temporary file beside its final name, 0600, moved into
+place only when complete, so an interrupted export (a full disk, a crash) leaves no
+truncated file behind. Without `overwrite` the move refuses a name that exists, even
+one created by another program after the export checked. An export folder inside a
+data folder is refused but below its exports/ and reports/.
 """
 
 from __future__ import annotations
@@ -18,6 +18,8 @@ from pathlib import Path
 from typing import IO
 
 from app.errors import AppError
+from app.records.safewrite import OutputRefused, atomic_output, check_output_folder
+from device.safewrite import make_private_folders
 
 _SHOWN = 3
 
@@ -31,17 +33,13 @@ class OutputExistsError(ExportError):
 
 
 def prepare_folder(folder: str | os.PathLike) -> Path:
-    """Create `folder` (and its parents) if missing and check it can be written."""
-    folder = Path(folder).expanduser().absolute()
+    """Create `folder` (and its parents) if missing, private to its user, and check it can
+    be written; never a data folder's own place but its exports/ and reports/
+    (app.records.safewrite)."""
     try:
-        folder.mkdir(parents=True, exist_ok=True)
-    except FileExistsError:
-        raise ExportError(
-            f"cannot export to the folder {folder}: a file of that name is in the way. "
-            "Choose another folder, or move that file"
-        ) from None
-    except OSError as exc:
-        raise _unwritable(folder, exc) from exc
+        folder = check_output_folder(folder, what="the export folder")
+    except OutputRefused as exc:
+        raise ExportError(f"cannot export there: {exc}") from None
     # Permission bits lie (ACLs, read-only mounts, root); only a write tells.
     try:
         handle, name = tempfile.mkstemp(dir=folder, prefix=".export-write-test-")
@@ -70,49 +68,21 @@ def refuse_existing(paths: Iterable[Path], overwrite: bool) -> None:
 
 @contextlib.contextmanager
 def output(path: Path, *, overwrite: bool, text: bool = False) -> Iterator[IO]:
-    """A file to write `path` through: a temporary beside it, moved into place on success."""
-    folder = path.parent
+    """A file to write `path` through: app.records.safewrite's, a temporary beside it moved
+    into place on success (never over a file without `overwrite`), 0600."""
+    refuse_existing([path], overwrite)
     try:
-        folder.mkdir(parents=True, exist_ok=True)
-        handle, temporary = tempfile.mkstemp(dir=folder, prefix=f".{path.name}.",
-                                             suffix=".part")
-    except OSError as exc:
-        raise _unwritable(folder, exc) from exc
-    temporary = Path(temporary)
-    try:
-        mode = "w" if text else "wb"
-        options = {"encoding": "utf-8", "newline": ""} if text else {}
-        with os.fdopen(handle, mode, **options) as stream:
+        make_private_folders(path.parent)
+        with atomic_output(path, overwrite=overwrite, text=text) as stream:
             yield stream
-        _move_into_place(temporary, path, overwrite)
-    except OSError as exc:
-        raise ExportError(
-            f"writing {path} failed: {exc.strerror or exc}. Check the free space and "
-            f"permissions of {folder}; nothing was left half-written"
-        ) from exc
-    finally:
-        with contextlib.suppress(OSError):
-            temporary.unlink()
+    except OutputRefused as exc:
+        raise ExportError(f"{exc} (nothing was left half-written)") from None
 
 
 def write_text(path: Path, text: str, *, overwrite: bool) -> Path:
     with output(path, overwrite=overwrite, text=True) as stream:
         stream.write(text)
     return path
-
-
-def _move_into_place(temporary: Path, path: Path, overwrite: bool) -> None:
-    if overwrite:
-        os.replace(temporary, path)
-        return
-    try:
-        # A hard link fails if the name exists, where a rename would replace it.
-        os.link(temporary, path)
-    except FileExistsError:
-        refuse_existing([path], overwrite=False)
-    except OSError:
-        refuse_existing([path], overwrite=False)
-        os.replace(temporary, path)
 
 
 def _unwritable(folder: Path, exc: OSError) -> ExportError:

@@ -12,17 +12,25 @@ when an export is told to include them.
 
 from __future__ import annotations
 
+import contextlib
+import fnmatch
 import os
 import re
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
+from typing import TypeVar
 
 from app.errors import AppError
+from app.exports.files import ExportError
 from app.exports.loader import Failure
 from app.records.datadir import CODE_PATTERN
 from app.records.outcomes import proposal_columns, trial_outcome
 from app.records.store import RecordStore
+from device.errors import DeviceError
+from device.safewrite import folded
+
+T = TypeVar("T")
 
 _CONSOLE_STEM = re.compile(
     rf"(?P<code>{CODE_PATTERN.pattern})_S(?P<session>\d+)_T(?P<trial>\d+)_\d{{8}}T\d{{6}}Z"
@@ -73,8 +81,31 @@ def sources_from_folder(folder: str | os.PathLike, pattern: str = "**/*.h5") -> 
     if not folder.is_dir():
         raise AppError(f"the folder {folder} does not exist or is not a folder; give the "
                        "folder that holds the trial files")
-    paths = sorted(p for p in folder.glob(pattern) if p.is_file())
+    paths = sorted(p for p in _below(folder, pattern) if p.is_file())
     return [source_for_path(p, _relative_folder(p, folder)) for p in paths]
+
+
+MAX_ENTRIES = 1_000_000
+"""Entries a study's folder may hold below it: more is a disk, not a study (`--folder /`)."""
+
+
+def _below(folder: Path, pattern: str) -> Iterator[Path]:
+    """The paths below `folder` matching `pattern` ('**/NAME-PATTERN' or a glob), walked
+    without following links, past folders that cannot be read or vanish meanwhile (/proc),
+    and refused (AppError) past MAX_ENTRIES."""
+    if not pattern.startswith("**/") or "/" in pattern[3:]:
+        yield from folder.glob(pattern)
+        return
+    seen = 0
+    for here, folders, files in os.walk(folder, onerror=lambda error: None):
+        seen += len(folders) + len(files)
+        if seen > MAX_ENTRIES:
+            raise AppError(f"the folder {folder} holds more than {MAX_ENTRIES:,} entries: it "
+                           "is not a study's folder; give the folder that holds the trial "
+                           "files")
+        folders.sort()
+        for name in fnmatch.filter(files, pattern[3:]):
+            yield Path(here, name)
 
 
 def _relative_folder(path: Path, folder: Path) -> str:
@@ -112,3 +143,25 @@ def registry_names(registry: RecordStore, codes: str | Iterable[str]) -> dict[st
         patient = registry.patient(code)
         names[code] = (patient.first_name, patient.last_name)
     return names
+
+
+def one_trial(source: Path, work: Callable[[], T], failed: list[Failure],
+              outputs: Iterable[Path] = ()) -> T | None:
+    """`work()`, the export of one trial of a batch; a trial it cannot export (damaged,
+    unreadable, or holding what the export does not expect, in whatever words the
+    library said it) is listed in `failed` with why, the files of `outputs` it began
+    are removed, and the batch goes on (app.exports.run's doc). A destination that
+    cannot be written (ExportError) stops the batch: every trial would fail alike."""
+    outputs = [path for path in outputs if not os.path.lexists(path)]
+    try:
+        return work()
+    except ExportError:
+        raise
+    except Exception as exc:  # the file's damage, in any library's words: skipped, listed
+        reason = folded(exc) if isinstance(exc, AppError | DeviceError) else \
+            f"cannot be exported ({type(exc).__name__}: {folded(exc)}); the file may be damaged"
+        failed.append(Failure(source, reason))
+        for path in outputs:
+            with contextlib.suppress(OSError):
+                os.unlink(path)
+        return None

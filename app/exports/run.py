@@ -45,7 +45,6 @@ import os
 from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 
-from app.errors import AppError
 from app.exports.bids import export_bids
 from app.exports.columns import check_digits
 from app.exports.files import (
@@ -60,6 +59,7 @@ from app.exports.mat import write_mat
 from app.exports.plan import (
     ExportResult,
     TrialSource,
+    one_trial,
     registry_names,
     source_for_path,
     sources_from_folder,
@@ -147,17 +147,20 @@ def export_trials(
     if progress is not None:
         progress(0.0)
     for i, (source, paths) in enumerate(planned.items()):
-        try:
+        def export(source=source):
             trial = load_trial(source.path)
-        except AppError as exc:
-            failed.append(Failure(source.path, str(exc)))
-        else:
-            written += _write(trial, format, root / source.folder, source.stem, exercise_only,
-                              digits, overwrite)
+            row = {**trial.row(), **ran_columns(trial, source)}  # before any file is made
+            files = _write(trial, format, root / source.folder, source.stem, exercise_only,
+                           digits, overwrite)
+            return row, files
+
+        done = one_trial(source.path, export, failed, paths)
+        if done is not None:
+            row, files = done
+            written += files
             rows.append({"participant": source.participant, "session": source.session,
                          "trial": source.run,
-                         "export_file": paths[0].relative_to(root).as_posix(),
-                         **trial.row(), **ran_columns(trial, source)})
+                         "export_file": paths[0].relative_to(root).as_posix(), **row})
         if progress is not None:
             progress((i + 1) / len(planned))
     written.append(_write_index(index, rows, suffix, overwrite))

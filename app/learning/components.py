@@ -107,10 +107,14 @@ def analytic_components(system: str, q, qd, qdd) -> dict[str, np.ndarray]:
                    f"{ROBOT_SYSTEM_PREFIX!r})")
 
 
-def plot_components(c: Components, path: str | os.PathLike, *, title: str = "") -> Path:
+def plot_components(c: Components, path: str | os.PathLike, *, title: str = "",
+                    overwrite: bool = False) -> Path:
     """One row per component, one column per generalised force, learned (dashed) over
-    analytic (solid), against the sample's index; written as a PNG."""
+    analytic (solid), against the sample's index; written as a PNG, whole or not at all
+    (an existing file replaced only with `overwrite`: app.records.safewrite)."""
     import matplotlib
+
+    from app.records.safewrite import atomic_output
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -136,7 +140,8 @@ def plot_components(c: Components, path: str | os.PathLike, *, title: str = "") 
         fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     try:
-        fig.savefig(path, dpi=110)
+        with atomic_output(path, overwrite=overwrite) as stream:
+            fig.savefig(stream, dpi=110, format="png")
     except OSError as exc:
         raise AppError(f"cannot write {path} ({exc.strerror or exc}); give a folder you can "
                        "write to") from exc

@@ -66,14 +66,19 @@ class Dataset:
                 "description": self.description}
 
 
-def write_dataset(path: str | Path, data: Dataset) -> Path:
-    """Write `data` to `path` (replacing it)."""
+def write_dataset(path: str | Path, data: Dataset, *, overwrite: bool = False,
+                  owned: bool = False) -> Path:
+    """Write `data` to `path`, whole or not at all (app.records.safewrite: an existing file
+    only with `overwrite`, never what a data folder owns unless `owned`)."""
     import h5py
+
+    from app.records.safewrite import OutputRefused, atomic_path
 
     path = Path(path)
     _check_consistent(path, data.q, data.qd, data.qdd, data.tau, data.cycle)
     try:
-        with h5py.File(path, "w") as f:
+        with atomic_path(path, overwrite=overwrite, owned=owned) as temporary, \
+                h5py.File(temporary, "w") as f:
             for name in ARRAYS:
                 f.create_dataset(name, data=np.asarray(getattr(data, name), dtype=np.float64))
             f.create_dataset("cycle", data=np.asarray(data.cycle, dtype=np.int64))
@@ -83,9 +88,9 @@ def write_dataset(path: str | Path, data: Dataset) -> Path:
             f.attrs["coordinates"] = json.dumps(list(data.coordinates))
             f.attrs["forces"] = json.dumps(list(data.forces))
             f.attrs["description"] = json.dumps(data.description)
-    except OSError as exc:
+    except (OSError, OutputRefused) as exc:
         raise DatasetError(path, f"cannot be written ({exc})",
-                           "Choose a folder you can write to.") from None
+                           "Choose another file, or a folder you can write to.") from None
     return path
 
 

@@ -87,8 +87,13 @@ def content_hash(document: dict) -> str:
 
 
 def write_model(path: str | Path, name: str, spec: dict, params: dict, data: dict,
-                hyper_parameters: dict, metrics: dict) -> Path:
-    """Write a trained model (replacing the file); return its path."""
+                hyper_parameters: dict, metrics: dict, *, overwrite: bool = False,
+                owned: bool = False) -> Path:
+    """Write a trained model, whole or not at all; return its path. An existing file is
+    replaced only with `overwrite`, never one a data folder owns unless `owned` (the
+    console's own models/ folder: app.records.safewrite)."""
+    from app.records.safewrite import OutputRefused, write_text
+
     path = Path(path)
     document = {
         "format": FORMAT, "format_version": FORMAT_VERSION, "name": name,
@@ -103,10 +108,11 @@ def write_model(path: str | Path, name: str, spec: dict, params: dict, data: dic
     }
     document["content_sha256"] = content_hash(document)
     try:
-        path.write_text(json.dumps(document, indent=1, allow_nan=False) + "\n")
-    except OSError as exc:
+        write_text(path, json.dumps(document, indent=1, allow_nan=False) + "\n",
+                   overwrite=overwrite, owned=owned)
+    except (OSError, OutputRefused) as exc:
         raise ModelFileError(path, "format", f"cannot be written ({exc})",
-                             "Choose a folder you can write to.") from None
+                             "Choose another file, or a folder you can write to.") from None
     return path
 
 

@@ -21,9 +21,11 @@ from core.learning import inference, pendulum as pd
 
 
 def make_pendulum_file(path: str | Path, speeds_rad_s: Sequence[float] | None = None,
-                       held_out_speed_rad_s: float | None = pd.HELD_OUT_SPEED_RAD_S) -> Dataset:
+                       held_out_speed_rad_s: float | None = pd.HELD_OUT_SPEED_RAD_S, *,
+                       overwrite: bool = False) -> Dataset:
     """The pendulum's data (eq. 2.36–2.39) written to `path`: by default the thesis's 1,000
-    cycles with the 5 rad/s cycle marked held out (the file's `held_out_cycles`)."""
+    cycles with the 5 rad/s cycle marked held out (the file's `held_out_cycles`); an
+    existing file is replaced only with `overwrite` (app.records.safewrite)."""
     speeds = pd.THESIS_SPEEDS_RAD_S if speeds_rad_s is None else np.asarray(speeds_rad_s, float)
     pendulum = pd.Pendulum()
     samples = pd.generate(speeds, pendulum)
@@ -34,7 +36,7 @@ def make_pendulum_file(path: str | Path, speeds_rad_s: Sequence[float] | None = 
         matches = np.flatnonzero(np.isclose(speeds, held_out_speed_rad_s, rtol=0, atol=1e-9))
         description["held_out_cycles"] = [int(samples.cycle[0] + i) for i in matches]
     data = replace(data, description=description)
-    write_dataset(path, data)
+    write_dataset(path, data, overwrite=overwrite)
     return data
 
 
@@ -65,9 +67,11 @@ class TrainedModel:
 
 def train_file(data_path: str | Path, output: str | Path, kind: str, *,
                cyclic: Sequence[str] | None = None, name: str | None = None,
-               progress: Callable[[float], None] | None = None, **options) -> TrainedModel:
+               progress: Callable[[float], None] | None = None, overwrite: bool = False,
+               owned: bool = False, **options) -> TrainedModel:
     """Train a `kind` model on the file's samples (its held-out cycles left out) and write
-    the model file. `options` are core.learning.training.TrainingOptions' fields."""
+    the model file (`overwrite`, `owned`: app.learning.modelfile.write_model's).
+    `options` are core.learning.training.TrainingOptions' fields."""
     data = read_dataset(data_path)
     try:
         indices = cyclic_indices(data, cyclic)
@@ -101,7 +105,8 @@ def train_file(data_path: str | Path, output: str | Path, kind: str, *,
                                                 result.metrics["cross_validation_rmse"],
                                                 strict=True))
     path = write_model(output, name or Path(output).stem, result.spec, result.params,
-                       summary, opts.hyper_parameters(), metrics)
+                       summary, opts.hyper_parameters(), metrics, overwrite=overwrite,
+                       owned=owned)
     return TrainedModel(path, metrics["parameters"], metrics["cross_validation_rmse"],
                         metrics["training_seconds"], len(train_data))
 

@@ -72,7 +72,7 @@ def read_marks(path: str | os.PathLike) -> Homography:
     try:
         with path.open(newline="", encoding="utf-8") as f:
             rows = [r for r in csv.reader(f) if r and any(c.strip() for c in r)]
-    except (OSError, UnicodeDecodeError) as exc:
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise VideoError(f"marked points {path} cannot be read ({exc})") from exc
     if not rows or [c.strip() for c in rows[0]] != ["u_px", "v_px", "x_m", "y_m"]:
         raise VideoError(f"marked points {path}: the first line must be u_px,v_px,x_m,y_m")

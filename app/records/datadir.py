@@ -33,6 +33,7 @@ import contextlib
 import datetime
 import os
 import re
+import stat
 import tempfile
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -42,13 +43,15 @@ import platformdirs
 
 from app.errors import DataDirError
 from app.records.settings import APP_NAME, Settings, load_settings
+from device import safewrite
+from device.safewrite import OutputRefused, folder_problem, make_private_folders, os_reason
 
 ENV_DATA_DIR = "REHAB_DATA_DIR"
 REGISTRY_NAME = "registry.sqlite3"
 TRIALS = "trials"
 REPORTS = "reports"
-PRIVATE_FOLDER = 0o700
-PRIVATE_FILE = 0o600
+PRIVATE_FOLDER = safewrite.PRIVATE_FOLDER
+PRIVATE_FILE = safewrite.PRIVATE_FILE
 """The modes of the data folder's folders and files: its user's only (README, Where the
 data goes)."""
 EXPORTS = "exports"
@@ -94,8 +97,8 @@ def locate_data_dir(
         # the damaged settings may have named another folder: the default would start an
         # empty registry beside the real one
         raise DataDirError(
-            f"the settings file was damaged and is kept as {settings.damaged}; the data "
-            "folder it named cannot be read back. Set the data folder again "
+            f"the settings file {settings.damaged} is damaged or cannot be read (kept as it "
+            "is); the data folder it named cannot be read back. Set the data folder again "
             f"({ENV_DATA_DIR}=<folder>, or data_dir in the settings), or delete that file "
             f"to use the default folder {default_data_dir()}"
         )
@@ -161,47 +164,96 @@ class DataDir:
         return self.root / MODELS
 
     def ensure(self, *parts: str) -> Path:
-        """Create root/parts (and any parent) if missing, check it is writable, return it."""
-        folder = self.root.joinpath(*parts)
-        try:
-            folder.mkdir(parents=True, exist_ok=True)
-        except FileExistsError as exc:
-            raise DataDirError(
-                f"cannot create the folder {folder}: a file of that name is in the way "
-                f"({exc.filename}). Move that file, or choose another data folder "
-                f"(setting data_dir, or {ENV_DATA_DIR})"
-            ) from exc
-        except OSError as exc:
-            raise self._not_writable(folder, exc) from exc
-        if not folder.is_dir():
-            raise DataDirError(
-                f"{folder} is a file, not a folder. Move it, or choose another data folder "
-                f"(setting data_dir, or {ENV_DATA_DIR})"
-            )
-        self._make_private(folder)
+        """root/parts, created where missing (new folders 0700, whatever the umask), checked
+        writable, returned. The root is created only where nothing is; an existing root is
+        never changed, only checked: a folder of this user's alone (owned, writable by no
+        one else, on a path no one else can swap), else DataDirError saying why and what to
+        do. The console's own folders inside it are kept 0700."""
+        self._check_root()
+        folder = self.root
+        for part in parts:
+            folder = folder / part
+            self._own_folder(folder)
         self._probe(folder)
         return folder
 
-    def _make_private(self, folder: Path) -> None:
-        """The data folder and every folder in it open to their user only (0700), whatever
-        the umask or an earlier console left: they hold patients' data."""
-        here = folder
-        while True:
+    def _check_root(self) -> None:
+        try:
+            info = os.stat(self.root)
+        except FileNotFoundError:
             try:
-                # only the group's and others' bits are taken away: a folder its user made
-                # read-only stays read-only (and is refused as such below)
-                bits = here.stat().st_mode & 0o777
-                if bits & ~PRIVATE_FOLDER:
-                    os.chmod(here, bits & PRIVATE_FOLDER)
+                make_private_folders(self.root)
+                info = os.stat(self.root)
+            except OutputRefused as exc:
+                raise DataDirError(f"{exc} (the data folder; {self._choose()})") from None
+            except OSError as exc:
+                raise DataDirError(f"cannot use the data folder {self.root}: "
+                                   f"{os_reason(exc)}. {self._choose().capitalize()}") from None
+        except (OSError, RecursionError, ValueError) as exc:
+            raise DataDirError(f"cannot use the data folder {self.root}: {os_reason(exc)}. "
+                               f"{self._choose().capitalize()}") from None
+        if not stat.S_ISDIR(info.st_mode):
+            raise DataDirError(f"the data folder {self.root} is a file, not a folder. Move it, "
+                               f"or {self._choose()}")
+        if not os.path.lexists(self.registry_path):
+            others = foreign_entries(self.root)
+            if others:
+                # `--data-dir ~` or `/`: no trials/, logs/ or registry made among other files
+                raise DataDirError(
+                    f"{self.root} is not a data folder: it holds {others} and no registry. A "
+                    "data folder, and a new registry, start only in a new or empty folder: "
+                    f"{self._choose()}")
+        problem = folder_problem(self.root)
+        if problem:
+            raise DataDirError(
+                f"the data folder {self.root} {problem}: patients' data must be private to "
+                f"you. {self._choose().capitalize()}, or make it yours alone "
+                f"(chmod 700 {self.root}); the console never changes a folder it did not make")
+
+    def _choose(self) -> str:
+        return (f"choose another data folder (--data-dir, the setting data_dir, or "
+                f"{ENV_DATA_DIR}; this one came from the {self.source})")
+
+    def _own_folder(self, folder: Path) -> None:
+        """One of the console's folders inside the data folder: made 0700 where missing;
+        one an earlier console left open (it made it) closed to its user again; a link to a
+        folder elsewhere (a second disk) followed only if that folder is private, and never
+        changed."""
+        try:
+            info = os.lstat(folder)
+        except FileNotFoundError:
+            try:
+                os.mkdir(folder, PRIVATE_FOLDER)
+                os.chmod(folder, PRIVATE_FOLDER)  # the umask may have taken the owner's bits
+            except FileExistsError:
+                self._own_folder(folder)  # made meanwhile by another console
+            except OSError as exc:
+                raise self._not_writable(folder, exc) from exc
+            return
+        except OSError as exc:
+            raise DataDirError(f"cannot use {folder} in the data folder: {os_reason(exc)}. "
+                               f"{self._choose().capitalize()}") from None
+        if stat.S_ISLNK(info.st_mode):
+            problem = folder_problem(folder)
+            if problem:
+                raise DataDirError(f"{folder} in the data folder is a link to a folder that "
+                                   f"{problem}; link it to a folder of yours alone, or "
+                                   f"{self._choose()}")
+            return
+        if not stat.S_ISDIR(info.st_mode):
+            raise DataDirError(
+                f"cannot create the folder {folder}: a file of that name is in the way. Move "
+                f"that file, or {self._choose()}")
+        bits = stat.S_IMODE(info.st_mode)
+        if bits & ~PRIVATE_FOLDER:
+            # only the group's and others' bits are taken away: a folder its user made
+            # read-only stays read-only (and is refused as such by the probe)
+            try:
+                os.chmod(folder, bits & PRIVATE_FOLDER)
             except OSError as exc:
                 raise DataDirError(
-                    f"cannot make {here} private to its user ({exc.strerror or exc}); the "
-                    "data folder must be yours: choose another data folder (setting "
-                    f"data_dir, or {ENV_DATA_DIR})"
-                ) from exc
-            if here == self.root or self.root not in here.parents:
-                return
-            here = here.parent
+                    f"cannot make {folder} private to its user ({os_reason(exc)}); the data "
+                    f"folder must be yours: {self._choose()}") from exc
 
     def ensure_layout(self) -> Path:
         """Create the root and its standard sub-folders; return the root."""
@@ -284,3 +336,21 @@ def private_files(path: Path) -> None:
         except OSError as exc:
             raise DataDirError(f"cannot make {candidate} private to its user "
                                f"({exc.strerror or exc}); the data folder must be yours") from exc
+
+
+_LAYOUT_NAMES = frozenset((*LAYOUT, MODELS))
+
+
+def foreign_entries(root: Path) -> str:
+    """What `root` holds besides a data folder's own folders and files (its registry and
+    copies, the layout's folders) and hidden files: '' or a few names and their count."""
+    try:
+        names = sorted(entry.name for entry in os.scandir(root)
+                       if not entry.name.startswith((".", REGISTRY_NAME))
+                       and entry.name not in _LAYOUT_NAMES)
+    except OSError:
+        return ""
+    if not names:
+        return ""
+    listed = ", ".join(names[:3]) + (", …" if len(names) > 3 else "")
+    return f"{len(names)} entr{'y' if len(names) == 1 else 'ies'}: {listed}"

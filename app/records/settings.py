@@ -4,13 +4,16 @@ Where: `$REHAB_CONFIG_DIR/settings.json` when that variable is set and not empty
 else platformdirs' user config folder for "rehab-console" (on Linux
 ~/.config/rehab-console, on Windows %LOCALAPPDATA%\\rehab-console).
 
-Writes are atomic (a temporary file in the same folder, fsynced, then
-`os.replace`), so a crash or a second console never leaves half a file. A file
-that is not a JSON object is renamed `settings.json.corrupt-<UTC time>` and the
-defaults are used, with a logged warning: the therapist loses preferences, never
-the ability to start. A single value of the wrong type falls back to its default
-alone. Keys this version does not know are kept on save, so an older console
-does not erase a newer one's settings.
+Writes are atomic (device.safewrite: a temporary file in the same folder, 0600,
+fsynced, then renamed over the old one), so a crash or a second console never leaves
+half a file. A file that cannot be trusted whole (not a JSON object, NaN, nested past
+reason, larger than 1 MiB, not a plain file, a version or any value of the wrong
+type) is renamed `settings.json.corrupt-<UTC time>`, with a logged warning, and the
+defaults are used but for its data folder, kept when the file still names one; when
+it names none that can be read back, the data folder is unknown and the console says
+so rather than open the default folder's registry (app.records.datadir). The
+therapist loses preferences, never their patients. Keys this version does not know
+are kept on save, so an older console does not erase a newer one's settings.
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ import json
 import logging
 import os
 import re
-import tempfile
+import stat
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,6 +35,8 @@ import platformdirs
 from app.errors import SettingsError
 from core.errors import CoreError
 from core.trial import TrialParameters
+from device.safeinput import InputRefused, read_bytes
+from device.safewrite import OutputRefused, make_private_folders, write_text
 
 log = logging.getLogger(__name__)
 
@@ -148,10 +153,15 @@ def settings_path(environ: Mapping[str, str] | None = None) -> Path:
 
 
 def load_settings(path: str | os.PathLike | None = None) -> Settings:
-    """Read the settings; missing, unreadable or corrupt files give the defaults."""
+    """Read the settings; a missing file gives the defaults. A file that cannot be trusted
+    whole (not a plain file, too large, not UTF-8 JSON, NaN, nested past reason, a version
+    or any setting of the wrong type) is set aside and only its data folder kept, when it
+    names one that can be read back; one that cannot be read leaves the data folder
+    unknown: never is a data folder silently replaced by the default (locate_data_dir
+    refuses to guess)."""
     path = Path(path) if path is not None else settings_path()
     try:
-        text = path.read_text(encoding="utf-8")
+        info = os.stat(path)
     except FileNotFoundError:
         kept = sorted(path.parent.glob(f"{path.name}.corrupt-*"))
         if kept:
@@ -160,48 +170,70 @@ def load_settings(path: str | os.PathLike | None = None) -> Settings:
             return Settings(damaged=str(kept[-1]))
         log.debug("no settings file at %s: defaults used", path)
         return Settings()
+    except (OSError, ValueError) as exc:
+        log.warning("settings file %s cannot be read (%s): its data folder is unknown",
+                    path, exc)
+        return Settings(damaged=str(path))
+    if not stat.S_ISREG(info.st_mode):
+        return _set_aside(path, "it is not a plain file")
+    if info.st_size > MAX_SETTINGS_BYTES:
+        return _set_aside(path, f"it is {info.st_size} bytes, more than settings can be")
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        log.warning("settings file %s cannot be read (%s): its data folder is unknown",
+                    path, exc)
+        return Settings(damaged=str(path))
+    try:
+        values = json.loads(raw.decode("utf-8"), parse_constant=_refuse_constant)
     except UnicodeDecodeError:
         return _set_aside(path, "it is not UTF-8 text")
-    except OSError as exc:
-        log.warning("settings file %s cannot be read (%s): defaults used this time", path, exc)
-        return Settings()
-    try:
-        values = json.loads(text)
-    except json.JSONDecodeError as exc:
-        return _set_aside(path, f"it is not valid JSON ({exc})")
+    except (ValueError, RecursionError) as exc:
+        return _set_aside(path, f"it is not valid JSON ({_short(exc)})")
     if not isinstance(values, dict):
         return _set_aside(path, "it is not a JSON object")
-    return _from_json(path, values)
+    version = values.get(_VERSION_KEY, SETTINGS_VERSION)
+    if isinstance(version, bool) or not isinstance(version, int) or version < 1:
+        return _set_aside(path, f"its {_VERSION_KEY} {_short(version)} is not a version "
+                                "number")
+    for name, (ok, allowed) in _CHECKS.items():
+        if name in values and not ok(values[name]):
+            return _set_aside(path, f"setting {name} = {_short(values[name])} is not allowed "
+                                    f"(give {allowed})")
+    extra = {k: v for k, v in values.items() if k not in _CHECKS and k != _VERSION_KEY}
+    return Settings(**{name: values[name] for name in _CHECKS if name in values}, extra=extra)
+
+
+MAX_SETTINGS_BYTES = 1 << 20
+"""Settings are a few hundred bytes; a megabyte is not a settings file."""
+
+
+def _refuse_constant(name: str):
+    raise ValueError(f"{name} is not a number JSON allows")
+
+
+def _short(value: object) -> str:
+    """A value or an error for a log line: one line, at most 80 characters."""
+    try:
+        text = str(value) if isinstance(value, BaseException) else repr(value)
+    except RecursionError:
+        text = f"a {type(value).__name__} nested too deeply"
+    text = " ".join(text.split())
+    return text if len(text) <= 80 else text[:77] + "..."
 
 
 def save_settings(settings: Settings, path: str | os.PathLike | None = None) -> Path:
-    """Write the settings atomically; raise SettingsError when the folder is not writable."""
+    """Write the settings atomically, 0600; SettingsError when the folder is not writable
+    (the previous settings are then unchanged)."""
     path = Path(path) if path is not None else settings_path()
     text = json.dumps(settings.to_json(), indent=2, sort_keys=True, allow_nan=False) + "\n"
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        handle, temporary = tempfile.mkstemp(
-            dir=path.parent, prefix=f".{SETTINGS_NAME}.", suffix=".tmp"
-        )
-    except OSError as exc:
+        make_private_folders(path.parent)
+        write_text(path, text, overwrite=True)
+    except OutputRefused as exc:
         raise SettingsError(
-            f"cannot write the settings in {path.parent}: {exc.strerror or exc}. Check the "
-            f"folder's permissions or set {ENV_CONFIG_DIR} to a folder you can write to"
-        ) from exc
-    try:
-        with os.fdopen(handle, "w", encoding="utf-8") as stream:
-            stream.write(text)
-            stream.flush()
-            os.fsync(stream.fileno())
-        os.replace(temporary, path)
-    except OSError as exc:
-        with contextlib.suppress(OSError):
-            os.unlink(temporary)
-        raise SettingsError(
-            f"cannot write the settings file {path}: {exc.strerror or exc}. The previous "
-            "settings are unchanged; free disk space or check the folder's permissions"
-        ) from exc
-    _sync_folder(path.parent)
+            f"cannot write the settings: {exc}. The previous settings are unchanged; check "
+            f"the folder, or set {ENV_CONFIG_DIR} to a folder you can write to") from None
     return path
 
 
@@ -213,23 +245,6 @@ def update_settings(path: str | os.PathLike | None = None, **changes) -> Setting
     settings = load_settings(path).replace(**changes)
     save_settings(settings, path)
     return settings
-
-
-def _from_json(path: Path, values: dict) -> Settings:
-    chosen = {}
-    for name, (ok, allowed) in _CHECKS.items():
-        if name not in values:
-            continue
-        value = values[name]
-        if ok(value):
-            chosen[name] = value
-        else:
-            log.warning(
-                "setting %s = %r in %s is not allowed (give %s): its default is used",
-                name, value, path, allowed,
-            )
-    extra = {k: v for k, v in values.items() if k not in _CHECKS and k != _VERSION_KEY}
-    return Settings(**chosen, extra=extra)
 
 
 def _set_aside(path: Path, problem: str) -> Settings:
@@ -269,8 +284,8 @@ def _data_dir_in(path: Path) -> str | None:
     """The data folder a damaged settings file still names (a truncated file often keeps
     its first keys whole), or None."""
     try:
-        text = path.read_bytes().decode("utf-8", errors="replace")
-    except OSError:
+        text = read_bytes(path, max_bytes=MAX_SETTINGS_BYTES).decode("utf-8", errors="replace")
+    except InputRefused:  # not a plain file, too large: nothing to read back
         return None
     found = _DATA_DIR_ENTRY.search(text)
     if found is None:
@@ -280,19 +295,3 @@ def _data_dir_in(path: Path) -> str | None:
     except ValueError:
         return None
     return value if isinstance(value, str) and value.strip() else None
-
-
-def _sync_folder(folder: Path) -> None:
-    # The rename is durable only once the folder's entry is on disk; Windows has
-    # no directory handles to fsync and makes the rename durable by itself.
-    if os.name != "posix":
-        return
-    try:
-        fd = os.open(folder, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        with contextlib.suppress(OSError):
-            os.fsync(fd)
-    finally:
-        os.close(fd)

@@ -85,7 +85,7 @@ def read_reference_csv(path: str | os.PathLike) -> ReferenceAngles:
     try:
         with path.open(newline="", encoding="utf-8") as f:
             rows = list(csv.reader(f))
-    except (OSError, UnicodeDecodeError) as exc:
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise ReferenceCSVError(f"reference angles {path}: cannot be read ({exc}); give a "
                                 "UTF-8 CSV file") from exc
     rows = [r for r in rows if r and any(c.strip() for c in r)]

@@ -22,6 +22,7 @@ when a source starts, so `device` stays importable without it.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import threading
 import time
@@ -31,6 +32,12 @@ from pathlib import Path
 import numpy as np
 
 from device.errors import BackendUnavailable, RecordingError
+from device.safewrite import (
+    OutputRefused,
+    claim_private_file,
+    make_private_folders,
+    new_private_file,
+)
 
 DEFAULT_FPS = 30.0  # when a camera does not say (CAP_PROP_FPS reads 0)
 FOURCC_BY_SUFFIX = {".mp4": "mp4v", ".avi": "MJPG"}
@@ -98,18 +105,23 @@ class _Recorder:
                 f"cannot record video to {path}: give a file ending in "
                 f"{' or '.join(FOURCC_BY_SUFFIX)}"
             )
+        stamps = timestamps_path(path)
         try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            self.stamps = timestamps_path(path).open("w", encoding="ascii", newline="")
-        except OSError as exc:
-            raise RecordingError(
-                f"cannot write video beside {path}: {exc.strerror or exc}. Check the folder "
-                "exists, is writable and has free space"
-            ) from exc
+            # new files, 0600, never over one that is there (device.safewrite): the video
+            # is claimed empty and OpenCV truncates it, which keeps the mode
+            make_private_folders(path.parent)
+            self.stamps = new_private_file(stamps, encoding="ascii")
+        except OutputRefused as exc:
+            raise RecordingError(f"cannot write video beside {path}: {exc}") from exc
+        try:
+            claim_private_file(path)
+        except OutputRefused as exc:
+            self._abandon(stamps)
+            raise RecordingError(f"cannot write video beside {path}: {exc}") from exc
         self.writer = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*FOURCC_BY_SUFFIX[suffix]),
                                       fps, size)
         if not self.writer.isOpened():
-            self.stamps.close()
+            self._abandon(stamps, path)
             raise RecordingError(
                 f"cannot record video to {path}: OpenCV could not open a "
                 f"{FOURCC_BY_SUFFIX[suffix]} writer. Try the other format "
@@ -120,6 +132,13 @@ class _Recorder:
         self.frames = 0
         self.first = float("nan")
         self.last = float("nan")
+
+    def _abandon(self, *made: Path) -> None:
+        """Close the timestamps and remove the files made for a video that cannot start."""
+        self.stamps.close()
+        for path in made:
+            with contextlib.suppress(OSError):
+                path.unlink()
 
     def write(self, time_s: float, image: np.ndarray) -> None:
         self.writer.write(image)

@@ -4,17 +4,27 @@ install script asks whether the cache is warm before paying for numba's import).
 numba invalidates a cached function only when its own file changes, not when a
 kernel it calls from another file does, so the directory is keyed by a hash of every
 source the kernels may come from (core and device, core.kernels) and of where they
-are: any edit there starts a fresh cache. Set
-REHAB_NUMBA_CACHE to put it elsewhere; where no directory is writable it is None and
-the kernels are compiled in memory only.
+are: any edit there starts a fresh cache. Set REHAB_NUMBA_CACHE to put it elsewhere.
+
+numba unpickles the index files it finds in the cache and runs the machine code beside
+them, in the process that drives the robot: a cache another user can write is a way to
+run their code there (issue 28 #9: a pickle planted in the old shared fallback,
+$TMPDIR/rehab-console-numba, ran inside `rehab run`). So the cache is used only in a
+folder of this user's alone, checked, not assumed (device.safewrite.folder_problem:
+owned by the user, writable by no one else, not a symbolic link, every folder on the
+way owned by the user or root and writable by no one else unless sticky); it is made
+0700 where missing. Anywhere else `CACHE_DIR` is None, `CACHE_PROBLEM` says why, and
+the kernels are compiled in memory only, every start: slower, never unsafe. There is no
+fallback to a shared folder.
 """
 
 from __future__ import annotations
 
 import hashlib
 import os
-import tempfile
 from pathlib import Path
+
+from device.safewrite import OutputRefused, folder_problem, make_private_folders
 
 _PACKAGE = Path(__file__).resolve().parent
 _SOURCES = (_PACKAGE.parents[1] / "core", _PACKAGE.parent)
@@ -39,21 +49,30 @@ def _cache_root() -> Path:
     return Path(base) / "rehab-console" / "numba"
 
 
-def _writable_cache_dir() -> Path | None:
-    for root in (_cache_root(), Path(tempfile.gettempdir()) / "rehab-console-numba"):
-        path = root / _source_hash()
+def private_cache_dir(root: Path | None = None) -> tuple[Path | None, str]:
+    """(the cache folder for this source under `root` (default: REHAB_NUMBA_CACHE or the
+    user's cache folder), "") when it is this user's alone and writable; (None, why)
+    otherwise, and nothing found there is ever loaded."""
+    root = _cache_root() if root is None else root
+    path = root / _source_hash()
+    for folder in (root, path):  # the root checked before anything is made inside it
         try:
-            path.mkdir(parents=True, exist_ok=True)
-            probe = path / ".probe"
-            probe.write_bytes(b"")
-            probe.unlink()
-        except OSError:
-            continue
-        return path
-    return None
+            make_private_folders(folder)
+        except OutputRefused as exc:
+            return None, str(exc)
+        problem = folder_problem(folder, follow_links=False)
+        if problem:
+            return None, f"the compiled kernels' cache {path}: its folder {folder} {problem}"
+    try:
+        probe = path / ".probe"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as exc:
+        return None, f"the compiled kernels' cache {path} cannot be written ({exc.strerror})"
+    return path, ""
 
 
-CACHE_DIR = _writable_cache_dir()
+CACHE_DIR, CACHE_PROBLEM = private_cache_dir()
 
 
 ENTRY_KERNELS = ("engine.run_ticks", "engine.simulated_tick", "engine.supervised_command",

@@ -39,6 +39,8 @@ import numpy as np
 from core.errors import ParameterError
 from core.signal import sample_interval
 from device.errors import DeviceError
+from device.safeinput import InputRefused, read_bytes
+from device.safewrite import write_text
 
 VOLT_SCALE = {"v": 1.0, "volt": 1.0, "volts": 1.0, "mv": 1e-3, "millivolts": 1e-3,
               "uv": 1e-6, "µv": 1e-6, "μv": 1e-6, "microvolts": 1e-6}
@@ -97,16 +99,16 @@ def read_plain_csv(path: str | os.PathLike) -> EmgData:
 
 # ------------------------------------------------------------------ reading
 def _lines(path: Path) -> list[str]:
-    if not path.exists():
-        raise EmgFileError(path, "no such file", "check the path")
-    if path.is_dir():
-        raise EmgFileError(path, "is a folder, not a file", "give the exported .csv file")
     try:
-        size = path.stat().st_size
-        if size > MAX_BYTES:
-            raise EmgFileError(path, f"{size / 2**30:.1f} GiB is too large for a CSV export",
-                               "export the recording in parts")
-        text = path.read_text(encoding="utf-8-sig")
+        if not path.exists():
+            raise EmgFileError(path, "no such file", "check the path")
+        if path.is_dir():
+            raise EmgFileError(path, "is a folder, not a file", "give the exported .csv file")
+        # a plain file of a bounded size, read without blocking (device.safeinput): a pipe
+        # would hang the reader, /dev/zero fill the memory
+        text = read_bytes(path, what="EMG file", max_bytes=MAX_BYTES).decode("utf-8-sig")
+    except InputRefused as exc:
+        raise EmgFileError(path, exc.problem, "give the exported .csv file") from None
     except UnicodeDecodeError:
         raise EmgFileError(path, "is not a text file (not UTF-8)",
                            "export the recording as CSV from the EMG software") from None
@@ -124,10 +126,15 @@ def _unit_scale(unit: str) -> float | None:
 
 def _rows(path: Path, lines: list[str], start: int) -> list[tuple[int, list[str]]]:
     out = []
-    for k, row in enumerate(csv.reader(lines[start:]), start=start + 1):
-        if not row or all(not c.strip() for c in row) or row[0].lstrip().startswith("#"):
-            continue
-        out.append((k, row))
+    k = start
+    try:
+        for k, row in enumerate(csv.reader(lines[start:]), start=start + 1):
+            if not row or all(not c.strip() for c in row) or row[0].lstrip().startswith("#"):
+                continue
+            out.append((k, row))
+    except csv.Error as exc:  # a cell over the csv module's limit (131,072 characters), …
+        raise EmgFileError(path, f"line {k + 1} cannot be read as CSV ({exc})",
+                           "the file may not be an EMG export") from None
     return out
 
 
@@ -194,6 +201,9 @@ def _trigno(path: Path, lines: list[str]) -> EmgData:
     names = [labels[j][0] for j in emg]
     if len(set(names)) != len(names):
         raise EmgFileError(path, "two EMG channels share one label", "rename one in the export")
+    if len(rows) < 2:
+        raise EmgFileError(path, "no samples after the header",
+                           "the export is cut or empty; export it again")
     t = []
     values = []
     for line, row in rows[1:]:
@@ -279,9 +289,10 @@ def _finish(path, names, t, samples, source, rate_hz, notes) -> EmgData:
 
 # ------------------------------------------------------------------ writing (sample files, tests)
 def write_trigno_csv(path: str | os.PathLike, names, rate_hz: float, samples,
-                     extra: tuple = ()) -> Path:
+                     extra: tuple = (), *, overwrite: bool = False) -> Path:
     """Write EMG (M, C) in V in the Trigno export layout; `extra` adds non-EMG channels as
-    (label, rate_hz, unit, values) so files look like real exports."""
+    (label, rate_hz, unit, values) so files look like real exports. Whole or not at all,
+    never over a file unless `overwrite` (device.safewrite)."""
     path = Path(path)
     samples = np.asarray(samples, dtype=float)
     channels = [(n, rate_hz, "V", samples[:, i]) for i, n in enumerate(names)] + list(extra)
@@ -295,16 +306,16 @@ def write_trigno_csv(path: str | os.PathLike, names, rate_hz: float, samples,
         for _, fs, _, v in channels:
             cells += [f"{k / fs:.6f}", f"{v[k]:.9g}"] if k < len(v) else ["", ""]
         lines.append(",".join(cells))
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    return path
+    return write_text(path, "\n".join(lines) + "\n", overwrite=overwrite)
 
 
-def write_plain_csv(path: str | os.PathLike, names, t_s, samples) -> Path:
-    """Write EMG (M, C) in V as the plain layout: `time` then one column per channel."""
+def write_plain_csv(path: str | os.PathLike, names, t_s, samples, *,
+                    overwrite: bool = False) -> Path:
+    """Write EMG (M, C) in V as the plain layout: `time` then one column per channel; whole
+    or not at all, never over a file unless `overwrite` (device.safewrite)."""
     path = Path(path)
     samples = np.asarray(samples, dtype=float)
     lines = ["time," + ",".join(f"{n} [V]" for n in names)]
     lines += [f"{t:.6f}," + ",".join(f"{v:.9g}" for v in row) for t, row in zip(t_s, samples,
                                                                               strict=True)]
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    return path
+    return write_text(path, "\n".join(lines) + "\n", overwrite=overwrite)

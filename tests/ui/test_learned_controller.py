@@ -138,7 +138,7 @@ def test_saved_models_appear_and_bad_ones_refuse_the_build(qtbot, window, models
     p.simulator.click()
     # a model saved while the console runs appears when the Parameters tab is shown again
     spec, params = fitted_fnn(RobotModel(), hidden=8)
-    write_model(models / "later.json", "later", spec, params, ROBOT_DATA, {}, {})
+    write_model(models / "later.json", "later", spec, params, ROBOT_DATA, {}, {}, owned=True)
     win.tabs.setCurrentWidget(win.instructions)
     win.tabs.setCurrentWidget(p)
     assert p.controller.findText("CT-PID (learned: later)") >= 0

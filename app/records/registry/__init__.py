@@ -54,6 +54,8 @@ from app.records.registry.schema import (
     SCHEMA_VERSION,
     Schema,
     check_registry_file,
+    create_registry_file,
+    refuse_missing_registry,
 )
 from app.records.registry.sessions import Session, Sessions
 from app.records.registry.trials import (
@@ -92,15 +94,23 @@ __all__ = [
 
 
 class Registry(Schema, Patients, Sessions, Proposals, Trials, Queries):
-    """The registry of one data folder. Opening it creates or migrates the database."""
+    """The registry of one data folder. Opening it migrates the database; with `create`
+    (the window, `rehab patients add`) a missing one is created, whole, in a new or empty
+    folder (app.records.registry.schema.create_registry_file); without, a missing registry
+    is refused saying what the folder holds, and nothing is created."""
 
-    def __init__(self, data_dir: DataDir | str | Path) -> None:
+    def __init__(self, data_dir: DataDir | str | Path, *, create: bool = True) -> None:
         if not isinstance(data_dir, DataDir):
             data_dir = DataDir(Path(data_dir).expanduser().absolute())
         self.data_dir = data_dir
         self.path = data_dir.registry_path
+        if not create:
+            refuse_missing_registry(data_dir)
         data_dir.ensure()
-        check_registry_file(self.path, data_dir.trials_dir)
+        if check_registry_file(self.path, data_dir.trials_dir) is None:
+            if not create:
+                refuse_missing_registry(data_dir)  # gone meanwhile
+            create_registry_file(data_dir)
         self._migrate()
         private_files(self.path)
 

@@ -14,14 +14,16 @@ from __future__ import annotations
 import contextlib
 import datetime
 import logging
+import os
 import shutil
 import sqlite3
 from pathlib import Path
 
 from app.errors import RegistryError, SchemaError
-from app.records.datadir import private_files
+from app.records.datadir import ENV_DATA_DIR, DataDir, foreign_entries, private_files
 from app.records.registry.database import Database, rollback
 from app.records.registry.snapshot import needs_snapshot
+from app.records.safewrite import OutputRefused, atomic_path, folded
 
 # The registry's one logger, named as it was before the registry had modules.
 log = logging.getLogger(__package__)
@@ -202,11 +204,14 @@ class Schema(Database):
 SQLITE_HEADER = b"SQLite format 3\x00"
 
 
-def check_registry_file(path: Path, trials_dir: Path) -> None:
-    """Refuse a registry file that would be taken for a new, empty one: a file of 0 bytes
-    or that is not a SQLite database (a copy is kept beside it, the file left as it is),
-    one that cannot be read, and a missing registry beside existing trial files. Opening
-    any of them would start an empty registry and orphan every trial recorded so far."""
+def check_registry_file(path: Path, trials_dir: Path) -> bool | None:
+    """True when a registry file is there, None when none is; refuse a registry file that
+    would be taken for a new, empty one: a file of 0 bytes or that is not a SQLite
+    database (a copy is kept beside it, the file left as it is), one that cannot be read,
+    and a missing registry beside existing trial files. Opening any of them would start an
+    empty registry and orphan every trial recorded so far. (A registry is never created
+    empty, create_registry_file: a file of 0 bytes is never a console's registry being
+    made.)"""
     try:
         with path.open("rb") as stream:
             header = stream.read(len(SQLITE_HEADER))
@@ -219,12 +224,12 @@ def check_registry_file(path: Path, trials_dir: Path) -> None:
                 "file(s): restore the registry from a backup (a registry.sqlite3.v*.bak "
                 "beside it, or your own copy), or move the trials folder away to start a "
                 "new registry; the console will not start an empty one beside them") from None
-        return
+        return None
     except OSError as exc:
         raise RegistryError(f"the registry {path} cannot be read ({exc.strerror or exc}); "
                             "check its permissions, or restore it from a backup") from exc
     if header == SQLITE_HEADER:
-        return
+        return True
     stamp = datetime.datetime.now(datetime.UTC).strftime("%Y%m%dT%H%M%SZ")
     kept = path.with_name(f"{path.name}.damaged-{stamp}")
     with contextlib.suppress(OSError):
@@ -234,3 +239,69 @@ def check_registry_file(path: Path, trials_dir: Path) -> None:
         f"{path} is not a registry database ({what}); nothing was changed and a copy is kept as "
         f"{kept.name}. Restore the registry from a backup (a registry.sqlite3.v*.bak beside "
         "it, or your own copy) and start again")
+
+
+def create_registry_file(data_dir: DataDir) -> None:
+    """A new registry in `data_dir`, whole: every table built and the schema version set in
+    a temporary file beside it (0600, WAL), which is then linked into place. A console
+    opening the same new folder at the same moment sees no registry or a whole one, never
+    an empty file it would take for a damaged registry; when two create one, the first
+    link wins and the other's temporary is dropped. Refused in a folder that already holds
+    other things (a typo'd --data-dir must not start a registry in someone's documents)."""
+    path = data_dir.registry_path
+    _refuse_foreign_folder(data_dir)
+    try:
+        with atomic_path(path, owned=True) as temporary:
+            with contextlib.closing(sqlite3.connect(temporary, isolation_level=None)) as conn:
+                conn.execute("PRAGMA journal_mode = WAL")
+                conn.execute("BEGIN IMMEDIATE")
+                for _, statements in MIGRATIONS:
+                    for statement in statements:
+                        conn.execute(statement)
+                conn.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
+                conn.execute("COMMIT")
+            # closing the only connection checkpointed the WAL into the file and removed it
+            for suffix in ("-wal", "-shm"):
+                with contextlib.suppress(OSError):
+                    os.unlink(f"{temporary}{suffix}")
+    except OutputRefused as exc:
+        if os.path.lexists(path):
+            return  # another console made it first: theirs is the registry
+        raise RegistryError(f"cannot create the registry {path}: {exc}") from None
+    except sqlite3.Error as exc:
+        raise RegistryError(f"cannot create the registry {path}: {folded(exc)}. Check the "
+                            "disk's free space and the folder's permissions") from None
+    log.info("registry %s: created (schema v%d)", path, SCHEMA_VERSION)
+
+
+def _refuse_foreign_folder(data_dir: DataDir) -> None:
+    others = foreign_entries(data_dir.root)
+    if others:
+        raise RegistryError(
+            f"no registry in {data_dir.root}, which holds other things ({others}): a new "
+            "registry starts only in a new or empty folder. Check the data folder (it came "
+            f"from the {data_dir.source}), or give a new folder for a new registry")
+
+
+def refuse_missing_registry(data_dir: DataDir) -> None:
+    """RegistryError saying what is where the registry should be, unless it is there: for
+    a command that reads the registry, which never starts one (a typo must not leave an
+    empty registry anywhere)."""
+    root = data_dir.root
+    if os.path.lexists(data_dir.registry_path):
+        return
+    if not os.path.lexists(root):
+        what = "that folder does not exist"
+    elif not os.path.isdir(root):
+        what = "that is a file, not a folder"
+    else:
+        others = foreign_entries(root)
+        trials = data_dir.trials_dir
+        count = sum(1 for _ in trials.rglob("*.h5")) if trials.is_dir() else 0
+        what = ("the folder is empty" if not others and not count else
+                f"the folder holds {count} trial file(s) but no registry: restore the "
+                "registry from a backup" if count else f"the folder holds {others}")
+    raise RegistryError(
+        f"no registry in {root} ({what}). Check the data folder (it came from the "
+        f"{data_dir.source}: --data-dir, {ENV_DATA_DIR}, the setting data_dir or the "
+        "default), or register a first patient there (`rehab patients add`) to start one")

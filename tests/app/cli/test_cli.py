@@ -78,7 +78,7 @@ def test_a_session_from_the_command_line(data, patient, capsys, tmp_path):
         (["check", "--gains", "pid.kp=3"], "no gains called 'pid'"),
     ],
 )
-def test_bad_input_is_one_line_and_exit_2(data, capsys, args, needle):
+def test_bad_input_is_one_line_and_exit_2(data, patient, capsys, args, needle):
     code, _, err = run(args, capsys)
     assert code == 2
     lines = err.strip().splitlines()

@@ -105,8 +105,8 @@ def test_record_a_guided_mvc_from_the_fake_trigno(tmp_path, capsys):
 
 @pytest.mark.parametrize(("args", "expected"), [
     (["emg", "import", "missing.h5", "x.csv"], "no such trial file"),
-    (["emg", "show", "99"], "99"),
-    (["emg", "import", "{plain}", "missing.csv"], "no such file"),
+    (["emg", "show", "99"], "no registry"),
+    (["emg", "import", "{plain}", "missing.csv"], "does not exist"),
     (["emg", "import", "{plain}", str(DATA / "plain.csv"), "--offset", "nan"], "--offset"),
     (["emg", "import", "{plain}", str(DATA / "plain.csv"), "--muscles", "a,b"],
      "2 muscles given for 3"),

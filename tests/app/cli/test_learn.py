@@ -125,7 +125,7 @@ def test_bad_input_is_one_line_and_exit_2(files, trained, tmp_path, capsys):
           "--held-out", "5"], "--held-out 5 is none of --speeds"),
         (["learn", "pendulum", "--output", str(tmp_path / "x.h5"), "--speeds", "0"],
          "must be a finite number > 0"),
-        (["learn", "pendulum", "--output", str(tmp_path / "no" / "x.h5")], "cannot be written"),
+        (["learn", "pendulum", "--output", str(tmp_path / "no" / "x.h5")], "does not exist"),
     ]
     for args, message in cases:
         code, _, err = run(args, capsys)
@@ -231,7 +231,8 @@ def test_train_writes_into_the_data_folders_models_by_default(trials, tmp_path, 
     assert robot_model(folder, "fnn-r").spec["kind"] == "fnn"
     code, _, err = run(args, capsys)  # the same name again: refused, not replaced
     assert code == 2
-    assert "fnn-r.json already exists; give another --name" in err
+    assert "fnn-r.json already exists and is kept (trials may name it); give another --name" \
+        in err
     code, _, err = run([*args, "--name", "my model"], capsys)
     assert code == 2
     assert "is not a model name" in err

@@ -495,7 +495,9 @@ def test_a_failed_write_leaves_no_partial_file(trial, tmp_path, monkeypatch):
     def full(temporary, path, overwrite):
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr(export_files_module, "_move_into_place", full)
+    import device.safewrite
+
+    monkeypatch.setattr(device.safewrite, "_into_place", full)
     with pytest.raises(ExportError, match=r"writing .*T1\.mat failed: No space left"):
         export_trial(trial, tmp_path, format="mat")
     assert list(tmp_path.iterdir()) == []

@@ -94,7 +94,7 @@ def test_a_file_in_the_way_is_named_with_what_to_do(tmp_path):
     blocker.write_text("not a folder")
     with pytest.raises(DataDirError, match=rf"{blocker}.*{ENV_DATA_DIR}"):
         DataDir(blocker).ensure()
-    with pytest.raises(DataDirError, match=r"cannot (create|write).*choose another data folder"):
+    with pytest.raises(DataDirError, match=r"is a file, not a folder.*choose another data folder"):
         DataDir(blocker).ensure("logs")
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import logging
 import os
+import stat
 
 import pytest
 
@@ -109,20 +110,79 @@ def test_corrupt_file_is_set_aside_and_defaults_used_with_a_warning(config, capl
     assert len(list(config.glob(f"{SETTINGS_NAME}.corrupt-*"))) == 1
 
 
-def test_one_bad_value_falls_back_alone_and_unknown_keys_survive(config, caplog):
+def test_unknown_keys_survive_a_save(config):
     config.mkdir()
     (config / SETTINGS_NAME).write_text(json.dumps({
-        "flip_x": "sometimes", "flip_y": True, "window_geometry": "g",
-        "from_a_newer_console": {"theme": "dark"},
+        "flip_y": True, "window_geometry": "g", "from_a_newer_console": {"theme": "dark"},
     }))
-    with caplog.at_level(logging.WARNING, logger="app.records.settings"):
-        loaded = load_settings()
+    loaded = load_settings()
     assert (loaded.flip_x, loaded.flip_y, loaded.window_geometry) == (False, True, "g")
-    assert "flip_x = 'sometimes'" in caplog.text
     save_settings(loaded.replace(data_dir="/data"))
     stored = json.loads((config / SETTINGS_NAME).read_text())
     assert stored["from_a_newer_console"] == {"theme": "dark"}
     assert stored["data_dir"] == "/data"
+    assert stat.S_IMODE((config / SETTINGS_NAME).stat().st_mode) == 0o600
+
+
+def test_a_wrong_typed_setting_sets_the_file_aside_and_keeps_only_its_data_folder(
+        config, caplog, tmp_path):
+    """A value of the wrong type is refused like a damaged file (issue 28 #14), not taken
+    for its default beside the others; the data folder the file names is kept."""
+    config.mkdir()
+    (config / SETTINGS_NAME).write_text(json.dumps({
+        "data_dir": str(tmp_path / "clinic"), "flip_x": "sometimes", "flip_y": True}))
+    with caplog.at_level(logging.WARNING, logger="app.records.settings"):
+        loaded = load_settings()
+    assert loaded == Settings(data_dir=str(tmp_path / "clinic"))
+    assert "flip_x = 'sometimes'" in caplog.text
+    assert len(list(config.glob(f"{SETTINGS_NAME}.corrupt-*"))) == 1
+
+
+@pytest.mark.parametrize("value", [123, "", "   ", True, [], {"path": "/data"}])
+def test_a_wrong_typed_data_folder_is_never_replaced_by_the_default(config, monkeypatch,
+                                                                     value):
+    """`"data_dir": 123` or `""` once sent the console, silently, to an empty default
+    registry: the data folder is now unknown and every command says so in one line."""
+    from app.errors import DataDirError
+    from app.records.datadir import ENV_DATA_DIR, locate_data_dir
+
+    monkeypatch.delenv(ENV_DATA_DIR, raising=False)
+    config.mkdir()
+    (config / SETTINGS_NAME).write_text(json.dumps({"data_dir": value, "flip_x": True}))
+    with pytest.raises(DataDirError, match=r"settings file .*damaged or cannot be read"):
+        locate_data_dir()
+
+
+@pytest.mark.parametrize("text", [
+    '{"data_dir": "/clinic", "robot_height": NaN}',
+    '{"data_dir": "/clinic", "flip_x": Infinity}',
+    '{"settings_version": "1", "flip_x": true}',
+    '{"settings_version": true}',
+    '{"last_trial_parameters": ' + "[" * 200_000 + "]" * 200_000 + "}",
+])
+def test_settings_json_that_cannot_be_trusted_is_refused_in_one_line(
+        config, tmp_path, monkeypatch, capsys, text):
+    """NaN, a version of the wrong type, 200,000 levels of nesting: set aside; a command
+    says so in one line (exit 2) when the data folder cannot be read back from it, and
+    never runs on the default folder's registry."""
+    from tests.app.cli.running import run
+
+    monkeypatch.delenv("REHAB_DATA_DIR", raising=False)
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "home" / "data"))
+    config.mkdir()
+    (config / SETTINGS_NAME).write_text(text)
+    loaded = load_settings()
+    assert len(list(config.glob(f"{SETTINGS_NAME}.corrupt-*"))) == 1
+    if '"/clinic"' in text:
+        assert loaded.data_dir == "/clinic"
+        return
+    assert loaded.damaged
+    code, _, err = run(["patients"], capsys)
+    assert code == 2
+    assert err.count("\n") == 1, err
+    assert "settings file" in err
+    assert not (tmp_path / "home").exists()  # no default registry was started
 
 
 def test_stale_trial_parameters_are_ignored_with_a_warning(config, caplog):
@@ -160,7 +220,8 @@ def test_a_damaged_file_without_its_data_folder_is_refused_until_someone_looks(
     config.mkdir()
     (config / SETTINGS_NAME).write_text('{"flip_x": true, "data_d')
     for _ in range(2):  # at this start and at the next
-        with pytest.raises(DataDirError, match=r"settings file was damaged.*corrupt-"):
+        with pytest.raises(DataDirError,
+                           match=r"settings file .*corrupt-.* is damaged or cannot be read"):
             locate_data_dir()
     monkeypatch.setenv(ENV_DATA_DIR, str(tmp_path / "d"))
     assert locate_data_dir().root == tmp_path / "d"

@@ -1,0 +1,54 @@
+"""The data folder on the command line (issue 28 #10): a typo never creates a registry
+anywhere; a command that reads the registry says what is where it looked and what to do,
+in one line, and creates nothing; only `rehab patients add` starts a registry, and only in
+a new or empty folder."""
+
+from __future__ import annotations
+
+import pytest
+
+from tests.app.cli.running import run
+
+pytestmark = pytest.mark.usefixtures("data")  # the folders of tests/app/cli/conftest.py
+
+READERS = [["patients"], ["patients", "list"], ["trials", "P0000000"],
+           ["progress", "P0000000"], ["report", "1"], ["export", "--patient", "P0000000"],
+           ["export", "--trial", "1"], ["emg", "show", "1"], ["pose", "1"],
+           ["run", "--code", "P0000000", "--repetitions", "1", "--duration", "3"]]
+
+
+@pytest.mark.parametrize("argv", READERS, ids=" ".join)
+def test_a_typo_creates_nothing_and_says_what_is_there(tmp_path, capsys, argv):
+    typo = tmp_path / "clinc-data"
+    code, _, err = run(["--data-dir", str(typo), *argv], capsys)
+    assert code == 2
+    assert err.count("\n") == 1, err
+    assert f"no registry in {typo} (that folder does not exist)" in err
+    assert "rehab patients add" in err
+    assert not typo.exists()
+
+
+def test_a_folder_of_other_things_never_gets_a_registry(tmp_path, capsys):
+    home = tmp_path / "home"
+    (home / "Documents").mkdir(parents=True)
+    (home / "notes.txt").write_text("mine")
+    code, _, err = run(["--data-dir", str(home), "patients"], capsys)
+    assert code == 2
+    assert "the folder holds 2 entries: Documents, notes.txt" in err
+    code, _, err = run(["--data-dir", str(home), "patients", "add", "--first-name", "A"],
+                       capsys)
+    assert code == 2
+    assert err.count("\n") == 1
+    assert "start only in a new or empty folder" in err
+    assert sorted(p.name for p in home.iterdir()) == ["Documents", "notes.txt"]
+
+
+def test_the_first_patient_starts_a_registry_in_a_new_folder(tmp_path, capsys):
+    new = tmp_path / "clinic" / "data"
+    code, out, err = run(["--data-dir", str(new), "patients", "add", "--first-name", "A"],
+                         capsys)
+    assert code == 0, err
+    assert (new / "registry.sqlite3").is_file()
+    code, out, _ = run(["--data-dir", str(new), "patients"], capsys)
+    assert code == 0
+    assert out.startswith("P")
