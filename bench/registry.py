@@ -118,7 +118,7 @@ def main() -> None:
             p50, p99, worst = percentiles(samples)
             print(f"progress query ({label:<23}): p50 {p50:6.2f} ms  p99 {p99:6.2f} ms  "
                   f"max {worst:6.2f} ms  ({len(result)} trials, "
-                  f"{len(result.parameter_sets)} parameter sets, "
+                  f"{len(result.exercises)} exercises, "
                   f"{int((~result.file_ok).sum())} files missing)")
 
         samples = []

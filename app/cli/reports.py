@@ -5,8 +5,10 @@ app.reports.progress), each from the data folder's registry."""
 from __future__ import annotations
 
 import argparse
+import sys
 
 from app.cli.common import CommandError, finite, num, output_path, record_id, registry_for
+from app.records.datadir import CODE_PATTERN
 from app.records.outcomes import OUTCOME_COLUMNS, patient_outcomes
 from app.reports.metrics_table import ROWS
 from app.reports.progress import progress
@@ -29,16 +31,36 @@ def add_progress_command(commands) -> None:
                       help="all columns as CSV, with what each trial ran and what followed "
                            "it (the assistance mode, the levels in effect, the proposal and "
                            "its decision, why it ended, the robot)")
+    prog.add_argument("--pdf", metavar="FILE",
+                      help="also write the progress as a PDF, a page an exercise (an "
+                           "existing file is kept unless --overwrite)")
+    prog.add_argument("--overwrite", "--force", action="store_true", dest="overwrite",
+                      help="replace the --pdf file if it exists (never one of the console's "
+                           "own files)")
     prog.set_defaults(func=cmd_progress)
 
 
 def cmd_progress(args: argparse.Namespace) -> int:
     registry = registry_for(args)
+    if not CODE_PATTERN.fullmatch(args.code):
+        # text the registry cannot even look up (invalid UTF-8 made text failed in SQLite)
+        raise CommandError("not a patient code: a code is 'P' and 6 characters of 0-9 and "
+                           "A-Z (see `rehab patients`)")
+    pdf = None
+    if args.pdf is not None:
+        # checked before any work; inside the data folder only below its reports/ or
+        # exports/ (app.records.safewrite)
+        pdf = output_path(args, args.pdf, overwrite=args.overwrite, suffixes=(".pdf",),
+                          what="--pdf")
     prog = progress(registry, args.code)
     header, rows = prog.table()
+    if pdf is not None:
+        from app.reports.progress_pdf import write_progress_pdf
+
+        print(write_progress_pdf(prog, pdf, overwrite=args.overwrite),
+              file=sys.stderr if args.csv else sys.stdout)
     if args.csv:
         import csv
-        import sys
 
         outcomes = patient_outcomes(registry, args.code)
         backends = {t.id: t.backend for t in registry.trials_for_patient(args.code)}
@@ -52,29 +74,34 @@ def cmd_progress(args: argparse.Namespace) -> int:
     if not rows:
         print(f"patient {args.code} has no trials yet")
         return 0
-    wanted = args.metrics or ["rmse_x_m", "rmse_y_m", "directional_performance_pct",
-                              "shoulder_rom_rad", "elbow_rom_rad"]
+    # by default each mode's own success figure first, then the thesis's figures
+    default = [*dict.fromkeys(e.success_key for e in prog.exercises), "rmse_x_m", "rmse_y_m",
+               "directional_performance_pct", "shoulder_rom_rad", "elbow_rom_rad"]
+    wanted = args.metrics or [m for m in dict.fromkeys(default) if m in header]
     unknown = [m for m in wanted if m not in header]
     if unknown:
         raise CommandError(f"unknown metric {unknown[0]!r}; known: "
                            + ", ".join(prog.metric_names))
     rows_by_key = {r.key: r for r in ROWS}
     labels = [rows_by_key[m].heading if m in rows_by_key else m for m in wanted]
-    print(f"Progress of {args.code}: {len(rows)} trials, "
-          f"{len(prog.parameter_sets)} exercise settings")
-    for i, parameter_set in enumerate(prog.parameter_sets):
-        print(f"  set {i + 1}: {parameter_set.label()}")
-    print(f"{'session':>7} {'trial':>5} {'set':>3}  {'status':<15}"
+    print(f"Progress of {args.code}: {len(rows)} trials, {len(prog.exercises)} exercises")
+    for i, exercise in enumerate(prog.exercises):
+        print(f"  exercise {i + 1}: {exercise.label()}")
+    print(f"{'session':>7} {'trial':>5} {'ex':>3}  {'status':<15}{'help':<24}"
           + "".join(f"{label:>18}" for label in labels))
     index = {name: header.index(name) for name in wanted}
-    for row, set_index in zip(rows, prog.parameter_set_index.tolist(), strict=True):
+    for i, (row, set_index) in enumerate(zip(rows, prog.exercise_index.tolist(),
+                                             strict=True)):
         cells = []
         for m in wanted:
             value = row[index[m]]
             scale = rows_by_key[m].scale if m in rows_by_key else 1.0
             unit = rows_by_key[m].unit if m in rows_by_key else ""
             cells.append(f"{num(value * scale if finite(value) else None)} {unit}".rstrip())
-        print(f"{row[1]:>7} {row[2]:>5} {set_index + 1:>3}  {row[5]:<15}"
+        levels = prog.levels[i]
+        help_text = levels.summary() if prog.levels_recorded[i] else \
+            f"{levels.summary()} (built)"
+        print(f"{row[1]:>7} {row[2]:>5} {set_index + 1:>3}  {row[5]:<15}{help_text:<24}"
               + "".join(f"{c:>18}" for c in cells))
     return 0
 

@@ -127,13 +127,15 @@ def _mode(trial: Trial) -> str:
 
 
 def registry_baseline(registry: RecordStore, trial: Trial | None) -> Baseline | None:
-    """An earlier registered trial to compare with: its figures and settings from the
-    registry, and the assistance levels it ran at from its file (None, so that it is not
-    compared, when the file cannot be read: the level it was built with is not what it
-    ran)."""
+    """An earlier registered trial to compare with: its figures, settings and the levels
+    it ran at from the registry; a trial registered before the registry kept the levels
+    has them read from its file (None, so that it is not compared, when the file cannot
+    be read: the level it was built with is not what it ran)."""
     if trial is None:
         return None
     baseline = as_baseline(trial)
+    if baseline.levels is not None:
+        return baseline
     try:
         data = read_trial(registry.trial_path(trial), channels=CHANNELS_NEEDED)
     except AppError:

@@ -111,7 +111,7 @@ def as_baseline(source: BaselineSource | None) -> Baseline | None:
         return source
     if isinstance(source, Trial):
         return Baseline(dict(source.metrics), dict(source.parameters), source.session_number,
-                        source.number, source.session_date)
+                        source.number, source.session_date, source.assistance)
     if isinstance(source, TrialData):
         parameters = source.parameters.to_dict() if source.parameters is not None else None
         return Baseline(dict(source.metrics), parameters, date=_file_date(source),

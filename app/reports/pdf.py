@@ -1,37 +1,39 @@
-"""A trial's report as a two-page A4 PDF, drawn with matplotlib's PDF backend.
+"""A trial's report as an A4 PDF, drawn with matplotlib's PDF backend.
 
-Page 1 is for the patient and the therapist together: who, when and what
-exercise; how the trial ended; the patient's lines in big type; the change since
-the previous trial and session with cautions where the exercise differed; and the
-hand's path against the target (Fig. 3.7). Page 2 is for the therapist: the force
-with its blue/red runs (Fig. 3.9), the ISB joint angles (Fig. 3.11), the joint
-torques (Fig. 3.12), every figure in a table beside the earlier trials', and the
-notes. A trial with EMG gets a page of its envelopes beside the torques (chapter 5), and
-an as-needed trial a page of the help the robot learned along the path, per repetition,
-and a trial `rehab pose` ran on a page of the camera's angles against the solver's.
+Page 1 is the patient's, in plain words: when and what exercise, the robot's help as
+the trial ran it, how it ended; the mode's own success figure as the headline and the
+patient's other lines in big type; the change since the last trial and session, a
+verdict only where the trials compare (app.reports.compare), with why not where they do
+not; and the hand's path as the patient saw it from their seat. No coordinates, seeds,
+file names or instructions to the therapist: page 2 is the therapist's: every setting,
+the robot, each fault with what to do, the force with its blue/red runs (Fig. 3.9), the
+ISB joint angles (Fig. 3.11), the joint torques (Fig. 3.12), every figure in a table
+beside the earlier trials', and the notes, continued on further pages when they do not
+fit (never a pointer to notes elsewhere). A trial with EMG gets a page of its envelopes
+beside the torques (chapter 5), an as-needed trial a page of the help the robot learned
+along the path, per repetition, and a trial `rehab pose` ran on a page of the camera's
+angles against the solver's.
 
-This module writes the file and lays the texts and tables out on the pages; the
-sheet, its type and colours are app.reports.pdf_sheet, the plots
-app.reports.pdf_plots. When page 1's texts leave too little room for the path,
-they are drawn smaller (down to 80 %; the patient's own lines to 92 %) rather
-than spill onto a third page.
+This module lays the texts and tables out on the pages; the file is written by
+app.reports.pdf_file, the sheet, its type and colours are app.reports.pdf_sheet, the
+plots app.reports.pdf_plots. When page 1's texts leave too little room for the path,
+they are drawn smaller (down to 80 %; the patient's own lines to 92 %) rather than spill
+onto another page.
 """
 
 from __future__ import annotations
 
 import logging
 import os
-import secrets
 from pathlib import Path
 
 import matplotlib
-from matplotlib.backends.backend_pdf import PdfPages
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
-from app.errors import AppError
 from app.reports.compare import Comparison, TableRow
 from app.reports.content import ReportContent
+from app.reports.pdf_file import write_pdf
 from app.reports.pdf_plots import (
     PATH_ABOVE_IN,
     PATH_BELOW_IN,
@@ -70,44 +72,16 @@ PRIMARY_MIN_SCALE = 0.92
 
 
 def write_report_pdf(content: ReportContent, path: str | os.PathLike) -> Path:
-    """Write the report to `path` (its folder must exist); returns the path.
-
-    Written to a temporary file beside it and renamed, so a failure never leaves a
-    half-written report under the real name.
-    """
-    path = Path(path)
-    if not path.parent.is_dir():
-        raise AppError(f"cannot write the report {path}: the folder {path.parent} does not "
-                       "exist. Create it or choose another place")
+    """Write the report to `path` (its folder must exist); returns the path. Private and
+    never half-written under its name (app.reports.pdf_file): a report holds a patient's
+    figures (and, when asked, their first name)."""
     metadata = {
         "Title": f"Trial report {content.patient_code}"
                  + (f" session {content.session_number}" if content.session_number else "")
                  + (f" trial {content.trial_number}" if content.trial_number else ""),
-        "Creator": "rehab-console",
         "Subject": "Post-trial report of a planar upper-limb rehabilitation robot",
     }
-    # Private (0600) whatever the umask, as every file of the data folder: a report holds
-    # a patient's figures (and, when asked, their first name).
-    temporary = path.with_name(f".{path.name}.{os.getpid()}-{secrets.token_hex(4)}.part")
-    try:
-        handle = os.fdopen(os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600),
-                           "wb")
-        os.chmod(temporary, 0o600)
-    except OSError as exc:
-        raise _write_error(path, exc) from exc
-    try:
-        with handle, matplotlib.rc_context(RC):
-            pages = report_pages(content)
-            with PdfPages(handle, metadata=metadata) as pdf:
-                for page in pages:
-                    pdf.savefig(page)
-        os.replace(temporary, path)
-    except OSError as exc:
-        temporary.unlink(missing_ok=True)
-        raise _write_error(path, exc) from exc
-    except BaseException:
-        temporary.unlink(missing_ok=True)
-        raise
+    path = write_pdf(path, lambda: report_pages(content), metadata, "the report")
     log.info("report written: %s", path)
     return path
 
@@ -124,11 +98,6 @@ def report_pages(content: ReportContent) -> tuple[Figure, ...]:
         if content.pose is not None:
             pages += (_pose_page(content),)
     return pages
-
-
-def _write_error(path: Path, exc: OSError) -> AppError:
-    return AppError(f"cannot write the report {path}: {exc.strerror or exc}. Check that the "
-                    "folder is writable and the disk has space, or choose another place")
 
 
 def _title(sheet: Sheet, content: ReportContent, title: str, size: float = 20) -> None:

@@ -1,29 +1,38 @@
-"""A patient's progress: every metric of every trial, as a table and as plot-ready arrays.
+"""A patient's progress: every metric of every trial, as a table and as plot-ready series,
+one series per exercise.
 
-A metric only compares between trials done at the same exercise: a larger D or
-a shorter duration makes the RMSE worse while the patient improves. So every
-trial carries its parameter set (`ParameterSet`: the registry's KEY_PARAMETERS),
-every point is marked with it, and `Progress.series` gives one curve per
-parameter set on a shared x axis (trial order, or start time).
+What makes two trials the same exercise (`Exercise`): the assistance mode, the shape, its
+size and the controller. A thesis-mode trial and an as-needed one are never in one series:
+each mode has its own success figure (app.reports.plain_language.SUCCESS_KEYS) and its own
+meaning of the assistance level. The settings the console's progression moves from trial to
+trial (app.trials.progression) — the assistance level, the pace (seconds per lap) and the
+direction tolerance — do not start a new series: they are the staircase the series is read
+against, so every trial carries them (`Progress.levels`, `duration_s`, `tolerance_rad`) and
+the views draw them as their own axis or annotations along the series (issue 27 #7: with a
+new series at every assistance step, 7 trials made 4 "settings" and no trend ever showed).
+The levels are those the trial ran at, changes during it included
+(app.trials.assistance_timeline), as the registry keeps them; a trial registered before it
+kept them shows the level it was built with (`levels_recorded` False).
 
-Metrics come from the registry, so a trial whose file is missing or unreadable
-still appears; `file_state` says which ('ok', 'missing', 'unreadable'). The file
-check opens each file and reads its 8-byte HDF5 signature (about 4 µs a file on
-a local disk); pass check_files=False on a slow network share.
+Metrics come from the registry, so a trial whose file is missing or unreadable still
+appears; `file_state` says which ('ok', 'missing', 'unreadable'). The file check opens each
+file and reads its 8-byte HDF5 signature (about 4 µs a file on a local disk); pass
+check_files=False on a slow network share.
 """
 
 from __future__ import annotations
 
 import math
 import os
-from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
-from app.records.registry import KEY_PARAMETERS, TrialSummary, parameter_key
+from app.records.registry import TrialSummary, parameter_key
 from app.records.store import RecordStore
-from app.units import assistance_percent, cm
+from app.reports.plain_language import SHAPE_NAMES, success_key
+from app.trials.assistance_timeline import AssistanceInEffect
+from app.units import cm
 
 FILE_OK = "ok"
 FILE_MISSING = "missing"
@@ -34,50 +43,44 @@ _FILE_USABLE = frozenset((FILE_OK, FILE_UNCHECKED))
 
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 
+MODE_NAMES = {"as-needed": "As needed", "thesis": "Thesis mode"}
+# TrialSummary.key_parameters' order (app.records.registry.KEY_PARAMETERS)
+_SHAPE, _RADIUS, _DURATION, _TOLERANCE, _LEVEL, _CONTROLLER = range(6)
+
 TABLE_COLUMNS = ("trial_id", "session", "trial", "date", "started_at", "status", "file_state",
-                 *(f"set_{name}" for name in KEY_PARAMETERS))
+                 "exercise", "shape", "radius_m", "controller", "set_duration_s",
+                 "set_tolerance_rad")
 """The table's leading columns; one column per metric follows, in `metric_names` order.
-The parameter set's columns are prefixed `set_`: some metrics repeat a parameter
-(duration_s, tolerance_rad) and a table must not have two columns of one name."""
+`exercise` numbers the series (1, 2, … in `exercises`' order). The pace and the tolerance
+are prefixed `set_`: some metrics repeat them (duration_s, tolerance_rad) and a table must
+not have two columns of one name. The assistance mode and the levels each trial ran at are
+the records' (app.records.outcomes, which `rehab progress --csv` appends), not repeated
+here."""
 
 
 @dataclass(frozen=True, slots=True)
-class ParameterSet:
-    """The exercise a trial was done at: the values that change what its metrics mean.
+class Exercise:
+    """What a series is: the assistance mode and the exercise (shape, size, controller).
     None where a trial's stored parameters lack the field."""
 
+    mode: str
     shape: str | None
     radius_m: float | None
-    duration_s: float | None
-    tolerance_rad: float | None
-    assistance_level: float | None
     controller: str | None
 
-    @classmethod
-    def of(cls, parameters: Mapping) -> ParameterSet:
-        """From a trial's parameters (TrialParameters.to_dict() or Trial.parameters)."""
-        return cls.from_values(tuple(parameters.get(name) for name in KEY_PARAMETERS))
-
-    @classmethod
-    def from_values(cls, values: tuple) -> ParameterSet:
-        """From the KEY_PARAMETERS values in order (TrialSummary.key_parameters)."""
-        return cls(*parameter_key(values))
+    @property
+    def success_key(self) -> str:
+        """The mode's own success figure, shown first (plain_language.SUCCESS_KEYS)."""
+        return success_key(self.mode)
 
     def label(self) -> str:
-        """Short text for a legend, in the units a therapist reads (degrees at the display)."""
-        shape = self.shape or "?"
-        parts = [shape.upper() if shape == "d" else shape]  # the thesis writes "the D"
-        if self.radius_m is not None:
-            parts.append(f"r {cm(self.radius_m)}")
-        if self.duration_s is not None:
-            parts.append(f"{self.duration_s:g} s")
-        if self.tolerance_rad is not None:
-            parts.append(f"±{math.degrees(self.tolerance_rad):.0f}°")
+        """'As needed · D shape, r 10.0 cm · SMC'."""
+        shape = SHAPE_NAMES.get(self.shape, self.shape or "?")
+        parts = [MODE_NAMES.get(self.mode, self.mode),
+                 shape + (f", r {cm(self.radius_m)}" if self.radius_m is not None else "")]
         if self.controller is not None:
             parts.append(self.controller.upper())
-        if self.assistance_level is not None:
-            parts.append(f"assistance {assistance_percent(self.assistance_level)}")
-        return ", ".join(parts)
+        return " · ".join(parts)
 
 
 @dataclass(frozen=True, slots=True)
@@ -85,9 +88,11 @@ class ProgressRow:
     """One trial in the progress table (built on demand by Progress.rows)."""
 
     trial: TrialSummary
-    parameter_set: ParameterSet
-    parameter_set_index: int
+    exercise: Exercise
+    exercise_index: int
     file_state: str
+    levels: AssistanceInEffect
+    levels_recorded: bool
 
     @property
     def file_ok(self) -> bool:
@@ -96,12 +101,14 @@ class ProgressRow:
 
 @dataclass(frozen=True, slots=True)
 class Series:
-    """One metric at one parameter set: arrays of equal length, in trial order.
-    x is `trial_index` (position among all the patient's trials) or `time_s`."""
+    """One metric over one exercise's trials, in order: arrays of equal length. `position`
+    is the trial's place among the exercise's trials (1, 2, …: the plots' x), `trial_index`
+    its place among all the patient's trials (Progress' arrays)."""
 
     metric: str
-    parameter_set: ParameterSet
-    parameter_set_index: int
+    exercise: Exercise
+    exercise_index: int
+    position: np.ndarray
     trial_index: np.ndarray
     time_s: np.ndarray
     values: np.ndarray
@@ -109,49 +116,60 @@ class Series:
     trial: np.ndarray
     trial_id: np.ndarray
     file_ok: np.ndarray
+    complete: np.ndarray
 
 
 @dataclass(frozen=True, slots=True)
 class Progress:
     """Every trial of one patient in registry order (session, then trial number).
 
-    Column-oriented: `trials`, `file_states` and every array have one element
-    per trial. time_s is the trial's start in seconds since the Unix epoch
-    (UTC), ready for a date axis. values maps each metric to a float array, NaN
-    where a trial lacks the metric or it was undefined. Arrays are read-only.
-    Per-trial row objects are made only when asked for (`rows`), because every
-    object kept alive makes the interpreter's garbage collector pass longer.
+    Column-oriented: `trials`, `file_states`, `levels` and every array have one element
+    per trial. time_s is the trial's start in seconds since the Unix epoch (UTC), ready
+    for a date axis. values maps each metric to a float array, NaN where a trial lacks the
+    metric or it was undefined. duration_s (s per lap) and tolerance_rad are the pace and
+    the tolerance each trial was built with (NaN where not stored); levels the assistance
+    levels it ran at. Arrays are read-only. Per-trial row objects are made only when asked
+    for (`rows`): every object kept alive makes the garbage collector's passes longer.
     """
 
     patient_code: str
     trials: tuple[TrialSummary, ...]
     file_states: tuple[str, ...]
     metric_names: tuple[str, ...]
-    parameter_sets: tuple[ParameterSet, ...]
+    exercises: tuple[Exercise, ...]
+    exercise_index: np.ndarray
     trial_index: np.ndarray
     time_s: np.ndarray
     session: np.ndarray
     trial: np.ndarray
     trial_id: np.ndarray
-    parameter_set_index: np.ndarray
     file_ok: np.ndarray
-    values: Mapping[str, np.ndarray]
+    complete: np.ndarray
+    duration_s: np.ndarray
+    tolerance_rad: np.ndarray
+    levels: tuple[AssistanceInEffect, ...]
+    levels_recorded: np.ndarray
+    values: dict[str, np.ndarray]
 
     def __len__(self) -> int:
         return len(self.trials)
 
     @property
     def rows(self) -> tuple[ProgressRow, ...]:
-        sets = self.parameter_sets
         return tuple(
-            ProgressRow(trial, sets[index], index, state)
-            for trial, index, state in zip(self.trials, self.parameter_set_index.tolist(),
-                                           self.file_states, strict=True)
+            ProgressRow(trial, self.exercises[index], index, state, levels, bool(recorded))
+            for trial, index, state, levels, recorded in zip(
+                self.trials, self.exercise_index.tolist(), self.file_states, self.levels,
+                self.levels_recorded.tolist(), strict=True)
         )
 
+    def members(self, exercise_index: int) -> np.ndarray:
+        """The trial indexes of one exercise, in order."""
+        return np.flatnonzero(self.exercise_index == exercise_index)
+
     def series(self, metric: str, *, finite_only: bool = True) -> tuple[Series, ...]:
-        """One Series per parameter set that has `metric`, in the sets' order of first
-        use; finite_only drops trials where the metric is NaN."""
+        """One Series per exercise that has `metric`, in the exercises' order of first use;
+        finite_only drops trials where the metric is NaN (their positions stay theirs)."""
         if metric not in self.values:
             raise KeyError(
                 f"no trial of patient {self.patient_code} has the metric {metric!r}; "
@@ -159,35 +177,36 @@ class Progress:
             )
         values = self.values[metric]
         out = []
-        for index, parameter_set in enumerate(self.parameter_sets):
-            mask = self.parameter_set_index == index
+        for index, exercise in enumerate(self.exercises):
+            members = self.members(index)
+            position = np.arange(1, len(members) + 1)
             if finite_only:
-                mask &= np.isfinite(values)
-            if not mask.any():
+                keep = np.isfinite(values[members])
+                members, position = members[keep], position[keep]
+            if not len(members):
                 continue
             out.append(Series(
-                metric, parameter_set, index, _frozen(self.trial_index[mask]),
-                _frozen(self.time_s[mask]), _frozen(values[mask]), _frozen(self.session[mask]),
-                _frozen(self.trial[mask]), _frozen(self.trial_id[mask]),
-                _frozen(self.file_ok[mask]),
+                metric, exercise, index, _frozen(position), _frozen(members),
+                *(_frozen(array[members]) for array in (
+                    self.time_s, values, self.session, self.trial, self.trial_id,
+                    self.file_ok, self.complete)),
             ))
         return tuple(out)
 
     def table(self) -> tuple[tuple[str, ...], list[tuple]]:
-        """(header, rows): TABLE_COLUMNS then one column per metric. Dates and times
-        as ISO 8601 text, numbers in SI units, NaN for a missing metric."""
+        """(header, rows): TABLE_COLUMNS then one column per metric. Dates and times as
+        ISO 8601 text, numbers in SI units, NaN for a missing metric."""
         header = (*TABLE_COLUMNS, *self.metric_names)
         columns = [self.values[name] for name in self.metric_names]
         rows = []
-        for i, (t, state, index) in enumerate(zip(self.trials, self.file_states,
-                                                  self.parameter_set_index.tolist(),
-                                                  strict=True)):
-            p = self.parameter_sets[index]
+        for i, (t, state, index) in enumerate(zip(
+                self.trials, self.file_states, self.exercise_index.tolist(), strict=True)):
+            exercise = self.exercises[index]
             rows.append((
                 t.id, t.session_number, t.number, t.session_date.isoformat(),
-                t.started_at.isoformat(), t.status, state,
-                p.shape, p.radius_m, p.duration_s, p.tolerance_rad, p.assistance_level,
-                p.controller, *(float(c[i]) for c in columns),
+                t.started_at.isoformat(), t.status, state, index + 1, exercise.shape,
+                exercise.radius_m, exercise.controller, float(self.duration_s[i]),
+                float(self.tolerance_rad[i]), *(float(c[i]) for c in columns),
             ))
         return header, rows
 
@@ -198,30 +217,41 @@ def progress(registry: RecordStore, code: str, *, check_files: bool = True) -> P
     n = len(trials)
     root = str(registry.data_dir.root).rstrip("/\\") + os.sep
 
-    sets: dict[ParameterSet, int] = {}
-    seen: dict[tuple, ParameterSet] = {}  # raw values -> set: skips re-canonicalising
-    set_index = np.empty(n, dtype=np.int64)
-    states = []
+    exercises: dict[Exercise, int] = {}
+    # Most trials share a few settings: each set of raw values is canonicalised once
+    seen: dict[tuple, tuple[int, float, float, AssistanceInEffect]] = {}
+    exercise_index = np.empty(n, dtype=np.int64)
+    duration = np.empty(n)
+    tolerance = np.empty(n)
+    states, levels = [], []
+    recorded = np.empty(n, dtype=bool)
     metric_names: dict[str, None] = {}
     for i, trial in enumerate(trials):
-        raw = trial.key_parameters
-        parameter_set = seen.get(raw)
-        if parameter_set is None:
-            parameter_set = seen[raw] = ParameterSet.from_values(raw)
-        index = sets.setdefault(parameter_set, len(sets))
-        set_index[i] = index
+        raw = (trial.assist, trial.key_parameters)
+        known = seen.get(raw)
+        if known is None:
+            key = parameter_key(trial.key_parameters)
+            exercise = Exercise(trial.assist, key[_SHAPE], key[_RADIUS], key[_CONTROLLER])
+            known = seen[raw] = (
+                exercises.setdefault(exercise, len(exercises)), _number(key[_DURATION]),
+                _number(key[_TOLERANCE]),
+                # a trial registered before the levels were kept: the level it was built with
+                AssistanceInEffect(((0.0, _number(key[_LEVEL])),)))
+        exercise_index[i], duration[i], tolerance[i], built = known
+        recorded[i] = trial.assistance is not None
+        levels.append(built if trial.assistance is None else trial.assistance)
         metric_names.update(dict.fromkeys(trial.metrics))
         states.append(_file_state(root, trial.file) if check_files else FILE_UNCHECKED)
 
     names = tuple(metric_names)
     matrix = _metric_matrix(trials, names)
-    values = {name: _frozen(matrix[:, j]) for j, name in enumerate(names)}
     return Progress(
         patient_code=code,
         trials=tuple(trials),
         file_states=tuple(states),
         metric_names=names,
-        parameter_sets=tuple(sets),
+        exercises=tuple(exercises),
+        exercise_index=_frozen(exercise_index),
         trial_index=_frozen(np.arange(n, dtype=np.int64)),
         time_s=_frozen(np.fromiter((t.started_at.timestamp() for t in trials),
                                    dtype=np.float64, count=n)),
@@ -229,10 +259,19 @@ def progress(registry: RecordStore, code: str, *, check_files: bool = True) -> P
                                     count=n)),
         trial=_frozen(np.fromiter((t.number for t in trials), dtype=np.int64, count=n)),
         trial_id=_frozen(np.fromiter((t.id for t in trials), dtype=np.int64, count=n)),
-        parameter_set_index=_frozen(set_index),
         file_ok=_frozen(np.fromiter((s in _FILE_USABLE for s in states), dtype=bool, count=n)),
-        values=values,
+        complete=_frozen(np.fromiter((t.status == "complete" for t in trials), dtype=bool,
+                                     count=n)),
+        duration_s=_frozen(duration),
+        tolerance_rad=_frozen(tolerance),
+        levels=tuple(levels),
+        levels_recorded=_frozen(recorded),
+        values={name: _frozen(matrix[:, j]) for j, name in enumerate(names)},
     )
+
+
+def _number(value) -> float:
+    return math.nan if value is None else float(value)
 
 
 def _metric_matrix(trials: list[TrialSummary], names: tuple[str, ...]) -> np.ndarray:

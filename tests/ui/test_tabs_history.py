@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pyqtgraph as pg
 import pytest
 from pypdf import PdfReader
 from PySide6.QtCore import Qt
@@ -173,12 +174,20 @@ def test_progress_lists_every_trial_grouped_by_exercise(qtbot, history):
         assert tab.table.item(row, column).text() == f"{analysis.metrics.rmse_x_m * 1000:.2f}"
     assert "r 12.0 cm" in tab.table.item(1, 4).text()
 
+    # two exercises (two sizes), one series each; the latest trial's shown first
+    assert tab.exercise_choice.count() == 2
+    assert "r 10.0 cm" in tab.exercise_choice.currentText()
     tab.metric_choice.setCurrentIndex(tab.metric_choice.findData("rmse_x_m"))
-    curves = {c.name(): c.getOriginalDataset() for c in tab.plot.getPlotItem().listDataItems()}
-    assert len(curves) == 2  # two exercises, two groups
-    easy = next(v for k, v in curves.items() if "r 10.0 cm" in k)
-    hard = next(v for k, v in curves.items() if "r 12.0 cm" in k)
-    np.testing.assert_array_equal(easy[0], [1, 3])
-    np.testing.assert_array_equal(hard[0], [2])
-    np.testing.assert_allclose(easy[1], [trials[0][1].metrics.rmse_x_m * 1000,
-                                         trials[2][1].metrics.rmse_x_m * 1000])
+    (curve,) = [c for c in tab.plot.getPlotItem().listDataItems()
+                if isinstance(c, pg.PlotDataItem)]
+    x, y = curve.getOriginalDataset()
+    np.testing.assert_array_equal(x, [1, 2])
+    np.testing.assert_allclose(y, [trials[0][1].metrics.rmse_x_m * 1000,
+                                   trials[2][1].metrics.rmse_x_m * 1000])
+    tab.exercise_choice.setCurrentIndex(tab.exercise_choice.findText(
+        next(tab.exercise_choice.itemText(i) for i in range(2)
+             if "r 12.0 cm" in tab.exercise_choice.itemText(i))))
+    (curve,) = [c for c in tab.plot.getPlotItem().listDataItems()
+                if isinstance(c, pg.PlotDataItem)]
+    np.testing.assert_allclose(curve.getOriginalDataset()[1],
+                               [trials[1][1].metrics.rmse_x_m * 1000])

@@ -1,21 +1,26 @@
-"""The Progress tab: every figure of every trial of one patient, as a table and as a plot
-of one chosen figure over the trials.
-
-A figure only compares between trials of the same exercise (a larger D makes the
-position error larger while the patient improves), so the plot groups the points
-by parameter set (`app.reports.progress`): one colour, one symbol and one joining line
-per set, named in the legend. The registry query runs off the GUI thread.
+"""The Progress tab: one exercise's series at a time (the assistance mode and the exercise:
+app.reports.progress), the chosen figure over its trials — the mode's own success figure
+first — and under it, on the same trial axis, the robot's help as it ran, a staircase,
+with the pace and the tolerance written where they changed; then every trial of the
+patient in a table. The key is a line above the plots, never over the data. *Save as
+PDF…* writes the same, a page an exercise (app.reports.progress_pdf). The registry
+query and the PDF run off the GUI thread.
 """
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 import pyqtgraph as pg
 from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import (
+    QComboBox,
+    QFileDialog,
     QHBoxLayout,
     QHeaderView,
     QLabel,
+    QPushButton,
     QSplitter,
     QTableWidget,
     QTableWidgetItem,
@@ -23,66 +28,106 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from app.records.datadir import REPORTS
 from app.records.store import RecordStore
 from app.reports.metrics_table import ROWS
-from app.reports.progress import Progress, progress
+from app.reports.progress import Exercise, Progress, progress
+from app.reports.progress_figure import metric_keys, progress_figure, value_span
 from ui import plots, theme
 from ui.fields import ComboBox
 from ui.views.progress_table import (
+    exercise_choice,
     metric_heading,
-    metric_rows,
     progress_summary,
     progress_table,
-    tick_label,
-    value_span,
 )
 
-DEFAULT_METRIC = "directional_performance_pct"
 MAX_LABELLED_TICKS = 30
+HELP_TOP = 135.0  # the help plot's top (%): room above 100 % for the pace and tolerance
+HELP_COLOUR = theme.SERIES[2]
+KEY = (f"<span style='color:{theme.BLUE}'>●</span> complete &nbsp; "
+       f"<span style='color:{theme.VERMILLION}'>○</span> did not run to its end &nbsp; "
+       f"<span style='color:{HELP_COLOUR}'>━</span> the robot's help as it ran (%), "
+       "<b>◆</b> changed during the trial; the pace and the tolerance written where they "
+       "changed")
+
+
+def _write_pdf(result: Progress, path: Path) -> Path:
+    from app.reports.progress_pdf import write_progress_pdf  # matplotlib on first use
+
+    return write_progress_pdf(result, path)
 
 
 class ProgressTab(QWidget):
-    """Signals: progress_loaded(Progress), progress_failed(message)."""
+    """Signals: progress_loaded(Progress), progress_failed(message), pdf_saved(Path)."""
 
     progress_loaded = Signal(object)
     progress_failed = Signal(str)
+    pdf_saved = Signal(object)
 
     def __init__(self, registry: RecordStore | None = None, parent=None) -> None:
         super().__init__(parent)
         self.registry = registry
         self._code: str | None = None
         self._progress: Progress | None = None
+        self._mode: str | None = None  # the shown exercise's assistance mode
+        self._exercise: Exercise | None = None  # the shown exercise
         self.background = plots.Background(self)
         self.background.done.connect(self._loaded)
         self.background.failed.connect(self._failed)
+        self.writer = plots.Background(self)
+        self.writer.done.connect(self._saved)
+        self.writer.failed.connect(self._failed)
 
         self.heading = theme.set_role(QLabel("Progress"), "heading")
         self.message = theme.set_role(QLabel("Choose a patient on the Registration tab."),
                                       "caption")
         self.message.setWordWrap(True)
+        self.exercise_choice = ComboBox()
+        self.exercise_choice.setAccessibleName("Exercise to plot")
+        self.exercise_choice.currentIndexChanged.connect(self._exercise_changed)
         self.metric_choice = ComboBox()
         self.metric_choice.setAccessibleName("Figure to plot")
         self.metric_choice.currentIndexChanged.connect(self._draw_plot)
+        for choice in (self.exercise_choice, self.metric_choice):
+            # whole names: "As needed · D shape, r 10.0 cm · SMC — 7 trials"
+            choice.setSizeAdjustPolicy(QComboBox.SizeAdjustPolicy.AdjustToContents)
+        self.pdf_button = QPushButton("Save as PDF…")
+        self.pdf_button.clicked.connect(self._choose_pdf)
+        self.pdf_button.setEnabled(False)
         top = QHBoxLayout()
         top.addWidget(self.heading)
         top.addStretch(1)
-        top.addWidget(QLabel("Figure"))
-        top.addWidget(self.metric_choice)
+        top.addWidget(self.pdf_button)
+        choices = QHBoxLayout()  # a row of their own: whole names at any font scale
+        choices.addWidget(QLabel("Exercise"))
+        choices.addWidget(self.exercise_choice)
+        choices.addSpacing(12)
+        choices.addWidget(QLabel("Figure"))
+        choices.addWidget(self.metric_choice)
+        choices.addStretch(1)
 
-        self.plot = plots.make_plot("trial (session.trial)", "")
-        item = self.plot.getPlotItem()
-        self.legend = plots.legend(item)
+        self.key = theme.set_role(QLabel(KEY), "caption")
+        self.key.setWordWrap(True)
+        self.plot = plots.make_plot("", "")
+        self.help_plot = plots.make_plot("trial (session, trial)", "robot's help (%)")
+        self.help_plot.setXLink(self.plot)
+        self.help_plot.getPlotItem().getAxis("left").setWidth(60)
+        self.plot.getPlotItem().getAxis("left").setWidth(60)
         self.table = QTableWidget()
         self.table.setEditTriggers(QTableWidget.EditTrigger.NoEditTriggers)
         self.table.verticalHeader().hide()
         self.table.setAlternatingRowColors(True)
         splitter = QSplitter(Qt.Orientation.Vertical)
         splitter.addWidget(self.plot)
+        splitter.addWidget(self.help_plot)
         splitter.addWidget(self.table)
-        splitter.setSizes([500, 300])
+        splitter.setSizes([330, 240, 240])
         layout = QVBoxLayout(self)
         layout.addLayout(top)
+        layout.addLayout(choices)
         layout.addWidget(self.message)
+        layout.addWidget(self.key)
         layout.addWidget(splitter, 1)
 
     # -- public -------------------------------------------------------------------
@@ -108,6 +153,14 @@ class ProgressTab(QWidget):
     def refresh(self) -> None:
         self.set_patient(self._code)
 
+    def save_pdf(self, path: str | Path) -> None:
+        """Write the progress PDF (a page an exercise) off the GUI thread; pdf_saved(path)
+        follows."""
+        if self._progress is None:
+            raise RuntimeError("no progress to save yet")
+        self.message.setText("Saving the PDF…")
+        self.writer.submit(("pdf", Path(path)), _write_pdf, self._progress, Path(path))
+
     # -- results --------------------------------------------------------------------
     def _loaded(self, code, result: Progress) -> None:
         if code != self._code:
@@ -115,38 +168,72 @@ class ProgressTab(QWidget):
         self._progress = result
         self.heading.setText(f"Progress of {code}")
         self.message.setText(progress_summary(result))
-        self._fill_metrics(result)
+        self._fill_exercises(result)
         self._fill_table(result)
-        self._draw_plot()
+        self.pdf_button.setEnabled(len(result) > 0)
         self.progress_loaded.emit(result)
 
-    def _failed(self, code, message: str) -> None:
-        if code != self._code:
+    def _failed(self, token, message: str) -> None:
+        if isinstance(token, tuple) and token[0] == "pdf":
+            self.message.setText(f"{theme.PROBLEM_SIGN} Could not save the PDF: {message}")
+            return
+        if token != self._code:
             return
         self._progress = None
         self._clear()
         self.message.setText(f"{theme.PROBLEM_SIGN} {message}")
         self.progress_failed.emit(message)
 
+    def _saved(self, token, path: Path) -> None:
+        self.message.setText(f"Saved {path}")
+        self.pdf_saved.emit(path)
+
     def _clear(self) -> None:
         self.table.clear()
         self.table.setRowCount(0)
         self.table.setColumnCount(0)
         self.plot.getPlotItem().clear()
-        self.legend.clear()
-        self.metric_choice.blockSignals(True)
-        self.metric_choice.clear()
-        self.metric_choice.blockSignals(False)
+        self.help_plot.getPlotItem().clear()
+        self.pdf_button.setEnabled(False)
+        for choice in (self.exercise_choice, self.metric_choice):
+            choice.blockSignals(True)
+            choice.clear()
+            choice.blockSignals(False)
 
-    def _fill_metrics(self, result: Progress) -> None:
-        current = self.metric_choice.currentData() or DEFAULT_METRIC
+    def _fill_exercises(self, result: Progress) -> None:
+        shown = self._exercise
+        self.exercise_choice.blockSignals(True)
+        self.exercise_choice.clear()
+        for index in range(len(result.exercises)):
+            self.exercise_choice.addItem(exercise_choice(result, index))
+        # the same exercise as before (a new trial of it), else the latest trial's
+        if shown in result.exercises:
+            index = result.exercises.index(shown)
+        else:
+            index = int(result.exercise_index[-1]) if len(result) else 0
+        self.exercise_choice.setCurrentIndex(index)
+        self.exercise_choice.blockSignals(False)
+        self._exercise_changed()
+
+    def _exercise_changed(self) -> None:
+        result = self._progress
+        index = self.exercise_choice.currentIndex()
         self.metric_choice.blockSignals(True)
+        current = self.metric_choice.currentData()
         self.metric_choice.clear()
-        for row in metric_rows(result):
-            self.metric_choice.addItem(metric_heading(row), row.key)
-        index = self.metric_choice.findData(current)
-        self.metric_choice.setCurrentIndex(max(index, 0))
+        if result is not None and index >= 0:
+            self._exercise = result.exercises[index]
+            rows = {row.key: row for row in ROWS}
+            keys = metric_keys(result, index)
+            for key in keys:
+                self.metric_choice.addItem(metric_heading(rows[key]), key)
+            # in the same mode keep the figure; another mode opens on its own success figure
+            mode = result.exercises[index].mode
+            found = self.metric_choice.findData(current) if mode == self._mode else -1
+            self.metric_choice.setCurrentIndex(found if found >= 0 else 0)
+            self._mode = mode
         self.metric_choice.blockSignals(False)
+        self._draw_plot()
 
     def _fill_table(self, result: Progress) -> None:
         table = progress_table(result)
@@ -166,50 +253,64 @@ class ProgressTab(QWidget):
 
     def _draw_plot(self) -> None:
         result = self._progress
-        item = self.plot.getPlotItem()
+        item, help_item = self.plot.getPlotItem(), self.help_plot.getPlotItem()
         item.clear()
-        self.legend.clear()
+        help_item.clear()
+        index = self.exercise_choice.currentIndex()
         key = self.metric_choice.currentData()
-        if result is None or key is None:
+        if result is None or index < 0 or key is None:
             return
-        row = next(r for r in ROWS if r.key == key)
-        item.setLabel("left", metric_heading(row))
+        figure = progress_figure(result, index, key)
+        item.setLabel("left", figure.title)
         theme.style_plot(item)
-        complete = np.array([t.status == "complete" for t in result.trials])
-        shown: list[np.ndarray] = []
-        for series in result.series(key):
-            i = series.parameter_set_index
-            colour = theme.SERIES[i % len(theme.SERIES)]
-            symbol = theme.SYMBOLS[i % len(theme.SYMBOLS)]
-            values = series.values * row.scale
-            shown.append(values)
-            line = pg.PlotDataItem(
-                series.trial_index + 1, values,
-                pen=theme.pen(colour), symbol=symbol, symbolSize=11,
-                symbolPen=theme.pen(colour), symbolBrush=pg.mkBrush(colour),
-                name=series.parameter_set.label())
-            item.addItem(line)
-            # a trial that did not run to its end (stopped, a safety fault, a lost
-            # recording) is drawn hollow: its figures cover only part of the exercise
-            partial = ~complete[series.trial_index]
-            if partial.any():
-                item.addItem(pg.ScatterPlotItem(
-                    series.trial_index[partial] + 1, values[partial], symbol=symbol, size=15,
-                    pen=theme.pen(theme.VERMILLION), brush=pg.mkBrush("w")))
-        if (~complete).any():
-            self.legend.addItem(pg.ScatterPlotItem(symbol="o", size=12,
-                                                   pen=theme.pen(theme.VERMILLION),
-                                                   brush=pg.mkBrush("w")),
-                                "did not run to its end")
-        axis = item.getAxis("bottom")
-        if len(result) <= MAX_LABELLED_TICKS:
-            # "S1 T2", not "1.2": session and trial, not a decimal
-            axis.setTicks([[(int(k) + 1, tick_label(s, t)) for k, s, t in
-                            zip(result.trial_index, result.session, result.trial, strict=True)]])
+        theme.style_plot(help_item)
+        x, y = figure.positions.astype(float), figure.values
+        shown = np.isfinite(y)
+        item.addItem(pg.PlotDataItem(x[shown], y[shown], pen=theme.pen(theme.BLUE),
+                                     symbol="o", symbolSize=11,
+                                     symbolPen=theme.pen(theme.BLUE),
+                                     symbolBrush=pg.mkBrush(theme.BLUE)))
+        # a trial that did not run to its end (stopped, a safety fault, a lost recording)
+        # is drawn hollow: its figures cover only part of the exercise
+        partial = shown & ~figure.complete
+        if partial.any():
+            item.addItem(pg.ScatterPlotItem(x[partial], y[partial], symbol="o", size=15,
+                                            pen=theme.pen(theme.VERMILLION),
+                                            brush=pg.mkBrush("w")))
+        help_item.addItem(pg.PlotDataItem(figure.help_x, figure.help_y,
+                                          pen=pg.mkPen(HELP_COLOUR, width=2),
+                                          connect="finite"))
+        if figure.live_x.size:
+            help_item.addItem(pg.ScatterPlotItem(figure.live_x, figure.live_y, symbol="d",
+                                                 size=10, pen=theme.pen(theme.TEXT),
+                                                 brush=pg.mkBrush(theme.TEXT)))
+        for mark in figure.marks:
+            # hung from the top of the plot, over the trial where the setting changed
+            text = pg.TextItem(mark.text, color=theme.TEXT, anchor=(0.5, 0.0))
+            text.setFont(theme.axis_font())
+            text.setPos(mark.position, HELP_TOP)
+            help_item.addItem(text)
+        help_item.setYRange(0.0, HELP_TOP, padding=0)
+        help_item.getAxis("left").setTicks([[(v, f"{v}") for v in (0, 25, 50, 75, 100)]])
+        n = len(figure.positions)
+        axis = help_item.getAxis("bottom")
+        if n <= MAX_LABELLED_TICKS:
+            axis.setTicks([list(zip(figure.positions.tolist(), figure.ticks, strict=True))])
         else:
             axis.setTicks(None)
-        if len(result):
-            item.setXRange(0.5, len(result) + 0.5, padding=0)
-            low, high = value_span(np.concatenate(shown) if shown else np.array([]), row.unit)
+        item.getAxis("bottom").setTicks([[(p, "") for p in figure.positions.tolist()]])
+        if n:
+            item.setXRange(0.5, n + 0.5, padding=0)
+            low, high = value_span(y, figure.row.unit)
             if low < high:
                 item.setYRange(low, high, padding=0.05)
+
+    def _choose_pdf(self) -> None:
+        if self._progress is None or self.registry is None:
+            return
+        folder = self.registry.data_dir.ensure(REPORTS, self._progress.patient_code)
+        suggested = Path(folder) / f"{self._progress.patient_code}_progress.pdf"
+        path, _ = QFileDialog.getSaveFileName(self, "Save the progress", str(suggested),
+                                              "PDF (*.pdf)")
+        if path:
+            self.save_pdf(path)

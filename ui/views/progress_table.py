@@ -1,6 +1,7 @@
 """A patient's progress (app.reports.progress) as the Progress tab shows it in words: the
-line that sums it up, the figures it can plot, and its table, one row a trial with its
-status, its exercise and every figure in display units."""
+line that sums it up, the exercises and figures it can plot, and its table, one row a
+trial with its status, its exercise, the help, pace and tolerance it ran with, and every
+figure in display units."""
 
 from __future__ import annotations
 
@@ -10,17 +11,23 @@ import numpy as np
 
 from app.reports.metrics_table import ROWS, MetricRow
 from app.reports.progress import FILE_OK, FILE_UNCHECKED, Progress
+from app.units import assistance_percent
 from ui.views.numbers import format_number
 
 STATUS_WORDS = {"complete": "complete", "stopped_early": "stopped early",
                 "faulted": "safety stop", "recording_lost": "recording lost",
                 "recording": "recording"}
-LEADING_HEADINGS = ("Session", "Trial", "Date", "Status", "Exercise")
+LEADING_HEADINGS = ("Session", "Trial", "Date", "Status", "Exercise", "Robot's help",
+                    "Pace (s a lap)", "Tolerance (°)")
 
 
 def metric_rows(result: Progress) -> list[MetricRow]:
-    """The figures this patient's trials have, in the metrics table's order."""
-    return [row for row in ROWS if row.key in result.values]
+    """The figures this patient's trials have: the success figures of the modes the
+    patient trained in first, then the metrics table's order."""
+    first = list(dict.fromkeys(e.success_key for e in result.exercises))
+    have = [row for row in ROWS if row.key in result.values]
+    return sorted(have, key=lambda row: first.index(row.key) if row.key in first
+                  else len(first))
 
 
 def metric_heading(row: MetricRow) -> str:
@@ -28,17 +35,24 @@ def metric_heading(row: MetricRow) -> str:
     return f"{row.label} ({row.unit})" if row.unit else row.label
 
 
+def exercise_choice(result: Progress, index: int) -> str:
+    """'As needed · D shape, r 10.0 cm · SMC — 7 trials', for the exercise chooser."""
+    n = len(result.members(index))
+    return f"{result.exercises[index].label()} — {n} trial{'s' if n != 1 else ''}"
+
+
 def progress_summary(result: Progress) -> str:
-    """How many trials, sessions and exercise settings, and how to read the plot."""
+    """How many trials, sessions and exercises, and how to read the plot."""
     n = len(result)
     if n == 0:
         return "No trials yet."
     sessions = len(set(result.session.tolist()))
-    sets = len(result.parameter_sets)
+    exercises = len(result.exercises)
     return (f"{n} trial{'s' if n != 1 else ''} in {sessions} "
             f"session{'s' if sessions != 1 else ''}, "
-            f"{sets} exercise setting{'s' if sets != 1 else ''}. Compare points of the same "
-            "colour and shape: they are the same exercise.")
+            f"{exercises} exercise{'s' if exercises != 1 else ''}. Each exercise is one "
+            "series; under it, the robot's help as it ran, with the pace and the tolerance "
+            "where they changed.")
 
 
 @dataclass(frozen=True, slots=True)
@@ -50,8 +64,18 @@ class ProgressTable:
 
     @staticmethod
     def right_aligned(column: int) -> bool:
-        """Numbers read best right-aligned: the session and trial numbers, the figures."""
-        return column >= len(LEADING_HEADINGS) or column < 2
+        """Numbers read best right-aligned: the session and trial numbers, the pace, the
+        tolerance and the figures."""
+        return column >= len(LEADING_HEADINGS) - 2 or column < 2
+
+
+def help_text(result: Progress, i: int) -> str:
+    """The levels trial i ran at ('100 % → 60 % at 5.8 s'), or the built level when the
+    registry did not keep them ('100 % (built)')."""
+    levels = result.levels[i]
+    if not result.levels_recorded[i]:
+        return f"{assistance_percent(levels.at_start)} (built)"
+    return levels.summary()
 
 
 def progress_table(result: Progress) -> ProgressTable:
@@ -63,37 +87,10 @@ def progress_table(result: Progress) -> ProgressTable:
             status += f" (file {result.file_states[i]})"
         cells = [str(summary.session_number), str(summary.number),
                  summary.session_date.isoformat(), status,
-                 result.parameter_sets[int(result.parameter_set_index[i])].label()]
+                 result.exercises[int(result.exercise_index[i])].label(),
+                 help_text(result, i), format_number(float(result.duration_s[i]), 2),
+                 format_number(float(np.degrees(result.tolerance_rad[i])), 0)]
         cells += [format_number(float(result.values[r.key][i]) * r.scale, 2) for r in figures]
         rows.append(tuple(cells))
     return ProgressTable((*LEADING_HEADINGS, *(metric_heading(r) for r in figures)),
                          tuple(rows))
-
-
-def tick_label(session: int, trial: int) -> str:
-    """A trial on the progress plot's x axis: 'S1 T2' (never '1.2', which reads as a
-    decimal)."""
-    return f"S{session} T{trial}"
-
-
-MIN_SPAN = {"%": 10.0, "mm": 2.0, "°": 10.0}
-"""The least y span the progress plot shows, by display unit: one trial (or trials that
-hardly differ) must not zoom 17.8–18.6 % to the whole height."""
-
-
-def value_span(values: np.ndarray, unit: str) -> tuple[float, float]:
-    """The y range for the plotted values: theirs, widened about its middle to at least
-    MIN_SPAN of the unit (percentages kept within 0–100)."""
-    finite = values[np.isfinite(values)]
-    if finite.size == 0:
-        return 0.0, 0.0
-    low, high = float(finite.min()), float(finite.max())
-    least = MIN_SPAN.get(unit, 0.0) or max(abs(high) * 0.2, 1e-9)
-    if high - low < least:
-        middle = (high + low) / 2.0
-        low, high = middle - least / 2.0, middle + least / 2.0
-    if unit == "%":
-        low, high = max(0.0, low), min(100.0, high)
-        if high - low < least:
-            low, high = (0.0, least) if low == 0.0 else (100.0 - least, 100.0)
-    return low, high

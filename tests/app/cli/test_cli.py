@@ -1,6 +1,9 @@
 """Every subcommand as a researcher or therapist types it: the happy path, and bad input
 as one clear line with exit code 2, never a traceback."""
 
+import csv
+import io
+
 import numpy as np
 import pytest
 
@@ -35,6 +38,20 @@ def test_a_session_from_the_command_line(data, patient, capsys, tmp_path):
     assert "RMSE x" in out
     code, out, _ = run(["progress", patient, "--csv"], capsys)
     assert out.splitlines()[0].startswith("trial_id,")
+    header, first = list(csv.reader(io.StringIO(out)))[:2]
+    columns = dict(zip(header, first, strict=True))
+    assert (columns["exercise"], columns["assistance_mode"],
+            columns["assistance_changes"]) == ("1", "as-needed", "[]")
+    assert len(columns) == len(header)  # no column twice
+    code, out, _ = run(["progress", patient, "--pdf", str(tmp_path / "progress.pdf")],
+                       capsys)
+    assert code == 0
+    assert out.splitlines()[0] == str(tmp_path / "progress.pdf")
+    assert "As needed · D shape" in out
+    code, _, err = run(["progress", patient, "--pdf", str(tmp_path / "progress.pdf")],
+                       capsys)
+    assert code == 2
+    assert "progress.pdf already exists and is kept" in err
     code, out, _ = run(["report", "1"], capsys)
     assert code == 0
     assert out.strip().endswith(".pdf")

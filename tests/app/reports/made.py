@@ -11,6 +11,7 @@ import numpy as np
 from pypdf import PdfReader
 
 from app.records.registry import Registry
+from app.trials.finalize import finalize_trial
 from app.trials.headless import save, simulate
 from core.trial import TrialParameters
 from device.loop.pipeline import PHASE_EXERCISE
@@ -56,8 +57,8 @@ def with_live_change(trial, after_s: float, level: float):
 
 def register(registry: Registry, code: str, parameters: TrialParameters, *, session: int,
              patient: str = "weak", seed: int = 1, minutes: float = 0.0, edit=None) -> int:
-    """Simulate, save and register one trial (`edit` changes the simulated trial before it
-    is written: `cut`, `with_live_change`); returns its id."""
+    """Simulate, save, register and finish one trial (`edit` changes the simulated trial
+    before it is written: `cut`, `with_live_change`); returns its id."""
     trial = simulate(parameters, patient=patient, seed=seed)
     if edit is not None:
         trial = edit(trial)
@@ -65,10 +66,9 @@ def register(registry: Registry, code: str, parameters: TrialParameters, *, sess
     begun = registry.begin_trial(code, parameters, backend="simulator",
                                  session_number=session, patient_kind=patient,
                                  started_at=started)
-    metrics = save(trial, begun.path, subject_code=code).metrics.to_dict()
-    reason = next((e["message"] for e in trial.events if e["kind"] == "fault"), "")
-    registry.finish_trial(begun.trial_id, trial.status, metrics,
-                          ended_at=started + datetime.timedelta(minutes=1), reason=reason)
+    # finished as the window finishes a trial: the file's levels and last fault kept
+    finalize_trial(registry, begun.trial_id,
+                   analysis=save(trial, begun.path, subject_code=code))
     return begun.trial_id
 
 
@@ -86,3 +86,26 @@ def placed_texts(path, page: int) -> list[tuple[float, float, str]]:
 
     PdfReader(path).pages[page].extract_text(visitor_text=visit)
     return placed
+
+
+def staircase_course(registry: Registry, code: str, parameters: TrialParameters) -> dict:
+    """An as-needed course whose help steps down trial by trial (100, 90, 80 %, the pace
+    from 4 s to 3.6 s a lap at the third), lowered live from 80 % to 70 % 1 s into the
+    fourth, ended by the emergency stop in the fifth; then two thesis-mode trials. Returns
+    the trials' ids by name."""
+    as_needed = parameters.replace(assist="as-needed")
+    thesis = parameters.replace(assist="thesis")
+    steps = (
+        ("100", as_needed, 1, None),
+        ("90", as_needed.replace(assistance_level=0.9), 1, None),
+        ("80 faster", as_needed.replace(assistance_level=0.8, duration_s=3.6), 1, None),
+        ("80 to 70", as_needed.replace(assistance_level=0.8, duration_s=3.6), 2,
+         lambda trial: with_live_change(trial, 1.0, 0.7)),
+        ("70 e-stopped", as_needed.replace(assistance_level=0.7, duration_s=3.6), 2,
+         lambda trial: cut(trial, 0.6, "faulted")),
+        ("thesis 1", thesis, 2, None),
+        ("thesis 2", thesis, 2, None),
+    )
+    return {name: register(registry, code, p, session=session, seed=k + 1, minutes=5 * k,
+                           edit=edit)
+            for k, (name, p, session, edit) in enumerate(steps)}

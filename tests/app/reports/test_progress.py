@@ -1,4 +1,4 @@
-"""A patient's progress as a table and as plot-ready series, grouped by parameter set."""
+"""A patient's progress as a table and as plot-ready series, one series per exercise."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 
 from app.errors import PatientNotFound
 from app.records.datadir import DataDir
-from app.records.registry import KEY_PARAMETERS, Registry
+from app.records.registry import Registry
 from app.reports.progress import (
     FILE_MISSING,
     FILE_OK,
@@ -18,7 +18,7 @@ from app.reports.progress import (
     FILE_UNREADABLE,
     HDF5_SIGNATURE,
     TABLE_COLUMNS,
-    ParameterSet,
+    Exercise,
     progress,
 )
 from core.trial import TrialParameters
@@ -79,40 +79,51 @@ def test_rows_are_in_order_with_parameters_status_and_file_state(history):
     assert np.all(np.diff(result.time_s) > 0)
 
 
-def test_parameter_sets_mark_every_trial_and_group_the_series(history):
+def test_exercises_mark_every_trial_and_group_the_series(history):
     registry, code = history
     result = progress(registry, code)
-    easy, hard = ParameterSet.of(EASY.to_dict()), ParameterSet.of(HARD.to_dict())
-    assert result.parameter_sets == (easy, hard)
-    assert result.parameter_set_index.tolist() == [0, 0, 1, 1, 1, 0]
-    assert easy.label() == "D, r 8.0 cm, 6 s, ±20°, SMC, assistance 100 %"
-    assert hard.assistance_level == 0.5
+    easy = Exercise("thesis", "d", 0.08, "smc")
+    hard = Exercise("thesis", "d", 0.12, "smc")
+    assert result.exercises == (easy, hard)
+    assert result.exercise_index.tolist() == [0, 0, 1, 1, 1, 0]
+    assert easy.label() == "Thesis mode · D shape, r 8.0 cm · SMC"
+    # the pace and the help travel with each trial, not with the series
+    assert result.duration_s.tolist() == [6.0, 6.0, 4.0, 4.0, 4.0, 6.0]
+    assert [levels.at_start for levels in result.levels] == [1.0, 1.0, 0.5, 0.5, 0.5, 1.0]
+    assert not result.levels_recorded.any()  # finished by hand, without the file's levels
 
-    by_set = {s.parameter_set: s for s in result.series("rmse_x_m")}
-    assert by_set[easy].trial_index.tolist() == [0, 1, 5]
-    assert by_set[easy].values.tolist() == [0.020, 0.018, 0.015]
-    assert by_set[hard].trial_index.tolist() == [2, 3, 4]
-    assert by_set[hard].session.tolist() == [1, 2, 2]
-    assert by_set[hard].file_ok.tolist() == [True, False, True]
+    by_exercise = {s.exercise: s for s in result.series("rmse_x_m")}
+    assert by_exercise[easy].trial_index.tolist() == [0, 1, 5]
+    assert by_exercise[easy].position.tolist() == [1, 2, 3]
+    assert by_exercise[easy].values.tolist() == [0.020, 0.018, 0.015]
+    assert by_exercise[hard].trial_index.tolist() == [2, 3, 4]
+    assert by_exercise[hard].session.tolist() == [1, 2, 2]
+    assert by_exercise[hard].file_ok.tolist() == [True, False, True]
+    assert by_exercise[hard].complete.tolist() == [True, False, True]
 
-    sparc = {s.parameter_set: s for s in result.series("sparc")}
+    sparc = {s.exercise: s for s in result.series("sparc")}
     assert sparc[hard].trial_index.tolist() == [2, 4]  # the faulted trial's NaN is dropped
-    with_nan = {s.parameter_set: s for s in result.series("sparc", finite_only=False)}
+    assert sparc[hard].position.tolist() == [1, 3]  # its place in the series is kept
+    with_nan = {s.exercise: s for s in result.series("sparc", finite_only=False)}
     assert with_nan[hard].trial_index.tolist() == [2, 3, 4]
     ldlj = result.series("ldlj")
-    assert [(s.parameter_set, s.trial_index.tolist()) for s in ldlj] == [
+    assert [(s.exercise, s.trial_index.tolist()) for s in ldlj] == [
         (easy, [5]), (hard, [3, 4])]
     with pytest.raises(KeyError, match=r"no trial of patient .* 'rom_elbow_rad'.*rmse_x_m"):
         result.series("rom_elbow_rad")
 
 
-def test_equal_exercises_reached_through_unit_conversions_are_one_set():
-    assert ParameterSet.__slots__ == KEY_PARAMETERS  # from_values relies on the order
-    a = ParameterSet.of({"radius_m": 0.1, "tolerance_rad": math.radians(20.0)})
-    b = ParameterSet.of({"radius_m": 0.30000000000000004 / 3,
-                         "tolerance_rad": 20.0 * math.pi / 180.0 + 1e-15})
-    assert a == b
-    assert ParameterSet.of({"radius_m": 0.1}) != ParameterSet.of({"radius_m": 0.1001})
+def test_equal_exercises_reached_through_unit_conversions_are_one_exercise(tmp_path):
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient().code
+    for radius in (0.1, 0.30000000000000004 / 3):
+        begun = registry.begin_trial(code, TrialParameters(radius_m=radius),
+                                     backend="simulator", started_at=T0)
+        registry.finish_trial(begun.trial_id, "complete", {"rmse_x_m": 0.01})
+    begun = registry.begin_trial(code, TrialParameters(radius_m=0.1001), backend="simulator",
+                                 started_at=T0)
+    registry.finish_trial(begun.trial_id, "complete", {"rmse_x_m": 0.01})
+    assert progress(registry, code).exercise_index.tolist() == [0, 0, 1]
 
 
 def test_table_has_one_row_per_trial_and_one_column_per_metric(history):
@@ -120,14 +131,15 @@ def test_table_has_one_row_per_trial_and_one_column_per_metric(history):
     header, rows = progress(registry, code).table()
     assert header == (*TABLE_COLUMNS, "rmse_x_m", "sparc", "ldlj")
     assert len(set(header)) == len(header)
-    assert "set_radius_m" in header
+    assert "radius_m" in header
     assert "set_duration_s" in header
     assert len(rows) == 6
     assert all(len(r) == len(header) for r in rows)
     row = dict(zip(header, rows[1], strict=True))
     assert (row["session"], row["trial"], row["status"], row["file_state"]) == (
         1, 2, "complete", FILE_MISSING)
-    assert (row["set_shape"], row["set_radius_m"], row["set_duration_s"]) == ("d", 0.08, 6.0)
+    assert (row["exercise"], row["shape"], row["radius_m"], row["set_duration_s"]) == (
+        1, "d", 0.08, 6.0)
     assert row["date"] == "2024-03-04"
     assert row["started_at"].startswith("2024-03-04T10:05")
     assert row["rmse_x_m"] == 0.018
@@ -149,7 +161,7 @@ def test_a_patient_without_trials_and_an_unknown_patient(tmp_path):
     registry = Registry(DataDir(tmp_path))
     code = registry.create_patient().code
     empty = progress(registry, code)
-    assert (len(empty), empty.metric_names, empty.parameter_sets) == (0, (), ())
+    assert (len(empty), empty.metric_names, empty.exercises) == (0, (), ())
     assert empty.table() == (TABLE_COLUMNS, [])
     with pytest.raises(PatientNotFound):
         progress(registry, "PZZZZZZ")
@@ -162,5 +174,5 @@ def test_a_trial_still_recording_appears_without_metrics(history):
     last = result.rows[-1]
     assert (last.trial.id, last.trial.status, last.file_state) == (
         running.trial_id, "recording", FILE_MISSING)
-    assert last.parameter_set_index == 0
+    assert last.exercise_index == 0
     assert np.isnan([result.values[name][-1] for name in result.metric_names]).all()

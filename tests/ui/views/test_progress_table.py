@@ -40,31 +40,34 @@ def history(tmp_path):
     return progress(registry, code)
 
 
-def test_the_summary_counts_trials_sessions_and_settings(history):
+def test_the_summary_counts_trials_sessions_and_exercises(history):
     assert progress_summary(history) == (
-        "3 trials in 2 sessions, 2 exercise settings. Compare points of the same colour "
-        "and shape: they are the same exercise.")
+        "3 trials in 2 sessions, 2 exercises. Each exercise is one series; under it, the "
+        "robot's help as it ran, with the pace and the tolerance where they changed.")
 
 
 def test_one_row_a_trial_with_status_file_state_exercise_and_figures(history):
     table = progress_table(history)
     figures = metric_rows(history)
-    assert [row.key for row in figures] == ["rmse_x_m", "directional_performance_pct"]
-    assert table.headings == (*LEADING_HEADINGS, "Position error, x (RMSE) (mm)",
-                              "Directional performance (%)")
+    # the thesis mode's own success figure first
+    assert [row.key for row in figures] == ["directional_performance_pct", "rmse_x_m"]
+    assert table.headings == (*LEADING_HEADINGS, "Directional performance (%)",
+                              "Position error, x (RMSE) (mm)")
     first, second, third = table.rows
     assert first[:2] == ("1", "1")
     assert third[:2] == ("2", "1")
     assert first[3] == "complete (file missing)"
     assert second[3] == "stopped early (file missing)"
-    assert first[4] == history.parameter_sets[0].label() == third[4] != second[4]
-    assert first[5:] == ("4.00", "61.25")
-    assert third[5] == "3.00"
+    assert first[4] == history.exercises[0].label() == third[4] != second[4]
+    # registered without the levels it ran: the built level, said so
+    assert first[5:8] == ("100 % (built)", "4.00", "20")
+    assert first[8:] == ("61.25", "4.00")
+    assert third[9] == "3.00"
 
 
 def test_numbers_are_right_aligned_and_words_left():
-    assert [ProgressTable.right_aligned(c) for c in range(7)] == [
-        True, True, False, False, False, True, True]
+    assert [ProgressTable.right_aligned(c) for c in range(10)] == [
+        True, True, False, False, False, False, True, True, True, True]
 
 
 def test_a_figures_heading_carries_its_unit():
@@ -73,18 +76,12 @@ def test_a_figures_heading_carries_its_unit():
     assert all(metric_heading(row).startswith(row.label) for row in ROWS)
 
 
-def test_progress_ticks_read_as_session_and_trial_not_decimals():
-    from ui.views.progress_table import tick_label
-
-    assert tick_label(1, 2) == "S1 T2"
-
-
 def test_one_trial_does_not_zoom_the_axis_to_a_sliver():
     """17.8–18.6 % filled the whole height: the span is at least 10 % (kept in 0–100),
     2 mm for errors; a wide spread keeps its own range."""
     import numpy as np
 
-    from ui.views.progress_table import value_span
+    from app.reports.progress_figure import value_span
 
     low, high = value_span(np.array([17.8, 18.6]), "%")
     assert high - low >= 10.0

@@ -1,0 +1,186 @@
+"""A patient's progress on paper: one A4 page (or more, for a long table) per exercise, with
+what the Progress tab shows (app.reports.progress_figure): the mode's own success figure
+over the exercise's trials, the robot's help as it ran as a staircase beneath on the same
+trial axis with the pace and the tolerance where they changed, the key on a line of its
+own above the plots, and the exercise's trials in a table.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from pathlib import Path
+
+import matplotlib.lines
+import numpy as np
+from matplotlib.figure import Figure
+
+from app.reports.pdf_file import write_pdf
+from app.reports.pdf_sheet import (
+    BLUE,
+    GREEN,
+    GREY,
+    INK,
+    LEADING,
+    LEFT_IN,
+    PAGE_IN,
+    TEXT_W_IN,
+    VERMILLION,
+    Sheet,
+    fit,
+)
+from app.reports.progress import Progress
+from app.reports.progress_figure import ProgressFigure, progress_figure, value_span
+from app.units import assistance_percent
+
+log = logging.getLogger(__name__)
+
+HELP_COLOUR = GREEN
+ROW_H_IN = 0.17
+BOTTOM_ROOM_IN = 0.7
+MAX_LABELLED_TICKS = 30
+
+
+def write_progress_pdf(progress: Progress, path: str | os.PathLike, *,
+                       overwrite: bool = True) -> Path:
+    """Write the patient's progress to `path` (its folder must exist), a page per
+    exercise; returns the path (app.reports.pdf_file: private, never half-written, an
+    existing file replaced only with `overwrite`)."""
+    metadata = {"Title": f"Progress {progress.patient_code}",
+                "Subject": "Progress across trials of a planar upper-limb rehabilitation "
+                           "robot"}
+    path = write_pdf(path, lambda: progress_pages(progress), metadata, "the progress",
+                     overwrite=overwrite)
+    log.info("progress written: %s", path)
+    return path
+
+
+def progress_pages(progress: Progress) -> tuple[Figure, ...]:
+    """The pages: for each exercise, its figure and its trials' table; one page saying so
+    when the patient has no trials."""
+    if not len(progress):
+        sheet = Sheet()
+        sheet.text(f"Progress of {progress.patient_code}", 20, weight="bold")
+        sheet.text("No trials yet.", 12)
+        return (sheet.fig,)
+    pages = []
+    for index in range(len(progress.exercises)):
+        pages += _exercise_pages(progress, index)
+    return tuple(pages)
+
+
+def _exercise_pages(progress: Progress, index: int) -> list[Figure]:
+    figure = progress_figure(progress, index)
+    sheet = Sheet()
+    _heading(sheet, progress, figure)
+    _plots(sheet, figure)
+    members = progress.members(index).tolist()
+    pages = [sheet]
+    while members:
+        members = _table(pages[-1], progress, figure, members)
+        if members:
+            sheet = Sheet()
+            _heading(sheet, progress, figure, continued=True)
+            pages.append(sheet)
+    return [page.fig for page in pages]
+
+
+def _heading(sheet: Sheet, progress: Progress, figure: ProgressFigure, *,
+             continued: bool = False) -> None:
+    sheet.text(f"Progress of {progress.patient_code}" + (" (continued)" if continued else ""),
+               18, weight="bold")
+    sheet.gap(0.04)
+    sheet.text(figure.exercise.label(), 12, weight="bold", color=GREY)
+    sheet.gap(0.12)
+
+
+def _plots(sheet: Sheet, figure: ProgressFigure) -> None:
+    handles = [
+        matplotlib.lines.Line2D([], [], color=BLUE, marker="o", linestyle="-", label="complete"),
+        matplotlib.lines.Line2D([], [], color=VERMILLION, marker="o", markerfacecolor="white",
+                                linestyle="none", label="did not run to its end"),
+        matplotlib.lines.Line2D([], [], color=HELP_COLOUR, linewidth=2,
+                                label="the robot's help as it ran"),
+        matplotlib.lines.Line2D([], [], color=INK, marker="D", markersize=5, linestyle="none",
+                                label="changed during the trial"),
+    ]
+    sheet.legend(handles, LEFT_IN, ncols=4)  # the key on its own line, off the data
+    sheet.gap(0.1)
+    x0, width = LEFT_IN + 0.6, TEXT_W_IN - 0.6
+    n = len(figure.positions)
+    top = sheet.axes(2.9, x_in=x0, width_in=width)
+    shown = np.isfinite(figure.values)
+    top.plot(figure.positions[shown], figure.values[shown], color=BLUE, marker="o",
+             markersize=5, linewidth=1.2)
+    partial = shown & ~figure.complete
+    top.plot(figure.positions[partial], figure.values[partial], linestyle="none",
+             marker="o", markersize=8, markerfacecolor="white", markeredgecolor=VERMILLION,
+             markeredgewidth=1.4)
+    top.set_ylabel(figure.title)
+    low, high = value_span(figure.values, figure.row.unit)
+    if low < high:
+        margin = 0.05 * (high - low)
+        top.set_ylim(low - margin, high + margin)
+    top.set_xlim(0.5, n + 0.5)
+    top.tick_params(labelbottom=False)
+    top.grid(True, color="#E6E6E6", linewidth=0.5)
+    sheet.y_in += 2.9 + 0.15
+    bottom = sheet.axes(1.5, x_in=x0, width_in=width)
+    bottom.plot(figure.help_x, figure.help_y, color=HELP_COLOUR, linewidth=2)
+    bottom.plot(figure.live_x, figure.live_y, linestyle="none", marker="D", markersize=5,
+                color=INK)
+    for mark in figure.marks:
+        bottom.annotate(mark.text, (mark.position, 104.0), ha="center", va="bottom",
+                        fontsize=6.5, color=INK, rotation=0 if n <= 12 else 60)
+    bottom.set_ylim(0.0, 125.0)
+    bottom.set_yticks([0, 25, 50, 75, 100])
+    bottom.set_ylabel("robot's help (%)")
+    bottom.set_xlim(0.5, n + 0.5)
+    bottom.sharex(top)
+    if n <= MAX_LABELLED_TICKS:
+        bottom.set_xticks(figure.positions, figure.ticks, rotation=90 if n > 12 else 0,
+                          fontsize=7)
+    bottom.set_xlabel("trial (session, trial)")
+    bottom.grid(True, color="#E6E6E6", linewidth=0.5)
+    sheet.y_in += 1.5 + (0.75 if n > 12 else 0.5)
+
+
+COLUMNS = (("Session", 0.6), ("Trial", 0.45), ("Date", 0.85), ("Status", 0.95),
+           ("Robot's help", 1.75), ("Pace (s)", 0.6), ("Tol. (°)", 0.55))
+
+
+def _table(sheet: Sheet, progress: Progress, figure: ProgressFigure,
+           members: list[int]) -> list[int]:
+    """The exercise's trials (`members`, its last ones, in order) that fit on this sheet;
+    returns the rest."""
+    size = 7.5
+    rest = TEXT_W_IN - sum(width for _, width in COLUMNS)
+    headings = [*COLUMNS, (fit(figure.title, size, rest), rest)]
+    x = LEFT_IN
+    for title, width in headings:
+        sheet.fig.text(sheet.fx(x), sheet.fy(sheet.y_in), title, fontsize=size,
+                       weight="bold", va="top", color=GREY)
+        x += width
+    sheet.y_in += size * LEADING / 72.0 + 0.05
+    values = figure.values
+    first = len(figure.positions) - len(members)  # members: the exercise's last trials
+    for k, i in enumerate(members):
+        if sheet.y_in + ROW_H_IN > PAGE_IN[1] - BOTTOM_ROOM_IN:
+            return members[k:]
+        trial = progress.trials[i]
+        levels = progress.levels[i]
+        help_text = levels.summary() if progress.levels_recorded[i] else \
+            f"{assistance_percent(levels.at_start)} (built)"
+        value = values[first + k]
+        cells = (str(trial.session_number), str(trial.number), trial.session_date.isoformat(),
+                 trial.status.replace("_", " "), help_text,
+                 f"{progress.duration_s[i]:g}",
+                 f"{np.degrees(progress.tolerance_rad[i]):.0f}",
+                 f"{value:.2f}" if np.isfinite(value) else "–")
+        x = LEFT_IN
+        for text, (_, width) in zip(cells, headings, strict=True):
+            sheet.fig.text(sheet.fx(x), sheet.fy(sheet.y_in), fit(text, size, width - 0.05),
+                           fontsize=size, va="top", color=INK)
+            x += width
+        sheet.y_in += ROW_H_IN
+    return []

@@ -1,0 +1,110 @@
+"""Issue 27 #7: Progress is one series per assistance mode and exercise; a change of the
+robot's help or of the pace is drawn along the series (a staircase, the pace written where
+it changed), never a new series; the mode's own success figure comes first; and it prints:
+a PDF page an exercise. A course of simulated trials, registered and finished as the window
+does (tests/app/reports/made.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from app.records.datadir import DataDir
+from app.records.registry import Registry
+from app.reports.progress import progress
+from core.trial import THESIS_SUBJECT
+from tests.app.reports.made import page_texts, staircase_course
+
+SHORT = THESIS_SUBJECT.replace(repetitions=1)
+
+
+@pytest.fixture(scope="module")
+def course(tmp_path_factory):
+    registry = Registry(DataDir(tmp_path_factory.mktemp("data")))
+    code = registry.create_patient("Ada", "Example", side="right").code
+    ids = staircase_course(registry, code, SHORT)
+    return registry, code, ids
+
+
+def test_one_series_per_mode_and_exercise_whatever_the_help_and_the_pace(course):
+    registry, code, _ = course
+    result = progress(registry, code)
+    # the as-needed trials one series at every level and pace, the thesis-mode ones another
+    assert [s.trial_index.tolist() for s in result.series("led_pct")] == [[0, 1, 2, 3, 4]]
+    assert [s.trial_index.tolist() for s in result.series("directional_performance_pct")] \
+        == [[0, 1, 2, 3, 4], [5, 6]]
+    from app.reports.progress import Exercise  # (after what main's code had too)
+
+    assert result.exercises == (Exercise("as-needed", "d", 0.1, "smc"),
+                                Exercise("thesis", "d", 0.1, "smc"))
+    assert result.exercise_index.tolist() == [0, 0, 0, 0, 0, 1, 1]
+    (as_needed, thesis) = result.series("directional_performance_pct")
+    assert as_needed.position.tolist() == [1, 2, 3, 4, 5]
+    assert thesis.position.tolist() == [1, 2]
+    # what each trial ran: the registry's levels, the live change included
+    assert [levels.summary() for levels in result.levels[:5]] == [
+        "100 %", "90 %", "80 %", "80 % → 70 % at 1.0 s", "70 %"]
+    assert result.levels_recorded.all()
+    assert result.duration_s[:5].tolist() == [4.0, 4.0, 3.6, 3.6, 3.6]
+    assert result.complete.tolist() == [True, True, True, True, False, True, True]
+
+
+def test_the_mode_s_own_success_figure_comes_first(course):
+    from app.reports.progress_figure import metric_keys, progress_figure
+
+    registry, code, _ = course
+    result = progress(registry, code)
+    assert metric_keys(result, 0)[0] == "led_pct"
+    assert metric_keys(result, 1)[0] == "directional_performance_pct"
+    assert "led_pct" not in metric_keys(result, 1)  # the thesis mode has no such figure
+    assert progress_figure(result, 0).row.key == "led_pct"
+    assert progress_figure(result, 1).row.key == "directional_performance_pct"
+
+
+def test_the_help_is_a_staircase_along_the_series_and_the_pace_is_written_where_it_changed(
+        course):
+    from app.reports.progress_figure import SLOT_HALF_WIDTH, progress_figure
+
+    registry, code, _ = course
+    result = progress(registry, code)
+    figure = progress_figure(result, 0)
+    x, y = figure.help_x, figure.help_y
+    # each trial's slot at its level, in order: the staircase
+    for position, level in ((1, 100), (2, 90), (3, 80), (5, 70)):
+        inside = (x > position - SLOT_HALF_WIDTH) & (x < position + SLOT_HALF_WIDTH)
+        edges = np.isclose(np.abs(x - position), SLOT_HALF_WIDTH)
+        assert set(y[inside].tolist()) <= {level}, position
+        assert level in y[edges].tolist(), position
+    # the live change is a step inside trial 4's slot, at its share of the exercise
+    inside = (x > 4 - SLOT_HALF_WIDTH) & (x < 4 + SLOT_HALF_WIDTH)
+    assert y[inside].tolist() == [80, 70]
+    exercised = result.values["duration_s"][3]
+    step = 4 - SLOT_HALF_WIDTH + 2 * SLOT_HALF_WIDTH * 1.0 / exercised
+    assert x[inside].tolist() == pytest.approx([step, step])
+    assert figure.live_x.tolist() == pytest.approx([step])
+    assert figure.live_y.tolist() == [70]
+    assert np.all(np.diff(x) >= 0)  # one line, left to right
+    assert [(m.position, m.text) for m in figure.marks] == [(1, "4 s a lap · ±20°"),
+                                                             (3, "3.6 s a lap")]
+    assert figure.ticks == ("S1 T1", "S1 T2", "S1 T3", "S2 T1", "S2 T2")
+    assert figure.complete.tolist() == [True, True, True, True, False]
+
+
+def test_progress_prints_a_page_an_exercise(course, tmp_path):
+    from app.reports.progress_pdf import write_progress_pdf
+
+    registry, code, _ = course
+    pdf = write_progress_pdf(progress(registry, code), tmp_path / "progress.pdf")
+    assert oct(pdf.stat().st_mode & 0o777) == "0o600"
+    pages = page_texts(pdf)
+    assert len(pages) == 2
+    first, second = pages
+    assert f"Progress of {code}" in first
+    assert "As needed · D shape, r 10.0 cm · SMC" in first
+    assert "Led the movement (%)" in first
+    assert "80 % → 70 % at 1.0 s" in first
+    assert "3.6 s a lap" in first
+    assert "did not run to its end" in first
+    assert "Thesis mode · D shape, r 10.0 cm · SMC" in second
+    assert "Directional performance (%)" in second
+    assert "Led the movement" not in second

@@ -1,0 +1,104 @@
+"""Issue 27 #7 on the screen: the Progress tab shows one exercise's series at a time (the
+assistance mode and the exercise), the mode's own success figure first, the robot's help
+beneath as the staircase it ran, the pace where it changed, the key on a line above the
+plots (never over the data), and saves the same as a PDF."""
+
+from __future__ import annotations
+
+import numpy as np
+import pyqtgraph as pg
+import pytest
+from pypdf import PdfReader
+
+from app.records.datadir import DataDir
+from app.records.registry import Registry
+from app.reports.progress_figure import progress_figure
+from core.trial import THESIS_SUBJECT
+from tests.app.reports.made import staircase_course
+from ui import theme
+from ui.tabs import ProgressTab
+
+
+@pytest.fixture(scope="module")
+def course(tmp_path_factory):
+    registry = Registry(DataDir(tmp_path_factory.mktemp("data")))
+    code = registry.create_patient("Ada", "Example", side="right").code
+    staircase_course(registry, code, THESIS_SUBJECT.replace(repetitions=1))
+    return registry, code
+
+
+@pytest.fixture
+def tab(qtbot, qapp, course):
+    theme.apply_theme(qapp)
+    registry, code = course
+    tab = ProgressTab(registry)
+    qtbot.addWidget(tab)
+    tab.resize(1280, 800)
+    tab.show()
+    qtbot.waitExposed(tab)
+    with qtbot.waitSignal(tab.progress_loaded, timeout=10000):
+        tab.set_patient(code)
+    return tab
+
+
+def _curves(plot) -> list:
+    return [item for item in plot.getPlotItem().items if isinstance(item, pg.PlotDataItem)]
+
+
+def test_one_exercise_at_a_time_with_its_own_success_figure_first(tab):
+    # opens on the latest trial's exercise: the thesis mode, its figure the push's direction
+    assert tab.exercise_choice.count() == 2
+    assert tab.exercise_choice.currentText().startswith("Thesis mode · D shape")
+    assert tab.metric_choice.currentData() == "directional_performance_pct"
+    assert tab.metric_choice.findData("led_pct") == -1
+    tab.exercise_choice.setCurrentIndex(0)
+    assert tab.exercise_choice.currentText() == "As needed · D shape, r 10.0 cm · SMC — 5 trials"
+    assert tab.metric_choice.currentData() == "led_pct"
+    (line,) = _curves(tab.plot)
+    x, y = line.getOriginalDataset()
+    np.testing.assert_array_equal(x, [1, 2, 3, 4, 5])  # five trials, one series
+    led = tab.progress.values["led_pct"][tab.progress.members(0)]
+    np.testing.assert_allclose(y, led)
+
+
+def test_the_help_is_drawn_as_it_ran_beneath_the_series(tab):
+    tab.exercise_choice.setCurrentIndex(0)
+    figure = progress_figure(tab.progress, 0, "led_pct")
+    (staircase,) = _curves(tab.help_plot)
+    x, y = staircase.getOriginalDataset()
+    np.testing.assert_array_equal(x, figure.help_x)
+    np.testing.assert_array_equal(y, figure.help_y)
+    assert {100.0, 90.0, 80.0, 70.0} <= set(y.tolist())
+    texts = [item.toPlainText() for item in tab.help_plot.getPlotItem().items
+             if isinstance(item, pg.TextItem)]
+    assert texts == ["4 s a lap · ±20°", "3.6 s a lap"]
+    assert tab.help_plot.getPlotItem().getViewBox().linkedView(0) is \
+        tab.plot.getPlotItem().getViewBox()  # one trial axis
+
+
+def test_the_key_is_off_the_data(tab):
+    assert tab.plot.getPlotItem().legend is None
+    assert tab.help_plot.getPlotItem().legend is None
+    assert "did not run to its end" in tab.key.text()
+    assert tab.key.geometry().bottom() < tab.plot.mapTo(tab, tab.plot.rect().topLeft()).y()
+
+
+def test_progress_is_saved_as_a_pdf_page_an_exercise(qtbot, tab, tmp_path):
+    assert tab.pdf_button.isEnabled()
+    path = tmp_path / "progress.pdf"
+    with qtbot.waitSignal(tab.pdf_saved, timeout=30000) as saved:
+        tab.save_pdf(path)
+    assert saved.args[0] == path
+    pages = [page.extract_text() for page in PdfReader(path).pages]
+    assert len(pages) == 2
+    assert "As needed" in pages[0]
+    assert "Thesis mode" in pages[1]
+
+
+def test_a_refresh_after_a_trial_keeps_the_exercise_shown(qtbot, tab):
+    tab.exercise_choice.setCurrentIndex(0)
+    tab.metric_choice.setCurrentIndex(tab.metric_choice.findData("elbow_rom_rad"))
+    with qtbot.waitSignal(tab.progress_loaded, timeout=10000):
+        tab.refresh()
+    assert tab.exercise_choice.currentIndex() == 0
+    assert tab.metric_choice.currentData() == "elbow_rom_rad"
