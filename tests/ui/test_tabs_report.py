@@ -8,6 +8,7 @@ from __future__ import annotations
 import re
 
 import pytest
+from PySide6.QtCore import QPointF
 
 from app.records.datadir import DataDir
 from app.records.registry import Registry
@@ -67,3 +68,25 @@ def test_the_patient_part_of_a_cut_short_trial_is_for_the_patient(qtbot, tab, co
     assert content.source.name in detail
     # the line above the page names the trial, not its file
     assert tab.message.text() == "Report of session 1, trial 2"
+
+
+def test_the_path_is_drawn_as_the_patient_saw_it(qtbot, tab, course):
+    """As on the PDF's page 1: from the patient's seat (docs/frames.md: the patient sits on
+    +y facing −y, their right is −x), no coordinates."""
+    registry, complete, _ = course
+    with qtbot.waitSignal(tab.report_ready, timeout=10000) as ready:
+        tab.load_registry_trial(registry, complete)
+    lines = tab.lines()
+    assert "Your hand's path and the path to follow" in lines
+    assert "Seen from your seat, as you sat at the table." in lines
+    item = tab.path_plot.getPlotItem()
+    box = item.getViewBox()
+    centre = ready.args[0].path.outline_m.mean(axis=0) * 100.0
+
+    def on_screen(dx_cm, dy_cm):
+        return box.mapViewToScene(QPointF(centre[0] + dx_cm, centre[1] + dy_cm))
+
+    assert on_screen(0, +5).y() > on_screen(0, -5).y()  # nearer the patient: lower
+    assert on_screen(-5, 0).x() > on_screen(+5, 0).x()  # the patient's right: right
+    assert not item.getAxis("left").isVisible()
+    assert not item.getAxis("bottom").isVisible()

@@ -17,6 +17,8 @@ from __future__ import annotations
 import html
 from pathlib import Path
 
+import numpy as np
+import pyqtgraph as pg
 from PySide6.QtCore import Qt, Signal
 from PySide6.QtGui import QTextDocument
 from PySide6.QtPrintSupport import QPrintDialog, QPrinter
@@ -36,12 +38,14 @@ from PySide6.QtWidgets import (
 
 from app.records.store import RecordStore
 from app.reports.build import (
+    PathFigure,
     ReportContent,
     build_report,
     content_for_registry_trial,
     write_report_pdf,
 )
 from app.trials.reader import read_trial
+from app.units import CM_PER_M
 from ui import plots, theme
 from ui.views.trialview import TrialView
 
@@ -63,6 +67,7 @@ class ReportTab(QWidget):
         super().__init__(parent)
         self._content: ReportContent | None = None
         self._source: Path | None = None
+        self.path_plot: pg.PlotWidget | None = None  # the patient's path, once a report shows
         # Two queues: a newer report request replaces a waiting one, but must never
         # replace a PDF the therapist asked to save.
         self.background = plots.Background(self)
@@ -168,6 +173,12 @@ class ReportTab(QWidget):
                 add(self._wrapped(_change_text(change), "body"))
             for caution in comparison.cautions:
                 add(self._wrapped(_not_compared(caution), "caption"))
+        if content.path is not None:
+            add(theme.set_role(QLabel("Your hand's path and the path to follow"), "heading"))
+            add(self._wrapped(_path_key(content.path), "caption"))  # the key, off the data
+            self.path_plot = _path_plot(content.path)
+            add(self.path_plot)
+            add(self._wrapped(SEEN_FROM_THE_SEAT, "caption"))
         # -- the therapist's part (the PDF's page 2)
         add(theme.set_role(QLabel("For the therapist"), "heading"))
         self.page_layout.addLayout(_form(content.therapist_header, problem="Fault"))
@@ -207,6 +218,7 @@ class ReportTab(QWidget):
         return table
 
     def _clear(self) -> None:
+        self.path_plot = None
         while self.page_layout.count():
             item = self.page_layout.takeAt(0)
             if item.widget() is not None:
@@ -296,6 +308,81 @@ class ReportTab(QWidget):
 
 SIMULATED = ("Simulated trial: the robot and the patient were the simulator's models, not a "
              "person.")
+SEEN_FROM_THE_SEAT = "Seen from your seat, as you sat at the table."
+PATH_HEIGHT_PX = 420
+
+
+def _path_key(figure: PathFigure) -> str:
+    within, outside = (label.removeprefix("your hand: ") for label in figure.run_labels)
+    key = "grey: the path to follow · ●: the start"
+    if figure.runs:
+        key += f" · blue: {within} · dashed orange: {outside}"
+    return key
+
+
+def _path_plot(figure: PathFigure) -> pg.PlotWidget:
+    """The hand's path as the patient saw it from their seat, as the PDF's page 1 draws it
+    (app.reports.pdf_plots.path_plot): the patient sits on +y facing −y (docs/frames.md),
+    so both axes reversed, the robot's side at the top; no coordinates, a scale bar."""
+    widget = pg.PlotWidget()
+    widget.setMinimumHeight(PATH_HEIGHT_PX)
+    widget.setBackground("w")
+    item = widget.getPlotItem()
+    item.setMenuEnabled(False)
+    item.setMouseEnabled(x=False, y=False)
+    item.hideButtons()
+    for name in ("left", "bottom"):
+        item.hideAxis(name)
+    item.invertX(True)
+    item.invertY(True)
+    item.setAspectLocked(True)
+    outline = figure.outline_m * CM_PER_M
+    position = figure.position_m * CM_PER_M
+    item.addItem(pg.PlotDataItem(outline[:, 0], outline[:, 1],
+                                 pen=pg.mkPen(theme.GRID, width=12)))
+    if figure.runs:
+        for within, colour, dashed in ((True, theme.WITHIN, False),
+                                       (False, theme.OUTSIDE, True)):
+            x, y = _runs_of(position, figure.runs, within)
+            item.addItem(pg.PlotDataItem(x, y, pen=pg.mkPen(colour, width=2, style=(
+                Qt.PenStyle.DashLine if dashed else Qt.PenStyle.SolidLine)),
+                connect="finite"))
+    else:
+        item.addItem(pg.PlotDataItem(position[:, 0], position[:, 1],
+                                     pen=pg.mkPen(theme.TEXT, width=2)))
+    start = figure.desired_m[0] * CM_PER_M
+    item.addItem(pg.ScatterPlotItem([start[0]], [start[1]], size=12,
+                                    brush=pg.mkBrush(theme.TEXT), pen=theme.pen(theme.TEXT)))
+    low, high = outline.min(axis=0), outline.max(axis=0)
+    span = float(max(high - low))
+    # the patient's bottom left is the largest x and y (both axes reversed)
+    length = next((c for c in (20.0, 10.0, 5.0, 2.0, 1.0) if c <= 0.3 * span), 1.0)
+    y_bar = high[1] + 0.12 * span
+    item.addItem(pg.PlotDataItem([high[0], high[0] - length], [y_bar, y_bar],
+                                 pen=pg.mkPen(theme.TEXT, width=3)))
+    for text, x, y, anchor in ((f"{length:g} cm", high[0] - length / 2, y_bar, (0.5, 0.0)),
+                               ("the robot's side", (low[0] + high[0]) / 2,
+                                low[1] - 0.12 * span, (0.5, 1.0)),
+                               ("you sit here", (low[0] + high[0]) / 2,
+                                high[1] + 0.25 * span, (0.5, 0.0))):
+        label = pg.TextItem(text, color=theme.MUTED, anchor=anchor)
+        label.setFont(theme.axis_font())
+        label.setPos(x, y)
+        item.addItem(label)
+    item.setRange(xRange=(low[0] - 0.1 * span, high[0] + 0.1 * span),
+                  yRange=(low[1] - 0.3 * span, high[1] + 0.4 * span), padding=0)
+    return widget
+
+
+def _runs_of(position_cm, runs, within: bool):
+    """The hand's path with NaN everywhere but the runs of one kind (`within` or not)."""
+    x = np.full(len(position_cm), np.nan)
+    y = np.full(len(position_cm), np.nan)
+    for run in runs:
+        if run.within == within:
+            part = slice(run.start, run.stop + 1)
+            x[part], y[part] = position_cm[part, 0], position_cm[part, 1]
+    return x, y
 
 
 def _which(content: ReportContent) -> str:
