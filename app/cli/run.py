@@ -29,9 +29,9 @@ def add_run_command(commands) -> None:
     run_cmd.add_argument("--patient", choices=PATIENT_KINDS, default="healthy",
                          help="virtual patient (default healthy)")
     run_cmd.add_argument("--seed", type=int, default=None,
-                         help="the simulator's seed (the virtual patient's draws, the sensor "
-                              "noise, the realistic plant), a whole number from 0; default: "
-                              "a new one for every trial, printed and kept in its file")
+                         help="the trial's seed (the virtual patient's draws and the sensor "
+                              "noise), a whole number from 0; default: a new one for every "
+                              "trial, printed and kept in its file")
     run_cmd.add_argument("--output", help="trial file to write (default: a new file in the "
                                           "data folder's trials/simulated)")
     run_cmd.add_argument("--code", help="register the trial for this patient (their body "
@@ -48,8 +48,11 @@ def add_run_command(commands) -> None:
     run_cmd.add_argument("--plant", choices=PLANTS, default="realistic",
                          help="the simulated robot: realistic (default), its own masses, "
                               "friction, stiffness, drive gain and a 2 ms drive delay drawn "
-                              "by the seed around the controller's model; ideal: the model "
-                              "itself")
+                              "by --robot-seed around the controller's model, the same for "
+                              "every trial; ideal: the model itself")
+    run_cmd.add_argument("--robot-seed", type=int, default=0, metavar="N",
+                         help="which realistic robot the simulator is (default 0, the "
+                              "console's): its parameters are drawn by N, whatever --seed")
     run_cmd.add_argument("--learned-model", metavar="NAME",
                          help="run the computed-torque PID on this learned model, a file "
                               "NAME.json in the data folder's models/ (`rehab learn train` "
@@ -77,6 +80,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.seed is not None and args.seed < 0:
         raise CommandError(f"--seed {args.seed}: give a whole number from 0, or leave it out "
                            "for a new seed")
+    if args.robot_seed < 0:
+        raise CommandError(f"--robot-seed {args.robot_seed}: give a whole number from 0 "
+                           "(0 is the console's simulated robot)")
     from device.sim.simulator import draw_seed
 
     args.seed = draw_seed() if args.seed is None else args.seed
@@ -95,7 +101,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.as_proposed and not args.code:
         raise CommandError("--as-proposed needs --code: a proposal belongs to a patient")
     run = {"subject_code": args.code or "SIM", "patient": args.patient, "seed": args.seed,
-           "engine": args.engine, "plant": args.plant, "model": model, "feed": feed, **options}
+           "engine": args.engine, "plant": args.plant, "robot_seed": args.robot_seed,
+           "model": model, "feed": feed, **options}
     begun = None
     if args.code:
         if args.output:

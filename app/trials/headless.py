@@ -38,7 +38,7 @@ from device.loop.pipeline import (
 )
 from device.recording.trialfile import SubjectInfo, TrialFileWriter
 from device.safety.supervisor import SafetySupervisor
-from device.sim.simulator import SimulatorBackend, draw_seed
+from device.sim.simulator import ROBOT_SEED, SimulatorBackend, draw_seed
 
 Progress = Callable[[float], None]
 ENGINES = ("auto", "compiled", "python")
@@ -96,6 +96,7 @@ def simulate(
     sink: Sink | None = None,
     model=None,
     feed: Feed | None = None,
+    robot_seed: int = ROBOT_SEED,
 ) -> SimulatedTrial:
     """Run a trial on the simulator with a virtual patient of kind `patient`.
 
@@ -107,8 +108,9 @@ def simulate(
     `engine` is one of ENGINES: "compiled" runs the ticks' kernels compiled (numba),
     "python" interpreted (the reference: the same code, the same samples bit for bit,
     a few hundred times slower), "auto" compiled. `plant` is the simulated robot
-    (device.sim.plant.PLANTS): "realistic", its own parameters drawn by the seed around
-    the controller's model, or "ideal", the model itself. `guidance` sets the as-needed
+    (device.sim.plant.PLANTS): "realistic", its own parameters drawn by `robot_seed`
+    around the controller's model (the same robot whatever `seed`), or "ideal", the model
+    itself. `guidance` sets the as-needed
     mode's gains (core.control.guidance; its defaults otherwise). With a `sink`, the
     records go to it block by block (device.loop.engine.run_trial) and the result holds
     none: `simulate_to_file` uses it so a long trial's memory stays flat. `model` is the
@@ -134,7 +136,7 @@ def simulate(
     load_s = load_kernels(("headless",)) if compiled else 0.0
     backend = SimulatorBackend.from_trial(
         parameters, patient, seed=seed, robot=plan.robot, patient_options=patient_options,
-        compiled=compiled, plant=plant,
+        compiled=compiled, plant=plant, robot_seed=robot_seed,
     )
     pipeline = TickPipeline(plan, compiled=compiled, guidance=guidance, controller=controller)
     if bool(parameters.force_estimate) != (feed is not None):
@@ -146,7 +148,8 @@ def simulate(
     started = time.perf_counter()
     outcome = run_trial(backend, pipeline, supervisor, progress, sink, feed)
     period = plan.period_s
-    events = [_event(0, period, "start", "trial started", {"patient": patient, "seed": seed})]
+    events = [_event(0, period, "start", "trial started", {"patient": patient, "seed": seed,
+                                                            "robot_seed": robot_seed})]
     if outcome.status == "complete":
         events.append(_event(outcome.n_ticks, period, "stop", "trial complete", {}))
     else:

@@ -30,6 +30,7 @@ def make_backend(config: BackendConfig, params: TrialParameters, plan: TrialPlan
         backend: Backend = SimulatorBackend.from_trial(
             params, config.patient, seed=seed, robot=plan.robot, patient_waits=True,
             timing=config.timing or SIMULATED, compiled=compiled, plant=config.plant,
+            robot_seed=config.robot_seed,
             push_at_connect_N=config.push_at_connect_N,
         )
     elif config.kind == "quanser":

@@ -50,7 +50,10 @@ class BackendConfig:
     timing: str | None = None
     plant: str = "realistic"
     """The simulated robot (device.sim.plant.PLANTS): its own parameters drawn around the
-    controller's model by the seed, or the model itself."""
+    controller's model by `robot_seed`, or the model itself."""
+    robot_seed: int = 0
+    """The draw of a realistic plant's robot (device.sim.simulator.ROBOT_SEED): the same
+    simulated robot for every trial, whatever `seed` draws for the patient."""
     push_at_connect_N: tuple[float, float] = (0.0, 0.0)
     """A simulated hand pushing the handle while the force sensor takes its zero at
     Connect (global frame, N; device.sim.simulator): to see the zero refused."""

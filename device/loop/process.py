@@ -350,6 +350,7 @@ class DeviceLoop:
         started = {"approach_ticks": self.pipeline.approach_ticks}
         if self.opened.kind == "simulator":
             started["seed"] = self.opened.seed  # the file runs again with it
+            started["robot_seed"] = self.opened.robot_seed  # on the same simulated robot
         self._to_recorder(TrialEvent(0.0, 0, "start", "trial started", started))
         self._send(TrialStarted(command.path, self.pipeline.approach_ticks,
                                 self.pipeline.total_ticks, self.t0))

@@ -100,6 +100,14 @@ from device.sim.patients import Patient, VirtualPatient, make_patient
 from device.sim.plant import Plant
 from device.sim.sensors import ForceSensorModel
 
+ROBOT_SEED = 0
+"""The seed that draws the simulated robot of a realistic plant (device.sim.plant) unless
+another is asked for: a station's robot is one robot, so its masses, friction and drives
+stay the same from trial to trial while each trial's seed draws the patient's variations
+and the sensor's noise. (Before 2026-12-03 the trial's seed drew the robot too, and with a
+new seed per trial every trial ran on another robot.)"""
+
+
 INTEGRATORS = ("rk4", "semi_implicit_euler")
 DEFAULT_STEP_S = 0.001
 MAX_STEP_S = 0.001
@@ -263,17 +271,20 @@ class SimulatorBackend:
         seed: int = 0,
         patient_options: Mapping[str, object] | None = None,
         plant: str = "ideal",
+        robot_seed: int = ROBOT_SEED,
         **options,
     ) -> SimulatorBackend:
         """A simulator for `trial` with a patient of `kind` (device.sim.patients.PATIENT_KINDS).
 
-        `seed` sets the patient's draws, the sensor noise and a realistic plant's
-        parameters (through independent child seeds); `patient_options` go to
-        make_patient; `plant` is "ideal" (the robot simulated is `options["robot"]`,
-        the controller's model) or "realistic" (device.sim.plant, drawn around it);
-        the other `options` go to the constructor.
+        `seed` sets the trial's draws: the patient's and the sensor noise (through
+        independent child seeds); `patient_options` go to make_patient; `plant` is
+        "ideal" (the robot simulated is `options["robot"]`, the controller's model) or
+        "realistic" (device.sim.plant, drawn around it by `robot_seed`: one robot for
+        every trial, as a station has one, whatever each trial's seed); the other
+        `options` go to the constructor.
         """
         _check_seed(seed)
+        _check_seed(robot_seed)
         built = make_patient(
             kind, trial.arm(), trial.trajectory(), seed=_child_seed(seed, 0),
             **dict(patient_options or {}),
@@ -281,7 +292,7 @@ class SimulatorBackend:
         nominal = options.pop("robot", None) or RobotModel()
         x0, y0, *_ = built.trajectory.at(0.0)
         rest = nominal.ik_terms(x0, y0)
-        return cls(built, seed=seed, plant=Plant.of_kind(plant, nominal, seed, rest),
+        return cls(built, seed=seed, plant=Plant.of_kind(plant, nominal, robot_seed, rest),
                    **options)
 
     # --------------------------------------------------------------- protocol

@@ -75,3 +75,25 @@ def test_a_second_robot_beside_a_plant_is_refused():
     patient = SimulatorBackend.from_trial(THESIS_SUBJECT).patient
     with pytest.raises(ParameterError, match="robot"):
         SimulatorBackend(patient, robot=RobotModel(l1_m=0.11), plant=Plant.ideal(NOMINAL))
+
+
+def test_every_trial_runs_on_the_same_simulated_robot_whatever_its_seed():
+    """A new seed per trial (issue 27 #16) drew a new robot per trial too: each trial's
+    masses, friction and drives differed, so the console's simulated station had no one
+    robot (a learned model of 'its' trials mixed robots). The trial's seed draws the
+    patient and the noise; the robot is drawn by its own seed, the same for every trial."""
+    from device.loop.backends import make_backend
+    from device.loop.messages import BackendConfig
+    from device.loop.pipeline import TrialPlan
+
+    plan = TrialPlan.build(THESIS_SUBJECT)
+    robots = {make_backend(BackendConfig(patient="tremor", seed=seed), THESIS_SUBJECT, plan,
+                           compiled=False).plant for seed in (1, 2, 3)}
+    assert len(robots) == 1
+    tremors = {make_backend(BackendConfig(patient="tremor", seed=seed), THESIS_SUBJECT,
+                            plan, compiled=False).patient.parameters.tremor
+               for seed in (1, 2, 3)}
+    assert len(tremors) == 3  # the patient still varies from trial to trial
+    another = make_backend(BackendConfig(seed=1, robot_seed=7), THESIS_SUBJECT, plan,
+                           compiled=False).plant
+    assert another != robots.pop()  # another station's robot is asked for by its own seed

@@ -143,12 +143,16 @@ def test_a_course_is_the_same_for_the_same_seed():
     assert a == b
 
 
-def test_the_realistic_plant_is_not_the_model_and_is_drawn_by_the_seed():
+def test_the_realistic_plant_is_not_the_model_and_is_drawn_by_its_own_seed():
+    """The robot is drawn by `robot_seed`, the same for any trial's seed (one station, one
+    robot); the trial's seed draws the rest."""
     a = simulate(THESIS_SUBJECT.replace(repetitions=1), seed=1)
     b = simulate(THESIS_SUBJECT.replace(repetitions=1), seed=1)
     c = simulate(THESIS_SUBJECT.replace(repetitions=1), seed=2)
+    d = simulate(THESIS_SUBJECT.replace(repetitions=1), seed=1, robot_seed=2)
     ideal = simulate(THESIS_SUBJECT.replace(repetitions=1), seed=1, plant="ideal")
-    assert a.plant == b.plant != c.plant
+    assert a.plant == b.plant == c.plant != d.plant
+    assert not np.array_equal(a.records["position"], c.records["position"])
     assert a.plant["kind"] == "realistic"
     assert a.plant["actuator_delay_periods"] == 1
     assert ideal.plant["kind"] == "ideal"
