@@ -52,7 +52,7 @@ def test_one_exercise_at_a_time_with_its_own_success_figure_first(tab):
     assert tab.metric_choice.currentData() == "directional_performance_pct"
     assert tab.metric_choice.findData("led_pct") == -1
     tab.exercise_choice.setCurrentIndex(0)
-    assert tab.exercise_choice.currentText() == "As needed · D shape, r 10.0 cm · SMC — 5 trials"
+    assert tab.exercise_choice.currentText() == "As needed · D shape, r 10.0 cm · SMC (5)"
     assert tab.metric_choice.currentData() == "led_pct"
     (line,) = _curves(tab.plot)
     x, y = line.getOriginalDataset()
@@ -102,3 +102,14 @@ def test_a_refresh_after_a_trial_keeps_the_exercise_shown(qtbot, tab):
         tab.refresh()
     assert tab.exercise_choice.currentIndex() == 0
     assert tab.metric_choice.currentData() == "elbow_rom_rad"
+
+
+def test_the_tab_fits_a_small_screen_at_a_large_font(qtbot, qapp, tab):
+    """Issue 27 #13 for this tab: at font scale 1.5 it needs no more than 1366 px across."""
+    theme.apply_theme(qapp, 1.5)
+    try:
+        with qtbot.waitSignal(tab.progress_loaded, timeout=10000):
+            tab.refresh()
+        assert tab.minimumSizeHint().width() <= 1366
+    finally:
+        theme.apply_theme(qapp, 1.0)

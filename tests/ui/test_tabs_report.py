@@ -90,3 +90,21 @@ def test_the_path_is_drawn_as_the_patient_saw_it(qtbot, tab, course):
     assert on_screen(-5, 0).x() > on_screen(+5, 0).x()  # the patient's right: right
     assert not item.getAxis("left").isVisible()
     assert not item.getAxis("bottom").isVisible()
+
+
+def test_the_page_fits_a_small_screen_at_a_large_font(qtbot, qapp, tab, course):
+    """Issue 27 #13 for this tab: at 1366×768 and font scale 1.5 every line of the
+    patient's part wraps within the view (a comparison's title once forced the page to
+    2,135 px and cut the headline off at 'of the')."""
+    registry, _, estop = course
+    theme.apply_theme(qapp, 1.5)
+    try:
+        tab.resize(1366, 768)
+        with qtbot.waitSignal(tab.report_ready, timeout=10000):
+            tab.load_registry_trial(registry, estop)
+        qtbot.wait(50)
+        view = tab.page.parentWidget()
+        assert tab.page.minimumSizeHint().width() <= view.width()
+        assert tab.page.width() <= view.width()
+    finally:
+        theme.apply_theme(qapp, 1.0)

@@ -43,7 +43,7 @@ from ui.views.progress_table import (
 )
 
 MAX_LABELLED_TICKS = 30
-HELP_TOP = 135.0  # the help plot's top (%): room above 100 % for the pace and tolerance
+HELP_TOP = 150.0  # the help plot's top (%): room above 100 % for the pace and tolerance
 HELP_COLOUR = theme.SERIES[2]
 KEY = (f"<span style='color:{theme.BLUE}'>●</span> complete &nbsp; "
        f"<span style='color:{theme.VERMILLION}'>○</span> did not run to its end &nbsp; "
@@ -89,9 +89,11 @@ class ProgressTab(QWidget):
         self.metric_choice = ComboBox()
         self.metric_choice.setAccessibleName("Figure to plot")
         self.metric_choice.currentIndexChanged.connect(self._draw_plot)
-        for choice in (self.exercise_choice, self.metric_choice):
-            # whole names: "As needed · D shape, r 10.0 cm · SMC — 7 trials"
-            choice.setSizeAdjustPolicy(QComboBox.SizeAdjustPolicy.AdjustToContents)
+        # the exercise's name whole ("As needed · D shape, r 10.0 cm · SMC", _fit); the
+        # figures' list opens wider than its box
+        self.metric_choice.setSizeAdjustPolicy(
+            QComboBox.SizeAdjustPolicy.AdjustToMinimumContentsLengthWithIcon)
+        self.metric_choice.setMinimumContentsLength(22)
         self.pdf_button = QPushButton("Save as PDF…")
         self.pdf_button.clicked.connect(self._choose_pdf)
         self.pdf_button.setEnabled(False)
@@ -110,7 +112,7 @@ class ProgressTab(QWidget):
         self.key = theme.set_role(QLabel(KEY), "caption")
         self.key.setWordWrap(True)
         self.plot = plots.make_plot("", "")
-        self.help_plot = plots.make_plot("trial (session, trial)", "robot's help (%)")
+        self.help_plot = plots.make_plot("trial (session, trial)", "help (%)")
         self.help_plot.setXLink(self.plot)
         self.help_plot.getPlotItem().getAxis("left").setWidth(60)
         self.plot.getPlotItem().getAxis("left").setWidth(60)
@@ -123,6 +125,10 @@ class ProgressTab(QWidget):
         splitter.addWidget(self.help_plot)
         splitter.addWidget(self.table)
         splitter.setSizes([330, 240, 240])
+        # both plots stay readable at a large font on a small screen; the table scrolls
+        self.plot.setMinimumHeight(180)
+        self.help_plot.setMinimumHeight(170)
+        splitter.setChildrenCollapsible(False)
         layout = QVBoxLayout(self)
         layout.addLayout(top)
         layout.addLayout(choices)
@@ -212,6 +218,7 @@ class ProgressTab(QWidget):
         else:
             index = int(result.exercise_index[-1]) if len(result) else 0
         self.exercise_choice.setCurrentIndex(index)
+        _fit(self.exercise_choice)
         self.exercise_choice.blockSignals(False)
         self._exercise_changed()
 
@@ -261,7 +268,9 @@ class ProgressTab(QWidget):
         if result is None or index < 0 or key is None:
             return
         figure = progress_figure(result, index, key)
-        item.setLabel("left", figure.title)
+        # the short name on the axis: the chooser above says it whole
+        row = figure.row
+        item.setLabel("left", f"{row.heading} ({row.unit})" if row.unit else row.heading)
         theme.style_plot(item)
         theme.style_plot(help_item)
         x, y = figure.positions.astype(float), figure.values
@@ -291,7 +300,7 @@ class ProgressTab(QWidget):
             text.setPos(mark.position, HELP_TOP)
             help_item.addItem(text)
         help_item.setYRange(0.0, HELP_TOP, padding=0)
-        help_item.getAxis("left").setTicks([[(v, f"{v}") for v in (0, 25, 50, 75, 100)]])
+        help_item.getAxis("left").setTicks([[(v, f"{v}") for v in (0, 50, 100)]])
         n = len(figure.positions)
         axis = help_item.getAxis("bottom")
         if n <= MAX_LABELLED_TICKS:
@@ -314,3 +323,12 @@ class ProgressTab(QWidget):
                                               "PDF (*.pdf)")
         if path:
             self.save_pdf(path)
+
+
+def _fit(choice: QComboBox) -> None:
+    """Wide enough for its longest item at the current font, with room for the arrow: the
+    exercises' names must read whole ("As needed · D shape, r 10.0 cm · SMC — 7 trials")."""
+    metrics = choice.fontMetrics()
+    longest = max((metrics.horizontalAdvance(choice.itemText(i)) for i in range(choice.count())),
+                  default=0)
+    choice.setMinimumWidth(longest + round(56 * theme.font_scale()))

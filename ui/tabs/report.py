@@ -30,6 +30,7 @@ from PySide6.QtWidgets import (
     QLabel,
     QPushButton,
     QScrollArea,
+    QSizePolicy,
     QTableWidget,
     QTableWidgetItem,
     QVBoxLayout,
@@ -92,6 +93,9 @@ class ReportTab(QWidget):
         self.page_layout.setSpacing(14)
         scroll = QScrollArea()
         scroll.setWidgetResizable(True)
+        # the page is as wide as the view, so the patient's lines wrap at any font size;
+        # only the therapist's table scrolls sideways
+        scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
         scroll.setWidget(self.page)
         layout = QVBoxLayout(self)
         layout.addLayout(buttons)
@@ -168,7 +172,7 @@ class ReportTab(QWidget):
         if content.comparisons:
             add(theme.set_role(QLabel("Since last time"), "heading"))
         for comparison in content.comparisons:
-            add(theme.set_role(QLabel(comparison.title), "lead"))
+            add(self._wrapped(comparison.title, "lead"))
             for change in comparison.changes:
                 add(self._wrapped(_change_text(change), "body"))
             for caution in comparison.cautions:
@@ -194,6 +198,9 @@ class ReportTab(QWidget):
         label = theme.set_role(QLabel(text), role)
         label.setWordWrap(True)
         label.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
+        # the role's font (the style sheet's) before the layout asks how tall the wrapped
+        # text is: else a large font's second line is cut off
+        label.ensurePolished()
         return label
 
     def _table(self, content: ReportContent) -> QTableWidget:
@@ -215,6 +222,7 @@ class ReportTab(QWidget):
             table.rowHeight(r) for r in range(table.rowCount())) + 4
         table.setMinimumHeight(height)
         table.setVerticalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+        table.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Minimum)
         return table
 
     def _clear(self) -> None:

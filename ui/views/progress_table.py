@@ -36,9 +36,9 @@ def metric_heading(row: MetricRow) -> str:
 
 
 def exercise_choice(result: Progress, index: int) -> str:
-    """'As needed · D shape, r 10.0 cm · SMC — 7 trials', for the exercise chooser."""
-    n = len(result.members(index))
-    return f"{result.exercises[index].label()} — {n} trial{'s' if n != 1 else ''}"
+    """'As needed · D shape, r 10.0 cm · SMC (7)', for the exercise chooser: the number of
+    trials in brackets."""
+    return f"{result.exercises[index].label()} ({len(result.members(index))})"
 
 
 def progress_summary(result: Progress) -> str:
