@@ -1,8 +1,11 @@
 """One display unit per quantity wherever a person reads it (app.units): the set-up's
 positions in cm as the form shows them, the assistance in % as the form sets it."""
 
+import numpy as np
+
+from app.records.assistance import AssistanceInEffect
 from app.reports.content import _settings_text
-from app.reports.progress import ParameterSet
+from app.reports.progress_figure import help_staircase
 from app.units import assistance_percent, cm, point_cm
 from core.trial import THESIS_SUBJECT
 
@@ -14,13 +17,16 @@ def test_the_helpers():
 
 
 def test_the_report_settings_line_uses_the_forms_units():
-    text = _settings_text(THESIS_SUBJECT.replace(assistance_level=0.4))
-    assert "assistance level 40 %" in text
+    text = _settings_text(THESIS_SUBJECT.replace(assistance_level=0.4),
+                          AssistanceInEffect(((0.0, 0.4), (5.8, 0.3))))
+    assert "assistance at 40 % → 30 % at 5.8 s (built at 40 %)" in text
     assert f"centre {point_cm(THESIS_SUBJECT.centre_m)}" in text
     assert " mm" not in text
 
 
-def test_the_progress_label_says_assistance_in_percent():
-    label = ParameterSet.of(THESIS_SUBJECT.to_dict()).label()
-    assert "assistance 100 %" in label
-    assert "assist 1.00" not in label
+def test_progress_draws_the_assistance_in_percent():
+    _, levels, _, live = help_staircase(np.array([1]), [AssistanceInEffect(((0.0, 0.4),
+                                                                             (1.0, 0.3)))],
+                                        np.array([2.0]))
+    assert levels.tolist() == [40.0, 40.0, 30.0, 30.0]
+    assert live.tolist() == [30.0]
