@@ -14,6 +14,7 @@ or concern, each a module here:
 * queries — the progress rows (`trial_summaries`) and `previous_trial`;
 * proposals — the console's proposal for the next trial and the therapist's decision;
 * values — the checks of what is given and the JSON of parameters and metrics.
+* seals — every row sealed with the digest of its values, checked before it is read.
 
 Storage in short (each module's docstring says more):
 
@@ -29,6 +30,10 @@ Storage in short (each module's docstring says more):
   it; the other waits (busy timeout) and then sees it. UNIQUE constraints on
   (patient, session number) and (session, trial number) back this up.
 * Parameters and metrics are JSON text, so a new metric needs no schema change.
+* Every row carries a seal (schema v6, `seals`): triggers compute it through a
+  function only the console's connections have, and the file's structure and
+  every seal are checked once for each state of the file before anything is read
+  or written; a flipped bit is refused in one line, never read as written.
 * Every connection lives for one call, so a `Registry` holds no connection and
   may be used from several threads.
 

@@ -22,6 +22,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from app.errors import RegistryError, SchemaError
+from app.records.registry import seals
 from app.records.registry.snapshot import needs_snapshot, snapshot_connection
 
 log = logging.getLogger(__package__)
@@ -37,7 +38,8 @@ class Database:
     @contextlib.contextmanager
     def _connection(self) -> Iterator[sqlite3.Connection]:
         try:
-            conn = sqlite3.connect(self.path, timeout=BUSY_TIMEOUT_S, isolation_level=None)
+            conn = seals.register(sqlite3.connect(self.path, timeout=BUSY_TIMEOUT_S,
+                                                  isolation_level=None))
         except sqlite3.Error as exc:
             raise self._database_error(exc) from exc
         try:
@@ -51,6 +53,8 @@ class Database:
             ) from exc
         except sqlite3.Error as exc:
             raise self._database_error(exc) from exc
+        except UnicodeDecodeError as exc:
+            raise self._damaged(exc) from exc
         finally:
             conn.close()
 
@@ -61,32 +65,69 @@ class Database:
         with self._connection() as conn:
             conn.execute("BEGIN IMMEDIATE")
             try:
+                sound = self._verified(conn)  # nothing is written into a damaged registry
                 yield conn
             except BaseException:
                 rollback(conn)
                 raise
             conn.execute("COMMIT")
+        # What this transaction wrote its triggers sealed, and no one else could write
+        # between the check and the commit (BEGIN IMMEDIATE held the lock): the file as it
+        # is now, after the checkpoint the connection's close may have made, needs no check.
+        self._still_sound(sound)
 
     @contextlib.contextmanager
     def _read(self) -> Iterator[sqlite3.Connection]:
         """A read transaction: several SELECTs see one snapshot."""
         conn = self._reader()
+        sound = False
         try:
             conn.execute("BEGIN")
             try:
+                sound = self._verified(conn)
                 yield conn
             finally:
                 rollback(conn)  # nothing to keep: ends the snapshot
         except sqlite3.Error as exc:
             raise self._database_error(exc) from exc
+        except UnicodeDecodeError as exc:
+            raise self._damaged(exc) from exc
         finally:
             conn.close()
+        # a read changes nothing but what its close may checkpoint from the WAL
+        self._still_sound(sound)
+
+    def _still_sound(self, sound: bool) -> None:
+        if sound:
+            self._verified_state = _file_state(self.path)
+
+    def _verified(self, conn: sqlite3.Connection) -> bool:
+        """Every row checked against its seal (seals.verify), once for each state of the
+        file: its size and modification time, and its WAL's, as last checked by this
+        object. False for a registry before v6 (being opened to migrate: no seals yet).
+        A change another program makes to the file in the moment between a transaction's
+        check and its connection's close is seen at the next change of the file."""
+        version = conn.execute("PRAGMA user_version").fetchone()[0]
+        if version < SEALED_FROM:
+            return False
+        state = _file_state(self.path)
+        if state is None or state != getattr(self, "_verified_state", None):
+            seals.verify(conn, self.path)
+            self._verified_state = state
+        return True
+
+    def _damaged(self, exc: Exception) -> SchemaError:
+        return SchemaError(
+            f"the registry {self.path} is damaged: a stored text is not readable "
+            f"({' '.join(str(exc).split())}). Restore the registry from a backup (a "
+            "registry.sqlite3.v*.bak beside it, or your own copy)")
 
     def _reader(self) -> sqlite3.Connection:
         """A connection for reading: the file's, or on a disk without room for what a WAL
         reader writes, the committed state in memory (`snapshot`)."""
         try:
-            conn = sqlite3.connect(self.path, timeout=BUSY_TIMEOUT_S, isolation_level=None)
+            conn = seals.register(sqlite3.connect(self.path, timeout=BUSY_TIMEOUT_S,
+                                                  isolation_level=None))
         except sqlite3.Error as exc:
             return self._snapshot(exc)
         try:
@@ -101,7 +142,7 @@ class Database:
         if not needs_snapshot(exc):
             raise self._database_error(exc) from exc
         try:
-            conn = snapshot_connection(self.path)
+            conn = seals.register(snapshot_connection(self.path))
         except (OSError, sqlite3.Error):
             raise self._database_error(exc) from exc
         log.info("registry %s read from a copy in memory: %s (the disk is full?)",
@@ -156,6 +197,26 @@ class Database:
             problems += [f"{table} row {rowid} points to a missing {parent}"
                          for table, rowid, parent, _ in conn.execute("PRAGMA foreign_key_check")]
         return problems
+
+
+SEALED_FROM = 6
+"""The schema version from which every row has its seal (schema.MIGRATE_V5_TO_V6)."""
+
+
+def _file_state(path: Path) -> tuple | None:
+    """What changes when the registry's file or its WAL is written: their sizes and
+    modification times (None when they cannot be read: then every call checks)."""
+    try:
+        main = os.stat(path)
+    except OSError:
+        return None
+    try:
+        wal = os.stat(f"{path}-wal")
+    except OSError:
+        wal = None
+    # every connection makes an empty WAL when there is none: only one with frames counts
+    wal_state = (wal.st_size, wal.st_mtime_ns) if wal is not None and wal.st_size else None
+    return (main.st_size, main.st_mtime_ns, main.st_ino, wal_state)
 
 
 def rollback(conn: sqlite3.Connection) -> None:

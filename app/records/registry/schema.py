@@ -21,6 +21,7 @@ from pathlib import Path
 
 from app.errors import RegistryError, SchemaError
 from app.records.datadir import ENV_DATA_DIR, DataDir, foreign_entries, private_files
+from app.records.registry import seals
 from app.records.registry.database import Database, rollback
 from app.records.registry.snapshot import needs_snapshot
 from app.records.safewrite import OutputRefused, atomic_path, folded
@@ -106,12 +107,17 @@ MIGRATE_V4_TO_V5 = (
     "ALTER TABLE trials ADD COLUMN assistance TEXT",
 )
 
+# v6: every row sealed with the digest of its values, kept by triggers, checked before
+# every read and write (app.records.registry.seals): a flipped bit is refused, not read.
+MIGRATE_V5_TO_V6 = seals.migration()
+
 MIGRATIONS: tuple[tuple[int, tuple[str, ...]], ...] = (
     (1, SCHEMA_V1),
     (2, MIGRATE_V1_TO_V2),
     (3, MIGRATE_V2_TO_V3),
     (4, MIGRATE_V3_TO_V4),
     (5, MIGRATE_V4_TO_V5),
+    (6, MIGRATE_V5_TO_V6),
 )
 SCHEMA_VERSION = MIGRATIONS[-1][0]
 
@@ -252,7 +258,8 @@ def create_registry_file(data_dir: DataDir) -> None:
     _refuse_foreign_folder(data_dir)
     try:
         with atomic_path(path, owned=True) as temporary:
-            with contextlib.closing(sqlite3.connect(temporary, isolation_level=None)) as conn:
+            with contextlib.closing(seals.register(
+                    sqlite3.connect(temporary, isolation_level=None))) as conn:
                 conn.execute("PRAGMA journal_mode = WAL")
                 conn.execute("BEGIN IMMEDIATE")
                 for _, statements in MIGRATIONS:

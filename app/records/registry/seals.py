@@ -1,0 +1,150 @@
+"""Every row of the registry sealed with a digest of its values, checked before anything is
+read from it (issue 28, "Integrity of meaning"; schema v6).
+
+Why: SQLite keeps no checksum of its pages. A bit flipped on the disk, in a backup or a
+copy changes a patient's name, a trial's status or its parameters and every query reads
+the changed value as if it had been written (a byte flipped in a name's page gave
+"UnicodeDecodeError" at best, a different letter at worst). The trial files carry their
+own seals; the registry's rows now do too.
+
+How:
+
+* Each sealed table (`SEALED`) has a `seal` column: the SHA-256 of the table's name and
+  the row's other values in the order of `SEALED` (`seal_of`: each value tagged with
+  its type and length, floats exactly as stored).
+* The seal is computed by SQLite itself, in triggers after every INSERT and every UPDATE of
+  a sealed column, through the function `registry_seal` that every connection of the
+  console registers (`register`). So no write path of the console can forget it, and a
+  tool that edits the registry without the console (a database browser, the sqlite3
+  shell) is refused at once ("no such function: registry_seal") instead of leaving a row
+  that no longer matches.
+* Before a read or a write the console checks the file's structure (SQLite's integrity
+  check: a damaged index would find the wrong patient, or none) and every row against
+  its seal (`verify`), once for each state of the file (`Database` keeps the size and
+  modification time of the file and its WAL it last checked); damage refuses the
+  registry in one line naming what is damaged (bench/registry.py gives the check's cost).
+
+What a seal is not: it is not keyed. It catches damage, not a person who recomputes it
+with this module; the registry, unlike a model's approval, grants nothing by itself.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import sqlite3
+
+from app.errors import SchemaError
+
+FUNCTION = "registry_seal"
+
+SEALED: dict[str, tuple[str, ...]] = {
+    "patients": ("id", "code", "first_name", "last_name", "birth_year", "side",
+                 "body_mass_kg", "upper_arm_m", "forearm_m", "shoulder_x_m", "shoulder_y_m",
+                 "notes", "created_at"),
+    "sessions": ("id", "patient_id", "number", "date", "therapist", "notes", "location"),
+    "trials": ("id", "session_id", "number", "parameters", "file", "metrics", "status",
+               "started_at", "ended_at", "patient_kind", "backend", "end_reason",
+               "assistance"),
+    "proposals": ("trial_id", "proposal", "decision", "next_trial_id", "proposed_at",
+                  "decided_at"),
+}
+"""The sealed tables and the columns their seal covers (every column but `seal`, as of
+schema v6). A migration that adds a column must add it here and recreate the table's
+triggers (tests/app/records/test_registry_seals.py holds this to the schema)."""
+
+
+def seal_of(table: str, *values) -> str:
+    """The seal of a row of `table` with these values (in SEALED's order): SHA-256 over
+    the table's name and each value tagged with its type and length (floats by their
+    exact hexadecimal form), so that no two rows' values give the same bytes."""
+    digest = hashlib.sha256(table.encode())
+    update = digest.update
+    for value in values:
+        if value is None:
+            update(b"|n")
+        elif isinstance(value, str):
+            data = value.encode("utf-8", "surrogatepass")
+            update(b"|s%d:" % len(data))
+            update(data)
+        elif isinstance(value, float):
+            update(b"|f" + value.hex().encode())
+        elif isinstance(value, int):
+            update(b"|i%d" % value)
+        else:  # a BLOB
+            data = bytes(value)
+            update(b"|b%d:" % len(data))
+            update(data)
+    return digest.hexdigest()
+
+
+def register(conn: sqlite3.Connection) -> sqlite3.Connection:
+    """Give `conn` the seal function its triggers and `verify` call."""
+    conn.create_function(FUNCTION, -1, seal_of, deterministic=True)
+    return conn
+
+
+def _call(table: str) -> str:
+    return f"{FUNCTION}('{table}', {', '.join(SEALED[table])})"
+
+
+def migration() -> tuple[str, ...]:
+    """Schema v6: the seal column, every existing row sealed as it is (it is trusted at
+    the upgrade, after the copy the migration keeps), and the triggers."""
+    statements: list[str] = []
+    for table in SEALED:
+        statements.append(f"ALTER TABLE {table} ADD COLUMN seal TEXT")
+        statements.append(f"UPDATE {table} SET seal = {_call(table)}")
+        statements.extend(triggers(table))
+    return tuple(statements)
+
+
+def triggers(table: str) -> tuple[str, str]:
+    """The two triggers that seal `table`'s rows: after an insert, and after an update of
+    any sealed column (the seal's own update is not one, so it does not fire again)."""
+    columns = ", ".join(SEALED[table])
+    body = f"BEGIN UPDATE {table} SET seal = {_call(table)} WHERE rowid = NEW.rowid; END"
+    return (f"CREATE TRIGGER {table}_sealed_on_insert AFTER INSERT ON {table} {body}",
+            f"CREATE TRIGGER {table}_sealed_on_update AFTER UPDATE OF {columns} ON {table} "
+            f"{body}")
+
+
+def verify(conn: sqlite3.Connection, path) -> None:
+    """SchemaError naming what is damaged in the registry at `path`: its structure
+    (SQLite's integrity check: pages, indexes against their tables, constraints; a
+    damaged index would find the wrong patient or none) or the first row whose values do
+    not match its seal; nothing when all is sound."""
+    problems = [r[0] for r in conn.execute("PRAGMA integrity_check") if r[0] != "ok"]
+    if problems:
+        more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+        raise SchemaError(
+            f"the registry {path} is damaged: {' '.join(problems[0].split())}{more}. "
+            "Nothing was read from it. Restore the registry from a backup (a "
+            "registry.sqlite3.v*.bak beside it, or your own copy)")
+    for table in SEALED:
+        mismatch = f"seal IS NULL OR seal != {_call(table)}"
+        try:
+            row = conn.execute(f"SELECT rowid FROM {table} WHERE {mismatch} LIMIT 1"
+                               ).fetchone()
+        except sqlite3.OperationalError as exc:
+            if "user-defined function raised exception" not in str(exc):
+                raise
+            # a value that cannot reach the seal (text that is not UTF-8): find its row
+            row = _first_unreadable(conn, table, mismatch)
+        if row is not None:
+            raise SchemaError(
+                f"the registry {path} is damaged: {table} row {row[0]} does not match its "
+                "seal (changed on the disk, in a copy, or by a program other than the "
+                "console). Nothing was read from it. Restore the registry from a backup "
+                "(a registry.sqlite3.v*.bak beside it, or your own copy)")
+
+
+def _first_unreadable(conn: sqlite3.Connection, table: str, mismatch: str) -> tuple:
+    for (rowid,) in conn.execute(f"SELECT rowid FROM {table} ORDER BY rowid").fetchall():
+        try:
+            bad = conn.execute(f"SELECT 1 FROM {table} WHERE rowid = ? AND ({mismatch})",
+                               (rowid,)).fetchone()
+        except sqlite3.OperationalError:
+            bad = (1,)
+        if bad is not None:
+            return (rowid,)
+    return ("?",)
