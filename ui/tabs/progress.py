@@ -124,11 +124,12 @@ class ProgressTab(QWidget):
         splitter.addWidget(self.plot)
         splitter.addWidget(self.help_plot)
         splitter.addWidget(self.table)
-        splitter.setSizes([330, 240, 240])
-        # both plots stay readable at a large font on a small screen; the table scrolls
-        self.plot.setMinimumHeight(180)
-        self.help_plot.setMinimumHeight(170)
-        splitter.setChildrenCollapsible(False)
+        splitter.setSizes([300, 220, 110])
+        # the plots first when the room is short (a large font on a laptop): the table
+        # scrolls, and no part asks the window for more height than a laptop has
+        splitter.setStretchFactor(0, 3)
+        splitter.setStretchFactor(1, 2)
+        splitter.setStretchFactor(2, 1)
         layout = QVBoxLayout(self)
         layout.addLayout(top)
         layout.addLayout(choices)
