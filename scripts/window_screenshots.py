@@ -1,14 +1,18 @@
-"""Screenshots of the whole console window, one per tab, during and after a real session on
-the simulator (the loop and recorder processes run as in the clinic).
+"""Screenshots of the whole console window, every tab, during and after a real session on the
+simulator (the loop and recorder processes run as in the clinic), on a laptop's screen and at
+a large font:
 
-    xvfb-run -a -s "-screen 0 1600x1000x24" .venv/bin/python scripts/window_screenshots.py
+    xvfb-run -a -s "-screen 0 1920x1080x24" .venv/bin/python scripts/window_screenshots.py
 
-Writes docs/screenshots/window-*.png. Everything runs in a temporary data folder with one
-fictional patient; nothing touches the clinic's data.
+Writes docs/screenshots/window-<what>-1366x768.png (font scale 1, the window maximised on a
+1366 × 768 laptop below its title bar) and window-<what>-font1.5.png (font scale 1.5 on a
+1920 × 1080 screen). `--only 1366x768` or `--only font1.5` makes one set. Everything runs in a
+temporary data folder with one fictional patient; nothing touches the clinic's data.
 """
 
 from __future__ import annotations
 
+import argparse
 import os
 import sys
 import tempfile
@@ -17,109 +21,158 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "screenshots"
+CONFIGURATIONS = {
+    # name: (width, height of the window, font scale)
+    "1366x768": (1366, 738, 1.0),  # a laptop's screen below its title bar
+    "font1.5": (1920, 1050, 1.5),
+}
 
 
-def main() -> int:
-    with tempfile.TemporaryDirectory() as folder:
-        os.environ["REHAB_DATA_DIR"] = str(Path(folder) / "data")
-        os.environ["REHAB_CONFIG_DIR"] = str(Path(folder) / "config")
-        from PySide6.QtWidgets import QApplication
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--only", choices=sorted(CONFIGURATIONS))
+    args = parser.parse_args(argv)
+    from PySide6.QtWidgets import QApplication
 
-        from app.records.datadir import locate_data_dir
-        from app.records.registry import Registry
-        from device.loop.states import State
-        from ui import theme
-        from ui.main_window import MainWindow
+    app = QApplication.instance() or QApplication(sys.argv[:1])
+    for name, (width, height, scale) in CONFIGURATIONS.items():
+        if args.only in (None, name):
+            with tempfile.TemporaryDirectory() as folder:
+                session(app, Path(folder), name, width, height, scale)
+    return 0
 
-        app = QApplication.instance() or QApplication(sys.argv[:1])
-        theme.apply_theme(app)
-        data_dir = locate_data_dir()
-        data_dir.ensure_layout()
-        registry = Registry(data_dir)
-        win = MainWindow(registry)
-        win.resize(1500, 940)
-        win.show()
-        win.start_device()
-        OUT.mkdir(parents=True, exist_ok=True)
 
-        def wait(condition, timeout=30.0):
-            deadline = time.monotonic() + timeout
-            while not condition():
-                if time.monotonic() > deadline:
-                    raise TimeoutError("the window did not get there in time")
-                app.processEvents()
-                time.sleep(0.01)
+def session(app, folder: Path, suffix: str, width: int, height: int, scale: float) -> None:
+    os.environ["REHAB_DATA_DIR"] = str(folder / "data")
+    os.environ["REHAB_CONFIG_DIR"] = str(folder / "config")
+    from PySide6.QtCore import Qt
+    from PySide6.QtTest import QTest
 
-        def settle(seconds=0.4):
-            end = time.monotonic() + seconds
-            while time.monotonic() < end:
-                app.processEvents()
-                time.sleep(0.01)
+    from app.records.datadir import locate_data_dir
+    from app.records.registry import Registry
+    from device.loop.states import State
+    from ui import theme
+    from ui.main_window import MainWindow
 
-        def shoot(name, tab=None):
-            if tab is not None:
-                win.tabs.setCurrentWidget(tab)
-            settle()
-            path = OUT / f"window-{name}.png"
-            win.grab().save(str(path))
-            print(path)
+    theme.apply_theme(app, scale)
+    data_dir = locate_data_dir()
+    data_dir.ensure_layout()
+    registry = Registry(data_dir)
+    win = MainWindow(registry)
+    win.resize(width, height)
+    win.show()
+    win.start_device()
+    OUT.mkdir(parents=True, exist_ok=True)
 
-        shoot("instructions", win.instructions)
-        reg = win.registration_tab
-        win.tabs.setCurrentWidget(reg)
-        reg.first_name.setText("Ada")
-        reg.last_name.setText("Example")
-        reg.body_mass.setValue(72.0)
-        reg.upper_arm.setValue(30.0)
-        reg.forearm.setValue(28.5)
-        reg.shoulder_x.setValue(-12.0)
-        reg.shoulder_y.setValue(73.0)
-        reg.create_patient()
-        wait(lambda: reg.selected_patient() is not None)
-        reg.confirm_registration()
-        wait(lambda: win.registration is not None)
-        shoot("registration", reg)
+    def wait(condition, timeout=60.0):
+        deadline = time.monotonic() + timeout
+        while not condition():
+            if time.monotonic() > deadline:
+                raise TimeoutError("the window did not get there in time")
+            app.processEvents()
+            time.sleep(0.01)
 
-        p = win.parameters_tab
-        p.shoulder_x.setValue(12.0)
-        p.refresh()
-        shoot("parameters-unreachable", p)
-        p.shoulder_x.setValue(-12.0)
-        p.repetitions.setValue(2)
-        p.refresh()
-        shoot("parameters", p)
+    def settle(seconds=0.4):
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            app.processEvents()
+            time.sleep(0.01)
 
-        win.build()
-        wait(lambda: win.state == State.BUILT)
-        win.bridge.connect()
-        wait(lambda: win.state == State.CONNECTED)
+    def shoot(name, tab=None):
+        if tab is not None:
+            win.tabs.setCurrentWidget(tab)
+        settle()
+        path = OUT / f"window-{name}-{suffix}.png"
+        win.grab().save(str(path))
+        print(path, f"{win.width()}x{win.height()}")
+
+    def trial(level_during: int | None = None):
+        if "build" in enabled():
+            win.build()
+            wait(lambda: win.state in (State.BUILT, State.CONNECTED) and not win.stale())
+        if win.state == State.BUILT:
+            win.bridge.connect()
+            wait(lambda: win.state == State.CONNECTED)
         settle(0.5)
         win.start_trial()
         wait(lambda: win.state == State.RUNNING)
-        settle(5.0)
-        for name, tab in (("trajectory-live", win.trajectory), ("force-live", win.force),
-                          ("angles-live", win.angles), ("torques-live", win.torques)):
-            shoot(name, tab)
-        wait(lambda: win.unsaved_trial is not None, 60)
-        wait(lambda: win.report.content is not None)
-        shoot("report", win.report)
-        win.progress.set_patient(win.patient.code)
-        wait(lambda: win.progress.progress is not None)
-        shoot("progress", win.progress)
-        trial = registry.trials_for_patient(win.patient.code)[0]
-        win.replay.open_file(registry.trial_path(trial))
-        wait(lambda: win.replay.view is not None)
-        win.replay.set_cursor(3.0)
-        shoot("replay", win.replay)
-        shoot("force-replay", win.force)
-        shoot("video", win.video)
-        win.emergency_stop()
-        wait(lambda: win.state == State.FAULTED, 5)
-        shoot("estop", win.trajectory)
-        win.clear_fault()
-        wait(lambda: win.state == State.CONNECTED, 5)
-        win.close()
-    return 0
+        if level_during is not None:
+            settle(1.5)
+            p.assistance.setFocus()
+            p.assistance.selectAll()
+            QTest.keyClicks(p.assistance, str(level_during))
+            QTest.keyClick(p.assistance, Qt.Key.Key_Return)
+
+    def enabled():
+        return {n for n, b in win.robot.buttons.items() if b.isEnabled()}
+
+    shoot("instructions", win.instructions)
+    reg = win.registration_tab
+    win.tabs.setCurrentWidget(reg)
+    reg.first_name.setText("Ada")
+    reg.last_name.setText("Example")
+    reg.body_mass.setValue(72.0)
+    reg.upper_arm.setValue(30.0)
+    reg.forearm.setValue(28.5)
+    reg.shoulder_x.setValue(-12.0)
+    reg.shoulder_y.setValue(73.0)
+    reg.create_patient()
+    wait(lambda: reg.selected_patient() is not None)
+    reg.confirm_registration()
+    wait(lambda: win.registration is not None)
+    shoot("registration", reg)
+
+    p = win.parameters_tab
+    p.shoulder_x.setValue(12.0)
+    p.refresh()
+    shoot("parameters-unreachable", p)
+    p.shoulder_x.setValue(-12.0)
+    p.repetitions.setValue(2)
+    p.duration.setValue(3.0)
+    p.refresh()
+    shoot("parameters", p)
+
+    trial(level_during=70)
+    settle(3.0)
+    for name, tab in (("trajectory-live", win.trajectory), ("force-live", win.force),
+                      ("angles-live", win.angles), ("torques-live", win.torques),
+                      ("video", win.video)):
+        shoot(name, tab)
+    wait(lambda: win.unsaved_trial is not None)
+    wait(lambda: win.report.content is not None)
+    shoot("report", win.report)
+    shoot("emg", win.emg)
+    shoot("parameters-proposal", p)
+    shoot("stale", win.trajectory)  # the level changed during the trial: Build first
+
+    # two more trials, each taking the proposal: the Progress tab's staircase
+    for _ in range(2):
+        if p.use_proposal.isVisible():
+            p.use_proposal.click()
+        trial()
+        first = win.unsaved_trial
+        wait(lambda first=first: win.unsaved_trial is not None and win.unsaved_trial != first
+             and win.state == State.CONNECTED)
+    win.progress.set_patient(win.patient.code)
+    wait(lambda: win.progress.progress is not None)
+    shoot("progress", win.progress)
+
+    first = registry.trials_for_patient(win.patient.code)[0]
+    win.replay.open_file(registry.trial_path(first))
+    wait(lambda: win.replay.view is not None)
+    win.replay.set_cursor(2.5)
+    win._on_cursor(2.5)
+    shoot("replay", win.replay)
+    shoot("force-replay", win.force)
+
+    win.emergency_stop()
+    wait(lambda: win.state == State.FAULTED, 10)
+    shoot("estop", win.trajectory)
+    win.clear_fault()
+    wait(lambda: win.state == State.CONNECTED, 10)
+    win.closing_by_signal = True
+    win.close()
+    settle(0.5)
 
 
 if __name__ == "__main__":

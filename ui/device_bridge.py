@@ -26,6 +26,7 @@ from device.loop.messages import (
     BackendConfig,
     FaultRaised,
     Notice,
+    SensorZeroed,
     StateChanged,
     TrialEnded,
     TrialStarted,
@@ -61,6 +62,7 @@ class DeviceBridge(QObject):
     notice = Signal(str, str)  # level, message
     replied = Signal(str, bool, str)  # command, ok, message
     loop_lost = Signal(str)
+    sensor_zeroed = Signal(str)  # the force sensor's zero taken at Connect, in words
 
     def __init__(self, *, loop_config: LoopConfig | None = None,
                  client: DeviceClient | None = None, lsl_outlet=None) -> None:
@@ -71,6 +73,7 @@ class DeviceBridge(QObject):
         self.lsl_outlet = lsl_outlet
         self._origin = math.nan
         self._calls: queue.Queue[_Call | None] = queue.Queue()
+        self._outstanding = 0  # commands put and not yet answered (under _lock)
         self._records: list[np.ndarray] = []
         self._lock = threading.Lock()
         self._thread: threading.Thread | None = None
@@ -107,25 +110,36 @@ class DeviceBridge(QObject):
     def build(self, parameters: TrialParameters, backend: BackendConfig,
               limits: SafetyLimits | None = None, model=None) -> None:
         """`model`: the learned model the parameters name (device.loop.messages.Build)."""
-        self._calls.put(_Call("build", (parameters, backend, limits, 30.0, model)))
+        self._put(_Call("build", (parameters, backend, limits, 30.0, model)))
 
     def connect(self) -> None:
-        self._calls.put(_Call("connect", ()))
+        self._put(_Call("connect", ()))
 
     def disconnect(self) -> None:
-        self._calls.put(_Call("disconnect", ()))
+        self._put(_Call("disconnect", ()))
 
     def start_trial(self, path: str, subject: SubjectInfo) -> None:
-        self._calls.put(_Call("start_trial", (path, subject)))
+        self._put(_Call("start_trial", (path, subject)))
 
     def stop(self) -> None:
-        self._calls.put(_Call("stop", ()))
+        self._put(_Call("stop", ()))
 
     def clear_fault(self) -> None:
-        self._calls.put(_Call("clear_fault", ()))
+        self._put(_Call("clear_fault", ()))
 
     def set_assistance(self, level: float) -> None:
-        self._calls.put(_Call("set_assistance", (level,)))
+        self._put(_Call("set_assistance", (level,)))
+
+    def _put(self, call: _Call) -> None:
+        with self._lock:
+            self._outstanding += 1
+        self._calls.put(call)
+
+    def idle(self) -> bool:
+        """Every command sent has been answered (its `replied` is on its way to the GUI
+        thread, posted before this turns True)."""
+        with self._lock:
+            return self._outstanding == 0
 
     def set_force_feed(self, feed) -> None:
         """While a trial on a force estimate runs: `feed(records)` (app.emg.live_feed.
@@ -169,8 +183,11 @@ class DeviceBridge(QObject):
             reply = getattr(self.client, call.name)(*call.args)
         except DeviceError as exc:
             self.replied.emit(call.name, False, str(exc))
-            return
-        self.replied.emit(call.name, reply.ok, reply.message)
+        else:
+            self.replied.emit(call.name, reply.ok, reply.message)
+        # after the reply is posted: whoever sees `idle` then finds it queued
+        with self._lock:
+            self._outstanding -= 1
 
     def _drain(self) -> None:
         try:
@@ -233,3 +250,5 @@ class DeviceBridge(QObject):
             self.notice.emit(event.level, event.message)
         elif isinstance(event, LoopLost):
             self.loop_lost.emit(event.message)
+        elif isinstance(event, SensorZeroed):
+            self.sensor_zeroed.emit(event.message)

@@ -16,14 +16,25 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
-from PySide6.QtCore import QTimer
-from PySide6.QtWidgets import QMainWindow, QTabWidget, QVBoxLayout, QWidget
+from PySide6.QtCore import Qt, QTimer
+from PySide6.QtWidgets import (
+    QFrame,
+    QHBoxLayout,
+    QLabel,
+    QMainWindow,
+    QPushButton,
+    QSizePolicy,
+    QTabWidget,
+    QVBoxLayout,
+    QWidget,
+)
 
 from app.records.registry import Patient, Registration
 from app.records.settings import Settings, load_settings
 from app.records.store import RecordStore
 from core.trial import TrialParameters
 from device.loop.states import State
+from ui import theme
 from ui.device_bridge import DeviceBridge
 from ui.force_estimate import ForceEstimateControl
 from ui.jobs import Jobs
@@ -44,13 +55,15 @@ from ui.tabs import (
     TrajectoryTab,
     VideoTab,
 )
+from ui.views.latch import Latch
 from ui.views.loop_health import LoopHealth
 from ui.views.messages import Messages
+from ui.views.replay_strip import replay_line
 from ui.views.trialview import TrialView
 from ui.window.fault_latch import FaultLatch
 from ui.window.message_line import MessageLine
 from ui.window.settings import RememberedSettings
-from ui.window.trial import TrialActions
+from ui.window.trial import BuiltSetup, TrialActions
 from ui.window.trial_emg import TrialEmg
 
 log = logging.getLogger(__name__)
@@ -82,7 +95,12 @@ class MainWindow(TrialActions, TrialEmg, FaultLatch, MessageLine, RememberedSett
         self.unsaved_trial: int | None = None
         self.live: TrialView | None = None
         self.shown_view: TrialView | None = None
-        self.fault_code = 0
+        self.latch = Latch()  # the e-stop and the loop's fault: the banner is this
+        self._clear_asked = 0  # Clear faults sent, not yet answered
+        self.built_setup: BuiltSetup | None = None  # what the form showed at Build
+        self._pending_setup: BuiltSetup | None = None
+        self.built_backend = self._pending_backend = None  # the BackendConfig built
+        self._live_levels: list[float] = []  # live assistance changes awaiting the loop
         self.closing_by_signal = False
         self.loop_health = LoopHealth()
         self.messages = Messages()
@@ -110,6 +128,10 @@ class MainWindow(TrialActions, TrialEmg, FaultLatch, MessageLine, RememberedSett
     def _build_tabs(self) -> None:
         self.tabs = QTabWidget()
         self.tabs.setDocumentMode(True)
+        # every tab always in view: the window is never narrower than its tabs (at font
+        # scale 1.5 four tabs hid behind scroll arrows, issue 27 #13)
+        self.tabs.tabBar().setUsesScrollButtons(False)
+        self.tabs.tabBar().setElideMode(Qt.TextElideMode.ElideNone)
         self.instructions = InstructionsTab()
         self.registration_tab = RegistrationTab(self.registry)
         self.parameters_tab = ParametersTab()
@@ -126,6 +148,7 @@ class MainWindow(TrialActions, TrialEmg, FaultLatch, MessageLine, RememberedSett
         self.progress.set_registry(self.registry)
         self.replay = ReplayTab()
         self.replay.set_registry(self.registry)
+        self.parameters_tab.robot_choice.settings_folder = str(self.registry.data_dir.root)
         made = (self.instructions, self.registration_tab, self.parameters_tab, self.trajectory,
                 self.force, self.angles, self.torques, self.emg, self.video, self.report,
                 self.progress, self.replay)
@@ -136,19 +159,56 @@ class MainWindow(TrialActions, TrialEmg, FaultLatch, MessageLine, RememberedSett
                           if isinstance(self.tabs.widget(i), VIEW_TABS)]
 
     def _build_layout(self) -> None:
-        banner = self._build_banner()
-        message_row = self._build_message_row()
+        message_row = self._build_message_row(self._build_banner())
         self.robot = RobotBar()
         central = QWidget()
         column = QVBoxLayout(central)
         column.setContentsMargins(4, 4, 4, 4)
-        column.addWidget(banner)
         column.addLayout(message_row)
+        column.addWidget(self._build_replay_strip())
         column.addWidget(self.tabs, 1)
         column.addWidget(self.robot)
         self.setCentralWidget(central)
         self._build_status_bar()
         self._bind_estop_keys()
+
+    def _build_replay_strip(self) -> QFrame:
+        """Over the tabs while they show a past trial: which trial and which moment, on a
+        colour no live trial has, and the way back to the live trial."""
+        self.replay_strip = QFrame()
+        self.replay_strip.setObjectName("replay_strip")
+        self.replay_strip.setStyleSheet(
+            f"#replay_strip {{ background: {theme.BLUE}; border-radius: 4px; }}"
+            " #replay_strip QLabel { color: white; font-weight: bold; }")
+        self.replay_text = QLabel()
+        self.replay_text.setSizePolicy(QSizePolicy.Policy.Ignored,
+                                       QSizePolicy.Policy.Preferred)
+        self.back_to_live = QPushButton("Back to the live trial")
+        self.back_to_live.clicked.connect(self.show_live)
+        row = QHBoxLayout(self.replay_strip)
+        row.setContentsMargins(8, 2, 4, 2)
+        row.addWidget(self.replay_text, 1)
+        row.addWidget(self.back_to_live)
+        self.replay_strip.hide()
+        return self.replay_strip
+
+    def _show_replay_strip(self) -> None:
+        view = self.shown_view
+        replaying = view is not None and view is not self.live
+        on_a_view = isinstance(self.tabs.currentWidget(), (*VIEW_TABS, ReplayTab))
+        self.replay_strip.setVisible(replaying and on_a_view)
+        if replaying:
+            text = replay_line(view)
+            self.replay_text.setText(text)
+            self.replay_text.setToolTip(text)
+            self.back_to_live.setVisible(self.live is not None)
+
+    def show_live(self) -> None:
+        """The tabs show the live (or last live) trial again instead of a replay."""
+        if self.live is None:
+            return
+        self.shown_view = self.live
+        self._show_current()
 
     def _connect_signals(self) -> None:
         b, r = self.bridge, self.robot
@@ -161,7 +221,8 @@ class MainWindow(TrialActions, TrialEmg, FaultLatch, MessageLine, RememberedSett
         b.replied.connect(self._on_reply)
         b.loop_lost.connect(self._on_loop_lost)
         r.build_clicked.connect(self.build)
-        r.connect_clicked.connect(self.bridge.connect)
+        r.connect_clicked.connect(self.connect_robot)
+        b.sensor_zeroed.connect(self._on_sensor_zeroed)
         r.disconnect_clicked.connect(self.bridge.disconnect)
         r.start_clicked.connect(self.start_trial)
         r.stop_clicked.connect(self.bridge.stop)
@@ -171,6 +232,8 @@ class MainWindow(TrialActions, TrialEmg, FaultLatch, MessageLine, RememberedSett
         self.registration_tab.registered.connect(self._on_registered)
         self.registration_tab.patient_selected.connect(self._on_patient)
         self.parameters_tab.parameters_changed.connect(lambda *_: self._refresh_buttons())
+        # at once, not after the check's debounce: Start must never run a stale trial
+        self.parameters_tab.edited.connect(self._refresh_buttons)
         self.parameters_tab.assistance_changed.connect(self._assistance_changed)
         self.parameters_tab.camera_changed.connect(self.video.open_camera)
         self.trajectory.flip_changed.connect(self._on_flip)
@@ -212,10 +275,38 @@ class MainWindow(TrialActions, TrialEmg, FaultLatch, MessageLine, RememberedSett
     # ------------------------------------------------------------------ other tabs
     def _on_patient(self, patient: Patient) -> None:
         self.patient = patient
-        self.parameters_tab.show_proposal(None)  # a proposal belongs to its patient
+        self._patient_folders(patient.code)
         self.parameters_tab.apply_patient(patient)
+        self._offer_pending_proposal(patient.code)  # a proposal belongs to its patient
         self.progress.set_patient(patient.code)
         self.replay.set_patient(patient.code)
+
+    def _patient_folders(self, code: str) -> None:
+        """Every file dialog starts in the patient's folder of the data folder (private,
+        0700), never in the program's folder (issue 27 #11)."""
+        data = self.registry.data_dir
+        try:
+            trials = data.ensure(data.trials_dir.name, code)
+            reports = data.ensure(data.reports_dir.name, code)
+        except Exception as exc:  # DataDirError: said, and the dialogs start as before
+            self._say(f"The patient's folders could not be made: {exc}", problem=True)
+            return
+        self.replay.files_folder = self.angles.files_folder = str(trials)
+        self.report.pdf_folder = str(reports)
+
+    def _offer_pending_proposal(self, code: str) -> None:
+        """The patient's last proposal the registry still holds as pending (made after a
+        trial, not yet decided by the next one's start): offered again after a restart."""
+        from app.trials.progression import Proposal
+
+        pending = self.registry.pending_proposal(code)
+        if pending is None:
+            self.parameters_tab.show_proposal(None)
+            return
+        trial = self.registry.trial(pending.trial_id)
+        after = (f"After trial {trial.number} of session {trial.session_number} "
+                 f"({trial.session_date:%d %b %Y}):")
+        self.parameters_tab.show_proposal(Proposal.from_dict(pending.proposal), after=after)
 
     def _on_registered(self, patient: Patient, registration: Registration) -> None:
         self.patient = patient
@@ -231,6 +322,7 @@ class MainWindow(TrialActions, TrialEmg, FaultLatch, MessageLine, RememberedSett
         self.shown_view = view
         for tab in self.view_tabs:
             tab.show_view(view)
+        self._show_replay_strip()
         # the trial's video follows the slider too (the Video tab shows its last frame)
         self.video.show_replay(view.video)
         if view.video is not None and view.n:
@@ -240,6 +332,7 @@ class MainWindow(TrialActions, TrialEmg, FaultLatch, MessageLine, RememberedSett
         for tab in self.view_tabs:
             tab.set_cursor(t)
         self.video.seek(t)
+        self._show_replay_strip()
 
     # ------------------------------------------------------------------ live view
     def _repaint(self) -> None:
@@ -256,3 +349,4 @@ class MainWindow(TrialActions, TrialEmg, FaultLatch, MessageLine, RememberedSett
         tab = self.tabs.currentWidget()
         if self.shown_view is not None and isinstance(tab, VIEW_TABS):
             tab.show_view(self.shown_view)
+        self._show_replay_strip()

@@ -15,7 +15,8 @@ from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 
 import pyqtgraph as pg
-from PySide6.QtCore import QObject, Qt, Signal
+from PySide6.QtCore import QEvent, QObject, Qt, Signal
+from PySide6.QtGui import QFontMetrics
 from PySide6.QtWidgets import (
     QFrame,
     QHBoxLayout,
@@ -43,7 +44,11 @@ def configure_plot(item: pg.PlotItem, x_label: str, y_label: str, *, title: str 
     # The axes draw the grid; pyqtgraph stacks them above the data (z 0.5), so opaque
     # grid lines would cross the curves and markers. Behind the data instead.
     for name in ("left", "bottom", "right", "top"):
-        item.getAxis(name).setZValue(-1)
+        axis = item.getAxis(name)
+        axis.setZValue(-1)
+        # plain units on every axis: pyqtgraph would rescale small or large values with a
+        # prefix of its own ("torque (N·m) (x0.001)" over ticks of ±500, issue 27 #12)
+        axis.enableAutoSIPrefix(False)
     item.setLabel("bottom", x_label)
     item.setLabel("left", y_label)
     if title:
@@ -72,9 +77,20 @@ def curve(item: pg.PlotItem, colour: str, *, dashed: bool = False, name: str | N
 
 
 def legend(item: pg.PlotItem) -> pg.LegendItem:
-    """The plot's legend in the top left, in caption type on a light backing."""
-    box = item.addLegend(offset=(10, 10), labelTextSize=f"{theme.point_size('caption')}pt")
-    box.setBrush(pg.mkBrush(255, 255, 255, 220))
+    """The plot's legend on one row above its data, in caption type: inside the data it
+    covered the first points of every trial (issue 27 #12, #13). Curves added later with
+    a name appear in it (pyqtgraph adds them to `item.legend`)."""
+    box = pg.LegendItem(colCount=8, labelTextSize=f"{theme.point_size('caption'):.1f}pt",
+                        horSpacing=round(16 * theme.font_scale()), verSpacing=0)
+    box.setBrush(pg.mkBrush(None))
+    box.setPen(pg.mkPen(None))
+    # in the title's row of the plot's grid: these plots have no title
+    item.layout.removeItem(item.titleLabel)
+    item.titleLabel.hide()
+    item.layout.addItem(box, 0, 1)
+    height = QFontMetrics(theme.axis_font()).lineSpacing() + round(8 * theme.font_scale())
+    item.layout.setRowFixedHeight(0, height)
+    item.legend = box
     return box
 
 
@@ -85,6 +101,22 @@ def joint_curves(item: pg.PlotItem) -> list[pg.PlotDataItem]:
         curve(item, theme.BLUE, name="shoulder"),
         curve(item, theme.ORANGE, dashed=True, name="elbow"),
     ]
+
+
+def label_room(y_label: str, rows: int = 5) -> int:
+    """The least height (px) a plot needs for its y label, turned beside the data, with
+    `rows` lines of text for the time axis below and a key above: a plot squeezed below
+    it cut its label (issue 27 #13)."""
+    metrics = QFontMetrics(theme.axis_font())
+    return metrics.horizontalAdvance(y_label) + rows * metrics.lineSpacing() + 24
+
+
+def show_whole(item: pg.PlotItem, time_s) -> None:
+    """Show the whole trial on `item`'s time axis (and on the plots linked to it): a plot
+    whose x range followed another's data showed the first second of a 12.8 s trial
+    (the EMG tab's torques, linked to envelopes of one second, issue 27 #12)."""
+    if len(time_s):
+        item.setXRange(float(time_s[0]), float(time_s[-1]), padding=0.0)
 
 
 def cursor_line(item: pg.PlotItem) -> pg.InfiniteLine:
@@ -218,15 +250,36 @@ def vertical_scroll(content: QWidget, min_width: int, max_width: int | None = No
                     ) -> QScrollArea:
     """`content` in an area that scrolls up and down rather than make the window taller
     than a laptop's screen, at least `min_width` (at most `max_width`) wide beside its
-    scroll bar, and never narrower than its widest row: nothing is cut at the right."""
+    scroll bar, and never narrower than its widest row: nothing is cut at the right, also
+    when a row grows later (a label that changes with a choice, a larger font)."""
     scroll = QScrollArea()
     scroll.setWidgetResizable(True)
     scroll.setWidget(content)
     scroll.setFrameShape(QFrame.Shape.NoFrame)
     scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
-    bar = scroll.verticalScrollBar().sizeHint().width()
-    widest = content.minimumSizeHint().width()
-    scroll.setMinimumWidth(max(min_width, widest) + bar)
-    if max_width is not None:
-        scroll.setMaximumWidth(max(max_width, widest) + bar)
+    fit = _FitWidth(scroll, content, min_width, max_width)
+    content.installEventFilter(fit)
+    fit.fit()
     return scroll
+
+
+class _FitWidth(QObject):
+    """Keeps a vertical scroll area as wide as its content's widest row."""
+
+    def __init__(self, scroll: QScrollArea, content: QWidget, min_width: int,
+                 max_width: int | None) -> None:
+        super().__init__(scroll)
+        self.scroll, self.content = scroll, content
+        self.min_width, self.max_width = min_width, max_width
+
+    def fit(self) -> None:
+        bar = self.scroll.verticalScrollBar().sizeHint().width()
+        widest = self.content.minimumSizeHint().width()
+        self.scroll.setMinimumWidth(max(self.min_width, widest) + bar)
+        if self.max_width is not None:
+            self.scroll.setMaximumWidth(max(self.max_width, widest) + bar)
+
+    def eventFilter(self, watched, event) -> bool:
+        if event.type() == QEvent.Type.LayoutRequest:
+            self.fit()
+        return False

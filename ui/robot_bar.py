@@ -1,17 +1,33 @@
 """The robot buttons (Fig. A.3), shown on every tab: Build, Connect, Disconnect, Start (green),
-Stop (red), Save data, and a large emergency stop.
+Stop (red), Save data, and a large emergency stop; under the buttons, one line saying what
+holds the next step (a greyed Build or Start says why on every tab, not only in its
+tooltip).
 
-A button is enabled only when the loop's state allows its command, so a tired therapist
-cannot press them out of order; the loop refuses out-of-order commands anyway.
+A button is enabled only when the loop's state and the window allow its command
+(ui.views.readiness), so a tired therapist cannot press them out of order; the loop
+refuses out-of-order commands anyway.
+
+Each button's key is on a second line, so the bar fits a 1366-pixel screen at font scale
+1.5; the emergency stop is at least as wide as its words in its own font (at scale 1.5
+it read "MERGENCY STO").
 """
 
 from __future__ import annotations
 
 from PySide6.QtCore import Qt, Signal
-from PySide6.QtGui import QKeySequence
-from PySide6.QtWidgets import QHBoxLayout, QPushButton, QSizePolicy, QWidget
+from PySide6.QtGui import QFont, QFontMetrics, QKeySequence
+from PySide6.QtWidgets import (
+    QHBoxLayout,
+    QLabel,
+    QPushButton,
+    QSizePolicy,
+    QVBoxLayout,
+    QWidget,
+)
 
 from device.loop.states import State
+from ui import theme
+from ui.views.readiness import Readiness, readiness
 
 # (name, label, key) in the order of a session
 BUTTONS = (
@@ -28,15 +44,24 @@ START_STYLE = ("QPushButton:enabled { background: #009E73; color: white; font-we
                " QPushButton:disabled { font-weight: normal; }")
 STOP_STYLE = ("QPushButton:enabled { background: #D55E00; color: white; font-weight: bold; }"
               " QPushButton:disabled { font-weight: normal; }")
-ESTOP_STYLE = (
-    "QPushButton { background: #C00000; color: white; font-weight: bold; font-size: 15pt;"
-    " border: 3px solid #600000; border-radius: 8px; padding: 6px 18px; }"
-    "QPushButton:pressed { background: #800000; }"
-)
+ESTOP_WORDS = ("EMERGENCY STOP", "(Esc / Space)")
+ESTOP_POINTS = 15.0
+"""The e-stop's words at font scale 1 (pt); they grow with the scale."""
+ESTOP_PADDING_PX = 18
+
+
+def _estop_style(point_size: float) -> str:
+    return (
+        "QPushButton { background: #C00000; color: white; font-weight: bold;"
+        f" font-size: {point_size:.1f}pt;"
+        f" border: 3px solid #600000; border-radius: 8px; padding: 6px {ESTOP_PADDING_PX}px; }}"
+        "QPushButton:pressed { background: #800000; }"
+    )
 
 
 class RobotBar(QWidget):
-    """Emits one signal per button; `update_for(...)` enables what the state allows."""
+    """Emits one signal per button; `show_readiness(...)` enables what is allowed and says
+    why the rest waits."""
 
     build_clicked = Signal()
     connect_clicked = Signal()
@@ -50,43 +75,94 @@ class RobotBar(QWidget):
         super().__init__(parent)
         layout = QHBoxLayout(self)
         layout.setContentsMargins(6, 4, 6, 4)
+        buttons_row = QHBoxLayout()
+        buttons_row.setContentsMargins(0, 0, 0, 0)
         self.buttons: dict[str, QPushButton] = {}
+        self._labels: dict[str, str] = {}
         for name, label, key in BUTTONS:
-            button = QPushButton(f"{label}  ({key})")
+            button = QPushButton(f"{label}\n{key}")
             button.setObjectName(f"robot_{name}")
             button.setShortcut(QKeySequence(key))
             button.setMinimumHeight(44)
             button.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Fixed)
             button.clicked.connect(getattr(self, f"{name}_clicked").emit)
-            layout.addWidget(button)
+            buttons_row.addWidget(button)
             self.buttons[name] = button
+            self._labels[name] = f"{label} ({key})"
         self.buttons["start"].setStyleSheet(START_STYLE)
         self.buttons["stop"].setStyleSheet(STOP_STYLE)
+        # what holds the next step, on every tab (one line, cut with "…"; whole in its
+        # tooltip)
+        self.why = theme.set_role(ElidedLabel(), "problem")
+        self.why.setObjectName("robot_why")
+        self.why.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Fixed)
+        self.why.setFixedHeight(QFontMetrics(_bold(self.why.font())).lineSpacing() + 2)
+        column = QVBoxLayout()
+        column.setContentsMargins(0, 0, 0, 0)
+        column.setSpacing(2)
+        column.addLayout(buttons_row)
+        column.addWidget(self.why)
+        layout.addLayout(column, 1)
         layout.addSpacing(24)
-        self.estop = QPushButton("EMERGENCY STOP\n(Esc / Space)")
+        self.estop = QPushButton("\n".join(ESTOP_WORDS))
         self.estop.setObjectName("robot_estop")
-        self.estop.setStyleSheet(ESTOP_STYLE)
         self.estop.setMinimumHeight(64)
-        self.estop.setMinimumWidth(220)
         self.estop.setFocusPolicy(Qt.FocusPolicy.NoFocus)
         self.estop.pressed.connect(self.estop_clicked.emit)
+        self.fit_estop()
         layout.addWidget(self.estop)
-        self.update_for(State.IDLE, can_build=False, can_start=False, can_save=False)
+        self.readiness: Readiness | None = None
+        self.show_readiness(readiness(State.IDLE, form_problem="", registered=False,
+                                      built=False, stale=False, held="", unsaved=False))
 
-    def update_for(self, state: State, *, can_build: bool, can_start: bool,
-                   can_save: bool, start_needs: str = "") -> None:
-        """Enable each button only where its command is allowed in `state`; `start_needs`
-        says what Start still needs when only that keeps it greyed (its tooltip)."""
-        enabled = {
-            "build": can_build and state in (State.IDLE, State.BUILT, State.CONNECTED),
-            "connect": state == State.BUILT,
-            "disconnect": state in (State.CONNECTED, State.FAULTED),
-            "start": can_start and state == State.CONNECTED,
-            "stop": state == State.RUNNING,
-            "save": can_save and state not in (State.RUNNING, State.STOPPING),
-        }
-        for name, on in enabled.items():
-            self.buttons[name].setEnabled(on)
-        start = self.buttons["start"]
-        start.setToolTip(f"Start needs {start_needs}" if start_needs and not enabled["start"]
-                         else "Start the trial (F5)")
+    def fit_estop(self) -> None:
+        """The e-stop's words in its font at the current font scale, never cut: its
+        minimum width is theirs plus its padding and border."""
+        points = ESTOP_POINTS * theme.font_scale()
+        self.estop.setStyleSheet(_estop_style(points))
+        font = QFont(self.estop.font())
+        font.setPointSizeF(points)
+        font.setBold(True)
+        metrics = QFontMetrics(font)
+        words = max(metrics.horizontalAdvance(line) for line in ESTOP_WORDS)
+        self.estop.setMinimumWidth(words + 2 * ESTOP_PADDING_PX + 6 + 8)
+        self.estop.setMinimumHeight(max(64, 2 * metrics.lineSpacing() + 12 + 6))
+
+    def show_readiness(self, ready: Readiness) -> None:
+        """Enable the buttons `ready` allows; a greyed one's tooltip says why, and the line
+        under them says what holds the next step."""
+        self.readiness = ready
+        for name, button in self.buttons.items():
+            on = ready.enabled[name]
+            button.setEnabled(on)
+            button.setToolTip(ready.tooltips.get(name) or self._labels[name])
+        self.why.set_whole(f"{theme.PROBLEM_SIGN} {ready.line}" if ready.line else "")
+        self.why.setToolTip(ready.line)
+
+
+class ElidedLabel(QLabel):
+    """One line that ends in "…" where it does not fit (the whole text stays in
+    `whole` and in the tooltip its owner sets)."""
+
+    def __init__(self, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.whole = ""
+
+    def set_whole(self, text: str) -> None:
+        self.whole = text
+        self._fit()
+
+    def resizeEvent(self, event) -> None:
+        super().resizeEvent(event)
+        self._fit()
+
+    def _fit(self) -> None:
+        metrics = QFontMetrics(_bold(self.font()))  # the problem role is bold
+        self.setText(metrics.elidedText(self.whole, Qt.TextElideMode.ElideRight,
+                                        max(self.width() - 4, 0)))
+
+
+def _bold(font: QFont) -> QFont:
+    font = QFont(font)
+    font.setBold(True)
+    return font

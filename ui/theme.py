@@ -175,7 +175,7 @@ QCheckBox, QRadioButton {{ min-height: {touch - 8}px; spacing: {pad}px; }}
 QCheckBox::indicator, QRadioButton::indicator {{
     width: {round(20 * font_scale())}px; height: {round(20 * font_scale())}px;
 }}
-QTabBar::tab {{ min-height: {touch}px; padding: 0 {3 * pad}px; }}
+QTabBar::tab {{ min-height: {touch}px; padding: 0 {round(1.5 * pad)}px; }}
 QGroupBox {{
     font-weight: 600; border: 1px solid #C4C7CC; border-radius: 6px;
     margin-top: {round(point_size() * 1.2)}px; padding-top: {pad}px;

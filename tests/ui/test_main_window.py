@@ -74,7 +74,8 @@ def test_a_whole_session(qtbot, window, tmp_path, caplog):
     p.assistance.selectAll()
     qtbot.keyClicks(p.assistance, "40")
     qtbot.keyClick(p.assistance, Qt.Key.Key_Return)
-    assert "Assistance set to 40%" in win.message.text()
+    # said once the loop has taken it
+    qtbot.waitUntil(lambda: "Assistance set to 40%" in win.message.text(), timeout=5000)
     # live view fills while the trial runs
     qtbot.waitUntil(lambda: win.live is not None and win.live.n > 200, timeout=10000)
     # the trial completes, is finalised, and the report is shown
@@ -308,12 +309,17 @@ def test_messages_and_banners_never_grow_the_window_or_hide_the_emergency_stop(
     height = win.height()
     assert win.minimumSizeHint().height() <= 768 - 30
     long = "The control loop ran late and this sentence goes on and on " * 6
+
+    def fault(text: str) -> None:  # as the loop reports one: the fault, then its state
+        win._on_fault(int(Fault.LATE_TICK), text, {})
+        win._on_state(int(State.FAULTED), text)
+
     win._say(long)
-    win._show_banner(long)  # the banner takes its fixed place
+    fault(long)  # the banner takes its fixed place
     hint = win.minimumSizeHint().height()
     for k in range(20):
         win._say(f"{k}: {long}", problem=k % 2 == 0)
-        win._show_banner(f"{k}: {long}")
+        fault(f"{k}: {long}")
         qtbot.wait(1)
     assert win.height() == height
     assert win.minimumSizeHint().height() == hint

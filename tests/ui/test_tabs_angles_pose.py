@@ -64,7 +64,9 @@ def test_without_a_pose_the_panel_says_how_to_get_one(qtbot, qapp, tmp_path):
     view = TrialView.from_trial(read_trial(path))
     assert view.pose is None
     tab.show_view(view)
-    assert "rehab pose" in tab.camera_note.text()
+    # in the therapist's words, not a shell command (issue 27 #14)
+    assert "Joint angles from the video" in tab.camera_note.text()
+    assert "rehab" not in tab.camera_note.text()
     assert tab.camera_curves[0].getOriginalDataset()[0] is None or \
         len(tab.camera_curves[0].getOriginalDataset()[0]) == 0
 

@@ -34,10 +34,12 @@ def tab(qtbot, qapp):
     return widget
 
 
-def type_into(qtbot, spin, text: str) -> None:
-    spin.setFocus()
-    spin.selectAll()
-    qtbot.keyClicks(spin, text)
+def type_into(qtbot, field, text: str) -> None:
+    """Type as a therapist does, then commit with Enter (a number counts only then)."""
+    field.setFocus()
+    field.selectAll()
+    qtbot.keyClicks(field, text)
+    qtbot.keyClick(field, Qt.Key.Key_Return)
 
 
 def test_shoulder_as_printed_is_refused_with_distances_and_marked_on_the_preview(qtbot, tab):

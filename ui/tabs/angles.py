@@ -17,8 +17,8 @@ from ui.views.numbers import format_number
 from ui.views.trialview import TrialView
 
 JOINTS = ("shoulder", "elbow")
-NO_POSE = ("No camera angles for this trial. With a video recorded beside it, "
-           "`rehab pose` adds them here beside the solver's.")
+NO_POSE = ("No camera angles for this trial. With a video recorded beside it, the "
+           "Replay tab's Joint angles from the video adds them here beside the solver's.")
 
 
 class AnglesTab(QWidget):
@@ -48,10 +48,13 @@ class AnglesTab(QWidget):
         self.camera_note.setAccessibleName("Camera against the solver")
         # Table 3.4's own validation as a tool: the solver and the camera against a
         # goniometer's or a motion-capture system's angles (core.pose.compare's CSV)
+        self.files_folder = ""
+        """Where the reference's file dialog starts: the patient's trials (ui.main_window)."""
         self.reference_button = QPushButton("Compare with reference angles…")
         self.reference_button.setToolTip(
             "A CSV with a header frame or time_s, shoulder_deg, elbow_deg (ISB angles, as a "
-            "goniometer reads them); for a trial `rehab pose` has run on")
+            "goniometer reads them); for a trial whose joint angles from the video were "
+            "found (Replay tab)")
         self.reference_button.clicked.connect(self.choose_reference)
         self.reference_button.setEnabled(False)
         self.reference_note = theme.set_role(QLabel(""), "caption")
@@ -95,7 +98,7 @@ class AnglesTab(QWidget):
         plots.place_cursor(self.cursor_line, view.cursor)
 
     def choose_reference(self) -> None:
-        path, _ = QFileDialog.getOpenFileName(self, "Reference angles", "",
+        path, _ = QFileDialog.getOpenFileName(self, "Reference angles", self.files_folder,
                                               "CSV files (*.csv);;All files (*)")
         if path:
             self.compare_reference(Path(path))

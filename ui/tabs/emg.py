@@ -197,6 +197,7 @@ class EmgTab(QWidget):
         torque = view.column("subject_torque")
         for j, line in enumerate(self.torque_curves):
             line.setData(view.time[ex], torque[j, ex])
+        plots.show_whole(self.torques.getPlotItem(), view.time)
         lines = [self.data.message] if self.data.message else []
         for muscle, peak in self.data.peaks.items():
             flags = self.data.flags.get(muscle, ())

@@ -211,10 +211,10 @@ class RegistrationTab(QWidget):
         right.addWidget(new)
         right.addStretch(1)
         # the two forms scroll rather than make the window taller than a laptop's screen
-        scroll = plots.vertical_scroll(forms, 0)
+        self.forms_scroll = plots.vertical_scroll(forms, 0)
         layout = QHBoxLayout(self)
         layout.addWidget(find, 1)
-        layout.addWidget(scroll, 1)
+        layout.addWidget(self.forms_scroll, 1)
         self._enable_numbers(False)
         if registry is not None:
             self.search()
@@ -352,6 +352,9 @@ class RegistrationTab(QWidget):
         self.search_field.blockSignals(False)
         self.choose(patient)
         self.search()
+        # the new patient's name and stored measurements, at the top of the forms
+        self.bring_into_view(self.measurements_label)
+        self.bring_into_view(self.patient_label)
         return patient
 
     def _clear_new(self) -> None:
@@ -412,9 +415,17 @@ class RegistrationTab(QWidget):
             s.number == session for s in self.registry.sessions(code)))
         self._registration = registration
         self.confirmed.setText(f"Next trial: {code}, session {session}, trial {trial}.")
+        self.bring_into_view(self.confirmed)
         self.registered.emit(patient, registration)
         return registration
 
     def _show(self, label: QLabel, message: str) -> None:
         label.setText(f"{theme.PROBLEM_SIGN} {message}")
         label.show()
+        self.bring_into_view(label)
+
+    def bring_into_view(self, widget: QWidget) -> None:
+        """Scroll the forms so that `widget` is in view once laid out: the result of what
+        the therapist just did, never below the fold (issue 27 #15)."""
+        QTimer.singleShot(0, self.forms_scroll,
+                          lambda: self.forms_scroll.ensureWidgetVisible(widget, 0, 24))

@@ -69,6 +69,8 @@ class ReplayTab(QWidget):
     def __init__(self, registry: RecordStore | None = None, parent=None) -> None:
         super().__init__(parent)
         self.registry = registry
+        self.files_folder = ""
+        """Where Open file… starts: the chosen patient's trials (ui.main_window)."""
         self._code: str | None = None
         self._view: TrialView | None = None
         self._loading: Path | None = None
@@ -213,7 +215,9 @@ class ReplayTab(QWidget):
             self._open_item(item)
 
     def _choose_file(self) -> None:
-        start = str(self.registry.data_dir.root) if self.registry is not None else ""
+        # the patient's folder of the data folder (the window sets it), not the program's
+        start = self.files_folder or (str(self.registry.data_dir.trials_dir)
+                                      if self.registry is not None else "")
         path, _ = QFileDialog.getOpenFileName(self, "Open a trial", start,
                                               "Trial files (*.h5);;All files (*)")
         if path:

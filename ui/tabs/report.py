@@ -69,6 +69,7 @@ class ReportTab(QWidget):
         self._content: ReportContent | None = None
         self._source: Path | None = None
         self.path_plot: pg.PlotWidget | None = None  # the patient's path, once a report shows
+        self.pdf_folder = ""  # where Save as PDF… starts: the patient's reports folder
         # Two queues: a newer report request replaces a waiting one, but must never
         # replace a PDF the therapist asked to save.
         self.background = plots.Background(self)
@@ -309,6 +310,8 @@ class ReportTab(QWidget):
         if self._content is None:
             return
         suggested = self._content.source.with_suffix(".pdf").name
+        if self.pdf_folder:  # the patient's reports in the data folder (ui.main_window)
+            suggested = str(Path(self.pdf_folder) / suggested)
         path, _ = QFileDialog.getSaveFileName(self, "Save the report", suggested, "PDF (*.pdf)")
         if path:
             self.save_pdf(path)

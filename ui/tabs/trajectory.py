@@ -52,14 +52,17 @@ class TrajectoryTab(QWidget):
         item.addItem(self.hand_mark)
 
         # the error on each axis against time: where in the trial the hand left the path
-        self.error_plot = plots.make_plot("time (s)", "position error (mm)")
+        self.error_plot = plots.make_plot("time (s)", "error (mm)")
         errors = self.error_plot.getPlotItem()
         plots.legend(errors)
         self.error_curves = [plots.curve(errors, theme.BLUE, name="x (sideways)"),
                              plots.curve(errors, theme.ORANGE, dashed=True,
                                          name="y (forward and back)")]
         self.cursor_line = plots.cursor_line(errors)
-        self.error_plot.setMaximumHeight(220)
+        # tall enough for its turned label beside the data at any font scale (at 1366 × 768
+        # the label was cut): the label, the time axis below and the key above
+        self.error_plot.setMinimumHeight(plots.label_room("error (mm)"))
+        self.error_plot.setMaximumHeight(round(260 * theme.font_scale()))
         both = QWidget()
         stack = QVBoxLayout(both)
         stack.setContentsMargins(0, 0, 0, 0)

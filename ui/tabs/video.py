@@ -223,7 +223,8 @@ class VideoTab(QWidget):
             _draw_keypoints(pixmap, width, frame.keypoints_px)
         self.picture.setPixmap(pixmap)
         self._replay_index = frame.index
-        pose = "" if frame.keypoints_px is not None else " (no pose: run rehab pose on it)"
+        pose = ("" if frame.keypoints_px is not None
+                else " (no pose yet: Replay tab, Joint angles from the video)")
         self.state.setText(f"Replay of {replay.name}: frame {frame.index} at "
                            f"{frame.time_s:.2f} s{pose}.")
 

@@ -36,8 +36,9 @@ def emg_view(path: Path | None) -> EmgView:
         return EmgView(message="No trial file yet: EMG shows here once a trial is saved.")
     try:
         if read_emg(path) is None:
-            return EmgView(message="This trial has no EMG. Import it with "
-                                   "`rehab emg import TRIAL FILE`.")
+            return EmgView(message="This trial has no EMG. To record it with the next "
+                                   "trial, connect the EMG source on this tab before "
+                                   "Start.")
         env = trial_envelopes(path)
     except (AppError, CoreError, DeviceError) as exc:
         return EmgView(message=str(exc))

@@ -2,9 +2,11 @@
 dialog, the banner in vermillion with the fault's cause in plain words, and its Clear
 fault.
 
-The e-stop is a shared flag the loop reads every tick (device.loop.client): pressing it
-sets the flag and shows the supervisor's own words for it at once; Clear fault releases
-the flag and asks the loop to clear, one tick later, once a tick has seen it released.
+The banner, the buttons and the loop's latch are one state, `ui.views.latch.Latch`: the
+e-stop is a shared flag the loop reads every tick while connected (device.loop.client),
+a fault puts the loop in FAULTED; the banner shows exactly what is latched, and Clear
+fault releases the flag and, with a robot connected, asks the loop to clear, one tick
+later, once a tick has seen it released.
 """
 
 from __future__ import annotations
@@ -36,19 +38,17 @@ class FaultLatch:
             " #fault_banner QLabel { color: white; font-weight: bold; }")
         self.banner_text = QLabel()
         lines = fixed_lines(self.banner_text, MESSAGE_LINES)
+        # in the event line's place (ui.window.message_line): a fault never pushes the
+        # window taller (issue 13 #3)
         self.banner.setFixedHeight(max(lines, 40) + 16)
-        # its place is kept while hidden: a fault never pushes the window taller (issue 13 #3)
-        policy = self.banner.sizePolicy()
-        policy.setRetainSizeWhenHidden(True)
-        self.banner.setSizePolicy(policy)
         self.banner_text.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Fixed)
         self.clear_button = QPushButton("Clear fault")
         self.clear_button.setObjectName("clear_fault")
         self.clear_button.setMinimumHeight(40)
         row = QHBoxLayout(self.banner)
+        row.setContentsMargins(8, 4, 4, 4)
         row.addWidget(self.banner_text, 1)
         row.addWidget(self.clear_button)
-        self.banner.hide()
         return self.banner
 
     def _bind_estop_keys(self) -> None:
@@ -59,34 +59,47 @@ class FaultLatch:
             shortcut.activated.connect(self.emergency_stop)
 
     def emergency_stop(self) -> None:
+        """The e-stop pressed, in any state: the flag at once, the banner with it. With no
+        robot connected it stays held (Build, Connect and Start wait) until Clear fault."""
+        self.latch.press()
         self.bridge.estop(True)
-        # the supervisor's own words for it, as the loop will report it (one wording)
-        self._show_banner(Fault.ESTOP.banner())
+        self._show_latch()
 
     def clear_fault(self) -> None:
-        self.bridge.estop(False)
-        # the supervisor clears only once a tick has seen the e-stop released
-        QTimer.singleShot(CLEAR_DELAY_MS, self.bridge.clear_fault)
-
-    def _clear_fault_answered(self, ok: bool) -> None:
-        """The loop's answer to Clear fault."""
-        if not ok:
-            if self.fault_code == Fault.ESTOP:
-                self.bridge.estop(True)  # keep it latched: clearing was refused
+        """Clear fault: the e-stop released; with a robot connected the loop is asked to
+        clear too, once a tick has seen the release. The banner goes when the latch does
+        (ui.views.latch), not before."""
+        if not self.latch.clearable:
             return
-        self.fault_code = 0
-        self.banner.hide()
-        self.messages.clear_fault()
-        self._say("Fault cleared.", states=(State.IDLE, State.BUILT, State.CONNECTED,
-                                            State.RUNNING, State.STOPPING))
+        ask_loop = self.latch.release()
+        self.bridge.estop(False)
+        if ask_loop:
+            self._clear_asked += 1
+            # the supervisor clears only once a tick has seen the e-stop released
+            QTimer.singleShot(CLEAR_DELAY_MS, self.bridge.clear_fault)
+        else:
+            self._say("Emergency stop released.", states=(State.IDLE, State.BUILT))
+        self._show_latch()
+
+    def _clear_fault_answered(self, ok: bool, message: str) -> None:
+        """The loop's answer to Clear fault. A refusal while the loop holds no fault (the
+        e-stop released before a tick latched it) is no news; any other is said."""
+        self._clear_asked = max(0, self._clear_asked - 1)
+        if ok:
+            if self.state != State.FAULTED:
+                self._say("Fault cleared.", states=(State.IDLE, State.BUILT, State.CONNECTED,
+                                                    State.RUNNING, State.STOPPING))
+        elif self.state == State.FAULTED:
+            self._say(message, problem=True)
+        self._show_latch()
 
     def _on_fault(self, code: int, message: str, detail: dict) -> None:
         log.warning("fault %s: %s %s", Fault(code).label, message,
                     {k: v for k, v in detail.items() if k != "monotonic_s"})
-        self.fault_code = code
+        self.latch.on_fault(code, message)
         if self.trial_id is not None:
             self.trial_fault = message  # kept with the trial in the registry (finalize)
-        self._show_banner(message)
+        self._show_latch()
         if detail.get("cause") == "recorder process stopped" and self.trial_id is not None:
             # no recorder is left to close the file and say so: finish the trial from
             # what reached its file, as a crash's trial is finished at the next start
@@ -96,14 +109,37 @@ class FaultLatch:
             self.jobs.run(lambda: finalize_lost(self.registry, trial_id, message),
                           lambda done: self._finalized(trial_id, done))
 
-    def _on_loop_lost(self, message: str) -> None:
-        self._show_banner(message)
-        self.clear_button.setEnabled(False)
+    def _latch_state(self, state: State, reason: str) -> None:
+        """The loop's new state into the latch; leaving FAULTED by Disconnect ends the
+        fault with the connection, and the therapist is told."""
+        was_faulted = self.latch.state == State.FAULTED
+        fault = self.latch.fault_text
+        self.latch.on_state(state, reason)
+        if was_faulted and state == State.BUILT and not self.latch.latched:
+            self._say(f"Disconnected: the robot is off and the fault ({fault}) went with "
+                      "the connection.", states=(State.IDLE, State.BUILT))
+        self._show_latch()
 
-    def _show_banner(self, text: str) -> None:
-        self.banner_text.setText(f"{theme.PROBLEM_SIGN} {text}")
-        self.banner_text.setToolTip(text)
-        self.banner.show()
-        self.clear_button.setEnabled(True)
-        self.messages.set_fault(text)
+    def _on_loop_lost(self, message: str) -> None:
+        self.latch.on_lost(message)
+        self._show_latch()
+
+    @property
+    def fault_code(self) -> int:
+        """The fault the loop has latched (0: none)."""
+        return self.latch.fault_code
+
+    def _show_latch(self) -> None:
+        """The banner and its Clear fault are the latch, always (ui.views.latch)."""
+        text = self.latch.banner
+        if text:
+            self.banner_text.setText(f"{theme.PROBLEM_SIGN} {text}")
+            self.banner_text.setToolTip(text)
+            self.notices.setCurrentWidget(self.banner)
+            self.messages.set_fault(text)
+        else:
+            self.notices.setCurrentWidget(self.message)
+            self.messages.clear_fault()
+        self.clear_button.setEnabled(self.latch.clearable)
         self._show_message()
+        self._refresh_buttons()

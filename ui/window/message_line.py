@@ -21,11 +21,14 @@ from PySide6.QtWidgets import (
     QPlainTextEdit,
     QPushButton,
     QSizePolicy,
+    QStackedWidget,
     QVBoxLayout,
+    QWidget,
 )
 
 from app.trials.finalize import finish_interrupted
 from ui import theme
+from ui.tabs.parameters import HARDWARE
 
 log = logging.getLogger("ui.main_window")  # the clinic's day log names the window
 
@@ -38,27 +41,34 @@ and in the history)."""
 class MessageLine:
     """The event line, its history and the status bar (a part of MainWindow)."""
 
-    def _build_message_row(self) -> QHBoxLayout:
-        # the event line always holds its place (empty when nothing is current): showing
-        # or hiding it must not move the tabs or the robot buttons under the mouse
+    def _build_message_row(self, banner: QWidget) -> QHBoxLayout:
+        """The event line and, in its place while something is latched, the fault banner
+        (a fault takes the event line under it away): one place of fixed height, so that
+        neither moves the tabs or the robot buttons under the mouse, and no blank band
+        is kept for a banner that is not there (it took 60 px of a laptop's 768)."""
         self.message = QLabel()
         self.message.setObjectName("console_message")
         fixed_lines(self.message, MESSAGE_LINES)
         self.message.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Fixed)
+        self.notices = QStackedWidget()
+        self.notices.addWidget(self.message)
+        self.notices.addWidget(banner)
+        self.notices.setFixedHeight(max(self.message.minimumHeight(), banner.minimumHeight()))
         self.history_button = QPushButton("History…")
         self.history_button.setObjectName("message_history")
         self.history_button.setToolTip("Everything the console said today, with its time")
         self.history_button.clicked.connect(self.show_history)
         message_row = QHBoxLayout()
         message_row.setContentsMargins(0, 0, 0, 0)
-        message_row.addWidget(self.message, 1)
+        message_row.addWidget(self.notices, 1)
         message_row.addWidget(self.history_button)
         return message_row
 
     def _build_status_bar(self) -> None:
         self.state_label = QLabel("Idle")
         self.backend_label = QLabel("")
-        self.health_label = QLabel("loop: –")
+        self.health_label = QLabel("")
+        self.health_label.setObjectName("loop_timing")
         self.trial_label = QLabel("")
         bar = self.statusBar()
         for widget in (self.state_label, self.backend_label, self.trial_label):
@@ -99,9 +109,11 @@ class MessageLine:
         return dialog
 
     def _show_health(self) -> None:
-        text = self.loop_health.text(self.fault_code)
+        robot = self.parameters_tab.backend().name == HARDWARE and self.state.ticking
+        text = self.loop_health.text(robot=robot)
         if text is not None:
             self.health_label.setText(text)
+            self.health_label.setToolTip(self.loop_health.figures())
 
     def finish_interrupted_trials(self) -> None:
         """At start-up: trials a crashed console left recording are finished from their

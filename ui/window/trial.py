@@ -3,23 +3,47 @@ checked, with the learned or EMG model they name), Connect, Start (the trial reg
 then run), Stop, Save data (the PDF report and the trial's .mat); the loop's answers and
 states; the trial's start, end and file; finishing it into the registry on the job thread
 and showing its report and the next proposal.
+
+The run is the screen: Build keeps what the form showed (`BuiltSetup`: the parameters
+and the robot chosen), and any change to the form after it makes the built trial stale,
+so Start waits for Build and says so on every tab (ui.views.readiness). Start commits a
+field still being typed in first, so a number on the screen is never left out. During a
+trial only the assistance level changes live, when the therapist commits it, and the
+window says so once the loop has taken it.
 """
 
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 from pathlib import Path
 
+from core.trial import TrialParameters
 from device.loop.messages import BackendConfig
 from device.loop.states import State
 from device.recording.trialfile import SubjectInfo
 from ui.tabs import VIEW_TABS
-from ui.tabs.parameters import HARDWARE
+from ui.tabs.parameters import HARDWARE, BackendChoice
+from ui.views.readiness import readiness, start_needs
 from ui.views.trialview import TrialView
 
 log = logging.getLogger("ui.main_window")
 
 CONNECTED_STATES = (State.CONNECTED, State.RUNNING, State.STOPPING)
+HANDS_OFF = ("Hands off the handle: the force sensor is taking its zero. Nobody may touch "
+             "the handle until the zero is taken.")
+ZERO_TAKEN = ("Zero taken: the force sensor read nothing on the handle. The patient may "
+              "hold the handle now.")
+
+
+@dataclass(frozen=True, slots=True)
+class BuiltSetup:
+    """What the form showed when the trial was built: its parameters as the form gives
+    them and the robot chosen. The built trial is what the form shows while the form
+    gives the same again."""
+
+    parameters: TrialParameters
+    backend: BackendChoice
 
 
 class TrialActions:
@@ -27,6 +51,10 @@ class TrialActions:
 
     # ------------------------------------------------------------------ robot buttons
     def build(self) -> None:
+        self.parameters_tab.commit_edits()
+        if self.latch.holds_robot():
+            self._say(f"Build waits: {self.latch.holds_robot()}.", problem=True)
+            return
         try:
             params = self.parameters_tab.parameters()
         except Exception as exc:  # ParameterError/UnreachableError: shown as is
@@ -34,6 +62,7 @@ class TrialActions:
             self.tabs.setCurrentWidget(self.parameters_tab)
             return
         choice = self.parameters_tab.backend()
+        setup = BuiltSetup(params, choice)
         model = None
         if params.learned_model:
             # the model file is read and checked here, at each Build: missing, corrupt
@@ -59,19 +88,50 @@ class TrialActions:
         if choice.name == HARDWARE:
             backend = BackendConfig(kind="quanser", hardware_settings=str(choice.settings_path))
         else:
-            backend = BackendConfig(patient=choice.patient_kind or "healthy")
+            backend = BackendConfig(patient=choice.patient_kind or "healthy", seed=choice.seed)
         self._pending_build = params
+        self._pending_setup = setup
+        self._pending_backend = backend
         if model is None:
             self.bridge.build(params, backend)
         else:
             self.bridge.build(params, backend, model=model)
         self._say("Building the trial…")
 
+    def connect_robot(self) -> None:
+        """Connect: the force sensor takes its zero in its first quarter second, so nobody
+        may touch the handle until the window says the zero is taken (docs/hardware.md,
+        Tare); a zero taken under load refuses the Connect in one line."""
+        self._say(HANDS_OFF, states=(State.BUILT,))
+        self.bridge.connect()
+
+    def _on_sensor_zeroed(self, _message: str) -> None:
+        self._say(ZERO_TAKEN, states=(State.BUILT, State.CONNECTED))
+
     def refuse_build(self, reason: str) -> None:
         self._say(f"Build refused: {reason}", problem=True)
         self.tabs.setCurrentWidget(self.parameters_tab)
 
+    def stale(self) -> bool:
+        """The form shows something else than the trial built (a field, the robot, the
+        patient's force, a proposal taken): Start would run what is not on the screen."""
+        if self.built_setup is None:
+            return False
+        return BuiltSetup(self.parameters_tab.shown(), self.parameters_tab.backend()) \
+            != self.built_setup
+
     def start_trial(self) -> None:
+        # a number still being typed is committed first: it is on the screen
+        self.parameters_tab.commit_edits()
+        waits = self.latch.holds_robot() or (self.state != State.CONNECTED and
+                                             f"the robot is {self.state.label.lower()}")
+        if not waits and self.registration is not None:
+            waits = start_needs(registered=True, built=self.built is not None,
+                                stale=self.stale(), saving=self.trial_id is not None)
+        if waits:
+            self._say(f"Start refused: {waits}.", problem=True)
+            self._refresh_buttons()
+            return
         if self.patient is None or self.registration is None:
             self._say("Register the patient first (Registration tab: choose the patient and "
                       "confirm the session and trial numbers).", problem=True)
@@ -94,6 +154,9 @@ class TrialActions:
         if camera is not None and camera.running:
             camera.start_recording(begun.path.with_suffix(".mp4"))
         self.bridge.start_trial(str(begun.path), subject)
+        # the next trial's number at once: a Start pressed as soon as this trial ends
+        # (before it is finished into the registry) was refused as a number already used
+        self.registration_tab.refresh_numbers()
 
     def save_data(self) -> None:
         trial_id = self.unsaved_trial
@@ -121,45 +184,90 @@ class TrialActions:
                   f"{pdf.parent}")
 
     def _assistance_changed(self, level: float) -> None:
-        """A connected robot takes the new assistance level at once, mid-trial too (the
-        trial file keeps an event of the change)."""
-        if self.state in (State.CONNECTED, State.RUNNING):
+        """A running trial takes the assistance level the therapist committed (Enter,
+        leaving the field, the arrows) at once; the trial's file records it per tick and
+        as an event. Outside a trial the level is the form's like any other field: Build
+        takes it (a connected robot's live level is its trial's only)."""
+        if self.state == State.RUNNING:
+            self._live_levels.append(level)
             self.bridge.set_assistance(level)
-            self._say(f"Assistance set to {level:.0%}; the robot uses it from now on.",
-                      states=CONNECTED_STATES)
+        self._refresh_buttons()
+
+    def _assistance_answered(self, ok: bool) -> None:
+        level = self._live_levels.pop(0) if self._live_levels else None
+        if level is None:
+            return
+        if ok:
+            self._say(f"Assistance set to {level:.0%} during the trial; the robot uses it "
+                      "from now on, and the trial's file records it.", states=CONNECTED_STATES)
+        else:
+            self._say(f"The trial ended before the robot took {level:.0%}: the trial ran "
+                      "without it. Press Build to run the next trial at it.", problem=True)
 
     def _refresh_buttons(self) -> None:
         tab = self.parameters_tab
-        params_ok = tab.check() is not None and not tab.problem() and not tab.backend_problem()
-        self.robot.update_for(
-            self.state, can_build=params_ok,
-            can_start=self.built is not None and self.registration is not None,
-            can_save=self.unsaved_trial is not None, start_needs=self.start_needs())
-        self.clear_button.setEnabled(self.state == State.FAULTED or self.fault_code != 0)
+        problem = tab.problem() or tab.backend_problem()
+        if not problem and tab.check() is None:
+            problem = "the parameters are being checked"
+        self.robot.show_readiness(readiness(
+            self.state, form_problem=problem, registered=self.registration is not None,
+            built=self.built is not None, stale=self.stale(), held=self.latch.holds_robot(),
+            unsaved=self.unsaved_trial is not None, saving=self.trial_id is not None))
 
     def start_needs(self) -> str:
         """What Start waits for beyond the robot's state, in words ("" when nothing)."""
-        if self.registration is None:
-            return ("a registered patient: Registration tab, choose the patient and press "
-                    "Confirm")
-        if self.built is None:
-            return "a built trial: press Build"
-        return ""
+        return start_needs(registered=self.registration is not None,
+                           built=self.built is not None, stale=self.stale(),
+                           saving=self.trial_id is not None)
 
     # ------------------------------------------------------------------ loop events
     def _on_reply(self, command: str, ok: bool, message: str) -> None:
+        if command == "clear_fault":
+            self._clear_fault_answered(ok, message)
+            return
+        if command == "set_assistance":
+            self._assistance_answered(ok)
+            return
         if not ok:
             self._say(message, problem=True)
-            if command == "clear_fault":
-                self._clear_fault_answered(False)
+            if command == "start_trial" and self.trial_id is not None:
+                self._take_back(message)
+            self._refresh_buttons()
             return
         if command == "build":
             self.built = self._pending_build
+            self.built_setup = self._pending_setup
+            self.built_backend = self._pending_backend
             self.video.pose_side = self.built.side  # the live pose follows the arm in use
-            self._say("Trial built. Connect to the robot, then Start.", states=(State.BUILT,))
-        elif command == "clear_fault":
-            self._clear_fault_answered(True)
+            connected = self.state == State.CONNECTED
+            if connected:  # the simulator was opened again with the trial just built
+                self.backend_label.setText(self._robot_words(self.backend_label.text()))
+            self._say("Trial built. Start when ready." if connected
+                      else "Trial built. Connect to the robot, then Start.",
+                      states=(State.CONNECTED,) if connected else (State.BUILT,))
         self._refresh_buttons()
+
+    def _robot_words(self, connected: str) -> str:
+        """The robot as the status bar names it: a simulator by its built config (its
+        seed, or "a new seed each trial": not the first one drawn, each trial's own is in
+        its file and its report), the hardware as the loop named it at Connect."""
+        built = self.built_backend
+        if built is not None and built.kind == "simulator":
+            return built.label
+        return connected
+
+    def _take_back(self, why: str) -> None:
+        """The loop refused the Start the registry had begun: the trial is taken back
+        (withdrawn, or finished as recording lost if samples reached its file), never left
+        'recording' with no file (app.trials.registered)."""
+        from app.trials.registered import take_back
+
+        trial_id, self.trial_id = self.trial_id, None
+        self.jobs.run(lambda: take_back(self.registry, trial_id, why),
+                      lambda done: self._say(f"The refused trial: {done.words}.",
+                                             problem=True))
+        if self.registration is not None:
+            self.jobs.run(lambda: None, lambda _: self.registration_tab.refresh_numbers())
 
     def _on_state(self, state: int, reason: str) -> None:
         if State(state) != self.state:
@@ -167,6 +275,7 @@ class TrialActions:
             log.info("robot %s → %s%s", self.state.label, State(state).label,
                      f": {reason}" if reason else "")
         self.state = State(state)
+        self._latch_state(self.state, reason)
         self.emg.trial_running = self.state in (State.RUNNING, State.STOPPING)
         self.messages.set_state(self.state)
         self._show_message()
@@ -174,10 +283,16 @@ class TrialActions:
         if (self.state == State.CONNECTED and self.built is not None
                 and reason.startswith("connected to the ")):
             # only Connect names the robot: other ways back to CONNECTED (a trial's file
-            # complete, a fault cleared) give their own reason, not a robot's name
-            self.backend_label.setText(reason.removeprefix("connected to the "))
-        if self.state == State.CONNECTED and self.start_needs():
-            self._say(f"Connected. Start needs {self.start_needs()}.",
+            # complete, a fault cleared) give their own reason, not a robot's name. A
+            # simulator drawing a seed per trial is named so, not by the first one drawn
+            # (each trial's own is in its file and its report)
+            self.backend_label.setText(self._robot_words(reason.removeprefix(
+                "connected to the ")))
+        if (self.state == State.CONNECTED and reason.startswith("connected to the ")
+                and self.start_needs()):
+            zero = " (zero taken)" if self.messages.last is not None and \
+                self.messages.last.text == ZERO_TAKEN else ""
+            self._say(f"Connected{zero}. Start needs {self.start_needs()}.",
                       states=(State.CONNECTED,))
         self._refresh_buttons()
 
@@ -214,10 +329,11 @@ class TrialActions:
             from app.trials.finalize import finalize_trial
 
             trial_id, reason = self.trial_id, self.trial_fault
-            self.trial_id = None
+            self.trial_id = None  # Start may run the next trial now (ui.views.readiness)
             self.jobs.run(lambda: finalize_trial(self.registry, trial_id, status, reason),
                           lambda done: self._finalized(trial_id, done))
             self._store_trial_emg(path)
+            self._refresh_buttons()
         if kind == "closed":
             self.force_estimate.trial_closed(path)
 

@@ -1,0 +1,545 @@
+"""One truth (issue 27), as a tired therapist tests it: the real window, with the simulator
+behind it (the real loop and recorder processes), driven through random sequences of what a
+therapist does: edit the form, take the proposal, Build, Connect, Start, Stop, change the
+level during a trial (typed, with the arrows), press the emergency stop and Clear fault in
+any state, Disconnect, and restart (a new window on the same registry).
+
+After every step:
+* what Start can run is what the form shows: Start is enabled only while the form shows
+  exactly what was last built (the parameters and the robot chosen);
+* the banner is the latch: shown exactly while the loop's e-stop line is held or the loop
+  holds a fault.
+After every trial:
+* its file's parameters are what the form showed at Start; its per-tick assistance level
+  is the level the form showed at Start, then each live change the therapist committed,
+  in order, and nothing else (no 6 % on the way to 60 %);
+* the registry's row, the report, the CSV export and the next proposal say the levels the
+  file says; the window offers that proposal, after a restart too.
+
+Waits are on conditions (the bridge has every command answered, the window and the loop
+agree on the state, the trial is finished in the registry), never on time. Each example
+costs a few trials of about two seconds; the sizes below keep the test to a few minutes
+on two cores.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, Phase, settings, strategies as st
+from hypothesis.stateful import (
+    RuleBasedStateMachine,
+    initialize,
+    invariant,
+    precondition,
+    rule,
+    run_state_machine_as_test,
+)
+from PySide6.QtCore import QCoreApplication, Qt
+
+from app.records.datadir import DataDir
+from app.records.registry import Registry
+from app.trials.reader import read_trial
+from core.trial import TrialParameters
+from device.loop.states import State
+from tests.ui.session import enabled, register_patient
+from ui.main_window import MainWindow
+
+pytestmark = pytest.mark.slow
+
+EXAMPLES = int(os.environ.get("REHAB_MACHINE_EXAMPLES", "12"))
+ONLY = {name for name in os.environ.get("REHAB_MACHINE_ONLY", "").split(",") if name}
+"""The rules to draw from (their names, comma-separated), to look at a few of the
+therapist's actions on their own; empty: all of them."""
+STEPS = int(os.environ.get("REHAB_MACHINE_STEPS", "15"))
+WAIT_MS = 60_000
+"""Generous: a waited condition never depends on how promptly a shared CI machine wakes."""
+
+FIELDS = {
+    "radius": (8.0, 10.0),
+    "duration": (2.0, 2.5),
+    "tolerance": (20.0, 30.0),
+    "assistance": (40, 60, 100),
+}
+CHOICES = {
+    "shape": ("circle", "d", "figure8"),  # a figure eight: out of this patient's reach
+    "assist": ("as-needed", "thesis"),
+    "patient_kind": ("healthy", "weak"),
+}
+
+
+TALLY: dict[str, int] = {}
+"""What the run did, printed at its end (and a run that checked no trial fails)."""
+
+
+def _count(what: str) -> None:
+    TALLY[what] = TALLY.get(what, 0) + 1
+
+
+def when(condition=None):
+    """A rule's precondition, with the REHAB_MACHINE_ONLY filter (by the rule's name)."""
+    def decorate(method):
+        name = method.__name__
+
+        def allowed(self) -> bool:
+            return (not ONLY or name in ONLY) and (condition is None or condition(self))
+
+        return precondition(allowed)(method)
+    return decorate
+
+
+def _dedup(levels) -> list[float]:
+    out: list[float] = []
+    for level in levels:
+        if not out or abs(level - out[-1]) > 1e-9:
+            out.append(float(level))
+    return out
+
+
+class TrialRun:
+    """What the test saw of one trial: the form at Start, the live levels committed."""
+
+    def __init__(self, trial_id: int, form: dict, kind: str | None) -> None:
+        self.trial_id = trial_id
+        self.form = form
+        self.kind = kind
+        self.live: list[float] = []
+
+
+class WindowMachine(RuleBasedStateMachine):
+    qtbot = None  # set by the test
+    base: Path
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.folder = Path(tempfile.mkdtemp(dir=self.base))
+        self.registry = Registry(DataDir(self.folder / "data", "test"))
+        self.settings_path = self.folder / "config" / "settings.json"
+        self.win: MainWindow | None = None
+        self.patient = None
+        self.built_form: tuple | None = None  # the form at the last Build the loop took
+        self.running: TrialRun | None = None
+        self.unchecked: list[TrialRun] = []
+        self.trials_since_restart = 0  # a restart comes between trials, as in a clinic
+
+    # -- the window ----------------------------------------------------------------------
+    def _open(self) -> None:
+        self.win = MainWindow(self.registry, settings_path=self.settings_path)
+        self.win.resize(1366, 738)
+        self.win.show()
+        self.win.start_device()
+        self.built_form = None
+
+    def _close(self) -> None:
+        if self.win is not None:
+            self.win.closing_by_signal = True
+            self.win.close()
+            self.win.deleteLater()
+            self.win = None
+            QCoreApplication.processEvents()
+
+    def teardown(self) -> None:
+        try:
+            if self.win is not None:
+                if self.running is not None:
+                    self._wait(lambda: self.win.state not in (State.RUNNING, State.STOPPING))
+                self._check_finished(wait=True)
+        finally:
+            self._close()
+            shutil.rmtree(self.folder, ignore_errors=True)
+
+    def _wait(self, condition, timeout: int = WAIT_MS) -> None:
+        self.qtbot.waitUntil(condition, timeout=timeout)
+
+    def _settle(self) -> None:
+        """Every command answered and its answer seen, the window in the loop's state."""
+        _count("steps")
+        win = self.win
+        bridge = win.bridge
+
+        def quiet() -> bool:
+            idle = bridge.idle() if hasattr(bridge, "idle") else bridge._calls.empty()
+            return idle and State(bridge.client.state) == win.state
+
+        self._wait(quiet)
+        QCoreApplication.processEvents()  # the replies posted before `idle`
+        self._wait(quiet)
+
+    def _form(self) -> tuple:
+        """What the form shows: its values (as Build would take them) and the robot."""
+        p = self.win.parameters_tab
+        return (p._values(), p.backend())
+
+    def _click(self, name: str) -> None:
+        button = self.win.robot.buttons[name]
+        assert button.isEnabled(), name
+        self.qtbot.mouseClick(button, Qt.MouseButton.LeftButton)
+
+    @initialize()
+    def start(self) -> None:
+        self._open()
+        register_patient(self.qtbot, self.win)
+        self.patient = self.win.patient
+        p = self.win.parameters_tab
+        p.repetitions.setValue(1)
+        p.duration.setValue(2.0)
+        p.refresh()
+        self._settle()
+
+    # -- what the therapist does -----------------------------------------------------------
+    # Every rule may be drawn in any state and does what a therapist would there (a greyed
+    # button is not pressed): a precondition on the window's state would change what is
+    # drawn with the timing of real processes, and Hypothesis could not replay a failure.
+    def _type(self, box, text: str) -> None:
+        """Typed, then committed with Enter; during a trial the level is a live change."""
+        win = self.win
+        win.tabs.setCurrentWidget(win.parameters_tab)
+        before = box.value()
+        live = box is win.parameters_tab.assistance and win.state == State.RUNNING
+        box.setFocus()
+        box.selectAll()
+        self.qtbot.keyClicks(box, text)
+        self.qtbot.keyClick(box, Qt.Key.Key_Return)
+        self._live(live, before, box)
+
+    def _live(self, live: bool, before, box) -> None:
+        if live and box.value() != before and self.running is not None:
+            self.running.live.append(box.value() / 100.0)
+        self._settle()
+
+    @when()
+    @rule(field=st.sampled_from(sorted(FIELDS)), data=st.data())
+    def type_a_number(self, field: str, data) -> None:
+        value = data.draw(st.sampled_from(FIELDS[field]), label=field)
+        self._type(getattr(self.win.parameters_tab, field), f"{value:g}")
+
+    @when()
+    @rule(value=st.sampled_from(FIELDS["assistance"]))
+    def type_the_level(self, value: int) -> None:
+        """The assistance level typed (during a trial: a live change)."""
+        self._type(self.win.parameters_tab.assistance, f"{value:g}")
+
+    @when()
+    @rule(up=st.booleans())
+    def level_with_the_arrows(self, up: bool) -> None:
+        win = self.win
+        box = win.parameters_tab.assistance
+        win.tabs.setCurrentWidget(win.parameters_tab)
+        before = box.value()
+        live = win.state == State.RUNNING
+        box.setFocus()
+        self.qtbot.keyClick(box, Qt.Key.Key_Up if up else Qt.Key.Key_Down)
+        self._live(live, before, box)
+
+    @when()
+    @rule(choice=st.sampled_from(sorted(CHOICES)), data=st.data())
+    def choose(self, choice: str, data) -> None:
+        value = data.draw(st.sampled_from(CHOICES[choice]), label=choice)
+        box = getattr(self.win.parameters_tab, choice)
+        box.setCurrentIndex(box.findData(value))
+        self.win.parameters_tab.refresh()
+        self._settle()
+
+    @when()
+    @rule()
+    def take_the_proposal(self) -> None:
+        p = self.win.parameters_tab
+        button = p.use_proposal
+        if button.isVisible() and button.isEnabled():
+            self.qtbot.mouseClick(button, Qt.MouseButton.LeftButton)
+        self._settle()
+
+    @when()
+    @rule()
+    def build(self) -> None:
+        if "build" not in enabled(self.win):
+            return
+        before = self.win.built
+        form = self._form()
+        self._click("build")
+        self._settle()
+        if self.win.built is not before:  # the loop took it
+            self.built_form = form
+
+    @when()
+    @rule()
+    def connect(self) -> None:
+        if "connect" in enabled(self.win):
+            self._click("connect")
+            self._settle()
+
+    @when()
+    @rule()
+    def start_a_trial(self) -> None:
+        """Start, once the last trial's report is there (a therapist reads it first)."""
+        if self.win.state not in (State.RUNNING, State.STOPPING):
+            self._check_finished(wait=True)
+        if "start" not in enabled(self.win):
+            return
+        self.start_runs_what_the_form_shows()  # at the press too, not only between steps
+        form = self._form()
+        kind = form[1].patient_kind
+        self._click("start")
+        trial_id = self.win.trial_id
+        self._settle()
+        if trial_id is not None:
+            self.running = TrialRun(trial_id, form[0], kind)
+            self.unchecked.append(self.running)
+            _count("trials started")
+            self.trials_since_restart += 1
+
+    @when()
+    @rule()
+    def run_a_trial_as_usual(self) -> None:
+        """Build (if the form is not what was built), Connect, Start, as most trials go;
+        the trial then runs while the other rules act on it."""
+        win = self.win
+        if win.state in (State.RUNNING, State.STOPPING):
+            self.wait_for_the_trial_to_end()
+        if win.state == State.FAULTED:
+            return
+        if "start" not in enabled(win):
+            self.build()
+            self.connect()
+        self.start_a_trial()
+
+    @when()
+    @rule()
+    def stop(self) -> None:
+        if "stop" in enabled(self.win):
+            self._click("stop")
+            self._settle()
+
+    @when()
+    @rule()
+    def disconnect(self) -> None:
+        if "disconnect" in enabled(self.win):
+            self._click("disconnect")
+            self._settle()
+
+    @when()
+    @rule(key=st.sampled_from((Qt.Key.Key_Escape, Qt.Key.Key_Space)))
+    def emergency_stop(self, key) -> None:
+        self.win.activateWindow()
+        self.qtbot.keyClick(self.win.tabs, key)
+        if not self.win.banner.isVisible():  # the shortcut needs the active window
+            self.win.emergency_stop()
+        _count(f"e-stops in {self.win.state.label}")
+        self._settle()
+
+    @when()
+    @rule()
+    def clear_fault(self) -> None:
+        """In any state: the banner's button when it is there, else as its shortcut would."""
+        button = self.win.clear_button
+        if button.isVisible() and button.isEnabled():
+            self.qtbot.mouseClick(button, Qt.MouseButton.LeftButton)
+        else:
+            self.win.clear_fault()
+        self._settle()
+
+    @when()
+    @rule()
+    def wait_for_the_trial_to_end(self) -> None:
+        if self.running is None:
+            return
+        self._wait(lambda: self.win.state not in (State.RUNNING, State.STOPPING))
+        self._settle()
+        self._check_finished(wait=True)
+
+    @when()
+    @rule()
+    def restart(self) -> None:
+        """Between trials, a new window on the same registry and settings, the patient
+        chosen again: the proposal still waiting is offered."""
+        if not self.trials_since_restart:
+            return
+        self._wait(lambda: self.win.state not in (State.RUNNING, State.STOPPING))
+        self._settle()
+        self._check_finished(wait=True)
+        self._close()
+        self._open()
+        self.trials_since_restart = 0
+        _count("restarts")
+        reg = self.win.registration_tab
+        reg.choose(self.patient)
+        self.qtbot.mouseClick(reg.confirm, Qt.MouseButton.LeftButton)
+        self._wait(lambda: self.win.registration is not None)
+        self._settle()
+        stored = self.registry.pending_proposal(self.patient.code) \
+            if hasattr(self.registry, "pending_proposal") else None
+        if stored is not None:
+            self._assert_offered(stored.proposal)
+            _count("proposals offered after a restart")
+
+    # -- after every step ----------------------------------------------------------------
+    @invariant()
+    def start_runs_what_the_form_shows(self) -> None:
+        if self.win is None or "start" not in enabled(self.win):
+            return
+        assert self.built_form is not None, "Start is enabled before anything was built"
+        shown = self._form()
+        assert shown == self.built_form, (
+            f"Start would run what was built, not what the form shows: built "
+            f"{_differences(self.built_form, shown)}")
+
+    @invariant()
+    def the_banner_is_the_latch(self) -> None:
+        if self.win is None:
+            return
+        win = self.win
+        if State(win.bridge.client.state) != win.state:
+            return  # an event on its way: compared once both agree (each step settles)
+        held = bool(win.bridge.client.estop_flag.value)
+        latched = held or win.state == State.FAULTED
+        assert win.banner.isVisible() == latched, (
+            f"banner {'shown' if win.banner.isVisible() else 'hidden'}, but the loop's "
+            f"e-stop line is {'held' if held else 'released'} in state {win.state.label}")
+        if latched:
+            assert not {"build", "connect", "start"} & enabled(win)
+
+    @invariant()
+    def finished_trials_say_the_same_everywhere(self) -> None:
+        if self.win is not None:
+            self._check_finished(wait=False)
+
+    # -- a finished trial ----------------------------------------------------------------
+    def _finished(self, run: TrialRun) -> bool:
+        return (self.registry.proposal(run.trial_id) is not None
+                and self.win.unsaved_trial is not None
+                and self.win.unsaved_trial >= run.trial_id)
+
+    def _check_finished(self, *, wait: bool) -> None:
+        for run in list(self.unchecked):
+            if wait:
+                self._wait(lambda run=run: self._finished(run))
+            elif not self._finished(run):
+                continue
+            self.unchecked.remove(run)
+            if run is self.running:
+                self.running = None
+            self._check_trial(run)
+
+    def _check_trial(self, run: TrialRun) -> None:
+        _count("trials checked")
+        if run.live:
+            _count("trials with live changes")
+        trial = self.registry.trial(run.trial_id)
+        path = self.registry.trial_path(trial)
+        data = read_trial(path)
+        # the file's parameters: what the form showed at Start
+        assert data.parameters == TrialParameters(**run.form), _differences(
+            (data.parameters.to_dict(), None), (TrialParameters(**run.form).to_dict(), None))
+        if run.kind is not None:
+            assert f"simulator ({run.kind}," in (data.backend or "")
+        # the per-tick level: the form's at Start, then each live change committed, in order
+        events = [float(e["values"]["level"]) for e in data.events if e["kind"] == "assistance"]
+        committed = run.live[:len(events)]
+        assert events == pytest.approx(committed), (
+            f"the file's live changes {events} are not the ones committed {run.live}")
+        start_level = run.form["assistance_level"]
+        expected = _dedup([start_level, *events])
+        ticks = _file_levels(data)
+        assert ticks == pytest.approx(expected), (
+            f"the trial ran at {ticks}; the form showed {start_level} at Start and "
+            f"{run.live} were committed during it")
+        at_end = ticks[-1]
+        percents = {round(100 * level) for level in ticks}
+        # the registry's row
+        row = getattr(trial, "assistance", None)
+        row_levels = _dedup(level for _, level in row.timeline) if row is not None else \
+            [trial.parameters["assistance_level"]]  # a registry that keeps only the built one
+        assert row_levels == pytest.approx(ticks), (
+            f"the registry says the trial ran at {row_levels}; its file says {ticks}")
+        # the report (the therapist's settings line names every level the trial ran)
+        from app.reports.build import content_for_registry_trial
+
+        content = content_for_registry_trial(self.registry, run.trial_id)
+        header = getattr(content, "therapist_header", content.header)
+        settings_line = {item.label: item.value for item in header}.get("Settings", "")
+        said = {int(n) for n in re.findall(r"(\d+) %", settings_line)}
+        assert percents <= said, (
+            f"the report says {settings_line!r}; the trial ran at {sorted(percents)} %")
+        # the next proposal steps from the level in effect at the end of the exercise
+        from app.trials.progression import Proposal
+
+        proposal = Proposal.from_dict(self.registry.proposal(run.trial_id).proposal)
+        stepped = min(1.0, max(0.0, at_end + proposal.level_step))
+        assert proposal.assistance_level == pytest.approx(stepped, abs=1e-9), (
+            f"proposed {proposal.assistance_level} after a trial that ended at {at_end}")
+        # the export (CSV, every tick) says what its file says
+        if "assistance_level" in data.channels:
+            exported = _exported_levels(path, self.folder / f"export-{run.trial_id}")
+            assert exported == pytest.approx(ticks)
+        latest = max(t.id for t in self.registry.trials_for_patient(self.patient.code))
+        if run.trial_id == latest:
+            self._assert_offered(proposal.to_dict())
+
+    def _assert_offered(self, proposal: dict) -> None:
+        from app.trials.progression import Proposal
+
+        p = self.win.parameters_tab
+        box = getattr(p, "proposal", None) or p._proposal_group
+        assert not box.isHidden(), "the proposal waiting for the next trial is not offered"
+        shown = getattr(box, "proposal", None) or getattr(p, "_proposal", None)
+        assert shown == Proposal.from_dict(proposal)
+
+
+def _file_levels(data) -> list[float]:
+    """The trial's per-tick assistance level over its ticks, each change once (a file
+    without the channel says its built level, then its events)."""
+    if "assistance_level" not in data.channels:
+        return _dedup([data.parameters.assistance_level,
+                       *(e["values"]["level"] for e in data.events if e["kind"] == "assistance")])
+    channel = data.channels["assistance_level"]
+    running = data.channels["phase"].reshape(-1) > 0
+    return _dedup(np.asarray(channel).reshape(-1)[running])
+
+
+def _exported_levels(path: Path, folder: Path) -> list[float]:
+    import csv
+
+    from app.exports.run import export_trial
+
+    written = export_trial(path, folder, format="csv")
+    table = next(p for p in written if p.suffix == ".csv")
+    with open(table, newline="") as f:
+        rows = [row for row in csv.reader(f) if row and not row[0].startswith("#")]
+    header = rows[0]  # then a row of units, then the ticks
+    assert "assistance_level" in header, "the export has no per-tick assistance level"
+    column = header.index("assistance_level")
+    phase = header.index("phase")
+    values = [float(r[column]) for r in rows[2:] if float(r[phase]) > 0]
+    return _dedup(values)
+
+
+def _differences(built: tuple, shown: tuple) -> str:
+    values = {k: (v, shown[0].get(k)) for k, v in built[0].items() if shown[0].get(k) != v}
+    robot = "" if built[1] == shown[1] else f"; robot {built[1]} → {shown[1]}"
+    return f"{values}{robot}"
+
+
+@pytest.mark.timeout(900)
+def test_what_runs_is_what_the_window_shows(qtbot, qapp, tmp_path, monkeypatch):
+    from ui import theme
+
+    theme.apply_theme(qapp)
+    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
+    WindowMachine.qtbot = qtbot
+    WindowMachine.base = tmp_path
+    TALLY.clear()
+    # No shrinking and no replay from a database: each example runs real processes and
+    # real trials, so a failure is reported at once with the steps that led to it (the
+    # window's timing is not replayed exactly, and shrinking would take many minutes).
+    run_state_machine_as_test(WindowMachine, settings=settings(
+        max_examples=EXAMPLES, stateful_step_count=STEPS, deadline=None, database=None,
+        phases=(Phase.explicit, Phase.generate),
+        suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much]))
+    print("what the machine did:", dict(sorted(TALLY.items())))
+    assert TALLY.get("trials checked", 0) > 0, "no trial ran: the invariants were not tried"

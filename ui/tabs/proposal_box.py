@@ -1,0 +1,51 @@
+"""The console's proposal for the next trial (app.trials.progression), above the
+Parameters tab's form where it stays in view: what to change and why, and *Use the
+proposal*, which puts it into the form (a change like any other: Build takes it).
+
+It is shown after a trial and, after a restart, for the chosen patient's last trial when
+the registry still holds its proposal as pending; it goes when the patient changes.
+"""
+
+from __future__ import annotations
+
+from PySide6.QtCore import Signal
+from PySide6.QtWidgets import QGroupBox, QHBoxLayout, QLabel, QPushButton
+
+
+class ProposalBox(QGroupBox):
+    """Signals: taken(Proposal) when the therapist presses Use the proposal."""
+
+    taken = Signal(object)
+
+    def __init__(self) -> None:
+        super().__init__("Proposed for the next trial")
+        self.setObjectName("proposal_box")
+        self.text = QLabel("")
+        self.text.setWordWrap(True)
+        self.use = QPushButton("Use the proposal")
+        self.use.clicked.connect(self._use)
+        row = QHBoxLayout(self)
+        row.addWidget(self.text, 1)
+        row.addWidget(self.use)
+        self.proposal = None
+        self.hide()
+
+    def show_proposal(self, proposal, *, after: str = "") -> None:
+        """Show `proposal` (None hides the box); `after` says which trial it follows when
+        that is not the one just run (after a restart). A proposal that changes nothing is
+        shown without the button."""
+        self.proposal = proposal
+        if proposal is None:
+            self.hide()
+            return
+        reason = proposal.reason[:1].upper() + proposal.reason[1:] + "."
+        self.text.setText(f"{after} {reason}".strip())
+        self.use.setVisible(proposal.change != "none")
+        self.show()
+
+    def _use(self) -> None:
+        if self.proposal is None:
+            return
+        self.taken.emit(self.proposal)
+        self.text.setText(self.text.text() + " Taken: press Build.")
+        self.use.hide()

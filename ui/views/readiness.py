@@ -1,0 +1,95 @@
+"""Which robot buttons the therapist may press now, and why a greyed one is greyed, in
+words shown on every tab (the robot bar's line and each button's tooltip).
+
+A button is enabled only when the loop's state allows its command and nothing the window
+knows stands in the way:
+
+* Build needs a form without a problem (the reason is the form's own words, shown on
+  every tab, not only under the field on the Parameters tab);
+* Start needs a registered patient and a built trial that is what the form shows now:
+  any change to the form after Build (a field, the robot, the patient's force, the
+  proposal taken) makes the built trial stale, and Start says "parameters changed since
+  Build: press Build" (issue 27 #1: Start ran the circle built before the form was
+  changed to a figure eight);
+* the e-stop or a latched fault holds Build, Connect and Start (ui.views.latch).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from device.loop.states import State
+
+STALE = "parameters changed since Build: press Build"
+SAVING = "the last trial's file to be closed: a moment"
+NOT_REGISTERED = "a registered patient: Registration tab, choose the patient and press Confirm"
+NOT_BUILT = "a built trial: press Build"
+
+KEYS = {"build": "F2", "connect": "F3", "disconnect": "F4", "start": "F5", "stop": "F6",
+        "save": "F7"}
+
+
+@dataclass(frozen=True, slots=True)
+class Readiness:
+    """What the robot bar shows: the buttons enabled, a tooltip each, and one line."""
+
+    enabled: dict[str, bool]
+    tooltips: dict[str, str]
+    line: str
+    """Why the next button of the session is greyed ('' when nothing waits)."""
+
+
+def start_needs(*, registered: bool, built: bool, stale: bool, saving: bool = False) -> str:
+    """What Start waits for beyond the robot's state ('' when nothing). `saving`: the last
+    trial's file is not closed yet (its trial is finished into the registry from it)."""
+    if saving:
+        return SAVING
+    if not registered:
+        return NOT_REGISTERED
+    if not built:
+        return NOT_BUILT
+    if stale:
+        return STALE
+    return ""
+
+
+def readiness(state: State, *, form_problem: str, registered: bool, built: bool,
+              stale: bool, held: str, unsaved: bool, saving: bool = False) -> Readiness:
+    """The buttons for `state`. `form_problem`: why the form cannot be built ('' when it
+    can); `built`: a trial was built; `stale`: the form changed since; `held`: why the latch
+    holds the robot ('' when it does not, ui.views.latch.Latch.holds_robot); `unsaved`: a
+    finished trial's report is not yet saved; `saving`: the last trial's file is not closed
+    yet."""
+    needs = start_needs(registered=registered, built=built, stale=stale, saving=saving)
+    free = not held
+    enabled = {
+        "build": free and not form_problem and state in (State.IDLE, State.BUILT,
+                                                         State.CONNECTED),
+        "connect": free and state == State.BUILT,
+        "disconnect": state in (State.CONNECTED, State.FAULTED),
+        "start": free and not needs and state == State.CONNECTED,
+        "stop": state == State.RUNNING,
+        "save": unsaved and state not in (State.RUNNING, State.STOPPING),
+    }
+    why = {
+        "build": held or (f"Build needs the form fixed: {form_problem}" if form_problem
+                          else ""),
+        "connect": held,
+        "start": held or (f"Start needs {needs}" if needs else ""),
+    }
+    tooltips = {}
+    for name, on in enabled.items():
+        words = why.get(name, "")
+        tooltips[name] = (words[0].upper() + words[1:]) if words and not on else ""
+    # the line names what holds the next step of the session, on every tab
+    if held:
+        line = held[0].upper() + held[1:]
+    elif state == State.CONNECTED and needs:
+        line = f"Start needs {needs}"
+    elif state in (State.IDLE, State.BUILT, State.CONNECTED) and form_problem:
+        line = f"Build needs the form fixed: {form_problem}"
+    elif state in (State.BUILT, State.CONNECTED) and stale:
+        line = f"Start needs {STALE}"
+    else:
+        line = ""
+    return Readiness(enabled, tooltips, line)
