@@ -118,7 +118,7 @@ def add_report_command(commands) -> None:
     parser.add_argument("--output", help="PDF to write (default: the data folder's reports/); "
                                           "an existing file is kept unless --overwrite")
     parser.add_argument("--overwrite", "--force", action="store_true", dest="overwrite",
-                        help="replace the --output file if it exists (never one of the "
+                        help="replace the report if it exists (never another of the "
                              "console's own files)")
     parser.add_argument("--first-name", action="store_true",
                         help="greet the patient by first name in the report")
@@ -129,10 +129,19 @@ def cmd_report(args: argparse.Namespace) -> int:
     from app.reports.build import report_for_registry_trial
 
     registry = registry_for(args)
-    output = None
     if args.output is not None:
         # inside the data folder only below its reports/ or exports/ (app.records.safewrite)
         output = output_path(args, args.output, overwrite=args.overwrite, suffixes=(".pdf",))
+    else:
+        trial = registry.trial(args.trial_id)
+        output = registry.data_dir.report_path(trial.patient_code, trial.session_number,
+                                               trial.number, trial.started_at)
+        if output.exists() and not args.overwrite:
+            # the report the window's Save data wrote, perhaps printed: written again only
+            # when asked
+            raise CommandError(f"the report {output} already exists and is kept: give "
+                               "--overwrite to write it again, or --output for another file")
+        registry.data_dir.ensure(output.parent.parent.name, output.parent.name)
     path = report_for_registry_trial(registry, args.trial_id, output,
                                      include_first_name=args.first_name)
     print(path)

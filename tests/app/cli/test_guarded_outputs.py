@@ -9,6 +9,7 @@ from __future__ import annotations
 import hashlib
 import os
 import stat
+from pathlib import Path
 
 import pytest
 
@@ -165,3 +166,16 @@ def test_emg_record_and_demo_keep_existing_files(tmp_path, capsys):
     assert "already exists" in err
     assert kept_csv.read_text() == "keep me too"
     assert sorted(p.name for p in (tmp_path / "demo").iterdir()) == [kept_csv.name]
+
+
+def test_the_report_the_data_folder_holds_is_written_again_only_when_asked(kept, capsys):
+    code, out, err = run(["report", "1"], capsys)
+    assert code == 0, err
+    report = Path(out.strip())
+    first = digest(report)
+    code, _, err = run(["report", "1"], capsys)
+    assert code == 2
+    assert "already exists and is kept" in err
+    assert digest(report) == first
+    code, _, err = run(["report", "1", "--overwrite"], capsys)
+    assert code == 0, err
