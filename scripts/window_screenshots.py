@@ -165,6 +165,7 @@ def session(app, folder: Path, suffix: str, width: int, height: int, scale: floa
     shoot("replay", win.replay)
     shoot("force-replay", win.force)
 
+    win.show_live()  # back to the last live trial under the banner
     win.emergency_stop()
     wait(lambda: win.state == State.FAULTED, 10)
     shoot("estop", win.trajectory)

@@ -78,6 +78,13 @@ def test_connect_says_hands_off_until_the_zero_is_taken_and_a_zero_under_load_in
         assert said[0].startswith("Hands off the handle")
         assert any(text.startswith("Zero taken") for text in said)
         assert "zero taken" in win.message.text().lower()
+        # built again while connected: the simulator is opened again, with a new zero
+        said.clear()
+        short_trial(win)
+        win.parameters_tab.radius.setValue(9.0)
+        click(qtbot, win.robot.buttons["build"])
+        assert "Hands off the handle" in said[0]
+        qtbot.waitUntil(lambda: any(t.startswith("Zero taken") for t in said), timeout=60000)
     finally:
         win.close()
 

@@ -7,12 +7,23 @@ from __future__ import annotations
 
 import datetime
 import re
+from pathlib import Path
 
 from ui.views.trialview import TrialView
 
 _STEM = re.compile(r"(?P<code>P[0-9A-Z]{6})_S(?P<session>\d+)_T(?P<trial>\d+)_"
                    r"(?P<stamp>\d{8}T\d{6}Z)")
 """A trial file's name (app.records.datadir.trial_stem)."""
+
+
+def session_and_trial(path: Path | str) -> str:
+    """'session 1, trial 3' for a trial file named as the data folder names them, else the
+    file's name (the status bar's words for the trial recording or just recorded)."""
+    name = Path(path).name
+    match = _STEM.search(name)
+    if match is None:
+        return name
+    return f"session {int(match['session'])}, trial {int(match['trial'])}"
 
 
 def which_trial(view: TrialView) -> str:

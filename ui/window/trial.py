@@ -24,7 +24,9 @@ from device.loop.states import State
 from device.recording.trialfile import SubjectInfo
 from ui.tabs import VIEW_TABS
 from ui.tabs.parameters import HARDWARE, BackendChoice
+from ui.views.moment import STATUS_WORDS
 from ui.views.readiness import readiness, start_needs
+from ui.views.replay_strip import session_and_trial
 from ui.views.trialview import TrialView
 
 log = logging.getLogger("ui.main_window")
@@ -92,11 +94,16 @@ class TrialActions:
         self._pending_build = params
         self._pending_setup = setup
         self._pending_backend = backend
+        # Built while connected, the loop opens the simulator (or a robot of another
+        # config) again, and its force sensor takes a new zero (device.loop.process)
+        reopens = self.state == State.CONNECTED and (
+            backend.kind == "simulator" or backend != self.built_backend)
         if model is None:
             self.bridge.build(params, backend)
         else:
             self.bridge.build(params, backend, model=model)
-        self._say("Building the trial…")
+        self._say(f"Building the trial… {HANDS_OFF}" if reopens else "Building the trial…",
+                  states=(State.CONNECTED,) if reopens else None)
 
     def connect_robot(self) -> None:
         """Connect: the force sensor takes its zero in its first quarter second, so nobody
@@ -308,8 +315,9 @@ class TrialActions:
             from app.emg.importing import LIVE_MARGIN_S
 
             self.emg.capture.forget_before(time.monotonic() - 2 * LIVE_MARGIN_S)
-        self.trial_label.setText(f"recording {Path(path).name}")
-        self._say(f"Trial running: {Path(path).name}. Stop (F6) ends it early.",
+        self.trial_label.setText(f"recording {session_and_trial(path)}")
+        self.trial_label.setToolTip(Path(path).name)
+        self._say(f"Trial running: {session_and_trial(path)}. Stop (F6) ends it early.",
                   states=(State.RUNNING,))
         self.force_estimate.trial_started(self.built)
         if not isinstance(self.tabs.currentWidget(), VIEW_TABS):
@@ -317,7 +325,8 @@ class TrialActions:
 
     def _on_trial_ended(self, path: str, status: str, summary: dict) -> None:
         log.info("trial ended: %s, %s", Path(path).name, status)
-        self.trial_label.setText(f"{Path(path).name}: {status.replace('_', ' ')}")
+        self.trial_label.setText(f"{session_and_trial(path)}: {STATUS_WORDS.get(status, status)}")
+        self.trial_label.setToolTip(Path(path).name)
         camera = self.video.camera
         if camera is not None and camera.recording:
             camera.stop_recording()
