@@ -80,6 +80,7 @@ class DeviceBridge(QObject):
         self._started = threading.Event()
         self._start_error = ""
         self._force_feed = None
+        self._closing_signal = ""
 
     # ------------------------------------------------------------------ life
     def start(self, timeout: float = 30.0) -> None:
@@ -92,11 +93,16 @@ class DeviceBridge(QObject):
         if self._start_error:
             raise DeviceError(self._start_error)
 
-    def close(self) -> None:
+    def close(self, signal: str = "") -> None:
+        """End the loop processes (a running trial stopped and saved; as at a fault naming
+        the stop `signal` the console was given, device.stopsignals); what they said
+        meanwhile (the trial's end, its file closed) is still emitted, for the window to
+        record the trial."""
         if self._thread is None:
             return
+        self._closing_signal = signal
         self._calls.put(None)
-        self._thread.join(10.0)
+        self._thread.join(15.0)
         self._thread = None
 
     # ------------------------------------------------------------------ safety lines
@@ -176,7 +182,8 @@ class DeviceBridge(QObject):
                     self._call(call)
                 self._drain()
         finally:
-            self.client.close()
+            for event in self.client.close(signal=self._closing_signal):
+                self._emit(event)
 
     def _call(self, call: _Call) -> None:
         try:

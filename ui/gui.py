@@ -21,6 +21,7 @@ def run_gui(font_scale: float | None = None, lsl_outlet: bool = False) -> int:
     from app.records.logs import setup_logging
     from app.records.registry import Registry
     from app.records.settings import load_settings
+    from device.stopsignals import STOP_SIGNALS
     from ui import theme
     from ui.main_window import MainWindow
 
@@ -40,15 +41,25 @@ def run_gui(font_scale: float | None = None, lsl_outlet: bool = False) -> int:
     window = MainWindow(Registry(data_dir), settings=settings, bridge=bridge)
     window.show()
 
-    def stop(*_args) -> None:
-        # Ctrl+C or a service manager's SIGTERM: close as if by the window's own button,
-        # so a running trial is stopped and saved and the loop processes end cleanly.
+    def stop(number, _frame) -> None:
+        # Ctrl+C, a service manager's SIGTERM or a closed terminal's SIGHUP: close as if by
+        # the window's own button, without asking; a running trial stops as at a fault
+        # naming the signal, is saved and recorded, and the loop processes end cleanly
+        # (device.stopsignals). A second signal while closing changes nothing.
+        if window.closing_by_signal:
+            return
         window.closing_by_signal = True
+        window.closing_signal = signal.Signals(number).name
+        # from the event loop: the signal may have come in the middle of a repaint, and
+        # closing there (which waits for the loop processes) crashed Qt's painter
+        QTimer.singleShot(0, close)
+
+    def close() -> None:
         window.close()
         app.quit()
 
-    signal.signal(signal.SIGINT, stop)
-    signal.signal(signal.SIGTERM, stop)
+    for number in STOP_SIGNALS:
+        signal.signal(number, stop)
     wake = QTimer()
     wake.timeout.connect(lambda: None)  # gives Python a moment to run its signal handlers
     wake.start(200)

@@ -102,6 +102,8 @@ class MainWindow(TrialActions, TrialEmg, FaultLatch, MessageLine, RememberedSett
         self.built_backend = self._pending_backend = None  # the BackendConfig built
         self._live_levels: list[float] = []  # live assistance changes awaiting the loop
         self.closing_by_signal = False
+        self.closing_signal = ""
+        """The stop signal the console was given (SIGINT, SIGTERM, SIGHUP), if any."""
         self.loop_health = LoopHealth()
         self.messages = Messages()
         self.history_dialog = None  # the History… dialog, once opened

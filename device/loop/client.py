@@ -13,7 +13,10 @@ Process layout::
 
 If the loop dies, the recorder closes the trial file itself and the client reports it;
 if the console dies, the loop sees its pipe close, stops the trial and makes the robot
-safe, and both children exit.
+safe, and both children exit. If the recorder dies (its notices' pipe closes), the loop
+stops the trial, and the client saves what the recorder had not written from the ring it
+owns and closes the trial's file (device.recording.salvage), then tells of it as the
+recorder would have ("closed", or "lost" when the file could not be finished).
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ from __future__ import annotations
 import contextlib
 import itertools
 import multiprocessing as mp
+import signal
 import threading
 import time
 from dataclasses import dataclass
@@ -35,6 +39,7 @@ from device.loop.messages import (
     ClearFault,
     Connect,
     Disconnect,
+    FaultRaised,
     ForceEstimate,
     Reply,
     SetAssistance,
@@ -42,17 +47,48 @@ from device.loop.messages import (
     Start,
     StateChanged,
     Stop,
+    TrialEnded,
+    TrialStarted,
 )
 from device.loop.process import LoopConfig, loop_main
 from device.loop.states import State
+from device.recording.messages import RecorderNotice
 from device.recording.record import RECORD_DTYPE
 from device.recording.recorder import recorder_main
 from device.recording.ring import RecordRing, reclaim_stale
+from device.recording.salvage import LostFault, salvage
 from device.recording.trialfile import SubjectInfo
 from device.safety.limits import SafetyLimits
 
 RING_SECONDS = 16.0
 HEARTBEAT_S = 0.1
+
+
+def _resource_tracker_deaf_to_hangups() -> None:
+    """Start multiprocessing's resource tracker (which unlinks the ring if this process
+    dies) with SIGHUP blocked: it is in the console's process group and ignores SIGINT and
+    SIGTERM, but a closed terminal's SIGHUP killed it, and its successor printed a
+    traceback when the ring was unlinked. A blocked signal stays blocked in a child."""
+    from multiprocessing import resource_tracker
+
+    if not hasattr(signal, "pthread_sigmask") or not hasattr(signal, "SIGHUP"):
+        return
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGHUP})
+    try:
+        resource_tracker.ensure_running()
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
+
+
+@dataclass
+class _Trial:
+    """The trial being recorded, as the console heard of it: what a dead recorder's
+    successor needs to finish its file."""
+
+    path: str
+    first_seq: int
+    end_seq: int = -1
+    fault: LostFault | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -81,6 +117,8 @@ class DeviceClient:
         self._loop = self._recorder = None
         self._conn = self._notices = None
         self._lost_reported = False
+        self._trial: _Trial | None = None
+        self._recorder_lost = False
 
     # ------------------------------------------------------------------ life
     def start(self) -> None:
@@ -88,22 +126,26 @@ class DeviceClient:
         if self._loop is not None:
             raise DeviceError("the device link is already started")
         ctx = mp.get_context("spawn")
+        _resource_tracker_deaf_to_hangups()
         reclaim_stale()
         self.ring = RecordRing.create(self.ring_capacity, RECORD_DTYPE)
         self.estop_flag = ctx.RawValue("b", 0)
         self.heartbeat_counter = ctx.RawValue("q", 0)
         self.recording_failed = ctx.RawValue("b", 0)
+        self.recorder_beat = ctx.RawValue("q", 0)
         console_end, loop_end = ctx.Pipe(duplex=True)
         to_recorder_read, to_recorder_write = ctx.Pipe(duplex=False)
         notices_read, notices_write = ctx.Pipe(duplex=False)
         self._recorder = ctx.Process(
             target=recorder_main, name="rehab-recorder",
-            args=(to_recorder_read, notices_write, self.ring.name, self.recording_failed),
+            args=(to_recorder_read, notices_write, self.ring.name, self.recording_failed,
+                  self.recorder_beat),
         )
         self._loop = ctx.Process(
             target=loop_main, name="rehab-loop",
             args=(loop_end, to_recorder_write, self.ring.name, self.estop_flag,
-                  self.heartbeat_counter, self.recording_failed, self.loop_config),
+                  self.heartbeat_counter, self.recording_failed, self.loop_config,
+                  self.recorder_beat),
         )
         self._recorder.start()
         self._loop.start()
@@ -117,25 +159,35 @@ class DeviceClient:
                                            daemon=True)
             self._beats.start()
 
-    def close(self, timeout: float = 5.0) -> None:
-        """Shut the loop down (a running trial is stopped and saved), wait for both
-        processes and release the ring. Safe to call twice."""
+    def close(self, timeout: float = 5.0, signal: str = "") -> list:
+        """Shut the loop down (a running trial is stopped and saved; as at a fault naming
+        it when the console was given the stop `signal`, device.stopsignals), wait for
+        both processes and release the ring. Returns what they said meanwhile (the
+        trial's end, its fault, its file closed), for the caller to record. Safe to call
+        twice."""
         self._stop_beats.set()
         if self._loop is None:
-            return
+            return []
         if self._loop.is_alive():
             with contextlib.suppress(OSError, EOFError):
-                self._conn.send(Shutdown(next(self._ids)))
+                self._conn.send(Shutdown(next(self._ids), signal))
         for proc in (self._loop, self._recorder):
             proc.join(timeout)
             if proc.is_alive():
                 proc.terminate()
                 proc.join(1.0)
+            if proc.is_alive():  # it catches SIGTERM; a stopped one does not even see it
+                proc.kill()
+                proc.join(1.0)
+        self._lost_reported = True  # asked to end: not "ended unexpectedly"
+        # their last words, and a dead recorder's trial finished from the ring (salvage)
+        last = self.events(0.0)
         for conn in (self._conn, self._notices):
             conn.close()
         self.ring.close()
         self.ring.unlink()
         self._loop = self._recorder = None
+        return last
 
     def __enter__(self) -> DeviceClient:
         self.start()
@@ -247,10 +299,49 @@ class DeviceClient:
                     out.append(LoopLost(code, "the control loop process ended unexpectedly; "
                                               "the robot is unpowered by its watchdog. Restart "
                                               "the console before the next trial."))
+                elif conn is self._notices:
+                    self._recorder_lost = True  # only the recorder held its end
         for event in out:
             if isinstance(event, StateChanged):
                 self.state = State(event.state)
+            self._follow_trial(event)
+        notice = self._salvage_if_due()
+        if notice is not None:
+            out.append(notice)
         return out
+
+    def _follow_trial(self, event) -> None:
+        """Keep what a dead recorder's successor needs: the trial's file and ring bounds,
+        and the fault that stopped it."""
+        if isinstance(event, TrialStarted):
+            self._trial = _Trial(event.path, event.first_seq)
+        elif self._trial is None:
+            return
+        elif isinstance(event, TrialEnded) and event.path == self._trial.path:
+            self._trial.end_seq = event.end_seq
+        elif isinstance(event, FaultRaised):
+            self._trial.fault = LostFault(event.message, dict(event.detail))
+        elif (isinstance(event, RecorderNotice) and event.path == self._trial.path
+              and event.kind == "closed"):
+            self._trial = None
+
+    def _salvage_if_due(self) -> RecorderNotice | None:
+        """Once the recorder is dead and the trial over (or the loop dead too), its file
+        finished from the ring by this console: the notice the recorder would have sent."""
+        trial = self._trial
+        if not self._recorder_lost or trial is None or trial.first_seq < 0:
+            return None
+        end_seq = trial.end_seq
+        if end_seq < 0:
+            if not self._lost_reported:
+                return None  # the loop stops the trial within 50 ms of the recorder's death
+            end_seq = self.ring.write_count
+        self._trial = None
+        notice = salvage(trial.path, self.ring, trial.first_seq, end_seq, trial.fault,
+                         self.loop_config.period_s)
+        # no recorder reads the ring any more: let the loop write on (the live view)
+        self.ring.commit_read(self.ring.write_count)
+        return notice
 
     def wait_for(self, predicate, timeout: float = 10.0) -> list:
         """Collect events until one satisfies `predicate`; returns all of them."""
@@ -285,6 +376,8 @@ class DeviceClient:
 
     def live_records(self, max_n: int | None = None) -> np.ndarray:
         """Records pushed since the last call (lossy: skips ahead if the ring wrapped)."""
+        if self._recorder_lost and self._trial is None:
+            self.ring.commit_read(self.ring.write_count)  # nothing left to save
         batch = self.ring.read_new(self._live_cursor, max_n)
         self._live_cursor = batch.cursor
         return batch.records

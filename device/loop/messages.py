@@ -120,6 +120,9 @@ class SetAssistance:
 @dataclass(frozen=True, slots=True)
 class Shutdown:
     id: int
+    signal: str = ""
+    """The stop signal the console was given (SIGINT, SIGTERM, SIGHUP), '' when closed by
+    hand: a running trial then stops as at a fault naming it (docs/safety.md)."""
 
 
 COMMAND_TYPES = (Build, Connect, Disconnect, Start, Stop, ClearFault, SetAssistance, Shutdown)
@@ -171,6 +174,8 @@ class TrialStarted:
     # monotonic time of wall_time 0 (the loop's clock origin): what puts live records on
     # other instruments' clocks (the LSL outlet, device.emg.lsl)
     wall_time_origin_monotonic_s: float = float("nan")
+    first_seq: int = -1
+    """The ring sequence number of the trial's first record (its tick 0)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -178,6 +183,8 @@ class TrialEnded:
     path: str
     status: str  # complete | stopped_early | faulted | recording_lost
     summary: dict
+    end_seq: int = -1
+    """The trial's records end before this ring sequence number."""
 
 
 @dataclass(frozen=True, slots=True)

@@ -86,9 +86,11 @@ from device.loop.realtime import (
     prepare_process,
     timing_warning,
 )
+from device.loop.recorder_watch import RecorderPulse
 from device.loop.states import TRANSITIONS, Command, State, refusal
 from device.recording.messages import (
     DISK_SHORT,
+    STOPPED_BY_SIGNAL,
     WRITE_FAILED,
     BeginTrial,
     EndTrial,
@@ -98,6 +100,7 @@ from device.recording.ring import RecordRing
 from device.safety.faults import Fault
 from device.safety.limits import SafetyLimits
 from device.safety.supervisor import SafetySupervisor
+from device.stopsignals import StopSignal, signal_name
 
 STOPPING_TIMEOUT_S = 2.0
 """Longest wait in Stopping for the recorder to take the trial's last samples."""
@@ -141,7 +144,8 @@ class DeviceLoop:
     """The loop's state and its ticks. One instance per loop process."""
 
     def __init__(self, console: Connection, recorder: Connection | None, ring: RecordRing,
-                 estop_flag, heartbeat, recording_failed, config: LoopConfig) -> None:
+                 estop_flag, heartbeat, recording_failed, config: LoopConfig,
+                 recorder_beat=None, stop_signal: StopSignal | None = None) -> None:
         self.console = console
         self.recorder = recorder
         # The recorder's death shows at once as an error on our end of its pipe (its end
@@ -151,6 +155,10 @@ class DeviceLoop:
         if recorder is not None:
             self._recorder_watch.register(recorder.fileno(), select.POLLERR)
         self.recorder_gone = False
+        # a stopped recorder keeps its pipe open: its beat tells (device.loop.recorder_watch)
+        self.recorder_pulse = RecorderPulse(recorder_beat)
+        self.recorder_stalled = False
+        self.stop_signal = stop_signal or StopSignal()
         self.ring = ring
         self.estop_flag = estop_flag
         self.heartbeat = heartbeat
@@ -203,7 +211,7 @@ class DeviceLoop:
             ready = True
         if ready:
             self._handle_commands()
-        if self.console_lost:
+        if self.console_lost or self.stop_signal.name:
             self.shutdown = True
 
     def _ticks(self) -> None:
@@ -225,8 +233,8 @@ class DeviceLoop:
                                  self._robot_time(k, deadline - self.t0)[0])
             now = clock.wait_until(deadline)
             self._tick(k, now, max(now - deadline, overrun))
-            if self.console_lost and self.state != State.RUNNING:
-                self.shutdown = True
+            if (self.console_lost or self.stop_signal.name) and self.state != State.RUNNING:
+                self.shutdown = True  # a stop signal: once the trial is stopped and saved
             top_up = getattr(self.backend, "top_up_noise", None)
             if top_up is not None:
                 top_up(NOISE_RESERVE)  # here, well before the next deadline
@@ -258,9 +266,10 @@ class DeviceLoop:
         if running and k % RECORDER_CHECK_TICKS == 0 and not self.recorder_gone:
             self.recorder_gone = bool(self._recorder_watch.poll(0))
         lost = (bool(self.recording_failed.value) or (running and overwrite())
-                or (running and self.recorder_gone))
+                or (running and self.recorder_gone) or (running and self._recorder_stopped()))
+        stop = bool(self.estop_flag.value) or bool(self.stop_signal.name)
         done = self.engine.step(self.trial_tick if running else None, robot_t, robot_lateness,
-                                beat_age, bool(self.estop_flag.value), lost, self.clock.now)
+                                beat_age, stop, lost, self.clock.now)
         if isinstance(done.reading, SensorReading):
             self.reading = done.reading
         record = self.engine.record(done, self.trial_tick if running else k, wall_t, lateness,
@@ -343,8 +352,10 @@ class DeviceLoop:
             _cue_patient(self.backend)
         plan = self.plan
         self.seed_used = True
+        first_seq = self.ring.write_count
+        self.recorder_pulse.reset()
         self._to_recorder(BeginTrial(
-            command.path, self.ring.write_count, plan.parameters, command.subject,
+            command.path, first_seq, plan.parameters, command.subject,
             dataclasses.asdict(plan.robot), self.opened.label, plan.period_s,
         ))
         started = {"approach_ticks": self.pipeline.approach_ticks}
@@ -353,7 +364,7 @@ class DeviceLoop:
             started["robot_seed"] = self.opened.robot_seed  # on the same simulated robot
         self._to_recorder(TrialEvent(0.0, 0, "start", "trial started", started))
         self._send(TrialStarted(command.path, self.pipeline.approach_ticks,
-                                self.pipeline.total_ticks, self.t0))
+                                self.pipeline.total_ticks, self.t0, first_seq))
         return ""
 
     def _end_trial(self, status: str, message: str, values: dict | None = None) -> None:
@@ -374,7 +385,7 @@ class DeviceLoop:
         pipeline = self.pipeline
         self._to_recorder(EndTrial(self.end_seq, status, summary, assistance_group(
             self.plan.parameters, pipeline.guidance, pipeline.feedforward_history)))
-        self._send(TrialEnded(self.trial_path, status, summary))
+        self._send(TrialEnded(self.trial_path, status, summary, self.end_seq))
 
     def _on_fault(self, fault: Fault, loop_t: float) -> None:
         self.fault_reported = fault
@@ -385,6 +396,8 @@ class DeviceLoop:
         message = sup.fault_message
         if fault == Fault.RECORDING_LOST:
             message = self._recording_cause(detail) or message
+        elif fault == Fault.ESTOP and self.stop_signal.name and not self.estop_flag.value:
+            message = self._signal_cause(detail)
         if self.state == State.RUNNING:
             tick = self.trial_tick
             self._to_recorder(TrialEvent(tick * self.plan.period_s, tick, "fault",
@@ -401,11 +414,34 @@ class DeviceLoop:
             # the right cause: not the disk, the process that writes to it
             detail["cause"] = "recorder process stopped"
             return RECORDER_GONE
-        cause = RECORDING_CAUSES.get(int(self.recording_failed.value))
+        if self.recorder_stalled:
+            detail["cause"] = "recorder stopped responding"
+            detail["silent_ticks"] = self.recorder_pulse.silent
+            return RECORDER_STALLED
+        flag = int(self.recording_failed.value)
+        if flag > STOPPED_BY_SIGNAL:
+            name = signal_name(flag - STOPPED_BY_SIGNAL)
+            detail["cause"] = f"signal {name}"
+            return (f"The recorder was told to stop ({name}), so the motors were stopped and "
+                    "the trial saved as incomplete. Restart the console before the next trial")
+        cause = RECORDING_CAUSES.get(flag)
         if cause is None:
             return ""
         detail["cause"], message = cause
         return message
+
+    def _recorder_stopped(self) -> bool:
+        """Whether the recorder's beat has been silent too long (device.loop.
+        recorder_watch): counted at every tick of a running trial."""
+        if not self.recorder_stalled and self.recorder_pulse.stalled():
+            self.recorder_stalled = True
+        return self.recorder_stalled
+
+    def _signal_cause(self, detail: dict) -> str:
+        """A stop signal stopped the trial: the fault's words and cause name it."""
+        detail["cause"] = f"signal {self.stop_signal.name}"
+        return (f"The console was told to stop ({self.stop_signal.words}), so the motors "
+                "were stopped at once and the trial saved as faulted")
 
     # ------------------------------------------------------------------ commands
     def _commands_waiting(self) -> bool:
@@ -524,6 +560,11 @@ class DeviceLoop:
         return ""
 
     def _do_shutdown(self, command: Shutdown, after_a_tick: bool):
+        if self.state == State.RUNNING and command.signal and not after_a_tick:
+            # the console was given a stop signal: the next tick stops the trial as at a
+            # fault naming it (zero torque in that tick), then the loop shuts down
+            self.stop_signal.set(command.signal)
+            return LATER
         if self.state == State.RUNNING:
             self._end_trial("stopped_early", "console closed")
         self.shutdown = True
@@ -624,6 +665,9 @@ RECORDER_CHECK_TICKS = 25
 RECORDER_GONE = ("The recorder stopped, so nothing more of this trial could be saved; the "
                  "motors were stopped. The trial's file keeps what reached it, and the "
                  "trial is marked incomplete. Restart the console before the next trial")
+RECORDER_STALLED = ("The recorder stopped responding, so the motors were stopped; the trial's "
+                    "file keeps what reached it and the trial is marked incomplete. Restart "
+                    "the console before the next trial")
 
 RECORDING_CAUSES = {
     WRITE_FAILED: ("write error", "The trial file could not be written (a disk error), so "
@@ -666,12 +710,16 @@ def _cue_patient(backend: Backend) -> None:
 
 
 def loop_main(console: Connection, recorder: Connection, ring_name: str, estop_flag,
-              heartbeat, recording_failed, config: LoopConfig) -> None:
+              heartbeat, recording_failed, config: LoopConfig, recorder_beat=None) -> None:
     """Entry point of the loop process."""
+    # first: a stop signal to the console's process group stops the trial (device.
+    # stopsignals), not the process where it stands
+    stop_signal = StopSignal().install()
     faulthandler.enable()  # a crash in compiled code still leaves a traceback on stderr
     problems = prepare_process(config.cpu) if config.realtime else []
     ring = RecordRing.attach(ring_name)
-    loop = DeviceLoop(console, recorder, ring, estop_flag, heartbeat, recording_failed, config)
+    loop = DeviceLoop(console, recorder, ring, estop_flag, heartbeat, recording_failed, config,
+                      recorder_beat, stop_signal)
     for problem in problems:
         loop._send(Notice("warning", f"real-time setup: {problem}"))
     try:

@@ -53,7 +53,7 @@ class EndTrial:
 class RecorderNotice:
     """The recorder opened or closed a trial file, or could not write it."""
 
-    kind: str  # "opened" | "closed" | "error"
+    kind: str  # "opened" | "closed" | "error" | "lost" (a dead recorder's file unfinished)
     path: str
     status: str = ""
     message: str = ""
@@ -68,5 +68,10 @@ WRITE_FAILED = 1
 """A write to the trial file failed (a disk error, the file system gone)."""
 DISK_SHORT = 2
 """The disk is full: the recorder ends the trial's file on the space it holds."""
-RECORDER_STOPPING = 3
-"""The recorder process was told to stop (SIGINT, SIGTERM, SIGHUP)."""
+STOPPED_BY_SIGNAL = 64
+"""Plus the signal's number: the recorder process was told to stop (SIGINT, SIGTERM,
+SIGHUP, device.stopsignals)."""
+
+RECORDER_BEAT_S = 0.05
+"""How often the recorder raises its beat counter, which the loop watches for a stopped
+recorder (device.loop.recorder_watch)."""

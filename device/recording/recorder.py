@@ -15,6 +15,15 @@ and closes the file as `recording_lost` with nothing lost.
 If the loop process dies (its pipe reaches end of file), the recorder writes every record
 the loop had pushed, adds a "loop process lost" event and closes the file as "faulted".
 
+It raises a beat counter every RECORDER_BEAT_S from a thread of its own, by which the
+loop sees a stopped recorder (device.loop.recorder_watch). A stop signal (SIGINT, SIGTERM,
+SIGHUP: device.stopsignals) does not end it where it stands: it records the trial until
+the loop ends it, closes the file, and then ends. Sent to the console's process group,
+the signal reaches the loop too, which stops the trial as a fault naming it; if the loop
+has not ended the trial SIGNAL_GRACE_RECORDS later (the recorder alone was signalled),
+the recorder's flag stops it. Counted in the loop's records, not in seconds, so which
+of the two names the signal does not depend on how promptly either process woke.
+
 Ordering: the loop sends BeginTrial before it pushes the trial's first record, and the
 recorder reads the ring *before* it reads its messages, so a record of a trial is never
 seen before the message that opens the trial.
@@ -24,6 +33,8 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import signal
+import threading
 import time
 from multiprocessing.connection import Connection
 
@@ -32,7 +43,9 @@ import numpy as np
 from device.errors import DeviceError, RecordingError
 from device.recording.messages import (
     DISK_SHORT,
+    RECORDER_BEAT_S,
     RECORDING_OK,
+    STOPPED_BY_SIGNAL,
     WRITE_FAILED,
     BeginTrial,
     EndTrial,
@@ -42,10 +55,13 @@ from device.recording.messages import (
 from device.recording.ring import RecordRing
 from device.recording.trialfile import TrialFileWriter
 from device.recording.trialfile.reserve import SpaceShort
+from device.stopsignals import StopSignal
 
 log = logging.getLogger(__name__)
 
 POLL_S = 0.05
+SIGNAL_GRACE_RECORDS = 250
+"""The loop's ticks (0.5 s) the recorder, told to stop, lets the loop end the trial itself."""
 FLUSH_S = 0.25
 BATCH = 8192
 
@@ -71,8 +87,12 @@ class Recorder:
         """The trial time and tick of the last sample written."""
 
     # ------------------------------------------------------------------ main
-    def run(self, loop: Connection) -> None:
-        """Until the loop's pipe closes: read the ring, then the messages, then write."""
+    def run(self, loop: Connection, stop: StopSignal | None = None) -> None:
+        """Until the loop's pipe closes (or, after a stop signal, until no trial file is
+        open): read the ring, then the messages, then write."""
+        stop = stop or StopSignal()
+        signalled_at: int | None = None  # the ring position at which the signal was seen
+        told = False
         while True:
             records, seq0 = self._read()
             loop_alive = True
@@ -86,6 +106,16 @@ class Recorder:
             if not loop_alive:
                 self._loop_lost()
                 return
+            if stop.name:
+                if signalled_at is None:
+                    signalled_at = self.cursor
+                    log.warning("recorder: %s; it ends once the trial's file is closed",
+                                stop.words)
+                if self.writer is None:
+                    return
+                if not told and self.cursor - signalled_at > SIGNAL_GRACE_RECORDS:
+                    told = True  # the loop was not told: the flag stops the trial
+                    self._flag(STOPPED_BY_SIGNAL + getattr(signal, stop.name, 0))
             self._flush_if_due()
             if loop.poll(POLL_S):
                 continue
@@ -264,12 +294,25 @@ def _channels_for(ring: RecordRing):
     raise RecordingError("the ring carries extra channels; pass them to the recorder")
 
 
-def recorder_main(loop_conn, console_conn, ring_name: str, failed_flag) -> None:
+def recorder_main(loop_conn, console_conn, ring_name: str, failed_flag, beat=None) -> None:
     """Entry point of the recorder process."""
+    stop = StopSignal().install()  # first: see device.stopsignals
     logging.basicConfig(level=logging.INFO)
     ring = RecordRing.attach(ring_name)
+    beating = threading.Event()
+    if beat is not None:
+        threading.Thread(target=_beat, args=(beat, beating), name="rehab-recorder-beat",
+                         daemon=True).start()
     try:
-        Recorder(ring, console_conn, failed_flag).run(loop_conn)
+        Recorder(ring, console_conn, failed_flag).run(loop_conn, stop)
     finally:
+        beating.set()
         ring.close()
         console_conn.close()
+
+
+def _beat(beat, stop: threading.Event) -> None:
+    """Raise the beat counter every RECORDER_BEAT_S until told to stop: the loop's proof
+    that this process runs (a stopped process raises nothing)."""
+    while not stop.wait(RECORDER_BEAT_S):
+        beat.value += 1

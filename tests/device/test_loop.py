@@ -19,6 +19,7 @@ from device.loop.backends import SIMULATED_HEARTBEAT_TIMEOUT_S
 from device.loop.client import DeviceClient, LoopLost
 from device.loop.messages import BackendConfig, FaultRaised, TrialEnded
 from device.loop.process import LoopConfig
+from device.loop.recorder_watch import RECORDER_SILENT_TICKS
 from device.loop.states import State
 from device.recording.messages import RecorderNotice
 from device.recording.trialfile import SubjectInfo
@@ -292,23 +293,48 @@ def test_lost_heartbeat_stops_the_trial(tmp_path):
 
 
 def test_stalled_recorder_stops_the_trial_with_recording_lost(tmp_path):
-    with DeviceClient(ring_seconds=0.5) as c:
+    """Issue 28 #6: a stopped recorder (SIGSTOP) was noticed only when the 16 s ring
+    overflowed (16.2 s, the last 3.55 s lost). Its beat now stops the trial within
+    RECORDER_SILENT_TICKS of the loop's ticks (0.4 s), counted in ticks, so no machine's
+    stall makes it early or late; continued, the recorder writes every sample."""
+    with DeviceClient() as c:
         connect(c, LONG)
         path = tmp_path / "stalled.h5"
         assert c.start_trial(str(path), SUBJECT).ok
-        time.sleep(0.5)
+        c.live_records()
+        c.wait_for(lambda e: isinstance(e, RecorderNotice) and e.kind == "opened", 10)
         os.kill(c.recorder_pid, signal.SIGSTOP)
         try:
-            fault = c.wait_for(is_(FaultRaised), 5)[-1]
+            _wait_stopped(c.recorder_pid)
+            stopped_at = c.live_records()["tick"][-1]  # no beat comes after this tick
+            fault = c.wait_for(is_(FaultRaised), 10)[-1]
         finally:
             os.kill(c.recorder_pid, signal.SIGCONT)
         assert fault.code == Fault.RECORDING_LOST
+        assert fault.detail["cause"] == "recorder stopped responding"
+        assert "stopped responding" in fault.message
         notice = closed_file(c)
         assert notice.status == "recording_lost"
-        data = read_trial(path)
-        assert data.status == "recording_lost"
-        assert data.n_samples > 200
-        assert any(e["kind"] == "fault" for e in data.events)
+    data = read_trial(path)
+    assert data.status == "recording_lost"
+    faulted = np.flatnonzero(data.channels["fault"] == int(Fault.RECORDING_LOST))
+    first_fault = data.channels["tick"][faulted[0]]
+    assert stopped_at < first_fault <= stopped_at + RECORDER_SILENT_TICKS
+    ticks = data.channels["tick"]
+    np.testing.assert_array_equal(ticks, np.arange(len(ticks)))  # nothing lost
+    assert ticks[-1] == first_fault
+    assert any(e["kind"] == "fault" for e in data.events)
+
+
+def _wait_stopped(pid: int, timeout: float = 10.0) -> None:
+    """Until the process is stopped (state T), however long the system takes."""
+    deadline = time.monotonic() + timeout
+    while True:
+        with open(f"/proc/{pid}/stat") as f:
+            if f.read().rsplit(")", 1)[1].split()[0] in ("T", "t"):
+                return
+        assert time.monotonic() < deadline, f"process {pid} did not stop"
+        time.sleep(0.005)
 
 
 def test_kill_9_of_the_loop_keeps_the_trial_file(tmp_path):
@@ -336,7 +362,9 @@ def test_kill_9_of_the_loop_keeps_the_trial_file(tmp_path):
 
 def test_kill_9_of_the_recorder_stops_the_trial_at_once_with_its_cause(tmp_path):
     """The loop used to go on driving the patient with nothing recorded until the ring
-    filled (about 16 s), and then blamed the disk."""
+    filled (about 16 s), and then blamed the disk. Issue 28 #6: the file then kept only
+    what the recorder had flushed (the last 0.15 s lost) and stayed 'recording'; the
+    console now saves the samples still in the ring and closes the file."""
     with DeviceClient() as c:
         connect(c, LONG)
         path = tmp_path / "killed-recorder.h5"
@@ -350,22 +378,35 @@ def test_kill_9_of_the_recorder_stops_the_trial_at_once_with_its_cause(tmp_path)
             flushed = read_trial(path).n_samples if path.exists() else 0
         os.kill(c.recorder_pid, signal.SIGKILL)
         killed_at = c.live_records()["tick"][-1]
-        events = c.wait_for(is_(FaultRaised), 10)
+        events = c.wait_for(lambda e: isinstance(e, RecorderNotice) and e.kind in (
+            "closed", "lost"), 10)
         fault = next(e for e in events if isinstance(e, FaultRaised))
         assert fault.code == Fault.RECORDING_LOST
         assert "recorder stopped" in fault.message
         assert fault.detail["cause"] == "recorder process stopped"
+        closed = events[-1]
+        assert (closed.kind, closed.status) == ("closed", "recording_lost")
         # counted in the loop's ticks, not in how promptly this machine woke anyone:
         # within 0.5 s (250 ticks) of the last tick seen after the kill
         time.sleep(0.1)
         records = c.live_records()
-        faulted = records[records["fault"] == int(Fault.RECORDING_LOST)]
-        assert faulted.size
-        assert faulted["tick"][0] - killed_at <= 250
-        assert (faulted["torque_applied"] == 0.0).all()
-        data = read_trial(path)
-        assert data.status == "recording"  # not closed: finished from its file (finalize)
-        assert data.n_samples >= flushed, data.notes
+    data = read_trial(path)
+    faulted = np.flatnonzero(data.channels["fault"] == int(Fault.RECORDING_LOST))
+    assert faulted.size
+    first_fault = data.channels["tick"][faulted[0]]
+    assert first_fault - killed_at <= 250
+    assert data.channels["torque_applied"][faulted[0]].tolist() == [0.0, 0.0]
+    assert data.status == "recording_lost"
+    # every tick of the trial up to its stop, none lost: the ring's were saved
+    ticks = data.channels["tick"]
+    np.testing.assert_array_equal(ticks, np.arange(len(ticks)))
+    assert ticks[-1] == first_fault
+    assert data.n_samples == closed.samples > flushed
+    saved = next(e for e in data.events if e["kind"] == "recording")
+    assert saved["values"]["cause"] == "recorder process stopped"
+    assert saved["values"]["samples_lost"] == 0
+    assert [e["kind"] for e in data.events][-2:] == ["fault", "stop"]
+    assert records.size  # the live view goes on after the recorder's death
 
 
 def test_kill_9_of_loop_and_recorder_leaves_a_readable_file(tmp_path):

@@ -763,3 +763,58 @@ def test_a_trial_file_appears_under_its_name_only_once_it_reads(tmp_path, monkey
     with pytest.raises(RecordingError, match="a file of that name exists"):
         open_writer(path)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["t.h5"]
+
+
+KILLED_MID_BATCH = textwrap.dedent("""
+    import os, sys
+    import numpy as np
+    from core.trial import THESIS_SUBJECT
+    from device.recording.record import RECORD_DTYPE
+    from device.recording.trialfile import SubjectInfo, TrialFileWriter
+    writer = TrialFileWriter(sys.argv[1], parameters=THESIS_SUBJECT,
+                             subject=SubjectInfo.from_parameters("P-1", THESIS_SUBJECT),
+                             robot={}, backend="simulator", sample_period_s=0.002)
+    writer.append(ramp_records(0, 1000, RECORD_DTYPE))
+    writer.flush()
+    # the next batch: killed after its extent and data reached five of the datasets
+    done = []
+    for index, (name, dataset_id, tail) in enumerate(writer._datasets):
+        class Killing:
+            def __init__(self, inner): self.inner = inner
+            def __getattr__(self, attr): return getattr(self.inner, attr)
+            def write(self, *args):
+                self.inner.write(*args)
+                done.append(1)
+                if len(done) == 5:
+                    writer._file.flush()
+                    os.kill(os.getpid(), 9)
+        writer._datasets[index] = (name, Killing(dataset_id), tail)
+    writer.append(ramp_records(1000, 500, RECORD_DTYPE))
+""")
+
+
+def test_a_dead_writer_s_file_is_taken_over_where_its_samples_are_whole(tmp_path):
+    """Issue 28 #6: the console finishes a killed recorder's file from the ring. The file
+    is taken over from the dead writer (its flags cleared), every channel cut to the
+    samples all of them hold (a writer killed inside a batch leaves the first channels
+    longer), and what comes next follows on from there."""
+    path = tmp_path / "t.h5"
+    script = "\n".join([textwrap.dedent(inspect.getsource(ramp_records)), KILLED_MID_BATCH])
+    ran = subprocess.run([sys.executable, "-c", script, str(path)], cwd=ROOT,
+                         capture_output=True, text=True, timeout=120)
+    assert ran.returncode == -signal.SIGKILL, ran.stderr
+    with h5py.File(path, "r", swmr=True) as f:
+        lengths = {f[f"timeseries/{name}"].shape[0] for name in RECORD_DTYPE.names}
+    assert lengths == {1000, 1500}  # the batch half written
+    writer = TrialFileWriter.resume(path)
+    assert writer.n_samples == 1000
+    writer.append(ramp_records(1000, 600, RECORD_DTYPE))
+    writer.add_event(3.2, 1599, "recording", "taken over", {})
+    writer.close("recording_lost")
+    with h5py.File(path, "r") as f:
+        assert f.attrs["status"] == "recording_lost"
+        for name in RECORD_DTYPE.names:
+            assert f[f"timeseries/{name}"].shape[0] == 1600, name
+        np.testing.assert_array_equal(f["timeseries/tick"][()], np.arange(1600))
+        assert f["summary"].attrs["n_samples"] == 1600
+        assert [e["kind"] for e in f["events"][()]] == [b"recording"]

@@ -26,8 +26,8 @@ class FakeClient:
     def start(self):
         pass
 
-    def close(self):
-        pass
+    def close(self, signal=""):
+        return []
 
     def live_records(self):
         try:

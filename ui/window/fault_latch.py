@@ -100,14 +100,8 @@ class FaultLatch:
         if self.trial_id is not None:
             self.trial_fault = message  # kept with the trial in the registry (finalize)
         self._show_latch()
-        if detail.get("cause") == "recorder process stopped" and self.trial_id is not None:
-            # no recorder is left to close the file and say so: finish the trial from
-            # what reached its file, as a crash's trial is finished at the next start
-            from app.trials.finalize import finalize_lost
-
-            trial_id, self.trial_id = self.trial_id, None
-            self.jobs.run(lambda: finalize_lost(self.registry, trial_id, message),
-                          lambda done: self._finalized(trial_id, done))
+        # a dead recorder's trial: the device link finishes its file from the ring and
+        # says so as the recorder would have ("closed", or "lost": _on_file_notice)
 
     def _latch_state(self, state: State, reason: str) -> None:
         """The loop's new state into the latch; leaving FAULTED by Disconnect ends the

@@ -10,7 +10,7 @@ import contextlib
 import logging
 from pathlib import Path
 
-from PySide6.QtWidgets import QMessageBox
+from PySide6.QtWidgets import QApplication, QMessageBox
 
 from app.records.settings import save_settings
 from device.loop.states import State
@@ -62,6 +62,9 @@ class RememberedSettings:
         for timer in (self.repaint_timer, self.heartbeat_timer, self.health_timer):
             timer.stop()
         self.video.close_camera()
-        self.bridge.close()
+        self.bridge.close(self.closing_signal)
+        # what the loop and the recorder said as they ended (the trial's fault, its file
+        # closed) reaches the window now, so the trial is recorded before it closes
+        QApplication.processEvents()
         self.jobs.shutdown()
         super().closeEvent(event)

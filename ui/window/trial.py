@@ -332,8 +332,17 @@ class TrialActions:
             camera.stop_recording()
 
     def _on_file_notice(self, kind: str, path: str, status: str, message: str) -> None:
-        if kind == "error":
+        if kind in ("error", "lost"):
             self._say(f"Recording problem: {message}", problem=True)
+        if kind == "lost" and self.trial_id is not None:
+            # the recorder died and its file could not be finished from the ring: the
+            # trial is finished from what reached its file, with the fault the window saw
+            from app.trials.finalize import finalize_lost
+
+            trial_id, reason = self.trial_id, self.trial_fault
+            self.trial_id = None
+            self.jobs.run(lambda: finalize_lost(self.registry, trial_id, reason),
+                          lambda done: self._finalized(trial_id, done))
         if kind == "closed" and self.trial_id is not None:
             from app.trials.finalize import finalize_trial
 

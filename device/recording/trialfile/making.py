@@ -14,6 +14,8 @@ import h5py
 from device.errors import RecordingError
 from device.recording.trialfile.layout import CHUNK_CACHE_BYTES, LIBVER, _disk_error
 
+PRIVATE = getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
+
 
 def making_name(path: Path) -> Path:
     """The hidden name a trial file is made under (in its own folder, so that the link to
@@ -32,18 +34,23 @@ def make_file(path: Path, making: Path) -> h5py.File:
     if path.exists():
         raise _taken(path)
     try:
-        # A small chunk cache: HDF5's default (1 MiB a dataset) holds the last MiB of
-        # every channel, 30+ MiB that a writer appending in order never reads back.
-        f = h5py.File(making, "w-", libver=LIBVER, rdcc_nbytes=CHUNK_CACHE_BYTES)
-    except (OSError, RuntimeError) as exc:
+        # a trial holds a patient's data: readable by its user only from its first byte,
+        # whatever the umask (made empty, exclusively and 0600; HDF5's "w" keeps the mode)
+        fd = os.open(making, os.O_WRONLY | os.O_CREAT | os.O_EXCL | PRIVATE, 0o600)
+    except OSError as exc:
         raise _disk_error(path, "create", exc) from exc
     try:
-        # a trial holds a patient's data: readable by its user only, whatever the umask
-        os.chmod(making, 0o600)
-    except OSError as exc:
-        f.close()
+        try:
+            os.fchmod(fd, 0o600)
+        finally:
+            os.close(fd)
+        # A small chunk cache: HDF5's default (1 MiB a dataset) holds the last MiB of
+        # every channel, 30+ MiB that a writer appending in order never reads back.
+        return h5py.File(making, "w", libver=LIBVER, rdcc_nbytes=CHUNK_CACHE_BYTES)
+    except (OSError, RuntimeError) as exc:
+        with contextlib.suppress(OSError):
+            os.unlink(making)  # ours: made just now
         raise _disk_error(path, "create", exc) from exc
-    return f
 
 
 def publish(making: Path, path: Path) -> None:

@@ -117,9 +117,12 @@ class HeldSpace:
         self.held = True
         return ""
 
-    def hold_more(self, nbytes: int) -> bool:
-        """Try once more to hold `nbytes` past the end (the last write's room, when the
-        disk has since freed some): whether at least that much is held now."""
+    def ensure(self, nbytes: int) -> bool:
+        """Whether `nbytes` are held past the end, holding them if the disk has them (the
+        close's room, when the disk has freed some since): True where nothing can be held
+        at all, as the write then depends on the free space alone."""
+        if not self.held:
+            return True
         if self._fd < 0:
             return False
         size = self.size()

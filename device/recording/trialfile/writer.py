@@ -72,6 +72,7 @@ from device.recording.trialfile.layout import (
 )
 from device.recording.trialfile.making import make_file, making_name, publish
 from device.recording.trialfile.reserve import CLOSE_BYTES, RESERVE_BYTES, HeldSpace, SpaceShort
+from device.recording.trialfile.resume import adopt
 from device.recording.trialfile.summary import computed_summary
 
 
@@ -103,28 +104,8 @@ class TrialFileWriter:
         min_free_bytes: int = MIN_FREE_BYTES,
         reserve_bytes: int | None = None,
     ) -> None:
-        self._path = Path(path)
-        self._channels = tuple(channels)
-        self._live = live
-        self._durable = durable
-        self._flush_interval_s = flush_interval_s
-        self._min_free_bytes = min_free_bytes
-        self._n = 0
-        self._n_events = 0
-        self._closed = False
-        self._failed: str | None = None
-        self._file: h5py.File | None = None
-        self._making: Path | None = making_name(self._path)
-        self._last_flush = time.monotonic()
-        self._reserve_bytes = (RESERVE_BYTES if live else 0) if reserve_bytes is None \
-            else int(reserve_bytes)
-        self._space: HeldSpace | None = None
-        self._short: str | None = None
-        """Why the disk is short, once it is: the recording ends on what is held."""
-        self.close_problem = ""
-        """What `close` could not add for want of space ('' when nothing)."""
-
-        _check_channels(self._channels)
+        self._init_state(path, channels, live, durable, flush_interval_s, chunk_rows,
+                         min_free_bytes, reserve_bytes)
         if not (isinstance(sample_period_s, int | float) and math.isfinite(sample_period_s)
                 and sample_period_s > 0):
             raise RecordingError(
@@ -134,12 +115,6 @@ class TrialFileWriter:
             raise RecordingError("parameters must be a core.trial.TrialParameters")
         if not isinstance(subject, SubjectInfo):
             raise RecordingError("subject must be a device.recording.trialfile.SubjectInfo")
-        if not isinstance(chunk_rows, int) or chunk_rows < 1:
-            raise RecordingError(f"chunk_rows = {chunk_rows!r}: give a whole number >= 1")
-        self._dtype = np.dtype([c.numpy_field for c in self._channels])
-        # what one append may add beyond its records: a new chunk of every channel and
-        # of the events, and HDF5's metadata blocks
-        self._growth_bytes = chunk_rows * self._dtype.itemsize + 2**18
         self._bytes_per_minute = self._dtype.itemsize / sample_period_s * 60.0
         robot_json = _to_json("robot", _plain_mapping(robot))
         header = {
@@ -192,6 +167,63 @@ class TrialFileWriter:
             if isinstance(exc, RecordingError):
                 raise
             raise _disk_error(self._path, "write the header of", exc) from exc
+
+    def _init_state(self, path, channels, live, durable, flush_interval_s, chunk_rows,
+                    min_free_bytes, reserve_bytes) -> None:
+        """The writer's state before its file: a new one's (`__init__`) or a dead writer's
+        (`resume`)."""
+        self._path = Path(path)
+        self._channels = tuple(channels)
+        self._live = live
+        self._durable = durable
+        self._flush_interval_s = flush_interval_s
+        self._min_free_bytes = min_free_bytes
+        self._n = 0
+        self._n_events = 0
+        self._closed = False
+        self._failed: str | None = None
+        self._file: h5py.File | None = None
+        self._making: Path | None = making_name(self._path)
+        self._last_flush = time.monotonic()
+        self._reserve_bytes = (RESERVE_BYTES if live else 0) if reserve_bytes is None \
+            else int(reserve_bytes)
+        self._space: HeldSpace | None = None
+        self._short: str | None = None
+        """Why the disk is short, once it is: the recording ends on what is held."""
+        self.close_problem = ""
+        """What `close` could not add for want of space ('' when nothing)."""
+        _check_channels(self._channels)
+        if not isinstance(chunk_rows, int) or chunk_rows < 1:
+            raise RecordingError(f"chunk_rows = {chunk_rows!r}: give a whole number >= 1")
+        self._dtype = np.dtype([c.numpy_field for c in self._channels])
+        # what one append may add beyond its records: a new chunk of every channel and
+        # of the events, and HDF5's metadata blocks
+        self._growth_bytes = chunk_rows * self._dtype.itemsize + 2**18
+
+    @classmethod
+    def resume(cls, path: str | os.PathLike,
+               channels: tuple[Channel, ...] = CHANNELS) -> TrialFileWriter:
+        """The writer of a trial file whose writer died with it open (a killed recorder),
+        to add what that one did not write and close the file: the dead writer's flags
+        cleared (device.recording.trialfile.recover), every channel cut to the samples
+        all of them hold whole, then SWMR and the reserve as for a new file. Only for a
+        file whose writer is known to be dead."""
+        self = cls.__new__(cls)
+        self._init_state(path, channels, True, True, 0.5, CHUNK_ROWS, 0, None)
+        self._making = None
+        self._file, self._datasets, self._events, self._n, self._n_events = adopt(
+            self._path, self._channels)
+        self._bytes_per_minute = (self._dtype.itemsize * 60.0
+                                  / float(self._file.attrs["sample_period_s"]))
+        try:
+            self._file.swmr_mode = True
+            self._flush()
+            self._space = HeldSpace(self._path, self._reserve_bytes)
+            self._space.top_up()
+        except (OSError, RuntimeError, ValueError) as exc:
+            self._abandon()
+            raise _disk_error(self._path, "reopen", exc) from exc
+        return self
 
     # -- state ---------------------------------------------------------------
 
@@ -340,7 +372,8 @@ class TrialFileWriter:
                 # HDF5 does not allow new attributes or groups under SWMR.
                 self._file.close()
                 self._file = None
-                if not self._room_to_close():
+                # the reopen writes only into space held for it (where space can be held)
+                if self._space is not None and not self._space.ensure(CLOSE_BYTES):
                     self.close_problem = (
                         f"{self._short or 'the disk is full'}: every sample and event is "
                         "in the file, its status and summary could not be added")
@@ -460,18 +493,6 @@ class TrialFileWriter:
                 f"stopped writing trial file {self._path} at sample {self._n}: "
                 f"{self._failed}. Close it with status 'recording_lost'."
             )
-
-    def _room_to_close(self) -> bool:
-        """Whether the reopen of `close` can have the space it writes into: what is held
-        (topped up once more if the disk has it), or, where nothing can be held, the disk's
-        own free space."""
-        space = self._space
-        if space is None or not space.held:
-            return True
-        room = space.room()
-        if room is not None and room >= CLOSE_BYTES:
-            return True
-        return space.hold_more(CLOSE_BYTES)
 
     def _release(self) -> None:
         if self._space is not None:
