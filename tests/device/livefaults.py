@@ -35,6 +35,9 @@ from device.safety.faults import Fault
 ROOT = Path(__file__).resolve().parents[2]
 CONSOLE = Path(__file__).with_name("live_console.py")
 PERIOD_S = 0.002
+LOOP_HELD_S = 0.1
+"""How long "loop SIGSTOP" holds the loop stopped after the recorder drained the ring (at
+least: the sleep may last longer, never shorter)."""
 FAULTS = ("loop SIGKILL", "loop SIGSTOP", "recorder SIGKILL", "recorder SIGSTOP",
           "console SIGKILL", "console SIGSTOP", "group SIGINT", "group SIGTERM",
           "group SIGHUP", "disk full", "write EIO")
@@ -245,10 +248,10 @@ def _inject(console: LiveConsole, fault: str, disk, trigger: Path) -> None:
     elif fault == "loop SIGSTOP":
         console.signal("loop", signal.SIGSTOP)
         console.wait_until(lambda: _stopped(console.pids["loop"]), "stopped")
-        # the recorder drains what was pushed; the loop stays stopped some 50 ms more
+        # the recorder drains what was pushed; the loop stays stopped LOOP_HELD_S more
         console.wait_until(lambda: console.ring.recorder_cursor == console.ring.write_count,
                            "drained")
-        time.sleep(0.05)
+        time.sleep(LOOP_HELD_S)
         console.signal("loop", signal.SIGCONT)
         console.wait_ticks(console.ring.write_count - console.first_seq + 100)
         console.command("stop")

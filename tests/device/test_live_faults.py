@@ -16,7 +16,7 @@ import zlib
 import numpy as np
 import pytest
 
-from tests.device.livefaults import FAULTS, run_fault
+from tests.device.livefaults import FAULTS, LOOP_HELD_S, run_fault
 from tests.device.smalldisk import DISK_KIND, SmallDisk
 
 pytestmark = pytest.mark.slow
@@ -68,8 +68,10 @@ def test_a_live_trial_file_survives_the_fault(fault, tmp_path):
         assert outcome.lost <= HALF_A_SECOND, said  # since the last flush
     else:
         assert outcome.lost == 0, said
-    if fault == "loop SIGSTOP":  # held stopped at least 50 ms: its next tick says so
-        assert outcome.lateness_max_s >= 0.05, said
+    if fault == "loop SIGSTOP":
+        # held stopped LOOP_HELD_S or more: the tick it owed is late by that less the part
+        # of a period it had left (a margin of half the hold, never a question of timing)
+        assert outcome.lateness_max_s >= LOOP_HELD_S / 2, said
     else:
         assert outcome.fault_tick >= outcome.injected_tick or fault == "loop SIGKILL", said
     if fault.startswith("group"):
