@@ -188,10 +188,10 @@ class DataDir:
                 raise DataDirError(f"{exc} (the data folder; {self._choose()})") from None
             except OSError as exc:
                 raise DataDirError(f"cannot use the data folder {self.root}: "
-                                   f"{os_reason(exc)}. {self._choose().capitalize()}") from None
+                                   f"{os_reason(exc)}. {self._choose(first=True)}") from None
         except (OSError, RecursionError, ValueError) as exc:
             raise DataDirError(f"cannot use the data folder {self.root}: {os_reason(exc)}. "
-                               f"{self._choose().capitalize()}") from None
+                               f"{self._choose(first=True)}") from None
         if not stat.S_ISDIR(info.st_mode):
             raise DataDirError(f"the data folder {self.root} is a file, not a folder. Move it, "
                                f"or {self._choose()}")
@@ -207,12 +207,14 @@ class DataDir:
         if problem:
             raise DataDirError(
                 f"the data folder {self.root} {problem}: patients' data must be private to "
-                f"you. {self._choose().capitalize()}, or make it yours alone "
+                f"you. {self._choose(first=True)}, or make it yours alone "
                 f"(chmod 700 {self.root}); the console never changes a folder it did not make")
 
-    def _choose(self) -> str:
-        return (f"choose another data folder (--data-dir, the setting data_dir, or "
-                f"{ENV_DATA_DIR}; this one came from the {self.source})")
+    def _choose(self, *, first: bool = False) -> str:
+        """What to do instead, as a clause; `first`: opening a sentence (str.capitalize would
+        lowercase the variable's name, which must be typed as it is)."""
+        return (f"{'C' if first else 'c'}hoose another data folder (--data-dir, the setting "
+                f"data_dir, or {ENV_DATA_DIR}; this one came from the {self.source})")
 
     def _own_folder(self, folder: Path) -> None:
         """One of the console's folders inside the data folder: made 0700 where missing;
@@ -232,7 +234,7 @@ class DataDir:
             return
         except OSError as exc:
             raise DataDirError(f"cannot use {folder} in the data folder: {os_reason(exc)}. "
-                               f"{self._choose().capitalize()}") from None
+                               f"{self._choose(first=True)}") from None
         if stat.S_ISLNK(info.st_mode):
             problem = folder_problem(folder)
             if problem:

@@ -26,7 +26,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from app.records.datadir import LOGS, DataDir, locate_data_dir
+from app.records.datadir import LOGS, PRIVATE_FILE, DataDir, locate_data_dir
 
 LOG_PREFIX = "rehab-console-"
 LOG_SUFFIX = ".log"
@@ -65,10 +65,19 @@ class DailyFileHandler(logging.handlers.TimedRotatingFileHandler):
 
     def _open(self):
         """The day's file, readable by its user only whatever the umask (a log names
-        patients' codes and their trials' events)."""
-        stream = super()._open()
-        os.chmod(self.baseFilename, 0o600)
-        return stream
+        patients' codes and their trials' events): created 0600 (open() gave it the
+        umask's mode until a chmod after), and one an earlier console left open closed
+        again. A log is appended to all day by every process of the console, so it is
+        not written whole through a temporary as the console's other files are
+        (device.safewrite)."""
+        fd = os.open(self.baseFilename, os.O_WRONLY | os.O_CREAT | os.O_APPEND
+                     | getattr(os, "O_CLOEXEC", 0), PRIVATE_FILE)
+        try:
+            os.fchmod(fd, PRIVATE_FILE)
+        except OSError:
+            os.close(fd)
+            raise
+        return os.fdopen(fd, "a", encoding=self.encoding, errors=self.errors)
 
     def shouldRollover(self, record: logging.LogRecord) -> bool:
         return self.clock() >= self.rolloverAt

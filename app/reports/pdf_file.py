@@ -1,6 +1,8 @@
 """Writing a PDF of matplotlib pages as every file the console writes by a name is written
 (device.safewrite): into a 0600 temporary beside its name, fsynced, then moved into place,
-never over a file unless asked and never half-written. The post-trial report
+never over a file unless asked and never half-written; and never over what a data folder
+keeps, whatever the name chosen (app.records.safewrite: a report saved from the window's
+dialog under a trial file's name replaced the trial). The post-trial report
 (app.reports.pdf) and the progress (app.reports.progress_pdf) go through it."""
 
 from __future__ import annotations
@@ -14,8 +16,9 @@ from matplotlib.backends.backend_pdf import PdfPages
 from matplotlib.figure import Figure
 
 from app.errors import AppError
+from app.records.safewrite import OutputRefused, atomic_output
 from app.reports.pdf_sheet import RC
-from device.safewrite import OutputRefused, absolute, atomic_output
+from device.safewrite import absolute
 
 
 def write_pdf(path: str | os.PathLike, pages: Callable[[], Sequence[Figure]],

@@ -818,3 +818,30 @@ def test_a_dead_writer_s_file_is_taken_over_where_its_samples_are_whole(tmp_path
         np.testing.assert_array_equal(f["timeseries/tick"][()], np.arange(1600))
         assert f["summary"].attrs["n_samples"] == 1600
         assert [e["kind"] for e in f["events"][()]] == [b"recording"]
+
+
+def test_a_trial_file_is_its_users_only_from_its_first_moment(tmp_path, monkeypatch):
+    """A patient's data, whatever the umask: HDF5 made the file with the umask's mode and
+    a chmod followed, an instant in which another user could open it and go on reading
+    all that was written later through that descriptor (issue 28 #1, private modes by the
+    library)."""
+    from device.recording.trialfile import making
+
+    modes = []
+    opened = making.h5py.File
+
+    def watched(name, *args, **kwargs):
+        f = opened(name, *args, **kwargs)
+        modes.append(os.stat(name).st_mode & 0o777)  # the moment HDF5 has made it
+        return f
+
+    monkeypatch.setattr(making.h5py, "File", watched)
+    old = os.umask(0o022)
+    try:
+        writer = open_writer(tmp_path / "t.h5")
+    finally:
+        os.umask(old)
+    writer.close("complete")
+    assert modes[:1] == [0o600]
+    assert os.stat(tmp_path / "t.h5").st_mode & 0o777 == 0o600
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.h5"]

@@ -14,6 +14,7 @@ window says so once the loop has taken it.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,6 +23,7 @@ from core.trial import TrialParameters
 from device.loop.messages import BackendConfig
 from device.loop.states import State
 from device.recording.trialfile import SubjectInfo
+from device.safewrite import os_reason
 from ui.tabs import VIEW_TABS
 from ui.tabs.parameters import HARDWARE, BackendChoice
 from ui.views.moment import STATUS_WORDS
@@ -156,11 +158,20 @@ class TrialActions:
         self.trial_id = begun.trial_id
         self.trial_fault = ""
         self.trial_path = begun.path
-        subject = SubjectInfo.from_parameters(self.patient.code, self.built)
-        camera = self.video.camera
-        if camera is not None and camera.running:
-            camera.start_recording(begun.path.with_suffix(".mp4"))
-        self.bridge.start_trial(str(begun.path), subject)
+        try:
+            subject = SubjectInfo.from_parameters(self.patient.code, self.built)
+            camera = self.video.camera
+            if camera is not None and camera.running:
+                camera.start_recording(begun.path.with_suffix(".mp4"))
+            self.bridge.start_trial(str(begun.path), subject)
+        except Exception as exc:  # the video cannot be written, the loop is gone, …
+            # what was begun goes back with the refusal (app.trials.registered): the trial
+            # stayed 'recording' with no file, and Start waited for it for good
+            why = os_reason(exc)  # in words, one line (an OSError without its [Errno])
+            self._say(f"Start refused: {why}", problem=True)
+            self._take_back(why)
+            self._refresh_buttons()
+            return
         # the next trial's number at once: a Start pressed as soon as this trial ends
         # (before it is finished into the registry) was refused as a number already used
         self.registration_tab.refresh_numbers()
@@ -264,15 +275,25 @@ class TrialActions:
         return connected
 
     def _take_back(self, why: str) -> None:
-        """The loop refused the Start the registry had begun: the trial is taken back
-        (withdrawn, or finished as recording lost if samples reached its file), never left
-        'recording' with no file (app.trials.registered)."""
-        from app.trials.registered import take_back
+        """A Start the registry had begun was refused (by the loop, or before it was
+        asked): the trial is taken back (withdrawn, or finished as recording lost if
+        samples reached its file), never left 'recording' with no file
+        (app.trials.registered); the video begun for it stops, and goes with a withdrawn
+        trial (it filmed on, beside no trial, until the next Start)."""
+        from app.trials.registered import WITHDRAWN, take_back
 
         trial_id, self.trial_id = self.trial_id, None
-        self.jobs.run(lambda: take_back(self.registry, trial_id, why),
-                      lambda done: self._say(f"The refused trial: {done.words}.",
-                                             problem=True))
+        camera = self.video.camera
+        filmed = camera.stop_recording() if camera is not None and camera.recording else None
+
+        def taken_back(done) -> None:
+            if done.outcome == WITHDRAWN and filmed is not None:
+                for path in (filmed.video_path, filmed.timestamps_path):
+                    with contextlib.suppress(OSError):
+                        path.unlink()
+            self._say(f"The refused trial: {done.words}.", problem=True)
+
+        self.jobs.run(lambda: take_back(self.registry, trial_id, why), taken_back)
         if self.registration is not None:
             self.jobs.run(lambda: None, lambda _: self.registration_tab.refresh_numbers())
 

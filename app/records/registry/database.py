@@ -175,20 +175,26 @@ class Database:
     # -- the whole file --------------------------------------------------------------
     def backup(self, target: str | Path) -> Path:
         """A consistent copy of the registry (SQLite's online backup), safe while
-        other consoles write: for a researcher's export or before a risky change."""
-        target = Path(target)
+        other consoles write: for a researcher's export or before a risky change. Written
+        as every file named by someone is (app.records.safewrite): a new file only (SQLite
+        would copy into a database found there, replacing it), never among what a data
+        folder keeps but below its exports/ and reports/, whole or not at all, 0600 from
+        the start (a copy of the patients' records: its user's only)."""
+        from app.records.safewrite import OutputRefused, atomic_path
+
         with self._connection() as conn:
             try:
-                target.parent.mkdir(parents=True, exist_ok=True)
-                with contextlib.closing(sqlite3.connect(target)) as copy:
+                with atomic_path(target, roots=(self.path.parent,)) as temporary, \
+                        contextlib.closing(sqlite3.connect(temporary)) as copy:
                     conn.backup(copy)
-                os.chmod(target, 0o600)  # a copy of the patients' records: its user's only
+            except OutputRefused as exc:
+                raise RegistryError(f"cannot write a copy of the registry: {exc}") from None
             except (OSError, sqlite3.Error) as exc:
                 raise RegistryError(
                     f"cannot write a copy of the registry to {target}: {exc}. Choose a "
                     "writable folder with free space"
                 ) from exc
-        return target
+        return Path(os.path.abspath(target))
 
     def integrity_check(self) -> list[str]:
         """SQLite's integrity and foreign-key checks: an empty list when sound."""

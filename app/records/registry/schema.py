@@ -20,11 +20,11 @@ import sqlite3
 from pathlib import Path
 
 from app.errors import RegistryError, SchemaError
-from app.records.datadir import ENV_DATA_DIR, DataDir, foreign_entries, private_files
+from app.records.datadir import ENV_DATA_DIR, DataDir, foreign_entries
 from app.records.registry import seals
 from app.records.registry.database import Database, rollback
 from app.records.registry.snapshot import needs_snapshot
-from app.records.safewrite import OutputRefused, atomic_path, folded
+from app.records.safewrite import OutputRefused, atomic_output, atomic_path, folded
 
 # The registry's one logger, named as it was before the registry had modules.
 log = logging.getLogger(__package__)
@@ -198,11 +198,18 @@ class Schema(Database):
     def _back_up(self, conn: sqlite3.Connection, version: int) -> None:
         stamp = datetime.datetime.now(datetime.UTC).strftime("%Y%m%dT%H%M%SZ")
         target = self.path.with_name(f"{self.path.name}.v{version}-{stamp}.bak")
-        if target.exists():
-            return
-        with contextlib.closing(sqlite3.connect(target)) as copy:
-            conn.backup(copy)
-        private_files(target)
+        try:
+            # the registry's own copy: whole or not at all, 0600 from the start, never over
+            # a copy another console made this second (app.records.safewrite)
+            with atomic_path(target, owned=True) as temporary, \
+                    contextlib.closing(sqlite3.connect(temporary)) as copy:
+                conn.backup(copy)
+        except OutputRefused as exc:
+            if os.path.lexists(target):
+                return  # another console kept this second's copy
+            raise RegistryError(f"the registry {self.path} was not updated to schema "
+                                f"v{SCHEMA_VERSION}: its copy could not be kept first "
+                                f"({exc})") from None
         log.info("registry %s: copy of schema v%d kept as %s before migrating",
                  self.path, version, target.name)
 
@@ -236,15 +243,35 @@ def check_registry_file(path: Path, trials_dir: Path) -> bool | None:
                             "check its permissions, or restore it from a backup") from exc
     if header == SQLITE_HEADER:
         return True
-    stamp = datetime.datetime.now(datetime.UTC).strftime("%Y%m%dT%H%M%SZ")
-    kept = path.with_name(f"{path.name}.damaged-{stamp}")
-    with contextlib.suppress(OSError):
-        shutil.copy2(path, kept)
     what = "empty (0 bytes)" if not header else "not a SQLite database"
+    kept = _keep_damaged(path)
+    copy = f"a copy is kept as {kept.name}" if kept else "no copy of it could be kept"
     raise SchemaError(
-        f"{path} is not a registry database ({what}); nothing was changed and a copy is kept as "
-        f"{kept.name}. Restore the registry from a backup (a registry.sqlite3.v*.bak beside "
-        "it, or your own copy) and start again")
+        f"{path} is not a registry database ({what}); nothing was changed and {copy}. "
+        "Restore the registry from a backup (a registry.sqlite3.v*.bak beside it, or your "
+        "own copy) and start again")
+
+
+def _keep_damaged(path: Path) -> Path | None:
+    """A copy of a damaged registry beside it (`registry.sqlite3.damaged-<UTC>`), for
+    whoever repairs it: a new file only, whole, 0600 (the patients' records; shutil.copy2
+    gave it the damaged file's mode and replaced a copy of the same second); None when it
+    could not be made."""
+    stamp = datetime.datetime.now(datetime.UTC).strftime("%Y%m%dT%H%M%SZ")
+    for counter in range(1, 10):
+        kept = path.with_name(f"{path.name}.damaged-{stamp}"
+                              + (f"-{counter}" if counter > 1 else ""))
+        try:
+            with open(path, "rb") as source, atomic_output(kept, owned=True) as copy:
+                shutil.copyfileobj(source, copy)
+        except OutputRefused:
+            if os.path.lexists(kept):
+                continue  # a copy of this second is there already: another name
+            return None
+        except OSError:
+            return None
+        return kept
+    return None
 
 
 def create_registry_file(data_dir: DataDir) -> None:

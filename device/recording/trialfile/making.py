@@ -13,8 +13,7 @@ import h5py
 
 from device.errors import RecordingError
 from device.recording.trialfile.layout import CHUNK_CACHE_BYTES, LIBVER, _disk_error
-
-PRIVATE = getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
+from device.safewrite import OutputRefused, claim_private_file
 
 
 def making_name(path: Path) -> Path:
@@ -34,22 +33,22 @@ def make_file(path: Path, making: Path) -> h5py.File:
     if path.exists():
         raise _taken(path)
     try:
-        # a trial holds a patient's data: readable by its user only from its first byte,
-        # whatever the umask (made empty, exclusively and 0600; HDF5's "w" keeps the mode)
-        fd = os.open(making, os.O_WRONLY | os.O_CREAT | os.O_EXCL | PRIVATE, 0o600)
-    except OSError as exc:
-        raise _disk_error(path, "create", exc) from exc
+        # a trial holds a patient's data: its user's only from the first moment, whatever
+        # the umask (device.safewrite: created exclusively, 0600; HDF5's "w" keeps the
+        # mode). A chmod after HDF5 made it left an instant in which another user could
+        # open it, and read all that was written later through that descriptor.
+        claim_private_file(making)
+    except OutputRefused as exc:
+        said = exc.__context__  # what the system said, when it said something
+        raise _disk_error(path, "create", said if isinstance(said, OSError) else exc) \
+            from None
     try:
-        try:
-            os.fchmod(fd, 0o600)
-        finally:
-            os.close(fd)
         # A small chunk cache: HDF5's default (1 MiB a dataset) holds the last MiB of
         # every channel, 30+ MiB that a writer appending in order never reads back.
         return h5py.File(making, "w", libver=LIBVER, rdcc_nbytes=CHUNK_CACHE_BYTES)
     except (OSError, RuntimeError) as exc:
         with contextlib.suppress(OSError):
-            os.unlink(making)  # ours: made just now
+            os.unlink(making)
         raise _disk_error(path, "create", exc) from exc
 
 

@@ -289,7 +289,7 @@ def test_no_name_appears_in_any_file_or_folder_the_registry_produces(tmp_path, c
         report = registry.data_dir.report_path(patient.code, begun.session_number,
                                                begun.trial_number, begun.started_at)
         assert patient.code in report.name
-    registry.backup(tmp_path / "data" / "exports" / "registry-copy.sqlite3")
+    registry.backup(registry.data_dir.ensure("exports") / "registry-copy.sqlite3")
 
     produced = [p.relative_to(tmp_path) for p in tmp_path.rglob("*")]
     assert any(p.suffix == ".h5" for p in produced)

@@ -321,6 +321,24 @@ def test_a_registered_trial_s_report_goes_where_the_data_folder_says_without_nam
         assert name.encode() not in path.read_bytes()
 
 
+def test_a_report_saved_under_a_name_the_data_folder_keeps_replaces_nothing(registry_trials):
+    """The window's "Save the report" dialog confirms a name that exists, so the PDF may
+    replace a file; but never a trial file or anything else the data folder keeps (issue
+    28 #1: a report saved as the trial's own .h5 replaced the trial)."""
+    from app.reports.build import content_for_registry_trial
+
+    registry, _, ids = registry_trials
+    content = content_for_registry_trial(registry, ids[0])
+    trial = registry.trial_path(registry.trial(ids[0]))
+    kept = {path: path.read_bytes() for path in (trial, registry.path)}
+    for name in (trial, registry.path, trial.with_suffix(".pdf"),
+                 registry.data_dir.root / "report.pdf"):
+        with pytest.raises(AppError, match="cannot write the report"):
+            write_report_pdf(content, name)
+    assert {path: path.read_bytes() for path in kept} == kept
+    assert not trial.with_suffix(".pdf").exists()
+
+
 def test_the_first_name_appears_only_when_asked_for_and_never_the_last(registry_trials, tmp_path):
     registry, _, ids = registry_trials
     text = pdf_text(report_for_registry_trial(registry, ids[0], tmp_path / "named.pdf",

@@ -1,0 +1,116 @@
+"""A Start the window began and could not carry through takes back all it began (issue 28
+#4, the window's side of app.trials.registered): the trial registered at Start, when the
+video cannot be written or the loop cannot be asked, is withdrawn, not left 'recording'
+with no file (the error escaped the click, the row stayed, and Start waited for that
+trial's file for good); a video begun for a trial the loop refused stops and goes with
+it."""
+
+from __future__ import annotations
+
+import errno
+from pathlib import Path
+
+import pytest
+
+from device.errors import RecordingError
+from device.loop.states import State
+from tests.ui.session import click, open_window, register_patient, short_trial
+from ui.tabs.video import VideoTab
+
+
+class Camera:
+    """A camera filming, whose recordings are files beside the trial as the real one's."""
+
+    running = True
+
+    def __init__(self, refuse: bool) -> None:
+        self.refuse, self.recording, self.made = refuse, False, []
+
+    def start_recording(self, path) -> Path:
+        if self.refuse:
+            raise RecordingError(f"cannot write video beside {path}: {path} already exists "
+                                 "and is kept: give another name")
+        from device.camera.capture import timestamps_path
+
+        self.recording, self.path = True, Path(path)
+        for made in (self.path, timestamps_path(path)):
+            made.write_bytes(b"filmed")
+            self.made.append(made)
+        return timestamps_path(path)
+
+    def stop_recording(self):
+        from device.camera.capture import Recording, timestamps_path
+
+        self.recording = False
+        return Recording(self.path, timestamps_path(self.path), 1, 0.0, 0.0)
+
+
+@pytest.fixture
+def window(qtbot, tmp_path, monkeypatch):
+    win = open_window(qtbot, tmp_path, monkeypatch)
+    yield win
+    win.closing_by_signal = True
+    win.close()
+
+
+def _connected(qtbot, win) -> None:
+    register_patient(qtbot, win)
+    short_trial(win)
+    click(qtbot, win.robot.buttons["build"])
+    qtbot.waitUntil(lambda: win.state == State.BUILT and win.built is not None,
+                    timeout=60000)
+    click(qtbot, win.robot.buttons["connect"])
+    qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=60000)
+
+
+def _no_trial_left(win) -> None:
+    assert win.registry.unfinished_trials() == []
+    assert win.registry.trials_for_patient(win.patient.code) == []
+    assert win.trial_id is None
+    folder = win.registry.data_dir.trials_dir / win.patient.code
+    assert not folder.exists() or list(folder.iterdir()) == []
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("failure", ["video", "loop"])
+def test_a_start_that_cannot_go_on_takes_its_trial_back(qtbot, window, monkeypatch, failure):
+    win = window
+    _connected(qtbot, win)
+    if failure == "video":
+        monkeypatch.setattr(VideoTab, "camera", property(lambda tab: Camera(refuse=True)))
+    else:
+        def gone(*args, **kwargs):
+            raise BrokenPipeError(errno.EPIPE, "Broken pipe")
+
+        monkeypatch.setattr(win.bridge, "start_trial", gone)
+    click(qtbot, win.robot.buttons["start"])
+    said = win.message.text()
+    assert ("Start refused: cannot write video" if failure == "video" else
+            "Start refused: Broken pipe") in said
+    assert "\n" not in said
+    qtbot.waitUntil(lambda: "the trial was not registered" in win.message.text(),
+                    timeout=20000)
+    _no_trial_left(win)
+    assert win.state == State.CONNECTED
+    assert win.robot.buttons["start"].isEnabled()  # nothing left for Start to wait for
+
+
+@pytest.mark.slow
+def test_the_video_of_a_start_the_loop_refuses_goes_with_its_trial(qtbot, window,
+                                                                      monkeypatch):
+    win = window
+    _connected(qtbot, win)
+    camera = Camera(refuse=False)
+    monkeypatch.setattr(VideoTab, "camera", property(lambda tab: camera))
+    asked = []
+    monkeypatch.setattr(win.bridge, "start_trial", lambda *args: asked.append(args))
+    win.start_trial()
+    assert camera.recording
+    assert len(asked) == 1
+    # the loop's refusal, as its reply brings it
+    win._on_reply("start_trial", False, "start refused: the robot is not at rest")
+    assert not camera.recording
+    qtbot.waitUntil(lambda: "the trial was not registered" in win.message.text(),
+                    timeout=20000)
+    assert [path for path in camera.made if path.exists()] == []
+    _no_trial_left(win)
