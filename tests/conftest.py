@@ -15,10 +15,15 @@ import contextlib
 import os
 import re
 import sys
+import tempfile
 import time
 from dataclasses import dataclass, replace
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+# Model files are signed with the installation's key in the config folder
+# (app.records.signing): the suite has a config folder of its own, never the user's.
+if not os.environ.get("REHAB_CONFIG_DIR"):
+    os.environ["REHAB_CONFIG_DIR"] = tempfile.mkdtemp(prefix="rehab-tests-config-")
 
 import pytest
 from hypothesis import HealthCheck, settings

@@ -22,6 +22,7 @@ from app.cli.emg import add_emg_commands
 from app.cli.exports import add_export_command
 from app.cli.gains import add_gains_command
 from app.cli.learn import add_learn_commands
+from app.cli.models import add_models_command
 from app.cli.pose import add_pose_command
 from app.cli.records import add_patient_commands, add_trials_command
 from app.cli.reports import add_progress_command, add_report_command
@@ -46,6 +47,7 @@ COMMAND_GROUPS = (
     add_gains_command,
     add_learn_commands,
     add_emg_commands,
+    add_models_command,
 )
 
 

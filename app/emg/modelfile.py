@@ -6,9 +6,10 @@ of all of it (docs/data-format.md, "EMG model files").
 
 A file is refused, by the fault's name (ModelFileError.reason, as for the learned robot
 models), when it is missing, is not an EMG model file (`format`), does not match its
-hash (`content hash`), takes other muscles than the session has (`muscles`), or does not
-show a passing validation under the console's rule (`not approved`: a file cannot make a
-failed model usable by being written by hand).
+hash (`content hash`), does not carry this installation's signature (`signature`: the
+approval cannot be re-signed by editing, app.records.signing), takes other muscles than
+the session has (`muscles`), or does not show a passing validation under the console's
+rule (`not approved`: a file cannot make a failed model usable by being written by hand).
 """
 
 from __future__ import annotations
@@ -22,10 +23,12 @@ from pathlib import Path
 from app.emg.validation import ModelNotApproved, approve
 from app.learning.modelfile import (
     ModelFileError,
+    check_numbers,
     checked_document,
     content_hash,
     software_versions,
 )
+from app.records import signing
 from app.records.safewrite import OutputRefused, write_text
 from core.emg.force import USABLE_CONE_AGREEMENT
 from core.emg.models import USABLE_R2, Validation, inputs_of, model_from_dict
@@ -126,6 +129,7 @@ def save_approved(models_dir: str | Path, name: str, checked) -> Path:
         "software": software_versions(),
     }
     document["content_sha256"] = content_hash(document)
+    document = signing.sign(document)
     try:
         make_private_folders(path.parent)
         # whole or not at all, never over a file written meanwhile, 0600 (app.records.safewrite)
@@ -136,13 +140,16 @@ def save_approved(models_dir: str | Path, name: str, checked) -> Path:
     return path
 
 
-def read_emg_model(path: str | Path, muscles=None) -> EmgModelFile:
-    """Read and check an EMG model file; with `muscles`, refuse a model that takes others."""
+def read_emg_model(path: str | Path, muscles=None, *, signed: bool = True) -> EmgModelFile:
+    """Read and check an EMG model file; with `muscles`, refuse a model that takes others
+    (`signed=False`: all but this installation's signature, for `rehab models import`).
+    Named by its file's stem, as the learned models."""
     path = Path(path)
     document = checked_document(path, FORMAT, FORMAT_VERSION,
                                 "rehab emg model --for-assistance --save NAME",
                                 "Save the model again from its trials, or restore the file "
-                                "from its copy.", noun="an EMG model file")
+                                "from its copy.", noun="an EMG model file", signed=signed)
+    check_numbers(path, "weights", document.get("model"))
     try:
         model = model_from_dict(document["model"])
         taken = tuple(str(m) for m in document["muscles"])
@@ -162,7 +169,7 @@ def read_emg_model(path: str | Path, muscles=None) -> EmgModelFile:
             "threshold_agreement": max(float(v.get("threshold_agreement", 0.0)),
                                        USABLE_CONE_AGREEMENT)})
             for v in document["validations"])
-    except (KeyError, TypeError, ValueError, ParameterError) as exc:
+    except (KeyError, TypeError, ValueError, AttributeError, ParameterError) as exc:
         raise ModelFileError(path, "format", f"its model is incomplete ({exc})",
                              "Save the model again from its trials.") from None
     if inputs_of(model) != len(taken):
@@ -180,7 +187,7 @@ def read_emg_model(path: str | Path, muscles=None) -> EmgModelFile:
         raise ModelFileError(path, "muscles", f"the model takes {', '.join(taken)}, the "
                              f"session has {', '.join(muscles) or 'none'}",
                              "Record those muscles, or choose a model of these.")
-    return EmgModelFile(path, str(document.get("name", path.stem)), model, taken, settings,
+    return EmgModelFile(path, path.stem, model, taken, settings,
                         validations, tuple(map(str, document.get("trials", ()))), dt_s,
                         as_live, latency_s, document["content_sha256"])
 

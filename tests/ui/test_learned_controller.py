@@ -55,7 +55,9 @@ def fitted_fnn(robot: RobotModel, hidden: int = 48) -> tuple[dict, dict]:
 
 
 @pytest.fixture
-def models(tmp_path):
+def models(tmp_path, monkeypatch):
+    # written (signed) with this installation's key: the config folder the window will use
+    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
     folder = tmp_path / "data" / "models"
     folder.mkdir(parents=True)
     spec, params = fitted_fnn(RobotModel())

@@ -65,6 +65,8 @@ def _record_mvcs(qtbot, win) -> None:
 def console(qtbot, tmp_path, monkeypatch, approved):
     """The window on a data folder holding the approved model "s1", and a fake Trigno
     streaming muscles whose levels a test sets."""
+    # saved (signed) with this installation's key: the config folder the window will use
+    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
     save_approved(DataDir(tmp_path / "data", "test").models_dir, "s1", approved)
     win = open_window(qtbot, tmp_path, monkeypatch)
     with fake.FakeTrignoServer() as server:

@@ -48,6 +48,21 @@ def saved(checked, tmp_path_factory):
     return models, emg_model(models, "s1")
 
 
+def test_an_approval_edited_to_a_narrower_cone_and_rehashed_is_refused(saved):
+    """Issue 28 #11: the validated cone edited from 30° to the thesis's 20° and the content
+    hash recomputed made a 20° trial pass that the original approval refuses."""
+    models, original = saved
+    assert original.refusal(THESIS_SUBJECT, 0.0)  # the original: not at 20°
+    document = json.loads(original.path.read_text())
+    for v in document["validations"]:
+        v["force"]["tolerance_rad"] = THESIS_SUBJECT.tolerance_rad
+    document["content_sha256"] = content_hash(document)
+    (models / "emg" / "edited.json").write_text(json.dumps(document))
+    with pytest.raises(ModelFileError, match="signature: it was changed after it was "
+                                             "signed"):
+        emg_model(models, "edited")
+
+
 def test_the_validation_replays_the_held_out_trial_as_the_live_console_would(checked):
     v = checked.validations[0]
     assert v.usable, v.why_not
@@ -115,13 +130,20 @@ def test_the_model_file_holds_what_passed_and_refuses_what_did_not(saved, checke
         read_emg_model(edited)
     document["content_sha256"] = content_hash(document)
     edited.write_text(json.dumps(document))
+    # re-hashed, it is no longer signed by this installation (issue 28 #11)
+    with pytest.raises(ModelFileError, match="signature"):
+        read_emg_model(edited)
+    # even signed here (as `rehab models import` would), the console's rule applies
+    from app.records import signing
+
+    edited.write_text(json.dumps(signing.sign(document)))
     with pytest.raises(ModelFileError, match="not approved"):
         read_emg_model(edited)
     document["validations"][0]["force"]["cone_agreement"] = 0.95
     document["validations"][0]["threshold_agreement"] = 0.0  # a file cannot lower the bar
     document["validations"][0]["force"]["cone_agreement"] = 0.7
     document["content_sha256"] = content_hash(document)
-    edited.write_text(json.dumps(document))
+    edited.write_text(json.dumps(signing.sign(document)))
     with pytest.raises(ModelFileError, match="not approved"):
         read_emg_model(edited)
     with pytest.raises(ModelFileError, match="muscles"):

@@ -7,6 +7,7 @@ import pytest
 
 from app.learning.dataset import Dataset
 from app.learning.modelfile import ModelFileError, content_hash, read_model, write_model
+from app.records import signing
 from core.learning import inference, networks as nw
 
 SPEC = {"kind": "fnn", "dof": 2, "hidden": [5], "position_inputs": [0, 1],
@@ -24,10 +25,13 @@ def model_path(tmp_path):
 
 
 def edit(path, change, rehash=False):
+    """Change the file; `rehash`: its hash recomputed and signed by this installation, as
+    if the console had written it so (what else the reader checks)."""
     document = json.loads(path.read_text())
     change(document)
     if rehash:
         document["content_sha256"] = content_hash(document)
+        document = signing.sign(document)
     path.write_text(json.dumps(document))
 
 
