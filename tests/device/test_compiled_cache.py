@@ -100,10 +100,12 @@ def test_a_pickle_planted_in_the_old_shared_fallback_never_runs(tmp_path):
     predictable $TMPDIR/rehab-console-numba/<hash>, accepted a folder found there, and
     numba unpickled its index files: a planted pickle ran inside `rehab run`. Now there is
     no fallback: the kernels compile in memory and nothing there is read."""
-    learned = tmp_path / "learned"
     env = {k: v for k, v in os.environ.items() if k != "REHAB_NUMBA_CACHE"}
-    # where numba files this kernel's index, relative to a cache folder
-    _compile_small_kernel({**env, "REHAB_NUMBA_CACHE": str(learned)})
+    # where numba files this kernel's index, relative to the cache folder it was given
+    # (the folder the console printed, <REHAB_NUMBA_CACHE>/<source hash>: relative to
+    # REHAB_NUMBA_CACHE itself the plant went one folder too deep and was never read)
+    learned = Path(_compile_small_kernel({**env, "REHAB_NUMBA_CACHE":
+                                          str(tmp_path / "learned")}))
     indexes = [p.relative_to(learned) for p in learned.rglob("*.nbi")]
     assert indexes
     shared = tmp_path / "tmp"
@@ -118,8 +120,8 @@ def test_a_pickle_planted_in_the_old_shared_fallback_never_runs(tmp_path):
     unusable.write_text("the user's cache folder cannot be made here")
     used = _compile_small_kernel({**env, "XDG_CACHE_HOME": str(unusable),
                                   "HOME": str(unusable), "TMPDIR": str(shared)})
+    assert not marker.exists(), "the planted pickle ran"
     assert used == "None"
-    assert not marker.exists()
 
 
 def test_the_cache_is_only_in_a_folder_of_the_users_alone(tmp_path):
