@@ -91,7 +91,7 @@ def session(app, folder: Path, suffix: str, width: int, height: int, scale: floa
             win.build()
             wait(lambda: win.state in (State.BUILT, State.CONNECTED) and not win.stale())
         if win.state == State.BUILT:
-            win.bridge.connect()
+            win.connect_robot()  # as the button does: 'Hands off the handle' first
             wait(lambda: win.state == State.CONNECTED)
         settle(0.5)
         win.start_trial()
@@ -127,17 +127,20 @@ def session(app, folder: Path, suffix: str, width: int, height: int, scale: floa
     p.refresh()
     shoot("parameters-unreachable", p)
     p.shoulder_x.setValue(-12.0)
-    p.repetitions.setValue(2)
+    p.repetitions.setValue(4)  # 12 s: the live tabs are shot while the trial runs
     p.duration.setValue(3.0)
     p.refresh()
     shoot("parameters", p)
 
     trial(level_during=70)
-    settle(3.0)
+    wait(lambda: "Assistance set to 70%" in win.message.text(), 10)
+    settle(1.0)
     for name, tab in (("trajectory-live", win.trajectory), ("force-live", win.force),
-                      ("angles-live", win.angles), ("torques-live", win.torques),
-                      ("video", win.video)):
+                      ("angles-live", win.angles), ("torques-live", win.torques)):
         shoot(name, tab)
+        if win.state != State.RUNNING:  # a "live" picture of a finished trial would lie
+            raise RuntimeError(f"the trial ended before {name} was shot")
+    shoot("video", win.video)
     wait(lambda: win.unsaved_trial is not None)
     wait(lambda: win.report.content is not None)
     shoot("report", win.report)
@@ -147,8 +150,11 @@ def session(app, folder: Path, suffix: str, width: int, height: int, scale: floa
 
     # two more trials, each taking the proposal: the Progress tab's staircase
     for _ in range(2):
-        if p.use_proposal.isVisible():
-            p.use_proposal.click()
+        win.tabs.setCurrentWidget(p)  # the proposal is offered there (hidden elsewhere)
+        settle(0.2)
+        if not (p.use_proposal.isVisible() and p.use_proposal.isEnabled()):
+            raise RuntimeError("no proposal offered after the trial")
+        p.use_proposal.click()
         trial()
         first = win.unsaved_trial
         wait(lambda first=first: win.unsaved_trial is not None and win.unsaved_trial != first

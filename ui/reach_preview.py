@@ -51,13 +51,16 @@ class ReachPreview(QWidget):
                                               pen=theme.pen(theme.BLACK),
                                               brush=pg.mkBrush(theme.BLACK))
         item.addItem(self.motors_mark)
-        self.legend = theme.set_role(QLabel(
-            f"<span style='color:#8C9096'>■</span> robot can reach &nbsp; "
-            f"<span style='color:{theme.BLUISH_GREEN}'>- - -</span> arm reaches comfortably "
-            f"&nbsp; <span style='color:{theme.WITHIN}'>——</span> path &nbsp; "
-            f"<span style='color:{theme.OUTSIDE}'>✕</span> cannot be reached &nbsp; "
-            f"<span style='color:{theme.ORANGE}'>●</span> shoulder &nbsp; ■ robot motors "
-            f"&nbsp; <span style='color:{theme.BLUE}'>▲</span> start"), "caption")
+        keys = (("#8C9096", "■", "robot can reach"),
+                (theme.BLUISH_GREEN, "- - -", "arm reaches comfortably"),
+                (theme.WITHIN, "——", "path"), (theme.OUTSIDE, "✕", "cannot be reached"),
+                (theme.ORANGE, "●", "shoulder"), (theme.BLACK, "■", "robot motors"),
+                (theme.BLUE, "▲", "start"))
+        # each key whole on its line (a wrap between "■" and "robot motors" read as two
+        # keys); the lines break only between keys
+        self.legend = theme.set_role(QLabel("&nbsp;&nbsp; ".join(
+            f"<span style='color:{colour}'>{sign.replace(' ', '&nbsp;')}</span>&nbsp;"
+            f"{words.replace(' ', '&nbsp;')}" for colour, sign, words in keys)), "caption")
         self.legend.setWordWrap(True)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)

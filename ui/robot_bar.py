@@ -1,7 +1,7 @@
 """The robot buttons (Fig. A.3), shown on every tab: Build, Connect, Disconnect, Start (green),
-Stop (red), Save data, and a large emergency stop; under the buttons, one line saying what
+Stop (red), Save data, and a large emergency stop; under the buttons, a line saying what
 holds the next step (a greyed Build or Start says why on every tab, not only in its
-tooltip).
+tooltip), whole: it takes a second line when its words need one.
 
 A button is enabled only when the loop's state and the window allow its command
 (ui.views.readiness), so a tired therapist cannot press them out of order; the loop
@@ -14,7 +14,7 @@ it read "MERGENCY STO").
 
 from __future__ import annotations
 
-from PySide6.QtCore import Qt, Signal
+from PySide6.QtCore import QEvent, QRect, Qt, Signal
 from PySide6.QtGui import QFont, QFontMetrics, QKeySequence
 from PySide6.QtWidgets import (
     QHBoxLayout,
@@ -91,12 +91,10 @@ class RobotBar(QWidget):
             self._labels[name] = f"{label} ({key})"
         self.buttons["start"].setStyleSheet(START_STYLE)
         self.buttons["stop"].setStyleSheet(STOP_STYLE)
-        # what holds the next step, on every tab (one line, cut with "…"; whole in its
-        # tooltip)
-        self.why = theme.set_role(ElidedLabel(), "problem")
+        # what holds the next step, on every tab, whole (a reach problem's words at font
+        # scale 1.5 need two lines: cut with "…", they lost what to do)
+        self.why = theme.set_role(WholeLine(), "problem")
         self.why.setObjectName("robot_why")
-        self.why.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Fixed)
-        self.why.setFixedHeight(QFontMetrics(_bold(self.why.font())).lineSpacing() + 2)
         column = QVBoxLayout()
         column.setContentsMargins(0, 0, 0, 0)
         column.setSpacing(2)
@@ -140,26 +138,50 @@ class RobotBar(QWidget):
         self.why.setToolTip(ready.line)
 
 
-class ElidedLabel(QLabel):
-    """One line that ends in "…" where it does not fit (the whole text stays in
-    `whole` and in the tooltip its owner sets)."""
+class WholeLine(QLabel):
+    """Words that are never cut: one line tall while they fit in one (or say nothing, so
+    the bar does not jump as they come and go), as many lines as they need when they do
+    not. `whole` is the text shown."""
 
     def __init__(self, parent: QWidget | None = None) -> None:
         super().__init__(parent)
         self.whole = ""
+        self.setWordWrap(True)
+        # as wide as the buttons above it, never wider: the words wrap instead
+        self.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Fixed)
+        self._fit()
 
     def set_whole(self, text: str) -> None:
         self.whole = text
+        self.setText(text)
         self._fit()
 
     def resizeEvent(self, event) -> None:
         super().resizeEvent(event)
         self._fit()
 
+    def changeEvent(self, event) -> None:
+        super().changeEvent(event)
+        if event.type() in (QEvent.Type.FontChange, QEvent.Type.StyleChange):
+            self._fit()
+
+    def lines_needed(self) -> int:
+        """Lines the words take at the label's width (the problem role is bold)."""
+        metrics = QFontMetrics(_bold(self.font()))
+        if not self.whole:
+            return 1
+        width = max(self.contentsRect().width(), 1)
+        box = metrics.boundingRect(QRect(0, 0, width, 100_000),
+                                   int(Qt.TextFlag.TextWordWrap), self.whole)
+        return max(1, round(box.height() / metrics.lineSpacing()))
+
     def _fit(self) -> None:
-        metrics = QFontMetrics(_bold(self.font()))  # the problem role is bold
-        self.setText(metrics.elidedText(self.whole, Qt.TextElideMode.ElideRight,
-                                        max(self.width() - 4, 0)))
+        metrics = QFontMetrics(_bold(self.font()))
+        margins = self.contentsMargins()
+        height = self.lines_needed() * metrics.lineSpacing() + 2 + margins.top() \
+            + margins.bottom()
+        if self.height() != height or self.minimumHeight() != height:
+            self.setFixedHeight(height)
 
 
 def _bold(font: QFont) -> QFont:

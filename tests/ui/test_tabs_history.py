@@ -88,6 +88,27 @@ def test_replay_loads_a_trial_and_the_slider_moves_the_cursor(qtbot, history):
     assert tab.slider.value() == view.index_at(2.0)
 
 
+def test_replay_marks_the_trial_it_shows_in_its_list(qtbot, history, tmp_path):
+    """The list kept its first row (the newest trial) marked over a trial opened with Open
+    file… (issue 27 #14: which trial is shown must be plain): it marks the trial shown,
+    and nothing for a file not in the list."""
+    registry, code, trials = history
+    tab = shown(qtbot, ReplayTab(registry))
+    tab.set_patient(code)
+    assert tab.trials.currentRow() == 0  # the newest, before anything is shown
+    with qtbot.waitSignal(tab.view_loaded, timeout=5000):
+        tab.open_file(trials[0][0].path)  # session 1, trial 1: the list's last row
+    assert tab.trials.currentRow() == 2
+    assert [item.text() for item in tab.trials.selectedItems()] == [tab.trials.item(2).text()]
+    assert tab.trials.item(2).text().startswith("Session 1, trial 1")
+    elsewhere = tmp_path / "copy.h5"
+    elsewhere.write_bytes(trials[1][0].path.read_bytes())
+    with qtbot.waitSignal(tab.view_loaded, timeout=5000):
+        tab.open_file(elsewhere)
+    assert tab.trials.currentRow() == -1
+    assert tab.trials.selectedItems() == []
+
+
 def test_replay_plays_forward(qtbot, history):
     registry, _, trials = history
     tab = shown(qtbot, ReplayTab(registry))

@@ -240,6 +240,38 @@ def test_every_tab_is_whole_on_a_laptop_and_at_a_large_font(qtbot, tmp_path, mon
 
 
 # -- #14: plain words --------------------------------------------------------------------
+@pytest.mark.parametrize("width", [420, 560, 700, 900])  # each key fits a line
+def test_the_reach_pictures_keys_are_never_split_over_two_lines(qtbot, width):
+    """At 1366 × 768 the key under "What can be reached" broke between "■" and "robot
+    motors", and at font 1.5 between "●" and "shoulder": a sign at a line's end read as
+    the key of the words on the next line."""
+    from PySide6.QtGui import QTextDocument
+
+    from core.robot import RobotModel
+    from ui.reach_preview import ReachPreview
+
+    preview = ReachPreview(RobotModel())
+    qtbot.addWidget(preview)
+    document = QTextDocument()
+    document.setDefaultFont(preview.legend.font())
+    document.setHtml(preview.legend.text())
+    document.setTextWidth(width)
+    document.size()  # lays the text out at that width
+    layout = document.firstBlock().layout()
+    text = document.toPlainText().replace("\u00a0", " ")  # the same positions
+    assert document.blockCount() == 1
+    lines = set()
+    for sign, words in (("■", "robot can reach"), ("- - -", "arm reaches comfortably"),
+                        ("——", "path"), ("✕", "cannot be reached"), ("●", "shoulder"),
+                        ("■", "robot motors"), ("▲", "start")):
+        start = text.index(f"{sign} {words}")
+        end = start + len(sign) + 1 + len(words) - 1
+        first = layout.lineForTextPosition(start).lineNumber()
+        assert layout.lineForTextPosition(end).lineNumber() == first, (sign, words, width)
+        lines.add(first)
+    assert len(lines) > 1 or width >= 900  # the narrow widths did wrap: the test saw breaks
+
+
 def test_no_shell_command_anywhere_in_the_window(qtbot, idle_window):
     win = idle_window
     words = []
@@ -303,21 +335,47 @@ def test_registration_shows_what_was_just_done(qtbot, tmp_path, monkeypatch):
     win.close()
 
 
-def test_a_greyed_build_says_why_on_every_tab(qtbot, idle_window):
-    win = idle_window
-    p = win.parameters_tab
-    p.shoulder_x.setValue(12.0)  # out of the arm's reach
-    p.refresh()
-    assert "build" not in enabled(win)
-    for index in range(win.tabs.count()):
-        win.tabs.setCurrentIndex(index)
-        assert win.robot.why.isVisible()
-        assert "Build needs the form fixed" in win.robot.why.whole
-        assert "67.6 cm from the shoulder" in win.robot.why.toolTip()
-    p.shoulder_x.setValue(-12.0)
-    p.refresh()
-    assert "build" in enabled(win)
-    assert win.robot.why.whole == ""
+@pytest.mark.parametrize(("scale", "size"), [(1.0, (1366, 738)), (1.5, (1920, 1050))])
+def test_a_greyed_build_says_why_on_every_tab_in_whole_words(qtbot, tmp_path, monkeypatch,
+                                                             scale, size):
+    """The line under the robot buttons was cut with "…" on a laptop and at font scale
+    1.5 ("… this arm reaches 58.5 cm. …"): what to do was lost."""
+    app = QApplication.instance()
+    theme.apply_theme(app, scale)
+    try:
+        win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
+        win.resize(*size)
+        qtbot.waitExposed(win)
+        why = win.robot.why
+        one_line = why.height()
+        p = win.parameters_tab
+        p.shoulder_x.setValue(12.0)  # out of the arm's reach
+        p.refresh()
+        assert "build" not in enabled(win)
+        for index in range(win.tabs.count()):
+            win.tabs.setCurrentIndex(index)
+            QApplication.processEvents()
+            assert why.isVisible()
+            assert "Build needs the form fixed" in why.whole
+            assert "67.6 cm from the shoulder" in why.toolTip()
+            assert why.text() == why.whole  # every word shown, nothing cut with "…"
+            assert why.text().endswith("Move the exercise or the shoulder closer together.")
+            assert why.wordWrap()
+            assert why.height() >= why.heightForWidth(why.width()), win.tabs.tabText(index)
+            assert why.height() > one_line  # its words take two lines here
+            bottom = why.mapTo(win, QPoint(0, why.height())).y()
+            assert bottom <= win.height()
+            assert win.width() <= size[0]
+            assert win.height() <= size[1]
+        p.shoulder_x.setValue(-12.0)
+        p.refresh()
+        QApplication.processEvents()
+        assert "build" in enabled(win)
+        assert why.whole == ""
+        assert why.height() == one_line  # back to one line: the bar keeps its place
+        win.close()
+    finally:
+        theme.apply_theme(app, 1.0)
 
 
 # -- #16: the simulator's seed -------------------------------------------------------------

@@ -27,6 +27,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from app.errors import AppError
 from app.pose.replay import ReplayVideo
 from app.records.store import RecordStore
 from app.trials.reader import read_trial
@@ -245,7 +246,27 @@ class ReplayTab(QWidget):
             self.pose_status.setText("No video was recorded with this trial.")
         elif self._loading_after_pose is not path:
             self.pose_status.setText("")
+        self._mark_in_list(Path(path))
         self.view_loaded.emit(view)
+
+    def _mark_in_list(self, path: Path) -> None:
+        """The list marks the trial shown, never another (it kept its first row marked
+        over a trial opened with Open file…); a file not of this list marks nothing."""
+        shown = None
+        for row in range(self.trials.count()):
+            item = self.trials.item(row)
+            try:
+                here = self.registry.trial_path(item.data(Qt.ItemDataRole.UserRole))
+            except AppError:  # a row the registry no longer knows: not the one shown
+                continue
+            if here.resolve() == path.resolve():
+                shown = row
+                break
+        if shown is None:
+            self.trials.clearSelection()
+            self.trials.setCurrentRow(-1)
+        else:
+            self.trials.setCurrentRow(shown)
 
     # -- pose estimation of the trial's video ------------------------------------------
     def run_pose(self) -> None:

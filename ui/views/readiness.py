@@ -53,6 +53,15 @@ def start_needs(*, registered: bool, built: bool, stale: bool, saving: bool = Fa
     return ""
 
 
+def start_why(needs: str) -> str:
+    """What Start waits for (start_needs) as a sentence: "Start needs a built trial: press
+    Build"; a stale trial is said as what happened ("Start needs parameters changed since
+    Build" read as if Start wanted the form changed)."""
+    if needs == STALE:
+        return f"Start is greyed: {STALE}"
+    return f"Start needs {needs}"
+
+
 def readiness(state: State, *, form_problem: str, registered: bool, built: bool,
               stale: bool, held: str, unsaved: bool, saving: bool = False) -> Readiness:
     """The buttons for `state`. `form_problem`: why the form cannot be built ('' when it
@@ -75,7 +84,7 @@ def readiness(state: State, *, form_problem: str, registered: bool, built: bool,
         "build": held or (f"Build needs the form fixed: {form_problem}" if form_problem
                           else ""),
         "connect": held,
-        "start": held or (f"Start needs {needs}" if needs else ""),
+        "start": held or (start_why(needs) if needs else ""),
     }
     tooltips = {}
     for name, on in enabled.items():
@@ -85,11 +94,11 @@ def readiness(state: State, *, form_problem: str, registered: bool, built: bool,
     if held:
         line = held[0].upper() + held[1:]
     elif state == State.CONNECTED and needs:
-        line = f"Start needs {needs}"
+        line = start_why(needs)
     elif state in (State.IDLE, State.BUILT, State.CONNECTED) and form_problem:
         line = f"Build needs the form fixed: {form_problem}"
     elif state in (State.BUILT, State.CONNECTED) and stale:
-        line = f"Start needs {STALE}"
+        line = start_why(STALE)
     else:
         line = ""
     return Readiness(enabled, tooltips, line)

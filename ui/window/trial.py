@@ -27,7 +27,7 @@ from device.safewrite import os_reason
 from ui.tabs import VIEW_TABS
 from ui.tabs.parameters import HARDWARE, BackendChoice
 from ui.views.moment import STATUS_WORDS
-from ui.views.readiness import readiness, start_needs
+from ui.views.readiness import readiness, start_needs, start_why
 from ui.views.replay_strip import session_and_trial
 from ui.views.trialview import TrialView
 
@@ -216,8 +216,9 @@ class TrialActions:
         if level is None:
             return
         if ok:
-            self._say(f"Assistance set to {level:.0%} during the trial; the robot uses it "
-                      "from now on, and the trial's file records it.", states=CONNECTED_STATES)
+            # past tense: still true once the trial is over and the line still shows it
+            self._say(f"Assistance set to {level:.0%} during the trial: the robot took it at "
+                      "once, and the trial's file records it.", states=CONNECTED_STATES)
         else:
             self._say(f"The trial ended before the robot took {level:.0%}: the trial ran "
                       "without it. Press Build to run the next trial at it.", problem=True)
@@ -320,7 +321,7 @@ class TrialActions:
                 and self.start_needs()):
             zero = " (zero taken)" if self.messages.last is not None and \
                 self.messages.last.text == ZERO_TAKEN else ""
-            self._say(f"Connected{zero}. Start needs {self.start_needs()}.",
+            self._say(f"Connected{zero}. {start_why(self.start_needs())}.",
                       states=(State.CONNECTED,))
         self._refresh_buttons()
 
