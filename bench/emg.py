@@ -11,12 +11,12 @@
    push (app.emg.protocol.contraction_mvc).
 3. lsl: a sender process pushes 16 channels at 2 kHz in chunks of 20 samples (every
    10 ms, as EMG software does), each sample stamped with local_clock() when it was
-   made and carrying its index; this process reads them through device.emg.lsl's inlet
+   made and carrying its index; this process reads them through device.lsl's inlet
    for `--seconds`. Latency: receive time − sample stamp (p50, p99, max); dropped: indices
    that never arrived.
 4. loop: the real 2 ms loop process (simulator, thesis D, recorder), once with this
    process only draining the ring, once with an EMG capture of the 2 kHz × 16 LSL stream
-   running here and the robot's state published on LSL (device.emg.lsl.RobotStateOutlet):
+   running here and the robot's state published on LSL (device.lsl.RobotStateOutlet):
    the loop's lateness p99 / max and late ticks, side by side.
 
 Figures only (docs/performance.md, "Surface EMG").
@@ -95,6 +95,11 @@ def _sender(name: str, seconds: float, ready, done) -> None:
     import pylsl
 
     info = pylsl.StreamInfo(name, "EMG", CHANNELS, RATE_HZ, pylsl.cf_double64, name)
+    described = info.desc().append_child("channels")
+    for k in range(CHANNELS):  # as EMG software declares them (device.lsl.inlet)
+        channel = described.append_child("channel")
+        channel.append_child_value("label", f"EMG{k + 1}")
+        channel.append_child_value("unit", "volts")
     outlet = pylsl.StreamOutlet(info)
     ready.set()
     k = 0  # streams from the start, whoever listens, as EMG software does
@@ -117,7 +122,8 @@ def _sender(name: str, seconds: float, ready, done) -> None:
 
 def lsl_stream(seconds: float) -> dict:
     """Read a sender's stream for `seconds`, from the moment the inlet is open."""
-    from device.emg.lsl import LslEmgInlet, local_clock
+    from device.lsl.inlet import LslEmgInlet
+    from device.lsl.library import local_clock
 
     name = f"bench-emg-{uuid.uuid4().hex[:8]}"
     ctx = mp.get_context("spawn")
@@ -152,10 +158,11 @@ def loop(seconds: float, with_emg: bool, folder: Path) -> dict:
     from app.trials.reader import read_trial
     from core.trial import THESIS_SUBJECT
     from device.emg.capture import EmgCapture
-    from device.emg.lsl import LslEmgInlet, RobotStateOutlet
     from device.loop.client import DeviceClient
-    from device.loop.messages import BackendConfig
+    from device.loop.messages import BackendConfig, ClockStarted
     from device.loop.pipeline import PERIOD_S
+    from device.lsl.inlet import LslEmgInlet
+    from device.lsl.outlet import RobotStateOutlet
     from device.recording.messages import RecorderNotice
     from device.recording.trialfile import SubjectInfo
 
@@ -178,14 +185,18 @@ def loop(seconds: float, with_emg: bool, folder: Path) -> dict:
         assert client.connect().ok
         time.sleep(0.5)
         assert client.start_trial(str(path), SubjectInfo.from_parameters("PBENCH0", params)).ok
-        origin = time.monotonic()  # the outlet's stamps need only be on the right clock here
         seen = []
         end = time.monotonic() + seconds
         while time.monotonic() < end:
-            records = client.live_records()
-            if outlet is not None and len(records):
-                outlet.push_records(records, origin)
-            seen += client.events(0.01)
+            # as the window's worker does: the records, then the messages that say their clock
+            records, first_seq = client.live_batch()
+            events = client.events(0.01)
+            seen += events
+            if outlet is not None:
+                for event in events:
+                    if isinstance(event, ClockStarted):
+                        outlet.clock_started(event.first_seq, event.origin_monotonic_s)
+                outlet.push_records(records, first_seq)
         if not any(isinstance(e, RecorderNotice) and e.kind == "closed" for e in seen):
             client.wait_for(lambda e: isinstance(e, RecorderNotice) and e.kind == "closed", 60)
     captured = capture.stop() if capture is not None else None
@@ -209,6 +220,9 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=1,
                         help="loop runs of each kind, alternated (the machine's load varies)")
     args = parser.parse_args()
+    from device.lsl.library import use_loopback
+
+    use_loopback(Path(tempfile.mkdtemp(prefix="bench-lsl-")))  # nothing beyond this machine
     if args.only in (None, "processing"):
         full, rms = processing()
         print(f"processing, per second of 4-channel 2 kHz EMG: whole chain {full:.2f} ms "

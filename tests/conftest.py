@@ -25,8 +25,18 @@ os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 if not os.environ.get("REHAB_CONFIG_DIR"):
     os.environ["REHAB_CONFIG_DIR"] = tempfile.mkdtemp(prefix="rehab-tests-config-")
 
+import tempfile
+from pathlib import Path
+
 import pytest
 from hypothesis import HealthCheck, settings
+
+from device.lsl.library import use_loopback
+
+# Nothing leaves this machine in tests: liblsl reads LSLAPICFG once, when pylsl is first
+# used, so the suite confines it to loopback before any test module imports pylsl (and
+# whatever the environment pointed it at; child processes inherit it).
+use_loopback(Path(tempfile.mkdtemp(prefix="rehab-tests-lsl-")))
 
 settings.register_profile(
     "project", max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow]

@@ -11,7 +11,6 @@ into Qt signals and drains the ring for the live view. The GUI thread never wait
 from __future__ import annotations
 
 import logging
-import math
 import queue
 import threading
 from dataclasses import dataclass
@@ -24,11 +23,13 @@ from device.errors import DeviceError
 from device.loop.client import DeviceClient, LoopLost
 from device.loop.messages import (
     BackendConfig,
+    ClockStarted,
     FaultRaised,
     Notice,
     SensorZeroed,
     StateChanged,
     TrialEnded,
+    TrialMarker,
     TrialStarted,
 )
 from device.loop.process import LoopConfig
@@ -68,10 +69,9 @@ class DeviceBridge(QObject):
                  client: DeviceClient | None = None, lsl_outlet=None) -> None:
         super().__init__()
         self.client = client or DeviceClient(loop_config=loop_config, auto_heartbeat=False)
-        # the robot's state and events on the Lab Streaming Layer (device.emg.lsl's
+        # the robot's state and events on the Lab Streaming Layer (device.lsl.outlet's
         # RobotStateOutlet), published from this worker thread, never from the loop
         self.lsl_outlet = lsl_outlet
-        self._origin = math.nan
         self._calls: queue.Queue[_Call | None] = queue.Queue()
         self._outstanding = 0  # commands put and not yet answered (under _lock)
         self._records: list[np.ndarray] = []
@@ -184,6 +184,10 @@ class DeviceBridge(QObject):
         finally:
             for event in self.client.close(signal=self._closing_signal):
                 self._emit(event)
+                if self.lsl_outlet is not None:
+                    self._publish_event(event)
+            if self.lsl_outlet is not None:  # the markers still waiting for their record
+                self._publish(self.lsl_outlet.close)
 
     def _call(self, call: _Call) -> None:
         try:
@@ -198,10 +202,10 @@ class DeviceBridge(QObject):
 
     def _drain(self) -> None:
         try:
-            records = self.client.live_records()
+            records, first_seq = self.client.live_batch()
         except DeviceError as exc:
             log.warning("live view: %s", exc)
-            records = None
+            records, first_seq = None, 0
         if records is not None and len(records):
             feed = self._force_feed
             if feed is not None:
@@ -209,12 +213,14 @@ class DeviceBridge(QObject):
             with self._lock:
                 self._records.append(records)
                 del self._records[:-MAX_PENDING]
-            if self.lsl_outlet is not None and math.isfinite(self._origin):
-                self._publish(self.lsl_outlet.push_records, records, self._origin)
+        # the messages after the records: a ClockStarted for any record just read is among
+        # them (device.lsl.timeline), so the outlet stamps every record on its own clock
         for event in self.client.events():
             self._emit(event)
             if self.lsl_outlet is not None:
                 self._publish_event(event)
+        if self.lsl_outlet is not None and records is not None and len(records):
+            self._publish(self.lsl_outlet.push_records, records, first_seq)
 
     def _feed_estimate(self, feed, records) -> None:
         try:
@@ -234,12 +240,17 @@ class DeviceBridge(QObject):
             self.lsl_outlet = None
 
     def _publish_event(self, event) -> None:
-        if isinstance(event, TrialStarted):
-            self._origin = event.wall_time_origin_monotonic_s
-            self._publish(self.lsl_outlet.push_event, "start", "")
-        elif isinstance(event, TrialEnded):
-            self._publish(self.lsl_outlet.push_event, "stop", event.status)
-        elif isinstance(event, FaultRaised):
+        """What the outlet needs of the loop's messages: each connection's clock, the trial
+        file's events at their ticks, and what the recorder or the console adds to it."""
+        if isinstance(event, ClockStarted):
+            self._publish(self.lsl_outlet.clock_started, event.first_seq,
+                          event.origin_monotonic_s)
+        elif isinstance(event, TrialMarker):
+            self._publish(self.lsl_outlet.mark, event)
+        elif isinstance(event, RecorderNotice) and event.kind == "error":
+            # the recorder's own 'recording' event in the file (a full disk, a write error)
+            self._publish(self.lsl_outlet.push_event, "recording", event.message)
+        elif isinstance(event, LoopLost):
             self._publish(self.lsl_outlet.push_event, "fault", event.message)
 
     def _emit(self, event) -> None:

@@ -34,7 +34,7 @@ def run_gui(font_scale: float | None = None, lsl_outlet: bool = False) -> int:
     theme.apply_theme(app, font_scale or 1.0)
     bridge = None
     if lsl_outlet:
-        from device.emg.lsl import RobotStateOutlet
+        from device.lsl.outlet import RobotStateOutlet
         from ui.device_bridge import DeviceBridge
 
         bridge = DeviceBridge(lsl_outlet=RobotStateOutlet())

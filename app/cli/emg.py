@@ -2,7 +2,7 @@
 (app.emg.importing), the session's MVC per muscle with its quality check
 (app.emg.session), a trial's envelopes in % MVC, an EMG-to-torque model validated held
 out and refused for the assistance unless it passes (app.emg.validation), and the Lab
-Streaming Layer's streams (device.emg.lsl)."""
+Streaming Layer's streams (device.lsl)."""
 
 from __future__ import annotations
 
@@ -273,7 +273,7 @@ def cmd_model(args: argparse.Namespace) -> int:
 def cmd_streams(args: argparse.Namespace) -> int:
     if not (np.isfinite(args.wait) and 0 < args.wait <= 60):
         raise CommandError(f"--wait {args.wait}: give a time in (0, 60] s")
-    from device.emg.lsl import find_streams
+    from device.lsl.library import find_streams
 
     streams = find_streams(args.wait)
     if not streams:

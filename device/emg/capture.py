@@ -2,7 +2,7 @@
 
 A source is anything with `read(timeout_s) -> (monotonic stamps (k,), samples (k, C))`,
 `rate_hz` and `close()`: the Trigno client (device.emg.trigno) or an LSL inlet
-(device.emg.lsl). The capture runs in the console process, never in the loop process:
+(device.lsl). The capture runs in the console process, never in the loop process:
 the loop neither waits for it nor shares a lock with it, so EMG cannot hold the trial
 up (bench/emg.py measures the loop beside it). A source that fails ends the capture
 and keeps what it had; `error` says why, and the trial goes on.

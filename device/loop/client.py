@@ -376,8 +376,13 @@ class DeviceClient:
 
     def live_records(self, max_n: int | None = None) -> np.ndarray:
         """Records pushed since the last call (lossy: skips ahead if the ring wrapped)."""
+        return self.live_batch(max_n)[0]
+
+    def live_batch(self, max_n: int | None = None) -> tuple[np.ndarray, int]:
+        """`live_records`, with the ring sequence number of the first record (the records
+        are consecutive): a ClockStarted read after it says which clock each is on."""
         if self._recorder_lost and self._trial is None:
             self.ring.commit_read(self.ring.write_count)  # nothing left to save
         batch = self.ring.read_new(self._live_cursor, max_n)
         self._live_cursor = batch.cursor
-        return batch.records
+        return batch.records, batch.cursor - len(batch.records)

@@ -172,10 +172,36 @@ class TrialStarted:
     approach_ticks: int
     total_ticks: int
     # monotonic time of wall_time 0 (the loop's clock origin): what puts live records on
-    # other instruments' clocks (the LSL outlet, device.emg.lsl)
+    # other instruments' clocks (the LSL outlet, device.lsl)
     wall_time_origin_monotonic_s: float = float("nan")
     first_seq: int = -1
     """The ring sequence number of the trial's first record (its tick 0)."""
+
+
+@dataclass(frozen=True, slots=True)
+class ClockStarted:
+    """The loop began ticking (at Connect): every record it pushes from ring sequence number
+    `first_seq` on has its `wall_time` counted from `origin_monotonic_s`. Sent before that
+    record is pushed, so a reader that reads the ring and then its messages always knows
+    the clock of what it read (the LSL outlet's stamps, device.lsl.timeline)."""
+
+    origin_monotonic_s: float
+    first_seq: int
+
+
+@dataclass(frozen=True, slots=True)
+class TrialMarker:
+    """An event the loop writes into the trial file (start with the trial's settings,
+    stop, fault, a live assistance change), for the console's other instruments: it
+    happened at the tick whose record has ring sequence number `seq`; `monotonic_s` is
+    when the loop sent it (the stamp when that record is no longer at hand)."""
+
+    kind: str
+    message: str
+    values: dict
+    tick: int
+    seq: int
+    monotonic_s: float
 
 
 @dataclass(frozen=True, slots=True)

@@ -55,6 +55,7 @@ from device.loop.messages import (
     BackendConfig,
     Build,
     ClearFault,
+    ClockStarted,
     Connect,
     Disconnect,
     FaultRaised,
@@ -68,6 +69,7 @@ from device.loop.messages import (
     StateChanged,
     Stop,
     TrialEnded,
+    TrialMarker,
     TrialStarted,
 )
 from device.loop.pipeline import (
@@ -191,6 +193,7 @@ class DeviceLoop:
         self.stopping_since = 0.0
         self.paused = False
         self.t0 = 0.0
+        self.trial_first_seq = 0
         self.trial_start_sample_s = 0.0
         self.later: list = []  # commands carried out at the next tick
 
@@ -218,6 +221,9 @@ class DeviceLoop:
         """Every period while connected: wait → commands in the slack → wait → tick."""
         clock, period = self.clock, self.config.period_s
         self.t0 = clock.now()
+        # before the first record of this connection: whoever reads the ring and then the
+        # messages knows the clock of every record it read (a new one at every Connect)
+        self._send(ClockStarted(self.t0, self.ring.write_count))
         deadline, overrun = self.t0 + period, 0.0
         self._beat = (self.heartbeat.value, self.t0)
         k = 0
@@ -353,6 +359,7 @@ class DeviceLoop:
         plan = self.plan
         self.seed_used = True
         first_seq = self.ring.write_count
+        self.trial_first_seq = first_seq
         self.recorder_pulse.reset()
         self._to_recorder(BeginTrial(
             command.path, first_seq, plan.parameters, command.subject,
@@ -651,6 +658,8 @@ class DeviceLoop:
             self.console_lost = True
 
     def _to_recorder(self, message) -> None:
+        if isinstance(message, TrialEvent):
+            self._mark(message)
         if self.recorder is None:
             return
         try:
@@ -658,6 +667,16 @@ class DeviceLoop:
         except (OSError, EOFError, BrokenPipeError):
             self.recorder = None
             self.recording_failed.value = 1
+
+    def _mark(self, event: TrialEvent) -> None:
+        """The console hears every event the trial file gets, at the tick it belongs to
+        (the LSL outlet's markers); the start's carries the trial's settings."""
+        values = dict(event.values)
+        if event.kind == "start":
+            values.update(parameters=self.plan.parameters.to_dict(),
+                          backend=self.opened.label, file=self.trial_path)
+        self._send(TrialMarker(event.kind, event.message, values, event.tick,
+                               self.trial_first_seq + event.tick, self.clock.now()))
 
 
 RECORDER_CHECK_TICKS = 25

@@ -1,28 +1,42 @@
 """The Lab Streaming Layer: the EMG inlet and the robot's outlet, each against a real local
-pylsl outlet or inlet (liblsl from pylsl's wheel). Streams get unique names and source ids,
-so runs beside each other on one machine never see each other's streams."""
+pylsl outlet or inlet (liblsl from pylsl's wheel, confined to loopback by tests/conftest.py).
+Streams get unique names and source ids, so runs beside each other on one machine never
+see each other's streams."""
 
+import json
+import socket
 import time
 import uuid
 
 import numpy as np
 import pylsl
 import pytest
+from hypothesis import given, strategies as st
 
-from device.emg.lsl import (
+from device.loop.messages import TrialMarker
+from device.lsl.inlet import LslEmgInlet
+from device.lsl.library import LOOPBACK_CONFIG, LslError, find_streams
+from device.lsl.outlet import (
     EVENT_STREAM,
     ROBOT_CHANNELS,
     ROBOT_STREAM,
-    LslEmgInlet,
-    LslError,
     RobotStateOutlet,
-    find_streams,
+    station_source_id,
 )
+from device.lsl.timeline import MarkerQueue, RingClocks
 from device.recording.record import empty_records
 
 
-def _emg_outlet(name, channels=16, rate=2000.0, fmt=pylsl.cf_float32):
+def _emg_outlet(name, channels=16, rate=2000.0, fmt=pylsl.cf_float32, unit="volts",
+                labels=None):
     info = pylsl.StreamInfo(name, "EMG", channels, rate, fmt, f"{name}-source")
+    if unit is not None or labels is not None:
+        described = info.desc().append_child("channels")
+        for k in range(channels):
+            channel = described.append_child("channel")
+            channel.append_child_value("label", labels[k] if labels else f"EMG{k + 1}")
+            if unit is not None:
+                channel.append_child_value("unit", unit if isinstance(unit, str) else unit[k])
     return pylsl.StreamOutlet(info)
 
 
@@ -38,6 +52,22 @@ def _unique():
     return f"test-{uuid.uuid4().hex[:12]}"
 
 
+def _receive(inlet, n):
+    got_t, got_x = [], []
+    _wait_for(lambda: (got := inlet.read(0.2)) and (got_t.append(got[0]), got_x.append(got[1]))
+              and sum(t.size for t in got_t) >= n, f"{n} samples arriving")
+    return np.concatenate(got_t), np.concatenate(got_x)
+
+
+def test_the_suite_keeps_liblsl_on_this_machine():
+    import os
+
+    with open(os.environ["LSLAPICFG"]) as f:
+        assert f.read() == LOOPBACK_CONFIG
+    assert "ResolveScope = machine" in LOOPBACK_CONFIG
+    assert "MachineAddresses = {127.0.0.1}" in LOOPBACK_CONFIG
+
+
 def test_the_emg_inlet_receives_every_sample_on_the_local_clock():
     name = _unique()
     outlet = _emg_outlet(name)
@@ -49,18 +79,69 @@ def test_the_emg_inlet_receives_every_sample_on_the_local_clock():
     stamps = now + np.arange(3000) / 2000.0
     for k in range(0, 3000, 100):
         outlet.push_chunk(sent[k:k + 100], timestamp=stamps[k:k + 100].tolist())
-    got_t, got_x = [], []
-    _wait_for(lambda: (got := inlet.read(0.2)) and (got_t.append(got[0]), got_x.append(got[1]))
-              and sum(t.size for t in got_t) >= 3000, "3000 samples arriving")
-    t, x = np.concatenate(got_t), np.concatenate(got_x)
+    t, x = _receive(inlet, 3000)
     np.testing.assert_array_equal(x, sent.astype(float))
     # on one machine the clock correction is tiny: the stamps are the sender's
     np.testing.assert_allclose(t, stamps, atol=5e-3)
     assert inlet.rate_hz == 2000.0
     assert inlet.channel_count == 16
+    assert inlet.labels == tuple(f"EMG{k}" for k in range(1, 17))
     # the LSL clock is the monotonic clock of the loop's wall_time
     assert abs(pylsl.local_clock() - time.monotonic()) < 0.05
     inlet.close()
+
+
+@pytest.mark.parametrize(("fmt", "dtype", "unit", "volts"), [
+    (pylsl.cf_int16, np.int16, "microvolts", 1e-6),
+    (pylsl.cf_int32, np.int32, "uV", 1e-6),
+    (pylsl.cf_int16, np.int16, "\u00b5V", 1e-6),
+    (pylsl.cf_int8, np.int8, "mV", 1e-3),
+    (pylsl.cf_int64, np.int64, "nV", 1e-9),
+    (pylsl.cf_float32, np.float32, "millivolts", 1e-3),
+    (pylsl.cf_double64, np.float64, "V", 1.0),
+], ids=["int16-microvolts", "int32-uV", "int16-µV", "int8-mV", "int64-nV", "float32-mV",
+        "double-V"])
+def test_every_numeric_format_is_read_in_volts_by_its_declared_unit(fmt, dtype, unit, volts):
+    """An int16 or int32 stream was read into a float buffer (values like ±1e294, NaN) and a
+    unit was ignored (microvolts stored as volts, a 10⁶ error)."""
+    name = _unique()
+    outlet = _emg_outlet(name, channels=3, rate=1000.0, fmt=fmt, unit=unit)
+    inlet = LslEmgInlet(name, timeout_s=5.0).open(5.0)
+    _wait_for(outlet.have_consumers, "the inlet connecting")
+    top = min(np.iinfo(dtype).max, 30000) if np.issubdtype(dtype, np.integer) else 3e4
+    sent = np.linspace(-top, top, 3 * 500).reshape(500, 3).astype(dtype)
+    outlet.push_chunk(sent)
+    _, x = _receive(inlet, 500)
+    np.testing.assert_array_equal(x, sent.astype(float) * volts)
+    assert inlet.units == (unit,) * 3
+    inlet.close()
+
+
+def test_a_channel_without_a_voltage_unit_is_refused_in_one_line_unless_given():
+    bare = _unique()
+    outlet = _emg_outlet(bare, channels=2, rate=1000.0, fmt=pylsl.cf_int16, unit=None)
+    with pytest.raises(LslError, match=r"does not say the unit of channel 1: declare each "
+                                       r"channel's unit .* or give it \(lsl:NAME@uV\)"):
+        LslEmgInlet(bare, timeout_s=5.0)
+    inlet = LslEmgInlet(bare, timeout_s=5.0, unit="uV").open(5.0)
+    _wait_for(outlet.have_consumers, "the inlet connecting")
+    outlet.push_chunk(np.array([[1000, -2000]] * 10, dtype=np.int16))
+    _, x = _receive(inlet, 10)
+    np.testing.assert_array_equal(x[0], [1e-3, -2e-3])
+    inlet.close()
+    with pytest.raises(LslError, match=r"unit 'kg' given .* is not a voltage"):
+        LslEmgInlet(bare, timeout_s=5.0, unit="kg")
+    odd = _unique()
+    other = _emg_outlet(odd, channels=2, rate=1000.0, unit=("uV", "counts"),
+                        labels=("biceps", "triceps"))
+    with pytest.raises(LslError, match=r"gives triceps in 'counts', not a voltage") as refused:
+        LslEmgInlet(odd, timeout_s=5.0)
+    assert "\n" not in str(refused.value)
+    declared = _unique()
+    third = _emg_outlet(declared, channels=1, rate=1000.0, unit="mV")
+    with pytest.raises(LslError, match=r"declares EMG1 in 'mV', not in 'uV' as given"):
+        LslEmgInlet(declared, timeout_s=5.0, unit="uV")
+    del outlet, other, third
 
 
 def test_streams_are_listed():
@@ -102,34 +183,52 @@ def _records(n, origin_wall_s=0.0):
     rng = np.random.default_rng(1)
     for name, *_ in ROBOT_CHANNELS:
         shape = records[name].shape
-        records[name] = rng.integers(0, 3, shape) if name == "phase" else \
-            rng.standard_normal(shape)
+        records[name] = rng.standard_normal(shape) if name != "phase" else 0
+    records["phase"][n // 3:] = 2
     records["wall_time"] = origin_wall_s + np.arange(n) * 0.002
     return records
 
 
-def test_the_robot_outlet_publishes_state_and_events_for_labrecorder():
+def test_the_robot_outlet_describes_its_channels_for_labrecorder_and_the_xdf_readers():
     source = _unique()
     outlet = RobotStateOutlet(500.0, source_id=source)
     found = pylsl.resolve_byprop("source_id", source, 1, 5.0)
     assert [i.name() for i in found] == [ROBOT_STREAM]
-    info = found[0]
-    assert (info.type(), info.channel_count(), info.nominal_srate()) == ("MoCap", 9, 500.0)
-    inlet = pylsl.StreamInlet(info)
-    full = inlet.info(5.0)
-    labels = full.get_channel_labels()
-    assert labels == [label for _, _, label, _ in ROBOT_CHANNELS]
-    assert full.get_channel_units()[4] == "N*m"
-    events = pylsl.StreamInlet(pylsl.resolve_byprop("source_id", source + "-events", 1, 5.0)[0])
-    assert events.info(5.0).name() == EVENT_STREAM
+    assert (found[0].type(), found[0].channel_count(), found[0].nominal_srate()) == (
+        "MoCap", 9, 500.0)
+    full = pylsl.StreamInlet(found[0]).info(5.0)
+    channel = full.desc().child("channels").child("channel")
+    described = []
+    for _ in range(9):
+        described.append(tuple(channel.child_value(k) for k in ("label", "unit", "type")))
+        channel = channel.next_sibling()
+    assert described == [(label, unit, kind) for _, _, label, unit, kind in ROBOT_CHANNELS]
+    assert described[0] == ("position_x", "meters", "PositionX")
+    assert full.desc().child("acquisition").child_value("manufacturer")
+    events = pylsl.resolve_byprop("source_id", source + "-events", 1, 5.0)
+    assert [i.name() for i in events] == [EVENT_STREAM]
+    # one station, one source id, whenever the console starts
+    assert station_source_id() == station_source_id() == f"rehab-console@{socket.gethostname()}"
+    outlet.close()
+
+
+def test_the_robot_outlet_stamps_each_record_at_its_sensor_read_with_markers():
+    source = _unique()
+    outlet = RobotStateOutlet(500.0, source_id=source)
+    inlet = pylsl.StreamInlet(pylsl.resolve_byprop("source_id", source, 1, 5.0)[0])
+    events = pylsl.StreamInlet(pylsl.resolve_byprop("source_id", source + "-events", 1,
+                                                    5.0)[0])
     inlet.open_stream(5.0)
     events.open_stream(5.0)
     _wait_for(outlet.have_consumers, "the inlet connecting")
     origin = time.monotonic() - 10.0
     records = _records(1000)
+    outlet.clock_started(7000, origin)
+    # the trial's start is announced before its record (seq 7400) is pushed
+    outlet.mark(TrialMarker("start", "trial started", {"parameters": {"shape": "circle"}}, 0,
+                            7400, time.monotonic()))
     for k in range(0, 1000, 50):
-        outlet.push_records(records[k:k + 50], origin)
-    outlet.push_event("start", "trial started", origin + 0.5)
+        outlet.push_records(records[k:k + 50], 7000 + k)
     got_x, got_t = [], []
 
     def more():
@@ -141,7 +240,80 @@ def test_the_robot_outlet_publishes_state_and_events_for_labrecorder():
     _wait_for(more, "1000 robot samples")
     np.testing.assert_allclose(np.array(got_x), RobotStateOutlet.rows(records))
     np.testing.assert_allclose(got_t, origin + records["wall_time"], atol=1e-6)
-    marker, stamp = events.pull_sample(timeout=5.0)
-    assert marker == ["start: trial started"]
-    assert stamp == pytest.approx(origin + 0.5, abs=1e-6)
+    seen = []
+    _wait_for(lambda: seen.append(events.pull_sample(timeout=0.5)) or len(
+        [s for s in seen if s[0]]) >= 3, "three markers")
+    markers = [(json.loads(m[0]), t) for m, t in seen if m]
+    kinds = [m["event"] for m, _ in markers]
+    assert kinds == ["phase", "phase", "start"]
+    assert markers[1][0]["phase"] == 2
+    assert markers[1][1] == pytest.approx(origin + records["wall_time"][1000 // 3], abs=1e-6)
+    start, stamp = markers[2]
+    assert start["parameters"] == {"shape": "circle"}
+    assert stamp == pytest.approx(origin + records["wall_time"][400], abs=1e-6)
     assert outlet.pushed == 1000
+    assert outlet.dropped == 0
+    outlet.close()
+
+
+@st.composite
+def _connections(draw):
+    """Connections one after another: (ticks, origin), and how a reader splits the records
+    it reads into batches."""
+    count = draw(st.integers(1, 6))
+    ticks = draw(st.lists(st.integers(1, 400), min_size=count, max_size=count))
+    gaps = draw(st.lists(st.floats(0.05, 30.0), min_size=count, max_size=count))
+    cuts = draw(st.lists(st.integers(1, 300), min_size=1, max_size=40))
+    return ticks, gaps, cuts
+
+
+@given(_connections())
+def test_every_record_read_before_its_clock_message_is_stamped_on_its_own_clock(drawn):
+    """The reader reads a batch of the ring, then the messages; a connection's
+    ClockStarted is sent before its first record. Whatever the batches, every record is
+    stamped origin + wall_time of its own connection and the stamps only go forward."""
+    ticks, gaps, cuts = drawn
+    wall, seq_origin, messages = [], [], []
+    seq, now = 0, 1000.0
+    for n, gap in zip(ticks, gaps, strict=True):
+        now += gap
+        messages.append((seq, now))  # ClockStarted(origin=now, first_seq=seq)
+        wall.extend(0.002 * (1 + np.arange(n)))
+        seq_origin.extend([now] * n)
+        now += 0.002 * n
+        seq += n
+    wall, seq_origin = np.array(wall), np.array(seq_origin)
+    clocks = RingClocks()
+    out, start, k = [], 0, 0
+    while start < len(wall):
+        end = min(len(wall), start + cuts[k % len(cuts)])
+        k += 1
+        for first, origin in messages:  # the messages sent before those records were read
+            if first < end:
+                clocks.started(first, origin)
+        out.append(clocks.stamps(wall[start:end], start))
+        start = end
+    stamps = np.concatenate(out)
+    np.testing.assert_array_equal(stamps, seq_origin + wall)
+    assert np.all(np.diff(stamps) > 0)
+    assert clocks.unstamped == 0
+
+
+def test_a_marker_waits_for_its_record_and_goes_out_at_its_send_time_when_it_never_comes():
+    clocks = RingClocks(history=100)
+    queue = MarkerQueue()
+    clocks.started(0, 50.0)
+    early = TrialMarker("start", "", {}, 0, 10, 99.0)
+    queue.add(early)
+    assert queue.ready(clocks) == []
+    clocks.stamps(0.002 * np.arange(20), 0)
+    assert queue.ready(clocks) == [(early, pytest.approx(50.02))]
+    lost = TrialMarker("stop", "", {}, 5, 500, 123.0)
+    queue.add(lost)
+    assert queue.ready(clocks) == []
+    assert queue.ready(clocks, flush=True) == [(lost, 123.0)]
+    # too old to be remembered: its send time
+    clocks.stamps(0.002 * np.arange(300), 20)
+    old = TrialMarker("fault", "", {}, 1, 3, 77.0)
+    queue.add(old)
+    assert queue.ready(clocks) == [(old, 77.0)]

@@ -34,6 +34,8 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from device.lsl.library import LOOPBACK_CONFIG
+
 ROOT = Path(__file__).resolve().parents[3]
 TIMEOUT_S = 60.0
 """A run longer than this is a hang: the slowest valid runs here (a trial, a model trained
@@ -55,7 +57,6 @@ LONG_COMMANDS = {
     ("emg", "streams"): ["--wait", "0.2"],
     ("emg", "record"): ["--seconds", "0.2"],
 }
-LOOPBACK_LSL = "[ports]\nIPv6 = disable\n[multicast]\nResolveScope = machine\n"
 
 
 @dataclass
@@ -78,7 +79,7 @@ class Scratch:
         data = folder / "data"
         env = {k: v for k, v in os.environ.items()
                if not k.startswith(("REHAB_", "XDG_")) and k not in ("HOME", "TMPDIR")}
-        (folder / "lsl.cfg").write_text(LOOPBACK_LSL)
+        (folder / "lsl.cfg").write_text(LOOPBACK_CONFIG)
         env.update(HOME=str(home), TMPDIR=str(folder / "tmp"), REHAB_DATA_DIR=str(data),
                    REHAB_CONFIG_DIR=str(folder / "config"),
                    XDG_CACHE_HOME=str(Path.home() / ".cache"),  # the kernels' cache: read

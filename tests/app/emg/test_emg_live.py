@@ -17,8 +17,8 @@ from app.emg.importing import EmgImportError, import_capture
 from app.trials.headless import save, simulate
 from core.trial import THESIS_SUBJECT
 from device.emg.capture import EmgCapture
-from device.emg.lsl import LslEmgInlet
 from device.emg.trigno import TrignoClient
+from device.lsl.inlet import LslEmgInlet
 from device.recording.emgfile import read_emg
 
 _spec = importlib.util.spec_from_file_location(
@@ -76,8 +76,13 @@ def test_a_trigno_capture_lands_in_the_trial_on_its_clock(plain_trial, tmp_path)
 
 def test_an_lsl_capture_lands_in_the_trial(plain_trial, tmp_path):
     name = f"test-{uuid.uuid4().hex[:12]}"
-    outlet = pylsl.StreamOutlet(pylsl.StreamInfo(name, "EMG", 4, 2000.0, pylsl.cf_float32,
-                                                 name))
+    info = pylsl.StreamInfo(name, "EMG", 4, 2000.0, pylsl.cf_float32, name)
+    described = info.desc().append_child("channels")
+    for label in ("a", "b", "c", "d"):  # as EMG software declares them: the unit decides
+        channel = described.append_child("channel")
+        channel.append_child_value("label", label)
+        channel.append_child_value("unit", "V")
+    outlet = pylsl.StreamOutlet(info)
     inlet = LslEmgInlet(name, channels=4, rate_hz=2000.0, timeout_s=5.0).open(5.0)
     deadline = time.monotonic() + 10
     while not outlet.have_consumers():
@@ -143,3 +148,28 @@ def test_a_capture_forgets_what_came_before_and_keeps_its_clock():
                                rtol=0, atol=1e-9)
     assert captured.stamps_s[0] <= middle
     assert captured.missing == 0
+
+
+def test_an_lsl_source_without_units_is_refused_or_read_in_the_unit_given():
+    from app.emg.live import open_source
+    from device.lsl.library import LslError
+
+    name = f"test-{uuid.uuid4().hex[:12]}"
+    outlet = pylsl.StreamOutlet(pylsl.StreamInfo(name, "EMG", 2, 1000.0, pylsl.cf_int16, name))
+    with pytest.raises(LslError, match=r"does not say the unit .* \(lsl:NAME@uV\)"):
+        open_source(f"lsl:{name}", timeout_s=5.0)
+    with pytest.raises(EmgImportError, match="lsl:STREAM_NAME@UNIT"):
+        open_source(f"lsl:{name}@", timeout_s=5.0)
+    source, label = open_source(f"lsl:{name}@uV", timeout_s=5.0)
+    assert label == f"lsl:{name}"
+    deadline = time.monotonic() + 10
+    while not outlet.have_consumers():
+        assert time.monotonic() < deadline
+        time.sleep(0.01)
+    outlet.push_chunk(np.array([[250, -1000]] * 5, dtype=np.int16))
+    got = np.empty((0, 2))
+    while got.shape[0] < 5:
+        assert time.monotonic() < deadline
+        got = np.vstack((got, source.read(0.2)[1]))
+    np.testing.assert_array_equal(got[0], [250e-6, -1000e-6])
+    source.close()

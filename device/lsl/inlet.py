@@ -1,0 +1,158 @@
+"""An EMG stream of the Lab Streaming Layer, read in volts on this machine's clock.
+
+Any numeric channel format a sender declares (int8, int16, int32, int64, float32,
+double64) is pulled into a buffer of that very format, then converted to volts by the
+unit each channel declares in the stream's description (`desc/channels/channel/unit`, the
+XDF meta-data convention LabRecorder keeps): V, mV, µV (uV, microvolts) or nV. Pulling an
+integer stream into a float buffer (as this inlet once did) made liblsl write integers
+into memory read as doubles: ±1e294 and NaN. A channel without a unit, or with one that is
+not a voltage, is refused in one line, unless the caller says what the stream carries
+(`unit=`); a declared unit that contradicts the caller's is refused too. The labels the
+stream declares name the muscles (`labels`).
+
+The inlet asks liblsl to correct a remote sender's clock onto this machine's
+(`proc_clocksync`), so its stamps are this machine's monotonic seconds.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from device.lsl.library import LslError, channel_descriptions, pylsl, summary
+
+DUPLICATE_LOOK_S = 1.0
+"""How long to look for a second stream of the name: liblsl answers resolves in waves, and
+with discovery confined to this machine the second stream came after 0.5 s."""
+VOLTS_PER_UNIT = {
+    "v": 1.0, "volt": 1.0, "volts": 1.0,
+    "mv": 1e-3, "millivolt": 1e-3, "millivolts": 1e-3,
+    "uv": 1e-6, "\u00b5v": 1e-6, "\u03bcv": 1e-6, "microvolt": 1e-6, "microvolts": 1e-6,
+    "nv": 1e-9, "nanovolt": 1e-9, "nanovolts": 1e-9,
+}
+"""Units of a voltage, lower case (µ as the micro sign or the Greek mu)."""
+
+
+def volts_per_unit(unit: str) -> float | None:
+    """Volts in one `unit`, or None when it is not a voltage this inlet knows."""
+    return VOLTS_PER_UNIT.get(unit.strip().lower())
+
+
+def _formats(module) -> dict[int, type]:
+    """liblsl's numeric channel formats and the numpy type liblsl writes for each."""
+    return {module.cf_float32: np.float32, module.cf_double64: np.float64,
+            module.cf_int8: np.int8, module.cf_int16: np.int16,
+            module.cf_int32: np.int32, module.cf_int64: np.int64}
+
+
+class LslEmgInlet:
+    """An EMG stream's samples in volts, stamped on this machine's monotonic clock.
+
+    Found by name, or else by type (`EMG`). Refused with one line when there is none,
+    more than one, it is not a regular numeric stream with the channels and rate asked
+    for, or its channels' units are not voltages (module docstring)."""
+
+    def __init__(self, name: str | None = None, *, stream_type: str = "EMG",
+                 timeout_s: float = 3.0, channels: int | None = None,
+                 rate_hz: float | None = None, buffer_s: int = 60,
+                 unit: str | None = None) -> None:
+        lsl = pylsl()
+        prop, value = ("name", name) if name else ("type", stream_type)
+        found = lsl.resolve_byprop(prop, value, minimum=1, timeout=timeout_s)
+        what = f"LSL stream {'named' if name else 'of type'} {value!r}"
+        if not found:
+            raise LslError(f"no {what} found in {timeout_s:g} s: start the EMG software's LSL "
+                           "stream on this network (rehab emg streams lists what is seen)")
+        # resolving returns at the first stream; a second one of the name would be
+        # recorded in its place by chance, so look a moment longer for another
+        found = lsl.resolve_byprop(prop, value, minimum=2, timeout=DUPLICATE_LOOK_S) or found
+        if len(found) > 1:
+            sources = ", ".join(f"{i.source_id() or 'no source id'} on {i.hostname()}"
+                                for i in found)
+            raise LslError(f"{len(found)} LSL streams {'named' if name else 'of type'} "
+                           f"{value!r} found ({sources}): stop the extra one or rename it, so "
+                           "the recording cannot take the wrong one")
+        info = found[0]
+        self.summary = summary(info)
+        fmt = _formats(lsl).get(info.channel_format())
+        if fmt is None:
+            raise LslError(f"{what} carries text, not EMG samples")
+        if info.nominal_srate() <= 0:
+            raise LslError(f"{what} has no regular rate (irregular stream), not EMG")
+        if channels is not None and info.channel_count() != channels:
+            raise LslError(f"{what} has {info.channel_count()} channels, {channels} expected: "
+                           "check the EMG software's stream settings")
+        if rate_hz is not None and abs(info.nominal_srate() - rate_hz) > 0.01 * rate_hz:
+            raise LslError(f"{what} runs at {info.nominal_srate():g} Hz, {rate_hz:g} Hz "
+                           "expected")
+        self._inlet = lsl.StreamInlet(info, max_buflen=buffer_s,
+                                      processing_flags=lsl.proc_clocksync)
+        try:  # a resolved stream's info is its header; the description comes from the sender
+            described = channel_descriptions(self._inlet.info(timeout=timeout_s))
+        except Exception as exc:  # pylsl's TimeoutError or LostError
+            raise LslError(f"the {what} did not send its description in {timeout_s:g} s "
+                           f"({type(exc).__name__})") from None
+        self.volts_per_unit = _scales(what, described, unit)
+        self.labels = tuple(d["label"] for d in described) if all(
+            d["label"] for d in described) else ()
+        self.units = tuple(d["unit"] or (unit or "") for d in described)
+        self.rate_hz = float(info.nominal_srate())
+        self.channel_count = int(info.channel_count())
+        # liblsl writes samples of the stream's own format: the buffer must be of it
+        self._buffer = np.empty((max(1024, int(self.rate_hz)), self.channel_count), dtype=fmt)
+
+    def open(self, timeout_s: float = 3.0) -> LslEmgInlet:
+        try:
+            self._inlet.open_stream(timeout=timeout_s)
+            # the first clock-offset estimate takes a while; have it before the trial, not
+            # in the first read (which would then hold the first samples back)
+            self.clock_offset_s = self._inlet.time_correction(timeout=timeout_s)
+        except Exception as exc:  # pylsl raises its TimeoutError or LostError
+            raise LslError(f"the LSL stream {self.summary.name!r} did not open in "
+                           f"{timeout_s:g} s ({type(exc).__name__})") from None
+        return self
+
+    def read(self, timeout_s: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """Samples waiting (up to a second's worth): (monotonic stamps (k,), volts (k, C))."""
+        try:
+            # min_samples=1: return as soon as anything came, not when the buffer is full
+            _, stamps = self._inlet.pull_chunk(timeout=timeout_s,
+                                               max_samples=self._buffer.shape[0],
+                                               dest_obj=self._buffer, min_samples=1)
+        except Exception as exc:  # pylsl's LostError: the sender went away
+            raise LslError(f"the LSL stream {self.summary.name!r} was lost "
+                           f"({type(exc).__name__}); check the EMG software") from None
+        n = len(stamps)
+        return (np.asarray(stamps, dtype=float),
+                self._buffer[:n].astype(float) * self.volts_per_unit)
+
+    def close(self) -> None:
+        self._inlet.close_stream()
+
+
+def _scales(what: str, described: list[dict[str, str]], given: str | None) -> np.ndarray:
+    """Volts per stored unit, one per channel, from the declared units (module docstring)."""
+    given_scale = None
+    if given is not None:
+        given_scale = volts_per_unit(given)
+        if given_scale is None:
+            raise LslError(f"unit {given!r} given for the {what} is not a voltage: give V, mV "
+                           "or uV")
+    scales = []
+    for k, d in enumerate(described, start=1):
+        name = d["label"] or f"channel {k}"
+        if not d["unit"]:
+            if given_scale is None:
+                raise LslError(f"the {what} does not say the unit of {name}: declare each "
+                               "channel's unit in the stream's description (V, mV or uV), or "
+                               "give it (lsl:NAME@uV)")
+            scales.append(given_scale)
+            continue
+        scale = volts_per_unit(d["unit"])
+        if scale is None:
+            raise LslError(f"the {what} gives {name} in {d['unit']!r}, not a voltage: EMG is "
+                           "read in V, mV or uV")
+        if given_scale is not None and scale != given_scale:
+            raise LslError(f"the {what} declares {name} in {d['unit']!r}, not in {given!r} as "
+                           "given: leave the unit out or correct it")
+        scales.append(scale)
+    return np.asarray(scales, dtype=float)

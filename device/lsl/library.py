@@ -1,0 +1,103 @@
+"""liblsl through pylsl: loading it, what a stream is, this machine's LSL clock, and the
+loopback configuration every test and bench runs with.
+
+pylsl 1.18.6's manylinux_2_35 wheel carries liblsl itself (`pylsl/lib/liblsl.so`), so a
+Linux with glibc 2.35 or newer (Debian 12, Ubuntu 22.04) needs nothing else. On an older
+glibc pip installs the pure-Python wheel without the library, and importing pylsl fails
+with "LSL binary library file was not found": `LslError` says so and what to do.
+
+Clocks: LSL stamps samples with `local_clock()`, which on Linux is CLOCK_MONOTONIC, the
+clock of `time.monotonic()` and of the loop's `wall_time` (plus its origin,
+docs/data-format.md).
+
+Discovery: liblsl finds streams by broadcast and multicast on every interface unless the
+file named by `LSLAPICFG` says otherwise; it reads that file once, when pylsl is first
+used. The console keeps liblsl's defaults (a lab's network); `use_loopback` points the
+tests and benches at this machine only, before pylsl is loaded.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+from device.errors import DeviceError
+
+LOOPBACK_CONFIG = (
+    "; liblsl confined to this machine (device.lsl.library.use_loopback)\n"
+    "[ports]\nIPv6 = disable\n"
+    "[multicast]\nResolveScope = machine\nMachineAddresses = {127.0.0.1}\n"
+    "[log]\nlevel = -2\n"
+)
+"""liblsl's ini: `;` starts a comment; a repeated key or a line without `=` makes liblsl
+throw the whole file away, so it is written whole, never patched."""
+
+
+class LslError(DeviceError):
+    """A stream is missing or not what was asked; one line."""
+
+
+def pylsl():
+    """The pylsl module, or one line saying why it cannot be loaded."""
+    try:
+        import pylsl as module
+    except (ImportError, RuntimeError, OSError) as exc:
+        raise LslError(f"the Lab Streaming Layer library cannot be loaded ({exc}); pylsl 1.18.6 "
+                       "ships liblsl for Linux with glibc 2.35 or newer: on an older system "
+                       "install liblsl from its releases or use mne-lsl") from None
+    return module
+
+
+def use_loopback(folder: Path) -> Path:
+    """Write the loopback configuration into `folder` and point LSLAPICFG at it, so that no
+    stream is announced or looked for beyond this machine. It must come before pylsl is
+    loaded (liblsl reads the file once); after, it refuses rather than pretend."""
+    if "pylsl" in sys.modules:
+        raise LslError("pylsl is already loaded, so liblsl has read its configuration: set "
+                       "the loopback configuration before anything imports pylsl")
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / "lsl-loopback.cfg"
+    path.write_text(LOOPBACK_CONFIG)
+    os.environ["LSLAPICFG"] = str(path)
+    return path
+
+
+@dataclass(frozen=True, slots=True)
+class StreamSummary:
+    name: str
+    type: str
+    channel_count: int
+    nominal_rate_hz: float
+    hostname: str
+    source_id: str
+
+
+def summary(info) -> StreamSummary:
+    return StreamSummary(info.name(), info.type(), info.channel_count(), info.nominal_srate(),
+                         info.hostname(), info.source_id())
+
+
+def find_streams(wait_s: float = 1.0) -> list[StreamSummary]:
+    """Every LSL stream seen within `wait_s`."""
+    return [summary(i) for i in pylsl().resolve_streams(wait_time=wait_s)]
+
+
+def local_clock() -> float:
+    return pylsl().local_clock()
+
+
+def channel_descriptions(info) -> list[dict[str, str]]:
+    """Each channel's `label`, `unit` and `type` from the stream's description
+    (`desc/channels/channel`, the XDF meta-data convention), '' where not given; one dict
+    per channel, as many as the stream has."""
+    out = []
+    channel = info.desc().child("channels").child("channel")
+    for _ in range(info.channel_count()):
+        if channel.empty():
+            out.append({"label": "", "unit": "", "type": ""})
+            continue
+        out.append({key: channel.child_value(key).strip() for key in ("label", "unit", "type")})
+        channel = channel.next_sibling("channel")
+    return out
