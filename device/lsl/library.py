@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from device.errors import DeviceError
+from device.safewrite import make_private_folders, write_text
 
 LOOPBACK_CONFIG = (
     "; liblsl confined to this machine (device.lsl.library.use_loopback)\n"
@@ -57,9 +58,8 @@ def use_loopback(folder: Path) -> Path:
     if "pylsl" in sys.modules:
         raise LslError("pylsl is already loaded, so liblsl has read its configuration: set "
                        "the loopback configuration before anything imports pylsl")
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / "lsl-loopback.cfg"
-    path.write_text(LOOPBACK_CONFIG)
+    make_private_folders(folder)
+    path = write_text(Path(folder) / "lsl-loopback.cfg", LOOPBACK_CONFIG, overwrite=True)
     os.environ["LSLAPICFG"] = str(path)
     return path
 
