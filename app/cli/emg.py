@@ -26,6 +26,9 @@ from app.cli.common import (
 from app.records.safewrite import check_output_folder
 from core.trial import MODEL_NAME
 
+XDF_SUFFIXES = (".xdf", ".xdfz")
+"""LabRecorder's recordings (app.emg.xdf), read by pyxdf."""
+
 
 def add_emg_commands(commands) -> None:
     emg = commands.add_parser(
@@ -35,16 +38,23 @@ def add_emg_commands(commands) -> None:
     sub = emg.add_subparsers(dest="emg_command", metavar="subcommand", required=True,
                              parser_class=Parser)
 
-    p = sub.add_parser("import", help="store an exported EMG file in a trial",
-                       description="Read a Delsys Trigno CSV export or a plain CSV with a time "
-                                   "column (docs/data-format.md, EMG) and store it in the "
-                                   "trial's file on the trial's clock.")
+    p = sub.add_parser("import", help="store an exported EMG file or an XDF recording in a "
+                                      "trial",
+                       description="Read a Delsys Trigno CSV export, a plain CSV with a time "
+                                   "column (docs/data-format.md, EMG) or a LabRecorder XDF "
+                                   "recording that holds the robot's rehab-robot stream, and "
+                                   "store the EMG in the trial's file on the trial's clock.")
     p.add_argument("trial", help="trial id or trial file")
-    p.add_argument("file", help="the EMG file (.csv)")
+    p.add_argument("file", help="the EMG file (.csv) or recording (.xdf, .xdfz)")
     p.add_argument("--muscles", help="comma-separated muscle under each EMG channel, in order "
                                      "(default: the channel names)")
     p.add_argument("--offset", type=float, default=0.0, metavar="S",
-                   help="trial time of the EMG file's time 0, s (default 0: started together)")
+                   help="trial time of the EMG file's time 0, s (default 0: started together; "
+                        "not for an XDF recording, which has its own clock)")
+    p.add_argument("--stream", help="the XDF recording's EMG stream by name (default: the one "
+                                    "stream of type EMG)")
+    p.add_argument("--unit", help="the unit of an XDF EMG stream's channels that declare none "
+                                  "(V, mV or uV)")
     p.add_argument("--replace", action="store_true", help="replace EMG the trial already has")
     p.set_defaults(func=cmd_import)
 
@@ -159,9 +169,22 @@ def cmd_import(args: argparse.Namespace) -> int:
     muscles = [m.strip() for m in args.muscles.split(",")] if args.muscles else None
     if not np.isfinite(args.offset):
         raise CommandError(f"--offset {args.offset}: give a finite number of seconds")
-    done = import_emg_file(trial_file(args, args.trial), input_file(args.file, "EMG file"),
-                           muscles=muscles,
-                           offset_s=args.offset, replace=args.replace)
+    trial = trial_file(args, args.trial)
+    source = input_file(args.file, "EMG file")
+    if Path(source).suffix.lower() in XDF_SUFFIXES:
+        if args.offset != 0.0:
+            raise CommandError("--offset is for exported files: an XDF recording is placed "
+                               "on the trial's clock through its rehab-robot stream")
+        from app.emg.xdf import import_xdf
+
+        done = import_xdf(trial, source, stream=args.stream,
+                          unit=args.unit, muscles=muscles, replace=args.replace)
+    else:
+        if args.stream or args.unit:
+            raise CommandError("--stream and --unit are for an XDF recording (.xdf); an "
+                               "exported file says its channels and units itself")
+        done = import_emg_file(trial, source, muscles=muscles,
+                               offset_s=args.offset, replace=args.replace)
     print(f"stored {len(done.names)} EMG channels ({', '.join(done.muscles)}) at "
           f"{done.rate_hz:g} Hz, {done.n_samples} samples, trial time "
           f"{done.first_s:.3f}–{done.last_s:.3f} s, in {done.trial.name}")

@@ -36,14 +36,13 @@ from pathlib import Path
 
 import numpy as np
 
+from core.emg.units import volts_per_unit
 from core.errors import ParameterError
 from core.signal import sample_interval
 from device.errors import DeviceError
 from device.safeinput import InputRefused, read_bytes
 from device.safewrite import write_text
 
-VOLT_SCALE = {"v": 1.0, "volt": 1.0, "volts": 1.0, "mv": 1e-3, "millivolts": 1e-3,
-              "uv": 1e-6, "µv": 1e-6, "μv": 1e-6, "microvolts": 1e-6}
 TIME_NAMES = ("time", "time_s", "t", "time [s]", "time[s]", "x[s]")
 MAX_BYTES = 2 * 2**30  # a 2 GiB CSV is a mistake, not an EMG recording of a session
 _LABEL = re.compile(
@@ -120,10 +119,6 @@ def _lines(path: Path) -> list[str]:
     return lines
 
 
-def _unit_scale(unit: str) -> float | None:
-    return VOLT_SCALE.get(unit.strip().lower().replace(" ", ""))
-
-
 def _rows(path: Path, lines: list[str], start: int) -> list[tuple[int, list[str]]]:
     out = []
     k = start
@@ -188,7 +183,7 @@ def _trigno(path: Path, lines: list[str]) -> EmgData:
             raise EmgFileError(path, f"line {header_line}: column {2 * j + 1} is "
                                      f"{header[2 * j]!r}, expected the time column 'X[s]' of "
                                      f"{label}")
-    emg = [j for j, (_, _, unit) in enumerate(labels) if _unit_scale(unit) is not None]
+    emg = [j for j, (_, _, unit) in enumerate(labels) if volts_per_unit(unit) is not None]
     skipped = [f"{label} ({unit})" for j, (label, _, unit) in enumerate(labels) if j not in emg]
     if not emg:
         raise EmgFileError(path, "no EMG channel: no channel is in volts",
@@ -224,7 +219,7 @@ def _trigno(path: Path, lines: list[str]) -> EmgData:
                 raise EmgFileError(path, f"line {line}: the time of {labels[j][0]} ({other:g} s) "
                                          f"differs from that of {labels[emg[0]][0]} "
                                          f"({t[-1]:g} s)", "the EMG channels must share a clock")
-    scale = np.array([_unit_scale(labels[j][2]) for j in emg])
+    scale = np.array([volts_per_unit(labels[j][2]) for j in emg])
     notes = (f"skipped channels that are not EMG: {', '.join(skipped)}",) if skipped else ()
     return _finish(path, names, np.array(t), np.array(values) * scale, "trigno-csv",
                    labels[emg[0]][1], notes)
@@ -246,7 +241,7 @@ def _plain(path: Path, lines: list[str]) -> EmgData:
     for column in header[1:]:
         match = _UNIT_IN_NAME.match(column)
         name, unit = (match["name"].strip(), match["unit"]) if match else (column, "V")
-        scale = _unit_scale(unit)
+        scale = volts_per_unit(unit)
         if not name:
             raise EmgFileError(path, f"line {header_line}: a column has no name")
         if scale is None:

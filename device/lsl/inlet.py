@@ -18,25 +18,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from core.emg.units import volts_per_unit
 from device.lsl.library import LslError, channel_descriptions, pylsl, summary
 
 DUPLICATE_LOOK_S = 1.0
 """How long to look for a second stream of the name: liblsl answers resolves in waves, and
 with discovery confined to this machine the second stream came after 0.5 s."""
-VOLTS_PER_UNIT = {
-    "v": 1.0, "volt": 1.0, "volts": 1.0,
-    "mv": 1e-3, "millivolt": 1e-3, "millivolts": 1e-3,
-    "uv": 1e-6, "\u00b5v": 1e-6, "\u03bcv": 1e-6, "microvolt": 1e-6, "microvolts": 1e-6,
-    "nv": 1e-9, "nanovolt": 1e-9, "nanovolts": 1e-9,
-}
-"""Units of a voltage, lower case (µ as the micro sign or the Greek mu)."""
-
-
-def volts_per_unit(unit: str) -> float | None:
-    """Volts in one `unit`, or None when it is not a voltage this inlet knows."""
-    return VOLTS_PER_UNIT.get(unit.strip().lower())
-
-
 def _formats(module) -> dict[int, type]:
     """liblsl's numeric channel formats and the numpy type liblsl writes for each."""
     return {module.cf_float32: np.float32, module.cf_double64: np.float64,

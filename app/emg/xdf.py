@@ -1,0 +1,219 @@
+"""EMG from a LabRecorder recording (XDF) into a trial, placed through the robot's own
+stream.
+
+A lab records every LSL stream into one XDF file: the EMG software's stream and the
+console's `rehab-robot` stream and its markers (`rehab gui --lsl-outlet`,
+device.lsl.outlet). pyxdf reads the file and puts every stream on the recording computer's
+clock (LabRecorder's clock-offset chunks; `synchronize_clocks`); the stamps are kept as
+they were sent (no dejittering), since the robot's are the exact times of its sensor reads.
+
+The trial's own records say when each tick's sensor was read on the console's clock
+(`/summary` wall_time_origin_monotonic_s + `wall_time`), and the robot stream carries the
+same positions at those moments on the recording's clock. The offset between the two
+clocks is found where the trial's first position appears in the robot stream, and kept
+only when, at that offset, at least 99 % of the trial's ticks are in the stream with
+exactly their positions (a double crosses LSL and XDF unchanged). A recording of another
+trial, of another console, or without the robot stream is refused in one line. The EMG's
+stamps, less that offset, are monotonic times of the console, and
+app.emg.importing.trial_time_from_monotonic puts them on the trial's clock, as for a live
+capture. Each channel is read in volts by the unit its stream declares (core.emg.units).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from app.emg.importing import EmgImportError, Imported, store, trial_time_from_monotonic
+from app.trials.reader import TrialData, read_trial
+from core.emg.units import volts_per_unit
+from device.emg.files import EmgData
+from device.lsl.outlet import EVENT_STREAM, ROBOT_CHANNELS, ROBOT_STREAM
+
+MATCH_TOLERANCE_S = 2.5e-4
+"""A tick and a robot-stream sample are the same reading when their stamps, on one clock,
+differ by less than this (an eighth of a 2 ms tick: the clock offsets LabRecorder measured
+move by microseconds)."""
+MATCHED_SHARE = 0.99
+CANDIDATES = 50
+"""Places where the trial's first position appears in the stream that are tried (the
+handle at rest repeats a position; the trial's whole run of positions does not)."""
+
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class XdfStream:
+    name: str
+    type: str
+    source_id: str
+    rate_hz: float
+    channel_format: str
+    labels: tuple[str, ...]
+    units: tuple[str, ...]
+    stamps: np.ndarray
+    values: object  # (k, C) numbers, or a list of lists of strings for a marker stream
+
+
+def read_xdf(path: str | os.PathLike) -> list[XdfStream]:
+    """Every stream of an XDF file, on the recording computer's clock; one line when the
+    file cannot be read."""
+    import pyxdf  # only here: a console that never opens an XDF file never loads it
+
+    path = Path(path)
+    logging.getLogger("pyxdf").setLevel(logging.ERROR)  # its notes are not ours to print
+    try:
+        streams, _ = pyxdf.load_xdf(str(path), dejitter_timestamps=False)
+    except (OSError, ValueError, KeyError, IndexError, EOFError, RuntimeError) as exc:
+        raise EmgImportError(f"XDF file {path}: cannot be read ({' '.join(str(exc).split())});"
+                             " record it again with LabRecorder") from None
+    return [_stream(s) for s in streams]
+
+
+def _first(info: dict, key: str, default: str = "") -> str:
+    value = info.get(key)
+    if isinstance(value, list):
+        value = value[0] if value else None
+    return default if value is None else str(value)
+
+
+def _stream(raw: dict) -> XdfStream:
+    info = raw["info"]
+    labels, units = [], []
+    desc = info.get("desc")
+    channels = (desc[0] or {}).get("channels") if desc else None
+    for channel in ((channels[0] or {}).get("channel") or []) if channels else []:
+        labels.append(_first(channel or {}, "label"))
+        units.append(_first(channel or {}, "unit"))
+    stamps = np.asarray(raw.get("time_stamps", []), dtype=float)
+    values = raw.get("time_series")
+    if isinstance(values, np.ndarray):
+        values = values.reshape(len(stamps), -1) if values.size else np.empty((0, 0))
+    return XdfStream(_first(info, "name"), _first(info, "type"), _first(info, "source_id"),
+                     float(_first(info, "nominal_srate", "0") or 0),
+                     _first(info, "channel_format"), tuple(labels), tuple(units), stamps,
+                     values)
+
+
+def clock_offset(trial: TrialData, robot: XdfStream, name: str) -> float:
+    """Recording clock minus the console's monotonic clock, from where the trial's ticks
+    are in the robot stream (module docstring); refused in one line when they are not."""
+    origin = trial.summary.get("wall_time_origin_monotonic_s")
+    if origin is None:
+        raise EmgImportError(f"trial file {trial.path.name} has no clock origin (a headless "
+                             "or older trial): import the EMG from an exported file instead")
+    x, y = (_robot_column(robot, label) for label in ("position_x", "position_y"))
+    positions = trial.channels["position"]
+    ticks = float(origin) + trial.channels["wall_time"]
+    found = np.flatnonzero((robot.values[:, x] == positions[0, 0])
+                           & (robot.values[:, y] == positions[0, 1]))
+    best = 0.0
+    for j in found[:CANDIDATES]:
+        offset = robot.stamps[j] - ticks[0]
+        at = np.clip(np.searchsorted(robot.stamps, ticks + offset), 1, len(robot.stamps) - 1)
+        nearest = np.where(np.abs(robot.stamps[at - 1] - ticks - offset)
+                           < np.abs(robot.stamps[at] - ticks - offset), at - 1, at)
+        same = ((np.abs(robot.stamps[nearest] - ticks - offset) < MATCH_TOLERANCE_S)
+                & (robot.values[nearest, x] == positions[:, 0])
+                & (robot.values[nearest, y] == positions[:, 1]))
+        share = float(np.mean(same))
+        if share >= MATCHED_SHARE:
+            return float(offset)
+        best = max(best, share)
+    raise EmgImportError(
+        f"XDF file {name}: its {ROBOT_STREAM} stream does not hold trial "
+        f"{trial.path.name} (at best {100 * best:.0f} % of its ticks at their times and "
+        "positions): record the trial with the console's LSL outlet on (rehab gui "
+        "--lsl-outlet) and give the recording that was running during it")
+
+
+def _robot_column(robot: XdfStream, label: str) -> int:
+    if label in robot.labels:
+        return robot.labels.index(label)
+    return next(k for k, (_, _, name, _, _) in enumerate(ROBOT_CHANNELS) if name == label)
+
+
+def emg_stream(streams: list[XdfStream], name: str | None, path: Path) -> XdfStream:
+    """The EMG stream asked for by name, else the one regular numeric stream of type EMG."""
+    numeric = [s for s in streams if s.channel_format != "string" and s.rate_hz > 0
+               and s.name not in (ROBOT_STREAM, EVENT_STREAM)]
+    if name is not None:
+        chosen = [s for s in numeric if s.name == name]
+        what = f"no regular numeric stream named {name!r}"
+    else:
+        chosen = [s for s in numeric if s.type.lower() == "emg"]
+        what = "no EMG stream (type EMG)"
+    if len(chosen) != 1:
+        seen = ", ".join(f"{s.name} ({s.type or 'no type'})" for s in numeric) or "none"
+        problem = what if not chosen else f"{len(chosen)} streams match"
+        raise EmgImportError(f"XDF file {path.name}: {problem}; its numeric streams: {seen}. "
+                             "Name the EMG stream with --stream")
+    return chosen[0]
+
+
+def emg_volts(stream: XdfStream, path: Path, unit: str | None) -> np.ndarray:
+    """The stream's samples in volts by each channel's declared unit, or `unit` for
+    channels that declare none (a declared one that disagrees is refused)."""
+    count = stream.values.shape[1]
+    declared = list(stream.units) + [""] * (count - len(stream.units))
+    scales = []
+    for k, written in enumerate(declared[:count]):
+        channel = stream.labels[k] if k < len(stream.labels) and stream.labels[k] else \
+            f"channel {k + 1}"
+        if written and unit and volts_per_unit(written) != volts_per_unit(unit):
+            raise EmgImportError(f"XDF file {path.name}: stream {stream.name} declares "
+                                 f"{channel} in {written!r}, not {unit!r} as given")
+        scale = volts_per_unit(written or unit or "")
+        if scale is None:
+            said = f"gives {channel} in {written!r}" if written else \
+                f"does not say the unit of {channel}"
+            raise EmgImportError(f"XDF file {path.name}: stream {stream.name} {said}, not a "
+                                 "voltage: give it with --unit (V, mV or uV)")
+        scales.append(scale)
+    return np.asarray(stream.values, dtype=float) * np.asarray(scales)
+
+
+def import_xdf(trial_path: str | os.PathLike, xdf_path: str | os.PathLike, *,
+               stream: str | None = None, unit: str | None = None,
+               muscles: list[str] | None = None, replace: bool = False) -> Imported:
+    """Store the EMG stream of a LabRecorder recording in a closed trial's `/emg`, on the
+    trial's clock (module docstring)."""
+    trial = read_trial(trial_path)
+    if not trial.closed:
+        raise EmgImportError(f"trial file {trial.path.name} is still being recorded; import "
+                             "the EMG after the trial ends")
+    path = Path(xdf_path)
+    streams = read_xdf(path)
+    robots = [s for s in streams if s.name == ROBOT_STREAM and s.channel_format != "string"
+              and len(s.stamps)]
+    if not robots:
+        raise EmgImportError(f"XDF file {path.name} has no {ROBOT_STREAM} stream to place the "
+                             "EMG on the trial's clock: record with the console's LSL outlet "
+                             "on (rehab gui --lsl-outlet)")
+    offsets = []
+    for robot in robots:  # one per console on the network; the trial's is the one that fits
+        try:
+            offsets.append(clock_offset(trial, robot, path.name))
+        except EmgImportError as refused:
+            problem = refused
+    if not offsets:
+        raise problem
+    offset = offsets[0]
+    emg = emg_stream(streams, stream, path)
+    if not len(emg.stamps):
+        raise EmgImportError(f"XDF file {path.name}: stream {emg.name} has no samples")
+    volts = emg_volts(emg, path, unit)
+    names = tuple(label or f"{emg.name}-{k + 1}" for k, label in enumerate(
+        list(emg.labels[:volts.shape[1]]) + [""] * (volts.shape[1] - len(emg.labels))))
+    trial_time = trial_time_from_monotonic(trial, emg.stamps - offset)
+    markers = sum(len(s.stamps) for s in streams if s.name == EVENT_STREAM)
+    notes = (f"placed through the {ROBOT_STREAM} stream: recording clock − console clock = "
+             f"{offset:.6f} s; {markers} robot markers in the recording",)
+    data = EmgData(names, emg.rate_hz, trial_time, volts, "xdf", path, notes)
+    clock = ("LSL stamps of the XDF recording, less the offset at which the trial's ticks "
+             f"are in its {ROBOT_STREAM} stream")
+    return store(trial, data, trial_time, muscles=muscles, clock=clock, offset_s=0.0,
+                 replace=replace)

@@ -1,0 +1,147 @@
+"""`rehab emg import TRIAL recording.xdf`: a LabRecorder recording of the console's robot
+stream, its markers and an EMG stream, all real pylsl streams recorded by the tests' small
+LabRecorder (tests/xdf_recorder.py) and read by pyxdf, lands in the trial on its clock
+within one EMG sample, in volts by the stream's declared units; a recording that does not
+hold the trial is refused in one line."""
+
+import shutil
+import time
+import uuid
+
+import h5py
+import numpy as np
+import pylsl
+import pytest
+
+from app.emg.importing import EmgImportError, trial_time_from_monotonic
+from app.emg.xdf import import_xdf
+from app.trials.headless import save, simulate
+from app.trials.reader import read_trial
+from core.trial import THESIS_SUBJECT
+from device.loop.messages import TrialMarker
+from device.lsl.outlet import RobotStateOutlet
+from device.recording.emgfile import read_emg
+from device.recording.record import empty_records
+from tests.app.cli.running import run
+from tests.xdf_recorder import XdfRecorder
+
+EMG_HZ = 1000.0
+
+
+@pytest.fixture(scope="module")
+def plain_trial(tmp_path_factory):
+    path = tmp_path_factory.mktemp("trial") / "trial.h5"
+    save(simulate(THESIS_SUBJECT.replace(repetitions=1), engine="python"), path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def other_trial(tmp_path_factory):
+    """Another trial at the same settings: another patient's draw, another run of positions."""
+    path = tmp_path_factory.mktemp("trial") / "other.h5"
+    save(simulate(THESIS_SUBJECT.replace(repetitions=1), engine="python", seed=7), path)
+    return path
+
+
+def _live_trial(plain_trial, folder, origin, name="live.h5"):
+    path = shutil.copy(plain_trial, folder / name)
+    with h5py.File(path, "r+") as f:  # as a live trial's recorder writes it
+        f["summary"].attrs["wall_time_origin_monotonic_s"] = origin
+    return path
+
+
+def _emg_outlet(source, unit="microvolts"):
+    info = pylsl.StreamInfo(f"emg-{source}", "EMG", 3, EMG_HZ, pylsl.cf_int16, source)
+    channels = info.desc().append_child("channels")
+    for label in ("biceps", "triceps", "deltoid"):
+        channel = channels.append_child("channel")
+        channel.append_child_value("label", label)
+        if unit:
+            channel.append_child_value("unit", unit)
+    return pylsl.StreamOutlet(info)
+
+
+def _wait(condition, what, timeout=10.0):
+    deadline = time.monotonic() + timeout
+    while not condition():
+        assert time.monotonic() < deadline, f"{what} did not happen"
+        time.sleep(0.01)
+
+
+def _record(tmp_path, trial_path, emg_start_s=0.5, unit="microvolts", with_robot=True):
+    """Record the trial's ticks as the console's outlet publishes them, an int16 EMG
+    stream of known samples at known stamps, and a marker; returns (xdf, stamps, samples)."""
+    data = read_trial(trial_path)
+    origin = float(data.summary["wall_time_origin_monotonic_s"])
+    tag = uuid.uuid4().hex[:10]
+    robot_source, emg_source = f"robot-{tag}", f"emg-{tag}"
+    outlet = RobotStateOutlet(500.0, source_id=robot_source) if with_robot else None
+    emg = _emg_outlet(emg_source, unit)
+    sources = [emg_source] + ([robot_source, robot_source + "-events"] if with_robot else [])
+    recorder = XdfRecorder(sources)
+    _wait(emg.have_consumers, "the recorder connecting")
+    stamps = origin + emg_start_s + np.arange(3000) / EMG_HZ
+    samples = ((np.arange(9000).reshape(3000, 3) * 37) % 20001 - 10000).astype(np.int16)
+    if with_robot:
+        _wait(outlet.have_consumers, "the recorder connecting")
+        records = empty_records(data.n_samples)
+        for name in ("wall_time", "position", "force", "phase"):
+            records[name] = data.channels[name]
+        outlet.clock_started(0, origin)
+        outlet.mark(TrialMarker("start", "trial started", {"file": trial_path.name}, 0, 0,
+                                origin))
+        for k in range(0, len(records), 250):
+            outlet.push_records(records[k:k + 250], k)
+    for k in range(0, 3000, 100):
+        emg.push_chunk(samples[k:k + 100], timestamp=stamps[k:k + 100].tolist())
+    time.sleep(1.0)  # what is on its way to the recorder
+    path = recorder.stop(tmp_path / f"{tag}.xdf")
+    return path, stamps, samples
+
+
+def test_an_xdf_recording_lands_in_the_trial_within_one_emg_sample(plain_trial, tmp_path):
+    trial = _live_trial(plain_trial, tmp_path, time.monotonic() - 30.0)
+    xdf, stamps, samples = _record(tmp_path, trial)
+    done = import_xdf(trial, xdf)
+    emg = read_emg(trial)
+    np.testing.assert_array_equal(emg.samples, samples.astype(float) * 1e-6)
+    expected = trial_time_from_monotonic(read_trial(trial), stamps)
+    assert np.max(np.abs(emg.time_s - expected)) < 1.0 / EMG_HZ
+    assert emg.time_s[0] == pytest.approx(0.5, abs=1.0 / EMG_HZ)
+    assert done.names == ("biceps", "triceps", "deltoid")
+    assert done.rate_hz == EMG_HZ
+    assert any("placed through the rehab-robot stream" in note for note in done.notes)
+    assert emg.attrs["source"] == "xdf"
+
+
+def test_a_recording_of_another_trial_or_without_the_robot_is_refused_in_one_line(
+        plain_trial, other_trial, tmp_path):
+    trial = _live_trial(plain_trial, tmp_path, time.monotonic() - 30.0)
+    other = _live_trial(other_trial, tmp_path, time.monotonic() - 90.0, "other.h5")
+    xdf, _, _ = _record(tmp_path, other)
+    with pytest.raises(EmgImportError, match=r"its rehab-robot stream does not hold trial "
+                                             r"live\.h5 \(at best \d+ % of its ticks") as refused:
+        import_xdf(trial, xdf)
+    assert "\n" not in str(refused.value)
+    alone, _, _ = _record(tmp_path, trial, with_robot=False)
+    with pytest.raises(EmgImportError, match="has no rehab-robot stream"):
+        import_xdf(trial, alone)
+
+
+def test_an_emg_stream_without_units_needs_one_given(plain_trial, tmp_path, capsys):
+    trial = _live_trial(plain_trial, tmp_path, time.monotonic() - 30.0)
+    xdf, _, samples = _record(tmp_path, trial, unit=None)
+    with pytest.raises(EmgImportError, match=r"does not say the unit of biceps, not a "
+                                             r"voltage: give it with --unit"):
+        import_xdf(trial, xdf)
+    code, out, err = run(["emg", "import", str(trial), str(xdf), "--unit", "uV",
+                          "--muscles", "biceps_brachii,triceps_brachii,anterior_deltoid"],
+                         capsys)
+    assert code == 0, err
+    assert "stored 3 EMG channels (biceps_brachii, triceps_brachii, anterior_deltoid) at " \
+           "1000 Hz" in out
+    np.testing.assert_array_equal(read_emg(trial).samples, samples.astype(float) * 1e-6)
+    code, _, err = run(["emg", "import", str(trial), str(xdf), "--offset", "1", "--replace"],
+                       capsys)
+    assert code == 2
+    assert "--offset is for exported files" in err

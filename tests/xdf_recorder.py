@@ -1,0 +1,105 @@
+"""A small LabRecorder for the tests: real pylsl inlets on the streams asked for, drained on
+threads, written as an XDF 1.0 file.
+
+The layout is XDF 1.0's (sccn/xdf, "Specifications"): the magic `XDF:`, then chunks of
+[NumLengthBytes 1|4|8][Length, counting the tag][Tag uint16][Content], little-endian: a
+FileHeader (tag 1, XML), per stream a StreamHeader (tag 2: stream id uint32, the stream's
+full info XML as liblsl gives it), Samples (tag 3: stream id, a variable-length sample count,
+then per sample a time-stamp byte 8 and the double stamp, and the values in the stream's
+format, or for strings a variable-length length and the bytes per channel), ClockOffset
+(tag 4: stream id, collection time and offset, doubles) and a StreamFooter (tag 6, XML).
+The stamps are the sender's (no clock correction in the inlet), and the clock offsets are
+what liblsl's time_correction measures, as LabRecorder records them; pyxdf then puts every
+stream on this computer's clock.
+"""
+
+from __future__ import annotations
+
+import struct
+import threading
+from pathlib import Path
+
+import numpy as np
+import pylsl
+
+_LITTLE_ENDIAN = {pylsl.cf_float32: "<f4", pylsl.cf_double64: "<f8", pylsl.cf_int8: "<i1",
+                  pylsl.cf_int16: "<i2", pylsl.cf_int32: "<i4", pylsl.cf_int64: "<i8",
+                  pylsl.cf_string: None}
+
+
+def _varlen(n: int) -> bytes:
+    if n < 256:
+        return b"\x01" + struct.pack("<B", n)
+    if n < 2**32:
+        return b"\x04" + struct.pack("<I", n)
+    return b"\x08" + struct.pack("<Q", n)
+
+
+def _chunk(tag: int, content: bytes) -> bytes:
+    return _varlen(len(content) + 2) + struct.pack("<H", tag) + content
+
+
+class _Take(threading.Thread):
+    def __init__(self, info):
+        super().__init__(daemon=True)
+        self.inlet = pylsl.StreamInlet(info, max_buflen=600, recover=False)
+        self.info = self.inlet.info(5.0)
+        self.inlet.open_stream(5.0)
+        self.stamps, self.values = [], []
+        self.offsets = [(pylsl.local_clock(), self.inlet.time_correction(5.0))]
+        self.stopping = threading.Event()
+
+    def run(self):
+        string = self.info.channel_format() == pylsl.cf_string
+        while not self.stopping.is_set():
+            try:
+                x, t = self.inlet.pull_chunk(timeout=0.1)
+            except pylsl.util.LostError:
+                break
+            if t:
+                self.stamps.extend(t)
+                self.values.extend(x if string else np.asarray(x).tolist())
+
+
+class XdfRecorder:
+    """Records the streams whose source ids are given until `stop(path)` writes the file."""
+
+    def __init__(self, source_ids):
+        self.takes = [_Take(pylsl.resolve_byprop("source_id", s, 1, 10.0)[0])
+                      for s in source_ids]
+        for take in self.takes:
+            take.start()
+
+    def stop(self, path: Path) -> Path:
+        for take in self.takes:
+            take.offsets.append((pylsl.local_clock(), take.inlet.time_correction(5.0)))
+            take.stopping.set()
+            take.join(10.0)
+        out = [b"XDF:", _chunk(1, b'<?xml version="1.0"?><info><version>1.0</version></info>')]
+        for sid, take in enumerate(self.takes, start=1):
+            head = struct.pack("<I", sid)
+            out.append(_chunk(2, head + take.info.as_xml().encode()))
+            dtype = _LITTLE_ENDIAN[take.info.channel_format()]
+            for start in range(0, len(take.stamps), 100):
+                block = b""
+                for stamp, sample in zip(take.stamps[start:start + 100],
+                                         take.values[start:start + 100], strict=True):
+                    block += b"\x08" + struct.pack("<d", stamp)
+                    if dtype is None:
+                        for text in sample:
+                            raw = text.encode()
+                            block += _varlen(len(raw)) + raw
+                    else:
+                        block += np.asarray(sample, dtype=dtype).tobytes()
+                count = len(take.stamps[start:start + 100])
+                out.append(_chunk(3, head + _varlen(count) + block))
+            for when, value in take.offsets:
+                out.append(_chunk(4, head + struct.pack("<dd", when, value)))
+            first = take.stamps[0] if take.stamps else 0.0
+            last = take.stamps[-1] if take.stamps else 0.0
+            footer = (f'<?xml version="1.0"?><info><first_timestamp>{first!r}</first_timestamp>'
+                      f"<last_timestamp>{last!r}</last_timestamp><sample_count>"
+                      f"{len(take.stamps)}</sample_count></info>")
+            out.append(_chunk(6, head + footer.encode()))
+        path.write_bytes(b"".join(out))
+        return path
