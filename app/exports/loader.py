@@ -324,6 +324,9 @@ def load_study(folder: str | os.PathLike, pattern: str = "**/*.h5", *,
         raise AppError(f"the study folder {folder} does not exist or is not a folder; "
                        "give the folder that holds the trial files")
     paths = sorted(p for p in folder.glob(pattern) if p.is_file())
+    if not paths:
+        raise AppError(f"the study folder {folder} holds no trial files ({pattern})"
+                       f"{_what_it_holds(folder)}")
     infos, failed = [], []
     for i, path in enumerate(paths):
         try:
@@ -342,6 +345,20 @@ def load_study(folder: str | os.PathLike, pattern: str = "**/*.h5", *,
             progress((i + 1) / len(paths))
     rows = tuple(info.row(folder) for info in infos)
     return Study(folder, tuple(infos), rows, tuple(failed))
+
+
+def _what_it_holds(folder: Path) -> str:
+    """What a folder without trial files is, for the refusal: an export of the console
+    (its trials.csv index), or nothing the console made."""
+    for index in ("trials.csv", "trials.tsv"):
+        if (folder / index).is_file():
+            return (f": it is an export of the console: read its {index} (pandas.read_csv) "
+                    "and the files it names, or give the folder of the .h5 trial files (the "
+                    "data folder's trials/)")
+    if (folder / "dataset_description.json").is_file():
+        return (": it is a BIDS dataset: read it with a BIDS tool (pybids), or give the "
+                "folder of the .h5 trial files (the data folder's trials/)")
+    return ": give the folder of the .h5 trial files (the data folder's trials/)"
 
 
 def flat_parameters(values: Mapping) -> dict:

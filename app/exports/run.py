@@ -4,8 +4,8 @@ TSV, MATLAB .mat or a BIDS-motion dataset.
 Formats (each module's doc has the details):
 
 * ``csv`` / ``tsv`` (app.exports.table): ``<stem>.csv`` with one row per sample and
-  one column per channel component (``position_x_m``), a second header line with
-  the units, every value exact unless `digits` is given; side files
+  one column per channel component (``position_x_m``), one header line (the units
+  in the side file ``_columns``), every value exact unless `digits` is given; side files
   ``<stem>_columns``, ``_events``, ``_metrics`` and ``_trial`` (metadata and
   parameters);
 * ``mat`` (app.exports.mat): ``<stem>.mat``, v5, compressed, with the HDF5 file's

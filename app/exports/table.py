@@ -4,11 +4,10 @@ For a stem S (`.csv` with commas, `.tsv` with tabs; UTF-8, ``\\n`` line ends):
 
 ==================  ===============================================================
 ``S.csv``           one row per sample, one column per channel component, named as
-                    in app.exports.columns (``position_x_m``…). **Two header lines**:
-                    the column names, then each column's units exactly as in the
-                    trial file (``m``, ``rad/s``, ``N*m``; ``1`` for dimensionless
-                    numbers, codes and flags). Numbers read back exactly by default
-                    (see app.exports.columns for `digits`); NaN is ``NaN``.
+                    in app.exports.columns (``position_x_m``…, each name ending in its
+                    unit). **One header line**, the names; the exact unit text of each
+                    column is in ``S_columns.csv``. Numbers read back exactly by
+                    default (see app.exports.columns for `digits`); NaN is ``NaN``.
 ``S_columns.csv``   column, channel, component, units, frame, description
 ``S_events.csv``    time_s, tick, kind, message, values (the event's JSON object)
 ``S_metrics.csv``   metric, value (names carry their units; NaN = undefined)
@@ -17,17 +16,13 @@ For a stem S (`.csv` with commas, `.tsv` with tabs; UTF-8, ``\\n`` line ends):
                     which samples the samples file holds (``rows``: all/exercise)
 ==================  ===============================================================
 
-Why a second header line rather than ``name [unit]``: the names stay identifiers
-(``df.position_x_m``, MATLAB variable names) and already end in their unit, while
-the line gives the exact unit text for tools that keep units. Reading it:
-
-* pandas: ``pd.read_csv(path, skiprows=[1])``, or ``header=[0, 1]`` for
-  (name, unit) column pairs;
-* MATLAB: ``o = detectImportOptions(path); o.VariableNamesLine = 1;
-  o.VariableUnitsLine = 2; o.DataLines = [3 Inf]; T = readtable(path, o);``
-* Python's csv module: the first row is the names, the second the units;
-* spreadsheets open it directly (where the decimal mark is a comma, import it
-  with "." as the decimal separator).
+One header line and numbers only below it, so every reader takes the file as it is, with
+no options: ``pandas.read_csv(path)`` (float64 columns, int64 for ticks, codes and
+flags), ``numpy.genfromtxt(path, delimiter=",", names=True)``, MATLAB's
+``readtable(path)``, R's ``read.csv(path)``, a spreadsheet. An earlier version wrote the
+units as a second header line: pandas then read every column as text and numpy's
+``names=True`` took the units line for a sample. The units are the side file's
+(``S_columns.csv``: column, units, frame, description), and the column names end in them.
 """
 
 from __future__ import annotations
@@ -79,7 +74,6 @@ def write_table(trial: Trial, folder: Path, stem: str, *, suffix: str = ".csv",
     with output(samples, overwrite=overwrite, text=True) as stream:
         header = csv.writer(stream, delimiter=delimiter, lineterminator="\n")
         header.writerow([c.name for c in columns])
-        header.writerow([c.units for c in columns])
         write_samples(stream, arrays, columns, delimiter, digits=digits)
 
     _write_rows(columns_file, delimiter, overwrite,

@@ -218,19 +218,21 @@ def test_mat_exercise_only_keeps_the_exercise_rows(trial, tmp_path):
 
 
 @pytest.mark.parametrize(("format", "delimiter"), [("csv", ","), ("tsv", "\t")])
-def test_table_reads_back_exactly_with_a_units_line(trial, trial_file, tmp_path, format,
-                                                    delimiter):
+def test_table_reads_back_exactly_with_its_units_beside_it(trial, trial_file, tmp_path, format,
+                                                           delimiter):
     paths = export_trial(trial_file, tmp_path, format=format)
     assert [p.name for p in paths] == [f"T1.{format}", f"T1_columns.{format}",
                                        f"T1_events.{format}", f"T1_metrics.{format}",
                                        f"T1_trial.{format}"]
     rows = read_rows(paths[0], delimiter)
-    names, units, data = rows[0], rows[1], rows[2:]
+    names, data = rows[0], rows[1:]
     columns = table_columns(trial.arrays, trial.units, trial.frames, trial.descriptions)
     assert names == [c.name for c in columns]
-    assert units == [trial.units[c.channel] for c in columns]
-    assert units[names.index("position_x_m")] == "m"
-    assert units[names.index("torque_applied_1_Nm")] == "N*m"
+    described = read_rows(paths[1], delimiter)
+    units = {row[0]: row[3] for row in described[1:]}
+    assert [units[name] for name in names] == [trial.units[c.channel] for c in columns]
+    assert units["position_x_m"] == "m"
+    assert units["torque_applied_1_Nm"] == "N*m"
     assert len(data) == trial.n_samples
     table = trial.table()
     for i, name in enumerate(names):
@@ -243,7 +245,7 @@ def test_table_reads_back_exactly_with_a_units_line(trial, trial_file, tmp_path,
 def test_table_with_fewer_digits_stays_within_the_documented_precision(trial, tmp_path):
     (samples, *_) = export_trial(trial, tmp_path, format="tsv", digits=6)
     rows = read_rows(samples, "\t")
-    names, data = rows[0], rows[2:]
+    names, data = rows[0], rows[1:]
     table = trial.table()
     for i, name in enumerate(names):
         values = table[name]
@@ -280,7 +282,7 @@ def test_exercise_only_table_has_the_exercise_rows(trial, tmp_path):
     samples = export_trial(trial, tmp_path, format="csv", exercise_only=True)[0]
     rows = read_rows(samples, ",")
     time_column = rows[0].index("time_s")
-    assert_text_equals([r[time_column] for r in rows[2:]], trial.time[trial.exercise])
+    assert_text_equals([r[time_column] for r in rows[1:]], trial.time[trial.exercise])
 
 
 # -- BIDS ------------------------------------------------------------------------
