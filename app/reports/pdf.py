@@ -47,11 +47,13 @@ from app.reports.pdf_plots import (
 from app.reports.pdf_sheet import (
     BANNER_FILL,
     BOTTOM_IN,
+    FOOTER_TOP_IN,
     GREY,
     INK,
     LEADING,
     LEFT_IN,
     PAGE_IN,
+    PLOT_RIGHT_IN,
     RC,
     RIGHT_IN,
     TEXT_W_IN,
@@ -66,6 +68,7 @@ from app.reports.plain_language import VERDICT_WORDS
 log = logging.getLogger(__name__)
 
 MIN_PATH_IN = 2.5
+_PLOT_SPAN = (LEFT_IN + 0.55, PLOT_RIGHT_IN - LEFT_IN - 0.55)  # a full-width plot's x, width
 FOOTER_IN = 0.1  # room kept above the footer line
 MIN_SCALE = 0.8
 PRIMARY_MIN_SCALE = 0.92
@@ -267,7 +270,7 @@ def _second_page(content: ReportContent) -> tuple[Figure, ...]:
     label_room = 0.55
     x0 = LEFT_IN + label_room
     if content.force is not None:
-        force_plots(sheet, content.force, x0, TEXT_W_IN - label_room)
+        force_plots(sheet, content.force, x0, PLOT_RIGHT_IN - x0)
     if content.angles is not None or content.torques is not None:
         joint_plots(sheet, content.angles, content.torques, x0, label_room)
     pages = [sheet]
@@ -307,21 +310,21 @@ def _therapist_header(sheet: Sheet, content: ReportContent) -> None:
 def _emg_page(content: ReportContent) -> Figure:
     sheet = Sheet()
     _title(sheet, content, "Muscle activity (surface EMG)", size=16)
-    emg_plots(sheet, content.emg, content.torques, LEFT_IN + 0.55, TEXT_W_IN - 0.55)
+    emg_plots(sheet, content.emg, content.torques, *_PLOT_SPAN)
     return sheet.fig
 
 
 def _assistance_page(content: ReportContent) -> Figure:
     sheet = Sheet()
     _title(sheet, content, "The robot's help (as-needed assistance)", size=16)
-    feedforward_plot(sheet, content.feedforward, LEFT_IN + 0.55, TEXT_W_IN - 0.55)
+    feedforward_plot(sheet, content.feedforward, *_PLOT_SPAN)
     return sheet.fig
 
 
 def _pose_page(content: ReportContent) -> Figure:
     sheet = Sheet()
     _title(sheet, content, "The camera against the equation solver (Table 3.4)", size=16)
-    pose_plots(sheet, content.pose, LEFT_IN + 0.55, TEXT_W_IN - 0.55)
+    pose_plots(sheet, content.pose, *_PLOT_SPAN)
     return sheet.fig
 
 
@@ -396,5 +399,5 @@ def _notes(sheet: Sheet, notes: list[str], *, continued: bool) -> list[str]:
 
 
 def _footer(sheet: Sheet, content: ReportContent) -> None:
-    sheet.fig.text(sheet.fx(LEFT_IN), sheet.fy(PAGE_IN[1] - BOTTOM_IN + 0.2),
+    sheet.fig.text(sheet.fx(LEFT_IN), sheet.fy(PAGE_IN[1] - FOOTER_TOP_IN),
                    f"rehab-console · {content.source.name}", fontsize=7, color=GREY, va="top")

@@ -34,6 +34,7 @@ from app.reports.pdf_sheet import (
     GREY,
     INK,
     LEFT_IN,
+    PLOT_RIGHT_IN,
     PURPLE,
     TARGET_GREY,
     TEXT_W_IN,
@@ -165,7 +166,7 @@ def joint_plots(sheet: Sheet, angles: AnglesFigure | None, torques: TorquesFigur
                 x0: float, label_room: float) -> None:
     """Fig. 3.11 and 3.12 side by side (either may be missing), then below both."""
     between = 0.35
-    half = (TEXT_W_IN - 2 * label_room - between) / 2
+    half = (PLOT_RIGHT_IN - LEFT_IN - 2 * label_room - between) / 2
     x1 = x0 + half + between + label_room
     top_in = sheet.y_in
     height = 0.95

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import functools
 import math
-import textwrap
 
 import matplotlib
 import matplotlib.lines
@@ -27,6 +26,9 @@ from matplotlib.textpath import TextToPath
 PAGE_IN = (8.27, 11.69)  # A4
 LEFT_IN, RIGHT_IN, TOP_IN, BOTTOM_IN = 0.6, 0.6, 0.5, 0.45
 TEXT_W_IN = PAGE_IN[0] - LEFT_IN - RIGHT_IN
+TICK_ROOM_IN = 0.15  # right of a plot's frame: half its last tick label, centred on its end
+PLOT_RIGHT_IN = PAGE_IN[0] - RIGHT_IN - TICK_ROOM_IN  # where a plot's frame ends at most
+FOOTER_TOP_IN = 0.32  # from the bottom edge: the footer's ink stays 5 mm off the edge
 LEADING = 1.3
 
 BLUE = "#0072B2"
@@ -53,6 +55,10 @@ RC = {
     "lines.solid_capstyle": "butt",
     "lines.dash_capstyle": "butt",
     "path.simplify": True,
+    # A page drawn to pixels (docs/report-example*.png, a review) keeps the PDF's text
+    # widths: FreeType's hinting widens small type at screen resolutions (the cut-short
+    # page's 'Not compared' line ran 0.5 in past the margin at 80 dpi, never in the PDF).
+    "text.hinting": "no_hinting",
 }
 """matplotlib's settings while the report is drawn (`matplotlib.rc_context(RC)`)."""
 
@@ -117,25 +123,90 @@ class Sheet:
 
 
 def wrap(text: str, size_pt: float, width_in: float, weight: str = "normal") -> list[str]:
-    """`text` in lines that fit `width_in`, by the text's own average character width
-    in DejaVu Sans (measured once per text: exact per line would cost ~1 ms a word)."""
-    if not text:
-        return [""]
-    chars = max(8, int(len(text) * 0.97 * width_in * 72.0 / _width_pt(text, size_pt, weight)))
-    return textwrap.wrap(text, chars) or [""]
+    """`text` in lines that fit `width_in` as the PDF draws them: words are added to a line
+    while its width, measured in DejaVu Sans, fits; a word wider than a line is broken
+    where it must be (never cut: every character is printed). Words are measured once
+    each (a whole line per candidate would cost ~3 ms a word) and each line is measured
+    whole at the end, so a kerning pair across a space cannot push it past the width."""
+    limit = width_in * 72.0
+    lines: list[str] = []
+    line = ""
+    for word in text.split():
+        candidate = f"{line} {word}" if line else word
+        if _sum_width_pt(candidate, size_pt, weight) <= limit:
+            line = candidate
+            continue
+        if line:
+            lines.append(line)
+        line = word
+        while _width_pt(line, size_pt, weight) > limit and len(line) > 1:
+            head = _longest_head(line, size_pt, weight, limit)
+            lines.append(head)
+            line = line[len(head):]
+    lines.append(line)
+    return _measured(lines, size_pt, weight, limit)
 
 
-def fit(text: str, size: float, width_in: float) -> str:
+def fit(text: str, size: float, width_in: float, weight: str = "normal") -> str:
     """`text`, cut with an ellipsis if it would run past `width_in`."""
-    lines = wrap(text, size, width_in)
-    return text if len(lines) == 1 else lines[0].rstrip() + "…"
+    limit = width_in * 72.0
+    if _width_pt(text, size, weight) <= limit:
+        return text
+    lines = wrap(text, size, width_in, weight)
+    cut = lines[0].rstrip()
+    while cut and _width_pt(cut + "…", size, weight) > limit:
+        cut = cut[:-1].rstrip()
+    return cut + "…"
 
 
-@functools.lru_cache(maxsize=1024)
+def _sum_width_pt(line: str, size_pt: float, weight: str) -> float:
+    """A line's width as the sum of its words' and spaces' (each measured once)."""
+    words = line.split(" ")
+    return sum(_width_pt(word, size_pt, weight) for word in words) \
+        + (len(words) - 1) * _width_pt(" ", size_pt, weight)
+
+
+def _longest_head(word: str, size_pt: float, weight: str, limit: float) -> str:
+    """The longest start of `word` that fits `limit` (at least its first character)."""
+    low, high = 1, len(word)
+    while low < high:
+        middle = (low + high + 1) // 2
+        if _width_pt(word[:middle], size_pt, weight) <= limit:
+            low = middle
+        else:
+            high = middle - 1
+    return word[:low]
+
+
+def _measured(lines: list[str], size_pt: float, weight: str, limit: float) -> list[str]:
+    """`lines` with each measured whole: a line the sum of its parts let through but a
+    kerning pair pushes past `limit` gives its last word to the next line."""
+    checked: list[str] = []
+    carry = ""
+    for line in lines:
+        line = f"{carry} {line}" if carry else line
+        carry = ""
+        while " " in line and _width_pt(line, size_pt, weight) > limit:
+            line, last = line.rsplit(" ", 1)
+            carry = f"{last} {carry}".strip()
+        checked.append(line)
+    if carry:
+        checked.extend(_measured([carry], size_pt, weight, limit))
+    return checked or [""]
+
+
+@functools.lru_cache(maxsize=4096)
 def _width_pt(text: str, size_pt: float, weight: str) -> float:
-    font = FontProperties(family=RC["font.family"], size=size_pt, weight=weight)
+    """The advance of `text` in DejaVu Sans, unhinted as in the PDF (linear in the size,
+    so measured once at 100 pt)."""
+    return _unit_width(text, weight) * size_pt
+
+
+@functools.lru_cache(maxsize=8192)
+def _unit_width(text: str, weight: str) -> float:
+    font = FontProperties(family=RC["font.family"], size=100.0, weight=weight)
     width, _, _ = _TEXT_TO_PATH.get_text_width_height_descent(text, font, ismath=False)
-    return max(width, 1.0)
+    return width / 100.0
 
 
 _TEXT_TO_PATH = TextToPath()

@@ -21,9 +21,9 @@ from app.reports.pdf_sheet import (
     GREEN,
     GREY,
     INK,
-    LEADING,
     LEFT_IN,
     PAGE_IN,
+    PLOT_RIGHT_IN,
     TEXT_W_IN,
     VERMILLION,
     Sheet,
@@ -106,11 +106,15 @@ def _plots(sheet: Sheet, figure: ProgressFigure) -> None:
     ]
     sheet.legend(handles, LEFT_IN, ncols=4)  # the key on its own line, off the data
     sheet.gap(0.1)
-    x0, width = LEFT_IN + 0.6, TEXT_W_IN - 0.6
+    x0 = LEFT_IN + 0.6
+    width = PLOT_RIGHT_IN - x0
     n = len(figure.positions)
     top = sheet.axes(2.9, x_in=x0, width_in=width)
     shown = np.isfinite(figure.values)
-    top.plot(figure.positions[shown], figure.values[shown], color=BLUE, marker="o",
+    # the line joins the trials that ran the whole exercise; one cut short is a hollow
+    # mark off it (its figures cover part of the exercise, no trend with the others)
+    whole = shown & figure.complete
+    top.plot(figure.positions[whole], figure.values[whole], color=BLUE, marker="o",
              markersize=5, linewidth=1.2)
     partial = shown & ~figure.complete
     top.plot(figure.positions[partial], figure.values[partial], linestyle="none",
@@ -155,13 +159,13 @@ def _table(sheet: Sheet, progress: Progress, figure: ProgressFigure,
     returns the rest."""
     size = 7.5
     rest = TEXT_W_IN - sum(width for _, width in COLUMNS)
-    headings = [*COLUMNS, (fit(figure.title, size, rest), rest)]
-    x = LEFT_IN
-    for title, width in headings:
-        sheet.fig.text(sheet.fx(x), sheet.fy(sheet.y_in), title, fontsize=size,
-                       weight="bold", va="top", color=GREY)
+    headings = [*COLUMNS, (figure.title, rest)]
+    x, top, height = LEFT_IN, sheet.y_in, 0.0
+    for title, width in headings:  # a heading wider than its column takes two lines
+        height = max(height, sheet.text(title, size, x_in=x, width_in=width - 0.05,
+                                        weight="bold", color=GREY, advance=False))
         x += width
-    sheet.y_in += size * LEADING / 72.0 + 0.05
+    sheet.y_in = top + height + 0.05
     values = figure.values
     first = len(figure.positions) - len(members)  # members: the exercise's last trials
     for k, i in enumerate(members):

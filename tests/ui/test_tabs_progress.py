@@ -56,9 +56,15 @@ def test_one_exercise_at_a_time_with_its_own_success_figure_first(tab):
     assert tab.metric_choice.currentData() == "led_pct"
     (line,) = _curves(tab.plot)
     x, y = line.getOriginalDataset()
-    np.testing.assert_array_equal(x, [1, 2, 3, 4, 5])  # five trials, one series
+    # five trials, one series; the line joins the four that ran the whole exercise, the
+    # e-stopped fifth is a hollow mark off it
+    np.testing.assert_array_equal(x, [1, 2, 3, 4])
     led = tab.progress.values["led_pct"][tab.progress.members(0)]
-    np.testing.assert_allclose(y, led)
+    np.testing.assert_allclose(y, led[:4])
+    (hollow,) = [item for item in tab.plot.getPlotItem().items
+                 if isinstance(item, pg.ScatterPlotItem)]
+    np.testing.assert_array_equal(hollow.getData()[0], [5])
+    np.testing.assert_allclose(hollow.getData()[1], led[4:])
 
 
 def test_the_help_is_drawn_as_it_ran_beneath_the_series(tab):
@@ -111,5 +117,37 @@ def test_the_tab_fits_a_small_screen_at_a_large_font(qtbot, qapp, tab):
         with qtbot.waitSignal(tab.progress_loaded, timeout=10000):
             tab.refresh()
         assert tab.minimumSizeHint().width() <= 1366
+    finally:
+        theme.apply_theme(qapp, 1.0)
+
+
+@pytest.mark.parametrize("scale", [1.0, 1.5])
+def test_every_figure_s_ticks_and_label_fit_beside_the_plots(qtbot, qapp, tab, scale):
+    """At font scale 1.5 the help plot's label 'help (%)' lay over its tick '100': the
+    axes kept 60 px whatever the font. Both plots' left axes take the room their widest
+    tick and turned label need (pyqtgraph's own measure of a self-sized axis), for every
+    figure of both exercises, and one width, so the trial axes line up."""
+    theme.apply_theme(qapp, scale)
+    try:
+        tab.resize(1366, 738)
+        with qtbot.waitSignal(tab.progress_loaded, timeout=10000):
+            tab.refresh()
+        for exercise in range(tab.exercise_choice.count()):
+            tab.exercise_choice.setCurrentIndex(exercise)
+            for figure in range(tab.metric_choice.count()):
+                tab.metric_choice.setCurrentIndex(figure)
+                qapp.processEvents()  # laid out: the axes take their widths
+                tab.grab()  # painted: the axes measure the ticks they draw
+                qapp.processEvents()
+                tab.grab()
+                axes = [plot.getPlotItem().getAxis("left")
+                        for plot in (tab.plot, tab.help_plot)]
+                for axis in axes:
+                    needed = (axis.textWidth + axis.style["tickTextOffset"][0]
+                              + max(0, axis.style["tickLength"])
+                              + axis.label.boundingRect().height() * 0.8)
+                    assert needed <= axis.width(), (tab.metric_choice.currentText(),
+                                                    axis.labelText, needed, axis.width())
+                assert axes[0].width() == axes[1].width()
     finally:
         theme.apply_theme(qapp, 1.0)

@@ -8,7 +8,7 @@ from __future__ import annotations
 import re
 
 import pytest
-from PySide6.QtCore import QPointF
+from PySide6.QtCore import QPointF, QRect, Qt
 
 from app.records.datadir import DataDir
 from app.records.registry import Registry
@@ -106,5 +106,67 @@ def test_the_page_fits_a_small_screen_at_a_large_font(qtbot, qapp, tab, course):
         view = tab.page.parentWidget()
         assert tab.page.minimumSizeHint().width() <= view.width()
         assert tab.page.width() <= view.width()
+    finally:
+        theme.apply_theme(qapp, 1.0)
+
+
+@pytest.fixture(scope="module")
+def two_sessions(tmp_path_factory):
+    """A trial cut short in session 2: its table has the previous trial's figures and the
+    previous session's beside its own."""
+    registry = Registry(DataDir(tmp_path_factory.mktemp("data")))
+    code = registry.create_patient("Ada", "Example", side="right").code
+    register(registry, code, AS_NEEDED, session=1, seed=1)
+    register(registry, code, AS_NEEDED, session=2, seed=2, minutes=7 * 24 * 60)
+    estop = register(registry, code, AS_NEEDED, session=2, seed=3, minutes=7 * 24 * 60 + 10,
+                     edit=lambda trial: cut(trial, 0.4, "faulted"))
+    return registry, estop
+
+
+@pytest.mark.parametrize(("scale", "size"), [(1.0, (1366, 738)), (1.5, (1920, 1050))])
+def test_the_therapist_s_table_reads_whole_on_a_laptop_and_at_a_large_font(
+        qtbot, qapp, tab, two_sessions, scale, size):
+    """Each row as tall as its text at the widths shown (rows measured before the table was
+    laid out stood three to five lines tall, the meanings wrapped in a narrow column), the
+    table as tall as all its rows, and the figures with the earlier trials' beside them
+    within the view (an earlier trial's heading on one line made its column 530 px wide),
+    the meanings at least MEANING_CHARS characters wide."""
+    from PySide6.QtWidgets import QStyleOptionViewItem, QTableWidget
+
+    from ui.tabs.report_table import MEANING_CHARS
+
+    registry, estop = two_sessions
+    theme.apply_theme(qapp, scale)
+    try:
+        tab.resize(*size)
+        with qtbot.waitSignal(tab.report_ready, timeout=10000) as ready:
+            tab.load_registry_trial(registry, estop)
+        qtbot.wait(50)
+        (table,) = tab.page.findChildren(QTableWidget)
+        content = ready.args[0]
+        assert len(content.table_columns) == 2  # the previous trial and the previous session
+        assert table.rowCount() == len(content.table) > 10
+        metrics = table.fontMetrics()
+        option = QStyleOptionViewItem()
+        table.initViewItemOption(option)
+        for r in range(table.rowCount()):
+            # as tall as its tallest cell's text wrapped at its column's width (and the
+            # cells' padding: a one-line cell's height less a line), no taller
+            padding = table.itemDelegate().sizeHint(option, table.model().index(r, 1)) \
+                .height() - metrics.lineSpacing()
+            needed = max(metrics.boundingRect(
+                QRect(0, 0, table.columnWidth(c) - 8, 10_000),
+                Qt.TextFlag.TextWordWrap, table.item(r, c).text()).height()
+                for c in range(table.columnCount()))
+            assert table.rowHeight(r) <= needed + padding + 4, (r, table.rowHeight(r), needed)
+            assert needed <= 3 * metrics.lineSpacing()  # no text over more than 3 lines
+        assert table.verticalScrollBar().maximum() == 0  # every row shows; the page scrolls
+        shown = sum(table.rowHeight(r) for r in range(table.rowCount()))
+        assert table.viewport().height() >= shown
+        meaning = table.columnCount() - 1
+        figures = sum(table.columnWidth(c) for c in range(meaning))
+        assert figures + table.columnWidth(meaning) <= table.viewport().width() + 1
+        assert table.columnWidth(meaning) >= \
+            MEANING_CHARS * table.fontMetrics().averageCharWidth()
     finally:
         theme.apply_theme(qapp, 1.0)

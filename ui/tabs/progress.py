@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pyqtgraph as pg
 from PySide6.QtCore import Qt, Signal
+from PySide6.QtGui import QFontMetrics
 from PySide6.QtWidgets import (
     QComboBox,
     QFileDialog,
@@ -114,8 +115,6 @@ class ProgressTab(QWidget):
         self.plot = plots.make_plot("", "")
         self.help_plot = plots.make_plot("trial (session, trial)", "help (%)")
         self.help_plot.setXLink(self.plot)
-        self.help_plot.getPlotItem().getAxis("left").setWidth(60)
-        self.plot.getPlotItem().getAxis("left").setWidth(60)
         self.table = QTableWidget()
         self.table.setEditTriggers(QTableWidget.EditTrigger.NoEditTriggers)
         self.table.verticalHeader().hide()
@@ -274,14 +273,19 @@ class ProgressTab(QWidget):
         item.setLabel("left", f"{row.heading} ({row.unit})" if row.unit else row.heading)
         theme.style_plot(item)
         theme.style_plot(help_item)
+        width = _axis_width()
+        for axis in (item.getAxis("left"), help_item.getAxis("left")):
+            axis.setWidth(width)
         x, y = figure.positions.astype(float), figure.values
         shown = np.isfinite(y)
-        item.addItem(pg.PlotDataItem(x[shown], y[shown], pen=theme.pen(theme.BLUE),
+        # the line joins the trials that ran the whole exercise; one that did not (stopped,
+        # a safety fault, a lost recording) is drawn hollow, off the line: its figures
+        # cover only part of the exercise and make no trend with the others
+        whole = shown & figure.complete
+        item.addItem(pg.PlotDataItem(x[whole], y[whole], pen=theme.pen(theme.BLUE),
                                      symbol="o", symbolSize=11,
                                      symbolPen=theme.pen(theme.BLUE),
                                      symbolBrush=pg.mkBrush(theme.BLUE)))
-        # a trial that did not run to its end (stopped, a safety fault, a lost recording)
-        # is drawn hollow: its figures cover only part of the exercise
         partial = shown & ~figure.complete
         if partial.any():
             item.addItem(pg.ScatterPlotItem(x[partial], y[partial], symbol="o", size=15,
@@ -324,6 +328,15 @@ class ProgressTab(QWidget):
                                               "PDF (*.pdf)")
         if path:
             self.save_pdf(path)
+
+
+def _axis_width() -> int:
+    """One width for both plots' left axes, so their trial axes line up: the widest tick
+    they draw ('−000.00', a figure's ticks; the help's '100') beside the turned label, at
+    the current font (a fixed 60 px laid the label over the ticks at font scale 1.5)."""
+    metrics = QFontMetrics(theme.axis_font())
+    return (metrics.horizontalAdvance("−000.00") + metrics.height()
+            + round(4 * theme.font_scale()) + 8)
 
 
 def _fit(choice: QComboBox) -> None:

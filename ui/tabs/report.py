@@ -26,13 +26,9 @@ from PySide6.QtWidgets import (
     QFileDialog,
     QFormLayout,
     QHBoxLayout,
-    QHeaderView,
     QLabel,
     QPushButton,
     QScrollArea,
-    QSizePolicy,
-    QTableWidget,
-    QTableWidgetItem,
     QVBoxLayout,
     QWidget,
 )
@@ -48,6 +44,7 @@ from app.reports.build import (
 from app.trials.reader import read_trial
 from app.units import CM_PER_M
 from ui import plots, theme
+from ui.tabs.report_table import FigureTable
 from ui.views.trialview import TrialView
 
 WAITING = "The report appears here once the trial is saved."
@@ -188,7 +185,7 @@ class ReportTab(QWidget):
         add(theme.set_role(QLabel("For the therapist"), "heading"))
         self.page_layout.addLayout(_form(content.therapist_header, problem="Fault"))
         if content.table:
-            add(self._table(content))
+            add(FigureTable(content))
         for note in content.notes:
             add(self._wrapped(note, "caption"))
         self.page_layout.addStretch(1)
@@ -203,28 +200,6 @@ class ReportTab(QWidget):
         # text is: else a large font's second line is cut off
         label.ensurePolished()
         return label
-
-    def _table(self, content: ReportContent) -> QTableWidget:
-        columns = ["Figure", "This trial", *content.table_columns, "What it means"]
-        table = QTableWidget(len(content.table), len(columns))
-        table.setHorizontalHeaderLabels(columns)
-        table.verticalHeader().hide()
-        table.setEditTriggers(QTableWidget.EditTrigger.NoEditTriggers)
-        for r, row in enumerate(content.table):
-            unit = f" {row.unit}" if row.unit and row.unit != "°" else row.unit
-            cells = [row.label, f"{row.value_text}{unit}", *row.earlier_texts, row.meaning]
-            for c, text in enumerate(cells):
-                table.setItem(r, c, QTableWidgetItem(text))
-        header = table.horizontalHeader()
-        header.setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
-        header.setSectionResizeMode(len(columns) - 1, QHeaderView.ResizeMode.Stretch)
-        table.resizeRowsToContents()
-        height = table.horizontalHeader().height() + sum(
-            table.rowHeight(r) for r in range(table.rowCount())) + 4
-        table.setMinimumHeight(height)
-        table.setVerticalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
-        table.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Minimum)
-        return table
 
     def _clear(self) -> None:
         self.path_plot = None

@@ -6,8 +6,12 @@ from __future__ import annotations
 
 import dataclasses
 import datetime
+import functools
+import math
 
 import numpy as np
+from matplotlib.font_manager import FontProperties
+from matplotlib.textpath import TextToPath
 from pypdf import PdfReader
 
 from app.records.registry import Registry
@@ -86,6 +90,70 @@ def placed_texts(path, page: int) -> list[tuple[float, float, str]]:
 
     PdfReader(path).pages[page].extract_text(visitor_text=visit)
     return placed
+
+
+@dataclasses.dataclass(frozen=True)
+class InkBox:
+    """Where a text's ink lies on its page, in points from the page's bottom left."""
+
+    page: int  # from 1
+    text: str
+    left: float
+    right: float
+    bottom: float
+    top: float
+
+
+# DejaVu Sans's ink above and below the baseline, in em: 'b', 'd', 'l' reach 0.76, 'g',
+# 'p', 'y' 0.236 below.
+_ASCENT_EM, _DESCENT_EM = 0.76, 0.24
+
+
+def ink_boxes(path) -> list[InkBox]:
+    """Every text of every page of a PDF with the box its ink takes: placed where the PDF's
+    text matrices put it (pypdf's visitor) and as long as DejaVu Sans, the one font the
+    report embeds (by the name in the PDF, regular or bold), draws it at the PDF's size.
+    A text turned (an axis label) takes its box turned."""
+    boxes = []
+    for number, page in enumerate(PdfReader(path).pages, start=1):
+
+        def visit(text, cm, tm, font, size, number=number):
+            text = text.strip()
+            if not text:
+                return
+            name = str(font["/BaseFont"]) if font is not None else "no font"
+            if "DejaVuSans" not in name or "Oblique" in name:
+                raise AssertionError(f"page {number}: {text!r} in {name}, not DejaVu Sans")
+            a, b, c, d, e, f = _times(tm, cm)
+            # the advance along the baseline, the ink across it (the matrix's unit vectors)
+            length = _width_em(text, "Bold" in name) * size
+            ux, uy = a / math.hypot(a, b), b / math.hypot(a, b)
+            vx, vy = c / math.hypot(c, d), d / math.hypot(c, d)
+            xs, ys = [], []
+            for along in (0.0, length):
+                for across in (-_DESCENT_EM * size, _ASCENT_EM * size):
+                    xs.append(e + along * ux + across * vx)
+                    ys.append(f + along * uy + across * vy)
+            boxes.append(InkBox(number, text, min(xs), max(xs), min(ys), max(ys)))
+
+        page.extract_text(visitor_text=visit)
+    return boxes
+
+
+def _times(m, n):
+    """The product of two PDF matrices [a b c d e f] (m then n)."""
+    a, b, c, d, e, f = (float(x) for x in m)
+    p, q, r, s, t, u = (float(x) for x in n)
+    return a * p + b * r, a * q + b * s, c * p + d * r, c * q + d * s, \
+        e * p + f * r + t, e * q + f * s + u
+
+
+@functools.lru_cache(maxsize=4096)
+def _width_em(text: str, bold: bool) -> float:
+    font = FontProperties(family="DejaVu Sans", size=100.0,
+                          weight="bold" if bold else "normal")
+    width, _, _ = TextToPath().get_text_width_height_descent(text, font, ismath=False)
+    return width / 100.0
 
 
 def staircase_course(registry: Registry, code: str, parameters: TrialParameters) -> dict:

@@ -108,3 +108,20 @@ def test_progress_prints_a_page_an_exercise(course, tmp_path):
     assert "Thesis mode · D shape, r 10.0 cm · SMC" in second
     assert "Directional performance (%)" in second
     assert "Led the movement" not in second
+
+
+def test_the_printed_line_joins_only_the_trials_that_ran_to_their_end(course):
+    """The e-stopped fifth as-needed trial is a hollow mark off the line: its figure covers
+    part of the exercise and makes no trend with the others."""
+    from app.reports.progress_pdf import progress_pages
+
+    registry, code, _ = course
+    result = progress(registry, code)
+    top = progress_pages(result)[0].axes[0]
+    line, hollow = top.lines[:2]
+    led = result.values["led_pct"][result.members(0)]
+    assert line.get_xdata().tolist() == [1, 2, 3, 4]
+    np.testing.assert_allclose(line.get_ydata(), led[:4])
+    assert line.get_linestyle() == "-"
+    assert hollow.get_xdata().tolist() == [5]
+    assert hollow.get_linestyle() == "None"
