@@ -285,7 +285,7 @@ def _second_page(content: ReportContent) -> tuple[Figure, ...]:
         rows = _table(pages[-1], content, rows, continued=len(rows) < len(content.table))
         if rows:
             next_page()
-    notes = [f"Fault at {fault}" for fault in content.faults] + list(content.notes)
+    notes = list(content.notes)  # the faults are in the header, once
     total = len(notes)
     while notes:
         notes = _notes(pages[-1], notes, continued=len(notes) < total)

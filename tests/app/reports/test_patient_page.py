@@ -200,6 +200,14 @@ def test_the_patient_page_has_no_instructions_coordinates_seeds_or_file_names(co
     assert "centre (-30.0, 30.0) cm" in therapist
 
 
+def test_the_therapist_s_pages_give_each_fault_once(course):
+    """The fault stood in the therapist's header and again as the first note ('Fault at
+    4.48 s: Emergency stop pressed …'): one fault read as two."""
+    _, _, pdfs = course
+    therapist = " ".join(page_texts(pdfs["estop"])[1:])
+    assert therapist.count("Emergency stop pressed") == 1
+
+
 def test_every_note_is_printed_and_none_is_pointed_at_elsewhere(course, tmp_path):
     registry, ids, _ = course
     content = content_for_registry_trial(registry, ids["third"])
