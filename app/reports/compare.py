@@ -333,7 +333,8 @@ def _resolved(row: MetricRow, value: float) -> float:
 
 
 POSITION_ROW = MetricRow("rmse", "Position error, x and y together (RMSE)", "mm", MM_PER_M,
-                         "the patient's page's distance from the path", short="RMSE")
+                         "how far the hand was from the path, in any direction (the figure"
+                         " on the patient's page)", short="RMSE")
 """The patient's distance from the path (plain_language.position_error_m) as a row of the
 therapist's table, so the two pages speak of the same number."""
 
