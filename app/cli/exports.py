@@ -76,6 +76,8 @@ def cmd_export(args: argparse.Namespace) -> int:
         bar.done()
     print(f"exported {result.exported} trial(s) to {result.folder} "
           f"({len(result.files)} files)")
+    for note in result.notes:
+        print(f"  note: {note}")
     for failure in result.failed:
         print(f"  not exported: {failure.path}: {failure.reason}")
     return 0 if not result.failed else 1

@@ -22,7 +22,11 @@ Layout (one run per trial)::
   SamplingFrequencyEffective (from wall_time), TrackingSystemName, Manufacturer
   ("Quanser"), ManufacturersModelName, SoftwareVersions, RecordingType,
   RecordingDuration, MotionChannelCount, TrackedPointsCount, a <TYPE>ChannelCount
-  per channel type, MissingValues; plus TrialStatus and TrialParameters.
+  per channel type, MissingValues (no custom keys: the legacy validator refuses them).
+* ``sub-<code>_ses-<session>_scans.tsv``: one row per run, its trial's status and
+  parameters (app.exports.bids_scans).
+* ``wall_time`` (LATENCY) counts from the run's first sample (the trial file's counts
+  from the robot's Connect).
 * ``participants.tsv``: participant_id and only non-identifying columns:
   body_mass_kg, upper_arm_m, forearm_m, side (from the participant's latest
   trial), described in participants.json. Names only with an explicit
@@ -42,7 +46,9 @@ Where this deviates from BIDS 1.9.0 (and why):
 * participants.tsv has neither age nor sex (the trial files do not hold them;
   age would also identify), and custom columns body_mass_kg, upper_arm_m,
   forearm_m, side.
-* No ``*_scans.tsv``: its acq_time would carry the dates of the recordings.
+* ``*_scans.tsv`` without acq_time: it would carry the dates of the recordings.
+* EMG is not exported: BIDS 1.9 has no EMG datatype (the CSV and .mat exports hold it);
+  the result's notes say which trials had it.
 * dataset_description.json has no License or Authors (RECOMMENDED): add them
   before sharing the dataset.
 * Trial files not named by the console (no session or trial number in the name)
@@ -64,10 +70,12 @@ import numpy as np
 
 from app.errors import AppError
 from app.exports.bids_channels import CHANNEL_TYPES, FRAMES, BidsChannel, bids_channels
+from app.exports.bids_scans import scan_row, scans_path, write_scans
 from app.exports.files import ExportError, output, prepare_folder, refuse_existing, write_text
 from app.exports.loader import Failure, Trial, TrialInfo, load_trial, read_info
 from app.exports.plan import ExportResult, TrialSource, one_trial
 from app.exports.table import write_samples
+from device.recording.emgfile import read_emg
 from device.recording.trialfile import software_version
 
 log = logging.getLogger(__name__)
@@ -148,13 +156,14 @@ def export_bids(
 
     written: list[Path] = []
     exported: list[_Run] = []
+    scans: dict = {}
     if progress is not None:
         progress(0.0)
     for i, run in enumerate(runs):
         paths = run.paths(root)
         files = one_trial(run.source.path,
                           lambda run=run, paths=paths: _write_run(load_trial(run.source.path),
-                                                                  run, paths, overwrite),
+                                                                  run, paths, overwrite, scans),
                           failed, paths.values())
         if files is not None:
             written += files
@@ -162,10 +171,17 @@ def export_bids(
         if progress is not None:
             progress((i + 1) / len(runs))
 
+    with_emg = scans.pop("emg", [])
+    for (participant, session), rows in sorted(scans.items()):
+        written += write_scans(scans_path(root, participant, session), rows, _write_tsv,
+                               _write_json)
     written += _write_dataset_files(root, exported, names or {}, dataset_name, overwrite)
     log.info("BIDS export to %s: %d trial(s), %d file(s) written, %d trial(s) unreadable",
              root, len(exported), len(written), len(failed))
-    return ExportResult(root, tuple(written), len(exported), tuple(failed))
+    notes = (f"EMG not exported for {len(with_emg)} run(s) ({', '.join(with_emg[:3])}"
+             f"{', …' if len(with_emg) > 3 else ''}): BIDS 1.9 has no EMG datatype; the CSV "
+             "and .mat exports hold it",) if with_emg else ()
+    return ExportResult(root, tuple(written), len(exported), tuple(failed), notes)
 
 
 # -- planning ------------------------------------------------------------------
@@ -217,10 +233,19 @@ def _plan(sources: list[TrialSource], failed: list[Failure]) -> list[_Run]:
 # -- one run -------------------------------------------------------------------
 
 
-def _write_run(trial: Trial, run: _Run, paths: dict[str, Path], overwrite: bool) -> list[Path]:
+def _write_run(trial: Trial, run: _Run, paths: dict[str, Path], overwrite: bool,
+               scans: dict) -> list[Path]:
     channels = bids_channels(trial)
+    arrays = dict(trial.arrays)
+    if "wall_time" in arrays and len(arrays["wall_time"]):
+        # LATENCY from the run's onset: the file's wall_time counts from Connect
+        arrays["wall_time"] = arrays["wall_time"] - arrays["wall_time"][0]
     with output(paths["motion.tsv"], overwrite=overwrite, text=True) as stream:
-        write_samples(stream, trial.arrays, [c.column for c in channels], "\t", missing="n/a")
+        write_samples(stream, arrays, [c.column for c in channels], "\t", missing="n/a")
+    scans.setdefault((run.participant, run.session), []).append(
+        scan_row(paths["motion.tsv"], trial.status, trial.parameter_values))
+    if read_emg(trial.path) is not None:
+        scans.setdefault("emg", []).append(run.prefix)
     _write_tsv(paths["channels.tsv"], overwrite,
                ("name", "component", "type", "tracked_point", "units", "sampling_frequency",
                 "reference_frame", "description"),
@@ -274,8 +299,6 @@ def _motion_sidecar(trial: Trial, run: _Run, channels: Sequence[BidsChannel]) ->
     sidecar |= {f"{kind}ChannelCount": types.count(kind) for kind in CHANNEL_TYPES}
     sidecar |= {
         "MissingValues": "n/a",
-        "TrialStatus": trial.status,
-        "TrialParameters": dict(trial.parameter_values),
     }
     return sidecar
 
@@ -411,8 +434,9 @@ files in the BIDS motion format (BIDS 1.9.0).
   `_channels.json` (`reference_frame`).
 * Participants are identified by pseudonymous codes only; `participants.tsv` holds body
   mass, segment lengths and the arm used.
-* `_motion.json` holds the trial's parameters (`TrialParameters`) and how it ended
-  (`TrialStatus`); `_events.tsv` its start, stop and safety faults.
+* Each session's `_scans.tsv` holds every run's trial parameters (`trial_parameters`) and
+  how it ended (`trial_status`); `_events.tsv` its start, stop and safety faults.
+* `wall_time` counts from the run's first sample.
 
 Fill in `License` and `Authors` in `dataset_description.json` before sharing.
 """

@@ -62,6 +62,8 @@ class ExportResult:
     files: tuple[Path, ...]
     exported: int
     failed: tuple[Failure, ...]
+    notes: tuple[str, ...] = ()
+    """What the format could not hold, one line each (EMG in a BIDS dataset)."""
 
 
 def source_for_path(path: str | os.PathLike, folder: str = "") -> TrialSource:

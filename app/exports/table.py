@@ -11,6 +11,8 @@ For a stem S (`.csv` with commas, `.tsv` with tabs; UTF-8, ``\\n`` line ends):
 ``S_columns.csv``   column, channel, component, units, frame, description
 ``S_events.csv``    time_s, tick, kind, message, values (the event's JSON object)
 ``S_metrics.csv``   metric, value (names carry their units; NaN = undefined)
+``S_emg.csv``       when the trial has EMG: time_s (trial time) and one column per muscle
+                    in volts (``biceps_V``), at the EMG's own rate
 ``S_trial.csv``     key, value: status, sample period, subject code and
                     anthropometry, every parameter (the row keys of app.exports.loader), and
                     which samples the samples file holds (``rows``: all/exercise)
@@ -44,14 +46,16 @@ from app.exports.columns import (
 )
 from app.exports.files import output
 from app.exports.loader import Trial
+from device.recording.emgfile import read_emg
 
 CHUNK_ROWS = 4096  # keeps memory flat: the text of one chunk at a time
-SIDE_FILES = ("columns", "events", "metrics", "trial")
+SIDE_FILES = ("columns", "events", "metrics", "trial", "emg")
 DELIMITERS = {".csv": ",", ".tsv": "\t"}
 
 
 def table_outputs(folder: Path, stem: str, suffix: str) -> tuple[Path, ...]:
-    """The files `write_table` writes for this stem, samples file first."""
+    """The files `write_table` may write for this stem, samples file first (the EMG file
+    only when the trial has EMG)."""
     return (folder / f"{stem}{suffix}",
             *(folder / f"{stem}_{side}{suffix}" for side in SIDE_FILES))
 
@@ -62,7 +66,7 @@ def write_table(trial: Trial, folder: Path, stem: str, *, suffix: str = ".csv",
     """Write the samples file and its side files; returns their paths."""
     digits = check_digits(digits)
     delimiter = DELIMITERS[suffix]
-    samples, columns_file, events_file, metrics_file, trial_file = table_outputs(
+    samples, columns_file, events_file, metrics_file, trial_file, emg_file = table_outputs(
         folder, stem, suffix)
     arrays = trial.arrays
     if exercise_only:
@@ -91,7 +95,21 @@ def write_table(trial: Trial, folder: Path, stem: str, *, suffix: str = ".csv",
              "notes": " | ".join(trial.notes)}
     _write_rows(trial_file, delimiter, overwrite, ("key", "value"),
                 [(key, _text(value, digits)) for key, value in info.items()])
-    return samples, columns_file, events_file, metrics_file, trial_file
+    written = (samples, columns_file, events_file, metrics_file, trial_file)
+    emg = read_emg(trial.path)
+    if emg is None:
+        return written
+    keep = np.ones(emg.time_s.shape, dtype=bool)
+    if exercise_only and n:
+        keep = (emg.time_s >= arrays["time"][0]) & (emg.time_s <= arrays["time"][-1])
+    texts = [format_values(emg.time_s[keep], digits=digits)] + [
+        format_values(emg.samples[keep, k], digits=digits) for k in range(len(emg.muscles))]
+    with output(emg_file, overwrite=overwrite, text=True) as stream:
+        header = csv.writer(stream, delimiter=delimiter, lineterminator="\n")
+        header.writerow(["time_s", *(f"{muscle}_V" for muscle in emg.muscles)])
+        if texts[0]:
+            stream.write("\n".join(map(delimiter.join, zip(*texts, strict=True))) + "\n")
+    return (*written, emg_file)
 
 
 def write_samples(stream: TextIO, arrays: Mapping[str, np.ndarray], columns: Sequence[Column],
