@@ -74,17 +74,22 @@ MALFORMED_TRIGNO = {
     "header_time": (LABELS + "X[s],EMG1,time,EMG2\n0,1,0,1\n", "expected the time column 'X[s]'"),
     "not_number": (LABELS + "X[s],EMG1,X[s],EMG2\n0,1,0,1\n0.0005,abc,0.0005,1\n",
                    "line 5, column 'EMG1': 'abc' is not a number"),
-    "missing_cell": (LABELS + "X[s],EMG1,X[s],EMG2\n0,1,0,1\n0.0005,1,,\n",
-                     "line 5: EMG2 has no sample where EMG1 has one"),
+    "missing_cell": (LABELS + "X[s],EMG1,X[s],EMG2\n0,1,0,1\n0.0005,1,,\n0.001,1,0.001,1\n",
+                     "line 6: EMG2 has a sample after its column ended (line 5)"),
+    "value_without_time": (LABELS + "X[s],EMG1,X[s],EMG2\n0,1,0,1\n0.0005,1,,1\n",
+                           "line 5: EMG2 has a value but no time"),
     "time_back": (LABELS + "X[s],EMG1,X[s],EMG2\n0,1,0,1\n0.001,1,0.001,1\n0.0005,1,0.0005,1\n",
                   "the time goes back or stands still at sample 2"),
     "clocks_differ": (LABELS + "X[s],EMG1,X[s],EMG2\n0,1,0,1\n0.0005,1,0.003,1\n",
                       "the time of EMG2 (0.003 s) differs"),
     "no_emg": ("Label: ACC1.X Sampling frequency: 148 Unit: g Domain: Time\nX[s],ACC1.X\n0,1\n",
                "no EMG channel"),
+    # different EMG rates are resampled (tests/device/test_delsys_layouts.py), unless they
+    # are not in a ratio of whole numbers
     "rates_differ": ("Label: EMG1 Sampling frequency: 2000 Unit: V Domain: Time\n"
-                     "Label: EMG2 Sampling frequency: 1000 Unit: V Domain: Time\n"
-                     "X[s],EMG1,X[s],EMG2\n0,1,0,1\n", "the EMG channels have different rates"),
+                     "Label: EMG2 Sampling frequency: 1999.3 Unit: V Domain: Time\n"
+                     "X[s],EMG1,X[s],EMG2\n0,1,0,1\n0.0005,1,0.0005,1\n",
+                     "are not in a ratio of whole numbers"),
     "one_sample": (LABELS + "X[s],EMG1,X[s],EMG2\n0,1,0,1\n", "1 samples"),
     "infinite": (LABELS + "X[s],EMG1,X[s],EMG2\n0,inf,0,1\n0.0005,1,0.0005,1\n", "not finite"),
 }

@@ -1,0 +1,121 @@
+"""What every EMG text file shares: the one-line error, the data read from it, the bounded
+read, the rows (comma- or semicolon-separated) and the numbers (decimal point or comma).
+
+A lab whose Windows is set to a language with a decimal comma (Dutch, German, French, …)
+gets Delsys exports separated by `;` with decimal commas: a public Python reader of
+exports "from the Trigno delsys system at the VU" reads them with `sep=';', decimal=','`,
+the type "delsys exports … when you[r] language setting is dutch" (GitHub code,
+`read_delsys(filename, filetype="dutch")`, 7 header rows: a Discover export). A file is
+read that way when a `;` appears in its first lines (no comma-separated EMG export has
+one); a number may then carry a comma for its decimal point.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from device.errors import DeviceError
+from device.safeinput import InputRefused, read_bytes
+
+MAX_BYTES = 2 * 2**30  # a 2 GiB CSV is a mistake, not an EMG recording of a session
+SNIFF_LINES = 20
+
+
+class EmgFileError(DeviceError):
+    """An EMG file cannot be read; the message is the one line shown."""
+
+    def __init__(self, path: object, problem: str, advice: str = "") -> None:
+        self.path, self.problem = path, problem
+        text = f"EMG file {path}: {problem}"
+        super().__init__(f"{text}. {advice[:1].upper()}{advice[1:]}" if advice else text)
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class EmgData:
+    """EMG read from a file: `samples` (M, C) in volts at `t_s` (M,), the file's own
+    clock in seconds, `rate_hz`, one name per channel, `source` (the layout: `trigno-csv`,
+    `emgworks-csv`, `discover-csv` or `csv`), and notes on what was skipped or changed."""
+
+    names: tuple[str, ...]
+    rate_hz: float
+    t_s: np.ndarray
+    samples: np.ndarray
+    source: str
+    path: Path
+    notes: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True, slots=True)
+class Text:
+    """A file's lines and how its cells are written."""
+
+    path: Path
+    lines: list[str]
+    delimiter: str = ","
+
+    @property
+    def decimal_comma(self) -> bool:
+        return self.delimiter == ";"
+
+    def rows(self, start: int = 0) -> list[tuple[int, list[str]]]:
+        """(line number from 1, stripped cells) of each row from line index `start` that
+        is not a blank line and not a `#` comment; a row of empty cells (`,,,`) is kept:
+        inside the data it is a gap."""
+        out = []
+        k = start
+        try:
+            reader = csv.reader(self.lines[start:], delimiter=self.delimiter)
+            for k, row in enumerate(reader, start=start + 1):
+                cells = [c.strip() for c in row]
+                if not self.lines[k - 1].strip() or (cells and cells[0].startswith("#")):
+                    continue
+                out.append((k, cells))
+        except csv.Error as exc:  # a cell over the csv module's limit (131,072 characters), …
+            raise EmgFileError(self.path, f"line {k + 1} cannot be read as CSV ({exc})",
+                               "the file may not be an EMG export") from None
+        return out
+
+    def number(self, line: int, column: str, cell: str, what: str = "") -> float:
+        """The number in `cell` (line `line`, column `column`); `what` names the layout in
+        the refusal."""
+        text = cell.strip()
+        if self.decimal_comma:
+            text = text.replace(",", ".")
+        try:
+            value = float(text)
+        except ValueError:
+            raise EmgFileError(self.path, f"{what}line {line}, column {column!r}: "
+                                          f"{cell.strip()!r} is not a number",
+                               "the file may be cut or edited by hand") from None
+        if not math.isfinite(value):
+            raise EmgFileError(self.path, f"{what}line {line}, column {column!r}: "
+                                          f"{cell.strip()} is not finite")
+        return value
+
+
+def read_text(path: Path) -> Text:
+    """The file's lines, read bounded and without blocking (device.safeinput: a pipe would
+    hang the reader, /dev/zero fill the memory), with its delimiter."""
+    try:
+        if not path.exists():
+            raise EmgFileError(path, "no such file", "check the path")
+        if path.is_dir():
+            raise EmgFileError(path, "is a folder, not a file", "give the exported .csv file")
+        text = read_bytes(path, what="EMG file", max_bytes=MAX_BYTES).decode("utf-8-sig")
+    except InputRefused as exc:
+        raise EmgFileError(path, exc.problem, "give the exported .csv file") from None
+    except UnicodeDecodeError:
+        raise EmgFileError(path, "is not a text file (not UTF-8)",
+                           "export the recording as CSV from the EMG software") from None
+    except OSError as exc:
+        raise EmgFileError(path, f"cannot be read ({exc.strerror or exc})") from None
+    lines = text.splitlines()
+    if not any(line.strip() for line in lines):
+        raise EmgFileError(path, "is empty", "export the recording again")
+    head = [line for line in lines if line.strip()][:SNIFF_LINES]
+    return Text(path, lines, ";" if any(";" in line for line in head) else ",")
