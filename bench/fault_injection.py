@@ -9,9 +9,11 @@ the trial's ticks (0.6-3 s), injects the fault and reads the trial file back
 (tests/device/livefaults.py). "seen" is the time from the injection to the loop's fault
 (its own monotonic time, in the fault's event), or to the console hearing that the loop
 died; "ticks" the same in the loop's ticks, where a fault latched. "lost" counts the
-ticks the loop pushed for the trial that the file lacks. The full disk is a 96 MiB tmpfs
-filled by another process where this machine lets us mount one (root), else injected at
-the recorder's write calls; the table says which.
+ticks the loop pushed for the trial that the file lacks. "told": what the console last
+heard of the file's end, "closed" or "lost" (the file could not be finished; the window
+then finishes the trial from what reached it), "—" when no console was left to hear.
+The full disk is a 96 MiB tmpfs filled by another process where this machine lets us
+mount one (root), else injected at the recorder's write calls; the table says which.
 
 First, what the trial file's disk reserve costs (device/recording/trialfile/reserve.py): a
 100 s trial written as the recorder writes it (125 records a batch, a flush every other
@@ -45,7 +47,7 @@ def main(argv=None) -> int:
     faults = args.fault or FAULTS
     _reserve_figures()
     print(f"{'fault':18s} {'made':9s} {'seen (s)':>14s} {'ticks':>9s} {'lost':>11s} "
-          f"{'status':15s} cause")
+          f"{'status':15s} {'told':7s} cause")
     started = time.monotonic()
     for index, fault in enumerate(faults):
         outcomes = []
@@ -126,11 +128,12 @@ def _row(fault: str, outcomes) -> str:
     lost = [o.lost for o in outcomes]
     lost_text = f"{max(lost)} ({max(lost) * PERIOD_S:.3f} s)" if max(lost) else "0"
     statuses = sorted({o.status if o.readable else "UNREADABLE" for o in outcomes})
+    told = "/".join(sorted({o.fate or "—" for o in outcomes}))
     cause = next((c.split(" | ")[0] or c.split(" | ")[1][:40] for c in first.causes), "")
     if fault == "loop SIGSTOP":
         cause = "lateness (the simulator)"
     return (f"{fault:18s} {first.how:9s} {seen:>14s} {ticks:>9s} {lost_text:>11s} "
-            f"{'/'.join(statuses):15s} {cause}")
+            f"{'/'.join(statuses):15s} {told:7s} {cause}")
 
 
 if __name__ == "__main__":

@@ -224,6 +224,14 @@ def pytest_report_header(config: pytest.Config) -> str:
             + (f"; also {', '.join(extra)}" if extra else ""))
 
 
+def pytest_terminal_summary(terminalreporter) -> None:
+    # the full-disk tests run on a real tmpfs or injected at the write calls: say which,
+    # so that neither is ever taken for the other (tests/device/smalldisk.py)
+    disk = sys.modules.get("tests.device.smalldisk")
+    if disk is not None:
+        terminalreporter.write_line(f"full disk in these tests: {disk.DISK_WORDS[disk.DISK_KIND]}")
+
+
 def _rig_needs(item: pytest.Item) -> set[str] | None:
     """The parts the item's real variant needs, or None for a test that touches no hardware."""
     marker = item.get_closest_marker("rig")

@@ -322,7 +322,7 @@ class DeviceClient:
         elif isinstance(event, FaultRaised):
             self._trial.fault = LostFault(event.message, dict(event.detail))
         elif (isinstance(event, RecorderNotice) and event.path == self._trial.path
-              and event.kind == "closed"):
+              and event.kind in ("closed", "lost")):  # its file's end, told
             self._trial = None
 
     def _salvage_if_due(self) -> RecorderNotice | None:

@@ -8,10 +8,13 @@ never fills with them.
 
 If the disk fails, the recorder raises the shared `recording_failed` flag with the cause
 (device.recording.messages: the loop's supervisor turns it into a RECORDING_LOST fault
-naming it and stops the trial) and keeps draining. A full disk is not a failure of the
-file: the writer holds space beyond the file's end (device.recording.trialfile.reserve),
-so the recorder says why in the file, writes the trial's last samples into what is held
-and closes the file as `recording_lost` with nothing lost.
+naming it and stops the trial) and keeps draining; at the trial's end it tells the console
+whether the file could still be closed ("closed") or not ("lost": the console finishes the
+trial from what reached the file) and lowers the flag for the next trial. A full disk is
+not a failure of the file: the writer holds space beyond the file's end
+(device.recording.trialfile.reserve), so the recorder says why in the file, writes the
+trial's last samples into what is held and closes the file as `recording_lost` with
+nothing lost.
 If the loop process dies (its pipe reaches end of file), the recorder writes every record
 the loop had pushed, adds a "loop process lost" event and closes the file as "faulted".
 
@@ -78,8 +81,12 @@ class Recorder:
         self.first_seq = 0
         self.end_seq: int | None = None
         self.end_message: EndTrial | None = None
+        self.trial_path = ""
+        """The file of the trial being recorded ('' between trials)."""
         self.last_flush = time.monotonic()
         self.failed = False
+        self.failure = ""
+        """Why the trial's file failed, once it did (told again with its "lost" notice)."""
         self.short = ""
         """Why the disk is short, once it is: the file ends on the space it holds."""
         self.samples = 0
@@ -161,7 +168,10 @@ class Recorder:
         if self.writer is not None:
             self._close("stopped_early", {})
         self.first_seq = message.first_seq
+        self.trial_path = message.path
         self.samples = 0
+        self.failed = False
+        self.failure = ""
         self.short = ""
         self.last_sample = (float("nan"), -1)
         try:
@@ -171,7 +181,10 @@ class Recorder:
                 sample_period_s=message.sample_period_s, channels=_channels_for(self.ring),
             )
         except (DeviceError, OSError) as exc:
-            self._fail(message.path, f"cannot create the trial file: {exc}",
+            # the writer's errors name the file and what to do; an OSError only the errno
+            reason = (str(exc) if isinstance(exc, DeviceError)
+                      else f"cannot create trial file {message.path}: {exc}")
+            self._fail(message.path, reason,
                        DISK_SHORT if isinstance(exc, SpaceShort) else WRITE_FAILED)
             return
         self._notify("opened", message.path)
@@ -204,9 +217,27 @@ class Recorder:
             self._fail(str(self.writer.path), str(exc))
 
     def _close(self, status: str, summary: dict, assistance: dict | None = None) -> None:
+        """The trial is over: its file closed, the console told its fate ("closed", or
+        "lost" when it could not be finished: the console then finishes the trial from
+        what reached it, with the fault it heard), and the recorder ready for the next
+        trial whatever happened to this one's file (the flag back to RECORDING_OK: a flag
+        left raised faulted every later trial at once)."""
         writer, self.writer = self.writer, None
-        if writer is None:
-            return
+        path, self.trial_path = self.trial_path, ""
+        try:
+            if writer is not None:
+                self._finish(writer, status, summary, assistance)
+            elif path and self.failed:
+                # its file could not even be made: the console finishes the trial without
+                self._notify("lost", path, "recording_lost", self.failure)
+        finally:
+            self.failed = False
+            self.failure = ""
+            self.short = ""
+            self._flag(RECORDING_OK)
+
+    def _finish(self, writer: TrialFileWriter, status: str, summary: dict,
+                assistance: dict | None) -> None:
         if self.failed or self.short:
             status = "recording_lost"
         try:
@@ -215,13 +246,12 @@ class Recorder:
             # every sample is in the file, which reads as it is; only its status is not
             self._notify("closed", str(writer.path), status, str(exc), samples=self.samples)
         except (DeviceError, OSError) as exc:
-            self._notify("error", str(writer.path), status, f"could not close the file: {exc}")
-            return
+            # after a write error: the file keeps what reached it before the error
+            said = f"{self.failure}; " if self.failure else ""
+            self._notify("lost", str(writer.path), "recording_lost",
+                         f"{said}could not close the file: {exc}", samples=self.samples)
         else:
             self._notify("closed", str(path), status, samples=self.samples)
-        self.failed = False
-        self.short = ""
-        self._flag(RECORDING_OK)
 
     def _flush_if_due(self) -> None:
         if self.writer is None or self.failed:
@@ -238,6 +268,7 @@ class Recorder:
 
     def _fail(self, path: str, reason: str, cause: int = WRITE_FAILED) -> None:
         self.failed = True
+        self.failure = self.failure or reason
         self._flag(cause)
         log.error("recording failed for %s: %s", path, reason)
         self._notify("error", path, "recording_lost", reason)
@@ -269,6 +300,7 @@ class Recorder:
                                    "the control loop process stopped unexpectedly; the robot's "
                                    "amplifier watchdog and the backend's close hold it safe",
                                    {"cause": "loop process lost"}))
+        if self.trial_path:  # a file that was not made is told "lost" too
             self._close("faulted", {"loop_process_lost": 1.0})
 
     def _notify(self, kind: str, path: str, status: str = "", message: str = "",

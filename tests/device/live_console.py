@@ -81,7 +81,6 @@ def _report(event) -> None:
 def main() -> int:
     from core.trial import THESIS_SUBJECT
     from device.loop.client import DeviceClient, LoopLost
-    from device.loop.messages import TrialEnded
     from device.recording.messages import RecorderNotice
     from device.recording.trialfile import SubjectInfo
     from device.stopsignals import StopSignal
@@ -102,14 +101,11 @@ def main() -> int:
     _say("started", console=os.getpid(), loop=client.loop_pid, recorder=client.recorder_pid,
          ring=client.ring.name, path=path)
     closed_at = None
-    ended = False
     while not stop.name:
         for event in client.events(0.02):
             _report(event)
-            ended = ended or isinstance(event, TrialEnded)
-            if isinstance(event, RecorderNotice) and (
-                    event.kind in ("closed", "lost") or (event.kind == "error" and ended)):
-                closed_at = time.monotonic()
+            if isinstance(event, RecorderNotice) and event.kind in ("closed", "lost"):
+                closed_at = time.monotonic()  # the file's end, whichever it was
             if isinstance(event, LoopLost) and closed_at is None:
                 closed_at = time.monotonic() + 5.0  # the recorder's close may follow
         while commands:

@@ -24,6 +24,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import h5py
 import numpy as np
 
 from app.errors import AppError
@@ -65,6 +66,11 @@ class Outcome:
     lateness_max_s: float = float("nan")
     detected_s: float = float("nan")
     """Seconds from the injection to the first word of it (a fault, a lost process)."""
+    flushed_before: int = -1
+    """Samples the file held, flushed, just before the injection (read as an SWMR reader)."""
+    fate: str = ""
+    """What the console last heard of the file's end: "closed", "lost" (it could not be
+    finished: the window then finishes the trial from it) or '' (nothing)."""
     console_exit: int | None = None
     stderr: str = field(default="", repr=False)
 
@@ -222,6 +228,9 @@ def run_fault(fault: str, folder: Path, seed: int, disk=None) -> Outcome:
     outcome = Outcome(fault, how)
     try:
         console.wait_ticks(int(rng.integers(300, 1500)))  # 0.6-3 s into the trial
+        # what the file holds first: opening it takes milliseconds, which must not count
+        # in the ticks or the time to the fault
+        outcome.flushed_before = _flushed(path)
         outcome.injected_tick = console.newest_tick()
         injected_at = time.monotonic()
         _inject(console, fault, disk, trigger)
@@ -234,9 +243,19 @@ def run_fault(fault: str, folder: Path, seed: int, disk=None) -> Outcome:
     finally:
         outcome.stderr = console.stderr
         console.close()
+    fates = [e["kind"] for e in console.events
+             if e["event"] == "RecorderNotice" and e["kind"] in ("closed", "lost")]
+    outcome.fate = fates[-1] if fates else ""
     file_times = _read_back(outcome, path, console.events)
     outcome.detected_s = _detected(console.events, file_times, injected_at)
     return outcome
+
+
+def _flushed(path: Path) -> int:
+    """The samples the trial file holds now, as a reader sees them (what a failing disk
+    cannot take back)."""
+    with h5py.File(path, "r", swmr=True, locking=False) as f:
+        return int(min(f["timeseries"][name].shape[0] for name in f["timeseries"]))
 
 
 def _inject(console: LiveConsole, fault: str, disk, trigger: Path) -> None:

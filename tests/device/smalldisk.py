@@ -38,6 +38,11 @@ def disk_kind() -> str:
 
 
 DISK_KIND = disk_kind()
+DISK_WORDS = {
+    "tmpfs": "a real full disk (a small tmpfs mounted and filled)",
+    "injected": "injected at the recorder's write calls (no tmpfs can be mounted here, or "
+                "REHAB_TEST_DISK=injected)",
+}
 
 
 def fill(folder: Path) -> Path:

@@ -4,9 +4,10 @@ to the console's process group, the disk filled to 100 % (a tmpfs where this mac
 lets the tests mount one, else the full disk injected at the recorder's write calls: the
 test's id says which ran) and a write failing (injected), each at a random tick of the
 trial. Whatever the fault: the trial file reads, it (or, where it cannot hold it, the
-console) records the cause, and it lacks no more than 0.5 s of the ticks the loop pushed
-(nothing at all but after a failing write). Nothing is timed: the faults' detection times
-are bench/fault_injection.py's figures (docs/performance.md)."""
+console) records the cause, the console hears how the file ended, and it lacks none of
+the ticks the loop pushed, but after a failing write, where it keeps every sample that
+was flushed before it. Nothing is timed: the faults' detection times and the samples a
+failing write loses are bench/fault_injection.py's figures (docs/performance.md)."""
 
 from __future__ import annotations
 
@@ -35,8 +36,6 @@ EXPECTED = {
     "disk full": ("recording_lost", "disk full"),
     "write EIO": ("", "write error"),  # the file cannot say so: the console does
 }
-HALF_A_SECOND = 250
-"""Ticks of 2 ms."""
 
 
 def _id(fault: str) -> str:
@@ -65,9 +64,15 @@ def test_a_live_trial_file_survives_the_fault(fault, tmp_path):
     np.testing.assert_array_equal(outcome.ticks, np.arange(len(outcome.ticks)))
     assert outcome.last_pushed_tick >= outcome.injected_tick >= 0, said
     if fault == "write EIO":
-        assert outcome.lost <= HALF_A_SECOND, said  # since the last flush
+        # what a reader saw flushed before the error stays; the rest is lost with the disk
+        # (how much is bench/fault_injection.py's figure: it depends on when the recorder
+        # last flushed, which no test can hold without timing it)
+        assert len(outcome.ticks) >= outcome.flushed_before > 0, said
+        assert outcome.fate == "lost", said  # the window finishes the trial from it
     else:
         assert outcome.lost == 0, said
+        if fault != "console SIGKILL":  # no console is left to hear it
+            assert outcome.fate == "closed", said
     if fault == "loop SIGSTOP":
         # held stopped LOOP_HELD_S or more: the tick it owed is late by that less the part
         # of a period it had left (a margin of half the hold, never a question of timing)

@@ -149,3 +149,92 @@ def test_a_disk_filled_mid_trial_ends_the_file_in_good_order_with_nothing_lost(
     with h5py.File(path, "r") as f:  # a plain reader too: nothing left flagged
         assert f["timeseries/tick"].shape == (1760,)
     big_enough_disk.free()
+
+
+def test_after_a_write_error_the_console_is_told_the_file_is_lost_and_the_next_trial_records(
+        tmp_path, monkeypatch):
+    """A write that fails (EIO) stops the trial (WRITE_FAILED). The close of that file
+    failed too, and the recorder only said "error": the console never heard the trial's
+    file was finished either way, so the window kept the trial 'recording' in the registry
+    (its cause nowhere) and Start waiting for the file to close, and the flag stayed
+    raised, so every later trial faulted at once and wrote nothing. Now the console hears
+    "lost" (the window then finishes the trial with the fault it saw) and the next trial
+    records whole."""
+    import errno
+
+    from device.recording.messages import WRITE_FAILED
+    from device.recording.trialfile import TrialFileWriter
+
+    first, second = tmp_path / "first.h5", tmp_path / "second.h5"
+    flush = TrialFileWriter._flush
+
+    def failing(self):
+        raise OSError(errno.EIO, "Input/output error")
+
+    with running_recorder() as rec:
+        rec.begin(first)
+        rec.push(300)
+        assert rec.notice("opened").path == str(first)
+        rec.wait(lambda: rec.ring.recorder_cursor == rec.ring.write_count, "drained")
+        monkeypatch.setattr(TrialFileWriter, "_flush", failing)
+        rec.push(200)
+        rec.wait(lambda: rec.flag.value != RECORDING_OK, "the recorder raised its flag")
+        assert rec.flag.value == WRITE_FAILED
+        assert "Input/output error" in rec.notice("error").message
+        rec.end("recording_lost")
+        lost = rec.notice("lost")
+        assert (lost.path, lost.status) == (str(first), "recording_lost")
+        assert "could not close" in lost.message
+        rec.wait(lambda: rec.flag.value == RECORDING_OK, "the flag lowered for the next trial")
+        monkeypatch.setattr(TrialFileWriter, "_flush", flush)  # the disk works again
+        rec.tick = 0
+        rec.begin(second)
+        rec.push(400)
+        assert rec.notice("opened").path == str(second)
+        rec.end("complete")
+        closed = rec.notice("closed")
+    assert (closed.path, closed.status, closed.samples) == (str(second), "complete", 400)
+    assert rec.flag.value == RECORDING_OK
+    data = read_trial(second)
+    assert data.status == "complete"
+    np.testing.assert_array_equal(data.channels["tick"], np.arange(400))
+    kept = read_trial(first)  # what reached the failing file still reads
+    np.testing.assert_array_equal(kept.channels["tick"], np.arange(len(kept.channels["tick"])))
+
+
+def test_a_trial_whose_file_cannot_be_made_is_told_lost_and_the_next_one_records(tmp_path):
+    """A trial file that cannot be created (here: its folder is a file) raised the flag for
+    good: the trial's end was never told to the console, and the next trial faulted at
+    once. Now its end is "lost" and the next trial records."""
+    blocked = tmp_path / "not-a-folder"
+    blocked.write_text("")
+    with running_recorder() as rec:
+        rec.begin(blocked / "t.h5")
+        rec.push(50)
+        rec.wait(lambda: rec.flag.value != RECORDING_OK, "the recorder raised its flag")
+        assert "cannot create" in rec.notice("error").message
+        rec.end("recording_lost")
+        assert rec.notice("lost").path == str(blocked / "t.h5")
+        rec.wait(lambda: rec.flag.value == RECORDING_OK, "the flag lowered for the next trial")
+        rec.tick = 0
+        rec.begin(tmp_path / "next.h5")
+        rec.push(100)
+        rec.end("complete")
+        closed = rec.notice("closed")
+    assert (closed.status, closed.samples) == ("complete", 100)
+
+
+def test_a_trial_whose_file_cannot_be_made_is_told_lost_when_the_loop_dies(tmp_path):
+    """The loop process dying during such a trial ended the recorder without a word of the
+    trial's file: the console, which hears the loop's death but not how the file ended,
+    kept the trial 'recording'. Now the file's end is told first ("lost")."""
+    blocked = tmp_path / "not-a-folder"
+    blocked.write_text("")
+    with running_recorder() as rec:
+        rec.begin(blocked / "t.h5")
+        rec.push(50)
+        assert "cannot create" in rec.notice("error").message
+        rec.loop.close()  # the loop process is gone: its pipe's end of file
+        lost = rec.notice("lost")
+    assert (lost.path, lost.status) == (str(blocked / "t.h5"), "recording_lost")
+    assert "does not exist" in lost.message

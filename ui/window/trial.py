@@ -357,11 +357,14 @@ class TrialActions:
         if kind in ("error", "lost"):
             self._say(f"Recording problem: {message}", problem=True)
         if kind == "lost" and self.trial_id is not None:
-            # the recorder died and its file could not be finished from the ring: the
-            # trial is finished from what reached its file, with the fault the window saw
+            # the trial's file could not be finished (a write failed, the file could not be
+            # made, a dead recorder's file could not be taken over): the trial is finished
+            # from what reached its file, its cause the fault the window saw and the words
+            # of what happened to the file
             from app.trials.finalize import finalize_lost
 
-            trial_id, reason = self.trial_id, self.trial_fault
+            trial_id = self.trial_id
+            reason = "; ".join(part for part in (self.trial_fault, message) if part)
             self.trial_id = None
             self.jobs.run(lambda: finalize_lost(self.registry, trial_id, reason),
                           lambda done: self._finalized(trial_id, done))
