@@ -62,6 +62,10 @@ from device.safety.limits import SafetyLimits
 
 RING_SECONDS = 16.0
 HEARTBEAT_S = 0.1
+LOOP_START_S = 120.0
+"""How long a command waits for a loop process that has not said anything yet: it answers
+once it has imported numpy, its compiled kernels and the backend's modules, which took
+over 10 s (a command's own timeout) on the 2-core machine at load 9."""
 
 
 def _resource_tracker_deaf_to_hangups() -> None:
@@ -119,6 +123,8 @@ class DeviceClient:
         self._lost_reported = False
         self._trial: _Trial | None = None
         self._recorder_lost = False
+        self._loop_heard = False
+        """Whether the loop process has said anything yet (it is past its start)."""
 
     # ------------------------------------------------------------------ life
     def start(self) -> None:
@@ -229,12 +235,15 @@ class DeviceClient:
     def request(self, command, timeout: float = 10.0) -> Reply:
         """Send a command and wait for its reply; other events stay queued for `events`."""
         ident = self.send(command)
-        deadline = time.monotonic() + timeout
+        # a loop still starting answers once it has imported its modules; its death is
+        # heard at once (LoopLost), so the longer wait never hides one
+        budget = timeout if self._loop_heard else max(timeout, LOOP_START_S)
+        deadline = time.monotonic() + budget
         while True:
             remaining = deadline - time.monotonic()
             if remaining <= 0:
                 raise DeviceError(f"the loop did not answer {type(command).__name__} within "
-                                  f"{timeout:g} s")
+                                  f"{budget:g} s")
             reply = None
             for event in self._receive(min(remaining, 0.05)):
                 if reply is None and isinstance(event, Reply) and event.id == ident:
@@ -292,6 +301,7 @@ class DeviceClient:
             try:
                 while conn.poll(timeout if conn is self._conn and not out else 0):
                     out.append(conn.recv())
+                    self._loop_heard = self._loop_heard or conn is self._conn
             except (EOFError, OSError):
                 if conn is self._conn and not self._lost_reported:
                     self._lost_reported = True

@@ -1,6 +1,11 @@
 """The console's side of the device link, on fake pipes: no event is ever dropped."""
 
-from device.loop.client import DeviceClient
+import time
+
+import pytest
+
+from device.errors import DeviceError
+from device.loop.client import LOOP_START_S, DeviceClient
 from device.loop.messages import Reply, StateChanged, TrialEnded
 from device.loop.states import State
 
@@ -36,3 +41,35 @@ def test_events_arriving_with_a_reply_stay_queued():
     events = client.events()
     assert [type(e) for e in events] == [StateChanged, StateChanged, TrialEnded]
     assert client.state == State.FAULTED
+
+
+class StartingPipe(FakePipe):
+    """A loop process still starting: its first `silent` polls find nothing, each after
+    waiting its whole timeout, as a real pipe's poll does."""
+
+    def __init__(self, incoming=(), silent=0):
+        super().__init__(incoming)
+        self.silent = silent
+
+    def poll(self, timeout=0.0):
+        if self.silent:
+            self.silent -= 1
+            time.sleep(timeout)
+            return False
+        return super().poll(timeout)
+
+
+def test_the_first_command_waits_for_the_loop_process_to_start():
+    """The loop process answers nothing until it has imported its modules (numpy, the
+    compiled kernels): on a busy 2-core machine the first command's reply came after its
+    10 s timeout ("the loop did not answer Start within 10 s", tests/device/test_loop.py's
+    first test in a full run at load 9). Until the loop is first heard, a command waits
+    LOOP_START_S; after, its own timeout."""
+    client = DeviceClient()
+    client._conn = StartingPipe([Reply(1, True)], silent=3)
+    client._notices = FakePipe()
+    assert client.request(type("Build", (), {"id": 1})(), timeout=0.001) == Reply(1, True)
+    client._conn = StartingPipe(silent=10**6)  # heard once: a silent loop now times out
+    with pytest.raises(DeviceError, match=r"did not answer Stop within 0\.001 s"):
+        client.request(type("Stop", (), {"id": 2})(), timeout=0.001)
+    assert LOOP_START_S >= 60
