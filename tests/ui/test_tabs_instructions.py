@@ -37,3 +37,25 @@ def test_a_missing_instructions_file_is_said_plainly(qtbot, tmp_path):
     tab = InstructionsTab(tmp_path / "gone.md")
     qtbot.addWidget(tab)
     assert "Instructions missing" in tab.plain_text()
+
+
+def test_the_connect_step_says_hands_off_in_the_windows_words(qtbot):
+    """Issue 27 #9: the steps had the patient hold the handle before Connect, while the
+    force sensor takes its zero in Connect's first quarter second. Nobody may touch the
+    handle until the window says the zero is taken, in the words the window uses."""
+    from ui.window.trial import HANDS_OFF, ZERO_TAKEN
+
+    tab = InstructionsTab()
+    qtbot.addWidget(tab)
+    text = tab.plain_text()
+    steps = text[text.index("\n3. Build, Connect, Start\n"):text.index("\n4. Stop and Save\n")]
+    connect = steps.index("Press Connect")
+    before = steps[:connect]
+    assert not re.search(r"holds? the handle", before), before  # nobody holds it yet
+    assert "Nobody touches the handle" in before
+    after = steps[connect:]
+    for words in (HANDS_OFF, ZERO_TAKEN):
+        assert words.split(":")[0] in after, words  # "Hands off the handle", "Zero taken"
+    assert "refused in one line" in after  # a zero under load
+    # the patient takes the handle only once the zero is taken
+    assert after.index("Zero taken") < after.index("the patient holds the handle")
