@@ -420,7 +420,7 @@ def _lagged(direction: np.ndarray, dt_s: float, lag_s: float) -> np.ndarray:
 
 
 # -------------------------------------------------------------------- factory
-_IMPEDANCE_OPTIONS = ("passive_stiffness_Nm_rad", "passive_damping_Nms_rad")
+_IMPEDANCE_OPTIONS = ("passive_stiffness_Nm_rad", "passive_damping_Nms_rad", "variability")
 _EFFORT_OPTIONS = ("effort", "stiffness_Nm_rad", "damping_Nms_rad", "drive_N")
 _OPTIONS = {
     "passive": _IMPEDANCE_OPTIONS,
@@ -432,6 +432,13 @@ _OPTIONS = {
     "wrong_way": _IMPEDANCE_OPTIONS + _EFFORT_OPTIONS
     + ("wrong_way_fraction", "wrong_way_episode_s", "wrong_way_force_N"),
 }
+VARIABILITY = 0.1
+"""Coefficient of variation of a subject's effort and drive from one trial to the next
+(every kind but passive): people never do a movement twice alike, and a stroke survivor's
+force output varies by some 10-20 % from attempt to attempt (an order of magnitude, as
+the impedance values above, not identified on a subject). Drawn by the trial's seed, so a
+course of simulated trials at one setting varies (a new seed each trial) and a trial runs
+again the same with its seed; 0 makes every trial the subject's mean."""
 DEFAULT_EFFORT = {"passive": 0.0, "weak": 0.4}
 """Effort by kind; every other kind defaults to 1 (a healthy subject's effort)."""
 
@@ -446,7 +453,10 @@ def make_patient(
     in this module; each kind accepts its own (pairs are (shoulder, elbow),
     matrices (shoulder, cross, elbow)):
 
-      every kind      passive_stiffness_Nm_rad, passive_damping_Nms_rad
+      every kind      passive_stiffness_Nm_rad, passive_damping_Nms_rad, variability
+                      (the trial-to-trial coefficient of variation of effort and drive,
+                      default VARIABILITY, each trial's factors drawn by `seed`; nothing
+                      for a passive patient, who has neither)
       but passive     effort, stiffness_Nm_rad, damping_Nms_rad, drive_N
       spastic         spastic_threshold_rad_s, reflex_gain_Nms_rad, spastic_viscous_Nms_rad
       tremor          tremor_hz (None: drawn in 4–6 Hz), tremor_amplitude_Nm
@@ -509,8 +519,32 @@ def make_patient(
             options.get("wrong_way_episode_s", default_ww.episode_s),
             options.get("wrong_way_force_N", default_ww.force_N),
         )
-    parameters = PatientParameters(
-        kind, options.get("effort", DEFAULT_EFFORT.get(kind, 1.0)), passive, active,
-        spasticity, tremor, wrong_way, options.get("drive_N", DRIVE_N),
-    )
+    effort = options.get("effort", DEFAULT_EFFORT.get(kind, 1.0))
+    drive = options.get("drive_N", DRIVE_N)
+    PatientParameters(kind, effort, passive, active, spasticity, tremor, wrong_way, drive)
+    effort_factor, drive_factor = trial_factors(seed, options.get("variability", VARIABILITY))
+    if kind != "passive":  # the subject's mean checked above; this trial's draw below
+        # a healthy subject's effort is the model's whole effort (1): a trial varies it
+        # down, never beyond
+        effort, drive = min(1.0, effort * effort_factor), drive * drive_factor
+    parameters = PatientParameters(kind, effort, passive, active, spasticity, tremor,
+                                   wrong_way, drive)
     return VirtualPatient(parameters, arm, trajectory, rng)
+
+
+def trial_factors(seed, variability: float) -> tuple[float, float]:
+    """How much this trial's effort and drive differ from the subject's mean: two
+    independent log-normal factors of mean 1 and coefficient of variation `variability`,
+    drawn by `seed` from a stream of their own (so the tremor's and the wrong-way
+    episodes' draws of a seed stay what they were)."""
+    if not (math.isfinite(variability) and 0.0 <= variability <= 1.0):
+        raise ParameterError("variability", variability, "0 to 1", "a coefficient of variation")
+    if variability == 0.0:
+        return 1.0, 1.0
+    if isinstance(seed, np.random.SeedSequence):
+        stream = np.random.SeedSequence(seed.entropy, spawn_key=(*seed.spawn_key, 13))
+    else:
+        stream = np.random.SeedSequence(int(seed), spawn_key=(13,))
+    sigma = math.sqrt(math.log1p(variability ** 2))
+    drawn = np.random.default_rng(stream).normal(-sigma ** 2 / 2, sigma, 2)
+    return float(math.exp(drawn[0])), float(math.exp(drawn[1]))

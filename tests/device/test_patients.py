@@ -135,7 +135,7 @@ def test_healthy_effort_on_the_desired_motion_is_the_arms_inverse_dynamics_eq_3_
     """With the push along the path off (drive_N=0), on the desired motion the impedance
     is silent and the feed-forward, which also overcomes the passive tissue, makes the
     net torque M_A θ̈_d + C_A θ̇_d."""
-    patient = make_patient("healthy", ARM, TRAJECTORY, drive_N=0.0)
+    patient = make_patient("healthy", ARM, TRAJECTORY, drive_N=0.0, variability=0.0)
     # inside the line and the arc of the D, away from the corners where the speed jumps
     for t in (0.3, 0.9, 1.2, 2.0, 2.6, 3.3, 3.7, 4.9, 7.1):
         theta, rate, acc = desired_by_finite_differences(t)
@@ -150,7 +150,7 @@ def test_healthy_effort_on_the_desired_motion_is_the_arms_inverse_dynamics_eq_3_
 def test_healthy_impedance_restores_the_desired_posture_with_a_symmetric_stiffness():
     """∂τ_A/∂θ_A about the desired posture is −Tᵀ (K_active + K_passive) T: symmetric
     and negative definite (the arm is pulled back, and conservatively so)."""
-    patient = make_patient("healthy", ARM, TRAJECTORY, drive_N=0.0)
+    patient = make_patient("healthy", ARM, TRAJECTORY, drive_N=0.0, variability=0.0)
     t = 1.0
     theta, rate, _ = desired_by_finite_differences(t)
     h = 1e-6
@@ -286,3 +286,42 @@ def test_wrong_way_pushes_the_hand_against_the_desired_direction():
         direction, push = np.array(desired[6:8]), np.array(desired[8:10])
         np.testing.assert_allclose(force, -3.0 * direction - push, atol=1e-9)
     assert checked > 10
+
+
+def test_each_trial_draws_its_own_effort_and_drive_around_the_subjects_mean():
+    """Issue 27 #16: a new seed per trial drew only the noise, so a course of simulated
+    trials at one setting gave the same figures (a healthy patient's led % 97.3976 in every
+    trial). Each trial's effort and drive are now drawn by its seed: log-normal factors of
+    mean 1 and coefficient of variation VARIABILITY, repeatable for a seed."""
+    from device.sim.patients import VARIABILITY, trial_factors
+
+    drawn = np.array([trial_factors(seed, VARIABILITY) for seed in range(4000)])
+    np.testing.assert_allclose(drawn.mean(axis=0), 1.0, atol=0.01)
+    np.testing.assert_allclose(drawn.std(axis=0), VARIABILITY, rtol=0.1)
+    assert abs(np.corrcoef(drawn.T)[0, 1]) < 0.05  # effort and drive drawn apart
+    assert trial_factors(7, VARIABILITY) == trial_factors(7, VARIABILITY)
+    assert trial_factors(7, 0.0) == (1.0, 1.0)
+    efforts = {make_patient("weak", ARM, TRAJECTORY, seed=s).parameters.effort
+               for s in range(5)}
+    assert len(efforts) == 5
+    assert all(e <= 1.0 for s in range(20)
+               for e in [make_patient("healthy", ARM, TRAJECTORY, seed=s).parameters.effort])
+    # the tremor's draws of a seed are what they were
+    assert make_patient("tremor", ARM, TRAJECTORY, seed=3).tremor_frequency_hz == \
+        make_patient("tremor", ARM, TRAJECTORY, seed=3, variability=0.0).tremor_frequency_hz
+
+
+def test_a_course_of_simulated_trials_at_one_setting_varies():
+    from app.trials.analysis import analyse
+    from app.trials.headless import simulate
+    from core.trial import THESIS_SUBJECT
+
+    params = THESIS_SUBJECT.replace(repetitions=1, assist="as-needed")
+    figures = []
+    for seed in range(1, 5):
+        records = simulate(params, patient="weak", seed=seed).records
+        metrics = analyse({n: records[n] for n in records.dtype.names}, params).metrics
+        figures.append((metrics.led_pct, metrics.directional_performance_pct))
+    led, directional = np.array(figures).T
+    assert np.ptp(led) > 0.5  # percentage points; 0.07 before
+    assert np.ptp(directional) > 1.0
