@@ -59,7 +59,7 @@ def combine(text: Text, layout: str, source: str, channels: list[Channel],
     channels that are not EMG (one note line); `layout` names the file's layout in every
     refusal ("a Trigno Discover 2.1.0.7 export with a time column per channel")."""
     path = text.path
-    notes = list(notes or [])
+    notes = [*text.notes, *(notes or [])]
     if skipped:
         notes.insert(0, f"skipped channels that are not EMG: {', '.join(skipped)}")
     if not channels:

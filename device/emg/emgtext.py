@@ -6,8 +6,13 @@ gets Delsys exports separated by `;` with decimal commas: a public Python reader
 exports "from the Trigno delsys system at the VU" reads them with `sep=';', decimal=','`,
 the type "delsys exports … when you[r] language setting is dutch" (GitHub code,
 `read_delsys(filename, filetype="dutch")`, 7 header rows: a Discover export). A file is
-read that way when a `;` appears in its first lines (no comma-separated EMG export has
-one); a number may then carry a comma for its decimal point.
+read that way when one of its first lines has a `;` and no comma (its header rows: a
+comma-separated export's rows all have commas, even where a sensor's name holds a `;`); a
+number may then carry a comma for its decimal point.
+
+A file that is not UTF-8 but has no NUL byte is read as Windows-1252, the code page of
+the Windows PCs the Delsys software runs on (`µV` is byte 0xB5 there), and a note says so;
+a byte Windows-1252 does not define, or a NUL, makes it "not a text file".
 """
 
 from __future__ import annotations
@@ -57,6 +62,7 @@ class Text:
     path: Path
     lines: list[str]
     delimiter: str = ","
+    notes: tuple[str, ...] = ()
 
     @property
     def decimal_comma(self) -> bool:
@@ -106,16 +112,26 @@ def read_text(path: Path) -> Text:
             raise EmgFileError(path, "no such file", "check the path")
         if path.is_dir():
             raise EmgFileError(path, "is a folder, not a file", "give the exported .csv file")
-        text = read_bytes(path, what="EMG file", max_bytes=MAX_BYTES).decode("utf-8-sig")
+        raw = read_bytes(path, what="EMG file", max_bytes=MAX_BYTES)
     except InputRefused as exc:
         raise EmgFileError(path, exc.problem, "give the exported .csv file") from None
-    except UnicodeDecodeError:
-        raise EmgFileError(path, "is not a text file (not UTF-8)",
-                           "export the recording as CSV from the EMG software") from None
     except OSError as exc:
         raise EmgFileError(path, f"cannot be read ({exc.strerror or exc})") from None
+    notes: tuple[str, ...] = ()
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        try:
+            if b"\0" in raw:
+                raise UnicodeDecodeError("cp1252", raw, 0, 1, "a NUL byte")
+            text = raw.decode("cp1252")
+        except UnicodeDecodeError:
+            raise EmgFileError(path, "is not a text file (neither UTF-8 nor Windows-1252)",
+                               "export the recording as CSV from the EMG software") from None
+        notes = ("read as Windows-1252 text (the file is not UTF-8)",)
     lines = text.splitlines()
     if not any(line.strip() for line in lines):
         raise EmgFileError(path, "is empty", "export the recording again")
     head = [line for line in lines if line.strip()][:SNIFF_LINES]
-    return Text(path, lines, ";" if any(";" in line for line in head) else ",")
+    semicolons = any(";" in line and "," not in line for line in head)
+    return Text(path, lines, ";" if semicolons else ",", notes)

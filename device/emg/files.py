@@ -112,7 +112,8 @@ def _plain(text: Text, rows) -> EmgData:
         raise EmgFileError(path, f"{PLAIN}: the time column: {exc}") from None
     # the mean rate: time stamps printed with few decimals make the median step inexact
     rate = (t.size - 1) / (t[-1] - t[0])
-    return EmgData(tuple(names), float(rate), t, array[:, 1:] * np.array(scales), "csv", path)
+    return EmgData(tuple(names), float(rate), t, array[:, 1:] * np.array(scales), "csv", path,
+                   text.notes)
 
 
 # ------------------------------------------------------------------ writing (sample files, tests)

@@ -207,6 +207,25 @@ def test_emgworks_with_label_lines_in_both_separators(tmp_path, separator):
     np.testing.assert_allclose(data.samples, x * [1e-3, 1e-6], rtol=1e-15)
 
 
+def test_a_comma_export_whose_sensor_name_holds_a_semicolon(tmp_path):
+    """A sensor named by the lab "Biceps; left" does not make a comma export a ';' one."""
+    sensors = basic_sensors()
+    sensors[0] = ("Biceps; left (75923)", *sensors[0][1:])
+    data = read_emg_file(write(tmp_path, discover_text("1.7.0", sensors, 0.2, timed=False)))
+    assert data.names[0] == "Biceps; left (75923): EMG 1"
+    np.testing.assert_allclose(data.samples, written_volts(sensors), rtol=1e-12, atol=1e-18)
+
+
+def test_an_emgworks_export_in_windows_1252(tmp_path):
+    """'µV' written by a Windows PC in its code page (byte 0xB5), not UTF-8."""
+    path = tmp_path / "cp1252.csv"
+    path.write_bytes("Label: EMG1 Sampling frequency: 2000 Unit: µV Domain: Time\n"
+                     "X[s],EMG1\n0,12.5\n0.0005,-3.25\n".encode("cp1252"))
+    data = read_emg_file(path)
+    np.testing.assert_allclose(data.samples[:, 0], [12.5e-6, -3.25e-6])
+    assert "read as Windows-1252 text (the file is not UTF-8)" in data.notes
+
+
 def test_a_plain_semicolon_file_with_decimal_commas(tmp_path):
     data = read_emg_file(write(tmp_path, "time;biceps [mV]\n0,000;1,5\n0,001;-2,25\n"))
     np.testing.assert_allclose(data.samples[:, 0], [1.5e-3, -2.25e-3])
