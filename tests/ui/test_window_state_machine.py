@@ -607,12 +607,22 @@ def _exported_levels(path: Path, folder: Path) -> list[float]:
     table = next(p for p in written if p.suffix == ".csv")
     with open(table, newline="") as f:
         rows = [row for row in csv.reader(f) if row and not row[0].startswith("#")]
-    header = rows[0]  # then a row of units, then the ticks
+    header, body = rows[0], rows[1:]  # the names, then one row per tick
+    if body and not all(_is_number(cell) for cell in body[0]):
+        body = body[1:]  # a line of units under the names (exports before d0241e0)
     assert "assistance_level" in header, "the export has no per-tick assistance level"
     column = header.index("assistance_level")
     phase = header.index("phase")
-    values = [float(r[column]) for r in rows[2:] if float(r[phase]) > 0]
+    values = [float(r[column]) for r in body if float(r[phase]) > 0]
     return _dedup(values)
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def _differences(built: tuple, shown: tuple) -> str:
