@@ -154,9 +154,13 @@ BUSY_RETRY_S = 10.0
 
 def store_live_capture(trial_path: str | os.PathLike, captured, label: str) -> Imported:
     """What the window does when a trial's file closes while a live source streams: the
-    capture's samples from LIVE_MARGIN_S before the trial to as long after, channels named
-    EMG1…, into the trial's `/emg`."""
-    names = tuple(f"EMG{i + 1}" for i in range(captured.samples.shape[1]))
+    capture's samples from LIVE_MARGIN_S before the trial to as long after, into the
+    trial's `/emg`, each channel under the name its source declares (an LSL stream's
+    labels: the muscles, as a lab names them) or EMG1…"""
+    width = captured.samples.shape[1]
+    declared = captured.labels
+    names = declared if len(declared) == width and len(set(declared)) == width else tuple(
+        f"EMG{i + 1}" for i in range(width))
     return when_free(lambda: import_capture(trial_path, captured, names=names, source=label,
                                             margin_s=LIVE_MARGIN_S))
 

@@ -37,6 +37,9 @@ class Captured:
     rate_hz: float
     missing: int
     error: str
+    labels: tuple[str, ...] = ()
+    """The channels' names as the source declares them (an LSL stream's labels), one per
+    column, or () when it names none."""
 
 
 class EmgCapture:
@@ -142,9 +145,13 @@ class EmgCapture:
         with self._lock:
             chunks, forgotten = list(self._chunks), self._forgotten
         rate = float(self.source.rate_hz)
+        labels = tuple(getattr(self.source, "labels", ()) or ())
+        if labels and self.channels is not None:
+            labels = tuple(labels[k] for k in self.channels) if max(
+                self.channels, default=-1) < len(labels) else ()
         if not chunks:
             width = 0 if self.channels is None else len(self.channels)
-            return Captured(np.empty(0), np.empty((0, width)), rate, 0, self.error)
+            return Captured(np.empty(0), np.empty((0, width)), rate, 0, self.error, labels)
         t = np.concatenate([c[0] for c in chunks])
         x = np.concatenate([c[1] for c in chunks])
         origin = getattr(self.source, "origin_s", None)
@@ -152,4 +159,5 @@ class EmgCapture:
             t = origin + (forgotten + np.arange(t.size)) / rate
         span = (t[-1] - t[0]) * rate + 1 if t.size > 1 else t.size
         missing = max(0, round(span) - t.size)
-        return Captured(t, x, rate, missing, self.error)
+        return Captured(t, x, rate, missing, self.error,
+                        labels if len(labels) == x.shape[1] else ())

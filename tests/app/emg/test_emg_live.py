@@ -173,3 +173,36 @@ def test_an_lsl_source_without_units_is_refused_or_read_in_the_unit_given():
         got = np.vstack((got, source.read(0.2)[1]))
     np.testing.assert_array_equal(got[0], [250e-6, -1000e-6])
     source.close()
+
+
+def test_a_live_lsl_capture_keeps_the_muscles_its_stream_names(plain_trial, tmp_path):
+    """The stream's labels (LabRecorder's and the EMG software's channel names: the
+    muscles) name the trial's EMG channels; they were stored as EMG1…"""
+    from app.emg.importing import store_live_capture
+
+    name = f"test-{uuid.uuid4().hex[:12]}"
+    info = pylsl.StreamInfo(name, "EMG", 2, 2000.0, pylsl.cf_int16, name)
+    described = info.desc().append_child("channels")
+    for label in ("biceps", "triceps"):
+        channel = described.append_child("channel")
+        channel.append_child_value("label", label)
+        channel.append_child_value("unit", "uV")
+    outlet = pylsl.StreamOutlet(info)
+    inlet = LslEmgInlet(name, timeout_s=5.0).open(5.0)
+    deadline = time.monotonic() + 10
+    while not outlet.have_consumers():
+        assert time.monotonic() < deadline
+        time.sleep(0.01)
+    origin = time.monotonic()
+    capture = EmgCapture(inlet).start()
+    stamps = origin + 0.5 + np.arange(2000) / 2000.0
+    outlet.push_chunk(np.full((2000, 2), 150, dtype=np.int16), timestamp=stamps.tolist())
+    _capture_until(capture, 2000)
+    captured = capture.stop()
+    assert captured.labels == ("biceps", "triceps")
+    trial = _live_trial(plain_trial, tmp_path, origin)
+    done = store_live_capture(trial, captured, f"lsl:{name}")
+    assert done.names == ("biceps", "triceps")
+    emg = read_emg(trial)
+    assert emg.names == ("biceps", "triceps")
+    np.testing.assert_array_equal(emg.samples[:5], np.full((5, 2), 150e-6))
