@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import hashlib
+import io
 import json
 import os
 import signal
@@ -436,11 +437,26 @@ def changed_files(before: dict, after: dict, args: tuple[str, ...], scratch: Scr
         if (path.startswith(str(scratch.data / "trials") + "/")
                 and (command in WRITE_INTO_TRIALS or command[:1] in WRITE_INTO_TRIALS)):
             continue
+        if (path.startswith(str(scratch.data / "reports") + "/") and command[:1] == ("report",)
+                and overwrite_asked(args)):
+            continue  # `rehab report ID --overwrite` (or --force) writes its report again
         if (stat.S_ISDIR(was[0]) and now is not None and stat.S_ISDIR(now[0])
                 and was[1] == now[1]):
             continue  # a folder whose entries changed: its files are judged themselves
         wrong.append(f"{path}: {'removed' if now is None else 'changed'}")
     return wrong
+
+
+def overwrite_asked(args: tuple[str, ...]) -> bool:
+    """Whether the argument list asks to replace an existing output, as the console's own
+    parser reads it (`--force`, `--overwrite`, and any prefix argparse takes for them)."""
+    from app.cli.main import build_parser
+
+    parser, _ = build_parser()
+    with contextlib.redirect_stderr(io.StringIO()), contextlib.suppress(SystemExit):
+        read, _ = parser.parse_known_args(list(args))
+        return bool(getattr(read, "overwrite", False))
+    return False
 
 
 def judge(run: Run, changed: list[str]) -> list[str]:

@@ -66,3 +66,24 @@ def test_the_fuzz_reaches_every_command():
     """Every command group is fuzzed: the list is read off the parser."""
     assert {c[0] for c in COMMANDS} >= {"check", "run", "patients", "trials", "progress",
                                         "report", "export", "pose", "gains", "learn", "emg"}
+
+
+def test_a_report_written_again_counts_as_named_only_when_asked_to(tmp_path):
+    """`rehab report ID --force` (or --overwrite, or a prefix argparse takes) writes the data
+    folder's report of that trial again, as asked; without it the change is the fuzzer's
+    finding (bench/fuzz_cli.py counted 21 such runs as files changed they were not given)."""
+    import stat
+    from types import SimpleNamespace
+
+    scratch = SimpleNamespace(folder=tmp_path, data=tmp_path / "data")
+    report = str(scratch.data / "reports" / "P1" / "P1_S001_T001.pdf")
+    trial = str(scratch.data / "trials" / "P1" / "P1_S001_T001.h5")
+    before = {report: (stat.S_IFREG | 0o600, 10, "old"), trial: (stat.S_IFREG | 0o600, 9, "t")}
+    after = {report: (stat.S_IFREG | 0o600, 11, "new"), trial: (stat.S_IFREG | 0o600, 9, "t")}
+    for asked in (("report", "1", "--force"), ("report", "1", "--overwrite"),
+                  ("report", "1", "--forc", "--first-name")):
+        assert changed_files(before, after, asked, scratch) == [], asked
+    for unasked in (("report", "1"), ("report", "1", "--first-name"),
+                    ("trials", "--force"), ("report", "x", "--force")):
+        assert changed_files(before, after, unasked, scratch) == [f"{report}: changed"], \
+            unasked
