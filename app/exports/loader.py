@@ -33,7 +33,9 @@ CSV export (app.exports.columns), ready for `pandas.DataFrame(trial.table())`.
 `load_study` reads only the metadata of each file (milliseconds each, no
 samples) into one row per readable trial. Row keys:
 
-* `file` (the path relative to the study folder), `status`, `created_utc`,
+* `file` (the path relative to the study folder), `status`, `seal` (how far the file
+  was verified: `verified`, or `unsealed (older format)` for a file written before trial
+  files were sealed, …; app.trials.reader), `created_utc`,
   `backend`, `software_version`, `format_version`, `n_samples`,
   `sample_period_s`, `recorded_s` (n_samples × sample_period_s);
 * `subject_code`, `subject_body_mass_kg`, `subject_upper_arm_m`,
@@ -63,9 +65,9 @@ import numpy as np
 
 from app.errors import AppError, TrialFileError
 from app.exports.columns import column_values, components, table_columns
+from app.trials.opening import UNSEALED_OLDER, seal_of
 from app.trials.reader import (
     TrialData,
-    group_attributes,
     parameters_from_attributes,
     plain_attribute,
     read_groups,
@@ -75,13 +77,14 @@ from app.trials.reader import (
 from core.trial import TrialParameters
 from device.loop.pipeline import PHASE_EXERCISE
 from device.recording.trialfile import FORMAT_NAME, FORMAT_VERSION, STATUS_RECORDING, SubjectInfo
+from device.recording.trialfile.verify import Damaged, check_heaps, held, inventory
 
 log = logging.getLogger(__name__)
 
 Progress = Callable[[float], None]
 
-_INFO_KEYS = ("file", "status", "created_utc", "backend", "software_version", "format_version",
-              "n_samples", "sample_period_s", "recorded_s")
+_INFO_KEYS = ("file", "status", "seal", "created_utc", "backend", "software_version",
+              "format_version", "n_samples", "sample_period_s", "recorded_s")
 _SUBJECT_KEYS = ("code", "body_mass_kg", "upper_arm_m", "forearm_m", "side")
 
 
@@ -104,6 +107,8 @@ class TrialInfo:
     software_version: str
     format_version: int
     notes: tuple[str, ...]
+    seal: str
+    """How far the file was verified (app.trials.reader: SEALED, UNSEALED_OLDER, …)."""
 
     @property
     def sampling_frequency_hz(self) -> float:
@@ -129,6 +134,7 @@ class TrialInfo:
         row = {
             "file": file,
             "status": self.status,
+            "seal": self.seal,
             "created_utc": self.created_utc,
             "backend": self.backend,
             "software_version": self.software_version,
@@ -304,7 +310,7 @@ def read_info(path: str | os.PathLike) -> TrialInfo:
     try:
         info = _read_info(path)
     except (OSError, RuntimeError, ValueError, KeyError, TypeError, AttributeError,
-            IndexError) as exc:
+            IndexError, Damaged) as exc:
         # a damaged layout (a group where a dataset should be, …) surfaces as any of these
         log.debug("%s: quick metadata read failed (%s); reading it whole", path, exc)
         info = None
@@ -396,6 +402,7 @@ def _info_values(data: TrialData) -> dict:
         "software_version": data.software_version,
         "format_version": data.format_version,
         "notes": data.notes,
+        "seal": data.seal,
     }
 
 
@@ -423,9 +430,19 @@ def _parameter_values(attrs: Mapping) -> dict:
 
 
 def _read_info(path: Path) -> TrialInfo | None:
-    """The quick path: attributes only. None when the file needs the full reader."""
+    """The quick path: attributes only, checked as the full reader checks them (the file's
+    structure, its seal's parts for the root, the parameters, the channel table, the summary
+    and the metrics). None when the file needs the full reader, which recovers what it can
+    or says what is wrong."""
+    with held(path):  # one thread at a time in a trial file (verify.held)
+        return _quick_info(path)
+
+
+def _quick_info(path: Path) -> TrialInfo | None:
+    check_heaps(path)  # before libhdf5 reads a text attribute (app.trials.reader)
     with h5py.File(path, "r", locking=False) as f:  # as app.trials.reader opens it
-        attrs = {key: plain_attribute(value) for key, value in f.attrs.items()}
+        found = inventory(f, path.stat().st_size)
+        attrs = _plain(found, "/")
         version = attrs.get("format_version")
         period = attrs.get("sample_period_s")
         status = attrs.get("status")
@@ -433,18 +450,29 @@ def _read_info(path: Path) -> TrialInfo | None:
                 or isinstance(version, bool) or not 1 <= version <= FORMAT_VERSION
                 or not isinstance(period, float) or not math.isfinite(period) or period <= 0
                 or not isinstance(status, str) or status == STATUS_RECORDING
-                or not all(name in f for name in ("timeseries", "channels", "events"))):
+                or not {"/timeseries", "/channels", "/events"} <= found.paths):
             return None
+        seal, mark, notes = seal_of(f, found, attrs)
+        if (seal is None and mark != UNSEALED_OLDER) or (notes and seal is not None):
+            return None  # the full reader says how far such a file verifies
+        if seal is not None:
+            seal.check("/channels", found)
+            for room in ("/parameters", "/timeseries", "/summary", "/metrics"):
+                seal.check_room(found, room, skip={p for p in found.datasets
+                                                   if p.startswith("/timeseries/")})
         lengths = {d.shape[0] for d in f["timeseries"].values()}
         if len(lengths) > 1:
             return None
         n = lengths.pop() if lengths else 0
         if n and "tick" in f["timeseries"] and f["timeseries/tick"][n - 1] == -1:
             return None
-        metrics = {k: float(v) for k, v in group_attributes(f, "metrics").items()}
-        summary = group_attributes(f, "summary")
+        metrics = {k: float(v) for k, v in _plain(found, "/metrics").items()}
+        summary = _plain(found, "/summary")
+        if seal is not None and summary.get("n_samples") != n:
+            return None  # the samples' count is sealed in the summary; they disagree
     values = _parameter_values(attrs)
-    parameters, notes = parameters_from_attributes(attrs)
+    parameters, more = parameters_from_attributes(attrs)
+    notes += more
     subject, subject_notes = subject_from_attributes(attrs)
     notes += subject_notes
     return TrialInfo(
@@ -454,8 +482,12 @@ def _read_info(path: Path) -> TrialInfo | None:
         sample_period_s=period, n_samples=n, created_utc=str(attrs.get("created_utc", "")),
         backend=str(attrs.get("backend", "")),
         software_version=str(attrs.get("software_version", "")), format_version=version,
-        notes=tuple(notes),
+        notes=tuple(notes), seal=mark,
     )
+
+
+def _plain(found, path: str) -> dict:
+    return {key: plain_attribute(value) for key, value in found.attrs.get(path, {}).items()}
 
 
 def _array(values: list) -> np.ndarray:

@@ -20,6 +20,8 @@ from core.pose.keypoints import KEYPOINT_NAMES
 from core.pose.pipeline import PoseResult
 from device.errors import RecordingError
 from device.recording.trialfile import STATUS_RECORDING, open_for_update, utc_now_iso
+from device.recording.trialfile.seal import Seal
+from device.recording.trialfile.verify import Damaged, check_heaps, held, inventory
 
 GROUP = "pose"
 # dataset: (units, frame, description)
@@ -104,7 +106,7 @@ def write_pose(path: str | os.PathLike, result: PoseResult, run: PoseRun) -> Non
     for joint in result.errors_camera_shoulder:
         attrs.update(joint.to_dict("camera_vs_solver_camera_shoulder_"))
     try:
-        with open_for_update(path) as f:
+        with open_for_update(path, "/pose") as f:
             if f.attrs.get("status") == STATUS_RECORDING:
                 raise RecordingError(f"{path} is still being recorded; run pose estimation "
                                      "after the trial has ended")
@@ -126,22 +128,79 @@ def write_pose(path: str | os.PathLike, result: PoseResult, run: PoseRun) -> Non
                              "space and the file is not open in another program") from exc
 
 
+SHAPES = {
+    "frame_time": ("F",), "frame_index": ("F",), "frame_keypoints_px": ("F", 4, 2),
+    "frame_visibility": ("F", 4), "frame_keypoints": ("F", 4, 2), "angle": ("N", 2),
+    "angle_isb": ("N", 2), "shoulder": ("N", 2), "shoulder_drift": ("N",),
+    "solver_angle_camera_shoulder": ("N", 2), "homography": (3, 3),
+}
+"""Each dataset's shape: F the frames decoded, N the trial's samples (docs/data-format.md)."""
+
+
 def read_pose(path: str | os.PathLike) -> dict | None:
     """The `/pose` group as {"attrs": {...}, name: array, ...}, or None when the trial has
-    none."""
+    none. Compared with the file's seal (device.recording.trialfile.seal) and checked
+    whoever wrote it: every dataset there, numbers of the shapes SHAPES gives."""
     path = Path(path)
     try:
-        with h5py.File(path, "r", locking=False) as f:
-            if GROUP not in f:
-                return None
-            group = f[GROUP]
-            out = {"attrs": {k: _plain(v) for k, v in group.attrs.items()}}
-            for name in group:
-                out[name] = group[name][()]
-            return out
-    except (OSError, RuntimeError, ValueError, KeyError) as exc:
-        raise TrialFileError(path, f"its pose group cannot be read ({exc})",
+        with held(path):  # one thread at a time in a trial file (verify.held)
+            return _read(path)
+    except Damaged as exc:
+        raise TrialFileError(path, exc.problem, "Run `rehab pose` on the trial again, or "
+                             "restore the file from the backup") from None
+    except (OSError, RuntimeError, ValueError, KeyError, TypeError) as exc:
+        detail = " ".join(str(exc).split())
+        raise TrialFileError(path, f"its pose group cannot be read ({detail})",
                              "Run `rehab pose` on the trial again") from exc
+
+
+def _read(path: Path) -> dict | None:
+    check_heaps(path)
+    with h5py.File(path, "r", locking=False) as f:
+        found = inventory(f)
+        if f"/{GROUP}" not in found.paths:
+            return None
+        seal = Seal.read(f)
+        if seal is not None:
+            seal.check_structure(found)
+            seal.check_room(found, f"/{GROUP}")
+        group = found.groups.get(f"/{GROUP}")
+        if group is None:
+            raise Damaged("is damaged: /pose is not a group")
+        out = {"attrs": {k: _plain(v) for k, v in group.attrs.items()}}
+        for name in group:
+            if f"/{GROUP}/{name}" not in found.datasets:
+                raise Damaged(f"is damaged: /pose/{name} is not a dataset")
+            out[name] = group[name][()]
+        time = found.datasets.get("/timeseries/time")
+        _check_shapes(out, None if time is None else time.shape[0])
+        return out
+
+
+def _check_shapes(group: dict, n_samples: int | None) -> None:
+    """Every dataset of SHAPES there, of its shape, N the trial's samples, the frames'
+    indices increasing from 0 or more."""
+    sizes: dict[str, int] = {} if n_samples is None else {"N": n_samples}
+    for name, shape in SHAPES.items():
+        values = group.get(name)
+        if not isinstance(values, np.ndarray):
+            raise Damaged(f"is damaged: /pose/{name} is missing")
+        kinds = "iu" if name == "frame_index" else "f"
+        fits = values.dtype.kind in kinds and values.ndim == len(shape)
+        for size, want in zip(values.shape, shape, strict=False):
+            if isinstance(want, int):
+                fits = fits and size == want
+            else:
+                fits = fits and sizes.setdefault(want, size) == size
+        if not fits:
+            wanted = ", ".join(map(str, shape))
+            raise Damaged(f"is damaged: /pose/{name} holds {values.dtype} of shape "
+                          f"{values.shape}, not ({wanted}{',' if len(shape) == 1 else ''}; "
+                          f"N = {sizes.get('N', '?')} samples)")
+    index = group["frame_index"]
+    if index.size and (index[0] < 0 or (np.diff(index) <= 0).any()):
+        raise Damaged("is damaged: /pose/frame_index is not frame numbers from 0 that only "
+                      "increase")
 
 
 def _plain(value):

@@ -4,6 +4,12 @@ A file that cannot be trusted raises `TrialFileError` naming the file, the probl
 and what to do. A file that is sound but incomplete — still being recorded, or
 left behind by a crash — is read as far as it goes, and `TrialData.notes` says
 what was recovered.
+
+Before h5py reads a value, the file's structure is checked (device.recording.trialfile.
+verify: no heap libhdf5 would loop on, no link, no virtual or external dataset, no size
+beyond the file's), and what is read is compared with the file's seal
+(device.recording.trialfile.seal); `TrialData.seal` says how far it was verified, and a
+file written before seals existed says so in its notes (docs/data-format.md, "The seal").
 """
 
 from __future__ import annotations
@@ -11,8 +17,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import re
-import time
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,18 +25,21 @@ import h5py
 import numpy as np
 
 from app.errors import TrialFileError
+from app.trials import checks
 from app.trials.assistance_timeline import AssistanceInEffect, assistance_in_effect
+from app.trials.opening import (
+    RESTORE,
+    SEALED,
+    check_file,
+    one_line,
+    open_trial_file,
+    seal_of,
+)
 from core.errors import CoreError
 from core.trial import TrialParameters
 from device.errors import RecordingError
 from device.recording.trialfile import FORMAT_NAME, FORMAT_VERSION, STATUS_RECORDING, SubjectInfo
-
-# A writer's final reopen (docs/data-format.md, "Closing") takes milliseconds;
-# a reader that meets it waits that long rather than failing.
-_BUSY_RETRY_S = 2.0
-_BUSY_PAUSE_S = 0.1
-
-_RESTORE = "Restore it from the backup or the original"
+from device.recording.trialfile.verify import Damaged, Inventory, held, inventory
 
 
 @dataclass(frozen=True, slots=True)
@@ -58,6 +65,9 @@ class TrialData:
     created_utc: str
     attrs: dict
     notes: tuple[str, ...]
+    seal: str = SEALED
+    """How far the file was verified: SEALED, HEADER_ONLY, CLOSE_INTERRUPTED or
+    UNSEALED_OLDER (never shown as verified when it was not)."""
     assistance: dict = field(default_factory=dict)
     """The /assistance group (docs/data-format.md): its attributes (the mode, the level,
     the guidance's gains) and its arrays (`feedforward_N`, repetitions × bins); {} in a
@@ -100,143 +110,79 @@ def read_trial(path: str | os.PathLike, channels: Iterable[str] | None = None) -
     checks), for a reader that needs only some of a long trial's samples in memory (the
     metrics); all of them by default."""
     path = Path(path)
-    _check_file(path)
-    f = _open(path)
+    check_file(path)
+    with held(path):
+        return _read_trial(path, None if channels is None else {"tick", "time", *channels})
+
+
+def _read_trial(path: Path, only: set[str] | None) -> TrialData:
+    f = open_trial_file(path)
     try:
-        return _read(path, f, None if channels is None else {"tick", "time", *channels})
+        return _read(path, f, only)
     except TrialFileError:
         raise
+    except Damaged as exc:
+        raise TrialFileError(path, exc.problem, RESTORE + ".") from None
     except (OSError, RuntimeError, ValueError, KeyError, TypeError) as exc:
         raise TrialFileError(
-            path, f"is damaged: reading it failed ({exc})", _RESTORE + "."
+            path, f"is damaged: reading it failed ({one_line(exc)})", RESTORE + "."
         ) from exc
     finally:
         f.close()
-
-
-# -- opening ----------------------------------------------------------------
-
-
-def _check_file(path: Path) -> None:
-    if not path.exists():
-        raise TrialFileError(
-            path, "does not exist",
-            "Check the path; if the registry lists it, the file was moved or deleted. "
-            + _RESTORE + ".",
-        )
-    if not path.is_file():
-        raise TrialFileError(path, "is not a file (a folder?)", "Choose the trial's .h5 file.")
-    try:
-        size = path.stat().st_size
-    except OSError as exc:
-        raise TrialFileError(path, f"cannot be examined ({exc})", "Check the disk.") from exc
-    if size == 0:
-        raise TrialFileError(
-            path, "is empty (0 bytes): nothing was ever written to it",
-            "No data can be recovered from it; record the trial again or restore the file "
-            "from the backup.",
-        )
-    try:
-        is_hdf5 = h5py.is_hdf5(path)
-    except OSError as exc:
-        raise TrialFileError(path, f"cannot be read ({exc})",
-                             "Check its permissions and the disk.") from exc
-    if not is_hdf5:
-        raise TrialFileError(
-            path, f"is not an HDF5 file ({size} bytes without the HDF5 signature): it is "
-            "another kind of file or badly damaged",
-            "Choose the trial's .h5 file. " + _RESTORE + ".",
-        )
-
-
-def _open(path: Path) -> h5py.File:
-    deadline = time.monotonic() + _BUSY_RETRY_S
-    while True:
-        try:
-            # A closed file opens normally. One being recorded (or left behind by a
-            # crash) carries HDF5's "open for writing" flag and opens only as an
-            # SWMR reader, which sees every flushed sample. Without HDF5's file locks,
-            # as every other open of a trial file in the window's process (the metrics,
-            # the EMG and the pose written beside it): HDF5 refuses a second open of a
-            # file in one process with the other locking flag ("file locking flag values
-            # don't match"), which failed a read while the window stored a trial's EMG.
-            try:
-                return h5py.File(path, "r", locking=False)
-            except OSError as exc:
-                if not _open_for_write(exc):
-                    raise
-            return h5py.File(path, "r", swmr=True, locking=False)
-        except OSError as exc:
-            if _open_for_write(exc) and time.monotonic() < deadline:
-                time.sleep(_BUSY_PAUSE_S)
-                continue
-            raise _open_error(path, exc) from exc
-
-
-def _open_for_write(exc: OSError) -> bool:
-    text = str(exc)
-    return "already open for write" in text or "unable to lock file" in text
-
-
-def _open_error(path: Path, exc: OSError) -> TrialFileError:
-    text = str(exc)
-    truncated = re.search(r"truncated file: eof = (\d+).*stored_eof = (\d+)", text)
-    if truncated:
-        have, need = int(truncated.group(1)), int(truncated.group(2))
-        return TrialFileError(
-            path, f"is truncated: it holds {have} bytes of the {need} its header records, so it "
-            "was cut short (an interrupted copy or download, or a full disk)",
-            "Copy it again from the original, or restore it from the backup.",
-        )
-    if _open_for_write(exc):
-        return TrialFileError(
-            path, "is held open for writing by another program, not in the recorder's "
-            "live (SWMR) mode",
-            "Close the program that has it open; if none does, it was left so by a crash "
-            "while the trial was being closed: run `h5clear -s` on a copy of the file.",
-        )
-    if isinstance(exc, PermissionError):
-        return TrialFileError(path, "cannot be read: permission denied",
-                              "Check the file's permissions.")
-    return TrialFileError(path, f"cannot be opened as HDF5 ({text}); it is damaged",
-                          _RESTORE + ".")
 
 
 # -- reading ----------------------------------------------------------------
 
 
 def _read(path: Path, f: h5py.File, only: set[str] | None) -> TrialData:
-    attrs = {key: plain_attribute(value) for key, value in f.attrs.items()}
+    found = inventory(f, os.path.getsize(path))
+    attrs = _plain(found, "/")
     _check_format(path, attrs)
-    notes: list[str] = []
     for name in ("timeseries", "channels", "events"):
-        if name not in f:
-            raise TrialFileError(path, f"is damaged: it has no /{name}", _RESTORE + ".")
-
+        if f"/{name}" not in found.paths:
+            raise TrialFileError(path, f"is damaged: it has no /{name}", RESTORE + ".")
+    if "/timeseries" not in found.groups or "/channels" not in found.datasets \
+            or "/events" not in found.datasets:
+        raise Damaged("is damaged: /timeseries is not a group, or /channels or /events not a "
+                      "dataset")
     status = str(attrs.get("status", ""))
+    seal, mark, notes = seal_of(f, found, attrs)
     if status == STATUS_RECORDING:
         notes.append(
             "the file is not closed: it is still being recorded, or the recorder stopped "
             "without closing it (crash or power cut); every sample flushed before then is here"
         )
 
-    order = [_text(row["name"]) for row in f["channels"][()]]
+    table = f["channels"][()]
+    if table.dtype.names is None or not {"name", "width", "dtype"} <= set(table.dtype.names):
+        raise Damaged("is damaged: /channels is not the channel table (name, width, dtype, "
+                      "units, frame, description)")
+    if seal is not None:
+        seal.check("/channels", found, table)
+        for room in ("/parameters", "/timeseries", "/summary", "/metrics", "/assistance"):
+            seal.check_room(found, room, skip={p for p in found.datasets
+                                               if p.startswith("/timeseries/")})
+    order = [_text(row["name"]) for row in table]
     series = f["timeseries"]
     for name in order:
-        if name not in series:
+        if f"/timeseries/{name}" not in found.datasets:
             raise TrialFileError(
                 path, f"is damaged: the channel table lists {name} but /timeseries has no such "
-                "dataset", _RESTORE + ".",
+                "dataset", RESTORE + ".",
             )
     order += sorted(set(series) - set(order))
     datasets = {name: series[name] for name in order}
-    for name, dataset in datasets.items():
-        if not isinstance(dataset, h5py.Dataset):
+    for name in datasets:
+        if f"/timeseries/{name}" not in found.datasets:
             raise TrialFileError(path, f"is damaged: /timeseries/{name} is not a dataset",
-                                 _RESTORE + ".")
+                                 RESTORE + ".")
+    checks.check_channel_datasets(table, datasets, _text)
     channels, trim_notes = _read_channels(path, datasets, only)
     notes += trim_notes
-    _check_samples(path, channels)
+    if seal is not None:
+        for name, values in channels.items():
+            seal.check(f"/timeseries/{name}", found, values)
+    checks.check_samples(channels)
 
     parameters, note = parameters_from_attributes(attrs)
     notes += note
@@ -244,22 +190,26 @@ def _read(path: Path, f: h5py.File, only: set[str] | None) -> TrialData:
     notes += note
     robot, note = _json_attr(attrs, "robot")
     notes += note
-    events, note = _events(f["events"])
+    event_rows = f["events"][()]
+    if seal is not None:
+        seal.check("/events", found, event_rows)
+    events, note = _events(event_rows)
     notes += note
 
     return TrialData(
         path=path,
         channels=channels,
-        units={n: _text(d.attrs.get("units", "")) for n, d in datasets.items()},
-        frames={n: _text(d.attrs.get("frame", "")) for n, d in datasets.items()},
-        descriptions={n: _text(d.attrs.get("description", "")) for n, d in datasets.items()},
+        units={n: _text(found.attrs[f"/timeseries/{n}"].get("units", "")) for n in datasets},
+        frames={n: _text(found.attrs[f"/timeseries/{n}"].get("frame", "")) for n in datasets},
+        descriptions={n: _text(found.attrs[f"/timeseries/{n}"].get("description", ""))
+                      for n in datasets},
         parameters=parameters,
         subject=subject,
         robot=robot if isinstance(robot, dict) else {},
         backend=str(attrs.get("backend", "")),
         events=events,
-        metrics={k: float(v) for k, v in group_attributes(f, "metrics").items()},
-        summary=group_attributes(f, "summary"),
+        metrics=_metrics(found),
+        summary=_plain(found, "/summary"),
         status=status,
         sample_period_s=float(attrs["sample_period_s"]),
         format_version=int(attrs["format_version"]),
@@ -267,8 +217,24 @@ def _read(path: Path, f: h5py.File, only: set[str] | None) -> TrialData:
         created_utc=str(attrs.get("created_utc", "")),
         attrs=attrs,
         notes=tuple(notes),
-        assistance=_assistance(f),
+        seal=mark,
+        assistance=_assistance(f, found),
     )
+
+
+def _plain(found: Inventory, path: str) -> dict:
+    """A group's attributes as plain values (read once by the structure walk), {} when the
+    group is absent."""
+    return {key: plain_attribute(value) for key, value in found.attrs.get(path, {}).items()}
+
+
+def _metrics(found: Inventory) -> dict[str, float]:
+    values = _plain(found, "/metrics")
+    wrong = sorted(k for k, v in values.items()
+                   if isinstance(v, bool) or not isinstance(v, int | float))
+    if wrong:
+        raise Damaged(f"is damaged: /metrics {', '.join(wrong[:3])} is not a number")
+    return {k: float(v) for k, v in values.items()}
 
 
 def _check_format(path: Path, attrs: dict) -> None:
@@ -282,7 +248,7 @@ def _check_format(path: Path, attrs: dict) -> None:
     version = attrs.get("format_version")
     if isinstance(version, bool) or not isinstance(version, int) or version < 1:
         raise TrialFileError(
-            path, f"has an invalid format_version {version!r}", _RESTORE + "."
+            path, f"has an invalid format_version {version!r}", RESTORE + "."
         )
     if version > FORMAT_VERSION:
         raise TrialFileError(
@@ -293,34 +259,7 @@ def _check_format(path: Path, attrs: dict) -> None:
         )
     period = attrs.get("sample_period_s")
     if not isinstance(period, float) or not math.isfinite(period) or period <= 0:
-        raise TrialFileError(path, f"has an invalid sample_period_s {period!r}", _RESTORE + ".")
-
-
-def _check_samples(path: Path, channels: dict) -> None:
-    """What every trial file's samples satisfy, whoever wrote it: `tick` whole numbers
-    from 0 that only increase, and `time` finite seconds that only increase. A file that
-    breaks one was damaged (a bit flipped in a
-    file written before checksums, an edited file) and is refused, naming the dataset."""
-    def refuse(name: str, problem: str) -> None:
-        raise TrialFileError(path, f"is damaged: /timeseries/{name} {problem}", _RESTORE + ".")
-
-    for name in ("tick", "time"):
-        values = channels.get(name)
-        if values is None or values.size == 0:
-            continue
-        if values.dtype.kind not in ("iu" if name == "tick" else "f"):
-            refuse(name, f"holds {values.dtype} values, not "
-                   + ("whole numbers" if name == "tick" else "seconds"))
-        if name == "time" and not np.isfinite(values).all():
-            bad = int(np.flatnonzero(~np.isfinite(values))[0])
-            refuse(name, f"is {values[bad]} at sample {bad}")
-        if name == "tick" and values[0] < 0:
-            refuse(name, f"starts at {values[0]}, below 0")
-        step = np.diff(values.astype(float) if name == "time" else values)
-        if values.size > 1 and not (step > 0).all():
-            bad = int(np.flatnonzero(~(step > 0))[0])
-            refuse(name, f"goes from {values[bad]} to {values[bad + 1]} at sample {bad + 1}; "
-                   "it only ever increases")
+        raise TrialFileError(path, f"has an invalid sample_period_s {period!r}", RESTORE + ".")
 
 
 def _read_channels(path: Path, datasets: dict[str, h5py.Dataset],
@@ -344,7 +283,7 @@ def _read_channels(path: Path, datasets: dict[str, h5py.Dataset],
             # Fletcher-32 (and any other filter) fails the read of a damaged chunk
             raise TrialFileError(
                 path, f"is damaged: /timeseries/{name} does not match its checksum ({exc}); "
-                "a bit changed on the disk or in a copy", _RESTORE + ".") from exc
+                "a bit changed on the disk or in a copy", RESTORE + ".") from exc
     # Rows extended but never written read as the fill value; -1 is no tick.
     tick = channels.get("tick")
     if tick is not None and tick.ndim == 1 and n and tick[-1] == -1:
@@ -384,17 +323,21 @@ def subject_from_attributes(attrs: dict) -> tuple[SubjectInfo | None, list[str]]
 
 
 def _json_attr(attrs: dict, key: str):
-    if key not in attrs:
+    """A root attribute's JSON object, or None with a note when the file has none; Damaged
+    when it is there but not a JSON object."""
+    value = checks.json_object_attribute(attrs, key)
+    if value is None:
         return None, [f"the file has no '{key}' attribute"]
-    try:
-        return json.loads(attrs[key]), []
-    except (TypeError, ValueError) as exc:
-        return None, [f"the '{key}' attribute is not valid JSON ({exc})"]
+    return value, []
 
 
-def _events(dataset: h5py.Dataset) -> tuple[list[dict], list[str]]:
+def _events(rows: np.ndarray) -> tuple[list[dict], list[str]]:
     events, notes = [], []
-    for row in dataset[()]:
+    if rows.dtype.names is None or not {"time_s", "tick", "kind", "message", "values"} <= set(
+            rows.dtype.names):
+        raise Damaged("is damaged: /events is not the events table (time_s, tick, kind, "
+                      "message, values)")
+    for row in rows:
         kind = _text(row["kind"])
         if not kind:
             # Reserved by a resize the writer did not live to fill.
@@ -403,9 +346,11 @@ def _events(dataset: h5py.Dataset) -> tuple[list[dict], list[str]]:
         try:
             values = json.loads(raw) if raw else {}
         except ValueError:
+            values = None
+        if not isinstance(values, dict):
             values = {"raw": raw}
             notes.append(f"the values of the {kind!r} event at tick {int(row['tick'])} are not "
-                         "valid JSON; kept as text under 'raw'")
+                         "a JSON object; kept as text under 'raw'")
         events.append({
             "time_s": float(row["time_s"]),
             "tick": int(row["tick"]),
@@ -427,13 +372,27 @@ def read_groups(path: str | os.PathLike, names: Iterable[str] = BESIDE_GROUPS) -
     dicts, for a researcher's export (app.exports); raises TrialFileError naming the file
     when one cannot be read."""
     path = Path(path)
-    f = _open(path)
+    with held(path):
+        return _read_groups(path, names)
+
+
+def _read_groups(path: Path, names: Iterable[str]) -> dict:
+    f = open_trial_file(path)
     try:
-        return {name: _group_dict(f[name]) for name in names
-                if isinstance(f.get(name), h5py.Group)}
+        found = inventory(f, os.path.getsize(path))
+        attrs = {key: plain_attribute(value) for key, value in f.attrs.items()}
+        _check_format(path, attrs)
+        seal, _, _ = seal_of(f, found, attrs)
+        chosen = [name for name in names if f"/{name}" in found.groups]
+        if seal is not None:
+            for name in chosen:
+                seal.check_room(found, f"/{name}")
+        return {name: _group_dict(f[name]) for name in chosen}
+    except Damaged as exc:
+        raise TrialFileError(path, exc.problem, RESTORE + ".") from None
     except (OSError, RuntimeError, ValueError, KeyError, TypeError) as exc:
-        raise TrialFileError(path, f"is damaged: reading its groups failed ({exc})",
-                             _RESTORE + ".") from exc
+        raise TrialFileError(path, f"is damaged: reading its groups failed "
+                             f"({one_line(exc)})", RESTORE + ".") from exc
     finally:
         f.close()
 
@@ -462,13 +421,12 @@ def _column(values):
     return values
 
 
-def _assistance(f: h5py.File) -> dict:
-    group = f.get("assistance")
-    if not isinstance(group, h5py.Group):
+def _assistance(f: h5py.File, found: Inventory) -> dict:
+    if "/assistance" not in found.groups:
         return {}
-    arrays = {name: np.asarray(item[()], dtype=float) for name, item in group.items()
-              if isinstance(item, h5py.Dataset)}
-    return {**group_attributes(f, "assistance"), **arrays}
+    arrays = {name[len("/assistance/"):]: np.asarray(item[()], dtype=float)
+              for name, item in found.datasets.items() if name.startswith("/assistance/")}
+    return {**_plain(found, "/assistance"), **arrays}
 
 
 def group_attributes(f: h5py.File, name: str) -> dict:

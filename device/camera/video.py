@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from device.camera.capture import read_timestamps, timestamps_path
+from device.camera.capture import timestamps_path
 from device.errors import VideoError
 
 # A recording stopped by a crash may have written one frame's stamp and not its picture
@@ -58,16 +58,7 @@ def open_video(path: str | os.PathLike) -> VideoInfo:
     if not sidecar.is_file():
         raise VideoError(f"video {path} has no timestamps file {sidecar.name} beside it; "
                          "without it its frames cannot be placed on the trial's clock")
-    try:
-        stamps = read_timestamps(sidecar)
-    except (OSError, ValueError) as exc:
-        raise VideoError(f"timestamps {sidecar} cannot be read ({exc}); it must be the CSV "
-                         "the console writes (frame,monotonic_s)") from exc
-    if stamps.size == 0:
-        raise VideoError(f"timestamps {sidecar} list no frames: the camera recorded nothing")
-    if not np.isfinite(stamps).all() or np.any(np.diff(stamps) <= 0):
-        raise VideoError(f"timestamps {sidecar} are not increasing times; the file is "
-                         "damaged")
+    stamps = _timestamps(sidecar)
     cv2 = _cv2()
     capture = cv2.VideoCapture(str(path))
     try:
@@ -91,6 +82,34 @@ def open_video(path: str | os.PathLike) -> VideoInfo:
     return VideoInfo(path, frames, width, height, fps, stamps)
 
 
+def _timestamps(sidecar: Path) -> np.ndarray:
+    """The sidecar's stamps, checked: `frame,monotonic_s` rows, the frames 0, 1, 2… in
+    order, the stamps finite and increasing; VideoError in one line otherwise."""
+    try:
+        rows = np.loadtxt(sidecar, delimiter=",", skiprows=1, ndmin=2)
+    except (OSError, ValueError, UnicodeDecodeError) as exc:
+        raise VideoError(f"timestamps {sidecar} cannot be read ({_one_line(exc)}); it must be "
+                         "the CSV the console writes (frame,monotonic_s)") from exc
+    if rows.size == 0:
+        raise VideoError(f"timestamps {sidecar} list no frames: the camera recorded nothing")
+    if rows.shape[1] != 2:
+        raise VideoError(f"timestamps {sidecar} have {rows.shape[1]} columns, not the two "
+                         "the console writes (frame,monotonic_s); the file is damaged")
+    if not np.array_equal(rows[:, 0], np.arange(rows.shape[0])):
+        raise VideoError(f"timestamps {sidecar} do not number the frames 0, 1, 2… in order; "
+                         "the file is damaged")
+    stamps = rows[:, 1]
+    if not np.isfinite(stamps).all() or np.any(np.diff(stamps) <= 0):
+        raise VideoError(f"timestamps {sidecar} are not increasing times; the file is "
+                         "damaged")
+    return stamps
+
+
+def _one_line(exc: BaseException) -> str:
+    """FFmpeg's and OpenCV's messages carry line breaks; every refusal is one line."""
+    return " ".join(str(exc).split())
+
+
 def frames(info: VideoInfo) -> Iterator[tuple[int, np.ndarray]]:
     """(index, BGR picture) for every frame that decodes, in order. A picture of another
     size than the first, or a decoding error part-way, raises VideoError naming the
@@ -103,7 +122,8 @@ def frames(info: VideoInfo) -> Iterator[tuple[int, np.ndarray]]:
             try:
                 ok, image = capture.read()
             except cv2.error as exc:
-                raise VideoError(f"video {info.path}: frame {index} cannot be decoded ({exc});"
+                raise VideoError(f"video {info.path}: frame {index} cannot be decoded "
+                                 f"({_one_line(exc)});"
                                  " the file is damaged") from exc
             if not ok or image is None:
                 return

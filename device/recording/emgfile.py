@@ -23,6 +23,8 @@ import numpy as np
 
 from device.errors import RecordingError
 from device.recording.trialfile import STATUS_RECORDING, open_for_update, utc_now_iso
+from device.recording.trialfile.seal import Seal
+from device.recording.trialfile.verify import Damaged, check_heaps, held, inventory
 
 GROUP = "emg"
 CHUNK_ROWS = 4096  # about 2 s at the Trigno's rate
@@ -75,7 +77,7 @@ def write_emg(
     path = Path(path)
     try:
         # room for the arrays, their checksums and the group's metadata
-        with open_for_update(path, reserve_bytes=t.nbytes + x.nbytes + 2**20) as f:
+        with open_for_update(path, "/emg", reserve_bytes=t.nbytes + x.nbytes + 2**20) as f:
             _check_closed(f, path)
             if GROUP in f:
                 if not replace:
@@ -110,7 +112,7 @@ def write_mvc(path: str | os.PathLike, values: Mapping[str, Mapping]) -> None:
     reasons and whatever else describes it (numbers, strings; lists and dicts as JSON)."""
     path = Path(path)
     try:
-        with open_for_update(path) as f:
+        with open_for_update(path, "/emg/mvc") as f:
             _check_closed(f, path)
             if GROUP not in f:
                 raise RecordingError(f"{path.name} has no EMG; import the trial's EMG first "
@@ -132,23 +134,113 @@ def write_mvc(path: str | os.PathLike, values: Mapping[str, Mapping]) -> None:
 
 
 def read_emg(path: str | os.PathLike) -> EmgGroup | None:
-    """The `/emg` group of a trial file, or None when it has none."""
+    """The `/emg` group of a trial file, or None when it has none; RecordingError in one line
+    naming the file when it is damaged or not what the console writes: compared with the
+    file's seal (device.recording.trialfile.seal), and checked whoever wrote it (samples
+    one column per channel, time finite and increasing, MVCs with a value, lists of flags
+    and reasons)."""
     path = Path(path)
     try:
-        with h5py.File(path, "r", locking=False) as f:
-            if GROUP not in f:
-                return None
-            group = f[GROUP]
-            table = group["channels"][()]
-            mvc = {}
-            for muscle, entry in group.get("mvc", {}).items():
-                mvc[muscle] = {k: _attr(v) for k, v in entry.attrs.items()}
-            return EmgGroup(
-                tuple(_text(r["name"]) for r in table), tuple(_text(r["muscle"]) for r in table),
-                float(group.attrs["sampling_rate_hz"]), group["time"][()],
-                group["samples"][()], {k: _attr(v) for k, v in group.attrs.items()}, mvc)
-    except (OSError, KeyError, ValueError) as exc:
-        raise RecordingError(f"cannot read the EMG of {path}: {exc}") from exc
+        with held(path):
+            return _read(path)
+    except Damaged as exc:
+        raise RecordingError(f"trial file {path} {exc.problem}. Restore it from the backup "
+                             "or import its EMG again (rehab emg import --replace)") from None
+    except (OSError, KeyError, ValueError, TypeError, RuntimeError) as exc:
+        detail = " ".join(str(exc).split())
+        raise RecordingError(f"cannot read the EMG of {path}: {detail}") from exc
+
+
+def _read(path: Path) -> EmgGroup | None:
+    check_heaps(path)
+    with h5py.File(path, "r", locking=False) as f:
+        found = inventory(f)
+        if f"/{GROUP}" not in found.paths:
+            return None
+        seal = Seal.read(f)
+        if seal is not None:
+            seal.check_structure(found)
+            seal.check_room(found, f"/{GROUP}", skip={"/emg/time", "/emg/samples"})
+        group = _checked_group(found)
+        table = group["channels"][()]
+        time_s, samples = group["time"][()], group["samples"][()]
+        if seal is not None:
+            seal.check("/emg/time", found, time_s)
+            seal.check("/emg/samples", found, samples)
+        names, muscles = _channel_names(table)
+        rate_hz = _rate(group.attrs.get("sampling_rate_hz"))
+        _check_samples(time_s, samples, len(names))
+        mvc = {muscle: _checked_mvc(muscle, {k: _attr(v) for k, v in entry.attrs.items()})
+               for muscle, entry in group.get("mvc", {}).items()}
+        return EmgGroup(names, muscles, rate_hz, time_s, samples,
+                        {k: _attr(v) for k, v in group.attrs.items()}, mvc)
+
+
+def _checked_group(found) -> h5py.Group:
+    group = found.groups.get(f"/{GROUP}")
+    if group is None:
+        raise Damaged("is damaged: /emg is not a group")
+    for name in ("time", "samples", "channels"):
+        if f"/{GROUP}/{name}" not in found.datasets:
+            raise Damaged(f"is damaged: /emg/{name} is missing or not a dataset")
+    mvc = group.get("mvc")
+    if mvc is not None and not (isinstance(mvc, h5py.Group) and all(
+            isinstance(item, h5py.Group) for item in mvc.values())):
+        raise Damaged("is damaged: /emg/mvc is not a group of one group per muscle")
+    return group
+
+
+def _channel_names(table: np.ndarray) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    if table.ndim != 1 or table.dtype.names is None or not {"name", "muscle"} <= set(
+            table.dtype.names):
+        raise Damaged("is damaged: /emg/channels is not the table of channels (name, muscle, "
+                      "units)")
+    names = tuple(_text(r["name"]) for r in table)
+    muscles = tuple(_text(r["muscle"]) for r in table)
+    if not names or len(set(names)) != len(names) or len(set(muscles)) != len(muscles):
+        raise Damaged("is damaged: /emg/channels names no channel, or a channel or a muscle "
+                      "twice")
+    return names, muscles
+
+
+def _rate(value) -> float:
+    if isinstance(value, bool) or not isinstance(value, float | np.floating) or not (
+            np.isfinite(value) and value > 0):
+        raise Damaged(f"is damaged: /emg sampling_rate_hz is {value!r}, not a rate in Hz")
+    return float(value)
+
+
+def _check_samples(time_s: np.ndarray, samples: np.ndarray, channels: int) -> None:
+    if time_s.dtype.kind != "f" or time_s.ndim != 1:
+        raise Damaged(f"is damaged: /emg/time holds {time_s.dtype} of shape {time_s.shape}, "
+                      "not one time in s per sample")
+    if samples.dtype.kind != "f" or samples.shape != (time_s.size, channels):
+        raise Damaged(f"is damaged: /emg/samples holds {samples.dtype} of shape "
+                      f"{samples.shape}, not ({time_s.size}, {channels}): one column per "
+                      "channel of /emg/channels, one row per time")
+    if not np.isfinite(time_s).all():
+        k = int(np.flatnonzero(~np.isfinite(time_s))[0])
+        raise Damaged(f"is damaged: /emg/time is {time_s[k]} at sample {k}")
+    step = np.diff(time_s)
+    if (step <= 0).any():
+        k = int(np.flatnonzero(step <= 0)[0]) + 1
+        raise Damaged(f"is damaged: /emg/time goes from {time_s[k - 1]} to {time_s[k]} s at "
+                      f"sample {k}; it only ever increases")
+
+
+def _checked_mvc(muscle: str, entry: dict) -> dict:
+    value = entry.get("value_V")
+    if isinstance(value, bool) or not isinstance(value, int | float) or not (
+            np.isfinite(value) and value > 0):
+        raise Damaged(f"is damaged: /emg/mvc/{muscle} value_V is {value!r}, not a voltage")
+    for key in ("flags", "reasons"):
+        items = entry.get(key, [])
+        if not isinstance(items, list) or not all(isinstance(i, str) for i in items):
+            raise Damaged(f"is damaged: /emg/mvc/{muscle} {key} is {str(items)[:40]!r}, not "
+                          "the JSON list of words the console writes")
+    if "settings" in entry and not isinstance(entry["settings"], dict):
+        raise Damaged(f"is damaged: /emg/mvc/{muscle} settings is not a JSON object")
+    return entry
 
 
 def _check_closed(f: h5py.File, path: Path) -> None:

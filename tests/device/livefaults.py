@@ -73,6 +73,9 @@ class Outcome:
     finished: the window then finishes the trial from it) or '' (nothing)."""
     console_exit: int | None = None
     stderr: str = field(default="", repr=False)
+    notes: list[str] = field(default_factory=list)
+    """What the reader says of the file (app.trials.reader: 'unsealed (closing
+    interrupted)' when it was not sealed at its close)."""
 
     @property
     def lost(self) -> int:
@@ -326,6 +329,7 @@ def _read_back(outcome: Outcome, path: Path, events: list[dict]) -> list[float]:
         return []
     outcome.readable = True
     outcome.status = data.status
+    outcome.notes = list(data.notes)
     outcome.ticks = np.asarray(data.channels["tick"], dtype=np.int64)
     lateness = data.channels["lateness"]
     outcome.lateness_max_s = float(np.nanmax(lateness)) if len(lateness) else float("nan")

@@ -81,3 +81,4 @@ def test_a_live_trial_file_survives_the_fault(fault, tmp_path):
         assert outcome.fault_tick >= outcome.injected_tick or fault == "loop SIGKILL", said
     if fault.startswith("group"):
         assert outcome.console_exit == 0, said
+    assert not any("unsealed" in n for n in outcome.notes), said

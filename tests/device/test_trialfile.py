@@ -31,7 +31,10 @@ from device.recording.trialfile import (
     TrialFileWriter,
     write_trial,
 )
+from device.recording.trialfile.recover import clear_open_flags
 from device.recording.trialfile.reserve import SpaceShort
+from device.recording.trialfile.seal import Seal
+from device.recording.trialfile.verify import inventory
 from tests.device.smalldisk import DISK_KIND, SmallDisk
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -655,7 +658,8 @@ def test_a_reader_that_never_lets_go_is_named_not_the_disk(tmp_path, monkeypatch
 
     with h5py.File(path, "r", locking=False):
         with (pytest.raises(OSError, match="already open for read-only"),
-              trialfile.open_for_update(path, wait_s=1.0, sleep=sleep, clock=lambda: clock[0])):
+              trialfile.open_for_update(path, "/metrics", wait_s=1.0, sleep=sleep,
+                                        clock=lambda: clock[0])):
             pass
         assert clock[0] == pytest.approx(1.0, abs=trialfile.UPDATE_RETRY_S)
         monkeypatch.setattr(trialfile.update, "UPDATE_WAIT_S", 0.0)
@@ -669,7 +673,8 @@ def test_a_reader_that_never_lets_go_is_named_not_the_disk(tmp_path, monkeypatch
     # another error is not waited on
     waited = clock[0]
     with (pytest.raises(OSError, match=r"No such file|unable to open"),
-          trialfile.open_for_update(tmp_path / "none.h5", sleep=sleep, clock=lambda: clock[0])):
+          trialfile.open_for_update(tmp_path / "none.h5", "/metrics", sleep=sleep,
+                                    clock=lambda: clock[0])):
         pass
     assert clock[0] == waited
 
@@ -793,16 +798,39 @@ KILLED_MID_BATCH = textwrap.dedent("""
 """)
 
 
-def test_a_dead_writer_s_file_is_taken_over_where_its_samples_are_whole(tmp_path):
-    """Issue 28 #6: the console finishes a killed recorder's file from the ring. The file
-    is taken over from the dead writer (its flags cleared), every channel cut to the
-    samples all of them hold (a writer killed inside a batch leaves the first channels
-    longer), and what comes next follows on from there."""
-    path = tmp_path / "t.h5"
+@pytest.fixture(scope="module")
+def killed_mid_batch(tmp_path_factory):
+    """A trial file whose writer was killed inside a batch (copy it before use)."""
+    path = tmp_path_factory.mktemp("killed") / "t.h5"
     script = "\n".join([textwrap.dedent(inspect.getsource(ramp_records)), KILLED_MID_BATCH])
     ran = subprocess.run([sys.executable, "-c", script, str(path)], cwd=ROOT,
                          capture_output=True, text=True, timeout=120)
     assert ran.returncode == -signal.SIGKILL, ran.stderr
+    return path
+
+
+def all_parts_match_the_seal(path) -> bool:
+    """Every group and dataset of a closed file digested anew and compared with its seal."""
+    with h5py.File(path, "r") as f:
+        found = inventory(f)
+        sealed = Seal.read(f)
+        assert sealed is not None, "no seal"
+        sealed.check_structure(found)
+        for part in sorted(found.paths):
+            sealed.check(part, found)
+    return True
+
+
+def test_a_dead_writer_s_file_is_taken_over_where_its_samples_are_whole(tmp_path,
+                                                                       killed_mid_batch):
+    """Issue 28 #6: the console finishes a killed recorder's file from the ring. The file
+    is taken over from the dead writer (its flags cleared), every channel cut to the
+    samples all of them hold (a writer killed inside a batch leaves the first channels
+    longer), and what comes next follows on from there; the file is sealed at its close
+    as one the recorder closed itself (the samples the dead writer left digested when it
+    is taken over: the taken-over writer had no digests and its first append raised)."""
+    path = tmp_path / "t.h5"
+    shutil.copyfile(killed_mid_batch, path)
     with h5py.File(path, "r", swmr=True) as f:
         lengths = {f[f"timeseries/{name}"].shape[0] for name in RECORD_DTYPE.names}
     assert lengths == {1000, 1500}  # the batch half written
@@ -818,6 +846,27 @@ def test_a_dead_writer_s_file_is_taken_over_where_its_samples_are_whole(tmp_path
         np.testing.assert_array_equal(f["timeseries/tick"][()], np.arange(1600))
         assert f["summary"].attrs["n_samples"] == 1600
         assert [e["kind"] for e in f["events"][()]] == [b"recording"]
+    assert all_parts_match_the_seal(path)
+
+
+def test_a_dead_writer_s_file_with_a_damaged_header_is_not_taken_over(tmp_path,
+                                                                     killed_mid_batch):
+    """A file whose header no longer matches its digest (its subject changed while the
+    console was down) is not taken over and sealed as the console's: refused in one line,
+    its samples left as they are."""
+    path = tmp_path / "t.h5"
+    shutil.copyfile(killed_mid_batch, path)
+    clear_open_flags(path)
+    with h5py.File(path, "r+") as f:
+        f.attrs["subject"] = f.attrs["subject"].replace("P-1", "P-2")
+        lengths = {f[f"timeseries/{name}"].shape[0] for name in RECORD_DTYPE.names}
+    with pytest.raises(RecordingError, match="is damaged: its header") as refused:
+        TrialFileWriter.resume(path)
+    assert "\n" not in str(refused.value)
+    assert "not taken over" in str(refused.value)
+    with h5py.File(path, "r") as f:
+        assert "seal" not in f.attrs
+        assert {f[f"timeseries/{name}"].shape[0] for name in RECORD_DTYPE.names} == lengths
 
 
 def test_a_trial_file_is_its_users_only_from_its_first_moment(tmp_path, monkeypatch):

@@ -3,12 +3,12 @@ and one line when there is nothing to show."""
 
 import shutil
 
-import h5py
 import pytest
 
 from app.emg.session import Contraction, session_mvc
 from app.emg.subjects import Subject, record_trial, write_contractions
 from app.trials.reader import read_trial
+from tests.trialfiles import edited
 from tests.ui.session import fake_trigno
 from ui.tabs import TABS, VIEW_TABS, EmgTab
 from ui.views.emg import emg_view
@@ -56,7 +56,7 @@ def test_nothing_to_show_is_one_line(qtbot, trial_with_emg, tmp_path):
     assert "no MVC for biceps" in emg_view(no_mvc).message
     assert "No trial file yet" in emg_view(None).message
     bare = shutil.copy(no_mvc, tmp_path / "bare.h5")
-    with h5py.File(bare, "r+") as f:
+    with edited(bare) as f:
         del f["emg"]
     assert "has no EMG" in emg_view(bare).message
     tab = EmgTab()

@@ -4,7 +4,6 @@ video the model finds nobody in is refused in one line and the trial stays as it
 
 from __future__ import annotations
 
-import h5py
 import pytest
 
 from app.pose.store import read_pose
@@ -13,6 +12,7 @@ from app.trials.headless import save, simulate
 from app.trials.reader import read_trial
 from core.trial import THESIS_SUBJECT
 from tests.pose_film import ReplayDetector, write_video
+from tests.trialfiles import edited
 from ui import theme
 from ui.tabs.replay import ReplayTab
 
@@ -23,7 +23,7 @@ ORIGIN = 9000.0
 def recorded(tmp_path):
     path = tmp_path / "trial.h5"
     save(simulate(THESIS_SUBJECT.replace(repetitions=1), seed=7), path)
-    with h5py.File(path, "r+") as f:
+    with edited(path) as f:
         f["summary"].attrs["wall_time_origin_monotonic_s"] = ORIGIN
     filmed = film(read_trial(path), seed=5, origin_s=ORIGIN)
     write_video(path.with_suffix(".avi"), filmed.stamps_s, grey=lambda k: 80)

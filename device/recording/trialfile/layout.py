@@ -25,7 +25,10 @@ from device.errors import RecordingError
 from device.recording.record import Channel
 
 FORMAT_NAME = "rehab-console-trial"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+"""2: the seal (root attributes `header_sha256`, `seal`, `seal_sha256`), required of every
+file closed by a console of version 2 (docs/data-format.md, "Versioning")."""
+SEALED_SINCE_VERSION = 2
 
 STATUS_RECORDING = "recording"
 """Status of a file whose writer has not closed it: still being recorded, or lost in a crash."""

@@ -19,12 +19,16 @@ from device.errors import RecordingError
 from device.recording.record import Channel
 from device.recording.trialfile.layout import CHUNK_CACHE_BYTES, LIBVER, _disk_error
 from device.recording.trialfile.recover import clear_open_flags
+from device.recording.trialfile.seal import check_header
+from device.recording.trialfile.verify import Damaged, check_heaps
 
 
 def adopt(path: Path, channels: tuple[Channel, ...]):
     """(file, dataset ids, events dataset, samples, events) of the trial file at `path`,
-    open for writing, cut to its whole samples and written events."""
-    clear_open_flags(path)
+    open for writing, cut to its whole samples and written events. Nothing in it changes
+    unless its header matches its digest (device.recording.trialfile.seal): the writer
+    seals the file when it closes it, never over damage."""
+    _check(path)
     try:
         f = h5py.File(path, "r+", libver=LIBVER, locking=False,
                       rdcc_nbytes=CHUNK_CACHE_BYTES)
@@ -58,3 +62,18 @@ def adopt(path: Path, channels: tuple[Channel, ...]):
             raise
         raise _disk_error(path, "take over", exc) from exc
     return f, datasets, events, n, n_events
+
+
+def _check(path: Path) -> None:
+    """The dead writer's flags cleared, then nothing that would hang libhdf5
+    (verify.check_heaps) and a header as its digest says."""
+    try:
+        check_heaps(path)
+        clear_open_flags(path)
+        with h5py.File(path, "r", locking=False) as f:
+            check_header(f)
+    except Damaged as exc:
+        raise RecordingError(f"trial file {path} {exc.problem}; it was not taken over"
+                             ) from None
+    except (OSError, RuntimeError, ValueError, KeyError) as exc:
+        raise _disk_error(path, "take over", exc) from exc

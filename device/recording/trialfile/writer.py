@@ -17,7 +17,10 @@ Crash safety, in brief (the document has the reasoning):
   the recorder has not done so for `flush_interval_s`.
 * `close` ends SWMR (which clears the "open for writing" flag) and reopens the
   file normally to add the status, summary and metrics, because HDF5 does not
-  support creating attributes under SWMR.
+  support creating attributes under SWMR; the last thing it writes is the seal, the
+  digest of everything in the file (device.recording.trialfile.seal), the samples'
+  from the digests `append` kept as it wrote them. The header has its own digest,
+  written before the first sample.
 * A write that fails for want of space leaves HDF5 unable to close the file, and a
   reopen that fails so leaves it flagged "open for writing" and unreadable. So a live
   writer holds disk space beyond the file's end (device.recording.trialfile.reserve:
@@ -42,6 +45,7 @@ import numpy as np
 from core.trial import TrialParameters
 from device.errors import RecordingError
 from device.recording.record import CHANNELS, Channel
+from device.recording.trialfile import seal
 from device.recording.trialfile.layout import (
     CHUNK_ROWS,
     EVENT_CHUNK_ROWS,
@@ -151,6 +155,9 @@ class TrialFileWriter:
                 "events", shape=(0,), maxshape=(None,), dtype=EVENT_DTYPE,
                 chunks=(EVENT_CHUNK_ROWS,), fletcher32=True,
             )
+            # before SWMR, which allows no new attribute: a crashed trial's metadata verify
+            seal.write_header_seal(f)
+            self._digests = {name: seal.RunningDigest() for name, _, _ in self._datasets}
             if live:
                 f.swmr_mode = True
             self._flush()
@@ -212,9 +219,16 @@ class TrialFileWriter:
         self._init_state(path, channels, True, True, 0.5, CHUNK_ROWS, 0, None)
         self._making = None
         self._file, self._datasets, self._events, self._n, self._n_events = adopt(
-            self._path, self._channels)
-        self._bytes_per_minute = (self._dtype.itemsize * 60.0
-                                  / float(self._file.attrs["sample_period_s"]))
+            self._path, self._channels)  # its header checked first: never sealed over damage
+        try:
+            # the samples kept, digested as if this writer had appended them (the seal)
+            self._digests = seal.running_digests(
+                self._file["timeseries"], [name for name, _, _ in self._datasets], self._n)
+            self._bytes_per_minute = (self._dtype.itemsize * 60.0
+                                      / float(self._file.attrs["sample_period_s"]))
+        except (OSError, RuntimeError, ValueError, KeyError) as exc:
+            self._abandon()
+            raise _disk_error(self._path, "take over", exc) from exc
         try:
             self._file.swmr_mode = True
             self._flush()
@@ -270,6 +284,7 @@ class TrialFileWriter:
             return
         self._check_room(records.nbytes)
         start, stop = self._n, self._n + n
+        written = []
         try:
             # One dataset at a time, extent then data: a crash part way leaves the
             # datasets not yet touched shorter, which the reader trims to.
@@ -277,11 +292,15 @@ class TrialFileWriter:
                 dataset_id.set_extent((stop, *tail))
                 file_space = dataset_id.get_space()
                 file_space.select_hyperslab((start, *(0 for _ in tail)), (n, *tail))
-                dataset_id.write(h5py.h5s.create_simple((n, *tail)), file_space,
-                                 np.ascontiguousarray(records[name]))
+                values = np.ascontiguousarray(records[name])
+                dataset_id.write(h5py.h5s.create_simple((n, *tail)), file_space, values)
+                written.append((name, values))
         except (OSError, RuntimeError, ValueError) as exc:
             self._failed = str(exc)
             raise _disk_error(self._path, f"append samples {start}-{stop - 1} to", exc) from exc
+        # the seal's digest of the samples covers whole batches only, as `close` keeps them
+        for name, values in written:
+            self._digests[name].add(values)
         self._n = stop
         self._maybe_flush()
 
@@ -394,6 +413,7 @@ class TrialFileWriter:
                 group.attrs[key] = value
             if assistance:
                 _write_assistance(f.require_group("assistance"), assist_values, assist_arrays)
+            seal.seal_at_close(f, self._n, self._digests)
             self._flush()
         except (OSError, RuntimeError, ValueError) as exc:
             raise _disk_error(self._path, f"close (status {status!r})", exc) from exc

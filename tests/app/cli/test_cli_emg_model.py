@@ -11,6 +11,7 @@ from app.emg.session import Contraction, session_mvc
 from app.emg.subjects import Subject, record_trial, write_contractions
 from tests.app.cli.running import run
 from tests.emg_subjects import record_session
+from tests.trialfiles import edited
 
 pytestmark = pytest.mark.usefixtures("data")  # the folders of tests/app/cli/conftest.py
 
@@ -149,10 +150,10 @@ def test_save_needs_for_assistance_and_a_name(wide, capsys):
 def test_bad_input_is_one_line(trials, tmp_path, capsys, make_args, expected):
     other = tmp_path / "other.h5"
     shutil.copy(trials[0], other)
-    with h5py.File(other, "r+") as f:
+    with edited(other) as f:
         del f["emg"]
     moved = shutil.copy(trials[0], tmp_path / "moved.h5")  # an electrode on another muscle
-    with h5py.File(moved, "r+") as f:
+    with edited(moved) as f:
         table = f["emg/channels"][()]
         table[0]["muscle"] = "posterior_deltoid"
         f["emg/channels"][...] = table

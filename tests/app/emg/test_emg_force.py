@@ -25,6 +25,7 @@ from core.emg.models import FeedForwardNetwork
 from core.trial import THESIS_SUBJECT
 from device.loop.pipeline import PERIOD_S
 from tests.emg_subjects import WIDE_CONE_RAD, record_session
+from tests.trialfiles import edited
 
 SUBJECT = Subject.drawn(1)
 LATENCY = SyntheticEmgFeed.latency_of(SUBJECT)
@@ -83,7 +84,7 @@ def test_the_replay_uses_only_the_emg_that_had_arrived(checked, tmp_path):
     source = checked.trials[-1]
     copy = shutil.copy(source, tmp_path / "scrambled.h5")
     cut_s = 3.0
-    with h5py.File(copy, "r+") as f:
+    with edited(copy) as f:
         t = f["emg/time"][()]
         samples = f["emg/samples"][()]
         later = t > cut_s

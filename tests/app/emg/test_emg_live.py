@@ -8,7 +8,6 @@ import time
 import uuid
 from pathlib import Path
 
-import h5py
 import numpy as np
 import pylsl
 import pytest
@@ -20,6 +19,7 @@ from device.emg.capture import EmgCapture
 from device.emg.trigno import TrignoClient
 from device.lsl.inlet import LslEmgInlet
 from device.recording.emgfile import read_emg
+from tests.trialfiles import edited
 
 _spec = importlib.util.spec_from_file_location(
     "trigno_server", Path(__file__).parents[2] / "device" / "fakes" / "trigno_server.py")
@@ -36,7 +36,7 @@ def plain_trial(tmp_path_factory):
 
 def _live_trial(plain_trial, tmp_path, origin):
     path = shutil.copy(plain_trial, tmp_path / "live.h5")
-    with h5py.File(path, "r+") as f:  # as a live trial's recorder writes it
+    with edited(path) as f:  # as a live trial's recorder writes it
         f["summary"].attrs["wall_time_origin_monotonic_s"] = origin
     return path
 

@@ -5,7 +5,6 @@ source words (app.emg.live.source_spec)."""
 
 import shutil
 
-import h5py
 import numpy as np
 import pytest
 
@@ -30,6 +29,7 @@ from core.emg.processing import EmgSettings
 from core.trial import THESIS_SUBJECT
 from device.emg.capture import Captured
 from device.recording.emgfile import read_emg
+from tests.trialfiles import edited
 
 RATE = 2000.0
 
@@ -120,7 +120,7 @@ def _session_with_mvcs(levels) -> SessionMvcs:
 def test_a_trials_live_emg_is_stored_by_muscle_with_the_session_mvcs(plain_trial, tmp_path):
     origin = 5000.0
     path = shutil.copy(plain_trial, tmp_path / "live.h5")
-    with h5py.File(path, "r+") as f:
+    with edited(path) as f:
         f["summary"].attrs["wall_time_origin_monotonic_s"] = origin
         duration = f["timeseries/time"][-1]
     # the trial's activity: triceps (ch 1) at half its MVC, deltoid (ch 2) above its MVC
@@ -178,7 +178,7 @@ def test_only_the_trials_own_samples_are_checked_against_the_mvc(plain_trial, tm
     harder push): that is not the trial's activity."""
     origin = 5000.0
     path = shutil.copy(plain_trial, tmp_path / "live.h5")
-    with h5py.File(path, "r+") as f:
+    with edited(path) as f:
         f["summary"].attrs["wall_time_origin_monotonic_s"] = origin
         duration = f["timeseries/time"][-1]
     before = int(1.5 * RATE)

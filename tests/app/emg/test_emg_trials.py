@@ -20,6 +20,7 @@ from core.trial import THESIS_SUBJECT
 from device.emg.files import write_plain_csv
 from device.errors import RecordingError
 from device.recording.emgfile import read_emg
+from tests.trialfiles import as_crashed, edited
 
 SHORT = THESIS_SUBJECT.replace(repetitions=1, assistance_level=0.0)
 
@@ -82,8 +83,7 @@ def test_import_refuses_what_it_should(trial, tmp_path):
         import_emg_file(trial, emg, muscles=["a", "b"], replace=True)
     with pytest.raises(EmgImportError, match="named twice"):
         import_emg_file(trial, emg, muscles=["a", "a", "b"], replace=True)
-    with h5py.File(trial, "r+") as f:
-        f.attrs["status"] = "recording"
+    as_crashed(trial)
     with pytest.raises(EmgImportError, match="still being recorded"):
         import_emg_file(trial, emg, replace=True)
 
@@ -93,7 +93,7 @@ def test_monotonic_stamps_map_through_the_trials_wall_time(trial):
     with pytest.raises(EmgImportError, match="wall_time_origin_monotonic_s"):
         trial_time_from_monotonic(data, [1.0])
     origin = 1234.5
-    with h5py.File(trial, "r+") as f:
+    with edited(trial) as f:
         f["summary"].attrs["wall_time_origin_monotonic_s"] = origin
         # a late stretch: wall time runs 10 ms ahead of the nominal time after sample 1000
         wall = f["timeseries/wall_time"][()]

@@ -8,7 +8,6 @@ import shutil
 import time
 import uuid
 
-import h5py
 import numpy as np
 import pylsl
 import pytest
@@ -23,6 +22,7 @@ from device.lsl.outlet import RobotStateOutlet
 from device.recording.emgfile import read_emg
 from device.recording.record import empty_records
 from tests.app.cli.running import run
+from tests.trialfiles import edited
 from tests.xdf_recorder import XdfRecorder
 
 EMG_HZ = 1000.0
@@ -45,7 +45,7 @@ def other_trial(tmp_path_factory):
 
 def _live_trial(plain_trial, folder, origin, name="live.h5"):
     path = shutil.copy(plain_trial, folder / name)
-    with h5py.File(path, "r+") as f:  # as a live trial's recorder writes it
+    with edited(path) as f:  # as a live trial's recorder writes it (sealed again)
         f["summary"].attrs["wall_time_origin_monotonic_s"] = origin
     return path
 

@@ -13,7 +13,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-import h5py
 import numpy as np
 import pandas as pd
 import pytest
@@ -22,6 +21,7 @@ from app.exports.run import export_folder, export_trial
 from app.trials.headless import save, simulate
 from core.trial import THESIS_SUBJECT
 from device.recording.emgfile import write_emg
+from tests.trialfiles import edited
 
 VENV = Path(sys.executable).parent.parent
 DENO = VENV / "bin" / "bids-validator-deno"
@@ -33,7 +33,7 @@ def dataset(tmp_path_factory):
     source = tmp_path_factory.mktemp("trials")
     live = source / "P1_S001_T001_20261203T100000Z.h5"
     save(simulate(THESIS_SUBJECT.replace(repetitions=1), engine="python"), live)
-    with h5py.File(live, "r+") as f:  # as the loop records it: wall_time from Connect
+    with edited(live) as f:  # as the loop records it: wall_time from Connect (sealed again)
         f["timeseries"]["wall_time"][:] = f["timeseries"]["wall_time"][:] + 5.0
     with_emg = source / "P1_S001_T002_20261203T100100Z.h5"
     save(simulate(THESIS_SUBJECT.replace(repetitions=1), engine="python", seed=3), with_emg)

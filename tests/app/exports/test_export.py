@@ -559,7 +559,10 @@ def test_mat_holds_the_groups_beside_the_samples(tmp_path):
     params = D.replace(repetitions=2, assist="as-needed")
     path = tmp_path / "asneeded.h5"
     save(simulate(params, patient="passive"), path)
-    with h5py.File(path, "r+") as f:  # a group with text columns and a subgroup, as /emg
+    from device.recording.trialfile import open_for_update
+
+    # a group with text columns and a subgroup, as /emg, added as the console adds (sealed)
+    with open_for_update(path, "/emg") as f:
         group = f.create_group("emg")
         group.attrs["rate_hz"] = 1925.926
         table = np.array([("EMG1", "biceps_brachii")],

@@ -18,6 +18,7 @@ from app.exports.loader import Study, Trial, load_study, load_trial, read_info
 from app.trials.headless import save, simulate
 from core.trial import THESIS_SUBJECT, TrialParameters
 from device.loop.pipeline import PHASE_EXERCISE
+from tests.trialfiles import as_crashed
 
 D = THESIS_SUBJECT.replace(repetitions=1)
 CIRCLE = D.replace(shape="circle", radius_m=0.07)
@@ -136,8 +137,7 @@ def test_quick_metadata_equals_the_full_read(trial_path):
 def test_a_file_left_open_by_a_crash_is_read_through_the_full_reader(trial_path, tmp_path):
     copy = tmp_path / "crashed.h5"
     shutil.copy(trial_path, copy)
-    with h5py.File(copy, "r+") as f:
-        f.attrs["status"] = "recording"
+    as_crashed(copy)
     info = read_info(copy)
     assert info.status == "recording"
     assert any("not closed" in note for note in info.notes)

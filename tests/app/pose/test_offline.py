@@ -22,6 +22,7 @@ from device.camera.capture import TIMESTAMPS_HEADER, timestamps_path
 from device.errors import VideoError
 from tests import pose_film as film_tools
 from tests.pose_film import SIZE, write_video
+from tests.trialfiles import edited
 
 ORIGIN = 7000.0
 
@@ -39,7 +40,7 @@ def recorded(tmp_path_factory):
     folder = tmp_path_factory.mktemp("recorded")
     path = folder / "trial.h5"
     save(simulate(THESIS_SUBJECT.replace(repetitions=1), patient="healthy", seed=2), path)
-    with h5py.File(path, "r+") as f:
+    with edited(path) as f:
         f["summary"].attrs["wall_time_origin_monotonic_s"] = ORIGIN
     filmed = film(read_trial(path), seed=1, origin_s=ORIGIN)
     write_video(path.with_suffix(".avi"), filmed.stamps_s)
@@ -158,7 +159,7 @@ def test_an_unusable_video_is_refused_and_the_trial_stays_as_it_was(trial, how, 
 
 def test_a_trial_without_its_clocks_origin_needs_the_videos_start(trial):
     path, filmed = trial
-    with h5py.File(path, "r+") as f:
+    with edited(path) as f:
         del f["summary"].attrs["wall_time_origin_monotonic_s"]
     with pytest.raises(VideoError, match="--video-start-s"):
         estimate_pose(path, ReplayDetector(filmed))

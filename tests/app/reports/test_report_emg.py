@@ -3,7 +3,6 @@ joint torques, and each MVC's quality in words."""
 
 import shutil
 
-import h5py
 import numpy as np
 import pytest
 from pypdf import PdfReader
@@ -13,6 +12,7 @@ from app.emg.subjects import Subject, record_trial, write_contractions
 from app.reports.build import write_report_pdf
 from app.reports.content import build_report
 from app.trials.reader import read_trial
+from tests.trialfiles import edited
 
 
 @pytest.fixture(scope="module")
@@ -46,7 +46,7 @@ def test_a_trial_with_emg_reports_its_envelopes_and_the_bad_mvc(subject_2):
 def test_a_trial_without_mvc_has_no_emg_page(subject_2, tmp_path):
     path, _ = subject_2
     bare = shutil.copy(path, tmp_path / "P1_S001_T002.h5")
-    with h5py.File(bare, "r+") as f:
+    with edited(bare) as f:
         del f["emg/mvc"]
     content = build_report(read_trial(bare))
     assert content.emg is None

@@ -144,6 +144,7 @@ writer.flush()
 writer.close("complete")  # the reopen below is the close's, killed half way
 import h5py
 f = h5py.File(sys.argv[1], "r+", libver=("v110", "v110"), locking=False)
+del f.attrs["seal"], f.attrs["seal_sha256"]  # the close writes its seal last
 f.attrs["status"] = "complete"
 f.require_group("metrics").attrs["rmse_x_m"] = 0.5
 f.flush()

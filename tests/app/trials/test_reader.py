@@ -13,10 +13,13 @@ import numpy as np
 import pytest
 
 from app.errors import AppError, TrialFileError
+from app.trials.checks import CODES
+from app.trials.opening import UNSEALED_OLDER
 from app.trials.reader import read_trial
 from core.trial import THESIS_SUBJECT
 from device.recording.record import CHANNELS, RECORD_DTYPE, Channel, extend_channels
 from device.recording.trialfile import FORMAT_VERSION, SubjectInfo, write_trial
+from tests.trialfiles import as_format_1
 
 ROOT = Path(__file__).resolve().parents[3]
 PERIOD_S = 0.002
@@ -42,6 +45,11 @@ def random_records(n, dtype, seed):
         else:
             records[name] = rng.integers(0, np.iinfo(field.dtype).max, field.shape,
                                          endpoint=True)
+    for name, allowed in CODES.items():  # codes hold codes (app.trials.checks)
+        if name in dtype.names:
+            records[name] = rng.choice(sorted(allowed), n)
+    if "assistance_level" in dtype.names:
+        records["assistance_level"] = rng.uniform(0.0, 1.0, n)
     records["tick"] = np.arange(n)
     records["time"] = np.arange(n) * PERIOD_S
     return records
@@ -51,12 +59,19 @@ def ramp_records(start, n, dtype):
     """Records whose every value follows from its tick, so another process can rebuild them."""
     import numpy as np
 
+    from app.trials.checks import CODES
+
     records = np.zeros(n, dtype=dtype)
     tick = np.arange(start, start + n)
     for k, name in enumerate(dtype.names):
         field = records[name]
         column = (tick + k) % 200 if field.dtype.kind in "iu" else tick * 1e-3 + k
         records[name] = column.reshape((n,) + (1,) * (field.ndim - 1))
+    for name, allowed in CODES.items():  # codes hold codes (app.trials.checks)
+        if name in dtype.names:
+            records[name] = np.asarray(sorted(allowed))[tick % len(allowed)]
+    if "assistance_level" in dtype.names:
+        records["assistance_level"] = (tick % 101) / 100
     records["tick"] = tick
     return records
 
@@ -299,36 +314,58 @@ def test_a_file_without_its_time_series(good_file):
     assert "has no /timeseries" in read_error(good_file)
 
 
-def test_unequal_channel_lengths_are_trimmed_with_a_note(good_file):
+def crashed(path, records):
+    """A file its recorder left without closing (killed, power cut): samples flushed, no
+    status but 'recording', no seal; what a crash leaves is then made by hand."""
+    from device.recording.trialfile import TrialFileWriter
+
+    writer = TrialFileWriter(path, parameters=PARAMETERS, subject=SUBJECT, robot=ROBOT,
+                             backend="simulator", sample_period_s=PERIOD_S,
+                             flush_interval_s=None)
+    writer.append(records)
+    writer.flush()
+    writer._abandon()  # the process dies here
+    return path
+
+
+def test_unequal_channel_lengths_are_trimmed_with_a_note(tmp_path):
     # What a crash between two datasets' extends leaves: the later ones shorter.
+    path = crashed(tmp_path / "crashed.h5", random_records(500, RECORD_DTYPE, seed=7))
     names = RECORD_DTYPE.names
-    with h5py.File(good_file, "a") as f:
+    with h5py.File(path, "a") as f:
         for name in names[names.index("force") :]:
             f["timeseries"][name].resize(480, axis=0)
-    trial = read_trial(good_file)
+    trial = read_trial(path)
     assert {v.shape[0] for v in trial.channels.values()} == {480}
     assert any("unequal lengths (480 to 500 samples)" in note for note in trial.notes)
     expected = random_records(500, RECORD_DTYPE, seed=7)
     np.testing.assert_array_equal(trial.channels["robot_angle"], expected["robot_angle"][:480])
+    assert trial.seal == "header verified (not closed)"
 
 
-def test_rows_reserved_but_never_written_are_dropped_with_a_note(good_file):
-    with h5py.File(good_file, "a") as f:
+def test_rows_reserved_but_never_written_are_dropped_with_a_note(tmp_path):
+    path = crashed(tmp_path / "crashed.h5", random_records(500, RECORD_DTYPE, seed=7))
+    with h5py.File(path, "a") as f:
         for dataset in f["timeseries"].values():
             dataset.resize(520, axis=0)  # the fill value: tick -1, NaN floats
-    trial = read_trial(good_file)
+    trial = read_trial(path)
     assert trial.n_samples == 500
     assert any("the last 20 samples were reserved but never written" in n for n in trial.notes)
 
 
 def test_parameters_that_no_longer_validate_are_kept_raw_with_a_note(good_file):
+    """A file of an older console whose parameters a later one no longer accepts (a range
+    since narrowed) is read, its parameters kept raw."""
     stored = PARAMETERS.to_dict() | {"radius_m": 5.0}
+    as_format_1(good_file)
     with h5py.File(good_file, "a") as f:
         f.attrs["parameters"] = json.dumps(stored)
     trial = read_trial(good_file)
     assert trial.parameters is None
     assert any("radius_m" in note for note in trial.notes)
     assert json.loads(trial.attrs["parameters"]) == stored
+    assert trial.seal == UNSEALED_OLDER
+    assert any(note.startswith("unsealed (older format)") for note in trial.notes)
 
 
 def _written(tmp_path, n=600):

@@ -1,0 +1,49 @@
+"""Trial files as the tests need them beside what the writer makes: edited by hand and
+sealed again (a file as the console would have written it, not damage), left as a crash
+leaves them, or as an older console wrote them (docs/data-format.md, "The seal")."""
+
+from __future__ import annotations
+
+import contextlib
+
+import h5py
+import numpy as np
+
+SEAL, SEAL_SHA256, HEADER_SHA256 = "seal", "seal_sha256", "header_sha256"
+"""The seal's root attributes (device.recording.trialfile.seal)."""
+
+
+@contextlib.contextmanager
+def edited(path):
+    """h5py's file opened to change it, sealed again on leaving (when it was sealed): a
+    fabrication of a file the console could have written (a live trial's summary, another
+    muscle under an electrode), which a reader must then accept."""
+    from device.recording.trialfile.seal import seal_file
+    from device.recording.trialfile.verify import inventory
+
+    with h5py.File(path, "r+", locking=False) as f:
+        yield f
+        if SEAL in f.attrs:
+            seal_file(f, inventory(f))
+
+
+def as_crashed(path):
+    """The file as its recorder leaves it when it dies before closing: status
+    'recording', the header's digest, no seal."""
+    with h5py.File(path, "r+", locking=False) as f:
+        for name in (SEAL, SEAL_SHA256):
+            if name in f.attrs:
+                del f.attrs[name]
+        f.attrs["status"] = "recording"
+    return path
+
+
+def as_format_1(path):
+    """The file as a console before the seal (format version 1) wrote it: the same layout
+    without the seal's attributes."""
+    with h5py.File(path, "r+", locking=False) as f:
+        for name in (SEAL, SEAL_SHA256, HEADER_SHA256):
+            if name in f.attrs:
+                del f.attrs[name]
+        f.attrs["format_version"] = np.int64(1)
+    return path
