@@ -13,7 +13,8 @@ rehashed models, CSV lines over 131 KB, NaN, time backwards, deep JSON…). Each
 by every reader of its type in a worker process, killed after `--timeout` s.
 
 Prints a table of outcomes per type (tests/corruption: refused, same, noted, silent,
-unchecked, crash, hang) and every crash, hang, silent and unchecked case. `unchecked`:
+unchecked, crash, hang) and every crash, hang, silent, noted and unchecked case, and every
+refusal that does not name the file it refuses (each must: one line, the file, what). `unchecked`:
 read with other values from a format that carries no checksum (a digit changed in a CSV,
 a pixel in a video), which no reader can tell from what was written. Figures go in
 docs/performance.md ("Corrupted files").
@@ -74,20 +75,26 @@ def main() -> int:
         for o in corruption.OUTCOMES:
             totals[o] += row[o]
     print(f"{'all':<{width}} " + " ".join(f"{totals[o]:>9}" for o in corruption.OUTCOMES))
+    unnamed = corruption.unnamed(results)
     print(f"\ntracebacks {totals['crash']}, hangs {totals['hang']}, silent loads "
-          f"{totals['silent']} (goal 0, 0, 0); {len(results)} files in {took:.0f} s "
+          f"{totals['silent']} (goal 0, 0, 0); refusals not naming their file "
+          f"{len(unnamed)} of {totals['refused']}; {len(results)} files in {took:.0f} s "
           f"({1e3 * took / len(results):.0f} ms a file)")
     for outcome in ("crash", "hang", "silent", "noted", "unchecked"):
         listed = [r for r in results if r.outcome == outcome]
         if listed:
             print(f"\n{outcome}:")
             for r in listed:
-                print(f"  {r.case.kind}: {r.case.how}: {r.detail}")
+                print(f"  {r.case.kind}: {r.case.how}: {r.detail[:300]}")
+    if unnamed:
+        print("\nrefusals not naming their file:")
+        for r in unnamed:
+            print(f"  {r.case.kind}: {r.case.how}: {r.detail[:300]}")
     if args.keep is None:
         import shutil
 
         shutil.rmtree(folder, ignore_errors=True)
-    return 1 if totals["crash"] or totals["hang"] or totals["silent"] else 0
+    return 1 if totals["crash"] or totals["hang"] or totals["silent"] or unnamed else 0
 
 
 if __name__ == "__main__":

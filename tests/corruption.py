@@ -38,8 +38,9 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-CHECKED_KINDS = ("trial", "model", "emg-model")
-"""Formats with a checksum or a signature: a silent load of them is a failure."""
+CHECKED_KINDS = ("trial", "model", "emg-model", "registry")
+"""Formats with a checksum or a signature (the registry's rows are sealed since schema v6,
+app.records.registry.seals): a silent load of them is a failure."""
 OUTCOMES = ("refused", "same", "noted", "silent", "unchecked", "crash", "hang")
 
 
@@ -148,14 +149,18 @@ def _read_emg_csv(path: str):
 
 
 def _read_settings(path: str):
-    """A settings file the console sets aside (and says so in its log) is refused."""
-    from app.errors import SettingsError
+    """The settings as the console starts with them: load_settings, then the data folder
+    (locate_data_dir refuses to guess one when the file that named it is unreadable). A
+    file the console set aside (renamed settings.json.corrupt-<time>, said in its log) is
+    read with that note: the defaults, or only the data folder it could read back."""
+    from app.records.datadir import locate_data_dir
     from app.records.settings import load_settings
 
-    s = load_settings(path)
-    if s.damaged or not Path(path).exists():  # renamed settings.json.corrupt-<time>
-        raise SettingsError(f"settings {path} set aside (the defaults used, said in the log)")
-    return [s.to_json()], []
+    settings = load_settings(path)
+    folder = locate_data_dir(settings, environ={})
+    aside = sorted(p.name for p in Path(path).parent.glob(f"{Path(path).name}.corrupt-*"))
+    notes = [f"set aside as {aside[-1].split('.', 1)[1]}"] if aside else []
+    return [settings.to_json(), str(folder.root)], notes
 
 
 def _read_registry(path: str):
@@ -194,7 +199,7 @@ def read_once(kind: str, path: str) -> dict:
         text = str(exc)
         if "\n" in text or not text.strip():
             return {"status": "crash", "message": f"refusal not one line: {text[:300]!r}"}
-        return {"status": "refused", "message": text[:300]}
+        return {"status": "refused", "message": text[:1000]}
     except BaseException as exc:
         return {"status": "crash", "message": f"{type(exc).__name__}: {str(exc)[:300]}"}
     return {"status": "read", "fingerprint": fingerprint(parts), "notes": sorted(notes)}
@@ -286,6 +291,15 @@ def run(cases: list[Case], *, timeout_s: float = 20.0, env: dict | None = None,
     finally:
         worker_.close()
     return results
+
+
+def unnamed(results: list[Result]) -> list[Result]:
+    """The refusals that do not name the file they refuse (its name without the suffixes,
+    which every copy's name begins with: `c00012` of c00012.h5, of the registry folder
+    c00012/, of settings c00012.json set aside as c00012.json.corrupt-<time>; `v00003` of
+    a video's timestamps v00003.avi.timestamps.csv)."""
+    return [r for r in results if r.outcome == "refused"
+            and Path(r.case.path).name.split(".")[0] not in r.detail]
 
 
 def tally(results: list[Result]) -> dict[str, dict[str, int]]:
@@ -809,15 +823,60 @@ def make_originals(folder: Path) -> dict[str, list[Path]]:
     return out
 
 
+def registry_edits(corrupter: Corrupter, original: Path) -> list[Case]:
+    """Edits of the registry made without the console (the sqlite3 shell, a database
+    browser): a row's value changed with the seal triggers dropped (with them in place the
+    edit fails: no such function registry_seal), a row's seal set to another's."""
+    import sqlite3
+
+    edits = {
+        "patient's name (triggers dropped)": [
+            "DROP TRIGGER patients_sealed_on_update",
+            "UPDATE patients SET first_name = 'Eve' WHERE code = (SELECT MIN(code) FROM "
+            "patients)"],
+        "patient's side (triggers dropped)": [
+            "DROP TRIGGER patients_sealed_on_update",
+            "UPDATE patients SET side = CASE side WHEN 'left' THEN 'right' ELSE 'left' END"],
+        "patient's mass as text (triggers dropped)": [
+            "DROP TRIGGER patients_sealed_on_update",
+            "UPDATE patients SET body_mass_kg = '70'"],
+        "seal swapped": [
+            "UPDATE patients SET seal = (SELECT seal FROM patients ORDER BY id DESC LIMIT 1) "
+            "WHERE id = (SELECT MIN(id) FROM patients)"],
+        "seal removed": ["UPDATE patients SET seal = NULL"],
+        "trial's status (triggers dropped)": [
+            "DROP TRIGGER trials_sealed_on_update",
+            "UPDATE trials SET status = 'stopped_early'"],
+        "trial's metric (triggers dropped)": [
+            "DROP TRIGGER trials_sealed_on_update",
+            "UPDATE trials SET metrics = replace(metrics, '0.0123', '0.0023')"],
+    }
+    cases = []
+    for how, statements in edits.items():
+        target = corrupter._copy(original)
+        conn = sqlite3.connect(_file_of(target), isolation_level=None)
+        try:
+            for statement in statements:
+                conn.execute(statement)
+        finally:
+            conn.close()
+        cases.append(Case("registry", f"sqlite3 edit: {how}", str(target), str(original)))
+    return cases
+
+
 def _registry(folder: Path) -> Path:
-    """A data folder whose registry holds two patients."""
+    """A data folder whose registry holds two patients, the first with a finished trial
+    (its session, parameters, status and metrics)."""
     from app.records.registry import Registry
+    from core.trial import TrialParameters
 
     registry = Registry(folder, create=True)
-    registry.create_patient("Ada", "Example", body_mass_kg=70.0, upper_arm_m=0.3,
-                            forearm_m=0.28, side="right")
+    ada = registry.create_patient("Ada", "Example", body_mass_kg=70.0, upper_arm_m=0.3,
+                                  forearm_m=0.28, side="right")
     registry.create_patient("Bo", "Sample", body_mass_kg=80.0, upper_arm_m=0.32,
                             forearm_m=0.3, side="left")
+    begun = registry.begin_trial(ada.code, TrialParameters(), backend="simulator")
+    registry.finish_trial(begun.trial_id, "complete", {"rmse_m": 0.0123, "peak_force_n": 7.5})
     return folder
 
 
@@ -842,6 +901,8 @@ def make_cases(originals: dict[str, list[Path]], folder: Path, *, per_file: int,
                 cases += text_edits(corrupter, kind, original)
             elif kind == "settings":
                 cases += settings_edits(corrupter, original)
+            elif kind == "registry":
+                cases += registry_edits(corrupter, original)
             elif kind == "timestamps":
                 cases += timestamps_edits(corrupter, original)
     return cases

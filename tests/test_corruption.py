@@ -47,10 +47,20 @@ def test_no_corrupted_file_ends_in_a_traceback(results):
 
 def test_no_sealed_or_signed_file_loads_other_data_silently(results):
     assert listed(results, "silent") == []
-    # with a note: only a trial whose seal was taken away, read as "closing interrupted"
+    # with a note: only a trial whose seal was taken away, read as "closing interrupted",
+    # and settings the console set aside (renamed .corrupt-<time>, said in its log), read
+    # as the defaults with the data folder they still named
     noted = [r for r in results if r.outcome == "noted"]
-    assert all(r.case.how == "h5py edit: seal deleted" and "unsealed" in r.detail
+    assert all((r.case.how == "h5py edit: seal deleted" and "unsealed" in r.detail)
+               or (r.case.kind == "settings" and r.detail.startswith("set aside as "))
                for r in noted), listed(results, "noted")
+
+
+def test_every_refusal_names_the_file_it_refuses(results):
+    """Issue 28: one line saying what is wrong, of which file (a reader of many files, an
+    export of a patient's trials, must say which one it refused)."""
+    assert [f"{r.case.kind}: {r.case.how}: {r.detail}"
+            for r in corruption.unnamed(results)] == []
 
 
 def test_the_edits_the_issue_found_are_refused(results):
@@ -61,5 +71,9 @@ def test_the_edits_the_issue_found_are_refused(results):
                 "h5py edit: status bomplete", "h5py edit: emg 5 columns for 3 (sealed again)",
                 "h5py edit: mvc flags text (sealed again)", "edit: cone narrowed, rehashed",
                 "edit: weight changed, rehashed", "edit: weight 1e308, signed",
-                "edit: a line of 200 KB", "edit: header only"):
+                "edit: a line of 200 KB", "edit: header only",
+                "sqlite3 edit: patient's name (triggers dropped)", "sqlite3 edit: seal swapped",
+                "sqlite3 edit: trial's status (triggers dropped)",
+                "sqlite3 edit: trial's metric (triggers dropped)", "edit: data_dir 123",
+                "edit: data_dir empty", "edit: nested 200k deep"):
         assert how in refused, how

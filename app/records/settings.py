@@ -284,11 +284,14 @@ def _data_dir_in(path: Path) -> str | None:
     """The data folder a damaged settings file still names (a truncated file often keeps
     its first keys whole), or None."""
     try:
-        text = read_bytes(path, max_bytes=MAX_SETTINGS_BYTES).decode("utf-8", errors="replace")
+        text = read_bytes(path, max_bytes=MAX_SETTINGS_BYTES).decode("utf-8",
+                                                                     errors="surrogateescape")
     except InputRefused:  # not a plain file, too large: nothing to read back
         return None
     found = _DATA_DIR_ENTRY.search(text)
-    if found is None:
+    if found is None or any("\udc80" <= c <= "\udcff" for c in found.group(1)):
+        # a byte of the folder's name itself damaged (not UTF-8; the console writes
+        # ASCII): read back with a replacement character it was another folder
         return None
     try:
         value = json.loads(found.group(1))

@@ -88,8 +88,10 @@ def _timestamps(sidecar: Path) -> np.ndarray:
     try:
         rows = np.loadtxt(sidecar, delimiter=",", skiprows=1, ndmin=2)
     except (OSError, ValueError, UnicodeDecodeError) as exc:
-        raise VideoError(f"timestamps {sidecar} cannot be read ({_one_line(exc)}); it must be "
-                         "the CSV the console writes (frame,monotonic_s)") from exc
+        # numpy's advice to its programmer ("use `usecols`…") is no help to the reader
+        said = _one_line(exc).split("; use `usecols`")[0].rstrip(". ")
+        raise VideoError(f"timestamps {sidecar} cannot be read ({said}); it must be the CSV "
+                         "the console writes (frame,monotonic_s)") from exc
     if rows.size == 0:
         raise VideoError(f"timestamps {sidecar} list no frames: the camera recorded nothing")
     if rows.shape[1] != 2:

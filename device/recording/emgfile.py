@@ -144,7 +144,7 @@ def read_emg(path: str | os.PathLike) -> EmgGroup | None:
         with held(path):
             return _read(path)
     except Damaged as exc:
-        raise RecordingError(f"trial file {path} {exc.problem}. Restore it from the backup "
+        raise RecordingError(f"trial file {path}: {exc.problem}. Restore it from the backup "
                              "or import its EMG again (rehab emg import --replace)") from None
     except (OSError, KeyError, ValueError, TypeError, RuntimeError) as exc:
         detail = " ".join(str(exc).split())

@@ -73,7 +73,7 @@ def _check(path: Path) -> None:
         with h5py.File(path, "r", locking=False) as f:
             check_header(f)
     except Damaged as exc:
-        raise RecordingError(f"trial file {path} {exc.problem}; it was not taken over"
+        raise RecordingError(f"trial file {path}: {exc.problem}; it was not taken over"
                              ) from None
     except (OSError, RuntimeError, ValueError, KeyError) as exc:
         raise _disk_error(path, "take over", exc) from exc

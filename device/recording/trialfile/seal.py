@@ -399,9 +399,8 @@ def in_room(path: str, room: str) -> bool:
 
 
 def _what(path: str) -> str:
-    if path == "/":
-        return "the root attributes (status, subject, parameters, period…)"
-    names = {"/parameters": "/parameters", "/channels": "the channel table (names, units, "
-             "frames)", "/events": "the events", "/summary": "/summary",
-             "/metrics": "/metrics"}
+    """The part by its path in the file, and what it holds where a path says little."""
+    names = {"/": "/ (the root attributes: status, subject, parameters, period…)",
+             "/channels": "/channels (the channel table: names, units, frames)",
+             "/events": "/events (the events and faults)"}
     return names.get(path, path)

@@ -140,7 +140,7 @@ def _reseal(f: h5py.File, seal: sealing.Seal, room: str) -> None:
 
 
 def _damaged(path, exc: Damaged) -> RecordingError:
-    return RecordingError(f"trial file {path} {exc.problem}; nothing was stored in it. Restore "
+    return RecordingError(f"trial file {path}: {exc.problem}; nothing was stored in it. Restore "
                           "it from the backup or the original")
 
 

@@ -211,6 +211,24 @@ def test_a_truncated_file_keeps_its_data_folder(config, tmp_path, monkeypatch):
     assert len(list(config.glob(f"{SETTINGS_NAME}.corrupt-*"))) == 1
 
 
+def test_a_damaged_byte_in_the_data_folder_s_name_is_not_read_back_as_another_folder(
+        config, tmp_path, monkeypatch):
+    """A byte of the folder's name set to one that is not UTF-8 (the corruption bench's
+    'byte set to 253') was read back with a replacement character, '/tmp/r\ufffdg/data':
+    the console went on with a folder no one named. The folder is now unknown, refused."""
+    from app.errors import DataDirError
+    from app.records.datadir import ENV_DATA_DIR, locate_data_dir
+
+    monkeypatch.delenv(ENV_DATA_DIR, raising=False)
+    config.mkdir()
+    text = json.dumps({"data_dir": str(tmp_path / "reg" / "data"), "flip_x": True}).encode()
+    at = text.index(b"reg") + 1
+    (config / SETTINGS_NAME).write_bytes(text[:at] + b"\xfd" + text[at + 1:])
+    with pytest.raises(DataDirError, match=r"settings file .*corrupt-.* is damaged"):
+        locate_data_dir()
+    assert len(list(config.glob(f"{SETTINGS_NAME}.corrupt-*"))) == 1
+
+
 def test_a_damaged_file_without_its_data_folder_is_refused_until_someone_looks(
         config, tmp_path, monkeypatch):
     from app.errors import DataDirError
