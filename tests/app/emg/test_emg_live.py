@@ -134,13 +134,18 @@ def test_a_capture_forgets_what_came_before_and_keeps_its_clock():
         client = TrignoClient("127.0.0.1", command_port=server.command_port,
                               data_port=server.data_port).open()
         client.start()
-        capture = EmgCapture(client).start()
-        _capture_until(capture, 1200)
-        middle = capture.latest()[0][600]
-        dropped = capture.forget_before(middle)
-        assert 0 < dropped <= 600
-        _capture_until(capture, 1200)
-        captured = capture.stop()
+        # latest() over the whole capture, so sample 600 counts from the first whatever
+        # the machine's load let arrive meanwhile (over its last 5 s, a slow test forgot
+        # 3,606 samples: everything before the last 5 s as well)
+        capture = EmgCapture(client, latest_s=3600.0).start()
+        try:  # the source closed whatever happens (a socket left open failed a later test)
+            _capture_until(capture, 1200)
+            middle = capture.latest()[0][600]
+            dropped = capture.forget_before(middle)
+            _capture_until(capture, 1200)
+        finally:
+            captured = capture.stop()
+    assert 0 < dropped <= 600
     assert captured.error == ""
     k = dropped + np.arange(captured.samples.shape[0])
     np.testing.assert_array_equal(captured.samples, fake.default_signal(k).astype(float))
