@@ -132,3 +132,22 @@ def test_recording_needs_a_started_camera_and_a_known_format(tmp_path):
             camera.start_recording(tmp_path / "x.mkv")
     finally:
         camera.stop()
+
+
+def test_a_damaged_timestamps_line_is_refused_in_the_readers_words(tmp_path):
+    """A timestamps file with a line of one column was refused with numpy's advice to its
+    programmer ('use `usecols` to select a subset and avoid this error'): the refusal is
+    one line naming the file and what is wrong, nothing a reader cannot act on."""
+    from device.camera.video import open_video
+    from device.errors import VideoError
+
+    video = write_video(tmp_path / "clip.avi")
+    rows = [f"{k},{k / FPS:.6f}" for k in range(12)]
+    rows[6] = "7" * 2000
+    timestamps_path(video).write_text(TIMESTAMPS_HEADER + "\n".join(rows) + "\n")
+    with pytest.raises(VideoError) as refused:
+        open_video(video)
+    said = str(refused.value)
+    assert "\n" not in said
+    assert said.startswith(f"timestamps {timestamps_path(video)} cannot be read (")
+    assert "usecols" not in said

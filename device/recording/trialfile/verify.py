@@ -236,8 +236,8 @@ def _check_dataset(path: str, dataset: h5py.Dataset, file_size: int) -> dict:
 def _checked_attributes(path: str, item, file_size: int) -> dict:
     """The object's attributes, each read only once its claimed size is known to fit."""
     try:
-        names = list(item.attrs)
-    except (OSError, RuntimeError, ValueError, UnicodeDecodeError) as exc:
+        names = list(item.attrs)  # a File's opens its root group first: KeyError then
+    except (OSError, RuntimeError, ValueError, UnicodeDecodeError, KeyError) as exc:
         raise Damaged(f"is damaged: the attribute names of {path} cannot be read "
                       f"({exc})") from exc
     if len(names) > MAX_ATTRIBUTES:

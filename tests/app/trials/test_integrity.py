@@ -306,3 +306,18 @@ def test_threads_reading_while_another_stores_never_share_the_open_file(trial):
                          capture_output=True, text=True, timeout=600)
     assert ran.returncode == 0, ran.stderr[-2000:]
     assert ran.stdout.strip() == "[] {'rmse_x_m': 5.0}"
+
+
+def test_a_damaged_root_object_header_is_refused_naming_the_root(trial):
+    """A byte of the root group's object header changed (its HDF5 checksum then fails):
+    every reader refused it as 'reading it failed (Unable to synchronously open object
+    …)', naming no part; the walk now names the part it could not open, the root."""
+    with h5py.File(trial, "r") as f:
+        root_at = h5py.h5o.get_info(f["/"].id).addr
+    data = bytearray(trial.read_bytes())
+    assert data[root_at:root_at + 4] == b"OHDR"  # a version-2 object header, checksummed
+    data[root_at + 12] ^= 0x10
+    trial.write_bytes(bytes(data))
+    for reader in (read_trial, read_info):
+        text = refusal(trial, reader)
+        assert "is damaged: the attribute names of / cannot be read" in text, text
