@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import logging
 import os
+import struct
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -58,19 +59,46 @@ class XdfStream:
     values: object  # (k, C) numbers, or a list of lists of strings for a marker stream
 
 
-def read_xdf(path: str | os.PathLike) -> list[XdfStream]:
-    """Every stream of an XDF file, on the recording computer's clock; one line when the
-    file cannot be read."""
+class _Heard(logging.Handler):
+    """What pyxdf says while it reads: it skips a damaged chunk with an error in its log
+    and goes on, which must reach the researcher as a note, not a line on stderr."""
+
+    def __init__(self) -> None:
+        super().__init__(logging.WARNING)
+        self.said: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.said.append(" ".join(record.getMessage().split()))
+
+
+def read_xdf(path: str | os.PathLike) -> tuple[list[XdfStream], tuple[str, ...]]:
+    """Every stream of an XDF file, on the recording computer's clock, and what pyxdf said
+    of damage it skipped; one line when the file cannot be read."""
     import pyxdf  # only here: a console that never opens an XDF file never loads it
 
     path = Path(path)
-    logging.getLogger("pyxdf").setLevel(logging.ERROR)  # its notes are not ours to print
+    logger = logging.getLogger("pyxdf")
+    heard, propagate = _Heard(), logger.propagate
+    logger.addHandler(heard)
+    logger.propagate = False
     try:
         streams, _ = pyxdf.load_xdf(str(path), dejitter_timestamps=False)
-    except (OSError, ValueError, KeyError, IndexError, EOFError, RuntimeError) as exc:
-        raise EmgImportError(f"XDF file {path}: cannot be read ({' '.join(str(exc).split())});"
-                             " record it again with LabRecorder") from None
-    return [_stream(s) for s in streams]
+        read = [_stream(s) for s in streams]
+    except (OSError, ValueError, KeyError, IndexError, EOFError, RuntimeError, TypeError,
+            AttributeError, SyntaxError, struct.error) as exc:
+        # SyntaxError: xml.etree's ParseError, a damaged stream header; struct.error, a
+        # chunk cut short
+        raise EmgImportError(f"XDF file {path}: cannot be read ({type(exc).__name__}: "
+                             f"{' '.join(str(exc).split())}); record it again with "
+                             "LabRecorder") from None
+    finally:
+        logger.removeHandler(heard)
+        logger.propagate = propagate
+    damage = tuple(dict.fromkeys(heard.said))
+    notes = (f"the recording is damaged: pyxdf skipped what it could not read ("
+             f"{'; '.join(damage[:3])}{'; …' if len(damage) > 3 else ''}); check the EMG",
+             ) if damage else ()
+    return read, notes
 
 
 def _first(info: dict, key: str, default: str = "") -> str:
@@ -186,7 +214,7 @@ def import_xdf(trial_path: str | os.PathLike, xdf_path: str | os.PathLike, *,
         raise EmgImportError(f"trial file {trial.path.name} is still being recorded; import "
                              "the EMG after the trial ends")
     path = Path(xdf_path)
-    streams = read_xdf(path)
+    streams, damage = read_xdf(path)
     robots = [s for s in streams if s.name == ROBOT_STREAM and s.channel_format != "string"
               and len(s.stamps)]
     if not robots:
@@ -211,7 +239,7 @@ def import_xdf(trial_path: str | os.PathLike, xdf_path: str | os.PathLike, *,
     trial_time = trial_time_from_monotonic(trial, emg.stamps - offset)
     markers = sum(len(s.stamps) for s in streams if s.name == EVENT_STREAM)
     notes = (f"placed through the {ROBOT_STREAM} stream: recording clock − console clock = "
-             f"{offset:.6f} s; {markers} robot markers in the recording",)
+             f"{offset:.6f} s; {markers} robot markers in the recording", *damage)
     data = EmgData(names, emg.rate_hz, trial_time, volts, "xdf", path, notes)
     clock = ("LSL stamps of the XDF recording, less the offset at which the trial's ticks "
              f"are in its {ROBOT_STREAM} stream")

@@ -145,3 +145,25 @@ def test_an_emg_stream_without_units_needs_one_given(plain_trial, tmp_path, caps
                        capsys)
     assert code == 2
     assert "--offset is for exported files" in err
+
+
+def test_a_damaged_recording_is_refused_in_one_line_or_noted_never_silent(plain_trial,
+                                                                          tmp_path):
+    """pyxdf raised xml.etree's ParseError on a damaged stream header (a traceback), and
+    skipped a damaged chunk with a line on stderr only (silent to the researcher)."""
+    trial = _live_trial(plain_trial, tmp_path, time.monotonic() - 30.0)
+    xdf, _, samples = _record(tmp_path, trial)
+    data = xdf.read_bytes()
+    header = data.index(b"<name>")
+    broken = tmp_path / "broken.xdf"
+    broken.write_bytes(data[:header + 1] + b"#" + data[header + 2:])
+    with pytest.raises(EmgImportError, match=r"broken\.xdf: cannot be read \(ParseError") \
+            as refused:
+        import_xdf(trial, broken)
+    assert "\n" not in str(refused.value)
+    cut = tmp_path / "cut.xdf"
+    cut.write_bytes(data[:-5])  # the last stream's footer cut short
+    done = import_xdf(trial, cut)
+    assert any(note.startswith("the recording is damaged: pyxdf skipped what it could not "
+                               "read") for note in done.notes), done.notes
+    np.testing.assert_array_equal(read_emg(trial).samples, samples.astype(float) * 1e-6)
