@@ -57,7 +57,6 @@ Where this deviates from BIDS 1.9.0 (and why):
 
 from __future__ import annotations
 
-import csv
 import json
 import logging
 import math
@@ -70,7 +69,7 @@ import numpy as np
 
 from app.errors import AppError
 from app.exports.bids_channels import CHANNEL_TYPES, FRAMES, BidsChannel, bids_channels
-from app.exports.bids_scans import scan_row, scans_path, write_scans
+from app.exports.bids_scans import rows_by, scan_row, scans_path, write_scans
 from app.exports.files import ExportError, output, prepare_folder, refuse_existing, write_text
 from app.exports.loader import Failure, Trial, TrialInfo, load_trial, read_info
 from app.exports.plan import ExportResult, TrialSource, one_trial
@@ -361,12 +360,7 @@ def _write_dataset_files(root: Path, runs: list[_Run], names: Mapping, dataset_n
 
 def _write_participants(root: Path, runs: list[_Run], names: Mapping) -> list[Path]:
     path = root / "participants.tsv"
-    rows: dict[str, dict] = {}
-    if path.exists():
-        with path.open(encoding="utf-8", newline="") as stream:
-            for row in csv.DictReader(stream, delimiter="\t", quoting=csv.QUOTE_NONE):
-                if row.get("participant_id"):
-                    rows[row["participant_id"]] = row
+    rows = rows_by(path, "participant_id")
     latest: dict[str, _Run] = {}
     for run in sorted(runs, key=lambda r: r.info.created_utc):
         latest[run.participant] = run

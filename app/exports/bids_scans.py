@@ -46,16 +46,23 @@ def scan_row(motion_tsv: Path, status: str, parameters: Mapping) -> dict[str, st
                                            allow_nan=False, default=str)}
 
 
+def rows_by(path: Path, key: str) -> dict[str, dict]:
+    """The rows of a dataset's TSV file already there, by their `key` column (none when
+    the file is not there): an export that adds runs keeps the others'."""
+    rows: dict[str, dict] = {}
+    if path.exists():
+        with path.open(encoding="utf-8", newline="") as stream:
+            for row in csv.DictReader(stream, delimiter="\t", quoting=csv.QUOTE_NONE):
+                if row.get(key):
+                    rows[row[key]] = row
+    return rows
+
+
 def write_scans(path: Path, rows: list[dict[str, str]],
                 write_tsv: Callable, write_json: Callable) -> list[Path]:
     """Write the session's scans file with `rows` added to (or replacing by filename) the
     rows it has, and its sidecar."""
-    merged: dict[str, dict] = {}
-    if path.exists():
-        with path.open(encoding="utf-8", newline="") as stream:
-            for row in csv.DictReader(stream, delimiter="\t", quoting=csv.QUOTE_NONE):
-                if row.get("filename"):
-                    merged[row["filename"]] = row
+    merged = rows_by(path, "filename")
     for row in rows:
         merged[row["filename"]] = row
     table = [tuple(row.get(c) or "n/a" for c in COLUMNS) for _, row in sorted(merged.items())]

@@ -41,6 +41,25 @@ def _live_trial(plain_trial, tmp_path, origin):
     return path
 
 
+def _lsl_emg_outlet(name, labels, unit, channel_format):
+    """An EMG outlet at 2 kHz that declares its channels as EMG software does: label and
+    unit (the unit decides the volts)."""
+    info = pylsl.StreamInfo(name, "EMG", len(labels), 2000.0, channel_format, name)
+    described = info.desc().append_child("channels")
+    for label in labels:
+        channel = described.append_child("channel")
+        channel.append_child_value("label", label)
+        channel.append_child_value("unit", unit)
+    return pylsl.StreamOutlet(info)
+
+
+def _wait_for_consumers(outlet, timeout=10.0):
+    deadline = time.monotonic() + timeout
+    while not outlet.have_consumers():
+        assert time.monotonic() < deadline, "the inlet did not connect"
+        time.sleep(0.01)
+
+
 def _capture_until(capture, n, timeout=20.0):
     deadline = time.monotonic() + timeout
     while capture.running and capture.latest()[0].size < n:
@@ -76,18 +95,9 @@ def test_a_trigno_capture_lands_in_the_trial_on_its_clock(plain_trial, tmp_path)
 
 def test_an_lsl_capture_lands_in_the_trial(plain_trial, tmp_path):
     name = f"test-{uuid.uuid4().hex[:12]}"
-    info = pylsl.StreamInfo(name, "EMG", 4, 2000.0, pylsl.cf_float32, name)
-    described = info.desc().append_child("channels")
-    for label in ("a", "b", "c", "d"):  # as EMG software declares them: the unit decides
-        channel = described.append_child("channel")
-        channel.append_child_value("label", label)
-        channel.append_child_value("unit", "V")
-    outlet = pylsl.StreamOutlet(info)
+    outlet = _lsl_emg_outlet(name, ("a", "b", "c", "d"), "V", pylsl.cf_float32)
     inlet = LslEmgInlet(name, channels=4, rate_hz=2000.0, timeout_s=5.0).open(5.0)
-    deadline = time.monotonic() + 10
-    while not outlet.have_consumers():
-        assert time.monotonic() < deadline
-        time.sleep(0.01)
+    _wait_for_consumers(outlet)
     origin = time.monotonic()
     capture = EmgCapture(inlet).start()
     sent = np.arange(4000 * 4, dtype=np.float32).reshape(4000, 4) * 1e-7
@@ -186,18 +196,9 @@ def test_a_live_lsl_capture_keeps_the_muscles_its_stream_names(plain_trial, tmp_
     from app.emg.importing import store_live_capture
 
     name = f"test-{uuid.uuid4().hex[:12]}"
-    info = pylsl.StreamInfo(name, "EMG", 2, 2000.0, pylsl.cf_int16, name)
-    described = info.desc().append_child("channels")
-    for label in ("biceps", "triceps"):
-        channel = described.append_child("channel")
-        channel.append_child_value("label", label)
-        channel.append_child_value("unit", "uV")
-    outlet = pylsl.StreamOutlet(info)
+    outlet = _lsl_emg_outlet(name, ("biceps", "triceps"), "uV", pylsl.cf_int16)
     inlet = LslEmgInlet(name, timeout_s=5.0).open(5.0)
-    deadline = time.monotonic() + 10
-    while not outlet.have_consumers():
-        assert time.monotonic() < deadline
-        time.sleep(0.01)
+    _wait_for_consumers(outlet)
     origin = time.monotonic()
     capture = EmgCapture(inlet).start()
     stamps = origin + 0.5 + np.arange(2000) / 2000.0
