@@ -92,7 +92,7 @@ def test_a_level_set_between_trials_does_not_run_the_next_trial(client, tmp_path
 
 
 def test_a_live_change_is_recorded_per_tick_and_belongs_to_its_trial_only(client, tmp_path):
-    _connect(client, FULL)
+    _connect(client, FULL.replace(repetitions=1))  # one lap holds the change and its ticks
 
     def lower(c):
         reply = c.set_assistance(0.4)
