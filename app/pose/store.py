@@ -12,7 +12,6 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-import h5py
 import numpy as np
 
 from app.errors import TrialFileError
@@ -20,8 +19,8 @@ from core.pose.keypoints import KEYPOINT_NAMES
 from core.pose.pipeline import PoseResult
 from device.errors import RecordingError
 from device.recording.trialfile import STATUS_RECORDING, open_for_update, utc_now_iso
-from device.recording.trialfile.seal import Seal
-from device.recording.trialfile.verify import Damaged, check_heaps, held, inventory
+from device.recording.trialfile.seal import open_room
+from device.recording.trialfile.verify import Damaged, held
 
 GROUP = "pose"
 # dataset: (units, frame, description)
@@ -155,15 +154,10 @@ def read_pose(path: str | os.PathLike) -> dict | None:
 
 
 def _read(path: Path) -> dict | None:
-    check_heaps(path)
-    with h5py.File(path, "r", locking=False) as f:
-        found = inventory(f)
-        if f"/{GROUP}" not in found.paths:
+    with open_room(path, f"/{GROUP}") as opened:
+        if opened is None:
             return None
-        seal = Seal.read(f)
-        if seal is not None:
-            seal.check_structure(found)
-            seal.check_room(found, f"/{GROUP}")
+        _, found, _ = opened
         group = found.groups.get(f"/{GROUP}")
         if group is None:
             raise Damaged("is damaged: /pose is not a group")

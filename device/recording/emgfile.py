@@ -23,8 +23,8 @@ import numpy as np
 
 from device.errors import RecordingError
 from device.recording.trialfile import STATUS_RECORDING, open_for_update, utc_now_iso
-from device.recording.trialfile.seal import Seal
-from device.recording.trialfile.verify import Damaged, check_heaps, held, inventory
+from device.recording.trialfile.seal import open_room
+from device.recording.trialfile.verify import Damaged, held
 
 GROUP = "emg"
 CHUNK_ROWS = 4096  # about 2 s at the Trigno's rate
@@ -152,15 +152,11 @@ def read_emg(path: str | os.PathLike) -> EmgGroup | None:
 
 
 def _read(path: Path) -> EmgGroup | None:
-    check_heaps(path)
-    with h5py.File(path, "r", locking=False) as f:
-        found = inventory(f)
-        if f"/{GROUP}" not in found.paths:
+    # the samples are checked against the seal as they are read, not twice
+    with open_room(path, f"/{GROUP}", skip={"/emg/time", "/emg/samples"}) as opened:
+        if opened is None:
             return None
-        seal = Seal.read(f)
-        if seal is not None:
-            seal.check_structure(found)
-            seal.check_room(found, f"/{GROUP}", skip={"/emg/time", "/emg/samples"})
+        _, found, seal = opened
         group = _checked_group(found)
         table = group["channels"][()]
         time_s, samples = group["time"][()], group["samples"][()]

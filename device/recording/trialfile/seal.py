@@ -30,15 +30,16 @@ what drives the robot, carry a keyed signature instead: app.records.signing).
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import struct
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 
 import h5py
 import numpy as np
 
-from device.recording.trialfile.verify import Damaged, Inventory, inventory
+from device.recording.trialfile.verify import Damaged, Inventory, check_heaps, inventory
 
 SEAL = "seal"
 SEAL_SHA256 = "seal_sha256"
@@ -404,3 +405,24 @@ def _what(path: str) -> str:
              "/channels": "/channels (the channel table: names, units, frames)",
              "/events": "/events (the events and faults)"}
     return names.get(path, path)
+
+
+@contextlib.contextmanager
+def open_room(path, room: str, skip=frozenset()
+              ) -> Iterator[tuple[h5py.File, Inventory, Seal | None] | None]:
+    """A trial file opened to read one group beside its samples (`room`: "/emg",
+    "/pose"): its heaps and structure checked first and, when it is sealed, the room
+    against its seal (but the datasets in `skip`, which the reader checks as it reads
+    them). Yields (file, inventory, seal or None), or None when the file has no such
+    group. Raises Damaged (one line) for what does not verify."""
+    check_heaps(path)
+    with h5py.File(path, "r", locking=False) as f:
+        found = inventory(f)
+        if room not in found.paths:
+            yield None
+            return
+        seal = Seal.read(f)
+        if seal is not None:
+            seal.check_structure(found)
+            seal.check_room(found, room, skip=skip)
+        yield f, found, seal
