@@ -39,6 +39,17 @@ DURATION_RANGE_S = (1.0, 120.0)
 REPETITIONS_RANGE = (1, 100)
 TOLERANCE_RANGE_RAD = (math.radians(1.0), math.radians(90.0))
 TARGETS_RANGE = (2, 16)
+GAMES = ("", "path", "reach")
+"""The games a trial may be (core.games): "" none, "path" (steer the hand through a channel
+around the path), "reach" (hit the reaching layout's targets in time)."""
+REACH_GAME_SHAPES = ("targets", "reach")
+"""The shapes whose straight reaches are the reaching game's targets."""
+# A target or a channel narrower than a few millimetres is below what a hand holds still
+# on the handle; wider than 8 cm it covers the 2-25 cm exercise itself.
+TARGET_RADIUS_RANGE_M = (0.005, 0.08)
+CHANNEL_HALF_WIDTH_RANGE_M = (0.003, 0.08)
+TIME_ALLOWED_RANGE_S = (0.2, 30.0)
+DISTRACTORS_RANGE = (0, 8)
 # The arm must stay bent: a straight arm is singular (eq. 3.32 has no inverse)
 # and a fully folded elbow meets the upper arm.
 ELBOW_FLEXION_RANGE_RAD = (math.radians(10.0), math.radians(140.0))
@@ -116,6 +127,18 @@ class TrialParameters:
     passed its held-out validation is ever saved there), "" for the sensor."""
     force_estimate_sha256: str = ""
     """The content hash of that model file as the trial used it."""
+    game: str = ""
+    """The game the trial is played as (GAMES, core.games): "" none (older files read so),
+    "path" or "reach" (shape "targets" or "reach" only)."""
+    target_radius_m: float = 0.02
+    """Reaching game: the radius of each target (and distractor) disc, m."""
+    channel_half_width_m: float = 0.02
+    """Path game: the channel's half-width around the path, m."""
+    time_allowed_s: float = 0.5
+    """Reaching game: the time from a target's appearance (its reach's start on the clock)
+    to hit it, s; at most the time between two targets' appearances."""
+    n_distractors: int = 0
+    """Reaching game: discs to avoid, placed between the targets (core.games.layout)."""
 
     def __post_init__(self) -> None:
         _choice("shape", self.shape, SHAPES)
@@ -123,12 +146,15 @@ class TrialParameters:
         _choice("side", self.side, SIDES)
         _choice("controller", self.controller, CONTROLLERS)
         _choice("assist", self.assist, ASSIST_MODES)
+        if self.game not in GAMES:
+            raise ParameterError("game", self.game, "'' (no game), 'path' or 'reach'")
         # numbers as numbers: a string or a flag is refused by name, numpy scalars become
         # plain floats and ints (they reach JSON and HDF5 attributes)
         for name in _REAL_FIELDS:
             object.__setattr__(self, name, _real(name, getattr(self, name)))
         for name, allowed in (("repetitions", REPETITIONS_RANGE),
-                              ("n_targets", TARGETS_RANGE)):
+                              ("n_targets", TARGETS_RANGE),
+                              ("n_distractors", DISTRACTORS_RANGE)):
             value = getattr(self, name)
             _integer(name, value, *allowed)
             object.__setattr__(self, name, int(value))
@@ -152,6 +178,7 @@ class TrialParameters:
                     "the channel alone), 1 = full help")
         if not isinstance(self.clockwise, bool):
             raise ParameterError("clockwise", self.clockwise, "True or False")
+        _game_fields(self)
         _learned_model(self.controller, self.learned_model, self.learned_model_sha256)
         _model_name("force_estimate", self.force_estimate, "an EMG model file's name")
         _model_hash("force_estimate_sha256", self.force_estimate_sha256, self.force_estimate)
@@ -355,7 +382,41 @@ def _choice(name: str, value: object, allowed: tuple[str, ...]) -> None:
 
 
 _REAL_FIELDS = ("radius_m", "duration_s", "body_mass_kg", "upper_arm_m", "forearm_m",
-                "tolerance_rad", "assistance_level")
+                "tolerance_rad", "assistance_level", "target_radius_m",
+                "channel_half_width_m", "time_allowed_s")
+
+
+def target_spacing_s(shape: str, duration_s: float, n_targets: int) -> float:
+    """Time between two targets' appearances in the reaching game: the path's reaches
+    share one traversal evenly (core.trajectory: each segment's time is proportional to
+    its length, and a layout's reaches are equally long)."""
+    return duration_s / n_targets if shape == "targets" else duration_s
+
+
+def _game_fields(p: TrialParameters) -> None:
+    """The game's difficulty in SI, each refused in one line; the reaching game's fields
+    are checked against its layout only when it is the game."""
+    check_range("target_radius_m", p.target_radius_m, *TARGET_RADIUS_RANGE_M, "m",
+                "a target the hand can hold still in, smaller than the exercise")
+    check_range("channel_half_width_m", p.channel_half_width_m,
+                *CHANNEL_HALF_WIDTH_RANGE_M, "m",
+                "a channel the hand can stay in, narrower than the exercise")
+    check_range("time_allowed_s", p.time_allowed_s, *TIME_ALLOWED_RANGE_S, "s")
+    if p.game == "reach" and p.shape not in REACH_GAME_SHAPES:
+        raise ParameterError("shape", p.shape, "one of " + ", ".join(REACH_GAME_SHAPES)
+                             + " with game 'reach'",
+                             "the reaching game's targets are the ends of the layout's reaches")
+    if p.game != "reach":
+        return
+    spacing = target_spacing_s(p.shape, p.duration_s, p.n_targets)
+    if p.time_allowed_s > spacing + 1e-9:
+        raise ParameterError("time_allowed_s", p.time_allowed_s, f"at most {spacing:g} s",
+                             "a target must be hit before the next one appears: "
+                             "give more time per movement (duration_s) or less time_allowed_s")
+    gaps = p.n_targets if p.shape == "targets" else 2
+    if p.n_distractors > gaps:
+        raise ParameterError("n_distractors", p.n_distractors, f"at most {gaps}",
+                             "one distractor between two neighbouring targets")
 
 
 def _real(name: str, value: object) -> float:
