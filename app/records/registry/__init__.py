@@ -13,6 +13,7 @@ or concern, each a module here:
   `finish_trial` at Stop, and listing;
 * queries — the progress rows (`trial_summaries`) and `previous_trial`;
 * proposals — the console's proposal for the next trial and the therapist's decision;
+* plans — session plans per patient and what each run of one did (schema v7);
 * values — the checks of what is given and the JSON of parameters and metrics.
 * seals — every row sealed with the digest of its values, checked before it is read.
 
@@ -49,6 +50,7 @@ from pathlib import Path
 from app.records.datadir import DataDir, private_files
 from app.records.registry.database import BUSY_TIMEOUT_S
 from app.records.registry.patients import BIRTH_YEAR_MIN, CODE_LENGTH, Patient, Patients, new_code
+from app.records.registry.plans import PlanRun, Plans, PlanStep, StoredPlan
 from app.records.registry.proposals import Proposals, StoredProposal
 from app.records.registry.queries import Queries, TrialSummary
 from app.records.registry.schema import (
@@ -87,9 +89,12 @@ __all__ = [
     "TEXT_MAX_CHARS",
     "BegunTrial",
     "Patient",
+    "PlanRun",
+    "PlanStep",
     "Registration",
     "Registry",
     "Session",
+    "StoredPlan",
     "StoredProposal",
     "Trial",
     "TrialSummary",
@@ -98,7 +103,7 @@ __all__ = [
 ]
 
 
-class Registry(Schema, Patients, Sessions, Proposals, Trials, Queries):
+class Registry(Schema, Patients, Sessions, Plans, Proposals, Trials, Queries):
     """The registry of one data folder. Opening it migrates the database; with `create`
     (the window, `rehab patients add`) a missing one is created, whole, in a new or empty
     folder (app.records.registry.schema.create_registry_file); without, a missing registry

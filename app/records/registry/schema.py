@@ -111,6 +111,49 @@ MIGRATE_V4_TO_V5 = (
 # every read and write (app.records.registry.seals): a flipped bit is refused, not read.
 MIGRATE_V5_TO_V6 = seals.migration()
 
+# v7: session plans (core.plan) saved per patient, each change a new row (`based_on` the
+# one it changed, `template` the built-in template it was first copied from), and what
+# each run of a plan did: its trials (one per block's round) and its rests in order, and
+# how it ended (app.records.registry.plans). Sealed from the start.
+MIGRATE_V6_TO_V7 = (
+    """CREATE TABLE plans (
+        id INTEGER PRIMARY KEY,
+        patient_id INTEGER NOT NULL REFERENCES patients (id) ON DELETE RESTRICT,
+        name TEXT NOT NULL,
+        plan TEXT NOT NULL,
+        template TEXT NOT NULL DEFAULT '',
+        based_on INTEGER REFERENCES plans (id) ON DELETE RESTRICT,
+        created_at TEXT NOT NULL,
+        seal TEXT
+    )""",
+    """CREATE TABLE plan_runs (
+        id INTEGER PRIMARY KEY,
+        plan_id INTEGER NOT NULL REFERENCES plans (id) ON DELETE RESTRICT,
+        started_at TEXT NOT NULL,
+        ended_at TEXT,
+        status TEXT NOT NULL CHECK (status IN
+            ('running', 'complete', 'stopped', 'emergency_stop', 'faulted', 'interrupted')),
+        end_reason TEXT NOT NULL DEFAULT '',
+        seal TEXT
+    )""",
+    """CREATE TABLE plan_steps (
+        run_id INTEGER NOT NULL REFERENCES plan_runs (id) ON DELETE RESTRICT,
+        step INTEGER NOT NULL CHECK (step >= 1),
+        block INTEGER NOT NULL CHECK (block >= 1),
+        round INTEGER NOT NULL CHECK (round >= 1),
+        kind TEXT NOT NULL CHECK (kind IN ('trial', 'rest')),
+        trial_id INTEGER UNIQUE REFERENCES trials (id) ON DELETE RESTRICT,
+        planned_s REAL NOT NULL,
+        taken_s REAL,
+        seal TEXT,
+        PRIMARY KEY (run_id, step),
+        CHECK ((kind = 'trial') = (trial_id IS NOT NULL))
+    )""",
+    *seals.triggers("plans"),
+    *seals.triggers("plan_runs"),
+    *seals.triggers("plan_steps"),
+)
+
 MIGRATIONS: tuple[tuple[int, tuple[str, ...]], ...] = (
     (1, SCHEMA_V1),
     (2, MIGRATE_V1_TO_V2),
@@ -118,6 +161,7 @@ MIGRATIONS: tuple[tuple[int, tuple[str, ...]], ...] = (
     (4, MIGRATE_V3_TO_V4),
     (5, MIGRATE_V4_TO_V5),
     (6, MIGRATE_V5_TO_V6),
+    (7, MIGRATE_V6_TO_V7),
 )
 SCHEMA_VERSION = MIGRATIONS[-1][0]
 

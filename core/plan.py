@@ -1,0 +1,310 @@
+"""A session plan: the therapist's prescription for one sitting, as a list of blocks.
+
+A block is one exercise (any shape of core.trajectory.SHAPES, or a game on it:
+core.trial.GAMES) done for a number of laps or for an
+active time, at an assistance mode and level, a pace (the seconds one lap takes,
+`duration_s`) and a tolerance, then a rest. A block runs as `rounds` trials (one for a
+plain exercise; a game's rounds, whose difficulty may change between them), each a
+trial like any other (registry and trial file).
+
+The dose is counted in *movements* (`MOVEMENTS_PER_LAP`): a point-to-point move out or
+back for the reaching shapes (the unit of InMotion's dose, e.g. 1,024 reaching
+movements a session: Krebs et al. 2003, Autonomous Robots 15:7), a closed loop for the
+D and the circle, one lobe of the figure eight. `movements_in_path` counts the
+movements a trial's reference made, from its samples (the same rule on the file as on
+the plan: a movement is done when the reference arrives at the point it ends at).
+
+Plain data, SI inside (seconds, radians, metres), validated: every bad value is refused
+in one line naming the block and the field (core.errors.ParameterError), and the plan
+is built from and written to plain dicts (JSON) with unknown keys refused.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from core.errors import ParameterError, check_range
+from core.trajectory import SHAPES
+from core.trial import (
+    ASSIST_MODES,
+    DURATION_RANGE_S,
+    GAMES,
+    RADIUS_RANGE_M,
+    REACH_GAME_SHAPES,
+    REPETITIONS_RANGE,
+    TOLERANCE_RANGE_RAD,
+    TrialParameters,
+)
+
+BLOCKS_RANGE = (1, 20)
+"""A sitting of 20 blocks is already three hours of exercise at their longest."""
+ROUNDS_RANGE = (1, 20)
+REST_RANGE_S = (0.0, 600.0)
+"""Up to ten minutes between blocks; a longer break ends the plan."""
+ACTIVE_RANGE_S = (1.0, 3600.0)
+"""A block by time: at least a second, at most an hour of exercise."""
+NAME_MAX_CHARS = 80
+
+
+MOVEMENTS_PER_LAP_FIXED = {"d": 1, "circle": 1, "reach": 2, "figure8": 2}
+"""Movements in one lap of each shape but the targets (2 per target: out and back)."""
+
+
+def movements_per_lap(shape: str, n_targets: int = 8) -> int:
+    """Movements in one lap of `shape`: a D or a circle is one closed movement, a straight
+    reach two (out, back), the figure eight two lobes, the centre-out targets two per
+    target (out to it, back home)."""
+    if shape == "targets":
+        return 2 * int(n_targets)
+    return MOVEMENTS_PER_LAP_FIXED[shape]
+
+
+def movement_ends(parameters: TrialParameters) -> np.ndarray:
+    """The points, in the robot's frame (m), where one of the trial's movements ends:
+    the path's start for a D and a circle, the far end and the start of a reach, the
+    crossing of a figure eight, each target and home of the centre-out."""
+    segments = parameters.path().segments
+    start = segments[0].geometry(0.0)[:2]
+    if parameters.shape in ("d", "circle", "figure8"):
+        return np.array([start], dtype=float)
+    ends = [seg.geometry(seg.length)[:2] for seg in segments]
+    return np.unique(np.round(np.array(ends, dtype=float), 9), axis=0)
+
+
+def movements_in_path(parameters: TrialParameters, desired_m: np.ndarray) -> int:
+    """The movements the reference `desired_m` (N, 2; the exercise's desired positions
+    in order, m) completed: one each time it arrives within `ARRIVAL_FRACTION` of the
+    exercise's size of a movement's end after having left the last one it arrived at by
+    more than `LEAVE_FRACTION` of it (so a reference resting on a point counts once, and
+    the start, where it begins, only once it comes back)."""
+    desired = np.asarray(desired_m, dtype=float)
+    if desired.ndim != 2 or desired.shape[1] != 2 or len(desired) == 0:
+        return 0
+    ends = movement_ends(parameters)
+    size = parameters.radius_m
+    near = ARRIVAL_FRACTION * size
+    far = LEAVE_FRACTION * size
+    # distance from every sample to every end: (N, E)
+    distance = np.hypot(desired[:, None, 0] - ends[None, :, 0],
+                        desired[:, None, 1] - ends[None, :, 1])
+    count = 0
+    at = int(np.argmin(distance[0])) if distance[0].min() <= near else -1
+    left = at < 0
+    for row in distance:
+        if not left:
+            if row[at] > far:
+                left = True
+            continue
+        k = int(np.argmin(row))
+        if row[k] <= near:
+            count += 1
+            at, left = k, False
+    return count
+
+
+ARRIVAL_FRACTION = 0.02
+"""Arrived within 2 % of the exercise's radius (2 mm on a 10 cm D): the reference passes
+each end exactly at the end's time, within one tick's travel (< 1 mm at 0.5 m/s)."""
+LEAVE_FRACTION = 0.25
+"""Left once a quarter radius away: every end is at least a radius from the next."""
+
+
+@dataclass(frozen=True, slots=True)
+class Block:
+    """One block of a plan. Either `repetitions` (laps per round) or `active_s` (the
+    exercise's time per round, s) is given, the other None. `radius_m` None keeps the
+    size the patient's setup gives; `game` "" is a plain exercise."""
+
+    shape: str = "d"
+    repetitions: int | None = 3
+    active_s: float | None = None
+    assist: str = "as-needed"
+    assistance_level: float = 1.0
+    duration_s: float = 4.0
+    tolerance_rad: float = math.radians(20.0)
+    rest_s: float = 60.0
+    rounds: int = 1
+    game: str = ""
+    radius_m: float | None = None
+    name: str = ""
+
+    def __post_init__(self) -> None:
+        _choice("shape", self.shape, SHAPES)
+        _choice("assist", self.assist, ASSIST_MODES)
+        _choice("game", self.game, GAMES)
+        if self.game == "reach" and self.shape not in REACH_GAME_SHAPES:
+            raise ParameterError("shape", self.shape, "one of " + ", ".join(REACH_GAME_SHAPES)
+                                 + " with game 'reach'", "the reaching game's targets are "
+                                 "the ends of the layout's reaches")
+        if not isinstance(self.name, str) or len(self.name) > NAME_MAX_CHARS or any(
+                ord(c) < 32 for c in self.name):
+            raise ParameterError("name", self.name, f"text of at most {NAME_MAX_CHARS} "
+                                 "characters on one line")
+        if (self.repetitions is None) == (self.active_s is None):
+            raise ParameterError("repetitions", self.repetitions,
+                                 "a number of laps, or active_s a time, not both nor neither",
+                                 "a block is done for laps or for minutes")
+        for name in ("assistance_level", "duration_s", "tolerance_rad", "rest_s"):
+            object.__setattr__(self, name, _real(name, getattr(self, name)))
+        check_range("duration_s", self.duration_s, *DURATION_RANGE_S, "s",
+                    "the time one lap takes: the pace")
+        check_range("assistance_level", self.assistance_level, 0.0, 1.0, "",
+                    "0 = no help, 1 = full help")
+        lo, hi = TOLERANCE_RANGE_RAD
+        check_range("tolerance_rad", self.tolerance_rad, lo, hi, "rad",
+                    f"{math.degrees(lo):.0f}–{math.degrees(hi):.0f}°")
+        check_range("rest_s", self.rest_s, *REST_RANGE_S, "s", "the rest after the block")
+        _integer("rounds", self.rounds, *ROUNDS_RANGE)
+        object.__setattr__(self, "rounds", int(self.rounds))
+        if self.repetitions is not None:
+            _integer("repetitions", self.repetitions, *REPETITIONS_RANGE)
+            object.__setattr__(self, "repetitions", int(self.repetitions))
+        else:
+            object.__setattr__(self, "active_s", _real("active_s", self.active_s))
+            check_range("active_s", self.active_s, *ACTIVE_RANGE_S, "s",
+                        "the exercise's time in each round")
+            laps = math.ceil(self.active_s / self.duration_s - 1e-9)
+            if laps > REPETITIONS_RANGE[1]:
+                raise ParameterError("active_s", self.active_s,
+                                     f"at most {REPETITIONS_RANGE[1]} laps of "
+                                     f"{self.duration_s:g} s", "a slower pace, or fewer "
+                                     "minutes: a round is one trial of at most 100 laps")
+        if self.radius_m is not None:
+            object.__setattr__(self, "radius_m", _real("radius_m", self.radius_m))
+            check_range("radius_m", self.radius_m, *RADIUS_RANGE_M, "m")
+
+    @property
+    def laps(self) -> int:
+        """Laps in each round: the repetitions, or as many whole laps as fill the active
+        time (rounded up: the patient does at least the time prescribed)."""
+        if self.repetitions is not None:
+            return self.repetitions
+        return max(1, math.ceil(self.active_s / self.duration_s - 1e-9))
+
+    def parameters(self, base: TrialParameters) -> TrialParameters:
+        """The trial of one round: the patient's setup `base` (body, shoulder, centre,
+        controller) with this block's exercise, laps, pace, mode, level and tolerance."""
+        changes = {"shape": self.shape, "repetitions": self.laps,
+                   "duration_s": self.duration_s, "assist": self.assist,
+                   "assistance_level": self.assistance_level,
+                   "tolerance_rad": self.tolerance_rad}
+        if self.radius_m is not None:
+            changes["radius_m"] = self.radius_m
+        if self.game:
+            changes["game"] = self.game
+        return base.replace(**changes)
+
+    def planned_movements(self, n_targets: int = 8) -> int:
+        return self.rounds * self.laps * movements_per_lap(self.shape, n_targets)
+
+    def planned_active_s(self) -> float:
+        return self.rounds * self.laps * self.duration_s
+
+    def exercise(self) -> tuple[str, str, str]:
+        """What makes two blocks the same exercise (a proposal after one applies to the
+        next of the same): the shape, the game and the assistance mode."""
+        return (self.shape, self.game, self.assist)
+
+    def replace(self, **changes) -> Block:
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self) -> dict:
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+    @classmethod
+    def from_dict(cls, values: dict, where: str = "block") -> Block:
+        if not isinstance(values, dict):
+            raise ParameterError(where, values, "a mapping of block fields")
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(values) - names)
+        if unknown:
+            raise ParameterError(f"{where}.{unknown[0]}", values[unknown[0]],
+                                 ", ".join(sorted(names)), "unknown block field")
+        values = dict(values)
+        if "active_s" in values and values["active_s"] is not None \
+                and "repetitions" not in values:
+            values["repetitions"] = None  # a block by time names only its time
+        try:
+            return cls(**values)
+        except ParameterError as exc:
+            raise ParameterError(f"{where}.{exc.field}", exc.value, exc.allowed,
+                                 exc.why) from None
+
+
+@dataclass(frozen=True, slots=True)
+class Plan:
+    """A session plan: a name and its blocks, in the order they run. The rest after the
+    last block is not taken (the plan ends with it)."""
+
+    name: str
+    blocks: tuple[Block, ...]
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name.strip() or \
+                len(self.name) > NAME_MAX_CHARS or any(ord(c) < 32 for c in self.name):
+            raise ParameterError("name", self.name, f"a name of 1–{NAME_MAX_CHARS} "
+                                 "characters on one line")
+        blocks = tuple(self.blocks)
+        if not all(isinstance(b, Block) for b in blocks):
+            raise ParameterError("blocks", blocks, "Block values")
+        lo, hi = BLOCKS_RANGE
+        if not lo <= len(blocks) <= hi:
+            raise ParameterError("blocks", len(blocks), f"{lo}–{hi} blocks")
+        object.__setattr__(self, "blocks", blocks)
+
+    def with_block(self, index: int, block: Block) -> Plan:
+        """This plan with block `index` (0-based) replaced: today's change."""
+        if not 0 <= index < len(self.blocks):
+            raise ParameterError("block", index + 1, f"1–{len(self.blocks)}",
+                                 "the plan's blocks are numbered from 1")
+        blocks = list(self.blocks)
+        blocks[index] = block
+        return Plan(self.name, tuple(blocks))
+
+    def planned_movements(self, n_targets: int = 8) -> int:
+        return sum(b.planned_movements(n_targets) for b in self.blocks)
+
+    def planned_active_s(self) -> float:
+        return sum(b.planned_active_s() for b in self.blocks)
+
+    def planned_rest_s(self) -> float:
+        return sum(b.rest_s for b in self.blocks[:-1])
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "blocks": [b.to_dict() for b in self.blocks]}
+
+    @classmethod
+    def from_dict(cls, values: dict) -> Plan:
+        if not isinstance(values, dict):
+            raise ParameterError("plan", values, "a mapping with name and blocks")
+        unknown = sorted(set(values) - {"name", "blocks"})
+        if unknown:
+            raise ParameterError(f"plan.{unknown[0]}", values[unknown[0]], "name, blocks",
+                                 "unknown plan field")
+        blocks = values.get("blocks")
+        if not isinstance(blocks, list | tuple):
+            raise ParameterError("blocks", blocks, "a list of blocks")
+        return cls(values.get("name"), tuple(
+            Block.from_dict(b, f"block {i + 1}") for i, b in enumerate(blocks)))
+
+
+def _choice(name: str, value: object, allowed: tuple[str, ...]) -> None:
+    if value not in allowed:
+        raise ParameterError(name, value, "one of " + ", ".join(repr(a) for a in allowed))
+
+
+def _real(name: str, value: object) -> float:
+    if isinstance(value, bool | np.bool_) or not isinstance(value, int | float | np.integer
+                                                            | np.floating):
+        raise ParameterError(name, value, "a number", "give it as a number, not as text")
+    return float(value)
+
+
+def _integer(name: str, value: object, low: int, high: int) -> None:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise ParameterError(name, value, f"a whole number in [{low}, {high}]")
+    check_range(name, value, low, high)
