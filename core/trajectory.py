@@ -138,13 +138,40 @@ def straight_reach(start, length_m: float, direction_rad: float = -0.5 * math.pi
     return Path((Line(tuple(start), end), Line(end, tuple(start))))
 
 
-def centre_out(home, radius_m: float, n_targets: int = 8) -> Path:
+NEGLECT_SIDES = ("", "left", "right")
+"""The side of a hemispatial neglect a reaching layout is turned toward, the patient's: the
+subject sits on +y facing −y, so the patient's left is +x (docs/frames.md)."""
+AHEAD_RAD = -0.5 * math.pi
+"""Straight ahead of the subject (−y), the direction of the first target."""
+NEGLECT_REACH_TURN_RAD = 0.25 * math.pi
+"""How far a straight reach turns toward the neglected side."""
+
+
+def toward_side(side: str) -> float:
+    """+1 toward the patient's left (+x), −1 toward the right (−x), 0 for no side."""
+    if side not in NEGLECT_SIDES:
+        raise ParameterError("neglect_side", side, "'', 'left' or 'right'")
+    return {"": 0.0, "left": 1.0, "right": -1.0}[side]
+
+
+def centre_out_angles(n_targets: int, toward: float = 0.0) -> list[float]:
+    """The directions (rad, counter-clockwise from +x) of a centre-out layout's targets, in
+    order: evenly round the circle from straight ahead; with `toward` ±1 (a neglect layout,
+    Pedroli et al. 2015, doi 10.3389/fnbeh.2015.00226: reaching pushed into the neglected
+    side) evenly over the half circle on that side, from straight ahead round to straight
+    back."""
+    if toward == 0.0:
+        return [AHEAD_RAD + 2.0 * math.pi * k / n_targets for k in range(n_targets)]
+    return [AHEAD_RAD + toward * math.pi * k / (n_targets - 1) for k in range(n_targets)]
+
+
+def centre_out(home, radius_m: float, n_targets: int = 8, toward: float = 0.0) -> Path:
     """Point-to-point reaching: home → target k → home for n targets on a circle
-    (the centre-out task of Kinarm and InMotion), first target straight ahead (−y)."""
+    (the centre-out task of Kinarm and InMotion), first target straight ahead (−y);
+    `toward` turns the layout to one side (centre_out_angles)."""
     home = tuple(home)
     segments: list[Segment] = []
-    for k in range(n_targets):
-        angle = -0.5 * math.pi + 2.0 * math.pi * k / n_targets
+    for angle in centre_out_angles(n_targets, toward):
         target = (home[0] + radius_m * math.cos(angle), home[1] + radius_m * math.sin(angle))
         segments += [Line(home, target), Line(target, home)]
     return Path(tuple(segments))
@@ -163,17 +190,19 @@ def figure_eight(crossing, radius_m: float) -> Path:
 
 
 def make_path(
-    shape: str, centre, radius_m: float, *, clockwise: bool = True, n_targets: int = 8
+    shape: str, centre, radius_m: float, *, clockwise: bool = True, n_targets: int = 8,
+    toward: float = 0.0,
 ) -> Path:
-    """The path of a trial's `shape` (one of SHAPES) from its centre and radius."""
+    """The path of a trial's `shape` (one of SHAPES) from its centre and radius; `toward`
+    (toward_side) turns a reaching layout to the patient's neglected side."""
     if shape == "d":
         return d_shape(centre, radius_m, clockwise=clockwise)
     if shape == "circle":
         return circle(centre, radius_m, clockwise=clockwise)
     if shape == "reach":
-        return straight_reach(centre, 2.0 * radius_m)
+        return straight_reach(centre, 2.0 * radius_m, AHEAD_RAD + toward * NEGLECT_REACH_TURN_RAD)
     if shape == "targets":
-        return centre_out(centre, radius_m, n_targets)
+        return centre_out(centre, radius_m, n_targets, toward)
     if shape == "figure8":
         return figure_eight(centre, radius_m)
     raise ParameterError("shape", shape, ", ".join(SHAPES))

@@ -24,7 +24,15 @@ from core.arm import (
 )
 from core.errors import ParameterError, UnreachableError, check_range
 from core.robot import RobotModel
-from core.trajectory import SHAPES, TIMINGS, Path, Trajectory, make_path
+from core.trajectory import (
+    NEGLECT_SIDES,
+    SHAPES,
+    TIMINGS,
+    Path,
+    Trajectory,
+    make_path,
+    toward_side,
+)
 
 CONTROLLERS = ("smc", "ctpid")
 ASSIST_MODES = ("thesis", "as-needed")
@@ -139,6 +147,10 @@ class TrialParameters:
     to hit it, s; at most the time between two targets' appearances."""
     n_distractors: int = 0
     """Reaching game: discs to avoid, placed between the targets (core.games.layout)."""
+    neglect_side: str = ""
+    """The patient's side with hemispatial neglect a reaching layout (shape "targets" or
+    "reach", game or not) is turned toward (core.trajectory.centre_out_angles): "", "left"
+    or "right", the patient's (left = +x)."""
 
     def __post_init__(self) -> None:
         _choice("shape", self.shape, SHAPES)
@@ -200,6 +212,7 @@ class TrialParameters:
         return make_path(
             self.shape, self.centre_m, self.radius_m,
             clockwise=self.clockwise, n_targets=self.n_targets,
+            toward=toward_side(self.neglect_side),
         )
 
     def trajectory(self) -> Trajectory:
@@ -402,6 +415,13 @@ def _game_fields(p: TrialParameters) -> None:
                 *CHANNEL_HALF_WIDTH_RANGE_M, "m",
                 "a channel the hand can stay in, narrower than the exercise")
     check_range("time_allowed_s", p.time_allowed_s, *TIME_ALLOWED_RANGE_S, "s")
+    if p.neglect_side not in NEGLECT_SIDES:
+        raise ParameterError("neglect_side", p.neglect_side, "'' (none), 'left' or 'right'",
+                             "the patient's neglected side")
+    if p.neglect_side and p.shape not in REACH_GAME_SHAPES:
+        raise ParameterError("neglect_side", p.neglect_side, "'' with shape " + repr(p.shape),
+                             "only a reaching layout (shape 'targets' or 'reach') turns "
+                             "toward a side")
     if p.game == "reach" and p.shape not in REACH_GAME_SHAPES:
         raise ParameterError("shape", p.shape, "one of " + ", ".join(REACH_GAME_SHAPES)
                              + " with game 'reach'",
@@ -413,10 +433,12 @@ def _game_fields(p: TrialParameters) -> None:
         raise ParameterError("time_allowed_s", p.time_allowed_s, f"at most {spacing:g} s",
                              "a target must be hit before the next one appears: "
                              "give more time per movement (duration_s) or less time_allowed_s")
-    gaps = p.n_targets if p.shape == "targets" else 2
+    gaps = p.n_targets - bool(p.neglect_side) if p.shape == "targets" else 2
     if p.n_distractors > gaps:
         raise ParameterError("n_distractors", p.n_distractors, f"at most {gaps}",
-                             "one distractor between two neighbouring targets")
+                             "one distractor between two neighbouring targets"
+                             + (" (a half circle toward the neglected side has one gap fewer)"
+                                if p.neglect_side and p.shape == "targets" else ""))
 
 
 def _real(name: str, value: object) -> float:

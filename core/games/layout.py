@@ -9,9 +9,11 @@ end, appearing when the robot's reference starts along that reach
 r·duration_s + segment_times_s[k]) and open for `time_allowed_s`. The reaches back home are
 not targets: the patient returns with the robot. Distractors (`n_distractors`) are discs of the
 same radius at the targets' distance from home, halfway in angle between two neighbouring
-targets (centre-out: the gaps after targets 0, g, 2g, … with g = n_targets // n_distractors,
-so they spread round the circle; straight reach: either side of the target, ±30°), shown for
-the whole exercise.
+targets (centre-out: the gaps after targets 0, g, 2g, … with g = gaps // n_distractors, so
+they spread round the circle, or over the half circle of a neglect layout; straight reach:
+either side of the target, ±30°), shown for the whole exercise. A neglect layout
+(`neglect_side`) turns the targets, the robot's path with them, toward the patient's neglected
+side (core.trajectory.centre_out_angles), so the file's parameters recreate it too.
 
 Path game (any shape, the D by default): a channel of `channel_half_width_m` either side of
 the path; the ball is the hand. A lap is one traversal of the path on the clock,
@@ -20,12 +22,21 @@ the path; the ball is the hand. A lap is one traversal of the path on the clock,
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from core.trajectory import Arc, Line, Path
+from core.trajectory import (
+    AHEAD_RAD,
+    NEGLECT_REACH_TURN_RAD,
+    Arc,
+    Line,
+    Path,
+    centre_out_angles,
+    toward_side,
+)
 from core.trial import TrialParameters
 
 # A straight reach has no neighbours: its distractors sit this far either side of it.
@@ -115,14 +126,19 @@ def game_layout(parameters: TrialParameters) -> GameLayout:
 def _distractors(p: TrialParameters, home: tuple[float, float]) -> tuple[Disc, ...]:
     if p.n_distractors == 0:
         return ()
+    toward = toward_side(p.neglect_side)
     if p.shape == "reach":
-        distance, ahead = 2.0 * p.radius_m, -0.5 * math.pi
+        distance = 2.0 * p.radius_m
+        ahead = AHEAD_RAD + toward * NEGLECT_REACH_TURN_RAD
         angles = [ahead + REACH_DISTRACTOR_ANGLE_RAD, ahead - REACH_DISTRACTOR_ANGLE_RAD]
     else:
-        distance, step = p.radius_m, 2.0 * math.pi / p.n_targets
-        every = p.n_targets // p.n_distractors
-        # target k is at −π/2 + k·step (core.trajectory.centre_out); a gap is half a step on
-        angles = [-0.5 * math.pi + (i * every + 0.5) * step for i in range(p.n_distractors)]
+        distance = p.radius_m
+        targets = centre_out_angles(p.n_targets, toward)
+        if toward == 0.0:  # round the circle: the last gap closes it
+            targets.append(targets[0] + 2.0 * math.pi)
+        gaps = [0.5 * (a + b) for a, b in itertools.pairwise(targets)]
+        every = len(gaps) // p.n_distractors
+        angles = [gaps[i * every] for i in range(p.n_distractors)]
     return tuple(Disc((home[0] + distance * math.cos(a), home[1] + distance * math.sin(a)),
                       p.target_radius_m) for a in angles[:p.n_distractors])
 

@@ -86,3 +86,35 @@ def test_distance_to_the_path_is_the_nearest_of_its_points(shape, clockwise, x, 
     # exact distance is at most the sampled one, and within half a spacing of it
     assert d <= nearest + 1e-12
     assert nearest - d <= spacing / 2 + 1e-9
+
+
+@pytest.mark.parametrize(("side", "sign"), [("left", 1.0), ("right", -1.0)])
+def test_a_neglect_layout_puts_every_target_on_the_neglected_side(side, sign):
+    """The patient sits on +y facing −y: the patient's left is +x (docs/frames.md)."""
+    p = TrialParameters(game="reach", shape="targets", n_targets=5, duration_s=10.0,
+                        neglect_side=side, n_distractors=4)
+    layout = game_layout(p)
+    cx = p.centre_m[0]
+    sides = [sign * (t.centre_m[0] - cx) for t in layout.targets]
+    assert sides[0] == pytest.approx(0.0, abs=1e-12), "the first target straight ahead"
+    assert all(s >= -1e-12 for s in sides)
+    assert max(sides) == pytest.approx(p.radius_m)
+    assert all(sign * (d.centre_m[0] - cx) > 0 for d in layout.distractors)
+    # the robot's path goes to the same targets: they are its reaches' ends
+    ends = {seg.end for seg in p.path().segments if seg.start == p.centre_m}
+    assert {t.centre_m for t in layout.targets} == ends
+    reach = game_layout(p.replace(shape="reach", n_distractors=0, duration_s=2.0))
+    assert sign * (reach.targets[0].centre_m[0] - cx) == pytest.approx(
+        2 * p.radius_m * math.sin(math.pi / 4))
+
+
+@pytest.mark.parametrize(("changes", "field"), [
+    (dict(neglect_side="up"), "neglect_side"),
+    (dict(neglect_side="left"), "neglect_side"),  # the D is not a reaching layout
+    (dict(shape="targets", game="reach", neglect_side="left", n_targets=4,
+          duration_s=8.0, n_distractors=4), "n_distractors"),
+])
+def test_a_bad_neglect_side_is_refused_in_one_line(changes, field):
+    with pytest.raises(ValueError, match=field) as refused:
+        TrialParameters(**changes)
+    assert "\n" not in str(refused.value)
