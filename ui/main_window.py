@@ -38,6 +38,7 @@ from ui import theme
 from ui.device_bridge import DeviceBridge
 from ui.force_estimate import ForceEstimateControl
 from ui.jobs import Jobs
+from ui.patient.control import PatientScreenControl
 from ui.robot_bar import RobotBar
 from ui.tabs import (
     TABS,
@@ -74,7 +75,7 @@ HEALTH_MS = 500
 
 
 class MainWindow(TrialActions, TrialEmg, FaultLatch, MessageLine, RememberedSettings,
-                 QMainWindow):
+                 PatientScreenControl, QMainWindow):
     """The therapist's console."""
 
     def __init__(self, registry: RecordStore, *, bridge: DeviceBridge | None = None,
@@ -162,6 +163,7 @@ class MainWindow(TrialActions, TrialEmg, FaultLatch, MessageLine, RememberedSett
 
     def _build_layout(self) -> None:
         message_row = self._build_message_row(self._build_banner())
+        message_row.addWidget(self._build_patient_button())
         self.robot = RobotBar()
         central = QWidget()
         column = QVBoxLayout(central)
@@ -345,6 +347,7 @@ class MainWindow(TrialActions, TrialEmg, FaultLatch, MessageLine, RememberedSett
                 self.live.append(records[records["phase"] > 0])
         if self.shown_view is self.live and self.live is not None:
             self._show_current()
+        self._feed_patient_screen()
         self.force_estimate.poll()
 
     def _show_current(self) -> None:

@@ -62,6 +62,7 @@ class RememberedSettings:
         for timer in (self.repaint_timer, self.heartbeat_timer, self.health_timer):
             timer.stop()
         self.video.close_camera()
+        self.close_patient_screen()
         self.bridge.close(self.closing_signal)
         # what the loop and the recorder said as they ended (the trial's fault, its file
         # closed) reaches the window now, so the trial is recorded before it closes

@@ -1,0 +1,129 @@
+"""The therapist's window keeps control of the patient's screen: it opens from the
+console, never takes the keyboard (the e-stop keys still reach the console), closes
+cleanly on its own and with the console (issue 30)."""
+
+import pytest
+import shiboken6
+from PySide6.QtCore import Qt
+from PySide6.QtWidgets import QApplication
+
+from tests.ui.session import open_window
+from ui.patient.window import PatientWindow
+from ui.views.patient_screen import CUE_WAIT, PatientOptions
+
+
+@pytest.fixture
+def window(qtbot, tmp_path, monkeypatch):
+    win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
+    win.activateWindow()
+    qtbot.waitUntil(lambda: QApplication.activeWindow() is win, timeout=5000)
+    yield win
+    win.close()
+
+
+@pytest.mark.parametrize("key", [Qt.Key.Key_Escape, Qt.Key.Key_Space])
+def test_the_e_stop_keys_reach_the_console_with_the_patient_screen_open(qtbot, window, key,
+                                                                        monkeypatch):
+    sent = []  # what the loop's e-stop flag was given (no loop runs in this test)
+    monkeypatch.setattr(window.bridge, "estop", sent.append)
+    patient = window.open_patient_screen()
+    qtbot.waitExposed(patient)
+    assert patient.windowFlags() & Qt.WindowType.WindowDoesNotAcceptFocus
+    assert patient.testAttribute(Qt.WidgetAttribute.WA_ShowWithoutActivating)
+    assert QApplication.activeWindow() is window  # showing it took nothing from the console
+    assert not patient.isActiveWindow()
+    assert not window.latch.estop_held
+    target = QApplication.focusWidget() or window
+    assert target.window() is window
+    qtbot.keyClick(target, key)
+    assert window.latch.estop_held  # the emergency stop pressed from the console's keys
+    assert sent == [True]
+    # and even a key sent to the patient's window stops the robot (application shortcut)
+    window.clear_fault()
+    assert not window.latch.estop_held
+    qtbot.keyClick(patient, Qt.Key.Key_Escape)
+    assert window.latch.estop_held
+
+
+def test_the_patient_screen_closes_on_its_own_and_opens_again(qtbot, window):
+    patient = window.open_patient_screen()
+    qtbot.waitExposed(patient)
+    with qtbot.waitSignal(patient.closed, timeout=2000):
+        patient.close()
+    assert window.patient_window is None
+    again = window.open_patient_screen()
+    assert again is not patient
+    assert again.isVisible()
+    assert again.frame.cue == CUE_WAIT  # no trial: it waits, drawing the built exercise
+
+
+def test_the_patient_screen_closes_with_the_console(qtbot, window):
+    window.set_patient_options(mirror=True, rotation_deg=90)
+    patient = window.open_patient_screen()
+    assert patient.options == PatientOptions(mirror=True, rotation_deg=90)
+    qtbot.waitExposed(patient)
+    with qtbot.waitSignal(patient.closed, timeout=2000):
+        window.close()
+    assert window.patient_window is None
+    assert not shiboken6.isValid(patient)  # closed and deleted, nothing left behind
+
+
+def test_f11_puts_the_patient_screen_full_screen_and_back(qtbot, window):
+    patient = window.open_patient_screen()
+    qtbot.waitExposed(patient)
+    qtbot.keyClick(QApplication.focusWidget() or window, Qt.Key.Key_F11)
+    qtbot.waitUntil(patient.isFullScreen, timeout=2000)
+    qtbot.keyClick(QApplication.focusWidget() or window, Qt.Key.Key_F11)
+    qtbot.waitUntil(lambda: not patient.isFullScreen(), timeout=2000)
+    assert QApplication.activeWindow() is window
+
+
+def test_bad_options_are_refused_in_one_line():
+    with pytest.raises(ValueError, match="rotation 45: give 0, 90, 180 or 270"):
+        PatientOptions(rotation_deg=45)
+    with pytest.raises(ValueError, match="unknown patient screen option colour"):
+        PatientOptions.from_dict({"colour": "red"})
+    with pytest.raises(ValueError, match="option mirror = 'yes': give true or false"):
+        PatientOptions.from_dict({"mirror": "yes"})
+    assert PatientOptions.from_dict(PatientOptions(sound=True).to_dict()) == \
+        PatientOptions(sound=True)
+
+
+def test_the_patient_window_alone_waits_without_a_trial(qtbot):
+    patient = PatientWindow()
+    qtbot.addWidget(patient)
+    patient.show_parameters(None)
+    patient.grab()
+    assert patient.painted == {"cursor": None, "target": None, "attention": None}
+
+
+@pytest.mark.parametrize(("side", "mirror", "turn", "edge"), [
+    ("left", False, 0, "left"), ("right", False, 0, "right"), ("left", True, 0, "right"),
+    ("left", False, 90, "bottom"), ("right", False, 180, "left")])
+def test_the_neglected_side_is_cued_on_the_edge_of_the_screen_towards_it(
+        qtbot, side, mirror, turn, edge):
+    """The trial's neglect_side (the patient's; left is the robot's +x, docs/frames.md)
+    puts the cue on the screen's edge toward it, as the screen is turned."""
+    from core.trial import THESIS_SUBJECT
+    from ui.patient.window import ATTENTION
+
+    patient = PatientWindow(PatientOptions(mirror=mirror, rotation_deg=turn))
+    qtbot.addWidget(patient)
+    patient.resize(800, 600)
+    params = THESIS_SUBJECT.replace(shape="targets", centre_m=(-0.2, 0.35), radius_m=0.08,
+                                    n_targets=5)
+    patient.show_parameters(params.replace(neglect_side=side))
+    image = patient.grab().toImage()
+    assert patient.painted["attention"] == edge
+    area = patient.screen_layout().table
+    x = {"left": area.left + 2, "right": area.left + area.width - 3}.get(edge, area.centre[0])
+    y = {"top": area.top + 2, "bottom": area.top + area.height - 3}.get(edge, area.centre[1])
+    assert image.pixelColor(round(x), round(y)) == ATTENTION
+    # the targets themselves lie on that side of home, on the screen
+    where = patient.placement()
+    drawn = where.to_px(patient.scene.targets_m) - where.to_px(params.centre_m)
+    axis, sign = {"left": (0, -1), "right": (0, 1), "top": (1, -1), "bottom": (1, 1)}[edge]
+    assert (sign * drawn[:, axis] >= -1e-6).all()
+    patient.show_parameters(params)
+    patient.grab()
+    assert patient.painted["attention"] is None

@@ -1,0 +1,124 @@
+"""What the patient's screen says at each moment (ui.views.patient_screen), on records
+made to order: the approach, the exercise's first sample, the repetitions on the clock,
+the end, a fault; clinical figures only when the therapist chose them."""
+
+import numpy as np
+import pytest
+
+from core.trial import THESIS_SUBJECT
+from device.loop.pipeline import PERIOD_S, PHASE_APPROACH, PHASE_EXERCISE, PHASE_HOLD
+from device.recording.record import RECORD_DTYPE
+from ui.views.patient_screen import (
+    CUE_DONE,
+    CUE_GO,
+    CUE_READY,
+    CUE_STOPPED,
+    GO_SHOWN_S,
+    PatientOptions,
+    Scene,
+    clock,
+    frame_at,
+)
+from ui.views.trialview import VIEW_CHANNELS, TrialView
+
+PARAMS = THESIS_SUBJECT.replace(repetitions=3, duration_s=2.0)
+APPROACH, EXERCISE, HOLD = 300, 3000, 100
+
+
+def _records(params=PARAMS, fault_at: int | None = None) -> np.ndarray:
+    n = APPROACH + EXERCISE + HOLD
+    dtype = np.dtype([(c, RECORD_DTYPE.fields[c][0]) for c in VIEW_CHANNELS])
+    r = np.zeros(n, dtype=dtype)
+    r["time"] = np.arange(n) * PERIOD_S
+    r["phase"][:APPROACH] = PHASE_APPROACH
+    r["phase"][APPROACH:APPROACH + EXERCISE] = PHASE_EXERCISE
+    r["phase"][APPROACH + EXERCISE:] = PHASE_HOLD
+    trajectory = params.trajectory()
+    t_ex = np.clip(r["time"] - APPROACH * PERIOD_S, 0.0, None)
+    sample = trajectory.sample(t_ex)
+    r["position_desired"] = sample.position_m
+    r["direction_desired"] = sample.direction
+    r["position"] = sample.position_m + 0.003  # the hand 3 mm off, both ways
+    r["force_angle"] = 0.1
+    if fault_at is not None:
+        r["fault"][fault_at:] = 7
+    return r
+
+
+def _frame_at_sample(records, i, options=None, params=PARAMS):
+    view = TrialView(params)
+    view.append(records[:i + 1])
+    return frame_at(view, Scene.of(params), options or PatientOptions())
+
+
+def test_get_ready_then_go_at_the_exercise_s_first_sample_then_the_clock():
+    r = _records()
+    assert _frame_at_sample(r, APPROACH - 1).cue == CUE_READY
+    before = _frame_at_sample(r, APPROACH - 1)
+    assert not before.go
+    assert before.time_left_s == pytest.approx(6.0)
+    go = _frame_at_sample(r, APPROACH)
+    assert go.go
+    assert go.cue == CUE_GO
+    assert go.repetition_text == "Round 1 of 3"
+    assert go.time_left_text == "0:06 left"
+    shown = round(GO_SHOWN_S / PERIOD_S)
+    assert _frame_at_sample(r, APPROACH + shown - 1).go
+    assert not _frame_at_sample(r, APPROACH + shown).go
+    second = _frame_at_sample(r, APPROACH + 1000 + 10)  # 2.02 s in
+    assert second.repetition == 2
+    assert second.time_left_s == pytest.approx(6.0 - 2.02)
+    end = _frame_at_sample(r, APPROACH + EXERCISE + 5)
+    assert end.cue == CUE_DONE
+    assert end.time_left_text == "0:00 left"
+    assert end.repetition == 3
+
+
+def test_a_fault_says_stopped_and_nothing_more():
+    r = _records(fault_at=APPROACH + 500)
+    frame = _frame_at_sample(r, APPROACH + 600)
+    assert frame.cue == CUE_STOPPED
+    assert not frame.go
+
+
+def test_clinical_figures_only_when_the_therapist_chose_them():
+    r = _records()
+    hidden = _frame_at_sample(r, APPROACH + 2000)
+    assert hidden.numbers == ()
+    shown = _frame_at_sample(r, APPROACH + 2000, PatientOptions(show_numbers=True))
+    assert shown.numbers[0] == "Right direction 100 %"
+    assert shown.numbers[1] == "Off the path 4 mm"  # 3 mm on each axis: 4.2 mm
+
+
+def test_the_last_repetition_s_path_is_shown_during_the_next_only_when_asked():
+    r = _records()
+    i = APPROACH + 1000 + 200  # in the second repetition
+    frame = _frame_at_sample(r, i)
+    assert frame.previous_path_m is not None
+    first_rep = r["position"][APPROACH:APPROACH + 1000]
+    np.testing.assert_array_equal(frame.previous_path_m[0], first_rep[0])
+    assert len(frame.previous_path_m) >= 300
+    assert _frame_at_sample(r, APPROACH + 500).previous_path_m is None  # nothing before
+    off = _frame_at_sample(r, i, PatientOptions(previous_path=False))
+    assert off.previous_path_m is None
+
+
+def test_the_reach_target_lit_is_the_one_the_reference_moves_to():
+    params = THESIS_SUBJECT.replace(shape="targets", n_targets=4, radius_m=0.08,
+                                    centre_m=(-0.2, 0.35), duration_s=6.0, repetitions=1)
+    r = _records(params)
+    scene = Scene.of(params)
+    assert len(scene.targets_m) == 4
+    # 4 targets, 8 lines of 0.75 s: out to target k from 1.5 k s, home from 1.5 k + 0.75 s
+    for k in range(4):
+        out = _frame_at_sample(r, APPROACH + int((1.5 * k + 0.375) / PERIOD_S), params=params)
+        assert out.active_target == k
+        home = _frame_at_sample(r, APPROACH + int((1.5 * k + 1.125) / PERIOD_S),
+                                params=params)
+        assert home.active_target == -1
+
+
+@pytest.mark.parametrize(("seconds", "text"), [(0.0, "0:00"), (0.2, "0:01"), (59.01, "1:00"),
+                                               (61.0, "1:01"), (600.0, "10:00")])
+def test_the_clock_rounds_up(seconds, text):
+    assert clock(seconds) == text

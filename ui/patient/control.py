@@ -1,0 +1,140 @@
+"""The therapist's control of the patient's screen, a part of the console's window (a
+mixin of ui.main_window.MainWindow, like the modules of ui.window): the *Patient's
+screen* button and its menu (which screen, full screen, the options), F11, feeding the
+screen from the window's 16 ms repaint, and closing it with the console.
+
+The patient's window shows the live trial while one runs and after it ends, until the
+next Build; otherwise the built exercise (or nothing) waiting to start. Replays on the
+therapist's tabs never reach it: the patient sees only what they are doing.
+"""
+
+from __future__ import annotations
+
+from PySide6.QtCore import Qt
+from PySide6.QtGui import QActionGroup, QGuiApplication, QKeySequence, QShortcut
+from PySide6.QtWidgets import QMenu, QToolButton
+
+from device.loop.states import State
+from ui.patient.window import PatientWindow
+from ui.views.patient_screen import PatientOptions
+
+FULL_SCREEN_KEY = "F11"
+
+
+class PatientScreenControl:
+    """Needs from the window: live, built, state, _say."""
+
+    patient_window: PatientWindow | None = None
+    patient_options: PatientOptions = PatientOptions()
+
+    def _build_patient_button(self) -> QToolButton:
+        self.patient_button = QToolButton()
+        self.patient_button.setObjectName("patient_screen_button")
+        self.patient_button.setText("Patient's screen")
+        self.patient_button.setToolTip(
+            "A window for the patient: the exercise, the hand, when to go, the repetitions and "
+            f"the time left. Open it on a second monitor; {FULL_SCREEN_KEY} puts it full screen")
+        self.patient_button.setPopupMode(QToolButton.ToolButtonPopupMode.InstantPopup)
+        self.patient_menu = QMenu(self.patient_button)
+        self.patient_menu.aboutToShow.connect(self._fill_patient_menu)
+        self.patient_button.setMenu(self.patient_menu)
+        self.patient_full_screen_key = QShortcut(QKeySequence(FULL_SCREEN_KEY), self)
+        self.patient_full_screen_key.setContext(Qt.ShortcutContext.ApplicationShortcut)
+        self.patient_full_screen_key.activated.connect(self.toggle_patient_full_screen)
+        return self.patient_button
+
+    def _fill_patient_menu(self) -> None:
+        menu = self.patient_menu
+        menu.clear()
+        for index, screen in enumerate(QGuiApplication.screens()):
+            size = screen.size()
+            action = menu.addAction(f"Show on screen {index + 1}: {screen.name()} "
+                                    f"({size.width()} × {size.height()})")
+            action.triggered.connect(lambda _=False, i=index: self.open_patient_screen(i))
+        full = menu.addAction(f"Full screen\t{FULL_SCREEN_KEY}")
+        full.setCheckable(True)
+        full.setChecked(self.patient_window is not None and self.patient_window.isFullScreen())
+        full.triggered.connect(lambda _=False: self.toggle_patient_full_screen())
+        close = menu.addAction("Close the patient's screen")
+        close.setEnabled(self.patient_window is not None)
+        close.triggered.connect(self.close_patient_screen)
+        menu.addSeparator()
+        o = self.patient_options
+        for name, words in (("mirror", "Mirror left–right"),
+                            ("previous_path", "Show the last repetition's path"),
+                            ("show_numbers", "Show figures to the patient")):
+            action = menu.addAction(words)
+            action.setCheckable(True)
+            action.setChecked(getattr(o, name))
+            action.toggled.connect(lambda on, n=name: self.set_patient_options(**{n: on}))
+        turn = menu.addMenu("Turn the picture")
+        group = QActionGroup(turn)
+        for degrees in (0, 90, 180, 270):
+            action = turn.addAction("As the patient sees the table" if degrees == 0
+                                    else f"{degrees}° anticlockwise")
+            action.setCheckable(True)
+            action.setChecked(o.rotation_deg == degrees)
+            group.addAction(action)
+            action.triggered.connect(
+                lambda _=False, d=degrees: self.set_patient_options(rotation_deg=d))
+
+    # -- opening and closing --------------------------------------------------------
+    def open_patient_screen(self, screen_index: int | None = None) -> PatientWindow:
+        """Show the patient's window (made once) on the screen of that index (the
+        therapist's own when None), without taking the keyboard from this window."""
+        if self.patient_window is None:
+            self.patient_window = PatientWindow(self.patient_options)
+            self.patient_window.closed.connect(self._patient_screen_closed)
+        window = self.patient_window
+        screens = QGuiApplication.screens()
+        if screen_index is not None and 0 <= screen_index < len(screens):
+            screen = screens[screen_index]
+        else:
+            screen = self.screen() or QGuiApplication.primaryScreen()
+        full = window.isFullScreen()
+        if full:
+            window.showNormal()
+        window.setScreen(screen)
+        area = screen.availableGeometry()
+        window.setGeometry(area.adjusted(area.width() // 8, area.height() // 8,
+                                         -area.width() // 8, -area.height() // 8))
+        if full:
+            window.showFullScreen()
+        else:
+            window.show()
+        self._feed_patient_screen()
+        return window
+
+    def toggle_patient_full_screen(self) -> None:
+        window = self.patient_window or self.open_patient_screen()
+        if window.isFullScreen():
+            window.showNormal()
+        else:
+            window.showFullScreen()
+
+    def close_patient_screen(self) -> None:
+        if self.patient_window is not None:
+            self.patient_window.close()
+
+    def _patient_screen_closed(self) -> None:
+        window, self.patient_window = self.patient_window, None
+        if window is not None:
+            window.deleteLater()
+
+    def set_patient_options(self, **changes) -> None:
+        self.patient_options = self.patient_options.replace(**changes)
+        if self.patient_window is not None:
+            self.patient_window.set_options(self.patient_options)
+
+    # -- content ---------------------------------------------------------------------
+    def _feed_patient_screen(self) -> None:
+        """From the window's repaint: the live trial, or the exercise built (the live
+        view is the last built trial's until the next Build makes new parameters)."""
+        window = self.patient_window
+        if window is None or not window.isVisible():
+            return
+        live = self.live
+        if live is not None and (self.state == State.RUNNING or live.parameters is self.built):
+            window.show_view(live)
+        else:
+            window.show_parameters(self.built)

@@ -1,0 +1,278 @@
+"""The patient's window: a second top-level window that only paints.
+
+What it shows and where come from `ui.views.patient_screen` (the content at a moment)
+and `ui.views.patient_geometry` (the patient's view of the table, the text's size); this
+widget paints them with QPainter, nothing else. It never takes the keyboard: the window
+is flagged not to accept focus and is shown without activating, so Esc and Space (the
+emergency stop) keep going to the therapist's window, and they are application-wide
+shortcuts there anyway (ui.window.fault_latch).
+
+Colours: white and the Okabe–Ito yellow and sky blue on black, contrast 21:1, 19:1 and
+10:1 (WCAG's AAA asks 7:1), for a patient reading from across the table.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from PySide6.QtCore import QPointF, QRectF, Qt, Signal
+from PySide6.QtGui import QColor, QFont, QFontMetrics, QGuiApplication, QPainter, QPainterPath, QPen
+from PySide6.QtWidgets import QWidget
+
+from ui.views.patient_geometry import (
+    Placement,
+    Rect,
+    ScreenLayout,
+    layout,
+    place,
+    screen_axes,
+    screen_side,
+)
+from ui.views.patient_screen import (
+    CUE_GO,
+    PatientFrame,
+    PatientOptions,
+    Scene,
+    frame_at,
+    waiting_frame,
+)
+from ui.views.trialview import TrialView
+
+BACKGROUND = QColor("#000000")
+TEXT = QColor("#FFFFFF")
+PATH = QColor("#BFBFBF")
+TARGET = QColor("#F0E442")  # Okabe–Ito yellow
+CURSOR = QColor("#56B4E9")  # Okabe–Ito sky blue
+GO = QColor("#009E73")  # Okabe–Ito bluish green
+PREVIOUS = QColor("#7F7F7F")
+ATTENTION = QColor("#E69F00")  # Okabe–Ito orange: the neglected side
+MM_PER_INCH = 25.4
+
+
+class PatientWindow(QWidget):
+    """The patient's screen. Feed it with `show_view(view, parameters)` (live, from the
+    window's repaint timer) or `show_parameters(parameters)` (no trial running).
+
+    Signals: closed() when it closes (by the patient's window manager or the console).
+    `painted` holds what the last paint drew in pixels (the cursor, the target), for the
+    tests that compare it with the trial file."""
+
+    closed = Signal()
+
+    def __init__(self, options: PatientOptions | None = None) -> None:
+        super().__init__(None, Qt.WindowType.Window | Qt.WindowType.WindowDoesNotAcceptFocus)
+        self.setWindowTitle("Patient's screen")
+        self.setAttribute(Qt.WidgetAttribute.WA_ShowWithoutActivating)
+        self.setFocusPolicy(Qt.FocusPolicy.NoFocus)
+        self.setAttribute(Qt.WidgetAttribute.WA_OpaquePaintEvent)
+        self.setMinimumSize(320, 240)
+        self.options = options or PatientOptions()
+        self.scene: Scene | None = None
+        self.frame: PatientFrame = waiting_frame(None)
+        self.painted: dict[str, tuple[float, float] | None] = {}
+        self.paints = 0
+        self._shown_state: tuple = ()
+
+    # -- content ------------------------------------------------------------------
+    def set_options(self, options: PatientOptions) -> None:
+        self.options = options
+        self._shown_state = ()
+        self.update()
+
+    def show_parameters(self, parameters) -> None:
+        """No trial running: the exercise to come (or nothing)."""
+        self._set_scene(parameters)
+        frame = waiting_frame(self.scene)
+        state = ("wait", id(self.scene))
+        if state != self._shown_state:
+            self._shown_state = state
+            self.frame = frame
+            self.update()
+
+    def show_view(self, view: TrialView) -> None:
+        """The trial at the view's current sample; repaints only when that changed."""
+        if view.parameters is None:
+            self.show_parameters(None)
+            return
+        self._set_scene(view.parameters)
+        state = (id(view), view.n, view.current_index, view.finished)
+        if state == self._shown_state:
+            return
+        self._shown_state = state
+        self.frame = frame_at(view, self.scene, self.options)
+        self.update()
+
+    def _set_scene(self, parameters) -> None:
+        if parameters is None:
+            self.scene = None
+        elif self.scene is None or self.scene.parameters != parameters:
+            self.scene = Scene.of(parameters)
+
+    # -- geometry -----------------------------------------------------------------
+    def mm_per_px(self) -> float:
+        screen = self.screen() or QGuiApplication.primaryScreen()
+        dpi = screen.physicalDotsPerInchY() if screen is not None else 96.0
+        return MM_PER_INCH / (dpi if dpi and dpi > 0 else 96.0)
+
+    def screen_layout(self) -> ScreenLayout:
+        return layout(self.width(), self.height(), self.mm_per_px())
+
+    def placement(self) -> Placement | None:
+        if self.scene is None:
+            return None
+        axes = screen_axes(self.options.mirror, self.options.rotation_deg)
+        return place(self.scene.extent_m, axes, self.screen_layout().table)
+
+    # -- painting -----------------------------------------------------------------
+    def paintEvent(self, _event) -> None:
+        painter = QPainter(self)
+        painter.setRenderHint(QPainter.RenderHint.Antialiasing)
+        painter.fillRect(self.rect(), BACKGROUND)
+        bands = self.screen_layout()
+        where = self.placement()
+        frame = self.frame
+        self.painted = {"cursor": None, "target": None, "attention": None}
+        if where is not None:
+            if self.scene.parameters.neglect_side:
+                self._paint_attention(painter, where, bands.table)
+            self._paint_table(painter, where, frame)
+        self._paint_text(painter, bands, frame)
+        painter.end()
+        self.paints += 1
+
+    def _paint_table(self, painter: QPainter, where: Placement, frame: PatientFrame) -> None:
+        scene = self.scene
+        unit = max(2.0, where.length_px(0.004))  # a 4 mm line on the table
+        if frame.previous_path_m is not None:
+            painter.setPen(_pen(PREVIOUS, unit * 0.8))
+            painter.drawPath(_polyline(where.to_px(frame.previous_path_m)))
+        painter.setPen(_pen(PATH, unit))
+        if len(scene.targets_m):
+            home = where.to_px(scene.parameters.centre_m)
+            for target in scene.targets_m:
+                end = where.to_px(target)
+                painter.drawLine(QPointF(*home), QPointF(*end))
+        else:
+            painter.drawPath(_polyline(where.to_px(scene.path_m)))
+        radius = where.length_px(scene.target_radius_m)
+        for k, target in enumerate(scene.targets_m):
+            active = k == frame.active_target
+            painter.setPen(_pen(TARGET if active else PATH, unit * 0.6))
+            painter.setBrush(TARGET if active else Qt.BrushStyle.NoBrush)
+            painter.drawEllipse(QPointF(*where.to_px(target)), radius, radius)
+        if frame.go:
+            # the start cue on the table too: a green ring round the start
+            painter.setPen(_pen(GO, unit))
+            painter.setBrush(Qt.BrushStyle.NoBrush)
+            painter.drawEllipse(QPointF(*where.to_px(scene.start_m)), 2 * radius, 2 * radius)
+        if frame.target_m is not None:
+            point = where.to_px(frame.target_m)
+            painter.setPen(_pen(TARGET, unit * 0.6))
+            painter.setBrush(Qt.BrushStyle.NoBrush)
+            painter.drawEllipse(QPointF(*point), radius, radius)
+            self.painted["target"] = (float(point[0]), float(point[1]))
+        if frame.cursor_m is not None:
+            point = where.to_px(frame.cursor_m)
+            painter.setPen(Qt.PenStyle.NoPen)
+            painter.setBrush(CURSOR)
+            painter.drawEllipse(QPointF(*point), 0.6 * radius, 0.6 * radius)
+            self.painted["cursor"] = (float(point[0]), float(point[1]))
+
+    def _paint_attention(self, painter: QPainter, where: Placement, area: Rect) -> None:
+        """Hemispatial neglect (the trial's `neglect_side`): a bright band with arrows along
+        the table's edge on the patient's neglected side, to draw the eyes there (visual
+        cueing toward the neglected hemispace, Pedroli et al. 2015, doi
+        10.3389/fnbeh.2015.00226), where the trial's targets are turned."""
+        edge = screen_side(self.scene.parameters.neglect_side, where.axes)
+        thick = max(6.0, 0.025 * min(area.width, area.height))
+        r = _qrect(area)
+        band = {"left": QRectF(r.left(), r.top(), thick, r.height()),
+                "right": QRectF(r.right() - thick, r.top(), thick, r.height()),
+                "top": QRectF(r.left(), r.top(), r.width(), thick),
+                "bottom": QRectF(r.left(), r.bottom() - thick, r.width(), thick)}[edge]
+        painter.fillRect(band, ATTENTION)
+        arrow = {"left": "◀", "right": "▶", "top": "▲", "bottom": "▼"}[edge]
+        font = QFont(self.font())
+        font.setPixelSize(int(3 * thick))
+        painter.setFont(font)
+        painter.setPen(ATTENTION)
+        inner = r.adjusted(thick * 1.5, thick * 1.5, -thick * 1.5, -thick * 1.5)
+        align = {"left": Qt.AlignmentFlag.AlignLeft, "right": Qt.AlignmentFlag.AlignRight,
+                 "top": Qt.AlignmentFlag.AlignTop, "bottom": Qt.AlignmentFlag.AlignBottom}[edge]
+        cross = (Qt.AlignmentFlag.AlignVCenter if edge in ("left", "right")
+                 else Qt.AlignmentFlag.AlignHCenter)
+        painter.drawText(inner, align | cross, arrow)
+        self.painted["attention"] = edge
+
+    def _paint_text(self, painter: QPainter, bands: ScreenLayout, frame: PatientFrame) -> None:
+        font = QFont(self.font())
+        font.setPixelSize(bands.text_px)
+        font.setBold(True)
+        painter.setFont(font)
+        painter.setPen(TEXT)
+        left, right = _halves(bands.top)
+        _draw_fitted(painter, left, Qt.AlignmentFlag.AlignLeft, frame.repetition_text)
+        _draw_fitted(painter, right, Qt.AlignmentFlag.AlignRight, frame.time_left_text)
+        painter.setPen(GO if frame.cue == CUE_GO else TEXT)
+        _draw_fitted(painter, _qrect(bands.bottom), Qt.AlignmentFlag.AlignHCenter, frame.cue)
+        if frame.numbers:
+            small = QFont(font)
+            small.setPixelSize(max(8, bands.text_px // 2))
+            painter.setFont(small)
+            painter.setPen(TEXT)
+            painter.drawText(_qrect(bands.bottom).adjusted(bands.text_px // 4, 0, 0, 0),
+                             Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignVCenter,
+                             "\n".join(frame.numbers))
+
+    def closeEvent(self, event) -> None:
+        super().closeEvent(event)
+        self.closed.emit()
+
+
+def _draw_fitted(painter: QPainter, rect: QRectF, align: Qt.AlignmentFlag, text: str) -> None:
+    """Text in the painter's font, made smaller only if it would not fit the rectangle's
+    width (a narrow window): cut words would say less than smaller ones."""
+    font = painter.font()
+    width = QFontMetrics(font).horizontalAdvance(text)
+    if width > rect.width() > 0:
+        font = QFont(font)
+        font.setPixelSize(max(8, int(font.pixelSize() * rect.width() / width)))
+        painter.save()
+        painter.setFont(font)
+        painter.drawText(rect, align | Qt.AlignmentFlag.AlignVCenter, text)
+        painter.restore()
+    else:
+        painter.drawText(rect, align | Qt.AlignmentFlag.AlignVCenter, text)
+
+
+def _pen(colour: QColor, width: float) -> QPen:
+    pen = QPen(colour, width)
+    pen.setCapStyle(Qt.PenCapStyle.RoundCap)
+    pen.setJoinStyle(Qt.PenJoinStyle.RoundJoin)
+    return pen
+
+
+def _polyline(points: np.ndarray) -> QPainterPath:
+    path = QPainterPath()
+    finite = np.isfinite(points).all(axis=1)
+    drawing = False
+    for (x, y), ok in zip(points, finite, strict=True):
+        if not ok:
+            drawing = False
+        elif drawing:
+            path.lineTo(x, y)
+        else:
+            path.moveTo(x, y)
+            drawing = True
+    return path
+
+
+def _qrect(rect: Rect) -> QRectF:
+    return QRectF(rect.left, rect.top, rect.width, rect.height)
+
+
+def _halves(rect: Rect) -> tuple[QRectF, QRectF]:
+    pad = 0.03 * rect.width
+    half = 0.5 * rect.width - pad
+    return (QRectF(rect.left + pad, rect.top, half, rect.height),
+            QRectF(rect.left + 0.5 * rect.width, rect.top, half, rect.height))
+

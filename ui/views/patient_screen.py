@@ -1,0 +1,257 @@
+"""What the patient's screen shows at a moment of a trial, without Qt: the path or the
+targets, the hand's cursor, the start cue, the repetition and the time left.
+
+The screen is the patient's, not the therapist's: large words and shapes, no clinical
+figures unless the therapist chose to show them (`PatientOptions.show_numbers`). Its
+content comes from the same `TrialView` the therapist's tabs draw (filled live by the
+window's 16 ms timer, or from a trial file), at the view's current sample, and from the
+trial's parameters; everything is in the robot's frame (m), and
+`ui.views.patient_geometry` turns it to the patient's view.
+
+The moments a patient is told (the Act.Sens and Kinarm practice: a concurrent cursor,
+a start signal, knowledge of results after each movement):
+
+* before the exercise (the robot brings the hand to the path's start): "Get ready";
+* the exercise phase's first sample: "Go!", for `GO_SHOWN_S` (the tone, if on, once);
+* during the exercise: the repetition (k of n) and the time left on the trial's clock;
+* at its end: "Well done"; a fault or a stop: "Stopped" and nothing else (the therapist
+  explains).
+
+The repetition and the time left follow the trial's clock (`duration_s` per
+repetition from the exercise's first sample), the same clock that ends the trial. In
+the as-needed mode the reference can fall behind the clock by the guidance's delay (at
+most 0.5 s by default), so near a repetition's end the count can step up before the
+hand gets round; the time left stays what ends the trial.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from core.trial import TrialParameters
+from device.loop.pipeline import PHASE_APPROACH, PHASE_EXERCISE, PHASE_HOLD
+from ui.views.trialview import TrialView
+
+GO_SHOWN_S = 1.5  # long enough to read at a glance, short enough not to linger
+PATH_SPACING_M = 0.004
+TARGET_RADIUS_M = 0.015  # a reach target's drawn radius when no game sets one
+PREVIOUS_PATH_POINTS = 400
+
+CUE_WAIT = "Please wait"
+CUE_READY = "Get ready"
+CUE_GO = "Go!"
+CUE_DONE = "Well done!"
+CUE_STOPPED = "Stopped"
+
+
+@dataclass(frozen=True, slots=True)
+class PatientOptions:
+    """The therapist's choices for the patient's screen.
+
+    mirror, rotation_deg: the patient's view of the table turned to the screen as it
+        stands (ui.views.patient_geometry.screen_axes).
+    show_numbers: clinical figures on the patient's screen (off: never shown).
+    previous_path: the hand's path of the last repetition, faint, during the next one
+        (knowledge of performance).
+    sound: a tone with the start cue.
+
+    The hemispatial neglect cue is not an option here: it follows the trial's
+    `neglect_side` (TrialParameters), which also turns the targets toward that side, so
+    the trial file records both.
+    """
+
+    mirror: bool = False
+    rotation_deg: int = 0
+    show_numbers: bool = False
+    previous_path: bool = True
+    sound: bool = False
+
+    def __post_init__(self) -> None:
+        for name in ("mirror", "show_numbers", "previous_path", "sound"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"patient screen option {name} = {getattr(self, name)!r}: "
+                                 "give true or false")
+        if self.rotation_deg not in (0, 90, 180, 270):
+            raise ValueError(f"patient screen rotation {self.rotation_deg!r}: give 0, 90, 180 "
+                             "or 270 (degrees)")
+
+    def to_dict(self) -> dict:
+        return {name: getattr(self, name) for name in self.__slots__}
+
+    @classmethod
+    def from_dict(cls, values: dict) -> PatientOptions:
+        """Refuses unknown keys and bad values in one line (ValueError)."""
+        if not isinstance(values, dict):
+            raise ValueError(f"patient screen options {values!r}: give an object")
+        unknown = sorted(set(values) - set(cls.__slots__))
+        if unknown:
+            raise ValueError(f"unknown patient screen option {', '.join(unknown)}: give "
+                             + ", ".join(cls.__slots__))
+        return cls(**values)
+
+    def replace(self, **changes) -> PatientOptions:
+        return PatientOptions(**{**self.to_dict(), **changes})
+
+
+@dataclass(frozen=True, slots=True)
+class Scene:
+    """What does not move during a trial: the path (N, 2) m, the reach targets (M, 2) m
+    with their radius, the start point, and the extent the screen must show."""
+
+    parameters: TrialParameters
+    path_m: np.ndarray
+    targets_m: np.ndarray
+    target_radius_m: float
+    start_m: tuple[float, float]
+    extent_m: tuple[float, float, float, float]
+
+    @classmethod
+    def of(cls, parameters: TrialParameters) -> Scene:
+        from ui.views.patient_geometry import padded_extent
+
+        path = parameters.path()
+        points = path.points(PATH_SPACING_M)
+        if parameters.shape == "targets":
+            # centre-out: home → target k → home; the targets are the outward lines' ends
+            targets = np.array([seg.end for seg in path.segments[0::2]], dtype=float)
+        else:
+            targets = np.zeros((0, 2))
+        radius = TARGET_RADIUS_M
+        return cls(parameters, points, targets, radius, (float(points[0, 0]),
+                   float(points[0, 1])), padded_extent(points, 2.0 * radius))
+
+
+@dataclass(frozen=True, slots=True)
+class PatientFrame:
+    """The screen's content at one moment (positions in the robot's frame, m)."""
+
+    cue: str
+    go: bool
+    """True from the exercise's first sample for GO_SHOWN_S: the start signal."""
+    cursor_m: tuple[float, float] | None
+    target_m: tuple[float, float] | None
+    """The moving target: where the robot's reference is (position_desired)."""
+    active_target: int
+    """The reach target being reached (index into Scene.targets_m), -1 if none."""
+    repetition: int
+    repetitions: int
+    time_left_s: float | None
+    previous_path_m: np.ndarray | None = None
+    numbers: tuple[str, ...] = ()
+    sample: int = -1
+    """The view's sample this frame shows (-1: none)."""
+    exercise_started_s: float = field(default=math.nan)
+    """The time (trial clock, s) of the exercise's first sample, NaN before it."""
+
+    @property
+    def repetition_text(self) -> str:
+        if self.repetitions <= 0 or self.repetition <= 0:
+            return ""
+        return f"Round {self.repetition} of {self.repetitions}"
+
+    @property
+    def time_left_text(self) -> str:
+        if self.time_left_s is None:
+            return ""
+        return f"{clock(self.time_left_s)} left"
+
+
+def clock(seconds: float) -> str:
+    """m:ss, rounded up: '0:00' only when nothing is left."""
+    whole = max(0, math.ceil(seconds - 1e-9))
+    return f"{whole // 60}:{whole % 60:02d}"
+
+
+def waiting_frame(scene: Scene | None) -> PatientFrame:
+    """Before a trial: the exercise's path, nothing moving."""
+    reps = scene.parameters.repetitions if scene is not None else 0
+    planned = (scene.parameters.duration_s * reps) if scene is not None else None
+    return PatientFrame(CUE_WAIT, False, None, None, -1, 0, reps, planned)
+
+
+def frame_at(view: TrialView, scene: Scene, options: PatientOptions) -> PatientFrame:
+    """The screen at the view's current sample (its newest live, its cursor in replay)."""
+    i = view.current_index
+    p = scene.parameters
+    planned = p.duration_s * p.repetitions
+    if i < 0:
+        return waiting_frame(scene)
+    phase = int(view.column("phase")[0, i])
+    fault = int(view.column("fault")[0, i])
+    position = view.column("position")[:, i]
+    cursor = (float(position[0]), float(position[1])) if np.isfinite(position).all() else None
+    desired = view.column("position_desired")[:, i]
+    target = (float(desired[0]), float(desired[1])) if np.isfinite(desired).all() else None
+    t = float(view.time[i])
+    started = view.has_exercise and view.exercise.start <= i
+    t0 = float(view.time[view.exercise.start]) if started else math.nan
+    elapsed = t - t0 if started else 0.0
+    if fault:
+        cue = CUE_STOPPED
+    elif phase == PHASE_APPROACH or (phase == PHASE_EXERCISE and not started):
+        cue = CUE_READY
+    elif phase == PHASE_EXERCISE:
+        cue = CUE_GO if elapsed < GO_SHOWN_S else ""
+    elif phase == PHASE_HOLD or (view.finished and i == view.n - 1):
+        cue = CUE_DONE
+    else:
+        cue = CUE_WAIT
+    if phase == PHASE_HOLD:
+        repetition, left = p.repetitions, 0.0
+    elif started:
+        repetition = min(p.repetitions, int(elapsed // p.duration_s) + 1)
+        left = max(0.0, planned - elapsed)
+    else:
+        repetition, left = 0, planned
+    active = _active_target(scene, target, view.column("direction_desired")[:, i]) \
+        if started and phase == PHASE_EXERCISE else -1
+    previous = None
+    if options.previous_path and started and repetition >= 2 and phase == PHASE_EXERCISE:
+        previous = _repetition_path(view, t0 + (repetition - 2) * p.duration_s,
+                                    t0 + (repetition - 1) * p.duration_s)
+    numbers = _numbers(view) if options.show_numbers and started else ()
+    return PatientFrame(cue, cue == CUE_GO, cursor, target, active, repetition,
+                        p.repetitions, left, previous, numbers, i, t0)
+
+
+def _active_target(scene: Scene, target, direction) -> int:
+    """The reach target the reference moves towards: of the targets and home, the
+    nearest straight ahead of the reference along the path's direction; -1 when that is
+    home (on the way back) or none is."""
+    if not len(scene.targets_m) or target is None or not np.isfinite(direction).all():
+        return -1
+    ends = np.vstack((scene.targets_m, scene.parameters.centre_m))
+    towards = ends - np.asarray(target)
+    distance = np.hypot(towards[:, 0], towards[:, 1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        aim = (towards @ np.asarray(direction, dtype=float)) / distance
+    ahead = (aim > 0.99) & (distance > 1e-4)  # the one just reached is not ahead
+    if not ahead.any():
+        return -1
+    best = int(np.flatnonzero(ahead)[np.argmin(distance[ahead])])
+    return best if best < len(scene.targets_m) else -1
+
+
+def _repetition_path(view: TrialView, start_s: float, end_s: float) -> np.ndarray | None:
+    time = view.time
+    a, b = np.searchsorted(time, [start_s, end_s])
+    if b - a < 2:
+        return None
+    step = max(1, (b - a) // PREVIOUS_PATH_POINTS)
+    return view.column("position")[:, a:b:step].T.copy()
+
+
+def _numbers(view: TrialView) -> tuple[str, ...]:
+    """The two figures a therapist may choose to show: the thesis's directional
+    performance and the position error, over the exercise so far."""
+    out = []
+    pct = view.directional_percent
+    if math.isfinite(pct):
+        out.append(f"Right direction {pct:.0f} %")
+    rx, ry = view.rmse_xy_m
+    if math.isfinite(rx):
+        out.append(f"Off the path {1000.0 * math.hypot(rx, ry):.0f} mm")
+    return tuple(out)
