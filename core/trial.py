@@ -147,6 +147,9 @@ class TrialParameters:
     to hit it, s; at most the time between two targets' appearances."""
     n_distractors: int = 0
     """Reaching game: discs to avoid, placed between the targets (core.games.layout)."""
+    staircase: str = ""
+    """The state of the staircase that set this round's difficulty (core.games.staircase:
+    its ladder, rung, credit, lock and why), canonical JSON; "" when set by hand."""
     neglect_side: str = ""
     """The patient's side with hemispatial neglect a reaching layout (shape "targets" or
     "reach", game or not) is turned toward (core.trajectory.centre_out_angles): "", "left"
@@ -194,6 +197,13 @@ class TrialParameters:
         _learned_model(self.controller, self.learned_model, self.learned_model_sha256)
         _model_name("force_estimate", self.force_estimate, "an EMG model file's name")
         _model_hash("force_estimate_sha256", self.force_estimate_sha256, self.force_estimate)
+        if not isinstance(self.staircase, str):
+            raise ParameterError("staircase", self.staircase, "text: a staircase's JSON or ''")
+        if self.staircase != "":
+            # imported here: core.games builds on this module
+            from core.games.staircase import Staircase
+
+            object.__setattr__(self, "staircase", Staircase.from_json(self.staircase).to_json())
         if self.gains != "":
             # imported here: core.control builds on this module
             from core.control.gains import canonical_gains
