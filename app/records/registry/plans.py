@@ -148,7 +148,8 @@ class Plans(Database):
     def record_plan_trial(self, run_id: int, block: int, round_: int, trial_id: int,
                           planned_s: float) -> PlanStep:
         """The run's next step: block `block`'s round `round_` (1-based) is trial
-        `trial_id`, planned to exercise `planned_s`."""
+        `trial_id`, planned to exercise `planned_s` (also after the run's end: a trial the
+        loop started as the run ended belongs to it)."""
         return self._step(run_id, block, round_, "trial", trial_id, planned_s, None)
 
     def record_plan_rest(self, run_id: int, block: int, planned_s: float,
@@ -163,7 +164,9 @@ class Plans(Database):
                 raise InvalidRecordError(f"{name} {value!r}: give seconds from 0")
         with self._write() as conn:
             run = _run_row(conn, self.path, run_id)
-            if run[5] != "running":
+            if run[5] != "running" and kind != "trial":
+                # a trial the loop started as the run ended (a Stop pressed while it was
+                # starting) still belongs to it; nothing else comes after its end
                 raise RegistryError(f"plan run {run_id} has ended ({run[5]}); it takes no "
                                     "more steps")
             plan = _plan_by_id(conn, self.path, run[1]).plan

@@ -1,0 +1,352 @@
+"""The plan's runner against a model of the loop, the files and the therapist (issue 30, the
+plan's THE TEST): commands, the loop's answers, faults and the emergency stop arrive in any
+order at any moment, and the runner keeps its invariants:
+
+* one trial per start asked, started only once its round was built, each linked once;
+* no build or start during a rest, while paused, or after Stop, E-STOP or a fault;
+* a rest is taken whole before the next block unless the plan ends in it;
+* the movements and active time it counts are what the trials' files said;
+* a plan that ends 'complete' ran every round of every block for all its laps.
+"""
+
+import math
+
+import pytest
+from hypothesis import HealthCheck, settings, strategies as st
+from hypothesis.stateful import RuleBasedStateMachine, invariant, precondition, rule
+
+from app.plans.runner import ENDED, IDLE, PAUSED, RESTING, PlanRunner
+from core.plan import Block, Plan, movements_per_lap
+from core.trial import THESIS_SUBJECT
+
+PLAN = Plan("Three blocks", (
+    Block(shape="d", repetitions=2, duration_s=2.0, rest_s=1.0, name="D"),
+    Block(shape="reach", repetitions=1, duration_s=2.0, rest_s=1.0, radius_m=0.06,
+          rounds=2, name="Reach"),
+    Block(shape="circle", repetitions=None, active_s=3.0, duration_s=2.0, rest_s=5.0,
+          name="Circle"),
+))
+BASE = THESIS_SUBJECT
+RARELY = st.integers(0, 99).map(lambda n: n == 37)
+SOMETIMES = st.integers(0, 99).map(lambda n: n % 4 == 3)
+MOSTLY = st.integers(0, 99).map(lambda n: n % 10 != 7)
+
+
+class FakeConsole:
+    """The loop and the registry as the runner sees them: what it asked, in order."""
+
+    def __init__(self) -> None:
+        self.asked: list[tuple] = []
+        self.building = None  # parameters waiting for the loop's answer
+        self.starting = None  # (block, round) waiting for the loop's start
+        self.stop_asked = False
+        self.ended: tuple | None = None
+        self.rests: list[tuple] = []
+        self.linked: list[tuple] = []
+        self.now = 0.0
+
+    def build(self, parameters):
+        assert self.ended is None, "built after the plan ended"
+        assert self.building is None
+        assert self.starting is None
+        self.building = parameters
+        self.asked.append(("build", parameters))
+
+    def start(self, block, round_):
+        assert self.ended is None, "started after the plan ended"
+        assert self.building is None
+        assert self.starting is None
+        self.starting = (block, round_)
+        self.asked.append(("start", block, round_, self.now))
+
+    def stop(self):
+        self.stop_asked = True
+
+    def record_trial(self, block, round_, trial_id, planned_s):
+        self.linked.append((block, round_, trial_id))
+
+    def record_rest(self, block, planned_s, taken_s):
+        assert 0.0 <= taken_s <= planned_s + 1e-9
+        self.rests.append((block, planned_s, taken_s, self.now))
+
+    def end(self, status, reason):
+        assert self.ended is None, "ended twice"
+        self.ended = (status, reason)
+
+
+class PlanMachine(RuleBasedStateMachine):
+    def __init__(self) -> None:
+        super().__init__()
+        self.console = FakeConsole()
+        self.runner = PlanRunner(PLAN, BASE, self.console)
+        self.now = 0.0
+        self.next_id = 1
+        self.running = None  # (trial id, laps it runs, block)
+        self.files: dict[int, tuple[int, float]] = {}  # what each trial's file said
+        self.finishes: list[tuple[int, float]] = []  # (block, when) of each trial's end
+        self.started_blocks: list[int] = []
+
+    # ---------------------------------------------------------------- the therapist
+    @precondition(lambda self: self.runner.phase == IDLE)
+    @rule()
+    def first_start(self):
+        self.runner.start(self.now)
+
+    @rule(now=SOMETIMES)
+    def pause(self, now):
+        if now:
+            self.runner.pause(self.now)
+
+    @rule()
+    def resume(self):
+        self.runner.resume(self.now)
+
+    # what ends a plan comes at any moment, but rarely enough for plans to reach their
+    # later blocks (one draw in ten acts)
+    @rule(now=RARELY)
+    def stop(self, now):
+        if now:
+            self.runner.stop(self.now)
+
+    @rule(now=RARELY)
+    def emergency_stop(self, now):
+        if now:
+            self.runner.emergency_stop(self.now, "emergency stop pressed")
+            self._loop_faults()
+
+    @rule(now=RARELY)
+    def fault(self, now):
+        if now:
+            self.runner.fault(self.now, "force too high")
+            self._loop_faults()
+
+    @rule(dt=st.sampled_from([0.1, 0.5, 1.0, 3.0]))
+    def time_passes(self, dt):
+        self.now += dt
+        self.console.now = self.now
+        self.runner.tick(self.now)
+
+    # ---------------------------------------------------------------- the loop
+    @rule(fraction=st.floats(0.0, 1.0))
+    def loop_acts(self, fraction):
+        """The loop's next answer: the build, the start, or the trial's end (complete, or
+        where it was if a Stop was asked)."""
+        console = self.console
+        if console.building is not None:
+            self.pending_laps = console.building.repetitions
+            console.building = None
+            self.runner.built(self.now, True)
+        elif console.starting is not None:
+            block, _ = console.starting
+            console.starting = None
+            trial = self.next_id
+            self.next_id += 1
+            self.running = (trial, self.pending_laps, block)
+            self.started_blocks.append(block)
+            self.runner.started(self.now, trial)
+        elif self.running is not None:
+            trial, laps, block = self.running
+            per_lap = movements_per_lap(PLAN.blocks[block - 1].shape, BASE.n_targets)
+            if console.stop_asked:
+                status, done = "stopped_early", int(fraction * laps * per_lap)
+            else:
+                status, done, fraction = "complete", laps * per_lap, 1.0
+            self._finish(trial, status, done, laps * fraction)
+
+    @precondition(lambda self: self.console.building is not None
+                  or self.console.starting is not None)
+    @rule(now=RARELY)
+    def loop_refuses(self, now):
+        if not now:
+            return
+        if self.console.building is not None:
+            self.console.building = None
+            self.runner.built(self.now, False, "unreachable")
+        else:
+            self.console.starting = None
+            self.runner.refused(self.now, "the robot is faulted")
+
+    def _loop_faults(self):
+        if self.running is not None:
+            self._finish(self.running[0], "faulted", 0, 0.1)
+        self.console.building = self.console.starting = None
+
+    def _finish(self, trial, status, movements, active_s):
+        self.running = None
+        self.console.stop_asked = False
+        self.files[trial] = (movements, active_s)
+        self.runner.trial_ended(self.now)
+        self.finishes.append((self.started_blocks[-1], self.now))
+        self.runner.finished(self.now, trial, status, movements, active_s)
+
+    # ---------------------------------------------------------------- invariants
+    @invariant()
+    def one_trial_per_start_and_each_linked_once(self):
+        starts = [a for a in self.console.asked if a[0] == "start"]
+        ids = [t for _, _, t in self.console.linked]
+        assert len(ids) == len(set(ids))
+        assert len(ids) <= len(starts) == self.runner.starts
+
+    @invariant()
+    def nothing_runs_in_a_rest_while_paused_or_after_the_end(self):
+        if self.runner.phase in (RESTING, PAUSED, ENDED, IDLE):
+            assert self.console.building is None or self.runner.phase == ENDED
+            assert self.console.starting is None or self.runner.phase == ENDED
+        if self.runner.phase == ENDED:
+            assert self.console.ended is not None
+
+    @invariant()
+    def a_rest_is_whole_before_the_next_block(self):
+        for action in self.console.asked:
+            if action[0] != "start" or action[2] != 1 or action[1] == 1:
+                continue
+            before, when = action[1] - 1, action[3]
+            ended = [t for b, t in self.finishes if b == before and t <= when]
+            assert ended, "a block started before the one before it ended"
+            assert when - max(ended) >= PLAN.blocks[before - 1].rest_s - 1e-9, \
+                "a block started before the rest after the one before it was over"
+            rests = [r for r in self.console.rests if r[0] == before]
+            assert rests, "a block started without the rest before it recorded"
+            assert math.isclose(rests[0][2], PLAN.blocks[before - 1].rest_s, abs_tol=1e-9)
+
+    @invariant()
+    def the_counts_are_the_files(self):
+        counted = sum(c.movements for c in self.runner.counts)
+        assert counted == sum(m for m, _ in self.files.values())
+        active = sum(c.active_s for c in self.runner.counts)
+        assert math.isclose(active, sum(a for _, a in self.files.values()), abs_tol=1e-9)
+
+    @invariant()
+    def complete_means_every_lap_ran(self):
+        if self.runner.outcome == "complete":
+            planned = PLAN.planned_movements(BASE.n_targets)
+            # a round cut by a pause runs again for its laps left: at least the plan's
+            assert sum(c.movements for c in self.runner.counts) >= planned
+            for k, block in enumerate(PLAN.blocks):
+                assert len(self.runner.counts[k].trials) >= block.rounds
+
+    @invariant()
+    def the_state_reads(self):
+        state = self.runner.state(self.now)
+        assert state.rest_left_s >= 0.0
+        assert state.time_left_s >= 0.0
+        assert "\n" not in state.line()
+
+
+PlanMachine.TestCase.settings = settings(max_examples=150, stateful_step_count=100,
+                                         deadline=None,
+                                         suppress_health_check=[HealthCheck.filter_too_much])
+test_the_runner_keeps_its_invariants = PlanMachine.TestCase
+
+
+class Script:
+    """A plan run by hand: the loop completes every trial it is given."""
+
+    def __init__(self, plan=PLAN):
+        self.console = FakeConsole()
+        self.runner = PlanRunner(plan, BASE, self.console)
+        self.trial = 0
+
+    def loop(self, now, *, complete=True, fraction=1.0):
+        """Answer the build and the start, and end the trial."""
+        runner, console = self.runner, self.console
+        params = console.building
+        console.building = None
+        runner.built(now, True)
+        console.starting = None
+        self.trial += 1
+        runner.started(now, self.trial)
+        per_lap = movements_per_lap(params.shape, BASE.n_targets)
+        done = params.repetitions * per_lap if complete else int(
+            fraction * params.repetitions * per_lap)
+        runner.trial_ended(now)
+        console.stop_asked = False
+        runner.finished(now, self.trial, "complete" if complete else "stopped_early", done,
+                        params.repetitions * params.duration_s * fraction)
+        return params
+
+
+def test_a_plan_runs_its_blocks_rounds_and_rests_in_order():
+    s = Script()
+    s.runner.start(0.0)
+    assert s.runner.state(0.0).line().startswith("Block 1 of 3: D, 2 laps")
+    assert s.loop(0.0).repetitions == 2
+    assert s.runner.phase == RESTING
+    assert s.runner.state(0.4).rest_left_s == pytest.approx(0.6)
+    s.runner.tick(0.5)
+    assert s.console.building is None  # still resting
+    s.runner.tick(1.0)
+    assert s.loop(1.0).shape == "reach"  # round 1
+    assert s.runner.state(1.0).round == 2
+    assert s.loop(1.0).shape == "reach"  # round 2, no rest between rounds
+    s.runner.tick(2.0)
+    assert s.loop(2.0).repetitions == 2  # 3 s of 2 s laps: two whole laps
+    assert s.console.ended == ("complete", "")
+    assert [r[:3] for r in s.console.rests] == [(1, 1.0, 1.0), (2, 1.0, 1.0)]
+    assert sum(c.movements for c in s.runner.counts) == 2 + 2 * 2 + 2
+    assert s.runner.state(3.0).line().startswith("Plan complete")
+
+
+def test_a_pause_in_a_trial_runs_the_laps_it_had_left_and_in_a_rest_holds_the_clock():
+    plan = Plan("One", (Block(shape="d", repetitions=4, duration_s=2.0, rest_s=10.0),
+                        Block(shape="circle", repetitions=1, duration_s=2.0, rest_s=0.0)))
+    s = Script(plan)
+    s.runner.start(0.0)
+    s.console.building = None
+    s.runner.built(0.0, True)
+    s.console.starting = None
+    s.runner.started(0.0, 1)
+    s.runner.pause(1.0)
+    assert s.console.stop_asked
+    s.runner.trial_ended(1.0)
+    s.runner.finished(1.0, 1, "stopped_early", 1, 2.5)  # one lap of four
+    assert s.runner.phase == PAUSED
+    assert s.console.building is None
+    s.runner.resume(50.0)
+    assert s.console.building.repetitions == 3  # the laps it had left
+    s.trial = 1
+    s.loop(50.0)
+    assert s.runner.phase == RESTING
+    s.runner.pause(54.0)  # 6 s of rest left, held
+    s.runner.tick(500.0)
+    assert s.runner.state(500.0).rest_left_s == pytest.approx(6.0)
+    s.runner.resume(500.0)
+    s.runner.tick(505.0)
+    assert s.console.building is None
+    s.runner.tick(506.0)
+    assert s.console.building.shape == "circle"
+
+
+def test_stop_in_a_rest_ends_the_plan_with_the_rest_as_taken():
+    s = Script()
+    s.runner.start(0.0)
+    s.loop(0.0)
+    s.runner.stop(0.25)
+    assert s.console.ended == ("stopped", "stopped by the therapist")
+    assert s.console.rests == [(1, 1.0, 0.25, 0.0)]
+    s.runner.tick(10.0)
+    assert s.console.building is None
+
+
+def test_a_proposal_applies_to_the_next_block_of_the_same_exercise():
+    plan = Plan("Again", (Block(shape="d", repetitions=1, duration_s=4.0, rest_s=0.0),
+                          Block(shape="circle", repetitions=1, duration_s=4.0, rest_s=0.0),
+                          Block(shape="d", repetitions=1, duration_s=4.0, rest_s=0.0)))
+
+    class Faster:
+        def applied_to(self, parameters):
+            return parameters.replace(duration_s=3.6, assistance_level=0.9)
+
+    s = Script(plan)
+    s.runner.start(0.0)
+    params = s.console.building
+    s.console.building = None
+    s.runner.built(0.0, True)
+    s.console.starting = None
+    s.runner.started(0.0, 1)
+    s.runner.finished(0.0, 1, "complete", 1, 4.0, proposal=Faster())
+    assert s.console.building.shape == "circle"
+    assert s.console.building.duration_s == params.duration_s  # not the circle's
+    s.loop(0.0)
+    assert (s.console.building.duration_s, s.console.building.assistance_level) == (3.6, 0.9)
+    assert plan.blocks[2].duration_s == 4.0  # the plan as prescribed is kept
