@@ -35,7 +35,7 @@ from core.trajectory import (
 )
 
 CONTROLLERS = ("smc", "ctpid")
-ASSIST_MODES = ("thesis", "as-needed")
+ASSIST_MODES = ("thesis", "as-needed", "transparent")
 """The assistance modes (core.control.guidance, which names them too, imports these)."""
 SIDES = ("right", "left")
 INCH_M = 0.0254
@@ -116,8 +116,10 @@ class TrialParameters:
     assist: str = "thesis"
     """The assistance mode (core.control.guidance.ASSIST_MODES): "thesis", Fig. 3.6 as
     printed (the tracking controller on the clock with the reduce-only cut), or
-    "as-needed", the guidance of core.control.guidance. Trials recorded before the modes
-    existed read as "thesis", which is what they ran."""
+    "as-needed", the guidance of core.control.guidance, or "transparent", the robot
+    compensating its own inertia, friction and stiffness without guidance
+    (core.control.transparent; its level is always 0: nothing in it acts on a level).
+    Trials recorded before the modes existed read as "thesis", which is what they ran."""
     gains: str = ""
     """Changes to the controller's and the guidance's default gains, one line such as
     "smc.lambda_1_s=25; guidance.delay_s=0.5" (core.control.gains), kept canonical."""
@@ -191,6 +193,10 @@ class TrialParameters:
         check_range("assistance_level", self.assistance_level, 0.0, 1.0, "",
                     "0 = no help for the subject's effort (thesis: no reduction; as-needed: "
                     "the channel alone), 1 = full help")
+        if self.assist == "transparent":
+            # nothing in the transparent mode acts on a level: the trial, its file and the
+            # registry say 0, the level that ran (core.control.transparent)
+            object.__setattr__(self, "assistance_level", 0.0)
         if not isinstance(self.clockwise, bool):
             raise ParameterError("clockwise", self.clockwise, "True or False")
         _game_fields(self)

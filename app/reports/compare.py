@@ -33,6 +33,8 @@ from app.records.registry import Trial
 from app.reports.metrics_table import ROWS, MetricRow
 from app.reports.plain_language import (
     change_sentence,
+    distance_mm_shown,
+    distance_text,
     help_caution,
     parameter_cautions,
     position_error_m,
@@ -204,15 +206,23 @@ def _degrees(key: str, name: str) -> _PatientFigure:
 
 _JOINTS = (_degrees("shoulder_rom_rad", "Shoulder movement"),
            _degrees("elbow_rom_rad", "Elbow movement"))
+_DISTANCE = _PatientFigure(
+    "rmse", "Distance from the path", GOALS["rmse"],
+    lambda m: position_error_m(float(m.get("rmse_x_m", math.nan)),
+                               float(m.get("rmse_y_m", math.nan))),
+    lambda v: float(distance_mm_shown(v)), distance_text)
 PATIENT_FIGURES = {
     "as-needed": (_percent("led_pct", "Led the movement"), *_JOINTS),
     "thesis": (_percent("directional_performance_pct", "Pushed in the right direction"),
                *_JOINTS),
+    "transparent": (_DISTANCE, *_JOINTS),
 }
 """The figures the patient's page compares, per assistance mode: the mode's own success
 figure first (plain_language.SUCCESS_KEYS), then the joints' movement. The distance
-from the path is not among them: the robot keeps the hand on the path in both modes, so
-its change is mostly the robot's (plain_language.position_line)."""
+from the path is not among them in the thesis and as-needed modes: the robot keeps the
+hand on the path there, so its change is mostly the robot's (plain_language.position_line).
+In the transparent mode it is the patient's own, and comes first: the robot adds no help,
+so the push's direction is only what moving the robot takes."""
 
 
 def verdict(goal: Goal, before: float, after: float) -> str:

@@ -310,16 +310,22 @@ def _exercise_text(p: TrialParameters) -> str:
 CONTROLLER_WORDS = {"smc": "SMC", "ctpid": "CT-PID"}
 
 
-MODE_WORDS = {"as-needed": "as-needed", "thesis": "thesis-mode"}
+MODE_WORDS = {"as-needed": "as-needed", "thesis": "thesis-mode", "transparent": "transparent"}
 
 
 def _settings_text(p: TrialParameters, levels: AssistanceInEffect) -> str:
     # positions in the form's unit (app.units): the therapist compares them with it
     controller = learned_label(p.learned_model) if p.learned_model else \
         CONTROLLER_WORDS.get(p.controller, p.controller)
-    return (f"{controller} controller, {MODE_WORDS.get(p.assist, p.assist)} assistance "
-            f"at {levels.summary()} (built at {assistance_percent(p.assistance_level)}), "
-            f"direction tolerance ±{math.degrees(p.tolerance_rad):.0f}°; centre "
+    if p.assist == "transparent":
+        # no level to say: nothing acts on one (core.control.transparent)
+        help_words = (f"{controller} controller on the approach and hold, transparent "
+                      "exercise (no assistance)")
+    else:
+        help_words = (f"{controller} controller, {MODE_WORDS.get(p.assist, p.assist)} "
+                      f"assistance at {levels.summary()} (built at "
+                      f"{assistance_percent(p.assistance_level)})")
+    return (f"{help_words}, direction tolerance ±{math.degrees(p.tolerance_rad):.0f}°; centre "
             f"{point_cm(p.centre_m)}, shoulder {point_cm(p.shoulder_m)}, {p.side} arm")
 
 

@@ -114,16 +114,22 @@ POSITION_DETAIL = {
                  "number is mostly the robot's doing.",
     "thesis": "In this mode the robot moves the handle along the path on a clock, so this "
               "number is mostly the robot's doing.",
+    "transparent": "In this mode the robot did not hold your hand on the path, so this "
+                   "number is yours.",
 }
 
 
 def position_line(rmse_x_m: float, rmse_y_m: float, mode: str = "thesis") -> PlainLine:
-    """The distance from the path, credited to whom it belongs: in both modes the robot
-    keeps the hand on the path (a compliant channel, or a stiff tracker on a clock)."""
+    """The distance from the path, credited to whom it belongs: in the as-needed and
+    thesis modes the robot keeps the hand on the path (a compliant channel, or a stiff
+    tracker on a clock); in the transparent mode nothing holds it there but the patient."""
+    distance = distance_text(position_error_m(rmse_x_m, rmse_y_m))
+    sentence = (f"Your hand stayed within {distance} of the path on average."
+                if mode == "transparent" else
+                f"The robot kept your hand within {distance} of the path on average.")
     return PlainLine(
         "rmse",
-        f"The robot kept your hand within {distance_text(position_error_m(rmse_x_m, rmse_y_m))}"
-        " of the path on average.",
+        sentence,
         POSITION_DETAIL.get(mode, POSITION_DETAIL["thesis"]),
     )
 
@@ -164,9 +170,14 @@ def force_line(peak_force_N: float) -> PlainLine:
     )
 
 
-SUCCESS_KEYS = {"as-needed": "led_pct", "thesis": "directional_performance_pct"}
+SUCCESS_KEYS = {"as-needed": "led_pct", "thesis": "directional_performance_pct",
+                "transparent": "rmse"}
 """Each assistance mode's own success figure (app.trials.progression.success aims the
-next trial at it): the report's headline."""
+next trial at it): the report's headline. In the transparent mode the headline is the
+patient's own distance from the path ("rmse", the two axes' RMSE combined, as the
+therapist's table shows it): nothing but the patient keeps the hand there, and the push's
+direction is only what moving the robot takes (app.trials.progression proposes nothing in
+this mode)."""
 
 
 def success_key(mode: str) -> str:
@@ -179,13 +190,20 @@ def plain_lines(metrics: Mapping[str, float], *, mode: str = "thesis",
     mode's success figure first (the headline). A figure that is missing or NaN is left
     out. In the as-needed mode the direction of the push is not the patient's figure:
     the robot is nearly transparent along the path, so the force on the handle is only
-    what moving it takes (app.trials.progression)."""
+    what moving it takes (app.trials.progression); nor in the transparent mode, where
+    the distance from the path, the patient's own, comes first."""
 
     def value(key: str) -> float:
         return float(metrics.get(key, math.nan))
 
     lines = []
-    if mode == "as-needed":
+    rmse_x, rmse_y = value("rmse_x_m"), value("rmse_y_m")
+    position_known = math.isfinite(rmse_x) and math.isfinite(rmse_y)
+    if mode == "transparent":
+        # the patient's own distance from the path is the headline (SUCCESS_KEYS)
+        if position_known:
+            lines.append(position_line(rmse_x, rmse_y, mode))
+    elif mode == "as-needed":
         if math.isfinite(value("led_pct")):
             lines.append(led_line(value("led_pct")))
     else:
@@ -201,8 +219,7 @@ def plain_lines(metrics: Mapping[str, float], *, mode: str = "thesis",
         lines.append(elbow_line(value("elbow_rom_rad")))
     if math.isfinite(peak_force_N):
         lines.append(force_line(peak_force_N))
-    rmse_x, rmse_y = value("rmse_x_m"), value("rmse_y_m")
-    if math.isfinite(rmse_x) and math.isfinite(rmse_y):
+    if position_known and mode != "transparent":
         lines.append(position_line(rmse_x, rmse_y, mode))
     return tuple(lines)
 
@@ -237,12 +254,14 @@ def status_sentence(status: str, exercised_s: float, planned_s: float, *,
 MODE_MEANING = {
     "as-needed": "you lead, the robot helps when you fall behind",
     "thesis": "the robot guides the handle along the path on a clock",
+    "transparent": "you move the handle on your own, the robot only makes itself lighter",
 }
 """The assistance modes (core.trial.ASSIST_MODES) in the patient's words."""
 
 HELP_MEANING = {
     "as-needed": "help along the path when you fall behind",
     "thesis": "how far the robot gives way to your push",
+    "transparent": "no help: the robot only makes itself lighter",
 }
 """What the assistance level means in each mode, for the patient (core.control.guidance,
 core.control.assistance)."""

@@ -43,7 +43,7 @@ _FILE_USABLE = frozenset((FILE_OK, FILE_UNCHECKED))
 
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 
-MODE_NAMES = {"as-needed": "As needed", "thesis": "Thesis mode"}
+MODE_NAMES = {"as-needed": "As needed", "thesis": "Thesis mode", "transparent": "Transparent"}
 # TrialSummary.key_parameters' order (app.records.registry.KEY_PARAMETERS)
 _SHAPE, _RADIUS, _DURATION, _TOLERANCE, _LEVEL, _CONTROLLER = range(6)
 

@@ -56,6 +56,16 @@ path. The level a proposal keeps is the one in effect at the end of the trial's
 exercise (app.trials.finalize gives `propose` the parameters as they ran), so a trial the
 therapist lowered to 60 % is followed by a step from 60 %, not from its built level.
 
+In the transparent mode (core.control.transparent) the console proposes no change: the
+robot adds no help, so there is no level to propose, and no figure it measures is a
+success to aim at 70 % of. The push's direction is only what moving the robot takes
+(mostly toward the centre of a curve, the hand's acceleration): the healthy virtual
+patient, who kept to the thesis's D within 8 mm RMS, pushed within 20° of the path's
+direction 45 % of the time (two laps, seed 0, realistic plant), so the thesis mode's rule
+would make its path ever slower; and nothing is led or helped. The proposal is "the same
+again" and says why: the therapist sets the pace, or a game sets its own difficulty
+between rounds (core.games).
+
 One change at a time, so that the patient's next figures say what it did. The proposal
 names its reason in one line with display units; the registry keeps it and what the
 therapist decided (app.records.registry.proposals).
@@ -81,6 +91,11 @@ TOLERANCE_STEP_DEG = 2.0
 TOLERANCE_MIN_DEG = 10.0
 TOLERANCE_DEFAULT_DEG = 20.0
 TARGET_PCT = 70.0
+TRANSPARENT_REASON = ("transparent mode: the robot adds no help, so there is no "
+                      "assistance to propose and no success figure to aim at; the same "
+                      "again (set the pace yourself, or play a game, whose difficulty "
+                      "adapts by itself)")
+"""Why a transparent trial's proposal changes nothing (the module notes)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -163,13 +178,16 @@ def propose(parameters: TrialParameters, metrics: dict, status: str,
     """The proposal after a trial run with `parameters` (as it ran: the assistance level
     in effect at the end of its exercise), its `metrics` (TrialMetrics' names) and
     `status`; `previous`, the proposal that trial ran with, if it did, sets the steps (the
-    module notes). In the thesis mode the level is kept (it does not act there)."""
+    module notes). In the thesis mode the level is kept (it does not act there); in the
+    transparent mode nothing changes (the module notes say why)."""
     level, duration, tolerance = (parameters.assistance_level, parameters.duration_s,
                                   parameters.tolerance_rad)
 
     def same(reason: str) -> Proposal:
         return Proposal(level, duration, tolerance, "none", reason)
 
+    if parameters.assist == "transparent":
+        return same(TRANSPARENT_REASON)
     if status != "complete":
         return same(f"the trial did not complete ({status.replace('_', ' ')}): "
                     "the same again")
@@ -231,7 +249,7 @@ def propose(parameters: TrialParameters, metrics: dict, status: str,
 def level_acts_in(assist: str) -> bool:
     """Whether the assistance level acts in this mode enough to be proposed: in the
     as-needed mode it sets the help along the path; in the thesis mode it scales a cut the
-    sign rule all but forbids (the module notes)."""
+    sign rule all but forbids; the transparent mode has none (the module notes)."""
     return assist == "as-needed"
 
 

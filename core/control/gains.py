@@ -7,8 +7,9 @@ pushes one way (section 3.6.1). A trial carries its changes to the default gains
     smc.lambda_1_s=25; smc.k_d_Nms_rad=3.5,4; guidance.delay_s=0.5
 
 one `group.name=value` per change, `;` between them: the group is the controller's
-(`smc`, `ctpid`) or the as-needed mode's (`guidance`), the name a field of its gains
-(SMCGains, CTPIDGains, GuidanceGains), and a per-joint gain takes one number for both
+(`smc`, `ctpid`), the as-needed mode's (`guidance`) or the transparent mode's
+(`transparent`), the name a field of its gains (SMCGains, CTPIDGains, GuidanceGains,
+TransparentGains), and a per-joint gain takes one number for both
 joints or two separated by a comma. Every value is checked by the gains' own ranges and
 refused by name. The line is kept in a canonical form (sorted, plain numbers), so equal
 gains compare equal, and it is saved wherever the trial's parameters are (the registry,
@@ -23,9 +24,11 @@ import math
 from core.control.ctpid import CTPIDGains
 from core.control.guidance import GAIN_RANGES, GuidanceGains
 from core.control.smc import SMCGains
+from core.control.transparent import TRANSPARENT_RANGES, TransparentGains
 from core.errors import ParameterError
 
-GAIN_TYPES = {"smc": SMCGains, "ctpid": CTPIDGains, "guidance": GuidanceGains}
+GAIN_TYPES = {"smc": SMCGains, "ctpid": CTPIDGains, "guidance": GuidanceGains,
+              "transparent": TransparentGains}
 """The gain groups a trial's `gains` line may change, by name."""
 
 _EXAMPLE = "group.name=value, e.g. smc.lambda_1_s=25 or guidance.delay_s=0.5"
@@ -119,8 +122,9 @@ def gain_rows() -> list[tuple[str, str, str, str]]:
             shown = ",".join(f"{v:g}" for v in value) if isinstance(value, tuple) else (
                 f"{value:g}")
             meaning = f"per joint (joint 1, joint 2): {kind.__module__}'s notes"
-            if group == "guidance":
-                low, high, unit, why = GAIN_RANGES[f.name]
+            ranges = {"guidance": GAIN_RANGES, "transparent": TRANSPARENT_RANGES}.get(group)
+            if ranges is not None:
+                low, high, unit, why = ranges[f.name]
                 meaning = f"{low:g}–{high:g} {unit}".strip() + f": {why}"
             rows.append((f"{group}.{f.name}", shown, meaning, kind.__name__))
     return rows

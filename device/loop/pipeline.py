@@ -34,6 +34,7 @@ from core.control.assistance import (
     A_LEVEL,
     PerformanceAssistance,
     assisted_torques,
+    cone_test,
     judged_force,
 )
 from core.control.base import make_controller
@@ -57,6 +58,7 @@ from core.control.guidance import (
     state_size,
 )
 from core.control.smc import SlidingModeController, smc_torques
+from core.control.transparent import OFF as NOT_TRANSPARENT, TC_ON, transparent_torques
 from core.errors import ParameterError
 from core.interaction import (
     SubjectState,
@@ -222,6 +224,15 @@ class TickPipeline:
             guide = self.guidance.constants(period_s=plan.period_s,
                                             repetition_s=params.duration_s)
             guided = [0.0] * state_size(self.guidance.bins, params.repetitions)
+        self.transparent = None
+        """The transparent mode's gains (core.control.transparent), None in the others."""
+        clear = NOT_TRANSPARENT
+        if params.assist == "transparent":
+            self.transparent = built("transparent", params.gains)
+            clear = self.transparent.constants()
+        # the exercise's law: the guidance's constants (GC_*), then the transparent mode's
+        # (TC_*); all zero in the thesis mode
+        guide = [*guide, *clear]
         self.kind = _controller_kind(self.controller, compiled)
         if compiled and self.kind == GENERIC:
             raise ParameterError(
@@ -421,8 +432,11 @@ def assistance_group(parameters: TrialParameters, guidance: GuidanceGains | None
                      feedforward_N: np.ndarray) -> dict:
     """The trial file's /assistance group (docs/data-format.md): the mode, the level the
     trial started with and, in the as-needed mode, the guidance's gains and its learned
-    feedforward per repetition and bin (TickPipeline.feedforward_history)."""
+    feedforward per repetition and bin (TickPipeline.feedforward_history), in the
+    transparent mode its shares (core.control.transparent)."""
     out: dict = {"mode": parameters.assist, "level": parameters.assistance_level}
+    if parameters.assist == "transparent":
+        out.update(built("transparent", parameters.gains).to_dict())
     if guidance is not None:
         out.update(guidance.to_dict())
         out["feedforward_N"] = np.asarray(feedforward_N, dtype=float)
@@ -616,7 +630,14 @@ def control(kind, robot, model, tracker, gains, assist, guide, rates, integral, 
     fx, fy = rotated_to_global(force_x, force_y, q1, sensor_offset_rad)
     # the force the assistance judges: the sensor's, or an estimate from EMG (chapter 5)
     px, py = judged_force(assist, tick, fx, fy)
-    if guide[GC_ON] != 0.0 and approach_ticks <= tick < n + guide[GC_DELAY_ROWS]:
+    if guide[TC_ON] != 0.0 and phase == PHASE_EXERCISE:
+        # Transparent (core.control.transparent): the robot's own inertia, friction and
+        # stiffness as far as its model allows, no guidance; the cone test only says
+        # whether the push pointed along the path (the directional performance).
+        tau1, tau2 = transparent_torques(robot, guide, q1, q2, qd1, qd2, qdd1, qdd2)
+        out1, out2 = tau1, tau2
+        active, angle = cone_test(assist, px, py, dx, dy)
+    elif guide[GC_ON] != 0.0 and approach_ticks <= tick < n + guide[GC_DELAY_ROWS]:
         # As needed (core.control.guidance): the reference is where the patient is, or
         # the clock's row less the delay, whichever is further on.
         phase = PHASE_EXERCISE

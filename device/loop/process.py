@@ -558,7 +558,12 @@ class DeviceLoop:
     def _do_set_assistance(self, command: SetAssistance, after_a_tick: bool):
         """A live change of the running trial's level (only Running accepts it: between
         trials the level is the built trial's). The record's `assistance_level` carries
-        it from the next tick; the event says when and to what the therapist changed it."""
+        it from the next tick; the event says when and to what the therapist changed it.
+        A transparent trial has no level (core.control.transparent): refused."""
+        if self.plan.parameters.assist == "transparent":
+            return ("set assistance level refused: the transparent mode adds no help, so "
+                    "it has no level to change; stop the trial and build one in another "
+                    "mode to help the patient")
         self.pipeline.set_assistance_level(command.level)
         tick = self.trial_tick
         self._to_recorder(TrialEvent(tick * self.plan.period_s, tick, "assistance",

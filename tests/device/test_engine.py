@@ -93,7 +93,7 @@ def run_both(ticks, changes=None, rehearse=False, **rig_options):
 
 @pytest.mark.parametrize(("patient", "controller", "assist"), [
     ("healthy", "smc", "thesis"), ("tremor", "ctpid", "thesis"),
-    ("wrong_way", "smc", "as-needed")])
+    ("wrong_way", "smc", "as-needed"), ("tremor", "smc", "transparent")])
 def test_a_whole_trial_is_the_same_compiled_and_interpreted(patient, controller, assist):
     """The approach, the cue, the exercise, a 7 ms stall: every torque, fault and record
     value equal, and the objects' state after it."""
@@ -124,7 +124,7 @@ def test_a_fault_is_latched_the_same_with_the_same_detail(change, fault):
     assert fast.supervisor.fault_message == slow.supervisor.fault_message
 
 
-@pytest.mark.parametrize("assist", ["thesis", "as-needed"])
+@pytest.mark.parametrize("assist", ["thesis", "as-needed", "transparent"])
 def test_rehearsing_each_tick_changes_nothing(assist):
     """The rehearsal runs the coming tick on copies: the ticks that follow are the same
     as without it (the interpreted engine never rehearses)."""

@@ -12,6 +12,7 @@ from core import arm_terms, robot_terms
 from core.control.assistance import assisted_torques
 from core.control.ctpid import ctpid_torques
 from core.control.smc import smc_torques
+from core.control.transparent import TransparentGains, transparent_torques
 from core.interaction import arm_state, coupled_motion
 from core.kernels import ARRAYS, Flavour, interpreted, kernel
 from core.robot import Friction, RobotModel, Stiffness
@@ -144,6 +145,21 @@ def test_the_controllers_and_the_assistance_compiled_are_the_interpreted_ones():
             args = (q1, q2, t1, t2, f1, f2, *direction)
             assert same(fast_assist(R, np.asarray(assist.constants), *args),
                         assisted_torques(ROBOT.constants, assist.constants, *args))
+
+
+@pytest.mark.parametrize("gains", [TransparentGains(), TransparentGains(0.9, 0.95, 1.0),
+                                   TransparentGains(0.0, 0.0, 0.0)])
+def test_the_transparent_modes_law_compiled_is_the_interpreted_one(gains):
+    """The transparent mode's torque (every term of eq. 3.6 on in ROBOT), in the exercise
+    vector the pipeline builds: the guidance's constants switched off, then its own."""
+    from core.control.guidance import OFF
+
+    vector = [*OFF, *gains.constants()]
+    fast = compiled(transparent_torques)
+    for q1, q2, v1, v2, a1, a2, *_ in poses():
+        args = (q1, q2, v1, v2, a1, a2)
+        assert same(fast(R, np.asarray(vector), *args),
+                    transparent_torques(ROBOT.constants, vector, *args))
 
 
 def test_the_rate_tracker_compiled_is_the_interpreted_one():

@@ -309,6 +309,9 @@ class ParametersTab(QWidget):
             label.setToolTip(words.tooltip)
         self.assistance.setToolTip(words.tooltip)
         self.assistance.setAccessibleName(words.label)
+        # the transparent mode has no level (core.control.transparent): greyed, and the
+        # trial built runs at 0 %
+        self.assistance.setEnabled(self.assist.currentData() != "transparent")
 
     # -- preview ------------------------------------------------------------------
     @property

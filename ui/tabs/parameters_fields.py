@@ -26,7 +26,8 @@ LEARNED = "learned:"
 """The controller choice's data for "CT-PID (learned: <name>)": LEARNED + the model's name
 (a file in the data folder's models/, app.learning.library)."""
 ASSIST_NAMES = {"as-needed": "As needed: the patient leads",
-                "thesis": "Thesis (Fig. 3.6): fixed clock"}
+                "thesis": "Thesis (Fig. 3.6): fixed clock",
+                "transparent": "Transparent: no help, the robot lightened"}
 SIDE_NAMES = {"right": "Right arm", "left": "Left arm"}
 
 

@@ -6,7 +6,8 @@ guidance) the level scales the help along the path the robot gives when the pati
 behind (0: the channel alone, 1: full help); in the thesis mode (core.control.assistance,
 Fig. 3.6) it scales the share of a correct push the robot gives way to, which on the
 thesis's stiff tracker changes the robot's torque by about 1 % at most (docs/validation.md,
-Assistance).
+Assistance). In the transparent mode (core.control.transparent) there is no level: the
+robot adds no help, the field is greyed and the trial runs at 0 %.
 """
 
 from __future__ import annotations
@@ -39,6 +40,13 @@ WORDS = {
         "follows the path on its clock whatever the push. On this stiff tracker it changes "
         "the robot's torque by about 1 % at most. " + COMMIT,
         "100 % gives way to the whole correct push, 0 % to none"),
+    "transparent": LevelWords(
+        "No help in this mode",
+        "Transparent: the robot only takes away its own weight and friction as far as its "
+        "model allows, so the patient moves the handle as freely as it can make it, with "
+        "no help and no guidance (for games, assessments and a patient who moves on their "
+        "own). The safety limits stay. There is no level to set: the trial runs at 0 %.",
+        "no help: the robot only lightens itself"),
 }
 
 

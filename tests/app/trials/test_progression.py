@@ -82,6 +82,22 @@ def test_a_thesis_mode_proposal_never_changes_the_level(level, pct, duration, to
     assert proposal.change != "assistance"
 
 
+@settings(max_examples=100, deadline=None)
+@given(pct=st.floats(0.0, 100.0), led=st.floats(0.0, 100.0),
+       duration=st.sampled_from([1.0, 2.0, 4.0, 8.0]), tolerance_deg=st.sampled_from([10, 14, 20]),
+       status=st.sampled_from(["complete", "faulted", "stopped_early"]))
+def test_a_transparent_trial_is_followed_by_the_same_again_with_why(pct, led, duration,
+                                                                  tolerance_deg, status):
+    """The transparent mode has no level and no success figure to aim at (the module
+    notes): whatever its figures, the proposal changes nothing and says why."""
+    params = P.replace(assist="transparent", duration_s=duration,
+                       tolerance_rad=math.radians(tolerance_deg))
+    proposal = propose(params, {**dp(pct), "led_pct": led}, status)
+    assert proposal.change == "none"
+    assert proposal.applied_to(params) == params
+    assert proposal.reason.startswith("transparent mode: the robot adds no help")
+
+
 def test_a_patient_the_robot_hardly_helped_gets_faster_first_with_the_help_kept():
     """In the as-needed mode, a patient who led 95 % of the exercise or more was helped in
     at most 5 % of it: less help would change little, so the path gets faster, and only

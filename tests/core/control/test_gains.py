@@ -58,4 +58,4 @@ def test_every_gain_is_listed_with_its_default():
     rows = {name: default for name, default, *_ in gain_rows()}
     assert rows["smc.lambda_1_s"] == "20,20"
     assert rows["guidance.delay_s"] == "0.3"
-    assert len(rows) == 4 + 4 + len(GuidanceGains.__dataclass_fields__)
+    assert len(rows) == 4 + 4 + len(GuidanceGains.__dataclass_fields__) + 3  # transparent
