@@ -15,6 +15,7 @@ from PySide6.QtGui import QActionGroup, QGuiApplication, QKeySequence, QShortcut
 from PySide6.QtWidgets import QMenu, QToolButton
 
 from device.loop.states import State
+from ui.patient.sound import find_player
 from ui.patient.window import PatientWindow
 from ui.views.patient_screen import PatientOptions
 
@@ -36,6 +37,7 @@ class PatientScreenControl:
             f"the time left. Open it on a second monitor; {FULL_SCREEN_KEY} puts it full screen")
         self.patient_button.setPopupMode(QToolButton.ToolButtonPopupMode.InstantPopup)
         self.patient_menu = QMenu(self.patient_button)
+        self.patient_menu.setToolTipsVisible(True)
         self.patient_menu.aboutToShow.connect(self._fill_patient_menu)
         self.patient_button.setMenu(self.patient_menu)
         self.patient_full_screen_key = QShortcut(QKeySequence(FULL_SCREEN_KEY), self)
@@ -62,11 +64,16 @@ class PatientScreenControl:
         o = self.patient_options
         for name, words in (("mirror", "Mirror left–right"),
                             ("previous_path", "Show the last repetition's path"),
-                            ("show_numbers", "Show figures to the patient")):
+                            ("show_numbers", "Show figures to the patient"),
+                            ("sound", "Tone at Go and on a hit")):
             action = menu.addAction(words)
             action.setCheckable(True)
             action.setChecked(getattr(o, name))
             action.toggled.connect(lambda on, n=name: self.set_patient_options(**{n: on}))
+            if name == "sound":
+                _, why_not = find_player()
+                action.setEnabled(not why_not or o.sound)
+                action.setToolTip(why_not or "A short tone with Go!, a higher one on a hit")
         turn = menu.addMenu("Turn the picture")
         group = QActionGroup(turn)
         for degrees in (0, 90, 180, 270):

@@ -18,6 +18,9 @@ from PySide6.QtCore import QPointF, QRectF, Qt, Signal
 from PySide6.QtGui import QColor, QFont, QFontMetrics, QGuiApplication, QPainter, QPainterPath, QPen
 from PySide6.QtWidgets import QWidget
 
+from ui.patient.game_paint import paint_game
+from ui.patient.sound import Tone
+from ui.views.patient_game import GameFeed
 from ui.views.patient_geometry import (
     Placement,
     Rect,
@@ -28,7 +31,6 @@ from ui.views.patient_geometry import (
     screen_side,
 )
 from ui.views.patient_screen import (
-    CUE_GO,
     PatientFrame,
     PatientOptions,
     Scene,
@@ -44,6 +46,7 @@ TARGET = QColor("#F0E442")  # Okabe–Ito yellow
 CURSOR = QColor("#56B4E9")  # Okabe–Ito sky blue
 GO = QColor("#009E73")  # Okabe–Ito bluish green
 PREVIOUS = QColor("#7F7F7F")
+OUTSIDE = QColor("#D55E00")  # Okabe–Ito vermillion: the ball outside the channel
 ATTENTION = QColor("#E69F00")  # Okabe–Ito orange: the neglected side
 MM_PER_INCH = 25.4
 
@@ -67,6 +70,9 @@ class PatientWindow(QWidget):
         self.setMinimumSize(320, 240)
         self.options = options or PatientOptions()
         self.scene: Scene | None = None
+        self.game_feed: GameFeed | None = None
+        self.tone: Tone | None = None  # made when the sound is first wanted
+        self._heard: tuple = ((None, None), 0)  # (view, Go's time) the Go was played for, hits
         self.frame: PatientFrame = waiting_frame(None)
         self.painted: dict[str, tuple[float, float] | None] = {}
         self.paints = 0
@@ -98,14 +104,32 @@ class PatientWindow(QWidget):
         if state == self._shown_state:
             return
         self._shown_state = state
-        self.frame = frame_at(view, self.scene, self.options)
+        self.frame = frame_at(view, self.scene, self.options, self.game_feed)
+        if view.cursor is None:  # live: a replay is silent
+            self._sound(view, self.frame)
         self.update()
+
+    def _sound(self, view: TrialView, frame: PatientFrame) -> None:
+        """The tone once at each trial's Go, and on each new hit (or clean lap)."""
+        if not self.options.sound:
+            return
+        if self.tone is None:
+            self.tone = Tone()
+        if frame.go and self._heard[0] != (id(view), frame.exercise_started_s):
+            self._heard = ((id(view), frame.exercise_started_s), 0)
+            self.tone.play("go")
+        if frame.game is not None and self._heard[0][0] == id(view):
+            hits = frame.game.state.hits
+            if hits > self._heard[1]:
+                self._heard = (self._heard[0], hits)
+                self.tone.play("hit")
 
     def _set_scene(self, parameters) -> None:
         if parameters is None:
-            self.scene = None
+            self.scene = self.game_feed = None
         elif self.scene is None or self.scene.parameters != parameters:
             self.scene = Scene.of(parameters)
+            self.game_feed = GameFeed(self.scene.game) if self.scene.game else None
 
     # -- geometry -----------------------------------------------------------------
     def mm_per_px(self) -> float:
@@ -145,20 +169,12 @@ class PatientWindow(QWidget):
         if frame.previous_path_m is not None:
             painter.setPen(_pen(PREVIOUS, unit * 0.8))
             painter.drawPath(_polyline(where.to_px(frame.previous_path_m)))
-        painter.setPen(_pen(PATH, unit))
-        if len(scene.targets_m):
-            home = where.to_px(scene.parameters.centre_m)
-            for target in scene.targets_m:
-                end = where.to_px(target)
-                painter.drawLine(QPointF(*home), QPointF(*end))
-        else:
-            painter.drawPath(_polyline(where.to_px(scene.path_m)))
         radius = where.length_px(scene.target_radius_m)
-        for k, target in enumerate(scene.targets_m):
-            active = k == frame.active_target
-            painter.setPen(_pen(TARGET if active else PATH, unit * 0.6))
-            painter.setBrush(TARGET if active else Qt.BrushStyle.NoBrush)
-            painter.drawEllipse(QPointF(*where.to_px(target)), radius, radius)
+        if scene.game is not None:
+            self.painted["target"] = paint_game(painter, where, scene.game, frame, unit,
+                                                _polyline)
+        else:
+            self._paint_exercise(painter, where, frame, unit)
         if frame.go:
             # the start cue on the table too: a green ring round the start
             painter.setPen(_pen(GO, unit))
@@ -173,8 +189,12 @@ class PatientWindow(QWidget):
         if frame.cursor_m is not None:
             point = where.to_px(frame.cursor_m)
             painter.setPen(Qt.PenStyle.NoPen)
-            painter.setBrush(CURSOR)
-            painter.drawEllipse(QPointF(*point), 0.6 * radius, 0.6 * radius)
+            outside = frame.game is not None and not frame.game.state.inside
+            painter.setBrush(OUTSIDE if outside else CURSOR)
+            # the ball: never larger than the channel it must keep inside
+            ball = 0.6 * radius if scene.game is None or scene.game.game != "path" else \
+                0.8 * where.length_px(scene.game.channel_half_width_m)
+            painter.drawEllipse(QPointF(*point), ball, ball)
             self.painted["cursor"] = (float(point[0]), float(point[1]))
 
     def _paint_attention(self, painter: QPainter, where: Placement, area: Rect) -> None:
@@ -203,17 +223,47 @@ class PatientWindow(QWidget):
         painter.drawText(inner, align | cross, arrow)
         self.painted["attention"] = edge
 
+    def _paint_exercise(self, painter: QPainter, where: Placement, frame: PatientFrame,
+                        unit: float) -> None:
+        """An exercise that is not a game: the path, or the reach targets (lit: the one
+        the robot's reference moves to)."""
+        scene = self.scene
+        painter.setPen(_pen(PATH, unit))
+        if len(scene.targets_m):
+            home = where.to_px(scene.parameters.centre_m)
+            for target in scene.targets_m:
+                end = where.to_px(target)
+                painter.drawLine(QPointF(*home), QPointF(*end))
+        else:
+            painter.drawPath(_polyline(where.to_px(scene.path_m)))
+        radius = where.length_px(scene.target_radius_m)
+        for k, target in enumerate(scene.targets_m):
+            active = k == frame.active_target
+            painter.setPen(_pen(TARGET if active else PATH, unit * 0.6))
+            painter.setBrush(TARGET if active else Qt.BrushStyle.NoBrush)
+            painter.drawEllipse(QPointF(*where.to_px(target)), radius, radius)
+
     def _paint_text(self, painter: QPainter, bands: ScreenLayout, frame: PatientFrame) -> None:
         font = QFont(self.font())
         font.setPixelSize(bands.text_px)
         font.setBold(True)
         painter.setFont(font)
         painter.setPen(TEXT)
-        left, right = _halves(bands.top)
-        _draw_fitted(painter, left, Qt.AlignmentFlag.AlignLeft, frame.repetition_text)
-        _draw_fitted(painter, right, Qt.AlignmentFlag.AlignRight, frame.time_left_text)
-        painter.setPen(GO if frame.cue == CUE_GO else TEXT)
-        _draw_fitted(painter, _qrect(bands.bottom), Qt.AlignmentFlag.AlignHCenter, frame.cue)
+        cells = tuple(zip(_thirds(bands.top), (
+            frame.repetition_text, frame.game.score_text if frame.game else "",
+            frame.time_left_text), (Qt.AlignmentFlag.AlignLeft, Qt.AlignmentFlag.AlignHCenter,
+                                    Qt.AlignmentFlag.AlignRight), strict=True))
+        # one size for the band, the largest at which every part fits its third
+        top = QFont(font)
+        top.setPixelSize(min(_fitted_px(font, rect, text) for rect, text, _ in cells))
+        painter.setFont(top)
+        for rect, text, align in cells:
+            painter.drawText(rect, align | Qt.AlignmentFlag.AlignVCenter, text)
+        painter.setFont(font)
+        good = frame.go or (not frame.cue and frame.success)
+        painter.setPen(GO if good else TEXT)
+        _draw_fitted(painter, _qrect(bands.bottom), Qt.AlignmentFlag.AlignHCenter,
+                     frame.message)
         if frame.numbers:
             small = QFont(font)
             small.setPixelSize(max(8, bands.text_px // 2))
@@ -224,18 +274,29 @@ class PatientWindow(QWidget):
                              "\n".join(frame.numbers))
 
     def closeEvent(self, event) -> None:
+        if self.tone is not None:
+            self.tone.close()
+            self.tone = None
         super().closeEvent(event)
         self.closed.emit()
+
+
+def _fitted_px(font: QFont, rect: QRectF, text: str) -> int:
+    """The font's pixel size, or a smaller one at which the text fits the width."""
+    width = QFontMetrics(font).horizontalAdvance(text)
+    if width <= rect.width() or width == 0:
+        return font.pixelSize()
+    return max(8, int(font.pixelSize() * rect.width() / width))
 
 
 def _draw_fitted(painter: QPainter, rect: QRectF, align: Qt.AlignmentFlag, text: str) -> None:
     """Text in the painter's font, made smaller only if it would not fit the rectangle's
     width (a narrow window): cut words would say less than smaller ones."""
     font = painter.font()
-    width = QFontMetrics(font).horizontalAdvance(text)
-    if width > rect.width() > 0:
+    size = _fitted_px(font, rect, text)
+    if size != font.pixelSize():
         font = QFont(font)
-        font.setPixelSize(max(8, int(font.pixelSize() * rect.width() / width)))
+        font.setPixelSize(size)
         painter.save()
         painter.setFont(font)
         painter.drawText(rect, align | Qt.AlignmentFlag.AlignVCenter, text)
@@ -270,9 +331,12 @@ def _qrect(rect: Rect) -> QRectF:
     return QRectF(rect.left, rect.top, rect.width, rect.height)
 
 
-def _halves(rect: Rect) -> tuple[QRectF, QRectF]:
+def _thirds(rect: Rect) -> tuple[QRectF, QRectF, QRectF]:
+    """Left, middle and right of a band, inside a margin; the outer two a little wider
+    (the round and the time are longer than the score)."""
     pad = 0.03 * rect.width
-    half = 0.5 * rect.width - pad
-    return (QRectF(rect.left + pad, rect.top, half, rect.height),
-            QRectF(rect.left + 0.5 * rect.width, rect.top, half, rect.height))
-
+    inner = rect.width - 2 * pad
+    side, middle, gap = 0.34 * inner, 0.26 * inner, 0.03 * inner
+    return (QRectF(rect.left + pad, rect.top, side, rect.height),
+            QRectF(rect.left + pad + side + gap, rect.top, middle, rect.height),
+            QRectF(rect.left + pad + inner - side, rect.top, side, rect.height))

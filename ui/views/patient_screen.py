@@ -31,8 +31,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from core.games import GameLayout, game_layout
 from core.trial import TrialParameters
 from device.loop.pipeline import PHASE_APPROACH, PHASE_EXERCISE, PHASE_HOLD
+from ui.views.patient_game import RESULT_SHOWN_S, GameFeed, GameFrame
 from ui.views.trialview import TrialView
 
 GO_SHOWN_S = 1.5  # long enough to read at a glance, short enough not to linger
@@ -107,6 +109,8 @@ class Scene:
     target_radius_m: float
     start_m: tuple[float, float]
     extent_m: tuple[float, float, float, float]
+    game: GameLayout | None = None
+    """The game's layout (core.games.game_layout) when the trial is a game."""
 
     @classmethod
     def of(cls, parameters: TrialParameters) -> Scene:
@@ -120,8 +124,19 @@ class Scene:
         else:
             targets = np.zeros((0, 2))
         radius = TARGET_RADIUS_M
+        game = game_layout(parameters) if parameters.game else None
+        shown, pad = points, 2.0 * radius
+        if game is not None:
+            discs = [(t.centre_m, t.radius_m) for t in game.targets]
+            discs += [(d.centre_m, d.radius_m) for d in game.distractors]
+            if discs:
+                shown = np.vstack((points, [c for c, _ in discs]))
+                pad = max(pad, 1.5 * max(r for _, r in discs))
+            pad = max(pad, 1.5 * game.channel_half_width_m)
+            if game.game == "reach":
+                radius = parameters.target_radius_m
         return cls(parameters, points, targets, radius, (float(points[0, 0]),
-                   float(points[0, 1])), padded_extent(points, 2.0 * radius))
+                   float(points[0, 1])), padded_extent(shown, pad), game)
 
 
 @dataclass(frozen=True, slots=True)
@@ -143,8 +158,18 @@ class PatientFrame:
     numbers: tuple[str, ...] = ()
     sample: int = -1
     """The view's sample this frame shows (-1: none)."""
+    result: str = ""
+    """Knowledge of results: what the last round, target or lap came to, while shown."""
+    success: bool = False
+    """The result is a success (a hit, a clean lap, a round done): said in green."""
+    game: GameFrame | None = None
     exercise_started_s: float = field(default=math.nan)
     """The time (trial clock, s) of the exercise's first sample, NaN before it."""
+
+    @property
+    def message(self) -> str:
+        """The bottom line: the cue first, else the last result."""
+        return self.cue or self.result
 
     @property
     def repetition_text(self) -> str:
@@ -172,8 +197,10 @@ def waiting_frame(scene: Scene | None) -> PatientFrame:
     return PatientFrame(CUE_WAIT, False, None, None, -1, 0, reps, planned)
 
 
-def frame_at(view: TrialView, scene: Scene, options: PatientOptions) -> PatientFrame:
-    """The screen at the view's current sample (its newest live, its cursor in replay)."""
+def frame_at(view: TrialView, scene: Scene, options: PatientOptions,
+             game: GameFeed | None = None) -> PatientFrame:
+    """The screen at the view's current sample (its newest live, its cursor in replay);
+    `game` the scene's game fed from this view (ui.views.patient_game), if it is one."""
     i = view.current_index
     p = scene.parameters
     planned = p.duration_s * p.repetitions
@@ -213,8 +240,22 @@ def frame_at(view: TrialView, scene: Scene, options: PatientOptions) -> PatientF
         previous = _repetition_path(view, t0 + (repetition - 2) * p.duration_s,
                                     t0 + (repetition - 1) * p.duration_s)
     numbers = _numbers(view) if options.show_numbers and started else ()
+    result, success = "", False
+    played = game.at(view) if game is not None else None
+    if played is not None:
+        result, success = played.result, played.success
+        target = None  # a game shows its own targets, not the robot's reference
+        if cue == CUE_DONE and played.state.started:
+            cue = f"{CUE_DONE} {played.score_text}"
+    elif started and phase == PHASE_EXERCISE and repetition >= 2:
+        into = elapsed - (repetition - 1) * p.duration_s
+        # at most half a round: the round under way is what matters
+        if into < min(RESULT_SHOWN_S, 0.5 * p.duration_s):
+            result, success = f"Round {repetition - 1} done!", True
     return PatientFrame(cue, cue == CUE_GO, cursor, target, active, repetition,
-                        p.repetitions, left, previous, numbers, i, t0)
+                        p.repetitions, left, previous_path_m=previous, numbers=numbers,
+                        sample=i, result=result, success=success, game=played,
+                        exercise_started_s=t0)
 
 
 def _active_target(scene: Scene, target, direction) -> int:

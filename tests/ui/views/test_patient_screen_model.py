@@ -122,3 +122,18 @@ def test_the_reach_target_lit_is_the_one_the_reference_moves_to():
                                                (61.0, "1:01"), (600.0, "10:00")])
 def test_the_clock_rounds_up(seconds, text):
     assert clock(seconds) == text
+
+
+def test_each_round_s_end_is_said_for_a_while_after_it():
+    from ui.views.patient_game import RESULT_SHOWN_S
+
+    r = _records()
+    just_after = _frame_at_sample(r, APPROACH + 1000 + 10)
+    assert just_after.result == "Round 1 done!"
+    assert just_after.success
+    assert just_after.message == "Round 1 done!"  # no cue then
+    shown = min(RESULT_SHOWN_S, 0.5 * PARAMS.duration_s)  # at most half a round
+    assert _frame_at_sample(r, APPROACH + 1000 + round(shown / PERIOD_S) - 1).result
+    later = _frame_at_sample(r, APPROACH + 1000 + round(shown / PERIOD_S) + 1)
+    assert later.result == ""
+    assert _frame_at_sample(r, APPROACH + 500).result == ""  # nothing before the first end

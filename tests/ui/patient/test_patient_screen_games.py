@@ -1,0 +1,121 @@
+"""The games on the patient's screen (issue 30): what it says live is what the file scores.
+
+A reaching game and a path game run headless into trial files; their samples are fed to the
+patient's window in live-sized batches. At every batch the screen's game state must be the
+games' scorer fed the file's samples up to that moment, at the end the figures
+`core.games.score_game` gives from the whole file; the open target is painted where the
+layout puts it, a hit is said ("Hit!") and the ball turns vermillion outside the channel.
+"""
+
+import numpy as np
+import pytest
+
+from app.trials.headless import simulate_to_file
+from app.trials.reader import read_trial
+from core.games import GameScorer, game_layout, score_game
+from core.trial import THESIS_SUBJECT
+from device.loop.pipeline import PHASE_EXERCISE, PHASE_HOLD
+from device.recording.record import RECORD_DTYPE
+from ui.patient.game_paint import TARGET
+from ui.patient.window import OUTSIDE, PatientWindow
+from ui.views.patient_screen import CUE_DONE
+from ui.views.trialview import VIEW_CHANNELS, TrialView
+
+BATCH = 29
+
+REACH = THESIS_SUBJECT.replace(shape="targets", game="reach", centre_m=(-0.2, 0.35),
+                               radius_m=0.08, n_targets=4, duration_s=6.0, repetitions=1,
+                               time_allowed_s=1.0, n_distractors=2, assist="as-needed")
+PATH = THESIS_SUBJECT.replace(game="path", repetitions=2, duration_s=3.0, assist="as-needed",
+                              channel_half_width_m=0.01)
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("games")
+    out = {}
+    for name, params, patient in (("reach", REACH, "healthy"), ("path", PATH, "weak")):
+        simulate_to_file(params, folder / f"{name}.h5", patient=patient, seed=4)
+        out[name] = read_trial(folder / f"{name}.h5")
+    return out
+
+
+def _records(data) -> np.ndarray:
+    dtype = np.dtype([(c, RECORD_DTYPE.fields[c][0]) for c in VIEW_CHANNELS])
+    records = np.zeros(data.n_samples, dtype=dtype)
+    for name in VIEW_CHANNELS:
+        records[name] = data.channels[name]
+    return records[records["phase"] > 0]
+
+
+@pytest.mark.parametrize("name", ["reach", "path"])
+def test_the_screen_s_game_is_the_file_s_game_at_every_moment(qtbot, files, name):
+    data = files[name]
+    layout = game_layout(data.parameters)
+    records = _records(data)
+    window = PatientWindow()
+    qtbot.addWidget(window)
+    window.resize(900, 700)
+    view = TrialView(data.parameters)
+    results, hits_seen, targets_painted, outside_painted = set(), 0, 0, 0
+    for end in range(BATCH, len(records) + BATCH, BATCH):
+        view.append(records[end - BATCH:end])
+        window.show_view(view)
+        state = window.frame.game.state
+        up_to = records[:min(end, len(records))]
+        scorer = GameScorer(layout)
+        expected = scorer.feed(up_to["time"], up_to["position"][:, 0], up_to["position"][:, 1],
+                               up_to["phase"])
+        if up_to["phase"][-1] == PHASE_HOLD:  # over: finished, as the file's figures
+            scorer.finish()
+            expected = scorer.state
+        assert state == expected
+        if window.frame.game.result:
+            results.add(window.frame.game.result.split()[0])
+        if state.last is not None and state.last.hit:
+            hits_seen += 1
+        if window.frame.game.open_target is not None and end % (5 * BATCH) == 0:
+            image = window.grab().toImage()
+            centre = window.placement().to_px(window.frame.game.open_target.centre_m)
+            np.testing.assert_allclose(window.painted["target"], centre)
+            cursor = np.asarray(window.painted["cursor"])
+            if np.hypot(*(cursor - centre)) > window.placement().length_px(0.03):
+                assert image.pixelColor(round(centre[0]), round(centre[1])) == TARGET
+            targets_painted += 1
+        if name == "path" and not state.inside and records["phase"][end - 1 if end <=
+                                                                    len(records) else -1] \
+                == PHASE_EXERCISE:
+            image = window.grab().toImage()
+            x, y = window.painted["cursor"]
+            assert image.pixelColor(round(x), round(y)) == OUTSIDE
+            outside_painted += 1
+    figures = score_game(layout, data.time, data.channels["position"][:, 0],
+                         data.channels["position"][:, 1], data.channels["phase"])
+    state = window.frame.game.state
+    assert (state.hits, state.misses, state.score) == \
+        (figures.hits, figures.misses, pytest.approx(figures.score))
+    assert window.frame.cue.startswith(CUE_DONE)
+    assert window.frame.cue.endswith(f"Score {figures.score:.0f}")
+    if name == "reach":
+        assert figures.hits >= 1
+        assert "Hit!" in results
+        assert targets_painted >= 3
+    else:
+        assert outside_painted >= 1  # the weak patient leaves a 1 cm channel
+        assert results & {"Clean", "Keep"} or any(r[0].isdigit() for r in results)
+
+
+def test_a_replay_moved_back_scores_again_from_the_start(qtbot, files):
+    data = files["reach"]
+    layout = game_layout(data.parameters)
+    view = TrialView.from_trial(data)
+    window = PatientWindow()
+    qtbot.addWidget(window)
+    for t in (5.0, 1.2, 3.3, 0.5, 5.9):
+        view.cursor = t
+        window.show_view(view)
+        i = int(np.searchsorted(data.time, t, side="right"))
+        expected = GameScorer(layout).feed(data.time[:i], data.channels["position"][:i, 0],
+                                           data.channels["position"][:i, 1],
+                                           data.channels["phase"][:i])
+        assert window.frame.game.state == expected
