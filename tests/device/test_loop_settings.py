@@ -138,3 +138,24 @@ def test_each_simulated_trial_draws_its_own_seed_unless_one_is_fixed(client, tmp
     _connect(client, SHORT)  # WEAK: seed 0
     fixed = [_run(client, tmp_path / f"fixed{i}.h5") for i in range(2)]
     assert {t.backend for t in fixed} == {"simulator (weak, seed 0)"}
+
+
+def test_a_transparent_trial_refuses_a_level_and_records_zero(client, tmp_path):
+    """The transparent mode has no level (core.control.transparent): the live loop refuses
+    a change during its trial, in one line saying why, and the file says 0 at every tick
+    with no assistance event."""
+    _connect(client, FULL.replace(repetitions=1, assist="transparent"))  # one lap holds it
+    answers = []
+
+    def try_a_level(c):
+        answers.append(c.set_assistance(0.4))
+
+    data = _run(client, tmp_path / "transparent.h5", try_a_level)
+    (reply,) = answers
+    assert not reply.ok
+    assert "the transparent mode adds no help" in reply.message
+    assert "\n" not in reply.message
+    assert data.parameters.assist == "transparent"
+    np.testing.assert_array_equal(data.channels["assistance_level"][data.channels["phase"] > 0],
+                                  0.0)
+    assert [e for e in data.events if e["kind"] == "assistance"] == []
