@@ -11,6 +11,7 @@ import argparse
 import math
 
 from app.cli.common import mm, num, registry_for
+from app.games.figures import game_line
 from app.units import assistance_percent, cm
 from core.trial import SIDES
 
@@ -102,6 +103,9 @@ def cmd_trials(args: argparse.Namespace) -> int:
               f"{t.assist:<10}{_levels(t)}")
         if t.backend:
             print(f"{'':>21}robot: {t.backend}")
+        game = game_line(p, t.metrics)
+        if game:
+            print(f"{'':>21}{game}")
         stored = proposals.get(t.id)
         if stored is not None:
             print(f"{'':>21}proposed: {stored.proposal.get('reason', '?')} "

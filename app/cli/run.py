@@ -73,6 +73,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     """Simulate a whole trial headless, write its file and print its metrics."""
     import datetime
 
+    from app.games.figures import game_line
     from app.reports.metrics_table import format_metrics
     from app.trials.registered import registered_trial
 
@@ -149,6 +150,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"No figures: {problem}")
     else:
         print(format_metrics(analysis.metrics))
+        game = game_line(params.to_dict(), analysis.to_metrics())
+        if game:
+            print(f"  {game}")
         for note in analysis.notes:
             print(f"  note: {note}")
     for event in trial.events:

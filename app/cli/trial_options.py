@@ -9,10 +9,11 @@ from __future__ import annotations
 import argparse
 import math
 
-from core.trajectory import SHAPES, TIMINGS
+from core.trajectory import NEGLECT_SIDES, SHAPES, TIMINGS
 from core.trial import (
     ASSIST_MODES,
     CONTROLLERS,
+    GAMES,
     SIDES,
     THESIS_AS_PRINTED,
     THESIS_SUBJECT,
@@ -66,6 +67,23 @@ def add_trial_options(parser: argparse.ArgumentParser) -> None:
                        help="changes to the controller's and the guidance's gains, e.g. "
                             "\"smc.lambda_1_s=25; guidance.delay_s=0.5\" (rehab gains lists "
                             "them); saved with the trial")
+    group.add_argument("--game", choices=[g for g in GAMES if g], default=d.game or None,
+                       help="play the exercise as a game: path (keep the hand in a channel "
+                            "round the path) or reach (hit the targets of shape targets or "
+                            "reach in time); none by default")
+    group.add_argument("--target-radius", type=float, default=d.target_radius_m,
+                       help="reach game: target radius, m (default %(default)s)")
+    group.add_argument("--time-allowed", type=float, default=d.time_allowed_s,
+                       help="reach game: time to hit a target once it appears, s (default "
+                            "%(default)s; at most the time between two targets)")
+    group.add_argument("--distractors", type=int, default=d.n_distractors,
+                       help="reach game: discs to avoid between the targets (default 0)")
+    group.add_argument("--channel-width", type=float, default=d.channel_half_width_m,
+                       help="path game: the channel's half-width either side of the path, m "
+                            "(default %(default)s)")
+    group.add_argument("--neglect-side", choices=[s for s in NEGLECT_SIDES if s], default=None,
+                       help="turn a targets or reach layout toward the patient's neglected "
+                            "side (the patient's left or right)")
     group.add_argument("--thesis-as-printed", action="store_true",
                        help="use section 3.6 exactly as printed (shoulder at +0.12 m: refused)")
 
@@ -91,6 +109,12 @@ def trial_from_args(args: argparse.Namespace) -> TrialParameters:
         "assistance_level": args.assistance / 100.0,
         "assist": args.assist,
         "gains": args.gains,
+        "game": args.game or "",
+        "target_radius_m": args.target_radius,
+        "time_allowed_s": args.time_allowed,
+        "n_distractors": args.distractors,
+        "channel_half_width_m": args.channel_width,
+        "neglect_side": args.neglect_side or "",
     }
     if not args.thesis_as_printed:
         changes["shoulder_m"] = tuple(args.shoulder)

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from app.errors import AppError, TrialFileError
+from app.games.figures import game_line, staircase_text
 from app.learning.library import learned_label
 from app.pose.store import comparison_lines, read_pose
 from app.reports.compare import (
@@ -177,6 +178,7 @@ def build_report(
     n_exercise = int(mask.sum())
     notes = [f"trial file: {note}" for note in trial.notes]
     metrics: TrialMetrics | None = None
+    game_values: dict[str, float] = {}
     exercise_start = math.nan
     if n_exercise >= MIN_EXERCISE_SAMPLES:
         try:
@@ -187,6 +189,7 @@ def build_report(
                 "Check the recording; restore the file from the backup if it is damaged",
             ) from exc
         metrics = analysis.metrics
+        game_values = analysis.game.to_metrics() if analysis.game else {}
         exercise_start = analysis.exercise_start_s
         notes += analysis.notes
     else:
@@ -237,7 +240,8 @@ def build_report(
         started_at=started_at,
         status=status,
         header=_header(code, first_name, session_number, trial_number, started_at,
-                       parameters, levels, status, emergency_stop, exercised_s, planned_s),
+                       parameters, levels, status, emergency_stop, exercised_s, planned_s,
+                       game_line(parameters.to_dict(), game_values)),
         therapist_header=_therapist_header(parameters, levels, status, faults, trial.backend,
                                            exercised_s, planned_s, trial.path),
         status_text=status_sentence(status, exercised_s, planned_s,
@@ -342,8 +346,9 @@ def _trial_words(session: int | None, number: int | None,
 def _header(code: str, first_name: str | None, session: int | None, number: int | None,
             started_at: datetime.datetime | None, p: TrialParameters, levels: AssistanceInEffect,
             status: str, emergency_stop: bool, exercised_s: float,
-            planned_s: float) -> tuple[HeaderItem, ...]:
-    """The patient's header (ReportContent.header)."""
+            planned_s: float, game: str = "") -> tuple[HeaderItem, ...]:
+    """The patient's header (ReportContent.header); a game trial's score, hits, misses and
+    time (app.games.figures.game_line) after the exercise."""
     who = f"{code} ({first_name})" if first_name else code
     ended = "stopped with the emergency stop" if emergency_stop else \
         PATIENT_STATUS_WORDS.get(status, status)
@@ -353,6 +358,7 @@ def _header(code: str, first_name: str | None, session: int | None, number: int 
         HeaderItem("Patient", who),
         HeaderItem("Trial", _trial_words(session, number, started_at)),
         HeaderItem("Exercise", _exercise_text(p)),
+        *([HeaderItem("Game", game)] if game else []),
         HeaderItem("Robot's help", help_text(p.assist, levels)),
         HeaderItem("Ended", ended),
     )
@@ -370,6 +376,8 @@ def _therapist_header(p: TrialParameters, levels: AssistanceInEffect, status: st
         HeaderItem("Robot", backend or "–"),
         HeaderItem("Status", status_words),
     ]
+    if p.staircase:
+        items.append(HeaderItem("Difficulty", staircase_text(p.staircase)))
     items += [HeaderItem("Fault", fault) for fault in faults]
     items.append(HeaderItem("File", source.name))
     return tuple(items)

@@ -19,8 +19,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from app.errors import AppError
+from app.games.figures import game_figures, game_figures_stored
 from core import blockwise
 from core.blockwise import compute_metrics_blockwise, spans
+from core.games import GameFigures
 from core.metrics import TrialMetrics, compute_metrics
 from core.reaches import reaches_from_trajectory
 from core.trial import TrialParameters
@@ -32,6 +34,13 @@ class Analysis:
     metrics: TrialMetrics
     exercise_start_s: float
     notes: tuple[str, ...]
+    game: GameFigures | None = None
+    """A game trial's figures (app.games.figures), None for an exercise without a game."""
+
+    def to_metrics(self) -> dict[str, float]:
+        """The trial's metrics as the file and the registry store them: the movement's
+        figures, and a game's 'game_*' figures beside them."""
+        return {**self.metrics.to_dict(), **(self.game.to_metrics() if self.game else {})}
 
 
 CHANNELS_USED = ("time", "phase", "position", "position_desired", "direction_desired", "force",
@@ -88,7 +97,7 @@ def analyse(channels: Mapping[str, np.ndarray], parameters: TrialParameters) -> 
         tolerance_rad=parameters.tolerance_rad,
         reaches=_reaches(parameters, start),
     )
-    return Analysis(metrics, start, tuple(notes))
+    return Analysis(metrics, start, tuple(notes), game_figures(channels, parameters))
 
 
 def _reaches(parameters: TrialParameters, start_s: float):
@@ -153,7 +162,8 @@ def analyse_stored(read: ReadStretch, n_ticks: int, names: Sequence[str],
     metrics = compute_metrics_blockwise(read_role, n, given,
                                         tolerance_rad=parameters.tolerance_rad,
                                         reaches=_reaches(parameters, start), block=block)
-    return Analysis(metrics, start, tuple(notes))
+    return Analysis(metrics, start, tuple(notes),
+                    game_figures_stored(read, n_ticks, parameters, block))
 
 
 def _exercise_run(read: ReadStretch, n_ticks: int, block: int) -> tuple[int, int]:

@@ -63,7 +63,7 @@ def finalize_trial(registry: RecordStore, trial_id: int, status: str | None = No
     notes = list(data.notes)
     metrics: dict[str, float] = {}
     if analysis is not None:
-        metrics = analysis.metrics.to_dict()
+        metrics = analysis.to_metrics()
         notes.extend(analysis.notes)
     else:
         analysis, metrics = _analyse_into(path, data, notes)
@@ -111,7 +111,7 @@ def _analyse_into(path: Path, data, notes: list[str]) -> tuple[Analysis | None, 
     except (AppError, ValueError) as exc:  # core refuses data it cannot measure, naming it
         notes.append(f"no metrics: {exc}")
         return None, {}
-    metrics = analysis.metrics.to_dict()
+    metrics = analysis.to_metrics()
     notes.extend(analysis.notes)
     if data.status != "recording":
         try:

@@ -255,7 +255,7 @@ def _finish(writer: TrialFileWriter, trial: SimulatedTrial, analysis: Analysis |
     if analysis is not None:
         summary["exercise_start_s"] = analysis.exercise_start_s
     writer.close(trial.status, summary,
-                 analysis.metrics.to_dict() if analysis is not None else None,
+                 analysis.to_metrics() if analysis is not None else None,
                  {**assistance_group(trial.plan.parameters, trial.guidance, trial.feedforward_N),
                   **(trial.estimate or {})})
 
