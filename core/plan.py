@@ -77,40 +77,55 @@ def movement_ends(parameters: TrialParameters) -> np.ndarray:
 
 def movements_in_path(parameters: TrialParameters, desired_m: np.ndarray) -> int:
     """The movements the reference `desired_m` (N, 2; the exercise's desired positions
-    in order, m) completed: one each time it arrives within `ARRIVAL_FRACTION` of the
-    exercise's size of a movement's end after having left the last one it arrived at by
-    more than `LEAVE_FRACTION` of it (so a reference resting on a point counts once, and
-    the start, where it begins, only once it comes back)."""
+    in order, m) completed. A movement is done when the reference turns at its end: it
+    comes within `TURN_FRACTION` of the exercise's radius of a movement's end point, then
+    leaves it by more than `LEAVE_FRACTION` (on to the next movement); the last one, after
+    which the reference stops, when it arrives within `ARRIVAL_FRACTION`. A reference
+    resting on a point counts once, and the start, where it begins, only once it comes
+    back. The turn's margin is the as-needed mode's: its reference follows the hand where
+    the path doubles back, so a weak virtual patient's turned 7 mm before a 6 cm reach's
+    far end and a passive one's 23 mm (measured on the simulator, seed 3-5), within 40 %
+    of its radius (24 mm); a trial stopped on the way to an end counts that movement only
+    if it got there."""
     desired = np.asarray(desired_m, dtype=float)
     if desired.ndim != 2 or desired.shape[1] != 2 or len(desired) == 0:
         return 0
     ends = movement_ends(parameters)
     size = parameters.radius_m
-    near = ARRIVAL_FRACTION * size
-    far = LEAVE_FRACTION * size
+    turn, leave, arrive = (TURN_FRACTION * size, LEAVE_FRACTION * size,
+                           ARRIVAL_FRACTION * size)
     # distance from every sample to every end: (N, E)
     distance = np.hypot(desired[:, None, 0] - ends[None, :, 0],
                         desired[:, None, 1] - ends[None, :, 1])
+    nearest = np.argmin(distance, axis=1)
     count = 0
-    at = int(np.argmin(distance[0])) if distance[0].min() <= near else -1
-    left = at < 0
-    for row in distance:
-        if not left:
-            if row[at] > far:
-                left = True
+    at = int(nearest[0]) if distance[0, nearest[0]] <= turn else -1  # the end it is at
+    came = False  # whether it came to `at` (not began there)
+    entered = 0  # the sample it came within `turn` of `at`
+    for i in range(len(desired)):
+        if at >= 0:
+            if distance[i, at] > leave:
+                count += came  # it turned at this end and went on
+                at = -1
             continue
-        k = int(np.argmin(row))
-        if row[k] <= near:
-            count += 1
-            at, left = k, False
+        k = int(nearest[i])
+        if distance[i, k] <= turn:
+            at, came, entered = k, True, i
+    if at >= 0 and came and distance[entered:, at].min() <= arrive:
+        count += 1  # the last movement: it stopped at its end
     return count
 
 
+TURN_FRACTION = 0.4
+"""Within 40 % of the exercise's radius of a movement's end, the reference has turned
+there once it leaves (the as-needed mode's reference cuts a reach's turn: see
+movements_in_path)."""
+LEAVE_FRACTION = 0.6
+"""Left once 60 % of the radius away: every end is at least a radius from the next, so
+no point is within TURN of one end and LEAVE of none."""
 ARRIVAL_FRACTION = 0.02
-"""Arrived within 2 % of the exercise's radius (2 mm on a 10 cm D): the reference passes
-each end exactly at the end's time, within one tick's travel (< 1 mm at 0.5 m/s)."""
-LEAVE_FRACTION = 0.25
-"""Left once a quarter radius away: every end is at least a radius from the next."""
+"""The last movement, where the reference stops: arrived within 2 % of the radius (2 mm
+on a 10 cm D; the reference passes each end within one tick's travel, < 1 mm)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -290,6 +305,23 @@ class Plan:
             raise ParameterError("blocks", blocks, "a list of blocks")
         return cls(values.get("name"), tuple(
             Block.from_dict(b, f"block {i + 1}") for i, b in enumerate(blocks)))
+
+
+def check_plan(plan: Plan, base: TrialParameters, robot=None) -> tuple[str, ...]:
+    """What keeps `plan` from running for the patient whose setup is `base`: each block's
+    trial walked by core.trial.check_trial (the robot's and the arm's reach, the path's
+    speed), one line per block that cannot run, naming it; () when every block can."""
+    from core.trial import check_trial
+
+    problems = []
+    for k, block in enumerate(plan.blocks, 1):
+        try:
+            found = check_trial(block.parameters(base), robot).problems
+        except ParameterError as exc:
+            found = (str(exc),)
+        if found:
+            problems.append(f"block {k} ({block.name or block.shape}): {found[0]}")
+    return tuple(problems)
 
 
 def _choice(name: str, value: object, allowed: tuple[str, ...]) -> None:

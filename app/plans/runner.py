@@ -120,7 +120,8 @@ class PlanState:
                    f"{self.movements_done} of {self.movements_planned} movements"
         if self.phase == PAUSED:
             return f"Plan paused at {where.lower()}; Resume goes on"
-        return (f"{where}: {self.block_name or 'exercise'}, {self.laps_planned} laps; "
+        laps = "1 lap" if self.laps_planned == 1 else f"{self.laps_planned} laps"
+        return (f"{where}: {self.block_name or 'exercise'}, {laps}; "
                 f"{self.movements_done} of {self.movements_planned} movements; about "
                 f"{_clock(self.time_left_s)} left")
 

@@ -57,6 +57,7 @@ LONG_COMMANDS = {
     ("learn", "pendulum"): ["--speeds", "1", "2"],
     ("emg", "streams"): ["--wait", "0.2"],
     ("emg", "record"): ["--seconds", "0.2"],
+    ("plan", "run"): ["--stop-after", "3"],
 }
 
 

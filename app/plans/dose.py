@@ -1,0 +1,142 @@
+"""The dose a plan delivered, from the record: movements and active time from each
+trial's file (the exercise phase's reference, core.plan.movements_in_path), rests as the
+registry kept them, per block and for the run; beside what the plan prescribed.
+
+Active time is the exercise phase's (phase 2): the approach to the start and the hold at
+the end are not exercise. A trial file that cannot be read counts nothing and says so in
+the dose's notes (never silently zero).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from app.errors import AppError
+from core.plan import Plan, movements_in_path
+from core.trial import TrialParameters
+from device.loop.pipeline import PHASE_EXERCISE
+
+CHANNELS = ("phase", "position_desired")
+
+
+@dataclass(frozen=True, slots=True)
+class TrialDose:
+    """What one trial's file says it did."""
+
+    movements: int
+    active_s: float
+    status: str
+
+
+def trial_dose(path, parameters: TrialParameters | None = None) -> TrialDose:
+    """The movements and active time in the trial file at `path` (its own parameters
+    unless given); TrialFileError (one line naming the file) when it cannot be read."""
+    from app.trials.reader import read_trial
+
+    data = read_trial(path, CHANNELS)
+    params = parameters or data.parameters
+    if params is None:
+        raise AppError(f"trial file {path}: has no parameters; its movements cannot be "
+                       "counted")
+    exercise = np.asarray(data.channels["phase"]) == PHASE_EXERCISE
+    desired = np.asarray(data.channels["position_desired"])[exercise]
+    return TrialDose(movements_in_path(params, desired),
+                     float(np.count_nonzero(exercise)) * data.sample_period_s, data.status)
+
+
+@dataclass
+class BlockDose:
+    """One block: planned and done."""
+
+    block: int
+    name: str
+    planned_movements: int
+    planned_active_s: float
+    planned_rest_s: float
+    movements: int = 0
+    active_s: float = 0.0
+    rest_s: float = 0.0
+    trials: list[int] = field(default_factory=list)
+
+
+@dataclass
+class RunDose:
+    """A run of a plan: its blocks' doses and the totals."""
+
+    run_id: int
+    status: str
+    blocks: list[BlockDose]
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def movements(self) -> int:
+        return sum(b.movements for b in self.blocks)
+
+    @property
+    def active_s(self) -> float:
+        return sum(b.active_s for b in self.blocks)
+
+    @property
+    def rest_s(self) -> float:
+        return sum(b.rest_s for b in self.blocks)
+
+    @property
+    def planned_movements(self) -> int:
+        return sum(b.planned_movements for b in self.blocks)
+
+    def table(self) -> list[str]:
+        """Lines for a terminal or a report: one per block, then the run's total."""
+        lines = ["block  name                       movements     active (m:ss)   rest (m:ss)"]
+        for b in self.blocks:
+            lines.append(f"{b.block:>5}  {b.name[:25]:<25}  {b.movements:>4} of "
+                         f"{b.planned_movements:<5}  {clock(b.active_s):>5} of "
+                         f"{clock(b.planned_active_s):<5}  {clock(b.rest_s):>5} of "
+                         f"{clock(b.planned_rest_s)}")
+        lines.append(f"total  {'':<25}  {self.movements:>4} of {self.planned_movements:<5}"
+                     f"  {clock(self.active_s):>5} of {clock(self.planned_active_s):<5}  "
+                     f"{clock(self.rest_s):>5} of {clock(self.planned_rest_s)}")
+        return lines
+
+    @property
+    def planned_active_s(self) -> float:
+        return sum(b.planned_active_s for b in self.blocks)
+
+    @property
+    def planned_rest_s(self) -> float:
+        return sum(b.planned_rest_s for b in self.blocks)
+
+
+def clock(seconds: float) -> str:
+    """'m:ss', rounded to the second."""
+    whole = round(seconds)
+    return f"{whole // 60}:{whole % 60:02d}"
+
+
+def run_dose(registry, run_id: int) -> RunDose:
+    """The dose of plan run `run_id`: each trial's file read for its movements and active
+    time, each rest as the registry kept it."""
+    run = registry.plan_run(run_id)
+    plan: Plan = registry.plan(run.plan_id).plan
+    patient = registry.patient(run.patient_code)
+    base = TrialParameters().replace(**patient.trial_overrides())
+    blocks = [BlockDose(k + 1, b.name or b.shape, b.planned_movements(base.n_targets),
+                        b.planned_active_s(), b.rest_s if k < len(plan.blocks) - 1 else 0.0)
+              for k, b in enumerate(plan.blocks)]
+    dose = RunDose(run.id, run.status, blocks)
+    for step in run.steps:
+        block = blocks[step.block - 1]
+        if step.kind == "rest":
+            block.rest_s += step.taken_s or 0.0
+            continue
+        block.trials.append(step.trial_id)
+        trial = registry.trial(step.trial_id)
+        try:
+            done = trial_dose(registry.trial_path(trial))
+        except AppError as exc:
+            dose.notes.append(f"trial {trial.id} counts nothing: {exc}")
+            continue
+        block.movements += done.movements
+        block.active_s += done.active_s
+    return dose

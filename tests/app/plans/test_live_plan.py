@@ -1,0 +1,155 @@
+"""A plan of three blocks run end to end on the simulator through the live loop and recorder
+(issue 30, what the tests must prove): the right trials, counts and rests for the healthy,
+weak and passive virtual patients; Stop and E-STOP in a block and in a rest end the plan
+at once with the robot made safe, and nothing runs after. Trials are short (1-2 laps of
+2 s, rests of 1 s)."""
+
+import itertools
+
+import pytest
+
+from app.plans.dose import run_dose, trial_dose
+from app.plans.live import LivePlan, PlanRefused
+from app.records.datadir import DataDir
+from app.records.registry import Registry
+from core.plan import Block, Plan
+from device.loop.client import DeviceClient
+from device.loop.messages import BackendConfig
+from device.loop.states import State
+
+pytestmark = pytest.mark.slow
+
+PLAN = Plan("Three short blocks", (
+    Block(shape="d", repetitions=2, duration_s=2.0, rest_s=1.0, name="D"),
+    Block(shape="circle", repetitions=1, duration_s=2.0, rest_s=1.0, name="Circle"),
+    Block(shape="reach", repetitions=1, duration_s=2.0, rest_s=0.0, radius_m=0.06,
+          name="Reach"),
+))
+PLANNED = (2, 1, 2)  # movements: two laps of the D, one circle, a reach out and back
+
+
+@pytest.fixture(scope="module")
+def client():
+    with DeviceClient() as c:
+        yield c
+
+
+@pytest.fixture
+def ready(client):
+    """The loop as a new plan finds it: no emergency stop held, no fault latched."""
+    client.estop(False)
+    if client.state == State.FAULTED:
+        client.wait_for_samples(2)  # a whole tick has seen the stop released
+        assert client.clear_fault().ok
+    return client
+
+
+@pytest.fixture
+def registry(tmp_path):
+    return Registry(DataDir(tmp_path / "data"))
+
+
+def patient_with_plan(registry, plan=PLAN):
+    code = registry.create_patient("Ada", "Example", body_mass_kg=91.0, upper_arm_m=0.3048,
+                                   forearm_m=0.3048, side="right",
+                                   shoulder_m=(-0.12, 0.73)).code
+    return registry.save_plan(code, plan)
+
+
+def run(registry, client, kind="healthy", watch=None):
+    live = LivePlan(registry, patient_with_plan(registry), client,
+                    BackendConfig(patient=kind, seed=3))
+    return live, live.run(watch, timeout_s=600.0)
+
+
+@pytest.mark.parametrize("kind", ["healthy", "weak", "passive"])
+def test_a_plan_of_three_blocks_runs_whole_with_its_counts_rests_and_trials(
+        registry, ready, kind):
+    live, result = run(registry, ready, kind)
+    assert (result.outcome, result.reason) == ("complete", "")
+    stored = registry.plan_run(result.run_id)
+    assert stored.status == "complete"
+    assert [(s.kind, s.block, s.round) for s in stored.steps] == [
+        ("trial", 1, 1), ("rest", 1, 1), ("trial", 2, 1), ("rest", 2, 1), ("trial", 3, 1)]
+    # one trial per block, each registered complete with its file, linked to its block
+    trials = [registry.trial(s.trial_id) for s in stored.trial_steps()]
+    assert [t.status for t in trials] == ["complete"] * 3
+    assert [t.parameters["shape"] for t in trials] == ["d", "circle", "reach"]
+    assert [t.parameters["repetitions"] for t in trials] == [2, 1, 1]
+    assert tuple(result.trial_ids) == tuple(t.id for t in trials)
+    # the counts are what the files say, and what the plan prescribed
+    files = [trial_dose(registry.trial_path(t)) for t in trials]
+    assert tuple(f.movements for f in files) == PLANNED
+    assert [c.movements for c in live.runner.counts] == list(PLANNED)
+    dose = run_dose(registry, result.run_id)
+    assert [b.movements for b in dose.blocks] == list(PLANNED)
+    assert dose.movements == dose.planned_movements == 5
+    for f, block in zip(files, PLAN.blocks, strict=True):
+        # the exercise ran its laps at least (the patient may lag behind in as-needed)
+        assert f.active_s >= block.laps * block.duration_s - 0.01
+    assert dose.active_s == pytest.approx(sum(f.active_s for f in files))
+    # each rest was whole before the next block began
+    assert [s.taken_s for s in stored.steps if s.kind == "rest"] == [1.0, 1.0]
+    assert dose.rest_s == 2.0
+    for before, after in itertools.pairwise(trials):
+        assert (after.started_at - before.ended_at).total_seconds() >= 1.0 - 0.05
+
+
+def pressed(what, when):
+    """A watch that presses `what` ('stop' or 'estop') once `when(state)` holds."""
+    done = []
+
+    def watch(live, state):
+        if not done and when(state):
+            done.append(state)
+            (live.press_stop if what == "stop" else live.press_estop)()
+    return watch, done
+
+
+def in_block_2(state):
+    return state.phase == "running" and state.block == 2
+
+
+def in_the_first_rest(state):
+    return state.phase == "resting" and state.block == 1
+
+
+@pytest.mark.parametrize(("what", "when", "outcome", "robot"), [
+    ("stop", in_block_2, "stopped", State.CONNECTED),
+    ("stop", in_the_first_rest, "stopped", State.CONNECTED),
+    ("estop", in_block_2, "emergency_stop", State.FAULTED),
+    ("estop", in_the_first_rest, "emergency_stop", State.FAULTED),
+], ids=["stop in a block", "stop in a rest", "e-stop in a block", "e-stop in a rest"])
+def test_stop_and_the_emergency_stop_end_the_plan_at_once_and_safely(
+        registry, ready, what, when, outcome, robot):
+    watch, done = pressed(what, when)
+    _, result = run(registry, ready, watch=watch)
+    assert done, "the moment to press never came"
+    assert result.outcome == outcome
+    stored = registry.plan_run(result.run_id)
+    assert stored.status == outcome
+    kinds = [(s.kind, s.block) for s in stored.steps]
+    trials = [registry.trial(s.trial_id) for s in stored.trial_steps()]
+    if when is in_block_2:
+        assert kinds == [("trial", 1), ("rest", 1), ("trial", 2)]
+        assert trials[1].status == ("stopped_early" if what == "stop" else "faulted")
+    else:
+        assert kinds == [("trial", 1), ("rest", 1)]
+        assert stored.steps[1].taken_s < 1.0  # the rest as it was when the plan ended
+    assert trials[0].status == "complete"
+    assert all(t.finished for t in trials)  # every trial finished into the registry
+    # the robot is safe: connected at zero torque after a Stop, latched after an E-STOP
+    ready.wait_state(robot, 30.0)
+    assert ready.state == robot
+    # and nothing ran after the end: no trial of the patient beyond the run's
+    assert len(registry.trials_for_patient(stored.patient_code)) == len(trials)
+
+
+def test_a_plan_a_block_of_which_the_patient_cannot_reach_is_refused_before_anything_runs(
+        registry, client):
+    far = PLAN.with_block(2, PLAN.blocks[2].replace(radius_m=0.2))
+    stored = patient_with_plan(registry, far)
+    with pytest.raises(PlanRefused, match=r"block 3 \(Reach\): point"):
+        LivePlan(registry, stored, client, BackendConfig(patient="healthy", seed=3))
+    assert registry.plan_runs_for_patient(stored.patient_code) == []
+    assert registry.trials_for_patient(stored.patient_code) == []
