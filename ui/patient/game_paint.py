@@ -22,12 +22,13 @@ DISTRACTOR = QColor("#CC79A7")
 HOME = QColor("#BFBFBF")
 
 
-def paint_game(painter: QPainter, where: Placement, layout: GameLayout, frame: PatientFrame,
-               unit: float, polyline) -> tuple[float, float] | None:
-    """Paint the game's layout and state; returns the open target's centre (px), if any."""
+def paint_game_layout(painter: QPainter, where: Placement, layout: GameLayout, unit: float,
+                      polyline) -> None:
+    """What does not move in a game: the path game's channel; the reaching game's home and
+    distractors (painted once into the screen's background)."""
     if layout.game == "path":
         _channel(painter, where, layout, unit, polyline)
-        return None
+        return
     home = where.to_px(layout.home_m)
     r_home = where.length_px(0.6 * layout.targets[0].radius_m) if layout.targets else unit
     painter.setPen(_pen(HOME, 0.6 * unit))
@@ -43,6 +44,12 @@ def paint_game(painter: QPainter, where: Placement, layout: GameLayout, frame: P
         x, y, d = centre[0], centre[1], 0.5 * r
         painter.drawLine(QPointF(x - d, y - d), QPointF(x + d, y + d))
         painter.drawLine(QPointF(x - d, y + d), QPointF(x + d, y - d))
+
+
+def paint_game_state(painter: QPainter, where: Placement, frame: PatientFrame,
+                     unit: float) -> tuple[float, float] | None:
+    """The game now: the target just hit, the open target; returns the open target's
+    centre (px), if any."""
     game = frame.game
     if game is None:
         return None

@@ -15,10 +15,19 @@ from __future__ import annotations
 
 import numpy as np
 from PySide6.QtCore import QPointF, QRectF, Qt, Signal
-from PySide6.QtGui import QColor, QFont, QFontMetrics, QGuiApplication, QPainter, QPainterPath, QPen
+from PySide6.QtGui import (
+    QColor,
+    QFont,
+    QFontMetrics,
+    QGuiApplication,
+    QPainter,
+    QPainterPath,
+    QPen,
+    QPixmap,
+)
 from PySide6.QtWidgets import QWidget
 
-from ui.patient.game_paint import paint_game
+from ui.patient.game_paint import paint_game_layout, paint_game_state
 from ui.patient.sound import Tone
 from ui.views.patient_game import GameFeed
 from ui.views.patient_geometry import (
@@ -49,6 +58,7 @@ PREVIOUS = QColor("#7F7F7F")
 OUTSIDE = QColor("#D55E00")  # Okabe–Ito vermillion: the ball outside the channel
 ATTENTION = QColor("#E69F00")  # Okabe–Ito orange: the neglected side
 MM_PER_INCH = 25.4
+TEXT_CACHE = 64  # texts kept as pixmaps: the clock's seconds, rounds, results
 
 
 class PatientWindow(QWidget):
@@ -77,6 +87,9 @@ class PatientWindow(QWidget):
         self.painted: dict[str, tuple[float, float] | None] = {}
         self.paints = 0
         self._shown_state: tuple = ()
+        self._cached_background: tuple | None = None
+        self._attention: str | None = None
+        self._texts: dict = {}
 
     # -- content ------------------------------------------------------------------
     def set_options(self, options: PatientOptions) -> None:
@@ -147,34 +160,67 @@ class PatientWindow(QWidget):
         return place(self.scene.extent_m, axes, self.screen_layout().table)
 
     # -- painting -----------------------------------------------------------------
+    # What does not move (the black, the path or the game's layout, the neglect cue, the
+    # last round's path) is painted once into a background pixmap, and each text once into
+    # its own: a frame then costs a copy and a few discs (bench/patient_screen.py).
     def paintEvent(self, _event) -> None:
-        painter = QPainter(self)
-        painter.setRenderHint(QPainter.RenderHint.Antialiasing)
-        painter.fillRect(self.rect(), BACKGROUND)
         bands = self.screen_layout()
         where = self.placement()
         frame = self.frame
-        self.painted = {"cursor": None, "target": None, "attention": None}
+        painter = QPainter(self)
+        painter.drawPixmap(0, 0, self._background(bands, where, frame))
+        self.painted = {"cursor": None, "target": None, "attention": self._attention}
+        painter.setRenderHint(QPainter.RenderHint.Antialiasing)
         if where is not None:
-            if self.scene.parameters.neglect_side:
-                self._paint_attention(painter, where, bands.table)
-            self._paint_table(painter, where, frame)
+            self._paint_moving(painter, where, frame)
         self._paint_text(painter, bands, frame)
         painter.end()
         self.paints += 1
 
-    def _paint_table(self, painter: QPainter, where: Placement, frame: PatientFrame) -> None:
+    def _background(self, bands: ScreenLayout, where: Placement | None,
+                    frame: PatientFrame) -> QPixmap:
+        previous = frame.previous_path_m is not None
+        key = (self.width(), self.height(), self.devicePixelRatioF(), id(self.scene),
+               self.options, (frame.exercise_started_s, frame.repetition) if previous else None)
+        if self._cached_background is not None and self._cached_background[0] == key:
+            return self._cached_background[1]
+        ratio = self.devicePixelRatioF()
+        pixmap = QPixmap(round(self.width() * ratio), round(self.height() * ratio))
+        pixmap.setDevicePixelRatio(ratio)
+        pixmap.fill(BACKGROUND)
+        self._attention = None
+        if where is not None:
+            painter = QPainter(pixmap)
+            painter.setRenderHint(QPainter.RenderHint.Antialiasing)
+            if self.scene.parameters.neglect_side:
+                self._paint_attention(painter, where, bands.table)
+            unit = self._unit(where)
+            if previous:
+                painter.setPen(_pen(PREVIOUS, unit * 0.8))
+                painter.drawPath(_polyline(where.to_px(frame.previous_path_m)))
+            if self.scene.game is not None:
+                paint_game_layout(painter, where, self.scene.game, unit, _polyline)
+            else:
+                self._paint_exercise(painter, where, unit)
+            painter.end()
+        self._cached_background = (key, pixmap)
+        return pixmap
+
+    @staticmethod
+    def _unit(where: Placement) -> float:
+        return max(2.0, where.length_px(0.004))  # a 4 mm line on the table
+
+    def _paint_moving(self, painter: QPainter, where: Placement, frame: PatientFrame) -> None:
         scene = self.scene
-        unit = max(2.0, where.length_px(0.004))  # a 4 mm line on the table
-        if frame.previous_path_m is not None:
-            painter.setPen(_pen(PREVIOUS, unit * 0.8))
-            painter.drawPath(_polyline(where.to_px(frame.previous_path_m)))
+        unit = self._unit(where)
         radius = where.length_px(scene.target_radius_m)
         if scene.game is not None:
-            self.painted["target"] = paint_game(painter, where, scene.game, frame, unit,
-                                                _polyline)
-        else:
-            self._paint_exercise(painter, where, frame, unit)
+            self.painted["target"] = paint_game_state(painter, where, frame, unit)
+        elif 0 <= frame.active_target < len(scene.targets_m):
+            painter.setPen(_pen(TARGET, unit * 0.6))
+            painter.setBrush(TARGET)
+            centre = where.to_px(scene.targets_m[frame.active_target])
+            painter.drawEllipse(QPointF(*centre), radius, radius)
         if frame.go:
             # the start cue on the table too: a green ring round the start
             painter.setPen(_pen(GO, unit))
@@ -221,12 +267,11 @@ class PatientWindow(QWidget):
         cross = (Qt.AlignmentFlag.AlignVCenter if edge in ("left", "right")
                  else Qt.AlignmentFlag.AlignHCenter)
         painter.drawText(inner, align | cross, arrow)
-        self.painted["attention"] = edge
+        self._attention = edge
 
-    def _paint_exercise(self, painter: QPainter, where: Placement, frame: PatientFrame,
-                        unit: float) -> None:
-        """An exercise that is not a game: the path, or the reach targets (lit: the one
-        the robot's reference moves to)."""
+    def _paint_exercise(self, painter: QPainter, where: Placement, unit: float) -> None:
+        """An exercise that is not a game: the path, or the reach targets (the one the
+        robot's reference moves to is lit over them, _paint_moving)."""
         scene = self.scene
         painter.setPen(_pen(PATH, unit))
         if len(scene.targets_m):
@@ -237,41 +282,57 @@ class PatientWindow(QWidget):
         else:
             painter.drawPath(_polyline(where.to_px(scene.path_m)))
         radius = where.length_px(scene.target_radius_m)
-        for k, target in enumerate(scene.targets_m):
-            active = k == frame.active_target
-            painter.setPen(_pen(TARGET if active else PATH, unit * 0.6))
-            painter.setBrush(TARGET if active else Qt.BrushStyle.NoBrush)
+        painter.setPen(_pen(PATH, unit * 0.6))
+        painter.setBrush(Qt.BrushStyle.NoBrush)
+        for target in scene.targets_m:
             painter.drawEllipse(QPointF(*where.to_px(target)), radius, radius)
 
     def _paint_text(self, painter: QPainter, bands: ScreenLayout, frame: PatientFrame) -> None:
         font = QFont(self.font())
         font.setPixelSize(bands.text_px)
         font.setBold(True)
-        painter.setFont(font)
-        painter.setPen(TEXT)
         cells = tuple(zip(_thirds(bands.top), (
             frame.repetition_text, frame.game.score_text if frame.game else "",
             frame.time_left_text), (Qt.AlignmentFlag.AlignLeft, Qt.AlignmentFlag.AlignHCenter,
                                     Qt.AlignmentFlag.AlignRight), strict=True))
         # one size for the band, the largest at which every part fits its third
-        top = QFont(font)
-        top.setPixelSize(min(_fitted_px(font, rect, text) for rect, text, _ in cells))
-        painter.setFont(top)
+        top = min(_fitted_px(font, rect, text) for rect, text, _ in cells)
         for rect, text, align in cells:
-            painter.drawText(rect, align | Qt.AlignmentFlag.AlignVCenter, text)
-        painter.setFont(font)
+            self._text(painter, rect, align, text, top, TEXT)
         good = frame.go or (not frame.cue and frame.success)
-        painter.setPen(GO if good else TEXT)
-        _draw_fitted(painter, _qrect(bands.bottom), Qt.AlignmentFlag.AlignHCenter,
-                     frame.message)
+        bottom = _qrect(bands.bottom)
+        self._text(painter, bottom, Qt.AlignmentFlag.AlignHCenter, frame.message,
+                   _fitted_px(font, bottom, frame.message), GO if good else TEXT)
         if frame.numbers:
-            small = QFont(font)
-            small.setPixelSize(max(8, bands.text_px // 2))
-            painter.setFont(small)
-            painter.setPen(TEXT)
-            painter.drawText(_qrect(bands.bottom).adjusted(bands.text_px // 4, 0, 0, 0),
-                             Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignVCenter,
-                             "\n".join(frame.numbers))
+            lines = bottom.adjusted(bands.text_px // 4, 0, 0, 0)
+            small = max(8, bands.text_px // 3)
+            for k, line in enumerate(frame.numbers):
+                row = QRectF(lines.left(), lines.top() + k * lines.height() / 2,
+                             lines.width(), lines.height() / 2)
+                self._text(painter, row, Qt.AlignmentFlag.AlignLeft, line, small, TEXT)
+
+    def _text(self, painter: QPainter, rect: QRectF, align: Qt.AlignmentFlag, text: str,
+              pixel_size: int, colour: QColor) -> None:
+        """The text's pixmap (made once per text, size and colour), placed in the rect."""
+        if not text:
+            return
+        key = (text, pixel_size, colour.rgb(), self.devicePixelRatioF())
+        pixmap = self._texts.get(key)
+        if pixmap is None:
+            if len(self._texts) > TEXT_CACHE:
+                self._texts.clear()
+            pixmap = _text_pixmap(self.font(), text, pixel_size, colour,
+                                  self.devicePixelRatioF())
+            self._texts[key] = pixmap
+        ratio = pixmap.devicePixelRatio()
+        width, height = pixmap.width() / ratio, pixmap.height() / ratio
+        if align & Qt.AlignmentFlag.AlignHCenter:
+            x = rect.left() + 0.5 * (rect.width() - width)
+        elif align & Qt.AlignmentFlag.AlignRight:
+            x = rect.right() - width
+        else:
+            x = rect.left()
+        painter.drawPixmap(QPointF(x, rect.top() + 0.5 * (rect.height() - height)), pixmap)
 
     def closeEvent(self, event) -> None:
         if self.tone is not None:
@@ -289,20 +350,23 @@ def _fitted_px(font: QFont, rect: QRectF, text: str) -> int:
     return max(8, int(font.pixelSize() * rect.width() / width))
 
 
-def _draw_fitted(painter: QPainter, rect: QRectF, align: Qt.AlignmentFlag, text: str) -> None:
-    """Text in the painter's font, made smaller only if it would not fit the rectangle's
-    width (a narrow window): cut words would say less than smaller ones."""
-    font = painter.font()
-    size = _fitted_px(font, rect, text)
-    if size != font.pixelSize():
-        font = QFont(font)
-        font.setPixelSize(size)
-        painter.save()
-        painter.setFont(font)
-        painter.drawText(rect, align | Qt.AlignmentFlag.AlignVCenter, text)
-        painter.restore()
-    else:
-        painter.drawText(rect, align | Qt.AlignmentFlag.AlignVCenter, text)
+def _text_pixmap(base: QFont, text: str, pixel_size: int, colour: QColor,
+                 ratio: float) -> QPixmap:
+    font = QFont(base)
+    font.setPixelSize(pixel_size)
+    font.setBold(True)
+    metrics = QFontMetrics(font)
+    width, height = max(1, metrics.horizontalAdvance(text)), max(1, metrics.height())
+    pixmap = QPixmap(round(width * ratio), round(height * ratio))
+    pixmap.setDevicePixelRatio(ratio)
+    pixmap.fill(Qt.GlobalColor.transparent)
+    painter = QPainter(pixmap)
+    painter.setRenderHint(QPainter.RenderHint.TextAntialiasing)
+    painter.setFont(font)
+    painter.setPen(colour)
+    painter.drawText(QRectF(0, 0, width, height), Qt.AlignmentFlag.AlignCenter, text)
+    painter.end()
+    return pixmap
 
 
 def _pen(colour: QColor, width: float) -> QPen:
