@@ -4,11 +4,15 @@ screen* button and its menu (which screen, full screen, the options), F11, feedi
 screen from the window's 16 ms repaint, and closing it with the console.
 
 The patient's window shows the live trial while one runs and after it ends, until the
-next Build; otherwise the built exercise (or nothing) waiting to start. Replays on the
+next Build; otherwise the built exercise (or nothing) waiting to start. While a session
+plan runs (the window's `plan_runner`, app.plans.runner.PlanRunner), its state too: the
+block, the session's progress, the rest's countdown. Replays on the
 therapist's tabs never reach it: the patient sees only what they are doing.
 """
 
 from __future__ import annotations
+
+import time
 
 from PySide6.QtCore import Qt
 from PySide6.QtGui import QActionGroup, QGuiApplication, QKeySequence, QShortcut
@@ -140,6 +144,8 @@ class PatientScreenControl:
         window = self.patient_window
         if window is None or not window.isVisible():
             return
+        runner = getattr(self, "plan_runner", None)  # the plan's runner while a plan runs
+        window.show_plan(runner.state(now=time.monotonic()) if runner is not None else None)
         live = self.live
         if live is not None and (self.state == State.RUNNING or live.parameters is self.built):
             window.show_view(live)

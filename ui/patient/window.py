@@ -39,6 +39,7 @@ from ui.views.patient_geometry import (
     screen_axes,
     screen_side,
 )
+from ui.views.patient_plan import PlanOverlay, overlay
 from ui.views.patient_screen import (
     PatientFrame,
     PatientOptions,
@@ -56,6 +57,7 @@ CURSOR = QColor("#56B4E9")  # Okabe–Ito sky blue
 GO = QColor("#009E73")  # Okabe–Ito bluish green
 PREVIOUS = QColor("#7F7F7F")
 OUTSIDE = QColor("#D55E00")  # Okabe–Ito vermillion: the ball outside the channel
+PROGRESS_LEFT = QColor("#3A3A3A")
 ATTENTION = QColor("#E69F00")  # Okabe–Ito orange: the neglected side
 MM_PER_INCH = 25.4
 TEXT_CACHE = 64  # texts kept as pixmaps: the clock's seconds, rounds, results
@@ -90,12 +92,21 @@ class PatientWindow(QWidget):
         self._cached_background: tuple | None = None
         self._attention: str | None = None
         self._texts: dict = {}
+        self.plan: PlanOverlay | None = None  # the session plan's part, while one runs
 
     # -- content ------------------------------------------------------------------
     def set_options(self, options: PatientOptions) -> None:
         self.options = options
         self._shown_state = ()
         self.update()
+
+    def show_plan(self, state) -> None:
+        """The session plan's state (app.plans.runner.PlanState), or None without a plan:
+        the block, the session's progress, the rest's countdown."""
+        plan = overlay(state)
+        if plan != self.plan:
+            self.plan = plan
+            self.update()
 
     def show_parameters(self, parameters) -> None:
         """No trial running: the exercise to come (or nothing)."""
@@ -168,14 +179,60 @@ class PatientWindow(QWidget):
         where = self.placement()
         frame = self.frame
         painter = QPainter(self)
-        painter.drawPixmap(0, 0, self._background(bands, where, frame))
-        self.painted = {"cursor": None, "target": None, "attention": self._attention}
-        painter.setRenderHint(QPainter.RenderHint.Antialiasing)
-        if where is not None:
-            self._paint_moving(painter, where, frame)
-        self._paint_text(painter, bands, frame)
+        plan = self.plan
+        if plan is not None and plan.covers_table:
+            # a rest, a pause, the end: the words and the countdown in place of the table
+            painter.fillRect(self.rect(), BACKGROUND)
+            self.painted = {"cursor": None, "target": None, "attention": None}
+            self._paint_plan_cover(painter, bands, plan)
+        else:
+            painter.drawPixmap(0, 0, self._background(bands, where, frame))
+            self.painted = {"cursor": None, "target": None, "attention": self._attention}
+            painter.setRenderHint(QPainter.RenderHint.Antialiasing)
+            if where is not None:
+                self._paint_moving(painter, where, frame)
+            self._paint_text(painter, bands, frame)
+        if plan is not None:
+            self._paint_progress(painter, bands, plan)
         painter.end()
         self.paints += 1
+
+    def _paint_plan_cover(self, painter: QPainter, bands: ScreenLayout,
+                          plan: PlanOverlay) -> None:
+        font = QFont(self.font())
+        font.setPixelSize(bands.text_px)
+        font.setBold(True)
+        top = _thirds(bands.top)[0]
+        self._text(painter, top, Qt.AlignmentFlag.AlignLeft, plan.block_text,
+                   _fitted_px(font, top, plan.block_text), TEXT)
+        self.painted["top"] = (plan.block_text, "", "")
+        area = _qrect(bands.table)
+        words = QRectF(area.left(), area.top(), area.width(), 0.4 * area.height())
+        count = QRectF(area.left(), words.bottom(), area.width(), 0.6 * area.height())
+        self._text(painter, words, Qt.AlignmentFlag.AlignHCenter, plan.centre,
+                   min(2 * bands.text_px, _fitted_px(_sized(font, 2 * bands.text_px), words,
+                                                     plan.centre)), TEXT)
+        if plan.countdown:
+            size = min(int(0.8 * count.height()), 4 * bands.text_px)
+            self._text(painter, count, Qt.AlignmentFlag.AlignHCenter, plan.countdown,
+                       _fitted_px(_sized(font, size), count, plan.countdown), GO)
+        bottom = _qrect(bands.bottom)
+        self._text(painter, bottom, Qt.AlignmentFlag.AlignHCenter, plan.message,
+                   _fitted_px(font, bottom, plan.message), TEXT)
+        self.painted["plan"] = (plan.centre, plan.countdown)
+
+    def _paint_progress(self, painter: QPainter, bands: ScreenLayout,
+                        plan: PlanOverlay) -> None:
+        """The session's movements done, a bar under the top band."""
+        if plan.progress != plan.progress:  # NaN: nothing planned to count
+            return
+        height = max(6.0, 0.012 * self.height())
+        left = _thirds(bands.top)[0].left()
+        bar = QRectF(left, bands.top.height, self.width() - 2 * left, height)
+        painter.fillRect(bar, PROGRESS_LEFT)
+        done = QRectF(bar.left(), bar.top(), bar.width() * min(1.0, plan.progress), height)
+        painter.fillRect(done, CURSOR)
+        self.painted["progress"] = done.width() / bar.width()
 
     def _background(self, bands: ScreenLayout, where: Placement | None,
                     frame: PatientFrame) -> QPixmap:
@@ -291,14 +348,18 @@ class PatientWindow(QWidget):
         font = QFont(self.font())
         font.setPixelSize(bands.text_px)
         font.setBold(True)
-        cells = tuple(zip(_thirds(bands.top), (
-            frame.repetition_text, frame.game.score_text if frame.game else "",
-            frame.time_left_text), (Qt.AlignmentFlag.AlignLeft, Qt.AlignmentFlag.AlignHCenter,
-                                    Qt.AlignmentFlag.AlignRight), strict=True))
+        score = frame.game.score_text if frame.game else ""
+        # with a plan: the block first, then the score in a game or else the round
+        first, middle = (frame.repetition_text, score) if self.plan is None else \
+            (self.plan.block_text, score or frame.repetition_text)
+        cells = tuple(zip(_thirds(bands.top), (first, middle, frame.time_left_text),
+                          (Qt.AlignmentFlag.AlignLeft, Qt.AlignmentFlag.AlignHCenter,
+                           Qt.AlignmentFlag.AlignRight), strict=True))
         # one size for the band, the largest at which every part fits its third
         top = min(_fitted_px(font, rect, text) for rect, text, _ in cells)
         for rect, text, align in cells:
             self._text(painter, rect, align, text, top, TEXT)
+        self.painted["top"] = (first, middle, frame.time_left_text)
         good = frame.go or (not frame.cue and frame.success)
         bottom = _qrect(bands.bottom)
         self._text(painter, bottom, Qt.AlignmentFlag.AlignHCenter, frame.message,
@@ -348,6 +409,12 @@ def _fitted_px(font: QFont, rect: QRectF, text: str) -> int:
     if width <= rect.width() or width == 0:
         return font.pixelSize()
     return max(8, int(font.pixelSize() * rect.width() / width))
+
+
+def _sized(font: QFont, pixel_size: int) -> QFont:
+    sized = QFont(font)
+    sized.setPixelSize(pixel_size)
+    return sized
 
 
 def _text_pixmap(base: QFont, text: str, pixel_size: int, colour: QColor,

@@ -1,0 +1,100 @@
+"""A session plan on the patient's screen (issue 30): the rest's countdown in place of the
+table, the block and the session's progress during a block, the end in the patient's words;
+fed from the window's plan runner as it repaints."""
+
+import math
+
+import pytest
+from PySide6.QtWidgets import QApplication
+
+from app.plans.runner import PlanState
+from core.trial import THESIS_SUBJECT
+from tests.ui.session import open_window
+from ui.patient.window import CURSOR, GO, PatientWindow
+from ui.views.patient_plan import overlay
+
+
+def _state(**changes) -> PlanState:
+    values = dict(phase="running", block=2, n_blocks=3, block_name="D shape", round=1,
+                  rounds=1, laps_planned=5, laps_done=0, movements_done=30,
+                  movements_planned=120, rest_left_s=0.0, time_left_s=300.0, outcome="",
+                  reason="")
+    values.update(changes)
+    return PlanState(**values)
+
+
+@pytest.fixture
+def patient(qtbot):
+    window = PatientWindow()
+    qtbot.addWidget(window)
+    window.resize(1000, 700)
+    window.show_parameters(THESIS_SUBJECT)
+    return window
+
+
+def test_the_rest_countdown_replaces_the_table(patient):
+    patient.show_plan(_state(phase="resting", rest_left_s=44.2))
+    image = patient.grab().toImage()
+    assert patient.painted["plan"] == ("Rest", "0:45")
+    assert patient.painted["top"] == ("Block 2 of 3", "", "")
+    assert patient.painted["cursor"] is None  # no table during a rest
+    area = patient.screen_layout().table
+    greens = sum(image.pixelColor(x, y) == GO
+                 for x in range(round(area.left), round(area.left + area.width), 4)
+                 for y in range(round(area.top + 0.4 * area.height),
+                                round(area.top + area.height), 4))
+    assert greens > 50  # the countdown, large, in green
+    assert patient.plan.message == "Next: block 3"
+    patient.show_plan(_state(phase="resting", rest_left_s=3.0, block=3))
+    patient.grab()
+    assert patient.painted["plan"] == ("Rest", "0:03")
+    assert patient.plan.message == ""  # the last block: nothing next
+
+
+def test_during_a_block_the_block_and_the_session_s_progress_show(patient):
+    patient.show_plan(_state())
+    image = patient.grab().toImage()
+    assert patient.painted["top"][0] == "Block 2 of 3"
+    assert patient.painted["progress"] == pytest.approx(30 / 120)
+    bands = patient.screen_layout()
+    y = round(bands.top.height + 2)
+    assert image.pixelColor(round(0.1 * patient.width()), y) == CURSOR  # done: the left
+    assert image.pixelColor(round(0.9 * patient.width()), y) != CURSOR
+
+
+@pytest.mark.parametrize(("outcome", "words"), [("complete", "Session complete. Well done!"),
+                                                ("emergency_stop", "Stopped")])
+def test_the_end_is_said_in_the_patient_s_words(patient, outcome, words):
+    patient.show_plan(_state(phase="ended", outcome=outcome, reason="E-STOP pressed"))
+    patient.grab()
+    assert patient.painted["plan"][0] == words
+    assert "E-STOP" not in patient.plan.message  # the therapist's words stay theirs
+
+
+def test_no_plan_no_overlay():
+    assert overlay(None) is None
+    assert overlay(_state(phase="idle", block=0)) is None
+    assert math.isnan(overlay(_state(movements_planned=0)).progress)
+
+
+def test_the_console_feeds_its_plan_runner_s_state(qtbot, tmp_path, monkeypatch):
+    win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
+    asked = []
+
+    class Runner:
+        def state(self, now):
+            asked.append(now)
+            return _state(phase="resting", rest_left_s=10.0)
+
+    patient = win.open_patient_screen()
+    qtbot.waitExposed(patient)
+    assert patient.plan is None
+    win.plan_runner = Runner()
+    win._repaint()
+    assert patient.plan.centre == "Rest"
+    assert asked
+    win.plan_runner = None
+    win._repaint()
+    assert patient.plan is None
+    assert QApplication.activeWindow() is not patient
+    win.close()
