@@ -94,7 +94,8 @@ def test_the_patient_window_alone_waits_without_a_trial(qtbot):
     qtbot.addWidget(patient)
     patient.show_parameters(None)
     patient.grab()
-    assert patient.painted == {"cursor": None, "target": None, "attention": None}
+    assert patient.painted == {"cursor": None, "target": None, "attention": None,
+                               "top": ("", "", "")}
 
 
 @pytest.mark.parametrize(("side", "mirror", "turn", "edge"), [
