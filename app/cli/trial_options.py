@@ -58,13 +58,16 @@ def add_trial_options(parser: argparse.ArgumentParser) -> None:
                        help="as-needed (default): a compliant channel whose reference moves "
                             "with the patient, help along the path the patient earns back; "
                             "thesis: the tracking controller on the clock with the thesis's "
-                            "reduce-only cut (Fig. 3.6 as printed)")
+                            "reduce-only cut (Fig. 3.6 as printed); transparent: no help, "
+                            "the robot compensates its own inertia and friction (its level "
+                            "is always 0)")
     group.add_argument("--assistance", type=float, default=100 * d.assistance_level,
                        help="assistance level, 0-100 %% (default 100): as-needed, the help "
                             "along the path; thesis, the share of the subject's effort the "
-                            "robot gives way to")
+                            "robot gives way to; transparent, none (0)")
     group.add_argument("--gains", default="", metavar="CHANGES",
-                       help="changes to the controller's and the guidance's gains, e.g. "
+                       help="changes to the controller's, the guidance's and the "
+                            "transparent mode's gains, e.g. "
                             "\"smc.lambda_1_s=25; guidance.delay_s=0.5\" (rehab gains lists "
                             "them); saved with the trial")
     group.add_argument("--game", choices=[g for g in GAMES if g], default=d.game or None,

@@ -52,9 +52,13 @@ transparent torque does not depend on the path or the clock. The path's referenc
 still recorded (where the clock is on the path) and the cone test of the patient's push
 (core.control.assistance.cone_test) still says whether the push pointed along the path,
 for the directional performance; it changes no torque. The safety supervisor stays as in
-every mode. The approach to the path's start and the hold after it run the trial's
-tracking controller on the clock, as in the other modes (device.loop.pipeline): the
-patient is brought to the start and held at the end; only the exercise is transparent.
+every mode. The approach to the path's start runs the trial's tracking controller on the
+clock, as in the other modes (device.loop.pipeline): the patient is brought to the start.
+The hold after the exercise (0.5 s) stays transparent, unlike the other modes, where the
+controller holds the hand at the path's end: a patient free to move is not pulled back to
+where the clock ended. On the thesis's D (two laps, realistic plant, seed 0) the hold's
+controller pulled a wrong-way patient who ended 24 mm from the path's end with the drives'
+full 2.2 N·m (3.1 N felt); transparent, the hold's largest torque is 0.31 N·m (0.73 N).
 
 The assistance level has nothing to act on here: a transparent trial's level is 0
 (core.trial.TrialParameters) and the loop refuses to change it.

@@ -630,13 +630,16 @@ def control(kind, robot, model, tracker, gains, assist, guide, rates, integral, 
     fx, fy = rotated_to_global(force_x, force_y, q1, sensor_offset_rad)
     # the force the assistance judges: the sensor's, or an estimate from EMG (chapter 5)
     px, py = judged_force(assist, tick, fx, fy)
-    if guide[TC_ON] != 0.0 and phase == PHASE_EXERCISE:
-        # Transparent (core.control.transparent): the robot's own inertia, friction and
-        # stiffness as far as its model allows, no guidance; the cone test only says
-        # whether the push pointed along the path (the directional performance).
+    if guide[TC_ON] != 0.0 and phase != PHASE_APPROACH:
+        # Transparent (core.control.transparent), the exercise and the hold after it: the
+        # robot's own inertia, friction and stiffness as far as its model allows, no
+        # guidance, and no pull to the path's end once the clock has run out; the cone test
+        # only says whether the push pointed along the path (the directional performance),
+        # and only in the exercise.
         tau1, tau2 = transparent_torques(robot, guide, q1, q2, qd1, qd2, qdd1, qdd2)
         out1, out2 = tau1, tau2
         active, angle = cone_test(assist, px, py, dx, dy)
+        active = active and phase == PHASE_EXERCISE
     elif guide[GC_ON] != 0.0 and approach_ticks <= tick < n + guide[GC_DELAY_ROWS]:
         # As needed (core.control.guidance): the reference is where the patient is, or
         # the clock's row less the delay, whichever is further on.

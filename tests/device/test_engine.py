@@ -108,6 +108,17 @@ def test_a_whole_trial_is_the_same_compiled_and_interpreted(patient, controller,
         slow.pipeline.vectors.guided)
 
 
+def test_a_transparent_trial_through_its_hold_is_the_same_compiled_and_interpreted():
+    """The transparent mode runs its law in the hold too (core.control.transparent): a
+    short trial to its end, every tick equal."""
+    params = PARAMS.replace(assist="transparent", repetitions=1, duration_s=2.0)
+    (fast, slow), outputs = run_both(2300, params=params)
+    phases = {record[3] for _, _, record in outputs}
+    assert {2, 3} <= phases  # the exercise and the hold ran (the handle starts at the start)
+    np.testing.assert_array_equal(fast.supervisor.state, slow.supervisor.state)
+    assert fast.backend.truth == slow.backend.truth
+
+
 @pytest.mark.parametrize(("change", "fault"), [
     ({"estop": True}, Fault.ESTOP),
     ({"beat_age": 0.6}, Fault.HEARTBEAT_LOST),

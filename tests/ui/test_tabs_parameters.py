@@ -180,6 +180,25 @@ def test_the_assistance_mode_is_chosen_shown_and_the_level_announced_at_once(qtb
     assert signal.args == [pytest.approx(0.3)]
 
 
+def test_the_transparent_mode_greys_the_level_and_says_it_has_none(qtbot, tab):
+    """The transparent mode has no level (core.control.transparent): the field is greyed,
+    its label says so, and the trial the form builds runs at 0 %; another mode gives the
+    field back with the level it held."""
+    tab.set_parameters(THESIS_SUBJECT.replace(assist="as-needed", assistance_level=0.6))
+    assert tab.assistance.isEnabled()
+    tab.assist.setCurrentIndex(tab.assist.findData("transparent"))
+    tab.refresh()
+    assert not tab.assistance.isEnabled()
+    assert tab.labels["assistance"].text() == "No help in this mode"
+    assert "no help" in tab.assistance.toolTip().lower()
+    built = tab.parameters()
+    assert (built.assist, built.assistance_level) == ("transparent", 0.0)
+    tab.assist.setCurrentIndex(tab.assist.findData("as-needed"))
+    tab.refresh()
+    assert tab.assistance.isEnabled()
+    assert tab.parameters().assistance_level == pytest.approx(0.6)
+
+
 def test_a_researcher_sets_a_gain_and_a_bad_one_is_refused_under_the_field(qtbot, tab):
     with qtbot.waitSignal(tab.parameters_changed, timeout=2000) as signal:
         type_into(qtbot, tab.gains, "smc.lambda_1_s=500")

@@ -19,7 +19,7 @@ from app.trials.progression import TRANSPARENT_REASON
 from app.trials.reader import read_trial
 from core.trial import THESIS_SUBJECT
 from device.loop.engine import run_trial
-from device.loop.pipeline import PHASE_EXERCISE, TickPipeline, TrialPlan
+from device.loop.pipeline import PHASE_EXERCISE, PHASE_HOLD, TickPipeline, TrialPlan
 from device.safety.faults import Fault
 from device.safety.limits import SafetyLimits
 from device.safety.supervisor import SafetySupervisor
@@ -78,6 +78,22 @@ def test_a_passive_patient_is_not_moved_along_the_path(plant):
     assert guided > 0.5, guided  # two laps of a D of radius 10 cm: about 1 m
     exercise = trial.records["phase"] == PHASE_EXERCISE
     assert np.abs(trial.records["torque_applied"][exercise]).max() < 0.01
+
+
+def test_the_hold_does_not_pull_the_hand_to_the_paths_end():
+    """After the exercise the transparent mode stays transparent (core.control.transparent):
+    the wrong-way patient, who ends two laps of the D 24 mm from the path's end, is not
+    pulled there (0.31 N·m at most, seed 0), where the as-needed mode's hold runs the
+    controller at the drives' rating (2.2 N·m) to hold its hand at the end."""
+    def hold_torque(params):
+        trial = simulate(params.replace(repetitions=2), patient="wrong_way", seed=0)
+        assert trial.status == "complete"
+        hold = trial.records["phase"] == PHASE_HOLD
+        assert hold.sum() == 250  # 0.5 s
+        return float(np.abs(trial.records["torque_applied"][hold]).max())
+
+    assert hold_torque(TRANSPARENT) < 0.5
+    assert hold_torque(THESIS_SUBJECT.replace(assist="as-needed")) > 1.5
 
 
 def supervised(params, limits: SafetyLimits):
