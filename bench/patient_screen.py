@@ -117,7 +117,9 @@ def run(app: QApplication, seconds: float, folder: Path, with_screen: bool, game
     data = read_trial(path)
     moving = data.channels["phase"] > 0
     lateness = data.channels["lateness"][moving].astype(float)
-    out.update(samples=int(moving.sum()), status=data.status,
+    ended = [f"{e.get('kind')}: {e.get('message')}" for e in data.events
+             if e.get("kind") in ("fault", "recording", "stop")]
+    out.update(samples=int(moving.sum()), status=data.status, ended="; ".join(ended),
                p50_ms=1e3 * np.percentile(lateness, 50), p99_ms=1e3 * np.percentile(lateness, 99),
                p999_ms=1e3 * np.percentile(lateness, 99.9), max_ms=1e3 * lateness.max(),
                late_pct=100 * np.mean(lateness > PERIOD_S))
@@ -153,6 +155,8 @@ def main() -> None:
               f"lateness p50 {live['p50_ms']:.3f} ms, p99 {live['p99_ms']:.3f} ms, p99.9 "
               f"{live['p999_ms']:.3f} ms, max {live['max_ms']:.3f} ms, "
               f"late {live['late_pct']:.3f} %")
+        if live["status"] != "complete":
+            print(f"  it ended {live['status']}: {live['ended']}")
 
 
 if __name__ == "__main__":

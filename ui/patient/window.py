@@ -55,7 +55,7 @@ PATH = QColor("#BFBFBF")
 TARGET = QColor("#F0E442")  # Okabe–Ito yellow
 CURSOR = QColor("#56B4E9")  # Okabe–Ito sky blue
 GO = QColor("#009E73")  # Okabe–Ito bluish green
-PREVIOUS = QColor("#7F7F7F")
+PREVIOUS = QColor("#56B4E9")  # the cursor's sky blue, dashed
 OUTSIDE = QColor("#D55E00")  # Okabe–Ito vermillion: the ball outside the channel
 PROGRESS_LEFT = QColor("#3A3A3A")
 ATTENTION = QColor("#E69F00")  # Okabe–Ito orange: the neglected side
@@ -252,13 +252,16 @@ class PatientWindow(QWidget):
             if self.scene.parameters.neglect_side:
                 self._paint_attention(painter, where, bands.table)
             unit = self._unit(where)
-            if previous:
-                painter.setPen(_pen(PREVIOUS, unit * 0.8))
-                painter.drawPath(_polyline(where.to_px(frame.previous_path_m)))
             if self.scene.game is not None:
                 paint_game_layout(painter, where, self.scene.game, unit, _polyline)
             else:
                 self._paint_exercise(painter, where, unit)
+            if previous:
+                # the hand's own colour, dashed: where the hand went, not where to go
+                pen = _pen(PREVIOUS, unit * 0.6)
+                pen.setStyle(Qt.PenStyle.DashLine)
+                painter.setPen(pen)
+                painter.drawPath(_polyline(where.to_px(frame.previous_path_m)))
             painter.end()
         self._cached_background = (key, pixmap)
         return pixmap
