@@ -63,6 +63,7 @@ from ui.views.replay_strip import replay_line
 from ui.views.trialview import TrialView
 from ui.window.fault_latch import FaultLatch
 from ui.window.message_line import MessageLine
+from ui.window.plan import PlanControl
 from ui.window.settings import RememberedSettings
 from ui.window.trial import BuiltSetup, TrialActions
 from ui.window.trial_emg import TrialEmg
@@ -74,7 +75,7 @@ HEARTBEAT_MS = 100  # the loop faults after 0.5 s without one
 HEALTH_MS = 500
 
 
-class MainWindow(TrialActions, TrialEmg, FaultLatch, MessageLine, RememberedSettings,
+class MainWindow(PlanControl, TrialActions, TrialEmg, FaultLatch, MessageLine, RememberedSettings,
                  PatientScreenControl, QMainWindow):
     """The therapist's console."""
 
@@ -114,6 +115,7 @@ class MainWindow(TrialActions, TrialEmg, FaultLatch, MessageLine, RememberedSett
         self._build_tabs()
         self._build_layout()
         self._connect_signals()
+        self._connect_plan()  # after the window's own: its Build is taken before the plan's
         self._restore()
         self._refresh_buttons()
 
@@ -158,6 +160,9 @@ class MainWindow(TrialActions, TrialEmg, FaultLatch, MessageLine, RememberedSett
         by_class = {type(tab): tab for tab in made}
         for title, cls in TABS:  # in the thesis's order, with the titles it uses
             self.tabs.addTab(by_class[cls], title)
+        # the session plan beside the Parameters tab (ui.window.plan)
+        self.tabs.insertTab(self.tabs.indexOf(self.parameters_tab) + 1,
+                            self._build_plan_tab(), "Plan")
         self.view_tabs = [self.tabs.widget(i) for i in range(self.tabs.count())
                           if isinstance(self.tabs.widget(i), VIEW_TABS)]
 

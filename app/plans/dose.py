@@ -140,3 +140,41 @@ def run_dose(registry, run_id: int) -> RunDose:
         block.movements += done.movements
         block.active_s += done.active_s
     return dose
+
+
+def dose_lines(registry, code: str, last: int = 5) -> list[str]:
+    """The dose of the patient's latest `last` plan runs, one line each, newest first:
+    what the Progress tab shows (the files read for the movements and active time)."""
+    runs = getattr(registry, "plan_runs_for_patient", None)
+    if runs is None:
+        return []  # a store without plans
+    lines = []
+    for run in reversed(runs(code)[-last:]):
+        dose = run_dose(registry, run.id)
+        plan = registry.plan(run.plan_id).plan
+        lines.append(f"{run.started_at.astimezone():%d %b %Y %H:%M} {plan.name} (run "
+                     f"{run.id}): {run.status.replace('_', ' ')}, {dose.movements} of "
+                     f"{dose.planned_movements} movements, {clock(dose.active_s)} of "
+                     f"{clock(dose.planned_active_s)} active, {clock(dose.rest_s)} of rest"
+                     + (f"; {len(dose.notes)} trial(s) unreadable" if dose.notes else ""))
+    return lines
+
+
+def trial_plan_lines(registry, trial_id: int) -> list[tuple[str, str]]:
+    """(label, value) for a trial's report when it ran in a plan: the plan, its block and
+    round, and the run's dose so far; [] for a trial outside a plan."""
+    find = getattr(registry, "plan_step_of_trial", None)
+    found = find(trial_id) if find is not None else None
+    if found is None:
+        return []
+    run_id, step = found
+    run = registry.plan_run(run_id)
+    plan = registry.plan(run.plan_id).plan
+    block = plan.blocks[step.block - 1]
+    rounds = f", round {step.round} of {block.rounds}" if block.rounds > 1 else ""
+    dose = run_dose(registry, run_id)
+    return [("Plan", f"{plan.name} (run {run_id}), block {step.block} of "
+                     f"{len(plan.blocks)}: {block.name or block.shape}{rounds}"),
+            ("Plan's dose", f"{dose.movements} of {dose.planned_movements} movements, "
+                            f"{clock(dose.active_s)} active, {clock(dose.rest_s)} of rest "
+                            f"({run.status.replace('_', ' ')})")]

@@ -19,6 +19,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from app.errors import AppError
+from app.games.rounds import staircase_rounds
 from app.plans.dose import trial_dose
 from app.plans.runner import ENDED, PlanRunner, PlanState
 from app.records.registry import StoredPlan
@@ -74,7 +75,8 @@ class LivePlan:
                               f"{problems[0]}" + (f" (and {len(problems) - 1} more block(s))"
                                                   if len(problems) > 1 else ""))
         self.run_id = registry.begin_plan_run(stored.id)
-        self.runner = PlanRunner(stored.plan, self.base, self)
+        # a game block's rounds: the games' staircase between them (app.games.rounds)
+        self.runner = PlanRunner(stored.plan, self.base, self, next_round=staircase_rounds())
         self._todo: list[tuple] = []
         self._params: TrialParameters | None = None
         self._trial: tuple[int, str] | None = None  # (trial id, file path) being run
@@ -222,7 +224,8 @@ class LivePlan:
         except Exception as exc:  # an unreadable file counts nothing, said in the log
             log.warning("plan run %d: trial %d counts nothing: %s", self.run_id, trial_id, exc)
             movements, active = 0, 0.0
-        figures = done.analysis.metrics.to_dict() if done.analysis is not None else None
+        # the movement's and a game's figures (game_hits, game_misses: the staircase's)
+        figures = done.analysis.to_metrics() if done.analysis is not None else None
         self.runner.finished(self.clock(), trial_id, done.status, movements, active,
                              figures, done.proposal)
 

@@ -270,9 +270,11 @@ class PlanRunner:
         count = self.counts[block]
         count.movements += int(movements)
         count.active_s += float(active_s)
-        if self.phase == ENDED or trial_id != self.trial_id:
+        current = trial_id == self.trial_id
+        if current:
+            self.trial_id = None
+        if self.phase == ENDED or not current:
             return
-        self.trial_id = None
         if status not in ("complete", "stopped_early"):
             self._end(now, "faulted", f"block {block + 1}'s trial ended {status}")
             return

@@ -85,7 +85,7 @@ def content_for_registry_trial(
     if include_first_name:
         first_name = registry.patient(record.patient_code).first_name
     last_trial, last_session = earlier_like(registry, record)
-    return build_report(
+    content = build_report(
         data,
         previous_trial=registry_baseline(registry, last_trial),
         previous_session=registry_baseline(registry, last_session),
@@ -99,6 +99,14 @@ def content_for_registry_trial(
         status=record.status if record.finished else None,
         end_reason=record.end_reason,
     )
+    from app.plans.dose import trial_plan_lines
+
+    # a trial of a session plan: its block and the plan's dose, for the therapist
+    extra = tuple(HeaderItem(label, value) for label, value in
+                  trial_plan_lines(registry, trial_id))
+    if not extra:
+        return content
+    return dataclasses.replace(content, therapist_header=content.therapist_header + extra)
 
 
 def earlier_like(registry: RecordStore, record: Trial) -> tuple[Trial | None, Trial | None]:

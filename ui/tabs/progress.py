@@ -110,6 +110,14 @@ class ProgressTab(QWidget):
         choices.addWidget(self.metric_choice)
         choices.addStretch(1)
 
+        # the session plans' dose: movements, active time and rest of the latest runs
+        self.dose = theme.set_role(QLabel(""), "caption")
+        self.dose.setWordWrap(True)
+        self.dose_worker = plots.Background(self)
+        self.dose_worker.done.connect(self._dose_loaded)
+        self.dose_worker.failed.connect(
+            lambda code, message: code == self._code and self.dose.setText(
+                f"{theme.PROBLEM_SIGN} The plans' dose could not be read: {message}"))
         self.key = theme.set_role(QLabel(KEY), "caption")
         self.key.setWordWrap(True)
         self.plot = plots.make_plot("", "")
@@ -133,6 +141,7 @@ class ProgressTab(QWidget):
         layout.addLayout(top)
         layout.addLayout(choices)
         layout.addWidget(self.message)
+        layout.addWidget(self.dose)
         layout.addWidget(self.key)
         layout.addWidget(splitter, 1)
 
@@ -155,6 +164,10 @@ class ProgressTab(QWidget):
         self.message.setText("Loading…")
         registry = self.registry
         self.background.submit(code, lambda: progress(registry, code))
+        from app.plans.dose import dose_lines
+
+        self.dose.setText("")
+        self.dose_worker.submit(code, lambda: dose_lines(registry, code))
 
     def refresh(self) -> None:
         self.set_patient(self._code)
@@ -178,6 +191,11 @@ class ProgressTab(QWidget):
         self._fill_table(result)
         self.pdf_button.setEnabled(len(result) > 0)
         self.progress_loaded.emit(result)
+
+    def _dose_loaded(self, code, lines: list[str]) -> None:
+        if code == self._code:
+            self.dose.setText("Session plans: " + "; ".join(lines) if lines else "")
+            self.dose.setVisible(bool(lines))
 
     def _failed(self, token, message: str) -> None:
         if isinstance(token, tuple) and token[0] == "pdf":

@@ -350,3 +350,26 @@ def test_a_proposal_applies_to_the_next_block_of_the_same_exercise():
     s.loop(0.0)
     assert (s.console.building.duration_s, s.console.building.assistance_level) == (3.6, 0.9)
     assert plan.blocks[2].duration_s == 4.0  # the plan as prescribed is kept
+
+
+def test_a_game_block_s_rounds_take_the_staircase_s_difficulty_from_the_rounds_before():
+    from app.games.rounds import staircase_rounds
+
+    plan = Plan("Game", (Block(shape="targets", game="reach", repetitions=1, duration_s=12.0,
+                               rest_s=0.0, rounds=3),))
+    console = FakeConsole()
+    runner = PlanRunner(plan, BASE, console, next_round=staircase_rounds())
+    runner.start(0.0)
+    built = []
+    for trial in (1, 2, 3):
+        params = console.building
+        built.append(params)
+        console.building = None
+        runner.built(0.0, True)
+        console.starting = None
+        runner.started(0.0, trial)
+        runner.finished(0.0, trial, "complete", 16, 12.0,
+                        figures={"game_hits": 8.0, "game_misses": 0.0})
+    assert console.ended == ("complete", "")
+    assert built[0].staircase != built[1].staircase != built[2].staircase
+    assert built[1] != built[0]  # every target hit: the next round is harder

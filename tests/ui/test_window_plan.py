@@ -1,0 +1,107 @@
+"""The session plan in the window (issue 30, the plan #4): a template copied to the patient
+and a block changed in the Plan tab's table; Start plan runs each round through the
+window's own Build and Start (the robot buttons' path, so the state machine's one truth
+holds), times the rest, and the E-STOP ends it at once. The real loop and recorder run
+behind the window; trials of one 2 s lap, rests of 1 s."""
+
+import pytest
+
+from app.reports.build import content_for_registry_trial
+from core.plan import Block, Plan
+from device.loop.states import State
+from tests.ui.session import click, open_window, register_patient, short_trial
+
+pytestmark = pytest.mark.slow
+
+PLAN = Plan("Two short blocks", (
+    Block(shape="d", repetitions=1, duration_s=2.0, rest_s=1.0, name="D"),
+    Block(shape="circle", repetitions=1, duration_s=2.0, rest_s=0.0, radius_m=0.08,
+          name="Circle"),
+))
+
+
+@pytest.fixture
+def window(qtbot, tmp_path, monkeypatch):
+    win = open_window(qtbot, tmp_path, monkeypatch)
+    yield win
+    win.close()
+
+
+def connected_with_plan(qtbot, win, plan=PLAN):
+    register_patient(qtbot, win)
+    code = win.patient.code
+    win.registry.save_plan(code, plan)
+    win.show_plan_of(code)
+    short_trial(win)
+    click(qtbot, win.robot.buttons["build"])
+    qtbot.waitUntil(lambda: win.state == State.BUILT, timeout=20000)
+    click(qtbot, win.robot.buttons["connect"])
+    qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=60000)
+    return code
+
+
+def test_a_template_copied_and_a_block_changed_in_the_plan_tab(qtbot, window):
+    win = window
+    tab = win.plan_tab
+    click(qtbot, tab.copy_button)
+    assert "Choose the patient first" in tab.refusal.text()
+    register_patient(qtbot, win)
+    tab.templates.setCurrentText("first-session")
+    click(qtbot, tab.copy_button)
+    first = win.registry.current_plan(win.patient.code)
+    assert first.template == "first-session"
+    assert tab.table.rowCount() == 3
+    tab.table.item(1, 7).setText("30")  # the circle's rest, s
+    today = win.registry.current_plan(win.patient.code)
+    assert today.based_on == first.id
+    assert today.plan.blocks[1].rest_s == 30.0
+    tab.table.item(0, 5).setText("140")  # a level of 140 %
+    assert "block 1.assistance_level = 1.4 is not allowed" in tab.refusal.text()
+    assert win.registry.current_plan(win.patient.code) == today
+    assert tab.table.item(0, 5).text() == "100"  # the cell shows the plan again
+
+
+def test_start_plan_runs_each_block_through_build_and_start_with_its_rest(qtbot, window):
+    win = window
+    code = connected_with_plan(qtbot, win)
+    click(qtbot, win.plan_tab.start_button)
+    assert win.plan_runner is not None
+    qtbot.waitUntil(lambda: win.plan_runner is not None and win.plan_runner.phase
+                    == "resting", timeout=120000)
+    assert win.plan_tab.status.text().startswith("Rest 0:01 after block 1 of 2")
+    # the form shows the trial the plan built: what ran is what the tab showed
+    qtbot.waitUntil(lambda: win.plan_runner is None, timeout=120000)
+    assert win.plan_tab.status.text().startswith("Plan complete (Block 2 of 2; 2 of 2 "
+                                                 "movements)")
+    (run,) = win.registry.plan_runs_for_patient(code)
+    assert run.status == "complete"
+    assert [(s.kind, s.block) for s in run.steps] == [("trial", 1), ("rest", 1), ("trial", 2)]
+    trials = [win.registry.trial(s.trial_id) for s in run.trial_steps()]
+    assert [t.status for t in trials] == ["complete", "complete"]
+    assert [t.parameters["shape"] for t in trials] == ["d", "circle"]
+    assert win.built.shape == "circle"
+    assert win.parameters_tab.parameters().shape == "circle"
+    assert win.state == State.CONNECTED
+    # the dose on the Progress tab and in the trial's report, from the files
+    qtbot.waitUntil(lambda: "Two short blocks (run 1): complete, 2 of 2 movements" in
+                    win.progress.dose.text(), timeout=30000)
+    header = dict((h.label, h.value) for h in
+                  content_for_registry_trial(win.registry, trials[1].id).therapist_header)
+    assert header["Plan"] == "Two short blocks (run 1), block 2 of 2: Circle"
+    assert header["Plan's dose"].startswith("2 of 2 movements, 0:0")
+
+
+def test_the_emergency_stop_in_a_rest_ends_the_plan_at_once(qtbot, window):
+    win = window
+    code = connected_with_plan(qtbot, win)
+    click(qtbot, win.plan_tab.start_button)
+    qtbot.waitUntil(lambda: win.plan_runner is not None and win.plan_runner.phase
+                    == "resting", timeout=120000)
+    win.emergency_stop()
+    qtbot.waitUntil(lambda: win.plan_runner is None, timeout=20000)
+    assert win.plan_tab.status.text().startswith("Plan ended by the emergency stop")
+    (run,) = win.registry.plan_runs_for_patient(code)
+    assert run.status == "emergency_stop"
+    assert [(s.kind, s.block) for s in run.steps] == [("trial", 1), ("rest", 1)]
+    qtbot.waitUntil(lambda: win.state == State.FAULTED, timeout=20000)
+    assert len(win.registry.trials_for_patient(code)) == 1  # nothing ran after

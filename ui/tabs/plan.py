@@ -1,0 +1,165 @@
+"""The Plan tab: today's session plan for the patient chosen. A template copied to the
+patient, the plan's blocks in a table (laps, pace, level, tolerance and rest changed in
+place for today: each change is kept as a new plan, the one before as it was), and the
+plan's own buttons: Start plan (after Build and Connect), Pause, Resume and Stop plan,
+with the plan's status line (block k of n, movements, the rest's countdown).
+
+Qt only: the window (ui.window.plan) keeps the registry, the runner and the robot.
+"""
+
+from __future__ import annotations
+
+import math
+
+from PySide6.QtCore import Signal
+from PySide6.QtWidgets import (
+    QComboBox,
+    QHBoxLayout,
+    QLabel,
+    QPushButton,
+    QTableWidget,
+    QTableWidgetItem,
+    QVBoxLayout,
+    QWidget,
+)
+
+from core.plan import Block, Plan
+
+COLUMNS = ("Block", "Exercise", "Laps", "Pace (s a lap)", "Mode", "Level (%)",
+           "Tolerance (°)", "Rest (s)")
+EDITABLE = {2: "repetitions", 3: "duration_s", 5: "assistance_level", 6: "tolerance_rad",
+            7: "rest_s"}
+"""Table column -> the block's field it changes (in the column's display unit)."""
+
+
+class PlanTab(QWidget):
+    copy_requested = Signal(str)
+    block_changed = Signal(int, object)  # block index, the changed Block
+    start_requested = Signal()
+    pause_requested = Signal()
+    resume_requested = Signal()
+    stop_requested = Signal()
+
+    def __init__(self, templates: list[str]) -> None:
+        super().__init__()
+        self.plan: Plan | None = None
+        self._loading = False
+        self.templates = QComboBox()
+        self.templates.addItems(templates)
+        self.copy_button = QPushButton("Copy to the patient")
+        self.copy_button.clicked.connect(
+            lambda: self.copy_requested.emit(self.templates.currentText()))
+        top = QHBoxLayout()
+        top.addWidget(QLabel("Template:"))
+        top.addWidget(self.templates, 1)
+        top.addWidget(self.copy_button)
+        self.title = QLabel("No patient chosen: choose one on the Registration tab.")
+        self.title.setWordWrap(True)
+        self.table = QTableWidget(0, len(COLUMNS))
+        self.table.setHorizontalHeaderLabels(COLUMNS)
+        self.table.itemChanged.connect(self._edited)
+        self.refusal = QLabel("")
+        self.refusal.setWordWrap(True)
+        self.refusal.setStyleSheet("color: #b00;")
+        self.start_button = QPushButton("Start plan")
+        self.pause_button = QPushButton("Pause")
+        self.resume_button = QPushButton("Resume")
+        self.stop_button = QPushButton("Stop plan")
+        for button, signal in ((self.start_button, self.start_requested),
+                               (self.pause_button, self.pause_requested),
+                               (self.resume_button, self.resume_requested),
+                               (self.stop_button, self.stop_requested)):
+            button.clicked.connect(signal.emit)
+        buttons = QHBoxLayout()
+        for button in (self.start_button, self.pause_button, self.resume_button,
+                       self.stop_button):
+            buttons.addWidget(button)
+        buttons.addStretch(1)
+        self.status = QLabel("")
+        self.status.setWordWrap(True)
+        self.status.setStyleSheet("font-weight: bold;")
+        column = QVBoxLayout(self)
+        column.addLayout(top)
+        column.addWidget(self.title)
+        column.addWidget(self.table, 1)
+        column.addWidget(self.refusal)
+        column.addLayout(buttons)
+        column.addWidget(self.status)
+        self.show_running(False, False)
+
+    def set_plan(self, plan: Plan | None, title: str) -> None:
+        """Show `plan` (None: none yet) under `title`."""
+        self.plan = plan
+        self.title.setText(title)
+        self.refusal.setText("")
+        self._loading = True
+        try:
+            blocks = plan.blocks if plan is not None else ()
+            self.table.setRowCount(len(blocks))
+            for row, block in enumerate(blocks):
+                for col, text in enumerate(_cells(row, block)):
+                    item = QTableWidgetItem(text)
+                    if col not in EDITABLE or (col == 2 and block.repetitions is None):
+                        item.setFlags(item.flags() & ~_editable_flag())
+                    self.table.setItem(row, col, item)
+        finally:
+            self._loading = False
+
+    def show_running(self, running: bool, paused: bool) -> None:
+        """Which of the plan's buttons apply."""
+        self.start_button.setEnabled(not running and self.plan is not None)
+        self.pause_button.setEnabled(running and not paused)
+        self.resume_button.setEnabled(running and paused)
+        self.stop_button.setEnabled(running)
+        self.copy_button.setEnabled(not running)
+        self.table.setEnabled(not running)
+
+    def show_refusal(self, text: str) -> None:
+        self.refusal.setText(text)
+
+    def _edited(self, item: QTableWidgetItem) -> None:
+        if self._loading or self.plan is None:
+            return
+        row, col = item.row(), item.column()
+        block = self.plan.blocks[row]
+        field = EDITABLE.get(col)
+        try:
+            value = float(item.text().replace(",", "."))
+        except ValueError:
+            self._refuse(row, f"block {row + 1}: {COLUMNS[col]} {item.text()!r} is not a number")
+            return
+        if field == "repetitions":
+            value = int(value) if value == int(value) else value
+        elif field == "assistance_level":
+            value = value / 100.0
+        elif field == "tolerance_rad":
+            value = math.radians(value)
+        try:
+            changed = Block.from_dict({**block.to_dict(), field: value}, f"block {row + 1}")
+        except Exception as exc:  # ParameterError: one line naming the block and field
+            self._refuse(row, str(exc))
+            return
+        self.refusal.setText("")
+        self.block_changed.emit(row, changed)
+
+    def _refuse(self, row: int, text: str) -> None:
+        self.refusal.setText(f"Not changed: {text}")
+        self.set_plan(self.plan, self.title.text())  # the cell shows the plan again
+        self.refusal.setText(f"Not changed: {text}")
+
+
+def _cells(row: int, block: Block) -> tuple[str, ...]:
+    laps = str(block.repetitions) if block.repetitions is not None else (
+        f"{block.laps} ({block.active_s / 60:g} min)")
+    exercise = block.shape + (f" ({block.game} game)" if block.game else "")
+    if block.rounds > 1:
+        exercise += f", {block.rounds} rounds"
+    return (f"{row + 1}. {block.name}".rstrip(". ") if block.name else str(row + 1), exercise,
+            laps, f"{block.duration_s:g}", block.assist, f"{block.assistance_level * 100:.0f}",
+            f"{math.degrees(block.tolerance_rad):.0f}", f"{block.rest_s:g}")
+
+
+def _editable_flag():
+    from PySide6.QtCore import Qt
+
+    return Qt.ItemFlag.ItemIsEditable

@@ -1,0 +1,245 @@
+"""The session plan in the window (a part of MainWindow): the Plan tab's template copied to
+the patient, a block changed for today, and the plan run by its runner
+(app.plans.runner.PlanRunner) through the window's own Build and Start, the same path as
+the robot buttons (one truth: the form shows each round's trial as it is built, and
+Start runs what Build built). Start plan needs the robot connected (Build, Connect, as
+for a trial); from then on each round is built, started and finished by itself, the
+rests are timed, Pause, Resume and Stop plan act, and the E-STOP or a fault end the plan
+at once. The runner is `plan_runner` while a plan runs (the patient's screen reads its
+state); the status line says block k of n, the movements and the rest's countdown.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+
+from PySide6.QtCore import QTimer
+
+from app.games.rounds import staircase_rounds
+from app.plans.dose import trial_dose
+from app.plans.runner import ENDED, PAUSED, PlanRunner
+from app.plans.templates import load_template, template_names
+from core.plan import check_plan
+from device.loop.states import State
+from device.safety.faults import Fault
+from ui.tabs.plan import PlanTab
+
+log = logging.getLogger("ui.main_window")
+PLAN_TICK_MS = 100
+
+
+class WindowConsole:
+    """What the runner asks of the window: its Build and Start (the robot buttons' own
+    methods), the loop's Stop, and the registry's record of the run."""
+
+    def __init__(self, window, run_id: int) -> None:
+        self.window = window
+        self.run_id = run_id
+
+    def build(self, parameters) -> None:
+        w = self.window
+        w.parameters_tab.set_parameters(parameters)
+        w._pending_build = None
+        w.build()  # the Build button's path: the form, checked, to the loop
+        if w._pending_build is None:  # refused before the loop was asked
+            last = w.messages.last
+            w.plan_runner.built(time.monotonic(), False, last.text if last else "refused")
+
+    def start(self, block: int, round_: int) -> None:
+        w = self.window
+        w.start_trial()  # the Start button's path: registered, then started
+        if w.trial_id is None:
+            last = w.messages.last
+            w.plan_runner.refused(time.monotonic(), last.text if last else "refused")
+
+    def stop(self) -> None:
+        if self.window.state == State.RUNNING:
+            self.window.bridge.stop()
+
+    def record_trial(self, block, round_, trial_id, planned_s) -> None:
+        self.window.registry.record_plan_trial(self.run_id, block, round_, trial_id,
+                                               planned_s)
+
+    def record_rest(self, block, planned_s, taken_s) -> None:
+        self.window.registry.record_plan_rest(self.run_id, block, planned_s, taken_s)
+
+    def end(self, status: str, reason: str) -> None:
+        self.window.registry.end_plan_run(self.run_id, status, reason)
+        log.info("plan run %d ended: %s %s", self.run_id, status, reason)
+
+
+class PlanControl:
+    """The Plan tab and the plan's run (a part of MainWindow)."""
+
+    plan_runner: PlanRunner | None = None
+    stored_plan = None
+
+    def _build_plan_tab(self) -> PlanTab:
+        self.plan_runner = None
+        self.stored_plan = None
+        self.plan_tab = PlanTab(template_names())
+        t = self.plan_tab
+        t.copy_requested.connect(self._copy_template)
+        t.block_changed.connect(self._change_block)
+        t.start_requested.connect(self.start_plan)
+        t.pause_requested.connect(lambda: self._plan_command("pause"))
+        t.resume_requested.connect(lambda: self._plan_command("resume"))
+        t.stop_requested.connect(self.stop_plan)
+        return t
+
+    def _connect_plan(self) -> None:
+        """The loop's answers to the plan, each after the window has taken it (the
+        window's Build sets the built trial the plan's Start then runs)."""
+        self.plan_timer = QTimer(self)
+        self.plan_timer.setInterval(PLAN_TICK_MS)
+        self.plan_timer.timeout.connect(self._plan_tick)
+        b = self.bridge
+        b.trial_started.connect(self._plan_trial_started)
+        b.trial_ended.connect(lambda *_: self._plan_event("trial_ended"))
+        b.fault_raised.connect(self._plan_fault)
+        b.loop_lost.connect(lambda message: self._plan_event("fault", message))
+        b.replied.connect(self._plan_reply)
+        self.registration_tab.patient_selected.connect(lambda p: self.show_plan_of(p.code))
+
+    # ------------------------------------------------------------------ the plan
+    def show_plan_of(self, code: str) -> None:
+        self.stored_plan = self.registry.current_plan(code)
+        stored = self.stored_plan
+        if stored is None:
+            self.plan_tab.set_plan(None, f"Patient {code} has no plan yet: copy a template "
+                                         "to them.")
+        else:
+            origin = f", changed from plan {stored.based_on}" if stored.based_on else ""
+            self.plan_tab.set_plan(stored.plan, f"Plan {stored.id} of patient {code}: "
+                                                f"{stored.plan.name}{origin}")
+        self._show_plan_buttons()
+
+    def _copy_template(self, name: str) -> None:
+        if self.patient is None:
+            self.plan_tab.show_refusal("Choose the patient first (Registration tab).")
+            return
+        try:
+            template = load_template(name)
+            self.registry.save_plan(self.patient.code, template.plan, template=name)
+        except Exception as exc:  # TemplateError, RegistryError: one line
+            self.plan_tab.show_refusal(f"Not copied: {exc}")
+            return
+        self.show_plan_of(self.patient.code)
+
+    def _change_block(self, index: int, block) -> None:
+        try:
+            self.registry.change_block(self.stored_plan.id, index, block)
+        except Exception as exc:  # InvalidRecordError: one line
+            self.plan_tab.show_refusal(f"Not changed: {exc}")
+            return
+        self.show_plan_of(self.patient.code)
+
+    def start_plan(self) -> None:
+        """Start plan: the plan's first round built and started by the runner; the robot
+        must be connected (Build, Connect) and the patient registered, as for a trial."""
+        why = ""
+        if self.stored_plan is None or self.patient is None:
+            why = "choose the patient and give them a plan first"
+        elif self.registration is None:
+            why = "confirm the patient's session on the Registration tab first"
+        elif self.latch.holds_robot():
+            why = self.latch.holds_robot()
+        elif self.state != State.CONNECTED:
+            why = "connect the robot first (Build, then Connect, hands off the handle)"
+        if not why:
+            try:
+                base = self.parameters_tab.parameters()
+            except Exception as exc:  # the form's own refusal
+                why = f"the Parameters tab: {exc}"
+            else:
+                problems = check_plan(self.stored_plan.plan, base)
+                why = problems[0] if problems else ""
+        if why:
+            self._say(f"Start plan refused: {why}.", problem=True)
+            self.plan_tab.show_refusal(f"Start plan refused: {why}.")
+            return
+        run_id = self.registry.begin_plan_run(self.stored_plan.id)
+        self.plan_runner = PlanRunner(self.stored_plan.plan, base,
+                                      WindowConsole(self, run_id),
+                                      next_round=staircase_rounds())
+        self.plan_tab.show_refusal("")
+        self.plan_timer.start()
+        self.plan_runner.start(time.monotonic())
+        self._show_plan_buttons()
+
+    def stop_plan(self) -> None:
+        if self.plan_runner is not None:
+            self.plan_runner.stop(time.monotonic())
+            self._plan_tick()
+
+    def _plan_command(self, what: str) -> None:
+        if self.plan_runner is not None:
+            getattr(self.plan_runner, what)(time.monotonic())
+            self._plan_tick()
+
+    def emergency_stop(self) -> None:
+        super().emergency_stop()
+        self._plan_event("emergency_stop", "emergency stop pressed")
+
+    # ------------------------------------------------------------------ the loop's answers
+    def _plan_event(self, what: str, *args) -> None:
+        runner = self.plan_runner
+        if runner is not None:
+            getattr(runner, what)(time.monotonic(), *args)
+            self._plan_tick()
+
+    def _plan_reply(self, command: str, ok: bool, message: str) -> None:
+        if command == "build":
+            self._plan_event("built", ok, message)
+        elif command == "start_trial" and not ok:
+            self._plan_event("refused", message)
+
+    def _plan_trial_started(self, *_args) -> None:
+        if self.trial_id is not None:
+            self._plan_event("started", self.trial_id)
+
+    def _plan_fault(self, code: int, message: str, *_args) -> None:
+        if int(code) == int(Fault.ESTOP):
+            self._plan_event("emergency_stop", message)
+        else:
+            self._plan_event("fault", message)
+
+    def _finalized(self, trial_id: int, done) -> None:
+        super()._finalized(trial_id, done)
+        runner = self.plan_runner
+        if runner is None:
+            return
+        try:
+            dose = trial_dose(done.path)
+            movements, active = dose.movements, dose.active_s
+        except Exception as exc:  # said, never silently zero
+            self._say(f"Trial {trial_id} counts no movement in the plan: {exc}", problem=True)
+            movements, active = 0, 0.0
+        figures = done.analysis.to_metrics() if done.analysis is not None else None
+        runner.finished(time.monotonic(), trial_id, done.status, movements, active, figures,
+                        done.proposal)
+        self._plan_tick()
+
+    def _plan_tick(self) -> None:
+        runner = self.plan_runner
+        if runner is None:
+            return
+        now = time.monotonic()
+        runner.tick(now)
+        state = runner.state(now)
+        self.plan_tab.status.setText(state.line())
+        if state.phase == ENDED and self.trial_id is None and runner.trial_id is None:
+            self.plan_timer.stop()
+            self._say(state.line(), problem=state.outcome not in ("complete",))
+            self.plan_runner = None
+            if self.patient is not None:
+                self.show_plan_of(self.patient.code)
+                self.progress.set_patient(self.patient.code)  # the run's dose, as it ended
+            self.plan_tab.status.setText(state.line())
+        self._show_plan_buttons()
+
+    def _show_plan_buttons(self) -> None:
+        runner = self.plan_runner
+        self.plan_tab.show_running(runner is not None, runner is not None and
+                                   runner.phase == PAUSED)
