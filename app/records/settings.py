@@ -77,6 +77,7 @@ _CHECKS: dict[str, tuple[Callable[[object], bool], str]] = {
     "robot": (_robot_choice, '"simulator" or "hardware"'),
     "virtual_patient": (_optional_text, "a virtual patient's kind (healthy, weak, …), or null"),
     "hardware_settings": (_optional_text, "the hardware settings file's path, or null"),
+    "patient_screen": (_optional_object, "an object of the patient's screen's options, or null"),
 }
 
 
@@ -93,6 +94,9 @@ class Settings:
     robot, virtual_patient, hardware_settings: the robot the Parameters tab last chose
         ("simulator" with its virtual patient's kind, or "hardware" with its settings
         file), so a restart does not quietly go back to a healthy virtual patient.
+    patient_screen: the patient's screen's options (ui.views.patient_screen.PatientOptions
+        .to_dict(): mirrored, turned, what it shows), checked by the window when it reads
+        them.
     extra: keys written by another version of the console, kept untouched.
     """
 
@@ -104,6 +108,7 @@ class Settings:
     robot: str = "simulator"
     virtual_patient: str | None = None
     hardware_settings: str | None = None
+    patient_screen: dict | None = None
     extra: dict = field(default_factory=dict, repr=False)
     damaged: str | None = field(default=None, compare=False)
     """The damaged settings file kept aside whose data folder could not be read back, or

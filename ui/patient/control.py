@@ -132,6 +132,19 @@ class PatientScreenControl:
         if window is not None:
             window.deleteLater()
 
+    def restore_patient_options(self, saved: dict | None) -> None:
+        """The options the settings kept (Settings.patient_screen); options that no longer
+        read are said in one line and the defaults used."""
+        if saved is None:
+            return
+        try:
+            self.patient_options = PatientOptions.from_dict(saved)
+        except ValueError as exc:
+            self.patient_options = PatientOptions()
+            self._say(f"The patient's screen's saved options were not used ({exc}); it "
+                      "starts as the patient sees the table. Set them again in its menu.",
+                      problem=True)
+
     def set_patient_options(self, **changes) -> None:
         self.patient_options = self.patient_options.replace(**changes)
         if self.patient_window is not None:

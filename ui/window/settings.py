@@ -35,6 +35,7 @@ class RememberedSettings:
             HARDWARE if s.robot == "hardware" else SIMULATOR, patient_kind=s.virtual_patient,
             settings_path=Path(s.hardware_settings) if s.hardware_settings else None))
         self.trajectory.set_flip(s.flip_x, s.flip_y)
+        self.restore_patient_options(s.patient_screen)
 
     def closeEvent(self, event) -> None:
         if self.state == State.RUNNING and not self.closing_by_signal:
@@ -47,7 +48,7 @@ class RememberedSettings:
         geometry = base64.b64encode(bytes(self.saveGeometry())).decode("ascii")
         choice = self.parameters_tab.backend()
         settings = self.settings.replace(
-            window_geometry=geometry,
+            window_geometry=geometry, patient_screen=self.patient_options.to_dict(),
             robot="hardware" if choice.name == HARDWARE else "simulator",
             virtual_patient=choice.patient_kind or self.settings.virtual_patient,
             hardware_settings=(str(choice.settings_path) if choice.settings_path

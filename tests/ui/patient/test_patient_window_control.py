@@ -128,3 +128,27 @@ def test_the_neglected_side_is_cued_on_the_edge_of_the_screen_towards_it(
     patient.show_parameters(params)
     patient.grab()
     assert patient.painted["attention"] is None
+
+
+def test_the_patient_screen_s_options_are_kept_for_the_next_start(qtbot, tmp_path, monkeypatch):
+    first = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
+    first.set_patient_options(mirror=True, rotation_deg=180, previous_path=False)
+    first.close()
+    again = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
+    assert again.patient_options == PatientOptions(mirror=True, rotation_deg=180,
+                                                   previous_path=False)
+    assert again.open_patient_screen().options == again.patient_options
+    again.close()
+
+
+def test_saved_options_that_no_longer_read_are_said_and_not_used(qtbot, tmp_path, monkeypatch):
+    import json
+
+    settings = tmp_path / "config" / "settings.json"
+    settings.parent.mkdir(parents=True)
+    settings.write_text(json.dumps({"patient_screen": {"rotation_deg": 45}}))
+    win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
+    assert win.patient_options == PatientOptions()
+    assert ("The patient's screen's saved options were not used (patient screen rotation 45: "
+            "give 0, 90, 180 or 270 (degrees))") in win.message.text()
+    win.close()
