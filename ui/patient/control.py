@@ -31,6 +31,7 @@ class PatientScreenControl:
 
     patient_window: PatientWindow | None = None
     patient_options: PatientOptions = PatientOptions()
+    _patient_size_warned = False
 
     def _build_patient_button(self) -> QToolButton:
         self.patient_button = QToolButton()
@@ -96,6 +97,7 @@ class PatientScreenControl:
         if self.patient_window is None:
             self.patient_window = PatientWindow(self.patient_options)
             self.patient_window.closed.connect(self._patient_screen_closed)
+            self.patient_window.size_said.connect(self._patient_screen_size)
         window = self.patient_window
         screens = QGuiApplication.screens()
         if screen_index is not None and 0 <= screen_index < len(screens):
@@ -115,6 +117,13 @@ class PatientScreenControl:
             window.show()
         self._feed_patient_screen()
         return window
+
+    def _patient_screen_size(self, words: str, too_small: bool) -> None:
+        """Said once each way: the first time the letters are too small, and when they are
+        readable again (not the first time they are readable)."""
+        if too_small or self._patient_size_warned:
+            self._patient_size_warned = too_small
+            self._say(words, problem=too_small)
 
     def toggle_patient_full_screen(self) -> None:
         window = self.patient_window or self.open_patient_screen()

@@ -31,6 +31,7 @@ from ui.patient.game_paint import paint_game_layout, paint_game_state
 from ui.patient.sound import Tone
 from ui.views.patient_game import GameFeed
 from ui.views.patient_geometry import (
+    MIN_LETTER_MM,
     Placement,
     Rect,
     ScreenLayout,
@@ -72,6 +73,9 @@ class PatientWindow(QWidget):
     tests that compare it with the trial file."""
 
     closed = Signal()
+    size_said = Signal(str, bool)
+    """(words, too small) when the letters' height crosses MIN_LETTER_MM as the window is
+    resized or moved to another screen: the therapist is told, once each way."""
 
     def __init__(self, options: PatientOptions | None = None) -> None:
         super().__init__(None, Qt.WindowType.Window | Qt.WindowType.WindowDoesNotAcceptFocus)
@@ -93,6 +97,7 @@ class PatientWindow(QWidget):
         self._attention: str | None = None
         self._texts: dict = {}
         self.plan: PlanOverlay | None = None  # the session plan's part, while one runs
+        self._readable: bool | None = None  # the letters were readable at 1.5 m, when known
 
     # -- content ------------------------------------------------------------------
     def set_options(self, options: PatientOptions) -> None:
@@ -397,6 +402,24 @@ class PatientWindow(QWidget):
         else:
             x = rect.left()
         painter.drawPixmap(QPointF(x, rect.top() + 0.5 * (rect.height() - height)), pixmap)
+
+    def resizeEvent(self, event) -> None:
+        super().resizeEvent(event)
+        self._check_size()
+
+    def _check_size(self) -> None:
+        bands = self.screen_layout()
+        if bands.readable == self._readable:
+            return
+        self._readable = bands.readable
+        if bands.readable:
+            self.size_said.emit(f"The patient's screen's letters are {bands.letter_mm:.0f} mm "
+                                "high: readable from 1.5 m.", False)
+        else:
+            self.size_said.emit(
+                f"The patient's screen's letters are only {bands.letter_mm:.0f} mm high, too "
+                f"small to read from 1.5 m (give {MIN_LETTER_MM:.0f} mm): put it full screen "
+                "(F11) or on a larger monitor.", True)
 
     def closeEvent(self, event) -> None:
         if self.tone is not None:

@@ -152,3 +152,19 @@ def test_saved_options_that_no_longer_read_are_said_and_not_used(qtbot, tmp_path
     assert ("The patient's screen's saved options were not used (patient screen rotation 45: "
             "give 0, 90, 180 or 270 (degrees))") in win.message.text()
     win.close()
+
+
+def test_the_therapist_is_told_when_the_patient_s_letters_are_too_small(qtbot, window):
+    patient = window.open_patient_screen()
+    qtbot.waitExposed(patient)
+    mm_per_px = patient.mm_per_px()
+    # a window too short for 20 mm letters, then one tall enough
+    small = round(0.5 * 20.0 / mm_per_px / 0.7 * 1.3 / 0.14)
+    patient.resize(4 * small, small)
+    qtbot.waitUntil(lambda: "too small to read from 1.5 m" in window.message.text(),
+                    timeout=2000)
+    assert "put it full screen (F11)" in window.message.text()
+    big = round(1.2 * 20.0 / mm_per_px / 0.7 * 1.3 / 0.14)
+    patient.resize(2 * big, big)
+    qtbot.waitUntil(lambda: "readable from 1.5 m" in window.message.text(), timeout=2000)
+    assert not patient.screen_layout().letter_mm < 20.0
