@@ -308,3 +308,40 @@ def rig_config(pytestconfig: pytest.Config) -> RigConfig:
     if rig is None:
         pytest.fail("a [rig] test ran without --quanser-board or --nidaq-device", pytrace=False)
     return rig
+
+
+# -- synthetic EMG subject 1, recorded and its model checked once for the run ------------------
+
+@pytest.fixture(scope="session")
+def emg_subject_1(tmp_path_factory) -> tuple[Path, ...]:
+    """Synthetic subject 1's session of three trials with a 30° cone
+    (tests.emg_subjects.record_session), recorded once for the run (about 5 s idle, 17 s
+    at load 8): the tests of the EMG estimate, the `rehab emg model` command and the
+    window's EMG trials read it, none may change it. Its files' digests are checked when
+    the run ends: a change is an error naming them."""
+    import hashlib
+
+    from tests.emg_subjects import record_session
+
+    session = tuple(record_session(tmp_path_factory.mktemp("emg-subject-1")))
+
+    def digests() -> dict[str, str]:
+        return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in session}
+
+    recorded = digests()
+    yield session
+    changed = [name for name, digest in digests().items() if recorded[name] != digest]
+    assert not changed, f"a test changed the shared EMG session's files {changed}: copy them"
+
+
+@pytest.fixture(scope="session")
+def emg_model_1(emg_subject_1):
+    """The network EMG model of subject 1 for the assistance, checked on the session with
+    its last trial held out and replayed at the live source's latency (app.emg.validation.
+    check_model; about 7 s idle, 24 s at load 8), once for the run."""
+    from app.emg.feed import SyntheticEmgFeed
+    from app.emg.subjects import Subject
+    from app.emg.validation import check_model
+
+    return check_model(list(emg_subject_1), "network", test=[emg_subject_1[-1]],
+                       as_live=True, latency_s=SyntheticEmgFeed.latency_of(Subject.drawn(1)))

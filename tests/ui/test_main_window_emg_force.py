@@ -11,15 +11,12 @@ import h5py
 import numpy as np
 import pytest
 
-from app.emg.feed import SyntheticEmgFeed
 from app.emg.modelfile import save_approved
-from app.emg.subjects import Subject
-from app.emg.validation import check_model
 from app.records.datadir import DataDir
 from core.emg.force import in_cone
 from core.emg.synthetic import THESIS_MUSCLES
 from device.loop.states import State
-from tests.emg_subjects import WIDE_CONE_RAD, record_session
+from tests.emg_subjects import WIDE_CONE_RAD
 from tests.ui.session import (
     build_connect_start,
     click,
@@ -36,11 +33,10 @@ fake = fake_trigno()
 
 
 @pytest.fixture(scope="module")
-def approved(tmp_path_factory):
-    """An EMG model of synthetic subject 1 that passed, for a 30° cone."""
-    session = record_session(tmp_path_factory.mktemp("subject"))
-    return check_model(session, "network", test=[session[-1]], as_live=True,
-                       latency_s=SyntheticEmgFeed.latency_of(Subject.drawn(1)))
+def approved(emg_model_1):
+    """An EMG model of synthetic subject 1 that passed, for a 30° cone (checked once for
+    the run: tests/conftest.py)."""
+    return emg_model_1
 
 
 def _choose(qtbot, win, name: str, duration_s: float = 2.0) -> None:

@@ -10,7 +10,6 @@ import pytest
 from app.emg.session import Contraction, session_mvc
 from app.emg.subjects import Subject, record_trial, write_contractions
 from tests.app.cli.running import run
-from tests.emg_subjects import record_session
 from tests.trialfiles import edited
 
 pytestmark = pytest.mark.usefixtures("data")  # the folders of tests/app/cli/conftest.py
@@ -71,9 +70,10 @@ def test_a_model_whose_torques_pass_is_still_refused_when_its_force_misjudges_th
 
 
 @pytest.fixture(scope="module")
-def wide(tmp_path_factory):
-    """Subject 1's session with a 30° cone: the cone its EMG estimate is shown to judge."""
-    return record_session(tmp_path_factory.mktemp("wide"))
+def wide(emg_subject_1):
+    """Subject 1's session with a 30° cone: the cone its EMG estimate is shown to judge
+    (recorded once for the run: tests/conftest.py)."""
+    return list(emg_subject_1)
 
 
 def test_a_passing_model_is_saved_and_feeds_a_trial_s_assistance(wide, data, capsys):

@@ -16,7 +16,7 @@ from app.emg.estimate import replay_trial
 from app.emg.feed import SyntheticEmgFeed
 from app.emg.modelfile import emg_model, read_emg_model, save_approved
 from app.emg.subjects import Subject
-from app.emg.validation import ModelNotApproved, check_model
+from app.emg.validation import ModelNotApproved
 from app.learning.modelfile import ModelFileError, content_hash
 from app.trials.headless import simulate_to_file
 from app.trials.reader import read_trial
@@ -24,7 +24,7 @@ from core.emg.force import in_cone
 from core.emg.models import FeedForwardNetwork
 from core.trial import THESIS_SUBJECT
 from device.loop.pipeline import PERIOD_S
-from tests.emg_subjects import WIDE_CONE_RAD, record_session
+from tests.emg_subjects import WIDE_CONE_RAD
 from tests.trialfiles import edited
 
 SUBJECT = Subject.drawn(1)
@@ -32,14 +32,13 @@ LATENCY = SyntheticEmgFeed.latency_of(SUBJECT)
 
 
 @pytest.fixture(scope="module")
-def session(tmp_path_factory):
-    return record_session(tmp_path_factory.mktemp("session"))
+def session(emg_subject_1):
+    return list(emg_subject_1)  # recorded once for the run (tests/conftest.py)
 
 
 @pytest.fixture(scope="module")
-def checked(session):
-    return check_model(session, "network", test=[session[-1]], as_live=True,
-                       latency_s=LATENCY)
+def checked(emg_model_1):
+    return emg_model_1  # subject 1's model at LATENCY, checked once for the run
 
 
 @pytest.fixture(scope="module")
