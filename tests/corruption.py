@@ -754,11 +754,17 @@ def timestamps_edits(corrupter: Corrupter, original: Path) -> list[Case]:
 # -- the originals ---------------------------------------------------------------------------
 
 
-def make_originals(folder: Path) -> dict[str, list[Path]]:
+def make_originals(folder: Path, *, session=None, checked=None) -> dict[str, list[Path]]:
     """One file of each type as the console writes or reads it: a trial with EMG, its MVCs
     and a pose from its video (and the video with its timestamps), a headless as-needed
     trial, a learned model and an approved EMG model (signed here), a Trigno export and a
-    plain EMG CSV, an MVC contraction, the settings, a registry with a patient and a trial."""
+    plain EMG CSV, an MVC contraction, the settings, a registry with a patient and a trial.
+
+    `session`: synthetic subject 1's recorded session (tests.emg_subjects.record_session),
+    whose folder is copied here (its first trial is then given a pose: the copy, never the
+    session given); recorded here without it. `checked`: an EMG model checked on that
+    session (app.emg.validation.check_model), checked here without it. The suite passes
+    the run's (tests/conftest.py emg_subject_1, emg_model_1)."""
     from app.emg.modelfile import save_approved
     from app.emg.subjects import Subject
     from app.emg.validation import check_model
@@ -778,8 +784,12 @@ def make_originals(folder: Path) -> dict[str, list[Path]]:
     folder.mkdir(parents=True, exist_ok=True)
     out: dict[str, list[Path]] = {}
 
-    (folder / "session").mkdir()
-    session = record_session(folder / "session")
+    if session is None:
+        (folder / "session").mkdir()
+        session = record_session(folder / "session")
+    else:
+        shutil.copytree(Path(session[0]).parent, folder / "session")
+        session = [folder / "session" / Path(path).name for path in session]
     trial = session[0]
     filmed = film(read_trial(trial), seed=1, origin_s=100.0)
     video = write_video(trial.with_suffix(".avi"), filmed.stamps_s)
@@ -801,9 +811,9 @@ def make_originals(folder: Path) -> dict[str, list[Path]]:
     out["model"] = [write_model(models / "fnn.json", "fnn", spec, params,
                                 {"system": "rehab-robot-simulator", "dof": 2}, {}, {})]
     from tests.emg_subjects import WIDE_CONE_RAD  # noqa: F401 - the session's cone
-    latency = 0.0
-    checked = check_model(session, "network", test=[session[-1]], as_live=True,
-                          latency_s=latency)
+    if checked is None:
+        checked = check_model(session, "network", test=[session[-1]], as_live=True,
+                              latency_s=0.0)
     out["emg-model"] = [save_approved(models, "s1", checked)]
 
     subject = Subject.drawn(1)

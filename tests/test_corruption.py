@@ -18,9 +18,11 @@ SEED = 28
 
 
 @pytest.fixture(scope="module")
-def results(tmp_path_factory):
+def results(tmp_path_factory, emg_subject_1, emg_model_1):
     folder = tmp_path_factory.mktemp("corruption")
-    originals = corruption.make_originals(folder / "originals")
+    # subject 1's session and model as the run made them once (tests/conftest.py), copied
+    originals = corruption.make_originals(folder / "originals", session=emg_subject_1,
+                                          checked=emg_model_1)
     cases = corruption.make_cases(originals, folder / "cases", per_file=2, seed=SEED)
     config = Path(os.environ["REHAB_CONFIG_DIR"])  # whose key signed the models
     return corruption.run(cases, timeout_s=30.0, env=corruption.environment(config))
