@@ -87,7 +87,7 @@ def test_the_console_feeds_its_plan_runner_s_state(qtbot, tmp_path, monkeypatch)
             return _state(phase="resting", rest_left_s=10.0)
 
     patient = win.open_patient_screen()
-    qtbot.waitExposed(patient)
+    qtbot.waitExposed(patient, timeout=20000)
     assert patient.plan is None
     win.plan_runner = Runner()
     win._repaint()

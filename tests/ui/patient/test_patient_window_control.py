@@ -16,7 +16,7 @@ from ui.views.patient_screen import CUE_WAIT, PatientOptions
 def window(qtbot, tmp_path, monkeypatch):
     win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
     win.activateWindow()
-    qtbot.waitUntil(lambda: QApplication.activeWindow() is win, timeout=5000)
+    qtbot.waitUntil(lambda: QApplication.activeWindow() is win, timeout=20000)
     yield win
     win.close()
 
@@ -27,7 +27,7 @@ def test_the_e_stop_keys_reach_the_console_with_the_patient_screen_open(qtbot, w
     sent = []  # what the loop's e-stop flag was given (no loop runs in this test)
     monkeypatch.setattr(window.bridge, "estop", sent.append)
     patient = window.open_patient_screen()
-    qtbot.waitExposed(patient)
+    qtbot.waitExposed(patient, timeout=20000)
     assert patient.windowFlags() & Qt.WindowType.WindowDoesNotAcceptFocus
     assert patient.testAttribute(Qt.WidgetAttribute.WA_ShowWithoutActivating)
     assert QApplication.activeWindow() is window  # showing it took nothing from the console
@@ -47,8 +47,8 @@ def test_the_e_stop_keys_reach_the_console_with_the_patient_screen_open(qtbot, w
 
 def test_the_patient_screen_closes_on_its_own_and_opens_again(qtbot, window):
     patient = window.open_patient_screen()
-    qtbot.waitExposed(patient)
-    with qtbot.waitSignal(patient.closed, timeout=2000):
+    qtbot.waitExposed(patient, timeout=20000)
+    with qtbot.waitSignal(patient.closed, timeout=20000):
         patient.close()
     assert window.patient_window is None
     again = window.open_patient_screen()
@@ -61,8 +61,8 @@ def test_the_patient_screen_closes_with_the_console(qtbot, window):
     window.set_patient_options(mirror=True, rotation_deg=90)
     patient = window.open_patient_screen()
     assert patient.options == PatientOptions(mirror=True, rotation_deg=90)
-    qtbot.waitExposed(patient)
-    with qtbot.waitSignal(patient.closed, timeout=2000):
+    qtbot.waitExposed(patient, timeout=20000)
+    with qtbot.waitSignal(patient.closed, timeout=20000):
         window.close()
     assert window.patient_window is None
     assert not shiboken6.isValid(patient)  # closed and deleted, nothing left behind
@@ -70,11 +70,11 @@ def test_the_patient_screen_closes_with_the_console(qtbot, window):
 
 def test_f11_puts_the_patient_screen_full_screen_and_back(qtbot, window):
     patient = window.open_patient_screen()
-    qtbot.waitExposed(patient)
+    qtbot.waitExposed(patient, timeout=20000)
     qtbot.keyClick(QApplication.focusWidget() or window, Qt.Key.Key_F11)
-    qtbot.waitUntil(patient.isFullScreen, timeout=2000)
+    qtbot.waitUntil(patient.isFullScreen, timeout=20000)
     qtbot.keyClick(QApplication.focusWidget() or window, Qt.Key.Key_F11)
-    qtbot.waitUntil(lambda: not patient.isFullScreen(), timeout=2000)
+    qtbot.waitUntil(lambda: not patient.isFullScreen(), timeout=20000)
     assert QApplication.activeWindow() is window
 
 
@@ -156,15 +156,15 @@ def test_saved_options_that_no_longer_read_are_said_and_not_used(qtbot, tmp_path
 
 def test_the_therapist_is_told_when_the_patient_s_letters_are_too_small(qtbot, window):
     patient = window.open_patient_screen()
-    qtbot.waitExposed(patient)
+    qtbot.waitExposed(patient, timeout=20000)
     mm_per_px = patient.mm_per_px()
     # a window too short for 20 mm letters, then one tall enough
     small = round(0.5 * 20.0 / mm_per_px / 0.7 * 1.3 / 0.14)
     patient.resize(4 * small, small)
     qtbot.waitUntil(lambda: "too small to read from 1.5 m" in window.message.text(),
-                    timeout=2000)
+                    timeout=20000)
     assert "put it full screen (F11)" in window.message.text()
     big = round(1.2 * 20.0 / mm_per_px / 0.7 * 1.3 / 0.14)
     patient.resize(2 * big, big)
-    qtbot.waitUntil(lambda: "readable from 1.5 m" in window.message.text(), timeout=2000)
+    qtbot.waitUntil(lambda: "readable from 1.5 m" in window.message.text(), timeout=20000)
     assert not patient.screen_layout().letter_mm < 20.0
