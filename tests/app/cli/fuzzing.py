@@ -79,8 +79,10 @@ class Scratch:
         for part in ("home", "config", "tmp", "cwd", "inputs", "outputs"):
             (folder / part).mkdir(parents=True, exist_ok=True)
         data = folder / "data"
+        # not the suite's XLA cache either (tests/conftest.py): a fuzzed run writes nowhere
+        # outside this folder
         env = {k: v for k, v in os.environ.items()
-               if not k.startswith(("REHAB_", "XDG_")) and k not in ("HOME", "TMPDIR")}
+               if not k.startswith(("REHAB_", "XDG_", "JAX_")) and k not in ("HOME", "TMPDIR")}
         (folder / "lsl.cfg").write_text(LOOPBACK_CONFIG)
         env.update(HOME=str(home), TMPDIR=str(folder / "tmp"), REHAB_DATA_DIR=str(data),
                    REHAB_CONFIG_DIR=str(folder / "config"),
