@@ -36,7 +36,14 @@ if not os.environ.get("REHAB_CONFIG_DIR"):
 if not os.environ.get("JAX_COMPILATION_CACHE_DIR"):
     os.environ["JAX_COMPILATION_CACHE_DIR"] = tempfile.mkdtemp(prefix="rehab-tests-xla-")
     os.environ["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"] = "0"
-    atexit.register(shutil.rmtree, os.environ["JAX_COMPILATION_CACHE_DIR"], True)
+
+    def _remove_xla_cache(folder: str = os.environ["JAX_COMPILATION_CACHE_DIR"],
+                          owner: int = os.getpid()) -> None:
+        """At the run's end; not by a child forked from it that exits through Python."""
+        if os.getpid() == owner:
+            shutil.rmtree(folder, ignore_errors=True)
+
+    atexit.register(_remove_xla_cache)
 
 import tempfile
 from pathlib import Path
