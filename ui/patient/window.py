@@ -18,7 +18,6 @@ from PySide6.QtCore import QPointF, QRectF, Qt, Signal
 from PySide6.QtGui import (
     QColor,
     QFont,
-    QFontMetrics,
     QGuiApplication,
     QPainter,
     QPainterPath,
@@ -29,6 +28,7 @@ from PySide6.QtWidgets import QWidget
 
 from ui.patient.game_paint import paint_game_layout, paint_game_state
 from ui.patient.sound import Tone
+from ui.patient.text import fitted_px, qrect, sized, text_pixmap, thirds
 from ui.views.patient_game import GameFeed
 from ui.views.patient_geometry import (
     MIN_LETTER_MM,
@@ -207,23 +207,23 @@ class PatientWindow(QWidget):
         font = QFont(self.font())
         font.setPixelSize(bands.text_px)
         font.setBold(True)
-        top = _thirds(bands.top)[0]
+        top = thirds(bands.top)[0]
         self._text(painter, top, Qt.AlignmentFlag.AlignLeft, plan.block_text,
-                   _fitted_px(font, top, plan.block_text), TEXT)
+                   fitted_px(font, top, plan.block_text), TEXT)
         self.painted["top"] = (plan.block_text, "", "")
-        area = _qrect(bands.table)
+        area = qrect(bands.table)
         words = QRectF(area.left(), area.top(), area.width(), 0.4 * area.height())
         count = QRectF(area.left(), words.bottom(), area.width(), 0.6 * area.height())
         self._text(painter, words, Qt.AlignmentFlag.AlignHCenter, plan.centre,
-                   min(2 * bands.text_px, _fitted_px(_sized(font, 2 * bands.text_px), words,
+                   min(2 * bands.text_px, fitted_px(sized(font, 2 * bands.text_px), words,
                                                      plan.centre)), TEXT)
         if plan.countdown:
             size = min(int(0.8 * count.height()), 4 * bands.text_px)
             self._text(painter, count, Qt.AlignmentFlag.AlignHCenter, plan.countdown,
-                       _fitted_px(_sized(font, size), count, plan.countdown), GO)
-        bottom = _qrect(bands.bottom)
+                       fitted_px(sized(font, size), count, plan.countdown), GO)
+        bottom = qrect(bands.bottom)
         self._text(painter, bottom, Qt.AlignmentFlag.AlignHCenter, plan.message,
-                   _fitted_px(font, bottom, plan.message), TEXT)
+                   fitted_px(font, bottom, plan.message), TEXT)
         self.painted["plan"] = (plan.centre, plan.countdown)
 
     def _paint_progress(self, painter: QPainter, bands: ScreenLayout,
@@ -232,7 +232,7 @@ class PatientWindow(QWidget):
         if plan.progress != plan.progress:  # NaN: nothing planned to count
             return
         height = max(6.0, 0.012 * self.height())
-        left = _thirds(bands.top)[0].left()
+        left = thirds(bands.top)[0].left()
         bar = QRectF(left, bands.top.height, self.width() - 2 * left, height)
         painter.fillRect(bar, PROGRESS_LEFT)
         done = QRectF(bar.left(), bar.top(), bar.width() * min(1.0, plan.progress), height)
@@ -315,7 +315,7 @@ class PatientWindow(QWidget):
         10.3389/fnbeh.2015.00226), where the trial's targets are turned."""
         edge = screen_side(self.scene.parameters.neglect_side, where.axes)
         thick = max(6.0, 0.025 * min(area.width, area.height))
-        r = _qrect(area)
+        r = qrect(area)
         band = {"left": QRectF(r.left(), r.top(), thick, r.height()),
                 "right": QRectF(r.right() - thick, r.top(), thick, r.height()),
                 "top": QRectF(r.left(), r.top(), r.width(), thick),
@@ -360,18 +360,18 @@ class PatientWindow(QWidget):
         # with a plan: the block first, then the score in a game or else the round
         first, middle = (frame.repetition_text, score) if self.plan is None else \
             (self.plan.block_text, score or frame.repetition_text)
-        cells = tuple(zip(_thirds(bands.top), (first, middle, frame.time_left_text),
+        cells = tuple(zip(thirds(bands.top), (first, middle, frame.time_left_text),
                           (Qt.AlignmentFlag.AlignLeft, Qt.AlignmentFlag.AlignHCenter,
                            Qt.AlignmentFlag.AlignRight), strict=True))
         # one size for the band, the largest at which every part fits its third
-        top = min(_fitted_px(font, rect, text) for rect, text, _ in cells)
+        top = min(fitted_px(font, rect, text) for rect, text, _ in cells)
         for rect, text, align in cells:
             self._text(painter, rect, align, text, top, TEXT)
         self.painted["top"] = (first, middle, frame.time_left_text)
         good = frame.go or (not frame.cue and frame.success)
-        bottom = _qrect(bands.bottom)
+        bottom = qrect(bands.bottom)
         self._text(painter, bottom, Qt.AlignmentFlag.AlignHCenter, frame.message,
-                   _fitted_px(font, bottom, frame.message), GO if good else TEXT)
+                   fitted_px(font, bottom, frame.message), GO if good else TEXT)
         if frame.numbers:
             lines = bottom.adjusted(bands.text_px // 4, 0, 0, 0)
             small = max(8, bands.text_px // 3)
@@ -390,7 +390,7 @@ class PatientWindow(QWidget):
         if pixmap is None:
             if len(self._texts) > TEXT_CACHE:
                 self._texts.clear()
-            pixmap = _text_pixmap(self.font(), text, pixel_size, colour,
+            pixmap = text_pixmap(self.font(), text, pixel_size, colour,
                                   self.devicePixelRatioF())
             self._texts[key] = pixmap
         ratio = pixmap.devicePixelRatio()
@@ -429,39 +429,6 @@ class PatientWindow(QWidget):
         self.closed.emit()
 
 
-def _fitted_px(font: QFont, rect: QRectF, text: str) -> int:
-    """The font's pixel size, or a smaller one at which the text fits the width."""
-    width = QFontMetrics(font).horizontalAdvance(text)
-    if width <= rect.width() or width == 0:
-        return font.pixelSize()
-    return max(8, int(font.pixelSize() * rect.width() / width))
-
-
-def _sized(font: QFont, pixel_size: int) -> QFont:
-    sized = QFont(font)
-    sized.setPixelSize(pixel_size)
-    return sized
-
-
-def _text_pixmap(base: QFont, text: str, pixel_size: int, colour: QColor,
-                 ratio: float) -> QPixmap:
-    font = QFont(base)
-    font.setPixelSize(pixel_size)
-    font.setBold(True)
-    metrics = QFontMetrics(font)
-    width, height = max(1, metrics.horizontalAdvance(text)), max(1, metrics.height())
-    pixmap = QPixmap(round(width * ratio), round(height * ratio))
-    pixmap.setDevicePixelRatio(ratio)
-    pixmap.fill(Qt.GlobalColor.transparent)
-    painter = QPainter(pixmap)
-    painter.setRenderHint(QPainter.RenderHint.TextAntialiasing)
-    painter.setFont(font)
-    painter.setPen(colour)
-    painter.drawText(QRectF(0, 0, width, height), Qt.AlignmentFlag.AlignCenter, text)
-    painter.end()
-    return pixmap
-
-
 def _pen(colour: QColor, width: float) -> QPen:
     pen = QPen(colour, width)
     pen.setCapStyle(Qt.PenCapStyle.RoundCap)
@@ -482,18 +449,3 @@ def _polyline(points: np.ndarray) -> QPainterPath:
             path.moveTo(x, y)
             drawing = True
     return path
-
-
-def _qrect(rect: Rect) -> QRectF:
-    return QRectF(rect.left, rect.top, rect.width, rect.height)
-
-
-def _thirds(rect: Rect) -> tuple[QRectF, QRectF, QRectF]:
-    """Left, middle and right of a band, inside a margin; the outer two a little wider
-    (the round and the time are longer than the score)."""
-    pad = 0.03 * rect.width
-    inner = rect.width - 2 * pad
-    side, middle, gap = 0.34 * inner, 0.26 * inner, 0.03 * inner
-    return (QRectF(rect.left + pad, rect.top, side, rect.height),
-            QRectF(rect.left + pad + side + gap, rect.top, middle, rect.height),
-            QRectF(rect.left + pad + inner - side, rect.top, side, rect.height))
