@@ -372,9 +372,10 @@ def test_kill_9_of_the_loop_keeps_the_trial_file(tmp_path):
         c.live_records()  # the live view from the trial's start
         time.sleep(2.0)
         seen = c.live_records()["tick"]
-        killed_at = time.monotonic()
         os.kill(c.loop_pid, signal.SIGKILL)
-        events = c.wait_for(lambda e: isinstance(e, RecorderNotice) and e.kind == "closed", 10)
+        # however long this machine takes to let the recorder see it: how soon is the
+        # bench's figure (bench/fault_injection.py, loop SIGKILL: 0.03-0.13 s), not a test's
+        events = c.wait_for(lambda e: isinstance(e, RecorderNotice) and e.kind == "closed", 60)
         events += c.events(0.5)
         assert any(isinstance(e, LoopLost) for e in events)
         data = read_trial(path)
@@ -383,7 +384,6 @@ def test_kill_9_of_the_loop_keeps_the_trial_file(tmp_path):
         assert seen.size > 0
         assert data.channels["tick"][-1] >= seen[-1]
         assert data.summary["ticks_missing"] == 0
-        assert time.monotonic() - killed_at < 10
         assert any("loop process" in e["message"] for e in data.events)
 
 
