@@ -18,6 +18,7 @@ from PySide6.QtCore import Qt
 from PySide6.QtGui import QActionGroup, QGuiApplication, QKeySequence, QShortcut
 from PySide6.QtWidgets import QMenu, QToolButton
 
+from device.loop.pipeline import PERIOD_S
 from device.loop.states import State
 from ui.patient.sound import find_player
 from ui.patient.window import PatientWindow
@@ -32,6 +33,7 @@ class PatientScreenControl:
     patient_window: PatientWindow | None = None
     patient_options: PatientOptions = PatientOptions()
     _patient_size_warned = False
+    _patient_exercise_start_s: float | None = None  # the running trial's, from the loop
 
     def _build_patient_button(self) -> QToolButton:
         self.patient_button = QToolButton()
@@ -48,6 +50,9 @@ class PatientScreenControl:
         self.patient_full_screen_key = QShortcut(QKeySequence(FULL_SCREEN_KEY), self)
         self.patient_full_screen_key.setContext(Qt.ShortcutContext.ApplicationShortcut)
         self.patient_full_screen_key.activated.connect(self.toggle_patient_full_screen)
+        # the exercise starts at the tick the approach ends (device.loop.pipeline); the live
+        # view may miss the first records, the screen's clock must not
+        self.bridge.trial_started.connect(self._patient_trial_started)
         return self.patient_button
 
     def _fill_patient_menu(self) -> None:
@@ -118,6 +123,9 @@ class PatientScreenControl:
         self._feed_patient_screen()
         return window
 
+    def _patient_trial_started(self, _path: str, approach: int, _total: int) -> None:
+        self._patient_exercise_start_s = approach * PERIOD_S
+
     def _patient_screen_size(self, words: str, too_small: bool) -> None:
         """Said once each way: the first time the letters are too small, and when they are
         readable again (not the first time they are readable)."""
@@ -170,6 +178,6 @@ class PatientScreenControl:
         window.show_plan(runner.state(now=time.monotonic()) if runner is not None else None)
         live = self.live
         if live is not None and (self.state == State.RUNNING or live.parameters is self.built):
-            window.show_view(live)
+            window.show_view(live, self._patient_exercise_start_s)
         else:
             window.show_parameters(self.built)

@@ -123,8 +123,9 @@ class PatientWindow(QWidget):
             self.frame = frame
             self.update()
 
-    def show_view(self, view: TrialView) -> None:
-        """The trial at the view's current sample; repaints only when that changed."""
+    def show_view(self, view: TrialView, exercise_start_s: float | None = None) -> None:
+        """The trial at the view's current sample; repaints only when that changed.
+        `exercise_start_s`: the exercise's start as the loop said it, live (frame_at)."""
         if view.parameters is None:
             self.show_parameters(None)
             return
@@ -133,7 +134,8 @@ class PatientWindow(QWidget):
         if state == self._shown_state:
             return
         self._shown_state = state
-        self.frame = frame_at(view, self.scene, self.options, self.game_feed)
+        self.frame = frame_at(view, self.scene, self.options, self.game_feed,
+                              exercise_start_s)
         if view.cursor is None:  # live: a replay is silent
             self._sound(view, self.frame)
         self.update()

@@ -76,8 +76,10 @@ class GameFeed:
         self._scorer = GameScorer(layout)
         self._state = self._scorer.state
 
-    def at(self, view: TrialView) -> GameFrame:
-        """The game at the view's current sample (its newest live, its cursor in replay)."""
+    def at(self, view: TrialView, start_s: float | None = None) -> GameFrame:
+        """The game at the view's current sample (its newest live, its cursor in replay);
+        `start_s` the exercise's first tick's time when known (the game's clock starts
+        there, as the file's scoring starts it at the file's first exercise sample)."""
         i = view.current_index
         if i >= 0:
             time = view.time
@@ -85,7 +87,7 @@ class GameFeed:
             if id(view) != self._view_id or t < self._last_t:
                 self._view_id = id(view)
                 self._last_t = -math.inf
-                self._scorer = GameScorer(self.layout)
+                self._scorer = GameScorer(self.layout, start_s)
                 self._state = self._scorer.state
             if t > self._last_t:
                 first = int(np.searchsorted(time[:i + 1], self._last_t, side="right"))

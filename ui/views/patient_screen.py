@@ -198,9 +198,16 @@ def waiting_frame(scene: Scene | None) -> PatientFrame:
 
 
 def frame_at(view: TrialView, scene: Scene, options: PatientOptions,
-             game: GameFeed | None = None) -> PatientFrame:
+             game: GameFeed | None = None, exercise_start_s: float | None = None
+             ) -> PatientFrame:
     """The screen at the view's current sample (its newest live, its cursor in replay);
-    `game` the scene's game fed from this view (ui.views.patient_game), if it is one."""
+    `game` the scene's game fed from this view (ui.views.patient_game), if it is one.
+
+    `exercise_start_s`: the exercise's first tick's time when the loop said it (live: the
+    approach's length at the trial's start, device.loop.pipeline: the exercise starts at
+    tick `approach`), so that a live view that missed the trial's first records (taken
+    before the window saw it running) still counts from the exercise's true start; None:
+    the view's first exercise sample (a trial file holds every sample)."""
     i = view.current_index
     p = scene.parameters
     planned = p.duration_s * p.repetitions
@@ -213,8 +220,12 @@ def frame_at(view: TrialView, scene: Scene, options: PatientOptions,
     desired = view.column("position_desired")[:, i]
     target = (float(desired[0]), float(desired[1])) if np.isfinite(desired).all() else None
     t = float(view.time[i])
-    started = view.has_exercise and view.exercise.start <= i
-    t0 = float(view.time[view.exercise.start]) if started else math.nan
+    if exercise_start_s is not None:
+        started = phase != PHASE_APPROACH and t >= exercise_start_s - 1e-9
+        t0 = float(exercise_start_s) if started else math.nan
+    else:
+        started = view.has_exercise and view.exercise.start <= i
+        t0 = float(view.time[view.exercise.start]) if started else math.nan
     elapsed = t - t0 if started else 0.0
     if fault:
         cue = CUE_STOPPED
@@ -241,7 +252,7 @@ def frame_at(view: TrialView, scene: Scene, options: PatientOptions,
                                     t0 + (repetition - 1) * p.duration_s)
     numbers = _numbers(view) if options.show_numbers and started else ()
     result, success = "", False
-    played = game.at(view) if game is not None else None
+    played = game.at(view, exercise_start_s) if game is not None else None
     if played is not None:
         result, success = played.result, played.success
         target = None  # a game shows its own targets, not the robot's reference

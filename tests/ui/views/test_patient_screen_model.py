@@ -137,3 +137,23 @@ def test_each_round_s_end_is_said_for_a_while_after_it():
     later = _frame_at_sample(r, APPROACH + 1000 + round(shown / PERIOD_S) + 1)
     assert later.result == ""
     assert _frame_at_sample(r, APPROACH + 500).result == ""  # nothing before the first end
+
+
+def test_a_live_view_that_missed_the_first_records_counts_from_the_loop_s_start():
+    """The window's live view can miss a trial's first records (taken before it saw the
+    trial running); the loop says where the exercise starts (its approach's length), and
+    the screen counts from there, not from the first sample it holds."""
+    r = _records()
+    view = TrialView(PARAMS)
+    view.append(r[APPROACH + 17:APPROACH + 200])  # the approach and 17 ticks missed
+    t_start = APPROACH * PERIOD_S
+    told = frame_at(view, Scene.of(PARAMS), PatientOptions(), exercise_start_s=t_start)
+    t = float(r["time"][APPROACH + 199])
+    assert told.exercise_started_s == t_start
+    assert told.time_left_s == pytest.approx(6.0 - (t - t_start))
+    guessed = frame_at(view, Scene.of(PARAMS), PatientOptions())
+    assert guessed.exercise_started_s == pytest.approx(t_start + 17 * PERIOD_S)  # 34 ms late
+    early = TrialView(PARAMS)
+    early.append(r[:APPROACH - 5])
+    assert frame_at(early, Scene.of(PARAMS), PatientOptions(),
+                    exercise_start_s=t_start).cue == CUE_READY
