@@ -46,6 +46,13 @@ shares c_m = `inertia`, c_f = `friction`, c_k = `stiffness` (the `gains` line:
   quoted from memory of the literature, check them before citing). c_m is at most 0.9
   so that the apparent mass never reaches zero; its default was chosen on the
   simulator's realistic plant (bench/transparency.py, docs/performance.md).
+* **No force feedback.** Amplifying the sensed hand force, τ += k J_Rᵀ F, would also take
+  away the friction the model does not know. Tried on a prototype of this law on
+  2026-12-03 (not kept in the code): at 0.3 m/s on the realistic plant k = 0.5 and 1 lowered
+  the felt force from 0.62 to 0.41 and 0.32 N RMS, but doubled the torque's chatter at
+  k = 1, and at k = 1.5 the passive, weak, spastic and healthy patients' trials on the D
+  saturated the drives for a second (the supervisor's fault): a stability margin under 2
+  on a simulator whose hand is rigidly held, too little for a real handle.
 
 No guidance: no channel, no reference that pulls, no help along the path: the
 transparent torque does not depend on the path or the clock. The path's reference is
