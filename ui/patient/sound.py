@@ -25,6 +25,8 @@ import tempfile
 import wave
 from pathlib import Path
 
+from device.safewrite import write_bytes
+
 RATE_HZ = 22050
 GO_HZ = 880.0  # A5: clear to older ears, well inside the range age spares longest
 HIT_HZ = 1320.0  # a fifth above: the same family, told apart
@@ -77,9 +79,9 @@ class Tone:
         self._folder = tempfile.TemporaryDirectory(prefix="rehab-tone-")
         self.files = {}
         for name, hz in (("go", GO_HZ), ("hit", HIT_HZ)):
-            path = Path(self._folder.name) / f"{name}.wav"
-            path.write_bytes(tone_wav(hz))
-            self.files[name] = path
+            # the guarded write (whole, 0600, never over a file) into a private new folder
+            self.files[name] = write_bytes(Path(self._folder.name) / f"{name}.wav",
+                                           tone_wav(hz))
         self._playing: list[subprocess.Popen] = []
         self.played: list[str] = []
 
