@@ -105,3 +105,20 @@ def test_the_emergency_stop_in_a_rest_ends_the_plan_at_once(qtbot, window):
     assert [(s.kind, s.block) for s in run.steps] == [("trial", 1), ("rest", 1)]
     qtbot.waitUntil(lambda: win.state == State.FAULTED, timeout=20000)
     assert len(win.registry.trials_for_patient(code)) == 1  # nothing ran after
+
+
+def test_a_plan_this_console_cannot_run_is_said_on_the_tab_not_raised(qtbot, tmp_path,
+                                                                       monkeypatch):
+    win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
+    try:
+        register_patient(qtbot, win)
+        code = win.patient.code
+        win.registry.save_plan(code, PLAN)
+        with win.registry._write() as conn:  # as a newer console might have written it
+            conn.execute("UPDATE plans SET plan = replace(plan, '\"circle\"', '\"spiral\"')")
+        win.show_plan_of(code)
+        assert "plan cannot be shown" in win.plan_tab.title.text()
+        assert "block 2.shape = 'spiral'" in win.plan_tab.title.text()
+        assert not win.plan_tab.start_button.isEnabled()
+    finally:
+        win.close()

@@ -104,7 +104,13 @@ class PlanControl:
 
     # ------------------------------------------------------------------ the plan
     def show_plan_of(self, code: str) -> None:
-        self.stored_plan = self.registry.current_plan(code)
+        try:
+            self.stored_plan = self.registry.current_plan(code)
+        except Exception as exc:  # a plan this console cannot run, a damaged registry
+            self.stored_plan = None
+            self.plan_tab.set_plan(None, f"Patient {code}'s plan cannot be shown: {exc}")
+            self._show_plan_buttons()
+            return
         stored = self.stored_plan
         if stored is None:
             self.plan_tab.set_plan(None, f"Patient {code} has no plan yet: copy a template "
