@@ -51,14 +51,23 @@ def test_a_template_copied_and_a_block_changed_in_the_plan_tab(qtbot, window):
     first = win.registry.current_plan(win.patient.code)
     assert first.template == "first-session"
     assert tab.table.rowCount() == 3
-    tab.table.item(1, 7).setText("30")  # the circle's rest, s
+    tab.table.item(1, 9).setText("30")  # the circle's rest, s
     today = win.registry.current_plan(win.patient.code)
     assert today.based_on == first.id
     assert today.plan.blocks[1].rest_s == 30.0
-    tab.table.item(0, 5).setText("140")  # a level of 140 %
+    tab.table.item(0, 7).setText("140")  # a level of 140 %
     assert "block 1.assistance_level = 1.4 is not allowed" in tab.refusal.text()
     assert win.registry.current_plan(win.patient.code) == today
-    assert tab.table.item(0, 5).text() == "100"  # the cell shows the plan again
+    assert tab.table.item(0, 7).text() == "100"  # the cell shows the plan again
+    # a block made a game: the reaching game needs the targets or a reach
+    tab.table.item(0, 2).setText("reach")
+    assert "block 1.shape = 'd' is not allowed" in tab.refusal.text()
+    tab.table.item(0, 1).setText("targets")
+    tab.table.item(0, 2).setText("reach")
+    tab.table.item(0, 3).setText("3")
+    game = win.registry.current_plan(win.patient.code).plan.blocks[0]
+    assert (game.shape, game.game, game.rounds) == ("targets", "reach", 3)
+    assert tab.table.item(0, 2).text() == "reach"
 
 
 def test_start_plan_runs_each_block_through_build_and_start_with_its_rest(qtbot, window):

@@ -25,11 +25,13 @@ from PySide6.QtWidgets import (
 
 from core.plan import Block, Plan
 
-COLUMNS = ("Block", "Exercise", "Laps", "Pace (s a lap)", "Mode", "Level (%)",
-           "Tolerance (°)", "Rest (s)")
-EDITABLE = {2: "repetitions", 3: "duration_s", 5: "assistance_level", 6: "tolerance_rad",
-            7: "rest_s"}
-"""Table column -> the block's field it changes (in the column's display unit)."""
+COLUMNS = ("Block", "Exercise", "Game", "Rounds", "Laps", "Pace (s a lap)", "Mode",
+           "Level (%)", "Tolerance (°)", "Rest (s)")
+EDITABLE = {1: "shape", 2: "game", 3: "rounds", 4: "repetitions", 5: "duration_s",
+            6: "assist", 7: "assistance_level", 8: "tolerance_rad", 9: "rest_s"}
+"""Table column -> the block's field it changes (in the column's display unit; a game is
+'path', 'reach' or empty for none)."""
+TEXT_FIELDS = ("shape", "game", "assist")
 
 
 class PlanTab(QWidget):
@@ -99,7 +101,7 @@ class PlanTab(QWidget):
             for row, block in enumerate(blocks):
                 for col, text in enumerate(_cells(row, block)):
                     item = QTableWidgetItem(text)
-                    if col not in EDITABLE or (col == 2 and block.repetitions is None):
+                    if col not in EDITABLE or (col == 4 and block.repetitions is None):
                         item.setFlags(item.flags() & ~_editable_flag())
                     self.table.setItem(row, col, item)
         finally:
@@ -123,12 +125,17 @@ class PlanTab(QWidget):
         row, col = item.row(), item.column()
         block = self.plan.blocks[row]
         field = EDITABLE.get(col)
-        try:
-            value = float(item.text().replace(",", "."))
-        except ValueError:
-            self._refuse(row, f"block {row + 1}: {COLUMNS[col]} {item.text()!r} is not a number")
-            return
-        if field == "repetitions":
+        text = item.text().strip()
+        if field in TEXT_FIELDS:
+            value = text.lower().removesuffix(" game") if field == "game" else text.lower()
+            value = "" if field == "game" and value in ("", "none", "-") else value
+        else:
+            try:
+                value = float(text.replace(",", "."))
+            except ValueError:
+                self._refuse(row, f"block {row + 1}: {COLUMNS[col]} {text!r} is not a number")
+                return
+        if field in ("repetitions", "rounds"):
             value = int(value) if value == int(value) else value
         elif field == "assistance_level":
             value = value / 100.0
@@ -151,11 +158,9 @@ class PlanTab(QWidget):
 def _cells(row: int, block: Block) -> tuple[str, ...]:
     laps = str(block.repetitions) if block.repetitions is not None else (
         f"{block.laps} ({block.active_s / 60:g} min)")
-    exercise = block.shape + (f" ({block.game} game)" if block.game else "")
-    if block.rounds > 1:
-        exercise += f", {block.rounds} rounds"
-    return (f"{row + 1}. {block.name}".rstrip(". ") if block.name else str(row + 1), exercise,
-            laps, f"{block.duration_s:g}", block.assist, f"{block.assistance_level * 100:.0f}",
+    return (f"{row + 1}. {block.name}" if block.name else str(row + 1), block.shape,
+            block.game or "none", str(block.rounds), laps, f"{block.duration_s:g}",
+            block.assist, f"{block.assistance_level * 100:.0f}",
             f"{math.degrees(block.tolerance_rad):.0f}", f"{block.rest_s:g}")
 
 

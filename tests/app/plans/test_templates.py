@@ -9,7 +9,7 @@ from core.trial import THESIS_SUBJECT, check_trial
 
 def test_every_built_in_template_is_a_plan_whose_trials_the_robot_and_arm_reach():
     names = template_names()
-    assert {"first-session", "reaching", "endurance"} <= set(names)
+    assert {"first-session", "reaching", "endurance", "games"} <= set(names)
     for name in names:
         template = load_template(name)
         assert template.about
