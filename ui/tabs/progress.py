@@ -113,6 +113,7 @@ class ProgressTab(QWidget):
         # the session plans' dose: movements, active time and rest of the latest runs
         self.dose = theme.set_role(QLabel(""), "caption")
         self.dose.setWordWrap(True)
+        self.dose.setVisible(False)  # only with plans to show: the plots keep their room
         self.dose_worker = plots.Background(self)
         self.dose_worker.done.connect(self._dose_loaded)
         self.dose_worker.failed.connect(
