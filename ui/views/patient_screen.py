@@ -17,6 +17,11 @@ a start signal, knowledge of results after each movement):
 * at its end: "Well done"; a fault or a stop: "Stopped" and nothing else (the therapist
   explains).
 
+After each round of a plain exercise the result comes first ("Round 1 done!"), then the
+round's quality in words (`round_quality`: how close the hand kept to the path), the order
+clinicians use (knowledge of results, then of performance); words, not millimetres, as the
+screen shows no clinical figure the therapist has not chosen.
+
 The repetition and the time left follow the trial's clock (`duration_s` per
 repetition from the exercise's first sample), the same clock that ends the trial. In
 the as-needed mode the reference can fall behind the clock by the guidance's delay (at
@@ -32,6 +37,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from core.games import GameLayout, game_layout
+from core.games.layout import distance_to_path
 from core.trial import TrialParameters
 from device.loop.pipeline import PHASE_APPROACH, PHASE_EXERCISE, PHASE_HOLD
 from ui.views.patient_game import RESULT_SHOWN_S, GameFeed, GameFrame
@@ -41,6 +47,14 @@ GO_SHOWN_S = 1.5  # long enough to read at a glance, short enough not to linger
 PATH_SPACING_M = 0.004
 TARGET_RADIUS_M = 0.015  # a reach target's drawn radius when no game sets one
 PREVIOUS_PATH_POINTS = 400
+QUALITY_POINTS = 50
+"""Samples of a round its quality is judged on, spread evenly over it (one judgement per
+frame, cheap at 60 frames a second)."""
+QUALITY_WORDS = ((0.005, "Right on the path"), (0.015, "Close to the path"))
+"""The hand's RMS distance from the path over a round (m) at most which each is said: 5 mm
+is the thesis subject's tracking with the robot's help (8.68 / 7.02 mm RMSE, section 3.6,
+is a whole healthy trial's), 15 mm a third of the D's width off it."""
+QUALITY_ELSE = "Stay closer to the path"
 
 CUE_WAIT = "Please wait"
 CUE_READY = "Get ready"
@@ -262,11 +276,37 @@ def frame_at(view: TrialView, scene: Scene, options: PatientOptions,
         into = elapsed - (repetition - 1) * p.duration_s
         # at most half a round: the round under way is what matters
         if into < min(RESULT_SHOWN_S, 0.5 * p.duration_s):
-            result, success = f"Round {repetition - 1} done!", True
+            quality = round_quality(view, p, t0 + (repetition - 2) * p.duration_s,
+                                    t0 + (repetition - 1) * p.duration_s)
+            result = f"Round {repetition - 1} done!" + (f" {quality}" if quality else "")
+            success = True
     return PatientFrame(cue, cue == CUE_GO, cursor, target, active, repetition,
                         p.repetitions, left, previous_path_m=previous, numbers=numbers,
                         sample=i, result=result, success=success, game=played,
                         exercise_started_s=t0)
+
+
+def round_quality(view: TrialView, parameters: TrialParameters, start_s: float,
+                  end_s: float) -> str:
+    """The quality of the round between `start_s` and `end_s` (trial clock) in words: the
+    hand's RMS distance from the path (core.games.layout.distance_to_path, the path game's
+    formula) over QUALITY_POINTS of its samples, against QUALITY_WORDS; "" when the view
+    holds too little of the round to judge."""
+    a, b = np.searchsorted(view.time, [start_s, end_s])
+    if b - a < 2:
+        return ""
+    picks = np.linspace(a, b - 1, min(QUALITY_POINTS, b - a)).astype(int)
+    position = view.column("position")[:, picks]
+    finite = np.isfinite(position).all(axis=0)
+    if not finite.any():
+        return ""
+    path = parameters.path()
+    off = [distance_to_path(path, float(x), float(y)) for x, y in position[:, finite].T]
+    rms = math.sqrt(sum(d * d for d in off) / len(off))
+    for most, words in QUALITY_WORDS:
+        if rms <= most:
+            return words
+    return QUALITY_ELSE
 
 
 def _active_target(scene: Scene, target, direction) -> int:

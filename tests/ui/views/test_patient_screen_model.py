@@ -129,9 +129,10 @@ def test_each_round_s_end_is_said_for_a_while_after_it():
 
     r = _records()
     just_after = _frame_at_sample(r, APPROACH + 1000 + 10)
-    assert just_after.result == "Round 1 done!"
+    # the result, then the round's quality: the hand 3 mm off both ways is within 5 mm
+    assert just_after.result == "Round 1 done! Right on the path"
     assert just_after.success
-    assert just_after.message == "Round 1 done!"  # no cue then
+    assert just_after.message == "Round 1 done! Right on the path"  # no cue then
     shown = min(RESULT_SHOWN_S, 0.5 * PARAMS.duration_s)  # at most half a round
     assert _frame_at_sample(r, APPROACH + 1000 + round(shown / PERIOD_S) - 1).result
     later = _frame_at_sample(r, APPROACH + 1000 + round(shown / PERIOD_S) + 1)
@@ -157,3 +158,22 @@ def test_a_live_view_that_missed_the_first_records_counts_from_the_loop_s_start(
     early.append(r[:APPROACH - 5])
     assert frame_at(early, Scene.of(PARAMS), PatientOptions(),
                     exercise_start_s=t_start).cue == CUE_READY
+
+
+@pytest.mark.parametrize(("off_m", "words"), [(0.0, "Right on the path"),
+                                              (0.004, "Right on the path"),
+                                              (0.010, "Close to the path"),
+                                              (0.030, "Stay closer to the path")])
+def test_after_each_round_its_quality_follows_its_result(off_m, words):
+    """Knowledge of results, then of performance: the hand's distance from the path over
+    the round just done, in words (a circle, so that 'off' is the same everywhere)."""
+    params = PARAMS.replace(shape="circle", radius_m=0.08)
+    r = _records(params)
+    r["position"] = r["position_desired"] * 1.0
+    # out from the circle's centre by off_m, whatever the angle
+    centre = np.asarray(params.centre_m)
+    radial = r["position_desired"] - centre
+    radial /= np.linalg.norm(radial, axis=1, keepdims=True)
+    r["position"] = r["position_desired"] + off_m * radial
+    frame = _frame_at_sample(r, APPROACH + 1000 + 10, params=params)
+    assert frame.result == f"Round 1 done! {words}"
