@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import math
 
+from core.errors import ParameterError
 from core.trajectory import NEGLECT_SIDES, SHAPES, TIMINGS
 from core.trial import (
     ASSIST_MODES,
@@ -61,10 +62,10 @@ def add_trial_options(parser: argparse.ArgumentParser) -> None:
                             "reduce-only cut (Fig. 3.6 as printed); transparent: no help, "
                             "the robot compensates its own inertia and friction (its level "
                             "is always 0)")
-    group.add_argument("--assistance", type=float, default=100 * d.assistance_level,
+    group.add_argument("--assistance", type=float, default=None,
                        help="assistance level, 0-100 %% (default 100): as-needed, the help "
                             "along the path; thesis, the share of the subject's effort the "
-                            "robot gives way to; transparent, none (0)")
+                            "robot gives way to; transparent: none, leave it out")
     group.add_argument("--gains", default="", metavar="CHANGES",
                        help="changes to the controller's, the guidance's and the "
                             "transparent mode's gains, e.g. "
@@ -94,6 +95,12 @@ def add_trial_options(parser: argparse.ArgumentParser) -> None:
 def trial_from_args(args: argparse.Namespace) -> TrialParameters:
     """TrialParameters from parsed options; raises core.errors.ParameterError."""
     base = THESIS_AS_PRINTED if args.thesis_as_printed else THESIS_SUBJECT
+    level = 100 * base.assistance_level if args.assistance is None else args.assistance
+    if args.assist == "transparent" and args.assistance not in (None, 0.0):
+        # the trial would run (and record) 0 whatever was asked: say so, not do it silently
+        raise ParameterError("assistance", args.assistance, "left out (or 0)",
+                             "the transparent mode has no assistance level: nothing in it "
+                             "acts on one")
     changes = {
         "shape": args.shape,
         "centre_m": tuple(args.centre),
@@ -109,7 +116,7 @@ def trial_from_args(args: argparse.Namespace) -> TrialParameters:
         "side": args.side,
         "tolerance_rad": math.radians(args.tolerance),
         "controller": args.controller,
-        "assistance_level": args.assistance / 100.0,
+        "assistance_level": level / 100.0,
         "assist": args.assist,
         "gains": args.gains,
         "game": args.game or "",

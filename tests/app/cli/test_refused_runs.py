@@ -110,3 +110,15 @@ def test_take_back_is_what_the_window_calls_when_the_loop_refuses_a_start(data, 
     assert take_back(registry, begun.trial_id, "the loop refused to start").outcome \
         == WITHDRAWN
     assert registry.trials_for_patient(patient) == []
+
+
+@pytest.mark.parametrize("level", ["50", "100"])
+def test_a_level_for_the_transparent_mode_is_refused_not_dropped(data, capsys, level):
+    """The transparent mode has no level: a run asked for one would have run (and recorded)
+    0 without a word; it is refused in one line, before anything is registered. Left out
+    or 0, the run goes on."""
+    code, _, err = run(["run", "--assist", "transparent", "--assistance", level, *SHORT],
+                       capsys)
+    assert code == 2
+    assert err.count("\n") == 1
+    assert "assistance" in err and "transparent mode has no assistance level" in err
