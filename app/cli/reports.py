@@ -55,9 +55,11 @@ def cmd_progress(args: argparse.Namespace) -> int:
     prog = progress(registry, args.code)
     header, rows = prog.table()
     if pdf is not None:
+        from app.plans.dose import patient_doses
         from app.reports.progress_pdf import write_progress_pdf
 
-        print(write_progress_pdf(prog, pdf, overwrite=args.overwrite),
+        print(write_progress_pdf(prog, pdf, overwrite=args.overwrite,
+                                 doses=patient_doses(registry, args.code)),
               file=sys.stderr if args.csv else sys.stdout)
     if args.csv:
         import csv

@@ -142,6 +142,22 @@ def run_dose(registry, run_id: int) -> RunDose:
     return dose
 
 
+def patient_doses(registry, code: str, last: int = 20) -> list[tuple[str, RunDose]]:
+    """The patient's latest `last` plan runs, oldest first, each with its heading (when,
+    the plan, the run, how it ended) and its dose per block: what the progress report's
+    dose page shows (app.reports.progress_pdf)."""
+    runs = getattr(registry, "plan_runs_for_patient", None)
+    if runs is None:
+        return []  # a store without plans
+    doses = []
+    for run in runs(code)[-last:]:
+        plan = registry.plan(run.plan_id).plan
+        doses.append((f"{run.started_at.astimezone():%d %b %Y %H:%M}  {plan.name} (plan "
+                      f"{run.plan_id}, run {run.id}): {run.status.replace('_', ' ')}",
+                      run_dose(registry, run.id)))
+    return doses
+
+
 def dose_lines(registry, code: str, last: int = 5) -> list[str]:
     """The dose of the patient's latest `last` plan runs, one line each, newest first:
     what the Progress tab shows (the files read for the movements and active time)."""

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import logging
 import os
+from collections.abc import Sequence
 from pathlib import Path
 
 import matplotlib.lines
@@ -38,35 +39,65 @@ log = logging.getLogger(__name__)
 HELP_COLOUR = GREEN
 ROW_H_IN = 0.17
 BOTTOM_ROOM_IN = 0.7
+DOSE_LINE_IN = 0.18  # a line of the dose's table at 8 pt, with its leading
 MAX_LABELLED_TICKS = 30
 
 
 def write_progress_pdf(progress: Progress, path: str | os.PathLike, *,
-                       overwrite: bool = True) -> Path:
+                       overwrite: bool = True, doses: Sequence = ()) -> Path:
     """Write the patient's progress to `path` (its folder must exist), a page per
-    exercise; returns the path (app.reports.pdf_file: private, never half-written, an
-    existing file replaced only with `overwrite`)."""
+    exercise, then the session plans' dose (`doses`: app.plans.dose.patient_doses, the
+    heading and the dose of each run); returns the path (app.reports.pdf_file: private,
+    never half-written, an existing file replaced only with `overwrite`)."""
     metadata = {"Title": f"Progress {progress.patient_code}",
                 "Subject": "Progress across trials of a planar upper-limb rehabilitation "
                            "robot"}
-    path = write_pdf(path, lambda: progress_pages(progress), metadata, "the progress",
+    path = write_pdf(path, lambda: progress_pages(progress, doses), metadata, "the progress",
                      overwrite=overwrite)
     log.info("progress written: %s", path)
     return path
 
 
-def progress_pages(progress: Progress) -> tuple[Figure, ...]:
-    """The pages: for each exercise, its figure and its trials' table; one page saying so
-    when the patient has no trials."""
+def progress_pages(progress: Progress, doses: Sequence = ()) -> tuple[Figure, ...]:
+    """The pages: for each exercise, its figure and its trials' table (one page saying so
+    when the patient has no trials), then the session plans' dose when there is one."""
     if not len(progress):
         sheet = Sheet()
         sheet.text(f"Progress of {progress.patient_code}", 20, weight="bold")
         sheet.text("No trials yet.", 12)
-        return (sheet.fig,)
-    pages = []
-    for index in range(len(progress.exercises)):
-        pages += _exercise_pages(progress, index)
-    return tuple(pages)
+        pages = [sheet.fig]
+    else:
+        pages = []
+        for index in range(len(progress.exercises)):
+            pages += _exercise_pages(progress, index)
+    return tuple(pages + _dose_pages(progress.patient_code, doses))
+
+
+def _dose_pages(code: str, doses: Sequence) -> list[Figure]:
+    """The dose of each plan run (issue 30): movements, active time and rest per block
+    against the plan, and the run's total, as `rehab plan dose` prints them, in order;
+    a new page when one is full."""
+    pages: list[Figure] = []
+    sheet = None
+    for heading, dose in doses:
+        lines = dose.table() + [f"note: {n}" for n in dose.notes]
+        need = (len(lines) + 2) * DOSE_LINE_IN + 0.2
+        if sheet is None or sheet.y_in + need > PAGE_IN[1] - BOTTOM_ROOM_IN:
+            sheet = Sheet()
+            pages.append(sheet.fig)
+            sheet.text(f"Session plans of {code}: the dose", 16, weight="bold")
+            sheet.text("Movements (a lap of the D or the circle one, a reach out and back "
+                       "two), active time (the exercise) and rest of each block, against "
+                       "the plan; counted from the trial files.", 9, color=GREY)
+            sheet.gap(0.15)
+        sheet.text(heading, 10, weight="bold")
+        for line in lines:
+            # a table's columns are its spaces: drawn as they are, not re-wrapped
+            sheet.fig.text(sheet.fx(LEFT_IN), sheet.fy(sheet.y_in), line, fontsize=8,
+                           family="monospace", va="top", ha="left")
+            sheet.y_in += DOSE_LINE_IN
+        sheet.gap(0.2)
+    return pages
 
 
 def _exercise_pages(progress: Progress, index: int) -> list[Figure]:

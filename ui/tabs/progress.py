@@ -53,10 +53,12 @@ KEY = (f"<span style='color:{theme.BLUE}'>●</span> complete &nbsp; "
        "changed")
 
 
-def _write_pdf(result: Progress, path: Path) -> Path:
+def _write_pdf(result: Progress, path: Path, registry=None) -> Path:
+    from app.plans.dose import patient_doses
     from app.reports.progress_pdf import write_progress_pdf  # matplotlib on first use
 
-    return write_progress_pdf(result, path)
+    doses = patient_doses(registry, result.patient_code) if registry is not None else ()
+    return write_progress_pdf(result, path, doses=doses)
 
 
 class ProgressTab(QWidget):
@@ -179,7 +181,8 @@ class ProgressTab(QWidget):
         if self._progress is None:
             raise RuntimeError("no progress to save yet")
         self.message.setText("Saving the PDF…")
-        self.writer.submit(("pdf", Path(path)), _write_pdf, self._progress, Path(path))
+        self.writer.submit(("pdf", Path(path)), _write_pdf, self._progress, Path(path),
+                           self.registry)
 
     # -- results --------------------------------------------------------------------
     def _loaded(self, code, result: Progress) -> None:

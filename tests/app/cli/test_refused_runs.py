@@ -121,4 +121,5 @@ def test_a_level_for_the_transparent_mode_is_refused_not_dropped(data, capsys, l
                        capsys)
     assert code == 2
     assert err.count("\n") == 1
-    assert "assistance" in err and "transparent mode has no assistance level" in err
+    assert "assistance" in err
+    assert "transparent mode has no assistance level" in err
