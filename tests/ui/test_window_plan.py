@@ -131,3 +131,35 @@ def test_a_plan_this_console_cannot_run_is_said_on_the_tab_not_raised(qtbot, tmp
         assert not win.plan_tab.start_button.isEnabled()
     finally:
         win.close()
+
+
+def test_pause_holds_the_plan_resume_goes_on_and_the_robot_bar_s_stop_ends_it(qtbot, window):
+    """Pause in a rest holds the plan (nothing is built or started however long it is
+    held), Resume goes on to the next block, and the robot bar's Stop (F6's button) in that
+    block ends the plan as stopped, the trial stopped early and nothing after it."""
+    win = window
+    # the second block long (ten laps) so that the Stop lands in it however slow the machine
+    long_second = Plan(PLAN.name, (PLAN.blocks[0], PLAN.blocks[1].replace(repetitions=10)))
+    code = connected_with_plan(qtbot, win, long_second)
+    click(qtbot, win.plan_tab.start_button)
+    qtbot.waitUntil(lambda: win.plan_runner is not None and win.plan_runner.phase
+                    == "resting", timeout=120000)
+    click(qtbot, win.plan_tab.pause_button)
+    assert win.plan_tab.status.text().startswith("Plan paused at")
+    assert win.plan_tab.resume_button.isEnabled()
+    assert not win.plan_tab.pause_button.isEnabled()
+    qtbot.wait(2500)  # more than the 1 s rest: a paused plan starts nothing
+    assert win.plan_runner.phase == "paused"
+    assert len(win.registry.trials_for_patient(code)) == 1
+    assert win.state == State.CONNECTED
+    click(qtbot, win.plan_tab.resume_button)
+    qtbot.waitUntil(lambda: win.state == State.RUNNING, timeout=120000)
+    click(qtbot, win.robot.buttons["stop"])
+    qtbot.waitUntil(lambda: win.plan_runner is None, timeout=60000)
+    assert win.plan_tab.status.text().startswith("Plan stopped")
+    (run,) = win.registry.plan_runs_for_patient(code)
+    assert run.status == "stopped"
+    assert [(s.kind, s.block) for s in run.steps] == [("trial", 1), ("rest", 1), ("trial", 2)]
+    trials = [win.registry.trial(s.trial_id) for s in run.trial_steps()]
+    assert [t.status for t in trials] == ["complete", "stopped_early"]
+    assert len(win.registry.trials_for_patient(code)) == 2
