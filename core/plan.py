@@ -76,8 +76,8 @@ def movement_ends(parameters: TrialParameters) -> np.ndarray:
 
 
 def movements_in_path(parameters: TrialParameters, desired_m: np.ndarray) -> int:
-    """The movements the reference `desired_m` (N, 2; the exercise's desired positions
-    in order, m) completed. A movement is done when the reference turns at its end: it
+    """The movements the points `desired_m` (N, 2, m, in order: the reference's, or the
+    hand's in the transparent mode, app.plans.dose) completed. A movement is done when the reference turns at its end: it
     comes within `TURN_FRACTION` of the exercise's radius of a movement's end point, then
     leaves it by more than `LEAVE_FRACTION` (on to the next movement); the last one, after
     which the reference stops, when it arrives within `ARRIVAL_FRACTION`. A reference

@@ -1,10 +1,17 @@
 """The dose a plan delivered, from the record: movements and active time from each
-trial's file (the exercise phase's reference, core.plan.movements_in_path), rests as the
-registry kept them, per block and for the run; beside what the plan prescribed.
+trial's file, rests as the registry kept them, per block and for the run; beside what the
+plan prescribed.
 
-Active time is the exercise phase's (phase 2): the approach to the start and the hold at
-the end are not exercise. A trial file that cannot be read counts nothing and says so in
-the dose's notes (never silently zero).
+The movements are counted on the record of where the hand was taken
+(core.plan.movements_in_path). In the guiding modes (thesis, as-needed) that is the
+reference, which the robot holds the hand to (the as-needed mode's reference follows the
+hand itself): the hand's own samples would miss the laps of a weak or passive arm that
+cuts the D's corner at a fast pace (a 2 s lap: 1 of 2 laps by the hand, 2 by the
+reference), although the robot took it round. In the transparent mode nothing moves the
+hand and the reference runs on the clock alone, so the hand's measured position is
+counted, through the exercise and the hold after it (a hand that lags the clock reaches
+the last movement's end after the exercise's last tick): a passive virtual patient makes
+0 of 32 centre-out movements there, where the reference would say 32.
 """
 
 from __future__ import annotations
@@ -16,9 +23,9 @@ import numpy as np
 from app.errors import AppError
 from core.plan import Plan, movements_in_path
 from core.trial import TrialParameters
-from device.loop.pipeline import PHASE_EXERCISE
+from device.loop.pipeline import PHASE_EXERCISE, PHASE_HOLD
 
-CHANNELS = ("phase", "position_desired")
+CHANNELS = ("phase", "position", "position_desired")
 
 
 @dataclass(frozen=True, slots=True)
@@ -40,9 +47,13 @@ def trial_dose(path, parameters: TrialParameters | None = None) -> TrialDose:
     if params is None:
         raise AppError(f"trial file {path}: has no parameters; its movements cannot be "
                        "counted")
-    exercise = np.asarray(data.channels["phase"]) == PHASE_EXERCISE
-    desired = np.asarray(data.channels["position_desired"])[exercise]
-    return TrialDose(movements_in_path(params, desired),
+    phase = np.asarray(data.channels["phase"])
+    exercise = phase == PHASE_EXERCISE
+    if params.assist == "transparent":
+        taken = np.asarray(data.channels["position"])[exercise | (phase == PHASE_HOLD)]
+    else:
+        taken = np.asarray(data.channels["position_desired"])[exercise]
+    return TrialDose(movements_in_path(params, taken),
                      float(np.count_nonzero(exercise)) * data.sample_period_s, data.status)
 
 
