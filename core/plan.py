@@ -77,10 +77,11 @@ def movement_ends(parameters: TrialParameters) -> np.ndarray:
 
 def movements_in_path(parameters: TrialParameters, desired_m: np.ndarray) -> int:
     """The movements the points `desired_m` (N, 2, m, in order: the reference's, or the
-    hand's in the transparent mode, app.plans.dose) completed. A movement is done when the reference turns at its end: it
-    comes within `TURN_FRACTION` of the exercise's radius of a movement's end point, then
-    leaves it by more than `LEAVE_FRACTION` (on to the next movement); the last one, after
-    which the reference stops, when it arrives within `ARRIVAL_FRACTION`. A reference
+    hand's in the transparent mode, app.plans.dose) completed. A movement is done when the
+    points turn at its end: they come within `TURN_FRACTION` of the exercise's radius of a
+    movement's end point, then leave it by more than `LEAVE_FRACTION` (on to the next
+    movement); the last one, after which they stop, when they arrive within
+    `ARRIVAL_FRACTION`. A reference
     resting on a point counts once, and the start, where it begins, only once it comes
     back. The turn's margin is the as-needed mode's: its reference follows the hand where
     the path doubles back, so a weak virtual patient's turned 7 mm before a 6 cm reach's
