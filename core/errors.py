@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 
 class CoreError(Exception):
     """Base of every error raised by `core`."""
@@ -50,6 +52,22 @@ def check_finite(field: str, value: float, unit: str = "") -> float:
     if not math.isfinite(number):
         raise ParameterError(field, number, f"a finite number{_unit(unit)}")
     return number
+
+
+def as_number(name: str, value: object) -> float:
+    """`value` as a plain float when it is a number (numpy's included: they reach JSON and
+    HDF5 attributes as floats); a string or a flag is refused by name."""
+    if isinstance(value, bool | np.bool_) or not isinstance(value, int | float | np.integer
+                                                            | np.floating):
+        raise ParameterError(name, value, "a number", "give it as a number, not as text")
+    return float(value)
+
+
+def check_whole(name: str, value: object, low: int, high: int) -> None:
+    """Refuse a `value` that is not a whole number (a flag is not one) in [low, high]."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise ParameterError(name, value, f"a whole number in [{low}, {high}]")
+    check_range(name, value, low, high)
 
 
 def check_range(

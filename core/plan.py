@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from core.errors import ParameterError, check_range
+from core.errors import ParameterError, as_number, check_range, check_whole
 from core.trajectory import SHAPES
 from core.trial import (
     ASSIST_MODES,
@@ -165,7 +165,7 @@ class Block:
                                  "a number of laps, or active_s a time, not both nor neither",
                                  "a block is done for laps or for minutes")
         for name in ("assistance_level", "duration_s", "tolerance_rad", "rest_s"):
-            object.__setattr__(self, name, _real(name, getattr(self, name)))
+            object.__setattr__(self, name, as_number(name, getattr(self, name)))
         check_range("duration_s", self.duration_s, *DURATION_RANGE_S, "s",
                     "the time one lap takes: the pace")
         check_range("assistance_level", self.assistance_level, 0.0, 1.0, "",
@@ -174,13 +174,13 @@ class Block:
         check_range("tolerance_rad", self.tolerance_rad, lo, hi, "rad",
                     f"{math.degrees(lo):.0f}–{math.degrees(hi):.0f}°")
         check_range("rest_s", self.rest_s, *REST_RANGE_S, "s", "the rest after the block")
-        _integer("rounds", self.rounds, *ROUNDS_RANGE)
+        check_whole("rounds", self.rounds, *ROUNDS_RANGE)
         object.__setattr__(self, "rounds", int(self.rounds))
         if self.repetitions is not None:
-            _integer("repetitions", self.repetitions, *REPETITIONS_RANGE)
+            check_whole("repetitions", self.repetitions, *REPETITIONS_RANGE)
             object.__setattr__(self, "repetitions", int(self.repetitions))
         else:
-            object.__setattr__(self, "active_s", _real("active_s", self.active_s))
+            object.__setattr__(self, "active_s", as_number("active_s", self.active_s))
             check_range("active_s", self.active_s, *ACTIVE_RANGE_S, "s",
                         "the exercise's time in each round")
             laps = math.ceil(self.active_s / self.duration_s - 1e-9)
@@ -190,7 +190,7 @@ class Block:
                                      f"{self.duration_s:g} s", "a slower pace, or fewer "
                                      "minutes: a round is one trial of at most 100 laps")
         if self.radius_m is not None:
-            object.__setattr__(self, "radius_m", _real("radius_m", self.radius_m))
+            object.__setattr__(self, "radius_m", as_number("radius_m", self.radius_m))
             check_range("radius_m", self.radius_m, *RADIUS_RANGE_M, "m")
 
     @property
@@ -330,14 +330,3 @@ def _choice(name: str, value: object, allowed: tuple[str, ...]) -> None:
         raise ParameterError(name, value, "one of " + ", ".join(repr(a) for a in allowed))
 
 
-def _real(name: str, value: object) -> float:
-    if isinstance(value, bool | np.bool_) or not isinstance(value, int | float | np.integer
-                                                            | np.floating):
-        raise ParameterError(name, value, "a number", "give it as a number, not as text")
-    return float(value)
-
-
-def _integer(name: str, value: object, low: int, high: int) -> None:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise ParameterError(name, value, f"a whole number in [{low}, {high}]")
-    check_range(name, value, low, high)

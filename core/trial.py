@@ -22,7 +22,7 @@ from core.arm import (
     UPPER_ARM_RANGE_M,
     ArmModel,
 )
-from core.errors import ParameterError, UnreachableError, check_range
+from core.errors import ParameterError, UnreachableError, as_number, check_range, check_whole
 from core.robot import RobotModel
 from core.trajectory import (
     NEGLECT_SIDES,
@@ -168,12 +168,12 @@ class TrialParameters:
         # numbers as numbers: a string or a flag is refused by name, numpy scalars become
         # plain floats and ints (they reach JSON and HDF5 attributes)
         for name in _REAL_FIELDS:
-            object.__setattr__(self, name, _real(name, getattr(self, name)))
+            object.__setattr__(self, name, as_number(name, getattr(self, name)))
         for name, allowed in (("repetitions", REPETITIONS_RANGE),
                               ("n_targets", TARGETS_RANGE),
                               ("n_distractors", DISTRACTORS_RANGE)):
             value = getattr(self, name)
-            _integer(name, value, *allowed)
+            check_whole(name, value, *allowed)
             object.__setattr__(self, name, int(value))
         object.__setattr__(self, "centre_m", _point("centre_m", self.centre_m))
         object.__setattr__(self, "shoulder_m", _point("shoulder_m", self.shoulder_m))
@@ -457,17 +457,6 @@ def _game_fields(p: TrialParameters) -> None:
                                 if p.neglect_side and p.shape == "targets" else ""))
 
 
-def _real(name: str, value: object) -> float:
-    if isinstance(value, bool | np.bool_) or not isinstance(value, int | float | np.integer
-                                                            | np.floating):
-        raise ParameterError(name, value, "a number", "give it as a number, not as text")
-    return float(value)
-
-
-def _integer(name: str, value: object, low: int, high: int) -> None:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise ParameterError(name, value, f"a whole number in [{low}, {high}]")
-    check_range(name, value, low, high)
 
 
 def _point(name: str, value) -> tuple[float, float]:
