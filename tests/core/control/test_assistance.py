@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, strategies as st
+from hypothesis import example, given, strategies as st
 
 from core.control.assistance import (
     DEFAULT_MIN_FORCE_N,
@@ -30,7 +30,11 @@ def geometric_angle(fx, fy, dx, dy):
 
 
 angles = st.floats(-math.pi, math.pi, allow_nan=False)
-torques = st.floats(-3.0, 3.0, allow_nan=False)
+# No torque or level in (0, 1e-9]: there the product r·τ that decides whether the cut
+# applies underflows to zero for one rounding of J_Rᵀ F and not for the other (this
+# test's array Jacobian against the kernel's terms), so the two disagree about a torque of
+# 1e-45 N·m (hypothesis found τ = -1.4e-45), which no drive can tell from zero.
+torques = st.floats(-3.0, 3.0, allow_nan=False).filter(lambda t: t == 0.0 or abs(t) > 1e-9)
 
 
 @given(
@@ -38,9 +42,11 @@ torques = st.floats(-3.0, 3.0, allow_nan=False)
     force=st.floats(0.0, 40.0), force_angle=angles, dir_angle=angles,
     dir_length=st.floats(0.05, 5.0),
     tau1=torques, tau2=torques,
-    level=st.floats(0.0, 1.0),
+    level=st.floats(0.0, 1.0).filter(lambda v: v == 0.0 or v > 1e-9),
     tolerance=st.floats(*TOLERANCE_RANGE_RAD),
 )
+@example(q1=1.0, spread=1.0, force=10.0, force_angle=0.0, dir_angle=0.0, dir_length=1.0,
+         tau1=1e-9 * 1.5, tau2=-3.0, level=1.0, tolerance=0.5)
 def test_reduces_only_inside_the_cone_and_never_adds_torque(
     q1, spread, force, force_angle, dir_angle, dir_length, tau1, tau2, level, tolerance
 ):
