@@ -162,6 +162,7 @@ class PlanControl:
                 problems = check_plan(self.stored_plan.plan, base)
                 why = problems[0] if problems else ""
         if why:
+            why = why.rstrip(".")  # a check's sentence ends in its own full stop
             self._say(f"Start plan refused: {why}.", problem=True)
             self.plan_tab.show_refusal(f"Start plan refused: {why}.")
             return
