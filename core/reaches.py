@@ -163,13 +163,13 @@ def _one_reach(reach, t, position, velocity, speed, start, stop, dt_s,
     before = np.flatnonzero(speed[start:peak_index + 1] < threshold)
     if before.size:
         j = start + int(before[-1])
-        onset = _crossing(t, speed, j, j + 1, threshold)
+        onset = crossing(t, speed, j, j + 1, threshold)
     else:
         onset = math.nan
     after = np.flatnonzero(speed[peak_index:stop] < threshold)
     if after.size:
         j = peak_index + int(after[0])
-        offset = _crossing(t, speed, j - 1, j, threshold)
+        offset = crossing(t, speed, j - 1, j, threshold)
     else:
         offset = float(t[stop - 1])
     smooth_from = onset if math.isfinite(onset) else float(t[start])
@@ -183,21 +183,25 @@ def _one_reach(reach, t, position, velocity, speed, start, stop, dt_s,
         reaction_time_s=onset - reach.onset_s,
         movement_time_s=offset - onset,
         peak_speed_m_s=peak,
-        initial_direction_error_rad=_initial_direction_error(
+        initial_direction_error_rad=direction_error(
             t, position, reach.target_m, onset, min(onset + window_s, offset)),
         sparc=sparc(speed[start:stop], dt_s),
         ldlj=jerk,
     )
 
 
-def _crossing(t, speed, below_or_above, next_index, threshold) -> float:
+def crossing(t, speed, below_or_above, next_index, threshold) -> float:
     """Time where the speed passes `threshold` between two neighbouring samples."""
     s0, s1 = speed[below_or_above], speed[next_index]
     share = (threshold - s0) / (s1 - s0)
     return float(t[below_or_above] + share * (t[next_index] - t[below_or_above]))
 
 
-def _initial_direction_error(t, position, target, start_s, end_s) -> float:
+def direction_error(t, position, target, start_s, end_s) -> float:
+    """Signed angle (rad, counter-clockwise positive) from the line (hand at `start_s` ->
+    `target`) to the hand's displacement from `start_s` to `end_s`, positions
+    interpolated at both times; NaN when `start_s` is NaN, the interval empty or either
+    vector shorter than a micrometre."""
     if not math.isfinite(start_s) or end_s <= start_s:
         return math.nan
     p0 = np.array([np.interp(start_s, t, position[:, i]) for i in range(2)])
