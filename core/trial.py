@@ -156,6 +156,10 @@ class TrialParameters:
     """The patient's side with hemispatial neglect a reaching layout (shape "targets" or
     "reach", game or not) is turned toward (core.trajectory.centre_out_angles): "", "left"
     or "right", the patient's (left = +x)."""
+    assessment: str = ""
+    """The assessment task this trial is a run of (core.assessment.TASKS: "reaching",
+    "circle", "range", "strength", "position"; its protocol in core.assessment.protocol),
+    "" for an exercise (and in files written before the assessments, which read so)."""
 
     def __post_init__(self) -> None:
         _choice("shape", self.shape, SHAPES)
@@ -200,6 +204,7 @@ class TrialParameters:
         if not isinstance(self.clockwise, bool):
             raise ParameterError("clockwise", self.clockwise, "True or False")
         _game_fields(self)
+        _assessment(self.assessment, self.game)
         _learned_model(self.controller, self.learned_model, self.learned_model_sha256)
         _model_name("force_estimate", self.force_estimate, "an EMG model file's name")
         _model_hash("force_estimate_sha256", self.force_estimate_sha256, self.force_estimate)
@@ -457,6 +462,23 @@ def _game_fields(p: TrialParameters) -> None:
                                 if p.neglect_side and p.shape == "targets" else ""))
 
 
+
+
+def _assessment(task: object, game: str) -> None:
+    """"" or one of the assessment tasks, never a game: a task's figures are measured on the
+    patient's own movement under its fixed protocol (core.assessment.protocol)."""
+    if task == "":
+        return
+    # imported here: core.assessment builds on this module
+    from core.assessment import TASKS
+
+    if task not in TASKS:
+        raise ParameterError("assessment", task, "'' (an exercise) or one of " + ", ".join(TASKS),
+                             "the assessment task the trial is a run of")
+    if game:
+        raise ParameterError("game", game, f"'' with assessment {task!r}",
+                             "an assessment is measured under its own protocol, not played "
+                             "as a game")
 
 
 def _point(name: str, value) -> tuple[float, float]:
