@@ -59,6 +59,8 @@ class RecordStore(Protocol):
         forearm_m: float | None = None,
         shoulder_m: tuple[float, float] | None = None,
         notes: str = "",
+        sex: str | None = None,
+        handedness: str | None = None,
     ) -> Patient: ...
 
     def patient(self, code: str) -> Patient: ...
@@ -114,7 +116,8 @@ class RecordStore(Protocol):
     def trial_path(self, trial: Trial | int) -> Path: ...
 
     # -- across trials -------------------------------------------------------------
-    def trial_summaries(self, code: str) -> list[TrialSummary]: ...
+    def trial_summaries(self, code: str, *, include_invalid: bool = False
+                        ) -> list[TrialSummary]: ...
 
     def withdraw_trial(self, trial_id: int, why: str) -> None: ...
 
@@ -163,4 +166,5 @@ class RecordStore(Protocol):
         same_parameters: bool = False,
         same_shape: bool = False,
         statuses: Iterable[str] = ("complete",),
+        include_invalid: bool = False,
     ) -> Trial | None: ...

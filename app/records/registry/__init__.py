@@ -14,6 +14,8 @@ or concern, each a module here:
 * queries — the progress rows (`trial_summaries`) and `previous_trial`;
 * proposals — the console's proposal for the next trial and the therapist's decision;
 * plans — session plans per patient and what each run of one did (schema v7);
+* clinical — a session's clinical scales, notes on sessions and trials, trials marked
+  invalid (or valid again), a patient's fields corrected with their audit (schema v8);
 * values — the checks of what is given and the JSON of parameters and metrics.
 * seals — every row sealed with the digest of its values, checked before it is read.
 
@@ -48,8 +50,24 @@ from __future__ import annotations
 from pathlib import Path
 
 from app.records.datadir import DataDir, private_files
+from app.records.registry.clinical import (
+    CORRECTABLE,
+    Clinical,
+    Correction,
+    Note,
+    ScaleEntry,
+    TrialMark,
+)
 from app.records.registry.database import BUSY_TIMEOUT_S
-from app.records.registry.patients import BIRTH_YEAR_MIN, CODE_LENGTH, Patient, Patients, new_code
+from app.records.registry.patients import (
+    BIRTH_YEAR_MIN,
+    CODE_LENGTH,
+    HANDEDNESS,
+    SEXES,
+    Patient,
+    Patients,
+    new_code,
+)
 from app.records.registry.plans import PlanRun, Plans, PlanStep, StoredPlan
 from app.records.registry.proposals import Proposals, StoredProposal
 from app.records.registry.queries import Queries, TrialSummary
@@ -79,6 +97,8 @@ __all__ = [
     "BIRTH_YEAR_MIN",
     "BUSY_TIMEOUT_S",
     "CODE_LENGTH",
+    "CORRECTABLE",
+    "HANDEDNESS",
     "KEY_PARAMETERS",
     "MIGRATE_V1_TO_V2",
     "MIGRATE_V2_TO_V3",
@@ -86,24 +106,29 @@ __all__ = [
     "NAME_MAX_CHARS",
     "SCHEMA_V1",
     "SCHEMA_VERSION",
+    "SEXES",
     "TEXT_MAX_CHARS",
     "BegunTrial",
+    "Correction",
+    "Note",
     "Patient",
     "PlanRun",
     "PlanStep",
     "Registration",
     "Registry",
+    "ScaleEntry",
     "Session",
     "StoredPlan",
     "StoredProposal",
     "Trial",
+    "TrialMark",
     "TrialSummary",
     "new_code",
     "parameter_key",
 ]
 
 
-class Registry(Schema, Patients, Sessions, Plans, Proposals, Trials, Queries):
+class Registry(Schema, Patients, Sessions, Plans, Clinical, Proposals, Trials, Queries):
     """The registry of one data folder. Opening it migrates the database; with `create`
     (the window, `rehab patients add`) a missing one is created, whole, in a new or empty
     folder (app.records.registry.schema.create_registry_file); without, a missing registry

@@ -36,11 +36,16 @@ log = logging.getLogger(__package__)
 CODE_LENGTH = 6
 BIRTH_YEAR_MIN = 1900
 
+SEXES = ("female", "male")
+"""A patient's sex as the norms' regressions take it (app.norms; schema v8)."""
+HANDEDNESS = ("right", "left")
+"""A patient's dominant hand (schema v8): with `side`, whether the dominant arm is tested."""
+
 _PATIENT_COLUMNS = ("code", "first_name", "last_name", "birth_year", "side", "body_mass_kg",
                     "upper_arm_m", "forearm_m", "shoulder_x_m", "shoulder_y_m", "notes",
-                    "created_at")
+                    "created_at", "sex", "handedness")
 _CHANGEABLE = {"first_name", "last_name", "birth_year", "side", "body_mass_kg", "upper_arm_m",
-               "forearm_m", "shoulder_m", "notes"}
+               "forearm_m", "shoulder_m", "notes", "sex", "handedness"}
 
 
 @dataclass(frozen=True, slots=True)
@@ -59,6 +64,10 @@ class Patient:
     shoulder_m: tuple[float, float] | None
     notes: str
     created_at: datetime.datetime
+    sex: str | None = None
+    """"female" or "male" (SEXES), None when not recorded (patients before schema v8)."""
+    handedness: str | None = None
+    """The dominant hand, "right" or "left" (HANDEDNESS); None when not recorded."""
 
     @property
     def display_name(self) -> str:
@@ -94,13 +103,15 @@ class Patients(Database):
         forearm_m: float | None = None,
         shoulder_m: tuple[float, float] | None = None,
         notes: str = "",
+        sex: str | None = None,
+        handedness: str | None = None,
     ) -> Patient:
         """Register a patient and give them a new pseudonymous code. Two patients may
         share a name: look for an existing one first (`find_patients`)."""
         values = _patient_values(
             first_name=first_name, last_name=last_name, birth_year=birth_year, side=side,
             body_mass_kg=body_mass_kg, upper_arm_m=upper_arm_m, forearm_m=forearm_m,
-            shoulder_m=shoulder_m, notes=notes,
+            shoulder_m=shoulder_m, notes=notes, sex=sex, handedness=handedness,
         )
         values["created_at"] = utc_text(utc_now())
         with self._write() as conn:
@@ -232,7 +243,7 @@ def _optional_range(name: str, value: object, low: float, high: float, unit: str
 
 
 def _patient_values(*, first_name, last_name, birth_year, side, body_mass_kg, upper_arm_m,
-                    forearm_m, shoulder_m, notes) -> dict:
+                    forearm_m, shoulder_m, notes, sex=None, handedness=None) -> dict:
     this_year = datetime.date.today().year
     if birth_year is not None and (
         isinstance(birth_year, bool) or not isinstance(birth_year, int)
@@ -245,6 +256,12 @@ def _patient_values(*, first_name, last_name, birth_year, side, body_mass_kg, up
     if side is not None and side not in SIDES:
         raise InvalidRecordError(f"side = {side!r}: give one of {', '.join(SIDES)}, or None "
                                  "(the affected side)")
+    if sex is not None and sex not in SEXES:
+        raise InvalidRecordError(f"sex = {sex!r}: give one of {', '.join(SEXES)}, or None "
+                                 "(not recorded)")
+    if handedness is not None and handedness not in HANDEDNESS:
+        raise InvalidRecordError(f"handedness = {handedness!r}: give one of "
+                                 f"{', '.join(HANDEDNESS)}, or None (the dominant hand)")
     if shoulder_m is None:
         shoulder = (None, None)
     else:
@@ -270,11 +287,14 @@ def _patient_values(*, first_name, last_name, birth_year, side, body_mass_kg, up
         "shoulder_x_m": shoulder[0],
         "shoulder_y_m": shoulder[1],
         "notes": checked_text("notes", notes if notes is not None else "", TEXT_MAX_CHARS),
+        "sex": sex,
+        "handedness": handedness,
     }
 
 
 def _patient_from_row(row: tuple) -> Patient:
-    (code, first, last, birth_year, side, mass, upper, fore, sx, sy, notes, created) = row
+    (code, first, last, birth_year, side, mass, upper, fore, sx, sy, notes, created, sex,
+     handedness) = row
     shoulder = None if sx is None or sy is None else (sx, sy)
     return Patient(code, first, last, birth_year, side, mass, upper, fore, shoulder, notes,
-                   datetime.datetime.fromisoformat(created))
+                   datetime.datetime.fromisoformat(created), sex, handedness)

@@ -1,7 +1,9 @@
 """The registry's proposals: after each finished trial, what the console proposed for the
 next one (app.trials.progression) and what the therapist did with it.
 
-A proposal is `pending` until the patient's next trial starts; `begin_trial` then marks
+A trial marked invalid (app.records.registry.clinical) does not count: its proposal is
+never offered, and the proposal it decided is offered again. A proposal is `pending`
+until the patient's next trial starts; `begin_trial` then marks
 it `accepted` (the next trial is the proposal applied to the trial before: every
 parameter equal, the proposed assistance, speed and tolerance and the rest as before),
 `kept` (every parameter as the trial before, against a proposed change) or `changed`
@@ -105,10 +107,16 @@ class Proposals(Database):
 
 _SELECT = ("SELECT trial_id, proposal, decision, next_trial_id, proposed_at, decided_at "
            "FROM proposals")
-_PENDING = (_SELECT + " WHERE decision = 'pending' AND trial_id IN (SELECT t.id FROM trials t "
-            "JOIN sessions s ON s.id = t.session_id WHERE s.patient_id = ? AND t.id != ?) "
-            "ORDER BY trial_id DESC LIMIT 1")
-"""The patient's pending proposal (patient id, a trial id to leave out)."""
+_INVALID = ("SELECT m.trial_id FROM trial_marks m WHERE m.valid = 0 AND m.id = "
+            "(SELECT max(id) FROM trial_marks WHERE trial_id = m.trial_id)")
+_PENDING = (_SELECT + f" WHERE (decision = 'pending' OR next_trial_id IN ({_INVALID})) "
+            "AND trial_id IN (SELECT t.id FROM trials t JOIN sessions s ON "
+            f"s.id = t.session_id WHERE s.patient_id = ? AND t.id != ?) AND trial_id NOT IN "
+            f"({_INVALID}) ORDER BY trial_id DESC LIMIT 1")
+"""The patient's pending proposal (patient id, a trial id to leave out): the latest of a
+trial not marked invalid (schema v8) that no trial decided, or that a trial since marked
+invalid decided (that trial does not count: its proposal is offered again, as after a
+withdrawn trial)."""
 _KEYS = ("assistance_level", "duration_s", "tolerance_rad")
 """What a proposal sets (app.trials.progression.Proposal.applied_to)."""
 

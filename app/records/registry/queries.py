@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 from app.errors import InvalidRecordError
 from app.records.assistance import AssistanceInEffect
+from app.records.registry.clinical import LATEST_MARK
 from app.records.registry.database import Database
 from app.records.registry.patients import patient_id
 from app.records.registry.trials import (
@@ -35,10 +36,10 @@ _SUMMARY_SELECT = f"""
     SELECT t.id, s.number, s.date, t.number, t.status, t.started_at, t.file,
            {", ".join(f"json_extract(t.parameters, '$.{name}')" for name in KEY_PARAMETERS)},
            coalesce(json_extract(t.parameters, '$.assist'), 'thesis'), t.assistance,
-           t.metrics
+           {LATEST_MARK}, t.metrics
     FROM trials t
     JOIN sessions s ON s.id = t.session_id
-    WHERE s.patient_id = ?
+    WHERE s.patient_id = ? AND (? OR {LATEST_MARK} IS NULL)
     ORDER BY s.number, t.number
 """
 
@@ -62,16 +63,22 @@ class TrialSummary:
     assistance: AssistanceInEffect | None = None
     """The levels the trial ran with (Trial.assistance); None when only the built level,
     in `key_parameters`, is known."""
+    invalid_reason: str | None = None
+    """Why the trial was marked invalid (its latest mark, schema v8); None when valid."""
 
 
 class Queries(Database):
     """Reading across a patient's trials."""
 
-    def trial_summaries(self, code: str) -> list[TrialSummary]:
+    def trial_summaries(self, code: str, *, include_invalid: bool = False
+                        ) -> list[TrialSummary]:
         """Every trial of a patient, by session then trial number, without the full
-        parameters: the progress query (about half the cost of trials_for_patient)."""
+        parameters: the progress query (about half the cost of trials_for_patient).
+        Trials marked invalid (app.records.registry.clinical) are left out unless
+        `include_invalid`; then their `invalid_reason` says why."""
         with self._read() as conn:
-            rows = conn.execute(_SUMMARY_SELECT, (patient_id(conn, self.path, code),)).fetchall()
+            rows = conn.execute(_SUMMARY_SELECT, (patient_id(conn, self.path, code),
+                                                  bool(include_invalid))).fetchall()
         if not rows:
             return []
         metrics = parse_metrics(row[-1] for row in rows)
@@ -84,7 +91,7 @@ class Queries(Database):
         return [
             TrialSummary(r[0], r[1], date(r[2]), r[3], r[4], moment(r[5]), r[6],
                          shared.setdefault(r[7:7 + k], r[7:7 + k]), values, r[7 + k],
-                         assistance_from_json(r[8 + k]))
+                         assistance_from_json(r[8 + k]), r[9 + k])
             for r, values in zip(rows, metrics, strict=True)
         ]
 
@@ -96,6 +103,7 @@ class Queries(Database):
         same_parameters: bool = False,
         same_shape: bool = False,
         statuses: Iterable[str] = ("complete",),
+        include_invalid: bool = False,
     ) -> Trial | None:
         """The patient's latest trial before this one, to report the change since.
 
@@ -105,6 +113,7 @@ class Queries(Database):
         same_shape: only trials of the same exercise shape (a D with a D, not with a
             circle done in between), which is what a report compares.
         statuses: the statuses that count (by default complete trials only).
+        include_invalid: trials marked invalid count too (by default they do not).
         """
         statuses = tuple(statuses)
         unknown = sorted(set(statuses) - set(_ALL_STATUSES))
@@ -124,6 +133,8 @@ class Queries(Database):
             marks = ", ".join("?" * len(statuses)) or "NULL"
             rows = conn.execute(
                 TRIAL_SELECT + f" WHERE s.patient_id = ? AND {before} AND t.status IN ({marks})"
+                + ("" if include_invalid else f" AND {LATEST_MARK} IS NULL")
+                +
                 " ORDER BY s.number DESC, t.number DESC",
                 (patient, *args, *statuses),
             )

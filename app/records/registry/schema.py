@@ -154,6 +154,71 @@ MIGRATE_V6_TO_V7 = (
     *seals.triggers("plan_steps"),
 )
 
+# v8 (issue 31): the norms' covariates sex and handedness on the patient; the clinical
+# scales a therapist records per session (app.records.scales: Fugl-Meyer UE motor, ARAT,
+# Modified Ashworth, pain, fatigue; who and when); notes per session and per trial; a
+# trial's validity marks (invalid with a reason, restored by a later mark); corrections of
+# a patient's measurements (field, old, new, who, when, why) beside the row they changed.
+# Every new table is sealed and append-only (seals.append_only): its history is the
+# record. The patients' seal now covers the two new columns: each row is checked against
+# its v7 seal before it is sealed again, so damage is not laundered by the upgrade.
+MIGRATE_V7_TO_V8 = (
+    *seals.checked_before_resealing("patients", seals.SEALED_AT_V7["patients"]),
+    "ALTER TABLE patients ADD COLUMN sex TEXT CHECK (sex IS NULL OR sex IN ('female', 'male'))",
+    "ALTER TABLE patients ADD COLUMN handedness TEXT "
+    "CHECK (handedness IS NULL OR handedness IN ('right', 'left'))",
+    "DROP TRIGGER patients_sealed_on_insert",
+    "DROP TRIGGER patients_sealed_on_update",
+    f"UPDATE patients SET seal = {seals.call('patients')}",
+    *seals.triggers("patients"),
+    """CREATE TABLE scales (
+        id INTEGER PRIMARY KEY,
+        session_id INTEGER NOT NULL REFERENCES sessions (id) ON DELETE RESTRICT,
+        scale TEXT NOT NULL CHECK (scale IN
+            ('fugl_meyer', 'arat', 'ashworth', 'pain', 'fatigue')),
+        total INTEGER CHECK ((total IS NULL) = (scale = 'ashworth')),
+        detail TEXT NOT NULL DEFAULT '{}',
+        rater TEXT NOT NULL CHECK (length(rater) > 0),
+        recorded_at TEXT NOT NULL,
+        seal TEXT
+    )""",
+    """CREATE TABLE notes (
+        id INTEGER PRIMARY KEY,
+        session_id INTEGER NOT NULL REFERENCES sessions (id) ON DELETE RESTRICT,
+        trial_id INTEGER REFERENCES trials (id) ON DELETE RESTRICT,
+        text TEXT NOT NULL CHECK (length(text) > 0),
+        author TEXT NOT NULL CHECK (length(author) > 0),
+        written_at TEXT NOT NULL,
+        seal TEXT
+    )""",
+    """CREATE TABLE trial_marks (
+        id INTEGER PRIMARY KEY,
+        trial_id INTEGER NOT NULL REFERENCES trials (id) ON DELETE RESTRICT,
+        valid INTEGER NOT NULL CHECK (valid IN (0, 1)),
+        reason TEXT NOT NULL CHECK (length(reason) > 0),
+        marked_by TEXT NOT NULL CHECK (length(marked_by) > 0),
+        marked_at TEXT NOT NULL,
+        seal TEXT
+    )""",
+    """CREATE TABLE corrections (
+        id INTEGER PRIMARY KEY,
+        patient_id INTEGER NOT NULL REFERENCES patients (id) ON DELETE RESTRICT,
+        field TEXT NOT NULL,
+        old_value TEXT NOT NULL,
+        new_value TEXT NOT NULL,
+        reason TEXT NOT NULL CHECK (length(reason) > 0),
+        corrected_by TEXT NOT NULL CHECK (length(corrected_by) > 0),
+        corrected_at TEXT NOT NULL,
+        seal TEXT
+    )""",
+    "CREATE INDEX scales_by_session ON scales (session_id)",
+    "CREATE INDEX notes_by_session ON notes (session_id)",
+    "CREATE INDEX trial_marks_by_trial ON trial_marks (trial_id)",
+    "CREATE INDEX corrections_by_patient ON corrections (patient_id)",
+    *(statement for table in ("scales", "notes", "trial_marks", "corrections")
+      for statement in (*seals.triggers(table), *seals.append_only(table))),
+)
+
 MIGRATIONS: tuple[tuple[int, tuple[str, ...]], ...] = (
     (1, SCHEMA_V1),
     (2, MIGRATE_V1_TO_V2),
@@ -162,6 +227,7 @@ MIGRATIONS: tuple[tuple[int, tuple[str, ...]], ...] = (
     (5, MIGRATE_V4_TO_V5),
     (6, MIGRATE_V5_TO_V6),
     (7, MIGRATE_V6_TO_V7),
+    (8, MIGRATE_V7_TO_V8),
 )
 SCHEMA_VERSION = MIGRATIONS[-1][0]
 

@@ -37,10 +37,16 @@ from app.errors import SchemaError
 
 FUNCTION = "registry_seal"
 
-SEALED: dict[str, tuple[str, ...]] = {
+SEALED_AT_V7: dict[str, tuple[str, ...]] = {
     "patients": ("id", "code", "first_name", "last_name", "birth_year", "side",
                  "body_mass_kg", "upper_arm_m", "forearm_m", "shoulder_x_m", "shoulder_y_m",
                  "notes", "created_at"),
+}
+"""The columns a sealed table's seal covered at v7 where v8 changed them (its migration
+checks each row against them before sealing it again)."""
+
+SEALED: dict[str, tuple[str, ...]] = {
+    "patients": (*SEALED_AT_V7["patients"], "sex", "handedness"),
     "sessions": ("id", "patient_id", "number", "date", "therapist", "notes", "location"),
     "trials": ("id", "session_id", "number", "parameters", "file", "metrics", "status",
                "started_at", "ended_at", "patient_kind", "backend", "end_reason",
@@ -51,11 +57,22 @@ SEALED: dict[str, tuple[str, ...]] = {
     "plan_runs": ("id", "plan_id", "started_at", "ended_at", "status", "end_reason"),
     "plan_steps": ("run_id", "step", "block", "round", "kind", "trial_id", "planned_s",
                    "taken_s"),
+    "scales": ("id", "session_id", "scale", "total", "detail", "rater", "recorded_at"),
+    "notes": ("id", "session_id", "trial_id", "text", "author", "written_at"),
+    "trial_marks": ("id", "trial_id", "valid", "reason", "marked_by", "marked_at"),
+    "corrections": ("id", "patient_id", "field", "old_value", "new_value", "reason",
+                    "corrected_by", "corrected_at"),
 }
-"""The sealed tables and the columns their seal covers (every column but `seal`). A
-migration that adds a column must add it here and recreate the table's triggers; one
-that adds a table creates it with its `seal` column and its `triggers`
+"""The sealed tables and the columns their seal covers (every column but `seal`, in the
+table's order). A migration that adds a column must add it here, check the rows against
+their old seal (`checked_before_resealing`), seal them again and recreate the table's
+triggers; one that adds a table creates it with its `seal` column and its `triggers`
 (tests/app/records/test_registry_seals.py holds this to the schema)."""
+
+APPEND_ONLY = ("scales", "notes", "trial_marks", "corrections")
+"""The tables whose rows are never changed nor deleted once written (schema v8): a
+therapist's scales, notes, validity marks and corrections are a history; a later row
+supersedes an earlier one, which stays (`append_only`)."""
 
 SEALED_AT_V6 = ("patients", "sessions", "trials", "proposals")
 """The tables schema v6 sealed (its migration, as it shipped: later tables are made
@@ -92,29 +109,60 @@ def register(conn: sqlite3.Connection) -> sqlite3.Connection:
     return conn
 
 
-def _call(table: str) -> str:
-    return f"{FUNCTION}('{table}', {', '.join(SEALED[table])})"
+def call(table: str, columns: tuple[str, ...] | None = None) -> str:
+    """The SQL expression of a row's seal (over `columns`, by default SEALED's)."""
+    return f"{FUNCTION}('{table}', {', '.join(columns or SEALED[table])})"
+
 
 
 def migration() -> tuple[str, ...]:
     """Schema v6: the seal column, every existing row sealed as it is (it is trusted at
-    the upgrade, after the copy the migration keeps), and the triggers."""
+    the upgrade, after the copy the migration keeps), and the triggers; over each table's
+    columns at v6 (SEALED_AT_V7 where a later schema added some)."""
     statements: list[str] = []
     for table in SEALED_AT_V6:
+        columns = SEALED_AT_V7.get(table, SEALED[table])
         statements.append(f"ALTER TABLE {table} ADD COLUMN seal TEXT")
-        statements.append(f"UPDATE {table} SET seal = {_call(table)}")
-        statements.extend(triggers(table))
+        statements.append(f"UPDATE {table} SET seal = {call(table, columns)}")
+        statements.extend(triggers(table, columns))
     return tuple(statements)
 
 
-def triggers(table: str) -> tuple[str, str]:
+def triggers(table: str, columns: tuple[str, ...] | None = None) -> tuple[str, str]:
     """The two triggers that seal `table`'s rows: after an insert, and after an update of
     any sealed column (the seal's own update is not one, so it does not fire again)."""
-    columns = ", ".join(SEALED[table])
-    body = f"BEGIN UPDATE {table} SET seal = {_call(table)} WHERE rowid = NEW.rowid; END"
+    columns = columns or SEALED[table]
+    body = (f"BEGIN UPDATE {table} SET seal = {call(table, columns)} WHERE rowid = NEW.rowid;"
+            " END")
     return (f"CREATE TRIGGER {table}_sealed_on_insert AFTER INSERT ON {table} {body}",
-            f"CREATE TRIGGER {table}_sealed_on_update AFTER UPDATE OF {columns} ON {table} "
-            f"{body}")
+            f"CREATE TRIGGER {table}_sealed_on_update AFTER UPDATE OF {', '.join(columns)} "
+            f"ON {table} {body}")
+
+
+def append_only(table: str) -> tuple[str, str]:
+    """Two triggers that refuse to change or delete a row of `table` once it is written
+    (its seal, which the insert trigger writes, aside): what a therapist recorded stays
+    as it was recorded, a later row corrects it."""
+    columns = ", ".join(SEALED[table])
+    return (f"CREATE TRIGGER {table}_append_only_update BEFORE UPDATE OF {columns} ON "
+            f"{table} BEGIN SELECT RAISE(ABORT, '{table} are kept as written: add a new "
+            "one instead'); END",
+            f"CREATE TRIGGER {table}_append_only_delete BEFORE DELETE ON {table} BEGIN "
+            f"SELECT RAISE(ABORT, '{table} are kept as written: add a new one instead'); "
+            "END")
+
+
+def checked_before_resealing(table: str, columns: tuple[str, ...]) -> tuple[str, ...]:
+    """Statements that fail (a CHECK constraint naming the table) when any row of `table`
+    does not match its seal over `columns`, the table's sealed columns before a
+    migration: a migration that seals the rows again first checks them, so a row damaged
+    before the upgrade is refused, not sealed as sound."""
+    check = f"{table}_rows_match_their_seals"
+    return (f"CREATE TEMP TABLE {check} (sound INTEGER CONSTRAINT {check} CHECK (sound), "
+            "row INTEGER)",
+            f"INSERT INTO {check} SELECT coalesce(seal = {call(table, columns)}, 0), rowid "
+            f"FROM {table}",
+            f"DROP TABLE {check}")
 
 
 def verify(conn: sqlite3.Connection, path) -> None:
@@ -130,7 +178,7 @@ def verify(conn: sqlite3.Connection, path) -> None:
             "Nothing was read from it. Restore the registry from a backup (a "
             "registry.sqlite3.v*.bak beside it, or your own copy)")
     for table in SEALED:
-        mismatch = f"seal IS NULL OR seal != {_call(table)}"
+        mismatch = f"seal IS NULL OR seal != {call(table)}"
         try:
             row = conn.execute(f"SELECT rowid FROM {table} WHERE {mismatch} LIMIT 1"
                                ).fetchone()
