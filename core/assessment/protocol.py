@@ -20,7 +20,9 @@ reaching (Coderre et al. 2010, Neurorehabil Neural Repair 24:528, doi
 10.1177/1545968309356091) are deliberate: the targets come in the layout's fixed order
 (round the circle, as the centre-out exercise walks them) rather than in a random
 order, so a patient can anticipate the next direction; and each reach has a fixed slot
-on the clock instead of starting when the hand has held still at the centre.
+on the clock instead of starting when the hand has held still at the centre: 3 s, so a
+hand that overshot the centre on its way back has settled before the next target shows
+(a weak virtual patient's, 2-3 cm past it, takes about 1 s).
 """
 
 from __future__ import annotations
@@ -34,12 +36,11 @@ from core.trajectory import Line
 from core.trial import ASSIST_MODES, TrialParameters
 
 TRANSPARENT = "transparent"
-HOLD = "hold"
-"""The robot holding the handle still and stiffly at the centre (isometric strength;
-core.control, robothold's mode)."""
-PASSIVE_MOVE = "position"
-"""The robot moving the relaxed hand to a target and back, then letting the patient
-reproduce it (position sense; core.control, robothold's mode)."""
+HOLD_GAINS = "ctpid.integral_limit_rad_s2=20"
+"""The computed-torque PID's gains for the robot-led tasks (strength: the robot holds the
+handle still; position: it takes the hand to a target and back), which run in the
+transparent mode on their own trajectory (core.holdtasks; core.control.hold.HOLD_GAINS
+is the same text, checked by tests/core/assessment/test_protocol.py once it exists)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -79,9 +80,12 @@ class Protocol:
     """The layout's size: the targets' distance from the centre, the circle's radius."""
     n_targets: int
     repetitions: int
-    """Traversals of the layout per trial (every target this many times)."""
-    slot_s: float
-    """Time of one segment of the reference: a target's slot, then the way back's."""
+    """Traversals of the layout per trial (every target this many times); rounds of the
+    robot-led tasks."""
+    duration_s: float
+    """TrialParameters.duration_s: one traversal of the layout (a centre-out layout's
+    segments share it evenly, a target's slot then the way back's), one lap of the circle,
+    one push (strength) or one match (position; core.holdtasks times those two)."""
     timing: str
     trials: tuple[str, ...]
     """One label per trial of the task ("" when it has one): its trial count."""
@@ -93,29 +97,21 @@ class Protocol:
     """Rest between the task's trials."""
     reference: str
     """The instrument the task follows, with its doi."""
+    controller: str = ""
+    """TrialParameters.controller for the task ("" keeps the base's)."""
+    gains: str = ""
+    """TrialParameters.gains for the task ("" keeps the base's)."""
 
     @property
     def trial_count(self) -> int:
         return len(self.trials)
 
-    @property
-    def duration_s(self) -> float:
-        """One traversal of the layout (TrialParameters.duration_s)."""
-        if self.shape == "targets":
-            return 2 * self.n_targets * self.slot_s
-        return self.slot_s
-
-    @property
-    def trial_length_s(self) -> float:
-        """One trial's exercise on the clock (without the approach and the end's hold)."""
-        return self.duration_s * self.repetitions
-
     def parameters(self, base: TrialParameters, index: int = 0) -> TrialParameters:
         """Trial `index` (0-based, < trial_count) of this task for the patient and the
-        table of `base`: its body, shoulder, side, centre and controller are kept, the
-        exercise, timing and robot mode are the protocol's, with no game, no help and no
-        staircase. Refuses, in one line, an index out of range and a robot mode this
-        console does not have."""
+        table of `base`: its body, shoulder, side and centre are kept (and its controller
+        unless the task names one), the exercise, timing and robot mode are the
+        protocol's, with no game, no help and no staircase. Refuses, in one line, an index
+        out of range and a robot mode this console does not have."""
         if not (isinstance(index, int) and 0 <= index < self.trial_count):
             raise ParameterError("trial", index, f"0 to {self.trial_count - 1}",
                                  f"the {self.name} has {self.trial_count} trial(s)")
@@ -123,22 +119,32 @@ class Protocol:
             raise ParameterError("assist", self.robot_mode, "one of " + ", ".join(ASSIST_MODES),
                                  f"the {self.name} needs the robot's {self.robot_mode!r} mode, "
                                  "which this console does not have")
+        changes = {name: value for name, value in (("controller", self.controller),
+                                                   ("gains", self.gains)) if value}
+        if changes.get("controller", base.controller) != "ctpid":
+            changes["learned_model"] = changes["learned_model_sha256"] = ""
         return base.replace(
-            shape=self.shape, radius_m=self.radius_m, n_targets=self.n_targets,
+            **changes, shape=self.shape, radius_m=self.radius_m, n_targets=self.n_targets,
             duration_s=self.duration_s, repetitions=self.repetitions, timing=self.timing,
             clockwise=self.trials[index] != "counter-clockwise", assist=self.robot_mode,
             assistance_level=0.0, game="", staircase="", neglect_side="", assessment=self.task,
         )
 
 
+CUED_TASKS = ("reaching", "circle", "range")
+"""The tasks whose cues are the reference's segments (`cues`); the robot-led tasks'
+(strength, position) are their trajectory's own events (core.holdtasks)."""
+
+
 def cues(parameters: TrialParameters) -> tuple[Cue, ...]:
     """The cues of a task's trial on its exercise's clock: for a centre-out layout
     (shape "targets") each reach's target at its outward segment's start and the centre
     at the way back's; for the circle, nothing (the path is shown throughout). Refuses
-    a trial that is no assessment."""
-    if parameters.assessment == "":
-        raise ParameterError("assessment", "", "one of " + ", ".join(TASKS),
-                             "an exercise has no assessment cues")
+    a trial of any other task, or no assessment."""
+    if parameters.assessment not in CUED_TASKS:
+        raise ParameterError("assessment", parameters.assessment, "one of "
+                             + ", ".join(CUED_TASKS), "the tasks cued by the reference's "
+                             "segments; the robot-led tasks' cues are their trajectory's events")
     if parameters.shape != "targets":
         return ()
     trajectory = parameters.trajectory()
@@ -176,7 +182,7 @@ PROTOCOLS: dict[str, Protocol] = {
             "Seat the patient with the arm to be tested on the handle and the trunk against "
             "the chair's back. The robot is transparent: it neither helps nor guides. Start: "
             "the robot brings the hand to the centre. Each of the 8 targets 10 cm around it "
-            "appears in turn, 3 times; the patient reaches it as quickly and accurately as "
+            "appears in turn, twice; the patient reaches it as quickly and accurately as "
             "they can, holds it until the centre target comes back, and returns. Do not "
             "touch or guide the arm. A reach that never starts counts as no reaction, one "
             "that never stops as no movement end."),
@@ -184,9 +190,9 @@ PROTOCOLS: dict[str, Protocol] = {
             "Hold the handle at the centre circle. When a target lights up, move to it as "
             "quickly and accurately as you can and stay on it. When the centre lights up "
             "again, go back and wait for the next target."),
-        robot_mode=TRANSPARENT, shape="targets", radius_m=0.10, n_targets=8, repetitions=3,
-        slot_s=2.0, timing="minimum_jerk", trials=("",), target_hold_s=0.5,
-        time_allowed_s=2.0, rest_s=0.0, reference=_KINARM),
+        robot_mode=TRANSPARENT, shape="targets", radius_m=0.10, n_targets=8, repetitions=2,
+        duration_s=48.0, timing="minimum_jerk", trials=("",), target_hold_s=0.5,
+        time_allowed_s=3.0, rest_s=0.0, reference=_KINARM),
     "circle": Protocol(
         task="circle", name="circle drawing",
         therapist=(
@@ -198,7 +204,7 @@ PROTOCOLS: dict[str, Protocol] = {
             "Follow the dot round the circle with the handle, as round and as smooth as you "
             "can. Then the same the other way round."),
         robot_mode=TRANSPARENT, shape="circle", radius_m=0.07, n_targets=8, repetitions=5,
-        slot_s=4.0, timing="constant_speed", trials=("clockwise", "counter-clockwise"),
+        duration_s=4.0, timing="constant_speed", trials=("clockwise", "counter-clockwise"),
         target_hold_s=0.0, time_allowed_s=4.0, rest_s=30.0, reference=_INMOTION),
     "range": Protocol(
         task="range", name="active range",
@@ -211,7 +217,7 @@ PROTOCOLS: dict[str, Protocol] = {
             "When an arrow shows, move the handle as far as you can that way, hold it there, "
             "then come back to the centre."),
         robot_mode=TRANSPARENT, shape="targets", radius_m=0.05, n_targets=8, repetitions=1,
-        slot_s=3.0, timing="minimum_jerk", trials=("",), target_hold_s=1.0,
+        duration_s=48.0, timing="minimum_jerk", trials=("",), target_hold_s=1.0,
         time_allowed_s=3.0, rest_s=0.0,
         reference="the active range of motion of robot assessments (Kinarm, InMotion); "
                   "area over the common workspace: this console's"),
@@ -225,9 +231,9 @@ PROTOCOLS: dict[str, Protocol] = {
         patient=(
             "The handle will not move. When an arrow shows, push the handle that way as "
             "hard as you can until it goes away, then relax."),
-        robot_mode=HOLD, shape="targets", radius_m=0.05, n_targets=8, repetitions=1,
-        slot_s=3.0, timing="minimum_jerk", trials=("",), target_hold_s=3.0,
-        time_allowed_s=3.0, rest_s=0.0,
+        robot_mode=TRANSPARENT, shape="targets", radius_m=0.05, n_targets=8, repetitions=1,
+        duration_s=3.0, timing="minimum_jerk", trials=("",), target_hold_s=3.0,
+        time_allowed_s=3.0, rest_s=0.0, controller="ctpid", gains=HOLD_GAINS,
         reference="InMotion shoulder strength and isometric hold (Bioelectronic Medicine "
                   "2021, doi 10.1186/s42234-021-00081-9, Table 4)"),
     "position": Protocol(
@@ -240,9 +246,9 @@ PROTOCOLS: dict[str, Protocol] = {
         patient=(
             "Relax your arm and let the robot move it. Feel where it takes your hand. When "
             "it is back and the screen says so, move your hand to that place and hold still."),
-        robot_mode=PASSIVE_MOVE, shape="targets", radius_m=0.10, n_targets=4, repetitions=3,
-        slot_s=4.0, timing="minimum_jerk", trials=("",), target_hold_s=1.0,
-        time_allowed_s=4.0, rest_s=0.0,
+        robot_mode=TRANSPARENT, shape="targets", radius_m=0.10, n_targets=4, repetitions=3,
+        duration_s=4.0, timing="minimum_jerk", trials=("",), target_hold_s=1.0,
+        time_allowed_s=4.0, rest_s=0.0, controller="ctpid", gains=HOLD_GAINS,
         reference="Kinarm's arm position matching (Dukelow et al. 2012, J NeuroEng Rehabil "
                   "9:72, doi 10.1186/1743-0003-9-72) with one arm, against memory"),
 }

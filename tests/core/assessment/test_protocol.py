@@ -9,7 +9,8 @@ import pytest
 from hypothesis import given, strategies as st
 
 from core.assessment import TASKS
-from core.assessment.protocol import PROTOCOLS, cues, protocol, reach_directions_rad
+from core.assessment.protocol import HOLD_GAINS, PROTOCOLS, cues, protocol, reach_directions_rad
+from core.control.gains import canonical_gains
 from core.errors import ParameterError
 from core.trial import ASSIST_MODES, TrialParameters, check_trial
 
@@ -33,7 +34,8 @@ def test_a_tasks_trials_are_reachable_trials_of_that_task(task):
         assert trial.assist == p.robot_mode
         assert trial.game == ""
         assert trial.assistance_level == 0.0
-        assert trial.duration_s * trial.repetitions == pytest.approx(p.trial_length_s)
+        assert trial.duration_s == p.duration_s
+        assert trial.repetitions == p.repetitions
         assert check_trial(trial).ok, check_trial(trial).problems
         # the file's round trip keeps the task
         assert TrialParameters.from_dict(trial.to_dict()) == trial
@@ -42,6 +44,15 @@ def test_a_tasks_trials_are_reachable_trials_of_that_task(task):
 def test_the_circle_runs_once_each_way():
     p = protocol("circle")
     assert [p.parameters(TrialParameters(), i).clockwise for i in range(2)] == [True, False]
+
+
+def test_the_robot_led_tasks_run_the_hold_gains_and_a_reaching_task_keeps_the_base():
+    base = TrialParameters(controller="smc")
+    for task in ("strength", "position"):
+        trial = protocol(task).parameters(base)
+        assert trial.controller == "ctpid"
+        assert trial.gains == canonical_gains(HOLD_GAINS)
+    assert protocol("reaching").parameters(base).controller == "smc"
 
 
 def test_a_task_keeps_the_patients_body_and_table():
@@ -58,6 +69,7 @@ def test_a_task_keeps_the_patients_body_and_table():
     (lambda: protocol("circle").parameters(TrialParameters(), 2), "trial"),
     (lambda: protocol("reaching").parameters(TrialParameters(), -1), "trial"),
     (lambda: cues(TrialParameters()), "assessment"),
+    (lambda: cues(protocol("strength").parameters(TrialParameters())), "assessment"),
 ])
 def test_a_bad_request_is_refused_in_one_line(call, field):
     with pytest.raises(ParameterError) as refused:
@@ -69,12 +81,12 @@ def test_a_bad_request_is_refused_in_one_line(call, field):
 def test_reaching_cues_are_each_targets_appearance_on_the_clock():
     trial = protocol("reaching").parameters(TrialParameters())
     shown = cues(trial)
-    assert len(shown) == 2 * 8 * 3
+    assert len(shown) == 2 * 8 * 2
     targets = [c for c in shown if c.kind == "target"]
-    assert len(targets) == 24
-    # 2 s a slot: target k of repetition r shows at r·32 + 4k s, the centre 2 s later
-    assert [c.time_s for c in targets[:3]] == pytest.approx([0.0, 4.0, 8.0])
-    assert targets[8].time_s == pytest.approx(32.0)
+    assert len(targets) == 16
+    # 3 s a slot: target k of repetition r shows at r·48 + 6k s, the centre 3 s later
+    assert [c.time_s for c in targets[:3]] == pytest.approx([0.0, 6.0, 12.0])
+    assert targets[8].time_s == pytest.approx(48.0)
     assert targets[8].repetition == 1
     sample = trial.trajectory().sample([c.time_s for c in targets])
     # each target's reach starts at the centre, the reference resting there
