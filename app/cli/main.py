@@ -23,6 +23,7 @@ from app.cli.exports import add_export_command
 from app.cli.gains import add_gains_command
 from app.cli.learn import add_learn_commands
 from app.cli.models import add_models_command
+from app.cli.norms import add_norms_commands
 from app.cli.plans import add_plan_commands
 from app.cli.pose import add_pose_command
 from app.cli.records import add_patient_commands, add_trials_command
@@ -50,6 +51,7 @@ COMMAND_GROUPS = (
     add_emg_commands,
     add_models_command,
     add_plan_commands,
+    add_norms_commands,
 )
 
 

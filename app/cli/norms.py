@@ -1,0 +1,174 @@
+"""`rehab norms`: the normative models Z-scores and task scores are computed against.
+
+`show` prints a norms file (or the data folder's), `fit` fits one from a table of healthy
+controls with its cross-validated calibration, `use` makes a file the data folder's norms
+(the one before kept), `mdc` adds MDC95 per figure and task score from test-retest data.
+docs/norms.md documents the file and the formulas.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from app.cli.common import EXIT_OK, CommandError, absolute, data_dir_for, output_path
+
+
+def add_norms_commands(commands) -> None:
+    norms = commands.add_parser(
+        "norms", help="normative models: show, fit from controls, use, MDC from retests",
+        description="The normative models figures are scored against (docs/norms.md).")
+    actions = norms.add_subparsers(dest="action", metavar="action", required=True,
+                                   parser_class=type(norms))
+    p = actions.add_parser("show", help="a norms file, or the data folder's norms",
+                           description="Print a norms file's source, covariates, figures, "
+                                       "task scores and calibration; without FILE, the "
+                                       "norms the data folder uses.")
+    p.add_argument("file", nargs="?", help="a norms file (default: the data folder's)")
+    p.set_defaults(func=cmd_show)
+    p = actions.add_parser("fit", help="fit norms from a table of healthy controls",
+                           description="Fit a normative model from healthy controls "
+                                       "(one CSV row per person: subject, age_years, sex, "
+                                       "handedness, tested_side, robot, then figure keys) "
+                                       "and print its k-fold cross-validated calibration.")
+    p.add_argument("--controls", required=True, help="the controls' table (CSV)")
+    p.add_argument("--source", required=True,
+                   help="who measured which healthy people, when (printed on every report)")
+    p.add_argument("--simulated", action="store_true",
+                   help="the controls are virtual: every report says so")
+    p.add_argument("--transform", default="auto",
+                   choices=("auto", "box-cox", "yeo-johnson", "none"),
+                   help="each figure's transform to normality (auto: Box-Cox when every "
+                        "value is positive, else Yeo-Johnson)")
+    p.add_argument("--folds", type=int, default=5, help="cross-validation folds (default 5)")
+    p.add_argument("--seed", type=int, default=0, help="the folds' shuffle (default 0)")
+    p.add_argument("--output", required=True, help="the norms file to write (.json)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing file")
+    p.set_defaults(func=cmd_fit)
+    p = actions.add_parser("use", help="make a norms file the data folder's norms",
+                           description="Verify a norms file and make it the norms this data "
+                                       "folder's reports score against; the norms used "
+                                       "before are kept beside it.")
+    p.add_argument("file", help="the norms file")
+    p.set_defaults(func=cmd_use)
+    p = actions.add_parser("mdc", help="add MDC95 from test-retest data to a norms file",
+                           description="From a test-retest table (the controls' columns "
+                                       "plus `session`, 1 or 2, two rows per person), "
+                                       "compute ICC(2,1), SEM and MDC95 per figure and "
+                                       "task score, and write the norms with them.")
+    p.add_argument("retest", help="the test-retest table (CSV)")
+    p.add_argument("--norms", required=True, help="the norms file to add the MDC95 to")
+    p.add_argument("--output", required=True, help="the norms file to write (.json)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing file")
+    p.set_defaults(func=cmd_mdc)
+
+
+def _load(text: str):
+    from app.norms import load_norms
+
+    if not text.strip():
+        raise CommandError("the norms file is empty: give a path")
+    return load_norms(absolute(text))
+
+
+def cmd_show(args: argparse.Namespace) -> int:
+    from app.norms import SIMULATED_LABEL
+    from app.norms.fitting import calibration_lines
+    from app.norms.in_use import norms_in_use
+
+    if args.file is not None:
+        model = _load(args.file)
+    else:
+        model = norms_in_use(data_dir_for(args))
+        if model is None:
+            raise CommandError("this data folder uses no norms and the console ships none: "
+                               "`rehab norms use FILE`")
+    print(f"norms: {model.path}")
+    print(f"source: {model.source}")
+    if model.simulated:
+        print(f"SIMULATED — {SIMULATED_LABEL.split(' — ', 1)[1]}")
+    spec = model.covariates
+    print(f"controls: age {spec.age_range[0]:g}–{spec.age_range[1]:g} years; " + "; ".join(
+        f"{name} {', '.join(levels)}" for name, levels in spec.levels.items()))
+    print(f"{'figure':<36} {'transform':<18} {'n':>5} {'resid SD':>9} {'worse':<7} "
+          f"{'MDC95':>9}")
+    for key, f in model.figures.items():
+        t = f.transform
+        kind = t.kind if t.kind == "none" else f"{t.kind} λ={t.lam:.3g}"
+        mdc = "" if f.mdc95 is None else f"{f.mdc95:.4g}"
+        print(f"{key:<36} {kind:<18} {f.regression.n:>5} {f.regression.residual_sd:>9.4g} "
+              f"{f.worse:<7} {mdc:>9}")
+    for task, t in model.tasks.items():
+        mdc = "" if t.mdc95 is None else f", MDC95 {t.mdc95:.3g}"
+        print(f"task score {task}: {', '.join(t.figures)} (n {t.n}{mdc})")
+    held = model.calibration.get("held_out") if isinstance(model.calibration, dict) else None
+    if isinstance(held, dict) and held:
+        print(f"calibration: {model.calibration.get('method', '')}")
+        try:
+            for line in calibration_lines(held):
+                print(line)
+        except (KeyError, TypeError, ValueError):
+            print("(the file's calibration is not in the form `rehab norms fit` writes)")
+    return EXIT_OK
+
+
+def cmd_fit(args: argparse.Namespace) -> int:
+    from app.norms import write_norms
+    from app.norms.fitting import calibration_lines, fit_norms, read_controls_table
+
+    controls_path = absolute(args.controls)
+    output = output_path(args, args.output, overwrite=args.overwrite, inputs=(controls_path,),
+                         suffixes=(".json",))
+    if not 2 <= args.folds <= 100:
+        raise CommandError(f"--folds {args.folds}: give 2 to 100")
+    controls = read_controls_table(controls_path)
+    report = fit_norms(controls, args.source, simulated=args.simulated,
+                       transform=args.transform, folds=args.folds, seed=args.seed)
+    write_norms(output, report.document, overwrite=args.overwrite)
+    print(f"fitted norms on {len(controls.people)} controls: {len(report.document['figures'])} "
+          f"figures, {len(report.document['tasks'])} task scores; written to {output}")
+    print(report.document["calibration"]["method"] + " (held-out Z-scores; task scores "
+          "one-sided):")
+    for line in calibration_lines(report.document["calibration"]["held_out"]):
+        print(line)
+    for key, why in report.left_out.items():
+        print(f"left out {key}: {why}")
+    return EXIT_OK
+
+
+def cmd_use(args: argparse.Namespace) -> int:
+    from app.norms.in_use import use_norms
+
+    if not args.file.strip():
+        raise CommandError("the norms file is empty: give a path")
+    model, moved = use_norms(data_dir_for(args), absolute(args.file))
+    print(f"this data folder's reports now score against: {model.label}")
+    if moved is not None:
+        print(f"the norms used before are kept as {moved}")
+    return EXIT_OK
+
+
+def cmd_mdc(args: argparse.Namespace) -> int:
+    from app.norms import write_norms
+    from app.norms.fitting import read_controls_table
+    from app.norms.retest import ICC_FORM, retest_reliability, with_mdc
+
+    norms_path, retest_path = absolute(args.norms), absolute(args.retest)
+    output = output_path(args, args.output, overwrite=args.overwrite,
+                         inputs=(norms_path, retest_path), suffixes=(".json",))
+    model = _load(args.norms)
+    retest = read_controls_table(retest_path, sessions=True)
+    found, skipped = retest_reliability(model, retest)
+    if not found:
+        raise CommandError("no figure or task score has enough test-retest pairs: " + "; ".join(
+            f"{k}: {v}" for k, v in list(skipped.items())[:3]))
+    document = with_mdc(json.loads(norms_path.read_text(encoding="utf-8")), found)
+    write_norms(output, document, overwrite=args.overwrite)
+    print(f"{'figure or task score':<36} {'pairs':>5} {f'ICC({ICC_FORM})':>9} {'SEM':>9} "
+          f"{'MDC95':>9}")
+    for key, r in found.items():
+        print(f"{key:<36} {r.pairs:>5} {r.icc:>9.3f} {r.sem:>9.4g} {r.mdc95:>9.4g}")
+    for key, why in skipped.items():
+        print(f"no MDC95 for {key}: {why}")
+    print(f"written to {output}")
+    return EXIT_OK

@@ -1,0 +1,244 @@
+"""Fitting a normative model from a study's own healthy controls, with its cross-validated
+calibration, into the documented file (app.norms.modelfile; docs/norms.md, "Fitting").
+
+The controls come as a table, one row per person: their covariates and figures
+(`read_controls_table`, a CSV a study keeps), or from a folder of their assessment trial
+files (app.norms.controls). Every figure of core.assessment.FIGURES the controls have is
+fitted (at least MIN_CONTROLS people with it); every task whose figures all are gets a
+task score. The calibration (core.norms.fitting.cross_validate) goes into the file and is
+printed by `rehab norms fit` and `rehab norms show`.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+
+import numpy as np
+
+from app.norms.model import NormsError
+from app.norms.modelfile import FORMAT, FORMAT_VERSION
+from core.errors import CoreError
+from core.norms import fitting
+from core.norms.regression import AGE, CATEGORICAL, COVARIATES, Covariates
+from core.norms.scores import BETTER_TO_WORSE
+
+MIN_CONTROLS = 20
+"""Fewer healthy people than this give no usable spread or transform: a figure with fewer
+is left out (and said so)."""
+MAX_TABLE_BYTES = 64 * 2**20
+SUBJECT = "subject"
+SESSION = "session"
+
+
+@dataclass(frozen=True)
+class Controls:
+    """Healthy controls: one row per person, their covariates and their figures (NaN where
+    a person lacks one)."""
+
+    subjects: tuple[str, ...]
+    people: tuple[Covariates, ...]
+    figures: Mapping[str, np.ndarray]
+
+    def __post_init__(self) -> None:
+        for key, values in self.figures.items():
+            if len(values) != len(self.people):
+                raise NormsError(f"controls: {key} has {len(values)} values for "
+                                 f"{len(self.people)} people")
+
+
+def _catalogue():
+    from core.assessment import FIGURES, TASKS
+
+    return FIGURES, TASKS
+
+
+def read_controls_table(path: str | Path, *, sessions: bool = False) -> Controls:
+    """A CSV of controls: a header `subject,age_years,sex,handedness,tested_side,robot,`
+    then figure keys (core.assessment.FIGURES), one row per person; an empty cell is a
+    figure the person lacks. With `sessions` (test-retest data, `rehab norms mdc`), a
+    `session` column too and two rows per person, sessions 1 and 2; `subjects` are then
+    `<subject>#<session>`. Every bad cell is refused naming its line and column."""
+    from device.safeinput import check_file
+
+    path = check_file(path, what="controls table", max_bytes=MAX_TABLE_BYTES)
+    try:
+        text = path.read_bytes().decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise NormsError(f"controls table {path}: is not UTF-8 text; save it as CSV "
+                         "(UTF-8)") from None
+    try:
+        rows = list(csv.reader(io.StringIO(text)))
+    except csv.Error as exc:
+        raise NormsError(f"controls table {path}: is not CSV ({exc})") from None
+    if not rows:
+        raise NormsError(f"controls table {path}: is empty; give a header and one row per "
+                         "healthy person")
+    header = [h.strip() for h in rows[0]]
+    figures, _ = _catalogue()
+    needed = [SUBJECT, *([SESSION] if sessions else []), *COVARIATES]
+    missing = [c for c in needed if c not in header]
+    if missing:
+        raise NormsError(f"controls table {path}: the header lacks {missing[0]!r} (it needs "
+                         f"{', '.join(needed)}, then figure keys)")
+    unknown = [h for h in header if h not in needed and h not in figures]
+    if unknown:
+        raise NormsError(f"controls table {path}: column {unknown[0]!r} is neither a "
+                         "covariate nor a figure this console measures (docs/assessments.md)")
+    if len(set(header)) != len(header):
+        raise NormsError(f"controls table {path}: a column appears twice in the header")
+    keys = [h for h in header if h in figures]
+    subjects, people, values = [], [], {k: [] for k in keys}
+    for line, row in enumerate(rows[1:], start=2):
+        if not any(cell.strip() for cell in row):
+            continue
+        if len(row) != len(header):
+            raise NormsError(f"controls table {path}, line {line}: {len(row)} cells for "
+                             f"{len(header)} columns")
+        cells = dict(zip(header, (c.strip() for c in row), strict=True))
+        where = f"controls table {path}, line {line}"
+        if not cells[SUBJECT]:
+            raise NormsError(f"{where}: the subject is empty; give each person a code")
+        name = cells[SUBJECT]
+        if sessions:
+            if cells[SESSION] not in ("1", "2"):
+                raise NormsError(f"{where}: session {cells[SESSION][:10]!r} is not 1 or 2 "
+                                 "(test and retest)")
+            name = f"{name}#{cells[SESSION]}"
+        if name in subjects:
+            raise NormsError(f"{where}: subject {cells[SUBJECT]!r} appears twice"
+                             f"{' for one session' if sessions else ''}; one row per "
+                             f"{'person and session' if sessions else 'person'}")
+        age = _number(cells[AGE], f"{where}, {AGE}")
+        try:
+            person = Covariates(age, *(cells[c] for c in CATEGORICAL))
+        except CoreError as exc:
+            raise NormsError(f"{where}: {exc}") from None
+        subjects.append(name)
+        people.append(person)
+        for key in keys:
+            values[key].append(_number(cells[key], f"{where}, {key}") if cells[key]
+                               else math.nan)
+    if not people:
+        raise NormsError(f"controls table {path}: has no rows; one row per healthy person")
+    return Controls(tuple(subjects), tuple(people),
+                    {k: np.asarray(v, dtype=float) for k, v in values.items()})
+
+
+def _number(text: str, where: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise NormsError(f"{where}: {text[:30]!r} is not a number") from None
+    if not math.isfinite(value):
+        raise NormsError(f"{where}: {text[:30]!r} is not a finite number")
+    return value
+
+
+@dataclass(frozen=True)
+class FitReport:
+    """What the fit produced: the norms document, the calibration, what was left out."""
+
+    document: dict
+    calibration: Mapping[str, fitting.Calibration]
+    left_out: Mapping[str, str]
+
+
+def fit_norms(controls: Controls, source: str, *, simulated: bool = False,
+              transform: str = "auto", folds: int = 5, seed: int = 0) -> FitReport:
+    """The norms document fitted on `controls`, with its k-fold calibration."""
+    if not source.strip():
+        raise NormsError("the norms' source is empty: say who measured which healthy "
+                         "people, when (--source)")
+    figures_catalogue, tasks_catalogue = _catalogue()
+    left_out: dict[str, str] = {}
+    table = {}
+    for key, values in controls.figures.items():
+        have = int(np.sum(np.isfinite(values)))
+        if have < MIN_CONTROLS:
+            left_out[key] = f"{have} controls have it, fewer than {MIN_CONTROLS}"
+        elif np.ptp(values[np.isfinite(values)]) == 0.0:
+            left_out[key] = "every control has the same value: no spread to norm"
+        else:
+            table[key] = values
+    if not table:
+        raise NormsError(f"no figure has {MIN_CONTROLS} or more controls with a spread: "
+                         "nothing to fit (" + "; ".join(f"{k}: {v}" for k, v in
+                                                       sorted(left_out.items())[:3]) + ")")
+    worse = {k: BETTER_TO_WORSE[figures_catalogue[k].better] for k in table}
+    tasks = {}
+    for task in tasks_catalogue:
+        combined = task_figures_for_score(task, figures_catalogue)
+        if combined and all(k in table for k in combined):
+            tasks[task] = combined
+        elif combined:
+            left_out[f"task:{task}"] = "lacks " + ", ".join(k for k in combined
+                                                             if k not in table)
+    try:
+        model = fitting.fit_model(table, controls.people, worse, tasks, transform)
+        calibration = fitting.cross_validate(table, controls.people, worse, tasks,
+                                             transform, folds=folds, seed=seed)
+    except CoreError as exc:
+        raise NormsError(f"the controls cannot be fitted: {exc}") from None
+    document = norms_from_fit(model, source, simulated, calibration, folds,
+                              len(controls.people))
+    return FitReport(document, calibration, left_out)
+
+
+def task_figures_for_score(task: str, figures_catalogue) -> list[str]:
+    """The figures a task's score combines: the task's summary figures (the per-direction
+    and per-target breakdowns are left out: they repeat the summary; counts of failed
+    reaches are left out: zero in nearly every control, they have no spread to norm)."""
+    keys = [spec.key for spec in figures_catalogue.values() if spec.task == task]
+    if task == "circle":
+        return [k for k in keys if not (k.endswith(("_cw", "_ccw")) or "_cw_" in k
+                                        or "_ccw_" in k)]
+    if task == "strength":
+        return [k for k in keys if k in ("strength_peak_force_n", "strength_mean_force_n")]
+    if task == "reaching":
+        return [k for k in keys if not k.startswith(("vgr_no_reaction", "vgr_no_movement"))]
+    return keys
+
+
+def norms_from_fit(model: fitting.FittedModel, source: str, simulated: bool,
+                   calibration: Mapping[str, fitting.Calibration], folds: int, n: int
+                   ) -> dict:
+    """The norms document (docs/norms.md) of a fitted model."""
+    spec = model.spec
+    return {
+        "format": FORMAT, "format_version": FORMAT_VERSION,
+        "source": source.strip(), "simulated": bool(simulated),
+        "created_utc": datetime.now(UTC).isoformat(timespec="seconds"),
+        "covariates": {AGE: list(spec.age_range),
+                       **{c: list(spec.levels[c]) for c in CATEGORICAL}},
+        "figures": {key: {
+            "transform": {"kind": f.transform.kind, "lambda": f.transform.lam,
+                          "shift": f.transform.shift},
+            "coefficients": dict(f.regression.coefficients),
+            "residual_sd": f.regression.residual_sd, "n": f.regression.n,
+            "worse": f.worse,
+        } for key, f in model.figures.items()},
+        "tasks": {task: {
+            "figures": list(t.figures),
+            "transform": {"kind": t.transform.kind, "lambda": t.transform.lam,
+                          "shift": t.transform.shift},
+            "mean": t.mean, "sd": t.sd, "n": t.n,
+        } for task, t in model.tasks.items()},
+        "calibration": {"method": f"{folds}-fold cross-validation over {n} controls",
+                        "held_out": {k: c.as_dict() for k, c in calibration.items()}},
+    }
+
+
+def calibration_lines(calibration: Mapping[str, Mapping]) -> list[str]:
+    """The calibration as a table for the terminal."""
+    lines = [f"{'figure or task score':<36} {'n':>5} {'mean':>7} {'SD':>6} "
+             f"{'beyond 1.96':>11} {'QQ max dev':>10}"]
+    for key, c in calibration.items():
+        lines.append(f"{key:<36} {c['n']:>5} {c['mean']:>7.3f} {c['sd']:>6.3f} "
+                     f"{100 * c['share_beyond_1_96']:>10.1f}% {c['qq_max_deviation']:>10.3f}")
+    return lines

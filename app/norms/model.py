@@ -1,0 +1,204 @@
+"""A normative model in memory, and what it says of a patient: Z-scores, task scores, MDC95.
+
+Every result carries the model's `source` and `simulated` flag: a report that prints a
+Z-score prints where its norms came from (`NormativeModel.label`), and a simulated model
+says "simulated — for demonstration and tests only" wherever it is used. The formulas are
+core.norms'; docs/norms.md documents them and the file (app.norms.modelfile).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from app.errors import AppError
+from core.errors import ParameterError
+from core.norms import reliability, scores
+from core.norms.regression import Covariates, CovariateSpec, Regression
+from core.norms.transforms import Transform
+
+SIMULATED_LABEL = "simulated — for demonstration and tests only"
+
+
+class NormsError(AppError):
+    """The norms cannot answer: a figure or task they do not hold, a person outside
+    them, a value outside a transform's domain, no MDC95 for a change."""
+
+
+@dataclass(frozen=True)
+class FigureNorm:
+    """One figure's norm: its transform, the regression on the covariates, the side that
+    is worse, and its MDC95 in the figure's own units (None when the file has none)."""
+
+    transform: Transform
+    regression: Regression
+    worse: str
+    mdc95: float | None = None
+
+
+@dataclass(frozen=True)
+class TaskNorm:
+    """One task's score: the figures it combines, the transform of their distance, the
+    controls' mean and SD of the transformed distance, n, and the score's MDC95."""
+
+    figures: tuple[str, ...]
+    transform: Transform
+    mean: float
+    sd: float
+    n: int
+    mdc95: float | None = None
+
+
+@dataclass(frozen=True)
+class FigureZ:
+    """A figure's Z-score against the norms (eq. 2 of docs/norms.md): positive is a figure
+    higher than healthy people like the patient; `worse_z` positive is worse."""
+
+    figure: str
+    value: float
+    z: float
+    worse: str
+    extrapolated: bool
+    source: str
+    simulated: bool
+
+    @property
+    def worse_z(self) -> float:
+        return scores.worse_signed(self.z, self.worse)
+
+
+@dataclass(frozen=True)
+class TaskScore:
+    """A task's score (docs/norms.md, eq. 4): 0 best, the controls half-normal; with the
+    Z-Task Score, the distance and the figures' Z-scores it came from."""
+
+    task: str
+    score: float
+    z_task: float
+    distance: float
+    figures: Mapping[str, FigureZ]
+    extrapolated: bool
+    source: str
+    simulated: bool
+
+
+@dataclass(frozen=True)
+class Change:
+    """Whether a figure or task score changed beyond its MDC95."""
+
+    key: str
+    before: float
+    after: float
+    mdc95: float
+    real: bool
+
+
+@dataclass(frozen=True)
+class NormativeModel:
+    """A loaded, verified normative model (app.norms.modelfile.load_norms)."""
+
+    source: str
+    simulated: bool
+    covariates: CovariateSpec
+    figures: Mapping[str, FigureNorm]
+    tasks: Mapping[str, TaskNorm]
+    content_sha256: str = ""
+    calibration: Mapping = field(default_factory=dict)
+    path: object = None
+
+    @property
+    def label(self) -> str:
+        """What a report prints under anything it scored with these norms."""
+        text = f"Norms: {self.source}"
+        return f"{text} ({SIMULATED_LABEL})" if self.simulated else text
+
+    def _figure(self, figure: str) -> FigureNorm:
+        try:
+            return self.figures[figure]
+        except KeyError:
+            raise NormsError(f"the norms ({self.source}) hold no figure {figure!r}; they "
+                             f"hold {', '.join(sorted(self.figures)) or 'none'}") from None
+
+    def _check_person(self, person: Covariates) -> None:
+        unknown = self.covariates.unknown_levels(person)
+        if unknown:
+            name, level = unknown[0]
+            raise NormsError(f"the norms ({self.source}) hold no healthy people with "
+                             f"{name} {level!r} (they have "
+                             f"{', '.join(self.covariates.levels[name])}): no Z-score is "
+                             "given; use norms that include them")
+
+    def z(self, figure: str, value: float, person: Covariates) -> FigureZ:
+        """The figure's Z-score for this person (eq. 2)."""
+        norm = self._figure(figure)
+        self._check_person(person)
+        if isinstance(value, bool) or not isinstance(value, int | float | np.number) or (
+                not math.isfinite(value)):
+            raise NormsError(f"{figure} = {value!r} is not a finite number: no Z-score")
+        if not norm.transform.in_domain(value):
+            raise NormsError(f"{figure} = {value:g} is outside the norms' Box-Cox domain "
+                             f"(more than {-norm.transform.shift:g}): no Z-score; the norms "
+                             "need a larger shift or a Yeo-Johnson transform")
+        t_value = float(norm.transform.apply(value))
+        expected = float(norm.regression.predict(self.covariates, [person])[0])
+        z = scores.z_score(t_value, expected, norm.regression.residual_sd)
+        return FigureZ(figure, float(value), z, norm.worse,
+                       self.covariates.extrapolated(person), self.source, self.simulated)
+
+    def z_scores(self, metrics: Mapping[str, float], person: Covariates
+                 ) -> dict[str, FigureZ]:
+        """The Z-score of every figure in `metrics` the norms hold (others are left out)."""
+        return {key: self.z(key, value, person) for key, value in metrics.items()
+                if key in self.figures and value is not None}
+
+    def task_score(self, task: str, metrics: Mapping[str, float], person: Covariates
+                   ) -> TaskScore:
+        """The task's score from its figures' values (docs/norms.md, eqs. 3-4)."""
+        try:
+            norm = self.tasks[task]
+        except KeyError:
+            raise NormsError(f"the norms ({self.source}) hold no task score for {task!r}; "
+                             f"they hold {', '.join(sorted(self.tasks)) or 'none'}") from None
+        missing = [f for f in norm.figures if metrics.get(f) is None]
+        if missing:
+            raise NormsError(f"the {task} task score needs {', '.join(missing)}, which the "
+                             "trial does not have: no task score")
+        figures = {f: self.z(f, metrics[f], person) for f in norm.figures}
+        try:
+            distance = scores.task_distance({f: z.z for f, z in figures.items()},
+                                            {f: z.worse for f, z in figures.items()},
+                                            norm.figures)
+        except ParameterError as exc:
+            raise NormsError(f"the {task} task score: {exc}") from None
+        if not norm.transform.in_domain(distance):
+            raise NormsError(f"the {task} task's distance {distance:g} is outside the norms' "
+                             "transform of it: no task score")
+        z_task = scores.task_z(float(norm.transform.apply(distance)), norm.mean, norm.sd)
+        return TaskScore(task, scores.task_score(z_task), z_task, distance, figures,
+                         any(z.extrapolated for z in figures.values()), self.source,
+                         self.simulated)
+
+    def mdc95(self, key: str) -> float | None:
+        """The MDC95 of a figure (its units) or a task score (`task:<id>`), or None."""
+        if key.startswith("task:"):
+            task = self.tasks.get(key[5:])
+            if task is None:
+                raise NormsError(f"the norms ({self.source}) hold no task {key[5:]!r}")
+            return task.mdc95
+        return self._figure(key).mdc95
+
+    def is_real_change(self, key: str, before: float, after: float) -> Change:
+        """Whether a figure (or `task:<id>`'s score) moved beyond its MDC95 (eq. 7);
+        refused when the norms have no MDC95 for it."""
+        mdc = self.mdc95(key)
+        if mdc is None:
+            raise NormsError(f"the norms ({self.source}) have no MDC95 for {key}: add "
+                             "test-retest data (`rehab norms mdc`)")
+        try:
+            real = reliability.is_real_change(float(before), float(after), mdc)
+        except (ParameterError, TypeError, ValueError) as exc:
+            raise NormsError(f"{key}: {exc}") from None
+        return Change(key, float(before), float(after), mdc, real)

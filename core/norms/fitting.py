@@ -1,0 +1,207 @@
+"""Fitting a normative model from healthy controls, and its cross-validated calibration.
+
+Per figure (transforms.py, regression.py): the transform's λ by the profile likelihood of
+the regression on the covariates, then the regression on the transformed scale and its
+residual SD. Per task (scores.py): the controls' own Z-scores give their distances D
+(eq. 3); a Box-Cox transform of D is fitted (D > 0 always: a distance of exactly 0 needs
+every figure at −∞ one-sided), and the transformed distances' mean and SD (ddof 1) are the
+task's.
+
+Calibration: k-fold cross-validation. The controls are split into k folds; for each, the
+whole model is fitted on the other k − 1 folds and the held-out controls are scored. A
+model that generalises gives held-out Z-scores with mean ≈ 0, SD ≈ 1, ~5 % beyond ±1.96,
+and task scores with ~5 % above 1.96; the QQ summary is the largest distance between the
+sorted held-out Z-scores and the standard normal quantiles at the plotting positions
+(i − 0.5)/n over the central 90 % (beyond it a few points always stray).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+from core.errors import ParameterError
+from core.norms import scores
+from core.norms.regression import Covariates, CovariateSpec, Regression, fit_regression
+from core.norms.transforms import Transform, fit_transform
+
+TRANSFORM_CHOICES = ("auto", "box-cox", "yeo-johnson", "none")
+"""`auto`: Box-Cox when every control's value is positive, else Yeo-Johnson."""
+
+
+@dataclass(frozen=True)
+class FittedFigure:
+    transform: Transform
+    regression: Regression
+    worse: str
+    at_bound: bool
+
+
+@dataclass(frozen=True)
+class FittedTask:
+    figures: tuple[str, ...]
+    transform: Transform
+    mean: float
+    sd: float
+    n: int
+
+
+@dataclass(frozen=True)
+class FittedModel:
+    spec: CovariateSpec
+    figures: Mapping[str, FittedFigure]
+    tasks: Mapping[str, FittedTask]
+
+    def z(self, figure: str, value: float, person: Covariates) -> float:
+        norm = self.figures[figure]
+        expected = norm.regression.predict(self.spec, [person])[0]
+        return scores.z_score(float(norm.transform.apply(value)), expected,
+                              norm.regression.residual_sd)
+
+    def task_score(self, task: str, values: Mapping[str, float], person: Covariates
+                   ) -> float:
+        norm = self.tasks[task]
+        z = {f: self.z(f, values[f], person) for f in norm.figures}
+        distance = scores.task_distance(z, {f: self.figures[f].worse for f in norm.figures},
+                                        norm.figures)
+        return scores.task_score(scores.task_z(float(norm.transform.apply(distance)),
+                                               norm.mean, norm.sd))
+
+
+def choose_kind(choice: str, values: np.ndarray) -> str:
+    if choice not in TRANSFORM_CHOICES:
+        raise ParameterError("transform", choice, " | ".join(TRANSFORM_CHOICES))
+    if choice != "auto":
+        return choice
+    return "box-cox" if np.all(values > 0.0) else "yeo-johnson"
+
+
+def fit_figure(values, people: Sequence[Covariates], spec: CovariateSpec, worse: str,
+               kind: str = "auto") -> FittedFigure:
+    """One figure's transform (λ by the profile likelihood of the regression) and
+    regression."""
+    values = np.asarray(values, dtype=float).reshape(-1)
+    if values.size != len(people):
+        raise ParameterError("controls' values", values.size, f"{len(people)}, one per control")
+    design = spec.design(people)
+    fit = fit_transform(choose_kind(kind, values), values, design)
+    regression = fit_regression(spec, design, fit.transform.apply(values))
+    return FittedFigure(fit.transform, regression, worse, fit.at_bound)
+
+
+def fit_task(figures: Sequence[str], z_by_figure: Mapping[str, np.ndarray],
+             worse: Mapping[str, str]) -> FittedTask:
+    """A task's distance transform and its controls' mean and SD, from the controls'
+    Z-scores of its figures."""
+    n = len(next(iter(z_by_figure.values())))
+    distances = np.array([scores.task_distance({f: float(z_by_figure[f][i]) for f in figures},
+                                               worse, figures) for i in range(n)])
+    if np.any(distances <= 0.0):
+        raise ParameterError("task distances", "a zero", "positive distances")
+    fit = fit_transform("box-cox", distances)
+    t = fit.transform.apply(distances)
+    return FittedTask(tuple(figures), fit.transform, float(np.mean(t)),
+                      float(np.std(t, ddof=1)), int(n))
+
+
+def fit_model(table: Mapping[str, np.ndarray], people: Sequence[Covariates],
+              worse: Mapping[str, str], tasks: Mapping[str, Sequence[str]],
+              kind: str | Mapping[str, str] = "auto",
+              spec: CovariateSpec | None = None) -> FittedModel:
+    """The whole model from the controls: `table` figure → one value per person (NaN for
+    a control without it: left out of that figure's fit), `tasks` task → its figures
+    (only controls with all of them count for the task)."""
+    from core.norms.regression import spec_of
+
+    spec = spec or spec_of(people)
+    fitted = {}
+    for figure, values in table.items():
+        values = np.asarray(values, dtype=float)
+        keep = np.isfinite(values)
+        chosen = kind.get(figure, "auto") if isinstance(kind, Mapping) else kind
+        fitted[figure] = fit_figure(values[keep], [p for p, k in zip(people, keep,
+                                                                   strict=True) if k],
+                                    spec, worse[figure], chosen)
+    model = FittedModel(spec, fitted, {})
+    task_fits = {}
+    for task, figures in tasks.items():
+        figures = tuple(figures)
+        complete = np.all([np.isfinite(np.asarray(table[f], dtype=float)) for f in figures],
+                          axis=0)
+        z = {f: np.array([model.z(f, float(table[f][i]), people[i])
+                          for i in np.flatnonzero(complete)]) for f in figures}
+        task_fits[task] = fit_task(figures, z, worse)
+    return FittedModel(spec, fitted, task_fits)
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """Held-out Z-scores' summary for one figure or task."""
+
+    n: int
+    mean: float
+    sd: float
+    beyond_1_96: float
+    qq_max_deviation: float
+
+    def as_dict(self) -> dict:
+        return {"n": self.n, "mean": self.mean, "sd": self.sd,
+                "share_beyond_1_96": self.beyond_1_96,
+                "qq_max_deviation": self.qq_max_deviation}
+
+
+def calibration_of(z, one_sided_scores: bool = False) -> Calibration:
+    """The summary of held-out Z-scores (or, `one_sided_scores`, of task scores: their
+    share above 1.96 and their QQ against the half-normal)."""
+    z = np.sort(np.asarray(z, dtype=float))
+    n = z.size
+    if n < 3:
+        raise ParameterError("held-out scores", n, "at least 3")
+    p = (np.arange(1, n + 1) - 0.5) / n
+    expected = stats.halfnorm.ppf(p) if one_sided_scores else stats.norm.ppf(p)
+    central = (p >= 0.05) & (p <= 0.95)
+    beyond = np.mean(z > 1.96) if one_sided_scores else np.mean(np.abs(z) > 1.96)
+    return Calibration(n, float(np.mean(z)), float(np.std(z, ddof=1)), float(beyond),
+                       float(np.max(np.abs(z[central] - expected[central]))))
+
+
+def cross_validate(table: Mapping[str, np.ndarray], people: Sequence[Covariates],
+                   worse: Mapping[str, str], tasks: Mapping[str, Sequence[str]],
+                   kind: str | Mapping[str, str] = "auto", folds: int = 5, seed: int = 0
+                   ) -> dict[str, Calibration]:
+    """k-fold cross-validated calibration: figure → Calibration of its held-out Z-scores,
+    `task:<id>` → of its held-out task scores. The folds keep the whole model's covariate
+    levels (the spec of all controls), so a fold lacking a level still fits its columns
+    only if its controls determine them; else that fold is refused by the regression."""
+    from core.norms.regression import spec_of
+
+    n = len(people)
+    if not 2 <= folds <= n:
+        raise ParameterError("folds", folds, f"2 to {n} (the number of controls)")
+    spec = spec_of(people)
+    # each figure's kind decided once, on all controls: a fold must not pick Box-Cox for a
+    # figure a held-out control has at 0
+    kinds = {f: choose_kind(kind.get(f, "auto") if isinstance(kind, Mapping) else kind,
+                            np.asarray(v, dtype=float)[np.isfinite(np.asarray(v, dtype=float))])
+             for f, v in table.items()}
+    order = np.random.default_rng(seed).permutation(n)
+    held: dict[str, list[float]] = {}
+    for fold in range(folds):
+        test = order[fold::folds]
+        train = np.setdiff1d(order, test)
+        model = fit_model({f: np.asarray(v, dtype=float)[train] for f, v in table.items()},
+                          [people[i] for i in train], worse, tasks, kinds, spec)
+        for i in test:
+            values = {f: float(table[f][i]) for f in table}
+            for figure, value in values.items():
+                if math.isfinite(value):
+                    held.setdefault(figure, []).append(model.z(figure, value, people[i]))
+            for task, figures in tasks.items():
+                if all(math.isfinite(values[f]) for f in figures):
+                    held.setdefault(f"task:{task}", []).append(
+                        model.task_score(task, values, people[i]))
+    return {key: calibration_of(z, key.startswith("task:")) for key, z in held.items()}

@@ -1,0 +1,201 @@
+"""Power transforms to normality: Box-Cox and Yeo-Johnson, with the maximum-likelihood λ.
+
+A healthy population's figure is seldom normal (a reaction time or a path length ratio is
+skewed to the worse side); a Z-score means what it says only on a scale where the controls
+are normal. Each figure's scale is found once, from the controls, as a power transform:
+
+- Box-Cox (Box & Cox 1964, J R Stat Soc B 26:211), on y = x + shift > 0:
+  t(y) = (y^λ − 1)/λ for λ ≠ 0, log y for λ = 0;
+- Yeo-Johnson (Yeo & Johnson 2000, Biometrika 87:954), on any real x:
+  ((x+1)^λ − 1)/λ for x ≥ 0, λ ≠ 0;  log(x+1) for x ≥ 0, λ = 0;
+  −((1−x)^(2−λ) − 1)/(2−λ) for x < 0, λ ≠ 2;  −log(1−x) for x < 0, λ = 2;
+- identity ("none"), for a figure normal as it is.
+
+λ is the maximum of the profile log-likelihood of the normal linear model on the
+transformed scale (Box & Cox 1964, eq. 8): with the regression on the covariates fitted by
+least squares for each λ, ℓ(λ) = −n/2·log(RSS(λ)/n) + log J(λ), J the Jacobian of the
+transform (Box-Cox: (λ−1)·Σ log y; Yeo-Johnson: (λ−1)·Σ sign(x)·log(|x|+1)). With only an
+intercept this is the usual marginal maximum-likelihood λ (scipy.stats.boxcox_normmax
+'mle'); with covariates, the λ that makes the residuals, not the raw figures, normal: an
+age effect must not be mistaken for skew.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import optimize
+
+from core.errors import ParameterError
+
+KINDS = ("box-cox", "yeo-johnson", "none")
+LAMBDA_RANGE = (-5.0, 5.0)
+"""The λ searched: beyond ±5 a transform is numerically fragile and no figure of a
+movement needs it (a bound λ says so: the fit reports it, `at_bound`)."""
+
+
+@dataclass(frozen=True)
+class Transform:
+    """One figure's transform: its kind, λ and (Box-Cox only) the shift added first."""
+
+    kind: str
+    lam: float = 1.0
+    shift: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.kind not in KINDS:
+            raise ParameterError("transform kind", self.kind, " | ".join(KINDS))
+        for name, value in (("lambda", self.lam), ("shift", self.shift)):
+            if not math.isfinite(value):
+                raise ParameterError(f"transform {name}", value, "a finite number")
+        if self.kind != "box-cox" and self.shift != 0.0:
+            raise ParameterError("transform shift", self.shift, "0 for " + self.kind,
+                                 "only Box-Cox shifts a figure to make it positive")
+
+    def in_domain(self, x) -> np.ndarray:
+        """Where the transform is defined: everywhere but Box-Cox's x + shift ≤ 0."""
+        x = np.asarray(x, dtype=float)
+        if self.kind == "box-cox":
+            return np.isfinite(x) & (x + self.shift > 0.0)
+        return np.isfinite(x)
+
+    def apply(self, x) -> np.ndarray:
+        """t(x); NaN where the transform is not defined (in_domain says where)."""
+        x = np.asarray(x, dtype=float)
+        if self.kind == "none":
+            return x.copy()
+        if self.kind == "box-cox":
+            return box_cox(x + self.shift, self.lam)
+        return yeo_johnson(x, self.lam)
+
+    def invert(self, t) -> np.ndarray:
+        """x from t(x): the figure's value at a given point of the normal scale."""
+        t = np.asarray(t, dtype=float)
+        if self.kind == "none":
+            return t.copy()
+        if self.kind == "box-cox":
+            return box_cox_inverse(t, self.lam) - self.shift
+        return yeo_johnson_inverse(t, self.lam)
+
+    def log_jacobian(self, x) -> float:
+        """log |dt/dx| summed over x (the likelihood's change of variables)."""
+        x = np.asarray(x, dtype=float)
+        if self.kind == "none":
+            return 0.0
+        if self.kind == "box-cox":
+            return float((self.lam - 1.0) * np.sum(np.log(x + self.shift)))
+        return float((self.lam - 1.0) * np.sum(np.sign(x) * np.log1p(np.abs(x))))
+
+
+def box_cox(y, lam: float) -> np.ndarray:
+    y = np.asarray(y, dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = np.where(y > 0.0, y, np.nan)
+        if abs(lam) < 1e-12:
+            return np.log(out)
+        # expm1(λ·log y)/λ is (y^λ − 1)/λ without the cancellation near λ = 0
+        return np.expm1(lam * np.log(out)) / lam
+
+
+def box_cox_inverse(t, lam: float) -> np.ndarray:
+    t = np.asarray(t, dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        if abs(lam) < 1e-12:
+            return np.exp(t)
+        base = 1.0 + lam * t
+        # beyond the transform's range (λ·t ≤ −1) no y maps there
+        return np.where(base > 0.0, np.exp(np.log(np.where(base > 0, base, 1.0)) / lam),
+                        np.nan)
+
+
+def yeo_johnson(x, lam: float) -> np.ndarray:
+    x = np.asarray(x, dtype=float)
+    out = np.full_like(x, np.nan)
+    pos = x >= 0.0
+    neg = x < 0.0
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        lp = np.log1p(np.where(pos, x, 0.0))
+        out = np.where(pos, lp if abs(lam) < 1e-12 else np.expm1(lam * lp) / lam, out)
+        ln = np.log1p(np.where(neg, -x, 0.0))
+        two = 2.0 - lam
+        out = np.where(neg, -ln if abs(two) < 1e-12 else -np.expm1(two * ln) / two, out)
+    return out
+
+
+def yeo_johnson_inverse(t, lam: float) -> np.ndarray:
+    t = np.asarray(t, dtype=float)
+    out = np.full_like(t, np.nan)
+    pos = t >= 0.0
+    neg = t < 0.0
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        if abs(lam) < 1e-12:
+            xp = np.expm1(np.where(pos, t, 0.0))
+        else:
+            base = 1.0 + lam * np.where(pos, t, 0.0)
+            xp = np.where(base > 0, np.expm1(np.log(np.where(base > 0, base, 1.0)) / lam),
+                          np.nan)
+        two = 2.0 - lam
+        if abs(two) < 1e-12:
+            xn = -np.expm1(-np.where(neg, t, 0.0))
+        else:
+            base = 1.0 - two * np.where(neg, t, 0.0)
+            xn = np.where(base > 0, -np.expm1(np.log(np.where(base > 0, base, 1.0)) / two),
+                          np.nan)
+    return np.where(pos, xp, np.where(neg, xn, out))
+
+
+@dataclass(frozen=True)
+class TransformFit:
+    """The fitted transform, its profile log-likelihood, and whether λ hit LAMBDA_RANGE."""
+
+    transform: Transform
+    log_likelihood: float
+    at_bound: bool
+
+
+def profile_log_likelihood(transform: Transform, x, design) -> float:
+    """ℓ(λ) = −n/2·log(RSS/n) + log J: the normal linear model's log-likelihood, up to a
+    constant, on the transformed scale, maximised over the coefficients and σ."""
+    x = np.asarray(x, dtype=float)
+    t = transform.apply(x)
+    if not np.all(np.isfinite(t)):
+        return -math.inf
+    coefficients, *_ = np.linalg.lstsq(design, t, rcond=None)
+    rss = float(np.sum((t - design @ coefficients) ** 2))
+    n = x.size
+    if rss <= 0.0 or not math.isfinite(rss):
+        return -math.inf
+    return -0.5 * n * math.log(rss / n) + transform.log_jacobian(x)
+
+
+def fit_transform(kind: str, x, design=None, shift: float = 0.0) -> TransformFit:
+    """The maximum-likelihood λ of `kind` for the figure's values `x` (the controls'),
+    given the regression's design matrix (None: an intercept only)."""
+    x = np.asarray(x, dtype=float).reshape(-1)
+    if x.size < 3 or not np.all(np.isfinite(x)):
+        raise ParameterError("values to fit a transform to", f"{x.size} values",
+                             "at least 3 finite values")
+    design = np.ones((x.size, 1)) if design is None else np.asarray(design, dtype=float)
+    if kind == "none":
+        t = Transform("none")
+        return TransformFit(t, profile_log_likelihood(t, x, design), False)
+    if kind == "box-cox" and np.any(x + shift <= 0.0):
+        raise ParameterError("Box-Cox shift", shift, f"more than {-float(np.min(x)):g}",
+                             "every value plus the shift must be positive")
+    if np.ptp(x) == 0.0:
+        raise ParameterError("values to fit a transform to", "all equal",
+                             "values that vary", "a constant figure has no spread to norm")
+
+    def negative(lam: float) -> float:
+        value = profile_log_likelihood(Transform(kind, lam, shift), x, design)
+        return -value if math.isfinite(value) else 1e300
+
+    low, high = LAMBDA_RANGE
+    result = optimize.minimize_scalar(negative, bounds=(low, high), method="bounded",
+                                      options={"xatol": 1e-6})
+    lam = float(result.x)
+    best = Transform(kind, lam, shift)
+    at_bound = min(lam - low, high - lam) < 1e-3
+    return TransformFit(best, -float(result.fun), at_bound)

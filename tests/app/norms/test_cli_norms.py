@@ -1,0 +1,142 @@
+"""`rehab norms show|fit|use|mdc` end to end, and every refusal in one line with exit 2."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from app.norms import in_use, load_norms
+from tests.app.cli.running import run
+from tests.app.norms.controls import write_controls, write_retest
+from tests.app.norms.handmade import handmade
+
+
+@pytest.fixture
+def data(tmp_path, monkeypatch):
+    monkeypatch.setenv("REHAB_DATA_DIR", str(tmp_path / "data"))
+    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
+    monkeypatch.setattr(in_use, "SHIPPED", tmp_path / "no-shipped-norms.json")
+    return tmp_path / "data"
+
+
+def test_fit_show_use_mdc(tmp_path, data, capsys):
+    controls = write_controls(tmp_path / "controls.csv", n=200)
+    norms = tmp_path / "norms.json"
+    code, out, err = run(["norms", "fit", "--controls", str(controls), "--source",
+                          "200 virtual controls, test, 3 Dec 2026", "--simulated",
+                          "--output", str(norms)], capsys)
+    assert code == 0, err
+    assert "fitted norms on 200 controls: 4 figures, 1 task scores" in out
+    assert "task:range" in out
+    assert "5-fold cross-validation over 200 controls" in out
+    assert "left out task:reaching: lacks" in out
+    model = load_norms(norms)
+    assert model.simulated
+    assert set(model.tasks) == {"range"}
+    held = model.calibration["held_out"]
+    assert abs(held["vgr_max_speed_m_s"]["mean"]) < 0.3
+
+    code, out, err = run(["norms", "show", str(norms)], capsys)
+    assert code == 0, err
+    assert "SIMULATED — for demonstration and tests only" in out
+    assert "vgr_reaction_time_s" in out
+    assert "calibration:" in out
+
+    code, _, err = run(["norms", "show"], capsys)
+    assert code == 2
+    assert "uses no norms" in err
+    code, out, err = run(["norms", "use", str(norms)], capsys)
+    assert code == 0, err
+    assert "simulated — for demonstration and tests only" in out
+    code, out, err = run(["norms", "show"], capsys)
+    assert code == 0
+    assert "200 virtual controls" in out
+
+    retest = write_retest(tmp_path / "retest.csv", n=40)
+    with_mdc = tmp_path / "norms-mdc.json"
+    code, out, err = run(["norms", "mdc", str(retest), "--norms", str(norms), "--output",
+                          str(with_mdc)], capsys)
+    assert code == 0, err
+    assert "ICC(2,1)" in out
+    assert "task:range" in out
+    model = load_norms(with_mdc)
+    assert all(f.mdc95 is not None and f.mdc95 > 0 for f in model.figures.values())
+    assert model.tasks["range"].mdc95 > 0
+
+    # using other norms keeps the ones before
+    code, out, err = run(["norms", "use", str(with_mdc)], capsys)
+    assert code == 0, err
+    assert "kept as" in out
+    kept = list((data / "models" / "norms").glob("replaced-*.json"))
+    assert len(kept) == 1
+    assert load_norms(kept[0]).content_sha256 == load_norms(
+        norms).content_sha256
+
+
+def _refused(capsys, args, words):
+    code, out, err = run(args, capsys)
+    assert code == 2, (out, err)
+    assert words in err, err
+    assert err.count("\n") == 1
+
+
+def test_fit_refusals(tmp_path, data, capsys):
+    controls = write_controls(tmp_path / "controls.csv", n=60)
+    out = str(tmp_path / "n.json")
+    base = ["norms", "fit", "--source", "s", "--output", out]
+    _refused(capsys, [*base, "--controls", str(tmp_path / "none.csv")], "does not exist")
+    _refused(capsys, [*base, "--controls", str(controls), "--folds", "1"], "--folds 1")
+    bad = tmp_path / "bad.csv"
+    bad.write_text(controls.read_text().replace("simulator-realistic", "", 1))
+    _refused(capsys, [*base, "--controls", str(bad)], "line 2: robot")
+    bad.write_text(controls.read_text().replace("range_area_m2", "range_area_cm2"))
+    _refused(capsys, [*base, "--controls", str(bad)], "column 'range_area_cm2' is neither")
+    lines = controls.read_text().splitlines()
+    bad.write_text("\n".join([lines[0], lines[1].replace(",female,", ",f,").replace(
+        ",male,", ",m,"), *lines[2:]]))
+    _refused(capsys, [*base, "--controls", str(bad)], "line 2: sex")
+    bad.write_text("\n".join([lines[0], lines[1], lines[1]]))
+    _refused(capsys, [*base, "--controls", str(bad)], "appears twice")
+    bad.write_text("\n".join(lines[:5]))
+    _refused(capsys, [*base, "--controls", str(bad)], "nothing to fit")
+    bad.write_text(lines[0].replace("age_years,", ""))
+    _refused(capsys, [*base, "--controls", str(bad)], "the header lacks 'age_years'")
+    bad.write_text(controls.read_text().replace(lines[3].split(",")[6], "fast", 1))
+    _refused(capsys, [*base, "--controls", str(bad)], "'fast' is not a number")
+    _refused(capsys, ["norms", "fit", "--source", " ", "--output", out, "--controls",
+                      str(controls)], "source is empty")
+    _refused(capsys, [*base[:-1], str(tmp_path / "n.txt"), "--controls", str(controls)],
+             "ending in .json")
+    (tmp_path / "n.json").write_text("{}")
+    _refused(capsys, [*base, "--controls", str(controls)], "exists")
+    data.mkdir(parents=True, exist_ok=True)
+    (data / "registry.sqlite3").write_text("")
+    _refused(capsys, ["norms", "fit", "--source", "s", "--controls", str(controls),
+                      "--output", str(data / "models" / "x.json")], "data folder")
+
+
+def test_use_show_mdc_refusals(tmp_path, data, capsys):
+    broken = tmp_path / "broken.json"
+    document = handmade()
+    document["figures"]["vgr_reaction_time_s"]["residual_sd"] = -1
+    broken.write_text(json.dumps(document))
+    _refused(capsys, ["norms", "use", str(broken)], "residual_sd")
+    _refused(capsys, ["norms", "show", str(broken)], "residual_sd")
+    _refused(capsys, ["norms", "show", str(tmp_path / "none.json")], "no such file")
+    assert not (data / "models" / "norms" / "in-use.json").exists()
+
+    good = tmp_path / "good.json"
+    good.write_text(json.dumps(handmade()))
+    few = write_retest(tmp_path / "few.csv", n=5)
+    _refused(capsys, ["norms", "mdc", str(few), "--norms", str(good), "--output",
+                      str(tmp_path / "m.json")], "fewer than 10")
+    controls = write_controls(tmp_path / "controls.csv", n=30)
+    _refused(capsys, ["norms", "mdc", str(controls), "--norms", str(good), "--output",
+                      str(tmp_path / "m.json")], "lacks 'session'")
+    _refused(capsys, ["norms", "bogus"], "invalid choice")
+
+    # a damaged file in use is refused, never replaced by other norms in silence
+    run(["norms", "use", str(good)], capsys)
+    (data / "models" / "norms" / "in-use.json").write_text("{")
+    _refused(capsys, ["norms", "show"], "is not a JSON norms file")

@@ -1,0 +1,99 @@
+"""Fitting on a simulated control population with a known transform and known coefficients
+recovers them, within tolerances set by n; the cross-validated calibration of a model fitted
+on such controls is what a calibrated model shows."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from core.norms.fitting import calibration_of, cross_validate, fit_figure, fit_model
+from core.norms.regression import Covariates, spec_of
+from core.norms.transforms import Transform, profile_log_likelihood
+
+LAMBDA = 0.5
+BETA = {"intercept": -0.5, "age_years": 0.02, "sex=male": 0.2, "handedness=left": -0.05,
+        "tested_side=left": -0.1}
+SIGMA = 0.4
+
+
+def population(n: int, seed: int):
+    rng = np.random.default_rng(seed)
+    people = [Covariates(float(rng.uniform(20, 80)), str(rng.choice(["female", "male"])),
+                         "left" if rng.random() < 0.3 else "right",
+                         str(rng.choice(["right", "left"])), "simulator-realistic")
+              for _ in range(n)]
+    spec = spec_of(people)
+    X = spec.design(people)
+    beta = np.array([BETA[c] for c in spec.columns])
+    t = X @ beta + rng.normal(0, SIGMA, n)
+    x = (1.0 + LAMBDA * t) ** (1.0 / LAMBDA)  # Box-Cox inverse
+    # a second figure, normal as it is, lower is worse, age lowers it
+    y = 0.8 - 0.004 * X[:, 1] + rng.normal(0, 0.05, n)
+    return people, spec, X, x, y
+
+
+def test_recovers_lambda_and_coefficients():
+    n = 1500
+    people, spec, X, x, _ = population(n, 11)
+    fit = fit_figure(x, people, spec, "higher", "box-cox")
+    # λ's standard error from the profile likelihood's curvature at its maximum
+    lam, h = fit.transform.lam, 1e-3
+    ll = [profile_log_likelihood(Transform("box-cox", lam + d), x, X) for d in (-h, 0, h)]
+    se_lam = 1.0 / math.sqrt(-(ll[0] - 2 * ll[1] + ll[2]) / h**2)
+    assert se_lam < 0.1
+    assert abs(lam - LAMBDA) < 4 * se_lam
+    # the coefficients' standard errors of least squares (σ²(XᵀX)⁻¹), widened for λ's error
+    se = SIGMA * np.sqrt(np.diag(np.linalg.inv(X.T @ X)))
+    for column, s in zip(spec.columns, se, strict=True):
+        slack = 4 * s + 4 * se_lam * abs(BETA[column]) * 3
+        assert fit.regression.coefficients[column] == pytest.approx(BETA[column], abs=slack)
+    # σ's relative standard error is 1/√(2(n − p))
+    assert fit.regression.residual_sd == pytest.approx(SIGMA, rel=4 / math.sqrt(2 * n) + 4 * se_lam)
+    assert fit.regression.n == n
+
+
+def test_cross_validated_calibration_of_a_well_specified_model():
+    n = 600
+    people, _, _, x, y = population(n, 5)
+    table = {"vgr_reaction_time_s": x, "vgr_max_speed_m_s": y}
+    worse = {"vgr_reaction_time_s": "higher", "vgr_max_speed_m_s": "lower"}
+    tasks = {"reaching": ["vgr_reaction_time_s", "vgr_max_speed_m_s"]}
+    result = cross_validate(table, people, worse, tasks, folds=5, seed=1)
+    for key in worse:
+        c = result[key]
+        assert c.n == n
+        assert abs(c.mean) < 4 / math.sqrt(n)
+        assert c.sd == pytest.approx(1.0, abs=4 / math.sqrt(2 * n) + 0.02)
+        # binomial SD of a 5 % share over n: √(0.05·0.95/n) ≈ 0.009
+        assert c.beyond_1_96 == pytest.approx(0.05, abs=4 * math.sqrt(0.0475 / n))
+        assert c.qq_max_deviation < 0.25
+    score = result["task:reaching"]
+    assert score.n == n
+    assert score.beyond_1_96 == pytest.approx(0.05, abs=4 * math.sqrt(0.0475 / n))
+
+
+def test_a_misspecified_model_shows_in_calibration():
+    """Fitted without a transform, the skewed figure's held-out Z-scores are visibly off the
+    normal QQ line: the calibration is what tells a user."""
+    people, _, _, x, _ = population(600, 5)
+    skewed = np.exp(3 * (x - x.mean()))
+    worse = {"vgr_reaction_time_s": "higher"}
+    bad = cross_validate({"vgr_reaction_time_s": skewed}, people, worse, {}, kind="none")
+    good = cross_validate({"vgr_reaction_time_s": skewed}, people, worse, {}, kind="box-cox")
+    assert bad["vgr_reaction_time_s"].qq_max_deviation > 2 * good[
+        "vgr_reaction_time_s"].qq_max_deviation
+
+
+def test_task_fit_gives_half_normal_controls():
+    people, _, _, x, y = population(800, 2)
+    model = fit_model({"a": x, "b": y}, people, {"a": "higher", "b": "lower"},
+                      {"reaching": ["a", "b"]})
+    s = np.array([model.task_score("reaching", {"a": x[i], "b": y[i]}, people[i])
+                  for i in range(len(people))])
+    c = calibration_of(s, one_sided_scores=True)
+    assert np.all(s >= 0)
+    assert c.beyond_1_96 == pytest.approx(0.05, abs=0.03)
+    assert c.qq_max_deviation < 0.2
