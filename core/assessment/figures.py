@@ -36,7 +36,10 @@ STRENGTH_DIRECTIONS_DEG: tuple[int, ...] = (0, 45, 90, 135, 180, 225, 270, 315)
 """Directions of the isometric pushes, degrees counter-clockwise from the robot
 frame's +x axis (degrees only in the keys; the functions take radians)."""
 
-CIRCLE_DIRECTIONS: tuple[str, ...] = ("cw", "ccw")
+CIRCLE_WAYS: tuple[str, ...] = ("cw", "ccw")
+CIRCLE_BASE_KEYS: tuple[str, ...] = ("circle_ratio", "circle_joint_independence",
+                                     "circle_sparc", "circle_ldlj", "circle_mean_speed_m_s")
+"""The circle's figures as the mean of both ways; `circle_key` names each way's."""
 
 # References, written once.
 CODERRE_2010 = ("Coderre AM et al., Assessment of upper-limb sensorimotor function of subacute "
@@ -139,8 +142,8 @@ def _vgr() -> list[FigureSpec]:
 def _circle() -> list[FigureSpec]:
     rows = [
         ("circle_ratio", "1", "Circle ratio", "higher",
-         "Minor over major axis of the drawn closed path, from its principal axes "
-         "(the square root of the ratio of the eigenvalues of the path's second moments).",
+         "Minor over major axis of the drawn path: the major axis its longest chord, the "
+         "minor axis its extent perpendicular to that chord.",
          INMOTION_2021),
         ("circle_joint_independence", "1", "Joint independence", "higher",
          "One minus the absolute correlation of the shoulder and elbow angles over the circle "
@@ -155,18 +158,27 @@ def _circle() -> list[FigureSpec]:
          "Path length over the time taken to draw the circle.", INMOTION_2021),
     ]
     ways = {"": "mean of the clockwise and counter-clockwise circles",
-            "_cw": "clockwise circle", "_ccw": "counter-clockwise circle"}
+            "cw": "clockwise circle", "ccw": "counter-clockwise circle"}
     specs = []
-    for suffix, way in ways.items():
+    for way, words in ways.items():
         for key, unit, label, better, text, ref in rows:
-            if key.endswith("_m_s"):
-                full = key[:-len("_m_s")] + suffix + "_m_s" if suffix else key
-            else:
-                full = key + suffix
-            tag = f" ({suffix[1:]})" if suffix else ""
-            specs.append(FigureSpec(full, "circle", unit, label + tag, better,
-                                    f"{text[:-1]}; {way}.", ref))
+            specs.append(FigureSpec(circle_key(key, way) if way else key, "circle", unit,
+                                    f"{label} ({way})" if way else label, better,
+                                    f"{text[:-1]}; {words}.", ref))
     return specs
+
+
+def circle_key(base: str, way: str) -> str:
+    """The key of a circle figure of one way round: circle_key("circle_ratio", "cw") ==
+    "circle_ratio_cw", circle_key("circle_mean_speed_m_s", "ccw") ==
+    "circle_mean_speed_ccw_m_s" (the unit stays last)."""
+    if base not in CIRCLE_BASE_KEYS:
+        raise ParameterError("base", base, f"one of {', '.join(CIRCLE_BASE_KEYS)}")
+    if way not in CIRCLE_WAYS:
+        raise ParameterError("way", way, "cw or ccw")
+    if base.endswith("_m_s"):
+        return f"{base.removesuffix('_m_s')}_{way}_m_s"
+    return f"{base}_{way}"
 
 
 def _range() -> list[FigureSpec]:
@@ -197,17 +209,21 @@ def _strength() -> list[FigureSpec]:
         specs.append(FigureSpec(
             strength_key("peak", deg), "strength", "N", f"Peak force {deg}°", "higher",
             f"Highest component of the hand force along the push direction {deg}° over its hold "
-            "window.", STRENGTH_REF))
+            "windows (the best try).", STRENGTH_REF))
         specs.append(FigureSpec(
             strength_key("mean", deg), "strength", "N", f"Mean force {deg}°", "higher",
             f"Mean component of the hand force along the push direction {deg}° over its hold "
-            "window.", STRENGTH_REF))
+            "windows.", STRENGTH_REF))
     specs.append(FigureSpec(
         "strength_peak_force_n", "strength", "N", "Peak force (mean of directions)", "higher",
         "Mean over the 8 push directions of the peak force along each.", STRENGTH_REF))
     specs.append(FigureSpec(
         "strength_mean_force_n", "strength", "N", "Mean force (mean of directions)", "higher",
         "Mean over the 8 push directions of the mean force along each.", STRENGTH_REF))
+    specs.append(FigureSpec(
+        "strength_at_limit_count", "strength", "count", "Directions at the robot's limit",
+        "none", "Number of push directions in which the push reached the force the robot can "
+        "hold, so that their figures are lower bounds.", STRENGTH_REF))
     return specs
 
 

@@ -1,0 +1,123 @@
+"""Active range and the plane geometry under it: areas of known squares and their overlap
+with known (also non-convex) regions, and the hull, the clip and the longest chord against
+brute force on random point sets."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from core.assessment.active_range import range_figures
+from core.assessment.geometry import chord_and_width, clip_by_convex, convex_hull, signed_area
+from core.errors import ParameterError
+
+
+def square_sweep(side, corner=(0.0, 0.3), n=40):
+    """A hand path that sweeps a square of `side` m in a zigzag of n rows."""
+    rows = []
+    for k, y in enumerate(np.linspace(0.0, side, n)):
+        xs = np.linspace(0.0, side, n)
+        rows.append(np.column_stack([xs if k % 2 == 0 else xs[::-1], np.full(n, y)]))
+    return np.vstack(rows) + np.asarray(corner)
+
+
+def rectangle(x0, y0, x1, y1):
+    return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+
+
+def test_a_square_sweep_and_a_region_half_covered():
+    path = square_sweep(0.2)  # the square [0, 0.2] × [0.3, 0.5]
+    figures = range_figures(path, rectangle(0.1, 0.3, 0.5, 0.5))  # 0.4 × 0.2, half the square in
+    assert figures["range_area_m2"] == pytest.approx(0.04, rel=1e-12)
+    assert figures["range_area_ratio"] == pytest.approx(0.1 * 0.2 / (0.4 * 0.2), rel=1e-12)
+
+
+def test_a_non_convex_region_drawn_clockwise():
+    # an L: the square [0, 0.4]² less its top right quarter, listed clockwise
+    region = np.array([[0.0, 0.0], [0.0, 0.4], [0.2, 0.4], [0.2, 0.2], [0.4, 0.2],
+                       [0.4, 0.0]])
+    assert signed_area(region) == pytest.approx(-0.12)
+    path = square_sweep(0.3, corner=(0.1, 0.1))  # [0.1, 0.4]²
+    figures = range_figures(path, region)
+    # inside the L: [0.1, 0.4] × [0.1, 0.2] plus [0.1, 0.2] × [0.2, 0.4]
+    assert figures["range_area_ratio"] == pytest.approx((0.3 * 0.1 + 0.1 * 0.2) / 0.12,
+                                                        rel=1e-12)
+    assert figures["range_area_m2"] == pytest.approx(0.09, rel=1e-12)
+
+
+def test_a_hand_that_stayed_or_moved_along_a_line_reached_no_area():
+    region = rectangle(-0.3, 0.2, 0.3, 0.6)
+    assert range_figures(np.tile([0.0, 0.4], (50, 1)), region) == {
+        "range_area_m2": 0.0, "range_area_ratio": 0.0}
+    line = np.column_stack([np.linspace(-0.1, 0.1, 50), np.full(50, 0.4)])
+    assert range_figures(line, region)["range_area_ratio"] == 0.0
+
+
+def test_a_path_beyond_the_whole_region_counts_it_whole():
+    figures = range_figures(square_sweep(1.0, corner=(-0.5, 0.0)), rectangle(-0.3, 0.2, 0.3, 0.6))
+    assert figures["range_area_ratio"] == pytest.approx(1.0)
+    assert figures["range_area_m2"] == pytest.approx(1.0)
+
+
+def test_bad_regions_are_refused():
+    path = square_sweep(0.2)
+    with pytest.raises(ParameterError, match="reachable_m"):
+        range_figures(path, [[0.0, 0.0], [1.0, 1.0]])
+    with pytest.raises(ParameterError, match="reachable_m"):
+        range_figures(path, [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]])
+    with pytest.raises(ParameterError, match="position_m"):
+        range_figures(np.full((4, 2), math.nan), rectangle(0, 0, 1, 1))
+
+
+cloud = st.lists(st.tuples(st.floats(-1, 1), st.floats(-1, 1)), min_size=1, max_size=40)
+
+
+@settings(max_examples=150, deadline=None)
+@given(cloud)
+def test_hull_contains_every_point_and_turns_left(pts):
+    pts = np.array(pts)
+    hull = convex_hull(pts)
+    if len(hull) < 3:
+        return
+    assert signed_area(hull) > 0.0
+    for i in range(len(hull)):
+        a, b = hull[i], hull[(i + 1) % len(hull)]
+        cross = (b[0] - a[0]) * (pts[:, 1] - a[1]) - (b[1] - a[1]) * (pts[:, 0] - a[0])
+        assert (cross >= -1e-12).all()
+
+
+@settings(max_examples=150, deadline=None)
+@given(cloud)
+def test_the_longest_chord_is_the_largest_pairwise_distance(pts):
+    pts = np.array(pts)
+    brute = float(np.sqrt(((pts[:, None] - pts[None]) ** 2).sum(-1)).max())
+    chord, width = chord_and_width(pts)
+    if brute < 1e-9:
+        assert (chord, width) == (0.0, 0.0)
+        return
+    assert chord == pytest.approx(brute, rel=1e-12)
+    assert 0.0 <= width <= chord + 1e-12
+
+
+@settings(max_examples=100, deadline=None)
+@given(cloud, st.floats(-0.5, 0.5), st.floats(-0.5, 0.5), st.floats(0.05, 1.0))
+def test_a_clip_by_a_square_matches_counting_on_a_grid(pts, x0, y0, side):
+    hull = convex_hull(np.array(pts))
+    if len(hull) < 3:
+        return
+    box = rectangle(x0, y0, x0 + side, y0 + side)
+    area = abs(signed_area(clip_by_convex(box, hull)))
+    # the same overlap by counting grid points inside both (a coarse but independent sum)
+    g = np.linspace(-1.5, 1.5, 301)
+    xx, yy = np.meshgrid(g, g)
+    inside_box = (xx >= x0) & (xx <= x0 + side) & (yy >= y0) & (yy <= y0 + side)
+    inside_hull = np.ones_like(xx, dtype=bool)
+    for i in range(len(hull)):
+        a, b = hull[i], hull[(i + 1) % len(hull)]
+        inside_hull &= (b[0] - a[0]) * (yy - a[1]) - (b[1] - a[1]) * (xx - a[0]) >= 0.0
+    counted = (inside_box & inside_hull).sum() * (g[1] - g[0]) ** 2
+    perimeter_band = 4 * (g[1] - g[0]) * (4 * side + 8)  # grid error near both borders
+    assert area == pytest.approx(counted, abs=perimeter_band)
