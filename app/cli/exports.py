@@ -39,6 +39,9 @@ def add_export_command(commands) -> None:
                                                    "(default: exact)")
     parser.add_argument("--include-names", action="store_true",
                         help="include the patients' names (only in a names file)")
+    parser.add_argument("--include-invalid", action="store_true",
+                        help="also the trials marked invalid (`rehab invalid`; left out of "
+                             "--patient and --folder exports by default)")
     parser.add_argument("--overwrite", action="store_true")
     parser.set_defaults(func=cmd_export)
 
@@ -65,10 +68,11 @@ def cmd_export(args: argparse.Namespace) -> int:
     if args.format != "bids":
         options.update(exercise_only=args.exercise_only, digits=args.digits)
     if args.folder is not None:
-        result = export_folder(source, output, **options)
+        result = export_folder(source, output, leave_out=_invalid_files(args), **options)
     elif args.codes:
         result = export_patients(registry, args.codes, output,
-                                 include_names=args.include_names, **options)
+                                 include_names=args.include_names,
+                                 include_invalid=args.include_invalid, **options)
     else:
         paths = [registry.trial_path(registry.trial(i)) for i in args.trial_ids]
         result = export_trials(paths, output, **options)
@@ -81,3 +85,19 @@ def cmd_export(args: argparse.Namespace) -> int:
     for failure in result.failed:
         print(f"  not exported: {failure.path}: {failure.reason}")
     return 0 if not result.failed else 1
+
+
+def _invalid_files(args: argparse.Namespace) -> list:
+    """The files of the data folder's trials marked invalid, for a --folder export to
+    leave out (none with --include-invalid, or where the data folder has no registry: a
+    study's folder from elsewhere has no marks)."""
+    if args.include_invalid:
+        return []
+    from app.records.registry import Registry
+
+    data_dir = data_dir_for(args)
+    if not data_dir.registry_path.is_file():
+        return []
+    registry = Registry(data_dir, create=False)
+    return [registry.trial_path(registry.trial(trial_id))
+            for trial_id in registry.invalid_trials()]

@@ -17,6 +17,7 @@ import sys
 from collections.abc import Sequence
 
 from app.cli.check import add_check_command
+from app.cli.clinical import add_clinical_commands
 from app.cli.common import EXIT_BAD_INPUT, CommandError, Parser
 from app.cli.emg import add_emg_commands
 from app.cli.exports import add_export_command
@@ -42,6 +43,7 @@ COMMAND_GROUPS = (
     add_run_command,
     add_patient_commands,
     add_trials_command,
+    add_clinical_commands,
     add_progress_command,
     add_report_command,
     add_export_command,

@@ -12,6 +12,7 @@ import math
 
 from app.cli.common import mm, num, registry_for
 from app.games.figures import game_line
+from app.records.registry import HANDEDNESS, SEXES
 from app.units import assistance_percent, cm
 from core.trial import SIDES
 
@@ -40,6 +41,8 @@ def add_patient_commands(commands) -> None:
     add.add_argument("--forearm", type=float, help="elbow to wrist, m")
     add.add_argument("--shoulder", nargs=2, type=float, metavar=("X", "Y"),
                      help="shoulder position in the robot's frame, m")
+    add.add_argument("--sex", choices=SEXES, help="for the norms (app.norms)")
+    add.add_argument("--handedness", choices=HANDEDNESS, help="the dominant hand")
     add.add_argument("--notes", default="")
     add.set_defaults(func=cmd_patients_add)
 
@@ -66,6 +69,7 @@ def cmd_patients_add(args: argparse.Namespace) -> int:
         args.first_name, args.last_name, birth_year=args.birth_year, side=args.side,
         body_mass_kg=args.body_mass, upper_arm_m=args.upper_arm, forearm_m=args.forearm,
         shoulder_m=tuple(args.shoulder) if args.shoulder else None, notes=args.notes,
+        sex=args.sex, handedness=args.handedness,
     )
     print(patient.code)
     return 0
@@ -87,6 +91,11 @@ def cmd_trials(args: argparse.Namespace) -> int:
         print(f"patient {args.code} has no trials yet")
         return 0
     proposals = {p.trial_id: p for p in registry.proposals_for_patient(args.code)}
+    invalid = registry.invalid_trials(args.code)
+    notes: dict[int, list] = {}
+    for note in registry.notes(args.code):
+        if note.trial_id is not None:
+            notes.setdefault(note.trial_id, []).append(note)
     print(f"{'id':>5} {'session':>7} {'trial':>5}  {'started (UTC)':<20}{'status':<15}"
           f"{'exercise':<26}{'RMSE x/y mm':>13}{'direction %':>12}{'led %':>7}  "
           f"{'mode':<10}assistance")
@@ -112,6 +121,12 @@ def cmd_trials(args: argparse.Namespace) -> int:
                   f"({stored.decision})")
         if t.end_reason:
             print(f"{'':>21}ended: {t.end_reason}")
+        if t.id in invalid:
+            mark = invalid[t.id]
+            print(f"{'':>21}INVALID: {mark.reason} ({mark.marked_by}, "
+                  f"{mark.marked_at:%Y-%m-%d %H:%M} UTC)")
+        for note in notes.get(t.id, ()):
+            print(f"{'':>21}note: {note.text} ({note.author})")
     return 0
 
 

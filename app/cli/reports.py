@@ -31,6 +31,8 @@ def add_progress_command(commands) -> None:
                       help="all columns as CSV, with what each trial ran and what followed "
                            "it (the assistance mode, the levels in effect, the proposal and "
                            "its decision, why it ended, the robot)")
+    prog.add_argument("--include-invalid", action="store_true",
+                      help="also the trials marked invalid (`rehab invalid`), each saying why")
     prog.add_argument("--pdf", metavar="FILE",
                       help="also write the progress as a PDF, a page an exercise (an "
                            "existing file is kept unless --overwrite)")
@@ -52,7 +54,7 @@ def cmd_progress(args: argparse.Namespace) -> int:
         # exports/ (app.records.safewrite)
         pdf = output_path(args, args.pdf, overwrite=args.overwrite, suffixes=(".pdf",),
                           what="--pdf")
-    prog = progress(registry, args.code)
+    prog = progress(registry, args.code, include_invalid=args.include_invalid)
     header, rows = prog.table()
     if pdf is not None:
         from app.plans.dose import patient_doses

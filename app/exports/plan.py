@@ -16,7 +16,7 @@ import contextlib
 import fnmatch
 import os
 import re
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Collection, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 from typing import TypeVar
@@ -76,14 +76,18 @@ def source_for_path(path: str | os.PathLike, folder: str = "") -> TrialSource:
                        int(match["trial"]))
 
 
-def sources_from_folder(folder: str | os.PathLike, pattern: str = "**/*.h5") -> list[TrialSource]:
-    """Every file matching `pattern` below `folder`, in path order; the outputs of
+def sources_from_folder(folder: str | os.PathLike, pattern: str = "**/*.h5", *,
+                        leave_out: Collection[Path] = ()) -> list[TrialSource]:
+    """Every file matching `pattern` below `folder`, in path order, but those of
+    `leave_out` (absolute paths: a data folder's trials marked invalid); the outputs of
     each go in the same relative subfolder as the file."""
     folder = Path(folder).expanduser().absolute()
     if not folder.is_dir():
         raise AppError(f"the folder {folder} does not exist or is not a folder; give the "
                        "folder that holds the trial files")
-    paths = sorted(p for p in _below(folder, pattern) if p.is_file())
+    left = {os.path.realpath(p) for p in leave_out}
+    paths = sorted(p for p in _below(folder, pattern)
+                   if p.is_file() and (not left or os.path.realpath(p) not in left))
     return [source_for_path(p, _relative_folder(p, folder)) for p in paths]
 
 
@@ -115,14 +119,22 @@ def _relative_folder(path: Path, folder: Path) -> str:
     return "" if relative == "." else relative
 
 
-def sources_from_registry(registry: RecordStore, codes: str | Iterable[str]) -> list[TrialSource]:
+def sources_from_registry(registry: RecordStore, codes: str | Iterable[str], *,
+                          include_invalid: bool = False,
+                          left_out: list[int] | None = None) -> list[TrialSource]:
     """Every trial of these patients, by session and trial number; each patient's
-    outputs go in a subfolder named by their code."""
+    outputs go in a subfolder named by their code. Trials marked invalid (schema v8) are
+    left out unless `include_invalid`; their ids are appended to `left_out`."""
     codes = [codes] if isinstance(codes, str) else list(codes)
     sources = []
     for code in codes:
         proposals = {p.trial_id: p for p in registry.proposals_for_patient(code)}
+        invalid = () if include_invalid else registry.invalid_trials(code)
         for trial in registry.trials_for_patient(code):
+            if trial.id in invalid:
+                if left_out is not None:
+                    left_out.append(trial.id)
+                continue
             outcome = trial_outcome(trial, proposals.get(trial.id))
             sources.append(TrialSource(
                 path=registry.trial_path(trial),

@@ -39,10 +39,11 @@ destination that cannot be written raises ExportError naming the folder.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import logging
 import math
 import os
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Collection, Iterable, Mapping
 from pathlib import Path
 
 from app.exports.bids import export_bids
@@ -182,15 +183,29 @@ def export_patients(
     digits: int | None = None,
     overwrite: bool = False,
     progress: Progress | None = None,
+    include_invalid: bool = False,
 ) -> ExportResult:
     """Export every trial of these patients from the registry (one subfolder per
-    patient code for CSV/TSV/.mat; one BIDS participant each)."""
+    patient code for CSV/TSV/.mat; one BIDS participant each). Trials marked invalid are
+    left out, and a note says how many, unless `include_invalid`."""
     codes = list(codes)
-    sources = sources_from_registry(registry, codes)
+    left_out: list[int] = []
+    sources = sources_from_registry(registry, codes, include_invalid=include_invalid,
+                                    left_out=left_out)
     names = registry_names(registry, codes) if include_names else None
-    return export_trials(sources, folder, format=format, names=names,
-                         exercise_only=exercise_only, digits=digits, overwrite=overwrite,
-                         progress=progress)
+    result = export_trials(sources, folder, format=format, names=names,
+                           exercise_only=exercise_only, digits=digits, overwrite=overwrite,
+                           progress=progress)
+    return with_invalid_note(result, len(left_out))
+
+
+def with_invalid_note(result: ExportResult, left_out: int) -> ExportResult:
+    """The result with a note of the trials marked invalid it left out, if any."""
+    if not left_out:
+        return result
+    return dataclasses.replace(result, notes=(*result.notes, (
+        f"{left_out} trial(s) marked invalid left out (`rehab trials CODE` says why); "
+        "--include-invalid exports them too")))
 
 
 def export_patient(
@@ -208,11 +223,21 @@ def export_folder(
     folder: str | os.PathLike,
     *,
     pattern: str = "**/*.h5",
+    leave_out: Collection[Path] = (),
     **options,
 ) -> ExportResult:
-    """Export every trial file matching `pattern` below `source_folder` (a study):
-    CSV/TSV/.mat outputs mirror its subfolders. Options as for `export_trials`."""
-    return export_trials(sources_from_folder(source_folder, pattern), folder, **options)
+    """Export every trial file matching `pattern` below `source_folder` (a study) but
+    those of `leave_out` (a data folder's trials marked invalid: a note says how many
+    were below the folder): CSV/TSV/.mat outputs mirror its subfolders. Options as for
+    `export_trials`."""
+    sources = sources_from_folder(source_folder, pattern, leave_out=leave_out)
+    result = export_trials(sources, folder, **options)
+    if not leave_out:
+        return result
+    root = Path(os.path.realpath(source_folder))
+    below = sum(1 for p in leave_out if os.path.isfile(p)
+                and Path(os.path.realpath(p)).is_relative_to(root))
+    return with_invalid_note(result, below)
 
 
 # -- helpers -------------------------------------------------------------------

@@ -49,13 +49,14 @@ _SHAPE, _RADIUS, _DURATION, _TOLERANCE, _LEVEL, _CONTROLLER = range(6)
 
 TABLE_COLUMNS = ("trial_id", "session", "trial", "date", "started_at", "status", "file_state",
                  "exercise", "shape", "radius_m", "controller", "set_duration_s",
-                 "set_tolerance_rad")
+                 "set_tolerance_rad", "invalid_reason")
 """The table's leading columns; one column per metric follows, in `metric_names` order.
 `exercise` numbers the series (1, 2, … in `exercises`' order). The pace and the tolerance
 are prefixed `set_`: some metrics repeat them (duration_s, tolerance_rad) and a table must
 not have two columns of one name. The assistance mode and the levels each trial ran at are
 the records' (app.records.outcomes, which `rehab progress --csv` appends), not repeated
-here."""
+here. `invalid_reason` is '' for a valid trial, why it was marked invalid otherwise (only
+with include_invalid: invalid trials are left out by default)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -206,14 +207,18 @@ class Progress:
                 t.id, t.session_number, t.number, t.session_date.isoformat(),
                 t.started_at.isoformat(), t.status, state, index + 1, exercise.shape,
                 exercise.radius_m, exercise.controller, float(self.duration_s[i]),
-                float(self.tolerance_rad[i]), *(float(c[i]) for c in columns),
+                float(self.tolerance_rad[i]), t.invalid_reason or "",
+                *(float(c[i]) for c in columns),
             ))
         return header, rows
 
 
-def progress(registry: RecordStore, code: str, *, check_files: bool = True) -> Progress:
-    """The progress of the patient with this code (PatientNotFound if none)."""
-    trials = registry.trial_summaries(code)
+def progress(registry: RecordStore, code: str, *, check_files: bool = True,
+             include_invalid: bool = False) -> Progress:
+    """The progress of the patient with this code (PatientNotFound if none): trials marked
+    invalid are left out unless `include_invalid` (then each says why, its
+    `invalid_reason`)."""
+    trials = registry.trial_summaries(code, include_invalid=include_invalid)
     n = len(trials)
     root = str(registry.data_dir.root).rstrip("/\\") + os.sep
 

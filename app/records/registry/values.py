@@ -29,6 +29,11 @@ def checked_text(name: str, value: object, max_chars: int) -> str:
     if not isinstance(value, str):
         raise InvalidRecordError(f"{name}: give text, not {type(value).__name__}")
     value = value.strip()
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError:
+        raise InvalidRecordError(f"{name} holds bytes that are not text (UTF-8); type it "
+                                 "again") from None
     if len(value) > max_chars:
         raise InvalidRecordError(f"{name} has {len(value)} characters; keep it to {max_chars}")
     return value
