@@ -45,7 +45,7 @@ CIRCLE_BASE_KEYS: tuple[str, ...] = ("circle_ratio", "circle_joint_independence"
 CODERRE_2010 = ("Coderre AM et al., Assessment of upper-limb sensorimotor function of subacute "
                 "stroke patients using visually guided reaching, Neurorehabil Neural Repair "
                 "24(6):528-541, 2010, doi:10.1177/1545968309356091; definitions as in Little CE "
-                "et al., J NeuroEng Rehabil 12:78, 2015, Table 2, doi:10.1186/s12984-015-0070-0")
+                "et al., J NeuroEng Rehabil 12:78, 2015, Table 1, doi:10.1186/s12984-015-0070-0")
 BALASUBRAMANIAN_2015 = ("Balasubramanian S et al., On the analysis of movement smoothness, "
                         "J NeuroEng Rehabil 12:112, 2015, doi:10.1186/s12984-015-0090-9")
 INMOTION_2021 = ("InMotion shoulder-elbow evaluation (circle drawing), Bioelectronic Medicine "

@@ -4,7 +4,7 @@ smoothness of each reach, as pure functions of a recording.
 Coderre AM, Amr Abou Zeid, Dukelow SP et al., Neurorehabil Neural Repair
 24(6):528-541, 2010, doi:10.1177/1545968309356091. The paper itself was not
 available to us; the definitions below follow its parameter table as reprinted
-by Little CE et al., J NeuroEng Rehabil 12:78, 2015, Table 2
+by Little CE et al., J NeuroEng Rehabil 12:78, 2015, Table 1
 (doi:10.1186/s12984-015-0070-0), and where that table leaves a choice open the
 choice is ours and is said so ("our reading").
 
@@ -26,7 +26,7 @@ the next movement or the end of the recording):
   the correction. None found: the reach counts as *no movement end* (so does a
   reach with no reaction, which never stopped on the target either).
 * *Initial phase*: from movement onset to the first speed minimum after onset
-  (Little Table 2), searched up to the offset (the window's end without one); a
+  (Little Table 1), searched up to the offset (the window's end without one); a
   single-peaked reach has none, and its initial phase ends at the offset.
 * *Reaction time* = onset − on_s; *movement time* = offset − onset.
 * *Initial direction error*: the angle between the line (hand at onset ->
@@ -34,7 +34,8 @@ the next movement or the end of the recording):
   (core.reaches.direction_error); the task's figure is the mean of the absolute
   angles.
 * *Initial distance ratio*: path length of the initial phase / path length from
-  onset to offset. *Initial speed ratio*: peak speed of the initial phase / the
+  onset to offset (to the window's end when the hand never stopped on the target,
+  as Little's Table 1 says). *Initial speed ratio*: peak speed of the initial phase / the
   reach's peak speed.
 * *Speed maxima count*: local maxima of the speed between onset and offset
   (plateaus count once). *Min-max speed difference* (our reading of "the
@@ -46,9 +47,10 @@ the next movement or the end of the recording):
 * *SPARC* and *LDLJ* (core.smoothness) of the speed and the velocity from onset
   to offset (to the window's end without an offset).
 
-Figures that need an onset are NaN without one, figures that need an offset NaN
-without one; the task's figure is the mean over the reaches where it is defined,
-and the two counts say how many were not.
+Figures that need an onset are NaN without one; the speed maxima count, the
+min-max speed difference, the movement time and the path length ratio are NaN
+without an offset. The task's figure is the mean over the reaches where it is
+defined, and the two counts say how many were not.
 
 Speeds come from the velocity given, or from the positions low-passed at 10 Hz
 (zero-lag Butterworth, core.signal.smoothed_derivatives) and differentiated:
@@ -218,6 +220,9 @@ def _one(rec: _Recording, reach, on_s, end_s, radius, fraction, min_peak,
         initial_end = float(t[first + after[0]]) if after else (
             offset if math.isfinite(offset) else float(t[last]))
     moved = _path_length(rec, onset, offset)
+    # the initial distance ratio's whole runs to the window's end without an offset
+    # (Little et al. 2015, Table 1)
+    whole = moved if math.isfinite(offset) else _path_length(rec, onset, float(t[last]))
     initial = _path_length(rec, onset, initial_end)
     straight = math.dist(reach.start_m, reach.target_m)
     initial_peak = nan
@@ -231,7 +236,7 @@ def _one(rec: _Recording, reach, on_s, end_s, radius, fraction, min_peak,
         reaction_time_s=onset - on_s,
         initial_direction_error_rad=direction_error(t, rec.position, reach.target_m, onset,
                                                     initial_end),
-        initial_distance_ratio=initial / moved if both and moved > 0.0 else nan,
+        initial_distance_ratio=initial / whole if whole > 0.0 else nan,
         initial_speed_ratio=initial_peak / peak,
         speed_maxima_count=float(maxima.size) if both else nan,
         min_max_speed_difference_m_s=_min_max(speed[first:last + 1], maxima, minima)

@@ -145,7 +145,7 @@ def test_no_reaction_no_end_and_their_counts():
     assert short.reaction_time_s == pytest.approx(0.2 + crossing(0.1875) * 0.5, abs=1e-4)
     assert math.isnan(short.movement_time_s)
     assert math.isnan(short.path_length_ratio)
-    assert math.isnan(short.initial_distance_ratio)
+    assert short.initial_distance_ratio == 1.0  # one peak: the initial phase is the whole
     assert short.initial_speed_ratio == 1.0
     assert short.initial_direction_error_rad == 0.0
     figures = vgr_figures(result)
