@@ -31,7 +31,13 @@ def add_norms_commands(commands) -> None:
                                        "(one CSV row per person: subject, age_years, sex, "
                                        "handedness, tested_side, robot, then figure keys) "
                                        "and print its k-fold cross-validated calibration.")
-    p.add_argument("--controls", required=True, help="the controls' table (CSV)")
+    given = p.add_mutually_exclusive_group(required=True)
+    given.add_argument("--controls", help="the controls' table (CSV)")
+    given.add_argument("--trials", help="a folder of the controls' assessment trial files "
+                                        "(searched recursively)")
+    p.add_argument("--people", help="with --trials: the controls' birth year, sex and "
+                                    "handedness (CSV subject,birth_year,sex,handedness; "
+                                    "default: the data folder's registry)")
     p.add_argument("--source", required=True,
                    help="who measured which healthy people, when (printed on every report)")
     p.add_argument("--simulated", action="store_true",
@@ -56,7 +62,10 @@ def add_norms_commands(commands) -> None:
                                        "plus `session`, 1 or 2, two rows per person), "
                                        "compute ICC(2,1), SEM and MDC95 per figure and "
                                        "task score, and write the norms with them.")
-    p.add_argument("retest", help="the test-retest table (CSV)")
+    p.add_argument("retest", nargs="?", help="the test-retest table (CSV)")
+    p.add_argument("--trials", help="instead of a table: a folder of assessment trial files, "
+                                    "each person's first two sessions")
+    p.add_argument("--people", help="with --trials: as for `rehab norms fit`")
     p.add_argument("--norms", required=True, help="the norms file to add the MDC95 to")
     p.add_argument("--output", required=True, help="the norms file to write (.json)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing file")
@@ -116,12 +125,18 @@ def cmd_fit(args: argparse.Namespace) -> int:
     from app.norms import write_norms
     from app.norms.fitting import calibration_lines, fit_norms, read_controls_table
 
-    controls_path = absolute(args.controls)
-    output = output_path(args, args.output, overwrite=args.overwrite, inputs=(controls_path,),
+    source = absolute(args.controls if args.controls is not None else args.trials)
+    output = output_path(args, args.output, overwrite=args.overwrite, inputs=(source,),
                          suffixes=(".json",))
     if not 2 <= args.folds <= 100:
         raise CommandError(f"--folds {args.folds}: give 2 to 100")
-    controls = read_controls_table(controls_path)
+    if args.controls is not None:
+        if args.people is not None:
+            raise CommandError("--people goes with --trials: a controls table holds the "
+                               "covariates itself")
+        controls = read_controls_table(source)
+    else:
+        controls = _controls_from_trials(args, source, retest=False)
     report = fit_norms(controls, args.source, simulated=args.simulated,
                        transform=args.transform, folds=args.folds, seed=args.seed)
     write_norms(output, report.document, overwrite=args.overwrite)
@@ -153,11 +168,20 @@ def cmd_mdc(args: argparse.Namespace) -> int:
     from app.norms.fitting import read_controls_table
     from app.norms.retest import ICC_FORM, retest_reliability, with_mdc
 
-    norms_path, retest_path = absolute(args.norms), absolute(args.retest)
+    if (args.retest is None) == (args.trials is None):
+        raise CommandError("give the test-retest table or --trials FOLDER (one of them)")
+    norms_path = absolute(args.norms)
+    retest_path = absolute(args.retest if args.retest is not None else args.trials)
     output = output_path(args, args.output, overwrite=args.overwrite,
                          inputs=(norms_path, retest_path), suffixes=(".json",))
     model = _load(args.norms)
-    retest = read_controls_table(retest_path, sessions=True)
+    if args.retest is not None:
+        if args.people is not None:
+            raise CommandError("--people goes with --trials: a retest table holds the "
+                               "covariates itself")
+        retest = read_controls_table(retest_path, sessions=True)
+    else:
+        retest = _controls_from_trials(args, retest_path, retest=True)
     found, skipped = retest_reliability(model, retest)
     if not found:
         raise CommandError("no figure or task score has enough test-retest pairs: " + "; ".join(
@@ -172,3 +196,31 @@ def cmd_mdc(args: argparse.Namespace) -> int:
         print(f"no MDC95 for {key}: {why}")
     print(f"written to {output}")
     return EXIT_OK
+
+
+def _controls_from_trials(args: argparse.Namespace, folder, *, retest: bool):
+    """Controls (or test-retest data) from a folder of assessment trial files, their
+    covariates from --people or the data folder's registry; what was left out is said."""
+    from app.norms import controls as c
+    from core.assessment import FIGURES
+
+    invalid = {}
+    if args.people is not None:
+        people = c.people_from_table(absolute(args.people))
+    else:
+        from app.cli.common import registry_for
+
+        registry = registry_for(args)
+        people = c.people_from_registry(registry)
+        invalid = c.invalid_files(registry)
+    trials, skipped = c.read_assessments(c.trial_files(folder), invalid)
+    if retest:
+        controls, left = c.retest_from_trials(trials, people, FIGURES)
+    else:
+        controls, left = c.controls_from_trials(trials, people, FIGURES)
+    for where, why in {**skipped, **left}.items():
+        if why != "not an assessment trial":
+            print(f"not used: {where}: {why}")
+    print(f"{len(trials)} assessment trials of {len({t.subject for t in trials})} people read "
+          f"from {folder}")
+    return controls
