@@ -63,7 +63,8 @@ def circle_figures(t_s, position_m, joint_angles_rad, *, velocity_m_s=None) -> d
     path = float(np.sum(np.hypot(*np.diff(position, axis=0).T)))
     moved = speed.max() >= DEFAULT_MIN_PEAK_SPEED_M_S  # below: rounding and encoder noise
     return {
-        "circle_ratio": minor / major if major > 0.0 else math.nan,
+        # a round set can come out a hair wider across than along its chord: rounding
+        "circle_ratio": min(minor / major, 1.0) if major > 0.0 else math.nan,
         "circle_joint_independence": 1.0 - abs(correlation),
         "circle_sparc": sparc(speed, dt_s) if moved else math.nan,
         "circle_ldlj": ldlj(velocity, dt_s) if moved and t.size >= 4 else math.nan,

@@ -11,7 +11,13 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from core.assessment.active_range import range_figures
-from core.assessment.geometry import chord_and_width, clip_by_convex, convex_hull, signed_area
+from core.assessment.geometry import (
+    chord_and_width,
+    clip_by_convex,
+    convex_hull,
+    monotone_chain,
+    signed_area,
+)
 from core.errors import ParameterError
 
 
@@ -121,3 +127,27 @@ def test_a_clip_by_a_square_matches_counting_on_a_grid(pts, x0, y0, side):
     counted = (inside_box & inside_hull).sum() * (g[1] - g[0]) ** 2
     perimeter_band = 4 * (g[1] - g[0]) * (4 * side + 8)  # grid error near both borders
     assert area == pytest.approx(counted, abs=perimeter_band)
+
+
+@pytest.mark.parametrize("sides", [3, 4, 6, 7, 8, 12, 100])
+def test_regular_polygons_parallel_edges_and_all(sides):
+    # even polygons have parallel edges (two farthest vertices across each edge)
+    angles = np.arange(sides) * 2 * math.pi / sides + 0.3
+    corners = np.column_stack([np.cos(angles), np.sin(angles)]) * 0.1 + [0.0, 0.4]
+    chord, width = chord_and_width(np.vstack([corners, [[0.0, 0.4]]]))  # the centre inside
+    expected = 0.2 if sides % 2 == 0 else 0.2 * math.cos(math.pi / (2 * sides))
+    assert chord == pytest.approx(expected, rel=1e-12)
+    if sides % 4 == 0:  # a vertex diameter across the first one: the polygon is as wide
+        assert width == pytest.approx(0.2, rel=1e-12)
+    assert 0.0 < width <= chord * (1 + 1e-12)
+    assert len(convex_hull(corners)) == sides
+    assert signed_area(convex_hull(corners)) == pytest.approx(
+        0.5 * sides * 0.01 * math.sin(2 * math.pi / sides), rel=1e-12)
+
+
+def test_the_monotone_chain_agrees_with_qhull():
+    rng = np.random.default_rng(5)
+    for _ in range(50):
+        pts = np.unique(rng.normal(size=(int(rng.integers(3, 200)), 2)), axis=0)
+        assert signed_area(monotone_chain(pts)) == pytest.approx(
+            signed_area(convex_hull(pts)), rel=1e-12)
