@@ -235,3 +235,22 @@ def test_times_ratios_and_counts_do_not_depend_on_where_the_table_is(alpha, turn
         assert getattr(other, name) == pytest.approx(getattr(plain, name), rel=1e-6,
                                                       abs=1e-9), name
     assert other.max_speed_m_s == pytest.approx(scale * plain.max_speed_m_s)
+
+
+@settings(max_examples=20, deadline=None)
+@given(distance=st.floats(0.03, 0.25), duration=st.floats(0.4, 1.5))
+def test_a_reachs_smoothness_does_not_depend_on_its_size_or_pace(distance, duration):
+    # SPARC and LDLJ are dimensionless (Balasubramanian et al. 2015): a minimum-jerk reach
+    # scores the same whatever its length, and its pace changes them only by where the
+    # samples fall about the 10 % crossings
+    def scores(d, t):
+        position, velocity = movement(T, [(1.3, t, (d, 0.0))])
+        (reach,) = vgr_reaches(T, position, [Reach(1.0, (0.0, 0.0), (d, 0.0))],
+                               velocity_m_s=velocity)
+        return reach.sparc, reach.ldlj
+
+    reference = scores(0.1, 0.8)
+    assert scores(distance, 0.8) == pytest.approx(reference, rel=1e-9)
+    paced = scores(distance, duration)
+    assert paced[0] == pytest.approx(reference[0], abs=0.02)
+    assert paced[1] == pytest.approx(reference[1], abs=0.06)
