@@ -254,3 +254,15 @@ def test_a_reachs_smoothness_does_not_depend_on_its_size_or_pace(distance, durat
     paced = scores(distance, duration)
     assert paced[0] == pytest.approx(reference[0], abs=0.02)
     assert paced[1] == pytest.approx(reference[1], abs=0.06)
+
+
+def test_encoder_noise_adds_no_speed_maxima_when_the_speed_comes_from_positions():
+    # 20 µm of noise quantised to 10 µm counts: the 10 Hz smoothing keeps one peak
+    rng = np.random.default_rng(0)
+    position, _ = movement(T, [(1.3, 0.8, (0.1, 0.0))])
+    for _ in range(5):
+        noisy = np.round((position + rng.normal(0.0, 2e-5, position.shape)) / 1e-5) * 1e-5
+        (reach,) = vgr_reaches(T, noisy, [Reach(1.0, (0.0, 0.0), (0.1, 0.0))])
+        assert reach.speed_maxima_count == 1
+        assert reach.initial_distance_ratio == pytest.approx(1.0)
+        assert reach.reaction_time_s == pytest.approx(0.3 + crossing(0.1875) * 0.8, abs=2e-3)
