@@ -105,8 +105,8 @@ def _vgr() -> list[FigureSpec]:
          "Absolute angle between the line from the hand at movement onset to the target and "
          f"the hand's displacement over the initial phase (onset to first speed minimum), {mean}."),
         ("vgr_initial_distance_ratio", "1", "Initial distance ratio", "higher",
-         "Path length of the initial phase over the path length from movement onset to offset, "
-         f"{mean}."),
+         "Path length of the initial phase over the path length from movement onset to offset "
+         f"(to the reach's end when the hand never stopped on the target), {mean}."),
         ("vgr_initial_speed_ratio", "1", "Initial speed ratio", "higher",
          f"Peak speed of the initial phase over the reach's peak speed, {mean}."),
         ("vgr_speed_maxima_count", "count", "Speed maxima count", "lower",
