@@ -195,8 +195,9 @@ def _one(rec: _Recording, reach, on_s, end_s, radius, fraction, min_peak,
          posture_s) -> VgrReach:
     t, speed, nan = rec.t, rec.speed, math.nan
     posture = nan
-    if t[0] <= on_s - posture_s + 0.5 * rec.dt_s:
-        before = (t >= on_s - posture_s) & (t < on_s)
+    before = (t >= on_s - posture_s) & (t < on_s)
+    # the whole 500 ms recorded (a target after the recording's end has none of it)
+    if t[0] <= on_s - posture_s + 0.5 * rec.dt_s and t[-1] >= on_s - 0.5 * rec.dt_s:
         posture = float(np.mean(speed[before]))
     start, stop = (int(i) for i in np.searchsorted(t, [on_s, end_s], side="left"))
     if not t[0] <= on_s < t[-1] or stop - start < 4:

@@ -266,3 +266,16 @@ def test_encoder_noise_adds_no_speed_maxima_when_the_speed_comes_from_positions(
         assert reach.speed_maxima_count == 1
         assert reach.initial_distance_ratio == pytest.approx(1.0)
         assert reach.reaction_time_s == pytest.approx(0.3 + crossing(0.1875) * 0.8, abs=2e-3)
+
+
+def test_a_target_shown_after_the_recording_stopped_is_a_reach_with_nothing_found():
+    # a trial stopped early: the last targets came after its last sample
+    position, velocity = movement(T, [(1.3, 0.8, (0.1, 0.0))])
+    late = [Reach(1.0, (0.0, 0.0), (0.1, 0.0)), Reach(T_END + 2.0, (0.1, 0.0), (0.0, 0.0))]
+    first, after = vgr_reaches(T, position, late, velocity_m_s=velocity)
+    assert first.ended
+    assert not after.reacted
+    assert not after.ended
+    assert math.isnan(after.posture_speed_m_s)
+    assert math.isnan(after.max_speed_m_s)
+    assert vgr_figures([first, after])["vgr_no_reaction_count"] == 1
