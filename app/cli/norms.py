@@ -148,6 +148,8 @@ def cmd_fit(args: argparse.Namespace) -> int:
         print(line)
     for key, why in report.left_out.items():
         print(f"left out {key}: {why}")
+    for key, note in report.notes.items():
+        print(f"note {key}: {note}")
     return EXIT_OK
 
 

@@ -142,11 +142,13 @@ def _number(text: str, where: str) -> float:
 
 @dataclass(frozen=True)
 class FitReport:
-    """What the fit produced: the norms document, the calibration, what was left out."""
+    """What the fit produced: the norms document, the calibration, what was left out, and
+    notes on what was fitted (a λ at its search bound)."""
 
     document: dict
     calibration: Mapping[str, fitting.Calibration]
     left_out: Mapping[str, str]
+    notes: Mapping[str, str]
 
 
 def fit_norms(controls: Controls, source: str, *, simulated: bool = False,
@@ -187,7 +189,10 @@ def fit_norms(controls: Controls, source: str, *, simulated: bool = False,
         raise NormsError(f"the controls cannot be fitted: {exc}") from None
     document = norms_from_fit(model, source, simulated, calibration, folds,
                               len(controls.people))
-    return FitReport(document, calibration, left_out)
+    notes = {key: f"its λ stopped at the search's bound ({f.transform.lam:.3g}): the "
+                  "transform may not make it normal; check its calibration"
+             for key, f in model.figures.items() if f.at_bound}
+    return FitReport(document, calibration, left_out, notes)
 
 
 def task_figures_for_score(task: str, figures_catalogue) -> list[str]:

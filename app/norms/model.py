@@ -145,6 +145,9 @@ class NormativeModel:
         t_value = float(norm.transform.apply(value))
         expected = float(norm.regression.predict(self.covariates, [person])[0])
         z = scores.z_score(t_value, expected, norm.regression.residual_sd)
+        if not math.isfinite(z):
+            raise NormsError(f"{figure} = {value:g} is beyond what the norms' transform can "
+                             "hold (its Z-score overflows): check the value")
         return FigureZ(figure, float(value), z, norm.worse,
                        self.covariates.extrapolated(person), self.source, self.simulated)
 

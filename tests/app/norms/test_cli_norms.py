@@ -140,3 +140,27 @@ def test_use_show_mdc_refusals(tmp_path, data, capsys):
     run(["norms", "use", str(good)], capsys)
     (data / "models" / "norms" / "in-use.json").write_text("{")
     _refused(capsys, ["norms", "show"], "is not a JSON norms file")
+
+
+def test_a_lambda_at_its_bound_is_said(tmp_path, data, capsys):
+    """A figure no power transform within λ ∈ [−5, 5] makes normal (here 30 − e^(1.2z), a
+    long tail on the low side: λ = 5 is as far as the search goes): the fit says so beside
+    its calibration."""
+    import csv
+
+    import numpy as np
+
+    rng = np.random.default_rng(0)
+    path = tmp_path / "c.csv"
+    with path.open("w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(["subject", "age_years", "sex", "handedness", "tested_side", "robot",
+                         "vgr_movement_time_s"])
+        for i in range(80):
+            writer.writerow([f"C{i}", 40 + i % 30, ["female", "male"][i % 2], "right",
+                             ["right", "left"][i % 3 == 0], "simulator-realistic",
+                             float(30 - np.exp(1.2 * rng.standard_normal()))])
+    code, out, err = run(["norms", "fit", "--controls", str(path), "--source", "s", "--output",
+                          str(tmp_path / "n.json")], capsys)
+    assert code == 0, err
+    assert "note vgr_movement_time_s: its λ stopped at the search's bound" in out

@@ -8,6 +8,7 @@ import math
 from statistics import NormalDist
 
 import pytest
+from hypothesis import given, settings, strategies as st
 
 from app.norms import SIMULATED_LABEL, Covariates, NormsError, load_norms, write_norms
 from tests.app.norms.handmade import handmade
@@ -106,3 +107,47 @@ def test_written_file_round_trips_and_carries_its_hash(tmp_path):
     stored = json.loads(path.read_text())
     assert len(stored["content_sha256"]) == 64
     assert load_norms(path).content_sha256 == stored["content_sha256"]
+
+
+def test_a_value_beyond_the_transform_is_refused(model):
+    with pytest.raises(NormsError, match="overflows"):
+        model.z("vgr_max_speed_m_s", 1e308, PERSON)
+
+
+PEOPLE = st.builds(Covariates, st.floats(20, 80), st.sampled_from(["female", "male"]),
+                   st.sampled_from(["right", "left"]), st.sampled_from(["right", "left"]),
+                   st.just("simulator-realistic"))
+
+
+@settings(max_examples=200, deadline=None)
+@given(PEOPLE, st.floats(-4, 4))
+def test_the_value_k_sds_from_expected_has_z_k(tmp_path_factory, person, k):
+    """Invariant: the figure whose transformed value lies k residual SDs from the expected
+    one (t⁻¹(t̂ + k·σ)) has Z = k, for any person and both transforms."""
+    path = tmp_path_factory.mktemp("n") / "n.json"
+    path.write_text(json.dumps(handmade()))
+    norms = load_norms(path)
+    for key in ("vgr_reaction_time_s", "vgr_max_speed_m_s"):
+        norm = norms.figures[key]
+        expected = float(norm.regression.predict(norms.covariates, [person])[0])
+        value = float(norm.transform.invert(expected + k * norm.regression.residual_sd))
+        assert norms.z(key, value, person).z == pytest.approx(k, abs=1e-6)
+
+
+@settings(max_examples=200, deadline=None)
+@given(PEOPLE, st.floats(0.05, 2.0), st.floats(0.05, 2.0), st.floats(0.0, 0.5))
+def test_worse_never_scores_better(tmp_path_factory, person, rt, extra, speed):
+    """Invariant: a slower reaction (worse) or a lower peak speed (worse) never lowers the
+    task score; the score is never negative."""
+    path = tmp_path_factory.mktemp("n") / "n.json"
+    path.write_text(json.dumps(handmade()))
+    norms = load_norms(path)
+    base = norms.task_score("reaching", {"vgr_reaction_time_s": rt,
+                                         "vgr_max_speed_m_s": speed}, person).score
+    slower = norms.task_score("reaching", {"vgr_reaction_time_s": rt + extra,
+                                           "vgr_max_speed_m_s": speed}, person).score
+    weaker = norms.task_score("reaching", {"vgr_reaction_time_s": rt,
+                                           "vgr_max_speed_m_s": speed - extra / 4}, person).score
+    assert base >= 0.0
+    assert slower >= base - 1e-9
+    assert weaker >= base - 1e-9
