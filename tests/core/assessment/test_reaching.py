@@ -279,3 +279,35 @@ def test_a_target_shown_after_the_recording_stopped_is_a_reach_with_nothing_foun
     assert math.isnan(after.posture_speed_m_s)
     assert math.isnan(after.max_speed_m_s)
     assert vgr_figures([first, after])["vgr_no_reaction_count"] == 1
+
+
+sub_movement = st.tuples(st.floats(0.0, 2.8), st.floats(0.1, 1.0),
+                         st.tuples(st.floats(-0.1, 0.1), st.floats(-0.1, 0.1)))
+
+
+@settings(max_examples=60, deadline=None)
+@given(parts=st.lists(sub_movement, min_size=0, max_size=5),
+       ons=st.lists(st.floats(0.0, 2.9), min_size=1, max_size=4, unique=True),
+       radius=st.floats(0.002, 0.05), derived=st.booleans())
+def test_any_movement_gives_figures_in_their_ranges_and_no_warning(parts, ons, radius,
+                                                                   derived):
+    position, velocity = movement(T, parts)
+    ons = sorted(ons)
+    reaches = [Reach(on, (0.0, 0.0), (0.07, 0.02)) for on in ons]
+    result = vgr_reaches(T, position, reaches, velocity_m_s=None if derived else velocity,
+                         target_radius_m=radius)
+    for reach in result:
+        if reach.reacted:
+            assert reach.on_s <= reach.onset_s <= reach.initial_end_s
+            assert 0.0 < reach.initial_speed_ratio <= 1.0
+            assert reach.reaction_time_s >= 0.0
+        if reach.reacted and reach.ended:
+            assert reach.initial_end_s <= reach.offset_s
+            assert reach.movement_time_s > 0.0
+            assert reach.speed_maxima_count >= 1
+            assert reach.min_max_speed_difference_m_s >= 0.0
+            assert reach.path_length_ratio >= 0.0
+        if math.isfinite(reach.initial_distance_ratio):
+            assert 0.0 <= reach.initial_distance_ratio <= 1.0 + 1e-12
+    figures = vgr_figures(result)
+    assert figures["vgr_no_reaction_count"] == sum(not r.reacted for r in result) <= len(ons)
