@@ -141,3 +141,23 @@ def test_invariant_under_moving_turning_and_scaling(b, turn, shift, scale, lag, 
     assert moved["circle_ldlj"] == pytest.approx(plain["circle_ldlj"], rel=1e-9)
     assert moved["circle_mean_speed_m_s"] == pytest.approx(
         scale * plain["circle_mean_speed_m_s"], rel=1e-9)
+
+
+@settings(max_examples=40, deadline=None)
+@given(coefficients=st.lists(st.floats(-0.05, 0.05), min_size=8, max_size=8),
+       joints=st.lists(st.floats(-1.0, 1.0), min_size=4, max_size=4))
+def test_any_drawing_gives_figures_in_their_ranges(coefficients, joints):
+    t = np.arange(1000) * 0.004
+    w = 2 * math.pi * t / 4.0
+    a = coefficients
+    position = np.column_stack([a[0] * np.cos(w) + a[1] * np.sin(w) + a[2] * np.cos(2 * w)
+                                + a[3] * np.sin(3 * w),
+                                0.4 + a[4] * np.cos(w) + a[5] * np.sin(w)
+                                + a[6] * np.sin(2 * w) + a[7] * np.cos(3 * w)])
+    angles = np.column_stack([joints[0] * np.sin(w) + joints[1] * np.cos(2 * w),
+                              joints[2] * np.cos(w) + joints[3] * np.sin(w)])
+    figures = circle_figures(t, position, angles)
+    for key in ("circle_ratio", "circle_joint_independence"):
+        assert math.isnan(figures[key]) or 0.0 <= figures[key] <= 1.0
+    assert figures["circle_mean_speed_m_s"] >= 0.0
+    assert math.isnan(figures["circle_sparc"]) or figures["circle_sparc"] < 0.0

@@ -151,3 +151,20 @@ def test_the_monotone_chain_agrees_with_qhull():
         pts = np.unique(rng.normal(size=(int(rng.integers(3, 200)), 2)), axis=0)
         assert signed_area(monotone_chain(pts)) == pytest.approx(
             signed_area(convex_hull(pts)), rel=1e-12)
+
+
+@settings(max_examples=60, deadline=None)
+@given(cloud, st.lists(st.tuples(st.floats(0.1, 1.0), st.floats(0.0, 2 * math.pi)),
+                       min_size=3, max_size=12, unique_by=lambda v: round(v[1], 3)))
+def test_any_path_and_star_shaped_region_give_a_share_between_0_and_1(pts, star):
+    # a star-shaped region (vertices by angle round the origin): simple, maybe non-convex
+    star = sorted(star, key=lambda v: v[1])
+    region = np.array([[r * math.cos(a), r * math.sin(a)] for r, a in star])
+    if abs(signed_area(region)) < 1e-6:
+        return
+    figures = range_figures(np.array(pts), region)
+    assert 0.0 <= figures["range_area_ratio"] <= 1.0
+    assert figures["range_area_m2"] >= 0.0
+    # the share of the region reached is part of the area reached
+    assert figures["range_area_ratio"] * abs(signed_area(region)) <= (
+        figures["range_area_m2"] + 1e-12)

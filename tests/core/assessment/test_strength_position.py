@@ -117,3 +117,20 @@ def test_errors_do_not_depend_on_where_the_table_is(errors, turn, shift):
     # with as many trials per target, the absolute error is never below the constant
     # error (the triangle inequality)
     assert plain["position_absolute_error_m"] >= plain["position_constant_error_m"] - 1e-12
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(st.sampled_from(STRENGTH_DIRECTIONS_DEG), st.floats(0.0, 5.0),
+                          st.floats(0.1, 2.0)), min_size=1, max_size=10),
+       st.integers(0, 2**32 - 1))
+def test_a_directions_peak_is_never_below_its_mean(pushes, seed):
+    t = np.arange(4000) * DT
+    force = np.random.default_rng(seed).normal(0.0, 5.0, (t.size, 2))
+    windows = [PushWindow(math.radians(deg), start, start + length)
+               for deg, start, length in pushes]
+    figures = strength_figures(t, force, windows)
+    for deg in STRENGTH_DIRECTIONS_DEG:
+        peak, mean = figures[strength_key("peak", deg)], figures[strength_key("mean", deg)]
+        assert math.isnan(peak) == math.isnan(mean)
+        assert math.isnan(peak) or peak >= mean
+        assert math.isnan(peak) == (deg not in {d for d, _, _ in pushes})
