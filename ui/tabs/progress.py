@@ -2,9 +2,11 @@
 app.reports.progress), the chosen figure over its trials — the mode's own success figure
 first — and under it, on the same trial axis, the robot's help as it ran, a staircase,
 with the pace and the tolerance written where they changed; then every trial of the
-patient in a table. The key is a line above the plots, never over the data. *Save as
-PDF…* writes the same, a page an exercise (app.reports.progress_pdf). The registry
-query and the PDF run off the GUI thread.
+patient in a table, and a robot figure against the clinical scales with their correlation
+(ui.tabs.progress_scales). Trials marked invalid are left out unless the tick box asks.
+The key is a line above the plots, never over the data. *Save as PDF…* writes the same,
+a page an exercise (app.reports.progress_pdf). The registry query and the PDF run off the
+GUI thread.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import pyqtgraph as pg
 from PySide6.QtCore import Qt, Signal
 from PySide6.QtGui import QFontMetrics
 from PySide6.QtWidgets import (
+    QCheckBox,
     QComboBox,
     QFileDialog,
     QHBoxLayout,
@@ -36,6 +39,7 @@ from app.reports.progress import Exercise, Progress, progress
 from app.reports.progress_figure import metric_keys, progress_figure, value_span
 from ui import plots, theme
 from ui.fields import ComboBox
+from ui.tabs.progress_scales import ScalesPanel
 from ui.views.progress_table import (
     exercise_choice,
     metric_heading,
@@ -72,6 +76,7 @@ class ProgressTab(QWidget):
         super().__init__(parent)
         self.registry = registry
         self._code: str | None = None
+        self._token: tuple | None = None  # the progress asked for last: (code, invalid)
         self._progress: Progress | None = None
         self._mode: str | None = None  # the shown exercise's assistance mode
         self._exercise: Exercise | None = None  # the shown exercise
@@ -103,6 +108,10 @@ class ProgressTab(QWidget):
         top = QHBoxLayout()
         top.addWidget(self.heading)
         top.addStretch(1)
+        # trials marked invalid (schema v8) are left out unless asked for here
+        self.include_invalid = QCheckBox("Include trials marked invalid")
+        self.include_invalid.toggled.connect(self.refresh)
+        top.addWidget(self.include_invalid)
         top.addWidget(self.pdf_button)
         choices = QHBoxLayout()  # a row of their own: whole names at any font scale
         choices.addWidget(QLabel("Exercise"))
@@ -134,12 +143,16 @@ class ProgressTab(QWidget):
         splitter.addWidget(self.plot)
         splitter.addWidget(self.help_plot)
         splitter.addWidget(self.table)
-        splitter.setSizes([300, 220, 110])
+        # a robot figure against the clinical scales (app.reports.scales_progress)
+        self.scales = ScalesPanel()
+        splitter.addWidget(self.scales)
+        splitter.setSizes([300, 220, 110, 200])
         # the plots first when the room is short (a large font on a laptop): the table
         # scrolls, and no part asks the window for more height than a laptop has
         splitter.setStretchFactor(0, 3)
         splitter.setStretchFactor(1, 2)
         splitter.setStretchFactor(2, 1)
+        splitter.setStretchFactor(3, 2)
         layout = QVBoxLayout(self)
         layout.addLayout(top)
         layout.addLayout(choices)
@@ -161,18 +174,26 @@ class ProgressTab(QWidget):
         self._code = code
         if code is None or self.registry is None:
             self._progress = None
+            self._token = None
             self._clear()
+            self.scales.set_patient(None, None)
             self.message.setText("Choose a patient on the Registration tab.")
             return
         self.message.setText("Loading…")
         registry = self.registry
-        self.background.submit(code, lambda: progress(registry, code))
+        include_invalid = self.include_invalid.isChecked()
+        # the token names the request: a result of an earlier one (before the tick box
+        # changed) that arrives late is not shown
+        self._token = (code, include_invalid)
+        self.background.submit(self._token, lambda: progress(registry, code,
+                                                             include_invalid=include_invalid))
+        self.scales.set_patient(registry, code, include_invalid)
         from app.plans.dose import dose_lines
 
         self.dose.setText("")
         self.dose_worker.submit(code, lambda: dose_lines(registry, code))
 
-    def refresh(self) -> None:
+    def refresh(self, *_) -> None:
         self.set_patient(self._code)
 
     def save_pdf(self, path: str | Path) -> None:
@@ -185,9 +206,10 @@ class ProgressTab(QWidget):
                            self.registry)
 
     # -- results --------------------------------------------------------------------
-    def _loaded(self, code, result: Progress) -> None:
-        if code != self._code:
+    def _loaded(self, token, result: Progress) -> None:
+        if token != self._token:
             return
+        code = token[0]
         self._progress = result
         self.heading.setText(f"Progress of {code}")
         self.message.setText(progress_summary(result))
@@ -205,7 +227,7 @@ class ProgressTab(QWidget):
         if isinstance(token, tuple) and token[0] == "pdf":
             self.message.setText(f"{theme.PROBLEM_SIGN} Could not save the PDF: {message}")
             return
-        if token != self._code:
+        if token != self._token:
             return
         self._progress = None
         self._clear()

@@ -85,6 +85,8 @@ def progress_table(result: Progress) -> ProgressTable:
         status = STATUS_WORDS.get(summary.status, summary.status)
         if result.file_states[i] not in (FILE_OK, FILE_UNCHECKED):
             status += f" (file {result.file_states[i]})"
+        if summary.invalid_reason:
+            status += f" — INVALID: {summary.invalid_reason}"
         cells = [str(summary.session_number), str(summary.number),
                  summary.session_date.isoformat(), status,
                  result.exercises[int(result.exercise_index[i])].label(),

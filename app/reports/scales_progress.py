@@ -1,0 +1,231 @@
+"""A robot figure against a clinical scale over a patient's sessions, and across a study's
+patients, with their correlation: the thesis's aim of relating the robot's measures of
+performance to the Fugl-Meyer assessment (section 3.6.1), for any figure and scale.
+
+* Per session: the figure is the mean over the session's trials that hold it (finite),
+  trials marked invalid left out unless asked; the scale is the session's latest entry
+  (app.records.registry.clinical). A session with only one of the two is not a point.
+* Across a study: one point per patient, the latest session holding both (a patient's
+  sessions are not independent of each other, so they are not pooled).
+* The correlation: Pearson's r (linear) and Spearman's rho (monotonic, on ranks: the
+  scales are ordinal), each with its two-sided p, and n; undefined (NaN) below 3 points or
+  when either side does not vary.
+* A change between consecutive sessions is marked real only beyond the figure's MDC95 in
+  the norms in use (app.norms: MDC95 = 1.96·√2·SEM); with no norms, or norms without an
+  MDC95 for the figure, no change is marked and `mdc_note` says why.
+"""
+
+from __future__ import annotations
+
+import datetime
+import itertools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+from app.records.scales import value_label
+from app.records.store import RecordStore
+from app.reports.metrics_table import ROWS
+
+
+@dataclass(frozen=True)
+class Correlation:
+    """Pearson's r and Spearman's rho of n pairs, each with its two-sided p."""
+
+    n: int
+    pearson_r: float
+    pearson_p: float
+    spearman_rho: float
+    spearman_p: float
+
+    def text(self) -> str:
+        if not math.isfinite(self.pearson_r):
+            return f"n = {self.n}: too few points (or no variation) for a correlation"
+        return (f"Pearson r = {self.pearson_r:.2f} (p = {_p(self.pearson_p)}), Spearman "
+                f"ρ = {self.spearman_rho:.2f} (p = {_p(self.spearman_p)}), n = {self.n}")
+
+
+def _p(p: float) -> str:
+    return "n/a" if not math.isfinite(p) else ("< 0.001" if p < 0.001 else f"{p:.3f}")
+
+
+def correlation(x, y) -> Correlation:
+    """Pearson's and Spearman's correlations of the pairs (x[i], y[i]) (scipy.stats)."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    n = int(x.size)
+    if n < 3 or not (_varies(x) and _varies(y)):
+        return Correlation(n, math.nan, math.nan, math.nan, math.nan)
+    pearson = stats.pearsonr(x, y)
+    spearman = stats.spearmanr(x, y)
+    return Correlation(n, float(pearson.statistic), float(pearson.pvalue),
+                       float(spearman.statistic), float(spearman.pvalue))
+
+
+def _varies(values: np.ndarray) -> bool:
+    """Whether the values vary beyond their rounding: scipy's test for a (nearly) constant
+    input, whose correlation would be rounding error (its NearConstantInputWarning)."""
+    deviations = values - values.mean()
+    return bool(np.linalg.norm(deviations) >= 1e-13 * abs(values.mean())
+                and np.ptp(values) > 0)
+
+
+@dataclass(frozen=True)
+class SessionPoint:
+    """One session: the figure's mean over its trials, the scale's value, and whether the
+    figure's change since the point before is real (None: not judged)."""
+
+    code: str
+    session_number: int
+    date: datetime.date
+    figure: float
+    n_trials: int
+    scale: float
+    real_change: bool | None = None
+
+
+@dataclass(frozen=True)
+class ScaleSeries:
+    """A figure against a scale: the points and their correlation."""
+
+    figure_key: str
+    scale_key: str
+    points: tuple[SessionPoint, ...]
+    correlation: Correlation
+    mdc_note: str = ""
+    """Why no change is marked real or not ('' when marks were judged)."""
+
+    @property
+    def figure_label(self) -> str:
+        return figure_label(self.figure_key)
+
+    @property
+    def scale_label(self) -> str:
+        return value_label(self.scale_key)
+
+
+def figure_label(key: str) -> str:
+    """A figure's label with its unit: the catalogue's (core.assessment.FIGURES) or the
+    report's rows' (app.reports.metrics_table), else the key."""
+    from core.assessment import FIGURES
+
+    if key in FIGURES:
+        spec = FIGURES[key]
+        return f"{spec.label} ({spec.unit})" if spec.unit else spec.label
+    for row in ROWS:
+        if row.key == key:
+            return f"{row.heading} ({row.unit})" if row.unit else row.heading
+    return key
+
+
+def figure_display_scale(key: str) -> float:
+    """The factor from the figure's SI value to the unit figure_label names."""
+    for row in ROWS:
+        if row.key == key:
+            return row.scale
+    return 1.0
+
+
+def _session_figures(registry: RecordStore, code: str, key: str, include_invalid: bool
+                     ) -> dict[int, tuple[datetime.date, float, int]]:
+    values: dict[int, list[float]] = {}
+    dates: dict[int, datetime.date] = {}
+    for trial in registry.trial_summaries(code, include_invalid=include_invalid):
+        value = trial.metrics.get(key)
+        if value is not None and math.isfinite(value):
+            values.setdefault(trial.session_number, []).append(float(value))
+            dates[trial.session_number] = trial.session_date
+    return {s: (dates[s], float(np.mean(v)), len(v)) for s, v in values.items()}
+
+
+def figure_keys(registry: RecordStore, code: str, *, include_invalid: bool = False
+                ) -> list[str]:
+    """The figures the patient's trials hold, in their first appearance's order."""
+    keys: dict[str, None] = {}
+    for trial in registry.trial_summaries(code, include_invalid=include_invalid):
+        keys.update(dict.fromkeys(k for k, v in trial.metrics.items() if math.isfinite(v)))
+    return list(keys)
+
+
+def scale_keys(registry: RecordStore, code: str | None = None) -> list[str]:
+    """The scale values recorded for the patient (or anyone in the registry)."""
+    per_patient = (registry.study_scales() if code is None
+                   else {code: registry.session_scales(code)})
+    keys: dict[str, None] = {}
+    for sessions in per_patient.values():
+        for scales in sessions.values():
+            for entry in scales.values():
+                keys.update(dict.fromkeys(entry.values()))
+    return list(keys)
+
+
+def scale_series(registry: RecordStore, code: str, figure_key: str, scale_key: str, *,
+                 include_invalid: bool = False, norms=None) -> ScaleSeries:
+    """The figure against the scale over the patient's sessions (module doc), with the
+    changes beyond the MDC95 of `norms` (an app.norms.NormativeModel) marked."""
+    figures = _session_figures(registry, code, figure_key, include_invalid)
+    scales = registry.session_scales(code)
+    points = []
+    for session in sorted(figures):
+        value = _scale_value(scales.get(session, {}), scale_key)
+        if value is None:
+            continue
+        date, figure, count = figures[session]
+        points.append(SessionPoint(code, session, date, figure, count, value))
+    points, note = _mark_real_changes(points, figure_key, norms)
+    return ScaleSeries(figure_key, scale_key, tuple(points),
+                       correlation([p.figure for p in points], [p.scale for p in points]),
+                       note)
+
+
+def study_series(registry: RecordStore, figure_key: str, scale_key: str, *,
+                 include_invalid: bool = False) -> ScaleSeries:
+    """One point per patient (their latest session with both) across the registry."""
+    points = []
+    for code in registry.study_scales():
+        mine = scale_series(registry, code, figure_key, scale_key,
+                            include_invalid=include_invalid).points
+        if mine:
+            points.append(mine[-1])
+    return ScaleSeries(figure_key, scale_key, tuple(points),
+                       correlation([p.figure for p in points], [p.scale for p in points]),
+                       "one point per patient: their latest session with both")
+
+
+def _scale_value(scales: dict, key: str) -> float | None:
+    for entry in scales.values():
+        value = entry.values().get(key)
+        if value is not None:
+            return value
+    return None
+
+
+def _mark_real_changes(points: list[SessionPoint], key: str, norms
+                       ) -> tuple[list[SessionPoint], str]:
+    if norms is None:
+        return points, "no norms in use: no change is marked real"
+    from app.norms import NormsError
+
+    try:
+        mdc = norms.mdc95(key)
+    except NormsError as exc:
+        return points, str(exc)
+    if mdc is None:
+        return points, f"the norms ({norms.source}) have no MDC95 for {key}"
+    marked = points[:1]
+    for before, after in itertools.pairwise(points):
+        change = norms.is_real_change(key, before.figure, after.figure)
+        marked.append(SessionPoint(after.code, after.session_number, after.date, after.figure,
+                                   after.n_trials, after.scale, change.real))
+    return marked, ""
+
+
+def mdc_text(series: ScaleSeries, norms) -> str:
+    """The line saying which changes are real and against which norms."""
+    if series.mdc_note:
+        return series.mdc_note
+    real = [p.session_number for p in series.points if p.real_change]
+    said = (f"a real change (beyond MDC95 {norms.mdc95(series.figure_key):.3g}) at session "
+            f"{', '.join(map(str, real))}" if real else "no change beyond the MDC95")
+    return f"{said}; {norms.label}"

@@ -1,0 +1,140 @@
+"""A robot figure against a clinical scale over a patient's sessions and across a study,
+with Pearson's and Spearman's correlations by hand, invalid trials left out unless asked,
+and real changes marked only beyond the norms' MDC95 (issue 31, item 3)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from app.norms import load_norms
+from app.records.datadir import DataDir
+from app.records.registry import Registry
+from app.reports.scales_progress import correlation, scale_series, study_series
+from core.trial import THESIS_SUBJECT
+from tests.app.norms.handmade import handmade
+
+RT = "vgr_reaction_time_s"
+
+
+def pearson_by_hand(x, y):
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    dx, dy = x - x.mean(), y - y.mean()
+    return float((dx * dy).sum() / math.sqrt((dx * dx).sum() * (dy * dy).sum()))
+
+
+def ranks(values):
+    """Average ranks (ties share the mean of their places), 1-based."""
+    order = sorted(range(len(values)), key=lambda i: values[i])
+    out = [0.0] * len(values)
+    i = 0
+    while i < len(order):
+        j = i
+        while j + 1 < len(order) and values[order[j + 1]] == values[order[i]]:
+            j += 1
+        for k in range(i, j + 1):
+            out[order[k]] = (i + j) / 2 + 1
+        i = j + 1
+    return out
+
+
+def test_correlations_equal_the_hand_computation():
+    x, y = [0.30, 0.42, 0.38, 0.55, 0.61], [20, 31, 29, 40, 38]
+    c = correlation(x, y)
+    assert c.n == 5
+    assert c.pearson_r == pytest.approx(pearson_by_hand(x, y), abs=1e-12)
+    assert c.spearman_rho == pytest.approx(pearson_by_hand(ranks(x), ranks(y)), abs=1e-12)
+    # ranks: x 1 3 2 4 5, y 1 3 2 5 4 -> d² = 0,0,0,1,1 -> rho = 1 - 6·2/(5·24) = 0.9
+    assert c.spearman_rho == pytest.approx(0.9, abs=1e-12)
+    assert "n = 5" in c.text()
+    assert math.isnan(correlation([1, 2], [3, 4]).pearson_r)
+    assert math.isnan(correlation([1, 1, 1], [3, 4, 5]).spearman_rho)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(st.floats(-1e3, 1e3), st.integers(0, 66)), min_size=3,
+                max_size=12))
+def test_the_correlations_are_within_minus_one_and_one_and_monotonic_invariant(pairs):
+    x, y = [p[0] for p in pairs], [p[1] for p in pairs]
+    c = correlation(x, y)
+    if math.isnan(c.pearson_r):
+        assert np.ptp(x) < 1e-9 or np.ptp(y) == 0  # (nearly) constant
+        return
+    assert -1 - 1e-9 <= c.pearson_r <= 1 + 1e-9
+    # Spearman's rho depends on the order only: a monotonic map of x leaves it
+    bent = np.asarray(x) ** 3 + np.asarray(x)
+    assert correlation(bent, y).spearman_rho == pytest.approx(
+        c.spearman_rho, abs=1e-9)
+
+
+@pytest.fixture
+def registry(tmp_path):
+    return Registry(DataDir(tmp_path / "data"))
+
+
+def session_with(registry, code, times, fugl_meyer=None):
+    """A session of trials with these reaction times (s), and its Fugl-Meyer total."""
+    number = registry.open_session(code).number
+    ids = []
+    for rt in times:
+        begun = registry.begin_trial(code, THESIS_SUBJECT, backend="simulator",
+                                     session_number=number)
+        registry.finish_trial(begun.trial_id, "complete", {RT: rt})
+        ids.append(begun.trial_id)
+    if fugl_meyer is not None:
+        registry.record_scale(code, number, "fugl_meyer", total=fugl_meyer, rater="K. Lee")
+    return ids
+
+
+def test_a_patients_sessions_figure_against_the_scale(registry):
+    code = registry.create_patient("Ada", "Example").code
+    session_with(registry, code, [0.50, 0.60], fugl_meyer=20)
+    bad = session_with(registry, code, [0.40, 0.90], fugl_meyer=30)
+    session_with(registry, code, [0.45], fugl_meyer=None)  # no scale: not a point
+    session_with(registry, code, [0.30, 0.34], fugl_meyer=44)
+    registry.mark_trial(bad[1], valid=False, reason="slept", by="K. Lee")
+
+    series = scale_series(registry, code, RT, "fugl_meyer")
+    assert [(p.session_number, p.figure, p.n_trials, p.scale) for p in series.points] == [
+        (1, pytest.approx(0.55), 2, 20.0), (2, 0.40, 1, 30.0), (4, pytest.approx(0.32), 2, 44.0)]
+    x, y = [0.55, 0.40, 0.32], [20, 30, 44]
+    assert series.correlation.pearson_r == pytest.approx(pearson_by_hand(x, y))
+    assert series.correlation.spearman_rho == pytest.approx(-1.0)
+    assert series.mdc_note == "no norms in use: no change is marked real"
+    every = scale_series(registry, code, RT, "fugl_meyer", include_invalid=True)
+    assert every.points[1].figure == pytest.approx(0.65)
+
+
+def test_changes_are_marked_real_only_beyond_the_norms_mdc(registry, tmp_path):
+    path = tmp_path / "norms.json"
+    path.write_text(json.dumps(handmade()))  # MDC95 of the reaction time: 0.08 s
+    norms = load_norms(path)
+    code = registry.create_patient("Ada", "Example").code
+    for rt, fm in ((0.50, 20), (0.45, 25), (0.30, 33)):
+        session_with(registry, code, [rt], fugl_meyer=fm)
+    series = scale_series(registry, code, RT, "fugl_meyer", norms=norms)
+    assert [p.real_change for p in series.points] == [None, False, True]
+    assert series.mdc_note == ""
+    no_mdc = scale_series(registry, code, "rmse_x_m", "fugl_meyer", norms=norms)
+    assert no_mdc.points == ()
+    held = scale_series(registry, code, RT, "fugl_meyer", norms=None)
+    assert [p.real_change for p in held.points] == [None, None, None]
+
+
+def test_a_study_has_one_point_per_patient_their_latest_session(registry):
+    expected = []
+    for i, (rt, fm) in enumerate(((0.6, 15), (0.5, 30), (0.35, 50), (0.3, 60))):
+        code = registry.create_patient(f"P{i}", "Example").code
+        session_with(registry, code, [rt + 0.1], fugl_meyer=fm - 5)
+        session_with(registry, code, [rt], fugl_meyer=fm)
+        expected.append((rt, fm))
+    registry.create_patient("No", "Scales")  # no scales: not in the study
+    series = study_series(registry, RT, "fugl_meyer")
+    assert sorted((p.figure, p.scale) for p in series.points) == sorted(
+        (rt, float(fm)) for rt, fm in expected)
+    assert series.correlation.n == 4
+    assert series.correlation.spearman_rho == pytest.approx(-1.0)

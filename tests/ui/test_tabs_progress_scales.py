@@ -1,0 +1,92 @@
+"""The Progress tab with clinical scales (issue 31, items 2 and 3): a trial marked invalid
+leaves the plots and the table and comes back when the tick box asks; a robot figure
+against a scale over the sessions with the correlation; across every patient (a study)."""
+
+from __future__ import annotations
+
+import pyqtgraph as pg
+import pytest
+
+from app.records.datadir import DataDir
+from app.records.registry import Registry
+from core.trial import THESIS_SUBJECT
+from ui import theme
+from ui.tabs import ProgressTab
+
+RT = "rmse_x_m"
+
+
+@pytest.fixture
+def clinic(tmp_path):
+    registry = Registry(DataDir(tmp_path / "data"))
+    codes = []
+    for p, offset in enumerate((0.0, 0.004)):
+        code = registry.create_patient(f"P{p}", "Example", side="right").code
+        codes.append(code)
+        for rmse, fm in ((0.020, 18), (0.015, 26), (0.011, 35), (0.009, 41)):
+            number = registry.open_session(code).number
+            begun = registry.begin_trial(code, THESIS_SUBJECT, backend="simulator",
+                                         session_number=number)
+            registry.finish_trial(begun.trial_id, "complete",
+                                  {RT: rmse + offset, "directional_performance_pct": 70.0})
+            registry.record_scale(code, number, "fugl_meyer", total=fm - 10 * p,
+                                  rater="K. Lee")
+    return registry, codes
+
+
+@pytest.fixture
+def tab(qtbot, qapp, clinic):
+    theme.apply_theme(qapp)
+    registry, codes = clinic
+    tab = ProgressTab(registry)
+    qtbot.addWidget(tab)
+    tab.resize(1280, 900)
+    tab.show()
+    qtbot.waitExposed(tab)
+    with qtbot.waitSignal(tab.progress_loaded, timeout=10000), \
+            qtbot.waitSignal(tab.scales.shown, timeout=10000):
+        tab.set_patient(codes[0])
+    return tab
+
+
+def test_an_invalid_trial_disappears_from_progress_and_comes_back_when_asked(qtbot, tab,
+                                                                            clinic):
+    registry, codes = clinic
+    assert tab.table.rowCount() == 4
+    second = registry.trial_summaries(codes[0])[1].id
+    registry.mark_trial(second, valid=False, reason="let go of the handle", by="K. Lee")
+    with qtbot.waitSignal(tab.progress_loaded, timeout=10000):
+        tab.refresh()
+    assert tab.table.rowCount() == 3
+    assert [t.id for t in tab.progress.trials].count(second) == 0
+    with qtbot.waitSignal(tab.progress_loaded, timeout=10000), \
+            qtbot.waitSignal(tab.scales.shown, timeout=10000):
+        tab.include_invalid.setChecked(True)
+    assert tab.table.rowCount() == 4
+    statuses = [tab.table.item(r, 3).text() for r in range(4)]
+    assert statuses[1].endswith("INVALID: let go of the handle")
+    assert tab.scales.view.series.points[1].figure == pytest.approx(0.015)
+
+
+def test_a_figure_against_the_fugl_meyer_with_its_correlation(qtbot, tab):
+    view = tab.scales.view
+    assert view.series.scale_key == "fugl_meyer"
+    choice = tab.scales.figure_choice
+    with qtbot.waitSignal(tab.scales.shown, timeout=10000):
+        choice.setCurrentIndex(choice.findData("directional_performance_pct"))
+    assert "no variation" in tab.scales.caption.text()  # 70 % at every session
+    with qtbot.waitSignal(tab.scales.shown, timeout=10000):
+        choice.setCurrentIndex(choice.findData(RT))
+    view = tab.scales.view
+    assert [p.scale for p in view.series.points] == [18, 26, 35, 41]
+    assert view.series.correlation.spearman_rho == pytest.approx(-1.0)
+    assert "Spearman ρ = -1.00" in tab.scales.caption.text()
+    assert "n = 4" in tab.scales.caption.text()
+    scatter = [i for i in tab.scales.plot.getPlotItem().items
+               if isinstance(i, pg.ScatterPlotItem)]
+    assert len(scatter[0].data) == 4
+    with qtbot.waitSignal(tab.scales.shown, timeout=10000):
+        tab.scales.study.setChecked(True)
+    study = tab.scales.view.series
+    assert study.correlation.n == 2  # one point per patient
+    assert "Study:" in tab.scales.caption.text()
