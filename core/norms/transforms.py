@@ -104,9 +104,10 @@ def box_cox_inverse(t, lam: float) -> np.ndarray:
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         if abs(lam) < 1e-12:
             return np.exp(t)
-        base = 1.0 + lam * t
-        # beyond the transform's range (λ·t ≤ −1) no y maps there
-        return np.where(base > 0.0, np.exp(np.log(np.where(base > 0, base, 1.0)) / lam),
+        lt = lam * t
+        # beyond the transform's range (λ·t ≤ −1) no y maps there; log1p keeps a small λ's
+        # precision (log(1 + λt) for λ = 1e-12 loses most digits)
+        return np.where(lt > -1.0, np.exp(np.log1p(np.where(lt > -1.0, lt, 0.0)) / lam),
                         np.nan)
 
 
@@ -133,15 +134,15 @@ def yeo_johnson_inverse(t, lam: float) -> np.ndarray:
         if abs(lam) < 1e-12:
             xp = np.expm1(np.where(pos, t, 0.0))
         else:
-            base = 1.0 + lam * np.where(pos, t, 0.0)
-            xp = np.where(base > 0, np.expm1(np.log(np.where(base > 0, base, 1.0)) / lam),
+            lt = lam * np.where(pos, t, 0.0)
+            xp = np.where(lt > -1.0, np.expm1(np.log1p(np.where(lt > -1.0, lt, 0.0)) / lam),
                           np.nan)
         two = 2.0 - lam
         if abs(two) < 1e-12:
             xn = -np.expm1(-np.where(neg, t, 0.0))
         else:
-            base = 1.0 - two * np.where(neg, t, 0.0)
-            xn = np.where(base > 0, -np.expm1(np.log(np.where(base > 0, base, 1.0)) / two),
+            lt = -two * np.where(neg, t, 0.0)
+            xn = np.where(lt > -1.0, -np.expm1(np.log1p(np.where(lt > -1.0, lt, 0.0)) / two),
                           np.nan)
     return np.where(pos, xp, np.where(neg, xn, out))
 

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, strategies as st
+from hypothesis import example, given, strategies as st
 from scipy import stats
 
 from core.errors import ParameterError
@@ -41,6 +41,8 @@ def test_scipy_agrees():
         assert np.allclose(Transform("yeo-johnson", lam).apply(xs), stats.yeojohnson(xs, lam))
 
 
+@example("box-cox", 1e-12, 0.0, 0.0)  # log(1 + λt) lost the digits a small λ needs
+@example("yeo-johnson", 2.0 - 1e-12, -2.0, 0.0)
 @given(st.sampled_from(["box-cox", "yeo-johnson"]), st.floats(-3, 3),
        st.floats(-3, 3), st.floats(0, 2))
 def test_inverse_round_trip(kind, lam, x, shift):
