@@ -16,6 +16,7 @@ import os
 import sys
 from collections.abc import Sequence
 
+from app.cli.assess import add_assess_commands
 from app.cli.check import add_check_command
 from app.cli.clinical import add_clinical_commands
 from app.cli.common import EXIT_BAD_INPUT, CommandError, Parser
@@ -54,6 +55,7 @@ COMMAND_GROUPS = (
     add_models_command,
     add_plan_commands,
     add_norms_commands,
+    add_assess_commands,
 )
 
 

@@ -18,6 +18,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from app.assessments.figures import assessment_figures, assessment_figures_stored
 from app.errors import AppError
 from app.games.figures import game_figures, game_figures_stored
 from core import blockwise
@@ -36,14 +37,19 @@ class Analysis:
     notes: tuple[str, ...]
     game: GameFigures | None = None
     """A game trial's figures (app.games.figures), None for an exercise without a game."""
+    assessment: dict[str, float] | None = None
+    """An assessment trial's task figures keyed as core.assessment.FIGURES
+    (app.assessments.figures), None for an exercise."""
 
     def to_metrics(self) -> dict[str, float]:
         """The trial's metrics as the file and the registry store them: the movement's
-        figures, and a game's 'game_*' figures beside them."""
-        return {**self.metrics.to_dict(), **(self.game.to_metrics() if self.game else {})}
+        figures, and a game's 'game_*' or an assessment task's figures beside them."""
+        return {**self.metrics.to_dict(), **(self.game.to_metrics() if self.game else {}),
+                **(self.assessment or {})}
 
 
 CHANNELS_USED = ("time", "phase", "position", "position_desired", "direction_desired", "force",
+                 "subject_angle",
                  "subject_angle_isb", "subject_torque", "torque_applied", "robot_angle",
                  "torque_commanded", "torque_controller")
 """The recorded channels `analyse` reads (a long trial's analysis reads only these back)."""
@@ -97,7 +103,9 @@ def analyse(channels: Mapping[str, np.ndarray], parameters: TrialParameters) -> 
         tolerance_rad=parameters.tolerance_rad,
         reaches=_reaches(parameters, start),
     )
-    return Analysis(metrics, start, tuple(notes), game_figures(channels, parameters))
+    task, task_notes = assessment_figures(channels, parameters, mask)
+    return Analysis(metrics, start, (*notes, *task_notes), game_figures(channels, parameters),
+                    task or None)
 
 
 def _reaches(parameters: TrialParameters, start_s: float):
@@ -162,8 +170,9 @@ def analyse_stored(read: ReadStretch, n_ticks: int, names: Sequence[str],
     metrics = compute_metrics_blockwise(read_role, n, given,
                                         tolerance_rad=parameters.tolerance_rad,
                                         reaches=_reaches(parameters, start), block=block)
-    return Analysis(metrics, start, tuple(notes),
-                    game_figures_stored(read, n_ticks, parameters, block))
+    task, task_notes = assessment_figures_stored(read, n_ticks, names, parameters)
+    return Analysis(metrics, start, (*notes, *task_notes),
+                    game_figures_stored(read, n_ticks, parameters, block), task or None)
 
 
 def _exercise_run(read: ReadStretch, n_ticks: int, block: int) -> tuple[int, int]:

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from app.assessments.events import cue_events
 from app.errors import AppError
 from app.trials.analysis import Analysis, analyse, analyse_stored
 from core.control.guidance import GuidanceGains
@@ -150,6 +151,9 @@ def simulate(
     period = plan.period_s
     events = [_event(0, period, "start", "trial started", {"patient": patient, "seed": seed,
                                                             "robot_seed": robot_seed})]
+    # an assessment's cues, from the exercise's first tick (after the approach)
+    events += cue_events(parameters, pipeline.n_rows - plan.exercise_ticks, period,
+                         outcome.n_ticks)
     if outcome.status == "complete":
         events.append(_event(outcome.n_ticks, period, "stop", "trial complete", {}))
     else:

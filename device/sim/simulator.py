@@ -99,6 +99,7 @@ from device.sim import physics
 from device.sim.patients import Patient, VirtualPatient, make_patient
 from device.sim.plant import Plant
 from device.sim.sensors import ForceSensorModel
+from device.sim.tasks import own_movement
 
 ROBOT_SEED = 0
 """The seed that draws the simulated robot of a realistic plant (device.sim.plant) unless
@@ -285,11 +286,15 @@ class SimulatorBackend:
         """
         _check_seed(seed)
         _check_seed(robot_seed)
+        nominal = options.pop("robot", None) or RobotModel()
+        patient_seed = _child_seed(seed, 0)
+        # an assessment task's patient moves on its own plan (device.sim.tasks), an
+        # exercise's follows the reference
+        own = own_movement(trial, kind, dict(patient_options or {}), patient_seed, nominal)
         built = make_patient(
-            kind, trial.arm(), trial.trajectory(), seed=_child_seed(seed, 0),
+            kind, trial.arm(), own or trial.trajectory(), seed=patient_seed,
             **dict(patient_options or {}),
         )
-        nominal = options.pop("robot", None) or RobotModel()
         x0, y0, *_ = built.trajectory.at(0.0)
         rest = nominal.ik_terms(x0, y0)
         return cls(built, seed=seed, plant=Plant.of_kind(plant, nominal, robot_seed, rest),

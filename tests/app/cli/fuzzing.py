@@ -58,6 +58,7 @@ LONG_COMMANDS = {
     ("emg", "streams"): ["--wait", "0.2"],
     ("emg", "record"): ["--seconds", "0.2"],
     ("plan", "run"): ["--stop-after", "3"],
+    ("assess", "run"): ["--task", "circle"],
 }
 
 

@@ -1,0 +1,133 @@
+"""`rehab assess …`: the assessment battery on the command line (issue 31). The tasks and
+their protocols, a task or the whole battery run on the simulator for a registered patient
+(each trial registered and saved as `rehab run`'s), and a patient's assessments with their
+figures from the registry.
+
+Figures are printed in SI with the unit core.assessment.FIGURES gives them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from app.cli.common import EXIT_OK, CommandError, registry_for
+
+
+def add_assess_commands(commands) -> None:
+    parser = commands.add_parser(
+        "assess", help="the assessment battery: its tasks, run them, a patient's figures",
+        description="The assessment battery (visually guided reaching, circle drawing, "
+                    "active range, isometric strength, position sense): each task's "
+                    "protocol, a task or all of them run on the simulator for a patient, "
+                    "and a patient's figures.")
+    sub = parser.add_subparsers(dest="action", metavar="action", parser_class=type(parser),
+                                required=True)
+    tasks = sub.add_parser("tasks", help="list the tasks, their protocols and figures",
+                           description="List every task: what the therapist does, what "
+                                       "the patient is told, its trials, robot mode and "
+                                       "figures.")
+    tasks.set_defaults(func=cmd_tasks)
+    from core.assessment import TASKS
+
+    run = sub.add_parser(
+        "run", help="run a task (or all) on the simulator for a patient",
+        description="Run a task's trials, or the whole battery's, on the simulator with a "
+                    "virtual patient: each trial registered for the patient and saved in "
+                    "the data folder with the task's figures in its metrics.")
+    run.add_argument("code", help="the patient's code")
+    run.add_argument("--task", required=True, choices=(*TASKS, "all"),
+                     help="the task, or all for the whole battery")
+    from device.sim.patients import PATIENT_KINDS
+
+    run.add_argument("--patient", choices=PATIENT_KINDS, default="healthy",
+                     help="virtual patient (default healthy)")
+    run.add_argument("--seed", type=int, default=0,
+                     help="the first trial's seed, a whole number from 0 (default 0); trial "
+                          "k of a task runs with seed + k")
+    run.set_defaults(func=cmd_run)
+    show = sub.add_parser("show", help="a patient's assessments and their figures",
+                          description="A patient's assessment trials, task by task, with "
+                                      "each one's figures as the registry holds them.")
+    show.add_argument("code", help="the patient's code")
+    show.add_argument("--task", choices=TASKS, help="only this task")
+    show.set_defaults(func=cmd_show)
+
+
+def cmd_tasks(args: argparse.Namespace) -> int:
+    from core.assessment import task_figures
+    from core.assessment.protocol import PROTOCOLS
+
+    for task, p in PROTOCOLS.items():
+        trials = (f"{p.trial_count} trials ({', '.join(p.trials)})" if p.trial_count > 1
+                  else "1 trial")
+        print(f"{task}: {p.name}. {trials}, {p.repetitions} × {p.duration_s:g} s, robot "
+              f"{p.robot_mode}{' on ' + p.controller if p.controller else ''}; "
+              f"{p.shape} of {p.radius_m:g} m" + (f", {p.n_targets} targets"
+                                                   if p.shape == "targets" else ""))
+        print(f"  therapist: {p.therapist}")
+        print(f"  patient: {p.patient}")
+        print(f"  follows: {p.reference}")
+        print("  figures: " + "; ".join(f"{s.label} ({s.unit})" for s in task_figures(task)))
+    return EXIT_OK
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from app.assessments.runner import run_battery, run_task
+
+    if args.seed < 0:
+        raise CommandError(f"--seed {args.seed}: give a whole number from 0")
+    registry = registry_for(args)
+    registry.patient(args.code)  # an unknown code refused before anything runs
+    options = {"registry": registry, "code": args.code, "progress": print}
+    if args.task == "all":
+        runs = run_battery(args.patient, seed=args.seed, **options)
+    else:
+        runs = {args.task: run_task(args.task, args.patient, seed=args.seed, **options)}
+    for trials in runs.values():
+        for trial in trials:
+            _print_trial(trial.task, trial.trial_id, trial.status, trial.figures, trial.notes,
+                         f"{trial.simulated_s:.0f} s simulated in {trial.elapsed_s:.1f} s")
+    return EXIT_OK
+
+
+def cmd_show(args: argparse.Namespace) -> int:
+    registry = registry_for(args)
+    registry.patient(args.code)
+    shown = 0
+    for trial in registry.trials_for_patient(args.code):
+        task = trial.parameters.get("assessment", "")
+        if not task or (args.task and task != args.task):
+            continue
+        shown += 1
+        _print_trial(task, trial.id, trial.status, trial.metrics, (),
+                     f"session {trial.session_number}, trial {trial.number}, "
+                     f"{trial.session_date.isoformat()}")
+    if not shown:
+        what = f"no {args.task} assessment" if args.task else "no assessment"
+        print(f"Patient {args.code} has {what} yet: `rehab assess run {args.code} --task "
+              f"{args.task or 'all'}` runs one on the simulator")
+    return EXIT_OK
+
+
+def _print_trial(task: str, trial_id, status: str, metrics: dict, notes, where: str) -> None:
+    from core.assessment import TASK_TITLES, task_figures
+
+    print(f"{TASK_TITLES.get(task, task)} — trial {trial_id}, {status}, {where}")
+    figures = task_figures(task)
+    if not any(s.key in metrics for s in figures):
+        print("  no figures")
+    for spec in figures:
+        if spec.key in metrics:
+            print(f"  {spec.label}: {_value(metrics[spec.key], spec.unit)}")
+    for note in notes:
+        print(f"  note: {note}")
+
+
+def _value(value: float, unit: str) -> str:
+    if not math.isfinite(value):
+        return "not defined"
+    if unit == "count":
+        return f"{value:.0f}"
+    text = f"{value:.4g}"
+    return text if unit == "1" else f"{text} {unit}"

@@ -1,0 +1,201 @@
+"""What a virtual patient does of its own in the assessment tasks (issue 31): it sees the
+task's cues on the screen and moves when and how it chooses, not on the reference's clock.
+
+In an exercise a virtual patient follows the trial's reference (device.sim.patients); in
+the transparent mode of the reaching and active range tasks nothing moves the hand but the
+patient, and what the figures measure is the patient's own timing and path. So the patient
+is given its own movement plan (`OwnMovement`), made from the task's cues
+(core.assessment.protocol.cues: when each target and the centre appear):
+
+* reaching: at each target's appearance the patient waits its reaction time, then moves
+  to the target along a straight minimum-jerk profile (Flash & Hogan 1985, J Neurosci
+  5:1688, doi 10.1523/JNEUROSCI.05-07-01688.1985) of its own movement time, holds there,
+  and on the centre's appearance returns the same way.
+* circle drawing: it draws the trial's circle at its own pace, lap after lap, until the
+  trial ends (the dot on the screen keeps the protocol's pace).
+* active range: at each direction's appearance it moves out along that direction to a
+  fraction of the distance the robot and its arm allow there
+  (core.assessment.workspace.extent_m), holds, and returns.
+
+The plan then drives the patient's effort exactly as a reference would (impedance,
+feed-forward and the push along the plan, scaled by the effort), so a weak patient lags
+its own plan as it lags a path, and a passive patient has no effort and never moves.
+
+The timing is this console's model, not identified on people: a healthy reaction time of
+0.30 s (simple visual reaction times of young adults are about 0.2–0.3 s), a movement time
+growing with distance, 0.35 s + 2.5 s/m (0.6 s for a 10 cm reach: a minimum-jerk peak
+speed of 0.31 m/s), both varying from reach to reach by a coefficient of variation of 0.15,
+drawn by the trial's seed. A patient of effort w (device.sim.patients: 1 healthy, 0.4 weak)
+reacts (0.25 s)(1 − w) later, moves (and laps the circle) 1/(0.5 + 0.5 w) times slower,
+and in the range task
+goes out to 0.5 + 0.45 w of the allowed distance (healthy 95 %, weak 68 %): slowness and a
+reduced active range in proportion to the lost effort, so a population's spread of effort
+(device.sim) spreads the figures with it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from core.assessment.protocol import cues
+from core.assessment.workspace import extent_m, range_box
+from core.errors import check_range
+from core.robot import RobotModel
+from core.trajectory import Trajectory, TrajectorySample
+from core.trial import TrialParameters
+from device.sim.patients import DEFAULT_EFFORT
+
+OWN_MOVEMENT_TASKS = ("reaching", "circle", "range")
+"""The tasks whose patient moves on its own plan (the others follow the reference, or the
+robot's mode for them decides: circle, strength, position)."""
+REACTION_S = 0.30
+REACTION_SLOWING_S = 0.25
+MOVE_BASE_S = 0.35
+MOVE_PER_M_S = 2.5
+VARIATION = 0.15
+RANGE_FULL = 0.95
+RANGE_LOST = 0.45
+
+
+@dataclass(frozen=True, slots=True)
+class Move:
+    """One straight minimum-jerk movement from `start_m` to `end_m` over [t0_s, t1_s]."""
+
+    t0_s: float
+    t1_s: float
+    start_m: tuple[float, float]
+    end_m: tuple[float, float]
+
+
+class OwnMovement:
+    """A patient's own movement plan: at rest at `home_m`, then `moves` in order, resting
+    at each one's end until the next. It answers what device.sim.patients asks of a
+    core.trajectory.Trajectory (one traversal lasting the whole trial)."""
+
+    __slots__ = ("duration_s", "home_m", "moves", "repetitions", "total_duration_s")
+
+    def __init__(self, home_m: tuple[float, float], moves: Sequence[Move], total_s: float):
+        self.home_m = (float(home_m[0]), float(home_m[1]))
+        self.moves = tuple(moves)
+        self.duration_s = float(total_s)
+        self.total_duration_s = float(total_s)
+        self.repetitions = 1
+
+    def sample(self, t_s) -> TrajectorySample:
+        """Position, velocity, acceleration and unit direction (zero at rest) at `t_s`."""
+        t = np.asarray(t_s, dtype=float).ravel()
+        position = np.tile(np.asarray(self.home_m), (t.size, 1))
+        velocity = np.zeros((t.size, 2))
+        acceleration = np.zeros((t.size, 2))
+        direction = np.zeros((t.size, 2))
+        segment = np.full(t.size, -1)
+        for k, move in enumerate(self.moves):
+            after = t >= move.t0_s
+            if not after.any():
+                break
+            d = np.subtract(move.end_m, move.start_m)
+            length = float(np.hypot(*d))
+            unit = d / length if length > 0.0 else np.zeros(2)
+            span = move.t1_s - move.t0_s
+            u = np.clip((t[after] - move.t0_s) / span, 0.0, 1.0)
+            moving = (u < 1.0)[:, None]
+            u2 = u * u
+            s = length * u2 * u * (10.0 - 15.0 * u + 6.0 * u2)
+            sd = length / span * 30.0 * u2 * (1.0 - 2.0 * u + u2)
+            sdd = length / (span * span) * 60.0 * u * (1.0 - 3.0 * u + 2.0 * u2)
+            position[after] = np.asarray(move.start_m) + s[:, None] * unit
+            velocity[after] = sd[:, None] * unit
+            acceleration[after] = sdd[:, None] * unit
+            direction[after] = np.where(moving, unit, 0.0)
+            segment[after] = k
+        finished = (t >= self.total_duration_s) | (t < 0.0)
+        velocity[finished] = 0.0
+        acceleration[finished] = 0.0
+        direction[finished] = 0.0
+        return TrajectorySample(t, position, velocity, acceleration, direction, segment,
+                                finished.astype(int))
+
+    def at(self, t: float):
+        """(x, y, vx, vy, ax, ay, direction x, y) at one time, floats."""
+        s = self.sample([t])
+        return (*s.position_m[0], *s.velocity_m_s[0], *s.acceleration_m_s2[0],
+                *s.direction[0])
+
+
+def movement_time_s(distance_m: float, effort: float) -> float:
+    """A reach's movement time for a patient of `effort` (the module notes)."""
+    return (MOVE_BASE_S + MOVE_PER_M_S * distance_m) / (0.5 + 0.5 * effort)
+
+
+def reaction_time_s(effort: float) -> float:
+    return REACTION_S + REACTION_SLOWING_S * (1.0 - effort)
+
+
+def range_fraction(effort: float) -> float:
+    """The share of the allowed distance a patient of `effort` goes out in the range task."""
+    return RANGE_FULL - RANGE_LOST * (1.0 - effort)
+
+
+def own_circle(trial: TrialParameters, effort: float) -> Trajectory:
+    """The circle at the patient's own pace: the trial's circle, each lap
+    1/(0.5 + 0.5 w) times the dot's lap (a healthy patient keeps the dot's pace), lapped
+    until the trial's end."""
+    lap_s = trial.duration_s / (0.5 + 0.5 * effort)
+    laps = math.ceil(trial.duration_s * trial.repetitions / lap_s - 1e-9)
+    return Trajectory(trial.path(), lap_s, max(1, laps), trial.timing)
+
+
+def own_movement(trial: TrialParameters, kind: str, options: Mapping[str, object],
+                 seed, robot: RobotModel) -> OwnMovement | Trajectory | None:
+    """The patient's own plan for an assessment trial whose task has one
+    (OWN_MOVEMENT_TASKS), None otherwise (the patient follows the reference). `seed` (an
+    int or a numpy SeedSequence, the patient's) draws each movement's variation from a
+    stream of its own."""
+    if trial.assessment not in OWN_MOVEMENT_TASKS:
+        return None
+    effort = check_range("effort", options.get("effort", DEFAULT_EFFORT.get(kind, 1.0)),
+                         0.0, 1.0)
+    if trial.assessment == "circle":
+        return own_circle(trial, effort)
+    rng = np.random.default_rng(_stream(seed))
+    sigma = math.sqrt(math.log1p(VARIATION ** 2))
+
+    def varied(value: float) -> float:
+        return value * math.exp(rng.normal(-sigma * sigma / 2.0, sigma))
+
+    centre = trial.centre_m
+    box = range_box(trial)
+    moves: list[Move] = []
+    here = centre
+    free_at = 0.0
+    for cue in cues(trial):
+        if cue.kind == "target":
+            goal = cue.point_m
+            if trial.assessment == "range":
+                direction = math.atan2(cue.point_m[1] - centre[1], cue.point_m[0] - centre[0])
+                reach = range_fraction(effort) * extent_m(trial, robot, direction, box)
+                goal = (centre[0] + reach * math.cos(direction),
+                        centre[1] + reach * math.sin(direction))
+        else:
+            goal = centre
+        distance = math.dist(here, goal)
+        if distance < 1e-6:
+            continue
+        t0 = max(cue.time_s + varied(reaction_time_s(effort)), free_at)
+        t1 = t0 + varied(movement_time_s(distance, effort))
+        moves.append(Move(t0, t1, here, goal))
+        here, free_at = goal, t1
+    total = trial.duration_s * trial.repetitions
+    return OwnMovement(centre, moves, max(total, free_at))
+
+
+def _stream(seed) -> np.random.SeedSequence:
+    """The movements' own stream of the patient's seed (device.sim.patients.trial_factors
+    uses spawn key 13; this one 17), so the other draws of a seed stay what they were."""
+    if isinstance(seed, np.random.SeedSequence):
+        return np.random.SeedSequence(seed.entropy, spawn_key=(*seed.spawn_key, 17))
+    return np.random.SeedSequence(int(seed), spawn_key=(17,))

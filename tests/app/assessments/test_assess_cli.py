@@ -1,0 +1,77 @@
+"""`rehab assess`: the tasks listed with their protocols, a task run for a registered patient
+with its trials and figures in the registry as in the files, a patient's assessments shown,
+and every bad input refused in one line (exit 2)."""
+
+import pytest
+
+from app.records.datadir import DataDir
+from app.records.registry import Registry
+from app.trials.reader import read_trial
+from core.assessment import TASKS, task_figures
+from tests.app.cli.running import run
+
+
+@pytest.fixture
+def data(tmp_path, monkeypatch):
+    monkeypatch.setenv("REHAB_DATA_DIR", str(tmp_path / "data"))
+    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
+    return tmp_path / "data"
+
+
+@pytest.fixture
+def patient(data, capsys):
+    code, out, _ = run(["patients", "add", "--first-name", "Ada", "--last-name", "Assess",
+                        "--body-mass", "80", "--upper-arm", "0.30", "--forearm", "0.29",
+                        "--side", "right", "--shoulder", "-0.12", "0.73"], capsys)
+    assert code == 0
+    return out.strip()
+
+
+def test_the_tasks_are_listed_with_their_protocols(data, capsys):
+    code, out, _ = run(["assess", "tasks"], capsys)
+    assert code == 0
+    for task in TASKS:
+        assert out.count(f"\n{task}: ") + out.startswith(f"{task}: ") == 1, task
+    assert out.count("  therapist: ") == len(TASKS)
+    assert out.count("  patient: ") == len(TASKS)
+    assert "2 trials (clockwise, counter-clockwise)" in out
+    assert "Reaction time" in out or "reaction time" in out
+
+
+def test_a_task_run_for_a_patient_is_registered_with_its_figures(data, patient, capsys):
+    code, out, err = run(["assess", "run", patient, "--task", "reaching", "--patient", "weak",
+                          "--seed", "2"], capsys)
+    assert code == 0, err
+    assert "Visually guided reaching — trial" in out
+    registry = Registry(DataDir(data))
+    (trial,) = registry.trials_for_patient(patient)
+    assert trial.parameters["assessment"] == "reaching"
+    assert trial.status == "complete"
+    assert trial.patient_kind == "weak"
+    stored = read_trial(registry.trial_path(trial), ()).metrics
+    for spec in task_figures("reaching"):
+        assert trial.metrics[spec.key] == pytest.approx(stored[spec.key], nan_ok=True)
+    # the patient's body, not the default's, ran the task
+    assert trial.parameters["body_mass_kg"] == 80.0
+    code, out, _ = run(["assess", "show", patient], capsys)
+    assert code == 0
+    assert "Visually guided reaching — trial" in out
+    assert "session 1, trial 1" in out
+    code, out, _ = run(["assess", "show", patient, "--task", "circle"], capsys)
+    assert "has no circle assessment yet" in out
+
+
+@pytest.mark.parametrize(("args", "needle"), [
+    (["assess", "run", "NOPE", "--task", "reaching"], "NOPE"),
+    (["assess", "run", "{code}", "--task", "walking"], "invalid choice"),
+    (["assess", "run", "{code}", "--task", "reaching", "--seed", "-1"], "--seed -1"),
+    (["assess", "run", "{code}"], "--task"),
+    (["assess", "show", "NOPE"], "NOPE"),
+])
+def test_a_bad_request_is_one_line(data, patient, capsys, args, needle):
+    code, _out, err = run([a.replace("{code}", patient) for a in args], capsys)
+    assert code == 2
+    assert needle in err
+    assert len(err.strip().splitlines()) == 1, err
+    registry = Registry(DataDir(data))
+    assert registry.trials_for_patient(patient) == []
