@@ -9,7 +9,6 @@ Figures are printed in SI with the unit core.assessment.FIGURES gives them.
 from __future__ import annotations
 
 import argparse
-import math
 
 from app.cli.common import EXIT_OK, CommandError, registry_for
 
@@ -111,6 +110,7 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 
 def _print_trial(task: str, trial_id, status: str, metrics: dict, notes, where: str) -> None:
+    from app.reports.assessment_page import figure_value
     from core.assessment import TASK_TITLES, task_figures
 
     print(f"{TASK_TITLES.get(task, task)} — trial {trial_id}, {status}, {where}")
@@ -119,15 +119,7 @@ def _print_trial(task: str, trial_id, status: str, metrics: dict, notes, where: 
         print("  no figures")
     for spec in figures:
         if spec.key in metrics:
-            print(f"  {spec.label}: {_value(metrics[spec.key], spec.unit)}")
+            print(f"  {spec.label}: {figure_value(metrics[spec.key], spec.unit)}")
     for note in notes:
         print(f"  note: {note}")
 
-
-def _value(value: float, unit: str) -> str:
-    if not math.isfinite(value):
-        return "not defined"
-    if unit == "count":
-        return f"{value:.0f}"
-    text = f"{value:.4g}"
-    return text if unit == "1" else f"{text} {unit}"

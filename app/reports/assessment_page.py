@@ -1,0 +1,166 @@
+"""An assessment task's report page: its figures as the trial's metrics hold them, each with
+its label, unit and better direction from the catalogue (core.assessment.FIGURES), its
+Z-score and the task score against the normative model in use when there is one
+(app.norms), and the norms' source printed under them (their label says "simulated — for
+demonstration and tests only" when they are the simulated ones).
+
+`assessment_page` gathers the page's content (what the window's tab and the PDF show);
+`write_assessment_pdf` draws it on one page. A figure the norms cannot score (not held,
+undefined, the patient's covariates unknown) has no Z-score and the page says why once.
+"""
+
+from __future__ import annotations
+
+import datetime
+import math
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from core.assessment import TASK_TITLES, task_figures
+from core.assessment.protocol import protocol
+
+NO_NORMS = "No normative model in use: no Z-scores (rehab norms use FILE sets one)"
+
+
+@dataclass(frozen=True, slots=True)
+class FigureLine:
+    """One figure on the page."""
+
+    key: str
+    label: str
+    value: str
+    """The value with its unit (SI), or 'not defined'."""
+    better: str
+    z: float | None
+    """Its Z-score (positive = above healthy people like the patient), None without one."""
+    worse_z: float | None
+    """The Z-score signed so that positive is worse (the norms' worse side)."""
+
+
+@dataclass(frozen=True, slots=True)
+class AssessmentPage:
+    task: str
+    title: str
+    heading: str
+    """Who, when, which trial(s)."""
+    lines: tuple[FigureLine, ...]
+    task_score: str
+    """'Task score 0.8 (0 is best; 1.96 is the controls' 95th percentile)' or why none."""
+    norms: str
+    """The norms' label (their source, simulated or not) or NO_NORMS."""
+    notes: tuple[str, ...]
+
+
+def assessment_page(task: str, metrics: Mapping[str, float], *, heading: str = "",
+                    norms=None, person=None) -> AssessmentPage:
+    """The page of `task` for a trial's `metrics` (its file's or the registry's), with
+    Z-scores and the task score when `norms` (app.norms.NormativeModel) and `person`
+    (app.norms.Covariates) are given."""
+    from app.norms import NormsError
+
+    spec = protocol(task)
+    notes: list[str] = []
+    scores: dict = {}
+    if norms is not None and person is None:
+        notes.append("the patient's age, sex or handedness is not recorded: no Z-scores "
+                     "(Registration, or rehab patients ... --sex --handedness)")
+    lines = []
+    for figure in task_figures(task):
+        value = metrics.get(figure.key)
+        if value is None:
+            continue
+        z = worse = None
+        if norms is not None and person is not None and figure.key in norms.figures:
+            try:
+                scored = norms.z(figure.key, value, person)
+            except NormsError as exc:
+                notes.append(str(exc))
+            else:
+                scores[figure.key] = scored
+                z, worse = scored.z, scored.worse_z
+        lines.append(FigureLine(figure.key, figure.label, figure_value(value, figure.unit),
+                                figure.better, z, worse))
+    task_score = "No task score without norms" if norms is None else "No task score"
+    if norms is not None and person is not None:
+        try:
+            score = norms.task_score(task, metrics, person)
+        except NormsError as exc:
+            task_score = f"No task score: {exc}"
+        else:
+            task_score = (f"Task score {score.score:.2f} (0 is best; 1.96 is the healthy "
+                          f"controls' 95th percentile)")
+    if not lines:
+        notes.append(f"the trial holds no {spec.name} figures")
+    return AssessmentPage(task, TASK_TITLES[task], heading, tuple(lines), task_score,
+                          NO_NORMS if norms is None else norms.label, tuple(notes))
+
+
+def covariates(patient, session_date: datetime.date, backend: str, summary: Mapping):
+    """The norms' covariates of a registered patient (app.records.registry.Patient) at a
+    session on the trial's robot (its backend and its file's summary: app.norms.controls),
+    or None when the registry lacks one of them (birth year, sex, handedness, the tested
+    side)."""
+    from app.norms.controls import Person, covariates_at, robot_kind
+
+    if None in (patient.birth_year, patient.sex, patient.handedness, patient.side):
+        return None
+    return covariates_at(Person(patient.birth_year, patient.sex, patient.handedness),
+                         session_date.year, patient.side, robot_kind(backend, summary))
+
+
+def page_text(page: AssessmentPage) -> list[str]:
+    """The page as lines of text (the window's tab and the PDF draw these)."""
+    out = [page.title] + ([page.heading] if page.heading else [])
+    for line in page.lines:
+        z = "" if line.z is None else f"   Z {line.z:+.2f}"
+        out.append(f"  {line.label}: {line.value}{z}")
+    out += [page.task_score, page.norms, *(f"note: {note}" for note in page.notes)]
+    return out
+
+
+def write_assessment_pdf(path: str | os.PathLike, pages: Sequence[AssessmentPage], *,
+                         overwrite: bool = True) -> Path:
+    """One PDF page per task page: its figures as a table (value, Z-score, which way is
+    better), the task score and the norms' source under them."""
+    from app.reports.pdf_file import write_pdf
+
+    return write_pdf(path, lambda: [_figure(page) for page in pages],
+                     {"Title": "Assessment: " + ", ".join(p.title for p in pages)},
+                     "the assessment report", overwrite=overwrite)
+
+
+def _figure(page: AssessmentPage):
+    from matplotlib.figure import Figure
+
+    figure = Figure(figsize=(8.27, 11.69))  # A4
+    figure.text(0.08, 0.95, page.title, fontsize=18, weight="bold")
+    figure.text(0.08, 0.925, page.heading, fontsize=10)
+    rows = [[line.label, line.value, "" if line.z is None else f"{line.z:+.2f}",
+             {"lower": "lower", "higher": "higher", "none": "—"}[line.better]]
+            for line in page.lines]
+    axes = figure.add_axes((0.06, 0.25, 0.88, 0.65))
+    axes.axis("off")
+    if rows:
+        table = axes.table(cellText=rows, colLabels=["Figure", "Value", "Z", "Better"],
+                           colWidths=[0.5, 0.22, 0.12, 0.12], loc="upper center",
+                           cellLoc="left")
+        table.auto_set_font_size(False)
+        table.set_fontsize(9)
+        table.scale(1.0, 1.4)
+    y = 0.2
+    for text in (page.task_score, page.norms, *page.notes):
+        figure.text(0.08, y, text, fontsize=9, wrap=True)
+        y -= 0.03
+    return figure
+
+
+def figure_value(value: float, unit: str) -> str:
+    """A figure's value with its unit as reports print it (SI; a count whole, a ratio bare)."""
+    if not math.isfinite(value):
+        return "not defined"
+    if unit == "count":
+        return f"{value:.0f}"
+    text = f"{value:.4g}"
+    return text if unit == "1" else f"{text} {unit}"

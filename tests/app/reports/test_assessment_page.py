@@ -1,0 +1,93 @@
+"""A task's report page (app.reports.assessment_page): every figure of the trial with its
+label and unit, its Z-score and the task score against a hand-made normative file equal to
+the norms' own, the norms' source printed (and 'simulated' when they are), and the PDF
+written."""
+
+import datetime
+import json
+import math
+
+import pytest
+
+from app.norms import Covariates, load_norms
+from app.reports.assessment_page import (
+    NO_NORMS,
+    assessment_page,
+    covariates,
+    page_text,
+    write_assessment_pdf,
+)
+from core.assessment import task_figures
+from tests.app.norms.handmade import handmade
+
+PERSON = Covariates(age_years=60, sex="male", handedness="right", tested_side="left",
+                    robot="simulator-realistic")
+METRICS = {"vgr_reaction_time_s": 0.49, "vgr_max_speed_m_s": 0.3, "vgr_sparc": -1.6,
+           "vgr_no_reaction_count": 2.0, "vgr_movement_time_s": math.nan, "rmse_m": 0.01}
+
+
+@pytest.fixture
+def norms(tmp_path):
+    path = tmp_path / "norms.json"
+    path.write_text(json.dumps(handmade()))
+    return load_norms(path)
+
+
+def test_the_figures_in_the_catalogues_order_with_their_units():
+    page = assessment_page("reaching", METRICS)
+    keys = [line.key for line in page.lines]
+    order = [spec.key for spec in task_figures("reaching")]
+    assert keys == [k for k in order if k in METRICS]  # not rmse_m: no reaching figure
+    values = {line.key: line.value for line in page.lines}
+    assert values["vgr_reaction_time_s"] == "0.49 s"
+    assert values["vgr_no_reaction_count"] == "2"
+    assert values["vgr_movement_time_s"] == "not defined"
+    assert page.norms == NO_NORMS
+    assert all(line.z is None for line in page.lines)
+
+
+def test_z_scores_and_the_task_score_are_the_norms(norms):
+    page = assessment_page("reaching", METRICS, norms=norms, person=PERSON)
+    z = {line.key: line.z for line in page.lines}
+    assert z["vgr_reaction_time_s"] == pytest.approx(-2.7)  # tests/app/norms/test_model.py
+    assert z["vgr_max_speed_m_s"] == pytest.approx(-1.6)
+    assert z["vgr_sparc"] is None  # the norms do not hold it
+    score = norms.task_score("reaching", METRICS, PERSON).score
+    assert f"Task score {score:.2f}" in page.task_score
+    assert page.norms == "Norms: hand-made for the tests, 3 Dec 2026"
+    text = "\n".join(page_text(page))
+    assert "Z -2.70" in text
+    assert page.norms in text
+
+
+def test_simulated_norms_say_so(tmp_path):
+    document = handmade()
+    document["simulated"] = True
+    path = tmp_path / "sim.json"
+    path.write_text(json.dumps(document))
+    page = assessment_page("reaching", METRICS, norms=load_norms(path), person=PERSON)
+    assert "simulated — for demonstration and tests only" in page.norms
+
+
+def test_a_patient_without_sex_or_handedness_gets_no_z_and_is_told_why(norms):
+    page = assessment_page("reaching", METRICS, norms=norms, person=None)
+    assert all(line.z is None for line in page.lines)
+    assert any("not recorded" in note for note in page.notes)
+
+
+def test_the_covariates_come_from_the_registry_and_the_trials_robot():
+    class Patient:
+        birth_year, sex, handedness, side = 1966, "male", "right", "left"
+
+    who = covariates(Patient, datetime.date(2026, 12, 3), "simulator (healthy, seed 1)",
+                     {"plant": "realistic"})
+    assert who == PERSON
+    Patient.sex = None
+    assert covariates(Patient, datetime.date(2026, 12, 3), "simulator", {}) is None
+
+
+def test_the_pdf_is_written(tmp_path, norms):
+    page = assessment_page("reaching", METRICS, heading="P001, session 1", norms=norms,
+                           person=PERSON)
+    path = write_assessment_pdf(tmp_path / "assessment.pdf", [page])
+    assert path.read_bytes().startswith(b"%PDF")
