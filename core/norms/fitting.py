@@ -17,7 +17,6 @@ sorted held-out Z-scores and the standard normal quantiles at the plotting posit
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -56,20 +55,23 @@ class FittedModel:
     figures: Mapping[str, FittedFigure]
     tasks: Mapping[str, FittedTask]
 
-    def z(self, figure: str, value: float, person: Covariates) -> float:
+    def z(self, figure: str, values, design: np.ndarray) -> np.ndarray:
+        """Eq. (2) for many people at once: `values` one per row of `design`."""
         norm = self.figures[figure]
-        expected = norm.regression.predict(self.spec, [person])[0]
-        return scores.z_score(float(norm.transform.apply(value)), expected,
-                              norm.regression.residual_sd)
+        beta = np.array([norm.regression.coefficients[c] for c in self.spec.columns])
+        t = norm.transform.apply(np.asarray(values, dtype=float))
+        return (t - design @ beta) / norm.regression.residual_sd
 
-    def task_score(self, task: str, values: Mapping[str, float], person: Covariates
-                   ) -> float:
+    def task_scores(self, task: str, values: Mapping[str, np.ndarray], design: np.ndarray
+                    ) -> np.ndarray:
+        """Eq. (4) for many people at once: `values` figure → one value per row of
+        `design`."""
         norm = self.tasks[task]
-        z = {f: self.z(f, values[f], person) for f in norm.figures}
-        distance = scores.task_distance(z, {f: self.figures[f].worse for f in norm.figures},
-                                        norm.figures)
-        return scores.task_score(scores.task_z(float(norm.transform.apply(distance)),
-                                               norm.mean, norm.sd))
+        z = {f: self.z(f, values[f], design) for f in norm.figures}
+        distances = scores.task_distances(z, {f: self.figures[f].worse for f in norm.figures},
+                                          norm.figures)
+        t = norm.transform.apply(distances)
+        return np.asarray(scores.one_sided((t - norm.mean) / norm.sd), dtype=float)
 
 
 def choose_kind(choice: str, values: np.ndarray) -> str:
@@ -97,15 +99,14 @@ def fit_task(figures: Sequence[str], z_by_figure: Mapping[str, np.ndarray],
              worse: Mapping[str, str]) -> FittedTask:
     """A task's distance transform and its controls' mean and SD, from the controls'
     Z-scores of its figures."""
-    n = len(next(iter(z_by_figure.values())))
-    distances = np.array([scores.task_distance({f: float(z_by_figure[f][i]) for f in figures},
-                                               worse, figures) for i in range(n)])
-    if np.any(distances <= 0.0):
-        raise ParameterError("task distances", "a zero", "positive distances")
+    distances = scores.task_distances(z_by_figure, worse, figures)
+    if not np.all(np.isfinite(distances)) or np.any(distances <= 0.0):
+        raise ParameterError("task distances", "a zero or a non-finite one",
+                             "positive, finite distances")
     fit = fit_transform("box-cox", distances)
     t = fit.transform.apply(distances)
     return FittedTask(tuple(figures), fit.transform, float(np.mean(t)),
-                      float(np.std(t, ddof=1)), int(n))
+                      float(np.std(t, ddof=1)), int(distances.size))
 
 
 def fit_model(table: Mapping[str, np.ndarray], people: Sequence[Covariates],
@@ -127,13 +128,14 @@ def fit_model(table: Mapping[str, np.ndarray], people: Sequence[Covariates],
                                                                    strict=True) if k],
                                     spec, worse[figure], chosen)
     model = FittedModel(spec, fitted, {})
+    design = spec.design(people)
     task_fits = {}
     for task, figures in tasks.items():
         figures = tuple(figures)
         complete = np.all([np.isfinite(np.asarray(table[f], dtype=float)) for f in figures],
                           axis=0)
-        z = {f: np.array([model.z(f, float(table[f][i]), people[i])
-                          for i in np.flatnonzero(complete)]) for f in figures}
+        z = {f: model.z(f, np.asarray(table[f], dtype=float)[complete], design[complete])
+             for f in figures}
         task_fits[task] = fit_task(figures, z, worse)
     return FittedModel(spec, fitted, task_fits)
 
@@ -195,13 +197,13 @@ def cross_validate(table: Mapping[str, np.ndarray], people: Sequence[Covariates]
         train = np.setdiff1d(order, test)
         model = fit_model({f: np.asarray(v, dtype=float)[train] for f, v in table.items()},
                           [people[i] for i in train], worse, tasks, kinds, spec)
-        for i in test:
-            values = {f: float(table[f][i]) for f in table}
-            for figure, value in values.items():
-                if math.isfinite(value):
-                    held.setdefault(figure, []).append(model.z(figure, value, people[i]))
-            for task, figures in tasks.items():
-                if all(math.isfinite(values[f]) for f in figures):
-                    held.setdefault(f"task:{task}", []).append(
-                        model.task_score(task, values, people[i]))
+        design = spec.design([people[i] for i in test])
+        values = {f: np.asarray(v, dtype=float)[test] for f, v in table.items()}
+        for figure, v in values.items():
+            have = np.isfinite(v)
+            held.setdefault(figure, []).extend(model.z(figure, v[have], design[have]))
+        for task, figures in tasks.items():
+            have = np.all([np.isfinite(values[f]) for f in figures], axis=0)
+            held.setdefault(f"task:{task}", []).extend(model.task_scores(
+                task, {f: values[f][have] for f in figures}, design[have]))
     return {key: calibration_of(z, key.startswith("task:")) for key, z in held.items()}

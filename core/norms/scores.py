@@ -70,11 +70,21 @@ def worse_signed(z: float, worse: str) -> float:
     return -z if worse == "lower" else z
 
 
-def deviation(z: float, worse: str) -> float:
-    """A figure's contribution to the task's distance: |Z| two-sided, eq. (4) one-sided."""
-    if worse == "both":
-        return abs(float(z))
-    return float(one_sided(worse_signed(z, worse)))
+def deviation(z, worse: str):
+    """A figure's contribution to the task's distance: |Z| two-sided, eq. (4) one-sided
+    (Z a number or an array of them)."""
+    z = np.asarray(z, dtype=float)
+    d = np.abs(z) if worse == "both" else np.asarray(one_sided(worse_signed(z, worse)))
+    return float(d) if d.ndim == 0 else d
+
+
+def task_distances(z_scores: Mapping[str, np.ndarray], worse: Mapping[str, str],
+                   figures: Sequence[str]) -> np.ndarray:
+    """Eq. (3) for many people at once: D = √(Σ d²) over the task's figures, `z_scores`
+    figure → one Z per person."""
+    d = np.array([deviation(np.asarray(z_scores[f], dtype=float), worse[f]) for f in figures],
+                 dtype=float).reshape(len(figures), -1)
+    return np.sqrt(np.sum(d * d, axis=0))
 
 
 def task_distance(z_scores: Mapping[str, float], worse: Mapping[str, str],
@@ -84,10 +94,11 @@ def task_distance(z_scores: Mapping[str, float], worse: Mapping[str, str],
     if missing:
         raise ParameterError("task figures", ", ".join(missing), "a Z-score for every "
                              "figure the task combines", "the trial lacks them")
-    d = [deviation(z_scores[f], worse[f]) for f in figures]
-    if not all(math.isfinite(v) for v in d):
-        raise ParameterError("task figures' Z-scores", d, "finite numbers")
-    return math.sqrt(sum(v * v for v in d))
+    distance = float(task_distances({f: [z_scores[f]] for f in figures}, worse, figures)[0])
+    if not math.isfinite(distance):
+        raise ParameterError("task figures' Z-scores", [z_scores[f] for f in figures],
+                             "finite numbers")
+    return distance
 
 
 def task_z(t_distance: float, mean: float, sd: float) -> float:

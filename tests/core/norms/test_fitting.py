@@ -91,8 +91,7 @@ def test_task_fit_gives_half_normal_controls():
     people, _, _, x, y = population(800, 2)
     model = fit_model({"a": x, "b": y}, people, {"a": "higher", "b": "lower"},
                       {"reaching": ["a", "b"]})
-    s = np.array([model.task_score("reaching", {"a": x[i], "b": y[i]}, people[i])
-                  for i in range(len(people))])
+    s = model.task_scores("reaching", {"a": x, "b": y}, model.spec.design(people))
     c = calibration_of(s, one_sided_scores=True)
     assert np.all(s >= 0)
     assert c.beyond_1_96 == pytest.approx(0.05, abs=0.03)
