@@ -429,12 +429,16 @@ class RobotModel:
                 f"motor axes; the robot reaches from {abs(self.l4_m - self.l2_m):.3f} to "
                 f"{self.l2_m + self.l4_m:.3f} m. Move the point inside that ring."
             )
-        if check_limits:
-            for i in range(flat_q.shape[0]):
+        if check_limits and flat_q.shape[0]:
+            # every point at once; the first one outside is put in words
+            codes = suited(terms.limit_violation, flat_q[:, 0])(
+                self.constants, flat_q[:, 0], flat_q[:, 1])
+            outside = np.flatnonzero(np.asarray(codes) != terms.WITHIN_LIMITS)
+            if outside.size:
+                i = int(outside[0])
+                x, y = flat_p[i]
                 problem = self.limit_problem(flat_q[i, 0], flat_q[i, 1])
-                if problem:
-                    x, y = flat_p[i]
-                    raise UnreachableError(f"point ({x:.3f}, {y:.3f}) m: {problem}")
+                raise UnreachableError(f"point ({x:.3f}, {y:.3f}) m: {problem}")
         return q
 
     def limit_problem(self, q1: float, q2: float) -> str:

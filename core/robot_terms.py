@@ -238,12 +238,11 @@ def ik_terms(r, x, y):
 def limit_violation(r, q1, q2):
     """Which software joint limit (θ_R1, θ_R2) violates, first in this order: the
     spread θ_R1 − θ_R2 on the working branch (the parallelogram folding flat), then
-    joint 1, then joint 2; WITHIN_LIMITS when none (RobotModel.limit_problem words it)."""
+    joint 1, then joint 2; WITHIN_LIMITS when none (RobotModel.limit_problem words it).
+    A NaN angle is outside. Written with `where` so that it runs on whole arrays too
+    (RobotModel.ik checks a trial's every reference row in one call)."""
     spread = (q1 - q2) * r[R_BRANCH]
-    if spread < r[R_SPREAD_MIN] or spread > r[R_SPREAD_MAX]:
-        return SPREAD_OUTSIDE
-    if not r[R_Q1_MIN] <= q1 <= r[R_Q1_MAX]:
-        return Q1_OUTSIDE
-    if not r[R_Q2_MIN] <= q2 <= r[R_Q2_MAX]:
-        return Q2_OUTSIDE
-    return WITHIN_LIMITS
+    joint2 = where((q2 >= r[R_Q2_MIN]) & (q2 <= r[R_Q2_MAX]), WITHIN_LIMITS, Q2_OUTSIDE)
+    joint1 = where((q1 >= r[R_Q1_MIN]) & (q1 <= r[R_Q1_MAX]), joint2, Q1_OUTSIDE)
+    return where((spread < r[R_SPREAD_MIN]) | (spread > r[R_SPREAD_MAX]), SPREAD_OUTSIDE,
+                 joint1)

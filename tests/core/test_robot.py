@@ -246,3 +246,38 @@ def test_the_closed_form_2x2_solve_is_numpy_s_to_rounding():
     b = rng.normal(size=(200, 2))
     np.testing.assert_allclose(solve2(a, b), np.linalg.solve(a, b[..., None])[..., 0],
                                rtol=1e-12, atol=1e-12)
+
+
+_angle = st.one_of(st.floats(-7.0, 7.0), st.just(math.nan))
+
+
+@given(st.lists(st.tuples(_angle, _angle), min_size=1, max_size=40))
+def test_the_limits_checked_on_a_whole_array_are_the_scalar_check_point_by_point(pairs):
+    """RobotModel.ik checks every point in one array call of limit_violation (issue 31:
+    the per-point loop cost a headless trial a third of its run); the array flavour gives
+    each point the scalar kernel's code, NaN and the limits' edges included."""
+    from core import robot_terms
+    from core.kernels import suited
+
+    robot = RobotModel()
+    lim = robot.limits
+    pairs = [*pairs, (lim.q1_min_rad, lim.q2_min_rad), (lim.q1_max_rad, lim.q2_max_rad)]
+    q = np.array(pairs, dtype=float)
+    codes = suited(robot_terms.limit_violation, q[:, 0])(robot.constants, q[:, 0], q[:, 1])
+    assert list(codes) == [robot_terms.limit_violation(robot.constants, a, b) for a, b in pairs]
+
+
+def test_ik_names_the_first_point_beyond_a_joint_limit_in_words():
+    robot = RobotModel()
+    inside = np.array([-0.3, 0.3])  # the thesis's D's line centre
+    q = robot.ik(inside)
+    # links 7.5° apart: the parallelogram folds flat
+    folded = robot.fk(np.array([q[1] + robot.branch * 0.5 * robot.limits.spread_min_rad, q[1]]))
+    far = np.array([1.5, 0.0])
+    assert robot.limit_problem(*robot.ik(folded, check_limits=False))
+    with pytest.raises(UnreachableError, match=r"point \(0\.117, 0\.673\) m: the robot's "
+                                               r"links would be 7\.5° apart"):
+        robot.ik(np.array([inside, folded, folded]))
+    with pytest.raises(UnreachableError, match=r"point \(1\.500, 0\.000\) m is"):
+        robot.ik(np.array([inside, far, folded]))
+    assert robot.ik(np.array([inside, folded]), check_limits=False).shape == (2, 2)
