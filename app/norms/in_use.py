@@ -46,8 +46,12 @@ def use_norms(data_dir, source: str | os.PathLike) -> tuple[NormativeModel, Path
     parse_norms(document, source)
     folder = data_dir.ensure("models", "norms")
     target = folder / IN_USE
+    text = json.dumps(document, indent=1, allow_nan=False) + "\n"
     moved = None
     if os.path.lexists(target):
+        # the norms in use are copied aside first and replaced in one atomic step after:
+        # a failure between leaves them in use, never no norms (which would fall back to
+        # the shipped simulated ones)
         stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
         stem = f"replaced-{stamp}-{_hash_of(target)[:12]}"
         moved = folder / f"{stem}.json"
@@ -55,9 +59,16 @@ def use_norms(data_dir, source: str | os.PathLike) -> tuple[NormativeModel, Path
         while os.path.lexists(moved):
             number += 1
             moved = folder / f"{stem}-{number}.json"
-        os.replace(target, moved)
-    write_text(target, json.dumps(document, indent=1, allow_nan=False) + "\n", owned=True)
+        write_bytes_new(moved, target.read_bytes())
+    write_text(target, text, overwrite=True, owned=True)
     return model, moved
+
+
+def write_bytes_new(path: Path, data: bytes) -> None:
+    from app.records.safewrite import atomic_output
+
+    with atomic_output(path, owned=True) as stream:
+        stream.write(data)
 
 
 def _hash_of(path: Path) -> str:

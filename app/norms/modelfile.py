@@ -66,9 +66,15 @@ def _no_constant(name: str):
 
 def load_norms(path: str | Path) -> NormativeModel:
     """Read and verify a norms file; NormsFileError in one line otherwise."""
+    from device.safeinput import InputRefused, check_file
+
     path = Path(path)
-    if not path.is_file():
-        raise NormsFileError(path, "no such file", "Check the path.")
+    try:
+        check_file(path, what="norms file")
+    except InputRefused as exc:
+        advice = "Check the path." if "does not exist" in exc.problem else "Give the file."
+        problem = "no such file" if "does not exist" in exc.problem else exc.problem
+        raise NormsFileError(path, problem.rstrip("."), advice) from None
     try:
         if path.stat().st_size > MAX_BYTES:
             raise ValueError("too large")

@@ -164,3 +164,41 @@ def test_a_lambda_at_its_bound_is_said(tmp_path, data, capsys):
                           str(tmp_path / "n.json")], capsys)
     assert code == 0, err
     assert "note vgr_movement_time_s: its λ stopped at the search's bound" in out
+
+
+def test_a_failed_use_leaves_the_norms_in_use(tmp_path, data, capsys, monkeypatch):
+    """The norms in use are replaced in one atomic step: a write that fails (the disk full)
+    leaves them in use, never a data folder without norms (which would score against the
+    shipped simulated ones)."""
+    from app.records import safewrite
+
+    first = tmp_path / "first.json"
+    first.write_text(json.dumps(handmade()))
+    code, _, err = run(["norms", "use", str(first)], capsys)
+    assert code == 0, err
+    in_use_file = data / "models" / "norms" / "in-use.json"
+    before = in_use_file.read_bytes()
+    second = handmade()
+    second["source"] = "other norms"
+    other = tmp_path / "second.json"
+    other.write_text(json.dumps(second))
+
+    def full(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(safewrite, "write_text", full)
+    code, _, err = run(["norms", "use", str(other)], capsys)
+    assert code == 2
+    assert "No space left" in err
+    assert in_use_file.read_bytes() == before
+    assert in_use.norms_in_use(type("D", (), {"models_dir": data / "models"})()).source == (
+        "hand-made for the tests, 3 Dec 2026")
+
+
+def test_what_is_not_a_file_is_refused_as_such(tmp_path, capsys):
+    import os
+
+    fifo = tmp_path / "pipe.json"
+    os.mkfifo(fifo)
+    _refused(capsys, ["norms", "show", str(fifo)], "not a plain file")
+    _refused(capsys, ["norms", "show", str(tmp_path)], "is a folder")
