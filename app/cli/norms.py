@@ -1,8 +1,10 @@
 """`rehab norms`: the normative models Z-scores and task scores are computed against.
 
-`show` prints a norms file (or the data folder's), `fit` fits one from a table of healthy
-controls with its cross-validated calibration, `use` makes a file the data folder's norms
-(the one before kept), `mdc` adds MDC95 per figure and task score from test-retest data.
+`show` prints a norms file (or the data folder's), `fit` fits one from healthy controls
+(a table, or their assessment trial files) with its cross-validated calibration, `score`
+prints an assessment trial's Z-scores and task score, `use` makes a file the data folder's
+norms (the one before kept), `mdc` adds MDC95 per figure and task score from test-retest
+data.
 docs/norms.md documents the file and the formulas.
 """
 
@@ -51,6 +53,20 @@ def add_norms_commands(commands) -> None:
     p.add_argument("--output", required=True, help="the norms file to write (.json)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing file")
     p.set_defaults(func=cmd_fit)
+    p = actions.add_parser("score", help="an assessment trial's Z-scores and task score",
+                           description="Score an assessment trial file's figures against "
+                                       "the norms: each figure's Z-score and the task "
+                                       "score. The person is the registry's patient with "
+                                       "the file's subject code, or given by --birth-year, "
+                                       "--sex and --handedness (a virtual patient).")
+    p.add_argument("trials", nargs="+", help="assessment trial files (.h5)")
+    p.add_argument("--norms", help="a norms file (default: the data folder's)")
+    p.add_argument("--birth-year", type=int, help="the person's birth year (with --sex and "
+                                                  "--handedness, instead of the registry)")
+    p.add_argument("--sex", choices=("female", "male"))
+    p.add_argument("--handedness", choices=("right", "left"))
+    p.add_argument("--json", action="store_true", help="one JSON object per trial")
+    p.set_defaults(func=cmd_score)
     p = actions.add_parser("use", help="make a norms file the data folder's norms",
                            description="Verify a norms file and make it the norms this data "
                                        "folder's reports score against; the norms used "
@@ -226,3 +242,65 @@ def _controls_from_trials(args: argparse.Namespace, folder, *, retest: bool):
     print(f"{len(trials)} assessment trials of {len({t.subject for t in trials})} people read "
           f"from {folder}")
     return controls
+
+
+def cmd_score(args: argparse.Namespace) -> int:
+    from app.norms.controls import Person, people_from_registry
+    from app.norms.in_use import norms_in_use
+    from app.norms.scoring import lines, score_trial
+
+    given = [args.birth_year, args.sex, args.handedness]
+    if any(v is not None for v in given) and not all(v is not None for v in given):
+        raise CommandError("give --birth-year, --sex and --handedness together (or none: "
+                           "the registry's patient)")
+    if args.birth_year is not None and not 1880 <= args.birth_year <= 2200:
+        raise CommandError(f"--birth-year {args.birth_year}: give a year")
+    norms = _load(args.norms) if args.norms is not None else norms_in_use(data_dir_for(args))
+    if norms is None:
+        raise CommandError("this data folder uses no norms and the console ships none: give "
+                           "--norms FILE or `rehab norms use FILE`")
+    people = None
+    for text in args.trials:
+        path = absolute(text)
+        if args.birth_year is not None:
+            person = Person(args.birth_year, args.sex, args.handedness)
+        else:
+            if people is None:
+                from app.cli.common import registry_for
+
+                people = people_from_registry(registry_for(args))
+            person = _registered(path, people)
+        scores = score_trial(path, norms, person)
+        if args.json:
+            print(json.dumps(_as_json(scores), allow_nan=False))
+        else:
+            print("\n".join(lines(scores)))
+    return EXIT_OK
+
+
+def _registered(path, people):
+    from app.trials.reader import read_trial
+
+    data = read_trial(path, channels=())
+    code = data.subject.code if data.subject else None
+    if code not in people:
+        raise CommandError(f"{path}: subject {code!r} has no birth year, sex and handedness in "
+                           "the registry: record them (`rehab patients ...`), or give "
+                           "--birth-year, --sex and --handedness")
+    return people[code]
+
+
+def _as_json(scores) -> dict:
+    p = scores.person
+    task = scores.task_score
+    return {
+        "trial": str(scores.path), "task": scores.task,
+        "person": {"age_years": p.age_years, "sex": p.sex, "handedness": p.handedness,
+                   "tested_side": p.tested_side, "robot": p.robot},
+        "figures": {k: {"value": z.value, "z": z.z, "worse_z": z.worse_z,
+                        "extrapolated": z.extrapolated} for k, z in scores.figures.items()},
+        "task_score": None if task is None else {"score": task.score, "z_task": task.z_task,
+                                                 "distance": task.distance},
+        "why_no_task_score": scores.why_no_task_score,
+        "norms": scores.label,
+    }

@@ -1,0 +1,105 @@
+"""`rehab norms score`: an assessment trial file's Z-scores and task score against a norms
+file, equal to the hand computation of tests/app/norms/test_model.py, for a person given on
+the command line or found in the registry."""
+
+from __future__ import annotations
+
+import datetime
+import json
+import math
+from statistics import NormalDist
+
+import pytest
+
+from app.norms import in_use
+from tests.app.cli.running import run
+from tests.app.norms.handmade import handmade
+from tests.app.norms.test_controls import trial_file
+
+N = NormalDist()
+WHEN = datetime.datetime.now(datetime.UTC)
+BORN = WHEN.year - 60  # 60 in the trial's year, as test_model's person
+
+
+def half_normal_quantile(z: float) -> float:
+    return N.inv_cdf((1.0 + N.cdf(z)) / 2.0)
+
+
+@pytest.fixture
+def data(tmp_path, monkeypatch):
+    monkeypatch.setenv("REHAB_DATA_DIR", str(tmp_path / "data"))
+    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
+    monkeypatch.setattr(in_use, "SHIPPED", tmp_path / "none.json")
+    return tmp_path / "data"
+
+
+@pytest.fixture
+def files(tmp_path):
+    norms = tmp_path / "norms.json"
+    norms.write_text(json.dumps(handmade()))
+    trial = trial_file(tmp_path / "t", "SIM", 1, 1, WHEN, {
+        "vgr_reaction_time_s": 0.49, "vgr_max_speed_m_s": 0.3, "rmse_m": 0.01},
+        task="reaching", side="left")
+    return norms, trial
+
+
+def test_score_by_hand(files, data, capsys):
+    norms, trial = files
+    code, out, err = run(["norms", "score", str(trial), "--norms", str(norms), "--birth-year",
+                          str(BORN), "--sex", "male", "--handedness", "right", "--json"],
+                         capsys)
+    assert code == 0, err
+    result = json.loads(out)
+    assert result["person"] == {"age_years": 60.0, "sex": "male", "handedness": "right",
+                                "tested_side": "left", "robot": "simulator-realistic"}
+    assert result["figures"]["vgr_reaction_time_s"]["z"] == pytest.approx(-2.7)
+    assert result["figures"]["vgr_max_speed_m_s"]["worse_z"] == pytest.approx(1.6)
+    d = math.hypot(half_normal_quantile(-2.7), half_normal_quantile(1.6))
+    z_task = ((math.sqrt(d) - 1.0) / 0.5 - 1.0) / 0.4
+    assert result["task_score"]["score"] == pytest.approx(half_normal_quantile(z_task))
+    assert result["norms"] == "Norms: hand-made for the tests, 3 Dec 2026"
+    code, out, err = run(["norms", "score", str(trial), "--norms", str(norms), "--birth-year",
+                          str(BORN), "--sex", "male", "--handedness", "right"], capsys)
+    assert code == 0, err
+    assert "vgr_reaction_time_s" in out
+    assert "task score reaching:" in out
+    assert out.rstrip().endswith("Norms: hand-made for the tests, 3 Dec 2026")
+
+
+def test_score_refusals(tmp_path, files, data, capsys):
+    norms, trial = files
+    exercise = trial_file(tmp_path / "e", "SIM", 1, 2, WHEN, {"rmse_m": 0.01}, task="")
+    person = ["--birth-year", str(BORN), "--sex", "male", "--handedness", "right"]
+    for args, words in [
+        ([str(exercise), "--norms", str(norms), *person], "is not an assessment trial"),
+        ([str(trial), "--norms", str(norms), "--sex", "male"], "together"),
+        ([str(trial), *person], "uses no norms"),
+        ([str(trial), "--norms", str(norms)], "registry"),
+        ([str(tmp_path / "none.h5"), "--norms", str(norms), *person], "none.h5"),
+    ]:
+        code, out, err = run(["norms", "score", *args], capsys)
+        assert code == 2, (args, out, err)
+        assert words in err
+        assert err.count("\n") == 1
+
+
+def test_the_person_from_the_registry(tmp_path, files, data, capsys):
+    from app.records.datadir import DataDir
+    from app.records.registry import Registry
+
+    norms, _ = files
+    registry = Registry(DataDir(data), create=True)
+    patient = registry.create_patient("Ann", "Example", birth_year=BORN, side="left",
+                                      sex="male", handedness="right")
+    trial = trial_file(tmp_path / "r", patient.code, 1, 1, WHEN, {
+        "vgr_reaction_time_s": 0.49, "vgr_max_speed_m_s": 0.3}, task="reaching", side="left")
+    code, out, err = run(["norms", "score", str(trial), "--norms", str(norms), "--json"],
+                         capsys)
+    assert code == 0, err
+    assert json.loads(out)["figures"]["vgr_reaction_time_s"]["z"] == pytest.approx(-2.7)
+    unknown = registry.create_patient("Bo", "Example", birth_year=BORN)  # no sex, handedness
+    trial = trial_file(tmp_path / "u", unknown.code, 1, 1, WHEN, {"vgr_reaction_time_s": 0.5},
+                       task="reaching")
+    code, _, err = run(["norms", "score", str(trial), "--norms", str(norms)], capsys)
+    assert code == 2
+    assert "has no birth year, sex and handedness in the registry" in err
