@@ -237,6 +237,14 @@ class TrialParameters:
         )
 
     def trajectory(self) -> Trajectory:
+        """The reference on the clock: the path walked `repetitions` times, or, for a task
+        the robot leads (isometric strength, position sense), the task's timetable
+        (core.holdtasks.TaskTrajectory: the layout held, moved and let go by stretches)."""
+        if self.assessment in ("strength", "position"):
+            # imported here: core.holdtasks builds on core.trajectory and core.control
+            from core.holdtasks import task_trajectory
+
+            return task_trajectory(self)
         return Trajectory(self.path(), self.duration_s, self.repetitions, self.timing)
 
     def to_dict(self) -> dict:

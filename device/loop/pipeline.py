@@ -57,9 +57,11 @@ from core.control.guidance import (
     guidance_rows,
     state_size,
 )
+from core.control.hold import HC_ON, OFF as NOT_HELD, held_at, hold_constants
 from core.control.smc import SlidingModeController, smc_torques
 from core.control.transparent import OFF as NOT_TRANSPARENT, TC_ON, transparent_torques
 from core.errors import ParameterError
+from core.holdtasks import TaskTrajectory
 from core.interaction import (
     SubjectState,
     rotated_to_global,
@@ -141,6 +143,17 @@ class TrialPlan:
     def exercise_ticks(self) -> int:
         return round(self.trajectory.total_duration_s / self.period_s)
 
+    def task_events(self) -> tuple[tuple[int, str, str, dict], ...]:
+        """The timed events of a task the robot leads (core.holdtasks: each phase's start)
+        as (exercise tick, kind, message, values), as app.assessments.events writes them
+        after a headless run (kind TASK_EVENT, the phase as the message, the task and the
+        phase's values); none for any other trial."""
+        if not isinstance(self.trajectory, TaskTrajectory):
+            return ()
+        task = self.trajectory.task
+        return tuple((round(t / self.period_s), TASK_EVENT, phase, {"task": task, **values})
+                     for t, phase, values in self.trajectory.events())
+
     @property
     def start_point_m(self) -> tuple[float, float]:
         row = self.reference(0, 1)[0]
@@ -172,6 +185,10 @@ class TrialPlan:
         q, qd, qdd = joint_motion(robot, pos, vel, acc)
         direction = np.tile([ux, uy], (n, 1))
         return np.column_stack((pos, vel, direction, q, qd, qdd))
+
+
+TASK_EVENT = "assessment_cue"
+"""The kind of an assessment's cue events in the trial file (app.assessments.events)."""
 
 
 class TickPipeline:
@@ -230,9 +247,19 @@ class TickPipeline:
         if params.assist == "transparent":
             self.transparent = built("transparent", params.gains)
             clear = self.transparent.constants()
+        held = NOT_HELD
+        if isinstance(plan.trajectory, TaskTrajectory):
+            # a task the robot leads (core.holdtasks): its held stretches in exercise ticks
+            if params.assist != "transparent":
+                raise ParameterError("assist", params.assist, "transparent",
+                                     f"the {plan.trajectory.task} task lets the patient "
+                                     "move only in the transparent mode's law")
+            held = hold_constants([(round(a / plan.period_s), round(b / plan.period_s))
+                                   for a, b in plan.trajectory.held_windows_s()])
         # the exercise's law: the guidance's constants (GC_*), then the transparent mode's
-        # (TC_*); all zero in the thesis mode
-        guide = [*guide, *clear]
+        # (TC_*), then the hold's windows (core.control.hold HC_*); all zero in the thesis
+        # mode
+        guide = [*guide, *clear, *held]
         self.kind = _controller_kind(self.controller, compiled)
         if compiled and self.kind == GENERIC:
             raise ParameterError(
@@ -301,6 +328,12 @@ class TickPipeline:
         # no estimate of the patient's force carries over from a trial before
         self.set_force_estimate(math.nan, math.nan, -math.inf)
         self._ticked = False
+
+    def task_events(self) -> tuple[tuple[int, str, str, dict], ...]:
+        """The task's timed events (TrialPlan.task_events) on the trial's ticks, the
+        approach `begin` planned before them: (tick, kind, message, values)."""
+        return tuple((self._approach_ticks + k, kind, message, values)
+                     for k, kind, message, values in self.plan.task_events())
 
     def rows(self, first: int, stop: int) -> np.ndarray:
         """Rows first…stop−1 of the trial's reference, the approach `begin` planned then
@@ -630,7 +663,22 @@ def control(kind, robot, model, tracker, gains, assist, guide, rates, integral, 
     fx, fy = rotated_to_global(force_x, force_y, q1, sensor_offset_rad)
     # the force the assistance judges: the sensor's, or an estimate from EMG (chapter 5)
     px, py = judged_force(assist, tick, fx, fy)
-    if guide[TC_ON] != 0.0 and phase != PHASE_APPROACH:
+    held = False
+    if guide[HC_ON] != 0.0 and phase == PHASE_EXERCISE:
+        held, first = held_at(guide, tick - approach_ticks)
+        if first:
+            # what the hold's integral held in its last stretch is no push of this one
+            for i in range(I_SIZE):
+                integral[i] = 0.0
+    if held:
+        # A task the robot leads (core.control.hold): the trial's controller holds the
+        # hand on the task's reference with nothing taken off its torque; the cone test
+        # says whether the push points the way asked.
+        tau1, tau2 = controller_torques(kind, model, gains, integral, period_s, q1, q2, qd1,
+                                        qd2, r1, r2, rd1, rd2, rdd1, rdd2)
+        out1, out2 = tau1, tau2
+        active, angle = cone_test(assist, px, py, dx, dy)
+    elif guide[TC_ON] != 0.0 and phase != PHASE_APPROACH:
         # Transparent (core.control.transparent), the exercise and the hold after it: the
         # robot's own inertia, friction and stiffness as far as its model allows, no
         # guidance, and no pull to the path's end once the clock has run out; the cone test

@@ -187,6 +187,7 @@ class DeviceLoop:
         self.reading: SensorReading | None = None
         self.trial_path = ""
         self.trial_tick = 0
+        self.task_events: list = []
         self.end_seq = 0
         self.fault_reported = Fault.NONE
         self.shutdown = False
@@ -305,6 +306,8 @@ class DeviceLoop:
         """What the state does every tick after the engine's step."""
         if self.state == State.RUNNING:
             self.trial_tick += 1
+            if self.task_events:
+                self._tell_task_events()
             if self.trial_tick == self.pipeline.approach_ticks:
                 _cue_patient(self.backend)
             if self.trial_tick >= self.pipeline.total_ticks:
@@ -370,9 +373,19 @@ class DeviceLoop:
             started["seed"] = self.opened.seed  # the file runs again with it
             started["robot_seed"] = self.opened.robot_seed  # on the same simulated robot
         self._to_recorder(TrialEvent(0.0, 0, "start", "trial started", started))
+        # a task the robot leads: each phase's start, told as the tick comes (core.holdtasks)
+        self.task_events = list(reversed(self.pipeline.task_events()))
+        self._tell_task_events()
         self._send(TrialStarted(command.path, self.pipeline.approach_ticks,
                                 self.pipeline.total_ticks, self.t0, first_seq))
         return ""
+
+    def _tell_task_events(self) -> None:
+        """The task's events whose tick has come, to the recorder and the console."""
+        while self.task_events and self.task_events[-1][0] <= self.trial_tick:
+            tick, kind, message, values = self.task_events.pop()
+            event = TrialEvent(tick * self.plan.period_s, tick, kind, message, values)
+            self._to_recorder(event)
 
     def _end_trial(self, status: str, message: str, values: dict | None = None) -> None:
         tick = self.trial_tick

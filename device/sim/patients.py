@@ -85,7 +85,9 @@ from scipy.signal import lfilter
 from core.arm import ArmModel
 from core.arrays import joint_motion
 from core.errors import ParameterError, check_finite, check_non_negative, check_range
+from core.holdtasks import TaskTrajectory
 from core.trajectory import Trajectory
+from device.sim.holdtasks import TASK_OPTIONS, TaskBehaviour, behaviour, task_options
 from device.sim.patient_torque import (
     P_EP_LEN,
     P_EP_WINDOW,
@@ -260,10 +262,11 @@ class VirtualPatient:
     """
 
     __slots__ = ("_episodes", "_table", "arm", "constants", "episodes", "parameters", "table",
-                 "trajectory")
+                 "task", "trajectory")
 
     def __init__(
-        self, parameters: PatientParameters, arm: ArmModel, trajectory: Trajectory, seed=0
+        self, parameters: PatientParameters, arm: ArmModel, trajectory: Trajectory, seed=0,
+        task: TaskBehaviour | None = None,
     ) -> None:
         self.parameters = parameters
         self.arm = arm
@@ -273,10 +276,16 @@ class VirtualPatient:
         ts0, te0 = (float(v) for v in arm.ik(np.array([x0, y0])))
         dx0, dy0 = trajectory.at(0.0)[6:8]
         table = np.empty((0, 18))
+        self.task = task
+        """In a task the robot leads, the patient's own plan (device.sim.holdtasks), else None."""
         if parameters.kind != "passive":
-            table = _desired_motion_table(
-                arm, trajectory, parameters.passive, (ts0, te0 - ts0), parameters.drive_N
-            )
+            own, drive = trajectory, parameters.drive_N
+            if task is not None:
+                own, drive = task.trajectory, task.drive_N
+            table = _desired_motion_table(arm, own, parameters.passive, (ts0, te0 - ts0), drive)
+            if task is not None:
+                # the task's own pushes (device.sim.holdtasks: a rise and a fall of its own)
+                table = task.with_pushes(table, TABLE_STEP_S)
         episodes: list[float] = []
         ep_len = ep_window = 0.0
         if parameters.wrong_way is not None:
@@ -419,7 +428,8 @@ def _lagged(direction: np.ndarray, dt_s: float, lag_s: float) -> np.ndarray:
 
 
 # -------------------------------------------------------------------- factory
-_IMPEDANCE_OPTIONS = ("passive_stiffness_Nm_rad", "passive_damping_Nms_rad", "variability")
+_IMPEDANCE_OPTIONS = ("passive_stiffness_Nm_rad", "passive_damping_Nms_rad", "variability",
+                      *TASK_OPTIONS)
 _EFFORT_OPTIONS = ("effort", "stiffness_Nm_rad", "damping_Nms_rad", "drive_N")
 _OPTIONS = {
     "passive": _IMPEDANCE_OPTIONS,
@@ -455,7 +465,8 @@ def make_patient(
       every kind      passive_stiffness_Nm_rad, passive_damping_Nms_rad, variability
                       (the trial-to-trial coefficient of variation of effort and drive,
                       default VARIABILITY, each trial's factors drawn by `seed`; nothing
-                      for a passive patient, who has neither)
+                      for a passive patient, who has neither), strength_N and
+                      proprioception_sd_m (the tasks the robot leads, device.sim.holdtasks)
       but passive     effort, stiffness_Nm_rad, damping_Nms_rad, drive_N
       spastic         spastic_threshold_rad_s, reflex_gain_Nms_rad, spastic_viscous_Nms_rad
       tremor          tremor_hz (None: drawn in 4–6 Hz), tremor_amplitude_Nm
@@ -528,7 +539,11 @@ def make_patient(
         effort, drive = min(1.0, effort * effort_factor), drive * drive_factor
     parameters = PatientParameters(kind, effort, passive, active, spasticity, tremor,
                                    wrong_way, drive)
-    return VirtualPatient(parameters, arm, trajectory, rng)
+    strength, proprioception = task_options(kind, options)
+    task = None
+    if isinstance(trajectory, TaskTrajectory) and kind != "passive":
+        task = behaviour(trajectory, effort, strength, proprioception, seed)
+    return VirtualPatient(parameters, arm, trajectory, rng, task)
 
 
 def trial_factors(seed, variability: float) -> tuple[float, float]:
