@@ -29,7 +29,11 @@ from app.cli.norms import add_norms_commands
 from app.cli.plans import add_plan_commands
 from app.cli.pose import add_pose_command
 from app.cli.records import add_patient_commands, add_trials_command
-from app.cli.reports import add_progress_command, add_report_command
+from app.cli.reports import (
+    add_progress_command,
+    add_report_command,
+    add_session_report_command,
+)
 from app.cli.run import add_run_command
 from app.errors import AppError
 from core.errors import CoreError
@@ -47,6 +51,7 @@ COMMAND_GROUPS = (
     add_clinical_commands,
     add_progress_command,
     add_report_command,
+    add_session_report_command,
     add_export_command,
     add_pose_command,
     add_gains_command,

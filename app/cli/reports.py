@@ -59,9 +59,13 @@ def cmd_progress(args: argparse.Namespace) -> int:
     if pdf is not None:
         from app.plans.dose import patient_doses
         from app.reports.progress_pdf import write_progress_pdf
+        from app.reports.scales_progress import report_series
 
         print(write_progress_pdf(prog, pdf, overwrite=args.overwrite,
-                                 doses=patient_doses(registry, args.code)),
+                                 doses=patient_doses(registry, args.code),
+                                 scales=registry.session_scales(args.code),
+                                 series=report_series(registry, prog,
+                                                      include_invalid=args.include_invalid)),
               file=sys.stderr if args.csv else sys.stdout)
     if args.csv:
         import csv
@@ -149,4 +153,49 @@ def cmd_report(args: argparse.Namespace) -> int:
     path = report_for_registry_trial(registry, args.trial_id, output,
                                      include_first_name=args.first_name)
     print(path)
+    return 0
+
+
+# ------------------------------------------------------------------ session report
+def add_session_report_command(commands) -> None:
+    parser = commands.add_parser(
+        "session-report", help="write a session's report (PDF): trials, scales, notes, "
+                               "assessments",
+        description="Write a session's report: its trials (those marked invalid saying why), "
+                    "its clinical scales, its notes, and each assessment's figures with "
+                    "their Z-scores against the norms in use (`rehab norms use`; their "
+                    "source is printed).")
+    parser.add_argument("code", help="the patient's code")
+    parser.add_argument("session", type=int, help="the session's number")
+    parser.add_argument("--output", help="PDF to write (default: the data folder's "
+                                         "reports/CODE/CODE_S###_session.pdf); an existing "
+                                         "file is kept unless --overwrite")
+    parser.add_argument("--overwrite", "--force", action="store_true", dest="overwrite",
+                        help="replace the report if it exists")
+    parser.set_defaults(func=cmd_session_report)
+
+
+def cmd_session_report(args: argparse.Namespace) -> int:
+    from app.norms.in_use import norms_in_use
+    from app.records.datadir import REPORTS
+    from app.reports.session_report import write_session_report
+
+    registry = registry_for(args)
+    if not CODE_PATTERN.fullmatch(args.code):
+        raise CommandError("not a patient code: a code is 'P' and 6 characters of 0-9 and "
+                           "A-Z (see `rehab patients`)")
+    if not 1 <= args.session <= 999_999:
+        raise CommandError(f"session {args.session}: give a session number from 1")
+    registry.session(args.code, args.session)  # refuses a session that does not exist
+    if args.output is not None:
+        output = output_path(args, args.output, overwrite=args.overwrite, suffixes=(".pdf",))
+    else:
+        folder = registry.data_dir.ensure(REPORTS, args.code)
+        output = folder / f"{args.code}_S{args.session:03d}_session.pdf"
+        if output.exists() and not args.overwrite:
+            raise CommandError(f"the report {output} already exists and is kept: give "
+                               "--overwrite to write it again, or --output for another file")
+    print(write_session_report(registry, args.code, args.session, output,
+                               overwrite=args.overwrite,
+                               norms=norms_in_use(registry.data_dir)))
     return 0

@@ -2,7 +2,8 @@
 what the Progress tab shows (app.reports.progress_figure): the mode's own success figure
 over the exercise's trials, the robot's help as it ran as a staircase beneath on the same
 trial axis with the pace and the tolerance where they changed, the key on a line of its
-own above the plots, and the exercise's trials in a table.
+own above the plots, and the exercise's trials in a table; then the session plans' dose
+and the clinical scales per session with each exercise's success figure against them.
 """
 
 from __future__ import annotations
@@ -44,23 +45,30 @@ MAX_LABELLED_TICKS = 30
 
 
 def write_progress_pdf(progress: Progress, path: str | os.PathLike, *,
-                       overwrite: bool = True, doses: Sequence = ()) -> Path:
+                       overwrite: bool = True, doses: Sequence = (),
+                       scales: dict | None = None, series: Sequence = ()) -> Path:
     """Write the patient's progress to `path` (its folder must exist), a page per
     exercise, then the session plans' dose (`doses`: app.plans.dose.patient_doses, the
-    heading and the dose of each run); returns the path (app.reports.pdf_file: private,
-    never half-written, an existing file replaced only with `overwrite`)."""
+    heading and the dose of each run), then the clinical scales (`scales`: the registry's
+    session_scales, and `series`: app.reports.scales_progress.ScaleSeries, each figure
+    against a scale with its correlation); returns the path (app.reports.pdf_file:
+    private, never half-written, an existing file replaced only with `overwrite`)."""
     metadata = {"Title": f"Progress {progress.patient_code}",
                 "Subject": "Progress across trials of a planar upper-limb rehabilitation "
                            "robot"}
-    path = write_pdf(path, lambda: progress_pages(progress, doses), metadata, "the progress",
-                     overwrite=overwrite)
+    path = write_pdf(path, lambda: progress_pages(progress, doses, scales, series), metadata,
+                     "the progress", overwrite=overwrite)
     log.info("progress written: %s", path)
     return path
 
 
-def progress_pages(progress: Progress, doses: Sequence = ()) -> tuple[Figure, ...]:
+def progress_pages(progress: Progress, doses: Sequence = (), scales: dict | None = None,
+                   series: Sequence = ()) -> tuple[Figure, ...]:
     """The pages: for each exercise, its figure and its trials' table (one page saying so
-    when the patient has no trials), then the session plans' dose when there is one."""
+    when the patient has no trials), then the session plans' dose when there is one, then
+    the clinical scales when any were recorded (app.reports.session_report.scales_pages)."""
+    from app.reports.session_report import scales_pages
+
     if not len(progress):
         sheet = Sheet()
         sheet.text(f"Progress of {progress.patient_code}", 20, weight="bold")
@@ -70,7 +78,8 @@ def progress_pages(progress: Progress, doses: Sequence = ()) -> tuple[Figure, ..
         pages = []
         for index in range(len(progress.exercises)):
             pages += _exercise_pages(progress, index)
-    return tuple(pages + _dose_pages(progress.patient_code, doses))
+    return tuple(pages + _dose_pages(progress.patient_code, doses)
+                 + scales_pages(progress.patient_code, scales or {}, tuple(series)))
 
 
 def _dose_pages(code: str, doses: Sequence) -> list[Figure]:

@@ -229,3 +229,21 @@ def mdc_text(series: ScaleSeries, norms) -> str:
     said = (f"a real change (beyond MDC95 {norms.mdc95(series.figure_key):.3g}) at session "
             f"{', '.join(map(str, real))}" if real else "no change beyond the MDC95")
     return f"{said}; {norms.label}"
+
+
+def report_series(registry: RecordStore, progress, *, include_invalid: bool = False,
+                  norms=None) -> tuple[ScaleSeries, ...]:
+    """What a progress report sets against the scales: each exercise's success figure
+    (app.reports.progress.Exercise.success_key, once each) against each scale total
+    recorded (Fugl-Meyer, ARAT, pain, fatigue), where they share sessions."""
+    from app.records.scales import SCALE_MAXIMA
+
+    totals = [k for k in scale_keys(registry, progress.patient_code) if k in SCALE_MAXIMA]
+    out = []
+    for key in dict.fromkeys(e.success_key for e in progress.exercises):
+        for scale in totals:
+            series = scale_series(registry, progress.patient_code, key, scale,
+                                  include_invalid=include_invalid, norms=norms)
+            if series.points:
+                out.append(series)
+    return tuple(out)

@@ -60,9 +60,16 @@ KEY = (f"<span style='color:{theme.BLUE}'>●</span> complete &nbsp; "
 def _write_pdf(result: Progress, path: Path, registry=None) -> Path:
     from app.plans.dose import patient_doses
     from app.reports.progress_pdf import write_progress_pdf  # matplotlib on first use
+    from app.reports.scales_progress import report_series
 
-    doses = patient_doses(registry, result.patient_code) if registry is not None else ()
-    return write_progress_pdf(result, path, doses=doses)
+    if registry is None:
+        return write_progress_pdf(result, path)
+    code = result.patient_code
+    included = any(t.invalid_reason for t in result.trials)
+    return write_progress_pdf(result, path, doses=patient_doses(registry, code),
+                              scales=registry.session_scales(code),
+                              series=report_series(registry, result,
+                                                   include_invalid=included))
 
 
 class ProgressTab(QWidget):

@@ -1,0 +1,131 @@
+"""The session report (PDF) and the progress PDF's clinical scales (issue 31, item 4):
+the session's trials with an invalid one saying why, its scales, its notes, and an
+assessment's figures with Z-scores against hand-made norms, their source printed."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from pypdf import PdfReader
+
+from app.norms import load_norms
+from app.records.datadir import DataDir
+from app.records.registry import Registry
+from app.reports.progress import progress
+from app.reports.progress_pdf import write_progress_pdf
+from app.reports.scales_progress import report_series
+from app.reports.session_report import session_content, write_session_report
+from core.trial import THESIS_SUBJECT
+from tests.app.cli.running import run
+from tests.app.exports.test_export import write
+from tests.app.norms.handmade import handmade
+
+
+def text_of(path) -> str:
+    return " ".join(" ".join(page.extract_text().split()) for page in PdfReader(path).pages)
+
+
+@pytest.fixture
+def clinic(tmp_path, monkeypatch):
+    monkeypatch.setenv("REHAB_DATA_DIR", str(tmp_path / "data"))
+    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("Ada", "Example", birth_year=1960, side="right",
+                                   sex="female", handedness="right").code
+    registry.open_session(code, therapist="K. Lee", location="room 2")
+    exercise = registry.begin_trial(code, THESIS_SUBJECT, backend="simulator",
+                                    session_number=1)
+    registry.finish_trial(exercise.trial_id, "complete", {"directional_performance_pct": 70.0})
+    bad = registry.begin_trial(code, THESIS_SUBJECT, backend="simulator", session_number=1)
+    registry.finish_trial(bad.trial_id, "complete", {"directional_performance_pct": 20.0})
+    registry.mark_trial(bad.trial_id, valid=False, reason="let go of the handle", by="K. Lee")
+    task = THESIS_SUBJECT.replace(repetitions=1, assessment="reaching")
+    reach = registry.begin_trial(code, task, backend="simulator (healthy, seed 0)",
+                                 session_number=1)
+    write(reach.path, parameters=task, code=code)
+    registry.finish_trial(reach.trial_id, "complete",
+                          {"vgr_reaction_time_s": 0.49, "vgr_max_speed_m_s": 0.40})
+    registry.record_scale(code, 1, "fugl_meyer", parts={"A": 20, "B": 5, "C": 6, "D": 3},
+                          rater="K. Lee")
+    registry.record_scale(code, 1, "pain", total=2, rater="K. Lee")
+    registry.add_note(code, 1, "tired after the second trial", author="K. Lee")
+    registry.add_note(code, 1, "coughed at 12 s", author="K. Lee", trial_id=exercise.trial_id)
+    return registry, code, tmp_path
+
+
+def norms_file(tmp_path):
+    # the trial files written here name no plant: their robot is "simulator", which the
+    # hand-made norms get with no offset from their simulator-realistic
+    document = handmade()
+    document["covariates"]["robot"] = ["simulator-realistic", "simulator"]
+    for figure in document["figures"].values():
+        figure["coefficients"]["robot=simulator"] = 0.0
+    path = tmp_path / "norms.json"
+    path.write_text(json.dumps(document))
+    return load_norms(path)
+
+
+def test_the_session_report_says_the_trials_scales_notes_and_z_scores(clinic):
+    registry, code, tmp_path = clinic
+    norms = norms_file(tmp_path)
+    content = session_content(registry, code, 1, norms=norms)
+    assert [row[-1] for row in content.trials] == [
+        "valid", "INVALID: let go of the handle (K. Lee)", "valid"]
+    (assessment,) = content.assessments
+    reaction = next(r for r in assessment.rows if r.label.lower().startswith("reaction"))
+    # by hand (tests/app/norms/test_model.py's formula): t = (√0.49 − 1)/0.5 = −0.6,
+    # expected −1 + 0.01·66 (age in 2026) = −0.34, z = (−0.6 + 0.34)/0.1 = −2.6
+    who_year = registry.session(code, 1).date.year
+    expected = ((0.49 ** 0.5 - 1) / 0.5 - (-1 + 0.01 * (who_year - 1960))) / 0.1
+    assert reaction.z.startswith(f"Z {expected:+.2f}"), assessment.notes
+    assert "task score" in assessment.task_score
+
+    path = write_session_report(registry, code, 1, tmp_path / "session.pdf", norms=norms)
+    text = text_of(path)
+    for words in ("Session 1 of", "therapist K. Lee", "INVALID: let go of the handle",
+                  "Fugl-Meyer UE motor: 34/66", "Pain (NRS): 2/10",
+                  "tired after the second trial", "coughed at 12 s",
+                  "Norms: hand-made for the tests", f"Z {expected:+.2f}"):
+        assert words in text, words
+
+
+def test_without_norms_or_covariates_the_report_says_why_no_z(clinic):
+    registry, code, tmp_path = clinic
+    assert "No norms in use" in session_content(registry, code, 1).norms_label
+    registry.correct_patient(code, "sex", None, reason="not known", by="K. Lee")
+    content = session_content(registry, code, 1, norms=norms_file(tmp_path))
+    assert "sex not recorded" in content.assessments[0].notes[0]
+    assert all(r.z == "" for r in content.assessments[0].rows)
+
+
+def test_the_progress_pdf_ends_with_the_clinical_scales(clinic):
+    registry, code, tmp_path = clinic
+    registry.open_session(code)
+    begun = registry.begin_trial(code, THESIS_SUBJECT, backend="simulator", session_number=2)
+    registry.finish_trial(begun.trial_id, "complete", {"directional_performance_pct": 80.0})
+    registry.record_scale(code, 2, "fugl_meyer", total=40, rater="M. Roy")
+    prog = progress(registry, code, check_files=False)
+    series = report_series(registry, prog)
+    assert [(s.figure_key, s.scale_key, len(s.points)) for s in series] == [
+        ("directional_performance_pct", "fugl_meyer", 2),
+        ("directional_performance_pct", "pain", 1)]
+    path = write_progress_pdf(prog, tmp_path / "progress.pdf",
+                              scales=registry.session_scales(code), series=series)
+    text = text_of(path)
+    assert "Clinical scales of" in text
+    assert "Fugl-Meyer UE motor: 40/66 — M. Roy" in text
+    assert "n = 2" in text
+
+
+def test_the_session_report_on_the_command_line(clinic, capsys):
+    _, code, _ = clinic
+    status, out, _ = run(["session-report", code, "1"], capsys)
+    assert status == 0
+    assert out.strip().endswith(f"{code}_S001_session.pdf")
+    status, _, err = run(["session-report", code, "1"], capsys)
+    assert status == 2
+    assert "already exists" in err
+    status, _, err = run(["session-report", code, "9"], capsys)
+    assert status == 2
+    assert "has no session 9" in err
