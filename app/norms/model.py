@@ -153,9 +153,11 @@ class NormativeModel:
 
     def z_scores(self, metrics: Mapping[str, float], person: Covariates
                  ) -> dict[str, FigureZ]:
-        """The Z-score of every figure in `metrics` the norms hold (others are left out)."""
+        """The Z-score of every figure in `metrics` the norms hold; others, and figures
+        the trial left undefined (None or NaN: a reach with no movement has no SPARC), are
+        left out."""
         return {key: self.z(key, value, person) for key, value in metrics.items()
-                if key in self.figures and value is not None}
+                if key in self.figures and _defined(value)}
 
     def task_score(self, task: str, metrics: Mapping[str, float], person: Covariates
                    ) -> TaskScore:
@@ -165,10 +167,10 @@ class NormativeModel:
         except KeyError:
             raise NormsError(f"the norms ({self.source}) hold no task score for {task!r}; "
                              f"they hold {', '.join(sorted(self.tasks)) or 'none'}") from None
-        missing = [f for f in norm.figures if metrics.get(f) is None]
+        missing = [f for f in norm.figures if not _defined(metrics.get(f))]
         if missing:
             raise NormsError(f"the {task} task score needs {', '.join(missing)}, which the "
-                             "trial does not have: no task score")
+                             "trial does not have (or left undefined): no task score")
         figures = {f: self.z(f, metrics[f], person) for f in norm.figures}
         try:
             distance = scores.task_distance({f: z.z for f, z in figures.items()},
@@ -205,3 +207,10 @@ class NormativeModel:
         except (ParameterError, TypeError, ValueError) as exc:
             raise NormsError(f"{key}: {exc}") from None
         return Change(key, float(before), float(after), mdc, real)
+
+
+def _defined(value: object) -> bool:
+    """A figure the trial has: not None, not NaN (a string or an infinity is refused by
+    NormativeModel.z, not left out)."""
+    return value is not None and not (isinstance(value, float | np.floating)
+                                      and math.isnan(value))

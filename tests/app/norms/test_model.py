@@ -151,3 +151,15 @@ def test_worse_never_scores_better(tmp_path_factory, person, rt, extra, speed):
     assert base >= 0.0
     assert slower >= base - 1e-9
     assert weaker >= base - 1e-9
+
+
+def test_undefined_figures_are_left_out_not_refused(model):
+    """A trial's metrics hold NaN where a figure was undefined: z_scores leaves it out and
+    scores the rest; the task score says it lacks it."""
+    metrics = {"vgr_reaction_time_s": math.nan, "vgr_max_speed_m_s": 0.3}
+    z = model.z_scores(metrics, PERSON)
+    assert set(z) == {"vgr_max_speed_m_s"}
+    with pytest.raises(NormsError, match="needs vgr_reaction_time_s"):
+        model.task_score("reaching", metrics, PERSON)
+    with pytest.raises(NormsError, match="not a finite number"):
+        model.z_scores({"vgr_max_speed_m_s": math.inf}, PERSON)
