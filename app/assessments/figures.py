@@ -14,6 +14,8 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 
+from app.assessments.position import position_figures
+from app.assessments.strength import strength_figures
 from core.assessment.protocol import cues
 from core.reaches import Reach
 from core.trial import TrialParameters
@@ -92,6 +94,8 @@ TASK_FIGURES: dict[str, TaskFigures] = {
     "reaching": reaching_figures,
     "circle": circle_figures,
     "range": range_figures,
+    "strength": strength_figures,
+    "position": position_figures,
 }
 """Each task's figures from its exercise's samples (CHANNELS_NEEDED, those recorded) and
 its parameters."""

@@ -240,6 +240,11 @@ def _position() -> list[FigureSpec]:
         FigureSpec("position_constant_error_m", "position", "m", "Constant error", "lower",
                    "Distance from each target to the mean of its reproductions, averaged over "
                    "targets.", SCHUTZ_ROY_1973),
+        FigureSpec("position_not_reproduced_count", "position", "count",
+                   "Targets not matched", "none",
+                   "Number of matches in which the hand never left the centre (beyond a "
+                   "quarter of the target's distance): left out of the errors.",
+                   SCHUTZ_ROY_1973),
     ]
 
 

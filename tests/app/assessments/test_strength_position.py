@@ -1,0 +1,77 @@
+"""Isometric strength and position sense end to end on the simulator (issue 31): the
+protocol's trials (core.assessment.protocol) run headless by the battery's runner on the
+realistic robot for the healthy, weak and passive virtual patients, written as trial
+files with their phases as events and their figures in the metrics, ordered as the
+patients are."""
+
+import math
+
+import h5py
+import pytest
+
+from app.assessments.runner import run_task
+from app.trials.reader import read_trial
+from core.assessment.figures import STRENGTH_DIRECTIONS_DEG, strength_key
+
+KINDS = ("healthy", "weak", "passive")
+
+
+@pytest.fixture(scope="module")
+def strength(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("strength")
+    return {kind: run_task("strength", kind, seed=3, folder=folder)[0] for kind in KINDS}
+
+
+@pytest.fixture(scope="module")
+def position(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("position")
+    return {kind: run_task("position", kind, seed=3, folder=folder)[0] for kind in KINDS}
+
+
+def test_strength_orders_the_patients(strength):
+    """The healthy and the weak patient push up to the robot's line in every direction
+    (their peaks are its limit: all 8 flagged), the healthy one sooner (a higher mean);
+    the passive patient pushes nothing and reaches no line."""
+    m = {kind: strength[kind].metrics for kind in KINDS}
+    for kind in KINDS:
+        assert strength[kind].status == "complete"
+    assert m["healthy"]["strength_at_limit_count"] == 8
+    assert m["weak"]["strength_at_limit_count"] == 8
+    assert m["passive"]["strength_at_limit_count"] == 0
+    assert m["passive"]["strength_peak_force_n"] < 0.5
+    assert (m["healthy"]["strength_mean_force_n"] > m["weak"]["strength_mean_force_n"]
+            > m["passive"]["strength_mean_force_n"])
+    for deg in STRENGTH_DIRECTIONS_DEG:
+        key = strength_key("mean", deg)
+        assert m["healthy"][key] > m["weak"][key] > m["passive"][key]
+        # a push held at a line of 4-6 N: its peak within a few per cent of it
+        assert 3.5 < m["weak"][strength_key("peak", deg)] < 7.0
+
+
+def test_a_strength_file_holds_every_phase_as_an_event(strength):
+    trial = strength["healthy"]
+    with h5py.File(trial.path, "r") as f:
+        events = f["events"][:]
+    cues = [e for e in events if e["kind"].decode() == "assessment_cue"]
+    assert [c["message"].decode() for c in cues] == ["ready", "push", "rest"] * 8
+    stored = read_trial(trial.path)
+    assert stored.parameters.assessment == "strength"
+    assert stored.metrics["strength_at_limit_count"] == trial.metrics["strength_at_limit_count"]
+
+
+def test_position_orders_the_patients(position):
+    """Healthy matches within a couple of centimetres, the weak patient (3 cm of
+    proprioceptive error, a weak arm on a robot that is not massless) further off, the
+    passive one not at all: every target counted, the errors NaN."""
+    m = {kind: position[kind].metrics for kind in KINDS}
+    for kind in KINDS:
+        assert position[kind].status == "complete"
+    assert m["healthy"]["position_absolute_error_m"] < 0.025
+    assert m["weak"]["position_absolute_error_m"] > m["healthy"]["position_absolute_error_m"]
+    assert m["weak"]["position_variable_error_m"] > m["healthy"]["position_variable_error_m"]
+    assert m["healthy"]["position_not_reproduced_count"] == 0
+    assert m["weak"]["position_not_reproduced_count"] == 0
+    assert m["passive"]["position_not_reproduced_count"] == 12  # 4 targets, 3 rounds
+    for key in ("position_absolute_error_m", "position_variable_error_m",
+                "position_constant_error_m"):
+        assert math.isnan(m["passive"][key])
