@@ -124,6 +124,9 @@ def unprivileged(call, *args):
         # Python 3.12 warns about fork in a threaded process; the child only makes a
         # few system calls and exits, taking no lock another thread could hold.
         warnings.filterwarnings("ignore", r".*multi-threaded.*fork", DeprecationWarning)
+        # JAX warns likewise when a test before this one in the same worker loaded it
+        # (pytest-xdist deals files out in any order); the child never touches JAX
+        warnings.filterwarnings("ignore", r"os\.fork\(\) was called", RuntimeWarning)
         pid = os.fork()
     if pid == 0:  # the child: never returns into pytest
         try:
