@@ -1,0 +1,70 @@
+"""The simulated normative model (app.population.norms): the population through the
+battery, fitted by the norms' fitter, MDC95 from the retest, labelled simulated on load,
+the same whatever the number of workers."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from app.norms import SIMULATED_LABEL, load_norms, write_norms
+from app.population.norms import (
+    ROBOT,
+    Visit,
+    arm_tested,
+    battery_figures,
+    build_simulated_norms,
+)
+from device.sim.population import draw_population
+
+N = 24  # the fitter needs 20 controls with a figure, and left-handers on both arms
+
+
+@pytest.fixture(scope="module")
+def built():
+    return build_simulated_norms(N, 1, workers=2, tasks=("circle",))
+
+
+@pytest.mark.slow
+def test_the_simulated_norms_are_fitted_labelled_and_carry_mdc(built, tmp_path):
+    doc = built.document
+    assert doc["simulated"] is True
+    assert doc["source"].startswith(f"simulated: {N} virtual healthy subjects")
+    assert set(doc["tasks"]) == {"circle"}
+    ratio = doc["figures"]["circle_ratio"]
+    assert ratio["n"] == N
+    assert ratio["mdc95"] > 0.0
+    assert 0.0 < ratio["icc"] <= 1.0
+    assert "mdc95" in doc["tasks"]["circle"]
+    path = write_norms(tmp_path / "simulated.json", doc)
+    model = load_norms(path)
+    assert model.simulated
+    assert SIMULATED_LABEL in model.label
+    assert "robot" in doc["covariates"] or ROBOT in str(doc["covariates"])
+
+
+@pytest.mark.slow
+def test_the_rows_are_the_subjects_own_whatever_the_workers(built):
+    """Visits rerun here in this process give the figures the two workers gave."""
+    subjects = draw_population(N, 1)
+    rows = {(r["subject"], r["session"]): r for r in built.rows}
+    assert len(rows) == 2 * N
+    for subject, session in ((subjects[0], 1), (subjects[5], 2)):
+        again = battery_figures(Visit(subject, session, ("circle",)))
+        first = rows[(subject.index, session)]
+        assert again["side"] == first["side"] == arm_tested(subject)
+        for key, value in first.items():
+            if isinstance(value, float) and math.isnan(value):
+                assert math.isnan(again[key]), key
+            else:
+                assert again[key] == value, key
+
+
+def test_the_tested_arm_is_both_sides_and_the_subjects_own():
+    subjects = draw_population(200, 0)
+    sides = [arm_tested(s) for s in subjects]
+    assert 70 <= sum(s == "left" for s in sides) <= 130
+    dominant = sum(arm_tested(s) == s.handedness for s in subjects)
+    assert 70 <= dominant <= 130
+    assert sides == [arm_tested(s) for s in draw_population(200, 0)]
