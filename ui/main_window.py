@@ -61,6 +61,7 @@ from ui.views.loop_health import LoopHealth
 from ui.views.messages import Messages
 from ui.views.replay_strip import replay_line
 from ui.views.trialview import TrialView
+from ui.window.assessments import AssessmentControl
 from ui.window.fault_latch import FaultLatch
 from ui.window.message_line import MessageLine
 from ui.window.plan import PlanControl
@@ -75,8 +76,8 @@ HEARTBEAT_MS = 100  # the loop faults after 0.5 s without one
 HEALTH_MS = 500
 
 
-class MainWindow(PlanControl, TrialActions, TrialEmg, FaultLatch, MessageLine, RememberedSettings,
-                 PatientScreenControl, QMainWindow):
+class MainWindow(AssessmentControl, PlanControl, TrialActions, TrialEmg, FaultLatch, MessageLine,
+                 RememberedSettings, PatientScreenControl, QMainWindow):
     """The therapist's console."""
 
     def __init__(self, registry: RecordStore, *, bridge: DeviceBridge | None = None,
@@ -163,6 +164,9 @@ class MainWindow(PlanControl, TrialActions, TrialEmg, FaultLatch, MessageLine, R
         # the session plan beside the Parameters tab (ui.window.plan)
         self.tabs.insertTab(self.tabs.indexOf(self.parameters_tab) + 1,
                             self._build_plan_tab(), "Plan")
+        # the assessment battery beside the plan (ui.window.assessments)
+        self.tabs.insertTab(self.tabs.indexOf(self.parameters_tab) + 2,
+                            self._build_assessments_tab(), "Assessments")
         self.view_tabs = [self.tabs.widget(i) for i in range(self.tabs.count())
                           if isinstance(self.tabs.widget(i), VIEW_TABS)]
 
@@ -270,6 +274,8 @@ class MainWindow(PlanControl, TrialActions, TrialEmg, FaultLatch, MessageLine, R
     def _tab_shown(self, _index: int) -> None:
         if self.tabs.currentWidget() is self.parameters_tab:
             self.refresh_learned_models()
+        if self.tabs.currentWidget() is self.assessments_tab:
+            self.show_assessment()
 
     def refresh_learned_models(self) -> None:
         """Offer the model files in the data folder's models/ in the controller choice, and
@@ -289,6 +295,7 @@ class MainWindow(PlanControl, TrialActions, TrialEmg, FaultLatch, MessageLine, R
         self._offer_pending_proposal(patient.code)  # a proposal belongs to its patient
         self.progress.set_patient(patient.code)
         self.replay.set_patient(patient.code)
+        self.show_assessment()
 
     def _patient_folders(self, code: str) -> None:
         """Every file dialog starts in the patient's folder of the data folder (private,

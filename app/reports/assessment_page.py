@@ -15,7 +15,7 @@ import datetime
 import math
 import os
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from core.assessment import TASK_TITLES, task_figures
@@ -108,6 +108,41 @@ def covariates(patient, session_date: datetime.date, backend: str, summary: Mapp
         return None
     return covariates_at(Person(patient.birth_year, patient.sex, patient.handedness),
                          session_date.year, patient.side, robot_kind(backend, summary))
+
+
+def patient_page(registry, code: str, task: str) -> AssessmentPage | None:
+    """The page of the patient's latest finished trial of `task` (a trial marked invalid
+    left out) from the registry's metrics, scored against the data folder's norms in use
+    (app.norms.in_use) when there are some; None when the patient has no such trial. A
+    damaged norms file is said on the page, never scored with."""
+    from app.errors import AppError
+    from app.norms.in_use import norms_in_use
+    from app.trials.reader import read_trial
+
+    invalid = registry.invalid_trials(code)
+    trials = [t for t in registry.trials_for_patient(code)
+              if t.parameters.get("assessment") == task and t.finished and t.id not in invalid]
+    if not trials:
+        return None
+    trial = trials[-1]
+    heading = (f"Patient {code}, session {trial.session_number} ({trial.session_date}), "
+               f"trial {trial.number}, {trial.status.replace('_', ' ')}, "
+               f"{trial.backend or 'robot not recorded'}")
+    notes: list[str] = []
+    try:
+        norms = norms_in_use(registry.data_dir)
+    except AppError as exc:
+        norms, notes = None, [f"the norms in use cannot be read: {exc}"]
+    person = None
+    if norms is not None:
+        try:
+            summary = read_trial(registry.trial_path(trial), ()).summary
+        except AppError as exc:
+            summary, notes = {}, [*notes, f"the trial's file cannot be read: {exc}"]
+        person = covariates(registry.patient(code), trial.session_date, trial.backend or "",
+                            summary)
+    page = assessment_page(task, trial.metrics, heading=heading, norms=norms, person=person)
+    return replace(page, notes=(*page.notes, *notes))
 
 
 def page_text(page: AssessmentPage) -> list[str]:

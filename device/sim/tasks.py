@@ -93,25 +93,27 @@ class OwnMovement:
         acceleration = np.zeros((t.size, 2))
         direction = np.zeros((t.size, 2))
         segment = np.full(t.size, -1)
-        for k, move in enumerate(self.moves):
-            after = t >= move.t0_s
-            if not after.any():
-                break
+        # each sample belongs to the last move begun by then (sorted, never overlapping)
+        starts = np.array([move.t0_s for move in self.moves])
+        owner = np.searchsorted(starts, t, side="right") - 1
+        for k in np.unique(owner[owner >= 0]):
+            move = self.moves[k]
+            mine = owner == k
             d = np.subtract(move.end_m, move.start_m)
             length = float(np.hypot(*d))
             unit = d / length if length > 0.0 else np.zeros(2)
             span = move.t1_s - move.t0_s
-            u = np.clip((t[after] - move.t0_s) / span, 0.0, 1.0)
+            u = np.clip((t[mine] - move.t0_s) / span, 0.0, 1.0)
             moving = (u < 1.0)[:, None]
             u2 = u * u
             s = length * u2 * u * (10.0 - 15.0 * u + 6.0 * u2)
             sd = length / span * 30.0 * u2 * (1.0 - 2.0 * u + u2)
             sdd = length / (span * span) * 60.0 * u * (1.0 - 3.0 * u + 2.0 * u2)
-            position[after] = np.asarray(move.start_m) + s[:, None] * unit
-            velocity[after] = sd[:, None] * unit
-            acceleration[after] = sdd[:, None] * unit
-            direction[after] = np.where(moving, unit, 0.0)
-            segment[after] = k
+            position[mine] = np.asarray(move.start_m) + s[:, None] * unit
+            velocity[mine] = sd[:, None] * unit
+            acceleration[mine] = sdd[:, None] * unit
+            direction[mine] = np.where(moving, unit, 0.0)
+            segment[mine] = k
         finished = (t >= self.total_duration_s) | (t < 0.0)
         velocity[finished] = 0.0
         acceleration[finished] = 0.0

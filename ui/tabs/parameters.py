@@ -100,6 +100,11 @@ DEBOUNCE_MS = 120
 __all__ = ["HARDWARE", "SIMULATOR", "BackendChoice", "ParametersTab"]
 
 
+TASK_FIELDS = ("shape", "radius_m", "n_targets", "duration_s", "repetitions", "timing",
+               "clockwise", "assist", "controller", "gains")
+"""The fields an assessment task's protocol fixes (core.assessment.protocol.Protocol)."""
+
+
 class ParametersTab(QWidget):
     """Signals:
     parameters_changed(TrialParameters | None, problem): after every edit (debounced);
@@ -335,7 +340,7 @@ class ParametersTab(QWidget):
             # 0.30479999999999996 m: equal parameters must compare equal.
             return round(box.value() / CM, box.decimals() + 2)
 
-        return {
+        values = {
             "shape": self.shape.currentData(),
             "centre_m": (metres(self.centre_x), metres(self.centre_y)),
             "radius_m": metres(self.radius),
@@ -356,9 +361,24 @@ class ParametersTab(QWidget):
             "gains": self.gains.text(),
             "force_estimate": self.force_source.currentData() or "",
         }
+        values["assessment"] = self._assessment_of(values)
+        return values
+
+    def _assessment_of(self, values: dict) -> str:
+        """The assessment task the form holds: the one last set (Assessments tab) while
+        every field its protocol fixes is as it set it; a changed field makes the trial an
+        exercise again (core.assessment.protocol)."""
+        task = getattr(self, "_task", None)
+        if task is None:
+            return ""
+        if any(values.get(name) != getattr(task, name) for name in TASK_FIELDS):
+            return ""
+        return task.assessment
 
     def set_parameters(self, parameters: TrialParameters) -> None:
-        """Show these parameters (the last trial's, a patient's); checks them at once."""
+        """Show these parameters (the last trial's, a patient's, an assessment task's);
+        checks them at once."""
+        self._task = parameters if parameters.assessment else None
         self._loading = True
         try:
             self.shape.setCurrentIndex(self.shape.findData(parameters.shape))

@@ -1,0 +1,83 @@
+"""The Assessments tab in the window (issue 31): a task read and its trial put in the
+Parameters form, which then builds it as that task until a field its protocol fixes is
+changed; a task run through the window's own Build, Connect and Start with the real loop
+and recorder, its figures in the registry and on the tab, and its page saved as a PDF."""
+
+import pytest
+
+from app.trials.reader import read_trial
+from core.assessment.protocol import protocol
+from device.loop.states import State
+from tests.ui.session import build_connect_start, click, open_window, register_patient
+
+
+@pytest.fixture
+def window(qtbot, tmp_path, monkeypatch):
+    win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
+    yield win
+    win.close()
+
+
+def test_a_task_is_read_and_set_up_and_a_changed_field_makes_it_an_exercise(qtbot, window):
+    win = window
+    tab = win.assessments_tab
+    assert win.tabs.tabText(win.tabs.indexOf(tab)) == "Assessments"
+    register_patient(qtbot, win)
+    win.tabs.setCurrentWidget(tab)
+    assert "has no visually guided reaching yet" in tab.results.toPlainText()
+    tab.choose("circle")
+    words = tab.protocol_text.toPlainText()
+    assert protocol("circle").therapist in words
+    assert protocol("circle").patient in words
+    assert tab.trial.count() == 2
+    tab.trial.setCurrentIndex(1)
+    click(qtbot, tab.use_button)
+    held = win.parameters_tab.parameters()
+    assert held.assessment == "circle"
+    assert not held.clockwise
+    assert (held.shape, held.radius_m, held.repetitions) == ("circle", 0.07, 5)
+    assert held.body_mass_kg == 70.0  # the patient's, not the default's
+    assert "holds the circle drawing (counter-clockwise)" in tab.setup.text()
+    # a field the protocol fixes, changed: an exercise again, and the tab says so
+    win.parameters_tab.repetitions.setValue(3)
+    win.parameters_tab.refresh()
+    assert win.parameters_tab.parameters().assessment == ""
+    assert "holds an exercise, not a task" in tab.setup.text()
+    # a field it does not fix (the tolerance) keeps the task
+    click(qtbot, tab.use_button)
+    win.parameters_tab.tolerance.setValue(25.0)
+    win.parameters_tab.refresh()
+    assert win.parameters_tab.parameters().assessment == "circle"
+
+
+@pytest.mark.slow
+def test_a_task_runs_through_the_windows_buttons(qtbot, tmp_path, monkeypatch):
+    win = open_window(qtbot, tmp_path, monkeypatch)
+    try:
+        register_patient(qtbot, win)
+        tab = win.assessments_tab
+        win.tabs.setCurrentWidget(tab)
+        tab.choose("circle")
+        click(qtbot, tab.use_button)
+        build_connect_start(qtbot, win)
+        qtbot.waitUntil(lambda: win.state != State.RUNNING, timeout=120000)
+        code = win.patient.code
+        qtbot.waitUntil(lambda: any(t.finished and t.metrics for t in
+                                    win.registry.trials_for_patient(code)), timeout=60000)
+        (trial,) = win.registry.trials_for_patient(code)
+        assert trial.status == "complete"
+        assert trial.parameters["assessment"] == "circle"
+        assert trial.metrics["circle_mean_speed_cw_m_s"] > 0.05
+        data = read_trial(win.registry.trial_path(trial), ())
+        assert data.parameters.assessment == "circle"
+        assert data.metrics["circle_ratio_cw"] == pytest.approx(trial.metrics["circle_ratio_cw"])
+        win.tabs.setCurrentWidget(win.parameters_tab)
+        win.tabs.setCurrentWidget(tab)
+        shown = tab.results.toPlainText()
+        assert f"Patient {code}, session 1" in shown
+        assert "No normative model in use" in shown or "Norms: " in shown
+        saved = win.save_assessment_pdf("circle", tmp_path / "circle.pdf")
+        assert saved is not None
+        assert saved.read_bytes().startswith(b"%PDF")
+    finally:
+        win.close()

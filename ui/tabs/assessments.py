@@ -1,0 +1,117 @@
+"""The Assessments tab (issue 31): the battery's tasks, each one's protocol to read aloud
+(what the therapist does, what the patient is told, its trials, the robot's mode), a button
+that puts a trial of the task in the Parameters form, so the window's own Build, Connect and
+Start run it as any trial (the patient's screen shows its targets), and the patient's
+latest figures of the task as its report page (app.reports.assessment_page) with the
+norms' source under them, and the page saved as a PDF.
+
+Qt only: the window (ui.main_window) fills it from the registry and the norms in use.
+"""
+
+from __future__ import annotations
+
+from PySide6.QtCore import Signal
+from PySide6.QtWidgets import (
+    QComboBox,
+    QHBoxLayout,
+    QLabel,
+    QPushButton,
+    QTextBrowser,
+    QVBoxLayout,
+    QWidget,
+)
+
+from core.assessment import TASK_TITLES, TASKS, task_figures
+from core.assessment.protocol import protocol
+from ui import theme
+
+
+class AssessmentsTab(QWidget):
+    use_requested = Signal(str, int)
+    """A task and the index of its trial to put in the Parameters form."""
+    pdf_requested = Signal(str)
+    """The task whose report page to save as a PDF."""
+    task_changed = Signal(str)
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.task = QComboBox()
+        for task in TASKS:
+            self.task.addItem(TASK_TITLES[task], task)
+        self.trial = QComboBox()
+        self.use_button = QPushButton("Set up this trial")
+        self.use_button.setToolTip("Put the task's trial in the Parameters form; then Build, "
+                                   "Connect and Start run it")
+        self.use_button.clicked.connect(
+            lambda: self.use_requested.emit(self.current_task(), self.trial.currentIndex()))
+        self.pdf_button = QPushButton("Save as PDF…")
+        self.pdf_button.clicked.connect(lambda: self.pdf_requested.emit(self.current_task()))
+        top = QHBoxLayout()
+        top.addWidget(QLabel("Task:"))
+        top.addWidget(self.task, 2)
+        top.addWidget(QLabel("Trial:"))
+        top.addWidget(self.trial, 1)
+        top.addWidget(self.use_button)
+        self.setup = QLabel("")
+        self.setup.setWordWrap(True)
+        self.protocol_text = QTextBrowser()
+        self.results = QTextBrowser()
+        results_row = QHBoxLayout()
+        results_row.addWidget(theme.set_role(QLabel("The patient's latest figures"),
+                                             "heading"), 1)
+        results_row.addWidget(self.pdf_button)
+        left = QVBoxLayout()
+        left.addWidget(theme.set_role(QLabel("Protocol"), "heading"))
+        left.addWidget(self.protocol_text, 1)
+        right = QVBoxLayout()
+        right.addLayout(results_row)
+        right.addWidget(self.results, 1)
+        columns = QHBoxLayout()
+        columns.addLayout(left, 1)
+        columns.addLayout(right, 1)
+        layout = QVBoxLayout(self)
+        layout.addLayout(top)
+        layout.addWidget(self.setup)
+        layout.addLayout(columns, 1)
+        self.task.currentIndexChanged.connect(self._task_chosen)
+        self._task_chosen()
+
+    def current_task(self) -> str:
+        return self.task.currentData()
+
+    def choose(self, task: str) -> None:
+        self.task.setCurrentIndex(self.task.findData(task))
+
+    def _task_chosen(self, *_args) -> None:
+        task = self.current_task()
+        spec = protocol(task)
+        self.trial.clear()
+        for index, label in enumerate(spec.trials):
+            self.trial.addItem(f"{index + 1} of {spec.trial_count}" + (f": {label}" if label
+                                                                        else ""))
+        self.protocol_text.setPlainText(protocol_words(task))
+        self.task_changed.emit(task)
+
+    def show_results(self, lines: list[str]) -> None:
+        """The report page's lines (app.reports.assessment_page.page_text), or why none."""
+        self.results.setPlainText("\n".join(lines))
+
+    def show_setup(self, text: str) -> None:
+        """What the Parameters form holds now for the task, and what to press."""
+        self.setup.setText(text)
+
+
+def protocol_words(task: str) -> str:
+    """The protocol as the tab shows it: the trials, the robot, the words for the therapist
+    and for the patient, the figures measured and the instrument followed."""
+    spec = protocol(task)
+    trials = (f"{spec.trial_count} trials: " + ", ".join(spec.trials) if spec.trial_count > 1
+              else "1 trial")
+    exercise = (f"{spec.n_targets} targets {spec.radius_m * 100:g} cm from the centre"
+                if spec.shape == "targets" else f"a circle of {spec.radius_m * 100:g} cm radius")
+    figures = "\n".join(f"  • {figure.label}" for figure in task_figures(task))
+    return (f"{TASK_TITLES[task]}: {trials}, {spec.repetitions} × {spec.duration_s:g} s each; "
+            f"{exercise}; the robot {spec.robot_mode}.\n\n"
+            f"For the therapist:\n{spec.therapist}\n\n"
+            f"Read to the patient:\n{spec.patient}\n\n"
+            f"Figures:\n{figures}\n\nFollows: {spec.reference}")
