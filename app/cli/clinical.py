@@ -11,19 +11,18 @@ line, exit 2, and nothing is stored.
 from __future__ import annotations
 
 import argparse
-import math
 
-from app.cli.common import CommandError, record_id, registry_for
+from app.cli.common import record_id, registry_for
 from app.records.registry import CORRECTABLE
 from app.records.scales import (
     ARAT,
     ASHWORTH,
     ASHWORTH_GROUPS,
     FUGL_MEYER,
-    FUGL_MEYER_PARTS,
     SCALE_LABELS,
     SCALES,
 )
+from app.records.typed import typed_scores, typed_value
 
 _BY_HELP = "who records this (the therapist's name)"
 
@@ -119,43 +118,10 @@ def add_clinical_commands(commands) -> None:
 
 
 # ------------------------------------------------------------------ scales
-def scale_arguments(scale: str, scores: list[str]) -> dict:
-    """The record_scale keywords for a scale given as typed: one total, or KEY=VALUE."""
-    pairs = [s for s in scores if "=" in s]
-    if not pairs:
-        if len(scores) != 1:
-            raise CommandError(f"{scale}: give one total or KEY=VALUE scores, not "
-                               f"{' '.join(scores)}")
-        return {"total": _whole(scale, scores[0])}
-    if len(pairs) != len(scores):
-        raise CommandError(f"{scale}: give either one total or KEY=VALUE scores, not both")
-    given: dict[str, str] = {}
-    for pair in pairs:
-        key, _, value = pair.partition("=")
-        if key in given:
-            raise CommandError(f"{scale}: {key} given twice")
-        given[key] = value
-    if scale == ASHWORTH:
-        return {"grades": given}
-    values = {key: _whole(f"{scale} {key}", value) for key, value in given.items()}
-    if scale == FUGL_MEYER and not set(values) <= set(FUGL_MEYER_PARTS):
-        return {"items": values}
-    if scale in (FUGL_MEYER, ARAT):
-        return {"parts": values}
-    raise CommandError(f"{SCALE_LABELS[scale]} is one number; give it alone")
-
-
-def _whole(what: str, text: str) -> int:
-    try:
-        return int(text.strip())
-    except ValueError:
-        raise CommandError(f"{what} = {text!r} is not a whole number") from None
-
-
 def cmd_scales_add(args: argparse.Namespace) -> int:
     registry = registry_for(args)
     entry = registry.record_scale(args.code, args.session, args.scale, rater=args.by,
-                                  **scale_arguments(args.scale, args.scores))
+                                  **typed_scores(args.scale, args.scores))
     print(f"{args.code} session {args.session}: {_scale_text(entry)}")
     return 0
 
@@ -232,34 +198,9 @@ def cmd_mark(args: argparse.Namespace) -> int:
 
 
 # ------------------------------------------------------------------ corrections
-def correction_value(field: str, text: str) -> object:
-    """The value typed for `field` as the registry takes it ('none' clears it)."""
-    text = text.strip()
-    if text.lower() == "none":
-        return None
-    if field == "birth_year":
-        return _whole(field, text)
-    if field == "shoulder_m":
-        try:
-            x, y = (float(v) for v in text.split(","))
-        except ValueError:
-            raise CommandError(f"shoulder_m = {text!r}: give X,Y in m (e.g. -0.12,0.73)"
-                               ) from None
-        return (x, y)
-    if field.endswith(("_m", "_kg")):
-        try:
-            value = float(text)
-        except ValueError:
-            raise CommandError(f"{field} = {text!r} is not a number") from None
-        if not math.isfinite(value):
-            raise CommandError(f"{field} = {text!r} is not a finite number")
-        return value
-    return text
-
-
 def cmd_correct(args: argparse.Namespace) -> int:
     registry = registry_for(args)
-    registry.correct_patient(args.code, args.field, correction_value(args.field, args.value),
+    registry.correct_patient(args.code, args.field, typed_value(args.field, args.value),
                              reason=args.reason, by=args.by)
     last = registry.corrections(args.code)[-1]
     print(f"{args.code} {last.field}: {last.old_value!r} → {last.new_value!r} (kept in the "

@@ -69,6 +69,8 @@ def test_an_invalid_trial_disappears_from_progress_and_comes_back_when_asked(qtb
 
 
 def test_a_figure_against_the_fugl_meyer_with_its_correlation(qtbot, tab):
+    tab.scales_button.click()  # in the table's place
+    assert tab.lower.currentIndex() == 1
     view = tab.scales.view
     assert view.series.scale_key == "fugl_meyer"
     choice = tab.scales.figure_choice

@@ -26,6 +26,7 @@ from PySide6.QtWidgets import (
     QLabel,
     QPushButton,
     QSplitter,
+    QStackedWidget,
     QTableWidget,
     QTableWidgetItem,
     QVBoxLayout,
@@ -119,6 +120,13 @@ class ProgressTab(QWidget):
         self.include_invalid = QCheckBox("Include trials marked invalid")
         self.include_invalid.toggled.connect(self.refresh)
         top.addWidget(self.include_invalid)
+        self.scales_button = QPushButton("Clinical scales")
+        self.scales_button.setCheckable(True)
+        self.scales_button.setToolTip("A robot figure against the clinical scales, with "
+                                      "their correlation, in the table's place")
+        self.scales_button.toggled.connect(
+            lambda on: self.lower.setCurrentIndex(1 if on else 0))
+        top.addWidget(self.scales_button)
         top.addWidget(self.pdf_button)
         choices = QHBoxLayout()  # a row of their own: whole names at any font scale
         choices.addWidget(QLabel("Exercise"))
@@ -149,17 +157,22 @@ class ProgressTab(QWidget):
         splitter = QSplitter(Qt.Orientation.Vertical)
         splitter.addWidget(self.plot)
         splitter.addWidget(self.help_plot)
-        splitter.addWidget(self.table)
-        # a robot figure against the clinical scales (app.reports.scales_progress)
+        # the trials' table, and a robot figure against the clinical scales
+        # (app.reports.scales_progress), one page each: a laptop's height holds both
+        # in the table's place when asked (the button above): a laptop's height holds
+        # the plots and one of the two; the scales panel scrolls when short
         self.scales = ScalesPanel()
-        splitter.addWidget(self.scales)
-        splitter.setSizes([300, 220, 110, 200])
+        self.scales.setMinimumHeight(260)  # the scatter readable
+        self.lower = QStackedWidget()
+        self.lower.addWidget(self.table)
+        self.lower.addWidget(plots.vertical_scroll(self.scales, 0))
+        splitter.addWidget(self.lower)
+        splitter.setSizes([300, 220, 110])
         # the plots first when the room is short (a large font on a laptop): the table
         # scrolls, and no part asks the window for more height than a laptop has
         splitter.setStretchFactor(0, 3)
         splitter.setStretchFactor(1, 2)
         splitter.setStretchFactor(2, 1)
-        splitter.setStretchFactor(3, 2)
         layout = QVBoxLayout(self)
         layout.addLayout(top)
         layout.addLayout(choices)

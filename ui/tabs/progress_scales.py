@@ -118,7 +118,6 @@ class ScalesPanel(QWidget):
         row.addWidget(self.study)
         row.addStretch(1)
         self.plot = plots.make_plot("", "")
-        self.plot.setMinimumHeight(120)
         self.caption = theme.set_role(QLabel(""), "caption")
         self.caption.setWordWrap(True)
         layout = QVBoxLayout(self)

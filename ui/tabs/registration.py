@@ -2,7 +2,9 @@
 trial this is.
 
 Patients are found in the registry by a fragment of their name or their code, or
-registered new with the measurements the arm model needs. The session and trial
+registered new with the measurements the arm model needs and the norms' covariates (sex,
+handedness). The chosen patient's clinical record (ui.tabs.clinical_record): a session's
+scales and notes, a trial marked invalid, a correction kept with its audit. The session and trial
 numbers are filled in from the registry (the next trial of today's session, else
 trial 1 of a new session) and stay editable; a trial number already used is
 refused with the next free one named. Names stay in the registry: only the
@@ -37,6 +39,7 @@ from core.arm import BODY_MASS_RANGE_KG, FOREARM_RANGE_M, UPPER_ARM_RANGE_M
 from core.trial import POSITION_RANGE_M
 from ui import plots, theme
 from ui.fields import ComboBox, DoubleSpinBox, SpinBox
+from ui.tabs.clinical_record import ClinicalRecord
 
 NOT_MEASURED = "not measured"
 SEARCH_DELAY_MS = 150
@@ -137,6 +140,14 @@ class RegistrationTab(QWidget):
         self.side = ComboBox()
         for text, value in (("Right arm", "right"), ("Left arm", "left"), ("Not given", None)):
             self.side.addItem(text, value)
+        # the norms' covariates (app.norms): the age comes from the year of birth
+        self.sex = ComboBox()
+        for text, value in (("Not given", None), ("Female", "female"), ("Male", "male")):
+            self.sex.addItem(text, value)
+        self.handedness = ComboBox()
+        for text, value in (("Not given", None), ("Right-handed", "right"),
+                            ("Left-handed", "left")):
+            self.handedness.addItem(text, value)
         self.body_mass = _optional_spin(*BODY_MASS_RANGE_KG, 1, " kg", 1.0)
         self.upper_arm = _optional_spin(*(v * CM for v in UPPER_ARM_RANGE_M), 2, " cm", 0.5)
         self.forearm = _optional_spin(*(v * CM for v in FOREARM_RANGE_M), 2, " cm", 0.5)
@@ -154,6 +165,8 @@ class RegistrationTab(QWidget):
         form.addRow("Last name", self.last_name)
         form.addRow("Year of birth", self.birth_year)
         form.addRow("Side trained", self.side)
+        form.addRow("Sex", self.sex)
+        form.addRow("Handedness", self.handedness)
         form.addRow("Body mass", self.body_mass)
         form.addRow("Upper arm", self.upper_arm)
         form.addRow("Forearm", self.forearm)
@@ -208,6 +221,10 @@ class RegistrationTab(QWidget):
         right = QVBoxLayout(forms)
         right.setContentsMargins(0, 0, 0, 0)
         right.addWidget(trial_box)
+        # the chosen patient's scales, notes, validity marks and corrections (schema v8)
+        self.clinical = ClinicalRecord(registry)
+        self.clinical.recorded.connect(self._recorded)
+        right.addWidget(self.clinical)
         right.addWidget(new)
         right.addStretch(1)
         # the two forms scroll rather than make the window taller than a laptop's screen
@@ -228,6 +245,7 @@ class RegistrationTab(QWidget):
     # -- public -------------------------------------------------------------------
     def set_registry(self, registry: RecordStore) -> None:
         self.registry = registry
+        self.clinical.set_registry(registry)
         self.search()
 
     def selected_patient(self) -> Patient | None:
@@ -307,7 +325,17 @@ class RegistrationTab(QWidget):
         self.measurements_label.setText(measurements(patient))
         self._enable_numbers(True)
         self.refresh_numbers()
+        self.clinical.set_patient(patient, self.session.value())
         self.patient_selected.emit(patient)
+
+    def _recorded(self, _said: str) -> None:
+        """After a correction the patient's row changed: show it as it is now."""
+        patient = self.clinical.patient
+        if patient is not None and patient != self._patient:
+            self._patient = patient
+            self.patient_label.setText(describe(patient))
+            self.measurements_label.setText(measurements(patient))
+            self.patient_selected.emit(patient)
 
     # -- creating -------------------------------------------------------------------
     def create_patient(self) -> Patient | None:
@@ -342,6 +370,7 @@ class RegistrationTab(QWidget):
                 upper_arm_m=_optional_value(self.upper_arm, CM),
                 forearm_m=_optional_value(self.forearm, CM),
                 shoulder_m=None if None in shoulder else shoulder,
+                sex=self.sex.currentData(), handedness=self.handedness.currentData(),
             )
         except RegistryError as exc:
             self._show(self.create_problem, str(exc))
@@ -363,6 +392,8 @@ class RegistrationTab(QWidget):
         for box in (self.birth_year, self.body_mass, self.upper_arm, self.forearm,
                     self.shoulder_x, self.shoulder_y):
             box.setValue(box.minimum())
+        for choice in (self.sex, self.handedness):
+            choice.setCurrentIndex(0)
         self.same_name.setChecked(False)
         self.same_name.hide()
         self.create_problem.hide()
