@@ -31,6 +31,9 @@ from core.norms.scores import BETTER_TO_WORSE
 MIN_CONTROLS = 20
 """Fewer healthy people than this give no usable spread or transform: a figure with fewer
 is left out (and said so)."""
+MIN_LEVEL_CONTROLS = 5
+"""A covariate's level (left-handed, a robot) needs this many controls to estimate its
+coefficient; fewer are left out of the fit (and said)."""
 MAX_TABLE_BYTES = 64 * 2**20
 SUBJECT = "subject"
 SESSION = "session"
@@ -159,6 +162,7 @@ def fit_norms(controls: Controls, source: str, *, simulated: bool = False,
                          "people, when (--source)")
     figures_catalogue, tasks_catalogue = _catalogue()
     left_out: dict[str, str] = {}
+    controls = _without_rare_levels(controls, left_out)
     table = {}
     for key, values in controls.figures.items():
         have = int(np.sum(np.isfinite(values)))
@@ -193,6 +197,28 @@ def fit_norms(controls: Controls, source: str, *, simulated: bool = False,
                   "transform may not make it normal; check its calibration"
              for key, f in model.figures.items() if f.at_bound}
     return FitReport(document, calibration, left_out, notes)
+
+
+def _without_rare_levels(controls: Controls, left_out: dict[str, str]) -> Controls:
+    """The controls without those whose level of a categorical covariate fewer than
+    MIN_LEVEL_CONTROLS share (one left-hander's own residual would be the left-handers'
+    coefficient): they are left out and said, and the norms refuse such a patient rather
+    than score them by one person."""
+    keep = np.ones(len(controls.people), dtype=bool)
+    for name in CATEGORICAL:
+        levels = [getattr(p, name) for p in controls.people]
+        for level in sorted(set(levels)):
+            count = levels.count(level)
+            if count < MIN_LEVEL_CONTROLS and count < len(levels):
+                keep &= np.array([v != level for v in levels])
+                left_out[f"{name}={level}"] = (
+                    f"{count} control{'s' if count > 1 else ''} with it, fewer than "
+                    f"{MIN_LEVEL_CONTROLS}: left out; the norms refuse such patients")
+    if keep.all():
+        return controls
+    return Controls(tuple(s for s, k in zip(controls.subjects, keep, strict=True) if k),
+                    tuple(p for p, k in zip(controls.people, keep, strict=True) if k),
+                    {f: v[keep] for f, v in controls.figures.items()})
 
 
 def task_figures_for_score(task: str, figures_catalogue) -> list[str]:
@@ -244,6 +270,8 @@ def calibration_lines(calibration: Mapping[str, Mapping]) -> list[str]:
     lines = [f"{'figure or task score':<36} {'n':>5} {'mean':>7} {'SD':>6} "
              f"{'beyond 1.96':>11} {'QQ max dev':>10}"]
     for key, c in calibration.items():
+        missed = c.get("not_scored", 0)
         lines.append(f"{key:<36} {c['n']:>5} {c['mean']:>7.3f} {c['sd']:>6.3f} "
-                     f"{100 * c['share_beyond_1_96']:>10.1f}% {c['qq_max_deviation']:>10.3f}")
+                     f"{100 * c['share_beyond_1_96']:>10.1f}% {c['qq_max_deviation']:>10.3f}"
+                     + (f"  ({missed} held out not scorable by their fold)" if missed else ""))
     return lines

@@ -149,11 +149,13 @@ class Calibration:
     sd: float
     beyond_1_96: float
     qq_max_deviation: float
+    not_scored: int = 0
+    """Held-out controls their fold's model could not score (cross_validate)."""
 
     def as_dict(self) -> dict:
         return {"n": self.n, "mean": self.mean, "sd": self.sd,
                 "share_beyond_1_96": self.beyond_1_96,
-                "qq_max_deviation": self.qq_max_deviation}
+                "qq_max_deviation": self.qq_max_deviation, "not_scored": self.not_scored}
 
 
 def calibration_of(z, one_sided_scores: bool = False) -> Calibration:
@@ -176,15 +178,21 @@ def cross_validate(table: Mapping[str, np.ndarray], people: Sequence[Covariates]
                    kind: str | Mapping[str, str] = "auto", folds: int = 5, seed: int = 0
                    ) -> dict[str, Calibration]:
     """k-fold cross-validated calibration: figure → Calibration of its held-out Z-scores,
-    `task:<id>` → of its held-out task scores. The folds keep the whole model's covariate
-    levels (the spec of all controls), so a fold lacking a level still fits its columns
-    only if its controls determine them; else that fold is refused by the regression."""
+    `task:<id>` → of its held-out task scores.
+
+    Each fold's model is fitted as the whole model is, on its own training controls: the
+    covariate levels those had (the whole model's reference first). A held-out control
+    with a level the fold's controls lacked (the only left-hander held out) cannot be
+    scored by it, as the norms refuse such a patient; neither can a fold whose controls
+    do not determine the regression (its covariates not independent). Those controls are
+    counted in `Calibration.not_scored`, never scored by guess."""
     from core.norms.regression import spec_of
 
     n = len(people)
     if not 2 <= folds <= n:
         raise ParameterError("folds", folds, f"2 to {n} (the number of controls)")
-    spec = spec_of(people)
+    whole = spec_of(people)
+    references = {name: levels[0] for name, levels in whole.levels.items()}
     # each figure's kind decided once, on all controls: a fold must not pick Box-Cox for a
     # figure a held-out control has at 0
     kinds = {f: choose_kind(kind.get(f, "auto") if isinstance(kind, Mapping) else kind,
@@ -192,18 +200,38 @@ def cross_validate(table: Mapping[str, np.ndarray], people: Sequence[Covariates]
              for f, v in table.items()}
     order = np.random.default_rng(seed).permutation(n)
     held: dict[str, list[float]] = {}
+    missed: dict[str, int] = {}
     for fold in range(folds):
         test = order[fold::folds]
         train = np.setdiff1d(order, test)
-        model = fit_model({f: np.asarray(v, dtype=float)[train] for f, v in table.items()},
-                          [people[i] for i in train], worse, tasks, kinds, spec)
-        design = spec.design([people[i] for i in test])
         values = {f: np.asarray(v, dtype=float)[test] for f, v in table.items()}
+        trained = [people[i] for i in train]
+        spec = spec_of(trained, references)
+        scorable = np.array([not spec.unknown_levels(people[i]) for i in test], dtype=bool)
+        try:
+            model = fit_model({f: np.asarray(v, dtype=float)[train] for f, v in table.items()},
+                              trained, worse, tasks, kinds, spec)
+        except ParameterError:
+            scorable[:] = False
+            model = None
+        design = spec.design([people[i] for i, ok in zip(test, scorable, strict=True) if ok])
         for figure, v in values.items():
             have = np.isfinite(v)
-            held.setdefault(figure, []).extend(model.z(figure, v[have], design[have]))
+            missed[figure] = missed.get(figure, 0) + int(np.sum(have & ~scorable))
+            if model is not None:
+                held.setdefault(figure, []).extend(model.z(figure, v[have & scorable],
+                                                           design[have[scorable]]))
         for task, figures in tasks.items():
+            key = f"task:{task}"
             have = np.all([np.isfinite(values[f]) for f in figures], axis=0)
-            held.setdefault(f"task:{task}", []).extend(model.task_scores(
-                task, {f: values[f][have] for f in figures}, design[have]))
-    return {key: calibration_of(z, key.startswith("task:")) for key, z in held.items()}
+            missed[key] = missed.get(key, 0) + int(np.sum(have & ~scorable))
+            if model is not None:
+                held.setdefault(key, []).extend(model.task_scores(
+                    task, {f: values[f][have & scorable] for f in figures},
+                    design[have[scorable]]))
+    out = {}
+    for key, z in held.items():
+        c = calibration_of(z, key.startswith("task:"))
+        out[key] = Calibration(c.n, c.mean, c.sd, c.beyond_1_96, c.qq_max_deviation,
+                               missed.get(key, 0))
+    return out

@@ -202,3 +202,33 @@ def test_what_is_not_a_file_is_refused_as_such(tmp_path, capsys):
     os.mkfifo(fifo)
     _refused(capsys, ["norms", "show", str(fifo)], "not a plain file")
     _refused(capsys, ["norms", "show", str(tmp_path)], "is a folder")
+
+
+def test_a_rare_level_is_left_out_and_said(tmp_path, data, capsys):
+    """3 left-handers among 60 controls cannot give the left-handers' coefficient: they are
+    left out, said, and the norms refuse a left-handed patient instead of scoring them by
+    three people."""
+    import csv as _csv
+
+    controls = write_controls(tmp_path / "controls.csv", n=60, seed=2)
+    with controls.open() as f:
+        rows = list(_csv.reader(f))
+    header, body = rows[0], rows[1:]
+    hand = header.index("handedness")
+    for i, row in enumerate(body):
+        row[hand] = "left" if i < 3 else "right"
+    with controls.open("w", newline="") as f:
+        _csv.writer(f).writerows([header, *body])
+    norms = tmp_path / "n.json"
+    code, out, err = run(["norms", "fit", "--controls", str(controls), "--source", "s",
+                          "--output", str(norms)], capsys)
+    assert code == 0, err
+    assert "left out handedness=left: 3 controls with it, fewer than 5" in out
+    model = load_norms(norms)
+    assert model.covariates.levels["handedness"] == ("right",)
+    assert model.figures["range_area_m2"].regression.n == 57
+    from app.norms import Covariates, NormsError
+
+    with pytest.raises(NormsError, match="handedness 'left'"):
+        model.z("range_area_m2", 0.05, Covariates(50, "male", "left", "right",
+                                                  "simulator-realistic"))

@@ -96,3 +96,17 @@ def test_task_fit_gives_half_normal_controls():
     assert np.all(s >= 0)
     assert c.beyond_1_96 == pytest.approx(0.05, abs=0.03)
     assert c.qq_max_deviation < 0.2
+
+
+def test_a_level_one_fold_lacks_is_not_scored_by_guess():
+    """One left-hander among 60: the fold holding them out has no left-hander to fit, so it
+    cannot score them (the norms would refuse such a patient); the calibration counts them
+    as not scored instead of failing (it raised 'not independent' before)."""
+    people, _, _, x, _ = population(60, 3)
+    people = [Covariates(p.age_years, p.sex, "right", p.tested_side, p.robot) for p in people]
+    people[7] = Covariates(people[7].age_years, people[7].sex, "left", people[7].tested_side,
+                           people[7].robot)
+    result = cross_validate({"vgr_reaction_time_s": x}, people,
+                            {"vgr_reaction_time_s": "higher"}, {}, folds=5)
+    c = result["vgr_reaction_time_s"]
+    assert (c.n, c.not_scored) == (59, 1)
