@@ -225,12 +225,13 @@ PROTOCOLS: dict[str, Protocol] = {
         task="strength", name="isometric strength",
         therapist=(
             "The robot holds the handle still at the centre. An arrow shows one of 8 "
-            "directions; the patient pushes as hard as they can that way for 3 s, then "
-            "rests 3 s before the next. Watch for pain and stop with the red button if it "
+            "directions; the patient pushes as hard as they can that way, up to the line "
+            "on the screen (the robot's limit in that direction), while the arrow shows, "
+            "then rests before the next. Watch for pain and stop with the red button if it "
             "comes; the force limit stops the robot on its own."),
         patient=(
             "The handle will not move. When an arrow shows, push the handle that way as "
-            "hard as you can until it goes away, then relax."),
+            "hard as you can, up to the line, until the arrow goes away; then relax."),
         robot_mode=TRANSPARENT, shape="targets", radius_m=0.05, n_targets=8, repetitions=1,
         duration_s=3.0, timing="minimum_jerk", trials=("",), target_hold_s=3.0,
         time_allowed_s=3.0, rest_s=0.0, controller="ctpid", gains=HOLD_GAINS,

@@ -99,7 +99,7 @@ from device.sim import physics
 from device.sim.patients import Patient, VirtualPatient, make_patient
 from device.sim.plant import Plant
 from device.sim.sensors import ForceSensorModel
-from device.sim.tasks import own_movement
+from device.sim.tasks import own_movement, split_options
 
 ROBOT_SEED = 0
 """The seed that draws the simulated robot of a realistic plant (device.sim.plant) unless
@@ -290,10 +290,10 @@ class SimulatorBackend:
         patient_seed = _child_seed(seed, 0)
         # an assessment task's patient moves on its own plan (device.sim.tasks), an
         # exercise's follows the reference
-        own = own_movement(trial, kind, dict(patient_options or {}), patient_seed, nominal)
+        body, movement = split_options(trial, dict(patient_options or {}))
+        own = own_movement(trial, kind, {**body, **movement}, patient_seed, nominal)
         built = make_patient(
-            kind, trial.arm(), own or trial.trajectory(), seed=patient_seed,
-            **dict(patient_options or {}),
+            kind, trial.arm(), own or trial.trajectory(), seed=patient_seed, **body,
         )
         x0, y0, *_ = built.trajectory.at(0.0)
         rest = nominal.ik_terms(x0, y0)

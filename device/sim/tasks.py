@@ -43,7 +43,7 @@ import numpy as np
 
 from core.assessment.protocol import cues
 from core.assessment.workspace import extent_m, range_box
-from core.errors import check_range
+from core.errors import ParameterError, check_range
 from core.robot import RobotModel
 from core.trajectory import Trajectory, TrajectorySample
 from core.trial import TrialParameters
@@ -53,6 +53,13 @@ OWN_MOVEMENT_TASKS = ("reaching", "circle", "range")
 """The tasks whose patient moves on its own plan (the others follow the reference, or the
 robot's mode for them decides: circle, strength, position)."""
 REACTION_S = 0.30
+TASK_OPTIONS = ("reaction_time_s", "speed_scale")
+"""Patient options of a subject's own movement (a virtual population's: device.sim.
+population), taken here and not by device.sim.patients.make_patient: the healthy reaction
+time the effort's slowing adds to (default REACTION_S) and a factor on the movement speed
+(default 1; the circle's pace is never faster than the dot's)."""
+REACTION_RANGE_S = (0.1, 2.0)
+SPEED_SCALE_RANGE = (0.2, 5.0)
 REACTION_SLOWING_S = 0.25
 MOVE_BASE_S = 0.35
 MOVE_PER_M_S = 2.5
@@ -128,13 +135,27 @@ class OwnMovement:
                 *s.direction[0])
 
 
-def movement_time_s(distance_m: float, effort: float) -> float:
+def movement_time_s(distance_m: float, effort: float, speed_scale: float = 1.0) -> float:
     """A reach's movement time for a patient of `effort` (the module notes)."""
-    return (MOVE_BASE_S + MOVE_PER_M_S * distance_m) / (0.5 + 0.5 * effort)
+    return (MOVE_BASE_S + MOVE_PER_M_S * distance_m) / ((0.5 + 0.5 * effort) * speed_scale)
 
 
-def reaction_time_s(effort: float) -> float:
-    return REACTION_S + REACTION_SLOWING_S * (1.0 - effort)
+def reaction_time_s(effort: float, healthy_s: float = REACTION_S) -> float:
+    return healthy_s + REACTION_SLOWING_S * (1.0 - effort)
+
+
+def split_options(trial: TrialParameters, options: Mapping[str, object]
+                  ) -> tuple[dict, dict]:
+    """(make_patient's options, the own movement's: TASK_OPTIONS) of a trial's patient
+    options; the own movement's are refused by name for a trial whose patient follows the
+    reference, where they would change nothing."""
+    own = {k: v for k, v in options.items() if k in TASK_OPTIONS}
+    if own and trial.assessment not in OWN_MOVEMENT_TASKS:
+        name = next(iter(own))
+        raise ParameterError(name, own[name], "no value for this trial",
+                             "only the patient's own movement in the "
+                             + ", ".join(OWN_MOVEMENT_TASKS) + " tasks has it")
+    return {k: v for k, v in options.items() if k not in TASK_OPTIONS}, own
 
 
 def range_fraction(effort: float) -> float:
@@ -142,11 +163,11 @@ def range_fraction(effort: float) -> float:
     return RANGE_FULL - RANGE_LOST * (1.0 - effort)
 
 
-def own_circle(trial: TrialParameters, effort: float) -> Trajectory:
+def own_circle(trial: TrialParameters, effort: float, speed_scale: float = 1.0) -> Trajectory:
     """The circle at the patient's own pace: the trial's circle, each lap
-    1/(0.5 + 0.5 w) times the dot's lap (a healthy patient keeps the dot's pace), lapped
-    until the trial's end."""
-    lap_s = trial.duration_s / (0.5 + 0.5 * effort)
+    1/((0.5 + 0.5 w)·speed_scale) times the dot's lap (a healthy patient keeps the dot's
+    pace), lapped until the trial's end."""
+    lap_s = trial.duration_s / ((0.5 + 0.5 * effort) * speed_scale)
     laps = math.ceil(trial.duration_s * trial.repetitions / lap_s - 1e-9)
     return Trajectory(trial.path(), lap_s, max(1, laps), trial.timing)
 
@@ -161,8 +182,12 @@ def own_movement(trial: TrialParameters, kind: str, options: Mapping[str, object
         return None
     effort = check_range("effort", options.get("effort", DEFAULT_EFFORT.get(kind, 1.0)),
                          0.0, 1.0)
+    healthy_reaction = check_range("reaction_time_s", options.get("reaction_time_s",
+                                                                  REACTION_S),
+                                   *REACTION_RANGE_S, "s")
+    speed = check_range("speed_scale", options.get("speed_scale", 1.0), *SPEED_SCALE_RANGE)
     if trial.assessment == "circle":
-        return own_circle(trial, effort)
+        return own_circle(trial, effort, min(speed, 1.0))
     rng = np.random.default_rng(_stream(seed))
     sigma = math.sqrt(math.log1p(VARIATION ** 2))
 
@@ -187,8 +212,8 @@ def own_movement(trial: TrialParameters, kind: str, options: Mapping[str, object
         distance = math.dist(here, goal)
         if distance < 1e-6:
             continue
-        t0 = max(cue.time_s + varied(reaction_time_s(effort)), free_at)
-        t1 = t0 + varied(movement_time_s(distance, effort))
+        t0 = max(cue.time_s + varied(reaction_time_s(effort, healthy_reaction)), free_at)
+        t1 = t0 + varied(movement_time_s(distance, effort, speed))
         moves.append(Move(t0, t1, here, goal))
         here, free_at = goal, t1
     total = trial.duration_s * trial.repetitions

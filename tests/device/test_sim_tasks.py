@@ -89,3 +89,33 @@ def test_a_bad_effort_is_refused_by_name():
     with pytest.raises(ParameterError) as refused:
         plan("reaching", effort="a lot")
     assert refused.value.field == "effort"
+
+
+def test_a_subjects_own_reaction_and_speed_set_its_plan():
+    trial, usual = plan("reaching", seed=3)
+    _, slow = plan("reaching", seed=3, reaction_time_s=0.5, speed_scale=0.5)
+    shown = [c.time_s for c in cues(trial)]
+    for a, b, cue in zip(usual.moves, slow.moves, shown, strict=True):
+        # the same draws: the reaction scaled from 0.30 to 0.50 s, the movement twice as long
+        assert (b.t0_s - cue) == pytest.approx((a.t0_s - cue) * 0.5 / 0.3)
+        assert (b.t1_s - b.t0_s) == pytest.approx(2.0 * (a.t1_s - a.t0_s))
+
+
+def test_the_own_movements_options_are_taken_from_the_patients_and_refused_elsewhere():
+    from core.errors import ParameterError
+    from device.sim.simulator import SimulatorBackend
+    from device.sim.tasks import split_options
+
+    trial = protocol("range").parameters(TrialParameters())
+    body, own = split_options(trial, {"drive_N": 1.0, "reaction_time_s": 0.4})
+    assert (body, own) == ({"drive_N": 1.0}, {"reaction_time_s": 0.4})
+    backend = SimulatorBackend.from_trial(trial, "healthy", patient_options={
+        "reaction_time_s": 0.4, "speed_scale": 1.2, "drive_N": 1.0}, compiled=False)
+    assert backend.patient.parameters.drive_N > 0.0
+    with pytest.raises(ParameterError) as refused:
+        SimulatorBackend.from_trial(TrialParameters(), "healthy",
+                                    patient_options={"speed_scale": 1.2}, compiled=False)
+    assert refused.value.field == "speed_scale"
+    with pytest.raises(ParameterError) as refused:
+        plan("reaching", reaction_time_s=5.0)
+    assert refused.value.field == "reaction_time_s"
