@@ -135,6 +135,8 @@ def reach_metrics(
     if any(b <= a for a, b in itertools.pairwise(onsets)):
         raise ParameterError("reaches", "onsets out of order", "strictly increasing onset_s")
     t = np.asarray(t_s, dtype=float)
+    if t.size < 2:  # no interval to speak of (a block holding one sample): nothing found
+        return tuple(_empty(reach.onset_s, math.nan) for reach in reaches)
     dt_s = float(np.median(np.diff(t)))
     speed = np.linalg.norm(velocity_m_s, axis=1)
     bounds = np.searchsorted(t, [*onsets, math.inf], side="left")

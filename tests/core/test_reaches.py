@@ -167,3 +167,16 @@ def test_bad_reaches():
     with pytest.raises(ParameterError) as info:
         Reach(0.0, (0.1, 0.2, 0.3), (0.2, 0.2))
     assert info.value.field == "start_m"
+
+
+def test_a_recording_of_one_sample_gives_every_reach_nan_without_a_warning():
+    # core.blockwise hands reach_metrics a single sample when a target came after the
+    # trial's last one (seen in the range task of a virtual subject, board 18:44)
+    reach = Reach(2.0, (0.0, 0.0), (0.1, 0.0))
+    for n in (0, 1):
+        t = np.arange(n) * DT + 1.0
+        position = np.zeros((n, 2))
+        (result,) = reach_metrics(t, position, position, [reach])
+        assert math.isnan(result.peak_speed_m_s)
+        assert math.isnan(result.reaction_time_s)
+        assert result.target_onset_s == 2.0
