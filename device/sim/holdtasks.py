@@ -7,16 +7,21 @@ the patient's own plan, a core.holdtasks.TaskTrajectory of its own (`TaskBehavio
 
 * **Isometric strength.** The desired motion is the held centre; during each push the
   patient pushes toward the direction shown as hard as it can, up to the line the
-  screen shows (core.control.hold: the robot's limit there), its force rising and falling
-  as a first-order lag of STRENGTH_RISE_S (muscle activation; the time to develop an
-  isometric torque is of the order of a few tenths of a second and longer after stroke,
-  McCrea, Eng & Hodgson 2003, Muscle Nerve 28:46, doi 10.1002/mus.10397). Its strength
+  screen shows (core.control.hold: the robot's limit there), its force rising toward its
+  strength with the time constant STRENGTH_RISE_S (the protocol asks for a push built up
+  over a couple of seconds; the time to develop an isometric torque is itself a few
+  tenths of a second, longer after stroke: McCrea, Eng & Hodgson 2003, Muscle Nerve
+  28:46, doi 10.1002/mus.10397) and falling within STRENGTH_RELEASE_S when it lets go
+  (TaskBehaviour.with_pushes). Its strength
   is `strength_N` times its effort: a healthy adult pushes tens of newtons at the hand in
-  the horizontal plane (STRENGTH_N, an order of magnitude, not a figure identified on
-  one subject or taken from one source; check before citing), the weak patient 40 % of
-  it (its effort), the passive one nothing. On the thesis's robot both the healthy and
-  the weak patient reach the line in every direction: their peaks are the robot's limit,
-  and the stronger one gets there sooner (a higher mean force over the push).
+  the horizontal plane (STRENGTH_N; maximal isometric hand forces in 8 horizontal
+  directions were measured by Nijhof & Gabriel 2006, J Biomech 39:708-716, largest along
+  the shoulder-hand line: the magnitude here is an order of magnitude recalled, not a
+  figure taken from that paper, and the same in every direction; check before citing),
+  the weak patient 40 % of it (its effort), the passive one nothing. On the thesis's
+  robot both the healthy and the weak patient reach the line in every direction: their
+  peaks are the robot's limit, and the stronger one gets there sooner (a higher mean
+  force over the push).
 * **Position sense.** The patient goes along while the robot moves the hand (its desired
   motion is the robot's reference; no push of its own), then, in the match, moves the hand
   by minimum jerk over core.holdtasks.POSITION_MOVE_S to where it remembers the target and

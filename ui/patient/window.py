@@ -13,6 +13,8 @@ Colours: white and the Okabe–Ito yellow and sky blue on black, contrast 21:1, 
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from PySide6.QtCore import QPointF, QRectF, Qt, Signal
 from PySide6.QtGui import (
@@ -245,7 +247,8 @@ class PatientWindow(QWidget):
                     frame: PatientFrame) -> QPixmap:
         previous = frame.previous_path_m is not None
         key = (self.width(), self.height(), self.devicePixelRatioF(), id(self.scene),
-               self.options, (frame.exercise_started_s, frame.repetition) if previous else None)
+               self.options, (frame.exercise_started_s, frame.repetition) if previous else None,
+               frame.blank)
         if self._cached_background is not None and self._cached_background[0] == key:
             return self._cached_background[1]
         ratio = self.devicePixelRatioF()
@@ -259,7 +262,9 @@ class PatientWindow(QWidget):
             if self.scene.parameters.neglect_side:
                 self._paint_attention(painter, where, bands.table)
             unit = self._unit(where)
-            if self.scene.game is not None:
+            if frame.blank:
+                pass  # a task the robot leads: nothing of the layout on the table
+            elif self.scene.game is not None:
                 paint_game_layout(painter, where, self.scene.game, unit, _polyline)
             else:
                 self._paint_exercise(painter, where, unit)
@@ -280,6 +285,10 @@ class PatientWindow(QWidget):
     def _paint_moving(self, painter: QPainter, where: Placement, frame: PatientFrame) -> None:
         scene = self.scene
         unit = self._unit(where)
+        if frame.blank:
+            if frame.push is not None:
+                self._paint_push(painter, where, frame.push, unit)
+            return
         radius = where.length_px(scene.target_radius_m)
         if scene.game is not None:
             self.painted["target"] = paint_game_state(painter, where, frame, unit)
@@ -309,6 +318,32 @@ class PatientWindow(QWidget):
                 0.8 * where.length_px(scene.game.channel_half_width_m)
             painter.drawEllipse(QPointF(*point), ball, ball)
             self.painted["cursor"] = (float(point[0]), float(point[1]))
+
+    def _paint_push(self, painter: QPainter, where: Placement,
+                    push: tuple[float, float, float], unit: float) -> None:
+        """Strength: the arrow of the push from the centre (the layout's radius long), a
+        bar along it growing with the force pushed, full at the line, and the line itself
+        across the arrow's end (core.control.hold: what the robot can hold there)."""
+        angle, line_N, force_N = push
+        centre = np.asarray(self.scene.parameters.centre_m, dtype=float)
+        u = np.array([math.cos(angle), math.sin(angle)])
+        length = self.scene.parameters.radius_m
+        tip = centre + length * u
+        painter.setPen(_pen(PATH, unit))
+        painter.drawLine(QPointF(*where.to_px(centre)), QPointF(*where.to_px(tip)))
+        side = 0.25 * length * np.array([-u[1], u[0]])
+        for wing in (side, -side):
+            painter.drawLine(QPointF(*where.to_px(tip)),
+                             QPointF(*where.to_px(tip - 0.3 * length * u + wing)))
+        share = min(max(force_N / line_N, 0.0), 1.2) if line_N > 0 else 0.0
+        if share > 0.0:
+            painter.setPen(_pen(GO, 3 * unit))
+            painter.drawLine(QPointF(*where.to_px(centre)),
+                             QPointF(*where.to_px(centre + share * length * u)))
+        painter.setPen(_pen(TARGET, 1.5 * unit))
+        painter.drawLine(QPointF(*where.to_px(tip + 0.8 * side)),
+                         QPointF(*where.to_px(tip - 0.8 * side)))
+        self.painted["target"] = tuple(float(v) for v in where.to_px(tip))
 
     def _paint_attention(self, painter: QPainter, where: Placement, area: Rect) -> None:
         """Hemispatial neglect (the trial's `neglect_side`): a bright band with arrows along

@@ -38,6 +38,7 @@ import numpy as np
 
 from core.games import GameLayout, game_layout
 from core.games.layout import distance_to_path
+from core.holdtasks import ROBOT_TASKS, TaskTrajectory
 from core.trial import TrialParameters
 from device.loop.pipeline import PHASE_APPROACH, PHASE_EXERCISE, PHASE_HOLD
 from ui.views.patient_game import RESULT_SHOWN_S, GameFeed, GameFrame
@@ -61,6 +62,18 @@ CUE_READY = "Get ready"
 CUE_GO = "Go!"
 CUE_DONE = "Well done!"
 CUE_STOPPED = "Stopped"
+TASK_WORDS = {
+    "ready": "Get ready to push", "push": "Push! Up to the line", "rest": "Relax",
+    "centre": "Relax your arm: the robot moves your hand",
+    "out": "Relax your arm: the robot moves your hand",
+    "there": "Relax your arm: the robot moves your hand",
+    "back": "Relax your arm: the robot moves your hand",
+    "settle": "Relax your arm: the robot moves your hand",
+    "match": "Move your hand to where it was, then hold still",
+    "home": "Bring your hand back to the middle",
+}
+"""What the patient's screen says in each phase of a task the robot leads (core.holdtasks;
+the protocol's words for the patient, core.assessment.protocol)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -125,6 +138,8 @@ class Scene:
     extent_m: tuple[float, float, float, float]
     game: GameLayout | None = None
     """The game's layout (core.games.game_layout) when the trial is a game."""
+    task: TaskTrajectory | None = None
+    """The timetable of a task the robot leads (core.holdtasks), else None."""
 
     @classmethod
     def of(cls, parameters: TrialParameters) -> Scene:
@@ -149,8 +164,9 @@ class Scene:
             pad = max(pad, 1.5 * game.channel_half_width_m)
             if game.game == "reach":
                 radius = parameters.target_radius_m
+        task = parameters.trajectory() if parameters.assessment in ROBOT_TASKS else None
         return cls(parameters, points, targets, radius, (float(points[0, 0]),
-                   float(points[0, 1])), padded_extent(shown, pad), game)
+                   float(points[0, 1])), padded_extent(shown, pad), game, task)
 
 
 @dataclass(frozen=True, slots=True)
@@ -179,6 +195,11 @@ class PatientFrame:
     game: GameFrame | None = None
     exercise_started_s: float = field(default=math.nan)
     """The time (trial clock, s) of the exercise's first sample, NaN before it."""
+    blank: bool = False
+    """A task the robot leads: the table shows nothing of the layout, the hand or the
+    reference (position sense with the screen blank; strength, which shows the push)."""
+    push: tuple[float, float, float] | None = None
+    """Strength: (the push's direction, rad; the line, N; the force along it now, N)."""
 
     @property
     def message(self) -> str:
@@ -225,6 +246,8 @@ def frame_at(view: TrialView, scene: Scene, options: PatientOptions,
     i = view.current_index
     p = scene.parameters
     planned = p.duration_s * p.repetitions
+    if scene.task is not None:
+        planned = scene.task.total_duration_s
     if i < 0:
         return waiting_frame(scene)
     phase = int(view.column("phase")[0, i])
@@ -280,10 +303,47 @@ def frame_at(view: TrialView, scene: Scene, options: PatientOptions,
                                     t0 + (repetition - 1) * p.duration_s)
             result = f"Round {repetition - 1} done!" + (f" {quality}" if quality else "")
             success = True
+    if scene.task is not None:
+        return _task_frame(view, scene, i, cue, cursor, started, phase, elapsed, left, t0)
     return PatientFrame(cue, cue == CUE_GO, cursor, target, active, repetition,
                         p.repetitions, left, previous_path_m=previous, numbers=numbers,
                         sample=i, result=result, success=success, game=played,
                         exercise_started_s=t0)
+
+
+def _task_frame(view: TrialView, scene: Scene, i: int, cue: str, cursor, started: bool,
+                phase: int, elapsed: float, left: float, t0: float) -> PatientFrame:
+    """The screen in a task the robot leads (core.holdtasks), from the stretch of its
+    timetable the exercise's clock is in: its words (TASK_WORDS), the round, and either
+    nothing on the table (position sense while the screen is blank) or the push's arrow
+    with its line and the force along it (strength). Before and after the exercise, and on
+    a fault, the usual cues."""
+    task = scene.task
+    rounds = scene.parameters.repetitions
+    if not (started and phase == PHASE_EXERCISE) or cue == CUE_STOPPED:
+        hidden = task.task == "strength" or (started and phase == PHASE_EXERCISE)
+        return PatientFrame(cue, False, None if hidden else cursor, None, -1,
+                            rounds if phase == PHASE_HOLD else 0, rounds, left, sample=i,
+                            exercise_started_s=t0, blank=hidden)
+    starts = [s.start_s for s in task.stretches]
+    k = max(0, min(len(starts) - 1, int(np.searchsorted(starts, elapsed, side="right")) - 1))
+    stretch = task.stretches[k]
+    values = dict(stretch.values)
+    push = None
+    if task.task == "strength":
+        blank = True
+        if stretch.phase in ("ready", "push"):
+            force = view.column("force")[:, i]
+            u = np.asarray(stretch.push if stretch.phase == "push" else (
+                math.cos(values["direction_rad"]), math.sin(values["direction_rad"])))
+            along = float(force @ u) if np.isfinite(force).all() else 0.0
+            push = (float(values["direction_rad"]), float(values["line_N"]),
+                    along if stretch.phase == "push" else 0.0)
+    else:
+        blank = bool(values.get("blank", False))
+    return PatientFrame(TASK_WORDS.get(stretch.phase, ""), False, None if blank else cursor,
+                        None, -1, int(values.get("round", 0)) + 1, rounds, left, sample=i,
+                        exercise_started_s=t0, blank=blank, push=push)
 
 
 def round_quality(view: TrialView, parameters: TrialParameters, start_s: float,

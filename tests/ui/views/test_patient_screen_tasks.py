@@ -1,0 +1,95 @@
+"""The patient's screen in the tasks the robot leads (ui.views.patient_screen): position
+sense keeps the table blank (no layout, no hand, no target) while the robot moves the hand
+and while the patient matches; strength shows only the push's arrow with its line and the
+force pushed along it; each phase says its words, on records made to order."""
+
+import math
+
+import numpy as np
+import pytest
+
+from core.assessment.protocol import protocol
+from core.trial import THESIS_SUBJECT
+from device.loop.pipeline import PERIOD_S, PHASE_APPROACH, PHASE_EXERCISE, PHASE_HOLD
+from device.recording.record import RECORD_DTYPE
+from ui.views.patient_screen import TASK_WORDS, PatientOptions, Scene, frame_at
+from ui.views.trialview import VIEW_CHANNELS, TrialView
+
+APPROACH, HOLD = 100, 100
+STRENGTH = protocol("strength").parameters(THESIS_SUBJECT).replace(n_targets=2)
+POSITION = protocol("position").parameters(THESIS_SUBJECT).replace(n_targets=2,
+                                                                   repetitions=1)
+
+
+def records(params, push_N=0.0):
+    """A trial's records on the task's timetable: the hand where the reference is, 2 cm
+    off in the matches, pushing `push_N` along each push."""
+    trajectory = params.trajectory()
+    exercise = round(trajectory.total_duration_s / PERIOD_S)
+    n = APPROACH + exercise + HOLD
+    dtype = np.dtype([(c, RECORD_DTYPE.fields[c][0]) for c in VIEW_CHANNELS])
+    r = np.zeros(n, dtype=dtype)
+    r["time"] = np.arange(n) * PERIOD_S
+    r["phase"][:APPROACH] = PHASE_APPROACH
+    r["phase"][APPROACH:APPROACH + exercise] = PHASE_EXERCISE
+    r["phase"][APPROACH + exercise:] = PHASE_HOLD
+    t_ex = np.clip(r["time"] - APPROACH * PERIOD_S, 0.0, None)
+    sample = trajectory.sample(t_ex)
+    r["position_desired"] = sample.position_m
+    r["direction_desired"] = sample.direction
+    r["position"] = sample.position_m
+    r["force"] = push_N * sample.direction
+    return r
+
+
+def frame(params, r, t_exercise_s):
+    i = APPROACH + round(t_exercise_s / PERIOD_S)
+    view = TrialView(params)
+    view.append(r[:i + 1])
+    return frame_at(view, Scene.of(params), PatientOptions())
+
+
+def test_position_sense_keeps_the_table_blank_and_says_each_phase():
+    r = records(POSITION)
+    stretches = POSITION.trajectory().stretches
+    for k, stretch in enumerate(stretches):
+        f = frame(POSITION, r, 0.5 * (stretch.start_s + stretch.stop_s))
+        assert f.cue == TASK_WORDS[stretch.phase]
+        assert f.repetition == 1
+        last_home = k == len(stretches) - 1
+        assert f.blank is not last_home
+        if f.blank:
+            assert f.cursor_m is None
+            assert f.target_m is None
+            assert f.active_target == -1
+    # before the exercise the hand is shown on its way to the start
+    view = TrialView(POSITION)
+    view.append(r[:APPROACH // 2])
+    before = frame_at(view, Scene.of(POSITION), PatientOptions())
+    assert not before.blank
+    assert before.cursor_m is not None
+
+
+def test_strength_shows_the_push_with_its_line_and_the_force_along_it():
+    r = records(STRENGTH, push_N=3.0)
+    for stretch in STRENGTH.trajectory().stretches:
+        f = frame(STRENGTH, r, 0.5 * (stretch.start_s + stretch.stop_s))
+        values = dict(stretch.values)
+        assert f.cue == TASK_WORDS[stretch.phase]
+        assert f.blank
+        assert f.cursor_m is None
+        if stretch.phase == "rest":
+            assert f.push is None
+            continue
+        angle, line, force = f.push
+        assert angle == values["direction_rad"]
+        assert line == values["line_N"]
+        assert force == pytest.approx(3.0 if stretch.phase == "push" else 0.0)
+
+
+def test_a_task_s_time_left_is_its_timetable_s():
+    r = records(STRENGTH)
+    total = STRENGTH.trajectory().total_duration_s
+    f = frame(STRENGTH, r, 10.0)
+    assert f.time_left_s == pytest.approx(total - 10.0, abs=PERIOD_S)
+    assert math.isfinite(f.exercise_started_s)
