@@ -27,7 +27,15 @@ def _set(document: dict, path: str, value) -> dict:
     return document
 
 
-_DELETE = object()
+class _Deleted:
+    """The mark of a key taken out; its repr names the tests the same in every process
+    (pytest-xdist's workers must collect the same ids: an object()'s address differed)."""
+
+    def __repr__(self) -> str:
+        return "<deleted>"
+
+
+_DELETE = _Deleted()
 RT = "figures/vgr_reaction_time_s"
 
 MALFORMED = [
