@@ -2,7 +2,8 @@
 the note): every task's trials (core.assessment.protocol) for each virtual patient, run as
 `rehab assess run CODE --task all` runs them (app.assessments.runner.run_battery, into a
 scratch folder), with the simulated time, the wall time and the speed per task, and the
-task figures of each patient side by side.
+task figures of each patient side by side, with their Z-scores and task scores against the
+shipped simulated norms (resources/norms/simulated.json) when they exist.
 
     .venv/bin/python bench/assessment.py [--patients healthy weak passive] [--seed 3]
 
@@ -23,6 +24,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--patients", nargs="+", default=["healthy", "weak", "passive"])
     parser.add_argument("--seed", type=int, default=3)
+    parser.add_argument("--age", type=float, default=60.0,
+                        help="the age the Z-scores are for (default 60)")
     args = parser.parse_args()
 
     from app.assessments.runner import run_battery
@@ -49,7 +52,12 @@ def main() -> None:
                   f"({sim / took:5.0f}×), {status}")
             for trial in trials:
                 figures.setdefault(kind, {}).update(trial.figures)
-    print("\nfigure" + "".join(f"{k:>12s}" for k in args.patients))
+    norms, person = _norms(args.age)
+    if norms is not None:
+        print(f"\nZ-scores: {norms.label}; a {args.age:g}-year-old right-handed woman, right "
+              "arm, simulator-realistic")
+    print("\nfigure" + "".join(f"{k:>12s}" for k in args.patients)
+          + ("".join(f"{'Z ' + k:>14s}" for k in args.patients) if norms else ""))
     for task in TASKS:
         for spec in task_figures(task):
             values = [figures.get(k, {}).get(spec.key) for k in args.patients]
@@ -57,7 +65,45 @@ def main() -> None:
                 continue
             cells = "".join(f"{'—' if v is None or not math.isfinite(v) else f'{v:.4g}':>12s}"
                             for v in values)
+            if norms is not None:
+                cells += "".join(f"{_z(norms, spec.key, v, person):>14s}" for v in values)
             print(f"{spec.key:36s}{cells}")
+        if norms is not None:
+            scores = [_score(norms, task, figures.get(k, {}), person) for k in args.patients]
+            print(f"{'task score ' + task:36s}{'':>{12 * len(args.patients)}s}"
+                  + "".join(f"{s:>14s}" for s in scores))
+
+
+def _norms(age: float):
+    """The shipped simulated norms (app.norms.in_use.SHIPPED) and the bench's person, or
+    (None, None) when they are not there."""
+    from app.norms import Covariates, load_norms
+    from app.norms.in_use import SHIPPED
+
+    if not SHIPPED.is_file():
+        return None, None
+    return load_norms(SHIPPED), Covariates(age, "female", "right", "right",
+                                           "simulator-realistic")
+
+
+def _z(norms, key: str, value, person) -> str:
+    from app.norms import NormsError
+
+    if value is None or key not in norms.figures:
+        return "—"
+    try:
+        return f"{norms.z(key, value, person).z:+.2f}"
+    except NormsError:
+        return "n/a"
+
+
+def _score(norms, task: str, metrics: dict, person) -> str:
+    from app.norms import NormsError
+
+    try:
+        return f"{norms.task_score(task, metrics, person).score:.2f}"
+    except NormsError:
+        return "n/a"
 
 
 if __name__ == "__main__":

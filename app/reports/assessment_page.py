@@ -161,12 +161,13 @@ def write_assessment_pdf(path: str | os.PathLike, pages: Sequence[AssessmentPage
     better), the task score and the norms' source under them."""
     from app.reports.pdf_file import write_pdf
 
-    return write_pdf(path, lambda: [_figure(page) for page in pages],
+    return write_pdf(path, lambda: [page_figure(page) for page in pages],
                      {"Title": "Assessment: " + ", ".join(p.title for p in pages)},
                      "the assessment report", overwrite=overwrite)
 
 
-def _figure(page: AssessmentPage):
+def page_figure(page: AssessmentPage):
+    """The page drawn as one A4 matplotlib figure (the PDF's page)."""
     from matplotlib.figure import Figure
 
     figure = Figure(figsize=(8.27, 11.69))  # A4
@@ -195,7 +196,7 @@ def figure_value(value: float, unit: str) -> str:
     """A figure's value with its unit as reports print it (SI; a count whole, a ratio bare)."""
     if not math.isfinite(value):
         return "not defined"
-    if unit == "count":
-        return f"{value:.0f}"
+    if unit == "count":  # a count, or a mean of counts over the reaches
+        return f"{value:.0f}" if float(value).is_integer() else f"{value:.3g}"
     text = f"{value:.4g}"
     return text if unit == "1" else f"{text} {unit}"

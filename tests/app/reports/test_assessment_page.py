@@ -23,7 +23,8 @@ from tests.app.norms.handmade import handmade
 PERSON = Covariates(age_years=60, sex="male", handedness="right", tested_side="left",
                     robot="simulator-realistic")
 METRICS = {"vgr_reaction_time_s": 0.49, "vgr_max_speed_m_s": 0.3, "vgr_sparc": -1.6,
-           "vgr_no_reaction_count": 2.0, "vgr_movement_time_s": math.nan, "rmse_m": 0.01}
+           "vgr_no_reaction_count": 2.0, "vgr_speed_maxima_count": 1.6875,
+           "vgr_movement_time_s": math.nan, "rmse_m": 0.01}
 
 
 @pytest.fixture
@@ -41,6 +42,7 @@ def test_the_figures_in_the_catalogues_order_with_their_units():
     values = {line.key: line.value for line in page.lines}
     assert values["vgr_reaction_time_s"] == "0.49 s"
     assert values["vgr_no_reaction_count"] == "2"
+    assert values["vgr_speed_maxima_count"] == "1.69"  # a mean over the reaches
     assert values["vgr_movement_time_s"] == "not defined"
     assert page.norms == NO_NORMS
     assert all(line.z is None for line in page.lines)
