@@ -128,6 +128,9 @@ def patient_page(registry, code: str, task: str) -> AssessmentPage | None:
     heading = (f"Patient {code}, session {trial.session_number} ({trial.session_date}), "
                f"trial {trial.number}, {trial.status.replace('_', ' ')}, "
                f"{trial.backend or 'robot not recorded'}")
+    metrics = dict(trial.metrics)
+    if task == "circle":
+        metrics, heading = _both_circles(trials, metrics, heading)
     notes: list[str] = []
     try:
         norms = norms_in_use(registry.data_dir)
@@ -141,8 +144,29 @@ def patient_page(registry, code: str, task: str) -> AssessmentPage | None:
             summary, notes = {}, [*notes, f"the trial's file cannot be read: {exc}"]
         person = covariates(registry.patient(code), trial.session_date, trial.backend or "",
                             summary)
-    page = assessment_page(task, trial.metrics, heading=heading, norms=norms, person=person)
+    page = assessment_page(task, metrics, heading=heading, norms=norms, person=person)
     return replace(page, notes=(*page.notes, *notes))
+
+
+def _both_circles(trials, metrics: dict, heading: str) -> tuple[dict, str]:
+    """The circle task's figures from the latest clockwise and counter-clockwise trials
+    (app.assessments.figures.circle_task) when the latest trial lacks them (trials run one
+    at a time in the window), with both trials named."""
+    from app.assessments.figures import circle_task
+
+    if "circle_ratio" in metrics:
+        return metrics, heading
+    latest = {}
+    for trial in trials:
+        latest[bool(trial.parameters.get("clockwise", True))] = trial
+    if len(latest) < 2:
+        return metrics, heading + " (one way round only: no task figures yet)"
+    try:
+        both = circle_task(latest[True].metrics, latest[False].metrics)
+    except KeyError:  # a trial without its figures (a fault before its circle)
+        return metrics, heading
+    return ({**metrics, **both}, heading + f"; the task's figures with trial "
+            f"{latest[not trials[-1].parameters.get('clockwise', True)].number}")
 
 
 def page_text(page: AssessmentPage) -> list[str]:

@@ -93,3 +93,35 @@ def test_the_pdf_is_written(tmp_path, norms):
                            person=PERSON)
     path = write_assessment_pdf(tmp_path / "assessment.pdf", [page])
     assert path.read_bytes().startswith(b"%PDF")
+
+
+def test_the_circle_page_joins_the_latest_trial_each_way_round(tmp_path):
+    from app.records.datadir import DataDir
+    from app.records.registry import Registry
+    from app.reports.assessment_page import patient_page
+    from core.assessment.figures import CIRCLE_BASE_KEYS, circle_key
+    from core.assessment.protocol import protocol
+    from core.trial import TrialParameters
+
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("Ada", "Circle", side="right").code
+    assert patient_page(registry, code, "circle") is None
+
+    def circle(index, value):
+        trial = protocol("circle").parameters(TrialParameters(), index)
+        way = "cw" if trial.clockwise else "ccw"
+        begun = registry.begin_trial(code, trial, backend="simulator (healthy, seed 1)")
+        registry.finish_trial(begun.trial_id, "complete",
+                              {circle_key(b, way): value for b in CIRCLE_BASE_KEYS})
+
+    circle(0, 0.8)
+    page = patient_page(registry, code, "circle")
+    assert "one way round only" in page.heading
+    assert {line.key for line in page.lines} == {circle_key(b, "cw") for b in CIRCLE_BASE_KEYS}
+    circle(1, 0.6)
+    page = patient_page(registry, code, "circle")
+    values = {line.key: line.value for line in page.lines}
+    assert values["circle_ratio"] == "0.7"  # the mean of the two ways
+    assert values["circle_ratio_cw"] == "0.8"
+    assert values["circle_ratio_ccw"] == "0.6"
+    assert "with trial 1" in page.heading
