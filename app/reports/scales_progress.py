@@ -43,12 +43,12 @@ class Correlation:
     def text(self) -> str:
         if not math.isfinite(self.pearson_r):
             return f"n = {self.n}: too few points (or no variation) for a correlation"
-        return (f"Pearson r = {self.pearson_r:.2f} (p = {_p(self.pearson_p)}), Spearman "
-                f"ρ = {self.spearman_rho:.2f} (p = {_p(self.spearman_p)}), n = {self.n}")
+        return (f"Pearson r = {self.pearson_r:.2f} ({_p(self.pearson_p)}), Spearman "
+                f"ρ = {self.spearman_rho:.2f} ({_p(self.spearman_p)}), n = {self.n}")
 
 
 def _p(p: float) -> str:
-    return "n/a" if not math.isfinite(p) else ("< 0.001" if p < 0.001 else f"{p:.3f}")
+    return "p n/a" if not math.isfinite(p) else ("p < 0.001" if p < 0.001 else f"p = {p:.3f}")
 
 
 def correlation(x, y) -> Correlation:
@@ -59,8 +59,28 @@ def correlation(x, y) -> Correlation:
         return Correlation(n, math.nan, math.nan, math.nan, math.nan)
     pearson = stats.pearsonr(x, y)
     spearman = stats.spearmanr(x, y)
-    return Correlation(n, float(pearson.statistic), float(pearson.pvalue),
-                       float(spearman.statistic), float(spearman.pvalue))
+    rho = float(spearman.statistic)
+    p = _exact_spearman_p(x, y, rho) if n <= EXACT_MAX_N else float(spearman.pvalue)
+    return Correlation(n, float(pearson.statistic), float(pearson.pvalue), rho, p)
+
+
+EXACT_MAX_N = 8
+"""Up to this many points Spearman's p is exact (every order of the scale's values, 8! =
+40 320): scipy's t approximation gives p = 0 for rho = ±1 at any n, where 4 sessions in
+order have p = 2/4! = 0.083."""
+
+
+def _exact_spearman_p(x: np.ndarray, y: np.ndarray, rho: float) -> float:
+    """The two-sided permutation p of Spearman's rho: the share of the orders of y whose
+    |rho| reaches the observed one (ties kept as average ranks)."""
+    rx = stats.rankdata(x)
+    ry = stats.rankdata(y)
+    orders = np.array(list(itertools.permutations(range(x.size))))
+    permuted = ry[orders]
+    dx = rx - rx.mean()
+    dy = permuted - permuted.mean(axis=1, keepdims=True)
+    rhos = (dy @ dx) / np.sqrt((dx @ dx) * (dy * dy).sum(axis=1))
+    return float(np.mean(np.abs(rhos) >= abs(rho) - 1e-12))
 
 
 def _varies(values: np.ndarray) -> bool:
@@ -204,7 +224,7 @@ def _scale_value(scales: dict, key: str) -> float | None:
 def _mark_real_changes(points: list[SessionPoint], key: str, norms
                        ) -> tuple[list[SessionPoint], str]:
     if norms is None:
-        return points, "no norms in use: no change is marked real"
+        return points, "No norms in use: no change is marked real."
     from app.norms import NormsError
 
     try:
@@ -231,16 +251,28 @@ def mdc_text(series: ScaleSeries, norms) -> str:
     return f"{said}; {norms.label}"
 
 
+DERIVED = {"rmse": ("rmse_x_m", "rmse_y_m")}
+"""A success figure the registry does not store, and the stored figures it is made of."""
+
+
 def report_series(registry: RecordStore, progress, *, include_invalid: bool = False,
                   norms=None) -> tuple[ScaleSeries, ...]:
     """What a progress report sets against the scales: each exercise's success figure
-    (app.reports.progress.Exercise.success_key, once each) against each scale total
-    recorded (Fugl-Meyer, ARAT, pain, fatigue), where they share sessions."""
+    (app.reports.progress.Exercise.success_key, once each; for the transparent mode's
+    combined RMSE its two axes') against each scale total recorded (Fugl-Meyer, ARAT,
+    pain, fatigue), where they share sessions."""
     from app.records.scales import SCALE_MAXIMA
 
     totals = [k for k in scale_keys(registry, progress.patient_code) if k in SCALE_MAXIMA]
+    stored = set(figure_keys(registry, progress.patient_code, include_invalid=include_invalid))
+    wanted: dict[str, None] = {}
+    for exercise in progress.exercises:
+        # the transparent mode's headline, the two axes' RMSE combined, is not stored: its
+        # two stored figures stand for it
+        key = exercise.success_key
+        wanted.update(dict.fromkeys(DERIVED.get(key, (key,))))
     out = []
-    for key in dict.fromkeys(e.success_key for e in progress.exercises):
+    for key in (k for k in wanted if k in stored):
         for scale in totals:
             series = scale_series(registry, progress.patient_code, key, scale,
                                   include_invalid=include_invalid, norms=norms)

@@ -31,6 +31,7 @@ from app.records.scales import (
 from app.records.store import RecordStore
 from app.reports.pdf_file import write_pdf
 from app.reports.pdf_sheet import BOTTOM_IN, GREY, LEFT_IN, PAGE_IN, VERMILLION, Sheet, fit
+from app.reports.plain_language import SHAPE_NAMES
 
 log = logging.getLogger(__name__)
 
@@ -70,8 +71,8 @@ class SessionContent:
     problems: tuple[str, ...] = field(default=())
 
 
-TRIAL_COLUMNS = (("Trial", 0.45), ("Started (UTC)", 1.0), ("Status", 1.0),
-                 ("Exercise or task", 2.2), ("Validity", 2.6))
+TRIAL_COLUMNS = (("Trial", 0.45), ("Started (UTC)", 1.25), ("Status", 0.95),
+                 ("Exercise or task", 1.9), ("Validity", 2.5))
 
 
 def scale_text(entry) -> str:
@@ -94,6 +95,8 @@ def session_content(registry: RecordStore, code: str, number: int, *, norms=None
                     ) -> SessionContent:
     """Everything the session's report says, from the registry (and the norms given, an
     app.norms.NormativeModel, or None: then no Z-score is printed and the report says so)."""
+    from core.assessment import TASK_TITLES
+
     session = registry.session(code, number)
     patient = registry.patient(code)
     invalid = registry.invalid_trials(code)
@@ -102,8 +105,9 @@ def session_content(registry: RecordStore, code: str, number: int, *, norms=None
     for t in trials:
         p = t.parameters
         task = p.get("assessment") or ""
-        what = (f"assessment: {task}" if task else
-                f"{p.get('shape', '?')}, {p.get('assist', 'thesis')}")
+        what = (f"assessment: {TASK_TITLES.get(task, task)}" if task else
+                f"{SHAPE_NAMES.get(p.get('shape'), p.get('shape', '?'))}, "
+                f"{p.get('assist', 'thesis')}")
         mark = invalid.get(t.id)
         validity = f"INVALID: {mark.reason} ({mark.marked_by})" if mark else "valid"
         rows.append((str(t.number), t.started_at.strftime("%Y-%m-%d %H:%M"),
@@ -161,8 +165,8 @@ def _assessment(registry, patient, session, trial, norms) -> Assessment:
     rows = []
     for key in keys:
         spec, value = FIGURES[key], trial.metrics[key]
-        shown = "–" if not math.isfinite(value) else f"{value:.3g} {spec.unit}".replace(
-            " 1", "").rstrip()
+        unit = "" if spec.unit == "1" else f" {spec.unit}"  # a ratio or score: none
+        shown = "–" if not math.isfinite(value) else f"{value:.3g}{unit}"
         z = ""
         if who is not None and math.isfinite(value):
             z, why = _z_text(norms, key, value, who)
@@ -314,7 +318,7 @@ def scales_pages(code: str, per_session: dict, series: tuple = ()) -> list[Figur
     for s in series:
         if not s.points:
             continue
-        flow.room(3.4)
+        flow.room(3.9)
         flow.heading(f"{s.figure_label} against {s.scale_label}")
         axes = flow.sheet.axes(2.4, x_in=LEFT_IN + 0.7, width_in=4.5)
         from app.reports.scales_progress import figure_display_scale

@@ -124,8 +124,7 @@ class ProgressTab(QWidget):
         self.scales_button.setCheckable(True)
         self.scales_button.setToolTip("A robot figure against the clinical scales, with "
                                       "their correlation, in the table's place")
-        self.scales_button.toggled.connect(
-            lambda on: self.lower.setCurrentIndex(1 if on else 0))
+        self.scales_button.toggled.connect(self._show_scales)
         top.addWidget(self.scales_button)
         top.addWidget(self.pdf_button)
         choices = QHBoxLayout()  # a row of their own: whole names at any font scale
@@ -212,6 +211,14 @@ class ProgressTab(QWidget):
 
         self.dose.setText("")
         self.dose_worker.submit(code, lambda: dose_lines(registry, code))
+
+    def _show_scales(self, on: bool) -> None:
+        """The scales panel in the table's place, with the plots' room too: a laptop's
+        height holds the scatter (the trial plots come back with the button)."""
+        self.lower.setCurrentIndex(1 if on else 0)
+        for plot in (self.plot, self.help_plot):
+            plot.setVisible(not on)
+        self.key.setVisible(not on)
 
     def refresh(self, *_) -> None:
         self.set_patient(self._code)

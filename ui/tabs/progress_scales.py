@@ -198,9 +198,11 @@ class ScalesPanel(QWidget):
                                             pen=pg.mkPen(REAL_COLOUR, width=2),
                                             brush=pg.mkBrush(None)))
         study = len({p.code for p in series.points}) > 1
+        right = float(x.max())
         for p, px, py in zip(series.points, x, y, strict=True):
+            # the label beside its point, towards the plot's inside (never cut at the edge)
             text = pg.TextItem(p.code if study else f"S{p.session_number}", color=theme.TEXT,
-                               anchor=(0.0, 1.0))
+                               anchor=(1.0 if px == right and x.size > 1 else 0.0, 1.0))
             text.setFont(theme.axis_font())
             text.setPos(float(px), float(py))
             item.addItem(text)

@@ -51,6 +51,9 @@ def test_correlations_equal_the_hand_computation():
     # ranks: x 1 3 2 4 5, y 1 3 2 5 4 -> d² = 0,0,0,1,1 -> rho = 1 - 6·2/(5·24) = 0.9
     assert c.spearman_rho == pytest.approx(0.9, abs=1e-12)
     assert "n = 5" in c.text()
+    # exact: of the 120 orders of y, those with |rho| >= 0.9 (rho = ±1: 2, ±0.9: 8)
+    assert c.spearman_p == pytest.approx(10 / 120)
+    assert correlation([1, 2, 3, 4], [10, 20, 30, 40]).spearman_p == pytest.approx(2 / 24)
     assert math.isnan(correlation([1, 2], [3, 4]).pearson_r)
     assert math.isnan(correlation([1, 1, 1], [3, 4, 5]).spearman_rho)
 
@@ -104,7 +107,7 @@ def test_a_patients_sessions_figure_against_the_scale(registry):
     x, y = [0.55, 0.40, 0.32], [20, 30, 44]
     assert series.correlation.pearson_r == pytest.approx(pearson_by_hand(x, y))
     assert series.correlation.spearman_rho == pytest.approx(-1.0)
-    assert series.mdc_note == "no norms in use: no change is marked real"
+    assert series.mdc_note == "No norms in use: no change is marked real."
     every = scale_series(registry, code, RT, "fugl_meyer", include_invalid=True)
     assert every.points[1].figure == pytest.approx(0.65)
 
