@@ -114,11 +114,13 @@ def earlier_like(registry: RecordStore, record: Trial) -> tuple[Trial | None, Tr
     shape in the same assistance mode, and the latest such trial of an earlier session
     (content says which shape; the comparison says when the rest of the settings
     differ). A trial of the other mode is another exercise: its success figure is
-    another one (app.reports.plain_language.SUCCESS_KEYS)."""
+    another one (app.reports.plain_language.SUCCESS_KEYS). A trial marked invalid is
+    never the one compared with (schema v8)."""
     order = (record.session_number, record.number)
+    invalid = registry.invalid_trials(record.patient_code)
 
     def like(other: Trial) -> bool:
-        return (other.status == "complete"
+        return (other.status == "complete" and other.id not in invalid
                 and (other.session_number, other.number) < order
                 and other.parameters.get("shape") == record.parameters.get("shape")
                 and _mode(other) == _mode(record))

@@ -38,3 +38,20 @@ def test_an_invalid_trial_leaves_progress_and_comes_back_when_asked(tmp_path, ca
 
     registry.mark_trial(ids[1], valid=True, reason="replayed: fine", by="K. Lee")
     assert [t.id for t in progress(registry, code, check_files=False).trials] == ids
+
+
+def test_a_trials_report_never_compares_with_a_trial_marked_invalid(tmp_path):
+    from app.reports.build import earlier_like
+
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("Ada", "Example").code
+    ids = []
+    for session in (1, 2, 2):
+        begun = registry.begin_trial(code, THESIS_SUBJECT, backend="simulator",
+                                     session_number=session)
+        registry.finish_trial(begun.trial_id, "complete", {"rmse_x_m": 0.01})
+        ids.append(begun.trial_id)
+    latest = registry.trial(ids[2])
+    assert [t.id for t in earlier_like(registry, latest)] == [ids[1], ids[0]]
+    registry.mark_trial(ids[1], valid=False, reason="the robot was bumped", by="K. Lee")
+    assert [t.id for t in earlier_like(registry, latest)] == [ids[0], ids[0]]
