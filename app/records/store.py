@@ -10,8 +10,9 @@ store keeps the registry's contract: the same records (`Patient`, `Session`,
 cannot both take, and trial files under its `data_dir`.
 
 The registry's other calls (changing a patient or session, opening a session by
-hand, recomputed metrics, backup and integrity checks, the schema version) are
-for maintenance and tests, and stay the registry's own.
+hand, backup and integrity checks, the schema version) are for maintenance and tests,
+and stay the registry's own. Recomputed metrics (`update_metrics`) are the interface's:
+an assessment's figures join its trial's metrics (app.assessments.runner).
 
 Code that receives a store types it `RecordStore`; code that opens one (the
 command line, the window's start-up) makes a `Registry`.
@@ -105,6 +106,9 @@ class RecordStore(Protocol):
         assistance: AssistanceInEffect | None = None,
         backend: str | None = None,
     ) -> Trial: ...
+
+    def update_metrics(self, trial_id: int, metrics: Mapping[str, float], *,
+                       replace: bool = False) -> Trial: ...
 
     def trial(self, trial_id: int) -> Trial: ...
 
