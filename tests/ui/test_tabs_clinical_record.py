@@ -70,6 +70,15 @@ def test_a_therapist_keeps_the_clinical_record_from_the_window(qtbot, tab, regis
     type_into(qtbot, record.note, "tired after the first trial")
     click(qtbot, record.note_button)
     assert registry.notes(patient.code)[0].text == "tired after the first trial"
+    record.trial.setCurrentIndex(0)
+    record.note_on_trial.setChecked(True)
+    type_into(qtbot, record.note, "coughed at 12 s")
+    click(qtbot, record.note_button)
+    first = registry.trials(patient.code, 1)[0].id
+    assert [(n.text, n.trial_id) for n in registry.notes(patient.code)] == [
+        ("tired after the first trial", None), ("coughed at 12 s", first)]
+    assert "Note kept for trial 1 of session 1" in record.outcome.text()
+    record.note_on_trial.setChecked(False)
 
     assert record.trial.count() == 2
     record.trial.setCurrentIndex(1)
@@ -97,4 +106,4 @@ def test_a_therapist_keeps_the_clinical_record_from_the_window(qtbot, tab, regis
     type_into(qtbot, record.note, "no author")
     click(qtbot, record.note_button)
     assert "author: give the name" in record.outcome.text()
-    assert len(registry.notes(patient.code)) == 1
+    assert len(registry.notes(patient.code)) == 2

@@ -1,6 +1,6 @@
 """The Registration tab's clinical record of the chosen patient (schema v8, issue 31): a
-session's clinical scales, a note on the session, a trial of it marked invalid or valid
-again, and a correction of the patient's recorded fields, each saying who records it
+session's clinical scales, a note on the session or one of its trials, a trial of it
+marked invalid or valid again, and a correction of the patient's recorded fields, each saying who records it
 (the registry adds when). What the registry refuses is shown in one line under the box;
 nothing is stored then. The scores are typed as on the command line (app.records.typed):
 a total, or KEY=VALUE scores.
@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from PySide6.QtCore import Signal
 from PySide6.QtWidgets import (
+    QCheckBox,
     QFormLayout,
     QGroupBox,
     QHBoxLayout,
@@ -69,10 +70,14 @@ class ClinicalRecord(QGroupBox):
         self.note = QLineEdit()
         self.note.setPlaceholderText("a note on this session")
         self.note.setAccessibleName("Note")
+        self.note_on_trial = QCheckBox("on the trial below")
+        self.note_on_trial.setToolTip("The note is on the trial chosen under it, not on the "
+                                      "whole session")
         self.note_button = QPushButton("Add note")
         self.note_button.clicked.connect(self.add_note)
         note_row = QHBoxLayout()
         note_row.addWidget(self.note, 1)
+        note_row.addWidget(self.note_on_trial)
         note_row.addWidget(self.note_button)
 
         self.trial = ComboBox()
@@ -148,10 +153,17 @@ class ClinicalRecord(QGroupBox):
 
     def add_note(self) -> None:
         def do():
+            trial_id = self.trial.currentData() if self.note_on_trial.isChecked() else None
+            if self.note_on_trial.isChecked() and trial_id is None:
+                raise RegistryError(f"session {self.session.value()} has no finished trial "
+                                    "to write the note on")
             note = self.registry.add_note(self._patient.code, self.session.value(),
-                                          self.note.text(), author=self.by.text())
+                                          self.note.text(), author=self.by.text(),
+                                          trial_id=trial_id)
             self.note.clear()
-            return f"Note kept for session {note.session_number}."
+            where = (f"trial {self.trial.currentText()} of session {note.session_number}"
+                     if trial_id else f"session {note.session_number}")
+            return f"Note kept for {where}."
         self._act(do)
 
     def mark(self, valid: bool) -> None:
