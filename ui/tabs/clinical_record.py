@@ -1,9 +1,9 @@
 """The Registration tab's clinical record of the chosen patient (schema v8, issue 31): a
 session's clinical scales, a note on the session or one of its trials, a trial of it
-marked invalid or valid again, and a correction of the patient's recorded fields, each saying who records it
-(the registry adds when). What the registry refuses is shown in one line under the box;
-nothing is stored then. The scores are typed as on the command line (app.records.typed):
-a total, or KEY=VALUE scores.
+marked invalid or valid again, and a correction of the patient's recorded fields, each
+saying who records it (the registry adds when). What the registry refuses is shown in one
+line under the box; nothing is stored then. The scores are typed as on the command line
+(app.records.typed): a total, or KEY=VALUE scores.
 """
 
 from __future__ import annotations
