@@ -46,13 +46,19 @@ core.control.transparent). The task trial's mode is `transparent`, and the pipel
 exercise vector carries the held stretches as windows of exercise ticks (`HC_*`, after the
 transparent mode's `TC_*`); `held_at` says whether an exercise tick is in one, and whether
 it is the first tick of one, where the hold's integral starts again from zero (what it
-held in the last stretch is no push of this one).
+held in the last stretch is no push of this one) and the robot takes the hand over from
+wherever the patient left it: the reference starts at the hand and glides to the task's
+by minimum jerk over TAKEOVER_S (`taken_over`). On the realistic plant a weak patient's
+hand came home from a match a few millimetres off the centre and the hold jumped at it
+with a drive at its 2.21 N·m limit for 24 ms; with the take-over the largest torque there
+is under 0.9 N·m (tests/device/test_hold_loop.py).
 """
 
 from __future__ import annotations
 
 import math
 
+from core.control.ctpid import I_SIZE
 from core.control.transparent import TC_SIZE
 from core.kernels import kernel
 
@@ -70,6 +76,13 @@ direction (module notes)."""
 HC_ON, HC_COUNT, HC_WINDOWS = TC_SIZE, TC_SIZE + 1, TC_SIZE + 2
 OFF = (0.0, 0.0)
 """The hold's part of a trial the robot does not lead."""
+TAKEOVER_S = 0.5
+"""How long the robot takes to bring its reference from where the patient left the hand to
+the task's point when it takes the hand over (`taken_over`)."""
+# The take-over's state, after the controller's integral (core.control.ctpid I_*) in the
+# pipeline's integral vector: the hand's offset from the reference at the take-over (rad,
+# per joint) and the exercise tick it happened.
+HS_DQ1, HS_DQ2, HS_FROM, HS_SIZE = range(I_SIZE, I_SIZE + 4)
 
 
 def hold_constants(windows_ticks) -> list[float]:
@@ -92,6 +105,30 @@ def held_at(guide, exercise_tick):
         if first <= exercise_tick < stop:
             return True, exercise_tick == first
     return False, False
+
+
+@kernel
+def taken_over(z, first, tick, period_s, q1, q2, r1, r2, rd1, rd2, rdd1, rdd2):
+    """The joint reference (r, ṙ, r̈) of a held tick, eased in at a take-over: at a held
+    window's first tick the hand is wherever the patient left it (a match's way home ends
+    a few millimetres off the centre), and the reference starts there, its offset from the
+    task's fading to nothing by minimum jerk over TAKEOVER_S, so the robot does not jump at
+    the hand with its drives' full torque. The offset and its tick are kept in `z`
+    (HS_*)."""
+    if first:
+        z[HS_DQ1] = q1 - r1
+        z[HS_DQ2] = q2 - r2
+        z[HS_FROM] = tick
+    u = (tick - z[HS_FROM]) * period_s / TAKEOVER_S
+    if not 0.0 <= u < 1.0:
+        return r1, r2, rd1, rd2, rdd1, rdd2
+    share = 1.0 - u * u * u * (10.0 - 15.0 * u + 6.0 * u * u)
+    rate = -30.0 * u * u * (1.0 - u) * (1.0 - u) / TAKEOVER_S
+    accel = -60.0 * u * (1.0 - 3.0 * u + 2.0 * u * u) / (TAKEOVER_S * TAKEOVER_S)
+    d1 = z[HS_DQ1]
+    d2 = z[HS_DQ2]
+    return (r1 + d1 * share, r2 + d2 * share, rd1 + d1 * rate, rd2 + d2 * rate,
+            rdd1 + d1 * accel, rdd2 + d2 * accel)
 
 
 def hold_capacity_N(robot, q1: float, q2: float, angle_rad: float) -> float:

@@ -57,7 +57,7 @@ from core.control.guidance import (
     guidance_rows,
     state_size,
 )
-from core.control.hold import HC_ON, OFF as NOT_HELD, held_at, hold_constants
+from core.control.hold import HC_ON, HS_SIZE, OFF as NOT_HELD, held_at, hold_constants, taken_over
 from core.control.smc import SlidingModeController, smc_torques
 from core.control.transparent import OFF as NOT_TRANSPARENT, TC_ON, transparent_torques
 from core.errors import ParameterError
@@ -279,7 +279,7 @@ class TickPipeline:
             assist=self._make(self.assistance.constants),
             guide=self._make(guide),
             rates=self._make([0.0] * Z_SIZE),
-            integral=self._make([0.0] * I_SIZE),
+            integral=self._make([0.0] * HS_SIZE),
             guided=self._make(guided),
             last=self._make([0.0] * C_SIZE),
             rows=self._table(np.empty((0, 12))),
@@ -323,7 +323,7 @@ class TickPipeline:
         self.controller.reset()
         v = self.vectors
         v.rates[:] = self._make([q1, 0.0, 0.0, q2, 0.0, 0.0])
-        v.integral[:] = self._make([0.0] * I_SIZE)
+        v.integral[:] = self._make([0.0] * HS_SIZE)
         v.guided[:] = self._make([0.0] * len(v.guided))
         # no estimate of the patient's force carries over from a trial before
         self.set_force_estimate(math.nan, math.nan, -math.inf)
@@ -431,7 +431,7 @@ class TickPipeline:
     def reset_controller(self) -> None:
         """Forget the controller's integral (after a fault held the torque at zero)."""
         self.controller.reset()
-        self.vectors.integral[:] = self._make([0.0] * I_SIZE)
+        self.vectors.integral[:] = self._make([0.0] * HS_SIZE)
 
     # ------------------------------------------------------------------ per tick
     def control(self, k: int, reading: SensorReading) -> tuple[float, float]:
@@ -664,6 +664,7 @@ def control(kind, robot, model, tracker, gains, assist, guide, rates, integral, 
     # the force the assistance judges: the sensor's, or an estimate from EMG (chapter 5)
     px, py = judged_force(assist, tick, fx, fy)
     held = False
+    first = False
     if guide[HC_ON] != 0.0 and phase == PHASE_EXERCISE:
         held, first = held_at(guide, tick - approach_ticks)
         if first:
@@ -671,6 +672,11 @@ def control(kind, robot, model, tracker, gains, assist, guide, rates, integral, 
             for i in range(I_SIZE):
                 integral[i] = 0.0
     if held:
+        # from where the patient left the hand (core.control.hold.taken_over; the
+        # record's desired joint angles are the ones the controller tracked)
+        r1, r2, rd1, rd2, rdd1, rdd2 = taken_over(integral, first, tick - approach_ticks,
+                                                  period_s, q1, q2, r1, r2, rd1, rd2, rdd1,
+                                                  rdd2)
         # A task the robot leads (core.control.hold): the trial's controller holds the
         # hand on the task's reference with nothing taken off its torque; the cone test
         # says whether the push points the way asked.

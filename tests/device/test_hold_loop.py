@@ -137,6 +137,21 @@ def test_the_passive_moves_are_tracked_and_the_match_is_left_to_the_patient():
             assert np.hypot(*(records["position"][m] - CENTRE).T).max() < 0.005
 
 
+def test_the_robot_takes_the_hand_over_from_where_the_patient_left_it():
+    """After each match the weak patient's hand comes home a little off the centre; the
+    robot's reference starts there and glides to the centre (core.control.hold.
+    taken_over): no drive near its limit at the take-over (before, the hold jumped at the
+    hand with the full 2.21 N·m for 24 ms), and the hand at the centre by the move out."""
+    traj = position_trajectory(CENTRE, 0.10, 4, 4.0, 1)
+    records, outcome, pipeline = run(traj, "weak")
+    assert outcome.status == "complete"
+    limit = min(ROBOT.max_joint_torque_Nm)
+    for s in (x for x in traj.stretches if x.phase == "centre"):
+        m = within(records, pipeline, s)
+        assert np.abs(records["torque_commanded"][m]).max() < 0.5 * limit
+        assert np.hypot(*(records["position"][m][-1] - CENTRE)) < 0.001
+
+
 def test_the_task_events_fall_on_their_ticks():
     traj = position_trajectory(CENTRE, 0.10, 2, 4.0, 1)
     plan = TrialPlan(task_parameters("position", 2), ROBOT, PERIOD_S, traj)

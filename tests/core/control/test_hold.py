@@ -1,9 +1,11 @@
 """The hold (core.control.hold): what the drives can hold along a direction, by the
-statics τ = J_Rᵀ F; the held windows the pipeline's exercise vector carries."""
+statics τ = J_Rᵀ F; the held windows the pipeline's exercise vector carries; the take-over
+from where the patient left the hand."""
 
 import math
 
 import numpy as np
+import pytest
 from hypothesis import given, settings, strategies as st
 
 from core.control.gains import built
@@ -13,14 +15,18 @@ from core.control.hold import (
     HC_WINDOWS,
     HOLD_GAINS,
     HOLD_INTEGRAL_LIMIT_RAD_S2,
+    HS_SIZE,
+    TAKEOVER_S,
     held_at,
     hold_capacity_N,
     hold_constants,
+    taken_over,
 )
 from core.control.transparent import TC_SIZE
 from core.robot import RobotModel
 
 ROBOT = RobotModel()
+PERIOD = 0.002
 
 
 def jacobian_by_differences(q1, q2, h=1e-7):
@@ -82,3 +88,28 @@ def test_held_windows_and_their_first_ticks():
     assert held_at(guide, 24) == (False, False)
     assert held_at(guide, 25) == (True, True)
     assert held_at(guide, 30) == (False, False)
+
+
+def test_the_take_over_starts_at_the_hand_and_reaches_the_task_s_reference():
+    """At a held window's first tick the reference is where the hand is; it glides to the
+    task's by minimum jerk over TAKEOVER_S (rate and acceleration its derivatives, zero
+    at both ends), and is the task's from then on."""
+    z = [0.0] * HS_SIZE
+    task = (1.0, 2.0, 0.0, 0.0, 0.0, 0.0)  # held still
+    hand = (1.02, 1.99)
+    start = 700
+    ticks = round(TAKEOVER_S / PERIOD)
+    first = taken_over(z, True, start, PERIOD, *hand, *task)
+    assert first[:2] == pytest.approx(hand)
+    assert first[2:] == pytest.approx((0.0,) * 4, abs=1e-12)
+    out = [first] + [taken_over(z, False, start + k, PERIOD, *hand, *task)
+                     for k in range(1, ticks + 3)]
+    r1 = np.array([o[0] for o in out])
+    rd1 = np.array([o[2] for o in out])
+    rdd1 = np.array([o[4] for o in out])
+    # the rate and the acceleration are the angle's derivatives (central differences)
+    np.testing.assert_allclose(rd1[1:-1], (r1[2:] - r1[:-2]) / (2 * PERIOD), atol=2e-4)
+    np.testing.assert_allclose(rdd1[1:-1], (rd1[2:] - rd1[:-2]) / (2 * PERIOD), atol=2e-2)
+    assert out[ticks // 2][0] == pytest.approx(1.01)  # halfway at half time
+    assert out[ticks] == task
+    assert out[-1] == task
