@@ -131,6 +131,11 @@ _MARK_SELECT = "SELECT id, trial_id, valid, reason, marked_by, marked_at FROM tr
 LATEST_MARK = ("(SELECT m.reason FROM trial_marks m WHERE m.trial_id = t.id AND m.valid = 0 "
                "AND m.id = (SELECT max(id) FROM trial_marks WHERE trial_id = t.id))")
 """SQL: the reason trial `t` is invalid, NULL when it is valid (its latest mark)."""
+INVALID_MARKS = ("SELECT m.trial_id AS trial_id, m.reason AS reason FROM trial_marks m "
+                 "WHERE m.valid = 0 AND m.id = (SELECT max(id) FROM trial_marks WHERE "
+                 "trial_id = m.trial_id)")
+"""SQL: the trials whose latest mark is invalid, with its reason (a table to join: with no
+marks it is empty, and the progress query costs what it did before schema v8)."""
 
 
 class Clinical(Database):

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 from app.errors import InvalidRecordError
 from app.records.assistance import AssistanceInEffect
-from app.records.registry.clinical import LATEST_MARK
+from app.records.registry.clinical import INVALID_MARKS, LATEST_MARK
 from app.records.registry.database import Database
 from app.records.registry.patients import patient_id
 from app.records.registry.trials import (
@@ -36,10 +36,10 @@ _SUMMARY_SELECT = f"""
     SELECT t.id, s.number, s.date, t.number, t.status, t.started_at, t.file,
            {", ".join(f"json_extract(t.parameters, '$.{name}')" for name in KEY_PARAMETERS)},
            coalesce(json_extract(t.parameters, '$.assist'), 'thesis'), t.assistance,
-           {LATEST_MARK}, t.metrics
+           t.metrics
     FROM trials t
     JOIN sessions s ON s.id = t.session_id
-    WHERE s.patient_id = ? AND (? OR {LATEST_MARK} IS NULL)
+    WHERE s.patient_id = ?
     ORDER BY s.number, t.number
 """
 
@@ -77,8 +77,13 @@ class Queries(Database):
         Trials marked invalid (app.records.registry.clinical) are left out unless
         `include_invalid`; then their `invalid_reason` says why."""
         with self._read() as conn:
-            rows = conn.execute(_SUMMARY_SELECT, (patient_id(conn, self.path, code),
-                                                  bool(include_invalid))).fetchall()
+            rows = conn.execute(_SUMMARY_SELECT, (patient_id(conn, self.path, code),)
+                                ).fetchall()
+            # the marks are few: read apart and looked up, the query costs what it did
+            # before schema v8 (a subquery per trial added a third to it)
+            invalid = dict(conn.execute(INVALID_MARKS).fetchall())
+        if invalid and not include_invalid:
+            rows = [r for r in rows if r[0] not in invalid]
         if not rows:
             return []
         metrics = parse_metrics(row[-1] for row in rows)
@@ -91,7 +96,7 @@ class Queries(Database):
         return [
             TrialSummary(r[0], r[1], date(r[2]), r[3], r[4], moment(r[5]), r[6],
                          shared.setdefault(r[7:7 + k], r[7:7 + k]), values, r[7 + k],
-                         assistance_from_json(r[8 + k]), r[9 + k])
+                         assistance_from_json(r[8 + k]), invalid.get(r[0]))
             for r, values in zip(rows, metrics, strict=True)
         ]
 
