@@ -156,7 +156,8 @@ def cmd_fit(args: argparse.Namespace) -> int:
     report = fit_norms(controls, args.source, simulated=args.simulated,
                        transform=args.transform, folds=args.folds, seed=args.seed)
     write_norms(output, report.document, overwrite=args.overwrite)
-    print(f"fitted norms on {len(controls.people)} controls: {len(report.document['figures'])} "
+    n = max(f["n"] for f in report.document["figures"].values())
+    print(f"fitted norms on {n} controls: {len(report.document['figures'])} "
           f"figures, {len(report.document['tasks'])} task scores; written to {output}")
     print(report.document["calibration"]["method"] + " (held-out Z-scores; task scores "
           "one-sided):")
@@ -302,5 +303,6 @@ def _as_json(scores) -> dict:
         "task_score": None if task is None else {"score": task.score, "z_task": task.z_task,
                                                  "distance": task.distance},
         "why_no_task_score": scores.why_no_task_score,
+        "unscored": scores.unscored,
         "norms": scores.label,
     }

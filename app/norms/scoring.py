@@ -32,6 +32,8 @@ class TrialScores:
     task_score: TaskScore | None
     why_no_task_score: str
     label: str
+    unscored: dict[str, str]
+    """Figures the norms hold that could not be scored, with why."""
 
 
 def score_trial(path: str | Path, norms: NormativeModel, person: Person) -> TrialScores:
@@ -55,13 +57,19 @@ def score_trial(path: str | Path, norms: NormativeModel, person: Person) -> Tria
         raise NormsError(f"{path}: the person's covariates: {exc}") from None
     metrics = {k: float(v) for k, v in data.metrics.items()
                if isinstance(v, int | float) and math.isfinite(v)}
-    figures = norms.z_scores(metrics, who)
+    figures, unscored = {}, {}
+    for key, value in metrics.items():
+        if key in norms.figures:
+            try:
+                figures[key] = norms.z(key, value, who)
+            except NormsError as exc:  # this figure only: the others are still scored
+                unscored[key] = str(exc)
     score, why = None, ""
     try:
         score = norms.task_score(task, metrics, who)
     except NormsError as exc:
         why = str(exc)
-    return TrialScores(path, task, who, figures, score, why, norms.label)
+    return TrialScores(path, task, who, figures, score, why, norms.label, unscored)
 
 
 def lines(scores: TrialScores) -> list[str]:
@@ -76,6 +84,8 @@ def lines(scores: TrialScores) -> list[str]:
         unit = FIGURES[key].unit if key in FIGURES else ""
         out.append(f"{key:<36} {z.value:>11.4g} {unit:<6} {z.z:>7.2f} {z.worse_z:>8.2f}"
                    + (" (age beyond the controls')" if z.extrapolated else ""))
+    for key, why in scores.unscored.items():
+        out.append(f"{key:<36} no Z-score: {why}")
     if scores.task_score is not None:
         t = scores.task_score
         out.append(f"task score {scores.task}: {t.score:.2f} (0 best; 1.96 = the controls' "

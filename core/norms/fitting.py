@@ -29,7 +29,8 @@ from core.norms.regression import Covariates, CovariateSpec, Regression, fit_reg
 from core.norms.transforms import Transform, fit_transform
 
 TRANSFORM_CHOICES = ("auto", "box-cox", "yeo-johnson", "none")
-"""`auto`: Box-Cox when every control's value is positive, else Yeo-Johnson."""
+"""`auto`: Box-Cox (shifted, AUTO_SHIFT_FRACTION) when every control's value is positive,
+else Yeo-Johnson."""
 
 
 @dataclass(frozen=True)
@@ -74,23 +75,37 @@ class FittedModel:
         return np.asarray(scores.one_sided((t - norm.mean) / norm.sd), dtype=float)
 
 
-def choose_kind(choice: str, values: np.ndarray) -> str:
+AUTO_SHIFT_FRACTION = 0.01
+"""`auto`'s Box-Cox shift, as a fraction of the controls' median: a figure every healthy
+person has above 0 (a speed, an area, a force) may be 0 in a patient who does not move,
+and Box-Cox with no shift is not defined there (a passive patient's circle speed of 0 was
+refused a Z-score); with the shift, 0 is in the domain and scores as far beyond the
+controls as it is."""
+
+
+def choose(choice: str, values: np.ndarray) -> tuple[str, float]:
+    """The transform's kind and Box-Cox shift for `choice`: `auto` is Box-Cox on
+    x + 1 % of the median when every control's value is positive, else Yeo-Johnson; an
+    explicit kind has no shift."""
     if choice not in TRANSFORM_CHOICES:
         raise ParameterError("transform", choice, " | ".join(TRANSFORM_CHOICES))
     if choice != "auto":
-        return choice
-    return "box-cox" if np.all(values > 0.0) else "yeo-johnson"
+        return choice, 0.0
+    if np.all(values > 0.0):
+        return "box-cox", AUTO_SHIFT_FRACTION * float(np.median(values))
+    return "yeo-johnson", 0.0
 
 
 def fit_figure(values, people: Sequence[Covariates], spec: CovariateSpec, worse: str,
-               kind: str = "auto") -> FittedFigure:
+               kind: str | tuple[str, float] = "auto") -> FittedFigure:
     """One figure's transform (λ by the profile likelihood of the regression) and
-    regression."""
+    regression; `kind` a TRANSFORM_CHOICES or an already chosen (kind, shift)."""
     values = np.asarray(values, dtype=float).reshape(-1)
     if values.size != len(people):
         raise ParameterError("controls' values", values.size, f"{len(people)}, one per control")
     design = spec.design(people)
-    fit = fit_transform(choose_kind(kind, values), values, design)
+    chosen, shift = kind if isinstance(kind, tuple) else choose(kind, values)
+    fit = fit_transform(chosen, values, design, shift)
     regression = fit_regression(spec, design, fit.transform.apply(values))
     return FittedFigure(fit.transform, regression, worse, fit.at_bound)
 
@@ -111,7 +126,7 @@ def fit_task(figures: Sequence[str], z_by_figure: Mapping[str, np.ndarray],
 
 def fit_model(table: Mapping[str, np.ndarray], people: Sequence[Covariates],
               worse: Mapping[str, str], tasks: Mapping[str, Sequence[str]],
-              kind: str | Mapping[str, str] = "auto",
+              kind: str | Mapping[str, str | tuple[str, float]] = "auto",
               spec: CovariateSpec | None = None) -> FittedModel:
     """The whole model from the controls: `table` figure → one value per person (NaN for
     a control without it: left out of that figure's fit), `tasks` task → its figures
@@ -195,8 +210,8 @@ def cross_validate(table: Mapping[str, np.ndarray], people: Sequence[Covariates]
     references = {name: levels[0] for name, levels in whole.levels.items()}
     # each figure's kind decided once, on all controls: a fold must not pick Box-Cox for a
     # figure a held-out control has at 0
-    kinds = {f: choose_kind(kind.get(f, "auto") if isinstance(kind, Mapping) else kind,
-                            np.asarray(v, dtype=float)[np.isfinite(np.asarray(v, dtype=float))])
+    kinds = {f: choose(kind.get(f, "auto") if isinstance(kind, Mapping) else kind,
+                       np.asarray(v, dtype=float)[np.isfinite(np.asarray(v, dtype=float))])
              for f, v in table.items()}
     order = np.random.default_rng(seed).permutation(n)
     held: dict[str, list[float]] = {}

@@ -28,7 +28,8 @@ A task's score combines its figures' Z-scores (Simmatis et al. 2020, J NeuroEng 
 
     Task Score = H⁻¹(Φ(Z_task)),  H⁻¹(p) = Φ⁻¹((1 + p)/2)                    (4)
 
-   computed as Φ⁻¹ of the upper tail, isf(sf(Z)/2), so a large Z keeps its precision.
+   computed as Φ⁻¹ of the upper tail in log space, −ndtri_exp(logsf(Z) − log 2), so a
+   large Z keeps its precision and a Z of 1000 maps to ≈ 1000, not to infinity.
 """
 
 from __future__ import annotations
@@ -37,7 +38,7 @@ import math
 from collections.abc import Mapping, Sequence
 
 import numpy as np
-from scipy import stats
+from scipy import special, stats
 
 from core.errors import ParameterError
 
@@ -58,8 +59,9 @@ def one_sided(z):
     """Eq. (4): a standard normal Z mapped to the half-normal quantile of the same
     probability; 0 at Z → −∞, ≈ Z for a large Z, monotonic."""
     z = np.asarray(z, dtype=float)
-    with np.errstate(under="ignore"):
-        out = stats.norm.isf(stats.norm.sf(z) / 2.0)
+    # Φ⁻¹ of the upper tail in log space: isf(sf(Z)/2) = −ndtri(exp(logsf(Z) − log 2));
+    # sf(Z) itself underflows to 0 beyond Z ≈ 38 and gave an infinite score
+    out = np.abs(-special.ndtri_exp(stats.norm.logsf(z) - math.log(2.0)))
     return float(out) if out.ndim == 0 else out
 
 

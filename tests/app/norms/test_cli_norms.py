@@ -232,3 +232,26 @@ def test_a_rare_level_is_left_out_and_said(tmp_path, data, capsys):
     with pytest.raises(NormsError, match="handedness 'left'"):
         model.z("range_area_m2", 0.05, Covariates(50, "male", "left", "right",
                                                   "simulator-realistic"))
+
+
+def test_a_patient_at_zero_gets_a_z_score(tmp_path, data, capsys):
+    """Every healthy control has some area; a patient who does not move has none. The
+    fitted Box-Cox is shifted (1 % of the controls' median), so 0 scores as far beyond the
+    controls as it is instead of being refused (a passive patient's circle speed of 0 was
+    refused: 'outside the norms' Box-Cox domain')."""
+    from app.norms import Covariates
+
+    controls = write_controls(tmp_path / "controls.csv", n=120)
+    norms = tmp_path / "n.json"
+    code, _, err = run(["norms", "fit", "--controls", str(controls), "--source", "s",
+                        "--output", str(norms)], capsys)
+    assert code == 0, err
+    model = load_norms(norms)
+    transform = model.figures["range_area_m2"].transform
+    assert transform.kind == "box-cox"
+    assert transform.shift > 0
+    who = Covariates(50, "male", "right", "right", "simulator-realistic")
+    z = model.z("range_area_m2", 0.0, who)
+    assert z.worse_z > 3
+    assert model.task_score("range", {"range_area_m2": 0.0, "range_area_ratio": 0.0},
+                            who).score > 3

@@ -103,3 +103,17 @@ def test_the_person_from_the_registry(tmp_path, files, data, capsys):
     code, _, err = run(["norms", "score", str(trial), "--norms", str(norms)], capsys)
     assert code == 2
     assert "has no birth year, sex and handedness in the registry" in err
+
+
+def test_one_figure_beyond_the_norms_leaves_the_others_scored(tmp_path, files, data, capsys):
+    norms, _ = files
+    trial = trial_file(tmp_path / "b", "SIM", 1, 1, WHEN, {
+        "vgr_reaction_time_s": -0.1, "vgr_max_speed_m_s": 0.3}, task="reaching", side="left")
+    code, out, err = run(["norms", "score", str(trial), "--norms", str(norms), "--birth-year",
+                          str(BORN), "--sex", "male", "--handedness", "right", "--json"],
+                         capsys)
+    assert code == 0, err
+    result = json.loads(out)
+    assert result["figures"]["vgr_max_speed_m_s"]["worse_z"] == pytest.approx(1.6)
+    assert "Box-Cox domain" in result["unscored"]["vgr_reaction_time_s"]
+    assert result["task_score"] is None

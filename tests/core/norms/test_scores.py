@@ -63,3 +63,12 @@ def test_z_and_worse_side():
         scores.z_score(1.0, 0.0, 0.0)
     with pytest.raises(ParameterError):
         scores.worse_signed(1.0, "up")
+
+
+def test_one_sided_far_beyond_the_controls_stays_finite():
+    """sf(Z) underflows to 0 beyond Z ≈ 38: the map is computed in log space (a patient at
+    0 area had Z −1008 on a figure worse lower, and the task score was refused as not
+    finite)."""
+    assert scores.one_sided(40.0) == pytest.approx(40.0, abs=0.05)
+    assert scores.one_sided(1007.0) == pytest.approx(1007.0, abs=0.01)
+    assert scores.deviation(-1007.0, "lower") == pytest.approx(1007.0, abs=0.01)
