@@ -161,6 +161,34 @@ def cues(parameters: TrialParameters) -> tuple[Cue, ...]:
     return tuple(out)
 
 
+CUE_EVENT = "assessment_cue"
+"""The kind of an assessment trial's timed events in its file (`task_events`)."""
+
+
+def task_events(parameters: TrialParameters, trajectory=None
+                ) -> tuple[tuple[float, str, dict], ...]:
+    """The timed events of an assessment trial on its exercise's clock, as the live loop
+    and a headless run write them (kind CUE_EVENT): (time s, message, values with the
+    task). A task cued by the reference's segments has one per cue ('target shown',
+    'centre shown', with the cue's target, repetition and points); a robot-led task one per
+    phase of its trajectory (`events()`: core.holdtasks; `trajectory` is the trial's when
+    already built); an exercise none."""
+    task = parameters.assessment
+    if task in CUED_TASKS:
+        return tuple((cue.time_s, ("target" if cue.kind == "target" else "centre") + " shown",
+                      {"task": task, "cue": cue.kind, "target": cue.target,
+                       "repetition": cue.repetition, "point_m": list(cue.point_m),
+                       "start_m": list(cue.start_m)})
+                     for cue in cues(parameters))
+    if not task:
+        return ()
+    phases = getattr(trajectory or parameters.trajectory(), "events", None)
+    if phases is None:
+        return ()
+    return tuple((float(t), str(phase), {"task": task, **dict(values)})
+                 for t, phase, values in phases())
+
+
 def reach_directions_rad(parameters: TrialParameters) -> tuple[float, ...]:
     """The direction (rad, counter-clockwise from +x) of each of the layout's targets
     from the centre, in the layout's order: the directions a strength task's pushes and

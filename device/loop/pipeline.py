@@ -27,6 +27,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from core.arrays import joint_motion
+from core.assessment.protocol import CUE_EVENT, task_events
 from core.control.assistance import (
     A_EST_FX,
     A_EST_FY,
@@ -144,15 +145,12 @@ class TrialPlan:
         return round(self.trajectory.total_duration_s / self.period_s)
 
     def task_events(self) -> tuple[tuple[int, str, str, dict], ...]:
-        """The timed events of a task the robot leads (core.holdtasks: each phase's start)
-        as (exercise tick, kind, message, values), as app.assessments.events writes them
-        after a headless run (kind TASK_EVENT, the phase as the message, the task and the
-        phase's values); none for any other trial."""
-        if not isinstance(self.trajectory, TaskTrajectory):
-            return ()
-        task = self.trajectory.task
-        return tuple((round(t / self.period_s), TASK_EVENT, phase, {"task": task, **values})
-                     for t, phase, values in self.trajectory.events())
+        """The timed events of an assessment trial (core.assessment.protocol.task_events:
+        a cued task's cues, a robot-led task's phases) as (exercise tick, kind, message,
+        values), the same as app.assessments.events writes after a headless run; none for
+        an exercise."""
+        return tuple((round(t / self.period_s), TASK_EVENT, message, values)
+                     for t, message, values in task_events(self.parameters, self.trajectory))
 
     @property
     def start_point_m(self) -> tuple[float, float]:
@@ -187,7 +185,7 @@ class TrialPlan:
         return np.column_stack((pos, vel, direction, q, qd, qdd))
 
 
-TASK_EVENT = "assessment_cue"
+TASK_EVENT = CUE_EVENT
 """The kind of an assessment's cue events in the trial file (app.assessments.events)."""
 
 

@@ -73,3 +73,17 @@ def test_a_file_that_exists_is_never_written_over(runs, tmp_path):
     run_path = runs["passive"].path
     with pytest.raises(Exception, match="already exists"):
         run_task("reaching", "passive", seed=5, folder=run_path.parent)
+
+
+def test_the_live_loop_writes_the_same_cues_on_the_same_ticks(runs):
+    """device.loop.pipeline's task events (what the live loop sends the recorder) are the
+    headless file's, from the exercise's first tick."""
+    from device.loop.pipeline import TrialPlan
+
+    run = runs["weak"]
+    data = read_trial(run.path, ("phase",))
+    first = int((data.channels["phase"] == PHASE_EXERCISE).argmax())
+    live = TrialPlan.build(run.parameters).task_events()
+    stored = [e for e in data.events if e["kind"] == CUE_EVENT]
+    assert [(first + k, kind, message, values) for k, kind, message, values in live] == [
+        (e["tick"], e["kind"], e["message"], e["values"]) for e in stored]
