@@ -13,6 +13,10 @@ as-needed guidance.
 * `guidance`: the `as-needed` mode: a compliant channel whose reference moves with the
   patient, help along the path the patient earns back, a feedforward learned over the
   repetitions with forgetting; the kernel `guidance_command`, its gains `GuidanceGains`.
+* `hold`: the robot holding the hand still or moving it in the assessment tasks it leads
+  (isometric strength, position sense; core.holdtasks): the computed-torque PID with the
+  hold's gains, what the drives can hold along a direction, the held windows and the
+  take-over from where the patient left the hand (the kernels `held_at`, `taken_over`).
 
 The laws are kernels (core.kernels): the classes validate their parameters, hold them
 as constants vectors, and their `step` (the assistance's `apply`) runs the kernels

@@ -6,7 +6,9 @@ coupled dynamics with the patient's torque, the integrator, the sensors, read, w
 reset); `plant` what it simulates (the ideal plant, the controller's model, or a
 realistic one drawn around it); `patients` the Patient protocol and the virtual patients
 (VirtualPatient, make_patient); `patient_torque` a virtual patient's torque as a kernel;
-`learning` a patient's trial-to-trial adaptation (learning and slacking); `sensors` the
+`learning` a patient's trial-to-trial adaptation (learning and slacking); `holdtasks`
+what a patient does in the tasks the robot leads (pushing up to the line, matching a
+point the robot took the hand to); `sensors` the
 force sensor's model; `faultinjection` FaultInjectingBackend, which wraps any backend.
 
 May import core, device.backend, device.errors, and device.safety's fault codes (fault
