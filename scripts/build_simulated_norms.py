@@ -7,12 +7,13 @@ Run: .venv/bin/python scripts/build_simulated_norms.py [--subjects 500] [--seed 
      [--output resources/norms/simulated.json] [--overwrite]
 
 Prints the time it took, what the fit left out, the cross-validated calibration and the
-MDC95s. The same seed and size give the same file.
+MDC95s. The same seed and size give the same model (only its created_utc differs).
 """
 
 from __future__ import annotations
 
 import argparse
+import resource
 import sys
 import time
 
@@ -44,11 +45,14 @@ def main() -> int:
         print(f"error: {error}", file=sys.stderr)
         return 2
     wall = time.perf_counter() - start
+    usage = [resource.getrusage(who) for who in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN)]
+    cpu = sum(u.ru_utime + u.ru_stime for u in usage)
     visits = len(built.rows)
     refused = [r for r in built.rows if r["refused"]]
     print(f"{args.subjects} subjects × {visits // args.subjects} sessions, tasks "
           f"{', '.join(args.tasks)}: {wall:.0f} s on {args.workers} workers "
-          f"({wall / visits:.2f} s a visit); {len(refused)} visits refused")
+          f"({wall / visits:.2f} s a visit), {cpu:.0f} s of CPU in all "
+          f"({cpu / visits:.2f} s a visit); {len(refused)} visits refused")
     for r in refused[:5]:
         print(f"  refused: subject {r['subject']} session {r['session']}: {r['refused']}")
     print(f"wrote {path}")

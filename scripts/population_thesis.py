@@ -7,12 +7,14 @@ Run: .venv/bin/python scripts/population_thesis.py [--subjects 100] [--seed 0] [
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 
 from app.population.thesis import against_thesis
+from core.errors import ParameterError
 
 
-def main() -> None:
+def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--subjects", type=int, default=100)
     parser.add_argument("--seed", type=int, default=0)
@@ -20,8 +22,12 @@ def main() -> None:
     parser.add_argument("--repetitions", type=int, default=5)
     args = parser.parse_args()
     start = time.perf_counter()
-    rows, spreads = against_thesis(args.subjects, args.seed, workers=args.workers,
-                                   repetitions=args.repetitions)
+    try:
+        rows, spreads = against_thesis(args.subjects, args.seed, workers=args.workers,
+                                       repetitions=args.repetitions)
+    except ParameterError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
     wall = time.perf_counter() - start
     refused = [r for r in rows if r["refused"]]
     print(f"{args.subjects} virtual healthy subjects (seed {args.seed}), the thesis's D with "
@@ -36,7 +42,8 @@ def main() -> None:
         print(f"| {f.label} ({f.unit}) | {f.role} | {f.thesis:.3g} | "
               + " | ".join(f"{v:.3g}" for v in cells)
               + f" | {'yes' if s.contains_thesis else 'no'} |")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -10,7 +10,8 @@ device.sim.population's LEARNING_*), session 2 the retest (the next trial of the
 learning, new seeds). The norms are fitted on session 1, as a study's controls are assessed
 once; the retest gives each figure's and task score's ICC, SEM and MDC95
 (app.norms.retest). Everything is drawn from the population's seed, the fit's folds from
-seed 0: the same seed and size give the same file, whatever the number of workers.
+seed 0: the same seed and size give the same model (every number; only the file's
+created_utc differs), whatever the number of workers.
 
 The trial files are written to a temporary folder per subject and removed: the figures are
 what the model keeps.
