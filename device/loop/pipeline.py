@@ -86,7 +86,8 @@ APPROACH_SPEED_M_S = 0.05
 """Mean speed of the approach from the handle's position to the path's start."""
 APPROACH_MIN_S = 1.0
 APPROACH_SKIP_M = 0.002
-"""Closer than this to the start point, the exercise begins at once."""
+"""Closer than this to the start point, the handle is at the start: no approach, or only
+the still one a trial that starts with a torque ramp asks for (TickPipeline.begin)."""
 HOLD_S = 0.5
 """Time the reference rests at the start point after the last repetition."""
 
@@ -157,20 +158,25 @@ class TrialPlan:
         row = self.reference(0, 1)[0]
         return (float(row[0]), float(row[1]))
 
-    def approach_rows(self, q1: float, q2: float) -> tuple:
+    def approach_rows(self, q1: float, q2: float, still_s: float = 0.0) -> tuple:
         """Reference rows from the handle's pose to the path's start: a minimum-jerk
         straight line at about APPROACH_SPEED_M_S, at least APPROACH_MIN_S long."""
-        return tuple(map(tuple, self.approach_table(q1, q2).tolist()))
+        return tuple(map(tuple, self.approach_table(q1, q2, still_s).tolist()))
 
-    def approach_table(self, q1: float, q2: float) -> np.ndarray:
-        """`approach_rows` as one (N, 12) array (N = 0 when the handle is at the start)."""
+    def approach_table(self, q1: float, q2: float, still_s: float = 0.0) -> np.ndarray:
+        """`approach_rows` as one (N, 12) array. A handle already at the start has none, or
+        `still_s` of rows holding it there; an approach lasts at least `still_s` too."""
         robot = self.robot
         x0, y0 = robot.position(q1, q2)
         x1, y1 = self.start_point_m
         distance = math.hypot(x1 - x0, y1 - y0)
         if distance < APPROACH_SKIP_M:
-            return np.empty((0, 12))
-        duration = max(APPROACH_MIN_S, distance / APPROACH_SPEED_M_S)
+            n = math.ceil(still_s / self.period_s)
+            still = np.zeros(12)  # at the start, at rest: no velocity, no acceleration
+            start = self.reference(0, 1)[0]
+            still[[0, 1, 4, 5, 6, 7]] = start[[0, 1, 4, 5, 6, 7]]  # place, path direction, angles
+            return np.tile(still, (n, 1))
+        duration = max(APPROACH_MIN_S, still_s, distance / APPROACH_SPEED_M_S)
         n = math.ceil(duration / self.period_s)
         u = np.arange(n) * self.period_s / duration
         s = u**3 * (10 - 15 * u + 6 * u**2)
@@ -307,14 +313,20 @@ class TickPipeline:
         return tuple(map(tuple, table.tolist()))
 
     # ------------------------------------------------------------------ trial
-    def begin(self, q1: float, q2: float, *, load: bool = True) -> None:
+    def begin(self, q1: float, q2: float, *, load: bool = True, still_s: float = 0.0) -> None:
         """Start a trial from the handle's current pose: plan the approach, reset state.
+
+        `still_s`: the approach lasts at least this long, holding a handle already at the
+        start there. The live loop passes its supervisor's restart ramp (docs/safety.md
+        H3): an exercise begun at once ran its first half second on a fraction of the
+        drives' torque, and the tracker sat at the clamp for a second catching up, which a
+        lasting clamp's fault (H2) must not take for a patient resisting.
 
         With `load` every row of the approach and the exercise is loaded at once (the
         live loop: no tick waits for rows); a headless run passes False and loads the
         rows a stretch of ticks needs before it (`load_rows`, `rows_needed`), so that its
         memory does not grow with the trial's length."""
-        self._approach = self.plan.approach_table(q1, q2)
+        self._approach = self.plan.approach_table(q1, q2, still_s)
         self._approach_ticks = len(self._approach)
         self.n_rows = self._approach_ticks + self.plan.exercise_ticks
         self.load_rows(0, self.n_rows if load else 1)

@@ -349,7 +349,9 @@ class DeviceLoop:
     # ------------------------------------------------------------------ trial
     def _start_trial(self, command: Start) -> str:
         self.paused = True
-        self.pipeline.begin(self.reading.q1_rad, self.reading.q2_rad)
+        # the exercise waits at its start while the drives' torque ramps up (H3)
+        self.pipeline.begin(self.reading.q1_rad, self.reading.q2_rad,
+                            still_s=self.supervisor.limits.restart_ramp_s)
         # every trial starts from its own settings: a live change belonged to the trial it
         # was made in (issue 27: one made between trials ran every later trial at it)
         self.pipeline.set_assistance_level(self.plan.parameters.assistance_level)

@@ -126,10 +126,12 @@ def _set_previous(w, t, q1, q2, x, y):
 
 @kernel
 def time_saturation(g, w, now_s, torque1, torque2):
-    """When the command began to exceed the clamp (NaN while it does not). Timed only
-    while the torque is applied: a latched fault resets it, so a controller winding up
-    against zero torque does not count."""
-    if abs(torque1) > g[G_FULL1] or abs(torque2) > g[G_FULL2]:
+    """When the command began to reach the clamp (NaN while it does not). At the limit
+    counts: the SMC and the CT-PID clip their own output to exactly the drive's limit,
+    so a timer started only above it never ran for them. Timed only while the torque is
+    applied: a latched fault resets it, so a controller winding up against zero torque
+    does not count."""
+    if abs(torque1) >= g[G_FULL1] or abs(torque2) >= g[G_FULL2]:
         if math.isnan(w[W_SAT_SINCE]):
             w[W_SAT_SINCE] = now_s
     else:

@@ -237,6 +237,16 @@ class FaultInjectingBackend:
     def write(self, torque1_Nm: float, torque2_Nm: float) -> None:
         self.inner.write(torque1_Nm, torque2_Nm)
 
+    def cue_patient(self, at_s: float | None = None) -> None:
+        """The simulator's virtual patient starts the exercise with the reference, as it
+        does without the injector. Without this the loop found no cue on the wrapper and
+        the patient held the path's start all trial while the robot drove the D: every
+        injected fault fell on a robot pushing at its clamp against the arm, which a
+        lasting clamp's fault (TORQUE_SATURATED) then caught before the injected one."""
+        cue = getattr(self.inner, "cue_patient", None)
+        if cue is not None:
+            cue(at_s)
+
     def safe_state(self) -> None:
         self.inner.safe_state()
 

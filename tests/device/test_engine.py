@@ -58,7 +58,8 @@ class Rig:
         """Start a trial from the last reading, as the loop's Start does."""
         if self.trial_tick is None and not hasattr(self, "reading"):
             self.tick(0, 0.0)
-        self.pipeline.begin(self.reading.q1_rad, self.reading.q2_rad)
+        self.pipeline.begin(self.reading.q1_rad, self.reading.q2_rad,
+                            still_s=self.supervisor.limits.restart_ramp_s)
         self.supervisor.restart_ramp()
         self.trial_tick = 0
 

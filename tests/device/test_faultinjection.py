@@ -346,3 +346,20 @@ def test_bad_loop_scenarios_are_refused():
     with pytest.raises(ParameterError) as err:
         LoopFaultInjection("stale", 1.0)
     assert err.value.field == "scenario"
+
+
+def test_the_injector_passes_the_exercise_s_cue_to_the_virtual_patient():
+    """The loop cues a virtual patient when the exercise starts (device.loop.process): a
+    wrapped simulator's patient must start too, or it holds the path's start all trial
+    against a robot driving the D (every injected fault then fell on a clamped robot)."""
+
+    class Waiting(PathBackend):
+        cued = None
+
+        def cue_patient(self, at_s=None):
+            self.cued = ("cued", at_s)
+
+    inner = Waiting()
+    FaultInjectingBackend(inner, "late", at_s=AT_S).cue_patient(1.25)
+    assert inner.cued == ("cued", 1.25)
+    FaultInjectingBackend(PathBackend(), "late", at_s=AT_S).cue_patient()  # a robot: nothing

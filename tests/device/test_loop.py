@@ -98,7 +98,8 @@ def whole_trial(client, tmp_path):
     data = read_trial(path)
     assert data.status == "complete"
     n = data.n_samples
-    assert n == round(PARAMS.duration_s / 0.002) + 250  # exercise + 0.5 s hold
+    # the handle held at the start while the torque ramps up, the exercise, the 0.5 s hold
+    assert n == 250 + round(PARAMS.duration_s / 0.002) + 250
     np.testing.assert_array_equal(data.channels["tick"], np.arange(n))
     assert data.summary["ticks_missing"] == 0
     # every tick's lateness is measured and kept; on the simulator it faults nothing, and

@@ -87,6 +87,23 @@ def test_no_approach_when_already_at_the_start():
     assert (records["phase"] == PHASE_EXERCISE).all()
 
 
+def test_a_trial_started_with_a_torque_ramp_holds_the_start_through_it():
+    """The live loop begins a trial with its supervisor's restart ramp (docs/safety.md
+    H3) as the shortest approach: a handle already at the start is held there, at rest,
+    and the exercise's reference starts when the drives have their full torque."""
+    plan = TrialPlan.build(PARAMS)
+    q = plan.robot.ik_terms(*plan.start_point_m)
+    still = plan.approach_table(*q, still_s=0.5)
+    assert len(still) == round(0.5 / plan.period_s)
+    first = plan.reference(0, 1)[0]
+    np.testing.assert_array_equal(still[:, [0, 1, 4, 5, 6, 7]],
+                                  np.tile(first[[0, 1, 4, 5, 6, 7]], (len(still), 1)))
+    assert not still[:, [2, 3, 8, 9, 10, 11]].any()  # no velocity, no acceleration
+    assert len(plan.approach_table(*q)) == 0  # headless runs have no ramp, nor this
+    away = plan.approach_table(q[0] + 0.05, q[1] - 0.03, still_s=0.5)
+    assert len(away) == len(plan.approach_table(q[0] + 0.05, q[1] - 0.03))  # >= 1 s anyway
+
+
 def test_idle_record_fits_the_layout():
     plan = TrialPlan.build(PARAMS)
     sim = SimulatorBackend.from_trial(PARAMS, "passive")

@@ -442,6 +442,14 @@ def case_saturated(tick):
     return [dict(torques=(3.0, -1.0))] * 501  # clamped from the first; the 501st is 1 s on
 
 
+def case_held_at_the_clamp(tick):
+    # the SMC and the CT-PID clip their own output to the drive's limit: a command that
+    # sits exactly there is the clamp acting (a timer started only above it never ran,
+    # and a hold overpowered by a 40 N push sat at full torque for 6 s without a fault)
+    _, limit2 = tick.sup.torque_limits_Nm
+    return [dict(torques=(0.5, -limit2))] * 501
+
+
 HOME = (HOME_Q1, HOME_Q2)
 TURNING = radial(0.20)  # a rigid turn of the links moves the handle at only 0.2 m per rad
 
@@ -479,6 +487,8 @@ CASES = {
     "late run": (case_late_run, Fault.LATE_TICK, HOME, None),
     "recording lost": (case_recording_lost, Fault.RECORDING_LOST, HOME, None),
     "torque saturated": (case_saturated, Fault.TORQUE_SATURATED, HOME, SATURATION),
+    "torque held at the clamp": (case_held_at_the_clamp, Fault.TORQUE_SATURATED, HOME,
+                                 SATURATION),
 }
 
 
