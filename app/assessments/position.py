@@ -57,7 +57,4 @@ def position_figures(samples: Mapping[str, np.ndarray],
                      parameters: TrialParameters) -> dict[str, float]:
     """The position-sense task's figures (core.assessment.FIGURES) of one trial's exercise
     samples (app.assessments.figures.CHANNELS_NEEDED)."""
-    targets, reproduced = matches(samples, parameters)
-    out = figures_of(targets, reproduced)
-    out["position_not_reproduced_count"] = float(np.isnan(reproduced).any(axis=1).sum())
-    return out
+    return figures_of(*matches(samples, parameters))

@@ -33,7 +33,8 @@ _GROUP_M = 1e-9  # targets closer than a nanometre are the same target
 
 def position_figures(targets_m, reproduced_m) -> dict[str, float]:
     """The task's figures keyed as core.assessment.FIGURES: one row per trial, the
-    target (K, 2) m and the reproduced position (K, 2) m (NaN row: not reproduced)."""
+    target (K, 2) m and the reproduced position (K, 2) m (NaN row: not reproduced, left out
+    of the errors and counted)."""
     targets = points("targets_m", targets_m)
     reproduced = np.asarray(reproduced_m, dtype=float)
     if reproduced.shape != targets.shape:
@@ -43,11 +44,13 @@ def position_figures(targets_m, reproduced_m) -> dict[str, float]:
     if (np.isfinite(reproduced).any(axis=1) & ~done).any():
         raise ParameterError("reproduced_m", "a row with one coordinate NaN",
                              "both coordinates or neither (not reproduced)")
+    not_reproduced = float((~done).sum())
     targets, reproduced = targets[done], reproduced[done]
     nan = math.nan
     if not len(targets):
         return {"position_absolute_error_m": nan, "position_variable_error_m": nan,
-                "position_constant_error_m": nan}
+                "position_constant_error_m": nan,
+                "position_not_reproduced_count": not_reproduced}
     absolute = float(np.mean(np.hypot(*(reproduced - targets).T)))
     _, group = np.unique(np.round(targets / _GROUP_M), axis=0, return_inverse=True)
     group = group.ravel()
@@ -62,4 +65,5 @@ def position_figures(targets_m, reproduced_m) -> dict[str, float]:
         "position_absolute_error_m": absolute,
         "position_variable_error_m": math.sqrt(squares / dof) if dof else nan,
         "position_constant_error_m": float(np.mean(constant)),
+        "position_not_reproduced_count": not_reproduced,
     }
