@@ -90,13 +90,23 @@ def touch_px() -> int:
     return round(TOUCH_TARGET_PX * font_scale())
 
 
+_FUSION_SET = "rehabFusionStyleSet"
+"""The application property that says apply_theme has set the Fusion style."""
+
+
 def apply_theme(app: QApplication, font_scale: float = 1.0) -> None:
     """Apply the look to the whole application; call again to change the font scale."""
     low, high = FONT_SCALE_RANGE
     if not low <= font_scale <= high:
         raise ValueError(f"font scale {font_scale:g} is outside {low:g}–{high:g}")
     _state["scale"] = float(font_scale)
-    app.setStyle("Fusion")
+    # Only once per application: QApplication.setStyle deletes the style every widget
+    # was polished with and re-polishes them all, and a widget half torn down when that
+    # happens (a closed tab's plot awaiting deleteLater) crashed the process in the test
+    # suite. Later calls only change the palette, the font and the style sheet.
+    if not app.property(_FUSION_SET):
+        app.setStyle("Fusion")
+        app.setProperty(_FUSION_SET, True)
     app.setPalette(_palette())
     # Fusion outlines check boxes and radio buttons in the window colour darkened by
     # 40 %, which on white is a barely visible grey; a darker "window" for these
@@ -108,7 +118,9 @@ def apply_theme(app: QApplication, font_scale: float = 1.0) -> None:
     font = QFont(app.font())
     font.setPointSizeF(point_size())
     app.setFont(font)
-    app.setStyleSheet(style_sheet())
+    sheet = style_sheet()
+    if app.styleSheet() != sheet:
+        app.setStyleSheet(sheet)
     pg.setConfigOptions(background=BACKGROUND, foreground=TEXT, antialias=True)
     for plot in list(_plots):
         # A closed window's plot can outlive its C++ object in Python for a while.

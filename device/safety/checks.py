@@ -30,7 +30,7 @@ from device.safety.faults import Fault
 # ramp began, the latched fault and when, and the last tick's condition with its numbers.
 (W_PREV_VALID, W_PREV_T, W_PREV_Q1, W_PREV_Q2, W_PREV_X, W_PREV_Y, W_STALE_RUN,
  W_SAT_SINCE, W_RAMP_SINCE, W_LATE_RUN, W_FAULT, W_FAULT_TIME, W_CONDITION, W_D0, W_D1,
- W_D2, W_D3, W_SIZE) = range(18)
+ W_D2, W_D3, W_SAT_SIGN1, W_SAT_SIGN2, W_SIZE) = range(20)
 
 # Detail numbers that name one of several things.
 LATE_ONE, LATE_RUN = 0.0, 1.0
@@ -126,16 +126,36 @@ def _set_previous(w, t, q1, q2, x, y):
 
 @kernel
 def time_saturation(g, w, now_s, torque1, torque2):
-    """When the command began to reach the clamp (NaN while it does not). At the limit
-    counts: the SMC and the CT-PID clip their own output to exactly the drive's limit,
-    so a timer started only above it never ran for them. Timed only while the torque is
-    applied: a latched fault resets it, so a controller winding up against zero torque
-    does not count."""
-    if abs(torque1) >= g[G_FULL1] or abs(torque2) >= g[G_FULL2]:
-        if math.isnan(w[W_SAT_SINCE]):
-            w[W_SAT_SINCE] = now_s
-    else:
+    """When the command began to push one way at the clamp (NaN while it does not).
+
+    At the limit counts: the SMC and the CT-PID clip their own output to exactly the
+    drive's limit, so a timer started only above it never ran for them. One way: a joint
+    at the clamp whose torque changes sign starts the time again. The hazard (H2) is a
+    sustained push against a resisting or blocked arm; a tracker chattering from one
+    clamp to the other while it catches a fast reference up (the centre-out targets'
+    reaches) pushes no arm anywhere for a second, and counting it faulted every weak
+    patient's targets trial. Timed only while the torque is applied: a latched fault
+    resets it, so a controller winding up against zero torque does not count."""
+    at1 = abs(torque1) >= g[G_FULL1]
+    at2 = abs(torque2) >= g[G_FULL2]
+    if not (at1 or at2):
         w[W_SAT_SINCE] = math.nan
+        w[W_SAT_SIGN1] = 0.0
+        w[W_SAT_SIGN2] = 0.0
+        return
+    sign1 = math.copysign(1.0, torque1) if at1 else 0.0
+    sign2 = math.copysign(1.0, torque2) if at2 else 0.0
+    turned = sign1 * w[W_SAT_SIGN1] < 0.0 or sign2 * w[W_SAT_SIGN2] < 0.0
+    if math.isnan(w[W_SAT_SINCE]) or turned:
+        w[W_SAT_SINCE] = now_s
+        w[W_SAT_SIGN1] = sign1
+        w[W_SAT_SIGN2] = sign2
+        return
+    # a joint that reaches the clamp later joins the push with its own way
+    if at1:
+        w[W_SAT_SIGN1] = sign1
+    if at2:
+        w[W_SAT_SIGN2] = sign2
 
 
 # ---------------------------------------------------------------------- the checks

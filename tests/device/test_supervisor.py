@@ -450,6 +450,13 @@ def case_held_at_the_clamp(tick):
     return [dict(torques=(0.5, -limit2))] * 501
 
 
+def case_one_way_joined_by_the_other_joint(tick):
+    # joint 1 pushes one way from the first tick, joint 2 reaches its clamp half-way and
+    # leaves it: one push, timed from its start
+    return ([dict(torques=(3.0, 0.0))] * 250 + [dict(torques=(3.0, -3.0))] * 100
+            + [dict(torques=(3.0, 0.5))] * 151)
+
+
 HOME = (HOME_Q1, HOME_Q2)
 TURNING = radial(0.20)  # a rigid turn of the links moves the handle at only 0.2 m per rad
 
@@ -489,6 +496,8 @@ CASES = {
     "torque saturated": (case_saturated, Fault.TORQUE_SATURATED, HOME, SATURATION),
     "torque held at the clamp": (case_held_at_the_clamp, Fault.TORQUE_SATURATED, HOME,
                                  SATURATION),
+    "one push, the other joint joining": (case_one_way_joined_by_the_other_joint,
+                                          Fault.TORQUE_SATURATED, HOME, SATURATION),
 }
 
 
@@ -698,6 +707,21 @@ def test_short_saturation_at_corners_is_not_a_fault():
         for _ in range(n):
             assert tick(torques=(4.0, 0.0))[2] is Fault.NONE
         assert tick(torques=(1.0, 0.0))[2] is Fault.NONE
+
+
+@pytest.mark.parametrize("every_ticks", [1, 7, 100])
+def test_a_clamp_that_turns_from_one_way_to_the_other_is_not_a_sustained_push(every_ticks):
+    """H2 is a push one way against an arm for a second. A tracker catching a fast
+    reference up chatters from one clamp to the other (the centre-out targets trial sat
+    there 1.5 s turning every 0.05-0.2 s, and faulted every weak patient's trial): each
+    turn starts the time again, and the same command one way for the whole second trips."""
+    tick = warm_supervisor(SATURATION)
+    for k in range(round(3.0 / PERIOD)):
+        way = 1.0 if (k // every_ticks) % 2 == 0 else -1.0
+        assert tick(torques=(4.0 * way, -4.0 * way))[2] is Fault.NONE, k
+    for _ in range(round(1.0 / PERIOD) + 1):  # the push's first tick starts the time
+        out = tick(torques=(4.0, 0.0))
+    assert out[2] is Fault.TORQUE_SATURATED
 
 
 # ------------------------------------------------------ property: any input

@@ -503,13 +503,18 @@ class WindowMachine(RuleBasedStateMachine):
 
     def _check_downstream(self, run: TrialRun, trial, path: Path, data, ticks: list[float],
                           at_end: float) -> None:
-        percents = {round(100 * level) for level in ticks}
+        # The registry and the report name the levels the exercise ran at: a change during
+        # the approach to the start (at least the drives' 0.5 s torque ramp, H3) is the
+        # level the exercise started at (app.trials.assistance_timeline). The export has
+        # every tick.
+        exercise = _file_levels(data, exercise_only=True)
+        percents = {round(100 * level) for level in exercise}
         # the registry's row
         row = getattr(trial, "assistance", None)
         row_levels = _dedup(level for _, level in row.timeline) if row is not None else \
             [trial.parameters["assistance_level"]]  # a registry that keeps only the built one
-        assert row_levels == pytest.approx(ticks), (
-            f"the registry says the trial ran at {row_levels}; its file says {ticks}")
+        assert row_levels == pytest.approx(exercise), (
+            f"the registry says the exercise ran at {row_levels}; its file says {exercise}")
         # the report (the therapist's settings line names every level the trial ran)
         from app.reports.build import content_for_registry_trial
 
@@ -587,15 +592,19 @@ def _robot_levels_against_file(data) -> tuple[int, list[tuple[int, float, float]
         for i, j in zip(rows, cols, strict=True)]
 
 
-def _file_levels(data) -> list[float]:
-    """The trial's per-tick assistance level over its ticks, each change once (a file
-    without the channel says its built level, then its events)."""
+def _file_levels(data, exercise_only: bool = False) -> list[float]:
+    """The trial's per-tick assistance level over its ticks (with `exercise_only`, over
+    its exercise, phase 2, or all its ticks when it stopped before one), each change once
+    (a file without the channel says its built level, then its events)."""
     if "assistance_level" not in data.channels:
         return _dedup([data.parameters.assistance_level,
                        *(e["values"]["level"] for e in data.events if e["kind"] == "assistance")])
-    channel = data.channels["assistance_level"]
-    running = data.channels["phase"].reshape(-1) > 0
-    return _dedup(np.asarray(channel).reshape(-1)[running])
+    channel = np.asarray(data.channels["assistance_level"]).reshape(-1)
+    phase = data.channels["phase"].reshape(-1)
+    running = phase > 0
+    if exercise_only and np.any(phase == 2):
+        running = phase == 2
+    return _dedup(channel[running])
 
 
 def _exported_levels(path: Path, folder: Path) -> list[float]:
