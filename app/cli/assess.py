@@ -91,35 +91,62 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def cmd_show(args: argparse.Namespace) -> int:
+    from app.norms.in_use import norms_in_use
+    from app.reports.assessment_page import (
+        NO_NORMS,
+        assessment_page,
+        missing_covariates,
+        trial_covariates,
+    )
+
     registry = registry_for(args)
-    registry.patient(args.code)
-    shown = 0
-    for trial in registry.trials_for_patient(args.code):
-        task = trial.parameters.get("assessment", "")
-        if not task or (args.task and task != args.task):
-            continue
-        shown += 1
-        _print_trial(task, trial.id, trial.status, trial.metrics, (),
-                     f"session {trial.session_number}, trial {trial.number}, "
-                     f"{trial.session_date.isoformat()}")
-    if not shown:
+    patient = registry.patient(args.code)
+    trials = [t for t in registry.trials_for_patient(args.code)
+              if t.parameters.get("assessment", "")
+              and (not args.task or t.parameters["assessment"] == args.task)]
+    if not trials:
         what = f"no {args.task} assessment" if args.task else "no assessment"
         print(f"Patient {args.code} has {what} yet: `rehab assess run {args.code} --task "
               f"{args.task or 'all'}` runs one on the simulator")
+        return EXIT_OK
+    # a damaged norms file is refused here in one line (NormsFileError: exit 2), never
+    # replaced by no norms in silence
+    norms = norms_in_use(registry.data_dir)
+    missing = missing_covariates(patient) if norms is not None else ()
+    for trial in trials:
+        task = trial.parameters["assessment"]
+        person, notes = None, []
+        if norms is not None and not missing:
+            person, notes = trial_covariates(registry, patient, trial)
+        page = assessment_page(task, trial.metrics, norms=norms if person is not None else None,
+                               person=person)
+        _print_trial(task, trial.id, trial.status, trial.metrics, notes,
+                     f"session {trial.session_number}, trial {trial.number}, "
+                     f"{trial.session_date.isoformat()}",
+                     page=page, task_score=person is not None)
+    if missing:
+        print(f"No Z-scores: the registry lacks the patient's {', '.join(missing)} "
+              f"(record them: rehab correct {args.code} FIELD VALUE --reason R --by B)")
+    print(NO_NORMS if norms is None else norms.label)
     return EXIT_OK
 
 
-def _print_trial(task: str, trial_id, status: str, metrics: dict, notes, where: str) -> None:
-    from app.reports.assessment_page import figure_value
-    from core.assessment import TASK_TITLES, task_figures
+def _print_trial(task: str, trial_id, status: str, metrics: dict, notes, where: str,
+                 page=None, task_score: bool = False) -> None:
+    """A trial's heading and figures, each with its Z-score when `page`
+    (app.reports.assessment_page.AssessmentPage) has one, its task score (`task_score`),
+    the page's notes (why a figure has no Z-score) and `notes`."""
+    from app.reports.assessment_page import assessment_page, figure_text
+    from core.assessment import TASK_TITLES
 
     print(f"{TASK_TITLES.get(task, task)} — trial {trial_id}, {status}, {where}")
-    figures = task_figures(task)
-    if not any(s.key in metrics for s in figures):
+    page = assessment_page(task, metrics) if page is None else page
+    if not page.lines:
         print("  no figures")
-    for spec in figures:
-        if spec.key in metrics:
-            print(f"  {spec.label}: {figure_value(metrics[spec.key], spec.unit)}")
-    for note in notes:
+    for line in page.lines:
+        print(figure_text(line))
+    if task_score:
+        print(f"  {page.task_score}")
+    # an empty page's one note is that it has no figures, said above
+    for note in (*(page.notes if page.lines else ()), *notes):
         print(f"  note: {note}")
-

@@ -97,17 +97,44 @@ def assessment_page(task: str, metrics: Mapping[str, float], *, heading: str = "
                           NO_NORMS if norms is None else norms.label, tuple(notes))
 
 
+COVARIATE_FIELDS = (("birth_year", "birth year"), ("sex", "sex"),
+                    ("handedness", "handedness"), ("side", "tested side"))
+"""The registered patient's fields the norms' covariates come from, with their names."""
+
+
+def missing_covariates(patient) -> tuple[str, ...]:
+    """The names of the fields of a registered patient (app.records.registry.Patient) the
+    norms need and the registry lacks, in COVARIATE_FIELDS' order ((): none missing)."""
+    return tuple(name for field, name in COVARIATE_FIELDS
+                 if getattr(patient, field) in (None, ""))
+
+
 def covariates(patient, session_date: datetime.date, backend: str, summary: Mapping):
     """The norms' covariates of a registered patient (app.records.registry.Patient) at a
     session on the trial's robot (its backend and its file's summary: app.norms.controls),
-    or None when the registry lacks one of them (birth year, sex, handedness, the tested
-    side)."""
+    or None when the registry lacks one of them (missing_covariates: birth year, sex,
+    handedness, the tested side)."""
     from app.norms.controls import Person, covariates_at, robot_kind
 
-    if None in (patient.birth_year, patient.sex, patient.handedness, patient.side):
+    if missing_covariates(patient):
         return None
     return covariates_at(Person(patient.birth_year, patient.sex, patient.handedness),
                          session_date.year, patient.side, robot_kind(backend, summary))
+
+
+def trial_covariates(registry, patient, trial) -> tuple[object, list[str]]:
+    """The norms' covariates of a registered `patient` at their registered `trial` (its
+    session's date, its robot from its file's summary; None as `covariates` says), and
+    notes: the trial's file unreadable (its robot then unknown to the norms)."""
+    from app.errors import AppError
+    from app.trials.reader import read_trial
+
+    notes = []
+    try:
+        summary = read_trial(registry.trial_path(trial), ()).summary
+    except AppError as exc:
+        summary, notes = {}, [f"the trial's file cannot be read: {exc}"]
+    return covariates(patient, trial.session_date, trial.backend or "", summary), notes
 
 
 def patient_page(registry, code: str, task: str) -> AssessmentPage | None:
@@ -117,7 +144,6 @@ def patient_page(registry, code: str, task: str) -> AssessmentPage | None:
     damaged norms file is said on the page, never scored with."""
     from app.errors import AppError
     from app.norms.in_use import norms_in_use
-    from app.trials.reader import read_trial
 
     invalid = registry.invalid_trials(code)
     trials = [t for t in registry.trials_for_patient(code)
@@ -138,12 +164,8 @@ def patient_page(registry, code: str, task: str) -> AssessmentPage | None:
         norms, notes = None, [f"the norms in use cannot be read: {exc}"]
     person = None
     if norms is not None:
-        try:
-            summary = read_trial(registry.trial_path(trial), ()).summary
-        except AppError as exc:
-            summary, notes = {}, [*notes, f"the trial's file cannot be read: {exc}"]
-        person = covariates(registry.patient(code), trial.session_date, trial.backend or "",
-                            summary)
+        person, read = trial_covariates(registry, registry.patient(code), trial)
+        notes += read
     page = assessment_page(task, metrics, heading=heading, norms=norms, person=person)
     return replace(page, notes=(*page.notes, *notes))
 
@@ -172,11 +194,15 @@ def _both_circles(trials, metrics: dict, heading: str) -> tuple[dict, str]:
 def page_text(page: AssessmentPage) -> list[str]:
     """The page as lines of text (the window's tab and the PDF draw these)."""
     out = [page.title] + ([page.heading] if page.heading else [])
-    for line in page.lines:
-        z = "" if line.z is None else f"   Z {line.z:+.2f}"
-        out.append(f"  {line.label}: {line.value}{z}")
+    out += [figure_text(line) for line in page.lines]
     out += [page.task_score, page.norms, *(f"note: {note}" for note in page.notes)]
     return out
+
+
+def figure_text(line: FigureLine) -> str:
+    """A figure's line of text: its label, value and, when it has one, its Z-score."""
+    z = "" if line.z is None else f"   Z {line.z:+.2f}"
+    return f"  {line.label}: {line.value}{z}"
 
 
 def write_assessment_pdf(path: str | os.PathLike, pages: Sequence[AssessmentPage], *,
