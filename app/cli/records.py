@@ -98,25 +98,33 @@ def cmd_trials(args: argparse.Namespace) -> int:
             notes.setdefault(note.trial_id, []).append(note)
     print(f"{'id':>5} {'session':>7} {'trial':>5}  {'started (UTC)':<20}{'status':<15}"
           f"{'exercise':<26}{'RMSE x/y mm':>13}{'direction %':>12}{'led %':>7}  "
-          f"{'mode':<10}assistance")
+          f"{'mode':<11} assistance")
     for t in trials:
         p = t.parameters
-        exercise = f"{p.get('shape', '?')} r {cm(p.get('radius_m', math.nan))}, " \
-                   f"{p.get('duration_s', math.nan):g} s"
-        rmse = f"{mm(t.metrics.get('rmse_x_m'))}/{mm(t.metrics.get('rmse_y_m'))}"
-        direction = t.metrics.get("directional_performance_pct")
-        led = t.metrics.get("led_pct")
+        task = p.get("assessment", "")
+        if task:
+            # a task's fixed protocol: its figures are `rehab assess show`'s, not the
+            # exercise's (an RMSE from a path the patient was not asked to follow)
+            exercise, rmse, direction, led = f"assessment: {task}", "–", None, None
+        else:
+            exercise = f"{p.get('shape', '?')} r {cm(p.get('radius_m', math.nan))}, " \
+                       f"{p.get('duration_s', math.nan):g} s"
+            rmse = f"{mm(t.metrics.get('rmse_x_m'))}/{mm(t.metrics.get('rmse_y_m'))}"
+            direction = t.metrics.get("directional_performance_pct")
+            led = t.metrics.get("led_pct")
         started = t.started_at.strftime("%Y-%m-%d %H:%M") if t.started_at else "-"
         print(f"{t.id:>5} {t.session_number:>7} {t.number:>5}  {started:<20}{t.status:<15}"
               f"{exercise:<26}{rmse:>13}{num(direction):>12}{num(led):>7}  "
-              f"{t.assist:<10}{_levels(t)}")
+              f"{t.assist:<11} {_levels(t)}")
         if t.backend:
             print(f"{'':>21}robot: {t.backend}")
         game = game_line(p, t.metrics)
         if game:
             print(f"{'':>21}{game}")
+        if task:
+            print(f"{'':>21}figures: rehab assess show {args.code} --task {task}")
         stored = proposals.get(t.id)
-        if stored is not None:
+        if stored is not None and not task:  # one an assessment was given before none was
             print(f"{'':>21}proposed: {stored.proposal.get('reason', '?')} "
                   f"({stored.decision})")
         if t.end_reason:

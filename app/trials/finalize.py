@@ -36,14 +36,17 @@ class Finalized:
     analysis: Analysis | None
     notes: tuple[str, ...]
     proposal: Proposal | None = None
-    """What the console proposes for the patient's next trial (app.trials.progression)."""
+    """What the console proposes for the patient's next trial (app.trials.progression);
+    None after an assessment, which takes no part in the exercise's progression."""
 
 
 def finalize_trial(registry: RecordStore, trial_id: int, status: str | None = None,
                    reason: str = "", analysis: Analysis | None = None) -> Finalized:
     """Analyse the trial's file, write its metrics into it and into the registry, with the
     assistance levels it ran (its file's, never the form's), and propose the next trial
-    from what it ran: the level in effect at the end of its exercise.
+    from what it ran: the level in effect at the end of its exercise (no proposal after an
+    assessment trial: its task's protocol is fixed, and the next exercise follows on from
+    the exercise before).
 
     `status` defaults to the one the file records (complete, stopped_early, faulted,
     recording_lost); `reason`, why it ended so, to the file's last fault (the registry
@@ -73,15 +76,29 @@ def finalize_trial(registry: RecordStore, trial_id: int, status: str | None = No
     registry.finish_trial(trial_id, status, metrics, datetime.datetime.now(datetime.UTC),
                           reason, ran, data.backend or None)
     parameters = data.parameters
-    if parameters is not None and ran is not None:
-        # the next trial starts from where this one ended, not from how it was built
-        parameters = parameters.replace(assistance_level=ran.at_end)
-    proposal = propose(parameters, metrics, status, _ran_with(registry, trial))
-    registry.record_proposal(trial_id, proposal.to_dict())
-    log.info("trial %s: proposed for the next trial: %s", trial_id, proposal.reason)
+    proposal = None
+    if _is_assessment(parameters, trial):
+        # an assessment runs its task's fixed protocol, outside the exercise's progression:
+        # no proposal, which the next exercise trial would otherwise be offered and take
+        log.info("trial %s: an assessment: no proposal for the next trial", trial_id)
+    else:
+        if parameters is not None and ran is not None:
+            # the next trial starts from where this one ended, not from how it was built
+            parameters = parameters.replace(assistance_level=ran.at_end)
+        proposal = propose(parameters, metrics, status, _ran_with(registry, trial))
+        registry.record_proposal(trial_id, proposal.to_dict())
+        log.info("trial %s: proposed for the next trial: %s", trial_id, proposal.reason)
     for note in notes:
         log.info("trial %s: %s", trial_id, note)
     return Finalized(trial_id, path, status, analysis, tuple(notes), proposal)
+
+
+def _is_assessment(parameters, trial) -> bool:
+    """Whether the trial is a run of an assessment task (TrialParameters.assessment), by
+    its file's parameters or, when the file holds none, the registry's."""
+    if parameters is not None:
+        return bool(parameters.assessment)
+    return bool(trial.parameters.get("assessment"))
 
 
 def _levels(data: TrialData, notes: list[str]) -> AssistanceInEffect | None:

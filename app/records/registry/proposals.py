@@ -8,7 +8,9 @@ it `accepted` (the next trial is the proposal applied to the trial before: every
 parameter equal, the proposed assistance, speed and tolerance and the rest as before),
 `kept` (every parameter as the trial before, against a proposed change) or `changed`
 (anything else: another shape, mode or size is never "accepted"), and links the trial
-that followed. `pending_proposal` gives the one waiting, after a restart too. The history
+that followed. An assessment trial neither makes a proposal (app.trials.finalize) nor
+decides one: the exercise's proposal waits for the next exercise trial.
+`pending_proposal` gives the one waiting, after a restart too. The history
 of a patient's progression is their proposals beside their trials' parameters, which the
 trials table keeps.
 """
@@ -94,7 +96,12 @@ class Proposals(Database):
     def _trial_begun(self, conn: sqlite3.Connection, patient: int, trial_id: int,
                      parameters: dict) -> None:
         """At Start, in begin_trial's transaction (Trials._trial_begun): the patient's
-        pending proposal decided by the parameters the new trial started with."""
+        pending proposal decided by the parameters the new trial started with. An
+        assessment trial (TrialParameters.assessment) decides none: it runs its task's
+        fixed protocol between exercise trials, and the proposal waits for the next
+        exercise."""
+        if parameters.get("assessment"):
+            return
         row = conn.execute(_PENDING, (patient, trial_id)).fetchone()
         if row is None:
             return
