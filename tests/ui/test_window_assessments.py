@@ -81,3 +81,30 @@ def test_a_task_runs_through_the_windows_buttons(qtbot, tmp_path, monkeypatch):
         assert saved.read_bytes().startswith(b"%PDF")
     finally:
         win.close()
+
+
+def test_an_assessment_leaves_the_exercises_proposal_offered(qtbot, window):
+    """An assessment proposes nothing (app.trials.finalize): the window keeps offering the
+    exercise's proposal that still waits for the next exercise, as it does after a
+    restart; it had hidden it until the console was started again."""
+    from app.trials.finalize import finalize_trial
+    from core.trial import THESIS_SUBJECT
+    from tests.app.assessments.registered import register
+
+    register_patient(qtbot, window)
+    code = window.patient.code
+    exercise = register(window.registry, code, {}, task="",
+                        parameters=THESIS_SUBJECT.replace(repetitions=1), finish=False)
+    done = finalize_trial(window.registry, exercise.trial_id, "complete")
+    window._finalized(exercise.trial_id, done)
+    box = window.parameters_tab.proposal
+    assert not box.isHidden()
+    offered = box.proposal
+    assessment = register(window.registry, code, {"vgr_reaction_time_s": 0.4},
+                          parameters=THESIS_SUBJECT.replace(assist="transparent",
+                                                            shape="targets"), finish=False)
+    done = finalize_trial(window.registry, assessment.trial_id, "complete")
+    assert done.proposal is None
+    window._finalized(assessment.trial_id, done)
+    assert not box.isHidden(), "the exercise's proposal was hidden after an assessment"
+    assert box.proposal == offered

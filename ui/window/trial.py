@@ -382,7 +382,12 @@ class TrialActions:
 
     def _finalized(self, trial_id: int, done) -> None:
         self.unsaved_trial = trial_id
-        self.parameters_tab.show_proposal(done.proposal)
+        if done.proposal is None and self.patient is not None:
+            # a trial that proposes nothing (an assessment) leaves the exercise's pending
+            # proposal where it was: offered still, as after a restart
+            self._offer_pending_proposal(self.patient.code)
+        else:
+            self.parameters_tab.show_proposal(done.proposal)
         if self.registration is not None:
             self.registration_tab.refresh_numbers()
         self.report.load_registry_trial(self.registry, trial_id)
