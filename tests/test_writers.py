@@ -89,9 +89,6 @@ KNOWN: dict[tuple[str, str], tuple[int, str]] = {
     ("device/compiled/cachedir.py", "probe.unlink"): (1, "the probe's removal"),
     ("device/compiled/warmup.py", "shutil.rmtree"): (
         1, "earlier sources' caches beside this one, in that private cache folder"),
-    ("app/population/norms.py", "shutil.rmtree"): (
-        1, "a virtual subject's trial files, in a folder of its own from tempfile.mkdtemp, "
-           "removed once their figures are read (never the data folder)"),
     ("device/loop/client.py", "ring.unlink"): (1, "shared memory, not a file"),
     ("device/recording/ring.py", "self.unlink"): (1, "shared memory, not a file"),
     ("device/recording/trialfile/making.py", "h5py.File('w')"): (

@@ -7,6 +7,13 @@ task's figures beside the movement's (app.trials.analysis adds them to every ass
 trial). Registered for a patient, each trial begins and ends with its registry row as
 `rehab run`'s does (app.trials.registered, app.trials.finalize), so the registry's metrics
 hold the same figures. Trial k of a task runs with seed `seed + k`.
+
+With `in_memory` (a virtual population's visits, app.population.norms: thousands of
+trials nobody opens again) no file is written: the trial runs in memory and only its task
+figures are computed, from its whole arrays (app.assessments.figures.assessment_figures,
+the function a trial file's figures come from a block at a time). Writing, sealing,
+verifying and reading back each file and the exercise's figures were three quarters of a
+visit's time (py-spy over a population build, 2026-12-03).
 """
 
 from __future__ import annotations
@@ -33,7 +40,8 @@ class TaskTrial:
     label: str
     """The trial's label in its protocol ("clockwise", …; "" for a task of one trial)."""
     parameters: TrialParameters
-    path: Path
+    path: Path | None
+    """The trial's file (None for a trial run `in_memory`)."""
     status: str
     seed: int
     metrics: dict[str, float]
@@ -58,23 +66,27 @@ def run_task(task: str, patient: str = "healthy", base: TrialParameters | None =
              seed: int = 0, *, registry: RecordStore | None = None, code: str = "",
              folder: Path | None = None, patient_options: dict | None = None,
              plant: str = "realistic", engine: str = "auto",
-             progress: Progress | None = None) -> tuple[TaskTrial, ...]:
+             progress: Progress | None = None, in_memory: bool = False
+             ) -> tuple[TaskTrial, ...]:
     """Run every trial of `task` (core.assessment.TASKS) with the virtual `patient` on the
     table of `base` (THESIS_SUBJECT's by default).
 
     With `registry` and `code` the trials are registered for that patient, whose body
     sizes replace the base's, and written in the data folder; else they are written in
-    `folder` as `<task>_<k>_<patient>_seed<seed>.h5`, refused when one exists. Refuses a
-    task, seed or robot mode that cannot run, in one line, before any file exists."""
+    `folder` as `<task>_<k>_<patient>_seed<seed>.h5`, refused when one exists; with
+    `in_memory` (and neither) none is written (the module notes). Refuses a task, seed or
+    robot mode that cannot run, in one line, before any file exists."""
     spec = protocol(task)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ParameterError("seed", seed, "a whole number from 0")
     base = base or TrialParameters()
+    if in_memory and (registry is not None or folder is not None):
+        raise AppError("a task run in memory writes no file: give no registry nor folder")
     if registry is not None:
         if not code:
             raise AppError("a registered assessment needs the patient's code")
         base = base.replace(**registry.patient(code).trial_overrides())
-    elif folder is None:
+    elif folder is None and not in_memory:
         raise AppError("give a folder for the trial files or a registry and a patient's code")
     plans = [spec.parameters(base, index) for index in range(spec.trial_count)]
     out = []
@@ -104,7 +116,8 @@ def _circle_task(trials: list[TaskTrial], registry: RecordStore | None) -> list[
     done = []
     for trial in trials:
         metrics = {**trial.metrics, **combined}
-        write_metrics(trial.path, metrics)
+        if trial.path is not None:
+            write_metrics(trial.path, metrics)
         if registry is not None and trial.trial_id is not None:
             registry.update_metrics(trial.trial_id, combined)
         done.append(replace(trial, metrics=metrics))
@@ -130,6 +143,8 @@ def _one(task: str, index: int, label: str, parameters: TrialParameters, patient
     started = time.perf_counter()
     run = {"patient": patient, "seed": seed, "plant": plant, "engine": engine,
            "patient_options": patient_options}
+    if registry is None and folder is None:
+        return _in_memory(task, index, label, parameters, run, started)
     if registry is None:
         assert folder is not None
         path = Path(folder) / f"{task}_{index}_{patient}_seed{seed}.h5"
@@ -156,3 +171,22 @@ def _one(task: str, index: int, label: str, parameters: TrialParameters, patient
     metrics = analysis.to_metrics() if analysis is not None else {}
     return TaskTrial(task, index, label, parameters, path, trial.status, seed, metrics,
                      tuple(notes), trial_id, trial.simulated_s, time.perf_counter() - started)
+
+
+def _in_memory(task: str, index: int, label: str, parameters: TrialParameters, run: dict,
+               started: float) -> TaskTrial:
+    """A task's trial run in memory: its task figures only, no file (the module notes)."""
+    from app.assessments.figures import assessment_figures
+    from app.trials.analysis import MIN_EXERCISE, exercise_mask
+    from app.trials.headless import simulate
+
+    trial = simulate(parameters, **run)
+    channels = {name: trial.records[name] for name in trial.records.dtype.names}
+    mask = exercise_mask(channels)
+    if int(mask.sum()) < MIN_EXERCISE:  # a fault in the approach: no figures, as on file
+        figures, notes = {}, (f"the trial has only {int(mask.sum())} samples of exercise",)
+    else:
+        figures, notes = assessment_figures(channels, parameters, mask)
+    return TaskTrial(task, index, label, parameters, None, trial.status, run["seed"],
+                     dict(figures), tuple(notes), None, trial.simulated_s,
+                     time.perf_counter() - started)

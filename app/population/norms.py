@@ -13,17 +13,15 @@ once; the retest gives each figure's and task score's ICC, SEM and MDC95
 seed 0: the same seed and size give the same model (every number; only the file's
 created_utc differs), whatever the number of workers.
 
-The trial files are written to a temporary folder per subject and removed: the figures are
-what the model keeps.
+A visit's trials run in memory (app.assessments.runner, `in_memory`): no trial file is
+written, the task figures are computed from the trials' whole arrays by the function a
+trial file's figures come from. The figures are what the model keeps.
 """
 
 from __future__ import annotations
 
 import math
-import shutil
-import tempfile
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -72,19 +70,16 @@ def battery_figures(visit: Visit) -> dict:
     trial = session - 1  # the subject's learning: the first session is trial 0
     base = subject.trial_parameters(TrialParameters(), side)
     out = {"subject": subject.index, "session": session, "side": side, "refused": ""}
-    folder = Path(tempfile.mkdtemp(prefix="rehab-population-"))
     figures: dict[str, float] = {}
     try:
         results = run_battery("healthy", base, subject.trial_seed(trial) % 2**31,
-                              tasks=visit.tasks, folder=folder,
+                              tasks=visit.tasks, in_memory=True,
                               patient_options=subject.patient_options(trial, side), plant=PLANT)
         for trials in results.values():
             for task_trial in trials:
                 figures.update(task_trial.figures)
     except (AppError, CoreError) as error:  # refused (out of reach, ...): kept with why
         out["refused"] = f"{type(error).__name__}: {error}"
-    finally:
-        shutil.rmtree(folder, ignore_errors=True)
     for key in FIGURES:
         value = figures.get(key, math.nan)
         out[key] = float(value) if value is not None else math.nan
