@@ -143,6 +143,26 @@ def _command(qtbot, bridge, name, *args):
     assert got.args[1], f"{name}: {got.args[2]}"
 
 
+def _start_when_closed(qtbot, bridge, path, subject):
+    """Start as the window does: the recorder's "closed" notice can reach the console
+    before the loop has heard the file is closed, and the loop then refuses the start in
+    one line ("the last trial is still being closed; wait a moment"), which the therapist
+    answers by pressing Start again. Under a loaded machine that gap lasted long enough to
+    refuse the test's start."""
+    deadline = time.monotonic() + 30.0
+    while True:
+        with qtbot.waitSignal(bridge.replied, timeout=30000,
+                              check_params_cb=lambda command, ok, message:
+                              command == "start_trial") as got:
+            bridge.start_trial(path, subject)
+        ok, message = got.args[1], got.args[2]
+        if ok:
+            return
+        assert "still being closed" in message, f"start_trial: {message}"
+        assert time.monotonic() < deadline, f"start_trial still refused after 30 s: {message}"
+        qtbot.wait(50)
+
+
 class _Recording:
     """An inlet drained on its own thread, as LabRecorder does, until its stream is gone
     (recover=False: a lost stream ends the pull instead of waiting for it to come back)."""
@@ -193,7 +213,7 @@ def test_no_tick_is_lost_at_start_and_no_stamp_goes_back_across_connects(qtbot, 
                 with qtbot.waitSignal(bridge.file_notice, timeout=30000,
                                       check_params_cb=lambda kind, p, *_, path=path:
                                       kind == "closed" and p == str(path)):
-                    _command(qtbot, bridge, "start_trial", str(path), subject)
+                    _start_when_closed(qtbot, bridge, str(path), subject)
                     qtbot.wait(10 * (start % 4))  # stopped 0 to 30 ms into the approach
                     _command(qtbot, bridge, "stop")
                 files.append(path)

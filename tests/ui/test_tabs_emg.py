@@ -78,10 +78,12 @@ def test_a_live_trigno_streams_its_envelopes_and_disconnects(qtbot):
         tab.source_ports = {"command_port": server.command_port,
                             "data_port": server.data_port}
         tab.connect_button.click()
+        # generous deadlines: waitUntil returns as soon as it holds, and a loaded 2-core
+        # machine (a whole check beside another build) took over 10 s to draw them
         qtbot.waitUntil(lambda: tab.live_status.text().startswith("EMG streaming from "
                                                                   "trigno:127.0.0.1"),
-                        timeout=10000)
-        qtbot.waitUntil(lambda: len(tab.live_curves) == 16, timeout=10000)
+                        timeout=60000)
+        qtbot.waitUntil(lambda: len(tab.live_curves) == 16, timeout=60000)
         x, y = tab.live_curves[15].getData()
         # channel 16 of the fake: 16 µV × a sine, RMS 16/√2 µV
         assert y[-1] == pytest.approx(16 / 2 ** 0.5, rel=0.1)
