@@ -58,7 +58,7 @@ def main() -> int:
     print(f"wrote {path}")
     print("left out: " + ("; ".join(f"{k}: {v}" for k, v in built.fit.left_out.items())
                           or "nothing"))
-    for line in calibration_lines(built.document["calibration"]):
+    for line in calibration_lines(built.document["calibration"]["held_out"]):
         print(line)
     mdc = {k: v.get("mdc95") for k, v in built.document["figures"].items()}
     print("MDC95: " + ", ".join(f"{k} {v:.3g}" for k, v in mdc.items() if v is not None))

@@ -180,11 +180,18 @@ def fit_norms(controls: Controls, source: str, *, simulated: bool = False,
     tasks = {}
     for task in tasks_catalogue:
         combined = task_figures_for_score(task, figures_catalogue)
-        if combined and all(k in table for k in combined):
-            tasks[task] = combined
+        normed = tuple(k for k in combined if k in table)
+        lacking = ", ".join(k for k in combined if k not in table)
+        # A figure every control has the same value of (a healthy population's count of
+        # reaches with no reaction: 0) says nothing of a patient against them; the task
+        # score combines the others, and its figures in the file say which. Fewer than
+        # half of the task's figures is no longer that task's score: left out.
+        if combined and 2 * len(normed) >= len(combined):
+            tasks[task] = normed
+            if lacking:
+                left_out[f"task:{task}"] = f"scored without {lacking}"
         elif combined:
-            left_out[f"task:{task}"] = "lacks " + ", ".join(k for k in combined
-                                                             if k not in table)
+            left_out[f"task:{task}"] = "lacks " + lacking
     try:
         model = fitting.fit_model(table, controls.people, worse, tasks, transform)
         calibration = fitting.cross_validate(table, controls.people, worse, tasks,
