@@ -1,0 +1,61 @@
+"""The console's shipped simulated norms (resources/norms/simulated.json, built by
+scripts/build_simulated_norms.py from 500 virtual healthy subjects): verified on load,
+labelled simulated, a task score and an MDC95 for every task, what a data folder without
+norms of its own uses, and on the virtual patients they do what norms are for: the weak
+patient scores worse than the healthy one on every task (seed 3, a 60-year-old right-handed
+woman's norms: 3.62 against 1.15 in reaching, 2.67/1.61 circle, 2.16/0.06 range, 3.11/1.95
+strength, 6.41/0.61 position sense on 2026-12-03)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from app.assessments.runner import run_battery
+from app.norms import SIMULATED_LABEL, Covariates, load_norms
+from app.norms.in_use import SHIPPED, norms_in_use
+from app.records.datadir import DataDir
+from core.assessment import TASKS
+from core.trial import TrialParameters
+
+PERSON = Covariates(60.0, "female", "right", "right", "simulator-realistic")
+
+
+@pytest.fixture(scope="module")
+def shipped():
+    return load_norms(SHIPPED)
+
+
+def test_the_shipped_norms_are_verified_and_labelled_simulated(shipped):
+    assert shipped.simulated
+    assert SIMULATED_LABEL in shipped.label
+    assert shipped.source.startswith("simulated: 500 virtual healthy subjects")
+    assert set(shipped.tasks) == set(TASKS)
+    assert all(t.mdc95 is not None and t.mdc95 > 0 for t in shipped.tasks.values())
+    assert all(f.mdc95 is not None and f.mdc95 > 0 for f in shipped.figures.values())
+
+
+def test_a_data_folder_without_norms_of_its_own_uses_the_shipped_ones(tmp_path, shipped):
+    data = DataDir(tmp_path / "data")
+    assert norms_in_use(data).source == shipped.source
+
+
+@pytest.fixture(scope="module")
+def scored(shipped):
+    """Each virtual patient's battery, in memory, and its task scores (0 is best)."""
+    out = {}
+    for patient in ("healthy", "weak"):
+        results = run_battery(patient, TrialParameters(), 3, in_memory=True)
+        figures = {k: v for trials in results.values() for t in trials
+                   for k, v in t.figures.items()}
+        out[patient] = {task: shipped.task_score(task, figures, PERSON).score
+                        for task in TASKS}
+    return out
+
+
+@pytest.mark.parametrize("task", TASKS)
+def test_the_weak_patient_scores_worse_than_the_healthy(scored, task):
+    healthy, weak = scored["healthy"][task], scored["weak"][task]
+    assert math.isfinite(healthy)
+    assert weak > healthy
