@@ -98,10 +98,12 @@ def _z(norms, key: str, value, person) -> str:
 
 
 def _score(norms, task: str, metrics: dict, person) -> str:
-    from app.norms import NormsError
+    from app.norms import NormsError, TaskNotPerformed
 
     try:
         return f"{norms.task_score(task, metrics, person).score:.2f}"
+    except TaskNotPerformed:
+        return "not done"
     except NormsError:
         return "n/a"
 

@@ -303,6 +303,7 @@ def _as_json(scores) -> dict:
         "task_score": None if task is None else {"score": task.score, "z_task": task.z_task,
                                                  "distance": task.distance},
         "why_no_task_score": scores.why_no_task_score,
+        "not_performed": scores.not_performed,
         "unscored": scores.unscored,
         "norms": scores.label,
     }

@@ -9,6 +9,7 @@ from app.norms.model import (
     FigureZ,
     NormativeModel,
     NormsError,
+    TaskNotPerformed,
     TaskScore,
 )
 from app.norms.modelfile import FORMAT, FORMAT_VERSION, NormsFileError, load_norms, write_norms
@@ -24,6 +25,7 @@ __all__ = [
     "NormativeModel",
     "NormsError",
     "NormsFileError",
+    "TaskNotPerformed",
     "TaskScore",
     "load_norms",
     "write_norms",

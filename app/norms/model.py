@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from app.errors import AppError
+from core.assessment.performed import not_performed
 from core.errors import ParameterError
 from core.norms import reliability, scores
 from core.norms.regression import Covariates, CovariateSpec, Regression
@@ -26,6 +27,16 @@ SIMULATED_LABEL = "simulated — for demonstration and tests only"
 class NormsError(AppError):
     """The norms cannot answer: a figure or task they do not hold, a person outside
     them, a value outside a transform's domain, no MDC95 for a change."""
+
+
+class TaskNotPerformed(NormsError):
+    """The patient did not perform the task (core.assessment.performed): no task score,
+    and a result worse than any (reports say so, ranked last)."""
+
+    def __init__(self, task: str, reason: str) -> None:
+        super().__init__(f"{task} not performed: {reason} (worse than any task score)")
+        self.task = task
+        self.reason = reason
 
 
 @dataclass(frozen=True)
@@ -168,6 +179,9 @@ class NormativeModel:
             raise NormsError(f"the norms ({self.source}) hold no task score for {task!r}; "
                              f"they hold {', '.join(sorted(self.tasks)) or 'none'}") from None
         missing = [f for f in norm.figures if not _defined(metrics.get(f))]
+        reason = not_performed(task, metrics)
+        if reason:  # before `missing`: a task not done is the worst result, not a gap
+            raise TaskNotPerformed(task, reason)
         if missing:
             raise NormsError(f"the {task} task score needs {', '.join(missing)}, which the "
                              "trial does not have (or left undefined): no task score")

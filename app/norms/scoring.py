@@ -16,7 +16,7 @@ from datetime import datetime
 from pathlib import Path
 
 from app.norms.controls import Person, covariates_at, robot_kind
-from app.norms.model import FigureZ, NormativeModel, NormsError, TaskScore
+from app.norms.model import FigureZ, NormativeModel, NormsError, TaskNotPerformed, TaskScore
 from core.errors import CoreError
 from core.norms.regression import Covariates
 
@@ -34,6 +34,8 @@ class TrialScores:
     label: str
     unscored: dict[str, str]
     """Figures the norms hold that could not be scored, with why."""
+    not_performed: str = ""
+    """Why the patient did not perform the task ("" when they did): worse than any score."""
 
 
 def score_trial(path: str | Path, norms: NormativeModel, person: Person) -> TrialScores:
@@ -64,12 +66,14 @@ def score_trial(path: str | Path, norms: NormativeModel, person: Person) -> Tria
                 figures[key] = norms.z(key, value, who)
             except NormsError as exc:  # this figure only: the others are still scored
                 unscored[key] = str(exc)
-    score, why = None, ""
+    score, why, undone = None, "", ""
     try:
         score = norms.task_score(task, metrics, who)
+    except TaskNotPerformed as exc:
+        why, undone = str(exc), exc.reason
     except NormsError as exc:
         why = str(exc)
-    return TrialScores(path, task, who, figures, score, why, norms.label, unscored)
+    return TrialScores(path, task, who, figures, score, why, norms.label, unscored, undone)
 
 
 def lines(scores: TrialScores) -> list[str]:
@@ -90,6 +94,9 @@ def lines(scores: TrialScores) -> list[str]:
         t = scores.task_score
         out.append(f"task score {scores.task}: {t.score:.2f} (0 best; 1.96 = the controls' "
                    f"95th percentile), Z-Task Score {t.z_task:.2f}")
+    elif scores.not_performed:
+        out.append(f"task {scores.task}: not performed — {scores.not_performed} (worse than "
+                   "any task score)")
     else:
         out.append(f"no task score: {scores.why_no_task_score}")
     out.append(scores.label)

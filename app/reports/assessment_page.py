@@ -58,7 +58,7 @@ def assessment_page(task: str, metrics: Mapping[str, float], *, heading: str = "
     """The page of `task` for a trial's `metrics` (its file's or the registry's), with
     Z-scores and the task score when `norms` (app.norms.NormativeModel) and `person`
     (app.norms.Covariates) are given."""
-    from app.norms import NormsError
+    from app.norms import NormsError, TaskNotPerformed
 
     spec = protocol(task)
     notes: list[str] = []
@@ -86,6 +86,8 @@ def assessment_page(task: str, metrics: Mapping[str, float], *, heading: str = "
     if norms is not None and person is not None:
         try:
             score = norms.task_score(task, metrics, person)
+        except TaskNotPerformed as exc:
+            task_score = not_performed_text(exc)
         except NormsError as exc:
             task_score = f"No task score: {exc}"
         else:
@@ -95,6 +97,11 @@ def assessment_page(task: str, metrics: Mapping[str, float], *, heading: str = "
         notes.append(f"the trial holds no {spec.name} figures")
     return AssessmentPage(task, TASK_TITLES[task], heading, tuple(lines), task_score,
                           NO_NORMS if norms is None else norms.label, tuple(notes))
+
+
+def not_performed_text(exc) -> str:
+    """The task score's line of a task the patient did not perform (reports and pages)."""
+    return f"Task not performed: {exc.reason} (worse than any task score)"
 
 
 COVARIATE_FIELDS = (("birth_year", "birth year"), ("sex", "sex"),

@@ -175,12 +175,15 @@ def _assessment(registry, patient, session, trial, norms) -> Assessment:
         rows.append(AssessmentRow(spec.label, shown, z))
     score = ""
     if who is not None:
-        from app.norms import NormsError
+        from app.norms import NormsError, TaskNotPerformed
+        from app.reports.assessment_page import not_performed_text
 
         try:
             result = norms.task_score(task, trial.metrics, who)
             score = (f"task score {result.score:.2f} (0 best; 1.96 = the 95th percentile of "
                      "the norms)" + (" — extrapolated" if result.extrapolated else ""))
+        except TaskNotPerformed as exc:
+            score = not_performed_text(exc)
         except NormsError as exc:
             score = f"no task score: {exc}"
     return Assessment(trial.number, TASK_TITLES.get(task, task), tuple(rows), score,

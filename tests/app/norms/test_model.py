@@ -163,3 +163,20 @@ def test_undefined_figures_are_left_out_not_refused(model):
         model.task_score("reaching", metrics, PERSON)
     with pytest.raises(NormsError, match="not a finite number"):
         model.z_scores({"vgr_max_speed_m_s": math.inf}, PERSON)
+
+
+def test_a_task_not_performed_is_named_not_a_gap(model):
+    """The passive patient: no reaction in any reach, so the reaction time is undefined. The
+    task is not performed — worse than any task score — rather than "needs a figure"."""
+    from app.norms import TaskNotPerformed
+
+    metrics = {"vgr_reaction_time_s": math.nan, "vgr_max_speed_m_s": 0.0,
+               "vgr_no_reaction_count": 16.0}
+    with pytest.raises(TaskNotPerformed, match="no reaction in any of the 16 reaches") as err:
+        model.task_score("reaching", metrics, PERSON)
+    assert err.value.task == "reaching"
+    assert "worse than any task score" in str(err.value)
+    # One reach with a reaction is a performed task with a figure the score lacks.
+    with pytest.raises(NormsError, match="needs vgr_reaction_time_s") as err:
+        model.task_score("reaching", {**metrics, "vgr_no_reaction_count": 15.0}, PERSON)
+    assert not isinstance(err.value, TaskNotPerformed)

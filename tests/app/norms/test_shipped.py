@@ -4,7 +4,7 @@ labelled simulated, a task score and an MDC95 for every task, what a data folder
 norms of its own uses, and on the virtual patients they do what norms are for: the weak
 patient scores worse than the healthy one on every task (seed 3, a 60-year-old right-handed
 woman's norms: 3.62 against 1.15 in reaching, 2.67/1.61 circle, 2.16/0.06 range, 3.11/1.95
-strength, 6.41/0.61 position sense on 2026-12-03)."""
+strength, 6.41/0.61 position sense on 2026-12-03), and the passive one worst of all."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import math
 import pytest
 
 from app.assessments.runner import run_battery
-from app.norms import SIMULATED_LABEL, Covariates, load_norms
+from app.norms import SIMULATED_LABEL, Covariates, TaskNotPerformed, load_norms
 from app.norms.in_use import SHIPPED, norms_in_use
 from app.records.datadir import DataDir
 from core.assessment import TASKS
@@ -45,13 +45,20 @@ def test_a_data_folder_without_norms_of_its_own_uses_the_shipped_ones(tmp_path, 
 def scored(shipped):
     """Each virtual patient's battery, in memory, and its task scores (0 is best)."""
     out = {}
-    for patient in ("healthy", "weak"):
+    for patient in ("healthy", "weak", "passive"):
         results = run_battery(patient, TrialParameters(), 3, in_memory=True)
         figures = {k: v for trials in results.values() for t in trials
                    for k, v in t.figures.items()}
-        out[patient] = {task: shipped.task_score(task, figures, PERSON).score
-                        for task in TASKS}
+        out[patient] = {task: _rank(shipped, task, figures) for task in TASKS}
     return out
+
+
+def _rank(norms, task, figures) -> float:
+    """The task score, or infinity for a task not performed (worse than any score)."""
+    try:
+        return norms.task_score(task, figures, PERSON).score
+    except TaskNotPerformed:
+        return math.inf
 
 
 @pytest.mark.parametrize("task", TASKS)
@@ -59,3 +66,11 @@ def test_the_weak_patient_scores_worse_than_the_healthy(scored, task):
     healthy, weak = scored["healthy"][task], scored["weak"][task]
     assert math.isfinite(healthy)
     assert weak > healthy
+
+
+@pytest.mark.parametrize("task", TASKS)
+def test_the_passive_patient_scores_worst(scored, task):
+    """The passive patient does not move: reaching, the circle and position sense are not
+    performed (named, not a gap), and range and strength score worse than the weak one's."""
+    assert scored["passive"][task] > scored["weak"][task]
+    assert math.isinf(scored["passive"][task]) == (task in ("reaching", "circle", "position"))

@@ -62,6 +62,17 @@ def test_z_scores_and_the_task_score_are_the_norms(norms):
     assert page.norms in text
 
 
+def test_a_task_not_performed_says_so_on_the_page(norms):
+    """The passive patient's reaching: no reaction in any reach — the page names it as the
+    worst result, not as a figure the trial lacks."""
+    still = {"vgr_reaction_time_s": math.nan, "vgr_max_speed_m_s": 0.0,
+             "vgr_no_reaction_count": 16.0}
+    page = assessment_page("reaching", still, norms=norms, person=PERSON)
+    assert page.task_score == ("Task not performed: no reaction in any of the 16 reaches "
+                               "(worse than any task score)")
+    assert page.task_score in page_text(page)
+
+
 def test_simulated_norms_say_so(tmp_path):
     document = handmade()
     document["simulated"] = True
