@@ -5,6 +5,10 @@ simulated (app.population.norms).
 Run: .venv/bin/python scripts/build_simulated_norms.py [--subjects 500] [--seed 0]
      [--workers 2] [--tasks reaching circle range strength position] [--no-retest]
      [--output resources/norms/simulated.json] [--overwrite]
+     [--save-rows ROWS.json | --from-rows ROWS.json]
+
+--save-rows keeps every visit's figures; --from-rows refits from them without running the
+population again (seconds: for a change to the fitter, not to the simulation).
 
 Prints the time it took, what the fit left out, the cross-validated calibration and the
 MDC95s. The same seed and size give the same model (only its created_utc differs).
@@ -13,15 +17,18 @@ MDC95s. The same seed and size give the same model (only its created_utc differs
 from __future__ import annotations
 
 import argparse
+import json
+import os
 import resource
 import sys
 import time
+from pathlib import Path
 
 from app.norms import NormsError, write_norms
 from app.norms.fitting import calibration_lines
 from app.norms.in_use import SHIPPED
 from app.norms.modelfile import NormsFileError
-from app.population.norms import build_simulated_norms
+from app.population.norms import build_simulated_norms, fit_simulated_norms
 from core.assessment import TASKS
 from core.errors import ParameterError
 
@@ -35,11 +42,20 @@ def main() -> int:
     parser.add_argument("--no-retest", action="store_true", help="no MDC95 (half the time)")
     parser.add_argument("--output", default=str(SHIPPED))
     parser.add_argument("--overwrite", action="store_true")
+    rows_file = parser.add_mutually_exclusive_group()
+    rows_file.add_argument("--save-rows", type=Path, help="write every visit's figures here")
+    rows_file.add_argument("--from-rows", type=Path, help="refit from rows --save-rows wrote")
     args = parser.parse_args()
     start = time.perf_counter()
     try:
-        built = build_simulated_norms(args.subjects, args.seed, workers=args.workers,
-                                      tasks=args.tasks, retest=not args.no_retest)
+        if args.from_rows is not None:
+            built = fit_simulated_norms(_read_rows(args.from_rows), args.subjects, args.seed,
+                                        tasks=args.tasks, retest=not args.no_retest)
+        else:
+            built = build_simulated_norms(args.subjects, args.seed, workers=args.workers,
+                                          tasks=args.tasks, retest=not args.no_retest)
+        if args.save_rows is not None:
+            _write_rows(args.save_rows, built.rows)
         path = write_norms(args.output, built.document, overwrite=args.overwrite)
     except (ParameterError, NormsError, NormsFileError) as error:
         print(f"error: {error}", file=sys.stderr)
@@ -63,6 +79,24 @@ def main() -> int:
     mdc = {k: v.get("mdc95") for k, v in built.document["figures"].items()}
     print("MDC95: " + ", ".join(f"{k} {v:.3g}" for k, v in mdc.items() if v is not None))
     return 0
+
+
+def _read_rows(path: Path) -> list[dict]:
+    try:
+        rows = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as error:
+        raise NormsError(f"{path}: cannot read the rows ({error}); write them with "
+                         "--save-rows") from None
+    if not isinstance(rows, list) or not all(isinstance(r, dict) for r in rows):
+        raise NormsError(f"{path}: not the rows --save-rows writes (a list of objects)")
+    return rows
+
+
+def _write_rows(path: Path, rows: list[dict]) -> None:
+    """Written whole or not at all (a temporary file renamed over the target)."""
+    temporary = path.with_name(path.name + ".part")
+    temporary.write_text(json.dumps(rows), encoding="utf-8")
+    os.replace(temporary, path)
 
 
 if __name__ == "__main__":

@@ -126,6 +126,8 @@ def cmd_show(args: argparse.Namespace) -> int:
     for task, t in model.tasks.items():
         mdc = "" if t.mdc95 is None else f", MDC95 {t.mdc95:.3g}"
         print(f"task score {task}: {', '.join(t.figures)} (n {t.n}{mdc})")
+    if model.notes:
+        print(model.notes)
     held = model.calibration.get("held_out") if isinstance(model.calibration, dict) else None
     if isinstance(held, dict) and held:
         print(f"calibration: {model.calibration.get('method', '')}")

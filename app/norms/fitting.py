@@ -28,6 +28,11 @@ from core.norms import fitting
 from core.norms.regression import AGE, CATEGORICAL, COVARIATES, Covariates
 from core.norms.scores import BETTER_TO_WORSE
 
+MAX_BOUNDED_FRACTION = 0.05
+"""A figure that is a lower bound (FigureSpec.bounded_by: the robot's force limit reached)
+in more of the controls than this is not normed: its spread would be the robot's limit,
+not the controls' (ours; 5 %, below which a bound moves a fitted quantile little)."""
+
 MIN_CONTROLS = 20
 """Fewer healthy people than this give no usable spread or transform: a figure with fewer
 is left out (and said so)."""
@@ -170,6 +175,10 @@ def fit_norms(controls: Controls, source: str, *, simulated: bool = False,
             left_out[key] = f"{have} controls have it, fewer than {MIN_CONTROLS}"
         elif np.ptp(values[np.isfinite(values)]) == 0.0:
             left_out[key] = "every control has the same value: no spread to norm"
+        elif bounded := _bounded_controls(controls, figures_catalogue.get(key)):
+            left_out[key] = (f"{bounded} of {have} controls reached the robot's limit, so "
+                             "their values are lower bounds, not theirs: a robot that holds "
+                             "more is needed to norm it")
         else:
             table[key] = values
     if not table:
@@ -200,10 +209,37 @@ def fit_norms(controls: Controls, source: str, *, simulated: bool = False,
         raise NormsError(f"the controls cannot be fitted: {exc}") from None
     document = norms_from_fit(model, source, simulated, calibration, folds,
                               len(controls.people))
+    document["notes"] = left_out_notes(left_out)
     notes = {key: f"its λ stopped at the search's bound ({f.transform.lam:.3g}): the "
                   "transform may not make it normal; check its calibration"
              for key, f in model.figures.items() if f.at_bound}
     return FitReport(document, calibration, left_out, notes)
+
+
+def left_out_notes(left_out: Mapping[str, str]) -> str:
+    """What the fit left out, as the norms file's notes (NormativeModel.left_out reads it):
+    a heading, then one `key: why` a line, within the file's 5000 characters."""
+    if not left_out:
+        return ""
+    text = "Left out by the fit:"
+    for key, why in left_out.items():
+        line = f"\n{key}: {why}"
+        if len(text) + len(line) > 5000 - 40:
+            return text + "\n(more: refit with `rehab norms fit` to see them all)"
+        text += line
+    return text
+
+
+def _bounded_controls(controls: Controls, spec) -> int:
+    """How many controls have `spec`'s figure as a lower bound (its `bounded_by` count above
+    0), when more than MAX_BOUNDED_FRACTION of those with the count do; else 0."""
+    bound = controls.figures.get(spec.bounded_by) if spec is not None and spec.bounded_by \
+        else None
+    if bound is None:
+        return 0
+    known = bound[np.isfinite(bound)]
+    bounded = int(np.sum(known > 0))
+    return bounded if known.size and bounded > MAX_BOUNDED_FRACTION * known.size else 0
 
 
 def _without_rare_levels(controls: Controls, left_out: dict[str, str]) -> Controls:

@@ -119,6 +119,15 @@ class NormativeModel:
     content_sha256: str = ""
     calibration: Mapping = field(default_factory=dict)
     path: object = None
+    notes: str = ""
+    """The file's notes; a fit writes what it left out there, one `key: why` a line."""
+
+    def left_out(self, key: str) -> str:
+        """Why the fit left out a figure or a task (`task:<id>`), from the notes, or ""."""
+        for line in self.notes.splitlines():
+            if line.startswith(f"{key}: "):
+                return line[len(key) + 2:]
+        return ""
 
     @property
     def label(self) -> str:
@@ -130,6 +139,10 @@ class NormativeModel:
         try:
             return self.figures[figure]
         except KeyError:
+            why = self.left_out(figure)
+            if why:
+                raise NormsError(f"the norms ({self.source}) hold no figure {figure!r}: "
+                                 f"{why}") from None
             raise NormsError(f"the norms ({self.source}) hold no figure {figure!r}; they "
                              f"hold {', '.join(sorted(self.figures)) or 'none'}") from None
 
@@ -176,6 +189,10 @@ class NormativeModel:
         try:
             norm = self.tasks[task]
         except KeyError:
+            why = self.left_out(f"task:{task}")
+            if why:
+                raise NormsError(f"the norms ({self.source}) hold no task score for {task!r}: "
+                                 f"{why}") from None
             raise NormsError(f"the norms ({self.source}) hold no task score for {task!r}; "
                              f"they hold {', '.join(sorted(self.tasks)) or 'none'}") from None
         missing = [f for f in norm.figures if not _defined(metrics.get(f))]

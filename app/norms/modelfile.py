@@ -123,7 +123,7 @@ def parse_norms(document: object, path: object = "<document>") -> NormativeModel
         raise NormsFileError(path, "'calibration' must be an object")
     return NormativeModel(source.strip(), simulated, spec, figures, tasks,
                           document.get("content_sha256") or content_hash(document),
-                          calibration, path)
+                          calibration, path, notes)
 
 
 class _Reader:

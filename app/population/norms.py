@@ -125,7 +125,21 @@ def build_simulated_norms(n: int, seed: int, *, workers: int = 2, tasks=TASKS,
     sessions = SESSIONS if retest else SESSIONS[:1]
     visits = [Visit(s, k, tasks) for k in sessions for s in subjects]
     rows = map_subjects(battery_figures, visits, workers)
-    by_index = {s.index: s for s in subjects}
+    return fit_simulated_norms(rows, n, seed, tasks=tasks, retest=retest)
+
+
+def fit_simulated_norms(rows: list[dict], n: int, seed: int, *, tasks=TASKS,
+                        retest: bool = True) -> SimulatedNorms:
+    """The simulated normative model from the battery rows `build_simulated_norms` ran
+    (its `rows`, kept with `scripts/build_simulated_norms.py --save-rows`): a refit after a
+    change to the fitter takes seconds, not the population's minutes. The rows must be the
+    population of `seed`'s first `n` subjects (their covariates are drawn again)."""
+    tasks = tuple(tasks)
+    by_index = {s.index: s for s in draw_population(n, seed)}
+    unknown = {r["subject"] for r in rows} - set(by_index)
+    if unknown:
+        raise NormsError(f"the rows hold subjects {sorted(unknown)[:3]} that the population "
+                         f"of seed {seed} with {n} subjects does not have")
     refused = sum(1 for r in rows if r["refused"] and r["session"] == 1)
     fit = fit_norms(controls_of(rows, by_index, retest=False),
                     source_text(n, seed, tasks, refused), simulated=True)

@@ -74,6 +74,8 @@ class FigureSpec:
     better: "lower", "higher" or "none" (no direction is better).
     definition: one sentence.
     reference: the publication it follows, with its doi.
+    bounded_by: the key of the count that, above 0 in a trial, makes this figure a lower
+      bound there (strength: the robot's hold reached its force limit; "" for none).
     """
 
     key: str
@@ -83,6 +85,7 @@ class FigureSpec:
     better: str
     definition: str
     reference: str
+    bounded_by: str = ""
 
     def __post_init__(self) -> None:
         if self.task not in TASKS:
@@ -203,23 +206,30 @@ def strength_key(kind: str, direction_deg: int) -> str:
     return f"strength_{kind}_force_n_{direction_deg:03d}"
 
 
+AT_LIMIT = "strength_at_limit_count"
+"""A strength trial's count of directions whose push reached the robot's force limit: its
+forces are then lower bounds (the robot gave way, not the patient)."""
+
+
 def _strength() -> list[FigureSpec]:
     specs = []
     for deg in STRENGTH_DIRECTIONS_DEG:
         specs.append(FigureSpec(
             strength_key("peak", deg), "strength", "N", f"Peak force {deg}°", "higher",
             f"Highest component of the hand force along the push direction {deg}° over its hold "
-            "windows (the best try).", STRENGTH_REF))
+            "windows (the best try).", STRENGTH_REF, AT_LIMIT))
         specs.append(FigureSpec(
             strength_key("mean", deg), "strength", "N", f"Mean force {deg}°", "higher",
             f"Mean component of the hand force along the push direction {deg}° over its hold "
-            "windows.", STRENGTH_REF))
+            "windows.", STRENGTH_REF, AT_LIMIT))
     specs.append(FigureSpec(
         "strength_peak_force_n", "strength", "N", "Peak force (mean of directions)", "higher",
-        "Mean over the 8 push directions of the peak force along each.", STRENGTH_REF))
+        "Mean over the 8 push directions of the peak force along each.", STRENGTH_REF,
+        AT_LIMIT))
     specs.append(FigureSpec(
         "strength_mean_force_n", "strength", "N", "Mean force (mean of directions)", "higher",
-        "Mean over the 8 push directions of the mean force along each.", STRENGTH_REF))
+        "Mean over the 8 push directions of the mean force along each.", STRENGTH_REF,
+        AT_LIMIT))
     specs.append(FigureSpec(
         "strength_at_limit_count", "strength", "count", "Directions at the robot's limit",
         "none", "Number of push directions in which the push reached the force the robot can "
