@@ -6,9 +6,10 @@ whole battery ran headless on the simulator for one fictional patient (issue 31)
 Writes docs/screenshots/window-assessments-<task>-1366x768.png (the window on a 1366 × 768
 laptop below its title bar, the tab showing the task's protocol and the patient's figures)
 and docs/assessment-<task>.png (the task's PDF page drawn at 100 dpi). `--patient weak`
-runs another virtual patient. The norms are the data folder's in use (the shipped simulated
-ones when they exist), so Z-scores appear when they do. Everything runs in a temporary data
-folder; nothing touches the clinic's data.
+runs another virtual patient; `--task strength` (repeatable) runs and shoots only those
+tasks (each on the seed the whole battery gives it). The norms are the data folder's in
+use (the shipped simulated ones when they exist), so Z-scores appear when they do.
+Everything runs in a temporary data folder; nothing touches the clinic's data.
 """
 
 from __future__ import annotations
@@ -28,6 +29,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--patient", default="weak", help="virtual patient (default weak)")
     parser.add_argument("--seed", type=int, default=3)
+    parser.add_argument("--task", action="append", default=None,
+                        help="a task to run and shoot (repeatable; default the battery)")
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as folder:
         os.environ["REHAB_DATA_DIR"] = str(Path(folder) / "data")
@@ -51,7 +54,8 @@ def main(argv: list[str] | None = None) -> int:
             "Ada", "Example", birth_year=1961, side="right", body_mass_kg=70.0,
             upper_arm_m=0.30, forearm_m=0.28, shoulder_m=(-0.12, 0.73), sex="female",
             handedness="right").code
-        run_battery(args.patient, seed=args.seed, registry=registry, code=code,
+        tasks = tuple(args.task or TASKS)
+        run_battery(args.patient, seed=args.seed, tasks=tasks, registry=registry, code=code,
                     progress=print)
         win = MainWindow(registry, settings_path=Path(folder) / "config" / "settings.json")
         win.resize(WIDTH, HEIGHT)
@@ -59,7 +63,7 @@ def main(argv: list[str] | None = None) -> int:
         win._on_patient(registry.patient(code))
         win.tabs.setCurrentWidget(win.assessments_tab)
         OUT.mkdir(parents=True, exist_ok=True)
-        for task in TASKS:
+        for task in tasks:
             win.assessments_tab.choose(task)
             win.show_assessment()
             for _ in range(20):

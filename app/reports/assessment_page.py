@@ -7,6 +7,9 @@ demonstration and tests only" when they are the simulated ones).
 `assessment_page` gathers the page's content (what the window's tab and the PDF show);
 `write_assessment_pdf` draws it on one page. A figure the norms cannot score (not held,
 undefined, the patient's covariates unknown) has no Z-score and the page says why once.
+The isometric strength page also carries its polar plot's data (`AssessmentPage.polar`:
+core.assessment.strength.strength_polar), drawn under the table (app.reports.strength_polar)
+and beside the tab's text (ui.tabs.strength_polar).
 """
 
 from __future__ import annotations
@@ -14,14 +17,19 @@ from __future__ import annotations
 import datetime
 import math
 import os
+import textwrap
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 from core.assessment import TASK_TITLES, task_figures
 from core.assessment.protocol import protocol
+from core.assessment.strength import StrengthPolar, strength_polar
 
 NO_NORMS = "No normative model in use: no Z-scores (rehab norms use FILE sets one)"
+TEXT_CHARS = 100
+"""The page's lines under the table, in characters: 9-point type from 0.08 of the A4
+page's width ends within the table's right edge (0.94)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -51,13 +59,18 @@ class AssessmentPage:
     norms: str
     """The norms' label (their source, simulated or not) or NO_NORMS."""
     notes: tuple[str, ...]
+    polar: StrengthPolar | None = None
+    """The strength task's polar plot (peak and mean force per direction), None for
+    the other tasks and for a strength trial without a direction measured."""
 
 
 def assessment_page(task: str, metrics: Mapping[str, float], *, heading: str = "",
-                    norms=None, person=None) -> AssessmentPage:
+                    norms=None, person=None,
+                    lines_n: Mapping[int, float] | None = None) -> AssessmentPage:
     """The page of `task` for a trial's `metrics` (its file's or the registry's), with
     Z-scores and the task score when `norms` (app.norms.NormativeModel) and `person`
-    (app.norms.Covariates) are given."""
+    (app.norms.Covariates) are given; a strength page's polar plot with the line each
+    direction was shown (`lines_n`, app.assessments.strength.lines_N) when given."""
     from app.norms import NormsError, TaskNotPerformed
 
     spec = protocol(task)
@@ -96,7 +109,17 @@ def assessment_page(task: str, metrics: Mapping[str, float], *, heading: str = "
     if not lines:
         notes.append(f"the trial holds no {spec.name} figures")
     return AssessmentPage(task, TASK_TITLES[task], heading, tuple(lines), task_score,
-                          NO_NORMS if norms is None else norms.label, tuple(notes))
+                          NO_NORMS if norms is None else norms.label, tuple(notes),
+                          _polar(task, metrics, lines_n))
+
+
+def _polar(task: str, metrics: Mapping[str, float],
+           lines_n: Mapping[int, float] | None) -> StrengthPolar | None:
+    """The strength task's polar plot when a direction has a force to draw."""
+    if task != "strength":
+        return None
+    polar = strength_polar(metrics, lines_n)
+    return None if len(polar.not_measured) == len(polar.directions_deg) else polar
 
 
 def not_performed_text(exc) -> str:
@@ -173,8 +196,23 @@ def patient_page(registry, code: str, task: str) -> AssessmentPage | None:
     if norms is not None:
         person, read = trial_covariates(registry, registry.patient(code), trial)
         notes += read
-    page = assessment_page(task, metrics, heading=heading, norms=norms, person=person)
+    page = assessment_page(task, metrics, heading=heading, norms=norms, person=person,
+                           lines_n=_lines_shown(trial) if task == "strength" else None)
     return replace(page, notes=(*page.notes, *notes))
+
+
+def _lines_shown(trial) -> dict[int, float] | None:
+    """The line each direction of a registered strength trial was shown, N, from its
+    parameters (app.assessments.strength.lines_N), or None when they no longer make a
+    trial (a field this console has since renamed): the plot then goes without them."""
+    from app.assessments.strength import lines_N
+    from core.errors import CoreError
+    from core.trial import TrialParameters
+
+    try:
+        return lines_N(TrialParameters.from_dict(dict(trial.parameters)))
+    except (CoreError, TypeError, ValueError):
+        return None
 
 
 def _both_circles(trials, metrics: dict, heading: str) -> tuple[dict, str]:
@@ -233,6 +271,13 @@ def page_figure(page: AssessmentPage):
     rows = [[line.label, line.value, "" if line.z is None else f"{line.z:+.2f}",
              {"lower": "lower", "higher": "higher", "none": "—"}[line.better]]
             for line in page.lines]
+    text_top = 0.2
+    if page.polar is not None:
+        from app.reports.strength_polar import draw_strength_polar
+
+        # under the table (its 19 rows end near 0.49) and over the score's lines
+        draw_strength_polar(figure, (0.18, 0.18, 0.52, 0.25), page.polar)
+        text_top = 0.135
     axes = figure.add_axes((0.06, 0.25, 0.88, 0.65))
     axes.axis("off")
     if rows:
@@ -242,10 +287,12 @@ def page_figure(page: AssessmentPage):
         table.auto_set_font_size(False)
         table.set_fontsize(9)
         table.scale(1.0, 1.4)
-    y = 0.2
-    for text in (page.task_score, page.norms, *page.notes):
-        figure.text(0.08, y, text, fontsize=9, wrap=True)
-        y -= 0.03
+    # one block, hung from its top: a long line (the simulated norms' label) wraps onto
+    # lines of its own instead of over the next one's, within the table's right edge
+    # (matplotlib's own wrap runs to the paper's edge)
+    paragraphs = (page.task_score, page.norms, *page.notes)
+    figure.text(0.08, text_top, "\n\n".join(textwrap.fill(p, TEXT_CHARS) for p in paragraphs),
+                fontsize=9, va="top")
     return figure
 
 

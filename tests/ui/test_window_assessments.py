@@ -108,3 +108,53 @@ def test_an_assessment_leaves_the_exercises_proposal_offered(qtbot, window):
     window._finalized(assessment.trial_id, done)
     assert not box.isHidden(), "the exercise's proposal was hidden after an assessment"
     assert box.proposal == offered
+
+
+def test_the_strength_tasks_polar_plot_shows_its_figures_and_hides_for_other_tasks(
+        qtbot, window):
+    """The tab draws the strength page's polar plot beside its text (ui.tabs.strength_polar):
+    the peak and mean polygons at (F cos θ, F sin θ) N of the trial's metrics, with a gap
+    where a direction was not measured, the line shown dashed, the directions named; it is
+    hidden for a task without one."""
+    import math
+
+    import numpy as np
+
+    from app.assessments.strength import lines_N
+    from core.trial import THESIS_SUBJECT
+    from tests.app.assessments.registered import register
+    from tests.core.assessment.test_strength_polar import METRICS
+
+    register_patient(qtbot, window)
+    code = window.patient.code
+    parameters = protocol("strength").parameters(THESIS_SUBJECT)
+    register(window.registry, code, METRICS, task="strength", parameters=parameters)
+    tab = window.assessments_tab
+    window.tabs.setCurrentWidget(tab)
+    assert tab.polar.isHidden()  # reaching: no polar plot
+    tab.choose("strength")
+    assert tab.polar.isVisible()
+    assert "Peak force 0°: 10 N" in tab.results.toPlainText()  # the text stays
+    theta = np.radians([0, 45, 90, 135, 180, 225, 270, 315, 360])
+    nan = math.nan
+    for curve, radius in ((tab.polar.peak_curve, [10, 12, 20, 14, nan, 9, 0, nan, 10]),
+                          (tab.polar.mean_curve, [6, 7, 11, 8, nan, 4, 0, nan, 6])):
+        x, y = curve.getData()
+        np.testing.assert_allclose(x, np.multiply(radius, np.cos(theta)), atol=1e-12)
+        np.testing.assert_allclose(y, np.multiply(radius, np.sin(theta)), atol=1e-12)
+    shown = lines_N(parameters.replace(side=window.patient.side or "right"))
+    x, y = tab.polar.line_curve.getData()
+    line = np.hypot(x, y)
+    np.testing.assert_allclose(line[:-1], [shown[d] for d in sorted(shown)])
+    texts = [label.toPlainText() for label in tab.polar.labels]
+    assert "left\n0°" in texts
+    assert "away\n270°" in texts
+    assert "right\n180°\nnot measured" in texts
+    assert "20 N" in texts  # the outer circle's force: the largest peak
+    item = tab.polar.getPlotItem()
+    assert item.getViewBox().state["aspectLocked"]
+    assert item.getViewBox().xInverted()
+    assert item.getViewBox().yInverted()
+    tab.choose("position")
+    assert tab.polar.isHidden()
+    assert "has no position sense yet" in tab.results.toPlainText()

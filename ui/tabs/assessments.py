@@ -3,7 +3,8 @@
 that puts a trial of the task in the Parameters form, so the window's own Build, Connect and
 Start run it as any trial (the patient's screen shows its targets), and the patient's
 latest figures of the task as its report page (app.reports.assessment_page) with the
-norms' source under them, and the page saved as a PDF.
+norms' source under them (the isometric strength task's polar plot beside them:
+ui.tabs.strength_polar), and the page saved as a PDF.
 
 Qt only: the window (ui.main_window) fills it from the registry and the norms in use.
 """
@@ -23,7 +24,9 @@ from PySide6.QtWidgets import (
 
 from core.assessment import TASK_TITLES, TASKS, task_figures
 from core.assessment.protocol import protocol
+from core.assessment.strength import StrengthPolar
 from ui import theme
+from ui.tabs.strength_polar import StrengthPolarPlot
 
 
 class AssessmentsTab(QWidget):
@@ -56,6 +59,8 @@ class AssessmentsTab(QWidget):
         self.setup.setWordWrap(True)
         self.protocol_text = QTextBrowser()
         self.results = QTextBrowser()
+        self.polar = StrengthPolarPlot()
+        self.polar.hide()
         results_row = QHBoxLayout()
         results_row.addWidget(theme.set_role(QLabel("The patient's latest figures"),
                                              "heading"), 1)
@@ -65,7 +70,10 @@ class AssessmentsTab(QWidget):
         left.addWidget(self.protocol_text, 1)
         right = QVBoxLayout()
         right.addLayout(results_row)
-        right.addWidget(self.results, 1)
+        figures = QHBoxLayout()
+        figures.addWidget(self.results, 1)
+        figures.addWidget(self.polar, 1)
+        right.addLayout(figures, 1)
         columns = QHBoxLayout()
         columns.addLayout(left, 1)
         columns.addLayout(right, 1)
@@ -92,9 +100,14 @@ class AssessmentsTab(QWidget):
         self.protocol_text.setPlainText(protocol_words(task))
         self.task_changed.emit(task)
 
-    def show_results(self, lines: list[str]) -> None:
-        """The report page's lines (app.reports.assessment_page.page_text), or why none."""
+    def show_results(self, lines: list[str], polar: StrengthPolar | None = None) -> None:
+        """The report page's lines (app.reports.assessment_page.page_text), or why none,
+        and its polar plot beside them when it has one (the strength task's); hidden
+        otherwise."""
         self.results.setPlainText("\n".join(lines))
+        if polar is not None:
+            self.polar.show_polar(polar)
+        self.polar.setVisible(polar is not None)
 
     def show_setup(self, text: str) -> None:
         """What the Parameters form holds now for the task, and what to press."""

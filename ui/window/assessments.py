@@ -77,7 +77,7 @@ class AssessmentControl:
             self.assessments_tab.show_results([f"{self.patient.code} has no "
                                                f"{protocol(task).name} yet."])
             return
-        self.assessments_tab.show_results(page_text(page))
+        self.assessments_tab.show_results(page_text(page), page.polar)
 
     def save_assessment_pdf(self, task: str, path: str | Path | None = None) -> Path | None:
         """The task's report page as a PDF at `path` (asked for when None)."""

@@ -40,10 +40,10 @@ def test_force_ramps_in_each_direction():
     assert figures["strength_mean_force_n"] == pytest.approx(np.mean(np.arange(5, 13)) / 2,
                                                              rel=1e-6)
     assert figures["strength_at_limit_count"] == 0
-    angles, peak, mean = strength_polar(figures)
-    np.testing.assert_allclose(np.degrees(angles), STRENGTH_DIRECTIONS_DEG)
-    np.testing.assert_allclose(peak, np.arange(5, 13), rtol=1e-9)
-    np.testing.assert_allclose(mean, np.arange(5, 13) / 2, rtol=1e-6)
+    polar = strength_polar(figures)
+    np.testing.assert_allclose(np.degrees(polar.angles_rad), STRENGTH_DIRECTIONS_DEG)
+    np.testing.assert_allclose(polar.peak_n, np.arange(5, 13), rtol=1e-9)
+    np.testing.assert_allclose(polar.mean_n, np.arange(5, 13) / 2, rtol=1e-6)
 
 
 def test_repeated_pushes_missing_directions_a_wrong_way_push_and_the_limit():
