@@ -175,6 +175,12 @@ def fit_norms(controls: Controls, source: str, *, simulated: bool = False,
             left_out[key] = f"{have} controls have it, fewer than {MIN_CONTROLS}"
         elif np.ptp(values[np.isfinite(values)]) == 0.0:
             left_out[key] = "every control has the same value: no spread to norm"
+        elif (off := _off_the_commonest(values)) < MIN_CONTROLS:
+            # a count nearly every healthy person has at 0 (a reach with no reaction: 1 of
+            # 482 simulated controls): a Z-score fitted to that is not normal (its held-out
+            # SD was 0.09), so it says nothing of a patient
+            left_out[key] = (f"only {off} controls differ from the commonest value, fewer "
+                             f"than {MIN_CONTROLS}: too little spread to norm")
         elif bounded := _bounded_controls(controls, figures_catalogue.get(key)):
             left_out[key] = (f"{bounded} of {have} controls reached the robot's limit, so "
                              "their values are lower bounds, not theirs: a robot that holds "
@@ -200,7 +206,9 @@ def fit_norms(controls: Controls, source: str, *, simulated: bool = False,
             if lacking:
                 left_out[f"task:{task}"] = f"scored without {lacking}"
         elif combined:
-            left_out[f"task:{task}"] = "lacks " + lacking
+            first = next(k for k in combined if k not in table)
+            why = left_out.get(first, "not among the controls' figures")
+            left_out[f"task:{task}"] = f"lacks {lacking} ({first}: {why})"
     try:
         model = fitting.fit_model(table, controls.people, worse, tasks, transform)
         calibration = fitting.cross_validate(table, controls.people, worse, tasks,
@@ -214,6 +222,13 @@ def fit_norms(controls: Controls, source: str, *, simulated: bool = False,
                   "transform may not make it normal; check its calibration"
              for key, f in model.figures.items() if f.at_bound}
     return FitReport(document, calibration, left_out, notes)
+
+
+def _off_the_commonest(values: np.ndarray) -> int:
+    """How many controls (finite values) differ from the value most of them have."""
+    known = values[np.isfinite(values)]
+    _, counts = np.unique(known, return_counts=True)
+    return int(known.size - counts.max())
 
 
 def left_out_notes(left_out: Mapping[str, str]) -> str:

@@ -80,10 +80,15 @@ def assessment_page(task: str, metrics: Mapping[str, float], *, heading: str = "
         notes.append("the patient's age, sex or handedness is not recorded: no Z-scores "
                      "(Registration, or rehab patients ... --sex --handedness)")
     lines = []
+    unnormed: dict[str, list[str]] = {}  # why the norms left a figure out → its labels
     for figure in task_figures(task):
         value = metrics.get(figure.key)
         if value is None:
             continue
+        if norms is not None and figure.key not in norms.figures:
+            why = norms.left_out(figure.key)
+            if why:
+                unnormed.setdefault(why, []).append(figure.label)
         z = worse = None
         if norms is not None and person is not None and figure.key in norms.figures:
             try:
@@ -95,6 +100,10 @@ def assessment_page(task: str, metrics: Mapping[str, float], *, heading: str = "
                 z, worse = scored.z, scored.worse_z
         lines.append(FigureLine(figure.key, figure.label, figure_value(value, figure.unit),
                                 figure.better, z, worse))
+    for why, labels in unnormed.items():  # one note per reason, not one per figure
+        named = ", ".join(labels[:2]) + (f" and {len(labels) - 2} more" if len(labels) > 2
+                                         else "")
+        notes.append(f"no Z-score for {named}: {why}")
     task_score = "No task score without norms" if norms is None else "No task score"
     if norms is not None and person is not None:
         try:

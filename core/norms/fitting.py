@@ -127,10 +127,17 @@ def fit_task(figures: Sequence[str], z_by_figure: Mapping[str, np.ndarray],
 def fit_model(table: Mapping[str, np.ndarray], people: Sequence[Covariates],
               worse: Mapping[str, str], tasks: Mapping[str, Sequence[str]],
               kind: str | Mapping[str, str | tuple[str, float]] = "auto",
-              spec: CovariateSpec | None = None) -> FittedModel:
+              spec: CovariateSpec | None = None, failed: dict[str, str] | None = None
+              ) -> FittedModel:
     """The whole model from the controls: `table` figure → one value per person (NaN for
     a control without it: left out of that figure's fit), `tasks` task → its figures
-    (only controls with all of them count for the task)."""
+    (only controls with all of them count for the task).
+
+    A figure that cannot be fitted raises ParameterError; with `failed` (a dict) it is
+    recorded there with why and left out instead, with the tasks that need it (`task:<id>`):
+    a cross-validation fold whose training controls happen to hold one value of a rare
+    figure (every held-out reach with no reaction in the fold left out) loses that figure,
+    not every other one."""
     from core.norms.regression import spec_of
 
     spec = spec or spec_of(people)
@@ -139,19 +146,32 @@ def fit_model(table: Mapping[str, np.ndarray], people: Sequence[Covariates],
         values = np.asarray(values, dtype=float)
         keep = np.isfinite(values)
         chosen = kind.get(figure, "auto") if isinstance(kind, Mapping) else kind
-        fitted[figure] = fit_figure(values[keep], [p for p, k in zip(people, keep,
-                                                                   strict=True) if k],
-                                    spec, worse[figure], chosen)
+        try:
+            fitted[figure] = fit_figure(values[keep], [p for p, k in zip(people, keep,
+                                                                       strict=True) if k],
+                                        spec, worse[figure], chosen)
+        except ParameterError as exc:
+            if failed is None:
+                raise
+            failed[figure] = str(exc)
     model = FittedModel(spec, fitted, {})
     design = spec.design(people)
     task_fits = {}
     for task, figures in tasks.items():
         figures = tuple(figures)
+        if failed is not None and any(f in failed for f in figures):
+            failed[f"task:{task}"] = "needs " + ", ".join(f for f in figures if f in failed)
+            continue
         complete = np.all([np.isfinite(np.asarray(table[f], dtype=float)) for f in figures],
                           axis=0)
         z = {f: model.z(f, np.asarray(table[f], dtype=float)[complete], design[complete])
              for f in figures}
-        task_fits[task] = fit_task(figures, z, worse)
+        try:
+            task_fits[task] = fit_task(figures, z, worse)
+        except ParameterError as exc:
+            if failed is None:
+                raise
+            failed[f"task:{task}"] = str(exc)
     return FittedModel(spec, fitted, task_fits)
 
 
@@ -199,7 +219,8 @@ def cross_validate(table: Mapping[str, np.ndarray], people: Sequence[Covariates]
     covariate levels those had (the whole model's reference first). A held-out control
     with a level the fold's controls lacked (the only left-hander held out) cannot be
     scored by it, as the norms refuse such a patient; neither can a fold whose controls
-    do not determine the regression (its covariates not independent). Those controls are
+    do not determine the regression (its covariates not independent), nor, for one
+    figure (and its tasks), a fold whose controls have one value of it. Those controls are
     counted in `Calibration.not_scored`, never scored by guess."""
     from core.norms.regression import spec_of
 
@@ -223,24 +244,29 @@ def cross_validate(table: Mapping[str, np.ndarray], people: Sequence[Covariates]
         trained = [people[i] for i in train]
         spec = spec_of(trained, references)
         scorable = np.array([not spec.unknown_levels(people[i]) for i in test], dtype=bool)
+        failed: dict[str, str] = {}
         try:
             model = fit_model({f: np.asarray(v, dtype=float)[train] for f, v in table.items()},
-                              trained, worse, tasks, kinds, spec)
-        except ParameterError:
+                              trained, worse, tasks, kinds, spec, failed)
+        except ParameterError:  # the covariates themselves (the regression's design)
             scorable[:] = False
             model = None
         design = spec.design([people[i] for i, ok in zip(test, scorable, strict=True) if ok])
         for figure, v in values.items():
             have = np.isfinite(v)
-            missed[figure] = missed.get(figure, 0) + int(np.sum(have & ~scorable))
-            if model is not None:
+            fold_has = model is not None and figure not in failed
+            missed[figure] = missed.get(figure, 0) + int(np.sum(
+                have & (~scorable if fold_has else True)))
+            if fold_has:
                 held.setdefault(figure, []).extend(model.z(figure, v[have & scorable],
                                                            design[have[scorable]]))
         for task, figures in tasks.items():
             key = f"task:{task}"
             have = np.all([np.isfinite(values[f]) for f in figures], axis=0)
-            missed[key] = missed.get(key, 0) + int(np.sum(have & ~scorable))
-            if model is not None:
+            fold_has = model is not None and key not in failed
+            missed[key] = missed.get(key, 0) + int(np.sum(have & (~scorable if fold_has
+                                                                   else True)))
+            if fold_has:
                 held.setdefault(key, []).extend(model.task_scores(
                     task, {f: values[f][have & scorable] for f in figures},
                     design[have[scorable]]))

@@ -38,3 +38,23 @@ def test_a_task_with_fewer_than_half_its_figures_normed_is_left_out():
     report = fit_norms(_controls(constant), "test controls")
     assert "reaching" not in report.document["tasks"]
     assert report.left_out["task:reaching"].startswith("lacks ")
+
+
+def test_a_figure_nearly_every_control_has_at_one_value_is_not_normed():
+    """The simulated controls' count of reaches with no reaction: 0 in 481 of 482. Normed,
+    its held-out Z-scores had an SD of 0.09 (not 1): left out, saying why."""
+    from app.norms.fitting import MIN_CONTROLS
+
+    controls = _controls(set())
+    rare = np.zeros(len(controls.people))
+    rare[: MIN_CONTROLS - 1] = 1.0
+    figures = dict(controls.figures, vgr_no_reaction_count=rare)
+    report = fit_norms(Controls(controls.subjects, controls.people, figures), "test controls")
+    assert "vgr_no_reaction_count" not in report.document["figures"]
+    assert report.left_out["vgr_no_reaction_count"] == (
+        f"only {MIN_CONTROLS - 1} controls differ from the commonest value, fewer than "
+        f"{MIN_CONTROLS}: too little spread to norm")
+    rare[MIN_CONTROLS - 1] = 2.0  # 20 off it: normed
+    figures = dict(controls.figures, vgr_no_reaction_count=rare)
+    report = fit_norms(Controls(controls.subjects, controls.people, figures), "test controls")
+    assert "vgr_no_reaction_count" in report.document["figures"]

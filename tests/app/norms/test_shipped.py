@@ -20,6 +20,8 @@ from core.assessment import TASKS
 from core.trial import TrialParameters
 
 PERSON = Covariates(60.0, "female", "right", "right", "simulator-realistic")
+NORMED = tuple(t for t in TASKS if t != "strength")
+"""The tasks the shipped norms score: strength is capped by the robot (below)."""
 
 
 @pytest.fixture(scope="module")
@@ -31,9 +33,38 @@ def test_the_shipped_norms_are_verified_and_labelled_simulated(shipped):
     assert shipped.simulated
     assert SIMULATED_LABEL in shipped.label
     assert shipped.source.startswith("simulated: 500 virtual healthy subjects")
-    assert set(shipped.tasks) == set(TASKS)
+    assert set(shipped.tasks) == set(NORMED)
     assert all(t.mdc95 is not None and t.mdc95 > 0 for t in shipped.tasks.values())
     assert all(f.mdc95 is not None and f.mdc95 > 0 for f in shipped.figures.values())
+
+
+def test_every_held_out_control_is_scored_and_calibrated(shipped):
+    """5-fold calibration over the 482 controls: every one scored by its fold (97 were not,
+    when one fold could not fit a rare count), held-out Z-scores with SD near 1."""
+    held = shipped.calibration["held_out"]
+    assert all(c["not_scored"] == 0 for c in held.values())
+    for key, c in held.items():
+        if not key.startswith("task:"):
+            assert 0.9 < c["sd"] < 1.1, key
+
+
+def test_the_robot_capped_strength_is_not_normed_and_the_page_says_why(shipped):
+    """Every simulated control reached the robot's force limit (6-8 N) in every direction:
+    no strength norms, and the report says so once instead of Z-scores in the millions."""
+    from app.reports.assessment_page import assessment_page
+
+    assert not any(key.startswith("strength_") for key in shipped.figures)
+    assert "482 of 482 controls reached the robot's limit" in shipped.left_out(
+        "strength_peak_force_n")
+    metrics = {key: 5.0 for key in ("strength_peak_force_n", "strength_mean_force_n",
+                                    "strength_peak_force_n_000")}
+    page = assessment_page("strength", metrics, norms=shipped, person=PERSON)
+    assert all(line.z is None for line in page.lines)
+    assert [n for n in page.notes if "reached the robot's limit" in n] == [
+        "no Z-score for Peak force 0°, Peak force (mean of directions) and 1 more: 482 of 482 "
+        "controls reached the robot's limit, so their values are lower bounds, not theirs: "
+        "a robot that holds more is needed to norm it"]
+    assert "reached the robot's limit" in page.task_score
 
 
 def test_a_data_folder_without_norms_of_its_own_uses_the_shipped_ones(tmp_path, shipped):
@@ -49,7 +80,7 @@ def scored(shipped):
         results = run_battery(patient, TrialParameters(), 3, in_memory=True)
         figures = {k: v for trials in results.values() for t in trials
                    for k, v in t.figures.items()}
-        out[patient] = {task: _rank(shipped, task, figures) for task in TASKS}
+        out[patient] = {task: _rank(shipped, task, figures) for task in NORMED}
     return out
 
 
@@ -61,16 +92,16 @@ def _rank(norms, task, figures) -> float:
         return math.inf
 
 
-@pytest.mark.parametrize("task", TASKS)
+@pytest.mark.parametrize("task", NORMED)
 def test_the_weak_patient_scores_worse_than_the_healthy(scored, task):
     healthy, weak = scored["healthy"][task], scored["weak"][task]
     assert math.isfinite(healthy)
     assert weak > healthy
 
 
-@pytest.mark.parametrize("task", TASKS)
+@pytest.mark.parametrize("task", NORMED)
 def test_the_passive_patient_scores_worst(scored, task):
     """The passive patient does not move: reaching, the circle and position sense are not
-    performed (named, not a gap), and range and strength score worse than the weak one's."""
+    performed (named, not a gap), and range scores worse than the weak one's."""
     assert scored["passive"][task] > scored["weak"][task]
     assert math.isinf(scored["passive"][task]) == (task in ("reaching", "circle", "position"))

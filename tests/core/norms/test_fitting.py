@@ -110,3 +110,29 @@ def test_a_level_one_fold_lacks_is_not_scored_by_guess():
                             {"vgr_reaction_time_s": "higher"}, {}, folds=5)
     c = result["vgr_reaction_time_s"]
     assert (c.n, c.not_scored) == (59, 1)
+
+
+def test_a_rare_figure_one_fold_cannot_fit_leaves_the_others_scored():
+    """The shipped simulated norms' calibration: a reach with no reaction is rare (a few
+    controls of 482 have one), and the fold whose training controls all have 0 cannot fit
+    that count. Before, that fold scored nobody on any figure (97 of 482 held-out controls
+    'not scorable by their fold' on every line); now only that count and its task lose it."""
+    n, folds, seed = 100, 5, 0
+    people, _, _, x, y = population(n, 5)
+    order = np.random.default_rng(seed).permutation(n)
+    rare = np.zeros(n)
+    rare[order[0::folds][:3]] = 1.0  # all in fold 0's held-out part: its training has 0s
+    table = {"vgr_reaction_time_s": x, "vgr_max_speed_m_s": y, "vgr_no_reaction_count": rare}
+    worse = {"vgr_reaction_time_s": "higher", "vgr_max_speed_m_s": "lower",
+             "vgr_no_reaction_count": "higher"}
+    tasks = {"reaching": ("vgr_reaction_time_s", "vgr_max_speed_m_s"),
+             "with_rare": ("vgr_reaction_time_s", "vgr_no_reaction_count")}
+    result = cross_validate(table, people, worse, tasks, folds=folds, seed=seed)
+    assert result["vgr_reaction_time_s"].not_scored == 0
+    assert result["vgr_reaction_time_s"].n == n
+    assert result["task:reaching"].not_scored == 0
+    fold_size = len(order[0::folds])
+    assert result["vgr_no_reaction_count"].not_scored == fold_size
+    assert result["task:with_rare"].not_scored == fold_size
+    with pytest.raises(Exception, match="all equal"):  # the whole fit still refuses it
+        fit_model({"c": np.zeros(n)}, people, {"c": "higher"}, {})
