@@ -6,10 +6,6 @@ starting it decides no exercise's proposal (it waits for the next exercise), and
 
 from __future__ import annotations
 
-import pytest
-
-from app.records.datadir import DataDir
-from app.records.registry import Registry
 from app.trials.finalize import finalize_trial
 from core.trial import THESIS_SUBJECT
 from tests.app.assessments.registered import register
@@ -17,18 +13,6 @@ from tests.app.cli.running import run
 
 EXERCISE = THESIS_SUBJECT.replace(repetitions=1)
 REACHING = THESIS_SUBJECT.replace(assist="transparent", shape="targets")
-
-
-@pytest.fixture
-def data(tmp_path, monkeypatch):
-    monkeypatch.setenv("REHAB_DATA_DIR", str(tmp_path / "data"))
-    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
-    return tmp_path / "data"
-
-
-@pytest.fixture
-def registry(data):
-    return Registry(DataDir(data), create=True)
 
 
 def _patient(registry) -> str:
