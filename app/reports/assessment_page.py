@@ -37,6 +37,8 @@ class FigureLine:
     """Its Z-score (positive = above healthy people like the patient), None without one."""
     worse_z: float | None
     """The Z-score signed so that positive is worse (the norms' worse side)."""
+    extrapolated: bool = False
+    """Its Z-score is of an age beyond the norms' controls' (app.norms.FigureZ)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -72,6 +74,7 @@ def assessment_page(task: str, metrics: Mapping[str, float], *, heading: str = "
         if value is None:
             continue
         z = worse = None
+        extrapolated = False
         if norms is not None and person is not None and figure.key in norms.figures:
             try:
                 scored = norms.z(figure.key, value, person)
@@ -79,9 +82,9 @@ def assessment_page(task: str, metrics: Mapping[str, float], *, heading: str = "
                 notes.append(str(exc))
             else:
                 scores[figure.key] = scored
-                z, worse = scored.z, scored.worse_z
+                z, worse, extrapolated = scored.z, scored.worse_z, scored.extrapolated
         lines.append(FigureLine(figure.key, figure.label, figure_value(value, figure.unit),
-                                figure.better, z, worse))
+                                figure.better, z, worse, extrapolated))
     task_score = "No task score without norms" if norms is None else "No task score"
     if norms is not None and person is not None:
         try:
@@ -200,9 +203,13 @@ def page_text(page: AssessmentPage) -> list[str]:
 
 
 def figure_text(line: FigureLine) -> str:
-    """A figure's line of text: its label, value and, when it has one, its Z-score."""
+    """A figure's line of text: its label, value and, when it has one, its Z-score, said
+    when it is of an age beyond the controls' (as `rehab norms score` says it)."""
+    from app.norms.model import EXTRAPOLATED
+
     z = "" if line.z is None else f"   Z {line.z:+.2f}"
-    return f"  {line.label}: {line.value}{z}"
+    beyond = f" {EXTRAPOLATED}" if line.z is not None and line.extrapolated else ""
+    return f"  {line.label}: {line.value}{z}{beyond}"
 
 
 def write_assessment_pdf(path: str | os.PathLike, pages: Sequence[AssessmentPage], *,

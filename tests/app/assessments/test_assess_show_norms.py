@@ -132,3 +132,23 @@ def test_a_damaged_norms_file_is_one_line_and_exit_2(tmp_path, data, registry, c
     assert len(err.strip().splitlines()) == 1, err
     assert f"norms file {in_use_file}" in err
     assert "Traceback" not in out + err
+
+
+def test_an_age_beyond_the_controls_is_said_on_each_figure(tmp_path, registry, capsys):
+    """A patient older than the norms' controls (80 at most) is scored by extrapolation,
+    and each figure's line says so, as `rehab norms score` does."""
+    _use(tmp_path, capsys, handmade())
+    code = _patient(registry, birth_year=WHEN.year - 90)
+    register(registry, code, METRICS)
+    status, out, err = run(["assess", "show", code], capsys)
+    assert status == 0, err
+    assert re.search(r"Reaction time: 0\.49 s +Z [-+]\d\.\d\d \(age beyond the controls'\)\n",
+                     out), out
+    assert re.search(r"Max speed: 0\.3 m/s +Z [-+]\d\.\d\d \(age beyond the controls'\)\n",
+                     out), out
+    assert re.search(r"SPARC: -1\.6\n", out), out  # no Z-score, nothing beyond
+    code = _patient(registry)  # 60: within the controls' ages
+    register(registry, code, METRICS)
+    status, out, err = run(["assess", "show", code], capsys)
+    assert status == 0, err
+    assert "beyond" not in out
