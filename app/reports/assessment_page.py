@@ -112,32 +112,40 @@ def missing_covariates(patient) -> tuple[str, ...]:
                  if getattr(patient, field) in (None, ""))
 
 
-def covariates(patient, session_date: datetime.date, backend: str, summary: Mapping):
+def covariates(patient, session_date: datetime.date, backend: str, summary: Mapping,
+               tested_side: str = ""):
     """The norms' covariates of a registered patient (app.records.registry.Patient) at a
-    session on the trial's robot (its backend and its file's summary: app.norms.controls),
-    or None when the registry lacks one of them (missing_covariates: birth year, sex,
+    session on the trial's robot (its backend and its file's summary: app.norms.controls)
+    with the arm the trial tested (its file's subject side; the registry's without it), or
+    None when the registry lacks one of them (missing_covariates: birth year, sex,
     handedness, the tested side)."""
     from app.norms.controls import Person, covariates_at, robot_kind
 
     if missing_covariates(patient):
         return None
     return covariates_at(Person(patient.birth_year, patient.sex, patient.handedness),
-                         session_date.year, patient.side, robot_kind(backend, summary))
+                         session_date.year, tested_side or patient.side,
+                         robot_kind(backend, summary))
 
 
 def trial_covariates(registry, patient, trial) -> tuple[object, list[str]]:
     """The norms' covariates of a registered `patient` at their registered `trial` (its
-    session's date, its robot from its file's summary; None as `covariates` says), and
-    notes: the trial's file unreadable (its robot then unknown to the norms)."""
+    session's date, its robot from its file's summary, the tested side its file's subject's,
+    as `rehab norms score` takes it: the record of what ran, which a later correction of the
+    registry's side does not change; None as `covariates` says), and notes: the trial's
+    file unreadable (its robot then unknown to the norms, its side the registry's)."""
     from app.errors import AppError
     from app.trials.reader import read_trial
 
     notes = []
     try:
-        summary = read_trial(registry.trial_path(trial), ()).summary
+        data = read_trial(registry.trial_path(trial), ())
     except AppError as exc:
-        summary, notes = {}, [f"the trial's file cannot be read: {exc}"]
-    return covariates(patient, trial.session_date, trial.backend or "", summary), notes
+        summary, side = {}, ""
+        notes = [f"the trial's file cannot be read: {exc}"]
+    else:
+        summary, side = data.summary, data.subject.side if data.subject is not None else ""
+    return covariates(patient, trial.session_date, trial.backend or "", summary, side), notes
 
 
 def patient_page(registry, code: str, task: str) -> AssessmentPage | None:

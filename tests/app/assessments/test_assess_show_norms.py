@@ -152,3 +152,23 @@ def test_an_age_beyond_the_controls_is_said_on_each_figure(tmp_path, registry, c
     status, out, err = run(["assess", "show", code], capsys)
     assert status == 0, err
     assert "beyond" not in out
+
+
+def test_the_tested_side_is_the_trial_file_s_as_rehab_norms_score_takes_it(tmp_path, registry,
+                                                                            capsys):
+    """The registry's side corrected after the trial ran (left → right): the trial file
+    keeps the arm that was tested, and `rehab assess show` scores with it, the Z-score
+    `rehab norms score` gives the same file."""
+    _use(tmp_path, capsys, handmade())
+    code = _patient(registry)  # left
+    begun = register(registry, code, METRICS)
+    registry.correct_patient(code, "side", "right", reason="entered wrongly", by="TH")
+    status, out, err = run(["assess", "show", code], capsys)
+    assert status == 0, err
+    status, scored, err = run(["norms", "score", str(begun.path), "--json"], capsys)
+    assert status == 0, err
+    result = json.loads(scored)
+    assert result["person"]["tested_side"] == "left"
+    z = result["figures"]["vgr_reaction_time_s"]["z"]
+    assert f"Reaction time: 0.49 s   Z {z:+.2f}\n" in out, out
+    assert round(z, 2) == -2.7  # the left arm's: test_each_figure_s_z_…'s hand computation
