@@ -177,14 +177,15 @@ def _in_memory(task: str, index: int, label: str, parameters: TrialParameters, r
                started: float) -> TaskTrial:
     """A task's trial run in memory: its task figures only, no file (the module notes)."""
     from app.assessments.figures import assessment_figures
-    from app.trials.analysis import MIN_EXERCISE, exercise_mask
+    from app.trials.analysis import MIN_EXERCISE, exercise_mask, too_little_exercise
     from app.trials.headless import simulate
 
     trial = simulate(parameters, **run)
     channels = {name: trial.records[name] for name in trial.records.dtype.names}
     mask = exercise_mask(channels)
-    if int(mask.sum()) < MIN_EXERCISE:  # a fault in the approach: no figures, as on file
-        figures, notes = {}, (f"the trial has only {int(mask.sum())} samples of exercise",)
+    n_exercise = int(mask.sum())
+    if n_exercise < MIN_EXERCISE:  # a fault in the approach: no figures, as on file
+        figures, notes = {}, (too_little_exercise(n_exercise),)
     else:
         figures, notes = assessment_figures(channels, parameters, mask)
     return TaskTrial(task, index, label, parameters, None, trial.status, run["seed"],

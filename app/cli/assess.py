@@ -9,6 +9,8 @@ Figures are printed in SI with the unit core.assessment.FIGURES gives them.
 from __future__ import annotations
 
 import argparse
+from collections.abc import Mapping
+from types import MappingProxyType
 
 from app.cli.common import EXIT_OK, CommandError, registry_for
 
@@ -47,9 +49,13 @@ def add_assess_commands(commands) -> None:
     run.set_defaults(func=cmd_run)
     show = sub.add_parser("show", help="a patient's assessments and their figures",
                           description="A patient's assessment trials, task by task, with "
-                                      "each one's figures as the registry holds them.")
+                                      "each one's figures as the registry holds them; "
+                                      "trials marked invalid (`rehab invalid`) left out "
+                                      "unless asked (--include-invalid).")
     show.add_argument("code", help="the patient's code")
     show.add_argument("--task", choices=TASKS, help="only this task")
+    show.add_argument("--include-invalid", action="store_true",
+                      help="also the trials marked invalid, each saying why")
     show.set_defaults(func=cmd_show)
 
 
@@ -72,6 +78,7 @@ def cmd_tasks(args: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
+    from app.assessments.circle_record import pairs
     from app.assessments.runner import run_battery, run_task
 
     if args.seed < 0:
@@ -83,14 +90,22 @@ def cmd_run(args: argparse.Namespace) -> int:
         runs = run_battery(args.patient, seed=args.seed, **options)
     else:
         runs = {args.task: run_task(args.task, args.patient, seed=args.seed, **options)}
-    for trials in runs.values():
+    for task, trials in runs.items():
+        paired = pairs([(t.trial_id, t.metrics) for t in trials]) if task == "circle" else {}
         for trial in trials:
-            _print_trial(trial.task, trial.trial_id, trial.status, trial.figures, trial.notes,
-                         f"{trial.simulated_s:.0f} s simulated in {trial.elapsed_s:.1f} s")
+            clockwise = trial.parameters.clockwise
+            _print_trial(task, _heading(task, trial.trial_id, trial.status,
+                                        f"{trial.simulated_s:.0f} s simulated in "
+                                        f"{trial.elapsed_s:.1f} s", clockwise),
+                         _shown(task, trial.figures, clockwise, trial.trial_id in paired),
+                         trial.notes)
+            _print_pair(task, trial.trial_id, trial.metrics, paired,
+                        {t.trial_id for t in trials})
     return EXIT_OK
 
 
 def cmd_show(args: argparse.Namespace) -> int:
+    from app.assessments.circle_record import pairs
     from app.norms.in_use import norms_in_use
     from app.reports.assessment_page import (
         NO_NORMS,
@@ -101,10 +116,14 @@ def cmd_show(args: argparse.Namespace) -> int:
 
     registry = registry_for(args)
     patient = registry.patient(args.code)
-    trials = [t for t in registry.trials_for_patient(args.code)
-              if t.parameters.get("assessment", "")
-              and (not args.task or t.parameters["assessment"] == args.task)]
-    if not trials:
+    assessments = [t for t in registry.trials_for_patient(args.code)
+                   if t.parameters.get("assessment", "")
+                   and (not args.task or t.parameters["assessment"] == args.task)]
+    # as Progress, the proposals and the exports: a trial marked invalid does not count
+    invalid = registry.invalid_trials(args.code)
+    trials = [t for t in assessments if args.include_invalid or t.id not in invalid]
+    left_out = len(assessments) - len(trials)
+    if not trials and not left_out:
         what = f"no {args.task} assessment" if args.task else "no assessment"
         print(f"Patient {args.code} has {what} yet: `rehab assess run {args.code} --task "
               f"{args.task or 'all'}` runs one on the simulator")
@@ -113,17 +132,29 @@ def cmd_show(args: argparse.Namespace) -> int:
     # replaced by no norms in silence
     norms = norms_in_use(registry.data_dir)
     missing = missing_covariates(patient) if norms is not None else ()
+    circles = [t for t in assessments if t.parameters["assessment"] == "circle"]
+    paired = pairs([(t.id, t.metrics) for t in circles])
+    listed = {t.id for t in trials}
     for trial in trials:
         task = trial.parameters["assessment"]
+        clockwise = bool(trial.parameters.get("clockwise", True))
         person, notes = None, []
         if norms is not None and not missing:
             person, notes = trial_covariates(registry, patient, trial)
-        page = assessment_page(task, trial.metrics, norms=norms if person is not None else None,
-                               person=person)
-        _print_trial(task, trial.id, trial.status, trial.metrics, notes,
-                     f"session {trial.session_number}, trial {trial.number}, "
-                     f"{trial.session_date.isoformat()}",
-                     page=page, task_score=person is not None)
+        scoring = {"norms": norms if person is not None else None, "person": person}
+        shown = _shown(task, trial.metrics, clockwise, trial.id in paired)
+        notes = [*notes, *_pair_left_out(paired.get(trial.id, ()), listed)]
+        _print_trial(task, _heading(task, trial.id, trial.status,
+                                    f"session {trial.session_number}, trial {trial.number}, "
+                                    f"{trial.session_date.isoformat()}", clockwise),
+                     shown, notes, page=assessment_page(task, shown, **scoring),
+                     task_score=person is not None and trial.id not in paired,
+                     invalid=invalid[trial.id].reason if trial.id in invalid else "")
+        _print_pair(task, trial.id, trial.metrics, paired, listed, scoring,
+                    task_score=person is not None, invalid=invalid)
+    if left_out:
+        print(f"{left_out} trial(s) marked invalid left out (`rehab trials CODE` says why); "
+              "--include-invalid shows them too")
     if missing:
         print(f"No Z-scores: the registry lacks the patient's {', '.join(missing)} "
               f"(record them: rehab correct {args.code} FIELD VALUE --reason R --by B)")
@@ -131,15 +162,63 @@ def cmd_show(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _print_trial(task: str, trial_id, status: str, metrics: dict, notes, where: str,
-                 page=None, task_score: bool = False) -> None:
-    """A trial's heading and figures, each with its Z-score when `page`
-    (app.reports.assessment_page.AssessmentPage) has one, its task score (`task_score`),
-    the page's notes (why a figure has no Z-score) and `notes`."""
-    from app.reports.assessment_page import assessment_page, figure_text
+def _heading(task: str, trial_id, status: str, where: str, clockwise: bool) -> str:
+    """A trial's heading; a circle trial's says which way round it drew."""
+    from app.assessments.circle_record import WAY_WORDS, way_of
     from core.assessment import TASK_TITLES
 
-    print(f"{TASK_TITLES.get(task, task)} — trial {trial_id}, {status}, {where}")
+    way = f", {WAY_WORDS[way_of(clockwise)]}" if task == "circle" else ""
+    return f"{TASK_TITLES.get(task, task)} — trial {trial_id}, {status}, {where}{way}"
+
+
+def _shown(task: str, metrics: dict, clockwise: bool, paired: bool) -> dict:
+    """The figures shown under a trial: a circle trial of a pair shows its own way's, the
+    pair's are shown once (app.assessments.circle_record)."""
+    from app.assessments.circle_record import own_figures
+
+    return own_figures(metrics, clockwise) if task == "circle" and paired else metrics
+
+
+def _print_pair(task: str, trial_id, metrics: dict, paired: dict, listed: set,
+                scoring: dict | None = None, task_score: bool = False,
+                invalid: Mapping = MappingProxyType({})) -> None:
+    """After the last trial of a circle pair, the task's figures (both ways' mean) and its
+    task score, once, with the trials they come from; none when a trial of the pair is
+    not `listed` (marked invalid and left out: the mean is partly of it)."""
+    from app.assessments.circle_record import pair_figures, pair_heading
+    from app.reports.assessment_page import assessment_page
+    from core.assessment import TASK_TITLES
+
+    ids = paired.get(trial_id) if task == "circle" else None
+    if not ids or not listed.issuperset(ids) or trial_id != max(ids):
+        return
+    marked = [str(i) for i in ids if i in invalid]
+    figures = pair_figures(metrics)
+    _print_trial(task, f"{TASK_TITLES[task]} — {pair_heading(ids)}"
+                 + (f" ({', '.join(marked)} marked invalid)" if marked else ""), figures, (),
+                 page=assessment_page(task, figures, **(scoring or {})),
+                 task_score=task_score)
+
+
+def _pair_left_out(ids, listed: set) -> list[str]:
+    """Why a circle trial's pair has no task figures shown: its other trial left out."""
+    out = [str(i) for i in ids if i not in listed]
+    if not out:
+        return []
+    return [f"the task's figures (both ways round) are left out with trial {', '.join(out)}, "
+            "marked invalid (--include-invalid shows them)"]
+
+
+def _print_trial(task: str, heading: str, metrics: dict, notes, page=None,
+                 task_score: bool = False, invalid: str = "") -> None:
+    """A trial's heading, why it was marked `invalid` (when it was), its figures, each with
+    its Z-score when `page` (app.reports.assessment_page.AssessmentPage) has one, its task
+    score (`task_score`), the page's notes (why a figure has no Z-score) and `notes`."""
+    from app.reports.assessment_page import assessment_page, figure_text
+
+    print(heading)
+    if invalid:
+        print(f"  invalid: {invalid}")
     page = assessment_page(task, metrics) if page is None else page
     if not page.lines:
         print("  no figures")

@@ -63,6 +63,11 @@ class TaskNorm:
     mdc95: float | None = None
 
 
+EXTRAPOLATED = "(age beyond the controls')"
+"""What a Z-score extrapolated to an age beyond the controls' says beside it, wherever it is
+printed (`rehab norms score`, `rehab assess show`, the assessment page)."""
+
+
 @dataclass(frozen=True)
 class FigureZ:
     """A figure's Z-score against the norms (eq. 2 of docs/norms.md): positive is a figure

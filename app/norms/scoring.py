@@ -16,7 +16,14 @@ from datetime import datetime
 from pathlib import Path
 
 from app.norms.controls import Person, covariates_at, robot_kind
-from app.norms.model import FigureZ, NormativeModel, NormsError, TaskNotPerformed, TaskScore
+from app.norms.model import (
+    EXTRAPOLATED,
+    FigureZ,
+    NormativeModel,
+    NormsError,
+    TaskNotPerformed,
+    TaskScore,
+)
 from core.errors import CoreError
 from core.norms.regression import Covariates
 
@@ -87,7 +94,7 @@ def lines(scores: TrialScores) -> list[str]:
     for key, z in scores.figures.items():
         unit = FIGURES[key].unit if key in FIGURES else ""
         out.append(f"{key:<36} {z.value:>11.4g} {unit:<6} {z.z:>7.2f} {z.worse_z:>8.2f}"
-                   + (" (age beyond the controls')" if z.extrapolated else ""))
+                   + (f" {EXTRAPOLATED}" if z.extrapolated else ""))
     for key, why in scores.unscored.items():
         out.append(f"{key:<36} no Z-score: {why}")
     if scores.task_score is not None:

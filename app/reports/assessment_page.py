@@ -45,6 +45,8 @@ class FigureLine:
     """Its Z-score (positive = above healthy people like the patient), None without one."""
     worse_z: float | None
     """The Z-score signed so that positive is worse (the norms' worse side)."""
+    extrapolated: bool = False
+    """Its Z-score is of an age beyond the norms' controls' (app.norms.FigureZ)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -90,6 +92,7 @@ def assessment_page(task: str, metrics: Mapping[str, float], *, heading: str = "
             if why:
                 unnormed.setdefault(why, []).append(figure.label)
         z = worse = None
+        extrapolated = False
         if norms is not None and person is not None and figure.key in norms.figures:
             try:
                 scored = norms.z(figure.key, value, person)
@@ -97,9 +100,9 @@ def assessment_page(task: str, metrics: Mapping[str, float], *, heading: str = "
                 notes.append(str(exc))
             else:
                 scores[figure.key] = scored
-                z, worse = scored.z, scored.worse_z
+                z, worse, extrapolated = scored.z, scored.worse_z, scored.extrapolated
         lines.append(FigureLine(figure.key, figure.label, figure_value(value, figure.unit),
-                                figure.better, z, worse))
+                                figure.better, z, worse, extrapolated))
     for why, labels in unnormed.items():  # one note per reason, not one per figure
         named = ", ".join(labels[:2]) + (f" and {len(labels) - 2} more" if len(labels) > 2
                                          else "")
@@ -148,32 +151,40 @@ def missing_covariates(patient) -> tuple[str, ...]:
                  if getattr(patient, field) in (None, ""))
 
 
-def covariates(patient, session_date: datetime.date, backend: str, summary: Mapping):
+def covariates(patient, session_date: datetime.date, backend: str, summary: Mapping,
+               tested_side: str = ""):
     """The norms' covariates of a registered patient (app.records.registry.Patient) at a
-    session on the trial's robot (its backend and its file's summary: app.norms.controls),
-    or None when the registry lacks one of them (missing_covariates: birth year, sex,
+    session on the trial's robot (its backend and its file's summary: app.norms.controls)
+    with the arm the trial tested (its file's subject side; the registry's without it), or
+    None when the registry lacks one of them (missing_covariates: birth year, sex,
     handedness, the tested side)."""
     from app.norms.controls import Person, covariates_at, robot_kind
 
     if missing_covariates(patient):
         return None
     return covariates_at(Person(patient.birth_year, patient.sex, patient.handedness),
-                         session_date.year, patient.side, robot_kind(backend, summary))
+                         session_date.year, tested_side or patient.side,
+                         robot_kind(backend, summary))
 
 
 def trial_covariates(registry, patient, trial) -> tuple[object, list[str]]:
     """The norms' covariates of a registered `patient` at their registered `trial` (its
-    session's date, its robot from its file's summary; None as `covariates` says), and
-    notes: the trial's file unreadable (its robot then unknown to the norms)."""
+    session's date, its robot from its file's summary, the tested side its file's subject's,
+    as `rehab norms score` takes it: the record of what ran, which a later correction of the
+    registry's side does not change; None as `covariates` says), and notes: the trial's
+    file unreadable (its robot then unknown to the norms, its side the registry's)."""
     from app.errors import AppError
     from app.trials.reader import read_trial
 
     notes = []
     try:
-        summary = read_trial(registry.trial_path(trial), ()).summary
+        data = read_trial(registry.trial_path(trial), ())
     except AppError as exc:
-        summary, notes = {}, [f"the trial's file cannot be read: {exc}"]
-    return covariates(patient, trial.session_date, trial.backend or "", summary), notes
+        summary, side = {}, ""
+        notes = [f"the trial's file cannot be read: {exc}"]
+    else:
+        summary, side = data.summary, data.subject.side if data.subject is not None else ""
+    return covariates(patient, trial.session_date, trial.backend or "", summary, side), notes
 
 
 def patient_page(registry, code: str, task: str) -> AssessmentPage | None:
@@ -254,9 +265,13 @@ def page_text(page: AssessmentPage) -> list[str]:
 
 
 def figure_text(line: FigureLine) -> str:
-    """A figure's line of text: its label, value and, when it has one, its Z-score."""
+    """A figure's line of text: its label, value and, when it has one, its Z-score, said
+    when it is of an age beyond the controls' (as `rehab norms score` says it)."""
+    from app.norms.model import EXTRAPOLATED
+
     z = "" if line.z is None else f"   Z {line.z:+.2f}"
-    return f"  {line.label}: {line.value}{z}"
+    beyond = f" {EXTRAPOLATED}" if line.z is not None and line.extrapolated else ""
+    return f"  {line.label}: {line.value}{z}{beyond}"
 
 
 def write_assessment_pdf(path: str | os.PathLike, pages: Sequence[AssessmentPage], *,

@@ -51,7 +51,7 @@ from app.reports.plain_language import (
     seconds_text,
     status_sentence,
 )
-from app.trials.analysis import analyse, exercise_mask
+from app.trials.analysis import MIN_EXERCISE, analyse, exercise_mask, too_little_exercise
 from app.trials.assistance_timeline import AssistanceInEffect
 from app.trials.reader import TrialData
 from app.units import CM_PER_M, assistance_percent, point_cm
@@ -63,7 +63,6 @@ from device.safety.faults import Fault
 
 ESTOP_CAUSE = Fault.ESTOP.banner().split(" — ")[0]
 
-MIN_EXERCISE_SAMPLES = 64  # app.trials.analysis refuses fewer
 _NUMBERS_IN_NAME = re.compile(r"_S(\d{3,})_T(\d{3,})_")
 
 PATIENT_STATUS_WORDS = {
@@ -180,7 +179,7 @@ def build_report(
     metrics: TrialMetrics | None = None
     game_values: dict[str, float] = {}
     exercise_start = math.nan
-    if n_exercise >= MIN_EXERCISE_SAMPLES:
+    if n_exercise >= MIN_EXERCISE:
         try:
             analysis = analyse(channels, parameters)
         except (CoreError, AppError, ValueError) as exc:
@@ -193,8 +192,7 @@ def build_report(
         exercise_start = analysis.exercise_start_s
         notes += analysis.notes
     else:
-        notes.append(f"only {n_exercise} samples of exercise were recorded (at least "
-                     f"{MIN_EXERCISE_SAMPLES} are needed), so the trial has no figures")
+        notes.append(too_little_exercise(n_exercise))
     values = metrics.to_dict() if metrics is not None else {}
     figures = Figures()
     if metrics is not None:

@@ -27,7 +27,7 @@ from core.games import GameFigures
 from core.metrics import TrialMetrics, compute_metrics
 from core.reaches import reaches_from_trajectory
 from core.trial import TrialParameters
-from device.loop.pipeline import PHASE_EXERCISE
+from device.loop.pipeline import PERIOD_S, PHASE_EXERCISE
 
 
 @dataclass(frozen=True, slots=True)
@@ -62,9 +62,12 @@ def exercise_mask(channels: Mapping[str, np.ndarray]) -> np.ndarray:
 MIN_EXERCISE = 64
 
 
-def _too_short(n_exercise: int) -> AppError:
-    return AppError(f"the trial has only {n_exercise} samples of exercise; "
-                    f"at least {MIN_EXERCISE} (0.13 s) are needed for its figures")
+def too_little_exercise(n_exercise: int) -> str:
+    """The one sentence for a trial whose exercise phase is too short to measure (a fault
+    in the approach): the analysis refuses it with it, an in-memory task trial
+    (app.assessments.runner) and a report (app.reports.content) note it."""
+    return (f"the trial has only {n_exercise} samples of exercise; at least {MIN_EXERCISE} "
+            f"({MIN_EXERCISE * PERIOD_S:.2f} s) are needed for its figures")
 
 
 def _no_value(name: str, count: int) -> str:
@@ -77,7 +80,7 @@ def analyse(channels: Mapping[str, np.ndarray], parameters: TrialParameters) -> 
     notes: list[str] = []
     n_exercise = int(mask.sum())
     if n_exercise < MIN_EXERCISE:
-        raise _too_short(n_exercise)
+        raise AppError(too_little_exercise(n_exercise))
     mask = _as_slice(mask, n_exercise)
     t = np.asarray(channels["time"])[mask]
     start = float(t[0])
@@ -137,7 +140,7 @@ def analyse_stored(read: ReadStretch, n_ticks: int, names: Sequence[str],
         return analyse({name: read(name, 0, n_ticks) for name in CHANNELS_USED
                         if name in names}, parameters)
     if n < MIN_EXERCISE:
-        raise _too_short(n)
+        raise AppError(too_little_exercise(n))
 
     def stretch(name: str, a: int, b: int) -> np.ndarray:
         return np.asarray(read(name, first + a, first + b), dtype=float)

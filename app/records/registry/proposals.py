@@ -9,7 +9,8 @@ parameter equal, the proposed assistance, speed and tolerance and the rest as be
 `kept` (every parameter as the trial before, against a proposed change) or `changed`
 (anything else: another shape, mode or size is never "accepted"), and links the trial
 that followed. An assessment trial neither makes a proposal (app.trials.finalize) nor
-decides one: the exercise's proposal waits for the next exercise trial.
+decides one: the exercise's proposal waits for the next exercise trial (and one an
+assessment trial made in a registry from before then is never offered).
 `pending_proposal` gives the one waiting, after a restart too. The history
 of a patient's progression is their proposals beside their trials' parameters, which the
 trials table keeps.
@@ -118,12 +119,15 @@ _INVALID = ("SELECT m.trial_id FROM trial_marks m WHERE m.valid = 0 AND m.id = "
             "(SELECT max(id) FROM trial_marks WHERE trial_id = m.trial_id)")
 _PENDING = (_SELECT + f" WHERE (decision = 'pending' OR next_trial_id IN ({_INVALID})) "
             "AND trial_id IN (SELECT t.id FROM trials t JOIN sessions s ON "
-            f"s.id = t.session_id WHERE s.patient_id = ? AND t.id != ?) AND trial_id NOT IN "
-            f"({_INVALID}) ORDER BY trial_id DESC LIMIT 1")
-"""The patient's pending proposal (patient id, a trial id to leave out): the latest of a
-trial not marked invalid (schema v8) that no trial decided, or that a trial since marked
-invalid decided (that trial does not count: its proposal is offered again, as after a
-withdrawn trial)."""
+            "s.id = t.session_id WHERE s.patient_id = ? AND t.id != ? "
+            "AND coalesce(json_extract(t.parameters, '$.assessment'), '') = '') "
+            f"AND trial_id NOT IN ({_INVALID}) ORDER BY trial_id DESC LIMIT 1")
+"""The patient's pending proposal (patient id, a trial id to leave out): the latest of an
+exercise trial not marked invalid (schema v8) that no trial decided, or that a trial since
+marked invalid decided (that trial does not count: its proposal is offered again, as after
+a withdrawn trial). An assessment trial's proposal is never the one: a registry written
+before assessments stopped proposing (app.trials.finalize) may hold one, which would
+offer the task's fixed protocol ("transparent mode: the same again") to the next exercise."""
 _KEYS = ("assistance_level", "duration_s", "tolerance_rad")
 """What a proposal sets (app.trials.progression.Proposal.applied_to)."""
 

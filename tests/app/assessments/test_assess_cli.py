@@ -11,22 +11,6 @@ from core.assessment import TASKS, task_figures
 from tests.app.cli.running import run
 
 
-@pytest.fixture
-def data(tmp_path, monkeypatch):
-    monkeypatch.setenv("REHAB_DATA_DIR", str(tmp_path / "data"))
-    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
-    return tmp_path / "data"
-
-
-@pytest.fixture
-def patient(data, capsys):
-    code, out, _ = run(["patients", "add", "--first-name", "Ada", "--last-name", "Assess",
-                        "--body-mass", "80", "--upper-arm", "0.30", "--forearm", "0.29",
-                        "--side", "right", "--shoulder", "-0.12", "0.73"], capsys)
-    assert code == 0
-    return out.strip()
-
-
 def test_the_tasks_are_listed_with_their_protocols(data, capsys):
     code, out, _ = run(["assess", "tasks"], capsys)
     assert code == 0

@@ -14,9 +14,6 @@ from statistics import NormalDist
 
 import pytest
 
-from app.norms import in_use
-from app.records.datadir import DataDir
-from app.records.registry import Registry
 from tests.app.assessments.registered import WHEN, register
 from tests.app.cli.running import run
 from tests.app.norms.handmade import handmade
@@ -26,16 +23,7 @@ METRICS = {"vgr_reaction_time_s": 0.49, "vgr_max_speed_m_s": 0.3, "vgr_sparc": -
 SOURCE = "Norms: hand-made for the tests, 3 Dec 2026"
 
 
-@pytest.fixture
-def data(tmp_path, monkeypatch):
-    monkeypatch.setenv("REHAB_DATA_DIR", str(tmp_path / "data"))
-    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
-    monkeypatch.setattr(in_use, "SHIPPED", tmp_path / "no-shipped-norms.json")
-    return tmp_path / "data"
-
-
-def _registry(data) -> Registry:
-    return Registry(DataDir(data), create=True)
+pytestmark = pytest.mark.usefixtures("no_shipped_norms")  # only the norms each test uses
 
 
 def _patient(registry, **fields) -> str:
@@ -66,10 +54,9 @@ def _half_normal_quantile(z: float) -> float:
     return n.inv_cdf((1.0 + n.cdf(z)) / 2.0)
 
 
-def test_each_figure_s_z_and_the_task_score_are_the_hand_computation(tmp_path, data, capsys):
+def test_each_figure_s_z_and_the_task_score_are_the_hand_computation(tmp_path, registry, capsys):
     document = handmade()
     _use(tmp_path, capsys, document)
-    registry = _registry(data)
     code = _patient(registry)
     register(registry, code, METRICS)
     status, out, err = run(["assess", "show", code], capsys)
@@ -93,11 +80,10 @@ def test_each_figure_s_z_and_the_task_score_are_the_hand_computation(tmp_path, d
     assert out.rstrip().endswith(SOURCE)
 
 
-def test_simulated_norms_say_so(tmp_path, data, capsys):
+def test_simulated_norms_say_so(tmp_path, registry, capsys):
     document = handmade()
     document["simulated"] = True
     _use(tmp_path, capsys, document)
-    registry = _registry(data)
     code = _patient(registry)
     register(registry, code, METRICS)
     status, out, _ = run(["assess", "show", code], capsys)
@@ -106,8 +92,7 @@ def test_simulated_norms_say_so(tmp_path, data, capsys):
         f"{SOURCE} (simulated — for demonstration and tests only)")
 
 
-def test_without_norms_one_line_says_how_to_choose_some(data, capsys):
-    registry = _registry(data)
+def test_without_norms_one_line_says_how_to_choose_some(registry, capsys):
     code = _patient(registry)
     register(registry, code, METRICS)
     status, out, _ = run(["assess", "show", code], capsys)
@@ -120,9 +105,8 @@ def test_without_norms_one_line_says_how_to_choose_some(data, capsys):
     assert out.count("normative model") == 1
 
 
-def test_covariates_the_registry_lacks_are_named_in_one_line(tmp_path, data, capsys):
+def test_covariates_the_registry_lacks_are_named_in_one_line(tmp_path, registry, capsys):
     _use(tmp_path, capsys, handmade())
-    registry = _registry(data)
     code = _patient(registry, sex=None, handedness=None)
     register(registry, code, METRICS)
     register(registry, code, METRICS)
@@ -136,9 +120,8 @@ def test_covariates_the_registry_lacks_are_named_in_one_line(tmp_path, data, cap
     assert out.rstrip().endswith(SOURCE)
 
 
-def test_a_damaged_norms_file_is_one_line_and_exit_2(tmp_path, data, capsys):
+def test_a_damaged_norms_file_is_one_line_and_exit_2(tmp_path, data, registry, capsys):
     _use(tmp_path, capsys, handmade())
-    registry = _registry(data)
     code = _patient(registry)
     register(registry, code, METRICS)
     in_use_file = data / "models" / "norms" / "in-use.json"
@@ -149,3 +132,43 @@ def test_a_damaged_norms_file_is_one_line_and_exit_2(tmp_path, data, capsys):
     assert len(err.strip().splitlines()) == 1, err
     assert f"norms file {in_use_file}" in err
     assert "Traceback" not in out + err
+
+
+def test_an_age_beyond_the_controls_is_said_on_each_figure(tmp_path, registry, capsys):
+    """A patient older than the norms' controls (80 at most) is scored by extrapolation,
+    and each figure's line says so, as `rehab norms score` does."""
+    _use(tmp_path, capsys, handmade())
+    code = _patient(registry, birth_year=WHEN.year - 90)
+    register(registry, code, METRICS)
+    status, out, err = run(["assess", "show", code], capsys)
+    assert status == 0, err
+    assert re.search(r"Reaction time: 0\.49 s +Z [-+]\d\.\d\d \(age beyond the controls'\)\n",
+                     out), out
+    assert re.search(r"Max speed: 0\.3 m/s +Z [-+]\d\.\d\d \(age beyond the controls'\)\n",
+                     out), out
+    assert re.search(r"SPARC: -1\.6\n", out), out  # no Z-score, nothing beyond
+    code = _patient(registry)  # 60: within the controls' ages
+    register(registry, code, METRICS)
+    status, out, err = run(["assess", "show", code], capsys)
+    assert status == 0, err
+    assert "beyond" not in out
+
+
+def test_the_tested_side_is_the_trial_file_s_as_rehab_norms_score_takes_it(tmp_path, registry,
+                                                                            capsys):
+    """The registry's side corrected after the trial ran (left → right): the trial file
+    keeps the arm that was tested, and `rehab assess show` scores with it, the Z-score
+    `rehab norms score` gives the same file."""
+    _use(tmp_path, capsys, handmade())
+    code = _patient(registry)  # left
+    begun = register(registry, code, METRICS)
+    registry.correct_patient(code, "side", "right", reason="entered wrongly", by="TH")
+    status, out, err = run(["assess", "show", code], capsys)
+    assert status == 0, err
+    status, scored, err = run(["norms", "score", str(begun.path), "--json"], capsys)
+    assert status == 0, err
+    result = json.loads(scored)
+    assert result["person"]["tested_side"] == "left"
+    z = result["figures"]["vgr_reaction_time_s"]["z"]
+    assert f"Reaction time: 0.49 s   Z {z:+.2f}\n" in out, out
+    assert round(z, 2) == -2.7  # the left arm's: test_each_figure_s_z_…'s hand computation

@@ -6,10 +6,6 @@ starting it decides no exercise's proposal (it waits for the next exercise), and
 
 from __future__ import annotations
 
-import pytest
-
-from app.records.datadir import DataDir
-from app.records.registry import Registry
 from app.trials.finalize import finalize_trial
 from core.trial import THESIS_SUBJECT
 from tests.app.assessments.registered import register
@@ -17,18 +13,6 @@ from tests.app.cli.running import run
 
 EXERCISE = THESIS_SUBJECT.replace(repetitions=1)
 REACHING = THESIS_SUBJECT.replace(assist="transparent", shape="targets")
-
-
-@pytest.fixture
-def data(tmp_path, monkeypatch):
-    monkeypatch.setenv("REHAB_DATA_DIR", str(tmp_path / "data"))
-    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
-    return tmp_path / "data"
-
-
-@pytest.fixture
-def registry(data):
-    return Registry(DataDir(data), create=True)
 
 
 def _patient(registry) -> str:
@@ -86,3 +70,25 @@ def test_the_trials_list_shows_an_assessment_as_its_task_without_a_proposal(regi
     assert f"figures: rehab assess show {code} --task reaching" in out
     (row,) = [r for r in rows if r.startswith(f"{exercise.trial_id:>5} ")]
     assert "2.0/3.0" in row
+
+
+def test_an_old_registry_s_assessment_proposal_is_never_offered(registry):
+    """A registry written before assessments stopped proposing holds a pending proposal
+    after an assessment trial (kept as the console then kept it, record_proposal): the
+    next exercise is offered the exercise's proposal, and decides it, not the task's."""
+    code = _patient(registry)
+    exercise = register(registry, code, {}, task="", parameters=EXERCISE)
+    registry.record_proposal(exercise.trial_id, {
+        "assistance_level": 0.5, "duration_s": 4.0, "tolerance_rad": 0.349,
+        "change": "assistance", "reason": "exercise reason"})
+    assessment = register(registry, code, {"vgr_reaction_time_s": 0.4}, parameters=REACHING)
+    registry.record_proposal(assessment.trial_id, {
+        "assistance_level": 1.0, "duration_s": 4.0, "tolerance_rad": 0.349,
+        "change": "none", "reason": "transparent mode: the same again"})
+    waiting = registry.pending_proposal(code)
+    assert waiting.trial_id == exercise.trial_id
+    assert waiting.proposal["reason"] == "exercise reason"
+    after = register(registry, code, {}, task="", parameters=EXERCISE, finish=False)
+    assert registry.proposal(exercise.trial_id).next_trial_id == after.trial_id
+    assert registry.proposal(exercise.trial_id).decision == "kept"
+    assert registry.proposal(assessment.trial_id).next_trial_id is None

@@ -39,3 +39,17 @@ def test_a_task_in_memory_gives_its_files_figures_and_writes_nothing(task, tmp_p
 def test_in_memory_takes_no_folder_nor_registry(tmp_path):
     with pytest.raises(AppError, match="writes no file"):
         run_task("circle", "weak", in_memory=True, folder=tmp_path)
+
+
+def test_a_trial_too_short_in_memory_says_what_its_file_says(tmp_path, monkeypatch):
+    """A trial with too little exercise for its figures (a fault in the approach) is noted
+    in memory with the very sentence its file's analysis refuses it with."""
+    monkeypatch.setattr("app.trials.analysis.MIN_EXERCISE", 10 ** 9)  # no trial is enough
+    (tmp_path / "files").mkdir()
+    on_file = run_task("position", "weak", seed=4, folder=tmp_path / "files")
+    in_memory = run_task("position", "weak", seed=4, in_memory=True)
+    for memory, file in zip(in_memory, on_file, strict=True):
+        assert not memory.figures
+        assert not file.figures
+        assert memory.notes == file.notes
+        assert "at least 1000000000" in memory.notes[0]

@@ -24,23 +24,6 @@ GAME = ["--game", "reach", "--shape", "targets", "--duration", "8", "--repetitio
 BATCH = 8  # ticks in one 16 ms batch of the window's timer
 
 
-@pytest.fixture
-def data(tmp_path, monkeypatch):
-    """A data folder and a config folder of the test's own (as tests/app/cli's)."""
-    monkeypatch.setenv("REHAB_DATA_DIR", str(tmp_path / "data"))
-    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
-    return tmp_path / "data"
-
-
-@pytest.fixture
-def patient(data, capsys):
-    code, out, _ = run(["patients", "add", "--first-name", "Ada", "--last-name", "Game",
-                        "--body-mass", "80", "--upper-arm", "0.30", "--forearm", "0.29",
-                        "--side", "right", "--shoulder", "-0.12", "0.73"], capsys)
-    assert code == 0
-    return out.strip()
-
-
 def test_a_game_trial_carries_its_figures_everywhere(data, patient, capsys, tmp_path):
     code, out, err = run(["run", "--code", patient, *GAME], capsys)
     assert code == 0, err

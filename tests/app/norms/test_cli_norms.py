@@ -11,13 +11,7 @@ from tests.app.cli.running import run
 from tests.app.norms.controls import write_controls, write_retest
 from tests.app.norms.handmade import handmade
 
-
-@pytest.fixture
-def data(tmp_path, monkeypatch):
-    monkeypatch.setenv("REHAB_DATA_DIR", str(tmp_path / "data"))
-    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
-    monkeypatch.setattr(in_use, "SHIPPED", tmp_path / "no-shipped-norms.json")
-    return tmp_path / "data"
+pytestmark = pytest.mark.usefixtures("no_shipped_norms")  # only the norms each test uses
 
 
 def test_fit_show_use_mdc(tmp_path, data, capsys):

@@ -11,7 +11,7 @@ import shutil
 import numpy as np
 import pytest
 
-from app.norms import in_use, load_norms
+from app.norms import load_norms
 from app.norms.controls import (
     controls_from_trials,
     people_from_table,
@@ -109,12 +109,7 @@ def test_robot_kind():
     assert robot_kind("quanser (NI USB-6221)", {}) == "hardware"
 
 
-@pytest.fixture
-def data(tmp_path, monkeypatch):
-    monkeypatch.setenv("REHAB_DATA_DIR", str(tmp_path / "data"))
-    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
-    monkeypatch.setattr(in_use, "SHIPPED", tmp_path / "none.json")
-    return tmp_path / "data"
+pytestmark = pytest.mark.usefixtures("no_shipped_norms")  # only the norms each test uses
 
 
 def test_fit_and_mdc_from_a_folder(tmp_path, data, capsys):
@@ -170,13 +165,10 @@ def test_folder_refusals(tmp_path, data, capsys):
     assert "one of them" in err
 
 
-def test_covariates_from_the_registry_and_invalid_trials_left_out(tmp_path, data, capsys):
+def test_covariates_from_the_registry_and_invalid_trials_left_out(tmp_path, data, registry,
+                                                                   capsys):
     """Controls registered in a data folder: their sex, handedness and birth year come from
     the registry; a trial marked invalid there is not used, and the output says so."""
-    from app.records.datadir import DataDir
-    from app.records.registry import Registry
-
-    registry = Registry(DataDir(data), create=True)
     rng = np.random.default_rng(8)
     ids = {}
     for i in range(24):

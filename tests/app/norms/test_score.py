@@ -11,7 +11,6 @@ from statistics import NormalDist
 
 import pytest
 
-from app.norms import in_use
 from tests.app.cli.running import run
 from tests.app.norms.handmade import handmade
 from tests.app.norms.test_controls import trial_file
@@ -25,12 +24,7 @@ def half_normal_quantile(z: float) -> float:
     return N.inv_cdf((1.0 + N.cdf(z)) / 2.0)
 
 
-@pytest.fixture
-def data(tmp_path, monkeypatch):
-    monkeypatch.setenv("REHAB_DATA_DIR", str(tmp_path / "data"))
-    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
-    monkeypatch.setattr(in_use, "SHIPPED", tmp_path / "none.json")
-    return tmp_path / "data"
+pytestmark = pytest.mark.usefixtures("no_shipped_norms")  # only the norms each test uses
 
 
 @pytest.fixture
@@ -83,12 +77,8 @@ def test_score_refusals(tmp_path, files, data, capsys):
         assert err.count("\n") == 1
 
 
-def test_the_person_from_the_registry(tmp_path, files, data, capsys):
-    from app.records.datadir import DataDir
-    from app.records.registry import Registry
-
+def test_the_person_from_the_registry(tmp_path, files, registry, capsys):
     norms, _ = files
-    registry = Registry(DataDir(data), create=True)
     patient = registry.create_patient("Ann", "Example", birth_year=BORN, side="left",
                                       sex="male", handedness="right")
     trial = trial_file(tmp_path / "r", patient.code, 1, 1, WHEN, {

@@ -375,6 +375,8 @@ def test_a_trial_that_ended_before_the_exercise_still_has_a_report(tmp_path):
                 events=trial.events, status=trial.status)
     content = build_report(read_trial(path))
     assert content.metrics is None
+    assert any(note.startswith("the trial has only ") and note.endswith(
+        "are needed for its figures") for note in content.notes)  # app.trials.analysis's
     assert content.path is None
     assert content.plain == ()
     text = pdf_text(write_report_pdf(content, tmp_path / "early.pdf"))
