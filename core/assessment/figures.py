@@ -208,7 +208,9 @@ def strength_key(kind: str, direction_deg: int) -> str:
 
 AT_LIMIT = "strength_at_limit_count"
 """A strength trial's count of directions whose push reached the robot's force limit: its
-forces are then lower bounds (the robot gave way, not the patient)."""
+peaks are then the line the patient was shown, not their strength. (The mean over the push
+is not capped the same way: with the line reached it says how soon and how steadily, which
+still tells people apart; docs/assessments.md.)"""
 
 
 def _strength() -> list[FigureSpec]:
@@ -221,15 +223,14 @@ def _strength() -> list[FigureSpec]:
         specs.append(FigureSpec(
             strength_key("mean", deg), "strength", "N", f"Mean force {deg}°", "higher",
             f"Mean component of the hand force along the push direction {deg}° over its hold "
-            "windows.", STRENGTH_REF, AT_LIMIT))
+            "windows.", STRENGTH_REF))
     specs.append(FigureSpec(
         "strength_peak_force_n", "strength", "N", "Peak force (mean of directions)", "higher",
         "Mean over the 8 push directions of the peak force along each.", STRENGTH_REF,
         AT_LIMIT))
     specs.append(FigureSpec(
         "strength_mean_force_n", "strength", "N", "Mean force (mean of directions)", "higher",
-        "Mean over the 8 push directions of the mean force along each.", STRENGTH_REF,
-        AT_LIMIT))
+        "Mean over the 8 push directions of the mean force along each.", STRENGTH_REF))
     specs.append(FigureSpec(
         "strength_at_limit_count", "strength", "count", "Directions at the robot's limit",
         "none", "Number of push directions in which the push reached the force the robot can "

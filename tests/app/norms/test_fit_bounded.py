@@ -3,8 +3,8 @@ force is the robot's limit, not the person's (core.assessment FigureSpec.bounded
 shipped simulated norms were fitted on 482 controls every one of whom reached the limit
 in every direction: a spike at the limit the Box-Cox stretched (λ at its bound) into a
 Z-score of −48,757,957 for the passive patient's peak force. Now a figure capped in more
-than 5 % of the controls is not normed, the fit says why in the file's notes, and a report
-asking for it gets that reason in its one line."""
+than 5 % of the controls (the peaks) is not normed, the fit says why in the file's notes,
+and a report asking for it gets that reason in its one line."""
 
 from __future__ import annotations
 
@@ -32,25 +32,42 @@ def _controls(capped: int, n: int = 100) -> Controls:
     return Controls(tuple(f"C{i:03d}" for i in range(n)), people, figures)
 
 
-def test_the_strength_figures_name_the_count_that_caps_them():
+def test_the_strength_peaks_name_the_count_that_caps_them():
     assert STRENGTH == ["strength_peak_force_n", "strength_mean_force_n"]
-    assert all(FIGURES[k].bounded_by == "strength_at_limit_count" for k in STRENGTH)
+    peaks = [k for k in FIGURES if k.startswith("strength_peak_force_n")]
+    assert len(peaks) == 9
+    assert all(FIGURES[k].bounded_by == "strength_at_limit_count" for k in peaks)
+    # the mean over a push says how soon the line was reached: not capped the same way
+    assert FIGURES["strength_mean_force_n"].bounded_by == ""
     assert FIGURES["vgr_max_speed_m_s"].bounded_by == ""
 
 
 def test_a_figure_capped_in_many_controls_is_not_normed_and_the_file_says_why(tmp_path):
     report = fit_norms(_controls(capped=30), "test controls")
-    for key in STRENGTH:
-        assert key not in report.document["figures"]
-        assert report.left_out[key].startswith("30 of 100 controls reached the robot's limit")
-    assert "strength" not in report.document["tasks"]
+    assert "strength_peak_force_n" not in report.document["figures"]
+    assert report.left_out["strength_peak_force_n"].startswith(
+        "30 of 100 controls reached the robot's limit")
+    assert "strength_mean_force_n" in report.document["figures"]
+    assert report.document["tasks"]["strength"]["figures"] == ["strength_mean_force_n"]
     path = write_norms(tmp_path / "n.json", report.document)
     model = load_norms(path)
     assert "reached the robot's limit" in model.left_out("strength_peak_force_n")
-    with pytest.raises(NormsError, match="hold no task score for 'strength': lacks"):
-        model.task_score("strength", {k: 5.0 for k in STRENGTH}, PERSON)
     with pytest.raises(NormsError, match="30 of 100 controls reached the robot's limit"):
         model.z("strength_peak_force_n", 5.0, PERSON)
+
+
+def test_a_task_left_out_says_why_its_figure_was(tmp_path):
+    """Every figure of a task capped: the task's note names the figure's own reason."""
+    controls = _controls(capped=30)
+    figures = dict(controls.figures)
+    del figures["strength_mean_force_n"]
+    report = fit_norms(Controls(controls.subjects, controls.people, figures), "test controls")
+    assert "strength" not in report.document["tasks"]
+    model = load_norms(write_norms(tmp_path / "n.json", report.document))
+    with pytest.raises(NormsError, match="hold no task score for 'strength': lacks "
+                       r"strength_peak_force_n, strength_mean_force_n \(strength_peak_force_n: "
+                       "30 of 100 controls reached the robot's limit"):
+        model.task_score("strength", {k: 5.0 for k in STRENGTH}, PERSON)
 
 
 def test_a_few_capped_controls_still_norm_the_figure():

@@ -2,9 +2,10 @@
 scripts/build_simulated_norms.py from 500 virtual healthy subjects): verified on load,
 labelled simulated, a task score and an MDC95 for every task, what a data folder without
 norms of its own uses, and on the virtual patients they do what norms are for: the weak
-patient scores worse than the healthy one on every task (seed 3, a 60-year-old right-handed
-woman's norms: 3.62 against 1.15 in reaching, 2.67/1.61 circle, 2.16/0.06 range, 3.11/1.95
-strength, 6.41/0.61 position sense on 2026-12-03), and the passive one worst of all."""
+patient scores worse than the healthy one on every task (seed 3, a 60-year-old
+right-handed woman's norms: 3.62 against 1.15 in reaching, 2.67/1.61 circle, 2.16/0.06
+range, 2.65/1.67 strength, 6.41/0.61 position sense on 2026-12-04), and the passive one
+worst of all (reaching, circle and position not performed, range 3.63, strength 3.08)."""
 
 from __future__ import annotations
 
@@ -20,8 +21,9 @@ from core.assessment import TASKS
 from core.trial import TrialParameters
 
 PERSON = Covariates(60.0, "female", "right", "right", "simulator-realistic")
-NORMED = tuple(t for t in TASKS if t != "strength")
-"""The tasks the shipped norms score: strength is capped by the robot (below)."""
+NORMED = TASKS
+"""The tasks the shipped norms score (strength by its mean forces: its peaks are capped by
+the robot, below)."""
 
 
 @pytest.fixture(scope="module")
@@ -48,23 +50,29 @@ def test_every_held_out_control_is_scored_and_calibrated(shipped):
             assert 0.9 < c["sd"] < 1.1, key
 
 
-def test_the_robot_capped_strength_is_not_normed_and_the_page_says_why(shipped):
+def test_the_robot_capped_strength_peaks_are_not_normed_and_the_page_says_why(shipped):
     """Every simulated control reached the robot's force limit (6-8 N) in every direction:
-    no strength norms, and the report says so once instead of Z-scores in the millions."""
+    no norms for the peaks, and the report says so once instead of Z-scores in the
+    millions; the strength task score combines the mean forces."""
     from app.reports.assessment_page import assessment_page
 
-    assert not any(key.startswith("strength_") for key in shipped.figures)
+    assert not any(key.startswith("strength_peak") for key in shipped.figures)
+    assert "strength_mean_force_n" in shipped.figures
+    assert shipped.tasks["strength"].figures == ("strength_mean_force_n",)
     assert "482 of 482 controls reached the robot's limit" in shipped.left_out(
         "strength_peak_force_n")
     metrics = {key: 5.0 for key in ("strength_peak_force_n", "strength_mean_force_n",
                                     "strength_peak_force_n_000")}
     page = assessment_page("strength", metrics, norms=shipped, person=PERSON)
-    assert all(line.z is None for line in page.lines)
+    z = {line.key: line.z for line in page.lines}
+    assert z["strength_peak_force_n"] is None
+    assert z["strength_peak_force_n_000"] is None
+    assert z["strength_mean_force_n"] is not None
     assert [n for n in page.notes if "reached the robot's limit" in n] == [
-        "no Z-score for Peak force 0°, Peak force (mean of directions) and 1 more: 482 of 482 "
+        "no Z-score for Peak force 0°, Peak force (mean of directions): 482 of 482 "
         "controls reached the robot's limit, so their values are lower bounds, not theirs: "
         "a robot that holds more is needed to norm it"]
-    assert "reached the robot's limit" in page.task_score
+    assert page.task_score.startswith("Task score ")
 
 
 def test_a_data_folder_without_norms_of_its_own_uses_the_shipped_ones(tmp_path, shipped):
