@@ -56,6 +56,19 @@ def configure_plot(item: pg.PlotItem, x_label: str, y_label: str, *, title: str 
     theme.register_plot(item)
 
 
+def seat_view(item: pg.PlotItem) -> None:
+    """A still picture of the table as the patient sees it from their seat: no menu, no
+    mouse, no axes, both axes reversed (the patient sits on +y facing −y, docs/frames.md:
+    the robot's side at the top, the patient's left on the left)."""
+    item.setMenuEnabled(False)
+    item.setMouseEnabled(x=False, y=False)
+    item.hideButtons()
+    for name in ("left", "bottom"):
+        item.hideAxis(name)
+    item.invertX(True)
+    item.invertY(True)
+
+
 def curve(item: pg.PlotItem, colour: str, *, dashed: bool = False, name: str | None = None,
           gaps: bool = False, xy: bool = False) -> pg.PlotDataItem:
     """A curve to feed with setData.

@@ -314,13 +314,7 @@ def _path_plot(figure: PathFigure) -> pg.PlotWidget:
     widget.setMinimumHeight(PATH_HEIGHT_PX)
     widget.setBackground("w")
     item = widget.getPlotItem()
-    item.setMenuEnabled(False)
-    item.setMouseEnabled(x=False, y=False)
-    item.hideButtons()
-    for name in ("left", "bottom"):
-        item.hideAxis(name)
-    item.invertX(True)
-    item.invertY(True)
+    plots.seat_view(item)
     item.setAspectLocked(True)
     outline = figure.outline_m * CM_PER_M
     position = figure.position_m * CM_PER_M

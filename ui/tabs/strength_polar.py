@@ -43,13 +43,7 @@ class StrengthPolarPlot(pg.PlotWidget):
         self.setBackground(theme.BACKGROUND)
         self.setMinimumSize(260, 260)
         item = self.getPlotItem()
-        item.setMenuEnabled(False)
-        item.setMouseEnabled(x=False, y=False)
-        item.hideButtons()
-        for name in ("left", "bottom"):
-            item.hideAxis(name)
-        item.invertX(True)  # the patient's view (module notes)
-        item.invertY(True)
+        plots.seat_view(item)  # the patient's view (module notes)
         item.setAspectLocked(True)
         plots.legend(item)
         self.series: list[pg.PlotDataItem] = []
