@@ -53,7 +53,7 @@ def main() -> None:
                                     body_mass_kg=s.body_mass_kg, upper_arm_m=s.upper_arm_m,
                                     forearm_m=s.forearm_m)
         run_task(args.task, "healthy", None, s.trial_seed(0) % 2**31, registry=registry,
-                 code=p.code, patient_options=s.patient_options(0, side))
+                 code=p.code, patient_options=s.patient_options(0, side, guided=False))
     controls_s = time.perf_counter() - start
     norms = folder / "norms.json"
     start = time.perf_counter()

@@ -29,6 +29,22 @@ class NormsError(AppError):
     them, a value outside a transform's domain, no MDC95 for a change."""
 
 
+Z_SHOWN = 10.0
+"""Reports print a Z-score beyond ±Z_SHOWN as "< −10" / "> +10". That far out the transform
+fitted on the controls is extrapolating (a Box-Cox of a speed of 0 with λ < 0 is minus
+infinity: the passive patient's circle speed scored −6.7·10¹⁰), so the digits say nothing
+but "far outside every control"; the number itself stays in `rehab norms score --json`."""
+
+
+def z_text(z: float) -> str:
+    """A Z-score as reports print it: signed, two decimals, or beyond ±Z_SHOWN as a bound."""
+    if z < -Z_SHOWN:
+        return f"< −{Z_SHOWN:g}"
+    if z > Z_SHOWN:
+        return f"> +{Z_SHOWN:g}"
+    return f"{z:+.2f}"
+
+
 class TaskNotPerformed(NormsError):
     """The patient did not perform the task (core.assessment.performed): no task score,
     and a result worse than any (reports say so, ranked last)."""

@@ -23,6 +23,7 @@ from app.norms.model import (
     NormsError,
     TaskNotPerformed,
     TaskScore,
+    z_text,
 )
 from core.errors import CoreError
 from core.norms.regression import Covariates
@@ -93,7 +94,8 @@ def lines(scores: TrialScores) -> list[str]:
            f"{'figure':<36} {'value':>11} {'unit':<6} {'Z':>7} {'worse Z':>8}"]
     for key, z in scores.figures.items():
         unit = FIGURES[key].unit if key in FIGURES else ""
-        out.append(f"{key:<36} {z.value:>11.4g} {unit:<6} {z.z:>7.2f} {z.worse_z:>8.2f}"
+        out.append(f"{key:<36} {z.value:>11.4g} {unit:<6} {z_text(z.z):>7} "
+                   f"{z_text(z.worse_z):>8}"
                    + (f" {EXTRAPOLATED}" if z.extrapolated else ""))
     for key, why in scores.unscored.items():
         out.append(f"{key:<36} no Z-score: {why}")

@@ -74,7 +74,8 @@ def battery_figures(visit: Visit) -> dict:
     try:
         results = run_battery("healthy", base, subject.trial_seed(trial) % 2**31,
                               tasks=visit.tasks, in_memory=True,
-                              patient_options=subject.patient_options(trial, side), plant=PLANT)
+                              patient_options=subject.patient_options(trial, side, guided=False),
+                              plant=PLANT)
         for trials in results.values():
             for task_trial in trials:
                 figures.update(task_trial.figures)

@@ -67,7 +67,7 @@ def thesis_figures(subject: Subject, repetitions: int = 5, plant: str = "realist
     out = {"subject": subject.index, "refused": ""}
     try:
         trial = simulate(params, patient="healthy", seed=subject.trial_seed(0), plant=plant,
-                         patient_options=subject.patient_options(side=THESIS_SIDE),
+                         patient_options=subject.patient_options(side=THESIS_SIDE, guided=True),
                          engine=engine)
     except (UnreachableError, ParameterError) as error:
         out["refused"] = str(error)

@@ -22,6 +22,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from app.norms.model import z_text
 from core.assessment import TASK_TITLES, task_figures
 from core.assessment.protocol import protocol
 from core.assessment.strength import StrengthPolar, strength_polar
@@ -269,7 +270,7 @@ def figure_text(line: FigureLine) -> str:
     when it is of an age beyond the controls' (as `rehab norms score` says it)."""
     from app.norms.model import EXTRAPOLATED
 
-    z = "" if line.z is None else f"   Z {line.z:+.2f}"
+    z = "" if line.z is None else f"   Z {z_text(line.z)}"
     beyond = f" {EXTRAPOLATED}" if line.z is not None and line.extrapolated else ""
     return f"  {line.label}: {line.value}{z}{beyond}"
 
@@ -292,7 +293,7 @@ def page_figure(page: AssessmentPage):
     figure = Figure(figsize=(8.27, 11.69))  # A4
     figure.text(0.08, 0.95, page.title, fontsize=18, weight="bold")
     figure.text(0.08, 0.925, page.heading, fontsize=10)
-    rows = [[line.label, line.value, "" if line.z is None else f"{line.z:+.2f}",
+    rows = [[line.label, line.value, "" if line.z is None else z_text(line.z),
              {"lower": "lower", "higher": "higher", "none": "—"}[line.better]]
             for line in page.lines]
     text_top = 0.2

@@ -198,7 +198,9 @@ def _z_text(norms, key, value, who) -> tuple[str, str]:
         z = norms.z(key, value, who)
     except NormsError as exc:
         return "–", str(exc)
-    return f"Z {z.z:+.2f}" + (" (extrapolated)" if z.extrapolated else ""), ""
+    from app.norms.model import z_text
+
+    return f"Z {z_text(z.z)}" + (" (extrapolated)" if z.extrapolated else ""), ""
 
 
 class _Flow:

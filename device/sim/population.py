@@ -29,7 +29,11 @@ impedance is GUIDED_IMPEDANCE_SCALE × device.sim.patients.HEALTHY_IMPEDANCE (a 
 who is being guided round a path relaxes: the reaching values of Burdet et al. 2001 were
 measured against an unstable load, where people co-contract), the push along the path
 DRIVE_N (patients.DRIVE_N). Calibrated on the RMSE x and y of section 3.6 only; the
-force ranges, the directional performance and the shoulder range are held out.
+force ranges, the directional performance and the shoulder range are held out. On their
+own — the assessment battery, where the robot is transparent or the subject follows their
+own plan — the same subject holds their reaching impedance, HEALTHY_IMPEDANCE's order
+(`Subject.patient_options(guided=False)`): the guided quarter is a relaxation under the
+robot's lead, not how people reach to a target.
 
 Around it each subject draws, log-normally (median the centre times the age and sex
 factors below):
@@ -132,7 +136,8 @@ class Subject:
     strength: float
     """Relative to a 20–50-year-old man's (1)."""
     impedance_scale: float
-    """Of HEALTHY_IMPEDANCE, for the dominant arm at the settled trial."""
+    """Of HEALTHY_IMPEDANCE, for the dominant arm at the settled trial, being guided
+    (patient_options: on their own it is this over GUIDED_IMPEDANCE_SCALE)."""
     drive_N: float
     """The push along the path, dominant arm, settled."""
     reaction_time_s: float
@@ -170,13 +175,25 @@ class Subject:
             cv *= NON_DOMINANT_VARIABILITY
         return min(cv, 1.0)
 
-    def patient_options(self, trial: int = 1_000, side: str | None = None) -> dict:
+    def patient_options(self, trial: int = 1_000, side: str | None = None, *,
+                        guided: bool) -> dict:
         """make_patient options of a "healthy" patient for this subject's trial `trial`
-        with the arm on `side` (default: the dominant one); trial 1000 is settled."""
+        with the arm on `side` (default: the dominant one); trial 1000 is settled.
+
+        `guided`: the robot leads the hand round a path (the thesis's experiment), and the
+        subject holds the arm at the calibrated guided impedance (`impedance_scale`);
+        else (the assessment battery: the robot transparent, or holding or moving the hand
+        while the subject acts on their own plan) at their own reaching impedance, that
+        scale over GUIDED_IMPEDANCE_SCALE (HEALTHY_IMPEDANCE's order, Burdet et al. 2001,
+        measured while people reach). Held at the guided quarter in the battery, 70 % of
+        the 482 simulated controls left reaches without a movement end (4.3 of 16 on
+        average; 12 of them all 16) and drew circles of ratio 0.80: a relaxed arm on a
+        transparent robot does not settle on a target (docs/norms.md)."""
         side = side or self.handedness
         factor = 1.0 if self.dominant(side) else NON_DOMINANT_STRENGTH
-        k = tuple(self.impedance_scale * factor * v for v in HEALTHY_IMPEDANCE.stiffness_Nm_rad)
-        b = tuple(self.impedance_scale * factor * v for v in HEALTHY_IMPEDANCE.damping_Nms_rad)
+        scale = self.impedance_scale if guided else self.impedance_scale / GUIDED_IMPEDANCE_SCALE
+        k = tuple(scale * factor * v for v in HEALTHY_IMPEDANCE.stiffness_Nm_rad)
+        b = tuple(scale * factor * v for v in HEALTHY_IMPEDANCE.damping_Nms_rad)
         drive = self.drive_N * factor * (1.0 - 0.5 * LEARNING_GAIN * self.learned(trial))
         return {"stiffness_Nm_rad": k, "damping_Nms_rad": b, "drive_N": drive,
                 "variability": self.variability_at(trial, side)}

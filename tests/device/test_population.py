@@ -18,6 +18,7 @@ from device.sim.patients import make_patient
 from device.sim.population import (
     AGE_RANGE_YEARS,
     GRIP_FRACTION,
+    GUIDED_IMPEDANCE_SCALE,
     WINTER_FOREARM,
     WINTER_HAND,
     WINTER_UPPER_ARM,
@@ -83,22 +84,37 @@ def test_learning_makes_the_first_trials_slower_more_variable_and_weaker():
     s = draw_subject(0, 3)
     cv = [s.variability_at(n, s.handedness) for n in range(12)]
     rt = [s.reaction_time_at(n) for n in range(12)]
-    drive = [s.patient_options(n)["drive_N"] for n in range(12)]
+    drive = [s.patient_options(n, guided=True)["drive_N"] for n in range(12)]
     assert all(a > b for a, b in itertools.pairwise(cv))
     assert all(a > b for a, b in itertools.pairwise(rt))
     assert all(a < b for a, b in itertools.pairwise(drive))
     assert cv[0] == pytest.approx(1.5 * s.variability)
-    assert s.patient_options(1_000)["drive_N"] == pytest.approx(s.drive_N)
+    assert s.patient_options(1_000, guided=True)["drive_N"] == pytest.approx(s.drive_N)
     with pytest.raises(ParameterError, match="trial"):
         s.learned(-1)
 
 
 def test_the_non_dominant_arm_is_weaker_and_more_variable():
     s = next(s for s in draw_population(50, 2) if s.handedness == "right")
-    right, left = s.patient_options(side="right"), s.patient_options(side="left")
+    right = s.patient_options(side="right", guided=True)
+    left = s.patient_options(side="left", guided=True)
     assert left["drive_N"] == pytest.approx(0.93 * right["drive_N"])
     assert left["variability"] == pytest.approx(1.15 * right["variability"])
     assert left["stiffness_Nm_rad"][0] < right["stiffness_Nm_rad"][0]
+
+
+def test_a_subject_on_their_own_holds_the_arm_at_their_reaching_impedance():
+    """Guided round the thesis's D a subject relaxes to the calibrated quarter of the
+    reaching impedance; in the battery (the robot transparent, or the subject's own plan)
+    the same subject holds their own reaching impedance: four times it, the rest alike."""
+    s = draw_subject(0, 4)
+    guided, own = s.patient_options(guided=True), s.patient_options(guided=False)
+    for key in ("stiffness_Nm_rad", "damping_Nms_rad"):
+        assert own[key] == pytest.approx(tuple(v / GUIDED_IMPEDANCE_SCALE
+                                               for v in guided[key]))
+    assert {k: v for k, v in own.items() if k not in ("stiffness_Nm_rad", "damping_Nms_rad")
+            } == {k: v for k, v in guided.items()
+                  if k not in ("stiffness_Nm_rad", "damping_Nms_rad")}
 
 
 def test_trial_seeds_are_the_subjects_own_and_differ_between_trials():
@@ -116,7 +132,7 @@ def test_every_subject_is_a_patient_the_simulator_accepts(seed, index, trial, si
     params = s.trial_parameters(THESIS_SUBJECT, side)
     assert (params.body_mass_kg, params.upper_arm_m, params.forearm_m, params.side) == (
         s.body_mass_kg, s.upper_arm_m, s.forearm_m, side)
-    options = s.patient_options(trial, side)
+    options = s.patient_options(trial, side, guided=trial % 2 == 0)
     assert 0.0 < options["variability"] <= 1.0
     # the options and the body are within what make_patient and the arm accept
     arm = params.replace(side="right", shoulder_m=THESIS_SUBJECT.shoulder_m).arm()

@@ -46,7 +46,7 @@ def test_the_console_smc_not_the_subject_made_the_old_gap():
 
     def run(params):
         trial = simulate(params, patient="healthy", seed=0,
-                         patient_options=subject.patient_options(side="right"))
+                         patient_options=subject.patient_options(side="right", guided=True))
         channels = {n: trial.records[n] for n in trial.records.dtype.names}
         return analyse(channels, params).metrics
 

@@ -14,6 +14,7 @@ from app.reports.assessment_page import (
     NO_NORMS,
     assessment_page,
     covariates,
+    figure_text,
     page_text,
     write_assessment_pdf,
 )
@@ -136,3 +137,20 @@ def test_the_circle_page_joins_the_latest_trial_each_way_round(tmp_path):
     assert values["circle_ratio_cw"] == "0.8"
     assert values["circle_ratio_ccw"] == "0.6"
     assert "with trial 1" in page.heading
+
+
+def test_a_z_score_far_outside_the_controls_prints_as_a_bound(norms):
+    """Beyond ±10 the controls' transform extrapolates (the passive patient's circle speed
+    of 0 scored −6.7·10¹⁰ against the simulated norms): the page says "< −10"."""
+    from app.norms.model import Z_SHOWN, z_text
+
+    # untransformed max speed: expected 0.38 m/s, SD 0.05 (tests/app/norms/test_model.py)
+    page = assessment_page("reaching", {"vgr_max_speed_m_s": 0.38 - 0.05 * 12},
+                           norms=norms, person=PERSON)
+    (line,) = page.lines
+    assert line.z == pytest.approx(-12.0)
+    assert figure_text(line).endswith("Z < −10")
+    assert z_text(-Z_SHOWN) == "-10.00"
+    assert z_text(10.004) == "> +10"
+    assert z_text(-6.7e10) == "< −10"
+    assert z_text(1.6) == "+1.60"
