@@ -293,9 +293,14 @@ def page_figure(page: AssessmentPage):
     figure = Figure(figsize=(8.27, 11.69))  # A4
     figure.text(0.08, 0.95, page.title, fontsize=18, weight="bold")
     figure.text(0.08, 0.925, page.heading, fontsize=10)
-    rows = [[line.label, line.value, "" if line.z is None else z_text(line.z),
+    from app.norms.model import EXTRAPOLATED
+
+    # the Z column is too narrow for the words: a mark, and the words once under the table
+    marked = [line.z is not None and line.extrapolated for line in page.lines]
+    rows = [[line.label, line.value,
+             "" if line.z is None else z_text(line.z) + (" †" if mark else ""),
              {"lower": "lower", "higher": "higher", "none": "—"}[line.better]]
-            for line in page.lines]
+            for line, mark in zip(page.lines, marked, strict=True)]
     text_top = 0.2
     if page.polar is not None:
         from app.reports.strength_polar import draw_strength_polar
@@ -315,7 +320,9 @@ def page_figure(page: AssessmentPage):
     # one block, hung from its top: a long line (the simulated norms' label) wraps onto
     # lines of its own instead of over the next one's, within the table's right edge
     # (matplotlib's own wrap runs to the paper's edge)
-    paragraphs = (page.task_score, page.norms, *page.notes)
+    paragraphs = (page.task_score, page.norms, *page.notes,
+                  *([f"† {EXTRAPOLATED.strip('()')}: the Z-score extrapolates the norms"]
+                    if any(marked) else []))
     figure.text(0.08, text_top, "\n\n".join(textwrap.fill(p, TEXT_CHARS) for p in paragraphs),
                 fontsize=9, va="top")
     return figure

@@ -154,3 +154,19 @@ def test_a_z_score_far_outside_the_controls_prints_as_a_bound(norms):
     assert z_text(10.004) == "> +10"
     assert z_text(-6.7e10) == "< −10"
     assert z_text(1.6) == "+1.60"
+
+
+def test_the_pdf_marks_a_z_score_of_an_age_beyond_the_controls(norms):
+    """The PDF's Z column is too narrow for "(age beyond the controls')": a † beside the
+    Z-score and the words once under the table."""
+    from app.reports.assessment_page import page_figure
+
+    old = Covariates(90, "female", "right", "right", "simulator-realistic")
+    drawn = page_figure(assessment_page("reaching", METRICS, norms=norms, person=old))
+    cells = [c.get_text().get_text() for ax in drawn.axes for t in ax.tables
+             for c in t.get_celld().values()]
+    assert any(text.endswith(" †") for text in cells)
+    words = "\n".join(t.get_text() for t in drawn.texts)
+    assert "† age beyond the controls': the Z-score extrapolates the norms" in words
+    young = page_figure(assessment_page("reaching", METRICS, norms=norms, person=PERSON))
+    assert not any("†" in t.get_text() for t in young.texts)
