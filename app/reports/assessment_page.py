@@ -161,7 +161,8 @@ def covariates(patient, session_date: datetime.date, backend: str, summary: Mapp
     handedness, the tested side)."""
     from app.norms.controls import Person, covariates_at, robot_kind
 
-    if missing_covariates(patient):
+    missing = set(missing_covariates(patient)) - ({"tested side"} if tested_side else set())
+    if missing:  # the registry's side is not needed when the trial's file says it
         return None
     return covariates_at(Person(patient.birth_year, patient.sex, patient.handedness),
                          session_date.year, tested_side or patient.side,

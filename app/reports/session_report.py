@@ -133,25 +133,18 @@ def _number_of(trials, trial_id: int) -> int | str:
     return next((t.number for t in trials if t.id == trial_id), trial_id)
 
 
-def _covariates(patient, session, trial, registry):
-    """The norms' covariates of the patient at the session (None and why when a field is
-    missing: the registry's patient record lacks it)."""
-    from app.norms import Covariates
-    from app.norms.controls import robot_kind
-    from app.trials.reader import read_trial
+def _covariates(patient, trial, registry):
+    """The norms' covariates of the patient at the trial (assessment_page.trial_covariates:
+    the session's date, the trial file's robot and tested side), and what the report says
+    of them (None and why when the registry lacks a field the norms need)."""
+    from app.reports.assessment_page import missing_covariates, trial_covariates
 
-    missing = [name for name in ("birth_year", "sex", "handedness", "side")
-               if getattr(patient, name) is None]
-    if missing:
-        return None, (f"no Z-scores: the patient's {', '.join(missing)} not recorded (`rehab "
-                      "correct`)")
-    try:
-        summary = read_trial(registry.trial_path(trial), channels=()).summary
-    except Exception as exc:
-        return None, f"no Z-scores: the trial's file cannot be read ({exc})"
-    robot = robot_kind(trial.backend or "", summary)
-    return Covariates(float(session.date.year - patient.birth_year), patient.sex,
-                      patient.handedness, patient.side, robot), ""
+    who, notes = trial_covariates(registry, patient, trial)
+    if who is None:
+        missing = ", ".join(missing_covariates(patient))
+        return None, "; ".join([f"no Z-scores: the patient's {missing} not recorded "
+                                "(`rehab correct`)", *notes])
+    return who, "; ".join(notes)
 
 
 def _assessment(registry, patient, session, trial, norms) -> Assessment:
@@ -159,8 +152,7 @@ def _assessment(registry, patient, session, trial, norms) -> Assessment:
 
     task = trial.parameters["assessment"]
     keys = [spec.key for spec in task_figures(task) if spec.key in trial.metrics]
-    who, problem = (None, "") if norms is None else _covariates(patient, session, trial,
-                                                                registry)
+    who, problem = (None, "") if norms is None else _covariates(patient, trial, registry)
     notes = [problem] if problem else []
     rows = []
     for key in keys:

@@ -100,6 +100,18 @@ def test_the_covariates_come_from_the_registry_and_the_trials_robot():
     assert covariates(Patient, datetime.date(2026, 12, 3), "simulator", {}) is None
 
 
+def test_a_registry_without_the_side_scores_with_the_trial_files_side():
+    """The registry lacks the tested side, the trial's file records it: Z-scores, with the
+    file's arm (before, "the registry lacks … tested side" and none)."""
+    class Patient:
+        birth_year, sex, handedness, side = 1966, "male", "right", None
+
+    when = datetime.date(2026, 12, 3)
+    robot = ("simulator (healthy, seed 1)", {"plant": "realistic"})
+    assert covariates(Patient, when, *robot) is None
+    assert covariates(Patient, when, *robot, tested_side="left") == PERSON
+
+
 def test_the_pdf_is_written(tmp_path, norms):
     page = assessment_page("reaching", METRICS, heading="P001, session 1", norms=norms,
                            person=PERSON)

@@ -90,6 +90,20 @@ def test_the_session_report_says_the_trials_scales_notes_and_z_scores(clinic):
         assert words in text, words
 
 
+def test_the_report_scores_with_the_arm_the_trial_file_says(clinic):
+    """The registry's side corrected after the trial (right → left): the report scores with
+    the arm the trial's file recorded, as `rehab norms score` and `assess show` do
+    (tests/app/norms/handmade.py: a left arm adds 0.02 to the expected value, Z −0.2)."""
+    registry, code, tmp_path = clinic
+    assert THESIS_SUBJECT.side == "right"
+    registry.correct_patient(code, "side", "left", reason="entered wrong", by="K. Lee")
+    (assessment,) = session_content(registry, code, 1, norms=norms_file(tmp_path)).assessments
+    reaction = next(r for r in assessment.rows if r.label.lower().startswith("reaction"))
+    who_year = registry.session(code, 1).date.year
+    expected = ((0.49 ** 0.5 - 1) / 0.5 - (-1 + 0.01 * (who_year - 1960))) / 0.1
+    assert reaction.z.startswith(f"Z {expected:+.2f}"), assessment.notes
+
+
 def test_without_norms_or_covariates_the_report_says_why_no_z(clinic):
     registry, code, tmp_path = clinic
     assert "No norms in use" in session_content(registry, code, 1).norms_label
