@@ -131,7 +131,10 @@ def cmd_show(args: argparse.Namespace) -> int:
     # a damaged norms file is refused here in one line (NormsFileError: exit 2), never
     # replaced by no norms in silence
     norms = norms_in_use(registry.data_dir)
-    missing = missing_covariates(patient) if norms is not None else ()
+    # the tested side comes from each trial's file (trial_covariates); the registry's is
+    # needed only when a file does not say it, which that trial's notes then tell
+    missing = tuple(m for m in missing_covariates(patient) if m != "tested side") \
+        if norms is not None else ()
     circles = [t for t in assessments if t.parameters["assessment"] == "circle"]
     paired = pairs([(t.id, t.metrics) for t in circles])
     listed = {t.id for t in trials}
@@ -141,6 +144,9 @@ def cmd_show(args: argparse.Namespace) -> int:
         person, notes = None, []
         if norms is not None and not missing:
             person, notes = trial_covariates(registry, patient, trial)
+            if person is None:
+                notes = [*notes, "no Z-scores: neither the trial's file nor the registry says "
+                         "which arm was tested"]
         scoring = {"norms": norms if person is not None else None, "person": person}
         shown = _shown(task, trial.metrics, clockwise, trial.id in paired)
         notes = [*notes, *_pair_left_out(paired.get(trial.id, ()), listed)]

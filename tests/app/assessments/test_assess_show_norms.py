@@ -154,6 +154,19 @@ def test_an_age_beyond_the_controls_is_said_on_each_figure(tmp_path, registry, c
     assert "beyond" not in out
 
 
+def test_a_registry_without_the_side_scores_with_the_trial_file_s(tmp_path, registry, capsys):
+    """The registry lacks the side, the trial's file says left: Z-scores with the left arm,
+    not "the registry lacks the patient's tested side"."""
+    _use(tmp_path, capsys, handmade())
+    code = _patient(registry)  # left
+    register(registry, code, METRICS)
+    registry.correct_patient(code, "side", None, reason="unknown", by="TH")
+    status, out, err = run(["assess", "show", code], capsys)
+    assert status == 0, err
+    assert "lacks" not in out, out
+    assert "Reaction time: 0.49 s   Z -2.70\n" in out, out
+
+
 def test_the_tested_side_is_the_trial_file_s_as_rehab_norms_score_takes_it(tmp_path, registry,
                                                                             capsys):
     """The registry's side corrected after the trial ran (left → right): the trial file
