@@ -120,7 +120,7 @@ def session_content(registry: RecordStore, code: str, number: int, *, norms=None
         f"{'trial ' + str(_number_of(trials, n.trial_id)) if n.trial_id else 'session'}: "
         f"{n.text} — {n.author}, {n.written_at:%Y-%m-%d %H:%M} UTC"
         for n in registry.notes(code, number))
-    assessments = tuple(_assessment(registry, patient, session, t, norms)
+    assessments = tuple(_assessment(registry, patient, t, norms)
                         for t in trials if t.parameters.get("assessment")
                         and t.id not in invalid)
     label = norms.label if norms is not None else "No norms in use: no Z-scores."
@@ -147,7 +147,7 @@ def _covariates(patient, trial, registry):
     return who, "; ".join(notes)
 
 
-def _assessment(registry, patient, session, trial, norms) -> Assessment:
+def _assessment(registry, patient, trial, norms) -> Assessment:
     from core.assessment import FIGURES, TASK_TITLES, task_figures
 
     task = trial.parameters["assessment"]
