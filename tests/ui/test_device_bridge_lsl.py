@@ -143,23 +143,23 @@ def _command(qtbot, bridge, name, *args):
     assert got.args[1], f"{name}: {got.args[2]}"
 
 
-def _start_when_closed(qtbot, bridge, path, subject):
-    """Start as the window does: the recorder's "closed" notice can reach the console
-    before the loop has heard the file is closed, and the loop then refuses the start in
-    one line ("the last trial is still being closed; wait a moment"), which the therapist
-    answers by pressing Start again. Under a loaded machine that gap lasted long enough to
-    refuse the test's start."""
+def _again_while_settling(qtbot, bridge, name, args, settling):
+    """Press a button again while the loop says it is still settling, as the therapist
+    does: the recorder's "closed" notice can reach the console before the loop has heard
+    the file is closed (Start: "the last trial is still being closed; wait a moment") or
+    has finished stopping (Disconnect: "not possible while stopping"). Under a loaded
+    machine those gaps lasted long enough to refuse the test's command."""
     deadline = time.monotonic() + 30.0
     while True:
         with qtbot.waitSignal(bridge.replied, timeout=30000,
                               check_params_cb=lambda command, ok, message:
-                              command == "start_trial") as got:
-            bridge.start_trial(path, subject)
+                              command == name) as got:
+            getattr(bridge, name)(*args)
         ok, message = got.args[1], got.args[2]
         if ok:
             return
-        assert "still being closed" in message, f"start_trial: {message}"
-        assert time.monotonic() < deadline, f"start_trial still refused after 30 s: {message}"
+        assert settling in message, f"{name}: {message}"
+        assert time.monotonic() < deadline, f"{name} still refused after 30 s: {message}"
         qtbot.wait(50)
 
 
@@ -213,11 +213,12 @@ def test_no_tick_is_lost_at_start_and_no_stamp_goes_back_across_connects(qtbot, 
                 with qtbot.waitSignal(bridge.file_notice, timeout=30000,
                                       check_params_cb=lambda kind, p, *_, path=path:
                                       kind == "closed" and p == str(path)):
-                    _start_when_closed(qtbot, bridge, str(path), subject)
+                    _again_while_settling(qtbot, bridge, "start_trial", (str(path), subject),
+                                          "still being closed")
                     qtbot.wait(10 * (start % 4))  # stopped 0 to 30 ms into the approach
                     _command(qtbot, bridge, "stop")
                 files.append(path)
-            _command(qtbot, bridge, "disconnect")
+            _again_while_settling(qtbot, bridge, "disconnect", (), "while stopping")
             qtbot.wait(50)
     finally:
         beat.stop()
