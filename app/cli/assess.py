@@ -133,8 +133,7 @@ def cmd_show(args: argparse.Namespace) -> int:
     norms = norms_in_use(registry.data_dir)
     # the tested side comes from each trial's file (trial_covariates); the registry's is
     # needed only when a file does not say it, which that trial's notes then tell
-    missing = tuple(m for m in missing_covariates(patient) if m != "tested side") \
-        if norms is not None else ()
+    missing = missing_covariates(patient, side_known=True) if norms is not None else ()
     circles = [t for t in assessments if t.parameters["assessment"] == "circle"]
     paired = pairs([(t.id, t.metrics) for t in circles])
     listed = {t.id for t in trials}

@@ -145,11 +145,13 @@ COVARIATE_FIELDS = (("birth_year", "birth year"), ("sex", "sex"),
 """The registered patient's fields the norms' covariates come from, with their names."""
 
 
-def missing_covariates(patient) -> tuple[str, ...]:
+def missing_covariates(patient, *, side_known: bool = False) -> tuple[str, ...]:
     """The names of the fields of a registered patient (app.records.registry.Patient) the
-    norms need and the registry lacks, in COVARIATE_FIELDS' order ((): none missing)."""
+    norms need and the registry lacks, in COVARIATE_FIELDS' order ((): none missing); the
+    side not among them when `side_known` (the trial's file says which arm was tested)."""
     return tuple(name for field, name in COVARIATE_FIELDS
-                 if getattr(patient, field) in (None, ""))
+                 if getattr(patient, field) in (None, "")
+                 and not (side_known and field == "side"))
 
 
 def covariates(patient, session_date: datetime.date, backend: str, summary: Mapping,
@@ -161,8 +163,7 @@ def covariates(patient, session_date: datetime.date, backend: str, summary: Mapp
     handedness, the tested side)."""
     from app.norms.controls import Person, covariates_at, robot_kind
 
-    missing = set(missing_covariates(patient)) - ({"tested side"} if tested_side else set())
-    if missing:  # the registry's side is not needed when the trial's file says it
+    if missing_covariates(patient, side_known=bool(tested_side)):
         return None
     return covariates_at(Person(patient.birth_year, patient.sex, patient.handedness),
                          session_date.year, tested_side or patient.side,
