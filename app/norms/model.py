@@ -45,14 +45,22 @@ def z_text(z: float) -> str:
     return f"{z:+.2f}"
 
 
+WORST = "(worse than any task score)"
+
+
 class TaskNotPerformed(NormsError):
     """The patient did not perform the task (core.assessment.performed): no task score,
     and a result worse than any (reports say so, ranked last)."""
 
     def __init__(self, task: str, reason: str) -> None:
-        super().__init__(f"{task} not performed: {reason} (worse than any task score)")
+        super().__init__(f"{task} not performed: {reason} {WORST}")
         self.task = task
         self.reason = reason
+
+    @property
+    def line(self) -> str:
+        """What a report prints in the task score's place."""
+        return f"Task not performed: {self.reason} {WORST}"
 
 
 @dataclass(frozen=True)

@@ -18,6 +18,7 @@ from pathlib import Path
 from app.norms.controls import Person, covariates_at, robot_kind
 from app.norms.model import (
     EXTRAPOLATED,
+    WORST,
     FigureZ,
     NormativeModel,
     NormsError,
@@ -104,8 +105,7 @@ def lines(scores: TrialScores) -> list[str]:
         out.append(f"task score {scores.task}: {t.score:.2f} (0 best; 1.96 = the controls' "
                    f"95th percentile), Z-Task Score {t.z_task:.2f}")
     elif scores.not_performed:
-        out.append(f"task {scores.task}: not performed — {scores.not_performed} (worse than "
-                   "any task score)")
+        out.append(f"task {scores.task}: not performed — {scores.not_performed} {WORST}")
     else:
         out.append(f"no task score: {scores.why_no_task_score}")
     out.append(scores.label)

@@ -137,7 +137,7 @@ def _polar(task: str, metrics: Mapping[str, float],
 
 def not_performed_text(exc) -> str:
     """The task score's line of a task the patient did not perform (reports and pages)."""
-    return f"Task not performed: {exc.reason} (worse than any task score)"
+    return exc.line
 
 
 COVARIATE_FIELDS = (("birth_year", "birth year"), ("sex", "sex"),
