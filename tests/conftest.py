@@ -52,6 +52,7 @@ import pytest
 from hypothesis import HealthCheck, settings
 
 from device.lsl.library import use_loopback
+from tests.patience import be_patient
 
 # Nothing leaves this machine in tests: liblsl reads LSLAPICFG once, when pylsl is first
 # used, so the suite confines it to loopback before any test module imports pylsl (and
@@ -62,6 +63,10 @@ settings.register_profile(
     "project", max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow]
 )
 settings.load_profile("project")
+
+# Every wait on a live process waits for its event, with a deadline only a hang reaches
+# (tests/patience.py): the CI host can stall a process for 20 s and more.
+be_patient()
 
 
 # -- the rig options -----------------------------------------------------------------------------

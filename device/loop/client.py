@@ -67,6 +67,14 @@ LOOP_START_S = 120.0
 once it has imported numpy, its compiled kernels and the backend's modules, which took
 over 10 s (a command's own timeout) on the 2-core machine at load 9."""
 
+PATIENCE_S = 10.0
+"""How long the console waits for a running loop by default (a command's answer, an
+event, fresh samples) before it calls the loop hung; Build and Connect, which compute the
+reference and zero the sensor, get three times as long. A live loop answers within a tick
+or two: the margin is for a loaded PC. The tests raise it (tests/conftest.py): a shared
+CI host can stall a process for 20 s and more, and a test waits for the event itself,
+never for a prompt wake-up."""
+
 
 def _resource_tracker_deaf_to_hangups() -> None:
     """Start multiprocessing's resource tracker (which unlinks the ring if this process
@@ -232,8 +240,10 @@ class DeviceClient:
             raise DeviceError("the control loop is not running; restart the console") from exc
         return command.id
 
-    def request(self, command, timeout: float = 10.0) -> Reply:
-        """Send a command and wait for its reply; other events stay queued for `events`."""
+    def request(self, command, timeout: float | None = None) -> Reply:
+        """Send a command and wait for its reply (`timeout` default PATIENCE_S); other
+        events stay queued for `events`."""
+        timeout = PATIENCE_S if timeout is None else timeout
         ident = self.send(command)
         # a loop still starting answers once it has imported its modules; its death is
         # heard at once (LoopLost), so the longer wait never hides one
@@ -256,14 +266,16 @@ class DeviceClient:
                 return reply
 
     def build(self, parameters: TrialParameters, backend: BackendConfig | None = None,
-              limits: SafetyLimits | None = None, timeout: float = 30.0,
+              limits: SafetyLimits | None = None, timeout: float | None = None,
               model=None) -> Reply:
         """Build a trial; `model` is the learned model its parameters name (Build.model)."""
         return self.request(Build(next(self._ids), parameters, backend or BackendConfig(),
-                                  limits, model), timeout)
+                                  limits, model),
+                            3 * PATIENCE_S if timeout is None else timeout)
 
-    def connect(self, timeout: float = 30.0) -> Reply:
-        return self.request(Connect(next(self._ids)), timeout)
+    def connect(self, timeout: float | None = None) -> Reply:
+        return self.request(Connect(next(self._ids)),
+                            3 * PATIENCE_S if timeout is None else timeout)
 
     def disconnect(self) -> Reply:
         return self.request(Disconnect(next(self._ids)))
@@ -353,8 +365,10 @@ class DeviceClient:
         self.ring.commit_read(self.ring.write_count)
         return notice
 
-    def wait_for(self, predicate, timeout: float = 10.0) -> list:
-        """Collect events until one satisfies `predicate`; returns all of them."""
+    def wait_for(self, predicate, timeout: float | None = None) -> list:
+        """Collect events until one satisfies `predicate` (within `timeout`, default
+        PATIENCE_S); returns all of them."""
+        timeout = PATIENCE_S if timeout is None else timeout
         seen = []
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
@@ -364,16 +378,18 @@ class DeviceClient:
                     return seen
         raise DeviceError(f"timed out after {timeout:g} s waiting; saw {seen[-5:]!r}")
 
-    def wait_state(self, state: State, timeout: float = 10.0) -> None:
+    def wait_state(self, state: State, timeout: float | None = None) -> None:
         """Return once the loop is in `state` (at once if it already is)."""
         if self.state == state:
             return
         self.wait_for(lambda event: self.state == state, timeout)
 
-    def wait_for_samples(self, n: int = 1, timeout: float = 10.0) -> list:
+    def wait_for_samples(self, n: int = 1, timeout: float | None = None) -> list:
         """Return once the loop has pushed `n` more records (ticks with a sensor reading)
-        than when called, collecting the events that came meanwhile: after Connect, the
-        loop has a reading for Start once this returns."""
+        than when called (within `timeout`, default PATIENCE_S), collecting the events
+        that came meanwhile: after Connect, the loop has a reading for Start once this
+        returns."""
+        timeout = PATIENCE_S if timeout is None else timeout
         target = self.ring.write_count + n
         seen = []
         deadline = time.monotonic() + timeout

@@ -84,7 +84,9 @@ def main() -> int:
     from device.recording.messages import RecorderNotice
     from device.recording.trialfile import SubjectInfo
     from device.stopsignals import StopSignal
+    from tests.patience import patient_loop_client
 
+    patient_loop_client()  # a test waits for the loop's samples, not for a prompt host
     stop = StopSignal().install()
     path = sys.argv[1]
     params = THESIS_SUBJECT.replace(repetitions=20)

@@ -32,6 +32,7 @@ from app.trials.reader import read_trial
 from device.loop.states import State
 from device.recording.ring import RecordRing
 from device.safety.faults import Fault
+from tests.patience import HANG_S
 
 ROOT = Path(__file__).resolve().parents[2]
 CONSOLE = Path(__file__).with_name("live_console.py")
@@ -42,8 +43,9 @@ least: the sleep may last longer, never shorter)."""
 FAULTS = ("loop SIGKILL", "loop SIGSTOP", "recorder SIGKILL", "recorder SIGSTOP",
           "console SIGKILL", "console SIGSTOP", "group SIGINT", "group SIGTERM",
           "group SIGHUP", "disk full", "write EIO")
-WAIT_S = 60.0
-"""The longest any step waits for the processes (a bound on a stuck run, never a figure)."""
+WAIT_S = HANG_S
+"""The longest any step waits for the processes (a bound on a stuck run, never a figure):
+the live console itself waits a minute for the loop's first samples (tests/patience.py)."""
 
 
 @dataclass
