@@ -17,10 +17,13 @@ from __future__ import annotations
 
 import struct
 import threading
+import time
 from pathlib import Path
 
 import numpy as np
 import pylsl
+
+from tests.patience import HANG_S
 
 _LITTLE_ENDIAN = {pylsl.cf_float32: "<f4", pylsl.cf_double64: "<f8", pylsl.cf_int8: "<i1",
                   pylsl.cf_int16: "<i2", pylsl.cf_int32: "<i4", pylsl.cf_int64: "<i8",
@@ -65,10 +68,24 @@ class XdfRecorder:
     """Records the streams whose source ids are given until `stop(path)` writes the file."""
 
     def __init__(self, source_ids):
+        self.source_ids = list(source_ids)
         self.takes = [_Take(pylsl.resolve_byprop("source_id", s, 1, 10.0)[0])
-                      for s in source_ids]
+                      for s in self.source_ids]
         for take in self.takes:
             take.start()
+
+    def wait_for(self, counts: dict[str, int], timeout: float = HANG_S) -> None:
+        """Return once each stream named (by source id) has brought at least its count of
+        samples: what was pushed is in, however slowly this machine delivered it."""
+        deadline = time.monotonic() + timeout
+        takes = {sid: self.takes[self.source_ids.index(sid)] for sid in counts}
+        while any(len(takes[sid].stamps) < n for sid, n in counts.items()):
+            if time.monotonic() > deadline:
+                raise AssertionError("the XDF recorder did not receive everything within "
+                                     f"{timeout:g} s: " + ", ".join(
+                                         f"{sid} {len(takes[sid].stamps)} of {n}"
+                                         for sid, n in counts.items()))
+            time.sleep(0.01)
 
     def stop(self, path: Path) -> Path:
         for take in self.takes:

@@ -27,6 +27,7 @@ from device.loop.messages import (
     FaultRaised,
     Notice,
     SensorZeroed,
+    ShownToPatient,
     StateChanged,
     TrialEnded,
     TrialMarker,
@@ -116,7 +117,7 @@ class DeviceBridge(QObject):
     def build(self, parameters: TrialParameters, backend: BackendConfig,
               limits: SafetyLimits | None = None, model=None) -> None:
         """`model`: the learned model the parameters name (device.loop.messages.Build)."""
-        self._put(_Call("build", (parameters, backend, limits, 30.0, model)))
+        self._put(_Call("build", (parameters, backend, limits, None, model)))
 
     def connect(self) -> None:
         self._put(_Call("connect", ()))
@@ -124,8 +125,14 @@ class DeviceBridge(QObject):
     def disconnect(self) -> None:
         self._put(_Call("disconnect", ()))
 
-    def start_trial(self, path: str, subject: SubjectInfo) -> None:
-        self._put(_Call("start_trial", (path, subject)))
+    def start_trial(self, path: str, subject: SubjectInfo,
+                    display: ShownToPatient | None = None) -> None:
+        self._put(_Call("start_trial", (path, subject, display)))
+
+    def show_to_patient(self, shown: ShownToPatient) -> None:
+        """What the patient's screen now shows, to the loop in the order of the commands
+        (answered by nothing: a running trial's file records it)."""
+        self._put(_Call("show_to_patient", (shown,)))
 
     def stop(self) -> None:
         self._put(_Call("stop", ()))
@@ -195,7 +202,8 @@ class DeviceBridge(QObject):
         except DeviceError as exc:
             self.replied.emit(call.name, False, str(exc))
         else:
-            self.replied.emit(call.name, reply.ok, reply.message)
+            if reply is not None:  # None: data sent without an answer (show_to_patient)
+                self.replied.emit(call.name, reply.ok, reply.message)
         # after the reply is posted: whoever sees `idle` then finds it queued
         with self._lock:
             self._outstanding -= 1

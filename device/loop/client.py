@@ -43,6 +43,7 @@ from device.loop.messages import (
     ForceEstimate,
     Reply,
     SetAssistance,
+    ShownToPatient,
     Shutdown,
     Start,
     StateChanged,
@@ -280,8 +281,11 @@ class DeviceClient:
     def disconnect(self) -> Reply:
         return self.request(Disconnect(next(self._ids)))
 
-    def start_trial(self, path: str, subject: SubjectInfo) -> Reply:
-        return self.request(Start(next(self._ids), str(path), subject))
+    def start_trial(self, path: str, subject: SubjectInfo,
+                    display: ShownToPatient | None = None) -> Reply:
+        """Start a trial recorded to `path`; `display`: what the patient's screen shows
+        as it starts (the trial file records it)."""
+        return self.request(Start(next(self._ids), str(path), subject, display))
 
     def stop(self) -> Reply:
         return self.request(Stop(next(self._ids)))
@@ -297,6 +301,14 @@ class DeviceClient:
         EMG), sent without waiting: the loop takes it between two ticks."""
         try:
             self._conn.send(ForceEstimate(float(fx_N), float(fy_N), int(tick)))
+        except (OSError, EOFError) as exc:
+            raise DeviceError("the control loop is not running; restart the console") from exc
+
+    def show_to_patient(self, shown: ShownToPatient) -> None:
+        """The patient's screen changed (opened, closed, an option): sent without waiting;
+        a running trial's file records it at the tick the loop takes it."""
+        try:
+            self._conn.send(shown)
         except (OSError, EOFError) as exc:
             raise DeviceError("the control loop is not running; restart the console") from exc
 

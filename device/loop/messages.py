@@ -99,6 +99,9 @@ class Start:
     id: int
     path: str
     subject: SubjectInfo
+    display: ShownToPatient | None = None
+    """What the patient's screen shows as the trial starts (the window's; None where the
+    console has no patient's screen, as `rehab run`): the file's events hold it."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -126,6 +129,20 @@ class Shutdown:
 
 
 COMMAND_TYPES = (Build, Connect, Disconnect, Start, Stop, ClearFault, SetAssistance, Shutdown)
+
+
+@dataclass(frozen=True, slots=True)
+class ShownToPatient:
+    """What the patient's screen shows: whether it is open and the therapist's options
+    for it (ui.views.patient_screen.PatientOptions.to_dict), with `message` saying so in
+    words. Feedback is part of what a trial was (knowledge of performance and of results
+    change how a patient learns), so the trial file records it as the event
+    "patient_screen" at the trial's start and at the tick of every change the therapist
+    makes while the trial runs (docs/data-format.md). Data, not a command: neither
+    answered nor bound to a state; the loop drops it when no trial runs."""
+
+    message: str
+    values: dict
 
 
 @dataclass(frozen=True, slots=True)

@@ -64,6 +64,7 @@ from device.loop.messages import (
     Reply,
     SensorZeroed,
     SetAssistance,
+    ShownToPatient,
     Shutdown,
     Start,
     StateChanged,
@@ -375,12 +376,19 @@ class DeviceLoop:
             started["seed"] = self.opened.seed  # the file runs again with it
             started["robot_seed"] = self.opened.robot_seed  # on the same simulated robot
         self._to_recorder(TrialEvent(0.0, 0, "start", "trial started", started))
+        if command.display is not None:
+            self._tell_shown(command.display, 0)
         # a task the robot leads: each phase's start, told as the tick comes (core.holdtasks)
         self.task_events = list(reversed(self.pipeline.task_events()))
         self._tell_task_events()
         self._send(TrialStarted(command.path, self.pipeline.approach_ticks,
                                 self.pipeline.total_ticks, self.t0, first_seq))
         return ""
+
+    def _tell_shown(self, shown: ShownToPatient, tick: int) -> None:
+        """What the patient's screen shows from `tick` on, into the trial file."""
+        self._to_recorder(TrialEvent(tick * self.plan.period_s, tick, "patient_screen",
+                                     shown.message, dict(shown.values)))
 
     def _tell_task_events(self) -> None:
         """The task's events whose tick has come, to the recorder and the console."""
@@ -486,6 +494,10 @@ class DeviceLoop:
         if isinstance(command, ForceEstimate):
             if self.pipeline is not None and self.pipeline.assistance.estimated:
                 self.pipeline.set_force_estimate(command.fx_N, command.fy_N, command.tick)
+            return
+        if isinstance(command, ShownToPatient):
+            if self.state == State.RUNNING:
+                self._tell_shown(command, self.trial_tick)
             return
         kind = _COMMANDS.get(type(command))
         if kind is None:

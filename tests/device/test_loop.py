@@ -321,7 +321,7 @@ def test_lost_heartbeat_stops_the_trial(tmp_path):
 def test_stalled_recorder_stops_the_trial_with_recording_lost(tmp_path):
     """Issue 28 #6: a stopped recorder (SIGSTOP) was noticed only when the 16 s ring
     overflowed (16.2 s, the last 3.55 s lost). Its beat now stops the trial within
-    RECORDER_SILENT_TICKS of the loop's ticks (0.4 s), counted in ticks, so no machine's
+    RECORDER_SILENT_TICKS of the loop's ticks (3 s), counted in ticks, so no machine's
     stall makes it early or late; continued, the recorder writes every sample."""
     with DeviceClient() as c:
         connect(c, LONG)

@@ -18,6 +18,7 @@ from PySide6.QtCore import Qt
 from PySide6.QtGui import QActionGroup, QGuiApplication, QKeySequence, QShortcut
 from PySide6.QtWidgets import QMenu, QToolButton
 
+from device.loop.messages import ShownToPatient
 from device.loop.pipeline import PERIOD_S
 from device.loop.states import State
 from ui.patient.sound import find_player
@@ -116,11 +117,14 @@ class PatientScreenControl:
         area = screen.availableGeometry()
         window.setGeometry(area.adjusted(area.width() // 8, area.height() // 8,
                                          -area.width() // 8, -area.height() // 8))
+        shown = window.isVisible()
         if full:
             window.showFullScreen()
         else:
             window.show()
         self._feed_patient_screen()
+        if not shown:
+            self._tell_patient_screen()
         return window
 
     def _patient_trial_started(self, _path: str, approach: int, _total: int) -> None:
@@ -148,6 +152,7 @@ class PatientScreenControl:
         window, self.patient_window = self.patient_window, None
         if window is not None:
             window.deleteLater()
+            self._tell_patient_screen()
 
     def restore_patient_options(self, saved: dict | None) -> None:
         """The options the settings kept (Settings.patient_screen); options that no longer
@@ -163,9 +168,31 @@ class PatientScreenControl:
                       problem=True)
 
     def set_patient_options(self, **changes) -> None:
-        self.patient_options = self.patient_options.replace(**changes)
+        before = self.patient_options
+        self.patient_options = before.replace(**changes)
         if self.patient_window is not None:
             self.patient_window.set_options(self.patient_options)
+        if self.patient_options != before:
+            self._tell_patient_screen()
+
+    # -- the record ------------------------------------------------------------------
+    def shown_to_patient(self) -> ShownToPatient:
+        """What the patient's screen shows now, for the trial file (device.loop.messages.
+        ShownToPatient): whether it is open, and its options either way."""
+        window = self.patient_window
+        is_open = window is not None and window.isVisible()
+        options = self.patient_options
+        words = (f"patient's screen open: {options.words()}" if is_open
+                 else "patient's screen closed")
+        return ShownToPatient(words, {"open": is_open, **options.to_dict()})
+
+    def _tell_patient_screen(self) -> None:
+        """A change while a trial runs goes into its file at the tick the loop takes it;
+        the trial's start carries the screen as it was then (ui.window.trial). From the
+        Start pressed on (a trial begun in the registry): the loop drops what comes
+        before the trial runs."""
+        if self.state == State.RUNNING or getattr(self, "trial_id", None) is not None:
+            self.bridge.show_to_patient(self.shown_to_patient())
 
     # -- content ---------------------------------------------------------------------
     def _feed_patient_screen(self) -> None:

@@ -124,6 +124,16 @@ class PatientOptions:
     def replace(self, **changes) -> PatientOptions:
         return PatientOptions(**{**self.to_dict(), **changes})
 
+    def words(self) -> str:
+        """The options as the trial file's event says them."""
+        turned = ("as the patient sees the table" if self.rotation_deg == 0
+                  else f"turned {self.rotation_deg}° anticlockwise")
+        return ", ".join((
+            turned + (", mirrored left-right" if self.mirror else ""),
+            "the last repetition's path " + ("shown" if self.previous_path else "hidden"),
+            "figures " + ("shown" if self.show_numbers else "hidden"),
+            "a tone at Go" if self.sound else "no tone"))
+
 
 @dataclass(frozen=True, slots=True)
 class Scene:

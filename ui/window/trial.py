@@ -163,7 +163,7 @@ class TrialActions:
             camera = self.video.camera
             if camera is not None and camera.running:
                 camera.start_recording(begun.path.with_suffix(".mp4"))
-            self.bridge.start_trial(str(begun.path), subject)
+            self.bridge.start_trial(str(begun.path), subject, self.shown_to_patient())
         except Exception as exc:  # the video cannot be written, the loop is gone, …
             # what was begun goes back with the refusal (app.trials.registered): the trial
             # stayed 'recording' with no file, and Start waited for it for good

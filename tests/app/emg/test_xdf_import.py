@@ -22,6 +22,7 @@ from device.lsl.outlet import RobotStateOutlet
 from device.recording.emgfile import read_emg
 from device.recording.record import empty_records
 from tests.app.cli.running import run
+from tests.patience import HANG_S
 from tests.trialfiles import edited
 from tests.xdf_recorder import XdfRecorder
 
@@ -61,7 +62,7 @@ def _emg_outlet(source, unit="microvolts"):
     return pylsl.StreamOutlet(info)
 
 
-def _wait(condition, what, timeout=10.0):
+def _wait(condition, what, timeout=HANG_S):
     deadline = time.monotonic() + timeout
     while not condition():
         assert time.monotonic() < deadline, f"{what} did not happen"
@@ -94,7 +95,9 @@ def _record(tmp_path, trial_path, emg_start_s=0.5, unit="microvolts", with_robot
             outlet.push_records(records[k:k + 250], k)
     for k in range(0, 3000, 100):
         emg.push_chunk(samples[k:k + 100], timestamp=stamps[k:k + 100].tolist())
-    time.sleep(1.0)  # what is on its way to the recorder
+    # what is on its way to the recorder: every sample pushed, the marker (one at least)
+    recorder.wait_for({emg_source: len(samples)} | (
+        {robot_source: len(records), robot_source + "-events": 1} if with_robot else {}))
     path = recorder.stop(tmp_path / f"{tag}.xdf")
     return path, stamps, samples
 

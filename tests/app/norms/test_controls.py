@@ -170,7 +170,7 @@ def test_covariates_from_the_registry_and_invalid_trials_left_out(tmp_path, data
     """Controls registered in a data folder: their sex, handedness and birth year come from
     the registry; a trial marked invalid there is not used, and the output says so."""
     rng = np.random.default_rng(8)
-    ids = {}
+    ids, born = {}, {}
     for i in range(24):
         patient = registry.create_patient(f"C{i}", "Control", birth_year=1950 + i,
                                           side="right", sex=["female", "male"][i % 2],
@@ -191,7 +191,8 @@ def test_covariates_from_the_registry_and_invalid_trials_left_out(tmp_path, data
                     summary=SUMMARY, metrics=metrics)
         registry.finish_trial(begun.trial_id, "complete", metrics)
         ids[patient.code] = begun.trial_id
-    marked = sorted(ids)[0]
+        born[patient.code] = 1950 + i
+    marked = sorted(ids)[0]  # codes are drawn: any one of the 24
     registry.mark_trial(ids[marked], valid=False, reason="patient distracted", by="test")
     norms = tmp_path / "norms.json"
     code, out, err = run(["norms", "fit", "--trials", str(data / "trials"), "--source",
@@ -201,4 +202,6 @@ def test_covariates_from_the_registry_and_invalid_trials_left_out(tmp_path, data
     assert "23 assessment trials of 23 people" in out
     model = load_norms(norms)
     assert model.figures["range_area_m2"].regression.n == 23
-    assert model.covariates.age_range == (2026 - 1973, 2026 - 1950)
+    # the ages of the 23 whose trials were used, in the sessions' year
+    used = [year for code, year in born.items() if code != marked]
+    assert model.covariates.age_range == (2026 - max(used), 2026 - min(used))
