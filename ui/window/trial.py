@@ -266,6 +266,39 @@ class TrialActions:
                       states=(State.CONNECTED,) if connected else (State.BUILT,))
         self._refresh_buttons()
 
+    def _live_from_file(self, path: Path) -> None:
+        """The trial just finished, shown from now on as its file holds it: the live view
+        is a display, fed what the window took from the ring while it ran (records the
+        ring skipped under load, or that came before the window heard the trial start,
+        are not in it). Read off the GUI thread; left as it was when the file cannot be
+        read (the Report tab says why) or when another trial has started meanwhile."""
+        from app.errors import AppError
+        from app.trials.reader import read_trial
+
+        live = self.live
+        if live is None:
+            return
+
+        def read():
+            try:
+                return read_trial(path)
+            except AppError as exc:
+                log.warning("the trial's view stays the live one: %s", exc)
+                return None
+
+        def show(data) -> None:
+            if data is None or self.live is not live:
+                return
+            view = TrialView.from_trial(data)
+            if data.parameters == live.parameters:
+                view.parameters = live.parameters  # the built trial's: the patient's screen
+            self.live = view
+            if self.shown_view is live:
+                self.shown_view = view
+                self._show_current()
+
+        self.jobs.run(read, show)
+
     def _robot_words(self, connected: str) -> str:
         """The robot as the status bar names it: a simulator by its built config (its
         seed, or "a new seed each trial": not the first one drawn, each trial's own is in
@@ -382,6 +415,7 @@ class TrialActions:
 
     def _finalized(self, trial_id: int, done) -> None:
         self.unsaved_trial = trial_id
+        self._live_from_file(done.path)
         if done.proposal is None and self.patient is not None:
             # a trial that proposes nothing (an assessment) leaves the exercise's pending
             # proposal where it was: offered still, as after a restart
