@@ -63,6 +63,8 @@ def test_unknown_kind_is_refused_with_the_list_of_kinds():
         ("passive", {"effort": 0.5}, "effort"),
         ("weak", {"tremor_hz": 5.0}, "tremor_hz"),
         ("weak", {"effort": 1.5}, "effort"),
+        ("weak", {"synergy": 0.9}, "synergy"),
+        ("passive", {"synergy": 0.3}, "synergy"),
         ("healthy", {"stiffness_Nm_rad": (1.0, 5.0, 1.0)}, r"stiffness_Nm_rad\[cross\]"),
         ("healthy", {"damping_Nms_rad": (1.0, 0.0)}, "damping_Nms_rad"),
         ("healthy", {"passive_stiffness_Nm_rad": (-1.0, 0.0, 1.0)}, "passive_stiffness"),
@@ -187,6 +189,19 @@ def test_weak_effort_is_the_stated_fraction_of_healthy_effort():
                                    atol=1e-12)
         np.testing.assert_allclose(np.array(half.torque(*state)) - tissue, 0.5 * effort,
                                    atol=1e-12)
+
+
+def test_an_arm_in_synergy_plans_the_elbow_to_move_with_the_shoulder():
+    """The flexion synergy: the arm's planned elbow angle (φ, relative) moves by
+    `synergy` times the shoulder's change from the start, its rate likewise; the
+    shoulder's plan is the path's."""
+    path = make_patient("weak", ARM, TRAJECTORY, variability=0.0).table
+    coupled = make_patient("weak", ARM, TRAJECTORY, variability=0.0, synergy=0.3).table
+    shoulder, phi, shoulder_rate, phi_rate = path[:, 0], path[:, 1], path[:, 2], path[:, 3]
+    np.testing.assert_array_equal(coupled[:, 0], shoulder)
+    np.testing.assert_allclose(coupled[:, 1], phi + 0.3 * (shoulder - shoulder[0]), atol=1e-12)
+    np.testing.assert_allclose(coupled[:, 3], phi_rate + 0.3 * shoulder_rate, atol=1e-12)
+    assert np.ptp(coupled[:, 1] - phi) > 0.05  # it moves the plan, by some degrees
 
 
 # ------------------------------------------------------------------- tremor

@@ -19,6 +19,16 @@ def circles(tmp_path_factory):
     return {kind: run_task("circle", kind, seed=7, folder=folder) for kind in KINDS}
 
 
+def test_an_arm_in_synergy_draws_a_flatter_circle_with_its_joints_together():
+    """The virtual arm's flexion synergy (device.sim.patients, option `synergy`): the
+    weak patient's circle flattens and its joints lose their independence."""
+    apart = run_task("circle", "weak", seed=7, in_memory=True)[0].figures
+    together = run_task("circle", "weak", seed=7, in_memory=True,
+                        patient_options={"synergy": 0.3})[0].figures
+    assert apart["circle_ratio"] - together["circle_ratio"] > 0.1
+    assert together["circle_joint_independence"] < apart["circle_joint_independence"]
+
+
 @pytest.fixture(scope="module")
 def ranges(tmp_path_factory):
     folder = tmp_path_factory.mktemp("range")
