@@ -25,12 +25,12 @@ def test_a_trial_whose_file_cannot_be_made_is_finished_with_its_cause_and_the_ne
         start_trial = win.bridge.start_trial
         away: list[tuple[Path, Path]] = []
 
-        def folder_gone(path: str, subject) -> None:
+        def folder_gone(path: str, subject, *shown) -> None:
             # the trial's folder vanishes between its registration and the recorder's
             # create (a data disk unplugged, a folder moved by hand)
             folder = Path(path).parent
             away.append((folder, folder.rename(folder.with_name(folder.name + ".away"))))
-            start_trial(path, subject)
+            start_trial(path, subject, *shown)
 
         monkeypatch.setattr(win.bridge, "start_trial", folder_gone)
         click(qtbot, win.robot.buttons["build"])
