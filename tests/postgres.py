@@ -199,7 +199,10 @@ def free_port() -> int:
 
 
 def _free(port: int) -> bool:
+    """Whether the server could listen on `port` of 127.0.0.1 now (it binds with
+    SO_REUSEADDR, so connections of a server just stopped do not hold the port)."""
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         try:
             probe.bind((HOST, port))
         except OSError:
@@ -285,9 +288,10 @@ def _cluster_users() -> dict:
         users = json.loads(CLUSTER_USERS.read_text())
     except (OSError, ValueError):
         users = {}
-    users.setdefault("pids", [])
+    users.setdefault("users", [])
     users.setdefault("started", False)
-    users["pids"] = [pid for pid in users["pids"] if _alive(pid)]
+    # each user is "<pid>:<token>": one per server object, dropped when its process died
+    users["users"] = [user for user in users["users"] if _alive(int(user.split(":")[0]))]
     return users
 
 
@@ -344,7 +348,8 @@ def start_package_cluster(why: str = "") -> Server:
             port = _running_port(data)
             if port is None:
                 raise ServerError(f"pg_ctlcluster {version} {name} started no server")
-        users["pids"].append(os.getpid())
+        me = f"{os.getpid()}:{secrets.token_hex(4)}"
+        users["users"].append(me)
         CLUSTER_USERS.write_text(json.dumps(users))
     admin = f"rehab_admin_{os.getpid()}_{secrets.token_hex(3)}"
     password = secrets.token_urlsafe(24)
@@ -361,8 +366,8 @@ def start_package_cluster(why: str = "") -> Server:
     def leave() -> None:
         with _cluster_lock():
             users = _cluster_users()
-            users["pids"] = [pid for pid in users["pids"] if pid != os.getpid()]
-            if not users["pids"] and users["started"]:
+            users["users"] = [user for user in users["users"] if user != me]
+            if not users["users"] and users["started"]:
                 subprocess.run(["pg_ctlcluster", version, name, "stop", "-m", "fast"],
                                capture_output=True, check=False)
                 users["started"] = False

@@ -19,9 +19,11 @@ PATH_PROPERTY = "postgres_server"
 @pytest.fixture(scope="session")
 def postgres_server():
     try:
-        server = start()
+        server, problem = start(), None
     except ServerError as exc:
-        pytest.fail(f"the tests' PostgreSQL server did not start: {exc}", pytrace=False)
+        server, problem = None, str(exc)
+    if server is None:  # failed outside the except: one line, no chained traceback
+        pytest.fail(f"the tests' PostgreSQL server did not start: {problem}", pytrace=False)
     try:
         yield server
     finally:
