@@ -9,6 +9,7 @@ import multiprocessing
 import pytest
 import sqlalchemy as sa
 
+from app.records.registry.postgres import seals
 from app.records.registry.postgres.tables import patients, sessions, trials
 from tests.patience import HANG_S
 from tests.postgres_stations import station
@@ -118,3 +119,4 @@ def test_stations_registering_for_one_patient_at_once_lose_and_repeat_nothing(re
             .where(sessions.c.patient_id == patient, sessions.c.number > 1,
                    trials.c.number == 1)).scalar_one()
         assert firsts == len(opened)
+        seals.verify(conn, "the test registry")  # each row sealed with the number it got
