@@ -22,6 +22,9 @@ How:
   name (the view leaves out those rows, whose old and new values are names; the table
   itself is not readable); and every seal, which digests the hidden values with the
   visible ones and would let a dictionary of names be tried against it.
+* What the server shows of the tables elsewhere follows the same privileges: the planner's
+  statistics (`pg_stats`, whose most common values of a column would list names) show
+  research only the columns it may read.
 * Nobody else: the database's CONNECT and the public schema's USAGE are taken from PUBLIC
   and given to the two roles (and the owner, who creates and migrates the schema).
 """

@@ -119,6 +119,31 @@ def test_everything_a_researcher_can_export_holds_no_name(filled):
     assert set(HIDDEN_FROM_RESEARCH) <= set(REGISTRY_TABLES)
 
 
+def test_the_planners_statistics_show_research_no_name(filled):
+    """The planner's statistics keep a column's most common values (names among them):
+    PostgreSQL shows research only those of the columns it may read. (A second patient of
+    the same first name, for the time of the test, puts the name among the common values:
+    the owner sees it there.)"""
+    admin = filled.server.admin_sql
+    admin(f"INSERT INTO patients (code, first_name, created_at) VALUES ('RC002', "
+          f"'{CANARY}a', 'c')", "ANALYZE", database=filled.database)
+    try:
+        with _connect(filled, filled.research_login) as conn:
+            shown = conn.execute("SELECT attname, most_common_vals::text FROM pg_stats "
+                                 "WHERE tablename IN ('patients', 'sessions', 'notes', "
+                                 "'corrections')").fetchall()
+        with psycopg.connect(filled.url().replace("+psycopg", "")) as conn:
+            assert CANARY in str(conn.execute(
+                "SELECT most_common_vals::text FROM pg_stats WHERE tablename = 'patients' "
+                "AND attname = 'first_name'").fetchall())
+    finally:
+        admin("DELETE FROM patients WHERE code = 'RC002'", "ANALYZE", database=filled.database)
+    assert "code" in {name for name, _ in shown}
+    assert not {"first_name", "last_name", "notes", "text", "old_value"} & \
+        {name for name, _ in shown}
+    assert CANARY not in str(shown)
+
+
 def test_the_clinics_login_reads_and_writes_names(filled):
     with _connect(filled, filled.clinic_login) as conn:
         assert conn.execute("SELECT first_name FROM patients").fetchall() == [(CANARY + "a",)]
