@@ -37,6 +37,7 @@ import fcntl
 import json
 import os
 import pwd
+import re
 import secrets
 import shutil
 import signal
@@ -251,6 +252,7 @@ def _start_initdb(bin_dir: Path, folder: Path, user: pwd.struct_passwd | None) -
     log = folder / "server.log"
     for attempt in range(3):
         port = free_port()
+        offset = log.stat().st_size if log.exists() else 0
         options = (f"-p {port} -k {folder} -c listen_addresses={HOST} -c fsync=off "
                    "-c full_page_writes=off")
         done = subprocess.run(
@@ -265,9 +267,28 @@ def _start_initdb(bin_dir: Path, folder: Path, user: pwd.struct_passwd | None) -
                                  "-w", "-t", str(START_WAIT_S), "stop"]),
                 capture_output=True, check=False, cwd=folder))
             return server
-        if "already in use" not in _tail(log) or attempt == 2:
-            raise ServerError(f"the throwaway server did not start: {_tail(log)}")
+        why = _start_failure(log, offset) or (done.stderr or done.stdout).strip()
+        # another program took the port between its choice and the start: choose again
+        if "already in use" not in why or attempt == 2:
+            raise ServerError(f"the throwaway server did not start: {why}")
     raise AssertionError("unreachable")
+
+
+def _start_failure(log: Path, offset: int) -> str:
+    """Why a start failed, from what the server logged in this attempt: its lines that say
+    so (`could not bind …: Address already in use`, then `FATAL: could not create any
+    TCP/IP sockets`) without their time stamps, else its last line."""
+    try:
+        with open(log, "rb") as file:
+            file.seek(offset)
+            text = file.read().decode(errors="replace")
+    except OSError:
+        return ""
+    lines = [re.sub(r"^.*?\[\d+\]\s+", "", line).strip() for line in text.splitlines()]
+    lines = [line for line in lines if line]
+    telling = [line for line in lines
+               if line.startswith(("FATAL", "ERROR", "PANIC")) or "could not" in line]
+    return "; ".join(telling) if telling else (lines[-1] if lines else "")
 
 
 # -- the package-cluster path ----------------------------------------------------------------

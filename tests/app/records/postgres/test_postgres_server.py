@@ -9,7 +9,8 @@ import socket
 import psycopg
 import pytest
 
-from tests.postgres import HOST, start
+import tests.postgres
+from tests.postgres import FORCE_ENV, HOST, start, start_initdb
 
 
 def test_the_server_listens_on_127_0_0_1_only_and_asks_for_a_password(postgres_server):
@@ -44,3 +45,26 @@ def test_a_stopped_server_is_gone(postgres_server):
     with psycopg.connect(host=HOST, port=postgres_server.port, user=postgres_server.admin,
                          password=postgres_server.password, dbname="postgres") as conn:
         assert conn.execute("SELECT 1").fetchone()[0] == 1
+
+
+def test_a_port_taken_between_its_choice_and_the_start_is_chosen_again(postgres_server,
+                                                                         monkeypatch):
+    if not postgres_server.path.startswith("initdb"):
+        # the package's cluster runs on its configured port: no port is chosen
+        assert "initdb failed" in postgres_server.path or FORCE_ENV in postgres_server.path
+        return
+    with socket.socket() as taken:
+        taken.bind((HOST, 0))
+        taken.listen()
+        held = taken.getsockname()[1]
+        ports = iter([held])
+        free = tests.postgres.free_port
+        monkeypatch.setattr(tests.postgres, "free_port", lambda: next(ports, None) or free())
+        server = start_initdb(tests.postgres.binaries())
+    try:
+        assert server.port != held
+        with psycopg.connect(host=HOST, port=server.port, user=server.admin,
+                             password=server.password, dbname="postgres") as conn:
+            assert conn.execute("SELECT 1").fetchone()[0] == 1
+    finally:
+        server.stop()
