@@ -255,6 +255,10 @@ def pytest_terminal_summary(terminalreporter) -> None:
     disk = sys.modules.get("tests.device.smalldisk")
     if disk is not None:
         terminalreporter.write_line(f"full disk in these tests: {disk.DISK_WORDS[disk.DISK_KIND]}")
+    # the shared registry's PostgreSQL server: started by initdb or the package's cluster
+    # (tests/postgres.py), as each test process's tests reported it
+    for path in sorted(_POSTGRES_PATHS):
+        terminalreporter.write_line(f"PostgreSQL for the tests: {path}")
 
 
 def _rig_needs(item: pytest.Item) -> set[str] | None:
@@ -370,3 +374,16 @@ def emg_model_1(emg_subject_1):
 
     return check_model(list(emg_subject_1), "network", test=[emg_subject_1[-1]],
                        as_live=True, latency_s=SyntheticEmgFeed.latency_of(Subject.drawn(1)))
+
+
+# -- the shared registry's PostgreSQL server (tests/app/records/postgres/conftest.py) ------------
+
+_POSTGRES_PATHS: set[str] = set()
+
+
+def pytest_runtest_logreport(report: pytest.TestReport) -> None:
+    """Which way each test process started its PostgreSQL server, from the tests' reports
+    (they reach this process from every pytest-xdist worker)."""
+    for name, value in getattr(report, "user_properties", ()):
+        if name == "postgres_server":
+            _POSTGRES_PATHS.add(value)

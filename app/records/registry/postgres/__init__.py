@@ -1,0 +1,50 @@
+"""The registry on a PostgreSQL server, for several robot stations of a department (issue 32):
+today's schema (v8) with the seals, the gap-free numbering and the clinic and research
+roles enforced by the server itself.
+
+This is the foundation the rest of the registry moves onto (docs/stations.md says how):
+the tables as SQLAlchemy 2 Core metadata (`tables`), each row's seal computed by a trigger
+with the digest the SQLite registry computes (`seals`), session and trial numbers that
+stay gap-free with several stations writing at once (`numbering`), and who may read names
+(`roles`). The console's SQLite registry (app.records.registry) is unchanged by it.
+
+`create_registry` builds all of it in one transaction in an empty database, as the
+database's owner (the role that later migrates it): SQLAlchemy creates the tables, then
+the server's functions, triggers, grants and views are added by their SQL.
+"""
+
+from __future__ import annotations
+
+from sqlalchemy import Connection, insert, inspect, select
+
+from app.errors import SchemaError
+from app.records.registry.postgres import numbering, seals
+from app.records.registry.postgres.roles import Roles
+from app.records.registry.postgres.tables import SCHEMA_VERSION, metadata, schema_version
+
+__all__ = ["Roles", "create_registry", "registry_version"]
+
+
+def create_registry(conn: Connection, roles: Roles | None = None) -> None:
+    """Today's registry in the empty database `conn` is connected to, in `conn`'s
+    transaction: tables, seals, numbering, roles; its schema version recorded. Refused
+    (SchemaError) where a registry, or any table of one, is already there."""
+    present = sorted(set(inspect(conn).get_table_names()) & set(metadata.tables))
+    if present:
+        raise SchemaError(f"the database {conn.engine.url.database!r} already holds registry "
+                          f"tables ({', '.join(present)}): a registry is created only in an "
+                          "empty database")
+    metadata.create_all(conn)
+    # server-side code holds '%' (PL/pgSQL's RAISE): sent as it is, never as a template
+    raw = conn.execution_options(no_parameters=True)
+    for statement in (*seals.statements(), *numbering.statements(),
+                      *(roles or Roles()).statements()):
+        raw.exec_driver_sql(statement)
+    conn.execute(insert(schema_version).values(version=SCHEMA_VERSION))
+
+
+def registry_version(conn: Connection) -> int | None:
+    """The schema version of the registry in `conn`'s database, None when it has none."""
+    if not inspect(conn).has_table("schema_version"):
+        return None
+    return conn.execute(select(schema_version.c.version)).scalar_one()

@@ -1,0 +1,124 @@
+"""Who may read what in the PostgreSQL registry: a clinic role that sees names, a research
+role that sees pseudonymous codes and data only, both enforced by the server (issue 32,
+"Roles").
+
+Why by the server: under the GDPR pseudonymised data remain personal data and the key
+(names ↔ codes) is kept apart. A researcher's login must not be able to read a name by any
+query, raw SQL included, so the separation cannot live in the console's code.
+
+How:
+
+* `clinic` (a group role; each therapist's or station's login is a member) reads and
+  writes the registry's tables: SELECT, INSERT and UPDATE, DELETE on trials only (a trial
+  withdrawn at Start, numbering.py keeps it the last one), INSERT without UPDATE on the
+  append-only tables (their triggers refuse it too).
+* `research` (a group role; each researcher's login is a member) has no privilege on any
+  table but SELECT on the columns of `VISIBLE_TO_RESEARCH` (column privileges), and the
+  same columns as views in the schema `research` (`SELECT * FROM research.patients` works;
+  `SELECT first_name FROM patients` is refused: "permission denied for table patients").
+  An export made through this role can only hold what these columns hold.
+* Hidden from research: the patient's names; free text a person wrote about a patient,
+  which may name them (a patient's and a session's notes, a note's text); corrections of a
+  name (the view leaves out those rows, whose old and new values are names; the table
+  itself is not readable); and every seal, which digests the hidden values with the
+  visible ones and would let a dictionary of names be tried against it.
+* What the server shows of the tables elsewhere follows the same privileges: the planner's
+  statistics (`pg_stats`, whose most common values of a column would list names) show
+  research only the columns it may read.
+* Nobody else: the database's CONNECT and the public schema's USAGE are taken from PUBLIC
+  and given to the two roles (and the owner, who creates and migrates the schema).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from app.records.registry.postgres.tables import REGISTRY_TABLES, metadata
+
+HIDDEN_FROM_RESEARCH: dict[str, tuple[str, ...]] = {
+    "patients": ("first_name", "last_name", "notes"),
+    "sessions": ("notes",),
+    "notes": ("text",),
+}
+"""Columns research never reads (besides every `seal`)."""
+
+NAME_FIELDS = ("first_name", "last_name")
+"""The patient's fields whose corrections are left out of research's corrections view."""
+
+ROW_FILTERED = {"corrections": f"field NOT IN ({', '.join(repr(f) for f in NAME_FIELDS)})"}
+"""Tables research reads through its view only, without the rows these conditions leave
+out (no column privilege can leave out a row)."""
+
+APPEND_ONLY_TABLES = ("scales", "notes", "trial_marks", "corrections")
+
+
+def visible_to_research(table: str) -> tuple[str, ...]:
+    """The columns of `table` research may read, in the table's order."""
+    hidden = {*HIDDEN_FROM_RESEARCH.get(table, ()), "seal"}
+    return tuple(c.name for c in metadata.tables[table].columns if c.name not in hidden)
+
+
+@dataclass(frozen=True)
+class Roles:
+    """The names of the two group roles. Roles are the server's, shared by its databases:
+    a server with several registries (a training copy, a second site) names theirs apart."""
+
+    clinic: str = "rehab_clinic"
+    research: str = "rehab_research"
+
+    def statements(self) -> tuple[str, ...]:
+        """The roles (made when missing), their privileges and research's views, in the
+        registry's database after its tables are created."""
+        return (*self._roles(), *self._database(), *self._clinic(), *self._research())
+
+    def _roles(self) -> tuple[str, ...]:
+        # CREATE ROLE has no IF NOT EXISTS; two registries made at once both may try
+        return tuple(
+            f"""DO $$ BEGIN
+                    CREATE ROLE {role} NOLOGIN;
+                EXCEPTION WHEN duplicate_object OR unique_violation THEN NULL;
+                END $$"""
+            for role in (self.clinic, self.research))
+
+    def _database(self) -> tuple[str, ...]:
+        both = f"{self.clinic}, {self.research}"
+        return (
+            f"""DO $$ BEGIN
+                    EXECUTE format('REVOKE ALL ON DATABASE %I FROM PUBLIC',
+                                   current_database());
+                    EXECUTE format('GRANT CONNECT ON DATABASE %I TO {both}',
+                                   current_database());
+                END $$""",
+            "REVOKE ALL ON SCHEMA public FROM PUBLIC",
+            f"GRANT USAGE ON SCHEMA public TO {both}",
+            "CREATE SCHEMA research",
+            f"GRANT USAGE ON SCHEMA research TO {self.research}",
+            f"GRANT SELECT ON schema_version TO {both}",
+        )
+
+    def _clinic(self) -> tuple[str, ...]:
+        out = []
+        for table in REGISTRY_TABLES:
+            if table in APPEND_ONLY_TABLES:
+                privileges = "SELECT, INSERT"
+            elif table == "trials":
+                privileges = "SELECT, INSERT, UPDATE, DELETE"
+            else:
+                privileges = "SELECT, INSERT, UPDATE"
+            out.append(f"GRANT {privileges} ON {table} TO {self.clinic}")
+        out.append(f"GRANT USAGE ON ALL SEQUENCES IN SCHEMA public TO {self.clinic}")
+        return tuple(out)
+
+    def _research(self) -> tuple[str, ...]:
+        out = []
+        for table in REGISTRY_TABLES:
+            columns = ", ".join(visible_to_research(table))
+            where = ROW_FILTERED.get(table)
+            if where is None:
+                out.append(f"GRANT SELECT ({columns}) ON {table} TO {self.research}")
+            out.append(
+                f"CREATE VIEW research.{table} WITH (security_barrier) AS "
+                f"SELECT {columns} FROM public.{table}"
+                + (f" WHERE {where}" if where else ""))
+            out.append(f"GRANT SELECT ON research.{table} TO {self.research}")
+        return tuple(out)
