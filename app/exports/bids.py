@@ -98,6 +98,10 @@ _EVENT_KINDS = {
     "fault": "a safety fault stopped the robot (message and values say which)",
     "mark": "a mark set by the therapist",
     "note": "a note entered during the trial",
+    "assistance": "the therapist changed the assistance level (values: level, from this tick)",
+    "patient_screen": "what the patient's screen showed from this tick (values: open and its "
+                      "options)",
+    "recording": "the recorder about the file itself (values: cause)",
 }
 
 Progress = Callable[[float], None]
