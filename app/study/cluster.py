@@ -35,6 +35,9 @@ SCHEDULER_HTTP = {"dashboard": False, "dashboard_address": f"{LOCAL_HOST}:0"}
 """The scheduler's own HTTP server (its health check; the dashboard stays off): on
 127.0.0.1 at a port the system gives, not 8787, which another study or a test running
 meanwhile may hold (Dask would warn and take another)."""
+PRELOAD = ["app.study.rows"]
+"""What a local worker imports as it starts (the reader, the analysis, scipy: seconds),
+rather than in its first task: a study's time is then the files'."""
 LOCAL_PATIENCE_S = 600.0
 """How long the local cluster's own processes may take to start and answer: they are on
 this machine, so only a stalled machine is slow, and a stall is waited out."""
@@ -85,7 +88,7 @@ def study_client(scheduler: str | None = None, *, workers: int = LOCAL_WORKERS,
                 LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                              host=LOCAL_HOST, dashboard_address=None,
                              worker_dashboard_address=None, silence_logs=logging.ERROR,
-                             scheduler_kwargs=SCHEDULER_HTTP) \
+                             scheduler_kwargs=SCHEDULER_HTTP, preload=PRELOAD) \
                 as cluster, Client(cluster, timeout=patience) as client:
             yield client
         return
