@@ -14,6 +14,7 @@ Everything is checked before any work: a bad input is one line and exit code 2.
 from __future__ import annotations
 
 import argparse
+import os
 
 from app.cli.common import (
     CommandError,
@@ -90,9 +91,11 @@ def cmd_study_analyse(args: argparse.Namespace) -> int:
         raise CommandError("--connect-timeout is how long to try to reach --scheduler: give "
                            "--scheduler too, or leave it out")
     workers = LOCAL_WORKERS if args.workers is None else args.workers
-    if not 1 <= workers <= 256:
+    most = 2 * (os.cpu_count() or 1)
+    if not 1 <= workers <= most:
         raise CommandError(f"--workers {workers}: give a whole number of worker processes "
-                           "from 1 to 256 (this machine's cores are enough)")
+                           f"from 1 to {most} (twice this machine's cores; one a core is "
+                           "enough, the work is all computation)")
     if args.site is not None and not args.site.strip():
         raise CommandError("--site is empty: give the site's name, or leave it out")
     selection = _selection(args, sources)

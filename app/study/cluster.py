@@ -31,6 +31,7 @@ LOCAL_WORKERS = 2
 SCHEMES = ("tcp", "tls", "ws", "wss")
 CONNECT_TIMEOUT_S = 30.0
 """How long to try to reach a scheduler given by address before saying it cannot be."""
+MAX_CONNECT_TIMEOUT_S = 600.0
 SCHEDULER_HTTP = {"dashboard": False, "dashboard_address": f"{LOCAL_HOST}:0"}
 """The scheduler's own HTTP server (its health check; the dashboard stays off): on
 127.0.0.1 at a port the system gives, not 8787, which another study or a test running
@@ -94,9 +95,9 @@ def study_client(scheduler: str | None = None, *, workers: int = LOCAL_WORKERS,
         return
     address = scheduler_address(scheduler)
     if not (isinstance(connect_timeout_s, int | float) and math.isfinite(connect_timeout_s)
-            and connect_timeout_s > 0):
-        raise AppError(f"connect timeout {connect_timeout_s!r}: give a number of seconds "
-                       "above 0")
+            and 0 < connect_timeout_s <= MAX_CONNECT_TIMEOUT_S):
+        raise AppError(f"--connect-timeout {connect_timeout_s!r}: give a number of seconds "
+                       f"above 0 and at most {MAX_CONNECT_TIMEOUT_S:g}")
     try:
         client = Client(address, timeout=f"{connect_timeout_s}s")
     except (OSError, TimeoutError, ValueError) as exc:
