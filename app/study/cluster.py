@@ -36,6 +36,9 @@ SCHEDULER_HTTP = {"dashboard": False, "dashboard_address": f"{LOCAL_HOST}:0"}
 """The scheduler's own HTTP server (its health check; the dashboard stays off): on
 127.0.0.1 at a port the system gives, not 8787, which another study or a test running
 meanwhile may hold (Dask would warn and take another)."""
+QUIET_WORKERS = {"distributed.worker.profile.enabled": False}
+"""A local worker does not profile its tasks: Dask's profiler samples the working thread's
+stack every 10 ms by default, taking the interpreter from the analysis each time."""
 PRELOAD = ["app.study.rows"]
 """What a local worker imports as it starts (the reader, the analysis, scipy: seconds),
 rather than in its first task: a study's time is then the files'."""
@@ -85,7 +88,8 @@ def study_client(scheduler: str | None = None, *, workers: int = LOCAL_WORKERS,
         patience = f"{int(LOCAL_PATIENCE_S)}s"
         with dask.config.set({"distributed.comm.timeouts.connect": patience,
                               "distributed.comm.timeouts.tcp": patience,
-                              "distributed.deploy.lost-worker-timeout": patience}), \
+                              "distributed.deploy.lost-worker-timeout": patience,
+                              **QUIET_WORKERS}), \
                 LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                              host=LOCAL_HOST, dashboard_address=None,
                              worker_dashboard_address=None, silence_logs=logging.ERROR,
