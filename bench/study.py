@@ -15,6 +15,8 @@ them under the console's file names: every file is read and measured in full, th
 holds `patients × distinct` files' worth. The files are in the page cache (made just
 before, or read by the runs before): the figures are the analysis's, not the disk's. A
 cluster's start (its worker processes importing the analysis) is not timed; each run is.
+The workers' CPU time says how many cores a run had: on a machine shared with other work,
+two workers get less than two cores, and the speed-up says so rather than Dask's overhead.
 """
 
 from __future__ import annotations
@@ -119,12 +121,16 @@ def main() -> None:
         began = time.perf_counter()
         with study_client(workers=workers) as client:
             up = time.perf_counter() - began
+            cpu = sum(client.run(time.process_time).values())
             result = analyse_study(selection, client)
+            cpu = sum(client.run(time.process_time).values()) - cpu
         times[workers] = result.elapsed_s
         print(f"{workers} worker(s): {len(result.trials)} analysed, {len(result.failures)} "
               f"failed, in {result.elapsed_s:.1f} s: {result.files_per_s:.1f} files/s "
               f"(cluster up in {up:.1f} s, not counted; load average "
-              f"{os.getloadavg()[0]:.1f})", flush=True)
+              f"{os.getloadavg()[0]:.1f}); the workers' CPU {cpu:.0f} s, "
+              f"{1000 * cpu / len(selection):.0f} ms a file, {cpu / result.elapsed_s:.2f} "
+              "cores busy on average", flush=True)
     if 1 in times:
         for workers, took in times.items():
             if workers != 1:

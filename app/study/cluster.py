@@ -89,12 +89,18 @@ def study_client(scheduler: str | None = None, *, workers: int = LOCAL_WORKERS,
         with dask.config.set({"distributed.comm.timeouts.connect": patience,
                               "distributed.comm.timeouts.tcp": patience,
                               "distributed.deploy.lost-worker-timeout": patience,
-                              **QUIET_WORKERS}), \
-                LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                             host=LOCAL_HOST, dashboard_address=None,
-                             worker_dashboard_address=None, silence_logs=logging.ERROR,
-                             scheduler_kwargs=SCHEDULER_HTTP, preload=PRELOAD) \
-                as cluster, Client(cluster, timeout=patience) as client:
+                              **QUIET_WORKERS}), contextlib.ExitStack() as stack:
+            try:
+                cluster = stack.enter_context(LocalCluster(
+                    n_workers=workers, threads_per_worker=1, processes=True,
+                    host=LOCAL_HOST, dashboard_address=None, worker_dashboard_address=None,
+                    silence_logs=logging.ERROR, scheduler_kwargs=SCHEDULER_HTTP,
+                    preload=PRELOAD))
+                client = stack.enter_context(Client(cluster, timeout=patience))
+            except (OSError, RuntimeError, TimeoutError) as exc:
+                raise AppError(f"the local Dask cluster did not start ({folded(exc)}): check "
+                               "the free memory and that this machine can start processes "
+                               "and listen on 127.0.0.1, or give --scheduler") from None
             yield client
         return
     address = scheduler_address(scheduler)
