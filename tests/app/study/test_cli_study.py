@@ -152,3 +152,15 @@ def test_the_registry_gives_each_patients_progress_table(registered, client, tmp
     assert code == 0, err
     assert "analysed 3 trial(s)" in out
     assert "1 trial(s) marked invalid left out" in out
+
+
+def test_the_command_line_starts_without_dask():
+    import subprocess
+    import sys
+
+    code = ("import sys, app.cli.main; app.cli.main.build_parser(); "
+            "print(sorted(m for m in ('dask', 'distributed', 'pyarrow', 'duckdb') "
+            "if m in sys.modules))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True)
+    assert done.stdout.strip() == "[]"
