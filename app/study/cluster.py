@@ -36,6 +36,8 @@ SCHEDULER_HTTP = {"dashboard": False, "dashboard_address": f"{LOCAL_HOST}:0"}
 """The scheduler's own HTTP server (its health check; the dashboard stays off): on
 127.0.0.1 at a port the system gives, not 8787, which another study or a test running
 meanwhile may hold (Dask would warn and take another)."""
+# silence_logs: a worker's heartbeat that meets the scheduler closing at the end logs an
+# error with its traceback; what fails in a study is its files', listed with why
 QUIET_WORKERS = {"distributed.worker.profile.enabled": False}
 """A local worker does not profile its tasks: Dask's profiler samples the working thread's
 stack every 10 ms by default, taking the interpreter from the analysis each time."""
@@ -94,7 +96,7 @@ def study_client(scheduler: str | None = None, *, workers: int = LOCAL_WORKERS,
                 cluster = stack.enter_context(LocalCluster(
                     n_workers=workers, threads_per_worker=1, processes=True,
                     host=LOCAL_HOST, dashboard_address=None, worker_dashboard_address=None,
-                    silence_logs=logging.ERROR, scheduler_kwargs=SCHEDULER_HTTP,
+                    silence_logs=logging.CRITICAL, scheduler_kwargs=SCHEDULER_HTTP,
                     preload=PRELOAD))
                 client = stack.enter_context(Client(cluster, timeout=patience))
             except (OSError, RuntimeError, TimeoutError) as exc:
