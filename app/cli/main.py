@@ -35,6 +35,7 @@ from app.cli.reports import (
     add_session_report_command,
 )
 from app.cli.run import add_run_command
+from app.cli.study import add_study_commands
 from app.errors import AppError
 from core.errors import CoreError
 from device.errors import DeviceError
@@ -61,6 +62,7 @@ COMMAND_GROUPS = (
     add_plan_commands,
     add_norms_commands,
     add_assess_commands,
+    add_study_commands,
 )
 
 

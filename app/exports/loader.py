@@ -301,7 +301,7 @@ class Study:
 
 def load_trial(path: str | os.PathLike) -> Trial:
     """Read a whole trial file; raises TrialFileError if it cannot be trusted."""
-    return _trial(read_trial(path))
+    return trial_of(read_trial(path))
 
 
 def read_info(path: str | os.PathLike) -> TrialInfo:
@@ -410,7 +410,9 @@ def _info(data: TrialData) -> TrialInfo:
     return TrialInfo(**_info_values(data))
 
 
-def _trial(data: TrialData) -> Trial:
+def trial_of(data: TrialData) -> Trial:
+    """A trial already read (app.trials.reader.read_trial, all its channels or some) as the
+    loader's Trial."""
     return Trial(
         **_info_values(data),
         arrays=MappingProxyType(dict(data.channels)),

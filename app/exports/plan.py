@@ -51,6 +51,8 @@ class TrialSource:
     outcome: tuple[tuple[str, object], ...] = ()
     """From the registry: the proposal made after the trial, the decision on it and why
     the trial ended (app.records.outcomes), as (column, value) pairs; () from a folder."""
+    trial_id: int | None = None
+    """The registry's id of the trial; None from a folder."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -145,6 +147,7 @@ def sources_from_registry(registry: RecordStore, codes: str | Iterable[str], *,
                 run=trial.number,
                 outcome=tuple((k, outcome[k]) for k in (*proposal_columns(None),
                                                         "end_reason")),
+                trial_id=trial.id,
             ))
     return sources
 

@@ -43,6 +43,7 @@ __all__ = [
     "data_folder_around",
     "folded",
     "os_reason",
+    "refuse_owned_folder",
     "write_text",
 ]
 
@@ -106,6 +107,15 @@ def check_output(path: str | os.PathLike, *, overwrite: bool = False,
                 raise OutputRefused(f"{what} {path} is also one of the command's inputs: "
                                     "give another name")
     return path
+
+
+def refuse_owned_folder(folder: str | os.PathLike, *, roots: Iterable[Path] = (),
+                        what: str = "output folder") -> Path:
+    """`check_output_folder`'s refusal without making the folder: for a command that
+    checks where its outputs go before any work, and makes them after (app.study)."""
+    folder = absolute(folder)
+    _refuse_owned(folder / "_", tuple(roots), what)
+    return folder
 
 
 def check_output_folder(folder: str | os.PathLike, *, roots: Iterable[Path] = (),

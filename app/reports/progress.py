@@ -24,11 +24,12 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
-from app.records.registry import TrialSummary, parameter_key
+from app.records.registry import KEY_PARAMETERS, TrialSummary, parameter_key
 from app.records.store import RecordStore
 from app.reports.plain_language import SHAPE_NAMES, success_key
 from app.trials.assistance_timeline import AssistanceInEffect
@@ -236,7 +237,7 @@ def progress(registry: RecordStore, code: str, *, check_files: bool = True,
         known = seen.get(raw)
         if known is None:
             key = parameter_key(trial.key_parameters)
-            exercise = Exercise(trial.assist, key[_SHAPE], key[_RADIUS], key[_CONTROLLER])
+            exercise = _exercise(trial.assist, key)
             known = seen[raw] = (
                 exercises.setdefault(exercise, len(exercises)), _number(key[_DURATION]),
                 _number(key[_TOLERANCE]),
@@ -273,6 +274,18 @@ def progress(registry: RecordStore, code: str, *, check_files: bool = True,
         levels_recorded=_frozen(recorded),
         values={name: _frozen(matrix[:, j]) for j, name in enumerate(names)},
     )
+
+
+def exercise_of(assist: str, parameters: Mapping) -> Exercise:
+    """The series a trial belongs to, from its mode and its stored parameters (a trial
+    file's or the registry's): what makes two trials the same exercise is written once,
+    here, for the patient's progress and a study's table (app.study)."""
+    return _exercise(assist, parameter_key(parameters.get(name) for name in KEY_PARAMETERS))
+
+
+def _exercise(assist: str, key: tuple) -> Exercise:
+    """key: KEY_PARAMETERS' values made comparable (parameter_key)."""
+    return Exercise(assist, key[_SHAPE], key[_RADIUS], key[_CONTROLLER])
 
 
 def _number(value) -> float:

@@ -1,0 +1,166 @@
+"""`rehab study analyse`: a folder or the registry's patients, each patient's progress table
+as `rehab progress` has it, trials marked invalid left out unless asked, and every bad input
+one line and exit code 2, refused before a cluster starts or a file is written."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from app.records.datadir import DataDir
+from app.records.registry import Registry
+from app.reports.progress import progress
+from app.study import sources
+from app.study.run import analyse_study
+from tests.app.cli.running import run
+from tests.app.study.conftest import SOUND
+
+
+def one_line_refusal(code, out, err):
+    assert code == 2, err
+    assert out == ""
+    assert err.count("\n") == 1, err
+    assert err.startswith("rehab study analyse: error: ") or err.startswith("rehab: error:")
+    return err
+
+
+def test_a_folder_is_analysed_listing_what_could_not_be_read(study, client, tmp_path, capsys,
+                                                             data):
+    out_folder = tmp_path / "out"
+    code, out, err = run(["study", "analyse", str(study), "--output", str(out_folder)],
+                         capsys)
+    assert code == 1, err  # analysed, with files that could not be
+    assert f"analysed {SOUND} trial(s) of the folder {study} on 2 worker(s)" in out
+    assert out.count("  not analysed: ") == 3
+    assert "  not analysed: other.h5: " in out
+    assert sorted(p.name for p in out_folder.iterdir()) == ["failures.csv", "trials",
+                                                            "trials.csv"]
+    table = pd.read_csv(out_folder / "trials.csv")
+    assert len(table) == SOUND
+    # again: the results are kept, in one line, before any work
+    code, out, err = run(["study", "analyse", str(study), "--output", str(out_folder)],
+                         capsys)
+    assert "already exists and is kept" in one_line_refusal(code, out, err)
+    # on a cluster's scheduler (the tests' own local one)
+    code, out, err = run(["study", "analyse", str(study), "--output", str(out_folder),
+                          "--overwrite", "--partition-by", "site", "--scheduler",
+                          client.scheduler.address], capsys)
+    assert code == 1, err
+    assert f"analysed {SOUND} trial(s)" in out
+    assert sorted(p.name for p in (out_folder / "trials").iterdir()) == [
+        "site=north", "site=south"]
+
+
+def test_bad_inputs_are_one_line_and_exit_2(study, tmp_path, capsys, data):
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    (empty / "readme.txt").write_text("no trials here")
+    taken = tmp_path / "taken"
+    (taken / "trials").mkdir(parents=True)
+    out = ["--output", str(tmp_path / "out")]
+    cases = {
+        "missing folder": (["study", "analyse", str(tmp_path / "nowhere"), *out],
+                           "does not exist"),
+        "empty folder": (["study", "analyse", str(empty), *out], "holds no trial files"),
+        "not an address": (["study", "analyse", str(study), "--scheduler", "tcp://no port",
+                            *out], "not an address"),
+        "no port": (["study", "analyse", str(study), "--scheduler", "tcp://somehost", *out],
+                    "--scheduler"),
+        "not Dask's": (["study", "analyse", str(study), "--scheduler", "http://host:80",
+                        *out], "Dask does not speak 'http'"),
+        "output exists": (["study", "analyse", str(study), "--output", str(taken)],
+                          "already exists and is kept"),
+        "output in the data folder": (["study", "analyse", str(study), "--output",
+                                       str(data / "trials" / "out")], "inside the data folder"),
+        "no workers": (["study", "analyse", str(study), "--workers", "0", *out], "--workers"),
+        "empty query": (["study", "analyse", " ", *out], "empty"),
+        "no registry": (["study", "analyse", "P1ZTTAQ", *out], "no registry"),
+    }
+    for name, (argv, words) in cases.items():
+        code, printed, err = run(argv, capsys)
+        assert words in one_line_refusal(code, printed, err), name
+    assert not (tmp_path / "out").exists()
+    assert list((taken / "trials").iterdir()) == []
+
+
+def test_an_unreachable_scheduler_is_one_line_and_exit_2(study, tmp_path, capsys, data):
+    # nothing listens on port 1 of this machine: refused at once, whatever the timeout
+    code, out, err = run(["study", "analyse", str(study), "--scheduler", "127.0.0.1:1",
+                          "--connect-timeout", "1", "--output", str(tmp_path / "out")],
+                         capsys)
+    assert "cannot reach the Dask scheduler at tcp://127.0.0.1:1" in one_line_refusal(
+        code, out, err)
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.fixture
+def registered(data, patient, capsys):
+    """Two patients of the data folder's registry with two simulated trials each, the
+    first patient's second trial marked invalid."""
+    code, out, err = run(["patients", "add", "--first-name", "Bo", "--last-name", "Other",
+                          "--body-mass", "70", "--upper-arm", "0.30", "--forearm", "0.29",
+                          "--side", "right", "--shoulder", "-0.12", "0.73"], capsys)
+    assert code == 0, err
+    codes = [patient, out.strip()]
+    for who in codes:
+        for shape in ("d", "circle"):
+            code, _, err = run(["run", "--code", who, "--repetitions", "1", "--trajectory",
+                                shape, "--seed", "3"], capsys)
+            assert code == 0, err
+    registry = Registry(DataDir(data))
+    invalid = registry.trials_for_patient(codes[0])[1].id
+    code, _, err = run(["invalid", str(invalid), "--reason", "let go of the handle", "--by",
+                        "K. Lee"], capsys)
+    assert code == 0, err
+    return registry, codes, invalid
+
+
+def test_the_registry_gives_each_patients_progress_table(registered, client, tmp_path,
+                                                          capsys):
+    registry, codes, invalid = registered
+    result = analyse_study(sources.from_registry(registry, "all"), client)
+    assert result.failures.empty
+    assert result.selection.left_out_invalid == 1
+    assert invalid not in set(result.trials["trial_id"])
+    for code in codes:
+        header, rows = progress(registry, code).table()
+        ours = result.trials[result.trials["patient"] == code]
+        assert list(ours["trial_id"]) == [row[0] for row in rows]
+        assert list(ours["session"]) == [row[1] for row in rows]
+        assert list(ours["trial"]) == [row[2] for row in rows]
+        # `rehab run` measured its trials a block at a time as it wrote them
+        # (app.trials.analysis.analyse_stored: the same figures to rounding)
+        for name in header[len(header) - len(progress(registry, code).metric_names):]:
+            registered_values = [row[header.index(name)] for row in rows]
+            np.testing.assert_allclose(ours[f"metric_{name}"], registered_values, rtol=1e-9,
+                                       atol=1e-12, equal_nan=True, err_msg=name)
+    # with the invalid trial, saying why
+    every = analyse_study(sources.from_registry(registry, codes[0], include_invalid=True),
+                          client)
+    marked = every.trials[every.trials["trial_id"] == invalid]
+    assert list(marked["invalid_reason"]) == ["let go of the handle"]
+    # the command, on the data folder's own exports/study by default
+    on = ["--scheduler", client.scheduler.address]
+    code, out, err = run(["study", "analyse", codes[1], *on], capsys)
+    assert code == 0, err
+    assert f"analysed 2 trial(s) of patient {codes[1]}" in out
+    assert (registry.data_dir.root / "exports" / "study" / "trials.csv").is_file()
+    # the data folder's trials/ as a folder: its marks still leave the invalid trial out
+    code, out, err = run(["study", "analyse", str(registry.data_dir.root / "trials"),
+                          "--output", str(tmp_path / "folder"), *on], capsys)
+    assert code == 0, err
+    assert "analysed 3 trial(s)" in out
+    assert "1 trial(s) marked invalid left out" in out
+
+
+def test_the_command_line_starts_without_dask():
+    import subprocess
+    import sys
+
+    code = ("import sys, app.cli.main; app.cli.main.build_parser(); "
+            "print(sorted(m for m in ('dask', 'distributed', 'pyarrow', 'duckdb') "
+            "if m in sys.modules))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True)
+    assert done.stdout.strip() == "[]"
