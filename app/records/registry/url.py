@@ -90,7 +90,8 @@ def registry_url(data_dir: DataDir, path: str | os.PathLike | None = None) -> Re
     if text is None:
         default = sa.URL.create(f"{SQLITE}+{DRIVERS[SQLITE]}",
                                 database=str(data_dir.registry_path))
-        return RegistryURL(default, f"the default: the data folder's registry ({data_dir.source})")
+        return RegistryURL(default, f"the data folder given by the {data_dir.source}; no "
+                                    f"registry URL file at {shown(path)}")
     return RegistryURL(parse_url(text, path), f"the URL file {shown(path)}")
 
 

@@ -55,7 +55,8 @@ def test_without_a_url_file_the_data_folders_sqlite_registry_is_used(config, dat
     found = registry_url(data_dir)
     assert found.engine == "sqlite"
     assert found.path == data_dir.registry_path
-    assert found.source.startswith("the default")
+    assert found.source == ("the data folder given by the command line; no registry URL file "
+                            f"at {config / URL_NAME}")
 
 
 def test_a_postgresql_url_is_read_and_shown_without_its_password(config, data_dir):
