@@ -178,15 +178,17 @@ def _server(location: RegistryURL, *, autocommit: bool) -> Iterator[sa.Connectio
     engine = sa.create_engine(location.url, poolclass=sa.NullPool,
                               connect_args={"connect_timeout": CONNECT_TIMEOUT_S})
     try:
-        with engine.connect() as conn:
+        try:
+            conn = engine.connect()
+        except sa.exc.DBAPIError as exc:  # no answer, no such database, a login refused
+            raise RegistryError(f"cannot reach the registry's server {location.server} "
+                                f"({_reason(exc)}): check that the server runs and that this "
+                                "station's network reaches it, and the URL in "
+                                f"{location.source}") from None
+        with conn:
             if autocommit:
                 conn = conn.execution_options(isolation_level="AUTOCOMMIT")
             yield conn
-    except sa.exc.OperationalError as exc:
-        raise RegistryError(f"cannot reach the registry's server {location.server} "
-                            f"({_reason(exc)}): check that the server runs and that this "
-                            f"station's network reaches it, and the URL in {location.source}"
-                            ) from None
     except sa.exc.DBAPIError as exc:
         raise RegistryError(f"the registry's server {location.server} refused "
                             f"({_reason(exc)}); nothing was changed") from None

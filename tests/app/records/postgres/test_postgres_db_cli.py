@@ -171,3 +171,32 @@ def test_a_server_that_cannot_be_reached_is_named_in_one_line(station, action, c
     assert err.count("\n") == 1
     assert "s3cret" not in err
     assert "Traceback" not in err
+
+
+def test_the_readmes_recipe_an_owner_who_may_create_roles_creates_the_registry(
+        postgres_server, station, roles, capsys):
+    """README, "Several stations": the department's owner login is no superuser; it owns
+    the database and may create roles (the clinic and research group roles), and gives
+    each station and researcher their login."""
+    owner, password = postgres_server.create_login("owner")
+    postgres_server.admin_sql(f"ALTER ROLE {owner} CREATEROLE")
+    database = postgres_server.create_database()
+    postgres_server.admin_sql(f'ALTER DATABASE "{database}" OWNER TO {owner}')
+    station(postgres_server.url(owner, password, database=database))
+    clinic, research = roles
+    code, out, err = run(["db", "upgrade", "--clinic-role", clinic, "--research-role",
+                          research], capsys)
+    assert (code, err) == (0, "")
+    assert out.startswith("the registry created at ")
+    engine = sa.create_engine(postgres_server.url(owner, password, database=database),
+                              poolclass=sa.NullPool)
+    with engine.begin() as conn:
+        conn.exec_driver_sql(f"CREATE ROLE station_{clinic} LOGIN PASSWORD 'x' IN ROLE "
+                             f"{clinic}")
+    engine.dispose()
+    postgres_server.forget_role(f"station_{clinic}")
+    station(postgres_server.url(f"station_{clinic}", "x", database=database))
+    code, out, err = run(["db", "status"], capsys)
+    assert (code, err) == (0, "")
+    assert f"login station_{clinic}" in out
+    assert "seals: every row matches its seal" in out
