@@ -29,6 +29,11 @@ class SettingsError(AppError):
     """The settings file cannot be written."""
 
 
+class RegistryURLError(AppError):
+    """The registry URL file cannot be trusted (not private to its user) or names no
+    registry this console can use; the message says what is wrong and what to do."""
+
+
 class RegistryError(AppError):
     """The patient/session/trial registry refused an operation or cannot be used."""
 

@@ -214,7 +214,7 @@ def folder_problem(folder: str | os.PathLike, *, follow_links: bool = True) -> s
     if not stat.S_ISDIR(info.st_mode):
         return "is not a folder"
     if info.st_uid != uid:
-        return f"belongs to {_user(info.st_uid)}, not to {_user(uid)}"
+        return f"belongs to {user_name(info.st_uid)}, not to {user_name(uid)}"
     if _writable_by_others(info):
         return f"can be written by others (mode {stat.S_IMODE(info.st_mode):o})"
     for parent in real.parents:
@@ -223,7 +223,7 @@ def folder_problem(folder: str | os.PathLike, *, follow_links: bool = True) -> s
         except OSError as exc:
             return f"cannot be checked: {shown(parent)} on the way ({os_reason(exc)})"
         if above.st_uid not in (uid, 0):
-            return (f"lies in {shown(parent)}, which belongs to {_user(above.st_uid)}, who "
+            return (f"lies in {shown(parent)}, which belongs to {user_name(above.st_uid)}, who "
                     "could put another folder in its place")
         if _writable_by_others(above) and not above.st_mode & stat.S_ISVTX:
             return (f"lies in {shown(parent)}, which others can write (mode "
@@ -253,7 +253,7 @@ def _private_group(gid: int) -> bool:
         set(group.gr_mem) - {user.pw_name})
 
 
-def _user(uid: int) -> str:
+def user_name(uid: int) -> str:
     try:
         import pwd
 

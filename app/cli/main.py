@@ -20,6 +20,7 @@ from app.cli.assess import add_assess_commands
 from app.cli.check import add_check_command
 from app.cli.clinical import add_clinical_commands
 from app.cli.common import EXIT_BAD_INPUT, CommandError, Parser
+from app.cli.db import add_db_commands
 from app.cli.emg import add_emg_commands
 from app.cli.exports import add_export_command
 from app.cli.gains import add_gains_command
@@ -63,6 +64,7 @@ COMMAND_GROUPS = (
     add_norms_commands,
     add_assess_commands,
     add_study_commands,
+    add_db_commands,
 )
 
 

@@ -25,10 +25,18 @@ _METRIC_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}")
 
 
 def checked_text(name: str, value: object, max_chars: int) -> str:
-    """`value` stripped, refused unless it is text of at most `max_chars` characters."""
+    """`value` stripped, refused unless it is text of at most `max_chars` characters
+    without a NUL character. NUL is refused on both engines: PostgreSQL cannot store it in
+    text (SQLite can), and a registry must hold the same texts on either engine (a record
+    copied to the server must be storable there). It only ever comes pasted from a binary
+    source."""
     if not isinstance(value, str):
         raise InvalidRecordError(f"{name}: give text, not {type(value).__name__}")
     value = value.strip()
+    if "\0" in value:
+        raise InvalidRecordError(f"{name} holds a NUL character (\\0, at character "
+                                 f"{value.index(chr(0)) + 1}), which no registry stores: "
+                                 "type it again without it")
     try:
         value.encode("utf-8")
     except UnicodeEncodeError:

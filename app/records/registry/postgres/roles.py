@@ -17,11 +17,15 @@ How:
   same columns as views in the schema `research` (`SELECT * FROM research.patients` works;
   `SELECT first_name FROM patients` is refused: "permission denied for table patients").
   An export made through this role can only hold what these columns hold.
-* Hidden from research: the patient's names; free text a person wrote about a patient,
-  which may name them (a patient's and a session's notes, a note's text); corrections of a
-  name (the view leaves out those rows, whose old and new values are names; the table
-  itself is not readable); and every seal, which digests the hidden values with the
-  visible ones and would let a dictionary of names be tried against it.
+* Hidden from research (data minimisation: researchers get codes and data only): every
+  person's name, the patient's and the staff's (therapist, rater, author, who marked a
+  trial or corrected a record); every free text a person typed, which may name someone (a
+  patient's and a session's notes, a note's text, a session's location, the reasons given
+  for a mark or a correction, a plan's and its blocks' names: research's view shows the
+  plan without them); corrections of a name (the view leaves out those rows, whose old
+  and new values are names); and every seal, which digests the hidden values with the
+  visible ones and would let a dictionary of names be tried against it. Kept: the words
+  the console itself wrote (why a trial or a plan run ended: a fault's message).
 * What the server shows of the tables elsewhere follows the same privileges: the planner's
   statistics (`pg_stats`, whose most common values of a column would list names) show
   research only the columns it may read.
@@ -37,10 +41,24 @@ from app.records.registry.postgres.tables import REGISTRY_TABLES, metadata
 
 HIDDEN_FROM_RESEARCH: dict[str, tuple[str, ...]] = {
     "patients": ("first_name", "last_name", "notes"),
-    "sessions": ("notes",),
-    "notes": ("text",),
+    "sessions": ("therapist", "notes", "location"),
+    "plans": ("name",),
+    "scales": ("rater",),
+    "notes": ("text", "author"),
+    "trial_marks": ("reason", "marked_by"),
+    "corrections": ("reason", "corrected_by"),
 }
-"""Columns research never reads (besides every `seal`)."""
+"""Columns research never reads (besides every `seal`): names and typed free text."""
+
+_PLAN_WITHOUT_NAMES = (
+    "((plan::jsonb - 'name') || jsonb_build_object('blocks', coalesce((SELECT jsonb_agg("
+    "b - 'name' ORDER BY i) FROM jsonb_array_elements(plan::jsonb -> 'blocks') WITH "
+    "ORDINALITY AS e(b, i)), '[]'::jsonb)))::text")
+
+DERIVED_FOR_RESEARCH: dict[str, dict[str, str]] = {"plans": {"plan": _PLAN_WITHOUT_NAMES}}
+"""Columns research reads through its view only, as these expressions make them: a plan
+without the names typed into it (its own and its blocks'), as JSON text (jsonb's form:
+keys sorted by length, `": "` spacing; the same values)."""
 
 NAME_FIELDS = ("first_name", "last_name")
 """The patient's fields whose corrections are left out of research's corrections view."""
@@ -53,9 +71,18 @@ APPEND_ONLY_TABLES = ("scales", "notes", "trial_marks", "corrections")
 
 
 def visible_to_research(table: str) -> tuple[str, ...]:
-    """The columns of `table` research may read, in the table's order."""
+    """The columns of research's view of `table`, in the table's order."""
     hidden = {*HIDDEN_FROM_RESEARCH.get(table, ()), "seal"}
     return tuple(c.name for c in metadata.tables[table].columns if c.name not in hidden)
+
+
+def granted_to_research(table: str) -> tuple[str, ...]:
+    """The columns of `table` itself research may read: those of its view but the derived
+    ones; none of a table whose view leaves out rows."""
+    if table in ROW_FILTERED:
+        return ()
+    derived = DERIVED_FOR_RESEARCH.get(table, {})
+    return tuple(c for c in visible_to_research(table) if c not in derived)
 
 
 @dataclass(frozen=True)
@@ -112,10 +139,13 @@ class Roles:
     def _research(self) -> tuple[str, ...]:
         out = []
         for table in REGISTRY_TABLES:
-            columns = ", ".join(visible_to_research(table))
+            derived = DERIVED_FOR_RESEARCH.get(table, {})
+            columns = ", ".join(f"{derived[c]} AS {c}" if c in derived else c
+                                for c in visible_to_research(table))
             where = ROW_FILTERED.get(table)
-            if where is None:
-                out.append(f"GRANT SELECT ({columns}) ON {table} TO {self.research}")
+            if granted := granted_to_research(table):
+                out.append(f"GRANT SELECT ({', '.join(granted)}) ON {table} "
+                           f"TO {self.research}")
             out.append(
                 f"CREATE VIEW research.{table} WITH (security_barrier) AS "
                 f"SELECT {columns} FROM public.{table}"

@@ -6,37 +6,57 @@ cannot even connect."""
 from __future__ import annotations
 
 import contextlib
+import json
 
 import psycopg
 import pytest
 import sqlalchemy as sa
 
-from app.records.registry.postgres.roles import HIDDEN_FROM_RESEARCH, visible_to_research
+from app.records.registry.postgres.roles import (
+    HIDDEN_FROM_RESEARCH,
+    granted_to_research,
+    visible_to_research,
+)
 from app.records.registry.postgres.tables import REGISTRY_TABLES
 
 CANARY = "Zaphodia"
 """A name, and words about the patient, that must never reach a researcher."""
 
+STAFF = "Trillianne"
+"""A staff member's name, and words typed by staff, that must never reach a researcher
+either (data minimisation)."""
+
 
 @pytest.fixture(scope="module")
 def filled(registry):
-    """A patient named CANARY with a session, a trial, notes and a corrected name, written
-    by the clinic's login."""
+    """A patient named CANARY with a session, a trial, notes and a corrected name, and
+    STAFF's name and words in every column that holds a person's name or typed text,
+    written by the clinic's login."""
     with registry.engine(registry.clinic_login) as engine, engine.begin() as conn:
         run = conn.exec_driver_sql
         patient = run("INSERT INTO patients (code, first_name, last_name, notes, birth_year, "
                       "body_mass_kg, created_at) VALUES ('RC001', %s, %s, %s, 1950, 70.5, "
                       "'c') RETURNING id",
                       (CANARY, CANARY + "son", f"{CANARY} prefers mornings")).scalar_one()
-        session = run("INSERT INTO sessions (patient_id, number, date, notes) VALUES "
-                      "(%s, 1, '2026-12-04', %s) RETURNING id",
-                      (patient, f"{CANARY} came with her son")).scalar_one()
+        session = run("INSERT INTO sessions (patient_id, number, date, notes, therapist, "
+                      "location) VALUES (%s, 1, '2026-12-04', %s, %s, %s) RETURNING id",
+                      (patient, f"{CANARY} came with her son", STAFF,
+                       f"{STAFF}'s room")).scalar_one()
         trial = run("INSERT INTO trials (session_id, number, parameters, file, status, "
                     "started_at) VALUES (%s, 1, '{}', 'trials/RC001/t1.h5', 'complete', 's') "
                     "RETURNING id",
                     (session,)).scalar_one()
         run("INSERT INTO notes (session_id, trial_id, text, author, written_at) VALUES "
-            "(%s, %s, %s, 'A', 'w')", (session, trial, f"{CANARY} was tired"))
+            "(%s, %s, %s, %s, 'w')", (session, trial, f"{CANARY} was tired", STAFF))
+        run("INSERT INTO scales (session_id, scale, total, rater, recorded_at) VALUES "
+            "(%s, 'pain', 3, %s, 'r')", (session, STAFF))
+        run("INSERT INTO trial_marks (trial_id, valid, reason, marked_by, marked_at) VALUES "
+            "(%s, 0, %s, %s, 'm')", (trial, f"{STAFF} saw her cough", STAFF))
+        plan = {"name": f"{CANARY}'s mornings",
+                "blocks": [{"shape": "d", "rounds": 2, "name": f"{STAFF}'s warm-up"},
+                           {"shape": "o", "rounds": 1, "name": ""}]}
+        run("INSERT INTO plans (patient_id, name, plan, created_at) VALUES (%s, %s, %s, "
+            "'c')", (patient, plan["name"], json.dumps(plan)))
         run("UPDATE patients SET first_name = %s WHERE id = %s", (CANARY + "a", patient))
         run("INSERT INTO corrections (patient_id, field, old_value, new_value, reason, "
             "corrected_by, corrected_at) VALUES (%s, 'first_name', %s, %s, 'typo', 'C', "
@@ -70,6 +90,34 @@ def test_a_researchers_login_cannot_read_a_name_even_with_sql(filled, query):
     with _connect(filled, filled.research_login) as conn, \
             pytest.raises(psycopg.errors.InsufficientPrivilege, match="permission denied"):
         conn.execute(query)
+
+
+@pytest.mark.parametrize(("table", "column"), [
+    (table, column) for table, columns in HIDDEN_FROM_RESEARCH.items() for column in columns])
+def test_no_hidden_column_reaches_a_researchers_login(filled, table, column):
+    """Each column holding a name or typed text, tried by research in the table (refused
+    by privilege) and in research's view (not there at all)."""
+    with _connect(filled, filled.research_login) as conn:
+        with pytest.raises(psycopg.errors.InsufficientPrivilege, match="permission denied"):
+            conn.execute(f"SELECT {column} FROM public.{table}")
+        with pytest.raises(psycopg.errors.UndefinedColumn):
+            conn.execute(f"SELECT {column} FROM research.{table}")
+
+
+def test_staff_names_are_hidden_from_research_too():
+    """The lead's decision: no person's name, the staff's included, and no typed text."""
+    hidden = {column for columns in HIDDEN_FROM_RESEARCH.values() for column in columns}
+    assert {"therapist", "rater", "author", "marked_by", "corrected_by", "location",
+            "reason", "text", "notes", "name"} <= hidden
+
+
+def test_a_researcher_reads_a_plan_without_its_names(filled):
+    with _connect(filled, filled.research_login) as conn:
+        (text,) = conn.execute("SELECT plan FROM research.plans").fetchone()
+        with pytest.raises(psycopg.errors.InsufficientPrivilege):
+            conn.execute("SELECT plan FROM public.plans")
+    assert json.loads(text) == {"blocks": [{"shape": "d", "rounds": 2},
+                                           {"shape": "o", "rounds": 1}]}
 
 
 @pytest.mark.parametrize("statement", [
@@ -109,13 +157,16 @@ def test_everything_a_researcher_can_export_holds_no_name(filled):
             f"SELECT row_to_json(v)::text FROM research.{view} v"))
         # and every column it may read from the tables themselves
         for table in REGISTRY_TABLES:
-            columns = ", ".join(visible_to_research(table))
-            with pytest.raises(psycopg.errors.InsufficientPrivilege) if table == "corrections" \
-                    else contextlib.nullcontext():
+            columns = ", ".join(granted_to_research(table) or visible_to_research(table))
+            with pytest.raises(psycopg.errors.InsufficientPrivilege) \
+                    if not granted_to_research(table) else contextlib.nullcontext():
                 dump += "\n".join(str(row) for row in conn.execute(
                     f"SELECT {columns} FROM public.{table}"))
     assert "RC001" in dump
+    assert "warm" not in dump
+    assert "mornings" not in dump
     assert CANARY not in dump
+    assert STAFF not in dump
     assert set(HIDDEN_FROM_RESEARCH) <= set(REGISTRY_TABLES)
 
 
@@ -131,7 +182,7 @@ def test_the_planners_statistics_show_research_no_name(filled):
         with _connect(filled, filled.research_login) as conn:
             shown = conn.execute("SELECT attname, most_common_vals::text FROM pg_stats "
                                  "WHERE tablename IN ('patients', 'sessions', 'notes', "
-                                 "'corrections')").fetchall()
+                                 "'corrections', 'scales', 'trial_marks', 'plans')").fetchall()
         with psycopg.connect(filled.url().replace("+psycopg", "")) as conn:
             assert CANARY in str(conn.execute(
                 "SELECT most_common_vals::text FROM pg_stats WHERE tablename = 'patients' "
@@ -139,9 +190,10 @@ def test_the_planners_statistics_show_research_no_name(filled):
     finally:
         admin("DELETE FROM patients WHERE code = 'RC002'", "ANALYZE", database=filled.database)
     assert "code" in {name for name, _ in shown}
-    assert not {"first_name", "last_name", "notes", "text", "old_value"} & \
+    assert not {"first_name", "last_name", "notes", "text", "old_value", "therapist"} & \
         {name for name, _ in shown}
     assert CANARY not in str(shown)
+    assert STAFF not in str(shown)
 
 
 def test_the_clinics_login_reads_and_writes_names(filled):

@@ -1,0 +1,202 @@
+"""`rehab db status` and `rehab db upgrade` on the tests' PostgreSQL server, pointed at by a
+private registry URL file as a station is: the registry created in an empty database with
+the superuser's login, a newer one refused, research's login shown what it may read, a
+server that cannot be reached named in one line. (On SQLite: tests/app/cli/test_cli_db.py.)"""
+
+from __future__ import annotations
+
+import secrets
+
+import pytest
+import sqlalchemy as sa
+
+from app.records.registry import SCHEMA_VERSION
+from app.records.registry.postgres.tables import REGISTRY_TABLES
+from tests.app.cli.running import run
+from tests.app.records.postgres.conftest import Registry
+from tests.postgres import HOST, free_port
+
+
+@pytest.fixture
+def station(tmp_path, monkeypatch):
+    """A station's config folder (REHAB_CONFIG_DIR) and data folder of the test's own;
+    `point(url)` writes the private URL file."""
+    config = tmp_path / "config"
+    config.mkdir(mode=0o700)
+    monkeypatch.setenv("REHAB_CONFIG_DIR", str(config))
+    monkeypatch.setenv("REHAB_DATA_DIR", str(tmp_path / "data"))
+
+    def point(url: str):
+        path = config / "registry.url"
+        path.write_text(url + "\n")
+        path.chmod(0o600)
+        return path
+    return point
+
+
+@pytest.fixture
+def roles(postgres_server):
+    """Group roles of the test's own (roles are the server's, shared by its databases)."""
+    tag = secrets.token_hex(4)
+    names = (f"clinic_cli_{tag}", f"research_cli_{tag}")
+    for name in names:
+        postgres_server.forget_role(name)
+    return names
+
+
+def test_upgrade_creates_the_registry_in_an_empty_database(postgres_server, station, roles,
+                                                            capsys):
+    database = postgres_server.create_database()
+    url = postgres_server.url(database=database)
+    file = station(url)
+    shown = sa.make_url(url).render_as_string(hide_password=True)
+    code, out, err = run(["db", "status"], capsys)
+    assert (code, err) == (0, "")
+    assert out.splitlines() == [
+        f"registry: PostgreSQL {_version(postgres_server)} at {shown} (from the URL file "
+        f"{file}), login {postgres_server.admin}",
+        f"schema: none here (this console v{SCHEMA_VERSION}): `rehab db upgrade` creates the "
+        "registry",
+        "rows: no registry tables",
+        "seals: not checked (no registry here)"]
+    clinic, research = roles
+    code, out, err = run(["db", "upgrade", "--clinic-role", clinic, "--research-role",
+                          research], capsys)
+    assert (code, err) == (0, "")
+    assert out == (f"the registry created at {shown}: schema v{SCHEMA_VERSION}, seals, "
+                   f"numbering, roles {clinic} (names) and {research} (codes and data)\n")
+    code, out, err = run(["db", "status"], capsys)
+    assert (code, err) == (0, "")
+    assert out.splitlines()[1:] == [
+        f"schema: v{SCHEMA_VERSION} here, this console v{SCHEMA_VERSION}: up to date",
+        "rows: " + ", ".join(f"{table} 0" for table in REGISTRY_TABLES),
+        "seals: every row matches its seal"]
+    assert postgres_server.password not in out
+    code, out, _ = run(["db", "upgrade", "--clinic-role", clinic, "--research-role",
+                        research], capsys)
+    assert (code, out) == (0, f"the registry at {shown} is at schema v{SCHEMA_VERSION}, this "
+                              "console's: nothing to do\n")
+
+
+def _version(server) -> str:
+    with sa.create_engine(server.url(), poolclass=sa.NullPool).connect() as conn:
+        return conn.execute(sa.text("SHOW server_version")).scalar_one()
+
+
+@pytest.fixture(scope="module")
+def filled(postgres_server):
+    """A registry of today's schema with a patient, as the clinic's login wrote it."""
+    registry = Registry(postgres_server)
+    with registry.engine(registry.clinic_login) as engine, engine.begin() as conn:
+        conn.exec_driver_sql("INSERT INTO patients (code, first_name, created_at) VALUES "
+                             "('RC001', 'Zaphodia', 'c')")
+    return registry
+
+
+def test_status_counts_the_rows_and_checks_their_seals(filled, station, capsys):
+    station(filled.url())
+    code, out, _ = run(["db", "status"], capsys)
+    assert code == 0
+    assert "rows: patients 1, sessions 0," in out
+    assert "seals: every row matches its seal" in out
+
+
+def test_research_is_shown_what_it_may_read_and_no_seal(filled, station, capsys):
+    name, password = filled.research_login
+    station(filled.url(filled.research_login))
+    code, out, err = run(["db", "status"], capsys)
+    assert (code, err) == (0, "")
+    assert f"login {name}" in out
+    assert "corrections not readable by this login" in out
+    assert "patients 1" in out
+    assert f"seals: not checked (the login {name} may not read them)" in out
+    assert password not in out
+
+
+def test_a_row_changed_behind_the_triggers_is_named(postgres_server, station, capsys):
+    registry = Registry(postgres_server)
+    registry.server.admin_sql("INSERT INTO patients (code, created_at) VALUES ('RC009', 'c')",
+                              "SET session_replication_role = replica",
+                              "UPDATE patients SET birth_year = 1900",
+                              database=registry.database)
+    station(registry.url())
+    code, out, err = run(["db", "status"], capsys)
+    assert code == 2
+    assert "seals: DAMAGED (below)" in out
+    assert err.startswith("rehab db status: error: the registry postgresql+psycopg://")
+    assert "patients row 1 does not match its seal" in err
+    assert err.count("\n") == 1
+
+
+def test_a_registry_newer_than_the_console_is_refused(postgres_server, station, capsys):
+    registry = Registry(postgres_server)
+    registry.server.admin_sql(f"UPDATE schema_version SET version = {SCHEMA_VERSION + 1}",
+                              database=registry.database)
+    station(registry.url())
+    shown = sa.make_url(registry.url()).render_as_string(hide_password=True)
+    code, out, err = run(["db", "upgrade"], capsys)
+    assert (code, out) == (2, "")
+    assert err == (f"rehab db upgrade: error: the registry at {shown} has schema "
+                   f"v{SCHEMA_VERSION + 1}, written by a newer console; this one reads up to "
+                   f"v{SCHEMA_VERSION}. Update the console; nothing was changed\n")
+    code, out, _ = run(["db", "status"], capsys)
+    assert code == 0
+    assert "the registry is newer, update this console (an upgrade is refused)" in out
+
+
+def test_a_login_that_may_not_create_tables_is_refused_in_one_line(postgres_server, station,
+                                                                  capsys):
+    database = postgres_server.create_database()
+    name, password = postgres_server.create_login("plain")
+    postgres_server.admin_sql(f'GRANT CONNECT ON DATABASE "{database}" TO {name}')
+    station(postgres_server.url(name, password, database=database))
+    code, out, err = run(["db", "upgrade"], capsys)
+    assert (code, out) == (2, "")
+    assert err.startswith(f"rehab db upgrade: error: the registry's server {HOST}:"
+                          f"{postgres_server.port} refused (permission denied for schema "
+                          "public")
+    assert err.endswith("; nothing was changed\n")
+
+
+@pytest.mark.parametrize("action", ["status", "upgrade"])
+def test_a_server_that_cannot_be_reached_is_named_in_one_line(station, action, capsys):
+    port = free_port()  # nothing listens there
+    file = station(f"postgresql://station3:s3cret@{HOST}:{port}/rehab")
+    code, out, err = run(["db", action], capsys)
+    assert (code, out) == (2, "")
+    assert err.startswith(f"rehab db {action}: error: cannot reach the registry's server "
+                          f"{HOST}:{port} (")
+    assert err.endswith("): check that the server runs and that this station's network "
+                        f"reaches it, and the URL in the URL file {file}\n")
+    assert err.count("\n") == 1
+    assert "s3cret" not in err
+    assert "Traceback" not in err
+
+
+def test_the_readmes_recipe_an_owner_who_may_create_roles_creates_the_registry(
+        postgres_server, station, roles, capsys):
+    """README, "Several stations": the department's owner login is no superuser; it owns
+    the database and may create roles (the clinic and research group roles), and gives
+    each station and researcher their login."""
+    owner, password = postgres_server.create_login("owner")
+    postgres_server.admin_sql(f"ALTER ROLE {owner} CREATEROLE")
+    database = postgres_server.create_database()
+    postgres_server.admin_sql(f'ALTER DATABASE "{database}" OWNER TO {owner}')
+    station(postgres_server.url(owner, password, database=database))
+    clinic, research = roles
+    code, out, err = run(["db", "upgrade", "--clinic-role", clinic, "--research-role",
+                          research], capsys)
+    assert (code, err) == (0, "")
+    assert out.startswith("the registry created at ")
+    engine = sa.create_engine(postgres_server.url(owner, password, database=database),
+                              poolclass=sa.NullPool)
+    with engine.begin() as conn:
+        conn.exec_driver_sql(f"CREATE ROLE station_{clinic} LOGIN PASSWORD 'x' IN ROLE "
+                             f"{clinic}")
+    engine.dispose()
+    postgres_server.forget_role(f"station_{clinic}")
+    station(postgres_server.url(f"station_{clinic}", "x", database=database))
+    code, out, err = run(["db", "status"], capsys)
+    assert (code, err) == (0, "")
+    assert f"login station_{clinic}" in out
+    assert "seals: every row matches its seal" in out
