@@ -126,8 +126,10 @@ def cmd_study_analyse(args: argparse.Namespace) -> int:
               "(`rehab trials CODE` says why); --include-invalid analyses them too")
     print(f"  Parquet, by {args.partition_by}: {dataset}")
     print(f"  CSV: {trials_csv}; failures: {failures_csv}")
-    print(f"  query: duckdb -c \"SELECT patient, count(*) FROM read_parquet("
-          f"'{dataset}/*/*.parquet', hive_partitioning = true) GROUP BY patient\"")
+    # the duckdb Python package (installed with the console) has no command of its own
+    print("  query: .venv/bin/python -c \"import duckdb; duckdb.sql(\\\"SELECT patient, "
+          f"count(*) FROM read_parquet('{dataset}/*/*.parquet', hive_partitioning = true) "
+          "GROUP BY patient\\\").show()\"")
     for failure in result.failures.itertuples(index=False):
         print(f"  not analysed: {failure.file}: {failure.reason}")
     return 0 if result.failures.empty else 1
