@@ -76,6 +76,7 @@ from app.trials.reader import (
 )
 from core.trial import TrialParameters
 from device.loop.pipeline import PHASE_EXERCISE
+from device.recording import h5views
 from device.recording.trialfile import FORMAT_NAME, FORMAT_VERSION, STATUS_RECORDING, SubjectInfo
 from device.recording.trialfile.verify import Damaged, check_heaps, held, inventory
 
@@ -462,7 +463,7 @@ def _quick_info(path: Path) -> TrialInfo | None:
             for room in ("/parameters", "/timeseries", "/summary", "/metrics"):
                 seal.check_room(found, room, skip={p for p in found.datasets
                                                    if p.startswith("/timeseries/")})
-        lengths = {d.shape[0] for d in f["timeseries"].values()}
+        lengths = {d.shape[0] for d in h5views.values(f["timeseries"])}
         if len(lengths) > 1:
             return None
         n = lengths.pop() if lengths else 0

@@ -18,6 +18,7 @@ from app.errors import TrialFileError
 from core.pose.keypoints import KEYPOINT_NAMES
 from core.pose.pipeline import PoseResult
 from device.errors import RecordingError
+from device.recording import h5views
 from device.recording.trialfile import STATUS_RECORDING, open_for_update, utc_now_iso
 from device.recording.trialfile.seal import open_room
 from device.recording.trialfile.verify import Damaged, held
@@ -161,7 +162,7 @@ def _read(path: Path) -> dict | None:
         group = found.groups.get(f"/{GROUP}")
         if group is None:
             raise Damaged("is damaged: /pose is not a group")
-        out = {"attrs": {k: _plain(v) for k, v in group.attrs.items()}}
+        out = {"attrs": {k: _plain(v) for k, v in h5views.items(group.attrs)}}
         for name in group:
             if f"/{GROUP}/{name}" not in found.datasets:
                 raise Damaged(f"is damaged: /pose/{name} is not a dataset")

@@ -38,6 +38,7 @@ from app.trials.opening import (
 from core.errors import CoreError
 from core.trial import TrialParameters
 from device.errors import RecordingError
+from device.recording import h5views
 from device.recording.trialfile import FORMAT_NAME, FORMAT_VERSION, STATUS_RECORDING, SubjectInfo
 from device.recording.trialfile.verify import Damaged, Inventory, held, inventory
 
@@ -380,7 +381,7 @@ def _read_groups(path: Path, names: Iterable[str]) -> dict:
     f = open_trial_file(path)
     try:
         found = inventory(f, os.path.getsize(path))
-        attrs = {key: plain_attribute(value) for key, value in f.attrs.items()}
+        attrs = {key: plain_attribute(value) for key, value in h5views.items(f.attrs)}
         _check_format(path, attrs)
         seal, _, _ = seal_of(f, found, attrs)
         chosen = [name for name in names if f"/{name}" in found.groups]
@@ -398,8 +399,8 @@ def _read_groups(path: Path, names: Iterable[str]) -> dict:
 
 
 def _group_dict(group: h5py.Group) -> dict:
-    out = {key: plain_attribute(value) for key, value in group.attrs.items()}
-    for name, item in group.items():
+    out = {key: plain_attribute(value) for key, value in h5views.items(group.attrs)}
+    for name, item in h5views.items(group):
         if isinstance(item, h5py.Group):
             out[name] = _group_dict(item)
             continue
@@ -433,7 +434,7 @@ def group_attributes(f: h5py.File, name: str) -> dict:
     """A group's attributes as plain values, {} when the group is absent."""
     if name not in f:
         return {}
-    return {key: plain_attribute(value) for key, value in f[name].attrs.items()}
+    return {key: plain_attribute(value) for key, value in h5views.items(f[name].attrs)}
 
 
 def _text(value) -> str:

@@ -22,6 +22,7 @@ import h5py
 import numpy as np
 
 from device.errors import RecordingError
+from device.recording import h5views
 from device.recording.trialfile import STATUS_RECORDING, open_for_update, utc_now_iso
 from device.recording.trialfile.seal import open_room
 from device.recording.trialfile.verify import Damaged, held
@@ -166,10 +167,10 @@ def _read(path: Path) -> EmgGroup | None:
         names, muscles = _channel_names(table)
         rate_hz = _rate(group.attrs.get("sampling_rate_hz"))
         _check_samples(time_s, samples, len(names))
-        mvc = {muscle: _checked_mvc(muscle, {k: _attr(v) for k, v in entry.attrs.items()})
-               for muscle, entry in group.get("mvc", {}).items()}
+        mvc = {muscle: _checked_mvc(muscle, {k: _attr(v) for k, v in h5views.items(entry.attrs)})
+               for muscle, entry in h5views.items(group.get("mvc", {}))}
         return EmgGroup(names, muscles, rate_hz, time_s, samples,
-                        {k: _attr(v) for k, v in group.attrs.items()}, mvc)
+                        {k: _attr(v) for k, v in h5views.items(group.attrs)}, mvc)
 
 
 def _checked_group(found) -> h5py.Group:
@@ -181,7 +182,7 @@ def _checked_group(found) -> h5py.Group:
             raise Damaged(f"is damaged: /emg/{name} is missing or not a dataset")
     mvc = group.get("mvc")
     if mvc is not None and not (isinstance(mvc, h5py.Group) and all(
-            isinstance(item, h5py.Group) for item in mvc.values())):
+            isinstance(item, h5py.Group) for item in h5views.values(mvc))):
         raise Damaged("is damaged: /emg/mvc is not a group of one group per muscle")
     return group
 
