@@ -69,6 +69,23 @@ KNOWN: dict[tuple[str, str], tuple[int, str]] = {
     ("app/records/registry/schema.py", "os.unlink"): (
         1, "the new registry's temporary -wal and -shm, once its only connection closed"),
     ("app/records/registry/snapshot.py", "sqlite3.connect"): (1, "':memory:', no file"),
+    ("app/records/registry/admin.py", "sqlite3.connect"): (
+        1, "rehab db status opens the registry read-only (mode=ro): it writes nothing"),
+    ("app/study/outputs.py", "os.mkdir"): (
+        1, "the study's Parquet dataset is written into a fresh private folder of its own "
+           "(0700, beside the output), never into one that exists"),
+    ("app/study/outputs.py", "os.chmod"): (
+        3, "the fresh dataset folder's files and folders made the user's only before it is "
+           "renamed into place"),
+    ("app/study/outputs.py", "os.rename"): (
+        3, "the dataset renamed into place whole (a rename fails over a folder with files: "
+           "nothing of another's is replaced); with --overwrite the old one moved aside "
+           "first and back when the rename fails"),
+    ("app/study/outputs.py", "shutil.rmtree"): (
+        2, "the study's own temporary folder, and with --overwrite its own previous "
+           "results once the new ones are in place"),
+    ("app/study/run.py", "failures.rename"): (
+        1, "a pandas DataFrame's columns renamed, no file"),
     ("app/records/settings.py", "os.replace"): (
         1, "a damaged settings file set aside, in the console's own config folder, to a name "
            "found free"),
