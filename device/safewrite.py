@@ -301,6 +301,13 @@ def atomic_path(path: str | os.PathLike, *, overwrite: bool = False) -> Iterator
         yield temporary
 
 
+def write_failed(path: str | os.PathLike, exc: OSError) -> OutputRefused:
+    """The one line of a write made aside that failed before it was put in place: what
+    failed, what to check, and that nothing of it was left."""
+    return OutputRefused(f"writing {shown(path)} failed: {os_reason(exc)}. Check the free "
+                         "space and the folder's permissions; nothing was left half-written")
+
+
 @contextlib.contextmanager
 def _atomic(path: str | os.PathLike, overwrite: bool) -> Iterator[tuple[Path, int]]:
     """The temporary beside `path` and its open descriptor (closed by the caller); moved
@@ -312,9 +319,7 @@ def _atomic(path: str | os.PathLike, overwrite: bool) -> Iterator[tuple[Path, in
         _sync_file(temporary)
         _into_place(temporary, path, overwrite)
     except OSError as exc:
-        raise OutputRefused(f"writing {shown(path)} failed: {os_reason(exc)}. Check the free "
-                            "space and the folder's permissions; nothing was left "
-                            "half-written") from None
+        raise write_failed(path, exc) from None
     finally:
         with contextlib.suppress(OSError):
             os.unlink(temporary)

@@ -48,9 +48,9 @@ from device.safewrite import (
     PRIVATE_FILE,
     PRIVATE_FOLDER,
     absolute,
-    os_reason,
     shown,
     sync_folder,
+    write_failed,
 )
 
 PARTITIONS = ("patient", "site")
@@ -130,9 +130,7 @@ def _write_dataset(table: pd.DataFrame, dataset: Path, partition_by: str,
         _private_and_durable(temporary)
         _into_place(temporary, dataset, overwrite)
     except OSError as exc:
-        raise OutputRefused(f"writing {shown(dataset)} failed: {os_reason(exc)}. Check the "
-                            "free space and the folder's permissions; nothing was left "
-                            "half-written") from None
+        raise write_failed(dataset, exc) from None
     finally:
         shutil.rmtree(temporary, ignore_errors=True)
 
