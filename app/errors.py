@@ -38,6 +38,11 @@ class RegistryError(AppError):
     """The patient/session/trial registry refused an operation or cannot be used."""
 
 
+class RegistryUnreachable(RegistryError):
+    """The registry's server cannot be reached (the network or the server is down): a
+    station records on its own until it returns (issue 32)."""
+
+
 class PatientNotFound(RegistryError, LookupError):
     """No patient has the code asked for."""
 
@@ -47,7 +52,8 @@ class TrialNotFound(RegistryError, LookupError):
 
 
 class DuplicateNumberError(RegistryError):
-    """A session or trial number is already taken."""
+    """A session or trial number is not the next one: already taken, or it would leave a
+    gap (numbers have no gaps and no repeats: app.records.registry.numbering)."""
 
 
 class SchemaError(RegistryError):

@@ -96,10 +96,11 @@ class Server:
             for statement in statements:
                 conn.execute(statement)
 
-    def create_database(self, prefix: str = "registry") -> str:
-        """A new empty database (UTF-8, owned by the superuser), dropped at `stop`."""
+    def create_database(self, prefix: str = "registry", template: str = "template0") -> str:
+        """A new database (UTF-8, owned by the superuser), dropped at `stop`: empty, or a
+        copy of the database `template` (which nobody may be connected to meanwhile)."""
         name = f"{prefix}_{os.getpid()}_{secrets.token_hex(4)}"
-        self.admin_sql(f'CREATE DATABASE "{name}" TEMPLATE template0 ENCODING \'UTF8\' '
+        self.admin_sql(f'CREATE DATABASE "{name}" TEMPLATE "{template}" ENCODING \'UTF8\' '
                        "LC_COLLATE 'C' LC_CTYPE 'C'")
         self._databases.append(name)
         return name

@@ -19,7 +19,7 @@ def run_gui(font_scale: float | None = None, lsl_outlet: bool = False) -> int:
 
     from app.records.datadir import locate_data_dir
     from app.records.logs import setup_logging
-    from app.records.registry import Registry
+    from app.records.registry import open_registry
     from app.records.settings import load_settings
     from device.stopsignals import STOP_SIGNALS
     from ui import theme
@@ -38,7 +38,7 @@ def run_gui(font_scale: float | None = None, lsl_outlet: bool = False) -> int:
         from ui.device_bridge import DeviceBridge
 
         bridge = DeviceBridge(lsl_outlet=RobotStateOutlet())
-    window = MainWindow(Registry(data_dir), settings=settings, bridge=bridge)
+    window = MainWindow(open_registry(data_dir), settings=settings, bridge=bridge)
     window.show()
 
     def stop(number, _frame) -> None:

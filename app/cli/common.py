@@ -14,7 +14,7 @@ from pathlib import Path
 
 from app.errors import AppError
 from app.records.datadir import DataDir, locate_data_dir
-from app.records.registry import Registry
+from app.records.registry import Registry, open_registry
 from app.records.safewrite import check_output
 from device.safeinput import check_file, check_folder
 from device.safewrite import folded, os_reason, shown
@@ -70,10 +70,12 @@ def data_dir_for(args: argparse.Namespace) -> DataDir:
 
 
 def registry_for(args: argparse.Namespace, *, create: bool = False) -> Registry:
-    """The registry of the data folder (data_dir_for). Only `create` (`rehab patients add`)
-    starts a registry where there is none, in a new or empty folder; every other command
-    refuses a missing one in one line saying what the folder holds, and creates nothing."""
-    return Registry(data_dir_for(args), create=create)
+    """The registry this console uses (app.records.registry.open_registry: the registry URL
+    file's, else the data folder's, data_dir_for). Only `create` (`rehab patients add`)
+    starts a SQLite registry where there is none, in a new or empty folder; every other
+    command refuses a missing one in one line saying what the folder holds, and creates
+    nothing. A server's registry is created by its owner (`rehab db upgrade`)."""
+    return open_registry(data_dir_for(args), create=create)
 
 
 SQLITE_INT_MAX = 2**63 - 1

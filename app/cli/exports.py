@@ -93,11 +93,11 @@ def _invalid_files(args: argparse.Namespace) -> list:
     study's folder from elsewhere has no marks)."""
     if args.include_invalid:
         return []
-    from app.records.registry import Registry
+    from app.records.registry import has_registry, open_registry
 
     data_dir = data_dir_for(args)
-    if not data_dir.registry_path.is_file():
+    if not has_registry(data_dir):
         return []
-    registry = Registry(data_dir, create=False)
+    registry = open_registry(data_dir, create=False)
     return [registry.trial_path(registry.trial(trial_id))
             for trial_id in registry.invalid_trials()]

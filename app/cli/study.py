@@ -26,6 +26,7 @@ from app.cli.common import (
     registry_for,
 )
 from app.records.datadir import EXPORTS
+from app.records.registry import has_registry
 
 DEFAULT_OUTPUT = "study"
 """The default output, below the data folder's exports/."""
@@ -147,6 +148,6 @@ def _selection(args: argparse.Namespace, sources):
     folder = input_folder(text, "FOLDER_OR_QUERY (a folder of trial files, a patient's "
                                 "code or 'all')")
     data_dir = data_dir_for(args)
-    registry = registry_for(args) if data_dir.registry_path.is_file() else None
+    registry = registry_for(args) if has_registry(data_dir) else None
     return sources.from_folder(folder, registry=registry,
                                include_invalid=args.include_invalid, site=args.site)

@@ -124,7 +124,8 @@ def test_a_plan_this_console_cannot_run_is_said_on_the_tab_not_raised(qtbot, tmp
         code = win.patient.code
         win.registry.save_plan(code, PLAN)
         with win.registry._write() as conn:  # as a newer console might have written it
-            conn.execute("UPDATE plans SET plan = replace(plan, '\"circle\"', '\"spiral\"')")
+            conn.exec_driver_sql(
+                "UPDATE plans SET plan = replace(plan, '\"circle\"', '\"spiral\"')")
         win.show_plan_of(code)
         assert "plan cannot be shown" in win.plan_tab.title.text()
         assert "block 2.shape = 'spiral'" in win.plan_tab.title.text()

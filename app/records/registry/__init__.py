@@ -47,8 +47,12 @@ data folder.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
+import sqlalchemy as sa
+
+from app.errors import RegistryURLError
 from app.records.datadir import DataDir, private_files
 from app.records.registry.clinical import (
     CORRECTABLE,
@@ -91,6 +95,7 @@ from app.records.registry.trials import (
     Trials,
     parameter_key,
 )
+from app.records.registry.url import POSTGRESQL, registry_url
 from app.records.registry.values import NAME_MAX_CHARS, TEXT_MAX_CHARS
 
 __all__ = [
@@ -123,7 +128,9 @@ __all__ = [
     "Trial",
     "TrialMark",
     "TrialSummary",
+    "has_registry",
     "new_code",
+    "open_registry",
     "parameter_key",
 ]
 
@@ -132,12 +139,24 @@ class Registry(Schema, Patients, Sessions, Plans, Clinical, Proposals, Trials, Q
     """The registry of one data folder. Opening it migrates the database; with `create`
     (the window, `rehab patients add`) a missing one is created, whole, in a new or empty
     folder (app.records.registry.schema.create_registry_file); without, a missing registry
-    is refused saying what the folder holds, and nothing is created."""
+    is refused saying what the folder holds, and nothing is created.
 
-    def __init__(self, data_dir: DataDir | str | Path, *, create: bool = True) -> None:
+    With `server` (a `postgresql+psycopg://` URL, app.records.registry.url) the registry is
+    the department's on its PostgreSQL server, which its owner creates and migrates
+    (`rehab db upgrade`); the data folder holds this station's trial files."""
+
+    def __init__(self, data_dir: DataDir | str | Path, *, create: bool = True,
+                 server: sa.URL | None = None) -> None:
         if not isinstance(data_dir, DataDir):
             data_dir = DataDir(Path(data_dir).expanduser().absolute())
         self.data_dir = data_dir
+        if server is not None:
+            # the department's registry on its server (docs/stations.md); the data folder
+            # keeps this station's trial files
+            self.server, self.path = server, None
+            data_dir.ensure()
+            self._migrate()
+            return
         self.path = data_dir.registry_path
         if not create:
             refuse_missing_registry(data_dir)
@@ -149,3 +168,26 @@ class Registry(Schema, Patients, Sessions, Plans, Clinical, Proposals, Trials, Q
         self._migrate()
         private_files(self.path)
 
+
+
+def open_registry(data_dir: DataDir, *, create: bool = True) -> Registry:
+    """The registry this console uses (what the window and every command open): the one
+    the private registry URL file names (app.records.registry.url, `registry.url` in the
+    config folder), else the data folder's SQLite registry. A SQLite URL must name the data
+    folder's own registry file, which keeps the trial files beside it; a PostgreSQL URL
+    names the department's server, the data folder keeping this station's trial files."""
+    location = registry_url(data_dir)
+    if location.engine == POSTGRESQL:
+        return Registry(data_dir, create=create, server=location.url)
+    if os.path.abspath(location.path) != os.path.abspath(data_dir.registry_path):
+        raise RegistryURLError(
+            f"{location.source} names the SQLite registry {location.path}, but this console's "
+            f"data folder {data_dir.root} has its own ({data_dir.registry_path}): choose that "
+            "folder as the data folder, or remove the URL file to use the data folder's")
+    return Registry(data_dir, create=create)
+
+
+def has_registry(data_dir: DataDir) -> bool:
+    """Whether this console has a registry to ask (open_registry) without creating one: a
+    server's, or the data folder's file."""
+    return registry_url(data_dir).engine == POSTGRESQL or data_dir.registry_path.is_file()

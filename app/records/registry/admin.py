@@ -26,10 +26,12 @@ import sqlalchemy as sa
 from app.errors import RegistryError, SchemaError
 from app.records.datadir import private_files
 from app.records.registry import seals
-from app.records.registry.database import SEALED_FROM
+from app.records.registry.database import CONNECT_TIMEOUT_S, SEALED_FROM, first_line
 from app.records.registry.postgres import (
+    MIGRATIONS,
     Roles,
     create_registry,
+    migrate_registry,
     registry_version,
     seals as pg_seals,
 )
@@ -37,10 +39,6 @@ from app.records.registry.postgres.tables import REGISTRY_TABLES
 from app.records.registry.schema import SCHEMA_VERSION, Schema, check_registry_file
 from app.records.registry.url import POSTGRESQL, RegistryURL
 from device.safewrite import folded
-
-CONNECT_TIMEOUT_S = 10
-"""How long a station waits for the server to answer a connection: long enough for a
-busy network, short enough that a station says the server is away within seconds."""
 
 ROLE_NAME = re.compile(r"[a-z_][a-z0-9_]{0,62}")
 """A role name put into SQL as it is: lower-case letters, digits and '_' only."""
@@ -197,10 +195,7 @@ def _server(location: RegistryURL, *, autocommit: bool) -> Iterator[sa.Connectio
 
 
 def _reason(exc: sa.exc.DBAPIError) -> str:
-    """The driver's first line, without SQLAlchemy's statement and links."""
-    text = str(exc.orig) if exc.orig is not None else str(exc)
-    first = next((line for line in text.splitlines() if line.strip()), type(exc).__name__)
-    return folded(first)
+    return folded(first_line(exc))
 
 
 def _denied(exc: sa.exc.DBAPIError) -> bool:
@@ -260,8 +255,11 @@ def _server_upgrade(location: RegistryURL, roles: Roles) -> str:
                               "Update the console; nothing was changed")
         if version == SCHEMA_VERSION:
             return f"the registry at {where} is at schema v{version}, this console's: nothing to do"
-        raise SchemaError(f"the registry at {where} has schema v{version}: this console has "
-                          "no migration from it on PostgreSQL; nothing was changed")
+        if version + 1 not in MIGRATIONS:
+            raise SchemaError(f"the registry at {where} has schema v{version}: this console "
+                              "has no migration from it on PostgreSQL; nothing was changed")
+        before, after = migrate_registry(conn)
+        return f"the registry at {where} updated from schema v{before} to v{after}"
 
 
 def _rows_line(counts: dict[str, int | str]) -> str:

@@ -14,8 +14,9 @@ from __future__ import annotations
 import datetime
 import json
 import logging
-import sqlite3
 from dataclasses import dataclass
+
+import sqlalchemy as sa
 
 from app.errors import InvalidRecordError
 from app.records.registry.database import Database
@@ -27,6 +28,7 @@ from app.records.registry.patients import (
     patient_id,
 )
 from app.records.registry.sessions import session_id_of
+from app.records.registry.statements import execute
 from app.records.registry.trials import trial_by_id
 from app.records.registry.values import (
     NAME_MAX_CHARS,
@@ -151,13 +153,14 @@ class Clinical(Database):
                                     grades=grades)
         rater = _who("rater", rater)
         with self._write() as conn:
-            session = session_id_of(conn, self.path, code, session_number)
-            cursor = conn.execute(
+            session = session_id_of(conn, self.where, code, session_number)
+            cursor = execute(conn,
                 "INSERT INTO scales (session_id, scale, total, detail, rater, recorded_at) "
-                "VALUES (?, ?, ?, ?, ?, ?)",
+                "VALUES (?, ?, ?, ?, ?, ?) RETURNING id",
                 (session, checked.scale, checked.total,
                  json.dumps(checked.detail, sort_keys=True), rater, utc_text(utc_now())))
-            row = conn.execute(_SCALE_SELECT + " WHERE c.id = ?", (cursor.lastrowid,)).fetchone()
+            row = execute(conn, _SCALE_SELECT + " WHERE c.id = ?",
+                          (cursor.scalar_one(),)).fetchone()
         log.info("patient %s session %d: %s recorded", code, session_number, scale)
         return _scale_from_row(row)
 
@@ -166,12 +169,12 @@ class Clinical(Database):
         superseded entries included."""
         with self._read() as conn:
             if session_number is None:
-                rows = conn.execute(_SCALE_SELECT + " WHERE s.patient_id = ? ORDER BY c.id",
-                                    (patient_id(conn, self.path, code),)).fetchall()
+                rows = execute(conn, _SCALE_SELECT + " WHERE s.patient_id = ? ORDER BY c.id",
+                                     (patient_id(conn, self.where, code),)).fetchall()
             else:
-                rows = conn.execute(_SCALE_SELECT + " WHERE c.session_id = ? ORDER BY c.id",
-                                    (session_id_of(conn, self.path, code, session_number),)
-                                    ).fetchall()
+                rows = execute(conn, _SCALE_SELECT + " WHERE c.session_id = ? ORDER BY c.id",
+                                     (session_id_of(conn, self.where, code, session_number),)
+                                     ).fetchall()
         return [_scale_from_row(r) for r in rows]
 
     def session_scales(self, code: str) -> dict[int, dict[str, ScaleEntry]]:
@@ -184,7 +187,7 @@ class Clinical(Database):
     def study_scales(self) -> dict[str, dict[int, dict[str, ScaleEntry]]]:
         """session_scales of every patient with any: {code: {session: {scale: entry}}}."""
         with self._read() as conn:
-            rows = conn.execute(_SCALE_SELECT + " ORDER BY c.id").fetchall()
+            rows = execute(conn, _SCALE_SELECT + " ORDER BY c.id").fetchall()
         out: dict[str, dict[int, dict[str, ScaleEntry]]] = {}
         for row in rows:
             entry = _scale_from_row(row)
@@ -201,29 +204,31 @@ class Clinical(Database):
             raise InvalidRecordError("note: write something (it is empty)")
         author = _who("author", author)
         with self._write() as conn:
-            session = session_id_of(conn, self.path, code, session_number)
+            session = session_id_of(conn, self.where, code, session_number)
             if trial_id is not None:
-                trial = trial_by_id(conn, self.path, trial_id)
+                trial = trial_by_id(conn, self.where, trial_id)
                 if (trial.patient_code, trial.session_number) != (code, session_number):
                     raise InvalidRecordError(
                         f"trial {trial_id} is patient {trial.patient_code}'s session "
                         f"{trial.session_number}, not {code}'s session {session_number}")
-            cursor = conn.execute(
+            cursor = execute(conn,
                 "INSERT INTO notes (session_id, trial_id, text, author, written_at) "
-                "VALUES (?, ?, ?, ?, ?)", (session, trial_id, text, author, utc_text(utc_now())))
-            row = conn.execute(_NOTE_SELECT + " WHERE n.id = ?", (cursor.lastrowid,)).fetchone()
+                "VALUES (?, ?, ?, ?, ?) RETURNING id",
+                (session, trial_id, text, author, utc_text(utc_now())))
+            row = execute(conn, _NOTE_SELECT + " WHERE n.id = ?",
+                          (cursor.scalar_one(),)).fetchone()
         return _note_from_row(row)
 
     def notes(self, code: str, session_number: int | None = None) -> list[Note]:
         """The patient's notes (or one session's), oldest first."""
         with self._read() as conn:
             if session_number is None:
-                rows = conn.execute(_NOTE_SELECT + " WHERE s.patient_id = ? ORDER BY n.id",
-                                    (patient_id(conn, self.path, code),)).fetchall()
+                rows = execute(conn, _NOTE_SELECT + " WHERE s.patient_id = ? ORDER BY n.id",
+                                     (patient_id(conn, self.where, code),)).fetchall()
             else:
-                rows = conn.execute(_NOTE_SELECT + " WHERE n.session_id = ? ORDER BY n.id",
-                                    (session_id_of(conn, self.path, code, session_number),)
-                                    ).fetchall()
+                rows = execute(conn, _NOTE_SELECT + " WHERE n.session_id = ? ORDER BY n.id",
+                                     (session_id_of(conn, self.where, code, session_number),)
+                                     ).fetchall()
         return [_note_from_row(r) for r in rows]
 
     # -- validity ----------------------------------------------------------------------
@@ -235,7 +240,7 @@ class Clinical(Database):
         reason = _why("reason", reason)
         by = _who("by", by)
         with self._write() as conn:
-            trial = trial_by_id(conn, self.path, trial_id)
+            trial = trial_by_id(conn, self.where, trial_id)
             if trial.status == STATUS_RECORDING:
                 raise InvalidRecordError(
                     f"trial {trial_id} is still recording; mark it once it has finished")
@@ -244,19 +249,21 @@ class Clinical(Database):
                 state = "valid" if valid else f"invalid ({latest.reason})"
                 raise InvalidRecordError(f"trial {trial_id} is already {state}; nothing "
                                          "was changed")
-            cursor = conn.execute(
+            cursor = execute(conn,
                 "INSERT INTO trial_marks (trial_id, valid, reason, marked_by, marked_at) "
-                "VALUES (?, ?, ?, ?, ?)", (trial_id, int(valid), reason, by, utc_text(utc_now())))
-            row = conn.execute(_MARK_SELECT + " WHERE id = ?", (cursor.lastrowid,)).fetchone()
+                "VALUES (?, ?, ?, ?, ?) RETURNING id",
+                (trial_id, int(valid), reason, by, utc_text(utc_now())))
+            row = execute(conn, _MARK_SELECT + " WHERE id = ?",
+                          (cursor.scalar_one(),)).fetchone()
         log.info("trial %d marked %s", trial_id, "valid" if valid else "invalid")
         return _mark_from_row(row)
 
     def trial_marks(self, trial_id: int) -> list[TrialMark]:
         """A trial's validity marks, oldest first (empty: never marked, valid)."""
         with self._read() as conn:
-            trial_by_id(conn, self.path, trial_id)
-            rows = conn.execute(_MARK_SELECT + " WHERE trial_id = ? ORDER BY id",
-                                (trial_id,)).fetchall()
+            trial_by_id(conn, self.where, trial_id)
+            rows = execute(conn, _MARK_SELECT + " WHERE trial_id = ? ORDER BY id",
+                                 (trial_id,)).fetchall()
         return [_mark_from_row(r) for r in rows]
 
     def invalid_trials(self, code: str | None = None) -> dict[int, TrialMark]:
@@ -267,8 +274,8 @@ class Clinical(Database):
             if code is not None:
                 where = (" AND m.trial_id IN (SELECT t.id FROM trials t JOIN sessions s ON "
                          "s.id = t.session_id WHERE s.patient_id = ?)")
-                args = (patient_id(conn, self.path, code),)
-            rows = conn.execute(
+                args = (patient_id(conn, self.where, code),)
+            rows = execute(conn,
                 "SELECT m.id, m.trial_id, m.valid, m.reason, m.marked_by, m.marked_at "
                 "FROM trial_marks m WHERE m.valid = 0 AND m.id = (SELECT max(id) FROM "
                 "trial_marks WHERE trial_id = m.trial_id)" + where, args).fetchall()
@@ -286,7 +293,7 @@ class Clinical(Database):
         reason = _why("reason", reason)
         by = _who("by", by)
         with self._write() as conn:
-            current = patient_by_code(conn, self.path, code)
+            current = patient_by_code(conn, self.where, code)
             old = getattr(current, field)
             merged = {name: getattr(current, name) for name in _CHANGEABLE} | {field: value}
             values = _patient_values(**merged)
@@ -297,25 +304,25 @@ class Clinical(Database):
                 raise InvalidRecordError(f"patient {code}'s {field} is already {old!r}; "
                                          "nothing to correct")
             assignments = ", ".join(f"{name} = ?" for name in values)
-            conn.execute(f"UPDATE patients SET {assignments} WHERE code = ?",
-                         (*values.values(), code))
-            conn.execute(
+            execute(conn, f"UPDATE patients SET {assignments} WHERE code = ?",
+                          (*values.values(), code))
+            execute(conn,
                 "INSERT INTO corrections (patient_id, field, old_value, new_value, reason, "
                 "corrected_by, corrected_at) VALUES (?, ?, ?, ?, ?, ?, ?)",
-                (patient_id(conn, self.path, code), field, _stored(old), _stored(new), reason,
+                (patient_id(conn, self.where, code), field, _stored(old), _stored(new), reason,
                  by, utc_text(utc_now())))
-            patient = patient_by_code(conn, self.path, code)
+            patient = patient_by_code(conn, self.where, code)
         log.info("patient %s: %s corrected", code, field)
         return patient
 
     def corrections(self, code: str) -> list[Correction]:
         """The patient's corrections, oldest first: the audit trail."""
         with self._read() as conn:
-            rows = conn.execute(
+            rows = execute(conn,
                 "SELECT c.id, p.code, c.field, c.old_value, c.new_value, c.reason, "
                 "c.corrected_by, c.corrected_at FROM corrections c JOIN patients p ON "
                 "p.id = c.patient_id WHERE c.patient_id = ? ORDER BY c.id",
-                (patient_id(conn, self.path, code),)).fetchall()
+                (patient_id(conn, self.where, code),)).fetchall()
         return [Correction(r[0], r[1], r[2], json.loads(r[3]), json.loads(r[4]), r[5], r[6],
                            datetime.datetime.fromisoformat(r[7])) for r in rows]
 
@@ -325,9 +332,9 @@ def _stored(value: object) -> str:
     return json.dumps(list(value) if isinstance(value, tuple) else value)
 
 
-def _latest_mark(conn: sqlite3.Connection, trial_id: int) -> TrialMark | None:
-    row = conn.execute(_MARK_SELECT + " WHERE trial_id = ? ORDER BY id DESC LIMIT 1",
-                       (trial_id,)).fetchone()
+def _latest_mark(conn: sa.Connection, trial_id: int) -> TrialMark | None:
+    row = execute(conn, _MARK_SELECT + " WHERE trial_id = ? ORDER BY id DESC LIMIT 1",
+                        (trial_id,)).fetchone()
     return None if row is None else _mark_from_row(row)
 
 

@@ -15,42 +15,93 @@ transaction: the console that reads the next number is the one that inserts it.
 from __future__ import annotations
 
 import contextlib
+import functools
 import logging
 import os
 import sqlite3
+import weakref
 from collections.abc import Iterator
 from pathlib import Path
 
-from app.errors import RegistryError, SchemaError
+import sqlalchemy as sa
+
+from app.errors import RegistryError, RegistryUnreachable, SchemaError
 from app.records.registry import seals
 from app.records.registry.snapshot import needs_snapshot, snapshot_connection
 
 log = logging.getLogger(__package__)
 
 BUSY_TIMEOUT_S = 10.0
+CONNECT_TIMEOUT_S = 10
+"""How long a station waits for the registry's server to answer a connection: long enough
+for a busy network, short enough that a station says the server is away within seconds."""
 
 
 class Database:
-    """Connections to the registry file at `path` (set by the registry that opens it)."""
+    """Connections to the registry: the SQLite file at `path`, or the PostgreSQL server of
+    `server` (set by the registry that opens it; `path` is then None)."""
 
-    path: Path
+    path: Path | None
+    server: sa.URL | None = None
 
-    @contextlib.contextmanager
-    def _connection(self) -> Iterator[sqlite3.Connection]:
-        try:
-            conn = seals.register(sqlite3.connect(self.path, timeout=BUSY_TIMEOUT_S,
-                                                  isolation_level=None))
-        except sqlite3.Error as exc:
-            raise self._database_error(exc) from exc
+    @property
+    def where(self) -> str:
+        """The registry as messages name it: its file, or its server's URL without the
+        password."""
+        if self.server is not None:
+            return self.server.render_as_string(hide_password=True)
+        return str(self.path)
+
+    @property
+    def on_server(self) -> bool:
+        return self.server is not None
+
+    # -- the engines ---------------------------------------------------------------------
+    @functools.cached_property
+    def _writer(self) -> sa.Engine:
+        """SQLAlchemy's engine for writes: a new file connection per call (`_open`), or
+        the server's small pool."""
+        if self.server is not None:
+            engine = sa.create_engine(self.server, pool_size=2, max_overflow=6,
+                                      pool_pre_ping=True,
+                                      connect_args={"connect_timeout": CONNECT_TIMEOUT_S})
+            # the pool's connections are closed, not dropped, when the registry goes
+            weakref.finalize(self, engine.dispose)
+            return engine
+        return _sqlite_engine(self._open)
+
+    @functools.cached_property
+    def _reader_engine(self) -> sa.Engine:
+        if self.server is not None:
+            return self._writer
+        return _sqlite_engine(self._reader)
+
+    def _open(self) -> sqlite3.Connection:
+        """A connection to the registry file, as every write has it (the driver's own
+        transactions off: the registry begins its own, BEGIN IMMEDIATE)."""
+        conn = seals.register(sqlite3.connect(self.path, timeout=BUSY_TIMEOUT_S,
+                                              isolation_level=None))
         try:
             conn.execute("PRAGMA foreign_keys = ON")
             conn.execute(f"PRAGMA busy_timeout = {int(BUSY_TIMEOUT_S * 1000)}")
             conn.execute("PRAGMA synchronous = FULL")
+        except BaseException:
+            conn.close()
+            raise
+        return conn
+
+    @contextlib.contextmanager
+    def _connection(self) -> Iterator[sqlite3.Connection]:
+        """The file's own connection, for what only SQLite has (its schema's migration,
+        its backup, its integrity check); SQLite's errors as the registry's."""
+        try:
+            conn = self._open()
+        except sqlite3.Error as exc:
+            raise self._database_error(exc) from exc
+        try:
             yield conn
         except sqlite3.IntegrityError as exc:
-            raise RegistryError(
-                f"the registry refused a change ({exc}); nothing was saved. Reload and try again"
-            ) from exc
+            raise _refused(exc) from exc
         except sqlite3.Error as exc:
             raise self._database_error(exc) from exc
         except UnicodeDecodeError as exc:
@@ -59,41 +110,62 @@ class Database:
             conn.close()
 
     @contextlib.contextmanager
-    def _write(self) -> Iterator[sqlite3.Connection]:
-        """One write transaction, taken at once: BEGIN IMMEDIATE makes the read of
-        a next number and its insert atomic across processes."""
-        with self._connection() as conn:
-            conn.execute("BEGIN IMMEDIATE")
+    def _statements(self, engine: sa.Engine) -> Iterator[sa.Connection]:
+        """A SQLAlchemy connection of `engine` whose drivers' errors become the registry's
+        (the driver's own error stays the cause, as the schema's migration expects)."""
+        try:
+            with engine.connect() as conn:
+                yield conn
+        except sa.exc.DBAPIError as exc:
+            raise self._driver_error(exc) from (exc.orig or exc)
+        except UnicodeDecodeError as exc:
+            raise self._damaged(exc) from exc
+
+    # -- transactions --------------------------------------------------------------------
+    @contextlib.contextmanager
+    def _write(self) -> Iterator[sa.Connection]:
+        """One write transaction. On SQLite it is taken at once: BEGIN IMMEDIATE makes the
+        read of a next number and its insert atomic across processes. On the server it is
+        READ COMMITTED; what reads then writes locks its rows (statements.py)."""
+        if self.server is not None:
+            with self._statements(self._writer) as conn, conn.begin():
+                yield conn
+            return
+        with self._statements(self._writer) as conn:
+            raw = conn.connection.driver_connection
+            raw.execute("BEGIN IMMEDIATE")
             try:
-                sound = self._verified(conn)  # nothing is written into a damaged registry
+                sound = self._verified(raw)  # nothing is written into a damaged registry
                 yield conn
             except BaseException:
-                rollback(conn)
+                rollback(raw)
                 raise
-            conn.execute("COMMIT")
+            raw.execute("COMMIT")
         # What this transaction wrote its triggers sealed, and no one else could write
         # between the check and the commit (BEGIN IMMEDIATE held the lock): the file as it
         # is now, after the checkpoint the connection's close may have made, needs no check.
         self._still_sound(sound)
 
     @contextlib.contextmanager
-    def _read(self) -> Iterator[sqlite3.Connection]:
-        """A read transaction: several SELECTs see one snapshot."""
-        conn = self._reader()
+    def _read(self) -> Iterator[sa.Connection]:
+        """A read transaction: several SELECTs see one snapshot (on the server, REPEATABLE
+        READ)."""
+        if self.server is not None:
+            with self._statements(self._reader_engine) as conn:
+                conn = conn.execution_options(isolation_level="REPEATABLE READ")
+                with conn.begin() as transaction:
+                    yield conn
+                    transaction.rollback()  # nothing to keep
+            return
         sound = False
-        try:
-            conn.execute("BEGIN")
+        with self._statements(self._reader_engine) as conn:
+            raw = conn.connection.driver_connection
+            raw.execute("BEGIN")
             try:
-                sound = self._verified(conn)
+                sound = self._verified(raw)
                 yield conn
             finally:
-                rollback(conn)  # nothing to keep: ends the snapshot
-        except sqlite3.Error as exc:
-            raise self._database_error(exc) from exc
-        except UnicodeDecodeError as exc:
-            raise self._damaged(exc) from exc
-        finally:
-            conn.close()
+                rollback(raw)  # nothing to keep: ends the snapshot
         # a read changes nothing but what its close may checkpoint from the WAL
         self._still_sound(sound)
 
@@ -118,7 +190,7 @@ class Database:
 
     def _damaged(self, exc: Exception) -> SchemaError:
         return SchemaError(
-            f"the registry {self.path} is damaged: a stored text is not readable "
+            f"the registry {self.where} is damaged: a stored text is not readable "
             f"({' '.join(str(exc).split())}). Restore the registry from a backup (a "
             "registry.sqlite3.v*.bak beside it, or your own copy)")
 
@@ -140,14 +212,45 @@ class Database:
 
     def _snapshot(self, exc: sqlite3.Error) -> sqlite3.Connection:
         if not needs_snapshot(exc):
-            raise self._database_error(exc) from exc
+            raise exc
         try:
             conn = seals.register(snapshot_connection(self.path))
         except (OSError, sqlite3.Error):
-            raise self._database_error(exc) from exc
+            raise exc from None
         log.info("registry %s read from a copy in memory: %s (the disk is full?)",
                  self.path, exc)
         return conn
+
+    def _driver_error(self, exc: sa.exc.DBAPIError) -> RegistryError:
+        """What SQLAlchemy raised for the driver, as the registry's error."""
+        orig = exc.orig
+        if isinstance(orig, sqlite3.IntegrityError):
+            return _refused(orig)
+        if isinstance(orig, sqlite3.Error):
+            return self._database_error(orig)
+        return self._server_error(exc)
+
+    def _server_error(self, exc: sa.exc.DBAPIError) -> RegistryError:
+        reason = first_line(exc)
+        state = getattr(exc.orig, "sqlstate", None) or ""
+        if isinstance(exc, sa.exc.IntegrityError) or state.startswith("23"):
+            return RegistryError(f"the registry refused a change ({reason}); nothing was "
+                                 "saved. Reload and try again")
+        if state == "53100":  # disk_full
+            return RegistryError(f"the registry's server {self.where} cannot write: its disk "
+                                 f"is full ({reason}); nothing was saved. Ask its "
+                                 "administrator to free space, then try again")
+        if state == "42501":  # insufficient_privilege
+            return RegistryError(f"this station's login may not do that on the registry's "
+                                 f"server {self.where} ({reason}); nothing was changed. Ask "
+                                 "its administrator for the clinic role")
+        if isinstance(exc, sa.exc.OperationalError) or exc.connection_invalidated:
+            return RegistryUnreachable(
+                f"cannot reach the registry's server {self.where} ({reason}): check that "
+                "the server runs and that this station's network reaches it; nothing was "
+                "saved")
+        return RegistryError(f"the registry's server {self.where} refused ({reason}); "
+                             "nothing was saved")
 
     def _database_error(self, exc: sqlite3.Error) -> RegistryError:
         text = str(exc)
@@ -173,6 +276,11 @@ class Database:
         )
 
     # -- the whole file --------------------------------------------------------------
+    def _file_only(self, what: str, instead: str) -> None:
+        if self.server is not None:
+            raise RegistryError(f"{what} is made of a registry file; this console's registry "
+                                f"is on the server {self.where}: use {instead}")
+
     def backup(self, target: str | Path) -> Path:
         """A consistent copy of the registry (SQLite's online backup), safe while
         other consoles write: for a researcher's export or before a risky change. Written
@@ -182,6 +290,7 @@ class Database:
         the start (a copy of the patients' records: its user's only)."""
         from app.records.safewrite import OutputRefused, atomic_path
 
+        self._file_only("a copy of the registry", "pg_dump, by the server's administrator")
         with self._connection() as conn:
             try:
                 with atomic_path(target, roots=(self.path.parent,)) as temporary, \
@@ -197,7 +306,17 @@ class Database:
         return Path(os.path.abspath(target))
 
     def integrity_check(self) -> list[str]:
-        """SQLite's integrity and foreign-key checks: an empty list when sound."""
+        """SQLite's integrity and foreign-key checks: an empty list when sound. On the
+        server (which guards its own pages and keys) every row against its seal."""
+        if self.server is not None:
+            from app.records.registry.postgres import seals as server_seals
+
+            with self._read() as conn:
+                try:
+                    server_seals.verify(conn, self.where)
+                except SchemaError as exc:
+                    return [str(exc)]
+            return []
         with self._connection() as conn:
             problems = [r[0] for r in conn.execute("PRAGMA integrity_check") if r[0] != "ok"]
             problems += [f"{table} row {rowid} points to a missing {parent}"
@@ -231,3 +350,21 @@ def rollback(conn: sqlite3.Connection) -> None:
     # ROLLBACK would then raise and hide the first error.
     if conn.in_transaction:
         conn.execute("ROLLBACK")
+
+
+def _sqlite_engine(connect) -> sa.Engine:
+    """SQLAlchemy over connections `connect` makes: none kept (a connection per call, so a
+    registry may be used from several threads and holds no file open)."""
+    return sa.create_engine("sqlite+pysqlite://", creator=connect, poolclass=sa.NullPool)
+
+
+def _refused(exc: sqlite3.IntegrityError) -> RegistryError:
+    return RegistryError(
+        f"the registry refused a change ({exc}); nothing was saved. Reload and try again")
+
+
+def first_line(exc: sa.exc.DBAPIError) -> str:
+    """The driver's first line, without SQLAlchemy's statement and links."""
+    text = str(exc.orig) if exc.orig is not None else str(exc)
+    first = next((line for line in text.splitlines() if line.strip()), type(exc).__name__)
+    return " ".join(first.split())

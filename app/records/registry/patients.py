@@ -11,14 +11,16 @@ from __future__ import annotations
 import datetime
 import logging
 import secrets
-import sqlite3
 import unicodedata
 from dataclasses import dataclass
 from pathlib import Path
 
+import sqlalchemy as sa
+
 from app.errors import InvalidRecordError, PatientNotFound, RegistryError
 from app.records.datadir import CODE_ALPHABET, CODE_PATTERN
 from app.records.registry.database import Database
+from app.records.registry.statements import execute
 from app.records.registry.values import (
     NAME_MAX_CHARS,
     TEXT_MAX_CHARS,
@@ -117,17 +119,17 @@ class Patients(Database):
         with self._write() as conn:
             for _ in range(20):
                 code = new_code()
-                if not conn.execute("SELECT 1 FROM patients WHERE code = ?",
-                                    (code,)).fetchone():
+                if not execute(conn, "SELECT 1 FROM patients WHERE code = ?",
+                                     (code,)).fetchone():
                     break
             else:  # pragma: no cover - 20 collisions in 10⁹ codes
                 raise RegistryError("could not draw an unused patient code; try again")
             values["code"] = code
             columns = ", ".join(values)
             marks = ", ".join("?" * len(values))
-            conn.execute(f"INSERT INTO patients ({columns}) VALUES ({marks})",
-                         tuple(values.values()))
-            patient = patient_by_code(conn, self.path, code)
+            execute(conn, f"INSERT INTO patients ({columns}) VALUES ({marks})",
+                          tuple(values.values()))
+            patient = patient_by_code(conn, self.where, code)
         log.info("patient %s registered", code)
         return patient
 
@@ -140,24 +142,24 @@ class Patients(Database):
                 f"{', '.join(sorted(_CHANGEABLE))}"
             )
         with self._write() as conn:
-            current = patient_by_code(conn, self.path, code)
+            current = patient_by_code(conn, self.where, code)
             merged = {name: getattr(current, name) for name in _CHANGEABLE} | changes
             values = _patient_values(**merged)
             assignments = ", ".join(f"{name} = ?" for name in values)
-            conn.execute(f"UPDATE patients SET {assignments} WHERE code = ?",
-                         (*values.values(), code))
-            patient = patient_by_code(conn, self.path, code)
+            execute(conn, f"UPDATE patients SET {assignments} WHERE code = ?",
+                          (*values.values(), code))
+            patient = patient_by_code(conn, self.where, code)
         log.info("patient %s updated (%s)", code, ", ".join(sorted(changes)))
         return patient
 
     def patient(self, code: str) -> Patient:
         with self._read() as conn:
-            return patient_by_code(conn, self.path, code)
+            return patient_by_code(conn, self.where, code)
 
     def patients(self) -> list[Patient]:
         """Every patient, by last name, first name, then code."""
         with self._read() as conn:
-            rows = conn.execute(f"SELECT {', '.join(_PATIENT_COLUMNS)} FROM patients").fetchall()
+            rows = execute(conn, f"SELECT {', '.join(_PATIENT_COLUMNS)} FROM patients").fetchall()
         return sorted((_patient_from_row(r) for r in rows), key=_patient_order)
 
     def find_patients(self, first_name: str, last_name: str) -> list[Patient]:
@@ -184,10 +186,10 @@ class Patients(Database):
 
 
 # -- lookups the other tables share ---------------------------------------------------
-def patient_by_code(conn: sqlite3.Connection, registry: Path, code: str) -> Patient:
+def patient_by_code(conn: sa.Connection, registry: Path | str, code: str) -> Patient:
     """The patient with this code; PatientNotFound naming the registry file if none."""
-    row = conn.execute(f"SELECT {', '.join(_PATIENT_COLUMNS)} FROM patients WHERE code = ?",
-                       (code,)).fetchone()
+    row = execute(conn, f"SELECT {', '.join(_PATIENT_COLUMNS)} FROM patients WHERE code = ?",
+                        (code,)).fetchone()
     if row is None:
         raise PatientNotFound(
             f"no patient has the code {code!r} in the registry {registry}; search by "
@@ -196,9 +198,15 @@ def patient_by_code(conn: sqlite3.Connection, registry: Path, code: str) -> Pati
     return _patient_from_row(row)
 
 
-def patient_id(conn: sqlite3.Connection, registry: Path, code: str) -> int:
-    """The row id of the patient with this code (PatientNotFound if none)."""
-    row = conn.execute("SELECT id FROM patients WHERE code = ?", (code,)).fetchone()
+def patient_id(conn: sa.Connection, registry: Path | str, code: str, *,
+               numbering: bool = False) -> int:
+    """The row id of the patient with this code (PatientNotFound if none). `numbering`: the
+    transaction is about to number a session or trial of theirs, so on the server the
+    patient's row is locked as the server's numbering locks it (postgres/numbering.py):
+    stations registering for one patient take turns, and the next number read is the
+    one inserted. (SQLite's BEGIN IMMEDIATE already lets one writer in at a time.)"""
+    lock = " FOR NO KEY UPDATE" if numbering else ""
+    row = execute(conn, "SELECT id FROM patients WHERE code = ?" + lock, (code,)).fetchone()
     if row is None:
         patient_by_code(conn, registry, code)  # raises PatientNotFound with its message
     return row[0]

@@ -21,12 +21,14 @@ from __future__ import annotations
 
 import datetime
 import json
-import sqlite3
 from dataclasses import dataclass
+
+import sqlalchemy as sa
 
 from app.errors import InvalidRecordError, RegistryError
 from app.records.registry.database import Database
 from app.records.registry.patients import patient_id
+from app.records.registry.statements import execute
 from app.records.registry.trials import trial_by_id
 from app.records.registry.values import NAME_MAX_CHARS, checked_text, utc_now, utc_text
 from core.errors import CoreError
@@ -97,18 +99,18 @@ class Plans(Database):
         template = checked_text("template", template, NAME_MAX_CHARS)
         text = json.dumps(plan.to_dict(), allow_nan=False, sort_keys=True)
         with self._write() as conn:
-            patient = patient_id(conn, self.path, code)
+            patient = patient_id(conn, self.where, code)
             if based_on is not None:
-                row = conn.execute("SELECT patient_id, template FROM plans WHERE id = ?",
-                                   (based_on,)).fetchone()
+                row = execute(conn, "SELECT patient_id, template FROM plans WHERE id = ?",
+                                    (based_on,)).fetchone()
                 if row is None or row[0] != patient:
                     raise InvalidRecordError(f"plan {based_on} is not a plan of patient {code}")
                 template = template or row[1]
-            cursor = conn.execute(
+            cursor = execute(conn,
                 "INSERT INTO plans (patient_id, name, plan, template, based_on, created_at) "
-                "VALUES (?, ?, ?, ?, ?, ?)",
+                "VALUES (?, ?, ?, ?, ?, ?) RETURNING id",
                 (patient, plan.name, text, template, based_on, utc_text(utc_now())))
-            return _plan_by_id(conn, self.path, cursor.lastrowid)
+            return _plan_by_id(conn, self.where, cursor.scalar_one())
 
     def change_block(self, plan_id: int, index: int, block: Block) -> StoredPlan:
         """Today's change: the plan `plan_id` with block `index` (0-based) replaced, saved
@@ -122,14 +124,14 @@ class Plans(Database):
 
     def plan(self, plan_id: int) -> StoredPlan:
         with self._read() as conn:
-            return _plan_by_id(conn, self.path, plan_id)
+            return _plan_by_id(conn, self.where, plan_id)
 
     def plans_for_patient(self, code: str) -> list[StoredPlan]:
         with self._read() as conn:
-            pid = patient_id(conn, self.path, code)
-            rows = conn.execute(_PLAN_SELECT + " WHERE pl.patient_id = ? ORDER BY pl.id",
-                                (pid,)).fetchall()
-        return [_plan_from_row(r, self.path) for r in rows]
+            pid = patient_id(conn, self.where, code)
+            rows = execute(conn, _PLAN_SELECT + " WHERE pl.patient_id = ? ORDER BY pl.id",
+                                 (pid,)).fetchall()
+        return [_plan_from_row(r, self.where) for r in rows]
 
     def current_plan(self, code: str) -> StoredPlan | None:
         """The patient's latest plan (today's, once changed for today), None if none."""
@@ -140,10 +142,11 @@ class Plans(Database):
     def begin_plan_run(self, plan_id: int) -> int:
         """A run of plan `plan_id` begins (status running); its id."""
         with self._write() as conn:
-            _plan_by_id(conn, self.path, plan_id)
-            cursor = conn.execute("INSERT INTO plan_runs (plan_id, started_at, status) "
-                                  "VALUES (?, ?, 'running')", (plan_id, utc_text(utc_now())))
-            return cursor.lastrowid
+            _plan_by_id(conn, self.where, plan_id)
+            cursor = execute(conn, "INSERT INTO plan_runs (plan_id, started_at, status) "
+                                   "VALUES (?, ?, 'running') RETURNING id",
+                                   (plan_id, utc_text(utc_now())))
+            return cursor.scalar_one()
 
     def record_plan_trial(self, run_id: int, block: int, round_: int, trial_id: int,
                           planned_s: float) -> PlanStep:
@@ -163,23 +166,23 @@ class Plans(Database):
                     value, int | float) or not 0.0 <= value < 1e6):
                 raise InvalidRecordError(f"{name} {value!r}: give seconds from 0")
         with self._write() as conn:
-            run = _run_row(conn, self.path, run_id)
+            run = _run_row(conn, self.where, run_id)
             if run[5] != "running" and kind != "trial":
                 # a trial the loop started as the run ended (a Stop pressed while it was
                 # starting) still belongs to it; nothing else comes after its end
                 raise RegistryError(f"plan run {run_id} has ended ({run[5]}); it takes no "
                                     "more steps")
-            plan = _plan_by_id(conn, self.path, run[1]).plan
+            plan = _plan_by_id(conn, self.where, run[1]).plan
             if not isinstance(block, int) or not 1 <= block <= len(plan.blocks):
                 raise InvalidRecordError(f"block {block!r}: plan {run[1]} has blocks 1–"
                                          f"{len(plan.blocks)}")
             if trial_id is not None:
-                trial_by_id(conn, self.path, trial_id)
-            step = conn.execute("SELECT coalesce(max(step), 0) + 1 FROM plan_steps WHERE "
-                                "run_id = ?", (run_id,)).fetchone()[0]
-            conn.execute("INSERT INTO plan_steps (run_id, step, block, round, kind, trial_id, "
-                         "planned_s, taken_s) VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
-                         (run_id, step, block, round_, kind, trial_id, float(planned_s),
+                trial_by_id(conn, self.where, trial_id)
+            step = execute(conn, "SELECT coalesce(max(step), 0) + 1 FROM plan_steps WHERE "
+                                 "run_id = ?", (run_id,)).fetchone()[0]
+            execute(conn, "INSERT INTO plan_steps (run_id, step, block, round, kind, trial_id, "
+                          "planned_s, taken_s) VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                          (run_id, step, block, round_, kind, trial_id, float(planned_s),
                           None if taken_s is None else float(taken_s)))
         return PlanStep(step, block, round_, kind, trial_id, float(planned_s),
                         None if taken_s is None else float(taken_s))
@@ -191,11 +194,11 @@ class Plans(Database):
                                      f"{', '.join(RUN_ENDS)}")
         reason = checked_text("reason", reason, 2000)
         with self._write() as conn:
-            run = _run_row(conn, self.path, run_id)
+            run = _run_row(conn, self.where, run_id)
             if run[5] != "running":
                 raise RegistryError(f"plan run {run_id} already ended ({run[5]})")
-            conn.execute("UPDATE plan_runs SET status = ?, end_reason = ?, ended_at = ? "
-                         "WHERE id = ?", (status, reason, utc_text(utc_now()), run_id))
+            execute(conn, "UPDATE plan_runs SET status = ?, end_reason = ?, ended_at = ? "
+                          "WHERE id = ?", (status, reason, utc_text(utc_now()), run_id))
         return self.plan_run(run_id)
 
     def interrupt_runs(self) -> list[int]:
@@ -203,34 +206,34 @@ class Plans(Database):
         marked interrupted; their ids. The console calls it at its start, when no run of
         its own can be going."""
         with self._write() as conn:
-            ids = [r[0] for r in conn.execute(
+            ids = [r[0] for r in execute(conn,
                 "SELECT id FROM plan_runs WHERE status = 'running'").fetchall()]
-            conn.execute("UPDATE plan_runs SET status = 'interrupted', ended_at = ?, "
-                         "end_reason = 'the console ended during the plan' WHERE status = "
-                         "'running'", (utc_text(utc_now()),))
+            execute(conn, "UPDATE plan_runs SET status = 'interrupted', ended_at = ?, "
+                          "end_reason = 'the console ended during the plan' WHERE status = "
+                          "'running'", (utc_text(utc_now()),))
         return ids
 
     def plan_run(self, run_id: int) -> PlanRun:
         with self._read() as conn:
-            return _run(conn, self.path, run_id)
+            return _run(conn, self.where, run_id)
 
     def plan_runs_for_patient(self, code: str) -> list[PlanRun]:
         with self._read() as conn:
-            pid = patient_id(conn, self.path, code)
-            ids = [r[0] for r in conn.execute(
+            pid = patient_id(conn, self.where, code)
+            ids = [r[0] for r in execute(conn,
                 "SELECT r.id FROM plan_runs r JOIN plans pl ON pl.id = r.plan_id WHERE "
                 "pl.patient_id = ? ORDER BY r.id", (pid,)).fetchall()]
-            return [_run(conn, self.path, i) for i in ids]
+            return [_run(conn, self.where, i) for i in ids]
 
     def plan_step_of_trial(self, trial_id: int) -> tuple[int, PlanStep] | None:
         """(run id, step) of the plan run trial `trial_id` belongs to, None if none."""
         with self._read() as conn:
-            row = conn.execute(_STEP_SELECT + " WHERE trial_id = ?", (trial_id,)).fetchone()
+            row = execute(conn, _STEP_SELECT + " WHERE trial_id = ?", (trial_id,)).fetchone()
         return None if row is None else (row[0], _step_from_row(row[1:]))
 
-    def _trial_withdrawn(self, conn: sqlite3.Connection, trial_id: int) -> None:
+    def _trial_withdrawn(self, conn: sa.Connection, trial_id: int) -> None:
         """A withdrawn trial never ran: its step goes with it."""
-        conn.execute("DELETE FROM plan_steps WHERE trial_id = ?", (trial_id,))
+        execute(conn, "DELETE FROM plan_steps WHERE trial_id = ?", (trial_id,))
         super()._trial_withdrawn(conn, trial_id)
 
 
@@ -240,8 +243,8 @@ _STEP_SELECT = ("SELECT run_id, step, block, round, kind, trial_id, planned_s, t
                 "FROM plan_steps")
 
 
-def _plan_by_id(conn: sqlite3.Connection, registry, plan_id: int) -> StoredPlan:
-    row = conn.execute(_PLAN_SELECT + " WHERE pl.id = ?", (plan_id,)).fetchone()
+def _plan_by_id(conn: sa.Connection, registry, plan_id: int) -> StoredPlan:
+    row = execute(conn, _PLAN_SELECT + " WHERE pl.id = ?", (plan_id,)).fetchone()
     if row is None:
         raise InvalidRecordError(f"no plan {plan_id!r} in the registry {registry}; "
                                  "`rehab plan show CODE` lists a patient's plans")
@@ -258,20 +261,20 @@ def _plan_from_row(row: tuple, registry) -> StoredPlan:
                       datetime.datetime.fromisoformat(row[5]))
 
 
-def _run_row(conn: sqlite3.Connection, registry, run_id: int) -> tuple:
-    row = conn.execute("SELECT r.id, r.plan_id, p.code, r.started_at, r.ended_at, r.status, "
-                       "r.end_reason FROM plan_runs r JOIN plans pl ON pl.id = r.plan_id "
-                       "JOIN patients p ON p.id = pl.patient_id WHERE r.id = ?",
-                       (run_id,)).fetchone()
+def _run_row(conn: sa.Connection, registry, run_id: int) -> tuple:
+    row = execute(conn, "SELECT r.id, r.plan_id, p.code, r.started_at, r.ended_at, r.status, "
+                        "r.end_reason FROM plan_runs r JOIN plans pl ON pl.id = r.plan_id "
+                        "JOIN patients p ON p.id = pl.patient_id WHERE r.id = ?",
+                        (run_id,)).fetchone()
     if row is None:
         raise InvalidRecordError(f"no plan run {run_id!r} in the registry {registry}")
     return row
 
 
-def _run(conn: sqlite3.Connection, registry, run_id: int) -> PlanRun:
+def _run(conn: sa.Connection, registry, run_id: int) -> PlanRun:
     row = _run_row(conn, registry, run_id)
-    steps = conn.execute(_STEP_SELECT + " WHERE run_id = ? ORDER BY step",
-                         (run_id,)).fetchall()
+    steps = execute(conn, _STEP_SELECT + " WHERE run_id = ? ORDER BY step",
+                          (run_id,)).fetchall()
     return PlanRun(row[0], row[1], row[2], datetime.datetime.fromisoformat(row[3]),
                    None if row[4] is None else datetime.datetime.fromisoformat(row[4]),
                    row[5], row[6], tuple(_step_from_row(s[1:]) for s in steps))

@@ -21,12 +21,14 @@ from __future__ import annotations
 import datetime
 import json
 import math
-import sqlite3
 from dataclasses import dataclass
+
+import sqlalchemy as sa
 
 from app.errors import InvalidRecordError
 from app.records.registry.database import Database
 from app.records.registry.patients import patient_id
+from app.records.registry.statements import execute
 from app.records.registry.trials import trial_by_id
 from core.errors import CoreError
 from core.trial import TrialParameters
@@ -56,25 +58,30 @@ class Proposals(Database):
         text = json.dumps(proposal, allow_nan=False, sort_keys=True)
         now = _now()
         with self._write() as conn:
-            trial_by_id(conn, self.path, trial_id)  # refuses an unknown trial
-            row = conn.execute("SELECT decision FROM proposals WHERE trial_id = ?",
-                               (trial_id,)).fetchone()
-            if row is not None and row[0] != "pending":
+            trial_by_id(conn, self.where, trial_id)  # refuses an unknown trial
+            row = execute(conn, "SELECT decision FROM proposals WHERE trial_id = ? FOR UPDATE",
+                          (trial_id,)).fetchone()
+            if row is None:
+                execute(conn, "INSERT INTO proposals (trial_id, proposal, proposed_at) "
+                              "VALUES (?, ?, ?)", (trial_id, text, now))
+            elif row[0] == "pending":  # a pending proposal is replaced whole
+                execute(conn, "UPDATE proposals SET proposal = ?, proposed_at = ?, "
+                              "decision = 'pending', next_trial_id = NULL, decided_at = NULL "
+                              "WHERE trial_id = ?", (text, now, trial_id))
+            else:
                 raise InvalidRecordError(
                     f"trial {trial_id}'s proposal was already {row[0]}; it is kept as it was")
-            conn.execute("INSERT OR REPLACE INTO proposals (trial_id, proposal, proposed_at) "
-                         "VALUES (?, ?, ?)", (trial_id, text, now))
         return self.proposal(trial_id)
 
     def proposal(self, trial_id: int) -> StoredProposal | None:
         with self._read() as conn:
-            row = conn.execute(_SELECT + " WHERE trial_id = ?", (trial_id,)).fetchone()
+            row = execute(conn, _SELECT + " WHERE trial_id = ?", (trial_id,)).fetchone()
         return None if row is None else _stored(row)
 
     def proposals_for_patient(self, code: str) -> list[StoredProposal]:
         with self._read() as conn:
-            pid = patient_id(conn, self.path, code)
-            rows = conn.execute(
+            pid = patient_id(conn, self.where, code)
+            rows = execute(conn,
                 _SELECT + " WHERE trial_id IN (SELECT t.id FROM trials t JOIN sessions s "
                 "ON s.id = t.session_id WHERE s.patient_id = ?) ORDER BY trial_id",
                 (pid,)).fetchall()
@@ -84,17 +91,17 @@ class Proposals(Database):
         """The proposal waiting for the patient's next trial (the one the next Start
         decides), None when none waits: what the window offers again after a restart."""
         with self._read() as conn:
-            row = conn.execute(_PENDING, (patient_id(conn, self.path, code), -1)).fetchone()
+            row = execute(conn, _PENDING, (patient_id(conn, self.where, code), -1)).fetchone()
         return None if row is None else _stored(row)
 
-    def _trial_withdrawn(self, conn: sqlite3.Connection, trial_id: int) -> None:
+    def _trial_withdrawn(self, conn: sa.Connection, trial_id: int) -> None:
         """A trial withdrawn (Trials.withdraw_trial) never ran: the proposal it decided is
         pending again, and one made after it goes with it."""
-        conn.execute("UPDATE proposals SET decision = 'pending', next_trial_id = NULL, "
-                     "decided_at = NULL WHERE next_trial_id = ?", (trial_id,))
-        conn.execute("DELETE FROM proposals WHERE trial_id = ?", (trial_id,))
+        execute(conn, "UPDATE proposals SET decision = 'pending', next_trial_id = NULL, "
+                      "decided_at = NULL WHERE next_trial_id = ?", (trial_id,))
+        execute(conn, "DELETE FROM proposals WHERE trial_id = ?", (trial_id,))
 
-    def _trial_begun(self, conn: sqlite3.Connection, patient: int, trial_id: int,
+    def _trial_begun(self, conn: sa.Connection, patient: int, trial_id: int,
                      parameters: dict) -> None:
         """At Start, in begin_trial's transaction (Trials._trial_begun): the patient's
         pending proposal decided by the parameters the new trial started with. An
@@ -103,14 +110,14 @@ class Proposals(Database):
         exercise."""
         if parameters.get("assessment"):
             return
-        row = conn.execute(_PENDING, (patient, trial_id)).fetchone()
+        row = execute(conn, _PENDING, (patient, trial_id)).fetchone()
         if row is None:
             return
         stored = _stored(row)
-        before = trial_by_id(conn, self.path, stored.trial_id).trial_parameters()
+        before = trial_by_id(conn, self.where, stored.trial_id).trial_parameters()
         decision = _decision(stored.proposal, before, TrialParameters.from_dict(parameters))
-        conn.execute("UPDATE proposals SET decision = ?, next_trial_id = ?, decided_at = ? "
-                     "WHERE trial_id = ?", (decision, trial_id, _now(), stored.trial_id))
+        execute(conn, "UPDATE proposals SET decision = ?, next_trial_id = ?, decided_at = ? "
+                      "WHERE trial_id = ?", (decision, trial_id, _now(), stored.trial_id))
 
 
 _SELECT = ("SELECT trial_id, proposal, decision, next_trial_id, proposed_at, decided_at "
@@ -120,7 +127,7 @@ _INVALID = ("SELECT m.trial_id FROM trial_marks m WHERE m.valid = 0 AND m.id = "
 _PENDING = (_SELECT + f" WHERE (decision = 'pending' OR next_trial_id IN ({_INVALID})) "
             "AND trial_id IN (SELECT t.id FROM trials t JOIN sessions s ON "
             "s.id = t.session_id WHERE s.patient_id = ? AND t.id != ? "
-            "AND coalesce(json_extract(t.parameters, '$.assessment'), '') = '') "
+            "AND coalesce(json_text(t.parameters, 'assessment'), '') = '') "
             f"AND trial_id NOT IN ({_INVALID}) ORDER BY trial_id DESC LIMIT 1")
 """The patient's pending proposal (patient id, a trial id to leave out): the latest of an
 exercise trial not marked invalid (schema v8) that no trial decided, or that a trial since

@@ -17,6 +17,7 @@ from app.records.assistance import AssistanceInEffect
 from app.records.registry.clinical import INVALID_MARKS, LATEST_MARK
 from app.records.registry.database import Database
 from app.records.registry.patients import patient_id
+from app.records.registry.statements import execute
 from app.records.registry.trials import (
     KEY_PARAMETERS,
     TRIAL_SELECT,
@@ -30,12 +31,13 @@ from device.recording.trialfile import STATUS_RECORDING, STATUSES
 
 _ALL_STATUSES = (STATUS_RECORDING, *STATUSES)
 
-# SQLite extracts the few parameters that matter: parsing every trial's whole
-# parameter object in Python was a fifth of the progress query's time.
+# The engine extracts the few parameters that matter (statements.py: json_value):
+# parsing every trial's whole parameter object in Python was a fifth of the progress
+# query's time.
 _SUMMARY_SELECT = f"""
     SELECT t.id, s.number, s.date, t.number, t.status, t.started_at, t.file,
-           {", ".join(f"json_extract(t.parameters, '$.{name}')" for name in KEY_PARAMETERS)},
-           coalesce(json_extract(t.parameters, '$.assist'), 'thesis'), t.assistance,
+           {", ".join(f"json_value(t.parameters, '{name}')" for name in KEY_PARAMETERS)},
+           coalesce(json_text(t.parameters, 'assist'), 'thesis'), t.assistance,
            t.metrics
     FROM trials t
     JOIN sessions s ON s.id = t.session_id
@@ -77,11 +79,11 @@ class Queries(Database):
         Trials marked invalid (app.records.registry.clinical) are left out unless
         `include_invalid`; then their `invalid_reason` says why."""
         with self._read() as conn:
-            rows = conn.execute(_SUMMARY_SELECT, (patient_id(conn, self.path, code),)
-                                ).fetchall()
+            rows = execute(conn, _SUMMARY_SELECT, (patient_id(conn, self.where, code),)
+                                 ).fetchall()
             # the marks are few: read apart and looked up, the query costs what it did
             # before schema v8 (a subquery per trial added a third to it)
-            invalid = dict(conn.execute(INVALID_MARKS).fetchall())
+            invalid = dict(execute(conn, INVALID_MARKS).fetchall())
         if invalid and not include_invalid:
             rows = [r for r in rows if r[0] not in invalid]
         if not rows:
@@ -127,8 +129,8 @@ class Queries(Database):
                 f"status(es) {', '.join(unknown)}: give any of {', '.join(_ALL_STATUSES)}"
             )
         with self._read() as conn:
-            trial = trial_by_id(conn, self.path, trial_id)
-            patient = patient_id(conn, self.path, trial.patient_code)
+            trial = trial_by_id(conn, self.where, trial_id)
+            patient = patient_id(conn, self.where, trial.patient_code)
             if earlier_session:
                 before = "s.number < ?"
                 args: tuple = (trial.session_number,)
@@ -136,7 +138,7 @@ class Queries(Database):
                 before = "(s.number < ? OR (s.number = ? AND t.number < ?))"
                 args = (trial.session_number, trial.session_number, trial.number)
             marks = ", ".join("?" * len(statuses)) or "NULL"
-            rows = conn.execute(
+            rows = execute(conn,
                 TRIAL_SELECT + f" WHERE s.patient_id = ? AND {before} AND t.status IN ({marks})"
                 + ("" if include_invalid else f" AND {LATEST_MARK} IS NULL")
                 +

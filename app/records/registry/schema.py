@@ -21,8 +21,9 @@ from pathlib import Path
 
 from app.errors import RegistryError, SchemaError
 from app.records.datadir import ENV_DATA_DIR, DataDir, foreign_entries
-from app.records.registry import seals
+from app.records.registry import numbering, seals
 from app.records.registry.database import Database, rollback
+from app.records.registry.postgres import registry_version
 from app.records.registry.snapshot import needs_snapshot
 from app.records.safewrite import OutputRefused, atomic_output, atomic_path, folded
 
@@ -228,6 +229,7 @@ MIGRATIONS: tuple[tuple[int, tuple[str, ...]], ...] = (
     (6, MIGRATE_V5_TO_V6),
     (7, MIGRATE_V6_TO_V7),
     (8, MIGRATE_V7_TO_V8),
+    (9, numbering.SQLITE_V9),
 )
 SCHEMA_VERSION = MIGRATIONS[-1][0]
 
@@ -237,9 +239,14 @@ class Schema(Database):
 
     def schema_version(self) -> int:
         with self._read() as conn:
-            return conn.execute("PRAGMA user_version").fetchone()[0]
+            if self.on_server:
+                return registry_version(conn) or 0
+            return conn.exec_driver_sql("PRAGMA user_version").scalar_one()
 
     def _migrate(self) -> None:
+        if self.on_server:
+            self._check_server()
+            return
         try:
             self._bring_up_to_date()
         except RegistryError as exc:
@@ -299,9 +306,23 @@ class Schema(Database):
                 raise
             conn.execute("COMMIT")
 
+    def _check_server(self) -> None:
+        """A server's registry is created and migrated by its owner (`rehab db upgrade`),
+        never by a station opening it: a station only checks that it is today's."""
+        version = self.schema_version()
+        if version == SCHEMA_VERSION:
+            return
+        if version > SCHEMA_VERSION:
+            raise self._too_new(version)
+        state = "holds no registry" if version == 0 else f"holds a registry of schema v{version}"
+        raise SchemaError(
+            f"the database {self.where} {state}; this console needs schema "
+            f"v{SCHEMA_VERSION}: its owner runs `rehab db upgrade` (README, \"Several "
+            "stations\")")
+
     def _too_new(self, version: int) -> SchemaError:
         return SchemaError(
-            f"the registry {self.path} has schema v{version}, written by a newer console; "
+            f"the registry {self.where} has schema v{version}, written by a newer console; "
             f"this one reads up to v{SCHEMA_VERSION}. Update the console"
         )
 

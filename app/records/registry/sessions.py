@@ -10,13 +10,16 @@ from __future__ import annotations
 
 import datetime
 import logging
-import sqlite3
 from dataclasses import dataclass
 from pathlib import Path
 
-from app.errors import DuplicateNumberError, InvalidRecordError, SessionNotFound
+import sqlalchemy as sa
+
+from app.errors import InvalidRecordError, SessionNotFound
 from app.records.registry.database import Database
+from app.records.registry.numbering import refuse_number
 from app.records.registry.patients import patient_id
+from app.records.registry.statements import execute
 from app.records.registry.values import (
     NAME_MAX_CHARS,
     TEXT_MAX_CHARS,
@@ -54,7 +57,7 @@ class Sessions(Database):
 
     def next_session_number(self, code: str) -> int:
         with self._read() as conn:
-            return next_session_number_of(conn, patient_id(conn, self.path, code))
+            return next_session_number_of(conn, patient_id(conn, self.where, code))
 
     def open_session(
         self,
@@ -66,26 +69,26 @@ class Sessions(Database):
         location: str = "",
         notes: str = "",
     ) -> Session:
-        """Start a new session for the patient: `number` defaults to the next one;
-        a number already used is refused, naming the next free one."""
+        """Start a new session for the patient: `number` defaults to the next one; any
+        other is refused (used, or it would leave a gap: numbering.py), naming the next."""
         date = date or datetime.date.today()
         with self._write() as conn:
-            patient = patient_id(conn, self.path, code)
+            patient = patient_id(conn, self.where, code, numbering=True)
+            free = next_session_number_of(conn, patient)
             if number is None:
-                number = next_session_number_of(conn, patient)
+                number = free
             else:
                 check_number("session number", number)
-                taken = conn.execute(
+            if number != free:
+                taken = execute(conn,
                     "SELECT date FROM sessions WHERE patient_id = ? AND number = ?",
                     (patient, number),
                 ).fetchone()
-                if taken:
-                    free = next_session_number_of(conn, patient)
-                    raise DuplicateNumberError(
-                        f"patient {code} already has a session {number} (on {taken[0]}); "
-                        f"use {free}, the next free number, or continue session {number} by "
-                        "registering a trial in it"
-                    )
+                raise refuse_number(
+                    "session", number, free, whose=f"patient {code}",
+                    used_on=datetime.date.fromisoformat(taken[0]) if taken else None,
+                    advice=(f", or continue session {number} by registering a trial in it"
+                            if taken else ""))
             session_id = insert_session(conn, patient, number, date, therapist, location, notes)
             session = _session_by_id(conn, session_id)
         log.info("patient %s: session %d opened", code, number)
@@ -108,32 +111,32 @@ class Sessions(Database):
             else:
                 values[name] = checked_text(f"session {name}", value, TEXT_MAX_CHARS)
         with self._write() as conn:
-            session_id = session_id_of(conn, self.path, code, number)
+            session_id = session_id_of(conn, self.where, code, number)
             if values:
                 assignments = ", ".join(f"{name} = ?" for name in values)
-                conn.execute(f"UPDATE sessions SET {assignments} WHERE id = ?",
-                             (*values.values(), session_id))
+                execute(conn, f"UPDATE sessions SET {assignments} WHERE id = ?",
+                              (*values.values(), session_id))
             return _session_by_id(conn, session_id)
 
     def session(self, code: str, number: int) -> Session:
         with self._read() as conn:
-            return _session_by_id(conn, session_id_of(conn, self.path, code, number))
+            return _session_by_id(conn, session_id_of(conn, self.where, code, number))
 
     def sessions(self, code: str) -> list[Session]:
         """The patient's sessions by number."""
         with self._read() as conn:
-            patient = patient_id(conn, self.path, code)
-            rows = conn.execute(_SESSION_SELECT + " WHERE s.patient_id = ? ORDER BY s.number",
-                                (patient,)).fetchall()
+            patient = patient_id(conn, self.where, code)
+            rows = execute(conn, _SESSION_SELECT + " WHERE s.patient_id = ? ORDER BY s.number",
+                                 (patient,)).fetchall()
         return [_session_from_row(r) for r in rows]
 
 
 # -- shared with the trials ------------------------------------------------------------
-def session_id_of(conn: sqlite3.Connection, registry: Path, code: str, number: int) -> int:
+def session_id_of(conn: sa.Connection, registry: Path, code: str, number: int) -> int:
     """The row id of the patient's session `number` (SessionNotFound if none)."""
     patient = patient_id(conn, registry, code)
-    row = conn.execute("SELECT id FROM sessions WHERE patient_id = ? AND number = ?",
-                       (patient, number)).fetchone()
+    row = execute(conn, "SELECT id FROM sessions WHERE patient_id = ? AND number = ?",
+                        (patient, number)).fetchone()
     if row is None:
         raise SessionNotFound(
             f"patient {code} has no session {number}; their sessions are listed by "
@@ -142,30 +145,30 @@ def session_id_of(conn: sqlite3.Connection, registry: Path, code: str, number: i
     return row[0]
 
 
-def next_session_number_of(conn: sqlite3.Connection, patient: int) -> int:
+def next_session_number_of(conn: sa.Connection, patient: int) -> int:
     """The number after the patient's highest session number (1 for the first)."""
-    row = conn.execute("SELECT max(number) FROM sessions WHERE patient_id = ?",
-                       (patient,)).fetchone()
+    row = execute(conn, "SELECT max(number) FROM sessions WHERE patient_id = ?",
+                        (patient,)).fetchone()
     return (row[0] or 0) + 1
 
 
-def insert_session(conn: sqlite3.Connection, patient: int, number: int,
+def insert_session(conn: sa.Connection, patient: int, number: int,
                    date: datetime.date, therapist: str, location: str, notes: str) -> int:
     """Insert a session row (number already checked); returns its id."""
     if not isinstance(date, datetime.date):
         raise InvalidRecordError(f"session date {date!r}: give a datetime.date")
-    cursor = conn.execute(
+    cursor = execute(conn,
         "INSERT INTO sessions (patient_id, number, date, therapist, location, notes) "
-        "VALUES (?, ?, ?, ?, ?, ?)",
+        "VALUES (?, ?, ?, ?, ?, ?) RETURNING id",
         (patient, number, date.isoformat(), checked_text("therapist", therapist, NAME_MAX_CHARS),
          checked_text("location", location, NAME_MAX_CHARS),
          checked_text("notes", notes, TEXT_MAX_CHARS)),
     )
-    return cursor.lastrowid
+    return cursor.scalar_one()
 
 
-def _session_by_id(conn: sqlite3.Connection, session_id: int) -> Session:
-    row = conn.execute(_SESSION_SELECT + " WHERE s.id = ?", (session_id,)).fetchone()
+def _session_by_id(conn: sa.Connection, session_id: int) -> Session:
+    row = execute(conn, _SESSION_SELECT + " WHERE s.id = ?", (session_id,)).fetchone()
     return _session_from_row(row)
 
 

@@ -16,21 +16,24 @@ import datetime
 import json
 import logging
 import math
-import sqlite3
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
-from app.errors import DuplicateNumberError, InvalidRecordError, RegistryError, TrialNotFound
+import sqlalchemy as sa
+
+from app.errors import InvalidRecordError, RegistryError, TrialNotFound
 from app.records.assistance import AssistanceInEffect
 from app.records.datadir import TRIALS, DataDir
 from app.records.registry.database import Database
+from app.records.registry.numbering import refuse_number
 from app.records.registry.patients import is_code, patient_id
 from app.records.registry.sessions import (
     insert_session,
     next_session_number_of,
     session_id_of,
 )
+from app.records.registry.statements import execute
 from app.records.registry.values import (
     NAME_MAX_CHARS,
     aware,
@@ -151,14 +154,14 @@ class Trials(Database):
         patient's latest session is today, else trial 1 of the next session."""
         today = today or datetime.date.today()
         with self._read() as conn:
-            return _suggest(conn, code, patient_id(conn, self.path, code), today)
+            return _suggest(conn, code, patient_id(conn, self.where, code), today)
 
     def next_trial_number(self, code: str, session_number: int) -> int:
         """The next trial number in a session (1 when the session does not exist yet)."""
         with self._read() as conn:
-            patient = patient_id(conn, self.path, code)
-            row = conn.execute("SELECT id FROM sessions WHERE patient_id = ? AND number = ?",
-                               (patient, session_number)).fetchone()
+            patient = patient_id(conn, self.where, code)
+            row = execute(conn, "SELECT id FROM sessions WHERE patient_id = ? AND number = ?",
+                                (patient, session_number)).fetchone()
             return 1 if row is None else _next_trial_number_in(conn, row[0])
 
     def begin_trial(
@@ -177,11 +180,11 @@ class Trials(Database):
         """Register a trial as it starts (status 'recording') and return its id and file.
 
         `session_number` None: today's session if the latest is today, else a new
-        one. A session number that does not exist yet opens that session (dated
-        the start's local day, with `therapist` and `location`). `trial_number`
-        None: the next in the session; a number already used raises
-        DuplicateNumberError naming the next free one. `patient_kind` names the
-        virtual patient of a simulated trial.
+        one. The patient's next session number opens that session (dated the start's
+        local day, with `therapist` and `location`). `trial_number` None: the next in
+        the session. A number that is not the next (used, or it would leave a gap)
+        raises DuplicateNumberError naming the next free one (numbering.py).
+        `patient_kind` names the virtual patient of a simulated trial.
         """
         started_at = aware(started_at or utc_now(), "started_at")
         params = parameters_dict(parameters)
@@ -204,40 +207,41 @@ class Trials(Database):
             self.data_dir.ensure(TRIALS, code)
         local_day = started_at.astimezone().date()
         with self._write() as conn:
-            patient = patient_id(conn, self.path, code)
+            patient = patient_id(conn, self.where, code, numbering=True)
             if session_number is None:
                 session_number = _suggest(conn, code, patient, local_day).session_number
-            row = conn.execute("SELECT id FROM sessions WHERE patient_id = ? AND number = ?",
-                               (patient, session_number)).fetchone()
+            row = execute(conn, "SELECT id FROM sessions WHERE patient_id = ? AND number = ?",
+                                (patient, session_number)).fetchone()
             if row is None:
+                next_session = next_session_number_of(conn, patient)
+                if session_number != next_session:
+                    raise refuse_number("session", session_number, next_session,
+                                        whose=f"patient {code}", used_on=None)
                 session_id = insert_session(conn, patient, session_number, local_day,
                                             therapist, location, "")
                 log.info("patient %s: session %d opened", code, session_number)
             else:
                 session_id = row[0]
+            free = _next_trial_number_in(conn, session_id)
             if trial_number is None:
-                trial_number = _next_trial_number_in(conn, session_id)
-            else:
-                taken = conn.execute(
+                trial_number = free
+            elif trial_number != free:
+                taken = execute(conn,
                     "SELECT started_at FROM trials WHERE session_id = ? AND number = ?",
                     (session_id, trial_number),
                 ).fetchone()
-                if taken:
-                    free = _next_trial_number_in(conn, session_id)
-                    when = datetime.datetime.fromisoformat(taken[0]).astimezone()
-                    raise DuplicateNumberError(
-                        f"patient {code} session {session_number} already has a trial "
-                        f"{trial_number} (started {when:%d %b %Y %H:%M}); use {free}, the "
-                        "next free number"
-                    )
+                raise refuse_number(
+                    "trial", trial_number, free, whose=f"patient {code} session {session_number}",
+                    used_on=datetime.datetime.fromisoformat(taken[0]) if taken else None)
             file = self.data_dir.trial_file(code, session_number, trial_number, started_at)
-            cursor = conn.execute(
+            cursor = execute(conn,
                 "INSERT INTO trials (session_id, number, parameters, file, metrics, status, "
-                "started_at, backend, patient_kind) VALUES (?, ?, ?, ?, '{}', ?, ?, ?, ?)",
+                "started_at, backend, patient_kind) VALUES (?, ?, ?, ?, '{}', ?, ?, ?, ?) "
+                "RETURNING id",
                 (session_id, trial_number, json.dumps(params), file, STATUS_RECORDING,
                  utc_text(started_at), backend, patient_kind),
             )
-            trial_id = cursor.lastrowid
+            trial_id = cursor.scalar_one()
             self._trial_begun(conn, patient, trial_id, params)
         log.info("trial %d registered: patient %s session %d trial %d (%s)",
                  trial_id, code, session_number, trial_number, backend)
@@ -249,19 +253,19 @@ class Trials(Database):
         run refused for lack of disk space, say): the registry keeps only trials that
         exist. Refused for a finished trial or one whose file exists."""
         with self._write() as conn:
-            trial = trial_by_id(conn, self.path, trial_id)
+            trial = trial_by_id(conn, self.where, trial_id)
             if trial.finished or self.data_dir.resolve(trial.file).exists():
                 raise RegistryError(
                     f"trial {trial_id} has its file or has finished; it stays registered")
             self._trial_withdrawn(conn, trial_id)
-            conn.execute("DELETE FROM trials WHERE id = ?", (trial_id,))
+            execute(conn, "DELETE FROM trials WHERE id = ?", (trial_id,))
         log.warning("trial %d withdrawn, its file was never written: %s", trial_id, why)
 
-    def _trial_withdrawn(self, conn: sqlite3.Connection, trial_id: int) -> None:
+    def _trial_withdrawn(self, conn: sa.Connection, trial_id: int) -> None:
         """Called in withdraw_trial's transaction before the trial's row goes (the
         proposals it decided go back to pending: app.records.registry.proposals)."""
 
-    def _trial_begun(self, conn: sqlite3.Connection, patient: int, trial_id: int,
+    def _trial_begun(self, conn: sa.Connection, patient: int, trial_id: int,
                      parameters: dict) -> None:
         """Called in begin_trial's transaction once the trial is inserted; the registry's
         proposals decide the patient's pending one here (app.records.registry.proposals)."""
@@ -293,7 +297,7 @@ class Trials(Database):
         if backend is not None:
             backend = checked_text("backend", backend, NAME_MAX_CHARS) or None
         with self._write() as conn:
-            trial = trial_by_id(conn, self.path, trial_id)
+            trial = trial_by_id(conn, self.where, trial_id)
             if trial.finished:
                 raise RegistryError(
                     f"trial {trial_id} was already finished ({trial.status} at "
@@ -304,12 +308,12 @@ class Trials(Database):
                     f"trial {trial_id} would end at {ended_at.isoformat()}, before it started "
                     f"({trial.started_at.isoformat()}): check the computer's clock"
                 )
-            conn.execute("UPDATE trials SET status = ?, metrics = ?, ended_at = ?, "
-                         "end_reason = ?, assistance = ?, backend = coalesce(?, backend) "
-                         "WHERE id = ?",
-                         (status, stored, utc_text(ended_at), str(reason), levels, backend,
+            execute(conn, "UPDATE trials SET status = ?, metrics = ?, ended_at = ?, "
+                          "end_reason = ?, assistance = ?, backend = coalesce(?, backend) "
+                          "WHERE id = ?",
+                          (status, stored, utc_text(ended_at), str(reason), levels, backend,
                           trial_id))
-            trial = trial_by_id(conn, self.path, trial_id)
+            trial = trial_by_id(conn, self.where, trial_id)
         log.info("trial %d finished: %s, %d metric(s)%s", trial_id, status, len(trial.metrics),
                  f" ({reason})" if reason else "")
         return trial
@@ -319,38 +323,38 @@ class Trials(Database):
         """Store recomputed metrics: merged into the trial's (or replacing them all)."""
         checked = json.loads(metrics_json(metrics))
         with self._write() as conn:
-            trial = trial_by_id(conn, self.path, trial_id)
+            trial = trial_by_id(conn, self.where, trial_id)
             merged = checked if replace else {**metrics_json_ready(trial.metrics), **checked}
-            conn.execute("UPDATE trials SET metrics = ? WHERE id = ?",
-                         (json.dumps(merged, allow_nan=False), trial_id))
-            return trial_by_id(conn, self.path, trial_id)
+            execute(conn, "UPDATE trials SET metrics = ? WHERE id = ?",
+                          (json.dumps(merged, allow_nan=False), trial_id))
+            return trial_by_id(conn, self.where, trial_id)
 
     # -- reading -----------------------------------------------------------------------
     def trial(self, trial_id: int) -> Trial:
         with self._read() as conn:
-            return trial_by_id(conn, self.path, trial_id)
+            return trial_by_id(conn, self.where, trial_id)
 
     def trials(self, code: str, session_number: int) -> list[Trial]:
         """The trials of one session, by number."""
         with self._read() as conn:
-            session_id = session_id_of(conn, self.path, code, session_number)
-            rows = conn.execute(TRIAL_SELECT + " WHERE t.session_id = ? ORDER BY t.number",
-                                (session_id,)).fetchall()
+            session_id = session_id_of(conn, self.where, code, session_number)
+            rows = execute(conn, TRIAL_SELECT + " WHERE t.session_id = ? ORDER BY t.number",
+                                 (session_id,)).fetchall()
         return trials_from_rows(rows)
 
     def unfinished_trials(self) -> list[Trial]:
         """Every trial still recording, oldest first (after a console's crash, those
         `app.trials.finalize.finish_interrupted` finishes)."""
         with self._read() as conn:
-            rows = conn.execute(TRIAL_SELECT + " WHERE t.status = 'recording' ORDER BY t.id"
-                                ).fetchall()
+            rows = execute(conn, TRIAL_SELECT + " WHERE t.status = 'recording' ORDER BY t.id"
+                                 ).fetchall()
         return trials_from_rows(rows)
 
     def trials_for_patient(self, code: str) -> list[Trial]:
         """Every trial of a patient, by session number then trial number."""
         with self._read() as conn:
-            patient = patient_id(conn, self.path, code)
-            rows = conn.execute(
+            patient = patient_id(conn, self.where, code)
+            rows = execute(conn,
                 TRIAL_SELECT + " WHERE s.patient_id = ? ORDER BY s.number, t.number",
                 (patient,),
             ).fetchall()
@@ -372,9 +376,9 @@ def parameter_key(values: Iterable) -> tuple:
     )
 
 
-def trial_by_id(conn: sqlite3.Connection, registry: Path, trial_id: int) -> Trial:
+def trial_by_id(conn: sa.Connection, registry: Path, trial_id: int) -> Trial:
     """The trial with this id; TrialNotFound naming the registry file if none."""
-    row = conn.execute(TRIAL_SELECT + " WHERE t.id = ?", (trial_id,)).fetchone()
+    row = execute(conn, TRIAL_SELECT + " WHERE t.id = ?", (trial_id,)).fetchone()
     if row is None:
         raise TrialNotFound(
             f"no trial has the id {trial_id!r} in the registry {registry}; list the "
@@ -425,15 +429,15 @@ def assistance_from_json(text: str | None) -> AssistanceInEffect | None:
 
 
 # -- numbering -------------------------------------------------------------------------
-def _next_trial_number_in(conn: sqlite3.Connection, session_id: int) -> int:
-    row = conn.execute("SELECT max(number) FROM trials WHERE session_id = ?",
-                       (session_id,)).fetchone()
+def _next_trial_number_in(conn: sa.Connection, session_id: int) -> int:
+    row = execute(conn, "SELECT max(number) FROM trials WHERE session_id = ?",
+                        (session_id,)).fetchone()
     return (row[0] or 0) + 1
 
 
-def _suggest(conn: sqlite3.Connection, code: str, patient: int,
+def _suggest(conn: sa.Connection, code: str, patient: int,
              today: datetime.date) -> Registration:
-    latest = conn.execute(
+    latest = execute(conn,
         "SELECT id, number, date FROM sessions WHERE patient_id = ? ORDER BY number DESC "
         "LIMIT 1", (patient,),
     ).fetchone()

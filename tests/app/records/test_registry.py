@@ -1,4 +1,8 @@
-"""The registry: records, numbering as the registration tab does it, migration, two consoles."""
+"""The registry: records, numbering as the registration tab does it, migration, two consoles.
+
+Tests taking `registry` (or `open_registry`) run on both engines, SQLite and PostgreSQL
+(tests/app/records/conftest.py); those of the SQLite file itself (its migration, a damaged
+or foreign file) on SQLite."""
 
 from __future__ import annotations
 
@@ -14,6 +18,7 @@ import sqlite3
 from pathlib import Path
 
 import pytest
+import sqlalchemy as sa
 
 from app.errors import (
     DuplicateNumberError,
@@ -41,8 +46,8 @@ CHILD_TIMEOUT_S = 60.0
 
 
 @pytest.fixture
-def registry(tmp_path) -> Registry:
-    return Registry(DataDir(tmp_path / "data"))
+def registry(open_registry) -> Registry:
+    return open_registry()
 
 
 @pytest.fixture
@@ -142,25 +147,40 @@ def test_numbering_continues_today_and_opens_a_new_session_on_a_new_day(registry
     assert registry.sessions(code)[0].n_trials == 2
 
 
-def test_edited_numbers_are_used_and_duplicates_are_refused_naming_the_next_free(
+def test_confirmed_numbers_are_used_and_a_repeat_or_a_gap_is_refused_naming_the_next(
         registry, patient):
+    """Numbers have no gaps and no repeats (schema v9, app.records.registry.numbering): a
+    typed number must be the next one; the refusal names it, on both engines alike."""
     code = patient.code
-    begin(registry, code, session_number=3, trial_number=5, started_at=T0)
-    assert registry.next_trial_number(code, 3) == 6
     with pytest.raises(DuplicateNumberError,
-                       match=rf"patient {code} session 3 already has a trial 5 .*use 6"):
-        begin(registry, code, session_number=3, trial_number=5)
-    begun = begin(registry, code, session_number=3, trial_number=2)
-    assert (begun.session_number, begun.trial_number) == (3, 2)
-    assert registry.next_session_number(code) == 4
+                       match=rf"patient {code} has no session yet: session 3 would leave a "
+                             "gap; use 1, the next free number"):
+        begin(registry, code, session_number=3, trial_number=1, started_at=T0)
+    begin(registry, code, session_number=1, trial_number=1, started_at=T0)
+    begin(registry, code, session_number=1, trial_number=2, started_at=T0)
+    assert registry.next_trial_number(code, 1) == 3
+    with pytest.raises(DuplicateNumberError,
+                       match=rf"patient {code} session 1 already has a trial 2 .*use 3"):
+        begin(registry, code, session_number=1, trial_number=2)
+    with pytest.raises(DuplicateNumberError,
+                       match=rf"patient {code} session 1 has trials up to 2 only: trial 5 "
+                             "would leave a gap; use 3"):
+        begin(registry, code, session_number=1, trial_number=5)
+    begun = begin(registry, code, session_number=1, trial_number=3)
+    assert (begun.session_number, begun.trial_number) == (1, 3)
+    assert registry.next_session_number(code) == 2
 
-    with pytest.raises(DuplicateNumberError, match=r"already has a session 3 .*use 4"):
-        registry.open_session(code, number=3)
+    with pytest.raises(DuplicateNumberError, match=r"already has a session 1 .*use 2.*continue"):
+        registry.open_session(code, number=1)
+    with pytest.raises(DuplicateNumberError, match=r"has sessions up to 1 only: session 4 would "
+                                                   "leave a gap; use 2"):
+        registry.open_session(code, number=4)
     session = registry.open_session(code, therapist="R. Ortiz", location="room 2")
-    assert (session.number, session.therapist, session.location) == (4, "R. Ortiz", "room 2")
+    assert (session.number, session.therapist, session.location) == (2, "R. Ortiz", "room 2")
     with pytest.raises(InvalidRecordError, match="trial number 0"):
         begin(registry, code, trial_number=0)
-    assert [t.number for t in registry.trials(code, 3)] == [2, 5]
+    assert [t.number for t in registry.trials(code, 1)] == [1, 2, 3]
+    assert registry.sessions(code)[1].n_trials == 0
 
 
 def test_refused_registration_leaves_nothing_behind(registry, patient):
@@ -201,7 +221,8 @@ def test_trial_round_trip_with_relative_file_and_json_metrics(registry, patient)
     assert (done.backend, done.patient_kind) == ("simulator", "spastic")
     assert done.ended_at - done.started_at == datetime.timedelta(seconds=42)
     assert registry.trial_path(done) == begun.path
-    stored = query(registry.path, "SELECT file, metrics FROM trials")[0]
+    with registry._read() as conn:  # the row as stored, on either engine
+        stored = tuple(conn.exec_driver_sql("SELECT file, metrics FROM trials").one())
     assert stored[0] == begun.file
     assert not os.path.isabs(stored[0])
     assert json.loads(stored[1])["sparc"] is None  # JSON has no NaN
@@ -265,12 +286,12 @@ def test_previous_trial_of_the_same_shape_skips_a_circle_done_in_between(registr
 
 
 def test_trials_for_patient_are_in_session_then_trial_order(registry, patient):
-    for session, trial in [(2, 1), (1, 2), (1, 1), (2, 3)]:
+    for session, trial in [(1, 1), (1, 2), (2, 1), (1, 3), (2, 2)]:
         begin(registry, patient.code, session_number=session, trial_number=trial)
     other = registry.create_patient("Other", "Patient")
     begin(registry, other.code)
     got = [(t.session_number, t.number) for t in registry.trials_for_patient(patient.code)]
-    assert got == [(1, 1), (1, 2), (2, 1), (2, 3)]
+    assert got == [(1, 1), (1, 2), (1, 3), (2, 1), (2, 2)]
 
 
 # -- names never on disk -----------------------------------------------------------------------
@@ -329,7 +350,7 @@ def test_a_v1_registry_is_backed_up_and_migrated_keeping_its_records(tmp_path):
     path = make_v1_registry(tmp_path / "data")
     registry = Registry(DataDir(tmp_path / "data"))
 
-    assert registry.schema_version() == SCHEMA_VERSION == 8
+    assert registry.schema_version() == SCHEMA_VERSION == 9
     assert query(path, "SELECT count(*) FROM proposals") == [(0,)]
     assert query(path, "PRAGMA journal_mode") == [("wal",)]
     trial_columns = {row[1] for row in query(path, "PRAGMA table_info(trials)")}
@@ -372,8 +393,8 @@ def test_a_failing_migration_changes_nothing(tmp_path):
 def test_a_newer_schema_or_a_foreign_file_is_refused_with_advice(tmp_path):
     data = DataDir(tmp_path / "newer")
     Registry(data)
-    query(data.registry_path, "PRAGMA user_version = 9")
-    with pytest.raises(SchemaError, match=r"schema v9, written by a newer console.*Update"):
+    query(data.registry_path, "PRAGMA user_version = 10")
+    with pytest.raises(SchemaError, match=r"schema v10, written by a newer console.*Update"):
         Registry(data)
 
     other = DataDir(tmp_path / "foreign")
@@ -385,8 +406,8 @@ def test_a_newer_schema_or_a_foreign_file_is_refused_with_advice(tmp_path):
 
 # -- two consoles on one data folder ----------------------------------------------------------
 
-def _begin_many(folder: str, code: str, ready, go, results) -> None:
-    registry = Registry(DataDir(Path(folder)))
+def _begin_many(folder: str, server: str | None, code: str, ready, go, results) -> None:
+    registry = Registry(DataDir(Path(folder)), server=server and sa.make_url(server))
     ready.put(os.getpid())
     go.wait(CHILD_TIMEOUT_S)
     numbers = []
@@ -408,11 +429,17 @@ def spawn(monkeypatch):
     return mp.get_context("spawn")
 
 
-def test_two_processes_numbering_at_once_take_distinct_numbers(tmp_path, spawn):
+def test_two_processes_numbering_at_once_take_distinct_numbers(tmp_path, spawn,
+                                                               open_registry):
+    """Two consoles on one data folder (SQLite), two stations on one server (PostgreSQL)."""
     data = DataDir(tmp_path / "data")
-    code = Registry(data).create_patient("Two", "Consoles").code
+    registry = open_registry(data)
+    code = registry.create_patient("Two", "Consoles").code
+    server = (registry.server.render_as_string(hide_password=False)
+              if registry.server is not None else None)
     ready, results, go = spawn.Queue(), spawn.Queue(), spawn.Event()
-    workers = [spawn.Process(target=_begin_many, args=(str(data.root), code, ready, go, results),
+    workers = [spawn.Process(target=_begin_many,
+                             args=(str(data.root), server, code, ready, go, results),
                              name=f"console-{i}") for i in range(2)]
     for worker in workers:
         worker.start()
@@ -437,10 +464,9 @@ def test_two_processes_numbering_at_once_take_distinct_numbers(tmp_path, spawn):
     numbers = sorted(n for batch in batches for n, _ in batch)
     assert numbers == list(range(1, 101))
     assert len({f for batch in batches for _, f in batch}) == 100
-    registry = Registry(data)
+    registry = open_registry(data)
     assert registry.integrity_check() == []
     assert [t.number for t in registry.trials(code, 1)] == list(range(1, 101))
-    assert query(data.registry_path, "PRAGMA integrity_check") == [("ok",)]
 
 
 @pytest.mark.parametrize("content", [b"", b"\x00" * 4096, b"PK\x03\x04 a zip, not a registry"])

@@ -53,7 +53,7 @@ def make_v4_registry(folder) -> None:
 def test_a_v4_registry_is_upgraded_and_keeps_the_levels_trials_ran_from_then_on(tmp_path):
     make_v4_registry(tmp_path / "data")
     registry = Registry(DataDir(tmp_path / "data"))
-    assert registry.schema_version() == SCHEMA_VERSION == 8
+    assert registry.schema_version() == SCHEMA_VERSION == 9
     assert list((tmp_path / "data").glob("registry.sqlite3.v4-*.bak"))
     (old,) = registry.trials_for_patient("PABC234")
     assert old.assistance is None  # before v5: only the built level is known
@@ -74,8 +74,8 @@ def test_a_v4_registry_is_upgraded_and_keeps_the_levels_trials_ran_from_then_on(
     assert registry.integrity_check() == []
 
 
-def test_levels_out_of_range_are_refused_and_nothing_is_stored(tmp_path):
-    registry = Registry(DataDir(tmp_path / "data"))
+def test_levels_out_of_range_are_refused_and_nothing_is_stored(open_registry):
+    registry = open_registry()
     code = registry.create_patient("Ada", "Example").code
     begun = registry.begin_trial(code, A, backend="simulator")
     with pytest.raises(InvalidRecordError, match="each from 0 to 1"):
@@ -84,10 +84,11 @@ def test_levels_out_of_range_are_refused_and_nothing_is_stored(tmp_path):
     assert not registry.trial(begun.trial_id).finished
 
 
-def test_accepted_only_when_the_next_trial_is_the_proposal_applied_to_the_one_before(tmp_path):
+def test_accepted_only_when_the_next_trial_is_the_proposal_applied_to_the_one_before(
+        open_registry):
     """Issue 27, item 10: 'accepted' was recorded when the next trial changed its shape and
     mode but had the proposed level, pace and tolerance."""
-    registry = Registry(DataDir(tmp_path / "data"))
+    registry = open_registry()
     code = registry.create_patient("Ada", "Example").code
     before = A.replace(assistance_level=0.6)
     proposal = dict(PROPOSAL)

@@ -14,8 +14,9 @@ from core.trial import THESIS_SUBJECT
 
 
 @pytest.fixture
-def registry(tmp_path):
-    return Registry(DataDir(tmp_path / "data"))
+def registry(open_registry):
+    """The registry on each engine in turn (tests/app/records/conftest.py)."""
+    return open_registry()
 
 
 def patient(registry, first="Ada"):
@@ -91,7 +92,10 @@ def test_a_withdrawn_trial_leaves_its_run(registry):
     assert registry.plan_run(run).steps == ()
 
 
-def test_a_plan_edited_outside_the_console_is_refused(registry):
+def test_a_plan_edited_outside_the_console_is_refused(tmp_path):
+    """SQLite's file (a server's registry is checked by `rehab db status`: the tests of
+    postgres/seals.py)."""
+    registry = Registry(DataDir(tmp_path / "data"))
     code = patient(registry)
     registry.save_plan(code, load_template("first-session").plan)
     with sqlite3.connect(registry.path) as conn:
@@ -107,8 +111,8 @@ def test_a_plan_this_console_cannot_run_is_refused_naming_it(registry):
     saved = registry.save_plan(code, load_template("first-session").plan)
     # written by the console's own connection (sealed), as a newer console might
     with registry._write() as conn:
-        conn.execute("UPDATE plans SET plan = replace(plan, '\"shape\": \"circle\"', "
-                     "'\"shape\": \"spiral\"')")
+        conn.exec_driver_sql("UPDATE plans SET plan = replace(plan, '\"shape\": \"circle\"', "
+                             "'\"shape\": \"spiral\"')")
     with pytest.raises(InvalidRecordError, match=f"plan {saved.id} .* block 2.shape"):
         registry.plan(saved.id)
 

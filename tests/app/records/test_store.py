@@ -15,8 +15,8 @@ def interface_members() -> list[str]:
                   if not name.startswith("_") and name not in ("data_dir",))
 
 
-def test_the_registry_is_a_record_store(tmp_path):
-    registry = Registry(DataDir(tmp_path / "data"))
+def test_the_registry_is_a_record_store(open_registry):
+    registry = open_registry()
     assert isinstance(registry, RecordStore)
     assert isinstance(registry.data_dir, DataDir)
 

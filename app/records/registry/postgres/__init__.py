@@ -15,14 +15,14 @@ the server's functions, triggers, grants and views are added by their SQL.
 
 from __future__ import annotations
 
-from sqlalchemy import Connection, insert, inspect, select
+from sqlalchemy import Connection, insert, inspect, select, update
 
 from app.errors import SchemaError
 from app.records.registry.postgres import numbering, seals
 from app.records.registry.postgres.roles import Roles
 from app.records.registry.postgres.tables import SCHEMA_VERSION, metadata, schema_version
 
-__all__ = ["Roles", "create_registry", "registry_version"]
+__all__ = ["Roles", "create_registry", "migrate_registry", "registry_version"]
 
 
 def create_registry(conn: Connection, roles: Roles | None = None) -> None:
@@ -41,6 +41,38 @@ def create_registry(conn: Connection, roles: Roles | None = None) -> None:
                       *(roles or Roles()).statements()):
         raw.exec_driver_sql(statement)
     conn.execute(insert(schema_version).values(version=SCHEMA_VERSION))
+
+
+MIGRATIONS: dict[int, tuple[str, ...]] = {
+    9: ("""DO $$ DECLARE who text; BEGIN
+            FOR who IN SELECT DISTINCT grantee FROM information_schema.role_table_grants
+                       WHERE table_schema = 'public' AND table_name = 'trials'
+                       AND privilege_type = 'DELETE' AND grantee <> current_user LOOP
+                EXECUTE format('GRANT DELETE ON plan_steps, proposals TO %I', who);
+            END LOOP;
+        END $$""",),
+}
+"""The server's steps to each schema version from the one before (the first the server had
+is v8). v9 brought SQLite the numbering rule the server held from its first version
+(app.records.registry.numbering); on the server, the clinic role (whoever may withdraw a
+trial) may now delete what a withdrawn trial takes with it (roles.WITHDRAWN_WITH_A_TRIAL)."""
+
+
+def migrate_registry(conn: Connection) -> tuple[int, int]:
+    """Bring the registry in `conn`'s database up to today's schema, in `conn`'s transaction
+    (PostgreSQL's DDL is transactional: all of it or nothing). Returns (from, to). Refused
+    (SchemaError) for a database without a registry, or of a version with no step here."""
+    version = registry_version(conn)
+    if version is None or (version < SCHEMA_VERSION and version + 1 not in MIGRATIONS):
+        raise SchemaError(f"the database {conn.engine.url.database!r} holds "
+                          f"{'no registry' if version is None else f'schema v{version}'}: "
+                          "this console has no migration from it on PostgreSQL")
+    raw = conn.execution_options(no_parameters=True)
+    for target in range(version + 1, SCHEMA_VERSION + 1):
+        for statement in MIGRATIONS[target]:
+            raw.exec_driver_sql(statement)
+    conn.execute(update(schema_version).values(version=max(version, SCHEMA_VERSION)))
+    return version, max(version, SCHEMA_VERSION)
 
 
 def registry_version(conn: Connection) -> int | None:

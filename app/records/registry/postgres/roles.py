@@ -9,9 +9,9 @@ query, raw SQL included, so the separation cannot live in the console's code.
 How:
 
 * `clinic` (a group role; each therapist's or station's login is a member) reads and
-  writes the registry's tables: SELECT, INSERT and UPDATE, DELETE on trials only (a trial
-  withdrawn at Start, numbering.py keeps it the last one), INSERT without UPDATE on the
-  append-only tables (their triggers refuse it too).
+  writes the registry's tables: SELECT, INSERT and UPDATE, DELETE only of what a trial
+  withdrawn at Start takes with it (`WITHDRAWN_WITH_A_TRIAL`; numbering.py keeps it the
+  last one), INSERT without UPDATE on the append-only tables (their triggers refuse it too).
 * `research` (a group role; each researcher's login is a member) has no privilege on any
   table but SELECT on the columns of `VISIBLE_TO_RESEARCH` (column privileges), and the
   same columns as views in the schema `research` (`SELECT * FROM research.patients` works;
@@ -68,6 +68,10 @@ ROW_FILTERED = {"corrections": f"field NOT IN ({', '.join(repr(f) for f in NAME_
 out (no column privilege can leave out a row)."""
 
 APPEND_ONLY_TABLES = ("scales", "notes", "trial_marks", "corrections")
+WITHDRAWN_WITH_A_TRIAL = ("trials", "plan_steps", "proposals")
+"""The tables clinic may delete from: a trial withdrawn at Start (its file never written,
+Registry.withdraw_trial; numbering.py keeps it the last one) takes its plan step and its
+proposals with it."""
 
 
 def visible_to_research(table: str) -> tuple[str, ...]:
@@ -128,7 +132,7 @@ class Roles:
         for table in REGISTRY_TABLES:
             if table in APPEND_ONLY_TABLES:
                 privileges = "SELECT, INSERT"
-            elif table == "trials":
+            elif table in WITHDRAWN_WITH_A_TRIAL:
                 privileges = "SELECT, INSERT, UPDATE, DELETE"
             else:
                 privileges = "SELECT, INSERT, UPDATE"

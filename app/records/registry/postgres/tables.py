@@ -40,7 +40,7 @@ from sqlalchemy import (
     text,
 )
 
-SCHEMA_VERSION = 8
+SCHEMA_VERSION = 9
 """The SQLite registry's schema version these tables are (schema.SCHEMA_VERSION)."""
 
 metadata = MetaData()

@@ -1,9 +1,6 @@
-"""The throwaway PostgreSQL server of the shared registry's tests (tests/postgres.py): one
-per test process, started at the first test that needs it and stopped at the run's end.
-
-A test that needs it never skips: when it cannot start, the test fails with one line saying
-why. Which way it was started (initdb, or the package's cluster) is printed at the end of
-the run (tests/conftest.py)."""
+"""A registry database of today's schema on the tests' PostgreSQL server, with a login of
+each role, for the tests of the server's own side (tables, seals, numbering, roles). The
+server itself is tests/app/records/conftest.py's `postgres_server`."""
 
 from __future__ import annotations
 
@@ -11,32 +8,7 @@ import pytest
 import sqlalchemy as sa
 
 from app.records.registry.postgres import Roles, create_registry
-from tests.postgres import Server, ServerError, start
-
-PATH_PROPERTY = "postgres_server"
-
-
-@pytest.fixture(scope="session")
-def postgres_server():
-    try:
-        server, problem = start(), None
-    except ServerError as exc:
-        server, problem = None, str(exc)
-    if server is None:  # failed outside the except: one line, no chained traceback
-        pytest.fail(f"the tests' PostgreSQL server did not start: {problem}", pytrace=False)
-    try:
-        yield server
-    finally:
-        server.stop()
-
-
-@pytest.fixture(autouse=True)
-def _say_which_server(request):
-    """The server's path in the report of every test that used it (tests/conftest.py
-    prints it once at the end, from any pytest-xdist worker)."""
-    if "postgres_server" in request.fixturenames:
-        server = request.getfixturevalue("postgres_server")
-        request.node.user_properties.append((PATH_PROPERTY, server.path))
+from tests.postgres import Server
 
 
 class Registry:

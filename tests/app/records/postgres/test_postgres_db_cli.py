@@ -10,6 +10,7 @@ import secrets
 import pytest
 import sqlalchemy as sa
 
+from app.errors import RegistryError
 from app.records.registry import SCHEMA_VERSION
 from app.records.registry.postgres.tables import REGISTRY_TABLES
 from tests.app.cli.running import run
@@ -200,3 +201,39 @@ def test_the_readmes_recipe_an_owner_who_may_create_roles_creates_the_registry(
     assert (code, err) == (0, "")
     assert f"login station_{clinic}" in out
     assert "seals: every row matches its seal" in out
+
+
+def test_a_v8_registry_on_the_server_is_upgraded_and_a_station_can_then_withdraw(
+        postgres_server, station, capsys, tmp_path):
+    """v8, the server's first: its clinic role could not delete a withdrawn trial's plan step
+    or proposals. `rehab db upgrade` brings it to today's, and a station's login then can."""
+    from app.plans.templates import load_template
+    from app.records.datadir import DataDir
+    from app.records.registry import Registry as Console
+    from core.trial import TrialParameters
+
+    registry = Registry(postgres_server)
+    postgres_server.admin_sql(
+        "UPDATE schema_version SET version = 8",
+        f"REVOKE DELETE ON plan_steps, proposals FROM {registry.roles.clinic}",
+        database=registry.database)
+    login = sa.make_url(registry.url(registry.clinic_login))
+    with pytest.raises(RegistryError, match=r"holds a registry of schema v8; .*`rehab db "
+                                            "upgrade`"):
+        Console(DataDir(tmp_path / "data"), server=login)
+    station(registry.url())
+    shown = sa.make_url(registry.url()).render_as_string(hide_password=True)
+    code, out, err = run(["db", "upgrade"], capsys)
+    assert (code, err) == (0, "")
+    assert out == f"the registry at {shown} updated from schema v8 to v{SCHEMA_VERSION}\n"
+
+    console = Console(DataDir(tmp_path / "data"), server=login)
+    code = console.create_patient("Ada", "Example").code
+    plan = console.save_plan(code, load_template("first-session").plan)
+    run_id = console.begin_plan_run(plan.id)
+    begun = console.begin_trial(code, TrialParameters(), backend="simulator")
+    console.record_plan_trial(run_id, 1, 1, begun.trial_id, 60.0)
+    console.record_proposal(begun.trial_id, {"assistance_level": 0.5})
+    console.withdraw_trial(begun.trial_id, "its file was never written")
+    assert console.trials_for_patient(code) == []
+    assert console.proposal(begun.trial_id) is None
