@@ -26,6 +26,11 @@ os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 # (app.records.signing): the suite has a config folder of its own, never the user's.
 if not os.environ.get("REHAB_CONFIG_DIR"):
     os.environ["REHAB_CONFIG_DIR"] = tempfile.mkdtemp(prefix="rehab-tests-config-")
+# Nor the user's data folder: a test that leaves out --data-dir and REHAB_DATA_DIR (or
+# undoes them: a monkeypatch.undo() inside a test) gets the default data folder, which is
+# platformdirs' under XDG_DATA_HOME: a folder of the run's own, never the user's registry
+# (a whole check once migrated ~/.local/share/rehab-console/registry.sqlite3).
+os.environ["XDG_DATA_HOME"] = tempfile.mkdtemp(prefix="rehab-tests-data-home-")
 # XLA compiles a network's training step for each train() call, the same program again
 # whenever the shapes and options are the same: 5-10 s of a small model's 6-20 s (fnn
 # 6.7 s -> 1.6 s, delan 14.9 s -> 5.9 s for 100 epochs from a warm cache). The run keeps

@@ -105,6 +105,7 @@ class RecordStore(Protocol):
         reason: str = "",
         assistance: AssistanceInEffect | None = None,
         backend: str | None = None,
+        checksum: str | None = None,
     ) -> Trial: ...
 
     def update_metrics(self, trial_id: int, metrics: Mapping[str, float], *,
@@ -117,6 +118,8 @@ class RecordStore(Protocol):
     def trials_for_patient(self, code: str) -> list[Trial]: ...
 
     def unfinished_trials(self) -> list[Trial]: ...
+
+    def interrupt_runs(self) -> list[int]: ...
 
     def trial_path(self, trial: Trial | int) -> Path: ...
 

@@ -16,6 +16,7 @@ from pathlib import Path
 
 from app.errors import AppError
 from app.records.assistance import AssistanceInEffect
+from app.records.registry.provenance import file_checksum
 from app.records.store import RecordStore
 from app.trials.analysis import CHANNELS_USED, Analysis, analyse
 from app.trials.assistance_timeline import CHANNELS_NEEDED
@@ -74,7 +75,7 @@ def finalize_trial(registry: RecordStore, trial_id: int, status: str | None = No
     reason = "" if status == "complete" else reason or last_fault(data.events)
     ran = _levels(data, notes)
     registry.finish_trial(trial_id, status, metrics, datetime.datetime.now(datetime.UTC),
-                          reason, ran, data.backend or None)
+                          reason, ran, data.backend or None, checksum=_checksum(path, notes))
     parameters = data.parameters
     proposal = None
     if _is_assessment(parameters, trial):
@@ -91,6 +92,17 @@ def finalize_trial(registry: RecordStore, trial_id: int, status: str | None = No
     for note in notes:
         log.info("trial %s: %s", trial_id, note)
     return Finalized(trial_id, path, status, analysis, tuple(notes), proposal)
+
+
+def _checksum(path: Path, notes: list[str]) -> str | None:
+    """The file as finished (its metrics written into it): what the registry keeps, so a
+    copy read later can be proven to be it (app.records.registry.provenance)."""
+    try:
+        return file_checksum(path)
+    except OSError as exc:
+        notes.append(f"its file could not be read for its checksum ({exc.strerror or exc}); "
+                     "the registry keeps none")
+        return None
 
 
 def _is_assessment(parameters, trial) -> bool:
@@ -186,8 +198,10 @@ def finish_interrupted(registry: RecordStore, *, now: float | None = None,
     recorder closed the file or it holds all but the last half second.
 
     Each is finalized from its file (its status, else recording_lost, and its
-    metrics); a missing or unreadable file finishes it as recording_lost. Returns one
-    line per trial for the therapist, and logs them."""
+    metrics); a missing or unreadable file finishes it as recording_lost. The plan runs
+    left running are marked interrupted (Registry.interrupt_runs). Only this station's
+    (the registry's `station`): another station may be recording now. Returns one line per
+    trial and run for the therapist, and logs them."""
     now = time.time() if now is None else now
     lines = []
     for trial in registry.unfinished_trials():
@@ -213,6 +227,10 @@ def finish_interrupted(registry: RecordStore, *, now: float | None = None,
             continue
         lines.append(f"{label} was interrupted; its file was kept and it is now listed "
                      f"as {done.status.replace('_', ' ')}")
+    # and the plan runs it was carrying out (this station's only: another's may be going)
+    for run_id in registry.interrupt_runs():
+        lines.append(f"plan run {run_id} was interrupted when the console ended during it; "
+                     "it is listed as interrupted")
     for line in lines:
         log.warning("%s", line)
     return lines

@@ -74,6 +74,7 @@ from app.records.registry.patients import (
 )
 from app.records.registry.plans import PlanRun, Plans, PlanStep, StoredPlan
 from app.records.registry.proposals import Proposals, StoredProposal
+from app.records.registry.provenance import checked_station, station_id
 from app.records.registry.queries import Queries, TrialSummary
 from app.records.registry.schema import (
     MIGRATE_V1_TO_V2,
@@ -143,13 +144,16 @@ class Registry(Schema, Patients, Sessions, Plans, Clinical, Proposals, Trials, Q
 
     With `server` (a `postgresql+psycopg://` URL, app.records.registry.url) the registry is
     the department's on its PostgreSQL server, which its owner creates and migrates
-    (`rehab db upgrade`); the data folder holds this station's trial files."""
+    (`rehab db upgrade`); the data folder holds this station's trial files. `station`
+    names this console in what it records (trials, plan runs: registry.provenance; the
+    window and the commands give `station_id()`)."""
 
     def __init__(self, data_dir: DataDir | str | Path, *, create: bool = True,
-                 server: sa.URL | None = None) -> None:
+                 server: sa.URL | None = None, station: str | None = None) -> None:
         if not isinstance(data_dir, DataDir):
             data_dir = DataDir(Path(data_dir).expanduser().absolute())
         self.data_dir = data_dir
+        self.station = None if station is None else checked_station(station)
         if server is not None:
             # the department's registry on its server (docs/stations.md); the data folder
             # keeps this station's trial files
@@ -170,21 +174,24 @@ class Registry(Schema, Patients, Sessions, Plans, Clinical, Proposals, Trials, Q
 
 
 
-def open_registry(data_dir: DataDir, *, create: bool = True) -> Registry:
+def open_registry(data_dir: DataDir, *, create: bool = True,
+                  station: str | None = None) -> Registry:
     """The registry this console uses (what the window and every command open): the one
     the private registry URL file names (app.records.registry.url, `registry.url` in the
     config folder), else the data folder's SQLite registry. A SQLite URL must name the data
     folder's own registry file, which keeps the trial files beside it; a PostgreSQL URL
-    names the department's server, the data folder keeping this station's trial files."""
+    names the department's server, the data folder keeping this station's trial files.
+    `station`: this console's id (by default provenance.station_id())."""
     location = registry_url(data_dir)
+    station = station or station_id()
     if location.engine == POSTGRESQL:
-        return Registry(data_dir, create=create, server=location.url)
+        return Registry(data_dir, create=create, server=location.url, station=station)
     if os.path.abspath(location.path) != os.path.abspath(data_dir.registry_path):
         raise RegistryURLError(
             f"{location.source} names the SQLite registry {location.path}, but this console's "
             f"data folder {data_dir.root} has its own ({data_dir.registry_path}): choose that "
             "folder as the data folder, or remove the URL file to use the data folder's")
-    return Registry(data_dir, create=create)
+    return Registry(data_dir, create=create, station=station)
 
 
 def has_registry(data_dir: DataDir) -> bool:

@@ -39,10 +39,13 @@ for a busy network, short enough that a station says the server is away within s
 
 class Database:
     """Connections to the registry: the SQLite file at `path`, or the PostgreSQL server of
-    `server` (set by the registry that opens it; `path` is then None)."""
+    `server` (set by the registry that opens it; `path` is then None). `station`: the
+    station this console is, which its trials and plan runs record
+    (app.records.registry.provenance)."""
 
     path: Path | None
     server: sa.URL | None = None
+    station: str | None = None
 
     @property
     def where(self) -> str:

@@ -80,6 +80,8 @@ class PlanRun:
     status: str
     end_reason: str
     steps: tuple[PlanStep, ...]
+    station: str | None = None
+    """The station that ran it (app.records.registry.provenance); None before v10."""
 
     def trial_steps(self) -> tuple[PlanStep, ...]:
         return tuple(s for s in self.steps if s.kind == "trial")
@@ -143,9 +145,9 @@ class Plans(Database):
         """A run of plan `plan_id` begins (status running); its id."""
         with self._write() as conn:
             _plan_by_id(conn, self.where, plan_id)
-            cursor = execute(conn, "INSERT INTO plan_runs (plan_id, started_at, status) "
-                                   "VALUES (?, ?, 'running') RETURNING id",
-                                   (plan_id, utc_text(utc_now())))
+            cursor = execute(conn, "INSERT INTO plan_runs (plan_id, started_at, status, "
+                                   "station) VALUES (?, ?, 'running', ?) RETURNING id",
+                                   (plan_id, utc_text(utc_now()), self.station))
             return cursor.scalar_one()
 
     def record_plan_trial(self, run_id: int, block: int, round_: int, trial_id: int,
@@ -202,15 +204,19 @@ class Plans(Database):
         return self.plan_run(run_id)
 
     def interrupt_runs(self) -> list[int]:
-        """Runs still 'running' (a console that crashed or was killed during a plan),
-        marked interrupted; their ids. The console calls it at its start, when no run of
-        its own can be going."""
+        """This station's runs still 'running' (its console crashed or was killed during
+        a plan), marked interrupted; their ids. The console calls it at its start, when no
+        run of its own can be going; another station's runs, which may be going, are left
+        as they are (a run recorded before stations, with none, counts as this one's)."""
         with self._write() as conn:
             ids = [r[0] for r in execute(conn,
-                "SELECT id FROM plan_runs WHERE status = 'running'").fetchall()]
-            execute(conn, "UPDATE plan_runs SET status = 'interrupted', ended_at = ?, "
-                          "end_reason = 'the console ended during the plan' WHERE status = "
-                          "'running'", (utc_text(utc_now()),))
+                "SELECT id FROM plan_runs WHERE status = 'running' "
+                "AND (station = ? OR station IS NULL) ORDER BY id FOR UPDATE",
+                (self.station,)).fetchall()]
+            for run_id in ids:
+                execute(conn, "UPDATE plan_runs SET status = 'interrupted', ended_at = ?, "
+                              "end_reason = 'the console ended during the plan' "
+                              "WHERE id = ?", (utc_text(utc_now()), run_id))
         return ids
 
     def plan_run(self, run_id: int) -> PlanRun:
@@ -263,7 +269,8 @@ def _plan_from_row(row: tuple, registry) -> StoredPlan:
 
 def _run_row(conn: sa.Connection, registry, run_id: int) -> tuple:
     row = execute(conn, "SELECT r.id, r.plan_id, p.code, r.started_at, r.ended_at, r.status, "
-                        "r.end_reason FROM plan_runs r JOIN plans pl ON pl.id = r.plan_id "
+                        "r.end_reason, r.station FROM plan_runs r "
+                        "JOIN plans pl ON pl.id = r.plan_id "
                         "JOIN patients p ON p.id = pl.patient_id WHERE r.id = ?",
                         (run_id,)).fetchone()
     if row is None:
@@ -277,7 +284,7 @@ def _run(conn: sa.Connection, registry, run_id: int) -> PlanRun:
                           (run_id,)).fetchall()
     return PlanRun(row[0], row[1], row[2], datetime.datetime.fromisoformat(row[3]),
                    None if row[4] is None else datetime.datetime.fromisoformat(row[4]),
-                   row[5], row[6], tuple(_step_from_row(s[1:]) for s in steps))
+                   row[5], row[6], tuple(_step_from_row(s[1:]) for s in steps), row[7])
 
 
 def _step_from_row(row: tuple) -> PlanStep:

@@ -21,7 +21,7 @@ from pathlib import Path
 
 from app.errors import RegistryError, SchemaError
 from app.records.datadir import ENV_DATA_DIR, DataDir, foreign_entries
-from app.records.registry import numbering, seals
+from app.records.registry import numbering, provenance, seals
 from app.records.registry.database import Database, rollback
 from app.records.registry.postgres import registry_version
 from app.records.registry.snapshot import needs_snapshot
@@ -150,9 +150,8 @@ MIGRATE_V6_TO_V7 = (
         PRIMARY KEY (run_id, step),
         CHECK ((kind = 'trial') = (trial_id IS NOT NULL))
     )""",
-    *seals.triggers("plans"),
-    *seals.triggers("plan_runs"),
-    *seals.triggers("plan_steps"),
+    *(statement for table in ("plans", "plan_runs", "plan_steps")
+      for statement in seals.triggers(table, seals.sealed_at(table, 7))),
 )
 
 # v8 (issue 31): the norms' covariates sex and handedness on the patient; the clinical
@@ -170,8 +169,8 @@ MIGRATE_V7_TO_V8 = (
     "CHECK (handedness IS NULL OR handedness IN ('right', 'left'))",
     "DROP TRIGGER patients_sealed_on_insert",
     "DROP TRIGGER patients_sealed_on_update",
-    f"UPDATE patients SET seal = {seals.call('patients')}",
-    *seals.triggers("patients"),
+    f"UPDATE patients SET seal = {seals.call('patients', seals.sealed_at('patients', 8))}",
+    *seals.triggers("patients", seals.sealed_at("patients", 8)),
     """CREATE TABLE scales (
         id INTEGER PRIMARY KEY,
         session_id INTEGER NOT NULL REFERENCES sessions (id) ON DELETE RESTRICT,
@@ -217,7 +216,8 @@ MIGRATE_V7_TO_V8 = (
     "CREATE INDEX trial_marks_by_trial ON trial_marks (trial_id)",
     "CREATE INDEX corrections_by_patient ON corrections (patient_id)",
     *(statement for table in ("scales", "notes", "trial_marks", "corrections")
-      for statement in (*seals.triggers(table), *seals.append_only(table))),
+      for statement in (*seals.triggers(table, seals.sealed_at(table, 8)),
+                        *seals.append_only(table))),
 )
 
 MIGRATIONS: tuple[tuple[int, tuple[str, ...]], ...] = (
@@ -230,6 +230,7 @@ MIGRATIONS: tuple[tuple[int, tuple[str, ...]], ...] = (
     (7, MIGRATE_V6_TO_V7),
     (8, MIGRATE_V7_TO_V8),
     (9, numbering.SQLITE_V9),
+    (10, provenance.SQLITE_V10),
 )
 SCHEMA_VERSION = MIGRATIONS[-1][0]
 

@@ -45,16 +45,23 @@ SEALED_AT_V7: dict[str, tuple[str, ...]] = {
 """The columns a sealed table's seal covered at v7 where v8 changed them (its migration
 checks each row against them before sealing it again)."""
 
-SEALED: dict[str, tuple[str, ...]] = {
-    "patients": (*SEALED_AT_V7["patients"], "sex", "handedness"),
-    "sessions": ("id", "patient_id", "number", "date", "therapist", "notes", "location"),
+SEALED_AT_V9: dict[str, tuple[str, ...]] = {
     "trials": ("id", "session_id", "number", "parameters", "file", "metrics", "status",
                "started_at", "ended_at", "patient_kind", "backend", "end_reason",
                "assistance"),
+    "plan_runs": ("id", "plan_id", "started_at", "ended_at", "status", "end_reason"),
+}
+"""The same for v9, where v10 changed them (a trial's station and its file's checksum, a
+plan run's station: issue 32)."""
+
+SEALED: dict[str, tuple[str, ...]] = {
+    "patients": (*SEALED_AT_V7["patients"], "sex", "handedness"),
+    "sessions": ("id", "patient_id", "number", "date", "therapist", "notes", "location"),
+    "trials": (*SEALED_AT_V9["trials"], "station", "checksum"),
     "proposals": ("trial_id", "proposal", "decision", "next_trial_id", "proposed_at",
                   "decided_at"),
     "plans": ("id", "patient_id", "name", "plan", "template", "based_on", "created_at"),
-    "plan_runs": ("id", "plan_id", "started_at", "ended_at", "status", "end_reason"),
+    "plan_runs": (*SEALED_AT_V9["plan_runs"], "station"),
     "plan_steps": ("run_id", "step", "block", "round", "kind", "trial_id", "planned_s",
                    "taken_s"),
     "scales": ("id", "session_id", "scale", "total", "detail", "rater", "recorded_at"),
@@ -109,6 +116,15 @@ def register(conn: sqlite3.Connection) -> sqlite3.Connection:
     return conn
 
 
+def sealed_at(table: str, version: int) -> tuple[str, ...]:
+    """The columns `table`'s seal covered at schema `version` (a historic migration seals
+    and triggers over these, not over today's)."""
+    for changed_at, before in ((8, SEALED_AT_V7), (10, SEALED_AT_V9)):
+        if version < changed_at and table in before:
+            return before[table]
+    return SEALED[table]
+
+
 def call(table: str, columns: tuple[str, ...] | None = None) -> str:
     """The SQL expression of a row's seal (over `columns`, by default SEALED's)."""
     return f"{FUNCTION}('{table}', {', '.join(columns or SEALED[table])})"
@@ -118,10 +134,10 @@ def call(table: str, columns: tuple[str, ...] | None = None) -> str:
 def migration() -> tuple[str, ...]:
     """Schema v6: the seal column, every existing row sealed as it is (it is trusted at
     the upgrade, after the copy the migration keeps), and the triggers; over each table's
-    columns at v6 (SEALED_AT_V7 where a later schema added some)."""
+    columns at v6 (sealed_at: a later schema added some)."""
     statements: list[str] = []
     for table in SEALED_AT_V6:
-        columns = SEALED_AT_V7.get(table, SEALED[table])
+        columns = sealed_at(table, 6)
         statements.append(f"ALTER TABLE {table} ADD COLUMN seal TEXT")
         statements.append(f"UPDATE {table} SET seal = {call(table, columns)}")
         statements.extend(triggers(table, columns))

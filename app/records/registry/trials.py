@@ -28,6 +28,7 @@ from app.records.datadir import TRIALS, DataDir
 from app.records.registry.database import Database
 from app.records.registry.numbering import refuse_number
 from app.records.registry.patients import is_code, patient_id
+from app.records.registry.provenance import checked_checksum, file_checksum
 from app.records.registry.sessions import (
     insert_session,
     next_session_number_of,
@@ -61,7 +62,7 @@ equal values of these (progress, previous_trial(same_parameters=True))."""
 TRIAL_SELECT = """
     SELECT t.id, p.code, s.number, s.date, t.number, t.parameters, t.file, t.metrics,
            t.status, t.started_at, t.ended_at, t.backend, t.patient_kind, t.end_reason,
-           t.assistance
+           t.assistance, t.station, t.checksum
     FROM trials t
     JOIN sessions s ON s.id = t.session_id
     JOIN patients p ON p.id = s.patient_id
@@ -97,6 +98,11 @@ class Trial:
     (start, end, each live change with its time); None before it finished, for a trial
     registered before schema v5 or whose file could not be read: then only its built
     level (`parameters`) is known."""
+    station: str | None = None
+    """The station that recorded it (app.records.registry.provenance); None before v10."""
+    checksum: str | None = None
+    """The SHA-256 of its file as it was finished; None before it finished, without a file,
+    or before v10."""
 
     @property
     def finished(self) -> bool:
@@ -236,10 +242,10 @@ class Trials(Database):
             file = self.data_dir.trial_file(code, session_number, trial_number, started_at)
             cursor = execute(conn,
                 "INSERT INTO trials (session_id, number, parameters, file, metrics, status, "
-                "started_at, backend, patient_kind) VALUES (?, ?, ?, ?, '{}', ?, ?, ?, ?) "
-                "RETURNING id",
+                "started_at, backend, patient_kind, station) "
+                "VALUES (?, ?, ?, ?, '{}', ?, ?, ?, ?, ?) RETURNING id",
                 (session_id, trial_number, json.dumps(params), file, STATUS_RECORDING,
-                 utc_text(started_at), backend, patient_kind),
+                 utc_text(started_at), backend, patient_kind, self.station),
             )
             trial_id = cursor.scalar_one()
             self._trial_begun(conn, patient, trial_id, params)
@@ -280,13 +286,16 @@ class Trials(Database):
         reason: str = "",
         assistance: AssistanceInEffect | None = None,
         backend: str | None = None,
+        checksum: str | None = None,
     ) -> Trial:
         """Record how a trial ended: status one of complete, stopped_early, faulted,
         recording_lost; metrics as computed (NaN allowed); `reason`, why it ended so (a
         fault's message), kept here because the file may not hold it; `assistance`, the
         levels it ran with as its file recorded them (None when the file could not say);
         `backend`, the robot as the file names it (a simulator's seed of this trial), in
-        place of the one given at Start (None keeps that). A trial is finished once."""
+        place of the one given at Start (None keeps that); `checksum`, its file's SHA-256
+        as finished (provenance.file_checksum; None without a file). A trial is finished
+        once."""
         if status not in STATUSES:
             raise InvalidRecordError(
                 f"trial status {status!r}: give one of {', '.join(STATUSES)}"
@@ -296,6 +305,7 @@ class Trials(Database):
         levels = assistance_json(assistance)
         if backend is not None:
             backend = checked_text("backend", backend, NAME_MAX_CHARS) or None
+        checksum = checked_checksum(checksum)
         with self._write() as conn:
             trial = trial_by_id(conn, self.where, trial_id)
             if trial.finished:
@@ -309,10 +319,10 @@ class Trials(Database):
                     f"({trial.started_at.isoformat()}): check the computer's clock"
                 )
             execute(conn, "UPDATE trials SET status = ?, metrics = ?, ended_at = ?, "
-                          "end_reason = ?, assistance = ?, backend = coalesce(?, backend) "
-                          "WHERE id = ?",
+                          "end_reason = ?, assistance = ?, backend = coalesce(?, backend), "
+                          "checksum = ? WHERE id = ?",
                           (status, stored, utc_text(ended_at), str(reason), levels, backend,
-                          trial_id))
+                           checksum, trial_id))
             trial = trial_by_id(conn, self.where, trial_id)
         log.info("trial %d finished: %s, %d metric(s)%s", trial_id, status, len(trial.metrics),
                  f" ({reason})" if reason else "")
@@ -343,11 +353,14 @@ class Trials(Database):
         return trials_from_rows(rows)
 
     def unfinished_trials(self) -> list[Trial]:
-        """Every trial still recording, oldest first (after a console's crash, those
-        `app.trials.finalize.finish_interrupted` finishes)."""
+        """This station's trials still recording, oldest first (after a console's crash,
+        those `app.trials.finalize.finish_interrupted` finishes). Another station's are its
+        own: it may be recording them now, into files this console cannot see. A trial
+        recorded before stations (none) counts as this one's."""
         with self._read() as conn:
-            rows = execute(conn, TRIAL_SELECT + " WHERE t.status = 'recording' ORDER BY t.id"
-                                 ).fetchall()
+            rows = execute(conn, TRIAL_SELECT + " WHERE t.status = 'recording' AND "
+                                 "(t.station = ? OR t.station IS NULL) ORDER BY t.id",
+                                 (self.station,)).fetchall()
         return trials_from_rows(rows)
 
     def trials_for_patient(self, code: str) -> list[Trial]:
@@ -359,6 +372,26 @@ class Trials(Database):
                 (patient,),
             ).fetchall()
         return trials_from_rows(rows)
+
+    def verify_trial_file(self, trial: Trial | int) -> str | None:
+        """Why the trial's file is not the one recorded, None when it is (its SHA-256 is the
+        checksum kept at its end) or when no checksum was kept (before schema v10, a trial
+        not finished or without a file)."""
+        if not isinstance(trial, Trial):
+            trial = self.trial(trial)
+        if trial.checksum is None:
+            return None
+        path = self.data_dir.resolve(trial.file)
+        try:
+            found = file_checksum(path)
+        except OSError as exc:
+            return f"trial {trial.id}'s file {path} cannot be read ({exc.strerror or exc})"
+        if found != trial.checksum:
+            return (f"trial {trial.id}'s file {path} is not the one recorded: its SHA-256 is "
+                    f"{found[:12]}…, the registry's {trial.checksum[:12]}… (changed or "
+                    "replaced since it was finished): restore it from the trial store or a "
+                    "backup")
+        return None
 
     def trial_path(self, trial: Trial | int) -> Path:
         """The absolute path of a trial's file (which may be missing)."""
@@ -402,12 +435,14 @@ def trials_from_rows(rows: list[tuple]) -> list[Trial]:
     trials = []
     for row, params, values in zip(rows, parameters, metrics, strict=True):
         (trial_id, code, session_number, session_date, number, _, file, _, status,
-         started_at, ended_at, backend, patient_kind, end_reason, levels) = row
+         started_at, ended_at, backend, patient_kind, end_reason, levels, station,
+         checksum) = row
         trials.append(Trial(
             trial_id, code, session_number, datetime.date.fromisoformat(session_date), number,
             params, file, values, status, datetime.datetime.fromisoformat(started_at),
             None if ended_at is None else datetime.datetime.fromisoformat(ended_at),
-            backend, patient_kind, end_reason, assistance_from_json(levels),
+            backend, patient_kind, end_reason, assistance_from_json(levels), station,
+            checksum,
         ))
     return trials
 

@@ -18,8 +18,8 @@ from __future__ import annotations
 from sqlalchemy import Connection, insert, inspect, select, update
 
 from app.errors import SchemaError
-from app.records.registry.postgres import numbering, seals
-from app.records.registry.postgres.roles import Roles
+from app.records.registry.postgres import numbering, seals, tables
+from app.records.registry.postgres.roles import Roles, research_view
 from app.records.registry.postgres.tables import SCHEMA_VERSION, metadata, schema_version
 
 __all__ = ["Roles", "create_registry", "migrate_registry", "registry_version"]
@@ -52,10 +52,41 @@ MIGRATIONS: dict[int, tuple[str, ...]] = {
             END LOOP;
         END $$""",),
 }
+
+MIGRATIONS[10] = (
+    # every row checked against its v9 seal before it is sealed again (as on SQLite:
+    # damage is refused, never laundered by the upgrade)
+    *(f"""DO $$ BEGIN
+            IF EXISTS (SELECT 1 FROM public.{table} r
+                       WHERE r.seal IS DISTINCT FROM public.registry_seal_of_{table}(r)) THEN
+                RAISE EXCEPTION 'the registry is damaged: a row of {table} does not match '
+                    'its seal; nothing was changed. Restore the registry from a backup'
+                    USING ERRCODE = 'data_corrupted';
+            END IF;
+        END $$""" for table in ("trials", "plan_runs")),
+    "ALTER TABLE trials ADD COLUMN station text, ADD COLUMN checksum text "
+    "CONSTRAINT trials_checksum CHECK (checksum IS NULL OR checksum ~ '^[0-9a-f]{64}$')",
+    "ALTER TABLE plan_runs ADD COLUMN station text",
+    *(seals.table_statements(tables.metadata.tables[table])[0].replace(
+        "CREATE FUNCTION", "CREATE OR REPLACE FUNCTION", 1) for table in ("trials", "plan_runs")),
+    "UPDATE trials SET station = NULL",  # the seal trigger seals each row again
+    "UPDATE plan_runs SET station = NULL",
+    *(research_view(table, replace=True) for table in ("trials", "plan_runs")),
+    """DO $$ DECLARE who text; BEGIN
+        FOR who IN SELECT DISTINCT grantee FROM information_schema.role_table_grants
+                   WHERE table_schema = 'research' AND table_name = 'trials'
+                   AND privilege_type = 'SELECT' AND grantee <> current_user LOOP
+            EXECUTE format('GRANT SELECT (station, checksum) ON trials TO %I', who);
+            EXECUTE format('GRANT SELECT (station) ON plan_runs TO %I', who);
+        END LOOP;
+    END $$""",
+)
 """The server's steps to each schema version from the one before (the first the server had
 is v8). v9 brought SQLite the numbering rule the server held from its first version
 (app.records.registry.numbering); on the server, the clinic role (whoever may withdraw a
-trial) may now delete what a withdrawn trial takes with it (roles.WITHDRAWN_WITH_A_TRIAL)."""
+trial) may now delete what a withdrawn trial takes with it (roles.WITHDRAWN_WITH_A_TRIAL).
+v10: the station of each trial and plan run, and each trial file's checksum
+(app.records.registry.provenance), sealed; research reads them (they name no person)."""
 
 
 def migrate_registry(conn: Connection) -> tuple[int, int]:

@@ -143,16 +143,20 @@ class Roles:
     def _research(self) -> tuple[str, ...]:
         out = []
         for table in REGISTRY_TABLES:
-            derived = DERIVED_FOR_RESEARCH.get(table, {})
-            columns = ", ".join(f"{derived[c]} AS {c}" if c in derived else c
-                                for c in visible_to_research(table))
-            where = ROW_FILTERED.get(table)
             if granted := granted_to_research(table):
                 out.append(f"GRANT SELECT ({', '.join(granted)}) ON {table} "
                            f"TO {self.research}")
-            out.append(
-                f"CREATE VIEW research.{table} WITH (security_barrier) AS "
-                f"SELECT {columns} FROM public.{table}"
-                + (f" WHERE {where}" if where else ""))
+            out.append(research_view(table))
             out.append(f"GRANT SELECT ON research.{table} TO {self.research}")
         return tuple(out)
+
+
+def research_view(table: str, *, replace: bool = False) -> str:
+    """Research's view of `table` (`replace`: a migration that added columns to it)."""
+    derived = DERIVED_FOR_RESEARCH.get(table, {})
+    columns = ", ".join(f"{derived[c]} AS {c}" if c in derived else c
+                        for c in visible_to_research(table))
+    where = ROW_FILTERED.get(table)
+    return (f"CREATE {'OR REPLACE ' if replace else ''}VIEW research.{table} WITH "
+            f"(security_barrier) AS SELECT {columns} FROM public.{table}"
+            + (f" WHERE {where}" if where else ""))

@@ -40,7 +40,7 @@ from sqlalchemy import (
     text,
 )
 
-SCHEMA_VERSION = 9
+SCHEMA_VERSION = 10
 """The SQLite registry's schema version these tables are (schema.SCHEMA_VERSION)."""
 
 metadata = MetaData()
@@ -125,7 +125,10 @@ trials = Table(
     _text("end_reason", nullable=False, default=""),
     _text("assistance"),
     _seal(),
+    _text("station"),
+    _text("checksum"),
     CheckConstraint("number >= 1", name="trials_number"),
+    CheckConstraint("checksum IS NULL OR checksum ~ '^[0-9a-f]{64}$'", name="trials_checksum"),
     CheckConstraint(f"status IN ({', '.join(repr(s) for s in TRIAL_STATUSES)})",
                     name="trials_status"),
     UniqueConstraint("session_id", "number", name="trials_session_number"),
@@ -166,6 +169,7 @@ plan_runs = Table(
     _text("status", nullable=False),
     _text("end_reason", nullable=False, default=""),
     _seal(),
+    _text("station"),
     CheckConstraint("status IN ('running', 'complete', 'stopped', 'emergency_stop', "
                     "'faulted', 'interrupted')", name="plan_runs_status"),
 )

@@ -203,20 +203,44 @@ def test_the_readmes_recipe_an_owner_who_may_create_roles_creates_the_registry(
     assert "seals: every row matches its seal" in out
 
 
+def _as_at_v8(registry: Registry) -> None:
+    """Today's registry on the server made as v8 left it: without v10's columns (their seal
+    functions and research's views as they were) nor v9's grants to clinic."""
+    from app.records.registry import seals as sqlite_seals
+    from app.records.registry.postgres import seals as server_seals, tables
+    from app.records.registry.postgres.roles import visible_to_research
+
+    added = {"trials": ("station", "checksum"), "plan_runs": ("station",)}
+    statements = [f"DROP VIEW research.{table}" for table in added]
+    for table, columns in added.items():
+        statements.append(f"ALTER TABLE {table} " + ", ".join(f"DROP COLUMN {c}"
+                                                             for c in columns))
+        with pytest.MonkeyPatch.context() as v9:  # the seal function as v9 had it
+            v9.setitem(sqlite_seals.SEALED, table, sqlite_seals.SEALED_AT_V9[table])
+            statements.append(server_seals.table_statements(tables.metadata.tables[table])[0]
+                              .replace("CREATE FUNCTION", "CREATE OR REPLACE FUNCTION", 1))
+        kept = [c for c in visible_to_research(table) if c not in columns]
+        statements += [f"CREATE VIEW research.{table} WITH (security_barrier) AS SELECT "
+                       f"{', '.join(kept)} FROM public.{table}",
+                       f"GRANT SELECT ON research.{table} TO {registry.roles.research}"]
+    registry.server.admin_sql(
+        *statements, "UPDATE schema_version SET version = 8",
+        f"REVOKE DELETE ON plan_steps, proposals FROM {registry.roles.clinic}",
+        database=registry.database)
+
+
 def test_a_v8_registry_on_the_server_is_upgraded_and_a_station_can_then_withdraw(
         postgres_server, station, capsys, tmp_path):
     """v8, the server's first: its clinic role could not delete a withdrawn trial's plan step
-    or proposals. `rehab db upgrade` brings it to today's, and a station's login then can."""
+    or proposals, its trials kept no station nor checksum. `rehab db upgrade` brings it to
+    today's, and a station's login then can withdraw a trial and record both."""
     from app.plans.templates import load_template
     from app.records.datadir import DataDir
     from app.records.registry import Registry as Console
     from core.trial import TrialParameters
 
     registry = Registry(postgres_server)
-    postgres_server.admin_sql(
-        "UPDATE schema_version SET version = 8",
-        f"REVOKE DELETE ON plan_steps, proposals FROM {registry.roles.clinic}",
-        database=registry.database)
+    _as_at_v8(registry)
     login = sa.make_url(registry.url(registry.clinic_login))
     with pytest.raises(RegistryError, match=r"holds a registry of schema v8; .*`rehab db "
                                             "upgrade`"):
@@ -227,7 +251,7 @@ def test_a_v8_registry_on_the_server_is_upgraded_and_a_station_can_then_withdraw
     assert (code, err) == (0, "")
     assert out == f"the registry at {shown} updated from schema v8 to v{SCHEMA_VERSION}\n"
 
-    console = Console(DataDir(tmp_path / "data"), server=login)
+    console = Console(DataDir(tmp_path / "data"), server=login, station="robot-2")
     code = console.create_patient("Ada", "Example").code
     plan = console.save_plan(code, load_template("first-session").plan)
     run_id = console.begin_plan_run(plan.id)
@@ -237,3 +261,8 @@ def test_a_v8_registry_on_the_server_is_upgraded_and_a_station_can_then_withdraw
     console.withdraw_trial(begun.trial_id, "its file was never written")
     assert console.trials_for_patient(code) == []
     assert console.proposal(begun.trial_id) is None
+    begun = console.begin_trial(code, TrialParameters(), backend="simulator")
+    done = console.finish_trial(begun.trial_id, "complete", {}, checksum="ab" * 32)
+    assert (done.station, done.checksum) == ("robot-2", "ab" * 32)
+    assert console.plan_run(run_id).station == "robot-2"
+    assert console.integrity_check() == []
