@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import argparse
 
-from app.cli.common import EXIT_OK, CommandError, data_dir_for
+from app.cli.common import EXIT_OK, CommandError, absolute, data_dir_for
 from app.records.registry.postgres import Roles
 
 
@@ -40,6 +40,11 @@ def add_db_commands(commands) -> None:
     upgrade.add_argument("--research-role", default=defaults.research,
                          help=f"PostgreSQL: the group role that sees codes and data only "
                               f"(default {defaults.research})")
+    upgrade.add_argument("--from", dest="source", metavar="FILE",
+                         help="PostgreSQL: copy this SQLite registry (a registry.sqlite3, or "
+                              "the data folder holding it) into the server's registry, which "
+                              "must be empty; every row's seal is checked on arrival, and "
+                              "nothing is copied unless all of it is")
     upgrade.set_defaults(func=cmd_upgrade)
 
 
@@ -64,5 +69,10 @@ def cmd_upgrade(args: argparse.Namespace) -> int:
     from app.records.registry import admin
 
     roles = admin.check_roles(args.clinic_role, args.research_role)
-    print(admin.upgrade(_location(args), roles))
+    source = None
+    if args.source is not None:
+        if not args.source.strip():
+            raise CommandError("--from is empty: give the SQLite registry to copy")
+        source = absolute(args.source)
+    print(admin.upgrade(_location(args), roles, source))
     return EXIT_OK

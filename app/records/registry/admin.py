@@ -24,7 +24,7 @@ from pathlib import Path
 import sqlalchemy as sa
 
 from app.errors import RegistryError, SchemaError
-from app.records.datadir import private_files
+from app.records.datadir import REGISTRY_NAME, private_files
 from app.records.registry import seals
 from app.records.registry.database import CONNECT_TIMEOUT_S, SEALED_FROM, first_line
 from app.records.registry.postgres import (
@@ -37,6 +37,7 @@ from app.records.registry.postgres import (
 )
 from app.records.registry.postgres.tables import REGISTRY_TABLES
 from app.records.registry.schema import SCHEMA_VERSION, Schema, check_registry_file
+from app.records.registry.transfer import copy_registry
 from app.records.registry.url import POSTGRESQL, RegistryURL
 from device.safewrite import folded
 
@@ -72,11 +73,19 @@ def status(location: RegistryURL) -> Status:
     return _file_status(location)
 
 
-def upgrade(location: RegistryURL, roles: Roles | None = None) -> str:
+def upgrade(location: RegistryURL, roles: Roles | None = None,
+            source: Path | None = None) -> str:
     """Bring the registry to this console's schema; the one line saying what was done.
-    SchemaError for a registry newer than this console."""
+    SchemaError for a registry newer than this console. `source`: a SQLite registry file
+    (or its data folder) copied into the server's registry, which must be empty
+    (registry.transfer), in the same transaction."""
     if location.engine == POSTGRESQL:
-        return _server_upgrade(location, roles or Roles())
+        return _server_upgrade(location, roles or Roles(), source)
+    if source is not None:
+        raise RegistryError(f"--from copies a SQLite registry onto a PostgreSQL server, but "
+                            f"this console's registry is the SQLite file {location.path} "
+                            f"(from {location.source}): point the registry URL file at the "
+                            "server first")
     return _file_upgrade(location)
 
 
@@ -238,28 +247,49 @@ def _server_status(location: RegistryURL) -> Status:
                    schema_line(version), _rows_line(counts), seal), damaged)
 
 
-def _server_upgrade(location: RegistryURL, roles: Roles) -> str:
+def _server_upgrade(location: RegistryURL, roles: Roles, source: Path | None = None) -> str:
+    if source is None:
+        return _server_schema(location, roles)
+    path = source / REGISTRY_NAME if source.is_dir() else source
+    if check_registry_file(path, path.parent / "trials") is None:
+        raise RegistryError(f"no registry file at {path} to copy: give a registry.sqlite3 "
+                            "or the data folder holding it")
     where = location.shown
-    with _server(location, autocommit=False) as conn, conn.begin():
-        # two upgrades at once: the second waits, then finds the registry made
-        conn.execute(sa.text("SELECT pg_advisory_xact_lock(hashtext('rehab registry'))"))
-        version = registry_version(conn)
-        if version is None:
-            create_registry(conn, roles)
-            return (f"the registry created at {where}: schema v{SCHEMA_VERSION}, seals, "
-                    f"numbering, roles {roles.clinic} (names) and {roles.research} (codes "
-                    "and data)")
-        if version > SCHEMA_VERSION:
-            raise SchemaError(f"the registry at {where} has schema v{version}, written by a "
-                              f"newer console; this one reads up to v{SCHEMA_VERSION}. "
-                              "Update the console; nothing was changed")
-        if version == SCHEMA_VERSION:
-            return f"the registry at {where} is at schema v{version}, this console's: nothing to do"
-        if version + 1 not in MIGRATIONS:
-            raise SchemaError(f"the registry at {where} has schema v{version}: this console "
-                              "has no migration from it on PostgreSQL; nothing was changed")
-        before, after = migrate_registry(conn)
-        return f"the registry at {where} updated from schema v{before} to v{after}"
+    with _read_only(path) as file, _server(location, autocommit=False) as conn, conn.begin():
+        done = _server_schema(location, roles, conn)
+        copied = copy_registry(file, str(path), conn, where)
+    rows = ", ".join(f"{table} {n}" for table, n in copied.items())
+    return (f"{done}; the registry {path} copied into it ({rows}): every row's seal on the "
+            "server is the file's")
+
+
+def _server_schema(location: RegistryURL, roles: Roles, conn: sa.Connection | None = None
+                   ) -> str:
+    """The server's registry created or brought to this console's schema, in `conn`'s
+    transaction (a new one when None); the line saying what was done."""
+    if conn is None:
+        with _server(location, autocommit=False) as conn, conn.begin():
+            return _server_schema(location, roles, conn)
+    where = location.shown
+    # two upgrades at once: the second waits, then finds the registry made
+    conn.execute(sa.text("SELECT pg_advisory_xact_lock(hashtext('rehab registry'))"))
+    version = registry_version(conn)
+    if version is None:
+        create_registry(conn, roles)
+        return (f"the registry created at {where}: schema v{SCHEMA_VERSION}, seals, "
+                f"numbering, roles {roles.clinic} (names) and {roles.research} (codes "
+                "and data)")
+    if version > SCHEMA_VERSION:
+        raise SchemaError(f"the registry at {where} has schema v{version}, written by a "
+                          f"newer console; this one reads up to v{SCHEMA_VERSION}. "
+                          "Update the console; nothing was changed")
+    if version == SCHEMA_VERSION:
+        return f"the registry at {where} is at schema v{version}, this console's: nothing to do"
+    if version + 1 not in MIGRATIONS:
+        raise SchemaError(f"the registry at {where} has schema v{version}: this console "
+                          "has no migration from it on PostgreSQL; nothing was changed")
+    before, after = migrate_registry(conn)
+    return f"the registry at {where} updated from schema v{before} to v{after}"
 
 
 def _rows_line(counts: dict[str, int | str]) -> str:

@@ -1,12 +1,13 @@
 """The registry on a PostgreSQL server, for several robot stations of a department (issue 32):
-today's schema (v8) with the seals, the gap-free numbering and the clinic and research
-roles enforced by the server itself.
+today's schema with the seals, the gap-free numbering and the clinic and research roles
+enforced by the server itself.
 
-This is the foundation the rest of the registry moves onto (docs/stations.md says how):
-the tables as SQLAlchemy 2 Core metadata (`tables`), each row's seal computed by a trigger
-with the digest the SQLite registry computes (`seals`), session and trial numbers that
-stay gap-free with several stations writing at once (`numbering`), and who may read names
-(`roles`). The console's SQLite registry (app.records.registry) is unchanged by it.
+What the server holds that the registry's code (app.records.registry, the same on both
+engines: docs/stations.md) relies on: the tables as SQLAlchemy 2 Core metadata (`tables`),
+each row's seal computed by a trigger with the digest the SQLite registry computes
+(`seals`), session and trial numbers that stay gap-free with several stations writing at
+once (`numbering`), who may read names (`roles`), and the steps from each older schema
+(`MIGRATIONS`).
 
 `create_registry` builds all of it in one transaction in an empty database, as the
 database's owner (the role that later migrates it): SQLAlchemy creates the tables, then
