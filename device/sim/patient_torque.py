@@ -188,8 +188,9 @@ def patient_torque(p, table, episodes, t_s, ts, te, tsd, ted):
             gen_s += p[P_LU] * (sin_s * fx - cos_s * fy)
             gen_e += p[P_LF] * (sin_e * fx - cos_e * fy)
         if p[P_SELECTIVE] != 0.0:
-            # the feed-forward and the push in joint coordinates (τ_sh = τ_A,s + τ_A,e,
-            # τ_el = τ_A,e) through P (device.sim.patients' module notes, selectivity)
+            # the impedance's answer through Q (the other side of Q K Q); the feed-forward
+            # and the pushes in joint coordinates (τ_sh = τ_A,s + τ_A,e, τ_el = τ_A,e)
+            # through P (device.sim.patients' module notes, selectivity)
             u_sh, u_el = out_of_synergy_scaled(p, P_IMP_SS, u_sh, u_el)
             f_sh, f_el = out_of_synergy_scaled(p, P_SEL_SS, gen_s + gen_e, gen_e)
             u_sh += f_sh
