@@ -21,7 +21,8 @@ TABLE_STEP_S = 0.001
 (P_ACTIVE, P_EFFORT, P_TS0, P_PHI0, P_LU, P_LF, P_PKS, P_PKC, P_PKE, P_PBS, P_PBC, P_PBE,
  P_KS, P_KC, P_KE, P_BS, P_BC, P_BE, P_DURATION, P_TOTAL, P_DT_RATE, P_ROWS, P_TREMOR,
  P_OMEGA, P_PHASE, P_AMP_S, P_AMP_E, P_SPASTIC, P_TH_S, P_TH_E, P_G_S, P_G_E, P_VB_S, P_VB_E,
- P_WRONG, P_WRONG_N, P_EP_LEN, P_EP_WINDOW, P_EPISODES, P_REST_DX, P_REST_DY, P_SIZE) = range(42)
+ P_WRONG, P_WRONG_N, P_EP_LEN, P_EP_WINDOW, P_EPISODES, P_REST_DX, P_REST_DY, P_SELECTIVE,
+ P_SEL_SS, P_SEL_SE, P_SEL_EE, P_IMP_SS, P_IMP_SE, P_IMP_EE, P_SIZE) = range(49)
 
 
 def constants_vector(parameters, arm, trajectory, ts0: float, phi0: float, rows: int,
@@ -54,7 +55,22 @@ def constants_vector(parameters, arm, trajectory, ts0: float, phi0: float, rows:
         c[P_WRONG_N] = parameters.wrong_way.force_N
     c[P_EP_LEN], c[P_EP_WINDOW], c[P_EPISODES] = ep_len, ep_window, episodes
     c[P_REST_DX], c[P_REST_DY] = rest_direction
+    c[P_SELECTIVE] = float(parameters.selectivity_loss != 0.0)
+    loss, direction = parameters.selectivity_loss, parameters.synergy_direction_rad
+    c[P_SEL_SS:P_SEL_EE + 1] = selectivity_filter(loss, direction)
+    # the impedance's answer across the synergy loses the same share: Q K Q with Q's own
+    # loss 1 − √(1 − loss), so the stiffness and the damping across scale by 1 − loss
+    c[P_IMP_SS:P_IMP_EE + 1] = selectivity_filter(1.0 - math.sqrt(1.0 - loss), direction)
     return tuple(float(v) for v in c)
+
+
+def selectivity_filter(loss: float, direction_rad: float) -> tuple[float, float, float]:
+    """The matrix P = I − loss · n nᵀ as (P_ss, P_se, P_ee), n = (−sin α, cos α) the unit
+    vector across the synergy's direction s = (cos α, sin α) in joint-coordinate torques
+    (τ_sh, τ_el), α = `direction_rad`: P keeps a command's part along s and scales the
+    part across it by 1 − loss (device.sim.patients' module notes, selectivity)."""
+    n_s, n_e = -math.sin(direction_rad), math.cos(direction_rad)
+    return (1.0 - loss * n_s * n_s, -loss * n_s * n_e, 1.0 - loss * n_e * n_e)
 
 
 @kernel
@@ -118,6 +134,14 @@ def spastic_resistance(rate, threshold, gain, viscous):
 
 
 @kernel
+def out_of_synergy_scaled(p, k, a_s, a_e):
+    """A joint-coordinate pair (shoulder, elbow) through the selectivity filter whose
+    (P_ss, P_se, P_ee) start at p[k] (P_SEL_SS or P_IMP_SS): its part along the synergy
+    kept, its part across scaled down."""
+    return (p[k] * a_s + p[k + 1] * a_e, p[k + 1] * a_s + p[k + 2] * a_e)
+
+
+@kernel
 def patient_torque(p, table, episodes, t_s, ts, te, tsd, ted):
     """Net joint torques τ_A (eq. 3.20) of a virtual patient, absolute-angle convention
     (VirtualPatient.torque; the model is in the module notes)."""
@@ -145,8 +169,13 @@ def patient_torque(p, table, episodes, t_s, ts, te, tsd, ted):
         v_s = tsd_d - tsd
         v_e = phid_d - phid
         w = p[P_EFFORT]
-        sh += w * (p[P_KS] * d_s + p[P_KC] * d_e + p[P_BS] * v_s + p[P_BC] * v_e)
-        el += w * (p[P_KC] * d_s + p[P_KE] * d_e + p[P_BC] * v_s + p[P_BE] * v_e)
+        if p[P_SELECTIVE] != 0.0:
+            # the impedance Q K Q, Q B Q: the error's part across the synergy is answered
+            # less, on both sides, so the stiffness stays symmetric (it creates no energy)
+            d_s, d_e = out_of_synergy_scaled(p, P_IMP_SS, d_s, d_e)
+            v_s, v_e = out_of_synergy_scaled(p, P_IMP_SS, v_s, v_e)
+        u_sh = w * (p[P_KS] * d_s + p[P_KC] * d_e + p[P_BS] * v_s + p[P_BC] * v_e)
+        u_el = w * (p[P_KC] * d_s + p[P_KE] * d_e + p[P_BC] * v_s + p[P_BE] * v_e)
         sin_s = math.sin(ts)
         cos_s = math.cos(ts)
         sin_e = math.sin(te)
@@ -158,6 +187,18 @@ def patient_torque(p, table, episodes, t_s, ts, te, tsd, ted):
             fy = -p[P_WRONG_N] * dir_y - w * drive_y
             gen_s += p[P_LU] * (sin_s * fx - cos_s * fy)
             gen_e += p[P_LF] * (sin_e * fx - cos_e * fy)
+        if p[P_SELECTIVE] != 0.0:
+            # the impedance's answer through Q (the other side of Q K Q); the feed-forward
+            # and the pushes in joint coordinates (τ_sh = τ_A,s + τ_A,e, τ_el = τ_A,e)
+            # through P (device.sim.patients' module notes, selectivity)
+            u_sh, u_el = out_of_synergy_scaled(p, P_IMP_SS, u_sh, u_el)
+            f_sh, f_el = out_of_synergy_scaled(p, P_SEL_SS, gen_s + gen_e, gen_e)
+            u_sh += f_sh
+            u_el += f_el
+            gen_s = 0.0
+            gen_e = 0.0
+        sh += u_sh
+        el += u_el
     if p[P_TREMOR] != 0.0:
         wave = math.sin(p[P_OMEGA] * t_s + p[P_PHASE])
         sh += p[P_AMP_S] * wave

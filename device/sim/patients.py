@@ -58,11 +58,42 @@ The parts of a patient
   al., J NeuroEng Rehabil 8:15, 2011; Dipietro et al., J Neurophysiol 98:757, 2007): on
   the battery's circle at 0.3 the weak patient's ratio went 0.95 → 0.80–0.82 (healthy
   0.88–0.91) and its joint independence 0.87 → 0.83–0.85. It is not the weak kind's
-  default: the same plan took the weak patient's directional performance on the thesis's
-  D (as-needed) from 26–30 % to 2 % and the time the robot led from 86 % to 25 %, a
-  change to every weak figure to be validated first. A coupling of torques instead (the
-  elbow given a share of the shoulder's voluntary torque) did neither: the arm's
-  impedance pulled the hand back onto the path.
+  default: the plan leaves the path, so wherever the robot holds the hand on it (the
+  as-needed channel on the thesis's D) the arm pushes across the channel: from 0.15 up the
+  weak patient's directional performance fell from 26–30 % to 2 %, the time it led from
+  85–87 % to 24–37 %, and the hand left the path by 14–24 mm RMS (bench/synergy.py). A
+  coupling of torques instead (the elbow given a share of the shoulder's voluntary torque)
+  did neither: the arm's impedance pulled the hand back onto the path.
+* selectivity (`selectivity_loss` κ and `synergy_direction_rad` α, options of every kind
+  but passive, κ = 0 by default): the loss of selective joint control after stroke. A
+  paretic arm makes torques along its synergy but hardly across it: asked for a torque at
+  one joint it makes one at the other too, shoulder abduction coming with elbow flexion
+  and adduction with extension (Dewald et al., Brain 118:495, 1995; Dewald & Beer, Muscle
+  Nerve 24:273, 2001), and its reaching loses interjoint coordination (Levin, Brain
+  119:281, 1996). The plan stays the path (the subject still means to follow it); what the
+  arm makes of its command does not. In joint coordinates (τ_sh, τ_el) every voluntary
+  torque keeps its part along the synergy's direction s = (cos α, sin α) and loses the
+  share κ of its part across it (n = (−sin α, cos α)): the feed-forward and the push go
+  through P = I − κ n nᵀ; the impedance becomes Q K Q and Q B Q, Q = I − (1 − √(1 − κ))
+  n nᵀ, so its answer across the synergy loses the same share while the stiffness stays
+  symmetric and positive definite (the arm creates no energy) with its equilibrium on the
+  plan. Unlike `synergy`, the arm then does not push across a channel that holds the hand
+  on the path. α = SYNERGY_DIRECTION_RAD (−67.5°): in this arm's coordinates (θ_s grows as
+  the upper arm swings toward the midline, φ = θ_e − θ_s as the elbow bends) elbow flexion
+  with horizontal abduction, the elbow leading (elbow flexion is the flexor synergy's
+  strongest part, Brunnstrom 1970). The angle is our choice: the sources above measured the
+  coupling, mostly with the arm abducted against gravity, not this angle. On the D (κ =
+  0.5, as-needed) −50° to −79° behaved alike (the patient leading 82–87 % of the time,
+  within 3.3 mm RMS of the path; its push in the cone 18–19 % of the time at −50°, 5–7 % at
+  −79°) but at −45° the weak arm cut the D's arc (21–26 mm RMS, leading 39–41 %): −67.5°
+  keeps away from that edge. Quoted from memory of the literature, as the impedance values
+  above; check before citing. With κ = 0.5 the weak patient's circle flattens and its
+  joints move together, both figures under the healthy patient's, while on the thesis's D
+  with the as-needed assistance it leads as often as without and its push, bent toward
+  the synergy, is in the cone a third as often; it is not the weak kind's default because
+  its circle then comes out as smooth as the healthy one and its reaches have fewer speed
+  maxima (it stops short across its synergy, and this model makes no corrective
+  submovements). The figures are in docs/assessments.md (The virtual patients' circles).
 * spastic: healthy effort plus a velocity-dependent resistance on each joint
   (Lance's definition of spasticity: a velocity-dependent increase in the tonic
   stretch reflex),  τ = −b ω − g (|ω| − ω_th)₊ sign ω,  with ω the joint's rate.
@@ -119,6 +150,13 @@ from device.sim.patient_torque import (
 
 SYNERGY_MAX = 0.8
 """A coupling beyond which the elbow would follow the shoulder almost wholly."""
+SELECTIVITY_LOSS_MAX = 0.9
+"""A loss beyond which the arm could hardly push out of its synergy at all."""
+SYNERGY_DIRECTION_RAD = -3.0 * math.pi / 8.0
+"""The flexion synergy's direction α in joint-coordinate torques (τ_sh, τ_el) =
+(cos α, sin α), −67.5°: elbow flexion with shoulder horizontal abduction (and elbow
+extension with adduction), the elbow's share 2.4 times the shoulder's (module notes,
+selectivity)."""
 
 PATIENT_KINDS = ("healthy", "weak", "spastic", "tremor", "passive", "wrong_way")
 TREMOR_BAND_HZ = (4.0, 6.0)
@@ -260,7 +298,12 @@ class PatientParameters:
     drive_N: float = DRIVE_N
     synergy: float = 0.0
     """The flexion synergy's coupling: the elbow's planned angle moves by this times the
-    shoulder's change (module notes, weak)."""
+    shoulder's change (module notes, synergy)."""
+    selectivity_loss: float = 0.0
+    """The share of the voluntary command across the synergy's direction that the arm
+    loses (module notes, selectivity)."""
+    synergy_direction_rad: float = SYNERGY_DIRECTION_RAD
+    """The synergy's direction α in joint-coordinate torques (τ_sh, τ_el) = (cos α, sin α)."""
 
     def __post_init__(self) -> None:
         check_range("drive_N", self.drive_N, *DRIVE_RANGE_N, "N",
@@ -271,6 +314,11 @@ class PatientParameters:
                     "the fraction of a healthy subject's effort")
         check_range("synergy", self.synergy, 0.0, SYNERGY_MAX, "",
                     "how far the elbow's plan follows the shoulder's (rad/rad)")
+        check_range("selectivity_loss", self.selectivity_loss, 0.0, SELECTIVITY_LOSS_MAX, "",
+                    "the share of the command out of synergy the arm loses")
+        check_range("synergy_direction_rad", self.synergy_direction_rad, -math.pi / 2,
+                    math.pi / 2, "rad", "a direction of joint torques (the opposite one is "
+                    "the same synergy)")
 
 
 # -------------------------------------------------------------------- patient
@@ -461,7 +509,8 @@ def _lagged(direction: np.ndarray, dt_s: float, lag_s: float) -> np.ndarray:
 # -------------------------------------------------------------------- factory
 _IMPEDANCE_OPTIONS = ("passive_stiffness_Nm_rad", "passive_damping_Nms_rad", "variability",
                       *TASK_OPTIONS)
-_EFFORT_OPTIONS = ("effort", "stiffness_Nm_rad", "damping_Nms_rad", "drive_N", "synergy")
+_EFFORT_OPTIONS = ("effort", "stiffness_Nm_rad", "damping_Nms_rad", "drive_N", "synergy",
+                   "selectivity_loss", "synergy_direction_rad")
 _OPTIONS = {
     "passive": _IMPEDANCE_OPTIONS,
     "healthy": _IMPEDANCE_OPTIONS + _EFFORT_OPTIONS,
@@ -498,7 +547,8 @@ def make_patient(
                       default VARIABILITY, each trial's factors drawn by `seed`; nothing
                       for a passive patient, who has neither), strength_N and
                       proprioception_sd_m (the tasks the robot leads, device.sim.holdtasks)
-      but passive     effort, stiffness_Nm_rad, damping_Nms_rad, drive_N, synergy
+      but passive     effort, stiffness_Nm_rad, damping_Nms_rad, drive_N, synergy,
+                      selectivity_loss, synergy_direction_rad
       spastic         spastic_threshold_rad_s, reflex_gain_Nms_rad, spastic_viscous_Nms_rad
       tremor          tremor_hz (None: drawn in 4–6 Hz), tremor_amplitude_Nm
       wrong_way       wrong_way_fraction, wrong_way_episode_s, wrong_way_force_N
@@ -563,15 +613,17 @@ def make_patient(
     effort = options.get("effort", DEFAULT_EFFORT.get(kind, 1.0))
     drive = options.get("drive_N", DRIVE_N)
     synergy = options.get("synergy", 0.0)
+    loss = options.get("selectivity_loss", 0.0)
+    direction = options.get("synergy_direction_rad", SYNERGY_DIRECTION_RAD)
     PatientParameters(kind, effort, passive, active, spasticity, tremor, wrong_way, drive,
-                      synergy)
+                      synergy, loss, direction)
     effort_factor, drive_factor = trial_factors(seed, options.get("variability", VARIABILITY))
     if kind != "passive":  # the subject's mean checked above; this trial's draw below
         # a healthy subject's effort is the model's whole effort (1): a trial varies it
         # down, never beyond
         effort, drive = min(1.0, effort * effort_factor), drive * drive_factor
     parameters = PatientParameters(kind, effort, passive, active, spasticity, tremor,
-                                   wrong_way, drive, synergy)
+                                   wrong_way, drive, synergy, loss, direction)
     strength, proprioception = task_options(kind, options)
     task = None
     if isinstance(trajectory, TaskTrajectory) and kind != "passive":

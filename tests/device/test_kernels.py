@@ -173,9 +173,10 @@ def test_the_rate_tracker_compiled_is_the_interpreted_one():
         assert z_fast.tolist() == z_slow
 
 
-@pytest.mark.parametrize("kind", PATIENT_KINDS)
-def test_every_patients_torque_compiled_is_the_interpreted_one(kind):
-    patient = make_patient(kind, ARM, THESIS_SUBJECT.trajectory(), seed=3)
+@pytest.mark.parametrize(("kind", "options"), [(kind, {}) for kind in PATIENT_KINDS]
+                         + [("weak", {"selectivity_loss": 0.5})])
+def test_every_patients_torque_compiled_is_the_interpreted_one(kind, options):
+    patient = make_patient(kind, ARM, THESIS_SUBJECT.trajectory(), seed=3, **options)
     fast = compiled(patient_torque)
     arrays = (np.asarray(patient.constants), patient.table, patient.episodes)
     rng = np.random.default_rng(4)

@@ -13,6 +13,7 @@ from device.sim.patients import (
     HEALTHY_IMPEDANCE,
     PASSIVE_TISSUE,
     PATIENT_KINDS,
+    SYNERGY_DIRECTION_RAD,
     TREMOR_BAND_HZ,
     Patient,
     Spasticity,
@@ -65,6 +66,10 @@ def test_unknown_kind_is_refused_with_the_list_of_kinds():
         ("weak", {"effort": 1.5}, "effort"),
         ("weak", {"synergy": 0.9}, "synergy"),
         ("passive", {"synergy": 0.3}, "synergy"),
+        ("weak", {"selectivity_loss": 0.95}, "selectivity_loss"),
+        ("weak", {"selectivity_loss": -0.1}, "selectivity_loss"),
+        ("passive", {"selectivity_loss": 0.3}, "selectivity_loss"),
+        ("weak", {"synergy_direction_rad": 2.0}, "synergy_direction_rad"),
         ("healthy", {"stiffness_Nm_rad": (1.0, 5.0, 1.0)}, r"stiffness_Nm_rad\[cross\]"),
         ("healthy", {"damping_Nms_rad": (1.0, 0.0)}, "damping_Nms_rad"),
         ("healthy", {"passive_stiffness_Nm_rad": (-1.0, 0.0, 1.0)}, "passive_stiffness"),
@@ -202,6 +207,73 @@ def test_an_arm_in_synergy_plans_the_elbow_to_move_with_the_shoulder():
     np.testing.assert_allclose(coupled[:, 1], phi + 0.3 * (shoulder - shoulder[0]), atol=1e-12)
     np.testing.assert_allclose(coupled[:, 3], phi_rate + 0.3 * shoulder_rate, atol=1e-12)
     assert np.ptp(coupled[:, 1] - phi) > 0.05  # it moves the plan, by some degrees
+
+
+def to_joint_torques(tau_a):
+    """τ_A (absolute-angle convention) to anatomical joint torques (shoulder, elbow)."""
+    return np.array([tau_a[0] + tau_a[1], tau_a[1]])
+
+
+def test_a_weak_arm_keeps_its_command_along_the_synergy_and_loses_a_share_across_it():
+    """Loss of selective joint control (device.sim.patients, selectivity): on its plan
+    (impedance silent) the weak arm's voluntary joint torques are the same arm's without
+    the loss, with their part along the synergy's direction s kept and their part across it
+    scaled by 1 − the loss; off its plan its stiffness across the synergy loses the same
+    share (Q K Q), still symmetric."""
+    loss = 0.5
+    passive = make_patient("passive", ARM, TRAJECTORY)
+    weak = make_patient("weak", ARM, TRAJECTORY, variability=0.0, selectivity_loss=loss)
+    selective = make_patient("weak", ARM, TRAJECTORY, variability=0.0)
+    s = np.array([math.cos(SYNERGY_DIRECTION_RAD), math.sin(SYNERGY_DIRECTION_RAD)])
+    n = np.array([-s[1], s[0]])
+    assert s[0] > 0.0 > s[1]  # shoulder one way, elbow the other: abduction with flexion
+    assert abs(s[1]) > 2 * s[0]  # the elbow first (elbow flexion leads the flexor synergy)
+    across = []
+    for t in (0.3, 1.2, 2.0, 2.6, 3.3, 5.1):
+        ts, phi, tsd, phid = weak.desired(t)[:4]
+        state = (t, ts, ts + phi, tsd, tsd + phid)
+        tissue = np.array(passive.torque(*state))
+        lost = to_joint_torques(np.array(weak.torque(*state)) - tissue)
+        whole = to_joint_torques(np.array(selective.torque(*state)) - tissue)
+        assert lost @ s == pytest.approx(whole @ s, abs=1e-12)
+        assert lost @ n == pytest.approx((1.0 - loss) * (whole @ n), abs=1e-12)
+        across.append(abs(whole @ n))
+    assert max(across) > 1e-2  # the D asks for torques out of the synergy
+    # the stiffness about the plan: −Tᵀ (w P K P + K_passive) T, symmetric (the push along
+    # the path off: its torque J_Aᵀ F turns with the arm)
+    weak = make_patient("weak", ARM, TRAJECTORY, variability=0.0, drive_N=0.0,
+                        selectivity_loss=loss)
+    t = 1.0
+    ts, phi, tsd, phid = weak.desired(t)[:4]
+    theta = np.array([ts, ts + phi])
+    h = 1e-6
+    columns = []
+    for j in range(2):
+        d = np.zeros(2)
+        d[j] = h
+        plus = np.array(weak.torque(t, *(theta + d), tsd, tsd + phid))
+        minus = np.array(weak.torque(t, *(theta - d), tsd, tsd + phid))
+        columns.append((plus - minus) / (2 * h))
+    stiffness = -np.column_stack(columns)
+    to_joint = np.array([[1.0, 0.0], [-1.0, 1.0]])
+    q = np.eye(2) - (1.0 - math.sqrt(1.0 - loss)) * np.outer(n, n)
+    k = HEALTHY_IMPEDANCE.stiffness_Nm_rad
+    kp = PASSIVE_TISSUE.stiffness_Nm_rad
+    active = q @ np.array([[k[0], k[1]], [k[1], k[2]]]) @ q
+    joint_k = weak.parameters.effort * active + np.array([[kp[0], kp[1]], [kp[1], kp[2]]])
+    np.testing.assert_allclose(stiffness, to_joint.T @ joint_k @ to_joint, rtol=1e-5)
+    np.testing.assert_allclose(stiffness, stiffness.T, atol=1e-6)
+    whole = np.array([[k[0], k[1]], [k[1], k[2]]])
+    assert n @ active @ n == pytest.approx((1.0 - loss) * (n @ whole @ n))
+    assert np.all(np.linalg.eigvalsh(stiffness) > 0)
+
+
+def test_no_kind_loses_selectivity_unless_asked():
+    for kind in PATIENT_KINDS:
+        assert make_patient(kind, ARM, TRAJECTORY).constants == make_patient(
+            kind, ARM, TRAJECTORY, **({} if kind == "passive" else {"selectivity_loss": 0.0})
+        ).constants
+        assert make_patient(kind, ARM, TRAJECTORY).parameters.selectivity_loss == 0.0
 
 
 # ------------------------------------------------------------------- tremor

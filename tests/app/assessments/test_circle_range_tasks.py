@@ -29,6 +29,21 @@ def test_an_arm_in_synergy_draws_a_flatter_circle_with_its_joints_together():
     assert together["circle_joint_independence"] < apart["circle_joint_independence"]
 
 
+def test_an_arm_that_lost_selectivity_draws_a_flatter_circle_than_the_healthy_one(circles):
+    """The weak arm's loss of selective joint control (device.sim.patients, selectivity):
+    without it the weak patient, slower, draws a rounder circle than the healthy one; with
+    it both its circle ratio and its joint independence fall under the healthy patient's
+    (docs/assessments.md, The virtual patients' circles)."""
+    healthy = circles["healthy"][0].figures
+    apart = circles["weak"][0].figures
+    lost = run_task("circle", "weak", seed=7, in_memory=True,
+                    patient_options={"selectivity_loss": 0.5})[0].figures
+    assert apart["circle_ratio"] > healthy["circle_ratio"]
+    assert lost["circle_ratio"] < healthy["circle_ratio"] - 0.03
+    assert lost["circle_joint_independence"] < healthy["circle_joint_independence"] - 0.05
+    assert lost["circle_joint_independence"] < apart["circle_joint_independence"] - 0.05
+
+
 @pytest.fixture(scope="module")
 def ranges(tmp_path_factory):
     folder = tmp_path_factory.mktemp("range")

@@ -22,6 +22,21 @@ def strength(tmp_path_factory):
     return {kind: run_task("strength", kind, seed=3, folder=folder)[0] for kind in KINDS}
 
 
+def test_an_arm_that_lost_selectivity_pushes_less_across_its_synergy(strength):
+    """The weak arm's loss of selective joint control (device.sim.patients, selectivity):
+    its pushes along the synergy keep their force, those across it lose much of it and fall
+    short of the line, as a paretic arm's isometric torques out of synergy do (Dewald &
+    Beer 2001)."""
+    whole = strength["weak"].metrics
+    lost = run_task("strength", "weak", seed=3, in_memory=True,
+                    patient_options={"selectivity_loss": 0.5})[0].figures
+    ratios = [lost[strength_key("mean", deg)] / whole[strength_key("mean", deg)]
+              for deg in STRENGTH_DIRECTIONS_DEG]
+    assert max(ratios) > 0.9
+    assert min(ratios) < 0.7
+    assert 0 < lost["strength_at_limit_count"] < whole["strength_at_limit_count"]
+
+
 @pytest.fixture(scope="module")
 def position(tmp_path_factory):
     folder = tmp_path_factory.mktemp("position")

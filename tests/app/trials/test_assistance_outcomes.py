@@ -56,6 +56,25 @@ def test_the_weak_patient_gets_a_fifth_less_work_than_the_thesis_scheme_gives():
     assert as_needed <= 0.8 * thesis
 
 
+def test_an_arm_that_lost_selectivity_is_helped_as_needed_and_still_leads():
+    """The weak patient with its loss of selective joint control (device.sim.patients,
+    selectivity): its plan is still the path, so the channel holds the hand on it and the
+    as-needed help still gives way to it most of the time; the robot does more of the work,
+    and the push, bent toward the synergy, is less often in the cone."""
+    params = THESIS_SUBJECT.replace(assist="as-needed")
+    trial = simulate(params, patient="weak", seed=0,
+                     patient_options={"variability": 0.0, "selectivity_loss": 0.5})
+    channels = {n: trial.records[n] for n in trial.records.dtype.names}
+    m = analyse(channels, params).metrics
+    without = run("weak", "as-needed")[1]
+    assert trial.status == "complete"
+    assert m.led_pct >= 80.0
+    assert max(m.rmse_x_m, m.rmse_y_m) <= 0.010
+    share = {p: run(p, "as-needed")[1].robot_work_share for p in ("passive", "healthy")}
+    assert share["passive"] > m.robot_work_share > without.robot_work_share > share["healthy"]
+    assert m.directional_performance_pct < 0.5 * without.directional_performance_pct
+
+
 @pytest.mark.parametrize("patient", PATIENT_KINDS)
 def test_every_patient_is_tracked_within_its_bound(patient):
     trial, m = run(patient, "as-needed")
