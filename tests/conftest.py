@@ -381,7 +381,7 @@ def emg_model_1(emg_subject_1):
                        as_live=True, latency_s=SyntheticEmgFeed.latency_of(Subject.drawn(1)))
 
 
-# -- the shared registry's PostgreSQL server (tests/app/records/postgres/conftest.py) ------------
+# -- which way the PostgreSQL server started, in the run's summary ---------------------------
 
 _POSTGRES_PATHS: set[str] = set()
 
@@ -392,3 +392,46 @@ def pytest_runtest_logreport(report: pytest.TestReport) -> None:
     for name, value in getattr(report, "user_properties", ()):
         if name == "postgres_server":
             _POSTGRES_PATHS.add(value)
+
+
+# -- the shared registry's PostgreSQL server (tests/postgres.py) -----------------------------
+PATH_PROPERTY = "postgres_server"
+
+
+@pytest.fixture(scope="session")
+def postgres_server():
+    """The tests' throwaway PostgreSQL server, one per test process, started at the first
+    test that needs it; when it cannot start, such a test fails in one line saying why
+    (never a skip)."""
+    from tests.postgres import ServerError, start
+
+    try:
+        server, problem = start(), None
+    except ServerError as exc:
+        server, problem = None, str(exc)
+    if server is None:  # failed outside the except: one line, no chained traceback
+        pytest.fail(f"the tests' PostgreSQL server did not start: {problem}", pytrace=False)
+    try:
+        yield server
+    finally:
+        server.stop()
+
+
+@pytest.fixture(autouse=True)
+def _say_which_server(request):
+    """The server's path in the report of every test that used it (tests/conftest.py
+    prints it once at the end, from any pytest-xdist worker)."""
+    if "postgres_server" in request.fixturenames:
+        server = request.getfixturevalue("postgres_server")
+        request.node.user_properties.append((PATH_PROPERTY, server.path))
+
+
+@pytest.fixture(scope="session")
+def server_registries(postgres_server):
+    """Registry databases on the server, each a copy of one made as a department's owner
+    makes it, and a station's clinic login (tests/registries.py)."""
+    from tests.registries import ServerRegistries
+
+    return ServerRegistries(postgres_server)
+
+

@@ -83,7 +83,9 @@ class MainWindow(AssessmentControl, PlanControl, TrialActions, TrialEmg, FaultLa
     def __init__(self, registry: RecordStore, *, bridge: DeviceBridge | None = None,
                  settings: Settings | None = None, settings_path: Path | None = None) -> None:
         super().__init__()
-        self.setWindowTitle("Rehabilitation robot console")
+        # a station on a department's shared registry says which, and where it records
+        where = registry.location()
+        self.setWindowTitle("Rehabilitation robot console" + (f" — {where}" if where else ""))
         self.registry = registry
         self.settings_path = settings_path
         self.settings = settings or load_settings(settings_path)

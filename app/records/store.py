@@ -48,6 +48,8 @@ class RecordStore(Protocol):
         """The data folder the trial files and reports live in."""
         ...
 
+    def location(self) -> str: ...
+
     # -- patients ------------------------------------------------------------------
     def create_patient(
         self,

@@ -53,14 +53,16 @@ def build_connect_start(qtbot, win: MainWindow) -> None:
     qtbot.waitUntil(lambda: win.state == State.RUNNING, timeout=10000)
 
 
-def open_window(qtbot, tmp_path, monkeypatch, *, start_device: bool = True) -> MainWindow:
-    """The console's window on a fresh registry and settings under `tmp_path`, shown, its
-    loop started unless asked not to (a test of tabs alone needs none)."""
+def open_window(qtbot, tmp_path, monkeypatch, *, start_device: bool = True,
+                registry=None) -> MainWindow:
+    """The console's window on a fresh registry (or `registry`) and settings under
+    `tmp_path`, shown, its loop started unless asked not to (a test of tabs alone needs
+    none)."""
     from app.records.datadir import DataDir
     from app.records.registry import Registry
 
     monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
-    registry = Registry(DataDir(tmp_path / "data", "test"))
+    registry = registry or Registry(DataDir(tmp_path / "data", "test"))
     win = MainWindow(registry, settings_path=tmp_path / "config" / "settings.json")
     qtbot.addWidget(win)
     win.show()

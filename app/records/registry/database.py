@@ -59,6 +59,16 @@ class Database:
     def on_server(self) -> bool:
         return self.server is not None
 
+    def location(self) -> str:
+        """Where this console records, as the window's title says it: '' for the data
+        folder's own registry; on a department's server, this station and the server's
+        host, port and database (never the login or its password)."""
+        if self.server is None:
+            return ""
+        url = self.server
+        return (f"station {self.station or '(unnamed)'} · shared registry "
+                f"{url.host}:{url.port or 5432}/{url.database}")
+
     # -- the engines ---------------------------------------------------------------------
     @functools.cached_property
     def _writer(self) -> sa.Engine:
