@@ -16,8 +16,8 @@ from tests.postgres import Server
 class ServerRegistries:
     """Registries on the server for the tests: one database made as a department's owner
     makes it (`create_registry`, the clinic and research roles), copied for each test
-    (`CREATE DATABASE … TEMPLATE`, a file copy: a registry in a few tens of ms), and a
-    station's login of the clinic role."""
+    (`CREATE DATABASE … TEMPLATE`, a file copy: a registry in a few tens of ms), a
+    station's login of the clinic role and a researcher's of the research role."""
 
     def __init__(self, server: Server) -> None:
         self.server = server
@@ -33,6 +33,7 @@ class ServerRegistries:
         server.forget_role(self.roles.clinic)
         server.forget_role(self.roles.research)
         self.station = server.create_login("station", self.roles.clinic)
+        self.researcher = server.create_login("researcher", self.roles.research)
 
     def new(self) -> sa.URL:
         """A new registry database; the URL a station uses to reach it."""
@@ -42,3 +43,8 @@ class ServerRegistries:
                               f'GRANT CONNECT ON DATABASE "{name}" TO {self.roles.clinic}, '
                               f"{self.roles.research}")
         return sa.make_url(self.server.url(*self.station, database=name))
+
+    def as_researcher(self, url: sa.URL) -> sa.URL:
+        """The URL of the same registry with the researcher's login."""
+        name, password = self.researcher
+        return url.set(username=name, password=password)

@@ -160,6 +160,10 @@ class Registry(Schema, Patients, Sessions, Plans, Clinical, Proposals, Trials, Q
             self.server, self.path = server, None
             data_dir.ensure()
             self._migrate()
+            if self._reads_codes_only():
+                self._writer.dispose()  # again, reading research's views by name
+                del self._writer, self._reader_engine
+                self.research = True
             return
         self.path = data_dir.registry_path
         if not create:
@@ -172,6 +176,14 @@ class Registry(Schema, Patients, Sessions, Plans, Clinical, Proposals, Trials, Q
         self._migrate()
         private_files(self.path)
 
+
+
+    def _reads_codes_only(self) -> bool:
+        """Whether this login is a researcher's: it may not read a patient's name."""
+        with self._read() as conn:
+            return not conn.exec_driver_sql(
+                "SELECT has_column_privilege('public.patients', 'first_name', 'SELECT')"
+            ).scalar_one()
 
 
 def open_registry(data_dir: DataDir, *, create: bool = True,

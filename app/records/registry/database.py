@@ -46,6 +46,10 @@ class Database:
     path: Path | None
     server: sa.URL | None = None
     station: str | None = None
+    research: bool = False
+    """A researcher's login on the server (its research role): the registry reads through
+    the views of the schema `research` (codes and data; names and typed text empty, by the
+    server) and changes nothing."""
 
     @property
     def where(self) -> str:
@@ -66,8 +70,9 @@ class Database:
         if self.server is None:
             return ""
         url = self.server
-        return (f"station {self.station or '(unnamed)'} · shared registry "
-                f"{url.host}:{url.port or 5432}/{url.database}")
+        who = "research login (codes and data)" if self.research else \
+            f"station {self.station or '(unnamed)'}"
+        return f"{who} · shared registry {url.host}:{url.port or 5432}/{url.database}"
 
     # -- the engines ---------------------------------------------------------------------
     @functools.cached_property
@@ -75,9 +80,11 @@ class Database:
         """SQLAlchemy's engine for writes: a new file connection per call (`_open`), or
         the server's small pool."""
         if self.server is not None:
+            options = {"connect_timeout": CONNECT_TIMEOUT_S}
+            if self.research:  # the registry's tables are research's views, by name
+                options["options"] = "-c search_path=research,public"
             engine = sa.create_engine(self.server, pool_size=2, max_overflow=6,
-                                      pool_pre_ping=True,
-                                      connect_args={"connect_timeout": CONNECT_TIMEOUT_S})
+                                      pool_pre_ping=True, connect_args=options)
             # the pool's connections are closed, not dropped, when the registry goes
             weakref.finalize(self, engine.dispose)
             return engine
@@ -143,6 +150,11 @@ class Database:
         read of a next number and its insert atomic across processes. On the server it is
         READ COMMITTED; what reads then writes locks its rows (statements.py)."""
         if self.server is not None:
+            if self.research:
+                raise RegistryError(
+                    f"this login on {self.where} is a researcher's: it reads codes and data, "
+                    "never names, and changes nothing; nothing was changed. A clinic login "
+                    "records")
             with self._statements(self._writer) as conn, conn.begin():
                 yield conn
             return
@@ -326,6 +338,10 @@ class Database:
         if self.server is not None:
             from app.records.registry.postgres import seals as server_seals
 
+            if self.research:
+                raise RegistryError(f"the seals of {self.where} are not checked on a "
+                                    "researcher's login, which cannot read them: ask the "
+                                    "clinic (`rehab db status`)")
             with self._read() as conn:
                 try:
                     server_seals.verify(conn, self.where)

@@ -21,7 +21,12 @@ from sqlalchemy import Connection, insert, inspect, select, update
 from app.errors import SchemaError
 from app.records.registry.postgres import numbering, seals, tables
 from app.records.registry.postgres.roles import Roles, research_view
-from app.records.registry.postgres.tables import SCHEMA_VERSION, metadata, schema_version
+from app.records.registry.postgres.tables import (
+    REGISTRY_TABLES,
+    SCHEMA_VERSION,
+    metadata,
+    schema_version,
+)
 
 __all__ = ["Roles", "create_registry", "migrate_registry", "registry_version"]
 
@@ -54,6 +59,11 @@ MIGRATIONS: dict[int, tuple[str, ...]] = {
         END $$""",),
 }
 
+def _quoted(sql: str) -> str:
+    """`sql` as a PL/pgSQL string literal."""
+    return "'" + sql.replace("'", "''") + "'"
+
+
 MIGRATIONS[10] = (
     # every row checked against its v9 seal before it is sealed again (as on SQLite:
     # damage is refused, never laundered by the upgrade)
@@ -72,14 +82,20 @@ MIGRATIONS[10] = (
         "CREATE FUNCTION", "CREATE OR REPLACE FUNCTION", 1) for table in ("trials", "plan_runs")),
     "UPDATE trials SET station = NULL",  # the seal trigger seals each row again
     "UPDATE plan_runs SET station = NULL",
-    *(research_view(table, replace=True) for table in ("trials", "plan_runs")),
-    """DO $$ DECLARE who text; BEGIN
-        FOR who IN SELECT DISTINCT grantee FROM information_schema.role_table_grants
-                   WHERE table_schema = 'research' AND table_name = 'trials'
-                   AND privilege_type = 'SELECT' AND grantee <> current_user LOOP
+    # research's views: every column of the table but its seal, the hidden ones empty
+    # (roles.research_columns), made again with their grant to whoever had them
+    f"""DO $$ DECLARE who text; BEGIN
+        SELECT grantee INTO who FROM information_schema.role_table_grants
+            WHERE table_schema = 'research' AND table_name = 'trials'
+            AND privilege_type = 'SELECT' AND grantee <> current_user LIMIT 1;
+        {" ".join(f"DROP VIEW research.{t};" for t in REGISTRY_TABLES)}
+        {" ".join(f"EXECUTE {_quoted(research_view(t))};" for t in REGISTRY_TABLES)}
+        IF who IS NOT NULL THEN
+            {" ".join(f"EXECUTE format('GRANT SELECT ON research.{t} TO %I', who);"
+                      for t in REGISTRY_TABLES)}
             EXECUTE format('GRANT SELECT (station, checksum) ON trials TO %I', who);
             EXECUTE format('GRANT SELECT (station) ON plan_runs TO %I', who);
-        END LOOP;
+        END IF;
     END $$""",
 )
 """The server's steps to each schema version from the one before (the first the server had
@@ -87,7 +103,9 @@ is v8). v9 brought SQLite the numbering rule the server held from its first vers
 (app.records.registry.numbering); on the server, the clinic role (whoever may withdraw a
 trial) may now delete what a withdrawn trial takes with it (roles.WITHDRAWN_WITH_A_TRIAL).
 v10: the station of each trial and plan run, and each trial file's checksum
-(app.records.registry.provenance), sealed; research reads them (they name no person)."""
+(app.records.registry.provenance), sealed; research reads them (they name no person); and
+research's views take every column of their table, the hidden ones empty (roles.
+research_columns), so the registry's code reads through them on a researcher's login."""
 
 
 def migrate_registry(conn: Connection) -> tuple[int, int]:

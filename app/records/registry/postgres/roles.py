@@ -75,7 +75,8 @@ proposals with it."""
 
 
 def visible_to_research(table: str) -> tuple[str, ...]:
-    """The columns of research's view of `table`, in the table's order."""
+    """The columns of `table` whose values research reads (through its view, or in the
+    table itself), in the table's order."""
     hidden = {*HIDDEN_FROM_RESEARCH.get(table, ()), "seal"}
     return tuple(c.name for c in metadata.tables[table].columns if c.name not in hidden)
 
@@ -151,12 +152,28 @@ class Roles:
         return tuple(out)
 
 
-def research_view(table: str, *, replace: bool = False) -> str:
-    """Research's view of `table` (`replace`: a migration that added columns to it)."""
+WITHHELD = "withheld from research"
+"""What research's views show for a reason typed by staff (a trial marked invalid, a
+record corrected): not empty, which the console reads as "no reason, valid"."""
+_WITHHELD_COLUMNS = {("trial_marks", "reason"), ("corrections", "reason")}
+
+
+def research_columns(table: str) -> tuple[str, ...]:
+    """The columns of research's view of `table`: the table's, in its order, but its seal
+    (schema v10). The hidden ones are there, as empty text (a reason: `WITHHELD`), so the
+    registry's own reads run unchanged on a researcher's login (Registry on `search_path`
+    research: names and typed text come back ''), and no name can be read through them."""
+    return tuple(c.name for c in metadata.tables[table].columns if c.name != "seal")
+
+
+def research_view(table: str) -> str:
+    """Research's view of `table`."""
     derived = DERIVED_FOR_RESEARCH.get(table, {})
-    columns = ", ".join(f"{derived[c]} AS {c}" if c in derived else c
-                        for c in visible_to_research(table))
+    hidden = HIDDEN_FROM_RESEARCH.get(table, ())
+    columns = ", ".join(f"{derived[c]} AS {c}" if c in derived
+                        else f"'{WITHHELD}'::text AS {c}" if (table, c) in _WITHHELD_COLUMNS
+                        else f"''::text AS {c}" if c in hidden else c
+                        for c in research_columns(table))
     where = ROW_FILTERED.get(table)
-    return (f"CREATE {'OR REPLACE ' if replace else ''}VIEW research.{table} WITH "
-            f"(security_barrier) AS SELECT {columns} FROM public.{table}"
-            + (f" WHERE {where}" if where else ""))
+    return (f"CREATE VIEW research.{table} WITH (security_barrier) AS SELECT {columns} "
+            f"FROM public.{table}" + (f" WHERE {where}" if where else ""))
