@@ -73,13 +73,16 @@ def test_a_template_copied_and_a_block_changed_in_the_plan_tab(qtbot, window):
 def test_start_plan_runs_each_block_through_build_and_start_with_its_rest(qtbot, window):
     win = window
     code = connected_with_plan(qtbot, win)
+    # every line the plan's status showed: the 1 s rest is over before a poll of a loaded
+    # machine may look (a wait for the resting phase itself timed out in whole checks)
+    shown: list[str] = []
+    set_text = win.plan_tab.status.setText
+    win.plan_tab.status.setText = lambda text: (shown.append(text), set_text(text))[-1]
     click(qtbot, win.plan_tab.start_button)
     assert win.plan_runner is not None
-    qtbot.waitUntil(lambda: win.plan_runner is not None and win.plan_runner.phase
-                    == "resting", timeout=120000)
-    assert win.plan_tab.status.text().startswith("Rest 0:01 after block 1 of 2")
-    # the form shows the trial the plan built: what ran is what the tab showed
     qtbot.waitUntil(lambda: win.plan_runner is None, timeout=120000)
+    assert any(line.startswith("Rest 0:01 after block 1 of 2") for line in shown), shown
+    # the form shows the trial the plan built: what ran is what the tab showed
     assert win.plan_tab.status.text().startswith("Plan complete (Block 2 of 2; 2 of 2 "
                                                  "movements)")
     (run,) = win.registry.plan_runs_for_patient(code)
