@@ -13,7 +13,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 
 from app.errors import InvalidRecordError, RegistryError, SchemaError
 from app.records.datadir import DataDir
-from app.records.registry import MIGRATIONS, SCHEMA_VERSION, Registry, seals
+from app.records.registry import SCHEMA_VERSION, Registry, seals
 from app.records.scales import (
     ARAT_SUBSCALES,
     ASHWORTH_GRADES,
@@ -24,6 +24,7 @@ from app.records.scales import (
     score,
 )
 from core.trial import THESIS_SUBJECT, TrialParameters
+from tests.app.records.history import registry_at
 
 V7_TABLES = ("patients", "sessions", "trials", "proposals", "plans", "plan_runs",
              "plan_steps")
@@ -32,15 +33,7 @@ V7_TABLES = ("patients", "sessions", "trials", "proposals", "plans", "plan_runs"
 def make_v7_registry(folder) -> None:
     """A registry as the console left it at schema v7: two patients, a session each, a
     finished trial with its pending proposal, a plan and a run of it."""
-    folder.mkdir(parents=True)
-    with contextlib.closing(seals.register(sqlite3.connect(folder / "registry.sqlite3",
-                                                           isolation_level=None))) as conn:
-        for version, statements in MIGRATIONS:
-            if version > 7:
-                break
-            for statement in statements:
-                conn.execute(statement)
-        conn.execute("PRAGMA user_version = 7")
+    with registry_at(folder, 7) as conn:
         conn.execute("INSERT INTO patients (code, first_name, last_name, birth_year, side, "
                      "body_mass_kg, upper_arm_m, forearm_m, shoulder_x_m, shoulder_y_m, notes, "
                      "created_at) VALUES ('PABC234', 'Ada', 'Example', 1950, 'left', 71.5, "

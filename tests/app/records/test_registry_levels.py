@@ -4,10 +4,8 @@ waits for the next trial, after a restart too."""
 
 from __future__ import annotations
 
-import contextlib
 import json
 import math
-import sqlite3
 
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
@@ -15,9 +13,10 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 from app.errors import InvalidRecordError
 from app.records.assistance import AssistanceInEffect
 from app.records.datadir import DataDir
-from app.records.registry import MIGRATIONS, SCHEMA_VERSION, Registry
+from app.records.registry import SCHEMA_VERSION, Registry
 from app.records.registry.proposals import _decision
 from core.trial import THESIS_SUBJECT, TrialParameters
+from tests.app.records.history import registry_at
 
 A = THESIS_SUBJECT.replace(assist="as-needed")
 PROPOSAL = {"assistance_level": 0.5, "duration_s": 4.0, "tolerance_rad": A.tolerance_rad,
@@ -28,15 +27,7 @@ PROPOSAL = {"assistance_level": 0.5, "duration_s": 4.0, "tolerance_rad": A.toler
 def make_v4_registry(folder) -> None:
     """A registry as the console left it at schema v4: a patient, a finished trial and its
     proposal, pending."""
-    folder.mkdir(parents=True)
-    with contextlib.closing(sqlite3.connect(folder / "registry.sqlite3",
-                                            isolation_level=None)) as conn:
-        for version, statements in MIGRATIONS:
-            if version > 4:
-                break
-            for statement in statements:
-                conn.execute(statement)
-        conn.execute("PRAGMA user_version = 4")
+    with registry_at(folder, 4) as conn:
         conn.execute("INSERT INTO patients (code, created_at) VALUES ('PABC234', "
                      "'2026-11-05T10:00:00+00:00')")
         conn.execute("INSERT INTO sessions (patient_id, number, date) VALUES (1, 1, "

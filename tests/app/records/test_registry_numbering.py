@@ -4,16 +4,15 @@ app.records.registry.numbering; the server's own tests: postgres/test_postgres_n
 
 from __future__ import annotations
 
-import contextlib
 import datetime
-import sqlite3
 
 import pytest
 
 from app.errors import DuplicateNumberError, RegistryError
 from app.records.datadir import DataDir
-from app.records.registry import MIGRATIONS, Registry, seals
+from app.records.registry import Registry
 from core.trial import TrialParameters
+from tests.app.records.history import registry_at
 
 T0 = datetime.datetime(2024, 5, 2, 9, 30, tzinfo=datetime.UTC)
 
@@ -59,15 +58,7 @@ def test_the_database_refuses_a_gap_a_repeat_a_renumbering_and_a_middle_withdraw
 def _v8_registry_with_gaps(folder) -> DataDir:
     """A registry as a console before v9 left it, numbers typed with gaps: sessions 1 and
     3, trials 2 and 5 of session 3."""
-    data = DataDir(folder)
-    data.ensure()
-    with contextlib.closing(seals.register(sqlite3.connect(data.registry_path))) as conn:
-        for version, statements in MIGRATIONS:
-            if version > 8:
-                break
-            for statement in statements:
-                conn.execute(statement)
-        conn.execute("PRAGMA user_version = 8")
+    with registry_at(folder, 8) as conn:
         conn.execute("INSERT INTO patients (code, first_name, last_name, created_at) "
                      "VALUES ('PABC234', 'Ada', 'Example', '2024-01-01T00:00:00+00:00')")
         for number in (1, 3):
@@ -77,8 +68,7 @@ def _v8_registry_with_gaps(folder) -> DataDir:
             conn.execute("INSERT INTO trials (session_id, number, parameters, file, metrics, "
                          "status, started_at) VALUES (2, ?, '{}', ?, '{}', 'complete', "
                          "'2024-01-03T10:00:00+00:00')", (number, f"f{number}"))
-        conn.commit()
-    return data
+    return DataDir(folder)
 
 
 def test_a_registry_with_gaps_is_migrated_keeping_them_and_numbers_go_on_after_the_last(

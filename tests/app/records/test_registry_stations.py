@@ -5,8 +5,6 @@ engines (tests/app/records/conftest.py)."""
 
 from __future__ import annotations
 
-import contextlib
-import sqlite3
 import time
 
 import pytest
@@ -14,11 +12,12 @@ import pytest
 from app.errors import InvalidRecordError, RegistryError
 from app.plans.templates import load_template
 from app.records.datadir import DataDir
-from app.records.registry import MIGRATIONS, Registry, seals
+from app.records.registry import Registry
 from app.records.registry.provenance import file_checksum, station_id
 from app.trials.finalize import finalize_trial, finish_interrupted
 from app.trials.headless import save, simulate
 from core.trial import THESIS_SUBJECT
+from tests.app.records.history import registry_at
 
 PARAMS = THESIS_SUBJECT.replace(duration_s=2.0)
 
@@ -88,15 +87,7 @@ def test_a_station_starting_again_finishes_only_its_own_trials_and_runs(open_reg
 def test_a_v9_registry_is_migrated_sealing_the_new_columns_and_a_damaged_row_is_refused(
         tmp_path):
     def v9(folder, damage: bool) -> DataDir:
-        data = DataDir(folder)
-        data.ensure()
-        with contextlib.closing(seals.register(sqlite3.connect(data.registry_path))) as conn:
-            for version, statements in MIGRATIONS:
-                if version > 9:
-                    break
-                for statement in statements:
-                    conn.execute(statement)
-            conn.execute("PRAGMA user_version = 9")
+        with registry_at(folder, 9) as conn:
             conn.execute("INSERT INTO patients (code, created_at) VALUES ('PABC234', 'c')")
             conn.execute("INSERT INTO sessions (patient_id, number, date) "
                          "VALUES (1, 1, '2024-01-01')")
@@ -106,8 +97,7 @@ def test_a_v9_registry_is_migrated_sealing_the_new_columns_and_a_damaged_row_is_
             if damage:  # written past the seal's trigger, as a bit flipped on the disk
                 conn.execute("DROP TRIGGER trials_sealed_on_update")
                 conn.execute("UPDATE trials SET status = 'faulted'")
-            conn.commit()
-        return data
+        return DataDir(folder)
 
     registry = Registry(v9(tmp_path / "sound", damage=False))
     (trial,) = registry.trials_for_patient("PABC234")
