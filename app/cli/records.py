@@ -117,7 +117,8 @@ def cmd_trials(args: argparse.Namespace) -> int:
               f"{exercise:<26}{rmse:>13}{num(direction):>12}{num(led):>7}  "
               f"{t.assist:<11} {_levels(t)}")
         if t.backend:
-            print(f"{'':>21}robot: {t.backend}")
+            station = f" at station {t.station}" if t.station else ""
+            print(f"{'':>21}robot: {t.backend}{station}")
         game = game_line(p, t.metrics)
         if game:
             print(f"{'':>21}{game}")
