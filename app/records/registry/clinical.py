@@ -240,7 +240,7 @@ class Clinical(Database):
         reason = _why("reason", reason)
         by = _who("by", by)
         with self._write() as conn:
-            trial = trial_by_id(conn, self.where, trial_id)
+            trial = trial_by_id(conn, self.where, trial_id, lock=True)
             if trial.status == STATUS_RECORDING:
                 raise InvalidRecordError(
                     f"trial {trial_id} is still recording; mark it once it has finished")
@@ -293,6 +293,7 @@ class Clinical(Database):
         reason = _why("reason", reason)
         by = _who("by", by)
         with self._write() as conn:
+            patient_id(conn, self.where, code, lock=True)  # read, then changed: held
             current = patient_by_code(conn, self.where, code)
             old = getattr(current, field)
             merged = {name: getattr(current, name) for name in _CHANGEABLE} | {field: value}

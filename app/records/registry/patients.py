@@ -199,14 +199,15 @@ def patient_by_code(conn: sa.Connection, registry: Path | str, code: str) -> Pat
 
 
 def patient_id(conn: sa.Connection, registry: Path | str, code: str, *,
-               numbering: bool = False) -> int:
-    """The row id of the patient with this code (PatientNotFound if none). `numbering`: the
-    transaction is about to number a session or trial of theirs, so on the server the
-    patient's row is locked as the server's numbering locks it (postgres/numbering.py):
-    stations registering for one patient take turns, and the next number read is the
-    one inserted. (SQLite's BEGIN IMMEDIATE already lets one writer in at a time.)"""
-    lock = " FOR NO KEY UPDATE" if numbering else ""
-    row = execute(conn, "SELECT id FROM patients WHERE code = ?" + lock, (code,)).fetchone()
+               lock: bool = False) -> int:
+    """The row id of the patient with this code (PatientNotFound if none). `lock`: the
+    transaction is about to number a session or trial of theirs, or to change what it
+    read of them, so on the server the patient's row is locked as the server's numbering
+    locks it (postgres/numbering.py): stations writing for one patient take turns, and
+    the next number read is the one inserted. (SQLite's BEGIN IMMEDIATE already lets one
+    writer in at a time.)"""
+    held = " FOR NO KEY UPDATE" if lock else ""
+    row = execute(conn, "SELECT id FROM patients WHERE code = ?" + held, (code,)).fetchone()
     if row is None:
         patient_by_code(conn, registry, code)  # raises PatientNotFound with its message
     return row[0]

@@ -73,7 +73,7 @@ class Sessions(Database):
         other is refused (used, or it would leave a gap: numbering.py), naming the next."""
         date = date or datetime.date.today()
         with self._write() as conn:
-            patient = patient_id(conn, self.where, code, numbering=True)
+            patient = patient_id(conn, self.where, code, lock=True)
             free = next_session_number_of(conn, patient)
             if number is None:
                 number = free

@@ -213,7 +213,7 @@ class Trials(Database):
             self.data_dir.ensure(TRIALS, code)
         local_day = started_at.astimezone().date()
         with self._write() as conn:
-            patient = patient_id(conn, self.where, code, numbering=True)
+            patient = patient_id(conn, self.where, code, lock=True)
             if session_number is None:
                 session_number = _suggest(conn, code, patient, local_day).session_number
             row = execute(conn, "SELECT id FROM sessions WHERE patient_id = ? AND number = ?",
@@ -259,7 +259,7 @@ class Trials(Database):
         run refused for lack of disk space, say): the registry keeps only trials that
         exist. Refused for a finished trial or one whose file exists."""
         with self._write() as conn:
-            trial = trial_by_id(conn, self.where, trial_id)
+            trial = trial_by_id(conn, self.where, trial_id, lock=True)
             if trial.finished or self.data_dir.resolve(trial.file).exists():
                 raise RegistryError(
                     f"trial {trial_id} has its file or has finished; it stays registered")
@@ -307,7 +307,7 @@ class Trials(Database):
             backend = checked_text("backend", backend, NAME_MAX_CHARS) or None
         checksum = checked_checksum(checksum)
         with self._write() as conn:
-            trial = trial_by_id(conn, self.where, trial_id)
+            trial = trial_by_id(conn, self.where, trial_id, lock=True)
             if trial.finished:
                 raise RegistryError(
                     f"trial {trial_id} was already finished ({trial.status} at "
@@ -333,7 +333,7 @@ class Trials(Database):
         """Store recomputed metrics: merged into the trial's (or replacing them all)."""
         checked = json.loads(metrics_json(metrics))
         with self._write() as conn:
-            trial = trial_by_id(conn, self.where, trial_id)
+            trial = trial_by_id(conn, self.where, trial_id, lock=True)
             merged = checked if replace else {**metrics_json_ready(trial.metrics), **checked}
             execute(conn, "UPDATE trials SET metrics = ? WHERE id = ?",
                           (json.dumps(merged, allow_nan=False), trial_id))
@@ -409,8 +409,14 @@ def parameter_key(values: Iterable) -> tuple:
     )
 
 
-def trial_by_id(conn: sa.Connection, registry: Path, trial_id: int) -> Trial:
-    """The trial with this id; TrialNotFound naming the registry file if none."""
+def trial_by_id(conn: sa.Connection, registry: Path | str, trial_id: int, *,
+                lock: bool = False) -> Trial:
+    """The trial with this id; TrialNotFound naming the registry file if none. `lock`: the
+    transaction changes it after reading it, so on the server its row is locked first
+    (two stations finishing or marking one trial take turns; SQLite's BEGIN IMMEDIATE
+    already does)."""
+    if lock:
+        execute(conn, "SELECT id FROM trials WHERE id = ? FOR NO KEY UPDATE", (trial_id,))
     row = execute(conn, TRIAL_SELECT + " WHERE t.id = ?", (trial_id,)).fetchone()
     if row is None:
         raise TrialNotFound(
