@@ -53,6 +53,8 @@ class TrialSource:
     the trial ended (app.records.outcomes), as (column, value) pairs; () from a folder."""
     trial_id: int | None = None
     """The registry's id of the trial; None from a folder."""
+    station: str | None = None
+    """The station that recorded it, from the registry (schema v10); None from a folder."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -148,6 +150,7 @@ def sources_from_registry(registry: RecordStore, codes: str | Iterable[str], *,
                 outcome=tuple((k, outcome[k]) for k in (*proposal_columns(None),
                                                         "end_reason")),
                 trial_id=trial.id,
+                station=trial.station,
             ))
     return sources
 

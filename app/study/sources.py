@@ -9,7 +9,8 @@
   `<site>/<patient>/<file>.h5`), else unknown.
 * The registry (a patient's code, or every patient): the registered trials' files
   (app.exports.plan.sources_from_registry), with the registry's ids, numbers, the
-  proposal made after each and why it ended.
+  proposal made after each and why it ended. The site is `site` when given, else the
+  station that recorded the trial (a department's robots on one shared registry).
 
 Trials the registry marks invalid (`rehab invalid`) are left out and counted, unless
 `include_invalid`; then each row says why it was marked (`invalid_reason`), as
@@ -108,7 +109,7 @@ def from_registry(registry: RecordStore, query: str, *, include_invalid: bool = 
                                     left_out=left)
     marks = _reasons(registry) if include_invalid else {}
     root = registry.data_dir.root
-    trials = tuple(StudyTrial(source, _relative(source, root), site,
+    trials = tuple(StudyTrial(source, _relative(source, root), site or source.station,
                               marks.get(source.trial_id)) for source in sources)
     if not trials:
         holds = (f"only {len(left)} trial(s) marked invalid (--include-invalid analyses "

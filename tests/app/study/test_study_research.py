@@ -23,9 +23,11 @@ def point(url, config) -> None:
 
 
 @pytest.fixture
-def study_on_the_server(data, tmp_path, server_registries, capsys):
+def study_on_the_server(data, tmp_path, server_registries, capsys, monkeypatch):
     """Two patients registered and two trials run each, through a station's clinic login
-    (the commands read the URL file), one trial marked invalid and noted."""
+    (the commands read the URL file) on the station robot-3, one trial marked invalid and
+    noted."""
+    monkeypatch.setenv("REHAB_STATION", "robot-3")
     url = server_registries.new()
     config = tmp_path / "config"
     config.mkdir(mode=0o700, exist_ok=True)
@@ -93,5 +95,7 @@ def test_a_study_analysed_through_the_research_role_holds_no_name(
     text = b"".join(path.read_bytes() for path in written)
     for code_ in codes:
         assert code_.encode() in text
+    trials = (out_folder / "trials.csv").read_text()
+    assert trials.count(",robot-3,") == 4  # each trial's site: the station that recorded it
     for name in NAMES:
         assert name.encode() not in text, name
