@@ -58,9 +58,10 @@ NEED_ROWS = 11
 """`run_ticks` stopped before a tick that reads reference rows it was not given
 (pipeline.rows_needed): load them (TickPipeline.load_rows) and go on from that tick."""
 
-# What `run_ticks` leaves of one tick, in its output's column for the tick (one row per
-# quantity, so that each is contiguous for the records): the reading, what `control`
-# left, the torques written and the fault code.
+# What `run_ticks` leaves of one tick, in its output's row for the tick (the tick's
+# quantities side by side, so that a tick writes one contiguous stretch; in columns, one
+# per quantity, a tick's 48 writes fell a block's length apart: about 5 % of the ticks'
+# time): the reading, what `control` left, the torques written and the fault code.
 ROW_READING = 0
 ROW_LAST = ROW_READING + 6
 ROW_APPLIED = ROW_LAST + C_SIZE
@@ -280,23 +281,23 @@ NO_READING = SensorReading(math.nan, math.nan, math.nan, math.nan, math.nan, mat
 # ------------------------------------------------------------------- headless
 @kernel
 def store_subject(out, k, subject):
-    """Column k's subject rows from one `subject_motion` result (SubjectState's order).
+    """Row k's subject columns from one `subject_motion` result (SubjectState's order).
     Written out because the result mixes floats and a bool: compiled code cannot index
     such a tuple with a loop variable."""
     fx, fy, ts, te, tsd, ted, tsdd, tedd, tau_s, tau_e, isb_s, isb_e, damped = subject
-    out[ROW_SUBJECT, k] = fx
-    out[ROW_SUBJECT + 1, k] = fy
-    out[ROW_SUBJECT + 2, k] = ts
-    out[ROW_SUBJECT + 3, k] = te
-    out[ROW_SUBJECT + 4, k] = tsd
-    out[ROW_SUBJECT + 5, k] = ted
-    out[ROW_SUBJECT + 6, k] = tsdd
-    out[ROW_SUBJECT + 7, k] = tedd
-    out[ROW_SUBJECT + 8, k] = tau_s
-    out[ROW_SUBJECT + 9, k] = tau_e
-    out[ROW_SUBJECT + 10, k] = isb_s
-    out[ROW_SUBJECT + 11, k] = isb_e
-    out[ROW_SUBJECT + 12, k] = 1.0 if damped else 0.0
+    out[k, ROW_SUBJECT] = fx
+    out[k, ROW_SUBJECT + 1] = fy
+    out[k, ROW_SUBJECT + 2] = ts
+    out[k, ROW_SUBJECT + 3] = te
+    out[k, ROW_SUBJECT + 4] = tsd
+    out[k, ROW_SUBJECT + 5] = ted
+    out[k, ROW_SUBJECT + 6] = tsdd
+    out[k, ROW_SUBJECT + 7] = tedd
+    out[k, ROW_SUBJECT + 8] = tau_s
+    out[k, ROW_SUBJECT + 9] = tau_e
+    out[k, ROW_SUBJECT + 10] = isb_s
+    out[k, ROW_SUBJECT + 11] = isb_e
+    out[k, ROW_SUBJECT + 12] = 1.0 if damped else 0.0
 
 
 @kernel
@@ -307,7 +308,7 @@ def run_ticks(k0, k1, period_s, r, a, c, p, table, episodes, x, noise, scratch, 
     """Ticks k0…k1−1 of a headless trial on the simulator (device.sim.physics' vectors
     r…scratch), at robot time k × period: each reads the sensors (tick 0 takes the
     reading made before it), runs `supervised_command` and writes the torque, and
-    leaves what it did in out[:, k − base] (ROW_*: `out` holds the block of ticks from
+    leaves what it did in out[k − base] (ROW_*: `out` holds the block of ticks from
     `base`). `rows` holds the reference rows from row `rows_from` of the trial's
     n_rows. Returns (the next tick, status): the simulator's failure, FAULT_LATCHED
     after the tick that latched a fault, NEED_ROWS before a tick that would read a row
@@ -335,12 +336,12 @@ def run_ticks(k0, k1, period_s, r, a, c, p, table, episodes, x, noise, scratch, 
         write(c, x, out1, out2)
         i = k - base
         for j in range(6):
-            out[ROW_READING + j, i] = x[X_READING + j]
+            out[i, ROW_READING + j] = x[X_READING + j]
         for j in range(C_SIZE):
-            out[ROW_LAST + j, i] = last[j]
-        out[ROW_APPLIED, i] = out1
-        out[ROW_APPLIED + 1, i] = out2
-        out[ROW_FAULT, i] = code
+            out[i, ROW_LAST + j] = last[j]
+        out[i, ROW_APPLIED] = out1
+        out[i, ROW_APPLIED + 1] = out2
+        out[i, ROW_FAULT] = code
         store_subject(out, i, subject_motion(
             robot, arm, q1, q2, last[C_QD1], last[C_QD2], last[C_QDD1], last[C_QDD2], fx, fy,
             sensor_offset_rad))
@@ -407,7 +408,9 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
     v = pipeline.vectors
     block = total if sink is None else min(total, BLOCK_TICKS)
     rows_at_once = min(total, BLOCK_TICKS)
-    out = np.full((ROW_SIZE, block), math.nan)
+    # every value of a tick's row is written by the tick (ROW_*), and only the ticks run
+    # are made records: nothing to fill beforehand
+    out = np.empty((block, ROW_SIZE))
     kept: list[np.ndarray] = []
     step = max(1, min(block, -(-total // _CHUNKS)))
     if feed is not None:
@@ -416,7 +419,7 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
 
     def hand_over(n: int) -> None:
         # the block's first n ticks as records, to the sink or kept
-        records = records_from_rows(out[:, :n], pipeline, base)
+        records = records_from_rows(out[:n], pipeline, base)
         if sink is None:
             kept.append(records)
         else:
@@ -451,12 +454,10 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
                 status = physics.OK
                 continue
             if feed is not None and done > start:
-                feed(records_from_rows(out[:, start - base:done - base], pipeline, start))
+                feed(records_from_rows(out[start - base:done - base], pipeline, start))
             if done == base + block or done == total or status != physics.OK:
                 hand_over(done - base)
                 base = done
-                if done < total and status == physics.OK:
-                    out.fill(math.nan)  # the next block starts clean
         if done:
             pipeline.ticked()
         if status == FAULT_LATCHED:
@@ -476,24 +477,35 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
 
 def records_from_rows(rows: np.ndarray, pipeline: TickPipeline,
                       first_tick: int = 0) -> np.ndarray:
-    """`run_ticks`' output (ROW_* by tick, from tick `first_tick`) as records
-    (record_values, channel by channel): wall time the robot's time, no lateness or
-    compute time."""
-    n = rows.shape[1]
+    """`run_ticks`' output (a row of ROW_* by tick, from tick `first_tick`) as records
+    (record_values' order): wall time the robot's time, no lateness or compute time.
+
+    The float channels that are `run_ticks`' values side by side in both (_RUNS) are
+    copied a run of channels at a time, each record's run in one stretch of bytes:
+    channel by channel, each of 53 copies went through the whole block of records. The
+    other channels' casts are the ones a channel's assignment made, so the records are
+    the same bit for bit."""
+    n = rows.shape[0]
+    records = np.empty(n, dtype=RECORD_DTYPE)
+    raw = records.view(np.uint8).reshape(n, RECORD_DTYPE.itemsize)
+    columns = np.ascontiguousarray(rows).view(np.uint8)
+    for offset, row, count in _RUNS:
+        # a run as one opaque item of its bytes: one copy a record (as float64 the copy
+        # went value by value, the records' floats being unaligned)
+        run = np.dtype((np.void, 8 * count))
+        raw[:, offset:offset + 8 * count].view(run)[...] = (
+            columns[:, 8 * row:8 * (row + count)].view(run))
     tick = np.arange(first_tick, first_tick + n)
     time_s = tick * pipeline.period_s
-    rows = np.ascontiguousarray(rows)
-    reading = SensorReading(*rows[ROW_READING:ROW_READING + 6])
-    fault = rows[ROW_FAULT]
-    state = np.where(fault != 0, int(State.FAULTED), int(State.RUNNING))
-    subject = SubjectState(*rows[ROW_SUBJECT:ROW_SUBJECT + 13])
-    zeros = np.zeros(n)
-    values = record_values(tick, time_s, time_s, zeros, zeros, reading,
-                           rows[ROW_LAST:ROW_LAST + C_SIZE], rows[ROW_APPLIED:ROW_APPLIED + 2],
-                           pipeline.robot.position(reading.q1_rad, reading.q2_rad), subject,
-                           state, fault)
-    records = np.empty(n, dtype=RECORD_DTYPE)
-    for (name, component), value in zip(_FLAT_FIELDS, values, strict=True):
+    # contiguous, as the whole-array kernels always had them
+    q1 = np.ascontiguousarray(rows[:, ROW_READING + 1])
+    q2 = np.ascontiguousarray(rows[:, ROW_READING + 2])
+    fault = rows[:, ROW_FAULT]
+    computed = {"tick": tick, "time": time_s, "zero": np.zeros(n),
+                "state": np.where(fault != 0, int(State.FAULTED), int(State.RUNNING))}
+    computed["x"], computed["y"] = pipeline.robot.position(q1, q2)
+    for (name, component), source in _SINGLES:
+        value = computed[source] if isinstance(source, str) else rows[:, source]
         if component is None:
             records[name] = value
         else:
@@ -511,3 +523,39 @@ def _flat_fields(dtype: np.dtype) -> tuple[tuple[str, int | None], ...]:
 
 
 _FLAT_FIELDS = _flat_fields(RECORD_DTYPE)
+
+
+def _record_sources() -> tuple:
+    """Where each record value (flat_names order) comes from in `records_from_rows`: the
+    column (ROW_*) of `run_ticks`' output it is, or the name of what is computed from the
+    block ("tick", "time", "zero", "x", "y", "state"). Read off record_values itself,
+    called on the columns' numbers, so the record's layout is written once."""
+    columns = list(range(ROW_SIZE))
+    return record_values(
+        "tick", "time", "time", "zero", "zero",
+        SensorReading(*columns[ROW_READING:ROW_READING + 6]), columns[ROW_LAST:ROW_LAST + C_SIZE],
+        columns[ROW_APPLIED:ROW_APPLIED + 2], ("x", "y"),
+        SubjectState(*columns[ROW_SUBJECT:ROW_SUBJECT + 13]), "state", ROW_FAULT)
+
+
+def _record_copies() -> tuple[tuple, tuple]:
+    """(_RUNS, _SINGLES): runs of float64 values that are neighbours both in a record and
+    in `run_ticks`' row, as (byte offset in the record, first column, count); every other
+    value as ((field, component), source)."""
+    runs: list[list[int]] = []
+    singles = []
+    for (name, component), source in zip(_FLAT_FIELDS, _record_sources(), strict=True):
+        field, offset = RECORD_DTYPE.fields[name][:2]
+        if isinstance(source, str) or field.base != np.float64:
+            singles.append(((name, component), source))
+            continue
+        offset += 8 * (component or 0)
+        last = runs[-1] if runs else None
+        if last and last[0] + 8 * last[2] == offset and last[1] + last[2] == source:
+            last[2] += 1
+        else:
+            runs.append([offset, source, 1])
+    return tuple(map(tuple, runs)), tuple(singles)
+
+
+_RUNS, _SINGLES = _record_copies()
