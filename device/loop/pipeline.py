@@ -135,8 +135,11 @@ class TrialPlan:
         if self.table is not None:
             return self.table[first:max(first, stop)]
         t = np.arange(first, max(first, stop)) * self.period_s
+        # the joint columns from the same sample (the trajectory's joint_reference is this
+        # sample through joint_motion: calling it sampled the path a second time)
         sample = self.trajectory.sample(t)
-        q, qd, qdd = self.trajectory.joint_reference(self.robot, t)
+        q, qd, qdd = joint_motion(self.robot, sample.position_m, sample.velocity_m_s,
+                                  sample.acceleration_m_s2)
         return np.column_stack(
             (sample.position_m, sample.velocity_m_s, sample.direction, q, qd, qdd)
         )
