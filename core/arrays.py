@@ -51,3 +51,14 @@ def joint_motion(model, position_m, velocity_m_s, acceleration_m_s2):
     rhs = np.asarray(acceleration_m_s2, dtype=float) - np.einsum(
         "nij,nj->ni", model.jacobian_dot(q, qd, sines), qd)
     return q, qd, solve2(jac, rhs)
+
+
+def groups(labels: np.ndarray, count: int) -> list[np.ndarray]:
+    """For each label 0…count−1, the indices where `labels` (ints) holds it, ascending; any
+    other label is in none. One stable sort for all of them: a mask per label went
+    through the whole array once per label (a task's timetable has dozens of stretches
+    and its patient's plan a sample a millisecond)."""
+    labels = np.asarray(labels)
+    order = np.argsort(labels, kind="stable")
+    bounds = np.searchsorted(labels[order], np.arange(count + 1))
+    return [order[bounds[k]:bounds[k + 1]] for k in range(count)]

@@ -1,11 +1,12 @@
-"""core.arrays.joint_motion takes the sines and cosines once for J and J̇, and matrix2 puts
-the entries in place: both give the numbers the separate calls and the nested stacks gave,
-bit for bit (a trial's reference rows and a virtual patient's plan are made of them)."""
+"""core.arrays: joint_motion takes the sines and cosines once for J and J̇, matrix2 puts the
+entries in place and groups sorts once for all labels: each gives the numbers the separate
+calls, the nested stacks and a mask per label gave, bit for bit (a trial's reference rows and
+a virtual patient's plan are made of them)."""
 
 import numpy as np
 import pytest
 
-from core.arrays import joint_motion, matrix2, solve2
+from core.arrays import groups, joint_motion, matrix2, solve2
 from core.robot import RobotModel
 from core.trial import THESIS_SUBJECT
 
@@ -46,3 +47,16 @@ def test_matrix2_is_the_nested_stacks_bit_for_bit():
     assert matrix2(terms).tobytes() == nested_stacks(terms).tobytes()
     assert matrix2((1.0, 2.0, 3.0, 4.0)).tobytes() == nested_stacks((1.0, 2.0, 3.0,
                                                                       4.0)).tobytes()
+
+
+def test_groups_are_each_labels_mask_in_order():
+    """core.arrays.groups gives each label's indices as its mask would, ascending, so the
+    stretches of a task's timetable and a patient's moves are sampled element for element
+    as before; labels outside 0…count−1 (a time outside the task) are in none."""
+    rng = np.random.default_rng(4)
+    labels = rng.integers(-1, 9, 5_000)
+    found = groups(labels, 7)
+    assert len(found) == 7
+    for k, where in enumerate(found):
+        np.testing.assert_array_equal(where, np.flatnonzero(labels == k))
+    assert [len(g) for g in groups(np.array([], dtype=int), 3)] == [0, 0, 0]
