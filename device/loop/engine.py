@@ -412,7 +412,12 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
     # are made records: nothing to fill beforehand
     out = np.empty((block, ROW_SIZE))
     kept: list[np.ndarray] = []
-    step = max(1, min(block, -(-total // _CHUNKS)))
+    # a call of run_ticks for a block's worth of ticks (its noise drawn before it: the
+    # noise held stays a block's whatever the trial's length) unless someone waits on the
+    # progress; the calls cost their arguments' unboxing and a noise top-up each, and the
+    # noise stream is the same however it is cut (SimulatorBackend.top_up_noise)
+    step = (rows_at_once if progress is None
+            else max(1, min(block, -(-total // _CHUNKS))))
     if feed is not None:
         step = max(1, min(step, int(feed.every_ticks)))
     base, done, status = 0, 0, physics.OK
