@@ -1,5 +1,5 @@
 """A headless run's records are made from `run_ticks`' rows a run of channels at a time
-(device.loop.engine.records_from_rows): they must be the records the channel-by-channel
+(device.loop.tickrows.records_from_rows): they must be the records the channel-by-channel
 assignment of record_values made, bit for bit, NaN and the sign of zero included."""
 
 import numpy as np
@@ -7,9 +7,10 @@ import numpy as np
 from core.interaction import SubjectState
 from core.trial import THESIS_SUBJECT
 from device.backend import SensorReading
-from device.loop import engine
-from device.loop.engine import (
-    C_SIZE,
+from device.loop import tickrows
+from device.loop.pipeline import C_ACTIVE, C_SIZE, TickPipeline, TrialPlan, record_values
+from device.loop.states import State
+from device.loop.tickrows import (
     ROW_APPLIED,
     ROW_FAULT,
     ROW_LAST,
@@ -18,8 +19,6 @@ from device.loop.engine import (
     ROW_SUBJECT,
     records_from_rows,
 )
-from device.loop.pipeline import C_ACTIVE, TickPipeline, TrialPlan, record_values
-from device.loop.states import State
 from device.recording.record import RECORD_DTYPE
 
 
@@ -40,7 +39,7 @@ def channel_by_channel(rows: np.ndarray, pipeline: TickPipeline, first: int) -> 
                            pipeline.robot.position(reading.q1_rad, reading.q2_rad),
                            SubjectState(*columns[ROW_SUBJECT:ROW_SUBJECT + 13]), state, fault)
     records = np.empty(n, dtype=RECORD_DTYPE)
-    for (name, component), value in zip(engine._FLAT_FIELDS, values, strict=True):
+    for (name, component), value in zip(tickrows._FLAT_FIELDS, values, strict=True):
         if component is None:
             records[name] = value
         else:
@@ -67,9 +66,9 @@ def test_records_are_the_channel_by_channel_records_bit_for_bit():
 def test_every_run_copied_whole_is_float64_neighbours_in_both():
     """The runs (byte offset in the record, first column, count) lie inside float64
     channels and cover every value not computed or cast apart."""
-    covered = sum(count for _, _, count in engine._RUNS)
-    assert covered + len(engine._SINGLES) == len(engine._FLAT_FIELDS)
-    for offset, column, count in engine._RUNS:
+    covered = sum(count for _, _, count in tickrows._RUNS)
+    assert covered + len(tickrows._SINGLES) == len(tickrows._FLAT_FIELDS)
+    for offset, column, count in tickrows._RUNS:
         assert column >= 0
         assert column + count <= ROW_SIZE
         assert offset + 8 * count <= RECORD_DTYPE.itemsize
