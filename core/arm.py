@@ -247,16 +247,28 @@ class ArmModel:
         theta = as_pairs("theta", theta)
         return np.stack(self.position(theta[..., 0], theta[..., 1]), axis=-1)
 
-    def jacobian(self, theta) -> np.ndarray:
+    def sines(self, theta) -> tuple:
+        """The sines and cosines of θ_A[..., 2] (core.arm_terms.trig), for `jacobian` and
+        `jacobian_dot` at the same angles to share (core.arrays.joint_motion)."""
         theta = as_pairs("theta", theta)
-        return matrix2(self.jacobian_terms(theta[..., 0], theta[..., 1]))
+        return suited(terms.trig, theta)(theta[..., 0], theta[..., 1])
 
-    def jacobian_dot(self, theta, theta_dot) -> np.ndarray:
+    def jacobian(self, theta, sines=None) -> np.ndarray:
+        """J_A[..., 2, 2] (eq. 3.17); `sines` of θ_A when the caller has them (`sines`)."""
+        theta = as_pairs("theta", theta)
+        if sines is None:
+            return matrix2(self.jacobian_terms(theta[..., 0], theta[..., 1]))
+        return matrix2(suited(terms.jacobian_of, theta)(self.constants, sines))
+
+    def jacobian_dot(self, theta, theta_dot, sines=None) -> np.ndarray:
+        """dJ_A/dt[..., 2, 2]; `sines` of θ_A when the caller has them (`sines`)."""
         theta, theta_dot = as_pairs("theta", theta), as_pairs("theta_dot", theta_dot)
-        return matrix2(
-            self.jacobian_dot_terms(theta[..., 0], theta[..., 1], theta_dot[..., 0],
-                                    theta_dot[..., 1])
-        )
+        if sines is None:
+            return matrix2(self.jacobian_dot_terms(theta[..., 0], theta[..., 1],
+                                                   theta_dot[..., 0], theta_dot[..., 1]))
+        return matrix2(suited(terms.jacobian_dot_of, theta)(self.constants, sines,
+                                                            theta_dot[..., 0],
+                                                            theta_dot[..., 1]))
 
     def mass_matrix(self, theta) -> np.ndarray:
         theta = as_pairs("theta", theta)

@@ -16,9 +16,15 @@ def as_pairs(name: str, value) -> np.ndarray:
 
 
 def matrix2(terms) -> np.ndarray:
-    """Stack row-major 2×2 entries (a, b, c, d) into an array of shape (..., 2, 2)."""
+    """Stack row-major 2×2 entries (a, b, c, d) into an array of shape (..., 2, 2) (put in
+    place: three nested stacks took six times as long for a trial's reference)."""
     a, b, c, d = np.broadcast_arrays(*(np.asarray(t, dtype=float) for t in terms))
-    return np.stack((np.stack((a, b), axis=-1), np.stack((c, d), axis=-1)), axis=-2)
+    out = np.empty((*a.shape, 2, 2))
+    out[..., 0, 0] = a
+    out[..., 0, 1] = b
+    out[..., 1, 0] = c
+    out[..., 1, 1] = d
+    return out
 
 
 def solve2(matrices, vectors) -> np.ndarray:
@@ -39,8 +45,20 @@ def joint_motion(model, position_m, velocity_m_s, acceleration_m_s2):
     robot (eq. 3.1, 3.4, 3.5) or the arm (eq. 3.16, 3.18, 3.19), whose end follows the
     given Cartesian motion: θ = IK(P), θ̇ = J⁻¹ Ṗ, θ̈ = J⁻¹ (P̈ − J̇ θ̇)."""
     q = model.ik(position_m)
-    jac = model.jacobian(q)
+    sines = model.sines(q)  # J's and J̇'s, taken once
+    jac = model.jacobian(q, sines)
     qd = solve2(jac, velocity_m_s)
     rhs = np.asarray(acceleration_m_s2, dtype=float) - np.einsum(
-        "nij,nj->ni", model.jacobian_dot(q, qd), qd)
+        "nij,nj->ni", model.jacobian_dot(q, qd, sines), qd)
     return q, qd, solve2(jac, rhs)
+
+
+def groups(labels: np.ndarray, count: int) -> list[np.ndarray]:
+    """For each label 0…count−1, the indices where `labels` (ints) holds it, ascending; any
+    other label is in none. One stable sort for all of them: a mask per label went
+    through the whole array once per label (a task's timetable has dozens of stretches
+    and its patient's plan a sample a millisecond)."""
+    labels = np.asarray(labels)
+    order = np.argsort(labels, kind="stable")
+    bounds = np.searchsorted(labels[order], np.arange(count + 1))
+    return [order[bounds[k]:bounds[k + 1]] for k in range(count)]

@@ -41,7 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from core.arrays import joint_motion
+from core.arrays import groups, joint_motion
 from core.control.hold import LINE_FRACTION, hold_capacity_N
 from core.errors import ParameterError
 from core.robot import RobotModel
@@ -142,10 +142,11 @@ class TaskTrajectory:
         vel = np.zeros((t.size, 2))
         acc = np.zeros((t.size, 2))
         direction = np.zeros((t.size, 2))
-        for k, s in enumerate(self.stretches):
-            sel = inside & (idx == k)
-            if not sel.any():
+        # each stretch's samples, in order (core.arrays.groups)
+        for k, sel in enumerate(groups(np.where(inside, idx, -1), len(self.stretches))):
+            if not sel.size:
                 continue
+            s = self.stretches[k]
             end = np.asarray(s.end)
             if s.kind != MOVE:
                 pos[sel] = end

@@ -349,15 +349,28 @@ class RobotModel:
         q = as_pairs("q", q)
         return np.stack(self.position(q[..., 0], q[..., 1]), axis=-1)
 
-    def jacobian(self, q) -> np.ndarray:
-        """J_R[..., 2, 2] (eq. 3.3, columns in joint order)."""
+    def sines(self, q) -> tuple:
+        """The sines and cosines of q[..., 2] (core.robot_terms.trig), for `jacobian` and
+        `jacobian_dot` at the same angles to share (core.arrays.joint_motion)."""
         q = as_pairs("q", q)
-        return matrix2(self.jacobian_terms(q[..., 0], q[..., 1]))
+        return suited(terms.trig, q)(q[..., 0], q[..., 1])
 
-    def jacobian_dot(self, q, qd) -> np.ndarray:
-        """dJ_R/dt[..., 2, 2]."""
+    def jacobian(self, q, sines=None) -> np.ndarray:
+        """J_R[..., 2, 2] (eq. 3.3, columns in joint order); `sines` of q when the caller
+        has them (`sines`)."""
+        q = as_pairs("q", q)
+        if sines is None:
+            return matrix2(self.jacobian_terms(q[..., 0], q[..., 1]))
+        return matrix2(suited(terms.jacobian_of, q)(self.constants, sines))
+
+    def jacobian_dot(self, q, qd, sines=None) -> np.ndarray:
+        """dJ_R/dt[..., 2, 2]; `sines` of q when the caller has them (`sines`)."""
         q, qd = as_pairs("q", q), as_pairs("qd", qd)
-        return matrix2(self.jacobian_dot_terms(q[..., 0], q[..., 1], qd[..., 0], qd[..., 1]))
+        if sines is None:
+            return matrix2(self.jacobian_dot_terms(q[..., 0], q[..., 1], qd[..., 0],
+                                                   qd[..., 1]))
+        return matrix2(suited(terms.jacobian_dot_of, q)(self.constants, sines, qd[..., 0],
+                                                        qd[..., 1]))
 
     def mass_matrix(self, q) -> np.ndarray:
         """M_R[..., 2, 2] (eq. 3.7)."""

@@ -44,36 +44,60 @@ WORKSPACE_MARGIN_M, 0.10 m; tests/core/assessment/test_workspace.py checks it st
 inside), so a hand held at the box's edge never stops the robot."""
 
 
+class _Region:
+    """The common region's bounds for one trial (see the module notes): the arm is built
+    and the robot's and the arm's reach rings worked out once, not for every point a ray
+    tries (building the arm was most of the active range task's figures' time,
+    2026-12-04)."""
+
+    __slots__ = ("box_m", "radius_m", "ring_m", "robot", "shoulder_m")
+
+    def __init__(self, parameters: TrialParameters, robot: RobotModel,
+                 box_m: tuple[float, float, float, float] | None) -> None:
+        arm = parameters.arm()
+        lo, hi = ELBOW_FLEXION_RANGE_RAD
+        self.robot = robot
+        self.box_m = box_m
+        self.radius_m = (robot.reach_min_m + ROBOT_MARGIN_M, robot.reach_max_m - ROBOT_MARGIN_M)
+        self.shoulder_m = (arm.shoulder_x_m, arm.shoulder_y_m)
+        self.ring_m = (arm.reach_at_elbow_flexion(hi), arm.reach_at_elbow_flexion(lo))
+
+    def inside(self, x: float, y: float) -> bool:
+        robot = self.robot
+        if self.box_m is not None:
+            x_min, x_max, y_min, y_max = self.box_m
+            if not (x_min <= x <= x_max and y_min <= y <= y_max):
+                return False
+        if not (self.radius_m[0] <= math.hypot(x, y) <= self.radius_m[1]):
+            return False
+        q1, q2 = robot.ik_terms(x, y)
+        if math.isnan(q1) or math.isnan(q2):
+            return False
+        if robot_terms.limit_violation(robot.constants, q1, q2) != robot_terms.WITHIN_LIMITS:
+            return False
+        distance = math.hypot(x - self.shoulder_m[0], y - self.shoulder_m[1])
+        return self.ring_m[0] <= distance <= self.ring_m[1]
+
+
 def reachable(parameters: TrialParameters, robot: RobotModel, x: float, y: float,
               box_m: tuple[float, float, float, float] | None = None) -> bool:
     """Whether the hand at (x, y) is inside the common region (see the module notes)."""
-    if box_m is not None:
-        x_min, x_max, y_min, y_max = box_m
-        if not (x_min <= x <= x_max and y_min <= y <= y_max):
-            return False
-    radius = math.hypot(x, y)
-    if not (robot.reach_min_m + ROBOT_MARGIN_M <= radius <= robot.reach_max_m - ROBOT_MARGIN_M):
-        return False
-    q1, q2 = robot.ik_terms(x, y)
-    if math.isnan(q1) or math.isnan(q2):
-        return False
-    if robot_terms.limit_violation(robot.constants, q1, q2) != robot_terms.WITHIN_LIMITS:
-        return False
-    arm = parameters.arm()
-    lo, hi = ELBOW_FLEXION_RANGE_RAD
-    distance = math.hypot(x - arm.shoulder_x_m, y - arm.shoulder_y_m)
-    return arm.reach_at_elbow_flexion(hi) <= distance <= arm.reach_at_elbow_flexion(lo)
+    return _Region(parameters, robot, box_m).inside(x, y)
 
 
 def extent_m(parameters: TrialParameters, robot: RobotModel, direction_rad: float,
              box_m: tuple[float, float, float, float] | None = None) -> float:
     """How far from the centre the hand can go along `direction_rad` (counter-clockwise
     from +x) without leaving the common region; 0 when the centre itself is outside."""
-    cx, cy = parameters.centre_m
+    return _extent(_Region(parameters, robot, box_m), parameters.centre_m, direction_rad)
+
+
+def _extent(region: _Region, centre_m, direction_rad: float) -> float:
+    cx, cy = centre_m
     ux, uy = math.cos(direction_rad), math.sin(direction_rad)
 
     def inside(r: float) -> bool:
-        return reachable(parameters, robot, cx + r * ux, cy + r * uy, box_m)
+        return region.inside(cx + r * ux, cy + r * uy)
 
     if not inside(0.0):
         return 0.0
@@ -96,7 +120,8 @@ def common_region(parameters: TrialParameters, robot: RobotModel | None = None, 
     robot = robot or RobotModel()
     angles = 2.0 * math.pi * np.arange(rays) / rays
     cx, cy = parameters.centre_m
-    extents = [extent_m(parameters, robot, float(a), box_m) for a in angles]
+    region = _Region(parameters, robot, box_m)
+    extents = [_extent(region, parameters.centre_m, float(a)) for a in angles]
     if not any(extents):
         raise ParameterError("centre_m", parameters.centre_m,
                              "a point both the robot and the arm reach",

@@ -80,7 +80,7 @@ def load_kernels(groups: tuple[str, ...] = GROUPS) -> float:
             scratch, pipeline.kind, v.robot, v.arm, v.model, v.tracker, v.gains, v.assist,
             v.guide, v.rates, v.integral, v.guided, v.rows, pipeline.rows_from,
             pipeline.n_rows, pipeline.approach_ticks, pipeline.sensor_offset_rad, v.last, g, w,
-            np.zeros((ROW_SIZE, 1)), 0, False, False)
+            np.zeros((1, ROW_SIZE)), 0, False, False)
     if "loop" in todo:
         # the simulator's tick in one call, and the tick around any other backend's read
         # and write (here the simulator's, through the fault-injecting wrapper)

@@ -24,7 +24,7 @@ from typing import Protocol
 
 import numpy as np
 
-from core.interaction import SubjectState, subject_motion
+from core.interaction import subject_motion
 from core.kernels import interpreted, kernel
 from device.backend import SensorReading
 from device.errors import BackendError
@@ -39,10 +39,17 @@ from device.loop.pipeline import (
     TickPipeline,
     control,
     idle_record,
-    record_values,
     rows_needed,
 )
-from device.loop.states import State
+from device.loop.tickrows import (
+    ROW_APPLIED,
+    ROW_FAULT,
+    ROW_LAST,
+    ROW_READING,
+    ROW_SIZE,
+    ROW_SUBJECT,
+    records_from_rows,
+)
 from device.recording.record import RECORD_DTYPE
 from device.safety.checks import W_FAULT, supervise
 from device.safety.faults import Fault
@@ -58,15 +65,6 @@ NEED_ROWS = 11
 """`run_ticks` stopped before a tick that reads reference rows it was not given
 (pipeline.rows_needed): load them (TickPipeline.load_rows) and go on from that tick."""
 
-# What `run_ticks` leaves of one tick, in its output's column for the tick (one row per
-# quantity, so that each is contiguous for the records): the reading, what `control`
-# left, the torques written and the fault code.
-ROW_READING = 0
-ROW_LAST = ROW_READING + 6
-ROW_APPLIED = ROW_LAST + C_SIZE
-ROW_FAULT = ROW_APPLIED + 2
-ROW_SUBJECT = ROW_FAULT + 1  # the subject's state (core.interaction.SubjectState's order)
-ROW_SIZE = ROW_SUBJECT + 13
 _CHUNKS = 100  # a headless run reports its progress this many times
 BLOCK_TICKS = 25_000
 """A headless run that streams its records holds this many ticks at once (50 s at 2 ms),
@@ -280,23 +278,23 @@ NO_READING = SensorReading(math.nan, math.nan, math.nan, math.nan, math.nan, mat
 # ------------------------------------------------------------------- headless
 @kernel
 def store_subject(out, k, subject):
-    """Column k's subject rows from one `subject_motion` result (SubjectState's order).
+    """Row k's subject columns from one `subject_motion` result (SubjectState's order).
     Written out because the result mixes floats and a bool: compiled code cannot index
     such a tuple with a loop variable."""
     fx, fy, ts, te, tsd, ted, tsdd, tedd, tau_s, tau_e, isb_s, isb_e, damped = subject
-    out[ROW_SUBJECT, k] = fx
-    out[ROW_SUBJECT + 1, k] = fy
-    out[ROW_SUBJECT + 2, k] = ts
-    out[ROW_SUBJECT + 3, k] = te
-    out[ROW_SUBJECT + 4, k] = tsd
-    out[ROW_SUBJECT + 5, k] = ted
-    out[ROW_SUBJECT + 6, k] = tsdd
-    out[ROW_SUBJECT + 7, k] = tedd
-    out[ROW_SUBJECT + 8, k] = tau_s
-    out[ROW_SUBJECT + 9, k] = tau_e
-    out[ROW_SUBJECT + 10, k] = isb_s
-    out[ROW_SUBJECT + 11, k] = isb_e
-    out[ROW_SUBJECT + 12, k] = 1.0 if damped else 0.0
+    out[k, ROW_SUBJECT] = fx
+    out[k, ROW_SUBJECT + 1] = fy
+    out[k, ROW_SUBJECT + 2] = ts
+    out[k, ROW_SUBJECT + 3] = te
+    out[k, ROW_SUBJECT + 4] = tsd
+    out[k, ROW_SUBJECT + 5] = ted
+    out[k, ROW_SUBJECT + 6] = tsdd
+    out[k, ROW_SUBJECT + 7] = tedd
+    out[k, ROW_SUBJECT + 8] = tau_s
+    out[k, ROW_SUBJECT + 9] = tau_e
+    out[k, ROW_SUBJECT + 10] = isb_s
+    out[k, ROW_SUBJECT + 11] = isb_e
+    out[k, ROW_SUBJECT + 12] = 1.0 if damped else 0.0
 
 
 @kernel
@@ -307,7 +305,7 @@ def run_ticks(k0, k1, period_s, r, a, c, p, table, episodes, x, noise, scratch, 
     """Ticks k0…k1−1 of a headless trial on the simulator (device.sim.physics' vectors
     r…scratch), at robot time k × period: each reads the sensors (tick 0 takes the
     reading made before it), runs `supervised_command` and writes the torque, and
-    leaves what it did in out[:, k − base] (ROW_*: `out` holds the block of ticks from
+    leaves what it did in out[k − base] (ROW_*: `out` holds the block of ticks from
     `base`). `rows` holds the reference rows from row `rows_from` of the trial's
     n_rows. Returns (the next tick, status): the simulator's failure, FAULT_LATCHED
     after the tick that latched a fault, NEED_ROWS before a tick that would read a row
@@ -335,12 +333,12 @@ def run_ticks(k0, k1, period_s, r, a, c, p, table, episodes, x, noise, scratch, 
         write(c, x, out1, out2)
         i = k - base
         for j in range(6):
-            out[ROW_READING + j, i] = x[X_READING + j]
+            out[i, ROW_READING + j] = x[X_READING + j]
         for j in range(C_SIZE):
-            out[ROW_LAST + j, i] = last[j]
-        out[ROW_APPLIED, i] = out1
-        out[ROW_APPLIED + 1, i] = out2
-        out[ROW_FAULT, i] = code
+            out[i, ROW_LAST + j] = last[j]
+        out[i, ROW_APPLIED] = out1
+        out[i, ROW_APPLIED + 1] = out2
+        out[i, ROW_FAULT] = code
         store_subject(out, i, subject_motion(
             robot, arm, q1, q2, last[C_QD1], last[C_QD2], last[C_QDD1], last[C_QDD2], fx, fy,
             sensor_offset_rad))
@@ -407,16 +405,23 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
     v = pipeline.vectors
     block = total if sink is None else min(total, BLOCK_TICKS)
     rows_at_once = min(total, BLOCK_TICKS)
-    out = np.full((ROW_SIZE, block), math.nan)
+    # every value of a tick's row is written by the tick (ROW_*), and only the ticks run
+    # are made records: nothing to fill beforehand
+    out = np.empty((block, ROW_SIZE))
     kept: list[np.ndarray] = []
-    step = max(1, min(block, -(-total // _CHUNKS)))
+    # a call of run_ticks for a block's worth of ticks (its noise drawn before it: the
+    # noise held stays a block's whatever the trial's length) unless someone waits on the
+    # progress; the calls cost their arguments' unboxing and a noise top-up each, and the
+    # noise stream is the same however it is cut (SimulatorBackend.top_up_noise)
+    step = (rows_at_once if progress is None
+            else max(1, min(block, -(-total // _CHUNKS))))
     if feed is not None:
         step = max(1, min(step, int(feed.every_ticks)))
     base, done, status = 0, 0, physics.OK
 
     def hand_over(n: int) -> None:
         # the block's first n ticks as records, to the sink or kept
-        records = records_from_rows(out[:, :n], pipeline, base)
+        records = records_from_rows(out[:n], pipeline, base)
         if sink is None:
             kept.append(records)
         else:
@@ -451,12 +456,10 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
                 status = physics.OK
                 continue
             if feed is not None and done > start:
-                feed(records_from_rows(out[:, start - base:done - base], pipeline, start))
+                feed(records_from_rows(out[start - base:done - base], pipeline, start))
             if done == base + block or done == total or status != physics.OK:
                 hand_over(done - base)
                 base = done
-                if done < total and status == physics.OK:
-                    out.fill(math.nan)  # the next block starts clean
         if done:
             pipeline.ticked()
         if status == FAULT_LATCHED:
@@ -472,42 +475,3 @@ def run_trial(simulator, pipeline: TickPipeline, supervisor: SafetySupervisor,
         simulator.safe_state()
         simulator.close()
     return outcome("complete")
-
-
-def records_from_rows(rows: np.ndarray, pipeline: TickPipeline,
-                      first_tick: int = 0) -> np.ndarray:
-    """`run_ticks`' output (ROW_* by tick, from tick `first_tick`) as records
-    (record_values, channel by channel): wall time the robot's time, no lateness or
-    compute time."""
-    n = rows.shape[1]
-    tick = np.arange(first_tick, first_tick + n)
-    time_s = tick * pipeline.period_s
-    rows = np.ascontiguousarray(rows)
-    reading = SensorReading(*rows[ROW_READING:ROW_READING + 6])
-    fault = rows[ROW_FAULT]
-    state = np.where(fault != 0, int(State.FAULTED), int(State.RUNNING))
-    subject = SubjectState(*rows[ROW_SUBJECT:ROW_SUBJECT + 13])
-    zeros = np.zeros(n)
-    values = record_values(tick, time_s, time_s, zeros, zeros, reading,
-                           rows[ROW_LAST:ROW_LAST + C_SIZE], rows[ROW_APPLIED:ROW_APPLIED + 2],
-                           pipeline.robot.position(reading.q1_rad, reading.q2_rad), subject,
-                           state, fault)
-    records = np.empty(n, dtype=RECORD_DTYPE)
-    for (name, component), value in zip(_FLAT_FIELDS, values, strict=True):
-        if component is None:
-            records[name] = value
-        else:
-            records[name][:, component] = value
-    return records
-
-
-def _flat_fields(dtype: np.dtype) -> tuple[tuple[str, int | None], ...]:
-    """(field, component) of each value of a record in flat_names order."""
-    fields = []
-    for name in dtype.names:
-        shape = dtype.fields[name][0].shape
-        fields.extend([(name, None)] if not shape else [(name, i) for i in range(shape[0])])
-    return tuple(fields)
-
-
-_FLAT_FIELDS = _flat_fields(RECORD_DTYPE)

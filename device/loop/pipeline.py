@@ -113,6 +113,10 @@ class TrialPlan:
     trajectory: Trajectory = field(compare=False, repr=False)
     table: np.ndarray | None = field(default=None, compare=False, repr=False)
     """The whole reference (`reference`'s rows), when built `tabulated`."""
+    first_row: np.ndarray | None = field(default=None, compare=False, repr=False)
+    """The exercise's first row (`reference(0, 1)`), kept by `build`: the start point, an
+    approach that stays there and a headless run's first load each asked for it again, a
+    sample of the path and its inverse kinematics for one row (a third of a ms each)."""
 
     @classmethod
     def build(
@@ -122,6 +126,7 @@ class TrialPlan:
         robot = robot or RobotModel()
         check_trial(parameters, robot).require_ok()
         plan = cls(parameters, robot, period_s, parameters.trajectory())
+        plan = replace(plan, first_row=plan.reference(0, 1))
         if tabulated:
             plan = replace(plan, table=plan.reference(0, plan.exercise_ticks))
         return plan
@@ -134,9 +139,14 @@ class TrialPlan:
         first, stop = max(0, first), min(stop, self.exercise_ticks)
         if self.table is not None:
             return self.table[first:max(first, stop)]
+        if first == 0 and stop == 1 and self.first_row is not None:
+            return self.first_row.copy()
         t = np.arange(first, max(first, stop)) * self.period_s
+        # the joint columns from the same sample (the trajectory's joint_reference is this
+        # sample through joint_motion: calling it sampled the path a second time)
         sample = self.trajectory.sample(t)
-        q, qd, qdd = self.trajectory.joint_reference(self.robot, t)
+        q, qd, qdd = joint_motion(self.robot, sample.position_m, sample.velocity_m_s,
+                                  sample.acceleration_m_s2)
         return np.column_stack(
             (sample.position_m, sample.velocity_m_s, sample.direction, q, qd, qdd)
         )

@@ -41,6 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.arrays import groups
 from core.assessment.protocol import cues
 from core.assessment.workspace import extent_m, range_box
 from core.errors import ParameterError, check_range
@@ -103,9 +104,11 @@ class OwnMovement:
         # each sample belongs to the last move begun by then (sorted, never overlapping)
         starts = np.array([move.t0_s for move in self.moves])
         owner = np.searchsorted(starts, t, side="right") - 1
-        for k in np.unique(owner[owner >= 0]):
+        # each move's samples, in order (core.arrays.groups)
+        for k, mine in enumerate(groups(owner, len(self.moves))):
+            if not mine.size:
+                continue
             move = self.moves[k]
-            mine = owner == k
             d = np.subtract(move.end_m, move.start_m)
             length = float(np.hypot(*d))
             unit = d / length if length > 0.0 else np.zeros(2)

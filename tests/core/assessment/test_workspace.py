@@ -61,3 +61,47 @@ def test_a_centre_nobody_reaches_is_refused():
     with pytest.raises(ParameterError) as refused:
         common_region(TrialParameters(centre_m=(-1.2, 1.2)), ROBOT, rays=8)
     assert refused.value.field == "centre_m"
+
+
+def _reachable_as_it_was(parameters, robot, x, y, box_m):
+    """The point test before the region's bounds were worked out once: the arm built
+    and the robot's reach taken at every point."""
+    from core import robot_terms
+    from core.trial import ELBOW_FLEXION_RANGE_RAD
+
+    x_min, x_max, y_min, y_max = box_m
+    if not (x_min <= x <= x_max and y_min <= y <= y_max):
+        return False
+    radius = math.hypot(x, y)
+    if not (robot.reach_min_m + ROBOT_MARGIN_M <= radius <= robot.reach_max_m - ROBOT_MARGIN_M):
+        return False
+    q1, q2 = robot.ik_terms(x, y)
+    if math.isnan(q1) or math.isnan(q2):
+        return False
+    if robot_terms.limit_violation(robot.constants, q1, q2) != robot_terms.WITHIN_LIMITS:
+        return False
+    arm = parameters.arm()
+    lo, hi = ELBOW_FLEXION_RANGE_RAD
+    distance = math.hypot(x - arm.shoulder_x_m, y - arm.shoulder_y_m)
+    return arm.reach_at_elbow_flexion(hi) <= distance <= arm.reach_at_elbow_flexion(lo)
+
+
+@pytest.mark.parametrize("side", ["right", "left"])
+def test_the_region_is_the_one_the_point_by_point_test_found(side):
+    """Each ray walks to the same last point, bit for bit, as with the per-point test."""
+    trial = protocol("range").parameters(TrialParameters(side=side, upper_arm_m=0.29))
+    box = range_box(trial)
+    cx, cy = trial.centre_m
+    for direction in (0.0, 0.7, 1.9, math.pi, 4.4, 5.8):
+        ux, uy = math.cos(direction), math.sin(direction)
+        r = 0.0
+        while _reachable_as_it_was(trial, ROBOT, cx + (r + 0.005) * ux, cy + (r + 0.005) * uy,
+                                   box) and r + 0.005 <= 0.8:
+            r += 0.005
+        step = 0.005
+        for _ in range(10):
+            step /= 2.0
+            if _reachable_as_it_was(trial, ROBOT, cx + (r + step) * ux, cy + (r + step) * uy,
+                                    box):
+                r += step
+        assert extent_m(trial, ROBOT, direction, box) == r
