@@ -200,7 +200,14 @@ def verify(conn: sqlite3.Connection, path) -> None:
                                ).fetchone()
         except sqlite3.OperationalError as exc:
             if "user-defined function raised exception" not in str(exc):
-                raise
+                # the table's definition no longer names the columns the seal covers (a
+                # changed byte in the schema's own text, which the integrity check does
+                # not read): the structure is damaged, not just a row
+                raise SchemaError(
+                    f"the registry {path} is damaged: its table {table} no longer has the "
+                    f"columns the console wrote ({' '.join(str(exc).split())}). Nothing "
+                    "was read from it. Restore the registry from a backup (a "
+                    "registry.sqlite3.v*.bak beside it, or your own copy)") from None
             # a value that cannot reach the seal (text that is not UTF-8): find its row
             row = _first_unreadable(conn, table, mismatch)
         if row is not None:

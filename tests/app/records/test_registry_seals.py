@@ -70,6 +70,20 @@ def test_a_flipped_bit_in_a_name_is_refused_in_one_line(tmp_path, bit):
     assert "backup" in text
 
 
+def test_a_flipped_bit_in_a_column_name_of_the_schema_is_refused_in_one_line(tmp_path):
+    """The schema's own text (a table's CREATE statement) is outside the integrity check:
+    a column renamed by one bit leaves the seal naming a column the table no longer has
+    (found by the bit-flip fuzz test below: it raised SQLite's error, not one line)."""
+    path = make_registry(tmp_path / "data")
+    flip(path, path.read_bytes().index(b"decided_at"), 0)  # 'd' -> 'e'
+    with pytest.raises(RegistryError) as caught:
+        everything(tmp_path / "data")
+    text = str(caught.value)
+    assert "\n" not in text
+    assert "damaged" in text and "no longer has the columns" in text
+    assert "backup" in text
+
+
 def test_a_row_edited_outside_the_console_is_refused(tmp_path):
     """A database browser cannot change a row without the console's seal function; one
     that removes the triggers to do it leaves a row its seal refuses."""
