@@ -10,19 +10,23 @@ on it as a department's owner does (app.records.registry.postgres.create_registr
 station's clinic login, and measures:
 
 1. the fill: N patients (through Registry.create_patient), then their sessions (20 trials
-   each) and trials by COPY, with the server's numbering and seal triggers active (each row
-   numbered, checked and sealed as a station's would be); parameters made harder over the
-   course, the scalar metrics of core.metrics.TrialMetrics as bench/registry.py makes them.
-   Then ANALYZE.
+   each), trials and proposals (one after each trial, as app.trials.finalize records them,
+   each decided by the next trial, the last pending; `--no-proposals`: none) by COPY, with
+   the server's numbering and seal triggers active (each row numbered, checked and sealed
+   as a station's would be); parameters made harder over the course, the scalar metrics of
+   core.metrics.TrialMetrics as bench/registry.py makes them. Then VACUUM ANALYZE.
 2. the progress query (Registry.trial_summaries) for random patients through the clinic
-   login: p50 / p99 / max, idle and while the stations register.
+   login: p50 / p99 / max, idle and while the stations register, with this process's CPU
+   time in each call, the query's own time in the server (EXPLAIN ANALYZE, idle), and a
+   bare round trip (SELECT 1) beside it.
 3. registration: `--stations` processes (spawn), each a station with its own
    Registry(…, server=clinic URL), registering trials (begin_trial, then finish_trial with
-   metrics) for its own patients and, one trial in four, for a patient every station
-   shares (their numbers then interleave in one session): p50 / p99 / max of each call per
-   station and overall, trials per second. Once flat out (as fast as the server lets
-   them: a stress test, a station really registers a trial a minute), then with a pause
-   of 50-150 ms between a station's trials (`--pause-ms`: one phase per value).
+   metrics, then record_proposal as the console does) for its own patients and, one
+   trial in four, for a patient every station shares (their numbers then interleave in one
+   session): p50 / p99 / max of each call per station and overall, trials per second.
+   Once flat out (as fast as the server lets them: a stress test, a station really
+   registers a trial a minute), then with a pause of 50-150 ms between a station's trials
+   (`--pause-ms`: one phase per value).
 4. afterwards: every patient's session numbers and every session's trial numbers are
    1..n without gaps or repeats, every trial a station registered is there once, and every
    row matches its seal (app.records.registry.postgres.seals.verify, what `rehab db
@@ -60,7 +64,10 @@ from app.records.datadir import DataDir  # noqa: E402
 from app.records.registry import Registry  # noqa: E402
 from app.records.registry.postgres import Roles, create_registry  # noqa: E402
 from app.records.registry.postgres.seals import verify as verify_server_seals  # noqa: E402
+from app.records.registry.queries import _SUMMARY_SELECT  # noqa: E402
+from app.records.registry.statements import translated  # noqa: E402
 from app.records.registry.values import utc_text  # noqa: E402
+from app.trials.progression import Proposal  # noqa: E402
 from core.metrics import TrialMetrics  # noqa: E402
 from core.trial import TrialParameters  # noqa: E402
 
@@ -114,6 +121,15 @@ def metrics_rows(rng: np.random.Generator, progress: np.ndarray) -> list[str]:
     return out
 
 
+def proposal_for(parameters: TrialParameters, i: int) -> dict:
+    """A proposal as app.trials.finalize records one after each exercise trial."""
+    level = max(0.0, parameters.assistance_level - 0.05 * (i % 3))
+    return Proposal(level, parameters.duration_s, parameters.tolerance_rad,
+                    "assistance" if i % 3 else "none",
+                    "the patient tracked well: less assistance" if i % 3 else
+                    "keep going: the same again", 0.05, 0.0).to_dict()
+
+
 def single_metrics(rng: np.random.Generator) -> dict[str, float]:
     return json.loads(metrics_rows(rng, np.array([1.0]))[0].replace("null", "NaN"))
 
@@ -155,14 +171,19 @@ def fill_patients(registry: Registry, n: int) -> list[str]:
             for i in range(n)]
 
 
-def fill_worker(url: str, codes: list[str], trials_per_patient: int, seed: int) -> int:
+def fill_worker(url: str, codes: list[str], trials_per_patient: int, seed: int,
+                proposals: bool) -> int:
     """COPY the sessions, then the trials, of the patients `codes` (one transaction per
-    patient group), through the server's triggers. Returns the trials written."""
+    patient group), through the server's triggers; with `proposals`, a proposal after each
+    trial as the console records them (each decided by the next trial, the last pending).
+    Returns the trials written."""
     rng = np.random.default_rng(seed)
     data_dir = DataDir(Path("/nonexistent"))  # trial_file only builds the relative path
     n_sessions = max(1, math.ceil(trials_per_patient / TRIALS_PER_SESSION))
-    parameters = [json.dumps(parameters_for(s, n_sessions).to_dict())
-                  for s in range(n_sessions)]
+    built = [parameters_for(s, n_sessions) for s in range(n_sessions)]
+    parameters = [json.dumps(p.to_dict()) for p in built]
+    proposed = [[json.dumps(proposal_for(p, i), allow_nan=False, sort_keys=True)
+                 for i in range(3)] for p in built]
     progress = np.arange(trials_per_patient) / trials_per_patient
     engine = sa.create_engine(url, poolclass=sa.NullPool)
     written = 0
@@ -199,13 +220,30 @@ def fill_worker(url: str, codes: list[str], trials_per_patient: int, seed: int) 
                                 utc_text(began + datetime.timedelta(seconds=40)), "weak",
                                 "simulator"))
                         written += trials_per_patient
+                if not proposals:
+                    continue
+                rows = conn.execute(sa.text(
+                    "SELECT t.id, s.patient_id, s.number FROM trials t JOIN sessions s ON "
+                    "s.id = t.session_id WHERE s.patient_id = ANY(:ids) "
+                    "ORDER BY s.patient_id, s.number, t.number"),
+                    {"ids": list(ids.values())}).all()
+                with cursor.copy("COPY proposals (trial_id, proposal, decision, "
+                                 "next_trial_id, proposed_at, decided_at) FROM STDIN") as copy:
+                    for i, (trial, patient, session) in enumerate(rows):
+                        after = rows[i + 1] if i + 1 < len(rows) else None
+                        moment = utc_text(COURSE_START + datetime.timedelta(days=2 * session))
+                        text = proposed[session - 1][i % 3]
+                        if after is not None and after[1] == patient:
+                            copy.write_row((trial, text, "accepted", after[0], moment, moment))
+                        else:
+                            copy.write_row((trial, text, "pending", None, moment, None))
     finally:
         engine.dispose()
     return written
 
 
 def fill(bench: Bench, data_root: Path, patients: int, trials_per_patient: int,
-         workers: int) -> tuple[list[str], dict[str, float]]:
+         workers: int, proposals: bool) -> tuple[list[str], dict[str, float]]:
     times: dict[str, float] = {}
     t0 = time.perf_counter()
     registry = Registry(data_root / "filler", server=sa.make_url(bench.clinic_url))
@@ -215,7 +253,7 @@ def fill(bench: Bench, data_root: Path, patients: int, trials_per_patient: int,
     chunks = [codes[i::workers] for i in range(workers)]
     with mp.get_context("spawn").Pool(workers) as pool:
         written = sum(pool.starmap(fill_worker, [
-            (bench.clinic_url, chunk, trials_per_patient, 100 + i)
+            (bench.clinic_url, chunk, trials_per_patient, 100 + i, proposals)
             for i, chunk in enumerate(chunks)]))
     times["trials"] = time.perf_counter() - t0
     times["rows"] = written
@@ -253,6 +291,25 @@ def progress_queries(registry: Registry, codes: list[str], n: int, rng: random.R
     return samples, rows
 
 
+def server_times(bench: Bench, codes: list[str], n: int, rng: random.Random) -> list[float]:
+    """The progress query's own time in the server (EXPLAIN ANALYZE's execution time, s)
+    for `n` random patients, through the clinic login."""
+    explain = sa.text("EXPLAIN (ANALYZE, FORMAT JSON) "
+                      + translated(_SUMMARY_SELECT, "postgresql"))
+    samples = []
+    engine = sa.create_engine(bench.clinic_url, poolclass=sa.NullPool)
+    try:
+        with engine.connect() as conn:
+            for _ in range(n):
+                patient = conn.execute(sa.text("SELECT id FROM patients WHERE code = :c"),
+                                       {"c": rng.choice(codes)}).scalar_one()
+                plan = conn.execute(explain, {"p0": patient}).scalar_one()
+                samples.append(plan[0]["Execution Time"] / 1000.0)
+    finally:
+        engine.dispose()
+    return samples
+
+
 def round_trips(registry: Registry, n: int) -> list[float]:
     """`n` bare round trips to the server through the registry's pool (`SELECT 1`, a
     connection already open): the floor under every statement a registration sends."""
@@ -270,7 +327,7 @@ def round_trips(registry: Registry, n: int) -> list[float]:
 
 
 def station(index: int, url: str, folder: str, own: list[str], shared: list[str],
-            minimum: int, pause_s: float, start, stop, results) -> None:
+            minimum: int, pause_s: float, proposals: bool, start, stop, results) -> None:
     """One station: begin_trial + finish_trial for its own patients and, one in
     SHARED_EVERY, a shared one, until `stop` is set and it has registered `minimum`."""
     rng = np.random.default_rng(1000 + index)
@@ -280,6 +337,7 @@ def station(index: int, url: str, folder: str, own: list[str], shared: list[str]
     begins: list[float] = []
     finishes: list[float] = []
     cpu: list[float] = []
+    proposing: list[float] = []
     registered: list[tuple[int, str, int, int]] = []
     error = None
     try:
@@ -298,6 +356,10 @@ def station(index: int, url: str, folder: str, own: list[str], shared: list[str]
             begins.append(t1 - t0)
             finishes.append(t2 - t1)
             cpu.append(c2 - c0)
+            if proposals:  # as app.trials.finalize does after an exercise trial
+                t0 = time.perf_counter()
+                registry.record_proposal(trial.trial_id, proposal_for(parameters, len(begins)))
+                proposing.append(time.perf_counter() - t0)
             registered.append((trial.trial_id, code, trial.session_number,
                                trial.trial_number))
             if pause_s:
@@ -306,11 +368,11 @@ def station(index: int, url: str, folder: str, own: list[str], shared: list[str]
     except BaseException as exc:  # reported, not raised: the bench prints what it got
         error = f"{type(exc).__name__}: {exc}"
         elapsed = math.nan
-    results.put((index, begins, finishes, registered, elapsed, error, cpu))
+    results.put((index, begins, finishes, registered, elapsed, error, cpu, proposing))
 
 
 def run_stations(bench: Bench, data_root: Path, codes: list[str], n_stations: int,
-                 minimum: int, pause_s: float, queries: int, seed: int):
+                 minimum: int, pause_s: float, queries: int, seed: int, proposals: bool):
     ctx = mp.get_context("spawn")
     shared = codes[:SHARED_PATIENTS]
     rest = codes[SHARED_PATIENTS:]
@@ -322,8 +384,8 @@ def run_stations(bench: Bench, data_root: Path, codes: list[str], n_stations: in
         own = rest[i::n_stations][:25] or rest[:1]
         folder = data_root / f"station{i}"
         processes.append(ctx.Process(target=station, args=(
-            i, bench.clinic_url, str(folder), own, shared, minimum, pause_s, start, stop,
-            results)))
+            i, bench.clinic_url, str(folder), own, shared, minimum, pause_s, proposals, start,
+            stop, results)))
     for process in processes:
         process.start()
     reader = Registry(data_root / "reader", server=sa.make_url(bench.clinic_url))
@@ -431,6 +493,8 @@ def main() -> None:
                         help="a phase of registration for each: the mean pause of a station "
                              "between trials (default 0 100: flat out, then 100 ms apart)")
     parser.add_argument("--fill-workers", type=int, default=2)
+    parser.add_argument("--no-proposals", action="store_true",
+                        help="no proposals: neither in the fill nor after a station's trial")
     parser.add_argument("--no-verify", action="store_true",
                         help="skip the check of every row's seal at the end")
     args = parser.parse_args()
@@ -449,12 +513,13 @@ def main() -> None:
         bench = make_registry(server)
         print(f"server: {server.path}; {server_settings(bench)}", flush=True)
         codes, fill_times = fill(bench, data_root, args.patients, args.trials_per_patient,
-                                 args.fill_workers)
+                                 args.fill_workers, not args.no_proposals)
         rows = int(fill_times["rows"])
         print(f"fill: {args.patients} patients in {fill_times['patients']:.1f} s "
               f"(Registry.create_patient); {rows} trials in "
               f"{math.ceil(args.trials_per_patient / TRIALS_PER_SESSION) * args.patients} "
-              f"sessions by COPY through the triggers in {fill_times['trials']:.1f} s "
+              f"sessions{'' if args.no_proposals else ', each trial with its proposal,'} "
+              f"by COPY through the triggers in {fill_times['trials']:.1f} s "
               f"({rows / fill_times['trials']:,.0f} trials/s, {args.fill_workers} "
               f"connections); VACUUM ANALYZE {fill_times['analyze']:.1f} s; database "
               f"{fill_times['size_mb']:,.0f} MB", flush=True)
@@ -465,6 +530,7 @@ def main() -> None:
         idle, n_rows = progress_queries(reader, codes, args.queries, random.Random(1),
                                         idle_cpu)
         idle_trips = round_trips(reader, args.queries)
+        idle_server = server_times(bench, codes, args.queries, random.Random(3))
         print(f"progress query idle done ({n_rows} trials a patient)", flush=True)
         del reader
 
@@ -474,7 +540,7 @@ def main() -> None:
                   f"{Path('/proc/loadavg').read_text().strip()}", flush=True)
             phases.append((pause_ms, *run_stations(
                 bench, data_root, codes, args.stations, args.station_trials, pause_ms / 1000.0,
-                args.queries, seed=2 + len(phases))))
+                args.queries, seed=2 + len(phases), proposals=not args.no_proposals)))
         registered = [r for phase in phases for o in phase[1] for r in o[3]]
         t0 = time.perf_counter()
         problems = check_numbers(bench, registered)
@@ -490,6 +556,7 @@ def main() -> None:
         print(f"  {'ms':<44} {'p50':>8} {'p99':>8} {'max':>8}  {'n':>6}")
         print(line("progress query, idle", idle, f"goal p99 < 50 ms; {n_rows} trials"))
         print(line("  its CPU time in this process", idle_cpu))
+        print(line("  its time in the server (EXPLAIN ANALYZE)", idle_server))
         print(line("a bare round trip (SELECT 1), idle", idle_trips))
         for pause_ms, out, busy, busy_cpu, trips, wall in phases:
             how = "flat out" if not pause_ms else f"{pause_ms:g} ms apart"
@@ -504,6 +571,9 @@ def main() -> None:
             print(line("begin + finish, all stations",
                        [b + f for o in out for b, f in zip(o[1], o[2], strict=True)]))
             print(line("  their CPU time in the station's process", [x for o in out for x in o[6]]))
+            if not args.no_proposals:
+                print(line("record_proposal after each trial",
+                           [x for o in out for x in o[7]]))
             for index, begins, finishes, _, elapsed, *_ in out:
                 rate = len(begins) / elapsed if elapsed == elapsed and elapsed else math.nan
                 p50b, p99b, maxb = percentiles(begins)
@@ -514,7 +584,7 @@ def main() -> None:
             count = sum(len(o[3]) for o in out)
             print(f"     throughput: {count} trials in {wall:.1f} s = {count / wall:.0f} "
                   "trials/s across the stations")
-            for index, *_, error, _ in out:
+            for index, *_, error, _, _ in out:
                 if error:
                     print(f"     station {index} FAILED: {error}")
         shared = sum(1 for r in registered if r[1] in codes[:SHARED_PATIENTS])
