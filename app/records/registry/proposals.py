@@ -91,7 +91,7 @@ class Proposals(Database):
         """The proposal waiting for the patient's next trial (the one the next Start
         decides), None when none waits: what the window offers again after a restart."""
         with self._read() as conn:
-            row = execute(conn, _PENDING, (patient_id(conn, self.where, code), -1)).fetchone()
+            row = _pending(conn, patient_id(conn, self.where, code), -1)
         return None if row is None else _stored(row)
 
     def _trial_withdrawn(self, conn: sa.Connection, trial_id: int) -> None:
@@ -110,7 +110,7 @@ class Proposals(Database):
         exercise."""
         if parameters.get("assessment"):
             return
-        row = execute(conn, _PENDING, (patient, trial_id)).fetchone()
+        row = _pending(conn, patient, trial_id)
         if row is None:
             return
         stored = _stored(row)
@@ -124,17 +124,38 @@ _SELECT = ("SELECT trial_id, proposal, decision, next_trial_id, proposed_at, dec
            "FROM proposals")
 _INVALID = ("SELECT m.trial_id FROM trial_marks m WHERE m.valid = 0 AND m.id = "
             "(SELECT max(id) FROM trial_marks WHERE trial_id = m.trial_id)")
-_PENDING = (_SELECT + f" WHERE (decision = 'pending' OR next_trial_id IN ({_INVALID})) "
-            "AND trial_id IN (SELECT t.id FROM trials t JOIN sessions s ON "
-            "s.id = t.session_id WHERE s.patient_id = ? AND t.id != ? "
-            "AND coalesce(json_text(t.parameters, 'assessment'), '') = '') "
-            f"AND trial_id NOT IN ({_INVALID}) ORDER BY trial_id DESC LIMIT 1")
-"""The patient's pending proposal (patient id, a trial id to leave out): the latest of an
-exercise trial not marked invalid (schema v8) that no trial decided, or that a trial since
-marked invalid decided (that trial does not count: its proposal is offered again, as after
-a withdrawn trial). An assessment trial's proposal is never the one: a registry written
-before assessments stopped proposing (app.trials.finalize) may hold one, which would
-offer the task's fixed protocol ("transparent mode: the same again") to the next exercise."""
+_PENDING = ("SELECT p.trial_id, p.proposal, p.decision, p.next_trial_id, p.proposed_at, "
+            "p.decided_at, t.parameters FROM proposals p "
+            "JOIN trials t ON t.id = p.trial_id JOIN sessions s ON s.id = t.session_id "
+            "WHERE s.patient_id = ? AND t.id != ? "
+            f"AND (p.decision = 'pending' OR p.next_trial_id IN ({_INVALID})) "
+            f"AND p.trial_id NOT IN ({_INVALID}) ORDER BY p.trial_id DESC")
+"""The patient's pending proposal (patient id, a trial id to leave out), with its trial's
+parameters, latest first; `_pending` takes the first of an exercise trial. The one: the
+latest of an exercise trial not marked invalid (schema v8) that no trial decided, or that a
+trial since marked invalid decided (that trial does not count: its proposal is offered
+again, as after a withdrawn trial). An assessment trial's proposal is never the one: a
+registry written before assessments stopped proposing (app.trials.finalize) may hold one,
+which would offer the task's fixed protocol ("transparent mode: the same again") to the
+next exercise.
+
+Why the assessment is told apart in Python: the candidates are few (the pending one, those a
+trial marked invalid decided), while a condition on the parameters in the SQL was evaluated
+by PostgreSQL on every trial of the patient, parsing each one's parameters (`::jsonb`): 56
+ms of server time in every begin_trial of a patient with 1,000 trials, each with its
+proposal as the console records them (bench/stations.py, docs/performance.md)."""
+
+
+def _pending(conn: sa.Connection, patient: int, trial_id: int) -> tuple | None:
+    """The row of the patient's pending proposal (as _SELECT reads it), None when none
+    waits (`_PENDING`)."""
+    for row in execute(conn, _PENDING, (patient, trial_id)).fetchall():
+        assessment = json.loads(row[-1]).get("assessment")
+        if assessment is None or assessment == "":
+            return row[:-1]
+    return None
+
+
 _KEYS = ("assistance_level", "duration_s", "tolerance_rad")
 """What a proposal sets (app.trials.progression.Proposal.applied_to)."""
 

@@ -2,13 +2,15 @@
 trial to compare a new one with (`previous_trial`).
 
 The progress query reads one patient's trials through the two UNIQUE indexes in
-order, with no sort, has SQLite extract the few key parameters, and parses all
-the rows' metrics in one json.loads (bench/registry.py measures it).
+order, with no sort, reads the few key parameters once per distinct parameter text,
+and parses all the rows' metrics in one json.loads (bench/registry.py measures it on
+SQLite, bench/stations.py on PostgreSQL).
 """
 
 from __future__ import annotations
 
 import datetime
+import json
 from collections.abc import Iterable
 from dataclasses import dataclass
 
@@ -31,19 +33,28 @@ from device.recording.trialfile import STATUS_RECORDING, STATUSES
 
 _ALL_STATUSES = (STATUS_RECORDING, *STATUSES)
 
-# The engine extracts the few parameters that matter (statements.py: json_value):
-# parsing every trial's whole parameter object in Python was a fifth of the progress
-# query's time.
-_SUMMARY_SELECT = f"""
+# The parameters come as their stored text and are parsed once per distinct text: most
+# trials share a few parameter sets. Having the engine extract the key parameters
+# (json_extract, `::jsonb ->`) parses every row's text once per parameter: on PostgreSQL
+# that was 85 ms of the server's 87 for a patient's 1,000 trials (bench/stations.py), and
+# parsing each row's whole object in Python was a fifth of the query's time on SQLite.
+_SUMMARY_SELECT = """
     SELECT t.id, s.number, s.date, t.number, t.status, t.started_at, t.file,
-           {", ".join(f"json_value(t.parameters, '{name}')" for name in KEY_PARAMETERS)},
-           coalesce(json_text(t.parameters, 'assist'), 'thesis'), t.assistance,
-           t.metrics
+           t.parameters, t.assistance, t.metrics
     FROM trials t
     JOIN sessions s ON s.id = t.session_id
     WHERE s.patient_id = ?
     ORDER BY s.number, t.number
 """
+
+
+def _key_parameters(text: str) -> tuple[tuple, str]:
+    """KEY_PARAMETERS as stored (None where absent), and the assistance mode ("thesis"
+    where absent), from a trial's parameters text."""
+    parameters = json.loads(text)
+    assist = parameters.get("assist")
+    return (tuple(parameters.get(name) for name in KEY_PARAMETERS),
+            "thesis" if assist is None else assist)
 
 
 @dataclass(frozen=True, slots=True)
@@ -91,16 +102,18 @@ class Queries(Database):
         metrics = parse_metrics(row[-1] for row in rows)
         date = datetime.date.fromisoformat
         moment = datetime.datetime.fromisoformat
-        k = len(KEY_PARAMETERS)
-        # Most trials share a few parameter sets: one tuple per set, not per trial,
-        # keeps fewer objects alive for the garbage collector to walk.
-        shared: dict[tuple, tuple] = {}
-        return [
-            TrialSummary(r[0], r[1], date(r[2]), r[3], r[4], moment(r[5]), r[6],
-                         shared.setdefault(r[7:7 + k], r[7:7 + k]), values, r[7 + k],
-                         assistance_from_json(r[8 + k]), invalid.get(r[0]))
-            for r, values in zip(rows, metrics, strict=True)
-        ]
+        # Most trials share a few parameter sets: each text parsed once, and one tuple per
+        # set, not per trial, keeps fewer objects alive for the garbage collector to walk.
+        keys: dict[str, tuple] = {}
+        out = []
+        for r, values in zip(rows, metrics, strict=True):
+            found = keys.get(r[7])
+            if found is None:
+                found = keys[r[7]] = _key_parameters(r[7])
+            out.append(TrialSummary(r[0], r[1], date(r[2]), r[3], r[4], moment(r[5]), r[6],
+                                    found[0], values, found[1], assistance_from_json(r[8]),
+                                    invalid.get(r[0])))
+        return out
 
     def previous_trial(
         self,

@@ -214,21 +214,31 @@ class Trials(Database):
         local_day = started_at.astimezone().date()
         with self._write() as conn:
             patient = patient_id(conn, self.where, code, lock=True)
+            # Each read is a round trip to a server: what the latest session says is read
+            # once (bench/stations.py measures registration with 8 stations at once).
+            row, next_session = None, None
             if session_number is None:
-                session_number = _suggest(conn, code, patient, local_day).session_number
-            row = execute(conn, "SELECT id FROM sessions WHERE patient_id = ? AND number = ?",
-                                (patient, session_number)).fetchone()
+                latest = _latest_session(conn, patient)
+                if latest is not None and latest[2] == local_day.isoformat():
+                    row, session_number = latest, latest[1]  # today's session goes on
+                else:
+                    next_session = session_number = 1 if latest is None else latest[1] + 1
+            else:
+                row = execute(conn, "SELECT id FROM sessions WHERE patient_id = ? AND number = ?",
+                                    (patient, session_number)).fetchone()
             if row is None:
-                next_session = next_session_number_of(conn, patient)
+                if next_session is None:
+                    next_session = next_session_number_of(conn, patient)
                 if session_number != next_session:
                     raise refuse_number("session", session_number, next_session,
                                         whose=f"patient {code}", used_on=None)
                 session_id = insert_session(conn, patient, session_number, local_day,
                                             therapist, location, "")
                 log.info("patient %s: session %d opened", code, session_number)
+                free = 1  # a session opened now has no trial yet
             else:
                 session_id = row[0]
-            free = _next_trial_number_in(conn, session_id)
+                free = _next_trial_number_in(conn, session_id)
             if trial_number is None:
                 trial_number = free
             elif trial_number != free:
@@ -476,12 +486,17 @@ def _next_trial_number_in(conn: sa.Connection, session_id: int) -> int:
     return (row[0] or 0) + 1
 
 
-def _suggest(conn: sa.Connection, code: str, patient: int,
-             today: datetime.date) -> Registration:
-    latest = execute(conn,
+def _latest_session(conn: sa.Connection, patient: int) -> tuple | None:
+    """The patient's latest session (id, number, date), None before the first."""
+    return execute(conn,
         "SELECT id, number, date FROM sessions WHERE patient_id = ? ORDER BY number DESC "
         "LIMIT 1", (patient,),
     ).fetchone()
+
+
+def _suggest(conn: sa.Connection, code: str, patient: int,
+             today: datetime.date) -> Registration:
+    latest = _latest_session(conn, patient)
     if latest is not None and latest[2] == today.isoformat():
         return Registration(code, latest[1], _next_trial_number_in(conn, latest[0]), False)
-    return Registration(code, next_session_number_of(conn, patient), 1, True)
+    return Registration(code, 1 if latest is None else latest[1] + 1, 1, True)

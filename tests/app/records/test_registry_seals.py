@@ -80,7 +80,8 @@ def test_a_flipped_bit_in_a_column_name_of_the_schema_is_refused_in_one_line(tmp
         everything(tmp_path / "data")
     text = str(caught.value)
     assert "\n" not in text
-    assert "damaged" in text and "no longer has the columns" in text
+    assert "damaged" in text
+    assert "no longer has the columns" in text
     assert "backup" in text
 
 

@@ -1,0 +1,604 @@
+"""The shared registry on PostgreSQL with several stations (issue 32, "Figures for your note").
+
+Run: .venv/bin/python bench/stations.py [--patients 1000] [--trials-per-patient 1000]
+     [--stations 8] [--queries 200] [--pause-ms 0 100]
+
+A quick run: --patients 100 --trials-per-patient 100.
+
+Starts a throwaway PostgreSQL server as the tests do (tests/postgres.py), makes a registry
+on it as a department's owner does (app.records.registry.postgres.create_registry) with a
+station's clinic login, and measures:
+
+1. the fill: N patients (through Registry.create_patient), then their sessions (20 trials
+   each), trials and proposals (one after each trial, as app.trials.finalize records them,
+   each decided by the next trial, the last pending; `--no-proposals`: none) by COPY, with
+   the server's numbering and seal triggers active (each row numbered, checked and sealed
+   as a station's would be); parameters made harder over the course, the scalar metrics of
+   core.metrics.TrialMetrics as bench/registry.py makes them. Then VACUUM ANALYZE.
+2. the progress query (Registry.trial_summaries) for random patients through the clinic
+   login: p50 / p99 / max, idle and while the stations register, with this process's CPU
+   time in each call, the query's own time in the server (EXPLAIN ANALYZE, idle), and a
+   bare round trip (SELECT 1) beside it.
+3. registration: `--stations` processes (spawn), each a station with its own
+   Registry(…, server=clinic URL), registering trials (begin_trial, then finish_trial with
+   metrics, then record_proposal as the console does) for its own patients and, one
+   trial in four, for a patient every station shares (their numbers then interleave in one
+   session): p50 / p99 / max of each call per station and overall, trials per second.
+   Once flat out (as fast as the server lets them: a stress test, a station really
+   registers a trial a minute), then with a pause of 50-150 ms between a station's trials
+   (`--pause-ms`: one phase per value).
+4. afterwards: every patient's session numbers and every session's trial numbers are
+   1..n without gaps or repeats, every trial a station registered is there once, and every
+   row matches its seal (app.records.registry.postgres.seals.verify, what `rehab db
+   status` checks), with how long that check took.
+
+Prints figures only; asserts nothing. docs/performance.md ("The shared registry on
+PostgreSQL") has the figures and what they mean.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import datetime
+import json
+import math
+import multiprocessing as mp
+import os
+import random
+import secrets
+import shutil
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import sqlalchemy as sa
+
+REPO = Path(__file__).resolve().parent.parent
+if str(REPO) not in sys.path:  # tests.postgres, when run as a file
+    sys.path.insert(0, str(REPO))
+
+from app.records.datadir import DataDir  # noqa: E402
+from app.records.registry import Registry  # noqa: E402
+from app.records.registry.postgres import Roles, create_registry  # noqa: E402
+from app.records.registry.postgres.seals import verify as verify_server_seals  # noqa: E402
+from app.records.registry.queries import _SUMMARY_SELECT  # noqa: E402
+from app.records.registry.statements import translated  # noqa: E402
+from app.records.registry.values import utc_text  # noqa: E402
+from app.trials.progression import Proposal  # noqa: E402
+from core.metrics import TrialMetrics  # noqa: E402
+from core.trial import TrialParameters  # noqa: E402
+
+TRIALS_PER_SESSION = 20
+METRIC_NAMES = tuple(f.name for f in dataclasses.fields(TrialMetrics)
+                     if f.type in ("float", "int"))
+SHARED_PATIENTS = 2
+"""Patients every station registers for now and then (one trial in `SHARED_EVERY`)."""
+SHARED_EVERY = 4
+COURSE_START = datetime.datetime(2024, 1, 8, 9, 0, tzinfo=datetime.UTC)
+
+
+def percentiles(samples_s) -> tuple[float, float, float]:
+    if len(samples_s) == 0:
+        return math.nan, math.nan, math.nan
+    a = np.asarray(samples_s) * 1000.0
+    return float(np.percentile(a, 50)), float(np.percentile(a, 99)), float(a.max())
+
+
+def parameters_for(session: int, n_sessions: int) -> TrialParameters:
+    # as bench/registry.py: a bigger D, less time per lap, less assistance over the course
+    stage = min(3, 4 * session // max(n_sessions, 1))
+    return TrialParameters(radius_m=0.08 + 0.02 * stage, duration_s=6.0 - stage,
+                           assistance_level=1.0 - 0.15 * stage)
+
+
+def metrics_rows(rng: np.random.Generator, progress: np.ndarray) -> list[str]:
+    """The metrics JSON of len(progress) trials, as Registry.finish_trial stores
+    bench/registry.py's metrics_for (values.metrics_json: floats, NaN as null), made a
+    patient's history at a time."""
+    n = len(progress)
+    values = {name: rng.lognormal(0.0, 0.3, n) for name in METRIC_NAMES}
+    skill = 1.0 - 0.6 * progress
+    values.update(
+        rmse_x_m=0.02 * skill * rng.lognormal(0.0, 0.2, n),
+        rmse_y_m=0.025 * skill * rng.lognormal(0.0, 0.2, n),
+        directional_performance_pct=100.0 * np.minimum(
+            1.0, 0.5 + 0.4 * progress + 0.05 * rng.standard_normal(n)),
+        sparc=-2.5 * skill + 0.1 * rng.standard_normal(n),
+        ldlj=-8.0 * skill + 0.3 * rng.standard_normal(n),
+        path_length_ratio=1.0 + 0.4 * skill * rng.lognormal(0.0, 0.2, n),
+        n_reaches=np.zeros(n),
+    )
+    names = [name for name in values if name != "reaction_time_s"]
+    columns = [values[name].tolist() for name in names]
+    tail = ', "reaction_time_s": null' if "reaction_time_s" in values else ""
+    out = []
+    for row in zip(*columns, strict=True):
+        body = json.dumps(dict(zip(names, row, strict=True)))
+        out.append(body[:-1] + tail + "}")
+    return out
+
+
+def proposal_for(parameters: TrialParameters, i: int) -> dict:
+    """A proposal as app.trials.finalize records one after each exercise trial."""
+    level = max(0.0, parameters.assistance_level - 0.05 * (i % 3))
+    return Proposal(level, parameters.duration_s, parameters.tolerance_rad,
+                    "assistance" if i % 3 else "none",
+                    "the patient tracked well: less assistance" if i % 3 else
+                    "keep going: the same again", 0.05, 0.0).to_dict()
+
+
+def single_metrics(rng: np.random.Generator) -> dict[str, float]:
+    return json.loads(metrics_rows(rng, np.array([1.0]))[0].replace("null", "NaN"))
+
+
+# -- the server and the registry ------------------------------------------------------------
+
+
+@dataclasses.dataclass
+class Bench:
+    server: object
+    database: str
+    owner_url: str
+    clinic_url: str
+
+
+def make_registry(server) -> Bench:
+    database = server.create_database("bench_stations")
+    tag = secrets.token_hex(3)
+    roles = Roles(clinic=f"clinic_{tag}", research=f"research_{tag}")
+    owner_url = server.url(database=database)
+    engine = sa.create_engine(owner_url, poolclass=sa.NullPool)
+    try:
+        with engine.begin() as conn:
+            create_registry(conn, roles)
+    finally:
+        engine.dispose()
+    server.forget_role(roles.clinic)
+    server.forget_role(roles.research)
+    user, password = server.create_login("station", roles.clinic)
+    return Bench(server, database, owner_url, server.url(user, password, database=database))
+
+
+# -- 1. the fill ---------------------------------------------------------------------------
+
+
+def fill_patients(registry: Registry, n: int) -> list[str]:
+    return [registry.create_patient("Bench", f"Patient {i:04d}", side="right",
+                                    body_mass_kg=80.0, birth_year=1950 + i % 40).code
+            for i in range(n)]
+
+
+def fill_worker(url: str, codes: list[str], trials_per_patient: int, seed: int,
+                proposals: bool) -> int:
+    """COPY the sessions, then the trials, of the patients `codes` (one transaction per
+    patient group), through the server's triggers; with `proposals`, a proposal after each
+    trial as the console records them (each decided by the next trial, the last pending).
+    Returns the trials written."""
+    rng = np.random.default_rng(seed)
+    data_dir = DataDir(Path("/nonexistent"))  # trial_file only builds the relative path
+    n_sessions = max(1, math.ceil(trials_per_patient / TRIALS_PER_SESSION))
+    built = [parameters_for(s, n_sessions) for s in range(n_sessions)]
+    parameters = [json.dumps(p.to_dict()) for p in built]
+    proposed = [[json.dumps(proposal_for(p, i), allow_nan=False, sort_keys=True)
+                 for i in range(3)] for p in built]
+    progress = np.arange(trials_per_patient) / trials_per_patient
+    engine = sa.create_engine(url, poolclass=sa.NullPool)
+    written = 0
+    try:
+        for start in range(0, len(codes), 20):
+            group = codes[start:start + 20]
+            with engine.begin() as conn:
+                cursor = conn.connection.driver_connection.cursor()
+                ids = dict(conn.execute(sa.text("SELECT code, id FROM patients WHERE code = "
+                                                "ANY(:codes)"), {"codes": group}).all())
+                with cursor.copy("COPY sessions (patient_id, number, date, therapist, "
+                                 "location, notes) FROM STDIN") as copy:
+                    for code in group:
+                        for s in range(n_sessions):
+                            day = (COURSE_START + datetime.timedelta(days=2 * s)).date()
+                            copy.write_row((ids[code], s + 1, day.isoformat(), "Bench",
+                                            "Gym", ""))
+                session_ids = {(patient, number): sid for sid, patient, number in conn.execute(
+                    sa.text("SELECT s.id, s.patient_id, s.number FROM sessions s "
+                            "WHERE s.patient_id = ANY(:ids)"), {"ids": list(ids.values())})}
+                with cursor.copy("COPY trials (session_id, number, parameters, file, "
+                                 "metrics, status, started_at, ended_at, patient_kind, "
+                                 "backend) FROM STDIN") as copy:
+                    for code in group:
+                        metrics = metrics_rows(rng, progress)
+                        for i in range(trials_per_patient):
+                            s, t = divmod(i, TRIALS_PER_SESSION)
+                            began = COURSE_START + datetime.timedelta(days=2 * s,
+                                                                      minutes=3 * t)
+                            copy.write_row((
+                                session_ids[(ids[code], s + 1)], t + 1, parameters[s],
+                                data_dir.trial_file(code, s + 1, t + 1, began), metrics[i],
+                                "complete", utc_text(began),
+                                utc_text(began + datetime.timedelta(seconds=40)), "weak",
+                                "simulator"))
+                        written += trials_per_patient
+                if not proposals:
+                    continue
+                rows = conn.execute(sa.text(
+                    "SELECT t.id, s.patient_id, s.number FROM trials t JOIN sessions s ON "
+                    "s.id = t.session_id WHERE s.patient_id = ANY(:ids) "
+                    "ORDER BY s.patient_id, s.number, t.number"),
+                    {"ids": list(ids.values())}).all()
+                with cursor.copy("COPY proposals (trial_id, proposal, decision, "
+                                 "next_trial_id, proposed_at, decided_at) FROM STDIN") as copy:
+                    for i, (trial, patient, session) in enumerate(rows):
+                        after = rows[i + 1] if i + 1 < len(rows) else None
+                        moment = utc_text(COURSE_START + datetime.timedelta(days=2 * session))
+                        text = proposed[session - 1][i % 3]
+                        if after is not None and after[1] == patient:
+                            copy.write_row((trial, text, "accepted", after[0], moment, moment))
+                        else:
+                            copy.write_row((trial, text, "pending", None, moment, None))
+    finally:
+        engine.dispose()
+    return written
+
+
+def fill(bench: Bench, data_root: Path, patients: int, trials_per_patient: int,
+         workers: int, proposals: bool) -> tuple[list[str], dict[str, float]]:
+    times: dict[str, float] = {}
+    t0 = time.perf_counter()
+    registry = Registry(data_root / "filler", server=sa.make_url(bench.clinic_url))
+    codes = fill_patients(registry, patients)
+    times["patients"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    chunks = [codes[i::workers] for i in range(workers)]
+    with mp.get_context("spawn").Pool(workers) as pool:
+        written = sum(pool.starmap(fill_worker, [
+            (bench.clinic_url, chunk, trials_per_patient, 100 + i, proposals)
+            for i, chunk in enumerate(chunks)]))
+    times["trials"] = time.perf_counter() - t0
+    times["rows"] = written
+    t0 = time.perf_counter()
+    engine = sa.create_engine(bench.owner_url, poolclass=sa.NullPool,
+                              isolation_level="AUTOCOMMIT")
+    try:
+        with engine.connect() as conn:
+            conn.execute(sa.text("VACUUM ANALYZE"))
+            times["size_mb"] = conn.execute(sa.text(
+                "SELECT pg_database_size(current_database())")).scalar_one() / 1e6
+    finally:
+        engine.dispose()
+    times["analyze"] = time.perf_counter() - t0
+    return codes, times
+
+
+# -- 2. the progress query -----------------------------------------------------------------
+
+
+def progress_queries(registry: Registry, codes: list[str], n: int, rng: random.Random,
+                     cpu: list[float] | None = None) -> tuple[list[float], int]:
+    """`n` progress queries of random patients: their wall times (and in `cpu`, this
+    process's CPU time in each)."""
+    samples: list[float] = []
+    rows = 0
+    while len(samples) < n:
+        code = rng.choice(codes)
+        c0, t0 = time.process_time(), time.perf_counter()
+        result = registry.trial_summaries(code)
+        samples.append(time.perf_counter() - t0)
+        if cpu is not None:
+            cpu.append(time.process_time() - c0)
+        rows = max(rows, len(result))
+    return samples, rows
+
+
+def server_times(bench: Bench, codes: list[str], n: int, rng: random.Random) -> list[float]:
+    """The progress query's own time in the server (EXPLAIN ANALYZE's execution time, s)
+    for `n` random patients, through the clinic login."""
+    explain = sa.text("EXPLAIN (ANALYZE, FORMAT JSON) "
+                      + translated(_SUMMARY_SELECT, "postgresql"))
+    samples = []
+    engine = sa.create_engine(bench.clinic_url, poolclass=sa.NullPool)
+    try:
+        with engine.connect() as conn:
+            for _ in range(n):
+                patient = conn.execute(sa.text("SELECT id FROM patients WHERE code = :c"),
+                                       {"c": rng.choice(codes)}).scalar_one()
+                plan = conn.execute(explain, {"p0": patient}).scalar_one()
+                samples.append(plan[0]["Execution Time"] / 1000.0)
+    finally:
+        engine.dispose()
+    return samples
+
+
+def round_trips(registry: Registry, n: int) -> list[float]:
+    """`n` bare round trips to the server through the registry's pool (`SELECT 1`, a
+    connection already open): the floor under every statement a registration sends."""
+    samples = []
+    with registry._writer.connect() as conn:
+        for _ in range(n):
+            t0 = time.perf_counter()
+            conn.exec_driver_sql("SELECT 1").scalar_one()
+            samples.append(time.perf_counter() - t0)
+        conn.rollback()
+    return samples
+
+
+# -- 3. the stations -----------------------------------------------------------------------
+
+
+def station(index: int, url: str, folder: str, own: list[str], shared: list[str],
+            minimum: int, pause_s: float, proposals: bool, start, stop, results) -> None:
+    """One station: begin_trial + finish_trial for its own patients and, one in
+    SHARED_EVERY, a shared one, until `stop` is set and it has registered `minimum`."""
+    rng = np.random.default_rng(1000 + index)
+    pick = random.Random(index)
+    registry = Registry(Path(folder), server=sa.make_url(url))
+    parameters = parameters_for(3, 4)
+    begins: list[float] = []
+    finishes: list[float] = []
+    cpu: list[float] = []
+    proposing: list[float] = []
+    registered: list[tuple[int, str, int, int]] = []
+    error = None
+    try:
+        registry.trial_summaries(own[0])  # the pool's first connection, as a running station
+        start.wait(600)
+        t_start = time.perf_counter()
+        while len(begins) < minimum or not stop.is_set():
+            code = pick.choice(shared) if pick.random() < 1 / SHARED_EVERY else pick.choice(own)
+            metrics = single_metrics(rng)
+            c0, t0 = time.process_time(), time.perf_counter()
+            trial = registry.begin_trial(code, parameters, backend="simulator",
+                                         patient_kind="weak")
+            t1 = time.perf_counter()
+            registry.finish_trial(trial.trial_id, "complete", metrics)
+            t2, c2 = time.perf_counter(), time.process_time()
+            begins.append(t1 - t0)
+            finishes.append(t2 - t1)
+            cpu.append(c2 - c0)
+            if proposals:  # as app.trials.finalize does after an exercise trial
+                t0 = time.perf_counter()
+                registry.record_proposal(trial.trial_id, proposal_for(parameters, len(begins)))
+                proposing.append(time.perf_counter() - t0)
+            registered.append((trial.trial_id, code, trial.session_number,
+                               trial.trial_number))
+            if pause_s:
+                time.sleep(pause_s * pick.uniform(0.5, 1.5))
+        elapsed = time.perf_counter() - t_start
+    except BaseException as exc:  # reported, not raised: the bench prints what it got
+        error = f"{type(exc).__name__}: {exc}"
+        elapsed = math.nan
+    results.put((index, begins, finishes, registered, elapsed, error, cpu, proposing))
+
+
+def run_stations(bench: Bench, data_root: Path, codes: list[str], n_stations: int,
+                 minimum: int, pause_s: float, queries: int, seed: int, proposals: bool):
+    ctx = mp.get_context("spawn")
+    shared = codes[:SHARED_PATIENTS]
+    rest = codes[SHARED_PATIENTS:]
+    start = ctx.Barrier(n_stations + 1)
+    stop = ctx.Event()
+    results = ctx.Queue()
+    processes = []
+    for i in range(n_stations):
+        own = rest[i::n_stations][:25] or rest[:1]
+        folder = data_root / f"station{i}"
+        processes.append(ctx.Process(target=station, args=(
+            i, bench.clinic_url, str(folder), own, shared, minimum, pause_s, proposals, start,
+            stop, results)))
+    for process in processes:
+        process.start()
+    reader = Registry(data_root / "reader", server=sa.make_url(bench.clinic_url))
+    reader.trial_summaries(codes[0])
+    start.wait(600)
+    t0 = time.perf_counter()
+    cpu: list[float] = []
+    samples, _ = progress_queries(reader, codes, queries, random.Random(seed), cpu)
+    trips = round_trips(reader, queries)
+    stop.set()
+    out = [results.get(timeout=600) for _ in processes]
+    wall = time.perf_counter() - t0
+    for process in processes:
+        process.join(60)
+    return sorted(out), samples, cpu, trips, wall
+
+
+# -- 4. the checks -------------------------------------------------------------------------
+
+
+def check_numbers(bench: Bench, registered: list[tuple[int, str, int, int]]) -> list[str]:
+    problems = []
+    engine = sa.create_engine(bench.owner_url, poolclass=sa.NullPool)
+    try:
+        with engine.connect() as conn:
+            bad_sessions = conn.execute(sa.text(
+                "SELECT patient_id, count(*), count(DISTINCT number), max(number) "
+                "FROM sessions GROUP BY patient_id "
+                "HAVING count(*) <> count(DISTINCT number) OR max(number) <> count(*) "
+                "OR min(number) <> 1")).all()
+            bad_trials = conn.execute(sa.text(
+                "SELECT session_id, count(*), count(DISTINCT number), max(number) "
+                "FROM trials GROUP BY session_id "
+                "HAVING count(*) <> count(DISTINCT number) OR max(number) <> count(*) "
+                "OR min(number) <> 1")).all()
+            problems += [f"patient {r[0]}: {r[1]} sessions, {r[2]} numbers, highest {r[3]}"
+                         for r in bad_sessions]
+            problems += [f"session {r[0]}: {r[1]} trials, {r[2]} numbers, highest {r[3]}"
+                         for r in bad_trials]
+            ids = [r[0] for r in registered]
+            found = conn.execute(sa.text(
+                "SELECT t.id, p.code, s.number, t.number, t.status FROM trials t "
+                "JOIN sessions s ON s.id = t.session_id JOIN patients p ON p.id = s.patient_id "
+                "WHERE t.id = ANY(:ids)"), {"ids": ids}).all()
+            stored = {r[0]: (r[0], r[1], r[2], r[3]) for r in found}
+            if len(set(ids)) != len(ids):
+                problems.append(f"{len(ids) - len(set(ids))} trial ids handed out twice")
+            wrong = [r for r in registered if stored.get(r[0]) != r]
+            if wrong:
+                problems.append(f"{len(wrong)} registered trials not stored as handed out, "
+                                f"e.g. {wrong[0]}")
+            unfinished = sum(1 for r in found if r[4] != "complete")
+            if unfinished:
+                problems.append(f"{unfinished} registered trials not finished")
+    finally:
+        engine.dispose()
+    return problems
+
+
+def verify_seals(bench: Bench) -> tuple[float, str]:
+    engine = sa.create_engine(bench.owner_url, poolclass=sa.NullPool)
+    t0 = time.perf_counter()
+    try:
+        with engine.connect() as conn:
+            verify_server_seals(conn, bench.database)
+        verdict = "every row matches its seal"
+    except Exception as exc:  # printed: the bench goes on
+        verdict = f"FAILED: {exc}"
+    finally:
+        engine.dispose()
+    return time.perf_counter() - t0, verdict
+
+
+def server_settings(bench: Bench) -> str:
+    engine = sa.create_engine(bench.owner_url, poolclass=sa.NullPool)
+    try:
+        with engine.connect() as conn:
+            version = conn.execute(sa.text("SHOW server_version")).scalar_one()
+            buffers = conn.execute(sa.text("SHOW shared_buffers")).scalar_one()
+            fsync = conn.execute(sa.text("SHOW fsync")).scalar_one()
+    finally:
+        engine.dispose()
+    return f"PostgreSQL {version}, shared_buffers {buffers}, fsync {fsync}"
+
+
+# -- the whole run -------------------------------------------------------------------------
+
+
+def line(label: str, samples, extra: str = "") -> str:
+    p50, p99, worst = percentiles(samples)
+    return (f"  {label:<44} {p50:8.2f} {p99:8.2f} {worst:8.2f}  {len(samples):>6}"
+            + (f"  {extra}" if extra else ""))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--patients", type=int, default=1000)
+    parser.add_argument("--trials-per-patient", type=int, default=1000)
+    parser.add_argument("--stations", type=int, default=8)
+    parser.add_argument("--station-trials", type=int, default=100,
+                        help="at least this many trials per station (default 100); they go "
+                             "on until the progress queries under load are done")
+    parser.add_argument("--queries", type=int, default=200)
+    parser.add_argument("--pause-ms", type=float, nargs="+", default=[0.0, 100.0],
+                        help="a phase of registration for each: the mean pause of a station "
+                             "between trials (default 0 100: flat out, then 100 ms apart)")
+    parser.add_argument("--fill-workers", type=int, default=2)
+    parser.add_argument("--no-proposals", action="store_true",
+                        help="no proposals: neither in the fill nor after a station's trial")
+    parser.add_argument("--no-verify", action="store_true",
+                        help="skip the check of every row's seal at the end")
+    args = parser.parse_args()
+
+    from tests.postgres import ServerError, start
+
+    print(f"load before: {Path('/proc/loadavg').read_text().strip()}  "
+          f"({os.cpu_count()} cores)", flush=True)
+    try:
+        server = start()
+    except ServerError as exc:
+        print(f"error: the throwaway PostgreSQL server did not start: {exc}", file=sys.stderr)
+        sys.exit(1)
+    data_root = Path(tempfile.mkdtemp(prefix="rehab-bench-stations-"))
+    try:
+        bench = make_registry(server)
+        print(f"server: {server.path}; {server_settings(bench)}", flush=True)
+        codes, fill_times = fill(bench, data_root, args.patients, args.trials_per_patient,
+                                 args.fill_workers, not args.no_proposals)
+        rows = int(fill_times["rows"])
+        print(f"fill: {args.patients} patients in {fill_times['patients']:.1f} s "
+              f"(Registry.create_patient); {rows} trials in "
+              f"{math.ceil(args.trials_per_patient / TRIALS_PER_SESSION) * args.patients} "
+              f"sessions{'' if args.no_proposals else ', each trial with its proposal,'} "
+              f"by COPY through the triggers in {fill_times['trials']:.1f} s "
+              f"({rows / fill_times['trials']:,.0f} trials/s, {args.fill_workers} "
+              f"connections); VACUUM ANALYZE {fill_times['analyze']:.1f} s; database "
+              f"{fill_times['size_mb']:,.0f} MB", flush=True)
+
+        reader = Registry(data_root / "reader", server=sa.make_url(bench.clinic_url))
+        reader.trial_summaries(codes[0])
+        idle_cpu: list[float] = []
+        idle, n_rows = progress_queries(reader, codes, args.queries, random.Random(1),
+                                        idle_cpu)
+        idle_trips = round_trips(reader, args.queries)
+        idle_server = server_times(bench, codes, args.queries, random.Random(3))
+        print(f"progress query idle done ({n_rows} trials a patient)", flush=True)
+        del reader
+
+        phases = []
+        for pause_ms in args.pause_ms:
+            print(f"load before the stations ({pause_ms:g} ms pause): "
+                  f"{Path('/proc/loadavg').read_text().strip()}", flush=True)
+            phases.append((pause_ms, *run_stations(
+                bench, data_root, codes, args.stations, args.station_trials, pause_ms / 1000.0,
+                args.queries, seed=2 + len(phases), proposals=not args.no_proposals)))
+        registered = [r for phase in phases for o in phase[1] for r in o[3]]
+        t0 = time.perf_counter()
+        problems = check_numbers(bench, registered)
+        check_s = time.perf_counter() - t0
+        seal_s, seal_verdict = (math.nan, "not checked (--no-verify)") if args.no_verify \
+            else verify_seals(bench)
+        print(f"load after: {Path('/proc/loadavg').read_text().strip()}", flush=True)
+
+        print()
+        print(f"PostgreSQL registry: {args.patients} patients × {args.trials_per_patient} "
+              f"trials ({rows:,} trials); {args.stations} stations, each in a process of its "
+              "own")
+        print(f"  {'ms':<44} {'p50':>8} {'p99':>8} {'max':>8}  {'n':>6}")
+        print(line("progress query, idle", idle, f"goal p99 < 50 ms; {n_rows} trials"))
+        print(line("  its CPU time in this process", idle_cpu))
+        print(line("  its time in the server (EXPLAIN ANALYZE)", idle_server))
+        print(line("a bare round trip (SELECT 1), idle", idle_trips))
+        for pause_ms, out, busy, busy_cpu, trips, wall in phases:
+            how = "flat out" if not pause_ms else f"{pause_ms:g} ms apart"
+            print(f"  -- {args.stations} stations registering {how}")
+            print(line("progress query meanwhile", busy))
+            print(line("  its CPU time in this process", busy_cpu))
+            print(line("a bare round trip (SELECT 1) meanwhile", trips))
+            print(line("begin_trial, all stations", [x for o in out for x in o[1]],
+                       "goal p99 < 10 ms"))
+            print(line("finish_trial, all stations", [x for o in out for x in o[2]],
+                       "goal p99 < 10 ms"))
+            print(line("begin + finish, all stations",
+                       [b + f for o in out for b, f in zip(o[1], o[2], strict=True)]))
+            print(line("  their CPU time in the station's process", [x for o in out for x in o[6]]))
+            if not args.no_proposals:
+                print(line("record_proposal after each trial",
+                           [x for o in out for x in o[7]]))
+            for index, begins, finishes, _, elapsed, *_ in out:
+                rate = len(begins) / elapsed if elapsed == elapsed and elapsed else math.nan
+                p50b, p99b, maxb = percentiles(begins)
+                p50f, p99f, maxf = percentiles(finishes)
+                print(f"     station {index}: {len(begins):>5} trials, {rate:6.1f}/s; begin "
+                      f"{p50b:.2f}/{p99b:.2f}/{maxb:.2f}, finish {p50f:.2f}/{p99f:.2f}/"
+                      f"{maxf:.2f} ms (p50/p99/max)")
+            count = sum(len(o[3]) for o in out)
+            print(f"     throughput: {count} trials in {wall:.1f} s = {count / wall:.0f} "
+                  "trials/s across the stations")
+            for index, *_, error, _, _ in out:
+                if error:
+                    print(f"     station {index} FAILED: {error}")
+        shared = sum(1 for r in registered if r[1] in codes[:SHARED_PATIENTS])
+        print(f"  numbering: {len(registered)} trials ({shared} for the {SHARED_PATIENTS} "
+              f"patients every station shares): "
+              + ("gap-free and unique per patient and session, each stored as handed out"
+                 if not problems else "PROBLEMS: " + "; ".join(problems[:5]))
+              + f" (checked over the whole registry in {check_s:.1f} s)")
+        print(f"  seals: {seal_verdict}"
+              + ("" if math.isnan(seal_s) else f" (verify took {seal_s:.1f} s)"))
+    finally:
+        server.stop()
+        shutil.rmtree(data_root, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()
