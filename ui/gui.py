@@ -38,7 +38,8 @@ def run_gui(font_scale: float | None = None, lsl_outlet: bool = False) -> int:
         from ui.device_bridge import DeviceBridge
 
         bridge = DeviceBridge(lsl_outlet=RobotStateOutlet())
-    window = MainWindow(open_registry(data_dir), settings=settings, bridge=bridge)
+    window = MainWindow(open_registry(data_dir, standby=True), settings=settings,
+                        bridge=bridge)
     window.show()
 
     def stop(number, _frame) -> None:

@@ -66,6 +66,7 @@ from ui.window.fault_latch import FaultLatch
 from ui.window.message_line import MessageLine
 from ui.window.plan import PlanControl
 from ui.window.settings import RememberedSettings
+from ui.window.station import StationStatus
 from ui.window.trial import BuiltSetup, TrialActions
 from ui.window.trial_emg import TrialEmg
 
@@ -77,7 +78,7 @@ HEALTH_MS = 500
 
 
 class MainWindow(AssessmentControl, PlanControl, TrialActions, TrialEmg, FaultLatch, MessageLine,
-                 RememberedSettings, PatientScreenControl, QMainWindow):
+                 RememberedSettings, StationStatus, PatientScreenControl, QMainWindow):
     """The therapist's console."""
 
     def __init__(self, registry: RecordStore, *, bridge: DeviceBridge | None = None,
@@ -185,6 +186,7 @@ class MainWindow(AssessmentControl, PlanControl, TrialActions, TrialEmg, FaultLa
         column.addWidget(self.robot)
         self.setCentralWidget(central)
         self._build_status_bar()
+        self._build_station_status()
         self._bind_estop_keys()
 
     def _build_replay_strip(self) -> QFrame:

@@ -20,6 +20,9 @@ Layout inside it::
     logs/rehab-console-2024-05-01.log one per day (app.records.logs)
     models/<name>.json                learned robot models the CT-PID may run on
                                       (app.learning.library; made when first needed)
+    offline/registry.sqlite3          a station's standby registry on a shared one: what
+                                      it records while the server cannot be reached
+                                      (app.records.station; synced-*.sqlite3 as sent)
 
 Every file name is built from the patient's pseudonymous code, the session and
 trial numbers and a UTC time — never from a name, which lives only in the
@@ -57,6 +60,7 @@ data goes)."""
 EXPORTS = "exports"
 LOGS = "logs"
 MODELS = "models"
+OFFLINE = "offline"
 LAYOUT = (TRIALS, REPORTS, EXPORTS, LOGS)
 TRIAL_SUFFIX = ".h5"
 
@@ -340,7 +344,7 @@ def private_files(path: Path) -> None:
                                f"({exc.strerror or exc}); the data folder must be yours") from exc
 
 
-_LAYOUT_NAMES = frozenset((*LAYOUT, MODELS))
+_LAYOUT_NAMES = frozenset((*LAYOUT, MODELS, OFFLINE))
 
 
 def foreign_entries(root: Path) -> str:

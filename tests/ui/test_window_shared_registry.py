@@ -38,3 +38,70 @@ def test_a_station_records_a_trial_in_the_shared_registry(qtbot, tmp_path, monke
     assert trial.checksum == file_checksum(station.trial_path(trial))
     assert trial.metrics["rmse_x_m"] > 0
     assert other.pending_proposal(trial.patient_code).trial_id == trial_id
+
+
+def test_the_network_drops_mid_session_and_the_station_records_on_then_sends_it_all(
+        qtbot, tmp_path, monkeypatch, server_registries):
+    """Issue 32: the server becomes unreachable during a session (the network to it is cut:
+    tests/netcut.py); the therapist runs two more trials as if nothing happened, the window
+    says where they go, and when the server answers again they arrive on it whole, once."""
+    from app.records.station import StationRegistry
+    from device.loop.states import State
+    from tests.netcut import NetworkCut
+    from tests.ui.session import click, enabled
+
+    url = server_registries.new()
+    network = NetworkCut(url.port)
+    data = DataDir(tmp_path / "data", "test")
+    station = StationRegistry(data, network.url(url), station="robot-7")
+    win = open_window(qtbot, tmp_path, monkeypatch, registry=station)
+
+    def one_trial():
+        click(qtbot, win.robot.buttons["start"])
+        qtbot.waitUntil(lambda: win.unsaved_trial is not None
+                        and win.registry.trial(win.unsaved_trial).finished)
+        qtbot.waitUntil(lambda: "start" in enabled(win))
+        return win.unsaved_trial
+
+    try:
+        register_patient(qtbot, win)
+        code = win.patient.code
+        short_trial(win)
+        build_connect_start(qtbot, win)
+        qtbot.waitUntil(lambda: win.unsaved_trial is not None
+                        and win.registry.trial(win.unsaved_trial).finished)
+        qtbot.waitUntil(lambda: "start" in enabled(win))
+        assert win.registry_label.text() == ""
+
+        network.cut()
+        one_trial()
+        one_trial()
+        win.check_station()  # the timer's tick, at once
+        assert "Shared registry unreachable" in win.registry_label.text()
+        said = win.messages.history()
+        assert any("cannot be reached: this station records on its own" in t for t in said)
+        # each finished with its metrics and checksum (the job thread writes them after the end)
+        qtbot.waitUntil(lambda: all(t.metrics and t.checksum
+                                    for t in win.registry.trials_for_patient(code)))
+        offline = win.registry.trials_for_patient(code)
+        assert [t.number for t in offline] == [1, 2, 3]
+
+        network.restore()
+        win.check_station()
+        qtbot.waitUntil(lambda: not win.registry.offline)
+        qtbot.waitUntil(lambda: any("The shared registry is back: 2 trials" in line
+                                    for line in win.messages.history()))
+        assert win.registry_label.text() == ""
+        assert win.state == State.CONNECTED
+        assert win.registry.trial(win.unsaved_trial).number == 3  # the server's id now
+    finally:
+        win.close()
+        network.cut()
+    other = Registry(DataDir(tmp_path / "elsewhere"), server=url, station="robot-8")
+    trials = other.trials_for_patient(code)
+    assert [(t.number, t.status, t.station) for t in trials] == \
+        [(n, "complete", "robot-7") for n in (1, 2, 3)]
+    for trial, before in zip(trials, offline, strict=True):
+        assert trial.metrics == before.metrics
+        assert trial.checksum == before.checksum == file_checksum(station.trial_path(trial))
+    assert other.pending_proposal(code).trial_id == trials[2].id

@@ -60,7 +60,8 @@ class RememberedSettings:
             save_settings(settings, self.settings_path)
         except Exception as exc:  # closing must not fail on settings
             log.warning("settings not saved: %s", exc)
-        for timer in (self.repaint_timer, self.heartbeat_timer, self.health_timer):
+        for timer in (self.repaint_timer, self.heartbeat_timer, self.health_timer,
+                      self.station_timer):
             timer.stop()
         self.video.close_camera()
         self.close_patient_screen()
@@ -69,4 +70,5 @@ class RememberedSettings:
         # closed) reaches the window now, so the trial is recorded before it closes
         QApplication.processEvents()
         self.jobs.shutdown()
+        getattr(self.registry, "close", lambda: None)()  # another console may hold its standby
         super().closeEvent(event)

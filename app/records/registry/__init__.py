@@ -187,16 +187,22 @@ class Registry(Schema, Patients, Sessions, Plans, Clinical, Proposals, Trials, Q
 
 
 def open_registry(data_dir: DataDir, *, create: bool = True,
-                  station: str | None = None) -> Registry:
+                  station: str | None = None, standby: bool = False) -> Registry:
     """The registry this console uses (what the window and every command open): the one
     the private registry URL file names (app.records.registry.url, `registry.url` in the
     config folder), else the data folder's SQLite registry. A SQLite URL must name the data
     folder's own registry file, which keeps the trial files beside it; a PostgreSQL URL
     names the department's server, the data folder keeping this station's trial files.
-    `station`: this console's id (by default provenance.station_id())."""
+    `station`: this console's id (by default provenance.station_id()). `standby` (the
+    window): on a server, a station that goes on recording when it cannot be reached
+    (app.records.station.StationRegistry, a RecordStore like the registry)."""
     location = registry_url(data_dir)
     station = station or station_id()
     if location.engine == POSTGRESQL:
+        if standby:
+            from app.records.station import StationRegistry  # it builds on this package
+
+            return StationRegistry(data_dir, location.url, station=station)
         return Registry(data_dir, create=create, server=location.url, station=station)
     if os.path.abspath(location.path) != os.path.abspath(data_dir.registry_path):
         raise RegistryURLError(

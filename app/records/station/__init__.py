@@ -1,0 +1,346 @@
+"""A station on the department's shared registry that never stops a session because the
+network is down (issue 32; docs/stations.md, Offline stations).
+
+`StationRegistry` is the window's `RecordStore` on a PostgreSQL registry. Online, every call
+goes to the server, and after each one that records something the patients this station
+works with are mirrored into its standby registry (`mirror`). When the server cannot be
+reached (`RegistryUnreachable`), the call, and every one after it, is answered by the
+standby: the trial goes on and the next ones are recorded, numbered as the server would
+number them, their files in the data folder as always; `offline_reason` says so for the
+window. Between trials (`try_sync`, which the window calls every few seconds while offline)
+it reaches the server again and sends what it recorded (`sync`), then is online again.
+
+One console per data folder works offline: the standby is the data folder's, and a second
+console on the same folder (which would rebuild it under the first) reads and writes the
+server only (`held` is False; the window says so).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime
+import fcntl
+import logging
+import os
+import sqlite3
+import threading
+import weakref
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import sqlalchemy as sa
+
+from app.errors import PatientNotFound, RegistryError, RegistryUnreachable
+from app.records.datadir import DataDir
+from app.records.registry import Registry
+from app.records.registry.patients import is_code
+from app.records.safewrite import atomic_path
+from app.records.station.mirror import (
+    OFFLINE,
+    StandbyDataDir,
+    build_standby,
+    changes,
+    manifest,
+    patient_rows,
+    standby_path,
+    standby_rows,
+)
+from app.records.station.sync import Synced, SyncRefused, already_sent, replay
+
+log = logging.getLogger(__name__)
+
+WRITES = frozenset((
+    "add_note", "begin_plan_run", "begin_trial", "change_block", "correct_patient",
+    "create_patient", "end_plan_run", "finish_trial", "interrupt_runs", "mark_trial",
+    "open_session", "record_plan_rest", "record_plan_trial", "record_proposal",
+    "record_scale", "save_plan", "update_metrics", "update_patient", "update_session",
+    "withdraw_trial"))
+"""The calls that record something: after each, online, the standby is mirrored again."""
+
+MIRRORED_PATIENTS = 8
+"""The patients a standby holds: the last this station opened or recorded for (a
+station's session is one patient at a time; a day's few fit)."""
+
+__all__ = ["MIRRORED_PATIENTS", "StationRegistry", "SyncRefused", "Synced"]
+
+
+class StationRegistry:
+    """The shared registry at `server` as one station uses it (the module's doc)."""
+
+    def __init__(self, data_dir: DataDir, server: sa.URL, *, station: str,
+                 connect: Callable[..., Registry] = Registry) -> None:
+        self.data_dir = data_dir
+        self.station = station
+        self.offline_reason = ""
+        """Why this station records on its own ('' while it reaches the server)."""
+        self.sync_problem = ""
+        """Why the last attempt to send the offline records was refused ('' when none)."""
+        self.synced: list[Synced] = []
+        """What each sync sent, in order (the window refreshes what it shows after one)."""
+        self._url = server
+        self._connect = connect
+        self._recent: list[str] = []  # patient codes mirrored, the latest last
+        self._open: set[int] = set()  # trials begun and not yet finished or withdrawn
+        self._runs: set[int] = set()  # plan runs begun and not yet ended
+        # One call at a time: the window's thread and its job thread (a trial finished, a
+        # sync) share this object, and a sync must not come between two calls' ids.
+        self._one = threading.RLock()
+        self._server: Registry | None = None
+        self._standby: Registry | None = None
+        self._built: tuple | None = None  # the standby as this object built it
+        self.close: Callable[[], None] = lambda: None
+        """Let another console hold the standby (the window calls it as it closes)."""
+        self.held = self._hold()
+        try:
+            self._server = connect(data_dir, server=server, station=station)
+        except RegistryUnreachable as exc:
+            if not self.held:
+                raise
+            self._go_offline(exc)
+            return
+        if not self.held or self._server.research:
+            return  # a second console on this folder, or a researcher: the server only
+        if self._pending():
+            self.offline_reason = "records made while the shared registry was unreachable " \
+                                  "are waiting to be sent"
+            self.try_sync()
+        else:
+            self._mirror()
+
+    # -- what the window reads -----------------------------------------------------------
+    @property
+    def offline(self) -> bool:
+        return bool(self.offline_reason)
+
+    @property
+    def research(self) -> bool:
+        return self._server is not None and self._server.research
+
+    def location(self) -> str:
+        if self._server is not None:
+            return self._server.location()
+        url = self._url
+        return (f"station {self.station} · shared registry {url.host}:{url.port or 5432}/"
+                f"{url.database}")
+
+    @property
+    def where(self) -> str:
+        return self._url.render_as_string(hide_password=True)
+
+    # -- every other call ----------------------------------------------------------------
+    def __getattr__(self, name: str) -> Any:
+        if name.startswith("_") or not callable(getattr(Registry, name, None)):
+            raise AttributeError(name)
+
+        def call(*args, **kwargs):
+            return self._call(name, args, kwargs)
+        call.__name__ = name
+        call.__doc__ = getattr(Registry, name).__doc__
+        return call
+
+    def _call(self, name: str, args: tuple, kwargs: dict) -> Any:
+        with self._one:
+            return self._answer(name, args, kwargs)
+
+    def _answer(self, name: str, args: tuple, kwargs: dict) -> Any:
+        if not self.offline:
+            try:
+                result = getattr(self._server, name)(*args, **kwargs)
+            except RegistryUnreachable as exc:
+                if not self.held:
+                    raise
+                self._go_offline(exc)
+            else:
+                self._after(name, args, kwargs, result)
+                return result
+        try:
+            result = getattr(self._standby_registry(), name)(*args, **kwargs)
+        except PatientNotFound as exc:
+            raise PatientNotFound(
+                f"{exc}: while the shared registry cannot be reached this station has only "
+                "the patients it opened since it last reached it (and any registered "
+                "here meanwhile)") from None
+        self._track(name, args, kwargs, result)
+        return result
+
+    def _after(self, name: str, args: tuple, kwargs: dict, result: Any) -> None:
+        """Online: keep the standby a mirror of the patients this station works with."""
+        if not self.held or self.research:
+            return
+        if self._track(name, args, kwargs, result) or name in WRITES:
+            self._mirror()
+
+    def _track(self, name: str, args: tuple, kwargs: dict, result: Any) -> bool:
+        """Note the patient a call names (the latest first to mirror) and the trials open;
+        whether the patient is new to the standby."""
+        if name == "begin_trial":
+            self._open.add(result.trial_id)
+        elif name in ("finish_trial", "withdraw_trial"):
+            self._open.discard(args[0] if args else kwargs.get("trial_id"))
+        elif name == "begin_plan_run":
+            self._runs.add(result)
+        elif name == "end_plan_run":
+            self._runs.discard(args[0] if args else kwargs.get("run_id"))
+        code = getattr(result, "code", None) if name == "create_patient" else \
+            (args[0] if args else kwargs.get("code"))
+        if not (isinstance(code, str) and is_code(code)):
+            return False
+        new = code not in self._recent
+        self._recent = [*(c for c in self._recent if c != code), code][-MIRRORED_PATIENTS:]
+        return new
+
+    # -- offline and back ----------------------------------------------------------------
+    def _shown(self) -> str:
+        url = self._url
+        return f"the shared registry {url.host}:{url.port or 5432}/{url.database}"
+
+    def _go_offline(self, exc: RegistryUnreachable) -> None:
+        self.offline_reason = (f"{self._shown()} cannot be reached: this station records on "
+                               "its own and sends its records when it returns")
+        log.warning("the shared registry cannot be reached; this station records on its "
+                    "own until it returns: %s", exc)
+
+    def try_sync(self) -> Synced | None:
+        """Offline and between trials: reach the server, send what this station recorded
+        meanwhile, and be online again. What was sent (None while still offline; an empty
+        Synced when nothing was waiting). A refusal stays in `sync_problem`, the records
+        stay where they are and the station goes on recording on its own. Never while a
+        trial or a plan run is open (their ids would change under them)."""
+        with self._one:
+            return self._try_sync()
+
+    def _try_sync(self) -> Synced | None:
+        if not self.offline or self._open or self._runs or not self.held:
+            return None
+        try:
+            if self._server is None:
+                self._server = self._connect(self.data_dir, server=self._url,
+                                             station=self.station)
+            synced = self._sync()
+        except RegistryUnreachable:
+            return None
+        except RegistryError as exc:
+            problem = (f"the records this station made offline were not sent: {exc}. Nothing "
+                       f"is lost: they stay in {standby_path(self.data_dir)} and this station "
+                       "goes on recording on its own until the registry's owner resolves it "
+                       "(docs/stations.md, Offline stations)")
+            if self.sync_problem != problem:
+                log.error("%s", problem)
+            self.sync_problem = problem
+            return None
+        self.offline_reason = self.sync_problem = ""
+        self.synced.append(synced)
+        self._mirror()
+        return synced
+
+    def _sync(self) -> Synced:
+        path = standby_path(self.data_dir)
+        if not path.exists():
+            return Synced({}, {}, {})
+        standby = self._standby_registry()
+        with standby._read() as conn:  # its seals checked: a damaged standby is not sent
+            raw = conn.connection.driver_connection
+            work = changes(standby_rows(raw), manifest(raw))
+        if not work:
+            return Synced({}, {}, {})
+        with self._server._write() as conn:
+            if already_sent(conn, work):
+                synced = Synced({}, {}, {})
+                log.warning("the offline records had arrived at the last attempt")
+            else:
+                synced = replay(conn, work, self._shown())
+        kept = self._keep_sent(path)
+        log.info("sent the offline records to the shared registry: %s added, %s changed; "
+                 "the standby kept as %s", synced.added, synced.changed, kept.name)
+        return synced
+
+    def _keep_sent(self, path: Path) -> Path:
+        """The standby as it was sent, kept beside it (`synced-<UTC>.sqlite3`), then
+        removed: the next mirror starts from the server."""
+        stamp = datetime.datetime.now(datetime.UTC).strftime("%Y%m%dT%H%M%S.%fZ")
+        kept = path.with_name(f"synced-{stamp}.sqlite3")
+        with contextlib.closing(sqlite3.connect(path)) as source, \
+                atomic_path(kept, owned=True) as temporary, \
+                contextlib.closing(sqlite3.connect(temporary)) as copy:
+            source.backup(copy)
+        for suffix in ("", "-wal", "-shm"):
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(f"{path}{suffix}")
+        self._standby = self._built = None
+        return kept
+
+    # -- the standby ---------------------------------------------------------------------
+    def _standby_registry(self) -> Registry:
+        if self._standby is None:
+            if not standby_path(self.data_dir).exists():
+                self._build(None)  # never reached the server: new patients only
+            self._standby = Registry(StandbyDataDir(self.data_dir.root, self.data_dir.source),
+                                     station=self.station)
+        return self._standby
+
+    def _pending(self) -> bool:
+        """Whether the standby holds records the server does not have."""
+        if not standby_path(self.data_dir).exists():
+            return False
+        with self._standby_registry()._read() as conn:
+            raw = conn.connection.driver_connection
+            return bool(changes(standby_rows(raw), manifest(raw)))
+
+    def _mirror(self) -> None:
+        """The standby rebuilt from the server's rows of the recent patients (never over
+        records it holds that the server does not). A failure is logged: the session goes
+        on online, and an unreachable server makes the station go offline."""
+        try:
+            with self._server._read() as conn:
+                rows = patient_rows(conn, self._recent)
+        except RegistryUnreachable as exc:
+            self._go_offline(exc)
+            return
+        except RegistryError as exc:
+            log.error("this station's standby registry was not updated: %s", exc)
+            return
+        self._build(rows)
+
+    def _build(self, rows: dict | None) -> None:
+        path = standby_path(self.data_dir)
+        if path.exists() and self._changed_since_built(path) and self._pending():
+            log.error("the standby registry %s holds records the server does not have: it "
+                      "was not rebuilt", path)
+            return
+        try:
+            build_standby(self.data_dir, rows or {}, self.where,
+                          datetime.datetime.now(datetime.UTC).isoformat())
+        except (OSError, RegistryError) as exc:
+            log.error("this station's standby registry could not be written: %s", exc)
+            return
+        self._standby = None
+        self._built = _state(path)
+
+    def _changed_since_built(self, path: Path) -> bool:
+        return self._built is None or _state(path) != self._built
+
+    def _hold(self) -> bool:
+        """Hold this data folder's standby for this console's life (an advisory lock)."""
+        folder = self.data_dir.root / OFFLINE
+        try:
+            folder.mkdir(mode=0o700, parents=True, exist_ok=True)
+            lock = open(folder / "station.lock", "a")  # noqa: SIM115  held while alive
+            self.close = weakref.finalize(self, lock.close)
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError as exc:
+            self.close()
+            log.warning("another console holds this data folder's standby registry (or it "
+                        "cannot be made: %s): this one records on the server only", exc)
+            return False
+        return True
+
+
+def _state(path: Path) -> tuple | None:
+    try:
+        found = [os.stat(path)]
+        with contextlib.suppress(FileNotFoundError):
+            found.append(os.stat(f"{path}-wal"))
+        return tuple((s.st_size, s.st_mtime_ns, s.st_ino) for s in found)
+    except FileNotFoundError:
+        return None

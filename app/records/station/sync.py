@@ -1,0 +1,149 @@
+"""What a station recorded while the department's server could not be reached, sent to the
+server when it answers again (issue 32: "syncs when the server returns, without duplicates
+or lost trials"; docs/stations.md, Offline stations).
+
+The work is the standby's rows that are not as mirrored (mirror.changes): rows the station
+added (a session, trials, their proposals, notes, scales, marks, plan runs) and rows it
+changed (a trial begun online and finished offline, a proposal decided, a patient's field
+corrected). They are replayed onto the server in the tables' order, in ONE transaction of
+the server: all of them arrive or none does, so a sync cut off halfway leaves nothing
+behind and is simply made again.
+
+* An added row gets the server's next id; the rows that name it (a trial's session, a
+  proposal's next trial, a note's trial) are given that id.
+* A changed row is written over the server's only if the server's row is still what was
+  mirrored (its seal): otherwise another station changed it meanwhile and the sync is
+  refused, naming the row.
+* The server's own rules hold on each row: a session or trial number another station gave
+  meanwhile is refused by its numbering triggers (the sync is refused, naming it).
+* Every row's seal on the server must equal the seal of the values sent (the same digest on
+  both engines): what arrived is exactly what the station recorded, ids aside.
+* A sync whose commit was sent but not answered (the network dropped at that moment) may
+  have arrived: the trials it adds are looked up by their file first; all there means it
+  did, and it is not sent twice.
+
+Refused, the standby and its trial files stay as they are and the station goes on recording
+there; nothing is lost, and the line says what to resolve.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sqlalchemy as sa
+
+from app.errors import RegistryError
+from app.records.registry import seals
+from app.records.registry.postgres.tables import REGISTRY_TABLES, metadata
+from app.records.station.mirror import Change, key_columns
+
+
+class SyncRefused(RegistryError):
+    """The station's offline records cannot be sent as they are: another station changed or
+    numbered the same patient's records meanwhile (the line says which)."""
+
+
+@dataclass(frozen=True, slots=True)
+class Synced:
+    """What a sync sent: rows per table (added, changed), and the trials' new ids."""
+
+    added: dict[str, int]
+    changed: dict[str, int]
+    trial_ids: dict[int, int]  # the standby's id -> the server's
+
+    @property
+    def trials(self) -> int:
+        return self.added.get("trials", 0)
+
+
+def already_sent(conn: sa.Connection, work: list[Change]) -> bool:
+    """Whether this work arrived already (a sync whose commit was not answered): every
+    trial it adds is on the server, by its file, its start to the microsecond and its
+    station (a file's name gives the start to the second only: another station may have
+    numbered the same trial in that second). Some but not all is refused."""
+    added = [_values(c) for c in work if c.table == "trials" and c.mirrored is None]
+    if not added:
+        return False
+    trials = metadata.tables["trials"]
+    found = {tuple(r) for r in conn.execute(
+        sa.select(trials.c.file, trials.c.started_at, trials.c.station)
+        .where(trials.c.file.in_([v["file"] for v in added])))}
+    there = sum((v["file"], v["started_at"], v["station"]) in found for v in added)
+    if there == len(added):
+        return True
+    if there:
+        raise SyncRefused(f"{there} of the {len(added)} trials this station recorded offline "
+                          "are on the server already and the others are not")
+    return False
+
+
+def replay(conn: sa.Connection, work: list[Change], where: str) -> Synced:
+    """Send `work` (mirror.changes, in its order) in the caller's transaction on `conn`."""
+    ids: dict[str, dict[int, int]] = {table: {} for table in REGISTRY_TABLES}
+    added = dict.fromkeys(REGISTRY_TABLES, 0)
+    changed = dict.fromkeys(REGISTRY_TABLES, 0)
+    for change in work:
+        try:
+            values = _mapped(change, ids)
+            if change.mirrored is None:
+                seal = _add(conn, change.table, values, ids[change.table])
+                added[change.table] += 1
+            else:
+                seal = _change(conn, change, values)
+                changed[change.table] += 1
+        except sa.exc.IntegrityError as exc:  # the server's rules refused the row
+            diag = getattr(exc.orig, "diag", None)
+            reason = getattr(diag, "message_primary", None) or str(exc.orig).splitlines()[0]
+            raise SyncRefused(f"{_named(change)} was refused by {where} ({reason}): another "
+                              "station recorded for the same patient meanwhile") from None
+        sent = seals.seal_of(change.table, *(values[c] for c in seals.SEALED[change.table]))
+        if seal != sent:
+            raise SyncRefused(f"{_named(change)} did not arrive unchanged at {where} (its "
+                              "seal there differs from the values sent)")
+    return Synced({t: n for t, n in added.items() if n},
+                  {t: n for t, n in changed.items() if n}, dict(ids["trials"]))
+
+
+def _values(change: Change) -> dict:
+    return dict(zip(seals.SEALED[change.table], change.row[:-1], strict=True))
+
+
+def _mapped(change: Change, ids: dict[str, dict[int, int]]) -> dict:
+    """The row's values with the ids of rows added before it replaced by the server's."""
+    values = _values(change)
+    for foreign in metadata.tables[change.table].foreign_keys:
+        name, target = foreign.parent.name, foreign.column.table.name
+        if values[name] in ids[target]:
+            values[name] = ids[target][values[name]]
+    return values
+
+
+def _add(conn: sa.Connection, table: str, values: dict, new_ids: dict[int, int]) -> str:
+    t = metadata.tables[table]
+    if "id" not in key_columns(table):
+        return conn.execute(sa.insert(t).values(values).returning(t.c.seal)).scalar_one()
+    local = values.pop("id")
+    server_id, seal = conn.execute(sa.insert(t).values(values)
+                                   .returning(t.c.id, t.c.seal)).one()
+    new_ids[local] = values["id"] = server_id
+    return seal
+
+
+def _change(conn: sa.Connection, change: Change, values: dict) -> str:
+    t = metadata.tables[change.table]
+    keys = key_columns(change.table)
+    where = sa.and_(*(t.c[k] == values[k] for k in keys))
+    now = conn.execute(sa.select(t.c.seal).where(where).with_for_update()).scalar_one_or_none()
+    if now != change.mirrored:
+        raise SyncRefused(f"{_named(change)} was changed on the server by another station "
+                          "while this one was offline")
+    return conn.execute(sa.update(t).where(where).values(
+        {c: v for c, v in values.items() if c not in keys}).returning(t.c.seal)).scalar_one()
+
+
+def _named(change: Change) -> str:
+    values = _values(change)
+    if change.table == "trials":
+        return f"the trial {values['file']}"
+    key = "/".join(str(values[k]) for k in key_columns(change.table))
+    return f"{change.table} row {key}"

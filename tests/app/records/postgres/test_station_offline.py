@@ -1,0 +1,192 @@
+"""A station keeps recording when the shared registry cannot be reached, and sends what it
+recorded when it returns, without duplicates or losses (issue 32; app.records.station).
+The network between the station and the tests' server is a relay the test cuts and
+restores (tests/netcut.py): the station's connections end and new ones are refused, as when
+the server or the network goes down."""
+
+from __future__ import annotations
+
+import dataclasses
+import shutil
+
+import pytest
+
+from app.errors import RegistryUnreachable
+from app.records.datadir import DataDir
+from app.records.registry import Registry
+from app.records.station import StationRegistry
+from app.records.station.mirror import standby_path
+from core.trial import THESIS_SUBJECT
+from tests.netcut import NetworkCut
+
+PARAMS = THESIS_SUBJECT.replace(duration_s=2.0)
+
+
+@pytest.fixture
+def department(server_registries, tmp_path):
+    """(the registry's URL, the network to it, a station's data folder)."""
+    url = server_registries.new()
+    network = NetworkCut(url.port)
+    yield url, network, DataDir(tmp_path / "robot-1")
+    network.cut()
+
+
+def _trial(registry, code, metrics=None, *, finish=True):
+    begun = registry.begin_trial(code, PARAMS, backend="simulator")
+    if finish:
+        registry.finish_trial(begun.trial_id, "complete", metrics or {"rmse_x_mm": 1.5})
+    return begun
+
+
+def _as_recorded(trials):
+    """What a trial's record says, its id aside (the server gives its own)."""
+    return [dataclasses.replace(t, id=0) for t in trials]
+
+
+def test_a_session_goes_on_offline_and_arrives_whole_when_the_server_returns(department):
+    url, network, data = department
+    station = StationRegistry(data, network.url(url), station="robot-1")
+    code = station.create_patient("Ada", "Example").code
+    first = _trial(station, code)
+    assert not station.offline
+
+    network.cut()  # the server goes away mid-session
+    second = _trial(station, code, {"rmse_x_mm": 2.5})
+    assert station.offline
+    assert "cannot be reached" in station.offline_reason
+    third = _trial(station, code, {"rmse_x_mm": 3.5})
+    station.record_proposal(third.trial_id, {"assistance_level": 0.4})
+    station.add_note(code, 1, "good effort after the break", author="therapist A")
+    assert [(t.session_number, t.number) for t in station.trials_for_patient(code)] == \
+        [(1, 1), (1, 2), (1, 3)]  # numbered as the server would
+    recorded = station.trials_for_patient(code)
+    assert station.try_sync() is None  # still unreachable: nothing lost, still offline
+    assert station.offline
+
+    network.restore()
+    synced = station.try_sync()
+    assert synced.trials == 2
+    assert not station.offline
+    direct = Registry(data, server=url, station="robot-1")
+    on_server = direct.trials_for_patient(code)
+    assert _as_recorded(on_server) == _as_recorded(recorded)
+    assert on_server[0].id == first.trial_id
+    assert [t.station for t in on_server] == ["robot-1"] * 3
+    assert [n.text for n in direct.notes(code)] == ["good effort after the break"]
+    proposal = direct.proposal(on_server[2].id)
+    assert proposal.proposal == {"assistance_level": 0.4}
+    assert synced.trial_ids == {second.trial_id: on_server[1].id,
+                                third.trial_id: on_server[2].id}
+
+    assert station.try_sync() is None  # online: nothing more to send, nothing twice
+    fourth = _trial(station, code)
+    assert [t.number for t in direct.trials_for_patient(code)] == [1, 2, 3, 4]
+    assert direct.trial(fourth.trial_id).status == "complete"
+
+
+def test_a_trial_begun_online_and_finished_offline_is_finished_on_the_server(department):
+    url, network, data = department
+    station = StationRegistry(data, network.url(url), station="robot-1")
+    code = station.create_patient("Bo", "Sample").code
+    begun = _trial(station, code, finish=False)
+    network.cut()
+    station.finish_trial(begun.trial_id, "stopped_early", {"rmse_x_mm": 4.0},
+                         reason="the patient asked to stop")
+    assert station.offline
+    assert station.try_sync() is None  # still cut
+    network.restore()
+    assert station.try_sync().changed == {"trials": 1}
+    trial = Registry(data, server=url).trial(begun.trial_id)
+    assert (trial.status, trial.end_reason) == ("stopped_early", "the patient asked to stop")
+
+
+def test_a_trial_open_when_the_server_returns_is_sent_after_it_ends(department):
+    url, network, data = department
+    station = StationRegistry(data, network.url(url), station="robot-1")
+    code = station.create_patient("Cy", "Sample").code
+    network.cut()
+    begun = _trial(station, code, finish=False)
+    network.restore()
+    assert station.try_sync() is None  # a trial is running: never mid-trial
+    station.finish_trial(begun.trial_id, "complete", {})
+    assert station.try_sync().trials == 1
+
+
+def test_a_number_another_station_gave_meanwhile_refuses_the_sync_and_keeps_everything(
+        department, caplog):
+    url, network, data = department
+    station = StationRegistry(data, network.url(url), station="robot-1")
+    code = station.create_patient("Di", "Sample").code
+    _trial(station, code)
+    network.cut()
+    offline = _trial(station, code, {"rmse_x_mm": 9.0})
+    other = Registry(DataDir(data.root.parent / "robot-2"), server=url, station="robot-2")
+    _trial(other, code)  # robot-2 numbers trial 2 while robot-1 is cut off
+    network.restore()
+    assert station.try_sync() is None
+    assert station.offline
+    assert "trial" in station.sync_problem
+    assert "refused" in station.sync_problem
+    assert "\n" not in station.sync_problem
+    # nothing lost: robot-1 still has its trial 2 and goes on recording on its own
+    assert station.trial(offline.trial_id).metrics["rmse_x_mm"] == 9.0
+    assert _trial(station, code).trial_id > offline.trial_id
+    assert [t.station for t in other.trials_for_patient(code)] == ["robot-1", "robot-2"]
+
+
+def test_a_station_that_starts_while_cut_off_sends_its_records_when_it_starts_again(
+        department):
+    url, network, data = department
+    station = StationRegistry(data, network.url(url), station="robot-1")
+    code = station.create_patient("Ed", "Sample").code
+    network.cut()
+    _trial(station, code)
+    station.close()  # the console closes (its hold on the standby ends)
+
+    again = StationRegistry(data, network.url(url), station="robot-1")  # still cut off
+    assert again.offline
+    assert [t.number for t in again.trials_for_patient(code)] == [1]
+    _trial(again, code)
+    new = again.create_patient("Flo", "Newcomer").code  # registered while offline
+    _trial(again, new)
+    again.close()
+
+    network.restore()
+    last = StationRegistry(data, network.url(url), station="robot-1")
+    assert not last.offline
+    direct = Registry(data, server=url)
+    assert [t.number for t in direct.trials_for_patient(code)] == [1, 2]
+    assert direct.patient(new).first_name == "Flo"
+    assert [t.number for t in direct.trials_for_patient(new)] == [1]
+
+
+def test_a_sync_whose_answer_was_lost_is_not_sent_twice(department):
+    url, network, data = department
+    station = StationRegistry(data, network.url(url), station="robot-1")
+    code = station.create_patient("Gus", "Sample").code
+    network.cut()
+    _trial(station, code)
+    path = standby_path(data)
+    sent = path.with_name("as-sent.sqlite3")
+    shutil.copy(path, sent)
+    network.restore()
+    assert station.try_sync().trials == 1
+    # the commit arrived but its answer did not: the station still holds the same records
+    shutil.copy(sent, path)
+    station.offline_reason = "the answer to the last sync was lost"
+    again = station.try_sync()
+    assert (again.added, again.changed) == ({}, {})  # found there, not sent again
+    assert not station.offline
+    assert [t.number for t in Registry(data, server=url).trials_for_patient(code)] == [1]
+
+
+def test_a_second_console_on_the_folder_uses_the_server_only(department):
+    url, network, data = department
+    first = StationRegistry(data, network.url(url), station="robot-1")
+    second = StationRegistry(data, network.url(url), station="robot-1")
+    assert first.held
+    assert not second.held
+    code = second.create_patient("Hal", "Sample").code
+    network.cut()
+    with pytest.raises(RegistryUnreachable, match="cannot reach the registry's server"):
+        second.begin_trial(code, PARAMS, backend="simulator")

@@ -1,0 +1,92 @@
+"""The window of a station on the department's shared registry while the network is down
+(issue 32: "when the server is unreachable it keeps recording …, says so on screen, and
+syncs when the server returns"; app.records.station).
+
+The status bar says where the records go now ("Shared registry unreachable: recording on
+this station"), the event line says when that begins and ends, and every few seconds, while
+no trial runs, the window asks the station to send what it recorded (on the job thread, after
+any trial still being finished: a sync never comes between a trial's end and its proposal).
+After a sync the patient's progress and proposal are read again: the trials recorded offline
+have their server's ids now.
+"""
+
+from __future__ import annotations
+
+from PySide6.QtCore import QTimer
+from PySide6.QtWidgets import QLabel
+
+from device.loop.states import State
+from ui import theme
+
+SYNC_EVERY_MS = 5000
+"""How often an offline station tries to reach the server again (a connection refused is
+answered at once; an unanswered one waits the registry's connect timeout on the job
+thread, never the window)."""
+
+
+class StationStatus:
+    """The shared registry's reach in the status bar and the sync (a part of MainWindow)."""
+
+    def _build_station_status(self) -> None:
+        self.registry_label = QLabel("")
+        self.registry_label.setObjectName("registry_reach")
+        self.statusBar().addPermanentWidget(self.registry_label)
+        self._was_offline = False
+        self._syncing = False
+        self.station_timer = QTimer(self)
+        self.station_timer.setInterval(SYNC_EVERY_MS)
+        self.station_timer.timeout.connect(self.check_station)
+        if hasattr(self.registry, "try_sync"):
+            self.station_timer.start()
+        self.check_station()
+
+    def check_station(self) -> None:
+        """Show the registry's reach; offline and idle, try to send the offline records."""
+        registry = self.registry
+        offline = getattr(registry, "offline", False)
+        self._show_reach(offline)
+        # between trials: none running or stopping, none still being recorded, no plan on
+        between = self.state not in (State.RUNNING, State.STOPPING) \
+            and self.trial_id is None and self.plan_runner is None
+        if offline and between and not self._syncing:
+            self._syncing = True
+            self.jobs.run(registry.try_sync, self._synced)
+
+    def _show_reach(self, offline: bool) -> None:
+        registry = self.registry
+        if offline:
+            problem = getattr(registry, "sync_problem", "")
+            self.registry_label.setText(f"{theme.PROBLEM_SIGN} Shared registry unreachable: "
+                                        "recording on this station")
+            self.registry_label.setStyleSheet(f"color: {theme.PROBLEM_TEXT};")
+            self.registry_label.setToolTip(problem or registry.offline_reason)
+            if not self._was_offline:
+                self._say(registry.offline_reason[:1].upper() + registry.offline_reason[1:],
+                          problem=True)
+        else:
+            self.registry_label.setText("")
+            self.registry_label.setToolTip("")
+        self._was_offline = offline
+
+    def _synced(self, synced) -> None:
+        self._syncing = False
+        if synced is None:
+            problem = self.registry.sync_problem
+            if problem and problem != getattr(self, "_said_problem", ""):
+                self._said_problem = problem
+                self._say(problem[:1].upper() + problem[1:], problem=True)
+            return
+        self._said_problem = ""
+        moved = synced.trial_ids
+        if self.unsaved_trial in moved:
+            self.unsaved_trial = moved[self.unsaved_trial]
+        sent = synced.trials
+        self._say("The shared registry is back: " + (
+            f"{sent} trial{'s' if sent != 1 else ''} recorded on this station meanwhile "
+            "sent to it" if sent else "nothing was waiting to be sent"))
+        self._show_reach(False)
+        if self.patient is not None:  # what the tabs show now has the server's ids
+            code = self.patient.code
+            self.progress.set_patient(code)
+            self.replay.set_patient(code)
+            self._offer_pending_proposal(code)
