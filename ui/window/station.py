@@ -38,6 +38,10 @@ class StationStatus:
         self.station_timer.timeout.connect(self.check_station)
         if hasattr(self.registry, "try_sync"):
             self.station_timer.start()
+        problem = getattr(self.registry, "sync_problem", "")
+        if problem:  # found as it opened (a damaged standby set aside, a sync refused)
+            self._said_problem = problem
+            self._say(problem[:1].upper() + problem[1:], problem=True)
         self.check_station()
 
     def check_station(self) -> None:

@@ -92,6 +92,8 @@ class StationRegistry:
         self.close: Callable[[], None] = lambda: None
         """Let another console hold the standby (the window calls it as it closes)."""
         self.held = self._hold()
+        if self.held:
+            self._set_aside_if_damaged()
         try:
             self._server = connect(data_dir, server=server, station=station)
         except RegistryUnreachable as exc:
@@ -258,8 +260,7 @@ class StationRegistry:
     def _keep_sent(self, path: Path) -> Path:
         """The standby as it was sent, kept beside it (`synced-<UTC>.sqlite3`), then
         removed: the next mirror starts from the server."""
-        stamp = datetime.datetime.now(datetime.UTC).strftime("%Y%m%dT%H%M%S.%fZ")
-        kept = path.with_name(f"synced-{stamp}.sqlite3")
+        kept = path.with_name(f"synced-{_stamp()}.sqlite3")
         with contextlib.closing(sqlite3.connect(path)) as source, \
                 atomic_path(kept, owned=True) as temporary, \
                 contextlib.closing(sqlite3.connect(temporary)) as copy:
@@ -278,6 +279,27 @@ class StationRegistry:
             self._standby = Registry(StandbyDataDir(self.data_dir.root, self.data_dir.source),
                                      station=self.station)
         return self._standby
+
+    def _set_aside_if_damaged(self) -> None:
+        """A standby that fails its checks (its structure, a row against its seal) is moved
+        aside as `damaged-<UTC>.sqlite3`, never read nor sent nor built over: what it holds
+        is kept for the registry's owner, and the station starts from the server (or, cut
+        off, from an empty standby)."""
+        path = standby_path(self.data_dir)
+        if not path.exists():
+            return
+        try:
+            self._pending()
+        except RegistryError as exc:
+            kept = path.with_name(f"damaged-{_stamp()}.sqlite3")
+            for suffix in ("", "-wal", "-shm"):
+                with contextlib.suppress(FileNotFoundError):
+                    os.rename(f"{path}{suffix}", f"{kept}{suffix}")
+            self._standby = None
+            self.sync_problem = (f"this station's standby registry was damaged ({exc}); it is "
+                                 f"kept as {kept} for the registry's owner, and records made "
+                                 "offline that it held were not sent")
+            log.error("%s", self.sync_problem)
 
     def _pending(self) -> bool:
         """Whether the standby holds records the server does not have."""
@@ -344,3 +366,8 @@ def _state(path: Path) -> tuple | None:
         return tuple((s.st_size, s.st_mtime_ns, s.st_ino) for s in found)
     except FileNotFoundError:
         return None
+
+
+def _stamp() -> str:
+    return datetime.datetime.now(datetime.UTC).strftime("%Y%m%dT%H%M%S.%fZ")
+

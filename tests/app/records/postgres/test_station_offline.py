@@ -190,3 +190,26 @@ def test_a_second_console_on_the_folder_uses_the_server_only(department):
     network.cut()
     with pytest.raises(RegistryUnreachable, match="cannot reach the registry's server"):
         second.begin_trial(code, PARAMS, backend="simulator")
+
+
+def test_a_damaged_standby_is_set_aside_never_sent_and_the_station_starts_afresh(department):
+    url, network, data = department
+    station = StationRegistry(data, network.url(url), station="robot-1")
+    code = station.create_patient("Ivy", "Sample").code
+    network.cut()
+    _trial(station, code)
+    station.close()
+    path = standby_path(data)
+    content = path.read_bytes()
+    at = content.index(b"Sample")
+    path.write_bytes(content[:at] + b"Simple" + content[at + 6:])  # a name changed on disk
+    network.restore()
+
+    again = StationRegistry(data, network.url(url), station="robot-1")
+    assert not again.offline
+    assert "standby registry was damaged" in again.sync_problem
+    assert "\n" not in again.sync_problem
+    (kept,) = path.parent.glob("damaged-*.sqlite3")
+    assert kept.read_bytes()[at:at + 6] == b"Simple"  # kept as it was found
+    assert Registry(data, server=url).trials_for_patient(code) == []  # nothing sent from it
+    assert again.patient(code).last_name == "Sample"  # the server's, mirrored afresh
