@@ -5,6 +5,7 @@ for a patient whose body sizes replace the trial options'."""
 from __future__ import annotations
 
 import argparse
+import sys
 
 from app.cli.common import (
     EXIT_OK,
@@ -140,6 +141,7 @@ def cmd_run(args: argparse.Namespace) -> int:
               f"trial {begun.trial_number} (id {begun.trial_id})")
         if done.proposal is not None:
             print(f"Proposed for the next trial: {done.proposal.reason}")
+        _to_the_trial_store(registry)
     loaded = f"; its kernels loaded in {trial.load_s:.2f} s first" if trial.load_s else ""
     print(f"Trial {trial.status}: {trial.simulated_s:.1f} s simulated in "
           f"{trial.elapsed_s:.2f} s ({trial.speed_vs_real_time:.0f}× real time, "
@@ -159,6 +161,24 @@ def cmd_run(args: argparse.Namespace) -> int:
         if event["kind"] == "fault":
             print(f"  fault at {event['time_s']:.3f} s: {event['message']}")
     return EXIT_OK
+
+
+def _to_the_trial_store(registry) -> None:
+    """The station's finished trials copied into its shared trial store, when the setting
+    trial_store names one (app.records.trialstore); what could not be, said in a line each
+    (the trials wait in the data folder: the next run or the window copies them)."""
+    from app.records.settings import load_settings
+    from app.records.trialstore import store_pending
+
+    store = load_settings().trial_store
+    if not store:
+        return
+    stored = store_pending(registry, store)
+    if stored.trials:
+        print(f"Copied to the trial store {store}: {len(stored.trials)} trial file(s), each "
+              "checked against its checksum")
+    for line in stored.problems:
+        print(f"Not in the trial store: {line}", file=sys.stderr)
 
 
 def _simulate(params, path, run: dict):

@@ -78,6 +78,8 @@ _CHECKS: dict[str, tuple[Callable[[object], bool], str]] = {
     "virtual_patient": (_optional_text, "a virtual patient's kind (healthy, weak, …), or null"),
     "hardware_settings": (_optional_text, "the hardware settings file's path, or null"),
     "patient_screen": (_optional_object, "an object of the patient's screen's options, or null"),
+    "trial_store": (_optional_text, "the shared trial store's folder for this station (an "
+                    "absolute path), or null for none"),
 }
 
 
@@ -97,6 +99,9 @@ class Settings:
     patient_screen: the patient's screen's options (ui.views.patient_screen.PatientOptions
         .to_dict(): mirrored, turned, what it shows), checked by the window when it reads
         them.
+    trial_store: the department's shared trial store for this station (a network folder,
+        e.g. /mnt/rehab-trials/robot-2): each finished trial's file is copied there and
+        proven whole (app.records.trialstore); None keeps the files in the data folder only.
     extra: keys written by another version of the console, kept untouched.
     """
 
@@ -109,6 +114,7 @@ class Settings:
     virtual_patient: str | None = None
     hardware_settings: str | None = None
     patient_screen: dict | None = None
+    trial_store: str | None = None
     extra: dict = field(default_factory=dict, repr=False)
     damaged: str | None = field(default=None, compare=False)
     """The damaged settings file kept aside whose data folder could not be read back, or

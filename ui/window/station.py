@@ -36,8 +36,11 @@ class StationStatus:
         self.station_timer = QTimer(self)
         self.station_timer.setInterval(SYNC_EVERY_MS)
         self.station_timer.timeout.connect(self.check_station)
-        if hasattr(self.registry, "try_sync"):
+        if hasattr(self.registry, "try_sync") or self.settings.trial_store:
             self.station_timer.start()
+        self._storing = False
+        self._store_problem = ""
+        self.store_trials()  # what an earlier session left to copy
         problem = getattr(self.registry, "sync_problem", "")
         if problem:  # found as it opened (a damaged standby set aside, a sync refused)
             self._said_problem = problem
@@ -55,6 +58,30 @@ class StationStatus:
         if offline and between and not self._syncing:
             self._syncing = True
             self.jobs.run(registry.try_sync, self._synced)
+        if self._store_problem:  # the trial store could not take them: try again
+            self.store_trials()
+
+    def store_trials(self) -> None:
+        """Copy this station's finished trials into its shared trial store (the setting
+        trial_store), on the job thread after the trial's own work; the store unreachable is
+        said once, and the copies are tried again at each tick until they are made."""
+        store = self.settings.trial_store
+        if not store or self._storing:
+            return
+        from app.records.trialstore import store_pending
+
+        self._storing = True
+        self.jobs.run(lambda: store_pending(self.registry, store), self._stored)
+
+    def _stored(self, stored) -> None:
+        self._storing = False
+        problem = stored.problems[0] if stored.problems else ""
+        if problem and problem != self._store_problem:
+            self._say(problem[:1].upper() + problem[1:], problem=True)
+        elif self._store_problem and not problem:
+            self._say(f"The trial store took the waiting trials ({len(stored.trials)} copied "
+                      "and checked)")
+        self._store_problem = problem
 
     def _show_reach(self, offline: bool) -> None:
         registry = self.registry

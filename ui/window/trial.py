@@ -430,3 +430,4 @@ class TrialActions:
             self.replay.set_patient(self.patient.code)
         self.tabs.setCurrentWidget(self.report)
         self._refresh_buttons()
+        self.store_trials()  # a copy in the department's trial store, when it has one

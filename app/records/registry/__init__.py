@@ -18,6 +18,8 @@ or concern, each a module here:
   invalid (or valid again), a patient's fields corrected with their audit (schema v8);
 * values — the checks of what is given and the JSON of parameters and metrics.
 * seals — every row sealed with the digest of its values, checked before it is read.
+* provenance, stores — the station of each trial and its file's checksum (v10); the shared
+  trial store its file was copied to (v11).
 
 Storage in short (each module's docstring says more):
 
@@ -88,6 +90,7 @@ from app.records.registry.schema import (
     refuse_missing_registry,
 )
 from app.records.registry.sessions import Session, Sessions
+from app.records.registry.stores import Stores
 from app.records.registry.trials import (
     KEY_PARAMETERS,
     BegunTrial,
@@ -136,7 +139,8 @@ __all__ = [
 ]
 
 
-class Registry(Schema, Patients, Sessions, Plans, Clinical, Proposals, Trials, Queries):
+class Registry(Schema, Patients, Sessions, Plans, Clinical, Proposals, Trials, Stores,
+               Queries):
     """The registry of one data folder. Opening it migrates the database; with `create`
     (the window, `rehab patients add`) a missing one is created, whole, in a new or empty
     folder (app.records.registry.schema.create_registry_file); without, a missing registry

@@ -85,8 +85,8 @@ SQLITE_V10 = (
     *(statement for table in ("trials", "plan_runs") for statement in (
         f"DROP TRIGGER {table}_sealed_on_insert",
         f"DROP TRIGGER {table}_sealed_on_update",
-        f"UPDATE {table} SET seal = {seals.call(table)}",
-        *seals.triggers(table))),
+        f"UPDATE {table} SET seal = {seals.call(table, seals.sealed_at(table, 10))}",
+        *seals.triggers(table, seals.sealed_at(table, 10)))),
 )
-"""Schema v10 on SQLite."""
+"""Schema v10 on SQLite (over the columns v10 sealed: a later schema added some)."""
 

@@ -21,7 +21,7 @@ from pathlib import Path
 
 from app.errors import RegistryError, SchemaError
 from app.records.datadir import ENV_DATA_DIR, DataDir, foreign_entries
-from app.records.registry import numbering, provenance, seals
+from app.records.registry import numbering, provenance, seals, stores
 from app.records.registry.database import Database, rollback
 from app.records.registry.postgres import registry_version
 from app.records.registry.snapshot import needs_snapshot
@@ -231,6 +231,7 @@ MIGRATIONS: tuple[tuple[int, tuple[str, ...]], ...] = (
     (8, MIGRATE_V7_TO_V8),
     (9, numbering.SQLITE_V9),
     (10, provenance.SQLITE_V10),
+    (11, stores.SQLITE_V11),
 )
 SCHEMA_VERSION = MIGRATIONS[-1][0]
 

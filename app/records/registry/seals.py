@@ -54,10 +54,16 @@ SEALED_AT_V9: dict[str, tuple[str, ...]] = {
 """The same for v9, where v10 changed them (a trial's station and its file's checksum, a
 plan run's station: issue 32)."""
 
+SEALED_AT_V10: dict[str, tuple[str, ...]] = {
+    "trials": (*SEALED_AT_V9["trials"], "station", "checksum"),
+}
+"""The same for v10, where v11 changed them (the shared trial store a trial's file was
+copied to: app.records.registry.stores)."""
+
 SEALED: dict[str, tuple[str, ...]] = {
     "patients": (*SEALED_AT_V7["patients"], "sex", "handedness"),
     "sessions": ("id", "patient_id", "number", "date", "therapist", "notes", "location"),
-    "trials": (*SEALED_AT_V9["trials"], "station", "checksum"),
+    "trials": (*SEALED_AT_V10["trials"], "stored_in"),
     "proposals": ("trial_id", "proposal", "decision", "next_trial_id", "proposed_at",
                   "decided_at"),
     "plans": ("id", "patient_id", "name", "plan", "template", "based_on", "created_at"),
@@ -119,7 +125,7 @@ def register(conn: sqlite3.Connection) -> sqlite3.Connection:
 def sealed_at(table: str, version: int) -> tuple[str, ...]:
     """The columns `table`'s seal covered at schema `version` (a historic migration seals
     and triggers over these, not over today's)."""
-    for changed_at, before in ((8, SEALED_AT_V7), (10, SEALED_AT_V9)):
+    for changed_at, before in ((8, SEALED_AT_V7), (10, SEALED_AT_V9), (11, SEALED_AT_V10)):
         if version < changed_at and table in before:
             return before[table]
     return SEALED[table]

@@ -62,7 +62,7 @@ equal values of these (progress, previous_trial(same_parameters=True))."""
 TRIAL_SELECT = """
     SELECT t.id, p.code, s.number, s.date, t.number, t.parameters, t.file, t.metrics,
            t.status, t.started_at, t.ended_at, t.backend, t.patient_kind, t.end_reason,
-           t.assistance, t.station, t.checksum
+           t.assistance, t.station, t.checksum, t.stored_in
     FROM trials t
     JOIN sessions s ON s.id = t.session_id
     JOIN patients p ON p.id = s.patient_id
@@ -103,6 +103,10 @@ class Trial:
     checksum: str | None = None
     """The SHA-256 of its file as it was finished; None before it finished, without a file,
     or before v10."""
+    stored_in: str | None = None
+    """The shared trial store's folder its file was copied to and proven whole in, at the
+    same relative path (app.records.registry.stores); None while it is only in the data
+    folder."""
 
     @property
     def finished(self) -> bool:
@@ -385,22 +389,25 @@ class Trials(Database):
 
     def verify_trial_file(self, trial: Trial | int) -> str | None:
         """Why the trial's file is not the one recorded, None when it is (its SHA-256 is the
-        checksum kept at its end) or when no checksum was kept (before schema v10, a trial
-        not finished or without a file)."""
+        checksum kept at its end, in the data folder and in the shared trial store when it
+        was copied there) or when no checksum was kept (before schema v10, a trial not
+        finished or without a file)."""
         if not isinstance(trial, Trial):
             trial = self.trial(trial)
         if trial.checksum is None:
             return None
-        path = self.data_dir.resolve(trial.file)
-        try:
-            found = file_checksum(path)
-        except OSError as exc:
-            return f"trial {trial.id}'s file {path} cannot be read ({exc.strerror or exc})"
-        if found != trial.checksum:
-            return (f"trial {trial.id}'s file {path} is not the one recorded: its SHA-256 is "
-                    f"{found[:12]}…, the registry's {trial.checksum[:12]}… (changed or "
-                    "replaced since it was finished): restore it from the trial store or a "
-                    "backup")
+        places = [(self.data_dir.resolve(trial.file), "the trial store or a backup")]
+        if trial.stored_in is not None:  # its copy in the shared trial store (schema v11)
+            places.append((Path(trial.stored_in, trial.file), "the station's data folder"))
+        for path, restore_from in places:
+            try:
+                found = file_checksum(path)
+            except OSError as exc:
+                return f"trial {trial.id}'s file {path} cannot be read ({exc.strerror or exc})"
+            if found != trial.checksum:
+                return (f"trial {trial.id}'s file {path} is not the one recorded: its SHA-256 "
+                        f"is {found[:12]}…, the registry's {trial.checksum[:12]}… (changed or "
+                        f"replaced since it was finished): restore it from {restore_from}")
         return None
 
     def trial_path(self, trial: Trial | int) -> Path:
@@ -452,13 +459,13 @@ def trials_from_rows(rows: list[tuple]) -> list[Trial]:
     for row, params, values in zip(rows, parameters, metrics, strict=True):
         (trial_id, code, session_number, session_date, number, _, file, _, status,
          started_at, ended_at, backend, patient_kind, end_reason, levels, station,
-         checksum) = row
+         checksum, stored_in) = row
         trials.append(Trial(
             trial_id, code, session_number, datetime.date.fromisoformat(session_date), number,
             params, file, values, status, datetime.datetime.fromisoformat(started_at),
             None if ended_at is None else datetime.datetime.fromisoformat(ended_at),
             backend, patient_kind, end_reason, assistance_from_json(levels), station,
-            checksum,
+            checksum, stored_in,
         ))
     return trials
 

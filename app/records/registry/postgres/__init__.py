@@ -27,6 +27,7 @@ from app.records.registry.postgres.tables import (
     metadata,
     schema_version,
 )
+from app.records.registry.seals import sealed_at
 
 __all__ = ["Roles", "create_registry", "migrate_registry", "registry_version"]
 
@@ -64,21 +65,36 @@ def _quoted(sql: str) -> str:
     return "'" + sql.replace("'", "''") + "'"
 
 
-MIGRATIONS[10] = (
-    # every row checked against its v9 seal before it is sealed again (as on SQLite:
-    # damage is refused, never laundered by the upgrade)
-    *(f"""DO $$ BEGIN
+def _rows_match_their_seals(table: str) -> str:
+    """Every row of `table` checked against its seal before a step seals it again (as on
+    SQLite: damage is refused, never laundered by the upgrade)."""
+    return f"""DO $$ BEGIN
             IF EXISTS (SELECT 1 FROM public.{table} r
                        WHERE r.seal IS DISTINCT FROM public.registry_seal_of_{table}(r)) THEN
                 RAISE EXCEPTION 'the registry is damaged: a row of {table} does not match '
                     'its seal; nothing was changed. Restore the registry from a backup'
                     USING ERRCODE = 'data_corrupted';
             END IF;
-        END $$""" for table in ("trials", "plan_runs")),
+        END $$"""
+
+
+def _research_grantee(table: str, then: str) -> str:
+    """A PL/pgSQL block doing `then` (a statement with %I) for whoever research's view of
+    `table` is granted to."""
+    return f"""DO $$ DECLARE who text; BEGIN
+        SELECT grantee INTO who FROM information_schema.role_table_grants
+            WHERE table_schema = 'research' AND table_name = '{table}'
+            AND privilege_type = 'SELECT' AND grantee <> current_user LIMIT 1;
+        IF who IS NOT NULL THEN EXECUTE format({_quoted(then)}, who); END IF;
+    END $$"""
+
+
+MIGRATIONS[10] = (
+    *(_rows_match_their_seals(table) for table in ("trials", "plan_runs")),
     "ALTER TABLE trials ADD COLUMN station text, ADD COLUMN checksum text "
     "CONSTRAINT trials_checksum CHECK (checksum IS NULL OR checksum ~ '^[0-9a-f]{64}$')",
     "ALTER TABLE plan_runs ADD COLUMN station text",
-    *(seals.table_statements(tables.metadata.tables[table])[0].replace(
+    *(seals.table_statements(tables.metadata.tables[table], sealed_at(table, 10))[0].replace(
         "CREATE FUNCTION", "CREATE OR REPLACE FUNCTION", 1) for table in ("trials", "plan_runs")),
     "UPDATE trials SET station = NULL",  # the seal trigger seals each row again
     "UPDATE plan_runs SET station = NULL",
@@ -89,7 +105,7 @@ MIGRATIONS[10] = (
             WHERE table_schema = 'research' AND table_name = 'trials'
             AND privilege_type = 'SELECT' AND grantee <> current_user LIMIT 1;
         {" ".join(f"DROP VIEW research.{t};" for t in REGISTRY_TABLES)}
-        {" ".join(f"EXECUTE {_quoted(research_view(t))};" for t in REGISTRY_TABLES)}
+        {" ".join(f"EXECUTE {_quoted(research_view(t, at=10))};" for t in REGISTRY_TABLES)}
         IF who IS NOT NULL THEN
             {" ".join(f"EXECUTE format('GRANT SELECT ON research.{t} TO %I', who);"
                       for t in REGISTRY_TABLES)}
@@ -105,7 +121,20 @@ trial) may now delete what a withdrawn trial takes with it (roles.WITHDRAWN_WITH
 v10: the station of each trial and plan run, and each trial file's checksum
 (app.records.registry.provenance), sealed; research reads them (they name no person); and
 research's views take every column of their table, the hidden ones empty (roles.
-research_columns), so the registry's code reads through them on a researcher's login."""
+research_columns), so the registry's code reads through them on a researcher's login.
+v11: the shared trial store each trial's file was copied to (app.records.registry.stores),
+sealed; research reads it (a folder, named by station)."""
+
+MIGRATIONS[11] = (
+    _rows_match_their_seals("trials"),
+    "ALTER TABLE trials ADD COLUMN stored_in text",
+    seals.table_statements(tables.metadata.tables["trials"])[0].replace(
+        "CREATE FUNCTION", "CREATE OR REPLACE FUNCTION", 1),
+    "UPDATE trials SET stored_in = NULL",  # the seal trigger seals each row again
+    # a view may gain columns at its end in place, keeping its grants
+    research_view("trials").replace("CREATE VIEW", "CREATE OR REPLACE VIEW", 1),
+    _research_grantee("trials", "GRANT SELECT (stored_in) ON trials TO %I"),
+)
 
 
 def migrate_registry(conn: Connection) -> tuple[int, int]:

@@ -158,22 +158,29 @@ record corrected): not empty, which the console reads as "no reason, valid"."""
 _WITHHELD_COLUMNS = {("trial_marks", "reason"), ("corrections", "reason")}
 
 
-def research_columns(table: str) -> tuple[str, ...]:
+ADDED_AT: dict[tuple[str, str], int] = {("trials", "stored_in"): 11}
+"""Columns a schema after v10 added (table, column) -> version: a view made by an earlier
+step of the server's migrations leaves them out (they do not exist yet)."""
+
+
+def research_columns(table: str, at: int | None = None) -> tuple[str, ...]:
     """The columns of research's view of `table`: the table's, in its order, but its seal
     (schema v10). The hidden ones are there, as empty text (a reason: `WITHHELD`), so the
     registry's own reads run unchanged on a researcher's login (Registry on `search_path`
-    research: names and typed text come back ''), and no name can be read through them."""
-    return tuple(c.name for c in metadata.tables[table].columns if c.name != "seal")
+    research: names and typed text come back ''), and no name can be read through them.
+    `at`: as at that schema version (today's by default)."""
+    return tuple(c.name for c in metadata.tables[table].columns if c.name != "seal"
+                 and (at is None or ADDED_AT.get((table, c.name), 0) <= at))
 
 
-def research_view(table: str) -> str:
-    """Research's view of `table`."""
+def research_view(table: str, at: int | None = None) -> str:
+    """Research's view of `table` (as at schema `at`, today's by default)."""
     derived = DERIVED_FOR_RESEARCH.get(table, {})
     hidden = HIDDEN_FROM_RESEARCH.get(table, ())
     columns = ", ".join(f"{derived[c]} AS {c}" if c in derived
                         else f"'{WITHHELD}'::text AS {c}" if (table, c) in _WITHHELD_COLUMNS
                         else f"''::text AS {c}" if c in hidden else c
-                        for c in research_columns(table))
+                        for c in research_columns(table, at))
     where = ROW_FILTERED.get(table)
     return (f"CREATE VIEW research.{table} WITH (security_barrier) AS SELECT {columns} "
             f"FROM public.{table}" + (f" WHERE {where}" if where else ""))

@@ -93,12 +93,13 @@ def _part(table: Table, column: str) -> str:
     return f"public.{function}(r.{column})"
 
 
-def table_statements(table: Table) -> tuple[str, ...]:
-    """The seal function of `table` (over SEALED's columns, in SEALED's order) and the
-    BEFORE trigger that seals each row as it is written. Named to fire last among the
+def table_statements(table: Table, columns: tuple[str, ...] | None = None
+                     ) -> tuple[str, ...]:
+    """The seal function of `table` (over `columns`, by default SEALED's, in that order) and
+    the BEFORE trigger that seals each row as it is written. Named to fire last among the
     table's BEFORE triggers (they fire by name), after any that set a value."""
     name = table.name
-    parts = " || ".join(_part(table, column) for column in SEALED[name])
+    parts = " || ".join(_part(table, column) for column in columns or SEALED[name])
     function = seal_function(table)
     return (
         f"""CREATE FUNCTION {function}(r public.{name}) RETURNS text

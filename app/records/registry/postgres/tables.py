@@ -40,7 +40,7 @@ from sqlalchemy import (
     text,
 )
 
-SCHEMA_VERSION = 10
+SCHEMA_VERSION = 11
 """The SQLite registry's schema version these tables are (schema.SCHEMA_VERSION)."""
 
 metadata = MetaData()
@@ -127,6 +127,7 @@ trials = Table(
     _seal(),
     _text("station"),
     _text("checksum"),
+    _text("stored_in"),
     CheckConstraint("number >= 1", name="trials_number"),
     CheckConstraint("checksum IS NULL OR checksum ~ '^[0-9a-f]{64}$'", name="trials_checksum"),
     CheckConstraint(f"status IN ({', '.join(repr(s) for s in TRIAL_STATUSES)})",

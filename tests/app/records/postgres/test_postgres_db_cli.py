@@ -204,13 +204,13 @@ def test_the_readmes_recipe_an_owner_who_may_create_roles_creates_the_registry(
 
 
 def _as_at_v8(registry: Registry) -> None:
-    """Today's registry on the server made as v8 left it: without v10's columns (their seal
-    functions and research's views as they were) nor v9's grants to clinic."""
+    """Today's registry on the server made as v8 left it: without v10's and v11's columns
+    (their seal functions and research's views as they were) nor v9's grants to clinic."""
     from app.records.registry import seals as sqlite_seals
     from app.records.registry.postgres import seals as server_seals, tables
     from app.records.registry.postgres.roles import visible_to_research
 
-    added = {"trials": ("station", "checksum"), "plan_runs": ("station",)}
+    added = {"trials": ("station", "checksum", "stored_in"), "plan_runs": ("station",)}
     statements = [f"DROP VIEW research.{table}" for table in added]
     for table, columns in added.items():
         statements.append(f"ALTER TABLE {table} " + ", ".join(f"DROP COLUMN {c}"
