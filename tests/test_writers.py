@@ -69,6 +69,38 @@ KNOWN: dict[tuple[str, str], tuple[int, str]] = {
     ("app/records/registry/schema.py", "os.unlink"): (
         1, "the new registry's temporary -wal and -shm, once its only connection closed"),
     ("app/records/registry/snapshot.py", "sqlite3.connect"): (1, "':memory:', no file"),
+    ("app/records/station/__init__.py", "open('a')"): (
+        1, "the standby's lock file, opened to hold an advisory lock for the console's life; "
+           "nothing is written to it"),
+    ("app/records/station/__init__.py", "sqlite3.connect"): (
+        2, "the standby as it was sent, copied by SQLite's backup into the temporary of "
+           "app.records.safewrite.atomic_path (a new file, never over one)"),
+    ("app/records/station/__init__.py", "source.backup"): (1, "the same copy"),
+    ("app/records/station/__init__.py", "os.unlink"): (
+        1, "the standby once sent and kept as synced-<UTC>.sqlite3 (its -wal and -shm too)"),
+    ("app/records/station/__init__.py", "os.rename"): (
+        1, "a damaged standby moved aside as damaged-<UTC>.sqlite3, kept whole, never read"),
+    ("app/records/station/mirror.py", "tempfile.mkstemp"): (
+        1, "the standby built aside in the station's offline/ folder (0600)"),
+    ("app/records/station/mirror.py", "sqlite3.connect"): (1, "on that temporary"),
+    ("app/records/station/mirror.py", "os.replace"): (
+        1, "the standby replaced by its new build, only when it holds nothing unsent (its "
+           "rows checked against its manifest first): a mirror of the server's rows, which "
+           "the server keeps"),
+    ("app/records/station/mirror.py", "os.unlink"): (
+        2, "the last build's -wal and -shm before the replace; the temporary when the build "
+           "fails"),
+    ("app/records/trialstore.py", "os.open for writing"): (
+        1, "a trial's copy in the shared trial store, written aside under a new name "
+           "(O_EXCL, 0600), fsynced and hashed before it is put in place"),
+    ("app/records/trialstore.py", "os.fdopen('wb')"): (1, "on that descriptor"),
+    ("app/records/trialstore.py", "os.link"): (
+        1, "the copy put in place: a link fails when the name is taken, so never over a file"),
+    ("app/records/trialstore.py", "os.rename"): (
+        1, "the same where the share cannot link, after checking the name is free"),
+    ("app/records/trialstore.py", "partial.unlink"): (1, "the copy's temporary name"),
+    ("app/records/trialstore.py", "target.unlink"): (
+        1, "a copy this call made that read back differently from the store"),
     ("app/records/registry/admin.py", "sqlite3.connect"): (
         1, "rehab db status opens the registry read-only (mode=ro): it writes nothing"),
     ("app/study/outputs.py", "os.mkdir"): (

@@ -213,3 +213,23 @@ class RecordStore(Protocol):
         statuses: Iterable[str] = ("complete",),
         include_invalid: bool = False,
     ) -> Trial | None: ...
+
+
+@runtime_checkable
+class StationStore(RecordStore, Protocol):
+    """A RecordStore that goes on recording when its shared registry cannot be reached
+    (app.records.station.StationRegistry): what the window asks of it besides, and only of
+    a store that has it (ui.window.station)."""
+
+    offline_reason: str
+    """Why it records on its own ('' while it reaches the server)."""
+    sync_problem: str
+    """Why its offline records were not sent ('' when nothing stands in the way)."""
+
+    @property
+    def offline(self) -> bool: ...
+
+    def try_sync(self) -> object | None: ...
+
+    def close(self) -> None: ...
+

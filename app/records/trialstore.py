@@ -37,6 +37,7 @@ from app.errors import RegistryError, RegistryUnreachable
 from app.records.registry.provenance import file_checksum
 from app.records.registry.trials import Trial
 from app.records.store import RecordStore
+from device.safewrite import OutputRefused, make_private_folders
 
 log = logging.getLogger(__name__)
 
@@ -99,18 +100,20 @@ def store_trial(registry: RecordStore, trial: Trial, store: str | os.PathLike) -
                 raise StoreProblem(f"the copy of trial {trial.id} in the trial store read back "
                                    f"differently (SHA-256 {found[:12]}…): it was removed and "
                                    "will be made again")
-    except OSError as exc:
+    except (OSError, OutputRefused) as exc:
+        why = exc.strerror if isinstance(exc, OSError) and exc.strerror else exc
         raise StoreProblem(f"trial {trial.id}'s file could not be copied to the trial store "
-                           f"{root}: {exc.strerror or exc}; it waits in the data folder") from None
+                           f"{root}: {why}; it waits in the data folder") from None
     return registry.record_stored(trial.id, str(root))
 
 
 def _copy(source: Path, target: Path, trial: Trial) -> None:
-    target.parent.mkdir(parents=True, exist_ok=True)
+    make_private_folders(target.parent)  # as private as the data folder's (0700, 0600)
     partial = target.with_name(f".{target.name}.part-{secrets.token_hex(4)}")
     digest = hashlib.sha256()
     try:
-        with open(source, "rb") as reader, open(partial, "xb") as writer:
+        descriptor = os.open(partial, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+        with open(source, "rb") as reader, os.fdopen(descriptor, "wb") as writer:
             while piece := reader.read(_CHUNK):
                 digest.update(piece)
                 _write(writer, piece)

@@ -18,6 +18,13 @@ PLAN = Plan("Two short blocks", (
     Block(shape="circle", repetitions=1, duration_s=2.0, rest_s=0.0, radius_m=0.08,
           name="Circle"),
 ))
+LONG_REST = Plan("A long rest", (
+    Block(shape="d", repetitions=1, duration_s=2.0, rest_s=600.0, name="D"),
+    Block(shape="circle", repetitions=1, duration_s=2.0, rest_s=0.0, radius_m=0.08,
+          name="Circle"),
+))
+"""A rest no loaded machine can miss by polling (a 1 s one was missed in a whole check
+under load); the emergency stop ends it at once."""
 
 
 @pytest.fixture
@@ -105,7 +112,7 @@ def test_start_plan_runs_each_block_through_build_and_start_with_its_rest(qtbot,
 
 def test_the_emergency_stop_in_a_rest_ends_the_plan_at_once(qtbot, window):
     win = window
-    code = connected_with_plan(qtbot, win)
+    code = connected_with_plan(qtbot, win, LONG_REST)
     click(qtbot, win.plan_tab.start_button)
     qtbot.waitUntil(lambda: win.plan_runner is not None and win.plan_runner.phase
                     == "resting", timeout=120000)
@@ -142,8 +149,10 @@ def test_pause_holds_the_plan_resume_goes_on_and_the_robot_bar_s_stop_ends_it(qt
     held), Resume goes on to the next block, and the robot bar's Stop (F6's button) in that
     block ends the plan as stopped, the trial stopped early and nothing after it."""
     win = window
-    # the second block long (ten laps) so that the Stop lands in it however slow the machine
-    long_second = Plan(PLAN.name, (PLAN.blocks[0], PLAN.blocks[1].replace(repetitions=10)))
+    # the second block long (ten laps) so that the Stop lands in it however slow the machine;
+    # a rest of 3 s, which polling finds on a loaded machine (one of 1 s was missed)
+    long_second = Plan(PLAN.name, (PLAN.blocks[0].replace(rest_s=3.0),
+                                   PLAN.blocks[1].replace(repetitions=10)))
     code = connected_with_plan(qtbot, win, long_second)
     click(qtbot, win.plan_tab.start_button)
     qtbot.waitUntil(lambda: win.plan_runner is not None and win.plan_runner.phase
@@ -152,7 +161,7 @@ def test_pause_holds_the_plan_resume_goes_on_and_the_robot_bar_s_stop_ends_it(qt
     assert win.plan_tab.status.text().startswith("Plan paused at")
     assert win.plan_tab.resume_button.isEnabled()
     assert not win.plan_tab.pause_button.isEnabled()
-    qtbot.wait(2500)  # more than the 1 s rest: a paused plan starts nothing
+    qtbot.wait(4000)  # more than the 3 s rest: a paused plan starts nothing
     assert win.plan_runner.phase == "paused"
     assert len(win.registry.trials_for_patient(code)) == 1
     assert win.state == State.CONNECTED

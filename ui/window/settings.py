@@ -13,6 +13,7 @@ from pathlib import Path
 from PySide6.QtWidgets import QApplication, QMessageBox
 
 from app.records.settings import save_settings
+from app.records.store import StationStore
 from device.loop.states import State
 from ui.tabs.parameters import HARDWARE, SIMULATOR, BackendChoice
 
@@ -70,5 +71,6 @@ class RememberedSettings:
         # closed) reaches the window now, so the trial is recorded before it closes
         QApplication.processEvents()
         self.jobs.shutdown()
-        getattr(self.registry, "close", lambda: None)()  # another console may hold its standby
+        if isinstance(self.registry, StationStore):
+            self.registry.close()  # another console may hold its standby now
         super().closeEvent(event)

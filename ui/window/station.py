@@ -15,6 +15,7 @@ from __future__ import annotations
 from PySide6.QtCore import QTimer
 from PySide6.QtWidgets import QLabel
 
+from app.records.store import StationStore
 from device.loop.states import State
 from ui import theme
 
@@ -36,12 +37,12 @@ class StationStatus:
         self.station_timer = QTimer(self)
         self.station_timer.setInterval(SYNC_EVERY_MS)
         self.station_timer.timeout.connect(self.check_station)
-        if hasattr(self.registry, "try_sync") or self.settings.trial_store:
+        if isinstance(self.registry, StationStore) or self.settings.trial_store:
             self.station_timer.start()
         self._storing = False
         self._store_problem = ""
         self.store_trials()  # what an earlier session left to copy
-        problem = getattr(self.registry, "sync_problem", "")
+        problem = self.registry.sync_problem if isinstance(self.registry, StationStore) else ""
         if problem:  # found as it opened (a damaged standby set aside, a sync refused)
             self._said_problem = problem
             self._say(problem[:1].upper() + problem[1:], problem=True)
@@ -50,7 +51,7 @@ class StationStatus:
     def check_station(self) -> None:
         """Show the registry's reach; offline and idle, try to send the offline records."""
         registry = self.registry
-        offline = getattr(registry, "offline", False)
+        offline = isinstance(registry, StationStore) and registry.offline
         self._show_reach(offline)
         # between trials: none running or stopping, none still being recorded, no plan on
         between = self.state not in (State.RUNNING, State.STOPPING) \
@@ -86,7 +87,7 @@ class StationStatus:
     def _show_reach(self, offline: bool) -> None:
         registry = self.registry
         if offline:
-            problem = getattr(registry, "sync_problem", "")
+            problem = registry.sync_problem
             self.registry_label.setText(f"{theme.PROBLEM_SIGN} Shared registry unreachable: "
                                         "recording on this station")
             self.registry_label.setStyleSheet(f"color: {theme.PROBLEM_TEXT};")

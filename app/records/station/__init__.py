@@ -47,6 +47,7 @@ from app.records.station.mirror import (
     standby_rows,
 )
 from app.records.station.sync import Synced, SyncRefused, already_sent, replay
+from device.safewrite import OutputRefused, make_private_folders
 
 log = logging.getLogger(__name__)
 
@@ -346,11 +347,11 @@ class StationRegistry:
         """Hold this data folder's standby for this console's life (an advisory lock)."""
         folder = self.data_dir.root / OFFLINE
         try:
-            folder.mkdir(mode=0o700, parents=True, exist_ok=True)
+            make_private_folders(folder)
             lock = open(folder / "station.lock", "a")  # noqa: SIM115  held while alive
             self.close = weakref.finalize(self, lock.close)
             fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError as exc:
+        except (OSError, OutputRefused) as exc:
             self.close()
             log.warning("another console holds this data folder's standby registry (or it "
                         "cannot be made: %s): this one records on the server only", exc)

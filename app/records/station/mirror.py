@@ -38,6 +38,7 @@ from app.records.datadir import OFFLINE, REGISTRY_NAME, DataDir
 from app.records.registry import numbering, seals
 from app.records.registry.postgres.tables import REGISTRY_TABLES, metadata
 from app.records.registry.schema import MIGRATIONS, SCHEMA_VERSION
+from device.safewrite import make_private_folders
 
 _TRIALS_OF = "SELECT t.id FROM trials t JOIN sessions s ON s.id = t.session_id " \
              "WHERE s.patient_id = :patient"
@@ -117,7 +118,7 @@ def build_standby(data_dir: DataDir, rows: Rows, server: str, built_at: str) -> 
     whole beside its place and moved there; RegistryError when a copied row's seal is not
     the server's (the copy would not be exact: nothing is moved into place)."""
     path = standby_path(data_dir)
-    path.parent.mkdir(mode=0o700, exist_ok=True)
+    make_private_folders(path.parent)
     # Built aside and moved over the last build: the standby is the station's own copy of
     # the server's rows, replaced only when it holds nothing unsent (the caller checks;
     # app.records.safewrite refuses to write over a database, rightly, everywhere else).

@@ -350,7 +350,7 @@ def test_a_v1_registry_is_backed_up_and_migrated_keeping_its_records(tmp_path):
     path = make_v1_registry(tmp_path / "data")
     registry = Registry(DataDir(tmp_path / "data"))
 
-    assert registry.schema_version() == SCHEMA_VERSION == 10
+    assert registry.schema_version() == SCHEMA_VERSION == 11
     assert query(path, "SELECT count(*) FROM proposals") == [(0,)]
     assert query(path, "PRAGMA journal_mode") == [("wal",)]
     trial_columns = {row[1] for row in query(path, "PRAGMA table_info(trials)")}
@@ -393,8 +393,9 @@ def test_a_failing_migration_changes_nothing(tmp_path):
 def test_a_newer_schema_or_a_foreign_file_is_refused_with_advice(tmp_path):
     data = DataDir(tmp_path / "newer")
     Registry(data)
-    query(data.registry_path, "PRAGMA user_version = 11")
-    with pytest.raises(SchemaError, match=r"schema v11, written by a newer console.*Update"):
+    query(data.registry_path, f"PRAGMA user_version = {SCHEMA_VERSION + 1}")
+    with pytest.raises(SchemaError, match=rf"schema v{SCHEMA_VERSION + 1}, written by a newer "
+                                          r"console.*Update"):
         Registry(data)
 
     other = DataDir(tmp_path / "foreign")

@@ -16,6 +16,7 @@ from app.records.datadir import DataDir
 from app.records.registry import Registry
 from app.records.station import StationRegistry
 from app.records.station.mirror import standby_path
+from app.records.store import StationStore
 from core.trial import THESIS_SUBJECT
 from tests.netcut import NetworkCut
 
@@ -46,6 +47,7 @@ def _as_recorded(trials):
 def test_a_session_goes_on_offline_and_arrives_whole_when_the_server_returns(department):
     url, network, data = department
     station = StationRegistry(data, network.url(url), station="robot-1")
+    assert isinstance(station, StationStore)  # and so a RecordStore: the window's registry
     code = station.create_patient("Ada", "Example").code
     first = _trial(station, code)
     assert not station.offline
