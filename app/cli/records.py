@@ -118,7 +118,8 @@ def cmd_trials(args: argparse.Namespace) -> int:
               f"{t.assist:<11} {_levels(t)}")
         if t.backend:
             station = f" at station {t.station}" if t.station else ""
-            print(f"{'':>21}robot: {t.backend}{station}")
+            stored = f"; a copy in the trial store {t.stored_in}" if t.stored_in else ""
+            print(f"{'':>21}robot: {t.backend}{station}{stored}")
         game = game_line(p, t.metrics)
         if game:
             print(f"{'':>21}{game}")

@@ -172,6 +172,7 @@ def store_pending(registry: RecordStore, store: str | os.PathLike) -> Stored:
         except StoreProblem as exc:
             done.problems.append(str(exc))
             break  # the store itself: the next trials would fail alike
-    for line in done.problems:
-        log.warning("%s", line)
+    # the callers say the problems (the window once, the command line on stderr)
+    for trial in done.trials:
+        log.info("trial %d copied to the trial store %s and checked", trial.id, store)
     return done

@@ -162,3 +162,29 @@ def test_a_v10_registry_gains_the_store_keeping_every_trial(tmp_path):
     assert (trial.metrics, trial.station, trial.checksum, trial.stored_in) == (
         {"rmse_x_mm": 2.5}, "robot-1", "a" * 64, None)
     assert registry.integrity_check() == []
+
+
+def test_rehab_run_copies_to_the_store_and_rehab_trials_says_where(tmp_path, capsys,
+                                                                   monkeypatch):
+    """As a station's command line uses it: the setting names the store; `rehab run` copies
+    its trial (and any waiting), `rehab trials` says where the copy is; a store not mounted
+    is one line on stderr, the trial waiting."""
+    from app.cli.main import main
+    from app.records.settings import Settings, save_settings
+
+    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
+    store = tmp_path / "share" / "robot-1"
+    save_settings(Settings(trial_store=str(store)))
+    data = ["--data-dir", str(tmp_path / "data")]
+    code = Registry(DataDir(tmp_path / "data")).create_patient("Ada", "Example").code
+    assert main(["run", "--code", code, "--duration", "2", *data]) == 0
+    out, err = capsys.readouterr()
+    assert err.count("is not there (is the network folder mounted?)") == 1
+    store.mkdir(parents=True)
+    assert main(["run", "--code", code, "--duration", "2", *data]) == 0
+    out, err = capsys.readouterr()
+    assert "Copied to the trial store" in out
+    assert "2 trial file(s), each checked against its checksum" in out
+    assert main(["trials", code, *data]) == 0
+    out, _ = capsys.readouterr()
+    assert out.count(f"a copy in the trial store {store}") == 2
