@@ -80,6 +80,9 @@ KNOWN: dict[tuple[str, str], tuple[int, str]] = {
         1, "the standby once sent and kept as synced-<UTC>.sqlite3 (its -wal and -shm too)"),
     ("app/records/station/__init__.py", "os.rename"): (
         1, "a damaged standby moved aside as damaged-<UTC>.sqlite3, kept whole, never read"),
+    ("app/records/station/refresh.py", "sqlite3.connect"): (
+        1, "the standby brought to the server's rows in place, in one transaction, only while "
+           "it holds nothing unsent (as the station last left it)"),
     ("app/records/station/mirror.py", "tempfile.mkstemp"): (
         1, "the standby built aside in the station's offline/ folder (0600)"),
     ("app/records/station/mirror.py", "sqlite3.connect"): (1, "on that temporary"),

@@ -46,6 +46,7 @@ from app.records.station.mirror import (
     standby_path,
     standby_rows,
 )
+from app.records.station.refresh import refresh_patient
 from app.records.station.sync import Synced, SyncRefused, already_sent, replay
 from device.safewrite import OutputRefused, make_private_folders
 
@@ -172,7 +173,9 @@ class StationRegistry:
         if not self.held or self.research:
             return
         if self._track(name, args, kwargs, result) or name in WRITES:
-            self._mirror()
+            # the patient the station works with now (a write by a trial's id is of the
+            # patient it last named: the window's current one)
+            self._mirror(only=self._recent[-1:])
 
     def _track(self, name: str, args: tuple, kwargs: dict, result: Any) -> bool:
         """Note the patient a call names (the latest first to mirror) and the trials open;
@@ -310,10 +313,26 @@ class StationRegistry:
             raw = conn.connection.driver_connection
             return bool(changes(standby_rows(raw), manifest(raw)))
 
-    def _mirror(self) -> None:
-        """The standby rebuilt from the server's rows of the recent patients (never over
-        records it holds that the server does not). A failure is logged: the session goes
-        on online, and an unreachable server makes the station go offline."""
+    def _mirror(self, only: list[str] | None = None) -> None:
+        """The standby made the server's rows of the recent patients (never over records it
+        holds that the server does not): `only` these patients brought up to date in place
+        when the standby is as this object last left it (refresh.py), else built whole. A
+        failure is logged: the session goes on online, and an unreachable server makes the
+        station go offline."""
+        path = standby_path(self.data_dir)
+        try:
+            if only is not None and self._built is not None \
+                    and not self._changed_since_built(path):
+                with self._server._read() as conn:
+                    for code in only:
+                        refresh_patient(path, conn, code)
+                self._built = _state(path)
+                return
+        except RegistryUnreachable as exc:
+            self._go_offline(exc)
+            return
+        except (RegistryError, sqlite3.Error, OSError) as exc:
+            log.warning("this station's standby registry is built whole again (%s)", exc)
         try:
             with self._server._read() as conn:
                 rows = patient_rows(conn, self._recent)

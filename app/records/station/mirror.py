@@ -62,13 +62,15 @@ holds of them."""
 
 _MIRROR_DDL = (
     "CREATE TABLE station_mirror (tbl TEXT NOT NULL, key TEXT NOT NULL, seal TEXT NOT NULL, "
-    "PRIMARY KEY (tbl, key))",
+    "patient TEXT NOT NULL, PRIMARY KEY (tbl, key))",
     "CREATE TABLE station_mirror_source (one INTEGER PRIMARY KEY CHECK (one = 1), "
     "server TEXT NOT NULL, built_at TEXT NOT NULL)",
 )
 
 Rows = dict[str, list[tuple]]
 """Rows per table, each its values in seals.SEALED's order, then its seal."""
+Patients = dict[str, Rows]
+"""Rows per patient code."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -92,28 +94,38 @@ def row_key(table: str, row: tuple) -> str:
                       separators=(",", ":"))
 
 
-def patient_rows(conn: sa.Connection, codes: Iterable[str]) -> Rows:
+def patient_id(conn: sa.Connection, code: str) -> int | None:
+    found = conn.execute(sa.text("SELECT id FROM patients WHERE code = :code"),
+                         {"code": code}).first()
+    return None if found is None else found[0]
+
+
+def patient_rows(conn: sa.Connection, codes: Iterable[str]) -> Patients:
     """The server's rows of the patients with these codes (those it has), every table."""
-    rows: Rows = {table: [] for table in REGISTRY_TABLES}
+    found: Patients = {}
     for code in codes:
-        found = conn.execute(sa.text("SELECT id FROM patients WHERE code = :code"),
-                             {"code": code}).first()
-        if found is None:
-            continue
-        for table in REGISTRY_TABLES:
-            columns = ", ".join((*seals.SEALED[table], "seal"))
-            order = ", ".join(key_columns(table))
-            rows[table] += [tuple(r) for r in conn.execute(sa.text(
-                f"SELECT {columns} FROM {table} WHERE {PATIENT_ROWS[table]} ORDER BY {order}"),
-                {"patient": found[0]})]
-    return rows
+        patient = patient_id(conn, code)
+        if patient is not None:
+            found[code] = {table: rows_of(conn, table, patient) for table in REGISTRY_TABLES}
+    return found
+
+
+def rows_of(conn: sa.Connection, table: str, patient: int, where: str = "",
+            params: Mapping | None = None) -> list[tuple]:
+    """The server's rows of `table` of the patient with id `patient` (and `where`), by key."""
+    columns = ", ".join((*seals.SEALED[table], "seal"))
+    query = sa.text(f"SELECT {columns} FROM {table} WHERE {PATIENT_ROWS[table]} {where} "
+                    f"ORDER BY {', '.join(key_columns(table))}")
+    if params and "keys" in params:
+        query = query.bindparams(sa.bindparam("keys", expanding=True))
+    return [tuple(r) for r in conn.execute(query, {"patient": patient, **(params or {})})]
 
 
 def standby_path(data_dir: DataDir) -> Path:
     return StandbyDataDir(data_dir.root).registry_path
 
 
-def build_standby(data_dir: DataDir, rows: Rows, server: str, built_at: str) -> None:
+def build_standby(data_dir: DataDir, rows: Patients, server: str, built_at: str) -> None:
     """The standby registry holding `rows` (from `patient_rows`) and their manifest, built
     whole beside its place and moved there; RegistryError when a copied row's seal is not
     the server's (the copy would not be exact: nothing is moved into place)."""
@@ -140,7 +152,8 @@ def build_standby(data_dir: DataDir, rows: Rows, server: str, built_at: str) -> 
             conn.execute("DROP TRIGGER sessions_numbered")
             conn.execute("DROP TRIGGER trials_numbered")
             for table in REGISTRY_TABLES:
-                _copy(conn, table, rows.get(table, []))
+                for code, theirs in rows.items():
+                    _copy(conn, table, theirs[table], code)
             for statement in numbering.SQLITE_V9[:2]:
                 conn.execute(statement)
             conn.execute("INSERT INTO station_mirror_source VALUES (1, ?, ?)",
@@ -160,19 +173,31 @@ def build_standby(data_dir: DataDir, rows: Rows, server: str, built_at: str) -> 
         raise
 
 
-def _copy(conn: sqlite3.Connection, table: str, rows: list[tuple]) -> None:
+def _copy(conn: sqlite3.Connection, table: str, rows: list[tuple], code: str) -> None:
     columns = seals.SEALED[table]
     marks = ", ".join("?" for _ in columns)
-    for row in rows:
-        conn.execute(f"INSERT INTO {table} ({', '.join(columns)}) VALUES ({marks})", row[:-1])
-    stored = dict(conn.execute(f"SELECT {_key_json(table)}, seal FROM {table}").fetchall())
-    for row in rows:
-        key = row_key(table, row)
+    conn.executemany(f"INSERT INTO {table} ({', '.join(columns)}) VALUES ({marks})",
+                     [row[:-1] for row in rows])
+    record_mirrored(conn, table, rows, code)
+
+
+def record_mirrored(conn: sqlite3.Connection, table: str, rows: list[tuple],
+                    code: str) -> None:
+    """Each of `rows`, as written into the standby, has the server's seal (RegistryError
+    otherwise: the copy would not be exact); the manifest keeps it."""
+    if not rows:
+        return
+    keys = [row_key(table, row) for row in rows]
+    stored = dict(conn.execute(
+        f"SELECT {_key_json(table)}, seal FROM {table} WHERE {_key_json(table)} IN "
+        f"({', '.join('?' for _ in keys)})", keys).fetchall())
+    for key, row in zip(keys, rows, strict=True):
         if stored.get(key) != row[-1]:
             raise RegistryError(f"{table} row {key} did not copy unchanged into the "
                                 "station's standby registry (its seal differs from the "
                                 "server's); the standby was left as it was")
-        conn.execute("INSERT INTO station_mirror VALUES (?, ?, ?)", (table, key, row[-1]))
+    conn.executemany("INSERT OR REPLACE INTO station_mirror VALUES (?, ?, ?, ?)",
+                     [(table, key, row[-1], code) for key, row in zip(keys, rows, strict=True)])
 
 
 def _key_json(table: str) -> str:

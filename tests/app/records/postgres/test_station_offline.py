@@ -215,3 +215,37 @@ def test_a_damaged_standby_is_set_aside_never_sent_and_the_station_starts_afresh
     assert kept.read_bytes()[at:at + 6] == b"Simple"  # kept as it was found
     assert Registry(data, server=url).trials_for_patient(code) == []  # nothing sent from it
     assert again.patient(code).last_name == "Sample"  # the server's, mirrored afresh
+
+
+def test_the_standby_kept_current_in_place_equals_one_built_whole(department, caplog,
+                                                                  tmp_path):
+    """After each write the standby's rows of the patient are brought to the server's in
+    place (app.records.station.refresh): rows changed, added and taken out (a trial
+    withdrawn at Start) leave it exactly as a standby built whole from the server."""
+    import contextlib
+    import sqlite3
+
+    from app.records.station.mirror import build_standby, manifest, patient_rows, standby_rows
+
+    url, network, data = department
+    station = StationRegistry(data, network.url(url), station="robot-1")
+    code = station.create_patient("Jo", "Sample").code
+    first = _trial(station, code)
+    station.record_proposal(first.trial_id, {"assistance_level": 0.5})
+    _trial(station, code)
+    taken_back = station.begin_trial(code, PARAMS, backend="simulator")
+    station.withdraw_trial(taken_back.trial_id, "its file was never written")
+    station.add_note(code, 1, "steady", author="therapist A")
+    station.mark_trial(first.trial_id, valid=False, reason="the cuff slipped", by="A")
+    station.correct_patient(code, "last_name", "Sampler", reason="typo", by="A")
+    assert "built whole again" not in caplog.text  # kept current in place each time
+
+    whole = DataDir(tmp_path / "whole")
+    with Registry(whole, server=url)._read() as conn:
+        build_standby(whole, patient_rows(conn, [code]), "test", "now")
+
+    def contents(folder):
+        with contextlib.closing(sqlite3.connect(standby_path(folder))) as conn:
+            return standby_rows(conn), manifest(conn)
+
+    assert contents(data) == contents(whole)
