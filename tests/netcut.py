@@ -57,6 +57,8 @@ class NetworkCut:
             except OSError:
                 client.close()
                 continue
+            for end in (client, server):  # as the driver's own socket: no Nagle delay
+                end.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
             with self._lock:
                 if self._listener is not listener:
                     client.close()

@@ -65,6 +65,7 @@ _MIRROR_DDL = (
     "patient TEXT NOT NULL, PRIMARY KEY (tbl, key))",
     "CREATE TABLE station_mirror_source (one INTEGER PRIMARY KEY CHECK (one = 1), "
     "server TEXT NOT NULL, built_at TEXT NOT NULL)",
+    "CREATE INDEX station_mirror_by_patient ON station_mirror (patient)",
 )
 
 Rows = dict[str, list[tuple]]
@@ -188,9 +189,12 @@ def record_mirrored(conn: sqlite3.Connection, table: str, rows: list[tuple],
     if not rows:
         return
     keys = [row_key(table, row) for row in rows]
-    stored = dict(conn.execute(
-        f"SELECT {_key_json(table)}, seal FROM {table} WHERE {_key_json(table)} IN "
-        f"({', '.join('?' for _ in keys)})", keys).fetchall())
+    names = key_columns(table)
+    # by the key's first column (the primary key's index), the whole key compared below
+    firsts = sorted({json.loads(key)[0] for key in keys})
+    stored = {json.dumps(list(r[:-1]), separators=(",", ":")): r[-1] for r in conn.execute(
+        f"SELECT {', '.join(names)}, seal FROM {table} WHERE {names[0]} IN "
+        f"({', '.join('?' for _ in firsts)})", firsts)}
     for key, row in zip(keys, rows, strict=True):
         if stored.get(key) != row[-1]:
             raise RegistryError(f"{table} row {key} did not copy unchanged into the "
@@ -198,11 +202,6 @@ def record_mirrored(conn: sqlite3.Connection, table: str, rows: list[tuple],
                                 "server's); the standby was left as it was")
     conn.executemany("INSERT OR REPLACE INTO station_mirror VALUES (?, ?, ?, ?)",
                      [(table, key, row[-1], code) for key, row in zip(keys, rows, strict=True)])
-
-
-def _key_json(table: str) -> str:
-    """SQL giving a row's key as `row_key` writes it."""
-    return f"json_array({', '.join(key_columns(table))})"
 
 
 def standby_rows(conn: sqlite3.Connection) -> Rows:
