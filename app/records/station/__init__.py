@@ -223,6 +223,8 @@ class StationRegistry:
             if self._server is None:
                 self._server = self._connect(self.data_dir, server=self._url,
                                              station=self.station)
+            else:
+                self._server.schema_version()  # reached: nothing to send proves nothing
             synced = self._sync()
         except RegistryUnreachable:
             return None

@@ -86,6 +86,24 @@ def test_a_session_goes_on_offline_and_arrives_whole_when_the_server_returns(dep
     assert direct.trial(fourth.trial_id).status == "complete"
 
 
+def test_with_nothing_to_send_the_station_is_back_only_when_the_server_answers(department):
+    """Found trying the window as a therapist: a station that went offline on a read, with
+    nothing recorded since, said "the shared registry is back" while it was still cut off
+    (the sync had nothing to send, so it never asked the server)."""
+    url, network, data = department
+    station = StationRegistry(data, network.url(url), station="robot-1")
+    code = station.create_patient("Kim", "Sample").code
+    network.cut()
+    assert station.trial_summaries(code) == []  # answered by the standby
+    assert station.offline
+    assert station.try_sync() is None
+    assert station.offline
+    network.restore()
+    synced = station.try_sync()
+    assert (synced.added, synced.changed) == ({}, {})
+    assert not station.offline
+
+
 def test_a_trial_begun_online_and_finished_offline_is_finished_on_the_server(department):
     url, network, data = department
     station = StationRegistry(data, network.url(url), station="robot-1")
