@@ -28,6 +28,7 @@ import sqlalchemy as sa
 from app.errors import RegistryError, RegistryUnreachable, SchemaError
 from app.records.registry import seals
 from app.records.registry.snapshot import needs_snapshot, snapshot_connection
+from app.records.registry.url import server_place
 
 log = logging.getLogger(__package__)
 
@@ -72,7 +73,7 @@ class Database:
         url = self.server
         who = "research login (codes and data)" if self.research else \
             f"station {self.station or '(unnamed)'}"
-        return f"{who} · shared registry {url.host}:{url.port or 5432}/{url.database}"
+        return f"{who} · shared registry {server_place(url)}"
 
     # -- the engines ---------------------------------------------------------------------
     @functools.cached_property
@@ -198,7 +199,7 @@ class Database:
 
     def _still_sound(self, sound: bool) -> None:
         if sound:
-            self._verified_state = _file_state(self.path)
+            self._verified_state = file_state(self.path)
 
     def _verified(self, conn: sqlite3.Connection) -> bool:
         """Every row checked against its seal (seals.verify), once for each state of the
@@ -209,7 +210,7 @@ class Database:
         version = conn.execute("PRAGMA user_version").fetchone()[0]
         if version < SEALED_FROM:
             return False
-        state = _file_state(self.path)
+        state = file_state(self.path)
         if state is None or state != getattr(self, "_verified_state", None):
             seals.verify(conn, self.path)
             self._verified_state = state
@@ -359,7 +360,7 @@ SEALED_FROM = 6
 """The schema version from which every row has its seal (schema.MIGRATE_V5_TO_V6)."""
 
 
-def _file_state(path: Path) -> tuple | None:
+def file_state(path: Path) -> tuple | None:
     """What changes when the registry's file or its WAL is written: their sizes and
     modification times (None when they cannot be read: then every call checks)."""
     try:

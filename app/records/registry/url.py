@@ -76,6 +76,12 @@ class RegistryURL:
         return f"{self.url.host}:{self.url.port or 5432}"
 
 
+def server_place(url: sa.URL) -> str:
+    """`host:port/database` of a PostgreSQL registry, as messages and the window's title
+    name it (never the login or its password)."""
+    return f"{url.host}:{url.port or 5432}/{url.database}"
+
+
 def url_file() -> Path:
     """The registry URL file: `registry.url` in the config folder."""
     return config_dir() / URL_NAME

@@ -34,7 +34,9 @@ import sqlalchemy as sa
 from app.errors import PatientNotFound, RegistryError, RegistryUnreachable
 from app.records.datadir import DataDir
 from app.records.registry import Registry
+from app.records.registry.database import file_state
 from app.records.registry.patients import is_code
+from app.records.registry.url import server_place
 from app.records.safewrite import atomic_path
 from app.records.station.mirror import (
     OFFLINE,
@@ -124,9 +126,7 @@ class StationRegistry:
     def location(self) -> str:
         if self._server is not None:
             return self._server.location()
-        url = self._url
-        return (f"station {self.station} · shared registry {url.host}:{url.port or 5432}/"
-                f"{url.database}")
+        return f"station {self.station} · shared registry {server_place(self._url)}"
 
     @property
     def where(self) -> str:
@@ -198,8 +198,7 @@ class StationRegistry:
 
     # -- offline and back ----------------------------------------------------------------
     def _shown(self) -> str:
-        url = self._url
-        return f"the shared registry {url.host}:{url.port or 5432}/{url.database}"
+        return f"the shared registry {server_place(self._url)}"
 
     def _go_offline(self, exc: RegistryUnreachable) -> None:
         self.offline_reason = (f"{self._shown()} cannot be reached: this station records on "
@@ -328,7 +327,7 @@ class StationRegistry:
                 with self._server._read() as conn:
                     for code in only:
                         refresh_patient(path, conn, code)
-                self._built = _state(path)
+                self._built = file_state(path)
                 return
         except RegistryUnreachable as exc:
             self._go_offline(exc)
@@ -359,10 +358,10 @@ class StationRegistry:
             log.error("this station's standby registry could not be written: %s", exc)
             return
         self._standby = None
-        self._built = _state(path)
+        self._built = file_state(path)
 
     def _changed_since_built(self, path: Path) -> bool:
-        return self._built is None or _state(path) != self._built
+        return self._built is None or file_state(path) != self._built
 
     def _hold(self) -> bool:
         """Hold this data folder's standby for this console's life (an advisory lock)."""
@@ -378,16 +377,6 @@ class StationRegistry:
                         "cannot be made: %s): this one records on the server only", exc)
             return False
         return True
-
-
-def _state(path: Path) -> tuple | None:
-    try:
-        found = [os.stat(path)]
-        with contextlib.suppress(FileNotFoundError):
-            found.append(os.stat(f"{path}-wal"))
-        return tuple((s.st_size, s.st_mtime_ns, s.st_ino) for s in found)
-    except FileNotFoundError:
-        return None
 
 
 def _stamp() -> str:

@@ -88,11 +88,16 @@ def key_columns(table: str) -> tuple[str, ...]:
     return tuple(c.name for c in metadata.tables[table].primary_key.columns)
 
 
+def key_text(values) -> str:
+    """A row's key as the manifest stores it: its primary key's values as compact JSON (the
+    server's refresh query writes it alike: refresh._keys_and_seals)."""
+    return json.dumps(list(values), separators=(",", ":"))
+
+
 def row_key(table: str, row: tuple) -> str:
-    """A row's key as the manifest stores it (its primary key's values, as JSON)."""
+    """The key text (`key_text`) of a row in seals.SEALED's order."""
     columns = seals.SEALED[table]
-    return json.dumps([row[columns.index(name)] for name in key_columns(table)],
-                      separators=(",", ":"))
+    return key_text(row[columns.index(name)] for name in key_columns(table))
 
 
 def patient_id(conn: sa.Connection, code: str) -> int | None:
@@ -192,7 +197,7 @@ def record_mirrored(conn: sqlite3.Connection, table: str, rows: list[tuple],
     names = key_columns(table)
     # by the key's first column (the primary key's index), the whole key compared below
     firsts = sorted({json.loads(key)[0] for key in keys})
-    stored = {json.dumps(list(r[:-1]), separators=(",", ":")): r[-1] for r in conn.execute(
+    stored = {key_text(r[:-1]): r[-1] for r in conn.execute(
         f"SELECT {', '.join(names)}, seal FROM {table} WHERE {names[0]} IN "
         f"({', '.join('?' for _ in firsts)})", firsts)}
     for key, row in zip(keys, rows, strict=True):
