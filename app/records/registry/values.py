@@ -14,6 +14,8 @@ import math
 import re
 from collections.abc import Iterable, Mapping
 
+import orjson
+
 from app.errors import InvalidRecordError
 from core.errors import CoreError
 from core.trial import TrialParameters
@@ -111,11 +113,16 @@ def metrics_json_ready(metrics: Mapping[str, float]) -> dict:
 
 
 def parse_metrics(texts: Iterable[str]) -> list[dict[str, float]]:
-    """Stored metrics back to floats; JSON has no NaN, so undefined ones are null."""
-    parsed = json.loads("[" + ",".join(texts) + "]")
+    """Stored metrics back to floats; JSON has no NaN, so undefined ones are null.
+
+    orjson, not the standard json: a patient's 1,000 trials hold 1.4 MB of metrics, which
+    json.loads parsed in 20 ms of the progress query's 42 (bench/registry.py) and orjson in
+    3.5. The text is what metrics_json wrote (json.dumps, allow_nan=False), which both read
+    alike. The nulls become NaN in place: rebuilding each dict cost another 8 ms."""
+    parsed = orjson.loads("[" + ",".join(texts) + "]")
     nan = math.nan
-    return [
-        {k: nan if v is None else v for k, v in values.items()}
-        if None in values.values() else values
-        for values in parsed
-    ]
+    for values in parsed:
+        if None in values.values():
+            for name in [k for k, v in values.items() if v is None]:
+                values[name] = nan
+    return parsed
