@@ -55,6 +55,12 @@ class TrialSource:
     """The registry's id of the trial; None from a folder."""
     station: str | None = None
     """The station that recorded it, from the registry (schema v10); None from a folder."""
+    checksum: str | None = None
+    """Its file's SHA-256 kept at the trial's end (schema v10); None from a folder or for a
+    trial recorded before."""
+    stored_copy: str | None = None
+    """Its copy in the shared trial store (`stored_in` and its file, schema v11); None when
+    not copied, or from a folder."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -151,6 +157,9 @@ def sources_from_registry(registry: RecordStore, codes: str | Iterable[str], *,
                                                         "end_reason")),
                 trial_id=trial.id,
                 station=trial.station,
+                checksum=trial.checksum,
+                stored_copy=None if trial.stored_in is None
+                else os.path.join(trial.stored_in, trial.file),
             ))
     return sources
 

@@ -13,8 +13,13 @@ what the trial ran an export's columns (app.exports.run.ran_columns), and its se
 patient's progress' (app.reports.progress.exercise_of). So a study's row of a trial holds
 the figures the console shows for it.
 
-A file that cannot be read gives a row whose `failure` says why, in the reader's words;
-the chunk goes on with the next file. A file that reads but cannot be measured (too little
+A trial from the registry is read where its file is and only when it is the file recorded
+(`verified_file`): the data folder's, else its copy in the department's shared trial store
+(schema v11), each taken only when its SHA-256 is the checksum kept at the trial's end
+(schema v10); a file changed or replaced since, or in neither place, is a failure saying
+which and where to restore it from, never a row of figures from a file that is not the
+trial's. A file that cannot be read gives a row whose `failure` says why, in the reader's
+words; the chunk goes on with the next file. A file that reads but cannot be measured (too little
 exercise, no parameters) keeps its row without metrics, and its `notes` say why, as the
 registry keeps such a trial.
 """
@@ -24,6 +29,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass
+from pathlib import Path
 
 import pandas as pd
 
@@ -31,6 +37,7 @@ from app.errors import AppError
 from app.exports.loader import trial_of
 from app.exports.plan import TrialSource
 from app.exports.run import ran_columns
+from app.records.registry.provenance import file_checksum
 from app.reports.plain_language import success_key
 from app.reports.progress import exercise_of
 from app.study.schema import COLUMNS, METRIC_PREFIX, NUMBER, TRAILING, fits, frame
@@ -91,11 +98,12 @@ def failure_reason(exc: BaseException) -> str:
 def trial_row(trial: StudyTrial) -> dict:
     """One trial's row (see the module's doc); raises the reader's error for a file that
     cannot be read."""
-    data = read_trial(trial.source.path, CHANNELS)
+    path, notes = verified_file(trial)
+    data = read_trial(path, CHANNELS)
     loaded = trial_of(data)
     row = {key: value for key, value in loaded.row().items()
            if not key.startswith(METRIC_PREFIX)}
-    notes = list(data.notes)
+    notes.extend(data.notes)
     row |= {METRIC_PREFIX + name: value for name, value in metrics(data, notes).items()}
     row |= ran_columns(loaded, trial.source)
     values = loaded.parameter_values
@@ -105,6 +113,37 @@ def trial_row(trial: StudyTrial) -> dict:
     if row.get("patient") is None:
         row["patient"] = row.get("subject_code")
     return _fitted(row, notes)
+
+
+def verified_file(trial: StudyTrial) -> tuple[Path, list[str]]:
+    """The file to read of a trial (see the module's doc) and a note when it is the trial
+    store's copy. Raises AppError saying what is wrong with each place when no place holds
+    the file recorded. A trial without a checksum (from a folder, or recorded before schema
+    v10) is read from its path as it is."""
+    source = trial.source
+    places = [source.path]
+    if source.stored_copy is not None:
+        places.append(Path(source.stored_copy))
+    if source.checksum is None:
+        return places[0], []
+    problems = []
+    for place in places:
+        try:
+            found = file_checksum(place)
+        except FileNotFoundError:
+            problems.append(f"{place} is missing")
+            continue
+        except OSError as exc:
+            problems.append(f"{place} cannot be read ({exc.strerror or exc})")
+            continue
+        if found == source.checksum:
+            return place, ([] if place == places[0] else
+                           [f"read from the trial store's copy {place} ({problems[0]})"])
+        problems.append(f"{place} is not the file recorded (its SHA-256 is {found[:12]}…, "
+                        f"the registry's {source.checksum[:12]}…: changed or replaced since "
+                        "the trial ended)")
+    raise AppError(f"trial {source.trial_id}: {'; '.join(problems)}; not analysed: "
+                   "restore the file from a backup")
 
 
 def metrics(data: TrialData, notes: list[str]) -> dict[str, float]:

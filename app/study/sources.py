@@ -9,7 +9,11 @@
   `<site>/<patient>/<file>.h5`), else unknown.
 * The registry (a patient's code, or every patient): the registered trials' files
   (app.exports.plan.sources_from_registry), with the registry's ids, numbers, the
-  proposal made after each and why it ended. The site is `site` when given, else the
+  proposal made after each and why it ended, and each file's checksum and copy in the
+  shared trial store: a worker reads the data folder's file or, where that is missing or
+  not the one recorded, the store's, and only a file whose SHA-256 is the one kept
+  (app.study.rows.verified_file); a researcher's machine without the stations' data
+  folders reads the store. The site is `site` when given, else the
   station that recorded the trial (a department's robots on one shared registry).
 
 Trials the registry marks invalid (`rehab invalid`) are left out and counted, unless

@@ -19,6 +19,11 @@ from app.records.store import StationStore
 from device.loop.states import State
 from ui import theme
 
+KEEP_CURRENT_EVERY = 6
+"""Online, every this many ticks (30 s) between trials the station brings its standby's copy
+of the current patient up to the server's: what other stations recorded for them meanwhile
+(app.records.station.StationRegistry.keep_current)."""
+
 SYNC_EVERY_MS = 5000
 """How often an offline station tries to reach the server again (a connection refused is
 answered at once; an unanswered one waits the registry's connect timeout on the job
@@ -34,6 +39,7 @@ class StationStatus:
         self.statusBar().addPermanentWidget(self.registry_label)
         self._was_offline = False
         self._syncing = False
+        self._ticks_online = 0
         self.station_timer = QTimer(self)
         self.station_timer.setInterval(SYNC_EVERY_MS)
         self.station_timer.timeout.connect(self.check_station)
@@ -59,6 +65,11 @@ class StationStatus:
         if offline and between and not self._syncing:
             self._syncing = True
             self.jobs.run(registry.try_sync, self._synced)
+        elif isinstance(registry, StationStore) and between and not self._syncing:
+            self._ticks_online += 1
+            if self._ticks_online % KEEP_CURRENT_EVERY == 0:
+                self._syncing = True
+                self.jobs.run(registry.keep_current, self._kept_current)
         if self._store_problem:  # the trial store could not take them: try again
             self.store_trials()
 
@@ -99,6 +110,9 @@ class StationStatus:
             self.registry_label.setText("")
             self.registry_label.setToolTip("")
         self._was_offline = offline
+
+    def _kept_current(self, _) -> None:
+        self._syncing = False
 
     def _synced(self, synced) -> None:
         self._syncing = False

@@ -174,12 +174,26 @@ class StationRegistry:
             return
         if self._track(name, args, kwargs, result) or name in WRITES:
             # the patient the station works with now (a write by a trial's id is of the
-            # patient it last named: the window's current one)
+            # patient it last named: the window's current one), brought up to date when
+            # named anew: another station may have recorded for them since
+            self._mirror(only=self._recent[-1:])
+
+    def keep_current(self) -> None:
+        """Online: bring the standby's copy of the patient this station works with now up to
+        the server's (what other stations recorded for them meanwhile), so that a trial
+        recorded here after the network drops is numbered after theirs. The window calls it
+        now and then between trials (ui/window/station.py); one round trip when nothing
+        changed. Offline, on a second console or a researcher's login: nothing."""
+        with self._one:
+            if self.offline or not self.held or self._server is None \
+                    or self._server.research or not self._recent:
+                return
             self._mirror(only=self._recent[-1:])
 
     def _track(self, name: str, args: tuple, kwargs: dict, result: Any) -> bool:
         """Note the patient a call names (the latest first to mirror) and the trials open;
-        whether the patient is new to the standby."""
+        whether the patient is now the station's current one and was not before (new to
+        the standby, or named again after another)."""
         if name == "begin_trial":
             self._open.add(result.trial_id)
         elif name in ("finish_trial", "withdraw_trial"):
@@ -192,9 +206,9 @@ class StationRegistry:
             (args[0] if args else kwargs.get("code"))
         if not (isinstance(code, str) and is_code(code)):
             return False
-        new = code not in self._recent
+        switched = self._recent[-1:] != [code]
         self._recent = [*(c for c in self._recent if c != code), code][-MIRRORED_PATIENTS:]
-        return new
+        return switched
 
     # -- offline and back ----------------------------------------------------------------
     def _shown(self) -> str:

@@ -154,6 +154,36 @@ def test_a_number_another_station_gave_meanwhile_refuses_the_sync_and_keeps_ever
     assert [t.station for t in other.trials_for_patient(code)] == ["robot-1", "robot-2"]
 
 
+@pytest.mark.parametrize("how", ["named again", "kept current"])
+def test_what_another_station_recorded_before_the_drop_is_numbered_before_ours(
+        department, how):
+    """Another station records for our patient while we are online; then our network drops.
+    Our standby must know that trial (the station brings the patient up to date when the
+    window names them again, and now and then between trials: keep_current), or the trial
+    we record offline takes its number and the sync is refused."""
+    url, network, data = department
+    station = StationRegistry(data, network.url(url), station="robot-1")
+    code = station.create_patient("Di", "Sample").code
+    other_patient = station.create_patient("Ed", "Sample").code
+    _trial(station, code)
+    other = Registry(DataDir(data.root.parent / "robot-2"), server=url, station="robot-2")
+    _trial(other, code)  # robot-2 records trial 2 while robot-1 is still online
+    if how == "named again":
+        station.trial_summaries(other_patient)
+        station.trial_summaries(code)  # the therapist opens the patient again
+    else:
+        station.keep_current()
+    network.cut()
+    offline = _trial(station, code, {"rmse_x_mm": 9.0})
+    assert station.offline
+    assert station.trial(offline.trial_id).number == 3
+    network.restore()
+    synced = station.try_sync()
+    assert synced is not None, station.sync_problem
+    assert [(t.number, t.station) for t in other.trials_for_patient(code)] == [
+        (1, "robot-1"), (2, "robot-2"), (3, "robot-1")]
+
+
 def test_a_station_that_starts_while_cut_off_sends_its_records_when_it_starts_again(
         department):
     url, network, data = department
