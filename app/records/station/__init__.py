@@ -86,6 +86,7 @@ class StationRegistry:
         self._connect = connect
         self._recent: list[str] = []  # patient codes mirrored, the latest last
         self._open: set[int] = set()  # trials begun and not yet finished or withdrawn
+        self._patient_of: dict[int, str] = {}  # the patient of each trial begun here
         self._runs: set[int] = set()  # plan runs begun and not yet ended
         # One call at a time: the window's thread and its job thread (a trial finished, a
         # sync) share this object, and a sync must not come between two calls' ids.
@@ -172,11 +173,27 @@ class StationRegistry:
         """Online: keep the standby a mirror of the patients this station works with."""
         if not self.held or self.research:
             return
-        if self._track(name, args, kwargs, result) or name in WRITES:
-            # the patient the station works with now (a write by a trial's id is of the
-            # patient it last named: the window's current one), brought up to date when
-            # named anew: another station may have recorded for them since
-            self._mirror(only=self._recent[-1:])
+        switched = self._track(name, args, kwargs, result)
+        if switched or name in WRITES:
+            # the patient the station works with now, brought up to date when named anew
+            # (another station may have recorded for them since), and the patient a write
+            # by a trial's id was for (a trial finished on the job thread after the
+            # therapist opened the next patient)
+            only = self._recent[-1:]
+            written = self._written_patient(name, args, kwargs, result) \
+                if name in WRITES else None
+            if written is not None and written not in only and written in self._recent:
+                only = [written, *only]
+            self._mirror(only=only)
+
+    def _written_patient(self, name: str, args: tuple, kwargs: dict,
+                         result: Any) -> str | None:
+        """The patient a write by a trial's id was for, when this station knows it."""
+        code = getattr(result, "patient_code", None)
+        if isinstance(code, str):
+            return code
+        trial_id = args[0] if args else kwargs.get("trial_id")
+        return self._patient_of.get(trial_id) if isinstance(trial_id, int) else None
 
     def keep_current(self) -> None:
         """Online: bring the standby's copy of the patient this station works with now up to
@@ -196,6 +213,7 @@ class StationRegistry:
         the standby, or named again after another)."""
         if name == "begin_trial":
             self._open.add(result.trial_id)
+            self._patient_of[result.trial_id] = result.patient_code
         elif name in ("finish_trial", "withdraw_trial"):
             self._open.discard(args[0] if args else kwargs.get("trial_id"))
         elif name == "begin_plan_run":

@@ -184,6 +184,26 @@ def test_what_another_station_recorded_before_the_drop_is_numbered_before_ours(
         (1, "robot-1"), (2, "robot-2"), (3, "robot-1")]
 
 
+def test_a_trial_finished_after_the_next_patient_was_opened_is_finished_in_the_standby(
+        department):
+    """The window finishes a trial on its job thread; the therapist may have opened the next
+    patient by then. The standby must hold that trial finished (the write was for the
+    trial's patient, not the one named last), or offline it would be shown as recording
+    and a change to it refused at the sync."""
+    url, network, data = department
+    station = StationRegistry(data, network.url(url), station="robot-1")
+    first = station.create_patient("Di", "Sample").code
+    second = station.create_patient("Ed", "Sample").code
+    begun = _trial(station, first, finish=False)
+    station.trial_summaries(second)  # the next patient opened
+    station.finish_trial(begun.trial_id, "complete", {"rmse_x_mm": 2.5})
+    network.cut()
+    trial = station.trial(begun.trial_id)
+    assert station.offline
+    assert trial.status == "complete"
+    assert trial.metrics == {"rmse_x_mm": 2.5}
+
+
 def test_a_station_that_starts_while_cut_off_sends_its_records_when_it_starts_again(
         department):
     url, network, data = department
