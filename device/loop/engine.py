@@ -28,7 +28,7 @@ from core.interaction import subject_motion
 from core.kernels import interpreted, kernel
 from device.backend import SensorReading
 from device.errors import BackendError
-from device.loop.pipeline import (
+from device.loop.control_kernel import (
     C_OUT1,
     C_OUT2,
     C_QD1,
@@ -36,11 +36,10 @@ from device.loop.pipeline import (
     C_QDD1,
     C_QDD2,
     C_SIZE,
-    TickPipeline,
     control,
-    idle_record,
     rows_needed,
 )
+from device.loop.pipeline import TickPipeline, idle_record
 from device.loop.tickrows import (
     ROW_APPLIED,
     ROW_FAULT,

@@ -13,7 +13,8 @@ import numpy as np
 
 from core.interaction import SubjectState
 from device.backend import SensorReading
-from device.loop.pipeline import C_SIZE, TickPipeline, record_values
+from device.loop.control_kernel import C_SIZE
+from device.loop.pipeline import TickPipeline, record_values
 from device.loop.states import State
 from device.recording.record import RECORD_DTYPE
 
