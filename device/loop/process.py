@@ -30,10 +30,10 @@ here: what entering and leaving it does (`_entered`, `_leaving`) and what it doe
 tick (`_during`). Faults: device.safety (latched until cleared). Which backend it drives:
 device.loop.backends.
 
-Why one module of some 550 lines: it is one object, the loop process's state (the
-connection, the trial, the commands waiting for a tick) and the three things that
-change it (the ticks, the commands, the faults); each piece reads and writes that state,
-and split across modules they would pass it around or reach into each other.
+One object, the loop process's state (the connection, the trial, the commands waiting for
+a tick), in three modules by what changes it: the ticks and the states here, the commands
+and the backend they open in device.loop.commands (LoopCommands), the causes of a stopped
+recording in device.loop.causes (StopCauses); DeviceLoop is all three.
 """
 
 from __future__ import annotations
@@ -46,29 +46,19 @@ import time
 from dataclasses import dataclass
 from multiprocessing.connection import Connection
 
-from core.errors import ParameterError
-from device.backend import REAL_TIME, SIMULATED, Backend, SensorReading
-from device.errors import BackendError, DeviceError, StateError
-from device.loop.backends import limits_for_backend, make_backend, sensor_offset_for
+from device.backend import SIMULATED, Backend, SensorReading
+from device.loop.causes import RECORDER_CHECK_TICKS, StopCauses
+from device.loop.commands import COMMAND_KINDS, LoopCommands
 from device.loop.engine import TickEngine
 from device.loop.messages import (
     BackendConfig,
-    Build,
-    ClearFault,
     ClockStarted,
-    Connect,
-    Disconnect,
     FaultRaised,
-    ForceEstimate,
     Notice,
     Reply,
-    SensorZeroed,
-    SetAssistance,
     ShownToPatient,
-    Shutdown,
     Start,
     StateChanged,
-    Stop,
     TrialEnded,
     TrialMarker,
     TrialStarted,
@@ -78,23 +68,15 @@ from device.loop.pipeline import (
     TickPipeline,
     TrialPlan,
     assistance_group,
-    has_compiled_form,
-    learned_controller,
-    learned_model_refusal,
 )
 from device.loop.realtime import (
     CLOCKS,
     LAST_CPU,
-    measure_wakeups,
     prepare_process,
-    timing_warning,
 )
 from device.loop.recorder_watch import RecorderPulse
-from device.loop.states import TRANSITIONS, Command, State, refusal
+from device.loop.states import State
 from device.recording.messages import (
-    DISK_SHORT,
-    STOPPED_BY_SIGNAL,
-    WRITE_FAILED,
     BeginTrial,
     EndTrial,
     TrialEvent,
@@ -103,29 +85,18 @@ from device.recording.ring import RecordRing
 from device.safety.faults import Fault
 from device.safety.limits import SafetyLimits
 from device.safety.supervisor import SafetySupervisor
-from device.stopsignals import StopSignal, signal_name
+from device.stopsignals import StopSignal
 
 STOPPING_TIMEOUT_S = 2.0
 """Longest wait in Stopping for the recorder to take the trial's last samples."""
-WORKSPACE_MARGIN_M = 0.10
-"""The end effector may leave the exercise's path by this much before WORKSPACE trips."""
 NOISE_RESERVE = 1000
 """Simulated sensor-noise rows (2 s of ticks) kept ahead, drawn between ticks so that no
 tick pays for a draw."""
-
-_COMMANDS = {
-    Build: Command.BUILD, Connect: Command.CONNECT, Disconnect: Command.DISCONNECT,
-    Start: Command.START, Stop: Command.STOP, ClearFault: Command.CLEAR_FAULT,
-    SetAssistance: Command.SET_ASSISTANCE, Shutdown: Command.SHUTDOWN,
-}
-
 
 SLACK_S = 200e-6
 """Time before each deadline for commands: enough for one, short enough that the tick's
 code and data are still warm in the caches when it runs."""
 
-LATER = object()
-"""A command handler's answer when it is carried out at the next tick (its reply then)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -143,7 +114,7 @@ class LoopConfig:
     watchdog by injection whatever the machine's stalls (see the module notes)."""
 
 
-class DeviceLoop:
+class DeviceLoop(LoopCommands, StopCauses):
     """The loop's state and its ticks. One instance per loop process."""
 
     def __init__(self, console: Connection, recorder: Connection | None, ring: RecordRing,
@@ -343,7 +314,7 @@ class DeviceLoop:
             # no tick will come to carry out what waited for one: answer it now
             later, self.later = self.later, []
             for command in later:
-                kind = _COMMANDS[type(command)]
+                kind = COMMAND_KINDS[type(command)]
                 self._send(Reply(command.id, False, f"{kind.value} refused: the robot was "
                                                     "disconnected before it could be done."))
 
@@ -437,249 +408,6 @@ class DeviceLoop:
         self._send(FaultRaised(int(fault), message, detail, loop_t, detected))
         self._enter(State.FAULTED, message)
 
-    def _recording_cause(self, detail: dict) -> str:
-        """Why the recording was lost, in the therapist's words, with its cause in the
-        fault's detail; '' when it is the ring overflowing (the supervisor's own words)."""
-        if self.recorder_gone:
-            # the right cause: not the disk, the process that writes to it
-            detail["cause"] = "recorder process stopped"
-            return RECORDER_GONE
-        if self.recorder_stalled:
-            detail["cause"] = "recorder stopped responding"
-            detail["silent_ticks"] = self.recorder_pulse.silent
-            return RECORDER_STALLED
-        flag = int(self.recording_failed.value)
-        if flag > STOPPED_BY_SIGNAL:
-            name = signal_name(flag - STOPPED_BY_SIGNAL)
-            detail["cause"] = f"signal {name}"
-            return (f"The recorder was told to stop ({name}), so the motors were stopped and "
-                    "the trial saved as incomplete. Restart the console before the next trial")
-        cause = RECORDING_CAUSES.get(flag)
-        if cause is None:
-            return ""
-        detail["cause"], message = cause
-        return message
-
-    def _recorder_stopped(self) -> bool:
-        """Whether the recorder's beat has been silent too long (device.loop.
-        recorder_watch): counted at every tick of a running trial."""
-        if not self.recorder_stalled and self.recorder_pulse.stalled():
-            self.recorder_stalled = True
-        return self.recorder_stalled
-
-    def _signal_cause(self, detail: dict) -> str:
-        """A stop signal stopped the trial: the fault's words and cause name it."""
-        detail["cause"] = f"signal {self.stop_signal.name}"
-        return (f"The console was told to stop ({self.stop_signal.words}), so the motors "
-                "were stopped at once and the trial saved as faulted")
-
-    # ------------------------------------------------------------------ commands
-    def _commands_waiting(self) -> bool:
-        try:
-            return self.console.poll()
-        except (EOFError, OSError):
-            return True
-
-    def _handle_commands(self) -> None:
-        try:
-            while self.console.poll():
-                self._command(self.console.recv())
-        except (EOFError, OSError):
-            self.console_lost = True
-
-    def _command(self, command, after_a_tick: bool = False) -> None:
-        """Carry out an allowed command and reply; a refused one is answered with why. A
-        command that needs a tick first (a Start before the first reading, a ClearFault,
-        which must see the cause gone on a fresh tick) waits for the next one."""
-        if isinstance(command, ForceEstimate):
-            if self.pipeline is not None and self.pipeline.assistance.estimated:
-                self.pipeline.set_force_estimate(command.fx_N, command.fy_N, command.tick)
-            return
-        if isinstance(command, ShownToPatient):
-            if self.state == State.RUNNING:
-                self._tell_shown(command, self.trial_tick)
-            return
-        kind = _COMMANDS.get(type(command))
-        if kind is None:
-            return
-        state = self.state
-        reason = refusal(state, kind)
-        if not reason:
-            try:
-                outcome = _HANDLERS[kind](self, command, after_a_tick)
-            except (DeviceError, ValueError) as exc:
-                outcome = f"{kind.value} failed: {exc}"
-            if outcome is LATER:
-                self.later.append(command)
-                return
-            reason, why = outcome if isinstance(outcome, tuple) else (outcome, "")
-            if not reason and self.state == state:
-                self._enter(TRANSITIONS[(state, kind)], why)
-        self._send(Reply(command.id, not reason, reason))
-
-    def _do_build(self, command: Build, after_a_tick: bool):
-        refused = learned_model_refusal(command.parameters, command.model)
-        if refused:
-            return f"build refused: {refused}"
-        self.paused = True
-        # the whole reference now, at zero torque, so that Start only plans the approach
-        plan = TrialPlan.build(command.parameters, period_s=self.config.period_s,
-                               tabulated=True)
-        reconnect = self.state == State.CONNECTED and self.backend_config is not None and (
-            command.backend != self.backend_config or command.backend.kind == "simulator")
-        if reconnect and command.backend.kind != self.backend_config.kind:
-            return "disconnect before changing the robot backend"
-        limits = (command.limits or SafetyLimits()).around_path(
-            plan.parameters.path().points(), WORKSPACE_MARGIN_M)
-        self.plan, self.backend_config, self.limits = plan, command.backend, limits
-        self.model = command.model
-        self.pipeline = self._new_pipeline()
-        if reconnect:
-            # the virtual patient follows the new exercise: rebuild the simulator
-            self._disconnect_backend()
-            refused = self._open_backend()
-            if refused:
-                self._enter(State.BUILT, "the robot could not be reconnected")
-                return refused
-            return "", f"connected to the {self.opened.label}"
-        if self.engine is not None and self.state.ticking:
-            self.engine = TickEngine(self.backend, self.pipeline, self.supervisor)
-        return "", "trial built"
-
-    def _do_connect(self, command: Connect, after_a_tick: bool):
-        refused = self._open_backend()
-        return refused, f"connected to the {self.opened.label}"
-
-    def _do_disconnect(self, command: Disconnect, after_a_tick: bool):
-        self._disconnect_backend()
-        return "", "disconnected"
-
-    def _do_start(self, command: Start, after_a_tick: bool):
-        if self.seed_used and self.backend_config.kind == "simulator" and (
-                self.backend_config.seed is None):
-            # a new virtual patient and sensor noise for this trial, at rest at the path's
-            # start (a course of simulated trials varies as a person's would)
-            self._disconnect_backend()
-            refused = self._open_backend(check_timing=False)
-            if refused:
-                self._enter(State.BUILT, "the simulator could not be reopened")
-                return f"start refused: {refused}"
-        if self.reading is None:
-            return LATER  # the first tick after Connect has not read the sensors yet
-        return self._start_trial(command), "trial started"
-
-    def _do_stop(self, command: Stop, after_a_tick: bool):
-        self._end_trial("stopped_early", "stopped by the therapist")
-        return "", "trial stopped; saving"
-
-    def _do_clear_fault(self, command: ClearFault, after_a_tick: bool):
-        if not after_a_tick:
-            return LATER  # the e-stop released a moment ago is seen by the next tick
-        try:
-            self.supervisor.clear()
-        except StateError as exc:
-            return str(exc)
-        self.fault_reported = Fault.NONE
-        return "", "fault cleared"
-
-    def _do_set_assistance(self, command: SetAssistance, after_a_tick: bool):
-        """A live change of the running trial's level (only Running accepts it: between
-        trials the level is the built trial's). The record's `assistance_level` carries
-        it from the next tick; the event says when and to what the therapist changed it.
-        A transparent trial has no level (core.control.transparent): refused."""
-        if self.plan.parameters.assist == "transparent":
-            return ("set assistance level refused: the transparent mode adds no help, so "
-                    "it has no level to change; stop the trial and build one in another "
-                    "mode to help the patient")
-        self.pipeline.set_assistance_level(command.level)
-        tick = self.trial_tick
-        self._to_recorder(TrialEvent(tick * self.plan.period_s, tick, "assistance",
-                                     f"assistance level set to {command.level:.0%}",
-                                     {"level": self.pipeline.assistance.level}))
-        return ""
-
-    def _do_shutdown(self, command: Shutdown, after_a_tick: bool):
-        if self.state == State.RUNNING and command.signal and not after_a_tick:
-            # the console was given a stop signal: the next tick stops the trial as at a
-            # fault naming it (zero torque in that tick), then the loop shuts down
-            self.stop_signal.set(command.signal)
-            return LATER
-        if self.state == State.RUNNING:
-            self._end_trial("stopped_early", "console closed")
-        self.shutdown = True
-        return "", "shutting down"
-
-    def _new_pipeline(self) -> TickPipeline:
-        controller = None
-        if self.model is not None:
-            # an FNN or a DeLaN runs compiled (core.learning.kernel), another model
-            # interpreted through its step
-            controller = learned_controller(self.model, self.plan)
-        pipeline = TickPipeline(self.plan, sensor_offset_rad=self.sensor_offset_rad,
-                                controller=controller,
-                                compiled=self.config.compiled and (
-                                    controller is None or has_compiled_form(self.model)))
-        return pipeline
-
-    def _open_backend(self, check_timing: bool = True) -> str:
-        """Make and open the configured backend with its supervisor and tick engine (a
-        simulator with a seed drawn now when its config draws one per trial): '' or why
-        not."""
-        self.paused = True
-        config = self.backend_config
-        if config.kind == "simulator" and config.seed is None:
-            from device.sim.simulator import draw_seed  # as make_backend: the simulator's
-
-            config = dataclasses.replace(config, seed=draw_seed())
-        backend = make_backend(config, self.plan.parameters, self.plan, self.clock.sleep,
-                               self.config.compiled)
-        if backend.timing == REAL_TIME and check_timing and self.config.timing_check_s > 0.0:
-            self._check_timing()
-        backend.open()
-        tare = getattr(getattr(backend, "inner", backend), "tare", None)
-        if tare is not None:
-            # before the Connect's reply: the window shows "zero taken" (a zero under load
-            # raised TareUnderLoad in open(): the Connect failed with its one line)
-            self._send(SensorZeroed(tare.duration_s, tare.spread_N, tare.limit_N))
-        try:
-            self.limits = limits_for_backend(self.limits, backend)
-        except ParameterError as exc:
-            backend.safe_state()
-            backend.close()
-            return f"connect refused: {exc}"
-        self.sensor_offset_rad = sensor_offset_for(config)
-        self.pipeline = self._new_pipeline()
-        self.backend = backend
-        self.supervisor = SafetySupervisor(self.plan.robot, self.limits)
-        if self.config.compiled:
-            from device.compiled.warmup import load_kernels
-
-            load_kernels(("loop",))  # a first call inside a tick would stall it
-        self.engine = TickEngine(backend, self.pipeline, self.supervisor)
-        self.fault_reported = Fault.NONE
-        self.reading = None
-        self.opened, self.seed_used = config, False
-        return ""
-
-    def _check_timing(self) -> None:
-        """Before a real robot is powered: would this machine's wake-ups trip the
-        late-tick watchdog? If so, say so in plain words (the Connect goes on)."""
-        limits = self.limits
-        late = measure_wakeups(self.config.timing_check_s)
-        warning = timing_warning(late, limits.late_tick_s, limits.late_run_ticks,
-                                 self.config.period_s)
-        if warning:
-            self._send(Notice("warning", warning))
-
-    def _disconnect_backend(self) -> None:
-        backend, self.backend = self.backend, None
-        if backend is not None:
-            backend.safe_state()
-            try:
-                backend.close()
-            except BackendError as exc:
-                self._send(Notice("warning", f"while disconnecting: {exc}"))
-
     # ------------------------------------------------------------------ messages
     def _send(self, message) -> None:
         if self.console_lost:
@@ -711,34 +439,6 @@ class DeviceLoop:
                                self.trial_first_seq + event.tick, self.clock.now()))
 
 
-RECORDER_CHECK_TICKS = 25
-"""How often (ticks: 50 ms) a running trial checks that the recorder is still there."""
-RECORDER_GONE = ("The recorder stopped, so nothing more of this trial could be saved; the "
-                 "motors were stopped. The trial's file keeps what reached it, and the "
-                 "trial is marked incomplete. Restart the console before the next trial")
-RECORDER_STALLED = ("The recorder stopped responding, so the motors were stopped; the trial's "
-                    "file keeps what reached it and the trial is marked incomplete. Restart "
-                    "the console before the next trial")
-
-RECORDING_CAUSES = {
-    WRITE_FAILED: ("write error", "The trial file could not be written (a disk error), so "
-                   "the motors were stopped. The file keeps what was saved before the error "
-                   "and the trial is marked incomplete. Check the disk before the next trial"),
-    DISK_SHORT: ("disk full", "The disk holding the trial files is full, so the motors were "
-                 "stopped. Every sample so far is saved in the trial's file, which is marked "
-                 "incomplete. Free space on that disk before the next trial"),
-}
-"""What the recorder's flag says (device.recording.messages), as the fault's cause and
-message."""
-
-_HANDLERS = {
-    Command.BUILD: DeviceLoop._do_build, Command.CONNECT: DeviceLoop._do_connect,
-    Command.DISCONNECT: DeviceLoop._do_disconnect, Command.START: DeviceLoop._do_start,
-    Command.STOP: DeviceLoop._do_stop, Command.CLEAR_FAULT: DeviceLoop._do_clear_fault,
-    Command.SET_ASSISTANCE: DeviceLoop._do_set_assistance,
-    Command.SHUTDOWN: DeviceLoop._do_shutdown,
-}
-"""What each command does; where it leads is device.loop.states.TRANSITIONS."""
 
 
 def _next_deadline(deadline: float, now: float, period: float) -> tuple[float, float]:

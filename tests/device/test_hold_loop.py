@@ -18,9 +18,9 @@ from core.holdtasks import (
 )
 from core.robot import RobotModel
 from core.trial import TrialParameters
+from device.loop.commands import WORKSPACE_MARGIN_M
 from device.loop.engine import run_trial
 from device.loop.pipeline import PERIOD_S, TickPipeline, TrialPlan
-from device.loop.process import WORKSPACE_MARGIN_M
 from device.safety.faults import Fault
 from device.safety.limits import SafetyLimits
 from device.safety.supervisor import SafetySupervisor

@@ -18,7 +18,7 @@ from core.assessment.workspace import (
 from core.errors import ParameterError
 from core.robot import RobotModel
 from core.trial import TrialParameters
-from device.loop.process import WORKSPACE_MARGIN_M
+from device.loop.commands import WORKSPACE_MARGIN_M
 from device.safety.limits import SafetyLimits
 
 ROBOT = RobotModel()
