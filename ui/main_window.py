@@ -18,6 +18,7 @@ from pathlib import Path
 
 from PySide6.QtCore import Qt, QTimer
 from PySide6.QtWidgets import (
+    QApplication,
     QFrame,
     QHBoxLayout,
     QLabel,
@@ -134,6 +135,20 @@ class MainWindow(AssessmentControl, PlanControl, TrialActions, TrialEmg, FaultLa
         self.health_timer.timeout.connect(self._show_health)
 
     # ------------------------------------------------------------------ construction
+    def keyPressEvent(self, event) -> None:
+        """Enter presses the button that has the focus. Elsewhere Space does, but here Space
+        is the emergency stop (FaultLatch), so without this a therapist who tabs to a button
+        (Register new patient, Use this patient…) could not press it from the keyboard: a
+        button outside a dialog ignores Enter and the key comes here."""
+        if event.key() in (Qt.Key.Key_Return, Qt.Key.Key_Enter):
+            focus = QApplication.focusWidget()
+            if isinstance(focus, QPushButton) and focus.isEnabled() \
+                    and focus.isVisibleTo(self) and self.isAncestorOf(focus):
+                focus.click()
+                event.accept()
+                return
+        super().keyPressEvent(event)
+
     def _build_tabs(self) -> None:
         self.tabs = QTabWidget()
         self.tabs.setDocumentMode(True)

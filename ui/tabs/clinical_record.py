@@ -128,9 +128,14 @@ class ClinicalRecord(QGroupBox):
         self.registry = registry
 
     def set_patient(self, patient: Patient | None, session: int | None = None) -> None:
-        """The patient whose record this is (None: nobody), on `session` (the latest)."""
+        """The patient whose record this is (None: nobody, and the record hidden), on
+        `session` (the latest)."""
         self._patient = patient
         self.setEnabled(patient is not None and self.registry is not None)
+        # Nobody chosen, the record has nothing to show: hidden, so that the New patient
+        # form below it is in view for a first patient (from a fresh clone it was a scroll
+        # away, under a greyed record).
+        self.setHidden(patient is None)
         self.outcome.setText("")
         if patient is None or self.registry is None:
             return
