@@ -17,7 +17,7 @@ import fnmatch
 import os
 import re
 from collections.abc import Callable, Collection, Iterable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path, PurePosixPath
 from typing import TypeVar
 
@@ -26,6 +26,7 @@ from app.exports.files import ExportError
 from app.exports.loader import Failure
 from app.records.datadir import CODE_PATTERN
 from app.records.outcomes import proposal_columns, trial_outcome
+from app.records.registry.provenance import file_checksum
 from app.records.store import RecordStore
 from device.errors import DeviceError
 from device.safewrite import folded
@@ -162,6 +163,55 @@ def sources_from_registry(registry: RecordStore, codes: str | Iterable[str], *,
                 else os.path.join(trial.stored_in, trial.file),
             ))
     return sources
+
+
+def verified_place(source: TrialSource) -> tuple[Path, str]:
+    """Where to read a registered trial's file, and a note when it is the shared trial
+    store's copy: the data folder's file, else the store's (schema v11), each taken only
+    when its SHA-256 is the checksum kept at the trial's end (schema v10). AppError (one
+    line, each place and what is wrong with it) when no place holds the file recorded. A
+    source without a checksum (a folder's, or a trial recorded before v10) is read from
+    its path as it is."""
+    places = [source.path]
+    if source.stored_copy is not None:
+        places.append(Path(source.stored_copy))
+    if source.checksum is None:
+        return places[0], ""
+    problems = []
+    for place in places:
+        try:
+            found = file_checksum(place)
+        except FileNotFoundError:
+            problems.append(f"{place} is missing")
+            continue
+        except OSError as exc:
+            problems.append(f"{place} cannot be read ({exc.strerror or exc})")
+            continue
+        if found == source.checksum:
+            return place, ("" if place == places[0] else
+                           f"read from the trial store's copy {place} ({problems[0]})")
+        problems.append(f"{place} is not the file recorded (its SHA-256 is {found[:12]}…, "
+                        f"the registry's {source.checksum[:12]}…: changed or replaced since "
+                        "the trial ended)")
+    raise AppError(f"trial {source.trial_id}: {'; '.join(problems)}; not read: restore the "
+                   "file from a backup")
+
+
+def verified_sources(sources: Iterable[TrialSource], failed: list[Failure],
+                     notes: list[str]) -> list[TrialSource]:
+    """The sources each at the place of its recorded file (verified_place); one that no
+    place holds is listed in `failed` with why, one read from the trial store is noted."""
+    out = []
+    for source in sources:
+        try:
+            place, note = verified_place(source)
+        except AppError as exc:
+            failed.append(Failure(source.path, str(exc)))
+            continue
+        if note:
+            notes.append(note)
+        out.append(source if place == source.path else replace(source, path=place))
+    return out
 
 
 def registry_names(registry: RecordStore, codes: str | Iterable[str]) -> dict[str, tuple]:

@@ -65,6 +65,7 @@ from app.exports.plan import (
     source_for_path,
     sources_from_folder,
     sources_from_registry,
+    verified_sources,
 )
 from app.exports.table import table_outputs, write_table
 from app.records.outcomes import OUTCOME_COLUMNS, level_columns, proposal_columns
@@ -192,10 +193,17 @@ def export_patients(
     left_out: list[int] = []
     sources = sources_from_registry(registry, codes, include_invalid=include_invalid,
                                     left_out=left_out)
+    # each file read where the one recorded is (the data folder's, else the trial store's
+    # copy): a file changed since its trial ended is listed, never exported as the trial
+    unverified: list[Failure] = []
+    notes: list[str] = []
+    sources = verified_sources(sources, unverified, notes)
     names = registry_names(registry, codes) if include_names else None
     result = export_trials(sources, folder, format=format, names=names,
                            exercise_only=exercise_only, digits=digits, overwrite=overwrite,
                            progress=progress)
+    result = dataclasses.replace(result, failed=(*unverified, *result.failed),
+                                 notes=(*result.notes, *notes))
     return with_invalid_note(result, len(left_out))
 
 

@@ -35,9 +35,8 @@ import pandas as pd
 
 from app.errors import AppError
 from app.exports.loader import trial_of
-from app.exports.plan import TrialSource
+from app.exports.plan import TrialSource, verified_place
 from app.exports.run import ran_columns
-from app.records.registry.provenance import file_checksum
 from app.reports.plain_language import success_key
 from app.reports.progress import exercise_of
 from app.study.schema import COLUMNS, METRIC_PREFIX, NUMBER, TRAILING, fits, frame
@@ -116,34 +115,11 @@ def trial_row(trial: StudyTrial) -> dict:
 
 
 def verified_file(trial: StudyTrial) -> tuple[Path, list[str]]:
-    """The file to read of a trial (see the module's doc) and a note when it is the trial
-    store's copy. Raises AppError saying what is wrong with each place when no place holds
-    the file recorded. A trial without a checksum (from a folder, or recorded before schema
-    v10) is read from its path as it is."""
-    source = trial.source
-    places = [source.path]
-    if source.stored_copy is not None:
-        places.append(Path(source.stored_copy))
-    if source.checksum is None:
-        return places[0], []
-    problems = []
-    for place in places:
-        try:
-            found = file_checksum(place)
-        except FileNotFoundError:
-            problems.append(f"{place} is missing")
-            continue
-        except OSError as exc:
-            problems.append(f"{place} cannot be read ({exc.strerror or exc})")
-            continue
-        if found == source.checksum:
-            return place, ([] if place == places[0] else
-                           [f"read from the trial store's copy {place} ({problems[0]})"])
-        problems.append(f"{place} is not the file recorded (its SHA-256 is {found[:12]}…, "
-                        f"the registry's {source.checksum[:12]}…: changed or replaced since "
-                        "the trial ended)")
-    raise AppError(f"trial {source.trial_id}: {'; '.join(problems)}; not analysed: "
-                   "restore the file from a backup")
+    """The file to read of a trial and a note when it is the trial store's copy
+    (app.exports.plan.verified_place, which raises AppError when no place holds the file
+    recorded)."""
+    path, note = verified_place(trial.source)
+    return path, [note] if note else []
 
 
 def metrics(data: TrialData, notes: list[str]) -> dict[str, float]:

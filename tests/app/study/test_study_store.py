@@ -1,14 +1,16 @@
-"""A study from the registry reads each trial where its file is and only the file recorded
-(issue 32: "trial files go to a shared trial store … and the registry records where each file
-is and its checksum"; app.study.rows.verified_file): the data folder's file, else the shared
-trial store's copy, each only when its SHA-256 is the checksum kept at the trial's end. A
-researcher's machine without a station's data folder reads the store; a file changed since
-its trial ended is listed with why, never measured as if it were the trial."""
+"""A study or an export from the registry reads each trial where its file is and only the
+file recorded (issue 32: "trial files go to a shared trial store … and the registry records
+where each file is and its checksum"; app.exports.plan.verified_place): the data folder's
+file, else the shared trial store's copy, each only when its SHA-256 is the checksum kept at
+the trial's end. A researcher's machine without a station's data folder reads the store; a
+file changed since its trial ended is listed with why, never measured or exported as if it
+were the trial."""
 
 from __future__ import annotations
 
 import pytest
 
+from app.exports.run import export_patients
 from app.records.datadir import DataDir
 from app.records.registry import Registry
 from app.records.trialstore import store_pending
@@ -77,8 +79,23 @@ def test_each_trial_is_read_where_its_recorded_file_is(department):
     assert str(store / third.file) in third_failure
     assert third_failure.count("is not the file recorded") == 2
     assert f"the registry's {third.checksum[:12]}" in third_failure
-    assert third_failure.endswith("not analysed: restore the file from a backup")
+    assert third_failure.endswith("not read: restore the file from a backup")
     fourth_failure = rows[fourth.id].failure
     assert fourth_failure.startswith(f"trial {fourth.id}: {registry.trial_path(fourth)} is "
                                      "not the file recorded")
     assert "\n" not in third_failure + fourth_failure
+
+
+def test_an_export_takes_the_same_files_and_lists_the_others(department, tmp_path):
+    registry, code, (first, _, third, _), store = department
+    registry.trial_path(first).unlink()
+    _flip_last_byte(registry.trial_path(third))
+    _flip_last_byte(store / third.file)
+    result = export_patients(registry, [code], tmp_path / "export")
+    assert result.exported == 3
+    assert [f.reason.split(":")[0] for f in result.failed] == [f"trial {third.id}"]
+    assert "not read: restore the file from a backup" in result.failed[0].reason
+    assert any(f"read from the trial store's copy {store / first.file}" in note
+               for note in result.notes)
+    index = (tmp_path / "export" / "trials.csv").read_text()
+    assert first.file.rsplit("/", 1)[-1].removesuffix(".h5") in index
