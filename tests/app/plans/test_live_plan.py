@@ -2,8 +2,8 @@
 (issue 30, what the tests must prove): the right trials, counts and rests for the healthy,
 weak and passive virtual patients; Stop and E-STOP in a block and in a rest end the plan
 at once with the robot made safe, and nothing runs after. Trials are short (two laps of
-the D at its fastest, 2 s; a small circle of 1 s; a reach of 2 s, in which the passive
-arm, 1 s, is not brought back in time to count its return; rests of 0.5 s)."""
+a 5 cm D and one of a 5 cm circle, 1 s each; a reach of 2 s: in a 1 s reach the passive
+arm is not brought back in time to count its return; rests of 0.5 s)."""
 
 import itertools
 
@@ -22,7 +22,7 @@ pytestmark = pytest.mark.slow
 
 REST_S = 0.5
 PLAN = Plan("Three short blocks", (
-    Block(shape="d", repetitions=2, duration_s=2.0, rest_s=REST_S, name="D"),
+    Block(shape="d", repetitions=2, duration_s=1.0, rest_s=REST_S, radius_m=0.05, name="D"),
     Block(shape="circle", repetitions=1, duration_s=1.0, rest_s=REST_S, radius_m=0.05,
           name="Circle"),
     Block(shape="reach", repetitions=1, duration_s=2.0, rest_s=0.0, radius_m=0.06,
