@@ -34,6 +34,8 @@ LONG = THESIS_SUBJECT.replace(repetitions=20)
 BRIEF = PARAMS.replace(duration_s=2.0)
 """A trial for claims that do not depend on its length (the suite's time: real-time
 trials): the approach, one lap of 2 s (the fastest the D's 0.5 m/s allows) and the hold."""
+TINY = PARAMS.replace(shape="circle", radius_m=0.05, duration_s=1.0)
+"""The shortest trial there is (1 s, 0.31 m/s), for claims about what trials leave behind."""
 SUBJECT = SubjectInfo.from_parameters("PTEST01", PARAMS)
 
 pytestmark = pytest.mark.slow
@@ -82,12 +84,14 @@ def test_a_whole_trial_is_recorded_with_its_timing(client, tmp_path):
 
 
 def test_a_whole_trial_with_every_tick_in_python(tmp_path):
+    """The same trial's claims, one lap of 2 s (BRIEF): the ticks' code, not the trial's
+    length, is what differs."""
     with DeviceClient(loop_config=LoopConfig(compiled=False)) as python_loop:
-        whole_trial(python_loop, tmp_path)
+        whole_trial(python_loop, tmp_path, BRIEF)
 
 
-def whole_trial(client, tmp_path):
-    connect(client)
+def whole_trial(client, tmp_path, params=PARAMS):
+    connect(client, params)
     path = tmp_path / "trial.h5"
     assert client.start_trial(str(path), SUBJECT).ok
     events = client.wait_for(is_(TrialEnded), 20)
@@ -99,7 +103,7 @@ def whole_trial(client, tmp_path):
     assert data.status == "complete"
     n = data.n_samples
     # the handle held at the start while the torque ramps up, the exercise, the 0.5 s hold
-    assert n == 250 + round(PARAMS.duration_s / 0.002) + 250
+    assert n == 250 + round(params.duration_s / 0.002) + 250
     np.testing.assert_array_equal(data.channels["tick"], np.arange(n))
     assert data.summary["ticks_missing"] == 0
     # every tick's lateness is measured and kept; on the simulator it faults nothing, and
@@ -153,7 +157,7 @@ def _open_fds(pid: int | str = "self") -> set[tuple[str, str]]:
     return found
 
 
-def test_a_trial_twice_in_a_row_leaks_nothing(tmp_path):
+def test_a_trial_twice_in_a_row_leaks_nothing(client, tmp_path):
     def shm():
         # this process's segments only: other test runs on the machine make and free theirs
         mine = f"_{os.getpid()}_"
@@ -164,13 +168,12 @@ def test_a_trial_twice_in_a_row_leaks_nothing(tmp_path):
         return _open_fds()
 
     # multiprocessing opens its resource tracker's pipe and its shared heap's arena once per
-    # process, at first use: a client started and closed first, so that the count below is
-    # what trials leave, whichever test ran before this one
-    with DeviceClient():
-        pass
+    # process, at first use: the module's client has started (and stays as it is), so that
+    # the count below is what trials leave, whichever test ran before this one
+    assert client.loop_pid is not None
     before_shm, before_fds = shm(), fds()
     with DeviceClient() as c:
-        connect(c, BRIEF)
+        connect(c, TINY)
         for i in range(2):
             path = tmp_path / f"t{i}.h5"
             assert c.start_trial(str(path), SUBJECT).ok
@@ -371,7 +374,7 @@ def test_kill_9_of_the_loop_keeps_the_trial_file(tmp_path):
         path = tmp_path / "killed-loop.h5"
         assert c.start_trial(str(path), SUBJECT).ok
         c.live_records()  # the live view from the trial's start
-        time.sleep(2.0)
+        c.wait_for_samples(500)  # 1 s of the trial's ticks, however long the machine takes
         seen = c.live_records()["tick"]
         os.kill(c.loop_pid, signal.SIGKILL)
         # however long this machine takes to let the recorder see it: how soon is the

@@ -14,7 +14,8 @@ import pytest
 from hypothesis import given, strategies as st
 
 from device.loop.messages import TrialMarker
-from device.lsl.inlet import LslEmgInlet
+from device.lsl import inlet as inlet_module
+from device.lsl.inlet import DUPLICATE_LOOK_S, LslEmgInlet
 from device.lsl.library import LOOPBACK_CONFIG, LslError, find_streams
 from device.lsl.outlet import (
     EVENT_STREAM,
@@ -25,6 +26,14 @@ from device.lsl.outlet import (
 )
 from device.lsl.timeline import MarkerQueue, RingClocks
 from device.recording.record import empty_records
+
+
+@pytest.fixture(autouse=True)
+def _brief_duplicate_look(monkeypatch):
+    """Every stream these tests make has a name of its own, so the inlet's second look for
+    another of the name (DUPLICATE_LOOK_S, 1 s at every inlet made) is 0.1 s here; the
+    one test of a duplicate name looks its whole second."""
+    monkeypatch.setattr(inlet_module, "DUPLICATE_LOOK_S", 0.1)
 
 
 def _emg_outlet(name, channels=16, rate=2000.0, fmt=pylsl.cf_float32, unit="volts",
@@ -157,7 +166,7 @@ def test_streams_are_listed():
     del outlet
 
 
-def test_a_missing_or_wrong_stream_is_one_clear_line():
+def test_a_missing_or_wrong_stream_is_one_clear_line(monkeypatch):
     with pytest.raises(LslError, match=r"no LSL stream named 'nothing-.*' found in 0\.5 s"):
         LslEmgInlet(f"nothing-{_unique()}", timeout_s=0.5)
     name = _unique()
@@ -174,6 +183,7 @@ def test_a_missing_or_wrong_stream_is_one_clear_line():
     slow = _emg_outlet(irregular, channels=1, rate=pylsl.IRREGULAR_RATE)
     with pytest.raises(LslError, match="no regular rate"):
         LslEmgInlet(irregular, timeout_s=5.0)
+    monkeypatch.setattr(inlet_module, "DUPLICATE_LOOK_S", DUPLICATE_LOOK_S)  # the real look
     twice = _unique()
     first, second = _emg_outlet(twice), _emg_outlet(twice)
     _wait_for(lambda: len(pylsl.resolve_byprop("name", twice, 2, 1.0)) == 2, "both seen")

@@ -2,6 +2,7 @@
 the arm's equations, evaluated directly (no simulation)."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -412,3 +413,34 @@ def test_a_course_of_simulated_trials_at_one_setting_varies():
     led, directional = np.array(figures).T
     assert np.ptp(led) > 0.5  # percentage points; 0.07 before
     assert np.ptp(directional) > 1.0
+
+
+def test_the_lagged_push_is_lfilter_s_bit_for_bit_without_importing_scipy_signal():
+    """The push's lag (device.sim.patients._first_order_filter) does lfilter's products and
+    sums in its order, so the tables are what they were with lfilter, signed zeros
+    included; it runs without scipy.signal, whose import the loop process no longer pays."""
+    import subprocess
+    import sys
+
+    from scipy.signal import lfilter
+
+    from device.sim.patient_torque import TABLE_STEP_S
+    from device.sim.patients import DRIVE_LAG_S, _first_order_filter
+
+    a = math.exp(-TABLE_STEP_S / DRIVE_LAG_S)
+    direction = TRAJECTORY.sample(np.arange(0.0, TRAJECTORY.duration_s, TABLE_STEP_S)).direction
+    rng = np.random.default_rng(5)
+    edges = rng.normal(size=(400, 3))
+    edges[:50, 0] = -0.0  # a column that starts at a signed zero
+    edges[:120, 1] = 0.0
+    edges[200:230, 2] = -0.0
+    for x in (np.vstack((direction, direction)), edges, np.array([[1.0], [0.0], [-0.0]])):
+        expected, _ = lfilter([1.0 - a], [1.0, -a], x, axis=0, zi=a * x[:1])
+        got = _first_order_filter(x, a)
+        assert got.tobytes() == expected.tobytes()
+    assert np.signbit(edges).any()
+    code = ("import sys, device.loop.process, device.recording.recorder; "
+            "print('scipy.signal' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, cwd=Path(__file__).resolve().parents[2]).stdout
+    assert out.strip() == "False"

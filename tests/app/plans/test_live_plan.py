@@ -1,8 +1,9 @@
 """A plan of three blocks run end to end on the simulator through the live loop and recorder
 (issue 30, what the tests must prove): the right trials, counts and rests for the healthy,
 weak and passive virtual patients; Stop and E-STOP in a block and in a rest end the plan
-at once with the robot made safe, and nothing runs after. Trials are short (1-2 laps of
-2 s, rests of 1 s)."""
+at once with the robot made safe, and nothing runs after. Trials are short (two laps of
+a 5 cm D and one of a 5 cm circle, 1 s each; a reach of 2 s: in a 1 s reach the passive
+arm is not brought back in time to count its return; rests of 0.5 s)."""
 
 import itertools
 
@@ -19,9 +20,11 @@ from device.loop.states import State
 
 pytestmark = pytest.mark.slow
 
+REST_S = 0.5
 PLAN = Plan("Three short blocks", (
-    Block(shape="d", repetitions=2, duration_s=2.0, rest_s=1.0, name="D"),
-    Block(shape="circle", repetitions=1, duration_s=2.0, rest_s=1.0, name="Circle"),
+    Block(shape="d", repetitions=2, duration_s=1.0, rest_s=REST_S, radius_m=0.05, name="D"),
+    Block(shape="circle", repetitions=1, duration_s=1.0, rest_s=REST_S, radius_m=0.05,
+          name="Circle"),
     Block(shape="reach", repetitions=1, duration_s=2.0, rest_s=0.0, radius_m=0.06,
           name="Reach"),
 ))
@@ -89,10 +92,10 @@ def test_a_plan_of_three_blocks_runs_whole_with_its_counts_rests_and_trials(
         assert f.active_s >= block.laps * block.duration_s - 0.01
     assert dose.active_s == pytest.approx(sum(f.active_s for f in files))
     # each rest was whole before the next block began
-    assert [s.taken_s for s in stored.steps if s.kind == "rest"] == [1.0, 1.0]
-    assert dose.rest_s == 2.0
+    assert [s.taken_s for s in stored.steps if s.kind == "rest"] == [REST_S, REST_S]
+    assert dose.rest_s == 2 * REST_S
     for before, after in itertools.pairwise(trials):
-        assert (after.started_at - before.ended_at).total_seconds() >= 1.0 - 0.05
+        assert (after.started_at - before.ended_at).total_seconds() >= REST_S - 0.05
 
 
 def pressed(what, when):
@@ -135,7 +138,7 @@ def test_stop_and_the_emergency_stop_end_the_plan_at_once_and_safely(
         assert trials[1].status == ("stopped_early" if what == "stop" else "faulted")
     else:
         assert kinds == [("trial", 1), ("rest", 1)]
-        assert stored.steps[1].taken_s < 1.0  # the rest as it was when the plan ended
+        assert stored.steps[1].taken_s < REST_S  # the rest as it was when the plan ended
     assert trials[0].status == "complete"
     assert all(t.finished for t in trials)  # every trial finished into the registry
     # the robot is safe: connected at zero torque after a Stop, latched after an E-STOP
