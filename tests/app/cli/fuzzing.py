@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import hashlib
+import importlib
 import io
 import json
 import os
@@ -345,6 +346,14 @@ def _serve(cwd: str, timeout_s: float) -> None:
     import app.exports.run
     import app.reports.build
     import app.trials.headless  # noqa: F401
+
+    # what the commands import only when they run (a report's PDF writer, the study's
+    # pandas, pyarrow and dask, the LSL library): imported here once, not in every child
+    # (a report or a study analysis spent a second or more of each run importing them)
+    for lazy in ("app.reports.pdf", "app.study.run", "app.study.outputs", "app.study.cluster",
+                 "dask.dataframe", "pyarrow.dataset", "pylsl"):
+        with contextlib.suppress(ImportError):  # a child then says what is missing itself
+            importlib.import_module(lazy)
     from device.compiled.warmup import load_kernels
 
     load_kernels()  # loaded once here: a child's trial runs at once
