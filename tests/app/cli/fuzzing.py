@@ -334,6 +334,10 @@ class Runner:
                    answer["seconds"])
 
 
+_BUILT = None
+"""The server's parser, (parser, commands) as app.cli.main.build_parser returns them."""
+
+
 def _serve(cwd: str, timeout_s: float) -> None:
     """The server's loop: one JSON argument list a line in, one JSON result a line out."""
     import matplotlib
@@ -345,7 +349,7 @@ def _serve(cwd: str, timeout_s: float) -> None:
     import app.cli.main
     import app.exports.run
     import app.reports.build
-    import app.trials.headless  # noqa: F401
+    import app.trials.headless
 
     # what the commands import only when they run (a report's PDF writer, the study's
     # pandas, pyarrow and dask, the LSL library): imported here once, not in every child
@@ -357,6 +361,11 @@ def _serve(cwd: str, timeout_s: float) -> None:
     from device.compiled.warmup import load_kernels
 
     load_kernels()  # loaded once here: a child's trial runs at once
+    # the console's parser built once here too (about 20 ms a run): each child's main()
+    # gets this one, its own copy by the fork, as it would build it (nothing in it depends
+    # on the working folder or the time)
+    global _BUILT
+    _BUILT = app.cli.main.build_parser()
 
     out_file, err_file = Path(cwd) / ".fuzz-out", Path(cwd) / ".fuzz-err"
     print("ready", flush=True)
@@ -404,10 +413,12 @@ def _child(args: list[str], cwd: str, out_file: Path, err_file: Path) -> None:
                           closefd=False)
         sys.stderr = open(2, "w", encoding="utf-8", errors="backslashreplace",  # noqa: SIM115
                           closefd=False)
-        from app.cli.main import main
+        from app.cli import main as cli
 
+        if _BUILT is not None:
+            cli.build_parser = lambda prog="rehab": _BUILT
         try:
-            code = main(args)
+            code = cli.main(args)
         except SystemExit as exc:
             code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
     except BaseException:
