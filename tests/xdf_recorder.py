@@ -18,6 +18,7 @@ from __future__ import annotations
 import struct
 import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -64,13 +65,21 @@ class _Take(threading.Thread):
                 self.values.extend(x if string else np.asarray(x).tolist())
 
 
+def _resolve(source_id: str):
+    return pylsl.resolve_byprop("source_id", source_id, 1, 10.0)[0]
+
+
 class XdfRecorder:
     """Records the streams whose source ids are given until `stop(path)` writes the file."""
 
     def __init__(self, source_ids):
         self.source_ids = list(source_ids)
-        self.takes = [_Take(pylsl.resolve_byprop("source_id", s, 1, 10.0)[0])
-                      for s in self.source_ids]
+        # the streams resolved in one wave and their inlets opened side by side: each
+        # inlet's info, opening and first clock offset are round trips (about 0.7 s a
+        # stream, one after another)
+        with ThreadPoolExecutor(len(self.source_ids)) as pool:
+            infos = list(pool.map(_resolve, self.source_ids))
+            self.takes = list(pool.map(_Take, infos))
         for take in self.takes:
             take.start()
 

@@ -7,6 +7,7 @@ Streaming Layer's streams (device.lsl)."""
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 from pathlib import Path
 
@@ -260,6 +261,16 @@ def cmd_model(args: argparse.Namespace) -> int:
     if args.save is not None and not MODEL_NAME.fullmatch(args.save):
         raise CommandError(f"--save {args.save!r} is not a model name: letters, digits, . _ - "
                            "(at most 100)")
+    if args.save is not None:
+        # a name already taken is refused at once, not after the fit (save_approved checks
+        # again when it writes)
+        from app.emg.modelfile import ModelFileError, model_path
+
+        taken = model_path(data_dir_for(args).models_dir, args.save)
+        with contextlib.suppress(OSError):
+            if taken.exists():
+                raise ModelFileError(taken, "format", "already exists",
+                                     "Give another name; the saved model is kept as it is.")
     trials = [trial_file(args, t) for t in args.trials]
     test = [trial_file(args, t) for t in args.test] if args.test else None
     # a model for the assistance learns from the envelopes the live console will give it

@@ -246,7 +246,8 @@ def _checked_attributes(path: str, item, file_size: int) -> dict:
     for name in names:
         try:
             attribute = h5py.h5a.open(item.id, name.encode("utf-8"))
-            shape, itemsize = attribute.shape, attribute.dtype.itemsize
+            shape, dtype = attribute.shape, attribute.dtype
+            itemsize = dtype.itemsize
         except (OSError, RuntimeError, ValueError, TypeError) as exc:
             raise Damaged(f"is damaged: the attribute {name} of {path} cannot be read "
                           f"({exc})") from exc
@@ -255,18 +256,18 @@ def _checked_attributes(path: str, item, file_size: int) -> dict:
             raise Damaged(f"is damaged: the attribute {name} of {path} claims {shape} values "
                           f"({_bytes(claimed)}) in a file of {_bytes(file_size)}")
         try:
-            values[name] = _value(attribute)
+            values[name] = _value(attribute, shape, dtype)
         except (OSError, RuntimeError, ValueError, TypeError, KeyError) as exc:
             raise Damaged(f"is damaged: the attribute {name} of {path} cannot be read "
                           f"({exc})") from exc
     return values
 
 
-def _value(attribute) -> object:
+def _value(attribute, shape, dtype) -> object:
     """An open attribute's value as h5py's `attrs[name]` gives it (h5py._hl.attrs), read
     through the id already open: h5py's way opens it again, and a trial file has about 200
-    attributes, read on every load."""
-    shape, dtype = attribute.shape, attribute.dtype
+    attributes, read on every load. `shape` and `dtype` are the attribute's, as read once
+    by the caller (each read translates the file's type again: a fifth of a load)."""
     if shape is None:
         return h5py.Empty(dtype)
     memory_type = h5py.h5t.py_create(dtype)

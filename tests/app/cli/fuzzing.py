@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import hashlib
+import importlib
 import io
 import json
 import os
@@ -333,6 +334,10 @@ class Runner:
                    answer["seconds"])
 
 
+_BUILT = None
+"""The server's parser, (parser, commands) as app.cli.main.build_parser returns them."""
+
+
 def _serve(cwd: str, timeout_s: float) -> None:
     """The server's loop: one JSON argument list a line in, one JSON result a line out."""
     import matplotlib
@@ -344,10 +349,23 @@ def _serve(cwd: str, timeout_s: float) -> None:
     import app.cli.main
     import app.exports.run
     import app.reports.build
-    import app.trials.headless  # noqa: F401
+    import app.trials.headless
+
+    # what the commands import only when they run (a report's PDF writer, the study's
+    # pandas, pyarrow and dask, the LSL library): imported here once, not in every child
+    # (a report or a study analysis spent a second or more of each run importing them)
+    for lazy in ("app.reports.pdf", "app.study.run", "app.study.outputs", "app.study.cluster",
+                 "dask.dataframe", "pyarrow.dataset", "pylsl"):
+        with contextlib.suppress(ImportError):  # a child then says what is missing itself
+            importlib.import_module(lazy)
     from device.compiled.warmup import load_kernels
 
     load_kernels()  # loaded once here: a child's trial runs at once
+    # the console's parser built once here too (about 20 ms a run): each child's main()
+    # gets this one, its own copy by the fork, as it would build it (nothing in it depends
+    # on the working folder or the time)
+    global _BUILT
+    _BUILT = app.cli.main.build_parser()
 
     out_file, err_file = Path(cwd) / ".fuzz-out", Path(cwd) / ".fuzz-err"
     print("ready", flush=True)
@@ -395,10 +413,12 @@ def _child(args: list[str], cwd: str, out_file: Path, err_file: Path) -> None:
                           closefd=False)
         sys.stderr = open(2, "w", encoding="utf-8", errors="backslashreplace",  # noqa: SIM115
                           closefd=False)
-        from app.cli.main import main
+        from app.cli import main as cli
 
+        if _BUILT is not None:
+            cli.build_parser = lambda prog="rehab": _BUILT
         try:
-            code = main(args)
+            code = cli.main(args)
         except SystemExit as exc:
             code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
     except BaseException:

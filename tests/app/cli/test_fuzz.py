@@ -10,11 +10,15 @@ touching this file; the values are the kinds that broke commands before (tests.a
 .fuzzing: a link loop, a 300-character name, a path 1,500 folders deep, a named pipe,
 /dev/zero, /proc, a CSV line over 131 KB, a Trigno export with a header only, model JSON
 with NaN or 200,000 levels of nesting, a 4,400-digit number, '²'…). The examples are
-derandomised and bounded so the suite stays within a few minutes; `bench/fuzz_cli.py` runs
-ten thousand and more and prints what it found.
+derandomised and bounded so the suite stays within a few minutes: EXAMPLES argument lists a
+command (each a forked run of the whole command, a trial or a PDF for some);
+REHAB_FUZZ_EXAMPLES=100 runs more in the test, and `bench/fuzz_cli.py` runs ten thousand and
+more and prints what it found.
 """
 
 from __future__ import annotations
+
+import os
 
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
@@ -22,7 +26,9 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 from tests.app.cli.fuzzing import ROOT, Runner, Scratch, changed_files, commands, judge
 
 COMMANDS = commands()
-EXAMPLES = 16
+EXAMPLES = int(os.environ.get("REHAB_FUZZ_EXAMPLES", "10"))
+"""Argument lists a command (16 until 2026-12; the first ten of a derandomised run are the
+same lists)."""
 
 
 @pytest.fixture(scope="module")

@@ -12,7 +12,7 @@ from device.recording.emgfile import read_emg
 
 @pytest.fixture(scope="module")
 def design(tmp_path_factory):
-    return thesis_design(tmp_path_factory.mktemp("design"), subjects=2, engine="python")
+    return thesis_design(tmp_path_factory.mktemp("design"), subjects=2)
 
 
 def test_the_design_has_the_thesis_sessions_and_subject_2s_bad_deltoid(design):
