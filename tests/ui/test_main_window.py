@@ -263,7 +263,7 @@ def test_three_trials_in_a_row_with_the_host_stalling_50_ms(qtbot, window, monke
     monkeypatch.setattr(window_trial, "BackendConfig", stalling)
     win = window
     register_patient(qtbot, win)
-    short_trial(win)
+    short_trial(win, duration_s=1.5)
     click(qtbot, win.robot.buttons["build"])
     qtbot.waitUntil(lambda: win.state == State.BUILT, timeout=20000)
     click(qtbot, win.robot.buttons["connect"])

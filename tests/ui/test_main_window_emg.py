@@ -68,7 +68,7 @@ def test_live_emg_is_stored_with_the_trial_when_its_file_closes(qtbot, tmp_path,
     with fake.FakeTrignoServer() as server:
         try:
             register_patient(qtbot, win)
-            short_trial(win)
+            short_trial(win, duration_s=1.5)
             emg = win.emg
             emg.source_edit.setText("trigno:127.0.0.1")
             emg.source_ports = {"command_port": server.command_port,
@@ -82,7 +82,7 @@ def test_live_emg_is_stored_with_the_trial_when_its_file_closes(qtbot, tmp_path,
             stored = _stored(qtbot, win.trial_path)
             assert stored.samples.shape[1] == 16
             assert stored.attrs["source"] == "trigno:127.0.0.1"
-            duration = 2.0 + 10.0  # at most: approach, exercise, hold
+            duration = 1.5 + 10.0  # at most: exercise, approach, hold
             assert stored.time_s[0] >= -LIVE_MARGIN_S - 0.01
             assert stored.time_s[-1] <= duration + LIVE_MARGIN_S
             # even on the monotonic clock; on the trial's clock too, except where the

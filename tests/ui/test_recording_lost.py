@@ -21,7 +21,7 @@ def test_a_trial_whose_file_cannot_be_made_is_finished_with_its_cause_and_the_ne
     win = open_window(qtbot, tmp_path, monkeypatch)
     try:
         register_patient(qtbot, win)
-        short_trial(win)
+        short_trial(win, duration_s=1.5)
         start_trial = win.bridge.start_trial
         away: list[tuple[Path, Path]] = []
 

@@ -15,7 +15,7 @@ def test_the_finished_trial_is_shown_from_its_file(qtbot, tmp_path, monkeypatch)
     win = open_window(qtbot, tmp_path, monkeypatch)
     try:
         register_patient(qtbot, win)
-        short_trial(win)
+        short_trial(win, duration_s=1.5)
         build_connect_start(qtbot, win)
         live = win.live
         qtbot.waitUntil(lambda: win.unsaved_trial is not None and win.live is not live)

@@ -2,7 +2,7 @@
 and a block changed in the Plan tab's table; Start plan runs each round through the
 window's own Build and Start (the robot buttons' path, so the state machine's one truth
 holds), times the rest, and the E-STOP ends it at once. The real loop and recorder run
-behind the window; trials of one 2 s lap, rests of 1 s."""
+behind the window; trials of one 1.5 s lap, rests of 1 s."""
 
 import pytest
 
@@ -14,13 +14,13 @@ from tests.ui.session import click, open_window, register_patient, short_trial
 pytestmark = pytest.mark.slow
 
 PLAN = Plan("Two short blocks", (
-    Block(shape="d", repetitions=1, duration_s=2.0, rest_s=1.0, name="D"),
-    Block(shape="circle", repetitions=1, duration_s=2.0, rest_s=0.0, radius_m=0.08,
+    Block(shape="d", repetitions=1, duration_s=1.5, rest_s=1.0, name="D"),
+    Block(shape="circle", repetitions=1, duration_s=1.5, rest_s=0.0, radius_m=0.08,
           name="Circle"),
 ))
 LONG_REST = Plan("A long rest", (
-    Block(shape="d", repetitions=1, duration_s=2.0, rest_s=600.0, name="D"),
-    Block(shape="circle", repetitions=1, duration_s=2.0, rest_s=0.0, radius_m=0.08,
+    Block(shape="d", repetitions=1, duration_s=1.5, rest_s=600.0, name="D"),
+    Block(shape="circle", repetitions=1, duration_s=1.5, rest_s=0.0, radius_m=0.08,
           name="Circle"),
 ))
 """A rest no loaded machine can miss by polling (a 1 s one was missed in a whole check

@@ -24,7 +24,7 @@ def test_a_station_records_a_trial_in_the_shared_registry(qtbot, tmp_path, monke
             f"127.0.0.1:{url.port}/{url.database}")
         assert url.password not in win.windowTitle()
         register_patient(qtbot, win)
-        short_trial(win)
+        short_trial(win, duration_s=1.5)
         build_connect_start(qtbot, win)
         qtbot.waitUntil(lambda: win.unsaved_trial is not None
                         and win.registry.trial(win.unsaved_trial).finished)
@@ -66,7 +66,7 @@ def test_the_network_drops_mid_session_and_the_station_records_on_then_sends_it_
     try:
         register_patient(qtbot, win)
         code = win.patient.code
-        short_trial(win)
+        short_trial(win, duration_s=1.5)
         build_connect_start(qtbot, win)
         qtbot.waitUntil(lambda: win.unsaved_trial is not None
                         and win.registry.trial(win.unsaved_trial).finished)

@@ -17,7 +17,7 @@ def test_a_trial_waits_for_the_store_and_is_copied_when_it_returns(qtbot, tmp_pa
     win = open_window(qtbot, tmp_path, monkeypatch)
     try:
         register_patient(qtbot, win)
-        short_trial(win)
+        short_trial(win, duration_s=1.5)
         build_connect_start(qtbot, win)
         qtbot.waitUntil(lambda: any("is not there (is the network folder mounted?)" in line
                                     for line in win.messages.history()))

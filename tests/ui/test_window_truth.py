@@ -125,7 +125,7 @@ def test_the_banner_is_the_latch_in_every_state(qtbot, window):
     Disconnect while faulted."""
     win = window
     register_patient(qtbot, win)
-    short_trial(win)
+    short_trial(win, duration_s=1.5)
 
     def agree() -> None:
         latched = _flag(win) or win.state == State.FAULTED

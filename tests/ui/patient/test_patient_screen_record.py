@@ -54,7 +54,7 @@ def test_a_trial_without_the_patient_s_screen_says_it_was_closed(qtbot, tmp_path
     win = open_window(qtbot, tmp_path, monkeypatch)
     try:
         register_patient(qtbot, win)
-        short_trial(win)
+        short_trial(win, duration_s=1.5)
         build_connect_start(qtbot, win)
         shown = _shown(qtbot, win)
     finally:
