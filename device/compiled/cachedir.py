@@ -76,7 +76,7 @@ CACHE_DIR, CACHE_PROBLEM = private_cache_dir()
 
 
 ENTRY_KERNELS = ("engine.run_ticks", "engine.simulated_tick", "engine.supervised_command",
-                 "checks.supervise", "pipeline.control", "physics.read", "physics.write",
+                 "checks.supervise", "control_kernel.control", "physics.read", "physics.write",
                  "physics.reset")
 """The kernels called from Python, as numba names their cache files (<module>.<name>);
 the others are compiled into them."""

@@ -2,7 +2,7 @@
 
 Each tick, in the order of the thesis's scheme (Fig. 3.6): the backend's sensors →
 (while a trial runs) rate estimate → reference → controller → performance-based
-assistance (device.loop.pipeline.control) → safety supervisor (device.safety.checks) →
+assistance (device.loop.control_kernel.control) → safety supervisor (device.safety.checks) →
 the backend's motors → the record. Everything between the sensors and the motors is
 one kernel, `supervised_command` (core.kernels), run compiled by numba or interpreted:
 the same code either way, so the same numbers.
@@ -62,7 +62,7 @@ FAULT_LATCHED = 10
 failure codes, device.sim.physics)."""
 NEED_ROWS = 11
 """`run_ticks` stopped before a tick that reads reference rows it was not given
-(pipeline.rows_needed): load them (TickPipeline.load_rows) and go on from that tick."""
+(control_kernel.rows_needed): load them (TickPipeline.load_rows) and go on from that tick."""
 
 _CHUNKS = 100  # a headless run reports its progress this many times
 BLOCK_TICKS = 25_000

@@ -10,7 +10,7 @@ import pytest
 from core.trial import THESIS_SUBJECT
 from device.backend import REAL_TIME, SIMULATED
 from device.errors import BackendError
-from device.loop import process as loop_module
+from device.loop import commands as loop_commands
 from device.loop.backends import make_backend
 from device.loop.messages import BackendConfig, Build, Connect, Notice, Reply
 from device.loop.pipeline import TrialPlan
@@ -103,7 +103,7 @@ def in_process_loop(monkeypatch):
         calls.append(seconds)
         return result["late"]
 
-    monkeypatch.setattr(loop_module, "measure_wakeups", measured)
+    monkeypatch.setattr(loop_commands, "measure_wakeups", measured)
     console, loop_end = mp.Pipe()
     ring = RecordRing.create(64)
     flag = SimpleNamespace(value=0)
