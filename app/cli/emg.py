@@ -264,13 +264,10 @@ def cmd_model(args: argparse.Namespace) -> int:
     if args.save is not None:
         # a name already taken is refused at once, not after the fit (save_approved checks
         # again when it writes)
-        from app.emg.modelfile import ModelFileError, model_path
+        from app.emg.modelfile import refuse_taken
 
-        taken = model_path(data_dir_for(args).models_dir, args.save)
-        with contextlib.suppress(OSError):
-            if taken.exists():
-                raise ModelFileError(taken, "format", "already exists",
-                                     "Give another name; the saved model is kept as it is.")
+        with contextlib.suppress(OSError):  # a folder that cannot be read: said at the save
+            refuse_taken(data_dir_for(args).models_dir, args.save)
     trials = [trial_file(args, t) for t in args.trials]
     test = [trial_file(args, t) for t in args.test] if args.test else None
     # a model for the assistance learns from the envelopes the live console will give it

@@ -105,6 +105,16 @@ def model_path(models_dir: str | Path, name: str) -> Path:
     return models_folder(models_dir) / f"{name}{SUFFIX}"
 
 
+def refuse_taken(models_dir: str | Path, name: str) -> Path:
+    """The path a model named `name` is saved at; ModelFileError when a model holds it
+    already (a saved model is never replaced)."""
+    path = model_path(models_dir, name)
+    if path.exists():
+        raise ModelFileError(path, "format", "already exists",
+                             "Give another name; the saved model is kept as it is.")
+    return path
+
+
 def save_approved(models_dir: str | Path, name: str, checked) -> Path:
     """Write the checked model (app.emg.validation.CheckedModel) as `name` in models/emg/
     if every held-out validation passed (ModelNotApproved, writing nothing, otherwise);
@@ -114,10 +124,7 @@ def save_approved(models_dir: str | Path, name: str, checked) -> Path:
         raise ModelFileError(name, "format", "is not a model name",
                              "Use letters, digits, . _ - (at most 100).")
     approve(model, validations)
-    path = model_path(models_dir, name)
-    if path.exists():
-        raise ModelFileError(path, "format", "already exists",
-                             "Give another name; the saved model is kept as it is.")
+    path = refuse_taken(models_dir, name)
     document = {
         "format": FORMAT, "format_version": FORMAT_VERSION, "name": name,
         "created_utc": datetime.now(UTC).isoformat(),

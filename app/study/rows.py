@@ -14,14 +14,14 @@ patient's progress' (app.reports.progress.exercise_of). So a study's row of a tr
 the figures the console shows for it.
 
 A trial from the registry is read where its file is and only when it is the file recorded
-(`verified_file`): the data folder's, else its copy in the department's shared trial store
-(schema v11), each taken only when its SHA-256 is the checksum kept at the trial's end
-(schema v10); a file changed or replaced since, or in neither place, is a failure saying
-which and where to restore it from, never a row of figures from a file that is not the
-trial's. A file that cannot be read gives a row whose `failure` says why, in the reader's
-words; the chunk goes on with the next file. A file that reads but cannot be measured (too little
-exercise, no parameters) keeps its row without metrics, and its `notes` say why, as the
-registry keeps such a trial.
+(app.exports.plan.verified_place): the data folder's, else its copy in the department's
+shared trial store (schema v11), each taken only when its SHA-256 is the checksum kept at
+the trial's end (schema v10); a file changed or replaced since, or in neither place, is a
+failure saying which and where to restore it from, never a row of figures from a file that
+is not the trial's. A file that cannot be read gives a row whose `failure` says why, in the
+reader's words; the chunk goes on with the next file. A file that reads but cannot be
+measured (too little exercise, no parameters) keeps its row without metrics, and its
+`notes` say why, as the registry keeps such a trial.
 """
 
 from __future__ import annotations
@@ -29,7 +29,6 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass
-from pathlib import Path
 
 import pandas as pd
 
@@ -97,7 +96,8 @@ def failure_reason(exc: BaseException) -> str:
 def trial_row(trial: StudyTrial) -> dict:
     """One trial's row (see the module's doc); raises the reader's error for a file that
     cannot be read."""
-    path, notes = verified_file(trial)
+    path, note = verified_place(trial.source)
+    notes = [note] if note else []
     data = read_trial(path, CHANNELS)
     loaded = trial_of(data)
     row = {key: value for key, value in loaded.row().items()
@@ -112,14 +112,6 @@ def trial_row(trial: StudyTrial) -> dict:
     if row.get("patient") is None:
         row["patient"] = row.get("subject_code")
     return _fitted(row, notes)
-
-
-def verified_file(trial: StudyTrial) -> tuple[Path, list[str]]:
-    """The file to read of a trial and a note when it is the trial store's copy
-    (app.exports.plan.verified_place, which raises AppError when no place holds the file
-    recorded)."""
-    path, note = verified_place(trial.source)
-    return path, [note] if note else []
 
 
 def metrics(data: TrialData, notes: list[str]) -> dict[str, float]:

@@ -12,7 +12,7 @@
   proposal made after each and why it ended, and each file's checksum and copy in the
   shared trial store: a worker reads the data folder's file or, where that is missing or
   not the one recorded, the store's, and only a file whose SHA-256 is the one kept
-  (app.study.rows.verified_file); a researcher's machine without the stations' data
+  (app.exports.plan.verified_place); a researcher's machine without the stations' data
   folders reads the store. The site is `site` when given, else the
   station that recorded the trial (a department's robots on one shared registry).
 
