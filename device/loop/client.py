@@ -320,21 +320,16 @@ class DeviceClient:
         return out
 
     def _receive(self, timeout: float) -> list:
-        out = []
-        for conn in (self._conn, self._notices):
-            try:
-                while conn.poll(timeout if conn is self._conn and not out else 0):
-                    out.append(conn.recv())
-                    self._loop_heard = self._loop_heard or conn is self._conn
-            except (EOFError, OSError):
-                if conn is self._conn and not self._lost_reported:
-                    self._lost_reported = True
-                    code = None if self._loop is None else self._loop.exitcode
-                    out.append(LoopLost(code, "the control loop process ended unexpectedly; "
-                                              "the robot is unpowered by its watchdog. Restart "
-                                              "the console before the next trial."))
-                elif conn is self._notices:
-                    self._recorder_lost = True  # only the recorder held its end
+        out = self._drain(self._conn, timeout)
+        notices = self._drain(self._notices, 0.0)
+        if notices:
+            # the loop's messages sent before the recorder's: the recorder closes a trial's
+            # file only after the loop has told this console of the fault that ended it
+            # (device.loop.process), so a fault already in the loop's pipe goes first and
+            # the window keeps it as the trial's cause (a "lost" notice read before it left
+            # the registry without the fault)
+            out += self._drain(self._conn, 0.0)
+        out += notices
         for event in out:
             if isinstance(event, StateChanged):
                 self.state = State(event.state)
@@ -342,6 +337,25 @@ class DeviceClient:
         notice = self._salvage_if_due()
         if notice is not None:
             out.append(notice)
+        return out
+
+    def _drain(self, conn, timeout: float) -> list:
+        """Every message waiting on `conn` (the first within `timeout`); a closed pipe is
+        told once: the loop's as LoopLost, the recorder's by the salvage it calls for."""
+        out = []
+        try:
+            while conn.poll(timeout if not out else 0):
+                out.append(conn.recv())
+                self._loop_heard = self._loop_heard or conn is self._conn
+        except (EOFError, OSError):
+            if conn is self._conn and not self._lost_reported:
+                self._lost_reported = True
+                code = None if self._loop is None else self._loop.exitcode
+                out.append(LoopLost(code, "the control loop process ended unexpectedly; "
+                                          "the robot is unpowered by its watchdog. Restart "
+                                          "the console before the next trial."))
+            elif conn is self._notices:
+                self._recorder_lost = True  # only the recorder held its end
         return out
 
     def _follow_trial(self, event) -> None:

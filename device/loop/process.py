@@ -399,13 +399,20 @@ class DeviceLoop(LoopCommands, StopCauses):
             message = self._recording_cause(detail) or message
         elif fault == Fault.ESTOP and self.stop_signal.name and not self.estop_flag.value:
             message = self._signal_cause(detail)
-        if self.state == State.RUNNING:
+        running = self.state == State.RUNNING
+        if running:
             tick = self.trial_tick
             self._to_recorder(TrialEvent(tick * self.plan.period_s, tick, "fault",
                                          message, detail))
+        # the console hears of the fault before the recorder hears of the trial's end: the
+        # recorder's word on the trial's file ("closed", "lost"), sent once it has the end,
+        # then always finds the fault in the console's pipe (DeviceClient._receive reads it
+        # first), and the registry keeps the fault as the trial's cause. Told after the
+        # end, a "lost" notice overtook it and the trial's cause missed the fault.
+        self._send(FaultRaised(int(fault), message, detail, loop_t, detected))
+        if running:
             status = "recording_lost" if fault == Fault.RECORDING_LOST else "faulted"
             self._end_trial(status, f"stopped by a fault: {fault.label}")
-        self._send(FaultRaised(int(fault), message, detail, loop_t, detected))
         self._enter(State.FAULTED, message)
 
     # ------------------------------------------------------------------ messages

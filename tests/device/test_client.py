@@ -73,3 +73,44 @@ def test_the_first_command_waits_for_the_loop_process_to_start():
     with pytest.raises(DeviceError, match=r"did not answer Stop within 0\.001 s"):
         client.request(type("Stop", (), {"id": 2})(), timeout=0.001)
     assert LOOP_START_S >= 60
+
+
+class LaterPipe(FakePipe):
+    """The loop's pipe, whose `incoming` is written only once the recorder's notice has
+    been read: the loop told the console of the fault a moment after the console's first
+    look at its pipe, and the recorder's notice on the trial's file came after."""
+
+    def __init__(self, incoming, after):
+        super().__init__()
+        self.later, self.after = list(incoming), after
+
+    def poll(self, timeout=0.0):
+        if self.after.read and self.later:
+            self.incoming += self.later
+            self.later = []
+        return super().poll(timeout)
+
+
+class NoticePipe(FakePipe):
+    read = False
+
+    def recv(self):
+        self.read = True
+        return super().recv()
+
+
+def test_a_fault_sent_before_the_recorders_notice_reaches_the_window_first():
+    """A trial whose file could not be made: the recorder's "lost" notice is sent after
+    the loop's fault (device.loop.process sends the fault before the trial's end reaches
+    the recorder), but read in the same look at both pipes it overtook the fault, and the
+    registry kept the trial's end without its cause (CI: "The trial file could not be
+    written" missing from the trial's end reason)."""
+    from device.loop.messages import FaultRaised
+    from device.recording.messages import RecorderNotice
+
+    client = DeviceClient()
+    fault = FaultRaised(14, "The trial file could not be written", {}, 1.0, 2.0)
+    lost = RecorderNotice("lost", "/tmp/t.h5", "recording_lost", "folder gone")
+    client._notices = NoticePipe([lost])
+    client._conn = LaterPipe([fault], client._notices)
+    assert client.events() == [fault, lost]
