@@ -25,7 +25,7 @@ def add_run_command(commands) -> None:
                     "write its trial file and print the metrics table.",
     )
     add_trial_options(run_cmd)
-    from device.sim.patients import PATIENT_KINDS
+    from device.sim.patient_parameters import PATIENT_KINDS
 
     run_cmd.add_argument("--patient", choices=PATIENT_KINDS, default="healthy",
                          help="virtual patient (default healthy)")

@@ -26,7 +26,7 @@ BACKEND_KINDS = ("simulator", "quanser")
 class BackendConfig:
     """Which robot the loop drives. Built inside the loop process at Connect.
 
-    simulator: `patient` is a virtual patient kind (device.sim.patients.PATIENT_KINDS).
+    simulator: `patient` is a virtual patient kind (device.sim.patient_parameters.PATIENT_KINDS).
     quanser: `hardware_settings` is the TOML file of docs/hardware.md.
     `fault_scenario` wraps the backend in device.sim.faultinjection.FaultInjectingBackend
     (commissioning and tests), with `fault_options` as keyword arguments.

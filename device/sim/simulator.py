@@ -275,7 +275,8 @@ class SimulatorBackend:
         robot_seed: int = ROBOT_SEED,
         **options,
     ) -> SimulatorBackend:
-        """A simulator for `trial` with a patient of `kind` (device.sim.patients.PATIENT_KINDS).
+        """A simulator for `trial` with a patient of `kind` (one of PATIENT_KINDS,
+        device.sim.patient_parameters).
 
         `seed` sets the trial's draws: the patient's and the sensor noise (through
         independent child seeds); `patient_options` go to make_patient; `plant` is
