@@ -26,7 +26,7 @@ from PySide6.QtWidgets import (
 )
 
 from device.sim.patient_parameters import PATIENT_KINDS
-from device.sim.simulator import SEEDS
+from device.sim.seeds import SEEDS
 from ui import theme
 from ui.fields import ComboBox, SpinBox
 from ui.tabs.form_rows import FormRows
