@@ -29,7 +29,7 @@ from core.trial import THESIS_SUBJECT
 from device.backend import SensorReading
 from device.compiled.warmup import load_kernels
 from device.loop.pipeline import TickPipeline, TrialPlan
-from device.sim.patients import PATIENT_KINDS
+from device.sim.patient_parameters import PATIENT_KINDS
 
 
 def closed_loop(seed: int) -> None:

@@ -23,7 +23,7 @@ from app.reports.build import build_report, write_report_pdf
 from app.trials.headless import save, simulate
 from app.trials.reader import read_trial
 from core.trial import THESIS_SUBJECT
-from device.sim.patients import PATIENT_KINDS
+from device.sim.patient_parameters import PATIENT_KINDS
 
 GOAL_S = 2.0
 

@@ -33,7 +33,7 @@ from app.trials.headless import simulate
 from core.control import PerformanceAssistance, make_controller
 from core.robot import RobotModel
 from core.trial import THESIS_SUBJECT, TrialParameters
-from device.sim.patients import PATIENT_KINDS
+from device.sim.patient_parameters import PATIENT_KINDS
 from device.sim.simulator import INTEGRATORS, SimulatorBackend
 
 

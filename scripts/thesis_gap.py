@@ -21,7 +21,7 @@ import numpy as np
 from app.trials.analysis import analyse, exercise_mask
 from app.trials.headless import simulate
 from core.trial import THESIS_SMC_GAINS, THESIS_SUBJECT
-from device.sim.patients import HEALTHY_IMPEDANCE
+from device.sim.patient_parameters import HEALTHY_IMPEDANCE
 from device.sim.population import GUIDED_IMPEDANCE_SCALE
 
 THESIS = {"rmse_x_mm": 8.68, "rmse_y_mm": 7.02, "dir_pct": 78.0, "frange_x_N": 0.835,

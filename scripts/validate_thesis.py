@@ -13,7 +13,7 @@ import math
 from app.trials.analysis import analyse
 from app.trials.headless import simulate
 from core.trial import THESIS_SUBJECT
-from device.sim.patients import PATIENT_KINDS
+from device.sim.patient_parameters import PATIENT_KINDS
 
 ROWS = (
     # (label, metric key, display scale, unit, thesis value)

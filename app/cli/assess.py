@@ -39,7 +39,7 @@ def add_assess_commands(commands) -> None:
     run.add_argument("code", help="the patient's code")
     run.add_argument("--task", required=True, choices=(*TASKS, "all"),
                      help="the task, or all for the whole battery")
-    from device.sim.patients import PATIENT_KINDS
+    from device.sim.patient_parameters import PATIENT_KINDS
 
     run.add_argument("--patient", choices=PATIENT_KINDS, default="healthy",
                      help="virtual patient (default healthy)")

@@ -56,7 +56,7 @@ def add_plan_commands(commands) -> None:
                     "block's trials registered and saved, the rests timed, the dose "
                     "printed.")
     run.add_argument("code", help="the patient's code")
-    from device.sim.patients import PATIENT_KINDS
+    from device.sim.patient_parameters import PATIENT_KINDS
 
     run.add_argument("--patient", choices=PATIENT_KINDS, default="healthy",
                      help="virtual patient (default healthy)")

@@ -25,7 +25,7 @@ def add_run_command(commands) -> None:
                     "write its trial file and print the metrics table.",
     )
     add_trial_options(run_cmd)
-    from device.sim.patients import PATIENT_KINDS
+    from device.sim.patient_parameters import PATIENT_KINDS
 
     run_cmd.add_argument("--patient", choices=PATIENT_KINDS, default="healthy",
                          help="virtual patient (default healthy)")
@@ -85,7 +85,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.robot_seed < 0:
         raise CommandError(f"--robot-seed {args.robot_seed}: give a whole number from 0 "
                            "(0 is the console's simulated robot)")
-    from device.sim.simulator import draw_seed
+    from device.sim.seeds import draw_seed
 
     args.seed = draw_seed() if args.seed is None else args.seed
     model = None

@@ -28,7 +28,7 @@ from app.trials.headless import simulate
 from app.trials.progression import Proposal, propose
 from core.trial import TrialParameters
 from device.sim.learning import TrialToTrialAdaptation, intent_error_m
-from device.sim.patients import DEFAULT_EFFORT
+from device.sim.patient_parameters import DEFAULT_EFFORT
 
 
 @dataclass(frozen=True, slots=True)

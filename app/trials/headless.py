@@ -39,7 +39,8 @@ from device.loop.pipeline import (
 )
 from device.recording.trialfile import SubjectInfo, TrialFileWriter
 from device.safety.supervisor import SafetySupervisor
-from device.sim.simulator import ROBOT_SEED, SimulatorBackend, draw_seed
+from device.sim.seeds import ROBOT_SEED, draw_seed
+from device.sim.simulator import SimulatorBackend
 
 Progress = Callable[[float], None]
 ENGINES = ("auto", "compiled", "python")
@@ -119,7 +120,7 @@ def simulate(
     the computed-torque PID runs on it, compiled for an FNN or a DeLaN. A `feed`
     (app.emg.feed) gives the assistance its estimate of the patient's force between
     ticks, for parameters that name one (`force_estimate`). `seed` None draws a new one
-    (device.sim.simulator.draw_seed; the result's `seed` says which).
+    (device.sim.seeds.draw_seed; the result's `seed` says which).
     """
     if seed is None:
         seed = draw_seed()

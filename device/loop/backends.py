@@ -23,7 +23,8 @@ def make_backend(config: BackendConfig, params: TrialParameters, plan: TrialPlan
     if config.timing not in (None, *TIMINGS):
         raise BackendError(f"unknown timing {config.timing!r}; use {' or '.join(TIMINGS)}")
     if config.kind == "simulator":
-        from device.sim.simulator import SimulatorBackend, draw_seed
+        from device.sim.seeds import draw_seed
+        from device.sim.simulator import SimulatorBackend
 
         # the loop draws the trial's seed itself, to name it (BackendConfig.seed None)
         seed = draw_seed() if config.seed is None else config.seed

@@ -56,8 +56,9 @@ from device.loop.states import State
 from device.recording.messages import RecorderNotice
 from device.recording.record import RECORD_DTYPE
 from device.recording.recorder import recorder_main
-from device.recording.ring import RecordRing, reclaim_stale
+from device.recording.ring import RecordRing
 from device.recording.salvage import LostFault, salvage
+from device.recording.segment import reclaim_stale
 from device.recording.trialfile import SubjectInfo
 from device.safety.limits import SafetyLimits
 

@@ -222,7 +222,7 @@ class LoopCommands:
         self.paused = True
         config = self.backend_config
         if config.kind == "simulator" and config.seed is None:
-            from device.sim.simulator import draw_seed  # as make_backend: the simulator's
+            from device.sim.seeds import draw_seed  # as make_backend: the simulator's
 
             config = dataclasses.replace(config, seed=draw_seed())
         backend = make_backend(config, self.plan.parameters, self.plan, self.clock.sleep,

@@ -26,7 +26,7 @@ BACKEND_KINDS = ("simulator", "quanser")
 class BackendConfig:
     """Which robot the loop drives. Built inside the loop process at Connect.
 
-    simulator: `patient` is a virtual patient kind (device.sim.patients.PATIENT_KINDS).
+    simulator: `patient` is a virtual patient kind (device.sim.patient_parameters.PATIENT_KINDS).
     quanser: `hardware_settings` is the TOML file of docs/hardware.md.
     `fault_scenario` wraps the backend in device.sim.faultinjection.FaultInjectingBackend
     (commissioning and tests), with `fault_options` as keyword arguments.
@@ -52,7 +52,7 @@ class BackendConfig:
     """The simulated robot (device.sim.plant.PLANTS): its own parameters drawn around the
     controller's model by `robot_seed`, or the model itself."""
     robot_seed: int = 0
-    """The draw of a realistic plant's robot (device.sim.simulator.ROBOT_SEED): the same
+    """The draw of a realistic plant's robot (device.sim.seeds.ROBOT_SEED): the same
     simulated robot for every trial, whatever `seed` draws for the patient."""
     push_at_connect_N: tuple[float, float] = (0.0, 0.0)
     """A simulated hand pushing the handle while the force sensor takes its zero at

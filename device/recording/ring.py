@@ -1,9 +1,5 @@
 """The shared-memory ring buffer between the 2 ms loop and its readers.
 
-(Some 580 lines for one data structure: its cross-process protocol, the lifetime of the
-segment when any of three processes dies, and the reclaiming of segments a crash left
-behind only make sense together.)
-
 The loop process writes one fixed-size record per tick; the recorder (must see every
 record) and the live view (may skip ahead) copy them out from other processes. One
 `RecordRing` is one POSIX shared-memory segment: a 256-byte header of int64 counters,
@@ -39,36 +35,9 @@ then publishes its cursor with `commit_read`.
 Ownership and cleanup
 ---------------------
 The process that calls `RecordRing.create` owns the segment; everyone else uses
-`RecordRing.attach`. The owner need not be the writer: when the process that starts
-the loop owns the ring and the loop attaches to write, a crashed loop still leaves the
-ring with its owner, to be drained and unlinked.
-
-Every handle calls `close()` (unmaps, once every view it handed out is dropped).
-Only the owner calls `unlink()` (removes the name; mappings already open stay valid,
-so readers can still drain). ``with RecordRing.create(...) as ring:`` does both. If
-the owner forgets, a finaliser unlinks when its handle is collected or the
-interpreter exits (never in a forked child that inherited the handle).
-
-If the owner is killed, what happens depends on its resource tracker. A standalone
-owner's own tracker unlinks the segment at once (with a "leaked shared_memory"
-warning). When the tracker is shared with processes still running (an owner started
-by multiprocessing) or died with the owner (the process group killed), the segment
-stays in /dev/shm with everything written so far, readable by anyone who attaches.
-Names are ``<prefix><owner pid>_<random>``, so `reclaim_stale`, called by the next
-owner at start-up, unlinks every segment with the prefix whose owner pid is gone; a
-running owner is never touched. Failing that, a shared tracker unlinks it when the
-last process sharing it exits.
-
-The Python 3.11 resource_tracker quirk: ``SharedMemory(name)`` also registers the
-segment with the *attaching* process's tracker. An attacher with its own tracker (a
-process not started by multiprocessing from the owner) then unlinks the owner's live
-segment when it exits, with a "leaked" warning. The usual cure, unregistering right
-after attaching, is wrong when the tracker is shared (any multiprocessing child): the
-tracker keeps a set, so the attacher removes the owner's entry and the owner's own
-``unlink()`` later makes the tracker print a KeyError traceback. So attachers here
-never register: they map the segment with ``_posixshmem.shm_open`` (what
-``SharedMemory`` itself uses; Python 3.13 exposes the same as ``track=False``). Only
-the owner is tracked, and only the owner's ``unlink()`` unregisters.
+`RecordRing.attach`. Every handle calls `close()`; only the owner calls `unlink()`. Who
+removes a segment when, and why attachers map it without the resource tracker, are
+device.recording.segment's notes.
 
 Memory ordering
 ---------------
@@ -95,30 +64,26 @@ needs a fence at those points (a small C extension or an atomics package).
 
 from __future__ import annotations
 
-import mmap
 import os
-import re
-import secrets
 import struct
 import weakref
 import zlib
-from multiprocessing import resource_tracker
 from multiprocessing.shared_memory import SharedMemory
-from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
-from device.errors import DeviceError, RecordingError, StateError
+from device.errors import RecordingError, StateError
 from device.recording.record import RECORD_DTYPE, empty_records, flat_names, record_struct
-
-try:
-    import _posixshmem
-except ImportError:  # pragma: no cover - Windows
-    _posixshmem = None
-
-NAME_PREFIX = "rehab_ring_"
-SHM_DIR = Path("/dev/shm")
+from device.recording.segment import (
+    NAME_PREFIX,
+    RingError,
+    SegmentMap,
+    map_segment,
+    new_ring_name,
+    owner_cleanup,
+    unlink_segment,
+)
 
 _MAGIC = 0x52454841425249  # "REHABRI"
 _VERSION = 1
@@ -129,10 +94,6 @@ _MAGIC_AT, _VERSION_AT, _CAPACITY_AT, _ITEMSIZE_AT, _DTYPE_CRC_AT, _RECORDED_AT 
 _WRITE_AT, _CLAIM_AT = 8, 9
 _READ_AT = 16
 _FINISHED_AT = 24
-
-
-class RingError(DeviceError):
-    """The ring segment is missing, is not a ring of this layout or dtype, or was misused."""
 
 
 class RecordingLost(RecordingError):
@@ -156,82 +117,13 @@ class Batch(NamedTuple):
 def _dtype_crc(dtype: np.dtype) -> int:
     return zlib.crc32(repr(dtype.descr).encode())
 
-
-def _check_prefix(prefix: str) -> None:
-    if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*_", prefix):
-        raise ValueError(f"ring name prefix {prefix!r}: ASCII letters, digits and '_', "
-                         "starting with a letter and ending in '_'")
-
-
-def _ring_name(prefix: str) -> str:
-    if _posixshmem is None:  # pragma: no cover - Windows
-        raise RingError("the record ring needs POSIX shared memory (Linux)")
-    _check_prefix(prefix)
-    return f"{prefix}{os.getpid()}_{secrets.token_hex(4)}"
-
-
-class _Mapping:
-    """One process's map of a segment, made without telling the resource tracker (module
-    docstring). Unlike SharedMemory it has no __del__ that closes the map under views that
-    are collected later than it, so a dropped RecordRing is freed by reference counting."""
-
-    def __init__(self, name: str) -> None:
-        fd = _posixshmem.shm_open("/" + name, os.O_RDWR, mode=0o600)
-        try:
-            self._mmap = mmap.mmap(fd, os.fstat(fd).st_size)
-        finally:
-            os.close(fd)
-        self.buf = memoryview(self._mmap)
-
-    def close(self) -> None:
-        """Unmap; BufferError (and callable again) while a numpy view of `buf` is alive."""
-        if self.buf is not None:
-            self.buf.release()
-            self.buf = None
-        if self._mmap is not None:
-            self._mmap.close()
-            self._mmap = None
-
-
-def _map(name: str) -> _Mapping:
-    try:
-        return _Mapping(name)
-    except FileNotFoundError:
-        raise RingError(
-            f"no ring named {name!r}: its owner has not created it yet or has already "
-            "unlinked it; start the loop first, or check the name passed to this process"
-        ) from None
-    except ValueError as e:  # mmap of an empty file: caught between shm_open and ftruncate
-        raise RingError(f"ring {name!r} is not initialised yet ({e}); attach again") from e
-
-
-def _unlink(name: str) -> bool:
-    """Remove a tracked segment's name and its resource-tracker entry; False if already gone."""
-    try:
-        _posixshmem.shm_unlink("/" + name)
-    except (FileNotFoundError, PermissionError):
-        return False
-    finally:
-        # SharedMemory.unlink() would skip this when the name is already gone, leaving an
-        # entry the tracker later "cleans up" with two warnings.
-        resource_tracker.unregister("/" + name, "shared_memory")
-    return True
-
-
-def _owner_cleanup(name: str, owner_pid: int) -> None:
-    # The finaliser: garbage collection or interpreter exit of an owner that did not
-    # unlink. A forked child inherits the handle but must not destroy its parent's ring.
-    if os.getpid() == owner_pid:
-        _unlink(name)
-
-
 class RecordRing:
     """One shared-memory ring of fixed-size records; see the module docstring for the rules.
 
     Not thread-safe within a process: one thread per handle.
     """
 
-    def __init__(self, segment: _Mapping, name: str, dtype: np.dtype,
+    def __init__(self, segment: SegmentMap, name: str, dtype: np.dtype,
                  capacity: int, owner: bool) -> None:
         # Private: use create() or attach().
         self._segment = segment
@@ -255,7 +147,7 @@ class RecordRing:
         packer = record_struct(dtype)
         self._pack_into = packer.pack_into if packer is not None else None
         self._finalizer = (
-            weakref.finalize(self, _owner_cleanup, name, os.getpid()) if owner else None
+            weakref.finalize(self, owner_cleanup, name, os.getpid()) if owner else None
         )
 
     # -- creation and attachment ----------------------------------------------------
@@ -273,13 +165,13 @@ class RecordRing:
             raise ValueError(f"ring dtype must be a structured record dtype, not {dtype}")
         if capacity < 1:
             raise ValueError(f"ring capacity {capacity}: must be at least 1 record")
-        name = _ring_name(prefix)
+        name = new_ring_name(prefix)
         # SharedMemory creates, sizes and registers the segment with the resource tracker
         # (the last-resort cleanup); the map we keep is made like an attacher's.
         created = SharedMemory(name, create=True, size=_HEADER_BYTES + capacity * dtype.itemsize)
         created.close()
         try:
-            segment = _map(name)
+            segment = map_segment(name)
             with segment.buf[:_HEADER_BYTES] as raw, raw.cast("q") as header:
                 header[_VERSION_AT] = _VERSION
                 header[_CAPACITY_AT] = capacity
@@ -289,7 +181,7 @@ class RecordRing:
                 header[_MAGIC_AT] = _MAGIC
             return cls(segment, name, dtype, capacity, owner=True)
         except BaseException:
-            _unlink(name)
+            unlink_segment(name)
             raise
 
     @classmethod
@@ -299,7 +191,7 @@ class RecordRing:
         The dtype must be the creator's, field for field.
         """
         dtype = np.dtype(dtype)
-        segment = _map(name)
+        segment = map_segment(name)
         try:
             capacity = cls._check_layout(segment.buf, name, dtype)
             return cls(segment, name, dtype, capacity, owner=False)
@@ -526,7 +418,7 @@ class RecordRing:
             raise RingError(f"ring {self._name!r} is owned by another process: attachers only "
                             "close(); the owner unlinks")
         if self._finalizer.detach() is not None:  # None once unlinked: unregister only once
-            _unlink(self._name)
+            unlink_segment(self._name)
 
     def __enter__(self) -> RecordRing:
         return self
@@ -542,44 +434,3 @@ class RecordRing:
         role = "owner" if self._owner else "attached"
         state = "closed" if self.closed else f"written={self.write_count}"
         return f"<RecordRing {self._name!r} {role} capacity={self._capacity} {state}>"
-
-
-def _pid_alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True  # someone else's process: alive
-    try:  # a zombie (dead, not yet reaped by its parent) still answers kill(pid, 0)
-        stat = Path(f"/proc/{pid}/stat").read_text()
-    except OSError:
-        return True
-    return stat.rpartition(")")[2].split()[0] != "Z"
-
-
-def reclaim_stale(prefix: str = NAME_PREFIX) -> list[str]:
-    """Unlink the rings with this name prefix whose owner process is gone; their names.
-
-    For the owner to call at start-up, after a crash left a segment behind. A ring whose
-    owner pid is alive (or was reused by another process) is left alone. Linux only:
-    elsewhere there is no directory to list and this returns [].
-    """
-    _check_prefix(prefix)
-    if not SHM_DIR.is_dir():
-        return []
-    reclaimed = []
-    for entry in sorted(SHM_DIR.iterdir()):
-        name = entry.name
-        pid_text, sep, _ = name.removeprefix(prefix).partition("_")
-        if not name.startswith(prefix) or not sep or not pid_text.isdigit():
-            continue
-        pid = int(pid_text)
-        if pid <= 0 or _pid_alive(pid):
-            continue
-        # Register first: if the dead owner shared our tracker, this is a no-op and the
-        # unregister in _unlink removes its entry; if not, the pair cancels out.
-        resource_tracker.register("/" + name, "shared_memory")
-        if _unlink(name):
-            reclaimed.append(name)
-    return reclaimed

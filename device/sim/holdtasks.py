@@ -82,7 +82,7 @@ class TaskBehaviour:
     over the effort)."""
 
     def with_pushes(self, table: np.ndarray, step_s: float) -> np.ndarray:
-        """The desired-motion table (device.sim.patients._desired_motion_table: the push
+        """The desired-motion table (device.sim.desired_motion.desired_motion_table: the push
         in columns 6-7, its increment to the next row in 14-15, one row every `step_s`)
         with the plan's pushes in place of its push: from each push's start the force
         rises as drive_N (1 − exp(−t / lag_s)) toward the direction, no larger than the

@@ -31,10 +31,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from core.trial import TrialParameters
-from device.sim.patients import HEALTHY_IMPEDANCE
+from device.sim.patient_parameters import HEALTHY_IMPEDANCE
 
 MOVER = "healthy"
-"""The virtual patient the mover is (device.sim.patients.PATIENT_KINDS)."""
+"""The virtual patient the mover is (device.sim.patient_parameters.PATIENT_KINDS)."""
 MOVER_IMPEDANCE_SCALE = 3.0
 MOVER_OPTIONS = {
     "drive_N": 0.0,

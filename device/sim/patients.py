@@ -53,7 +53,7 @@ The parts of a patient
 * synergy (an option of every kind but passive, 0 by default): the joints no longer
   move apart, as in the flexion synergy after stroke (Twitchell 1951, Brunnstrom 1970;
   Dewald & Beer, Muscle Nerve 24:273, 2001): the arm's own plan moves the elbow by
-  `synergy` times the shoulder's change (`_desired_motion_table`). It loses joint
+  `synergy` times the shoulder's change (`desired_motion_table`). It loses joint
   independence and flattens a drawn circle, as stroke survivors' circles are (Krabben et
   al., J NeuroEng Rehabil 8:15, 2011; Dipietro et al., J Neurophysiol 98:757, 2007): on
   the battery's circle at 0.3 the weak patient's ratio went 0.95 → 0.80–0.82 (healthy
@@ -110,27 +110,47 @@ The parts of a patient
   and within what the robot's 2.2 N·m joints can resist).
 
 The desired motion and the feed-forward are tabulated once per traversal with numpy
-every `TABLE_STEP_S` and interpolated linearly in time. The interpolation matters: a
-sample-and-hold table is a discontinuous forcing that cuts RK4 to first order. The
-torque itself is a kernel (device.sim.patient_torque; core.kernels):
+every `TABLE_STEP_S` (device.sim.desired_motion) and interpolated linearly in time. The
+interpolation matters: a sample-and-hold table is a discontinuous forcing that cuts RK4
+to first order. The torque itself is a kernel (device.sim.patient_torque; core.kernels):
 `VirtualPatient.torque` runs it interpreted, the simulator folds it, compiled, into
 its dynamics (device.sim.physics).
+
+Here: the patient (`VirtualPatient`) and its factory (`make_patient`, `trial_factors`);
+the parameters, their defaults and checks are device.sim.patient_parameters', the
+desired-motion table and the push's lag device.sim.desired_motion's.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 
 from core.arm import ArmModel
-from core.arrays import joint_motion
-from core.errors import ParameterError, check_finite, check_non_negative, check_range
+from core.errors import ParameterError
 from core.holdtasks import TaskTrajectory
 from core.trajectory import Trajectory
+from device.sim.desired_motion import desired_motion_table
 from device.sim.holdtasks import TASK_OPTIONS, TaskBehaviour, behaviour, task_options
+from device.sim.patient_parameters import (
+    DEFAULT_EFFORT,
+    DRIVE_N,
+    HEALTHY_IMPEDANCE,
+    PASSIVE_TISSUE,
+    PATIENT_KINDS,
+    SYNERGY_DIRECTION_RAD,
+    TREMOR_AMPLITUDE_NM,
+    TREMOR_BAND_HZ,
+    JointImpedance,
+    PatientParameters,
+    Spasticity,
+    Tremor,
+    WrongWay,
+    check_pair,
+    check_symmetric,
+)
 from device.sim.patient_torque import (
     P_EP_LEN,
     P_EP_WINDOW,
@@ -141,60 +161,11 @@ from device.sim.patient_torque import (
     TABLE_STEP_S,
     constants_vector,
     desired_motion,
-    passive_tissue,
     patient_torque,
     pushing_wrong_way,
-    spastic_resistance,
 )
 
-SYNERGY_MAX = 0.8
-"""A coupling beyond which the elbow would follow the shoulder almost wholly."""
-SELECTIVITY_LOSS_MAX = 0.9
-"""A loss beyond which the arm could hardly push out of its synergy at all."""
-SYNERGY_DIRECTION_RAD = -3.0 * math.pi / 8.0
-"""The flexion synergy's direction α in joint-coordinate torques (τ_sh, τ_el) =
-(cos α, sin α), −67.5°: elbow flexion with shoulder horizontal abduction (and elbow
-extension with adduction), the elbow's share 2.4 times the shoulder's (module notes,
-selectivity)."""
-
-PATIENT_KINDS = ("healthy", "weak", "spastic", "tremor", "passive", "wrong_way")
-TREMOR_BAND_HZ = (4.0, 6.0)
-# Allowed when the frequency is given rather than drawn: the range of pathological
-# tremors of the arm.
-TREMOR_RANGE_HZ = (3.0, 12.0)
-TREMOR_AMPLITUDE_NM = (0.5, 0.8)
-DRIVE_N = 1.2
-"""A healthy subject's push along the path: the thesis's subject's force ranged over
-0.8 N (x) and 2.5 N (y) on the D (Fig. 3.9), i.e. about ±1.2 N along the line."""
-DRIVE_LAG_S = 0.15
-"""Time constant of the push's direction (activation and anticipation)."""
-DRIVE_RANGE_N = (0.0, 20.0)
 _TWO_PI = 2.0 * math.pi
-
-
-# ----------------------------------------------------------------- validation
-def _pair(name: str, value) -> tuple[float, float]:
-    try:
-        a, b = value
-    except (TypeError, ValueError):
-        raise ParameterError(name, value, "a pair (shoulder, elbow)") from None
-    return (check_non_negative(f"{name}[0]", a), check_non_negative(f"{name}[1]", b))
-
-
-def _symmetric(name: str, value) -> tuple[float, float, float]:
-    try:
-        a, c, b = value
-    except (TypeError, ValueError):
-        raise ParameterError(name, value, "a triple (shoulder, cross, elbow)") from None
-    a = check_non_negative(f"{name}[shoulder]", a)
-    b = check_non_negative(f"{name}[elbow]", b)
-    c = check_finite(f"{name}[cross]", c)
-    if c * c > a * b:
-        raise ParameterError(
-            f"{name}[cross]", c, f"|cross| <= sqrt(shoulder·elbow) = {math.sqrt(a * b):g}",
-            "the matrix must be positive semi-definite, or the arm would create energy",
-        )
-    return (a, c, b)
 
 
 @runtime_checkable
@@ -209,115 +180,6 @@ class Patient(Protocol):
         """Net joint torques τ_A = (τ_s, τ_e) in N·m at time `t_s` for the arm's
         absolute angles (θ_s, θ_e) and rates (eq. 3.20)."""
 
-
-# ------------------------------------------------------------------ parameters
-@dataclass(frozen=True, slots=True)
-class JointImpedance:
-    """Stiffness and damping in joint coordinates (shoulder θ_s, elbow θ_e − θ_s).
-
-    Each is a symmetric matrix given as (shoulder, cross, elbow). Both must be
-    positive semi-definite, or the arm would create energy.
-    """
-
-    stiffness_Nm_rad: tuple[float, float, float]
-    damping_Nms_rad: tuple[float, float, float]
-
-    def __post_init__(self) -> None:
-        object.__setattr__(
-            self, "stiffness_Nm_rad", _symmetric("stiffness_Nm_rad", self.stiffness_Nm_rad)
-        )
-        object.__setattr__(
-            self, "damping_Nms_rad", _symmetric("damping_Nms_rad", self.damping_Nms_rad)
-        )
-
-
-HEALTHY_IMPEDANCE = JointImpedance((15.0, 5.0, 12.0), (1.2, 0.4, 1.0))
-"""Active impedance of a healthy subject reaching in the plane (see the module notes)."""
-
-PASSIVE_TISSUE = JointImpedance((1.0, 0.0, 0.6), (0.2, 0.0, 0.15))
-"""A relaxed arm: passive joint stiffness and damping (see the module notes)."""
-
-
-@dataclass(frozen=True, slots=True)
-class Spasticity:
-    """Velocity-dependent resistance per joint (shoulder, elbow):
-    τ = −b ω − g (|ω| − ω_th)₊ sign ω."""
-
-    threshold_rad_s: tuple[float, float] = (0.5, 0.5)
-    reflex_gain_Nms_rad: tuple[float, float] = (1.5, 2.0)
-    viscous_Nms_rad: tuple[float, float] = (0.3, 0.5)
-
-    def __post_init__(self) -> None:
-        for name in ("threshold_rad_s", "reflex_gain_Nms_rad", "viscous_Nms_rad"):
-            object.__setattr__(self, name, _pair(name, getattr(self, name)))
-
-
-@dataclass(frozen=True, slots=True)
-class Tremor:
-    """A sinusoidal torque on both joints (shoulder, elbow amplitudes)."""
-
-    frequency_hz: float
-    amplitude_Nm: tuple[float, float] = TREMOR_AMPLITUDE_NM
-    phase_rad: float = 0.0
-
-    def __post_init__(self) -> None:
-        check_range("tremor_hz", self.frequency_hz, *TREMOR_RANGE_HZ, "Hz",
-                    "the range of pathological tremors of the arm")
-        object.__setattr__(self, "amplitude_Nm", _pair("tremor_amplitude_Nm", self.amplitude_Nm))
-        check_finite("phase_rad", self.phase_rad, "rad")
-
-
-@dataclass(frozen=True, slots=True)
-class WrongWay:
-    """Episodes of pushing against the desired direction: `fraction` of the time,
-    in episodes of `episode_s`, with a hand force of `force_N`."""
-
-    fraction: float = 0.2
-    episode_s: float = 0.5
-    force_N: float = 3.0
-
-    def __post_init__(self) -> None:
-        check_range("wrong_way_fraction", self.fraction, 0.0, 0.9, "", low_open=True)
-        check_range("wrong_way_episode_s", self.episode_s, 0.01, 60.0, "s")
-        check_range("wrong_way_force_N", self.force_N, 0.0, 50.0, "N",
-                    "a hand force the robot's drives can meet")
-
-
-@dataclass(frozen=True, slots=True)
-class PatientParameters:
-    """Everything that defines a virtual patient besides the arm and the path."""
-
-    kind: str
-    effort: float
-    passive: JointImpedance = PASSIVE_TISSUE
-    active: JointImpedance = HEALTHY_IMPEDANCE
-    spasticity: Spasticity | None = None
-    tremor: Tremor | None = None
-    wrong_way: WrongWay | None = None
-    drive_N: float = DRIVE_N
-    synergy: float = 0.0
-    """The flexion synergy's coupling: the elbow's planned angle moves by this times the
-    shoulder's change (module notes, synergy)."""
-    selectivity_loss: float = 0.0
-    """The share of the voluntary command across the synergy's direction that the arm
-    loses (module notes, selectivity)."""
-    synergy_direction_rad: float = SYNERGY_DIRECTION_RAD
-    """The synergy's direction α in joint-coordinate torques (τ_sh, τ_el) = (cos α, sin α)."""
-
-    def __post_init__(self) -> None:
-        check_range("drive_N", self.drive_N, *DRIVE_RANGE_N, "N",
-                    "a push along the path the robot's drives can meet")
-        if self.kind not in PATIENT_KINDS:
-            raise ParameterError("kind", self.kind, "one of " + ", ".join(PATIENT_KINDS))
-        check_range("effort", self.effort, 0.0, 1.0, "",
-                    "the fraction of a healthy subject's effort")
-        check_range("synergy", self.synergy, 0.0, SYNERGY_MAX, "",
-                    "how far the elbow's plan follows the shoulder's (rad/rad)")
-        check_range("selectivity_loss", self.selectivity_loss, 0.0, SELECTIVITY_LOSS_MAX, "",
-                    "the share of the command out of synergy the arm loses")
-        check_range("synergy_direction_rad", self.synergy_direction_rad, -math.pi / 2,
-                    math.pi / 2, "rad", "a direction of joint torques (the opposite one is "
-                    "the same synergy)")
 
 
 # -------------------------------------------------------------------- patient
@@ -350,7 +212,7 @@ class VirtualPatient:
             own, drive = trajectory, parameters.drive_N
             if task is not None:
                 own, drive = task.trajectory, task.drive_N
-            table = _desired_motion_table(arm, own, parameters.passive, (ts0, te0 - ts0), drive,
+            table = desired_motion_table(arm, own, parameters.passive, (ts0, te0 - ts0), drive,
                                           parameters.synergy)
             if task is not None:
                 # the task's own pushes (device.sim.holdtasks: a rise and a fall of its own)
@@ -430,100 +292,6 @@ class VirtualPatient:
                               ted)
 
 
-def spastic_resistance_Nm(parameters: Spasticity, shoulder_rate_rad_s, elbow_rate_rad_s):
-    """The spastic resistance (τ_sh, τ_el) for joint rates, in joint coordinates; the
-    patient subtracts it from its torques."""
-    th_s, th_e = parameters.threshold_rad_s
-    g_s, g_e = parameters.reflex_gain_Nms_rad
-    b_s, b_e = parameters.viscous_Nms_rad
-    return (
-        spastic_resistance(shoulder_rate_rad_s, th_s, g_s, b_s),
-        spastic_resistance(elbow_rate_rad_s, th_e, g_e, b_e),
-    )
-
-
-def passive_torque_terms(passive: JointImpedance, rest_rad, ts, phi, tsd, phid):
-    """Generalised torques τ_A (absolute-angle convention) of passive tissue about the
-    joint-coordinate rest posture `rest_rad` = (θ_s, φ), φ = θ_e − θ_s. Floats or arrays."""
-    sh, el = passive_tissue(*passive.stiffness_Nm_rad, *passive.damping_Nms_rad,
-                            rest_rad[0] - ts, rest_rad[1] - phi, tsd, phid)
-    return (sh - el, el)
-
-
-def _desired_motion_table(
-    arm: ArmModel, trajectory: Trajectory, passive: JointImpedance, rest_rad,
-    drive_N: float = DRIVE_N, synergy: float = 0.0,
-) -> np.ndarray:
-    """The desired arm motion, its feed-forward torque and the push along the path for
-    one traversal, every TABLE_STEP_S: rows of eight values (θ_s, φ, θ̇_s, φ̇,
-    τ_ff,s, τ_ff,e, push F_x, F_y), their increments to the next row (for linear
-    interpolation), and the direction (x, y).
-
-    The push is `drive_N` along the path's direction passed through a first-order
-    lag of DRIVE_LAG_S, run over two traversals so the table holds its periodic
-    steady state (a repetition starts where the last one ended).
-
-    The feed-forward is the arm's inverse dynamics along the desired motion less the
-    passive tissue's torque there: a subject's command also overcomes their own
-    tissue, or a healthy arm would lag the path by the passive torque over the
-    active stiffness (about 2 cm on the thesis's D).
-
-    With a `synergy` σ the plan's joints do not move apart: the elbow's angle moves by σ
-    times the shoulder's change from the traversal's start, on top of what the path
-    asks (its rates and accelerations likewise), so the arm's own plan strays from the
-    path as a paretic arm's does (module notes, weak)."""
-    n = max(1, math.ceil(trajectory.duration_s / TABLE_STEP_S))
-    sample = trajectory.sample(np.arange(n + 1) * TABLE_STEP_S)
-    # eq. 3.16 inverted (the anatomical branch), 3.18, 3.19
-    theta, theta_dot, theta_ddot = joint_motion(arm, sample.position_m, sample.velocity_m_s,
-                                                sample.acceleration_m_s2)
-    if synergy:
-        theta[:, 1] += synergy * (theta[:, 0] - theta[0, 0])
-        theta_dot[:, 1] += synergy * theta_dot[:, 0]
-        theta_ddot[:, 1] += synergy * theta_ddot[:, 0]
-    feedforward = arm.inverse_dynamics(theta, theta_dot, theta_ddot)  # eq. 3.20
-    phi = theta[:, 1] - theta[:, 0]
-    phi_dot = theta_dot[:, 1] - theta_dot[:, 0]
-    tissue_s, tissue_e = passive_torque_terms(
-        passive, rest_rad, theta[:, 0], phi, theta_dot[:, 0], phi_dot
-    )
-    push = drive_N * _lagged(sample.direction, TABLE_STEP_S, DRIVE_LAG_S)
-    values = np.column_stack((
-        theta[:, 0], phi, theta_dot[:, 0], phi_dot,
-        feedforward[:, 0] - tissue_s, feedforward[:, 1] - tissue_e, push,
-    ))
-    return np.column_stack((values[:-1], np.diff(values, axis=0), sample.direction[:-1]))
-
-
-def _lagged(direction: np.ndarray, dt_s: float, lag_s: float) -> np.ndarray:
-    """A first-order lag of a periodic (N, 2) signal, in its periodic steady state."""
-    a = math.exp(-dt_s / lag_s)
-    doubled = np.vstack((direction, direction))
-    # y[i] = a·y[i−1] + (1 − a)·x[i] from y[−1] = x[0], run over two periods
-    return _first_order_filter(doubled, a)[len(direction):]
-
-
-def _first_order_filter(x: np.ndarray, a: float) -> np.ndarray:
-    """scipy.signal.lfilter([1 − a], [1, −a], x, axis=0, zi=a·x[0]) of an (N, k) array,
-    bit for bit: its products and sums in its order (y = z + b0·x; z = b1·x − a1·y with
-    b1 = 0, a1 = −a), signed zeros included (tests/device/test_patients.py holds them
-    equal). Not lfilter itself: importing scipy.signal (it imports scipy.stats) took
-    1.5-6 s of the loop process's start, every Connect's wait, for a filter this loop
-    runs in a few milliseconds (4 ms for a 4 s lap's table; lfilter 0.2 ms)."""
-    b0, a1 = 1.0 - a, -a
-    out = np.empty_like(x, dtype=float)
-    for j in range(x.shape[1]):
-        column = x[:, j]
-        z = float(a * column[0])
-        ys: list[float] = []
-        append = ys.append
-        for p, q in zip((b0 * column).tolist(), (0.0 * column).tolist(), strict=True):
-            y = z + p
-            append(y)
-            z = q - a1 * y
-        out[:, j] = ys
-    return out
-
 
 # -------------------------------------------------------------------- factory
 _IMPEDANCE_OPTIONS = ("passive_stiffness_Nm_rad", "passive_damping_Nms_rad", "variability",
@@ -547,8 +315,6 @@ force output varies by some 10-20 % from attempt to attempt (an order of magnitu
 the impedance values above, not identified on a subject). Drawn by the trial's seed, so a
 course of simulated trials at one setting varies (a new seed each trial) and a trial runs
 again the same with its seed; 0 makes every trial the subject's mean."""
-DEFAULT_EFFORT = {"passive": 0.0, "weak": 0.4}
-"""Effort by kind; every other kind defaults to 1 (a healthy subject's effort)."""
 
 
 def make_patient(
@@ -590,10 +356,10 @@ def make_patient(
 
     # Each value is checked under its option's name before the dataclasses see it.
     def symmetric(name, default):
-        return _symmetric(name, options.get(name, default))
+        return check_symmetric(name, options.get(name, default))
 
     def pair(name, default):
-        return _pair(name, options.get(name, default))
+        return check_pair(name, options.get(name, default))
 
     passive = JointImpedance(
         symmetric("passive_stiffness_Nm_rad", PASSIVE_TISSUE.stiffness_Nm_rad),

@@ -6,7 +6,7 @@ the thesis's real robot did (0.9 / 1.4 mm RMS against 8.68 / 7.02 mm in x / y on
 section 3.6), and a scheme tuned on it may fail on the robot. The realistic plant keeps
 the controller's nominal model (Tables 3.1–3.3 and core.robot's friction) and gives
 the simulated robot its own parameters, each drawn uniformly from `SPREAD` by the seed
-(the robot's own, device.sim.simulator.ROBOT_SEED, not each trial's):
+(the robot's own, device.sim.seeds.ROBOT_SEED, not each trial's):
 
 * **link masses and inertias**, ×0.9–1.1 each: Table 3.3's values come from the CAD
   model; fasteners, cables, belts and the handle's mount are not in it.

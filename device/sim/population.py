@@ -25,10 +25,10 @@ How a subject moves (the calibrated centre, then the spread)
 -------------------------------------------------------------
 The centre is the healthy subject of the thesis's experiment (section 3.6) as calibrated
 in docs/validation.md ("Why the virtual subject tracked 10x better"): the active joint
-impedance is GUIDED_IMPEDANCE_SCALE × device.sim.patients.HEALTHY_IMPEDANCE (a subject
+impedance is GUIDED_IMPEDANCE_SCALE × device.sim.patient_parameters.HEALTHY_IMPEDANCE (a subject
 who is being guided round a path relaxes: the reaching values of Burdet et al. 2001 were
 measured against an unstable load, where people co-contract), the push along the path
-DRIVE_N (patients.DRIVE_N). Calibrated on the RMSE x and y of section 3.6 only; the
+DRIVE_N (patient_parameters.DRIVE_N). Calibrated on the RMSE x and y of section 3.6 only; the
 force ranges, the directional performance and the shoulder range are held out. On their
 own — the assessment battery, where the robot is transparent or the subject follows their
 own plan — the same subject holds their reaching impedance, HEALTHY_IMPEDANCE's order
@@ -71,7 +71,7 @@ import numpy as np
 
 from core.errors import ParameterError
 from core.trial import TrialParameters
-from device.sim.patients import DRIVE_N, HEALTHY_IMPEDANCE
+from device.sim.patient_parameters import DRIVE_N, HEALTHY_IMPEDANCE
 
 SEXES = ("female", "male")
 HANDEDNESS = ("right", "left")

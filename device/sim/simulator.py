@@ -83,14 +83,12 @@ passes is taken as exact: what a push within the noise leaves is within the nois
 from __future__ import annotations
 
 import math
-import secrets
 from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
 from core.errors import ParameterError, check_finite, check_range
-from core.kernels import interpreted
 from core.robot import RobotModel
 from core.trial import THESIS_SUBJECT, TrialParameters
 from device.backend import SIMULATED, TARE_SPREAD_LIMIT_N, TIMINGS, SensorReading, Tare, tare_of
@@ -98,16 +96,10 @@ from device.errors import BackendError, SensorRangeError, StateError, TareUnderL
 from device.sim import physics
 from device.sim.patients import Patient, VirtualPatient, make_patient
 from device.sim.plant import Plant
+from device.sim.seeds import ROBOT_SEED, check_seed, child_seed
 from device.sim.sensors import ForceSensorModel
+from device.sim.simulator_kernels import Kernels, constants_of
 from device.sim.tasks import own_movement, split_options
-
-ROBOT_SEED = 0
-"""The seed that draws the simulated robot of a realistic plant (device.sim.plant) unless
-another is asked for: a station's robot is one robot, so its masses, friction and drives
-stay the same from trial to trial while each trial's seed draws the patient's variations
-and the sensor's noise. (Before 2026-12-03 the trial's seed drew the robot too, and with a
-new seed per trial every trial ran on another robot.)"""
-
 
 INTEGRATORS = ("rk4", "semi_implicit_euler")
 DEFAULT_STEP_S = 0.001
@@ -169,8 +161,9 @@ class SimulatorBackend:
     `robot` defaults to the thesis robot (with its default friction), `sensor` to
     the Nano25 of Table 3.1, `seed` draws the sensor noise; `step_s` (≤ 1 ms),
     `integrator`, `compiled`, `patient_waits` and `timing` are described in the module
-    notes. The physics are device.sim.physics's kernels on this object's vectors
-    (`constants`, `state`, `noise`), which the loop's tick engine uses as they are.
+    notes. The physics are device.sim.physics's kernels (bound to this simulator by
+    device.sim.simulator_kernels) on this object's vectors (`constants`, `state`,
+    `noise`), which the loop's tick engine uses as they are; the seeds device.sim.seeds'.
     """
 
     name = "simulator"
@@ -212,7 +205,7 @@ class SimulatorBackend:
                 f"the compiled physics take a VirtualPatient's torque; a "
                 f"{type(patient).__name__} is simulated interpreted, with its own torque",
             )
-        _check_seed(seed)
+        check_seed(seed)
         self.step_s = check_range(
             "step_s", step_s, 0.0, MAX_STEP_S, "s",
             "the simulator's internal step must resolve the 2 ms loop", low_open=True,
@@ -254,9 +247,9 @@ class SimulatorBackend:
                 "the simulation starts at rest at the path's start",
             )
         self._q0 = (q1, q2)
-        self.constants = _constants(self)
+        self.constants = constants_of(self)
         """The sensors' and the integrator's constants (device.physics' S_* names)."""
-        self._kernels = _Kernels(self)
+        self._kernels = Kernels(self)
         self.state = self._kernels.vector(physics.X_SIZE)
         """The simulator's state (device.sim.physics' X_* names)."""
         self._scratch = self._kernels.vector(physics.SCRATCH_SIZE)
@@ -275,7 +268,8 @@ class SimulatorBackend:
         robot_seed: int = ROBOT_SEED,
         **options,
     ) -> SimulatorBackend:
-        """A simulator for `trial` with a patient of `kind` (device.sim.patients.PATIENT_KINDS).
+        """A simulator for `trial` with a patient of `kind` (one of PATIENT_KINDS,
+        device.sim.patient_parameters).
 
         `seed` sets the trial's draws: the patient's and the sensor noise (through
         independent child seeds); `patient_options` go to make_patient; `plant` is
@@ -284,10 +278,10 @@ class SimulatorBackend:
         every trial, as a station has one, whatever each trial's seed); the other
         `options` go to the constructor.
         """
-        _check_seed(seed)
-        _check_seed(robot_seed)
+        check_seed(seed)
+        check_seed(robot_seed)
         nominal = options.pop("robot", None) or RobotModel()
-        patient_seed = _child_seed(seed, 0)
+        patient_seed = child_seed(seed, 0)
         # an assessment task's patient moves on its own plan (device.sim.tasks), an
         # exercise's follows the reference
         body, movement = split_options(trial, dict(patient_options or {}))
@@ -313,7 +307,7 @@ class SimulatorBackend:
 
     def _take_zero(self) -> Tare:
         """The zero's samples as the sensor reads them (the module notes)."""
-        rng = np.random.default_rng(_child_seed(self.seed, 2))
+        rng = np.random.default_rng(child_seed(self.seed, 2))
         t = np.arange(round(TARE_S * TARE_RATE_HZ)) / TARE_RATE_HZ
         grip = (1.0 - np.exp(-t / GRIP_RISE_S)) * (1.0 + GRIP_TREMOR_FRACTION * np.sin(
             2.0 * math.pi * GRIP_TREMOR_HZ * t + rng.uniform(0.0, 2.0 * math.pi)))
@@ -388,7 +382,7 @@ class SimulatorBackend:
     def noise_generator(self) -> np.random.Generator:
         """A new generator of the force sensor's noise, as `open` starts it: the
         sensor's child seed of `seed`, independent of the patient's."""
-        return np.random.default_rng(_child_seed(self.seed, 1))
+        return np.random.default_rng(child_seed(self.seed, 1))
 
     @property
     def start_angles_rad(self) -> tuple[float, float]:
@@ -504,92 +498,4 @@ class SimulatorBackend:
         )
 
 
-class _Kernels:
-    """device.sim.physics's read, write and reset bound to one simulator's constants, in
-    the flavour the simulator runs: compiled on float arrays, or interpreted on Python
-    tuples and lists (several times faster there than numpy scalars), with the patient's
-    own torque when it is not a VirtualPatient's (`replacements`)."""
-
-    def __init__(self, simulator: SimulatorBackend) -> None:
-        patient = simulator.patient
-        self.replacements: dict = {}
-        if isinstance(patient, VirtualPatient):
-            model = (patient.constants, patient.table, patient.episodes)
-        else:
-            model = ((), np.zeros((1, 18)), np.zeros(1))
-
-            def own_torque(p, table, episodes, t_s, ts, te, tsd, ted):
-                return patient.torque(t_s, ts, te, tsd, ted)
-
-            self.replacements = {"patient_torque": own_torque}
-        constants = (simulator.robot.constants, simulator.arm.constants, simulator.constants)
-        self._compiled = simulator.compiled
-        if self._compiled:
-            from device.compiled.jit import compiled  # numba only where it is used
-
-            vectors = tuple(np.asarray(v, dtype=float) for v in (*constants, model[0]))
-            self.arrays = (*vectors, np.ascontiguousarray(model[1], dtype=float),
-                           np.asarray(model[2], dtype=float))
-            self.flavour = compiled
-        else:
-            self.arrays = (*constants, model[0], [tuple(row) for row in model[1].tolist()],
-                           model[2].tolist())
-            self.flavour = lambda f: interpreted(f, self.replacements)
-        read, write, reset = (self.flavour(f) for f in (physics.read, physics.write,
-                                                          physics.reset))
-        r, a, c, p, table, episodes = self.arrays
-        self.read = lambda x, now, noise, scratch: read(r, a, c, p, table, episodes, x, now,
-                                                        noise, scratch)
-        self.write = lambda x, tau1, tau2: write(c, x, tau1, tau2)
-        self.reset = lambda q1, q2, t0, x, noise, scratch: reset(r, a, c, p, table, episodes,
-                                                                 q1, q2, t0, x, noise, scratch)
-
-    def vector(self, size: int):
-        return np.zeros(size) if self._compiled else [0.0] * size
-
-    def rows(self, block: np.ndarray):
-        return np.ascontiguousarray(block) if self._compiled else block.tolist()
-
-
-def _constants(simulator: SimulatorBackend) -> tuple[float, ...]:
-    sn, robot = simulator.sensor, simulator.robot
-    values = {
-        physics.S_OFFSET: sn.offset_rad, physics.S_NOISE_XY: sn.noise_xy_N,
-        physics.S_NOISE_Z: sn.noise_z_N, physics.S_LOAD: sn.normal_load_N,
-        physics.S_RXY: sn.resolution_xy_N, physics.S_RZ: sn.resolution_z_N,
-        physics.S_LIMIT_XY: sn.limit_xy_N, physics.S_LIMIT_Z: sn.limit_z_N,
-        physics.S_CPR1: robot.motors[0].counts_per_joint_rev,
-        physics.S_CPR2: robot.motors[1].counts_per_joint_rev,
-        physics.S_STEP: simulator.step_s, physics.S_RATE: 1.0 / simulator.step_s,
-        physics.S_MAX1: robot.max_joint_torque_Nm[0], physics.S_MAX2: robot.max_joint_torque_Nm[1],
-        physics.S_RK4: float(simulator.integrator == "rk4"),
-        physics.S_DELAY: float(simulator.plant.actuator_delay),
-        physics.S_GAIN1: simulator.plant.torque_gain[0],
-        physics.S_GAIN2: simulator.plant.torque_gain[1],
-    }
-    return tuple(float(values[i]) for i in range(physics.S_SIZE))
-
-
 _reading = SensorReading._make
-
-
-SEEDS = 1_000_000
-"""How many seeds `draw_seed` draws from: six digits, easy to read back and to type into
-`rehab run --seed`."""
-
-
-def draw_seed() -> int:
-    """A new seed for a simulated trial (the operating system's randomness): a course of
-    simulated trials at one setting varies as a person's would, each trial's seed kept in
-    its file to run it again."""
-    return secrets.randbelow(SEEDS)
-
-
-def _check_seed(seed) -> None:
-    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
-        raise ParameterError("seed", seed, "a whole number >= 0")
-
-
-def _child_seed(seed: int, index: int) -> np.random.SeedSequence:
-    """The `index`-th independent stream of `seed` (what SeedSequence.spawn gives)."""
-    return np.random.SeedSequence(int(seed), spawn_key=(index,))

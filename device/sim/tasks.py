@@ -48,7 +48,7 @@ from core.errors import ParameterError, check_range
 from core.robot import RobotModel
 from core.trajectory import Trajectory, TrajectorySample
 from core.trial import TrialParameters
-from device.sim.patients import DEFAULT_EFFORT
+from device.sim.patient_parameters import DEFAULT_EFFORT
 
 OWN_MOVEMENT_TASKS = ("reaching", "circle", "range")
 """The tasks whose patient moves on its own plan (the others follow the reference, or the

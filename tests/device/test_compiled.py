@@ -13,7 +13,7 @@ from core.trial import THESIS_SUBJECT
 from device.loop.engine import run_trial
 from device.loop.pipeline import TickPipeline, TrialPlan
 from device.safety.supervisor import SafetySupervisor
-from device.sim.patients import PATIENT_KINDS
+from device.sim.patient_parameters import PATIENT_KINDS
 from device.sim.simulator import SimulatorBackend
 
 SHORT = THESIS_SUBJECT.replace(repetitions=1)

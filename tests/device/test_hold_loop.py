@@ -26,7 +26,8 @@ from device.safety.limits import SafetyLimits
 from device.safety.supervisor import SafetySupervisor
 from device.sim.patients import make_patient
 from device.sim.plant import Plant
-from device.sim.simulator import SimulatorBackend, _child_seed
+from device.sim.seeds import child_seed
+from device.sim.simulator import SimulatorBackend
 
 CENTRE = (-0.30, 0.30)
 ROBOT = RobotModel()
@@ -44,7 +45,7 @@ def run(traj: TaskTrajectory, kind: str, *, compiled=True, seed=1, limits=None, 
     """One task trial headless on the realistic plant: (records, outcome, pipeline)."""
     params = task_parameters(traj.task, len(traj.path.segments) // 2)
     plan = TrialPlan(params, ROBOT, PERIOD_S, traj)
-    patient = make_patient(kind, params.arm(), traj, seed=_child_seed(seed, 0), **options)
+    patient = make_patient(kind, params.arm(), traj, seed=child_seed(seed, 0), **options)
     rest = ROBOT.ik_terms(*CENTRE)
     sim = SimulatorBackend(patient, seed=seed, plant=Plant.of_kind("realistic", ROBOT, 0, rest),
                            compiled=compiled)

@@ -22,8 +22,9 @@ from device.compiled.jit import compiled
 from device.loop.pipeline import TickPipeline, TrialPlan
 from device.safety import checks
 from device.safety.supervisor import SafetySupervisor
+from device.sim.patient_parameters import PATIENT_KINDS
 from device.sim.patient_torque import patient_torque
-from device.sim.patients import PATIENT_KINDS, make_patient
+from device.sim.patients import make_patient
 
 ROBOT = RobotModel(
     friction=Friction((0.05, 0.04), (0.02, 0.03), ee_coulomb_N=0.3, ee_viscous_Ns_m=0.5),

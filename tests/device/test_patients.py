@@ -9,19 +9,18 @@ import pytest
 
 from core.errors import ParameterError, UnreachableError
 from core.trial import THESIS_SUBJECT
-from device.sim.patients import (
+from device.sim.desired_motion import passive_torque_terms
+from device.sim.patient_parameters import (
     DEFAULT_EFFORT,
     HEALTHY_IMPEDANCE,
     PASSIVE_TISSUE,
     PATIENT_KINDS,
     SYNERGY_DIRECTION_RAD,
     TREMOR_BAND_HZ,
-    Patient,
     Spasticity,
-    make_patient,
-    passive_torque_terms,
     spastic_resistance_Nm,
 )
+from device.sim.patients import Patient, make_patient
 
 ARM = THESIS_SUBJECT.arm()
 TRAJECTORY = THESIS_SUBJECT.trajectory()
@@ -416,7 +415,7 @@ def test_a_course_of_simulated_trials_at_one_setting_varies():
 
 
 def test_the_lagged_push_is_lfilter_s_bit_for_bit_without_importing_scipy_signal():
-    """The push's lag (device.sim.patients._first_order_filter) does lfilter's products and
+    """The push's lag (device.sim.desired_motion._first_order_filter) does lfilter's products and
     sums in its order, so the tables are what they were with lfilter, signed zeros
     included; it runs without scipy.signal, whose import the loop process no longer pays."""
     import subprocess
@@ -424,8 +423,8 @@ def test_the_lagged_push_is_lfilter_s_bit_for_bit_without_importing_scipy_signal
 
     from scipy.signal import lfilter
 
+    from device.sim.desired_motion import DRIVE_LAG_S, _first_order_filter
     from device.sim.patient_torque import TABLE_STEP_S
-    from device.sim.patients import DRIVE_LAG_S, _first_order_filter
 
     a = math.exp(-TABLE_STEP_S / DRIVE_LAG_S)
     direction = TRAJECTORY.sample(np.arange(0.0, TRAJECTORY.duration_s, TABLE_STEP_S)).direction

@@ -26,14 +26,8 @@ import pytest
 
 from device.errors import DeviceError, RecordingError, StateError
 from device.recording.record import RECORD_DTYPE, Channel, extend_channels
-from device.recording.ring import (
-    SHM_DIR,
-    RecordingLost,
-    RecordRing,
-    RingError,
-    flat_names,
-    reclaim_stale,
-)
+from device.recording.ring import RecordingLost, RecordRing, flat_names
+from device.recording.segment import SHM_DIR, RingError, reclaim_stale
 
 ROOT = Path(__file__).resolve().parents[2]
 CHILD_TIMEOUT_S = 60.0
@@ -694,7 +688,8 @@ def test_killed_owner_leaves_a_readable_segment_that_reclaim_removes(prefix, spa
 
 _TRACKER_SCRIPT = """
 import multiprocessing as mp, os, signal, subprocess, sys
-from device.recording.ring import RecordRing, reclaim_stale
+from device.recording.ring import RecordRing
+from device.recording.segment import reclaim_stale
 
 PREFIX = sys.argv[1]
 ATTACH = "from device.recording.ring import RecordRing; r = RecordRing.attach({!r}); r.close()"

@@ -13,7 +13,8 @@ from core.robot import FRICTIONLESS, Friction, RobotModel, Stiffness
 from core.trial import THESIS_SUBJECT, TrialParameters
 from device.backend import Backend, SensorReading
 from device.errors import BackendError, SensorRangeError, StateError
-from device.sim.patients import PATIENT_KINDS, make_patient
+from device.sim.patient_parameters import PATIENT_KINDS
+from device.sim.patients import make_patient
 from device.sim.sensors import ForceSensorModel
 from device.sim.simulator import INTEGRATORS, SimulatorBackend
 

@@ -25,8 +25,8 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from device.sim.patients import PATIENT_KINDS
-from device.sim.simulator import SEEDS
+from device.sim.patient_parameters import PATIENT_KINDS
+from device.sim.seeds import SEEDS
 from ui import theme
 from ui.fields import ComboBox, SpinBox
 from ui.tabs.form_rows import FormRows

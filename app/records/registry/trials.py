@@ -49,7 +49,7 @@ from app.records.registry.values import (
 )
 from core.trial import TrialParameters
 from device.recording.trialfile import STATUS_RECORDING, STATUSES
-from device.sim.patients import PATIENT_KINDS
+from device.sim.patient_parameters import PATIENT_KINDS
 
 # The registry's one logger, named as it was before the registry had modules.
 log = logging.getLogger(__package__)

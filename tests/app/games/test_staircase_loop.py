@@ -13,7 +13,7 @@ GAME = TrialParameters(game="reach", shape="targets", n_targets=8, duration_s=12
                        centre_m=(-0.3, 0.35), radius_m=0.08)
 ROUNDS = 42
 ABILITIES = {"healthy": None, "weak": None, "passive": None}
-"""Effort 1, 0.4 (device.sim.patients.DEFAULT_EFFORT) and 0: the robot's help alone."""
+"""Effort 1, 0.4 (device.sim.patient_parameters.DEFAULT_EFFORT) and 0: the robot's help alone."""
 
 
 @pytest.mark.slow

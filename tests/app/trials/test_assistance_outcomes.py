@@ -20,7 +20,7 @@ from app.trials.analysis import analyse
 from app.trials.headless import simulate
 from core.control.guidance import GuidanceGains
 from core.trial import THESIS_SUBJECT
-from device.sim.patients import PATIENT_KINDS
+from device.sim.patient_parameters import PATIENT_KINDS
 
 GOLDEN = Path(__file__).parents[2] / "device" / "data" / "thesis_ideal_records.json"
 
