@@ -187,6 +187,16 @@ def store_trial(trial_path: str | os.PathLike, captured, label: str,
     return done, checked
 
 
+def seconds_before_newest(n_samples: int, rate_hz: float) -> float:
+    """The first of the live view's `n_samples` in seconds before the newest, on the
+    source's own clock (k / rate). Not the span of their stamps: stamps of different reads
+    may carry different origins (device.emg.trigno moves its origin earlier as later
+    blocks arrive, and only a recording restamps them evenly), so on a loaded machine the
+    span came out shorter than the samples and the newest envelope was drawn 0.34 s in
+    the future."""
+    return -(int(n_samples) - 1) / float(rate_hz)
+
+
 def live_percent(stamps_s, samples, rate_hz: float,
                  session: SessionMvcs) -> tuple[Envelope, tuple[str, ...]]:
     """The last seconds' envelopes of the session's muscles that have an MVC, in fractions
@@ -200,5 +210,5 @@ def live_percent(stamps_s, samples, rate_hz: float,
     records = [session.records[m] for m in muscles]
     # one recording session, one setting: the window records every MVC with the same
     env = envelope(x[:, [session.channels[m] for m in muscles]], rate_hz, records[0].settings,
-                   t0_s=t[0] - t[-1])
+                   t0_s=seconds_before_newest(x.shape[0], rate_hz))
     return env.normalised(np.array([r.mvc.value_V for r in records])), muscles

@@ -62,7 +62,7 @@ class LiveEmgView:
 
 def live_emg_view(stamps_s, samples, rate_hz: float, session=None) -> LiveEmgView | None:
     """None until the source has given LIVE_MIN_S of EMG."""
-    from app.emg.protocol import live_percent
+    from app.emg.protocol import live_percent, seconds_before_newest
     from core.emg.processing import rms_envelope
 
     t = np.asarray(stamps_s, dtype=float)
@@ -74,7 +74,8 @@ def live_emg_view(stamps_s, samples, rate_hz: float, session=None) -> LiveEmgVie
         if mapped and all(session.channels[m] < x.shape[1] for m in mapped):
             env, muscles = live_percent(t, x, rate_hz, session)
             return LiveEmgView(env.t_s, 100.0 * env.values, muscles, "% MVC")
-        env = rms_envelope(x - x.mean(axis=0), rate_hz, t0_s=t[0] - t[-1])
+        env = rms_envelope(x - x.mean(axis=0), rate_hz,
+                           t0_s=seconds_before_newest(x.shape[0], rate_hz))
     except CoreError:  # too little signal yet for the filters: the next refresh will do
         return None
     return LiveEmgView(env.t_s, 1e6 * env.values,

@@ -164,6 +164,27 @@ def test_the_live_envelopes_are_in_percent_of_each_mvc():
     assert env.t_s[0] >= -2.0
 
 
+def test_the_live_envelopes_end_at_the_newest_sample_whatever_origin_each_read_had():
+    """A Trigno stream's reads are stamped with the origin known at each read, which moves
+    earlier as later blocks arrive (device.emg.trigno): the live view's stamps then span
+    less than the samples, and the view drew its newest envelope in the future (a whole
+    check at load 9: 0.34 s after now). Both live views stamp by the samples' count."""
+    from ui.views.emg import live_emg_view
+
+    session = _session_with_mvcs([2e-4, 4e-4, 1e-4])
+    x = wave(int(2 * RATE), [1e-4, 3e-4, 1e-4])
+    k = np.arange(x.shape[0]) / RATE
+    # the first second read while the origin was 0.4 s later than the one known now
+    t = 10.0 + k + np.where(k < 1.0, 0.4, 0.0)
+    env, _ = live_percent(t, x, RATE, session)
+    raw = live_emg_view(t, x, RATE)
+    for times in (env.t_s, raw.t_s):
+        assert times[-1] <= 0.0
+        assert times[0] >= -2.0
+        # the envelope's newest point is within one window of the newest sample
+        assert times[-1] > -0.2
+
+
 def test_the_source_words():
     assert source_spec("trigno", " 192.168.1.20 ") == "trigno:192.168.1.20"
     assert source_spec("lsl", "Delsys EMG") == "lsl:Delsys EMG"
