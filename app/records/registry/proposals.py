@@ -124,32 +124,55 @@ _SELECT = ("SELECT trial_id, proposal, decision, next_trial_id, proposed_at, dec
            "FROM proposals")
 _INVALID = ("SELECT m.trial_id FROM trial_marks m WHERE m.valid = 0 AND m.id = "
             "(SELECT max(id) FROM trial_marks WHERE trial_id = m.trial_id)")
-_PENDING = ("SELECT p.trial_id, p.proposal, p.decision, p.next_trial_id, p.proposed_at, "
-            "p.decided_at, t.parameters FROM proposals p "
-            "JOIN trials t ON t.id = p.trial_id JOIN sessions s ON s.id = t.session_id "
-            "WHERE s.patient_id = ? AND t.id != ? "
-            f"AND (p.decision = 'pending' OR p.next_trial_id IN ({_INVALID})) "
-            f"AND p.trial_id NOT IN ({_INVALID}) ORDER BY p.trial_id DESC")
-"""The patient's pending proposal (patient id, a trial id to leave out), with its trial's
-parameters, latest first; `_pending` takes the first of an exercise trial. The one: the
-latest of an exercise trial not marked invalid (schema v8) that no trial decided, or that a
-trial since marked invalid decided (that trial does not count: its proposal is offered
-again, as after a withdrawn trial). An assessment trial's proposal is never the one: a
-registry written before assessments stopped proposing (app.trials.finalize) may hold one,
-which would offer the task's fixed protocol ("transparent mode: the same again") to the
-next exercise.
+_CANDIDATE = ("SELECT p.trial_id, p.proposal, p.decision, p.next_trial_id, p.proposed_at, "
+              "p.decided_at, t.parameters FROM proposals p "
+              "JOIN trials t ON t.id = p.trial_id JOIN sessions s ON s.id = t.session_id "
+              "WHERE s.patient_id = ? AND t.id != ? ")
+_PENDING = (_CANDIDATE + f"AND p.decision = 'pending' AND p.trial_id NOT IN ({_INVALID}) "
+            "UNION ALL "
+            + _CANDIDATE + f"AND p.decision != 'pending' AND p.next_trial_id IN ({_INVALID}) "
+            f"AND p.trial_id NOT IN ({_INVALID}) ORDER BY 1 DESC")
+"""The patient's pending proposal (patient id, a trial id to leave out, the same two again),
+with its trial's parameters, latest first; `_pending` takes the first of an exercise trial.
+The one: the latest of an exercise trial not marked invalid (schema v8) that no trial
+decided, or that a trial since marked invalid decided (that trial does not count: its
+proposal is offered again, as after a withdrawn trial). An assessment trial's proposal is
+never the one: a registry written before assessments stopped proposing (app.trials.finalize)
+may hold one, which would offer the task's fixed protocol ("transparent mode: the same
+again") to the next exercise.
 
-Why the assessment is told apart in Python: the candidates are few (the pending one, those a
-trial marked invalid decided), while a condition on the parameters in the SQL was evaluated
-by PostgreSQL on every trial of the patient, parsing each one's parameters (`::jsonb`): 56
-ms of server time in every begin_trial of a patient with 1,000 trials, each with its
-proposal as the console records them (bench/stations.py, docs/performance.md)."""
+Why two branches, each with its index (schema v12, `PENDING_INDEXES`): as one condition
+(`pending OR decided by an invalid trial`) no index could serve it, and the server read
+every proposal of the patient's trials, one table row per trial, to keep the pending one:
+1.1-1.8 ms of server time in each begin_trial of a patient with 1,000 trials, growing with
+their history (bench/registration.py, docs/performance.md). Now the pending ones come from
+the partial index of pending proposals (about one a patient: a probe finds nothing for
+every other trial without reading its row) and those an invalid trial decided from the
+index on `next_trial_id`, reached from the few invalid marks.
+
+Why the assessment is told apart in Python: the candidates are few, while a condition on the
+parameters in the SQL was evaluated by PostgreSQL on every trial of the patient, parsing
+each one's parameters (`::jsonb`): 56 ms of server time in every begin_trial of a patient
+with 1,000 trials (bench/stations.py, docs/performance.md)."""
+
+PENDING_INDEXES = (
+    "CREATE INDEX proposals_pending ON proposals (trial_id) WHERE decision = 'pending'",
+    "CREATE INDEX proposals_by_next_trial ON proposals (next_trial_id)",
+)
+"""Schema v12 (both engines; on the server also postgres/tables.py): the pending proposals,
+and the proposals by the trial that decided them, which `_PENDING` reads and a withdrawn
+trial's (Proposals._trial_withdrawn: its decision undone, and the foreign key's check when
+its row is deleted) would otherwise find by reading every proposal of the registry."""
+
+SQLITE_V12 = PENDING_INDEXES
+"""Schema v12 on SQLite (the server's, postgres.MIGRATIONS[12], adds what makes its seal
+triggers cheaper)."""
 
 
 def _pending(conn: sa.Connection, patient: int, trial_id: int) -> tuple | None:
     """The row of the patient's pending proposal (as _SELECT reads it), None when none
     waits (`_PENDING`)."""
-    for row in execute(conn, _PENDING, (patient, trial_id)).fetchall():
+    for row in execute(conn, _PENDING, (patient, trial_id) * 2).fetchall():
         assessment = json.loads(row[-1]).get("assessment")
         if assessment is None or assessment == "":
             return row[:-1]

@@ -1,0 +1,83 @@
+"""What a trial's registration asks of the registry, on both engines (issue 32: registration
+p99 < 10 ms with 8 stations writing; bench/registration.py, docs/performance.md): the
+indexes that find a patient's pending proposal (schema v12), and a v11 registry brought to
+v12 keeping every record."""
+
+from __future__ import annotations
+
+import json
+
+from app.records.datadir import DataDir
+from app.records.registry import Registry
+from app.records.registry.patients import patient_id
+from app.records.registry.proposals import _PENDING
+from app.records.registry.statements import execute
+from core.trial import TrialParameters
+from tests.app.records.history import registry_at
+
+PARAMS = TrialParameters()
+
+
+def _plan(registry: Registry, engine: str, statement: str, values: tuple) -> str:
+    """How the engine would run `statement`: on the server as it would in a registry of a
+    department's size, where reading a whole table is never the cheaper way (a test's
+    tables are a few rows, which the server reads whole whatever the indexes)."""
+    with registry._read() as conn:
+        if engine == "postgresql":
+            conn.exec_driver_sql("SET LOCAL enable_seqscan = off")
+            rows = execute(conn, "EXPLAIN " + statement, values).fetchall()
+        else:
+            rows = execute(conn, "EXPLAIN QUERY PLAN " + statement, values).fetchall()
+    return "\n".join(str(row[-1]) for row in rows)
+
+
+def test_the_pending_proposal_and_a_decided_ones_trial_are_found_by_their_indexes(
+        open_registry, registry_engine):
+    """Before v12 the server read every proposal of the patient's trials to find the pending
+    one, and a withdrawn trial's decision was looked for in every proposal of the registry
+    (`Proposals._trial_withdrawn`), on both engines."""
+    registry = open_registry()
+    code = registry.create_patient("Ada", "Example").code
+    for _ in range(3):
+        begun = registry.begin_trial(code, PARAMS, backend="simulator")
+        registry.finish_trial(begun.trial_id, "complete", {})
+        registry.record_proposal(begun.trial_id, {"assistance_level": 0.5})
+    with registry._read() as conn:
+        patient = patient_id(conn, registry.where, code)
+    if registry_engine == "postgresql":  # SQLite reaches a proposal by its trial's rowid
+        plan = _plan(registry, registry_engine, _PENDING, (patient, -1) * 2)
+        assert "proposals_pending" in plan
+        assert "proposals_by_next_trial" in plan
+    withdrawn = _plan(registry, registry_engine, "UPDATE proposals SET decision = 'pending', "
+                      "next_trial_id = NULL, decided_at = NULL WHERE next_trial_id = ?", (1,))
+    assert "proposals_by_next_trial" in withdrawn
+    assert registry.pending_proposal(code).trial_id == begun.trial_id
+
+
+def test_a_v11_registry_gains_the_indexes_keeping_every_record(tmp_path):
+    folder = tmp_path / "data"
+    with registry_at(folder, 11) as conn:
+        conn.execute("INSERT INTO patients (code, created_at) VALUES ('P0000001', 'c')")
+        conn.execute("INSERT INTO sessions (patient_id, number, date) VALUES (1, 1, "
+                     "'2026-12-01')")
+        for number in (1, 2):
+            conn.execute("INSERT INTO trials (session_id, number, parameters, file, status, "
+                         "started_at) VALUES (1, ?, ?, ?, 'complete', ?)",
+                         (number, json.dumps(PARAMS.to_dict()), f"trials/P0000001/{number}.h5",
+                          f"2026-12-01T10:0{number}:00+00:00"))
+        conn.execute("INSERT INTO proposals (trial_id, proposal, decision, next_trial_id, "
+                     "proposed_at, decided_at) VALUES (1, '{\"assistance_level\": 0.5}', "
+                     "'kept', 2, 'a', 'b')")
+        conn.execute("INSERT INTO proposals (trial_id, proposal, proposed_at) VALUES "
+                     "(2, '{\"assistance_level\": 0.4}', 'c')")
+    registry = Registry(DataDir(folder))
+    assert list(tmp_path.glob("data/registry.sqlite3.v11-*.bak"))
+    assert [(p.trial_id, p.decision, p.next_trial_id) for p in
+            registry.proposals_for_patient("P0000001")] == [(1, "kept", 2), (2, "pending", None)]
+    assert registry.pending_proposal("P0000001").proposal == {"assistance_level": 0.4}
+    assert [t.number for t in registry.trials_for_patient("P0000001")] == [1, 2]
+    assert registry.integrity_check() == []
+    with registry._read() as conn:
+        indexes = {name for (name,) in conn.exec_driver_sql(
+            "SELECT name FROM sqlite_master WHERE type = 'index' AND tbl_name = 'proposals'")}
+    assert {"proposals_pending", "proposals_by_next_trial"} <= indexes
