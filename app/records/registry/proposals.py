@@ -56,22 +56,18 @@ class Proposals(Database):
     def record_proposal(self, trial_id: int, proposal: dict) -> StoredProposal:
         """Keep the proposal made after trial `trial_id` (replacing a pending one)."""
         text = json.dumps(proposal, allow_nan=False, sort_keys=True)
-        now = _now()
         with self._write() as conn:
-            trial_by_id(conn, self.where, trial_id)  # refuses an unknown trial
-            row = execute(conn, "SELECT decision FROM proposals WHERE trial_id = ? FOR UPDATE",
-                          (trial_id,)).fetchone()
+            # One statement (a round trip to a server; bench/registration.py): inserted, or
+            # a pending one replaced whole, and returned as written; no row when the trial
+            # is unknown or its proposal was decided, said below.
+            row = execute(conn, _RECORD, (text, _now(), trial_id)).fetchone()
             if row is None:
-                execute(conn, "INSERT INTO proposals (trial_id, proposal, proposed_at) "
-                              "VALUES (?, ?, ?)", (trial_id, text, now))
-            elif row[0] == "pending":  # a pending proposal is replaced whole
-                execute(conn, "UPDATE proposals SET proposal = ?, proposed_at = ?, "
-                              "decision = 'pending', next_trial_id = NULL, decided_at = NULL "
-                              "WHERE trial_id = ?", (text, now, trial_id))
-            else:
+                trial_by_id(conn, self.where, trial_id)  # refuses an unknown trial
+                decided = execute(conn, "SELECT decision FROM proposals WHERE trial_id = ?",
+                                  (trial_id,)).scalar_one()
                 raise InvalidRecordError(
-                    f"trial {trial_id}'s proposal was already {row[0]}; it is kept as it was")
-        return self.proposal(trial_id)
+                    f"trial {trial_id}'s proposal was already {decided}; it is kept as it was")
+        return _stored(row)
 
     def proposal(self, trial_id: int) -> StoredProposal | None:
         with self._read() as conn:
@@ -114,7 +110,7 @@ class Proposals(Database):
         if row is None:
             return
         stored = _stored(row)
-        before = trial_by_id(conn, self.where, stored.trial_id).trial_parameters()
+        before = TrialParameters.from_dict(json.loads(row[-1]))  # its trial's, as read
         decision = _decision(stored.proposal, before, TrialParameters.from_dict(parameters))
         execute(conn, "UPDATE proposals SET decision = ?, next_trial_id = ?, decided_at = ? "
                       "WHERE trial_id = ?", (decision, trial_id, _now(), stored.trial_id))
@@ -122,6 +118,18 @@ class Proposals(Database):
 
 _SELECT = ("SELECT trial_id, proposal, decision, next_trial_id, proposed_at, decided_at "
            "FROM proposals")
+_RECORD = ("INSERT INTO proposals (trial_id, proposal, proposed_at) "
+           "SELECT id, ?, ? FROM trials WHERE id = ? "
+           "ON CONFLICT (trial_id) DO UPDATE SET proposal = excluded.proposal, "
+           "proposed_at = excluded.proposed_at, decision = 'pending', next_trial_id = NULL, "
+           "decided_at = NULL WHERE proposals.decision = 'pending' "
+           "RETURNING trial_id, proposal, decision, next_trial_id, proposed_at, decided_at")
+"""A proposal recorded after its trial (text, time, trial id): inserted when the trial has
+none, replacing a pending one whole, nothing when the trial is unknown (no row to insert)
+or its proposal was decided (the update's WHERE). The same statement on both engines (an
+upsert: PostgreSQL 9.5, SQLite 3.24; SQLite reads `SELECT … WHERE` before `ON CONFLICT`
+unambiguously). On the server the conflicting row is locked and its decision read as the
+station before left it, as the SELECT … FOR UPDATE before it did."""
 _INVALID = ("SELECT m.trial_id FROM trial_marks m WHERE m.valid = 0 AND m.id = "
             "(SELECT max(id) FROM trial_marks WHERE trial_id = m.trial_id)")
 _CANDIDATE = ("SELECT p.trial_id, p.proposal, p.decision, p.next_trial_id, p.proposed_at, "
@@ -170,12 +178,12 @@ triggers cheaper)."""
 
 
 def _pending(conn: sa.Connection, patient: int, trial_id: int) -> tuple | None:
-    """The row of the patient's pending proposal (as _SELECT reads it), None when none
-    waits (`_PENDING`)."""
+    """The row of the patient's pending proposal (as _SELECT reads it, then its trial's
+    parameters), None when none waits (`_PENDING`)."""
     for row in execute(conn, _PENDING, (patient, trial_id) * 2).fetchall():
         assessment = json.loads(row[-1]).get("assessment")
         if assessment is None or assessment == "":
-            return row[:-1]
+            return row
     return None
 
 
