@@ -32,6 +32,7 @@ from app.records.registry.provenance import checked_checksum, file_checksum
 from app.records.registry.sessions import (
     insert_session,
     session_id_of,
+    sessions_for_a_trial,
 )
 from app.records.registry.statements import execute
 from app.records.registry.values import (
@@ -235,7 +236,7 @@ class Trials(Database):
             # then all the sessions say in one read; the pending proposal is decided with
             # what its read returns (app.records.registry.proposals).
             patient = patient_id(conn, self.where, code, lock=True)
-            latest, asked = _sessions_for_a_trial(conn, patient, session_number)
+            latest, asked = sessions_for_a_trial(conn, patient, session_number)
             if session_number is None and latest is not None and \
                     latest[2] == local_day.isoformat():
                 asked = latest  # today's session goes on
@@ -506,25 +507,9 @@ def _next_trial_number_in(conn: sa.Connection, session_id: int) -> int:
     return (row[0] or 0) + 1
 
 
-_SESSIONS = ("SELECT s.id, s.number, s.date, (SELECT coalesce(max(t.number), 0) + 1 FROM "
-             "trials t WHERE t.session_id = s.id) FROM sessions s WHERE s.patient_id = ? AND "
-             "(s.number = ? OR s.number = (SELECT max(number) FROM sessions "
-             "WHERE patient_id = ?)) ORDER BY s.number DESC")
-
-
-def _sessions_for_a_trial(conn: sa.Connection, patient: int, number: int | None
-                          ) -> tuple[tuple | None, tuple | None]:
-    """The patient's latest session and their session `number` (None: none asked for),
-    each (id, number, date, its next trial number) or None where there is none: all a new
-    trial's numbering needs, in one read (a round trip to a server)."""
-    rows = execute(conn, _SESSIONS, (patient, number, patient)).fetchall()
-    latest = rows[0] if rows else None
-    return latest, next((row for row in rows if row[1] == number), None)
-
-
 def _suggest(conn: sa.Connection, code: str, patient: int,
              today: datetime.date) -> Registration:
-    latest, _ = _sessions_for_a_trial(conn, patient, None)
+    latest, _ = sessions_for_a_trial(conn, patient, None)
     if latest is not None and latest[2] == today.isoformat():
         return Registration(code, latest[1], latest[3], False)
     return Registration(code, 1 if latest is None else latest[1] + 1, 1, True)
