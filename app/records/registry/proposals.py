@@ -133,10 +133,10 @@ station before left it, as the SELECT … FOR UPDATE before it did."""
 _INVALID = ("SELECT m.trial_id FROM trial_marks m WHERE m.valid = 0 AND m.id = "
             "(SELECT max(id) FROM trial_marks WHERE trial_id = m.trial_id)")
 _CANDIDATE = ("SELECT p.trial_id, p.proposal, p.decision, p.next_trial_id, p.proposed_at, "
-              "p.decided_at, t.parameters FROM proposals p "
-              "JOIN trials t ON t.id = p.trial_id JOIN sessions s ON s.id = t.session_id "
-              "WHERE s.patient_id = ? AND t.id != ? ")
-_PENDING = (_CANDIDATE + f"AND p.decision = 'pending' AND p.trial_id NOT IN ({_INVALID}) "
+              "p.decided_at, t.parameters FROM trials t JOIN sessions s ON s.id = t.session_id "
+              "JOIN proposals p ON p.trial_id = t.id WHERE s.patient_id = ? AND t.id != ? ")
+_PENDING = (_CANDIDATE + "AND (SELECT q.trial_id FROM proposals q WHERE q.trial_id = t.id "
+            f"AND q.decision = 'pending') IS NOT NULL AND p.trial_id NOT IN ({_INVALID}) "
             "UNION ALL "
             + _CANDIDATE + f"AND p.decision != 'pending' AND p.next_trial_id IN ({_INVALID}) "
             f"AND p.trial_id NOT IN ({_INVALID}) ORDER BY 1 DESC")
@@ -149,14 +149,21 @@ never the one: a registry written before assessments stopped proposing (app.tria
 may hold one, which would offer the task's fixed protocol ("transparent mode: the same
 again") to the next exercise.
 
-Why two branches, each with its index (schema v12, `PENDING_INDEXES`): as one condition
-(`pending OR decided by an invalid trial`) no index could serve it, and the server read
-every proposal of the patient's trials, one table row per trial, to keep the pending one:
-1.1-1.8 ms of server time in each begin_trial of a patient with 1,000 trials, growing with
-their history (bench/registration.py, docs/performance.md). Now the pending ones come from
-the partial index of pending proposals (about one a patient: a probe finds nothing for
-every other trial without reading its row) and those an invalid trial decided from the
-index on `next_trial_id`, reached from the few invalid marks.
+How it is found (schema v12, `PENDING_INDEXES`), measured on PostgreSQL with 1,000 patients
+of 1,000 trials, each with its proposal (bench/registration.py, docs/performance.md):
+
+* Before v12, one condition ("pending, or decided by a trial since marked invalid") that no
+  index fitted: the server read the proposal of each of the patient's trials, 1.6-3.1 ms.
+* The pending ones through the partial index of pending proposals: in a join, the server
+  chose to start from that index, whose entries are every patient's pending proposal
+  (about one a patient, 1,000 here), reading each one's trial and session to find the
+  patient's: 5-13 ms. So the index is probed by a scalar subquery for each of the patient's
+  trials, which the server cannot turn into a join: 1,000 probes of a small index that find
+  nothing for every trial but the pending one's, without reading any proposal's row: 0.8-2
+  ms. Still one probe per trial of the patient; no index can start from the patient while
+  proposals do not name them.
+* Those an invalid trial decided, from the few invalid marks through the index on
+  `next_trial_id`.
 
 Why the assessment is told apart in Python: the candidates are few, while a condition on the
 parameters in the SQL was evaluated by PostgreSQL on every trial of the patient, parsing
