@@ -148,6 +148,11 @@ def main() -> None:
             counts = collections.Counter(trips[call])
             print(f"  {call:<18} {p50:7.2f} {p99:7.2f} {worst:7.2f}  "
                   + ", ".join(f"{n} ({k}×)" for n, k in sorted(counts.items())))
+            if len(counts) > 1:  # begin_trial opening today's session, or going on with it
+                for n in sorted(counts):
+                    p50, p99, worst = percentiles(
+                        [w for w, t in zip(walls[call], trips[call], strict=True) if t == n])
+                    print(f"    {n} round trips     {p50:7.2f} {p99:7.2f} {worst:7.2f}")
         for call in CALLS:
             print(f"\n{call}, as its first call sent it (the median of each statement over "
                   "every call, ms):")
