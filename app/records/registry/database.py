@@ -135,12 +135,18 @@ class Database:
     @contextlib.contextmanager
     def _statements(self, engine: sa.Engine) -> Iterator[sa.Connection]:
         """A SQLAlchemy connection of `engine` whose drivers' errors become the registry's
-        (the driver's own error stays the cause, as the schema's migration expects)."""
+        (the driver's own error stays the cause, as the schema's migration expects): also
+        SQLite's own, raised by what the registry sends on the file's connection itself
+        (BEGIN IMMEDIATE, the integrity check of a damaged file)."""
         try:
             with engine.connect() as conn:
                 yield conn
         except sa.exc.DBAPIError as exc:
             raise self._driver_error(exc) from (exc.orig or exc)
+        except sqlite3.IntegrityError as exc:
+            raise _refused(exc) from exc
+        except sqlite3.Error as exc:
+            raise self._database_error(exc) from exc
         except UnicodeDecodeError as exc:
             raise self._damaged(exc) from exc
 

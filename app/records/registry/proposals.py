@@ -56,22 +56,18 @@ class Proposals(Database):
     def record_proposal(self, trial_id: int, proposal: dict) -> StoredProposal:
         """Keep the proposal made after trial `trial_id` (replacing a pending one)."""
         text = json.dumps(proposal, allow_nan=False, sort_keys=True)
-        now = _now()
         with self._write() as conn:
-            trial_by_id(conn, self.where, trial_id)  # refuses an unknown trial
-            row = execute(conn, "SELECT decision FROM proposals WHERE trial_id = ? FOR UPDATE",
-                          (trial_id,)).fetchone()
+            # One statement (a round trip to a server; bench/registration.py): inserted, or
+            # a pending one replaced whole, and returned as written; no row when the trial
+            # is unknown or its proposal was decided, said below.
+            row = execute(conn, _RECORD, (text, _now(), trial_id)).fetchone()
             if row is None:
-                execute(conn, "INSERT INTO proposals (trial_id, proposal, proposed_at) "
-                              "VALUES (?, ?, ?)", (trial_id, text, now))
-            elif row[0] == "pending":  # a pending proposal is replaced whole
-                execute(conn, "UPDATE proposals SET proposal = ?, proposed_at = ?, "
-                              "decision = 'pending', next_trial_id = NULL, decided_at = NULL "
-                              "WHERE trial_id = ?", (text, now, trial_id))
-            else:
+                trial_by_id(conn, self.where, trial_id)  # refuses an unknown trial
+                decided = execute(conn, "SELECT decision FROM proposals WHERE trial_id = ?",
+                                  (trial_id,)).scalar_one()
                 raise InvalidRecordError(
-                    f"trial {trial_id}'s proposal was already {row[0]}; it is kept as it was")
-        return self.proposal(trial_id)
+                    f"trial {trial_id}'s proposal was already {decided}; it is kept as it was")
+        return _stored(row)
 
     def proposal(self, trial_id: int) -> StoredProposal | None:
         with self._read() as conn:
@@ -114,7 +110,7 @@ class Proposals(Database):
         if row is None:
             return
         stored = _stored(row)
-        before = trial_by_id(conn, self.where, stored.trial_id).trial_parameters()
+        before = TrialParameters.from_dict(json.loads(row[-1]))  # its trial's, as read
         decision = _decision(stored.proposal, before, TrialParameters.from_dict(parameters))
         execute(conn, "UPDATE proposals SET decision = ?, next_trial_id = ?, decided_at = ? "
                       "WHERE trial_id = ?", (decision, trial_id, _now(), stored.trial_id))
@@ -122,37 +118,79 @@ class Proposals(Database):
 
 _SELECT = ("SELECT trial_id, proposal, decision, next_trial_id, proposed_at, decided_at "
            "FROM proposals")
+_RECORD = ("INSERT INTO proposals (trial_id, proposal, proposed_at) "
+           "SELECT id, ?, ? FROM trials WHERE id = ? "
+           "ON CONFLICT (trial_id) DO UPDATE SET proposal = excluded.proposal, "
+           "proposed_at = excluded.proposed_at, decision = 'pending', next_trial_id = NULL, "
+           "decided_at = NULL WHERE proposals.decision = 'pending' "
+           "RETURNING trial_id, proposal, decision, next_trial_id, proposed_at, decided_at")
+"""A proposal recorded after its trial (text, time, trial id): inserted when the trial has
+none, replacing a pending one whole, nothing when the trial is unknown (no row to insert)
+or its proposal was decided (the update's WHERE). The same statement on both engines (an
+upsert: PostgreSQL 9.5, SQLite 3.24; SQLite reads `SELECT … WHERE` before `ON CONFLICT`
+unambiguously). On the server the conflicting row is locked and its decision read as the
+station before left it, as the SELECT … FOR UPDATE before it did."""
 _INVALID = ("SELECT m.trial_id FROM trial_marks m WHERE m.valid = 0 AND m.id = "
             "(SELECT max(id) FROM trial_marks WHERE trial_id = m.trial_id)")
-_PENDING = ("SELECT p.trial_id, p.proposal, p.decision, p.next_trial_id, p.proposed_at, "
-            "p.decided_at, t.parameters FROM proposals p "
-            "JOIN trials t ON t.id = p.trial_id JOIN sessions s ON s.id = t.session_id "
-            "WHERE s.patient_id = ? AND t.id != ? "
-            f"AND (p.decision = 'pending' OR p.next_trial_id IN ({_INVALID})) "
-            f"AND p.trial_id NOT IN ({_INVALID}) ORDER BY p.trial_id DESC")
-"""The patient's pending proposal (patient id, a trial id to leave out), with its trial's
-parameters, latest first; `_pending` takes the first of an exercise trial. The one: the
-latest of an exercise trial not marked invalid (schema v8) that no trial decided, or that a
-trial since marked invalid decided (that trial does not count: its proposal is offered
-again, as after a withdrawn trial). An assessment trial's proposal is never the one: a
-registry written before assessments stopped proposing (app.trials.finalize) may hold one,
-which would offer the task's fixed protocol ("transparent mode: the same again") to the
-next exercise.
+_CANDIDATE = ("SELECT p.trial_id, p.proposal, p.decision, p.next_trial_id, p.proposed_at, "
+              "p.decided_at, t.parameters FROM trials t JOIN sessions s ON s.id = t.session_id "
+              "JOIN proposals p ON p.trial_id = t.id WHERE s.patient_id = ? AND t.id != ? ")
+_PENDING = (_CANDIDATE + "AND (SELECT q.trial_id FROM proposals q WHERE q.trial_id = t.id "
+            f"AND q.decision = 'pending') IS NOT NULL AND p.trial_id NOT IN ({_INVALID}) "
+            "UNION ALL "
+            + _CANDIDATE + f"AND p.decision != 'pending' AND p.next_trial_id IN ({_INVALID}) "
+            f"AND p.trial_id NOT IN ({_INVALID}) ORDER BY 1 DESC")
+"""The patient's pending proposal (patient id, a trial id to leave out, the same two again),
+with its trial's parameters, latest first; `_pending` takes the first of an exercise trial.
+The one: the latest of an exercise trial not marked invalid (schema v8) that no trial
+decided, or that a trial since marked invalid decided (that trial does not count: its
+proposal is offered again, as after a withdrawn trial). An assessment trial's proposal is
+never the one: a registry written before assessments stopped proposing (app.trials.finalize)
+may hold one, which would offer the task's fixed protocol ("transparent mode: the same
+again") to the next exercise.
 
-Why the assessment is told apart in Python: the candidates are few (the pending one, those a
-trial marked invalid decided), while a condition on the parameters in the SQL was evaluated
-by PostgreSQL on every trial of the patient, parsing each one's parameters (`::jsonb`): 56
-ms of server time in every begin_trial of a patient with 1,000 trials, each with its
-proposal as the console records them (bench/stations.py, docs/performance.md)."""
+How it is found (schema v12, `PENDING_INDEXES`), measured on PostgreSQL with 1,000 patients
+of 1,000 trials, each with its proposal (bench/registration.py, docs/performance.md):
+
+* Before v12, one condition ("pending, or decided by a trial since marked invalid") that no
+  index fitted: the server read the proposal of each of the patient's trials, 1.6-3.1 ms.
+* The pending ones through the partial index of pending proposals: in a join, the server
+  chose to start from that index, whose entries are every patient's pending proposal
+  (about one a patient, 1,000 here), reading each one's trial and session to find the
+  patient's: 5-13 ms. So the index is probed by a scalar subquery for each of the patient's
+  trials, which the server cannot turn into a join: 1,000 probes of a small index that find
+  nothing for every trial but the pending one's, without reading any proposal's row: 0.8-2
+  ms. Still one probe per trial of the patient; no index can start from the patient while
+  proposals do not name them.
+* Those an invalid trial decided, from the few invalid marks through the index on
+  `next_trial_id`.
+
+Why the assessment is told apart in Python: the candidates are few, while a condition on the
+parameters in the SQL was evaluated by PostgreSQL on every trial of the patient, parsing
+each one's parameters (`::jsonb`): 56 ms of server time in every begin_trial of a patient
+with 1,000 trials (bench/stations.py, docs/performance.md)."""
+
+PENDING_INDEXES = (
+    "CREATE INDEX proposals_pending ON proposals (trial_id) WHERE decision = 'pending'",
+    "CREATE INDEX proposals_by_next_trial ON proposals (next_trial_id)",
+)
+"""Schema v12 (both engines; on the server also postgres/tables.py): the pending proposals,
+and the proposals by the trial that decided them, which `_PENDING` reads and a withdrawn
+trial's (Proposals._trial_withdrawn: its decision undone, and the foreign key's check when
+its row is deleted) would otherwise find by reading every proposal of the registry."""
+
+SQLITE_V12 = PENDING_INDEXES
+"""Schema v12 on SQLite (the server's, postgres.MIGRATIONS[12], adds what makes its seal
+triggers cheaper)."""
 
 
 def _pending(conn: sa.Connection, patient: int, trial_id: int) -> tuple | None:
-    """The row of the patient's pending proposal (as _SELECT reads it), None when none
-    waits (`_PENDING`)."""
-    for row in execute(conn, _PENDING, (patient, trial_id)).fetchall():
+    """The row of the patient's pending proposal (as _SELECT reads it, then its trial's
+    parameters), None when none waits (`_PENDING`)."""
+    for row in execute(conn, _PENDING, (patient, trial_id) * 2).fetchall():
         assessment = json.loads(row[-1]).get("assessment")
         if assessment is None or assessment == "":
-            return row[:-1]
+            return row
     return None
 
 

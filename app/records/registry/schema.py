@@ -21,7 +21,7 @@ from pathlib import Path
 
 from app.errors import RegistryError, SchemaError
 from app.records.datadir import ENV_DATA_DIR, DataDir, foreign_entries
-from app.records.registry import numbering, provenance, seals, stores
+from app.records.registry import numbering, proposals, provenance, seals, stores
 from app.records.registry.database import Database, rollback
 from app.records.registry.postgres import registry_version
 from app.records.registry.snapshot import needs_snapshot
@@ -232,6 +232,7 @@ MIGRATIONS: tuple[tuple[int, tuple[str, ...]], ...] = (
     (9, numbering.SQLITE_V9),
     (10, provenance.SQLITE_V10),
     (11, stores.SQLITE_V11),
+    (12, proposals.SQLITE_V12),
 )
 SCHEMA_VERSION = MIGRATIONS[-1][0]
 

@@ -152,6 +152,22 @@ def next_session_number_of(conn: sa.Connection, patient: int) -> int:
     return (row[0] or 0) + 1
 
 
+_SESSIONS = ("SELECT s.id, s.number, s.date, (SELECT coalesce(max(t.number), 0) + 1 FROM "
+             "trials t WHERE t.session_id = s.id) FROM sessions s WHERE s.patient_id = ? AND "
+             "(s.number = ? OR s.number = (SELECT max(number) FROM sessions "
+             "WHERE patient_id = ?)) ORDER BY s.number DESC")
+
+
+def sessions_for_a_trial(conn: sa.Connection, patient: int, number: int | None
+                         ) -> tuple[tuple | None, tuple | None]:
+    """The patient's latest session and their session `number` (None: none asked for),
+    each (id, number, date, its next trial number) or None where there is none: all a new
+    trial's numbering needs, in one read (a round trip to a server)."""
+    rows = execute(conn, _SESSIONS, (patient, number, patient)).fetchall()
+    latest = rows[0] if rows else None
+    return latest, next((row for row in rows if row[1] == number), None)
+
+
 def insert_session(conn: sa.Connection, patient: int, number: int,
                    date: datetime.date, therapist: str, location: str, notes: str) -> int:
     """Insert a session row (number already checked); returns its id."""

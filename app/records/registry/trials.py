@@ -31,8 +31,8 @@ from app.records.registry.patients import is_code, patient_id
 from app.records.registry.provenance import checked_checksum, file_checksum
 from app.records.registry.sessions import (
     insert_session,
-    next_session_number_of,
     session_id_of,
+    sessions_for_a_trial,
 )
 from app.records.registry.statements import execute
 from app.records.registry.values import (
@@ -68,6 +68,20 @@ TRIAL_SELECT = """
     JOIN patients p ON p.id = s.patient_id
 """
 """A trial row as `trial_from_row` and `trials_from_rows` read it; add WHERE and ORDER BY."""
+
+TRIAL_RETURNING = """
+    RETURNING id,
+        (SELECT p.code FROM sessions s JOIN patients p ON p.id = s.patient_id
+         WHERE s.id = trials.session_id),
+        (SELECT s.number FROM sessions s WHERE s.id = trials.session_id),
+        (SELECT s.date FROM sessions s WHERE s.id = trials.session_id),
+        number, parameters, file, metrics, status, started_at, ended_at, backend,
+        patient_kind, end_reason, assistance, station, checksum, stored_in
+"""
+"""TRIAL_SELECT's row, of the trial an UPDATE wrote (after `UPDATE trials … WHERE …`): the
+row as written, without reading it again (a round trip to a server). Its session's and
+patient's columns by subqueries, which both engines allow in RETURNING (a join does not:
+SQLite's RETURNING names the changed table only)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -217,23 +231,20 @@ class Trials(Database):
             self.data_dir.ensure(TRIALS, code)
         local_day = started_at.astimezone().date()
         with self._write() as conn:
+            # Each statement is a round trip to a server (bench/registration.py): the lock
+            # first, on its own (what is read after it is what the station before left);
+            # then all the sessions say in one read; the pending proposal is decided with
+            # what its read returns (app.records.registry.proposals).
             patient = patient_id(conn, self.where, code, lock=True)
-            # Each read is a round trip to a server: what the latest session says is read
-            # once (bench/stations.py measures registration with 8 stations at once).
-            row, next_session = None, None
-            if session_number is None:
-                latest = _latest_session(conn, patient)
-                if latest is not None and latest[2] == local_day.isoformat():
-                    row, session_number = latest, latest[1]  # today's session goes on
-                else:
-                    next_session = session_number = 1 if latest is None else latest[1] + 1
-            else:
-                row = execute(conn, "SELECT id FROM sessions WHERE patient_id = ? AND number = ?",
-                                    (patient, session_number)).fetchone()
-            if row is None:
-                if next_session is None:
-                    next_session = next_session_number_of(conn, patient)
-                if session_number != next_session:
+            latest, asked = sessions_for_a_trial(conn, patient, session_number)
+            if session_number is None and latest is not None and \
+                    latest[2] == local_day.isoformat():
+                asked = latest  # today's session goes on
+            if asked is None:
+                next_session = 1 if latest is None else latest[1] + 1
+                if session_number is None:
+                    session_number = next_session
+                elif session_number != next_session:
                     raise refuse_number("session", session_number, next_session,
                                         whose=f"patient {code}", used_on=None)
                 session_id = insert_session(conn, patient, session_number, local_day,
@@ -241,8 +252,7 @@ class Trials(Database):
                 log.info("patient %s: session %d opened", code, session_number)
                 free = 1  # a session opened now has no trial yet
             else:
-                session_id = row[0]
-                free = _next_trial_number_in(conn, session_id)
+                session_id, session_number, _, free = asked
             if trial_number is None:
                 trial_number = free
             elif trial_number != free:
@@ -321,23 +331,27 @@ class Trials(Database):
             backend = checked_text("backend", backend, NAME_MAX_CHARS) or None
         checksum = checked_checksum(checksum)
         with self._write() as conn:
-            trial = trial_by_id(conn, self.where, trial_id, lock=True)
-            if trial.finished:
+            # One statement (a round trip to a server; bench/registration.py): the update
+            # of a trial still recording, which returns the row as written. On the server it
+            # waits for a station finishing the same trial, then finds it finished.
+            row = execute(conn, "UPDATE trials SET status = ?, metrics = ?, ended_at = ?, "
+                                "end_reason = ?, assistance = ?, backend = coalesce(?, "
+                                "backend), checksum = ? WHERE id = ? AND status = ? "
+                                + TRIAL_RETURNING,
+                          (status, stored, utc_text(ended_at), str(reason), levels, backend,
+                           checksum, trial_id, STATUS_RECORDING)).fetchone()
+            if row is None:  # none, or finished: which, in the registry's words
+                trial = trial_by_id(conn, self.where, trial_id)
                 raise RegistryError(
                     f"trial {trial_id} was already finished ({trial.status} at "
                     f"{trial.ended_at}); use update_metrics to store recomputed metrics"
                 )
-            if ended_at < trial.started_at:
+            trial = trial_from_row(row)
+            if ended_at < trial.started_at:  # raised in the transaction: nothing is kept
                 raise InvalidRecordError(
                     f"trial {trial_id} would end at {ended_at.isoformat()}, before it started "
                     f"({trial.started_at.isoformat()}): check the computer's clock"
                 )
-            execute(conn, "UPDATE trials SET status = ?, metrics = ?, ended_at = ?, "
-                          "end_reason = ?, assistance = ?, backend = coalesce(?, backend), "
-                          "checksum = ? WHERE id = ?",
-                          (status, stored, utc_text(ended_at), str(reason), levels, backend,
-                           checksum, trial_id))
-            trial = trial_by_id(conn, self.where, trial_id)
         log.info("trial %d finished: %s, %d metric(s)%s", trial_id, status, len(trial.metrics),
                  f" ({reason})" if reason else "")
         return trial
@@ -493,17 +507,9 @@ def _next_trial_number_in(conn: sa.Connection, session_id: int) -> int:
     return (row[0] or 0) + 1
 
 
-def _latest_session(conn: sa.Connection, patient: int) -> tuple | None:
-    """The patient's latest session (id, number, date), None before the first."""
-    return execute(conn,
-        "SELECT id, number, date FROM sessions WHERE patient_id = ? ORDER BY number DESC "
-        "LIMIT 1", (patient,),
-    ).fetchone()
-
-
 def _suggest(conn: sa.Connection, code: str, patient: int,
              today: datetime.date) -> Registration:
-    latest = _latest_session(conn, patient)
+    latest, _ = sessions_for_a_trial(conn, patient, None)
     if latest is not None and latest[2] == today.isoformat():
-        return Registration(code, latest[1], _next_trial_number_in(conn, latest[0]), False)
+        return Registration(code, latest[1], latest[3], False)
     return Registration(code, 1 if latest is None else latest[1] + 1, 1, True)

@@ -85,6 +85,20 @@ def test_a_flipped_bit_in_a_column_name_of_the_schema_is_refused_in_one_line(tmp
     assert "backup" in text
 
 
+def test_a_flipped_bit_in_a_pages_type_is_refused_in_one_line(tmp_path):
+    """A page whose header no longer says what kind of page it is: SQLite's integrity check
+    itself fails ("database disk image is malformed"), which escaped as SQLite's own error
+    (found by the bit-flip fuzz test below: offset 4096, bit 0)."""
+    path = make_registry(tmp_path / "data")
+    flip(path, 4096, 0)  # the second page's first byte: its type
+    with pytest.raises(RegistryError) as caught:
+        everything(tmp_path / "data")
+    text = str(caught.value)
+    assert "\n" not in text
+    assert "malformed" in text
+    assert "backup" in text
+
+
 def test_a_row_edited_outside_the_console_is_refused(tmp_path):
     """A database browser cannot change a row without the console's seal function; one
     that removes the triggers to do it leaves a row its seal refuses."""

@@ -17,6 +17,8 @@ the server's functions, triggers, grants and views are added by their SQL.
 from __future__ import annotations
 
 from sqlalchemy import Connection, insert, inspect, select, update
+from sqlalchemy.dialects import postgresql
+from sqlalchemy.schema import CreateIndex
 
 from app.errors import SchemaError
 from app.records.registry.postgres import numbering, seals, tables
@@ -123,7 +125,11 @@ v10: the station of each trial and plan run, and each trial file's checksum
 research's views take every column of their table, the hidden ones empty (roles.
 research_columns), so the registry's code reads through them on a researcher's login.
 v11: the shared trial store each trial's file was copied to (app.records.registry.stores),
-sealed; research reads it (a folder, named by station)."""
+sealed; research reads it (a folder, named by station).
+v12: a trial's registration does less work in the server: the indexes that find a patient's
+pending proposal (app.records.registry.proposals.PENDING_INDEXES), and the seal's parts
+declared STABLE, which lets the server inline them in every seal trigger (seals.FUNCTIONS).
+Nothing a trigger or a role enforces changes; every seal stays the digest it was."""
 
 MIGRATIONS[11] = (
     _rows_match_their_seals("trials"),
@@ -134,6 +140,12 @@ MIGRATIONS[11] = (
     # a view may gain columns at its end in place, keeping its grants
     research_view("trials").replace("CREATE VIEW", "CREATE OR REPLACE VIEW", 1),
     _research_grantee("trials", "GRANT SELECT (stored_in) ON trials TO %I"),
+)
+
+MIGRATIONS[12] = (
+    *(str(CreateIndex(index).compile(dialect=postgresql.dialect()))
+      for index in sorted(tables.proposals.indexes, key=lambda index: index.name)),
+    *seals.PARTS_STABLE,
 )
 
 

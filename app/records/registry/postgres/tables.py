@@ -1,5 +1,5 @@
-"""The registry's tables at today's schema (v8, app.records.registry.schema) as SQLAlchemy 2
-Core metadata, which creates them on PostgreSQL.
+"""The registry's tables at today's schema (`SCHEMA_VERSION`, app.records.registry.schema) as
+SQLAlchemy 2 Core metadata, which creates them on PostgreSQL.
 
 Why a second description of the same tables: the SQLite registry is built by replaying its
 historic DDL (schema.MIGRATIONS, as each version shipped), which only SQLite reads. A server
@@ -40,7 +40,7 @@ from sqlalchemy import (
     text,
 )
 
-SCHEMA_VERSION = 11
+SCHEMA_VERSION = 12
 """The SQLite registry's schema version these tables are (schema.SCHEMA_VERSION)."""
 
 metadata = MetaData()
@@ -147,6 +147,10 @@ proposals = Table(
     _seal(),
     CheckConstraint("decision IN ('pending', 'accepted', 'changed', 'kept')",
                     name="proposals_decision"),
+    # schema v12 (app.records.registry.proposals.PENDING_INDEXES): the pending ones, and
+    # those decided by a trial, without reading every proposal
+    Index("proposals_pending", "trial_id", postgresql_where=text("decision = 'pending'")),
+    Index("proposals_by_next_trial", "next_trial_id"),
 )
 
 plans = Table(

@@ -12,6 +12,7 @@ import sqlalchemy as sa
 
 from app.errors import RegistryError
 from app.records.registry import SCHEMA_VERSION
+from app.records.registry.postgres.seals import PARTS_STABLE
 from app.records.registry.postgres.tables import REGISTRY_TABLES
 from tests.app.cli.running import run
 from tests.app.records.postgres.conftest import Registry
@@ -203,15 +204,29 @@ def test_the_readmes_recipe_an_owner_who_may_create_roles_creates_the_registry(
     assert "seals: every row matches its seal" in out
 
 
+V11_AS_IT_WAS = (
+    "DROP INDEX proposals_pending", "DROP INDEX proposals_by_next_trial",
+    *(statement.replace(" STABLE", " IMMUTABLE") for statement in PARTS_STABLE),
+)
+"""What v12 changed on the server, undone: its indexes, and the seal's parts as they were
+declared (app.records.registry.postgres.MIGRATIONS[12])."""
+
+
+def _as_at_v11(registry: Registry) -> None:
+    registry.server.admin_sql(*V11_AS_IT_WAS, "UPDATE schema_version SET version = 11",
+                              database=registry.database)
+
+
 def _as_at_v8(registry: Registry) -> None:
     """Today's registry on the server made as v8 left it: without v10's and v11's columns
-    (their seal functions and research's views as they were) nor v9's grants to clinic."""
+    (their seal functions and research's views as they were) nor v9's grants to clinic, nor
+    v12's indexes."""
     from app.records.registry import seals as sqlite_seals
     from app.records.registry.postgres import seals as server_seals, tables
     from app.records.registry.postgres.roles import visible_to_research
 
     added = {"trials": ("station", "checksum", "stored_in"), "plan_runs": ("station",)}
-    statements = [f"DROP VIEW research.{table}" for table in added]
+    statements = [*V11_AS_IT_WAS, *(f"DROP VIEW research.{table}" for table in added)]
     for table, columns in added.items():
         statements.append(f"ALTER TABLE {table} " + ", ".join(f"DROP COLUMN {c}"
                                                              for c in columns))
@@ -265,4 +280,52 @@ def test_a_v8_registry_on_the_server_is_upgraded_and_a_station_can_then_withdraw
     done = console.finish_trial(begun.trial_id, "complete", {}, checksum="ab" * 32)
     assert (done.station, done.checksum) == ("robot-2", "ab" * 32)
     assert console.plan_run(run_id).station == "robot-2"
+    assert console.integrity_check() == []
+
+
+def test_a_v11_registry_on_the_server_is_upgraded_keeping_every_record_and_seal(
+        postgres_server, station, capsys, tmp_path):
+    """v12 adds indexes and makes the seal's parts inlinable: `rehab db upgrade` brings a
+    v11 registry holding trials, proposals pending and decided, and a validity mark, to it;
+    every row is as it was, with its seal, and the registry's reads give the same."""
+    from app.records.datadir import DataDir
+    from app.records.registry import Registry as Console
+    from core.trial import TrialParameters
+
+    registry = Registry(postgres_server)
+    login = sa.make_url(registry.url(registry.clinic_login))
+    console = Console(DataDir(tmp_path / "data"), server=login, station="robot-1")
+    code = console.create_patient("Ada", "Example").code
+    for _ in range(3):
+        begun = console.begin_trial(code, TrialParameters(), backend="simulator")
+        console.finish_trial(begun.trial_id, "complete", {"rmse_x_m": 0.01})
+        console.record_proposal(begun.trial_id, {"assistance_level": 0.5})
+    console.mark_trial(begun.trial_id, valid=False, reason="the arm slipped", by="Dr B")
+    reads = (console.trials_for_patient(code), console.proposals_for_patient(code),
+             console.pending_proposal(code))
+
+    def rows() -> dict[str, list]:
+        with registry.engine() as engine, engine.connect() as conn:
+            return {table: conn.execute(sa.text(f"SELECT * FROM {table} ORDER BY 1")).all()
+                    for table in REGISTRY_TABLES}
+
+    before = rows()
+    _as_at_v11(registry)
+    station(registry.url())
+    code_, out, err = run(["db", "upgrade"], capsys)
+    assert (code_, err) == (0, "")
+    shown = sa.make_url(registry.url()).render_as_string(hide_password=True)
+    assert out == f"the registry at {shown} updated from schema v11 to v{SCHEMA_VERSION}\n"
+    assert rows() == before
+    console = Console(DataDir(tmp_path / "data"), server=login, station="robot-1")
+    assert (console.trials_for_patient(code), console.proposals_for_patient(code),
+            console.pending_proposal(code)) == reads
+    with registry.engine() as engine, engine.connect() as conn:
+        indexes = set(conn.execute(sa.text(
+            "SELECT indexname FROM pg_indexes WHERE tablename = 'proposals'")).scalars())
+        parts = set(conn.execute(sa.text(
+            "SELECT provolatile FROM pg_proc WHERE proname IN ('registry_seal_text', "
+            "'registry_seal_integer', 'registry_seal_real')")).scalars())
+    assert {"proposals_pending", "proposals_by_next_trial"} <= indexes
+    assert parts == {"s"}
     assert console.integrity_check() == []

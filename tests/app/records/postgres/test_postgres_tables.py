@@ -80,6 +80,25 @@ def test_the_foreign_keys_and_unique_keys_are_the_sqlite_registrys():
             assert ours_unique == sqlite_unique, name
 
 
+def test_the_other_indexes_are_the_sqlite_registrys():
+    """Each index the registry's queries rely on (the keys' own aside), with its columns and,
+    for a partial one, its condition (schema v12's pending proposals)."""
+    with contextlib.closing(sqlite_registry()) as conn:
+        sqlite = sorted(
+            (table, name, tuple(c[2] for c in conn.execute(f"PRAGMA index_info('{name}')")),
+            sql.split(" WHERE ", 1)[1] if " WHERE " in sql else None)
+            for name, table, sql in conn.execute(
+                "SELECT name, tbl_name, sql FROM sqlite_master WHERE type = 'index' "
+                "AND sql IS NOT NULL"))
+    ours = sorted(
+        (table.name, index.name, tuple(c.name for c in index.columns),
+         None if index.dialect_options["postgresql"]["where"] is None else
+         str(index.dialect_options["postgresql"]["where"]))
+        for table in metadata.tables.values() for index in table.indexes)
+    assert ours == sqlite
+    assert ("proposals", "proposals_pending", ("trial_id",), "decision = 'pending'") in ours
+
+
 def test_the_registry_builds_on_postgresql_with_its_version(registry):
     with registry.engine() as engine, engine.connect() as conn:
         assert registry_version(conn) == SCHEMA_VERSION
