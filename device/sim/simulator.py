@@ -114,12 +114,9 @@ GRIP_TREMOR_HZ = 10.0
 GRIP_TREMOR_FRACTION = 0.05
 """A hand taking hold of the handle (`push_at_connect_N`): its push rises with this time
 constant and trembles at this frequency by this fraction of itself."""
-_TWO_PI = 2.0 * math.pi
 # A waiting patient's clock: this far before the exercise's start, the desired
 # motion is the start posture at rest (finite, so the tremor's sine stays defined).
 _WAITING_S = 1e9
-# |det J_A| (m²) below which the arm counts as straight: core.interaction's bound.
-_ARM_DET_MIN = 1e-9
 
 
 @dataclass(frozen=True, slots=True)
