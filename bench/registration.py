@@ -50,6 +50,7 @@ from bench.stations import (  # noqa: E402
     proposal_for,
     server_settings,
     single_metrics,
+    throwaway_server,
 )
 
 CALLS = ("begin_trial", "finish_trial", "record_proposal")
@@ -93,14 +94,8 @@ def main() -> None:
     parser.add_argument("--fill-workers", type=int, default=2)
     args = parser.parse_args()
 
-    from tests.postgres import ServerError, start
-
     print(f"load before: {Path('/proc/loadavg').read_text().strip()}", flush=True)
-    try:
-        server = start()
-    except ServerError as exc:
-        print(f"error: the throwaway PostgreSQL server did not start: {exc}", file=sys.stderr)
-        sys.exit(1)
+    server = throwaway_server()
     data_root = Path(tempfile.mkdtemp(prefix="rehab-bench-registration-"))
     try:
         bench = make_registry(server)

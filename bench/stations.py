@@ -66,6 +66,7 @@ from stations_fill import (  # noqa: E402
     parameters_for,
     proposal_for,
     single_metrics,
+    throwaway_server,
 )
 
 from app.records.registry import Registry  # noqa: E402
@@ -313,15 +314,9 @@ def main() -> None:
                         help="skip the check of every row's seal at the end")
     args = parser.parse_args()
 
-    from tests.postgres import ServerError, start
-
     print(f"load before: {Path('/proc/loadavg').read_text().strip()}  "
           f"({os.cpu_count()} cores)", flush=True)
-    try:
-        server = start()
-    except ServerError as exc:
-        print(f"error: the throwaway PostgreSQL server did not start: {exc}", file=sys.stderr)
-        sys.exit(1)
+    server = throwaway_server()
     data_root = Path(tempfile.mkdtemp(prefix="rehab-bench-stations-"))
     try:
         bench = make_registry(server)

@@ -13,6 +13,7 @@ import json
 import math
 import multiprocessing as mp
 import secrets
+import sys
 import time
 from pathlib import Path
 
@@ -215,3 +216,15 @@ def fill(bench: Bench, data_root: Path, patients: int, trials_per_patient: int,
         engine.dispose()
     times["analyze"] = time.perf_counter() - t0
     return codes, times
+
+
+def throwaway_server():
+    """The tests' throwaway PostgreSQL server (tests/postgres.py: initdb in a temporary
+    folder, a free port on 127.0.0.1), or exit 1 with one line saying why it did not start."""
+    from tests.postgres import ServerError, start
+
+    try:
+        return start()
+    except ServerError as exc:
+        print(f"error: the throwaway PostgreSQL server did not start: {exc}", file=sys.stderr)
+        sys.exit(1)
