@@ -34,9 +34,32 @@ def assessment_figures(channels: Mapping[str, np.ndarray], parameters: TrialPara
     of_task = TASK_FIGURES.get(task)
     if of_task is None:
         return {}, (f"the {task} task's figures are not computed by this console yet",)
-    samples = {name: np.asarray(values)[exercise] for name, values in channels.items()
+    chosen = through_rest(channels, exercise) if task in MEASURED_TO_REST else exercise
+    samples = {name: np.asarray(values)[chosen] for name, values in channels.items()
                if name in CHANNELS_NEEDED}
     return _plain(of_task(samples, parameters)), ()
+
+
+MEASURED_TO_REST = ("circle",)
+"""The tasks whose figures also read the hold after the exercise (the circle's smoothness
+over a movement from rest to rest: core.assessment.circle)."""
+
+
+def through_rest(channels: Mapping[str, np.ndarray], exercise: slice | np.ndarray
+                 ) -> np.ndarray:
+    """The samples `exercise` selects and the hold right after them (device.loop.plan:
+    the reference at rest for HOLD_S once the exercise ends), as a boolean mask."""
+    from device.loop.pipeline import PHASE_HOLD
+
+    phase = np.asarray(channels["phase"])
+    chosen = np.zeros(phase.size, dtype=bool)
+    chosen[exercise] = True
+    if chosen.any():
+        last = int(np.flatnonzero(chosen)[-1])
+        after = phase[last + 1:] != PHASE_HOLD
+        end = last + 1 + (int(np.argmax(after)) if after.any() else after.size)
+        chosen[last + 1:end] = True
+    return chosen
 
 
 def reaching_figures(samples: Mapping[str, np.ndarray],
@@ -56,14 +79,17 @@ def reaching_figures(samples: Mapping[str, np.ndarray],
 
 def circle_figures(samples: Mapping[str, np.ndarray],
                    parameters: TrialParameters) -> dict[str, float]:
-    """Circle drawing, one way round (core.assessment.circle): a trial draws its circle one
-    way, so its figures are that way's (`circle_ratio_cw`, …); the task's, the mean of the
+    """Circle drawing, one way round (core.assessment.circle), from the exercise's samples
+    and the hold's after them: a trial draws its circle one way, so its figures are that
+    way's (`circle_ratio_cw`, …); the task's, the mean of the
     two ways, need both trials (`circle_task`)."""
     from core.assessment.circle import circle_figures as one_circle
     from core.assessment.figures import circle_key
+    from device.loop.pipeline import PHASE_EXERCISE
 
     way = "cw" if parameters.clockwise else "ccw"
-    drawn = one_circle(samples["time"], samples["position"], samples["subject_angle"])
+    drawn = one_circle(samples["time"], samples["position"], samples["subject_angle"],
+                       drawing=np.asarray(samples["phase"]) == PHASE_EXERCISE)
     return {circle_key(base, way): value for base, value in drawn.items()}
 
 

@@ -18,15 +18,21 @@ figures over the clockwise and counter-clockwise circles.
   |r| ≈ 1 and 0. Any angle convention will do (offsets and signs do not change
   |r|). NaN when either joint did not move.
 * *SPARC* of the hand speed and *LDLJ* of the hand velocity (vector form) over the
-  circle (core.smoothness; Balasubramanian et al. 2015). A circle is not a discrete
-  movement: compare these only with circles. NaN when the hand never reached
-  0.01 m/s (core.reaches' threshold of a movement): the smoothness of noise means
-  nothing.
+  circle and the rest after it (core.smoothness; Balasubramanian et al. 2015). A circle
+  is not a discrete movement: compare these only with circles. NaN when the hand never
+  reached 0.01 m/s (core.reaches' threshold of a movement): the smoothness of noise
+  means nothing. Why the rest after it (ours): both measures are defined for a movement
+  from rest to rest, and a speed cut while the hand still moves ends in a step whose
+  spectrum decides SPARC. Over the 20 s of the dot's five laps alone, SPARC's adaptive
+  cut-off fell at 0.5–0.7 Hz, set by the sinc of that step, for a healthy and a weak
+  virtual patient alike, and the figure ranked the window's edges, not the drawing
+  (docs/assessments.md, Submovements).
 * *Mean speed*: the path's length (the sum of the distances between samples) over
   the time from the first sample to the last.
 
-Give each circle's own samples (from its start cue to its end): the battery cuts
-them by the task's events.
+Give each circle's own samples (from its start cue to its end) and the rest after it,
+with `drawing` marking the circle's: the battery cuts them by the trial's phases (the
+exercise, then the hold where the dot rests).
 """
 
 from __future__ import annotations
@@ -37,6 +43,7 @@ import numpy as np
 
 from core.assessment.figures import CIRCLE_BASE_KEYS, circle_key
 from core.assessment.geometry import chord_and_width
+from core.errors import ParameterError
 from core.metrics import pearson
 from core.reaches import DEFAULT_MIN_PEAK_SPEED_M_S
 from core.signal import as_series, sample_interval, smoothed_derivatives
@@ -45,10 +52,13 @@ from core.smoothness import ldlj, sparc
 SPEED_CUTOFF_HZ = 10.0
 
 
-def circle_figures(t_s, position_m, joint_angles_rad, *, velocity_m_s=None) -> dict[str, float]:
+def circle_figures(t_s, position_m, joint_angles_rad, *, velocity_m_s=None,
+                   drawing=None) -> dict[str, float]:
     """One circle's figures keyed by CIRCLE_BASE_KEYS: time stamps (N,) s evenly sampled, hand
     positions (N, 2) m, shoulder and elbow angles (N, 2) rad, the hand velocity (N, 2)
-    m/s (default: the positions low-passed at 10 Hz and differentiated)."""
+    m/s (default: the positions low-passed at 10 Hz and differentiated), and `drawing`
+    (N,) true on the circle's samples, false on the rest after it (default: all the
+    circle's). The smoothness is measured over all of them, the rest over the drawing."""
     t = np.asarray(t_s, dtype=float)
     dt_s = sample_interval(t)
     position = as_series("position_m", position_m, t.size, 2)
@@ -57,10 +67,15 @@ def circle_figures(t_s, position_m, joint_angles_rad, *, velocity_m_s=None) -> d
         velocity = smoothed_derivatives(position, dt_s, SPEED_CUTOFF_HZ, name="position_m").rate
     else:
         velocity = as_series("velocity_m_s", velocity_m_s, t.size, 2)
+    drawn = (np.ones(t.size, dtype=bool) if drawing is None
+             else as_series("drawing", drawing, t.size) != 0.0)
+    if not drawn.any():
+        raise ParameterError("drawing", "no sample", "the circle's samples marked true")
     speed = np.hypot(velocity[:, 0], velocity[:, 1])
-    major, minor = chord_and_width(position)
-    correlation = pearson(angles[:, 0], angles[:, 1])
-    path = float(np.sum(np.hypot(*np.diff(position, axis=0).T)))
+    circle = position[drawn]
+    major, minor = chord_and_width(circle)
+    correlation = pearson(angles[drawn, 0], angles[drawn, 1])
+    path = float(np.sum(np.hypot(*np.diff(circle, axis=0).T)))
     moved = speed.max() >= DEFAULT_MIN_PEAK_SPEED_M_S  # below: rounding and encoder noise
     return {
         # a round set can come out a hair wider across than along its chord: rounding
@@ -68,7 +83,7 @@ def circle_figures(t_s, position_m, joint_angles_rad, *, velocity_m_s=None) -> d
         "circle_joint_independence": 1.0 - abs(correlation),
         "circle_sparc": sparc(speed, dt_s) if moved else math.nan,
         "circle_ldlj": ldlj(velocity, dt_s) if moved and t.size >= 4 else math.nan,
-        "circle_mean_speed_m_s": path / float(t[-1] - t[0]),
+        "circle_mean_speed_m_s": path / float(t[drawn][-1] - t[drawn][0]),
     }
 
 

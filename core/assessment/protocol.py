@@ -226,11 +226,12 @@ PROTOCOLS: dict[str, Protocol] = {
         therapist=(
             "The patient draws the circle shown on the screen, 14 cm across, 5 laps "
             "clockwise in the first trial and 5 counter-clockwise in the second, at the pace "
-            "of the moving dot (4 s a lap). The robot is transparent. Let the patient rest "
-            "between the two trials."),
+            "of the moving dot (4 s a lap), and stops when the dot stops (the circle's "
+            "smoothness is measured until the hand is at rest). The robot is transparent. "
+            "Let the patient rest between the two trials."),
         patient=(
             "Follow the dot round the circle with the handle, as round and as smooth as you "
-            "can. Then the same the other way round."),
+            "can, and stop when the dot stops. Then the same the other way round."),
         robot_mode=TRANSPARENT, shape="circle", radius_m=0.07, n_targets=8, repetitions=5,
         duration_s=4.0, timing="constant_speed", trials=("clockwise", "counter-clockwise"),
         target_hold_s=0.0, time_allowed_s=4.0, rest_s=30.0, reference=_INMOTION),

@@ -90,10 +90,13 @@ The parts of a patient
   above; check before citing. With κ = 0.5 the weak patient's circle flattens and its
   joints move together, both figures under the healthy patient's, while on the thesis's D
   with the as-needed assistance it leads as often as without and its push, bent toward
-  the synergy, is in the cone a third as often; it is not the weak kind's default because
-  its circle then comes out as smooth as the healthy one and its reaches have fewer speed
-  maxima (it stops short across its synergy, and this model makes no corrective
-  submovements). The figures are in docs/assessments.md (The virtual patients' circles).
+  the synergy, is in the cone a third as often; with the submovements of its own
+  movements (device.sim.submovements) every figure of the battery then orders as a stroke
+  survivor's. It is not the weak kind's default because the weak kind is also the
+  exercises' impaired patient, whose figures on the D the validation measured without it
+  (under the thesis's full assistance the robot would do 0.93 of the work instead of 0.79);
+  docs/assessments.md (Submovements) says what making it the default would take. The
+  figures are in docs/assessments.md (The virtual patients' circles).
 * spastic: healthy effort plus a velocity-dependent resistance on each joint
   (Lance's definition of spasticity: a velocity-dependent increase in the tonic
   stretch reflex),  τ = −b ω − g (|ω| − ω_th)₊ sign ω,  with ω the joint's rate.

@@ -10,9 +10,12 @@ is given its own movement plan (`OwnMovement`), made from the task's cues
 * reaching: at each target's appearance the patient waits its reaction time, then moves
   to the target along a straight minimum-jerk profile (Flash & Hogan 1985, J Neurosci
   5:1688, doi 10.1523/JNEUROSCI.05-07-01688.1985) of its own movement time, holds there,
-  and on the centre's appearance returns the same way.
+  and on the centre's appearance returns the same way. A patient who lost effort makes
+  the movement of overlapping submovements instead (device.sim.submovements: the weak
+  patient's 10 cm reach in three), their shares varied from reach to reach.
 * circle drawing: it draws the trial's circle at its own pace, lap after lap, until the
-  trial ends (the dot on the screen keeps the protocol's pace).
+  trial ends (the dot on the screen keeps the protocol's pace); a patient who lost effort
+  by submovements along the arc, varied from lap to lap.
 * active range: at each direction's appearance it moves out along that direction to a
   fraction of the distance the robot and its arm allow there
   (core.assessment.workspace.extent_m), holds, and returns.
@@ -36,7 +39,7 @@ reduced active range in proportion to the lost effort, so a population's spread 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -49,6 +52,13 @@ from core.robot import RobotModel
 from core.trajectory import Trajectory, TrajectorySample
 from core.trial import TrialParameters
 from device.sim.patient_parameters import DEFAULT_EFFORT
+from device.sim.submovements import (
+    OwnLaps,
+    nominal_shares,
+    onset_spacing,
+    piece_count,
+    profile,
+)
 
 OWN_MOVEMENT_TASKS = ("reaching", "circle", "range")
 """The tasks whose patient moves on its own plan (the others follow the reference, or the
@@ -71,12 +81,16 @@ RANGE_LOST = 0.45
 
 @dataclass(frozen=True, slots=True)
 class Move:
-    """One straight minimum-jerk movement from `start_m` to `end_m` over [t0_s, t1_s]."""
+    """One straight movement from `start_m` to `end_m` over [t0_s, t1_s]: one
+    minimum-jerk piece, or submovements of `shares` of the distance whose onsets are
+    `spacing` of a piece's duration apart (device.sim.submovements)."""
 
     t0_s: float
     t1_s: float
     start_m: tuple[float, float]
     end_m: tuple[float, float]
+    shares: tuple[float, ...] = (1.0,)
+    spacing: float = 1.0
 
 
 class OwnMovement:
@@ -112,13 +126,10 @@ class OwnMovement:
             d = np.subtract(move.end_m, move.start_m)
             length = float(np.hypot(*d))
             unit = d / length if length > 0.0 else np.zeros(2)
-            span = move.t1_s - move.t0_s
-            u = np.clip((t[mine] - move.t0_s) / span, 0.0, 1.0)
-            moving = (u < 1.0)[:, None]
-            u2 = u * u
-            s = length * u2 * u * (10.0 - 15.0 * u + 6.0 * u2)
-            sd = length / span * 30.0 * u2 * (1.0 - 2.0 * u + u2)
-            sdd = length / (span * span) * 60.0 * u * (1.0 - 3.0 * u + 2.0 * u2)
+            local = t[mine] - move.t0_s
+            moving = (local / (move.t1_s - move.t0_s) < 1.0)[:, None]
+            s, sd, sdd = profile(local, move.t1_s - move.t0_s, move.shares, move.spacing,
+                                 length)
             position[mine] = np.asarray(move.start_m) + s[:, None] * unit
             velocity[mine] = sd[:, None] * unit
             acceleration[mine] = sdd[:, None] * unit
@@ -166,13 +177,25 @@ def range_fraction(effort: float) -> float:
     return RANGE_FULL - RANGE_LOST * (1.0 - effort)
 
 
-def own_circle(trial: TrialParameters, effort: float, speed_scale: float = 1.0) -> Trajectory:
+def own_circle(trial: TrialParameters, effort: float, speed_scale: float = 1.0,
+               varied: Callable[[float], float] | None = None) -> Trajectory | OwnLaps:
     """The circle at the patient's own pace: the trial's circle, each lap
     1/((0.5 + 0.5 w)·speed_scale) times the dot's lap (a healthy patient keeps the dot's
-    pace), lapped until the trial's end."""
+    pace), until the dot stops, when the patient comes to rest too
+    (device.sim.submovements.OwnLaps); a lap of two submovements or more walked by them,
+    each piece's share varied by `varied`."""
     lap_s = trial.duration_s / ((0.5 + 0.5 * effort) * speed_scale)
-    laps = math.ceil(trial.duration_s * trial.repetitions / lap_s - 1e-9)
-    return Trajectory(trial.path(), lap_s, max(1, laps), trial.timing)
+    stop_s = trial.duration_s * trial.repetitions
+    laps = max(1, math.ceil(stop_s / lap_s - 1e-9))
+    paced = Trajectory(trial.path(), lap_s, laps, trial.timing)
+    pieces = piece_count(paced.path.length, effort)
+    if paced.timing != "constant_speed":
+        return paced
+    if pieces < 2:
+        return OwnLaps(paced, None, 1.0, stop_s)
+    vary = varied or (lambda value: value)
+    shares = [[vary(1.0) for _ in range(pieces)] for _ in range(laps)]
+    return OwnLaps(paced, shares, onset_spacing(effort), stop_s)
 
 
 def own_movement(trial: TrialParameters, kind: str, options: Mapping[str, object],
@@ -189,13 +212,14 @@ def own_movement(trial: TrialParameters, kind: str, options: Mapping[str, object
                                                                   REACTION_S),
                                    *REACTION_RANGE_S, "s")
     speed = check_range("speed_scale", options.get("speed_scale", 1.0), *SPEED_SCALE_RANGE)
-    if trial.assessment == "circle":
-        return own_circle(trial, effort, min(speed, 1.0))
     rng = np.random.default_rng(_stream(seed))
     sigma = math.sqrt(math.log1p(VARIATION ** 2))
 
     def varied(value: float) -> float:
         return value * math.exp(rng.normal(-sigma * sigma / 2.0, sigma))
+
+    if trial.assessment == "circle":
+        return own_circle(trial, effort, min(speed, 1.0), varied)
 
     centre = trial.centre_m
     box = range_box(trial)
@@ -217,7 +241,11 @@ def own_movement(trial: TrialParameters, kind: str, options: Mapping[str, object
             continue
         t0 = max(cue.time_s + varied(reaction_time_s(effort, healthy_reaction)), free_at)
         t1 = t0 + varied(movement_time_s(distance, effort, speed))
-        moves.append(Move(t0, t1, here, goal))
+        pieces = piece_count(distance, effort)
+        # one piece draws nothing more (a healthy patient's draws stay what they were)
+        shares = (tuple(varied(share) for share in nominal_shares(pieces)) if pieces > 1
+                  else (1.0,))
+        moves.append(Move(t0, t1, here, goal, shares, onset_spacing(effort)))
         here, free_at = goal, t1
     total = trial.duration_s * trial.repetitions
     return OwnMovement(centre, moves, max(total, free_at))

@@ -4,6 +4,7 @@ order them as expected."""
 
 import math
 
+import numpy as np
 import pytest
 
 from app.assessments.runner import run_task
@@ -42,6 +43,49 @@ def test_an_arm_that_lost_selectivity_draws_a_flatter_circle_than_the_healthy_on
     assert lost["circle_ratio"] < healthy["circle_ratio"] - 0.03
     assert lost["circle_joint_independence"] < healthy["circle_joint_independence"] - 0.05
     assert lost["circle_joint_independence"] < apart["circle_joint_independence"] - 0.05
+    # drawn by submovements (device.sim.submovements) it is less smooth than the healthy
+    # circle with the loss as without it
+    assert lost["circle_sparc"] < healthy["circle_sparc"] - 0.3
+    assert apart["circle_sparc"] < healthy["circle_sparc"] - 0.3
+
+
+def test_the_circles_smoothness_runs_until_the_hand_rests(circles):
+    """The circle's SPARC and LDLJ run over the exercise and the hold after it
+    (app.assessments.figures.through_rest), and every virtual patient has stopped with
+    the dot by the hold's end: the figure measures a movement from rest to rest."""
+    from app.assessments.figures import exercise_of, through_rest
+    from device.loop.pipeline import PHASE_EXERCISE, PHASE_HOLD
+
+    for kind in ("healthy", "weak"):
+        data = read_trial(circles[kind][0].path, ("time", "phase", "position"))
+        channels = data.channels
+        chosen = through_rest(channels, exercise_of(channels))
+        phase = channels["phase"][chosen]
+        assert (phase == PHASE_EXERCISE).sum() == exercise_of(channels).sum()
+        assert (phase == PHASE_HOLD).sum() == round(0.5 / data.sample_period_s)
+        assert np.all(np.diff(np.flatnonzero(chosen)) == 1)  # one stretch
+        hand = channels["position"][chosen]
+        speed = np.hypot(*np.diff(hand[::10], axis=0).T) / (10 * data.sample_period_s)
+        drawing = circles[kind][0].figures["circle_mean_speed_cw_m_s"]
+        hold = speed[-25:]  # the hold's 0.5 s
+        # the hand stops in the hold: at rest once (the healthy hand overshoots the dot's
+        # stop by about 1 cm and the robot's hold draws it back slowly)
+        assert hold.min() < 0.1 * drawing, kind
+        assert hold[-1] < 0.25 * drawing, kind
+        assert speed[-31] > 0.3 * drawing, kind  # still drawing 0.1 s before the dot stops
+
+
+def test_only_the_hold_right_after_the_exercise_is_added():
+    from app.assessments.figures import through_rest
+    from device.loop.pipeline import PHASE_APPROACH, PHASE_EXERCISE, PHASE_HOLD, PHASE_IDLE
+
+    phase = np.array([PHASE_IDLE, PHASE_APPROACH, PHASE_EXERCISE, PHASE_EXERCISE,
+                      PHASE_HOLD, PHASE_HOLD, PHASE_IDLE, PHASE_HOLD])
+    chosen = through_rest({"phase": phase}, phase == PHASE_EXERCISE)
+    assert chosen.tolist() == [False, False, True, True, True, True, False, False]
+    ends = np.array([PHASE_EXERCISE, PHASE_EXERCISE])
+    assert through_rest({"phase": ends}, ends == PHASE_EXERCISE).tolist() == [True, True]
+    assert not through_rest({"phase": phase}, np.zeros(8, dtype=bool)).any()
 
 
 @pytest.fixture(scope="module")

@@ -87,3 +87,16 @@ def test_the_live_loop_writes_the_same_cues_on_the_same_ticks(runs):
     stored = [e for e in data.events if e["kind"] == CUE_EVENT]
     assert [(first + k, kind, message, values) for k, kind, message, values in live] == [
         (e["tick"], e["kind"], e["message"], e["values"]) for e in stored]
+
+
+def test_a_weak_arm_that_lost_selectivity_reaches_in_more_pieces_than_a_healthy_one(runs):
+    """With the loss of selective joint control (device.sim.patients, selectivity) the weak
+    arm's reaches keep their submovements (device.sim.submovements): more speed maxima and
+    less smooth than the healthy reaches, where without the pieces it had fewer maxima
+    (docs/assessments.md, Submovements)."""
+    healthy = runs["healthy"].figures
+    lost = run_task("reaching", "weak", seed=5, in_memory=True,
+                    patient_options={"selectivity_loss": 0.5})[0].figures
+    assert lost["vgr_speed_maxima_count"] > healthy["vgr_speed_maxima_count"] + 0.5
+    assert lost["vgr_sparc"] < healthy["vgr_sparc"]
+    assert lost["vgr_initial_direction_error_rad"] > healthy["vgr_initial_direction_error_rad"]

@@ -3,7 +3,7 @@ scripts/build_simulated_norms.py from 500 virtual healthy subjects): verified on
 labelled simulated, a task score and an MDC95 for every task, what a data folder without
 norms of its own uses, and on the virtual patients they do what norms are for: the weak
 patient scores worse than the healthy one on every task (seed 3, a 60-year-old
-right-handed woman's norms: 3.31 against 1.73 in reaching, 5.06/0.99 circle, 4.84/0.14
+right-handed woman's norms: 4.12 against 1.73 in reaching, 4.82/0.55 circle, 4.95/0.14
 range, 3.01/1.13 strength, 6.85/1.41 position sense on 2026-12-04), and the passive one
 worst of all (reaching, circle and position not performed, range 8.43, strength 4.34)."""
 

@@ -161,3 +161,55 @@ def test_any_drawing_gives_figures_in_their_ranges(coefficients, joints):
         assert math.isnan(figures[key]) or 0.0 <= figures[key] <= 1.0
     assert figures["circle_mean_speed_m_s"] >= 0.0
     assert math.isnan(figures["circle_sparc"]) or figures["circle_sparc"] < 0.0
+
+
+def drawn_by_speed(speed_m_s, dt_s, radius=0.07, centre=(0.0, 0.4)):
+    """Positions round a circle walked at the speeds given (arc length by the trapezoid
+    rule) and the shoulder and elbow angles a lap's phase apart."""
+    arc = np.concatenate(([0.0], np.cumsum((speed_m_s[1:] + speed_m_s[:-1]) / 2 * dt_s)))
+    phase = arc / radius
+    position = np.column_stack((centre[0] + radius * np.cos(phase),
+                                centre[1] + radius * np.sin(phase)))
+    joints = np.column_stack((0.6 + 0.2 * np.sin(phase), 1.4 + 0.3 * np.sin(phase - 1.0)))
+    return position, joints
+
+
+def test_the_smoothness_runs_to_rest_and_the_rest_over_the_drawing():
+    """`drawing` marks the circle's samples: ratio, independence and mean speed are the
+    drawing's alone (the rest after it changes none of them), SPARC and LDLJ run over the
+    rest too."""
+    t, position, velocity = ellipse(0.10, 0.06, laps=2)
+    alone = circle_figures(t, position, angles(t, 1.0), velocity_m_s=velocity)
+    rest = 500
+    t2 = np.arange(t.size + rest) * (DURATION / N)
+    position2 = np.vstack((position, np.tile(position[-1], (rest, 1))))
+    velocity2 = np.vstack((velocity, np.zeros((rest, 2))))
+    angles2 = np.vstack((angles(t, 1.0), np.tile(angles(t, 1.0)[-1], (rest, 1))))
+    drawing = np.arange(t2.size) < t.size
+    both = circle_figures(t2, position2, angles2, velocity_m_s=velocity2, drawing=drawing)
+    for key in ("circle_ratio", "circle_joint_independence", "circle_mean_speed_m_s"):
+        assert both[key] == alone[key], key
+    everything = circle_figures(t2, position2, angles2, velocity_m_s=velocity2)
+    for key in ("circle_sparc", "circle_ldlj"):
+        assert both[key] == everything[key], key
+    assert both["circle_ldlj"] != alone["circle_ldlj"]
+    with pytest.raises(ParameterError, match="drawing"):
+        circle_figures(t2, position2, angles2, drawing=np.zeros(t2.size))
+
+
+def test_a_circle_drawn_in_pieces_is_less_smooth_and_a_small_ripple_is_not_seen():
+    """Five laps at 0.11 m/s from rest to rest, evenly or with the speed rippling at 2.3 Hz
+    (submovements): a ripple of a quarter of the speed makes the circle less smooth; one
+    of 6 % leaves SPARC where it was, its line in the spectrum (3 % of the mean's) under
+    SPARC's 5 % threshold, so the adaptive cut-off stays below it (docs/assessments.md,
+    Submovements)."""
+    dt = 0.002
+    t = np.arange(0.0, 21.0, dt)
+    ramp = np.clip(t / 0.3, 0.0, 1.0) * np.clip((20.3 - t) / 0.3, 0.0, 1.0)
+    sparc = {}
+    for ripple in (0.0, 0.06, 0.25):
+        position, joints = drawn_by_speed(0.11 * ramp * (1.0 + ripple * np.sin(
+            2 * math.pi * 2.3 * t)), dt)
+        sparc[ripple] = circle_figures(t, position, joints, drawing=t < 20.0)["circle_sparc"]
+    assert sparc[0.25] < sparc[0.0] - 0.5
+    assert sparc[0.06] == pytest.approx(sparc[0.0], abs=0.01)
