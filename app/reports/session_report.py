@@ -14,7 +14,7 @@ from __future__ import annotations
 import logging
 import math
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from matplotlib.figure import Figure
@@ -49,11 +49,34 @@ class AssessmentRow:
 
 @dataclass(frozen=True)
 class Assessment:
-    trial_number: int
+    trial_numbers: tuple[int, ...]
+    """The trials that hold these figures: one, or a task's trials that all hold the
+    task's figures (the circle's two ways: app.assessments.figures.circle_task)."""
     task_title: str
     rows: tuple[AssessmentRow, ...]
     task_score: str
     notes: tuple[str, ...] = ()
+
+    @property
+    def trials_text(self) -> str:
+        numbers = [str(n) for n in self.trial_numbers]
+        if len(numbers) == 1:
+            return f"Trial {numbers[0]}"
+        return f"Trials {', '.join(numbers[:-1])} and {numbers[-1]}"
+
+
+def one_per_task_result(assessments) -> tuple[Assessment, ...]:
+    """A task whose trials each hold the same figures (the circle's pair) shown once,
+    naming its trials, instead of the same table once per trial."""
+    out: list[Assessment] = []
+    for a in assessments:
+        last = out[-1] if out else None
+        if last is not None and (last.task_title, last.rows, last.task_score, last.notes) == (
+                a.task_title, a.rows, a.task_score, a.notes):
+            out[-1] = replace(last, trial_numbers=last.trial_numbers + a.trial_numbers)
+        else:
+            out.append(a)
+    return tuple(out)
 
 
 @dataclass(frozen=True)
@@ -120,9 +143,9 @@ def session_content(registry: RecordStore, code: str, number: int, *, norms=None
         f"{'trial ' + str(_number_of(trials, n.trial_id)) if n.trial_id else 'session'}: "
         f"{n.text} — {n.author}, {n.written_at:%Y-%m-%d %H:%M} UTC"
         for n in registry.notes(code, number))
-    assessments = tuple(_assessment(registry, patient, t, norms)
-                        for t in trials if t.parameters.get("assessment")
-                        and t.id not in invalid)
+    assessments = one_per_task_result(_assessment(registry, patient, t, norms)
+                                      for t in trials if t.parameters.get("assessment")
+                                      and t.id not in invalid)
     label = norms.label if norms is not None else "No norms in use: no Z-scores."
     return SessionContent(code, number, session.date.isoformat(), session.therapist,
                           session.location, tuple(rows), scale_lines, notes, assessments,
@@ -178,7 +201,7 @@ def _assessment(registry, patient, trial, norms) -> Assessment:
             score = not_performed_text(exc)
         except NormsError as exc:
             score = f"no task score: {exc}"
-    return Assessment(trial.number, TASK_TITLES.get(task, task), tuple(rows), score,
+    return Assessment((trial.number,), TASK_TITLES.get(task, task), tuple(rows), score,
                       tuple(notes))
 
 
@@ -262,8 +285,9 @@ def session_pages(content: SessionContent) -> tuple[Figure, ...]:
                   "invalid).")
     columns = (("Figure", 3.3), ("Value", 1.6), ("Against the norms", 2.3))
     for a in content.assessments:
-        flow.room(0.8)
-        flow.text(f"Trial {a.trial_number}: {a.task_title}", 10.5, weight="bold")
+        # the task's table kept on one sheet with its heading and its score, if it fits one
+        flow.room(min(0.8 + ROW_IN * (len(a.rows) + 1) + 0.3 * len(a.notes), 6.0))
+        flow.text(f"{a.trials_text}: {a.task_title}", 10.5, weight="bold")
         for note in a.notes:
             flow.text(note, 8.5, color=GREY)
         flow.row([c for c, _ in columns], columns, color=GREY, weight="bold")

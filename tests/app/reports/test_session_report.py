@@ -143,3 +143,38 @@ def test_the_session_report_on_the_command_line(clinic, capsys):
     status, _, err = run(["session-report", code, "9"], capsys)
     assert status == 2
     assert "has no session 9" in err
+
+
+def test_the_circles_two_trials_show_their_task_once(clinic):
+    """Both circle trials hold the task's figures (each way's and their mean): the report
+    shows them once, for trials 4 and 5, not the same table twice; a task's trials with
+    figures of their own stay apart."""
+    from app.reports.session_report import Assessment, AssessmentRow, one_per_task_result
+
+    registry, code, tmp_path = clinic
+    figures = {"circle_ratio": 0.9, "circle_sparc": -3.5, "circle_ratio_cw": 0.88,
+               "circle_ratio_ccw": 0.92}
+    for clockwise in (True, False):
+        task = THESIS_SUBJECT.replace(repetitions=1, assessment="circle", shape="circle",
+                                      clockwise=clockwise)
+        trial = registry.begin_trial(code, task, backend="simulator (weak, seed 0)",
+                                     session_number=1)
+        write(trial.path, parameters=task, code=code)
+        registry.finish_trial(trial.trial_id, "complete", figures)
+    content = session_content(registry, code, 1)
+    circle = [a for a in content.assessments if a.task_title.lower().startswith("circle")]
+    assert len(circle) == 1
+    assert circle[0].trial_numbers == (4, 5)
+    assert circle[0].trials_text == "Trials 4 and 5"
+    text = text_of(write_session_report(registry, code, 1, tmp_path / "s.pdf"))
+    assert "Trials 4 and 5: Circle drawing" in text
+    row = AssessmentRow("Reaction time", "0.4 s", "")
+    one, other = (Assessment((n,), "Visually guided reaching", (replace_value(row, v),), "")
+                  for n, v in ((1, "0.4 s"), (2, "0.5 s")))
+    assert one_per_task_result([one, other]) == (one, other)
+
+
+def replace_value(row, value):
+    from dataclasses import replace
+
+    return replace(row, value=value)
