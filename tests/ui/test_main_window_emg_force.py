@@ -5,6 +5,7 @@ MVCs; then the estimates go to the loop while the trial runs, the loop judges th
 trial's file keeps them; a source that dies mid-trial is said once and the assistance
 stops giving way. The real loop, recorder and fake Trigno Control Utility run behind."""
 
+import itertools
 import math
 
 import h5py
@@ -164,8 +165,13 @@ def test_an_emg_source_that_dies_mid_trial_stops_the_giving_way(qtbot, console):
         qtbot.waitUntil(lambda: "EMG estimate lost" in "\n".join(win.messages.history()),
                         timeout=20000)
         qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=60000)
-        lost = [line for line in win.messages.history() if "EMG estimate lost" in line]
-        assert len(lost) == 1  # said once, not at every estimate
+        # said once per outage, not at every estimate: a loaded machine may stall the
+        # fake base station's sender past the estimate's 103 ms before the real drop, which
+        # is an outage the window rightly says and then says is over
+        said = [line for line in win.messages.history()
+                if "EMG estimate lost" in line or "EMG estimate back" in line]
+        assert "EMG estimate lost" in said[-1]
+        assert all("back" in b for a, b in itertools.pairwise(said) if "lost" in a), said
         # the estimates made before the source died are stored with the trial
         stored = _stored_estimates(qtbot, win)
         ticks, active, phase = (stored[k] for k in ("tick", "assistance_active", "phase"))
