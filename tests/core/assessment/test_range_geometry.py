@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import example, given, settings, strategies as st
 
 from core.assessment.active_range import range_figures
 from core.assessment.geometry import (
@@ -83,6 +83,7 @@ cloud = st.lists(st.tuples(st.floats(-1, 1), st.floats(-1, 1)), min_size=1, max_
 
 @settings(max_examples=150, deadline=None)
 @given(cloud)
+@example([(0.0, 0.625), (1.0, 1.0), (5.0713290655642104e-278, 0.625)])  # CI, 2026-12-05
 def test_hull_contains_every_point_and_turns_left(pts):
     pts = np.array(pts)
     hull = convex_hull(pts)
@@ -168,3 +169,16 @@ def test_any_path_and_star_shaped_region_give_a_share_between_0_and_1(pts, star)
     # the share of the region reached is part of the area reached
     assert figures["range_area_ratio"] * abs(signed_area(region)) <= (
         figures["range_area_m2"] + 1e-12)
+
+
+def test_a_thin_polygon_far_from_the_origin_keeps_its_area():
+    """The shoelace's products of coordinates cancel far from the origin: summed from the
+    first vertex, a sliver keeps its area (the plain sum gave 0 for the hull above)."""
+    sliver = np.array([(0.0, 0.625), (5e-278, 0.625), (1.0, 1.0)])
+    assert signed_area(sliver) == pytest.approx(0.5 * 5e-278 * 0.375, rel=1e-12, abs=0.0)
+    square = np.array([(1e6, 1e6), (1e6 + 1e-6, 1e6), (1e6 + 1e-6, 1e6 + 1e-6), (1e6, 1e6 + 1e-6)])
+    # its sides as the floats hold them (1e6 + 1e-6 is not a float)
+    side_x, side_y = square[1, 0] - square[0, 0], square[2, 1] - square[1, 1]
+    assert signed_area(square) == pytest.approx(side_x * side_y, rel=1e-9, abs=0.0)
+    assert signed_area(square[::-1]) == pytest.approx(-side_x * side_y, rel=1e-9, abs=0.0)
+
