@@ -195,15 +195,31 @@ def patient_page(registry, code: str, task: str) -> AssessmentPage | None:
     left out) from the registry's metrics, scored against the data folder's norms in use
     (app.norms.in_use) when there are some; None when the patient has no such trial. A
     damaged norms file is said on the page, never scored with."""
+    trials = _finished_of_task(registry, code, task)
+    return trial_page(registry, trials[-1], trials) if trials else None
+
+
+def _finished_of_task(registry, code: str, task: str) -> list:
+    invalid = registry.invalid_trials(code)
+    return [t for t in registry.trials_for_patient(code)
+            if t.parameters.get("assessment") == task and t.finished and t.id not in invalid]
+
+
+def trial_page(registry, trial, trials=None) -> AssessmentPage:
+    """The page of one registered assessment trial (its task's figures as the registry
+    holds them, scored as `patient_page` scores them): the post-trial report's page for a
+    task (app.reports.pdf). `trials`: the patient's finished trials of the task up to this
+    one, where the circle's other way is looked for (default: read from the registry)."""
     from app.errors import AppError
     from app.norms.in_use import norms_in_use
 
-    invalid = registry.invalid_trials(code)
-    trials = [t for t in registry.trials_for_patient(code)
-              if t.parameters.get("assessment") == task and t.finished and t.id not in invalid]
-    if not trials:
-        return None
-    trial = trials[-1]
+    code, task = trial.patient_code, trial.parameters["assessment"]
+    if trials is None:
+        order = (trial.session_number, trial.number)
+        trials = [t for t in _finished_of_task(registry, code, task)
+                  if (t.session_number, t.number) <= order]
+        if not trials or trials[-1].id != trial.id:
+            trials = [*trials, trial]
     heading = (f"Patient {code}, session {trial.session_number} ({trial.session_date}), "
                f"trial {trial.number}, {trial.status.replace('_', ' ')}, "
                f"{trial.backend or 'robot not recorded'}")

@@ -101,12 +101,34 @@ def content_for_registry_trial(
     )
     from app.plans.dose import trial_plan_lines
 
+    if record.parameters.get("assessment") and record.finished:
+        content = with_task_page(registry, record, content)
     # a trial of a session plan: its block and the plan's dose, for the therapist
     extra = tuple(HeaderItem(label, value) for label, value in
                   trial_plan_lines(registry, trial_id))
     if not extra:
         return content
     return dataclasses.replace(content, therapist_header=content.therapist_header + extra)
+
+
+TASK_NOTE = "figures on the last page; the table below is against the moving reference"
+"""The therapist's header line of an assessment trial, after the task's title: the
+trial's table measures the hand against the task's moving reference (the circle's dot, the
+targets' schedule), which the task does not ask the patient to follow."""
+
+
+def with_task_page(registry: RecordStore, record: Trial, content: ReportContent
+                   ) -> ReportContent:
+    """An assessment trial's report with its task's page (app.reports.assessment_page.
+    trial_page) and a line in the therapist's header saying where the task's figures are
+    and what the trial's table measures."""
+    from app.reports.assessment_page import trial_page
+    from core.assessment import TASK_TITLES
+
+    task = record.parameters["assessment"]
+    line = HeaderItem("Task", f"{TASK_TITLES.get(task, task)}: {TASK_NOTE}")
+    return dataclasses.replace(content, assessment=trial_page(registry, record),
+                               therapist_header=(*content.therapist_header, line))
 
 
 def earlier_like(registry: RecordStore, record: Trial) -> tuple[Trial | None, Trial | None]:

@@ -132,6 +132,9 @@ class ReportContent:
     emg: EmgFigure | None = None  # chapter 5: % MVC envelopes, when the trial has EMG
     feedforward: FeedforwardFigure | None = None  # as-needed: the help learned per repetition
     pose: PoseFigure | None = None  # the camera against the solver, after `rehab pose`
+    assessment: object | None = None
+    """An assessment trial's task page (app.reports.assessment_page.AssessmentPage: its
+    figures, Z-scores and task score), for a registered trial of a task."""
 
 
 # -- building it -------------------------------------------------------------------------

@@ -91,9 +91,14 @@ def write_report_pdf(content: ReportContent, path: str | os.PathLike) -> Path:
 
 def report_pages(content: ReportContent) -> tuple[Figure, ...]:
     """The report's pages as matplotlib figures, in order (drawn under RC): the patient's,
-    the therapist's (and its continuation), then EMG, the as-needed help, the pose."""
+    the therapist's (and its continuation), then an assessment trial's task page, EMG, the
+    as-needed help, the pose."""
     with matplotlib.rc_context(RC):
         pages = (_first_page(content), *_second_page(content))
+        if content.assessment is not None:
+            from app.reports.assessment_page import page_figure
+
+            pages += (page_figure(content.assessment),)
         if content.emg is not None:
             pages += (_emg_page(content),)
         if content.feedforward is not None:

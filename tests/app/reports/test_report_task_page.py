@@ -1,0 +1,50 @@
+"""An assessment trial's post-trial report (app.reports.build): its task's page with the
+task's figures (the registry's, as `rehab assess show` prints them) and a line in the
+therapist's header saying where they are and what the trial's own table measures; an
+exercise's report has neither."""
+
+from __future__ import annotations
+
+from pypdf import PdfReader
+
+from app.assessments.runner import run_task
+from app.records.datadir import DataDir
+from app.records.registry import Registry
+from app.reports.build import TASK_NOTE, content_for_registry_trial, write_report_pdf
+from core.trial import THESIS_SUBJECT
+from tests.app.reports.made import register
+
+
+def test_an_assessment_trials_report_carries_its_task_page(tmp_path):
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("Ada", "Circle", birth_year=1960, side="right",
+                                   sex="female", handedness="right").code
+    cw, ccw = run_task("circle", "weak", seed=2, registry=registry, code=code)
+    content = content_for_registry_trial(registry, ccw.trial_id)
+    page = content.assessment
+    assert page is not None
+    assert page.title == "Circle drawing"
+    values = {line.key: line.value for line in page.lines}
+    assert values["circle_ratio"] == f"{ccw.figures['circle_ratio']:.4g}"
+    assert values["circle_sparc_cw"] == f"{cw.figures['circle_sparc_cw']:.4g}"
+    assert "trial 2" in page.heading
+    # the data folder's norms in use (the shipped simulated ones): Z-scores and the label
+    assert any(line.z is not None for line in page.lines)
+    assert "simulated" in page.norms
+    task_line = [h for h in content.therapist_header if h.label == "Task"]
+    assert task_line[0].value == f"Circle drawing: {TASK_NOTE}"
+    path = write_report_pdf(content, tmp_path / "report.pdf")
+    pages = [" ".join(p.extract_text().split()) for p in PdfReader(path).pages]
+    assert "Circle drawing" in pages[-1]
+    assert "Joint independence" in pages[-1]
+    assert "figures on the last page" in " ".join(pages)
+
+
+def test_an_exercises_report_has_no_task_page(tmp_path):
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("Ada", "Exercise", side="right").code
+    registry.open_session(code)
+    trial_id = register(registry, code, THESIS_SUBJECT.replace(repetitions=1), session=1)
+    content = content_for_registry_trial(registry, trial_id)
+    assert content.assessment is None
+    assert not [h for h in content.therapist_header if h.label == "Task"]
