@@ -37,6 +37,7 @@ from app.reports.plain_language import (
     distance_text,
     help_caution,
     parameter_cautions,
+    patient_mode,
     position_error_m,
     success_key,
     whole,
@@ -216,13 +217,16 @@ PATIENT_FIGURES = {
     "thesis": (_percent("directional_performance_pct", "Pushed in the right direction"),
                *_JOINTS),
     "transparent": (_DISTANCE, *_JOINTS),
+    "task": _JOINTS,
 }
 """The figures the patient's page compares, per assistance mode: the mode's own success
 figure first (plain_language.SUCCESS_KEYS), then the joints' movement. The distance
 from the path is not among them in the thesis and as-needed modes: the robot keeps the
 hand on the path there, so its change is mostly the robot's (plain_language.position_line).
 In the transparent mode it is the patient's own, and comes first: the robot adds no help,
-so the push's direction is only what moving the robot takes."""
+so the push's direction is only what moving the robot takes. An assessment trial
+("task": plain_language.patient_mode) compares the joints' movement only: its patient
+moves at their own pace, not the reference's."""
 
 
 def verdict(goal: Goal, before: float, after: float) -> str:
@@ -291,7 +295,7 @@ def compare(kind: str, baseline: Baseline, metrics: Mapping[str, float],
                 cautions += tuple(c for c in (help_caution(baseline.levels, levels),) if c)
     elif baseline.parameters is None:
         cautions += (UNKNOWN_SETTINGS_CAUTION,)
-    mode = parameters.assist if parameters is not None else "thesis"
+    mode = patient_mode(parameters) if parameters is not None else "thesis"
     return Comparison(kind, title, baseline,
                       patient_changes(baseline.metrics, metrics, mode=mode,
                                       comparable=not cautions),

@@ -184,6 +184,16 @@ def success_key(mode: str) -> str:
     return SUCCESS_KEYS.get(mode, SUCCESS_KEYS["thesis"])
 
 
+def patient_mode(parameters) -> str:
+    """Which of the patient's figures a trial has (plain_lines, compare.PATIENT_FIGURES):
+    its assistance mode's, or "task" for an assessment trial, whose patient moves at their
+    own pace (device.sim.tasks; core.assessment.protocol): the distance from the task's
+    moving reference (the circle's dot, the targets' schedule) is then no distance from
+    the path (a weak patient's circle read "within 96 mm of the path" on a 7 cm circle),
+    and the task's own figures are on the therapist's task page."""
+    return "task" if getattr(parameters, "assessment", "") else parameters.assist
+
+
 def plain_lines(metrics: Mapping[str, float], *, mode: str = "thesis",
                 peak_force_N: float = math.nan) -> tuple[PlainLine, ...]:
     """The patient's lines for a trial's figures (TrialMetrics.to_dict() names, SI), the
@@ -206,6 +216,8 @@ def plain_lines(metrics: Mapping[str, float], *, mode: str = "thesis",
     elif mode == "as-needed":
         if math.isfinite(value("led_pct")):
             lines.append(led_line(value("led_pct")))
+    elif mode == "task":
+        position_known = False  # the reference moves at the task's pace, not the patient's
     else:
         percent, tolerance = value("directional_performance_pct"), value("tolerance_rad")
         if math.isfinite(percent) and math.isfinite(tolerance):

@@ -1,7 +1,8 @@
 """An assessment trial's post-trial report (app.reports.build): its task's page with the
-task's figures (the registry's, as `rehab assess show` prints them) and a line in the
-therapist's header saying where they are and what the trial's own table measures; an
-exercise's report has neither."""
+task's figures (the registry's, as `rehab assess show` prints them), a line in the
+therapist's header saying where they are and what the trial's own table measures, and no
+distance from the task's moving reference on the patient's page (plain_language.
+patient_mode); an exercise's report is as it was."""
 
 from __future__ import annotations
 
@@ -33,6 +34,12 @@ def test_an_assessment_trials_report_carries_its_task_page(tmp_path):
     assert "simulated" in page.norms
     task_line = [h for h in content.therapist_header if h.label == "Task"]
     assert task_line[0].value == f"Circle drawing: {TASK_NOTE}"
+    # the patient's page: no distance from the moving dot called a distance from the path
+    # (the weak hand laps slower than the dot: "within 96 mm of the path" of a 7 cm circle)
+    assert content.plain
+    assert "rmse" not in {line.key for line in content.plain}
+    for comparison in content.comparisons:
+        assert "rmse" not in {change.key for change in comparison.changes}
     path = write_report_pdf(content, tmp_path / "report.pdf")
     pages = [" ".join(p.extract_text().split()) for p in PdfReader(path).pages]
     assert "Circle drawing" in pages[-1]
@@ -47,4 +54,5 @@ def test_an_exercises_report_has_no_task_page(tmp_path):
     trial_id = register(registry, code, THESIS_SUBJECT.replace(repetitions=1), session=1)
     content = content_for_registry_trial(registry, trial_id)
     assert content.assessment is None
+    assert content.plain[0].key == "directional_performance_pct"  # the thesis mode's
     assert not [h for h in content.therapist_header if h.label == "Task"]
