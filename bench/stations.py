@@ -377,6 +377,13 @@ def main() -> None:
                        "goal p99 < 10 ms"))
             print(line("finish_trial, all stations", [x for o in out for x in o[2]],
                        "goal p99 < 10 ms"))
+            # a station's first trial is its process's first: its statements not yet
+            # prepared by psycopg, its server backend's plans and PL/pgSQL functions not
+            # yet compiled; with --pause-ms the stations also start it all at once
+            print(line("  begin_trial, each station's first trial", [o[1][0] for o in out
+                                                                    if o[1]]))
+            print(line("  begin_trial, the trials after", [x for o in out for x in o[1][1:]]))
+            print(line("  finish_trial, the trials after", [x for o in out for x in o[2][1:]]))
             print(line("begin + finish, all stations",
                        [b + f for o in out for b, f in zip(o[1], o[2], strict=True)]))
             print(line("  their CPU time in the station's process", [x for o in out for x in o[6]]))
