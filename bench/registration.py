@@ -12,10 +12,11 @@ server's numbering and seal triggers), then one station, alone on the server, re
 with metrics, `record_proposal`. For each call it prints
 
 * its wall time p50 / p99 / max;
-* the round trips it makes to the server: the pool's ping before the transaction, BEGIN,
-  each statement, COMMIT or ROLLBACK (counted by SQLAlchemy's events on the station's
-  engine: `before_cursor_execute`, `begin`, `commit`, `rollback`, and a check-out of the
-  pool, which pings, `pool_pre_ping`);
+* the round trips it makes to the server: BEGIN (the registry's own statement, which is
+  also the connection's check: `Database._on_server`), each statement, COMMIT or ROLLBACK
+  (counted by SQLAlchemy's events on the station's engine: `before_cursor_execute`,
+  `commit`, `rollback`; tests/app/records/postgres/test_postgres_round_trips.py counts them
+  on the wire);
 * each statement with its median time as the station sees it (the round trip included).
 
 Where a statement's time goes in the server (its triggers, its plan), EXPLAIN ANALYZE says:
@@ -65,12 +66,8 @@ class Counter:
         self._t0 = 0.0
         sa.event.listen(engine, "before_cursor_execute", self._before)
         sa.event.listen(engine, "after_cursor_execute", self._after)
-        sa.event.listen(engine, "begin", lambda conn: self.trips.append("BEGIN"))
         sa.event.listen(engine, "commit", lambda conn: self.trips.append("COMMIT"))
         sa.event.listen(engine, "rollback", lambda conn: self.trips.append("ROLLBACK"))
-        # pool_pre_ping: every check-out pings the connection first
-        sa.event.listen(engine.pool, "checkout",
-                        lambda *args: self.trips.append("(the pool's ping)"))
 
     def _before(self, conn, cursor, statement, parameters, context, many) -> None:
         self._t0 = time.perf_counter()
