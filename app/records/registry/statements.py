@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import functools
 import re
+import threading
 from collections.abc import Sequence
 
 import sqlalchemy as sa
@@ -53,14 +54,20 @@ def execute(conn: sa.Connection, statement: str, params: Sequence = ()) -> sa.Cu
     result = conn.execute(clause, values)
     description = result.cursor.description if result.returns_rows else None
     if description and "*" not in statement:  # a `*`'s columns may change with the schema
-        _with_columns[key] = clause.columns(*(sa.column(d[0]) for d in description))
+        known = clause.columns(*(sa.column(d[0]) for d in description))
+        with _keeping:  # a registry may be used from several threads
+            if len(_with_columns) >= _KEPT:  # statements made of values (`IN (?, ?, …)`)
+                del _with_columns[next(iter(_with_columns))]  # the oldest
+            _with_columns[key] = known
     return result
 
 
+_keeping = threading.Lock()
+_KEPT = 512
 _with_columns: dict[tuple[str, str], sa.TextualSelect] = {}
-"""Each statement that returns rows, with its result's columns as the first execution's
-cursor named them, in their order (positional: the names only label the row's members; a
-statement's columns are fixed by its text)."""
+"""The last `_KEPT` statements that returned rows, each with its result's columns as its
+first execution's cursor named them, in their order (positional: the names only label the
+row's members; a statement's columns are fixed by its text)."""
 
 
 @functools.lru_cache(maxsize=512)
