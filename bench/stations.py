@@ -402,8 +402,8 @@ def main() -> None:
             print(line("begin + finish, all stations",
                        [b + f for o in out for b, f in zip(o[1], o[2], strict=True)]))
             print(line("  their CPU time in the station's process", [x for o in out for x in o[6]]))
-            print(line("  their wait for a core (runnable, not running)",
-                       [x for o in out for x in o[8]]))
+            print(line("  their wait for a core, the trials after the first",
+                       [x for o in out for x in o[8][1:]], "runnable, not running"))
             if not args.no_proposals:
                 print(line("record_proposal after each trial",
                            [x for o in out for x in o[7]]))
