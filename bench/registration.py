@@ -3,19 +3,22 @@
 PostgreSQL").
 
 Run: .venv/bin/python bench/registration.py [--patients 100] [--trials-per-patient 1000]
-     [--calls 300]
+     [--calls 300] [--pause-ms 0]
 
 Starts a throwaway server (tests/postgres.py), fills a registry as bench/stations.py does
 (the patients, their sessions, trials and a proposal after each trial, by COPY through the
 server's numbering and seal triggers), then one station, alone on the server, registers
 `--calls` trials for random patients as the console does: `begin_trial`, `finish_trial`
-with metrics, `record_proposal`. For each call it prints
+with metrics, `record_proposal` (`--pause-ms`: that long between two trials, as a station
+waits for its patient; its processes' caches, and the server process's, go cold meanwhile).
+For each call it prints
 
-* its wall time p50 / p99 / max;
-* the round trips it makes to the server: the pool's ping before the transaction, BEGIN,
-  each statement, COMMIT or ROLLBACK (counted by SQLAlchemy's events on the station's
-  engine: `before_cursor_execute`, `begin`, `commit`, `rollback`, and a check-out of the
-  pool, which pings, `pool_pre_ping`);
+* its wall time p50 / p99 / max, and the station's CPU time in it (`time.process_time`);
+* the round trips it makes to the server: BEGIN (the registry's own statement, which is
+  also the connection's check: `Database._on_server`), each statement, COMMIT or ROLLBACK
+  (counted by SQLAlchemy's events on the station's engine: `before_cursor_execute`,
+  `commit`, `rollback`; tests/app/records/postgres/test_postgres_round_trips.py counts them
+  on the wire);
 * each statement with its median time as the station sees it (the round trip included).
 
 Where a statement's time goes in the server (its triggers, its plan), EXPLAIN ANALYZE says:
@@ -65,12 +68,8 @@ class Counter:
         self._t0 = 0.0
         sa.event.listen(engine, "before_cursor_execute", self._before)
         sa.event.listen(engine, "after_cursor_execute", self._after)
-        sa.event.listen(engine, "begin", lambda conn: self.trips.append("BEGIN"))
         sa.event.listen(engine, "commit", lambda conn: self.trips.append("COMMIT"))
         sa.event.listen(engine, "rollback", lambda conn: self.trips.append("ROLLBACK"))
-        # pool_pre_ping: every check-out pings the connection first
-        sa.event.listen(engine.pool, "checkout",
-                        lambda *args: self.trips.append("(the pool's ping)"))
 
     def _before(self, conn, cursor, statement, parameters, context, many) -> None:
         self._t0 = time.perf_counter()
@@ -91,6 +90,8 @@ def main() -> None:
     parser.add_argument("--patients", type=int, default=100)
     parser.add_argument("--trials-per-patient", type=int, default=1000)
     parser.add_argument("--calls", type=int, default=300)
+    parser.add_argument("--pause-ms", type=float, default=0.0,
+                        help="the pause before each trial (default 0: back to back)")
     parser.add_argument("--fill-workers", type=int, default=2)
     args = parser.parse_args()
 
@@ -110,6 +111,7 @@ def main() -> None:
         pick = random.Random(7)
         station.trial_summaries(codes[0])  # the pool's first connection, as a running station
         walls: dict[str, list[float]] = collections.defaultdict(list)
+        cpu: dict[str, list[float]] = collections.defaultdict(list)
         trips: dict[str, list[int]] = collections.defaultdict(list)
         statements: dict[str, dict[str, list[float]]] = collections.defaultdict(
             lambda: collections.defaultdict(list))
@@ -118,9 +120,11 @@ def main() -> None:
             code = pick.choice(codes)
             metrics = single_metrics(rng)
             begun = None
+            if args.pause_ms:
+                time.sleep(args.pause_ms / 1000.0)
             for call in CALLS:
                 counter.take()
-                t0 = time.perf_counter()
+                c0, t0 = time.process_time(), time.perf_counter()
                 if call == "begin_trial":
                     begun = station.begin_trial(code, parameters, backend="simulator",
                                                 patient_kind="weak")
@@ -129,19 +133,23 @@ def main() -> None:
                 else:
                     station.record_proposal(begun.trial_id, proposal_for(parameters, i))
                 walls[call].append(time.perf_counter() - t0)
+                cpu[call].append(time.process_time() - c0)
                 sent, timed = counter.take()
                 trips[call].append(len(sent))
                 shown.setdefault(call, sent)
                 for text, seconds in timed:
                     statements[call][text].append(seconds)
         print(f"load after: {Path('/proc/loadavg').read_text().strip()}")
+        pace = f"{args.pause_ms:g} ms apart" if args.pause_ms else "back to back"
         print(f"\none station alone, {args.calls} trials for random patients "
-              f"({args.trials_per_patient} trials each), ms:")
-        print(f"  {'call':<18} {'p50':>7} {'p99':>7} {'max':>7}  round trips")
+              f"({args.trials_per_patient} trials each), {pace}, ms:")
+        print(f"  {'call':<18} {'p50':>7} {'p99':>7} {'max':>7}  {'CPU p50':>7} {'p99':>7}"
+              "  round trips")
         for call in CALLS:
             p50, p99, worst = percentiles(walls[call])
+            cpu50, cpu99, _ = percentiles(cpu[call])
             counts = collections.Counter(trips[call])
-            print(f"  {call:<18} {p50:7.2f} {p99:7.2f} {worst:7.2f}  "
+            print(f"  {call:<18} {p50:7.2f} {p99:7.2f} {worst:7.2f}  {cpu50:7.2f} {cpu99:7.2f}  "
                   + ", ".join(f"{n} ({k}×)" for n, k in sorted(counts.items())))
             if len(counts) > 1:  # begin_trial opening today's session, or going on with it
                 for n in sorted(counts):

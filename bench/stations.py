@@ -24,7 +24,9 @@ station's clinic login, and measures:
    Registry(…, server=clinic URL), registering trials (begin_trial, then finish_trial with
    metrics, then record_proposal as the console does) for its own patients and, one
    trial in four, for a patient every station shares (their numbers then interleave in one
-   session): p50 / p99 / max of each call per station and overall, trials per second.
+   session): p50 / p99 / max of each call per station and overall, trials per second,
+   the station's CPU time in a begin + finish and its wait for a core meanwhile (runnable
+   but not running: /proc/self/schedstat); a station's first trial apart from the others.
    Once flat out (as fast as the server lets them: a stress test, a station really
    registers a trial a minute), then with a pause of 50-150 ms between a station's trials
    (`--pause-ms`: one phase per value).
@@ -141,6 +143,16 @@ def round_trips(registry: Registry, n: int) -> list[float]:
 # -- 3. the stations -----------------------------------------------------------------------
 
 
+def core_wait() -> float:
+    """This process's time so far waiting for a core while runnable, s (the kernel's
+    scheduler statistics, /proc/self/schedstat: the run queue's wait of its main thread);
+    NaN where the kernel keeps none."""
+    try:
+        return int(Path("/proc/self/schedstat").read_text().split()[1]) / 1e9
+    except (OSError, IndexError, ValueError):
+        return math.nan
+
+
 def station(index: int, url: str, folder: str, own: list[str], shared: list[str],
             minimum: int, pause_s: float, proposals: bool, start, stop, results) -> None:
     """One station: begin_trial + finish_trial for its own patients and, one in
@@ -152,6 +164,7 @@ def station(index: int, url: str, folder: str, own: list[str], shared: list[str]
     begins: list[float] = []
     finishes: list[float] = []
     cpu: list[float] = []
+    waits: list[float] = []  # the station's time runnable but waiting for a core
     proposing: list[float] = []
     registered: list[tuple[int, str, int, int]] = []
     error = None
@@ -162,6 +175,7 @@ def station(index: int, url: str, folder: str, own: list[str], shared: list[str]
         while len(begins) < minimum or not stop.is_set():
             code = pick.choice(shared) if pick.random() < 1 / SHARED_EVERY else pick.choice(own)
             metrics = single_metrics(rng)
+            w0 = core_wait()
             c0, t0 = time.process_time(), time.perf_counter()
             trial = registry.begin_trial(code, parameters, backend="simulator",
                                          patient_kind="weak")
@@ -171,6 +185,7 @@ def station(index: int, url: str, folder: str, own: list[str], shared: list[str]
             begins.append(t1 - t0)
             finishes.append(t2 - t1)
             cpu.append(c2 - c0)
+            waits.append(core_wait() - w0)
             if proposals:  # as app.trials.finalize does after an exercise trial
                 t0 = time.perf_counter()
                 registry.record_proposal(trial.trial_id, proposal_for(parameters, len(begins)))
@@ -183,7 +198,7 @@ def station(index: int, url: str, folder: str, own: list[str], shared: list[str]
     except BaseException as exc:  # reported, not raised: the bench prints what it got
         error = f"{type(exc).__name__}: {exc}"
         elapsed = math.nan
-    results.put((index, begins, finishes, registered, elapsed, error, cpu, proposing))
+    results.put((index, begins, finishes, registered, elapsed, error, cpu, proposing, waits))
 
 
 def run_stations(bench: Bench, data_root: Path, codes: list[str], n_stations: int,
@@ -377,9 +392,18 @@ def main() -> None:
                        "goal p99 < 10 ms"))
             print(line("finish_trial, all stations", [x for o in out for x in o[2]],
                        "goal p99 < 10 ms"))
+            # a station's first trial is its process's first: its statements not yet
+            # prepared by psycopg, its server backend's plans and PL/pgSQL functions not
+            # yet compiled; with --pause-ms the stations also start it all at once
+            print(line("  begin_trial, each station's first trial", [o[1][0] for o in out
+                                                                    if o[1]]))
+            print(line("  begin_trial, the trials after", [x for o in out for x in o[1][1:]]))
+            print(line("  finish_trial, the trials after", [x for o in out for x in o[2][1:]]))
             print(line("begin + finish, all stations",
                        [b + f for o in out for b, f in zip(o[1], o[2], strict=True)]))
             print(line("  their CPU time in the station's process", [x for o in out for x in o[6]]))
+            print(line("  their wait for a core, the trials after the first",
+                       [x for o in out for x in o[8][1:]], "runnable, not running"))
             if not args.no_proposals:
                 print(line("record_proposal after each trial",
                            [x for o in out for x in o[7]]))
@@ -393,7 +417,7 @@ def main() -> None:
             count = sum(len(o[3]) for o in out)
             print(f"     throughput: {count} trials in {wall:.1f} s = {count / wall:.0f} "
                   "trials/s across the stations")
-            for index, *_, error, _, _ in out:
+            for index, _, _, _, _, error, *_ in out:
                 if error:
                     print(f"     station {index} FAILED: {error}")
         shared = sum(1 for r in registered if r[1] in codes[:SHARED_PATIENTS])

@@ -79,13 +79,14 @@ class Database:
     @functools.cached_property
     def _writer(self) -> sa.Engine:
         """SQLAlchemy's engine for writes: a new file connection per call (`_open`), or
-        the server's small pool."""
+        the server's small pool, whose connections the driver leaves in autocommit: the
+        registry sends each transaction's BEGIN itself (`_on_server`)."""
         if self.server is not None:
             options = {"connect_timeout": CONNECT_TIMEOUT_S}
             if self.research:  # the registry's tables are research's views, by name
                 options["options"] = "-c search_path=research,public"
             engine = sa.create_engine(self.server, pool_size=2, max_overflow=6,
-                                      pool_pre_ping=True, connect_args=options)
+                                      isolation_level="AUTOCOMMIT", connect_args=options)
             # the pool's connections are closed, not dropped, when the registry goes
             weakref.finalize(self, engine.dispose)
             return engine
@@ -152,6 +153,30 @@ class Database:
 
     # -- transactions --------------------------------------------------------------------
     @contextlib.contextmanager
+    def _on_server(self, engine: sa.Engine, begin: str) -> Iterator[sa.Connection]:
+        """A transaction on the server, begun by the registry's own `begin` statement: the
+        connection's first round trip, which is also its check. A connection of the pool
+        that the server or the network ended meanwhile (a restart, a drop) fails it before
+        anything of the transaction was sent; SQLAlchemy then takes it, and the pool's other
+        connections, out of service, and the transaction begins again, once, on a new
+        connection. So a station reconnects by itself after an outage, as the pool's ping
+        before every transaction (`pool_pre_ping`) let it, without that ping's round trip
+        and CPU (three a trial's registration: docs/performance.md). Where the BEGIN fails
+        on a new connection too, or the connection cannot be made, the server is
+        unreachable (`RegistryUnreachable`). The transaction ends with the connection: its
+        ROLLBACK, unless the caller sent COMMIT (or the driver's commit)."""
+        for attempt in (1, 2):
+            with self._statements(engine) as conn:
+                try:
+                    conn.exec_driver_sql(begin)
+                except sa.exc.DBAPIError as exc:
+                    if attempt == 1 and exc.connection_invalidated:
+                        continue  # the connection was gone before anything was sent
+                    raise
+                yield conn
+                return
+
+    @contextlib.contextmanager
     def _write(self) -> Iterator[sa.Connection]:
         """One write transaction. On SQLite it is taken at once: BEGIN IMMEDIATE makes the
         read of a next number and its insert atomic across processes. On the server it is
@@ -162,8 +187,9 @@ class Database:
                     f"this login on {self.where} is a researcher's: it reads codes and data, "
                     "never names, and changes nothing; nothing was changed. A clinic login "
                     "records")
-            with self._statements(self._writer) as conn, conn.begin():
+            with self._on_server(self._writer, "BEGIN") as conn:
                 yield conn
+                conn.commit()
             return
         with self._statements(self._writer) as conn:
             raw = conn.connection.driver_connection
@@ -185,11 +211,10 @@ class Database:
         """A read transaction: several SELECTs see one snapshot (on the server, REPEATABLE
         READ)."""
         if self.server is not None:
-            with self._statements(self._reader_engine) as conn:
-                conn = conn.execution_options(isolation_level="REPEATABLE READ")
-                with conn.begin() as transaction:
-                    yield conn
-                    transaction.rollback()  # nothing to keep
+            with self._on_server(self._reader_engine,
+                                 "BEGIN ISOLATION LEVEL REPEATABLE READ") as conn:
+                yield conn
+                conn.rollback()  # nothing to keep
             return
         sound = False
         with self._statements(self._reader_engine) as conn:

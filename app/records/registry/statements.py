@@ -20,13 +20,18 @@ engines, and are written once here rather than in each statement:
   row locks and needs none: every write transaction is `BEGIN IMMEDIATE`, one writer at a
   time, so the clause is dropped there.
 
-The translation is made once per statement and engine (`functools.lru_cache`).
+The translation is made once per statement and engine (`functools.lru_cache`), and so are
+the statement's result columns (`_with_columns`): a plain `text()` makes SQLAlchemy build its
+result's metadata from the cursor's description at every execution (about 4 µs a column:
+75 µs for the 18 columns `finish_trial` returns, on the VM of docs/performance.md), while a
+`text().columns(…)`, positional, has it built once and kept with the compiled statement.
 """
 
 from __future__ import annotations
 
 import functools
 import re
+import threading
 from collections.abc import Sequence
 
 import sqlalchemy as sa
@@ -40,8 +45,29 @@ _ROW_LOCK = re.compile(r"\s+FOR (?:NO KEY )?UPDATE\b")
 
 def execute(conn: sa.Connection, statement: str, params: Sequence = ()) -> sa.CursorResult:
     """Run one registry statement (`?` placeholders, the helpers above) with its values."""
-    compiled = _compiled(statement, conn.dialect.name)
-    return conn.execute(compiled, {f"p{i}": value for i, value in enumerate(params)})
+    key = (statement, conn.dialect.name)
+    known = _with_columns.get(key)
+    values = {f"p{i}": value for i, value in enumerate(params)}
+    if known is not None:
+        return conn.execute(known, values)
+    clause = _compiled(*key)
+    result = conn.execute(clause, values)
+    description = result.cursor.description if result.returns_rows else None
+    if description and "*" not in statement:  # a `*`'s columns may change with the schema
+        known = clause.columns(*(sa.column(d[0]) for d in description))
+        with _keeping:  # a registry may be used from several threads
+            if len(_with_columns) >= _KEPT:  # statements made of values (`IN (?, ?, …)`)
+                del _with_columns[next(iter(_with_columns))]  # the oldest
+            _with_columns[key] = known
+    return result
+
+
+_keeping = threading.Lock()
+_KEPT = 512
+_with_columns: dict[tuple[str, str], sa.TextualSelect] = {}
+"""The last `_KEPT` statements that returned rows, each with its result's columns as its
+first execution's cursor named them, in their order (positional: the names only label the
+row's members; a statement's columns are fixed by its text)."""
 
 
 @functools.lru_cache(maxsize=512)

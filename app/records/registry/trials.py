@@ -211,7 +211,7 @@ class Trials(Database):
         `patient_kind` names the virtual patient of a simulated trial.
         """
         started_at = aware(started_at or utc_now(), "started_at")
-        params = parameters_dict(parameters)
+        params = json.dumps(parameters_dict(parameters))  # as stored, and as decided on
         backend = checked_text("backend", backend, NAME_MAX_CHARS)
         if not backend:
             raise InvalidRecordError("backend is empty: give the name of the robot backend "
@@ -268,7 +268,7 @@ class Trials(Database):
                 "INSERT INTO trials (session_id, number, parameters, file, metrics, status, "
                 "started_at, backend, patient_kind, station) "
                 "VALUES (?, ?, ?, ?, '{}', ?, ?, ?, ?, ?) RETURNING id",
-                (session_id, trial_number, json.dumps(params), file, STATUS_RECORDING,
+                (session_id, trial_number, params, file, STATUS_RECORDING,
                  utc_text(started_at), backend, patient_kind, self.station),
             )
             trial_id = cursor.scalar_one()
@@ -296,9 +296,10 @@ class Trials(Database):
         proposals it decided go back to pending: app.records.registry.proposals)."""
 
     def _trial_begun(self, conn: sa.Connection, patient: int, trial_id: int,
-                     parameters: dict) -> None:
-        """Called in begin_trial's transaction once the trial is inserted; the registry's
-        proposals decide the patient's pending one here (app.records.registry.proposals)."""
+                     parameters: str) -> None:
+        """Called in begin_trial's transaction once the trial is inserted, with its
+        parameters' JSON as stored; the registry's proposals decide the patient's pending
+        one here (app.records.registry.proposals)."""
 
     # -- the end of a trial ------------------------------------------------------------
     def finish_trial(

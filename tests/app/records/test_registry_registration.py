@@ -26,8 +26,9 @@ PARAMS = TrialParameters()
 
 class Sent:
     """The statements a registry sends and the transactions it opens (a connection taken
-    from its engine's pool: on the server, the pool's ping and BEGIN ... COMMIT around
-    them), counted by SQLAlchemy's events during `with sent.counting():`."""
+    from its engine's pool: on the server, BEGIN ... COMMIT around them; their round trips
+    are tests/app/records/postgres/test_postgres_round_trips.py's), counted by SQLAlchemy's
+    events during `with sent.counting():`."""
 
     def __init__(self, registry: Registry) -> None:
         self.statements: list[str] = []
@@ -37,6 +38,8 @@ class Sent:
             sa.event.listen(engine.pool, "checkout", self._transaction)
 
     def _statement(self, conn, cursor, statement, *_) -> None:
+        if statement.startswith("BEGIN"):  # the server's transaction, begun by the registry
+            return
         self.statements.append(" ".join(statement.split())[:60])
 
     def _transaction(self, *_) -> None:
