@@ -343,6 +343,13 @@ def parameter_cautions(before: Mapping, after: Mapping) -> tuple[str, ...]:
         # Size and speed of another shape say nothing more.
         return tuple(sentences)
     noun = SHAPE_NOUNS.get(shape, "exercise")
+    if changed("clockwise"):
+        # the other way round uses the joints in another order: the circle task's two ways
+        # differ by design (core.assessment.circle: each way's figures apart)
+        now, then = (("clockwise" if v else "anticlockwise")
+                     for v in (after["clockwise"], before["clockwise"]))
+        sentences.append(f"This trial went round the {noun} the other way ({now}; before, "
+                         f"{then}), so the figures do not compare directly.")
     if changed("radius_m"):
         r, r0 = after["radius_m"], before["radius_m"]
         if r > r0:

@@ -224,6 +224,12 @@ def test_a_changed_exercise_comes_with_a_caution():
     circle = THESIS_SUBJECT.replace(shape="circle", radius_m=0.05).to_dict()
     (only,) = parameter_cautions(base, circle)
     assert "different exercise" in only
+    # the circle task's second trial against its first: the other way round
+    ccw = THESIS_SUBJECT.replace(shape="circle", clockwise=False).to_dict()
+    cw = THESIS_SUBJECT.replace(shape="circle", clockwise=True).to_dict()
+    (only,) = parameter_cautions(cw, ccw)
+    assert only == ("This trial went round the circle the other way (anticlockwise; before, "
+                    "clockwise), so the figures do not compare directly.")
 
 
 def test_the_report_compares_with_earlier_trials_and_cautions_in_the_pdf(
