@@ -109,3 +109,32 @@ def test_a_station_reconnects_by_itself_after_the_network_was_away(server_regist
         assert [t.number for t in registry.trials_for_patient(code)] == [1, 2]  # a read
     finally:
         network.cut()
+
+
+def test_a_failed_write_leaves_no_transaction_open_on_its_connection(server_registries,
+                                                                     tmp_path):
+    """The driver is in autocommit and the registry sends BEGIN itself (`_on_server`): a
+    write that fails half-way must still end its transaction before its connection goes
+    back to the pool (SQLAlchemy calls the driver's rollback(), which psycopg sends while
+    the server's transaction is open), or the next transaction on that connection would
+    run inside the failed one and commit what it left."""
+    from psycopg.pq import TransactionStatus
+
+    registry = Registry(DataDir(tmp_path / "data"), server=server_registries.new(),
+                        station="robot-1")
+    code = registry.create_patient("Ada", "Rollback", side="right").code
+    statuses = []
+    sa.event.listen(registry._writer.pool, "checkin",
+                    lambda dbapi, record: statuses.append(
+                        None if dbapi is None else dbapi.info.transaction_status))
+    with contextlib.suppress(RuntimeError), registry._write() as conn:
+        conn.exec_driver_sql(
+            "UPDATE patients SET notes = 'half-way' WHERE code = %(code)s", {"code": code})
+        raise RuntimeError("the write fails after its first statement")
+    assert statuses
+    assert statuses[-1] == TransactionStatus.IDLE
+    assert registry.patient(code).notes != "half-way"  # nothing of it kept
+    # and the pool's next transaction on that connection commits only its own
+    registry.correct_patient(code, "side", "left", reason="entered wrong", by="K. Lee")
+    assert registry.patient(code).side == "left"
+    assert registry.patient(code).notes != "half-way"
