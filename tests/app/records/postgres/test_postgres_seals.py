@@ -88,49 +88,57 @@ def test_a_patient_written_on_both_engines_has_the_same_seal(
     assert lite_seal == sqlite_seals.seal_of("patients", *stored)
 
 
-def test_every_sealed_table_seals_a_row_as_sqlite_does(engines):
+SEALED_ROWS = [
+    ("patients", dict(id=900_001, code="SEALS1", first_name="Zoë", last_name="Ñúñez",
+                      birth_year=1950, side="left", body_mass_kg=71.25, upper_arm_m=0.3,
+                      forearm_m=None, shoulder_x_m=-0.1, shoulder_y_m=1e-300,
+                      notes="née «Ω»", created_at="2026-12-04T05:00:00.000000+00:00",
+                      sex="female", handedness="right")),
+    ("sessions", dict(id=900_001, patient_id=900_001, number=1, date="2026-12-04",
+                      therapist="T. Ø", notes="", location="room 2")),
+    ("trials", dict(id=900_001, session_id=900_001, number=1, parameters='{"a": 1.5}',
+                    file="trials/SEALS1/t1.h5", metrics="{}", status="complete",
+                    started_at="s", ended_at="e", patient_kind=None, backend="simulator",
+                    end_reason="", assistance='{"start": 0.5}')),
+    ("trials", dict(id=900_002, session_id=900_001, number=2, parameters="{}",
+                    file="trials/SEALS1/t2.h5", metrics="{}", status="recording",
+                    started_at="s", ended_at=None, patient_kind="weak", backend="sim",
+                    end_reason="", assistance=None)),
+    ("proposals", dict(trial_id=900_001, proposal="{}", decision="accepted",
+                       next_trial_id=900_002, proposed_at="p", decided_at="d")),
+    ("plans", dict(id=900_001, patient_id=900_001, name="plan", plan="{}", template="",
+                   based_on=None, created_at="c")),
+    ("plan_runs", dict(id=900_001, plan_id=900_001, started_at="s", ended_at=None,
+                       status="running", end_reason="")),
+    ("plan_steps", dict(run_id=900_001, step=1, block=1, round=1, kind="trial",
+                        trial_id=900_001, planned_s=30.0, taken_s=29.875)),
+    ("plan_steps", dict(run_id=900_001, step=2, block=1, round=1, kind="rest",
+                        trial_id=None, planned_s=10.0, taken_s=None)),
+    ("scales", dict(id=900_001, session_id=900_001, scale="ashworth", total=None,
+                    detail='{"elbow": "1+"}', rater="R", recorded_at="r")),
+    ("scales", dict(id=900_002, session_id=900_001, scale="fugl_meyer", total=42,
+                    detail="{}", rater="R", recorded_at="r")),
+    ("notes", dict(id=900_001, session_id=900_001, trial_id=900_001, text="tired",
+                   author="A", written_at="w")),
+    ("trial_marks", dict(id=900_001, trial_id=900_002, valid=0, reason="cough",
+                         marked_by="M", marked_at="m")),
+    ("corrections", dict(id=900_001, patient_id=900_001, field="body_mass_kg",
+                         old_value="70.0", new_value="71.25", reason="scale",
+                         corrected_by="C", corrected_at="c")),
+]
+"""One row of each sealed table, of every type its columns hold (ids 900_001…)."""
+
+
+@pytest.fixture(scope="module")
+def sealed_rows(engines):
+    """SEALED_ROWS inserted on both engines, once for the module: each table's two seals."""
+    return [(table, *_insert_both(engines, table, values)) for table, values in SEALED_ROWS]
+
+
+def test_every_sealed_table_seals_a_row_as_sqlite_does(sealed_rows):
     """One row of each sealed table, of every type its columns hold, on both engines."""
-    rows = [
-        ("patients", dict(id=900_001, code="SEALS1", first_name="Zoë", last_name="Ñúñez",
-                          birth_year=1950, side="left", body_mass_kg=71.25, upper_arm_m=0.3,
-                          forearm_m=None, shoulder_x_m=-0.1, shoulder_y_m=1e-300,
-                          notes="née «Ω»", created_at="2026-12-04T05:00:00.000000+00:00",
-                          sex="female", handedness="right")),
-        ("sessions", dict(id=900_001, patient_id=900_001, number=1, date="2026-12-04",
-                          therapist="T. Ø", notes="", location="room 2")),
-        ("trials", dict(id=900_001, session_id=900_001, number=1, parameters='{"a": 1.5}',
-                        file="trials/SEALS1/t1.h5", metrics="{}", status="complete",
-                        started_at="s", ended_at="e", patient_kind=None, backend="simulator",
-                        end_reason="", assistance='{"start": 0.5}')),
-        ("trials", dict(id=900_002, session_id=900_001, number=2, parameters="{}",
-                        file="trials/SEALS1/t2.h5", metrics="{}", status="recording",
-                        started_at="s", ended_at=None, patient_kind="weak", backend="sim",
-                        end_reason="", assistance=None)),
-        ("proposals", dict(trial_id=900_001, proposal="{}", decision="accepted",
-                           next_trial_id=900_002, proposed_at="p", decided_at="d")),
-        ("plans", dict(id=900_001, patient_id=900_001, name="plan", plan="{}", template="",
-                       based_on=None, created_at="c")),
-        ("plan_runs", dict(id=900_001, plan_id=900_001, started_at="s", ended_at=None,
-                           status="running", end_reason="")),
-        ("plan_steps", dict(run_id=900_001, step=1, block=1, round=1, kind="trial",
-                            trial_id=900_001, planned_s=30.0, taken_s=29.875)),
-        ("plan_steps", dict(run_id=900_001, step=2, block=1, round=1, kind="rest",
-                            trial_id=None, planned_s=10.0, taken_s=None)),
-        ("scales", dict(id=900_001, session_id=900_001, scale="ashworth", total=None,
-                        detail='{"elbow": "1+"}', rater="R", recorded_at="r")),
-        ("scales", dict(id=900_002, session_id=900_001, scale="fugl_meyer", total=42,
-                        detail="{}", rater="R", recorded_at="r")),
-        ("notes", dict(id=900_001, session_id=900_001, trial_id=900_001, text="tired",
-                       author="A", written_at="w")),
-        ("trial_marks", dict(id=900_001, trial_id=900_002, valid=0, reason="cough",
-                             marked_by="M", marked_at="m")),
-        ("corrections", dict(id=900_001, patient_id=900_001, field="body_mass_kg",
-                             old_value="70.0", new_value="71.25", reason="scale",
-                             corrected_by="C", corrected_at="c")),
-    ]
-    assert {table for table, _ in rows} == set(sqlite_seals.SEALED)
-    for table, values in rows:
-        lite_seal, server_seal = _insert_both(engines, table, values)
+    assert {table for table, *_ in sealed_rows} == set(sqlite_seals.SEALED)
+    for table, lite_seal, server_seal in sealed_rows:
         assert server_seal == lite_seal, table
 
 
@@ -180,9 +188,12 @@ def test_a_row_changed_behind_the_triggers_back_is_found(registry):
 
 
 @pytest.mark.parametrize("table", ["scales", "notes", "trial_marks", "corrections"])
-def test_what_a_therapist_recorded_is_kept_as_written(engines, table):
+def test_what_a_therapist_recorded_is_kept_as_written(engines, sealed_rows, table):
     _, server = engines
     t = metadata.tables[table]
+    # the row is there (sealed_rows), or an UPDATE and a DELETE of nothing pass untouched
+    assert server.execute(sa.select(t.c.id).where(t.c.id == 900_001)).scalar_one() == 900_001
+    server.rollback()
     for statement in (sa.update(t).where(t.c.id == 900_001).values(id=900_001),
                       sa.delete(t).where(t.c.id == 900_001)):
         with pytest.raises(sa.exc.IntegrityError, match=f"{table} are kept as written"):
