@@ -53,6 +53,15 @@ class NormsFileError(AppError):
         super().__init__(f"norms file {path}: {problem}. {advice}")
 
 
+def member(parent: str, key: str) -> str:
+    """Where a key of the file is, for a message: `parent.key`, or `parent['…']` (Python's
+    escapes, at most 40 characters of it) for a key a line cannot show as it is (a newline
+    in a figure's name made the refusal two lines: the fuzz test of this module)."""
+    if key.isprintable() and key.strip() == key and 0 < len(key) <= 60:
+        return f"{parent}.{key}"
+    return f"{parent}[{key[:40]!r}{'…' if len(key) > 40 else ''}]"
+
+
 def content_hash(document: Mapping) -> str:
     """SHA-256 of the document without its hash, keys sorted, no spaces."""
     body = {k: v for k, v in document.items() if k != "content_sha256"}
@@ -206,7 +215,7 @@ class _Reader:
         catalogue = _catalogue()
         out = {}
         for key, block in value.items():
-            where = f"figures.{key}"
+            where = member("figures", key)
             if key not in catalogue:
                 raise self.fail(where, "is not a figure this console measures "
                                 "(core.assessment.FIGURES; docs/assessments.md)")
@@ -241,7 +250,7 @@ class _Reader:
 
         out = {}
         for task, block in value.items():
-            where = f"tasks.{task}"
+            where = member("tasks", task)
             if task not in TASKS:
                 raise self.fail(where, f"is not a task of this console ({', '.join(TASKS)})")
             self.keys(where, block, TASK_KEYS, REQUIRED_TASK)

@@ -210,3 +210,21 @@ def test_any_value_anywhere_is_read_or_refused_in_one_line(data):
     if refusal:
         assert "\n" not in refusal
         assert refusal.startswith("norms file fuzz.json: ")
+
+
+@pytest.mark.parametrize(("block", "key", "shown"), [
+    ("figures", "\n", "figures['\\n']"),
+    ("tasks", "reach\ning", "tasks['reach\\ning']"),
+    ("figures", "x" * 100, "figures['" + "x" * 40 + "'…]"),
+    ("figures", "vgr_sparc ", "figures['vgr_sparc ']"),
+])
+def test_a_key_a_line_cannot_show_is_named_escaped_in_one_line(block, key, shown):
+    """CI's fuzz run put {'\\n': None} at `figures`: the refusal named the key as it was and
+    came out on two lines."""
+    document = handmade()
+    document[block] = {key: None}
+    with pytest.raises(NormsFileError) as refused:
+        parse_norms(document, "fuzz.json")
+    message = str(refused.value)
+    assert "\n" not in message
+    assert f"norms file fuzz.json: {shown}: " in message
