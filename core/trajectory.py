@@ -209,6 +209,18 @@ def make_path(
 
 
 # ------------------------------------------------------------------ timing
+def minimum_jerk(u, span, length):
+    """The minimum-jerk profile (Flash & Hogan 1985, J Neurosci 5:1688) of a move of
+    `length` over `span` at u = t / span in [0, 1]: the distance covered, its rate and
+    its acceleration (floats or arrays)."""
+    u2 = u * u
+    return (
+        length * u2 * u * (10.0 - 15.0 * u + 6.0 * u2),
+        length / span * 30.0 * u2 * (1.0 - 2.0 * u + u2),
+        length / (span * span) * 60.0 * u * (1.0 - 3.0 * u + 2.0 * u2),
+    )
+
+
 @dataclass(frozen=True, slots=True)
 class TrajectorySample:
     """Desired motion at an array of times: each field has shape (N, 2) or (N,)."""
@@ -298,13 +310,7 @@ class Trajectory:
         if self.timing == "constant_speed":
             speed = length / span
             return speed * tau, speed + 0.0 * tau, 0.0 * tau
-        u = tau / span
-        u2 = u * u
-        return (
-            length * u2 * u * (10.0 - 15.0 * u + 6.0 * u2),
-            length / span * 30.0 * u2 * (1.0 - 2.0 * u + u2),
-            length / (span * span) * 60.0 * u * (1.0 - 3.0 * u + 2.0 * u2),
-        )
+        return minimum_jerk(tau / span, span, length)
 
     def at(self, t: float):
         """Desired (x, y, vx, vy, ax, ay, direction_x, direction_y) at one time, floats."""

@@ -47,7 +47,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from core.trajectory import Trajectory, TrajectorySample
+from core.trajectory import Trajectory, TrajectorySample, minimum_jerk
 
 SUBMOVEMENT_M = 0.02
 """The submovement's amplitude times the lost effort (m): 0.033 m for the weak patient."""
@@ -101,12 +101,11 @@ def profile(t_s: np.ndarray, span_s: float, shares: Sequence[float], spacing: fl
     sd = np.zeros_like(t)
     sdd = np.zeros_like(t)
     for k, share in enumerate(weights[:begun]):
-        piece = distance * float(share)
         u = np.clip((t - k * spacing * duration) / duration, 0.0, 1.0)
-        u2 = u * u
-        s += piece * u2 * u * (10.0 - 15.0 * u + 6.0 * u2)
-        sd += piece / duration * 30.0 * u2 * (1.0 - 2.0 * u + u2)
-        sdd += piece / (duration * duration) * 60.0 * u * (1.0 - 3.0 * u + 2.0 * u2)
+        covered, rate, acceleration = minimum_jerk(u, duration, distance * float(share))
+        s += covered
+        sd += rate
+        sdd += acceleration
     return s, sd, sdd
 
 
@@ -193,9 +192,9 @@ class OwnLaps:
             u2 = u * u
             slowing = u - 2.5 * u2 * u2 + 3.0 * u2 * u2 * u - u2 * u2 * u2
             walked = pace * np.clip(t, 0.0, falling) + pace * STOP_S * slowing
-            speed = pace * (1.0 - u2 * u * (10.0 - 15.0 * u + 6.0 * u2))
-            speed = np.where((t >= 0.0) & (u < 1.0), speed, 0.0)
-            along = -pace / STOP_S * 30.0 * u2 * (1.0 - 2.0 * u + u2)
+            fallen, _, _ = minimum_jerk(u, STOP_S, 1.0)
+            speed = np.where((t >= 0.0) & (u < 1.0), pace * (1.0 - fallen), 0.0)
+            along = -minimum_jerk(u, STOP_S, pace)[1]
             return walked, speed, along
         walked, speed, along = (np.zeros(t.size) for _ in range(3))
         for k, (row, begun) in enumerate(zip(self.shares, self._kept, strict=True)):

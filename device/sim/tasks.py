@@ -13,9 +13,10 @@ is given its own movement plan (`OwnMovement`), made from the task's cues
   and on the centre's appearance returns the same way. A patient who lost effort makes
   the movement of overlapping submovements instead (device.sim.submovements: the weak
   patient's 10 cm reach in three), their shares varied from reach to reach.
-* circle drawing: it draws the trial's circle at its own pace, lap after lap, until the
-  trial ends (the dot on the screen keeps the protocol's pace); a patient who lost effort
-  by submovements along the arc, varied from lap to lap.
+* circle drawing: it draws the trial's circle at its own pace, lap after lap, and stops
+  when the dot on the screen (which keeps the protocol's pace) stops; a patient who lost
+  effort by submovements along the arc, varied from lap to lap (device.sim.submovements.
+  OwnLaps).
 * active range: at each direction's appearance it moves out along that direction to a
   fraction of the distance the robot and its arm allow there
   (core.assessment.workspace.extent_m), holds, and returns.
