@@ -52,6 +52,7 @@ from app.reports.plain_language import (
     seconds_text,
     status_sentence,
 )
+from app.reports.plain_task import task_lines
 from app.trials.analysis import MIN_EXERCISE, analyse, exercise_mask, too_little_exercise
 from app.trials.assistance_timeline import AssistanceInEffect
 from app.trials.reader import TrialData
@@ -198,6 +199,7 @@ def build_report(
     else:
         notes.append(too_little_exercise(n_exercise))
     values = metrics.to_dict() if metrics is not None else {}
+    task_values = (analysis.assessment or {}) if metrics is not None else {}
     figures = Figures()
     if metrics is not None:
         figures = report_figures(trial, parameters, mask, exercise_start, metrics)
@@ -252,8 +254,7 @@ def build_report(
         simulated=simulated,
         mode=parameters.assist,
         levels=levels,
-        plain=plain_lines(values, mode=patient_mode(parameters),
-                          peak_force_N=figures.peak_force_N) if values else (),
+        plain=_plain(values, parameters, task_values, figures.peak_force_N) if values else (),
         comparisons=comparisons,
         table=table_rows(values, tuple(c.baseline for c in comparisons),
                          mode=parameters.assist,
@@ -343,6 +344,17 @@ def _trial_words(session: int | None, number: int | None,
         (f"{date_text(started_at.date())}, {started_at:%H:%M}"
          if started_at is not None else ""),
     ) if part) or "–"
+
+
+def _plain(values: dict[str, float], parameters: TrialParameters,
+           task_values: dict[str, float], peak_force_N: float) -> tuple[PlainLine, ...]:
+    """The patient's lines: an assessment trial's task figures in words first
+    (app.reports.plain_task), then what every trial has (plain_language.plain_lines; a
+    strength trial's firmest push is its task's line, not said twice)."""
+    task = getattr(parameters, "assessment", "") or ""
+    own = task_lines(task, task_values) if task else ()
+    peak = math.nan if task == "strength" else peak_force_N
+    return own + plain_lines(values, mode=patient_mode(parameters), peak_force_N=peak)
 
 
 def _header(code: str, first_name: str | None, session: int | None, number: int | None,

@@ -19,6 +19,7 @@ capability, bench/slacking.py); a faster exercise asks for more.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -67,11 +68,13 @@ def felt_error(records, parameters: TrialParameters) -> float:
 def run_course(parameters: TrialParameters, *, patient: str = "weak", trials: int = 20,
                start_share: float = 1.0, adaptation: TrialToTrialAdaptation | None = None,
                plant: str = "realistic", seed: int = 0, engine: str = "auto",
-               follow_proposals: bool = False) -> list[CourseTrial]:
+               follow_proposals: bool = False,
+               patient_options: Mapping[str, object] | None = None) -> list[CourseTrial]:
     """`trials` headless trials of `parameters` with an adapting `patient` (a kind that
     makes an effort: not "passive"), starting at `start_share` of its capability; with
     `follow_proposals` each trial after the first takes the console's proposal made after
-    the one before (the module notes)."""
+    the one before (the module notes). `patient_options` are the patient's other options
+    (device.sim.patients.make_patient; its effort is the course's)."""
     rule = adaptation or TrialToTrialAdaptation()
     capability = DEFAULT_EFFORT.get(patient, 1.0)
     share = float(start_share)
@@ -80,7 +83,8 @@ def run_course(parameters: TrialParameters, *, patient: str = "weak", trials: in
     for _ in range(trials):
         effort = share * capability
         trial = simulate(parameters, patient=patient, seed=seed, plant=plant,
-                         engine=engine, patient_options={"effort": effort})
+                         engine=engine,
+                         patient_options={**(patient_options or {}), "effort": effort})
         error = felt_error(trial.records, parameters)
         channels = {name: trial.records[name] for name in trial.records.dtype.names}
         m = analyse(channels, parameters).metrics

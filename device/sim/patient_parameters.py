@@ -28,6 +28,8 @@ module notes, selectivity)."""
 PATIENT_KINDS = ("healthy", "weak", "spastic", "tremor", "passive", "wrong_way")
 DEFAULT_EFFORT = {"passive": 0.0, "weak": 0.4}
 """Effort by kind; every other kind defaults to 1 (a healthy subject's effort)."""
+DEFAULT_SELECTIVITY_LOSS = {"weak": 0.5}
+"""The loss of selective joint control κ by kind; every other kind defaults to 0."""
 TREMOR_BAND_HZ = (4.0, 6.0)
 # Allowed when the frequency is given rather than drawn: the range of pathological
 # tremors of the arm.

@@ -49,23 +49,24 @@ The parts of a patient
   of the literature, not identified on a subject; check them before citing.
 * weak: the same effort scaled by `effort` = 0.4 by default: the paretic arm's
   voluntary torque after stroke is commonly a third to a half of the other
-  side's.
+  side's; and half its selective joint control lost (selectivity below).
 * synergy (an option of every kind but passive, 0 by default): the joints no longer
   move apart, as in the flexion synergy after stroke (Twitchell 1951, Brunnstrom 1970;
   Dewald & Beer, Muscle Nerve 24:273, 2001): the arm's own plan moves the elbow by
   `synergy` times the shoulder's change (`desired_motion_table`). It loses joint
   independence and flattens a drawn circle, as stroke survivors' circles are (Krabben et
   al., J NeuroEng Rehabil 8:15, 2011; Dipietro et al., J Neurophysiol 98:757, 2007): on
-  the battery's circle at 0.3 the weak patient's ratio went 0.95 → 0.80–0.82 (healthy
-  0.88–0.91) and its joint independence 0.87 → 0.83–0.85. It is not the weak kind's
-  default: the plan leaves the path, so wherever the robot holds the hand on it (the
+  the battery's circle at 0.3 the weak patient's ratio (its selectivity whole) went 0.95
+  → 0.80–0.82 (healthy 0.88–0.91) and its joint independence 0.87 → 0.83–0.85. It is not
+  the weak kind's default: the plan leaves the path, so wherever the robot holds the hand on it (the
   as-needed channel on the thesis's D) the arm pushes across the channel: from 0.15 up the
   weak patient's directional performance fell from 26–30 % to 2 %, the time it led from
   85–87 % to 24–37 %, and the hand left the path by 14–24 mm RMS (bench/synergy.py). A
   coupling of torques instead (the elbow given a share of the shoulder's voluntary torque)
   did neither: the arm's impedance pulled the hand back onto the path.
 * selectivity (`selectivity_loss` κ and `synergy_direction_rad` α, options of every kind
-  but passive, κ = 0 by default): the loss of selective joint control after stroke. A
+  but passive; κ = 0.5 for the weak kind by default, DEFAULT_SELECTIVITY_LOSS, 0 for the
+  others): the loss of selective joint control after stroke. A
   paretic arm makes torques along its synergy but hardly across it: asked for a torque at
   one joint it makes one at the other too, shoulder abduction coming with elbow flexion
   and adduction with extension (Dewald et al., Brain 118:495, 1995; Dewald & Beer, Muscle
@@ -92,11 +93,11 @@ The parts of a patient
   with the as-needed assistance it leads as often as without and its push, bent toward
   the synergy, is in the cone a third as often; with the submovements of its own
   movements (device.sim.submovements) every figure of the battery then orders as a stroke
-  survivor's. It is not the weak kind's default because the weak kind is also the
-  exercises' impaired patient, whose figures on the D the validation measured without it
-  (under the thesis's full assistance the robot would do 0.93 of the work instead of 0.79);
-  docs/assessments.md (Submovements) says what making it the default would take. The
-  figures are in docs/assessments.md (The virtual patients' circles).
+  survivor's. It is the weak kind's default since 2026-12-05, so the weak patient is one
+  stroke survivor's arm in the battery and on the exercises alike; docs/validation.md
+  measured the exercises again with it (under the thesis's full assistance this arm does
+  no net work, the robot all of it; as needed it does a third). The figures are in
+  docs/assessments.md (The virtual patients' circles, Submovements).
 * spastic: healthy effort plus a velocity-dependent resistance on each joint
   (Lance's definition of spasticity: a velocity-dependent increase in the tonic
   stretch reflex),  τ = −b ω − g (|ω| − ω_th)₊ sign ω,  with ω the joint's rate.
@@ -139,6 +140,7 @@ from device.sim.desired_motion import desired_motion_table
 from device.sim.holdtasks import TASK_OPTIONS, TaskBehaviour, behaviour, task_options
 from device.sim.patient_parameters import (
     DEFAULT_EFFORT,
+    DEFAULT_SELECTIVITY_LOSS,
     DRIVE_N,
     HEALTHY_IMPEDANCE,
     PASSIVE_TISSUE,
@@ -401,7 +403,7 @@ def make_patient(
     effort = options.get("effort", DEFAULT_EFFORT.get(kind, 1.0))
     drive = options.get("drive_N", DRIVE_N)
     synergy = options.get("synergy", 0.0)
-    loss = options.get("selectivity_loss", 0.0)
+    loss = options.get("selectivity_loss", DEFAULT_SELECTIVITY_LOSS.get(kind, 0.0))
     direction = options.get("synergy_direction_rad", SYNERGY_DIRECTION_RAD)
     PatientParameters(kind, effort, passive, active, spasticity, tremor, wrong_way, drive,
                       synergy, loss, direction)

@@ -61,8 +61,10 @@ BLEND_RECOVERED = 0.5
 """... and toward full effort (the pieces well blended)."""
 STOP_S = 0.3
 """How a patient drawing the circle stops with the dot (a reaction time's order): at its
-own pace its speed falls to rest over STOP_S about the dot's stop; by pieces it begins
-none that would end more than STOP_S after it."""
+own pace its speed falls to rest over STOP_S about the dot's stop, at rest STOP_S/2 after
+it; by pieces it begins none that would end later than that (until 2026-12-05 STOP_S after
+it: the weak arm, its selectivity half lost, lagging its last piece, was still moving at
+its drawing's mean speed when the hold after the circle ended)."""
 HOLD_AFTER_S = 5.0
 """How long the plan holds where the patient stopped (the trial's hold after the exercise
 is shorter: device.loop.plan.HOLD_S)."""
@@ -120,7 +122,7 @@ class OwnLaps:
     At `stop_s` (the dot's last lap ends) the patient stops: at its own pace its speed
     falls to rest over STOP_S centred on the stop (a minimum-jerk fall: a patient at the
     dot's pace comes to rest where the dot stops, STOP_S/2 after it); by submovements it
-    begins no piece that would end more than STOP_S after the dot stopped. Then it holds where it
+    begins no piece that would end more than STOP_S/2 after the dot stopped. Then it holds where it
     stopped (no push) to `stop_s` + HOLD_AFTER_S. The pieces vary from lap to lap, so the
     plan is one traversal lasting the whole trial, as device.sim.tasks' OwnMovement is; it
     answers what device.sim.patients asks of a trajectory."""
@@ -171,8 +173,10 @@ class OwnLaps:
         kept, finished = [], 0.0
         for k in range(self.shares.shape[0]):
             ends = k * self.lap_s + np.arange(pieces) * self.spacing * piece_s + piece_s
-            # a piece begun before the dot stopped, over by STOP_S after it
-            begun = int(np.sum((ends <= self.stop_s + STOP_S) & (ends - piece_s < self.stop_s)))
+            # a piece begun before the dot stopped, over when a patient at its own pace is
+            # at rest (STOP_S/2 after the stop)
+            at_rest = self.stop_s + STOP_S / 2.0
+            begun = int(np.sum((ends <= at_rest) & (ends - piece_s < self.stop_s)))
             kept.append(begun)
             if begun:
                 finished = float(ends[begun - 1])

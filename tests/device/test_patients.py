@@ -12,6 +12,7 @@ from core.trial import THESIS_SUBJECT
 from device.sim.desired_motion import passive_torque_terms
 from device.sim.patient_parameters import (
     DEFAULT_EFFORT,
+    DEFAULT_SELECTIVITY_LOSS,
     HEALTHY_IMPEDANCE,
     PASSIVE_TISSUE,
     PATIENT_KINDS,
@@ -181,11 +182,13 @@ def test_healthy_impedance_restores_the_desired_posture_with_a_symmetric_stiffne
 
 
 def test_weak_effort_is_the_stated_fraction_of_healthy_effort():
+    """The weak arm's effort is 0.4 of the healthy one's (its selectivity kept whole here:
+    the loss is the test below's)."""
     assert DEFAULT_EFFORT["weak"] == 0.4
     passive = make_patient("passive", ARM, TRAJECTORY)
     healthy = make_patient("healthy", ARM, TRAJECTORY)
-    weak = make_patient("weak", ARM, TRAJECTORY)
-    half = make_patient("weak", ARM, TRAJECTORY, effort=0.5)
+    weak = make_patient("weak", ARM, TRAJECTORY, selectivity_loss=0.0)
+    half = make_patient("weak", ARM, TRAJECTORY, effort=0.5, selectivity_loss=0.0)
     for state in random_states(1):
         tissue = np.array(passive.torque(*state))
         effort = np.array(healthy.torque(*state)) - tissue
@@ -223,7 +226,7 @@ def test_a_weak_arm_keeps_its_command_along_the_synergy_and_loses_a_share_across
     loss = 0.5
     passive = make_patient("passive", ARM, TRAJECTORY)
     weak = make_patient("weak", ARM, TRAJECTORY, variability=0.0, selectivity_loss=loss)
-    selective = make_patient("weak", ARM, TRAJECTORY, variability=0.0)
+    selective = make_patient("weak", ARM, TRAJECTORY, variability=0.0, selectivity_loss=0.0)
     s = np.array([math.cos(SYNERGY_DIRECTION_RAD), math.sin(SYNERGY_DIRECTION_RAD)])
     n = np.array([-s[1], s[0]])
     assert s[0] > 0.0 > s[1]  # shoulder one way, elbow the other: abduction with flexion
@@ -268,12 +271,18 @@ def test_a_weak_arm_keeps_its_command_along_the_synergy_and_loses_a_share_across
     assert np.all(np.linalg.eigvalsh(stiffness) > 0)
 
 
-def test_no_kind_loses_selectivity_unless_asked():
+def test_only_the_weak_kind_loses_selectivity_unless_asked():
+    """The weak patient is a stroke survivor's arm: weak and with half its selective joint
+    control lost (DEFAULT_SELECTIVITY_LOSS); every other kind keeps it whole by default."""
+    assert DEFAULT_SELECTIVITY_LOSS == {"weak": 0.5}
     for kind in PATIENT_KINDS:
+        default = DEFAULT_SELECTIVITY_LOSS.get(kind, 0.0)
         assert make_patient(kind, ARM, TRAJECTORY).constants == make_patient(
-            kind, ARM, TRAJECTORY, **({} if kind == "passive" else {"selectivity_loss": 0.0})
+            kind, ARM, TRAJECTORY, **({} if kind == "passive" else {"selectivity_loss": default})
         ).constants
-        assert make_patient(kind, ARM, TRAJECTORY).parameters.selectivity_loss == 0.0
+        assert make_patient(kind, ARM, TRAJECTORY).parameters.selectivity_loss == default
+    assert make_patient("weak", ARM, TRAJECTORY).constants != make_patient(
+        "weak", ARM, TRAJECTORY, selectivity_loss=0.0).constants
 
 
 # ------------------------------------------------------------------- tremor

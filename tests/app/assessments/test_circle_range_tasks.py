@@ -22,23 +22,26 @@ def circles(tmp_path_factory):
 
 def test_an_arm_in_synergy_draws_a_flatter_circle_with_its_joints_together():
     """The virtual arm's flexion synergy (device.sim.patients, option `synergy`): the
-    weak patient's circle flattens and its joints lose their independence."""
-    apart = run_task("circle", "weak", seed=7, in_memory=True)[0].figures
+    weak patient's circle flattens and its joints lose their independence (here with its
+    selectivity whole, so the coupling of the plan is all that differs)."""
+    apart = run_task("circle", "weak", seed=7, in_memory=True,
+                     patient_options={"selectivity_loss": 0.0})[0].figures
     together = run_task("circle", "weak", seed=7, in_memory=True,
-                        patient_options={"synergy": 0.3})[0].figures
+                        patient_options={"synergy": 0.3, "selectivity_loss": 0.0})[0].figures
     assert apart["circle_ratio"] - together["circle_ratio"] > 0.1
     assert together["circle_joint_independence"] < apart["circle_joint_independence"]
 
 
 def test_an_arm_that_lost_selectivity_draws_a_flatter_circle_than_the_healthy_one(circles):
-    """The weak arm's loss of selective joint control (device.sim.patients, selectivity):
-    without it the weak patient, slower, draws a rounder circle than the healthy one; with
-    it both its circle ratio and its joint independence fall under the healthy patient's
-    (docs/assessments.md, The virtual patients' circles)."""
+    """The weak arm's loss of selective joint control (device.sim.patients, selectivity;
+    the weak kind's default, half lost): without it the weak patient, slower, would draw a
+    rounder circle than the healthy one; with it both its circle ratio and its joint
+    independence fall under the healthy patient's (docs/assessments.md, The virtual
+    patients' circles)."""
     healthy = circles["healthy"][0].figures
-    apart = circles["weak"][0].figures
-    lost = run_task("circle", "weak", seed=7, in_memory=True,
-                    patient_options={"selectivity_loss": 0.5})[0].figures
+    lost = circles["weak"][0].figures
+    apart = run_task("circle", "weak", seed=7, in_memory=True,
+                     patient_options={"selectivity_loss": 0.0})[0].figures
     assert apart["circle_ratio"] > healthy["circle_ratio"]
     assert lost["circle_ratio"] < healthy["circle_ratio"] - 0.03
     assert lost["circle_joint_independence"] < healthy["circle_joint_independence"] - 0.05
@@ -51,8 +54,11 @@ def test_an_arm_that_lost_selectivity_draws_a_flatter_circle_than_the_healthy_on
 
 def test_the_circles_smoothness_runs_until_the_hand_rests(circles):
     """The circle's SPARC and LDLJ run over the exercise and the hold after it
-    (app.assessments.figures.through_rest), and every virtual patient has stopped with
-    the dot by the hold's end: the figure measures a movement from rest to rest."""
+    (app.assessments.figures.through_rest), and every virtual patient stops with the dot:
+    the healthy hand is at rest in the hold, the weak one, whose arm (its selectivity half
+    lost, its impedance across the synergy weak) lags its plan, comes to rest more slowly,
+    to under a quarter of its drawing speed by the hold's end: the figure measures a
+    movement from rest to (near) rest."""
     from app.assessments.figures import exercise_of, through_rest
     from device.loop.pipeline import PHASE_EXERCISE, PHASE_HOLD
 
@@ -68,9 +74,14 @@ def test_the_circles_smoothness_runs_until_the_hand_rests(circles):
         speed = np.hypot(*np.diff(hand[::10], axis=0).T) / (10 * data.sample_period_s)
         drawing = circles[kind][0].figures["circle_mean_speed_cw_m_s"]
         hold = speed[-25:]  # the hold's 0.5 s
-        # the hand stops in the hold: at rest once (the healthy hand overshoots the dot's
-        # stop by about 1 cm and the robot's hold draws it back slowly)
-        assert hold.min() < 0.1 * drawing, kind
+        # the hand stops in the hold: the healthy hand at rest once (it overshoots the
+        # dot's stop by about 1 cm and the robot's hold draws it back slowly), the weak one
+        # slowing throughout the hold (its speed at the hold's start 0.6-0.8 of the
+        # drawing's mean, at its end 0.17-0.22 on seeds 7 and 8)
+        if kind == "healthy":
+            assert hold.min() < 0.1 * drawing, kind
+        else:
+            assert hold[-1] < 0.5 * hold[0], kind
         assert hold[-1] < 0.25 * drawing, kind
         assert speed[-31] > 0.3 * drawing, kind  # still drawing 0.1 s before the dot stops
 

@@ -26,10 +26,11 @@ def test_an_arm_that_lost_selectivity_pushes_less_across_its_synergy(strength):
     """The weak arm's loss of selective joint control (device.sim.patients, selectivity):
     its pushes along the synergy keep their force, those across it lose much of it and fall
     short of the line, as a paretic arm's isometric torques out of synergy do (Dewald &
-    Beer 2001)."""
-    whole = strength["weak"].metrics
-    lost = run_task("strength", "weak", seed=3, in_memory=True,
-                    patient_options={"selectivity_loss": 0.5})[0].figures
+    Beer 2001). The weak kind has lost half of it by default; here against the same arm
+    with its selectivity whole."""
+    lost = strength["weak"].metrics
+    whole = run_task("strength", "weak", seed=3, in_memory=True,
+                     patient_options={"selectivity_loss": 0.0})[0].figures
     ratios = [lost[strength_key("mean", deg)] / whole[strength_key("mean", deg)]
               for deg in STRENGTH_DIRECTIONS_DEG]
     assert max(ratios) > 0.9
@@ -44,14 +45,15 @@ def position(tmp_path_factory):
 
 
 def test_strength_orders_the_patients(strength):
-    """The healthy and the weak patient push up to the robot's line in every direction
-    (their peaks are its limit: all 8 flagged), the healthy one sooner (a higher mean);
-    the passive patient pushes nothing and reaches no line."""
+    """The healthy patient pushes up to the robot's line in every direction (its peaks are
+    the line: all 8 flagged), the weak one, its selectivity half lost, only along its
+    synergy (some flagged, not all) and later (a lower mean in every direction); the
+    passive patient pushes nothing and reaches no line."""
     m = {kind: strength[kind].metrics for kind in KINDS}
     for kind in KINDS:
         assert strength[kind].status == "complete"
     assert m["healthy"]["strength_at_limit_count"] == 8
-    assert m["weak"]["strength_at_limit_count"] == 8
+    assert 0 < m["weak"]["strength_at_limit_count"] < 8
     assert m["passive"]["strength_at_limit_count"] == 0
     assert m["passive"]["strength_peak_force_n"] < 0.5
     assert (m["healthy"]["strength_mean_force_n"] > m["weak"]["strength_mean_force_n"]
@@ -59,8 +61,8 @@ def test_strength_orders_the_patients(strength):
     for deg in STRENGTH_DIRECTIONS_DEG:
         key = strength_key("mean", deg)
         assert m["healthy"][key] > m["weak"][key] > m["passive"][key]
-        # a push held at a line of 4-6 N: its peak within a few per cent of it
-        assert 3.5 < m["weak"][strength_key("peak", deg)] < 7.0
+        # a push held at a line of 4-6 N, or short of it across the synergy
+        assert 2.5 < m["weak"][strength_key("peak", deg)] < 7.0
 
 
 def test_a_strength_file_holds_every_phase_as_an_event(strength):

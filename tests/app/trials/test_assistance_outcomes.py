@@ -26,11 +26,11 @@ GOLDEN = Path(__file__).parents[2] / "device" / "data" / "thesis_ideal_records.j
 
 
 @cache
-def run(patient: str, assist: str, plant: str = "realistic"):
+def run(patient: str, assist: str, plant: str = "realistic", **options):
     params = THESIS_SUBJECT.replace(assist=assist)
     # the subject's mean (no trial-to-trial variation): the figures are the patient kind's
     trial = simulate(params, patient=patient, seed=0, plant=plant,
-                     patient_options={"variability": 0.0})
+                     patient_options={"variability": 0.0, **options})
     channels = {n: trial.records[n] for n in trial.records.dtype.names}
     return trial, analyse(channels, params).metrics
 
@@ -57,16 +57,13 @@ def test_the_weak_patient_gets_a_fifth_less_work_than_the_thesis_scheme_gives():
 
 
 def test_an_arm_that_lost_selectivity_is_helped_as_needed_and_still_leads():
-    """The weak patient with its loss of selective joint control (device.sim.patients,
-    selectivity): its plan is still the path, so the channel holds the hand on it and the
-    as-needed help still gives way to it most of the time; the robot does more of the work,
-    and the push, bent toward the synergy, is less often in the cone."""
-    params = THESIS_SUBJECT.replace(assist="as-needed")
-    trial = simulate(params, patient="weak", seed=0,
-                     patient_options={"variability": 0.0, "selectivity_loss": 0.5})
-    channels = {n: trial.records[n] for n in trial.records.dtype.names}
-    m = analyse(channels, params).metrics
-    without = run("weak", "as-needed")[1]
+    """The weak patient's loss of selective joint control (device.sim.patients,
+    selectivity; the weak kind's default): its plan is still the path, so the channel holds
+    the hand on it and the as-needed help still gives way to it most of the time; the robot
+    does more of the work than for the same arm with its selectivity whole, and the push,
+    bent toward the synergy, is less often in the cone."""
+    trial, m = run("weak", "as-needed")
+    without = run("weak", "as-needed", selectivity_loss=0.0)[1]
     assert trial.status == "complete"
     assert m.led_pct >= 80.0
     assert max(m.rmse_x_m, m.rmse_y_m) <= 0.010
@@ -123,6 +120,11 @@ def test_without_help_the_channel_gives_the_passive_patient_no_more_than_it_stor
 
 
 def test_a_learning_patient_keeps_working_under_as_needed_and_slacks_under_full_help():
+    """The weak learning patient keeps its effort under the as-needed mode and lets it
+    fall under the thesis's fixed full help. Under that help the robot does all the work
+    from the first trial for the weak arm as it is (its selectivity half lost: its push,
+    bent toward the synergy, does no net work against the stiff tracker), so the robot's
+    share can only show the slacking on the same arm with its selectivity whole."""
     as_needed = run_course(THESIS_SUBJECT.replace(assist="as-needed"), patient="weak",
                            trials=20)
     full = run_course(THESIS_SUBJECT.replace(assist="thesis"), patient="weak", trials=20)
@@ -130,8 +132,12 @@ def test_a_learning_patient_keeps_working_under_as_needed_and_slacks_under_full_
     assert full[-1].share <= 0.6
     shares = [t.share for t in full]
     assert all(b <= a + 1e-12 for a, b in itertools.pairwise(shares))
+    assert min(t.robot_work_share for t in full) >= 0.95
+    whole = run_course(THESIS_SUBJECT.replace(assist="thesis"), patient="weak", trials=20,
+                       patient_options={"selectivity_loss": 0.0})
+    assert whole[-1].share <= 0.6
     # the robot's share of the work grows as the patient slacks under full help
-    assert full[-1].robot_work_share > full[0].robot_work_share
+    assert whole[-1].robot_work_share > whole[0].robot_work_share
 
 
 def test_a_healthy_learning_patient_keeps_working_when_the_console_s_proposals_are_taken():
@@ -232,8 +238,10 @@ def test_the_as_needed_mode_is_stable_for_every_patient_level_and_speed(patient)
     trial completes (no torque, speed or workspace fault) and the hand stays near the
     path: within 5 mm RMS at the thesis's pace with help; within 25 mm RMS otherwise,
     where a heavy arm at twice the pace, or a weak or contrary one left alone, cuts the
-    D's corners against the channel's 5 N (measured 2026-12-01: up to 24 mm RMS, 56 mm
-    at worst; docs/validation.md, Assistance)."""
+    D's corners against the channel's 5 N (measured 2026-12-05, seed 1: up to 24 mm RMS,
+    61 mm at worst, the weak arm, its selectivity half lost, at twice the pace with full
+    help; 56 mm before that loss was the weak kind's default; docs/validation.md,
+    Assistance)."""
     for level in (0.0, 1.0):
         for duration in (4.0, 2.0):
             params = THESIS_SUBJECT.replace(assist="as-needed", assistance_level=level,
@@ -247,7 +255,7 @@ def test_the_as_needed_mode_is_stable_for_every_patient_level_and_speed(patient)
                                   hand[:, None, 1] - path[None, :, 1]), axis=1)
             rms = np.sqrt(np.mean(off ** 2))
             assert rms < (0.005 if (level, duration) == (1.0, 4.0) else 0.025)
-            assert off.max() < 0.06
+            assert off.max() < 0.065
 
 
 def test_the_trial_file_keeps_the_mode_its_gains_the_learned_force_and_the_work(tmp_path):
