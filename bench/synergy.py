@@ -9,13 +9,13 @@ share of the positive work and the RMS error.
         [--kinds healthy weak passive] [--others] [--option NAME=VALUE ...]
 
 `--option` sets the weak patient's options (device.sim.patients.make_patient), e.g.
-`--option selectivity_loss=0.5` (the loss of selective joint control) or `--option
-synergy=0.3` (the plan's coupling). `--others` adds what else the option moves: the circle's
-SPARC, the reaching task's speed maxima, SPARC, reaches with no movement end and initial
-direction error (seed 5, as tests/app/assessments/test_reaching_task.py), the isometric
-strength task's directions at the line (seed 7) and, on the D with the thesis's full
-assistance (5 laps, seed 0, no trial-to-trial variation), the patient's and the robot's
-work. Figures only; no assertion; docs/assessments.md (The
+`--option selectivity_loss=0` (the loss of selective joint control: 0.5 by default for the
+weak kind) or `--option synergy=0.3` (the plan's coupling). `--others` adds what else the
+option moves: the circle's SPARC, the reaching task's speed maxima, SPARC, reaches with no
+movement end and initial direction error (seed 5, as tests/app/assessments/
+test_reaching_task.py), the isometric strength task's directions at the line (seed 7) and,
+on the D with the thesis's full assistance (5 laps, seed 0, no trial-to-trial variation),
+the patient's and the robot's work. Figures only; no assertion; docs/assessments.md (The
 virtual patients' circles) holds what it printed.
 """
 

@@ -154,6 +154,21 @@ def test_camera_and_backend_choices(qtbot, tab):
     assert str(tab.backend().settings_path) == "/etc/rehab/robot.toml"
 
 
+def test_every_virtual_patient_says_what_it_is(qtbot, tab):
+    """The simulator's patient list: each kind's tooltip says what the virtual patient is
+    (the weak one a stroke survivor's arm, device.sim.patients' defaults)."""
+    from PySide6.QtCore import Qt
+
+    from device.sim.patient_parameters import PATIENT_KINDS
+
+    tips = {tab.patient_kind.itemData(i): tab.patient_kind.itemData(
+        i, Qt.ItemDataRole.ToolTipRole) for i in range(tab.patient_kind.count())}
+    assert set(tips) == set(PATIENT_KINDS)
+    assert all(tip for tip in tips.values())
+    assert "40 %" in tips["weak"]
+    assert "selective" in tips["weak"]
+
+
 def test_a_patients_measurements_fill_the_arm(qtbot, tab, tmp_path):
     registry = Registry(DataDir(tmp_path / "data"))
     patient = registry.create_patient("Sam", "Lefty", body_mass_kg=64.0, upper_arm_m=0.28,

@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from PySide6.QtCore import Signal
+from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import (
     QButtonGroup,
     QCheckBox,
@@ -33,6 +33,17 @@ from ui.tabs.form_rows import FormRows
 
 PATIENT_NAMES = {"healthy": "Healthy", "weak": "Weak", "spastic": "Spastic", "tremor": "Tremor",
                  "passive": "Passive (no effort)", "wrong_way": "Pushes the wrong way at times"}
+PATIENT_DESCRIPTIONS = {
+    "healthy": "A healthy arm that follows the path and pushes along it.",
+    "weak": "An arm after a stroke: 40 % of a healthy arm's effort, half its selective "
+            "joint control lost (the shoulder and the elbow tend to move together), its "
+            "own movements made of several smaller ones.",
+    "spastic": "A healthy effort against a resistance that grows with the joints' speed.",
+    "tremor": "A healthy effort with a 4–6 Hz tremor at both joints.",
+    "passive": "A relaxed arm that makes no effort: the robot does all the moving.",
+    "wrong_way": "A healthy effort that pushes against the path a fifth of the time.",
+}
+"""What each virtual patient is (device.sim.patients), as the patient list's tooltips."""
 SIMULATOR = "simulator"
 HARDWARE = "hardware"
 
@@ -120,8 +131,10 @@ class RobotChoice(QGroupBox):
         self._mode.addButton(self.simulator)
         self._mode.addButton(self.hardware)
         self.patient_kind = ComboBox()
-        for kind in PATIENT_KINDS:
+        for index, kind in enumerate(PATIENT_KINDS):
             self.patient_kind.addItem(PATIENT_NAMES.get(kind, kind), kind)
+            self.patient_kind.setItemData(index, PATIENT_DESCRIPTIONS.get(kind, ""),
+                                          Qt.ItemDataRole.ToolTipRole)
         # the simulator's seed: a new one each trial unless the therapist fixes one
         self.fix_seed = QCheckBox("Same each trial:")
         self.fix_seed.setToolTip("The virtual patient and the simulated robot vary from trial "
