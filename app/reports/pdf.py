@@ -267,8 +267,27 @@ def _banner(sheet: Sheet, text: str) -> None:
 
 # -- page 2 ------------------------------------------------------------------------------
 
+ROW_HEIGHTS_IN = (0.15, 0.14, 0.13)
+"""The figure table's row heights tried, tallest first (8 pt type needs 0.11 in): a table
+that leaves its last note or row alone on a page of its own is drawn tighter instead."""
+
+
 def _second_page(content: ReportContent) -> tuple[Figure, ...]:
-    """The therapist's page, and as many more as its notes need."""
+    """The therapist's page, and as many more as its table and notes need: the fewest
+    pages any row height of ROW_HEIGHTS_IN gives, with the tallest rows among them (a
+    report whose one short note went on a page of its own came out tighter on one)."""
+    best = _therapist_pages(content, ROW_HEIGHTS_IN[0])
+    for row_h in ROW_HEIGHTS_IN[1:]:
+        if len(best) == 1:
+            break
+        tighter = _therapist_pages(content, row_h)
+        if len(tighter) < len(best):
+            best = tighter
+    return best
+
+
+def _therapist_pages(content: ReportContent, row_h: float) -> tuple[Figure, ...]:
+    """The therapist's pages with the figure table's rows `row_h` inches tall."""
     sheet = Sheet()
     _title(sheet, content, "For the therapist", size=16)
     _therapist_header(sheet, content)
@@ -287,7 +306,8 @@ def _second_page(content: ReportContent) -> tuple[Figure, ...]:
 
     rows = list(content.table)
     while rows:
-        rows = _table(pages[-1], content, rows, continued=len(rows) < len(content.table))
+        rows = _table(pages[-1], content, rows, continued=len(rows) < len(content.table),
+                      row_h=row_h)
         if rows:
             next_page()
     notes = list(content.notes)  # the faults are in the header, once
@@ -334,10 +354,9 @@ def _pose_page(content: ReportContent) -> Figure:
 
 
 def _table(sheet: Sheet, content: ReportContent, rows: list[TableRow], *,
-           continued: bool) -> list[TableRow]:
+           continued: bool, row_h: float = ROW_HEIGHTS_IN[0]) -> list[TableRow]:
     """Draw the rows of the table that fit on this sheet, under its headings; return the
     rest, for the next page."""
-    row_h = 0.15
     size = 8
     bottom_in = PAGE_IN[1] - BOTTOM_IN - FOOTER_IN
     if not rows or sheet.y_in + 0.9 + 2 * row_h > bottom_in:

@@ -56,3 +56,22 @@ def test_an_exercises_report_has_no_task_page(tmp_path):
     assert content.assessment is None
     assert content.plain[0].key == "directional_performance_pct"  # the thesis mode's
     assert not [h for h in content.therapist_header if h.label == "Task"]
+
+
+def test_a_short_note_does_not_get_a_page_of_its_own(tmp_path):
+    """The weak patient's reaching report: its therapist page's figure table filled the
+    page and the one note went alone onto a 'For the therapist (continued)' page; the table
+    is now drawn with tighter rows (app.reports.pdf.ROW_HEIGHTS_IN) so the note stays on
+    the therapist's page: the patient's page, the therapist's, the task's."""
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("Ada", "Reach", birth_year=1960, side="right",
+                                   sex="female", handedness="right").code
+    (trial,) = run_task("reaching", "weak", seed=5, registry=registry, code=code)
+    content = content_for_registry_trial(registry, trial.trial_id)
+    assert content.notes
+    path = write_report_pdf(content, tmp_path / "report.pdf")
+    pages = [" ".join(p.extract_text().split()) for p in PdfReader(path).pages]
+    assert len(pages) == 3
+    assert not any("(continued)" in page for page in pages)
+    assert "Notes" in pages[1]
+    assert "Visually guided reaching" in pages[2]
