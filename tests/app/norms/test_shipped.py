@@ -3,8 +3,8 @@ scripts/build_simulated_norms.py from 500 virtual healthy subjects): verified on
 labelled simulated, a task score and an MDC95 for every task, what a data folder without
 norms of its own uses, and on the virtual patients they do what norms are for: the weak
 patient scores worse than the healthy one on every task (seed 3, a 60-year-old
-right-handed woman's norms: 4.12 against 1.73 in reaching, 4.82/0.55 circle, 4.95/0.14
-range, 3.01/1.13 strength, 6.85/1.41 position sense on 2026-12-04), and the passive one
+right-handed woman's norms: 4.13 against 1.73 in reaching, 4.96/0.55 circle, 5.29/0.14
+range, 4.21/1.13 strength, 6.44/1.41 position sense on 2026-12-05), and the passive one
 worst of all (reaching, circle and position not performed, range 8.43, strength 4.34)."""
 
 from __future__ import annotations
