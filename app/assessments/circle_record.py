@@ -58,6 +58,7 @@ def pairs(trials: Sequence[tuple[int, Mapping[str, float]]]) -> dict[int, tuple[
 
 
 def pair_heading(ids: Sequence[int]) -> str:
-    """Which trials the task's figures come from."""
+    """Which trials the task's figures come from (their registry ids, as the trials'
+    headings name them)."""
     named = " and ".join(str(i) for i in ids) if len(ids) > 1 else str(ids[0])
-    return f"both ways, from trial{'s' if len(ids) > 1 else ''} {named}"
+    return f"both ways, from trial id{'s' if len(ids) > 1 else ''} {named}"

@@ -94,9 +94,11 @@ def cmd_run(args: argparse.Namespace) -> int:
         paired = pairs([(t.trial_id, t.metrics) for t in trials]) if task == "circle" else {}
         for trial in trials:
             clockwise = trial.parameters.clockwise
+            stored = registry.trial(trial.trial_id)
             _print_trial(task, _heading(task, trial.trial_id, trial.status,
-                                        f"{trial.simulated_s:.0f} s simulated in "
-                                        f"{trial.elapsed_s:.1f} s", clockwise),
+                                        f"session {stored.session_number}, trial "
+                                        f"{stored.number}, {trial.simulated_s:.0f} s simulated "
+                                        f"in {trial.elapsed_s:.1f} s", clockwise),
                          _shown(task, trial.figures, clockwise, trial.trial_id in paired),
                          trial.notes)
             _print_pair(task, trial.trial_id, trial.metrics, paired,
@@ -168,12 +170,14 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 
 def _heading(task: str, trial_id, status: str, where: str, clockwise: bool) -> str:
-    """A trial's heading; a circle trial's says which way round it drew."""
+    """A trial's heading: its registry id (what `rehab trials` lists as id and `rehab
+    invalid` takes), then the session and the patient's trial number in `where`; a circle
+    trial's says which way round it drew."""
     from app.assessments.circle_record import WAY_WORDS, way_of
     from core.assessment import TASK_TITLES
 
     way = f", {WAY_WORDS[way_of(clockwise)]}" if task == "circle" else ""
-    return f"{TASK_TITLES.get(task, task)} — trial {trial_id}, {status}, {where}{way}"
+    return f"{TASK_TITLES.get(task, task)} — trial id {trial_id}, {status}, {where}{way}"
 
 
 def _shown(task: str, metrics: dict, clockwise: bool, paired: bool) -> dict:

@@ -31,13 +31,20 @@ def _once_each(out: str, first: int, second: int) -> None:
     assert out.count(MEAN) == 1, out
     assert out.count("  Circle ratio (cw): ") == 1, out
     assert out.count("  Circle ratio (ccw): ") == 1, out
-    assert out.count(f"Circle drawing — both ways, from trials {first} and {second}") == 1, out
+    assert out.count(f"Circle drawing — both ways, from trial ids {first} and {second}") == 1, (
+        out)
     lines = out.splitlines()
     # each way's figures under its own trial, the pair's under both
-    assert lines.index(f"Circle drawing — both ways, from trials {first} and {second}") > max(
+    assert lines.index(f"Circle drawing — both ways, from trial ids {first} and {second}") > max(
         i for i, line in enumerate(lines) if "(ccw): " in line or "(cw): " in line)
     heads = [line for line in lines if line.startswith("Circle drawing — trial")]
     assert [h.endswith("clockwise") for h in heads] == [True, True]
+    # the registry's id named as such, the patient's own numbering beside it (the run
+    # printed "trial 3" for a new patient's first trial: the data folder's third)
+    assert heads[0].startswith(f"Circle drawing — trial id {first}, complete, session 1, "
+                               "trial 1,"), heads
+    assert heads[1].startswith(f"Circle drawing — trial id {second}, complete, session 1, "
+                               "trial 2,"), heads
     assert "counter-clockwise" in heads[1]
     assert "counter-clockwise" not in heads[0]
 
@@ -52,7 +59,7 @@ def test_the_pair_s_figures_are_shown_once(data, scored, capsys):
     assert code == 0, err
     _once_each(out, first, second)
     assert out.count("Task score") == 1, out  # the pair's, against the shipped norms
-    (pair,) = re.findall(r"both ways, from trials.*?(?=\n\S|\Z)", out, re.S)
+    (pair,) = re.findall(r"both ways, from trial ids.*?(?=\n\S|\Z)", out, re.S)
     assert "Task score" in pair
     assert "   Z " in pair
     # the record stays as written: both rows hold the pair's figures

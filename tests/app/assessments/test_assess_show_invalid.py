@@ -47,14 +47,14 @@ def test_an_invalid_trial_is_left_out_unless_asked(registry, capsys):
     _invalid(spoilt, capsys)
     status, out, err = run(["assess", "show", code], capsys)
     assert status == 0, err
-    assert f"— trial {kept}," in out
-    assert f"— trial {spoilt}," not in out
+    assert f"— trial id {kept}," in out
+    assert f"— trial id {spoilt}," not in out
     assert ("1 trial(s) marked invalid left out (`rehab trials CODE` says why); "
             "--include-invalid shows them too") in out
     status, out, err = run(["assess", "show", code, "--include-invalid"], capsys)
     assert status == 0, err
-    assert f"— trial {kept}," in out
-    assert f"— trial {spoilt}," in out
+    assert f"— trial id {kept}," in out
+    assert f"— trial id {spoilt}," in out
     assert out.count("  invalid: the patient coughed") == 1
     assert "left out" not in out
 
@@ -73,6 +73,6 @@ def test_a_circle_pair_with_an_invalid_trial_shows_no_task_figures(registry, cap
             "marked invalid (--include-invalid shows them)") in out
     status, out, err = run(["assess", "show", code, "--include-invalid"], capsys)
     assert status == 0, err
-    assert f"Circle drawing — both ways, from trials {cw} and {ccw} ({ccw} marked invalid)" \
+    assert f"Circle drawing — both ways, from trial ids {cw} and {ccw} ({ccw} marked invalid)" \
         in out
     assert out.count("  Circle ratio: ") == 1
