@@ -101,7 +101,6 @@ from app.records.registry.trials import (
 )
 from app.records.registry.url import POSTGRESQL, registry_url
 from app.records.registry.values import NAME_MAX_CHARS, TEXT_MAX_CHARS
-from app.records.registry.warmup import Warmup
 
 __all__ = [
     "BIRTH_YEAR_MIN",
@@ -141,7 +140,7 @@ __all__ = [
 
 
 class Registry(Schema, Patients, Sessions, Plans, Clinical, Proposals, Trials, Stores,
-               Queries, Warmup):
+               Queries):
     """The registry of one data folder. Opening it migrates the database; with `create`
     (the window, `rehab patients add`) a missing one is created, whole, in a new or empty
     folder (app.records.registry.schema.create_registry_file); without, a missing registry
@@ -169,8 +168,6 @@ class Registry(Schema, Patients, Sessions, Plans, Clinical, Proposals, Trials, S
                 self._writer.dispose()  # again, reading research's views by name
                 del self._writer, self._reader_engine
                 self.research = True
-            # a station's first trial as quick as the next ones, as far as reads can make it
-            self.warm_up()
             return
         self.path = data_dir.registry_path
         if not create:

@@ -198,11 +198,6 @@ def patient_by_code(conn: sa.Connection, registry: Path | str, code: str) -> Pat
     return _patient_from_row(row)
 
 
-PATIENT = "SELECT id FROM patients WHERE code = ?"
-PATIENT_LOCKED = PATIENT + " FOR NO KEY UPDATE"
-"""A patient's id by code; locked, before a write numbers or changes what was read."""
-
-
 def patient_id(conn: sa.Connection, registry: Path | str, code: str, *,
                lock: bool = False) -> int:
     """The row id of the patient with this code (PatientNotFound if none). `lock`: the
@@ -211,7 +206,8 @@ def patient_id(conn: sa.Connection, registry: Path | str, code: str, *,
     locks it (postgres/numbering.py): stations writing for one patient take turns, and
     the next number read is the one inserted. (SQLite's BEGIN IMMEDIATE already lets one
     writer in at a time.)"""
-    row = execute(conn, PATIENT_LOCKED if lock else PATIENT, (code,)).fetchone()
+    held = " FOR NO KEY UPDATE" if lock else ""
+    row = execute(conn, "SELECT id FROM patients WHERE code = ?" + held, (code,)).fetchone()
     if row is None:
         patient_by_code(conn, registry, code)  # raises PatientNotFound with its message
     return row[0]

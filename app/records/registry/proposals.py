@@ -63,7 +63,7 @@ class Proposals(Database):
             # One statement (a round trip to a server; bench/registration.py): inserted, or
             # a pending one replaced whole, and returned as written; no row when the trial
             # is unknown or its proposal was decided, said below.
-            row = execute(conn, RECORD, (text, _now(), trial_id)).fetchone()
+            row = execute(conn, _RECORD, (text, _now(), trial_id)).fetchone()
             if row is None:
                 trial_by_id(conn, self.where, trial_id)  # refuses an unknown trial
                 decided = execute(conn, "SELECT decision FROM proposals WHERE trial_id = ?",
@@ -90,7 +90,7 @@ class Proposals(Database):
         """The proposal waiting for the patient's next trial (the one the next Start
         decides), None when none waits: what the window offers again after a restart."""
         with self._read() as conn:
-            row = pending(conn, patient_id(conn, self.where, code), -1)
+            row = _pending(conn, patient_id(conn, self.where, code), -1)
         return None if row is None else _stored(row)
 
     def _trial_withdrawn(self, conn: sa.Connection, trial_id: int) -> None:
@@ -110,22 +110,19 @@ class Proposals(Database):
         after = _parameters(parameters)
         if after.assessment:
             return
-        row = pending(conn, patient, trial_id)
+        row = _pending(conn, patient, trial_id)
         if row is None:
             return
         stored = _stored(row)
         before = _parameters(row[-1])  # its trial's, as read
         decision = _decision(stored.proposal, before, after)
-        execute(conn, DECIDE, (decision, trial_id, _now(), stored.trial_id))
+        execute(conn, "UPDATE proposals SET decision = ?, next_trial_id = ?, decided_at = ? "
+                      "WHERE trial_id = ?", (decision, trial_id, _now(), stored.trial_id))
 
 
-DECIDE = ("UPDATE proposals SET decision = ?, next_trial_id = ?, decided_at = ? "
-          "WHERE trial_id = ?")
-"""A pending proposal decided by the trial that followed (decision, that trial, time, the
-proposal's trial)."""
 _SELECT = ("SELECT trial_id, proposal, decision, next_trial_id, proposed_at, decided_at "
            "FROM proposals")
-RECORD = ("INSERT INTO proposals (trial_id, proposal, proposed_at, patient_id) "
+_RECORD = ("INSERT INTO proposals (trial_id, proposal, proposed_at, patient_id) "
            "SELECT t.id, ?, ?, s.patient_id FROM trials t JOIN sessions s "
            "ON s.id = t.session_id WHERE t.id = ? "
            "ON CONFLICT (trial_id) DO UPDATE SET proposal = excluded.proposal, "
@@ -149,7 +146,7 @@ _PENDING = (_CANDIDATE + f"AND p.decision = 'pending' AND p.trial_id NOT IN ({_I
             + _CANDIDATE + f"AND p.decision != 'pending' AND p.next_trial_id IN ({_INVALID}) "
             f"AND p.trial_id NOT IN ({_INVALID}) ORDER BY 1 DESC")
 """The patient's pending proposal (patient id, a trial id to leave out, the same two again),
-with its trial's parameters, latest first; `pending` takes the first of an exercise trial.
+with its trial's parameters, latest first; `_pending` takes the first of an exercise trial.
 The one: the latest of an exercise trial not marked invalid (schema v8) that no trial
 decided, or that a trial since marked invalid decided (that trial does not count: its
 proposal is offered again, as after a withdrawn trial). An assessment trial's proposal is
@@ -207,7 +204,7 @@ def patient_of_trial(trial: str, schema: str = "") -> str:
 def _sqlite_patient_trigger(name: str, event: str) -> str:
     """After `event`, a proposal's `patient_id` made its trial's where it is not (a writer
     that did not give it: a tool, a row inserted by hand). The console's own writers give
-    it (`RECORD`; the standby's and the sync's copies carry it), and the update the
+    it (`_RECORD`; the standby's and the sync's copies carry it), and the update the
     trigger makes then never runs."""
     patient = patient_of_trial("NEW.trial_id")
     return (f"CREATE TRIGGER proposals_patient_on_{name} AFTER {event} ON proposals "
@@ -235,7 +232,7 @@ seal first), and the pending proposals indexed by it (`_PENDING`). A proposal's 
 unchanged: the column only says again which patient its trial is of."""
 
 
-def pending(conn: sa.Connection, patient: int, trial_id: int) -> tuple | None:
+def _pending(conn: sa.Connection, patient: int, trial_id: int) -> tuple | None:
     """The row of the patient's pending proposal (as _SELECT reads it, then its trial's
     parameters), None when none waits (`_PENDING`)."""
     for row in execute(conn, _PENDING, (patient, trial_id) * 2).fetchall():

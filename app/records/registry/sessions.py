@@ -168,16 +168,14 @@ def sessions_for_a_trial(conn: sa.Connection, patient: int, number: int | None
     return latest, next((row for row in rows if row[1] == number), None)
 
 
-INSERT_SESSION = ("INSERT INTO sessions (patient_id, number, date, therapist, location, notes) "
-                  "VALUES (?, ?, ?, ?, ?, ?) RETURNING id")
-
-
 def insert_session(conn: sa.Connection, patient: int, number: int,
                    date: datetime.date, therapist: str, location: str, notes: str) -> int:
     """Insert a session row (number already checked); returns its id."""
     if not isinstance(date, datetime.date):
         raise InvalidRecordError(f"session date {date!r}: give a datetime.date")
-    cursor = execute(conn, INSERT_SESSION,
+    cursor = execute(conn,
+        "INSERT INTO sessions (patient_id, number, date, therapist, location, notes) "
+        "VALUES (?, ?, ?, ?, ?, ?) RETURNING id",
         (patient, number, date.isoformat(), checked_text("therapist", therapist, NAME_MAX_CHARS),
          checked_text("location", location, NAME_MAX_CHARS),
          checked_text("notes", notes, TEXT_MAX_CHARS)),

@@ -78,15 +78,6 @@ TRIAL_RETURNING = """
         number, parameters, file, metrics, status, started_at, ended_at, backend,
         patient_kind, end_reason, assistance, station, checksum, stored_in
 """
-
-INSERT_TRIAL = ("INSERT INTO trials (session_id, number, parameters, file, metrics, status, "
-                "started_at, backend, patient_kind, station) "
-                "VALUES (?, ?, ?, ?, '{}', ?, ?, ?, ?, ?) RETURNING id")
-"""A trial registered at Start (begin_trial); its id returned."""
-FINISH_TRIAL = ("UPDATE trials SET status = ?, metrics = ?, ended_at = ?, end_reason = ?, "
-                "assistance = ?, backend = coalesce(?, backend), checksum = ? "
-                "WHERE id = ? AND status = ? " + TRIAL_RETURNING)
-"""A trial still recording finished (finish_trial), returned as written."""
 """TRIAL_SELECT's row, of the trial an UPDATE wrote (after `UPDATE trials … WHERE …`): the
 row as written, without reading it again (a round trip to a server). Its session's and
 patient's columns by subqueries, which both engines allow in RETURNING (a join does not:
@@ -273,7 +264,10 @@ class Trials(Database):
                     "trial", trial_number, free, whose=f"patient {code} session {session_number}",
                     used_on=datetime.datetime.fromisoformat(taken[0]) if taken else None)
             file = self.data_dir.trial_file(code, session_number, trial_number, started_at)
-            cursor = execute(conn, INSERT_TRIAL,
+            cursor = execute(conn,
+                "INSERT INTO trials (session_id, number, parameters, file, metrics, status, "
+                "started_at, backend, patient_kind, station) "
+                "VALUES (?, ?, ?, ?, '{}', ?, ?, ?, ?, ?) RETURNING id",
                 (session_id, trial_number, params, file, STATUS_RECORDING,
                  utc_text(started_at), backend, patient_kind, self.station),
             )
@@ -341,7 +335,10 @@ class Trials(Database):
             # One statement (a round trip to a server; bench/registration.py): the update
             # of a trial still recording, which returns the row as written. On the server it
             # waits for a station finishing the same trial, then finds it finished.
-            row = execute(conn, FINISH_TRIAL,
+            row = execute(conn, "UPDATE trials SET status = ?, metrics = ?, ended_at = ?, "
+                                "end_reason = ?, assistance = ?, backend = coalesce(?, "
+                                "backend), checksum = ? WHERE id = ? AND status = ? "
+                                + TRIAL_RETURNING,
                           (status, stored, utc_text(ended_at), str(reason), levels, backend,
                            checksum, trial_id, STATUS_RECORDING)).fetchone()
             if row is None:  # none, or finished: which, in the registry's words
