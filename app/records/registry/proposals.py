@@ -165,7 +165,9 @@ proposal (bench/registration.py, docs/performance.md):
   their history, because proposals did not name their patient.
 * v13 (`SQLITE_V13`, postgres.MIGRATIONS[13]): each proposal names its trial's patient, and
   the partial index of pending proposals is by patient (`PENDING_BY_PATIENT`): the
-  patient's pending ones (about one) are one index probe, whatever their number of trials.
+  patient's pending ones (about one) are one index probe, whatever their number of trials:
+  5 pages read by the server, the statement 2.70 → 0.38 ms as a station sees it after a
+  pause (its median over 100 trials, 1 s apart).
 * Those an invalid trial decided, from the few invalid marks through the index on
   `next_trial_id`, kept to the patient's by the same column.
 
