@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import sqlalchemy as sa
 
 from app.errors import InvalidRecordError
+from app.records.registry import seals
 from app.records.registry.database import Database
 from app.records.registry.patients import patient_id
 from app.records.registry.statements import execute
@@ -121,25 +122,26 @@ class Proposals(Database):
 
 _SELECT = ("SELECT trial_id, proposal, decision, next_trial_id, proposed_at, decided_at "
            "FROM proposals")
-_RECORD = ("INSERT INTO proposals (trial_id, proposal, proposed_at) "
-           "SELECT id, ?, ? FROM trials WHERE id = ? "
+_RECORD = ("INSERT INTO proposals (trial_id, proposal, proposed_at, patient_id) "
+           "SELECT t.id, ?, ?, s.patient_id FROM trials t JOIN sessions s "
+           "ON s.id = t.session_id WHERE t.id = ? "
            "ON CONFLICT (trial_id) DO UPDATE SET proposal = excluded.proposal, "
            "proposed_at = excluded.proposed_at, decision = 'pending', next_trial_id = NULL, "
            "decided_at = NULL WHERE proposals.decision = 'pending' "
            "RETURNING trial_id, proposal, decision, next_trial_id, proposed_at, decided_at")
 """A proposal recorded after its trial (text, time, trial id): inserted when the trial has
-none, replacing a pending one whole, nothing when the trial is unknown (no row to insert)
-or its proposal was decided (the update's WHERE). The same statement on both engines (an
-upsert: PostgreSQL 9.5, SQLite 3.24; SQLite reads `SELECT … WHERE` before `ON CONFLICT`
-unambiguously). On the server the conflicting row is locked and its decision read as the
-station before left it, as the SELECT … FOR UPDATE before it did."""
+none (with its trial's patient, schema v13), replacing a pending one whole, nothing when the
+trial is unknown (no row to insert) or its proposal was decided (the update's WHERE). The
+same statement on both engines (an upsert: PostgreSQL 9.5, SQLite 3.24; SQLite reads
+`SELECT … JOIN … WHERE` before `ON CONFLICT` unambiguously: a WHERE ends the join). On
+the server the conflicting row is locked and its decision read as the station before left
+it, as the SELECT … FOR UPDATE before it did."""
 _INVALID = ("SELECT m.trial_id FROM trial_marks m WHERE m.valid = 0 AND m.id = "
             "(SELECT max(id) FROM trial_marks WHERE trial_id = m.trial_id)")
 _CANDIDATE = ("SELECT p.trial_id, p.proposal, p.decision, p.next_trial_id, p.proposed_at, "
-              "p.decided_at, t.parameters FROM trials t JOIN sessions s ON s.id = t.session_id "
-              "JOIN proposals p ON p.trial_id = t.id WHERE s.patient_id = ? AND t.id != ? ")
-_PENDING = (_CANDIDATE + "AND (SELECT q.trial_id FROM proposals q WHERE q.trial_id = t.id "
-            f"AND q.decision = 'pending') IS NOT NULL AND p.trial_id NOT IN ({_INVALID}) "
+              "p.decided_at, t.parameters FROM proposals p JOIN trials t ON t.id = p.trial_id "
+              "WHERE p.patient_id = ? AND p.trial_id != ? ")
+_PENDING = (_CANDIDATE + f"AND p.decision = 'pending' AND p.trial_id NOT IN ({_INVALID}) "
             "UNION ALL "
             + _CANDIDATE + f"AND p.decision != 'pending' AND p.next_trial_id IN ({_INVALID}) "
             f"AND p.trial_id NOT IN ({_INVALID}) ORDER BY 1 DESC")
@@ -152,21 +154,22 @@ never the one: a registry written before assessments stopped proposing (app.tria
 may hold one, which would offer the task's fixed protocol ("transparent mode: the same
 again") to the next exercise.
 
-How it is found (schema v12, `PENDING_INDEXES`), measured on PostgreSQL with 1,000 patients
-of 1,000 trials, each with its proposal (bench/registration.py, docs/performance.md):
+How it is found, measured on PostgreSQL with 1,000 patients of 1,000 trials, each with its
+proposal (bench/registration.py, docs/performance.md):
 
 * Before v12, one condition ("pending, or decided by a trial since marked invalid") that no
   index fitted: the server read the proposal of each of the patient's trials, 1.6-3.1 ms.
-* The pending ones through the partial index of pending proposals: in a join, the server
-  chose to start from that index, whose entries are every patient's pending proposal
-  (about one a patient, 1,000 here), reading each one's trial and session to find the
-  patient's: 5-13 ms. So the index is probed by a scalar subquery for each of the patient's
-  trials, which the server cannot turn into a join: 1,000 probes of a small index that find
-  nothing for every trial but the pending one's, without reading any proposal's row: 0.8-2
-  ms. Still one probe per trial of the patient; no index can start from the patient while
-  proposals do not name them.
+* v12: a partial index of every patient's pending proposals by trial, probed once for each
+  of the patient's trials (a join started from the index instead read every patient's
+  pending one, 5-13 ms): 0.8-2 ms, still one probe per trial of the patient, growing with
+  their history, because proposals did not name their patient.
+* v13 (`SQLITE_V13`, postgres.MIGRATIONS[13]): each proposal names its trial's patient, and
+  the partial index of pending proposals is by patient (`PENDING_BY_PATIENT`): the
+  patient's pending ones (about one) are one index probe, whatever their number of trials:
+  5 pages read by the server, the statement 2.70 → 0.38 ms as a station sees it after a
+  pause (its median over 100 trials, 1 s apart).
 * Those an invalid trial decided, from the few invalid marks through the index on
-  `next_trial_id`.
+  `next_trial_id`, kept to the patient's by the same column.
 
 Why the assessment is told apart in Python: the candidates are few, while a condition on the
 parameters in the SQL was evaluated by PostgreSQL on every trial of the patient, parsing
@@ -177,14 +180,58 @@ PENDING_INDEXES = (
     "CREATE INDEX proposals_pending ON proposals (trial_id) WHERE decision = 'pending'",
     "CREATE INDEX proposals_by_next_trial ON proposals (next_trial_id)",
 )
-"""Schema v12 (both engines; on the server also postgres/tables.py): the pending proposals,
-and the proposals by the trial that decided them, which `_PENDING` reads and a withdrawn
-trial's (Proposals._trial_withdrawn: its decision undone, and the foreign key's check when
-its row is deleted) would otherwise find by reading every proposal of the registry."""
+"""Schema v12 as it shipped (both engines): the pending proposals, and the proposals by the
+trial that decided them, which `_PENDING` reads and a withdrawn trial's
+(Proposals._trial_withdrawn: its decision undone, and the foreign key's check when its row
+is deleted) would otherwise find by reading every proposal of the registry. v13 replaced
+the first by `PENDING_BY_PATIENT`."""
 
 SQLITE_V12 = PENDING_INDEXES
 """Schema v12 on SQLite (the server's, postgres.MIGRATIONS[12], adds what makes its seal
 triggers cheaper)."""
+
+PENDING_BY_PATIENT = ("CREATE INDEX proposals_pending_by_patient ON proposals "
+                      "(patient_id, trial_id) WHERE decision = 'pending'")
+"""Schema v13 (both engines; on the server postgres/tables.py): the pending proposals by
+their patient, latest last."""
+
+
+def patient_of_trial(trial: str, schema: str = "") -> str:
+    """The SQL of the patient whose trial is `trial` (an SQL expression of its id), its
+    tables in `schema` ("public." in the server's trigger function)."""
+    return (f"(SELECT s.patient_id FROM {schema}trials t JOIN {schema}sessions s "
+            f"ON s.id = t.session_id WHERE t.id = {trial})")
+
+
+def _sqlite_patient_trigger(name: str, event: str) -> str:
+    """After `event`, a proposal's `patient_id` made its trial's where it is not (a writer
+    that did not give it: a tool, a row inserted by hand). The console's own writers give
+    it (`_RECORD`; the standby's and the sync's copies carry it), and the update the
+    trigger makes then never runs."""
+    patient = patient_of_trial("NEW.trial_id")
+    return (f"CREATE TRIGGER proposals_patient_on_{name} AFTER {event} ON proposals "
+            f"WHEN NEW.patient_id IS NOT {patient} BEGIN UPDATE proposals SET patient_id = "
+            f"{patient} WHERE trial_id = NEW.trial_id; END")
+
+
+SQLITE_V13 = (
+    *seals.checked_before_resealing("proposals", seals.SEALED_AT_V12["proposals"]),
+    "ALTER TABLE proposals ADD COLUMN patient_id INTEGER REFERENCES patients (id) "
+    "ON DELETE RESTRICT",
+    "DROP TRIGGER proposals_sealed_on_insert",
+    "DROP TRIGGER proposals_sealed_on_update",
+    f"UPDATE proposals SET patient_id = {patient_of_trial('proposals.trial_id')}",
+    f"UPDATE proposals SET seal = {seals.call('proposals', seals.sealed_at('proposals', 13))}",
+    *seals.triggers("proposals", seals.sealed_at("proposals", 13)),
+    _sqlite_patient_trigger("insert", "INSERT"),
+    _sqlite_patient_trigger("update", "UPDATE OF trial_id, patient_id"),
+    "DROP INDEX proposals_pending",
+    PENDING_BY_PATIENT,
+)
+"""Schema v13 on SQLite: each proposal's patient (its trial's session's, kept so by the
+database: `_sqlite_patient_trigger`), sealed with the rest (each row checked against its v12
+seal first), and the pending proposals indexed by it (`_PENDING`). A proposal's meaning is
+unchanged: the column only says again which patient its trial is of."""
 
 
 def _pending(conn: sa.Connection, patient: int, trial_id: int) -> tuple | None:

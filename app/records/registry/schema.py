@@ -233,6 +233,7 @@ MIGRATIONS: tuple[tuple[int, tuple[str, ...]], ...] = (
     (10, provenance.SQLITE_V10),
     (11, stores.SQLITE_V11),
     (12, proposals.SQLITE_V12),
+    (13, proposals.SQLITE_V13),
 )
 SCHEMA_VERSION = MIGRATIONS[-1][0]
 

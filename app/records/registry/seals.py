@@ -60,12 +60,18 @@ SEALED_AT_V10: dict[str, tuple[str, ...]] = {
 """The same for v10, where v11 changed them (the shared trial store a trial's file was
 copied to: app.records.registry.stores)."""
 
+SEALED_AT_V12: dict[str, tuple[str, ...]] = {
+    "proposals": ("trial_id", "proposal", "decision", "next_trial_id", "proposed_at",
+                  "decided_at"),
+}
+"""The same for v12, where v13 changed them (the patient each proposal is for:
+app.records.registry.proposals.SQLITE_V13)."""
+
 SEALED: dict[str, tuple[str, ...]] = {
     "patients": (*SEALED_AT_V7["patients"], "sex", "handedness"),
     "sessions": ("id", "patient_id", "number", "date", "therapist", "notes", "location"),
     "trials": (*SEALED_AT_V10["trials"], "stored_in"),
-    "proposals": ("trial_id", "proposal", "decision", "next_trial_id", "proposed_at",
-                  "decided_at"),
+    "proposals": (*SEALED_AT_V12["proposals"], "patient_id"),
     "plans": ("id", "patient_id", "name", "plan", "template", "based_on", "created_at"),
     "plan_runs": (*SEALED_AT_V9["plan_runs"], "station"),
     "plan_steps": ("run_id", "step", "block", "round", "kind", "trial_id", "planned_s",
@@ -125,7 +131,8 @@ def register(conn: sqlite3.Connection) -> sqlite3.Connection:
 def sealed_at(table: str, version: int) -> tuple[str, ...]:
     """The columns `table`'s seal covered at schema `version` (a historic migration seals
     and triggers over these, not over today's)."""
-    for changed_at, before in ((8, SEALED_AT_V7), (10, SEALED_AT_V9), (11, SEALED_AT_V10)):
+    for changed_at, before in ((8, SEALED_AT_V7), (10, SEALED_AT_V9), (11, SEALED_AT_V10),
+                               (13, SEALED_AT_V12)):
         if version < changed_at and table in before:
             return before[table]
     return SEALED[table]

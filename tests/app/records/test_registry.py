@@ -350,7 +350,7 @@ def test_a_v1_registry_is_backed_up_and_migrated_keeping_its_records(tmp_path):
     path = make_v1_registry(tmp_path / "data")
     registry = Registry(DataDir(tmp_path / "data"))
 
-    assert registry.schema_version() == SCHEMA_VERSION == 12
+    assert registry.schema_version() == SCHEMA_VERSION == 13
     assert query(path, "SELECT count(*) FROM proposals") == [(0,)]
     assert query(path, "PRAGMA journal_mode") == [("wal",)]
     trial_columns = {row[1] for row in query(path, "PRAGMA table_info(trials)")}

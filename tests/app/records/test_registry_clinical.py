@@ -77,7 +77,7 @@ def test_a_v7_registry_is_migrated_to_today_keeping_every_record(tmp_path):
 
     registry = Registry(DataDir(tmp_path / "data"))
 
-    assert registry.schema_version() == SCHEMA_VERSION == 12
+    assert registry.schema_version() == SCHEMA_VERSION == 13
     assert {t: table_rows(path, t, v7_columns(t)) for t in V7_TABLES} == before
     assert list((tmp_path / "data").glob("registry.sqlite3.v7-*.bak"))
     ada = registry.patient("PABC234")

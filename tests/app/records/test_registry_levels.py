@@ -44,7 +44,7 @@ def make_v4_registry(folder) -> None:
 def test_a_v4_registry_is_upgraded_and_keeps_the_levels_trials_ran_from_then_on(tmp_path):
     make_v4_registry(tmp_path / "data")
     registry = Registry(DataDir(tmp_path / "data"))
-    assert registry.schema_version() == SCHEMA_VERSION == 12
+    assert registry.schema_version() == SCHEMA_VERSION == 13
     assert list((tmp_path / "data").glob("registry.sqlite3.v4-*.bak"))
     (old,) = registry.trials_for_patient("PABC234")
     assert old.assistance is None  # before v5: only the built level is known

@@ -1,8 +1,8 @@
 """What a trial's registration asks of the registry, on both engines (issue 32: registration
 p99 < 10 ms with 8 stations writing; bench/registration.py, docs/performance.md): the
 statements each call sends (each a round trip to a server), the indexes that find a
-patient's pending proposal (schema v12), and a v11 registry brought to v12 keeping every
-record."""
+patient's pending proposal (schema v12, by patient since v13), and older registries brought
+to today's keeping every record."""
 
 from __future__ import annotations
 
@@ -10,9 +10,12 @@ import contextlib
 import datetime
 import json
 import re
+import sqlite3
 
+import pytest
 import sqlalchemy as sa
 
+from app.errors import RegistryError
 from app.records.datadir import DataDir
 from app.records.registry import Registry
 from app.records.registry.patients import patient_id
@@ -105,7 +108,8 @@ def test_the_pending_proposal_and_a_decided_ones_trial_are_found_by_their_indexe
         open_registry, registry_engine):
     """Before v12 the server read every proposal of the patient's trials to find the pending
     one, and a withdrawn trial's decision was looked for in every proposal of the registry
-    (`Proposals._trial_withdrawn`), on both engines."""
+    (`Proposals._trial_withdrawn`), on both engines. Since v13 the pending ones are indexed
+    by their patient, on both engines."""
     registry = open_registry()
     code = registry.create_patient("Ada", "Example").code
     for _ in range(3):
@@ -114,10 +118,9 @@ def test_the_pending_proposal_and_a_decided_ones_trial_are_found_by_their_indexe
         registry.record_proposal(begun.trial_id, {"assistance_level": 0.5})
     with registry._read() as conn:
         patient = patient_id(conn, registry.where, code)
-    if registry_engine == "postgresql":  # SQLite reaches a proposal by its trial's rowid
-        plan = _plan(registry, registry_engine, _PENDING, (patient, -1) * 2)
-        assert "proposals_pending" in plan
-        assert "proposals_by_next_trial" in plan
+    plan = _plan(registry, registry_engine, _PENDING, (patient, -1) * 2)
+    assert "proposals_pending_by_patient" in plan
+    assert "proposals_by_next_trial" in plan
     withdrawn = _plan(registry, registry_engine, "UPDATE proposals SET decision = 'pending', "
                       "next_trial_id = NULL, decided_at = NULL WHERE next_trial_id = ?", (1,))
     assert "proposals_by_next_trial" in withdrawn
@@ -160,20 +163,111 @@ def test_a_patients_pending_proposal_is_found_from_their_trials_not_everyones(
             assert 0 < pages < others, plan
         else:
             plan = _plan(registry, registry_engine, _PENDING, (patient, -1) * 2)
-            assert plan.splitlines()[2].startswith("SEARCH s "), plan  # the patient's sessions
+            assert "SEARCH p USING INDEX proposals_pending_by_patient (patient_id=?)" in plan
     assert registry.pending_proposal(code).trial_id == begun.trial_id
+    with registry._read() as conn:  # the rows inserted without it name their patient
+        assert execute(conn, "SELECT count(*) FROM proposals p WHERE coalesce(p.patient_id, "
+                             "0) != (SELECT s.patient_id FROM trials t JOIN sessions s ON "
+                             "s.id = t.session_id WHERE t.id = p.trial_id)").scalar_one() == 0
+    assert registry.integrity_check() == []
+
+
+def _history(registry: Registry, code: str, trials: int) -> int:
+    """`trials` trials of the patient `code` in one session, each with its proposal, each
+    decided by the next trial but the last one's, pending (as a patient's history stands
+    between two trials), every tenth marked valid; the patient's id."""
+    with registry._write() as conn:
+        patient = patient_id(conn, registry.where, code)
+        session = execute(conn, "INSERT INTO sessions (patient_id, number, date) VALUES "
+                                "(?, 1, '2026-12-01') RETURNING id", (patient,)).scalar_one()
+        ids = [execute(conn, "INSERT INTO trials (session_id, number, parameters, file, "
+                             "status, started_at) VALUES (?, ?, ?, ?, 'complete', "
+                             "'2026-12-01T10:00:00+00:00') RETURNING id",
+                       (session, n, json.dumps(PARAMS.to_dict()), f"trials/{code}/{n}.h5")
+                       ).scalar_one() for n in range(1, trials + 1)]
+        for trial, after in zip(ids, [*ids[1:], None], strict=True):
+            execute(conn, "INSERT INTO proposals (trial_id, proposal, decision, "
+                          "next_trial_id, proposed_at, decided_at) VALUES (?, '{}', ?, ?, "
+                          "'c', ?)", (trial, "pending" if after is None else "kept",
+                                      after, None if after is None else "d"))
+        for trial in ids[::10]:  # checked and found valid, as a department marks some
+            execute(conn, "INSERT INTO trial_marks (trial_id, valid, reason, marked_by, "
+                          "marked_at) VALUES (?, 1, 'checked', 'Dr B', 'm')", (trial,))
+    return patient
+
+
+def _analyzed(request, registry: Registry, engine: str) -> None:
+    """The server's statistics of the test's tables, as a department's server keeps them
+    (autovacuum; only a table's owner may ANALYZE it, not the station's login)."""
+    if engine == "postgresql":
+        request.getfixturevalue("postgres_server").admin_sql(
+            "ANALYZE", database=registry._writer.url.database)
+
+
+def _work(registry: Registry, engine: str, patient: int) -> tuple[int, str]:
+    """What finding the patient's pending proposal costs the engine, in its own units: on
+    the server the pages it reads (EXPLAIN's buffers), on SQLite the virtual machine's
+    instructions; and the plan."""
+    with registry._read() as conn:
+        if engine == "postgresql":
+            plan = "\n".join(row[0] for row in execute(
+                conn, "EXPLAIN (ANALYZE, BUFFERS, FORMAT TEXT) " + _PENDING,
+                (patient, -1) * 2))
+            pages = sum(int(n) for n in re.findall(r"^  Buffers: shared hit=(\d+)", plan,
+                                                   re.MULTILINE))
+            return pages, _plan(registry, engine, _PENDING, (patient, -1) * 2)
+        steps = [0]
+
+        def count() -> int:
+            steps[0] += 1
+            return 0
+
+        plan = _plan(registry, engine, _PENDING, (patient, -1) * 2)
+        raw = conn.connection.driver_connection
+        raw.set_progress_handler(count, 1)
+        try:
+            execute(conn, _PENDING, (patient, -1) * 2).fetchall()
+        finally:
+            raw.set_progress_handler(None, 1)
+        return steps[0], plan
+
+
+def test_a_patients_pending_proposal_costs_the_same_whatever_their_number_of_trials(
+        request, open_registry, registry_engine):
+    """Schema v13: the pending proposals are indexed by their patient, so finding a patient's
+    is one probe of that index. Before, the lookup started from the patient's trials and
+    probed the index of pending proposals once for each (1,000 probes at 1,000 trials: 1.8-2.2
+    ms a begin_trial on the server, docs/performance.md); a patient with 300 trials then cost
+    the server 300 more pages than one with 3, and SQLite thousands more instructions."""
+    registry = open_registry()
+    few, many = (registry.create_patient("Ada", "Example").code,
+                 registry.create_patient("Bea", "Example").code)
+    patients = {code: _history(registry, code, trials) for code, trials in ((few, 3),
+                                                                            (many, 300))}
+    _analyzed(request, registry, registry_engine)
+    work = {code: _work(registry, registry_engine, patient)
+            for code, patient in patients.items()}
+    (few_work, _), (many_work, plan) = work[few], work[many]
+    if registry_engine == "postgresql":
+        assert many_work <= few_work + 2, (few_work, many_work)
+    else:
+        assert many_work <= few_work * 1.2, (few_work, many_work)
+    assert "proposals_pending_by_patient" in plan, plan
+    assert registry.pending_proposal(few).trial_id == registry.trials_for_patient(few)[-1].id
+    assert registry.pending_proposal(many).trial_id == \
+        registry.trials_for_patient(many)[-1].id
 
 
 def test_a_v11_registry_gains_the_indexes_keeping_every_record(tmp_path):
     folder = tmp_path / "data"
     with registry_at(folder, 11) as conn:
-        conn.execute("INSERT INTO patients (code, created_at) VALUES ('P0000001', 'c')")
+        conn.execute("INSERT INTO patients (code, created_at) VALUES ('PABC001', 'c')")
         conn.execute("INSERT INTO sessions (patient_id, number, date) VALUES (1, 1, "
                      "'2026-12-01')")
         for number in (1, 2):
             conn.execute("INSERT INTO trials (session_id, number, parameters, file, status, "
                          "started_at) VALUES (1, ?, ?, ?, 'complete', ?)",
-                         (number, json.dumps(PARAMS.to_dict()), f"trials/P0000001/{number}.h5",
+                         (number, json.dumps(PARAMS.to_dict()), f"trials/PABC001/{number}.h5",
                           f"2026-12-01T10:0{number}:00+00:00"))
         conn.execute("INSERT INTO proposals (trial_id, proposal, decision, next_trial_id, "
                      "proposed_at, decided_at) VALUES (1, '{\"assistance_level\": 0.5}', "
@@ -183,11 +277,78 @@ def test_a_v11_registry_gains_the_indexes_keeping_every_record(tmp_path):
     registry = Registry(DataDir(folder))
     assert list(tmp_path.glob("data/registry.sqlite3.v11-*.bak"))
     assert [(p.trial_id, p.decision, p.next_trial_id) for p in
-            registry.proposals_for_patient("P0000001")] == [(1, "kept", 2), (2, "pending", None)]
-    assert registry.pending_proposal("P0000001").proposal == {"assistance_level": 0.4}
-    assert [t.number for t in registry.trials_for_patient("P0000001")] == [1, 2]
+            registry.proposals_for_patient("PABC001")] == [(1, "kept", 2), (2, "pending", None)]
+    assert registry.pending_proposal("PABC001").proposal == {"assistance_level": 0.4}
+    assert [t.number for t in registry.trials_for_patient("PABC001")] == [1, 2]
     assert registry.integrity_check() == []
     with registry._read() as conn:
         indexes = {name for (name,) in conn.exec_driver_sql(
             "SELECT name FROM sqlite_master WHERE type = 'index' AND tbl_name = 'proposals'")}
-    assert {"proposals_pending", "proposals_by_next_trial"} <= indexes
+    assert {"proposals_pending_by_patient", "proposals_by_next_trial"} <= indexes
+
+
+def _v12(folder, *, damage: bool = False) -> DataDir:
+    """A v12 registry of two patients, each with two trials and their proposals (the first
+    decided, the second pending), and a validity mark; `damage`: a proposal changed past
+    its seal's trigger, as a bit flipped on the disk."""
+    with registry_at(folder, 12) as conn:
+        for patient, code in ((1, "PABC001"), (2, "PABC002")):
+            conn.execute("INSERT INTO patients (code, created_at) VALUES (?, 'c')", (code,))
+            conn.execute("INSERT INTO sessions (patient_id, number, date) VALUES (?, 1, "
+                         "'2026-12-01')", (patient,))
+            first = 2 * patient - 1
+            for number in (1, 2):
+                conn.execute("INSERT INTO trials (session_id, number, parameters, file, "
+                             "status, started_at) VALUES (?, ?, ?, ?, 'complete', ?)",
+                             (patient, number, json.dumps(PARAMS.to_dict()),
+                              f"trials/{code}/{number}.h5",
+                              f"2026-12-01T10:0{number}:00+00:00"))
+            conn.execute("INSERT INTO proposals (trial_id, proposal, decision, next_trial_id, "
+                         "proposed_at, decided_at) VALUES (?, '{\"assistance_level\": 0.5}', "
+                         "'kept', ?, 'a', 'b')", (first, first + 1))
+            conn.execute("INSERT INTO proposals (trial_id, proposal, proposed_at) VALUES "
+                         "(?, '{\"assistance_level\": 0.4}', 'c')", (first + 1,))
+        conn.execute("INSERT INTO trial_marks (trial_id, valid, reason, marked_by, marked_at) "
+                     "VALUES (4, 0, 'the arm slipped', 'Dr B', 'm')")
+        if damage:
+            conn.execute("DROP TRIGGER proposals_sealed_on_update")
+            conn.execute("UPDATE proposals SET decision = 'accepted' WHERE trial_id = 1")
+    return DataDir(folder)
+
+
+def test_a_v12_registry_gains_each_proposals_patient_keeping_every_record(tmp_path):
+    """v13: each proposal names its trial's patient, sealed with the rest (each row checked
+    against its v12 seal first), and the pending ones are indexed by it. Every row is kept,
+    a copy of the file first; the reads give what v12's rules give (the second patient's
+    latest trial is marked invalid: its proposal is never offered, and the one it decided
+    is pending again)."""
+    folder = tmp_path / "data"
+    _v12(folder)
+    with contextlib.closing(sqlite3.connect(folder / "registry.sqlite3")) as conn:
+        before = {table: conn.execute(f"SELECT * FROM {table} ORDER BY 1").fetchall()
+                  for table in ("patients", "sessions", "trials", "trial_marks")}
+        proposals = conn.execute("SELECT trial_id, proposal, decision, next_trial_id, "
+                                 "proposed_at, decided_at FROM proposals ORDER BY 1").fetchall()
+    registry = Registry(DataDir(folder))
+    assert registry.schema_version() == 13
+    assert list(tmp_path.glob("data/registry.sqlite3.v12-*.bak"))
+    assert registry.integrity_check() == []
+    with contextlib.closing(sqlite3.connect(folder / "registry.sqlite3")) as conn:
+        assert {table: conn.execute(f"SELECT * FROM {table} ORDER BY 1").fetchall()
+                for table in before} == before
+        assert conn.execute("SELECT trial_id, proposal, decision, next_trial_id, proposed_at, "
+                            "decided_at FROM proposals ORDER BY 1").fetchall() == proposals
+        assert conn.execute("SELECT trial_id, patient_id FROM proposals ORDER BY 1"
+                            ).fetchall() == [(1, 1), (2, 1), (3, 2), (4, 2)]
+    assert registry.pending_proposal("PABC001").trial_id == 2
+    assert registry.pending_proposal("PABC002").trial_id == 3  # trial 4 is invalid
+    begun = registry.begin_trial("PABC002", PARAMS, backend="simulator")
+    assert registry.proposal(3).next_trial_id == begun.trial_id
+    registry.record_proposal(begun.trial_id, {"assistance_level": 0.3})
+    assert registry.pending_proposal("PABC002").trial_id == begun.trial_id
+    assert registry.integrity_check() == []
+
+
+def test_a_proposal_damaged_before_the_upgrade_to_v13_is_refused_not_sealed_again(tmp_path):
+    with pytest.raises(RegistryError, match=r"proposals_rows_match_their_seals.*still v12"):
+        Registry(_v12(tmp_path / "data", damage=True))

@@ -29,6 +29,7 @@ from app.records.registry.postgres.tables import (
     metadata,
     schema_version,
 )
+from app.records.registry.proposals import PENDING_INDEXES, patient_of_trial
 from app.records.registry.seals import sealed_at
 
 __all__ = ["Roles", "create_registry", "migrate_registry", "registry_version"]
@@ -46,10 +47,25 @@ def create_registry(conn: Connection, roles: Roles | None = None) -> None:
     metadata.create_all(conn)
     # server-side code holds '%' (PL/pgSQL's RAISE): sent as it is, never as a template
     raw = conn.execution_options(no_parameters=True)
-    for statement in (*seals.statements(), *numbering.statements(),
+    for statement in (*seals.statements(), *numbering.statements(), *PROPOSALS_PATIENT,
                       *(roles or Roles()).statements()):
         raw.exec_driver_sql(statement)
     conn.execute(insert(schema_version).values(version=SCHEMA_VERSION))
+
+
+PROPOSALS_PATIENT = (
+    f"""CREATE FUNCTION proposals_patient() RETURNS trigger LANGUAGE plpgsql AS $$
+        BEGIN
+            NEW.patient_id := {patient_of_trial("NEW.trial_id", "public.")};
+            RETURN NEW;
+        END $$""",
+    "CREATE TRIGGER proposals_patient BEFORE INSERT OR UPDATE OF trial_id, patient_id "
+    "ON proposals FOR EACH ROW EXECUTE FUNCTION proposals_patient()",
+)
+"""Schema v13: a proposal's `patient_id` is always its trial's session's patient, set by the
+server whatever a writer gave (before the seal's trigger, which fires last: by name), so the
+pending proposal found by it (app.records.registry.proposals._PENDING) is the patient's.
+On SQLite, proposals._sqlite_patient_trigger."""
 
 
 MIGRATIONS: dict[int, tuple[str, ...]] = {
@@ -142,11 +158,25 @@ MIGRATIONS[11] = (
     _research_grantee("trials", "GRANT SELECT (stored_in) ON trials TO %I"),
 )
 
-MIGRATIONS[12] = (
+MIGRATIONS[12] = (*reversed(PENDING_INDEXES), *seals.PARTS_STABLE)
+
+MIGRATIONS[13] = (
+    _rows_match_their_seals("proposals"),
+    "ALTER TABLE proposals ADD COLUMN patient_id bigint REFERENCES patients (id) "
+    "ON DELETE RESTRICT",
+    seals.table_statements(tables.metadata.tables["proposals"])[0].replace(
+        "CREATE FUNCTION", "CREATE OR REPLACE FUNCTION", 1),
+    *PROPOSALS_PATIENT,
+    "UPDATE proposals SET patient_id = NULL",  # each row's set by its trigger, sealed again
+    "DROP INDEX proposals_pending",
     *(str(CreateIndex(index).compile(dialect=postgresql.dialect()))
-      for index in sorted(tables.proposals.indexes, key=lambda index: index.name)),
-    *seals.PARTS_STABLE,
+      for index in tables.proposals.indexes if index.name == "proposals_pending_by_patient"),
+    research_view("proposals").replace("CREATE VIEW", "CREATE OR REPLACE VIEW", 1),
+    _research_grantee("proposals", "GRANT SELECT (patient_id) ON proposals TO %I"),
 )
+"""v13: each proposal's patient (PROPOSALS_PATIENT), sealed (each row checked against its v12
+seal first), research reads it (an id, as a session's patient_id), and the pending
+proposals indexed by it instead of by trial (app.records.registry.proposals._PENDING)."""
 
 
 def migrate_registry(conn: Connection) -> tuple[int, int]:

@@ -158,7 +158,8 @@ record corrected): not empty, which the console reads as "no reason, valid"."""
 _WITHHELD_COLUMNS = {("trial_marks", "reason"), ("corrections", "reason")}
 
 
-ADDED_AT: dict[tuple[str, str], int] = {("trials", "stored_in"): 11}
+ADDED_AT: dict[tuple[str, str], int] = {("trials", "stored_in"): 11,
+                                        ("proposals", "patient_id"): 13}
 """Columns a schema after v10 added (table, column) -> version: a view made by an earlier
 step of the server's migrations leaves them out (they do not exist yet)."""
 

@@ -40,7 +40,7 @@ from sqlalchemy import (
     text,
 )
 
-SCHEMA_VERSION = 12
+SCHEMA_VERSION = 13
 """The SQLite registry's schema version these tables are (schema.SCHEMA_VERSION)."""
 
 metadata = MetaData()
@@ -145,11 +145,15 @@ proposals = Table(
     _text("proposed_at", nullable=False),
     _text("decided_at"),
     _seal(),
+    # schema v13: the patient of the proposal's trial, kept so by the server (postgres.
+    # PROPOSALS_PATIENT), which finds the patient's pending proposal by it
+    _ref("patient_id", "patients.id", nullable=True),
     CheckConstraint("decision IN ('pending', 'accepted', 'changed', 'kept')",
                     name="proposals_decision"),
-    # schema v12 (app.records.registry.proposals.PENDING_INDEXES): the pending ones, and
-    # those decided by a trial, without reading every proposal
-    Index("proposals_pending", "trial_id", postgresql_where=text("decision = 'pending'")),
+    # the pending ones by patient (schema v13, app.records.registry.proposals.
+    # PENDING_BY_PATIENT), and those decided by a trial (v12), without reading every proposal
+    Index("proposals_pending_by_patient", "patient_id", "trial_id",
+          postgresql_where=text("decision = 'pending'")),
     Index("proposals_by_next_trial", "next_trial_id"),
 )
 

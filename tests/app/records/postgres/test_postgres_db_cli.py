@@ -204,6 +204,32 @@ def test_the_readmes_recipe_an_owner_who_may_create_roles_creates_the_registry(
     assert "seals: every row matches its seal" in out
 
 
+def _v12_as_it_was(registry: Registry) -> list[str]:
+    """What v13 changed on the server, undone (app.records.registry.postgres.MIGRATIONS[13]):
+    proposals without their patient, sealed over v12's columns, the pending ones indexed by
+    trial, research's view without the column."""
+    from app.records.registry import seals as sqlite_seals
+    from app.records.registry.postgres import seals as server_seals, tables
+    from app.records.registry.postgres.roles import research_view
+
+    with pytest.MonkeyPatch.context() as v12:  # the seal function as v12 had it
+        v12.setitem(sqlite_seals.SEALED, "proposals", sqlite_seals.SEALED_AT_V12["proposals"])
+        function = server_seals.table_statements(tables.metadata.tables["proposals"])[0]
+    return ["DROP VIEW research.proposals", "DROP TRIGGER proposals_patient ON proposals",
+            "DROP FUNCTION proposals_patient()",
+            function.replace("CREATE FUNCTION", "CREATE OR REPLACE FUNCTION", 1),
+            "ALTER TABLE proposals DROP COLUMN patient_id",
+            "UPDATE proposals SET decision = decision",  # each row sealed as v12 sealed it
+            "CREATE INDEX proposals_pending ON proposals (trial_id) WHERE decision = 'pending'",
+            research_view("proposals", at=12),
+            f"GRANT SELECT ON research.proposals TO {registry.roles.research}"]
+
+
+def _as_at_v12(registry: Registry) -> None:
+    registry.server.admin_sql(*_v12_as_it_was(registry), "UPDATE schema_version SET version = 12",
+                              database=registry.database)
+
+
 V11_AS_IT_WAS = (
     "DROP INDEX proposals_pending", "DROP INDEX proposals_by_next_trial",
     *(statement.replace(" STABLE", " IMMUTABLE") for statement in PARTS_STABLE),
@@ -213,7 +239,8 @@ declared (app.records.registry.postgres.MIGRATIONS[12])."""
 
 
 def _as_at_v11(registry: Registry) -> None:
-    registry.server.admin_sql(*V11_AS_IT_WAS, "UPDATE schema_version SET version = 11",
+    registry.server.admin_sql(*_v12_as_it_was(registry), *V11_AS_IT_WAS,
+                              "UPDATE schema_version SET version = 11",
                               database=registry.database)
 
 
@@ -226,7 +253,8 @@ def _as_at_v8(registry: Registry) -> None:
     from app.records.registry.postgres.roles import visible_to_research
 
     added = {"trials": ("station", "checksum", "stored_in"), "plan_runs": ("station",)}
-    statements = [*V11_AS_IT_WAS, *(f"DROP VIEW research.{table}" for table in added)]
+    statements = [*_v12_as_it_was(registry), *V11_AS_IT_WAS,
+                  *(f"DROP VIEW research.{table}" for table in added)]
     for table, columns in added.items():
         statements.append(f"ALTER TABLE {table} " + ", ".join(f"DROP COLUMN {c}"
                                                              for c in columns))
@@ -283,6 +311,71 @@ def test_a_v8_registry_on_the_server_is_upgraded_and_a_station_can_then_withdraw
     assert console.integrity_check() == []
 
 
+def test_a_v12_registry_on_the_server_is_upgraded_keeping_every_record(
+        postgres_server, station, capsys, tmp_path):
+    """v13 gives each proposal its trial's patient, sealed, and indexes the pending ones by
+    it: `rehab db upgrade` brings a v12 registry holding two patients' trials, proposals
+    pending and decided and a validity mark to it; every row is as it was but the
+    proposals' new column (their trial's patient) and seal, every seal matches, the
+    registry's reads give the same, research reads the column, and a proposal recorded
+    after names its patient."""
+    from app.records.datadir import DataDir
+    from app.records.registry import Registry as Console
+    from core.trial import TrialParameters
+
+    registry = Registry(postgres_server)
+    login = sa.make_url(registry.url(registry.clinic_login))
+    console = Console(DataDir(tmp_path / "data"), server=login, station="robot-1")
+    codes = [console.create_patient(name, "Example").code for name in ("Ada", "Bea")]
+    for code in codes * 2:
+        begun = console.begin_trial(code, TrialParameters(), backend="simulator")
+        console.finish_trial(begun.trial_id, "complete", {"rmse_x_m": 0.01})
+        console.record_proposal(begun.trial_id, {"assistance_level": 0.5})
+    console.mark_trial(begun.trial_id, valid=False, reason="the arm slipped", by="Dr B")
+    reads = [(console.trials_for_patient(code), console.proposals_for_patient(code),
+              console.pending_proposal(code)) for code in codes]
+
+    def rows(columns: str = "*") -> dict[str, list]:
+        with registry.engine() as engine, engine.connect() as conn:
+            return {table: conn.execute(sa.text(
+                f"SELECT {columns if table == 'proposals' else '*'} FROM {table} "
+                "ORDER BY 1")).all() for table in REGISTRY_TABLES}
+
+    _as_at_v12(registry)
+    v12_columns = "trial_id, proposal, decision, next_trial_id, proposed_at, decided_at"
+    before = rows()
+    station(registry.url())
+    code_, out, err = run(["db", "upgrade"], capsys)
+    assert (code_, err) == (0, "")
+    shown = sa.make_url(registry.url()).render_as_string(hide_password=True)
+    assert out == f"the registry at {shown} updated from schema v12 to v{SCHEMA_VERSION}\n"
+    after = rows(v12_columns + ", seal")
+    assert {t: r for t, r in after.items() if t != "proposals"} == \
+        {t: r for t, r in before.items() if t != "proposals"}
+    assert [r[:-1] for r in after["proposals"]] == [r[:-1] for r in before["proposals"]]
+    with registry.engine() as engine, engine.connect() as conn:
+        assert conn.execute(sa.text(
+            "SELECT count(*) FROM proposals p JOIN trials t ON t.id = p.trial_id JOIN "
+            "sessions s ON s.id = t.session_id WHERE p.patient_id = s.patient_id")
+            ).scalar_one() == len(before["proposals"]) == 4
+        indexes = set(conn.execute(sa.text(
+            "SELECT indexname FROM pg_indexes WHERE tablename = 'proposals'")).scalars())
+    assert {"proposals_pending_by_patient", "proposals_by_next_trial"} <= indexes
+    assert "proposals_pending" not in indexes
+    console = Console(DataDir(tmp_path / "data"), server=login, station="robot-1")
+    assert console.integrity_check() == []
+    assert [(console.trials_for_patient(code), console.proposals_for_patient(code),
+             console.pending_proposal(code)) for code in codes] == reads
+    with registry.engine(registry.research_login) as engine, engine.connect() as conn:
+        assert conn.execute(sa.text("SELECT count(patient_id) FROM research.proposals")
+                            ).scalar_one() == 4
+        assert conn.execute(sa.text("SELECT count(patient_id) FROM proposals")).scalar_one() == 4
+    begun = console.begin_trial(codes[1], TrialParameters(), backend="simulator")
+    console.record_proposal(begun.trial_id, {"assistance_level": 0.4})
+    assert console.pending_proposal(codes[1]).trial_id == begun.trial_id
+    assert console.integrity_check() == []
+
+
 def test_a_v11_registry_on_the_server_is_upgraded_keeping_every_record_and_seal(
         postgres_server, station, capsys, tmp_path):
     """v12 adds indexes and makes the seal's parts inlinable: `rehab db upgrade` brings a
@@ -326,6 +419,6 @@ def test_a_v11_registry_on_the_server_is_upgraded_keeping_every_record_and_seal(
         parts = set(conn.execute(sa.text(
             "SELECT provolatile FROM pg_proc WHERE proname IN ('registry_seal_text', "
             "'registry_seal_integer', 'registry_seal_real')")).scalars())
-    assert {"proposals_pending", "proposals_by_next_trial"} <= indexes
+    assert {"proposals_pending_by_patient", "proposals_by_next_trial"} <= indexes
     assert parts == {"s"}
     assert console.integrity_check() == []

@@ -82,7 +82,7 @@ def test_the_foreign_keys_and_unique_keys_are_the_sqlite_registrys():
 
 def test_the_other_indexes_are_the_sqlite_registrys():
     """Each index the registry's queries rely on (the keys' own aside), with its columns and,
-    for a partial one, its condition (schema v12's pending proposals)."""
+    for a partial one, its condition (schema v13's pending proposals by patient)."""
     with contextlib.closing(sqlite_registry()) as conn:
         sqlite = sorted(
             (table, name, tuple(c[2] for c in conn.execute(f"PRAGMA index_info('{name}')")),
@@ -96,7 +96,8 @@ def test_the_other_indexes_are_the_sqlite_registrys():
          str(index.dialect_options["postgresql"]["where"]))
         for table in metadata.tables.values() for index in table.indexes)
     assert ours == sqlite
-    assert ("proposals", "proposals_pending", ("trial_id",), "decision = 'pending'") in ours
+    assert ("proposals", "proposals_pending_by_patient", ("patient_id", "trial_id"),
+            "decision = 'pending'") in ours
 
 
 def test_the_registry_builds_on_postgresql_with_its_version(registry):

@@ -218,7 +218,8 @@ def test_a_station_that_starts_while_cut_off_sends_its_records_when_it_starts_ag
     assert [t.number for t in again.trials_for_patient(code)] == [1]
     _trial(again, code)
     new = again.create_patient("Flo", "Newcomer").code  # registered while offline
-    _trial(again, new)
+    offered = _trial(again, new)
+    again.record_proposal(offered.trial_id, {"assistance_level": 0.4})
     again.close()
 
     network.restore()
@@ -228,6 +229,10 @@ def test_a_station_that_starts_while_cut_off_sends_its_records_when_it_starts_ag
     assert [t.number for t in direct.trials_for_patient(code)] == [1, 2]
     assert direct.patient(new).first_name == "Flo"
     assert [t.number for t in direct.trials_for_patient(new)] == [1]
+    # its proposal names the patient by the server's id (schema v13), found as theirs
+    (trial,) = direct.trials_for_patient(new)
+    assert direct.pending_proposal(new).trial_id == trial.id
+    assert direct.pending_proposal(code) is None
 
 
 def test_a_sync_whose_answer_was_lost_is_not_sent_twice(department):
