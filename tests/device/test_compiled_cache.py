@@ -27,13 +27,13 @@ def test_the_cache_is_warm_only_with_every_entry_kernel(tmp_path, monkeypatch):
         (index / f"{name}-190.py311.nbi").write_bytes(b"")
     assert not cachedir.is_warm()
     (index / f"{rest[-1]}-240.py311.nbi").write_bytes(b"")
-    assert cachedir.is_warm()
+    assert cachedir.is_warm(), (cachedir.CACHE_DIR, cachedir.CACHE_PROBLEM)
 
 
 def test_every_entry_kernel_is_in_a_warm_cache():
     """The names are numba's own: after load_kernels the real cache holds them all."""
     warmup.load_kernels()
-    assert cachedir.is_warm()
+    assert cachedir.is_warm(), (cachedir.CACHE_DIR, cachedir.CACHE_PROBLEM)
 
 
 def test_the_cache_key_covers_the_kernels_in_core_too():
@@ -46,7 +46,7 @@ def test_the_cache_key_covers_the_kernels_in_core_too():
 
 
 def test_the_cache_directory_is_keyed_by_the_source():
-    assert cachedir.CACHE_DIR is not None
+    assert cachedir.CACHE_DIR is not None, cachedir.CACHE_PROBLEM
     assert cachedir.CACHE_DIR.name == cachedir._source_hash()
 
 
