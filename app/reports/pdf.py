@@ -276,14 +276,19 @@ def _second_page(content: ReportContent) -> tuple[Figure, ...]:
     """The therapist's page, and as many more as its table and notes need: the fewest
     pages any row height of ROW_HEIGHTS_IN gives, with the tallest rows among them (a
     report whose one short note went on a page of its own came out tighter on one)."""
-    best = _therapist_pages(content, ROW_HEIGHTS_IN[0])
-    for row_h in ROW_HEIGHTS_IN[1:]:
-        if len(best) == 1:
-            break
-        tighter = _therapist_pages(content, row_h)
-        if len(tighter) < len(best):
-            best = tighter
-    return best
+    tallest = _therapist_pages(content, ROW_HEIGHTS_IN[0])
+    if len(tallest) == 1:
+        return tallest
+    # tighter rows never take more pages: the tightest says whether any saves one (a long
+    # report that spills whatever the rows is drawn twice, not once per height)
+    tightest = _therapist_pages(content, ROW_HEIGHTS_IN[-1])
+    if len(tightest) == len(tallest):
+        return tallest
+    for row_h in ROW_HEIGHTS_IN[1:-1]:
+        pages = _therapist_pages(content, row_h)
+        if len(pages) == len(tightest):
+            return pages
+    return tightest
 
 
 def _therapist_pages(content: ReportContent, row_h: float) -> tuple[Figure, ...]:

@@ -17,9 +17,7 @@ from collections.abc import Mapping
 
 from app.reports.plain_language import PlainLine, distance_text, mass_text, whole
 from app.units import CM_PER_M, MM_S_PER_M_S
-from core.assessment.figures import AT_LIMIT, STRENGTH_DIRECTIONS_DEG
-
-CIRCLE_WAYS = ("cw", "ccw")
+from core.assessment.figures import AT_LIMIT, CIRCLE_WAYS, STRENGTH_DIRECTIONS_DEG, circle_key
 
 
 def task_lines(task: str, figures: Mapping[str, float]) -> tuple[PlainLine, ...]:
@@ -84,8 +82,6 @@ def _reaching(value) -> list[PlainLine | None]:
 def _circle_value(value, base: str) -> float:
     """A circle trial holds one way round (circle_ratio_cw …); a pair's figures the mean
     too (circle_ratio): the trial's own way first."""
-    from core.assessment.figures import circle_key
-
     for way in CIRCLE_WAYS:
         number = value(circle_key(base, way))
         if math.isfinite(number):
