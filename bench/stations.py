@@ -1,7 +1,7 @@
 """The shared registry on PostgreSQL with several stations (issue 32, "Figures for your note").
 
 Run: .venv/bin/python bench/stations.py [--patients 1000] [--trials-per-patient 1000]
-     [--stations 8] [--queries 200] [--pause-ms 0 100]
+     [--stations 8] [--queries 200] [--pause-ms 0 100] [--reader-pause-ms 0]
 
 A quick run: --patients 100 --trials-per-patient 100.
 
@@ -29,7 +29,11 @@ station's clinic login, and measures:
    but not running: /proc/self/schedstat); a station's first trial apart from the others.
    Once flat out (as fast as the server lets them: a stress test, a station really
    registers a trial a minute), then with a pause of 50-150 ms between a station's trials
-   (`--pause-ms`: one phase per value).
+   (`--pause-ms`: one phase per value; with a pause each station begins at a moment of its
+   own within the first, as stations that are not in step do). Meanwhile this process
+   reads the progress of random patients, back to back (a stress: on this machine the
+   reader takes a core from the stations while it reads) or `--reader-pause-ms` apart; the
+   trials begun while it read are shown apart from the others.
 4. afterwards: every patient's session numbers and every session's trial numbers are
    1..n without gaps or repeats, every trial a station registered is there once, and every
    row matches its seal (app.records.registry.postgres.seals.verify, what `rehab db
@@ -92,12 +96,15 @@ def percentiles(samples_s) -> tuple[float, float, float]:
 
 
 def progress_queries(registry: Registry, codes: list[str], n: int, rng: random.Random,
-                     cpu: list[float] | None = None) -> tuple[list[float], int]:
+                     cpu: list[float] | None = None, pause_s: float = 0.0
+                     ) -> tuple[list[float], int]:
     """`n` progress queries of random patients: their wall times (and in `cpu`, this
-    process's CPU time in each)."""
+    process's CPU time in each); `pause_s` apart on average (0: back to back)."""
     samples: list[float] = []
     rows = 0
     while len(samples) < n:
+        if pause_s and samples:
+            time.sleep(pause_s * rng.uniform(0.5, 1.5))
         code = rng.choice(codes)
         c0, t0 = time.process_time(), time.perf_counter()
         result = registry.trial_summaries(code)
@@ -165,6 +172,7 @@ def station(index: int, url: str, folder: str, own: list[str], shared: list[str]
     finishes: list[float] = []
     cpu: list[float] = []
     waits: list[float] = []  # the station's time runnable but waiting for a core
+    starts: list[float] = []  # each begin_trial's start, time.monotonic (one clock for all)
     proposing: list[float] = []
     registered: list[tuple[int, str, int, int]] = []
     error = None
@@ -172,10 +180,13 @@ def station(index: int, url: str, folder: str, own: list[str], shared: list[str]
         registry.trial_summaries(own[0])  # the pool's first connection, as a running station
         start.wait(600)
         t_start = time.perf_counter()
+        if pause_s:  # stations are not in step: each starts at its own moment of a pause
+            time.sleep(pause_s * pick.uniform(0.0, 1.0))
         while len(begins) < minimum or not stop.is_set():
             code = pick.choice(shared) if pick.random() < 1 / SHARED_EVERY else pick.choice(own)
             metrics = single_metrics(rng)
             w0 = core_wait()
+            starts.append(time.monotonic())
             c0, t0 = time.process_time(), time.perf_counter()
             trial = registry.begin_trial(code, parameters, backend="simulator",
                                          patient_kind="weak")
@@ -198,11 +209,13 @@ def station(index: int, url: str, folder: str, own: list[str], shared: list[str]
     except BaseException as exc:  # reported, not raised: the bench prints what it got
         error = f"{type(exc).__name__}: {exc}"
         elapsed = math.nan
-    results.put((index, begins, finishes, registered, elapsed, error, cpu, proposing, waits))
+    results.put((index, begins, finishes, registered, elapsed, error, cpu, proposing, waits,
+                 starts))
 
 
 def run_stations(bench: Bench, data_root: Path, codes: list[str], n_stations: int,
-                 minimum: int, pause_s: float, queries: int, seed: int, proposals: bool):
+                 minimum: int, pause_s: float, queries: int, seed: int, proposals: bool,
+                 reader_pause_s: float):
     ctx = mp.get_context("spawn")
     shared = codes[:SHARED_PATIENTS]
     rest = codes[SHARED_PATIENTS:]
@@ -223,14 +236,17 @@ def run_stations(bench: Bench, data_root: Path, codes: list[str], n_stations: in
     start.wait(600)
     t0 = time.perf_counter()
     cpu: list[float] = []
-    samples, _ = progress_queries(reader, codes, queries, random.Random(seed), cpu)
+    reading = time.monotonic()
+    samples, _ = progress_queries(reader, codes, queries, random.Random(seed), cpu,
+                                  reader_pause_s)
     trips = round_trips(reader, queries)
+    read = (reading, time.monotonic())  # when the reader was at work
     stop.set()
     out = [results.get(timeout=600) for _ in processes]
     wall = time.perf_counter() - t0
     for process in processes:
         process.join(60)
-    return sorted(out), samples, cpu, trips, wall
+    return sorted(out), samples, cpu, trips, wall, read
 
 
 # -- 4. the checks -------------------------------------------------------------------------
@@ -322,6 +338,10 @@ def main() -> None:
     parser.add_argument("--pause-ms", type=float, nargs="+", default=[0.0, 100.0],
                         help="a phase of registration for each: the mean pause of a station "
                              "between trials (default 0 100: flat out, then 100 ms apart)")
+    parser.add_argument("--reader-pause-ms", type=float, default=0.0,
+                        help="the mean pause between the progress queries read while the "
+                             "stations register (default 0: back to back, a stress; a "
+                             "therapist opens a patient's progress now and then)")
     parser.add_argument("--fill-workers", type=int, default=2)
     parser.add_argument("--no-proposals", action="store_true",
                         help="no proposals: neither in the fill nor after a station's trial")
@@ -364,7 +384,8 @@ def main() -> None:
                   f"{Path('/proc/loadavg').read_text().strip()}", flush=True)
             phases.append((pause_ms, *run_stations(
                 bench, data_root, codes, args.stations, args.station_trials, pause_ms / 1000.0,
-                args.queries, seed=2 + len(phases), proposals=not args.no_proposals)))
+                args.queries, seed=2 + len(phases), proposals=not args.no_proposals,
+                reader_pause_s=args.reader_pause_ms / 1000.0)))
         registered = [r for phase in phases for o in phase[1] for r in o[3]]
         t0 = time.perf_counter()
         problems = check_numbers(bench, registered)
@@ -382,10 +403,13 @@ def main() -> None:
         print(line("  its CPU time in this process", idle_cpu))
         print(line("  its time in the server (EXPLAIN ANALYZE)", idle_server))
         print(line("a bare round trip (SELECT 1), idle", idle_trips))
-        for pause_ms, out, busy, busy_cpu, trips, wall in phases:
+        for pause_ms, out, busy, busy_cpu, trips, wall, read in phases:
             how = "flat out" if not pause_ms else f"{pause_ms:g} ms apart"
             print(f"  -- {args.stations} stations registering {how}")
-            print(line("progress query meanwhile", busy))
+            reader = ("back to back" if not args.reader_pause_ms
+                      else f"{args.reader_pause_ms:g} ms apart")
+            print(line("progress query meanwhile", busy,
+                       f"{reader}, over {read[1] - read[0]:.1f} s"))
             print(line("  its CPU time in this process", busy_cpu))
             print(line("a bare round trip (SELECT 1) meanwhile", trips))
             print(line("begin_trial, all stations", [x for o in out for x in o[1]],
@@ -397,7 +421,14 @@ def main() -> None:
             # yet compiled; with --pause-ms the stations also start it all at once
             print(line("  begin_trial, each station's first trial", [o[1][0] for o in out
                                                                     if o[1]]))
-            print(line("  begin_trial, the trials after", [x for o in out for x in o[1][1:]]))
+            after = [(x, t) for o in out for x, t in zip(o[1][1:], o[9][1:], strict=True)]
+            print(line("  begin_trial, the trials after", [x for x, _ in after]))
+            # the reader's progress queries take a core of their own while they run: the
+            # stations' trials begun then, and the others
+            print(line("    begun while the reader read",
+                       [x for x, t in after if read[0] <= t <= read[1]]))
+            print(line("    begun with the reader idle",
+                       [x for x, t in after if not read[0] <= t <= read[1]]))
             print(line("  finish_trial, the trials after", [x for o in out for x in o[2][1:]]))
             print(line("begin + finish, all stations",
                        [b + f for o in out for b, f in zip(o[1], o[2], strict=True)]))
