@@ -28,7 +28,7 @@ import sqlalchemy as sa
 from app.errors import RegistryError, RegistryUnreachable, SchemaError
 from app.records.registry import seals
 from app.records.registry.snapshot import needs_snapshot, snapshot_connection
-from app.records.registry.url import server_place
+from app.records.registry.url import server_place, shown_url
 
 log = logging.getLogger(__package__)
 
@@ -57,7 +57,7 @@ class Database:
         """The registry as messages name it: its file, or its server's URL without the
         password."""
         if self.server is not None:
-            return self.server.render_as_string(hide_password=True)
+            return shown_url(self.server)
         return str(self.path)
 
     @property

@@ -67,13 +67,19 @@ class RegistryURL:
 
     @property
     def shown(self) -> str:
-        """The URL with its password masked."""
-        return self.url.render_as_string(hide_password=True)
+        """The URL with its password masked, as its file gives it (`shown_url`)."""
+        return shown_url(self.url)
 
     @property
     def server(self) -> str:
         """`host:port` of a PostgreSQL server (its default port when the URL gives none)."""
         return f"{self.url.host}:{self.url.port or 5432}"
+
+
+def shown_url(url: sa.URL) -> str:
+    """The URL as messages show it: its password masked and without the driver the console
+    adds (`postgresql://…` as the URL file says it, not `postgresql+psycopg://…`)."""
+    return url.set(drivername=url.get_backend_name()).render_as_string(hide_password=True)
 
 
 def server_place(url: sa.URL) -> str:

@@ -36,7 +36,7 @@ from app.records.datadir import DataDir
 from app.records.registry import Registry
 from app.records.registry.database import file_state
 from app.records.registry.patients import is_code
-from app.records.registry.url import server_place
+from app.records.registry.url import server_place, shown_url
 from app.records.safewrite import atomic_path
 from app.records.station.mirror import (
     OFFLINE,
@@ -131,7 +131,7 @@ class StationRegistry:
 
     @property
     def where(self) -> str:
-        return self._url.render_as_string(hide_password=True)
+        return shown_url(self._url)
 
     # -- every other call ----------------------------------------------------------------
     def __getattr__(self, name: str) -> Any:

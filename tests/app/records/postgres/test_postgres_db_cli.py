@@ -14,6 +14,7 @@ from app.errors import RegistryError
 from app.records.registry import SCHEMA_VERSION
 from app.records.registry.postgres.seals import PARTS_STABLE
 from app.records.registry.postgres.tables import REGISTRY_TABLES
+from app.records.registry.url import shown_url
 from tests.app.cli.running import run
 from tests.app.records.postgres.conftest import Registry
 from tests.postgres import HOST, free_port
@@ -51,7 +52,7 @@ def test_upgrade_creates_the_registry_in_an_empty_database(postgres_server, stat
     database = postgres_server.create_database()
     url = postgres_server.url(database=database)
     file = station(url)
-    shown = sa.make_url(url).render_as_string(hide_password=True)
+    shown = shown_url(sa.make_url(url))
     code, out, err = run(["db", "status"], capsys)
     assert (code, err) == (0, "")
     assert out.splitlines() == [
@@ -125,7 +126,7 @@ def test_a_row_changed_behind_the_triggers_is_named(postgres_server, station, ca
     code, out, err = run(["db", "status"], capsys)
     assert code == 2
     assert "seals: DAMAGED (below)" in out
-    assert err.startswith("rehab db status: error: the registry postgresql+psycopg://")
+    assert err.startswith("rehab db status: error: the registry postgresql://")
     assert "patients row 1 does not match its seal" in err
     assert err.count("\n") == 1
 
@@ -135,7 +136,7 @@ def test_a_registry_newer_than_the_console_is_refused(postgres_server, station, 
     registry.server.admin_sql(f"UPDATE schema_version SET version = {SCHEMA_VERSION + 1}",
                               database=registry.database)
     station(registry.url())
-    shown = sa.make_url(registry.url()).render_as_string(hide_password=True)
+    shown = shown_url(sa.make_url(registry.url()))
     code, out, err = run(["db", "upgrade"], capsys)
     assert (code, out) == (2, "")
     assert err == (f"rehab db upgrade: error: the registry at {shown} has schema "
@@ -289,7 +290,7 @@ def test_a_v8_registry_on_the_server_is_upgraded_and_a_station_can_then_withdraw
                                             "upgrade`"):
         Console(DataDir(tmp_path / "data"), server=login)
     station(registry.url())
-    shown = sa.make_url(registry.url()).render_as_string(hide_password=True)
+    shown = shown_url(sa.make_url(registry.url()))
     code, out, err = run(["db", "upgrade"], capsys)
     assert (code, err) == (0, "")
     assert out == f"the registry at {shown} updated from schema v8 to v{SCHEMA_VERSION}\n"
@@ -347,7 +348,7 @@ def test_a_v12_registry_on_the_server_is_upgraded_keeping_every_record(
     station(registry.url())
     code_, out, err = run(["db", "upgrade"], capsys)
     assert (code_, err) == (0, "")
-    shown = sa.make_url(registry.url()).render_as_string(hide_password=True)
+    shown = shown_url(sa.make_url(registry.url()))
     assert out == f"the registry at {shown} updated from schema v12 to v{SCHEMA_VERSION}\n"
     after = rows(v12_columns + ", seal")
     assert {t: r for t, r in after.items() if t != "proposals"} == \
@@ -407,7 +408,7 @@ def test_a_v11_registry_on_the_server_is_upgraded_keeping_every_record_and_seal(
     station(registry.url())
     code_, out, err = run(["db", "upgrade"], capsys)
     assert (code_, err) == (0, "")
-    shown = sa.make_url(registry.url()).render_as_string(hide_password=True)
+    shown = shown_url(sa.make_url(registry.url()))
     assert out == f"the registry at {shown} updated from schema v11 to v{SCHEMA_VERSION}\n"
     assert rows() == before
     console = Console(DataDir(tmp_path / "data"), server=login, station="robot-1")
