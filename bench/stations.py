@@ -418,7 +418,7 @@ def main() -> None:
                        "goal p99 < 10 ms"))
             # a station's first trial is its process's first: its statements not yet
             # prepared by psycopg, its server backend's plans and PL/pgSQL functions not
-            # yet compiled; with --pause-ms the stations also start it all at once
+            # yet compiled; flat out (no pause) the stations also start it all at once
             print(line("  begin_trial, each station's first trial", [o[1][0] for o in out
                                                                     if o[1]]))
             after = [(x, t) for o in out for x, t in zip(o[1][1:], o[9][1:], strict=True)]
