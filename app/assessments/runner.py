@@ -51,6 +51,9 @@ class TaskTrial:
     simulated_s: float
     elapsed_s: float
     """Wall time of the whole trial: building, running, measuring and writing it."""
+    session_number: int | None = None
+    trial_number: int | None = None
+    """The patient's session and trial numbers the registry gave it (None without one)."""
 
     @property
     def figures(self) -> dict[str, float]:
@@ -151,7 +154,7 @@ def _one(task: str, index: int, label: str, parameters: TrialParameters, patient
         if path.exists():
             raise AppError(f"{path} already exists: give another folder or seed")
         trial, analysis, problem = simulate_to_file(parameters, path, **run)
-        trial_id = None
+        trial_id = numbers = None
         notes = [problem] if problem else []
     else:
         from app.trials.finalize import finalize_trial
@@ -165,12 +168,14 @@ def _one(task: str, index: int, label: str, parameters: TrialParameters, patient
                                                         subject_code=code, **run)
         done = finalize_trial(registry, begun.trial_id, trial.status, analysis=analysis)
         trial_id = begun.trial_id
+        numbers = (begun.session_number, begun.trial_number)
         notes = list(done.notes) + ([problem] if problem else [])
     if analysis is not None and registry is None:
         notes.extend(analysis.notes)
     metrics = analysis.to_metrics() if analysis is not None else {}
     return TaskTrial(task, index, label, parameters, path, trial.status, seed, metrics,
-                     tuple(notes), trial_id, trial.simulated_s, time.perf_counter() - started)
+                     tuple(notes), trial_id, trial.simulated_s, time.perf_counter() - started,
+                     *(numbers or (None, None)))
 
 
 def _in_memory(task: str, index: int, label: str, parameters: TrialParameters, run: dict,

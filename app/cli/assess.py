@@ -94,11 +94,10 @@ def cmd_run(args: argparse.Namespace) -> int:
         paired = pairs([(t.trial_id, t.metrics) for t in trials]) if task == "circle" else {}
         for trial in trials:
             clockwise = trial.parameters.clockwise
-            stored = registry.trial(trial.trial_id)
             _print_trial(task, _heading(task, trial.trial_id, trial.status,
-                                        f"session {stored.session_number}, trial "
-                                        f"{stored.number}, {trial.simulated_s:.0f} s simulated "
-                                        f"in {trial.elapsed_s:.1f} s", clockwise),
+                                        (trial.session_number, trial.trial_number),
+                                        f"{trial.simulated_s:.0f} s simulated in "
+                                        f"{trial.elapsed_s:.1f} s", clockwise),
                          _shown(task, trial.figures, clockwise, trial.trial_id in paired),
                          trial.notes)
             _print_pair(task, trial.trial_id, trial.metrics, paired,
@@ -152,8 +151,8 @@ def cmd_show(args: argparse.Namespace) -> int:
         shown = _shown(task, trial.metrics, clockwise, trial.id in paired)
         notes = [*notes, *_pair_left_out(paired.get(trial.id, ()), listed)]
         _print_trial(task, _heading(task, trial.id, trial.status,
-                                    f"session {trial.session_number}, trial {trial.number}, "
-                                    f"{trial.session_date.isoformat()}", clockwise),
+                                    (trial.session_number, trial.number),
+                                    trial.session_date.isoformat(), clockwise),
                      shown, notes, page=assessment_page(task, shown, **scoring),
                      task_score=person is not None and trial.id not in paired,
                      invalid=invalid[trial.id].reason if trial.id in invalid else "")
@@ -169,15 +168,18 @@ def cmd_show(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _heading(task: str, trial_id, status: str, where: str, clockwise: bool) -> str:
+def _heading(task: str, trial_id, status: str, numbers: tuple[int, int], where: str,
+             clockwise: bool) -> str:
     """A trial's heading: its registry id (what `rehab trials` lists as id and `rehab
-    invalid` takes), then the session and the patient's trial number in `where`; a circle
-    trial's says which way round it drew."""
+    invalid` takes), its status, the session and the patient's trial number (`numbers`),
+    then `where`; a circle trial's says which way round it drew."""
     from app.assessments.circle_record import WAY_WORDS, way_of
     from core.assessment import TASK_TITLES
 
     way = f", {WAY_WORDS[way_of(clockwise)]}" if task == "circle" else ""
-    return f"{TASK_TITLES.get(task, task)} — trial id {trial_id}, {status}, {where}{way}"
+    session, number = numbers
+    return (f"{TASK_TITLES.get(task, task)} — trial id {trial_id}, {status}, session "
+            f"{session}, trial {number}, {where}{way}")
 
 
 def _shown(task: str, metrics: dict, clockwise: bool, paired: bool) -> dict:
