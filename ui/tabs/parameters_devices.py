@@ -25,7 +25,13 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from device.sim.patient_parameters import PATIENT_KINDS
+from device.sim.patient_parameters import (
+    DEFAULT_EFFORT,
+    DEFAULT_SELECTIVITY_LOSS,
+    PATIENT_KINDS,
+    TREMOR_BAND_HZ,
+    WrongWay,
+)
 from device.sim.seeds import SEEDS
 from ui import theme
 from ui.fields import ComboBox, SpinBox
@@ -35,15 +41,19 @@ PATIENT_NAMES = {"healthy": "Healthy", "weak": "Weak", "spastic": "Spastic", "tr
                  "passive": "Passive (no effort)", "wrong_way": "Pushes the wrong way at times"}
 PATIENT_DESCRIPTIONS = {
     "healthy": "A healthy arm that follows the path and pushes along it.",
-    "weak": "An arm after a stroke: 40 % of a healthy arm's effort, half its selective "
-            "joint control lost (the shoulder and the elbow tend to move together), its "
-            "own movements made of several smaller ones.",
+    "weak": f"An arm after a stroke: {DEFAULT_EFFORT['weak'] * 100:.0f} % of a healthy arm's "
+            f"effort, {DEFAULT_SELECTIVITY_LOSS['weak'] * 100:.0f} % of its selective joint "
+            "control lost (the shoulder and the elbow tend to move together), its own "
+            "movements made of several smaller ones.",
     "spastic": "A healthy effort against a resistance that grows with the joints' speed.",
-    "tremor": "A healthy effort with a 4–6 Hz tremor at both joints.",
+    "tremor": f"A healthy effort with a {TREMOR_BAND_HZ[0]:g}–{TREMOR_BAND_HZ[1]:g} Hz tremor "
+              "at both joints.",
     "passive": "A relaxed arm that makes no effort: the robot does all the moving.",
-    "wrong_way": "A healthy effort that pushes against the path a fifth of the time.",
+    "wrong_way": f"A healthy effort that pushes against the path "
+                 f"{WrongWay().fraction * 100:.0f} % of the time.",
 }
-"""What each virtual patient is (device.sim.patients), as the patient list's tooltips."""
+"""What each virtual patient is (device.sim.patients), as the patient list's tooltips;
+its numbers are the simulator's own defaults."""
 SIMULATOR = "simulator"
 HARDWARE = "hardware"
 
