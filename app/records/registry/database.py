@@ -87,6 +87,9 @@ class Database:
                 options["options"] = "-c search_path=research,public"
             engine = sa.create_engine(self.server, pool_size=2, max_overflow=6,
                                       isolation_level="AUTOCOMMIT", connect_args=options)
+            if not self.research:  # a station's connection, ready for its first Start
+                from app.records.registry.postgres import warm
+                sa.event.listen(engine, "connect", warm.on_connect)
             # the pool's connections are closed, not dropped, when the registry goes
             weakref.finalize(self, engine.dispose)
             return engine

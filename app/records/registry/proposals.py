@@ -63,7 +63,7 @@ class Proposals(Database):
             # One statement (a round trip to a server; bench/registration.py): inserted, or
             # a pending one replaced whole, and returned as written; no row when the trial
             # is unknown or its proposal was decided, said below.
-            row = execute(conn, _RECORD, (text, _now(), trial_id)).fetchone()
+            row = execute(conn, RECORD, (text, _now(), trial_id)).fetchone()
             if row is None:
                 trial_by_id(conn, self.where, trial_id)  # refuses an unknown trial
                 decided = execute(conn, "SELECT decision FROM proposals WHERE trial_id = ?",
@@ -122,7 +122,7 @@ class Proposals(Database):
 
 _SELECT = ("SELECT trial_id, proposal, decision, next_trial_id, proposed_at, decided_at "
            "FROM proposals")
-_RECORD = ("INSERT INTO proposals (trial_id, proposal, proposed_at, patient_id) "
+RECORD = ("INSERT INTO proposals (trial_id, proposal, proposed_at, patient_id) "
            "SELECT t.id, ?, ?, s.patient_id FROM trials t JOIN sessions s "
            "ON s.id = t.session_id WHERE t.id = ? "
            "ON CONFLICT (trial_id) DO UPDATE SET proposal = excluded.proposal, "
@@ -141,7 +141,7 @@ _INVALID = ("SELECT m.trial_id FROM trial_marks m WHERE m.valid = 0 AND m.id = "
 _CANDIDATE = ("SELECT p.trial_id, p.proposal, p.decision, p.next_trial_id, p.proposed_at, "
               "p.decided_at, t.parameters FROM proposals p JOIN trials t ON t.id = p.trial_id "
               "WHERE p.patient_id = ? AND p.trial_id != ? ")
-_PENDING = (_CANDIDATE + f"AND p.decision = 'pending' AND p.trial_id NOT IN ({_INVALID}) "
+PENDING = (_CANDIDATE + f"AND p.decision = 'pending' AND p.trial_id NOT IN ({_INVALID}) "
             "UNION ALL "
             + _CANDIDATE + f"AND p.decision != 'pending' AND p.next_trial_id IN ({_INVALID}) "
             f"AND p.trial_id NOT IN ({_INVALID}) ORDER BY 1 DESC")
@@ -181,7 +181,7 @@ PENDING_INDEXES = (
     "CREATE INDEX proposals_by_next_trial ON proposals (next_trial_id)",
 )
 """Schema v12 as it shipped (both engines): the pending proposals, and the proposals by the
-trial that decided them, which `_PENDING` reads and a withdrawn trial's
+trial that decided them, which `PENDING` reads and a withdrawn trial's
 (Proposals._trial_withdrawn: its decision undone, and the foreign key's check when its row
 is deleted) would otherwise find by reading every proposal of the registry. v13 replaced
 the first by `PENDING_BY_PATIENT`."""
@@ -206,7 +206,7 @@ def patient_of_trial(trial: str, schema: str = "") -> str:
 def _sqlite_patient_trigger(name: str, event: str) -> str:
     """After `event`, a proposal's `patient_id` made its trial's where it is not (a writer
     that did not give it: a tool, a row inserted by hand). The console's own writers give
-    it (`_RECORD`; the standby's and the sync's copies carry it), and the update the
+    it (`RECORD`; the standby's and the sync's copies carry it), and the update the
     trigger makes then never runs."""
     patient = patient_of_trial("NEW.trial_id")
     return (f"CREATE TRIGGER proposals_patient_on_{name} AFTER {event} ON proposals "
@@ -230,14 +230,14 @@ SQLITE_V13 = (
 )
 """Schema v13 on SQLite: each proposal's patient (its trial's session's, kept so by the
 database: `_sqlite_patient_trigger`), sealed with the rest (each row checked against its v12
-seal first), and the pending proposals indexed by it (`_PENDING`). A proposal's meaning is
+seal first), and the pending proposals indexed by it (`PENDING`). A proposal's meaning is
 unchanged: the column only says again which patient its trial is of."""
 
 
 def _pending(conn: sa.Connection, patient: int, trial_id: int) -> tuple | None:
     """The row of the patient's pending proposal (as _SELECT reads it, then its trial's
-    parameters), None when none waits (`_PENDING`)."""
-    for row in execute(conn, _PENDING, (patient, trial_id) * 2).fetchall():
+    parameters), None when none waits (`PENDING`)."""
+    for row in execute(conn, PENDING, (patient, trial_id) * 2).fetchall():
         assessment = json.loads(row[-1]).get("assessment")
         if assessment is None or assessment == "":
             return row

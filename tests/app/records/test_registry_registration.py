@@ -19,7 +19,7 @@ from app.errors import RegistryError
 from app.records.datadir import DataDir
 from app.records.registry import Registry
 from app.records.registry.patients import patient_id
-from app.records.registry.proposals import _PENDING
+from app.records.registry.proposals import PENDING
 from app.records.registry.statements import execute
 from core.trial import TrialParameters
 from tests.app.records.history import registry_at
@@ -118,7 +118,7 @@ def test_the_pending_proposal_and_a_decided_ones_trial_are_found_by_their_indexe
         registry.record_proposal(begun.trial_id, {"assistance_level": 0.5})
     with registry._read() as conn:
         patient = patient_id(conn, registry.where, code)
-    plan = _plan(registry, registry_engine, _PENDING, (patient, -1) * 2)
+    plan = _plan(registry, registry_engine, PENDING, (patient, -1) * 2)
     assert "proposals_pending_by_patient" in plan
     assert "proposals_by_next_trial" in plan
     withdrawn = _plan(registry, registry_engine, "UPDATE proposals SET decision = 'pending', "
@@ -156,13 +156,13 @@ def test_a_patients_pending_proposal_is_found_from_their_trials_not_everyones(
         if registry_engine == "postgresql":
             conn.exec_driver_sql("ANALYZE")  # the server knows the tables' sizes
             plan = "\n".join(row[0] for row in execute(
-                conn, "EXPLAIN (ANALYZE, BUFFERS, FORMAT TEXT) " + _PENDING,
+                conn, "EXPLAIN (ANALYZE, BUFFERS, FORMAT TEXT) " + PENDING,
                 (patient, -1) * 2))
             pages = sum(int(n) for n in re.findall(r"^  Buffers: shared hit=(\d+)", plan,
                                                    re.MULTILINE))
             assert 0 < pages < others, plan
         else:
-            plan = _plan(registry, registry_engine, _PENDING, (patient, -1) * 2)
+            plan = _plan(registry, registry_engine, PENDING, (patient, -1) * 2)
             assert "SEARCH p USING INDEX proposals_pending_by_patient (patient_id=?)" in plan
     assert registry.pending_proposal(code).trial_id == begun.trial_id
     with registry._read() as conn:  # the rows inserted without it name their patient
@@ -211,22 +211,22 @@ def _work(registry: Registry, engine: str, patient: int) -> tuple[int, str]:
     with registry._read() as conn:
         if engine == "postgresql":
             plan = "\n".join(row[0] for row in execute(
-                conn, "EXPLAIN (ANALYZE, BUFFERS, FORMAT TEXT) " + _PENDING,
+                conn, "EXPLAIN (ANALYZE, BUFFERS, FORMAT TEXT) " + PENDING,
                 (patient, -1) * 2))
             pages = sum(int(n) for n in re.findall(r"^  Buffers: shared hit=(\d+)", plan,
                                                    re.MULTILINE))
-            return pages, _plan(registry, engine, _PENDING, (patient, -1) * 2)
+            return pages, _plan(registry, engine, PENDING, (patient, -1) * 2)
         steps = [0]
 
         def count() -> int:
             steps[0] += 1
             return 0
 
-        plan = _plan(registry, engine, _PENDING, (patient, -1) * 2)
+        plan = _plan(registry, engine, PENDING, (patient, -1) * 2)
         raw = conn.connection.driver_connection
         raw.set_progress_handler(count, 1)
         try:
-            execute(conn, _PENDING, (patient, -1) * 2).fetchall()
+            execute(conn, PENDING, (patient, -1) * 2).fetchall()
         finally:
             raw.set_progress_handler(None, 1)
         return steps[0], plan

@@ -64,7 +64,7 @@ PROPOSALS_PATIENT = (
 )
 """Schema v13: a proposal's `patient_id` is always its trial's session's patient, set by the
 server whatever a writer gave (before the seal's trigger, which fires last: by name), so the
-pending proposal found by it (app.records.registry.proposals._PENDING) is the patient's.
+pending proposal found by it (app.records.registry.proposals.PENDING) is the patient's.
 On SQLite, proposals._sqlite_patient_trigger."""
 
 
@@ -176,7 +176,7 @@ MIGRATIONS[13] = (
 )
 """v13: each proposal's patient (PROPOSALS_PATIENT), sealed (each row checked against its v12
 seal first), research reads it (an id, as a session's patient_id), and the pending
-proposals indexed by it instead of by trial (app.records.registry.proposals._PENDING)."""
+proposals indexed by it instead of by trial (app.records.registry.proposals.PENDING)."""
 
 
 def migrate_registry(conn: Connection) -> tuple[int, int]:
