@@ -96,19 +96,23 @@ def percentiles(samples_s) -> tuple[float, float, float]:
 
 
 def progress_queries(registry: Registry, codes: list[str], n: int, rng: random.Random,
-                     cpu: list[float] | None = None, pause_s: float = 0.0
+                     cpu: list[float] | None = None, pause_s: float = 0.0,
+                     spans: list[tuple[float, float]] | None = None
                      ) -> tuple[list[float], int]:
     """`n` progress queries of random patients: their wall times (and in `cpu`, this
-    process's CPU time in each); `pause_s` apart on average (0: back to back)."""
+    process's CPU time in each; in `spans`, when each ran, time.monotonic); `pause_s`
+    apart on average (0: back to back)."""
     samples: list[float] = []
     rows = 0
     while len(samples) < n:
         if pause_s and samples:
             time.sleep(pause_s * rng.uniform(0.5, 1.5))
         code = rng.choice(codes)
-        c0, t0 = time.process_time(), time.perf_counter()
+        c0, t0, m0 = time.process_time(), time.perf_counter(), time.monotonic()
         result = registry.trial_summaries(code)
         samples.append(time.perf_counter() - t0)
+        if spans is not None:
+            spans.append((m0, time.monotonic()))
         if cpu is not None:
             cpu.append(time.process_time() - c0)
         rows = max(rows, len(result))
@@ -237,11 +241,10 @@ def run_stations(bench: Bench, data_root: Path, codes: list[str], n_stations: in
     start.wait(600)
     t0 = time.perf_counter()
     cpu: list[float] = []
-    reading = time.monotonic()
+    read: list[tuple[float, float]] = []  # when each progress query ran
     samples, _ = progress_queries(reader, codes, queries, random.Random(seed), cpu,
-                                  reader_pause_s)
+                                  reader_pause_s, read)
     trips = round_trips(reader, queries)
-    read = (reading, time.monotonic())  # when the reader was at work
     stop.set()
     out = [results.get(timeout=600) for _ in processes]
     wall = time.perf_counter() - t0
@@ -410,7 +413,7 @@ def main() -> None:
             reader = ("back to back" if not args.reader_pause_ms
                       else f"{args.reader_pause_ms:g} ms apart")
             print(line("progress query meanwhile", busy,
-                       f"{reader}, over {read[1] - read[0]:.1f} s"))
+                       f"{reader}, over {read[-1][1] - read[0][0]:.1f} s"))
             print(line("  its CPU time in this process", busy_cpu))
             print(line("a bare round trip (SELECT 1) meanwhile", trips))
             print(line("begin_trial, all stations", [x for o in out for x in o[1]],
@@ -423,14 +426,17 @@ def main() -> None:
             # (no pause) the stations also start it all at once
             print(line("  begin_trial, each station's first trial", [o[1][0] for o in out
                                                                     if o[1]]))
-            after = [(x, t) for o in out for x, t in zip(o[1][1:], o[9][1:], strict=True)]
+            # each trial after the first: its time, and whether a progress query ran
+            # while it was being registered
+            after = [(x, any(q0 < t + x and t < q1 for q0, q1 in read))
+                     for o in out for x, t in zip(o[1][1:], o[9][1:], strict=True)]
             print(line("  begin_trial, the trials after", [x for x, _ in after]))
             # the reader's progress queries take a core of their own while they run: the
             # stations' trials begun then, and the others
-            print(line("    begun while the reader read",
-                       [x for x, t in after if read[0] <= t <= read[1]]))
-            print(line("    begun with the reader idle",
-                       [x for x, t in after if not read[0] <= t <= read[1]]))
+            print(line("    while a progress query ran",
+                       [x for x, during in after if during]))
+            print(line("    with no progress query running",
+                       [x for x, during in after if not during]))
             # the 8 stations' own CPU shares the server's 2 cores here; in a department each
             # station is a computer of its own and waits for no other station's process
             print(line("    begin_trial's wait for a core, the trials after",
