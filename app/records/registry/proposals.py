@@ -123,12 +123,12 @@ class Proposals(Database):
 _SELECT = ("SELECT trial_id, proposal, decision, next_trial_id, proposed_at, decided_at "
            "FROM proposals")
 RECORD = ("INSERT INTO proposals (trial_id, proposal, proposed_at, patient_id) "
-           "SELECT t.id, ?, ?, s.patient_id FROM trials t JOIN sessions s "
-           "ON s.id = t.session_id WHERE t.id = ? "
-           "ON CONFLICT (trial_id) DO UPDATE SET proposal = excluded.proposal, "
-           "proposed_at = excluded.proposed_at, decision = 'pending', next_trial_id = NULL, "
-           "decided_at = NULL WHERE proposals.decision = 'pending' "
-           "RETURNING trial_id, proposal, decision, next_trial_id, proposed_at, decided_at")
+          "SELECT t.id, ?, ?, s.patient_id FROM trials t JOIN sessions s "
+          "ON s.id = t.session_id WHERE t.id = ? "
+          "ON CONFLICT (trial_id) DO UPDATE SET proposal = excluded.proposal, "
+          "proposed_at = excluded.proposed_at, decision = 'pending', next_trial_id = NULL, "
+          "decided_at = NULL WHERE proposals.decision = 'pending' "
+          "RETURNING trial_id, proposal, decision, next_trial_id, proposed_at, decided_at")
 """A proposal recorded after its trial (text, time, trial id): inserted when the trial has
 none (with its trial's patient, schema v13), replacing a pending one whole, nothing when the
 trial is unknown (no row to insert) or its proposal was decided (the update's WHERE). The
@@ -142,9 +142,9 @@ _CANDIDATE = ("SELECT p.trial_id, p.proposal, p.decision, p.next_trial_id, p.pro
               "p.decided_at, t.parameters FROM proposals p JOIN trials t ON t.id = p.trial_id "
               "WHERE p.patient_id = ? AND p.trial_id != ? ")
 PENDING = (_CANDIDATE + f"AND p.decision = 'pending' AND p.trial_id NOT IN ({_INVALID}) "
-            "UNION ALL "
-            + _CANDIDATE + f"AND p.decision != 'pending' AND p.next_trial_id IN ({_INVALID}) "
-            f"AND p.trial_id NOT IN ({_INVALID}) ORDER BY 1 DESC")
+           "UNION ALL "
+           + _CANDIDATE + f"AND p.decision != 'pending' AND p.next_trial_id IN ({_INVALID}) "
+           f"AND p.trial_id NOT IN ({_INVALID}) ORDER BY 1 DESC")
 """The patient's pending proposal (patient id, a trial id to leave out, the same two again),
 with its trial's parameters, latest first; `_pending` takes the first of an exercise trial.
 The one: the latest of an exercise trial not marked invalid (schema v8) that no trial
