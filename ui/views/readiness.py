@@ -70,6 +70,11 @@ def readiness(state: State, *, form_problem: str, registered: bool, built: bool,
     finished trial's report is not yet saved; `saving`: the last trial's file is not closed
     yet."""
     needs = start_needs(registered=registered, built=built, stale=stale, saving=saving)
+    build_why = f"Build needs the form fixed: {form_problem}" if form_problem else ""
+    # Start waits for a Build the form does not allow: "press Build" would send the
+    # therapist to a greyed button, so both say what holds Build (a level lowered during
+    # a trial, then a radius the arm cannot reach: the line said "press Build")
+    blocked_build = needs in (STALE, NOT_BUILT) and bool(form_problem)
     free = not held
     enabled = {
         "build": free and not form_problem and state in (State.IDLE, State.BUILT,
@@ -81,10 +86,9 @@ def readiness(state: State, *, form_problem: str, registered: bool, built: bool,
         "save": unsaved and state not in (State.RUNNING, State.STOPPING),
     }
     why = {
-        "build": held or (f"Build needs the form fixed: {form_problem}" if form_problem
-                          else ""),
+        "build": held or build_why,
         "connect": held,
-        "start": held or (start_why(needs) if needs else ""),
+        "start": held or (build_why if blocked_build else start_why(needs) if needs else ""),
     }
     tooltips = {}
     for name, on in enabled.items():
@@ -93,10 +97,10 @@ def readiness(state: State, *, form_problem: str, registered: bool, built: bool,
     # the line names what holds the next step of the session, on every tab
     if held:
         line = held[0].upper() + held[1:]
-    elif state == State.CONNECTED and needs:
+    elif state == State.CONNECTED and needs and not blocked_build:
         line = start_why(needs)
     elif state in (State.IDLE, State.BUILT, State.CONNECTED) and form_problem:
-        line = f"Build needs the form fixed: {form_problem}"
+        line = build_why
     elif state in (State.BUILT, State.CONNECTED) and stale:
         line = start_why(STALE)
     else:

@@ -1,0 +1,40 @@
+"""The robot bar's words never send the therapist to a greyed button."""
+
+from __future__ import annotations
+
+from device.loop.states import State
+from ui.views.readiness import STALE, readiness
+
+UNREACHABLE = ("point (-30.0, 18.0) cm is 57.87 cm from the shoulder; move the exercise or "
+               "the shoulder closer together")
+
+
+def test_start_waiting_for_a_build_the_form_refuses_says_what_holds_build():
+    """Found trying the window: a level lowered during a trial (the built trial stale),
+    then a radius the arm cannot reach; after the trial Build was greyed, yet the line on
+    every tab said "Start is greyed: parameters changed since Build: press Build"."""
+    ready = readiness(State.CONNECTED, form_problem=UNREACHABLE, registered=True,
+                      built=True, stale=True, held="", unsaved=True)
+    assert not ready.enabled["build"]
+    assert not ready.enabled["start"]
+    assert "press Build" not in ready.line
+    assert ready.line == f"Build needs the form fixed: {UNREACHABLE}"
+    assert "press Build" not in ready.tooltips["start"]
+    assert ready.tooltips["start"] == f"Build needs the form fixed: {UNREACHABLE}"
+
+
+def test_stale_with_a_buildable_form_still_says_press_build():
+    ready = readiness(State.CONNECTED, form_problem="", registered=True, built=True,
+                      stale=True, held="", unsaved=False)
+    assert ready.enabled["build"]
+    assert ready.line == f"Start is greyed: {STALE}"
+    assert ready.tooltips["start"] == f"Start is greyed: {STALE}"
+
+
+def test_an_unregistered_patient_is_said_before_the_form():
+    """Start's first need is the patient; the form's problem is Build's, said on its
+    tooltip."""
+    ready = readiness(State.CONNECTED, form_problem=UNREACHABLE, registered=False,
+                      built=True, stale=True, held="", unsaved=False)
+    assert ready.line.startswith("Start needs a registered patient")
+    assert ready.tooltips["build"].startswith("Build needs the form fixed")
