@@ -107,3 +107,35 @@ def test_a_therapist_keeps_the_clinical_record_from_the_window(qtbot, tab, regis
     click(qtbot, record.note_button)
     assert "author: give the name" in record.outcome.text()
     assert len(registry.notes(patient.code)) == 2
+
+
+def test_the_trials_run_since_the_patient_was_chosen_can_be_marked(qtbot, tab, registry):
+    """Found trying the window: the record's trial list was filled when the patient was
+    chosen, so the three trials run after it could not be marked ("session 1 has no
+    finished trial to mark"); and marking trial 3 said "Trial 1 marked invalid" (the
+    list, refilled, chose its first)."""
+    fill_new_patient(qtbot, tab, "Ada", "Lovelace")
+    with qtbot.waitSignal(tab.patient_selected) as chosen:
+        click(qtbot, tab.create_button)
+    code = chosen.args[0].code
+    click(qtbot, tab.confirm)
+    record = tab.clinical
+    assert record.trial.count() == 0
+    for _ in range(3):
+        begun = registry.begin_trial(code, THESIS_SUBJECT, backend="simulator",
+                                     session_number=1)
+        registry.finish_trial(begun.trial_id, "complete", {"rmse_x_m": 0.01})
+        tab.refresh_numbers()  # what the window does once a trial is finished
+    assert [record.trial.itemText(i) for i in range(record.trial.count())] == ["1", "2", "3"]
+
+    type_into(qtbot, record.by, "K. Lee")
+    record.trial.setCurrentIndex(2)
+    type_into(qtbot, record.mark_reason, "coughed")
+    click(qtbot, record.invalid_button)
+    third = registry.trials(code, 1)[2].id
+    assert third in registry.invalid_trials(code)
+    assert record.outcome.text() == "Trial 3 marked invalid: coughed."
+    assert record.trial.currentText() == "3 (invalid)"
+    type_into(qtbot, record.mark_reason, "it was fine")
+    click(qtbot, record.valid_button)
+    assert record.outcome.text() == "Trial 3 marked valid again: it was fine."

@@ -180,8 +180,9 @@ class ClinicalRecord(QGroupBox):
             mark = self.registry.mark_trial(trial_id, valid=valid,
                                             reason=self.mark_reason.text(), by=self.by.text())
             self.mark_reason.clear()
-            self._fill_trials()
-            return (f"Trial {self.trial.currentText()} marked "
+            self._fill_trials()  # its "(invalid)", the same trial kept chosen
+            number = self.trial.currentText().split()[0]
+            return (f"Trial {number} marked "
                     f"{'valid again' if mark.valid else 'invalid'}: {mark.reason}.")
         self._act(do)
 
@@ -198,6 +199,12 @@ class ClinicalRecord(QGroupBox):
             return (f"{field} corrected: {last.old_value!r} → {last.new_value!r} (kept with "
                     "why, who and when).")
         self._act(do)
+
+    def refresh_trials(self) -> None:
+        """The session's finished trials again (after a trial ended: the list was filled
+        when the patient was chosen, so the trials run since could not be marked, and a
+        note on one was refused as "no finished trial")."""
+        self._fill_trials()
 
     @property
     def patient(self) -> Patient | None:
@@ -220,6 +227,9 @@ class ClinicalRecord(QGroupBox):
         self.scores.setPlaceholderText(SCORE_HINT[self.scale.currentData()])
 
     def _fill_trials(self) -> None:
+        """The session's finished trials, the one chosen before kept chosen (refilling
+        chose the first: "Trial 1 marked invalid" was said when trial 3 was marked)."""
+        chosen = self.trial.currentData()
         self.trial.clear()
         if self._patient is None or self.registry is None:
             return
@@ -232,3 +242,6 @@ class ClinicalRecord(QGroupBox):
             if t.finished:
                 state = " (invalid)" if t.id in invalid else ""
                 self.trial.addItem(f"{t.number}{state}", t.id)
+        index = self.trial.findData(chosen)
+        if index >= 0:
+            self.trial.setCurrentIndex(index)

@@ -267,6 +267,8 @@ class RegistrationTab(QWidget):
             box.setValue(value)
             box.blockSignals(False)
         self._session_edited()
+        # the clinical record's trials: the one just finished can be marked or noted
+        self.clinical.refresh_trials()
         if was_confirmed:
             # the therapist confirmed this patient: the next trial takes the next number
             # at once, the one shown (Start used to keep the old one and be refused)
