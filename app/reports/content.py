@@ -58,6 +58,7 @@ from app.trials.assistance_timeline import AssistanceInEffect
 from app.trials.reader import TrialData
 from app.units import CM_PER_M, assistance_percent, point_cm
 from core.errors import CoreError
+from core.holdtasks import ROBOT_TASKS
 from core.metrics import TrialMetrics
 from core.trial import TrialParameters
 from device.recording.trialfile import STATUS_RECORDING
@@ -231,7 +232,7 @@ def build_report(
     emergency_stop = any((e.get("values") or {}).get("fault") == Fault.ESTOP.label
                          for e in fault_events) or end_reason.startswith(ESTOP_CAUSE)
     exercised_s = n_exercise * trial.sample_period_s
-    planned_s = parameters.duration_s * parameters.repetitions
+    planned_s = planned_exercise_s(parameters)
     simulated = trial.backend.startswith("simulator")
 
     return ReportContent(
@@ -299,7 +300,19 @@ def _comparisons(previous_trial: BaselineSource | None, previous_session: Baseli
                  for kind, label, baseline in baselines)
 
 
+def planned_exercise_s(p: TrialParameters) -> float:
+    """The exercise's length on its clock: the path's laps, or, for a task the robot
+    leads (isometric strength, position sense), its whole timetable (core.holdtasks:
+    `duration_s` is one push or one match there, so a strength trial stopped at 9.6 s
+    read "stopped early after 9.6 of 3 s")."""
+    if p.assessment in ROBOT_TASKS:
+        return p.trajectory().total_duration_s
+    return p.duration_s * p.repetitions
+
+
 def _exercise_text(p: TrialParameters) -> str:
+    if p.assessment in ROBOT_TASKS:
+        return _robot_task_text(p)
     shape = SHAPE_NAMES.get(p.shape, p.shape)
     radius = f"{p.radius_m * CM_PER_M:.3g} cm"
     size = {
@@ -312,6 +325,19 @@ def _exercise_text(p: TrialParameters) -> str:
         (", clockwise" if p.clockwise else ", anticlockwise")
     return (f"{size}; {laps} of {p.duration_s:g} s, "
             f"{TIMING_WORDS.get(p.timing, p.timing)}{turn}")
+
+
+def _robot_task_text(p: TrialParameters) -> str:
+    """A robot-led task's timetable in words (core.holdtasks), not a path's laps: the
+    hand is held still (strength) or taken to each target and back (position)."""
+    rounds = "1 round" if p.repetitions == 1 else f"{p.repetitions} rounds"
+    total = seconds_text(planned_exercise_s(p))
+    if p.assessment == "strength":
+        return (f"{p.n_targets} directions, a push of {p.duration_s:g} s each; {rounds}, "
+                f"{total} s; the robot held the handle still")
+    return (f"{p.n_targets} targets {p.radius_m * CM_PER_M:.3g} cm from the centre, "
+            f"{p.duration_s:g} s to find each; {rounds}, {total} s; the robot took the "
+            "hand to each target and back")
 
 
 CONTROLLER_WORDS = {"smc": "SMC", "ctpid": "CT-PID"}

@@ -75,3 +75,30 @@ def test_a_short_note_does_not_get_a_page_of_its_own(tmp_path):
     assert not any("(continued)" in page for page in pages)
     assert "Notes" in pages[1]
     assert "Visually guided reaching" in pages[2]
+
+
+def test_a_robot_led_task_cut_short_says_how_much_of_its_timetable_ran(tmp_path):
+    """Found trying the window: an isometric strength trial stopped at 9.6 s said
+    "stopped early after 9.6 of 3 s", and its exercise "8 targets 5 cm from the centre;
+    1 repetition of 3 s": `duration_s` is one push there, the trial 8 pushes with their
+    rests (core.holdtasks), and the robot holds the hand still."""
+    from core.assessment.protocol import protocol
+    from tests.app.reports.made import cut
+
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("Ada", "Strength", side="right").code
+    registry.open_session(code)
+    parameters = protocol("strength").parameters(THESIS_SUBJECT)
+    total_s = parameters.trajectory().total_duration_s
+    assert total_s > 8 * parameters.duration_s
+    trial_id = register(registry, code, parameters, session=1,
+                        edit=lambda trial: cut(trial, 0.3, "stopped_early"))
+    content = content_for_registry_trial(registry, trial_id)
+    assert content.planned_s == total_s
+    assert 0.0 < content.exercised_s < total_s
+    header = {item.label: item.value for item in content.header}
+    assert header["Ended"].endswith(f"of {total_s:.0f} s")
+    assert header["Exercise"] == (f"8 directions, a push of {parameters.duration_s:g} s "
+                                  f"each; 1 round, {total_s:.0f} s; the robot held the "
+                                  "handle still")
+    assert f"of {total_s:.0f} seconds" in content.status_text
