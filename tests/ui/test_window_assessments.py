@@ -158,3 +158,23 @@ def test_the_strength_tasks_polar_plot_shows_its_figures_and_hides_for_other_tas
     tab.choose("position")
     assert tab.polar.isHidden()
     assert "has no position sense yet" in tab.results.toPlainText()
+
+
+def test_a_robot_led_tasks_protocol_says_how_long_it_runs_and_what_the_robot_does():
+    """Found trying the window: the strength protocol's first line read "1 trial, 1 × 3 s
+    each; 8 targets 5 cm from the centre; the robot transparent", under words saying the
+    robot holds the handle still; the trial ran 48 s (8 pushes with their rests)."""
+    from core.trial import THESIS_SUBJECT
+    from ui.tabs.assessments import protocol_words
+
+    for task, robot in (("strength", "the robot holds the handle still"),
+                        ("position", "the robot takes the relaxed hand to each target")):
+        total_s = protocol(task).parameters(THESIS_SUBJECT).trajectory().total_duration_s
+        first = protocol_words(task).splitlines()[0]
+        assert f"1 trial of {total_s:.0f} s" in first
+        assert robot in first
+        assert "transparent" not in first
+    assert protocol_words("strength").startswith(
+        "Isometric strength: 1 trial of 48 s: 1 round of 8 directions, a push of 3 s each")
+    # a task the patient leads reads as before
+    assert protocol_words("reaching").splitlines()[0].endswith("the robot transparent.")
