@@ -9,9 +9,12 @@ given here runs: none may be dropped (a trial must be finished, a report saved).
 from __future__ import annotations
 
 import concurrent.futures
+import logging
 from collections.abc import Callable
 
 from PySide6.QtCore import QObject, Signal
+
+log = logging.getLogger(__name__)
 
 
 class Jobs(QObject):
@@ -23,12 +26,20 @@ class Jobs(QObject):
 
     def __init__(self, parent: QObject | None = None) -> None:
         super().__init__(parent)
+        self._closed = False
         self._executor = concurrent.futures.ThreadPoolExecutor(
             max_workers=1, thread_name_prefix="console-job")
         self._finished.connect(self._deliver)
 
     def run(self, work: Callable[[], object], callback: Callable[[object], None]) -> None:
-        """Run `work` on the job thread; `callback(result)` runs in the GUI thread."""
+        """Run `work` on the job thread; `callback(result)` runs in the GUI thread. After
+        `shutdown` (the window closed) nothing more runs: a trial finished as the window
+        closed hands its result over after the thread stopped, and its callback's next
+        job (reading the file for the live tabs) raised "cannot schedule new futures
+        after shutdown" on the console."""
+        if self._closed:
+            log.info("not run, the console is closing: %s", getattr(work, "__qualname__", work))
+            return
         future = self._executor.submit(work)
 
         def done(f: concurrent.futures.Future) -> None:
@@ -39,6 +50,7 @@ class Jobs(QObject):
 
     def shutdown(self) -> None:
         """Wait for the jobs given so far, then stop the thread."""
+        self._closed = True
         self._executor.shutdown(wait=True)
 
     def _deliver(self, callback, result, error) -> None:
