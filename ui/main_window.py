@@ -108,6 +108,7 @@ class MainWindow(AssessmentControl, PlanControl, TrialActions, TrialEmg, FaultLa
         self._pending_setup: BuiltSetup | None = None
         self.built_backend = self._pending_backend = None  # the BackendConfig built
         self._live_levels: list[float] = []  # live assistance changes awaiting the loop
+        self._connecting = False  # a Connect sent, its answer not yet back
         self.closing_by_signal = False
         self.closing_signal = ""
         """The stop signal the console was given (SIGINT, SIGTERM, SIGHUP), if any."""

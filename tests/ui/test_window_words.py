@@ -89,6 +89,33 @@ def test_connect_says_hands_off_until_the_zero_is_taken_and_a_zero_under_load_in
         win.close()
 
 
+@pytest.mark.slow
+def test_connect_pressed_twice_while_the_zero_is_taken_still_says_zero_taken(
+        qtbot, tmp_path, monkeypatch):
+    """Found trying the window: Connect stayed green during the zero; pressed again, the
+    loop refused it and "connect refused: already connected" took the message line in
+    place of "Zero taken", the word that tells the patient to take the handle."""
+    win = open_window(qtbot, tmp_path, monkeypatch)
+    try:
+        short_trial(win)
+        click(qtbot, win.robot.buttons["build"])
+        qtbot.waitUntil(lambda: win.state == State.BUILT, timeout=60000)
+        said, sent = [], []
+        win.messages.say = _recording(win.messages.say, said)
+        connect = win.bridge.connect
+        monkeypatch.setattr(win.bridge, "connect", lambda: (sent.append(1), connect()))
+        click(qtbot, win.robot.buttons["connect"])
+        assert not win.robot.buttons["connect"].isEnabled()  # its answer not back yet
+        win.connect_robot()  # F3 again
+        qtbot.waitUntil(lambda: win.state == State.CONNECTED and any(
+            t.startswith("Zero taken") for t in said), timeout=60000)
+        assert sent == [1]  # the second press sent nothing to be refused
+        assert not [t for t in said if "refused" in t]
+        assert "zero taken" in win.message.text().lower()
+    finally:
+        win.close()
+
+
 def _recording(say, said: list):
     def recorded(text, **kwargs):
         said.append(text)

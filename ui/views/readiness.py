@@ -63,12 +63,13 @@ def start_why(needs: str) -> str:
 
 
 def readiness(state: State, *, form_problem: str, registered: bool, built: bool,
-              stale: bool, held: str, unsaved: bool, saving: bool = False) -> Readiness:
+              stale: bool, held: str, unsaved: bool, saving: bool = False,
+              connecting: bool = False) -> Readiness:
     """The buttons for `state`. `form_problem`: why the form cannot be built ('' when it
     can); `built`: a trial was built; `stale`: the form changed since; `held`: why the latch
     holds the robot ('' when it does not, ui.views.latch.Latch.holds_robot); `unsaved`: a
     finished trial's report is not yet saved; `saving`: the last trial's file is not closed
-    yet."""
+    yet; `connecting`: a Connect was sent and is not answered yet (the sensor's zero)."""
     needs = start_needs(registered=registered, built=built, stale=stale, saving=saving)
     build_why = f"Build needs the form fixed: {form_problem}" if form_problem else ""
     # Start waits for a Build the form does not allow: "press Build" would send the
@@ -79,7 +80,7 @@ def readiness(state: State, *, form_problem: str, registered: bool, built: bool,
     enabled = {
         "build": free and not form_problem and state in (State.IDLE, State.BUILT,
                                                          State.CONNECTED),
-        "connect": free and state == State.BUILT,
+        "connect": free and state == State.BUILT and not connecting,
         "disconnect": state in (State.CONNECTED, State.FAULTED),
         "start": free and not needs and state == State.CONNECTED,
         "stop": state == State.RUNNING,

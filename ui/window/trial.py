@@ -110,9 +110,16 @@ class TrialActions:
     def connect_robot(self) -> None:
         """Connect: the force sensor takes its zero in its first quarter second, so nobody
         may touch the handle until the window says the zero is taken (docs/hardware.md,
-        Tare); a zero taken under load refuses the Connect in one line."""
+        Tare); a zero taken under load refuses the Connect in one line. A second press
+        (F3 again) while the zero is taken sends nothing: the loop refused it, and its
+        "connect refused: already connected" took the place of "Zero taken", the word
+        that tells the patient to take the handle."""
+        if self._connecting:
+            return
+        self._connecting = True
         self._say(HANDS_OFF, states=(State.BUILT,))
         self.bridge.connect()
+        self._refresh_buttons()
 
     def _on_sensor_zeroed(self, _message: str) -> None:
         self._say(ZERO_TAKEN, states=(State.BUILT, State.CONNECTED))
@@ -231,7 +238,8 @@ class TrialActions:
         self.robot.show_readiness(readiness(
             self.state, form_problem=problem, registered=self.registration is not None,
             built=self.built is not None, stale=self.stale(), held=self.latch.holds_robot(),
-            unsaved=self.unsaved_trial is not None, saving=self.trial_id is not None))
+            unsaved=self.unsaved_trial is not None, saving=self.trial_id is not None,
+            connecting=self._connecting))
 
     def start_needs(self) -> str:
         """What Start waits for beyond the robot's state, in words ("" when nothing)."""
@@ -241,6 +249,8 @@ class TrialActions:
 
     # ------------------------------------------------------------------ loop events
     def _on_reply(self, command: str, ok: bool, message: str) -> None:
+        if command == "connect":
+            self._connecting = False
         if command == "clear_fault":
             self._clear_fault_answered(ok, message)
             return
