@@ -38,7 +38,7 @@ class Jobs(QObject):
         job (reading the file for the live tabs) raised "cannot schedule new futures
         after shutdown" on the console."""
         if self._closed:
-            log.info("not run, the console is closing: %s", getattr(work, "__qualname__", work))
+            log.warning("not run, the console is closing: %s", getattr(work, "__qualname__", work))
             return
         future = self._executor.submit(work)
 
