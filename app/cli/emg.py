@@ -228,9 +228,11 @@ def cmd_show(args: argparse.Namespace) -> int:
 
     path = trial_file(args, args.trial)
     emg = trial_emg(path)
+    # a synthetic subject's EMG has no source file: no empty field after its comma
+    origin = (emg.attrs.get("source"), emg.attrs.get("source_file"))
     print(f"{path.name}: {len(emg.names)} EMG channels at {emg.rate_hz:g} Hz, "
           f"{emg.time_s.size} samples, trial time {emg.time_s[0]:.3f}–{emg.time_s[-1]:.3f} s "
-          f"({emg.attrs.get('source')}, {emg.attrs.get('source_file')})")
+          f"({', '.join(str(v) for v in origin if v)})")
     if not emg.mvc:
         print("no MVC yet: rehab emg mvc TRIAL --contraction MUSCLE=FILE …")
         return 0

@@ -71,6 +71,9 @@ def test_demo_writes_a_trial_to_try_the_commands_on(tmp_path, capsys):
     assert "anterior_deltoid" in out
     assert "FLAGGED: below_trial_activity" in out
     assert "warning: anterior_deltoid: the trial reaches" in out
+    code, out, _ = run(["emg", "show", str(tmp_path / "demo" / "synthetic_S2.h5")], capsys)
+    assert code == 0
+    assert out.splitlines()[0].endswith(" s (synthetic)"), out  # was "(synthetic, )"
     code, _, err = run(["emg", "demo", str(tmp_path / "demo"), "--engine", "python"], capsys)
     assert code == 2
     assert "already exists" in err
