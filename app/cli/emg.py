@@ -154,14 +154,20 @@ def _settings(args):
 
 
 def trial_file(args: argparse.Namespace, text: str) -> Path:
-    """A trial given as its registry id or as a file."""
+    """A trial given as its registry id or as a file, checked to be an HDF5 file (a PDF
+    given by mistake is refused as the other commands refuse it, not in h5py's words)."""
+    from app.trials.opening import check_file
+
     number = trial_id_or_none(text)
     if number is not None:
-        return registry_for(args).trial_path(number)
-    path = absolute(text)
-    if not path.exists():
-        raise CommandError(f"{text}: no such trial file (give a trial id or an .h5 file)")
-    return input_file(str(path), "trial file")
+        path = registry_for(args).trial_path(number)
+    else:
+        path = absolute(text)
+        if not path.exists():
+            raise CommandError(f"{text}: no such trial file (give a trial id or an .h5 file)")
+        path = input_file(str(path), "trial file")
+    check_file(Path(path))
+    return path
 
 
 def cmd_import(args: argparse.Namespace) -> int:

@@ -116,6 +116,10 @@ def test_record_a_guided_mvc_from_the_fake_trigno(tmp_path, capsys):
     (["emg", "mvc", "{plain}", "--contraction", "biceps"], "MUSCLE=FILE"),
     (["emg", "mvc", "{plain}", "--contraction", f"biceps={DATA / 'plain.csv'}"], "has no EMG"),
     (["emg", "show", "{plain}"], "has no EMG"),
+    # a file that is not HDF5 (a report given by mistake): the console's words, not h5py's
+    (["emg", "show", str(DATA / "plain.csv")], "is not an HDF5 file"),
+    (["emg", "mvc", str(DATA / "plain.csv"), "--contraction", f"b={DATA / 'plain.csv'}"],
+     "is not an HDF5 file"),
     (["emg", "streams", "--wait", "0"], "--wait"),
     (["emg", "record", "usb:x", "--output", "{plain}.csv"], "give trigno:HOST, avanti:HOST or lsl"),
     (["emg", "record", "lsl:x", "--output", "{plain}.csv", "--seconds", "0"], "--seconds 0"),
