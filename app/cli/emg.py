@@ -242,7 +242,7 @@ def cmd_show(args: argparse.Namespace) -> int:
     if not emg.mvc:
         print("no MVC yet: rehab emg mvc TRIAL --contraction MUSCLE=FILE …")
         return 0
-    env = trial_envelopes(path)
+    env = trial_envelopes(path, with_mvc_only=True)
     print(f"{'muscle':<20} {'MVC':>10} {'median':>8} {'p95':>8} {'max':>8}  quality")
     for c, muscle in enumerate(env.muscles):
         v = env.values[:, c]
@@ -253,6 +253,10 @@ def cmd_show(args: argparse.Namespace) -> int:
         print(f"{muscle:<20} {1e6 * emg.mvc[muscle]['value_V']:>7.0f} µV "
               + " ".join(f"{c:>8}" for c in cells)
               + ("  ok" if not flags else "  FLAGGED: " + ", ".join(flags)))
+    for muscle in emg.muscles:
+        if muscle not in emg.mvc:
+            print(f"{muscle:<20} {'no MVC yet':>10}  (rehab emg mvc TRIAL --contraction "
+                  f"{muscle}=FILE)")
     return 0
 
 

@@ -61,6 +61,22 @@ def test_mvc_then_show_in_percent_of_mvc(made, tmp_path, capsys):
     assert all("%" in line for line in lines)
 
 
+def test_show_after_one_muscle_s_mvc_shows_it_and_names_the_others(made, tmp_path, capsys):
+    """MVCs recorded one muscle at a time are kept side by side; `emg show` refused the
+    whole trial ('no MVC for triceps, anterior_deltoid') until all were there."""
+    trial = shutil.copy(made[1], tmp_path / "s.h5")
+    path, channel = made[2]["biceps"]
+    code, _, err = run(["emg", "mvc", str(trial), "--contraction",
+                        f"biceps={path}:{channel}"], capsys)
+    assert code == 0, err
+    code, out, err = run(["emg", "show", str(trial)], capsys)
+    assert code == 0, err
+    rows = {line.split()[0]: line for line in out.splitlines()[2:]}
+    assert "%" in rows["biceps"]
+    assert "no MVC yet" in rows["triceps"]
+    assert "no MVC yet" in rows["anterior_deltoid"]
+
+
 def test_demo_writes_a_trial_to_try_the_commands_on(tmp_path, capsys):
     code, out, err = run(["emg", "demo", str(tmp_path / "demo"), "--bad-mvc", "0.08",
                           "--engine", "python"], capsys)
