@@ -196,7 +196,8 @@ def test_what_is_not_a_file_is_refused_as_such(tmp_path, capsys):
     fifo = tmp_path / "pipe.json"
     os.mkfifo(fifo)
     _refused(capsys, ["norms", "show", str(fifo)], "not a plain file")
-    _refused(capsys, ["norms", "show", str(tmp_path)], "is a folder")
+    err = _refused(capsys, ["norms", "show", str(tmp_path)], "is a folder")
+    assert err.rstrip().endswith("is a folder: give a file."), err  # said once, not twice
 
 
 def test_a_rare_level_is_left_out_and_said(tmp_path, data, capsys):
