@@ -115,6 +115,8 @@ def cmd_import(args: argparse.Namespace) -> int:
     from app.records import signing
 
     source = absolute(args.file)
+    if not source.exists():
+        raise CommandError(f"{source} does not exist; check the path of the model file")
     if not source.is_file():
         raise CommandError(f"{source} is not a file; give the model file to import")
     name = args.name if args.name is not None else source.stem

@@ -76,7 +76,8 @@ def test_import_refuses_what_the_console_would_not_run(tmp_path, monkeypatch, ca
     deep = tmp_path / "deep.json"
     deep.write_text("[" * 200_000 + "]" * 200_000)
     for file, expected in ((damaged, "content hash"), (huge, "weights"), (deep, "format"),
-                           (tmp_path / "none.json", "not a file")):
+                           (tmp_path / "none.json", "none.json does not exist; check the"),
+                           (tmp_path, "is not a file")):
         code, _, err = run(["models", "import", str(file)], capsys)
         assert code == 2, file
         assert expected in err
