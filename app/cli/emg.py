@@ -22,6 +22,7 @@ from app.cli.common import (
     input_file,
     output_path,
     registry_for,
+    rewritten_trial,
     trial_id_or_none,
 )
 from app.records.safewrite import check_output_folder
@@ -184,14 +185,16 @@ def cmd_import(args: argparse.Namespace) -> int:
                                "on the trial's clock through its rehab-robot stream")
         from app.emg.xdf import import_xdf
 
-        done = import_xdf(trial, source, stream=args.stream,
-                          unit=args.unit, muscles=muscles, replace=args.replace)
+        with rewritten_trial(args, args.trial, trial, "imported EMG"):
+            done = import_xdf(trial, source, stream=args.stream,
+                              unit=args.unit, muscles=muscles, replace=args.replace)
     else:
         if args.stream or args.unit:
             raise CommandError("--stream and --unit are for an XDF recording (.xdf); an "
                                "exported file says its channels and units itself")
-        done = import_emg_file(trial, source, muscles=muscles,
-                               offset_s=args.offset, replace=args.replace)
+        with rewritten_trial(args, args.trial, trial, "imported EMG"):
+            done = import_emg_file(trial, source, muscles=muscles,
+                                   offset_s=args.offset, replace=args.replace)
     print(f"stored {len(done.names)} EMG channels ({', '.join(done.muscles)}) at "
           f"{done.rate_hz:g} Hz, {done.n_samples} samples, trial time "
           f"{done.first_s:.3f}–{done.last_s:.3f} s, in {done.trial.name}")
@@ -216,8 +219,11 @@ def cmd_mvc(args: argparse.Namespace) -> int:
 
     contractions = [_contraction(c) for c in args.contraction]
     trials = [trial_file(args, t) for t in args.trials]
-    results = session_mvc(trials, contractions, settings=_settings(args),
-                          full_scale_V=args.full_scale)
+    with contextlib.ExitStack() as registered:
+        for text, path in zip(args.trials, trials, strict=True):
+            registered.enter_context(rewritten_trial(args, text, path, "the session's MVCs"))
+        results = session_mvc(trials, contractions, settings=_settings(args),
+                              full_scale_V=args.full_scale)
     print(f"{'muscle':<20} {'MVC':>10} {'held':>7}  quality")
     for mvc in results:
         quality = "ok" if mvc.ok else "FLAGGED: " + ", ".join(mvc.flags)
