@@ -18,6 +18,7 @@ visit's time (py-spy over a population build, 2026-12-03).
 
 from __future__ import annotations
 
+import contextlib
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, replace
@@ -116,12 +117,18 @@ def _circle_task(trials: list[TaskTrial], registry: RecordStore | None) -> list[
         combined = circle_task(cw.metrics, ccw.metrics)
     except KeyError:
         return trials
+    from app.trials.rewrite import rewriting
+
     done = []
     for trial in trials:
         metrics = {**trial.metrics, **combined}
-        if trial.path is not None:
-            write_metrics(trial.path, metrics)
-        if registry is not None and trial.trial_id is not None:
+        registered = registry is not None and trial.trial_id is not None
+        # a registered trial's file is written after its end: its checksum follows
+        with (rewriting(registry, trial.trial_id, "the circle task's figures")
+              if registered else contextlib.nullcontext()):
+            if trial.path is not None:
+                write_metrics(trial.path, metrics)
+        if registered:
             registry.update_metrics(trial.trial_id, combined)
         done.append(replace(trial, metrics=metrics))
     return done

@@ -46,6 +46,12 @@ def add_assess_commands(commands) -> None:
     run.add_argument("--seed", type=int, default=0,
                      help="the first trial's seed, a whole number from 0 (default 0); trial "
                           "k of a task runs with seed + k")
+    from core.trial import TrialParameters
+
+    run.add_argument("--centre", nargs=2, type=float, metavar=("X", "Y"),
+                     default=TrialParameters().centre_m,
+                     help="the tasks' centre on the table, m (default %(default)s): move it "
+                          "toward the shoulder for a patient who cannot reach round it")
     run.set_defaults(func=cmd_run)
     show = sub.add_parser("show", help="a patient's assessments and their figures",
                           description="A patient's assessment trials, task by task, with "
@@ -85,11 +91,22 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise CommandError(f"--seed {args.seed}: give a whole number from 0")
     registry = registry_for(args)
     registry.patient(args.code)  # an unknown code refused before anything runs
+    from core.errors import UnreachableError
+    from core.trial import TrialParameters
+
+    base = TrialParameters(centre_m=tuple(args.centre))
     options = {"registry": registry, "code": args.code, "progress": print}
-    if args.task == "all":
-        runs = run_battery(args.patient, seed=args.seed, **options)
-    else:
-        runs = {args.task: run_task(args.task, args.patient, seed=args.seed, **options)}
+    try:
+        if args.task == "all":
+            runs = run_battery(args.patient, base, seed=args.seed, **options)
+        else:
+            runs = {args.task: run_task(args.task, args.patient, base, seed=args.seed,
+                                        **options)}
+    except UnreachableError as exc:
+        # the refusal says "move the exercise": here that is --centre
+        x, y = base.centre_m
+        exc.add_note(f"move the tasks with --centre X Y, now {x:g} {y:g} m")
+        raise
     for task, trials in runs.items():
         paired = pairs([(t.trial_id, t.metrics) for t in trials]) if task == "circle" else {}
         for trial in trials:

@@ -166,3 +166,35 @@ def mm(value) -> str:
 def num(value) -> str:
     """A figure with one decimal; '–' where undefined."""
     return f"{value:.1f}" if finite(value) else "–"
+
+
+def rewritten_trial(args: argparse.Namespace, text: str, path: Path, what: str):
+    """A context for a command that writes into the trial `text` names (its id, or its file
+    `path`): when the trial is registered, its file's checksum is recorded again after the
+    write (app.trials.rewrite); a file of no registered trial is written as it is."""
+    import contextlib
+
+    from app.records.registry import has_registry
+    from app.trials.rewrite import rewriting
+
+    number = trial_id_or_none(text)
+    if number is None:
+        data_dir = data_dir_for(args)
+        trials = data_dir.trials_dir.resolve()
+        where = Path(path).resolve()
+        if not (where.is_relative_to(trials) and has_registry(data_dir)):
+            return contextlib.nullcontext()
+        registry = registry_for(args)
+        from app.errors import AppError
+
+        try:  # the data folder's trials/<code>/<file>.h5
+            found = [t.id for t in registry.trials_for_patient(where.parent.name)
+                     if registry.trial_path(t).resolve() == where]
+        except AppError:  # trials/simulated/: no patient's
+            found = []
+        if not found:
+            return contextlib.nullcontext()
+        number = found[0]
+    else:
+        registry = registry_for(args)
+    return rewriting(registry, number, what)

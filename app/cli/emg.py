@@ -22,6 +22,7 @@ from app.cli.common import (
     input_file,
     output_path,
     registry_for,
+    rewritten_trial,
     trial_id_or_none,
 )
 from app.records.safewrite import check_output_folder
@@ -154,14 +155,20 @@ def _settings(args):
 
 
 def trial_file(args: argparse.Namespace, text: str) -> Path:
-    """A trial given as its registry id or as a file."""
+    """A trial given as its registry id or as a file, checked to be an HDF5 file (a PDF
+    given by mistake is refused as the other commands refuse it, not in h5py's words)."""
+    from app.trials.opening import check_file
+
     number = trial_id_or_none(text)
     if number is not None:
-        return registry_for(args).trial_path(number)
-    path = absolute(text)
-    if not path.exists():
-        raise CommandError(f"{text}: no such trial file (give a trial id or an .h5 file)")
-    return input_file(str(path), "trial file")
+        path = registry_for(args).trial_path(number)
+    else:
+        path = absolute(text)
+        if not path.exists():
+            raise CommandError(f"{text}: no such trial file (give a trial id or an .h5 file)")
+        path = input_file(str(path), "trial file")
+    check_file(Path(path))
+    return path
 
 
 def cmd_import(args: argparse.Namespace) -> int:
@@ -178,14 +185,16 @@ def cmd_import(args: argparse.Namespace) -> int:
                                "on the trial's clock through its rehab-robot stream")
         from app.emg.xdf import import_xdf
 
-        done = import_xdf(trial, source, stream=args.stream,
-                          unit=args.unit, muscles=muscles, replace=args.replace)
+        with rewritten_trial(args, args.trial, trial, "imported EMG"):
+            done = import_xdf(trial, source, stream=args.stream,
+                              unit=args.unit, muscles=muscles, replace=args.replace)
     else:
         if args.stream or args.unit:
             raise CommandError("--stream and --unit are for an XDF recording (.xdf); an "
                                "exported file says its channels and units itself")
-        done = import_emg_file(trial, source, muscles=muscles,
-                               offset_s=args.offset, replace=args.replace)
+        with rewritten_trial(args, args.trial, trial, "imported EMG"):
+            done = import_emg_file(trial, source, muscles=muscles,
+                                   offset_s=args.offset, replace=args.replace)
     print(f"stored {len(done.names)} EMG channels ({', '.join(done.muscles)}) at "
           f"{done.rate_hz:g} Hz, {done.n_samples} samples, trial time "
           f"{done.first_s:.3f}–{done.last_s:.3f} s, in {done.trial.name}")
@@ -210,8 +219,11 @@ def cmd_mvc(args: argparse.Namespace) -> int:
 
     contractions = [_contraction(c) for c in args.contraction]
     trials = [trial_file(args, t) for t in args.trials]
-    results = session_mvc(trials, contractions, settings=_settings(args),
-                          full_scale_V=args.full_scale)
+    with contextlib.ExitStack() as registered:
+        for text, path in zip(args.trials, trials, strict=True):
+            registered.enter_context(rewritten_trial(args, text, path, "the session's MVCs"))
+        results = session_mvc(trials, contractions, settings=_settings(args),
+                              full_scale_V=args.full_scale)
     print(f"{'muscle':<20} {'MVC':>10} {'held':>7}  quality")
     for mvc in results:
         quality = "ok" if mvc.ok else "FLAGGED: " + ", ".join(mvc.flags)
@@ -228,13 +240,15 @@ def cmd_show(args: argparse.Namespace) -> int:
 
     path = trial_file(args, args.trial)
     emg = trial_emg(path)
+    # a synthetic subject's EMG has no source file: no empty field after its comma
+    origin = (emg.attrs.get("source"), emg.attrs.get("source_file"))
     print(f"{path.name}: {len(emg.names)} EMG channels at {emg.rate_hz:g} Hz, "
           f"{emg.time_s.size} samples, trial time {emg.time_s[0]:.3f}–{emg.time_s[-1]:.3f} s "
-          f"({emg.attrs.get('source')}, {emg.attrs.get('source_file')})")
+          f"({', '.join(str(v) for v in origin if v)})")
     if not emg.mvc:
         print("no MVC yet: rehab emg mvc TRIAL --contraction MUSCLE=FILE …")
         return 0
-    env = trial_envelopes(path)
+    env = trial_envelopes(path, with_mvc_only=True)
     print(f"{'muscle':<20} {'MVC':>10} {'median':>8} {'p95':>8} {'max':>8}  quality")
     for c, muscle in enumerate(env.muscles):
         v = env.values[:, c]
@@ -245,6 +259,10 @@ def cmd_show(args: argparse.Namespace) -> int:
         print(f"{muscle:<20} {1e6 * emg.mvc[muscle]['value_V']:>7.0f} µV "
               + " ".join(f"{c:>8}" for c in cells)
               + ("  ok" if not flags else "  FLAGGED: " + ", ".join(flags)))
+    for muscle in emg.muscles:
+        if muscle not in emg.mvc:
+            print(f"{muscle:<20} {'no MVC yet':>10}  (rehab emg mvc TRIAL --contraction "
+                  f"{muscle}=FILE)")
     return 0
 
 

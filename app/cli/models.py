@@ -76,10 +76,17 @@ def cmd_list(args: argparse.Namespace) -> int:
         for name in names:
             any_model = True
             try:
-                _read(folder / f"{name}.json", emg, signed=True)
+                if emg:
+                    _read(folder / f"{name}.json", emg, signed=True)
+                else:
+                    # what the Parameters tab and `rehab run --learned-model` check: a
+                    # signed, sound file is not yet a model of the robot (a pendulum's)
+                    from app.learning.library import robot_model
+
+                    robot_model(folder, name)
                 state = "usable"
             except ModelFileError as exc:
-                state = f"refused: {exc.reason}"
+                state = f"refused: {exc.reason} ({exc.problem})"
             print(f"{'emg' if emg else 'learned':<8} {name:<32} {state}")
     if not any_model:
         print("no models in this data folder")
@@ -108,6 +115,8 @@ def cmd_import(args: argparse.Namespace) -> int:
     from app.records import signing
 
     source = absolute(args.file)
+    if not source.exists():
+        raise CommandError(f"{source} does not exist; check the path of the model file")
     if not source.is_file():
         raise CommandError(f"{source} is not a file; give the model file to import")
     name = args.name if args.name is not None else source.stem

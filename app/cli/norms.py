@@ -262,17 +262,21 @@ def cmd_score(args: argparse.Namespace) -> int:
     if norms is None:
         raise CommandError("this data folder uses no norms and the console ships none: give "
                            "--norms FILE or `rehab norms use FILE`")
-    people = None
+    people = {}
+
+    def registered_people():
+        if not people:
+            from app.cli.common import registry_for
+
+            people.update(people_from_registry(registry_for(args)))
+        return people
+
     for text in args.trials:
         path = absolute(text)
         if args.birth_year is not None:
             person = Person(args.birth_year, args.sex, args.handedness)
         else:
-            if people is None:
-                from app.cli.common import registry_for
-
-                people = people_from_registry(registry_for(args))
-            person = _registered(path, people)
+            person = _registered(path, registered_people)
         scores = score_trial(path, norms, person)
         if args.json:
             print(json.dumps(_as_json(scores), allow_nan=False))
@@ -281,14 +285,27 @@ def cmd_score(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _registered(path, people):
+def _registered(path, registered_people):
+    """The registry's covariates of the trial's subject (`registered_people()`, the
+    registry's, opened only for a registered patient's trial). A trial that is no
+    assessment is refused first: asking for a birth year it would not use sent the user to
+    record one, only to be told next that the trial cannot be scored."""
+    from app.records.datadir import CODE_PATTERN
     from app.trials.reader import read_trial
 
     data = read_trial(path, channels=())
+    if not (getattr(data.parameters, "assessment", "") if data.parameters else ""):
+        raise CommandError(f"{path} is not an assessment trial (its parameters name no "
+                           "task): norms score assessments only (`rehab assess run`)")
     code = data.subject.code if data.subject else None
+    if not (isinstance(code, str) and CODE_PATTERN.fullmatch(code)):
+        raise CommandError(f"{path}: its subject {code!r} is no registered patient: give "
+                           "--birth-year, --sex and --handedness")
+    people = registered_people()
     if code not in people:
-        raise CommandError(f"{path}: subject {code!r} has no birth year, sex and handedness in "
-                           "the registry: record them (`rehab patients ...`), or give "
+        raise CommandError(f"{path}: patient {code} has no birth year, sex and handedness in "
+                           f"the registry: record them (`rehab correct {code} birth_year "
+                           "YEAR --reason R --by B`, and sex, handedness), or give "
                            "--birth-year, --sex and --handedness")
     return people[code]
 

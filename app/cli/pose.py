@@ -10,7 +10,14 @@ import math
 import sys
 from pathlib import Path
 
-from app.cli.common import CommandError, ProgressBar, input_file, registry_for, trial_id_or_none
+from app.cli.common import (
+    CommandError,
+    ProgressBar,
+    input_file,
+    registry_for,
+    rewritten_trial,
+    trial_id_or_none,
+)
 from device.safeinput import MAX_TEXT_BYTES
 
 # Without a terminal, progress is a line at every tenth.
@@ -71,14 +78,16 @@ def cmd_pose(args: argparse.Namespace) -> int:
     video = input_file(args.video, "--video") if args.video is not None else None
     homography = read_marks(marks) if marks is not None else None
     progress = _Progress(f"pose {path.name}")
-    outcome = estimate_pose(
-        path, lambda side: MediaPipePose(side, video=True),
-        video_path=video,
-        homography=homography,
-        reference=reference,
-        video_start_s=args.video_start_s, min_visibility=args.min_visibility,
-        max_residual_mm=args.max_residual_mm, drift_limit_m=args.drift_limit_cm / 100.0,
-        progress=progress.update, detect_every=args.every)
+    # a registered trial's file gets /pose after its end: its checksum follows
+    with rewritten_trial(args, args.trial, path, "the camera's pose"):
+        outcome = estimate_pose(
+            path, lambda side: MediaPipePose(side, video=True),
+            video_path=video,
+            homography=homography,
+            reference=reference,
+            video_start_s=args.video_start_s, min_visibility=args.min_visibility,
+            max_residual_mm=args.max_residual_mm, drift_limit_m=args.drift_limit_cm / 100.0,
+            progress=progress.update, detect_every=args.every)
     progress.done()
     _print(outcome)
     return 0

@@ -92,12 +92,14 @@ def cmd_progress(args: argparse.Namespace) -> int:
                            + ", ".join(prog.metric_names))
     rows_by_key = {r.key: r for r in ROWS}
     labels = [rows_by_key[m].heading if m in rows_by_key else m for m in wanted]
-    print(f"Progress of {args.code}: {len(rows)} trials, {len(prog.exercises)} exercises")
+    print(f"Progress of {args.code}: {_count(len(rows), 'trial')}, "
+          f"{_count(len(prog.exercises), 'exercise')}")
     for i, exercise in enumerate(prog.exercises):
         print(f"  exercise {i + 1}: {exercise.label()}")
     print(f"{'session':>7} {'trial':>5} {'ex':>3}  {'status':<15}{'help':<24}"
           + "".join(f"{label:>18}" for label in labels))
     index = {name: header.index(name) for name in wanted}
+    reason = header.index("invalid_reason")
     for i, (row, set_index) in enumerate(zip(rows, prog.exercise_index.tolist(),
                                              strict=True)):
         cells = []
@@ -109,9 +111,19 @@ def cmd_progress(args: argparse.Namespace) -> int:
         levels = prog.levels[i]
         help_text = levels.summary() if prog.levels_recorded[i] else \
             f"{levels.summary()} (built)"
-        print(f"{row[1]:>7} {row[2]:>5} {set_index + 1:>3}  {row[5]:<15}{help_text:<24}"
+        # --include-invalid: the row says it, and why below the table
+        status = "INVALID" if row[reason] else row[5]
+        print(f"{row[1]:>7} {row[2]:>5} {set_index + 1:>3}  {status:<15}{help_text:<24}"
               + "".join(f"{c:>18}" for c in cells))
+    for row in rows:
+        if row[reason]:
+            print(f"  session {row[1]} trial {row[2]} (id {row[0]}) marked invalid: "
+                  f"{row[reason]}")
     return 0
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}{'' if n == 1 else 's'}"
 
 
 # ------------------------------------------------------------------ report

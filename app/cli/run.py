@@ -126,8 +126,10 @@ def cmd_run(args: argparse.Namespace) -> int:
         if args.output:
             path = output_path(args, args.output)
         else:
+            from app.records.datadir import SIMULATED, TRIALS
+
             stamp = datetime.datetime.now(datetime.UTC).strftime("%Y%m%dT%H%M%SZ")
-            folder = data_dir_for(args).ensure("trials", "simulated")
+            folder = data_dir_for(args).ensure(TRIALS, SIMULATED)
             path = folder / f"SIM_{args.patient}_{stamp}.h5"
             if path.exists():
                 raise CommandError(f"{path} already exists; run again in a second")

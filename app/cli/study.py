@@ -27,6 +27,7 @@ from app.cli.common import (
 )
 from app.records.datadir import EXPORTS
 from app.records.registry import has_registry
+from device.safewrite import shown
 
 DEFAULT_OUTPUT = "study"
 """The default output, below the data folder's exports/."""
@@ -145,6 +146,13 @@ def _selection(args: argparse.Namespace, sources):
     if sources.is_query(text):
         return sources.from_registry(registry_for(args), text,
                                      include_invalid=args.include_invalid, site=args.site)
+    meant = text.strip().lower()
+    meant = meant if meant == sources.EVERY_PATIENT else meant.upper()
+    if not os.path.lexists(text) and sources.is_query(meant):
+        # `ppr5aww` or `ALL`: no such folder, and a query is case-sensitive
+        raise CommandError(f"FOLDER_OR_QUERY {shown(text)!r} is no folder; for the "
+                           f"registry give {meant!r} (a patient's code is 'P' and 6 "
+                           "capitals or digits; 'all' for every patient)")
     folder = input_folder(text, "FOLDER_OR_QUERY (a folder of trial files, a patient's "
                                 "code or 'all')")
     data_dir = data_dir_for(args)

@@ -150,21 +150,27 @@ def _settings(entry: dict) -> EmgSettings:
     return EmgSettings.from_dict(entry.get("settings"))
 
 
-def trial_envelopes(path: str | os.PathLike, *, as_live: bool = False) -> TrialEnvelopes:
+def trial_envelopes(path: str | os.PathLike, *, as_live: bool = False,
+                    with_mvc_only: bool = False) -> TrialEnvelopes:
     """The trial's envelopes in fractions of MVC on its ticks; refuses a muscle without
-    an MVC, naming it. `as_live`: each tick gets the envelope a live console had then,
-    its window ending there (core.emg.processing.as_known), not centred on it."""
+    an MVC, naming it, unless `with_mvc_only` (then only the muscles that have one: MVCs
+    recorded one muscle at a time, shown as they come). `as_live`: each tick gets the
+    envelope a live console had then, its window ending there
+    (core.emg.processing.as_known), not centred on it."""
     trial = read_trial(path)
     emg = trial_emg(path)
     missing = [m for m in emg.muscles if m not in emg.mvc]
-    if missing:
+    if missing and not with_mvc_only:
         raise EmgImportError(f"trial file {Path(path).name}: no MVC for {', '.join(missing)}; "
                              "record the session's MVC first (rehab emg mvc)")
-    values = np.full((trial.n_samples, len(emg.muscles)), np.nan)
+    muscles = tuple(m for m in emg.muscles if m in emg.mvc)
+    values = np.full((trial.n_samples, len(muscles)), np.nan)
     flags = {}
-    for c, muscle in enumerate(emg.muscles):
+    for c, muscle in enumerate(muscles):
+        c_emg = emg.muscles.index(muscle)
         entry = emg.mvc[muscle]
-        env = envelope(emg.samples[:, c], emg.rate_hz, _settings(entry), t0_s=emg.time_s[0])
+        env = envelope(emg.samples[:, c_emg], emg.rate_hz, _settings(entry),
+                       t0_s=emg.time_s[0])
         if as_live:
             env = as_known(env, emg.rate_hz, _settings(entry))
         # the envelope's stamps are on an even grid from the first sample; EMG on the
@@ -174,4 +180,4 @@ def trial_envelopes(path: str | os.PathLike, *, as_live: bool = False) -> TrialE
         env_on_clock = type(env)(stamps, normalise(env.values, entry["value_V"]))
         values[:, c] = on_time_base(env_on_clock, trial.time)
         flags[muscle] = tuple(entry.get("flags") or ())
-    return TrialEnvelopes(trial.time, values, emg.muscles, flags)
+    return TrialEnvelopes(trial.time, values, muscles, flags)

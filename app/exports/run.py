@@ -24,6 +24,9 @@ metrics (app.exports.loader's row keys, after `participant`, `session`, `trial` 
 the assistance mode, the levels as built and as they ran, the proposal and its decision,
 why it ended). A trial file that cannot be read is skipped and listed in the
 result's `failed`; `progress(fraction)` is called as trials are done.
+Exporting into a folder that holds an earlier export adds to it, as a BIDS export does:
+the index (and names.csv) keeps the rows of the other trials whose files are still there
+(app.exports.index).
 
 Privacy: exports hold pseudonymous codes, never names, and every file name is
 built from codes and numbers. With `include_names=True` (registry exports only)
@@ -31,17 +34,15 @@ the names go in one place: ``names.csv`` (participant, first_name, last_name) fo
 CSV/TSV/.mat, the first_name and last_name columns of participants.tsv for BIDS.
 
 Safety: nothing is overwritten unless `overwrite=True` — an export that would
-replace a file is refused before anything is written — and every file is
+replace a trial's file is refused before anything is written — and every file is
 written under a temporary name and moved into place when complete. A
 destination that cannot be written raises ExportError naming the folder.
 """
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import logging
-import math
 import os
 from collections.abc import Callable, Collection, Iterable, Mapping
 from pathlib import Path
@@ -51,10 +52,10 @@ from app.exports.columns import check_digits
 from app.exports.files import (
     ExportError,
     OutputExistsError,
-    output,
     prepare_folder,
     refuse_existing,
 )
+from app.exports.index import check_mergeable, write_index, write_names
 from app.exports.loader import Failure, Trial, load_trial
 from app.exports.mat import write_mat
 from app.exports.plan import (
@@ -140,8 +141,10 @@ def export_trials(
     names_file = root / f"names{suffix}"
     planned = {source: _outputs(format, root / source.folder, source.stem) for source in sources}
     _refuse_duplicates(planned)
-    refuse_existing([*(p for paths in planned.values() for p in paths), index,
-                     *([names_file] if names else [])], overwrite)
+    # the index and the names file add to an earlier export's (app.exports.index)
+    refuse_existing([p for paths in planned.values() for p in paths], overwrite)
+    for merged in (index, *([names_file] if names else [])):
+        check_mergeable(merged, suffix, overwrite)
 
     written: list[Path] = []
     rows: list[dict] = []
@@ -165,9 +168,9 @@ def export_trials(
                          "export_file": paths[0].relative_to(root).as_posix(), **row})
         if progress is not None:
             progress((i + 1) / len(planned))
-    written.append(_write_index(index, rows, suffix, overwrite))
+    written.append(write_index(index, rows, suffix, overwrite))
     if names:
-        written.append(_write_names(names_file, names, suffix, overwrite))
+        written.append(write_names(names_file, names, suffix, overwrite))
     log.info("%s export to %s: %d trial(s), %d file(s) written, %d trial(s) unreadable",
              format, root, len(rows), len(written), len(failed))
     return ExportResult(root, tuple(written), len(rows), tuple(failed))
@@ -302,37 +305,3 @@ def _refuse_duplicates(planned: Mapping[TrialSource, tuple[Path, ...]]) -> None:
                 f"{paths[0]}. Nothing was written. Export them to different folders"
             )
         first[paths[0]] = source.path
-
-
-def _write_index(path: Path, rows: list[dict], suffix: str, overwrite: bool) -> Path:
-    columns: dict[str, None] = {}
-    for row in rows:
-        columns.update(dict.fromkeys(row))
-    with output(path, overwrite=overwrite, text=True) as stream:
-        writer = csv.writer(stream, delimiter="\t" if suffix == ".tsv" else ",",
-                            lineterminator="\n")
-        writer.writerow(columns)
-        writer.writerows([_cell(row.get(c)) for c in columns] for row in rows)
-    return path
-
-
-def _write_names(path: Path, names: Mapping, suffix: str, overwrite: bool) -> Path:
-    with output(path, overwrite=overwrite, text=True) as stream:
-        writer = csv.writer(stream, delimiter="\t" if suffix == ".tsv" else ",",
-                            lineterminator="\n")
-        writer.writerow(("participant", "first_name", "last_name"))
-        writer.writerows((code, first or "", last or "")
-                         for code, (first, last) in sorted(names.items()))
-    return path
-
-
-def _cell(value) -> str:
-    if value is None:
-        return ""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, float):
-        if math.isfinite(value):
-            return repr(value)
-        return "NaN" if math.isnan(value) else ("Inf" if value > 0 else "-Inf")
-    return str(value)

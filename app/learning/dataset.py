@@ -99,6 +99,8 @@ def read_dataset(path: str | Path) -> Dataset:
     import h5py
 
     path = Path(path)
+    if path.is_dir():
+        raise DatasetError(path, "is a folder", "Give the dynamics data file (.h5) in it.")
     if not path.is_file():
         raise DatasetError(path, "no such file", "Check the path, or make one with "
                            "`rehab learn pendulum --output FILE`.")

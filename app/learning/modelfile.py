@@ -46,7 +46,7 @@ class ModelFileError(AppError):
     (app.learning.library) `kind`."""
 
     def __init__(self, path: object, reason: str, problem: str, advice: str) -> None:
-        self.path, self.reason = path, reason
+        self.path, self.reason, self.problem = path, reason, problem
         super().__init__(f"model {path}: {reason}: {problem}. {advice}")
 
 

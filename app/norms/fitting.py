@@ -188,9 +188,14 @@ def fit_norms(controls: Controls, source: str, *, simulated: bool = False,
         else:
             table[key] = values
     if not table:
+        # the people a rare level left out first: they are why "18 controls have it" when
+        # 22 were given
+        levels = [k for k in left_out if "=" in k]
+        shown = [*levels, *sorted(k for k in left_out if "=" not in k)[:3]]
+        kept = f"{len(controls.people)} controls kept; " if levels else ""
         raise NormsError(f"no figure has {MIN_CONTROLS} or more controls with a spread: "
-                         "nothing to fit (" + "; ".join(f"{k}: {v}" for k, v in
-                                                       sorted(left_out.items())[:3]) + ")")
+                         f"nothing to fit ({kept}"
+                         + "; ".join(f"{k}: {left_out[k]}" for k in shown) + ")")
     worse = {k: BETTER_TO_WORSE[figures_catalogue[k].better] for k in table}
     tasks = {}
     for task in tasks_catalogue:

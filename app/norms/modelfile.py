@@ -50,7 +50,7 @@ class NormsFileError(AppError):
                  advice: str = f"Give a norms file written by {WRITTEN_BY} or as "
                                "docs/norms.md describes.") -> None:
         self.path, self.problem = path, problem
-        super().__init__(f"norms file {path}: {problem}. {advice}")
+        super().__init__(f"norms file {path}: {problem}." + (f" {advice}" if advice else ""))
 
 
 def member(parent: str, key: str) -> str:
@@ -81,9 +81,12 @@ def load_norms(path: str | Path) -> NormativeModel:
     try:
         check_file(path, what="norms file")
     except InputRefused as exc:
-        advice = "Check the path." if "does not exist" in exc.problem else "Give the file."
-        problem = "no such file" if "does not exist" in exc.problem else exc.problem
-        raise NormsFileError(path, problem.rstrip("."), advice) from None
+        if "does not exist" in exc.problem:
+            raise NormsFileError(path, "no such file", "Check the path.") from None
+        # the refusal says what to give already ("is a folder: give a file")
+        problem = exc.problem.rstrip(".")
+        raise NormsFileError(path, problem, "" if "give" in problem else "Give the file.") \
+            from None
     try:
         if path.stat().st_size > MAX_BYTES:
             raise ValueError("too large")

@@ -52,6 +52,8 @@ from device.safewrite import OutputRefused, folder_problem, make_private_folders
 ENV_DATA_DIR = "REHAB_DATA_DIR"
 REGISTRY_NAME = "registry.sqlite3"
 TRIALS = "trials"
+# trials/simulated: `rehab run` without --code writes its unregistered trials there
+SIMULATED = "simulated"
 REPORTS = "reports"
 PRIVATE_FOLDER = safewrite.PRIVATE_FOLDER
 PRIVATE_FILE = safewrite.PRIVATE_FILE
@@ -360,3 +362,14 @@ def foreign_entries(root: Path) -> str:
         return ""
     listed = ", ".join(names[:3]) + (", …" if len(names) > 3 else "")
     return f"{len(names)} entr{'y' if len(names) == 1 else 'ies'}: {listed}"
+
+
+def registered_trial_count(trials_dir: Path) -> int:
+    """How many trial files below `trials_dir` a registry would own: every .h5 but those of
+    its simulated/ folder, which `rehab run` writes without --code and never registers. A
+    registry missing beside the others orphans them (check_registry_file); the simulated
+    ones alone orphan nothing, so they must not stop a first `rehab patients add`."""
+    if not trials_dir.is_dir():
+        return 0
+    simulated = trials_dir / SIMULATED
+    return sum(1 for path in trials_dir.rglob("*.h5") if not path.is_relative_to(simulated))

@@ -12,7 +12,9 @@ cannot both take, and trial files under its `data_dir`.
 The registry's other calls (changing a patient or session, opening a session by
 hand, backup and integrity checks, the schema version) are for maintenance and tests,
 and stay the registry's own. Recomputed metrics (`update_metrics`) are the interface's:
-an assessment's figures join its trial's metrics (app.assessments.runner).
+an assessment's figures join its trial's metrics (app.assessments.runner); so is the
+checksum of a file the console wrote into after its trial (`record_rewritten`,
+app.trials.rewrite).
 
 Code that receives a store types it `RecordStore`; code that opens one (the
 command line, the window's start-up) makes a `Registry`.
@@ -112,6 +114,10 @@ class RecordStore(Protocol):
 
     def update_metrics(self, trial_id: int, metrics: Mapping[str, float], *,
                        replace: bool = False) -> Trial: ...
+
+    def record_rewritten(self, trial_id: int, checksum: str) -> Trial: ...
+
+    def verify_trial_file(self, trial: Trial | int) -> str | None: ...
 
     def trial(self, trial_id: int) -> Trial: ...
 

@@ -49,6 +49,20 @@ LOCAL_PATIENCE_S = 600.0
 this machine, so only a stalled machine is slow, and a stall is waited out."""
 
 
+class _QuietShutdown(logging.Filter):
+    """Drops the nanny's 'Worker process still alive after 4.0 seconds, killing' of a local
+    worker stopped at the end: the study's results are written by then, and on a busy
+    machine a worker that takes longer than Dask's 4 s to exit is killed, which costs
+    nothing. Said as a warning after a study that succeeded, it made a newcomer think
+    something had failed."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return not record.getMessage().startswith("Worker process still alive after")
+
+
+QUIET_SHUTDOWN = _QuietShutdown()
+
+
 def scheduler_address(text: str) -> str:
     """The scheduler's address as Dask takes it (`tcp://host:port`), from what was typed
     (`host:port` means tcp); AppError saying what is wrong otherwise."""
@@ -92,6 +106,10 @@ def study_client(scheduler: str | None = None, *, workers: int = LOCAL_WORKERS,
                               "distributed.comm.timeouts.tcp": patience,
                               "distributed.deploy.lost-worker-timeout": patience,
                               **QUIET_WORKERS}), contextlib.ExitStack() as stack:
+            # first in, last out: still there while the cluster stops
+            nanny = logging.getLogger("distributed.nanny")
+            nanny.addFilter(QUIET_SHUTDOWN)
+            stack.callback(nanny.removeFilter, QUIET_SHUTDOWN)
             try:
                 cluster = stack.enter_context(LocalCluster(
                     n_workers=workers, threads_per_worker=1, processes=True,

@@ -36,18 +36,35 @@ LOOPBACK_CONFIG = (
 throw the whole file away, so it is written whole, never patched."""
 
 
+QUIET_CONFIG = "; liblsl's defaults, without its log (device.lsl.library)\n[log]\nlevel = -2\n"
+"""What liblsl runs with when nobody configured it: its defaults (a lab's network), but
+without the INFO line ("api_config.cpp:126 INFO| Loaded default config") it otherwise
+writes on stderr at its first use, under a command's own output."""
+
+
+def user_config_files() -> tuple[Path, ...]:
+    """Where liblsl looks for a configuration besides LSLAPICFG, in its order (liblsl's
+    api_config.cpp): the working folder, the user's, the system's."""
+    return (Path("lsl_api.cfg"), Path.home() / "lsl_api" / "lsl_api.cfg",
+            Path("/etc/lsl_api/lsl_api.cfg"))
+
+
 class LslError(DeviceError):
     """A stream is missing or not what was asked; one line."""
 
 
 def pylsl():
-    """The pylsl module, or one line saying why it cannot be loaded."""
+    """The pylsl module, or one line saying why it cannot be loaded. liblsl gets
+    QUIET_CONFIG unless a configuration of the lab's or the tests' is there."""
     try:
         import pylsl as module
     except (ImportError, RuntimeError, OSError) as exc:
         raise LslError(f"the Lab Streaming Layer library cannot be loaded ({exc}); pylsl 1.18.6 "
                        "ships liblsl for Linux with glibc 2.35 or newer: on an older system "
                        "install liblsl from its releases or use mne-lsl") from None
+    if not os.environ.get("LSLAPICFG") and not any(p.is_file() for p in user_config_files()):
+        # read by liblsl once, at its first use; set again later, it changes nothing
+        module.set_config_content(QUIET_CONFIG)
     return module
 
 

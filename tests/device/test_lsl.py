@@ -331,3 +331,29 @@ def test_a_marker_waits_for_its_record_and_goes_out_at_its_send_time_when_it_nev
     old = TrialMarker("fault", "", {}, 1, 3, 77.0)
     queue.add(old)
     assert queue.ready(clocks) == [(old, 77.0)]
+
+
+def test_liblsl_is_quiet_unless_someone_configured_it(monkeypatch, tmp_path):
+    """`rehab emg streams` printed liblsl's 'api_config.cpp:126 INFO| Loaded default
+    config' under its answer: with no configuration of the lab's (LSLAPICFG, lsl_api.cfg),
+    liblsl gets its defaults without the log; a lab's or the tests' own is left alone."""
+    import sys
+    import types
+
+    from device.lsl import library
+
+    given = []
+    fake = types.SimpleNamespace(set_config_content=given.append)
+    monkeypatch.setitem(sys.modules, "pylsl", fake)
+    lab = tmp_path / "lsl_api.cfg"
+    monkeypatch.setattr(library, "user_config_files", lambda: (lab,))
+    monkeypatch.delenv("LSLAPICFG", raising=False)
+    assert library.pylsl() is fake
+    assert given == [library.QUIET_CONFIG]
+    lab.write_text("[log]\nlevel = 0\n")
+    library.pylsl()
+    assert given == [library.QUIET_CONFIG]  # the lab's file is liblsl's to read
+    lab.unlink()
+    monkeypatch.setenv("LSLAPICFG", str(tmp_path / "tests.cfg"))
+    library.pylsl()
+    assert given == [library.QUIET_CONFIG]

@@ -20,7 +20,13 @@ import sqlite3
 from pathlib import Path
 
 from app.errors import RegistryError, SchemaError
-from app.records.datadir import ENV_DATA_DIR, DataDir, foreign_entries
+from app.records.datadir import (
+    ENV_DATA_DIR,
+    SIMULATED,
+    DataDir,
+    foreign_entries,
+    registered_trial_count,
+)
 from app.records.registry import numbering, proposals, provenance, seals, stores
 from app.records.registry.database import Database, rollback
 from app.records.registry.postgres import registry_version
@@ -364,9 +370,8 @@ def check_registry_file(path: Path, trials_dir: Path) -> bool | None:
         with path.open("rb") as stream:
             header = stream.read(len(SQLITE_HEADER))
     except FileNotFoundError:
-        kept = next(iter(trials_dir.rglob("*.h5")), None) if trials_dir.is_dir() else None
-        if kept is not None:
-            count = sum(1 for _ in trials_dir.rglob("*.h5"))
+        count = registered_trial_count(trials_dir)
+        if count:
             raise RegistryError(
                 f"the registry {path} is missing, but {trials_dir} holds {count} trial "
                 "file(s): restore the registry from a backup (a registry.sqlite3.v*.bak "
@@ -465,9 +470,12 @@ def refuse_missing_registry(data_dir: DataDir) -> None:
         what = "that is a file, not a folder"
     else:
         others = foreign_entries(root)
-        trials = data_dir.trials_dir
-        count = sum(1 for _ in trials.rglob("*.h5")) if trials.is_dir() else 0
-        what = ("the folder is empty" if not others and not count else
+        count = registered_trial_count(data_dir.trials_dir)
+        simulated = data_dir.trials_dir / SIMULATED
+        empty = ("it holds only `rehab run`'s unregistered simulated trials"
+                 if simulated.is_dir() and any(simulated.rglob("*.h5")) else
+                 "the folder is empty")
+        what = (empty if not others and not count else
                 f"the folder holds {count} trial file(s) but no registry: restore the "
                 "registry from a backup" if count else f"the folder holds {others}")
     raise RegistryError(

@@ -138,11 +138,23 @@ def session_id_of(conn: sa.Connection, registry: Path, code: str, number: int) -
     row = execute(conn, "SELECT id FROM sessions WHERE patient_id = ? AND number = ?",
                         (patient, number)).fetchone()
     if row is None:
-        raise SessionNotFound(
-            f"patient {code} has no session {number}; their sessions are listed by "
-            "Registry.sessions"
-        )
+        # said to whoever typed the number (the window, `rehab scales add`): which numbers
+        # there are, not the API that lists them
+        numbers = [n for (n,) in execute(
+            conn, "SELECT number FROM sessions WHERE patient_id = ? ORDER BY number",
+            (patient,)).fetchall()]
+        there = (f"their sessions are {_listed(numbers)}" if numbers else
+                 "they have none yet: a session begins with its first trial")
+        raise SessionNotFound(f"patient {code} has no session {number}; {there}")
     return row[0]
+
+
+def _listed(numbers: list[int]) -> str:
+    """'1, 2 and 3', or the first two and the last four of a long list."""
+    shown = [str(n) for n in numbers]
+    if len(shown) > 6:
+        shown = [*shown[:2], "…", *shown[-4:]]
+    return shown[0] if len(shown) == 1 else f"{', '.join(shown[:-1])} and {shown[-1]}"
 
 
 def next_session_number_of(conn: sa.Connection, patient: int) -> int:

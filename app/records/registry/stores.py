@@ -18,7 +18,7 @@ every trial before it, and every trial not copied yet, has NULL there.
 from __future__ import annotations
 
 from app.errors import InvalidRecordError, RegistryError
-from app.records.registry import seals
+from app.records.registry import provenance, seals
 from app.records.registry.database import Database
 from app.records.registry.statements import execute
 from app.records.registry.trials import (
@@ -61,6 +61,23 @@ class Stores(Database):
             if trial.stored_in != store:
                 execute(conn, "UPDATE trials SET stored_in = ? WHERE id = ?",
                         (store, trial_id))
+        return self.trial(trial_id)
+
+    def record_rewritten(self, trial_id: int, checksum: str) -> Trial:
+        """The SHA-256 of a finished trial's file after the console itself wrote into it
+        (an assessment's task figures, imported EMG, the session's MVCs, the pose from the
+        video; app.trials.rewrite, which checks the file was the one recorded first), so
+        that the file can still be proven the trial's. A copy in the trial store is of the
+        file before: the trial is no longer recorded as stored (the store never replaces a
+        file; app.records.trialstore says so when it meets the old copy). A trial without a
+        checksum is left as it is."""
+        checksum = provenance.checked_checksum(checksum)
+        with self._write() as conn:
+            trial = trial_by_id(conn, self.where, trial_id, lock=True)
+            if trial.status == STATUS_RECORDING or trial.checksum is None:
+                return trial
+            execute(conn, "UPDATE trials SET checksum = ?, stored_in = NULL WHERE id = ?",
+                    (checksum, trial_id))
         return self.trial(trial_id)
 
     def trials_to_store(self, station: str | None = None) -> list[Trial]:

@@ -59,3 +59,23 @@ def test_a_bad_request_is_one_line(data, patient, capsys, args, needle):
     assert len(err.strip().splitlines()) == 1, err
     registry = Registry(DataDir(data))
     assert registry.trials_for_patient(patient) == []
+
+
+def test_a_patient_who_cannot_reach_round_the_default_centre_is_told_of_centre(data, capsys):
+    """A shorter arm (0.29 + 0.27 m) cannot reach the targets round the table's default
+    centre: the refusal said "move the exercise", which `assess run` had no way to do."""
+    code, out, err = run(["patients", "add", "--first-name", "Dee", "--body-mass", "65",
+                          "--upper-arm", "0.29", "--forearm", "0.27", "--side", "right",
+                          "--shoulder", "-0.12", "0.73"], capsys)
+    assert code == 0, err
+    patient = out.strip()
+    code, _, err = run(["assess", "run", patient, "--task", "reaching"], capsys)
+    assert code == 2
+    assert len(err.strip().splitlines()) == 1, err
+    assert "move the tasks with --centre X Y, now -0.3 0.3 m" in err
+    code, _, err = run(["assess", "run", patient, "--task", "reaching", "--centre", "-0.25",
+                        "0.38"], capsys)
+    assert code == 0, err
+    (trial,) = Registry(DataDir(data)).trials_for_patient(patient)
+    assert trial.status == "complete"
+    assert trial.parameters["centre_m"] == [-0.25, 0.38]

@@ -61,6 +61,22 @@ def test_mvc_then_show_in_percent_of_mvc(made, tmp_path, capsys):
     assert all("%" in line for line in lines)
 
 
+def test_show_after_one_muscle_s_mvc_shows_it_and_names_the_others(made, tmp_path, capsys):
+    """MVCs recorded one muscle at a time are kept side by side; `emg show` refused the
+    whole trial ('no MVC for triceps, anterior_deltoid') until all were there."""
+    trial = shutil.copy(made[1], tmp_path / "s.h5")
+    path, channel = made[2]["biceps"]
+    code, _, err = run(["emg", "mvc", str(trial), "--contraction",
+                        f"biceps={path}:{channel}"], capsys)
+    assert code == 0, err
+    code, out, err = run(["emg", "show", str(trial)], capsys)
+    assert code == 0, err
+    rows = {line.split()[0]: line for line in out.splitlines()[2:]}
+    assert "%" in rows["biceps"]
+    assert "no MVC yet" in rows["triceps"]
+    assert "no MVC yet" in rows["anterior_deltoid"]
+
+
 def test_demo_writes_a_trial_to_try_the_commands_on(tmp_path, capsys):
     code, out, err = run(["emg", "demo", str(tmp_path / "demo"), "--bad-mvc", "0.08",
                           "--engine", "python"], capsys)
@@ -71,6 +87,9 @@ def test_demo_writes_a_trial_to_try_the_commands_on(tmp_path, capsys):
     assert "anterior_deltoid" in out
     assert "FLAGGED: below_trial_activity" in out
     assert "warning: anterior_deltoid: the trial reaches" in out
+    code, out, _ = run(["emg", "show", str(tmp_path / "demo" / "synthetic_S2.h5")], capsys)
+    assert code == 0
+    assert out.splitlines()[0].endswith(" s (synthetic)"), out  # was "(synthetic, )"
     code, _, err = run(["emg", "demo", str(tmp_path / "demo"), "--engine", "python"], capsys)
     assert code == 2
     assert "already exists" in err
@@ -113,6 +132,10 @@ def test_record_a_guided_mvc_from_the_fake_trigno(tmp_path, capsys):
     (["emg", "mvc", "{plain}", "--contraction", "biceps"], "MUSCLE=FILE"),
     (["emg", "mvc", "{plain}", "--contraction", f"biceps={DATA / 'plain.csv'}"], "has no EMG"),
     (["emg", "show", "{plain}"], "has no EMG"),
+    # a file that is not HDF5 (a report given by mistake): the console's words, not h5py's
+    (["emg", "show", str(DATA / "plain.csv")], "is not an HDF5 file"),
+    (["emg", "mvc", str(DATA / "plain.csv"), "--contraction", f"b={DATA / 'plain.csv'}"],
+     "is not an HDF5 file"),
     (["emg", "streams", "--wait", "0"], "--wait"),
     (["emg", "record", "usb:x", "--output", "{plain}.csv"], "give trigno:HOST, avanti:HOST or lsl"),
     (["emg", "record", "lsl:x", "--output", "{plain}.csv", "--seconds", "0"], "--seconds 0"),

@@ -76,7 +76,8 @@ def test_import_refuses_what_the_console_would_not_run(tmp_path, monkeypatch, ca
     deep = tmp_path / "deep.json"
     deep.write_text("[" * 200_000 + "]" * 200_000)
     for file, expected in ((damaged, "content hash"), (huge, "weights"), (deep, "format"),
-                           (tmp_path / "none.json", "not a file")):
+                           (tmp_path / "none.json", "none.json does not exist; check the"),
+                           (tmp_path, "is not a file")):
         code, _, err = run(["models", "import", str(file)], capsys)
         assert code == 2, file
         assert expected in err
@@ -105,3 +106,25 @@ def test_evaluate_refuses_a_model_with_a_weight_of_1e308(tmp_path, monkeypatch, 
     assert "inf" not in out
     assert err.count("\n") == 1
     del models
+
+
+def test_list_refuses_a_model_that_is_not_of_the_robot_as_a_trial_would(tmp_path, monkeypatch,
+                                                                        capsys):
+    """A pendulum's DeLaN imported into models/ was listed 'usable', while `rehab run
+    --learned-model` and the Parameters tab refuse it: list now checks what they check."""
+    models = installation(monkeypatch, tmp_path / "here")
+    params = {k: np.random.default_rng(0).normal(size=s)
+              for k, s in nw.param_shapes(SPEC).items()}
+    write_model(models / "pendulum.json", "pendulum", SPEC, params,
+                {"system": "sliding-inverted-pendulum", "dof": 2}, {}, {})
+    trained(models)
+    code, out, _ = run(["models", "list"], capsys)
+    assert code == 0
+    lines = dict(line.split(None, 2)[1:] for line in out.splitlines())
+    assert lines["fnn-robot"] == "usable"
+    assert lines["pendulum"] == ("refused: system (the model was trained on "
+                                 "'sliding-inverted-pendulum', not on the robot)")
+    code, _, err = run(["run", "--learned-model", "pendulum", "--repetitions", "1",
+                        "--output", str(tmp_path / "t.h5")], capsys)
+    assert code == 2
+    assert "not on the robot" in err

@@ -52,3 +52,36 @@ def test_the_first_patient_starts_a_registry_in_a_new_folder(tmp_path, capsys):
     code, out, _ = run(["--data-dir", str(new), "patients"], capsys)
     assert code == 0
     assert out.startswith("P")
+
+
+def test_simulated_trials_before_the_first_patient_do_not_block_the_registry(tmp_path,
+                                                                             capsys):
+    """The README's order: `rehab run --patient weak` first (its unregistered file goes to
+    trials/simulated/), then `rehab patients add`. The simulated files belong to no
+    registry, so they orphan nothing; they used to be counted as a lost registry's trials
+    and every first `patients add` was refused."""
+    new = tmp_path / "data"
+    simulated = new / "trials" / "simulated"
+    simulated.mkdir(parents=True)
+    (simulated / "SIM_weak_20260101T000000Z.h5").write_bytes(b"a trial")
+    code, _, err = run(["--data-dir", str(new), "patients"], capsys)
+    assert code == 2
+    assert "only `rehab run`'s unregistered simulated trials" in err
+    code, _, err = run(["--data-dir", str(new), "patients", "add", "--first-name", "A"],
+                         capsys)
+    assert code == 0, err
+    assert (new / "registry.sqlite3").is_file()
+
+
+def test_a_registered_trial_beside_simulated_ones_still_asks_for_the_registry(tmp_path,
+                                                                             capsys):
+    new = tmp_path / "data"
+    (new / "trials" / "simulated").mkdir(parents=True)
+    (new / "trials" / "simulated" / "SIM_weak_20260101T000000Z.h5").write_bytes(b"x")
+    (new / "trials" / "P0000000").mkdir()
+    (new / "trials" / "P0000000" / "P0000000_S001_T001_20260101T000000Z.h5").write_bytes(b"x")
+    code, _, err = run(["--data-dir", str(new), "patients", "add", "--first-name", "A"],
+                       capsys)
+    assert code == 2
+    assert "holds 1 trial file(s)" in err
+    assert not (new / "registry.sqlite3").exists()

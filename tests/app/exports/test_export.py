@@ -478,6 +478,53 @@ def test_a_second_batch_export_is_refused_unless_overwrite(registry, tmp_path, f
     assert not list((tmp_path / "out").rglob("*.part"))
 
 
+@pytest.mark.parametrize(("format", "index"), [("csv", "trials.csv"), ("tsv", "trials.tsv"),
+                                               ("mat", "trials.csv")])
+def test_patient_after_patient_into_one_folder_adds_to_its_index(tmp_path, format, index):
+    """Exporting a second patient into the folder of the first (the data folder's
+    exports/<format> is every export's default) was refused for the index alone, and with
+    overwrite the index listed only the second patient while the first's files stayed
+    beside it. As BIDS adds to its dataset, the index and names.csv now keep the other
+    trials' rows."""
+    registry = Registry(DataDir(tmp_path / "data"))
+    codes = []
+    for seed, (first, last) in enumerate((("Ann", "One"), ("Bo", "Two"))):
+        code = registry.create_patient(first, last, body_mass_kg=70.0).code
+        begun = registry.begin_trial(code, D, backend="simulator")
+        write(begun.path, seed=seed, code=code)
+        registry.finish_trial(begun.trial_id, "complete", {"rmse_x_m": 0.001})
+        codes.append(code)
+    out = tmp_path / "out"
+    delimiter = "\t" if format == "tsv" else ","
+    names = "names.tsv" if format == "tsv" else "names.csv"
+    export_patient(registry, codes[0], out, format=format, include_names=True)
+    export_patient(registry, codes[1], out, format=format, include_names=True)
+    rows = read_rows(out / index, delimiter)
+    assert [r[0] for r in rows[1:]] == codes
+    assert all((out / r[3]).is_file() for r in rows[1:])
+    assert [r[:2] for r in read_rows(out / names, delimiter)[1:]] == sorted(
+        [[codes[0], "Ann"], [codes[1], "Bo"]])
+    # the second again, replacing its files: the first's row stays
+    export_patient(registry, codes[1], out, format=format, overwrite=True)
+    assert [r[0] for r in read_rows(out / index, delimiter)[1:]] == codes
+    # a row whose files were removed meanwhile is dropped
+    for path in (out / codes[0]).iterdir():
+        path.unlink()
+    export_patient(registry, codes[1], out, format=format, overwrite=True)
+    assert [r[0] for r in read_rows(out / index, delimiter)[1:]] == [codes[1]]
+
+
+def test_an_index_the_console_did_not_write_is_not_added_to(registry, tmp_path):
+    registry, code = registry
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / "trials.csv").write_text("x,y\n1,2\n")
+    with pytest.raises(OutputExistsError, match="not an index of the console's exports"):
+        export_patient(registry, code, tmp_path / "out")
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["trials.csv"]
+    export_patient(registry, code, tmp_path / "out", overwrite=True)
+    assert read_rows(tmp_path / "out" / "trials.csv", ",")[0][0] == "participant"
+
+
 def test_unwritable_destination_names_the_folder(trial, tmp_path, monkeypatch):
     blocker = tmp_path / "file"
     blocker.write_text("in the way")

@@ -88,6 +88,8 @@ def test_bad_file_refused_by_its_fault(tmp_path, change, message):
 def test_missing_and_not_hdf5_refused(tmp_path):
     with pytest.raises(DatasetError, match="no such file"):
         read_dataset(tmp_path / "none.h5")
+    with pytest.raises(DatasetError, match="is a folder"):  # it said "no such file"
+        read_dataset(tmp_path)
     (tmp_path / "text.h5").write_text("q,qd\n")
     with pytest.raises(DatasetError, match="is not an HDF5 file"):
         read_dataset(tmp_path / "text.h5")

@@ -73,6 +73,7 @@ def _refused(capsys, args, words):
     assert code == 2, (out, err)
     assert words in err, err
     assert err.count("\n") == 1
+    return err
 
 
 def test_fit_refusals(tmp_path, data, capsys):
@@ -195,7 +196,8 @@ def test_what_is_not_a_file_is_refused_as_such(tmp_path, capsys):
     fifo = tmp_path / "pipe.json"
     os.mkfifo(fifo)
     _refused(capsys, ["norms", "show", str(fifo)], "not a plain file")
-    _refused(capsys, ["norms", "show", str(tmp_path)], "is a folder")
+    err = _refused(capsys, ["norms", "show", str(tmp_path)], "is a folder")
+    assert err.rstrip().endswith("is a folder: give a file."), err  # said once, not twice
 
 
 def test_a_rare_level_is_left_out_and_said(tmp_path, data, capsys):
@@ -226,6 +228,26 @@ def test_a_rare_level_is_left_out_and_said(tmp_path, data, capsys):
     with pytest.raises(NormsError, match="handedness 'left'"):
         model.z("range_area_m2", 0.05, Covariates(50, "male", "left", "right",
                                                   "simulator-realistic"))
+
+
+def test_too_few_after_a_rare_level_says_the_level_first(tmp_path, data, capsys):
+    """22 controls, 4 of them left-handed: the 4 are left out, 18 remain, and the refusal
+    said only '18 controls have it, fewer than 20' of three figures, never why 18."""
+    import csv as _csv
+
+    controls = write_controls(tmp_path / "controls.csv", n=22, seed=2)
+    with controls.open() as f:
+        rows = list(_csv.reader(f))
+    header, body = rows[0], rows[1:]
+    hand = header.index("handedness")
+    for i, row in enumerate(body):
+        row[hand] = "left" if i < 4 else "right"
+    with controls.open("w", newline="") as f:
+        _csv.writer(f).writerows([header, *body])
+    err = _refused(capsys, ["norms", "fit", "--controls", str(controls), "--source", "s",
+                            "--output", str(tmp_path / "n.json")], "nothing to fit")
+    assert ("nothing to fit (18 controls kept; handedness=left: 4 controls with it, fewer "
+            "than 5") in err
 
 
 def test_a_patient_at_zero_gets_a_z_score(tmp_path, data, capsys):

@@ -68,7 +68,9 @@ def test_score_refusals(tmp_path, files, data, capsys):
         ([str(exercise), "--norms", str(norms), *person], "is not an assessment trial"),
         ([str(trial), "--norms", str(norms), "--sex", "male"], "together"),
         ([str(trial), *person], "uses no norms"),
-        ([str(trial), "--norms", str(norms)], "registry"),
+        ([str(trial), "--norms", str(norms)], "its subject 'SIM' is no registered patient"),
+        # not an assessment, said first: the registry's covariates were asked for before
+        ([str(exercise), "--norms", str(norms)], "is not an assessment trial"),
         ([str(tmp_path / "none.h5"), "--norms", str(norms), *person], "none.h5"),
     ]:
         code, out, err = run(["norms", "score", *args], capsys)
@@ -93,6 +95,7 @@ def test_the_person_from_the_registry(tmp_path, files, registry, capsys):
     code, _, err = run(["norms", "score", str(trial), "--norms", str(norms)], capsys)
     assert code == 2
     assert "has no birth year, sex and handedness in the registry" in err
+    assert f"`rehab correct {unknown.code} birth_year YEAR" in err  # a command that exists
 
 
 def test_one_figure_beyond_the_norms_leaves_the_others_scored(tmp_path, files, data, capsys):

@@ -33,8 +33,14 @@ def test_an_invalid_trial_leaves_progress_and_comes_back_when_asked(tmp_path, ca
 
     _, out, _ = run(["progress", code], capsys)
     assert "2 trials" in out
+    assert "INVALID" not in out
     _, out, _ = run(["progress", code, "--include-invalid"], capsys)
-    assert "3 trials" in out
+    assert "3 trials, 1 exercise\n" in out
+    # the table says which row is invalid, and why (it used to show it as 'complete')
+    (row,) = [line for line in out.splitlines() if line.split()[:2] == ["1", "2"]]
+    assert row.split()[3] == "INVALID"
+    assert (f"  session 1 trial 2 (id {ids[1]}) marked invalid: the robot was bumped"
+            in out)
 
     registry.mark_trial(ids[1], valid=True, reason="replayed: fine", by="K. Lee")
     assert [t.id for t in progress(registry, code, check_files=False).trials] == ids

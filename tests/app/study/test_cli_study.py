@@ -76,6 +76,10 @@ def test_bad_inputs_are_one_line_and_exit_2(study, tmp_path, capsys, data):
         "no workers": (["study", "analyse", str(study), "--workers", "0", *out], "--workers"),
         "empty query": (["study", "analyse", " ", *out], "empty"),
         "no registry": (["study", "analyse", "P1ZTTAQ", *out], "no registry"),
+        # a query in the wrong case used to be taken for a folder: "does not exist"
+        "code in lower case": (["study", "analyse", "p1zttaq", *out],
+                               "is no folder; for the registry give 'P1ZTTAQ'"),
+        "ALL": (["study", "analyse", "ALL", *out], "for the registry give 'all'"),
     }
     for name, (argv, words) in cases.items():
         code, printed, err = run(argv, capsys)
