@@ -175,26 +175,13 @@ def rewritten_trial(args: argparse.Namespace, text: str, path: Path, what: str):
     import contextlib
 
     from app.records.registry import has_registry
-    from app.trials.rewrite import rewriting
+    from app.trials.rewrite import rewriting, rewriting_files
 
     number = trial_id_or_none(text)
-    if number is None:
-        data_dir = data_dir_for(args)
-        trials = data_dir.trials_dir.resolve()
-        where = Path(path).resolve()
-        if not (where.is_relative_to(trials) and has_registry(data_dir)):
-            return contextlib.nullcontext()
-        registry = registry_for(args)
-        from app.errors import AppError
-
-        try:  # the data folder's trials/<code>/<file>.h5
-            found = [t.id for t in registry.trials_for_patient(where.parent.name)
-                     if registry.trial_path(t).resolve() == where]
-        except AppError:  # trials/simulated/: no patient's
-            found = []
-        if not found:
-            return contextlib.nullcontext()
-        number = found[0]
-    else:
-        registry = registry_for(args)
-    return rewriting(registry, number, what)
+    if number is not None:
+        return rewriting(registry_for(args), number, what)
+    data_dir = data_dir_for(args)
+    if not (Path(path).resolve().is_relative_to(data_dir.trials_dir.resolve())
+            and has_registry(data_dir)):
+        return contextlib.nullcontext()
+    return rewriting_files(registry_for(args), [path], what)

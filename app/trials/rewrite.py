@@ -17,7 +17,9 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import os
 from collections.abc import Iterator
+from pathlib import Path
 
 from app.records.registry.provenance import file_checksum
 from app.records.store import RecordStore
@@ -37,3 +39,34 @@ def rewriting(registry: RecordStore, trial_id: int, what: str) -> Iterator[None]
     registry.record_rewritten(trial_id, file_checksum(registry.trial_path(trial)))
     log.info("trial %d: its file now holds %s; its checksum is recorded again", trial_id,
              what)
+
+
+def trial_of_file(registry: RecordStore, path: str | os.PathLike) -> int | None:
+    """The registered trial whose file `path` is, or None: a file outside the data folder's
+    `trials/<code>/`, or of no registered trial (`trials/simulated/`, a copy)."""
+    from app.errors import AppError
+
+    where = Path(path).resolve()
+    try:
+        trials = registry.trials_for_patient(where.parent.name)
+    except AppError:  # no patient of that code
+        return None
+    for trial in trials:
+        try:
+            if registry.trial_path(trial).resolve() == where:
+                return trial.id
+        except AppError:  # a stored path the data folder refuses: not this file
+            continue
+    return None
+
+
+@contextlib.contextmanager
+def rewriting_files(registry: RecordStore, paths, what: str) -> Iterator[None]:
+    """`rewriting` for each of `paths` that is a registered trial's file (the others are
+    written as they are)."""
+    with contextlib.ExitStack() as stack:
+        for path in paths:
+            trial_id = trial_of_file(registry, path)
+            if trial_id is not None:
+                stack.enter_context(rewriting(registry, trial_id, what))
+        yield

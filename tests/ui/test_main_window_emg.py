@@ -49,6 +49,15 @@ def _stored(qtbot, path):
     return _readable(qtbot, lambda: read_emg(path))
 
 
+def _checked_in_registry(qtbot, win) -> str:
+    """The last trial's file is the one its registry records (its checksum), once the
+    window's jobs are done; that checksum."""
+    registry = win.registry
+    trial = registry.trials_for_patient(win.patient.code)[-1]
+    qtbot.waitUntil(lambda: registry.verify_trial_file(trial.id) is None, timeout=20000)
+    return registry.trial(trial.id).checksum
+
+
 def _run_trial(qtbot, win, during=None) -> None:
     """Build, connect, start; `during()` while it runs; back to CONNECTED."""
     if win.built is None:
@@ -92,6 +101,9 @@ def test_live_emg_is_stored_with_the_trial_when_its_file_closes(qtbot, tmp_path,
             assert np.median(step) == pytest.approx(0.0135 / 26, rel=1e-3)
             assert emg.capture is not None
             assert emg.capture.running  # streams on
+            # the EMG went into the file after the trial's finish recorded its checksum:
+            # the registry keeps the file's new one (exports and studies read it)
+            _checked_in_registry(qtbot, win)
         finally:
             emg.stop_live()
             win.close()
@@ -151,6 +163,14 @@ def test_the_session_mvcs_give_live_and_stored_percent_mvc(qtbot, tmp_path, monk
                              not emg_view(win.trial_path).message else None)
             biceps = view.percent[:, view.muscles.index("biceps")]
             assert np.nanmedian(biceps) == pytest.approx(40, rel=0.1)
+            _checked_in_registry(qtbot, win)
+            # an MVC recorded again after the trial goes into the session's trials so far
+            before = win.registry.trials_for_patient(win.patient.code)[-1].checksum
+            server.signal.level[:3] = (2e-4, 2e-4, 8e-4)  # pushing, as for an MVC
+            record(qtbot, win, "anterior_deltoid")
+            qtbot.waitUntil(lambda: _said(win, "The session's MVCs are stored in its"),
+                            timeout=60000)
+            assert _checked_in_registry(qtbot, win) != before
         finally:
             win.emg.stop_live()
             win.close()

@@ -39,13 +39,19 @@ PLAY_INTERVAL_MS = 40
 SPEEDS = (0.25, 0.5, 1.0, 2.0, 4.0)
 
 
-def pose_then_view(path: Path, progress) -> TrialView:
+def pose_then_view(path: Path, progress, registry: RecordStore | None = None) -> TrialView:
     """Pose estimation of a trial's video into its file (app.pose.offline, MediaPipe), then
-    the trial read again with it (runs off the GUI thread)."""
+    the trial read again with it (runs off the GUI thread). A registered trial's file
+    keeps its new checksum in `registry` (app.trials.rewrite)."""
+    import contextlib
+
     from app.pose.offline import estimate_pose
+    from app.trials.rewrite import rewriting_files
     from device.camera.detector import MediaPipePose
 
-    estimate_pose(path, lambda side: MediaPipePose(side, video=True), progress=progress)
+    with (rewriting_files(registry, [path], "the camera's pose") if registry is not None
+          else contextlib.nullcontext()):
+        estimate_pose(path, lambda side: MediaPipePose(side, video=True), progress=progress)
     return load_view(path)
 
 
@@ -285,7 +291,8 @@ class ReplayTab(QWidget):
         def progress(fraction: float) -> None:
             self._pose_fraction = fraction  # read by the GUI thread's timer
 
-        self.pose_job.submit(view.source, pose_then_view, view.source, progress)
+        self.pose_job.submit(view.source, pose_then_view, view.source, progress,
+                            self.registry)
 
     def _pose_done(self, path, view: TrialView) -> None:
         self.pose_timer.stop()
