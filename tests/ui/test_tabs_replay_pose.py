@@ -83,3 +83,35 @@ def test_a_trial_without_a_video_offers_no_pose(qtbot, tab, tmp_path):
     opened(qtbot, tab, path)
     assert not tab.pose_button.isEnabled()
     assert "No video" in tab.pose_status.text()
+
+
+def test_a_registered_trial_s_pose_keeps_its_file_the_registry_s(qtbot, tab, tmp_path,
+                                                                  monkeypatch):
+    """The pose goes into the file after the trial ended: the registry records the file's
+    new checksum, so exports and studies still read it as the trial's."""
+    import device.camera.detector as detector
+    from app.records.datadir import DataDir
+    from app.records.registry import Registry
+    from app.records.registry.provenance import file_checksum
+
+    registry = Registry(DataDir(tmp_path / "data", "test"))
+    code = registry.create_patient("Ada", "Lovelace").code
+    parameters = THESIS_SUBJECT.replace(repetitions=1)
+    begun = registry.begin_trial(code, parameters, backend="simulator")
+    path = begun.path
+    save(simulate(parameters, seed=7), path)
+    with edited(path) as f:
+        f["summary"].attrs["wall_time_origin_monotonic_s"] = ORIGIN
+    filmed = film(read_trial(path), seed=5, origin_s=ORIGIN)
+    write_video(path.with_suffix(".avi"), filmed.stamps_s, grey=lambda k: 80)
+    registry.finish_trial(begun.trial_id, "complete", {}, checksum=file_checksum(path))
+    before = registry.trial(begun.trial_id).checksum
+    monkeypatch.setattr(detector, "MediaPipePose",
+                        lambda side, video: ReplayDetector(filmed, side))
+    tab.set_registry(registry)
+    opened(qtbot, tab, path)
+    with qtbot.waitSignal(tab.view_loaded, timeout=60000):
+        tab.run_pose()
+    assert read_pose(path) is not None
+    assert registry.trial(begun.trial_id).checksum != before
+    assert registry.verify_trial_file(begun.trial_id) is None
