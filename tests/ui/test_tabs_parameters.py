@@ -12,6 +12,7 @@ from PySide6.QtCore import QPoint, Qt
 from app.records.datadir import DataDir
 from app.records.registry import Registry
 from core.errors import UnreachableError
+from core.games.staircase import start
 from core.trial import (
     POSITION_RANGE_M,
     RADIUS_RANGE_M,
@@ -281,3 +282,28 @@ def test_the_centre_field_says_what_it_places_for_each_shape(qtbot, tab):
         tab.shape.setCurrentIndex(tab.shape.findData(shape))
         tab.refresh()
         assert words in tab.labels["centre"].text(), shape
+
+
+def test_a_plan_s_game_round_set_in_the_form_is_built_as_that_game(qtbot, tab):
+    """A session plan's game block goes through the form (ui.window.plan: the runner's
+    round set here, then Build): the game and its difficulty, for which the form has no
+    field, were lost and the round ran as a plain exercise. They are kept while the form
+    shows what was set (a tolerance of 0.3 rad shows as 17.2°: kept all the same); a field
+    changed by hand makes it a plain exercise again (nothing is played that the form does
+    not show)."""
+    fields = ("game", "time_allowed_s", "n_distractors", "target_radius_m", "staircase")
+    game = THESIS_SUBJECT.replace(
+        shape="targets", centre_m=(-0.2, 0.35), radius_m=0.08, n_targets=6, duration_s=9.0,
+        repetitions=1, game="reach", time_allowed_s=1.2, n_distractors=2,
+        target_radius_m=0.025, tolerance_rad=0.3, assist="as-needed")
+    game = game.replace(staircase=start(game, rung=2).to_json())
+    tab.set_parameters(game)
+    for got in (tab.parameters(), tab.shown()):
+        assert [getattr(got, f) for f in fields] == [getattr(game, f) for f in fields]
+    assert "reaching game" in tab.status.text()
+    type_into(qtbot, tab.repetitions, "2")
+    plain = THESIS_SUBJECT
+    got = tab.parameters()
+    assert got.repetitions == 2
+    assert [getattr(got, f) for f in fields] == [getattr(plain, f) for f in fields]
+    assert "game" not in tab.status.text()

@@ -6,7 +6,8 @@ screen from the window's 16 ms repaint, and closing it with the console.
 The patient's window shows the live trial while one runs and after it ends, until the
 next Build; otherwise the built exercise (or nothing) waiting to start. While a session
 plan runs (the window's `plan_runner`, app.plans.runner.PlanRunner), its state too: the
-block, the session's progress, the rest's countdown. Replays on the
+block, the session's progress, the rest's countdown; once it has ended, its end in the
+patient's words until the next trial is built. Replays on the
 therapist's tabs never reach it: the patient sees only what they are doing.
 """
 
@@ -202,7 +203,12 @@ class PatientScreenControl:
         if window is None or not window.isVisible():
             return
         runner = getattr(self, "plan_runner", None)  # the plan's runner while a plan runs
-        window.show_plan(runner.state(now=time.monotonic()) if runner is not None else None)
+        ended, built_then = getattr(self, "plan_ended", None) or (None, None)
+        if runner is not None:
+            window.show_plan(runner.state(now=time.monotonic()))
+        else:  # a plan's end ("Session complete"), until the next trial is built
+            window.show_plan(ended if ended is not None and self.built is built_then
+                             else None)
         live = self.live
         if live is not None and (self.state == State.RUNNING or live.parameters is self.built):
             window.show_view(live, self._patient_exercise_start_s)

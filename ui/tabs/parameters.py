@@ -42,6 +42,9 @@ from ui.tabs.proposal_box import ProposalBox
 from ui.views.reach import check_summary, field_key, problem_fields, reach_picture
 
 DEBOUNCE_MS = 120
+GAME_WORDS = {"reach": "the reaching game", "path": "the path game"}
+"""A game the form holds (a session plan's round: ui.tabs.parameters_form.HIDDEN_FIELDS),
+said in the status line, since no field shows it."""
 __all__ = ["HARDWARE", "SIMULATOR", "BackendChoice", "ParametersTab"]
 
 
@@ -251,7 +254,10 @@ class ParametersTab(ParametersForm, QWidget):
     def _show_summary(self) -> None:
         self.summary.setText("" if self._check is None else check_summary(self._check))
         if self._parameters is not None:
-            self.status.setText("Ready: every point of the path can be reached.")
+            game = GAME_WORDS.get(self._parameters.game, "")
+            self.status.setText("Ready: every point of the path can be reached." + (
+                f" Played as {game}; a field changed here makes it a plain exercise."
+                if game else ""))
             theme.switch_role(self.status, "ok")
         else:
             self.status.setText(f"{theme.PROBLEM_SIGN} Not ready: {self._problem}")

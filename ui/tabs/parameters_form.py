@@ -59,6 +59,13 @@ from ui.views.reach import CM
 TASK_FIELDS = ("shape", "radius_m", "n_targets", "duration_s", "repetitions", "timing",
                "clockwise", "assist", "controller", "gains")
 """The fields an assessment task's protocol fixes (core.assessment.protocol.Protocol)."""
+HIDDEN_FIELDS = ("game", "target_radius_m", "channel_half_width_m", "time_allowed_s",
+                 "n_distractors", "staircase", "neglect_side")
+"""The trial's fields the form has no place for: a game and its difficulty (a session
+plan's game round, its rung from the staircase: ui.window.plan sets it here, then Build)
+and the neglect layout. Kept from the parameters set while every field the form shows is
+as they came (so a round runs as the game it is), dropped at the first field changed by
+hand: nothing is played that the form does not show."""
 
 
 class ParametersForm:
@@ -184,6 +191,14 @@ class ParametersForm:
 
     # -- values -------------------------------------------------------------------
     def _values(self) -> dict:
+        values = self._shown_values()
+        values["assessment"] = self._assessment_of(values)
+        kept, as_set = getattr(self, "_hidden", ({}, None))
+        if values == as_set:
+            values.update(kept)
+        return values
+
+    def _shown_values(self) -> dict:
         def metres(box: QDoubleSpinBox) -> float:
             # Rounded to the field's resolution, so 30.48 cm is 0.3048 m and not
             # 0.30479999999999996 m: equal parameters must compare equal.
@@ -210,7 +225,6 @@ class ParametersForm:
             "gains": self.gains.text(),
             "force_estimate": self.force_source.currentData() or "",
         }
-        values["assessment"] = self._assessment_of(values)
         return values
 
     def _assessment_of(self, values: dict) -> str:
@@ -263,6 +277,9 @@ class ParametersForm:
                 self.force_source.findData(parameters.force_estimate))
         finally:
             self._loading = False
+        shown = self._shown_values()
+        shown["assessment"] = self._assessment_of(shown)
+        self._hidden = ({name: getattr(parameters, name) for name in HIDDEN_FIELDS}, shown)
         self.refresh()
 
     def set_learned_models(self, names) -> None:

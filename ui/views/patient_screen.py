@@ -20,7 +20,9 @@ a start signal, knowledge of results after each movement):
 After each round of a plain exercise the result comes first ("Round 1 done!"), then the
 round's quality in words (`round_quality`: how close the hand kept to the path), the order
 clinicians use (knowledge of results, then of performance); words, not millimetres, as the
-screen shows no clinical figure the therapist has not chosen.
+screen shows no clinical figure the therapist has not chosen. A hand that did not follow the
+path (`round_travelled`: less than the path game's share of its length) is told to, not
+praised for staying on it at the start.
 
 The repetition and the time left follow the trial's clock (`duration_s` per
 repetition from the exercise's first sample), the same clock that ends the trial. In
@@ -38,6 +40,7 @@ import numpy as np
 
 from core.games import GameLayout, game_layout
 from core.games.layout import distance_to_path
+from core.games.scoring import COVERAGE
 from core.holdtasks import ROBOT_TASKS, TaskTrajectory
 from core.trial import TrialParameters
 from device.loop.pipeline import PHASE_APPROACH, PHASE_EXERCISE, PHASE_HOLD
@@ -56,6 +59,10 @@ QUALITY_WORDS = ((0.005, "Right on the path"), (0.015, "Close to the path"))
 is the thesis subject's tracking with the robot's help (8.68 / 7.02 mm RMSE, section 3.6,
 is a whole healthy trial's), 15 mm a third of the D's width off it."""
 QUALITY_ELSE = "Stay closer to the path"
+QUALITY_STILL = "now follow the whole path"
+"""A round whose hand moved less than COVERAGE of the path's length: still at the start,
+it is on the path, but did not follow it (a relaxed hand in the transparent mode, which
+nothing moves); said in white, not as a success."""
 
 CUE_WAIT = "Please wait"
 CUE_READY = "Get ready"
@@ -309,10 +316,13 @@ def frame_at(view: TrialView, scene: Scene, options: PatientOptions,
         into = elapsed - (repetition - 1) * p.duration_s
         # at most half a round: the round under way is what matters
         if into < min(RESULT_SHOWN_S, 0.5 * p.duration_s):
-            quality = round_quality(view, p, t0 + (repetition - 2) * p.duration_s,
-                                    t0 + (repetition - 1) * p.duration_s)
-            result = f"Round {repetition - 1} done!" + (f" {quality}" if quality else "")
-            success = True
+            span = (t0 + (repetition - 2) * p.duration_s, t0 + (repetition - 1) * p.duration_s)
+            if round_travelled(view, p, *span):
+                quality = round_quality(view, p, *span)
+                result = f"Round {repetition - 1} done!" + (f" {quality}" if quality else "")
+                success = True
+            else:
+                result = f"Round {repetition - 1} over: {QUALITY_STILL}"
     if scene.task is not None:
         return _task_frame(view, scene, i, cue, cursor, started, phase, elapsed, left, t0)
     return PatientFrame(cue, cue == CUE_GO, cursor, target, active, repetition,
@@ -354,6 +364,20 @@ def _task_frame(view: TrialView, scene: Scene, i: int, cue: str, cursor, started
     return PatientFrame(TASK_WORDS.get(stretch.phase, ""), False, None if blank else cursor,
                         None, -1, int(values.get("round", 0)) + 1, rounds, left, sample=i,
                         exercise_started_s=t0, blank=blank, push=push)
+
+
+def round_travelled(view: TrialView, parameters: TrialParameters, start_s: float,
+                    end_s: float) -> bool:
+    """The hand moved at least COVERAGE of the path's length between `start_s` and
+    `end_s` (trial clock), the path game's rule for a lap that counts
+    (core.games.scoring); True when the view holds too little of the round to judge."""
+    a, b = np.searchsorted(view.time, [start_s, end_s])
+    if b - a < 2:
+        return True
+    position = view.column("position")[:, a:b]
+    steps = np.diff(position, axis=1)
+    moved = float(np.nansum(np.hypot(steps[0], steps[1])))
+    return moved >= COVERAGE * parameters.path().length
 
 
 def round_quality(view: TrialView, parameters: TrialParameters, start_s: float,

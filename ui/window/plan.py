@@ -74,6 +74,9 @@ class PlanControl:
 
     plan_runner: PlanRunner | None = None
     stored_plan = None
+    plan_ended = None
+    """(the ended run's last PlanState, the trial built then): what the patient's screen
+    shows once the runner is gone, until another trial is built."""
 
     def _build_plan_tab(self) -> PlanTab:
         self.plan_runner = None
@@ -240,6 +243,8 @@ class PlanControl:
             self.plan_timer.stop()
             self._say(state.line(), problem=state.outcome not in ("complete",))
             self.plan_runner = None
+            # the patient's screen keeps the session's end until the next Build
+            self.plan_ended = (state, self.built)
             if self.patient is not None:
                 self.show_plan_of(self.patient.code)
                 self.progress.set_patient(self.patient.code)  # the run's dose, as it ended

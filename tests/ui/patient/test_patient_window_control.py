@@ -168,3 +168,47 @@ def test_the_therapist_is_told_when_the_patient_s_letters_are_too_small(qtbot, w
     patient.resize(2 * big, big)
     qtbot.waitUntil(lambda: "readable from 1.5 m" in window.message.text(), timeout=20000)
     assert not patient.screen_layout().letter_mm < 20.0
+
+
+class _EndedPlan:
+    """A plan runner whose run has just ended (app.plans.runner.PlanRunner's part the
+    window reads)."""
+
+    phase = "ended"
+    trial_id = None
+
+    def __init__(self, outcome: str) -> None:
+        self.outcome = outcome
+
+    def tick(self, now: float) -> None:
+        pass
+
+    def state(self, now: float):
+        from app.plans.runner import PlanState
+
+        return PlanState("ended", 2, 2, "Path game", 3, 3, 2, 0, 54, 54, 0.0, 0.0,
+                         self.outcome, "")
+
+
+@pytest.mark.parametrize(("outcome", "words"), [("complete", "Session complete. Well done!"),
+                                                ("stopped", "Stopped")])
+def test_the_session_s_end_stays_on_the_patient_s_screen_until_the_next_build(
+        qtbot, window, outcome, words):
+    """The runner is let go as the plan ends, and the screen then showed only the last
+    trial's end ("Well done! Score 20"): the session's end in the patient's words was
+    never seen. It stays until the next trial is built."""
+    from core.trial import THESIS_SUBJECT
+
+    patient = window.open_patient_screen()
+    qtbot.waitExposed(patient, timeout=20000)
+    window.plan_runner = _EndedPlan(outcome)
+    window._plan_tick()
+    assert window.plan_runner is None
+    window._feed_patient_screen()
+    assert patient.plan is not None
+    assert patient.plan.centre == words
+    window._feed_patient_screen()  # and on the next repaint
+    assert patient.plan.centre == words
+    window.built = THESIS_SUBJECT  # the next Build
+    window._feed_patient_screen()
+    assert patient.plan is None

@@ -177,3 +177,20 @@ def test_after_each_round_its_quality_follows_its_result(off_m, words):
     r["position"] = r["position_desired"] + off_m * radial
     frame = _frame_at_sample(r, APPROACH + 1000 + 10, params=params)
     assert frame.result == f"Round 1 done! {words}"
+
+
+def test_a_hand_that_stayed_still_at_the_start_is_not_told_it_kept_to_the_path():
+    """The passive virtual patient in the transparent mode: nothing moves the relaxed
+    hand, which stays at the path's start, on the path. It was told "Round 1 done! Right
+    on the path" in green. A round whose hand moved less than the path game's share of
+    the path's length (core.games.scoring.COVERAGE) is said to need the whole path, not
+    in green."""
+    params = PARAMS.replace(assist="transparent")
+    r = _records(params)
+    r["position"] = r["position_desired"][APPROACH]  # still at the start all along
+    frame = _frame_at_sample(r, APPROACH + 1000 + 10, params=params)
+    assert frame.result == "Round 1 over: now follow the whole path"
+    assert not frame.success
+    half = _records(params)  # half of the round, then still: not enough either
+    half["position"][APPROACH + 500:] = half["position_desired"][APPROACH + 500]
+    assert not _frame_at_sample(half, APPROACH + 1000 + 10, params=params).success
