@@ -78,9 +78,18 @@ def distance_text(distance_m: float) -> str:
     return f"{distance_mm_shown(distance_m)} mm"
 
 
+def force_text(force_N: float) -> str:
+    """A force in N as a person reads it: whole newtons, tenths below 10 N, where a whole
+    number could say 0 (a passive hand's 0.21 N read "0 N")."""
+    return f"{force_N:.1f}" if abs(force_N) < 9.95 else whole(force_N)
+
+
 def mass_text(force_N: float) -> str:
     """A force as the weight a person would hold up to feel it: easier to picture than N."""
     kg = force_N / STANDARD_GRAVITY_M_S2
+    if kg < 0.025:
+        # below the first 50 g step: rounded up to 50 g it said "50 g" for 0.21 N (21 g)
+        return "less than 50 g"
     if kg < 0.95:
         # Rounded to 50 g: a finer weight means nothing to someone holding a bag.
         grams = max(50, 50 * round(kg * 1000.0 / 50.0))
@@ -120,13 +129,16 @@ POSITION_DETAIL = {
 
 
 def position_line(rmse_x_m: float, rmse_y_m: float, mode: str = "thesis") -> PlainLine:
-    """The distance from the path, credited to whom it belongs: in the as-needed and
-    thesis modes the robot keeps the hand on the path (a compliant channel, or a stiff
-    tracker on a clock); in the transparent mode nothing holds it there but the patient."""
+    """The distance from the moving ring the patient's screen shows (the point the robot
+    leads to, whose RMS distance the figure is), credited to whom it belongs: in the
+    as-needed and thesis modes the robot keeps the hand near it (a compliant channel, or a
+    stiff tracker on a clock); in the transparent mode nothing does but the patient. Not
+    "from the path": a hand that lags along the path is far from the ring and on the path
+    (a passive hand at the start read "within 132 mm of the path" 0.01 mm from it)."""
     distance = distance_text(position_error_m(rmse_x_m, rmse_y_m))
-    sentence = (f"Your hand stayed within {distance} of the path on average."
+    sentence = (f"Your hand kept on average {distance} from the moving ring."
                 if mode == "transparent" else
-                f"The robot kept your hand within {distance} of the path on average.")
+                f"The robot kept your hand on average {distance} from the moving ring.")
     return PlainLine(
         "rmse",
         sentence,
@@ -165,7 +177,7 @@ def elbow_line(rom_rad: float) -> PlainLine:
 def force_line(peak_force_N: float) -> PlainLine:
     return PlainLine(
         "peak_force_N",
-        f"Your firmest push on the handle was {whole(peak_force_N)} N.",
+        f"Your firmest push on the handle was {force_text(peak_force_N)} N.",
         f"About the effort of holding up {mass_text(peak_force_N)}.",
     )
 

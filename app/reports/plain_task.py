@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 
-from app.reports.plain_language import PlainLine, distance_text, mass_text, whole
+from app.reports.plain_language import PlainLine, distance_text, force_text, mass_text, whole
 from app.units import CM_PER_M, MM_S_PER_M_S
 from core.assessment.figures import AT_LIMIT, CIRCLE_WAYS, STRENGTH_DIRECTIONS_DEG, circle_key
 
@@ -138,7 +138,7 @@ def _strength(value) -> list[PlainLine | None]:
                           "You may be stronger still there: the robot cannot measure more.")
     return [
         PlainLine("strength_peak_force_n",
-                  f"Your firmest pushes were {whole(peak)} N on average over {directions} "
+                  f"Your firmest pushes were {force_text(peak)} N on average over {directions} "
                   "directions.",
                   f"About the effort of holding up {mass_text(peak)}.")
         if _known(peak) else None,

@@ -248,13 +248,13 @@ def test_the_robot_gets_the_credit_where_it_did_the_work(course):
     content = content_for_registry_trial(registry, ids["third"])
     lines = {line.key: line for line in content.plain}
     distance = math.hypot(content.metrics.rmse_x_m, content.metrics.rmse_y_m) * 1000
-    assert lines["rmse"].text == (f"The robot kept your hand within {max(1, round(distance))} "
-                                  "mm of the path on average.")
+    assert lines["rmse"].text == (f"The robot kept your hand on average "
+                                  f"{max(1, round(distance))} mm from the moving ring.")
     share = content.metrics.robot_work_share
     assert lines["robot_work_share"].text.startswith(
         f"You did {round(100 - 100 * share)} % of the work of moving the handle")
     patient = page_texts(pdfs["third"])[0]
-    assert "Your hand stayed within" not in patient
+    assert "Your hand kept" not in patient
     # the path is coloured by what the headline counts: where the patient led
     assert "you led" in patient
     assert "the robot helped you along" in patient

@@ -8,6 +8,7 @@ import math
 
 import pytest
 
+from app.reports.plain_language import force_text
 from app.reports.plain_task import task_lines
 
 REACHING = {"vgr_movement_time_s": 1.0744, "vgr_path_length_ratio": 1.0439,
@@ -56,7 +57,7 @@ def test_range_strength_and_position_in_words():
     strength = task_lines("strength", {"strength_peak_force_n": 4.0615,
                                        "strength_at_limit_count": 4.0})
     assert [line.text for line in strength] == [
-        "Your firmest pushes were 4 N on average over 8 directions.",
+        "Your firmest pushes were 4.1 N on average over 8 directions.",
         "In 4 directions of 8 you pushed as hard as the robot can hold.",
     ]
     assert strength[0].detail == "About the effort of holding up 400 g."
@@ -99,5 +100,5 @@ def test_a_task_trials_report_leads_with_the_tasks_lines(tmp_path):
     assert "peak_force_N" not in keys
     assert "rmse" not in keys
     first = content.plain[0].text
-    assert first == (f"Your firmest pushes were {round(trial.figures['strength_peak_force_n'])}"
-                     " N on average over 8 directions.")
+    peak = force_text(trial.figures["strength_peak_force_n"])
+    assert first == f"Your firmest pushes were {peak} N on average over 8 directions."

@@ -23,7 +23,7 @@ from app.reports.build import (
     write_report_pdf,
 )
 from app.reports.compare import patient_changes, table_rows
-from app.reports.plain_language import mass_text, parameter_cautions, plain_lines
+from app.reports.plain_language import force_text, mass_text, parameter_cautions, plain_lines
 from app.trials.assistance_timeline import AssistanceInEffect
 from app.trials.headless import save, simulate
 from app.trials.reader import read_trial
@@ -138,7 +138,7 @@ def test_plain_lines_say_the_numbers_in_plain_words():
         "You pushed in the right direction 78 % of the time.")
     assert "20°" in lines["directional_performance_pct"].detail
     # √(8.68² + 7.02²) = 11.16 mm from the moving target, the robot's doing (issue 27 #8)
-    assert lines["rmse"].text == "The robot kept your hand within 11 mm of the path on average."
+    assert lines["rmse"].text == "The robot kept your hand on average 11 mm from the moving ring."
     assert lines["shoulder_rom_rad"].text == "Your shoulder moved through 42°."
     assert lines["elbow_rom_rad"].text == "Your elbow moved through 31°."
     assert "600 g" in lines["peak_force_N"].detail
@@ -151,9 +151,16 @@ def test_plain_lines_leave_out_missing_figures_and_never_say_zero_mm():
     lines = plain_lines({"directional_performance_pct": math.nan, "tolerance_rad": 0.35,
                          "rmse_x_m": 0.0002, "rmse_y_m": 0.0001})
     assert [line.key for line in lines] == ["rmse"]
-    assert "within 1 mm" in lines[0].text
+    assert "on average 1 mm" in lines[0].text
     assert mass_text(20.0) == "2.0 kg"
-    assert mass_text(0.1) == "50 g"
+    assert mass_text(0.4) == "50 g"
+    # a passive hand's 0.21 N (21 g) is no 50 g, and no "0 N"
+    assert mass_text(0.21) == "less than 50 g"
+    force = plain_lines({"tolerance_rad": 0.35}, peak_force_N=0.21)
+    assert [(line.text, line.detail) for line in force] == [
+        ("Your firmest push on the handle was 0.2 N.",
+         "About the effort of holding up less than 50 g.")]
+    assert force_text(12.4) == "12"
 
 
 # -- change since an earlier trial ----------------------------------------------------------

@@ -152,13 +152,13 @@ def test_a_transparent_trial_is_recorded_read_back_and_reported_as_it_ran(tmp_pa
     content = content_for_registry_trial(registry, trial_id)
     metrics = content.metrics
     distance_mm = max(1, round(1000 * math.hypot(metrics.rmse_x_m, metrics.rmse_y_m)))
-    assert content.plain[0].text == (f"Your hand stayed within {distance_mm} mm of the path on "
-                                     "average.")
+    assert content.plain[0].text == (f"Your hand kept on average {distance_mm} mm from the "
+                                     "moving ring.")
     assert not any("pushed in the right direction" in line.text.lower()
                    for line in content.plain)
     pdf = report_for_registry_trial(registry, trial_id, tmp_path / "report.pdf")
     pages = page_texts(pdf)
-    assert "Your hand stayed within" in pages[0]
+    assert "Your hand kept on average" in pages[0]
     assert "transparent exercise (no assistance)" in " ".join(pages)
 
     pending = registry.pending_proposal(code)
