@@ -222,6 +222,7 @@ class ReportTab(QWidget):
         while self.page_layout.count():
             item = self.page_layout.takeAt(0)
             if item.widget() is not None:
+                item.widget().hide()  # gone at once, not at the loop's next pass
                 item.widget().deleteLater()
             elif item.layout() is not None:
                 _delete_layout(item.layout())
@@ -415,6 +416,7 @@ def _delete_layout(layout) -> None:
     while layout.count():
         item = layout.takeAt(0)
         if item.widget() is not None:
+            item.widget().hide()  # gone at once, not at the loop's next pass
             item.widget().deleteLater()
         elif item.layout() is not None:
             _delete_layout(item.layout())
