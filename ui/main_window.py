@@ -18,6 +18,7 @@ from pathlib import Path
 
 from PySide6.QtCore import Qt, QTimer
 from PySide6.QtWidgets import (
+    QAbstractSpinBox,
     QApplication,
     QFrame,
     QHBoxLayout,
@@ -37,6 +38,7 @@ from core.trial import TrialParameters
 from device.loop.states import State
 from ui import theme
 from ui.device_bridge import DeviceBridge
+from ui.fields import REFUSING
 from ui.force_estimate import ForceEstimateControl
 from ui.jobs import Jobs
 from ui.patient.control import PatientScreenControl
@@ -245,6 +247,11 @@ class MainWindow(AssessmentControl, PlanControl, TrialActions, TrialEmg, FaultLa
 
     def _connect_signals(self) -> None:
         b, r = self.bridge, self.robot
+        # a number a field refuses (out of range, not a number) is said where the window
+        # says what happened (ui.fields): Qt used to drop the keystroke without a word
+        for field in self.findChildren(QAbstractSpinBox):
+            if isinstance(field, REFUSING):
+                field.refused.connect(lambda line: self._say(line, problem=True))
         b.state_changed.connect(self._on_state)
         b.fault_raised.connect(self._on_fault)
         b.trial_started.connect(self._on_trial_started)

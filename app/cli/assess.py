@@ -66,16 +66,23 @@ def add_assess_commands(commands) -> None:
 
 
 def cmd_tasks(args: argparse.Namespace) -> int:
+    from app.assessments.words import robot_task_words
     from core.assessment import task_figures
     from core.assessment.protocol import PROTOCOLS
+    from core.holdtasks import ROBOT_TASKS
+    from core.trial import THESIS_SUBJECT
 
     for task, p in PROTOCOLS.items():
         trials = (f"{p.trial_count} trials ({', '.join(p.trials)})" if p.trial_count > 1
                   else "1 trial")
-        print(f"{task}: {p.name}. {trials}, {p.repetitions} × {p.duration_s:g} s, robot "
-              f"{p.robot_mode}{' on ' + p.controller if p.controller else ''}; "
-              f"{p.shape} of {p.radius_m:g} m" + (f", {p.n_targets} targets"
-                                                   if p.shape == "targets" else ""))
+        if task in ROBOT_TASKS:  # the robot leads: its timetable, as the window says it
+            print(f"{task}: {p.name}. {trials}: "
+                  f"{robot_task_words(p.parameters(THESIS_SUBJECT))}")
+        else:
+            print(f"{task}: {p.name}. {trials}, {p.repetitions} × {p.duration_s:g} s, robot "
+                  f"{p.robot_mode}{' on ' + p.controller if p.controller else ''}; "
+                  f"{p.shape} of {p.radius_m:g} m" + (f", {p.n_targets} targets"
+                                                       if p.shape == "targets" else ""))
         print(f"  therapist: {p.therapist}")
         print(f"  patient: {p.patient}")
         print(f"  follows: {p.reference}")

@@ -34,6 +34,21 @@ def template_names(folder: Path = TEMPLATES_DIR) -> list[str]:
     return sorted(p.stem for p in folder.glob("*.json"))
 
 
+def template_titles(folder: Path = TEMPLATES_DIR) -> list[tuple[str, str, str]]:
+    """(name, title, about) of each template, for a list a person reads: the plan's own
+    name ("Endurance", not the file's "endurance"); a template that cannot be read keeps
+    its file's name, and the reason is its 'about' (copying it then says so too)."""
+    titles = []
+    for name in template_names(folder):
+        try:
+            template = load_template(name, folder)
+        except TemplateError as exc:
+            titles.append((name, name, str(exc)))
+        else:
+            titles.append((name, template.plan.name or name, template.about))
+    return titles
+
+
 def load_template(name: str, folder: Path = TEMPLATES_DIR) -> Template:
     """The template `name`, checked; TemplateError in one line naming the file and what is
     wrong (or, for an unknown name, the names there are)."""

@@ -9,7 +9,14 @@ from __future__ import annotations
 import math
 
 from app.errors import InvalidRecordError
-from app.records.scales import ARAT, ASHWORTH, FUGL_MEYER, FUGL_MEYER_PARTS, SCALE_LABELS
+from app.records.scales import (
+    ARAT,
+    ASHWORTH,
+    FUGL_MEYER,
+    FUGL_MEYER_PARTS,
+    SCALE_LABELS,
+    SCALE_MAXIMA,
+)
 
 
 def typed_scores(scale: str, scores: list[str]) -> dict:
@@ -17,24 +24,25 @@ def typed_scores(scale: str, scores: list[str]) -> dict:
     (Fugl-Meyer parts A-D or items, ARAT subscales, Ashworth GROUP=GRADE)."""
     scores = [s for s in (t.strip() for t in scores) if s]
     pairs = [s for s in scores if "=" in s]
+    name = SCALE_LABELS.get(scale, scale)  # the scale's name, as the form lists it
     if not pairs:
         if len(scores) != 1:
-            raise InvalidRecordError(f"{scale}: give one total or KEY=VALUE scores, not "
+            raise InvalidRecordError(f"{name}: give one total or KEY=VALUE scores, not "
                                      f"{' '.join(scores) or 'nothing'}")
-        return {"total": _whole(scale, scores[0])}
+        return {"total": _whole(name, scores[0], SCALE_MAXIMA.get(scale))}
     if len(pairs) != len(scores):
-        raise InvalidRecordError(f"{scale}: give either one total or KEY=VALUE scores, "
+        raise InvalidRecordError(f"{name}: give either one total or KEY=VALUE scores, "
                                  "not both")
     given: dict[str, str] = {}
     for pair in pairs:
         key, _, value = pair.partition("=")
         key = key.strip()
         if key in given:
-            raise InvalidRecordError(f"{scale}: {key} given twice")
+            raise InvalidRecordError(f"{name}: {key} given twice")
         given[key] = value.strip()
     if scale == ASHWORTH:
         return {"grades": given}
-    values = {key: _whole(f"{scale} {key}", value) for key, value in given.items()}
+    values = {key: _whole(f"{name} {key}", value) for key, value in given.items()}
     if scale == FUGL_MEYER and not set(values) <= set(FUGL_MEYER_PARTS):
         return {"items": values}
     if scale in (FUGL_MEYER, ARAT):
@@ -42,11 +50,14 @@ def typed_scores(scale: str, scores: list[str]) -> dict:
     raise InvalidRecordError(f"{SCALE_LABELS.get(scale, scale)} is one number; give it alone")
 
 
-def _whole(what: str, text: str) -> int:
+def _whole(what: str, text: str, highest: int | None = None) -> int:
+    """`text` as a whole number, else one line naming `what` (a scale by its name, not
+    its id: "fatigue = '3.5'" named the registry's key) and what to give."""
     try:
         return int(text.strip())
     except ValueError:
-        raise InvalidRecordError(f"{what} = {text!r} is not a whole number") from None
+        give = f"; give a whole number from 0 to {highest}" if highest is not None else ""
+        raise InvalidRecordError(f"{what}: {text!r} is not a whole number{give}") from None
 
 
 def typed_value(field: str, text: str) -> object:
@@ -56,7 +67,7 @@ def typed_value(field: str, text: str) -> object:
     if text.lower() == "none":
         return None
     if field == "birth_year":
-        return _whole(field, text)
+        return _whole("birth_year", text)
     if field == "shoulder_m":
         try:
             x, y = (float(v) for v in text.split(","))

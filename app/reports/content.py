@@ -18,6 +18,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
+from app.assessments.words import planned_exercise_s, robot_task_words
 from app.errors import AppError, TrialFileError
 from app.games.figures import game_line, staircase_text
 from app.learning.library import learned_label
@@ -300,19 +301,9 @@ def _comparisons(previous_trial: BaselineSource | None, previous_session: Baseli
                  for kind, label, baseline in baselines)
 
 
-def planned_exercise_s(p: TrialParameters) -> float:
-    """The exercise's length on its clock: the path's laps, or, for a task the robot
-    leads (isometric strength, position sense), its whole timetable (core.holdtasks:
-    `duration_s` is one push or one match there, so a strength trial stopped at 9.6 s
-    read "stopped early after 9.6 of 3 s")."""
-    if p.assessment in ROBOT_TASKS:
-        return p.trajectory().total_duration_s
-    return p.duration_s * p.repetitions
-
-
 def _exercise_text(p: TrialParameters) -> str:
     if p.assessment in ROBOT_TASKS:
-        return _robot_task_text(p)
+        return robot_task_words(p, past=True)
     shape = SHAPE_NAMES.get(p.shape, p.shape)
     radius = f"{p.radius_m * CM_PER_M:.3g} cm"
     size = {
@@ -325,19 +316,6 @@ def _exercise_text(p: TrialParameters) -> str:
         (", clockwise" if p.clockwise else ", anticlockwise")
     return (f"{size}; {laps} of {p.duration_s:g} s, "
             f"{TIMING_WORDS.get(p.timing, p.timing)}{turn}")
-
-
-def _robot_task_text(p: TrialParameters) -> str:
-    """A robot-led task's timetable in words (core.holdtasks), not a path's laps: the
-    hand is held still (strength) or taken to each target and back (position)."""
-    rounds = "1 round" if p.repetitions == 1 else f"{p.repetitions} rounds"
-    total = seconds_text(planned_exercise_s(p))
-    if p.assessment == "strength":
-        return (f"{p.n_targets} directions, a push of {p.duration_s:g} s each; {rounds}, "
-                f"{total} s; the robot held the handle still")
-    return (f"{p.n_targets} targets {p.radius_m * CM_PER_M:.3g} cm from the centre, "
-            f"{p.duration_s:g} s to find each; {rounds}, {total} s; the robot took the "
-            "hand to each target and back")
 
 
 CONTROLLER_WORDS = {"smc": "SMC", "ctpid": "CT-PID"}

@@ -382,6 +382,9 @@ class DeviceLoop(LoopCommands, StopCauses):
                    # simulator however late the ticks, monotonic seconds on hardware
                    "robot_clock_s": self.reading.time_s - self.trial_start_sample_s,
                    "timing": self.backend.timing}
+        # a virtual patient stops its exercise with the trial: a person lets go of the
+        # push and rests their hand while the robot is at zero torque between trials
+        _rest_patient(self.backend)
         self.end_seq = self.ring.write_count
         pipeline = self.pipeline
         self._to_recorder(EndTrial(self.end_seq, status, summary, assistance_group(
@@ -465,6 +468,13 @@ def _cue_patient(backend: Backend) -> None:
     cue = getattr(backend, "cue_patient", None)
     if cue is not None:
         cue()
+
+
+def _rest_patient(backend: Backend) -> None:
+    """A virtual patient stops the exercise together with the trial."""
+    rest = getattr(backend, "rest_patient", None)
+    if rest is not None:
+        rest()
 
 
 def loop_main(console: Connection, recorder: Connection, ring_name: str, estop_flag,

@@ -262,14 +262,21 @@ class SafetySupervisor:
         problem = self._robot.limit_problem(q1, q2)
         if problem:
             return problem
+        # in cm, as the window's form, plots and reports give positions (app.units), short
+        # enough for the banner's two lines at a laptop's width
         radius = math.hypot(x, y)
         reach_min, reach_max = self._reach
         if not reach_min <= radius <= reach_max:
-            return (f"the handle is {radius:.3f} m from the robot's motor axes; it must stay "
-                    f"within {reach_min:.3f}–{reach_max:.3f} m")
-        region = self._limits.region_m
-        return (f"the handle at ({x:.3f}, {y:.3f}) m is outside the exercise area "
-                f"x {region[0]:.3f}…{region[1]:.3f} m, y {region[2]:.3f}…{region[3]:.3f} m")
+            return (f"it is {_cm(radius)} cm from the robot's motor axes; it must stay "
+                    f"within {_cm(reach_min)}–{_cm(reach_max)} cm")
+        x0, x1, y0, y1 = (_cm(v) for v in self._limits.region_m)
+        return (f"it is at ({_cm(x)}, {_cm(y)}) cm, outside the exercise area x {x0} to "
+                f"{x1} cm, y {y0} to {y1} cm")
+
+
+def _cm(length_m: float) -> str:
+    """A length in the words' unit, cm, to the millimetre: '-45', '37.5'."""
+    return f"{round(length_m * 100.0, 1):g}"
 
 
 def fault_detail(code: Fault, d: list[float], supervisor: SafetySupervisor) -> dict:

@@ -247,6 +247,12 @@ class FaultInjectingBackend:
         if cue is not None:
             cue(at_s)
 
+    def rest_patient(self) -> None:
+        """The simulator's virtual patient rests after the trial, as without the injector."""
+        rest = getattr(self.inner, "rest_patient", None)
+        if rest is not None:
+            rest()
+
     def safe_state(self) -> None:
         self.inner.safe_state()
 

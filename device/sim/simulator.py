@@ -370,6 +370,15 @@ class SimulatorBackend:
         self.state[physics.X_T0] = start
         self.state[physics.X_CACHED] = 0.0  # the patient's torque at this instant changed
 
+    def rest_patient(self) -> None:
+        """The trial ended (its end, Stop, a fault): the patient stops the exercise and
+        rests as it waited for the cue, at the path's start posture, pushing nothing, while
+        the robot's torque is zero. Its clock used to run on: after Stop the strength
+        task's pushes went on against the idle robot and took the handle out of the
+        exercise area, latching a workspace fault with no trial running."""
+        self.state[physics.X_T0] = self.time_s + _WAITING_S
+        self.state[physics.X_CACHED] = 0.0
+
     @property
     def patient_time_s(self) -> float:
         """Time on the patient's clock (since their cue; negative while waiting)."""

@@ -48,3 +48,30 @@ def test_a_strength_trial_through_the_live_loop(tmp_path):
     assert notes == ()
     assert figures["strength_at_limit_count"] == 2
     assert figures["strength_peak_force_n"] > 3.5
+
+
+def test_after_stop_the_patient_rests_and_the_idle_robot_keeps_the_handle_in_place(
+        tmp_path):
+    """Clinic exploration 2 #3: the strength task stopped early (the weak patient), then no
+    trial running: the virtual patient's clock ran on and its pushes went on against the
+    robot at zero torque (as the real robot is between trials, docs/safety.md), taking the
+    handle out of the exercise area until a workspace fault latched. Now the patient rests
+    with the trial's end, as a person lets go of the push: the handle stays where it was
+    for as long as the rest of the timetable, and nothing latches."""
+    params = PARAMS.replace(n_targets=4)
+    with DeviceClient() as client:
+        assert client.build(params, BackendConfig(patient="weak")).ok
+        assert client.connect().ok
+        client.wait_for_samples(10)
+        path = tmp_path / "stopped.h5"
+        assert client.start_trial(str(path), SubjectInfo.from_parameters("PSTR02", params)).ok
+        client.wait_for_samples(int(1.0 / PERIOD_S))  # the approach and the first "ready"
+        assert client.stop().ok
+        client.wait_for(lambda e: getattr(e, "kind", "") == "closed", 20)
+        client.live_records()  # the trial's; what follows is idle
+        seen = client.wait_for_samples(int(params.trajectory().total_duration_s / PERIOD_S))
+        idle = client.live_records()
+    assert not [e.message for e in seen if isinstance(e, FaultRaised)]
+    assert len(idle) > 1000
+    moved = np.hypot(*(idle["position"] - idle["position"][0]).T)
+    assert moved.max() < 0.002

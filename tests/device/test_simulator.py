@@ -488,3 +488,22 @@ def test_a_waiting_patient_holds_still_until_cued_then_does_the_exercise():
     assert math.dist(prompt.hand_position_m(), start) > 0.05
     with pytest.raises(ParameterError, match="at_s"):
         waiting.cue_patient(math.nan)
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_a_patient_told_the_trial_ended_rests_at_the_start_and_pushes_nothing(compiled):
+    """`rest_patient` (the loop calls it as a trial ends): the exercise stops there and the
+    patient holds the start again as before its cue, the robot at zero torque; its clock
+    ran on before, and its plan went on without the trial (clinic exploration 2 #3)."""
+    sim = simulator("healthy", patient_waits=True, compiled=compiled)
+    start = sim.hand_position_m()
+    sim.cue_patient()
+    for k in range(1, 1001):
+        sim.read(k * TICK_S)
+    assert math.dist(sim.hand_position_m(), start) > 0.02  # mid-exercise
+    sim.rest_patient()
+    assert sim.patient_time_s < -1e6
+    for k in range(1001, 6001):
+        sim.read(k * TICK_S)
+    assert math.dist(sim.hand_position_m(), start) < 0.002
+    assert math.hypot(sim.truth.force_x_N, sim.truth.force_y_N) < 0.5

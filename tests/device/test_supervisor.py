@@ -538,7 +538,13 @@ def test_a_region_around_the_path_trips_when_the_handle_leaves_it():
     assert tick(reading=at_rest(tick.t + PERIOD, *ik(x_max - 0.0005, 0.30)))[2] is Fault.NONE
     out = tick(reading=at_rest(tick.t + PERIOD, *ik(x_max + 0.0005, 0.30)))
     assert out == (0.0, 0.0, Fault.WORKSPACE)
-    assert "exercise area" in banner_is_filled(tick.sup)
+    message = banner_is_filled(tick.sup)
+    # in cm, as the window's positions are (clinic exploration 2 #3: it was in metres)
+    x0, x1, y0, y1 = (f"{round(v * 100, 1):g}" for v in limits.region_m)
+    assert message.startswith(
+        f"The handle left the allowed region: it is at ({round((x_max + 0.0005) * 100, 1):g}"
+        ", 30) cm, outside the exercise area x "
+        f"{x0} to {x1} cm, y {y0} to {y1} cm — guide the handle back")
 
 
 def test_a_long_sample_gap_is_a_late_tick_not_an_encoder_jump():

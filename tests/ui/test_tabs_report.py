@@ -170,3 +170,39 @@ def test_the_therapist_s_table_reads_whole_on_a_laptop_and_at_a_large_font(
             MEANING_CHARS * table.fontMetrics().averageCharWidth()
     finally:
         theme.apply_theme(qapp, 1.0)
+
+
+def test_a_report_in_preparation_does_not_offer_the_previous_one(qtbot, tab, course):
+    """Clinic exploration 2 #1: while the report of the trial just ended was prepared,
+    the previous trial's report stayed on the page with Print and Save enabled, as if it
+    were this trial's; and an older request's report, arriving while the newer one waited,
+    was shown (and savable) in its place."""
+    registry, complete, estop = course
+    from PySide6.QtWidgets import QWidget
+
+    def shown():
+        return [w for w in tab.page.findChildren(QWidget) if w.isVisible()]
+
+    with qtbot.waitSignal(tab.report_ready, timeout=10000):
+        tab.load_registry_trial(registry, complete)
+    assert tab.pdf_button.isEnabled()
+    qtbot.waitUntil(lambda: bool(shown()))  # the page laid out and on the screen
+    tab.load_registry_trial(registry, estop)
+    assert tab.message.text() == "Preparing the report…"
+    assert tab.content is None
+    assert not tab.pdf_button.isEnabled()
+    assert not tab.print_button.isEnabled()
+    assert tab.lines() == []
+    assert shown() == []  # nothing of the old page, even before its widgets are deleted
+    with qtbot.waitSignal(tab.report_ready, timeout=10000):
+        pass
+    ready = []
+    tab.report_ready.connect(ready.append)
+    # two requests in a row: the first's report is not shown while the second is prepared
+    tab.load_registry_trial(registry, complete)
+    tab.load_registry_trial(registry, estop)
+    qtbot.waitUntil(lambda: bool(ready), timeout=10000)
+    qtbot.waitUntil(lambda: not tab.background.busy, timeout=10000)
+    assert [content.trial_number for content in ready] == [2]
+    assert tab.content.trial_number == 2
+    assert tab.message.text() == "Report of session 1, trial 2"

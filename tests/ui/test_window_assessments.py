@@ -171,10 +171,12 @@ def test_a_robot_led_tasks_protocol_says_how_long_it_runs_and_what_the_robot_doe
                         ("position", "the robot takes the relaxed hand to each target")):
         total_s = protocol(task).parameters(THESIS_SUBJECT).trajectory().total_duration_s
         first = protocol_words(task).splitlines()[0]
-        assert f"1 trial of {total_s:.0f} s" in first
+        assert f", {total_s:.0f} s; " in first
         assert robot in first
         assert "transparent" not in first
+    # in the words of the Parameters tab's summary and `rehab assess tasks`
     assert protocol_words("strength").startswith(
-        "Isometric strength: 1 trial of 48 s: 1 round of 8 directions, a push of 3 s each")
+        "Isometric strength: 1 trial: 8 directions, a push of 3 s each; 1 round, 48 s; the "
+        "robot holds the handle still.")
     # a task the patient leads reads as before
     assert protocol_words("reaching").splitlines()[0].endswith("the robot transparent.")

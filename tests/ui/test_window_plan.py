@@ -5,6 +5,7 @@ holds), times the rest, and the E-STOP ends it at once. The real loop and record
 behind the window; trials of one 1.5 s lap, rests of 1 s."""
 
 import pytest
+from PySide6.QtCore import Qt
 
 from app.reports.build import content_for_registry_trial
 from core.plan import Block, Plan
@@ -53,7 +54,12 @@ def test_a_template_copied_and_a_block_changed_in_the_plan_tab(qtbot, window):
     click(qtbot, tab.copy_button)
     assert "Choose the patient first" in tab.refusal.text()
     register_patient(qtbot, win)
-    tab.templates.setCurrentText("first-session")
+    # the list shows the plans' titles, the copy takes the template (clinic exploration
+    # 2 #5: the list showed the files' names, "first-session")
+    titles = [tab.templates.itemText(k) for k in range(tab.templates.count())]
+    assert titles == ["Endurance", "First session", "Games", "Reaching"]
+    assert "five minutes" in tab.templates.itemData(0, Qt.ItemDataRole.ToolTipRole)
+    tab.templates.setCurrentText("First session")
     click(qtbot, tab.copy_button)
     first = win.registry.current_plan(win.patient.code)
     assert first.template == "first-session"

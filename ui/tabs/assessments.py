@@ -22,6 +22,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from app.assessments.words import robot_task_words
 from core.assessment import TASK_TITLES, TASKS, task_figures
 from core.assessment.protocol import protocol
 from core.assessment.strength import StrengthPolar
@@ -126,7 +127,7 @@ def protocol_words(task: str) -> str:
                 if spec.shape == "targets" else f"a circle of {spec.radius_m * 100:g} cm radius")
     figures = "\n".join(f"  • {figure.label}" for figure in task_figures(task))
     if task in ROBOT_TASKS:
-        runs = robot_task_words(task)
+        runs = f"1 trial: {robot_task_words(spec.parameters(THESIS_SUBJECT))}"
     else:
         runs = (f"{trials}, {spec.repetitions} × {spec.duration_s:g} s each; {exercise}; "
                 f"the robot {spec.robot_mode}")
@@ -134,18 +135,3 @@ def protocol_words(task: str) -> str:
             f"For the therapist:\n{spec.therapist}\n\n"
             f"Read to the patient:\n{spec.patient}\n\n"
             f"Figures:\n{figures}\n\nFollows: {spec.reference}")
-
-
-def robot_task_words(task: str) -> str:
-    """A task the robot leads, as it runs (core.holdtasks): its whole length and what the
-    robot does. Said as the cued tasks are ("1 × 3 s each; … the robot transparent"), a
-    48 s strength trial read as 3 s, with the robot said not to hold the hand it holds."""
-    spec = protocol(task)
-    total_s = spec.parameters(THESIS_SUBJECT).trajectory().total_duration_s
-    rounds = "1 round" if spec.repetitions == 1 else f"{spec.repetitions} rounds"
-    if task == "strength":
-        return (f"1 trial of {total_s:.0f} s: {rounds} of {spec.n_targets} directions, a push "
-                f"of {spec.duration_s:g} s each; the robot holds the handle still")
-    return (f"1 trial of {total_s:.0f} s: {rounds} of {spec.n_targets} targets "
-            f"{spec.radius_m * 100:g} cm from the centre, {spec.duration_s:g} s to find each; "
-            "the robot takes the relaxed hand to each target and back, then lets go")

@@ -16,13 +16,11 @@ import time
 from PySide6.QtCore import QTimer, Signal
 from PySide6.QtWidgets import (
     QComboBox,
-    QDoubleSpinBox,
     QGridLayout,
     QGroupBox,
     QLabel,
     QLineEdit,
     QPushButton,
-    QSpinBox,
     QVBoxLayout,
     QWidget,
 )
@@ -31,6 +29,7 @@ from app.emg.live import KINDS
 from app.emg.protocol import PUSH_S, REST_S, WAITING, SessionMvcs, words
 from core.emg.synthetic import THESIS_MUSCLES
 from ui import plots, theme
+from ui.fields import DoubleSpinBox, SpinBox
 from ui.views.emg import EmgView, emg_view, live_emg_view
 from ui.views.trialview import TrialView
 
@@ -120,12 +119,13 @@ class EmgTab(QWidget):
         self.guided_channel = 0
         self.protocol_box = QGroupBox("MVC protocol (one per muscle per session)")
         grid = QGridLayout(self.protocol_box)
-        self.channel_boxes: dict[str, QSpinBox] = {}
+        self.channel_boxes: dict[str, SpinBox] = {}
         self.mvc_labels: dict[str, QLabel] = {}
         self.record_buttons: dict[str, QPushButton] = {}
         for row, muscle in enumerate(THESIS_MUSCLES):
             grid.addWidget(QLabel(words(muscle)), row, 0)
-            box = QSpinBox()
+            box = SpinBox()
+            box.setAccessibleName(f"{words(muscle)}'s channel")
             box.setRange(1, 16)
             box.setValue(row + 1)
             box.setPrefix("EMG")
@@ -142,11 +142,13 @@ class EmgTab(QWidget):
             self.mvc_labels[muscle] = label
             grid.addWidget(label, len(THESIS_MUSCLES) + 2 + row, 0, 1, 3)
         n = len(THESIS_MUSCLES)
-        self.rest_seconds = QDoubleSpinBox()
+        self.rest_seconds = DoubleSpinBox()
+        self.rest_seconds.setAccessibleName("MVC rest")
         self.rest_seconds.setRange(0.0, 30.0)
         self.rest_seconds.setValue(REST_S)
         self.rest_seconds.setSuffix(" s rest")
-        self.push_seconds = QDoubleSpinBox()
+        self.push_seconds = DoubleSpinBox()
+        self.push_seconds.setAccessibleName("MVC push")
         self.push_seconds.setRange(0.5, 10.0)
         self.push_seconds.setValue(PUSH_S)
         self.push_seconds.setSuffix(" s push")

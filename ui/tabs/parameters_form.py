@@ -35,7 +35,7 @@ from core.trial import (
     TOLERANCE_RANGE_RAD,
     TrialParameters,
 )
-from ui.fields import ComboBox, SpinBox
+from ui.fields import ComboBox, SpinBox, commit_all
 from ui.tabs.parameters_devices import CameraChoice, RobotChoice
 from ui.tabs.parameters_fields import (
     ASSIST_NAMES,
@@ -96,7 +96,7 @@ class ParametersForm:
         self.rows.add(form, "Shape", self.shape, "shape")
         self.rows.add(form, "Radius", self.radius, "radius")
         self.rows.add(form, "Time per traversal", self.duration, "duration")
-        self.rows.add(form, "Centre", self._pair(self.centre_x, self.centre_y), "centre")
+        self.rows.add(form, "Centre", self._pair("Centre", self.centre_x, self.centre_y), "centre")
         self.rows.add(form, "Direction", self.clockwise, "clockwise")
         self.rows.add(form, "Targets", self.n_targets, "n_targets")
         self.rows.add(form, "Repetitions", self.repetitions, "repetitions")
@@ -114,7 +114,8 @@ class ParametersForm:
         self.rows.add(form, "Upper arm", self.upper_arm, "upper_arm")
         self.rows.add(form, "Forearm", self.forearm, "forearm")
         self.rows.add(form, "Side trained", self.side, "side")
-        self.rows.add(form, "Shoulder", self._pair(self.shoulder_x, self.shoulder_y), "shoulder")
+        self.rows.add(form, "Shoulder", self._pair("Shoulder", self.shoulder_x,
+                                                             self.shoulder_y), "shoulder")
 
         tol_lo, tol_hi = (math.degrees(v) for v in TOLERANCE_RANGE_RAD)
         self.controller = combo(CONTROLLER_NAMES, CONTROLLERS)
@@ -154,11 +155,12 @@ class ParametersForm:
         self.settings_path = self.robot_choice.settings_path
         self.robot_choice.changed.connect(self._backend_edited)
 
-    def _pair(self, x: QDoubleSpinBox, y: QDoubleSpinBox) -> QWidget:
+    def _pair(self, label: str, x: QDoubleSpinBox, y: QDoubleSpinBox) -> QWidget:
         box = QWidget()
         row = QHBoxLayout(box)
         row.setContentsMargins(0, 0, 0, 0)
         for name, field in (("x", x), ("y", y)):
+            field.setAccessibleName(f"{label} {name}")  # names it in a refusal
             row.addWidget(QLabel(name))
             row.addWidget(field, 1)
         return box
@@ -168,13 +170,12 @@ class ParametersForm:
                 self.upper_arm, self.forearm, self.shoulder_x, self.shoulder_y,
                 self.tolerance, self.n_targets, self.repetitions, self.assistance)
 
-    def commit_edits(self) -> None:
+    def commit_edits(self) -> list[str]:
         """Take a number still being typed (the field shows it, its value is not yet
-        changed): Build and Start call this first, so what is on the screen counts."""
-        for box in self._spin_boxes():
-            if box.text() != box.textFromValue(box.value()) + box.suffix() \
-                    and box.hasAcceptableInput():
-                box.interpretText()
+        changed): Build and Start call this first, so what is on the screen counts. A
+        number the field cannot take is refused in words (ui.fields): the refusals are
+        returned, and Build and Start do not go on with the field's old value unseen."""
+        return commit_all(self._spin_boxes())
 
     def _show_level_words(self) -> None:
         """The level's label and tooltip say what it means in the mode chosen."""

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 
-from PySide6.QtCore import Signal
+from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import (
     QComboBox,
     QHBoxLayout,
@@ -42,15 +42,20 @@ class PlanTab(QWidget):
     resume_requested = Signal()
     stop_requested = Signal()
 
-    def __init__(self, templates: list[str]) -> None:
+    def __init__(self, templates: list[tuple[str, str, str]]) -> None:
+        """`templates`: (name, title, about) each (app.plans.templates.template_titles):
+        the list shows the titles, what each is for as its tooltip, and Copy gives the
+        name (the list showed the files' names, "endurance")."""
         super().__init__()
         self.plan: Plan | None = None
         self._loading = False
         self.templates = QComboBox()
-        self.templates.addItems(templates)
+        for k, (name, title, about) in enumerate(templates):
+            self.templates.addItem(title, name)
+            self.templates.setItemData(k, about, Qt.ItemDataRole.ToolTipRole)
         self.copy_button = QPushButton("Copy to the patient")
         self.copy_button.clicked.connect(
-            lambda: self.copy_requested.emit(self.templates.currentText()))
+            lambda: self.copy_requested.emit(self.templates.currentData()))
         top = QHBoxLayout()
         top.addWidget(QLabel("Template:"))
         top.addWidget(self.templates, 1)

@@ -38,7 +38,7 @@ from app.units import CM_PER_M as CM, cm, point_cm
 from core.arm import BODY_MASS_RANGE_KG, FOREARM_RANGE_M, UPPER_ARM_RANGE_M
 from core.trial import POSITION_RANGE_M
 from ui import plots, theme
-from ui.fields import ComboBox, DoubleSpinBox, SpinBox
+from ui.fields import ComboBox, DoubleSpinBox, SpinBox, commit_all
 from ui.tabs.clinical_record import ClinicalRecord
 
 NOT_MEASURED = "not measured"
@@ -154,6 +154,8 @@ class RegistrationTab(QWidget):
         pos_lo, pos_hi = (v * CM for v in POSITION_RANGE_M)
         self.shoulder_x = _optional_spin(pos_lo, pos_hi, 2, " cm", 1.0)
         self.shoulder_y = _optional_spin(pos_lo, pos_hi, 2, " cm", 1.0)
+        self.shoulder_x.setAccessibleName("Shoulder x")
+        self.shoulder_y.setAccessibleName("Shoulder y")
         self.same_name = QCheckBox("A different person with the same name")
         self.same_name.hide()
         self.create_button = QPushButton("Register new patient")
@@ -361,6 +363,13 @@ class RegistrationTab(QWidget):
             self.search_field.setText(" ".join(n for n in (first, last) if n))
             self.search()
             return None
+        # a number still typed counts; one refused (out of range, not a number) stops the
+        # registration once, so the field's old value is not registered unseen
+        refused = commit_all((self.birth_year, self.body_mass, self.upper_arm, self.forearm,
+                              self.shoulder_x, self.shoulder_y))
+        if refused:
+            self._show(self.create_problem, f"Not registered. {refused[0]}")
+            return None
         shoulder = (_optional_value(self.shoulder_x, CM), _optional_value(self.shoulder_y, CM))
         try:
             patient = self.registry.create_patient(
@@ -427,6 +436,10 @@ class RegistrationTab(QWidget):
         """Check the numbers against the registry and, if free, emit `registered`."""
         patient = self._patient
         if patient is None or self.registry is None:
+            return None
+        refused = commit_all((self.session, self.trial))
+        if refused:
+            self.show_refusal(refused[0])
             return None
         code, session, trial = patient.code, self.session.value(), self.trial.value()
         try:

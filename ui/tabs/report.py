@@ -65,6 +65,7 @@ class ReportTab(QWidget):
         super().__init__(parent)
         self._content: ReportContent | None = None
         self._source: Path | None = None
+        self._wanted: object = None  # the newest report asked for: only it may show
         self.path_plot: pg.PlotWidget | None = None  # the patient's path, once a report shows
         self.pdf_folder = ""  # where Save as PDF… starts: the patient's reports folder
         # Two queues: a newer report request replaces a waiting one, but must never
@@ -117,25 +118,40 @@ class ReportTab(QWidget):
     def load_file(self, path: str | Path, **options) -> None:
         """Build the report of a trial file (options go to app.reports.build.build_report)."""
         self._source = Path(path)
-        self.message.setText("Preparing the report…")
-        self.background.submit(("content", self._source), _load_file, self._source, options)
+        token = self._preparing(("content", self._source))
+        self.background.submit(token, _load_file, self._source, options)
 
     def load_registry_trial(self, registry: RecordStore, trial_id: int) -> None:
         """A registered trial's report, compared with the patient's earlier trials."""
         self._source = None
+        token = self._preparing(("content", trial_id))
+        self.background.submit(token, lambda: content_for_registry_trial(registry, trial_id))
+
+    def _preparing(self, token: object) -> object:
+        """The page empties and Print and Save grey out while a new report is prepared:
+        the previous trial's report, left on show with Save enabled, was taken for the
+        trial just ended (and saved as if it were its report)."""
+        self._wanted = token
+        self._content = None
+        self._clear()
+        self._set_buttons()
+        theme.set_role(self.message, "caption")
+        self.message.style().polish(self.message)
         self.message.setText("Preparing the report…")
-        self.background.submit(("content", trial_id),
-                               lambda: content_for_registry_trial(registry, trial_id))
+        return token
 
     def _done(self, token, result) -> None:
         kind = token[0]
         if kind == "content":
-            self.show_content(result)
+            if token == self._wanted:  # an older request's report is not this one's
+                self.show_content(result)
         elif kind == "pdf":
             self.message.setText(f"Saved {result}")
             self.pdf_saved.emit(result)
 
     def _failed(self, token, message: str) -> None:
+        if token[0] == "content" and token != self._wanted:
+            return
         what = "save the PDF" if token[0] == "pdf" else "prepare the report"
         self.message.setText(f"{theme.PROBLEM_SIGN} Could not {what}: {message}")
         theme.set_role(self.message, "problem")
@@ -206,6 +222,7 @@ class ReportTab(QWidget):
         while self.page_layout.count():
             item = self.page_layout.takeAt(0)
             if item.widget() is not None:
+                item.widget().hide()  # gone at once, not at the loop's next pass
                 item.widget().deleteLater()
             elif item.layout() is not None:
                 _delete_layout(item.layout())
@@ -399,6 +416,7 @@ def _delete_layout(layout) -> None:
     while layout.count():
         item = layout.takeAt(0)
         if item.widget() is not None:
+            item.widget().hide()  # gone at once, not at the loop's next pass
             item.widget().deleteLater()
         elif item.layout() is not None:
             _delete_layout(item.layout())

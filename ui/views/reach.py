@@ -15,7 +15,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from app.assessments.words import robot_task_words
 from app.units import CM_PER_M as CM, MM_S_PER_M_S
+from core.holdtasks import ROBOT_TASKS
 from core.robot import RobotModel
 from core.trial import ELBOW_FLEXION_RANGE_RAD, MAX_PATH_SPEED_M_S, TrialCheck
 from ui.views.samples import split_by_mask
@@ -81,9 +83,19 @@ def reach_picture(check: TrialCheck, shoulder_m: tuple[float, float]) -> ReachPi
 
 
 def check_summary(check: TrialCheck) -> str:
-    """The path's length and speed, and the joint ranges it asks for (ISB, degrees)."""
-    text = (f"Path {check.path_length_m * CM:.0f} cm per traversal, fastest "
-            f"{check.peak_speed_m_s * MM_S_PER_M_S:.0f} mm/s.")
+    """The path's length and speed, and the joint ranges it asks for (ISB, degrees); a
+    task the robot leads its timetable instead (app.assessments.words: "Path 80 cm per
+    traversal, fastest 0 mm/s" was said of a hand held still), with the joints' ranges
+    where the robot takes the hand (position sense)."""
+    task = check.parameters.assessment
+    if task in ROBOT_TASKS:
+        words = robot_task_words(check.parameters)
+        text = f"{words[0].upper()}{words[1:]}."
+        if task == "strength":
+            return text
+    else:
+        text = (f"Path {check.path_length_m * CM:.0f} cm per traversal, fastest "
+                f"{check.peak_speed_m_s * MM_S_PER_M_S:.0f} mm/s.")
     if check.reachable.any():
         sh = [math.degrees(v) for v in check.range_of(check.isb_angles_rad[:, 0])]
         el = [math.degrees(v) for v in check.range_of(check.isb_angles_rad[:, 1])]

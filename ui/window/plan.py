@@ -19,7 +19,7 @@ from PySide6.QtCore import QTimer
 from app.games.rounds import staircase_rounds
 from app.plans.dose import trial_dose
 from app.plans.runner import ENDED, PAUSED, PlanRunner
-from app.plans.templates import load_template, template_names
+from app.plans.templates import load_template, template_titles
 from core.plan import check_plan
 from device.loop.states import State
 from device.safety.faults import Fault
@@ -81,7 +81,7 @@ class PlanControl:
     def _build_plan_tab(self) -> PlanTab:
         self.plan_runner = None
         self.stored_plan = None
-        self.plan_tab = PlanTab(template_names())
+        self.plan_tab = PlanTab(template_titles())
         t = self.plan_tab
         t.copy_requested.connect(self._copy_template)
         t.block_changed.connect(self._change_block)

@@ -55,7 +55,11 @@ class TrialActions:
 
     # ------------------------------------------------------------------ robot buttons
     def build(self) -> None:
-        self.parameters_tab.commit_edits()
+        refused = self.parameters_tab.commit_edits()
+        if refused:  # said in the message line as the field refused it (ui.fields)
+            self._say(f"Build refused: {refused[0]}", problem=True)
+            self.tabs.setCurrentWidget(self.parameters_tab)
+            return
         if self.latch.holds_robot():
             self._say(f"Build waits: {self.latch.holds_robot()}.", problem=True)
             return
@@ -138,7 +142,11 @@ class TrialActions:
 
     def start_trial(self) -> None:
         # a number still being typed is committed first: it is on the screen
-        self.parameters_tab.commit_edits()
+        refused = self.parameters_tab.commit_edits()
+        if refused:
+            self._say(f"Start refused: {refused[0]}", problem=True)
+            self.tabs.setCurrentWidget(self.parameters_tab)
+            return
         waits = self.latch.holds_robot() or (self.state != State.CONNECTED and
                                              f"the robot is {self.state.label.lower()}")
         if not waits and self.registration is not None:

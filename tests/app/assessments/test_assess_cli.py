@@ -22,6 +22,23 @@ def test_the_tasks_are_listed_with_their_protocols(data, capsys):
     assert "Reaction time" in out or "reaction time" in out
 
 
+def test_a_task_the_robot_leads_is_listed_as_the_window_says_it(data, capsys):
+    """Clinic exploration 2 #4: strength and position sense were listed "1 × 3 s, robot
+    transparent"; they say their timetable and what the robot does, in the words the
+    Assessments tab and the Parameters tab use (app.assessments.words)."""
+    from app.assessments.words import robot_task_words
+    from core.assessment.protocol import protocol
+    from core.trial import THESIS_SUBJECT
+
+    _, out, _ = run(["assess", "tasks"], capsys)
+    lines = {line.split(":")[0]: line for line in out.splitlines() if not line.startswith(" ")}
+    for task in ("strength", "position"):
+        words = robot_task_words(protocol(task).parameters(THESIS_SUBJECT))
+        assert lines[task].endswith(f"1 trial: {words}"), lines[task]
+        assert "transparent" not in lines[task]
+    assert "1 round, 48 s; the robot holds the handle still" in lines["strength"]
+
+
 def test_a_task_run_for_a_patient_is_registered_with_its_figures(data, patient, capsys):
     code, out, err = run(["assess", "run", patient, "--task", "reaching", "--patient", "weak",
                           "--seed", "2"], capsys)

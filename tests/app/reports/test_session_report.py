@@ -132,6 +132,25 @@ def test_the_progress_pdf_ends_with_the_clinical_scales(clinic):
     assert "n = 2" in text
 
 
+def test_a_figure_against_a_scale_of_one_session_is_a_line_not_a_plot(clinic):
+    """Clinic exploration 2 #5: a patient with one session had a page of single-point plots
+    ("n = 1") per figure and scale; a plot of one point says nothing, so it is one line."""
+    registry, code, tmp_path = clinic
+    prog = progress(registry, code, check_files=False)
+    series = report_series(registry, prog)
+    assert series
+    assert all(len(s.points) == 1 for s in series)
+    path = write_progress_pdf(prog, tmp_path / "progress.pdf",
+                              scales=registry.session_scales(code), series=series)
+    text = text_of(path)
+    assert "n = 1" not in text
+    for s in series:
+        assert f"{s.figure_label} against {s.scale_label}: session 1 only" in text
+    assert "plotted from a second session with both" in text
+    without = write_progress_pdf(prog, tmp_path / "bare.pdf")
+    assert len(PdfReader(path).pages) == len(PdfReader(without).pages) + 1
+
+
 def test_the_session_report_on_the_command_line(clinic, capsys):
     _, code, _ = clinic
     status, out, _ = run(["session-report", code, "1"], capsys)

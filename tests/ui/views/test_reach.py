@@ -68,6 +68,26 @@ def test_the_summary_gives_length_speed_and_joint_ranges():
     assert f"the elbow {low:.0f}° to {high:.0f}° (ISB)" in text
 
 
+def test_a_task_the_robot_leads_is_summed_up_as_it_runs_not_as_a_path():
+    """Clinic exploration 2 #4: the strength task set up read "Path 80 cm per traversal,
+    fastest 0 mm/s" for a hand held still; the summary says the task's timetable and what
+    the robot does, in the words of the Assessments tab and `rehab assess tasks`
+    (app.assessments.words, one function for all)."""
+    from app.assessments.words import robot_task_words
+    from core.assessment.protocol import protocol
+
+    strength = protocol("strength").parameters(THESIS_SUBJECT)
+    text = check_summary(check_trial(strength))
+    assert text == ("8 directions, a push of 3 s each; 1 round, 48 s; the robot holds the "
+                    "handle still.")
+    assert "Path" not in text
+    assert "mm/s" not in text
+    position = protocol("position").parameters(THESIS_SUBJECT)
+    text = check_summary(check_trial(position))
+    words = robot_task_words(position)
+    assert text.startswith(f"{words[0].upper()}{words[1:]}. The shoulder will move ")
+
+
 def test_an_arm_problem_goes_under_centre_and_shoulder():
     check = check_trial(AS_PRINTED)
     placed = problem_fields(check)
