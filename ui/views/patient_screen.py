@@ -14,8 +14,9 @@ a start signal, knowledge of results after each movement):
 * before the exercise (the robot brings the hand to the path's start): "Get ready";
 * the exercise phase's first sample: "Go!", for `GO_SHOWN_S` (the tone, if on, once);
 * during the exercise: the repetition (k of n) and the time left on the trial's clock;
-* at its end: "Well done"; a fault or a stop: "Stopped" and nothing else (the therapist
-  explains).
+* at its end: "Well done!" with the last round's result (a game: with its score), or
+  "Finished." when the hand did not follow the last round (a game: scored nothing); a
+  fault or a stop: "Stopped" and nothing else (the therapist explains).
 
 After each round of a plain exercise the result comes first ("Round 1 done!"), then the
 round's quality in words (`round_quality`: how close the hand kept to the path), the order
@@ -60,6 +61,7 @@ is the thesis subject's tracking with the robot's help (8.68 / 7.02 mm RMSE, sec
 is a whole healthy trial's), 15 mm a third of the D's width off it."""
 QUALITY_ELSE = "Stay closer to the path"
 QUALITY_STILL = "now follow the whole path"
+QUALITY_STILL_LAST = "next time, follow the whole path"
 """A round whose hand moved less than COVERAGE of the path's length: still at the start,
 it is on the path, but did not follow it (a relaxed hand in the transparent mode, which
 nothing moves); said in white, not as a success."""
@@ -68,6 +70,10 @@ CUE_WAIT = "Please wait"
 CUE_READY = "Get ready"
 CUE_GO = "Go!"
 CUE_DONE = "Well done!"
+CUE_OVER = "Finished."
+"""The end of a trial whose last round the hand did not follow, or of a game without a
+point: said plainly, not praised ("Well done! Score 0" for a hand that missed every
+target)."""
 CUE_STOPPED = "Stopped"
 TASK_WORDS = {
     "ready": "Get ready to push", "push": "Push! Up to the line", "rest": "Relax",
@@ -311,18 +317,19 @@ def frame_at(view: TrialView, scene: Scene, options: PatientOptions,
         result, success = played.result, played.success
         target = None  # a game shows its own targets, not the robot's reference
         if cue == CUE_DONE and played.state.started:
-            cue = f"{CUE_DONE} {played.score_text}"
+            # praise for points scored; a game with none ends in plain words
+            cue = f"{CUE_DONE if played.state.score > 0 else CUE_OVER} {played.score_text}"
     elif started and phase == PHASE_EXERCISE and repetition >= 2:
         into = elapsed - (repetition - 1) * p.duration_s
         # at most half a round: the round under way is what matters
         if into < min(RESULT_SHOWN_S, 0.5 * p.duration_s):
-            span = (t0 + (repetition - 2) * p.duration_s, t0 + (repetition - 1) * p.duration_s)
-            if round_travelled(view, p, *span):
-                quality = round_quality(view, p, *span)
-                result = f"Round {repetition - 1} done!" + (f" {quality}" if quality else "")
-                success = True
-            else:
-                result = f"Round {repetition - 1} over: {QUALITY_STILL}"
+            result, success = _round_result(view, p, t0, repetition - 1)
+    elif started and cue == CUE_DONE and scene.task is None:
+        # the last round's result, which no next round shows, with the end; a hand that
+        # did not follow the path is not praised for it
+        result, success = _round_result(view, p, t0, repetition, last=True)
+        if not success:
+            cue = CUE_OVER
     if scene.task is not None:
         return _task_frame(view, scene, i, cue, cursor, started, phase, elapsed, left, t0)
     return PatientFrame(cue, cue == CUE_GO, cursor, target, active, repetition,
@@ -364,6 +371,17 @@ def _task_frame(view: TrialView, scene: Scene, i: int, cue: str, cursor, started
     return PatientFrame(TASK_WORDS.get(stretch.phase, ""), False, None if blank else cursor,
                         None, -1, int(values.get("round", 0)) + 1, rounds, left, sample=i,
                         exercise_started_s=t0, blank=blank, push=push)
+
+
+def _round_result(view: TrialView, p: TrialParameters, t0: float, n: int,
+                  last: bool = False) -> tuple[str, bool]:
+    """Round `n`'s result in words (knowledge of results, then its quality) and whether it
+    was a success: the hand followed the path (`round_travelled`)."""
+    span = (t0 + (n - 1) * p.duration_s, t0 + n * p.duration_s)
+    if round_travelled(view, p, *span):
+        quality = round_quality(view, p, *span)
+        return f"Round {n} done!" + (f" {quality}" if quality else ""), True
+    return f"Round {n} over: {QUALITY_STILL_LAST if last else QUALITY_STILL}", False
 
 
 def round_travelled(view: TrialView, parameters: TrialParameters, start_s: float,

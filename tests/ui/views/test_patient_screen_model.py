@@ -11,6 +11,7 @@ from device.recording.record import RECORD_DTYPE
 from ui.views.patient_screen import (
     CUE_DONE,
     CUE_GO,
+    CUE_OVER,
     CUE_READY,
     CUE_STOPPED,
     GO_SHOWN_S,
@@ -194,3 +195,21 @@ def test_a_hand_that_stayed_still_at_the_start_is_not_told_it_kept_to_the_path()
     half = _records(params)  # half of the round, then still: not enough either
     half["position"][APPROACH + 500:] = half["position_desired"][APPROACH + 500]
     assert not _frame_at_sample(half, APPROACH + 1000 + 10, params=params).success
+
+
+def test_the_end_gives_the_last_round_s_result_and_praises_only_a_hand_that_followed():
+    """The last round's result was never shown (no next round shows it), and "Well done!"
+    was said to every hand, a still one too. The end now gives the last round's result;
+    a hand that did not follow the last round ends with "Finished.", not praise."""
+    r = _records()
+    end = _frame_at_sample(r, APPROACH + EXERCISE + 5)
+    assert end.cue == CUE_DONE
+    assert end.result == "Round 3 done! Right on the path"  # 3 mm off both ways
+    assert end.success
+    params = PARAMS.replace(assist="transparent")
+    still = _records(params)
+    still["position"] = still["position_desired"][APPROACH]  # at the start all along
+    end = _frame_at_sample(still, APPROACH + EXERCISE + 5, params=params)
+    assert end.cue == CUE_OVER
+    assert end.result == "Round 3 over: next time, follow the whole path"
+    assert not end.success
