@@ -264,6 +264,16 @@ class Study:
     def __iter__(self) -> Iterator[Trial]:
         return self.trials()
 
+    def __repr__(self) -> str:
+        """What a researcher needs at the prompt, in a few lines: the dataclass's own form
+        printed every row and every trial's metadata, about 100,000 characters for a small
+        study."""
+        patients = {row.get("subject_code") for row in self.rows} - {None}
+        failed = f", {len(self.failed)} file(s) not read (.failed)" if self.failed else ""
+        return (f"Study({str(self.folder)!r}: {len(self)} trial(s) of {len(patients)} "
+                f"patient(s){failed}; {len(self.columns)} columns (.columns, .column(name), "
+                ".table(), .rows); iterate for the trials in full)")
+
     @property
     def paths(self) -> tuple[Path, ...]:
         return tuple(info.path for info in self.infos)

@@ -169,6 +169,10 @@ def test_study_keeps_going_past_unreadable_files_and_says_why(study_folder):
     assert "not a rehab-console trial file" in reasons["other.h5"]
     assert fractions[-1] == 1.0
     assert len(fractions) == 6
+    # at the prompt: a few words, not every row (about 100,000 characters before)
+    shown = repr(study)
+    assert "3 trial(s) of 2 patient(s), 3 file(s) not read (.failed)" in shown
+    assert len(shown) < 400
 
 
 def test_study_table_has_one_row_per_trial_with_parameters_and_metrics(study_folder):
