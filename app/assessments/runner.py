@@ -70,16 +70,17 @@ def run_task(task: str, patient: str = "healthy", base: TrialParameters | None =
              seed: int = 0, *, registry: RecordStore | None = None, code: str = "",
              folder: Path | None = None, patient_options: dict | None = None,
              plant: str = "realistic", engine: str = "auto",
-             progress: Progress | None = None, in_memory: bool = False
-             ) -> tuple[TaskTrial, ...]:
+             progress: Progress | None = None, in_memory: bool = False,
+             session_number: int | None = None) -> tuple[TaskTrial, ...]:
     """Run every trial of `task` (core.assessment.TASKS) with the virtual `patient` on the
     table of `base` (THESIS_SUBJECT's by default).
 
     With `registry` and `code` the trials are registered for that patient, whose body
     sizes replace the base's, and written in the data folder; else they are written in
     `folder` as `<task>_<k>_<patient>_seed<seed>.h5`, refused when one exists; with
-    `in_memory` (and neither) none is written (the module notes). Refuses a task, seed or
-    robot mode that cannot run, in one line, before any file exists."""
+    `in_memory` (and neither) none is written (the module notes); `session_number`, the
+    registered trials' session (None: today's goes on; the next number opens it). Refuses
+    a task, seed or robot mode that cannot run, in one line, before any file exists."""
     spec = protocol(task)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ParameterError("seed", seed, "a whole number from 0")
@@ -99,7 +100,8 @@ def run_task(task: str, patient: str = "healthy", base: TrialParameters | None =
             progress(f"{spec.name}: trial {index + 1} of {spec.trial_count}"
                      + (f" ({spec.trials[index]})" if spec.trials[index] else ""))
         out.append(_one(task, index, spec.trials[index], parameters, patient, seed + index,
-                        registry, code, folder, patient_options, plant, engine))
+                        registry, code, folder, patient_options, plant, engine,
+                        session_number))
     if task == "circle":
         out = _circle_task(out, registry)
     return tuple(out)
@@ -147,7 +149,8 @@ def run_battery(patient: str = "healthy", base: TrialParameters | None = None, s
 
 def _one(task: str, index: int, label: str, parameters: TrialParameters, patient: str,
          seed: int, registry: RecordStore | None, code: str, folder: Path | None,
-         patient_options: dict | None, plant: str, engine: str) -> TaskTrial:
+         patient_options: dict | None, plant: str, engine: str,
+         session_number: int | None = None) -> TaskTrial:
     from app.trials.headless import simulate_to_file
 
     started = time.perf_counter()
@@ -169,7 +172,7 @@ def _one(task: str, index: int, label: str, parameters: TrialParameters, patient
 
         with registered_trial(registry, code, parameters,
                               backend=f"simulator ({patient}, seed {seed})",
-                              patient_kind=patient) as begun:
+                              patient_kind=patient, session_number=session_number) as begun:
             path = begun.path
             trial, analysis, problem = simulate_to_file(parameters, path,
                                                         subject_code=code, **run)

@@ -12,7 +12,7 @@ import argparse
 from collections.abc import Mapping
 from types import MappingProxyType
 
-from app.cli.common import EXIT_OK, CommandError, registry_for
+from app.cli.common import EXIT_OK, CommandError, next_session, registry_for
 
 
 def add_assess_commands(commands) -> None:
@@ -52,6 +52,10 @@ def add_assess_commands(commands) -> None:
                      default=TrialParameters().centre_m,
                      help="the tasks' centre on the table, m (default %(default)s): move it "
                           "toward the shoulder for a patient who cannot reach round it")
+    run.add_argument("--new-session", action="store_true",
+                     help="register the trials in a new session of the patient's (default: "
+                          "today's session goes on), e.g. the retest of a test-retest pair "
+                          "(`rehab norms mdc`) recorded the same day")
     run.set_defaults(func=cmd_run)
     show = sub.add_parser("show", help="a patient's assessments and their figures",
                           description="A patient's assessment trials, task by task, with "
@@ -102,7 +106,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     from core.trial import TrialParameters
 
     base = TrialParameters(centre_m=tuple(args.centre))
-    options = {"registry": registry, "code": args.code, "progress": print}
+    options = {"registry": registry, "code": args.code, "progress": print,
+               "session_number": next_session(registry, args.code) if args.new_session
+               else None}
     try:
         if args.task == "all":
             runs = run_battery(args.patient, base, seed=args.seed, **options)

@@ -185,3 +185,10 @@ def rewritten_trial(args: argparse.Namespace, text: str, path: Path, what: str):
             and has_registry(data_dir)):
         return contextlib.nullcontext()
     return rewriting_files(registry_for(args), [path], what)
+
+
+def next_session(registry, code: str) -> int:
+    """The number a new session of the patient's takes (`--new-session`): the next after
+    their latest, today's or not."""
+    suggested = registry.suggest_registration(code)
+    return suggested.session_number + (0 if suggested.new_session else 1)

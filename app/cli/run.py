@@ -11,6 +11,7 @@ from app.cli.common import (
     EXIT_OK,
     CommandError,
     data_dir_for,
+    next_session,
     output_path,
     progress_bar,
     registry_for,
@@ -37,6 +38,10 @@ def add_run_command(commands) -> None:
                                           "data folder's trials/simulated)")
     run_cmd.add_argument("--code", help="register the trial for this patient (their body "
                                         "sizes replace the trial options')")
+    run_cmd.add_argument("--new-session", action="store_true",
+                         help="with --code: register the trial in a new session of the "
+                              "patient's (default: today's session goes on), e.g. the retest "
+                              "of a test-retest pair recorded the same day")
     run_cmd.add_argument("--as-proposed", action="store_true",
                          help="with --code: take the assistance, speed and tolerance the "
                               "console proposed after the patient's last trial")
@@ -102,6 +107,8 @@ def cmd_run(args: argparse.Namespace) -> int:
                            "estimate")
     if args.as_proposed and not args.code:
         raise CommandError("--as-proposed needs --code: a proposal belongs to a patient")
+    if args.new_session and not args.code:
+        raise CommandError("--new-session needs --code: a session belongs to a patient")
     run = {"subject_code": args.code or "SIM", "patient": args.patient, "seed": args.seed,
            "engine": args.engine, "plant": args.plant, "robot_seed": args.robot_seed,
            "model": model, "feed": feed, **options}
@@ -119,7 +126,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         # trial 'recording' without its file (app.trials.registered)
         with registered_trial(registry, args.code, params,
                               backend=f"simulator ({args.patient}, seed {args.seed})",
-                              patient_kind=args.patient) as begun:
+                              patient_kind=args.patient,
+                              session_number=next_session(registry, args.code)
+                              if args.new_session else None) as begun:
             path = begun.path
             trial, analysis, problem = _simulate(params, path, run)
     else:

@@ -62,6 +62,26 @@ def test_a_task_run_for_a_patient_is_registered_with_its_figures(data, patient, 
     assert "has no circle assessment yet" in out
 
 
+def test_a_retest_the_same_day_goes_into_a_new_session(data, patient, capsys):
+    """A test-retest pair (`rehab norms mdc`) recorded the same day: every run went into
+    today's session, so the retest could not be session 2 from the command line."""
+    for extra in ([], ["--new-session"]):
+        code, _, err = run(["assess", "run", patient, "--task", "strength", *extra], capsys)
+        assert code == 0, err
+    code, _, err = run(["run", "--code", patient, "--repetitions", "1", "--duration", "3",
+                        "--seed", "1", "--new-session"], capsys)
+    assert code == 0, err
+    code, _, err = run(["run", "--code", patient, "--repetitions", "1", "--duration", "3",
+                        "--seed", "1"], capsys)
+    assert code == 0, err
+    registry = Registry(DataDir(data))
+    numbers = [(t.session_number, t.number) for t in registry.trials_for_patient(patient)]
+    assert numbers == [(1, 1), (2, 1), (3, 1), (3, 2)]
+    code, _, err = run(["run", "--new-session", "--repetitions", "1"], capsys)
+    assert code == 2
+    assert "--new-session needs --code" in err
+
+
 @pytest.mark.parametrize(("args", "needle"), [
     (["assess", "run", "NOPE", "--task", "reaching"], "NOPE"),
     (["assess", "run", "{code}", "--task", "walking"], "invalid choice"),
