@@ -94,11 +94,20 @@ def test_live_emg_is_stored_with_the_trial_when_its_file_closes(qtbot, tmp_path,
             duration = 1.5 + 10.0  # at most: exercise, approach, hold
             assert stored.time_s[0] >= -LIVE_MARGIN_S - 0.01
             assert stored.time_s[-1] <= duration + LIVE_MARGIN_S
-            # even on the monotonic clock; on the trial's clock too, except where the
-            # simulator's ticks were late (its time is nominal, so a stall compresses there)
+            # even on the monotonic clock, and on the trial's clock through the ticks'
+            # wall times (app.emg.importing): the simulator's time is nominal, so where
+            # its ticks were late (a loaded machine) the trial's clock runs slower than
+            # the wall's, by the slope of its ticks' (wall_time, time) there
             step = np.diff(stored.time_s)
             assert (step >= 0).all()
-            assert np.median(step) == pytest.approx(0.0135 / 26, rel=1e-3)
+            trial = read_trial(win.trial_path)
+            wall = np.ravel(trial.channels["wall_time"])
+            time_s = np.ravel(trial.channels["time"])
+            within = (stored.time_s[:-1] >= time_s[0]) & (stored.time_s[1:] <= time_s[-1])
+            k = np.clip(np.searchsorted(time_s, stored.time_s[:-1][within], side="right") - 1,
+                        0, len(time_s) - 2)
+            slope = np.diff(time_s)[k] / np.diff(wall)[k]
+            assert np.median(step[within] / slope) == pytest.approx(0.0135 / 26, rel=1e-3)
             assert emg.capture is not None
             assert emg.capture.running  # streams on
             # the EMG went into the file after the trial's finish recorded its checksum:
