@@ -321,8 +321,7 @@ def load_hardware_settings(path: str | Path) -> HardwareSettings:
     path = Path(path)
     where = str(path)
     try:
-        with path.open("rb") as stream:
-            data = tomllib.load(stream)
+        data = tomllib.loads(_text_of(path.read_bytes(), where))
     except FileNotFoundError:
         raise HardwareSettingsError(
             f"hardware settings file {where} does not exist. Copy "
@@ -355,6 +354,24 @@ def load_hardware_settings(path: str | Path) -> HardwareSettings:
         force_sensor=ForceSensorSettings(**f_checked),
         source=where,
     )
+
+
+def _text_of(raw: bytes, where: str) -> str:
+    """The file's text: TOML is UTF-8. A byte-order mark, which Windows Notepad writes, is
+    dropped; a file saved as UTF-16 ("Unicode") or in a Windows code page ("ANSI", an
+    accent in a comment) is refused in one line saying how to save it."""
+    if raw.startswith(b"\xef\xbb\xbf"):
+        raw = raw[3:]
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        utf16 = raw[:2] in (b"\xff\xfe", b"\xfe\xff")
+        line = raw[:exc.start].count(b"\n") + 1
+        saved = "as UTF-16 (Unicode)" if utf16 else f"in another encoding (line {line})"
+        raise HardwareSettingsError(
+            f"hardware settings file {where} is not UTF-8 text: it was saved {saved}. Save "
+            "it as UTF-8 (in Notepad: Save as, Encoding UTF-8) and connect again."
+        ) from None
 
 
 def _section(data: Mapping[str, Any], section: str, cls: type, where: str) -> dict[str, Any]:
