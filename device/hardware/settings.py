@@ -110,22 +110,29 @@ def _signs(where: str, key: str, value: object, why: str) -> tuple[int, int]:
     return _pair(where, key, value, sign)
 
 
-def count_physical_channels(spec: str) -> int:
-    """How many analog-input channels an NI physical-channel string names.
+def physical_channel_list(spec: str) -> list[tuple[str, int]]:
+    """The (device, analog input) pairs an NI physical-channel string names, in order.
 
     Accepts NI's list syntax as used for analog inputs: comma-separated items of
     "Dev1/ai0" or ranges "Dev1/ai0:5" (either direction). Raises ValueError on
     anything else.
     """
-    total = 0
+    channels: list[tuple[str, int]] = []
     for item in spec.split(","):
         match = _PHYSICAL_CHANNEL.match(item)
         if match is None:
             raise ValueError(item.strip())
         first = int(match.group(2))
         last = int(match.group(3)) if match.group(3) is not None else first
-        total += abs(last - first) + 1
-    return total
+        step = 1 if last >= first else -1
+        channels += [(match.group(1), n) for n in range(first, last + step, step)]
+    return channels
+
+
+def count_physical_channels(spec: str) -> int:
+    """How many analog-input channels an NI physical-channel string names (see
+    `physical_channel_list`)."""
+    return len(physical_channel_list(spec))
 
 
 # -- the settings ---------------------------------------------------------------------------------
@@ -259,13 +266,19 @@ def _check_force(v: Mapping[str, Any], where: str) -> dict[str, Any]:
                                       why="the path of the sensor's ATI .cal file")
     spec = _string(f, "physical_channels", v["physical_channels"])
     try:
-        count = count_physical_channels(spec)
+        channels = physical_channel_list(spec)
     except ValueError as exc:
         raise _fail(f, "physical_channels", spec, 'NI channel names such as "Dev1/ai0:5"',
                     f"cannot read {str(exc)!r}") from None
+    count = len(channels)
     if count != FORCE_SENSOR_GAUGES:
         raise _fail(f, "physical_channels", spec, f"exactly {FORCE_SENSOR_GAUGES} channels",
                     f"it names {count}; gauges G0..G5 go to six inputs, in order")
+    twice = sorted({f"{d}/ai{n}" for d, n in channels if channels.count((d, n)) > 1})
+    if twice:
+        # one input read as two gauges would give every force a wrong number, silently
+        raise _fail(f, "physical_channels", spec, "six different inputs",
+                    f"named twice: {', '.join(twice)}; each gauge G0..G5 has its own input")
     out["physical_channels"] = spec
     out["terminal_config"] = _string(
         f, "terminal_config", v["terminal_config"], TERMINAL_CONFIGS,

@@ -135,6 +135,8 @@ def test_defaults_fill_optional_keys_and_absolute_calibration_path_is_kept(tmp_p
         ("calibration_file", '""', "a non-empty string"),
         ("physical_channels", '"Dev1/ai0:4"', "exactly 6 channels"),
         ("physical_channels", '"Dev1/port0"', 'NI channel names such as "Dev1/ai0:5"'),
+        ("physical_channels", '"Dev1/ai0:2, Dev1/ai2:4"', "named twice: Dev1/ai2;"),
+        ("physical_channels", '"Dev1/ai0:2, Dev1/ai0:2"', "named twice: Dev1/ai0, Dev1/ai1"),
         ("terminal_config", '"diff"', "'DIFF'"),
         ("voltage_range_V", "20.0", "(0, 10] V"),
         ("sample_rate_Hz", "100.0", "[500, 50000] Hz"),
