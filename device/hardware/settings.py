@@ -34,6 +34,12 @@ Q8_ENCODER_CHANNELS = 8
 Q8_ANALOG_OUTPUT_CHANNELS = 8
 FORCE_SENSOR_GAUGES = 6
 
+MIN_TARE_S = 0.1
+"""The shortest zero at Connect. A zero under load is told from the force's spread over
+it (device.backend.tare_of); a hand moves it through its tremor and its grip, whose
+physiological tremor is 8–12 Hz, so the zero must last at least about one period of it.
+One sample has no spread at all: `tare_samples = 1` let any zero pass."""
+
 _PHYSICAL_CHANNEL = re.compile(r"^\s*([A-Za-z0-9_\-]+)/ai(\d+)(?::(\d+))?\s*$")
 
 
@@ -312,6 +318,14 @@ def _check_force(v: Mapping[str, Any], where: str) -> dict[str, Any]:
         low_open=True,
     )
     tare_s = out["tare_samples"] / out["sample_rate_Hz"]
+    if tare_s < MIN_TARE_S:
+        raise _fail(
+            f, "tare_samples", v["tare_samples"],
+            f"at least {math.ceil(MIN_TARE_S * out['sample_rate_Hz'])} at "
+            f"{out['sample_rate_Hz']:g} Hz",
+            f"the zero would last {tare_s:g} s, too short for a hand on the handle to move "
+            f"the force by more than tare_spread_limit_N; keep it at least {MIN_TARE_S:g} s",
+        )
     if tare_s > 5.0:
         raise _fail(
             f, "tare_samples", v["tare_samples"],

@@ -135,6 +135,8 @@ def test_defaults_fill_optional_keys_and_absolute_calibration_path_is_kept(tmp_p
         ("calibration_file", '""', "a non-empty string"),
         ("physical_channels", '"Dev1/ai0:4"', "exactly 6 channels"),
         ("physical_channels", '"Dev1/port0"', 'NI channel names such as "Dev1/ai0:5"'),
+        ("tare_samples", "1", "allowed: at least 100 at 1000 Hz (the zero would last 0.001 s"),
+        ("tare_samples", "99", "allowed: at least 100 at 1000 Hz (the zero would last 0.099 s"),
         ("physical_channels", '"Dev1/ai0:2, Dev1/ai2:4"', "named twice: Dev1/ai2;"),
         ("physical_channels", '"Dev1/ai0:2, Dev1/ai0:2"', "named twice: Dev1/ai0, Dev1/ai1"),
         ("terminal_config", '"diff"', "'DIFF'"),
