@@ -34,6 +34,12 @@ Q8_ENCODER_CHANNELS = 8
 Q8_ANALOG_OUTPUT_CHANNELS = 8
 FORCE_SENSOR_GAUGES = 6
 
+MIN_TARE_S = 0.1
+"""The shortest zero at Connect. A zero under load is told from the force's spread over
+it (device.backend.tare_of); a hand moves it through its tremor and its grip, whose
+physiological tremor is 8–12 Hz, so the zero must last at least about one period of it.
+One sample has no spread at all: `tare_samples = 1` let any zero pass."""
+
 _PHYSICAL_CHANNEL = re.compile(r"^\s*([A-Za-z0-9_\-]+)/ai(\d+)(?::(\d+))?\s*$")
 
 
@@ -110,22 +116,29 @@ def _signs(where: str, key: str, value: object, why: str) -> tuple[int, int]:
     return _pair(where, key, value, sign)
 
 
-def count_physical_channels(spec: str) -> int:
-    """How many analog-input channels an NI physical-channel string names.
+def physical_channel_list(spec: str) -> list[tuple[str, int]]:
+    """The (device, analog input) pairs an NI physical-channel string names, in order.
 
     Accepts NI's list syntax as used for analog inputs: comma-separated items of
     "Dev1/ai0" or ranges "Dev1/ai0:5" (either direction). Raises ValueError on
     anything else.
     """
-    total = 0
+    channels: list[tuple[str, int]] = []
     for item in spec.split(","):
         match = _PHYSICAL_CHANNEL.match(item)
         if match is None:
             raise ValueError(item.strip())
         first = int(match.group(2))
         last = int(match.group(3)) if match.group(3) is not None else first
-        total += abs(last - first) + 1
-    return total
+        step = 1 if last >= first else -1
+        channels += [(match.group(1), n) for n in range(first, last + step, step)]
+    return channels
+
+
+def count_physical_channels(spec: str) -> int:
+    """How many analog-input channels an NI physical-channel string names (see
+    `physical_channel_list`)."""
+    return len(physical_channel_list(spec))
 
 
 # -- the settings ---------------------------------------------------------------------------------
@@ -259,13 +272,19 @@ def _check_force(v: Mapping[str, Any], where: str) -> dict[str, Any]:
                                       why="the path of the sensor's ATI .cal file")
     spec = _string(f, "physical_channels", v["physical_channels"])
     try:
-        count = count_physical_channels(spec)
+        channels = physical_channel_list(spec)
     except ValueError as exc:
         raise _fail(f, "physical_channels", spec, 'NI channel names such as "Dev1/ai0:5"',
                     f"cannot read {str(exc)!r}") from None
+    count = len(channels)
     if count != FORCE_SENSOR_GAUGES:
         raise _fail(f, "physical_channels", spec, f"exactly {FORCE_SENSOR_GAUGES} channels",
                     f"it names {count}; gauges G0..G5 go to six inputs, in order")
+    twice = sorted({f"{d}/ai{n}" for d, n in channels if channels.count((d, n)) > 1})
+    if twice:
+        # one input read as two gauges would give every force a wrong number, silently
+        raise _fail(f, "physical_channels", spec, "six different inputs",
+                    f"named twice: {', '.join(twice)}; each gauge G0..G5 has its own input")
     out["physical_channels"] = spec
     out["terminal_config"] = _string(
         f, "terminal_config", v["terminal_config"], TERMINAL_CONFIGS,
@@ -299,6 +318,14 @@ def _check_force(v: Mapping[str, Any], where: str) -> dict[str, Any]:
         low_open=True,
     )
     tare_s = out["tare_samples"] / out["sample_rate_Hz"]
+    if tare_s < MIN_TARE_S:
+        raise _fail(
+            f, "tare_samples", v["tare_samples"],
+            f"at least {math.ceil(MIN_TARE_S * out['sample_rate_Hz'])} at "
+            f"{out['sample_rate_Hz']:g} Hz",
+            f"the zero would last {tare_s:g} s, too short for a hand on the handle to move "
+            f"the force by more than tare_spread_limit_N; keep it at least {MIN_TARE_S:g} s",
+        )
     if tare_s > 5.0:
         raise _fail(
             f, "tare_samples", v["tare_samples"],
@@ -321,8 +348,7 @@ def load_hardware_settings(path: str | Path) -> HardwareSettings:
     path = Path(path)
     where = str(path)
     try:
-        with path.open("rb") as stream:
-            data = tomllib.load(stream)
+        data = tomllib.loads(_text_of(path.read_bytes(), where))
     except FileNotFoundError:
         raise HardwareSettingsError(
             f"hardware settings file {where} does not exist. Copy "
@@ -355,6 +381,24 @@ def load_hardware_settings(path: str | Path) -> HardwareSettings:
         force_sensor=ForceSensorSettings(**f_checked),
         source=where,
     )
+
+
+def _text_of(raw: bytes, where: str) -> str:
+    """The file's text: TOML is UTF-8. A byte-order mark, which Windows Notepad writes, is
+    dropped; a file saved as UTF-16 ("Unicode") or in a Windows code page ("ANSI", an
+    accent in a comment) is refused in one line saying how to save it."""
+    if raw.startswith(b"\xef\xbb\xbf"):
+        raw = raw[3:]
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        utf16 = raw[:2] in (b"\xff\xfe", b"\xfe\xff")
+        line = raw[:exc.start].count(b"\n") + 1
+        saved = "as UTF-16 (Unicode)" if utf16 else f"in another encoding (line {line})"
+        raise HardwareSettingsError(
+            f"hardware settings file {where} is not UTF-8 text: it was saved {saved}. Save "
+            "it as UTF-8 (in Notepad: Save as, Encoding UTF-8) and connect again."
+        ) from None
 
 
 def _section(data: Mapping[str, Any], section: str, cls: type, where: str) -> dict[str, Any]:

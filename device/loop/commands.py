@@ -229,6 +229,13 @@ class LoopCommands:
                                self.config.compiled)
         if backend.timing == REAL_TIME and check_timing and self.config.timing_check_s > 0.0:
             self._check_timing()
+        if self.config.compiled:
+            from device.compiled.warmup import load_kernels
+
+            # before open(): a real robot's card starts its watchdog there, and the first
+            # load of the kernels (a third of a second and more) kept the loop from
+            # reloading it, so the first Connect of a console tripped it
+            load_kernels(("loop",))
         backend.open()
         tare = getattr(getattr(backend, "inner", backend), "tare", None)
         if tare is not None:
@@ -245,10 +252,6 @@ class LoopCommands:
         self.pipeline = self._new_pipeline()
         self.backend = backend
         self.supervisor = SafetySupervisor(self.plan.robot, self.limits)
-        if self.config.compiled:
-            from device.compiled.warmup import load_kernels
-
-            load_kernels(("loop",))  # a first call inside a tick would stall it
         self.engine = TickEngine(backend, self.pipeline, self.supervisor)
         self.fault_reported = Fault.NONE
         self.reading = None

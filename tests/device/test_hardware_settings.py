@@ -135,6 +135,10 @@ def test_defaults_fill_optional_keys_and_absolute_calibration_path_is_kept(tmp_p
         ("calibration_file", '""', "a non-empty string"),
         ("physical_channels", '"Dev1/ai0:4"', "exactly 6 channels"),
         ("physical_channels", '"Dev1/port0"', 'NI channel names such as "Dev1/ai0:5"'),
+        ("tare_samples", "1", "allowed: at least 100 at 1000 Hz (the zero would last 0.001 s"),
+        ("tare_samples", "99", "allowed: at least 100 at 1000 Hz (the zero would last 0.099 s"),
+        ("physical_channels", '"Dev1/ai0:2, Dev1/ai2:4"', "named twice: Dev1/ai2;"),
+        ("physical_channels", '"Dev1/ai0:2, Dev1/ai0:2"', "named twice: Dev1/ai0, Dev1/ai1"),
         ("terminal_config", '"diff"', "'DIFF'"),
         ("voltage_range_V", "20.0", "(0, 10] V"),
         ("sample_rate_Hz", "100.0", "[500, 50000] Hz"),
@@ -215,3 +219,27 @@ def test_count_physical_channels(spec, count):
 def test_count_physical_channels_refuses_other_syntax(spec):
     with pytest.raises(ValueError):  # noqa: PT011 - the message is the offending item
         count_physical_channels(spec)
+
+
+@pytest.mark.parametrize(("encoding", "fragment"), [
+    ("utf-16", "it was saved as UTF-16 (Unicode)"),
+    ("cp1252", "it was saved in another encoding (line 1)"),
+])
+def test_a_file_saved_in_another_encoding_is_refused_in_one_line(tmp_path, encoding, fragment):
+    """Notepad's "Unicode" and "ANSI" (an accent in a comment) escaped as a bare
+    UnicodeDecodeError: the Connect said "'utf-8' codec can't decode byte 0xff"."""
+    path = tmp_path / "robot.toml"
+    path.write_bytes(("# réglage du robot\n" + GOOD).encode(encoding))
+    with pytest.raises(HardwareSettingsError) as caught:
+        load_hardware_settings(path)
+    assert str(caught.value) == (
+        f"hardware settings file {path} is not UTF-8 text: {fragment}. Save it as UTF-8 "
+        "(in Notepad: Save as, Encoding UTF-8) and connect again.")
+
+
+def test_a_byte_order_mark_is_read_past(tmp_path):
+    """Notepad writes one before UTF-8 text; tomllib refused it as "Invalid statement
+    (at line 1, column 1)"."""
+    path = tmp_path / "robot.toml"
+    path.write_bytes(b"\xef\xbb\xbf" + GOOD.encode())
+    assert load_hardware_settings(path).quanser.board_type == "q8"

@@ -171,3 +171,46 @@ def test_the_heartbeat_limit_is_the_robots_on_hardware_and_longer_on_the_simulat
     assert limits_for_backend(limits, Timed("real")).heartbeat_timeout_s == 0.5
     assert limits_for_backend(limits, Timed("simulated")).heartbeat_timeout_s == (
         SIMULATED_HEARTBEAT_TIMEOUT_S)
+
+
+def test_the_kernels_are_loaded_before_the_robot_starts_its_watchdog(monkeypatch):
+    """A real robot's open() starts the card's watchdog (20 ms): from then on only ticks
+    may follow. The first load of the compiled kernels took a third of a second after it,
+    so the first Connect of every console tripped the watchdog ("The Q8 watchdog
+    expired") on the robot standing still at its homing pose."""
+    from device.compiled import warmup
+
+    order = []
+    monkeypatch.setattr(warmup, "load_kernels", lambda groups: order.append("kernels"))
+    made = loop_commands.make_backend
+
+    def recording(*args, **kwargs):
+        backend = made(*args, **kwargs)
+        opened = backend.open
+
+        class Opened(type(backend)):
+            def open(self):
+                order.append("open (the watchdog starts)")
+                opened()
+
+        backend.__class__ = Opened
+        return backend
+
+    monkeypatch.setattr(loop_commands, "make_backend", recording)
+    monkeypatch.setattr(loop_commands, "measure_wakeups", lambda seconds: [0.0001])
+    console, loop_end = mp.Pipe()
+    ring = RecordRing.create(64)
+    loop = DeviceLoop(loop_end, None, ring, SimpleNamespace(value=0), SimpleNamespace(value=0),
+                      SimpleNamespace(value=0), LoopConfig(compiled=True, realtime=False))
+    try:
+        loop._command(Build(1, PARAMS, BackendConfig(timing="real")))
+        loop._command(Connect(2))
+        replies = [e for e in _events(console) if isinstance(e, Reply)]
+        assert all(r.ok for r in replies), replies
+        assert order == ["kernels", "open (the watchdog starts)"]
+    finally:
+        loop._disconnect_backend()
+        ring.close()
+        ring.unlink()
+        console.close()
+        loop_end.close()
