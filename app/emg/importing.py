@@ -148,6 +148,16 @@ def import_capture(trial_path: str | os.PathLike, captured, *, names, muscles=No
     return dataclasses.replace(done, notes=(*done.notes, *notes))
 
 
+def channel_names(declared, width: int) -> tuple[str, ...]:
+    """A live source's channels as the window shows them and the trial file keeps them:
+    the names the source declares (an LSL stream's labels) when there is one for each and
+    no two alike, else EMG1…"""
+    declared = tuple(declared or ())
+    if len(declared) == width and len(set(declared)) == width and all(declared):
+        return declared
+    return tuple(f"EMG{i + 1}" for i in range(width))
+
+
 LIVE_MARGIN_S = 2.0
 BUSY_RETRY_S = 10.0
 
@@ -157,10 +167,7 @@ def store_live_capture(trial_path: str | os.PathLike, captured, label: str) -> I
     capture's samples from LIVE_MARGIN_S before the trial to as long after, into the
     trial's `/emg`, each channel under the name its source declares (an LSL stream's
     labels: the muscles, as a lab names them) or EMG1…"""
-    width = captured.samples.shape[1]
-    declared = captured.labels
-    names = declared if len(declared) == width and len(set(declared)) == width else tuple(
-        f"EMG{i + 1}" for i in range(width))
+    names = channel_names(captured.labels, captured.samples.shape[1])
     return when_free(lambda: import_capture(trial_path, captured, names=names, source=label,
                                             margin_s=LIVE_MARGIN_S))
 

@@ -17,10 +17,18 @@ trial, of another console, or without the robot stream is refused in one line. T
 stamps, less that offset, are monotonic times of the console, and
 app.emg.importing.trial_time_from_monotonic puts them on the trial's clock, as for a live
 capture. Each channel is read in volts by the unit its stream declares (core.emg.units).
+
+LabRecorder goes on recording an EMG sender that stopped and came back (liblsl recovers
+it by its source id) into the same stream: a hole, and after it perhaps samples at
+another rate under the rate the stream's header declares. A hole is noted with where it
+is and how many samples are missing; a stretch of the stream that ran at another rate
+than declared is refused in one line, since every envelope and MVC is filtered at the
+declared rate.
 """
 
 from __future__ import annotations
 
+import itertools
 import logging
 import os
 import struct
@@ -41,6 +49,11 @@ differ by less than this (an eighth of a 2 ms tick: the clock offsets LabRecorde
 move by microseconds)."""
 MATCHED_SHARE = 0.99
 CANDIDATES = 50
+GAP_S = 0.1
+"""Stamps further apart than this (and than ten sample periods) are a hole in the stream."""
+RATE_TOLERANCE = 0.05
+"""A stretch between holes of at least a second whose stamps run this far from the
+declared rate is another rate."""
 """Places where the trial's first position appears in the stream that are tried (the
 handle at rest repeats a position; the trial's whole run of positions does not)."""
 
@@ -204,6 +217,34 @@ def emg_volts(stream: XdfStream, path: Path, unit: str | None) -> np.ndarray:
     return np.asarray(stream.values, dtype=float) * np.asarray(scales)
 
 
+def continuity(stream: XdfStream, trial_time: np.ndarray, path: Path) -> tuple[str, ...]:
+    """A note for the stream's holes; refused in one line where it ran at another rate than
+    it declares (module docstring)."""
+    period = 1.0 / stream.rate_hz
+    steps = np.diff(stream.stamps)
+    holes = np.flatnonzero(steps > max(GAP_S, 10 * period))
+    bounds = np.concatenate(([0], holes + 1, [stream.stamps.size]))
+    for first, end in itertools.pairwise(bounds):
+        span = stream.stamps[end - 1] - stream.stamps[first]
+        if span >= 1.0:
+            rate = (end - 1 - first) / span
+            if abs(rate * period - 1.0) > RATE_TOLERANCE:
+                raise EmgImportError(
+                    f"XDF file {path.name}: stream {stream.name} ran at about {rate:.0f} Hz "
+                    f"from trial time {trial_time[first]:.1f} s, not the "
+                    f"{stream.rate_hz:g} Hz it declares (the EMG software restarted at another "
+                    "rate?): record again, or export each part from the EMG software")
+    if not holes.size:
+        return ()
+    longest = holes[np.argmax(steps[holes])]
+    missing = int(np.sum(np.round(steps[holes] / period) - 1))
+    where = (f"for {steps[longest]:.1f} s at trial time {trial_time[longest]:.1f} s"
+             if holes.size == 1 else f"{holes.size} times, longest {steps[longest]:.1f} s at "
+             f"trial time {trial_time[longest]:.1f} s")
+    return (f"the EMG stream {stream.name} stopped {where} ({missing} samples missing): the "
+            "EMG has a hole there",)
+
+
 def import_xdf(trial_path: str | os.PathLike, xdf_path: str | os.PathLike, *,
                stream: str | None = None, unit: str | None = None,
                muscles: list[str] | None = None, replace: bool = False) -> Imported:
@@ -237,9 +278,10 @@ def import_xdf(trial_path: str | os.PathLike, xdf_path: str | os.PathLike, *,
     names = tuple(label or f"{emg.name}-{k + 1}" for k, label in enumerate(
         list(emg.labels[:volts.shape[1]]) + [""] * (volts.shape[1] - len(emg.labels))))
     trial_time = trial_time_from_monotonic(trial, emg.stamps - offset)
+    holes = continuity(emg, trial_time, path)
     markers = sum(len(s.stamps) for s in streams if s.name == EVENT_STREAM)
     notes = (f"placed through the {ROBOT_STREAM} stream: recording clock − console clock = "
-             f"{offset:.6f} s; {markers} robot markers in the recording", *damage)
+             f"{offset:.6f} s; {markers} robot markers in the recording", *holes, *damage)
     data = EmgData(names, emg.rate_hz, trial_time, volts, "xdf", path, notes)
     clock = ("LSL stamps of the XDF recording, less the offset at which the trial's ticks "
              f"are in its {ROBOT_STREAM} stream")

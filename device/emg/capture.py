@@ -11,6 +11,8 @@ and keeps what it had; `error` says why, and the trial goes on.
 from __future__ import annotations
 
 import threading
+import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -18,6 +20,10 @@ import numpy as np
 
 from device.errors import DeviceError
 
+STALL_S = 1.0
+"""No sample for this long, or a jump of this much in the stamps, is a source that stopped
+(module docstring). EMG software sends every 10-50 ms; liblsl took 1.7 s or more to
+recover a restarted stream on this machine, so a restart is always caught."""
 
 class EmgSource(Protocol):
     rate_hz: float
@@ -45,7 +51,9 @@ class Captured:
 class EmgCapture:
     """Reads a source on a daemon thread from `start()` until `stop()`."""
 
-    def __init__(self, source: EmgSource, *, channels=None, latest_s: float = 5.0) -> None:
+    def __init__(self, source: EmgSource, *, channels=None, latest_s: float = 5.0,
+                 stall_s: float = STALL_S,
+                 clock: Callable[[], float] = time.monotonic) -> None:
         self.source = source
         self.channels = None if channels is None else list(channels)
         self._chunks: list[tuple[np.ndarray, np.ndarray]] = []
@@ -55,6 +63,7 @@ class EmgCapture:
         self.error = ""
         self.latest_s = latest_s
         self._forgotten = 0  # samples dropped by forget_before, for the even restamp
+        self.stall_s, self.clock = stall_s, clock
 
     def start(self) -> EmgCapture:
         self._running.set()
@@ -63,18 +72,31 @@ class EmgCapture:
         return self
 
     def _run(self) -> None:
+        heard, last_stamp = self.clock(), None
         while self._running.is_set():
             try:
                 stamps, samples = self.source.read(0.05)
             except DeviceError as exc:
-                self.error = str(exc)
-                self._running.clear()
+                self._end(str(exc))
+                return
+            now = self.clock()
+            if not stamps.size and now - heard > self.stall_s:
+                self._end(f"no EMG came for {now - heard:.1f} s: the source stopped streaming")
+                return
+            if stamps.size and last_stamp is not None and stamps[0] - last_stamp > self.stall_s:
+                self._end(f"the source's samples jumped {stamps[0] - last_stamp:.1f} s ahead: "
+                          "it stopped and started again")
                 return
             if stamps.size:
+                heard, last_stamp = now, float(stamps[-1])
                 if self.channels is not None:
                     samples = samples[:, self.channels]
                 with self._lock:
                     self._chunks.append((stamps, np.asarray(samples, dtype=float)))
+
+    def _end(self, error: str) -> None:
+        self.error = error
+        self._running.clear()
 
     @property
     def running(self) -> bool:

@@ -278,7 +278,8 @@ class EmgTab(QWidget):
             return  # the last refresh is still being computed: skip this one
         t, x = capture.latest()
         session = None if self.session is None else self.session.copy()
-        self.live_worker.submit(None, live_emg_view, t, x, capture.source.rate_hz, session)
+        self.live_worker.submit(None, live_emg_view, t, x, capture.source.rate_hz, session,
+                                getattr(capture.source, "labels", ()))
 
     def _show_live(self, _token, view) -> None:
         if view is None or self.capture is None:

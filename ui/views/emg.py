@@ -60,8 +60,12 @@ class LiveEmgView:
     unit: str
 
 
-def live_emg_view(stamps_s, samples, rate_hz: float, session=None) -> LiveEmgView | None:
-    """None until the source has given LIVE_MIN_S of EMG."""
+def live_emg_view(stamps_s, samples, rate_hz: float, session=None,
+                  labels=()) -> LiveEmgView | None:
+    """None until the source has given LIVE_MIN_S of EMG. Without the session's MVCs, the
+    channels are named as the trial file will keep them (`labels`, the source's own names,
+    app.emg.importing.channel_names)."""
+    from app.emg.importing import channel_names
     from app.emg.protocol import live_percent, seconds_before_newest
     from core.emg.processing import rms_envelope
 
@@ -78,5 +82,5 @@ def live_emg_view(stamps_s, samples, rate_hz: float, session=None) -> LiveEmgVie
                            t0_s=seconds_before_newest(x.shape[0], rate_hz))
     except CoreError:  # too little signal yet for the filters: the next refresh will do
         return None
-    return LiveEmgView(env.t_s, 1e6 * env.values,
-                       tuple(f"EMG{i + 1}" for i in range(env.values.shape[1])), "µV")
+    return LiveEmgView(env.t_s, 1e6 * env.values, channel_names(labels, env.values.shape[1]),
+                       "µV")

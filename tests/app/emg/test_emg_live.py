@@ -212,3 +212,70 @@ def test_a_live_lsl_capture_keeps_the_muscles_its_stream_names(plain_trial, tmp_
     emg = read_emg(trial)
     assert emg.names == ("biceps", "triceps")
     np.testing.assert_array_equal(emg.samples[:5], np.full((5, 2), 150e-6))
+
+
+class _Quiet:
+    """A source that gives `chunks` of samples, then nothing, on a clock that each read
+    moves on by its timeout (as a read waiting for data does)."""
+
+    rate_hz = 1000.0
+
+    def __init__(self, chunks):
+        self.chunks, self.now = list(chunks), 100.0
+
+    def clock(self):
+        return self.now
+
+    def read(self, timeout_s=0.1):
+        self.now += timeout_s
+        if self.chunks:
+            stamps = self.chunks.pop(0)
+            return stamps, np.ones((stamps.size, 2))
+        return np.empty(0), np.empty((0, 2))
+
+    def close(self):
+        pass
+
+
+def _ended(capture):
+    deadline = time.monotonic() + 20.0
+    while capture.running:
+        assert time.monotonic() < deadline, "the capture did not end"
+        time.sleep(0.01)
+    return capture.stop()
+
+
+def test_a_source_that_goes_quiet_ends_the_capture_in_one_line_keeping_what_came():
+    """An LSL sender that stops raises nothing (liblsl waits to recover it): the capture
+    went on 'running' with nothing said, and the window never said the EMG had stopped."""
+    source = _Quiet([100.0 + np.arange(50) / 1000.0])
+    captured = _ended(EmgCapture(source, stall_s=1.0, clock=source.clock).start())
+    assert captured.error.startswith("no EMG came for 1.")
+    assert "stopped streaming" in captured.error
+    assert captured.samples.shape == (50, 2)
+
+
+def test_a_source_that_comes_back_after_a_gap_ends_the_capture_before_its_new_samples():
+    """A restarted LSL sender (perhaps at another rate) came back under the rate first
+    declared, after a hole: stored as if nothing had happened."""
+    before = 100.0 + np.arange(50) / 1000.0
+    source = _Quiet([before, before[-1] + 1.5 + np.arange(50) / 500.0])
+    captured = _ended(EmgCapture(source, stall_s=1.0, clock=source.clock).start())
+    assert "jumped 1.5 s ahead" in captured.error
+    np.testing.assert_array_equal(captured.stamps_s, before)
+
+
+def test_an_lsl_stream_whose_sender_stops_ends_the_capture():
+    """The real thing: a sender with a source id (liblsl would wait to recover it) goes
+    away; the capture ends with one line and keeps the samples it had."""
+    name = f"test-{uuid.uuid4().hex[:12]}"
+    outlet = _lsl_emg_outlet(name, ("biceps", "triceps"), "uV", pylsl.cf_int16)
+    inlet = LslEmgInlet(name, timeout_s=5.0).open(5.0)
+    _wait_for_consumers(outlet)
+    capture = EmgCapture(inlet).start()
+    outlet.push_chunk(np.full((400, 2), 150, dtype=np.int16))
+    _capture_until(capture, 400)
+    del outlet
+    captured = _ended(capture)
+    assert "stopped streaming" in captured.error
+    assert captured.samples.shape == (400, 2)

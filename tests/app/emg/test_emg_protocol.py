@@ -185,6 +185,19 @@ def test_the_live_envelopes_end_at_the_newest_sample_whatever_origin_each_read_h
         assert times[-1] > -0.2
 
 
+def test_the_live_view_names_the_channels_as_the_trial_file_will():
+    """An LSL stream's labels name the trial file's EMG channels (the muscles); the live
+    view said EMG1, EMG2 over the same signals."""
+    from ui.views.emg import live_emg_view
+
+    x = wave(int(2 * RATE), [1e-4, 3e-4])
+    t = 10.0 + np.arange(x.shape[0]) / RATE
+    assert live_emg_view(t, x, RATE, labels=("biceps", "triceps")).names == ("biceps",
+                                                                            "triceps")
+    assert live_emg_view(t, x, RATE, labels=("biceps", "biceps")).names == ("EMG1", "EMG2")
+    assert live_emg_view(t, x, RATE).names == ("EMG1", "EMG2")
+
+
 def test_the_source_words():
     assert source_spec("trigno", " 192.168.1.20 ") == "trigno:192.168.1.20"
     assert source_spec("lsl", "Delsys EMG") == "lsl:Delsys EMG"

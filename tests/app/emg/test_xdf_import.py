@@ -69,7 +69,8 @@ def _wait(condition, what, timeout=HANG_S):
         time.sleep(0.01)
 
 
-def _record(tmp_path, trial_path, emg_start_s=0.5, unit="microvolts", with_robot=True):
+def _record(tmp_path, trial_path, emg_start_s=0.5, unit="microvolts", with_robot=True,
+            periods=None):
     """Record the trial's ticks as the console's outlet publishes them, an int16 EMG
     stream of known samples at known stamps, and a marker; returns (xdf, stamps, samples)."""
     data = read_trial(trial_path)
@@ -81,7 +82,8 @@ def _record(tmp_path, trial_path, emg_start_s=0.5, unit="microvolts", with_robot
     sources = [emg_source] + ([robot_source, robot_source + "-events"] if with_robot else [])
     recorder = XdfRecorder(sources)
     _wait(emg.have_consumers, "the recorder connecting")
-    stamps = origin + emg_start_s + np.arange(3000) / EMG_HZ
+    periods = np.full(3000, 1.0 / EMG_HZ) if periods is None else periods
+    stamps = origin + emg_start_s + np.concatenate(([0.0], np.cumsum(periods[1:])))
     samples = ((np.arange(9000).reshape(3000, 3) * 37) % 20001 - 10000).astype(np.int16)
     if with_robot:
         _wait(outlet.have_consumers, "the recorder connecting")
@@ -170,3 +172,25 @@ def test_a_damaged_recording_is_refused_in_one_line_or_noted_never_silent(plain_
     assert any(note.startswith("the recording is damaged: pyxdf skipped what it could not "
                                "read") for note in done.notes), done.notes
     np.testing.assert_array_equal(read_emg(trial).samples, samples.astype(float) * 1e-6)
+
+
+def test_a_stream_that_stopped_in_the_recording_is_noted_and_one_at_another_rate_refused(
+        plain_trial, tmp_path):
+    """LabRecorder keeps recording a restarted EMG sender into the same stream: a hole,
+    then perhaps samples at another rate under the rate the header declares. Both were
+    stored as if the stream had run evenly, with nothing said."""
+    trial = _live_trial(plain_trial, tmp_path, time.monotonic() - 30.0)
+    periods = np.full(3000, 1.0 / EMG_HZ)
+    periods[1500] = 2.0
+    xdf, _, _ = _record(tmp_path, trial, periods=periods)
+    done = import_xdf(trial, xdf)
+    said = [n for n in done.notes if "stopped" in n]
+    assert len(said) == 1
+    assert "stopped for 2.0 s at trial time 2.0 s (1999 samples missing)" in said[0]
+
+    other = _live_trial(plain_trial, tmp_path, time.monotonic() - 30.0, name="rate.h5")
+    periods[1501:] = 2.0 / EMG_HZ
+    xdf, _, _ = _record(tmp_path, other, periods=periods)
+    with pytest.raises(EmgImportError, match=r"ran at about 500 Hz from trial time 4.0 s, "
+                                             r"not the 1000 Hz it declares"):
+        import_xdf(other, xdf)
