@@ -49,14 +49,13 @@ differ by less than this (an eighth of a 2 ms tick: the clock offsets LabRecorde
 move by microseconds)."""
 MATCHED_SHARE = 0.99
 CANDIDATES = 50
+"""Places where the trial's first position appears in the stream that are tried (the
+handle at rest repeats a position; the trial's whole run of positions does not)."""
 GAP_S = 0.1
 """Stamps further apart than this (and than ten sample periods) are a hole in the stream."""
 RATE_TOLERANCE = 0.05
 """A stretch between holes of at least a second whose stamps run this far from the
 declared rate is another rate."""
-"""Places where the trial's first position appears in the stream that are tried (the
-handle at rest repeats a position; the trial's whole run of positions does not)."""
-
 
 
 @dataclass(frozen=True, slots=True, eq=False)
