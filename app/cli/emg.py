@@ -245,6 +245,8 @@ def cmd_show(args: argparse.Namespace) -> int:
     print(f"{path.name}: {len(emg.names)} EMG channels at {emg.rate_hz:g} Hz, "
           f"{emg.time_s.size} samples, trial time {emg.time_s[0]:.3f}–{emg.time_s[-1]:.3f} s "
           f"({', '.join(str(v) for v in origin if v)})")
+    for note in emg.notes:  # kept with the EMG as it was stored
+        print(f"  note: {note}")
     if not emg.mvc:
         print("no MVC yet: rehab emg mvc TRIAL --contraction MUSCLE=FILE …")
         return 0

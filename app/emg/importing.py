@@ -79,18 +79,20 @@ def muscles_for(data_names: tuple[str, ...], muscles: list[str] | None) -> tuple
 
 
 def store(trial: TrialData, data: EmgData, trial_time_s: np.ndarray, *, muscles, clock: str,
-          offset_s: float, replace: bool) -> Imported:
+          offset_s: float, replace: bool, notes: tuple[str, ...] = ()) -> Imported:
+    """The EMG into the trial's file, with its notes (the data's, `notes`, and how much of
+    the trial it covers): in the file, not only said (device.recording.emgfile)."""
     names = muscles_for(data.names, muscles)
-    write_emg(trial.path, names=data.names, muscles=names, rate_hz=data.rate_hz,
-              time_s=trial_time_s, samples=data.samples, source=data.source, clock=clock,
-              offset_s=offset_s, source_file=data.path.name, replace=replace)
     duration = trial.n_samples * trial.sample_period_s
     inside = np.clip(trial_time_s, 0.0, duration)
     covers = float(inside[-1] - inside[0]) / duration if duration > 0 else 0.0
-    notes = list(data.notes)
+    notes = [*data.notes, *notes]
     if covers < 0.99:
         notes.append(f"the EMG covers {100 * covers:.0f} % of the trial "
                      f"({trial_time_s[0]:.2f}–{trial_time_s[-1]:.2f} s of {duration:.2f} s)")
+    write_emg(trial.path, names=data.names, muscles=names, rate_hz=data.rate_hz,
+              time_s=trial_time_s, samples=data.samples, source=data.source, clock=clock,
+              offset_s=offset_s, source_file=data.path.name, replace=replace, notes=notes)
     return Imported(trial.path, data.names, names, data.rate_hz, trial_time_s.size,
                     float(trial_time_s[0]), float(trial_time_s[-1]), covers, tuple(notes))
 
@@ -141,11 +143,10 @@ def import_capture(trial_path: str | os.PathLike, captured, *, names, muscles=No
         notes.append(f"{captured.missing} samples missing in the capture")
     if captured.error:
         notes.append(f"the capture ended early: {captured.error}")
-    done = store(trial, data, trial_time_from_monotonic(trial, captured.stamps_s),
+    return store(trial, data, trial_time_from_monotonic(trial, captured.stamps_s),
                  muscles=muscles, clock="monotonic stamps through /summary "
                  "wall_time_origin_monotonic_s and /timeseries/wall_time", offset_s=0.0,
-                 replace=replace)
-    return dataclasses.replace(done, notes=(*done.notes, *notes))
+                 replace=replace, notes=tuple(notes))
 
 
 def channel_names(declared, width: int) -> tuple[str, ...]:

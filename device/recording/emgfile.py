@@ -51,6 +51,15 @@ class EmgGroup:
     def channel_of(self, muscle: str) -> int:
         return self.muscles.index(muscle)
 
+    @property
+    def notes(self) -> tuple[str, ...]:
+        """What is wrong with the EMG, as stored with it (none in a file of before they
+        were kept, or one whose attribute is not a JSON list of texts)."""
+        value = self.attrs.get("notes", [])  # read as JSON already (`_attr`)
+        if not isinstance(value, list):
+            return ()
+        return tuple(str(note) for note in value)
+
 
 def write_emg(
     path: str | os.PathLike,
@@ -65,11 +74,14 @@ def write_emg(
     offset_s: float,
     source_file: str = "",
     replace: bool = False,
+    notes: Sequence[str] = (),
 ) -> None:
     """Store EMG in a closed trial file's `/emg` group. `time_s` is already trial time;
     `clock` says in words how it was mapped, `offset_s` the shift applied (trial time =
-    source time + offset_s). Refuses a file being recorded, and replacing EMG unless
-    `replace`."""
+    source time + offset_s); `notes`, what is wrong with it in words (a capture that ended
+    early, samples missing, a hole in a recording, part of the trial not covered), kept
+    with it: said on screen or printed only, they were lost with the session. Refuses a
+    file being recorded, and replacing EMG unless `replace`."""
     t = np.asarray(time_s, dtype=np.float64)
     x = np.asarray(samples, dtype=np.float64)
     if x.ndim != 2 or x.shape != (t.size, len(names)) or len(muscles) != len(names):
@@ -90,6 +102,7 @@ def write_emg(
                 "sampling_rate_hz": float(rate_hz), "units": "V", "source": source,
                 "source_file": source_file, "clock": clock, "offset_s": float(offset_s),
                 "imported_utc": utc_now_iso(), "n_samples": np.int64(t.size),
+                "notes": json.dumps([str(note) for note in notes]),
             })
             rows = max(1, min(CHUNK_ROWS, t.size))
             time_ds = group.create_dataset("time", data=t, chunks=(rows,), fletcher32=True)

@@ -38,9 +38,13 @@ def test_import_the_trigno_sample_then_show(made, tmp_path, capsys):
     assert "stored 3 EMG channels (biceps, triceps, anterior_deltoid) at 1925.93 Hz" in out
     assert "ACC1.X" in out  # the skipped accelerometer is said
     assert read_emg(trial).muscles == ("biceps", "triceps", "anterior_deltoid")
+    said = [line.strip() for line in out.splitlines() if line.strip().startswith("note:")]
+    assert said  # the sample file is shorter than the trial: how much it covers
     code, out, _ = run(["emg", "show", str(trial)], capsys)
     assert code == 0
     assert "no MVC yet" in out
+    # what the import said is kept with the EMG, and shown again
+    assert all(note in out for note in said), (said, out)
 
 
 def test_mvc_then_show_in_percent_of_mvc(made, tmp_path, capsys):

@@ -132,6 +132,9 @@ def test_a_source_lost_mid_trial_keeps_what_it_had(plain_trial, tmp_path):
     done = import_capture(trial, captured, names=tuple(f"EMG{i}" for i in range(1, 17)),
                           source="trigno-tcp")
     assert any("ended early" in n for n in done.notes)
+    # kept with the EMG in the file, not only said
+    assert read_emg(trial).notes == done.notes
+    assert any("ended early" in n for n in read_emg(trial).notes)
     empty = EmgCapture(client).stop()
     with pytest.raises(EmgImportError, match="no EMG was captured"):
         import_capture(trial, empty, names=(), source="trigno-tcp", replace=True)

@@ -59,6 +59,7 @@ def test_an_imported_file_lands_on_the_trials_clock(trial, tmp_path):
     assert done.first_s == pytest.approx(0.5)
     assert any("covers" in n for n in done.notes)
     emg = read_emg(trial)
+    assert emg.notes == done.notes
     assert emg.rate_hz == pytest.approx(1925.926, rel=1e-6)
     assert emg.time_s[0] == pytest.approx(0.5)
     assert emg.samples.shape == (emg.time_s.size, 3)

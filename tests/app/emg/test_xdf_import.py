@@ -187,6 +187,7 @@ def test_a_stream_that_stopped_in_the_recording_is_noted_and_one_at_another_rate
     said = [n for n in done.notes if "stopped" in n]
     assert len(said) == 1
     assert "stopped for 2.0 s at trial time 2.0 s (1999 samples missing)" in said[0]
+    assert said[0] in read_emg(trial).notes  # in the file with the EMG
 
     other = _live_trial(plain_trial, tmp_path, time.monotonic() - 30.0, name="rate.h5")
     periods[1501:] = 2.0 / EMG_HZ
