@@ -193,13 +193,13 @@ class ParametersForm:
     # -- values -------------------------------------------------------------------
     def _values(self) -> dict:
         values = self._shown_values()
-        values["assessment"] = self._assessment_of(values)
         kept, as_set = getattr(self, "_hidden", ({}, None))
         if values == as_set:
             values.update(kept)
         return values
 
     def _shown_values(self) -> dict:
+        """The fields the form shows, and the assessment task they hold."""
         def metres(box: QDoubleSpinBox) -> float:
             # Rounded to the field's resolution, so 30.48 cm is 0.3048 m and not
             # 0.30479999999999996 m: equal parameters must compare equal.
@@ -226,6 +226,7 @@ class ParametersForm:
             "gains": self.gains.text(),
             "force_estimate": self.force_source.currentData() or "",
         }
+        values["assessment"] = self._assessment_of(values)
         return values
 
     def _assessment_of(self, values: dict) -> str:
@@ -279,7 +280,6 @@ class ParametersForm:
         finally:
             self._loading = False
         shown = self._shown_values()
-        shown["assessment"] = self._assessment_of(shown)
         self._hidden = ({name: getattr(parameters, name) for name in HIDDEN_FIELDS}, shown)
         self.refresh()
 
