@@ -426,6 +426,23 @@ def _say_which_server(request):
         request.node.user_properties.append((PATH_PROPERTY, server.path))
 
 
+@pytest.fixture(autouse=True)
+def _recorded_files_kept(request):
+    """After a test that used `tmp_path`: every registered trial's file in it is still the
+    one its registry recorded (tests/recorded_files.py says why)."""
+    from tests.recorded_files import MARK, changed_trial_files
+
+    if "tmp_path" not in request.fixturenames or request.node.get_closest_marker(MARK):
+        yield
+        return
+    folder = request.getfixturevalue("tmp_path")
+    yield
+    if changed := changed_trial_files(folder):
+        pytest.fail("; ".join(changed) + f" (a console write into a finished trial's file "
+                    f"must record its new checksum: app.trials.rewrite; a test that changes "
+                    f"it on purpose is marked {MARK})", pytrace=False)
+
+
 @pytest.fixture(scope="session")
 def server_registries(postgres_server):
     """Registry databases on the server, each a copy of one made as a department's owner

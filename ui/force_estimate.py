@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import logging
 
+from app.trials.rewrite import rewriting_files
+
 log = logging.getLogger(__name__)
 
 
@@ -83,4 +85,10 @@ class ForceEstimateControl:
         def done(count) -> None:
             w.say(f"Stored {count} EMG estimates of the patient's force with the trial.")
 
-        w.jobs.run(lambda: feed.store(path), done)
+        def store() -> int:
+            # after the trial's finish recorded its file's checksum: recorded again
+            # (app.trials.rewrite), or exports and studies would leave the trial out
+            with rewriting_files(w.registry, [path], "the EMG estimates of the force"):
+                return feed.store(path)
+
+        w.jobs.run(store, done)

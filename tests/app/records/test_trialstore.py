@@ -103,6 +103,7 @@ def test_a_copy_already_there_and_whole_is_recorded_as_it_is(station, tmp_path):
     assert store_trial(registry, trial, store).stored_in == str(store)
 
 
+@pytest.mark.changes_recorded_files  # on purpose (tests/recorded_files.py)
 def test_a_data_folder_file_changed_since_its_end_is_not_copied(station, tmp_path):
     registry, code = station
     trial = _finished_trial(registry, code)

@@ -54,6 +54,7 @@ def _rows(registry, code):
     return {int(row.trial_id): row for row in frame.itertuples()}
 
 
+@pytest.mark.changes_recorded_files  # on purpose (tests/recorded_files.py)
 def test_each_trial_is_read_where_its_recorded_file_is(department):
     registry, code, (first, second, third, fourth), store = department
     whole = _rows(registry, code)
@@ -86,6 +87,7 @@ def test_each_trial_is_read_where_its_recorded_file_is(department):
     assert "\n" not in third_failure + fourth_failure
 
 
+@pytest.mark.changes_recorded_files  # on purpose (tests/recorded_files.py)
 def test_an_export_takes_the_same_files_and_lists_the_others(department, tmp_path):
     registry, code, (first, _, third, _), store = department
     registry.trial_path(first).unlink()

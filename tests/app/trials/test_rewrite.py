@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from app.records.datadir import DataDir
 from app.records.registry import Registry
 from tests.app.cli.running import run
@@ -51,6 +53,7 @@ def test_emg_import_and_mvc_keep_a_registered_trial_exportable(data, patient, tm
     assert "not exported" not in out
 
 
+@pytest.mark.changes_recorded_files  # on purpose (tests/recorded_files.py)
 def test_a_file_changed_before_the_console_wrote_stays_refused(data, patient, tmp_path,
                                                                capsys):
     trial_id = _registered_trial(patient, capsys)
@@ -77,6 +80,7 @@ def test_the_circle_task_s_trials_stay_exportable(data, patient, tmp_path, capsy
     assert "not exported" not in out
 
 
+@pytest.mark.changes_recorded_files  # on purpose (tests/recorded_files.py)
 def test_record_rewritten_leaves_a_trial_without_checksum_and_forgets_the_store(data,
                                                                                  patient,
                                                                                  capsys):
