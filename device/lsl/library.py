@@ -105,16 +105,19 @@ def local_clock() -> float:
     return pylsl().local_clock()
 
 
+CHANNEL_KEYS = ("label", "unit", "type", "scaling_factor")
+
+
 def channel_descriptions(info) -> list[dict[str, str]]:
-    """Each channel's `label`, `unit` and `type` from the stream's description
-    (`desc/channels/channel`, the XDF meta-data convention), '' where not given; one dict
-    per channel, as many as the stream has."""
+    """Each channel's `label`, `unit`, `type` and `scaling_factor` (core.emg.units) from the
+    stream's description (`desc/channels/channel`, the XDF meta-data convention), '' where
+    not given; one dict per channel, as many as the stream has."""
     out = []
     channel = info.desc().child("channels").child("channel")
     for _ in range(info.channel_count()):
         if channel.empty():
-            out.append({"label": "", "unit": "", "type": ""})
+            out.append(dict.fromkeys(CHANNEL_KEYS, ""))
             continue
-        out.append({key: channel.child_value(key).strip() for key in ("label", "unit", "type")})
+        out.append({key: channel.child_value(key).strip() for key in CHANNEL_KEYS})
         channel = channel.next_sibling("channel")
     return out

@@ -37,7 +37,7 @@ def _brief_duplicate_look(monkeypatch):
 
 
 def _emg_outlet(name, channels=16, rate=2000.0, fmt=pylsl.cf_float32, unit="volts",
-                labels=None):
+                labels=None, scaling=None):
     info = pylsl.StreamInfo(name, "EMG", channels, rate, fmt, f"{name}-source")
     if unit is not None or labels is not None:
         described = info.desc().append_child("channels")
@@ -46,6 +46,8 @@ def _emg_outlet(name, channels=16, rate=2000.0, fmt=pylsl.cf_float32, unit="volt
             channel.append_child_value("label", labels[k] if labels else f"EMG{k + 1}")
             if unit is not None:
                 channel.append_child_value("unit", unit if isinstance(unit, str) else unit[k])
+            if scaling is not None:
+                channel.append_child_value("scaling_factor", scaling)
     return pylsl.StreamOutlet(info)
 
 
@@ -128,6 +130,40 @@ def test_every_numeric_format_is_read_in_volts_by_its_declared_unit(fmt, dtype, 
     np.testing.assert_array_equal(x, sent.astype(float) * volts)
     assert inlet.units == (unit,) * 3
     inlet.close()
+
+
+@pytest.mark.parametrize(("fmt", "dtype", "scaling", "volts"), [
+    (pylsl.cf_int16, np.int16, "0.1", 1e-7),
+    (pylsl.cf_int32, np.int32, "0.5", 5e-7),
+    (pylsl.cf_int16, np.int16, "10.000000", 1e-5),
+    (pylsl.cf_float32, np.float32, "1", 1e-6),
+], ids=["int16-0.1", "int32-0.5", "int16-10", "float32-1"])
+def test_a_raw_integer_stream_is_scaled_by_its_declared_scaling_factor(fmt, dtype, scaling,
+                                                                        volts):
+    """A BrainAmp's raw int16 stream says `microvolts` and a scaling_factor of 0.1 (its
+    resolution); the factor was ignored and its counts read as whole microvolts, ten times
+    too large."""
+    name = _unique()
+    outlet = _emg_outlet(name, channels=2, rate=1000.0, fmt=fmt, unit="microvolts",
+                         scaling=scaling)
+    inlet = LslEmgInlet(name, timeout_s=5.0).open(5.0)
+    _wait_for(outlet.have_consumers, "the inlet connecting")
+    outlet.push_chunk(np.array([[1000, -250]] * 10, dtype=dtype))
+    _, x = _receive(inlet, 10)
+    np.testing.assert_allclose(x[0], np.array([1000, -250]) * volts, rtol=1e-12)
+    inlet.close()
+
+
+@pytest.mark.parametrize("scaling", ["0", "-0.1", "fine", "nan"])
+def test_a_scaling_factor_that_is_no_positive_number_is_refused_in_one_line(scaling):
+    name = _unique()
+    outlet = _emg_outlet(name, channels=1, rate=1000.0, fmt=pylsl.cf_int16, unit="uV",
+                         scaling=scaling)
+    with pytest.raises(LslError, match=rf"gives EMG1 a scaling_factor of '{scaling}', not a "
+                                       "positive number") as refused:
+        LslEmgInlet(name, timeout_s=5.0)
+    assert "\n" not in str(refused.value)
+    del outlet
 
 
 def test_a_channel_without_a_voltage_unit_is_refused_in_one_line_unless_given():

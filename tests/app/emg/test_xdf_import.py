@@ -51,7 +51,7 @@ def _live_trial(plain_trial, folder, origin, name="live.h5"):
     return path
 
 
-def _emg_outlet(source, unit="microvolts"):
+def _emg_outlet(source, unit="microvolts", scaling=None):
     info = pylsl.StreamInfo(f"emg-{source}", "EMG", 3, EMG_HZ, pylsl.cf_int16, source)
     channels = info.desc().append_child("channels")
     for label in ("biceps", "triceps", "deltoid"):
@@ -59,6 +59,8 @@ def _emg_outlet(source, unit="microvolts"):
         channel.append_child_value("label", label)
         if unit:
             channel.append_child_value("unit", unit)
+        if scaling:
+            channel.append_child_value("scaling_factor", scaling)
     return pylsl.StreamOutlet(info)
 
 
@@ -70,7 +72,7 @@ def _wait(condition, what, timeout=HANG_S):
 
 
 def _record(tmp_path, trial_path, emg_start_s=0.5, unit="microvolts", with_robot=True,
-            periods=None):
+            periods=None, scaling=None):
     """Record the trial's ticks as the console's outlet publishes them, an int16 EMG
     stream of known samples at known stamps, and a marker; returns (xdf, stamps, samples)."""
     data = read_trial(trial_path)
@@ -78,7 +80,7 @@ def _record(tmp_path, trial_path, emg_start_s=0.5, unit="microvolts", with_robot
     tag = uuid.uuid4().hex[:10]
     robot_source, emg_source = f"robot-{tag}", f"emg-{tag}"
     outlet = RobotStateOutlet(500.0, source_id=robot_source) if with_robot else None
-    emg = _emg_outlet(emg_source, unit)
+    emg = _emg_outlet(emg_source, unit, scaling)
     sources = [emg_source] + ([robot_source, robot_source + "-events"] if with_robot else [])
     recorder = XdfRecorder(sources)
     _wait(emg.have_consumers, "the recorder connecting")
@@ -117,6 +119,17 @@ def test_an_xdf_recording_lands_in_the_trial_within_one_emg_sample(plain_trial, 
     assert done.rate_hz == EMG_HZ
     assert any("placed through the rehab-robot stream" in note for note in done.notes)
     assert emg.attrs["source"] == "xdf"
+
+
+def test_a_raw_integer_stream_is_imported_in_volts_by_its_scaling_factor(plain_trial,
+                                                                        tmp_path):
+    """A BrainAmp's raw int16 stream (microvolts, scaling_factor 0.1) was imported ten times
+    too large: the factor was not read."""
+    trial = _live_trial(plain_trial, tmp_path, time.monotonic() - 30.0)
+    xdf, _, samples = _record(tmp_path, trial, scaling="0.1")
+    import_xdf(trial, xdf)
+    np.testing.assert_allclose(read_emg(trial).samples, samples.astype(float) * 1e-7,
+                               rtol=1e-12)
 
 
 def test_a_recording_of_another_trial_or_without_the_robot_is_refused_in_one_line(
