@@ -7,6 +7,7 @@ import json
 import socket
 import time
 import uuid
+from pathlib import Path
 
 import numpy as np
 import pylsl
@@ -378,6 +379,7 @@ def test_liblsl_is_quiet_unless_someone_configured_it(monkeypatch, tmp_path):
 
     from device.lsl import library
 
+    monkeypatch.setattr(library, "_log_file", [])
     given = []
     fake = types.SimpleNamespace(set_config_content=given.append)
     monkeypatch.setitem(sys.modules, "pylsl", fake)
@@ -393,3 +395,64 @@ def test_liblsl_is_quiet_unless_someone_configured_it(monkeypatch, tmp_path):
     monkeypatch.setenv("LSLAPICFG", str(tmp_path / "tests.cfg"))
     library.pylsl()
     assert given == [library.QUIET_CONFIG]
+
+
+_GONE_SENDER = """
+import sys, time
+from pathlib import Path
+import numpy as np
+from device.lsl import library
+# liblsl as nobody configured it, but kept on this machine: the loopback settings stand in
+# for its network defaults
+library.QUIET_CONFIG = library.LOOPBACK_CONFIG
+library.user_config_files = lambda: ()
+library.log_liblsl_into(Path(sys.argv[1]))
+pylsl = library.pylsl()
+from device.lsl.inlet import LslEmgInlet
+name = sys.argv[2]
+info = pylsl.StreamInfo(name, "EMG", 1, 1000.0, pylsl.cf_int16, name)
+info.desc().append_child("channels").append_child("channel").append_child_value("unit", "uV")
+outlet = pylsl.StreamOutlet(info)
+inlet = LslEmgInlet(name, timeout_s=10.0).open(10.0)
+while not outlet.have_consumers():
+    time.sleep(0.01)
+del outlet  # the EMG software goes away while its stream is read
+deadline = time.monotonic() + float(sys.argv[3])
+while "broke off" not in (Path(sys.argv[1]).read_text() if Path(sys.argv[1]).exists() else ""):
+    assert time.monotonic() < deadline, "liblsl wrote nothing"
+    time.sleep(0.05)
+"""
+
+
+def test_liblsl_writes_a_sender_going_away_into_the_log_file_not_on_stderr(tmp_path):
+    """liblsl wrote 'Stream transmission broke off (Input stream error.); re-connecting...'
+    on stderr when an EMG sender went away, under the console's own line for it; with the
+    console's log folder given it goes there, errors and all."""
+    import os
+    import subprocess
+    import sys
+
+    from tests.patience import HANG_S
+
+    log = tmp_path / "liblsl.log"
+    env = {k: v for k, v in os.environ.items() if k != "LSLAPICFG"}
+    done = subprocess.run([sys.executable, "-c", _GONE_SENDER, str(log), _unique(),
+                           str(HANG_S)], env=env, capture_output=True, text=True,
+                          timeout=2 * HANG_S, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "Stream transmission broke off" in log.read_text()
+    assert "broke off" not in done.stderr
+    assert "ERR" not in done.stderr
+
+
+def test_a_log_file_liblsl_cannot_read_leaves_its_errors_on_stderr(monkeypatch):
+    from device.lsl import library
+
+    monkeypatch.setattr(library, "_log_file", [])
+    library.log_liblsl_into(None)
+    assert library.quiet_config() == library.QUIET_CONFIG
+    library.log_liblsl_into(Path("/data/logs/liblsl.log"))
+    assert library.quiet_config().endswith("[log]\nlevel = -2\nfile = /data/logs/liblsl.log\n")
+    for odd in ("/data/lo\ngs/liblsl.log", "/data/logs/liblsl.log "):
+        library.log_liblsl_into(Path(odd))
+        assert library.quiet_config() == library.QUIET_CONFIG
