@@ -10,11 +10,15 @@ format, or for strings a variable-length length and the bytes per channel), Cloc
 (tag 4: stream id, collection time and offset, doubles) and a StreamFooter (tag 6, XML).
 The stamps are the sender's (no clock correction in the inlet), and the clock offsets are
 what liblsl's time_correction measures, as LabRecorder records them; pyxdf then puts every
-stream on this computer's clock.
+stream on this computer's clock. All senders here share this machine's clock, so a test
+plays a sender on another computer by stamping its samples `ahead_s` seconds ahead and
+giving the recorder the same (`clocks_ahead`): its offsets are then what LabRecorder would
+have measured from that computer.
 """
 
 from __future__ import annotations
 
+import contextlib
 import struct
 import threading
 import time
@@ -72,8 +76,11 @@ def _resolve(source_id: str):
 class XdfRecorder:
     """Records the streams whose source ids are given until `stop(path)` writes the file."""
 
-    def __init__(self, source_ids):
+    def __init__(self, source_ids, clocks_ahead: dict[str, float] | None = None):
         self.source_ids = list(source_ids)
+        self.clocks_ahead = dict(clocks_ahead or {})
+        """Seconds each sender's clock (by source id) runs ahead of this machine's: its
+        recorded clock offsets (this clock minus the sender's) are that much lower."""
         # the streams resolved in one wave and their inlets opened side by side: each
         # inlet's info, opening and first clock offset are round trips (about 0.7 s a
         # stream, one after another)
@@ -97,8 +104,12 @@ class XdfRecorder:
             time.sleep(0.01)
 
     def stop(self, path: Path) -> Path:
+        """Write what came. A stream whose sender is already gone keeps the clock offsets
+        measured while it was there, as LabRecorder does (asking it again raised pylsl's
+        LostError)."""
         for take in self.takes:
-            take.offsets.append((pylsl.local_clock(), take.inlet.time_correction(5.0)))
+            with contextlib.suppress(pylsl.util.LostError, pylsl.util.TimeoutError):
+                take.offsets.append((pylsl.local_clock(), take.inlet.time_correction(5.0)))
             take.stopping.set()
             take.join(10.0)
         out = [b"XDF:", _chunk(1, b'<?xml version="1.0"?><info><version>1.0</version></info>')]
@@ -119,8 +130,9 @@ class XdfRecorder:
                         block += np.asarray(sample, dtype=dtype).tobytes()
                 count = len(take.stamps[start:start + 100])
                 out.append(_chunk(3, head + _varlen(count) + block))
+            ahead = self.clocks_ahead.get(self.source_ids[sid - 1], 0.0)
             for when, value in take.offsets:
-                out.append(_chunk(4, head + struct.pack("<dd", when, value)))
+                out.append(_chunk(4, head + struct.pack("<dd", when, value - ahead)))
             first = take.stamps[0] if take.stamps else 0.0
             last = take.stamps[-1] if take.stamps else 0.0
             footer = (f'<?xml version="1.0"?><info><first_timestamp>{first!r}</first_timestamp>'

@@ -21,6 +21,7 @@ def run_gui(font_scale: float | None = None, lsl_outlet: bool = False) -> int:
     from app.records.logs import setup_logging
     from app.records.registry import open_registry
     from app.records.settings import load_settings
+    from device.lsl.library import LIBLSL_LOG, log_liblsl_into
     from device.stopsignals import STOP_SIGNALS
     from ui import theme
     from ui.main_window import MainWindow
@@ -28,7 +29,8 @@ def run_gui(font_scale: float | None = None, lsl_outlet: bool = False) -> int:
     settings = load_settings()
     data_dir = locate_data_dir(settings)
     data_dir.ensure_layout()
-    setup_logging(data_dir)
+    # liblsl's errors beside the console's log, not on a terminal nobody reads
+    log_liblsl_into(setup_logging(data_dir).parent / LIBLSL_LOG)
     app = QApplication.instance() or QApplication(sys.argv[:1])
     app.setApplicationName("Rehabilitation robot console")
     theme.apply_theme(app, font_scale or 1.0)

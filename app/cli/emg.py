@@ -321,10 +321,26 @@ def cmd_model(args: argparse.Namespace) -> int:
     return 0
 
 
+def _liblsl_log(args: argparse.Namespace) -> None:
+    """liblsl's errors into the data folder's logs, not under the command's own lines
+    (device.lsl.library.log_liblsl_into); where there is no data folder yet, they stay on
+    stderr (an EMG command makes none for them)."""
+    from app.errors import DataDirError
+    from app.records.datadir import LOGS
+    from device.lsl.library import LIBLSL_LOG, log_liblsl_into
+
+    with contextlib.suppress(CommandError, DataDirError):
+        data_dir = data_dir_for(args)
+        if data_dir.root.is_dir():
+            log_liblsl_into(data_dir.ensure(LOGS) / LIBLSL_LOG)
+
+
 def cmd_streams(args: argparse.Namespace) -> int:
     if not (np.isfinite(args.wait) and 0 < args.wait <= 60):
         raise CommandError(f"--wait {args.wait}: give a time in (0, 60] s")
     from device.lsl.library import find_streams
+
+    _liblsl_log(args)
 
     streams = find_streams(args.wait)
     if not streams:
@@ -379,6 +395,8 @@ def cmd_record(args: argparse.Namespace) -> int:
     if not (np.isfinite(args.seconds) and 0.2 <= args.seconds <= 600):
         raise CommandError(f"--seconds {args.seconds}: give 0.2 to 600 s")
     output = output_path(args, args.output, overwrite=args.overwrite)
+    if args.source.strip().startswith("lsl:"):
+        _liblsl_log(args)
     source, label = _open_source(args)
     capture = EmgCapture(source).start()
     if args.muscle:

@@ -16,7 +16,8 @@ exactly their positions (a double crosses LSL and XDF unchanged). A recording of
 trial, of another console, or without the robot stream is refused in one line. The EMG's
 stamps, less that offset, are monotonic times of the console, and
 app.emg.importing.trial_time_from_monotonic puts them on the trial's clock, as for a live
-capture. Each channel is read in volts by the unit its stream declares (core.emg.units).
+capture. Each channel is read in volts by the unit its stream declares, times its
+`scaling_factor` where it declares one (a raw integer stream's count, core.emg.units).
 
 LabRecorder goes on recording an EMG sender that stopped and came back (liblsl recovers
 it by its source id) into the same stream: a hole, and after it perhaps samples at
@@ -39,7 +40,7 @@ import numpy as np
 
 from app.emg.importing import EmgImportError, Imported, store, trial_time_from_monotonic
 from app.trials.reader import TrialData, read_trial
-from core.emg.units import volts_per_unit
+from core.emg.units import scaling_factor, volts_per_unit
 from device.emg.files import EmgData
 from device.lsl.outlet import EVENT_STREAM, ROBOT_CHANNELS, ROBOT_STREAM
 
@@ -67,6 +68,7 @@ class XdfStream:
     channel_format: str
     labels: tuple[str, ...]
     units: tuple[str, ...]
+    scaling_factors: tuple[str, ...]
     stamps: np.ndarray
     values: object  # (k, C) numbers, or a list of lists of strings for a marker stream
 
@@ -122,20 +124,21 @@ def _first(info: dict, key: str, default: str = "") -> str:
 
 def _stream(raw: dict) -> XdfStream:
     info = raw["info"]
-    labels, units = [], []
+    labels, units, factors = [], [], []
     desc = info.get("desc")
     channels = (desc[0] or {}).get("channels") if desc else None
     for channel in ((channels[0] or {}).get("channel") or []) if channels else []:
         labels.append(_first(channel or {}, "label"))
         units.append(_first(channel or {}, "unit"))
+        factors.append(_first(channel or {}, "scaling_factor").strip())
     stamps = np.asarray(raw.get("time_stamps", []), dtype=float)
     values = raw.get("time_series")
     if isinstance(values, np.ndarray):
         values = values.reshape(len(stamps), -1) if values.size else np.empty((0, 0))
     return XdfStream(_first(info, "name"), _first(info, "type"), _first(info, "source_id"),
                      float(_first(info, "nominal_srate", "0") or 0),
-                     _first(info, "channel_format"), tuple(labels), tuple(units), stamps,
-                     values)
+                     _first(info, "channel_format"), tuple(labels), tuple(units), tuple(factors),
+                     stamps, values)
 
 
 def clock_offset(trial: TrialData, robot: XdfStream, name: str) -> float:
@@ -196,13 +199,19 @@ def emg_stream(streams: list[XdfStream], name: str | None, path: Path) -> XdfStr
 
 def emg_volts(stream: XdfStream, path: Path, unit: str | None) -> np.ndarray:
     """The stream's samples in volts by each channel's declared unit, or `unit` for
-    channels that declare none (a declared one that disagrees is refused)."""
+    channels that declare none (a declared one that disagrees is refused), times its
+    declared scaling factor."""
     count = stream.values.shape[1]
     declared = list(stream.units) + [""] * (count - len(stream.units))
+    factors = list(stream.scaling_factors) + [""] * (count - len(stream.scaling_factors))
     scales = []
     for k, written in enumerate(declared[:count]):
         channel = stream.labels[k] if k < len(stream.labels) and stream.labels[k] else \
             f"channel {k + 1}"
+        factor = scaling_factor(factors[k])
+        if factor is None:
+            raise EmgImportError(f"XDF file {path.name}: stream {stream.name} gives {channel} "
+                                 f"a scaling_factor of {factors[k]!r}, not a positive number")
         if written and unit and volts_per_unit(written) != volts_per_unit(unit):
             raise EmgImportError(f"XDF file {path.name}: stream {stream.name} declares "
                                  f"{channel} in {written!r}, not {unit!r} as given")
@@ -212,7 +221,7 @@ def emg_volts(stream: XdfStream, path: Path, unit: str | None) -> np.ndarray:
                 f"does not say the unit of {channel}"
             raise EmgImportError(f"XDF file {path.name}: stream {stream.name} {said}, not a "
                                  "voltage: give it with --unit (V, mV or uV)")
-        scales.append(scale)
+        scales.append(scale * factor)
     return np.asarray(stream.values, dtype=float) * np.asarray(scales)
 
 

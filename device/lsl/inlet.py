@@ -7,8 +7,10 @@ XDF meta-data convention LabRecorder keeps): V, mV, µV (uV, microvolts) or nV. 
 integer stream into a float buffer (as this inlet once did) made liblsl write integers
 into memory read as doubles: ±1e294 and NaN. A channel without a unit, or with one that is
 not a voltage, is refused in one line, unless the caller says what the stream carries
-(`unit=`); a declared unit that contradicts the caller's is refused too. The labels the
-stream declares name the muscles (`labels`).
+(`unit=`); a declared unit that contradicts the caller's is refused too. A channel's
+`scaling_factor` (the worth of one count of a raw integer stream, core.emg.units) is
+applied: without it a BrainAmp's int16 counts of 0.1 µV were read as whole microvolts, ten
+times too large. The labels the stream declares name the muscles (`labels`).
 
 The inlet asks liblsl to correct a remote sender's clock onto this machine's
 (`proc_clocksync`), so its stamps are this machine's monotonic seconds.
@@ -18,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.emg.units import volts_per_unit
+from core.emg.units import scaling_factor, volts_per_unit
 from device.lsl.library import LslError, channel_descriptions, pylsl, summary
 
 DUPLICATE_LOOK_S = 1.0
@@ -117,7 +119,8 @@ class LslEmgInlet:
 
 
 def _scales(what: str, described: list[dict[str, str]], given: str | None) -> np.ndarray:
-    """Volts per stored unit, one per channel, from the declared units (module docstring)."""
+    """Volts per stored number, one per channel, from the declared units and scaling
+    factors (module docstring)."""
     given_scale = None
     if given is not None:
         given_scale = volts_per_unit(given)
@@ -127,12 +130,17 @@ def _scales(what: str, described: list[dict[str, str]], given: str | None) -> np
     scales = []
     for k, d in enumerate(described, start=1):
         name = d["label"] or f"channel {k}"
+        factor = scaling_factor(d["scaling_factor"])
+        if factor is None:
+            raise LslError(f"the {what} gives {name} a scaling_factor of "
+                           f"{d['scaling_factor']!r}, not a positive number: correct it in "
+                           "the EMG software's stream settings")
         if not d["unit"]:
             if given_scale is None:
                 raise LslError(f"the {what} does not say the unit of {name}: declare each "
                                "channel's unit in the stream's description (V, mV or uV), or "
                                "give it (lsl:NAME@uV)")
-            scales.append(given_scale)
+            scales.append(given_scale * factor)
             continue
         scale = volts_per_unit(d["unit"])
         if scale is None:
@@ -141,5 +149,5 @@ def _scales(what: str, described: list[dict[str, str]], given: str | None) -> np
         if given_scale is not None and scale != given_scale:
             raise LslError(f"the {what} declares {name} in {d['unit']!r}, not in {given!r} as "
                            "given: leave the unit out or correct it")
-        scales.append(scale)
+        scales.append(scale * factor)
     return np.asarray(scales, dtype=float)

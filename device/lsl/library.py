@@ -39,7 +39,33 @@ throw the whole file away, so it is written whole, never patched."""
 QUIET_CONFIG = "; liblsl's defaults, without its log (device.lsl.library)\n[log]\nlevel = -2\n"
 """What liblsl runs with when nobody configured it: its defaults (a lab's network), but
 without the INFO line ("api_config.cpp:126 INFO| Loaded default config") it otherwise
-writes on stderr at its first use, under a command's own output."""
+writes on stderr at its first use, under a command's own output. Its errors stay, in the
+console's log folder when it has one (`log_liblsl_into`)."""
+
+LIBLSL_LOG = "liblsl.log"
+"""liblsl's own log in the console's log folder (`log_liblsl_into`)."""
+
+_log_file: list[Path] = []
+
+
+def log_liblsl_into(path: Path | None) -> None:
+    """Where liblsl writes its errors when nobody configured it: into `path` (the console's
+    log folder) instead of stderr. A sender that goes away while its stream is read makes
+    liblsl write "Stream transmission broke off (Input stream error.); re-connecting..."
+    on stderr, under the console's own line for the same event (the EMG stopped); liblsl's
+    level is one for all its lines, so a lower one would hide its other errors too (a
+    configuration it cannot read, no network interface), while a file (liblsl's `[log]
+    file`, since 1.14) keeps every one. Read once, when pylsl is first used; a path liblsl's
+    ini cannot hold (a line break, spaces at its ends) leaves the errors on stderr."""
+    _log_file.clear()
+    text = str(path) if path is not None else ""
+    if text and text == text.strip() and "\n" not in text and "\r" not in text:
+        _log_file.append(Path(text))
+
+
+def quiet_config() -> str:
+    """QUIET_CONFIG, with liblsl's log file where one was given (`log_liblsl_into`)."""
+    return QUIET_CONFIG + "".join(f"file = {path}\n" for path in _log_file)
 
 
 def user_config_files() -> tuple[Path, ...]:
@@ -55,7 +81,7 @@ class LslError(DeviceError):
 
 def pylsl():
     """The pylsl module, or one line saying why it cannot be loaded. liblsl gets
-    QUIET_CONFIG unless a configuration of the lab's or the tests' is there."""
+    `quiet_config()` unless a configuration of the lab's or the tests' is there."""
     try:
         import pylsl as module
     except (ImportError, RuntimeError, OSError) as exc:
@@ -64,7 +90,7 @@ def pylsl():
                        "install liblsl from its releases or use mne-lsl") from None
     if not os.environ.get("LSLAPICFG") and not any(p.is_file() for p in user_config_files()):
         # read by liblsl once, at its first use; set again later, it changes nothing
-        module.set_config_content(QUIET_CONFIG)
+        module.set_config_content(quiet_config())
     return module
 
 
@@ -105,16 +131,19 @@ def local_clock() -> float:
     return pylsl().local_clock()
 
 
+CHANNEL_KEYS = ("label", "unit", "type", "scaling_factor")
+
+
 def channel_descriptions(info) -> list[dict[str, str]]:
-    """Each channel's `label`, `unit` and `type` from the stream's description
-    (`desc/channels/channel`, the XDF meta-data convention), '' where not given; one dict
-    per channel, as many as the stream has."""
+    """Each channel's `label`, `unit`, `type` and `scaling_factor` (core.emg.units) from the
+    stream's description (`desc/channels/channel`, the XDF meta-data convention), '' where
+    not given; one dict per channel, as many as the stream has."""
     out = []
     channel = info.desc().child("channels").child("channel")
     for _ in range(info.channel_count()):
         if channel.empty():
-            out.append({"label": "", "unit": "", "type": ""})
+            out.append(dict.fromkeys(CHANNEL_KEYS, ""))
             continue
-        out.append({key: channel.child_value(key).strip() for key in ("label", "unit", "type")})
+        out.append({key: channel.child_value(key).strip() for key in CHANNEL_KEYS})
         channel = channel.next_sibling("channel")
     return out

@@ -7,6 +7,7 @@ import json
 import socket
 import time
 import uuid
+from pathlib import Path
 
 import numpy as np
 import pylsl
@@ -37,7 +38,7 @@ def _brief_duplicate_look(monkeypatch):
 
 
 def _emg_outlet(name, channels=16, rate=2000.0, fmt=pylsl.cf_float32, unit="volts",
-                labels=None):
+                labels=None, scaling=None):
     info = pylsl.StreamInfo(name, "EMG", channels, rate, fmt, f"{name}-source")
     if unit is not None or labels is not None:
         described = info.desc().append_child("channels")
@@ -46,6 +47,8 @@ def _emg_outlet(name, channels=16, rate=2000.0, fmt=pylsl.cf_float32, unit="volt
             channel.append_child_value("label", labels[k] if labels else f"EMG{k + 1}")
             if unit is not None:
                 channel.append_child_value("unit", unit if isinstance(unit, str) else unit[k])
+            if scaling is not None:
+                channel.append_child_value("scaling_factor", scaling)
     return pylsl.StreamOutlet(info)
 
 
@@ -128,6 +131,40 @@ def test_every_numeric_format_is_read_in_volts_by_its_declared_unit(fmt, dtype, 
     np.testing.assert_array_equal(x, sent.astype(float) * volts)
     assert inlet.units == (unit,) * 3
     inlet.close()
+
+
+@pytest.mark.parametrize(("fmt", "dtype", "scaling", "volts"), [
+    (pylsl.cf_int16, np.int16, "0.1", 1e-7),
+    (pylsl.cf_int32, np.int32, "0.5", 5e-7),
+    (pylsl.cf_int16, np.int16, "10.000000", 1e-5),
+    (pylsl.cf_float32, np.float32, "1", 1e-6),
+], ids=["int16-0.1", "int32-0.5", "int16-10", "float32-1"])
+def test_a_raw_integer_stream_is_scaled_by_its_declared_scaling_factor(fmt, dtype, scaling,
+                                                                        volts):
+    """A BrainAmp's raw int16 stream says `microvolts` and a scaling_factor of 0.1 (its
+    resolution); the factor was ignored and its counts read as whole microvolts, ten times
+    too large."""
+    name = _unique()
+    outlet = _emg_outlet(name, channels=2, rate=1000.0, fmt=fmt, unit="microvolts",
+                         scaling=scaling)
+    inlet = LslEmgInlet(name, timeout_s=5.0).open(5.0)
+    _wait_for(outlet.have_consumers, "the inlet connecting")
+    outlet.push_chunk(np.array([[1000, -250]] * 10, dtype=dtype))
+    _, x = _receive(inlet, 10)
+    np.testing.assert_allclose(x[0], np.array([1000, -250]) * volts, rtol=1e-12)
+    inlet.close()
+
+
+@pytest.mark.parametrize("scaling", ["0", "-0.1", "fine", "nan"])
+def test_a_scaling_factor_that_is_no_positive_number_is_refused_in_one_line(scaling):
+    name = _unique()
+    outlet = _emg_outlet(name, channels=1, rate=1000.0, fmt=pylsl.cf_int16, unit="uV",
+                         scaling=scaling)
+    with pytest.raises(LslError, match=rf"gives EMG1 a scaling_factor of '{scaling}', not a "
+                                       "positive number") as refused:
+        LslEmgInlet(name, timeout_s=5.0)
+    assert "\n" not in str(refused.value)
+    del outlet
 
 
 def test_a_channel_without_a_voltage_unit_is_refused_in_one_line_unless_given():
@@ -342,6 +379,7 @@ def test_liblsl_is_quiet_unless_someone_configured_it(monkeypatch, tmp_path):
 
     from device.lsl import library
 
+    monkeypatch.setattr(library, "_log_file", [])
     given = []
     fake = types.SimpleNamespace(set_config_content=given.append)
     monkeypatch.setitem(sys.modules, "pylsl", fake)
@@ -357,3 +395,64 @@ def test_liblsl_is_quiet_unless_someone_configured_it(monkeypatch, tmp_path):
     monkeypatch.setenv("LSLAPICFG", str(tmp_path / "tests.cfg"))
     library.pylsl()
     assert given == [library.QUIET_CONFIG]
+
+
+_GONE_SENDER = """
+import sys, time
+from pathlib import Path
+import numpy as np
+from device.lsl import library
+# liblsl as nobody configured it, but kept on this machine: the loopback settings stand in
+# for its network defaults
+library.QUIET_CONFIG = library.LOOPBACK_CONFIG
+library.user_config_files = lambda: ()
+library.log_liblsl_into(Path(sys.argv[1]))
+pylsl = library.pylsl()
+from device.lsl.inlet import LslEmgInlet
+name = sys.argv[2]
+info = pylsl.StreamInfo(name, "EMG", 1, 1000.0, pylsl.cf_int16, name)
+info.desc().append_child("channels").append_child("channel").append_child_value("unit", "uV")
+outlet = pylsl.StreamOutlet(info)
+inlet = LslEmgInlet(name, timeout_s=10.0).open(10.0)
+while not outlet.have_consumers():
+    time.sleep(0.01)
+del outlet  # the EMG software goes away while its stream is read
+deadline = time.monotonic() + float(sys.argv[3])
+while "broke off" not in (Path(sys.argv[1]).read_text() if Path(sys.argv[1]).exists() else ""):
+    assert time.monotonic() < deadline, "liblsl wrote nothing"
+    time.sleep(0.05)
+"""
+
+
+def test_liblsl_writes_a_sender_going_away_into_the_log_file_not_on_stderr(tmp_path):
+    """liblsl wrote 'Stream transmission broke off (Input stream error.); re-connecting...'
+    on stderr when an EMG sender went away, under the console's own line for it; with the
+    console's log folder given it goes there, errors and all."""
+    import os
+    import subprocess
+    import sys
+
+    from tests.patience import HANG_S
+
+    log = tmp_path / "liblsl.log"
+    env = {k: v for k, v in os.environ.items() if k != "LSLAPICFG"}
+    done = subprocess.run([sys.executable, "-c", _GONE_SENDER, str(log), _unique(),
+                           str(HANG_S)], env=env, capture_output=True, text=True,
+                          timeout=2 * HANG_S, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "Stream transmission broke off" in log.read_text()
+    assert "broke off" not in done.stderr
+    assert "ERR" not in done.stderr
+
+
+def test_a_log_file_liblsl_cannot_read_leaves_its_errors_on_stderr(monkeypatch):
+    from device.lsl import library
+
+    monkeypatch.setattr(library, "_log_file", [])
+    library.log_liblsl_into(None)
+    assert library.quiet_config() == library.QUIET_CONFIG
+    library.log_liblsl_into(Path("/data/logs/liblsl.log"))
+    assert library.quiet_config().endswith("[log]\nlevel = -2\nfile = /data/logs/liblsl.log\n")
+    for odd in ("/data/lo\ngs/liblsl.log", "/data/logs/liblsl.log "):
+        library.log_liblsl_into(Path(odd))
+        assert library.quiet_config() == library.QUIET_CONFIG

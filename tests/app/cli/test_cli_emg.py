@@ -158,3 +158,21 @@ def test_bad_input_is_one_line_and_exit_2(made, tmp_path, capsys, args, expected
     assert expected in err
     assert len(err.strip().splitlines()) == 1
     assert "Traceback" not in err
+
+
+def test_emg_streams_sends_liblsl_errors_to_the_data_folder_logs_never_making_one(
+        data, monkeypatch, capsys):
+    """liblsl's 'Stream transmission broke off' lines went to stderr under the command's
+    own; with a data folder they go to its logs (device.lsl.library.log_liblsl_into)."""
+    from device.lsl import library
+
+    monkeypatch.setattr(library, "_log_file", [])
+    monkeypatch.setattr(library, "find_streams", lambda wait_s: [])
+    code, out, _ = run(["emg", "streams", "--wait", "0.1"], capsys)
+    assert code == 0, out
+    assert library._log_file == []  # no data folder: none made, liblsl keeps stderr
+    assert not data.exists()
+    data.mkdir(mode=0o700)
+    code, _, _ = run(["emg", "streams", "--wait", "0.1"], capsys)
+    assert code == 0
+    assert library._log_file == [data / "logs" / library.LIBLSL_LOG]

@@ -51,7 +51,7 @@ def _live_trial(plain_trial, folder, origin, name="live.h5"):
     return path
 
 
-def _emg_outlet(source, unit="microvolts"):
+def _emg_outlet(source, unit="microvolts", scaling=None):
     info = pylsl.StreamInfo(f"emg-{source}", "EMG", 3, EMG_HZ, pylsl.cf_int16, source)
     channels = info.desc().append_child("channels")
     for label in ("biceps", "triceps", "deltoid"):
@@ -59,6 +59,8 @@ def _emg_outlet(source, unit="microvolts"):
         channel.append_child_value("label", label)
         if unit:
             channel.append_child_value("unit", unit)
+        if scaling:
+            channel.append_child_value("scaling_factor", scaling)
     return pylsl.StreamOutlet(info)
 
 
@@ -70,20 +72,25 @@ def _wait(condition, what, timeout=HANG_S):
 
 
 def _record(tmp_path, trial_path, emg_start_s=0.5, unit="microvolts", with_robot=True,
-            periods=None):
+            periods=None, scaling=None, console_ahead_s=0.0, emg_ahead_s=0.0):
     """Record the trial's ticks as the console's outlet publishes them, an int16 EMG
-    stream of known samples at known stamps, and a marker; returns (xdf, stamps, samples)."""
+    stream of known samples at known stamps, and a marker; returns (xdf, stamps, samples),
+    the stamps on the console's clock. The console's and the EMG computer's clocks run
+    `console_ahead_s` and `emg_ahead_s` ahead of the recording computer's (the trial's
+    clock origin is on the console's)."""
     data = read_trial(trial_path)
     origin = float(data.summary["wall_time_origin_monotonic_s"])
     tag = uuid.uuid4().hex[:10]
     robot_source, emg_source = f"robot-{tag}", f"emg-{tag}"
     outlet = RobotStateOutlet(500.0, source_id=robot_source) if with_robot else None
-    emg = _emg_outlet(emg_source, unit)
+    emg = _emg_outlet(emg_source, unit, scaling)
     sources = [emg_source] + ([robot_source, robot_source + "-events"] if with_robot else [])
-    recorder = XdfRecorder(sources)
+    recorder = XdfRecorder(sources, {emg_source: emg_ahead_s, robot_source: console_ahead_s,
+                                     robot_source + "-events": console_ahead_s})
     _wait(emg.have_consumers, "the recorder connecting")
     periods = np.full(3000, 1.0 / EMG_HZ) if periods is None else periods
     stamps = origin + emg_start_s + np.concatenate(([0.0], np.cumsum(periods[1:])))
+    emg_clock = stamps - console_ahead_s + emg_ahead_s  # the same moments on the EMG's
     samples = ((np.arange(9000).reshape(3000, 3) * 37) % 20001 - 10000).astype(np.int16)
     if with_robot:
         _wait(outlet.have_consumers, "the recorder connecting")
@@ -96,7 +103,7 @@ def _record(tmp_path, trial_path, emg_start_s=0.5, unit="microvolts", with_robot
         for k in range(0, len(records), 250):
             outlet.push_records(records[k:k + 250], k)
     for k in range(0, 3000, 100):
-        emg.push_chunk(samples[k:k + 100], timestamp=stamps[k:k + 100].tolist())
+        emg.push_chunk(samples[k:k + 100], timestamp=emg_clock[k:k + 100].tolist())
     # what is on its way to the recorder: every sample pushed, the marker (one at least)
     recorder.wait_for({emg_source: len(samples)} | (
         {robot_source: len(records), robot_source + "-events": 1} if with_robot else {}))
@@ -117,6 +124,36 @@ def test_an_xdf_recording_lands_in_the_trial_within_one_emg_sample(plain_trial, 
     assert done.rate_hz == EMG_HZ
     assert any("placed through the rehab-robot stream" in note for note in done.notes)
     assert emg.attrs["source"] == "xdf"
+
+
+@pytest.mark.parametrize(("console_ahead_s", "emg_ahead_s"), [
+    (0.0, 1000.25), (-37.5, 0.0), (12.125, -3600.0625)])
+def test_the_emg_of_a_computer_on_another_clock_lands_within_one_sample(
+        plain_trial, tmp_path, console_ahead_s, emg_ahead_s):
+    """The console, the EMG computer and the recording computer on three clocks: pyxdf's
+    clock offsets and the robot stream's ticks put the EMG on the trial's clock."""
+    trial = _live_trial(plain_trial, tmp_path, time.monotonic() - 30.0)
+    xdf, stamps, samples = _record(tmp_path, trial, console_ahead_s=console_ahead_s,
+                                   emg_ahead_s=emg_ahead_s)
+    done = import_xdf(trial, xdf)
+    emg = read_emg(trial)
+    np.testing.assert_array_equal(emg.samples, samples.astype(float) * 1e-6)
+    expected = trial_time_from_monotonic(read_trial(trial), stamps)
+    assert np.max(np.abs(emg.time_s - expected)) < 1.0 / EMG_HZ
+    assert emg.time_s[0] == pytest.approx(0.5, abs=1.0 / EMG_HZ)
+    said = float(done.notes[0].split("console clock = ")[1].split(" s")[0])
+    assert said == pytest.approx(-console_ahead_s, abs=1e-3)  # less the offset liblsl measured
+
+
+def test_a_raw_integer_stream_is_imported_in_volts_by_its_scaling_factor(plain_trial,
+                                                                        tmp_path):
+    """A BrainAmp's raw int16 stream (microvolts, scaling_factor 0.1) was imported ten times
+    too large: the factor was not read."""
+    trial = _live_trial(plain_trial, tmp_path, time.monotonic() - 30.0)
+    xdf, _, samples = _record(tmp_path, trial, scaling="0.1")
+    import_xdf(trial, xdf)
+    np.testing.assert_allclose(read_emg(trial).samples, samples.astype(float) * 1e-7,
+                               rtol=1e-12)
 
 
 def test_a_recording_of_another_trial_or_without_the_robot_is_refused_in_one_line(
