@@ -65,7 +65,8 @@ def add_learn_commands(commands) -> None:
     robot.add_argument("--without-hand-force", action="store_true",
                        help="take the hand force's torque J_Rᵀ F out of the torque "
                             "(section 4.4.1)")
-    robot.add_argument("--system", help="the system's name (default: rehab-robot-<backend>)")
+    robot.add_argument("--system", help="the system's name (default: rehab-robot-<backend>; "
+                                           "another rehab-robot-… name is refused)")
     robot.set_defaults(func=cmd_robot_data)
 
     train = actions.add_parser(

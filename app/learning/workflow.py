@@ -197,7 +197,15 @@ def robot_dataset(trial_paths: Sequence[str | Path], *, acceleration: str = "des
             raise DatasetError(path, exc.problem, exc.advice) from None
         parts.append((q, qd, qdd, tau, np.full(len(q), index)))
         systems.add(trial.backend.split(" (")[0])
-    name = system or f"{ROBOT_SYSTEM_PREFIX}-" + "-".join(sorted(systems))
+    own = f"{ROBOT_SYSTEM_PREFIX}-" + "-".join(sorted(systems))
+    if system is not None and system != own and system.startswith(ROBOT_SYSTEM_PREFIX):
+        # the robot's names are what the trials ran on: the Build on the real robot refuses
+        # a model not of its own trials by this name (app.learning.library.robot_model), so
+        # simulated trials named 'rehab-robot-quanser' would pass for the robot's
+        raise DatasetError("", f"the system {system!r} is not what these trials ran on "
+                           f"({own!r})", f"Leave --system out, or give a name that does not "
+                           f"start with {ROBOT_SYSTEM_PREFIX!r}.")
+    name = system or own
     arrays = [np.concatenate([p[i] for p in parts]) for i in range(5)]
     description = {"trials": [Path(p).name for p in trial_paths], "acceleration": acceleration,
                    "without_hand_force": without_hand_force}

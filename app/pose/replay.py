@@ -1,20 +1,25 @@
 """A past trial's video for the replay slider: the frame taken at a trial time, with the
 keypoints `rehab pose` found on it. Qt-free; the Video tab shows what this returns.
 
-Frame times come from the trial's `/pose` group when pose estimation ran, else from the
-timestamps sidecar and the loop's clock origin (core.pose.timebase.frame_times). A trial
-without a usable video gives None: the replay works without it.
+Frame times come from the trial's `/pose` group when pose estimation ran on this video,
+else from the timestamps sidecar and the loop's clock origin (core.pose.timebase.frame_times).
+`rehab pose --video` may have run on another video than the one recorded beside the trial:
+its frame numbers, times and keypoints belong to that video, so the replay shows that
+video when it lies beside the trial, and otherwise the trial's own video without them
+(drawn on the other video's frames they would be at the wrong places and moments). A
+trial without a usable video gives None: the replay works without it.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from app.errors import AppError
-from app.pose.offline import ORIGIN_KEY, default_video
+from app.pose.offline import ORIGIN_KEY, VIDEO_SUFFIXES, default_video
 from app.pose.store import read_pose
 from app.trials.reader import TrialData
 from core.errors import CoreError
@@ -49,8 +54,15 @@ class ReplayVideo:
     @classmethod
     def open(cls, trial: TrialData) -> ReplayVideo | None:
         try:
-            info = open_video(default_video(trial.path))
             pose = read_pose(trial.path)
+            video = default_video(trial.path)
+            if pose is not None:
+                posed = trial.path.with_name(Path(str(pose["attrs"].get("video", ""))).name)
+                if posed.suffix.lower() in VIDEO_SUFFIXES and posed.is_file():
+                    video = posed  # the video the keypoints were found on
+                elif posed.name != video.name:
+                    pose = None  # another video's, not beside the trial: not on this one
+            info = open_video(video)
         except (DeviceError, AppError):
             return None
         keypoints = None

@@ -133,3 +133,16 @@ def test_a_live_pose_the_os_will_not_put_behind_the_loop_says_so(qtbot, tab, ast
     assert "could not lower the background work's priority" in tab.state.text()
     tab.pose_box.setChecked(False)
     tab.close_camera()
+
+
+def test_a_live_pose_that_sees_no_arm_says_so(qtbot, tab, clip):
+    """Nothing drawn and a rate alone read as working: with nobody in view the state line
+    says the arm is not seen."""
+    with qtbot.waitSignal(tab.camera_opened, timeout=5000):
+        tab.open_camera(str(clip))  # red bars, nobody in them
+    tab.pose_box.setChecked(True)
+    qtbot.waitUntil(lambda: tab.live_pose is not None and tab.live_pose.latest() is not None,
+                    timeout=60000)
+    qtbot.waitUntil(lambda: "no arm in view" in tab.state.text(), timeout=5000)
+    assert "turn the camera to the arm" in tab.state.text()
+    tab.pose_box.setChecked(False)

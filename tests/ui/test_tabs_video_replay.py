@@ -82,3 +82,28 @@ def test_a_trial_without_a_video_replays_without_one(tmp_path):
     path = tmp_path / "plain.h5"
     save(simulate(THESIS_SUBJECT.replace(repetitions=1), seed=6), path)
     assert ReplayVideo.open(read_trial(path)) is None
+
+
+def test_a_pose_found_on_another_video_is_not_drawn_on_the_trials_own(tmp_path):
+    """`rehab pose --video other.avi`: its frames, times and keypoints are that video's. The
+    replay shows that video when it lies beside the trial; otherwise the trial's own video
+    goes without them (they were drawn on its frames, at the wrong places and moments)."""
+    path = tmp_path / "trial.h5"
+    save(simulate(THESIS_SUBJECT.replace(repetitions=1), seed=7), path)
+    filmed = film(read_trial(path), seed=8)
+    write_video(path.with_suffix(".avi"), filmed.stamps_s, grey=grey)  # the console's own
+    other = tmp_path / "other.avi"
+    write_video(other, filmed.stamps_s, size=(320, 240))
+    estimate_pose(path, ReplayDetector(filmed), video_path=other,
+                  video_start_s=filmed.true_frame_t_s[0])
+    beside = ReplayVideo.open(read_trial(path))
+    assert beside is not None
+    assert beside.name == "other.avi"  # the video the keypoints belong to
+    assert np.isfinite(beside.keypoints_px).any()
+    beside.close()
+    moved = tmp_path / "elsewhere"
+    moved.mkdir()
+    other.rename(moved / other.name)
+    # the trial's own video has no clock origin here (a simulated trial): nothing to show;
+    # never the other video's keypoints over this one's frames
+    assert ReplayVideo.open(read_trial(path)) is None

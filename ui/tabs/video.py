@@ -282,6 +282,10 @@ class VideoTab(QWidget):
                 text += f" {theme.PROBLEM_SIGN} {live.error}"
             elif live.latest() is None:
                 text += " Pose: starting the model…"
+            elif np.isnan(live.latest().keypoints.gapped()[:OTHER_SHOULDER]).all():
+                # nothing drawn and a rate alone read as working: say the arm is not seen
+                text += (f" {theme.PROBLEM_SIGN} Pose: no arm in view (the model looks at "
+                         f"{live.rate_fps:.0f} pictures a second); turn the camera to the arm.")
             else:
                 text += f" Pose: {live.rate_fps:.0f} pictures a second."
             if live.give_way_problems and not live.error:

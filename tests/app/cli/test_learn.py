@@ -212,6 +212,22 @@ def test_robot_data_refuses_a_missing_trial(tmp_path, capsys):
     assert "none.h5" in err
 
 
+def test_robot_data_does_not_name_simulated_trials_as_the_robot(trials, tmp_path, capsys):
+    """The real robot's Build refuses a model not of its own trials by the data's system
+    name: simulated trials cannot be given the robot's ('rehab-robot-quanser')."""
+    paths = [str(trials / "d.h5")]
+    code, _, err = run(["learn", "robot-data", "--trials", *paths, "--output",
+                        str(tmp_path / "r.h5"), "--system", "rehab-robot-quanser"], capsys)
+    assert code == 2
+    assert "'rehab-robot-quanser' is not what these trials ran on" in err
+    assert "'rehab-robot-simulator'" in err
+    assert not (tmp_path / "r.h5").exists()
+    code, out, _ = run(["learn", "robot-data", "--trials", *paths, "--output",
+                        str(tmp_path / "r.h5"), "--system", "bench-a"], capsys)
+    assert code == 0
+    assert "system bench-a" in out
+
+
 def test_train_writes_into_the_data_folders_models_by_default(trials, tmp_path, capsys,
                                                                 monkeypatch):
     """A robot model trained without --output lands where the Parameters tab offers it."""
