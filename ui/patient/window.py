@@ -107,10 +107,14 @@ class PatientWindow(QWidget):
         self._shown_state = ()
         self.update()
 
-    def show_plan(self, state) -> None:
+    def show_plan(self, state, laps: float = 0.0, shown: float = 0.0) -> None:
         """The session plan's state (app.plans.runner.PlanState), or None without a plan:
-        the block, the session's progress, the rest's countdown."""
-        plan = overlay(state)
+        the block, the session's progress, the rest's countdown. `laps`: the running
+        trial's laps passed (ui.views.patient_plan.laps_passed); `shown`: the bar this
+        run showed last, which it never goes below."""
+        plan = overlay(state, laps)
+        if plan is not None:
+            plan = plan.at_least(shown)
         if plan != self.plan:
             self.plan = plan
             self.update()
@@ -232,7 +236,7 @@ class PatientWindow(QWidget):
 
     def _paint_progress(self, painter: QPainter, bands: ScreenLayout,
                         plan: PlanOverlay) -> None:
-        """The session's movements done, a bar under the top band."""
+        """The session's exercise done, a bar under the top band."""
         if plan.progress != plan.progress:  # NaN: nothing planned to count
             return
         height = max(6.0, 0.012 * self.height())
