@@ -63,7 +63,7 @@ OUTSIDE = QColor("#D55E00")  # Okabe–Ito vermillion: the ball outside the chan
 PROGRESS_LEFT = QColor("#3A3A3A")
 ATTENTION = QColor("#E69F00")  # Okabe–Ito orange: the neglected side
 MM_PER_INCH = 25.4
-TEXT_CACHE = 64  # texts kept as pixmaps: the clock's seconds, rounds, results
+TEXT_CACHE = 64  # texts kept as pixmaps: the clock's seconds, laps, results
 
 
 class PatientWindow(QWidget):
@@ -185,7 +185,7 @@ class PatientWindow(QWidget):
 
     # -- painting -----------------------------------------------------------------
     # What does not move (the black, the path or the game's layout, the neglect cue, the
-    # last round's path) is painted once into a background pixmap, and each text once into
+    # last lap's path) is painted once into a background pixmap, and each text once into
     # its own: a frame then costs a copy and a few discs (bench/patient_screen.py).
     def paintEvent(self, _event) -> None:
         bands = self.screen_layout()
@@ -398,7 +398,7 @@ class PatientWindow(QWidget):
         font.setPixelSize(bands.text_px)
         font.setBold(True)
         score = frame.game.score_text if frame.game else ""
-        # with a plan: the block first, then the score in a game or else the round
+        # with a plan: the block first, then the score in a game or else the lap
         first, middle = (frame.repetition_text, score) if self.plan is None else \
             (self.plan.block_text, score or frame.repetition_text)
         cells = tuple(zip(thirds(bands.top), (first, middle, frame.time_left_text),

@@ -3,7 +3,8 @@ session's exercise, and the rest's countdown (issue 30, the plan's state:
 app.plans.runner.PlanState, read from the runner as the window repaints).
 
 During a block the screen stays the trial's (the path, the hand, Go, the lap, the time
-left) with the block's number in the top band's first place and a bar of the session's
+left) with the block's number (and its round, in a block of several) in the top band's
+first place and a bar of the session's
 exercise done under it, which moves as the running trial's time passes (a two-minute
 block's bar does not stand still) and never back (`PlanOverlay.at_least`). During a rest
 the table gives way to "Rest" and its countdown in the largest type; paused, "Pause"; at
@@ -68,6 +69,9 @@ def overlay(state: PlanState | None, laps: float = 0.0) -> PlanOverlay | None:
     if state is None or state.phase == IDLE or state.block <= 0:
         return None
     block = f"Block {state.block} of {state.n_blocks}"
+    if state.rounds > 1 and state.phase not in (RESTING, ENDED):
+        # a block of several trials (a game's rounds), the status line's words
+        block += f", round {state.round} of {state.rounds}"
     progress = state.done_share
     if state.phase in (RUNNING, SAVING) and math.isfinite(progress):
         progress = min(1.0, progress + state.lap_share * min(max(laps, 0.0),

@@ -121,3 +121,15 @@ def test_the_console_feeds_its_plan_runner_s_state(qtbot, tmp_path, monkeypatch)
     assert patient.plan is None
     assert QApplication.activeWindow() is not patient
     win.close()
+
+
+def test_a_block_of_several_rounds_names_its_round_as_the_status_line_does():
+    """A game block of three rounds: the patient saw "Block 1 of 2" and, in the middle,
+    "Round 1 of 3" meaning the trial's lap; the therapist's line said "round 2 of 3"
+    meaning the block's trial. Now the screen says the block's round beside the block,
+    in the status line's words, and a lap is a lap."""
+    state = _state(block=1, n_blocks=2, round=2, rounds=3)
+    assert overlay(state).block_text == "Block 1 of 2, round 2 of 3"
+    assert state.line().startswith("Block 1 of 2, round 2 of 3")
+    assert overlay(_state(phase="resting", round=3, rounds=3)).block_text == "Block 2 of 3"
+    assert overlay(_state()).block_text == "Block 2 of 3"  # one round: no round said
