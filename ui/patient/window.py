@@ -44,6 +44,7 @@ from ui.views.patient_geometry import (
 )
 from ui.views.patient_plan import PlanOverlay, overlay
 from ui.views.patient_screen import (
+    CUE_READY,
     PatientFrame,
     PatientOptions,
     Scene,
@@ -411,8 +412,12 @@ class PatientWindow(QWidget):
         self.painted["top"] = (first, middle, frame.time_left_text)
         good = frame.go or (not frame.cue and frame.success)
         bottom = qrect(bands.bottom)
-        self._text(painter, bottom, Qt.AlignmentFlag.AlignHCenter, frame.message,
-                   fitted_px(font, bottom, frame.message), GO if good else TEXT)
+        message = frame.message
+        if self.plan is not None and self.plan.round_text and frame.cue == CUE_READY:
+            message = f"{self.plan.round_text}. {message}"  # which of the block's rounds
+        self._text(painter, bottom, Qt.AlignmentFlag.AlignHCenter, message,
+                   fitted_px(font, bottom, message), GO if good else TEXT)
+        self.painted["message"] = message
         if frame.numbers:
             lines = bottom.adjusted(bands.text_px // 4, 0, 0, 0)
             small = max(8, bands.text_px // 3)

@@ -3,8 +3,8 @@ session's exercise, and the rest's countdown (issue 30, the plan's state:
 app.plans.runner.PlanState, read from the runner as the window repaints).
 
 During a block the screen stays the trial's (the path, the hand, Go, the lap, the time
-left) with the block's number (and its round, in a block of several) in the top band's
-first place and a bar of the session's
+left) with the block's number in the top band's first place (a block of several rounds
+says which with the trial's "Get ready": "Round 2 of 3. Get ready") and a bar of the session's
 exercise done under it, which moves as the running trial's time passes (a two-minute
 block's bar does not stand still) and never back (`PlanOverlay.at_least`). During a rest
 the table gives way to "Rest" and its countdown in the largest type; paused, "Pause"; at
@@ -39,6 +39,9 @@ class PlanOverlay:
     centre: str = ""
     countdown: str = ""
     message: str = ""
+    round_text: str = ""
+    """"Round 2 of 3" in a block of several rounds, said with the trial's "Get ready"
+    (not in the top band, whose letters would shrink to fit it)."""
 
     @property
     def covers_table(self) -> bool:
@@ -50,7 +53,7 @@ class PlanOverlay:
         if not shown > self.progress:  # NaN either side: as it is
             return self
         return PlanOverlay(self.block_text, shown, self.centre, self.countdown,
-                           self.message)
+                           self.message, self.round_text)
 
 
 def laps_passed(frame: PatientFrame, lap_s: float) -> float:
@@ -69,9 +72,9 @@ def overlay(state: PlanState | None, laps: float = 0.0) -> PlanOverlay | None:
     if state is None or state.phase == IDLE or state.block <= 0:
         return None
     block = f"Block {state.block} of {state.n_blocks}"
-    if state.rounds > 1 and state.phase not in (RESTING, ENDED):
-        # a block of several trials (a game's rounds), the status line's words
-        block += f", round {state.round} of {state.rounds}"
+    # a block of several trials (a game's rounds), in the status line's words
+    rounds = (f"Round {state.round} of {state.rounds}"
+              if state.rounds > 1 and state.phase not in (RESTING, ENDED) else "")
     progress = state.done_share
     if state.phase in (RUNNING, SAVING) and math.isfinite(progress):
         progress = min(1.0, progress + state.lap_share * min(max(laps, 0.0),
@@ -86,4 +89,4 @@ def overlay(state: PlanState | None, laps: float = 0.0) -> PlanOverlay | None:
         return PlanOverlay(block, progress, ENDED_WORDS.get(state.outcome, "Stopped"), "",
                            f"{state.movements_done} movements" if state.outcome ==
                            "complete" else "")
-    return PlanOverlay(block, progress)
+    return PlanOverlay(block, progress, round_text=rounds)

@@ -12,7 +12,7 @@ from core.trial import THESIS_SUBJECT
 from tests.ui.session import open_window
 from ui.patient.window import CURSOR, GO, PatientWindow
 from ui.views.patient_plan import laps_passed, overlay
-from ui.views.patient_screen import PatientFrame, waiting_frame
+from ui.views.patient_screen import CUE_READY, PatientFrame, waiting_frame
 
 
 def _state(**changes) -> PlanState:
@@ -123,13 +123,20 @@ def test_the_console_feeds_its_plan_runner_s_state(qtbot, tmp_path, monkeypatch)
     win.close()
 
 
-def test_a_block_of_several_rounds_names_its_round_as_the_status_line_does():
+def test_a_block_of_several_rounds_names_its_round_as_the_status_line_does(patient):
     """A game block of three rounds: the patient saw "Block 1 of 2" and, in the middle,
     "Round 1 of 3" meaning the trial's lap; the therapist's line said "round 2 of 3"
-    meaning the block's trial. Now the screen says the block's round beside the block,
-    in the status line's words, and a lap is a lap."""
+    meaning the block's trial. Now a lap is a lap and the screen says the block's round
+    in the status line's words with the trial's "Get ready" (the top band keeps its
+    size)."""
     state = _state(block=1, n_blocks=2, round=2, rounds=3)
-    assert overlay(state).block_text == "Block 1 of 2, round 2 of 3"
+    plan = overlay(state)
+    assert (plan.block_text, plan.round_text) == ("Block 1 of 2", "Round 2 of 3")
     assert state.line().startswith("Block 1 of 2, round 2 of 3")
-    assert overlay(_state(phase="resting", round=3, rounds=3)).block_text == "Block 2 of 3"
-    assert overlay(_state()).block_text == "Block 2 of 3"  # one round: no round said
+    assert overlay(_state(phase="resting", round=3, rounds=3)).round_text == ""
+    assert overlay(_state()).round_text == ""  # one round: no round said
+    patient.show_plan(state)
+    patient.frame = PatientFrame(CUE_READY, False, None, None, -1, 0, 3, 12.0)
+    patient.grab()
+    assert patient.painted["message"] == "Round 2 of 3. Get ready"
+    assert patient.painted["top"][0] == "Block 1 of 2"
