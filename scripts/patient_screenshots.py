@@ -4,8 +4,8 @@ moments as the live screen shows them:
 
     xvfb-run -a -s "-screen 0 1920x1080x24" .venv/bin/python scripts/patient_screenshots.py
 
-Writes docs/screenshots/patient-<what>.png: the D at Go, the D in its second round (the
-first round's path faint, "Round 1 done!"), the path game, the reaching game, a neglect
+Writes docs/screenshots/patient-<what>.png: the D at Go, the D in its second lap (the
+first lap's path faint, "Lap 1 done!"), the path game, the reaching game, a neglect
 layout (the reaching game turned toward the patient's left, the cue on that side), and a
 session plan's rest. Everything runs in a temporary folder; nothing touches the clinic's
 data. The plan's rest is the state the plan's runner gives during a rest
@@ -92,7 +92,7 @@ def main() -> int:
         shoot("neglect")
         window.show_view(live_until(data["d"], 0.0))
         window.show_plan(PlanState("resting", 1, 3, "D shape", 1, 1, 3, 0, 15, 45, 43.4,
-                                   150.0, "", ""))
+                                   150.0, "", "", done_share=1 / 3, lap_share=1 / 9))
         shoot("rest")
         window.close()
     return 0

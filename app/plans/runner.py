@@ -99,6 +99,14 @@ class PlanState:
     outcome: str
     """How the run ended ('' until it does): complete, stopped, emergency_stop, faulted."""
     reason: str
+    done_share: float = math.nan
+    """The plan's exercise done, 0–1: the blocks before this one whole and this block's
+    laps done in finished trials, each block weighted by its planned exercise time (as the
+    plan has it: a proposal's pace does not move what is done); 1 once complete, NaN
+    with nothing planned. The patient's screen adds the running trial's laps to it."""
+    lap_share: float = 0.0
+    """One lap of this block as a share of the plan's exercise (its planned time over its
+    laps in all rounds)."""
 
     def line(self) -> str:
         """One line for the therapist's status line."""
@@ -320,7 +328,26 @@ class PlanRunner:
             self.phase, 0 if self.phase == IDLE else self.index + 1, len(self.blocks),
             block.name, self.round, block.rounds, self.laps_left if self.phase != IDLE
             else block.laps, self.laps_done, done, self.planned_movements(), rest_left,
-            self._time_left(now, rest_left), self.outcome, self.reason)
+            self._time_left(now, rest_left), self.outcome, self.reason,
+            *self._shares())
+
+    def _shares(self) -> tuple[float, float]:
+        """(done_share, lap_share) of PlanState: laps, not the movements the files count,
+        so that the share reaches 1 at a complete end whatever the hand did (the
+        transparent mode counts only where the hand went) and a lap's share is known
+        before its trial's file is."""
+        weights = [b.planned_active_s() for b in self.plan.blocks]
+        total = sum(weights)
+        if total <= 0.0:
+            return math.nan, 0.0
+        if self.phase == ENDED and self.outcome == "complete":
+            return 1.0, 0.0
+        k = min(self.index, len(self.blocks) - 1)
+        block = self.blocks[k]
+        laps = block.rounds * block.laps
+        done = 0 if self.phase == IDLE else (self.round - 1) * block.laps + self.laps_done
+        lap = weights[k] / laps / total
+        return (sum(weights[:k]) / total + min(done, laps) * lap, lap)
 
     def planned_movements(self) -> int:
         return sum(b.planned_movements(self.base.n_targets) for b in self.blocks)

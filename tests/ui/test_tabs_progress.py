@@ -151,3 +151,38 @@ def test_every_figure_s_ticks_and_label_fit_beside_the_plots(qtbot, qapp, tab, s
                 assert axes[0].width() == axes[1].width()
     finally:
         theme.apply_theme(qapp, 1.0)
+
+
+def _rows_whole(table) -> int:
+    bottom = table.viewport().height()
+    return sum(table.rowViewportPosition(r) >= 0
+               and table.rowViewportPosition(r) + table.rowHeight(r) <= bottom
+               for r in range(table.rowCount()))
+
+
+def test_a_laptop_s_height_shows_the_plots_and_rows_of_the_table(tab):
+    """The tab's room in a 1366 × 768 window (below the tabs' bar, above the robot bar):
+    it showed one row of the table until the splitter was dragged. Now the table shows
+    ROWS_SHOWN rows whole and the plots keep their readable least; a handle dragged by
+    the therapist stays where it was put as the window is resized."""
+    from PySide6.QtGui import QFontMetrics
+    from PySide6.QtWidgets import QSplitter
+
+    from ui.tabs.progress import HELP_LEAST_LINES, PLOT_LEAST_LINES
+    from ui.views.progress_table import ROWS_SHOWN
+
+    tab.resize(1358, 547)  # as in the window at 1366 × 768
+    tab.layout().activate()
+    assert _rows_whole(tab.table) >= ROWS_SHOWN
+    line = QFontMetrics(tab.font()).height()
+    assert tab.plot.height() >= round(PLOT_LEAST_LINES * line) - 1
+    assert tab.help_plot.height() >= round(HELP_LEAST_LINES * line) - 1
+    tab.resize(1900, 900)  # a tall screen: more rows
+    tab.layout().activate()
+    assert _rows_whole(tab.table) > ROWS_SHOWN
+    splitter = tab.findChild(QSplitter)
+    splitter.moveSplitter(splitter.height() - 60, 2)  # the therapist drags
+    dragged = splitter.sizes()[2]
+    tab.resize(1900, 880)
+    tab.layout().activate()
+    assert splitter.sizes()[2] == dragged

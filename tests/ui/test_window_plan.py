@@ -116,6 +116,33 @@ def test_start_plan_runs_each_block_through_build_and_start_with_its_rest(qtbot,
     assert header["Plan's dose"].startswith("2 of 2 movements, 0:0")
 
 
+def test_the_patient_s_bar_moves_during_a_block_and_is_whole_at_the_end(qtbot, window):
+    """The bar of the session under the patient's top band counted finished trials only:
+    through a block's trial it stood still. A one-block plan of two 2 s laps: the bar
+    takes values between nothing and whole while the trial runs, never goes back, and is
+    whole at the plan's end."""
+    win = window
+    connected_with_plan(qtbot, win, Plan("One block", (
+        Block(shape="d", repetitions=2, duration_s=2.0, rest_s=0.0, name="D"),)))
+    patient = win.open_patient_screen()
+    qtbot.waitExposed(patient, timeout=20000)
+    bars: list[float] = []
+
+    def seen() -> bool:
+        if patient.plan is not None:
+            bars.append(patient.plan.progress)
+        return win.plan_runner is None
+
+    click(qtbot, win.plan_tab.start_button)
+    qtbot.waitUntil(seen, timeout=120000)
+    win._feed_patient_screen()
+    bars.append(patient.plan.progress)
+    assert bars == sorted(bars)  # never back
+    assert bars[-1] == 1.0
+    within = {round(b, 2) for b in bars if 0.0 < b < 1.0}
+    assert len(within) >= 3, bars  # it moved through the block, not in one step
+
+
 def test_the_emergency_stop_in_a_rest_ends_the_plan_at_once(qtbot, window):
     win = window
     code = connected_with_plan(qtbot, win, LONG_REST)

@@ -24,6 +24,7 @@ from device.loop.pipeline import PERIOD_S
 from device.loop.states import State
 from ui.patient.sound import find_player
 from ui.patient.window import PatientWindow
+from ui.views.patient_plan import laps_passed
 from ui.views.patient_screen import PatientOptions
 
 FULL_SCREEN_KEY = "F11"
@@ -36,6 +37,9 @@ class PatientScreenControl:
     patient_options: PatientOptions = PatientOptions()
     _patient_size_warned = False
     _patient_exercise_start_s: float | None = None  # the running trial's, from the loop
+    _plan_bar: tuple = (None, 0.0)
+    """(the plan's run the patient's bar was shown for: its runner, or the ended run's
+    plan_ended; the bar shown), so that the bar never goes back within a run."""
 
     def _build_patient_button(self) -> QToolButton:
         self.patient_button = QToolButton()
@@ -202,15 +206,31 @@ class PatientScreenControl:
         window = self.patient_window
         if window is None or not window.isVisible():
             return
-        runner = getattr(self, "plan_runner", None)  # the plan's runner while a plan runs
-        ended, built_then = getattr(self, "plan_ended", None) or (None, None)
-        if runner is not None:
-            window.show_plan(runner.state(now=time.monotonic()))
-        else:  # a plan's end ("Session complete"), until the next trial is built
-            window.show_plan(ended if ended is not None and self.built is built_then
-                             else None)
         live = self.live
         if live is not None and (self.state == State.RUNNING or live.parameters is self.built):
             window.show_view(live, self._patient_exercise_start_s)
         else:
             window.show_parameters(self.built)
+        self._feed_patient_plan(window)
+
+    def _feed_patient_plan(self, window: PatientWindow) -> None:
+        """The plan's state while it runs, with the running trial's laps passed on the
+        screen's clock (the bar moves within a block); once it has ended, its end ("Session
+        complete") until the next trial is built. The bar never goes back within a run,
+        nor as it ends."""
+        runner = getattr(self, "plan_runner", None)  # the plan's runner while a plan runs
+        ended = getattr(self, "plan_ended", None)
+        run, floor = self._plan_bar
+        if runner is not None:
+            key, state = runner, runner.state(now=time.monotonic())
+        elif ended is not None and self.built is ended[1]:
+            key, state = ended, ended[0]
+            if run is not None and not isinstance(run, tuple):
+                run = ended  # the run that has just ended: its bar goes on
+        else:
+            key, state = None, None
+        scene = window.scene
+        laps = laps_passed(window.frame, scene.parameters.duration_s) if scene else 0.0
+        window.show_plan(state, laps, floor if run is key else 0.0)
+        plan = window.plan
+        self._plan_bar = (key, plan.progress if plan is not None else 0.0)

@@ -44,6 +44,7 @@ from ui.views.patient_geometry import (
 )
 from ui.views.patient_plan import PlanOverlay, overlay
 from ui.views.patient_screen import (
+    CUE_READY,
     PatientFrame,
     PatientOptions,
     Scene,
@@ -63,7 +64,7 @@ OUTSIDE = QColor("#D55E00")  # Okabe–Ito vermillion: the ball outside the chan
 PROGRESS_LEFT = QColor("#3A3A3A")
 ATTENTION = QColor("#E69F00")  # Okabe–Ito orange: the neglected side
 MM_PER_INCH = 25.4
-TEXT_CACHE = 64  # texts kept as pixmaps: the clock's seconds, rounds, results
+TEXT_CACHE = 64  # texts kept as pixmaps: the clock's seconds, laps, results
 
 
 class PatientWindow(QWidget):
@@ -107,10 +108,14 @@ class PatientWindow(QWidget):
         self._shown_state = ()
         self.update()
 
-    def show_plan(self, state) -> None:
+    def show_plan(self, state, laps: float = 0.0, shown: float = 0.0) -> None:
         """The session plan's state (app.plans.runner.PlanState), or None without a plan:
-        the block, the session's progress, the rest's countdown."""
-        plan = overlay(state)
+        the block, the session's progress, the rest's countdown. `laps`: the running
+        trial's laps passed (ui.views.patient_plan.laps_passed); `shown`: the bar this
+        run showed last, which it never goes below."""
+        plan = overlay(state, laps)
+        if plan is not None:
+            plan = plan.at_least(shown)
         if plan != self.plan:
             self.plan = plan
             self.update()
@@ -181,7 +186,7 @@ class PatientWindow(QWidget):
 
     # -- painting -----------------------------------------------------------------
     # What does not move (the black, the path or the game's layout, the neglect cue, the
-    # last round's path) is painted once into a background pixmap, and each text once into
+    # last lap's path) is painted once into a background pixmap, and each text once into
     # its own: a frame then costs a copy and a few discs (bench/patient_screen.py).
     def paintEvent(self, _event) -> None:
         bands = self.screen_layout()
@@ -232,7 +237,7 @@ class PatientWindow(QWidget):
 
     def _paint_progress(self, painter: QPainter, bands: ScreenLayout,
                         plan: PlanOverlay) -> None:
-        """The session's movements done, a bar under the top band."""
+        """The session's exercise done, a bar under the top band."""
         if plan.progress != plan.progress:  # NaN: nothing planned to count
             return
         height = max(6.0, 0.012 * self.height())
@@ -394,7 +399,7 @@ class PatientWindow(QWidget):
         font.setPixelSize(bands.text_px)
         font.setBold(True)
         score = frame.game.score_text if frame.game else ""
-        # with a plan: the block first, then the score in a game or else the round
+        # with a plan: the block first, then the score in a game or else the lap
         first, middle = (frame.repetition_text, score) if self.plan is None else \
             (self.plan.block_text, score or frame.repetition_text)
         cells = tuple(zip(thirds(bands.top), (first, middle, frame.time_left_text),
@@ -407,8 +412,12 @@ class PatientWindow(QWidget):
         self.painted["top"] = (first, middle, frame.time_left_text)
         good = frame.go or (not frame.cue and frame.success)
         bottom = qrect(bands.bottom)
-        self._text(painter, bottom, Qt.AlignmentFlag.AlignHCenter, frame.message,
-                   fitted_px(font, bottom, frame.message), GO if good else TEXT)
+        message = frame.message
+        if self.plan is not None and self.plan.round_text and frame.cue == CUE_READY:
+            message = f"{self.plan.round_text}. {message}"  # which of the block's rounds
+        self._text(painter, bottom, Qt.AlignmentFlag.AlignHCenter, message,
+                   fitted_px(font, bottom, message), GO if good else TEXT)
+        self.painted["message"] = message
         if frame.numbers:
             lines = bottom.adjusted(bands.text_px // 4, 0, 0, 0)
             small = max(8, bands.text_px // 3)

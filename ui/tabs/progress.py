@@ -46,11 +46,14 @@ from ui.views.progress_table import (
     metric_heading,
     progress_summary,
     progress_table,
+    split_sizes,
 )
 
 MAX_LABELLED_TICKS = 30
 HELP_TOP = 150.0  # the help plot's top (%): room above 100 % for the pace and tolerance
 HELP_COLOUR = theme.SERIES[2]
+PLOT_LEAST_LINES = 5.5  # the series plot's readable least, in text lines: four ticks
+HELP_LEAST_LINES = 5.0  # the help plot's: its trial axis, its title and 0-100 %
 KEY = (f"<span style='color:{theme.BLUE}'>●</span> complete &nbsp; "
        f"<span style='color:{theme.VERMILLION}'>○</span> did not run to its end &nbsp; "
        f"<span style='color:{HELP_COLOUR}'>━</span> the robot's help as it ran (%), "
@@ -153,32 +156,34 @@ class ProgressTab(QWidget):
         self.table.setEditTriggers(QTableWidget.EditTrigger.NoEditTriggers)
         self.table.verticalHeader().hide()
         self.table.setAlternatingRowColors(True)
-        splitter = QSplitter(Qt.Orientation.Vertical)
-        splitter.addWidget(self.plot)
-        splitter.addWidget(self.help_plot)
+        # the plots and the trials' table share the height by split_sizes (the table a
+        # few rows whole, the plots their readable least) until the therapist drags a
+        # handle; then their sizes are the therapist's
+        self._split_dragged = False
+        self.splitter = _Splitter(self._fit_split)
+        self.splitter.splitterMoved.connect(self._split_moved)
+        self.splitter.addWidget(self.plot)
+        self.splitter.addWidget(self.help_plot)
         # the trials' table, and a robot figure against the clinical scales
-        # (app.reports.scales_progress), one page each: a laptop's height holds both
-        # in the table's place when asked (the button above): a laptop's height holds
-        # the plots and one of the two; the scales panel scrolls when short
+        # (app.reports.scales_progress), one page each, in the table's place when asked
+        # (the button above): a laptop's height holds the plots and one of the two; the
+        # scales panel scrolls when short
         self.scales = ScalesPanel()
         self.scales.setMinimumHeight(260)  # the scatter readable
         self.lower = QStackedWidget()
         self.lower.addWidget(self.table)
         self.lower.addWidget(plots.vertical_scroll(self.scales, 0))
-        splitter.addWidget(self.lower)
-        splitter.setSizes([300, 220, 110])
-        # the plots first when the room is short (a large font on a laptop): the table
-        # scrolls, and no part asks the window for more height than a laptop has
-        splitter.setStretchFactor(0, 3)
-        splitter.setStretchFactor(1, 2)
-        splitter.setStretchFactor(2, 1)
+        self.splitter.addWidget(self.lower)
+        # no part asks the window for more height than a laptop has: the table scrolls
+        for k in range(3):
+            self.splitter.setStretchFactor(k, 1)
         layout = QVBoxLayout(self)
         layout.addLayout(top)
         layout.addLayout(choices)
         layout.addWidget(self.message)
         layout.addWidget(self.dose)
         layout.addWidget(self.key)
-        layout.addWidget(splitter, 1)
+        layout.addWidget(self.splitter, 1)
 
     # -- public -------------------------------------------------------------------
     @property
@@ -219,6 +224,27 @@ class ProgressTab(QWidget):
         for plot in (self.plot, self.help_plot):
             plot.setVisible(not on)
         self.key.setVisible(not on)
+        self._fit_split()
+
+    def _split_moved(self, *_) -> None:
+        self._split_dragged = True
+
+    def _fit_split(self) -> None:
+        """The plots' and the table's default heights (split_sizes) for the room the
+        splitter has now and the table's rows, unless the therapist has dragged a handle
+        or the scales panel has the room."""
+        if self._split_dragged or self.plot.isHidden():
+            return
+        table = self.table
+        line = QFontMetrics(self.font()).height()
+        chrome = (table.horizontalHeader().sizeHint().height()
+                  + table.horizontalScrollBar().sizeHint().height() + 2 * table.frameWidth())
+        room = self.splitter.height() - 2 * self.splitter.handleWidth()
+        sizes = split_sizes(room, table.rowCount(),
+                            table.verticalHeader().defaultSectionSize(), chrome,
+                            round(PLOT_LEAST_LINES * line), round(HELP_LEAST_LINES * line))
+        if list(sizes) != self.splitter.sizes():
+            self.splitter.setSizes(list(sizes))
 
     def refresh(self, *_) -> None:
         self.set_patient(self._code)
@@ -328,6 +354,7 @@ class ProgressTab(QWidget):
                 self.table.setItem(i, c, cell)
         self.table.horizontalHeader().setSectionResizeMode(
             QHeaderView.ResizeMode.ResizeToContents)
+        self._fit_split()
 
     def _draw_plot(self) -> None:
         result = self._progress
@@ -417,3 +444,15 @@ def _fit(choice: QComboBox) -> None:
     longest = max((metrics.horizontalAdvance(choice.itemText(i)) for i in range(choice.count())),
                   default=0)
     choice.setMinimumWidth(longest + round(56 * theme.font_scale()))
+
+
+class _Splitter(QSplitter):
+    """A vertical splitter that asks for its parts' default heights as it is resized."""
+
+    def __init__(self, fit) -> None:
+        super().__init__(Qt.Orientation.Vertical)
+        self._fit = fit
+
+    def resizeEvent(self, event) -> None:
+        super().resizeEvent(event)
+        self._fit()

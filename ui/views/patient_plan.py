@@ -1,12 +1,16 @@
 """A session plan on the patient's screen, without Qt: which block, how far through the
-session's movements, and the rest's countdown (issue 30, the plan's state:
+session's exercise, and the rest's countdown (issue 30, the plan's state:
 app.plans.runner.PlanState, read from the runner as the window repaints).
 
-During a block the screen stays the trial's (the path, the hand, Go, the round, the time
-left) with the block's number in the top band's first place and a bar of the session's
-movements done under it. During a rest the table gives way to "Rest" and its countdown in
-the largest type; paused, "Pause"; at the end, the session's outcome in the patient's words.
-The counts are the plan's own (the trials' files), never recomputed here.
+During a block the screen stays the trial's (the path, the hand, Go, the lap, the time
+left) with the block's number in the top band's first place (a block of several rounds
+says which with the trial's "Get ready": "Round 2 of 3. Get ready") and a bar of the session's
+exercise done under it, which moves as the running trial's time passes (a two-minute
+block's bar does not stand still) and never back (`PlanOverlay.at_least`). During a rest
+the table gives way to "Rest" and its countdown in the largest type; paused, "Pause"; at
+the end, the session's outcome in the patient's words. The counts are the plan's own (the
+trials' files, the runner's laps), never recomputed here; the running trial's laps passed
+come from the screen's own clock (`laps_passed`).
 """
 
 from __future__ import annotations
@@ -14,8 +18,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from app.plans.runner import ENDED, IDLE, PAUSED, RESTING, PlanState
-from ui.views.patient_screen import clock
+from app.plans.runner import ENDED, IDLE, PAUSED, RESTING, RUNNING, SAVING, PlanState
+from ui.views.patient_screen import PatientFrame, clock
 
 PAUSE_WORDS = "Pause"
 REST_WORDS = "Rest"
@@ -30,23 +34,51 @@ class PlanOverlay:
 
     block_text: str
     progress: float
-    """Movements done over planned, 0–1 (NaN when nothing is planned)."""
+    """The session's exercise done, 0–1 (PlanState.done_share with the running trial's
+    laps passed; NaN when nothing is planned)."""
     centre: str = ""
     countdown: str = ""
     message: str = ""
+    round_text: str = ""
+    """"Round 2 of 3" in a block of several rounds, said with the trial's "Get ready"
+    (not in the top band, whose letters would shrink to fit it)."""
 
     @property
     def covers_table(self) -> bool:
         return bool(self.centre)
 
+    def at_least(self, shown: float) -> PlanOverlay:
+        """The same with the bar never below what it showed (`shown`): a trial paused
+        half-way counts the laps its file holds, fewer than the clock had passed."""
+        if not shown > self.progress:  # NaN either side: as it is
+            return self
+        return PlanOverlay(self.block_text, shown, self.centre, self.countdown,
+                           self.message, self.round_text)
 
-def overlay(state: PlanState | None) -> PlanOverlay | None:
-    """The plan's part of the screen, or None when no plan runs (or it has not started)."""
+
+def laps_passed(frame: PatientFrame, lap_s: float) -> float:
+    """Laps of the running trial its clock has passed (fractions too): the repetitions
+    less the time left over the pace; 0 before its exercise or without a clock."""
+    if frame.time_left_s is None or lap_s <= 0.0 or frame.repetition <= 0:
+        return 0.0
+    return min(float(frame.repetitions),
+               max(0.0, frame.repetitions - frame.time_left_s / lap_s))
+
+
+def overlay(state: PlanState | None, laps: float = 0.0) -> PlanOverlay | None:
+    """The plan's part of the screen, or None when no plan runs (or it has not started).
+    `laps`: the running trial's laps passed (`laps_passed`), counted while the plan says a
+    trial runs or is being saved (its file not yet counted), never more than it runs."""
     if state is None or state.phase == IDLE or state.block <= 0:
         return None
     block = f"Block {state.block} of {state.n_blocks}"
-    progress = (state.movements_done / state.movements_planned
-                if state.movements_planned > 0 else math.nan)
+    # a block of several trials (a game's rounds), in the status line's words
+    rounds = (f"Round {state.round} of {state.rounds}"
+              if state.rounds > 1 and state.phase not in (RESTING, ENDED) else "")
+    progress = state.done_share
+    if state.phase in (RUNNING, SAVING) and math.isfinite(progress):
+        progress = min(1.0, progress + state.lap_share * min(max(laps, 0.0),
+                                                             state.laps_planned))
     if state.phase == RESTING:
         more = state.block < state.n_blocks
         return PlanOverlay(block, progress, REST_WORDS, clock(state.rest_left_s),
@@ -57,4 +89,4 @@ def overlay(state: PlanState | None) -> PlanOverlay | None:
         return PlanOverlay(block, progress, ENDED_WORDS.get(state.outcome, "Stopped"), "",
                            f"{state.movements_done} movements" if state.outcome ==
                            "complete" else "")
-    return PlanOverlay(block, progress)
+    return PlanOverlay(block, progress, round_text=rounds)

@@ -13,13 +13,19 @@ a start signal, knowledge of results after each movement):
 
 * before the exercise (the robot brings the hand to the path's start): "Get ready";
 * the exercise phase's first sample: "Go!", for `GO_SHOWN_S` (the tone, if on, once);
-* during the exercise: the repetition (k of n) and the time left on the trial's clock;
-* at its end: "Well done!" with the last round's result (a game: with its score), or
-  "Finished." when the hand did not follow the last round (a game: scored nothing); a
+* during the exercise: the lap (k of n) and the time left on the trial's clock;
+* at its end: "Well done!" with the last lap's result (a game: with its score), or
+  "Finished." when the hand did not follow the last lap (a game: scored nothing); a
   fault or a stop: "Stopped" and nothing else (the therapist explains).
 
-After each round of a plain exercise the result comes first ("Round 1 done!"), then the
-round's quality in words (`round_quality`: how close the hand kept to the path), the order
+The words mean one thing each, as the Plan tab and the therapist's status line use them: a
+*lap* is one time through the exercise (a trial's repetition: round the D, out to every
+target and back), a *round* one of a plan block's trials, a *block* one of the plan's
+blocks (ui.views.patient_plan). A task the robot leads counts its pushes or its targets
+("Push 3 of 16"), not laps.
+
+After each lap of a plain exercise the result comes first ("Lap 1 done!"), then the
+lap's quality in words (`round_quality`: how close the hand kept to the path), the order
 clinicians use (knowledge of results, then of performance); words, not millimetres, as the
 screen shows no clinical figure the therapist has not chosen. A hand that did not follow the
 path (`round_travelled`: less than the path game's share of its length) is told to, not
@@ -28,7 +34,7 @@ praised for staying on it at the start.
 The repetition and the time left follow the trial's clock (`duration_s` per
 repetition from the exercise's first sample), the same clock that ends the trial. In
 the as-needed mode the reference can fall behind the clock by the guidance's delay (at
-most 0.5 s by default), so near a repetition's end the count can step up before the
+most 0.5 s by default), so near a lap's end the count can step up before the
 hand gets round; the time left stays what ends the trial.
 """
 
@@ -53,16 +59,16 @@ PATH_SPACING_M = 0.004
 TARGET_RADIUS_M = 0.015  # a reach target's drawn radius when no game sets one
 PREVIOUS_PATH_POINTS = 400
 QUALITY_POINTS = 50
-"""Samples of a round its quality is judged on, spread evenly over it (one judgement per
+"""Samples of a lap its quality is judged on, spread evenly over it (one judgement per
 frame, cheap at 60 frames a second)."""
 QUALITY_WORDS = ((0.005, "Right on the path"), (0.015, "Close to the path"))
-"""The hand's RMS distance from the path over a round (m) at most which each is said: 5 mm
+"""The hand's RMS distance from the path over a lap (m) at most which each is said: 5 mm
 is the thesis subject's tracking with the robot's help (8.68 / 7.02 mm RMSE, section 3.6,
 is a whole healthy trial's), 15 mm a third of the D's width off it."""
 QUALITY_ELSE = "Stay closer to the path"
 QUALITY_STILL = "now follow the whole path"
 QUALITY_STILL_LAST = "next time, follow the whole path"
-"""A round whose hand moved less than COVERAGE of the path's length: still at the start,
+"""A lap whose hand moved less than COVERAGE of the path's length: still at the start,
 it is on the path, but did not follow it (a relaxed hand in the transparent mode, which
 nothing moves); said in white, not as a success."""
 
@@ -71,7 +77,7 @@ CUE_READY = "Get ready"
 CUE_GO = "Go!"
 CUE_DONE = "Well done!"
 CUE_OVER = "Finished."
-"""The end of a trial whose last round the hand did not follow, or of a game without a
+"""The end of a trial whose last lap the hand did not follow, or of a game without a
 point: said plainly, not praised ("Well done! Score 0" for a hand that missed every
 target)."""
 CUE_STOPPED = "Stopped"
@@ -87,6 +93,9 @@ TASK_WORDS = {
 }
 """What the patient's screen says in each phase of a task the robot leads (core.holdtasks;
 the protocol's words for the patient, core.assessment.protocol)."""
+TASK_COUNTED = {"strength": ("Push", "push"), "position": ("Target", "match")}
+"""What a task's count says ("Push 3 of 16") and the timetable's phase it counts, one a
+direction or target a round (a task's round is every direction or target once)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -212,9 +221,9 @@ class PatientFrame:
     sample: int = -1
     """The view's sample this frame shows (-1: none)."""
     result: str = ""
-    """Knowledge of results: what the last round, target or lap came to, while shown."""
+    """Knowledge of results: what the last lap or target came to, while shown."""
     success: bool = False
-    """The result is a success (a hit, a clean lap, a round done): said in green."""
+    """The result is a success (a hit, a clean lap, a lap done): said in green."""
     game: GameFrame | None = None
     exercise_started_s: float = field(default=math.nan)
     """The time (trial clock, s) of the exercise's first sample, NaN before it."""
@@ -223,6 +232,9 @@ class PatientFrame:
     reference (position sense with the screen blank; strength, which shows the push)."""
     push: tuple[float, float, float] | None = None
     """Strength: (the push's direction, rad; the line, N; the force along it now, N)."""
+    counted: str = "Lap"
+    """What `repetition` counts, in the patient's word: laps, or a task's pushes or
+    targets (TASK_COUNTED)."""
 
     @property
     def message(self) -> str:
@@ -233,7 +245,7 @@ class PatientFrame:
     def repetition_text(self) -> str:
         if self.repetitions <= 0 or self.repetition <= 0:
             return ""
-        return f"Round {self.repetition} of {self.repetitions}"
+        return f"{self.counted} {self.repetition} of {self.repetitions}"
 
     @property
     def time_left_text(self) -> str:
@@ -321,11 +333,11 @@ def frame_at(view: TrialView, scene: Scene, options: PatientOptions,
             cue = f"{CUE_DONE if played.state.score > 0 else CUE_OVER} {played.score_text}"
     elif started and phase == PHASE_EXERCISE and repetition >= 2:
         into = elapsed - (repetition - 1) * p.duration_s
-        # at most half a round: the round under way is what matters
+        # at most half a lap: the lap under way is what matters
         if into < min(RESULT_SHOWN_S, 0.5 * p.duration_s):
             result, success = _round_result(view, p, t0, repetition - 1)
     elif started and cue == CUE_DONE and scene.task is None:
-        # the last round's result, which no next round shows, with the end; a hand that
+        # the last lap's result, which no next lap shows, with the end; a hand that
         # did not follow the path is not praised for it
         result, success = _round_result(view, p, t0, repetition, last=True)
         if not success:
@@ -341,17 +353,21 @@ def frame_at(view: TrialView, scene: Scene, options: PatientOptions,
 def _task_frame(view: TrialView, scene: Scene, i: int, cue: str, cursor, started: bool,
                 phase: int, elapsed: float, left: float, t0: float) -> PatientFrame:
     """The screen in a task the robot leads (core.holdtasks), from the stretch of its
-    timetable the exercise's clock is in: its words (TASK_WORDS), the round, and either
+    timetable the exercise's clock is in: its words (TASK_WORDS), which push or target of
+    all the task's it is (TASK_COUNTED: the rounds times the layout's), and either
     nothing on the table (position sense while the screen is blank) or the push's arrow
     with its line and the force along it (strength). Before and after the exercise, and on
     a fault, the usual cues."""
     task = scene.task
-    rounds = scene.parameters.repetitions
+    counted, item = TASK_COUNTED[task.task]
+    per_round = sum(s.phase == item for s in task.stretches) // max(
+        1, scene.parameters.repetitions)
+    total = per_round * scene.parameters.repetitions
     if not (started and phase == PHASE_EXERCISE) or cue == CUE_STOPPED:
         hidden = task.task == "strength" or (started and phase == PHASE_EXERCISE)
         return PatientFrame(cue, False, None if hidden else cursor, None, -1,
-                            rounds if phase == PHASE_HOLD else 0, rounds, left, sample=i,
-                            exercise_started_s=t0, blank=hidden)
+                            total if phase == PHASE_HOLD else 0, total, left, sample=i,
+                            exercise_started_s=t0, blank=hidden, counted=counted)
     starts = [s.start_s for s in task.stretches]
     k = max(0, min(len(starts) - 1, int(np.searchsorted(starts, elapsed, side="right")) - 1))
     stretch = task.stretches[k]
@@ -368,20 +384,21 @@ def _task_frame(view: TrialView, scene: Scene, i: int, cue: str, cursor, started
                     along if stretch.phase == "push" else 0.0)
     else:
         blank = bool(values.get("blank", False))
+    number = int(values.get("round", 0)) * per_round + int(values.get("index", 0)) + 1
     return PatientFrame(TASK_WORDS.get(stretch.phase, ""), False, None if blank else cursor,
-                        None, -1, int(values.get("round", 0)) + 1, rounds, left, sample=i,
-                        exercise_started_s=t0, blank=blank, push=push)
+                        None, -1, number, total, left, sample=i, exercise_started_s=t0,
+                        blank=blank, push=push, counted=counted)
 
 
 def _round_result(view: TrialView, p: TrialParameters, t0: float, n: int,
                   last: bool = False) -> tuple[str, bool]:
-    """Round `n`'s result in words (knowledge of results, then its quality) and whether it
+    """Lap `n`'s result in words (knowledge of results, then its quality) and whether it
     was a success: the hand followed the path (`round_travelled`)."""
     span = (t0 + (n - 1) * p.duration_s, t0 + n * p.duration_s)
     if round_travelled(view, p, *span):
         quality = round_quality(view, p, *span)
-        return f"Round {n} done!" + (f" {quality}" if quality else ""), True
-    return f"Round {n} over: {QUALITY_STILL_LAST if last else QUALITY_STILL}", False
+        return f"Lap {n} done!" + (f" {quality}" if quality else ""), True
+    return f"Lap {n} over: {QUALITY_STILL_LAST if last else QUALITY_STILL}", False
 
 
 def round_travelled(view: TrialView, parameters: TrialParameters, start_s: float,

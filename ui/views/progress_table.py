@@ -96,3 +96,31 @@ def progress_table(result: Progress) -> ProgressTable:
         rows.append(tuple(cells))
     return ProgressTable((*LEADING_HEADINGS, *(metric_heading(r) for r in figures)),
                          tuple(rows))
+
+
+ROWS_SHOWN = 4
+"""Trials' rows the table shows whole by default when the height allows (a laptop's
+1366 × 768 does: the plots keep their readable least)."""
+TABLE_SHARE = 0.35  # of a tall tab's plots and table (1920 × 1080: about 8 rows)
+HELP_SHARE = 0.4  # of the plots' room, the help's staircase under the series
+
+
+def split_sizes(height: int, rows: int, row_px: int, table_chrome_px: int,
+                plot_least_px: int, help_least_px: int) -> tuple[int, int, int]:
+    """The Progress tab's default heights (px) of its series plot, the help plot under it
+    and the trials' table, from the room they share (`height`): the table ROWS_SHOWN rows
+    (fewer trials: as many; `table_chrome_px` its heading and scroll bar) or TABLE_SHARE
+    of the room, whichever is more, as long as the plots keep their readable least
+    (`plot_least_px`, `help_least_px`); the table never less than one row. The plots
+    share the rest, the help HELP_SHARE of it, never less than its least. A short room
+    (a large font on a laptop) shrinks the plots below their least in proportion."""
+    one_row = table_chrome_px + row_px
+    wanted = table_chrome_px + row_px * min(max(rows, 1), ROWS_SHOWN)
+    table = max(wanted, round(TABLE_SHARE * height))
+    table = max(one_row, min(table, height - plot_least_px - help_least_px))
+    rest = max(0, height - table)
+    if rest < plot_least_px + help_least_px:
+        help_ = round(rest * help_least_px / (plot_least_px + help_least_px))
+    else:
+        help_ = max(help_least_px, round(HELP_SHARE * rest))
+    return rest - help_, help_, table

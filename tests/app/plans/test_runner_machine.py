@@ -6,7 +6,9 @@ order at any moment, and the runner keeps its invariants:
 * no build or start during a rest, while paused, or after Stop, E-STOP or a fault;
 * a rest is taken whole before the next block unless the plan ends in it;
 * the movements and active time it counts are what the trials' files said;
-* a plan that ends 'complete' ran every round of every block for all its laps.
+* a plan that ends 'complete' ran every round of every block for all its laps;
+* the share of the plan done (the patient's bar) never goes back, and is whole at a
+  complete end.
 """
 
 import math
@@ -85,6 +87,7 @@ class PlanMachine(RuleBasedStateMachine):
         self.files: dict[int, tuple[int, float]] = {}  # what each trial's file said
         self.finishes: list[tuple[int, float]] = []  # (block, when) of each trial's end
         self.started_blocks: list[int] = []
+        self.share = 0.0  # the share of the plan done, as last read
 
     # ---------------------------------------------------------------- the therapist
     @precondition(lambda self: self.runner.phase == IDLE)
@@ -226,6 +229,15 @@ class PlanMachine(RuleBasedStateMachine):
                 assert len(self.runner.counts[k].trials) >= block.rounds
 
     @invariant()
+    def the_share_done_never_goes_back(self):
+        state = self.runner.state(self.now)
+        assert 0.0 <= state.done_share <= 1.0
+        assert state.done_share >= self.share - 1e-12
+        self.share = state.done_share
+        if state.outcome == "complete":
+            assert state.done_share == 1.0
+
+    @invariant()
     def the_state_reads(self):
         state = self.runner.state(self.now)
         assert state.rest_left_s >= 0.0
@@ -285,6 +297,28 @@ def test_a_plan_runs_its_blocks_rounds_and_rests_in_order():
     assert [r[:3] for r in s.console.rests] == [(1, 1.0, 1.0), (2, 1.0, 1.0)]
     assert sum(c.movements for c in s.runner.counts) == 2 + 2 * 2 + 2
     assert s.runner.state(3.0).line().startswith("Plan complete")
+
+
+def test_the_share_done_counts_laps_weighted_by_each_block_s_planned_time():
+    """The patient's bar (PlanState.done_share): each block of PLAN plans 4 s of
+    exercise, a third of the plan; within a block each lap its share, so a block of
+    several rounds moves at each round, and the running trial's laps go by lap_share."""
+    s = Script()
+    assert s.runner.state(0.0).done_share == 0.0
+    s.runner.start(0.0)
+    first = s.runner.state(0.0)
+    assert (first.done_share, first.lap_share) == (0.0, pytest.approx(1 / 6))
+    s.loop(0.0)
+    assert s.runner.state(0.5).done_share == pytest.approx(1 / 3)  # resting after it
+    s.runner.tick(1.0)
+    s.loop(1.0)  # the reaching block's first round of two, one lap each
+    assert s.runner.state(1.0).done_share == pytest.approx(1 / 2)
+    assert s.runner.state(1.0).lap_share == pytest.approx(1 / 6)
+    s.loop(1.0)
+    s.runner.tick(2.0)
+    assert s.runner.state(2.0).done_share == pytest.approx(2 / 3)
+    s.loop(2.0)
+    assert s.runner.state(2.0).done_share == 1.0
 
 
 def test_a_pause_in_a_trial_runs_the_laps_it_had_left_and_in_a_rest_holds_the_clock():

@@ -11,14 +11,15 @@ from app.plans.runner import PlanState
 from core.trial import THESIS_SUBJECT
 from tests.ui.session import open_window
 from ui.patient.window import CURSOR, GO, PatientWindow
-from ui.views.patient_plan import overlay
+from ui.views.patient_plan import laps_passed, overlay
+from ui.views.patient_screen import CUE_READY, PatientFrame, waiting_frame
 
 
 def _state(**changes) -> PlanState:
     values = dict(phase="running", block=2, n_blocks=3, block_name="D shape", round=1,
                   rounds=1, laps_planned=5, laps_done=0, movements_done=30,
                   movements_planned=120, rest_left_s=0.0, time_left_s=300.0, outcome="",
-                  reason="")
+                  reason="", done_share=0.25, lap_share=0.05)
     values.update(changes)
     return PlanState(**values)
 
@@ -55,7 +56,7 @@ def test_during_a_block_the_block_and_the_session_s_progress_show(patient):
     patient.show_plan(_state())
     image = patient.grab().toImage()
     assert patient.painted["top"][0] == "Block 2 of 3"
-    assert patient.painted["progress"] == pytest.approx(30 / 120)
+    assert patient.painted["progress"] == pytest.approx(0.25)
     bands = patient.screen_layout()
     y = round(bands.top.height + 2)
     assert image.pixelColor(round(0.1 * patient.width()), y) == CURSOR  # done: the left
@@ -74,7 +75,29 @@ def test_the_end_is_said_in_the_patient_s_words(patient, outcome, words):
 def test_no_plan_no_overlay():
     assert overlay(None) is None
     assert overlay(_state(phase="idle", block=0)) is None
-    assert math.isnan(overlay(_state(movements_planned=0)).progress)
+    assert math.isnan(overlay(_state(done_share=math.nan)).progress)
+
+
+def test_the_bar_moves_with_the_running_trial_s_laps_and_never_back():
+    """A two-minute block's bar stood still: it counted the movements of finished trials
+    only. The running trial's laps passed on the screen's clock now move it, up to the
+    laps it runs, while the plan says a trial runs or is being saved; never back."""
+    running = _state()  # 0.25 done, a lap 0.05, 5 laps running
+    assert overlay(running, 0.0).progress == pytest.approx(0.25)
+    assert overlay(running, 2.5).progress == pytest.approx(0.375)
+    assert overlay(running, 9.0).progress == pytest.approx(0.5)  # no more than it runs
+    assert overlay(_state(phase="saving"), 5.0).progress == pytest.approx(0.5)
+    # building the next round: the last trial's laps are in done_share already
+    assert overlay(_state(phase="building"), 5.0).progress == pytest.approx(0.25)
+    assert overlay(running, 1.0).at_least(0.4).progress == pytest.approx(0.4)
+    assert overlay(running, 4.0).at_least(0.4).progress == pytest.approx(0.45)
+
+
+def test_the_laps_passed_are_the_trial_s_clock():
+    frame = PatientFrame("", False, None, None, -1, 2, 3, 7.0)  # lap 2 of 3, 4 s laps
+    assert laps_passed(frame, 4.0) == pytest.approx(3 - 7.0 / 4.0)
+    assert laps_passed(waiting_frame(None), 4.0) == 0.0
+    assert laps_passed(PatientFrame("", False, None, None, -1, 3, 3, 0.0), 4.0) == 3.0
 
 
 def test_the_console_feeds_its_plan_runner_s_state(qtbot, tmp_path, monkeypatch):
@@ -98,3 +121,22 @@ def test_the_console_feeds_its_plan_runner_s_state(qtbot, tmp_path, monkeypatch)
     assert patient.plan is None
     assert QApplication.activeWindow() is not patient
     win.close()
+
+
+def test_a_block_of_several_rounds_names_its_round_as_the_status_line_does(patient):
+    """A game block of three rounds: the patient saw "Block 1 of 2" and, in the middle,
+    "Round 1 of 3" meaning the trial's lap; the therapist's line said "round 2 of 3"
+    meaning the block's trial. Now a lap is a lap and the screen says the block's round
+    in the status line's words with the trial's "Get ready" (the top band keeps its
+    size)."""
+    state = _state(block=1, n_blocks=2, round=2, rounds=3)
+    plan = overlay(state)
+    assert (plan.block_text, plan.round_text) == ("Block 1 of 2", "Round 2 of 3")
+    assert state.line().startswith("Block 1 of 2, round 2 of 3")
+    assert overlay(_state(phase="resting", round=3, rounds=3)).round_text == ""
+    assert overlay(_state()).round_text == ""  # one round: no round said
+    patient.show_plan(state)
+    patient.frame = PatientFrame(CUE_READY, False, None, None, -1, 0, 3, 12.0)
+    patient.grab()
+    assert patient.painted["message"] == "Round 2 of 3. Get ready"
+    assert patient.painted["top"][0] == "Block 1 of 2"

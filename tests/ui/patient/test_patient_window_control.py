@@ -95,7 +95,7 @@ def test_the_patient_window_alone_waits_without_a_trial(qtbot):
     patient.show_parameters(None)
     patient.grab()
     assert patient.painted == {"cursor": None, "target": None, "attention": None,
-                               "top": ("", "", "")}
+                               "top": ("", "", ""), "message": "Please wait"}
 
 
 @pytest.mark.parametrize(("side", "mirror", "turn", "edge"), [

@@ -61,7 +61,7 @@ def test_get_ready_then_go_at_the_exercise_s_first_sample_then_the_clock():
     go = _frame_at_sample(r, APPROACH)
     assert go.go
     assert go.cue == CUE_GO
-    assert go.repetition_text == "Round 1 of 3"
+    assert go.repetition_text == "Lap 1 of 3"
     assert go.time_left_text == "0:06 left"
     shown = round(GO_SHOWN_S / PERIOD_S)
     assert _frame_at_sample(r, APPROACH + shown - 1).go
@@ -131,9 +131,9 @@ def test_each_round_s_end_is_said_for_a_while_after_it():
     r = _records()
     just_after = _frame_at_sample(r, APPROACH + 1000 + 10)
     # the result, then the round's quality: the hand 3 mm off both ways is within 5 mm
-    assert just_after.result == "Round 1 done! Right on the path"
+    assert just_after.result == "Lap 1 done! Right on the path"
     assert just_after.success
-    assert just_after.message == "Round 1 done! Right on the path"  # no cue then
+    assert just_after.message == "Lap 1 done! Right on the path"  # no cue then
     shown = min(RESULT_SHOWN_S, 0.5 * PARAMS.duration_s)  # at most half a round
     assert _frame_at_sample(r, APPROACH + 1000 + round(shown / PERIOD_S) - 1).result
     later = _frame_at_sample(r, APPROACH + 1000 + round(shown / PERIOD_S) + 1)
@@ -177,7 +177,7 @@ def test_after_each_round_its_quality_follows_its_result(off_m, words):
     radial /= np.linalg.norm(radial, axis=1, keepdims=True)
     r["position"] = r["position_desired"] + off_m * radial
     frame = _frame_at_sample(r, APPROACH + 1000 + 10, params=params)
-    assert frame.result == f"Round 1 done! {words}"
+    assert frame.result == f"Lap 1 done! {words}"
 
 
 def test_a_hand_that_stayed_still_at_the_start_is_not_told_it_kept_to_the_path():
@@ -190,7 +190,7 @@ def test_a_hand_that_stayed_still_at_the_start_is_not_told_it_kept_to_the_path()
     r = _records(params)
     r["position"] = r["position_desired"][APPROACH]  # still at the start all along
     frame = _frame_at_sample(r, APPROACH + 1000 + 10, params=params)
-    assert frame.result == "Round 1 over: now follow the whole path"
+    assert frame.result == "Lap 1 over: now follow the whole path"
     assert not frame.success
     half = _records(params)  # half of the round, then still: not enough either
     half["position"][APPROACH + 500:] = half["position_desired"][APPROACH + 500]
@@ -204,12 +204,12 @@ def test_the_end_gives_the_last_round_s_result_and_praises_only_a_hand_that_foll
     r = _records()
     end = _frame_at_sample(r, APPROACH + EXERCISE + 5)
     assert end.cue == CUE_DONE
-    assert end.result == "Round 3 done! Right on the path"  # 3 mm off both ways
+    assert end.result == "Lap 3 done! Right on the path"  # 3 mm off both ways
     assert end.success
     params = PARAMS.replace(assist="transparent")
     still = _records(params)
     still["position"] = still["position_desired"][APPROACH]  # at the start all along
     end = _frame_at_sample(still, APPROACH + EXERCISE + 5, params=params)
     assert end.cue == CUE_OVER
-    assert end.result == "Round 3 over: next time, follow the whole path"
+    assert end.result == "Lap 3 over: next time, follow the whole path"
     assert not end.success

@@ -55,7 +55,8 @@ def test_position_sense_keeps_the_table_blank_and_says_each_phase():
     for k, stretch in enumerate(stretches):
         f = frame(POSITION, r, 0.5 * (stretch.start_s + stretch.stop_s))
         assert f.cue == TASK_WORDS[stretch.phase]
-        assert f.repetition == 1
+        assert f.repetition == dict(stretch.values)["index"] + 1  # the target's number
+        assert f.repetition_text == f"Target {f.repetition} of 2"
         last_home = k == len(stretches) - 1
         assert f.blank is not last_home
         if f.blank:
@@ -93,3 +94,17 @@ def test_a_task_s_time_left_is_its_timetable_s():
     f = frame(STRENGTH, r, 10.0)
     assert f.time_left_s == pytest.approx(total - 10.0, abs=PERIOD_S)
     assert math.isfinite(f.exercise_started_s)
+
+
+def test_a_task_counts_its_pushes_not_laps_nor_rounds():
+    """The patient's screen said "Round 1 of 2" in a task, the word a session plan uses
+    for one of a block's trials (and "Round" for a lap elsewhere). A task counts what the
+    patient does: each push of every round, "Push 3 of 4" (2 directions, 2 rounds)."""
+    params = STRENGTH.replace(repetitions=2)
+    r = records(params, push_N=3.0)
+    pushes = [s for s in params.trajectory().stretches if s.phase == "push"]
+    assert len(pushes) == 4
+    said = [frame(params, r, 0.5 * (s.start_s + s.stop_s)).repetition_text for s in pushes]
+    assert said == ["Push 1 of 4", "Push 2 of 4", "Push 3 of 4", "Push 4 of 4"]
+    end = frame(params, r, params.trajectory().total_duration_s + 0.1)
+    assert end.repetition_text == "Push 4 of 4"

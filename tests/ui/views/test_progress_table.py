@@ -13,11 +13,13 @@ from app.reports.progress import progress
 from core.trial import THESIS_SUBJECT
 from ui.views.progress_table import (
     LEADING_HEADINGS,
+    ROWS_SHOWN,
     ProgressTable,
     metric_heading,
     metric_rows,
     progress_summary,
     progress_table,
+    split_sizes,
 )
 
 T0 = datetime.datetime(2024, 5, 2, 9, 30, tzinfo=datetime.UTC)
@@ -91,3 +93,24 @@ def test_one_trial_does_not_zoom_the_axis_to_a_sliver():
     assert value_span(np.array([2.0, 40.0]), "%") == (2.0, 40.0)
     low, high = value_span(np.array([3.0, 3.1, np.nan]), "mm")
     assert high - low == 2.0
+
+
+@pytest.mark.parametrize(("height", "rows_whole"), [(383, ROWS_SHOWN), (695, 6)])
+def test_the_table_shows_rows_whole_and_the_plots_keep_their_least(height, rows_whole):
+    """The Progress tab's room in a 1366 × 768 window (383 px) and a 1920 × 1080 one
+    (695 px), 30 px rows under 40 px of heading and scroll bar: the table shows
+    ROWS_SHOWN rows whole (it showed one at a laptop's height, the plots taking the rest),
+    more on a tall screen, and the plots keep their least."""
+    plot, help_, table = split_sizes(height, 7, 30, 40, 104, 95)
+    assert plot + help_ + table == height
+    assert (table - 40) // 30 >= rows_whole
+    assert plot >= 104
+    assert help_ >= 95
+
+
+def test_a_short_room_keeps_a_row_and_shares_the_rest_and_few_trials_take_less():
+    plot, help_, table = split_sizes(200, 7, 30, 40, 104, 95)
+    assert table == 70
+    assert plot + help_ == 130
+    assert plot > help_
+    assert split_sizes(383, 1, 30, 40, 104, 95)[2] == round(0.35 * 383)
