@@ -572,6 +572,10 @@ TRIAL_EDITS = {
         slice(10, 20), t[10:20][::-1].copy())),
     "emg time NaN": lambda f, p: _emg_time(f, lambda t: t.__setitem__(7, np.nan)),
     "mvc flags text": _mvc_flags_text,
+    "emg notes cut": lambda f, p: f["emg"].attrs.__setitem__("notes",
+                                                             '["the capture ended e'),
+    "emg notes object": lambda f, p: f["emg"].attrs.__setitem__("notes",
+                                                                '{"ended": "early"}'),
     "pose angle": lambda f, p: f["pose/angle"].__setitem__(
         (0, 0), f["pose/angle"][0, 0] + 0.1),
     "assistance level": lambda f, p: f["assistance"].attrs.__setitem__("level", 0.1),
@@ -580,7 +584,7 @@ RESEALED = ("parameters null", "position int32", "position (N,3)", "position 1-D
             "position bytes", "phase 7", "fault 65535", "state 200", "time NaN",
             "time backwards", "external link", "soft link", "hard alias", "virtual dataset",
             "events 10^8 rows", "tick 10^8 rows", "emg 5 columns for 3", "emg time backwards",
-            "emg time NaN", "mvc flags text")
+            "emg time NaN", "mvc flags text", "emg notes cut", "emg notes object")
 """Edits a reader must refuse even when whoever made them sealed the file again: what no
 trial the console records can hold."""
 

@@ -12,13 +12,21 @@ keeps the other participants. A trial's own files are still replaced only with
 
 A file of that name the console did not write (its header is not an index's) is not
 merged into: it is refused unless `overwrite`, which replaces it.
+
+Two exports into one folder at once (two consoles, or the window and `rehab export`) each
+read the index, added their rows and replaced it: the later lost the earlier's rows, whose
+files stayed unlisted. The read, merge and replace hold the folder's lock (flock on the
+folder itself, so nothing is left in it), one export after the other.
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import fcntl
 import math
-from collections.abc import Mapping
+import os
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 
 from app.exports.files import OutputExistsError, output
@@ -31,6 +39,11 @@ NAMES_HEAD = ("participant", "first_name", "last_name")
 
 def write_index(path: Path, rows: list[dict], suffix: str, overwrite: bool) -> Path:
     """The index of `rows` and of the earlier export's rows still in the folder."""
+    with _merging(path.parent):
+        return _write_index(path, rows, suffix, overwrite)
+
+
+def _write_index(path: Path, rows: list[dict], suffix: str, overwrite: bool) -> Path:
     delimiter = "\t" if suffix == ".tsv" else ","
     earlier = _earlier(path, INDEX_HEAD, delimiter, overwrite)
     new = {row[INDEX_KEY] for row in rows}
@@ -50,6 +63,11 @@ def write_index(path: Path, rows: list[dict], suffix: str, overwrite: bool) -> P
 def write_names(path: Path, names: Mapping, suffix: str, overwrite: bool) -> Path:
     """The names file of `names` ({code: (first, last)}) and of the earlier export's other
     participants."""
+    with _merging(path.parent):
+        return _write_names(path, names, suffix, overwrite)
+
+
+def _write_names(path: Path, names: Mapping, suffix: str, overwrite: bool) -> Path:
     delimiter = "\t" if suffix == ".tsv" else ","
     merged = {row["participant"]: (row.get("first_name", ""), row.get("last_name", ""))
               for row in _earlier(path, NAMES_HEAD, delimiter, overwrite)}
@@ -59,6 +77,24 @@ def write_names(path: Path, names: Mapping, suffix: str, overwrite: bool) -> Pat
         writer.writerow(NAMES_HEAD)
         writer.writerows((code, first, last) for code, (first, last) in sorted(merged.items()))
     return path
+
+
+@contextlib.contextmanager
+def _merging(folder: Path) -> Iterator[None]:
+    """The export folder locked while an index is read, merged and replaced (a folder
+    that cannot be opened or locked, a share without locks, is written unlocked, as
+    before)."""
+    try:
+        fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
+    except OSError:
+        yield
+        return
+    try:
+        with contextlib.suppress(OSError):
+            fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)  # the lock goes with it
 
 
 def check_mergeable(path: Path, suffix: str, overwrite: bool) -> None:

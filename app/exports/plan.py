@@ -132,16 +132,27 @@ def _relative_folder(path: Path, folder: Path) -> str:
 
 def sources_from_registry(registry: RecordStore, codes: str | Iterable[str], *,
                           include_invalid: bool = False,
-                          left_out: list[int] | None = None) -> list[TrialSource]:
+                          left_out: list[int] | None = None,
+                          settled: list[str] | None = None) -> list[TrialSource]:
     """Every trial of these patients, by session and trial number; each patient's
     outputs go in a subfolder named by their code. Trials marked invalid (schema v8) are
-    left out unless `include_invalid`; their ids are appended to `left_out`."""
+    left out unless `include_invalid`; their ids are appended to `left_out`. A write into
+    a trial's file that a stopped console left unrecorded is settled first
+    (app.trials.rewrite.settle_all; its lines appended to `settled`)."""
+    from app.trials.rewrite import settle_all
+
     codes = [codes] if isinstance(codes, str) else list(codes)
     sources = []
     for code in codes:
         proposals = {p.trial_id: p for p in registry.proposals_for_patient(code)}
         invalid = () if include_invalid else registry.invalid_trials(code)
-        for trial in registry.trials_for_patient(code):
+        trials = registry.trials_for_patient(code)
+        lines = settle_all(registry, trials)
+        if lines:
+            if settled is not None:
+                settled += lines
+            trials = registry.trials_for_patient(code)
+        for trial in trials:
             if trial.id in invalid:
                 if left_out is not None:
                     left_out.append(trial.id)

@@ -194,12 +194,12 @@ def export_patients(
     left out, and a note says how many, unless `include_invalid`."""
     codes = list(codes)
     left_out: list[int] = []
+    notes: list[str] = []
     sources = sources_from_registry(registry, codes, include_invalid=include_invalid,
-                                    left_out=left_out)
+                                    left_out=left_out, settled=notes)
     # each file read where the one recorded is (the data folder's, else the trial store's
     # copy): a file changed since its trial ended is listed, never exported as the trial
     unverified: list[Failure] = []
-    notes: list[str] = []
     sources = verified_sources(sources, unverified, notes)
     names = registry_names(registry, codes) if include_names else None
     result = export_trials(sources, folder, format=format, names=names,

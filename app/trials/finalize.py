@@ -233,4 +233,7 @@ def finish_interrupted(registry: RecordStore, *, now: float | None = None,
                      "it is listed as interrupted")
     for line in lines:
         log.warning("%s", line)
-    return lines
+    # a write into a finished trial's file that the console did not live to record
+    # (app.trials.rewrite: its lines are logged there)
+    from app.trials.rewrite import settle_marked
+    return lines + settle_marked(registry)

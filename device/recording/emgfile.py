@@ -54,7 +54,7 @@ class EmgGroup:
     @property
     def notes(self) -> tuple[str, ...]:
         """What is wrong with the EMG, as stored with it (none in a file of before they
-        were kept, or one whose attribute is not a JSON list of texts)."""
+        were kept; the reader refuses one that is not a JSON list of texts)."""
         value = self.attrs.get("notes", [])  # read as JSON already (`_attr`)
         if not isinstance(value, list):
             return ()
@@ -182,8 +182,9 @@ def _read(path: Path) -> EmgGroup | None:
         _check_samples(time_s, samples, len(names))
         mvc = {muscle: _checked_mvc(muscle, {k: _attr(v) for k, v in h5views.items(entry.attrs)})
                for muscle, entry in h5views.items(group.get("mvc", {}))}
-        return EmgGroup(names, muscles, rate_hz, time_s, samples,
-                        {k: _attr(v) for k, v in h5views.items(group.attrs)}, mvc)
+        attrs = {k: _attr(v) for k, v in h5views.items(group.attrs)}
+        _check_notes(attrs)
+        return EmgGroup(names, muscles, rate_hz, time_s, samples, attrs, mvc)
 
 
 def _checked_group(found) -> h5py.Group:
@@ -236,6 +237,16 @@ def _check_samples(time_s: np.ndarray, samples: np.ndarray, channels: int) -> No
         k = int(np.flatnonzero(step <= 0)[0]) + 1
         raise Damaged(f"is damaged: /emg/time goes from {time_s[k - 1]} to {time_s[k]} s at "
                       f"sample {k}; it only ever increases")
+
+
+def _check_notes(attrs: dict) -> None:
+    """What is wrong with the EMG is kept with it (`notes`, absent in older files): one that
+    is not the JSON list of texts the console writes (cut, an object) was read as no notes,
+    so a capture that ended early read as a whole one."""
+    notes = attrs.get("notes", [])
+    if not isinstance(notes, list) or not all(isinstance(n, str) for n in notes):
+        raise Damaged(f"is damaged: /emg notes is {str(notes)[:40]!r}, not the JSON list of "
+                      "texts the console writes")
 
 
 def _checked_mvc(muscle: str, entry: dict) -> dict:

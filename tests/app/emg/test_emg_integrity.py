@@ -23,6 +23,9 @@ EDITS = {
     "emg time backwards": "/emg/time goes from",
     "emg time NaN": "/emg/time is nan at sample 7",
     "mvc flags text": "flags is 'saturated', not the JSON list",
+    # what is wrong with the EMG, kept with it: dropped unsaid when not a list of texts
+    "emg notes cut": "/emg notes is '[\"the capture ended e', not the JSON list",
+    "emg notes object": "/emg notes is \"{'ended': 'early'}\", not the JSON list",
 }
 
 

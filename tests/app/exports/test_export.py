@@ -514,6 +514,48 @@ def test_patient_after_patient_into_one_folder_adds_to_its_index(tmp_path, forma
     assert [r[0] for r in read_rows(out / index, delimiter)[1:]] == [codes[1]]
 
 
+def test_two_exports_into_one_folder_at_once_both_stay_in_its_index(tmp_path, monkeypatch):
+    """Two exports at once (two consoles, the window and `rehab export`): each read the
+    index and replaced it, so the one that read first and wrote last dropped the other's
+    rows while its files stayed in the folder, unlisted."""
+    import threading
+
+    from app.exports import index as index_module
+
+    registry = Registry(DataDir(tmp_path / "data"))
+    codes = []
+    for seed, first in enumerate(("Ann", "Bo")):
+        code = registry.create_patient(first, "Example", body_mass_kg=70.0).code
+        begun = registry.begin_trial(code, D, backend="simulator")
+        write(begun.path, seed=seed, code=code)
+        registry.finish_trial(begun.trial_id, "complete", {"rmse_x_m": 0.001})
+        codes.append(code)
+    out = tmp_path / "out"
+    read_first, other_done = threading.Event(), threading.Event()
+    earlier = index_module._earlier
+    reads = []
+
+    def slow_reader(path, *args):
+        rows = earlier(path, *args)
+        if path.name == "trials.csv":
+            reads.append(threading.current_thread())
+            if len(reads) == 2:  # the first export's read as it writes its index
+                read_first.set()
+                other_done.wait(3.0)  # the other export's whole write, unless it waits
+        return rows
+
+    monkeypatch.setattr(index_module, "_earlier", slow_reader)
+    first = threading.Thread(target=export_patient, args=(registry, codes[0], out))
+    first.start()
+    assert read_first.wait(60.0)
+    second = threading.Thread(target=lambda: (export_patient(registry, codes[1], out),
+                                              other_done.set()))
+    second.start()
+    first.join()
+    second.join()
+    assert sorted(r[0] for r in read_rows(out / "trials.csv", ",")[1:]) == sorted(codes)
+
+
 def test_an_index_the_console_did_not_write_is_not_added_to(registry, tmp_path):
     registry, code = registry
     (tmp_path / "out").mkdir()

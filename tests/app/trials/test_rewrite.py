@@ -95,3 +95,109 @@ def test_record_rewritten_leaves_a_trial_without_checksum_and_forgets_the_store(
     after = registry.record_rewritten(trial_id, "b" * 64)
     assert after.checksum == "b" * 64
     assert after.stored_in is None  # the store's copy is of the file before
+
+
+# -- a write into the file that the registry did not get to record --------------------------
+
+
+def test_a_write_the_registry_could_not_record_is_recorded_at_the_next_start(
+        data, patient, capsys, monkeypatch):
+    """A full disk under the registry after the EMG reached the file: the trial was refused
+    for good ('restore the file from a backup', which would lose the EMG), and the command
+    said 'nothing was saved'."""
+    from app.errors import RegistryError
+    from app.trials.finalize import finish_interrupted
+    from app.trials.rewrite import mark_of
+
+    trial_id = _registered_trial(patient, capsys)
+    registry = Registry(DataDir(data))
+
+    def full(self, *args, **kwargs):
+        raise RegistryError("the registry cannot be written: disk I/O error; the disk "
+                            "holding it is probably full. Free space on it, then try again; "
+                            "nothing was saved")
+
+    with monkeypatch.context() as patched:
+        patched.setattr(Registry, "record_rewritten", full)
+        code, _, err = run(["emg", "import", str(trial_id), str(EMG), "--muscles", MUSCLES],
+                           capsys)
+    assert code == 2
+    assert "now holds imported EMG" in err
+    assert "nothing was saved" not in err
+    path = registry.trial_path(trial_id)
+    assert mark_of(path).exists()
+    lines = finish_interrupted(registry)  # the window's start
+    assert any(f"trial {trial_id}: imported EMG written into its file" in line
+               and "its new checksum is recorded" in line for line in lines), lines
+    assert registry.verify_trial_file(trial_id) is None
+    assert not mark_of(path).exists()
+
+
+def test_a_write_that_failed_half_way_leaves_the_trial_readable_and_recorded(
+        data, patient, capsys, monkeypatch):
+    from device.recording import emgfile
+
+    trial_id = _registered_trial(patient, capsys)
+    registry = Registry(DataDir(data))
+
+    def fails():
+        raise OSError("No space left on device")
+
+    monkeypatch.setattr(emgfile, "utc_now_iso", fails)  # after the room was marked
+    code, _, err = run(["emg", "import", str(trial_id), str(EMG), "--muscles", MUSCLES],
+                       capsys)
+    assert code == 2, err
+    assert registry.verify_trial_file(trial_id) is None  # what it left is the console's
+
+
+def test_a_console_killed_while_writing_leaves_a_trial_the_export_settles(
+        data, patient, tmp_path, capsys):
+    """kill -9 in the middle of the EMG's write: the file was left flagged 'open for
+    writing' (no reader opened it) and not the one recorded (every export refused it)."""
+    import os
+    import subprocess
+    import sys
+
+    from app.trials.reader import read_trial
+
+    trial_id = _registered_trial(patient, capsys)
+    registry = Registry(DataDir(data))
+    killed = ("import os, signal, sys\n"
+              "from device.recording import emgfile\n"
+              "emgfile.utc_now_iso = lambda: os.kill(os.getpid(), signal.SIGKILL)\n"
+              "from app.cli.main import main\n"
+              "sys.exit(main(sys.argv[1:]))\n")
+    root = Path(__file__).parents[3]
+    done = subprocess.run([sys.executable, "-c", killed, "emg", "import", str(trial_id),
+                           str(EMG), "--muscles", MUSCLES], cwd=root, capture_output=True,
+                          env={**os.environ, "PYTHONPATH": str(root)}, check=False)
+    assert done.returncode == -9, done.stderr
+    out = _exported(patient, tmp_path, capsys, "export")
+    assert "exported 1 trial(s)" in out
+    assert "not exported" not in out
+    assert "/emg, which the write left unfinished" in out
+    assert registry.verify_trial_file(trial_id) is None
+    trial = read_trial(registry.trial_path(trial_id))
+    assert any("/emg" in note and "interrupted" in note for note in trial.notes)
+
+
+def test_a_mark_whose_writer_is_at_work_is_left_alone(data, patient, capsys):
+    import fcntl
+    import os
+
+    from app.trials.rewrite import mark_of, settle
+
+    trial_id = _registered_trial(patient, capsys)
+    registry = Registry(DataDir(data))
+    path = registry.trial_path(trial_id)
+    before = registry.trial(trial_id).checksum
+    fd = os.open(mark_of(path), os.O_RDWR | os.O_CREAT, 0o600)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        with path.open("ab") as f:
+            f.write(b"\0" * 16)  # as if being written now
+        assert settle(registry, registry.trial(trial_id)) is None
+        assert mark_of(path).exists()
+        assert registry.trial(trial_id).checksum == before
+    finally:
+        os.close(fd)
