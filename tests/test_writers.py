@@ -129,6 +129,11 @@ KNOWN: dict[tuple[str, str], tuple[int, str]] = {
     ("app/reports/pdf_file.py", "pdf.savefig"): (1, "pages into that PdfPages"),
     ("app/trials/registered.py", "os.unlink"): (
         1, "a refused trial's file that holds no sample, withdrawn with its registry row"),
+    ("app/trials/rewrite.py", "os.open for writing"): (
+        2, "the mark of a write into a finished trial's file (O_EXCL, O_NOFOLLOW, 0600: its "
+           "lock and a line of JSON, made before the write), and reopening it to settle"),
+    ("app/trials/rewrite.py", "where.unlink"): (
+        3, "the mark removed once the registry holds the file's new checksum"),
     ("core/blockwise.py", "speed.tofile"): (1, "an anonymous temporary file (no name)"),
     ("device/camera/capture.py", "cv2.VideoWriter"): (
         1, "a video grows as it is filmed: on a file claimed exclusively and 0600 first "

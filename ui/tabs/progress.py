@@ -11,6 +11,7 @@ GUI thread.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -74,6 +75,21 @@ def _write_pdf(result: Progress, path: Path, registry=None) -> Path:
                               scales=registry.session_scales(code),
                               series=report_series(registry, result,
                                                    include_invalid=included))
+
+
+def _label_least(plot) -> int:
+    """The height (px) a plot needs for its left axis's title, drawn turned by 90°, to be
+    whole beside the axis: at 1366 × 768 "help (%)" was cut to "elp (" when the table took
+    the room. The title's length plus what the plot holds above and below the axis (its
+    title, its bottom axis), as the plot lays them out."""
+    item = plot.getPlotItem()
+    left = item.getAxis("left")
+    if not (left.isVisible() and left.labelText):
+        return 0
+    # the plot's own layout, whatever its height now (before the tab is first shown it is
+    # laid out at pyqtgraph's default size): the bottom axis and the margins
+    around = max(0, round(item.geometry().height() - left.geometry().height()))
+    return math.ceil(left.label.boundingRect().width()) + around + 2
 
 
 class ProgressTab(QWidget):
@@ -242,7 +258,8 @@ class ProgressTab(QWidget):
         room = self.splitter.height() - 2 * self.splitter.handleWidth()
         sizes = split_sizes(room, table.rowCount(),
                             table.verticalHeader().defaultSectionSize(), chrome,
-                            round(PLOT_LEAST_LINES * line), round(HELP_LEAST_LINES * line))
+                            max(round(PLOT_LEAST_LINES * line), _label_least(self.plot)),
+                            max(round(HELP_LEAST_LINES * line), _label_least(self.help_plot)))
         if list(sizes) != self.splitter.sizes():
             self.splitter.setSizes(list(sizes))
 

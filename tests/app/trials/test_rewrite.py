@@ -181,6 +181,7 @@ def test_a_console_killed_while_writing_leaves_a_trial_the_export_settles(
     assert any("/emg" in note and "interrupted" in note for note in trial.notes)
 
 
+@pytest.mark.changes_recorded_files  # a write at work, its checksum not yet recorded
 def test_a_mark_whose_writer_is_at_work_is_left_alone(data, patient, capsys):
     import fcntl
     import os
