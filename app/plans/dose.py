@@ -11,7 +11,10 @@ reference), although the robot took it round. In the transparent mode nothing mo
 hand and the reference runs on the clock alone, so the hand's measured position is
 counted, through the exercise and the hold after it (a hand that lags the clock reaches
 the last movement's end after the exercise's last tick): a passive virtual patient makes
-0 of 32 centre-out movements there, where the reference would say 32.
+0 of 32 centre-out movements there, where the reference would say 32. The hand's last
+movement ends once it is at its end within the turn's margin and the reference has
+arrived there (core.plan.movements_in_path): a hand does not settle within the
+reference's 2 mm.
 """
 
 from __future__ import annotations
@@ -50,10 +53,13 @@ def trial_dose(path, parameters: TrialParameters | None = None) -> TrialDose:
     phase = np.asarray(data.channels["phase"])
     exercise = phase == PHASE_EXERCISE
     if params.assist == "transparent":
-        taken = np.asarray(data.channels["position"])[exercise | (phase == PHASE_HOLD)]
+        counted = exercise | (phase == PHASE_HOLD)
+        taken = np.asarray(data.channels["position"])[counted]
+        reference = np.asarray(data.channels["position_desired"])[counted]
     else:
         taken = np.asarray(data.channels["position_desired"])[exercise]
-    return TrialDose(movements_in_path(params, taken),
+        reference = None
+    return TrialDose(movements_in_path(params, taken, reference),
                      float(np.count_nonzero(exercise)) * data.sample_period_s, data.status)
 
 

@@ -15,6 +15,18 @@ from core.kernels import kernel
 _TWO_PI = 2.0 * math.pi
 TABLE_STEP_S = 0.001
 """The desired-motion table's time step (device.sim.patients tabulates it)."""
+RELAXED_BEFORE_S = -1.5e9
+"""A patient's clock earlier than this: the patient rests after a trial (the simulator's
+`rest_patient` puts its clock 2·10⁹ s before the exercise; one waiting for its first cue
+is at −10⁹ s and holds the start posture). Resting, the active impedance keeps its damping
+and drops its stiffness and pushes: the hand settles where the trial left it, and the
+relaxed arm's tissue drifts it slowly back (under 0.2 m/s). Its clock used to run on: the
+strength task's pushes went on against the idle robot and took the handle out of the
+exercise area (a workspace fault with no trial running). Then it held the start posture
+as before its cue: the set-point jumped there from wherever the trial stopped, and the
+stiffness threw the handle back at up to 1.3 m/s with the robot at zero torque, over the
+supervisor's speed limit (a plan's Pause or Stop latched EE_SPEED). The passive tissue
+alone let a stopped hand coast on, 0.4 m/s and 25 cm in 10 s."""
 
 
 # The constants vector of `patient_torque` (VirtualPatient.constants).
@@ -142,6 +154,23 @@ def out_of_synergy_scaled(p, k, a_s, a_e):
 
 
 @kernel
+def _resting_damping(p, sh, el, tsd, phid):
+    """(sh, el) with a resting patient's active damping added: the impedance's damping
+    toward no motion and no stiffness, so the hand stops where the trial left it and
+    the next trial's approach moves it freely (RELAXED_BEFORE_S)."""
+    v_s = -tsd
+    v_e = -phid
+    if p[P_SELECTIVE] != 0.0:
+        v_s, v_e = out_of_synergy_scaled(p, P_IMP_SS, v_s, v_e)
+    w = p[P_EFFORT]
+    u_sh = w * (p[P_BS] * v_s + p[P_BC] * v_e)
+    u_el = w * (p[P_BC] * v_s + p[P_BE] * v_e)
+    if p[P_SELECTIVE] != 0.0:
+        u_sh, u_el = out_of_synergy_scaled(p, P_IMP_SS, u_sh, u_el)
+    return (sh + u_sh, el + u_el)
+
+
+@kernel
 def patient_torque(p, table, episodes, t_s, ts, te, tsd, ted):
     """Net joint torques τ_A (eq. 3.20) of a virtual patient, absolute-angle convention
     (VirtualPatient.torque; the model is in the module notes)."""
@@ -157,7 +186,9 @@ def patient_torque(p, table, episodes, t_s, ts, te, tsd, ted):
                             e_s, p[P_PHI0] - phi, tsd, phid)
     gen_s = 0.0
     gen_e = 0.0
-    if p[P_ACTIVE] != 0.0:
+    if p[P_ACTIVE] != 0.0 and t_s < RELAXED_BEFORE_S:
+        sh, el = _resting_damping(p, sh, el, tsd, phid)
+    elif p[P_ACTIVE] != 0.0:
         ts_d, phi_d, tsd_d, phid_d, ff_s, ff_e, dir_x, dir_y, drive_x, drive_y = (
             desired_motion(p, table, t_s))
         d_s = ts_d - ts

@@ -117,6 +117,7 @@ constant and trembles at this frequency by this fraction of itself."""
 # A waiting patient's clock: this far before the exercise's start, the desired
 # motion is the start posture at rest (finite, so the tremor's sine stays defined).
 _WAITING_S = 1e9
+_RESTING_S = 2e9  # a resting one's, after a trial (patient_torque.RELAXED_BEFORE_S)
 
 
 @dataclass(frozen=True, slots=True)
@@ -372,11 +373,10 @@ class SimulatorBackend:
 
     def rest_patient(self) -> None:
         """The trial ended (its end, Stop, a fault): the patient stops the exercise and
-        rests as it waited for the cue, at the path's start posture, pushing nothing, while
-        the robot's torque is zero. Its clock used to run on: after Stop the strength
-        task's pushes went on against the idle robot and took the handle out of the
-        exercise area, latching a workspace fault with no trial running."""
-        self.state[physics.X_T0] = self.time_s + _WAITING_S
+        rests its hand where the trial left it, pushing nothing, while the robot's torque
+        is zero, until the next trial cues it (device.sim.patient_torque.RELAXED_BEFORE_S:
+        why not its clock running on, nor holding the start posture as before its cue)."""
+        self.state[physics.X_T0] = self.time_s + _RESTING_S
         self.state[physics.X_CACHED] = 0.0
 
     @property

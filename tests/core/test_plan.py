@@ -12,6 +12,7 @@ from core.errors import ParameterError
 from core.plan import (
     Block,
     Plan,
+    movement_ends,
     movements_in_path,
     movements_per_lap,
 )
@@ -133,3 +134,25 @@ def test_a_whole_trial_makes_the_movements_the_plan_counts(shape, timing):
 def test_movements_per_lap():
     assert [movements_per_lap(s, 8) for s in SHAPES] == [
         {"d": 1, "circle": 1, "reach": 2, "targets": 16, "figure8": 2}[s] for s in SHAPES]
+
+
+def test_the_hand_s_last_movement_ends_within_the_turn_s_margin_once_the_reference_arrived():
+    """The hand's points (the transparent mode, app.plans.dose) do not settle within the
+    reference's 2 mm: the last movement counts once the hand is at its end within the
+    turn's margin and the reference has arrived there; a trial stopped on the way (the
+    reference short of the end) counts it not, wherever the hand is."""
+    params = THESIS_SUBJECT.replace(shape="d", repetitions=2, duration_s=4.0)
+    desired = reference(params)
+    hand = desired + np.array([0.004, 0.0])  # 4 mm beside the path all the way
+    assert movements_in_path(params, hand) == 1  # as the reference's own points: 2 mm
+    assert movements_in_path(params, hand, desired) == 2
+    # the hand there, the reference 3 cm short of the end: stopped on the way
+    short = desired[desired_short_of_end(params, desired, 0.03)]
+    assert movements_in_path(params, hand, short) == 1
+
+
+def desired_short_of_end(params, desired, by_m):
+    """The samples of `desired` up to the last one `by_m` or more from the path's end."""
+    end = movement_ends(params)[0]
+    far = np.flatnonzero(np.hypot(*(desired - end).T) >= by_m)
+    return slice(0, far[-1] + 1)

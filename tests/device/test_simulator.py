@@ -491,19 +491,35 @@ def test_a_waiting_patient_holds_still_until_cued_then_does_the_exercise():
 
 
 @pytest.mark.parametrize("compiled", [True, False])
-def test_a_patient_told_the_trial_ended_rests_at_the_start_and_pushes_nothing(compiled):
-    """`rest_patient` (the loop calls it as a trial ends): the exercise stops there and the
-    patient holds the start again as before its cue, the robot at zero torque; its clock
-    ran on before, and its plan went on without the trial (clinic exploration 2 #3)."""
+@pytest.mark.parametrize("stop_s", [1.0, 2.0, 3.0])
+def test_a_patient_told_the_trial_ended_rests_its_hand_where_it_is_and_pushes_nothing(
+        compiled, stop_s):
+    """`rest_patient` (the loop calls it as a trial ends): the exercise stops there (its
+    clock ran on before, and its plan went on without the trial: clinic exploration 2 #3)
+    and the patient rests its hand, the robot at zero torque. It used to hold the start
+    posture again as before its cue: stopped mid-path, its stiffness threw the handle back
+    at up to 1.3 m/s, over the supervisor's 1 m/s, and a plan's Pause or Stop latched a
+    speed fault. Now the hand slows from the speed the trial left it with and settles,
+    the relaxed arm drifting it slowly back toward its rest posture."""
     sim = simulator("healthy", patient_waits=True, compiled=compiled)
-    start = sim.hand_position_m()
     sim.cue_patient()
-    for k in range(1, 1001):
+    tick = round(stop_s / TICK_S)
+    speeds = []
+
+    def step(k):
+        before = sim.hand_position_m()
         sim.read(k * TICK_S)
-    assert math.dist(sim.hand_position_m(), start) > 0.02  # mid-exercise
+        speeds.append(math.dist(sim.hand_position_m(), before) / TICK_S)
+
+    for k in range(1, tick + 1):
+        step(k)
+    at_stop = speeds[-1]
     sim.rest_patient()
     assert sim.patient_time_s < -1e6
-    for k in range(1001, 6001):
-        sim.read(k * TICK_S)
-    assert math.dist(sim.hand_position_m(), start) < 0.002
+    speeds.clear()
+    for k in range(tick + 1, tick + 5001):
+        step(k)
+    assert max(speeds) <= at_stop + 0.005, (at_stop, max(speeds))
+    assert max(speeds[250:]) < 0.25  # half a second on: slow, whatever it was doing
+    assert speeds[-1] < 0.02
     assert math.hypot(sim.truth.force_x_N, sim.truth.force_y_N) < 0.5

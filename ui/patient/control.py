@@ -4,10 +4,11 @@ screen* button and its menu (which screen, full screen, the options), F11, feedi
 screen from the window's 16 ms repaint, and closing it with the console.
 
 The patient's window shows the live trial while one runs and after it ends, until the
-next Build; otherwise the built exercise (or nothing) waiting to start. While a session
-plan runs (the window's `plan_runner`, app.plans.runner.PlanRunner), its state too: the
-block, the session's progress, the rest's countdown; once it has ended, its end in the
-patient's words until the next trial is built. Replays on the
+next Build (a plan's next round: as soon as the plan asks for its Build); otherwise the
+built exercise (or nothing) waiting to start. While a session plan runs (the window's
+`plan_runner`, app.plans.runner.PlanRunner), its state too: the block, the session's
+progress, the rest's countdown; once it has ended, its end in the patient's words until
+the next trial is built. Replays on the
 therapist's tabs never reach it: the patient sees only what they are doing.
 """
 
@@ -19,6 +20,7 @@ from PySide6.QtCore import Qt
 from PySide6.QtGui import QActionGroup, QGuiApplication, QKeySequence, QShortcut
 from PySide6.QtWidgets import QMenu, QToolButton
 
+from app.plans.runner import BUILDING
 from device.loop.messages import ShownToPatient
 from device.loop.pipeline import PERIOD_S
 from device.loop.states import State
@@ -207,11 +209,24 @@ class PatientScreenControl:
         if window is None or not window.isVisible():
             return
         live = self.live
-        if live is not None and (self.state == State.RUNNING or live.parameters is self.built):
+        building = self._plan_building()
+        if self.state != State.RUNNING and building is not None:
+            # a plan's next round (or block) is being built: its exercise waiting, not the
+            # last trial's end ("Lap 2 of 2", "0:00 left") until the loop answers
+            window.show_parameters(building)
+        elif live is not None and (self.state == State.RUNNING or live.parameters is self.built):
             window.show_view(live, self._patient_exercise_start_s)
         else:
             window.show_parameters(self.built)
         self._feed_patient_plan(window)
+
+    def _plan_building(self):
+        """The parameters a running plan is building its next trial with (the window's
+        Build in flight), or None."""
+        runner = getattr(self, "plan_runner", None)
+        if runner is None or runner.phase != BUILDING:
+            return None
+        return getattr(self, "_pending_build", None)
 
     def _feed_patient_plan(self, window: PatientWindow) -> None:
         """The plan's state while it runs, with the running trial's laps passed on the

@@ -30,3 +30,16 @@ def test_the_dose_counts_the_hand_s_movements(tmp_path, assist, patient, movemen
     # the exercise phase's time: the clock's 6 s, and in the as-needed mode up to the
     # guidance's delay more while the reference catches the hand up at the path's end
     assert 2 * 3.0 - 0.01 <= dose.active_s <= 2 * 3.0 + 0.5
+
+
+@pytest.mark.parametrize("duration_s", [1.5, 4.0])
+def test_a_healthy_hand_s_last_lap_in_the_transparent_mode_counts(tmp_path, duration_s):
+    """A plan ended "3 of 4 movements" although its path game's last round scored a clean
+    lap: the hand's last movement was held to the reference's 2 mm arrival, and the
+    healthy virtual patient's hand came within 3-4.5 mm of the D's end (at a 4 s pace),
+    or passed it by and swung 4 cm on (at 1.5 s), so no trial's last lap counted."""
+    parameters = TrialParameters(shape="d", duration_s=duration_s, repetitions=2,
+                                 assist="transparent", assistance_level=0.0, game="path")
+    path = tmp_path / "trial.h5"
+    simulate_to_file(parameters, path, patient="healthy", seed=3)
+    assert trial_dose(path).movements == 2

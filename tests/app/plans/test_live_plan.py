@@ -6,6 +6,7 @@ a 5 cm D and one of a 5 cm circle, 1 s each; a reach of 2 s: in a 1 s reach the 
 arm is not brought back in time to count its return; rests of 0.5 s)."""
 
 import itertools
+import math
 
 import pytest
 
@@ -156,3 +157,61 @@ def test_a_plan_a_block_of_which_the_patient_cannot_reach_is_refused_before_anyt
         LivePlan(registry, stored, client, BackendConfig(patient="healthy", seed=3))
     assert registry.plan_runs_for_patient(stored.patient_code) == []
     assert registry.trials_for_patient(stored.patient_code) == []
+
+
+def test_pause_and_stop_mid_movement_leave_the_robot_connected_without_a_fault(
+        registry, ready):
+    """A window's walk through a plan: Pause, then the robot's Stop, during a plan's trial
+    latched "the handle moved at 1.01 m/s (limit 1.00 m/s)". The trial's end told the
+    virtual patient to rest, and it rested holding the path's start posture: from the far
+    side of the D its stiffness threw the handle back there at up to 1.3 m/s, the robot at
+    zero torque. Both are pressed here with the hand far from the start (17 cm and more
+    of the D's 20), wherever the loaded machine's ticks put that moment; the patient now
+    rests its hand where it is, and the plan pauses, resumes and stops without a fault."""
+    plan = Plan("Stopped mid-movement", (
+        Block(shape="d", repetitions=3, duration_s=2.0, assist="transparent", rest_s=0.0,
+              name="D"),))
+    stored = patient_with_plan(registry, plan)
+    live = LivePlan(registry, stored, ready, BackendConfig(patient="healthy", seed=3))
+    pressed: list[str] = []
+    seen = {"start": None, "paused_at": None, "faults": set()}
+
+    def hand_far() -> bool:
+        far = False
+        for r in ready.live_records():
+            seen["faults"].add(int(r["fault"]))
+            if r["phase"] != 2:
+                seen["start"] = None
+            elif seen["start"] is None:
+                seen["start"] = r["position_desired"].copy()
+            elif math.dist(r["position"], seen["start"]) >= 0.17:
+                far = True
+        return far
+
+    def watch(live, state):
+        far = hand_far()
+        if state.phase == "running" and far:
+            if not pressed:
+                pressed.append("pause")
+                seen["paused_at"] = live.clock()
+                live.press_pause()
+            elif pressed == ["pause", "resume"]:
+                pressed.append("stop")
+                live.press_stop()
+        elif state.phase == "paused" and pressed == ["pause"] and (
+                live.clock() - seen["paused_at"] > 3.0):
+            # longer than the old throw back to the start took: nothing latched meanwhile
+            pressed.append("resume")
+            live.press_resume()
+
+    ready.live_records()  # what the module's earlier tests left (their e-stops)
+    result = live.run(watch, timeout_s=600.0)
+    assert pressed == ["pause", "resume", "stop"]
+    assert result.outcome == "stopped", result.reason
+    trials = [registry.trial(t) for t in result.trial_ids]
+    assert [t.status for t in trials] == ["stopped_early", "stopped_early"]
+    # and the idle robot after the Stop: two seconds at zero torque, nothing latched
+    ready.wait_for_samples(1000)
+    hand_far()
+    assert seen["faults"] == {0}
+    assert ready.state == State.CONNECTED

@@ -105,6 +105,8 @@ def test_the_console_feeds_its_plan_runner_s_state(qtbot, tmp_path, monkeypatch)
     asked = []
 
     class Runner:
+        phase = "resting"
+
         def state(self, now):
             asked.append(now)
             return _state(phase="resting", rest_left_s=10.0)
@@ -140,3 +142,45 @@ def test_a_block_of_several_rounds_names_its_round_as_the_status_line_does(patie
     patient.grab()
     assert patient.painted["message"] == "Round 2 of 3. Get ready"
     assert patient.painted["top"][0] == "Block 1 of 2"
+
+
+def test_a_plan_s_next_block_shows_waiting_as_its_build_is_asked_not_the_last_lap(
+        qtbot, tmp_path, monkeypatch):
+    """For about 0.1 s as a plan's next block was built the patient's top band still
+    showed the last trial's end, "Lap 2 of 2" and "0:00 left", until the loop answered
+    the Build: the live view stayed the last built trial's. Now, the plan building, the
+    screen shows the exercise being built, waiting."""
+    from app.trials.headless import simulate_to_file
+    from app.trials.reader import read_trial
+    from ui.views.trialview import TrialView
+
+    last = THESIS_SUBJECT.replace(repetitions=2, duration_s=1.5)
+    path = tmp_path / "last.h5"
+    simulate_to_file(last, path, patient="healthy", seed=3)
+    win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
+    try:
+        view = TrialView.from_trial(read_trial(path))
+        win.live, win.built = view, view.parameters
+        patient = win.open_patient_screen()
+        qtbot.waitExposed(patient, timeout=20000)
+        win._repaint()
+        patient.grab()
+        assert patient.painted["top"] == ("Lap 2 of 2", "", "0:00 left")  # its end
+
+        class Runner:
+            phase = "building"
+
+            def state(self, now):
+                return _state(phase="building", block=2, n_blocks=2, laps_planned=1)
+
+        following = last.replace(game="path", repetitions=1, duration_s=4.0,
+                                 assist="transparent", assistance_level=0.0)
+        win._pending_build = following  # the plan's Build, asked of the loop
+        win.plan_runner = Runner()
+        win._repaint()
+        patient.grab()
+        assert patient.painted["top"] == ("Block 2 of 2", "", "0:04 left")
+        assert patient.scene.parameters == following
+    finally:
+        win.plan_runner = None
+        win.close()
