@@ -402,8 +402,16 @@ def cmd_record(args: argparse.Namespace) -> int:
     if args.muscle:
         print(f"Contract the {args.muscle} as hard as you can, and hold it "
               f"({args.seconds:g} s) … now", flush=True)
-    time.sleep(args.seconds)
+    began = time.monotonic()
+    # the source ending (unplugged, the base station stopped) ends the recording at once:
+    # the patient is not kept contracting for the rest of --seconds
+    ended_early = capture.wait_ended(args.seconds)
+    stopped_after_s = time.monotonic() - began
     captured = capture.stop()
+    if ended_early:
+        print(f"the source stopped after {stopped_after_s:.1f} s of {args.seconds:g} s"
+              + (f": {captured.error}" if captured.error else "")
+              + "; the recording ends here, with what came", flush=True)
     if args.muscle:
         print("Relax.")
     if captured.samples.shape[0] < 2:
@@ -418,7 +426,7 @@ def cmd_record(args: argparse.Namespace) -> int:
     print(f"recorded {captured.samples.shape[0]} samples of {width} channels at "
           f"{captured.rate_hz:g} Hz from {label} into {output}"
           + (f"; {captured.missing} missing" if captured.missing else ""))
-    if captured.error:
+    if captured.error and not ended_early:
         print(f"warning: the source stopped early: {captured.error}")
     if args.muscle:
         mvc = mvc_from_contraction(captured.samples[:, args.channel - 1], captured.rate_hz,
@@ -427,4 +435,6 @@ def cmd_record(args: argparse.Namespace) -> int:
               + ("ok" if mvc.ok else "FLAGGED: " + ", ".join(mvc.flags)))
         for reason in mvc.reasons:
             print(f"warning: {reason}")
-    return 0
+    # what came is kept, but the recording is shorter than asked: a partial result, exit 1
+    # as a batch that did only part of its work (README: the CLI's exit codes)
+    return 1 if ended_early else 0

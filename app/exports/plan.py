@@ -74,7 +74,8 @@ class ExportResult:
     exported: int
     failed: tuple[Failure, ...]
     notes: tuple[str, ...] = ()
-    """What the format could not hold, one line each (EMG in a BIDS dataset)."""
+    """What the user should know, one line each: what the format could not hold (EMG in a
+    BIDS dataset), earlier index rows dropped because their files are gone."""
 
 
 def source_for_path(path: str | os.PathLike, folder: str = "") -> TrialSource:

@@ -168,12 +168,13 @@ def export_trials(
                          "export_file": paths[0].relative_to(root).as_posix(), **row})
         if progress is not None:
             progress((i + 1) / len(planned))
-    written.append(write_index(index, rows, suffix, overwrite))
+    notes: list[str] = []
+    written.append(write_index(index, rows, suffix, overwrite, notes))
     if names:
         written.append(write_names(names_file, names, suffix, overwrite))
     log.info("%s export to %s: %d trial(s), %d file(s) written, %d trial(s) unreadable",
              format, root, len(rows), len(written), len(failed))
-    return ExportResult(root, tuple(written), len(rows), tuple(failed))
+    return ExportResult(root, tuple(written), len(rows), tuple(failed), tuple(notes))
 
 
 def export_patients(

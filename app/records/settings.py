@@ -13,7 +13,9 @@ defaults are used but for its data folder, kept when the file still names one; w
 it names none that can be read back, the data folder is unknown and the console says
 so rather than open the default folder's registry (app.records.datadir). The
 therapist loses preferences, never their patients. Keys this version does not know
-are kept on save, so an older console does not erase a newer one's settings.
+are kept on save, so an older console does not erase a newer one's settings. A
+settings.json that is a symbolic link is read and saved through to its target, the link
+kept (`linked_file`).
 """
 
 from __future__ import annotations
@@ -170,7 +172,7 @@ def load_settings(path: str | os.PathLike | None = None) -> Settings:
     names one that can be read back; one that cannot be read leaves the data folder
     unknown: never is a data folder silently replaced by the default (locate_data_dir
     refuses to guess)."""
-    path = Path(path) if path is not None else settings_path()
+    path = linked_file(Path(path) if path is not None else settings_path())
     try:
         info = os.stat(path)
     except FileNotFoundError:
@@ -240,12 +242,32 @@ def save_settings(settings: Settings, path: str | os.PathLike | None = None) -> 
     text = json.dumps(settings.to_json(), indent=2, sort_keys=True, allow_nan=False) + "\n"
     try:
         make_private_folders(path.parent)
-        write_text(path, text, overwrite=True)
+        write_text(linked_file(path), text, overwrite=True)
     except OutputRefused as exc:
         raise SettingsError(
             f"cannot write the settings: {exc}. The previous settings are unchanged; check "
             f"the folder, or set {ENV_CONFIG_DIR} to a folder you can write to") from None
     return path
+
+
+def linked_file(path: Path) -> Path:
+    """The file the settings path names: a symbolic link's target, links followed to the
+    end, else the path itself.
+
+    A user who keeps settings.json in a folder of their own (a dotfiles repository) and
+    links it here expects the console to read and save that file, as git writes a linked
+    ~/.gitconfig through to its target and vim or emacs save through a link: saving over
+    the name replaced the link by a plain file, and the user's file silently stopped
+    being the one in use. The settings hold no secret (the registry's URL, which may, is
+    in its own file, which refuses a link: app.records.registry.url), so following the
+    link reveals nothing; a damaged target is set aside beside itself, the link kept. A
+    link to nothing is saved through, creating its target in a folder that exists; a
+    loop is reported where the file is read or written, in one line."""
+    if not os.path.islink(path):
+        return path
+    target = Path(os.path.realpath(path))
+    log.debug("settings file %s is a link to %s: that file is read and saved", path, target)
+    return target
 
 
 def update_settings(path: str | os.PathLike | None = None, **changes) -> Settings:

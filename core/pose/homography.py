@@ -41,6 +41,9 @@ DEFAULT_INLIER_MM = 25.0
 # Fewer inliers than this share of the pairs means the detector followed something else.
 MIN_INLIER_FRACTION = 0.5
 MIN_PAIRS = 8
+MIN_SPREAD_M = 0.01
+"""The handle's positions must stray at least this far (RMS) from a line: a line of
+points leaves the map's other direction free."""
 RANSAC_ITERATIONS = 500
 MODELS = ("auto", "affine", "projective")
 # The F statistic above which the two perspective parameters earn their place.
@@ -111,11 +114,13 @@ def fit_from_handle(
     inlier_mm: float = DEFAULT_INLIER_MM,
     model: str = "auto",
     seed: int = 0,
+    frame_t_s=None,
 ) -> Homography:
     """H from the detected wrist (N, 2) px against the handle's positions (N, 2) m at the
     same instants; rows with a NaN (gaps) are left out. RANSAC, then Huber least squares
     on the inliers. Raises PoorFitError when fewer than half the pairs agree or the
-    residual exceeds `max_residual_mm`.
+    residual exceeds `max_residual_mm`; `frame_t_s` (N,), each frame's time, only lets
+    a refusal say when the wrist was seen.
 
     `model`: "projective" (8 parameters), "affine" (6: a camera square to the table), or
     "auto": the affine map unless the projective one fits the inliers significantly
@@ -134,7 +139,8 @@ def fit_from_handle(
             f"only {src.shape[0]} frames have both a visible wrist and a handle position; "
             f"the camera fit needs at least {MIN_PAIRS}. Check the camera sees the arm, or "
             "calibrate from four marked points")
-    _check_spread(dst, "the handle's positions")
+    if _spread_m(dst) < MIN_SPREAD_M:
+        raise PoorFitError(_unspread(wrist_px, handle_m, rows, frame_t_s))
     tolerance_m = inlier_mm / 1000.0
     rng = np.random.default_rng(seed)
     best = None
@@ -215,13 +221,49 @@ def _pairs(px, m) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return px[rows], m[rows], rows
 
 
-def _check_spread(dst: np.ndarray, what: str) -> None:
-    across_m = np.linalg.svd(dst - dst.mean(axis=0), compute_uv=False)[-1] / np.sqrt(len(dst))
-    if across_m < 0.01:
-        raise PoorFitError(
-            f"{what} lie along a line or in one spot ({1000 * across_m:.0f} mm RMS across "
-            "it); the camera fit needs movement in two directions: use a trial "
-            "with a 2-D path, or calibrate from four marked points")
+def _spread_m(dst: np.ndarray) -> float:
+    """The RMS distance of points (N, 2) m from their best line: 0 on a line or a spot."""
+    return float(np.linalg.svd(dst - dst.mean(axis=0), compute_uv=False)[-1]
+                 / np.sqrt(len(dst)))
+
+
+def _unspread(wrist_px, handle_m, rows: np.ndarray, frame_t_s) -> str:
+    """Why the handle's positions at the frames with a wrist do not span the plane, and
+    what to do: the trial's own path was a line or a spot (choose another trial), or the
+    path spanned the plane but the detector saw the wrist in only part of it (the arm out
+    of the picture, the camera turned), where "use a 2-D path" misled."""
+    handle = np.asarray(handle_m, dtype=float)
+    used = handle[rows]
+    across = _spread_m(used)
+    on_path = np.flatnonzero(np.isfinite(handle).all(axis=1))
+    if _spread_m(handle[on_path]) < MIN_SPREAD_M:
+        return (f"the handle's positions lie along a line or in one spot ({1000 * across:.0f}"
+                " mm RMS across it); the camera fit needs movement in two directions: use a "
+                "trial with a 2-D path, or calibrate from four marked points")
+    start = handle[on_path[0]]
+    moved = on_path[np.linalg.norm(handle[on_path] - start, axis=1) > MIN_SPREAD_M]
+    if moved.size and rows[-1] < moved[0]:
+        phase = ", all before the handle moved"
+    elif moved.size and rows[0] > moved[-1]:
+        phase = ", all after the handle stopped"
+    else:
+        phase = ""
+    total = np.asarray(wrist_px).shape[0]
+    return (f"the wrist was seen in only {rows.size} of {total} frames "
+            f"({_when(rows, frame_t_s)}{phase}), where the handle's positions lie along a "
+            f"line or in one spot ({1000 * across:.0f} mm RMS across it) though the trial's "
+            "path spans the plane; the camera did not see the arm through the movement "
+            "(out of the picture, or the camera turned): check that it sees the whole arm "
+            "and run the pose again, or calibrate from four marked points")
+
+
+def _when(rows: np.ndarray, frame_t_s) -> str:
+    """The first and last of the frames `rows` (0-based), as times when known."""
+    if frame_t_s is not None:
+        t = np.asarray(frame_t_s, dtype=float)
+        if t.ndim == 1 and t.size > rows[-1]:
+            return f"from {t[rows[0]]:.1f} s to {t[rows[-1]]:.1f} s"
+    return f"frames {rows[0] + 1} to {rows[-1] + 1}"
 
 
 def _normaliser(points: np.ndarray) -> np.ndarray:

@@ -116,7 +116,7 @@ def pose_from_keypoints(
     handle = handle_at_frames(t, hand, ft)
     if homography is None:
         homography = fit_from_handle(px[:, WRIST], handle, max_residual_mm=max_residual_mm,
-                                     inlier_mm=inlier_mm)
+                                     inlier_mm=inlier_mm, frame_t_s=ft)
         homography = refine_with_lengths(homography, px[:, WRIST], handle, px[:, SHOULDER],
                                          px[:, ELBOW], arm.upper_arm_m, arm.forearm_m,
                                          max_residual_mm=max_residual_mm)

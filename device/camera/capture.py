@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from device.camera.opencv import import_cv2
 from device.errors import BackendUnavailable, RecordingError
 from device.safewrite import (
     OutputRefused,
@@ -86,7 +87,7 @@ def read_timestamps(path: str | os.PathLike) -> np.ndarray:
 
 def _cv2():
     try:
-        import cv2
+        cv2 = import_cv2()
     except ImportError as exc:
         raise BackendUnavailable(
             f"the camera needs OpenCV, which is not installed here ({exc}); install "

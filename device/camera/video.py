@@ -4,7 +4,7 @@ line: missing, empty, corrupt, frames of changing size, or frames that do not ma
 timestamps.
 
 A video file is read as fast as it decodes (no pacing). OpenCV is imported only when a
-video is opened.
+video is opened, its libraries' own lines kept off the terminal (device.camera.opencv).
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from device.camera.capture import timestamps_path
+from device.camera.opencv import import_cv2, open_capture
 from device.errors import VideoError
 
 # A recording stopped by a crash may have written one frame's stamp and not its picture
@@ -38,7 +39,7 @@ class VideoInfo:
 
 def _cv2():
     try:
-        import cv2
+        cv2 = import_cv2()
     except ImportError as exc:  # pragma: no cover - the setup installs it
         raise VideoError(f"reading video needs OpenCV, which is not installed here ({exc}); "
                          "run scripts/setup-venv") from exc
@@ -60,7 +61,7 @@ def open_video(path: str | os.PathLike) -> VideoInfo:
                          "without it its frames cannot be placed on the trial's clock")
     stamps = _timestamps(sidecar)
     cv2 = _cv2()
-    capture = cv2.VideoCapture(str(path))
+    capture = open_capture(cv2, path)
     try:
         if not capture.isOpened():
             raise VideoError(f"video {path} cannot be decoded: the file is damaged or not a "
@@ -117,7 +118,7 @@ def frames(info: VideoInfo) -> Iterator[tuple[int, np.ndarray]]:
     size than the first, or a decoding error part-way, raises VideoError naming the
     frame."""
     cv2 = _cv2()
-    capture = cv2.VideoCapture(str(info.path))
+    capture = open_capture(cv2, info.path)
     try:
         index = 0
         while True:
@@ -147,7 +148,7 @@ class VideoReader:
     def __init__(self, info: VideoInfo) -> None:
         self.info = info
         self._cv2 = _cv2()
-        self._capture = self._cv2.VideoCapture(str(info.path))
+        self._capture = open_capture(self._cv2, info.path)
         if not self._capture.isOpened():
             raise VideoError(f"video {info.path} cannot be decoded: the file is damaged")
         self._next = 0

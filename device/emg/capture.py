@@ -59,6 +59,7 @@ class EmgCapture:
         self._chunks: list[tuple[np.ndarray, np.ndarray]] = []
         self._lock = threading.Lock()  # the capture's own lock: the loop never takes it
         self._running = threading.Event()
+        self._ended = threading.Event()  # set when the reading thread returns, for any reason
         self._thread: threading.Thread | None = None
         self.error = ""
         self.latest_s = latest_s
@@ -72,6 +73,19 @@ class EmgCapture:
         return self
 
     def _run(self) -> None:
+        try:
+            self._read_until_stopped()
+        finally:
+            self._ended.set()
+
+    def wait_ended(self, timeout_s: float) -> bool:
+        """Wait up to `timeout_s` s for the capture to end by itself (its source failed or
+        stopped streaming: `error` says why); True as soon as it has. A recording of a
+        fixed length (`rehab emg record`) waits on this rather than sleeping, so a patient
+        is not kept contracting for a source that is gone."""
+        return self._ended.wait(timeout_s)
+
+    def _read_until_stopped(self) -> None:
         heard, last_stamp = self.clock(), None
         while self._running.is_set():
             try:

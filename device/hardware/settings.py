@@ -14,6 +14,7 @@ are refused too: a misspelt key would otherwise silently leave a default in plac
 from __future__ import annotations
 
 import math
+import os
 import re
 import tomllib
 from collections.abc import Callable, Mapping
@@ -23,6 +24,8 @@ from typing import Any
 
 from device.backend import TARE_SPREAD_LIMIT_N
 from device.errors import BackendError
+from device.safeinput import InputRefused, read_bytes
+from device.safewrite import OutputRefused
 
 BOARD_TYPES = ("q8_usb", "q8")
 """HIL board types this backend supports: the Q8-USB and the legacy PCI Q8 (thesis §3.2.2)."""
@@ -337,6 +340,9 @@ def _check_force(v: Mapping[str, Any], where: str) -> dict[str, Any]:
 
 # -- loading --------------------------------------------------------------------------------------
 
+MAX_HARDWARE_BYTES = 1 << 20
+"""The example file is a few kilobytes with its comments; a megabyte is not this file."""
+
 
 def load_hardware_settings(path: str | Path) -> HardwareSettings:
     """Read and check a hardware settings TOML file.
@@ -348,21 +354,25 @@ def load_hardware_settings(path: str | Path) -> HardwareSettings:
     path = Path(path)
     where = str(path)
     try:
-        data = tomllib.loads(_text_of(path.read_bytes(), where))
-    except FileNotFoundError:
-        raise HardwareSettingsError(
-            f"hardware settings file {where} does not exist. Copy "
-            "resources/hardware.example.toml there and fill it in for this robot."
-        ) from None
+        # the checked read: a pipe or /dev/zero named here hung the Connect, a folder
+        # failed in the library's words; each is refused in one line
+        raw = read_bytes(path, what="hardware settings file", max_bytes=MAX_HARDWARE_BYTES)
+    except InputRefused as exc:
+        if not os.path.lexists(path):
+            raise HardwareSettingsError(
+                f"hardware settings file {where} does not exist. Copy "
+                "resources/hardware.example.toml there and fill it in for this robot."
+            ) from None
+        raise HardwareSettingsError(str(exc)) from None
+    except OutputRefused as exc:  # a path the system cannot take (a NUL in it)
+        raise HardwareSettingsError(f"hardware settings file: {exc}") from None
+    try:
+        data = tomllib.loads(_text_of(raw, where))
     except tomllib.TOMLDecodeError as exc:
         raise HardwareSettingsError(
             f"hardware settings file {where} is not valid TOML ({exc}). Correct it and "
             "connect again."
         ) from None
-    except OSError as exc:
-        raise HardwareSettingsError(
-            f"hardware settings file {where} cannot be read ({exc})."
-        ) from exc
     unknown = sorted(set(data) - {"quanser", "force_sensor"})
     if unknown:
         raise HardwareSettingsError(

@@ -243,3 +243,26 @@ def test_a_byte_order_mark_is_read_past(tmp_path):
     path = tmp_path / "robot.toml"
     path.write_bytes(b"\xef\xbb\xbf" + GOOD.encode())
     assert load_hardware_settings(path).quanser.board_type == "q8"
+
+
+@pytest.mark.parametrize("kind", ["fifo", "device", "folder", "oversize"])
+def test_a_file_that_is_not_a_small_plain_file_is_refused_at_once(tmp_path, kind):
+    """path.read_bytes() on a pipe waited for a writer forever (the Connect hung), on
+    /dev/zero until memory ran out: the checked read refuses each in one line."""
+    import os
+    path = tmp_path / "robot.toml"
+    if kind == "fifo":
+        os.mkfifo(path)
+    elif kind == "device":
+        path = Path("/dev/zero")
+    elif kind == "folder":
+        path.mkdir()
+    else:
+        path.write_bytes(b"# " + b"x" * (2 << 20) + b"\n" + GOOD.encode())
+    with pytest.raises(HardwareSettingsError) as caught:
+        load_hardware_settings(path)
+    message = str(caught.value)
+    assert message.startswith(f"hardware settings file {path} ")
+    assert "\n" not in message
+    assert {"fifo": "not a plain file", "device": "not a plain file", "folder": "is a folder",
+            "oversize": "more than such a file can be"}[kind] in message

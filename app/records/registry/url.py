@@ -10,7 +10,9 @@ and lines starting with `#` aside).
 
 The file is trusted only when no one else could have read or replaced it, checked as the
 installation's signing key is (app.records.signing): a plain file, not a symbolic link
-(opened with O_NOFOLLOW: a link could be turned to another file), owned by this user,
+(opened with O_NOFOLLOW: a link could be turned to another file, or name one others can
+read; the settings file, which holds no secret, is instead followed through its link:
+app.records.settings.linked_file), owned by this user,
 readable and writable by no one else (`chmod 600`), in a folder of this user's alone
 (device.safewrite.folder_problem). Anything else is refused in one line saying what is
 wrong and what to do; the console never falls back to another registry then, since a

@@ -126,6 +126,49 @@ def test_record_a_guided_mvc_from_the_fake_trigno(tmp_path, capsys):
     assert "already exists" in err
 
 
+class _EndingSource:
+    """A source that streams 0.3 s at 1 kHz, then fails as an unplugged base station."""
+
+    rate_hz = 1000.0
+
+    def __init__(self):
+        self.reads, self.closed = 0, False
+
+    def read(self, timeout_s=0.1):
+        from device.errors import DeviceError
+
+        self.reads += 1
+        if self.reads > 6:
+            raise DeviceError("the base station closed the connection")
+        t = (self.reads - 1) * 0.05 + np.arange(50) / self.rate_hz
+        return 1000.0 + t, np.full((50, 2), 1e-4) * self.reads
+
+    def close(self):
+        self.closed = True
+
+
+def test_record_ends_at_once_when_its_source_stops_keeping_what_came(tmp_path, capsys,
+                                                                   monkeypatch):
+    """The source failed after 0.3 s, yet the patient was told to go on contracting for
+    the whole --seconds and the command exited 0 with a warning at the end."""
+    import app.cli.emg as emg_cli
+
+    source = _EndingSource()
+    monkeypatch.setattr(emg_cli, "_open_source", lambda args: (source, "trigno:test"))
+    out_file = tmp_path / "mvc.csv"
+    code, out, err = run(["emg", "record", "trigno:test", "--seconds", "3", "--output",
+                          str(out_file), "--muscle", "biceps"], capsys)
+    assert code == 1, err
+    lines = out.splitlines()
+    stopped = next(i for i, line in enumerate(lines) if line.startswith("the source stopped"))
+    assert lines[stopped].endswith(" s of 3 s: the base station closed the connection; "
+                                   "the recording ends here, with what came")
+    assert lines[stopped + 1] == "Relax."  # said at once, before the rest of the 3 s
+    assert "warning: the source stopped early" not in out
+    assert source.closed
+    assert read_emg_file(out_file).samples.shape == (300, 2)
+
+
 @pytest.mark.parametrize(("args", "expected"), [
     (["emg", "import", "missing.h5", "x.csv"], "no such trial file"),
     (["emg", "show", "99"], "no registry"),

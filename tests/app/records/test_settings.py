@@ -247,3 +247,58 @@ def test_a_damaged_file_without_its_data_folder_is_refused_until_someone_looks(
     for kept in config.glob(f"{SETTINGS_NAME}.corrupt-*"):
         kept.unlink()  # the therapist looked, and chose the default
     assert locate_data_dir().source == "default"
+
+
+def test_a_linked_settings_file_is_read_and_saved_through_the_link(config, tmp_path):
+    """Saving replaced the user's link by a plain file: their own file (a dotfiles
+    repository's) silently stopped being the one in use. As git and editors do, the
+    console now writes through to the target and the link stays a link."""
+    mine = tmp_path / "dotfiles" / "rehab.json"
+    mine.parent.mkdir()
+    mine.write_text(json.dumps({"data_dir": "/srv/rehab", "flip_x": True}))
+    config.mkdir()
+    link = config / SETTINGS_NAME
+    link.symlink_to(mine)
+    assert load_settings().flip_x is True
+    update_settings(flip_y=True)
+    assert link.is_symlink()
+    assert os.readlink(link) == str(mine)
+    assert json.loads(mine.read_text())["flip_y"] is True
+    assert load_settings().data_dir == "/srv/rehab"
+    assert sorted(p.name for p in config.iterdir()) == [SETTINGS_NAME]  # no temporary left
+
+
+def test_a_damaged_linked_file_is_set_aside_beside_itself_and_the_link_kept(config, tmp_path,
+                                                                            caplog):
+    mine = tmp_path / "dotfiles" / "rehab.json"
+    mine.parent.mkdir()
+    mine.write_text('{"data_dir": "/srv/rehab", "flip_x": tru')
+    config.mkdir()
+    link = config / SETTINGS_NAME
+    link.symlink_to(mine)
+    with caplog.at_level(logging.WARNING):
+        loaded = load_settings()
+    assert loaded.data_dir == "/srv/rehab"
+    assert link.is_symlink()
+    assert os.readlink(link) == str(mine)
+    assert json.loads(mine.read_text())["data_dir"] == "/srv/rehab"  # saved through
+    kept = list(mine.parent.glob("rehab.json.corrupt-*"))
+    assert len(kept) == 1
+    assert kept[0].read_text().endswith("tru")
+
+
+def test_a_link_to_nothing_is_saved_through_and_a_loop_refused(config, tmp_path):
+    config.mkdir()
+    link = config / SETTINGS_NAME
+    mine = tmp_path / "rehab.json"
+    link.symlink_to(mine)
+    assert load_settings() == Settings()
+    save_settings(Settings(flip_x=True))
+    assert link.is_symlink()
+    assert json.loads(mine.read_text())["flip_x"] is True
+    link.unlink()
+    link.symlink_to(link)
+    assert load_settings().damaged == str(link)  # its data folder is unknown, not guessed
+    with pytest.raises(SettingsError, match=r"cannot write the settings: .*loops"):
+        save_settings(Settings())
+    assert link.is_symlink()

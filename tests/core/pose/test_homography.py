@@ -138,3 +138,27 @@ def test_auto_keeps_the_affine_map_unless_the_perspective_shows():
     assert forced.residual_mm > fit.residual_mm
     with pytest.raises(ParameterError, match="model"):
         fit_from_handle(apply(np.linalg.inv(tilted), plane), plane, model="cubic")
+
+
+def test_a_wrist_seen_only_before_the_movement_is_said_so_not_blamed_on_the_path():
+    """The wrist seen in 22 of 298 frames, all before the movement (the arm then out of the
+    picture): the refusal said the handle's path was a line and advised a trial with a 2-D
+    path, which this trial had."""
+    frames = 298
+    t = np.arange(frames) / 30.0
+    still = np.tile([-0.25, 0.35], (30, 1))
+    plane = np.vstack((still, handle_path(frames - 30)))
+    px = apply(np.linalg.inv(camera()), plane)
+    px[22:] = np.nan
+    with pytest.raises(PoorFitError) as caught:
+        fit_from_handle(px, plane, frame_t_s=t)
+    assert str(caught.value) == (
+        "the wrist was seen in only 22 of 298 frames (from 0.0 s to 0.7 s, all before the "
+        "handle moved), where the handle's positions lie along a line or in one spot (0 mm "
+        "RMS across it) though the trial's path spans the plane; the camera did not see "
+        "the arm through the movement (out of the picture, or the camera turned): check "
+        "that it sees the whole arm and run the pose again, or calibrate from four marked "
+        "points")
+    with pytest.raises(PoorFitError, match=r"only 22 of 298 frames \(frames 1 to 22, all "
+                                           r"before the handle moved\)"):
+        fit_from_handle(px, plane)
