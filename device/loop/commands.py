@@ -23,6 +23,7 @@ from device.loop.messages import (
     Connect,
     Disconnect,
     ForceEstimate,
+    HandleArea,
     Notice,
     Reply,
     SensorZeroed,
@@ -53,6 +54,11 @@ from device.safety.supervisor import SafetySupervisor
 
 WORKSPACE_MARGIN_M = 0.10
 """The end effector may leave the exercise's path by this much before WORKSPACE trips."""
+
+AREA_CHECK_TICKS = 50
+"""Between trials the console hears every this many ticks (0.1 s) whether the handle is
+outside the exercise area, when that changed (HandleArea): often enough to follow a hand
+guiding it in, rare enough to cost the loop nothing."""
 
 COMMAND_KINDS = {
     Build: Command.BUILD, Connect: Command.CONNECT, Disconnect: Command.DISCONNECT,
@@ -160,7 +166,23 @@ class LoopCommands:
                 return f"start refused: {refused}"
         if self.reading is None:
             return LATER  # the first tick after Connect has not read the sensors yet
+        outside = self.supervisor.outside_line(self.reading.q1_rad, self.reading.q2_rad)
+        if outside:
+            # the robot does not drag a handle into its area: the therapist guides it in
+            # (docs/safety.md, H8); a trial started outside would latch WORKSPACE at once
+            return f"start refused: {outside}."
         return self._start_trial(command), "trial started"
+
+    def _tell_area(self) -> None:
+        """Tell the console when the handle went outside the exercise area or came back
+        inside (or, outside, moved), as the last tick found it: what a Start now would
+        be refused for (the loop calls it every AREA_CHECK_TICKS while connected)."""
+        reading = self.reading
+        line = "" if reading is None else self.supervisor.outside_line(reading.q1_rad,
+                                                                       reading.q2_rad)
+        if line != self.area_told:
+            self.area_told = line
+            self._send(HandleArea(line))
 
     def _do_stop(self, command: Stop, after_a_tick: bool):
         self._end_trial("stopped_early", "stopped by the therapist")
