@@ -131,6 +131,16 @@ class LoopCommands:
             return "disconnect before changing the robot backend"
         limits = (command.limits or SafetyLimits()).around_path(
             plan.parameters.path().points(), WORKSPACE_MARGIN_M)
+        stays = not reconnect and self.engine is not None and self.state.ticking
+        if stays:
+            # the robot stays connected: its supervisor takes this trial's limits (the
+            # therapist's force limit, the new exercise's area) with the sensor's range as
+            # at Connect. It kept the first Build's: on the real robot a force limit lowered
+            # for a fragile arm went unheard, and the area stayed the first exercise's
+            try:
+                limits = limits_for_backend(limits, self.backend)
+            except ParameterError as exc:
+                return f"build refused: {exc}"
         self.plan, self.backend_config, self.limits = plan, command.backend, limits
         self.model = command.model
         self.pipeline = self._new_pipeline()
@@ -142,7 +152,8 @@ class LoopCommands:
                 self._enter(State.BUILT, "the robot could not be reconnected")
                 return refused
             return "", f"connected to the {self.opened.label}"
-        if self.engine is not None and self.state.ticking:
+        if stays:
+            self.supervisor = self.supervisor.with_limits(limits)
             self.engine = TickEngine(self.backend, self.pipeline, self.supervisor)
         return "", "trial built"
 

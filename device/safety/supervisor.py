@@ -211,6 +211,17 @@ class SafetySupervisor:
         self.state[[W_FAULT_TIME, W_SAT_SINCE, W_RAMP_SINCE]] = math.nan
         self._fault_detail = {}
 
+    def with_limits(self, limits: SafetyLimits) -> SafetySupervisor:
+        """A supervisor of the same connection with other limits (a Build between trials
+        with the robot connected: the therapist's force limit, the new exercise's area),
+        carrying this one's state (the sample history, counts and timers). Refused while a
+        fault is latched: a fault is left by clearing it, an ENCODER_JUMP by reconnecting."""
+        if self.fault is not _NONE:
+            raise StateError(f"a fault is latched ({self.fault.label}): clear it first")
+        new = SafetySupervisor(self._robot, limits)
+        new.state[:] = self.state
+        return new
+
     def restart_ramp(self) -> None:
         """Ramp the torque limit up from zero again, as after a clear: the loop calls it
         when a trial starts, after ticks spent connected at zero torque."""
