@@ -25,6 +25,7 @@ from device.loop.messages import (
     BackendConfig,
     ClockStarted,
     FaultRaised,
+    HandleArea,
     Notice,
     SensorZeroed,
     ShownToPatient,
@@ -65,6 +66,7 @@ class DeviceBridge(QObject):
     replied = Signal(str, bool, str)  # command, ok, message
     loop_lost = Signal(str)
     sensor_zeroed = Signal(str)  # the force sensor's zero taken at Connect, in words
+    handle_area = Signal(str)  # between trials: the handle outside the area, '' inside
 
     def __init__(self, *, loop_config: LoopConfig | None = None,
                  client: DeviceClient | None = None, lsl_outlet=None) -> None:
@@ -278,3 +280,5 @@ class DeviceBridge(QObject):
             self.loop_lost.emit(event.message)
         elif isinstance(event, SensorZeroed):
             self.sensor_zeroed.emit(event.message)
+        elif isinstance(event, HandleArea):
+            self.handle_area.emit(event.line)

@@ -111,6 +111,7 @@ class MainWindow(AssessmentControl, PlanControl, TrialActions, TrialEmg, FaultLa
         self.built_backend = self._pending_backend = None  # the BackendConfig built
         self._live_levels: list[float] = []  # live assistance changes awaiting the loop
         self._connecting = False  # a Connect sent, its answer not yet back
+        self.handle_outside = ""  # between trials: the loop's line, the handle outside the area
         self.closing_by_signal = False
         self.closing_signal = ""
         """The stop signal the console was given (SIGINT, SIGTERM, SIGHUP), if any."""
@@ -263,6 +264,7 @@ class MainWindow(AssessmentControl, PlanControl, TrialActions, TrialEmg, FaultLa
         r.build_clicked.connect(self.build)
         r.connect_clicked.connect(self.connect_robot)
         b.sensor_zeroed.connect(self._on_sensor_zeroed)
+        b.handle_area.connect(self._on_handle_area)
         r.disconnect_clicked.connect(self.bridge.disconnect)
         r.start_clicked.connect(self.start_trial)
         r.stop_clicked.connect(self.bridge.stop)

@@ -24,6 +24,7 @@ from app.cli.db import add_db_commands
 from app.cli.emg import add_emg_commands
 from app.cli.exports import add_export_command
 from app.cli.gains import add_gains_command
+from app.cli.hardware import add_hardware_command
 from app.cli.learn import add_learn_commands
 from app.cli.models import add_models_command
 from app.cli.norms import add_norms_commands
@@ -65,6 +66,7 @@ COMMAND_GROUPS = (
     add_assess_commands,
     add_study_commands,
     add_db_commands,
+    add_hardware_command,
 )
 
 

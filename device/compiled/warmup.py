@@ -67,7 +67,7 @@ def load_kernels(groups: tuple[str, ...] = GROUPS) -> float:
     if "control" in todo:
         pipeline.control(0, reading)
         compiled(supervise)(robot, g, w, 0.0, *reading, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, False,
-                            False, 0.0)
+                            False, 0.0, False)
         compiled(supervised_command)(
             pipeline.kind, v.robot, v.model, v.tracker, v.gains, v.assist, v.guide, v.rates,
             v.integral, v.guided, 1, v.rows, pipeline.rows_from, pipeline.n_rows,

@@ -23,6 +23,7 @@ from device.loop.messages import (
     Connect,
     Disconnect,
     ForceEstimate,
+    HandleArea,
     Notice,
     Reply,
     SensorZeroed,
@@ -53,6 +54,11 @@ from device.safety.supervisor import SafetySupervisor
 
 WORKSPACE_MARGIN_M = 0.10
 """The end effector may leave the exercise's path by this much before WORKSPACE trips."""
+
+AREA_CHECK_TICKS = 50
+"""Between trials the console hears every this many ticks (0.1 s) whether the handle is
+outside the exercise area, when that changed (HandleArea): often enough to follow a hand
+guiding it in, rare enough to cost the loop nothing."""
 
 COMMAND_KINDS = {
     Build: Command.BUILD, Connect: Command.CONNECT, Disconnect: Command.DISCONNECT,
@@ -125,6 +131,16 @@ class LoopCommands:
             return "disconnect before changing the robot backend"
         limits = (command.limits or SafetyLimits()).around_path(
             plan.parameters.path().points(), WORKSPACE_MARGIN_M)
+        stays = not reconnect and self.engine is not None and self.state.ticking
+        if stays:
+            # the robot stays connected: its supervisor takes this trial's limits (the
+            # therapist's force limit, the new exercise's area) with the sensor's range as
+            # at Connect. It kept the first Build's: on the real robot a force limit lowered
+            # for a fragile arm went unheard, and the area stayed the first exercise's
+            try:
+                limits = limits_for_backend(limits, self.backend)
+            except ParameterError as exc:
+                return f"build refused: {exc}"
         self.plan, self.backend_config, self.limits = plan, command.backend, limits
         self.model = command.model
         self.pipeline = self._new_pipeline()
@@ -136,7 +152,8 @@ class LoopCommands:
                 self._enter(State.BUILT, "the robot could not be reconnected")
                 return refused
             return "", f"connected to the {self.opened.label}"
-        if self.engine is not None and self.state.ticking:
+        if stays:
+            self.supervisor = self.supervisor.with_limits(limits)
             self.engine = TickEngine(self.backend, self.pipeline, self.supervisor)
         return "", "trial built"
 
@@ -160,7 +177,23 @@ class LoopCommands:
                 return f"start refused: {refused}"
         if self.reading is None:
             return LATER  # the first tick after Connect has not read the sensors yet
+        outside = self.supervisor.outside_line(self.reading.q1_rad, self.reading.q2_rad)
+        if outside:
+            # the robot does not drag a handle into its area: the therapist guides it in
+            # (docs/safety.md, H8); a trial started outside would latch WORKSPACE at once
+            return f"start refused: {outside}."
         return self._start_trial(command), "trial started"
+
+    def _tell_area(self) -> None:
+        """Tell the console when the handle went outside the exercise area or came back
+        inside (or, outside, moved), as the last tick found it: what a Start now would
+        be refused for (the loop calls it every AREA_CHECK_TICKS while connected)."""
+        reading = self.reading
+        line = "" if reading is None else self.supervisor.outside_line(reading.q1_rad,
+                                                                       reading.q2_rad)
+        if line != self.area_told:
+            self.area_told = line
+            self._send(HandleArea(line))
 
     def _do_stop(self, command: Stop, after_a_tick: bool):
         self._end_trial("stopped_early", "stopped by the therapist")

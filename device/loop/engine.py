@@ -86,7 +86,7 @@ def supervised_command(kind, robot, model, tracker, gains, assist, guide, rates,
             fy, last)
     return supervise(robot, g, w, now_s, t, q1, q2, fx, fy, fz, last[C_QD1], last[C_QD2],
                      last[C_OUT1], last[C_OUT2], lateness_s, heartbeat_age_s, estop,
-                     recording_lost, 0.0)
+                     recording_lost, 0.0, True)
 
 
 @kernel
@@ -114,7 +114,7 @@ def simulated_tick(running, tick, now_s, r, a, c, p, table, episodes, x, noise, 
     else:
         out1, out2, code = supervise(robot, g, w, now_s, t, q1, q2, fx, fy, fz, 0.0, 0.0, 0.0,
                                      0.0, lateness_s, heartbeat_age_s, estop, recording_lost,
-                                     0.0)
+                                     0.0, False)
     write(c, x, out1, out2)
     return physics.OK, out1, out2, code
 
@@ -221,7 +221,8 @@ class TickEngine:
         else:
             out1, out2, code = self._supervise(
                 self._robot, sup.constants, sup.state, now_s, *values, 0.0, 0.0, 0.0, 0.0,
-                lateness_s, heartbeat_age_s, estop, recording_lost, float(read_error))
+                lateness_s, heartbeat_age_s, estop, recording_lost, float(read_error),
+                tick is not None)
         sup.after_tick(before)
         try:
             backend.write(out1, out2)
@@ -249,7 +250,7 @@ class TickEngine:
             out1, out2, code = self._supervise(
                 self._robot, sup.constants, sup.state, now_s, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
                 0.0, 0.0, 0.0, 0.0, lateness_s, heartbeat_age_s, estop, recording_lost,
-                float(read_error))
+                float(read_error), tick is not None)
             sim.write(out1, out2)
         sup.after_tick(before)
         return Tick(out1, out2, Fault(code), reading, clock() - started)

@@ -248,6 +248,16 @@ class SensorZeroed:
 
 
 @dataclass(frozen=True, slots=True)
+class HandleArea:
+    """Between trials, where the handle is against the exercise area: `line` says it is
+    outside and where ('' once it is inside). Sent when it changes, checked ten times a
+    second while connected with no trial: outside the area is a state then, and Start is
+    refused until the handle is inside (docs/safety.md, H8)."""
+
+    line: str
+
+
+@dataclass(frozen=True, slots=True)
 class Notice:
     """Something the therapist or technician should know (real-time setup, a warning)."""
 

@@ -48,7 +48,7 @@ from multiprocessing.connection import Connection
 
 from device.backend import SIMULATED, Backend, SensorReading
 from device.loop.causes import RECORDER_CHECK_TICKS, StopCauses
-from device.loop.commands import COMMAND_KINDS, LoopCommands
+from device.loop.commands import AREA_CHECK_TICKS, COMMAND_KINDS, LoopCommands
 from device.loop.engine import TickEngine
 from device.loop.messages import (
     BackendConfig,
@@ -169,6 +169,7 @@ class DeviceLoop(LoopCommands, StopCauses):
         self.trial_first_seq = 0
         self.trial_start_sample_s = 0.0
         self.later: list = []  # commands carried out at the next tick
+        self.area_told: str | None = None  # the HandleArea line the console has (None: none)
 
     # ------------------------------------------------------------------ main
     def run(self) -> None:
@@ -259,6 +260,8 @@ class DeviceLoop(LoopCommands, StopCauses):
             self._on_fault(done.fault, wall_t)
         else:
             self._during(now)
+        if self.state == State.CONNECTED and k % AREA_CHECK_TICKS == 0:
+            self._tell_area()
         if self.later:
             later, self.later = self.later, []
             for command in later:
@@ -303,6 +306,8 @@ class DeviceLoop(LoopCommands, StopCauses):
         self._send(StateChanged(int(state), reason))
 
     def _entered(self, state: State) -> None:
+        if state == State.CONNECTED:
+            self.area_told = None  # the console hears again where the handle is
         if state == State.STOPPING:
             self.stopping_since = self.clock.now()
         elif state == State.CONNECTED and self.pipeline is not None:

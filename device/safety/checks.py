@@ -27,10 +27,11 @@ from device.safety.faults import Fault
  G_SIZE) = range(24)
 
 # The state: the previous sample, the stale and late counts, when the saturation and the
-# ramp began, the latched fault and when, and the last tick's condition with its numbers.
+# ramp began, the latched fault and when, the last tick's condition with its numbers, and
+# whether the last good reading put the handle outside the exercise area.
 (W_PREV_VALID, W_PREV_T, W_PREV_Q1, W_PREV_Q2, W_PREV_X, W_PREV_Y, W_STALE_RUN,
  W_SAT_SINCE, W_RAMP_SINCE, W_LATE_RUN, W_FAULT, W_FAULT_TIME, W_CONDITION, W_D0, W_D1,
- W_D2, W_D3, W_SAT_SIGN1, W_SAT_SIGN2, W_SIZE) = range(20)
+ W_D2, W_D3, W_SAT_SIGN1, W_SAT_SIGN2, W_OUTSIDE, W_SIZE) = range(21)
 
 # Detail numbers that name one of several things.
 LATE_ONE, LATE_RUN = 0.0, 1.0
@@ -220,15 +221,30 @@ def check_force(g, fx, fy):
 
 
 @kernel
-def check_workspace(r, g, q1, q2, x, y):
-    """WORKSPACE: a joint limit, the reach band (the reach ring less the margin, so the
-    handle stops before the links fold flat) or the exercise's region."""
+def outside_area(g, x, y):
+    """The handle outside the exercise area: outside the reach band (the reach ring less
+    the margin, so the handle stops before the links fold flat) or the exercise's
+    region."""
     radius = length(x, y)
-    outside = (limit_violation(r, q1, q2) != WITHIN_LIMITS
-               or not g[G_REACH_MIN] <= radius <= g[G_REACH_MAX]
-               or (g[G_REGION] != 0.0
-                   and not (g[G_X_MIN] <= x <= g[G_X_MAX] and g[G_Y_MIN] <= y <= g[G_Y_MAX])))
-    if outside:
+    return (not g[G_REACH_MIN] <= radius <= g[G_REACH_MAX]
+            or (g[G_REGION] != 0.0
+                and not (g[G_X_MIN] <= x <= g[G_X_MAX] and g[G_Y_MIN] <= y <= g[G_Y_MAX])))
+
+
+@kernel
+def check_workspace(r, w, driving, q1, q2, x, y):
+    """WORKSPACE: a joint limit or the links' spread, always; outside the exercise area
+    (w[W_OUTSIDE], this tick's) only while the robot drives the handle (a trial runs).
+
+    The hazard is the handle DRIVEN out (docs/safety.md, H8). With no trial the loop
+    writes zero torque to a backdrivable robot, which cannot drive the handle anywhere:
+    a handle a person has put outside the area (the homing pose at Connect is outside
+    most exercises' areas) is a state the window shows and Start refuses, not a fault.
+    A joint beyond its limit or the links near folding flat are not where hands put the
+    handle (the reach band's margin lies inside the spread limits): they mean the
+    position itself is suspect (a Connect away from the homing pose) or the linkage may
+    snap to its other branch, so they latch whether or not a trial runs."""
+    if limit_violation(r, q1, q2) != WITHIN_LIMITS or (driving and w[W_OUTSIDE] != 0.0):
         return (_WORKSPACE, q1, q2, x, y)
     return (_NONE, 0.0, 0.0, 0.0, 0.0)
 
@@ -280,12 +296,14 @@ def check_saturation(g, w, now_s, torque1, torque2):
 
 @kernel
 def first_failure(r, g, w, now_s, t, q1, q2, fx, fy, fz, rate1, rate2, torque1, torque2,
-                  lateness_s, heartbeat_age_s, estop, recording_lost, read_error):
+                  lateness_s, heartbeat_age_s, estop, recording_lost, read_error, driving):
     """Update the history and run the checks in order, most informative cause first:
     (code, d0, d1, d2, d3) of the first that fails, code 0 when all pass. `read_error`
     is the fault code of a sensor read that raised, as a float (0.0 when it did not): numba
     compiles a separate copy of a kernel for each literal int it is passed, and the
-    kernels that call this pass none."""
+    kernels that call this pass none. `driving`: a trial runs, so the torque written is
+    the controller's (check_workspace). w[W_OUTSIDE] follows every good reading, whatever
+    fails; a reading without a position leaves it as it was (its own fault holds Start)."""
     count_late(g, w, lateness_s)
     nothing = (_NONE, 0.0, 0.0, 0.0, 0.0)
     if read_error == 0.0:
@@ -300,6 +318,7 @@ def first_failure(r, g, w, now_s, t, q1, q2, fx, fy, fz, rate1, rate2, torque1, 
         rt = trig(q1, q2)
         (jump_joint, jump_change, jump_limit, sample_dt, diff_rate1, diff_rate2, diff_speed,
          x, y) = follow_sample(r, g, w, t, q1, q2, rt)
+        w[W_OUTSIDE] = 1.0 if outside_area(g, x, y) else 0.0
     else:
         w[W_PREV_VALID] = 0.0
         w[W_STALE_RUN] = 0.0
@@ -320,7 +339,7 @@ def first_failure(r, g, w, now_s, t, q1, q2, fx, fy, fz, rate1, rate2, torque1, 
     if found[0] == _NONE:
         found = check_force(g, fx, fy)
     if found[0] == _NONE:
-        found = check_workspace(r, g, q1, q2, x, y)
+        found = check_workspace(r, w, driving, q1, q2, x, y)
     if found[0] == _NONE:
         found = check_joint_speed(g, rate1, rate2, diff_rate1, diff_rate2)
     if found[0] == _NONE:
@@ -369,14 +388,17 @@ def _within(value, limit):
 
 @kernel
 def supervise(r, g, w, now_s, t, q1, q2, fx, fy, fz, rate1, rate2, torque1, torque2,
-              lateness_s, heartbeat_age_s, estop, recording_lost, read_error):
+              lateness_s, heartbeat_age_s, estop, recording_lost, read_error, driving):
     """One tick: (torque1, torque2, fault) to write. The first failing check's code and
     numbers become the tick's condition (w[W_CONDITION], w[W_D0:]); the first condition
     while none is latched becomes the latched fault (w[W_FAULT], with its time), and
-    from then on the output is exactly zero until `clear`."""
+    from then on the output is exactly zero until `clear`. `driving` is True while a
+    trial runs (the controller's torque goes through), False while the loop writes zero
+    torque between trials: leaving the exercise area is then a state (w[W_OUTSIDE]), not
+    a fault (check_workspace)."""
     code, d0, d1, d2, d3 = first_failure(
         r, g, w, now_s, t, q1, q2, fx, fy, fz, rate1, rate2, torque1, torque2, lateness_s,
-        heartbeat_age_s, estop, recording_lost, read_error)
+        heartbeat_age_s, estop, recording_lost, read_error, driving)
     w[W_CONDITION] = code
     if code != _NONE:
         w[W_D0] = d0

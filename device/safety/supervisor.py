@@ -46,6 +46,7 @@ from device.safety.checks import (
     W_D3,
     W_FAULT,
     W_FAULT_TIME,
+    W_OUTSIDE,
     W_RAMP_SINCE,
     W_SAT_SINCE,
     supervise,
@@ -155,6 +156,29 @@ class SafetySupervisor:
         """What the last tick found, latched or not: Fault.NONE when every check passed."""
         return Fault(int(self.state[W_CONDITION]))
 
+    @property
+    def outside_area(self) -> bool:
+        """The last good reading put the handle outside the exercise area (the reach band
+        or the region): a fault while a trial runs, a state between trials."""
+        return bool(self.state[W_OUTSIDE])
+
+    def outside_line(self, q1_rad: float, q2_rad: float) -> str:
+        """What the therapist reads while no trial runs and the last tick found the handle
+        outside the exercise area, at the angles of that tick's reading ('' when inside):
+        the window's line, and the reason Start is refused until it is inside."""
+        if not self.outside_area:
+            return ""
+        x, y = (float(v) for v in self._robot.position(q1_rad, q2_rad))
+        radius = math.hypot(x, y)
+        reach_min, reach_max = self._reach
+        if not reach_min <= radius <= reach_max:
+            return (f"handle outside the robot's reach: guide it inside (now {_cm(radius)} "
+                    f"cm from the motor axes; it must be {_cm(reach_min)}–{_cm(reach_max)} "
+                    "cm)")
+        x0, x1, y0, y1 = (_cm(v) for v in self._limits.region_m)
+        return (f"handle outside the exercise area: guide it inside (now at {_cm(x)}, "
+                f"{_cm(y)} cm; the area is x {x0} to {x1} cm, y {y0} to {y1} cm)")
+
     def clear_refusal(self) -> str:
         """Why `clear` would be refused now, or '' when it would succeed."""
         fault = self.fault
@@ -187,6 +211,17 @@ class SafetySupervisor:
         self.state[[W_FAULT_TIME, W_SAT_SINCE, W_RAMP_SINCE]] = math.nan
         self._fault_detail = {}
 
+    def with_limits(self, limits: SafetyLimits) -> SafetySupervisor:
+        """A supervisor of the same connection with other limits (a Build between trials
+        with the robot connected: the therapist's force limit, the new exercise's area),
+        carrying this one's state (the sample history, counts and timers). Refused while a
+        fault is latched: a fault is left by clearing it, an ENCODER_JUMP by reconnecting."""
+        if self.fault is not _NONE:
+            raise StateError(f"a fault is latched ({self.fault.label}): clear it first")
+        new = SafetySupervisor(self._robot, limits)
+        new.state[:] = self.state
+        return new
+
     def restart_ramp(self) -> None:
         """Ramp the torque limit up from zero again, as after a clear: the loop calls it
         when a trial starts, after ticks spent connected at zero torque."""
@@ -205,6 +240,7 @@ class SafetySupervisor:
         heartbeat_age_s: float,
         estop: bool,
         recording_lost: bool,
+        driving: bool = True,
     ) -> tuple[float, float, Fault]:
         """One tick: check everything, return (torque1_Nm, torque2_Nm, fault) to write.
 
@@ -213,14 +249,17 @@ class SafetySupervisor:
         torque*_Nm: the command after the assistance. lateness_s: how late this tick
         started. heartbeat_age_s: time since the console's last heartbeat (inf if
         none yet). estop: the e-stop is held (a level, not an edge). recording_lost:
-        the recorder is behind by more than the ring holds.
+        the recorder is behind by more than the ring holds. driving: a trial runs and
+        the torque is the controller's; False between trials, when the loop writes zero
+        torque and a handle outside the exercise area is a state (`outside_line`),
+        not a fault (device.safety.checks.check_workspace).
         """
         values, read_error = self.read_values(reading)
         before = self.state[W_FAULT]
         out1, out2, code = supervise(
             self._robot.constants, self.constants, self.state, now_s, *values, rate1_rad_s,
             rate2_rad_s, torque1_Nm, torque2_Nm, lateness_s, heartbeat_age_s, estop,
-            recording_lost, float(read_error))
+            recording_lost, float(read_error), bool(driving))
         self.after_tick(before)
         return (out1, out2, Fault(code))
 

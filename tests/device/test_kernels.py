@@ -21,6 +21,7 @@ from core.trial import THESIS_SUBJECT
 from device.compiled.jit import compiled
 from device.loop.pipeline import TickPipeline, TrialPlan
 from device.safety import checks
+from device.safety.limits import SafetyLimits
 from device.safety.supervisor import SafetySupervisor
 from device.sim.patient_parameters import PATIENT_KINDS
 from device.sim.patient_torque import patient_torque
@@ -191,13 +192,16 @@ def test_every_patients_torque_compiled_is_the_interpreted_one(kind, options):
 
 def test_the_supervisors_checks_compiled_are_the_interpreted_ones():
     """Ten thousand ticks of readings that wander into every check (NaN, stale samples,
-    jumps, forces, speeds, lateness, e-stop), with clears in between: every output and
-    the whole state equal after every tick."""
-    slow, fast_sup = SafetySupervisor(ROBOT), SafetySupervisor(ROBOT)
+    jumps, forces, speeds, lateness, e-stop, in and out of a small exercise area, with a
+    trial running or not), with clears in between: every output and the whole state equal
+    after every tick."""
+    area = SafetyLimits().around_path([[-0.3, 0.3]], margin_m=0.03)
+    slow, fast_sup = SafetySupervisor(ROBOT, area), SafetySupervisor(ROBOT, area)
     fast = compiled(checks.supervise)
     rng = np.random.default_rng(5)
     q1, q2 = ROBOT.ik([-0.3, 0.3])
     t = 0.0
+    seen = set()  # (outside, driving, the condition WORKSPACE)
     for k in range(10_000):
         t += 0.002 if rng.random() > 0.01 else 0.0
         q1 += rng.normal(0.0, 0.002) + (0.3 if rng.random() < 0.002 else 0.0)
@@ -209,13 +213,16 @@ def test_the_supervisors_checks_compiled_are_the_interpreted_ones():
             reading[3] = 300.0
         args = (k * 0.002, *reading, *rng.normal(0.0, 1.5, 2), *rng.normal(0.0, 1.5, 2),
                 float(rng.choice([0.0, 0.003, 0.012], p=[0.97, 0.02, 0.01])), 0.05,
-                bool(rng.random() < 0.002), False, 0)
+                bool(rng.random() < 0.002), False, 0, bool(k // 500 % 2))
         assert same(fast(R, fast_sup.constants, fast_sup.state, *args),
                     checks.supervise(ROBOT.constants, slow.constants, slow.state, *args))
         np.testing.assert_array_equal(fast_sup.state, slow.state)
+        seen.add((slow.outside_area, args[-1], slow.condition == checks.Fault.WORKSPACE))
         if slow.fault and rng.random() < 0.05 and not slow.clear_refusal():
             slow.clear()
             fast_sup.clear()
+    # outside the area with no trial is no condition; with one it is the fault's
+    assert {(True, False, False), (True, True, True)} <= seen, seen
 
 
 # ------------------------------------------------------------------ flavours

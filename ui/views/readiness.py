@@ -11,7 +11,10 @@ knows stands in the way:
   proposal taken) makes the built trial stale, and Start says "parameters changed since
   Build: press Build" (issue 27 #1: Start ran the circle built before the form was
   changed to a figure eight);
-* the e-stop or a latched fault holds Build, Connect and Start (ui.views.latch).
+* the e-stop or a latched fault holds Build, Connect and Start (ui.views.latch);
+* between trials, a handle outside the exercise area holds Start until someone guides it
+  inside: the robot at zero torque cannot have put it there, so it is a state the line
+  says, with where the handle is, not a fault (docs/safety.md, H8).
 """
 
 from __future__ import annotations
@@ -64,12 +67,13 @@ def start_why(needs: str) -> str:
 
 def readiness(state: State, *, form_problem: str, registered: bool, built: bool,
               stale: bool, held: str, unsaved: bool, saving: bool = False,
-              connecting: bool = False) -> Readiness:
+              connecting: bool = False, outside: str = "") -> Readiness:
     """The buttons for `state`. `form_problem`: why the form cannot be built ('' when it
     can); `built`: a trial was built; `stale`: the form changed since; `held`: why the latch
     holds the robot ('' when it does not, ui.views.latch.Latch.holds_robot); `unsaved`: a
     finished trial's report is not yet saved; `saving`: the last trial's file is not closed
-    yet; `connecting`: a Connect was sent and is not answered yet (the sensor's zero)."""
+    yet; `connecting`: a Connect was sent and is not answered yet (the sensor's zero);
+    `outside`: the loop's line for a handle outside the exercise area ('' when inside)."""
     needs = start_needs(registered=registered, built=built, stale=stale, saving=saving)
     build_why = f"Build needs the form fixed: {form_problem}" if form_problem else ""
     # Start waits for a Build the form does not allow: "press Build" would send the
@@ -82,14 +86,15 @@ def readiness(state: State, *, form_problem: str, registered: bool, built: bool,
                                                          State.CONNECTED),
         "connect": free and state == State.BUILT and not connecting,
         "disconnect": state in (State.CONNECTED, State.FAULTED),
-        "start": free and not needs and state == State.CONNECTED,
+        "start": free and not needs and not outside and state == State.CONNECTED,
         "stop": state == State.RUNNING,
         "save": unsaved and state not in (State.RUNNING, State.STOPPING),
     }
     why = {
         "build": held or build_why,
         "connect": held,
-        "start": held or (build_why if blocked_build else start_why(needs) if needs else ""),
+        "start": held or (build_why if blocked_build else start_why(needs) if needs
+                          else outside),
     }
     tooltips = {}
     for name, on in enabled.items():
@@ -104,6 +109,8 @@ def readiness(state: State, *, form_problem: str, registered: bool, built: bool,
         line = build_why
     elif state in (State.BUILT, State.CONNECTED) and stale:
         line = start_why(STALE)
+    elif state == State.CONNECTED and outside:
+        line = outside[0].upper() + outside[1:]
     else:
         line = ""
     return Readiness(enabled, tooltips, line)

@@ -128,6 +128,13 @@ class TrialActions:
     def _on_sensor_zeroed(self, _message: str) -> None:
         self._say(ZERO_TAKEN, states=(State.BUILT, State.CONNECTED))
 
+    def _on_handle_area(self, line: str) -> None:
+        """Between trials, the loop's word on the handle: outside the exercise area and
+        where ('' once inside). Start waits until it is inside; the robot bar's line says
+        so on every tab (docs/safety.md, H8: at zero torque it is a state, not a fault)."""
+        self.handle_outside = line if self.state == State.CONNECTED else ""
+        self._refresh_buttons()
+
     def refuse_build(self, reason: str) -> None:
         self._say(f"Build refused: {reason}", problem=True)
         self.tabs.setCurrentWidget(self.parameters_tab)
@@ -152,6 +159,7 @@ class TrialActions:
         if not waits and self.registration is not None:
             waits = start_needs(registered=True, built=self.built is not None,
                                 stale=self.stale(), saving=self.trial_id is not None)
+        waits = waits or self.handle_outside
         if waits:
             self._say(f"Start refused: {waits}.", problem=True)
             self._refresh_buttons()
@@ -247,7 +255,7 @@ class TrialActions:
             self.state, form_problem=problem, registered=self.registration is not None,
             built=self.built is not None, stale=self.stale(), held=self.latch.holds_robot(),
             unsaved=self.unsaved_trial is not None, saving=self.trial_id is not None,
-            connecting=self._connecting))
+            connecting=self._connecting, outside=self.handle_outside))
 
     def start_needs(self) -> str:
         """What Start waits for beyond the robot's state, in words ("" when nothing)."""
@@ -355,6 +363,8 @@ class TrialActions:
             log.info("robot %s → %s%s", self.state.label, State(state).label,
                      f": {reason}" if reason else "")
         self.state = State(state)
+        if self.state != State.CONNECTED:
+            self.handle_outside = ""  # the loop says it again once connected between trials
         self._latch_state(self.state, reason)
         self.emg.trial_running = self.state in (State.RUNNING, State.STOPPING)
         self.messages.set_state(self.state)

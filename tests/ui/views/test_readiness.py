@@ -38,3 +38,34 @@ def test_an_unregistered_patient_is_said_before_the_form():
                       built=True, stale=True, held="", unsaved=False)
     assert ready.line.startswith("Start needs a registered patient")
     assert ready.tooltips["build"].startswith("Build needs the form fixed")
+
+
+OUTSIDE = ("handle outside the exercise area: guide it inside (now at 8.1, 48 cm; the area is "
+           "x -40 to -10 cm, y 10 to 50 cm)")
+
+
+def test_a_handle_outside_the_area_between_trials_greys_start_and_says_where_it_is():
+    """The real robot connects at its homing pose, outside most exercises' areas: a state
+    (docs/safety.md, H8), said on every tab with where the handle is, not a fault."""
+    ready = readiness(State.CONNECTED, form_problem="", registered=True, built=True,
+                      stale=False, held="", unsaved=False, outside=OUTSIDE)
+    assert not ready.enabled["start"]
+    assert ready.enabled["build"]
+    assert ready.enabled["disconnect"]
+    assert ready.line == "H" + OUTSIDE[1:]
+    assert ready.tooltips["start"] == "H" + OUTSIDE[1:]
+    inside = readiness(State.CONNECTED, form_problem="", registered=True, built=True,
+                       stale=False, held="", unsaved=False, outside="")
+    assert inside.enabled["start"]
+    assert inside.line == ""
+
+
+def test_what_holds_the_session_before_the_handle_is_said_first():
+    """A latch (the e-stop) and a missing patient come first; the handle is the last
+    thing before Start."""
+    held = readiness(State.CONNECTED, form_problem="", registered=True, built=True,
+                     stale=False, held="the e-stop is held", unsaved=False, outside=OUTSIDE)
+    assert held.line == "The e-stop is held"
+    unregistered = readiness(State.CONNECTED, form_problem="", registered=False, built=True,
+                             stale=False, held="", unsaved=False, outside=OUTSIDE)
+    assert unregistered.line.startswith("Start needs a registered patient")

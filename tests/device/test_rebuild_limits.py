@@ -1,0 +1,99 @@
+"""A Build between trials with the real robot connected gives the supervisor that trial's
+limits. It kept the first Build's: the hardware stays connected on a Build (only the
+simulator is reopened), so a force limit the therapist lowered for a fragile arm went
+unheard (50 N still latched, not 20 N) and the exercise area stayed the first exercise's.
+Found on the stand-in boards (tests/device/fakes) with resources/hardware.example.toml."""
+
+import multiprocessing as mp
+import shutil
+import sys
+from pathlib import Path
+from types import SimpleNamespace
+
+import pytest
+
+from core.trial import THESIS_SUBJECT
+from device.loop.messages import BackendConfig, Build, Connect, Reply
+from device.loop.process import DeviceLoop, LoopConfig
+from device.loop.states import State
+from device.recording.ring import RecordRing
+from device.safety.limits import SafetyLimits
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parents[1]
+
+
+def _purge(package):
+    for name in [n for n in sys.modules if n == package or n.startswith(package + ".")]:
+        del sys.modules[name]
+
+
+@pytest.fixture
+def connected(monkeypatch, tmp_path):
+    """A loop connected to the stand-in Q8 and NI card with the example settings."""
+    monkeypatch.syspath_prepend(str(HERE / "fakes"))
+    _purge("quanser")
+    _purge("nidaqmx")
+    from nidaqmx import _fake
+    from quanser import hardware
+
+    hardware.fake_reset()
+    _fake.fake_reset()
+    _fake.fake_install_device(_fake.FakeDevice("Dev1"))
+    hardware.fake_install_board("q8_usb", "0")
+    shutil.copy(HERE / "data" / "FT00000_Nano25_v11.cal", tmp_path / "FT00000.cal")
+    settings = tmp_path / "robot.toml"
+    shutil.copy(ROOT / "resources" / "hardware.example.toml", settings)
+    console, loop_end = mp.Pipe()
+    ring = RecordRing.create(1024)
+    loop = DeviceLoop(loop_end, None, ring, SimpleNamespace(value=0), SimpleNamespace(value=0),
+                      SimpleNamespace(value=0),
+                      LoopConfig(compiled=False, realtime=False, timing_check_s=0.0))
+    loop.said = []
+    loop._send = loop.said.append
+    loop.hardware = BackendConfig(kind="quanser", hardware_settings=str(settings))
+    loop._command(Build(1, THESIS_SUBJECT.replace(repetitions=1), loop.hardware))
+    loop._command(Connect(2))
+    assert loop.state == State.CONNECTED, loop.said
+    try:
+        yield loop
+    finally:
+        loop._disconnect_backend()
+        ring.close()
+        ring.unlink()
+        console.close()
+        loop_end.close()
+        _purge("quanser")
+        _purge("nidaqmx")
+
+
+def test_a_build_while_connected_to_the_robot_gives_the_supervisor_its_limits(connected):
+    loop = connected
+    first = loop.supervisor
+    assert first.limits.force_limit_N == 50.0
+    other = THESIS_SUBJECT.replace(repetitions=1, centre_m=(-0.20, 0.35))
+    loop._command(Build(3, other, loop.hardware, limits=SafetyLimits(force_limit_N=20.0)))
+    reply = [m for m in loop.said if isinstance(m, Reply)][-1]
+    assert reply.ok, reply.message
+    assert loop.state == State.CONNECTED
+    assert loop.supervisor.limits.force_limit_N == 20.0
+    assert loop.engine.supervisor is loop.supervisor
+    assert loop.supervisor.limits.region_m == loop.limits.region_m
+    assert loop.supervisor.limits.region_m != first.limits.region_m
+    # the sensor's range from its calibration, as at Connect
+    assert loop.supervisor.limits.sensor_planar_range_N == first.limits.sensor_planar_range_N
+
+
+def test_a_force_limit_above_the_connected_sensor_is_refused_at_build(connected):
+    loop = connected
+    built = loop.plan
+    ceiling = loop.supervisor.limits.force_ceiling_N
+    loop._command(Build(3, THESIS_SUBJECT.replace(repetitions=2), loop.hardware,
+                        limits=SafetyLimits(force_limit_N=ceiling, sensor_planar_range_N=1000.0)
+                        .replace(force_limit_N=ceiling + 10.0)))
+    reply = [m for m in loop.said if isinstance(m, Reply)][-1]
+    assert not reply.ok
+    assert reply.message.startswith("build refused: ")
+    assert "force_limit_N" in reply.message
+    assert loop.plan is built  # nothing of the refused Build taken
+    assert loop.supervisor.limits.force_limit_N == 50.0
