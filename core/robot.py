@@ -454,28 +454,31 @@ class RobotModel:
                 raise UnreachableError(f"point ({x:.3f}, {y:.3f}) m: {problem}")
         return q
 
-    def limit_problem(self, q1: float, q2: float) -> str:
+    def limit_problem(self, q1: float, q2: float, *, now: bool = False) -> str:
         """Why (θ_R1, θ_R2) is outside the joint limits, or '' if it is inside
-        (core.robot_terms.limit_violation, in words)."""
+        (core.robot_terms.limit_violation, in words). For a point asked for (a path, a
+        form's position: "would be", with what to change); `now`: for the robot's own
+        angles as read (the safety banner: "are", and the banner's action says what to do)."""
         lim = self.limits
         violation = terms.limit_violation(self.constants, q1, q2)
+        verb = "is" if now else "would be"
         if violation == terms.SPREAD_OUTSIDE:
             spread = (q1 - q2) * self.branch
             low, high = math.degrees(lim.spread_min_rad), math.degrees(lim.spread_max_rad)
             return (
-                f"the robot's links would be {math.degrees(spread):.1f}° apart; they must stay "
-                f"within {low:.0f}–{high:.0f}°"
-                " (near 0° or 180° the parallelogram folds flat). Move the point toward the middle"
-                " of the robot's reach."
+                f"the robot's links {'are' if now else 'would be'} {math.degrees(spread):.1f}° "
+                f"apart; they must stay within {low:.0f}–{high:.0f}°"
+                " (near 0° or 180° the parallelogram folds flat)"
+                + ("" if now else ". Move the point toward the middle of the robot's reach.")
             )
         if violation == terms.Q1_OUTSIDE:
             return (
-                f"joint 1 would be at {math.degrees(q1):.1f}°, outside its limits "
+                f"joint 1 {verb} at {math.degrees(q1):.1f}°, outside its limits "
                 f"{math.degrees(lim.q1_min_rad):.0f}–{math.degrees(lim.q1_max_rad):.0f}°"
             )
         if violation == terms.Q2_OUTSIDE:
             return (
-                f"joint 2 would be at {math.degrees(q2):.1f}°, outside its limits "
+                f"joint 2 {verb} at {math.degrees(q2):.1f}°, outside its limits "
                 f"{math.degrees(lim.q2_min_rad):.0f}–{math.degrees(lim.q2_max_rad):.0f}°"
             )
         return ""

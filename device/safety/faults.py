@@ -84,7 +84,10 @@ _TEXT: dict[Fault, FaultText] = {
     ),
     Fault.BACKEND_ERROR: FaultText(
         "The robot reported an error: {error}",
-        "check the robot's cables and power, then clear the fault or reconnect",
+        # an error the robot keeps reporting (the Q8's watchdog expired: the card keeps its
+        # outputs off) fails every read, so the fault does not clear: reconnect then
+        "check the robot's cables and power, then clear the fault; if it does not clear, "
+        "reconnect the robot",
     ),
     Fault.BACKEND_TIMEOUT: FaultText(
         "The robot stopped answering: {error}",
@@ -124,7 +127,9 @@ _TEXT: dict[Fault, FaultText] = {
     ),
     Fault.WORKSPACE: FaultText(
         "The handle left the allowed region: {problem}",
-        "guide the handle back inside the exercise area, then clear the fault",
+        # one action for the three causes (the area, the reach band, a joint limit or the
+        # links' spread): the cause names which, so the action does not name it again
+        "guide the handle back inside, then clear the fault",
     ),
     Fault.LATE_TICK: FaultText(
         "The control loop ran late: {reason}",

@@ -298,7 +298,7 @@ class SafetySupervisor:
         return detail
 
     def _workspace_problem(self, q1: float, q2: float, x: float, y: float) -> str:
-        problem = self._robot.limit_problem(q1, q2)
+        problem = self._robot.limit_problem(q1, q2, now=True)
         if problem:
             return problem
         # in cm, as the window's form, plots and reports give positions (app.units), short

@@ -106,13 +106,18 @@ def test_the_other_checks_still_latch_while_the_handle_is_outside_between_trials
 
 
 @pytest.mark.parametrize(("q", "problem"), [
-    ((-0.0005, math.radians(-40.0)), "joint 1 would be at"),
-    ((math.radians(100.0), math.radians(90.0)), "the robot's links would be"),
+    ((-0.0005, math.radians(-40.0)), "joint 1 is at"),
+    ((math.radians(100.0), math.radians(90.0)), "the robot's links are"),
 ])
 def test_a_joint_limit_or_folded_links_latch_even_between_trials(q, problem):
+    """...and the banner says what the robot's angles are, not what a planned point's
+    "would be", nor the form's "Move the point" (the banner's action says what to do)."""
     sup = SafetySupervisor(ROBOT, LIMITS)
     assert ticks(sup, q, 1, driving=False) == [Fault.WORKSPACE]
     assert problem in sup.fault_detail["problem"]
+    assert "would be" not in sup.fault_message
+    assert "Move the point" not in sup.fault_message
+    assert sup.fault_message.count("exercise area") <= 1
 
 
 def ik(x, y):
