@@ -17,7 +17,10 @@ trial, of another console, or without the robot stream is refused in one line. T
 stamps, less that offset, are monotonic times of the console, and
 app.emg.importing.trial_time_from_monotonic puts them on the trial's clock, as for a live
 capture. Each channel is read in volts by the unit its stream declares, times its
-`scaling_factor` where it declares one (a raw integer stream's count, core.emg.units).
+`scaling_factor` where it declares one (a raw integer stream's count, core.emg.units). A
+trigger or marker channel an amplifier's app appends to the stream (BrainAmpSeries'
+`triggerStream`, unit `code`; LiveAmp's `Markers`) is left out with a note; any other
+channel that is not an EMG voltage is refused in one line, as by device.lsl.inlet.
 
 LabRecorder goes on recording an EMG sender that stopped and came back (liblsl recovers
 it by its source id) into the same stream: a hole, and after it perhaps samples at
@@ -40,7 +43,7 @@ import numpy as np
 
 from app.emg.importing import EmgImportError, Imported, store, trial_time_from_monotonic
 from app.trials.reader import TrialData, read_trial
-from core.emg.units import scaling_factor, volts_per_unit
+from core.emg.units import emg_type, scaling_factor, trigger_channel, volts_per_unit
 from device.emg.files import EmgData
 from device.lsl.outlet import EVENT_STREAM, ROBOT_CHANNELS, ROBOT_STREAM
 
@@ -71,6 +74,7 @@ class XdfStream:
     scaling_factors: tuple[str, ...]
     stamps: np.ndarray
     values: object  # (k, C) numbers, or a list of lists of strings for a marker stream
+    types: tuple[str, ...] = ()
 
 
 class _Heard(logging.Handler):
@@ -124,13 +128,14 @@ def _first(info: dict, key: str, default: str = "") -> str:
 
 def _stream(raw: dict) -> XdfStream:
     info = raw["info"]
-    labels, units, factors = [], [], []
+    labels, units, factors, types = [], [], [], []
     desc = info.get("desc")
     channels = (desc[0] or {}).get("channels") if desc else None
     for channel in ((channels[0] or {}).get("channel") or []) if channels else []:
         labels.append(_first(channel or {}, "label"))
         units.append(_first(channel or {}, "unit"))
         factors.append(_first(channel or {}, "scaling_factor").strip())
+        types.append(_first(channel or {}, "type").strip())
     stamps = np.asarray(raw.get("time_stamps", []), dtype=float)
     values = raw.get("time_series")
     if isinstance(values, np.ndarray):
@@ -138,7 +143,7 @@ def _stream(raw: dict) -> XdfStream:
     return XdfStream(_first(info, "name"), _first(info, "type"), _first(info, "source_id"),
                      float(_first(info, "nominal_srate", "0") or 0),
                      _first(info, "channel_format"), tuple(labels), tuple(units), tuple(factors),
-                     stamps, values)
+                     stamps, values, tuple(types))
 
 
 def clock_offset(trial: TrialData, robot: XdfStream, name: str) -> float:
@@ -197,32 +202,53 @@ def emg_stream(streams: list[XdfStream], name: str | None, path: Path) -> XdfStr
     return chosen[0]
 
 
-def emg_volts(stream: XdfStream, path: Path, unit: str | None) -> np.ndarray:
-    """The stream's samples in volts by each channel's declared unit, or `unit` for
+def emg_volts(stream: XdfStream, path: Path,
+              unit: str | None) -> tuple[np.ndarray, list[int], tuple[str, ...]]:
+    """The stream's EMG channels in volts by each channel's declared unit, or `unit` for
     channels that declare none (a declared one that disagrees is refused), times its
-    declared scaling factor."""
+    declared scaling factor; which columns they are; and one line naming the trigger or
+    marker channels left out (core.emg.units.trigger_channel). Any other channel that is
+    not an EMG voltage is refused in one line."""
     count = stream.values.shape[1]
-    declared = list(stream.units) + [""] * (count - len(stream.units))
-    factors = list(stream.scaling_factors) + [""] * (count - len(stream.scaling_factors))
-    scales = []
-    for k, written in enumerate(declared[:count]):
-        channel = stream.labels[k] if k < len(stream.labels) and stream.labels[k] else \
-            f"channel {k + 1}"
+
+    def declared(values: tuple[str, ...]) -> list[str]:
+        return (list(values) + [""] * count)[:count]
+
+    labels, units = declared(stream.labels), declared(stream.units)
+    factors, types = declared(stream.scaling_factors), declared(stream.types)
+    where = f"XDF file {path.name}: stream {stream.name}"
+    kept, scales, left_out = [], [], []
+    for k, written in enumerate(units):
+        channel = labels[k] or f"channel {k + 1}"
+        why = trigger_channel(labels[k], types[k], written)
+        if why is not None:
+            left_out.append(f"{channel}, {why}")
+            continue
         factor = scaling_factor(factors[k])
         if factor is None:
-            raise EmgImportError(f"XDF file {path.name}: stream {stream.name} gives {channel} "
-                                 f"a scaling_factor of {factors[k]!r}, not a positive number")
+            raise EmgImportError(f"{where} gives {channel} a scaling_factor of "
+                                 f"{factors[k]!r}, not a positive number")
         if written and unit and volts_per_unit(written) != volts_per_unit(unit):
-            raise EmgImportError(f"XDF file {path.name}: stream {stream.name} declares "
-                                 f"{channel} in {written!r}, not {unit!r} as given")
+            raise EmgImportError(f"{where} declares {channel} in {written!r}, not {unit!r} as "
+                                 "given")
         scale = volts_per_unit(written or unit or "")
         if scale is None:
             said = f"gives {channel} in {written!r}" if written else \
                 f"does not say the unit of {channel}"
-            raise EmgImportError(f"XDF file {path.name}: stream {stream.name} {said}, not a "
-                                 "voltage: give it with --unit (V, mV or uV)")
+            raise EmgImportError(f"{where} {said}, not a voltage: give it with --unit (V, mV "
+                                 "or uV)")
+        if not emg_type(types[k]):
+            raise EmgImportError(f"{where} gives {channel} as type {types[k]!r}, not EMG, "
+                                 "ExG, EEG, bipolar or AUX: a stream of EMG channels only is "
+                                 "imported")
+        kept.append(k)
         scales.append(scale * factor)
-    return np.asarray(stream.values, dtype=float) * np.asarray(scales)
+    if not kept:
+        raise EmgImportError(f"{where} has no EMG channel, only {'; '.join(left_out)}")
+    notes = (f"left out of stream {stream.name}: {'; '.join(left_out)}: event codes, not "
+             "EMG",) if left_out else ()
+    volts = np.asarray(stream.values, dtype=float)[:, kept] * np.asarray(scales)
+    return volts, kept, notes
 
 
 def continuity(stream: XdfStream, trial_time: np.ndarray, path: Path) -> tuple[str, ...]:
@@ -282,14 +308,15 @@ def import_xdf(trial_path: str | os.PathLike, xdf_path: str | os.PathLike, *,
     emg = emg_stream(streams, stream, path)
     if not len(emg.stamps):
         raise EmgImportError(f"XDF file {path.name}: stream {emg.name} has no samples")
-    volts = emg_volts(emg, path, unit)
-    names = tuple(label or f"{emg.name}-{k + 1}" for k, label in enumerate(
-        list(emg.labels[:volts.shape[1]]) + [""] * (volts.shape[1] - len(emg.labels))))
+    volts, kept, left_out = emg_volts(emg, path, unit)
+    labels = list(emg.labels) + [""] * (emg.values.shape[1] - len(emg.labels))
+    names = tuple(labels[k] or f"{emg.name}-{k + 1}" for k in kept)
     trial_time = trial_time_from_monotonic(trial, emg.stamps - offset)
     holes = continuity(emg, trial_time, path)
     markers = sum(len(s.stamps) for s in streams if s.name == EVENT_STREAM)
     notes = (f"placed through the {ROBOT_STREAM} stream: recording clock − console clock = "
-             f"{offset:.6f} s; {markers} robot markers in the recording", *holes, *damage)
+             f"{offset:.6f} s; {markers} robot markers in the recording", *left_out, *holes,
+             *damage)
     data = EmgData(names, emg.rate_hz, trial_time, volts, "xdf", path, notes)
     clock = ("LSL stamps of the XDF recording, less the offset at which the trial's ticks "
              f"are in its {ROBOT_STREAM} stream")

@@ -37,3 +37,38 @@ def scaling_factor(text: str) -> float | None:
     except ValueError:
         return None
     return value if math.isfinite(value) and value > 0 else None
+
+
+EMG_TYPES = frozenset({"", "emg", "exg", "eeg", "bipolar", "aux"})
+"""Channel types (`desc/channels/channel/type`, lower case) whose voltage is taken as EMG:
+none declared; EMG; ExG and EEG, what Brain Products' BrainAmp and LiveAmp apps call every
+electrode channel (a BrainAmp ExG or a LiveAmp's bipolar inputs carry the EMG); `bipolar`
+and `AUX`, the LiveAmp's bipolar and auxiliary inputs (its BIP2AUX adapter puts a bipolar
+EMG lead on an AUX input)."""
+
+TRIGGER_UNITS = frozenset({"code", "codes"})
+"""Units of a trigger channel: BrainAmpSeries' `triggerStream` says `code` (and type EEG)."""
+
+_TRIGGER_WORDS = ("trigger", "marker")
+"""In a channel's type or label: LiveAmp's `Markers` (type Markers, no unit),
+`STETriggerIn`/`STETriggerOut` (unit `integer`), BrainAmpSeries' `triggerStream`."""
+
+
+def trigger_channel(label: str, kind: str, unit: str) -> str | None:
+    """Why a channel that is not a voltage is the trigger or marker channel an amplifier's
+    LSL app appends to its data stream (BrainAmpSeries' `triggerStream` of unit `code`,
+    LiveAmp's `Markers` and `STETrigger…`), or None when it is not one. Such a channel
+    carries event codes, -1 between them, never EMG; a voltage channel is never one."""
+    if volts_per_unit(unit) is not None:
+        return None
+    if unit.strip().lower() in TRIGGER_UNITS:
+        return f"a trigger channel (unit {unit!r})"
+    for what, text in (("type", kind), ("label", label)):
+        if any(word in text.lower() for word in _TRIGGER_WORDS):
+            return f"a trigger/marker channel ({what} {text!r})"
+    return None
+
+
+def emg_type(kind: str) -> bool:
+    """Whether a channel's declared type is one whose voltage is EMG (EMG_TYPES)."""
+    return kind.strip().lower() in EMG_TYPES

@@ -12,6 +12,12 @@ not a voltage, is refused in one line, unless the caller says what the stream ca
 applied: without it a BrainAmp's int16 counts of 0.1 µV were read as whole microvolts, ten
 times too large. The labels the stream declares name the muscles (`labels`).
 
+An amplifier's LSL app may append a trigger channel to its data stream (BrainAmpSeries'
+`triggerStream`, unit `code`; LiveAmp's `Markers` and `STETrigger…`): event codes, not
+EMG. Such a channel is left out, and `notes` says so in one line; the other channels are
+read when their unit is a voltage and their type EMG-like (core.emg.units.EMG_TYPES), and
+the stream is refused in one line for any other channel (an accelerometer in milliGs).
+
 The inlet asks liblsl to correct a remote sender's clock onto this machine's
 (`proc_clocksync`), so its stamps are this machine's monotonic seconds.
 """
@@ -20,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.emg.units import scaling_factor, volts_per_unit
+from core.emg.units import emg_type, scaling_factor, trigger_channel, volts_per_unit
 from device.lsl.library import LslError, channel_descriptions, pylsl, summary
 
 DUPLICATE_LOOK_S = 1.0
@@ -80,14 +86,19 @@ class LslEmgInlet:
         except Exception as exc:  # pylsl's TimeoutError or LostError
             raise LslError(f"the {what} did not send its description in {timeout_s:g} s "
                            f"({type(exc).__name__})") from None
-        self.volts_per_unit = _scales(what, described, unit)
+        kept, self.volts_per_unit, self.notes = _scales(what, described, unit)
+        described = [described[k] for k in kept]
         self.labels = tuple(d["label"] for d in described) if all(
             d["label"] for d in described) else ()
         self.units = tuple(d["unit"] or (unit or "") for d in described)
         self.rate_hz = float(info.nominal_srate())
-        self.channel_count = int(info.channel_count())
-        # liblsl writes samples of the stream's own format: the buffer must be of it
-        self._buffer = np.empty((max(1024, int(self.rate_hz)), self.channel_count), dtype=fmt)
+        self.channel_count = len(kept)
+        # only the EMG channels are read; None reads them all without a copy
+        self._columns = None if len(kept) == info.channel_count() else np.asarray(kept)
+        # liblsl writes samples of the stream's own format: the buffer must be of it, and
+        # as wide as the stream, trigger channels and all
+        self._buffer = np.empty((max(1024, int(self.rate_hz)), info.channel_count()),
+                                dtype=fmt)
 
     def open(self, timeout_s: float = 3.0) -> LslEmgInlet:
         try:
@@ -111,25 +122,32 @@ class LslEmgInlet:
             raise LslError(f"the LSL stream {self.summary.name!r} was lost "
                            f"({type(exc).__name__}); check the EMG software") from None
         n = len(stamps)
-        return (np.asarray(stamps, dtype=float),
-                self._buffer[:n].astype(float) * self.volts_per_unit)
+        samples = self._buffer[:n] if self._columns is None else \
+            self._buffer[:n, self._columns]
+        return np.asarray(stamps, dtype=float), samples.astype(float) * self.volts_per_unit
 
     def close(self) -> None:
         self._inlet.close_stream()
 
 
-def _scales(what: str, described: list[dict[str, str]], given: str | None) -> np.ndarray:
-    """Volts per stored number, one per channel, from the declared units and scaling
-    factors (module docstring)."""
+def _scales(what: str, described: list[dict[str, str]],
+            given: str | None) -> tuple[list[int], np.ndarray, tuple[str, ...]]:
+    """The EMG channels' indices, their volts per stored number (from the declared units
+    and scaling factors), and one line naming the trigger/marker channels left out
+    (module docstring)."""
     given_scale = None
     if given is not None:
         given_scale = volts_per_unit(given)
         if given_scale is None:
             raise LslError(f"unit {given!r} given for the {what} is not a voltage: give V, mV "
                            "or uV")
-    scales = []
+    kept, scales, left_out = [], [], []
     for k, d in enumerate(described, start=1):
         name = d["label"] or f"channel {k}"
+        why = trigger_channel(d["label"], d["type"], d["unit"])
+        if why is not None:
+            left_out.append(f"{name}, {why}")
+            continue
         factor = scaling_factor(d["scaling_factor"])
         if factor is None:
             raise LslError(f"the {what} gives {name} a scaling_factor of "
@@ -140,14 +158,25 @@ def _scales(what: str, described: list[dict[str, str]], given: str | None) -> np
                 raise LslError(f"the {what} does not say the unit of {name}: declare each "
                                "channel's unit in the stream's description (V, mV or uV), or "
                                "give it (lsl:NAME@uV)")
-            scales.append(given_scale * factor)
-            continue
-        scale = volts_per_unit(d["unit"])
-        if scale is None:
-            raise LslError(f"the {what} gives {name} in {d['unit']!r}, not a voltage: EMG is "
-                           "read in V, mV or uV")
-        if given_scale is not None and scale != given_scale:
-            raise LslError(f"the {what} declares {name} in {d['unit']!r}, not in {given!r} as "
-                           "given: leave the unit out or correct it")
+            scale = given_scale
+        else:
+            scale = volts_per_unit(d["unit"])
+            if scale is None:
+                raise LslError(f"the {what} gives {name} in {d['unit']!r}, not a voltage: EMG "
+                               "is read in V, mV or uV (switch that channel off in the EMG "
+                               "software's stream settings)")
+            if given_scale is not None and scale != given_scale:
+                raise LslError(f"the {what} declares {name} in {d['unit']!r}, not in "
+                               f"{given!r} as given: leave the unit out or correct it")
+        if not emg_type(d["type"]):
+            raise LslError(f"the {what} gives {name} as type {d['type']!r}, not EMG, ExG, "
+                           "EEG, bipolar or AUX: switch that channel off in the EMG "
+                           "software's stream settings")
+        kept.append(k - 1)
         scales.append(scale * factor)
-    return np.asarray(scales, dtype=float)
+    if not kept:
+        raise LslError(f"the {what} has no EMG channel, only "
+                       f"{', '.join(left_out)}")
+    notes = (f"left out of the {what}: {'; '.join(left_out)}: event codes, not EMG",
+             ) if left_out else ()
+    return kept, np.asarray(scales, dtype=float), notes

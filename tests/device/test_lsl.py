@@ -194,6 +194,93 @@ def test_a_channel_without_a_voltage_unit_is_refused_in_one_line_unless_given():
     del outlet, other, third
 
 
+def _brainamp_outlet(name, labels, resolution="100 nV"):
+    """Brain Products' BrainAmpSeries app's float stream with `Sampled Markers in EEG`, its
+    description as the app writes it (brain-products/App-BrainAmpSeries, mainwindow.cpp
+    read_thread): type EEG, each channel type EEG in microvolts, scaling_factor 1, then
+    the trigger channel `triggerStream` of type EEG and unit `code`."""
+    info = pylsl.StreamInfo(name, "EEG", len(labels) + 1, 1000.0, pylsl.cf_float32,
+                            f"{name}_SR-1000.000000")
+    channels = info.desc().append_child("channels")
+    for label in labels:
+        channels.append_child("channel").append_child_value("label", label) \
+            .append_child_value("type", "EEG").append_child_value("unit", "microvolts") \
+            .append_child_value("scaling_factor", "1")
+    channels.append_child("channel").append_child_value("label", "triggerStream") \
+        .append_child_value("type", "EEG").append_child_value("unit", "code")
+    info.desc().append_child("amplifier").append_child("settings") \
+        .append_child_value("resolution", resolution).append_child_value("dc_coupling", "AC")
+    info.desc().append_child("acquisition").append_child_value("manufacturer",
+                                                               "Brain Products")
+    return pylsl.StreamOutlet(info)
+
+
+def _liveamp_outlet(name, channels):
+    """Brain Products' LiveAmp app's stream (brain-products/LSL-LiveAmp, mainwindow.cpp
+    ReadThread): type EEG, float32, channels (label, type, unit) as it appends them: EEG,
+    bipolar and AUX in microvolts, ACC in milliGs, then `Markers` (type Markers, unit ''),
+    `STETriggerIn` (unit integer), `SampleCounter`."""
+    info = pylsl.StreamInfo(name, "EEG", len(channels), 500.0, pylsl.cf_float32, name)
+    described = info.desc().append_child("channels")
+    for label, kind, unit in channels:
+        described.append_child("channel").append_child_value("label", label) \
+            .append_child_value("type", kind).append_child_value("unit", unit)
+    info.desc().append_child("acquisition").append_child_value("manufacturer",
+                                                               "Brain Products")
+    return pylsl.StreamOutlet(info)
+
+
+def test_a_brainamp_stream_is_read_without_its_trigger_channel_said_in_one_line():
+    """The whole stream was refused for BrainAmpSeries' trigger channel (unit `code`)."""
+    name = f"BrainAmpSeries-Dev_1-{_unique()}"
+    outlet = _brainamp_outlet(name, ("biceps", "triceps"))
+    inlet = LslEmgInlet(name, timeout_s=5.0).open(5.0)
+    assert (inlet.labels, inlet.channel_count) == (("biceps", "triceps"), 2)
+    assert len(inlet.notes) == 1
+    assert "\n" not in inlet.notes[0]
+    assert "triggerStream" in inlet.notes[0]
+    assert "unit 'code'" in inlet.notes[0]
+    _wait_for(outlet.have_consumers, "the inlet connecting")
+    sent = np.array([[120.5, -40.25, -1.0]] * 10 + [[3.0, 4.0, 7.0]], dtype=np.float32)
+    outlet.push_chunk(sent)
+    _, x = _receive(inlet, 11)
+    np.testing.assert_allclose(x, sent[:, :2].astype(float) * 1e-6, rtol=1e-12)
+    inlet.close()
+
+
+def test_a_liveamp_stream_keeps_its_emg_leaves_its_markers_and_refuses_other_channels():
+    name = f"LiveAmpSN-{_unique()}"
+    emg = [("Fz", "EEG", "microvolts"), ("biceps", "bipolar", "microvolts"),
+           ("triceps", "AUX", "microvolts")]
+    markers = [("Markers", "Markers", ""), ("STETriggerIn", "STETriggerIn", "integer")]
+    outlet = _liveamp_outlet(name, emg + markers)
+    inlet = LslEmgInlet(name, timeout_s=5.0).open(5.0)
+    assert inlet.labels == ("Fz", "biceps", "triceps")
+    assert len(inlet.notes) == 1
+    assert "Markers" in inlet.notes[0]
+    assert "STETriggerIn" in inlet.notes[0]
+    _wait_for(outlet.have_consumers, "the inlet connecting")
+    outlet.push_chunk(np.array([[1.0, 2.0, 3.0, -1.0, 5.0]] * 4, dtype=np.float32))
+    _, x = _receive(inlet, 4)
+    np.testing.assert_allclose(x[0], [1e-6, 2e-6, 3e-6], rtol=1e-6)
+    inlet.close()
+    accelerated = f"LiveAmpSN-{_unique()}"
+    other = _liveamp_outlet(accelerated, [*emg, ("ACC_X", "ACC", "milliGs"), *markers])
+    with pytest.raises(LslError, match=r"gives ACC_X in 'milliGs', not a voltage") as refused:
+        LslEmgInlet(accelerated, timeout_s=5.0)
+    assert "\n" not in str(refused.value)
+    counted = f"LiveAmpSN-{_unique()}"
+    third = _liveamp_outlet(counted, [*emg, ("SampleCounter", "SampleCounter", "")])
+    with pytest.raises(LslError, match=r"gives SampleCounter as type 'SampleCounter', not "
+                                       r"EMG"):
+        LslEmgInlet(counted, timeout_s=5.0, unit="uV")
+    only = f"LiveAmpSN-{_unique()}"
+    fourth = _liveamp_outlet(only, markers)
+    with pytest.raises(LslError, match=r"has no EMG channel, only Markers"):
+        LslEmgInlet(only, timeout_s=5.0)
+    del outlet, other, third, fourth
+
+
 def test_streams_are_listed():
     name = _unique()
     outlet = _emg_outlet(name, channels=4, rate=1000.0)

@@ -103,3 +103,32 @@ def test_a_bad_live_source_is_one_line(qtbot):
     assert "\n" not in tab.live_status.text()
     assert tab.connect_button.isEnabled()
     assert tab.capture is None
+
+
+class _QuietSource:
+    """An opened LSL source that left a trigger channel out (device.lsl.inlet.notes)."""
+
+    rate_hz, labels = 1000.0, ("biceps",)
+    notes = ("left out of the LSL stream named 'amp': triggerStream, a trigger channel "
+             "(unit 'code'): event codes, not EMG",)
+
+    def read(self, timeout_s=0.1):
+        import time
+
+        import numpy as np
+
+        time.sleep(min(timeout_s, 0.01))
+        return np.empty(0), np.empty((0, 1))
+
+    def close(self):
+        pass
+
+
+def test_a_channel_the_source_left_out_is_said_when_it_connects(qtbot):
+    tab = EmgTab()
+    qtbot.addWidget(tab)
+    tab._opened(None, (_QuietSource(), "lsl:amp"))
+    text = tab.live_status.text()
+    assert text.startswith("EMG streaming from lsl:amp at 1000 Hz.")
+    assert "Left out of the LSL stream named 'amp': triggerStream" in text
+    tab.stop_live()

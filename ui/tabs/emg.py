@@ -233,7 +233,9 @@ class EmgTab(QWidget):
         self.connect_button.setEnabled(True)
         self.connect_button.setText("Disconnect EMG")
         self.live_plot.show()
-        text = f"EMG streaming from {label} at {source.rate_hz:g} Hz."
+        text = " ".join((f"EMG streaming from {label} at {source.rate_hz:g} Hz.",
+                         *(f"{note[0].upper()}{note[1:]}." for note in
+                           getattr(source, "notes", ()))))
         self.live_status.setText(text)
         self._say(text)
         self.live_timer.start()

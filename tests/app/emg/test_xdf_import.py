@@ -51,16 +51,24 @@ def _live_trial(plain_trial, folder, origin, name="live.h5"):
     return path
 
 
-def _emg_outlet(source, unit="microvolts", scaling=None):
-    info = pylsl.StreamInfo(f"emg-{source}", "EMG", 3, EMG_HZ, pylsl.cf_int16, source)
+def _emg_outlet(source, unit="microvolts", scaling=None, extra=(), kind=None):
+    """Three EMG channels, then `extra` channels (label, type, unit) as an amplifier's app
+    appends them; `kind` each EMG channel's declared type (none by default)."""
+    info = pylsl.StreamInfo(f"emg-{source}", "EEG" if extra else "EMG", 3 + len(extra),
+                            EMG_HZ, pylsl.cf_int16, source)
     channels = info.desc().append_child("channels")
     for label in ("biceps", "triceps", "deltoid"):
         channel = channels.append_child("channel")
         channel.append_child_value("label", label)
+        if kind:
+            channel.append_child_value("type", kind)
         if unit:
             channel.append_child_value("unit", unit)
         if scaling:
             channel.append_child_value("scaling_factor", scaling)
+    for label, kind_, unit_ in extra:
+        channels.append_child("channel").append_child_value("label", label) \
+            .append_child_value("type", kind_).append_child_value("unit", unit_)
     return pylsl.StreamOutlet(info)
 
 
@@ -72,7 +80,8 @@ def _wait(condition, what, timeout=HANG_S):
 
 
 def _record(tmp_path, trial_path, emg_start_s=0.5, unit="microvolts", with_robot=True,
-            periods=None, scaling=None, console_ahead_s=0.0, emg_ahead_s=0.0):
+            periods=None, scaling=None, console_ahead_s=0.0, emg_ahead_s=0.0, extra=(),
+            kind=None):
     """Record the trial's ticks as the console's outlet publishes them, an int16 EMG
     stream of known samples at known stamps, and a marker; returns (xdf, stamps, samples),
     the stamps on the console's clock. The console's and the EMG computer's clocks run
@@ -83,7 +92,7 @@ def _record(tmp_path, trial_path, emg_start_s=0.5, unit="microvolts", with_robot
     tag = uuid.uuid4().hex[:10]
     robot_source, emg_source = f"robot-{tag}", f"emg-{tag}"
     outlet = RobotStateOutlet(500.0, source_id=robot_source) if with_robot else None
-    emg = _emg_outlet(emg_source, unit, scaling)
+    emg = _emg_outlet(emg_source, unit, scaling, extra, kind)
     sources = [emg_source] + ([robot_source, robot_source + "-events"] if with_robot else [])
     recorder = XdfRecorder(sources, {emg_source: emg_ahead_s, robot_source: console_ahead_s,
                                      robot_source + "-events": console_ahead_s})
@@ -91,7 +100,11 @@ def _record(tmp_path, trial_path, emg_start_s=0.5, unit="microvolts", with_robot
     periods = np.full(3000, 1.0 / EMG_HZ) if periods is None else periods
     stamps = origin + emg_start_s + np.concatenate(([0.0], np.cumsum(periods[1:])))
     emg_clock = stamps - console_ahead_s + emg_ahead_s  # the same moments on the EMG's
-    samples = ((np.arange(9000).reshape(3000, 3) * 37) % 20001 - 10000).astype(np.int16)
+    width = 3 + len(extra)
+    samples = ((np.arange(3000 * width).reshape(3000, width) * 37) % 20001
+               - 10000).astype(np.int16)
+    samples[:, 3:] = -1  # a trigger channel: -1, and the code where one came
+    samples[::500, 3:] = 7
     if with_robot:
         _wait(outlet.have_consumers, "the recorder connecting")
         records = empty_records(data.n_samples)
@@ -154,6 +167,31 @@ def test_a_raw_integer_stream_is_imported_in_volts_by_its_scaling_factor(plain_t
     import_xdf(trial, xdf)
     np.testing.assert_allclose(read_emg(trial).samples, samples.astype(float) * 1e-7,
                                rtol=1e-12)
+
+
+def test_a_brainamp_stream_is_imported_without_its_trigger_channel_with_one_note(
+        plain_trial, tmp_path):
+    """BrainAmpSeries' app appends `triggerStream` (type EEG, unit `code`) to its EEG-typed
+    data stream: the whole stream was refused for that one channel."""
+    trial = _live_trial(plain_trial, tmp_path, time.monotonic() - 30.0)
+    xdf, _, samples = _record(tmp_path, trial, kind="EEG", scaling="0.1",
+                              extra=[("triggerStream", "EEG", "code")])
+    done = import_xdf(trial, xdf, stream=f"emg-emg-{xdf.stem}")  # the recorder's tag
+    emg = read_emg(trial)
+    np.testing.assert_allclose(emg.samples, samples[:, :3].astype(float) * 1e-7, rtol=1e-12)
+    assert done.names == ("biceps", "triceps", "deltoid")
+    (left_out,) = [n for n in done.notes if "triggerStream" in n]
+    assert "unit 'code'" in left_out
+
+
+def test_a_channel_that_is_neither_emg_nor_a_trigger_still_refuses_the_stream(plain_trial,
+                                                                              tmp_path):
+    trial = _live_trial(plain_trial, tmp_path, time.monotonic() - 30.0)
+    xdf, _, _ = _record(tmp_path, trial, extra=[("ACC_X", "ACC", "milliGs")])
+    with pytest.raises(EmgImportError, match=r"gives ACC_X in 'milliGs', not a voltage") \
+            as refused:
+        import_xdf(trial, xdf, stream=f"emg-emg-{xdf.stem}")
+    assert "\n" not in str(refused.value)
 
 
 def test_a_recording_of_another_trial_or_without_the_robot_is_refused_in_one_line(
