@@ -388,6 +388,7 @@ def _open_source(args):
 def cmd_record(args: argparse.Namespace) -> int:
     import time
 
+    from app.emg.importing import csv_column_names
     from core.emg.mvc import mvc_from_contraction
     from device.emg.capture import EmgCapture
     from device.emg.files import write_plain_csv
@@ -398,6 +399,8 @@ def cmd_record(args: argparse.Namespace) -> int:
     if args.source.strip().startswith("lsl:"):
         _liblsl_log(args)
     source, label = _open_source(args)
+    for note in getattr(source, "notes", ()):  # an LSL stream's trigger channel left out
+        print(f"note: {note}", flush=True)
     capture = EmgCapture(source).start()
     if args.muscle:
         print(f"Contract the {args.muscle} as hard as you can, and hold it "
@@ -420,7 +423,11 @@ def cmd_record(args: argparse.Namespace) -> int:
     width = captured.samples.shape[1]
     if not 1 <= args.channel <= width:
         raise CommandError(f"--channel {args.channel}: the source has channels 1 to {width}")
-    names = tuple(f"EMG{i + 1}" for i in range(width))
+    # the columns keep the names the source declares (an LSL stream's labels), as the
+    # trial file does; `--contraction MUSCLE=FILE:LABEL` picks one
+    names, renamed = csv_column_names(captured.labels, width)
+    if renamed:
+        print(f"note: {renamed}")
     write_plain_csv(output, names, captured.stamps_s - captured.stamps_s[0], captured.samples,
                     overwrite=args.overwrite)
     print(f"recorded {captured.samples.shape[0]} samples of {width} channels at "

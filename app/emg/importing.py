@@ -159,6 +159,25 @@ def channel_names(declared, width: int) -> tuple[str, ...]:
     return tuple(f"EMG{i + 1}" for i in range(width))
 
 
+CSV_UNSAFE = frozenset(',;"[]\r\n')
+"""Characters a plain CSV's column name cannot hold as it is (device.emg.files: the
+separator, the quote, the unit's brackets, a line's end)."""
+
+
+def csv_column_names(declared, width: int) -> tuple[tuple[str, ...], str]:
+    """A live source's channels as `rehab emg record` names its CSV columns: as the trial
+    file does (channel_names), unless a declared name cannot be a plain CSV column as it
+    is; then EMG1… and one line why (else '')."""
+    names = channel_names(declared, width)
+    unsafe = [n for n in names if set(n) & CSV_UNSAFE or n != n.strip()]
+    if not unsafe:
+        return names, ""
+    return (tuple(f"EMG{i + 1}" for i in range(width)),
+            f"the source's channel name {unsafe[0]!r} cannot be a CSV column (no , ; \" [ ] "
+            "or spaces around it): the columns are EMG1 to "
+            f"EMG{width}, in the source's order")
+
+
 LIVE_MARGIN_S = 2.0
 BUSY_RETRY_S = 10.0
 

@@ -13,6 +13,7 @@ own 2 ms ticks, with the same settings, so trial and MVC are always processed al
 from __future__ import annotations
 
 import os
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -62,9 +63,15 @@ def _contraction_channel(contraction: Contraction, names: tuple[str, ...],
             return names.index(name)
     if len(names) == 1 and not contraction.channel:
         return 0
+    # EMG<k>, the k-th column: what `rehab emg record` named every column before it kept
+    # the stream's labels, so commands written then pick the same channel of a newer file
+    numbered = re.fullmatch(r"EMG([1-9][0-9]*)", contraction.channel or "")
+    if numbered and int(numbered[1]) <= len(names):
+        return int(numbered[1]) - 1
     raise EmgImportError(f"MVC file {contraction.path.name} has no channel "
                          f"{(contraction.channel or contraction.muscle)!r} "
-                         f"(it has {', '.join(names)}); name it: MUSCLE=FILE:CHANNEL")
+                         f"(it has {', '.join(names)}); name it: MUSCLE=FILE:CHANNEL, "
+                         "CHANNEL a column's name or EMG1, EMG2 … by its place")
 
 
 def session_mvc(

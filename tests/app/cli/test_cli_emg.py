@@ -169,6 +169,76 @@ def test_record_ends_at_once_when_its_source_stops_keeping_what_came(tmp_path, c
     assert read_emg_file(out_file).samples.shape == (300, 2)
 
 
+class _LabelledSource:
+    """An LSL stream as device.lsl.inlet gives it: labelled channels, a trigger channel
+    left out (its note), the samples of a contraction file, then nothing."""
+
+    notes = ("left out of the LSL stream named 'amp': triggerStream, a trigger channel "
+             "(unit 'code'): event codes, not EMG",)
+
+    def __init__(self, data, labels):
+        self.rate_hz, self.labels, self.data, self.sent = data.rate_hz, labels, data, 0
+
+    def read(self, timeout_s=0.1):
+        import time
+
+        k = self.sent
+        if k >= self.data.t_s.size:
+            time.sleep(min(timeout_s, 0.01))
+            return np.empty(0), np.empty((0, len(self.labels)))
+        self.sent = min(k + 500, self.data.t_s.size)
+        return 1000.0 + np.arange(k, self.sent) / self.rate_hz, self.data.samples[k:self.sent]
+
+    def close(self):
+        pass
+
+
+def test_record_names_its_columns_by_the_stream_labels_and_mvc_picks_them(
+        made, tmp_path, capsys, monkeypatch):
+    """`rehab emg record` wrote EMG1…EMGn and dropped the stream's labels: a CSV column is
+    picked by label now, and by EMG<k> (its place) as commands written before do."""
+    import app.cli.emg as emg_cli
+
+    path, channel = made[2]["biceps"]
+    contraction = read_emg_file(path)
+    labels = tuple(f"lead {name}" for name in contraction.names)
+    monkeypatch.setattr(emg_cli, "_open_source",
+                        lambda args: (_LabelledSource(contraction, labels), "lsl:amp"))
+    out_file = tmp_path / "mvc.csv"
+    code, out, err = run(["emg", "record", "lsl:amp", "--seconds", "0.5", "--output",
+                          str(out_file)], capsys)
+    assert code == 0, err
+    assert "note: left out of the LSL stream named 'amp': triggerStream" in out
+    recorded = read_emg_file(out_file)
+    assert recorded.names == labels
+    column = contraction.names.index(channel)
+    values = []
+    for picked in (labels[column], f"EMG{column + 1}"):
+        trial = shutil.copy(made[1], tmp_path / f"s{len(values)}.h5")
+        code, out, err = run(["emg", "mvc", str(trial), "--contraction",
+                              f"biceps={out_file}:{picked}"], capsys)
+        assert code == 0, err
+        values.append(read_emg(trial).mvc["biceps"]["value_V"])
+    assert values[0] == values[1]
+    assert read_emg(trial).mvc["biceps"]["channel"] == labels[column]
+
+
+def test_record_keeps_emg_numbers_for_labels_a_csv_cannot_hold(tmp_path, capsys,
+                                                              monkeypatch):
+    import app.cli.emg as emg_cli
+
+    data = read_emg_file(DATA / "plain.csv")
+    labels = ("biceps, long head", *(f"m{k}" for k in range(1, len(data.names))))
+    monkeypatch.setattr(emg_cli, "_open_source",
+                        lambda args: (_LabelledSource(data, labels), "lsl:amp"))
+    out_file = tmp_path / "mvc.csv"
+    code, out, err = run(["emg", "record", "lsl:amp", "--seconds", "0.3", "--output",
+                          str(out_file)], capsys)
+    assert code == 0, err
+    assert "note: the source's channel name 'biceps, long head' cannot be a CSV column" in out
+    assert read_emg_file(out_file).names == tuple(f"EMG{k + 1}" for k in range(len(labels)))
+
+
 @pytest.mark.parametrize(("args", "expected"), [
     (["emg", "import", "missing.h5", "x.csv"], "no such trial file"),
     (["emg", "show", "99"], "no registry"),
