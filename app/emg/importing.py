@@ -138,7 +138,7 @@ def import_capture(trial_path: str | os.PathLike, captured, *, names, muscles=No
                              "; check the EMG source's status before the next trial")
     data = EmgData(tuple(names), captured.rate_hz, captured.stamps_s, captured.samples, source,
                    Path(source))
-    notes = []
+    notes = list(getattr(captured, "notes", ()))  # the source's own (a trigger left out)
     if captured.missing:
         notes.append(f"{captured.missing} samples missing in the capture")
     if captured.error:

@@ -46,6 +46,9 @@ class Captured:
     labels: tuple[str, ...] = ()
     """The channels' names as the source declares them (an LSL stream's labels), one per
     column, or () when it names none."""
+    notes: tuple[str, ...] = ()
+    """What the source said of itself when it opened (an LSL stream's trigger channel left
+    out: device.lsl.inlet), kept with the EMG it gave (app.emg.importing)."""
 
 
 class EmgCapture:
@@ -185,9 +188,11 @@ class EmgCapture:
         if labels and self.channels is not None:
             labels = tuple(labels[k] for k in self.channels) if max(
                 self.channels, default=-1) < len(labels) else ()
+        notes = tuple(getattr(self.source, "notes", ()) or ())
         if not chunks:
             width = 0 if self.channels is None else len(self.channels)
-            return Captured(np.empty(0), np.empty((0, width)), rate, 0, self.error, labels)
+            return Captured(np.empty(0), np.empty((0, width)), rate, 0, self.error, labels,
+                            notes)
         t = np.concatenate([c[0] for c in chunks])
         x = np.concatenate([c[1] for c in chunks])
         origin = getattr(self.source, "origin_s", None)
@@ -196,4 +201,4 @@ class EmgCapture:
         span = (t[-1] - t[0]) * rate + 1 if t.size > 1 else t.size
         missing = max(0, round(span) - t.size)
         return Captured(t, x, rate, missing, self.error,
-                        labels if len(labels) == x.shape[1] else ())
+                        labels if len(labels) == x.shape[1] else (), notes)

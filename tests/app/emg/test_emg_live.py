@@ -282,3 +282,40 @@ def test_an_lsl_stream_whose_sender_stops_ends_the_capture():
     captured = _ended(capture)
     assert "stopped streaming" in captured.error
     assert captured.samples.shape == (400, 2)
+
+
+def test_what_the_source_said_of_itself_is_kept_with_the_trial_s_emg(plain_trial, tmp_path):
+    """An LSL stream's trigger channel left out (device.lsl.inlet's `notes`) was said on the
+    EMG tab and by `rehab emg record`, but a live trial's /emg did not keep it: a reader of
+    the file could not tell a channel had been left out."""
+    left_out = "triggerStream, a trigger channel (unit 'code'), left out"
+
+    class Source:
+        rate_hz = 1000.0
+        labels = ("biceps", "triceps")
+        notes = (left_out,)
+
+        def __init__(self):
+            self.sent = False
+
+        def read(self, timeout_s=0.1):
+            if self.sent:
+                time.sleep(timeout_s)
+                return np.empty(0), np.empty((0, 2))
+            self.sent = True
+            stamps = time.monotonic() + np.arange(500) / 1000.0
+            return stamps, np.ones((500, 2)) * 1e-5
+
+        def close(self):
+            pass
+
+    origin = time.monotonic()
+    capture = EmgCapture(Source()).start()
+    _capture_until(capture, 500)
+    captured = capture.stop()
+    assert captured.notes == (left_out,)
+    trial = _live_trial(plain_trial, tmp_path, origin)
+    done = import_capture(trial, captured, names=captured.labels, source="lsl:amp")
+    assert left_out in done.notes
+    assert left_out in read_emg(trial).notes
+
