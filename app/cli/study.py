@@ -123,6 +123,8 @@ def cmd_study_analyse(args: argparse.Namespace) -> int:
     print(f"analysed {len(result.trials)} trial(s) of {selection.what} on "
           f"{result.workers} worker(s) in {result.elapsed_s:.1f} s "
           f"({result.files_per_s:.1f} files/s)")
+    for line in selection.settled:
+        print(f"  note: {line}")
     if selection.left_out_invalid:
         print(f"  note: {selection.left_out_invalid} trial(s) marked invalid left out "
               "(`rehab trials CODE` says why); --include-invalid analyses them too")

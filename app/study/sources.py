@@ -51,6 +51,10 @@ class Selection:
     """What was asked, for a line to the researcher: 'the folder …', 'patient P…'."""
     left_out_invalid: int = 0
     """Trials marked invalid that were left out (0 with include_invalid)."""
+    settled: tuple[str, ...] = ()
+    """A line for each trial whose file a stopped console had written into without the
+    registry hearing of it, settled before it was read (app.trials.rewrite.settle_all):
+    the researcher hears it, as an export's notes say it."""
 
     def __len__(self) -> int:
         return len(self.trials)
@@ -109,8 +113,9 @@ def from_registry(registry: RecordStore, query: str, *, include_invalid: bool = 
         codes = [query]
         what = f"patient {query}"
     left: list[int] = []
+    settled: list[str] = []
     sources = sources_from_registry(registry, codes, include_invalid=include_invalid,
-                                    left_out=left)
+                                    left_out=left, settled=settled)
     marks = _reasons(registry) if include_invalid else {}
     root = registry.data_dir.root
     trials = tuple(StudyTrial(source, _relative(source, root), site or source.station,
@@ -120,7 +125,7 @@ def from_registry(registry: RecordStore, query: str, *, include_invalid: bool = 
                  "them)") if left else "no trials"
         raise AppError(f"{what} has {holds} in the registry of {root}: record trials "
                        "first, or give a folder of trial files")
-    return Selection(trials, root, what, len(left))
+    return Selection(trials, root, what, len(left), tuple(settled))
 
 
 def _site_of(file: str) -> str | None:

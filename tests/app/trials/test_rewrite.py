@@ -202,3 +202,30 @@ def test_a_mark_whose_writer_is_at_work_is_left_alone(data, patient, capsys):
         assert registry.trial(trial_id).checksum == before
     finally:
         os.close(fd)
+
+
+def test_a_study_of_the_registry_says_the_trial_it_settled(data, patient, tmp_path, capsys,
+                                                          monkeypatch):
+    """The export said a trial it settled (its notes); `rehab study analyse CODE` settled
+    it in its log only, so a researcher did not hear that a trial's file had been written
+    into without the registry knowing."""
+    from app.errors import RegistryError
+    from app.trials.rewrite import mark_of
+
+    trial_id = _registered_trial(patient, capsys)
+    registry = Registry(DataDir(data))
+
+    def full(self, *args, **kwargs):
+        raise RegistryError("the registry cannot be written: disk I/O error")
+
+    with monkeypatch.context() as patched:
+        patched.setattr(Registry, "record_rewritten", full)
+        code, _, _ = run(["emg", "import", str(trial_id), str(EMG), "--muscles", MUSCLES],
+                         capsys)
+    assert code == 2
+    assert mark_of(registry.trial_path(trial_id)).exists()
+    code, out, err = run(["study", "analyse", patient, "--workers", "1",
+                          "--output", str(tmp_path / "study")], capsys)
+    assert code == 0, err
+    assert f"note: trial {trial_id}: imported EMG written into its file" in out
+    assert registry.verify_trial_file(trial_id) is None
