@@ -5,28 +5,22 @@ kept the trial's end without its cause (a CI run: a trial whose file could not b
 listed as lost with no "The trial file could not be written"). In this process, no ticks
 timed: each tick is called by hand."""
 
-import multiprocessing as mp
 from types import SimpleNamespace
 
 from core.trial import THESIS_SUBJECT
 from device.loop.messages import BackendConfig, Build, Connect, FaultRaised, Start
-from device.loop.process import DeviceLoop, LoopConfig
 from device.loop.states import State
 from device.recording.messages import EndTrial
-from device.recording.ring import RecordRing
 from device.recording.trialfile.layout import SubjectInfo
+from tests.device.bare_loop import bare_loop
 
 
 def test_the_console_hears_the_fault_before_the_recorder_hears_the_trials_end():
-    console, loop_end = mp.Pipe()
-    ring = RecordRing.create(4096)
     recording_failed = SimpleNamespace(value=0)
-    loop = DeviceLoop(loop_end, None, ring, SimpleNamespace(value=0), SimpleNamespace(value=0),
-                      recording_failed, LoopConfig(compiled=False, realtime=False))
-    said: list = []
-    loop._send = lambda message: said.append(("console", message))
-    loop._to_recorder = lambda message: said.append(("recorder", message))
-    try:
+    with bare_loop(4096, recording_failed=recording_failed) as (loop, _console):
+        said: list = []
+        loop._send = lambda message: said.append(("console", message))
+        loop._to_recorder = lambda message: said.append(("recorder", message))
         loop._command(Build(1, THESIS_SUBJECT.replace(repetitions=1), BackendConfig()))
         loop._command(Connect(2))
         loop.t0 = loop.clock.now()
@@ -42,9 +36,3 @@ def test_the_console_hears_the_fault_before_the_recorder_hears_the_trials_end():
         assert loop.state == State.FAULTED
         order = [(to, type(message)) for to, message in said]
         assert order.index(("console", FaultRaised)) < order.index(("recorder", EndTrial))
-    finally:
-        loop._disconnect_backend()
-        ring.close()
-        ring.unlink()
-        console.close()
-        loop_end.close()

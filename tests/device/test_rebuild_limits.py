@@ -4,20 +4,18 @@ simulator is reopened), so a force limit the therapist lowered for a fragile arm
 unheard (50 N still latched, not 20 N) and the exercise area stayed the first exercise's.
 Found on the stand-in boards (tests/device/fakes) with resources/hardware.example.toml."""
 
-import multiprocessing as mp
 import shutil
 import sys
 from pathlib import Path
-from types import SimpleNamespace
 
 import pytest
 
 from core.trial import THESIS_SUBJECT
 from device.loop.messages import BackendConfig, Build, Connect, Reply
-from device.loop.process import DeviceLoop, LoopConfig
+from device.loop.process import LoopConfig
 from device.loop.states import State
-from device.recording.ring import RecordRing
 from device.safety.limits import SafetyLimits
+from tests.device.bare_loop import bare_loop
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
@@ -44,25 +42,17 @@ def connected(monkeypatch, tmp_path):
     shutil.copy(HERE / "data" / "FT00000_Nano25_v11.cal", tmp_path / "FT00000.cal")
     settings = tmp_path / "robot.toml"
     shutil.copy(ROOT / "resources" / "hardware.example.toml", settings)
-    console, loop_end = mp.Pipe()
-    ring = RecordRing.create(1024)
-    loop = DeviceLoop(loop_end, None, ring, SimpleNamespace(value=0), SimpleNamespace(value=0),
-                      SimpleNamespace(value=0),
-                      LoopConfig(compiled=False, realtime=False, timing_check_s=0.0))
-    loop.said = []
-    loop._send = loop.said.append
-    loop.hardware = BackendConfig(kind="quanser", hardware_settings=str(settings))
-    loop._command(Build(1, THESIS_SUBJECT.replace(repetitions=1), loop.hardware))
-    loop._command(Connect(2))
-    assert loop.state == State.CONNECTED, loop.said
     try:
-        yield loop
+        with bare_loop(1024, LoopConfig(compiled=False, realtime=False,
+                                        timing_check_s=0.0)) as (loop, _console):
+            loop.said = []
+            loop._send = loop.said.append
+            loop.hardware = BackendConfig(kind="quanser", hardware_settings=str(settings))
+            loop._command(Build(1, THESIS_SUBJECT.replace(repetitions=1), loop.hardware))
+            loop._command(Connect(2))
+            assert loop.state == State.CONNECTED, loop.said
+            yield loop
     finally:
-        loop._disconnect_backend()
-        ring.close()
-        ring.unlink()
-        console.close()
-        loop_end.close()
         _purge("quanser")
         _purge("nidaqmx")
 

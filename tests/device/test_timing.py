@@ -21,6 +21,7 @@ from device.recording.ring import RecordRing
 from device.safety.limits import SafetyLimits
 from device.sim.faultinjection import FaultInjectingBackend
 from device.sim.simulator import SimulatorBackend
+from tests.device.bare_loop import bare_loop
 
 PARAMS = THESIS_SUBJECT.replace(repetitions=1)
 LIMITS = SafetyLimits()
@@ -104,17 +105,8 @@ def in_process_loop(monkeypatch):
         return result["late"]
 
     monkeypatch.setattr(loop_commands, "measure_wakeups", measured)
-    console, loop_end = mp.Pipe()
-    ring = RecordRing.create(64)
-    flag = SimpleNamespace(value=0)
-    loop = DeviceLoop(loop_end, None, ring, flag, SimpleNamespace(value=0),
-                      SimpleNamespace(value=0), LoopConfig(compiled=False, realtime=False))
-    yield SimpleNamespace(loop=loop, console=console, calls=calls, result=result)
-    loop._disconnect_backend()
-    ring.close()
-    ring.unlink()
-    console.close()
-    loop_end.close()
+    with bare_loop(64) as (loop, console):
+        yield SimpleNamespace(loop=loop, console=console, calls=calls, result=result)
 
 
 def _events(console):

@@ -10,8 +10,6 @@ WORKSPACE in the tick, as before; a joint beyond its limit or the links folding 
 always (the position itself is then suspect)."""
 
 import math
-import multiprocessing as mp
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -31,14 +29,14 @@ from device.loop.messages import (
     Reply,
     Start,
 )
-from device.loop.process import AREA_CHECK_TICKS, DeviceLoop, LoopConfig
+from device.loop.process import AREA_CHECK_TICKS
 from device.loop.states import State
 from device.recording.messages import TrialEvent
-from device.recording.ring import RecordRing
 from device.recording.trialfile.layout import SubjectInfo
 from device.safety.faults import Fault
 from device.safety.limits import SafetyLimits
 from device.safety.supervisor import SafetySupervisor
+from tests.device.bare_loop import bare_loop
 
 ROBOT = RobotModel()
 PERIOD = 0.002
@@ -170,28 +168,18 @@ class Hand:
 
 @pytest.fixture
 def loop():
-    console, loop_end = mp.Pipe()
-    ring = RecordRing.create(1 << 15)
-    loop = DeviceLoop(loop_end, None, ring, SimpleNamespace(value=0), SimpleNamespace(value=0),
-                      SimpleNamespace(value=0), LoopConfig(compiled=False, realtime=False))
-    loop.said, loop.recorded = [], []
-    loop._send = loop.said.append
-    loop._to_recorder = loop.recorded.append
-    loop._command(Build(1, THESIS_SUBJECT.replace(repetitions=1), BackendConfig(seed=3)))
-    loop._command(Connect(2))
-    loop.backend = hand = Hand(loop.backend)
-    loop.engine = TickEngine(hand, loop.pipeline, loop.supervisor)
-    loop.t0 = loop.clock.now()
-    loop._beat = (0, loop.t0)
-    loop.k = 0
-    try:
+    with bare_loop(1 << 15) as (loop, _console):
+        loop.said, loop.recorded = [], []
+        loop._send = loop.said.append
+        loop._to_recorder = loop.recorded.append
+        loop._command(Build(1, THESIS_SUBJECT.replace(repetitions=1), BackendConfig(seed=3)))
+        loop._command(Connect(2))
+        loop.backend = hand = Hand(loop.backend)
+        loop.engine = TickEngine(hand, loop.pipeline, loop.supervisor)
+        loop.t0 = loop.clock.now()
+        loop._beat = (0, loop.t0)
+        loop.k = 0
         yield loop
-    finally:
-        loop._disconnect_backend()
-        ring.close()
-        ring.unlink()
-        console.close()
-        loop_end.close()
 
 
 def tick(loop, n=1, poses=None):
