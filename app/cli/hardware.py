@@ -74,6 +74,8 @@ def settings_lines(settings, calibration) -> list[str]:
     links = robot.limit_problem(*home)
     return [
         f"{settings.source}: the hardware settings are valid.",
+        f"[robot] {settings.robot.name!r}: every trial on it records this name, and a learned "
+        "model runs on the robot whose trials it learned from",
         "[quanser]",
         f"  card: {q.board_type} {q.board_identifier!r}, options {q.card_options!r}",
         f"  encoders: inputs {_pair(q.encoder_channels)}, signs {_signs(q.encoder_signs)}; "

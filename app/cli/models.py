@@ -78,13 +78,16 @@ def cmd_list(args: argparse.Namespace) -> int:
             try:
                 if emg:
                     _read(folder / f"{name}.json", emg, signed=True)
+                    state = "usable"
                 else:
                     # what the Parameters tab and `rehab run --learned-model` check: a
-                    # signed, sound file is not yet a model of the robot (a pendulum's)
-                    from app.learning.library import robot_model
+                    # signed, sound file is not yet a model of the robot (a pendulum's);
+                    # on a real robot only a model of that robot's trials (by its name)
+                    from app.learning.library import robot_model, robot_of
 
-                    robot_model(folder, name)
-                state = "usable"
+                    robot = robot_of(robot_model(folder, name))
+                    state = "usable on the simulator" + (f" and on robot {robot}" if robot
+                                                         else "")
             except ModelFileError as exc:
                 state = f"refused: {exc.reason} ({exc.problem})"
             print(f"{'emg' if emg else 'learned':<8} {name:<32} {state}")

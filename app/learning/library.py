@@ -10,7 +10,9 @@ robot model), or is a recurrent model (`kind`: its state ran away in closed loop
 docs/validation.md, "Learned inverse dynamics in the computed-torque PID").
 
 On a real robot only a model of that robot may drive it (`another robot`): its data must
-come from trials on that backend alone (`system` rehab-robot-quanser). A model trained on
+come from trials on that robot alone (`system` rehab-robot-quanser:<the robot's name>,
+the name its hardware settings give it: two robots of one design differ in their belts,
+friction and handle). A model trained on
 simulated trials has learned the simulator's dynamics (the ideal plant's or a realistic
 one drawn around the nominal model), not the robot's belts, friction and handle, and its
 computed-torque PID would command that model's torques on the robot; trials of both
@@ -23,7 +25,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from app.learning.modelfile import ModelFile, ModelFileError, read_model
-from app.learning.workflow import ROBOT_SYSTEM_PREFIX
+from app.learning.workflow import ROBOT_SYSTEM_PREFIX, robot_system
 from core.learning.tick import LearnedInverseDynamics
 from core.trial import MODEL_NAME
 
@@ -57,10 +59,11 @@ SIMULATOR_BACKEND = "simulator"
 
 
 def robot_model(folder: str | Path, name: str,
-                backend: str = SIMULATOR_BACKEND) -> ModelFile:
+                backend: str = SIMULATOR_BACKEND, robot_name: str = "") -> ModelFile:
     """The model file `name` in `folder`, read and checked as a model of the robot's
     inverse dynamics for the computed-torque PID on `backend` (a BackendConfig's kind:
-    "simulator" or "quanser"); ModelFileError otherwise."""
+    "simulator" or "quanser"; on a real robot `robot_name` is its settings' name);
+    ModelFileError otherwise."""
     path = model_path(folder, name)
     model = read_model(path)
     if model.spec.get("dof") != 2:
@@ -76,13 +79,22 @@ def robot_model(folder: str | Path, name: str,
         raise ModelFileError(path, "kind", f"a {model.spec.get('kind')} model cannot drive "
                              "the robot (a recurrent model's state ran away in closed loop)",
                              "Choose a DeLaN or FNN model.")
-    own = f"{ROBOT_SYSTEM_PREFIX}-{backend}"
+    own = robot_system(f"{backend}:{robot_name}")
     if backend != SIMULATOR_BACKEND and system != own:
+        unnamed = (" (its trials were recorded before robots were named, so which robot "
+                   "they ran on is unknown)" if system == robot_system(backend) else "")
         raise ModelFileError(path, "another robot", f"the model was trained on '{system}', "
-                             f"not on this robot's own trials ('{own}')",
+                             f"not on this robot's own trials ('{own}'){unnamed}",
                              "Train a model on trials recorded on this robot "
                              "(`rehab learn robot-data`), or run on the simulator.")
     return model
+
+
+def robot_of(model: ModelFile) -> str:
+    """The name of the real robot a model of the robot may drive besides the simulator
+    (its data's `system` rehab-robot-quanser:<name>), '' when none."""
+    system, prefix = str(model.data.get("system", "")), robot_system("quanser:")
+    return system[len(prefix):] if system.startswith(prefix) else ""
 
 
 def inverse_dynamics(model: ModelFile) -> LearnedInverseDynamics:

@@ -140,8 +140,30 @@ def evaluate_file(model_path: str | Path, data_path: str | Path,
 
 
 ROBOT_SYSTEM_PREFIX = "rehab-robot"
-"""What the `system` of robot data begins with (`robot_dataset` names it
-rehab-robot-<backend>): a model trained on such data is a model of the robot."""
+"""What the `system` of robot data begins with (`robot_dataset` names it `robot_system`
+of what its trials ran on): a model trained on such data is a model of the robot."""
+
+
+def robot_system(ran_on: str) -> str:
+    """The `system` of data from trials that ran on `ran_on` (`ran_on_of`):
+    rehab-robot-simulator, rehab-robot-quanser:<the robot's name>."""
+    return f"{ROBOT_SYSTEM_PREFIX}-{ran_on}"
+
+
+def ran_on_of(backend: str, events) -> str:
+    """What a trial ran on, from its file's `backend` and events: 'simulator', or on a real
+    robot its kind and the name its settings gave it ('quanser:<name>', the `start`
+    event's `robot`, device.hardware.settings.RobotIdentity); a robot's trial recorded
+    before robots were named says only its kind ('quanser'): which robot is unknown."""
+    kind = backend.split(" (")[0]
+    if kind == "simulator":
+        return kind
+    for event in events:
+        if event.get("kind") == "start":
+            name = (event.get("values") or {}).get("robot")
+            if isinstance(name, str) and name:
+                return f"{kind}:{name}"
+    return kind
 ROBOT_COORDINATES = ("theta_R1", "theta_R2")
 ROBOT_FORCES = ("tau_R1", "tau_R2")
 EXERCISE_PHASE = 2  # the `phase` channel: 2 while the exercise runs (docs/data-format.md)
@@ -196,8 +218,8 @@ def robot_dataset(trial_paths: Sequence[str | Path], *, acceleration: str = "des
         except DatasetError as exc:
             raise DatasetError(path, exc.problem, exc.advice) from None
         parts.append((q, qd, qdd, tau, np.full(len(q), index)))
-        systems.add(trial.backend.split(" (")[0])
-    own = f"{ROBOT_SYSTEM_PREFIX}-" + "-".join(sorted(systems))
+        systems.add(ran_on_of(trial.backend, trial.events))
+    own = robot_system("-".join(sorted(systems)))
     if system is not None and system != own and system.startswith(ROBOT_SYSTEM_PREFIX):
         # the robot's names are what the trials ran on: the Build on the real robot refuses
         # a model not of its own trials by this name (app.learning.library.robot_model), so

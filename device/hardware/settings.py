@@ -45,6 +45,11 @@ One sample has no spread at all: `tare_samples = 1` let any zero pass."""
 
 _PHYSICAL_CHANNEL = re.compile(r"^\s*([A-Za-z0-9_\-]+)/ai(\d+)(?::(\d+))?\s*$")
 
+ROBOT_NAME = re.compile(r"[A-Za-z0-9](?:[A-Za-z0-9 ._#-]{0,62}[A-Za-z0-9._#-])?")
+"""A robot's name: its label or serial number as written on it, 1-64 letters, digits,
+spaces, `. _ # -` (no space at either end): recorded in every trial it runs and in every
+learned model of it, so it must read the same wherever it is printed."""
+
 
 class HardwareSettingsError(BackendError):
     """The hardware settings file is missing, not valid TOML, or holds a refused value."""
@@ -70,6 +75,14 @@ def _string(
         raise _fail(where, key, value, allowed, why)
     if choices and value not in choices:
         raise _fail(where, key, value, " or ".join(repr(c) for c in choices), why)
+    return value
+
+
+def _check_robot_name(value: object, where: str) -> str:
+    if not isinstance(value, str) or not ROBOT_NAME.fullmatch(value):
+        raise _fail(where, "name", value, "1-64 letters, digits, spaces and . _ # -, as on "
+                    "the robot's label", "the robot's own name or serial number: every trial "
+                    "and every learned model of this robot records it")
     return value
 
 
@@ -196,12 +209,27 @@ class ForceSensorSettings:
 
 
 @dataclass(frozen=True, slots=True)
+class RobotIdentity:
+    """Which robot this is: `name`, as on its label (its serial number, or the department's
+    own name for it). Two robots of one design differ in their belts, friction and
+    handle, so a model learned on one is not a model of the other: every trial records the
+    name of the robot it ran on (its `start` event, docs/data-format.md) and a learned model
+    keeps the name of the robot its trials ran on (app.learning.library)."""
+
+    name: str
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "name", _check_robot_name(self.name, "RobotIdentity: [robot]"))
+
+
+@dataclass(frozen=True, slots=True)
 class HardwareSettings:
     """Everything the Quanser backend needs besides the robot model; `source` is the file."""
 
     quanser: QuanserSettings
     force_sensor: ForceSensorSettings
     source: str = "<settings given in code>"
+    robot: RobotIdentity = RobotIdentity("given-in-code")
 
 
 def _values_of(settings: object) -> dict[str, Any]:
@@ -373,12 +401,21 @@ def load_hardware_settings(path: str | Path) -> HardwareSettings:
             f"hardware settings file {where} is not valid TOML ({exc}). Correct it and "
             "connect again."
         ) from None
-    unknown = sorted(set(data) - {"quanser", "force_sensor"})
+    unknown = sorted(set(data) - {"robot", "quanser", "force_sensor"})
     if unknown:
         raise HardwareSettingsError(
             f"{where}: unknown table(s) or key(s) at the top level: {', '.join(unknown)}; "
-            "the file has one [quanser] and one [force_sensor] table."
+            "the file has one [robot], one [quanser] and one [force_sensor] table."
         )
+    if "robot" not in data:
+        # files written before robots were named: say why the table is new
+        raise HardwareSettingsError(
+            f'{where}: the [robot] table is missing. Add it with this robot\'s name, as on its '
+            'label or its serial number (`[robot]` then `name = "…"`): every trial records the '
+            "robot it ran on and a learned model runs only on the robot it was learned on "
+            "(see resources/hardware.example.toml).")
+    robot_values = _section(data, "robot", RobotIdentity, where)
+    robot_name = _check_robot_name(robot_values["name"], f"{where}: [robot]")
     q_values = _section(data, "quanser", QuanserSettings, where)
     f_values = _section(data, "force_sensor", ForceSensorSettings, where)
     q_checked = _check_quanser(q_values, where)
@@ -390,6 +427,7 @@ def load_hardware_settings(path: str | Path) -> HardwareSettings:
         quanser=QuanserSettings(**q_checked),
         force_sensor=ForceSensorSettings(**f_checked),
         source=where,
+        robot=RobotIdentity(robot_name),
     )
 
 

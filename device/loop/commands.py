@@ -288,6 +288,11 @@ class LoopCommands:
         self.engine = TickEngine(backend, self.pipeline, self.supervisor)
         self.fault_reported = Fault.NONE
         self.reading = None
+        # the real robot's name as its settings file gave it at this open: what the
+        # trial's backend and start event record (device.hardware.settings.RobotIdentity)
+        settings = getattr(getattr(backend, "inner", backend), "settings", None)
+        if settings is not None:
+            config = dataclasses.replace(config, robot_name=settings.robot.name)
         self.opened, self.seed_used = config, False
         return ""
 

@@ -57,6 +57,9 @@ class BackendConfig:
     push_at_connect_N: tuple[float, float] = (0.0, 0.0)
     """A simulated hand pushing the handle while the force sensor takes its zero at
     Connect (global frame, N; device.sim.simulator): to see the zero refused."""
+    robot_name: str = ""
+    """The real robot's name (its settings file's `[robot] name`), set by the loop from the
+    file as it opened it, never by the window: the trial records the robot it ran on."""
 
     @property
     def label(self) -> str:
@@ -64,6 +67,8 @@ class BackendConfig:
             clock = ", on the wall clock" if self.timing == "real" else ""
             seed = "a new seed each trial" if self.seed is None else f"seed {self.seed}"
             return f"simulator ({self.patient}, {seed}{clock})"
+        if self.robot_name:
+            return f"quanser (robot {self.robot_name}, {self.hardware_settings})"
         return f"quanser ({self.hardware_settings})"
 
 

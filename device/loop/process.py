@@ -351,6 +351,8 @@ class DeviceLoop(LoopCommands, StopCauses):
         if self.opened.kind == "simulator":
             started["seed"] = self.opened.seed  # the file runs again with it
             started["robot_seed"] = self.opened.robot_seed  # on the same simulated robot
+        elif self.opened.robot_name:
+            started["robot"] = self.opened.robot_name  # which robot (app.learning.library)
         self._to_recorder(TrialEvent(0.0, 0, "start", "trial started", started))
         if command.display is not None:
             self._tell_shown(command.display, 0)

@@ -17,6 +17,9 @@ from device.hardware.settings import (
 EXAMPLE = Path(__file__).resolve().parents[2] / "resources" / "hardware.example.toml"
 
 GOOD = """
+[robot]
+name = "Lab robot #2"
+
 [quanser]
 board_type = "q8"
 board_identifier = "1"
@@ -75,7 +78,7 @@ def test_the_example_file_loads_with_the_documented_values():
 def test_every_key_of_the_example_is_documented_by_a_comment_above_it():
     lines = EXAMPLE.read_text(encoding="utf-8").splitlines()
     keys = [i for i, line in enumerate(lines) if line and line[0].isalpha()]
-    assert len(keys) == 22
+    assert len(keys) == 23
     for i in keys:
         assert lines[i - 1].startswith("#"), lines[i]
 
@@ -98,7 +101,8 @@ def test_a_complete_file_loads_every_value(tmp_path):
 def test_defaults_fill_optional_keys_and_absolute_calibration_path_is_kept(tmp_path):
     cal = tmp_path / "elsewhere" / "FT1.cal"
     text = (
-        "[quanser]\nhoming_joint_angles_rad = [2.0, 0.5]\namplifier_gain_A_per_V = 0.5\n"
+        "[robot]\nname = 'R1'\n[quanser]\nhoming_joint_angles_rad = [2.0, 0.5]\n"
+        "amplifier_gain_A_per_V = 0.5\n"
         f"[force_sensor]\ncalibration_file = '{cal}'\n"
     )
     s = load_hardware_settings(_write(tmp_path, text))
@@ -183,7 +187,7 @@ def test_missing_required_key_is_named(tmp_path):
 
 
 def test_missing_table_unknown_table_bad_toml_and_missing_file(tmp_path):
-    force_only = GOOD[GOOD.index("[force_sensor]"):]
+    force_only = '[robot]\nname = "R"\n' + GOOD[GOOD.index("[force_sensor]"):]
     with pytest.raises(HardwareSettingsError, match=r"the \[quanser\] table is missing"):
         load_hardware_settings(_write(tmp_path, force_only))
     with pytest.raises(HardwareSettingsError, match="top level: amplifier"):
@@ -266,3 +270,33 @@ def test_a_file_that_is_not_a_small_plain_file_is_refused_at_once(tmp_path, kind
     assert "\n" not in message
     assert {"fifo": "not a plain file", "device": "not a plain file", "folder": "is a folder",
             "oversize": "more than such a file can be"}[kind] in message
+
+
+def test_the_robot_is_named_as_on_its_label(tmp_path):
+    """Every Quanser station's trials were "quanser", so a learned model of one robot passed
+    the Build of another: the file names its robot, and that name is checked."""
+    assert load_hardware_settings(_write(tmp_path, GOOD)).robot.name == "Lab robot #2"
+    assert load_hardware_settings(EXAMPLE).robot.name == "rehab-robot-1"
+
+
+def test_a_file_without_the_robot_table_says_what_to_add(tmp_path):
+    """A file written before robots were named: one line naming the table and why."""
+    without = GOOD.replace('[robot]\nname = "Lab robot #2"\n', "")
+    with pytest.raises(HardwareSettingsError) as caught:
+        load_hardware_settings(_write(tmp_path, without))
+    text = str(caught.value)
+    assert "the [robot] table is missing" in text
+    assert "serial number" in text
+    assert "learned model" in text
+    with pytest.raises(HardwareSettingsError, match=r"\[robot\] is missing name"):
+        load_hardware_settings(_write(tmp_path, GOOD.replace('name = "Lab robot #2"', "")))
+    with pytest.raises(HardwareSettingsError, match=r"\[robot\] has unknown key\(s\) serial"):
+        load_hardware_settings(_write(tmp_path, GOOD.replace('name = "Lab robot #2"',
+                                                             'name = "A"\nserial = "1"')))
+
+
+@pytest.mark.parametrize("name", ['""', '" R1"', '"R1 "', '"R1\\n"', '"a/b"', "7",
+                                  '"' + "x" * 65 + '"', '"Robot ü"'])
+def test_a_robot_name_that_would_not_read_the_same_everywhere_is_refused(tmp_path, name):
+    with pytest.raises(HardwareSettingsError, match=r"\[robot\] name = .* is not allowed"):
+        load_hardware_settings(_write(tmp_path, GOOD.replace('"Lab robot #2"', name)))

@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from core.trial import THESIS_SUBJECT
+from device.loop.commands import AREA_CHECK_TICKS
 from device.loop.messages import BackendConfig, Build, Connect, Reply
 from device.loop.process import LoopConfig
 from device.loop.states import State
@@ -19,6 +20,7 @@ from tests.device.bare_loop import bare_loop
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
+HOMING = (2.0943951, 0.5235988)  # resources/hardware.example.toml: 120°, 30°
 
 
 def _purge(package):
@@ -87,3 +89,36 @@ def test_a_force_limit_above_the_connected_sensor_is_refused_at_build(connected)
     assert "force_limit_N" in reply.message
     assert loop.plan is built  # nothing of the refused Build taken
     assert loop.supervisor.limits.force_limit_N == 50.0
+
+
+def test_the_robot_a_trial_runs_on_is_named_by_its_settings(connected):
+    """Every Quanser station's trials said "quanser (<settings file>)": which robot ran was
+    nowhere, and a model learned on one robot passed the Build of another."""
+    from device.loop.messages import Start
+    from device.recording.trialfile.layout import SubjectInfo
+
+    loop = connected
+    assert loop.opened.robot_name == "rehab-robot-1"  # the example's [robot] name
+    assert loop.opened.label.startswith("quanser (robot rehab-robot-1, ")
+    assert any("connected to the quanser (robot rehab-robot-1, " in str(m) for m in loop.said)
+    sent = []
+    loop._to_recorder = sent.append
+    # the homing pose is outside the exercise area: a person guides the handle inside
+    from quanser import hardware
+
+    board = hardware._BOARDS[("q8_usb", "0")]
+    robot = loop.plan.robot
+    target = robot.ik_terms(-0.25, 0.30)
+    for ch, (now, there, motor) in enumerate(zip(HOMING, target, robot.motors, strict=True)):
+        board.encoder_position[ch] += motor.counts_from_joint_angle(float(there) - now)
+    loop.t0 = loop.clock.now()
+    loop._beat = (0, loop.t0)
+    for k in range(AREA_CHECK_TICKS + 1):
+        loop._tick(k, loop.clock.now(), 0.0)
+    loop._command(Start(4, "/tmp/robot.h5", SubjectInfo("P1", 70.0, 0.3, 0.3, "right")))
+    begun = [m for m in sent if type(m).__name__ == "BeginTrial"]
+    started = [m for m in sent if getattr(m, "kind", "") == "start"]
+    assert begun, [m for m in loop.said if isinstance(m, Reply)][-1]
+    assert started
+    assert "robot rehab-robot-1" in begun[0].backend
+    assert started[0].values["robot"] == "rehab-robot-1"

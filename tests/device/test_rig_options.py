@@ -21,6 +21,9 @@ CAL = HERE / "data" / "FT00000_Nano25_v11.cal"
 RIG_FILES = ("tests/device/test_quanser.py", "tests/device/test_forcesensor.py")
 
 ROBOT_TOML = """\
+[robot]
+name = "stand-in"
+
 [quanser]
 board_type = "q8_usb"
 encoder_channels = [2, 5]

@@ -11,6 +11,8 @@ one tanh layer with fixed random input weights whose output layer is the least-s
 to the nominal robot's inverse dynamics, written as `rehab learn train` writes models."""
 
 import json
+import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -26,6 +28,8 @@ from core.robot import RobotModel
 from device.loop.states import State
 from tests.ui.session import build_connect_start, click, register_patient, short_trial
 from ui.main_window import MainWindow
+
+EXAMPLE_SETTINGS = Path(__file__).resolve().parents[2] / "resources" / "hardware.example.toml"
 
 pytestmark = pytest.mark.slow
 
@@ -135,7 +139,10 @@ def test_saved_models_appear_and_bad_ones_refuse_the_build(qtbot, window, models
     # on the robot, a model of simulated trials would command the simulator's dynamics
     p.hardware.click()
     p.settings_path.setText(str(models.parent / "robot.toml"))
-    assert "not on this robot's own trials ('rehab-robot-quanser')" in refused(
+    assert "robot.toml does not exist" in refused(  # which robot is its settings' to say
+        qtbot, win, "CT-PID (learned: fnn-robot)", "robot.toml")
+    shutil.copy(EXAMPLE_SETTINGS, models.parent / "robot.toml")
+    assert "not on this robot's own trials ('rehab-robot-quanser:rehab-robot-1')" in refused(
         qtbot, win, "CT-PID (learned: fnn-robot)", "another robot")
     p.simulator.click()
     # a model saved while the console runs appears when the Parameters tab is shown again

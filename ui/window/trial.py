@@ -78,11 +78,16 @@ class TrialActions:
             # that robot's own trials, is refused with its reason
             from app.learning.library import inverse_dynamics, robot_model
             from app.learning.modelfile import ModelFileError
+            from device.hardware.settings import HardwareSettingsError, load_hardware_settings
 
             try:
+                robot = ("", "simulator")
+                if choice.name == HARDWARE:  # only a model of this robot, by its name
+                    robot = (load_hardware_settings(choice.settings_path).robot.name,
+                             "quanser")
                 checked = robot_model(self.registry.data_dir.models_dir, params.learned_model,
-                                      "quanser" if choice.name == HARDWARE else "simulator")
-            except ModelFileError as exc:
+                                      robot[1], robot[0])
+            except (ModelFileError, HardwareSettingsError) as exc:
                 self._say(f"Build refused: {exc}", problem=True)
                 self.tabs.setCurrentWidget(self.parameters_tab)
                 return

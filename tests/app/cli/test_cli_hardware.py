@@ -30,6 +30,7 @@ def test_the_example_settings_are_printed_as_connect_would_use_them(settings, ca
     assert code == 0, err
     lines = out.splitlines()
     assert lines[0] == f"{settings}: the hardware settings are valid."
+    assert lines[1].startswith("[robot] 'rehab-robot-1': every trial on it records this name")
     assert "76750 counts per joint turn" in out
     # the example's homing pose, where the handle stands at every Connect (docs/safety.md H8)
     assert ("θ_R1 120.0°, θ_R2 30.0° (links 90.0° apart), the handle at (8.1, 48) cm"

@@ -121,10 +121,24 @@ def test_list_refuses_a_model_that_is_not_of_the_robot_as_a_trial_would(tmp_path
     code, out, _ = run(["models", "list"], capsys)
     assert code == 0
     lines = dict(line.split(None, 2)[1:] for line in out.splitlines())
-    assert lines["fnn-robot"] == "usable"
+    assert lines["fnn-robot"] == "usable on the simulator"
     assert lines["pendulum"] == ("refused: system (the model was trained on "
                                  "'sliding-inverted-pendulum', not on the robot)")
     code, _, err = run(["run", "--learned-model", "pendulum", "--repetitions", "1",
                         "--output", str(tmp_path / "t.h5")], capsys)
     assert code == 2
     assert "not on the robot" in err
+
+
+def test_list_says_which_robot_a_model_may_drive(tmp_path, monkeypatch, capsys):
+    """Robots are told apart by their settings' name: a model of one robot's trials drives
+    that robot (and the simulator), never another."""
+    models = installation(monkeypatch, tmp_path / "here")
+    params = {k: np.random.default_rng(0).normal(size=s)
+              for k, s in nw.param_shapes(SPEC).items()}
+    write_model(models / "lab-2.json", "lab-2", SPEC, params,
+                {"system": "rehab-robot-quanser:Lab robot #2", "dof": 2}, {}, {})
+    code, out, _ = run(["models", "list"], capsys)
+    assert code == 0
+    lines = dict(line.split(None, 2)[1:] for line in out.splitlines())
+    assert lines["lab-2"] == "usable on the simulator and on robot Lab robot #2"

@@ -69,21 +69,40 @@ def test_a_model_that_cannot_drive_the_robot_is_refused_by_its_reason(
 
 
 @pytest.mark.parametrize(("system", "on_robot"), [
-    ("rehab-robot-quanser", True),
+    ("rehab-robot-quanser:R1", True),
+    ("rehab-robot-quanser:R2", False),  # another robot of the same design
+    ("rehab-robot-quanser", False),  # trials recorded before robots were named
     ("rehab-robot-simulator", False),
-    ("rehab-robot-quanser-simulator", False),  # simulated trials mixed in
+    ("rehab-robot-quanser:R1-simulator", False),  # simulated trials mixed in
     ("rehab-robot-lab", False),  # a name given by hand says nothing of the trials
 ])
 def test_on_the_robot_only_a_model_of_its_own_trials_drives_it(tmp_path, system, on_robot):
     save(tmp_path, "m", "fnn", {"system": system, "dof": 2})
     assert robot_model(tmp_path, "m").name == "m"  # the simulator takes any robot model
     if on_robot:
-        assert robot_model(tmp_path, "m", "quanser").name == "m"
+        assert robot_model(tmp_path, "m", "quanser", "R1").name == "m"
         return
     with pytest.raises(ModelFileError) as caught:
-        robot_model(tmp_path, "m", "quanser")
+        robot_model(tmp_path, "m", "quanser", "R1")
     assert caught.value.reason == "another robot"
     text = str(caught.value)
-    assert f"trained on '{system}', not on this robot's own trials" in text
+    assert (f"trained on '{system}', not on this robot's own trials "
+            "('rehab-robot-quanser:R1')") in text
+    assert ("recorded before robots were named" in text) == (system == "rehab-robot-quanser")
     assert "rehab learn robot-data" in text
     assert "\n" not in text
+
+
+@pytest.mark.parametrize(("backend", "values", "ran_on"), [
+    ("simulator (weak, seed 1)", {"seed": 1, "robot_seed": 0}, "simulator"),
+    ("quanser (robot R1, /etc/rehab/robot.toml)", {"robot": "R1"}, "quanser:R1"),
+    ("quanser (/etc/rehab/robot.toml)", {"approach_ticks": 0}, "quanser"),  # before names
+])
+def test_what_a_trial_ran_on_is_its_robot_by_name(backend, values, ran_on):
+    from app.learning.workflow import ran_on_of, robot_system
+
+    events = [{"kind": "start", "values": values}, {"kind": "stop", "values": {}}]
+    assert ran_on_of(backend, events) == ran_on
+    # trials of two robots make data of neither: its system is no one robot's
+    mixed = robot_system("-".join(sorted({"quanser:R1", "quanser:R2"})))
+    assert mixed not in (robot_system("quanser:R1"), robot_system("quanser:R2"))
