@@ -46,6 +46,10 @@ SQLITE, POSTGRESQL = "sqlite", "postgresql"
 DRIVERS = {SQLITE: "pysqlite", POSTGRESQL: "psycopg"}
 """The one driver of each engine this console talks to (psycopg 3 for PostgreSQL)."""
 
+ALIASES = {"postgres": POSTGRESQL}
+"""`postgres://` is libpq's other spelling of `postgresql://` (psql and most tools take
+both), so a URL copied from them reads as the same server."""
+
 EXAMPLES = ("sqlite:////absolute/path/registry.sqlite3 or "
             "postgresql://user:password@host:port/database")
 
@@ -183,11 +187,14 @@ def parse_url(text: str, where: Path) -> sa.URL:
     except (ArgumentError, ValueError):
         raise refused(f"is not a URL that can be read: write it as {EXAMPLES} (a port is a "
                       "number; a password with @, : or / is written %40, %3A, %2F)") from None
-    engine, driver = url.get_backend_name(), url.get_driver_name()
+    # The scheme is read from the text alone: SQLAlchemy's get_driver_name() would load
+    # the dialect the scheme names, and one it has not (`postgres`, `http`) raised there.
+    scheme, _, driver = url.drivername.partition("+")
+    engine = ALIASES.get(scheme, scheme)
     if engine not in DRIVERS:
-        raise refused(f"has the scheme {engine!r}, which this console does not know: give "
+        raise refused(f"has the scheme {scheme!r}, which this console does not know: give "
                       f"{EXAMPLES}")
-    if "+" in url.drivername and driver != DRIVERS[engine]:
+    if driver and driver != DRIVERS[engine]:
         raise refused(f"asks for the driver {driver!r}: this console talks to {engine} "
                       f"with {DRIVERS[engine]}; write {engine}://…")
     url = url.set(drivername=f"{engine}+{DRIVERS[engine]}")
