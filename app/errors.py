@@ -43,6 +43,11 @@ class RegistryUnreachable(RegistryError):
     station records on its own until it returns (issue 32)."""
 
 
+class RegistryLoginRefused(RegistryUnreachable):
+    """The registry's server answered but refused this login (its password, its database,
+    its rights): not the network. A station records on its own meanwhile all the same."""
+
+
 class PatientNotFound(RegistryError, LookupError):
     """No patient has the code asked for."""
 

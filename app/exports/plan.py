@@ -205,6 +205,16 @@ def verified_place(source: TrialSource) -> tuple[Path, str]:
         problems.append(f"{place} is not the file recorded (its SHA-256 is {found[:12]}…, "
                         f"the registry's {source.checksum[:12]}…: changed or replaced since "
                         "the trial ended)")
+    if source.stored_copy is None and source.station and all(
+            problem.endswith(" is missing") for problem in problems):
+        # never copied to a trial store and not here: most likely on the station that
+        # recorded it (a researcher's machine, another station), not lost
+        raise AppError(f"trial {source.trial_id}: {'; '.join(problems)}; not read: it was "
+                       f"recorded at station {source.station} and is in no trial store. Run "
+                       f"this at {source.station}, copy the file from its data folder to "
+                       f"{source.path}, or give the stations a shared trial store "
+                       "(\"trial_store\" in settings.json: README, Several stations); "
+                       "restore it from a backup if it is lost")
     raise AppError(f"trial {source.trial_id}: {'; '.join(problems)}; not read: restore the "
                    "file from a backup")
 

@@ -38,7 +38,7 @@ from app.records.registry.postgres import (
 from app.records.registry.postgres.tables import REGISTRY_TABLES
 from app.records.registry.schema import SCHEMA_VERSION, Schema, check_registry_file
 from app.records.registry.transfer import copy_registry
-from app.records.registry.url import POSTGRESQL, RegistryURL
+from app.records.registry.url import POSTGRESQL, RegistryURL, login_refusal
 from device.safewrite import folded
 
 ROLE_NAME = re.compile(r"[a-z_][a-z0-9_]{0,62}")
@@ -188,6 +188,9 @@ def _server(location: RegistryURL, *, autocommit: bool) -> Iterator[sa.Connectio
         try:
             conn = engine.connect()
         except sa.exc.DBAPIError as exc:  # no answer, no such database, a login refused
+            refused = login_refusal(_reason(exc), location.url, location.source)
+            if refused:
+                raise RegistryError(refused) from None
             raise RegistryError(f"cannot reach the registry's server {location.server} "
                                 f"({_reason(exc)}): check that the server runs and that this "
                                 "station's network reaches it, and the URL in "

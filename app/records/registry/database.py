@@ -25,10 +25,10 @@ from pathlib import Path
 
 import sqlalchemy as sa
 
-from app.errors import RegistryError, RegistryUnreachable, SchemaError
+from app.errors import RegistryError, RegistryLoginRefused, RegistryUnreachable, SchemaError
 from app.records.registry import seals
 from app.records.registry.snapshot import needs_snapshot, snapshot_connection
-from app.records.registry.url import server_place, shown_url
+from app.records.registry.url import login_refusal, server_place, shown_url
 
 log = logging.getLogger(__package__)
 
@@ -307,6 +307,10 @@ class Database:
                                  f"server {self.where} ({reason}); nothing was changed. Ask "
                                  "its administrator for the clinic role")
         if isinstance(exc, sa.exc.OperationalError) or exc.connection_invalidated:
+            refused = login_refusal(reason, self.server, "the registry URL (registry.url "
+                                    "in the config folder)")
+            if refused:  # the server answered: a station records on its own meanwhile
+                return RegistryLoginRefused(f"{refused}; nothing was saved")
             return RegistryUnreachable(
                 f"cannot reach the registry's server {self.where} ({reason}): check that "
                 "the server runs and that this station's network reaches it; nothing was "

@@ -46,6 +46,10 @@ SQLITE, POSTGRESQL = "sqlite", "postgresql"
 DRIVERS = {SQLITE: "pysqlite", POSTGRESQL: "psycopg"}
 """The one driver of each engine this console talks to (psycopg 3 for PostgreSQL)."""
 
+ALIASES = {"postgres": POSTGRESQL}
+"""`postgres://` is libpq's other spelling of `postgresql://` (psql and most tools take
+both), so a URL copied from them reads as the same server."""
+
 EXAMPLES = ("sqlite:////absolute/path/registry.sqlite3 or "
             "postgresql://user:password@host:port/database")
 
@@ -183,11 +187,14 @@ def parse_url(text: str, where: Path) -> sa.URL:
     except (ArgumentError, ValueError):
         raise refused(f"is not a URL that can be read: write it as {EXAMPLES} (a port is a "
                       "number; a password with @, : or / is written %40, %3A, %2F)") from None
-    engine, driver = url.get_backend_name(), url.get_driver_name()
+    # The scheme is read from the text alone: SQLAlchemy's get_driver_name() would load
+    # the dialect the scheme names, and one it has not (`postgres`, `http`) raised there.
+    scheme, _, driver = url.drivername.partition("+")
+    engine = ALIASES.get(scheme, scheme)
     if engine not in DRIVERS:
-        raise refused(f"has the scheme {engine!r}, which this console does not know: give "
+        raise refused(f"has the scheme {scheme!r}, which this console does not know: give "
                       f"{EXAMPLES}")
-    if "+" in url.drivername and driver != DRIVERS[engine]:
+    if driver and driver != DRIVERS[engine]:
         raise refused(f"asks for the driver {driver!r}: this console talks to {engine} "
                       f"with {DRIVERS[engine]}; write {engine}://…")
     url = url.set(drivername=f"{engine}+{DRIVERS[engine]}")
@@ -211,3 +218,35 @@ def parse_url(text: str, where: Path) -> sa.URL:
         raise refused(f"has the port {url.port}: give one from 1 to 65535 (PostgreSQL's "
                       "is 5432)")
     return url
+
+
+def login_refusal(reason: str, url: sa.URL, source: str) -> str | None:
+    """What to do when the server answered but would not let this login in, from its
+    reason (libpq's words: a refused connection has no SQLSTATE to read); None for any
+    other failure (no answer, a network down), which the caller names as unreachable.
+    `source` says where the URL came from (the URL file). Never the password."""
+    server, user, database = f"{url.host}:{url.port or 5432}", url.username, url.database
+    if "password authentication failed" in reason:
+        # the server says the same of a login it has not (it never tells which)
+        return (f"the registry's server {server} refused the login {user} with its password "
+                f"({reason}): correct the user or password in {source}, or have the "
+                f"registry's owner set it (ALTER ROLE {user} PASSWORD '…', or CREATE ROLE "
+                f"{user} LOGIN PASSWORD '…' IN ROLE rehab_clinic)")
+    if f'role "{user}" does not exist' in reason:
+        return (f"the registry's server {server} has no login {user} ({reason}): correct "
+                f"the user in {source}, or have the registry's owner create it (CREATE ROLE "
+                f"{user} LOGIN PASSWORD '…' IN ROLE rehab_clinic)")
+    if f'database "{database}" does not exist' in reason:
+        return (f"the registry's server {server} has no database {database} ({reason}): "
+                f"correct the database in {source}, or create it (createdb --owner "
+                f"rehab_owner {database})")
+    if "permission denied for database" in reason:
+        return (f"the login {user} may not connect to the database {database} on "
+                f"{server} ({reason}): the registry's owner makes it a station's or a "
+                f"researcher's (GRANT rehab_clinic TO {user}, or rehab_research)")
+    if "no pg_hba.conf entry" in reason:
+        return (f"the registry's server {server} does not let this computer log in as "
+                f"{user} ({reason}): its administrator allows this computer's network in "
+                "pg_hba.conf (e.g. hostssl rehab all 10.1.2.0/24 scram-sha-256) and reloads "
+                "the server")
+    return None

@@ -31,7 +31,7 @@ from typing import Any
 
 import sqlalchemy as sa
 
-from app.errors import PatientNotFound, RegistryError, RegistryUnreachable
+from app.errors import PatientNotFound, RegistryError, RegistryLoginRefused, RegistryUnreachable
 from app.records.datadir import DataDir
 from app.records.registry import Registry
 from app.records.registry.database import file_state
@@ -233,8 +233,13 @@ class StationRegistry:
         return f"the shared registry {server_place(self._url)}"
 
     def _go_offline(self, exc: RegistryUnreachable) -> None:
-        self.offline_reason = (f"{self._shown()} cannot be reached: this station records on "
-                               "its own and sends its records when it returns")
+        if isinstance(exc, RegistryLoginRefused):  # not the network: say what to do
+            self.offline_reason = (f"{self._shown()} refused this station's login: this "
+                                   "station records on its own and sends its records once "
+                                   f"it is let in. {str(exc)[:1].upper()}{str(exc)[1:]}")
+        else:
+            self.offline_reason = (f"{self._shown()} cannot be reached: this station records "
+                                   "on its own and sends its records when it returns")
         log.warning("the shared registry cannot be reached; this station records on its "
                     "own until it returns: %s", exc)
 

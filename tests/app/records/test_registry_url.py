@@ -72,6 +72,16 @@ def test_a_postgresql_url_is_read_and_shown_without_its_password(config, data_di
     assert str(config / URL_NAME) in found.source
 
 
+def test_libpqs_postgres_scheme_is_postgresql(config, data_dir):
+    """psql and libpq take postgres:// as well as postgresql://; it was an internal error
+    (SQLAlchemy has no dialect of that name)."""
+    write(config, f"postgres://station3:{SECRET}@registry.clinic.local/rehab\n")
+    found = registry_url(data_dir)
+    assert found.engine == "postgresql"
+    assert found.url.drivername == "postgresql+psycopg"
+    assert found.shown == "postgresql://station3:***@registry.clinic.local/rehab"
+
+
 def test_a_sqlite_url_names_its_file(config, data_dir, tmp_path):
     write(config, f"sqlite:///{tmp_path}/elsewhere/registry.sqlite3")
     found = registry_url(data_dir)
@@ -173,6 +183,10 @@ EXAMPLES = ("sqlite:////absolute/path/registry.sqlite3 or "
      "%2F)"),
     (f"mysql://u:{SECRET}@h/db", "has the scheme 'mysql', which this console does not "
      "know: give " + EXAMPLES),
+    (f"http://u:{SECRET}@h/db", "has the scheme 'http', which this console does not "
+     "know: give " + EXAMPLES),
+    (f"postgres+psycopg2://u:{SECRET}@h/db", "asks for the driver 'psycopg2': this "
+     "console talks to postgresql with psycopg; write postgresql://…"),
     (f"postgresql+psycopg2://u:{SECRET}@h/db", "asks for the driver 'psycopg2': this "
      "console talks to postgresql with psycopg; write postgresql://…"),
     (f"postgresql://u:{SECRET}@/db", "names no server: write "

@@ -101,3 +101,18 @@ def test_an_export_takes_the_same_files_and_lists_the_others(department, tmp_pat
                for note in result.notes)
     index = (tmp_path / "export" / "trials.csv").read_text()
     assert first.file.rsplit("/", 1)[-1].removesuffix(".h5") in index
+
+
+def test_a_file_never_stored_is_sent_to_its_station_not_to_a_backup(department):
+    """A researcher's machine (or another station) reading the registry without the
+    recording station's data folder: a trial never copied to a trial store is most likely
+    there, not lost. It said only 'restore the file from a backup'."""
+    registry, code, (*_, fourth), _ = department
+    registry.trial_path(fourth).unlink()  # not here, and never copied to the store
+    failure = _rows(registry, code)[fourth.id].failure
+    assert failure == (
+        f"trial {fourth.id}: {registry.trial_path(fourth)} is missing; not read: it was "
+        "recorded at station robot-2 and is in no trial store. Run this at robot-2, copy the "
+        f"file from its data folder to {registry.trial_path(fourth)}, or give the stations a "
+        "shared trial store (\"trial_store\" in settings.json: README, Several stations); "
+        "restore it from a backup if it is lost")

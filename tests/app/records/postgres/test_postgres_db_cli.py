@@ -176,6 +176,40 @@ def test_a_server_that_cannot_be_reached_is_named_in_one_line(station, action, c
     assert "Traceback" not in err
 
 
+@pytest.mark.parametrize("wrong", ["password", "database", "role"])
+@pytest.mark.parametrize("command", [["db", "status"], ["trials", "RC001"]])
+def test_a_login_the_server_refuses_is_named_with_what_to_do(filled, station, wrong, command,
+                                                            capsys):
+    """The server answered: it is not the network. These said 'cannot reach the registry's
+    server … check that the server runs and that this station's network reaches it'."""
+    name, password = filled.clinic_login
+    outsider = filled.server.create_login("neither")  # a login of neither group role
+    login, database = {"password": ((name, "not-" + password), filled.database),
+                       "database": ((name, password), "no_such_registry"),
+                       "role": (outsider, filled.database)}[wrong]
+    file = station(filled.server.url(*login, database=database))
+    code, out, err = run(command, capsys)
+    assert (code, out) == (2, "")
+    assert err.count("\n") == 1
+    assert login[1] not in err
+    where = (f"the URL file {file}" if command[0] == "db"
+             else "the registry URL (registry.url in the config folder)")
+    server = f"{HOST}:{filled.server.port}"
+    assert "cannot reach" not in err
+    assert {"password": f"the registry's server {server} refused the login {name} with its "
+                        "password (",
+            "database": f"the registry's server {server} has no database no_such_registry (",
+            "role": f"the login {login[0]} may not connect to the database {database} on "
+                    f"{server} ("}[wrong] in err
+    assert {"password": f"): correct the user or password in {where}, or have the "
+                        f"registry's owner set it (ALTER ROLE {name} PASSWORD '…', or CREATE "
+                        f"ROLE {name} LOGIN PASSWORD '…' IN ROLE rehab_clinic)",
+            "database": f"): correct the database in {where}, or create it (createdb "
+                        "--owner rehab_owner no_such_registry)",
+            "role": f"): the registry's owner makes it a station's or a researcher's (GRANT "
+                    f"rehab_clinic TO {login[0]}, or rehab_research)"}[wrong] in err
+
+
 def test_the_readmes_recipe_an_owner_who_may_create_roles_creates_the_registry(
         postgres_server, station, roles, capsys):
     """README, "Several stations": the department's owner login is no superuser; it owns

@@ -322,3 +322,29 @@ def test_the_standby_kept_current_in_place_equals_one_built_whole(department, ca
             return standby_rows(conn), manifest(conn)
 
     assert contents(data) == contents(whole)
+
+
+def test_a_login_the_server_refuses_records_on_the_station_and_says_it_is_not_the_network(
+        department):
+    """A password changed on the server (or typed wrong in the URL file): the station
+    records on its own as when the network is down, but says what to do. It said 'cannot
+    be reached', which sent the therapist to the network."""
+    url, network, data = department
+    station = StationRegistry(data, network.url(url), station="robot-1")
+    code = station.create_patient("Gil", "Refused").code
+    station.close()
+    wrong = network.url(url).set(password="not-the-password")
+    refused = StationRegistry(data, wrong, station="robot-1")
+    _trial(refused, code)
+    assert refused.offline
+    reason = refused.offline_reason
+    assert reason.startswith(f"the shared registry 127.0.0.1:{network.port}/{url.database} "
+                             "refused this station's login: this station records on its own")
+    assert f"refused the login {url.username} with its password" in reason
+    assert "correct the user or password in the registry URL" in reason
+    assert "cannot be reached" not in reason
+    assert "not-the-password" not in reason
+    refused.close()
+    again = StationRegistry(data, network.url(url), station="robot-1")  # the URL corrected
+    assert not again.offline
+    assert [t.number for t in Registry(data, server=url).trials_for_patient(code)] == [1]
