@@ -175,7 +175,10 @@ class NormativeModel:
             raise NormsError(f"the norms ({self.source}) hold no figure {figure!r}; they "
                              f"hold {', '.join(sorted(self.figures)) or 'none'}") from None
 
-    def _check_person(self, person: Covariates) -> None:
+    def check_person(self, person: Covariates) -> None:
+        """NormsError when the controls had no one with one of the person's categorical
+        levels (another robot, a sex or hand the fit left out): no figure can be scored, so
+        a report or command says it once rather than once per figure."""
         unknown = self.covariates.unknown_levels(person)
         if unknown:
             name, level = unknown[0]
@@ -187,7 +190,7 @@ class NormativeModel:
     def z(self, figure: str, value: float, person: Covariates) -> FigureZ:
         """The figure's Z-score for this person (eq. 2)."""
         norm = self._figure(figure)
-        self._check_person(person)
+        self.check_person(person)
         if isinstance(value, bool) or not isinstance(value, int | float | np.number) or (
                 not math.isfinite(value)):
             raise NormsError(f"{figure} = {value!r} is not a finite number: no Z-score")

@@ -66,6 +66,7 @@ def score_trial(path: str | Path, norms: NormativeModel, person: Person) -> Tria
                                                                          data.summary))
     except (TypeError, ValueError, CoreError) as exc:
         raise NormsError(f"{path}: the person's covariates: {exc}") from None
+    norms.check_person(who)  # a person the norms hold no one like: one refusal, not one a figure
     metrics = {k: float(v) for k, v in data.metrics.items()
                if isinstance(v, int | float) and math.isfinite(v)}
     figures, unscored = {}, {}

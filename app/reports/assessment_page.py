@@ -82,6 +82,12 @@ def assessment_page(task: str, metrics: Mapping[str, float], *, heading: str = "
     if norms is not None and person is None:
         notes.append("the patient's age, sex or handedness is not recorded: no Z-scores "
                      "(Registration, or rehab patients ... --sex --handedness)")
+    unscorable = ""  # a person the norms hold no one like: said once, in the task score
+    if norms is not None and person is not None:
+        try:
+            norms.check_person(person)
+        except NormsError as exc:
+            unscorable, person = str(exc), None
     lines = []
     unnormed: dict[str, list[str]] = {}  # why the norms left a figure out → its labels
     for figure in task_figures(task):
@@ -109,6 +115,8 @@ def assessment_page(task: str, metrics: Mapping[str, float], *, heading: str = "
                                          else "")
         notes.append(f"no Z-score for {named}: {why}")
     task_score = "No task score without norms" if norms is None else "No task score"
+    if unscorable:
+        task_score = f"No task score: {unscorable}"
     if norms is not None and person is not None:
         try:
             score = norms.task_score(task, metrics, person)

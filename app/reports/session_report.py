@@ -177,6 +177,14 @@ def _assessment(registry, patient, trial, norms) -> Assessment:
     keys = [spec.key for spec in task_figures(task) if spec.key in trial.metrics]
     who, problem = (None, "") if norms is None else _covariates(patient, trial, registry)
     notes = [problem] if problem else []
+    unscorable = ""  # a person the norms hold no one like: said once, in the task score
+    if who is not None:
+        from app.norms import NormsError
+
+        try:
+            norms.check_person(who)
+        except NormsError as exc:
+            who, unscorable = None, f"no task score: {exc}"
     rows = []
     for key in keys:
         spec, value = FIGURES[key], trial.metrics[key]
@@ -188,7 +196,7 @@ def _assessment(registry, patient, trial, norms) -> Assessment:
             if why and why not in notes:
                 notes.append(why)
         rows.append(AssessmentRow(spec.label, shown, z))
-    score = ""
+    score = unscorable
     if who is not None:
         from app.norms import NormsError, TaskNotPerformed
         from app.reports.assessment_page import not_performed_text

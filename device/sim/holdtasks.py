@@ -27,7 +27,8 @@ the patient's own plan, a core.holdtasks.TaskTrajectory of its own (`TaskBehavio
   by minimum jerk over core.holdtasks.POSITION_MOVE_S to where it remembers the target and
   holds it there, and goes home the same way. The remembered point is the target plus the
   patient's constant shift (one per trial) plus a fresh error at each visit, both normal
-  with the standard deviation `proprioception_sd_m` per axis, the shift at half of it:
+  with the standard deviation `proprioception_sd_m` per axis, the shift at half of it
+  (a point so drawn beyond the arm's reach is matched at its reach, `within_reach`):
   healthy about 1 cm (controls' matching variability in the horizontal plane is of the
   order of 1-2 cm, Dukelow et al. 2010, Neurorehabil Neural Repair 24:178, doi
   10.1177/1545968309345267, as recalled, not checked here), the weak patient 3 cm (about
@@ -122,15 +123,45 @@ def task_options(kind: str, options: dict) -> tuple[float, float]:
 
 
 def behaviour(trajectory: TaskTrajectory, effort: float, strength_N: float,
-              proprioception_sd_m: float, seed) -> TaskBehaviour:
+              proprioception_sd_m: float, seed, arm=None) -> TaskBehaviour:
     """The patient's own plan in the task `trajectory` (module notes), for its effort this
     trial (the fraction of a healthy subject's), its strength and matching error, the
-    draws by `seed` (an int or a numpy SeedSequence)."""
+    draws by `seed` (an int or a numpy SeedSequence); with the patient's `arm`
+    (core.arm.ArmModel) a point remembered beyond its reach is matched at its reach
+    (`within_reach`)."""
     if not isinstance(trajectory, TaskTrajectory):
         raise ParameterError("trajectory", type(trajectory).__name__, "a TaskTrajectory")
     if trajectory.task == "strength":
         return _pushing(trajectory, effort, strength_N)
-    return _matching(trajectory, proprioception_sd_m, seed)
+    return _matching(trajectory, proprioception_sd_m, seed, arm)
+
+
+REACH_MARGIN_M = 0.001
+"""How far inside its reach a patient matches a point remembered beyond it (`within_reach`):
+off the straight arm's singularity, where the arm's angles have no rate to reach it with."""
+
+
+def within_reach(point: tuple[float, float], arm) -> tuple[float, float]:
+    """A remembered point as the patient can match it: the point itself when the arm
+    reaches it, else the point REACH_MARGIN_M inside the arm's reach (its outer edge, or
+    the inner one for a point too near the shoulder) on the line from the shoulder. A
+    person who remembers a target farther than they can reach goes as far as they can;
+    before 2026-12-05 such a draw (a 3 cm error near the edge of a short arm's reach)
+    stopped the whole trial as a path out of reach."""
+    if arm is None:
+        return point
+    sx, sy = arm.shoulder_x_m, arm.shoulder_y_m
+    dx, dy = point[0] - sx, point[1] - sy
+    distance = float(np.hypot(dx, dy))
+    if distance > arm.reach_max_m:
+        wanted = arm.reach_max_m - REACH_MARGIN_M
+    elif distance < arm.reach_min_m:
+        wanted = arm.reach_min_m + REACH_MARGIN_M
+    else:
+        return point
+    if distance == 0.0:
+        return (sx + wanted, sy)
+    return (sx + dx * wanted / distance, sy + dy * wanted / distance)
 
 
 def _pushing(trajectory: TaskTrajectory, effort: float, strength_N: float) -> TaskBehaviour:
@@ -143,12 +174,14 @@ def _pushing(trajectory: TaskTrajectory, effort: float, strength_N: float) -> Ta
     return TaskBehaviour(trajectory, strength_N, STRENGTH_RISE_S, pushes=pushes)
 
 
-def _matching(trajectory: TaskTrajectory, sd_m: float, seed) -> TaskBehaviour:
-    """Go along with the robot, then move to the remembered point, hold, and go home."""
+def _matching(trajectory: TaskTrajectory, sd_m: float, seed, arm=None) -> TaskBehaviour:
+    """Go along with the robot, then move to the remembered point (within the arm's reach,
+    `within_reach`), hold, and go home."""
     matches = [s for s in trajectory.stretches if s.phase == "match"]
     draws = _stream(seed).normal(0.0, 1.0, (len(matches) + 1, 2))
     shift = 0.5 * sd_m * draws[0]
-    remembered = [(s.end[0] + shift[0] + sd_m * d[0], s.end[1] + shift[1] + sd_m * d[1])
+    remembered = [within_reach((s.end[0] + shift[0] + sd_m * d[0],
+                                s.end[1] + shift[1] + sd_m * d[1]), arm)
                   for s, d in zip(matches, draws[1:], strict=True)]
     own: list[Stretch] = []
     found = iter(remembered)

@@ -417,7 +417,7 @@ def make_patient(
     strength, proprioception = task_options(kind, options)
     task = None
     if isinstance(trajectory, TaskTrajectory) and kind != "passive":
-        task = behaviour(trajectory, effort, strength, proprioception, seed)
+        task = behaviour(trajectory, effort, strength, proprioception, seed, arm)
     return VirtualPatient(parameters, arm, trajectory, rng, task)
 
 

@@ -110,3 +110,19 @@ def test_one_figure_beyond_the_norms_leaves_the_others_scored(tmp_path, files, d
     assert result["figures"]["vgr_max_speed_m_s"]["worse_z"] == pytest.approx(1.6)
     assert "Box-Cox domain" in result["unscored"]["vgr_reaction_time_s"]
     assert result["task_score"] is None
+
+
+def test_norms_of_another_robot_refuse_the_person_in_one_line(tmp_path, files, data, capsys):
+    """A person the norms hold no controls like (another robot) is refused once, exit 2,
+    not once per figure with exit 0 (docs/norms.md: refused in one line)."""
+    _, trial = files
+    other = handmade()
+    other["covariates"]["robot"] = ["hardware"]
+    path = tmp_path / "hardware.json"
+    path.write_text(json.dumps(other))
+    code, out, err = run(["norms", "score", str(trial), "--norms", str(path), "--birth-year",
+                          str(BORN), "--sex", "male", "--handedness", "right"], capsys)
+    assert code == 2, out
+    assert "hold no healthy people with robot 'simulator-realistic'" in err
+    assert err.count("\n") == 1
+    assert out == ""

@@ -182,3 +182,17 @@ def test_the_pdf_marks_a_z_score_of_an_age_beyond_the_controls(norms):
     assert "† age beyond the controls': the Z-score extrapolates the norms" in words
     young = page_figure(assessment_page("reaching", METRICS, norms=norms, person=PERSON))
     assert not any("†" in t.get_text() for t in young.texts)
+
+
+def test_a_person_the_norms_do_not_hold_is_said_once(tmp_path):
+    """Norms of another robot: the page says why once, not once per figure and again in
+    the task score's place."""
+    other = handmade()
+    other["covariates"]["robot"] = ["hardware"]
+    path = tmp_path / "hardware.json"
+    path.write_text(json.dumps(other))
+    page = assessment_page("reaching", METRICS, norms=load_norms(path), person=PERSON)
+    why = "hold no healthy people with robot 'simulator-realistic'"
+    said = [*page.notes, page.task_score]
+    assert sum(why in text for text in said) == 1, said
+    assert all(line.z is None for line in page.lines)

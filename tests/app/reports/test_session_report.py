@@ -113,6 +113,20 @@ def test_without_norms_or_covariates_the_report_says_why_no_z(clinic):
     assert all(r.z == "" for r in content.assessments[0].rows)
 
 
+def test_norms_of_another_robot_are_said_once(clinic):
+    """Norms whose controls used another robot: the assessment says why once (in the task
+    score's place), not as a note and again in the task score."""
+    registry, code, tmp_path = clinic
+    document = handmade()
+    document["covariates"]["robot"] = ["hardware"]
+    path = tmp_path / "hardware.json"
+    path.write_text(json.dumps(document))
+    (assessment,) = session_content(registry, code, 1, norms=load_norms(path)).assessments
+    said = [*assessment.notes, assessment.task_score]
+    assert sum("hold no healthy people with robot" in text for text in said) == 1, said
+    assert all(r.z == "" for r in assessment.rows)
+
+
 def test_the_progress_pdf_ends_with_the_clinical_scales(clinic):
     registry, code, tmp_path = clinic
     registry.open_session(code)
