@@ -272,6 +272,7 @@ class MainWindow(AssessmentControl, PlanControl, TrialActions, TrialEmg, FaultLa
         r.estop_clicked.connect(self.emergency_stop)
         self.clear_button.clicked.connect(self.clear_fault)
         self.registration_tab.registered.connect(self._on_registered)
+        self.registration_tab.unconfirmed.connect(self._on_unconfirmed)
         self.registration_tab.patient_selected.connect(self._on_patient)
         self.parameters_tab.parameters_changed.connect(lambda *_: self._refresh_buttons())
         # at once, not after the check's debounce: Start must never run a stale trial
@@ -357,6 +358,15 @@ class MainWindow(AssessmentControl, PlanControl, TrialActions, TrialEmg, FaultLa
         self.patient = patient
         self.registration = registration
         self.emg.set_session(patient.code, registration.session_number)
+        self._refresh_buttons()
+
+    def _on_unconfirmed(self) -> None:
+        """Another patient chosen or a number edited on the Registration tab: the patient
+        and numbers confirmed before no longer are what the tab shows, so Start waits for
+        Confirm (it registered the next trial under the patient chosen since with the
+        numbers confirmed for the one before, or under a session the tab no longer
+        showed)."""
+        self.registration = None
         self._refresh_buttons()
 
     def _on_flip(self, flip_x: bool, flip_y: bool) -> None:

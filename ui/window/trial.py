@@ -164,7 +164,8 @@ class TrialActions:
             self._say(f"Start refused: {waits}.", problem=True)
             self._refresh_buttons()
             return
-        if self.patient is None or self.registration is None:
+        if (self.patient is None or self.registration is None
+                or self.registration.patient_code != self.patient.code):
             self._say("Register the patient first (Registration tab: choose the patient and "
                       "confirm the session and trial numbers).", problem=True)
             self.tabs.setCurrentWidget(self.registration_tab)
@@ -172,7 +173,7 @@ class TrialActions:
         reg = self.registration
         try:
             begun = self.registry.begin_trial(
-                self.patient.code, self.built, backend=self.backend_label.text() or "simulator",
+                reg.patient_code, self.built, backend=self.backend_label.text() or "simulator",
                 session_number=reg.session_number, trial_number=reg.trial_number)
         except Exception as exc:  # RegistryError etc., shown as is
             self._say(f"Start refused: {exc}", problem=True)
