@@ -82,3 +82,25 @@ def test_start_waits_for_confirm_after_the_registration_changed(qtbot, win):
     trial = win.registry.trial(trial_id)
     assert (trial.patient_code, trial.session_number, trial.number) == (
         grace.code, shown.session_number, shown.trial_number)
+
+
+def test_a_patient_chosen_during_a_trial_is_not_offered_its_proposal(qtbot, win):
+    """The proposal after a trial is its patient's: one chosen while the trial ran was
+    offered the trial's patient's proposal (Use the proposal put it into their form)."""
+    register_patient(qtbot, win)
+    ada = win.patient
+    p = win.parameters_tab
+    p.repetitions.setValue(2)
+    p.duration.setValue(2.0)
+    p.refresh()
+    _connected(qtbot, win)
+    click(qtbot, win.robot.buttons["start"])
+    qtbot.waitUntil(lambda: win.state == State.RUNNING, timeout=60000)
+    trial_id = win.trial_id
+    grace = _new_patient(qtbot, win)
+    qtbot.waitUntil(lambda: win.unsaved_trial == trial_id, timeout=60000)
+    assert win.registry.proposal(trial_id) is not None  # Ada's, waiting for her next trial
+    assert win.registry.pending_proposal(ada.code) is not None
+    assert win.registry.pending_proposal(grace.code) is None
+    assert win.patient == grace
+    assert p.proposal.isHidden(), p.proposal_text.text()

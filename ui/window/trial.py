@@ -445,9 +445,12 @@ class TrialActions:
     def _finalized(self, trial_id: int, done) -> None:
         self.unsaved_trial = trial_id
         self._live_from_file(done.path)
-        if done.proposal is None and self.patient is not None:
+        other = self.patient is not None and \
+            self.registry.trial(trial_id).patient_code != self.patient.code
+        if (done.proposal is None or other) and self.patient is not None:
             # a trial that proposes nothing (an assessment) leaves the exercise's pending
-            # proposal where it was: offered still, as after a restart
+            # proposal where it was: offered still, as after a restart; and a patient
+            # chosen while the trial ran is offered their own, never the trial's patient's
             self._offer_pending_proposal(self.patient.code)
         else:
             self.parameters_tab.show_proposal(done.proposal)
