@@ -107,8 +107,9 @@ class MainWindow(AssessmentControl, PlanControl, TrialActions, TrialEmg, FaultLa
         self.latch = Latch()  # the e-stop and the loop's fault: the banner is this
         self._clear_asked = 0  # Clear faults sent, not yet answered
         self.built_setup: BuiltSetup | None = None  # what the form showed at Build
-        self._pending_setup: BuiltSetup | None = None
-        self.built_backend = self._pending_backend = None  # the BackendConfig built
+        self.built_backend = None  # the BackendConfig built
+        self._builds_asked: list[tuple] = []  # (parameters, setup, backend) of each Build
+        # sent, not yet answered, in the order the loop answers them
         self._live_levels: list[float] = []  # live assistance changes awaiting the loop
         self._connecting = False  # a Connect sent, its answer not yet back
         self.handle_outside = ""  # between trials: the loop's line, the handle outside the area

@@ -97,9 +97,11 @@ class TrialActions:
             backend = BackendConfig(kind="quanser", hardware_settings=str(choice.settings_path))
         else:
             backend = BackendConfig(patient=choice.patient_kind or "healthy", seed=choice.seed)
-        self._pending_build = params
-        self._pending_setup = setup
-        self._pending_backend = backend
+        self._pending_build = params  # the last asked (the plan's runner reads it)
+        # each Build's answer is the loop's word on that Build: a second Build pressed
+        # before the first was answered took the first's "built", and when the loop then
+        # refused the second the window held it as built while the loop held the first
+        self._builds_asked.append((params, setup, backend))
         # Built while connected, the loop opens the simulator (or a robot of another
         # config) again, and its force sensor takes a new zero (device.loop.process)
         reopens = self.state == State.CONNECTED and (
@@ -274,16 +276,16 @@ class TrialActions:
         if command == "set_assistance":
             self._assistance_answered(ok)
             return
+        asked = self._builds_asked.pop(0) if command == "build" and self._builds_asked \
+            else None
         if not ok:
             self._say(message, problem=True)
             if command == "start_trial" and self.trial_id is not None:
                 self._take_back(message)
             self._refresh_buttons()
             return
-        if command == "build":
-            self.built = self._pending_build
-            self.built_setup = self._pending_setup
-            self.built_backend = self._pending_backend
+        if command == "build" and asked is not None:
+            self.built, self.built_setup, self.built_backend = asked
             self.video.pose_side = self.built.side  # the live pose follows the arm in use
             connected = self.state == State.CONNECTED
             if connected:  # the simulator was opened again with the trial just built
