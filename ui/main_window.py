@@ -102,6 +102,7 @@ class MainWindow(AssessmentControl, PlanControl, TrialActions, TrialEmg, FaultLa
         self.trial_fault = ""  # the fault that ended the running trial, if one did
         self.trial_path: Path | None = None
         self.unsaved_trial: int | None = None
+        self._finishing: set[int] = set()  # trials being finished into the registry
         self.live: TrialView | None = None
         self.shown_view: TrialView | None = None
         self.latch = Latch()  # the e-stop and the loop's fault: the banner is this

@@ -160,7 +160,7 @@ class TrialActions:
                                              f"the robot is {self.state.label.lower()}")
         if not waits and self.registration is not None:
             waits = start_needs(registered=True, built=self.built is not None,
-                                stale=self.stale(), saving=self.trial_id is not None)
+                                stale=self.stale(), saving=self.saving())
         waits = waits or self.handle_outside
         if waits:
             self._say(f"Start refused: {waits}.", problem=True)
@@ -257,14 +257,43 @@ class TrialActions:
         self.robot.show_readiness(readiness(
             self.state, form_problem=problem, registered=self.registration is not None,
             built=self.built is not None, stale=self.stale(), held=self.latch.holds_robot(),
-            unsaved=self.unsaved_trial is not None, saving=self.trial_id is not None,
+            unsaved=self.unsaved_trial is not None, saving=self.saving(),
             connecting=self._connecting, outside=self.handle_outside))
+
+    def saving(self) -> bool:
+        """A trial is begun and not yet finished into the registry: its file still open,
+        or being finished (its analysis, the registry's row and the next proposal). The
+        next Start waits: started meanwhile, it left the last trial's proposal pending
+        for good (undecided by the trial after it, which registered before it was made)."""
+        return self.trial_id is not None or bool(self._finishing)
+
+    def _finish(self, trial_id: int, work) -> None:
+        """Finish trial `trial_id` into the registry on the job thread (`work`), then show
+        it; Start waits until it is done, whether it succeeds or not."""
+        self._finishing.add(trial_id)
+
+        def guarded():
+            try:
+                return work(), None
+            except Exception as exc:  # said by the window as any failed job is
+                return None, exc
+
+        def done(outcome) -> None:
+            self._finishing.discard(trial_id)
+            result, error = outcome
+            if error is not None:
+                self._job_failed(error)
+                self._refresh_buttons()
+                return
+            self._finalized(trial_id, result)
+
+        self.jobs.run(guarded, done)
 
     def start_needs(self) -> str:
         """What Start waits for beyond the robot's state, in words ("" when nothing)."""
         return start_needs(registered=self.registration is not None,
                            built=self.built is not None, stale=self.stale(),
-                           saving=self.trial_id is not None)
+                           saving=self.saving())
 
     # ------------------------------------------------------------------ loop events
     def _on_reply(self, command: str, ok: bool, message: str) -> None:
@@ -430,15 +459,14 @@ class TrialActions:
             trial_id = self.trial_id
             reason = "; ".join(part for part in (self.trial_fault, message) if part)
             self.trial_id = None
-            self.jobs.run(lambda: finalize_lost(self.registry, trial_id, reason),
-                          lambda done: self._finalized(trial_id, done))
+            self._finish(trial_id, lambda: finalize_lost(self.registry, trial_id, reason))
         if kind == "closed" and self.trial_id is not None:
             from app.trials.finalize import finalize_trial
 
             trial_id, reason = self.trial_id, self.trial_fault
             self.trial_id = None  # Start may run the next trial now (ui.views.readiness)
-            self.jobs.run(lambda: finalize_trial(self.registry, trial_id, status, reason),
-                          lambda done: self._finalized(trial_id, done))
+            self._finish(trial_id,
+                         lambda: finalize_trial(self.registry, trial_id, status, reason))
             self._store_trial_emg(path)
             self._refresh_buttons()
         if kind == "closed":
