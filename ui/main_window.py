@@ -102,13 +102,15 @@ class MainWindow(AssessmentControl, PlanControl, TrialActions, TrialEmg, FaultLa
         self.trial_fault = ""  # the fault that ended the running trial, if one did
         self.trial_path: Path | None = None
         self.unsaved_trial: int | None = None
+        self._finishing: set[int] = set()  # trials being finished into the registry
         self.live: TrialView | None = None
         self.shown_view: TrialView | None = None
         self.latch = Latch()  # the e-stop and the loop's fault: the banner is this
         self._clear_asked = 0  # Clear faults sent, not yet answered
         self.built_setup: BuiltSetup | None = None  # what the form showed at Build
-        self._pending_setup: BuiltSetup | None = None
-        self.built_backend = self._pending_backend = None  # the BackendConfig built
+        self.built_backend = None  # the BackendConfig built
+        self._builds_asked: list[tuple] = []  # (parameters, setup, backend) of each Build
+        # sent, not yet answered, in the order the loop answers them
         self._live_levels: list[float] = []  # live assistance changes awaiting the loop
         self._connecting = False  # a Connect sent, its answer not yet back
         self.handle_outside = ""  # between trials: the loop's line, the handle outside the area
@@ -272,6 +274,7 @@ class MainWindow(AssessmentControl, PlanControl, TrialActions, TrialEmg, FaultLa
         r.estop_clicked.connect(self.emergency_stop)
         self.clear_button.clicked.connect(self.clear_fault)
         self.registration_tab.registered.connect(self._on_registered)
+        self.registration_tab.unconfirmed.connect(self._on_unconfirmed)
         self.registration_tab.patient_selected.connect(self._on_patient)
         self.parameters_tab.parameters_changed.connect(lambda *_: self._refresh_buttons())
         # at once, not after the check's debounce: Start must never run a stale trial
@@ -357,6 +360,15 @@ class MainWindow(AssessmentControl, PlanControl, TrialActions, TrialEmg, FaultLa
         self.patient = patient
         self.registration = registration
         self.emg.set_session(patient.code, registration.session_number)
+        self._refresh_buttons()
+
+    def _on_unconfirmed(self) -> None:
+        """Another patient chosen or a number edited on the Registration tab: the patient
+        and numbers confirmed before no longer are what the tab shows, so Start waits for
+        Confirm (it registered the next trial under the patient chosen since with the
+        numbers confirmed for the one before, or under a session the tab no longer
+        showed)."""
+        self.registration = None
         self._refresh_buttons()
 
     def _on_flip(self, flip_x: bool, flip_y: bool) -> None:

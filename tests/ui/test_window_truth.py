@@ -5,6 +5,8 @@ loop and recorder processes run behind the window where the loop is part of the 
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 from PySide6.QtCore import Qt
 
@@ -262,3 +264,30 @@ def test_the_level_says_what_it_means_in_each_mode(qtbot, tmp_path, monkeypatch)
     assert "right direction" in p.assistance.toolTip()
     assert label.toolTip() == p.assistance.toolTip()
     win.close()
+
+
+@pytest.mark.slow
+def test_the_trial_built_is_the_one_the_loop_took(qtbot, window):
+    """A second Build pressed before the first was answered: the first answer was taken
+    as the second's, so when the loop refused the second (another robot while connected)
+    the window held it as built and Start ran the first, registered as the second (the
+    registry said 70 % on the hardware, the file 40 % on the simulator)."""
+    win, p = window, window.parameters_tab
+    register_patient(qtbot, win)
+    short_trial(win)
+    _connected(qtbot, win)
+    answers = []
+    win.bridge.replied.connect(lambda command, ok, _m: answers.append((command, ok)))
+    p.assistance.setValue(40)
+    win.build()  # the simulator at 40 %
+    p.assistance.setValue(70)
+    p.hardware.setChecked(True)
+    p.settings_path.setText(str(Path(__file__).parents[2] / "resources" /
+                                "hardware.example.toml"))
+    p.refresh()
+    win.build()  # before the first is answered: refused, the robot is connected
+    qtbot.waitUntil(lambda: answers == [("build", True), ("build", False)], timeout=60000)
+    assert win.built.assistance_level == pytest.approx(0.4)
+    assert win.built_backend.kind == "simulator"
+    assert win.stale()
+    assert "start" not in enabled(win)

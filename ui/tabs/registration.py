@@ -99,10 +99,15 @@ class RegistrationTab(QWidget):
         Parameters tab: ParametersTab.apply_patient).
     registered(Patient, app.records.registry.Registration): the therapist confirmed the patient
         and the numbers for the next trial (begin_trial takes them at Start).
+    unconfirmed(): the confirmed patient and numbers no longer hold (another patient
+        chosen, a number edited, the registry refused them): the window's Start waits for
+        Confirm again, so it never registers a trial under numbers or a patient the tab
+        no longer shows.
     """
 
     patient_selected = Signal(object)
     registered = Signal(object, object)
+    unconfirmed = Signal()
 
     def __init__(self, registry: RecordStore | None = None, parent=None) -> None:
         super().__init__(parent)
@@ -279,8 +284,7 @@ class RegistrationTab(QWidget):
     def show_refusal(self, refusal: Exception | str) -> None:
         """Show the registry's refusal of the numbers (e.g. DuplicateNumberError raised by
         Registry.begin_trial at Start) under the trial number."""
-        self._registration = None
-        self.confirmed.setText("")
+        self._unconfirm()
         self._show(self.trial_problem, str(refusal))
 
     # -- finding ------------------------------------------------------------------
@@ -323,8 +327,7 @@ class RegistrationTab(QWidget):
     def choose(self, patient: Patient) -> None:
         """Make this patient the current one and fill in the numbers."""
         self._patient = patient
-        self._registration = None
-        self.confirmed.setText("")
+        self._unconfirm()
         self.patient_label.setText(describe(patient))
         self.measurements_label.setText(measurements(patient))
         self._enable_numbers(True)
@@ -428,9 +431,17 @@ class RegistrationTab(QWidget):
         self._numbers_edited()
 
     def _numbers_edited(self) -> None:
+        self._unconfirm()
+        self.trial_problem.hide()
+
+    def _unconfirm(self) -> None:
+        """The confirmed registration no longer holds: said to the window (`unconfirmed`),
+        whose Start then waits for Confirm."""
+        was = self._registration is not None
         self._registration = None
         self.confirmed.setText("")
-        self.trial_problem.hide()
+        if was:
+            self.unconfirmed.emit()
 
     def confirm_registration(self) -> Registration | None:
         """Check the numbers against the registry and, if free, emit `registered`."""

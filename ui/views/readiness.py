@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from device.loop.states import State
 
 STALE = "parameters changed since Build: press Build"
-SAVING = "the last trial's file to be closed: a moment"
+SAVING = "the last trial to be saved: a moment"
 NOT_REGISTERED = "a registered patient: Registration tab, choose the patient and press Confirm"
 NOT_BUILT = "a built trial: press Build"
 
@@ -44,7 +44,8 @@ class Readiness:
 
 def start_needs(*, registered: bool, built: bool, stale: bool, saving: bool = False) -> str:
     """What Start waits for beyond the robot's state ('' when nothing). `saving`: the last
-    trial's file is not closed yet (its trial is finished into the registry from it)."""
+    trial's file is not closed yet, or its trial not yet finished into the registry
+    from it (its row, its analysis and the next proposal)."""
     if saving:
         return SAVING
     if not registered:

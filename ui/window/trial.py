@@ -102,9 +102,11 @@ class TrialActions:
             backend = BackendConfig(kind="quanser", hardware_settings=str(choice.settings_path))
         else:
             backend = BackendConfig(patient=choice.patient_kind or "healthy", seed=choice.seed)
-        self._pending_build = params
-        self._pending_setup = setup
-        self._pending_backend = backend
+        self._pending_build = params  # the last asked (the plan's runner reads it)
+        # each Build's answer is the loop's word on that Build: a second Build pressed
+        # before the first was answered took the first's "built", and when the loop then
+        # refused the second the window held it as built while the loop held the first
+        self._builds_asked.append((params, setup, backend))
         # Built while connected, the loop opens the simulator (or a robot of another
         # config) again, and its force sensor takes a new zero (device.loop.process)
         reopens = self.state == State.CONNECTED and (
@@ -163,13 +165,14 @@ class TrialActions:
                                              f"the robot is {self.state.label.lower()}")
         if not waits and self.registration is not None:
             waits = start_needs(registered=True, built=self.built is not None,
-                                stale=self.stale(), saving=self.trial_id is not None)
+                                stale=self.stale(), saving=self.saving())
         waits = waits or self.handle_outside
         if waits:
             self._say(f"Start refused: {waits}.", problem=True)
             self._refresh_buttons()
             return
-        if self.patient is None or self.registration is None:
+        if (self.patient is None or self.registration is None
+                or self.registration.patient_code != self.patient.code):
             self._say("Register the patient first (Registration tab: choose the patient and "
                       "confirm the session and trial numbers).", problem=True)
             self.tabs.setCurrentWidget(self.registration_tab)
@@ -177,7 +180,7 @@ class TrialActions:
         reg = self.registration
         try:
             begun = self.registry.begin_trial(
-                self.patient.code, self.built, backend=self.backend_label.text() or "simulator",
+                reg.patient_code, self.built, backend=self.backend_label.text() or "simulator",
                 session_number=reg.session_number, trial_number=reg.trial_number)
         except Exception as exc:  # RegistryError etc., shown as is
             self._say(f"Start refused: {exc}", problem=True)
@@ -259,14 +262,43 @@ class TrialActions:
         self.robot.show_readiness(readiness(
             self.state, form_problem=problem, registered=self.registration is not None,
             built=self.built is not None, stale=self.stale(), held=self.latch.holds_robot(),
-            unsaved=self.unsaved_trial is not None, saving=self.trial_id is not None,
+            unsaved=self.unsaved_trial is not None, saving=self.saving(),
             connecting=self._connecting, outside=self.handle_outside))
+
+    def saving(self) -> bool:
+        """A trial is begun and not yet finished into the registry: its file still open,
+        or being finished (its analysis, the registry's row and the next proposal). The
+        next Start waits: started meanwhile, it left the last trial's proposal pending
+        for good (undecided by the trial after it, which registered before it was made)."""
+        return self.trial_id is not None or bool(self._finishing)
+
+    def _finish(self, trial_id: int, work) -> None:
+        """Finish trial `trial_id` into the registry on the job thread (`work`), then show
+        it; Start waits until it is done, whether it succeeds or not."""
+        self._finishing.add(trial_id)
+
+        def guarded():
+            try:
+                return work(), None
+            except Exception as exc:  # said by the window as any failed job is
+                return None, exc
+
+        def done(outcome) -> None:
+            self._finishing.discard(trial_id)
+            result, error = outcome
+            if error is not None:
+                self._job_failed(error)
+                self._refresh_buttons()
+                return
+            self._finalized(trial_id, result)
+
+        self.jobs.run(guarded, done)
 
     def start_needs(self) -> str:
         """What Start waits for beyond the robot's state, in words ("" when nothing)."""
         return start_needs(registered=self.registration is not None,
                            built=self.built is not None, stale=self.stale(),
-                           saving=self.trial_id is not None)
+                           saving=self.saving())
 
     # ------------------------------------------------------------------ loop events
     def _on_reply(self, command: str, ok: bool, message: str) -> None:
@@ -278,16 +310,16 @@ class TrialActions:
         if command == "set_assistance":
             self._assistance_answered(ok)
             return
+        asked = self._builds_asked.pop(0) if command == "build" and self._builds_asked \
+            else None
         if not ok:
             self._say(message, problem=True)
             if command == "start_trial" and self.trial_id is not None:
                 self._take_back(message)
             self._refresh_buttons()
             return
-        if command == "build":
-            self.built = self._pending_build
-            self.built_setup = self._pending_setup
-            self.built_backend = self._pending_backend
+        if command == "build" and asked is not None:
+            self.built, self.built_setup, self.built_backend = asked
             self.video.pose_side = self.built.side  # the live pose follows the arm in use
             connected = self.state == State.CONNECTED
             if connected:  # the simulator was opened again with the trial just built
@@ -432,15 +464,14 @@ class TrialActions:
             trial_id = self.trial_id
             reason = "; ".join(part for part in (self.trial_fault, message) if part)
             self.trial_id = None
-            self.jobs.run(lambda: finalize_lost(self.registry, trial_id, reason),
-                          lambda done: self._finalized(trial_id, done))
+            self._finish(trial_id, lambda: finalize_lost(self.registry, trial_id, reason))
         if kind == "closed" and self.trial_id is not None:
             from app.trials.finalize import finalize_trial
 
             trial_id, reason = self.trial_id, self.trial_fault
             self.trial_id = None  # Start may run the next trial now (ui.views.readiness)
-            self.jobs.run(lambda: finalize_trial(self.registry, trial_id, status, reason),
-                          lambda done: self._finalized(trial_id, done))
+            self._finish(trial_id,
+                         lambda: finalize_trial(self.registry, trial_id, status, reason))
             self._store_trial_emg(path)
             self._refresh_buttons()
         if kind == "closed":
@@ -449,9 +480,12 @@ class TrialActions:
     def _finalized(self, trial_id: int, done) -> None:
         self.unsaved_trial = trial_id
         self._live_from_file(done.path)
-        if done.proposal is None and self.patient is not None:
+        other = self.patient is not None and \
+            self.registry.trial(trial_id).patient_code != self.patient.code
+        if (done.proposal is None or other) and self.patient is not None:
             # a trial that proposes nothing (an assessment) leaves the exercise's pending
-            # proposal where it was: offered still, as after a restart
+            # proposal where it was: offered still, as after a restart; and a patient
+            # chosen while the trial ran is offered their own, never the trial's patient's
             self._offer_pending_proposal(self.patient.code)
         else:
             self.parameters_tab.show_proposal(done.proposal)
