@@ -7,6 +7,8 @@ line instead of a Qt abort.
 
 from __future__ import annotations
 
+import argparse
+import math
 import os
 import sys
 from collections.abc import Sequence
@@ -18,6 +20,25 @@ X_LIBRARIES = {"xcb-cursor": "libxcb-cursor0", "xcb-icccm": "libxcb-icccm4",
                "xcb-keysyms": "libxcb-keysyms1", "xkbcommon-x11": "libxkbcommon-x11-0"}
 """The libraries Qt's X platform plugin loads beyond a bare system's (Qt 6.5 and later
 abort without xcb-cursor), by the Debian/Ubuntu package that has each."""
+
+
+FONT_SCALE_RANGE = (0.75, 2.0)
+"""ui.theme's range, checked here too so that a wrong --font-scale is refused by the
+parser, in one line, before Qt is imported (the theme's own check is for the code)."""
+
+
+def font_scale_arg(text: str) -> float:
+    """An argparse type for --font-scale: a number within FONT_SCALE_RANGE."""
+    low, high = FONT_SCALE_RANGE
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not low <= value <= high:
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not a text size: give a number from {low:g} to {high:g} "
+            "(1 is the normal size)")
+    return value
 
 
 def _find_library(name: str) -> str | None:
@@ -63,7 +84,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser, commands = build_parser()
     gui = commands.add_parser("gui", help="the console's window (the default command)",
                               description="Open the therapist's console window.")
-    gui.add_argument("--font-scale", type=float, help="text size, 0.75-2 (default 1)")
+    gui.add_argument("--font-scale", type=font_scale_arg,
+                     help="text size, 0.75-2 (default 1)")
     gui.add_argument("--lsl-outlet", action="store_true",
                      help="publish the robot's state and events on the Lab Streaming Layer "
                           "while trials run (streams rehab-robot, rehab-robot-events)")

@@ -54,7 +54,7 @@ def add_clinical_commands(commands) -> None:
                     "again for a session supersedes the earlier entry, which is kept.")
     add.add_argument("code", help="the patient's code")
     add.add_argument("session", type=session_number, help="the session's number")
-    add.add_argument("scale", choices=SCALES)
+    add.add_argument("scale", choices=SCALES, help="which scale")
     add.add_argument("scores", nargs="+", metavar="SCORE",
                      help="the total, or KEY=VALUE scores")
     add.add_argument("--by", required=True, help=_BY_HELP)
@@ -106,8 +106,8 @@ def add_clinical_commands(commands) -> None:
                     "'none' clears a field. The "
                     "old value, the new one, why, who and when are kept.")
     correct.add_argument("code", help="the patient's code")
-    correct.add_argument("field", choices=CORRECTABLE)
-    correct.add_argument("value")
+    correct.add_argument("field", choices=CORRECTABLE, help="the field to correct")
+    correct.add_argument("value", help="its new value, in SI units ('none' clears it)")
     correct.add_argument("--reason", required=True, help="why")
     correct.add_argument("--by", required=True, help=_BY_HELP)
     correct.set_defaults(func=cmd_correct)

@@ -100,13 +100,16 @@ def add_emg_commands(commands) -> None:
                                      "for the assistance unless it passes",
                        description="Fit an EMG-to-joint-torque model (linear baseline, the "
                                    "thesis's network, or the muscle model) on the trials' "
-                                   "%% MVC envelopes and torques, and score it held out: on "
+                                   "% MVC envelopes and torques, and score it held out: on "
                                    "the --test trials, or leaving one subject out. With "
                                    "--for-assistance, refuse (exit 2, saying why) a model "
                                    "that does not reach held-out R² 0.60 at both joints or "
                                    "does not beat the linear baseline.")
     p.add_argument("trials", nargs="+", help="trials with EMG and MVCs (ids or files)")
-    p.add_argument("--model", choices=("linear", "network", "muscle"), default="network")
+    p.add_argument("--model", choices=("linear", "network", "muscle"), default="network",
+                   help="network (default): the thesis's feed-forward network; linear: the "
+                        "baseline every model must beat; muscle: activation dynamics, a "
+                        "delay and a strength per muscle")
     p.add_argument("--test", action="append", metavar="TRIAL",
                    help="a trial to hold out (repeat; default: leave one subject out)")
     p.add_argument("--for-assistance", action="store_true",
@@ -135,7 +138,10 @@ def add_emg_commands(commands) -> None:
                    help=argparse.SUPPRESS)
     p.set_defaults(func=cmd_demo)
 
-    p = sub.add_parser("streams", help="list the Lab Streaming Layer's streams on the network")
+    p = sub.add_parser("streams", help="list the Lab Streaming Layer's streams on the network",
+                       description="List the Lab Streaming Layer streams this computer sees "
+                                   "on the network: name, type, channels, rate, host and "
+                                   "source id (a source is lsl:NAME).")
     p.add_argument("--wait", type=float, default=2.0, metavar="S", help="how long to look")
     p.set_defaults(func=cmd_streams)
 

@@ -30,7 +30,9 @@ def add_export_command(commands) -> None:
     what.add_argument("--patient", action="append", dest="codes", metavar="CODE",
                       help="every trial of a patient (repeatable)")
     what.add_argument("--folder", help="every trial file below this folder (a study)")
-    parser.add_argument("--format", choices=FORMATS, default="csv")
+    parser.add_argument("--format", choices=FORMATS, default="csv",
+                        help="csv (default) or tsv: one table per trial, its units beside "
+                             "it; mat: MATLAB; bids: a BIDS-motion folder")
     parser.add_argument("--output", help="destination folder (default: the data folder's "
                                          "exports/<format>)")
     parser.add_argument("--exercise-only", action="store_true",
@@ -42,7 +44,10 @@ def add_export_command(commands) -> None:
     parser.add_argument("--include-invalid", action="store_true",
                         help="also the trials marked invalid (`rehab invalid`; left out of "
                              "--patient and --folder exports by default)")
-    parser.add_argument("--overwrite", action="store_true")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace the files of trials exported there before (without "
+                             "it nothing is written when one exists); the folder's tables "
+                             "keep the other trials' rows either way")
     parser.set_defaults(func=cmd_export)
 
 

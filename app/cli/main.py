@@ -96,7 +96,11 @@ def run(parser: Parser, argv: Sequence[str] | None, default: str) -> int:
     for stream in (sys.stdout, sys.stderr):
         with contextlib.suppress(AttributeError, ValueError):
             stream.reconfigure(errors="surrogateescape")
-    args = parser.parse_args(argv)
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:
+        # said by the command's own parser, whose help lists the options (the top one's
+        # lists only the commands)
+        _command_parser(parser, args).error(f"unrecognized arguments: {' '.join(unknown)}")
     # whatever the shell's umask: every file the console writes (trial files, the registry,
     # reports, exports, settings, logs) is its user's only (README, Where the data goes);
     # the writers apply the modes themselves too (device.safewrite)
@@ -195,6 +199,18 @@ def refuse(parser: argparse.ArgumentParser, command: str, message: str) -> int:
 
 
 DATA_DIR_HELP = "data folder (default: REHAB_DATA_DIR, the setting, or the user data folder)"
+
+
+def _command_parser(parser: argparse.ArgumentParser,
+                    args: argparse.Namespace) -> argparse.ArgumentParser:
+    """The parser of the command (and action) the arguments chose: `rehab emg show`'s."""
+    while True:
+        chosen = next((action.choices.get(getattr(args, action.dest, None))
+                       for action in parser._actions
+                       if isinstance(action, argparse._SubParsersAction)), None)
+        if chosen is None:
+            return parser
+        parser = chosen
 
 
 def _command_names(parser: argparse.ArgumentParser) -> set[str]:

@@ -63,8 +63,9 @@ def add_norms_commands(commands) -> None:
     p.add_argument("--norms", help="a norms file (default: the data folder's)")
     p.add_argument("--birth-year", type=int, help="the person's birth year (with --sex and "
                                                   "--handedness, instead of the registry)")
-    p.add_argument("--sex", choices=("female", "male"))
-    p.add_argument("--handedness", choices=("right", "left"))
+    p.add_argument("--sex", choices=("female", "male"), help="with --birth-year")
+    p.add_argument("--handedness", choices=("right", "left"),
+                   help="the dominant hand, with --birth-year")
     p.add_argument("--json", action="store_true", help="one JSON object per trial")
     p.set_defaults(func=cmd_score)
     p = actions.add_parser("use", help="make a norms file the data folder's norms",

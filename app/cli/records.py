@@ -32,9 +32,9 @@ def add_patient_commands(commands) -> None:
     listing.set_defaults(func=cmd_patients)
     add = sub.add_parser("add", help="register a new patient (prints the new code)",
                          description="Register a new patient. SI units: kg and m.")
-    add.add_argument("--first-name")
-    add.add_argument("--last-name")
-    add.add_argument("--birth-year", type=int)
+    add.add_argument("--first-name", help="kept in the registry; files carry the code")
+    add.add_argument("--last-name", help="kept in the registry; files carry the code")
+    add.add_argument("--birth-year", type=int, help="for the norms, e.g. 1958")
     add.add_argument("--side", choices=SIDES, help="arm trained (affected side)")
     add.add_argument("--body-mass", type=float, help="kg")
     add.add_argument("--upper-arm", type=float, help="shoulder to elbow, m")
@@ -43,7 +43,7 @@ def add_patient_commands(commands) -> None:
                      help="shoulder position in the robot's frame, m")
     add.add_argument("--sex", choices=SEXES, help="for the norms (app.norms)")
     add.add_argument("--handedness", choices=HANDEDNESS, help="the dominant hand")
-    add.add_argument("--notes", default="")
+    add.add_argument("--notes", default="", help="a note kept with the patient's record")
     add.set_defaults(func=cmd_patients_add)
 
 

@@ -91,7 +91,30 @@ def pylsl():
     if not os.environ.get("LSLAPICFG") and not any(p.is_file() for p in user_config_files()):
         # read by liblsl once, at its first use; set again later, it changes nothing
         module.set_config_content(quiet_config())
+        if _log_file:
+            _first_use_without_stderr(module)
     return module
+
+
+def _first_use_without_stderr(module) -> None:
+    """Make liblsl read its configuration now, with the process's stderr on /dev/null.
+    With a log file named, liblsl adds the file before it turns its stderr output off
+    (liblsl's api_config.cpp), and loguru announces the file there: "loguru.cpp:842 INFO|
+    Logging to '…/liblsl.log'", under a command's own output. Its errors from then on go
+    to the file. Any use reads the configuration (once per process); the protocol
+    version is the cheapest."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        null = os.open(os.devnull, os.O_WRONLY)
+        try:
+            os.dup2(null, 2)
+        finally:
+            os.close(null)
+        module.protocol_version()
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
 
 
 def use_loopback(folder: Path) -> Path:

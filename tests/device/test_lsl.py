@@ -543,3 +543,35 @@ def test_a_log_file_liblsl_cannot_read_leaves_its_errors_on_stderr(monkeypatch):
     for odd in ("/data/lo\ngs/liblsl.log", "/data/logs/liblsl.log "):
         library.log_liblsl_into(Path(odd))
         assert library.quiet_config() == library.QUIET_CONFIG
+
+
+_FIRST_USE = """
+import sys
+from pathlib import Path
+from device.lsl import library
+library.QUIET_CONFIG = library.LOOPBACK_CONFIG  # liblsl as nobody configured it, on this machine
+library.user_config_files = lambda: ()
+library.log_liblsl_into(Path(sys.argv[1]))
+library.find_streams(0.1)
+print("done")
+"""
+
+
+def test_liblsl_announces_its_log_file_nowhere_on_stderr(tmp_path):
+    """`rehab emg streams` printed "loguru.cpp:842 INFO| Logging to '…/logs/liblsl.log'"
+    under its answer: liblsl adds its log file before it turns stderr off (its
+    api_config.cpp), and loguru announces the file on stderr."""
+    import os
+    import subprocess
+    import sys
+
+    from tests.patience import HANG_S
+
+    log = tmp_path / "liblsl.log"
+    env = {k: v for k, v in os.environ.items() if k != "LSLAPICFG"}
+    done = subprocess.run([sys.executable, "-c", _FIRST_USE, str(log)], env=env,
+                          capture_output=True, text=True, timeout=2 * HANG_S, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout == "done\n"
+    assert done.stderr == ""
+    assert log.exists()  # liblsl's errors still have their file

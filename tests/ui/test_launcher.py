@@ -1,5 +1,7 @@
 """The entry point explains a missing display instead of a Qt abort."""
 
+import pytest
+
 from ui.launcher import display_problem
 
 
@@ -25,3 +27,22 @@ def test_missing_x_libraries_are_one_line_not_a_qt_abort():
     assert "libxcb-cursor0, libxkbcommon-x11-0" in message
     assert "sudo apt install libxcb-cursor0 libxkbcommon-x11-0" in message
     assert "\n" not in message
+
+
+def test_a_font_scale_out_of_range_is_one_line_and_exit_2(capsys, monkeypatch):
+    """`rehab gui --font-scale 5` said "internal error … this is a bug" with exit 70: the
+    range was checked only by the theme, after the window had begun to start."""
+    from ui import theme
+    from ui.launcher import FONT_SCALE_RANGE, main
+
+    assert FONT_SCALE_RANGE == theme.FONT_SCALE_RANGE
+    monkeypatch.setenv("QT_QPA_PLATFORM", "offscreen")
+    for value in ("5", "0.5", "nan", "big"):
+        with pytest.raises(SystemExit) as exit_:
+            main(["gui", "--font-scale", value])
+        assert exit_.value.code == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1, err
+        assert "--font-scale" in err
+        assert "from 0.75 to 2" in err
+        assert "internal error" not in err

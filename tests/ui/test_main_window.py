@@ -386,3 +386,25 @@ def test_every_tab_fits_a_laptop_screen_without_cutting_its_panel(qtbot, tmp_pat
                 needed = area.widget().minimumSizeHint().width()
                 assert needed <= area.viewport().width(), win.tabs.tabText(index)
     win.close()
+
+
+def test_the_first_window_fits_the_screen_it_opens_on(qtbot, tmp_path, monkeypatch):
+    """With no size remembered the window opened at 1400 × 900, on a 1366 × 768 laptop too:
+    where no window manager moves it (a kiosk, Xvfb), the robot buttons and the emergency
+    stop were below the screen's edge. It takes the screen's free area, less a title bar,
+    where that is smaller."""
+    from PySide6.QtCore import QSize
+
+    from ui.window.settings import TITLE_BAR_PX, first_size
+
+    assert first_size(QSize(1920, 1080)) == QSize(1400, 900)
+    assert first_size(QSize(1366, 768)) == QSize(1366, 768 - TITLE_BAR_PX)
+    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
+    win = MainWindow(Registry(DataDir(tmp_path / "data", "test")),
+                     settings_path=tmp_path / "config" / "settings.json")
+    qtbot.addWidget(win)
+    free = win.screen().availableGeometry().size()
+    least = win.minimumSizeHint()
+    assert win.width() <= max(free.width(), least.width())
+    assert win.height() <= max(free.height() - TITLE_BAR_PX, least.height())
+    win.close()

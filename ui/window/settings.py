@@ -10,6 +10,7 @@ import contextlib
 import logging
 from pathlib import Path
 
+from PySide6.QtCore import QSize
 from PySide6.QtWidgets import QApplication, QMessageBox
 
 from app.records.settings import save_settings
@@ -18,6 +19,19 @@ from device.loop.states import State
 from ui.tabs.parameters import HARDWARE, SIMULATOR, BackendChoice
 
 log = logging.getLogger("ui.main_window")
+
+FIRST_SIZE = QSize(1400, 900)
+"""The window's size at its first start, on a screen large enough."""
+TITLE_BAR_PX = 30
+"""Left for the window manager's title bar, which Qt's available geometry still counts."""
+
+
+def first_size(available: QSize) -> QSize:
+    """FIRST_SIZE, within a screen's free area less a title bar: at 1400 × 900 on a
+    1366 × 768 laptop the robot buttons and the emergency stop were off the screen wherever
+    no window manager moved the window (a kiosk session, Xvfb)."""
+    return QSize(min(FIRST_SIZE.width(), available.width()),
+                 min(FIRST_SIZE.height(), available.height() - TITLE_BAR_PX))
 
 
 class RememberedSettings:
@@ -28,7 +42,7 @@ class RememberedSettings:
         if s.window_geometry:
             self.restoreGeometry(base64.b64decode(s.window_geometry))
         else:
-            self.resize(1400, 900)
+            self.resize(first_size(self.screen().availableGeometry().size()))
         params = s.trial_parameters()
         if params is not None:
             self.parameters_tab.set_parameters(params)

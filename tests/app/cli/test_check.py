@@ -47,3 +47,24 @@ def test_bad_input_is_one_line_and_exit_2(args, needle, capsys):
     assert len(err) == 1
     assert needle in err[0]
     assert "Traceback" not in err[0]
+
+
+@pytest.mark.parametrize(
+    ("args", "command"),
+    [
+        (["check", "--no-such-option"], "rehab check"),
+        (["progress", "P1ZTTAQ", "[--csv]"], "rehab progress"),
+        (["emg", "show", "12", "--foo"], "rehab emg show"),
+    ],
+)
+def test_an_unknown_option_points_to_its_command_s_help(args, command, capsys):
+    """A misspelt option of a command (`rehab progress CODE --csvv`, or a README line's
+    `[--csv]` pasted as it is) was said as "rehab: error: … (see rehab --help)", whose
+    help lists the commands, not the options: it names the command and its help."""
+    with pytest.raises(SystemExit) as exit_:
+        main(args)
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    assert err[0].startswith(f"{command}: error: unrecognized arguments: {args[-1]}")
+    assert err[0].endswith(f"(see {command} --help)")
