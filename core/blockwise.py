@@ -32,7 +32,7 @@ from collections.abc import Callable, Iterator, Sequence
 
 import numpy as np
 
-from core.errors import ParameterError, check_non_negative, check_range
+from core.errors import ParameterError
 from core.metrics import (
     DEFAULT_FILTER_ORDER,
     DEFAULT_MIN_FORCE_N,
@@ -43,6 +43,7 @@ from core.metrics import (
     TrialMetrics,
     _cross,
     assemble,
+    checked_options,
     force_within,
     helped_samples,
     work_shares,
@@ -91,10 +92,7 @@ def compute_metrics_blockwise(
     """`compute_metrics` of the n samples `read` gives, a block of `block` samples at a
     time (the module notes): the same figures to rounding, the intervals of Fig. 3.9 left
     out. `given` names the roles besides "t_s" and "position_m" that there are."""
-    tolerance_rad = check_range("tolerance_rad", tolerance_rad, 0.0, math.pi, "rad",
-                                low_open=True)
-    min_force_N = check_non_negative("min_force_N", min_force_N, "N")
-    check_range("movement_fraction", movement_fraction, 0.0, 1.0, low_open=True)
+    tolerance_rad, min_force_N = checked_options(tolerance_rad, min_force_N, movement_fraction)
     given = set(given)
     trial = _Trial(read, n, block)
     dt_s = trial.sample_interval()

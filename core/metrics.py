@@ -384,10 +384,7 @@ def compute_metrics(
     t = np.asarray(t_s, dtype=float)
     n = t.size
     position = as_series("position_m", position_m, n, 2)
-    tolerance_rad = check_range("tolerance_rad", tolerance_rad, 0.0, math.pi, "rad",
-                                low_open=True)
-    min_force_N = check_non_negative("min_force_N", min_force_N, "N")
-    check_range("movement_fraction", movement_fraction, 0.0, 1.0, low_open=True)
+    tolerance_rad, min_force_N = checked_options(tolerance_rad, min_force_N, movement_fraction)
     nan = math.nan
     pair = (nan, nan)
 
@@ -461,6 +458,17 @@ def compute_metrics(
                     force_range, rom, torque_range, smoothed_range, path_length,
                     desired_length, peak, onset, offset, mean_speed, trial_sparc, trial_ldlj,
                     correlation, within, outside, per_reach, work, led)
+
+
+def checked_options(tolerance_rad: float, min_force_N: float,
+                    movement_fraction: float) -> tuple[float, float]:
+    """The options `compute_metrics` and core.blockwise check before any figure (the cone's
+    half-angle, the force a direction needs, the onset's share of the peak speed)."""
+    tolerance_rad = check_range("tolerance_rad", tolerance_rad, 0.0, math.pi, "rad",
+                                low_open=True)
+    min_force_N = check_non_negative("min_force_N", min_force_N, "N")
+    check_range("movement_fraction", movement_fraction, 0.0, 1.0, low_open=True)
+    return tolerance_rad, min_force_N
 
 
 def assemble(duration_s, rmse, direction_pct, tolerance_rad, min_force_N, force_range, rom,

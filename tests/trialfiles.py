@@ -1,6 +1,7 @@
 """Trial files as the tests need them beside what the writer makes: edited by hand and
 sealed again (a file as the console would have written it, not damage), left as a crash
-leaves them, or as an older console wrote them (docs/data-format.md, "The seal")."""
+leaves them, or as an older console wrote them (docs/data-format.md, "The seal"); and
+records to write whose values another process can rebuild (`ramp_records`)."""
 
 from __future__ import annotations
 
@@ -47,3 +48,28 @@ def as_format_1(path):
                 del f.attrs[name]
         f.attrs["format_version"] = np.int64(1)
     return path
+
+
+def ramp_records(start, n, dtype, *, valid=False):
+    """Records whose every value follows from its tick, so another process can rebuild them.
+    `valid`: the code fields hold codes and the assistance level lies in 0…1, as a reader
+    checks them (app.trials.checks). Self-contained: the writer scripts the tests run in
+    another process take its source (inspect.getsource)."""
+    import numpy as np
+
+    records = np.zeros(n, dtype=dtype)
+    tick = np.arange(start, start + n)
+    for k, name in enumerate(dtype.names):
+        field = records[name]
+        column = (tick + k) % 200 if field.dtype.kind in "iu" else tick * 1e-3 + k
+        records[name] = column.reshape((n,) + (1,) * (field.ndim - 1))
+    if valid:
+        from app.trials.checks import CODES
+
+        for name, allowed in CODES.items():  # codes hold codes
+            if name in dtype.names:
+                records[name] = np.asarray(sorted(allowed))[tick % len(allowed)]
+        if "assistance_level" in dtype.names:
+            records["assistance_level"] = (tick % 101) / 100
+    records["tick"] = tick
+    return records

@@ -223,25 +223,20 @@ def ctpid_acceleration(gains, z, dt_s, q1, q2, qd1, qd2, r1, r2, rd1, rd2, rdd1,
 def ctpid_limit(gains, z, tau1, tau2):
     """The inverse dynamics' torques clipped to the drive limit, each joint's
     saturation sign kept in z for the next tick's conditional integration."""
-    lim1 = gains[C_LIM1]
-    lim2 = gains[C_LIM2]
-    if tau1 > lim1:
-        tau1 = lim1
-        z[I_SAT1] = 1.0
-    elif tau1 < -lim1:
-        tau1 = -lim1
-        z[I_SAT1] = -1.0
-    else:
-        z[I_SAT1] = 0.0
-    if tau2 > lim2:
-        tau2 = lim2
-        z[I_SAT2] = 1.0
-    elif tau2 < -lim2:
-        tau2 = -lim2
-        z[I_SAT2] = -1.0
-    else:
-        z[I_SAT2] = 0.0
+    tau1, z[I_SAT1] = saturated(tau1, gains[C_LIM1])
+    tau2, z[I_SAT2] = saturated(tau2, gains[C_LIM2])
     return (tau1, tau2)
+
+
+@kernel
+def saturated(tau, limit):
+    """One joint's torque clipped to ±limit, with its saturation sign: +1 clipped from
+    above, −1 from below, 0 within (a NaN torque passes through, unsaturated)."""
+    if tau > limit:
+        return (limit, 1.0)
+    if tau < -limit:
+        return (-limit, -1.0)
+    return (tau, 0.0)
 
 
 @kernel

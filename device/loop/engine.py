@@ -54,7 +54,7 @@ from device.safety.checks import W_FAULT, supervise
 from device.safety.faults import Fault
 from device.safety.supervisor import SafetySupervisor
 from device.sim import physics
-from device.sim.physics import X_READING, read, write
+from device.sim.physics import X_READING, last_reading, read, write
 from device.sim.simulator import SimulatorBackend
 
 FAULT_LATCHED = 10
@@ -100,12 +100,7 @@ def simulated_tick(running, tick, now_s, r, a, c, p, table, episodes, x, noise, 
     status = read(r, a, c, p, table, episodes, x, now_s, noise, scratch)
     if status != physics.OK:
         return status, 0.0, 0.0, 0
-    t = x[X_READING]
-    q1 = x[X_READING + 1]
-    q2 = x[X_READING + 2]
-    fx = x[X_READING + 3]
-    fy = x[X_READING + 4]
-    fz = x[X_READING + 5]
+    t, q1, q2, fx, fy, fz = last_reading(x)
     if running:
         out1, out2, code = supervised_command(
             kind, robot, model, tracker, gains, assist, guide, rates, integral, guided, tick,
@@ -320,12 +315,7 @@ def run_ticks(k0, k1, period_s, r, a, c, p, table, episodes, x, noise, scratch, 
             status = read(r, a, c, p, table, episodes, x, now_s, noise, scratch)
             if status != physics.OK:
                 return k, status
-        t = x[X_READING]
-        q1 = x[X_READING + 1]
-        q2 = x[X_READING + 2]
-        fx = x[X_READING + 3]
-        fy = x[X_READING + 4]
-        fz = x[X_READING + 5]
+        t, q1, q2, fx, fy, fz = last_reading(x)
         out1, out2, code = supervised_command(
             kind, robot, model, tracker, gains, assist, guide, rates, integral, guided, k,
             rows, rows_from, n_rows, approach_ticks, period_s, sensor_offset_rad, last, g, w,

@@ -120,6 +120,14 @@ def sample(c, x, steps, q1, q2, scratch, noise):
 
 
 @kernel
+def last_reading(x):
+    """The reading `sample` left in x: (time, q1, q2, fx, fy, fz), as a backend's `read`
+    gives it (device.backend.SensorReading's order)."""
+    return (x[X_READING], x[X_READING + 1], x[X_READING + 2], x[X_READING + 3],
+            x[X_READING + 4], x[X_READING + 5])
+
+
+@kernel
 def _failed_at(scratch, t, q1, q2, qd1, qd2):
     scratch[FAILED_AT] = t
     scratch[FAILED_AT + 1] = q1

@@ -36,6 +36,7 @@ from device.recording.trialfile.reserve import SpaceShort
 from device.recording.trialfile.seal import Seal
 from device.recording.trialfile.verify import inventory
 from tests.device.smalldisk import DISK_KIND, SmallDisk
+from tests.trialfiles import ramp_records
 
 ROOT = Path(__file__).resolve().parents[2]
 PERIOD_S = 0.002
@@ -57,20 +58,6 @@ def random_records(n, dtype, rng, start_tick=0):
             records[name] = rng.integers(0, min(info.max, 2**31), field.shape, endpoint=True)
     records["tick"] = np.arange(start_tick, start_tick + n)
     records["time"] = records["tick"] * PERIOD_S
-    return records
-
-
-def ramp_records(start, n, dtype):
-    """Records whose every value follows from its tick, so another process can rebuild them."""
-    import numpy as np
-
-    records = np.zeros(n, dtype=dtype)
-    tick = np.arange(start, start + n)
-    for k, name in enumerate(dtype.names):
-        field = records[name]
-        column = (tick + k) % 200 if field.dtype.kind in "iu" else tick * 1e-3 + k
-        records[name] = column.reshape((n,) + (1,) * (field.ndim - 1))
-    records["tick"] = tick
     return records
 
 

@@ -44,15 +44,25 @@ def short_trial(win: MainWindow, duration_s: float = 2.0) -> None:
     p.refresh()
 
 
+def build_and_connect(qtbot, win: MainWindow) -> None:
+    """Build and Connect as the therapist presses them, each once its state allows (built:
+    the loop's state and the window's answer to Build, which come in either order);
+    returns connected, the trial not started."""
+    from device.loop.states import State
+
+    click(qtbot, win.robot.buttons["build"])
+    qtbot.waitUntil(lambda: win.state == State.BUILT and win.built is not None,
+                    timeout=60000)
+    click(qtbot, win.robot.buttons["connect"])
+    qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=60000)
+
+
 def build_connect_start(qtbot, win: MainWindow) -> None:
     """Build, Connect and Start as the therapist presses them, each once its state
     allows; returns with the trial running."""
     from device.loop.states import State
 
-    click(qtbot, win.robot.buttons["build"])
-    qtbot.waitUntil(lambda: win.state == State.BUILT, timeout=20000)
-    click(qtbot, win.robot.buttons["connect"])
-    qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=20000)
+    build_and_connect(qtbot, win)
     click(qtbot, win.robot.buttons["start"])
     qtbot.waitUntil(lambda: win.state == State.RUNNING, timeout=10000)
 

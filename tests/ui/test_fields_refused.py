@@ -11,6 +11,7 @@ from PySide6.QtCore import Qt
 from app.records.datadir import DataDir
 from app.records.registry import Registry
 from tests.ui.session import open_window
+from tests.ui.shown import shown
 from ui import theme
 from ui.tabs.parameters import ParametersTab
 from ui.tabs.registration import NOT_MEASURED, RegistrationTab
@@ -29,10 +30,7 @@ def registration(qtbot, qapp, tmp_path):
     theme.apply_theme(qapp)
     registry = Registry(DataDir(tmp_path / "data"))
     tab = RegistrationTab(registry)
-    qtbot.addWidget(tab)
-    tab.resize(1280, 900)
-    tab.show()
-    qtbot.waitExposed(tab)
+    shown(qtbot, tab, 1280, 900)
     return tab, registry
 
 

@@ -9,7 +9,13 @@ from __future__ import annotations
 import pytest
 
 from device.loop.states import State
-from tests.ui.session import click, open_window, register_patient, short_trial
+from tests.ui.session import (
+    build_and_connect,
+    click,
+    open_window,
+    register_patient,
+    short_trial,
+)
 
 OUTSIDE = ("handle outside the exercise area: guide it inside (now at 8.1, 48 cm; the area is "
            "x -40 to -10 cm, y 10 to 50 cm)")
@@ -28,11 +34,7 @@ def test_the_window_holds_start_while_the_loop_says_the_handle_is_outside(qtbot,
     win = window
     register_patient(qtbot, win)
     short_trial(win)
-    click(qtbot, win.robot.buttons["build"])
-    qtbot.waitUntil(lambda: win.state == State.BUILT and win.built is not None,
-                    timeout=60000)
-    click(qtbot, win.robot.buttons["connect"])
-    qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=60000)
+    build_and_connect(qtbot, win)
     qtbot.waitUntil(lambda: win.robot.buttons["start"].isEnabled(), timeout=10000)
     win.bridge.handle_area.emit(OUTSIDE)  # as the loop's HandleArea arrives
     assert not win.robot.buttons["start"].isEnabled()

@@ -24,6 +24,7 @@ from tests.ui.session import (
     register_patient,
     short_trial,
 )
+from tests.ui.shown import shown
 from ui.main_window import MainWindow
 
 pytestmark = pytest.mark.slow
@@ -302,10 +303,7 @@ def test_messages_and_banners_never_grow_the_window_or_hide_the_emergency_stop(
     monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
     registry = Registry(DataDir(tmp_path / "data", "test"))
     win = MainWindow(registry, settings_path=tmp_path / "config" / "settings.json")
-    qtbot.addWidget(win)
-    win.resize(1280, 940)
-    win.show()
-    qtbot.waitExposed(win)
+    shown(qtbot, win, 1280, 940)
     height = win.height()
     assert win.minimumSizeHint().height() <= 768 - 30
     long = "The control loop ran late and this sentence goes on and on " * 6
@@ -372,10 +370,7 @@ def test_every_tab_fits_a_laptop_screen_without_cutting_its_panel(qtbot, tmp_pat
     monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
     win = MainWindow(Registry(DataDir(tmp_path / "data", "test")),
                      settings_path=tmp_path / "config" / "settings.json")
-    qtbot.addWidget(win)
-    win.resize(1366, 738)
-    win.show()
-    qtbot.waitExposed(win)
+    shown(qtbot, win, 1366, 738)
     assert win.height() == 738
     for index in range(win.tabs.count()):
         win.tabs.setCurrentIndex(index)

@@ -14,7 +14,13 @@ import pytest
 
 from device.errors import RecordingError
 from device.loop.states import State
-from tests.ui.session import click, open_window, register_patient, short_trial
+from tests.ui.session import (
+    build_and_connect,
+    click,
+    open_window,
+    register_patient,
+    short_trial,
+)
 from ui.tabs.video import VideoTab
 
 
@@ -56,11 +62,7 @@ def window(qtbot, tmp_path, monkeypatch):
 def _connected(qtbot, win) -> None:
     register_patient(qtbot, win)
     short_trial(win)
-    click(qtbot, win.robot.buttons["build"])
-    qtbot.waitUntil(lambda: win.state == State.BUILT and win.built is not None,
-                    timeout=60000)
-    click(qtbot, win.robot.buttons["connect"])
-    qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=60000)
+    build_and_connect(qtbot, win)
 
 
 def _no_trial_left(win) -> None:

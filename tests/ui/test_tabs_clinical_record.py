@@ -11,6 +11,7 @@ from PySide6.QtCore import Qt
 from app.records.datadir import DataDir
 from app.records.registry import Registry
 from core.trial import THESIS_SUBJECT
+from tests.ui.shown import shown
 from tests.ui.test_tabs_registration import fill_new_patient
 from ui import theme
 from ui.tabs.registration import RegistrationTab
@@ -24,12 +25,7 @@ def registry(tmp_path):
 @pytest.fixture
 def tab(qtbot, qapp, registry):
     theme.apply_theme(qapp)
-    widget = RegistrationTab(registry)
-    qtbot.addWidget(widget)
-    widget.resize(1280, 800)
-    widget.show()
-    qtbot.waitExposed(widget)
-    return widget
+    return shown(qtbot, RegistrationTab(registry))
 
 
 def click(qtbot, button):

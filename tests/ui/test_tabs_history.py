@@ -16,6 +16,7 @@ from app.records.datadir import DataDir
 from app.records.registry import Registry
 from app.trials.headless import save, simulate
 from core.trial import THESIS_SUBJECT
+from tests.ui.shown import shown
 from ui import theme
 from ui.tabs import ProgressTab, ReplayTab, ReportTab
 from ui.views.trialview import TrialView
@@ -45,14 +46,6 @@ def history(tmp_path_factory):
 @pytest.fixture(autouse=True)
 def themed(qapp):
     theme.apply_theme(qapp)
-
-
-def shown(qtbot, widget):
-    qtbot.addWidget(widget)
-    widget.resize(1280, 800)
-    widget.show()
-    qtbot.waitExposed(widget)
-    return widget
 
 
 def test_replay_loads_a_trial_and_the_slider_moves_the_cursor(qtbot, history):

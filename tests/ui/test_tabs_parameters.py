@@ -20,6 +20,7 @@ from core.trial import (
     TrialParameters,
     check_trial,
 )
+from tests.ui.shown import shown
 from ui import theme
 from ui.tabs.parameters import HARDWARE, SIMULATOR, ParametersTab
 
@@ -27,12 +28,7 @@ from ui.tabs.parameters import HARDWARE, SIMULATOR, ParametersTab
 @pytest.fixture
 def tab(qtbot, qapp):
     theme.apply_theme(qapp)
-    widget = ParametersTab()
-    qtbot.addWidget(widget)
-    widget.resize(1280, 800)
-    widget.show()
-    qtbot.waitExposed(widget)
-    return widget
+    return shown(qtbot, ParametersTab())
 
 
 def type_into(qtbot, field, text: str) -> None:

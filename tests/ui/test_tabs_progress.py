@@ -15,6 +15,7 @@ from app.records.registry import Registry
 from app.reports.progress_figure import progress_figure
 from core.trial import THESIS_SUBJECT
 from tests.app.reports.made import staircase_course
+from tests.ui.shown import shown
 from ui import theme
 from ui.tabs import ProgressTab
 
@@ -32,10 +33,7 @@ def tab(qtbot, qapp, course):
     theme.apply_theme(qapp)
     registry, code = course
     tab = ProgressTab(registry)
-    qtbot.addWidget(tab)
-    tab.resize(1280, 800)
-    tab.show()
-    qtbot.waitExposed(tab)
+    shown(qtbot, tab)
     with qtbot.waitSignal(tab.progress_loaded, timeout=10000):
         tab.set_patient(code)
     return tab

@@ -10,6 +10,7 @@ import pytest
 from app.records.datadir import DataDir
 from app.records.registry import Registry
 from core.trial import THESIS_SUBJECT
+from tests.ui.shown import shown
 from ui import theme
 from ui.tabs import ProgressTab
 
@@ -39,10 +40,7 @@ def tab(qtbot, qapp, clinic):
     theme.apply_theme(qapp)
     registry, codes = clinic
     tab = ProgressTab(registry)
-    qtbot.addWidget(tab)
-    tab.resize(1280, 900)
-    tab.show()
-    qtbot.waitExposed(tab)
+    shown(qtbot, tab, 1280, 900)
     with qtbot.waitSignal(tab.progress_loaded, timeout=10000), \
             qtbot.waitSignal(tab.scales.shown, timeout=10000):
         tab.set_patient(codes[0])

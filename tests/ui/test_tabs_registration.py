@@ -10,6 +10,7 @@ from app.errors import DuplicateNumberError
 from app.records.datadir import DataDir
 from app.records.registry import Registry
 from core.trial import THESIS_SUBJECT
+from tests.ui.shown import shown
 from ui import theme
 from ui.tabs.registration import RegistrationTab
 
@@ -22,12 +23,7 @@ def registry(tmp_path):
 @pytest.fixture
 def tab(qtbot, qapp, registry):
     theme.apply_theme(qapp)
-    widget = RegistrationTab(registry)
-    qtbot.addWidget(widget)
-    widget.resize(1280, 800)
-    widget.show()
-    qtbot.waitExposed(widget)
-    return widget
+    return shown(qtbot, RegistrationTab(registry))
 
 
 def click(qtbot, button):

@@ -14,6 +14,7 @@ from app.records.datadir import DataDir
 from app.records.registry import Registry
 from core.trial import THESIS_SUBJECT
 from tests.app.reports.made import cut, register
+from tests.ui.shown import shown
 from ui import theme
 from ui.tabs import ReportTab
 
@@ -33,12 +34,7 @@ def course(tmp_path_factory):
 @pytest.fixture
 def tab(qtbot, qapp):
     theme.apply_theme(qapp)
-    tab = ReportTab()
-    qtbot.addWidget(tab)
-    tab.resize(1280, 800)
-    tab.show()
-    qtbot.waitExposed(tab)
-    return tab
+    return shown(qtbot, ReportTab())
 
 
 def test_the_patient_part_of_a_cut_short_trial_is_for_the_patient(qtbot, tab, course):

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from PySide6.QtGui import QColor
 
+from tests.ui.shown import shown
 from ui import theme
 from ui.tabs import VideoTab
 
@@ -28,10 +29,7 @@ def clip(tmp_path):
 def tab(qtbot, qapp):
     theme.apply_theme(qapp)
     widget = VideoTab()
-    qtbot.addWidget(widget)
-    widget.resize(800, 600)
-    widget.show()
-    qtbot.waitExposed(widget)
+    shown(qtbot, widget, 800, 600)
     yield widget
     widget.close_camera()
 

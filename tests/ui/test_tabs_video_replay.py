@@ -16,6 +16,7 @@ from app.trials.reader import read_trial
 from core.pose.keypoints import SHOULDER
 from core.trial import THESIS_SUBJECT
 from tests.pose_film import ReplayDetector, write_video
+from tests.ui.shown import shown
 from ui import theme
 from ui.tabs import VideoTab
 
@@ -39,10 +40,7 @@ def recorded(tmp_path_factory):
 def tab(qtbot, qapp):
     theme.apply_theme(qapp)
     widget = VideoTab()
-    qtbot.addWidget(widget)
-    widget.resize(800, 600)
-    widget.show()
-    qtbot.waitExposed(widget)
+    shown(qtbot, widget, 800, 600)
     yield widget
     widget.close_camera()
 

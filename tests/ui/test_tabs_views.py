@@ -14,6 +14,7 @@ from app.trials.headless import simulate
 from core.metrics import DEFAULT_TORQUE_CUTOFF_HZ
 from core.signal import lowpass
 from core.trial import THESIS_SUBJECT
+from tests.ui.shown import shown
 from ui import theme
 from ui.tabs import (
     VIEW_TABS,
@@ -52,14 +53,6 @@ def view(records):
 @pytest.fixture(autouse=True)
 def themed(qapp):
     theme.apply_theme(qapp)
-
-
-def shown(qtbot, widget):
-    qtbot.addWidget(widget)
-    widget.resize(1280, 800)
-    widget.show()
-    qtbot.waitExposed(widget)
-    return widget
 
 
 def exercise(records):

@@ -212,13 +212,7 @@ class VideoTab(QWidget):
             self._replay_index = -1
             self.state.setText(f"Replay of {replay.name}: no picture at {t:.2f} s.")
             return
-        image = frame.image
-        height, width = image.shape[:2]
-        qimage = QImage(image.data, width, height, image.strides[0],
-                        QImage.Format.Format_BGR888)
-        pixmap = QPixmap.fromImage(qimage).scaled(
-            self.picture.size(), Qt.AspectRatioMode.KeepAspectRatio,
-            Qt.TransformationMode.SmoothTransformation)
+        pixmap, width = self._scaled(frame.image)
         if frame.keypoints_px is not None:
             _draw_keypoints(pixmap, width, frame.keypoints_px)
         self.picture.setPixmap(pixmap)
@@ -248,18 +242,23 @@ class VideoTab(QWidget):
             return
         frame = camera.latest()
         if frame is not None and frame.index != self._shown_index:
-            image = frame.image
-            height, width = image.shape[:2]
-            qimage = QImage(image.data, width, height, image.strides[0],
-                            QImage.Format.Format_BGR888)
-            pixmap = QPixmap.fromImage(qimage).scaled(
-                self.picture.size(), Qt.AspectRatioMode.KeepAspectRatio,
-                Qt.TransformationMode.SmoothTransformation)
+            pixmap, width = self._scaled(frame.image)
             if self._draw_pose(pixmap, width):
                 self._overlaid += 1
             self.picture.setPixmap(pixmap)
             self._shown_index = frame.index
         self._update_state()
+
+    def _scaled(self, image: np.ndarray) -> tuple[QPixmap, int]:
+        """A camera's or a replayed video's BGR frame as a pixmap the picture's size
+        (aspect kept), with the frame's own width in pixels (the keypoints' scale)."""
+        height, width = image.shape[:2]
+        qimage = QImage(image.data, width, height, image.strides[0],
+                        QImage.Format.Format_BGR888)
+        pixmap = QPixmap.fromImage(qimage).scaled(
+            self.picture.size(), Qt.AspectRatioMode.KeepAspectRatio,
+            Qt.TransformationMode.SmoothTransformation)
+        return pixmap, width
 
     def _update_state(self) -> None:
         camera = self._camera

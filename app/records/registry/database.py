@@ -127,12 +127,8 @@ class Database:
             raise self._damaged(exc) from exc
         try:
             yield conn
-        except sqlite3.IntegrityError as exc:
-            raise _refused(exc) from exc
-        except sqlite3.Error as exc:
-            raise self._database_error(exc) from exc
-        except UnicodeDecodeError as exc:
-            raise self._damaged(exc) from exc
+        except (sqlite3.Error, UnicodeDecodeError) as exc:
+            raise self._sqlite_error(exc) from exc
         finally:
             conn.close()
 
@@ -147,12 +143,8 @@ class Database:
                 yield conn
         except sa.exc.DBAPIError as exc:
             raise self._driver_error(exc) from (exc.orig or exc)
-        except sqlite3.IntegrityError as exc:
-            raise _refused(exc) from exc
-        except sqlite3.Error as exc:
-            raise self._database_error(exc) from exc
-        except UnicodeDecodeError as exc:
-            raise self._damaged(exc) from exc
+        except (sqlite3.Error, UnicodeDecodeError) as exc:
+            raise self._sqlite_error(exc) from exc
 
     # -- transactions --------------------------------------------------------------------
     @contextlib.contextmanager
@@ -286,11 +278,18 @@ class Database:
     def _driver_error(self, exc: sa.exc.DBAPIError) -> RegistryError:
         """What SQLAlchemy raised for the driver, as the registry's error."""
         orig = exc.orig
-        if isinstance(orig, sqlite3.IntegrityError):
-            return _refused(orig)
         if isinstance(orig, sqlite3.Error):
-            return self._database_error(orig)
+            return self._sqlite_error(orig)
         return self._server_error(exc)
+
+    def _sqlite_error(self, exc: sqlite3.Error | UnicodeDecodeError) -> RegistryError:
+        """SQLite's own error as the registry's: a refused change (a constraint), a
+        damaged stored text SQLite handed back undecodable, or the file's trouble."""
+        if isinstance(exc, sqlite3.IntegrityError):
+            return _refused(exc)
+        if isinstance(exc, UnicodeDecodeError):
+            return self._damaged(exc)
+        return self._database_error(exc)
 
     def _server_error(self, exc: sa.exc.DBAPIError) -> RegistryError:
         reason = first_line(exc)

@@ -19,7 +19,7 @@ from app.trials.reader import read_trial
 from core.trial import THESIS_SUBJECT
 from device.recording.record import CHANNELS, RECORD_DTYPE, Channel, extend_channels
 from device.recording.trialfile import FORMAT_VERSION, SubjectInfo, write_trial
-from tests.trialfiles import as_format_1
+from tests.trialfiles import as_format_1, ramp_records
 
 ROOT = Path(__file__).resolve().parents[3]
 PERIOD_S = 0.002
@@ -52,27 +52,6 @@ def random_records(n, dtype, seed):
         records["assistance_level"] = rng.uniform(0.0, 1.0, n)
     records["tick"] = np.arange(n)
     records["time"] = np.arange(n) * PERIOD_S
-    return records
-
-
-def ramp_records(start, n, dtype):
-    """Records whose every value follows from its tick, so another process can rebuild them."""
-    import numpy as np
-
-    from app.trials.checks import CODES
-
-    records = np.zeros(n, dtype=dtype)
-    tick = np.arange(start, start + n)
-    for k, name in enumerate(dtype.names):
-        field = records[name]
-        column = (tick + k) % 200 if field.dtype.kind in "iu" else tick * 1e-3 + k
-        records[name] = column.reshape((n,) + (1,) * (field.ndim - 1))
-    for name, allowed in CODES.items():  # codes hold codes (app.trials.checks)
-        if name in dtype.names:
-            records[name] = np.asarray(sorted(allowed))[tick % len(allowed)]
-    if "assistance_level" in dtype.names:
-        records["assistance_level"] = (tick % 101) / 100
-    records["tick"] = tick
     return records
 
 
@@ -142,7 +121,7 @@ WRITER = textwrap.dedent("""
     for line in sys.stdin:
         command = line.split()
         if command[0] == "append":
-            writer.append(ramp_records(n, int(command[1]), RECORD_DTYPE))
+            writer.append(ramp_records(n, int(command[1]), RECORD_DTYPE, valid=True))
             n += int(command[1])
             writer.flush()
         elif command[0] == "event":
@@ -153,7 +132,7 @@ WRITER = textwrap.dedent("""
         elif command[0] == "unflushed":
             # Go on recording without flushing until killed.
             while True:
-                writer.append(ramp_records(n, 50, RECORD_DTYPE))
+                writer.append(ramp_records(n, 50, RECORD_DTYPE, valid=True))
                 n += 50
                 if n % 1000 == 0:
                     print("still writing", flush=True)
@@ -196,7 +175,7 @@ def test_a_file_being_recorded_reads_as_far_as_it_was_flushed(tmp_path):
             assert trial.status == "recording"
             assert not trial.closed
             assert "still being recorded" in trial.notes[0]
-            expected = ramp_records(0, trial.n_samples, RECORD_DTYPE)
+            expected = ramp_records(0, trial.n_samples, RECORD_DTYPE, valid=True)
             np.testing.assert_array_equal(trial.channels["position"], expected["position"])
         assert writer.send("event") == "ok 1500"
         assert read_trial(path).events[0]["values"] == {"n": 1500}
@@ -227,7 +206,7 @@ def test_a_recorder_killed_mid_trial_leaves_every_flushed_sample(tmp_path):
     assert trial.status == "recording"
     assert "crash" in trial.notes[0]
     assert trial.n_samples >= 2000
-    expected = ramp_records(0, trial.n_samples, RECORD_DTYPE)
+    expected = ramp_records(0, trial.n_samples, RECORD_DTYPE, valid=True)
     for name in RECORD_DTYPE.names:
         np.testing.assert_array_equal(trial.channels[name], expected[name])
     assert [e["kind"] for e in trial.events] == ["mark"]
