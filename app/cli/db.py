@@ -56,8 +56,15 @@ def _location(args: argparse.Namespace):
 
 def cmd_status(args: argparse.Namespace) -> int:
     from app.records.registry import admin
+    from app.records.registry.url import POSTGRESQL
+    from app.records.station.waiting import waiting_line
 
-    report = admin.status(_location(args))
+    location = _location(args)
+    if location.engine == POSTGRESQL:  # first: true whether the server answers or not
+        waiting = waiting_line(data_dir_for(args))
+        if waiting:
+            print(waiting, flush=True)
+    report = admin.status(location)
     for line in report.lines:
         print(line)
     if report.damaged:
