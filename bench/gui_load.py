@@ -33,18 +33,15 @@ import numpy as np
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen" if not os.environ.get("DISPLAY") else "xcb")
 
-from PySide6.QtCore import QEvent, QObject, QTimer
+from live_feed import feed_live_trial  # bench/, beside this file
+from PySide6.QtCore import QEvent, QObject
 from PySide6.QtWidgets import QApplication, QGridLayout, QTabWidget, QWidget
 
 from app.trials.reader import read_trial
 from core.trial import THESIS_SUBJECT
-from device.loop.messages import BackendConfig
 from device.loop.pipeline import PERIOD_S
-from device.recording.trialfile import SubjectInfo
 from ui import theme
-from ui.device_bridge import DeviceBridge
 from ui.tabs import AnglesTab, ForceTab, TorquesTab, TrajectoryTab
-from ui.views.trialview import TrialView
 
 
 class PaintCounter(QObject):
@@ -81,57 +78,24 @@ def live_plots(seconds: float, folder: Path, layout: str) -> dict:
             if type(child).__name__ in ("PlotWidget", "GraphicsView", "GraphicsLayoutWidget"):
                 child.viewport().installEventFilter(counter)
     window.show()
-    bridge = DeviceBridge()
-    bridge.start()
-    heartbeat = QTimer()
-    heartbeat.timeout.connect(bridge.heartbeat)
-    heartbeat.start(100)
-    state = {"ended": False, "frames": 0, "view": None}
-    bridge.trial_started.connect(lambda *_: state.update(view=TrialView(params)))
-    bridge.file_notice.connect(
-        lambda kind, *_: state.update(ended=True) if kind == "closed" else None)
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / "gui-load.h5"
+    painted = {}
 
-    def step(name, *args):
-        getattr(bridge, name)(*args)
+    def switch(elapsed_s: float) -> None:
+        if layout == "tabs":
+            window.setCurrentIndex(int(elapsed_s / 5.0) % len(tabs))
 
-    step("build", params, BackendConfig())
-    _spin(app, 2.0)
-    step("connect")
-    _spin(app, 1.0)
-    step("start_trial", str(path), SubjectInfo.from_parameters("PBENCH0", params))
-
-    def repaint() -> None:
-        records = bridge.take_records()
-        view = state["view"]
-        if view is None:
-            return
-        if len(records):
-            view.append(records[records["phase"] > 0])
+    def show(view) -> None:
         for tab in tabs:
             if tab.isVisible():
                 tab.show_view(view)
-        state["frames"] += 1
 
-    timer = QTimer()
-    timer.timeout.connect(repaint)
-    timer.start(16)
-    while state["view"] is None:
-        _spin(app, 0.05)
-    started, paints0 = time.perf_counter(), counter.paints
-    frames0 = state["frames"]
-    while not state["ended"]:
-        _spin(app, 0.05)
-        if layout == "tabs":
-            window.setCurrentIndex(int((time.perf_counter() - started) / 5.0) % len(tabs))
-    elapsed = time.perf_counter() - started
-    fps = (state["frames"] - frames0) / elapsed
+    path = folder / "gui-load.h5"
+    elapsed, frames, view = feed_live_trial(
+        app, params, path, show, at_start=lambda: painted.update(at_start=counter.paints),
+        meanwhile=switch)
+    fps = frames / elapsed
     shown = len(tabs) if layout == "grid" else 1
-    paint_rate = (counter.paints - paints0) / elapsed / shown
-    timer.stop()
-    heartbeat.stop()
-    bridge.close()
+    paint_rate = (counter.paints - painted["at_start"]) / elapsed / shown
     window.close()
     data = read_trial(path)
     moving = data.channels["phase"] > 0
@@ -139,19 +103,12 @@ def live_plots(seconds: float, folder: Path, layout: str) -> dict:
     compute = data.channels["compute_time"][moving].astype(float)
     return {
         "fps": fps, "paints_per_plot": paint_rate, "samples": data.n_samples,
-        "view_samples": state["view"].n,
+        "view_samples": view.n,
         "p50_ms": 1e3 * np.percentile(lateness, 50), "p99_ms": 1e3 * np.percentile(lateness, 99),
         "p999_ms": 1e3 * np.percentile(lateness, 99.9), "max_ms": 1e3 * lateness.max(),
         "late_pct": 100 * np.mean(lateness > PERIOD_S),
         "compute_p99_us": 1e6 * np.percentile(compute, 99), "status": data.status,
     }
-
-
-def _spin(app: QApplication, seconds: float) -> None:
-    end = time.perf_counter() + seconds
-    while time.perf_counter() < end:
-        app.processEvents()
-        time.sleep(0.002)
 
 
 CHILD = textwrap.dedent("""

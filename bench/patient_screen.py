@@ -30,18 +30,14 @@ import numpy as np
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen" if not os.environ.get("DISPLAY") else "xcb")
 
-from PySide6.QtCore import QTimer
+from live_feed import feed_live_trial  # bench/, beside this file
 from PySide6.QtWidgets import QApplication
 
 from app.trials.reader import read_trial
 from core.trial import THESIS_SUBJECT
-from device.loop.messages import BackendConfig
 from device.loop.pipeline import PERIOD_S
-from device.recording.trialfile import SubjectInfo
 from ui import theme
-from ui.device_bridge import DeviceBridge
 from ui.patient.window import PatientWindow
-from ui.views.trialview import TrialView
 
 
 class TimedPatientWindow(PatientWindow):
@@ -65,49 +61,18 @@ def run(app: QApplication, seconds: float, folder: Path, with_screen: bool, game
         window = TimedPatientWindow()
         window.resize(1920, 1080)
         window.show()
-    bridge = DeviceBridge()
-    bridge.start()
-    heartbeat = QTimer()
-    heartbeat.timeout.connect(bridge.heartbeat)
-    heartbeat.start(100)
-    state = {"ended": False, "view": None, "ticks": 0}
-    bridge.trial_started.connect(lambda *_: state.update(view=TrialView(params)))
-    bridge.file_notice.connect(
-        lambda kind, *_: state.update(ended=True) if kind == "closed" else None)
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / ("with.h5" if with_screen else "without.h5")
-    bridge.build(params, BackendConfig())
-    _spin(app, 2.0)
-    bridge.connect()
-    _spin(app, 1.0)
-    bridge.start_trial(str(path), SubjectInfo.from_parameters("PBENCH0", params))
+    painted = {}
 
-    def repaint() -> None:
-        records = bridge.take_records()
-        view = state["view"]
-        if view is None:
-            return
-        if len(records):
-            view.append(records[records["phase"] > 0])
+    def show(view) -> None:
         if window is not None:
             window.show_view(view)
-        state["ticks"] += 1
 
-    timer = QTimer()
-    timer.timeout.connect(repaint)
-    timer.start(16)
-    while state["view"] is None:
-        _spin(app, 0.05)
-    started = time.perf_counter()
-    paints0 = window.paints if window is not None else 0
-    ticks0 = state["ticks"]
-    while not state["ended"]:
-        _spin(app, 0.05)
-    elapsed = time.perf_counter() - started
-    timer.stop()
-    heartbeat.stop()
-    bridge.close()
-    out = {"timer_hz": (state["ticks"] - ticks0) / elapsed}
+    path = folder / ("with.h5" if with_screen else "without.h5")
+    elapsed, ticks, _ = feed_live_trial(
+        app, params, path, show,
+        at_start=lambda: painted.update(at_start=window.paints if window is not None else 0))
+    paints0 = painted["at_start"]
+    out = {"timer_hz": ticks / elapsed}
     if window is not None:
         out["fps"] = (window.paints - paints0) / elapsed
         paint_ms = 1e3 * np.array(window.paint_s)
@@ -124,13 +89,6 @@ def run(app: QApplication, seconds: float, folder: Path, with_screen: bool, game
                p999_ms=1e3 * np.percentile(lateness, 99.9), max_ms=1e3 * lateness.max(),
                late_pct=100 * np.mean(lateness > PERIOD_S))
     return out
-
-
-def _spin(app: QApplication, seconds: float) -> None:
-    end = time.perf_counter() + seconds
-    while time.perf_counter() < end:
-        app.processEvents()
-        time.sleep(0.002)
 
 
 def main() -> None:

@@ -164,6 +164,7 @@ def style_sheet() -> str:
     )
     return f"""
 QWidget {{ color: {TEXT}; }}
+QWidget:disabled, QMenu::item:disabled {{ color: #8C8C8C; }}
 QPushButton, QToolButton {{
     min-height: {touch}px; padding: 0 {2 * pad}px; border: 1px solid {BORDER};
     border-radius: 6px; background: {PANEL};

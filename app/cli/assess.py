@@ -12,7 +12,7 @@ import argparse
 from collections.abc import Mapping
 from types import MappingProxyType
 
-from app.cli.common import EXIT_OK, CommandError, next_session, registry_for
+from app.cli.common import EXIT_OK, CommandError, next_session, registry_for, subcommands
 
 
 def add_assess_commands(commands) -> None:
@@ -22,8 +22,7 @@ def add_assess_commands(commands) -> None:
                     "active range, isometric strength, position sense): each task's "
                     "protocol, a task or all of them run on the simulator for a patient, "
                     "and a patient's figures.")
-    sub = parser.add_subparsers(dest="action", metavar="action", parser_class=type(parser),
-                                required=True)
+    sub = subcommands(parser)
     tasks = sub.add_parser("tasks", help="list the tasks, their protocols and figures",
                            description="List every task: what the therapist does, what "
                                        "the patient is told, its trials, robot mode and "

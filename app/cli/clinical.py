@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import argparse
 
-from app.cli.common import record_id, registry_for
+from app.cli.common import record_id, registry_for, subcommands
 from app.records.registry import CORRECTABLE
 from app.records.scales import (
     ARAT,
@@ -42,8 +42,7 @@ def add_clinical_commands(commands) -> None:
         "scales", help="a session's clinical scales (Fugl-Meyer, ARAT, Ashworth, pain, "
                        "fatigue)",
         description="Record or show the clinical scales scored in a patient's sessions.")
-    sub = scales.add_subparsers(dest="action", metavar="action", required=True,
-                                parser_class=type(scales))
+    sub = subcommands(scales)
     add = sub.add_parser(
         "add", help="record one scale for a session",
         description="Record a scale for a session: its total (fugl_meyer 0-66, arat 0-57, "

@@ -35,6 +35,15 @@ class Parser(argparse.ArgumentParser):
         raise SystemExit(EXIT_BAD_INPUT)
 
 
+def subcommands(parser: argparse.ArgumentParser, *, dest: str = "action",
+                metavar: str = "action", required: bool = True):
+    """A command's actions (`rehab COMMAND ACTION …`): the one chosen in args.`dest`, each
+    parser of the command's own class (Parser: one-line errors), one required unless
+    said (a command that does something without one, as `rehab patients`)."""
+    return parser.add_subparsers(dest=dest, metavar=metavar, required=required,
+                                 parser_class=type(parser))
+
+
 class ProgressBar:
     """A one-line progress bar on stderr for long commands."""
 

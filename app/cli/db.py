@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import argparse
 
-from app.cli.common import EXIT_OK, CommandError, absolute, data_dir_for
+from app.cli.common import EXIT_OK, CommandError, absolute, data_dir_for, subcommands
 from app.records.registry.postgres import Roles
 
 
@@ -19,8 +19,7 @@ def add_db_commands(commands) -> None:
         "db", help="the registry's engine, schema and seals; upgrade it",
         description="The registry as a whole: where it is (the registry URL file, else the "
                     "data folder's SQLite registry), its schema and its seals.")
-    sub = parser.add_subparsers(dest="action", metavar="action", parser_class=type(parser),
-                                required=True)
+    sub = subcommands(parser)
     status = sub.add_parser(
         "status", help="engine, place, schema version, rows per table, seals",
         description="Which engine and where (the password masked), the registry's schema "
@@ -56,8 +55,15 @@ def _location(args: argparse.Namespace):
 
 def cmd_status(args: argparse.Namespace) -> int:
     from app.records.registry import admin
+    from app.records.registry.url import POSTGRESQL
+    from app.records.station.waiting import waiting_line
 
-    report = admin.status(_location(args))
+    location = _location(args)
+    if location.engine == POSTGRESQL:  # first: true whether the server answers or not
+        waiting = waiting_line(data_dir_for(args))
+        if waiting:
+            print(waiting, flush=True)
+    report = admin.status(location)
     for line in report.lines:
         print(line)
     if report.damaged:

@@ -15,7 +15,6 @@ import numpy as np
 
 from app.cli.common import (
     CommandError,
-    Parser,
     absolute,
     data_dir_for,
     data_roots,
@@ -23,6 +22,7 @@ from app.cli.common import (
     output_path,
     registry_for,
     rewritten_trial,
+    subcommands,
     trial_id_or_none,
 )
 from app.records.safewrite import check_output_folder
@@ -37,8 +37,7 @@ def add_emg_commands(commands) -> None:
         "emg", help="surface EMG: import, MVC, envelopes, LSL streams",
         description="Surface EMG beside a trial (thesis chapter 5). TRIAL is a trial's id "
                     "(`rehab trials CODE`) or the path of its .h5 file.")
-    sub = emg.add_subparsers(dest="emg_command", metavar="subcommand", required=True,
-                             parser_class=Parser)
+    sub = subcommands(emg, dest="emg_command", metavar="subcommand")
 
     p = sub.add_parser("import", help="store an exported EMG file or an XDF recording in a "
                                       "trial",

@@ -17,7 +17,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from app.cli.common import EXIT_OK, absolute
+from app.cli.common import EXIT_OK, absolute, subcommands
 
 
 def add_hardware_command(commands) -> None:
@@ -25,8 +25,7 @@ def add_hardware_command(commands) -> None:
         "hardware", help="the real robot's hardware settings: check a file",
         description="The real robot's hardware settings file (resources/hardware.example.toml "
                     "filled in for one robot, docs/hardware.md).")
-    actions = hardware.add_subparsers(dest="action", metavar="action", required=True,
-                                      parser_class=type(hardware))
+    actions = subcommands(hardware)
     p = actions.add_parser(
         "check", help="read and check a settings file, and print what Connect would use",
         description="Read and check a hardware settings file and its force sensor's "

@@ -18,6 +18,7 @@ from app.cli.common import (
     data_dir_for,
     output_path,
     progress_bar,
+    subcommands,
 )
 
 MODELS = ("fnn", "rnn", "delan")
@@ -30,8 +31,7 @@ def add_learn_commands(commands) -> None:
                     "sliding inverted pendulum's data, train FNN, RNN (GRU) or DeLaN "
                     "models on a dynamics data file, evaluate them on any such file.",
     )
-    actions = learn.add_subparsers(dest="action", metavar="action", required=True,
-                                   parser_class=type(learn))
+    actions = subcommands(learn)
 
     pendulum = actions.add_parser(
         "pendulum", help="write the sliding inverted pendulum's data (eq. 2.36–2.39)",

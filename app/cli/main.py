@@ -19,7 +19,7 @@ from collections.abc import Sequence
 from app.cli.assess import add_assess_commands
 from app.cli.check import add_check_command
 from app.cli.clinical import add_clinical_commands
-from app.cli.common import EXIT_BAD_INPUT, CommandError, Parser
+from app.cli.common import EXIT_BAD_INPUT, CommandError, Parser, subcommands
 from app.cli.db import add_db_commands
 from app.cli.emg import add_emg_commands
 from app.cli.exports import add_export_command
@@ -76,7 +76,7 @@ def build_parser(prog: str = "rehab") -> tuple[Parser, argparse._SubParsersActio
         description="Clinical console for the planar upper-limb rehabilitation robot.",
     )
     parser.add_argument("--data-dir", help=DATA_DIR_HELP)
-    commands = parser.add_subparsers(dest="command", metavar="command", parser_class=Parser)
+    commands = subcommands(parser, dest="command", metavar="command", required=False)
     for add_commands in COMMAND_GROUPS:
         add_commands(commands)
     return parser, commands

@@ -15,7 +15,7 @@ import argparse
 import json
 from pathlib import Path
 
-from app.cli.common import EXIT_OK, CommandError, absolute
+from app.cli.common import EXIT_OK, CommandError, absolute, subcommands
 from core.trial import MODEL_NAME
 
 KINDS = ("learned", "emg")
@@ -27,8 +27,7 @@ def add_models_command(commands) -> None:
         description="The model files a trial may run on. Each is signed by this "
                     "installation; `import` brings in a model from another console, "
                     "checked, and signs it; `export` writes one for another console.")
-    actions = models.add_subparsers(dest="action", metavar="action", required=True,
-                                    parser_class=type(models))
+    actions = subcommands(models)
     p = actions.add_parser("list", help="the data folder's models and whether each is usable")
     p.set_defaults(func=cmd_list)
     p = actions.add_parser("export", help="write a model for another installation",

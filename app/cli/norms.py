@@ -13,15 +13,14 @@ from __future__ import annotations
 import argparse
 import json
 
-from app.cli.common import EXIT_OK, CommandError, absolute, data_dir_for, output_path
+from app.cli.common import EXIT_OK, CommandError, absolute, data_dir_for, output_path, subcommands
 
 
 def add_norms_commands(commands) -> None:
     norms = commands.add_parser(
         "norms", help="normative models: show, fit from controls, use, MDC from retests",
         description="The normative models figures are scored against (docs/norms.md).")
-    actions = norms.add_subparsers(dest="action", metavar="action", required=True,
-                                   parser_class=type(norms))
+    actions = subcommands(norms)
     p = actions.add_parser("show", help="a norms file, or the data folder's norms",
                            description="Print a norms file's source, covariates, figures, "
                                        "task scores and calibration; without FILE, the "

@@ -12,7 +12,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from app.cli.common import EXIT_OK, CommandError, record_id, registry_for
+from app.cli.common import EXIT_OK, CommandError, record_id, registry_for, subcommands
 from app.units import assistance_percent
 
 
@@ -22,8 +22,7 @@ def add_plan_commands(commands) -> None:
         description="Session plans: blocks of exercise with rests, copied from a template "
                     "to a patient, changed for the day, run on the simulator, and the dose "
                     "each run delivered.")
-    sub = parser.add_subparsers(dest="action", metavar="action", parser_class=type(parser),
-                                required=True)
+    sub = subcommands(parser)
     templates = sub.add_parser("templates", help="list the built-in plan templates",
                                description="List the built-in plan templates and their "
                                            "blocks.")

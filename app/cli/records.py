@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from app.cli.common import mm, num, registry_for
+from app.cli.common import mm, num, registry_for, subcommands
 from app.games.figures import game_line
 from app.records.registry import HANDEDNESS, SEXES
 from app.units import assistance_percent, cm
@@ -24,7 +24,7 @@ def add_patient_commands(commands) -> None:
     parser.add_argument("--search", help="part of a name, or the start of a code")
     parser.add_argument("--no-names", action="store_true", help="show codes only")
     parser.set_defaults(func=cmd_patients)
-    sub = parser.add_subparsers(dest="action", metavar="action", parser_class=type(parser))
+    sub = subcommands(parser, required=False)
     listing = sub.add_parser("list", help="list the patients (the same as no action)",
                              description="List the registered patients.")
     listing.add_argument("--search", help="part of a name, or the start of a code")

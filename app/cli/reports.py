@@ -57,15 +57,17 @@ def cmd_progress(args: argparse.Namespace) -> int:
     prog = progress(registry, args.code, include_invalid=args.include_invalid)
     header, rows = prog.table()
     if pdf is not None:
+        from app.norms.in_use import norms_in_use
         from app.plans.dose import patient_doses
         from app.reports.progress_pdf import write_progress_pdf
         from app.reports.scales_progress import report_series
 
+        # a change is real against the norms in use (their MDC95), as the window marks it
+        series = report_series(registry, prog, include_invalid=args.include_invalid,
+                               norms=norms_in_use(registry.data_dir))
         print(write_progress_pdf(prog, pdf, overwrite=args.overwrite,
                                  doses=patient_doses(registry, args.code),
-                                 scales=registry.session_scales(args.code),
-                                 series=report_series(registry, prog,
-                                                      include_invalid=args.include_invalid)),
+                                 scales=registry.session_scales(args.code), series=series),
               file=sys.stderr if args.csv else sys.stdout)
     if args.csv:
         import csv

@@ -24,6 +24,7 @@ from app.cli.common import (
     input_folder,
     progress_bar,
     registry_for,
+    subcommands,
 )
 from app.records.datadir import EXPORTS
 from app.records.registry import has_registry
@@ -38,8 +39,7 @@ def add_study_commands(commands) -> None:
         "study", help="analyse a whole study on Dask: every trial's metrics, every "
                       "patient's progress, as Parquet and CSV",
         description="Study-wide analysis on Dask (a local cluster, or a cluster's scheduler).")
-    actions = parser.add_subparsers(dest="action", metavar="action", required=True,
-                                    parser_class=type(parser))
+    actions = subcommands(parser)
     analyse = actions.add_parser(
         "analyse", help="every trial's metrics and every patient's progress table",
         description="Compute every trial's metrics (the console's own analysis of each "

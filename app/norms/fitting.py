@@ -230,10 +230,13 @@ def fit_norms(controls: Controls, source: str, *, simulated: bool = False,
 
 
 def _off_the_commonest(values: np.ndarray) -> int:
-    """How many controls (finite values) differ from the value most of them have."""
+    """How many controls (finite values) differ from the value most of them have; all of
+    them when no two share a value (there is no commonest value: counting one person's
+    value as it left a continuous figure of exactly MIN_CONTROLS controls out)."""
     known = values[np.isfinite(values)]
     _, counts = np.unique(known, return_counts=True)
-    return int(known.size - counts.max())
+    commonest = int(counts.max()) if counts.size else 0
+    return int(known.size) if commonest <= 1 else int(known.size - commonest)
 
 
 def left_out_notes(left_out: Mapping[str, str]) -> str:

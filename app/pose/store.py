@@ -19,7 +19,7 @@ from core.pose.keypoints import KEYPOINT_NAMES
 from core.pose.pipeline import PoseResult
 from device.errors import RecordingError
 from device.recording import h5views
-from device.recording.trialfile import STATUS_RECORDING, open_for_update, utc_now_iso
+from device.recording.trialfile import open_for_update, refuse_while_recording, utc_now_iso
 from device.recording.trialfile.seal import open_room
 from device.recording.trialfile.verify import Damaged, held
 
@@ -107,9 +107,7 @@ def write_pose(path: str | os.PathLike, result: PoseResult, run: PoseRun) -> Non
         attrs.update(joint.to_dict("camera_vs_solver_camera_shoulder_"))
     try:
         with open_for_update(path, "/pose") as f:
-            if f.attrs.get("status") == STATUS_RECORDING:
-                raise RecordingError(f"{path} is still being recorded; run pose estimation "
-                                     "after the trial has ended")
+            refuse_while_recording(f, path, "run pose estimation after the trial has ended")
             if GROUP in f:
                 del f[GROUP]
             group = f.create_group(GROUP)

@@ -231,6 +231,9 @@ class StationStore(RecordStore, Protocol):
     """Why it records on its own ('' while it reaches the server)."""
     sync_problem: str
     """Why its offline records were not sent ('' when nothing stands in the way)."""
+    synced: list
+    """What each sync sent (app.records.station.sync.Synced, its `trials` counted), in
+    order: one as it opened sent what an earlier session recorded offline."""
 
     @property
     def offline(self) -> bool: ...

@@ -115,6 +115,21 @@ class ScaleSeries:
     correlation: Correlation
     mdc_note: str = ""
     """Why no change is marked real or not ('' when marks were judged)."""
+    mdc95: float | None = None
+    norms_label: str = ""
+    """The MDC95 the changes were judged against and the norms' label (NormativeModel.label,
+    their source and 'simulated' when they are), when they were judged."""
+
+    @property
+    def marks(self) -> str:
+        """The line saying which changes are real and against which norms, or why none is
+        marked: the window's and the progress PDF's."""
+        if self.mdc_note or self.mdc95 is None:
+            return self.mdc_note
+        real = [p.session_number for p in self.points if p.real_change]
+        said = (f"a real change (beyond MDC95 {self.mdc95:.3g}) at session "
+                f"{', '.join(map(str, real))}" if real else "no change beyond the MDC95")
+        return f"{said}; {self.norms_label}"
 
     @property
     def figure_label(self) -> str:
@@ -194,9 +209,11 @@ def scale_series(registry: RecordStore, code: str, figure_key: str, scale_key: s
         date, figure, count = figures[session]
         points.append(SessionPoint(code, session, date, figure, count, value))
     points, note = _mark_real_changes(points, figure_key, norms)
+    judged = norms is not None and not note
     return ScaleSeries(figure_key, scale_key, tuple(points),
                        correlation([p.figure for p in points], [p.scale for p in points]),
-                       note)
+                       note, norms.mdc95(figure_key) if judged else None,
+                       norms.label if judged else "")
 
 
 def study_series(registry: RecordStore, figure_key: str, scale_key: str, *,
@@ -241,14 +258,10 @@ def _mark_real_changes(points: list[SessionPoint], key: str, norms
     return marked, ""
 
 
-def mdc_text(series: ScaleSeries, norms) -> str:
-    """The line saying which changes are real and against which norms."""
-    if series.mdc_note:
-        return series.mdc_note
-    real = [p.session_number for p in series.points if p.real_change]
-    said = (f"a real change (beyond MDC95 {norms.mdc95(series.figure_key):.3g}) at session "
-            f"{', '.join(map(str, real))}" if real else "no change beyond the MDC95")
-    return f"{said}; {norms.label}"
+def mdc_text(series: ScaleSeries, norms=None) -> str:
+    """The line saying which changes are real and against which norms (ScaleSeries.marks:
+    the series keeps the MDC95 and the norms' label it was judged with)."""
+    return series.marks
 
 
 DERIVED = {"rmse": ("rmse_x_m", "rmse_y_m")}

@@ -366,6 +366,10 @@ def scales_pages(code: str, per_session: dict, series: tuple = ()) -> list[Figur
         xs = [p.scale for p in s.points]
         ys = [p.figure * factor for p in s.points]
         axes.plot(xs, ys, linestyle="none", marker="o", color="#0072B2")
+        real = [(x, y) for p, x, y in zip(s.points, xs, ys, strict=True) if p.real_change]
+        if real:  # a ring round a session changed beyond the MDC95, as the window draws
+            axes.plot(*zip(*real, strict=True), linestyle="none", marker="o", markersize=13,
+                      markerfacecolor="none", markeredgecolor="#D55E00", markeredgewidth=1.5)
         for p, x, y in zip(s.points, xs, ys, strict=True):
             axes.annotate(f"S{p.session_number}", (x, y), fontsize=7, xytext=(3, 3),
                           textcoords="offset points")
@@ -374,6 +378,6 @@ def scales_pages(code: str, per_session: dict, series: tuple = ()) -> list[Figur
         axes.grid(True, color="#E6E6E6", linewidth=0.5)
         flow.sheet.y_in += 2.4 + 0.45
         flow.text(s.correlation.text(), 9)
-        if s.mdc_note:
-            flow.text(s.mdc_note, 8.5, color=GREY)
+        if s.marks:
+            flow.text(s.marks, 8.5, color=GREY)
     return [sheet.fig for sheet in flow.sheets]

@@ -128,6 +128,7 @@ def study_client(scheduler: str | None = None, *, workers: int = LOCAL_WORKERS,
             and 0 < connect_timeout_s <= MAX_CONNECT_TIMEOUT_S):
         raise AppError(f"--connect-timeout {connect_timeout_s!r}: give a number of seconds "
                        f"above 0 and at most {MAX_CONNECT_TIMEOUT_S:g}")
+    _answers_as_a_scheduler(address, connect_timeout_s)
     try:
         client = Client(address, timeout=f"{connect_timeout_s}s")
     except (OSError, TimeoutError, ValueError) as exc:
@@ -137,6 +138,46 @@ def study_client(scheduler: str | None = None, *, workers: int = LOCAL_WORKERS,
             from None
     with client:
         yield client
+
+
+def _answers_as_a_scheduler(address: str, timeout_s: float) -> None:
+    """Dask's own handshake with `address`, within `timeout_s` as a whole, before a Client
+    is made: Dask bounds the connection but not the handshake's answer, so a service that
+    accepts and stays silent (a web server, a firewall's proxy) held `rehab study analyse`
+    for ever, and one that speaks first (SSH) had its greeting read as a frame's length and
+    said 'the input is too large to hold in memory'. AppError in one line for each."""
+    import asyncio
+
+    from distributed import Security
+    from distributed.comm import CommClosedError, connect
+
+    hint = ("check the address and that the scheduler runs (`dask scheduler` prints its "
+            "address), or leave --scheduler out for a local cluster")
+
+    async def handshake() -> None:
+        arguments = Security().get_connection_args("client")
+        comm = await asyncio.wait_for(connect(address, timeout=timeout_s, **arguments),
+                                      timeout_s)
+        await comm.close()
+
+    try:
+        asyncio.run(handshake())
+    except TimeoutError:  # (an OSError: first)
+        raise AppError(f"{address} took the connection but did not answer as a Dask "
+                       f"scheduler within {timeout_s:g} s (another service on that port?): "
+                       f"{hint}") from None
+    except (OSError, CommClosedError) as exc:  # refused, no such host, closed on us
+        raise AppError(f"cannot reach the Dask scheduler at {address} ({folded(exc)}): "
+                       f"{hint}") from None
+    except TypeError as exc:  # Dask: TLS without a context
+        if "ssl_context" not in str(exc):
+            raise
+        raise AppError(f"{address} asks for TLS, and Dask's configuration has no "
+                       "certificates for it (distributed.comm.tls: ca-file, client cert and "
+                       "key): set them, or give the scheduler's tcp:// address") from None
+    except Exception:  # what it sent is no Dask handshake (its bytes read as a length)
+        raise AppError(f"{address} answered, but not as a Dask scheduler (another service "
+                       f"on that port?): {hint}") from None
 
 
 def worker_count(client) -> int:

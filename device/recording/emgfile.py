@@ -23,7 +23,7 @@ import numpy as np
 
 from device.errors import RecordingError
 from device.recording import h5views
-from device.recording.trialfile import STATUS_RECORDING, open_for_update, utc_now_iso
+from device.recording.trialfile import open_for_update, refuse_while_recording, utc_now_iso
 from device.recording.trialfile.seal import open_room
 from device.recording.trialfile.verify import Damaged, held
 
@@ -91,7 +91,7 @@ def write_emg(
     try:
         # room for the arrays, their checksums and the group's metadata
         with open_for_update(path, "/emg", reserve_bytes=t.nbytes + x.nbytes + 2**20) as f:
-            _check_closed(f, path)
+            refuse_while_recording(f, path.name, "add EMG after it closes")
             if GROUP in f:
                 if not replace:
                     raise RecordingError(f"{path.name} already has EMG; replace it explicitly "
@@ -127,7 +127,7 @@ def write_mvc(path: str | os.PathLike, values: Mapping[str, Mapping]) -> None:
     path = Path(path)
     try:
         with open_for_update(path, "/emg/mvc") as f:
-            _check_closed(f, path)
+            refuse_while_recording(f, path.name, "add EMG after it closes")
             if GROUP not in f:
                 raise RecordingError(f"{path.name} has no EMG; import the trial's EMG first "
                                      "(rehab emg import)")
@@ -262,11 +262,6 @@ def _checked_mvc(muscle: str, entry: dict) -> dict:
     if "settings" in entry and not isinstance(entry["settings"], dict):
         raise Damaged(f"is damaged: /emg/mvc/{muscle} settings is not a JSON object")
     return entry
-
-
-def _check_closed(f: h5py.File, path: Path) -> None:
-    if f.attrs.get("status") == STATUS_RECORDING:
-        raise RecordingError(f"{path.name} is still being recorded; add EMG after it closes")
 
 
 def _text(value) -> str:

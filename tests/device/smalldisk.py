@@ -64,7 +64,8 @@ def fill(folder: Path) -> Path:
 
 
 class SmallDisk:
-    """`root`: a folder on a disk of `size_mib`; `fill()` fills it to 100 %."""
+    """`root`: a folder on a disk of `size_mib`; `fill()` fills it to 100 %. Closed (the
+    disk unmounted, the patches undone) by `close()` or at the end of a `with` block."""
 
     def __init__(self, base: Path, size_mib: int) -> None:
         self.kind = DISK_KIND
@@ -92,6 +93,12 @@ class SmallDisk:
         with contextlib.suppress(FileNotFoundError):
             (self.root / "another-program.bin").unlink()
         self._patch.undo()
+
+    def __enter__(self) -> SmallDisk:
+        return self
+
+    def __exit__(self, *_exc) -> None:
+        self.close()
 
     def close(self) -> None:
         self._patch.undo()

@@ -110,28 +110,30 @@ MALFORMED_PLAIN = {
 }
 
 
-@pytest.mark.parametrize("case", sorted(MALFORMED_TRIGNO))
-def test_malformed_trigno_exports_are_one_clear_line(tmp_path, case):
-    text, expected = MALFORMED_TRIGNO[case]
+def _refused_in_one_line(tmp_path, case: str, text: str):
+    """(the file, its refusal) of `text` written as the file `case`.csv and read: refused
+    with EmgFileError, in one line."""
     path = tmp_path / f"{case}.csv"
     path.write_text(text)
     with pytest.raises(EmgFileError) as info:
         read_emg_file(path)
     message = str(info.value)
-    assert expected in message
     assert "\n" not in message
+    return path, message
+
+
+@pytest.mark.parametrize("case", sorted(MALFORMED_TRIGNO))
+def test_malformed_trigno_exports_are_one_clear_line(tmp_path, case):
+    text, expected = MALFORMED_TRIGNO[case]
+    path, message = _refused_in_one_line(tmp_path, case, text)
+    assert expected in message
     assert message.startswith(f"EMG file {path}")
 
 
 @pytest.mark.parametrize("case", sorted(MALFORMED_PLAIN))
 def test_malformed_plain_files_are_one_clear_line(tmp_path, case):
     text, expected = MALFORMED_PLAIN[case]
-    path = tmp_path / f"{case}.csv"
-    path.write_text(text)
-    with pytest.raises(EmgFileError) as info:
-        read_emg_file(path)
-    assert expected in str(info.value)
-    assert "\n" not in str(info.value)
+    assert expected in _refused_in_one_line(tmp_path, case, text)[1]
 
 
 def test_files_that_are_not_there_or_not_text(tmp_path):

@@ -108,11 +108,8 @@ def running_recorder(capacity: int = 20_000):
 @pytest.fixture
 def big_enough_disk(tmp_path):
     """A disk with room for a trial beside the 64 MiB the recorder keeps free."""
-    disk = SmallDisk(tmp_path, 96)
-    try:
+    with SmallDisk(tmp_path, 96) as disk:
         yield disk
-    finally:
-        disk.close()
 
 
 @pytest.mark.parametrize("kind", [DISK_KIND])

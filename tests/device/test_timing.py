@@ -2,7 +2,6 @@
 lateness faults nothing; a real robot gets the wall clock, its watchdog, and a timing
 check of this machine before it is connected. No test here waits on the machine's clock."""
 
-import multiprocessing as mp
 from types import SimpleNamespace
 
 import pytest
@@ -14,10 +13,9 @@ from device.loop import commands as loop_commands
 from device.loop.backends import make_backend
 from device.loop.messages import BackendConfig, Build, Connect, Notice, Reply
 from device.loop.pipeline import TrialPlan
-from device.loop.process import DeviceLoop, LoopConfig
+from device.loop.process import LoopConfig
 from device.loop.realtime import measure_wakeups, timing_warning
 from device.loop.states import State
-from device.recording.ring import RecordRing
 from device.safety.limits import SafetyLimits
 from device.sim.faultinjection import FaultInjectingBackend
 from device.sim.simulator import SimulatorBackend
@@ -190,19 +188,9 @@ def test_the_kernels_are_loaded_before_the_robot_starts_its_watchdog(monkeypatch
 
     monkeypatch.setattr(loop_commands, "make_backend", recording)
     monkeypatch.setattr(loop_commands, "measure_wakeups", lambda seconds: [0.0001])
-    console, loop_end = mp.Pipe()
-    ring = RecordRing.create(64)
-    loop = DeviceLoop(loop_end, None, ring, SimpleNamespace(value=0), SimpleNamespace(value=0),
-                      SimpleNamespace(value=0), LoopConfig(compiled=True, realtime=False))
-    try:
+    with bare_loop(64, LoopConfig(compiled=True, realtime=False)) as (loop, console):
         loop._command(Build(1, PARAMS, BackendConfig(timing="real")))
         loop._command(Connect(2))
         replies = [e for e in _events(console) if isinstance(e, Reply)]
         assert all(r.ok for r in replies), replies
         assert order == ["kernels", "open (the watchdog starts)"]
-    finally:
-        loop._disconnect_backend()
-        ring.close()
-        ring.unlink()
-        console.close()
-        loop_end.close()

@@ -434,11 +434,8 @@ def test_where_no_space_can_be_held_a_nearly_full_disk_ends_the_writing(tmp_path
 
 @pytest.fixture
 def small_disk(tmp_path):
-    disk = SmallDisk(tmp_path, 16)
-    try:
+    with SmallDisk(tmp_path, 16) as disk:
         yield disk
-    finally:
-        disk.close()
 
 
 @pytest.mark.parametrize("kind", [DISK_KIND])

@@ -46,3 +46,36 @@ def test_within_and_outside_differ_without_colour():
     assert outside.style() == Qt.PenStyle.DashLine
     assert within.isCosmetic()
     assert within.widthF() == 1.0
+
+
+def _darkest(image, rect) -> int:
+    """The darkest grey level (0-255) inside `rect` of a QImage: the text's."""
+    from PySide6.QtGui import QColor
+
+    return min(QColor(image.pixel(x, y)).value()
+               for x in range(rect.left(), rect.right()) for y in range(rect.top(), rect.bottom()))
+
+
+def test_what_is_disabled_looks_greyed(qtbot, app):
+    """The style sheet's `QWidget { color: … }` painted every disabled menu item, check box
+    and label in the enabled text's colour: "Tone at Go and on a hit" without a sound
+    player, said greyed by the README, and "Close the patient's screen" with none open
+    looked as usable as the rest."""
+    from PySide6.QtWidgets import QCheckBox, QMenu
+
+    theme.apply_theme(app, 1.0)
+    menu = QMenu()
+    qtbot.addWidget(menu)
+    usable, greyed = menu.addAction("Mirror left–right"), menu.addAction("Tone at Go")
+    greyed.setEnabled(False)
+    menu.adjustSize()
+    image = menu.grab().toImage()
+    assert _darkest(image, menu.actionGeometry(greyed)) > \
+        _darkest(image, menu.actionGeometry(usable)) + 60
+    for widget in (QCheckBox("Same each trial"),):
+        qtbot.addWidget(widget)
+        widget.adjustSize()
+        on = _darkest(widget.grab().toImage(), widget.rect())
+        widget.setEnabled(False)
+        off = _darkest(widget.grab().toImage(), widget.rect())
+        assert off > on + 60, type(widget).__name__

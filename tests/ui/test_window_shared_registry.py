@@ -105,3 +105,36 @@ def test_the_network_drops_mid_session_and_the_station_records_on_then_sends_it_
         assert trial.metrics == before.metrics
         assert trial.checksum == before.checksum == file_checksum(station.trial_path(trial))
     assert other.pending_proposal(code).trial_id == trials[2].id
+
+
+def test_what_an_earlier_session_recorded_offline_sent_as_the_window_opens_is_said(
+        qtbot, tmp_path, monkeypatch, server_registries):
+    """The console closed while the server was away; opened again once it answers, the
+    station sends the trials as it opens. The window said nothing of them (the sync while
+    it runs says 'The shared registry is back: 2 trials …')."""
+    from app.records.station import StationRegistry
+    from core.trial import THESIS_SUBJECT
+    from tests.netcut import NetworkCut
+
+    url = server_registries.new()
+    network = NetworkCut(url.port)
+    data = DataDir(tmp_path / "data", "test")
+    try:
+        earlier = StationRegistry(data, network.url(url), station="robot-7")
+        code = earlier.create_patient("Ida", "Earlier").code
+        network.cut()
+        for _ in range(2):
+            begun = earlier.begin_trial(code, THESIS_SUBJECT, backend="simulator")
+            earlier.finish_trial(begun.trial_id, "complete", {"rmse_x_mm": 1.0})
+        earlier.close()
+        network.restore()
+        station = StationRegistry(data, network.url(url), station="robot-7")
+        win = open_window(qtbot, tmp_path, monkeypatch, registry=station, start_device=False)
+        try:
+            assert not station.offline
+            assert any("The shared registry took 2 trials this station recorded while it "
+                       "was unreachable" in line for line in win.messages.history())
+        finally:
+            win.close()
+    finally:
+        network.cut()

@@ -7,6 +7,7 @@ on every tab; the simulator's seed."""
 
 from __future__ import annotations
 
+import contextlib
 import datetime
 from pathlib import Path
 from types import SimpleNamespace
@@ -31,6 +32,21 @@ def idle_window(qtbot, tmp_path, monkeypatch):
     win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
     yield win
     win.close()
+
+
+@contextlib.contextmanager
+def window_at(qtbot, tmp_path, monkeypatch, scale: float, size: tuple[int, int]):
+    """An idle window (no loop) at font scale `scale`, sized `size` and on screen; the
+    theme's scale back to 1 after, whatever happened."""
+    app = QApplication.instance()
+    theme.apply_theme(app, scale)
+    try:
+        win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
+        win.resize(*size)
+        qtbot.waitExposed(win)
+        yield win
+    finally:
+        theme.apply_theme(app, 1.0)
 
 
 def _in_view(area, widget: QWidget) -> bool:
@@ -224,12 +240,7 @@ def test_every_tab_is_whole_on_a_laptop_and_at_a_large_font(qtbot, tmp_path, mon
     1366 × 768 the error plot's label was cut and legends lay over the data."""
     import pyqtgraph as pg
 
-    app = QApplication.instance()
-    theme.apply_theme(app, scale)
-    try:
-        win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
-        win.resize(*size)
-        qtbot.waitExposed(win)
+    with window_at(qtbot, tmp_path, monkeypatch, scale, size) as win:
         assert win.width() <= size[0]
         assert win.height() <= size[1]
         estop = win.robot.estop
@@ -262,8 +273,6 @@ def test_every_tab_is_whole_on_a_laptop_and_at_a_large_font(qtbot, tmp_path, mon
                     text = left.label.boundingRect().width()  # drawn turned by 90°
                     assert text <= left.geometry().height() + 1, (title, left.labelText)
         win.close()
-    finally:
-        theme.apply_theme(app, 1.0)
 
 
 # -- #14: plain words --------------------------------------------------------------------
@@ -367,12 +376,7 @@ def test_a_greyed_build_says_why_on_every_tab_in_whole_words(qtbot, tmp_path, mo
                                                              scale, size):
     """The line under the robot buttons was cut with "…" on a laptop and at font scale
     1.5 ("… this arm reaches 58.5 cm. …"): what to do was lost."""
-    app = QApplication.instance()
-    theme.apply_theme(app, scale)
-    try:
-        win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
-        win.resize(*size)
-        qtbot.waitExposed(win)
+    with window_at(qtbot, tmp_path, monkeypatch, scale, size) as win:
         why = win.robot.why
         one_line = why.height()
         p = win.parameters_tab
@@ -401,8 +405,6 @@ def test_a_greyed_build_says_why_on_every_tab_in_whole_words(qtbot, tmp_path, mo
         assert why.whole == ""
         assert why.height() == one_line  # back to one line: the bar keeps its place
         win.close()
-    finally:
-        theme.apply_theme(app, 1.0)
 
 
 # -- #16: the simulator's seed -------------------------------------------------------------

@@ -69,12 +69,15 @@ def _write_pdf(result: Progress, path: Path, registry=None) -> Path:
 
     if registry is None:
         return write_progress_pdf(result, path)
+    from app.norms.in_use import norms_in_use
+
     code = result.patient_code
     included = any(t.invalid_reason for t in result.trials)
+    # a change is real against the norms in use (their MDC95), as the scales panel marks it
     return write_progress_pdf(result, path, doses=patient_doses(registry, code),
                               scales=registry.session_scales(code),
-                              series=report_series(registry, result,
-                                                   include_invalid=included))
+                              series=report_series(registry, result, include_invalid=included,
+                                                   norms=norms_in_use(registry.data_dir)))
 
 
 def _label_least(plot) -> int:

@@ -48,6 +48,11 @@ class StationStatus:
         self._storing = False
         self._store_problem = ""
         self.store_trials()  # what an earlier session left to copy
+        sent = sum(s.trials for s in self.registry.synced) \
+            if isinstance(self.registry, StationStore) else 0
+        if sent:  # sent as the station opened: what an earlier session recorded offline
+            self._say(f"The shared registry took {sent} trial{'s' if sent != 1 else ''} this "
+                      "station recorded while it was unreachable")
         problem = self.registry.sync_problem if isinstance(self.registry, StationStore) else ""
         if problem:  # found as it opened (a damaged standby set aside, a sync refused)
             self._said_problem = problem

@@ -168,13 +168,7 @@ class Clinical(Database):
         """Every scale entry of the patient (or of one session), oldest first: the history,
         superseded entries included."""
         with self._read() as conn:
-            if session_number is None:
-                rows = execute(conn, _SCALE_SELECT + " WHERE s.patient_id = ? ORDER BY c.id",
-                                     (patient_id(conn, self.where, code),)).fetchall()
-            else:
-                rows = execute(conn, _SCALE_SELECT + " WHERE c.session_id = ? ORDER BY c.id",
-                                     (session_id_of(conn, self.where, code, session_number),)
-                                     ).fetchall()
+            rows = _rows_of(conn, self.where, _SCALE_SELECT, "c", code, session_number)
         return [_scale_from_row(r) for r in rows]
 
     def session_scales(self, code: str) -> dict[int, dict[str, ScaleEntry]]:
@@ -222,13 +216,7 @@ class Clinical(Database):
     def notes(self, code: str, session_number: int | None = None) -> list[Note]:
         """The patient's notes (or one session's), oldest first."""
         with self._read() as conn:
-            if session_number is None:
-                rows = execute(conn, _NOTE_SELECT + " WHERE s.patient_id = ? ORDER BY n.id",
-                                     (patient_id(conn, self.where, code),)).fetchall()
-            else:
-                rows = execute(conn, _NOTE_SELECT + " WHERE n.session_id = ? ORDER BY n.id",
-                                     (session_id_of(conn, self.where, code, session_number),)
-                                     ).fetchall()
+            rows = _rows_of(conn, self.where, _NOTE_SELECT, "n", code, session_number)
         return [_note_from_row(r) for r in rows]
 
     # -- validity ----------------------------------------------------------------------
@@ -326,6 +314,17 @@ class Clinical(Database):
                 (patient_id(conn, self.where, code),)).fetchall()
         return [Correction(r[0], r[1], r[2], json.loads(r[3]), json.loads(r[4]), r[5], r[6],
                            datetime.datetime.fromisoformat(r[7])) for r in rows]
+
+
+def _rows_of(conn: sa.Connection, where: str, select: str, alias: str, code: str,
+             session_number: int | None) -> list:
+    """The rows `select` gives (its table named `alias`, joined to its session as `s`) of
+    the patient's every session, or of one, in the order they were written."""
+    if session_number is None:
+        return execute(conn, select + f" WHERE s.patient_id = ? ORDER BY {alias}.id",
+                       (patient_id(conn, where, code),)).fetchall()
+    return execute(conn, select + f" WHERE {alias}.session_id = ? ORDER BY {alias}.id",
+                   (session_id_of(conn, where, code, session_number),)).fetchall()
 
 
 def _stored(value: object) -> str:

@@ -25,7 +25,12 @@ from device.recording.trialfile.layout import (
     software_version,
     utc_now_iso,
 )
-from device.recording.trialfile.update import add_assistance, open_for_update, write_metrics
+from device.recording.trialfile.update import (
+    add_assistance,
+    open_for_update,
+    refuse_while_recording,
+    write_metrics,
+)
 from device.recording.trialfile.whole import write_trial
 from device.recording.trialfile.writer import TrialFileWriter
 
@@ -33,6 +38,6 @@ __all__ = [
     "ALREADY_OPEN", "CHUNK_ROWS", "EVENT_DTYPE", "EVENT_KIND_BYTES", "EVENT_MESSAGE_BYTES",
     "EVENT_VALUES_BYTES", "FORMAT_NAME", "FORMAT_VERSION", "LIBVER", "MIN_FREE_BYTES",
     "STATUSES", "STATUS_RECORDING", "UPDATE_RETRY_S", "UPDATE_WAIT_S", "SubjectInfo",
-    "TrialFileWriter", "add_assistance", "open_for_update", "software_version",
-    "utc_now_iso", "write_metrics", "write_trial",
+    "TrialFileWriter", "add_assistance", "open_for_update", "refuse_while_recording",
+    "software_version", "utc_now_iso", "write_metrics", "write_trial",
 ]

@@ -139,6 +139,14 @@ def _reseal(f: h5py.File, seal: sealing.Seal, room: str) -> None:
     sealing.write_seal(f, parts, [r for r in seal.pending if r != room])
 
 
+def refuse_while_recording(f, shown, then: str) -> None:
+    """Refuse an update of a file its recorder has not closed (a live trial, or one a
+    crash left): what is added now would sit beside records still to come, or seal over
+    a file that needs recovering. `shown` names the file, `then` says what to do."""
+    if f.attrs.get("status") == STATUS_RECORDING:
+        raise RecordingError(f"{shown} is still being recorded; {then}")
+
+
 def _damaged(path, exc: Damaged) -> RecordingError:
     return RecordingError(f"trial file {path}: {exc.problem}; nothing was stored in it. Restore "
                           "it from the backup or the original")
@@ -152,9 +160,7 @@ def write_metrics(path: str | Path, metrics: Mapping) -> None:
     values = _check_metrics(metrics)
     try:
         with open_for_update(path, "/metrics") as f:
-            if f.attrs.get("status") == STATUS_RECORDING:
-                raise RecordingError(f"{path} is still being recorded; add metrics after it "
-                                     "closes")
+            refuse_while_recording(f, path, "add metrics after it closes")
             group = f.require_group("metrics")
             for key in list(group.attrs):
                 del group.attrs[key]
@@ -172,9 +178,7 @@ def add_assistance(path: str | Path, values: Mapping) -> None:
     scalars, arrays = _assistance_parts(values)
     try:
         with open_for_update(path, "/assistance") as f:
-            if f.attrs.get("status") == STATUS_RECORDING:
-                raise RecordingError(f"{path} is still being recorded; add to its assistance "
-                                     "after it closes")
+            refuse_while_recording(f, path, "add to its assistance after it closes")
             group = f.require_group("assistance")
             taken = sorted((set(group.attrs) | set(group)) & (set(arrays) | set(scalars)))
             if taken:

@@ -12,3 +12,15 @@ def run(args, capsys):
         code = exc.code
     out = capsys.readouterr()
     return code, out.out, out.err
+
+
+def status_names_the_unsealed_row(capsys, registry: str = "") -> None:
+    """`rehab db status` on a registry whose patients row 1 no longer matches its seal:
+    exit 2, the seals DAMAGED, and the row named in one line of error about the registry
+    (`registry`: how that line names it, as far as given)."""
+    code, out, err = run(["db", "status"], capsys)
+    assert code == 2
+    assert "seals: DAMAGED (below)" in out
+    assert err.startswith(f"rehab db status: error: the registry {registry}")
+    assert "patients row 1 does not match its seal" in err
+    assert err.count("\n") == 1

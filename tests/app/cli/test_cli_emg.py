@@ -193,21 +193,29 @@ class _LabelledSource:
         pass
 
 
+def _recorded_from_lsl(emg, labels, seconds, tmp_path, capsys, monkeypatch):
+    """(the CSV written, what was printed) of `rehab emg record lsl:amp` for `seconds` from
+    a stream of `emg`'s samples whose channels are labelled `labels`."""
+    import app.cli.emg as emg_cli
+
+    monkeypatch.setattr(emg_cli, "_open_source",
+                        lambda args: (_LabelledSource(emg, labels), "lsl:amp"))
+    out_file = tmp_path / "mvc.csv"
+    code, out, err = run(["emg", "record", "lsl:amp", "--seconds", f"{seconds:g}", "--output",
+                          str(out_file)], capsys)
+    assert code == 0, err
+    return out_file, out
+
+
 def test_record_names_its_columns_by_the_stream_labels_and_mvc_picks_them(
         made, tmp_path, capsys, monkeypatch):
     """`rehab emg record` wrote EMG1…EMGn and dropped the stream's labels: a CSV column is
     picked by label now, and by EMG<k> (its place) as commands written before do."""
-    import app.cli.emg as emg_cli
-
     path, channel = made[2]["biceps"]
     contraction = read_emg_file(path)
     labels = tuple(f"lead {name}" for name in contraction.names)
-    monkeypatch.setattr(emg_cli, "_open_source",
-                        lambda args: (_LabelledSource(contraction, labels), "lsl:amp"))
-    out_file = tmp_path / "mvc.csv"
-    code, out, err = run(["emg", "record", "lsl:amp", "--seconds", "0.5", "--output",
-                          str(out_file)], capsys)
-    assert code == 0, err
+    out_file, out = _recorded_from_lsl(contraction, labels, 0.5, tmp_path, capsys,
+                                       monkeypatch)
     assert "note: left out of the LSL stream named 'amp': triggerStream" in out
     recorded = read_emg_file(out_file)
     assert recorded.names == labels
@@ -225,16 +233,9 @@ def test_record_names_its_columns_by_the_stream_labels_and_mvc_picks_them(
 
 def test_record_keeps_emg_numbers_for_labels_a_csv_cannot_hold(tmp_path, capsys,
                                                               monkeypatch):
-    import app.cli.emg as emg_cli
-
     data = read_emg_file(DATA / "plain.csv")
     labels = ("biceps, long head", *(f"m{k}" for k in range(1, len(data.names))))
-    monkeypatch.setattr(emg_cli, "_open_source",
-                        lambda args: (_LabelledSource(data, labels), "lsl:amp"))
-    out_file = tmp_path / "mvc.csv"
-    code, out, err = run(["emg", "record", "lsl:amp", "--seconds", "0.3", "--output",
-                          str(out_file)], capsys)
-    assert code == 0, err
+    out_file, out = _recorded_from_lsl(data, labels, 0.3, tmp_path, capsys, monkeypatch)
     assert "note: the source's channel name 'biceps, long head' cannot be a CSV column" in out
     assert read_emg_file(out_file).names == tuple(f"EMG{k + 1}" for k in range(len(labels)))
 

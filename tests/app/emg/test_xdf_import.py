@@ -124,15 +124,23 @@ def _record(tmp_path, trial_path, emg_start_s=0.5, unit="microvolts", with_robot
     return path, stamps, samples
 
 
-def test_an_xdf_recording_lands_in_the_trial_within_one_emg_sample(plain_trial, tmp_path):
-    trial = _live_trial(plain_trial, tmp_path, time.monotonic() - 30.0)
-    xdf, stamps, samples = _record(tmp_path, trial)
+def _landed(trial, xdf, stamps, samples):
+    """(what import_xdf did, the trial's EMG) once it is checked that every sample landed,
+    in volts, within one EMG sample of its moment on the trial's clock, the first at
+    0.5 s."""
     done = import_xdf(trial, xdf)
     emg = read_emg(trial)
     np.testing.assert_array_equal(emg.samples, samples.astype(float) * 1e-6)
     expected = trial_time_from_monotonic(read_trial(trial), stamps)
     assert np.max(np.abs(emg.time_s - expected)) < 1.0 / EMG_HZ
     assert emg.time_s[0] == pytest.approx(0.5, abs=1.0 / EMG_HZ)
+    return done, emg
+
+
+def test_an_xdf_recording_lands_in_the_trial_within_one_emg_sample(plain_trial, tmp_path):
+    trial = _live_trial(plain_trial, tmp_path, time.monotonic() - 30.0)
+    xdf, stamps, samples = _record(tmp_path, trial)
+    done, emg = _landed(trial, xdf, stamps, samples)
     assert done.names == ("biceps", "triceps", "deltoid")
     assert done.rate_hz == EMG_HZ
     assert any("placed through the rehab-robot stream" in note for note in done.notes)
@@ -148,12 +156,7 @@ def test_the_emg_of_a_computer_on_another_clock_lands_within_one_sample(
     trial = _live_trial(plain_trial, tmp_path, time.monotonic() - 30.0)
     xdf, stamps, samples = _record(tmp_path, trial, console_ahead_s=console_ahead_s,
                                    emg_ahead_s=emg_ahead_s)
-    done = import_xdf(trial, xdf)
-    emg = read_emg(trial)
-    np.testing.assert_array_equal(emg.samples, samples.astype(float) * 1e-6)
-    expected = trial_time_from_monotonic(read_trial(trial), stamps)
-    assert np.max(np.abs(emg.time_s - expected)) < 1.0 / EMG_HZ
-    assert emg.time_s[0] == pytest.approx(0.5, abs=1.0 / EMG_HZ)
+    done, _ = _landed(trial, xdf, stamps, samples)
     said = float(done.notes[0].split("console clock = ")[1].split(" s")[0])
     assert said == pytest.approx(-console_ahead_s, abs=1e-3)  # less the offset liblsl measured
 

@@ -68,6 +68,22 @@ def test_fit_show_use_mdc(tmp_path, data, capsys):
         norms).content_sha256
 
 
+def _left_handers(path, *, n: int, left: int):
+    """n controls (write_controls, seed 2) of whom the first `left` are left-handed and
+    the others right-handed: a rare level of a covariate."""
+    import csv
+
+    controls = write_controls(path, n=n, seed=2)
+    with controls.open() as f:
+        header, *body = list(csv.reader(f))
+    hand = header.index("handedness")
+    for i, row in enumerate(body):
+        row[hand] = "left" if i < left else "right"
+    with controls.open("w", newline="") as f:
+        csv.writer(f).writerows([header, *body])
+    return controls
+
+
 def _refused(capsys, args, words):
     code, out, err = run(args, capsys)
     assert code == 2, (out, err)
@@ -204,17 +220,7 @@ def test_a_rare_level_is_left_out_and_said(tmp_path, data, capsys):
     """3 left-handers among 60 controls cannot give the left-handers' coefficient: they are
     left out, said, and the norms refuse a left-handed patient instead of scoring them by
     three people."""
-    import csv as _csv
-
-    controls = write_controls(tmp_path / "controls.csv", n=60, seed=2)
-    with controls.open() as f:
-        rows = list(_csv.reader(f))
-    header, body = rows[0], rows[1:]
-    hand = header.index("handedness")
-    for i, row in enumerate(body):
-        row[hand] = "left" if i < 3 else "right"
-    with controls.open("w", newline="") as f:
-        _csv.writer(f).writerows([header, *body])
+    controls = _left_handers(tmp_path / "controls.csv", n=60, left=3)
     norms = tmp_path / "n.json"
     code, out, err = run(["norms", "fit", "--controls", str(controls), "--source", "s",
                           "--output", str(norms)], capsys)
@@ -233,17 +239,7 @@ def test_a_rare_level_is_left_out_and_said(tmp_path, data, capsys):
 def test_too_few_after_a_rare_level_says_the_level_first(tmp_path, data, capsys):
     """22 controls, 4 of them left-handed: the 4 are left out, 18 remain, and the refusal
     said only '18 controls have it, fewer than 20' of three figures, never why 18."""
-    import csv as _csv
-
-    controls = write_controls(tmp_path / "controls.csv", n=22, seed=2)
-    with controls.open() as f:
-        rows = list(_csv.reader(f))
-    header, body = rows[0], rows[1:]
-    hand = header.index("handedness")
-    for i, row in enumerate(body):
-        row[hand] = "left" if i < 4 else "right"
-    with controls.open("w", newline="") as f:
-        _csv.writer(f).writerows([header, *body])
+    controls = _left_handers(tmp_path / "controls.csv", n=22, left=4)
     err = _refused(capsys, ["norms", "fit", "--controls", str(controls), "--source", "s",
                             "--output", str(tmp_path / "n.json")], "nothing to fit")
     assert ("nothing to fit (18 controls kept; handedness=left: 4 controls with it, fewer "

@@ -58,3 +58,15 @@ def test_a_figure_nearly_every_control_has_at_one_value_is_not_normed():
     figures = dict(controls.figures, vgr_no_reaction_count=rare)
     report = fit_norms(Controls(controls.subjects, controls.people, figures), "test controls")
     assert "vgr_no_reaction_count" in report.document["figures"]
+
+
+def test_as_few_controls_as_the_minimum_are_fitted_when_their_values_differ():
+    """docs/norms.md: a figure is fitted when at least MIN_CONTROLS controls have it with a
+    spread. With exactly MIN_CONTROLS people, each their own value, one of them was taken
+    as "the commonest value" and only MIN_CONTROLS − 1 "differ from it": every figure was
+    left out and the fit refused a study of 20 controls (24 with 4 left-handers)."""
+    from app.norms.fitting import MIN_CONTROLS
+
+    report = fit_norms(_controls(set(), n=MIN_CONTROLS), "test controls")
+    assert set(report.document["figures"]) == set(REACHING)
+    assert not any(key in report.left_out for key in REACHING)

@@ -34,6 +34,17 @@ def everything(folder):
     return [(p, registry.trials_for_patient(p.code)) for p in patients]
 
 
+def refused_in_one_line(folder, *words) -> None:
+    """Reading the registry in `folder` is refused: a RegistryError in one line that says
+    every one of `words`."""
+    with pytest.raises(RegistryError) as caught:
+        everything(folder)
+    text = str(caught.value)
+    assert "\n" not in text
+    for word in words:
+        assert word in text, text
+
+
 def test_every_sealed_table_seals_every_column_it_has(tmp_path):
     """A migration that adds a column must seal it too (seals.SEALED and the triggers)."""
     path = make_registry(tmp_path / "data")
@@ -61,13 +72,7 @@ def test_a_flipped_bit_in_a_name_is_refused_in_one_line(tmp_path, bit):
     path = make_registry(tmp_path / "data")
     offset = path.read_bytes().index(b"Example")
     flip(path, offset + 2, bit)  # 'a' → '`' or a byte that is not UTF-8
-    with pytest.raises(RegistryError) as caught:
-        everything(tmp_path / "data")
-    text = str(caught.value)
-    assert "\n" not in text
-    assert "damaged" in text
-    assert "patients row" in text
-    assert "backup" in text
+    refused_in_one_line(tmp_path / "data", "damaged", "patients row", "backup")
 
 
 def test_a_flipped_bit_in_a_column_name_of_the_schema_is_refused_in_one_line(tmp_path):
@@ -76,13 +81,7 @@ def test_a_flipped_bit_in_a_column_name_of_the_schema_is_refused_in_one_line(tmp
     (found by the bit-flip fuzz test below: it raised SQLite's error, not one line)."""
     path = make_registry(tmp_path / "data")
     flip(path, path.read_bytes().index(b"decided_at"), 0)  # 'd' -> 'e'
-    with pytest.raises(RegistryError) as caught:
-        everything(tmp_path / "data")
-    text = str(caught.value)
-    assert "\n" not in text
-    assert "damaged" in text
-    assert "no longer has the columns" in text
-    assert "backup" in text
+    refused_in_one_line(tmp_path / "data", "damaged", "no longer has the columns", "backup")
 
 
 def test_a_flipped_bit_in_a_pages_type_is_refused_in_one_line(tmp_path):
@@ -91,12 +90,7 @@ def test_a_flipped_bit_in_a_pages_type_is_refused_in_one_line(tmp_path):
     (found by the bit-flip fuzz test below: offset 4096, bit 0)."""
     path = make_registry(tmp_path / "data")
     flip(path, 4096, 0)  # the second page's first byte: its type
-    with pytest.raises(RegistryError) as caught:
-        everything(tmp_path / "data")
-    text = str(caught.value)
-    assert "\n" not in text
-    assert "malformed" in text
-    assert "backup" in text
+    refused_in_one_line(tmp_path / "data", "malformed", "backup")
 
 
 def test_a_row_edited_outside_the_console_is_refused(tmp_path):

@@ -146,6 +146,51 @@ def test_the_progress_pdf_ends_with_the_clinical_scales(clinic):
     assert "n = 2" in text
 
 
+def test_the_progress_pdf_says_which_changes_are_real_against_which_norms(clinic):
+    """The window marks a change beyond the norms' MDC95 and names the norms; the PDF said
+    nothing of it (a series judged against norms has no note, and only the note was
+    printed)."""
+    from app.reports.scales_progress import scale_series
+
+    registry, code, tmp_path = clinic
+    for number, (rt, fm) in enumerate(((0.45, 25), (0.30, 33)), start=2):
+        registry.open_session(code)
+        begun = registry.begin_trial(code, THESIS_SUBJECT, backend="simulator",
+                                     session_number=number)
+        registry.finish_trial(begun.trial_id, "complete", {"vgr_reaction_time_s": rt})
+        registry.record_scale(code, number, "fugl_meyer", total=fm, rater="K. Lee")
+    path = tmp_path / "norms.json"
+    path.write_text(json.dumps(handmade()))  # the reaction time's MDC95: 0.08 s
+    norms = load_norms(path)
+    # session 1: 0.49 s (the fixture's reach), then 0.45 (not beyond 0.08), then 0.30
+    series = scale_series(registry, code, "vgr_reaction_time_s", "fugl_meyer", norms=norms)
+    assert [p.real_change for p in series.points] == [None, False, True]
+    prog = progress(registry, code, check_files=False)
+    pdf = write_progress_pdf(prog, tmp_path / "progress.pdf",
+                             scales=registry.session_scales(code), series=(series,))
+    text = text_of(pdf)
+    assert "a real change (beyond MDC95 0.08) at session 3" in text
+    assert "Norms: hand-made for the tests" in text
+
+
+def test_the_progress_pdf_on_the_command_line_uses_the_norms_in_use(clinic, capsys):
+    """`rehab progress CODE --pdf` with norms in use said "No norms in use: no change is
+    marked real." under every figure against a scale."""
+    registry, code, tmp_path = clinic
+    path = tmp_path / "norms.json"
+    path.write_text(json.dumps(handmade()))
+    assert run(["norms", "use", str(path)], capsys)[0] == 0
+    registry.open_session(code)
+    begun = registry.begin_trial(code, THESIS_SUBJECT, backend="simulator", session_number=2)
+    registry.finish_trial(begun.trial_id, "complete", {"directional_performance_pct": 80.0})
+    registry.record_scale(code, 2, "fugl_meyer", total=40, rater="M. Roy")
+    status, _, err = run(["progress", code, "--pdf", str(tmp_path / "progress.pdf")], capsys)
+    assert status == 0, err
+    text = text_of(tmp_path / "progress.pdf")
+    assert "No norms in use" not in text
+    assert "hold no figure 'directional_performance_pct'" in text
+
+
 def test_a_figure_against_a_scale_of_one_session_is_a_line_not_a_plot(clinic):
     """Clinic exploration 2 #5: a patient with one session had a page of single-point plots
     ("n = 1") per figure and scale; a plot of one point says nothing, so it is one line."""

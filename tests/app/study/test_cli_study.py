@@ -99,6 +99,67 @@ def test_an_unreachable_scheduler_is_one_line_and_exit_2(study, tmp_path, capsys
 
 
 @pytest.fixture
+def not_dask():
+    """`listen(greeting)`: a port on 127.0.0.1 where a service that is not Dask takes
+    connections, says `greeting` (b'': nothing, as a web server waiting for a request) and
+    keeps them open; its address."""
+    import socket
+    import threading
+
+    opened: list[socket.socket] = []
+
+    def listen(greeting: bytes) -> str:
+        server = socket.socket()
+        server.bind(("127.0.0.1", 0))
+        server.listen(4)
+        opened.append(server)
+
+        def serve() -> None:
+            while True:
+                try:
+                    conn, _ = server.accept()
+                except OSError:
+                    return  # closed at the end
+                opened.append(conn)
+                conn.sendall(greeting)
+        threading.Thread(target=serve, daemon=True).start()
+        return f"127.0.0.1:{server.getsockname()[1]}"
+    yield listen
+    for sock in opened:
+        sock.close()
+
+
+@pytest.mark.parametrize(("greeting", "words"), [
+    (b"", "took the connection but did not answer as a Dask scheduler within 2 s (another "
+     "service on that port?): check the address"),
+    (b"SSH-2.0-OpenSSH_9.2p1 Debian-2\r\n" * 4, "answered, but not as a Dask scheduler "
+     "(another service on that port?): check the address"),
+])
+def test_a_service_that_is_not_a_scheduler_is_one_line_and_exit_2(study, tmp_path, capsys,
+                                                                  not_dask, greeting, words):
+    """Dask bounds the connection but not its handshake: a silent service held the command
+    for ever, and a talking one said 'the input is too large to hold in memory'."""
+    address = not_dask(greeting)
+    code, out, err = run(["study", "analyse", str(study), "--scheduler", address,
+                          "--connect-timeout", "2", "--output", str(tmp_path / "out")],
+                         capsys)
+    assert f"tcp://{address} {words}" in one_line_refusal(code, out, err)
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_tls_scheduler_without_certificates_is_one_line_and_exit_2(study, tmp_path, capsys,
+                                                                     not_dask):
+    """It was an internal error (Dask's TypeError: TLS expects a `ssl_context`)."""
+    address = not_dask(b"")
+    code, out, err = run(["study", "analyse", str(study), "--scheduler", f"tls://{address}",
+                          "--connect-timeout", "2", "--output", str(tmp_path / "out")],
+                         capsys)
+    assert (f"tls://{address} asks for TLS, and Dask's configuration has no certificates for "
+            "it (distributed.comm.tls: ca-file, client cert and key): set them, or give the "
+            "scheduler's tcp:// address") in one_line_refusal(code, out, err)
+
+
+@pytest.fixture
 def registered(data, patient, capsys):
     """Two patients of the data folder's registry with two simulated trials each, the
     first patient's second trial marked invalid."""

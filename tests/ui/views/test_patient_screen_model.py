@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from core.trial import THESIS_SUBJECT
-from device.loop.pipeline import PERIOD_S, PHASE_APPROACH, PHASE_EXERCISE, PHASE_HOLD
-from device.recording.record import RECORD_DTYPE
+from device.loop.pipeline import PERIOD_S
+from tests.ui.views.timetable import on_the_path
 from ui.views.patient_screen import (
     CUE_DONE,
     CUE_GO,
@@ -20,26 +20,15 @@ from ui.views.patient_screen import (
     clock,
     frame_at,
 )
-from ui.views.trialview import VIEW_CHANNELS, TrialView
+from ui.views.trialview import TrialView
 
 PARAMS = THESIS_SUBJECT.replace(repetitions=3, duration_s=2.0)
 APPROACH, EXERCISE, HOLD = 300, 3000, 100
 
 
 def _records(params=PARAMS, fault_at: int | None = None) -> np.ndarray:
-    n = APPROACH + EXERCISE + HOLD
-    dtype = np.dtype([(c, RECORD_DTYPE.fields[c][0]) for c in VIEW_CHANNELS])
-    r = np.zeros(n, dtype=dtype)
-    r["time"] = np.arange(n) * PERIOD_S
-    r["phase"][:APPROACH] = PHASE_APPROACH
-    r["phase"][APPROACH:APPROACH + EXERCISE] = PHASE_EXERCISE
-    r["phase"][APPROACH + EXERCISE:] = PHASE_HOLD
-    trajectory = params.trajectory()
-    t_ex = np.clip(r["time"] - APPROACH * PERIOD_S, 0.0, None)
-    sample = trajectory.sample(t_ex)
-    r["position_desired"] = sample.position_m
-    r["direction_desired"] = sample.direction
-    r["position"] = sample.position_m + 0.003  # the hand 3 mm off, both ways
+    r = on_the_path(params, APPROACH, HOLD, exercise=EXERCISE)
+    r["position"] += 0.003  # the hand 3 mm off, both ways
     r["force_angle"] = 0.1
     if fault_at is not None:
         r["fault"][fault_at:] = 7

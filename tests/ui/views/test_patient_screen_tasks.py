@@ -5,15 +5,14 @@ force pushed along it; each phase says its words, on records made to order."""
 
 import math
 
-import numpy as np
 import pytest
 
 from core.assessment.protocol import protocol
 from core.trial import THESIS_SUBJECT
-from device.loop.pipeline import PERIOD_S, PHASE_APPROACH, PHASE_EXERCISE, PHASE_HOLD
-from device.recording.record import RECORD_DTYPE
+from device.loop.pipeline import PERIOD_S
+from tests.ui.views.timetable import on_the_path
 from ui.views.patient_screen import TASK_WORDS, PatientOptions, Scene, frame_at
-from ui.views.trialview import VIEW_CHANNELS, TrialView
+from ui.views.trialview import TrialView
 
 APPROACH, HOLD = 100, 100
 STRENGTH = protocol("strength").parameters(THESIS_SUBJECT).replace(n_targets=2)
@@ -24,21 +23,8 @@ POSITION = protocol("position").parameters(THESIS_SUBJECT).replace(n_targets=2,
 def records(params, push_N=0.0):
     """A trial's records on the task's timetable: the hand where the reference is, 2 cm
     off in the matches, pushing `push_N` along each push."""
-    trajectory = params.trajectory()
-    exercise = round(trajectory.total_duration_s / PERIOD_S)
-    n = APPROACH + exercise + HOLD
-    dtype = np.dtype([(c, RECORD_DTYPE.fields[c][0]) for c in VIEW_CHANNELS])
-    r = np.zeros(n, dtype=dtype)
-    r["time"] = np.arange(n) * PERIOD_S
-    r["phase"][:APPROACH] = PHASE_APPROACH
-    r["phase"][APPROACH:APPROACH + exercise] = PHASE_EXERCISE
-    r["phase"][APPROACH + exercise:] = PHASE_HOLD
-    t_ex = np.clip(r["time"] - APPROACH * PERIOD_S, 0.0, None)
-    sample = trajectory.sample(t_ex)
-    r["position_desired"] = sample.position_m
-    r["direction_desired"] = sample.direction
-    r["position"] = sample.position_m
-    r["force"] = push_N * sample.direction
+    r = on_the_path(params, APPROACH, HOLD)
+    r["force"] = push_N * r["direction_desired"]
     return r
 
 

@@ -15,7 +15,7 @@ from app.records.registry import SCHEMA_VERSION
 from app.records.registry.postgres.seals import PARTS_STABLE
 from app.records.registry.postgres.tables import REGISTRY_TABLES
 from app.records.registry.url import shown_url
-from tests.app.cli.running import run
+from tests.app.cli.running import run, status_names_the_unsealed_row
 from tests.app.records.postgres.conftest import Registry
 from tests.postgres import HOST, free_port
 
@@ -123,12 +123,7 @@ def test_a_row_changed_behind_the_triggers_is_named(postgres_server, station, ca
                               "UPDATE patients SET birth_year = 1900",
                               database=registry.database)
     station(registry.url())
-    code, out, err = run(["db", "status"], capsys)
-    assert code == 2
-    assert "seals: DAMAGED (below)" in out
-    assert err.startswith("rehab db status: error: the registry postgresql://")
-    assert "patients row 1 does not match its seal" in err
-    assert err.count("\n") == 1
+    status_names_the_unsealed_row(capsys, "postgresql://")
 
 
 def test_a_registry_newer_than_the_console_is_refused(postgres_server, station, capsys):

@@ -348,3 +348,47 @@ def test_a_login_the_server_refuses_records_on_the_station_and_says_it_is_not_th
     again = StationRegistry(data, network.url(url), station="robot-1")  # the URL corrected
     assert not again.offline
     assert [t.number for t in Registry(data, server=url).trials_for_patient(code)] == [1]
+
+
+def test_db_status_says_what_waits_on_the_station_whether_the_server_answers_or_not(
+        department, tmp_path, monkeypatch, capsys):
+    """It gave the server's counts alone ('trials 1 … every row matches its seal') while
+    two trials were only in the station's standby, and nothing but the server's refusal
+    while it was down."""
+    from tests.app.cli.running import run
+
+    url, network, data = department
+    config = tmp_path / "config"
+    config.mkdir(mode=0o700)
+    (config / "registry.url").write_text(
+        network.url(url).render_as_string(hide_password=False) + "\n")
+    (config / "registry.url").chmod(0o600)
+    monkeypatch.setenv("REHAB_CONFIG_DIR", str(config))
+    monkeypatch.setenv("REHAB_DATA_DIR", str(data.root))
+    station = StationRegistry(data, network.url(url), station="robot-1")
+    code = station.create_patient("Hal", "Waiting").code
+    _trial(station, code)
+    code_now, out, _ = run(["db", "status"], capsys)
+    assert code_now == 0
+    assert "this station" not in out  # nothing waits
+
+    network.cut()
+    _trial(station, code)
+    _trial(station, code)
+    waiting = (f"this station: 2 trial(s) (2 record(s) in all) recorded or changed while the "
+               f"shared registry was unreachable wait in {standby_path(data)}, not on the "
+               "server yet: the console's window sends them once it runs and the server "
+               "answers (the command line does not)\n")
+    code_now, out, err = run(["db", "status"], capsys)
+    assert (code_now, out) == (2, waiting)  # said, then the server's refusal
+    assert "cannot reach the registry's server" in err
+
+    network.restore()
+    code_now, out, _ = run(["db", "status"], capsys)
+    assert code_now == 0
+    assert out.startswith(waiting)  # the server answers, but they are not on it yet
+    assert "trials 1," in out
+    station.try_sync()
+    code_now, out, _ = run(["db", "status"], capsys)
+    assert "this station" not in out
+    assert "trials 3," in out
