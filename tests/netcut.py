@@ -2,7 +2,9 @@
 on 127.0.0.1 in front of the tests' PostgreSQL server. `cut()` closes the listening socket
 and every connection through it (what a station sees when the server or the network goes
 down: its connections end and new ones are refused); `restore()` listens again on the same
-port. The server itself, shared by the worker's other tests, never stops."""
+port. `silence()` keeps every connection open and accepts new ones but passes nothing on
+(a pulled cable, a firewall that drops: nothing ends, no answer comes). The server itself,
+shared by the worker's other tests, never stops."""
 
 from __future__ import annotations
 
@@ -21,6 +23,7 @@ class NetworkCut:
         self._lock = threading.Lock()
         self._sockets: list[socket.socket] = []
         self._listener: socket.socket | None = None
+        self.silent = False
         self.restore()
 
     def url(self, url: sa.URL) -> sa.URL:
@@ -35,6 +38,10 @@ class NetworkCut:
         self.port = listener.getsockname()[1]
         self._listener = listener
         threading.Thread(target=self._accept, args=(listener,), daemon=True).start()
+
+    def silence(self) -> None:
+        """From now on what is sent either way is dropped, and nothing ends."""
+        self.silent = True
 
     def cut(self) -> None:
         with self._lock:
@@ -67,8 +74,7 @@ class NetworkCut:
                 self._sockets += [client, server]
             threading.Thread(target=self._relay, args=(client, server), daemon=True).start()
 
-    @staticmethod
-    def _relay(a: socket.socket, b: socket.socket) -> None:
+    def _relay(self, a: socket.socket, b: socket.socket) -> None:
         peers = {a: b, b: a}
         try:
             while True:
@@ -77,7 +83,8 @@ class NetworkCut:
                     data = s.recv(65536)
                     if not data:
                         return
-                    peers[s].sendall(data)
+                    if not self.silent:
+                        peers[s].sendall(data)
         except (OSError, ValueError):
             return
         finally:

@@ -153,7 +153,11 @@ class Registry(Schema, Patients, Sessions, Plans, Clinical, Proposals, Trials, S
     window and the commands give `station_id()`)."""
 
     def __init__(self, data_dir: DataDir | str | Path, *, create: bool = True,
-                 server: sa.URL | None = None, station: str | None = None) -> None:
+                 server: sa.URL | None = None, station: str | None = None,
+                 bounded: bool = False) -> None:
+        """`bounded`: a station's window on a server, whose every wait for an answer is
+        bounded (Database.bounded)."""
+        self.bounded = bounded
         if not isinstance(data_dir, DataDir):
             data_dir = DataDir(Path(data_dir).expanduser().absolute())
         self.data_dir = data_dir

@@ -51,6 +51,10 @@ class Database:
     """A researcher's login on the server (its research role): the registry reads through
     the views of the schema `research` (codes and data; names and typed text empty, by the
     server) and changes nothing."""
+    bounded: bool = False
+    """A station's window on the server: each wait for an answer bounded
+    (app.records.registry.postgres.deadline), so a network that drops traffic is seen as
+    unreachable within seconds, not when TCP gives up."""
 
     @property
     def where(self) -> str:
@@ -88,8 +92,10 @@ class Database:
             engine = sa.create_engine(self.server, pool_size=2, max_overflow=6,
                                       isolation_level="AUTOCOMMIT", connect_args=options)
             if not self.research:  # a station's connection, ready for its first Start
-                from app.records.registry.postgres import warm
+                from app.records.registry.postgres import deadline, warm
                 sa.event.listen(engine, "connect", warm.on_connect)
+                if self.bounded:
+                    sa.event.listen(engine, "do_connect", deadline.on_do_connect)
             # the pool's connections are closed, not dropped, when the registry goes
             weakref.finalize(self, engine.dispose)
             return engine

@@ -20,6 +20,7 @@ from __future__ import annotations
 import contextlib
 import datetime
 import fcntl
+import functools
 import logging
 import os
 import sqlite3
@@ -73,7 +74,9 @@ class StationRegistry:
     """The shared registry at `server` as one station uses it (the module's doc)."""
 
     def __init__(self, data_dir: DataDir, server: sa.URL, *, station: str,
-                 connect: Callable[..., Registry] = Registry) -> None:
+                 connect: Callable[..., Registry] | None = None) -> None:
+        if connect is None:  # the window's: a network that drops traffic is seen in seconds
+            connect = functools.partial(Registry, bounded=True)
         self.data_dir = data_dir
         self.station = station
         self.offline_reason = ""

@@ -392,3 +392,38 @@ def test_db_status_says_what_waits_on_the_station_whether_the_server_answers_or_
     code_now, out, _ = run(["db", "status"], capsys)
     assert "this station" not in out
     assert "trials 3," in out
+
+
+def test_a_network_that_drops_everything_is_seen_in_seconds_and_the_session_goes_on(
+        department, monkeypatch):
+    """A pulled cable ends nothing: the statement is sent and its answer waited for until
+    TCP gives up (about 15 minutes), the window frozen on it and the robot faulted for its
+    lost heartbeat. Each wait for the server is bounded (postgres.deadline)."""
+    import threading
+
+    from app.records.registry import database
+    from app.records.registry.postgres import deadline
+
+    monkeypatch.setattr(database, "CONNECT_TIMEOUT_S", 2)  # libpq's least
+    monkeypatch.setattr(deadline, "ANSWER_TIMEOUT_S", 0.5)
+    url, network, data = department
+    station = StationRegistry(data, network.url(url), station="robot-1")
+    code = station.create_patient("Joy", "Sample").code
+    _trial(station, code)
+
+    network.silence()  # the cable pulled: nothing ends, nothing answers
+    done = threading.Event()
+    threading.Thread(target=lambda: (_trial(station, code, {"rmse_x_mm": 2.5}), done.set()),
+                     daemon=True).start()
+    # a bound for a hang (the fix answers within seconds), not a measure of speed
+    assert done.wait(120), "the station waited on a silent network"
+    assert station.offline
+    assert "cannot be reached" in station.offline_reason
+
+    network.silent = False  # plugged in again: the old connections are gone
+    network.cut()
+    network.restore()
+    station.try_sync()  # between trials, as the window does while offline
+    assert not station.offline
+    server = Registry(data, server=url)
+    assert [t.number for t in server.trials_for_patient(code)] == [1, 2]
