@@ -45,6 +45,14 @@ def z_text(z: float) -> str:
     return f"{z:+.2f}"
 
 
+def score_text(score: float) -> str:
+    """A task score as reports print it: two decimals, or beyond Z_SHOWN as "> 10". A task
+    score is a Z-Task Score mapped one-sided (about the same number that far out), so the
+    same bound holds: 24 controls' range norms (λ = −5) gave the passive patient's area
+    13184793.06, the extrapolated transform's digits; the number stays in --json."""
+    return f"> {Z_SHOWN:g}" if score > Z_SHOWN else f"{score:.2f}"
+
+
 WORST = "(worse than any task score)"
 
 

@@ -24,6 +24,7 @@ from app.norms.model import (
     NormsError,
     TaskNotPerformed,
     TaskScore,
+    score_text,
     z_text,
 )
 from core.errors import CoreError
@@ -103,7 +104,7 @@ def lines(scores: TrialScores) -> list[str]:
         out.append(f"{key:<36} no Z-score: {why}")
     if scores.task_score is not None:
         t = scores.task_score
-        out.append(f"task score {scores.task}: {t.score:.2f} (0 best; 1.96 = the controls' "
+        out.append(f"task score {scores.task}: {score_text(t.score)} (0 best; 1.96 = the controls' "
                    f"95th percentile), Z-Task Score {t.z_task:.2f}")
     elif scores.not_performed:
         out.append(f"task {scores.task}: not performed — {scores.not_performed} {WORST}")

@@ -22,7 +22,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from app.norms.model import z_text
+from app.norms.model import score_text, z_text
 from core.assessment import TASK_TITLES, task_figures
 from core.assessment.protocol import protocol
 from core.assessment.strength import StrengthPolar, strength_polar
@@ -125,7 +125,7 @@ def assessment_page(task: str, metrics: Mapping[str, float], *, heading: str = "
         except NormsError as exc:
             task_score = f"No task score: {exc}"
         else:
-            task_score = (f"Task score {score.score:.2f} (0 is best; 1.96 is the healthy "
+            task_score = (f"Task score {score_text(score.score)} (0 is best; 1.96 is the healthy "
                           f"controls' 95th percentile)")
     if not lines:
         notes.append(f"the trial holds no {spec.name} figures")

@@ -244,6 +244,9 @@ def _mark_real_changes(points: list[SessionPoint], key: str, norms
         return points, "No norms in use: no change is marked real."
     from app.norms import NormsError
 
+    if key not in norms.figures:  # NormsError's line lists every figure they hold
+        return points, (f"the norms ({norms.source}) hold no MDC95 for {figure_label(key)}, "
+                        "not one of their figures: no change is marked real")
     try:
         mdc = norms.mdc95(key)
     except NormsError as exc:

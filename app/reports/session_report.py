@@ -199,12 +199,14 @@ def _assessment(registry, patient, trial, norms) -> Assessment:
     score = unscorable
     if who is not None:
         from app.norms import NormsError, TaskNotPerformed
+        from app.norms.model import score_text
         from app.reports.assessment_page import not_performed_text
 
         try:
             result = norms.task_score(task, trial.metrics, who)
-            score = (f"task score {result.score:.2f} (0 best; 1.96 = the 95th percentile of "
-                     "the norms)" + (" — extrapolated" if result.extrapolated else ""))
+            score = (f"task score {score_text(result.score)} (0 best; 1.96 = the 95th "
+                     "percentile of the norms)"
+                     + (" — extrapolated" if result.extrapolated else ""))
         except TaskNotPerformed as exc:
             score = not_performed_text(exc)
         except NormsError as exc:

@@ -2,11 +2,16 @@
 behind it (the real loop and recorder processes), driven through random sequences of what a
 therapist does: edit the form, take the proposal, Build, Connect, Start, Stop, change the
 level during a trial (typed, with the arrows), press the emergency stop and Clear fault in
-any state, Disconnect, and restart (a new window on the same registry).
+any state, Disconnect, and restart (a new window on the same registry); choose another
+patient, type a session number and Confirm on the Registration tab; press Build twice
+before the first is answered (the second for another robot, which the loop refuses while
+connected); press Start the moment the last trial ended, before its report is there.
 
 After every step:
 * what Start can run is what the form shows: Start is enabled only while the form shows
-  exactly what was last built (the parameters and the robot chosen);
+  exactly what the loop last took at a Build (the parameters and the robot chosen);
+* Start registers what the Registration tab shows confirmed: it is enabled only while
+  the tab's registration is the window's, for the patient chosen;
 * the banner is the latch: shown exactly while the loop's e-stop line is held or the loop
   holds a fault.
 After every trial:
@@ -19,7 +24,9 @@ After every trial:
   in part, which must be the file's at that tick (a level the loop kept from an earlier
   trial, #2, ran under a file that said another);
 * the registry's row, the report, the CSV export and the next proposal say the levels the
-  file says; the window offers that proposal, after a restart too.
+  file says; the window offers that proposal to its patient, after a restart too; the
+  registry's row is the patient and the numbers the Registration tab showed confirmed at
+  Start, and the trial before it of the same patient had its proposal decided by it.
 
 Waits are on conditions (the bridge has every command answered, the window and the loop
 agree on the state, the trial is finished in the registry), never on time. Each example
@@ -51,6 +58,7 @@ from hypothesis.stateful import (
 )
 from PySide6.QtCore import QCoreApplication, Qt
 
+from app.errors import TrialNotFound
 from app.records.datadir import DataDir
 from app.records.registry import Registry
 from app.trials.reader import read_trial
@@ -79,6 +87,7 @@ if CHECKS - set(CLAIMS):
 WAIT_MS = 60_000
 """Generous: a waited condition never depends on how promptly a shared CI machine wakes."""
 
+HARDWARE_EXAMPLE = Path(__file__).parents[2] / "resources" / "hardware.example.toml"
 FIELDS = {
     "radius": (8.0, 10.0),
     "duration": (1.5, 2.0),
@@ -123,10 +132,11 @@ def _dedup(levels) -> list[float]:
 class TrialRun:
     """What the test saw of one trial: the form at Start, the live levels committed."""
 
-    def __init__(self, trial_id: int, form: dict, kind: str | None) -> None:
+    def __init__(self, trial_id: int, form: dict, kind: str | None, registration) -> None:
         self.trial_id = trial_id
         self.form = form
         self.kind = kind
+        self.registration = registration  # what the Registration tab showed confirmed
         self.live: list[float] = []
 
 
@@ -140,8 +150,11 @@ class WindowMachine(RuleBasedStateMachine):
         self.registry = Registry(DataDir(self.folder / "data", "test"))
         self.settings_path = self.folder / "config" / "settings.json"
         self.win: MainWindow | None = None
-        self.patient = None
+        self.patient = None  # the patient chosen on the Registration tab
+        self.patients: list = []  # Ada (registered in the window), Grace (in the registry)
         self.built_form: tuple | None = None  # the form at the last Build the loop took
+        self.builds: list[tuple] = []  # the forms of the Builds asked, not yet answered
+        self.started: list[TrialRun] = []  # every trial started, in order
         self.running: TrialRun | None = None
         self.unchecked: list[TrialRun] = []
         self.trials_since_restart = 0  # a restart comes between trials, as in a clinic
@@ -153,6 +166,16 @@ class WindowMachine(RuleBasedStateMachine):
         self.win.show()
         self.win.start_device()
         self.built_form = None
+        self.builds = []
+        self.win.bridge.replied.connect(self._answered)
+
+    def _answered(self, command: str, ok: bool, _message: str) -> None:
+        """The loop's answer to each Build, in the order they were asked: the form of the
+        last one it took is what Start may run (never the window's word for it)."""
+        if command == "build" and self.builds:
+            form = self.builds.pop(0)
+            if ok:
+                self.built_form = form
 
     def _close(self) -> None:
         if self.win is not None:
@@ -204,6 +227,12 @@ class WindowMachine(RuleBasedStateMachine):
         self._open()
         register_patient(self.qtbot, self.win)
         self.patient = self.win.patient
+        # a second patient with other measurements: choosing her changes the form
+        grace = self.registry.create_patient(
+            "Grace", "Hopper", side="right", body_mass_kg=60.0, upper_arm_m=0.29,
+            forearm_m=0.27, shoulder_m=(-0.12, 0.73))
+        self.patients = [self.patient, grace]
+        self.win.registration_tab.search()
         p = self.win.parameters_tab
         p.repetitions.setValue(1)
         p.duration.setValue(1.5)
@@ -214,10 +243,10 @@ class WindowMachine(RuleBasedStateMachine):
     # Every rule may be drawn in any state and does what a therapist would there (a greyed
     # button is not pressed): a precondition on the window's state would change what is
     # drawn with the timing of real processes, and Hypothesis could not replay a failure.
-    def _type(self, box, text: str) -> None:
+    def _type(self, box, text: str, tab=None) -> None:
         """Typed, then committed with Enter; during a trial the level is a live change."""
         win = self.win
-        win.tabs.setCurrentWidget(win.parameters_tab)
+        win.tabs.setCurrentWidget(tab or win.parameters_tab)
         before = box.value()
         live = box is win.parameters_tab.assistance and win.state == State.RUNNING
         box.setFocus()
@@ -300,12 +329,43 @@ class WindowMachine(RuleBasedStateMachine):
     def build(self) -> None:
         if "build" not in enabled(self.win):
             return
-        before = self.win.built
-        form = self._form()
-        self._click("build")
+        self._ask_build()
         self._settle()
-        if self.win.built is not before:  # the loop took it
-            self.built_form = form
+
+    def _ask_build(self) -> None:
+        """Build pressed: its form kept until the loop answers it (a Build the window
+        refuses itself asks the loop nothing)."""
+        form = self._form()
+        self.win._pending_build = None
+        self._click("build")
+        if self.win._pending_build is not None:  # sent to the loop
+            self.builds.append(form)
+
+    @when()
+    @rule(other_robot=st.booleans(), level=st.sampled_from(FIELDS["assistance"]))
+    def build_twice(self, other_robot: bool, level: int) -> None:
+        """Build, then another level (and, drawn, the hardware, which the loop refuses
+        while connected) and Build again before the first is answered; the simulator is
+        chosen again after (not built)."""
+        win = self.win
+        if "build" not in enabled(win):
+            return
+        p = win.parameters_tab
+        other_robot = other_robot and win.state == State.CONNECTED
+        self._ask_build()
+        p.assistance.setValue(level)
+        if other_robot:
+            p.hardware.setChecked(True)
+            p.settings_path.setText(str(HARDWARE_EXAMPLE))
+        p.refresh()
+        if "build" in enabled(win):
+            _count("Builds pressed twice")
+            self._ask_build()
+        self._settle()
+        if other_robot:
+            p.simulator.setChecked(True)
+            p.refresh()
+            self._settle()
 
     @when()
     @rule()
@@ -315,23 +375,31 @@ class WindowMachine(RuleBasedStateMachine):
             self._settle()
 
     @when()
-    @rule()
-    def start_a_trial(self) -> None:
-        """Start, once the last trial's report is there (a therapist reads it first)."""
-        if self.win.state not in (State.RUNNING, State.STOPPING):
+    @rule(at_once=st.booleans())
+    def start_a_trial(self, at_once: bool = False) -> None:
+        """Start, once the last trial's report is there (a therapist reads it first), or
+        the moment Start is green after the last trial ended (before its report)."""
+        if at_once and self.running is not None:
+            run = self.running
+            self._wait(lambda: "start" in enabled(self.win) or self._finished(run)
+                       or self._withdrawn(run))
+        elif self.win.state not in (State.RUNNING, State.STOPPING):
             self._check_finished(wait=True)
         if "start" not in enabled(self.win):
             return
         self.start_runs_what_the_form_shows()  # at the press too, not only between steps
+        self.start_registers_what_the_registration_tab_shows()
         form = self._form()
         kind = form[1].patient_kind
+        shown = self.win.registration_tab.registration()
         self._click("start")
         trial_id = self.win.trial_id
         self._settle()
         if trial_id is not None:
-            self.running = TrialRun(trial_id, form[0], kind)
+            self.running = TrialRun(trial_id, form[0], kind, shown)
             self.unchecked.append(self.running)
-            _count("trials started")
+            self.started.append(self.running)
+            _count("trials started" + (" at once" if at_once else ""))
             self.trials_since_restart += 1
 
     @when()
@@ -362,6 +430,41 @@ class WindowMachine(RuleBasedStateMachine):
         if "disconnect" in enabled(self.win):
             self._click("disconnect")
             self._settle()
+
+    @when()
+    @rule(which=st.integers(0, 1))
+    def choose_a_patient(self, which: int) -> None:
+        """Another patient (or the same) chosen in the Registration tab's list, in any
+        state (during a trial too): the form takes her measurements, Confirm is asked."""
+        patient = self.patients[which]
+        tab = self.win.registration_tab
+        self.win.tabs.setCurrentWidget(tab)
+        tab._select_in_list(patient.code)
+        if tab.selected_patient() is None or tab.selected_patient().code != patient.code:
+            tab.choose(patient)
+        self.patient = patient
+        if which:
+            _count("the other patient chosen")
+        self._settle()
+
+    @when()
+    @rule(session=st.integers(1, 2))
+    def type_the_session(self, session: int) -> None:
+        """A session number typed on the Registration tab, not confirmed."""
+        tab = self.win.registration_tab
+        if not tab.session.isEnabled():
+            return
+        self.win.tabs.setCurrentWidget(tab)
+        self._type(tab.session, str(session), tab=tab)
+
+    @when()
+    @rule()
+    def confirm(self) -> None:
+        tab = self.win.registration_tab
+        if tab.confirm.isEnabled():
+            self.win.tabs.setCurrentWidget(tab)
+            self.qtbot.mouseClick(tab.confirm, Qt.MouseButton.LeftButton)
+        self._settle()
 
     @when()
     @rule(key=st.sampled_from((Qt.Key.Key_Escape, Qt.Key.Key_Space)))
@@ -430,6 +533,17 @@ class WindowMachine(RuleBasedStateMachine):
             f"{_differences(self.built_form, shown)}")
 
     @invariant()
+    def start_registers_what_the_registration_tab_shows(self) -> None:
+        if "start" not in CHECKS or self.win is None or "start" not in enabled(self.win):
+            return
+        shown = self.win.registration_tab.registration()
+        assert shown is not None, (
+            f"Start is green with nothing confirmed on the Registration tab; it would "
+            f"register {self.win.registration}")
+        assert self.win.registration == shown
+        assert shown.patient_code == self.win.patient.code == self.patient.code
+
+    @invariant()
     def the_banner_is_the_latch(self) -> None:
         if "latch" not in CHECKS or self.win is None:
             return
@@ -455,15 +569,29 @@ class WindowMachine(RuleBasedStateMachine):
                 and self.win.unsaved_trial is not None
                 and self.win.unsaved_trial >= run.trial_id)
 
+    def _withdrawn(self, run: TrialRun) -> bool:
+        """A Start the loop refused after the registry had begun the trial (a fault
+        latched between the press and the loop: a window stalled past the heartbeat's
+        limit) is taken back, its row gone (app.trials.registered): no trial to check."""
+        try:
+            self.registry.trial(run.trial_id)
+        except TrialNotFound:
+            return True
+        return False
+
     def _check_finished(self, *, wait: bool) -> None:
         for run in list(self.unchecked):
             if wait:
-                self._wait(lambda run=run: self._finished(run))
-            elif not self._finished(run):
+                self._wait(lambda run=run: self._finished(run) or self._withdrawn(run))
+            elif not self._finished(run) and not self._withdrawn(run):
                 continue
             self.unchecked.remove(run)
             if run is self.running:
                 self.running = None
+            if self._withdrawn(run):
+                _count("starts taken back")
+                self.started.remove(run)
+                continue
             self._check_trial(run)
 
     def _check_trial(self, run: TrialRun) -> None:
@@ -474,7 +602,9 @@ class WindowMachine(RuleBasedStateMachine):
         path = self.registry.trial_path(trial)
         data = read_trial(path)
         ticks = _file_levels(data)
-        at_end = ticks[-1]
+        # the level at the end of the exercise (a change in the hold after it changes
+        # nothing the exercise did: app.trials.assistance_timeline)
+        at_end = _file_levels(data, exercise_only=True)[-1]
         if "file" in CHECKS:
             self._check_file(run, data, ticks)
         if "downstream" in CHECKS:
@@ -538,8 +668,24 @@ class WindowMachine(RuleBasedStateMachine):
         if "assistance_level" in data.channels:
             exported = _exported_levels(path, self.folder / f"export-{run.trial_id}")
             assert exported == pytest.approx(ticks)
-        latest = max(t.id for t in self.registry.trials_for_patient(self.patient.code))
-        if run.trial_id == latest:
+        # the registry's row: the patient and numbers the Registration tab confirmed
+        shown = run.registration
+        assert (trial.patient_code, trial.session_number, trial.number) == (
+            shown.patient_code, shown.session_number, shown.trial_number), (
+            f"trial {run.trial_id} registered as {trial.patient_code} session "
+            f"{trial.session_number} trial {trial.number}; the tab showed {shown}")
+        # the proposal of the patient's trial before: decided by this one, its next
+        before = [r for r in self.started[:self.started.index(run)]
+                  if r.registration.patient_code == shown.patient_code]
+        if before:
+            made = self.registry.proposal(before[-1].trial_id)
+            assert made is not None, f"trial {before[-1].trial_id} proposed nothing"
+            assert made.next_trial_id == run.trial_id, (
+                f"trial {before[-1].trial_id}'s proposal was {made.decision} (next trial "
+                f"{made.next_trial_id}), not decided by trial {run.trial_id}, the next "
+                f"one started")
+        latest = max(t.id for t in self.registry.trials_for_patient(trial.patient_code))
+        if run.trial_id == latest and self.win.patient.code == trial.patient_code:
             self._assert_offered(proposal.to_dict())
 
     def _assert_offered(self, proposal: dict) -> None:

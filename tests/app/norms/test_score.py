@@ -126,3 +126,19 @@ def test_norms_of_another_robot_refuse_the_person_in_one_line(tmp_path, files, d
     assert "hold no healthy people with robot 'simulator-realistic'" in err
     assert err.count("\n") == 1
     assert out == ""
+
+
+def test_a_task_score_beyond_the_bound_prints_as_one(files, data, capsys, monkeypatch):
+    """`rehab norms score` prints a task score beyond Z_SHOWN as "> 10" (its number stays
+    in --json), as the reports do."""
+    from app.norms import model
+
+    norms, trial = files
+    monkeypatch.setattr(model.scores, "task_score", lambda z: 13184793.06)
+    args = ["norms", "score", str(trial), "--norms", str(norms), "--birth-year", str(BORN),
+            "--sex", "male", "--handedness", "right"]
+    code, out, err = run(args, capsys)
+    assert code == 0, err
+    assert "task score reaching: > 10 (0 best" in out
+    code, out, err = run([*args, "--json"], capsys)
+    assert json.loads(out)["task_score"]["score"] == pytest.approx(13184793.06)

@@ -196,3 +196,14 @@ def test_a_person_the_norms_do_not_hold_is_said_once(tmp_path):
     said = [*page.notes, page.task_score]
     assert sum(why in text for text in said) == 1, said
     assert all(line.z is None for line in page.lines)
+
+
+def test_a_task_score_far_outside_the_controls_prints_as_a_bound():
+    """As a Z-score beyond ±10 (Z_SHOWN): 24 virtual controls' range norms (λ = −5) gave
+    the passive patient's area a task score of 13184793.06, digits of the extrapolated
+    transform that say nothing but 'far beyond every control'."""
+    from app.norms.model import score_text
+
+    assert score_text(1.7) == "1.70"
+    assert score_text(10.0) == "10.00"
+    assert score_text(13184793.06) == "> 10"

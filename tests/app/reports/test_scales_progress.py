@@ -128,6 +128,27 @@ def test_changes_are_marked_real_only_beyond_the_norms_mdc(registry, tmp_path):
     assert [p.real_change for p in held.points] == [None, None, None]
 
 
+def test_a_figure_the_norms_do_not_hold_is_said_in_a_short_line(registry, tmp_path):
+    """The RMSE against a scale, with norms of the battery's figures in use: the window's
+    caption listed every figure the norms hold (39 keys over six lines, the plot pushed
+    into a scroll area) to say no change is marked."""
+    path = tmp_path / "norms.json"
+    path.write_text(json.dumps(handmade()))
+    norms = load_norms(path)
+    code = registry.create_patient("Ada", "Example").code
+    for rmse, fm in ((0.03, 20), (0.02, 30)):
+        number = registry.open_session(code).number
+        begun = registry.begin_trial(code, THESIS_SUBJECT, backend="simulator",
+                                     session_number=number)
+        registry.finish_trial(begun.trial_id, "complete", {"rmse_x_m": rmse})
+        registry.record_scale(code, number, "fugl_meyer", total=fm, rater="K. Lee")
+    series = scale_series(registry, code, "rmse_x_m", "fugl_meyer", norms=norms)
+    assert series.mdc_note == ("the norms (hand-made for the tests, 3 Dec 2026) hold no "
+                               "MDC95 for RMSE x (mm), not one of their figures: no change "
+                               "is marked real")
+    assert [p.real_change for p in series.points] == [None, None]
+
+
 def test_a_study_has_one_point_per_patient_their_latest_session(registry):
     expected = []
     for i, (rt, fm) in enumerate(((0.6, 15), (0.5, 30), (0.35, 50), (0.3, 60))):

@@ -188,7 +188,7 @@ def test_the_progress_pdf_on_the_command_line_uses_the_norms_in_use(clinic, caps
     assert status == 0, err
     text = text_of(tmp_path / "progress.pdf")
     assert "No norms in use" not in text
-    assert "hold no figure 'directional_performance_pct'" in text
+    assert "hold no MDC95 for Direction" in text
 
 
 def test_a_figure_against_a_scale_of_one_session_is_a_line_not_a_plot(clinic):
