@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from app.cli.common import mm, num, registry_for, subcommands
+from app.cli.common import CommandError, mm, num, registry_for, subcommands
 from app.games.figures import game_line
 from app.records.registry import HANDEDNESS, SEXES
 from app.units import assistance_percent, cm
@@ -44,6 +44,9 @@ def add_patient_commands(commands) -> None:
     add.add_argument("--sex", choices=SEXES, help="for the norms (app.norms)")
     add.add_argument("--handedness", choices=HANDEDNESS, help="the dominant hand")
     add.add_argument("--notes", default="", help="a note kept with the patient's record")
+    add.add_argument("--same-name", action="store_true",
+                     help="register a different person with the name of one registered "
+                          "(else refused, as the Registration tab does)")
     add.set_defaults(func=cmd_patients_add)
 
 
@@ -65,6 +68,14 @@ def cmd_patients(args: argparse.Namespace) -> int:
 def cmd_patients_add(args: argparse.Namespace) -> int:
     # the first patient starts a registry (in a new or empty folder only)
     registry = registry_for(args, create=True)
+    if (args.first_name or args.last_name) and not args.same_name:
+        namesakes = registry.find_patients(args.first_name or "", args.last_name or "")
+        if namesakes:  # the same person twice would split their record in two
+            known = "; ".join(f"{p.code} ({p.display_name}"
+                              + (f", born {p.birth_year}" if p.birth_year else "") + ")"
+                              for p in namesakes)
+            raise CommandError(f"already registered: {known}. Use that code, or give "
+                               "--same-name to register a different person with this name")
     patient = registry.create_patient(
         args.first_name, args.last_name, birth_year=args.birth_year, side=args.side,
         body_mass_kg=args.body_mass, upper_arm_m=args.upper_arm, forearm_m=args.forearm,

@@ -62,7 +62,7 @@ def refuse_existing(paths: Iterable[Path], overwrite: bool) -> None:
         raise OutputExistsError(
             f"the export would replace {len(existing)} existing file(s): {shown}{more}. "
             "Nothing was written. Choose another folder, move those files, or export "
-            "with overwrite=True (--overwrite) to replace them"
+            "again with --overwrite to replace them"
         )
 
 

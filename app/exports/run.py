@@ -193,6 +193,13 @@ def export_patients(
     """Export every trial of these patients from the registry (one subfolder per
     patient code for CSV/TSV/.mat; one BIDS participant each). Trials marked invalid are
     left out, and a note says how many, unless `include_invalid`."""
+    if include_names and getattr(registry, "research", False):
+        # the research role reads every name as '' (the server's views): an export asked for
+        # names would have written empty name columns as if the patients had none
+        raise ExportError(
+            "this login is a researcher's: it never reads names, so an export with names "
+            "cannot be made through it. Nothing was written. Export without --include-names, "
+            "or ask a clinic login for one with names")
     codes = list(codes)
     left_out: list[int] = []
     notes: list[str] = []

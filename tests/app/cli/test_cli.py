@@ -263,3 +263,20 @@ def test_trials_lists_why_a_trial_ended_and_the_radius_in_cm(data, patient, caps
     assert "r 10.0 cm" in out
     assert " mm," not in out
     assert "ended: the disk is full: free some space" in out
+
+
+def test_a_second_patient_of_a_registered_name_needs_same_name(tmp_path, capsys):
+    """`patients add` registered a second "Ada Example" without a word (the Registration
+    tab asks first): the same person twice splits their record in two."""
+    base = ["--data-dir", str(tmp_path / "d"), "patients", "add", "--first-name", "Ada",
+            "--last-name", "Example"]
+    code, first, _ = run([*base, "--birth-year", "1950"], capsys)
+    assert code == 0
+    code, _, err = run(base, capsys)
+    assert code == 2
+    assert err.strip() == (f"rehab patients add: error: already registered: {first.strip()} "
+                           "(Example, Ada, born 1950). Use that code, or give --same-name to "
+                           "register a different person with this name")
+    code, second, _ = run([*base, "--same-name"], capsys)
+    assert code == 0
+    assert second != first

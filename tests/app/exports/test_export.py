@@ -436,6 +436,21 @@ def test_names_asked_for_go_only_in_the_participants_file(registry, tmp_path, fo
     assert row[header.index("last_name")] == LAST
 
 
+
+def test_names_asked_for_through_a_researchers_login_are_refused(registry, tmp_path):
+    """The research role reads every name as '': an export with --include-names through it
+    wrote name columns left empty, as if the patients had none, without a word."""
+    from app.exports.files import ExportError
+
+    registry, code = registry
+    registry.research = True  # as a research login's registry is
+    with pytest.raises(ExportError, match="this login is a researcher's: it never reads "
+                                          "names") as caught:
+        export_patient(registry, code, tmp_path / "out", include_names=True)
+    assert "\n" not in str(caught.value)
+    assert not (tmp_path / "out").exists()
+
+
 # -- batches, overwriting, failures ---------------------------------------------------
 
 
