@@ -8,10 +8,8 @@ import os
 import threading
 import time
 
-import cv2
 import numpy as np
 import pytest
-from skimage import data
 
 from core.pose.keypoints import OTHER_SHOULDER, SHOULDER
 from device.background import BACKGROUND_NICE
@@ -21,15 +19,11 @@ from device.camera.live import LivePose
 from device.errors import PoseModelError
 
 
-@pytest.fixture
-def astronaut_clip(tmp_path):
-    path = tmp_path / "astronaut.avi"
-    image = np.ascontiguousarray(data.astronaut()[:, :, ::-1])
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"MJPG"), 30.0, (512, 512))
-    for _ in range(300):  # 10 s at 30 fps: time for the model to start on a busy machine
-        writer.write(image)
-    writer.release()
-    return path
+@pytest.fixture(scope="module")
+def astronaut_clip(tmp_path_factory):
+    from tests.astronaut import astronaut_clip
+
+    return astronaut_clip(tmp_path_factory.mktemp("clip") / "astronaut.avi")
 
 
 def wait_for(condition, timeout_s=30.0):

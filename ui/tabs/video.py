@@ -152,6 +152,9 @@ class VideoTab(QWidget):
     def live_pose(self) -> LivePose | None:
         return self._live
 
+    drawn_pose = None
+    """The live pose result whose keypoints the picture shows now (None before any)."""
+
     def overlaid_frames(self) -> int:
         """How many pictures were shown with keypoints drawn over them."""
         return self._overlaid
@@ -175,6 +178,7 @@ class VideoTab(QWidget):
         if result is None:
             return False
         _draw_keypoints(pixmap, image_width, result.keypoints.gapped())
+        self.drawn_pose = result  # what the picture shows (the worker's latest may be newer)
         return True
 
     # -- replay -------------------------------------------------------------------------
