@@ -130,12 +130,27 @@ def read_controls_table(path: str | Path, *, sessions: bool = False) -> Controls
         subjects.append(name)
         people.append(person)
         for key in keys:
-            values[key].append(_number(cells[key], f"{where}, {key}") if cells[key]
+            values[key].append(_figure_value(cells[key], key, where) if cells[key]
                                else math.nan)
     if not people:
         raise NormsError(f"controls table {path}: has no rows; one row per healthy person")
     return Controls(tuple(subjects), tuple(people),
                     {k: np.asarray(v, dtype=float) for k, v in values.items()})
+
+
+def _figure_value(text: str, key: str, where: str) -> float:
+    """A figure's cell: a finite number its definition allows (core.assessment.domain): an
+    absolute error of -0.01 m or a ratio of 3 was fitted as if measured (a negative value
+    even switched the figure's transform to Yeo-Johnson)."""
+    from core.assessment.figures import domain  # as _catalogue: imported when used
+
+    value = _number(text, f"{where}, {key}")
+    low, high = domain(key)
+    if not low <= value <= high:
+        span = f"at least {low:g}" if high == math.inf else f"from {low:g} to {high:g}"
+        raise NormsError(f"{where}, {key}: {text[:30]!r} is not a value this figure can take "
+                         f"({span}, docs/assessments.md); correct the table")
+    return value
 
 
 def _number(text: str, where: str) -> float:

@@ -15,6 +15,7 @@ Coderre et al. 2010), "circle" (circle drawing both ways, InMotion evaluation),
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from core.errors import ParameterError
@@ -264,6 +265,38 @@ FIGURES: dict[str, FigureSpec] = {
     for spec in (*_vgr(), *_circle(), *_range(), *_strength(), *_position())
 }
 """Every figure of every task, by key, in the battery's order."""
+
+
+_NON_NEGATIVE = (0.0, math.inf)
+_SHARE = (0.0, 1.0)
+_DOMAINS = {
+    # magnitudes: speeds, durations, lengths, areas, distances, counts (of which the
+    # speed maxima's is a mean over reaches, so not whole)
+    **dict.fromkeys(("vgr_posture_speed_m_s", "vgr_min_max_speed_difference_m_s",
+                     "vgr_movement_time_s", "vgr_path_length_ratio", "vgr_max_speed_m_s",
+                     "vgr_speed_maxima_count", "vgr_no_reaction_count",
+                     "vgr_no_movement_end_count", "circle_mean_speed_m_s", "range_area_m2",
+                     "position_absolute_error_m", "position_variable_error_m",
+                     "position_constant_error_m", "position_not_reproduced_count",
+                     "strength_at_limit_count"), _NON_NEGATIVE),
+    "vgr_initial_direction_error_rad": (0.0, math.pi),  # an absolute angle
+    # a part over its whole: the initial phase's path or peak over the reach's; the minor
+    # over the major axis (no extent exceeds the longest chord); one minus a correlation's
+    # size; the area reached within the region over the region's
+    **dict.fromkeys(("vgr_initial_distance_ratio", "vgr_initial_speed_ratio", "circle_ratio",
+                     "circle_joint_independence", "range_area_ratio"), _SHARE),
+}
+
+
+def domain(key: str) -> tuple[float, float]:
+    """The values figure `key` can take by its definition, (low, high): a value outside is
+    not a measurement (a sign lost, a unit or a column mixed up). Unbounded where the
+    definition allows any value: SPARC and LDLJ, the reaction time, the strength's force
+    components (a push the wrong way is negative)."""
+    spec = figure(key)
+    base = next((b for b in CIRCLE_BASE_KEYS if spec.task == "circle"
+                 and key in (b, *(circle_key(b, w) for w in ("cw", "ccw")))), key)
+    return _DOMAINS.get(base, (-math.inf, math.inf))
 
 
 def figure(key: str) -> FigureSpec:

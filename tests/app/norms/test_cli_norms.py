@@ -115,6 +115,18 @@ def test_fit_refusals(tmp_path, data, capsys):
     _refused(capsys, [*base, "--controls", str(bad)], "the header lacks 'age_years'")
     bad.write_text(controls.read_text().replace(lines[3].split(",")[6], "fast", 1))
     _refused(capsys, [*base, "--controls", str(bad)], "'fast' is not a number")
+    # values a figure cannot take by its definition: fitted as if measured before (an area
+    # below 0 switched its transform to Yeo-Johnson; a share of 1.5)
+    cells = lines[3].split(",")
+    for column, value, span in (("range_area_m2", "-0.01", "at least 0"),
+                                ("range_area_ratio", "1.5", "from 0 to 1")):
+        row = list(cells)
+        row[lines[0].split(",").index(column)] = value
+        bad.write_text("\n".join([*lines[:3], ",".join(row), *lines[4:]]))
+        err = _refused(capsys, [*base, "--controls", str(bad)],
+                       f"line 4, {column}: '{value}' is not a value this figure can take "
+                       f"({span}")
+        assert not (tmp_path / "n.json").exists(), err
     _refused(capsys, ["norms", "fit", "--source", " ", "--output", out, "--controls",
                       str(controls)], "source is empty")
     _refused(capsys, [*base[:-1], str(tmp_path / "n.txt"), "--controls", str(controls)],

@@ -3,9 +3,12 @@ matches its suffix, a direction, a definition and a reference with a doi."""
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
 from core.assessment import (
+    CIRCLE_BASE_KEYS,
     FIGURES,
     STRENGTH_DIRECTIONS_DEG,
     TASK_TITLES,
@@ -115,3 +118,15 @@ def test_a_spec_refuses_an_unknown_task_or_direction():
         FigureSpec("x_m", "range", "m", "X", "smaller", "X.", "doi:10.1/x")
     with pytest.raises(ParameterError, match="label"):
         FigureSpec("x_m", "range", "m", " ", "lower", "X.", "doi:10.1/x")
+
+
+def test_every_bounded_figure_is_in_the_catalogue_and_every_domain_holds_its_bounds():
+    from core.assessment.figures import _DOMAINS, domain
+
+    assert set(_DOMAINS) <= set(FIGURES) | set(CIRCLE_BASE_KEYS)
+    for key in FIGURES:
+        low, high = domain(key)
+        assert low < high
+    assert domain("circle_ratio_cw") == domain("circle_ratio") == (0.0, 1.0)
+    assert domain("vgr_sparc") == (-math.inf, math.inf)
+    assert domain("strength_mean_force_n_090")[0] == -math.inf  # pulled the wrong way
