@@ -80,6 +80,8 @@ KNOWN: dict[tuple[str, str], tuple[int, str]] = {
         1, "the standby once sent and kept as synced-<UTC>.sqlite3 (its -wal and -shm too)"),
     ("app/records/station/__init__.py", "os.rename"): (
         1, "a damaged standby moved aside as damaged-<UTC>.sqlite3, kept whole, never read"),
+    ("app/records/station/waiting.py", "sqlite3.connect"): (
+        1, "the standby read only (mode=ro), for `rehab db status` to say what waits in it"),
     ("app/records/station/refresh.py", "sqlite3.connect"): (
         1, "the standby brought to the server's rows in place, in one transaction, only while "
            "it holds nothing unsent (as the station last left it)"),
@@ -167,6 +169,9 @@ KNOWN: dict[tuple[str, str], tuple[int, str]] = {
            "space held for it"),
     ("device/recording/trialfile/resume.py", "h5py.File('r+')"): (
         1, "a dead recorder's own trial file taken over to finish it from the ring (salvage)"),
+    ("device/lsl/library.py", "os.open for writing"): (
+        1, "os.devnull, where liblsl's one line about its log file goes while it reads its "
+           "configuration (stderr restored after)"),
     ("device/recording/trialfile/recover.py", "os.open for writing"): (
         1, "clearing a dead writer's open-for-write flags in a trial file (h5clear -s)"),
     ("device/recording/trialfile/reserve.py", "os.open for writing"): (

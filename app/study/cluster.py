@@ -60,8 +60,6 @@ class _QuietShutdown(logging.Filter):
         return not record.getMessage().startswith("Worker process still alive after")
 
 
-QUIET_SHUTDOWN = _QuietShutdown()
-
 
 def scheduler_address(text: str) -> str:
     """The scheduler's address as Dask takes it (`tcp://host:port`), from what was typed
@@ -107,9 +105,11 @@ def study_client(scheduler: str | None = None, *, workers: int = LOCAL_WORKERS,
                               "distributed.deploy.lost-worker-timeout": patience,
                               **QUIET_WORKERS}), contextlib.ExitStack() as stack:
             # first in, last out: still there while the cluster stops
-            nanny = logging.getLogger("distributed.nanny")
-            nanny.addFilter(QUIET_SHUTDOWN)
-            stack.callback(nanny.removeFilter, QUIET_SHUTDOWN)
+            # each cluster its own filter: one shared by two clusters (a study run while
+            # another is open) was taken away as the first one stopped
+            nanny, quiet = logging.getLogger("distributed.nanny"), _QuietShutdown()
+            nanny.addFilter(quiet)
+            stack.callback(nanny.removeFilter, quiet)
             try:
                 cluster = stack.enter_context(LocalCluster(
                     n_workers=workers, threads_per_worker=1, processes=True,
@@ -163,6 +163,13 @@ def _answers_as_a_scheduler(address: str, timeout_s: float) -> None:
     try:
         asyncio.run(handshake())
     except TimeoutError:  # (an OSError: first)
+        # Dask retries a refused connection until its own timeout, the same as this wait's:
+        # which ends first is the machine's timing, so whether the port takes a connection
+        # at all is asked once more (a refused port read as a silent service under load)
+        refused = _refused(address, timeout_s)
+        if refused:
+            raise AppError(f"cannot reach the Dask scheduler at {address} ({refused}): "
+                           f"{hint}") from None
         raise AppError(f"{address} took the connection but did not answer as a Dask "
                        f"scheduler within {timeout_s:g} s (another service on that port?): "
                        f"{hint}") from None
@@ -178,6 +185,20 @@ def _answers_as_a_scheduler(address: str, timeout_s: float) -> None:
     except Exception:  # what it sent is no Dask handshake (its bytes read as a length)
         raise AppError(f"{address} answered, but not as a Dask scheduler (another service "
                        f"on that port?): {hint}") from None
+
+
+def _refused(address: str, timeout_s: float) -> str:
+    """'' when `address`'s host takes a TCP connection on its port, else why not."""
+    import socket
+
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    try:
+        host, port = parse_host_port(parse_address(address)[1])
+        socket.create_connection((host, port), timeout=timeout_s).close()
+    except (OSError, ValueError) as exc:
+        return folded(exc)
+    return ""
 
 
 def worker_count(client) -> int:

@@ -165,3 +165,20 @@ def test_chunks_keep_every_worker_busy_and_tasks_few():
     assert [t for part in parts for t in part] == trials
     assert max(map(len, parts)) == 50
     assert [len(p) for p in chunks(trials[:9], 2)] == [1] * 9
+
+
+def test_a_second_cluster_that_stops_leaves_the_firsts_quiet_shutdown(client, caplog):
+    """One filter object was shared by every local cluster: a study run (`rehab study
+    analyse` in-process) while another cluster was open took it away as it stopped, and the
+    first cluster's slow workers were said as warnings again (seen in a fresh-clone check)."""
+    import logging
+
+    from app.study.cluster import study_client
+
+    with study_client(workers=1):
+        pass
+    nanny = logging.getLogger("distributed.nanny")
+    with caplog.at_level(logging.WARNING):
+        nanny.warning("Worker process still alive after 4.0 seconds, killing")
+    assert not any(r.getMessage().startswith("Worker process still alive")
+                   for r in caplog.records)
