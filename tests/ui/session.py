@@ -67,6 +67,21 @@ def build_connect_start(qtbot, win: MainWindow) -> None:
     qtbot.waitUntil(lambda: win.state == State.RUNNING, timeout=10000)
 
 
+def ended_window(qtbot, tmp_path, monkeypatch):
+    """A fixture's window (`yield from`): open_window's, then a trial a failed test left
+    running ended as Stop ends it, and the window closed."""
+    from device.loop.states import State
+
+    win = open_window(qtbot, tmp_path, monkeypatch)
+    yield win
+    if win.state == State.RUNNING:
+        win.bridge.stop()
+        qtbot.waitUntil(lambda: win.state not in (State.RUNNING, State.STOPPING),
+                        timeout=60000)
+    win.closing_by_signal = True
+    win.close()
+
+
 def open_window(qtbot, tmp_path, monkeypatch, *, start_device: bool = True,
                 registry=None) -> MainWindow:
     """The console's window on a fresh registry (or `registry`) and settings under

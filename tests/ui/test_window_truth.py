@@ -13,19 +13,19 @@ from PySide6.QtCore import Qt
 from app.trials.reader import read_trial
 from device.loop.states import State
 from device.safety.faults import Fault
-from tests.ui.session import click, enabled, open_window, register_patient, short_trial
+from tests.ui.session import (
+    click,
+    enabled,
+    ended_window,
+    open_window,
+    register_patient,
+    short_trial,
+)
 
 
 @pytest.fixture
 def window(qtbot, tmp_path, monkeypatch):
-    win = open_window(qtbot, tmp_path, monkeypatch)
-    yield win
-    if win.state == State.RUNNING:  # a test that failed mid-trial: end it as Stop does
-        win.bridge.stop()
-        qtbot.waitUntil(lambda: win.state not in (State.RUNNING, State.STOPPING),
-                        timeout=60000)
-    win.closing_by_signal = True
-    win.close()
+    yield from ended_window(qtbot, tmp_path, monkeypatch)
 
 
 def _connected(qtbot, win) -> None:

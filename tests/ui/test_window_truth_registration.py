@@ -9,7 +9,7 @@ from __future__ import annotations
 import pytest
 
 from device.loop.states import State
-from tests.ui.session import click, enabled, open_window, register_patient, short_trial
+from tests.ui.session import click, enabled, ended_window, register_patient, short_trial
 from tests.ui.test_window_truth import _connected
 
 pytestmark = pytest.mark.slow
@@ -17,14 +17,7 @@ pytestmark = pytest.mark.slow
 
 @pytest.fixture
 def win(qtbot, tmp_path, monkeypatch):
-    window = open_window(qtbot, tmp_path, monkeypatch)
-    yield window
-    if window.state == State.RUNNING:
-        window.bridge.stop()
-        qtbot.waitUntil(lambda: window.state not in (State.RUNNING, State.STOPPING),
-                        timeout=60000)
-    window.closing_by_signal = True
-    window.close()
+    yield from ended_window(qtbot, tmp_path, monkeypatch)
 
 
 def _new_patient(qtbot, win):
