@@ -472,7 +472,7 @@ def test_patient_export_reports_progress_and_indexes_the_trials(registry, tmp_pa
 def test_existing_outputs_are_refused_before_anything_is_written(trial, tmp_path):
     blocker = tmp_path / "T1_trial.csv"
     blocker.write_text("keep me")
-    with pytest.raises(OutputExistsError, match=r"T1_trial\.csv.*overwrite=True"):
+    with pytest.raises(OutputExistsError, match=r"T1_trial\.csv.*--overwrite"):
         export_trial(trial, tmp_path)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["T1_trial.csv"]
     assert blocker.read_text() == "keep me"
