@@ -76,11 +76,3 @@ def limits_for_backend(limits: SafetyLimits, backend: Backend) -> SafetyLimits:
     if rated is None:
         return limits
     return limits.for_sensor(*rated)
-
-
-def sensor_offset_for(config: BackendConfig) -> float:
-    if config.kind == "quanser" and config.hardware_settings:
-        from device.hardware.settings import load_hardware_settings
-
-        return load_hardware_settings(config.hardware_settings).force_sensor.mounting_offset_rad
-    return 0.0

@@ -15,7 +15,7 @@ import dataclasses
 from core.errors import ParameterError
 from device.backend import REAL_TIME
 from device.errors import BackendError, DeviceError, StateError
-from device.loop.backends import limits_for_backend, make_backend, sensor_offset_for
+from device.loop.backends import limits_for_backend, make_backend
 from device.loop.engine import TickEngine
 from device.loop.messages import (
     Build,
@@ -281,18 +281,20 @@ class LoopCommands:
             backend.safe_state()
             backend.close()
             return f"connect refused: {exc}"
-        self.sensor_offset_rad = sensor_offset_for(config)
+        # the real robot's settings as this open read them (None on the simulator): the
+        # sensor's mounting and the robot's name, which the trial's backend and start event
+        # record (device.hardware.settings.RobotIdentity), from that one read
+        settings = getattr(getattr(backend, "inner", backend), "settings", None)
+        self.sensor_offset_rad = (0.0 if settings is None
+                                  else settings.force_sensor.mounting_offset_rad)
+        if settings is not None:
+            config = dataclasses.replace(config, robot_name=settings.robot.name)
         self.pipeline = self._new_pipeline()
         self.backend = backend
         self.supervisor = SafetySupervisor(self.plan.robot, self.limits)
         self.engine = TickEngine(backend, self.pipeline, self.supervisor)
         self.fault_reported = Fault.NONE
         self.reading = None
-        # the real robot's name as its settings file gave it at this open: what the
-        # trial's backend and start event record (device.hardware.settings.RobotIdentity)
-        settings = getattr(getattr(backend, "inner", backend), "settings", None)
-        if settings is not None:
-            config = dataclasses.replace(config, robot_name=settings.robot.name)
         self.opened, self.seed_used = config, False
         return ""
 
