@@ -22,7 +22,7 @@ class Jobs(QObject):
 
     failed = Signal(object)
     # Emitted in the worker; queued to the GUI thread, where this object lives.
-    _finished = Signal(object, object, object)  # callback, result, error
+    _finished = Signal(object, object, object, object)  # callback, result, error, settled
 
     def __init__(self, parent: QObject | None = None) -> None:
         super().__init__(parent)
@@ -31,8 +31,11 @@ class Jobs(QObject):
             max_workers=1, thread_name_prefix="console-job")
         self._finished.connect(self._deliver)
 
-    def run(self, work: Callable[[], object], callback: Callable[[object], None]) -> None:
-        """Run `work` on the job thread; `callback(result)` runs in the GUI thread. After
+    def run(self, work: Callable[[], object], callback: Callable[[object], None], *,
+            settled: Callable[[], None] | None = None) -> None:
+        """Run `work` on the job thread; `callback(result)` runs in the GUI thread, and
+        `settled()`, when given, before it or before the failure is said: whatever waits
+        for the job (the next Start for a trial's finish) waits for both outcomes. After
         `shutdown` (the window closed) nothing more runs: a trial finished as the window
         closed hands its result over after the thread stopped, and its callback's next
         job (reading the file for the live tabs) raised "cannot schedule new futures
@@ -44,7 +47,7 @@ class Jobs(QObject):
 
         def done(f: concurrent.futures.Future) -> None:
             error = f.exception()
-            self._finished.emit(callback, None if error else f.result(), error)
+            self._finished.emit(callback, None if error else f.result(), error, settled)
 
         future.add_done_callback(done)
 
@@ -53,7 +56,9 @@ class Jobs(QObject):
         self._closed = True
         self._executor.shutdown(wait=True)
 
-    def _deliver(self, callback, result, error) -> None:
+    def _deliver(self, callback, result, error, settled) -> None:
+        if settled is not None:
+            settled()
         if error is not None:
             self.failed.emit(error)
             return

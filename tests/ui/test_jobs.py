@@ -20,3 +20,23 @@ def test_a_job_given_after_shutdown_is_not_run_and_raises_nothing(qtbot):
     jobs.run(lambda: ran_after.append(True), ran_after.append)  # raised here before
     qtbot.wait(50)
     assert ran_after == []
+
+
+def test_settled_runs_before_the_callback_and_before_a_failure_is_said(qtbot):
+    """What waits for a job (the next Start for a trial's finish) is told it ended whether it
+    succeeded or failed; a failed job's callback is not called."""
+    jobs = Jobs()
+    said = []
+    jobs.failed.connect(lambda error: said.append(("failed", str(error))))
+    jobs.run(lambda: "finished", lambda result: said.append(("callback", result)),
+             settled=lambda: said.append(("settled", None)))
+
+    def fails():
+        raise RuntimeError("disk full")
+
+    jobs.run(fails, lambda result: said.append(("callback", result)),
+             settled=lambda: said.append(("settled", None)))
+    qtbot.waitUntil(lambda: len(said) == 4, timeout=5000)
+    assert said == [("settled", None), ("callback", "finished"), ("settled", None),
+                    ("failed", "disk full")]
+    jobs.shutdown()

@@ -81,12 +81,12 @@ class TrialActions:
             from device.hardware.settings import HardwareSettingsError, load_hardware_settings
 
             try:
-                robot = ("", "simulator")
+                kind, robot_name = "simulator", ""
                 if choice.name == HARDWARE:  # only a model of this robot, by its name
-                    robot = (load_hardware_settings(choice.settings_path).robot.name,
-                             "quanser")
+                    kind = "quanser"
+                    robot_name = load_hardware_settings(choice.settings_path).robot.name
                 checked = robot_model(self.registry.data_dir.models_dir, params.learned_model,
-                                      robot[1], robot[0])
+                                      kind, robot_name)
             except (ModelFileError, HardwareSettingsError) as exc:
                 self._say(f"Build refused: {exc}", problem=True)
                 self.tabs.setCurrentWidget(self.parameters_tab)
@@ -277,22 +277,11 @@ class TrialActions:
         it; Start waits until it is done, whether it succeeds or not."""
         self._finishing.add(trial_id)
 
-        def guarded():
-            try:
-                return work(), None
-            except Exception as exc:  # said by the window as any failed job is
-                return None, exc
-
-        def done(outcome) -> None:
+        def settled() -> None:
             self._finishing.discard(trial_id)
-            result, error = outcome
-            if error is not None:
-                self._job_failed(error)
-                self._refresh_buttons()
-                return
-            self._finalized(trial_id, result)
+            self._refresh_buttons()
 
-        self.jobs.run(guarded, done)
+        self.jobs.run(work, lambda done: self._finalized(trial_id, done), settled=settled)
 
     def start_needs(self) -> str:
         """What Start waits for beyond the robot's state, in words ("" when nothing)."""
