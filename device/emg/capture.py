@@ -55,7 +55,7 @@ class EmgCapture:
     """Reads a source on a daemon thread from `start()` until `stop()`."""
 
     def __init__(self, source: EmgSource, *, channels=None, latest_s: float = 5.0,
-                 stall_s: float = STALL_S,
+                 stall_s: float | None = None,
                  clock: Callable[[], float] = time.monotonic) -> None:
         self.source = source
         self.channels = None if channels is None else list(channels)
@@ -67,7 +67,9 @@ class EmgCapture:
         self.error = ""
         self.latest_s = latest_s
         self._forgotten = 0  # samples dropped by forget_before, for the even restamp
-        self.stall_s, self.clock = stall_s, clock
+        # read at each capture, not at import: a test's fake source may be given longer
+        self.stall_s = STALL_S if stall_s is None else stall_s
+        self.clock = clock
 
     def start(self) -> EmgCapture:
         self._running.set()
