@@ -98,8 +98,19 @@ class CameraChoice(QGroupBox):
         self.hint = theme.set_role(QLabel(""), "caption")
         self.hint.setWordWrap(True)
         form.addRow(self.hint)
+        self._held = False  # while a trial films (hold)
         self.with_camera.toggled.connect(self._edited)
         self.source_edit.textChanged.connect(self._edited)
+
+    def hold(self, filming: bool) -> None:
+        """Keep the choice as it is while a trial is recorded: a camera changed then stopped
+        the trial's video in the middle (its file cut short, nothing in the trial saying
+        so), and one chosen then filmed on screen what the trial did not record."""
+        if filming == self._held:
+            return
+        self._held = filming
+        self.setEnabled(not filming)
+        self._show_hint()
 
     def source(self) -> int | str | None:
         """The camera number or video file in camera mode; None without camera."""
@@ -110,13 +121,19 @@ class CameraChoice(QGroupBox):
             return int(text)
         return text or None
 
-    def _edited(self) -> None:
+    def _show_hint(self) -> None:
         camera = self.with_camera.isChecked()
-        self.source_edit.setEnabled(camera)
         self.hint.setText(
+            "The camera stays as it is until this trial ends: its video is the trial's."
+            if self._held else
             "The camera films the arm; its video is saved beside the trial." if camera else
             "Without a camera the joint angles come from the shoulder position below: "
             "the shoulder must stay still.")
+
+    def _edited(self) -> None:
+        camera = self.with_camera.isChecked()
+        self.source_edit.setEnabled(camera)
+        self._show_hint()
         if camera and self.source() is None:
             self.error.setText(f"{theme.PROBLEM_SIGN} Give the camera's number (0 for the "
                                "first camera) or a video file.")
