@@ -18,9 +18,10 @@ stamps, less that offset, are monotonic times of the console, and
 app.emg.importing.trial_time_from_monotonic puts them on the trial's clock, as for a live
 capture. Each channel is read in volts by the unit its stream declares, times its
 `scaling_factor` where it declares one (a raw integer stream's count, core.emg.units). A
-trigger or marker channel an amplifier's app appends to the stream (BrainAmpSeries'
-`triggerStream`, unit `code`; LiveAmp's `Markers`) is left out with a note; any other
-channel that is not an EMG voltage is refused in one line, as by device.lsl.inlet.
+channel an amplifier's app appends to the stream that is not EMG (a trigger channel such
+as BrainAmpSeries' `triggerStream` of unit `code`, LiveAmp's accelerometer, sample counter
+or sync pulse: core.emg.units.not_emg_channel) is left out with a note; any other channel
+that is not an EMG voltage is refused in one line, as by device.lsl.inlet.
 
 LabRecorder goes on recording an EMG sender that stopped and came back (liblsl recovers
 it by its source id) into the same stream: a hole, and after it perhaps samples at
@@ -43,7 +44,13 @@ import numpy as np
 
 from app.emg.importing import EmgImportError, Imported, store, trial_time_from_monotonic
 from app.trials.reader import TrialData, read_trial
-from core.emg.units import emg_type, scaling_factor, trigger_channel, volts_per_unit
+from core.emg.units import (
+    emg_type,
+    left_out_notes,
+    not_emg_channel,
+    scaling_factor,
+    volts_per_unit,
+)
 from device.emg.files import EmgData
 from device.lsl.outlet import EVENT_STREAM, ROBOT_CHANNELS, ROBOT_STREAM
 
@@ -206,9 +213,9 @@ def emg_volts(stream: XdfStream, path: Path,
               unit: str | None) -> tuple[np.ndarray, list[int], tuple[str, ...]]:
     """The stream's EMG channels in volts by each channel's declared unit, or `unit` for
     channels that declare none (a declared one that disagrees is refused), times its
-    declared scaling factor; which columns they are; and one line naming the trigger or
-    marker channels left out (core.emg.units.trigger_channel). Any other channel that is
-    not an EMG voltage is refused in one line."""
+    declared scaling factor; which columns they are; and one line naming the channels left
+    out as not EMG (core.emg.units.not_emg_channel). Any other channel that is not an EMG
+    voltage is refused in one line."""
     count = stream.values.shape[1]
 
     def declared(values: tuple[str, ...]) -> list[str]:
@@ -220,7 +227,7 @@ def emg_volts(stream: XdfStream, path: Path,
     kept, scales, left_out = [], [], []
     for k, written in enumerate(units):
         channel = labels[k] or f"channel {k + 1}"
-        why = trigger_channel(labels[k], types[k], written)
+        why = not_emg_channel(labels[k], types[k], written)
         if why is not None:
             left_out.append(f"{channel}, {why}")
             continue
@@ -245,8 +252,7 @@ def emg_volts(stream: XdfStream, path: Path,
         scales.append(scale * factor)
     if not kept:
         raise EmgImportError(f"{where} has no EMG channel, only {'; '.join(left_out)}")
-    notes = (f"left out of stream {stream.name}: {'; '.join(left_out)}: event codes, not "
-             "EMG",) if left_out else ()
+    notes = left_out_notes(f"stream {stream.name}", left_out)
     volts = np.asarray(stream.values, dtype=float)[:, kept] * np.asarray(scales)
     return volts, kept, notes
 

@@ -50,23 +50,49 @@ TRIGGER_UNITS = frozenset({"code", "codes"})
 """Units of a trigger channel: BrainAmpSeries' `triggerStream` says `code` (and type EEG)."""
 
 _TRIGGER_WORDS = ("trigger", "marker")
-"""In a channel's type or label: LiveAmp's `Markers` (type Markers, no unit),
-`STETriggerIn`/`STETriggerOut` (unit `integer`), BrainAmpSeries' `triggerStream`."""
+"""In a channel's type or label: LiveAmp's `DeviceTrigger` and `STETriggerIn` (type
+Trigger, unit `integer`; `Markers` in its older versions), BrainAmpSeries'
+`triggerStream`."""
+
+SENSOR_TYPES = {
+    "acc": "an accelerometer",
+    "samplecounter": "a sample counter",
+    "syncpulse": "a sync pulse",
+}
+"""Channel types (lower case) an amplifier's LSL app declares for what it appends beside
+the electrodes, none of them EMG: the LiveAmp app's `ACC_X/Y/Z` (type ACC, unit milliGs;
+its shipped configuration enables them, `useACC=true`), `SampleCounter` (type
+SampleCounter) and, with its STE box in Sync mode, `STESync` (type SyncPulse, unit
+integer); the actiCHamp connector's `SampleCounter` too (brain-products/LSL-LiveAmp,
+mainwindow.cpp, where the stream's channels are described)."""
 
 
-def trigger_channel(label: str, kind: str, unit: str) -> str | None:
-    """Why a channel that is not a voltage is the trigger or marker channel an amplifier's
-    LSL app appends to its data stream (BrainAmpSeries' `triggerStream` of unit `code`,
-    LiveAmp's `Markers` and `STETrigger…`), or None when it is not one. Such a channel
-    carries event codes, -1 between them, never EMG; a voltage channel is never one."""
+def not_emg_channel(label: str, kind: str, unit: str) -> str | None:
+    """Why a channel an amplifier's LSL app appends to its data stream is not EMG, in
+    words, or None when it may be. A trigger or marker channel (BrainAmpSeries'
+    `triggerStream` of unit `code`, LiveAmp's `DeviceTrigger`, `Markers`, `STETrigger…`)
+    carries event codes, -1 between them; a voltage channel is never one. A channel of a
+    declared sensor type (SENSOR_TYPES: an accelerometer, a sample counter, a sync pulse)
+    is left out whatever its unit. A channel of any other type or unit is not named here:
+    the caller refuses it unless it is an EMG voltage (a mislabelled electrode is said,
+    never dropped)."""
+    sensor = SENSOR_TYPES.get(kind.strip().lower())
+    if sensor is not None:
+        return f"{sensor} (type {kind.strip()!r})"
     if volts_per_unit(unit) is not None:
         return None
     if unit.strip().lower() in TRIGGER_UNITS:
-        return f"a trigger channel (unit {unit!r})"
+        return f"a trigger channel of event codes (unit {unit!r})"
     for what, text in (("type", kind), ("label", label)):
         if any(word in text.lower() for word in _TRIGGER_WORDS):
-            return f"a trigger/marker channel ({what} {text!r})"
+            return f"a trigger/marker channel of event codes ({what} {text!r})"
     return None
+
+
+def left_out_notes(what: str, left_out: list[str]) -> tuple[str, ...]:
+    """The one line that names the channels not_emg_channel left out of `what` (none: no
+    line)."""
+    return (f"left out of {what}, not EMG: {'; '.join(left_out)}",) if left_out else ()
 
 
 def emg_type(kind: str) -> bool:

@@ -12,11 +12,13 @@ not a voltage, is refused in one line, unless the caller says what the stream ca
 applied: without it a BrainAmp's int16 counts of 0.1 µV were read as whole microvolts, ten
 times too large. The labels the stream declares name the muscles (`labels`).
 
-An amplifier's LSL app may append a trigger channel to its data stream (BrainAmpSeries'
-`triggerStream`, unit `code`; LiveAmp's `Markers` and `STETrigger…`): event codes, not
-EMG. Such a channel is left out, and `notes` says so in one line; the other channels are
-read when their unit is a voltage and their type EMG-like (core.emg.units.EMG_TYPES), and
-the stream is refused in one line for any other channel (an accelerometer in milliGs).
+An amplifier's LSL app may append channels that are not EMG to its data stream: a trigger
+channel of event codes (BrainAmpSeries' `triggerStream`, unit `code`; LiveAmp's
+`DeviceTrigger` and `STETrigger…`), its accelerometer, a sample counter, a sync pulse
+(core.emg.units.not_emg_channel). Such a channel is left out, and `notes` says so in one
+line; the other channels are read when their unit is a voltage and their type EMG-like
+(core.emg.units.EMG_TYPES), and the stream is refused in one line for any other channel
+(one in milliGs that does not say it is an accelerometer).
 
 The inlet asks liblsl to correct a remote sender's clock onto this machine's
 (`proc_clocksync`), so its stamps are this machine's monotonic seconds.
@@ -26,7 +28,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.emg.units import emg_type, scaling_factor, trigger_channel, volts_per_unit
+from core.emg.units import (
+    emg_type,
+    left_out_notes,
+    not_emg_channel,
+    scaling_factor,
+    volts_per_unit,
+)
 from device.lsl.library import LslError, channel_descriptions, pylsl, summary
 
 DUPLICATE_LOOK_S = 1.0
@@ -133,8 +141,8 @@ class LslEmgInlet:
 def _scales(what: str, described: list[dict[str, str]],
             given: str | None) -> tuple[list[int], np.ndarray, tuple[str, ...]]:
     """The EMG channels' indices, their volts per stored number (from the declared units
-    and scaling factors), and one line naming the trigger/marker channels left out
-    (module docstring)."""
+    and scaling factors), and one line naming the channels left out as not EMG (module
+    docstring)."""
     given_scale = None
     if given is not None:
         given_scale = volts_per_unit(given)
@@ -144,7 +152,7 @@ def _scales(what: str, described: list[dict[str, str]],
     kept, scales, left_out = [], [], []
     for k, d in enumerate(described, start=1):
         name = d["label"] or f"channel {k}"
-        why = trigger_channel(d["label"], d["type"], d["unit"])
+        why = not_emg_channel(d["label"], d["type"], d["unit"])
         if why is not None:
             left_out.append(f"{name}, {why}")
             continue
@@ -177,6 +185,4 @@ def _scales(what: str, described: list[dict[str, str]],
     if not kept:
         raise LslError(f"the {what} has no EMG channel, only "
                        f"{', '.join(left_out)}")
-    notes = (f"left out of the {what}: {'; '.join(left_out)}: event codes, not EMG",
-             ) if left_out else ()
-    return kept, np.asarray(scales, dtype=float), notes
+    return kept, np.asarray(scales, dtype=float), left_out_notes(f"the {what}", left_out)

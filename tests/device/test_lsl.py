@@ -218,8 +218,10 @@ def _brainamp_outlet(name, labels, resolution="100 nV"):
 def _liveamp_outlet(name, channels):
     """Brain Products' LiveAmp app's stream (brain-products/LSL-LiveAmp, mainwindow.cpp
     ReadThread): type EEG, float32, channels (label, type, unit) as it appends them: EEG,
-    bipolar and AUX in microvolts, ACC in milliGs, then `Markers` (type Markers, unit ''),
-    `STETriggerIn` (unit integer), `SampleCounter`."""
+    bipolar and AUX in microvolts, ACC_X/Y/Z (type ACC, milliGs; its shipped configuration
+    has `useACC=true`), `SampleCounter` (type SampleCounter, unit ''), `DeviceTrigger` and
+    `STETriggerIn` (type Trigger, unit integer), `STESync` (type SyncPulse, unit integer);
+    older versions appended `Markers` (type Markers, unit '')."""
     info = pylsl.StreamInfo(name, "EEG", len(channels), 500.0, pylsl.cf_float32, name)
     described = info.desc().append_child("channels")
     for label, kind, unit in channels:
@@ -228,6 +230,14 @@ def _liveamp_outlet(name, channels):
     info.desc().append_child("acquisition").append_child_value("manufacturer",
                                                                "Brain Products")
     return pylsl.StreamOutlet(info)
+
+
+LIVEAMP_EMG = [("Fz", "EEG", "microvolts"), ("biceps", "bipolar", "microvolts"),
+               ("triceps", "AUX", "microvolts")]
+LIVEAMP_EXTRA = [("ACC_X", "ACC", "milliGs"), ("ACC_Y", "ACC", "milliGs"),
+                 ("ACC_Z", "ACC", "milliGs"), ("SampleCounter", "SampleCounter", ""),
+                 ("DeviceTrigger", "Trigger", "integer"),
+                 ("STETriggerIn", "Trigger", "integer"), ("STESync", "SyncPulse", "integer")]
 
 
 def test_a_brainamp_stream_is_read_without_its_trigger_channel_said_in_one_line():
@@ -248,35 +258,51 @@ def test_a_brainamp_stream_is_read_without_its_trigger_channel_said_in_one_line(
     inlet.close()
 
 
-def test_a_liveamp_stream_keeps_its_emg_leaves_its_markers_and_refuses_other_channels():
+def test_a_liveamp_stream_as_its_app_ships_keeps_its_emg_and_leaves_the_rest_in_one_line():
+    """The LiveAmp app's shipped configuration streams its accelerometer (`useACC=true`):
+    the whole stream was refused for ACC_X in milliGs, and for its sample counter."""
     name = f"LiveAmpSN-{_unique()}"
-    emg = [("Fz", "EEG", "microvolts"), ("biceps", "bipolar", "microvolts"),
-           ("triceps", "AUX", "microvolts")]
-    markers = [("Markers", "Markers", ""), ("STETriggerIn", "STETriggerIn", "integer")]
-    outlet = _liveamp_outlet(name, emg + markers)
+    outlet = _liveamp_outlet(name, LIVEAMP_EMG + LIVEAMP_EXTRA)
     inlet = LslEmgInlet(name, timeout_s=5.0).open(5.0)
     assert inlet.labels == ("Fz", "biceps", "triceps")
     assert len(inlet.notes) == 1
-    assert "Markers" in inlet.notes[0]
-    assert "STETriggerIn" in inlet.notes[0]
+    (note,) = inlet.notes
+    assert "\n" not in note
+    for label, _, _ in LIVEAMP_EXTRA:
+        assert label in note
+    assert "an accelerometer (type 'ACC')" in note
+    assert "a sample counter" in note
+    assert "a sync pulse" in note
     _wait_for(outlet.have_consumers, "the inlet connecting")
-    outlet.push_chunk(np.array([[1.0, 2.0, 3.0, -1.0, 5.0]] * 4, dtype=np.float32))
+    row = [1.0, 2.0, 3.0, 980.0, -12.0, 4.0, 17.0, -1.0, -1.0, 1.0]
+    outlet.push_chunk(np.array([row] * 4, dtype=np.float32))
     _, x = _receive(inlet, 4)
     np.testing.assert_allclose(x[0], [1e-6, 2e-6, 3e-6], rtol=1e-6)
     inlet.close()
-    accelerated = f"LiveAmpSN-{_unique()}"
-    other = _liveamp_outlet(accelerated, [*emg, ("ACC_X", "ACC", "milliGs"), *markers])
+    del outlet
+
+
+def test_older_liveamp_markers_are_left_out_and_an_undeclared_channel_still_refuses():
+    name = f"LiveAmpSN-{_unique()}"
+    outlet = _liveamp_outlet(name, [*LIVEAMP_EMG, ("Markers", "Markers", "")])
+    inlet = LslEmgInlet(name, timeout_s=5.0).open(5.0)
+    assert inlet.labels == ("Fz", "biceps", "triceps")
+    assert "Markers, a trigger/marker channel" in inlet.notes[0]
+    inlet.close()
+    # a channel in milliGs that does not say it is an accelerometer may be a mislabelled
+    # electrode: said, never dropped
+    unsaid = f"LiveAmpSN-{_unique()}"
+    other = _liveamp_outlet(unsaid, [*LIVEAMP_EMG, ("ACC_X", "MISC", "milliGs")])
     with pytest.raises(LslError, match=r"gives ACC_X in 'milliGs', not a voltage") as refused:
-        LslEmgInlet(accelerated, timeout_s=5.0)
+        LslEmgInlet(unsaid, timeout_s=5.0)
     assert "\n" not in str(refused.value)
-    counted = f"LiveAmpSN-{_unique()}"
-    third = _liveamp_outlet(counted, [*emg, ("SampleCounter", "SampleCounter", "")])
-    with pytest.raises(LslError, match=r"gives SampleCounter as type 'SampleCounter', not "
-                                       r"EMG"):
-        LslEmgInlet(counted, timeout_s=5.0, unit="uV")
+    typed = f"LiveAmpSN-{_unique()}"
+    third = _liveamp_outlet(typed, [*LIVEAMP_EMG, ("Resp", "RESP", "microvolts")])
+    with pytest.raises(LslError, match=r"gives Resp as type 'RESP', not EMG"):
+        LslEmgInlet(typed, timeout_s=5.0)
     only = f"LiveAmpSN-{_unique()}"
-    fourth = _liveamp_outlet(only, markers)
-    with pytest.raises(LslError, match=r"has no EMG channel, only Markers"):
+    fourth = _liveamp_outlet(only, LIVEAMP_EXTRA)
+    with pytest.raises(LslError, match=r"has no EMG channel, only ACC_X, an accelerometer"):
         LslEmgInlet(only, timeout_s=5.0)
     del outlet, other, third, fourth
 

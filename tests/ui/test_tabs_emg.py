@@ -109,8 +109,8 @@ class _QuietSource:
     """An opened LSL source that left a trigger channel out (device.lsl.inlet.notes)."""
 
     rate_hz, labels = 1000.0, ("biceps",)
-    notes = ("left out of the LSL stream named 'amp': triggerStream, a trigger channel "
-             "(unit 'code'): event codes, not EMG",)
+    notes = ("left out of the LSL stream named 'amp', not EMG: triggerStream, a trigger channel "
+             "of event codes (unit 'code')",)
 
     def read(self, timeout_s=0.1):
         import time
@@ -130,5 +130,5 @@ def test_a_channel_the_source_left_out_is_said_when_it_connects(qtbot):
     tab._opened(None, (_QuietSource(), "lsl:amp"))
     text = tab.live_status.text()
     assert text.startswith("EMG streaming from lsl:amp at 1000 Hz.")
-    assert "Left out of the LSL stream named 'amp': triggerStream" in text
+    assert "Left out of the LSL stream named 'amp', not EMG: triggerStream" in text
     tab.stop_live()

@@ -173,8 +173,8 @@ class _LabelledSource:
     """An LSL stream as device.lsl.inlet gives it: labelled channels, a trigger channel
     left out (its note), the samples of a contraction file, then nothing."""
 
-    notes = ("left out of the LSL stream named 'amp': triggerStream, a trigger channel "
-             "(unit 'code'): event codes, not EMG",)
+    notes = ("left out of the LSL stream named 'amp', not EMG: triggerStream, a trigger channel "
+             "of event codes (unit 'code')",)
 
     def __init__(self, data, labels):
         self.rate_hz, self.labels, self.data, self.sent = data.rate_hz, labels, data, 0
@@ -216,7 +216,7 @@ def test_record_names_its_columns_by_the_stream_labels_and_mvc_picks_them(
     labels = tuple(f"lead {name}" for name in contraction.names)
     out_file, out = _recorded_from_lsl(contraction, labels, 0.5, tmp_path, capsys,
                                        monkeypatch)
-    assert "note: left out of the LSL stream named 'amp': triggerStream" in out
+    assert "note: left out of the LSL stream named 'amp', not EMG: triggerStream" in out
     recorded = read_emg_file(out_file)
     assert recorded.names == labels
     column = contraction.names.index(channel)

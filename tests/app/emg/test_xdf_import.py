@@ -187,10 +187,27 @@ def test_a_brainamp_stream_is_imported_without_its_trigger_channel_with_one_note
     assert "unit 'code'" in left_out
 
 
-def test_a_channel_that_is_neither_emg_nor_a_trigger_still_refuses_the_stream(plain_trial,
-                                                                              tmp_path):
+def test_a_liveamp_stream_with_its_accelerometer_is_imported_with_one_note(plain_trial,
+                                                                            tmp_path):
+    """The LiveAmp app streams its accelerometer as it ships (`useACC=true`): such a
+    recording was refused for ACC_X in milliGs."""
     trial = _live_trial(plain_trial, tmp_path, time.monotonic() - 30.0)
-    xdf, _, _ = _record(tmp_path, trial, extra=[("ACC_X", "ACC", "milliGs")])
+    xdf, _, samples = _record(tmp_path, trial, extra=[
+        ("ACC_X", "ACC", "milliGs"), ("SampleCounter", "SampleCounter", ""),
+        ("STESync", "SyncPulse", "integer")])
+    done = import_xdf(trial, xdf, stream=f"emg-emg-{xdf.stem}")
+    np.testing.assert_allclose(read_emg(trial).samples, samples[:, :3].astype(float) * 1e-6,
+                               rtol=1e-12)
+    (left_out,) = [n for n in done.notes if "not EMG" in n]
+    assert "ACC_X, an accelerometer (type 'ACC')" in left_out
+    assert "SampleCounter, a sample counter" in left_out
+    assert "STESync, a sync pulse" in left_out
+
+
+def test_a_channel_that_is_neither_emg_nor_declared_otherwise_still_refuses_the_stream(
+        plain_trial, tmp_path):
+    trial = _live_trial(plain_trial, tmp_path, time.monotonic() - 30.0)
+    xdf, _, _ = _record(tmp_path, trial, extra=[("ACC_X", "MISC", "milliGs")])
     with pytest.raises(EmgImportError, match=r"gives ACC_X in 'milliGs', not a voltage") \
             as refused:
         import_xdf(trial, xdf, stream=f"emg-emg-{xdf.stem}")
