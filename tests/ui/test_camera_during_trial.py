@@ -5,24 +5,18 @@ camera group is greyed from Start until the trial's file is closed, and says why
 
 from __future__ import annotations
 
-import cv2
-import numpy as np
 import pytest
 
 from device.loop.states import State
 from tests.ui.session import build_connect_start, open_window, register_patient, short_trial
+from tests.ui.test_tabs_video import red_bar_clip
 
 
 @pytest.fixture
 def clip(tmp_path):
-    path = tmp_path / "clip.avi"
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"MJPG"), 30.0, (160, 120))
-    for k in range(300):
-        image = np.zeros((120, 160, 3), np.uint8)
-        image[:, : k % 150 + 10] = (0, 0, 230)
-        writer.write(image)
-    writer.release()
-    return path
+    # 100 s, played in real time: it runs on through Build, Connect and the trial however
+    # slowly a loaded host gets there (a 10 s clip ended before Start once)
+    return red_bar_clip(tmp_path / "clip.avi", frames=3000)
 
 
 @pytest.mark.slow

@@ -13,16 +13,21 @@ from ui import theme
 from ui.tabs import VideoTab
 
 
-@pytest.fixture
-def clip(tmp_path):
-    path = tmp_path / "clip.avi"
+def red_bar_clip(path, frames: int = 60):
+    """A 160 x 120 MJPG clip at 30 fps: a red bar growing frame by frame (BGR), from 10 px
+    wide by 2 px a frame (back to 10 after 75 frames)."""
     writer = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"MJPG"), 30.0, (160, 120))
-    for k in range(60):
+    for k in range(frames):
         image = np.zeros((120, 160, 3), np.uint8)
-        image[:, : 2 * k + 10] = (0, 0, 230)  # a red bar growing frame by frame (BGR)
+        image[:, : 2 * (k % 75) + 10] = (0, 0, 230)
         writer.write(image)
     writer.release()
     return path
+
+
+@pytest.fixture
+def clip(tmp_path):
+    return red_bar_clip(tmp_path / "clip.avi")
 
 
 @pytest.fixture
