@@ -36,6 +36,9 @@ SHAPE_NAMES = {
     "figure8": "figure eight",
 }
 
+GAME_TITLES = {"path": "Path game", "reach": "Reaching game"}
+"""The games' names (core.trial.GAMES) where a series or a report names a trial's game."""
+
 
 @dataclass(frozen=True, slots=True)
 class PlainLine:

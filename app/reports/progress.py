@@ -2,7 +2,10 @@
 one series per exercise.
 
 What makes two trials the same exercise (`Exercise`): the assistance mode, the shape, its
-size and the controller. A thesis-mode trial and an as-needed one are never in one series:
+size, the controller, and the assessment task or the game it was a run of (a circle drawn
+for the battery's circle task is not the circle exercise at the same size: another
+protocol, another instruction; before 2026-12-05 both were one series, named by the shape
+alone). A thesis-mode trial and an as-needed one are never in one series:
 each mode has its own success figure (app.reports.plain_language.SUCCESS_KEYS) and its own
 meaning of the assistance level. The settings the console's progression moves from trial to
 trial (app.trials.progression) — the assistance level, the pace (seconds per lap) and the
@@ -29,11 +32,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.records.registry import KEY_PARAMETERS, TrialSummary, parameter_key
+from app.records.registry import TrialSummary, key_values, parameter_key
 from app.records.store import RecordStore
-from app.reports.plain_language import SHAPE_NAMES, success_key
+from app.reports.plain_language import GAME_TITLES, SHAPE_NAMES, success_key
 from app.trials.assistance_timeline import AssistanceInEffect
 from app.units import cm
+from core.assessment.figures import TASK_TITLES
 
 FILE_OK = "ok"
 FILE_MISSING = "missing"
@@ -46,29 +50,34 @@ HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 
 MODE_NAMES = {"as-needed": "As needed", "thesis": "Thesis mode", "transparent": "Transparent"}
 # TrialSummary.key_parameters' order (app.records.registry.KEY_PARAMETERS)
-_SHAPE, _RADIUS, _DURATION, _TOLERANCE, _LEVEL, _CONTROLLER = range(6)
+_SHAPE, _RADIUS, _DURATION, _TOLERANCE, _LEVEL, _CONTROLLER, _ASSESSMENT, _GAME = range(8)
 
 TABLE_COLUMNS = ("trial_id", "session", "trial", "date", "started_at", "status", "file_state",
-                 "exercise", "shape", "radius_m", "controller", "set_duration_s",
-                 "set_tolerance_rad", "invalid_reason")
+                 "exercise", "shape", "radius_m", "controller", "assessment", "game",
+                 "set_duration_s", "set_tolerance_rad", "invalid_reason")
 """The table's leading columns; one column per metric follows, in `metric_names` order.
 `exercise` numbers the series (1, 2, … in `exercises`' order). The pace and the tolerance
 are prefixed `set_`: some metrics repeat them (duration_s, tolerance_rad) and a table must
 not have two columns of one name. The assistance mode and the levels each trial ran at are
 the records' (app.records.outcomes, which `rehab progress --csv` appends), not repeated
-here. `invalid_reason` is '' for a valid trial, why it was marked invalid otherwise (only
-with include_invalid: invalid trials are left out by default)."""
+here. `assessment` and `game` name the assessment task or the game a trial was a run of
+('' for neither; core.trial.TrialParameters). `invalid_reason` is '' for a valid trial,
+why it was marked invalid otherwise (only with include_invalid: invalid trials are left
+out by default)."""
 
 
 @dataclass(frozen=True, slots=True)
 class Exercise:
-    """What a series is: the assistance mode and the exercise (shape, size, controller).
-    None where a trial's stored parameters lack the field."""
+    """What a series is: the assistance mode and the exercise (shape, size, controller,
+    and the assessment task or game it was a run of, '' for neither). None where a trial's
+    stored parameters lack the field."""
 
     mode: str
     shape: str | None
     radius_m: float | None
     controller: str | None
+    assessment: str = ""
+    game: str = ""
 
     @property
     def success_key(self) -> str:
@@ -76,10 +85,15 @@ class Exercise:
         return success_key(self.mode)
 
     def label(self) -> str:
-        """'As needed · D shape, r 10.0 cm · SMC'."""
+        """'As needed · D shape, r 10.0 cm · SMC'; an assessment's or a game's name first:
+        'Assessment: Circle drawing · Transparent · circle, r 7.0 cm · SMC'."""
         shape = SHAPE_NAMES.get(self.shape, self.shape or "?")
         parts = [MODE_NAMES.get(self.mode, self.mode),
                  shape + (f", r {cm(self.radius_m)}" if self.radius_m is not None else "")]
+        if self.assessment:
+            parts.insert(0, f"Assessment: {TASK_TITLES.get(self.assessment, self.assessment)}")
+        elif self.game:
+            parts.insert(0, GAME_TITLES.get(self.game, self.game))
         if self.controller is not None:
             parts.append(self.controller.upper())
         return " · ".join(parts)
@@ -207,7 +221,8 @@ class Progress:
             rows.append((
                 t.id, t.session_number, t.number, t.session_date.isoformat(),
                 t.started_at.isoformat(), t.status, state, index + 1, exercise.shape,
-                exercise.radius_m, exercise.controller, float(self.duration_s[i]),
+                exercise.radius_m, exercise.controller, exercise.assessment,
+                exercise.game, float(self.duration_s[i]),
                 float(self.tolerance_rad[i]), t.invalid_reason or "",
                 *(float(c[i]) for c in columns),
             ))
@@ -280,12 +295,13 @@ def exercise_of(assist: str, parameters: Mapping) -> Exercise:
     """The series a trial belongs to, from its mode and its stored parameters (a trial
     file's or the registry's): what makes two trials the same exercise is written once,
     here, for the patient's progress and a study's table (app.study)."""
-    return _exercise(assist, parameter_key(parameters.get(name) for name in KEY_PARAMETERS))
+    return _exercise(assist, parameter_key(key_values(parameters)))
 
 
 def _exercise(assist: str, key: tuple) -> Exercise:
     """key: KEY_PARAMETERS' values made comparable (parameter_key)."""
-    return Exercise(assist, key[_SHAPE], key[_RADIUS], key[_CONTROLLER])
+    return Exercise(assist, key[_SHAPE], key[_RADIUS], key[_CONTROLLER],
+                    key[_ASSESSMENT] or "", key[_GAME] or "")
 
 
 def _number(value) -> float:

@@ -97,6 +97,7 @@ from app.records.registry.trials import (
     Registration,
     Trial,
     Trials,
+    key_values,
     parameter_key,
 )
 from app.records.registry.url import POSTGRESQL, registry_url
@@ -133,6 +134,7 @@ __all__ = [
     "TrialMark",
     "TrialSummary",
     "has_registry",
+    "key_values",
     "new_code",
     "open_registry",
     "parameter_key",

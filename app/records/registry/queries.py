@@ -23,10 +23,10 @@ from app.records.registry.database import Database
 from app.records.registry.patients import patient_id
 from app.records.registry.statements import execute
 from app.records.registry.trials import (
-    KEY_PARAMETERS,
     TRIAL_SELECT,
     Trial,
     assistance_from_json,
+    key_values,
     trial_by_id,
     trial_from_row,
 )
@@ -55,8 +55,7 @@ def _key_parameters(text: str) -> tuple[tuple, str]:
     where absent), from a trial's parameters text."""
     parameters = json.loads(text)
     assist = parameters.get("assist")
-    return (tuple(parameters.get(name) for name in KEY_PARAMETERS),
-            "thesis" if assist is None else assist)
+    return key_values(parameters), "thesis" if assist is None else assist
 
 
 @dataclass(frozen=True, slots=True)

@@ -55,9 +55,21 @@ from device.sim.patient_parameters import PATIENT_KINDS
 log = logging.getLogger(__package__)
 
 KEY_PARAMETERS = ("shape", "radius_m", "duration_s", "tolerance_rad", "assistance_level",
-                  "controller")
+                  "controller", "assessment", "game")
 """The parameters that change what a trial's metrics mean: compare trials done at
-equal values of these (progress, previous_trial(same_parameters=True))."""
+equal values of these (progress, previous_trial(same_parameters=True)). An assessment
+task's run or a game is never compared with the plain exercise of the same shape: its
+protocol, or what the patient was asked to do, is another."""
+
+_KEY_DEFAULTS = {"assessment": "", "game": ""}
+"""What a trial stored before a key parameter existed ran: no assessment, no game
+(core.trial.TrialParameters' defaults), so it stays comparable with the trials after."""
+
+
+def key_values(parameters) -> tuple:
+    """A trial's KEY_PARAMETERS values as stored (None where absent, the default where the
+    parameter came later), in that order; parameter_key makes them comparable."""
+    return tuple(parameters.get(name, _KEY_DEFAULTS.get(name)) for name in KEY_PARAMETERS)
 
 TRIAL_SELECT = """
     SELECT t.id, p.code, s.number, s.date, t.number, t.parameters, t.file, t.metrics,
@@ -134,7 +146,7 @@ class Trial:
 
     def key_parameters(self) -> tuple:
         """KEY_PARAMETERS values, comparable between trials (see parameter_key)."""
-        return parameter_key(self.parameters.get(name) for name in KEY_PARAMETERS)
+        return parameter_key(key_values(self.parameters))
 
     def trial_parameters(self) -> TrialParameters:
         """The parameters as a validated TrialParameters (raises CoreError if they no

@@ -268,7 +268,7 @@ def test_previous_trial_for_change_since_last_trial_and_last_session(registry, p
     assert registry.previous_trial(ids[(2, 1)], earlier_session=True,
                                    same_parameters=True).id == ids[(1, 1)]
     assert registry.previous_trial(ids[(1, 1)]) is None
-    assert len(KEY_PARAMETERS) == 6
+    assert len(KEY_PARAMETERS) == 8
 
 
 def test_previous_trial_of_the_same_shape_skips_a_circle_done_in_between(registry, patient):

@@ -1,0 +1,74 @@
+"""An assessment's or a game's trials are their own series in Progress, named by the task
+or the game: the battery's circle (transparent, r 7 cm) was one series with the circle
+exercise done transparent at r 7 cm, named "Transparent · circle, r 7.0 cm", so a
+patient's exercise and their assessment read as one trend. Through the commands a
+therapist or a researcher runs."""
+
+from __future__ import annotations
+
+import csv
+import io
+
+import pytest
+
+from app.cli.main import main
+from app.records.datadir import DataDir
+from app.records.registry import Registry
+from app.reports.progress import Exercise, progress
+
+
+@pytest.fixture
+def course(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("REHAB_DATA_DIR", str(tmp_path / "data"))
+    monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("Ada", "Example", side="right").code
+    exercise = ["run", "--code", code, "--patient", "healthy", "--trajectory", "circle",
+                "--radius", "0.07", "--assist", "transparent", "--repetitions", "1",
+                "--seed", "1"]
+    assert main(exercise) == 0
+    assert main(["assess", "run", code, "--task", "circle", "--seed", "2"]) == 0
+    assert main([*exercise, "--seed", "3"]) == 0
+    assert main(["run", "--code", code, "--patient", "healthy", "--trajectory", "circle",
+                 "--radius", "0.07", "--game", "path", "--repetitions", "1", "--seed",
+                 "4"]) == 0
+    capsys.readouterr()
+    return registry, code
+
+
+def test_an_assessment_and_a_game_are_their_own_series_named_by_what_they_were(course,
+                                                                             capsys):
+    registry, code = course
+    result = progress(registry, code)
+    tasks = [(e.assessment, e.game) for e in result.exercises]
+    assert tasks == [("", ""), ("circle", ""), ("", "path")]
+    plain, assessed, game = result.exercises
+    assert plain == Exercise("transparent", "circle", 0.07, "smc")
+    # the battery's circle: both ways, in one series of its own; the exercise's two
+    # trials in theirs, around it
+    assert result.exercise_index.tolist() == [0, 1, 1, 0, 2]
+    assert assessed.label().startswith("Assessment: Circle drawing · Transparent · circle")
+    assert game.label().startswith("Path game · ")
+    assert not plain.label().startswith(("Assessment", "Path game"))
+    assert main(["progress", code]) == 0
+    out = capsys.readouterr().out
+    assert "exercise 2: Assessment: Circle drawing · Transparent · circle, r 7.0 cm" in out
+    assert main(["progress", code, "--csv"]) == 0
+    rows = list(csv.DictReader(io.StringIO(capsys.readouterr().out)))
+    assert [(r["assessment"], r["game"]) for r in rows] == [
+        ("", ""), ("circle", ""), ("circle", ""), ("", ""), ("", "path")]
+
+
+def test_a_trial_stored_before_the_tasks_stays_in_its_exercise_s_series(course):
+    """A trial registered before a parameter existed ran without it: its exercise series
+    and its comparisons are the same as those of the trials after."""
+    registry, code = course
+    (first, *_) = registry.trials_for_patient(code)
+    stored = dict(first.parameters)
+    for name in ("assessment", "game"):
+        stored.pop(name)
+    from app.records.registry import key_values
+
+    assert key_values(stored) == key_values(first.parameters)
+    later = registry.trials_for_patient(code)[3]
+    assert registry.previous_trial(later.id, same_parameters=True).id == first.id
