@@ -49,7 +49,8 @@ class WindowConsole:
     def start(self, block: int, round_: int) -> None:
         w = self.window
         w.start_trial()  # the Start button's path: registered, then started
-        if w.trial_id is None:
+        # refused at once; a Start being registered says a refusal later (_start_not_run)
+        if w.trial_id is None and not w.registering():
             last = w.messages.last
             w.plan_runner.refused(time.monotonic(), last.text if last else "refused")
 
@@ -204,6 +205,10 @@ class PlanControl:
             self._plan_event("built", ok, message)
         elif command == "start_trial" and not ok:
             self._plan_event("refused", message)
+
+    def _start_not_run(self, why: str) -> None:
+        super()._start_not_run(why)
+        self._plan_event("refused", why)
 
     def _plan_trial_started(self, *_args) -> None:
         if self.trial_id is not None:
