@@ -5,7 +5,7 @@ The window only arranges and forwards: the loop runs in its own process behind
 `DeviceBridge`, files and the registry live in `app`, and anything that touches the disk
 (finishing a trial, writing a report) runs on the job thread (`ui.jobs`) so the window
 never waits. Its jobs are the modules of `ui.window`, each a part of the window: the robot
-buttons and the trial's life (`trial`, `trial_emg`), the e-stop and the fault banner
+buttons and the trial's life (`trial`, `start`, `trial_emg`), the e-stop and the fault banner
 (`fault_latch`), the event line and the status bar (`message_line`), what it remembers
 (`settings`). What is left here is the window itself: its tabs, their layout and wiring,
 the other tabs' events and the live view.
@@ -69,6 +69,7 @@ from ui.window.fault_latch import FaultLatch
 from ui.window.message_line import MessageLine
 from ui.window.plan import PlanControl
 from ui.window.settings import RememberedSettings
+from ui.window.start import TrialStart
 from ui.window.station import StationStatus
 from ui.window.trial import BuiltSetup, TrialActions
 from ui.window.trial_emg import TrialEmg
@@ -80,8 +81,9 @@ HEARTBEAT_MS = 100  # the loop faults after 0.5 s without one
 HEALTH_MS = 500
 
 
-class MainWindow(AssessmentControl, PlanControl, TrialActions, TrialEmg, FaultLatch, MessageLine,
-                 RememberedSettings, StationStatus, PatientScreenControl, QMainWindow):
+class MainWindow(AssessmentControl, PlanControl, TrialStart, TrialActions, TrialEmg, FaultLatch,
+                 MessageLine, RememberedSettings, StationStatus, PatientScreenControl,
+                 QMainWindow):
     """The therapist's console."""
 
     def __init__(self, registry: RecordStore, *, bridge: DeviceBridge | None = None,

@@ -44,6 +44,8 @@ START_STYLE = ("QPushButton:enabled { background: #009E73; color: white; font-we
                " QPushButton:disabled { font-weight: normal; }")
 STOP_STYLE = ("QPushButton:enabled { background: #D55E00; color: white; font-weight: bold; }"
               " QPushButton:disabled { font-weight: normal; }")
+REGISTERING_WORDS = "Registering…"
+"""Start's words while its trial is being registered (ui.window.start)."""
 ESTOP_WORDS = ("EMERGENCY STOP", "(Esc / Space)")
 ESTOP_POINTS = 15.0
 """The e-stop's words at font scale 1 (pt); they grow with the scale."""
@@ -79,7 +81,9 @@ class RobotBar(QWidget):
         buttons_row.setContentsMargins(0, 0, 0, 0)
         self.buttons: dict[str, QPushButton] = {}
         self._labels: dict[str, str] = {}
+        self._keys: dict[str, str] = {}
         for name, label, key in BUTTONS:
+            self._keys[name] = key
             button = QPushButton(f"{label}\n{key}")
             button.setObjectName(f"robot_{name}")
             button.setShortcut(QKeySequence(key))
@@ -134,6 +138,11 @@ class RobotBar(QWidget):
             on = ready.enabled[name]
             button.setEnabled(on)
             button.setToolTip(ready.tooltips.get(name) or self._labels[name])
+        start, key = self.buttons["start"], self._keys["start"]
+        words = f"{REGISTERING_WORDS if ready.registering else 'Start'}\n{key}"
+        if start.text() != words:
+            start.setText(words)
+            start.setShortcut(QKeySequence(key))  # setText sets the text's own (none)
         self.why.set_whole(f"{theme.PROBLEM_SIGN} {ready.line}" if ready.line else "")
         self.why.setToolTip(ready.line)
 

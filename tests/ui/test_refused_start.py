@@ -85,13 +85,13 @@ def test_a_start_that_cannot_go_on_takes_its_trial_back(qtbot, window, monkeypat
             raise BrokenPipeError(errno.EPIPE, "Broken pipe")
 
         monkeypatch.setattr(win.bridge, "start_trial", gone)
-    click(qtbot, win.robot.buttons["start"])
-    said = win.message.text()
+    click(qtbot, win.robot.buttons["start"])  # registered on the job thread, then run
+    qtbot.waitUntil(lambda: "the trial was not registered" in win.message.text(),
+                    timeout=20000)
+    (said,) = [line for line in win.messages.history() if "Start refused" in line]
     assert ("Start refused: cannot write video" if failure == "video" else
             "Start refused: Broken pipe") in said
     assert "\n" not in said
-    qtbot.waitUntil(lambda: "the trial was not registered" in win.message.text(),
-                    timeout=20000)
     _no_trial_left(win)
     assert win.state == State.CONNECTED
     assert win.robot.buttons["start"].isEnabled()  # nothing left for Start to wait for
@@ -107,6 +107,7 @@ def test_the_video_of_a_start_the_loop_refuses_goes_with_its_trial(qtbot, window
     asked = []
     monkeypatch.setattr(win.bridge, "start_trial", lambda *args: asked.append(args))
     win.start_trial()
+    qtbot.waitUntil(lambda: not win.registering(), timeout=20000)
     assert camera.recording
     assert len(asked) == 1
     # the loop's refusal, as its reply brings it

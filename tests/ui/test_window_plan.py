@@ -209,3 +209,39 @@ def test_pause_holds_the_plan_resume_goes_on_and_the_robot_bar_s_stop_ends_it(qt
     trials = [win.registry.trial(s.trial_id) for s in run.trial_steps()]
     assert [t.status for t in trials] == ["complete", "stopped_early"]
     assert len(win.registry.trials_for_patient(code)) == 2
+
+
+def test_the_plan_s_records_wait_on_the_registry_off_the_window_s_thread(qtbot, window):
+    """A trial's record in the plan is made as the trial starts, the robot running: on a
+    shared registry whose network drops everything it waited its bounded wait on the
+    window's thread (app.records.registry.postgres.deadline), the window frozen and the
+    loop's heartbeat missed. Here the registry's record answers only once the window has
+    handled an event after it was asked (a timer's tick): it never can while the window
+    waits for it (the wait gives up after 30 s)."""
+    import threading
+
+    from PySide6.QtCore import QTimer
+
+    win = window
+    code = connected_with_plan(qtbot, win, Plan("One block", (
+        Block(shape="d", repetitions=1, duration_s=1.5, rest_s=0.0, name="D"),)))
+    ticked = threading.Event()
+    timer = QTimer(win)
+    timer.timeout.connect(ticked.set)
+    timer.start(10)
+    handled_first: list[bool] = []
+    record = win.registry.record_plan_trial
+
+    def record_after_a_tick(*args):
+        ticked.clear()
+        handled_first.append(ticked.wait(30))
+        return record(*args)
+
+    win.registry.record_plan_trial = record_after_a_tick
+    click(qtbot, win.plan_tab.start_button)
+    qtbot.waitUntil(lambda: win.plan_runner is None, timeout=120000)
+    timer.stop()
+    assert handled_first == [True], "the window waited for the plan's record"
+    (run,) = win.registry.plan_runs_for_patient(code)
+    assert run.status == "complete"
+    assert [(s.kind, s.block) for s in run.steps] == [("trial", 1)]

@@ -5,7 +5,9 @@ level during a trial (typed, with the arrows), press the emergency stop and Clea
 any state, Disconnect, and restart (a new window on the same registry); choose another
 patient, type a session number and Confirm on the Registration tab; press Build twice
 before the first is answered (the second for another robot, which the loop refuses while
-connected); press Start the moment the last trial ended, before its report is there.
+connected); press Start the moment the last trial ended, before its report is there; press Start
+while the registry answers late (a shared registry on a silent network) and meanwhile
+press Start again, Build, choose another patient, Disconnect or the emergency stop.
 
 After every step:
 * what Start can run is what the form shows: Start is enabled only while the form shows
@@ -43,6 +45,7 @@ import os
 import re
 import shutil
 import tempfile
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -129,6 +132,33 @@ def _dedup(levels) -> list[float]:
     return out
 
 
+class LateRegistry(Registry):
+    """The registry, whose `begin_trial` answers only once the test lets it (`hold`, then
+    `release`): a shared registry on a network that drops everything answers after its
+    bounded wait (app.records.registry.postgres.deadline); here never before the test
+    says, so nothing depends on how long the window takes meanwhile."""
+
+    gate: threading.Event | None = None
+    begun: tuple[int, ...] = ()
+    """The trials registered, in order (one taken back is gone from the registry)."""
+
+    def hold(self) -> None:
+        self.gate = threading.Event()
+
+    def release(self) -> None:
+        gate, self.gate = self.gate, None
+        if gate is not None:
+            gate.set()
+
+    def begin_trial(self, *args, **kwargs):
+        gate = self.gate
+        if gate is not None:
+            gate.wait(WAIT_MS / 1000)  # a bound for a test that failed meanwhile
+        begun = super().begin_trial(*args, **kwargs)
+        self.begun = (*self.begun, begun.trial_id)
+        return begun
+
+
 class TrialRun:
     """What the test saw of one trial: the form at Start, the live levels committed."""
 
@@ -147,7 +177,7 @@ class WindowMachine(RuleBasedStateMachine):
     def __init__(self) -> None:
         super().__init__()
         self.folder = Path(tempfile.mkdtemp(dir=self.base))
-        self.registry = Registry(DataDir(self.folder / "data", "test"))
+        self.registry = LateRegistry(DataDir(self.folder / "data", "test"))
         self.settings_path = self.folder / "config" / "settings.json"
         self.win: MainWindow | None = None
         self.patient = None  # the patient chosen on the Registration tab
@@ -186,6 +216,7 @@ class WindowMachine(RuleBasedStateMachine):
             QCoreApplication.processEvents()
 
     def teardown(self) -> None:
+        self.registry.release()  # a failed step's Start, still being registered
         try:
             if self.win is not None:
                 if self.running is not None:
@@ -393,6 +424,7 @@ class WindowMachine(RuleBasedStateMachine):
         kind = form[1].patient_kind
         shown = self.win.registration_tab.registration()
         self._click("start")
+        self._wait(lambda: not self.win.registering())  # registered on the job thread
         trial_id = self.win.trial_id
         self._settle()
         if trial_id is not None:
@@ -401,6 +433,78 @@ class WindowMachine(RuleBasedStateMachine):
             self.started.append(self.running)
             _count("trials started" + (" at once" if at_once else ""))
             self.trials_since_restart += 1
+
+    @when()
+    @rule(meanwhile=st.sampled_from(("nothing", "start again", "build", "another patient",
+                                     "disconnect", "emergency stop")))
+    def start_while_the_registry_answers_late(self, meanwhile: str) -> None:
+        """Start pressed while the registry answers late: Start says "Registering…" and
+        the window goes on; meanwhile the therapist does `meanwhile`. What is registered
+        is what the form and the Registration tab showed at the press; the trial runs
+        unless what it was pressed with went meanwhile (another patient chosen, the robot
+        disconnected or held), and then its registration is taken back, never left
+        'recording'. A second Start and a Build wait for the answer. Built and connected
+        first, as a trial as usual, when Start is not green yet."""
+        win = self.win
+        if win.state in (State.RUNNING, State.STOPPING):
+            self.wait_for_the_trial_to_end()
+        self._check_finished(wait=True)
+        if win.state == State.FAULTED:
+            return
+        if "start" not in enabled(win):
+            self.build()
+            self.connect()
+        if "start" not in enabled(win):
+            return
+        self.start_runs_what_the_form_shows()
+        self.start_registers_what_the_registration_tab_shows()
+        form = self._form()
+        shown = win.registration_tab.registration()
+        before = len(self.registry.begun)
+        self.registry.hold()
+        self._click("start")
+        assert win.registering()
+        assert win.trial_id is None
+        assert not {"start", "build"} & enabled(win)
+        assert win.robot.buttons["start"].text().startswith("Registering…")
+        if meanwhile == "start again":
+            win.start_trial()  # F5 again
+            assert "Start refused: the trial being registered" in win.message.text()
+        elif meanwhile == "build":
+            win._pending_build = None
+            win.build()  # F2
+            assert win._pending_build is None, "Build went to the loop while registering"
+        elif meanwhile == "another patient":
+            other = next(p for p in self.patients if p.code != self.patient.code)
+            win.registration_tab.choose(other)
+            self.patient = other
+        elif meanwhile == "disconnect":
+            self._click("disconnect")
+        elif meanwhile == "emergency stop":
+            win.emergency_stop()
+        self._settle()
+        assert win.registering(), "the registry has not answered yet"
+        self.registry.release()
+        self._wait(lambda: not win.registering())
+        self._settle()
+        if len(self.registry.begun) == before:  # the registry refused it (its numbers)
+            assert win.trial_id is None
+            assert any("Start refused" in line for line in win.messages.history()[-3:])
+            _count("starts the registry refused late")
+            return
+        begun = self.registry.begun[-1]
+        run = TrialRun(begun, form[0], form[1].patient_kind, shown)
+        self.unchecked.append(run)
+        self.started.append(run)
+        if meanwhile in ("nothing", "start again", "build"):
+            assert win.trial_id == begun, f"registered, not run ({meanwhile} meanwhile)"
+            self.running = run
+            self.trials_since_restart += 1
+            _count("trials started while registering late")
+        else:
+            assert win.trial_id is None, f"run after {meanwhile} while registering"
+            self._wait(lambda: self._withdrawn(run))
+            _count(f"starts taken back after {meanwhile} while registering")
 
     @when()
     @rule()

@@ -16,7 +16,8 @@ from ui.window.station import KEEP_CURRENT_EVERY, StationStatus
 def _window(registry):
     win = SimpleNamespace(registry=registry, state=State.CONNECTED, trial_id=None,
                           plan_runner=None, _syncing=False, _ticks_online=0,
-                          _store_problem="", _show_reach=lambda offline: None, queued=[])
+                          _store_problem="", _show_reach=lambda offline: None, queued=[],
+                          registering=lambda: False)
     win.jobs = SimpleNamespace(run=lambda work, done: win.queued.append((work, done)))
     win._kept_current = lambda result: StationStatus._kept_current(win, result)
     return win
@@ -43,6 +44,14 @@ def test_an_online_station_keeps_its_current_patient_current_between_trials_only
         StationStatus.check_station(win)
         _run_queued(win)
     assert registry.keep_current.call_count == 2
+
+    win.state = State.CONNECTED
+    win.registering = lambda: True  # a Start's trial being registered: the job thread's
+    for _ in range(2 * KEEP_CURRENT_EVERY):
+        StationStatus.check_station(win)
+        _run_queued(win)
+    assert registry.keep_current.call_count == 2
+    win.registering = lambda: False
 
     win.state = State.CONNECTED  # one at a time: a slow answer is not asked again
     for _ in range(2 * KEEP_CURRENT_EVERY):

@@ -14,7 +14,10 @@ knows stands in the way:
 * the e-stop or a latched fault holds Build, Connect and Start (ui.views.latch);
 * between trials, a handle outside the exercise area holds Start until someone guides it
   inside: the robot at zero torque cannot have put it there, so it is a state the line
-  says, with where the handle is, not a fault (docs/safety.md, H8).
+  says, with where the handle is, not a fault (docs/safety.md, H8);
+* while a Start's trial is being registered (the registry answers on the job thread, a
+  shared one on a silent network only after its bounded wait: ui.window.start), Start
+  says "Registering…" and Build waits: what the registry is given is what was built.
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ STALE = "parameters changed since Build: press Build"
 SAVING = "the last trial to be saved: a moment"
 NOT_REGISTERED = "a registered patient: Registration tab, choose the patient and press Confirm"
 NOT_BUILT = "a built trial: press Build"
+REGISTERING = "the trial being registered"
 
 KEYS = {"build": "F2", "connect": "F3", "disconnect": "F4", "start": "F5", "stop": "F6",
         "save": "F7"}
@@ -40,12 +44,18 @@ class Readiness:
     tooltips: dict[str, str]
     line: str
     """Why the next button of the session is greyed ('' when nothing waits)."""
+    registering: bool = False
+    """A Start's trial is being registered: the Start button says so."""
 
 
-def start_needs(*, registered: bool, built: bool, stale: bool, saving: bool = False) -> str:
+def start_needs(*, registered: bool, built: bool, stale: bool, saving: bool = False,
+                registering: bool = False) -> str:
     """What Start waits for beyond the robot's state ('' when nothing). `saving`: the last
     trial's file is not closed yet, or its trial not yet finished into the registry
-    from it (its row, its analysis and the next proposal)."""
+    from it (its row, its analysis and the next proposal); `registering`: the trial of
+    the Start pressed is being registered."""
+    if registering:
+        return REGISTERING
     if saving:
         return SAVING
     if not registered:
@@ -63,27 +73,33 @@ def start_why(needs: str) -> str:
     Build" read as if Start wanted the form changed)."""
     if needs == STALE:
         return f"Start is greyed: {STALE}"
+    if needs == REGISTERING:
+        return "Registering the trial: it starts once the registry answers"
     return f"Start needs {needs}"
 
 
 def readiness(state: State, *, form_problem: str, registered: bool, built: bool,
               stale: bool, held: str, unsaved: bool, saving: bool = False,
-              connecting: bool = False, outside: str = "") -> Readiness:
+              connecting: bool = False, outside: str = "",
+              registering: bool = False) -> Readiness:
     """The buttons for `state`. `form_problem`: why the form cannot be built ('' when it
     can); `built`: a trial was built; `stale`: the form changed since; `held`: why the latch
     holds the robot ('' when it does not, ui.views.latch.Latch.holds_robot); `unsaved`: a
     finished trial's report is not yet saved; `saving`: the last trial's file is not closed
     yet; `connecting`: a Connect was sent and is not answered yet (the sensor's zero);
-    `outside`: the loop's line for a handle outside the exercise area ('' when inside)."""
-    needs = start_needs(registered=registered, built=built, stale=stale, saving=saving)
-    build_why = f"Build needs the form fixed: {form_problem}" if form_problem else ""
+    `outside`: the loop's line for a handle outside the exercise area ('' when inside);
+    `registering`: a Start's trial is being registered (Build waits for it)."""
+    needs = start_needs(registered=registered, built=built, stale=stale, saving=saving,
+                        registering=registering)
+    build_why = f"Build needs the form fixed: {form_problem}" if form_problem else \
+        f"Build waits for {REGISTERING}" if registering else ""
     # Start waits for a Build the form does not allow: "press Build" would send the
     # therapist to a greyed button, so both say what holds Build (a level lowered during
     # a trial, then a radius the arm cannot reach: the line said "press Build")
     blocked_build = needs in (STALE, NOT_BUILT) and bool(form_problem)
     free = not held
     enabled = {
-        "build": free and not form_problem and state in (State.IDLE, State.BUILT,
+        "build": free and not build_why and state in (State.IDLE, State.BUILT,
                                                          State.CONNECTED),
         "connect": free and state == State.BUILT and not connecting,
         "disconnect": state in (State.CONNECTED, State.FAULTED),
@@ -114,4 +130,4 @@ def readiness(state: State, *, form_problem: str, registered: bool, built: bool,
         line = outside[0].upper() + outside[1:]
     else:
         line = ""
-    return Readiness(enabled, tooltips, line)
+    return Readiness(enabled, tooltips, line, registering)

@@ -49,7 +49,8 @@ class WindowConsole:
     def start(self, block: int, round_: int) -> None:
         w = self.window
         w.start_trial()  # the Start button's path: registered, then started
-        if w.trial_id is None:
+        # refused at once; a Start being registered says a refusal later (_start_not_run)
+        if w.trial_id is None and not w.registering():
             last = w.messages.last
             w.plan_runner.refused(time.monotonic(), last.text if last else "refused")
 
@@ -57,22 +58,39 @@ class WindowConsole:
         if self.window.state == State.RUNNING:
             self.window.bridge.stop()
 
+    # The run's records go to the registry on the job thread, in order after the trial's
+    # registration and before its finish: a trial's record is made as it starts, the
+    # robot running, and a shared registry on a silent network held the window for its
+    # bounded wait (app.records.registry.postgres.deadline). A failure is said as the
+    # job thread's are (MessageLine._job_failed).
     def record_trial(self, block, round_, trial_id, planned_s) -> None:
-        self.window.registry.record_plan_trial(self.run_id, block, round_, trial_id,
-                                               planned_s)
+        self._record("record_plan_trial", block, round_, trial_id, planned_s)
 
     def record_rest(self, block, planned_s, taken_s) -> None:
-        self.window.registry.record_plan_rest(self.run_id, block, planned_s, taken_s)
+        self._record("record_plan_rest", block, planned_s, taken_s)
 
     def end(self, status: str, reason: str) -> None:
-        self.window.registry.end_plan_run(self.run_id, status, reason)
+        self._record("end_plan_run", status, reason)
         log.info("plan run %d ended: %s %s", self.run_id, status, reason)
+
+    def _record(self, call: str, *args) -> None:
+        w, run_id = self.window, self.run_id
+        record = getattr(w.registry, call)
+        w.plan_records += 1
+
+        def settled() -> None:
+            w.plan_records -= 1
+            w._plan_tick()  # the run ends once its records are done
+
+        w.jobs.run(lambda: record(run_id, *args), lambda _: None, settled=settled)
 
 
 class PlanControl:
     """The Plan tab and the plan's run (a part of MainWindow)."""
 
     plan_runner: PlanRunner | None = None
+    plan_records = 0
+    """The run's records on the job thread, not yet done (the run ends after them)."""
     stored_plan = None
     plan_ended = None
     """(the ended run's last PlanState, the trial built then): what the patient's screen
@@ -205,6 +223,10 @@ class PlanControl:
         elif command == "start_trial" and not ok:
             self._plan_event("refused", message)
 
+    def _start_not_run(self, why: str) -> None:
+        super()._start_not_run(why)
+        self._plan_event("refused", why)
+
     def _plan_trial_started(self, *_args) -> None:
         if self.trial_id is not None:
             self._plan_event("started", self.trial_id)
@@ -239,7 +261,8 @@ class PlanControl:
         runner.tick(now)
         state = runner.state(now)
         self.plan_tab.status.setText(state.line())
-        if state.phase == ENDED and self.trial_id is None and runner.trial_id is None:
+        if state.phase == ENDED and self.trial_id is None and runner.trial_id is None \
+                and not self.plan_records:
             self.plan_timer.stop()
             self._say(state.line(), problem=state.outcome not in ("complete",))
             self.plan_runner = None

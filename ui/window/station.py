@@ -64,9 +64,9 @@ class StationStatus:
         registry = self.registry
         offline = isinstance(registry, StationStore) and registry.offline
         self._show_reach(offline)
-        # between trials: none running or stopping, none still being recorded, no plan on
-        between = self.state not in (State.RUNNING, State.STOPPING) \
-            and self.trial_id is None and self.plan_runner is None
+        # between trials: none running or stopping, none being recorded or registered, no plan on
+        between = self.state not in (State.RUNNING, State.STOPPING) and self.trial_id is None \
+            and not self.registering() and self.plan_runner is None
         if offline and between and not self._syncing:
             self._syncing = True
             self.jobs.run(registry.try_sync, self._synced)

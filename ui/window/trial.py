@@ -1,8 +1,9 @@
 """The robot buttons and a trial's life in the window: Build (the form's parameters,
-checked, with the learned or EMG model they name), Connect, Start (the trial registered,
-then run), Stop, Save data (the PDF report and the trial's .mat); the loop's answers and
-states; the trial's start, end and file; finishing it into the registry on the job thread
-and showing its report and the next proposal.
+checked, with the learned or EMG model they name), Connect, Stop, Save data (the PDF
+report and the trial's .mat); the loop's answers and states; the trial's start, end and
+file; finishing it into the registry on the job thread and showing its report and the
+next proposal. Start (the trial registered on the job thread, then run) is
+ui.window.start.
 
 The run is the screen: Build keeps what the form showed (`BuiltSetup`: the parameters
 and the robot chosen), and any change to the form after it makes the built trial stale,
@@ -22,12 +23,10 @@ from pathlib import Path
 from core.trial import TrialParameters
 from device.loop.messages import BackendConfig
 from device.loop.states import State
-from device.recording.trialfile import SubjectInfo
-from device.safewrite import os_reason
 from ui.tabs import VIEW_TABS
 from ui.tabs.parameters import HARDWARE, BackendChoice
 from ui.views.moment import STATUS_WORDS
-from ui.views.readiness import readiness, start_needs, start_why
+from ui.views.readiness import REGISTERING, readiness, start_needs, start_why
 from ui.views.replay_strip import session_and_trial
 from ui.views.trialview import TrialView
 
@@ -62,6 +61,9 @@ class TrialActions:
             return
         if self.latch.holds_robot():
             self._say(f"Build waits: {self.latch.holds_robot()}.", problem=True)
+            return
+        if self.registering():  # the trial registered is the one built (ui.window.start)
+            self._say(f"Build waits for {REGISTERING}.", problem=True)
             return
         try:
             params = self.parameters_tab.parameters()
@@ -154,59 +156,6 @@ class TrialActions:
         return BuiltSetup(self.parameters_tab.shown(), self.parameters_tab.backend()) \
             != self.built_setup
 
-    def start_trial(self) -> None:
-        # a number still being typed is committed first: it is on the screen
-        refused = self.parameters_tab.commit_edits()
-        if refused:
-            self._say(f"Start refused: {refused[0]}", problem=True)
-            self.tabs.setCurrentWidget(self.parameters_tab)
-            return
-        waits = self.latch.holds_robot() or (self.state != State.CONNECTED and
-                                             f"the robot is {self.state.label.lower()}")
-        if not waits and self.registration is not None:
-            waits = start_needs(registered=True, built=self.built is not None,
-                                stale=self.stale(), saving=self.saving())
-        waits = waits or self.handle_outside
-        if waits:
-            self._say(f"Start refused: {waits}.", problem=True)
-            self._refresh_buttons()
-            return
-        if (self.patient is None or self.registration is None
-                or self.registration.patient_code != self.patient.code):
-            self._say("Register the patient first (Registration tab: choose the patient and "
-                      "confirm the session and trial numbers).", problem=True)
-            self.tabs.setCurrentWidget(self.registration_tab)
-            return
-        reg = self.registration
-        try:
-            begun = self.registry.begin_trial(
-                reg.patient_code, self.built, backend=self.backend_label.text() or "simulator",
-                session_number=reg.session_number, trial_number=reg.trial_number)
-        except Exception as exc:  # RegistryError etc., shown as is
-            self._say(f"Start refused: {exc}", problem=True)
-            self.registration_tab.show_refusal(exc)
-            return
-        self.trial_id = begun.trial_id
-        self.trial_fault = ""
-        self.trial_path = begun.path
-        try:
-            subject = SubjectInfo.from_parameters(self.patient.code, self.built)
-            camera = self.video.camera
-            if camera is not None and camera.running:
-                camera.start_recording(begun.path.with_suffix(".mp4"))
-            self.bridge.start_trial(str(begun.path), subject, self.shown_to_patient())
-        except Exception as exc:  # the video cannot be written, the loop is gone, …
-            # what was begun goes back with the refusal (app.trials.registered): the trial
-            # stayed 'recording' with no file, and Start waited for it for good
-            why = os_reason(exc)  # in words, one line (an OSError without its [Errno])
-            self._say(f"Start refused: {why}", problem=True)
-            self._take_back(why)
-            self._refresh_buttons()
-            return
-        # the next trial's number at once: a Start pressed as soon as this trial ends
-        # (before it is finished into the registry) was refused as a number already used
-        self.registration_tab.refresh_numbers()
-
     def save_data(self) -> None:
         trial_id = self.unsaved_trial
         if trial_id is None:
@@ -264,7 +213,8 @@ class TrialActions:
             self.state, form_problem=problem, registered=self.registration is not None,
             built=self.built is not None, stale=self.stale(), held=self.latch.holds_robot(),
             unsaved=self.unsaved_trial is not None, saving=self.saving(),
-            connecting=self._connecting, outside=self.handle_outside))
+            connecting=self._connecting, outside=self.handle_outside,
+            registering=self.registering()))
 
     def saving(self) -> bool:
         """A trial is begun and not yet finished into the registry: its file still open,
@@ -288,7 +238,7 @@ class TrialActions:
         """What Start waits for beyond the robot's state, in words ("" when nothing)."""
         return start_needs(registered=self.registration is not None,
                            built=self.built is not None, stale=self.stale(),
-                           saving=self.saving())
+                           saving=self.saving(), registering=self.registering())
 
     # ------------------------------------------------------------------ loop events
     def _on_reply(self, command: str, ok: bool, message: str) -> None:

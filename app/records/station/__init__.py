@@ -253,33 +253,52 @@ class StationRegistry:
         stay where they are and the station goes on recording on its own. Never while a
         trial or a plan run is open (their ids would change under them)."""
         with self._one:
+            if not self._may_sync():
+                return None
+            server = self._server
+        # The server reached without holding the other calls: offline they are answered by
+        # the standby and never touch the server, and the window's own (a trial's numbers
+        # read after it ends) waited behind this one's bounded wait on a silent network
+        # (app.records.registry.postgres.deadline), the window frozen meanwhile.
+        try:
+            if server is None:
+                server = self._connect(self.data_dir, server=self._url, station=self.station)
+            else:
+                server.schema_version()  # reached: nothing to send proves nothing
+        except RegistryUnreachable:
+            return None
+        except RegistryError as exc:
+            return self._sync_refused(exc)
+        with self._one:
+            self._server = server
             return self._try_sync()
 
+    def _may_sync(self) -> bool:
+        return self.offline and not self._open and not self._runs and self.held
+
     def _try_sync(self) -> Synced | None:
-        if not self.offline or self._open or self._runs or not self.held:
-            return None
+        if not self._may_sync():
+            return None  # a trial or a plan run begun while the server was reached
         try:
-            if self._server is None:
-                self._server = self._connect(self.data_dir, server=self._url,
-                                             station=self.station)
-            else:
-                self._server.schema_version()  # reached: nothing to send proves nothing
             synced = self._sync()
         except RegistryUnreachable:
             return None
         except RegistryError as exc:
-            problem = (f"the records this station made offline were not sent: {exc}. Nothing "
-                       f"is lost: they stay in {standby_path(self.data_dir)} and this station "
-                       "goes on recording on its own until the registry's owner resolves it "
-                       "(docs/stations.md, Offline stations)")
-            if self.sync_problem != problem:
-                log.error("%s", problem)
-            self.sync_problem = problem
-            return None
+            return self._sync_refused(exc)
         self.offline_reason = self.sync_problem = ""
         self.synced.append(synced)
         self._mirror()
         return synced
+
+    def _sync_refused(self, exc: RegistryError) -> None:
+        """The sync refused (`exc`): kept in `sync_problem`, logged once; nothing lost."""
+        problem = (f"the records this station made offline were not sent: {exc}. Nothing "
+                   f"is lost: they stay in {standby_path(self.data_dir)} and this station "
+                   "goes on recording on its own until the registry's owner resolves it "
+                   "(docs/stations.md, Offline stations)")
+        if self.sync_problem != problem:
+            log.error("%s", problem)
+        self.sync_problem = problem
 
     def _sync(self) -> Synced:
         path = standby_path(self.data_dir)

@@ -69,3 +69,24 @@ def test_what_holds_the_session_before_the_handle_is_said_first():
     unregistered = readiness(State.CONNECTED, form_problem="", registered=False, built=True,
                              stale=False, held="", unsaved=False, outside=OUTSIDE)
     assert unregistered.line.startswith("Start needs a registered patient")
+
+
+def test_a_start_being_registered_greys_start_and_build_and_says_so():
+    """The registry answers Start on the job thread (ui.window.start): meanwhile Start
+    says so on every tab, and Build waits (the trial registered is the one built);
+    Disconnect and the robot's own buttons stay as the state allows."""
+    from ui.views.readiness import REGISTERING
+
+    ready = readiness(State.CONNECTED, form_problem="", registered=True, built=True,
+                      stale=False, held="", unsaved=False, registering=True)
+    assert ready.registering
+    assert not ready.enabled["start"]
+    assert not ready.enabled["build"]
+    assert ready.enabled["disconnect"]
+    assert ready.line == "Registering the trial: it starts once the registry answers"
+    assert ready.tooltips["build"] == f"Build waits for {REGISTERING}"
+    done = readiness(State.CONNECTED, form_problem="", registered=True, built=True,
+                     stale=False, held="", unsaved=False)
+    assert not done.registering
+    assert done.enabled["start"]
+    assert done.enabled["build"]

@@ -3,11 +3,12 @@
 Why: a network that drops traffic without a word (a pulled cable, a switch that died, a
 firewall that drops rather than refuses) ends nothing: the station's statement is sent,
 the operating system keeps retransmitting it, and the driver waits for the answer for as
-long as TCP takes to give up, about 15 minutes on Linux. The window registers a trial on
+long as TCP takes to give up, about 15 minutes on Linux. The window registered a trial on
 its own thread, so at a Start or a trial's end the console froze, the robot's loop missed
 the window's heartbeat and faulted, and the session stopped: what issue 32 forbids ("a
 station never stops a session because the network is down"). A refused connection, or a
-server that went down, was always seen at once; only silence was not.
+server that went down, was always seen at once; only silence was not. (The window now
+registers on its job thread, ui.window.start, and stays live through this bound.)
 
 What: every wait for the server (a statement's answer, a commit's) gives up after
 `ANSWER_TIMEOUT_S`. The connection is then closed, never used again (what it was doing

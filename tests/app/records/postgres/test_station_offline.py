@@ -427,3 +427,44 @@ def test_a_network_that_drops_everything_is_seen_in_seconds_and_the_session_goes
     assert not station.offline
     server = Registry(data, server=url)
     assert [t.number for t in server.trials_for_patient(code)] == [1, 2]
+
+
+def test_a_sync_waiting_on_a_silent_server_holds_no_other_call(tmp_path):
+    """Offline, every call is answered by the standby; a sync reaching for the server (on
+    the window's job thread, up to the bounded wait on a silent network) held them all
+    behind it, so the window's own (a trial's numbers read after it ends) froze it. The
+    server here is one that never answers until the test lets it (no timing involved)."""
+    import threading
+
+    import sqlalchemy as sa
+
+    reaching, answer = threading.Event(), threading.Event()
+    tries = []
+
+    def connect(*_args, **_kwargs):
+        if tries:  # the console's start is refused at once; a sync then waits
+            reaching.set()
+            answer.wait(60)  # a bound for a test that failed meanwhile
+        tries.append(1)
+        raise RegistryUnreachable("the server did not answer (the test's silent network)")
+
+    station = StationRegistry(DataDir(tmp_path / "robot-1"),
+                              sa.make_url("postgresql://station@127.0.0.1:9/registry"),
+                              station="robot-1", connect=connect)
+    try:
+        assert station.offline
+        code = station.create_patient("Ada", "Offline").code
+        sync = threading.Thread(target=station.try_sync, daemon=True)
+        sync.start()
+        assert reaching.wait(60)
+        read = threading.Event()
+        threading.Thread(target=lambda: (station.suggest_registration(code), read.set()),
+                         daemon=True).start()
+        # a bound for a hang: the standby answers in milliseconds
+        assert read.wait(30), "a call waited behind the sync's wait for a silent server"
+        answer.set()
+        sync.join(60)
+        assert station.offline
+    finally:
+        answer.set()
+        station.close()

@@ -1,0 +1,182 @@
+"""Start in the window (a part of MainWindow): the trial registered on the job thread, then
+run by the loop.
+
+Why on the job thread: a station on the department's shared registry whose network drops
+traffic without a word waits for the server's answer up to its bound
+(app.records.registry.postgres.deadline, 5 s, and up to 10 s more to connect) before it
+records on its own (app.records.station). Registered on the window's thread, that held the
+whole window while the robot was connected: no repaint, and no Stop, Disconnect or
+emergency-stop click was handled.
+
+One truth: what is registered is what the window showed at the press. Everything the
+trial is registered and run with is taken then (`Press`: the confirmed registration, the
+built trial, the robot's words, what the patient's screen shows); while the registry
+answers, Start says "Registering…", Build waits (ui.views.readiness), and a second Start
+is refused. When the answer comes the trial is run only if nothing it was pressed with has
+gone: the robot still connected and not held (Disconnect, a fault, the emergency stop), the
+same registration confirmed (another patient chosen, other numbers), the same trial built.
+Otherwise the registered trial is taken back (app.trials.registered: withdrawn, never left
+'recording' with no file), and so it is when the window closes before the answer.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+from app.records.registry import BegunTrial, Registration
+from core.trial import TrialParameters
+from device.loop.messages import ShownToPatient
+from device.loop.states import State
+from device.recording.trialfile import SubjectInfo
+from device.safewrite import os_reason
+from ui.views.readiness import start_needs
+
+log = logging.getLogger("ui.main_window")
+
+
+@dataclass(eq=False)
+class Press:
+    """What a Start press registers and runs, taken at the press."""
+
+    registration: Registration
+    built: TrialParameters
+    backend: str
+    subject: SubjectInfo
+    shown: ShownToPatient
+    begun: BegunTrial | None = None
+    """The registry's answer, set on the job thread as it comes (the window closing reads
+    it once the job thread has stopped)."""
+
+
+class TrialStart:
+    """Start: the trial registered off the window's thread, then run (a part of
+    MainWindow)."""
+
+    _press: Press | None = None
+
+    def registering(self) -> bool:
+        """A Start's trial is being registered (its answer not yet taken)."""
+        return self._press is not None
+
+    def start_trial(self) -> None:
+        # a number still being typed is committed first: it is on the screen
+        refused = self.parameters_tab.commit_edits()
+        if refused:
+            self._say(f"Start refused: {refused[0]}", problem=True)
+            self.tabs.setCurrentWidget(self.parameters_tab)
+            return
+        waits = self.latch.holds_robot() or (self.state != State.CONNECTED and
+                                             f"the robot is {self.state.label.lower()}")
+        if not waits and self.registration is not None:
+            waits = start_needs(registered=True, built=self.built is not None,
+                                stale=self.stale(), saving=self.saving(),
+                                registering=self.registering())
+        waits = waits or self.handle_outside
+        if waits:
+            self._say(f"Start refused: {waits}.", problem=True)
+            self._refresh_buttons()
+            return
+        if (self.patient is None or self.registration is None
+                or self.registration.patient_code != self.patient.code):
+            self._say("Register the patient first (Registration tab: choose the patient and "
+                      "confirm the session and trial numbers).", problem=True)
+            self.tabs.setCurrentWidget(self.registration_tab)
+            return
+        reg = self.registration
+        press = self._press = Press(
+            reg, self.built, self.backend_label.text() or "simulator",
+            SubjectInfo.from_parameters(self.patient.code, self.built),
+            self.shown_to_patient())
+        registry = self.registry
+
+        def register() -> BegunTrial | Exception:
+            try:
+                press.begun = registry.begin_trial(
+                    reg.patient_code, press.built, backend=press.backend,
+                    session_number=reg.session_number, trial_number=reg.trial_number)
+            except Exception as exc:  # RegistryError etc.: the refusal, shown as is
+                return exc
+            return press.begun
+
+        self._say("Registering the trial…", states=(State.CONNECTED,))
+        self.jobs.run(register, lambda answer: self._registered(press, answer))
+        self._refresh_buttons()
+
+    def _registered(self, press: Press, answer: BegunTrial | Exception) -> None:
+        """The registry's answer to `press`: the trial run, or the refusal said."""
+        if self._press is not press:
+            return  # the window closed meanwhile and took it back
+        self._press = None
+        if isinstance(answer, Exception):
+            self._say(f"Start refused: {answer}", problem=True)
+            if self.registration_tab.selected_patient() is not None and \
+                    self.registration_tab.selected_patient().code == \
+                    press.registration.patient_code:
+                self.registration_tab.show_refusal(answer)
+            self._start_not_run(str(answer))
+            self._refresh_buttons()
+            return
+        self.trial_id = answer.trial_id
+        self.trial_fault = ""
+        self.trial_path = answer.path
+        gone = self._press_gone(press)
+        if gone:
+            self._say(f"Start refused: {gone}.", problem=True)
+            self._take_back(gone)
+            self._start_not_run(gone)
+            self._refresh_buttons()
+            return
+        try:
+            camera = self.video.camera
+            if camera is not None and camera.running:
+                camera.start_recording(answer.path.with_suffix(".mp4"))
+            self.bridge.start_trial(str(answer.path), press.subject, press.shown)
+        except Exception as exc:  # the video cannot be written, the loop is gone, …
+            # what was begun goes back with the refusal (app.trials.registered): the trial
+            # stayed 'recording' with no file, and Start waited for it for good
+            why = os_reason(exc)  # in words, one line (an OSError without its [Errno])
+            self._say(f"Start refused: {why}", problem=True)
+            self._take_back(why)
+            self._start_not_run(why)
+            self._refresh_buttons()
+            return
+        # the next trial's number at once: a Start pressed as soon as this trial ends
+        # (before it is finished into the registry) was refused as a number already used
+        self.registration_tab.refresh_numbers()
+        self._refresh_buttons()
+
+    def _press_gone(self, press: Press) -> str:
+        """What the press was made with and no longer holds, in words ('' when all does)."""
+        if self.latch.holds_robot():
+            return self.latch.holds_robot()
+        if self.state != State.CONNECTED:
+            return f"the robot is {self.state.label.lower()}"
+        if self.registration != press.registration:
+            return ("another patient or other numbers were chosen while the trial was being "
+                    "registered: confirm them and press Start again")
+        if self.built != press.built:
+            return "the trial was built again while it was being registered: press Start again"
+        return self.handle_outside
+
+    def _start_not_run(self, why: str) -> None:
+        """A Start taken (registering) that runs no trial: said to whoever waits for it
+        (the plan's runner, ui.window.plan)."""
+
+    def _close_registering(self) -> None:
+        """The window closes (its job thread stopped): a trial registered for a Start whose
+        answer the window never took is taken back, never left 'recording'."""
+        from app.trials.registered import take_back
+
+        press, self._press = self._press, None
+        if press is None or press.begun is None:
+            return
+        try:
+            done = take_back(self.registry, press.begun, "the console closed before the "
+                             "trial started")
+        except Exception as exc:  # closing must go on; what stays is said in the log
+            log.error("trial %d registered at Start could not be taken back as the console "
+                      "closed: %s", press.begun.trial_id, exc)
+            return
+        log.info("trial %d registered at Start as the console closed: %s",
+                 press.begun.trial_id, done.words)
