@@ -208,7 +208,7 @@ class TrialActions:
         problem = tab.problem() or tab.backend_problem()
         if not problem and tab.check() is None:
             problem = "the parameters are being checked"
-        tab.camera.hold(self.trial_id is not None)
+        tab.camera.hold(self.trial_id is not None or self.registering())
         self.robot.show_readiness(readiness(
             self.state, form_problem=problem, registered=self.registration is not None,
             built=self.built is not None, stale=self.stale(), held=self.latch.holds_robot(),
