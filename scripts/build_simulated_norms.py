@@ -78,6 +78,10 @@ def main() -> int:
         print(line)
     mdc = {k: v.get("mdc95") for k, v in built.document["figures"].items()}
     print("MDC95: " + ", ".join(f"{k} {v:.3g}" for k, v in mdc.items() if v is not None))
+    for key, why in built.left_out_mdc.items():
+        print(f"MDC95 of {key}: {why}")
+    for key, why in built.skipped_mdc.items():
+        print(f"no MDC95 for {key}: {why}")
     return 0
 
 

@@ -248,6 +248,35 @@ def test_a_rare_level_is_left_out_and_said(tmp_path, data, capsys):
                                                   "simulator-realistic"))
 
 
+def test_mdc_says_who_the_norms_could_not_score(tmp_path, data, capsys):
+    """Norms without left-handers (3 of 60, left out of the fit) cannot score a
+    left-hander's task: `rehab norms mdc` left them out of the task's MDC95 and said
+    nothing (37 pairs printed, of 40 people). Their figures' MDC95s use them; the task's
+    says who was left out and why, in one line."""
+    import csv
+
+    controls = _left_handers(tmp_path / "controls.csv", n=60, left=3)
+    norms = tmp_path / "n.json"
+    code, _, err = run(["norms", "fit", "--controls", str(controls), "--source", "s",
+                        "--output", str(norms)], capsys)
+    assert code == 0, err
+    retest = write_retest(tmp_path / "retest.csv", n=40)
+    with retest.open() as f:
+        left = sorted({r["subject"] for r in csv.DictReader(f) if r["handedness"] == "left"})
+    assert left
+    code, out, err = run(["norms", "mdc", str(retest), "--norms", str(norms), "--output",
+                          str(tmp_path / "mdc.json")], capsys)
+    assert code == 0, err
+    pairs = {line.split()[0]: int(line.split()[1]) for line in out.splitlines()
+             if line.startswith(("range_", "task:range "))}
+    assert pairs == {"range_area_m2": 40, "range_area_ratio": 40, "task:range": 40 - len(left)}
+    said = [line for line in out.splitlines() if line.startswith("task:range: ")]
+    assert len(said) == 1, out
+    assert f"{len(left)} of 40 people left out: " in said[0]
+    assert "handedness 'left'" in said[0]
+    assert all(person in said[0] for person in left)
+
+
 def test_too_few_after_a_rare_level_says_the_level_first(tmp_path, data, capsys):
     """22 controls, 4 of them left-handed: the 4 are left out, 18 remain, and the refusal
     said only '18 controls have it, fewer than 20' of three figures, never why 18."""
