@@ -10,8 +10,9 @@ Run: .venv/bin/python scripts/build_simulated_norms.py [--subjects 500] [--seed 
 --save-rows keeps every visit's figures; --from-rows refits from them without running the
 population again (seconds: for a change to the fitter, not to the simulation).
 
-Prints the time it took, what the fit left out, the cross-validated calibration and the
-MDC95s. The same seed and size give the same model (only its created_utc differs).
+Prints the time it took, what the fit left out, the cross-validated calibration, the
+MDC95s and who each MDC95 left out (and why). The same seed and size give the same model
+(only its created_utc differs).
 """
 
 from __future__ import annotations

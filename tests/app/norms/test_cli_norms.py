@@ -248,6 +248,15 @@ def test_a_rare_level_is_left_out_and_said(tmp_path, data, capsys):
                                                   "simulator-realistic"))
 
 
+def _fitted_and_retest(tmp_path, capsys, controls):
+    """Norms fitted on `controls` (a CSV) and 40 people's test-retest table beside them."""
+    norms = tmp_path / "n.json"
+    code, _, err = run(["norms", "fit", "--controls", str(controls), "--source", "s",
+                        "--output", str(norms)], capsys)
+    assert code == 0, err
+    return norms, write_retest(tmp_path / "retest.csv", n=40)
+
+
 def test_mdc_says_who_the_norms_could_not_score(tmp_path, data, capsys):
     """Norms without left-handers (3 of 60, left out of the fit) cannot score a
     left-hander's task: `rehab norms mdc` left them out of the task's MDC95 and said
@@ -256,11 +265,7 @@ def test_mdc_says_who_the_norms_could_not_score(tmp_path, data, capsys):
     import csv
 
     controls = _left_handers(tmp_path / "controls.csv", n=60, left=3)
-    norms = tmp_path / "n.json"
-    code, _, err = run(["norms", "fit", "--controls", str(controls), "--source", "s",
-                        "--output", str(norms)], capsys)
-    assert code == 0, err
-    retest = write_retest(tmp_path / "retest.csv", n=40)
+    norms, retest = _fitted_and_retest(tmp_path, capsys, controls)
     with retest.open() as f:
         left = sorted({r["subject"] for r in csv.DictReader(f) if r["handedness"] == "left"})
     assert left
@@ -285,11 +290,7 @@ def test_mdc_with_no_reliability_says_so_and_its_sem_is_the_sd(tmp_path, data, c
     import statistics
 
     controls = write_controls(tmp_path / "controls.csv", n=200)
-    norms = tmp_path / "n.json"
-    code, _, err = run(["norms", "fit", "--controls", str(controls), "--source", "s",
-                        "--output", str(norms)], capsys)
-    assert code == 0, err
-    retest = write_retest(tmp_path / "retest.csv", n=40)
+    norms, retest = _fitted_and_retest(tmp_path, capsys, controls)
     with retest.open() as f:
         rows = list(csv.DictReader(f))
     keys = ["vgr_reaction_time_s", "vgr_max_speed_m_s", "range_area_m2", "range_area_ratio"]
