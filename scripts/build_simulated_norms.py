@@ -10,8 +10,9 @@ Run: .venv/bin/python scripts/build_simulated_norms.py [--subjects 500] [--seed 
 --save-rows keeps every visit's figures; --from-rows refits from them without running the
 population again (seconds: for a change to the fitter, not to the simulation).
 
-Prints the time it took, what the fit left out, the cross-validated calibration and the
-MDC95s. The same seed and size give the same model (only its created_utc differs).
+Prints the time it took, what the fit left out, the cross-validated calibration, the
+MDC95s and who each MDC95 left out (and why). The same seed and size give the same model
+(only its created_utc differs).
 """
 
 from __future__ import annotations
@@ -78,6 +79,10 @@ def main() -> int:
         print(line)
     mdc = {k: v.get("mdc95") for k, v in built.document["figures"].items()}
     print("MDC95: " + ", ".join(f"{k} {v:.3g}" for k, v in mdc.items() if v is not None))
+    for key, why in built.left_out_mdc.items():
+        print(f"MDC95 of {key}: {why}")
+    for key, why in built.skipped_mdc.items():
+        print(f"no MDC95 for {key}: {why}")
     return 0
 
 

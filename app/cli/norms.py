@@ -203,17 +203,20 @@ def cmd_mdc(args: argparse.Namespace) -> int:
         retest = read_controls_table(retest_path, sessions=True)
     else:
         retest = _controls_from_trials(args, retest_path, retest=True)
-    found, skipped = retest_reliability(model, retest)
-    if not found:
+    result = retest_reliability(model, retest)
+    if not result.found:
         raise CommandError("no figure or task score has enough test-retest pairs: " + "; ".join(
-            f"{k}: {v}" for k, v in list(skipped.items())[:3]))
-    document = with_mdc(json.loads(norms_path.read_text(encoding="utf-8")), found)
+            f"{k}: {v}" for k, v in list(result.skipped.items())[:3]))
+    document = with_mdc(json.loads(norms_path.read_text(encoding="utf-8")), result.found)
     write_norms(output, document, overwrite=args.overwrite)
     print(f"{'figure or task score':<36} {'pairs':>5} {f'ICC({ICC_FORM})':>9} {'SEM':>9} "
           f"{'MDC95':>9}")
-    for key, r in found.items():
-        print(f"{key:<36} {r.pairs:>5} {r.icc:>9.3f} {r.sem:>9.4g} {r.mdc95:>9.4g}")
-    for key, why in skipped.items():
+    for key, r in result.found.items():
+        nil = "  no reliability (ICC ≤ 0): SEM = SD" if r.icc <= 0 else ""
+        print(f"{key:<36} {r.pairs:>5} {r.icc:>9.3f} {r.sem:>9.4g} {r.mdc95:>9.4g}{nil}")
+    for key, why in result.left_out.items():
+        print(f"{key}: {why}")
+    for key, why in result.skipped.items():
         print(f"no MDC95 for {key}: {why}")
     print(f"written to {output}")
     return EXIT_OK

@@ -236,7 +236,7 @@ def controls_from_trials(trials: Iterable[AssessmentTrial], people: Mapping[str,
 def retest_from_trials(trials: list[AssessmentTrial], people: Mapping[str, Person],
                        figure_keys: Iterable[str]) -> tuple[Controls, dict[str, str]]:
     """Test-retest data: each person's first and second session of each task, as the
-    rows `<subject>#1` and `<subject>#2` (app.norms.retest.pairs_of)."""
+    rows `<subject>#1` and `<subject>#2` (app.norms.retest.sessions_of)."""
     keys = list(figure_keys)
     first, skipped = controls_from_trials(trials, people, keys, 0)
     try:

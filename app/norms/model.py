@@ -203,9 +203,10 @@ class NormativeModel:
                 not math.isfinite(value)):
             raise NormsError(f"{figure} = {value!r} is not a finite number: no Z-score")
         if not norm.transform.in_domain(value):
+            # 0.0 − shift: a shift of 0 printed "more than -0"
             raise NormsError(f"{figure} = {value:g} is outside the norms' Box-Cox domain "
-                             f"(more than {-norm.transform.shift:g}): no Z-score; the norms "
-                             "need a larger shift or a Yeo-Johnson transform")
+                             f"(more than {0.0 - norm.transform.shift:g}): no Z-score; the "
+                             "norms need a larger shift or a Yeo-Johnson transform")
         t_value = float(norm.transform.apply(value))
         expected = float(norm.regression.predict(self.covariates, [person])[0])
         z = scores.z_score(t_value, expected, norm.regression.residual_sd)

@@ -5,7 +5,9 @@ A file is refused in one line naming the file, the field and what to do when it 
 JSON, not of this format, of a newer version, does not match its content SHA-256 (when it
 carries one: a hand-written file need not), lacks a field or has one it does not know (a
 misspelt `mdc_95` would otherwise be silently ignored), holds a number that is not finite
-or out of its range, a transform that is not defined on its own shift, coefficients that
+or out of its range, a transform that is not defined on its own shift, a Box-Cox shift
+that leaves values the figure (or a task's distance, from 0) can take outside its domain
+(a negative shift on a non-negative figure), a λ on a transform 'none', coefficients that
 are not exactly the covariates' columns, or a task combining a figure it does not hold.
 Figures are checked against core.assessment.FIGURES: a key the console does not measure
 is refused, and so is a `worse` side that contradicts the figure's `better`.
@@ -199,14 +201,26 @@ class _Reader:
         except CoreError as exc:
             raise self.fail("covariates", str(exc)) from None
 
-    def transform(self, where: str, value: object) -> Transform:
+    def transform(self, where: str, value: object, lowest: float, of: str) -> Transform:
+        """`lowest`: the least value the transformed quantity can take by its definition
+        (-inf when unbounded), `of` what it is, for the message: a Box-Cox shift must keep
+        every value above it in x + shift > 0."""
         block = self.keys(where, value, TRANSFORM_KEYS, {"kind"})
         kind = block["kind"]
         if kind not in KINDS:
             raise self.fail(f"{where}.kind", f"{str(kind)[:30]!r} is not one of "
                             f"{', '.join(KINDS)}")
         lam = self.number(f"{where}.lambda", block.get("lambda", 1.0), low=-10, high=10)
+        if kind == "none" and lam != 1.0:
+            raise self.fail(f"{where}.lambda", f"{lam:g} on a transform 'none', which has "
+                            "no λ (1 or absent)")
         shift = self.number(f"{where}.shift", block.get("shift", 0.0))
+        if kind == "box-cox" and math.isfinite(lowest) and lowest + shift < 0.0:
+            # the values in (lowest, −shift] could never be scored: for a task's distance
+            # those are the best scores (a healthy person's), for a figure a patient's
+            raise self.fail(f"{where}.shift", f"{shift:g} leaves {of} from {lowest:g} to "
+                            f"{-shift:g} outside Box-Cox's domain (x + shift > 0): no "
+                            f"Z-score for them; give a shift of at least {0.0 - lowest:g}")
         try:
             return Transform(kind, lam, shift)
         except CoreError as exc:
@@ -223,7 +237,8 @@ class _Reader:
                 raise self.fail(where, "is not a figure this console measures "
                                 "(core.assessment.FIGURES; docs/assessments.md)")
             self.keys(where, block, FIGURE_KEYS, REQUIRED_FIGURE)
-            transform = self.transform(f"{where}.transform", block["transform"])
+            transform = self.transform(f"{where}.transform", block["transform"],
+                                       _lowest(key), "values the figure can take")
             coefficients = self.keys(f"{where}.coefficients", block["coefficients"],
                                      set(spec.columns), set(spec.columns))
             beta = {c: self.number(f"{where}.coefficients.{c}", coefficients[c])
@@ -266,7 +281,8 @@ class _Reader:
             if absent:
                 raise self.fail(f"{where}.figures", f"combines {absent[0]!r}, which the "
                                 "file's figures do not hold")
-            transform = self.transform(f"{where}.transform", block["transform"])
+            transform = self.transform(f"{where}.transform", block["transform"], 0.0,
+                                       "the task's distances (eq. 3; the least are the best)")
             mean = self.number(f"{where}.mean", block["mean"])
             sd = self.number(f"{where}.sd", block["sd"], positive=True)
             n = self.whole(f"{where}.n", block["n"], 3)
@@ -284,6 +300,14 @@ def _catalogue() -> dict[str, str]:
     from core.assessment import FIGURES
 
     return {spec.key: spec.better for spec in _specs(FIGURES)}
+
+
+def _lowest(key: str) -> float:
+    """The least value figure `key` can take by its definition (core.assessment.figures
+    .domain; -inf where unbounded)."""
+    from core.assessment.figures import domain
+
+    return domain(key)[0]
 
 
 def _specs(figures):

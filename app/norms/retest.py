@@ -6,6 +6,12 @@ with sessions). Per figure, the people with both sessions give an n × 2 table; 
 SEM and MDC95 in the figure's own units follow (core.norms.reliability, eqs. 5 and 7). Per
 task score, each session's score against the norms (with that session's covariates) makes
 the table, and the MDC95 is in task-score units.
+
+A person with the figure or the task in one session only, or whom the norms cannot score
+(a covariate level the norms' controls lacked, e.g. left-handers left out of a fit with
+fewer than 5 of them; a task not performed; a value outside a transform's domain), is
+left out of that table and said, with who and why (`RetestReliability.left_out`): a
+task's MDC95 from the right-handers alone was printed as if from everyone.
 """
 
 from __future__ import annotations
@@ -34,13 +40,13 @@ class Reliability:
     mdc95: float
 
 
-def pairs_of(retest: Controls) -> dict[str, tuple[int, int]]:
-    """Person → (row of session 1, row of session 2), for people with both."""
+def sessions_of(retest: Controls) -> dict[str, tuple[int | None, int | None]]:
+    """Person → (row of session 1, row of session 2), None for a session they lack."""
     rows: dict[str, dict[str, int]] = {}
     for i, name in enumerate(retest.subjects):
         person, _, session = name.rpartition("#")
         rows.setdefault(person, {})[session] = i
-    return {p: (r["1"], r["2"]) for p, r in rows.items() if "1" in r and "2" in r}
+    return {p: (r.get("1"), r.get("2")) for p, r in rows.items()}
 
 
 def reliability_of(table) -> Reliability:
@@ -49,31 +55,76 @@ def reliability_of(table) -> Reliability:
                        reliability.sem(table, ICC_FORM), reliability.mdc95(table, ICC_FORM))
 
 
-def retest_reliability(model: NormativeModel, retest: Controls
-                       ) -> tuple[dict[str, Reliability], dict[str, str]]:
+@dataclass(frozen=True)
+class RetestReliability:
+    """What `retest_reliability` found: the reliability of each figure and task score
+    (`found`), why the others have none (`skipped`), and who each table left out, with
+    why (`left_out`: key → one line)."""
+
+    found: dict[str, Reliability]
+    skipped: dict[str, str]
+    left_out: dict[str, str]
+
+
+def retest_reliability(model: NormativeModel, retest: Controls) -> RetestReliability:
     """Reliability of each of the norms' figures and task scores the retest data hold,
-    and why the others have none."""
-    pairs = pairs_of(retest)
+    why the others have none, and who was left out of each."""
+    sessions = sessions_of(retest)
     found: dict[str, Reliability] = {}
     skipped: dict[str, str] = {}
+    left_out: dict[str, str] = {}
     for key in model.figures:
         values = retest.figures.get(key)
         if values is None:
             skipped[key] = "not in the retest table"
             continue
-        table = [(values[a], values[b]) for a, b in pairs.values()
-                 if math.isfinite(values[a]) and math.isfinite(values[b])]
+        table, left = [], {}
+        for person, (a, b) in sessions.items():
+            measured = [i is not None and math.isfinite(values[i]) for i in (a, b)]
+            if all(measured):
+                table.append((values[a], values[b]))
+            elif any(measured):
+                left[person] = "measured in one session only"
         _add(found, skipped, key, table)
-    for task in model.tasks:
-        table = []
-        for a, b in pairs.values():
+        _say(left_out, key, left, len(table))
+    for task, norm in model.tasks.items():
+        table, left = [], {}
+        for person, (a, b) in sessions.items():
+            assessed = [i is not None and bool(_row(retest, i).keys() & set(norm.figures))
+                        for i in (a, b)]
+            if not any(assessed):
+                continue  # not assessed on this task in either session: not a pair
+            if not all(assessed):
+                left[person] = "assessed in one session only"
+                continue
             try:
                 table.append(tuple(model.task_score(task, _row(retest, i), retest.people[i])
                                    .score for i in (a, b)))
-            except NormsError:
-                continue
+            except NormsError as exc:
+                left[person] = str(exc)
         _add(found, skipped, f"task:{task}", table)
-    return found, skipped
+        _say(left_out, f"task:{task}", left, len(table))
+    return RetestReliability(found, skipped, left_out)
+
+
+def _say(left_out: dict[str, str], key: str, left: Mapping[str, str], used: int) -> None:
+    """One line: how many of the people were left out of `key`'s table, who, and why
+    (each reason once, its people after it)."""
+    if not left:
+        return
+    by_reason: dict[str, list[str]] = {}
+    for person, why in left.items():
+        by_reason.setdefault(why, []).append(person)
+    shown = [f"{why} ({_names(people)})" for why, people in list(by_reason.items())[:3]]
+    if len(by_reason) > 3:
+        shown.append(f"{len(by_reason) - 3} other reasons")
+    left_out[key] = (f"{len(left)} of {len(left) + used} people left out: "
+                     + "; ".join(shown))
+
+
+def _names(people: list[str]) -> str:
+    more = len(people) - 5
+    return ", ".join(people[:5]) + (f" and {more} more" if more > 0 else "")
 
 
 def _row(retest: Controls, i: int) -> dict[str, float]:

@@ -110,6 +110,9 @@ class SimulatedNorms:
     rows: list[dict]
     """Every visit's figures, subject by subject, session 1 then 2."""
     skipped_mdc: dict[str, str]
+    """Figure or task → why it has no MDC95."""
+    left_out_mdc: dict[str, str]
+    """Figure or task → who its test-retest table left out, and why (one line)."""
 
 
 def source_text(n: int, seed: int, tasks, refused: int) -> str:
@@ -144,12 +147,13 @@ def fit_simulated_norms(rows: list[dict], n: int, seed: int, *, tasks=TASKS,
     refused = sum(1 for r in rows if r["refused"] and r["session"] == 1)
     fit = fit_norms(controls_of(rows, by_index, retest=False),
                     source_text(n, seed, tasks, refused), simulated=True)
-    document, skipped = fit.document, {}
+    document, skipped, left_out = fit.document, {}, {}
     if retest:
         model = parse_norms(norms_document(document))
         try:
-            found, skipped = retest_reliability(model, controls_of(rows, by_index, retest=True))
+            result = retest_reliability(model, controls_of(rows, by_index, retest=True))
+            found, skipped, left_out = result.found, result.skipped, result.left_out
         except NormsError as error:
             found, skipped = {}, {"retest": str(error)}
         document = with_mdc(document, found)
-    return SimulatedNorms(document, fit, rows, skipped)
+    return SimulatedNorms(document, fit, rows, skipped, left_out)

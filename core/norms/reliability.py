@@ -9,17 +9,25 @@ Med 15:155):
     ICC(2,1) = (MSR − MSE) / (MSR + (k−1)·MSE + k·(MSC − MSE)/n)              (5)
     ICC(3,1) = (MSR − MSE) / (MSR + (k−1)·MSE)                                (6)
 
-    SEM = SD·√(1 − ICC),   MDC95 = 1.96·√2·SEM                                 (7)
+    SEM = SD·√(1 − max(ICC, 0)),   MDC95 = 1.96·√2·SEM                         (7)
 
 (Weir 2005, J Strength Cond Res 19:231; Haley & Fragala-Pinkham 2006, Phys Ther 86:735),
 SD the standard deviation of all n·k measurements (ddof 1).
+
+A negative ICC is read as no reliability: SEM = SD. The ICC estimated from the mean
+squares is negative when the error's mean square exceeds the people's (MSE > MSR: the
+sessions of one person differ more than people do), while the ICC it estimates, a
+ratio of variances, is at least 0 (Giraudeau 1996, J Clin Epidemiol 49:1205); a negative
+estimate is taken as 0 (Bartko 1976, Psychol Bull 83:762), i.e. all the measurements'
+spread is measurement error, poor reliability in Koo & Li 2016's grading (below 0.5). The
+ICC itself is reported as estimated. Without the max, SD·√(1 − ICC) made the error larger
+than the whole spread it is a part of (an ICC of −0.5 gave SEM = 1.22·SD).
 
 The console uses ICC(2,1), absolute agreement: a clinician compares a patient's figure
 with the same patient's figure of another day, so a systematic shift between sessions (a
 learning effect, a robot recalibrated) is part of what a change must exceed. Simmatis et
 al. 2020 report ICC(3,1) (consistency), which ignores that shift; `icc(..., form="3,1")`
-gives it for comparison. A negative ICC (more disagreement than between people) is kept
-as it is: SEM then exceeds SD, the conservative reading.
+gives it for comparison.
 """
 
 from __future__ import annotations
@@ -76,10 +84,10 @@ def icc(measurements, form: str = "2,1") -> float:
 
 
 def sem(measurements, form: str = "2,1") -> float:
-    """Eq. (7)'s standard error of measurement."""
+    """Eq. (7)'s standard error of measurement; a negative ICC counts as 0 (SEM = SD)."""
     table = _table(measurements)
     sd = float(np.std(table, ddof=1))
-    return sd * math.sqrt(1.0 - icc(table, form))
+    return sd * math.sqrt(1.0 - max(icc(table, form), 0.0))
 
 
 def mdc95(measurements, form: str = "2,1") -> float:

@@ -248,6 +248,76 @@ def test_a_rare_level_is_left_out_and_said(tmp_path, data, capsys):
                                                   "simulator-realistic"))
 
 
+def _fitted_and_retest(tmp_path, capsys, controls):
+    """Norms fitted on `controls` (a CSV) and 40 people's test-retest table beside them."""
+    norms = tmp_path / "n.json"
+    code, _, err = run(["norms", "fit", "--controls", str(controls), "--source", "s",
+                        "--output", str(norms)], capsys)
+    assert code == 0, err
+    return norms, write_retest(tmp_path / "retest.csv", n=40)
+
+
+def test_mdc_says_who_the_norms_could_not_score(tmp_path, data, capsys):
+    """Norms without left-handers (3 of 60, left out of the fit) cannot score a
+    left-hander's task: `rehab norms mdc` left them out of the task's MDC95 and said
+    nothing (37 pairs printed, of 40 people). Their figures' MDC95s use them; the task's
+    says who was left out and why, in one line."""
+    import csv
+
+    controls = _left_handers(tmp_path / "controls.csv", n=60, left=3)
+    norms, retest = _fitted_and_retest(tmp_path, capsys, controls)
+    with retest.open() as f:
+        left = sorted({r["subject"] for r in csv.DictReader(f) if r["handedness"] == "left"})
+    assert left
+    code, out, err = run(["norms", "mdc", str(retest), "--norms", str(norms), "--output",
+                          str(tmp_path / "mdc.json")], capsys)
+    assert code == 0, err
+    pairs = {line.split()[0]: int(line.split()[1]) for line in out.splitlines()
+             if line.startswith(("range_", "task:range "))}
+    assert pairs == {"range_area_m2": 40, "range_area_ratio": 40, "task:range": 40 - len(left)}
+    said = [line for line in out.splitlines() if line.startswith("task:range: ")]
+    assert len(said) == 1, out
+    assert f"{len(left)} of 40 people left out: " in said[0]
+    assert "handedness 'left'" in said[0]
+    assert all(person in said[0] for person in left)
+
+
+def test_mdc_with_no_reliability_says_so_and_its_sem_is_the_sd(tmp_path, data, capsys):
+    """Each figure's second session ranked against the first (the best of session 1 the
+    worst of session 2): every ICC(2,1) negative. `rehab norms mdc` prints the ICC as it
+    is, marks it, and the SEM is the SD of the measurements, not SD·√(1 − ICC) above it."""
+    import csv
+    import statistics
+
+    controls = write_controls(tmp_path / "controls.csv", n=200)
+    norms, retest = _fitted_and_retest(tmp_path, capsys, controls)
+    with retest.open() as f:
+        rows = list(csv.DictReader(f))
+    keys = ["vgr_reaction_time_s", "vgr_max_speed_m_s", "range_area_m2", "range_area_ratio"]
+    first = [r for r in rows if r["session"] == "1"]
+    second = {r["subject"]: r for r in rows if r["session"] == "2"}
+    for key in keys:
+        ranked = sorted(first, key=lambda r: float(r[key]))
+        values = sorted((second[r["subject"]][key] for r in ranked), key=float, reverse=True)
+        for r, value in zip(ranked, values, strict=True):
+            second[r["subject"]][key] = value
+    with retest.open("w", newline="") as f:
+        writer = csv.DictWriter(f, list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    code, out, err = run(["norms", "mdc", str(retest), "--norms", str(norms), "--output",
+                          str(tmp_path / "mdc.json")], capsys)
+    assert code == 0, err
+    for key in keys:
+        line = next(line for line in out.splitlines() if line.startswith(key + " "))
+        _, pairs, icc, sem, _mdc, *note = line.split()
+        assert int(pairs) == 40, line
+        assert float(icc) < 0, line
+        assert " ".join(note) == "no reliability (ICC ≤ 0): SEM = SD", line
+        sd = statistics.stdev(float(r[key]) for r in rows)
+        assert float(sem) == pytest.approx(sd, rel=1e-3), line
+
+
 def test_too_few_after_a_rare_level_says_the_level_first(tmp_path, data, capsys):
     """22 controls, 4 of them left-handed: the 4 are left out, 18 remain, and the refusal
     said only '18 controls have it, fewer than 20' of three figures, never why 18."""

@@ -65,6 +65,16 @@ MALFORMED = [
     (f"{RT}/transform/lambda", 50, "lambda"),
     (f"{RT}/transform/lambda", True, "lambda"),
     (f"{RT}/transform", {"kind": "yeo-johnson", "shift": 1.0}, "only Box-Cox shifts"),
+    # a negative Box-Cox shift on what cannot be negative: those values were read and
+    # then never scored (a task's least distances are its healthiest people)
+    ("figures/vgr_max_speed_m_s/transform", {"kind": "box-cox", "lambda": 0.5, "shift": -0.1},
+     "vgr_max_speed_m_s.transform.shift: -0.1 leaves values the figure can take from 0 "
+     "to 0.1 outside Box-Cox's domain (x + shift > 0): no Z-score for them; give a shift "
+     "of at least 0."),
+    ("tasks/reaching/transform/shift", -2.0, "tasks.reaching.transform.shift: -2 leaves "
+     "the task's distances (eq. 3; the least are the best) from 0 to 2 outside"),
+    ("figures/vgr_max_speed_m_s/transform/lambda", 0.5, "vgr_max_speed_m_s.transform.lambda: "
+     "0.5 on a transform 'none', which has no λ"),
     (f"{RT}/coefficients/robot=quanser", 0.1, "has 'robot=quanser'"),
     (f"{RT}/coefficients/sex=male", _DELETE, "lacks 'sex=male'"),
     (f"{RT}/coefficients/age_years", "0.01", "age_years"),
@@ -93,6 +103,33 @@ def test_every_malformed_file_is_refused_in_one_line(tmp_path, path, value, word
     assert words in text
     assert text.startswith(f"norms file {file}: ")
     assert "\n" not in text
+
+
+def test_a_shift_or_lambda_json_cannot_hold_is_refused_in_a_document():
+    """NaN and infinities never reach the reader from a file (JSON refuses them); a
+    document built in Python is checked the same."""
+    for path, value in ((f"{RT}/transform/shift", float("nan")),
+                        (f"{RT}/transform/shift", float("inf")),
+                        (f"{RT}/transform/lambda", float("nan")),
+                        ("tasks/reaching/transform/shift", float("-inf"))):
+        with pytest.raises(NormsFileError, match=path.replace("/", ".").replace(
+                "figures.", "")):
+            parse_norms(_set(handmade(), path, value))
+
+
+def test_a_negative_shift_on_an_unbounded_figure_is_read_and_said_at_scoring():
+    """A reaction time can be negative (an anticipation): no shift covers every value,
+    so the file's shift stands and a value outside it is refused in one line, naming the
+    domain (a shift of 0 printed 'more than -0')."""
+    from app.norms import Covariates, NormsError
+
+    who = Covariates(60, "female", "right", "right", "simulator-realistic")
+    for shift, value, bound in ((-0.3, 0.25, "more than 0.3"), (0.0, 0.0, "more than 0)")):
+        model = parse_norms(_set(handmade(), f"{RT}/transform/shift", shift))
+        with pytest.raises(NormsError) as caught:
+            model.z("vgr_reaction_time_s", value, who)
+        assert f"is outside the norms' Box-Cox domain ({bound}" in str(caught.value)
+        assert "\n" not in str(caught.value)
 
 
 @pytest.mark.parametrize(("content", "words"), [

@@ -68,3 +68,18 @@ def test_refusals():
         reliability.icc(TABLE, "1,1")
     with pytest.raises(ParameterError, match="spread"):
         reliability.icc([[1.0, 1.0], [1.0, 1.0]])
+
+
+def test_a_negative_icc_is_no_reliability_not_an_error_beyond_the_spread():
+    """Each person's two sessions cross (one high, one low): the people's mean square is
+    below the error's and the ICC estimate negative. It is reported as it is; the SEM
+    counts it as 0 (Bartko 1976), the SD of all the measurements, never more (it was
+    SD·√(1 − ICC), 1.63·SD here: ICC −1.65)."""
+    table = [[1.0, 3.0], [3.0, 1.0], [1.5, 2.5], [2.5, 1.5], [2.0, 2.2]]
+    msr, _, mse = reliability.mean_squares(table)
+    assert mse > msr
+    icc = reliability.icc(table)
+    assert icc == pytest.approx(-1.649, abs=1e-3)
+    sd = float(np.std(np.asarray(table), ddof=1))
+    assert reliability.sem(table) == pytest.approx(sd)
+    assert reliability.mdc95(table) == pytest.approx(1.96 * math.sqrt(2) * sd)
