@@ -209,3 +209,36 @@ def test_pause_holds_the_plan_resume_goes_on_and_the_robot_bar_s_stop_ends_it(qt
     trials = [win.registry.trial(s.trial_id) for s in run.trial_steps()]
     assert [t.status for t in trials] == ["complete", "stopped_early"]
     assert len(win.registry.trials_for_patient(code)) == 2
+
+
+def test_a_block_out_of_reach_is_said_before_build_and_connect(qtbot, tmp_path, monkeypatch):
+    """A therapist's first plan (brief hI): the First session template for a patient of
+    57 cm of arm; Start plan, pressed before Build and Connect, said "connect the robot
+    first", and only after Build and Connect that block 3 was out of reach, with "move the
+    exercise" but not where (the table has no centre). Now the block is named at once with
+    where to move it; nothing is registered or run."""
+    win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
+    try:
+        register_patient(qtbot, win)
+        code = win.patient.code
+        p = win.parameters_tab
+        p.forearm.setValue(27.0)  # a shorter arm: the forward reach's far end is out of it
+        p.refresh()
+        tab = win.plan_tab
+        tab.templates.setCurrentText("First session")
+        click(qtbot, tab.copy_button)
+        click(qtbot, tab.start_button)
+        said = tab.refusal.text()
+        assert said.startswith("Start plan refused: block 3 (Forward reach): "), said
+        assert "this arm reaches 0.57 m" in said
+        assert "Parameters tab's centre" in said
+        assert win.plan_runner is None
+        assert win.registry.plan_runs_for_patient(code) == []
+        # moved nearer the shoulder on the Parameters tab, the plan waits for the robot only
+        p.centre_y.setValue(34.0)
+        p.refresh()
+        click(qtbot, tab.start_button)
+        assert tab.refusal.text() == ("Start plan refused: connect the robot first (Build, "
+                                      "then Connect, hands off the handle).")
+    finally:
+        win.close()
