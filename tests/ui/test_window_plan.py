@@ -242,3 +242,29 @@ def test_a_block_out_of_reach_is_said_before_build_and_connect(qtbot, tmp_path, 
                                       "then Connect, hands off the handle).")
     finally:
         win.close()
+
+
+@pytest.mark.parametrize("name", ["first-session", "reaching", "endurance", "games"])
+def test_the_plan_table_shows_every_cell_and_heading_whole_at_1366(qtbot, name):
+    """The Plan tab on a 1366 px laptop (brief hI): the table kept Qt's 100 px columns and
+    cut "1. Warm-up on the D" to "1. Warm-…" and the headings "Pace (s a lap)" and
+    "Tolerance (°)", with a third of the table's width empty beside them."""
+    from PySide6.QtWidgets import QApplication
+
+    from app.plans.templates import load_template, template_titles
+    from ui.tabs.plan import PlanTab
+
+    tab = PlanTab(template_titles())
+    qtbot.addWidget(tab)
+    tab.resize(1366, 600)
+    tab.show()
+    tab.set_plan(load_template(name).plan, "a template")
+    QApplication.processEvents()
+    table, header = tab.table, tab.table.horizontalHeader()
+    for col in range(table.columnCount()):
+        heading = header.fontMetrics().horizontalAdvance(
+            table.horizontalHeaderItem(col).text())
+        needed = max(table.sizeHintForColumn(col), heading)
+        assert table.columnWidth(col) >= needed, (
+            f"column {table.horizontalHeaderItem(col).text()!r}: {table.columnWidth(col)} "
+            f"px for {needed}")
