@@ -39,6 +39,7 @@ from device.loop.pipeline import (
 )
 from device.recording.trialfile import SubjectInfo, TrialFileWriter
 from device.safety.supervisor import SafetySupervisor
+from device.sim.plant import plant_summary
 from device.sim.seeds import ROBOT_SEED, draw_seed
 from device.sim.simulator import SimulatorBackend
 
@@ -256,7 +257,7 @@ def _finish(writer: TrialFileWriter, trial: SimulatedTrial, analysis: Analysis |
         writer.close("recording_lost")
         raise
     summary = {"speed_vs_real_time": trial.speed_vs_real_time, "engine": trial.engine,
-               **_plant_summary(trial.plant)}
+               **plant_summary(trial.plant)}
     if analysis is not None:
         summary["exercise_start_s"] = analysis.exercise_start_s
     writer.close(trial.status, summary,
@@ -269,12 +270,3 @@ def _event(tick: int, period: float, kind: str, message: str, values: dict) -> d
     return {"time_s": tick * period, "tick": tick, "kind": kind, "message": message,
             "values": values}
 
-
-def _plant_summary(plant: dict | None) -> dict:
-    """The simulated plant as the summary's scalars: its kind, and every parameter as
-    JSON (device.sim.plant.Plant.describe)."""
-    if plant is None:
-        return {}
-    import json
-
-    return {"plant": plant["kind"], "plant_parameters": json.dumps(plant)}

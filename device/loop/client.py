@@ -27,7 +27,7 @@ import multiprocessing as mp
 import signal
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -69,6 +69,9 @@ LOOP_START_S = 120.0
 once it has imported numpy, its compiled kernels and the backend's modules, which took
 over 10 s (a command's own timeout) on the 2-core machine at load 9."""
 
+ANSWER_MARGIN_S = 1.0
+"""A Start's limit (Start.answer_by_s) is this much before the console stops waiting, so
+that the loop's answer to a Start it took just in time is read before then."""
 PATIENCE_S = 10.0
 """How long the console waits for a running loop by default (a command's answer, an
 event, fresh samples) before it calls the loop hung; Build and Connect, which compute the
@@ -246,16 +249,17 @@ class DeviceClient:
         """Send a command and wait for its reply (`timeout` default PATIENCE_S); other
         events stay queued for `events`."""
         timeout = PATIENCE_S if timeout is None else timeout
-        ident = self.send(command)
         # a loop still starting answers once it has imported its modules; its death is
         # heard at once (LoopLost), so the longer wait never hides one
         budget = timeout if self._loop_heard else max(timeout, LOOP_START_S)
         deadline = time.monotonic() + budget
+        if isinstance(command, Start):  # not run once this console has stopped waiting
+            command = replace(command, answer_by_s=deadline - ANSWER_MARGIN_S)
+        ident = self.send(command)
         while True:
             remaining = deadline - time.monotonic()
             if remaining <= 0:
-                raise DeviceError(f"the loop did not answer {type(command).__name__} within "
-                                  f"{budget:g} s")
+                remaining = 0.0  # one last look: an answer already in the pipe counts
             reply = None
             for event in self._receive(min(remaining, 0.05)):
                 if reply is None and isinstance(event, Reply) and event.id == ident:
@@ -266,6 +270,9 @@ class DeviceClient:
                     raise DeviceError(event.message)
             if reply is not None:
                 return reply
+            if remaining <= 0:
+                raise DeviceError(f"the loop did not answer {type(command).__name__} within "
+                                  f"{budget:g} s")
 
     def build(self, parameters: TrialParameters, backend: BackendConfig | None = None,
               limits: SafetyLimits | None = None, timeout: float | None = None,

@@ -11,6 +11,7 @@ is device.loop.states.TRANSITIONS; what each does is here.
 from __future__ import annotations
 
 import dataclasses
+import time
 
 from core.errors import ParameterError
 from device.backend import REAL_TIME
@@ -182,6 +183,12 @@ class LoopCommands:
             # the robot does not drag a handle into its area: the therapist guides it in
             # (docs/safety.md, H8); a trial started outside would latch WORKSPACE at once
             return f"start refused: {outside}."
+        if command.answer_by_s is not None and time.monotonic() > command.answer_by_s:
+            # the console has stopped waiting and taken the trial back: run, it would be a
+            # trial the registry does not have (here after the simulator was reopened)
+            late = time.monotonic() - command.answer_by_s
+            return (f"start refused: the console stopped waiting for this Start {late:.1f} s "
+                    "ago; press Start again")
         return self._start_trial(command), "trial started"
 
     def _tell_area(self) -> None:

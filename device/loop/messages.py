@@ -107,6 +107,11 @@ class Start:
     display: ShownToPatient | None = None
     """What the patient's screen shows as the trial starts (the window's; None where the
     console has no patient's screen, as `rehab run`): the file's events hold it."""
+    answer_by_s: float | None = None
+    """The console's time.monotonic() (the same clock in every process of this computer)
+    after which it no longer waits for the answer and takes the trial back: a Start the
+    loop comes to later is refused, never run (it ran a trial the registry had withdrawn);
+    None: no limit. Set by DeviceClient.request."""
 
 
 @dataclass(frozen=True, slots=True)

@@ -388,7 +388,9 @@ class DeviceLoop(LoopCommands, StopCauses):
                    # the robot's own clock over the trial: ticks × period on the
                    # simulator however late the ticks, monotonic seconds on hardware
                    "robot_clock_s": self.reading.time_s - self.trial_start_sample_s,
-                   "timing": self.backend.timing}
+                   "timing": self.backend.timing,
+                   # the simulated robot, as a headless trial's file names it
+                   **_plant_of(self.backend)}
         # a virtual patient stops its exercise with the trial: a person lets go of the
         # push and rests their hand while the robot is at zero torque between trials
         _rest_patient(self.backend)
@@ -475,6 +477,16 @@ def _cue_patient(backend: Backend) -> None:
     cue = getattr(backend, "cue_patient", None)
     if cue is not None:
         cue()
+
+
+def _plant_of(backend: Backend) -> dict:
+    """The simulated robot a backend runs (through a fault injector), as the trial file's
+    summary names it (device.sim.plant.plant_summary); {} for the real robot."""
+    from device.sim.plant import plant_summary
+
+    backend = getattr(backend, "inner", backend)
+    plant = getattr(backend, "plant", None)
+    return plant_summary(plant.describe() if plant is not None else None)
 
 
 def _rest_patient(backend: Backend) -> None:

@@ -135,3 +135,15 @@ class Plant:
             "drive_gain": list(self.torque_gain),
             "actuator_delay_periods": 1 if self.actuator_delay else 0,
         }
+
+
+def plant_summary(described: dict | None) -> dict:
+    """A simulated plant (its `Plant.describe()`) as a trial file's summary scalars: its
+    kind, and every parameter as JSON (docs/data-format.md, /summary); {} for none (the
+    real robot). Headless and live trials write the same, so the norms' covariate robot
+    (app.norms.controls.robot_kind) is `simulator-<kind>` for both."""
+    if described is None:
+        return {}
+    import json
+
+    return {"plant": described["kind"], "plant_parameters": json.dumps(described)}

@@ -3,6 +3,7 @@ crash safety and leaks. These tests run the real loop, recorder and ring at 2 ms
 
 import contextlib
 import gc
+import json
 import os
 import signal
 import subprocess
@@ -119,6 +120,15 @@ def whole_trial(client, tmp_path, params=PARAMS, backend=None):
     assert data.summary["timing"] == "simulated"
     assert data.summary["robot_clock_s"] == pytest.approx(data.summary["ticks"] * 0.002,
                                                           abs=1e-9)
+    # the simulated robot it ran, as a headless trial's file names it: the window's
+    # assessments were scored as robot 'simulator', which no norms hold (brief hI)
+    plant = (backend or BackendConfig()).plant
+    assert data.summary["plant"] == plant
+    assert json.loads(data.summary["plant_parameters"])["kind"] == plant
+    from app.norms.controls import robot_kind
+    from app.population.norms import ROBOT
+
+    assert robot_kind(data.backend, data.summary) == ROBOT
     kinds = [e["kind"] for e in data.events]
     assert kinds == ["start", "stop"]
     # the robot and the virtual patient followed the D together, as headless

@@ -117,3 +117,46 @@ def test_the_video_of_a_start_the_loop_refuses_goes_with_its_trial(qtbot, window
                     timeout=20000)
     assert [path for path in camera.made if path.exists()] == []
     _no_trial_left(win)
+
+
+def test_a_start_the_window_stopped_waiting_for_is_never_run(qtbot, window):
+    """Brief hI, on a loaded PC: the loop answered Start after the window's patience (the
+    simulator reopened for the next trial's seed, then more than 10 s of a starved CPU),
+    the window took the trial back (withdrawn, its number free again), and then the loop
+    started it anyway: 'Trial running: session 1, trial 8' over a trial the registry did
+    not have, its file recorded beside the next trial 8's. Here the window waits no time
+    at all for the Start's answer; the loop must not run the Start it took too late."""
+    win = window
+    register_patient(qtbot, win)
+    short_trial(win, duration_s=1.5)
+    build_and_connect(qtbot, win)
+    client = win.bridge.client
+    request = client.request
+
+    def impatient(command, timeout=None):
+        if type(command).__name__ == "Start":
+            timeout = 1e-3  # gone before the loop can answer
+        return request(command, timeout)
+
+    client.request = impatient
+    code = win.patient.code
+    click(qtbot, win.robot.buttons["start"])
+    qtbot.waitUntil(lambda: "The refused trial" in (win.messages.last.text
+                                                    if win.messages.last else ""),
+                    timeout=30000)
+    client.request = request
+    # Start again, as the therapist does: the loop takes commands in order, so its answer
+    # comes after the first Start was carried out or refused
+    qtbot.waitUntil(lambda: "start" in {n for n, b in win.robot.buttons.items()
+                                        if b.isEnabled()}, timeout=60000)
+    click(qtbot, win.robot.buttons["start"])
+    # registered on the job thread (ui.window.start): the trial is the window's once the
+    # registry answered
+    qtbot.waitUntil(lambda: win.trial_id is not None, timeout=30000)
+    trial_id = win.trial_id
+    qtbot.waitUntil(lambda: win.unsaved_trial == trial_id
+                    and win.registry.trial(trial_id).finished, timeout=60000)
+    (trial,) = win.registry.trials_for_patient(code)
+    files = sorted(win.registry.data_dir.patient_trials_dir(code).glob("*.h5"))
+    assert files == [win.registry.trial_path(trial)], (
+        "a trial file the registry does not have: the loop ran the Start taken back")

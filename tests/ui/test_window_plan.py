@@ -245,3 +245,62 @@ def test_the_plan_s_records_wait_on_the_registry_off_the_window_s_thread(qtbot, 
     (run,) = win.registry.plan_runs_for_patient(code)
     assert run.status == "complete"
     assert [(s.kind, s.block) for s in run.steps] == [("trial", 1)]
+
+
+def test_a_block_out_of_reach_is_said_before_build_and_connect(qtbot, tmp_path, monkeypatch):
+    """A therapist's first plan (brief hI): the First session template for a patient of
+    57 cm of arm; Start plan, pressed before Build and Connect, said "connect the robot
+    first", and only after Build and Connect that block 3 was out of reach, with "move the
+    exercise" but not where (the table has no centre). Now the block is named at once with
+    where to move it; nothing is registered or run."""
+    win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
+    try:
+        register_patient(qtbot, win)
+        code = win.patient.code
+        p = win.parameters_tab
+        p.forearm.setValue(27.0)  # a shorter arm: the forward reach's far end is out of it
+        p.refresh()
+        tab = win.plan_tab
+        tab.templates.setCurrentText("First session")
+        click(qtbot, tab.copy_button)
+        click(qtbot, tab.start_button)
+        said = tab.refusal.text()
+        assert said.startswith("Start plan refused: block 3 (Forward reach): "), said
+        assert "this arm reaches 0.57 m" in said
+        assert "Parameters tab's centre" in said
+        assert win.plan_runner is None
+        assert win.registry.plan_runs_for_patient(code) == []
+        # moved nearer the shoulder on the Parameters tab, the plan waits for the robot only
+        p.centre_y.setValue(34.0)
+        p.refresh()
+        click(qtbot, tab.start_button)
+        assert tab.refusal.text() == ("Start plan refused: connect the robot first (Build, "
+                                      "then Connect, hands off the handle).")
+    finally:
+        win.close()
+
+
+@pytest.mark.parametrize("name", ["first-session", "reaching", "endurance", "games"])
+def test_the_plan_table_shows_every_cell_and_heading_whole_at_1366(qtbot, name):
+    """The Plan tab on a 1366 px laptop (brief hI): the table kept Qt's 100 px columns and
+    cut "1. Warm-up on the D" to "1. Warm-…" and the headings "Pace (s a lap)" and
+    "Tolerance (°)", with a third of the table's width empty beside them."""
+    from PySide6.QtWidgets import QApplication
+
+    from app.plans.templates import load_template, template_titles
+    from ui.tabs.plan import PlanTab
+
+    tab = PlanTab(template_titles())
+    qtbot.addWidget(tab)
+    tab.resize(1366, 600)
+    tab.show()
+    tab.set_plan(load_template(name).plan, "a template")
+    QApplication.processEvents()
+    table, header = tab.table, tab.table.horizontalHeader()
+    for col in range(table.columnCount()):
+        heading = header.fontMetrics().horizontalAdvance(
+            table.horizontalHeaderItem(col).text())
+        needed = max(table.sizeHintForColumn(col), heading)
+        assert table.columnWidth(col) >= needed, (
+            f"column {table.horizontalHeaderItem(col).text()!r}: {table.columnWidth(col)} "
+            f"px for {needed}")

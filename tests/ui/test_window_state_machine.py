@@ -7,7 +7,13 @@ patient, type a session number and Confirm on the Registration tab; press Build 
 before the first is answered (the second for another robot, which the loop refuses while
 connected); press Start the moment the last trial ended, before its report is there; press Start
 while the registry answers late (a shared registry on a silent network) and meanwhile
-press Start again, Build, choose another patient, Disconnect or the emergency stop.
+press Start again, Build, choose another patient, Disconnect or the emergency stop;
+press Start plan, Pause, Resume and Stop plan on the Plan tab (a short plan whose rounds the
+window builds and starts by itself, each a trial checked as any: the form at the plan's
+Build is what the loop took, the form at its Start what the file holds), and set up an
+assessment task's trial on the Assessments tab (circle drawing either way, isometric
+strength: their protocols shortened), which the usual rules then build and run (it
+proposes nothing and decides no proposal: the exercise trial after it does).
 
 After every step:
 * what Start can run is what the form shows: Start is enabled only while the form shows
@@ -41,6 +47,7 @@ to a minute or two on two cores. A deeper run: REHAB_MACHINE_EXAMPLES=30 (or mor
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import re
 import shutil
@@ -65,6 +72,8 @@ from app.errors import TrialNotFound
 from app.records.datadir import DataDir
 from app.records.registry import Registry
 from app.trials.reader import read_trial
+from core.assessment.protocol import PROTOCOLS
+from core.plan import Block, Plan
 from core.trial import TrialParameters
 from device.loop.states import State
 from tests.ui.session import enabled, register_patient
@@ -170,7 +179,127 @@ class TrialRun:
         self.live: list[float] = []
 
 
-class WindowMachine(RuleBasedStateMachine):
+
+SHORT_PLAN = Plan("Two short blocks", (
+    Block(shape="circle", repetitions=1, duration_s=1.5, rest_s=0.0, radius_m=0.08,
+          name="Circle"),
+    Block(shape="d", repetitions=1, duration_s=1.5, rest_s=0.0, name="D"),
+))
+"""A session plan of two one-lap blocks with no rest (a rest is timed by the wall clock;
+the machine waits on conditions only, and ui/test_window_plan.py times the rests)."""
+SHORT_TASKS = {
+    "circle": {"repetitions": 1, "duration_s": 2.0},
+    "strength": {"n_targets": 4, "duration_s": 1.0, "target_hold_s": 1.0},
+}
+"""Assessment tasks the machine sets up, their protocols shortened (a whole task runs 20 to
+132 s; what is tested is that the form, the file and the registry agree on the task, not
+its length): circle drawing (two trials, each way) and isometric strength (robot-led)."""
+
+
+class PlanAndTaskRules:
+    """The Plan tab's and the Assessments tab's buttons as rules of the machine (brief hI):
+    Start plan (its rounds built and started by the window's own Build and Start, each a
+    trial the machine checks like any), Pause, Resume, Stop plan, and a task's trial set up
+    in the form (then run by the usual rules). A Build or Start the plan asks is watched as
+    the buttons' are: the form at that moment is what the loop takes and the file holds."""
+
+    pressing = False
+    """The machine is pressing a robot button itself (`_click`)."""
+
+    def _watch_the_plan(self) -> None:
+        """The plan's runner calls the window's build and start_trial (ui.window.plan.
+        WindowConsole): each Build's form is kept for the loop's answer, each trial started
+        is checked. The robot buttons reach these wrappers too (PySide calls the slot by
+        its name); a press the machine makes itself is counted by the press (`_click`)."""
+        win = self.win
+        build, start = win.build, win.start_trial
+
+        def plan_build() -> None:
+            if self.pressing:
+                build()
+                return
+            form = self._form()
+            win._pending_build = None
+            build()
+            if win._pending_build is not None:
+                self.builds.append(form)
+                _count("plan Builds")
+
+        def plan_start() -> None:
+            if self.pressing:
+                start()
+                return
+            form = self._form()
+            shown = win.registration_tab.registration()
+            before = win.trial_id
+            start()
+            if win.trial_id is not None and win.trial_id != before:
+                self._started(win.trial_id, form, shown)
+                _count("plan trials started")
+
+        win.build, win.start_trial = plan_build, plan_start
+
+    def _end_the_plan(self) -> None:
+        """Stop plan (as the therapist ends it before closing), and wait until it ended."""
+        if self.win.plan_runner is not None:
+            self.win.stop_plan()
+            self._wait(lambda: self.win.plan_runner is None)
+            self._settle()
+
+    @when()
+    @rule()
+    def start_the_plan(self) -> None:
+        """The short plan given to the patient (once), connected as for a trial, and Start
+        plan pressed; the plan then runs while the other rules act."""
+        win = self.win
+        if win.plan_runner is not None:
+            return
+        if win.state in (State.RUNNING, State.STOPPING):
+            self.wait_for_the_trial_to_end()
+        if win.state != State.CONNECTED:
+            self.build()
+            self.connect()
+        code = win.patient.code if win.patient is not None else None
+        if code is None:
+            return
+        if self.registry.current_plan(code) is None:
+            self.registry.save_plan(code, SHORT_PLAN)
+        win.show_plan_of(code)
+        win.tabs.setCurrentWidget(win.plan_tab)
+        if win.plan_tab.start_button.isEnabled():
+            self.qtbot.mouseClick(win.plan_tab.start_button, Qt.MouseButton.LeftButton)
+            if win.plan_runner is not None:
+                _count("plans started")
+        self._settle()
+
+    @when()
+    @rule(button=st.sampled_from(("pause", "resume", "stop")))
+    def a_plan_button(self, button: str) -> None:
+        """Pause, Resume or Stop plan, pressed when it is enabled."""
+        widget = getattr(self.win.plan_tab, f"{button}_button")
+        if widget.isEnabled():
+            self.win.tabs.setCurrentWidget(self.win.plan_tab)
+            self.qtbot.mouseClick(widget, Qt.MouseButton.LeftButton)
+            _count(f"plan {button} pressed")
+        self._settle()
+
+    @when()
+    @rule(task=st.sampled_from(sorted(SHORT_TASKS)), index=st.integers(0, 1))
+    def set_up_a_task(self, task: str, index: int) -> None:
+        """The Assessments tab: a task chosen, its trial (the second of circle drawing,
+        counter-clockwise; strength has one) and Set up this trial; Build, Connect and
+        Start are then the usual rules'."""
+        tab = self.win.assessments_tab
+        self.win.tabs.setCurrentWidget(tab)
+        tab.choose(task)
+        tab.trial.setCurrentIndex(min(index, tab.trial.count() - 1))
+        self.qtbot.mouseClick(tab.use_button, Qt.MouseButton.LeftButton)
+        held = self._form()[0]["assessment"]
+        _count(f"{task} set up" + ("" if held == task else f" but the form holds {held!r}"))
+        self._settle()
+
+
+class WindowMachine(PlanAndTaskRules, RuleBasedStateMachine):
     qtbot = None  # set by the test
     base: Path
 
@@ -198,6 +327,7 @@ class WindowMachine(RuleBasedStateMachine):
         self.built_form = None
         self.builds = []
         self.win.bridge.replied.connect(self._answered)
+        self._watch_the_plan()
 
     def _answered(self, command: str, ok: bool, _message: str) -> None:
         """The loop's answer to each Build, in the order they were asked: the form of the
@@ -219,6 +349,7 @@ class WindowMachine(RuleBasedStateMachine):
         self.registry.release()  # a failed step's Start, still being registered
         try:
             if self.win is not None:
+                self._end_the_plan()
                 if self.running is not None:
                     self._wait(lambda: self.win.state not in (State.RUNNING, State.STOPPING))
                 self._check_finished(wait=True)
@@ -251,7 +382,11 @@ class WindowMachine(RuleBasedStateMachine):
     def _click(self, name: str) -> None:
         button = self.win.robot.buttons[name]
         assert button.isEnabled(), name
-        self.qtbot.mouseClick(button, Qt.MouseButton.LeftButton)
+        self.pressing = True
+        try:
+            self.qtbot.mouseClick(button, Qt.MouseButton.LeftButton)
+        finally:
+            self.pressing = False
 
     @initialize()
     def start(self) -> None:
@@ -421,18 +556,24 @@ class WindowMachine(RuleBasedStateMachine):
         self.start_runs_what_the_form_shows()  # at the press too, not only between steps
         self.start_registers_what_the_registration_tab_shows()
         form = self._form()
-        kind = form[1].patient_kind
         shown = self.win.registration_tab.registration()
         self._click("start")
         self._wait(lambda: not self.win.registering())  # registered on the job thread
         trial_id = self.win.trial_id
-        self._settle()
         if trial_id is not None:
-            self.running = TrialRun(trial_id, form[0], kind, shown)
-            self.unchecked.append(self.running)
-            self.started.append(self.running)
+            self._started(trial_id, form, shown)
             _count("trials started" + (" at once" if at_once else ""))
-            self.trials_since_restart += 1
+        self._settle()
+
+    def _started(self, trial_id: int, form: tuple, shown) -> None:
+        """A trial the window started (by the Start button or a plan's round): its form
+        and the registration shown, checked once it is finished."""
+        self.running = TrialRun(trial_id, form[0], form[1].patient_kind, shown)
+        self.unchecked.append(self.running)
+        self.started.append(self.running)
+        if form[0].get("assessment"):
+            _count("assessment trials started")
+        self.trials_since_restart += 1
 
     @when()
     @rule(meanwhile=st.sampled_from(("nothing", "start again", "build", "another patient",
@@ -607,6 +748,7 @@ class WindowMachine(RuleBasedStateMachine):
         chosen again: the proposal still waiting is offered."""
         if not self.trials_since_restart:
             return
+        self._end_the_plan()
         self._wait(lambda: self.win.state not in (State.RUNNING, State.STOPPING))
         self._settle()
         self._check_finished(wait=True)
@@ -669,8 +811,16 @@ class WindowMachine(RuleBasedStateMachine):
 
     # -- a finished trial ----------------------------------------------------------------
     def _finished(self, run: TrialRun) -> bool:
-        return (self.registry.proposal(run.trial_id) is not None
-                and self.win.unsaved_trial is not None
+        """Finished into the registry: an exercise with its proposal, an assessment (which
+        proposes nothing) as finished."""
+        if run.form.get("assessment"):
+            try:
+                done = self.registry.trial(run.trial_id).finished
+            except TrialNotFound:
+                return False
+        else:
+            done = self.registry.proposal(run.trial_id) is not None
+        return (done and self.win.unsaved_trial is not None
                 and self.win.unsaved_trial >= run.trial_id)
 
     def _withdrawn(self, run: TrialRun) -> bool:
@@ -759,15 +909,25 @@ class WindowMachine(RuleBasedStateMachine):
         header = getattr(content, "therapist_header", content.header)
         settings_line = {item.label: item.value for item in header}.get("Settings", "")
         said = {int(n) for n in re.findall(r"(\d+) %", settings_line)}
+        if data.parameters.assist == "transparent" and "(no assistance)" in settings_line:
+            said.add(0)  # the transparent mode (an assessment's) runs at 0 %, said in words
         assert percents <= said, (
             f"the report says {settings_line!r}; the trial ran at {sorted(percents)} %")
-        # the next proposal steps from the level in effect at the end of the exercise
+        # the next proposal steps from the level in effect at the end of the exercise; an
+        # assessment proposes nothing (its task's protocol is fixed)
         from app.trials.progression import Proposal
 
-        proposal = Proposal.from_dict(self.registry.proposal(run.trial_id).proposal)
-        stepped = min(1.0, max(0.0, at_end + proposal.level_step))
-        assert proposal.assistance_level == pytest.approx(stepped, abs=1e-9), (
-            f"proposed {proposal.assistance_level} after a trial that ended at {at_end}")
+        task = run.form.get("assessment", "")
+        assert trial.parameters.get("assessment", "") == task
+        made_here = self.registry.proposal(run.trial_id)
+        if task:
+            assert made_here is None, f"the {task} assessment, trial {run.trial_id}, proposed"
+            _count("assessment trials checked")
+        else:
+            proposal = Proposal.from_dict(made_here.proposal)
+            stepped = min(1.0, max(0.0, at_end + proposal.level_step))
+            assert proposal.assistance_level == pytest.approx(stepped, abs=1e-9), (
+                f"proposed {proposal.assistance_level} after a trial that ended at {at_end}")
         # the export (CSV, every tick) says what its file says
         if "assistance_level" in data.channels:
             exported = _exported_levels(path, self.folder / f"export-{run.trial_id}")
@@ -778,18 +938,21 @@ class WindowMachine(RuleBasedStateMachine):
             shown.patient_code, shown.session_number, shown.trial_number), (
             f"trial {run.trial_id} registered as {trial.patient_code} session "
             f"{trial.session_number} trial {trial.number}; the tab showed {shown}")
-        # the proposal of the patient's trial before: decided by this one, its next
+        # the proposal of the patient's exercise trial before: decided by this one, its
+        # next exercise trial (an assessment decides nothing: the proposal waits for it)
         before = [r for r in self.started[:self.started.index(run)]
-                  if r.registration.patient_code == shown.patient_code]
-        if before:
+                  if r.registration.patient_code == shown.patient_code
+                  and not r.form.get("assessment")]
+        if before and not task:
             made = self.registry.proposal(before[-1].trial_id)
             assert made is not None, f"trial {before[-1].trial_id} proposed nothing"
             assert made.next_trial_id == run.trial_id, (
                 f"trial {before[-1].trial_id}'s proposal was {made.decision} (next trial "
                 f"{made.next_trial_id}), not decided by trial {run.trial_id}, the next "
                 f"one started")
-        latest = max(t.id for t in self.registry.trials_for_patient(trial.patient_code))
-        if run.trial_id == latest and self.win.patient.code == trial.patient_code:
+        latest = max((t.id for t in self.registry.trials_for_patient(trial.patient_code)
+                      if not t.parameters.get("assessment")), default=None)
+        if not task and run.trial_id == latest and self.win.patient.code == trial.patient_code:
             self._assert_offered(proposal.to_dict())
 
     def _assert_offered(self, proposal: dict) -> None:
@@ -901,6 +1064,9 @@ def test_what_runs_is_what_the_window_shows(qtbot, qapp, tmp_path, monkeypatch):
     monkeypatch.setenv("REHAB_CONFIG_DIR", str(tmp_path / "config"))
     WindowMachine.qtbot = qtbot
     WindowMachine.base = tmp_path
+    for task, shorter in SHORT_TASKS.items():
+        monkeypatch.setitem(PROTOCOLS, task, dataclasses.replace(
+            PROTOCOLS[task], **shorter))
     TALLY.clear()
     # No shrinking and no replay from a database: each example runs real processes and
     # real trials, so a failure is reported at once with the steps that led to it (the

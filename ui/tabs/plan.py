@@ -15,6 +15,7 @@ from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import (
     QComboBox,
     QHBoxLayout,
+    QHeaderView,
     QLabel,
     QPushButton,
     QTableWidget,
@@ -64,6 +65,11 @@ class PlanTab(QWidget):
         self.title.setWordWrap(True)
         self.table = QTableWidget(0, len(COLUMNS))
         self.table.setHorizontalHeaderLabels(COLUMNS)
+        # each column as wide as its heading and cells (Qt's 100 px cut "1. Warm-up on the
+        # D" and "Pace (s a lap)" at 1366 px, beside a third of the table left empty)
+        header = self.table.horizontalHeader()
+        header.setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
+        header.setStretchLastSection(True)
         self.table.itemChanged.connect(self._edited)
         self.refusal = QLabel("")
         self.refusal.setWordWrap(True)

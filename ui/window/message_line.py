@@ -28,6 +28,7 @@ from PySide6.QtWidgets import (
 
 from app.trials.finalize import finish_interrupted
 from ui import theme
+from ui.elided_label import ElidedLabel
 from ui.tabs.parameters import HARDWARE
 
 log = logging.getLogger("ui.main_window")  # the clinic's day log names the window
@@ -66,10 +67,12 @@ class MessageLine:
 
     def _build_status_bar(self) -> None:
         self.state_label = QLabel("Idle")
-        self.backend_label = QLabel("")
+        # the robot's and the trial's words give way (cut, whole in the tooltip) so that
+        # the warnings at the right, which say what to do, are whole at 1366 px
+        self.backend_label = ElidedLabel("")
         self.health_label = QLabel("")
         self.health_label.setObjectName("loop_timing")
-        self.trial_label = QLabel("")
+        self.trial_label = ElidedLabel("")
         bar = self.statusBar()
         for widget in (self.state_label, self.backend_label, self.trial_label):
             bar.addWidget(widget)

@@ -27,6 +27,10 @@ from ui.tabs.plan import PlanTab
 
 log = logging.getLogger("ui.main_window")
 PLAN_TICK_MS = 100
+PLACED = ("every block runs at the Parameters tab's centre, for the shoulder and arm it "
+          "shows: change them there")
+"""Where a plan's blocks are placed (core.plan.Block.parameters over the form's trial), said
+with a block the patient cannot reach: the table has no centre to change."""
 
 
 class WindowConsole:
@@ -170,18 +174,20 @@ class PlanControl:
             why = "choose the patient and give them a plan first"
         elif self.registration is None:
             why = "confirm the patient's session on the Registration tab first"
-        elif self.latch.holds_robot():
-            why = self.latch.holds_robot()
-        elif self.state != State.CONNECTED:
-            why = "connect the robot first (Build, then Connect, hands off the handle)"
-        if not why:
+        else:
+            # the plan against the patient before the robot: a block out of reach is said
+            # before Build and Connect (it was said only after them, a wasted round trip)
             try:
                 base = self.parameters_tab.parameters()
             except Exception as exc:  # the form's own refusal
                 why = f"the Parameters tab: {exc}"
             else:
                 problems = check_plan(self.stored_plan.plan, base)
-                why = problems[0] if problems else ""
+                why = f"{problems[0].rstrip('.')} ({PLACED})" if problems else ""
+        if not why and self.latch.holds_robot():
+            why = self.latch.holds_robot()
+        elif not why and self.state != State.CONNECTED:
+            why = "connect the robot first (Build, then Connect, hands off the handle)"
         if why:
             why = why.rstrip(".")  # a check's sentence ends in its own full stop
             self._say(f"Start plan refused: {why}.", problem=True)

@@ -24,6 +24,9 @@ KEEP_CURRENT_EVERY = 6
 of the current patient up to the server's: what other stations recorded for them meanwhile
 (app.records.station.StationRegistry.keep_current)."""
 
+UNREACHABLE = "Shared registry unreachable: recording on this station"
+"""The status bar's words while the server cannot be reached (its cause in the tooltip)."""
+
 SYNC_EVERY_MS = 5000
 """How often an offline station tries to reach the server again (a connection refused is
 answered at once; an unanswered one waits the registry's connect timeout on the job
@@ -104,8 +107,7 @@ class StationStatus:
         registry = self.registry
         if offline:
             problem = registry.sync_problem
-            self.registry_label.setText(f"{theme.PROBLEM_SIGN} Shared registry unreachable: "
-                                        "recording on this station")
+            self.registry_label.setText(f"{theme.PROBLEM_SIGN} {UNREACHABLE}")
             self.registry_label.setStyleSheet(f"color: {theme.PROBLEM_TEXT};")
             self.registry_label.setToolTip(problem or registry.offline_reason)
             if not self._was_offline:
