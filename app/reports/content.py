@@ -45,6 +45,7 @@ from app.reports.figures import (
     report_figures,
 )
 from app.reports.plain_language import (
+    GAME_TITLES,
     SHAPE_NAMES,
     PlainLine,
     help_text,
@@ -58,6 +59,7 @@ from app.trials.analysis import MIN_EXERCISE, analyse, exercise_mask, too_little
 from app.trials.assistance_timeline import AssistanceInEffect
 from app.trials.reader import TrialData
 from app.units import CM_PER_M, assistance_percent, point_cm
+from core.assessment.figures import TASK_TITLES
 from core.errors import CoreError
 from core.holdtasks import ROBOT_TASKS
 from core.metrics import TrialMetrics
@@ -302,6 +304,18 @@ def _comparisons(previous_trial: BaselineSource | None, previous_session: Baseli
 
 
 def _exercise_text(p: TrialParameters) -> str:
+    """What the trial was: its shape and size, laps and pace; an assessment task's or a
+    game's name first ('Circle drawing (assessment): circle, radius 7 cm; …'), so that a
+    report of the battery's circle never reads as the circle exercise."""
+    if p.assessment:
+        return (f"{TASK_TITLES.get(p.assessment, p.assessment)} (assessment): "
+                f"{_movement_text(p)}")
+    if p.game:
+        return f"{GAME_TITLES.get(p.game, p.game)}: {_movement_text(p)}"
+    return _movement_text(p)
+
+
+def _movement_text(p: TrialParameters) -> str:
     if p.assessment in ROBOT_TASKS:
         return robot_task_words(p, past=True)
     shape = SHAPE_NAMES.get(p.shape, p.shape)

@@ -72,3 +72,17 @@ def test_a_trial_stored_before_the_tasks_stays_in_its_exercise_s_series(course):
     assert key_values(stored) == key_values(first.parameters)
     later = registry.trials_for_patient(code)[3]
     assert registry.previous_trial(later.id, same_parameters=True).id == first.id
+
+
+def test_a_report_names_the_task_or_the_game_it_was(course):
+    """The report's Exercise line said only the shape: the battery's circle read as the
+    circle exercise (brief hI, in the window)."""
+    from app.reports.build import content_for_registry_trial
+
+    registry, code = course
+    trials = registry.trials_for_patient(code)
+    lines = [{item.label: item.value for item in
+              content_for_registry_trial(registry, t.id).header}["Exercise"] for t in trials]
+    assert lines[1].startswith("Circle drawing (assessment): circle, radius 7 cm")
+    assert lines[4].startswith("Path game: circle, radius 7 cm")
+    assert lines[0].startswith("circle, radius 7 cm")

@@ -98,7 +98,8 @@ def test_a_robot_led_task_cut_short_says_how_much_of_its_timetable_ran(tmp_path)
     assert 0.0 < content.exercised_s < total_s
     header = {item.label: item.value for item in content.header}
     assert header["Ended"].endswith(f"of {total_s:.0f} s")
-    assert header["Exercise"] == (f"8 directions, a push of {parameters.duration_s:g} s "
+    assert header["Exercise"] == ("Isometric strength (assessment): 8 directions, a push "
+                                  f"of {parameters.duration_s:g} s "
                                   f"each; 1 round, {total_s:.0f} s; the robot held the "
                                   "handle still")
     assert f"of {total_s:.0f} seconds" in content.status_text
