@@ -82,6 +82,9 @@ def test_a_figure_against_the_fugl_meyer_with_its_correlation(qtbot, tab):
     assert view.series.correlation.spearman_rho == pytest.approx(-1.0)
     assert "Spearman ρ = -1.00" in tab.scales.caption.text()
     assert "n = 4" in tab.scales.caption.text()
+    # its sentences begin with a capital: '…correlation. the norms…' read as a slip
+    caption = tab.scales.caption.text()
+    assert all(sentence[:1].isupper() for sentence in caption.split(". ")[1:]), caption
     scatter = [i for i in tab.scales.plot.getPlotItem().items
                if isinstance(i, pg.ScatterPlotItem)]
     assert len(scatter[0].data) == 4

@@ -23,6 +23,7 @@ from PySide6.QtWidgets import (
 
 from app.records.scales import value_label
 from app.records.store import RecordStore
+from app.reports.plain_language import capitalised
 from app.reports.scales_progress import (
     ScaleSeries,
     figure_display_scale,
@@ -78,7 +79,7 @@ def scales_view(registry: RecordStore, code: str, figure: str | None, scale: str
                           norms=norms)
     marks = problem or mdc_text(series, norms)
     return ScalesView(figures, scales, series,
-                      f"Over the sessions: {series.correlation.text()}. {marks}")
+                      f"Over the sessions: {series.correlation.text()}. {capitalised(marks)}")
 
 
 class ScalesPanel(QWidget):

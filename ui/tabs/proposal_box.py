@@ -11,6 +11,8 @@ from __future__ import annotations
 from PySide6.QtCore import Signal
 from PySide6.QtWidgets import QGroupBox, QHBoxLayout, QLabel, QPushButton
 
+from app.reports.plain_language import capitalised
+
 
 class ProposalBox(QGroupBox):
     """Signals: taken(Proposal) when the therapist presses Use the proposal."""
@@ -38,7 +40,7 @@ class ProposalBox(QGroupBox):
         if proposal is None:
             self.hide()
             return
-        reason = proposal.reason[:1].upper() + proposal.reason[1:] + "."
+        reason = capitalised(proposal.reason) + "."
         self.text.setText(f"{after} {reason}".strip())
         self.use.setVisible(proposal.change != "none")
         self.show()

@@ -16,6 +16,7 @@ from PySide6.QtCore import QTimer
 from PySide6.QtWidgets import QLabel
 
 from app.records.store import StationStore
+from app.reports.plain_language import capitalised
 from device.loop.states import State
 from ui import theme
 
@@ -59,7 +60,7 @@ class StationStatus:
         problem = self.registry.sync_problem if isinstance(self.registry, StationStore) else ""
         if problem:  # found as it opened (a damaged standby set aside, a sync refused)
             self._said_problem = problem
-            self._say(problem[:1].upper() + problem[1:], problem=True)
+            self._say(capitalised(problem), problem=True)
         self.check_station()
 
     def check_station(self) -> None:
@@ -97,7 +98,7 @@ class StationStatus:
         self._storing = False
         problem = stored.problems[0] if stored.problems else ""
         if problem and problem != self._store_problem:
-            self._say(problem[:1].upper() + problem[1:], problem=True)
+            self._say(capitalised(problem), problem=True)
         elif self._store_problem and not problem:
             self._say(f"The trial store took the waiting trials ({len(stored.trials)} copied "
                       "and checked)")
@@ -111,7 +112,7 @@ class StationStatus:
             self.registry_label.setStyleSheet(f"color: {theme.PROBLEM_TEXT};")
             self.registry_label.setToolTip(problem or registry.offline_reason)
             if not self._was_offline:
-                self._say(registry.offline_reason[:1].upper() + registry.offline_reason[1:],
+                self._say(capitalised(registry.offline_reason),
                           problem=True)
         else:
             self.registry_label.setText("")
@@ -127,7 +128,7 @@ class StationStatus:
             problem = self.registry.sync_problem
             if problem and problem != getattr(self, "_said_problem", ""):
                 self._said_problem = problem
-                self._say(problem[:1].upper() + problem[1:], problem=True)
+                self._say(capitalised(problem), problem=True)
             return
         self._said_problem = ""
         moved = synced.trial_ids
