@@ -2,6 +2,11 @@
 
 Run: .venv/bin/python bench/stations.py [--patients 1000] [--trials-per-patient 1000]
      [--stations 8] [--queries 200] [--pause-ms 0 100] [--reader-pause-ms 0]
+     [--trees DIR ...]
+
+A before/after comparison on one fill: `--trees` names source trees (e.g. `git archive`
+of each commit unpacked in a folder); each registration phase runs once per tree, in turn,
+the stations importing `app` from it (the reader and the fill stay this tree's).
 
 A quick run: --patients 100 --trials-per-patient 100.
 
