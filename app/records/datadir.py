@@ -179,7 +179,7 @@ class DataDir:
         Checked whole once a process: while the folders checked (the root, the folders
         above it and `parts`) are the same ones with the same owner and mode (`_standing`),
         a later call returns at once (a trial's registration calls it each time: its
-        checks, 22 system calls, were a fifth of the station's CPU in `begin_trial`,
+        checks, 21 system calls, were a fifth of `begin_trial`'s CPU under cProfile,
         docs/performance.md). A folder removed, replaced, chmodded or given away meanwhile
         changes that, and the whole check runs again (a folder made read-only by its mode
         is refused here as before). What is not seen until the file is written: a disk
