@@ -2,6 +2,11 @@
 
 Run: .venv/bin/python bench/stations.py [--patients 1000] [--trials-per-patient 1000]
      [--stations 8] [--queries 200] [--pause-ms 0 100] [--reader-pause-ms 0]
+     [--trees DIR ...]
+
+A before/after comparison on one fill: `--trees` names source trees (e.g. `git archive`
+of each commit unpacked in a folder); each registration phase runs once per tree, in turn,
+the stations importing `app` from it (the reader and the fill stay this tree's).
 
 A quick run: --patients 100 --trials-per-patient 100.
 
@@ -46,6 +51,7 @@ PostgreSQL") has the figures and what they mean.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import multiprocessing as mp
 import os
@@ -218,6 +224,19 @@ def station(index: int, url: str, folder: str, own: list[str], shared: list[str]
                  starts))
 
 
+@contextlib.contextmanager
+def stations_from(tree: Path):
+    """The station processes spawned meanwhile import `app` from `tree` (a spawned process
+    takes this one's sys.path; this repository stays on it, after `tree`, so that the bench's
+    own modules load as they do here)."""
+    saved = sys.path[:]
+    sys.path.insert(0, str(Path(tree).resolve()))
+    try:
+        yield
+    finally:
+        sys.path[:] = saved
+
+
 def run_stations(bench: Bench, data_root: Path, codes: list[str], n_stations: int,
                  minimum: int, pause_s: float, queries: int, seed: int, proposals: bool,
                  reader_pause_s: float):
@@ -346,6 +365,11 @@ def main() -> None:
                         help="the mean pause between the progress queries read while the "
                              "stations register (default 0: back to back, a stress; a "
                              "therapist opens a patient's progress now and then)")
+    parser.add_argument("--trees", nargs="+", type=Path, default=[REPO],
+                        help="the source trees whose app/ the stations run (default: this "
+                             "one): each --pause-ms phase runs once per tree, in turn, on "
+                             "the one fill; a before/after comparison interleaved in one run "
+                             "(e.g. --trees /tmp/lead . with --pause-ms 2000 2000)")
     parser.add_argument("--fill-workers", type=int, default=2)
     parser.add_argument("--no-proposals", action="store_true",
                         help="no proposals: neither in the fill nor after a station's trial")
@@ -383,13 +407,15 @@ def main() -> None:
         del reader
 
         phases = []
-        for pause_ms in args.pause_ms:
-            print(f"load before the stations ({pause_ms:g} ms pause): "
+        for pause_ms, tree in [(p, t) for p in args.pause_ms for t in args.trees]:
+            print(f"load before the stations ({pause_ms:g} ms pause, {tree}): "
                   f"{Path('/proc/loadavg').read_text().strip()}", flush=True)
-            phases.append((pause_ms, *run_stations(
-                bench, data_root, codes, args.stations, args.station_trials, pause_ms / 1000.0,
-                args.queries, seed=2 + len(phases), proposals=not args.no_proposals,
-                reader_pause_s=args.reader_pause_ms / 1000.0)))
+            with stations_from(tree):
+                phases.append((pause_ms, *run_stations(
+                    bench, data_root, codes, args.stations, args.station_trials,
+                    pause_ms / 1000.0, args.queries, seed=2 + len(phases),
+                    proposals=not args.no_proposals,
+                    reader_pause_s=args.reader_pause_ms / 1000.0), tree))
         registered = [r for phase in phases for o in phase[1] for r in o[3]]
         t0 = time.perf_counter()
         problems = check_numbers(bench, registered)
@@ -407,8 +433,9 @@ def main() -> None:
         print(line("  its CPU time in this process", idle_cpu))
         print(line("  its time in the server (EXPLAIN ANALYZE)", idle_server))
         print(line("a bare round trip (SELECT 1), idle", idle_trips))
-        for pause_ms, out, busy, busy_cpu, trips, wall, read in phases:
+        for pause_ms, out, busy, busy_cpu, trips, wall, read, tree in phases:
             how = "flat out" if not pause_ms else f"{pause_ms:g} ms apart"
+            how += f", app/ of {tree}" if len(args.trees) > 1 else ""
             print(f"  -- {args.stations} stations registering {how}")
             reader = ("back to back" if not args.reader_pause_ms
                       else f"{args.reader_pause_ms:g} ms apart")

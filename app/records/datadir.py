@@ -174,13 +174,39 @@ class DataDir:
         writable, returned. The root is created only where nothing is; an existing root is
         never changed, only checked: a folder of this user's alone (owned, writable by no
         one else, on a path no one else can swap), else DataDirError saying why and what to
-        do. The console's own folders inside it are kept 0700."""
+        do. The console's own folders inside it are kept 0700.
+
+        Checked whole once a process: while the folders checked (the root, the folders
+        above it and `parts`) are the same ones with the same owner and mode (`_standing`),
+        a later call returns at once (a trial's registration calls it each time: its
+        checks, 21 system calls, were a fifth of `begin_trial`'s CPU under cProfile,
+        docs/performance.md). A folder removed, replaced, chmodded or given away meanwhile
+        changes that, and the whole check runs again (a folder made read-only by its mode
+        is refused here as before). What is not seen until the file is written: a disk
+        remounted read-only, full or unplugged with the modes unchanged; the trial
+        file's own creation then fails and says so (device.recording.trialfile.making),
+        and the run that registered it takes the trial back (app.trials.registered)."""
+        key = (self.root, parts)
+        checked = _CHECKED.get(key)
+        if checked is not None:
+            folders, standing = checked
+            if standing is not None and _standing(folders) == standing:
+                return folders[-1]
+            _CHECKED.pop(key, None)
         self._check_root()
         folder = self.root
         for part in parts:
             folder = folder / part
             self._own_folder(folder)
         self._probe(folder)
+        # the folders whose owner and mode the checks read: those above the root as
+        # `folder_problem` walks them (the real path's), the root, then each part
+        above = list(reversed(Path(os.path.realpath(self.root)).parents))
+        folders = (*above, self.root, *(self.root.joinpath(*parts[:i + 1])
+                                        for i in range(len(parts))))
+        standing = _standing(folders)
+        if standing is not None:  # else gone again already: checked whole next time too
+            _CHECKED[key] = (folders, standing)
         return folder
 
     def _check_root(self) -> None:
@@ -322,6 +348,29 @@ class DataDir:
             f"permissions and that the disk is connected, or choose another data folder "
             f"(setting data_dir, or {ENV_DATA_DIR}; this one came from the {self.source})"
         )
+
+
+_CHECKED: dict[tuple[Path, tuple[str, ...]], tuple[tuple[Path, ...], tuple | None]] = {}
+"""`DataDir.ensure`'s folders checked whole in this process: (root, parts) -> the folders
+the checks read, and what the system said of them then (`_standing`)."""
+
+
+def _standing(folders: tuple[Path, ...]) -> tuple | None:
+    """Which folders these are and how they stand: each one's device, inode, type and mode,
+    owner and group, as `os.lstat` says, and as `os.stat` says where one is a link; None
+    when one cannot be read (gone: the whole check runs again and says why)."""
+    said = []
+    try:
+        for folder in folders:
+            info = os.lstat(folder)
+            said.append((info.st_dev, info.st_ino, info.st_mode, info.st_uid, info.st_gid))
+            if stat.S_ISLNK(info.st_mode):
+                info = os.stat(folder)
+                said.append((info.st_dev, info.st_ino, info.st_mode, info.st_uid,
+                             info.st_gid))
+    except (OSError, ValueError):
+        return None
+    return tuple(said)
 
 
 def _absolute(text: str) -> Path:

@@ -31,6 +31,7 @@ from app.errors import InvalidRecordError
 from app.records.registry import seals
 from app.records.registry.database import Database
 from app.records.registry.patients import patient_id
+from app.records.registry.sessions import Carried
 from app.records.registry.statements import execute
 from app.records.registry.trials import trial_by_id
 from core.errors import CoreError
@@ -90,7 +91,7 @@ class Proposals(Database):
         """The proposal waiting for the patient's next trial (the one the next Start
         decides), None when none waits: what the window offers again after a restart."""
         with self._read() as conn:
-            row = _pending(conn, patient_id(conn, self.where, code), -1)
+            row = _pending(conn, patient_id(conn, self.where, code), NO_TRIAL)
         return None if row is None else _stored(row)
 
     def _trial_withdrawn(self, conn: sa.Connection, trial_id: int) -> None:
@@ -100,22 +101,28 @@ class Proposals(Database):
                       "decided_at = NULL WHERE next_trial_id = ?", (trial_id,))
         execute(conn, "DELETE FROM proposals WHERE trial_id = ?", (trial_id,))
 
-    def _trial_begun(self, conn: sa.Connection, patient: int, trial_id: int,
-                     parameters: str) -> None:
+    def _read_at_start(self, patient: int, parameters: str) -> Carried | None:
+        """At Start, after the patient's lock (Trials._read_at_start): their pending
+        proposal, read in the round trip that numbers the trial; none for an assessment
+        trial (TrialParameters.assessment), which decides none: it runs its task's fixed
+        protocol between exercise trials, and the proposal waits for the next exercise. Read
+        before the trial's insert, which changes no proposal, so it reads what it read after
+        (the new trial has no proposal yet: none to leave out)."""
+        if _parameters(parameters).assessment:
+            return None
+        return Carried(PENDING, (patient, NO_TRIAL) * 2, PENDING_COLUMNS)
+
+    def _trial_begun(self, conn: sa.Connection, trial_id: int, parameters: str,
+                     read: list[tuple]) -> None:
         """At Start, in begin_trial's transaction (Trials._trial_begun): the patient's
-        pending proposal decided by the parameters the new trial started with (their JSON
-        as stored). An assessment trial (TrialParameters.assessment) decides none: it runs
-        its task's fixed protocol between exercise trials, and the proposal waits for the
-        next exercise."""
-        after = _parameters(parameters)
-        if after.assessment:
-            return
-        row = _pending(conn, patient, trial_id)
-        if row is None:
+        pending proposal (`read`: PENDING's rows, from `_read_at_start`) decided by the
+        parameters the new trial started with (their JSON as stored)."""
+        row = _first_exercise(sorted(read, key=lambda r: r[0], reverse=True))
+        if row is None:  # none waits, or an assessment trial read none
             return
         stored = _stored(row)
         before = _parameters(row[-1])  # its trial's, as read
-        decision = _decision(stored.proposal, before, after)
+        decision = _decision(stored.proposal, before, _parameters(parameters))
         execute(conn, "UPDATE proposals SET decision = ?, next_trial_id = ?, decided_at = ? "
                       "WHERE trial_id = ?", (decision, trial_id, _now(), stored.trial_id))
 
@@ -175,6 +182,13 @@ Why the assessment is told apart in Python: the candidates are few, while a cond
 parameters in the SQL was evaluated by PostgreSQL on every trial of the patient, parsing
 each one's parameters (`::jsonb`): 56 ms of server time in every begin_trial of a patient
 with 1,000 trials (bench/stations.py, docs/performance.md)."""
+
+PENDING_COLUMNS = ("trial_id", "proposal", "decision", "next_trial_id", "proposed_at",
+                   "decided_at", "parameters")
+"""PENDING's columns: _SELECT's six, then its trial's parameters."""
+NO_TRIAL = -1
+"""A trial id PENDING leaves out that no trial has (ids start at 1; the connection's warm-up,
+postgres/warm.py, takes ids below zero but rolls them back)."""
 
 PENDING_INDEXES = (
     "CREATE INDEX proposals_pending ON proposals (trial_id) WHERE decision = 'pending'",
@@ -237,7 +251,12 @@ unchanged: the column only says again which patient its trial is of."""
 def _pending(conn: sa.Connection, patient: int, trial_id: int) -> tuple | None:
     """The row of the patient's pending proposal (as _SELECT reads it, then its trial's
     parameters), None when none waits (`PENDING`)."""
-    for row in execute(conn, PENDING, (patient, trial_id) * 2).fetchall():
+    return _first_exercise(execute(conn, PENDING, (patient, trial_id) * 2).fetchall())
+
+
+def _first_exercise(rows: list[tuple]) -> tuple | None:
+    """The first of PENDING's rows whose trial was an exercise, not an assessment."""
+    for row in rows:
         assessment = json.loads(row[-1]).get("assessment")
         if assessment is None or assessment == "":
             return row

@@ -165,19 +165,60 @@ def next_session_number_of(conn: sa.Connection, patient: int) -> int:
 
 
 _SESSIONS = ("SELECT s.id, s.number, s.date, (SELECT coalesce(max(t.number), 0) + 1 FROM "
-             "trials t WHERE t.session_id = s.id) FROM sessions s WHERE s.patient_id = ? AND "
-             "(s.number = ? OR s.number = (SELECT max(number) FROM sessions "
-             "WHERE patient_id = ?)) ORDER BY s.number DESC")
+             "trials t WHERE t.session_id = s.id) AS free FROM sessions s "
+             "WHERE s.patient_id = ? AND (s.number = ? OR s.number = (SELECT max(number) "
+             "FROM sessions WHERE patient_id = ?)) ORDER BY s.number DESC")
+_CARRYING = ("SELECT s.id, s.number, s.date, s.free{nulls} FROM (" + _SESSIONS + ") s "
+             "UNION ALL SELECT NULL, NULL, NULL, NULL, {columns} FROM ({also}) a")
+"""_SESSIONS and another read in one statement: each row the sessions' four columns, then
+the other read's."""
 
 
-def sessions_for_a_trial(conn: sa.Connection, patient: int, number: int | None
-                         ) -> tuple[tuple | None, tuple | None]:
+def sessions_for_a_trial(conn: sa.Connection, patient: int, number: int | None,
+                         also: Carried | None = None
+                         ) -> tuple[tuple | None, tuple | None, list[tuple]]:
     """The patient's latest session and their session `number` (None: none asked for),
     each (id, number, date, its next trial number) or None where there is none: all a new
-    trial's numbering needs, in one read (a round trip to a server)."""
-    rows = execute(conn, _SESSIONS, (patient, number, patient)).fetchall()
-    latest = rows[0] if rows else None
-    return latest, next((row for row in rows if row[1] == number), None)
+    trial's numbering needs, in one read (a round trip to a server); and the rows of `also`,
+    another read of the same transaction carried in that round trip, in no given order ([]
+    without it)."""
+    if also is None:
+        return *_latest_and_asked(
+            execute(conn, _SESSIONS, (patient, number, patient)).fetchall(), number), []
+    # one statement: the sessions' rows, then `also`'s, each side's columns NULL in the
+    # other's rows (UNION ALL keeps each column's type, no cast), told apart by the first
+    # column, a session's id: never NULL
+    rows, carried = [], []
+    for row in execute(conn, carrying(also), (patient, number, patient, *also.values)
+                       ).fetchall():
+        if row[0] is None:
+            carried.append(row[4:])
+        else:
+            rows.append(row[:4])
+    rows.sort(key=lambda row: row[1], reverse=True)  # as _SESSIONS orders them
+    return *_latest_and_asked(rows, number), carried
+
+
+def carrying(also: Carried) -> str:
+    """The statement of `sessions_for_a_trial` carrying `also` (its values: the patient, the
+    session number asked for, the patient again, then `also`'s)."""
+    return _CARRYING.format(also=also.statement, nulls=", NULL" * len(also.columns),
+                            columns=", ".join(f"a.{name}" for name in also.columns))
+
+
+def _latest_and_asked(rows: list[tuple], number: int | None) -> tuple[tuple | None,
+                                                                      tuple | None]:
+    return rows[0] if rows else None, next((row for row in rows if row[1] == number), None)
+
+
+@dataclass(frozen=True, slots=True)
+class Carried:
+    """A read `sessions_for_a_trial` carries in its round trip: its statement (`?`
+    placeholders), their values, and the names of its columns."""
+
+    statement: str
+    values: tuple
+    columns: tuple[str, ...]
 
 
 def insert_session(conn: sa.Connection, patient: int, number: int,

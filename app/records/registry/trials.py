@@ -30,6 +30,7 @@ from app.records.registry.numbering import refuse_number
 from app.records.registry.patients import is_code, patient_id
 from app.records.registry.provenance import checked_checksum, file_checksum
 from app.records.registry.sessions import (
+    Carried,
     insert_session,
     session_id_of,
     sessions_for_a_trial,
@@ -245,10 +246,12 @@ class Trials(Database):
         with self._write() as conn:
             # Each statement is a round trip to a server (bench/registration.py): the lock
             # first, on its own (what is read after it is what the station before left);
-            # then all the sessions say in one read; the pending proposal is decided with
-            # what its read returns (app.records.registry.proposals).
+            # then all the sessions say in one read, which carries the registry's other
+            # read at Start (the pending proposal: app.records.registry.proposals), decided
+            # after the insert with what it returned.
             patient = patient_id(conn, self.where, code, lock=True)
-            latest, asked = sessions_for_a_trial(conn, patient, session_number)
+            latest, asked, read = sessions_for_a_trial(
+                conn, patient, session_number, self._read_at_start(patient, params))
             if session_number is None and latest is not None and \
                     latest[2] == local_day.isoformat():
                 asked = latest  # today's session goes on
@@ -284,7 +287,7 @@ class Trials(Database):
                  utc_text(started_at), backend, patient_kind, self.station),
             )
             trial_id = cursor.scalar_one()
-            self._trial_begun(conn, patient, trial_id, params)
+            self._trial_begun(conn, trial_id, params, read)
         log.info("trial %d registered: patient %s session %d trial %d (%s)",
                  trial_id, code, session_number, trial_number, backend)
         return BegunTrial(trial_id, code, session_number, trial_number,
@@ -307,11 +310,18 @@ class Trials(Database):
         """Called in withdraw_trial's transaction before the trial's row goes (the
         proposals it decided go back to pending: app.records.registry.proposals)."""
 
-    def _trial_begun(self, conn: sa.Connection, patient: int, trial_id: int,
-                     parameters: str) -> None:
+    def _read_at_start(self, patient: int, parameters: str) -> Carried | None:
+        """What else begin_trial reads, after the patient's lock and before the trial's
+        insert, in its numbering's round trip (sessions.sessions_for_a_trial), given the
+        new trial's parameters' JSON as stored; None: nothing. Its rows go to
+        `_trial_begun`."""
+        return None
+
+    def _trial_begun(self, conn: sa.Connection, trial_id: int, parameters: str,
+                     read: list[tuple]) -> None:
         """Called in begin_trial's transaction once the trial is inserted, with its
-        parameters' JSON as stored; the registry's proposals decide the patient's pending
-        one here (app.records.registry.proposals)."""
+        parameters' JSON as stored and the rows of `_read_at_start`'s read; the registry's
+        proposals decide the patient's pending one here (app.records.registry.proposals)."""
 
     # -- the end of a trial ------------------------------------------------------------
     def finish_trial(
@@ -522,7 +532,7 @@ def _next_trial_number_in(conn: sa.Connection, session_id: int) -> int:
 
 def _suggest(conn: sa.Connection, code: str, patient: int,
              today: datetime.date) -> Registration:
-    latest, _ = sessions_for_a_trial(conn, patient, None)
+    latest, _, _ = sessions_for_a_trial(conn, patient, None)
     if latest is not None and latest[2] == today.isoformat():
         return Registration(code, latest[1], latest[3], False)
     return Registration(code, 1 if latest is None else latest[1] + 1, 1, True)

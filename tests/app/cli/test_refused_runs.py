@@ -123,3 +123,37 @@ def test_a_level_for_the_transparent_mode_is_refused_not_dropped(data, capsys, l
     assert err.count("\n") == 1
     assert "assistance" in err
     assert "transparent mode has no assistance level" in err
+
+
+def test_a_folder_that_stops_taking_writes_after_its_check_fails_the_run_loudly(
+        data, patient, capsys, tmp_path, monkeypatch, caplog):
+    """The patient's folder is checked whole once a process (DataDir.ensure); a disk that
+    then stops taking writes with its folders' modes unchanged (remounted read-only) is
+    not seen at the next registration. The trial file's own creation fails: the run ends
+    with one line saying why and what to do, the trial is withdrawn and the log says so."""
+    import errno
+    import logging
+
+    from device.recording.trialfile import making
+    from device.safewrite import OutputRefused
+
+    code, _, err = run(["run", "--code", patient, *SHORT], capsys)
+    assert code == 0, err
+
+    def read_only(path):
+        try:
+            raise OSError(errno.EROFS, "Read-only file system", str(path))
+        except OSError:
+            raise OutputRefused(f"cannot create {path}: read-only file system") from None
+
+    monkeypatch.setattr(making, "claim_private_file", read_only)
+    with caplog.at_level(logging.WARNING):
+        code, _, err = run(["run", "--code", patient, *SHORT], capsys)
+    assert code == 2
+    assert err.count("\n") == 1, err
+    assert "permission denied: the console cannot write in" in err
+    assert "the trial was not registered" in err
+    assert "withdrawn, its file was never written" in caplog.text
+    rows, files = trials_and_files(data, patient)
+    assert rows == [("complete", True)]
+    assert len(files) == 1

@@ -189,6 +189,85 @@ def test_a_read_only_folder_is_refused(own_folder):
     assert unprivileged(DataDir(writable).ensure, "trials") == writable / "trials"
 
 
+def _counting_probes(monkeypatch) -> list[str]:
+    """The folders `DataDir.ensure` probes with a written file from now on."""
+    probed: list[str] = []
+    mkstemp = datadir_module.tempfile.mkstemp
+
+    def counting(**kwargs):
+        probed.append(str(kwargs["dir"]))
+        return mkstemp(**kwargs)
+
+    monkeypatch.setattr(datadir_module.tempfile, "mkstemp", counting)
+    return probed
+
+
+def test_a_folder_checked_whole_is_not_checked_again_while_it_stands(tmp_path, monkeypatch):
+    """A trial's registration ensures the patient's folder each time: checked whole (the
+    root's privacy, the folders above it, a written probe) once a process, then only seen
+    to be the same folders with the same owners and modes (docs/performance.md)."""
+    probed = _counting_probes(monkeypatch)
+    data = DataDir(tmp_path / "data")
+    folder = data.ensure("trials", "P000001")
+    assert data.ensure("trials", "P000001") == folder
+    assert DataDir(tmp_path / "data").ensure("trials", "P000001") == folder
+    assert probed == [str(folder)]
+    data.ensure("trials", "P000002")  # another folder: checked whole
+    assert probed == [str(folder), str(folder.parent / "P000002")]
+
+
+def test_a_folder_removed_after_its_check_is_made_again(tmp_path, monkeypatch):
+    probed = _counting_probes(monkeypatch)
+    data = DataDir(tmp_path / "data")
+    folder = data.ensure("trials", "P000001")
+    shutil.rmtree(folder.parent)
+    assert data.ensure("trials", "P000001") == folder
+    assert folder.is_dir()
+    assert len(probed) == 2
+    # replaced by a file: refused, as at the first check
+    shutil.rmtree(folder)
+    folder.write_text("not a folder")
+    with pytest.raises(DataDirError, match="a file of that name is in the way"):
+        data.ensure("trials", "P000001")
+
+
+def test_a_folder_opened_to_others_after_its_check_is_refused(tmp_path):
+    """The root, or a folder above it, made writable by others after the check: the next
+    ensure checks whole again and refuses, as the first would have."""
+    above = tmp_path / "above"
+    data = DataDir(above / "data")
+    data.ensure("trials")
+    os.chmod(data.root, 0o770 | 0o007)
+    with pytest.raises(DataDirError, match="can be written by others"):
+        data.ensure("trials")
+    os.chmod(data.root, 0o700)
+    data.ensure("trials")
+    os.chmod(above, 0o777)
+    try:
+        with pytest.raises(DataDirError, match=r"others can write \(mode 777\)"):
+            data.ensure("trials")
+    finally:
+        os.chmod(above, 0o700)
+
+
+def test_a_folder_made_read_only_after_its_check_is_refused(own_folder):
+    """Made read-only (its mode) between two trials: refused at the next registration, as
+    at the first; as the user that permission bits bind."""
+    folder = own_folder("data", 0o700)
+
+    def twice():
+        data = DataDir(folder)
+        data.ensure("trials")
+        os.chmod(folder / "trials", 0o500)
+        try:
+            data.ensure("trials")
+        finally:
+            os.chmod(folder / "trials", 0o700)
+
+    with pytest.raises(DataDirError, match="cannot write in the data folder"):
+        unprivileged(twice)
+
+
 # -- names ---------------------------------------------------------------------------------
 
 def test_trial_files_are_named_from_code_numbers_and_utc_time(tmp_path):

@@ -31,6 +31,7 @@ import secrets
 
 from app.records.registry import proposals
 from app.records.registry.postgres.tables import SCHEMA_VERSION
+from app.records.registry.sessions import Carried, carrying
 
 log = logging.getLogger(__name__)
 
@@ -60,7 +61,9 @@ def _statements() -> tuple[tuple[str, tuple[str, ...]], ...]:
          "VALUES (%s, %s, '{}', %s, 'recording', %s, 'warm-up')",
          ("trial", "session", "code", "when")),
         (_driver(proposals.RECORD), ("nothing", "when", "trial")),
-        (_driver(proposals.PENDING), ("patient", "none", "patient", "none")),
+        # begin_trial's read after the lock: the sessions, and the pending proposal with them
+        (_driver(carrying(Carried(proposals.PENDING, (), proposals.PENDING_COLUMNS))),
+         ("patient", "none", "patient", "patient", "none", "patient", "none")),
         ("UPDATE proposals SET decision = 'kept', decided_at = %s WHERE trial_id = %s",
          ("when", "trial")),
         ("UPDATE trials SET status = 'complete', ended_at = %s WHERE id = %s "

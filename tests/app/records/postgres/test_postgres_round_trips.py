@@ -63,7 +63,8 @@ def test_a_trials_registration_makes_one_round_trip_a_statement_and_none_more(
         server_registries, tmp_path):
     """Each call: BEGIN, its statements, COMMIT, each one exchange with the server. Before,
     the pool pinged every connection it handed out (`pool_pre_ping`), one more exchange a
-    call: begin_trial 8, finish_trial and record_proposal 4 each."""
+    call: begin_trial 8, finish_trial and record_proposal 4 each; begin_trial 7 then, the
+    pending proposal read apart from the sessions."""
     registry = Registry(DataDir(tmp_path / "data"), server=server_registries.new(),
                         station="robot-1")
     code = registry.create_patient("Ada", "Example").code
@@ -73,9 +74,10 @@ def test_a_trials_registration_makes_one_round_trip_a_statement_and_none_more(
     wire = Wire(registry)
     try:
         registry.trial(first.trial_id)  # a connection in the pool, as a running station has
-        with wire.counting():  # the lock, the sessions, the insert, the proposal, its decision
+        with wire.counting():  # the lock, the sessions and the pending proposal, the insert,
+            # the proposal's decision (before, the proposal's read apart: 7)
             begun = registry.begin_trial(code, PARAMS, backend="simulator")
-        assert wire.exchanges == 7
+        assert wire.exchanges == 6
         with wire.counting():
             registry.finish_trial(begun.trial_id, "complete", {"rmse_x_m": 0.02})
         assert wire.exchanges == 3
