@@ -454,16 +454,9 @@ def test_a_sync_waiting_on_a_silent_server_holds_no_other_call(tmp_path):
     try:
         assert station.offline
         code = station.create_patient("Ada", "Offline").code
-        sync = threading.Thread(target=station.try_sync, daemon=True)
-        sync.start()
-        assert reaching.wait(60)
-        read = threading.Event()
-        threading.Thread(target=lambda: (station.suggest_registration(code), read.set()),
-                         daemon=True).start()
-        # a bound for a hang: the standby answers in milliseconds
-        assert read.wait(30), "a call waited behind the sync's wait for a silent server"
-        answer.set()
-        sync.join(60)
+        # the standby answers the read in milliseconds
+        _answered_while_waiting(station.try_sync, lambda: station.suggest_registration(code),
+                                reaching, answer)
         assert station.offline
     finally:
         answer.set()
@@ -498,18 +491,27 @@ def test_keeping_current_on_a_silent_server_holds_no_other_call(department):
 
     server._read = silent_once
     try:
-        kept = threading.Thread(target=station.keep_current, daemon=True)
-        kept.start()
-        assert reaching.wait(60)
-        read = threading.Event()
-        threading.Thread(target=lambda: (station.trial_summaries(code), read.set()),
-                         daemon=True).start()
-        # a bound for a hang: the server answers the window's call in milliseconds
-        assert read.wait(30), "a call waited behind keep_current's wait for a silent server"
-        answer.set()
-        kept.join(60)
+        # the server answers the window's call in milliseconds
+        _answered_while_waiting(station.keep_current, lambda: station.trial_summaries(code),
+                                reaching, answer)
         assert station.offline  # the silence seen: the next calls go to the standby
         assert [t.number for t in station.trials_for_patient(code)] == [1]
     finally:
         answer.set()
         station.close()
+
+
+def _answered_while_waiting(waiting, call, reaching, answer):
+    """`call` returns while `waiting` (on another thread) waits for a silent server (it sets
+    `reaching`, then waits until the test sets `answer`); then `waiting` ends."""
+    import threading
+
+    waits = threading.Thread(target=waiting, daemon=True)
+    waits.start()
+    assert reaching.wait(60)
+    read = threading.Event()
+    threading.Thread(target=lambda: (call(), read.set()), daemon=True).start()
+    # a bound for a hang, not a measure of speed
+    assert read.wait(30), f"a call waited behind {waiting.__name__}'s wait for a silent server"
+    answer.set()
+    waits.join(60)
