@@ -35,12 +35,13 @@ from PySide6.QtWidgets import (
 from app.errors import RegistryError
 from app.records.registry import BIRTH_YEAR_MIN, Patient, Registration, Session
 from app.records.store import RecordStore
-from app.units import CM_PER_M as CM, cm, point_cm
+from app.units import CM_PER_M as CM
 from core.arm import BODY_MASS_RANGE_KG, FOREARM_RANGE_M, UPPER_ARM_RANGE_M
 from core.trial import POSITION_RANGE_M
 from ui import plots, theme
 from ui.fields import ComboBox, DoubleSpinBox, SpinBox, commit_all
 from ui.tabs.clinical_record import ClinicalRecord
+from ui.tabs.patient_words import describe, measurements
 from ui.tabs.registration_numbers import Numbers, read_numbers, session_trials
 
 NOT_MEASURED = "not measured"
@@ -63,36 +64,6 @@ def _optional_spin(low: float, high: float, decimals: int, suffix: str,
 
 def _optional_value(box: QDoubleSpinBox, scale: float = 1.0) -> float | None:
     return None if box.value() == box.minimum() else box.value() / scale
-
-
-def describe(patient: Patient) -> str:
-    """One line for the list: name, code and what tells two namesakes apart."""
-    parts = [f"{patient.display_name} — {patient.code}"]
-    if patient.birth_year:
-        parts.append(f"born {patient.birth_year}")
-    if patient.side:
-        parts.append(f"{patient.side} arm")
-    return ", ".join(parts)
-
-
-def measurements(patient: Patient) -> str:
-    """The patient's stored measurements, in the form's units (kg, cm), and what happens
-    to the ones not stored."""
-    parts = []
-    if patient.body_mass_kg is not None:
-        parts.append(f"body mass {patient.body_mass_kg:.1f} kg")
-    if patient.upper_arm_m is not None:
-        parts.append(f"upper arm {cm(patient.upper_arm_m)}")
-    if patient.forearm_m is not None:
-        parts.append(f"forearm {cm(patient.forearm_m)}")
-    if patient.shoulder_m is not None:
-        parts.append(f"shoulder at {point_cm(patient.shoulder_m)}")
-    if not parts:
-        return ("No measurements stored: the Parameters tab's body and shoulder values are "
-                "used.")
-    missing = 4 - len(parts)
-    rest = " The others come from the Parameters tab." if missing else ""
-    return "Stored: " + ", ".join(parts) + ". The Parameters tab now uses them." + rest
 
 
 class RegistrationTab(QWidget):
@@ -120,6 +91,12 @@ class RegistrationTab(QWidget):
         self._search_timer.setSingleShot(True)
         self._search_timer.setInterval(SEARCH_DELAY_MS)
         self._search_timer.timeout.connect(self.search)
+        # the registry searched off the window's thread: on a station whose network went
+        # silent a search waited the registry's bounded wait (5 s) with the window frozen
+        self.searching = plots.Background(self)
+        self.searching.done.connect(self._found)
+        self.searching.failed.connect(self._search_failed)
+        self._search_text: str | None = None  # the text of the newest search asked for
 
         # Find
         self.search_field = QLineEdit()
@@ -305,25 +282,44 @@ class RegistrationTab(QWidget):
 
     # -- finding ------------------------------------------------------------------
     def search(self) -> None:
+        """Search the registry for the text typed (on the tab's own thread); the list
+        shows what the newest search found once it is found (`_found`)."""
         self._search_timer.stop()
-        self.results.clear()
         if self.registry is None:
+            self.results.clear()
             self.found.setText("No registry is open.")
             return
-        text = self.search_field.text()
-        try:
-            patients = self.registry.search_patients(text)
-        except RegistryError as exc:
-            self.found.setText(f"{theme.PROBLEM_SIGN} {exc}")
+        text = self._search_text = self.search_field.text()
+        self.found.setText("Searching…")
+        self.searching.submit(text, self.registry.search_patients, text)
+
+    def _found(self, text: str, patients: list[Patient]) -> None:
+        """The patients a search for `text` found, listed when it is still the newest."""
+        if text != self._search_text:
             return
-        for patient in patients:
-            item = QListWidgetItem(describe(patient))
-            item.setData(Qt.ItemDataRole.UserRole, patient)
-            self.results.addItem(item)
+        # Filled without a word to `_picked`: the list makes its first item current as it
+        # is filled, and this arrives whenever the search ends, so another patient than
+        # the one chosen meanwhile was chosen in the therapist's place. The current item
+        # is the chosen patient, or none.
+        self.results.blockSignals(True)
+        try:
+            self.results.clear()
+            for patient in patients:
+                item = QListWidgetItem(describe(patient))
+                item.setData(Qt.ItemDataRole.UserRole, patient)
+                self.results.addItem(item)
+            self.results.setCurrentRow(-1)
+            if self._patient is not None:
+                self._select_in_list(self._patient.code)
+        finally:
+            self.results.blockSignals(False)
         self.found.setText(f"{len(patients)} patient{'s' if len(patients) != 1 else ''} found"
                            if text.strip() else f"{len(patients)} registered")
-        if self._patient is not None:
-            self._select_in_list(self._patient.code)
+
+    def _search_failed(self, text: str, message: str) -> None:
+        if text == self._search_text:
+            self.results.clear()
+            self.found.setText(f"{theme.PROBLEM_SIGN} {message}")
 
     def _select_in_list(self, code: str) -> None:
         for row in range(self.results.count()):
