@@ -83,8 +83,9 @@ KNOWN: dict[tuple[str, str], tuple[int, str]] = {
     ("app/records/station/waiting.py", "sqlite3.connect"): (
         1, "the standby read only (mode=ro), for `rehab db status` to say what waits in it"),
     ("app/records/station/refresh.py", "sqlite3.connect"): (
-        1, "the standby brought to the server's rows in place, in one transaction, only while "
-           "it holds nothing unsent (as the station last left it)"),
+        2, "the standby brought to the server's rows in place, in one transaction, only while "
+           "it holds nothing unsent (as the station last left it); and its manifest read "
+           "read-only (mode=ro) before the server is asked"),
     ("app/records/station/mirror.py", "tempfile.mkstemp"): (
         1, "the standby built aside in the station's offline/ folder (0600)"),
     ("app/records/station/mirror.py", "sqlite3.connect"): (1, "on that temporary"),

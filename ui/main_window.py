@@ -64,6 +64,7 @@ from ui.views.loop_health import LoopHealth
 from ui.views.messages import Messages
 from ui.views.replay_strip import replay_line
 from ui.views.trialview import TrialView
+from ui.window.after_trial import AfterTrial, Pending, pending_offer
 from ui.window.assessments import AssessmentControl
 from ui.window.fault_latch import FaultLatch
 from ui.window.message_line import MessageLine
@@ -81,8 +82,8 @@ HEARTBEAT_MS = 100  # the loop faults after 0.5 s without one
 HEALTH_MS = 500
 
 
-class MainWindow(AssessmentControl, PlanControl, TrialStart, TrialActions, TrialEmg, FaultLatch,
-                 MessageLine, RememberedSettings, StationStatus, PatientScreenControl,
+class MainWindow(AssessmentControl, PlanControl, TrialStart, AfterTrial, TrialActions, TrialEmg,
+                 FaultLatch, MessageLine, RememberedSettings, StationStatus, PatientScreenControl,
                  QMainWindow):
     """The therapist's console."""
 
@@ -344,19 +345,17 @@ class MainWindow(AssessmentControl, PlanControl, TrialStart, TrialActions, Trial
         self.replay.files_folder = self.angles.files_folder = str(trials)
         self.report.pdf_folder = str(reports)
 
-    def _offer_pending_proposal(self, code: str) -> None:
+    def _offer_pending_proposal(self, code: str, offer: Pending | None = None) -> None:
         """The patient's last proposal the registry still holds as pending (made after a
-        trial, not yet decided by the next one's start): offered again after a restart."""
+        trial, not yet decided by the next one's start): offered again after a restart.
+        `offer`: as read on the job thread (ui.window.after_trial), else read here."""
         from app.trials.progression import Proposal
 
-        pending = self.registry.pending_proposal(code)
-        if pending is None:
-            self.parameters_tab.show_proposal(None)
-            return
-        trial = self.registry.trial(pending.trial_id)
-        after = (f"After trial {trial.number} of session {trial.session_number} "
-                 f"({trial.session_date:%d %b %Y}):")
-        self.parameters_tab.show_proposal(Proposal.from_dict(pending.proposal), after=after)
+        if offer is None:
+            offer = pending_offer(self.registry, code)
+        self.parameters_tab.show_proposal(
+            None if offer.proposal is None else Proposal.from_dict(offer.proposal),
+            after=offer.after)
 
     def _on_registered(self, patient: Patient, registration: Registration) -> None:
         self.patient = patient

@@ -93,7 +93,8 @@ def test_refusal_from_the_registry_is_shown_as_it_says(qtbot, tab, registry):
     with pytest.raises(DuplicateNumberError) as refused:
         registry.begin_trial(code, THESIS_SUBJECT, backend="simulator", session_number=1,
                              trial_number=1)
-    tab.search()
+    tab.search()  # on the tab's own thread
+    qtbot.waitUntil(lambda: tab.results.count() == 1, timeout=60000)
     tab.results.setCurrentRow(0)
     tab.show_refusal(refused.value)
     assert tab.trial_problem.isVisible()
@@ -149,3 +150,29 @@ def test_picking_a_patient_shows_their_stored_measurements(qtbot, tab, registry)
         assert part in text, part
     tab.choose(bare)
     assert "No measurements stored" in tab.measurements_label.text()
+
+
+def test_the_registry_is_searched_off_the_windows_thread(qtbot, tab, registry, monkeypatch):
+    """A search on a station whose network went silent waited the registry's bounded wait
+    (5 s) on the window's thread, the window frozen; it runs on the tab's own thread, and
+    the list shows what the newest search found."""
+    import threading
+
+    registry.create_patient("Ada", "Lovelace")
+    registry.create_patient("Grace", "Hopper")
+    asked = []
+    search = registry.search_patients
+
+    def watched(text):
+        asked.append(threading.current_thread() is threading.main_thread())
+        return search(text)
+
+    monkeypatch.setattr(registry, "search_patients", watched)
+    tab.search_field.setText("hop")
+    tab.search()
+    qtbot.waitUntil(lambda: tab.results.count() == 1, timeout=60000)
+    assert "Hopper, Grace" in tab.results.item(0).text()
+    assert tab.found.text() == "1 patient found"
+    assert asked
+    assert not any(asked), "the registry was searched on the window's thread"
+

@@ -96,7 +96,8 @@ def test_an_assessment_leaves_the_exercises_proposal_offered(qtbot, window):
     exercise = register(window.registry, code, {}, task="",
                         parameters=THESIS_SUBJECT.replace(repetitions=1), finish=False)
     done = finalize_trial(window.registry, exercise.trial_id, "complete")
-    window._finalized(exercise.trial_id, done)
+    window._finalized(exercise.trial_id, done)  # its reads after it on the job thread
+    qtbot.waitUntil(lambda: window.unsaved_trial == exercise.trial_id, timeout=60000)
     box = window.parameters_tab.proposal
     assert not box.isHidden()
     offered = box.proposal
@@ -106,6 +107,7 @@ def test_an_assessment_leaves_the_exercises_proposal_offered(qtbot, window):
     done = finalize_trial(window.registry, assessment.trial_id, "complete")
     assert done.proposal is None
     window._finalized(assessment.trial_id, done)
+    qtbot.waitUntil(lambda: window.unsaved_trial == assessment.trial_id, timeout=60000)
     assert not box.isHidden(), "the exercise's proposal was hidden after an assessment"
     assert box.proposal == offered
 

@@ -52,7 +52,7 @@ class ClinicalRecord(QGroupBox):
         self.session = SpinBox()
         self.session.setRange(1, MAX_NUMBER)
         self.session.setAccessibleName("Session of the record")
-        self.session.valueChanged.connect(self._fill_trials)
+        self.session.valueChanged.connect(lambda _: self._fill_trials())
 
         self.scale = ComboBox()
         for scale in SCALES:
@@ -200,11 +200,22 @@ class ClinicalRecord(QGroupBox):
                     "why, who and when).")
         self._act(do)
 
-    def refresh_trials(self) -> None:
+    def refresh_trials(self, read: tuple[str, int, list[tuple[str, int]]] | None = None
+                       ) -> None:
         """The session's finished trials again (after a trial ended: the list was filled
         when the patient was chosen, so the trials run since could not be marked, and a
-        note on one was refused as "no finished trial")."""
-        self._fill_trials()
+        note on one was refused as "no finished trial"). `read`: (patient code, session,
+        `trial_items`) read on the window's job thread, shown when still of the record's
+        patient and session (else read again here)."""
+        if read is not None and self._patient is not None \
+                and read[:2] == (self._patient.code, self.session.value()):
+            self._fill_trials(read[2])
+        else:
+            self._fill_trials()
+
+    def shown_session(self) -> tuple[str, int] | None:
+        """(patient code, session) whose trials the record lists; None when nobody."""
+        return None if self._patient is None else (self._patient.code, self.session.value())
 
     @property
     def patient(self) -> Patient | None:
@@ -226,22 +237,31 @@ class ClinicalRecord(QGroupBox):
     def _hint(self) -> None:
         self.scores.setPlaceholderText(SCORE_HINT[self.scale.currentData()])
 
-    def _fill_trials(self) -> None:
-        """The session's finished trials, the one chosen before kept chosen (refilling
-        chose the first: "Trial 1 marked invalid" was said when trial 3 was marked)."""
+    def _fill_trials(self, items: list[tuple[str, int]] | None = None) -> None:
+        """The session's finished trials (`items` when read already), the one chosen before
+        kept chosen (refilling chose the first: "Trial 1 marked invalid" was said when
+        trial 3 was marked)."""
         chosen = self.trial.currentData()
         self.trial.clear()
         if self._patient is None or self.registry is None:
             return
-        invalid = self.registry.invalid_trials(self._patient.code)
-        try:
-            trials = self.registry.trials(self._patient.code, self.session.value())
-        except RegistryError:
-            trials = []
-        for t in trials:
-            if t.finished:
-                state = " (invalid)" if t.id in invalid else ""
-                self.trial.addItem(f"{t.number}{state}", t.id)
+        if items is None:
+            items = trial_items(self.registry, self._patient.code, self.session.value())
+        for label, trial_id in items:
+            self.trial.addItem(label, trial_id)
         index = self.trial.findData(chosen)
         if index >= 0:
             self.trial.setCurrentIndex(index)
+
+
+def trial_items(registry: RecordStore, code: str, session: int) -> list[tuple[str, int]]:
+    """The finished trials of patient `code`'s session as the record lists them: (its
+    number, marked "(invalid)" when its latest mark is, its id); none when the session
+    cannot be read."""
+    invalid = registry.invalid_trials(code)
+    try:
+        trials = registry.trials(code, session)
+    except RegistryError:
+        trials = []
+    return [(f"{t.number}{' (invalid)' if t.id in invalid else ''}", t.id)
+            for t in trials if t.finished]

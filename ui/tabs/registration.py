@@ -14,6 +14,7 @@ pseudonymous code leaves this tab.
 from __future__ import annotations
 
 import datetime
+from collections.abc import Callable
 
 from PySide6.QtCore import Qt, QTimer, Signal
 from PySide6.QtWidgets import (
@@ -31,15 +32,17 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app.errors import RegistryError, SessionNotFound
-from app.records.registry import BIRTH_YEAR_MIN, Patient, Registration
+from app.errors import RegistryError
+from app.records.registry import BIRTH_YEAR_MIN, Patient, Registration, Session
 from app.records.store import RecordStore
-from app.units import CM_PER_M as CM, cm, point_cm
+from app.units import CM_PER_M as CM
 from core.arm import BODY_MASS_RANGE_KG, FOREARM_RANGE_M, UPPER_ARM_RANGE_M
 from core.trial import POSITION_RANGE_M
 from ui import plots, theme
 from ui.fields import ComboBox, DoubleSpinBox, SpinBox, commit_all
 from ui.tabs.clinical_record import ClinicalRecord
+from ui.tabs.patient_words import describe, measurements
+from ui.tabs.registration_numbers import Numbers, read_numbers, session_trials
 
 NOT_MEASURED = "not measured"
 SEARCH_DELAY_MS = 150
@@ -61,36 +64,6 @@ def _optional_spin(low: float, high: float, decimals: int, suffix: str,
 
 def _optional_value(box: QDoubleSpinBox, scale: float = 1.0) -> float | None:
     return None if box.value() == box.minimum() else box.value() / scale
-
-
-def describe(patient: Patient) -> str:
-    """One line for the list: name, code and what tells two namesakes apart."""
-    parts = [f"{patient.display_name} — {patient.code}"]
-    if patient.birth_year:
-        parts.append(f"born {patient.birth_year}")
-    if patient.side:
-        parts.append(f"{patient.side} arm")
-    return ", ".join(parts)
-
-
-def measurements(patient: Patient) -> str:
-    """The patient's stored measurements, in the form's units (kg, cm), and what happens
-    to the ones not stored."""
-    parts = []
-    if patient.body_mass_kg is not None:
-        parts.append(f"body mass {patient.body_mass_kg:.1f} kg")
-    if patient.upper_arm_m is not None:
-        parts.append(f"upper arm {cm(patient.upper_arm_m)}")
-    if patient.forearm_m is not None:
-        parts.append(f"forearm {cm(patient.forearm_m)}")
-    if patient.shoulder_m is not None:
-        parts.append(f"shoulder at {point_cm(patient.shoulder_m)}")
-    if not parts:
-        return ("No measurements stored: the Parameters tab's body and shoulder values are "
-                "used.")
-    missing = 4 - len(parts)
-    rest = " The others come from the Parameters tab." if missing else ""
-    return "Stored: " + ", ".join(parts) + ". The Parameters tab now uses them." + rest
 
 
 class RegistrationTab(QWidget):
@@ -118,6 +91,12 @@ class RegistrationTab(QWidget):
         self._search_timer.setSingleShot(True)
         self._search_timer.setInterval(SEARCH_DELAY_MS)
         self._search_timer.timeout.connect(self.search)
+        # the registry searched off the window's thread: on a station whose network went
+        # silent a search waited the registry's bounded wait (5 s) with the window frozen
+        self.searching = plots.Background(self)
+        self.searching.done.connect(self._found)
+        self.searching.failed.connect(self._search_failed)
+        self._search_text: str | None = None  # the text of the newest search asked for
 
         # Find
         self.search_field = QLineEdit()
@@ -196,7 +175,7 @@ class RegistrationTab(QWidget):
         self.session = SpinBox()
         self.session.setRange(1, MAX_NUMBER)
         self.session.setAccessibleName("Session number")
-        self.session.valueChanged.connect(self._session_edited)
+        self.session.valueChanged.connect(lambda _: self._session_edited())
         self.session_note = theme.set_role(QLabel(""), "caption")
         self.trial = SpinBox()
         self.trial.setRange(1, MAX_NUMBER)
@@ -205,7 +184,7 @@ class RegistrationTab(QWidget):
         self.trial_problem = self._problem_label()
         self.confirm = theme.set_role(QPushButton("Use this patient and these numbers"),
                                       "primary")
-        self.confirm.clicked.connect(self.confirm_registration)
+        self.confirm.clicked.connect(lambda: self.confirm_registration())
         self.confirmed = theme.set_role(QLabel(""), "ok")
         self.confirmed.setWordWrap(True)
         trial_box = QGroupBox("This trial")
@@ -262,24 +241,38 @@ class RegistrationTab(QWidget):
         """The confirmed patient code and numbers, or None before confirmation."""
         return self._registration
 
-    def refresh_numbers(self) -> None:
-        """Fill in the registry's numbers again (after a trial was registered)."""
+    def numbers_reader(self) -> Callable[[], Numbers] | None:
+        """`refresh_numbers`'s reads as one call for the window's job thread (None when no
+        patient is chosen): what it returns is shown by `refresh_numbers(numbers)`."""
+        if self._patient is None or self.registry is None:
+            return None
+        registry, code, record = self.registry, self._patient.code, self.clinical.shown_session()
+        return lambda: read_numbers(registry, code, record)
+
+    def refresh_numbers(self, numbers: Numbers | None = None) -> None:
+        """Fill in the registry's numbers again (after a trial was registered): `numbers`
+        as read on the job thread (`numbers_reader`), else read here. Numbers read for a
+        patient no longer chosen are not shown (choosing read the new one's)."""
         if self._patient is None or self.registry is None:
             return
+        if numbers is None:
+            numbers = self.numbers_reader()()
+        elif numbers.code != self._patient.code:
+            return
         was_confirmed = self._registration is not None
-        suggestion = self.registry.suggest_registration(self._patient.code)
+        suggestion = numbers.suggestion
         for box, value in ((self.session, suggestion.session_number),
                            (self.trial, suggestion.trial_number)):
             box.blockSignals(True)
             box.setValue(value)
             box.blockSignals(False)
-        self._session_edited()
+        self._session_edited(numbers.sessions)
         # the clinical record's trials: the one just finished can be marked or noted
-        self.clinical.refresh_trials()
+        self.clinical.refresh_trials(numbers.record)
         if was_confirmed:
             # the therapist confirmed this patient: the next trial takes the next number
             # at once, the one shown (Start used to keep the old one and be refused)
-            self.confirm_registration()
+            self.confirm_registration(numbers)
 
     def show_refusal(self, refusal: Exception | str) -> None:
         """Show the registry's refusal of the numbers (e.g. DuplicateNumberError raised by
@@ -289,25 +282,44 @@ class RegistrationTab(QWidget):
 
     # -- finding ------------------------------------------------------------------
     def search(self) -> None:
+        """Search the registry for the text typed (on the tab's own thread); the list
+        shows what the newest search found once it is found (`_found`)."""
         self._search_timer.stop()
-        self.results.clear()
         if self.registry is None:
+            self.results.clear()
             self.found.setText("No registry is open.")
             return
-        text = self.search_field.text()
-        try:
-            patients = self.registry.search_patients(text)
-        except RegistryError as exc:
-            self.found.setText(f"{theme.PROBLEM_SIGN} {exc}")
+        text = self._search_text = self.search_field.text()
+        self.found.setText("Searching…")
+        self.searching.submit(text, self.registry.search_patients, text)
+
+    def _found(self, text: str, patients: list[Patient]) -> None:
+        """The patients a search for `text` found, listed when it is still the newest."""
+        if text != self._search_text:
             return
-        for patient in patients:
-            item = QListWidgetItem(describe(patient))
-            item.setData(Qt.ItemDataRole.UserRole, patient)
-            self.results.addItem(item)
+        # Filled without a word to `_picked`: the list makes its first item current as it
+        # is filled, and this arrives whenever the search ends, so another patient than
+        # the one chosen meanwhile was chosen in the therapist's place. The current item
+        # is the chosen patient, or none.
+        self.results.blockSignals(True)
+        try:
+            self.results.clear()
+            for patient in patients:
+                item = QListWidgetItem(describe(patient))
+                item.setData(Qt.ItemDataRole.UserRole, patient)
+                self.results.addItem(item)
+            self.results.setCurrentRow(-1)
+            if self._patient is not None:
+                self._select_in_list(self._patient.code)
+        finally:
+            self.results.blockSignals(False)
         self.found.setText(f"{len(patients)} patient{'s' if len(patients) != 1 else ''} found"
                            if text.strip() else f"{len(patients)} registered")
-        if self._patient is not None:
-            self._select_in_list(self._patient.code)
+
+    def _search_failed(self, text: str, message: str) -> None:
+        if text == self._search_text:
+            self.results.clear()
+            self.found.setText(f"{theme.PROBLEM_SIGN} {message}")
 
     def _select_in_list(self, code: str) -> None:
         for row in range(self.results.count()):
@@ -417,10 +429,11 @@ class RegistrationTab(QWidget):
         for widget in (self.session, self.trial, self.confirm):
             widget.setEnabled(on)
 
-    def _session_edited(self) -> None:
+    def _session_edited(self, sessions: dict[int, Session] | None = None) -> None:
         if self._patient is None or self.registry is None:
             return
-        sessions = {s.number: s for s in self.registry.sessions(self._patient.code)}
+        if sessions is None:
+            sessions = {s.number: s for s in self.registry.sessions(self._patient.code)}
         session = sessions.get(self.session.value())
         if session is None:
             self.session_note.setText("a new session")
@@ -443,8 +456,9 @@ class RegistrationTab(QWidget):
         if was:
             self.unconfirmed.emit()
 
-    def confirm_registration(self) -> Registration | None:
-        """Check the numbers against the registry and, if free, emit `registered`."""
+    def confirm_registration(self, numbers: Numbers | None = None) -> Registration | None:
+        """Check the numbers against the registry (`numbers` when they were read for the
+        numbers shown) and, if free, emit `registered`."""
         patient = self._patient
         if patient is None or self.registry is None:
             return None
@@ -453,23 +467,27 @@ class RegistrationTab(QWidget):
             self.show_refusal(refused[0])
             return None
         code, session, trial = patient.code, self.session.value(), self.trial.value()
-        try:
-            used = {t.number: t for t in self.registry.trials(code, session)}
-        except SessionNotFound:
-            used = {}
-        except RegistryError as exc:
-            self.show_refusal(exc)
+        if numbers is not None and (numbers.code, numbers.suggestion.session_number,
+                                    numbers.suggestion.trial_number) != (code, session, trial):
+            numbers = None  # read for other numbers than those shown: read again
+        used = numbers.used if numbers is not None else \
+            session_trials(self.registry, code, session)
+        if isinstance(used, RegistryError):
+            self.show_refusal(used)
             return None
         if trial in used:
-            free = self.registry.next_trial_number(code, session)
+            free = numbers.free if numbers is not None else \
+                self.registry.next_trial_number(code, session)
             started = used[trial].started_at.astimezone().strftime("%d %b %Y %H:%M")
             self.show_refusal(
                 f"Patient {code} session {session} already has a trial {trial} (started "
                 f"{started}); use {free}, the next free number.")
             return None
         self.trial_problem.hide()
-        registration = Registration(code, session, trial, new_session=not used and not any(
-            s.number == session for s in self.registry.sessions(code)))
+        sessions = numbers.sessions if numbers is not None else \
+            {s.number: s for s in self.registry.sessions(code)}
+        registration = Registration(code, session, trial,
+                                    new_session=not used and session not in sessions)
         self._registration = registration
         self.confirmed.setText(f"Next trial: {code}, session {session}, trial {trial}.")
         self.bring_into_view(self.confirmed)

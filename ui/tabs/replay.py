@@ -29,6 +29,7 @@ from PySide6.QtWidgets import (
 
 from app.errors import AppError
 from app.pose.replay import ReplayVideo
+from app.records.registry import Trial
 from app.records.store import RecordStore
 from app.trials.reader import read_trial
 from ui import plots, theme
@@ -187,15 +188,18 @@ class ReplayTab(QWidget):
     def set_registry(self, registry: RecordStore) -> None:
         self.registry = registry
 
-    def set_patient(self, code: str | None) -> None:
-        """List this patient's trials from the registry (None: clear the list)."""
+    def set_patient(self, code: str | None, trials: list[Trial] | None = None) -> None:
+        """List this patient's trials from the registry (None: clear the list); `trials`:
+        theirs as read on the window's job thread (ui.window.after_trial), else read here."""
         self._code = code
         self.trials.clear()
         if code is None or self.registry is None:
             self.list_heading.setText("Trials")
             return
         self.list_heading.setText(f"Trials of {code}")
-        for trial in reversed(self.registry.trials_for_patient(code)):
+        if trials is None:
+            trials = self.registry.trials_for_patient(code)
+        for trial in reversed(trials):
             item = QListWidgetItem(describe_trial(trial))
             item.setData(Qt.ItemDataRole.UserRole, trial.id)
             self.trials.addItem(item)

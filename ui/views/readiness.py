@@ -52,7 +52,8 @@ def start_needs(*, registered: bool, built: bool, stale: bool, saving: bool = Fa
                 registering: bool = False) -> str:
     """What Start waits for beyond the robot's state ('' when nothing). `saving`: the last
     trial's file is not closed yet, or its trial not yet finished into the registry
-    from it (its row, its analysis and the next proposal); `registering`: the trial of
+    from it (its row, its analysis and the next proposal), or the registry's numbers and
+    proposal after it not yet read (ui.window.after_trial); `registering`: the trial of
     the Start pressed is being registered."""
     if registering:
         return REGISTERING

@@ -141,9 +141,10 @@ class TrialStart:
             self._start_not_run(why)
             self._refresh_buttons()
             return
-        # the next trial's number at once: a Start pressed as soon as this trial ends
-        # (before it is finished into the registry) was refused as a number already used
-        self.registration_tab.refresh_numbers()
+        # the next trial's number now (read on the job thread; Start waits for it): a Start
+        # pressed as soon as this trial ends (before it is finished into the registry) was
+        # refused as a number already used
+        self.read_numbers()
         self._refresh_buttons()
 
     def _press_gone(self, press: Press) -> str:

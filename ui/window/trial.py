@@ -220,8 +220,10 @@ class TrialActions:
         """A trial is begun and not yet finished into the registry: its file still open,
         or being finished (its analysis, the registry's row and the next proposal). The
         next Start waits: started meanwhile, it left the last trial's proposal pending
-        for good (undecided by the trial after it, which registered before it was made)."""
-        return self.trial_id is not None or bool(self._finishing)
+        for good (undecided by the trial after it, which registered before it was made).
+        And the registry's reads after it, on the job thread (ui.window.after_trial): the
+        next numbers and the proposal to offer."""
+        return self.trial_id is not None or bool(self._finishing) or self.reading_after > 0
 
     def _finish(self, trial_id: int, work) -> None:
         """Finish trial `trial_id` into the registry on the job thread (`work`), then show
@@ -331,8 +333,12 @@ class TrialActions:
             self._say(f"The refused trial: {done.words}.", problem=True)
 
         self.jobs.run(lambda: take_back(self.registry, trial_id, why), taken_back)
-        if self.registration is not None:
-            self.jobs.run(lambda: None, lambda _: self.registration_tab.refresh_numbers())
+        reader = self.registration_tab.numbers_reader() if self.registration is not None \
+            else None
+        if reader is not None:
+            # read after the take back; Start does not wait for them (a number the trial
+            # left used is refused at Start with the next free one named)
+            self.jobs.run(reader, self.registration_tab.refresh_numbers)
 
     def _on_state(self, state: int, reason: str) -> None:
         if State(state) != self.state:
@@ -416,25 +422,3 @@ class TrialActions:
             self._refresh_buttons()
         if kind == "closed":
             self.force_estimate.trial_closed(path)
-
-    def _finalized(self, trial_id: int, done) -> None:
-        self.unsaved_trial = trial_id
-        self._live_from_file(done.path)
-        other = self.patient is not None and \
-            self.registry.trial(trial_id).patient_code != self.patient.code
-        if (done.proposal is None or other) and self.patient is not None:
-            # a trial that proposes nothing (an assessment) leaves the exercise's pending
-            # proposal where it was: offered still, as after a restart; and a patient
-            # chosen while the trial ran is offered their own, never the trial's patient's
-            self._offer_pending_proposal(self.patient.code)
-        else:
-            self.parameters_tab.show_proposal(done.proposal)
-        if self.registration is not None:
-            self.registration_tab.refresh_numbers()
-        self.report.load_registry_trial(self.registry, trial_id)
-        if self.patient is not None:
-            self.progress.set_patient(self.patient.code)
-            self.replay.set_patient(self.patient.code)
-        self.tabs.setCurrentWidget(self.report)
-        self._refresh_buttons()
-        self.store_trials()  # a copy in the department's trial store, when it has one

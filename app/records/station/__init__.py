@@ -49,7 +49,12 @@ from app.records.station.mirror import (
     standby_path,
     standby_rows,
 )
-from app.records.station.refresh import refresh_patient
+from app.records.station.refresh import (
+    mirrored_seals,
+    refresh_patient,
+    server_changes,
+    write_changes,
+)
 from app.records.station.sync import Synced, SyncRefused, already_sent, replay
 from device.safewrite import OutputRefused, make_private_folders
 
@@ -203,12 +208,50 @@ class StationRegistry:
         the server's (what other stations recorded for them meanwhile), so that a trial
         recorded here after the network drops is numbered after theirs. The window calls it
         now and then between trials (ui/window/station.py); one round trip when nothing
-        changed. Offline, on a second console or a researcher's login: nothing."""
+        changed. Offline, on a second console or a researcher's login: nothing.
+
+        The server is asked without holding the other calls (as `try_sync` reaches it): on
+        a silent network its answer waits out the bounded wait
+        (app.records.registry.postgres.deadline), and a call of the window's meanwhile
+        waited behind it. The standby is written under the lock, and only when nothing
+        changed it since it was read (a write mirrored meanwhile brought it current)."""
+        path = standby_path(self.data_dir)
         with self._one:
             if self.offline or not self.held or self._server is None \
                     or self._server.research or not self._recent:
                 return
-            self._mirror(only=self._recent[-1:])
+            server, code, built = self._server, self._recent[-1], self._built
+            if built is None or self._changed_since_built(path):
+                self._mirror(only=[code])  # built whole: the standby is not as last left
+                return
+            try:
+                ours = mirrored_seals(path, code)
+            except sqlite3.Error as exc:
+                log.warning("this station's standby registry is built whole again (%s)", exc)
+                self._mirror()
+                return
+        try:
+            with server._read() as conn:
+                changes = server_changes(conn, code, ours)
+        except RegistryUnreachable as exc:
+            with self._one:
+                if not self.offline and self._server is server:
+                    self._go_offline(exc)
+            return
+        except RegistryError as exc:
+            log.warning("this station's standby registry was not brought up to date: %s", exc)
+            return
+        with self._one:
+            if changes is None or self.offline or self._server is not server \
+                    or self._built is not built or self._changed_since_built(path):
+                return  # the next call (or a write's mirror meanwhile) keeps it current
+            try:
+                write_changes(path, changes)
+            except (RegistryError, sqlite3.Error, OSError) as exc:
+                log.warning("this station's standby registry is built whole again (%s)", exc)
+                self._mirror()
+                return
+            self._built = file_state(path)
 
     def _track(self, name: str, args: tuple, kwargs: dict, result: Any) -> bool:
         """Note the patient a call names (the latest first to mirror) and the trials open;

@@ -14,6 +14,7 @@ as in a build; on any doubt the caller builds the standby whole.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import json
 import sqlite3
 
@@ -31,13 +32,64 @@ from app.records.station.mirror import (
 )
 
 
+@dataclasses.dataclass(frozen=True)
+class Changes:
+    """What the standby lacks of one patient's rows on the server: `ours`, the standby's
+    keys and seals per table as read (a row in it is updated, not inserted); `gone`, the
+    keys the server no longer has; `rows`, the server's rows whose seal differs."""
+
+    code: str
+    ours: dict[str, dict[str, str]]
+    gone: dict[str, set[str]]
+    rows: dict[str, list[tuple]]
+
+    def __bool__(self) -> bool:
+        return any(self.gone.values()) or any(self.rows.values())
+
+
 def refresh_patient(path, server: sa.Connection, code: str) -> int:
     """The standby at `path` holding the server's rows of patient `code` exactly; the rows
     written or taken out. RegistryError when a row written has not the server's seal."""
+    changes = server_changes(server, code, mirrored_seals(path, code))
+    return write_changes(path, changes) if changes is not None else 0
+
+
+def mirrored_seals(path, code: str) -> dict[str, dict[str, str]]:
+    """The standby's keys and seals of patient `code`'s rows, per table (as the manifest
+    holds them); sqlite3.DatabaseError when the standby is of another schema."""
+    with contextlib.closing(sqlite3.connect(f"{path.as_uri()}?mode=ro", uri=True)) as conn:
+        if conn.execute("PRAGMA user_version").fetchone()[0] != SCHEMA_VERSION:
+            raise sqlite3.DatabaseError("the standby is of another schema")
+        ours: dict[str, dict[str, str]] = {table: {} for table in REGISTRY_TABLES}
+        for table, key, seal in conn.execute(
+                "SELECT tbl, key, seal FROM station_mirror WHERE patient = ?", (code,)):
+            ours[table][key] = seal
+    return ours
+
+
+def server_changes(server: sa.Connection, code: str,
+                   ours: dict[str, dict[str, str]]) -> Changes | None:
+    """The server's side of a refresh (every round trip it takes): what differs from
+    `ours` for patient `code`; None when the server has no such patient. One round trip
+    when nothing differs."""
     theirs = _keys_and_seals(server, code)
     if not theirs["patients"]:
-        return 0
+        return None
     patient = json.loads(next(iter(theirs["patients"])))[0]
+    gone = {table: ours[table].keys() - theirs[table].keys() for table in REGISTRY_TABLES}
+    rows: dict[str, list[tuple]] = {}
+    for table in REGISTRY_TABLES:
+        wanted = {k for k, seal in theirs[table].items() if ours[table].get(k) != seal}
+        rows[table] = _fetch(server, table, patient, wanted) if wanted else []
+    return Changes(code, ours, gone, rows)
+
+
+def write_changes(path, changes: Changes) -> int:
+    """`changes` written into the standby at `path` in one transaction (no server
+    involved); the rows written or taken out. The caller makes sure the standby is still
+    as `changes.ours` was read."""
+    if not changes:
+        return 0
     with contextlib.closing(seals.register(sqlite3.connect(path, isolation_level=None))) \
             as conn:
         conn.execute("PRAGMA foreign_keys = ON")
@@ -46,24 +98,17 @@ def refresh_patient(path, server: sa.Connection, code: str) -> int:
         conn.execute("PRAGMA synchronous = NORMAL")
         conn.execute("BEGIN IMMEDIATE")
         try:
-            if conn.execute("PRAGMA user_version").fetchone()[0] != SCHEMA_VERSION:
-                raise sqlite3.DatabaseError("the standby is of another schema")
-            ours: dict[str, dict[str, str]] = {table: {} for table in REGISTRY_TABLES}
-            for table, key, seal in conn.execute(
-                    "SELECT tbl, key, seal FROM station_mirror WHERE patient = ?", (code,)):
-                ours[table][key] = seal
             written = 0
             for table in reversed(REGISTRY_TABLES):  # the rows naming a row go first
-                for key in ours[table].keys() - theirs[table].keys():
+                for key in changes.gone[table]:
                     _take_out(conn, table, key)
                     written += 1
             for table in REGISTRY_TABLES:
-                wanted = {k for k, seal in theirs[table].items() if ours[table].get(k) != seal}
-                if wanted:
-                    rows = _fetch(server, table, patient, wanted)
+                rows = changes.rows[table]
+                if rows:
                     for row in rows:
-                        _write(conn, table, row, row_key(table, row) in ours[table])
-                    record_mirrored(conn, table, rows, code)
+                        _write(conn, table, row, row_key(table, row) in changes.ours[table])
+                    record_mirrored(conn, table, rows, changes.code)
                     written += len(rows)
             conn.execute("COMMIT")
         except BaseException:

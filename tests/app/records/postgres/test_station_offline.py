@@ -454,17 +454,64 @@ def test_a_sync_waiting_on_a_silent_server_holds_no_other_call(tmp_path):
     try:
         assert station.offline
         code = station.create_patient("Ada", "Offline").code
-        sync = threading.Thread(target=station.try_sync, daemon=True)
-        sync.start()
-        assert reaching.wait(60)
-        read = threading.Event()
-        threading.Thread(target=lambda: (station.suggest_registration(code), read.set()),
-                         daemon=True).start()
-        # a bound for a hang: the standby answers in milliseconds
-        assert read.wait(30), "a call waited behind the sync's wait for a silent server"
-        answer.set()
-        sync.join(60)
+        # the standby answers the read in milliseconds
+        _answered_while_waiting(station.try_sync, lambda: station.suggest_registration(code),
+                                reaching, answer)
         assert station.offline
     finally:
         answer.set()
         station.close()
+
+
+def test_keeping_current_on_a_silent_server_holds_no_other_call(department):
+    """Online, between trials, the window's job thread keeps the standby current
+    (keep_current); on a silent network the server's answer waits out the bounded wait,
+    and a call of the window's meanwhile (a trial's numbers) waited behind it, the window
+    frozen. The server's reading here is one that never answers until the test lets it
+    (no timing involved); the window's own call reaches the server as usual."""
+    import contextlib
+    import threading
+
+    url, network, data = department
+    station = StationRegistry(data, network.url(url), station="robot-1")
+    code = station.create_patient("Kit", "Sample").code
+    _trial(station, code)
+    server = station._server
+    reaching, answer = threading.Event(), threading.Event()
+    ordinary = server._read
+
+    @contextlib.contextmanager
+    def silent_once(*args, **kwargs):
+        if not reaching.is_set():  # keep_current's: waits for an answer that never comes
+            reaching.set()
+            answer.wait(60)  # a bound for a test that failed meanwhile
+            raise RegistryUnreachable("the server did not answer (the test's silent network)")
+        with ordinary(*args, **kwargs) as conn:
+            yield conn
+
+    server._read = silent_once
+    try:
+        # the server answers the window's call in milliseconds
+        _answered_while_waiting(station.keep_current, lambda: station.trial_summaries(code),
+                                reaching, answer)
+        assert station.offline  # the silence seen: the next calls go to the standby
+        assert [t.number for t in station.trials_for_patient(code)] == [1]
+    finally:
+        answer.set()
+        station.close()
+
+
+def _answered_while_waiting(waiting, call, reaching, answer):
+    """`call` returns while `waiting` (on another thread) waits for a silent server (it sets
+    `reaching`, then waits until the test sets `answer`); then `waiting` ends."""
+    import threading
+
+    waits = threading.Thread(target=waiting, daemon=True)
+    waits.start()
+    assert reaching.wait(60)
+    read = threading.Event()
+    threading.Thread(target=lambda: (call(), read.set()), daemon=True).start()
+    # a bound for a hang, not a measure of speed
+    assert read.wait(30), f"a call waited behind {waiting.__name__}'s wait for a silent server"
+    answer.set()
+    waits.join(60)

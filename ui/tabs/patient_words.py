@@ -1,0 +1,37 @@
+"""A patient in the Registration tab's words: one line for the list of patients found, and
+what the registry holds of their measurements (ui.tabs.registration)."""
+
+from __future__ import annotations
+
+from app.records.registry import Patient
+from app.units import cm, point_cm
+
+
+def describe(patient: Patient) -> str:
+    """One line for the list: name, code and what tells two namesakes apart."""
+    parts = [f"{patient.display_name} — {patient.code}"]
+    if patient.birth_year:
+        parts.append(f"born {patient.birth_year}")
+    if patient.side:
+        parts.append(f"{patient.side} arm")
+    return ", ".join(parts)
+
+
+def measurements(patient: Patient) -> str:
+    """The patient's stored measurements, in the form's units (kg, cm), and what happens
+    to the ones not stored."""
+    parts = []
+    if patient.body_mass_kg is not None:
+        parts.append(f"body mass {patient.body_mass_kg:.1f} kg")
+    if patient.upper_arm_m is not None:
+        parts.append(f"upper arm {cm(patient.upper_arm_m)}")
+    if patient.forearm_m is not None:
+        parts.append(f"forearm {cm(patient.forearm_m)}")
+    if patient.shoulder_m is not None:
+        parts.append(f"shoulder at {point_cm(patient.shoulder_m)}")
+    if not parts:
+        return ("No measurements stored: the Parameters tab's body and shoulder values are "
+                "used.")
+    missing = 4 - len(parts)
+    rest = " The others come from the Parameters tab." if missing else ""
+    return "Stored: " + ", ".join(parts) + ". The Parameters tab now uses them." + rest

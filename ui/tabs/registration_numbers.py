@@ -1,0 +1,59 @@
+"""What the Registration tab shows of a patient's numbers, read from the registry in one go
+(ui.tabs.registration.RegistrationTab.refresh_numbers).
+
+Why apart: after each trial the window reads them on its job thread (ui/window/trial.py)
+and shows them when read. On a station whose network went silent each read may wait the
+registry's bounded wait (app.records.registry.postgres.deadline, 5 s) before the station
+answers from its standby; read on the window's thread, they froze it that long.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+from app.errors import RegistryError, SessionNotFound
+from app.records.registry import Registration, Session, Trial
+from app.records.store import RecordStore
+from ui.tabs.clinical_record import trial_items
+
+
+@dataclasses.dataclass(frozen=True)
+class Numbers:
+    """The registry's numbers for patient `code`: the suggestion, their sessions by number,
+    the suggested session's trials by number (or the registry's refusal to read them), the
+    next free trial number of that session when the suggested one is used, and the
+    clinical record's trial list (`record`: its patient's code, session and items; None
+    when the record shows nobody)."""
+
+    code: str
+    suggestion: Registration
+    sessions: dict[int, Session]
+    used: dict[int, Trial] | RegistryError
+    free: int
+    record: tuple[str, int, list[tuple[str, int]]] | None
+
+
+def read_numbers(registry: RecordStore, code: str,
+                 record: tuple[str, int] | None) -> Numbers:
+    """`Numbers` of patient `code` as the registry has them now; `record` is the clinical
+    record's (patient code, session) whose finished trials are listed with them."""
+    suggestion = registry.suggest_registration(code)
+    session, trial = suggestion.session_number, suggestion.trial_number
+    sessions = {s.number: s for s in registry.sessions(code)}
+    used = session_trials(registry, code, session)
+    free = registry.next_trial_number(code, session) \
+        if isinstance(used, dict) and trial in used else trial
+    items = None if record is None else (*record, trial_items(registry, *record))
+    return Numbers(code, suggestion, sessions, used, free, items)
+
+
+def session_trials(registry: RecordStore, code: str,
+                   session: int) -> dict[int, Trial] | RegistryError:
+    """The trials of patient `code`'s session by number (none for a session not begun), or
+    the registry's refusal to read them."""
+    try:
+        return {t.number: t for t in registry.trials(code, session)}
+    except SessionNotFound:
+        return {}
+    except RegistryError as exc:
+        return exc
