@@ -243,6 +243,25 @@ def test_the_proposal_for_the_next_trial_is_shown_and_taken_with_one_click(qtbot
     assert not tab._proposal_group.isVisible()
 
 
+def test_the_proposal_waits_while_the_form_holds_an_assessment_task(qtbot, tab):
+    """Taken while the form held the battery's circle, the proposal changed the pace its
+    protocol fixes: the trial became an exercise, said nowhere but in the form (brief hI)."""
+    from app.trials.progression import propose
+    from core.assessment.protocol import protocol
+
+    proposal = propose(tab.parameters(), {"led_pct": 88.0}, "complete")
+    tab.show_proposal(proposal)
+    tab.set_parameters(protocol("circle").parameters(tab.parameters()))
+    tab.refresh()
+    assert tab.parameters().assessment == "circle"
+    assert not tab.use_proposal.isEnabled()
+    assert "assessment task" in tab.use_proposal.toolTip()
+    tab.set_parameters(tab.parameters().replace(assessment=""))  # an exercise again
+    tab.refresh()
+    assert tab.use_proposal.isEnabled()
+    assert tab.use_proposal.toolTip() == ""
+
+
 def _wheel(widget, steps: int) -> None:
     from PySide6.QtCore import QPoint, QPointF
     from PySide6.QtGui import QWheelEvent

@@ -182,3 +182,8 @@ def test_a_robot_led_tasks_protocol_says_how_long_it_runs_and_what_the_robot_doe
         "robot holds the handle still.")
     # a task the patient leads reads as before
     assert protocol_words("reaching").splitlines()[0].endswith("the robot transparent.")
+    # its rounds and laps said as such: "1 trial, 2 × 48 s each" read as two trials
+    assert protocol_words("reaching").startswith(
+        "Visually guided reaching: 1 trial, 2 rounds of 48 s (96 s); 8 targets")
+    assert protocol_words("circle").startswith(
+        "Circle drawing: 2 trials: clockwise, counter-clockwise, each 5 laps of 4 s (20 s);")

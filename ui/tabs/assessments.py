@@ -22,7 +22,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app.assessments.words import robot_task_words
+from app.assessments.words import planned_exercise_s, robot_task_words
 from core.assessment import TASK_TITLES, TASKS, task_figures
 from core.assessment.protocol import protocol
 from core.assessment.strength import StrengthPolar
@@ -129,8 +129,14 @@ def protocol_words(task: str) -> str:
     if task in ROBOT_TASKS:
         runs = f"1 trial: {robot_task_words(spec.parameters(THESIS_SUBJECT))}"
     else:
-        runs = (f"{trials}, {spec.repetitions} × {spec.duration_s:g} s each; {exercise}; "
-                f"the robot {spec.robot_mode}")
+        # a round visits every target once, a lap goes once round the circle ("1 trial,
+        # 2 × 48 s each" read as two trials)
+        unit = "round" if spec.shape == "targets" else "lap"
+        laps = (f"{spec.repetitions} {unit}{'s' if spec.repetitions != 1 else ''} of "
+                f"{spec.duration_s:g} s")
+        total = round(planned_exercise_s(spec.parameters(THESIS_SUBJECT)), 1)
+        runs = (f"{trials}, {'each ' if spec.trial_count > 1 else ''}{laps} ({total:g} s); "
+                f"{exercise}; the robot {spec.robot_mode}")
     return (f"{TASK_TITLES[task]}: {runs}.\n\n"
             f"For the therapist:\n{spec.therapist}\n\n"
             f"Read to the patient:\n{spec.patient}\n\n"

@@ -218,6 +218,7 @@ class ParametersTab(ParametersForm, QWidget):
         self._debounce.stop()
         self._enable_for_shape()
         values = self._values()
+        self.proposal.hold_for_task(values.get("assessment", ""))
         for label in self.errors.values():
             label.hide()
         self._check = None

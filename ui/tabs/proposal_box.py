@@ -30,7 +30,21 @@ class ProposalBox(QGroupBox):
         row.addWidget(self.text, 1)
         row.addWidget(self.use)
         self.proposal = None
+        self._task = ""  # the assessment task the form holds (hold_for_task)
         self.hide()
+
+    def hold_for_task(self, task: str) -> None:
+        """While the form holds an assessment task (`task`, '' for none) the proposal waits
+        for the next exercise trial: taken, it changed a field the task's protocol fixes
+        and so turned the task's trial into an exercise with a word nowhere but in the
+        form (ui.tabs.parameters_form, _assessment_of)."""
+        if task == self._task:
+            return
+        self._task = task
+        self.use.setEnabled(not task)
+        self.use.setToolTip(
+            "The form holds an assessment task, whose protocol is fixed: the proposal is "
+            "for the next exercise trial." if task else "")
 
     def show_proposal(self, proposal, *, after: str = "") -> None:
         """Show `proposal` (None hides the box); `after` says which trial it follows when
