@@ -94,7 +94,8 @@ def test_a_start_that_cannot_go_on_takes_its_trial_back(qtbot, window, monkeypat
     assert "\n" not in said
     _no_trial_left(win)
     assert win.state == State.CONNECTED
-    assert win.robot.buttons["start"].isEnabled()  # nothing left for Start to wait for
+    # nothing left for Start to wait for, once the next numbers are read again
+    qtbot.waitUntil(lambda: win.robot.buttons["start"].isEnabled(), timeout=20000)
 
 
 @pytest.mark.slow
@@ -160,3 +161,45 @@ def test_a_start_the_window_stopped_waiting_for_is_never_run(qtbot, window):
     files = sorted(win.registry.data_dir.patient_trials_dir(code).glob("*.h5"))
     assert files == [win.registry.trial_path(trial)], (
         "a trial file the registry does not have: the loop ran the Start taken back")
+
+
+@pytest.mark.slow
+def test_start_waits_for_the_numbers_read_again_after_a_trial_is_taken_back(qtbot, window,
+                                                                           monkeypatch):
+    """Found by the fresh clone's check: a Start pressed the moment the taken-back trial's
+    Start turned green again registered trial 2 (the number shown while trial 1 was being
+    started), which the registry refused as a gap: the numbers were read again on the job
+    thread and Start did not wait for them. Here that read is held until the test lets it
+    go: Start waits meanwhile, then registers trial 1."""
+    import threading
+
+    win = window
+    _connected(qtbot, win)
+
+    def gone(*args, **kwargs):
+        raise BrokenPipeError(errno.EPIPE, "Broken pipe")
+
+    monkeypatch.setattr(win.bridge, "start_trial", gone)
+    tab = win.registration_tab
+    reader = tab.numbers_reader
+    release = threading.Event()
+    held: list[bool] = []
+
+    def held_reader():
+        read = reader()
+
+        def later():
+            held.append(True)
+            release.wait(30)
+            return read()
+        return later
+
+    monkeypatch.setattr(tab, "numbers_reader", held_reader)
+    click(qtbot, win.robot.buttons["start"])
+    qtbot.waitUntil(lambda: "the trial was not registered" in win.message.text(),
+                    timeout=20000)
+    qtbot.waitUntil(lambda: held != [], timeout=20000)
+    assert not win.robot.buttons["start"].isEnabled()  # the numbers are still being read
+    release.set()
+    qtbot.waitUntil(lambda: win.robot.buttons["start"].isEnabled(), timeout=20000)
+    assert win.registration.trial_number == 1

@@ -333,12 +333,11 @@ class TrialActions:
             self._say(f"The refused trial: {done.words}.", problem=True)
 
         self.jobs.run(lambda: take_back(self.registry, trial_id, why), taken_back)
-        reader = self.registration_tab.numbers_reader() if self.registration is not None \
-            else None
-        if reader is not None:
-            # read after the take back; Start does not wait for them (a number the trial
-            # left used is refused at Start with the next free one named)
-            self.jobs.run(reader, self.registration_tab.refresh_numbers)
+        if self.registration is not None:
+            # read after the take back (the job thread runs in order), and Start waits for
+            # them (ui.window.after_trial): pressed at once, it registered the number the
+            # withdrawn trial had moved on from, and the registry refused it as a gap
+            self.read_numbers()
 
     def _on_state(self, state: int, reason: str) -> None:
         if State(state) != self.state:
