@@ -29,6 +29,7 @@ from __future__ import annotations
 from PySide6.QtCore import QTimer, Signal
 from PySide6.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
 
+from app.reports.plain_language import GAME_TITLES
 from app.units import SCREEN
 from core.errors import CoreError, ParameterError, UnreachableError
 from core.robot import RobotModel
@@ -42,7 +43,7 @@ from ui.tabs.proposal_box import ProposalBox
 from ui.views.reach import check_summary, field_key, problem_fields, reach_picture
 
 DEBOUNCE_MS = 120
-GAME_WORDS = {"reach": "the reaching game", "path": "the path game"}
+GAME_WORDS = {game: f"the {title.lower()}" for game, title in GAME_TITLES.items()}
 """A game the form holds (a session plan's round: ui.tabs.parameters_form.HIDDEN_FIELDS),
 said in the status line, since no field shows it."""
 __all__ = ["HARDWARE", "SIMULATOR", "BackendChoice", "ParametersTab"]
