@@ -127,6 +127,7 @@ def shoot(app, folder: Path) -> None:
     registration.resize(1366, 738)
     registration.show()
     registration.choose(registry.patient(code))
+    _wait(app, lambda: registration.selected_patient() is not None)  # read on the job thread
     registration.clinical.by.setText("K. Lee")
     registration.clinical.scores.setText("A=20 B=5 C=6 D=3")
     registration.clinical.record_scale()

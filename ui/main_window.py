@@ -166,7 +166,7 @@ class MainWindow(AssessmentControl, PlanControl, TrialStart, AfterTrial, TrialAc
         self.tabs.tabBar().setUsesScrollButtons(False)
         self.tabs.tabBar().setElideMode(Qt.TextElideMode.ElideNone)
         self.instructions = InstructionsTab()
-        self.registration_tab = RegistrationTab(self.registry)
+        self.registration_tab = RegistrationTab(self.registry, jobs=self.jobs)
         self.parameters_tab = ParametersTab()
         self.force_estimate = ForceEstimateControl(self)
         self.refresh_learned_models()
@@ -324,13 +324,25 @@ class MainWindow(AssessmentControl, PlanControl, TrialStart, AfterTrial, TrialAc
 
     # ------------------------------------------------------------------ other tabs
     def _on_patient(self, patient: Patient) -> None:
+        """The patient chosen (their record read and shown by the Registration tab): the
+        tabs follow; their pending proposal and trials are read on the job thread (Start
+        waits for them, as for the reads after a trial: ui.window.after_trial)."""
         self.patient = patient
-        self._patient_folders(patient.code)
+        code, registry = patient.code, self.registry
+        self._patient_folders(code)
         self.parameters_tab.apply_patient(patient)
-        self._offer_pending_proposal(patient.code)  # a proposal belongs to its patient
-        self.progress.set_patient(patient.code)
-        self.replay.set_patient(patient.code)
+        self.parameters_tab.show_proposal(None)  # a proposal belongs to its patient
+        self.progress.set_patient(code)
+        self.replay.set_patient(code, [])
         self.show_assessment()
+
+        def show(read: tuple[Pending, list]) -> None:
+            if self.patient is not None and self.patient.code == code:
+                self._offer_pending_proposal(code, read[0])
+                self.replay.set_patient(code, read[1])
+
+        self._read_after(lambda: (pending_offer(registry, code),
+                                  registry.trials_for_patient(code)), show)
 
     def _patient_folders(self, code: str) -> None:
         """Every file dialog starts in the patient's folder of the data folder (private,

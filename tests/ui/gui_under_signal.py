@@ -25,6 +25,8 @@ def main() -> int:
     def steps(win):
         tab = win.registration_tab
         tab.choose(win.registry.patients()[0])
+        while tab.selected_patient() is None:  # read on the job thread
+            yield
         tab.confirm.click()
         while win.registration is None:
             yield

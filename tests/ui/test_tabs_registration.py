@@ -30,6 +30,11 @@ def click(qtbot, button):
     qtbot.mouseClick(button, Qt.MouseButton.LeftButton)
 
 
+def answered(qtbot, tab) -> None:
+    """Once the registry answered what the tab asked on the job thread."""
+    qtbot.waitUntil(lambda: not tab.waiting(), timeout=60000)
+
+
 def fill_new_patient(qtbot, tab, first, last):
     qtbot.keyClicks(tab.first_name, first)
     qtbot.keyClicks(tab.last_name, last)
@@ -80,6 +85,7 @@ def test_create_patient_numbers_and_duplicate_refused(qtbot, tab, registry):
     qtbot.keyClicks(tab.trial, "1")
     with qtbot.assertNotEmitted(tab.registered):
         click(qtbot, tab.confirm)
+        answered(qtbot, tab)
     assert tab.trial_problem.isVisible()
     assert "already has a trial 1" in tab.trial_problem.text()
     assert "use 2" in tab.trial_problem.text()
@@ -95,7 +101,8 @@ def test_refusal_from_the_registry_is_shown_as_it_says(qtbot, tab, registry):
                              trial_number=1)
     tab.search()  # on the tab's own thread
     qtbot.waitUntil(lambda: tab.results.count() == 1, timeout=60000)
-    tab.results.setCurrentRow(0)
+    with qtbot.waitSignal(tab.patient_selected):
+        tab.results.setCurrentRow(0)
     tab.show_refusal(refused.value)
     assert tab.trial_problem.isVisible()
     assert str(refused.value) in tab.trial_problem.text()
@@ -121,12 +128,14 @@ def test_a_namesake_needs_confirmation(qtbot, tab, registry):
     qtbot.keyClicks(tab.first_name, "ada")
     qtbot.keyClicks(tab.last_name, "LOVELACE")
     click(qtbot, tab.create_button)
+    answered(qtbot, tab)
     assert tab.create_problem.isVisible()
     assert first.code in tab.create_problem.text()
     assert len(registry.patients()) == 1
     assert tab.same_name.isVisible()
     tab.same_name.setChecked(True)
-    click(qtbot, tab.create_button)
+    with qtbot.waitSignal(tab.patient_selected):
+        click(qtbot, tab.create_button)
     assert len(registry.patients()) == 2
     assert tab.selected_patient().code != first.code
 
@@ -144,11 +153,13 @@ def test_picking_a_patient_shows_their_stored_measurements(qtbot, tab, registry)
                                        forearm_m=0.28, shoulder_m=(-0.12, 0.73))
     bare = registry.create_patient("Alan", "Turing")
     tab.search()
-    tab.choose(measured)
+    with qtbot.waitSignal(tab.patient_selected):
+        tab.choose(measured)
     text = tab.measurements_label.text()
     for part in ("82.0 kg", "upper arm 31.0 cm", "forearm 28.0 cm", "(-12.0, 73.0) cm"):
         assert part in text, part
-    tab.choose(bare)
+    with qtbot.waitSignal(tab.patient_selected):
+        tab.choose(bare)
     assert "No measurements stored" in tab.measurements_label.text()
 
 
@@ -176,3 +187,54 @@ def test_the_registry_is_searched_off_the_windows_thread(qtbot, tab, registry, m
     assert asked
     assert not any(asked), "the registry was searched on the window's thread"
 
+
+
+def test_confirm_and_a_new_patient_wait_for_the_registry_off_the_windows_thread(
+        qtbot, tab, registry, monkeypatch):
+    """Register new patient and Confirm asked the registry on the window's thread, each call
+    up to the registry's bounded wait on a silent network (docs/stations.md), the window
+    frozen. On the job thread the button says it waits; a Confirm whose numbers were
+    edited before the registry answered confirms nothing (the numbers shown are the truth)."""
+    import threading
+
+    from ui.tabs.registration import CHECKING, SAVING
+
+    on_window_thread: list[str] = []
+    release = threading.Event()
+
+    def watched(name):
+        call = getattr(registry, name)
+
+        def late(*args, **kwargs):
+            if threading.current_thread() is threading.main_thread():
+                on_window_thread.append(name)
+            else:
+                release.wait(60)  # a silent network, until the test lets it answer
+            return call(*args, **kwargs)
+        return late
+
+    for name in ("find_patients", "create_patient", "suggest_registration", "sessions",
+                 "trials", "next_trial_number", "invalid_trials"):
+        monkeypatch.setattr(registry, name, watched(name))
+    fill_new_patient(qtbot, tab, "Ada", "Lovelace")
+    click(qtbot, tab.create_button)
+    assert tab.create_button.text() == SAVING
+    assert not tab.create_button.isEnabled()
+    with qtbot.waitSignal(tab.patient_selected, timeout=60000):
+        release.set()
+    assert (tab.session.value(), tab.trial.value()) == (1, 1)
+    release.clear()
+
+    click(qtbot, tab.confirm)
+    assert tab.confirm.text() == CHECKING
+    assert not tab.confirm.isEnabled()
+    tab.trial.setValue(2)  # edited before the registry answered
+    with qtbot.assertNotEmitted(tab.registered):
+        release.set()
+        answered(qtbot, tab)
+    assert tab.registration() is None
+    assert tab.confirm.isEnabled()
+    with qtbot.waitSignal(tab.registered, timeout=60000) as registered:
+        click(qtbot, tab.confirm)
+    assert registered.args[1].trial_number == 2
+    assert on_window_thread == []

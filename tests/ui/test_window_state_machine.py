@@ -8,6 +8,8 @@ before the first is answered (the second for another robot, which the loop refus
 connected); press Start the moment the last trial ended, before its report is there; press Start
 while the registry answers late (a shared registry on a silent network) and meanwhile
 press Start again, Build, choose another patient, Disconnect or the emergency stop;
+choose a patient while the registry answers late and meanwhile choose another, Confirm, press
+Start or the emergency stop;
 press Start plan, Pause, Resume and Stop plan on the Plan tab (a short plan whose rounds the
 window builds and starts by itself, each a trial checked as any: the form at the plan's
 Build is what the loop took, the form at its Start what the file holds), and set up an
@@ -142,27 +144,37 @@ def _dedup(levels) -> list[float]:
 
 
 class LateRegistry(Registry):
-    """The registry, whose `begin_trial` answers only once the test lets it (`hold`, then
-    `release`): a shared registry on a network that drops everything answers after its
-    bounded wait (app.records.registry.postgres.deadline); here never before the test
+    """The registry, whose `begin_trial` (or, held with `reads=True`, the first read of
+    choosing a patient, `suggest_registration`) answers only once the test lets it (`hold`,
+    then `release`): a shared registry on a network that drops everything answers after
+    its bounded wait (app.records.registry.postgres.deadline); here never before the test
     says, so nothing depends on how long the window takes meanwhile."""
 
     gate: threading.Event | None = None
+    reads_held = False
     begun: tuple[int, ...] = ()
     """The trials registered, in order (one taken back is gone from the registry)."""
 
-    def hold(self) -> None:
+    def hold(self, *, reads: bool = False) -> None:
         self.gate = threading.Event()
+        self.reads_held = reads
 
     def release(self) -> None:
         gate, self.gate = self.gate, None
         if gate is not None:
             gate.set()
 
-    def begin_trial(self, *args, **kwargs):
+    def _late(self, reads: bool) -> None:
         gate = self.gate
-        if gate is not None:
+        if gate is not None and reads == self.reads_held:
             gate.wait(WAIT_MS / 1000)  # a bound for a test that failed meanwhile
+
+    def suggest_registration(self, *args, **kwargs):
+        self._late(True)
+        return super().suggest_registration(*args, **kwargs)
+
+    def begin_trial(self, *args, **kwargs):
+        self._late(False)
         begun = super().begin_trial(*args, **kwargs)
         self.begun = (*self.begun, begun.trial_id)
         return begun
@@ -617,7 +629,7 @@ class WindowMachine(PlanAndTaskRules, RuleBasedStateMachine):
             assert win._pending_build is None, "Build went to the loop while registering"
         elif meanwhile == "another patient":
             other = next(p for p in self.patients if p.code != self.patient.code)
-            win.registration_tab.choose(other)
+            win.registration_tab.choose(other)  # read on the job thread, after Start's
             self.patient = other
         elif meanwhile == "disconnect":
             self._click("disconnect")
@@ -626,7 +638,7 @@ class WindowMachine(PlanAndTaskRules, RuleBasedStateMachine):
         self._settle()
         assert win.registering(), "the registry has not answered yet"
         self.registry.release()
-        self._wait(lambda: not win.registering())
+        self._wait(lambda: not win.registering() and not win.registration_tab.waiting())
         self._settle()
         if len(self.registry.begun) == before:  # the registry refused it (its numbers)
             assert win.trial_id is None
@@ -690,7 +702,63 @@ class WindowMachine(PlanAndTaskRules, RuleBasedStateMachine):
         self.patient = patient
         if which:
             _count("the other patient chosen")
+        self._wait(lambda: not tab.waiting())  # the record read on the job thread, shown
         self._settle()
+
+    @when()
+    @rule(meanwhile=st.sampled_from(("another patient", "confirm", "start",
+                                     "emergency stop")))
+    def choose_while_the_registry_answers_late(self, meanwhile: str) -> None:
+        """A patient chosen while the registry answers late (her record read on the job
+        thread): Confirm says "Loading…" and is greyed, nobody is confirmed so Start
+        waits, and the window goes on; meanwhile the therapist does `meanwhile`. Once the
+        registry answers, the patient shown is the one chosen last: an answer for a
+        patient no longer chosen is never shown."""
+        win, tab = self.win, self.win.registration_tab
+        if win.state in (State.RUNNING, State.STOPPING) or win.registering() or \
+                tab.waiting():
+            return  # a trial's reads would queue behind the held read: not this rule's
+        win.tabs.setCurrentWidget(tab)
+        shown: list[str] = []
+
+        def said(patient) -> None:
+            shown.append(patient.code)
+
+        tab.patient_selected.connect(said)
+        chosen = self.patients[1] if self.patient.code == self.patients[0].code \
+            else self.patients[0]
+        self.registry.hold(reads=True)
+        try:
+            tab.choose(chosen)
+            assert tab.confirm.text() == "Loading…"
+            assert not tab.confirm.isEnabled()
+            assert tab.registration() is None
+            assert win.registration is None
+            assert "start" not in enabled(win)
+            if meanwhile == "another patient":
+                chosen = next(p for p in self.patients if p.code != chosen.code)
+                tab.choose(chosen)
+            elif meanwhile == "confirm":
+                tab.confirm_registration()  # as Enter would: nothing to confirm yet
+            elif meanwhile == "start":
+                win.start_trial()  # F5
+                assert win.trial_id is None
+                assert not win.registering()
+            elif meanwhile == "emergency stop":
+                win.emergency_stop()
+            self._settle()
+            assert tab.waiting(), "the registry answered"
+            assert tab.choosing() is chosen
+        finally:
+            self.registry.release()
+        self.patient = chosen
+        self._wait(lambda: not tab.waiting())
+        self._settle()
+        tab.patient_selected.disconnect(said)
+        assert shown == [chosen.code], f"shown {shown}, chosen last {chosen.code}"
+        assert tab.selected_patient().code == chosen.code == win.patient.code
+        assert tab.registration() is None
+        _count(f"patients chosen while the registry answered late, {meanwhile} meanwhile")
 
     @when()
     @rule(session=st.integers(1, 2))
@@ -758,6 +826,7 @@ class WindowMachine(PlanAndTaskRules, RuleBasedStateMachine):
         _count("restarts")
         reg = self.win.registration_tab
         reg.choose(self.patient)
+        self._wait(lambda: reg.selected_patient() is not None)
         self.qtbot.mouseClick(reg.confirm, Qt.MouseButton.LeftButton)
         self._wait(lambda: self.win.registration is not None)
         self._settle()

@@ -31,7 +31,8 @@ def _new_patient(qtbot, win):
                        (tab.shoulder_x, -12.0), (tab.shoulder_y, 73.0)):
         box.setValue(value)
     click(qtbot, tab.create_button)
-    qtbot.waitUntil(lambda: tab.selected_patient().first_name == "Grace", timeout=5000)
+    qtbot.waitUntil(lambda: getattr(tab.selected_patient(), "first_name", "") == "Grace",
+                    timeout=60000)
     return tab.selected_patient()
 
 
@@ -54,7 +55,7 @@ def test_start_waits_for_confirm_after_the_registration_changed(qtbot, win):
 
     # another patient chosen, not confirmed: Start would register Grace under Ada's numbers
     click(qtbot, tab.confirm)
-    assert "start" in enabled(win)
+    qtbot.waitUntil(lambda: "start" in enabled(win), timeout=60000)
     grace = _new_patient(qtbot, win)
     assert win.patient == grace
     assert not win.stale()
@@ -65,7 +66,9 @@ def test_start_waits_for_confirm_after_the_registration_changed(qtbot, win):
 
     # confirmed: Start registers what the tab shows
     tab.session.setValue(1)
-    click(qtbot, tab.confirm)
+    with qtbot.waitSignal(tab.registered, timeout=60000):
+        click(qtbot, tab.confirm)
+    qtbot.waitUntil(lambda: "start" in enabled(win), timeout=60000)
     shown = tab.registration()
     assert shown.patient_code == grace.code
     click(qtbot, win.robot.buttons["start"])

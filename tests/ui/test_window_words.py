@@ -157,6 +157,7 @@ def test_the_proposal_waiting_is_offered_after_a_restart(qtbot, tmp_path, monkey
     win.show()
     win.tabs.setCurrentWidget(win.parameters_tab)
     win.registration_tab.choose(patient)
+    qtbot.waitUntil(lambda: win.patient is not None and not win.reading_after, timeout=60000)
     box = win.parameters_tab.proposal
     assert box.isVisible()
     assert box.proposal == proposal
@@ -176,6 +177,7 @@ def test_every_file_dialog_starts_in_the_patients_folder(qtbot, idle_window, mon
     win = idle_window
     patient = win.registry.create_patient("Ada", "Lovelace", body_mass_kg=70.0)
     win.registration_tab.choose(patient)
+    qtbot.waitUntil(lambda: win.patient is not None, timeout=60000)
     starts = {}
 
     def opened(title):
@@ -365,7 +367,7 @@ def test_registration_shows_what_was_just_done(qtbot, tmp_path, monkeypatch):
     qtbot.keyClicks(tab.last_name, "Lovelace")
     area.verticalScrollBar().setValue(0)
     click(qtbot, tab.create_button)
-    assert tab.create_problem.isVisible()
+    qtbot.waitUntil(tab.create_problem.isVisible, timeout=60000)  # the registry's answer
     qtbot.waitUntil(lambda: _in_view(area, tab.create_problem), timeout=2000)
     assert "Already registered" in tab.create_problem.text()
     win.close()

@@ -127,9 +127,17 @@ class ClinicalRecord(QGroupBox):
     def set_registry(self, registry: RecordStore) -> None:
         self.registry = registry
 
-    def set_patient(self, patient: Patient | None, session: int | None = None) -> None:
+    def hold(self) -> None:
+        """Another patient is being chosen (their record read on the job thread): greyed
+        until `set_patient` shows theirs."""
+        self.setEnabled(False)
+        self.outcome.setText("")
+
+    def set_patient(self, patient: Patient | None, session: int | None = None,
+                    items: list[tuple[str, int]] | None = None) -> None:
         """The patient whose record this is (None: nobody, and the record hidden), on
-        `session` (the latest)."""
+        `session` (the latest when None, read here); `items`: that session's
+        `trial_items` when read already (on the job thread)."""
         self._patient = patient
         self.setEnabled(patient is not None and self.registry is not None)
         # Nobody chosen, the record has nothing to show: hidden, so that the New patient
@@ -139,11 +147,13 @@ class ClinicalRecord(QGroupBox):
         self.outcome.setText("")
         if patient is None or self.registry is None:
             return
-        sessions = [s.number for s in self.registry.sessions(patient.code)]
+        if session is None:
+            sessions = [s.number for s in self.registry.sessions(patient.code)]
+            session = sessions[-1] if sessions else 1
         self.session.blockSignals(True)
-        self.session.setValue(session or (sessions[-1] if sessions else 1))
+        self.session.setValue(session)
         self.session.blockSignals(False)
-        self._fill_trials()
+        self._fill_trials(items)
 
     def record_scale(self) -> None:
         def do():

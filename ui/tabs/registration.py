@@ -9,6 +9,15 @@ numbers are filled in from the registry (the next trial of today's session, else
 trial 1 of a new session) and stay editable; a trial number already used is
 refused with the next free one named. Names stay in the registry: only the
 pseudonymous code leaves this tab.
+
+Choosing a patient, Confirm and registering a new patient ask the registry on the window's
+job thread (ui.jobs), never on the window's: on a station whose network went silent each
+call may wait the registry's bounded wait (app.records.registry.postgres.deadline, 5 s)
+before the station answers from its standby, the window frozen meanwhile (no repaint, no
+emergency-stop click). What was asked is taken at the click; the button says it waits
+("Loading…", "Checking…", "Saving…"), and an answer for a choice no longer current
+(another patient chosen meanwhile, a number edited, the window closed) is dropped, never
+shown for the wrong patient. While a patient is loading nobody is confirmed: Start waits.
 """
 
 from __future__ import annotations
@@ -40,11 +49,22 @@ from core.arm import BODY_MASS_RANGE_KG, FOREARM_RANGE_M, UPPER_ARM_RANGE_M
 from core.trial import POSITION_RANGE_M
 from ui import plots, theme
 from ui.fields import ComboBox, DoubleSpinBox, SpinBox, commit_all
+from ui.jobs import Jobs
 from ui.tabs.clinical_record import ClinicalRecord
 from ui.tabs.patient_words import describe, measurements
-from ui.tabs.registration_numbers import Numbers, read_numbers, session_trials
+from ui.tabs.registration_numbers import (
+    Numbers,
+    read_choice,
+    read_numbers,
+    session_trials,
+)
 
 NOT_MEASURED = "not measured"
+LOADING = "Loading…"
+CHECKING = "Checking…"
+SAVING = "Saving…"
+CREATE = "Register new patient"
+CONFIRM = "Use this patient and these numbers"
 SEARCH_DELAY_MS = 150
 MAX_NUMBER = 999_999
 
@@ -82,11 +102,19 @@ class RegistrationTab(QWidget):
     registered = Signal(object, object)
     unconfirmed = Signal()
 
-    def __init__(self, registry: RecordStore | None = None, parent=None) -> None:
+    def __init__(self, registry: RecordStore | None = None, parent=None, *,
+                 jobs: Jobs | None = None) -> None:
         super().__init__(parent)
         self.registry = registry
-        self._patient: Patient | None = None
+        # the window's job thread (one registry call after another, in the order asked);
+        # a tab on its own has its own
+        self.jobs = jobs if jobs is not None else Jobs(self)
+        self._patient: Patient | None = None  # the patient shown, their record read
+        self._choosing: Patient | None = None  # chosen, their record being read
+        self._asked: dict[str, object] = {}  # what waits for the job thread: its token
         self._registration: Registration | None = None
+        self._choices = 0  # patients chosen so far: a new patient saved is chosen unless
+        # another was chosen while it was being saved
         self._search_timer = QTimer(self)
         self._search_timer.setSingleShot(True)
         self._search_timer.setInterval(SEARCH_DELAY_MS)
@@ -142,7 +170,7 @@ class RegistrationTab(QWidget):
         self.shoulder_y.setAccessibleName("Shoulder y")
         self.same_name = QCheckBox("A different person with the same name")
         self.same_name.hide()
-        self.create_button = QPushButton("Register new patient")
+        self.create_button = QPushButton(CREATE)
         self.create_button.clicked.connect(self.create_patient)
         self.create_problem = self._problem_label()
         new = QGroupBox("New patient")
@@ -182,7 +210,7 @@ class RegistrationTab(QWidget):
         self.trial.setAccessibleName("Trial number")
         self.trial.valueChanged.connect(self._numbers_edited)
         self.trial_problem = self._problem_label()
-        self.confirm = theme.set_role(QPushButton("Use this patient and these numbers"),
+        self.confirm = theme.set_role(QPushButton(CONFIRM),
                                       "primary")
         self.confirm.clicked.connect(lambda: self.confirm_registration())
         self.confirmed = theme.set_role(QLabel(""), "ok")
@@ -218,7 +246,7 @@ class RegistrationTab(QWidget):
         layout = QHBoxLayout(self)
         layout.addWidget(find, 1)
         layout.addWidget(self.forms_scroll, 1)
-        self._enable_numbers(False)
+        self._refresh_buttons()
         if registry is not None:
             self.search()
 
@@ -293,6 +321,19 @@ class RegistrationTab(QWidget):
         self.found.setText("Searching…")
         self.searching.submit(text, self.registry.search_patients, text)
 
+    def choosing(self) -> Patient | None:
+        """The patient chosen whose record is being read (None when none is)."""
+        return self._choosing
+
+    def waiting(self) -> bool:
+        """The tab waits for the registry's answer to something asked (a patient chosen,
+        Confirm, a new patient registered)."""
+        return bool(self._asked)
+
+    def drop_answers(self) -> None:
+        """The window closes: answers still to come are not shown."""
+        self._asked.clear()
+
     def _found(self, text: str, patients: list[Patient]) -> None:
         """The patients a search for `text` found, listed when it is still the newest."""
         if text != self._search_text:
@@ -309,8 +350,9 @@ class RegistrationTab(QWidget):
                 item.setData(Qt.ItemDataRole.UserRole, patient)
                 self.results.addItem(item)
             self.results.setCurrentRow(-1)
-            if self._patient is not None:
-                self._select_in_list(self._patient.code)
+            current = self._choosing or self._patient
+            if current is not None:
+                self._select_in_list(current.code)
         finally:
             self.results.blockSignals(False)
         self.found.setText(f"{len(patients)} patient{'s' if len(patients) != 1 else ''} found"
@@ -332,85 +374,170 @@ class RegistrationTab(QWidget):
         if item is None:
             return
         patient = item.data(Qt.ItemDataRole.UserRole)
-        if self._patient is not None and patient.code == self._patient.code:
+        current = self._choosing or self._patient
+        if current is not None and patient.code == current.code:
             return
         self.choose(patient)
 
     def choose(self, patient: Patient) -> None:
-        """Make this patient the current one and fill in the numbers."""
-        self._patient = patient
+        """Make this patient the current one: the choice is taken now (nobody confirmed,
+        the tab says "Loading…"), their numbers and record are read on the job thread and
+        shown once read (`_chosen`), if they are still the patient chosen then."""
+        self._choices += 1
+        self._choosing, self._patient = patient, None
+        self._asked.pop("confirm", None)  # Confirm was for the patient before
         self._unconfirm()
+        self.trial_problem.hide()
         self.patient_label.setText(describe(patient))
+        self.measurements_label.setText("Loading the patient's record…")
+        self.clinical.hold()
+        registry, code = self.registry, patient.code
+        if registry is None:
+            self._choosing = None
+            self._refresh_buttons()
+            return
+        self._ask("choice", lambda: read_choice(registry, code),
+                  lambda read: self._chosen(patient, read))
+
+    def _chosen(self, patient: Patient, read: Numbers | Exception) -> None:
+        """Patient `patient`'s numbers and record as read: shown, and the patient said
+        chosen (`patient_selected`); or, the registry unreadable, said in one line."""
+        self._choosing = None
+        if isinstance(read, Exception):
+            self.measurements_label.setText("")
+            self._show(self.trial_problem, f"{patient.code} could not be read: {read}. "
+                       "Choose the patient again.")
+            self.results.blockSignals(True)  # the same row chosen again reads again
+            self.results.setCurrentRow(-1)
+            self.results.blockSignals(False)
+            self._refresh_buttons()
+            return
+        self._patient = patient
         self.measurements_label.setText(measurements(patient))
-        self._enable_numbers(True)
-        self.refresh_numbers()
-        self.clinical.set_patient(patient, self.session.value())
+        self.clinical.set_patient(patient, read.suggestion.session_number, read.record[2])
+        self.refresh_numbers(read)
+        self._refresh_buttons()
         self.patient_selected.emit(patient)
 
     def _recorded(self, _said: str) -> None:
         """After a correction the patient's row changed: show it as it is now."""
         patient = self.clinical.patient
-        if patient is not None and patient != self._patient:
+        if patient is not None and self._patient is not None and \
+                patient.code == self._patient.code and patient != self._patient:
             self._patient = patient
             self.patient_label.setText(describe(patient))
             self.measurements_label.setText(measurements(patient))
             self.patient_selected.emit(patient)
 
+    def _ask(self, kind: str, work: Callable[[], object],
+             show: Callable[[object], None]) -> None:
+        """`work` (which returns what the registry said, never raises) on the job thread,
+        `show(answer)` once answered unless something of the same `kind` was asked since,
+        or dropped (another patient chosen, the window closing)."""
+        token = self._asked[kind] = object()
+
+        def answered(answer: object) -> None:
+            if self._asked.get(kind) is not token:
+                return  # asked again, or dropped, since
+            del self._asked[kind]
+            self._refresh_buttons()
+            show(answer)
+
+        self._refresh_buttons()
+        self.jobs.run(work, answered)
+
+    def _refresh_buttons(self) -> None:
+        """The buttons as what waits allows: Confirm and the numbers once a patient's
+        record is shown, each waiting button saying what it waits for."""
+        shown = self._patient is not None and self.registry is not None
+        loading, checking = "choice" in self._asked, "confirm" in self._asked
+        for box in (self.session, self.trial):
+            box.setEnabled(shown and not loading)
+        self.confirm.setEnabled(shown and not (loading or checking))
+        self.confirm.setText(LOADING if loading else CHECKING if checking else CONFIRM)
+        creating = "create" in self._asked
+        self.create_button.setEnabled(not creating)
+        self.create_button.setText(SAVING if creating else CREATE)
+
     # -- creating -------------------------------------------------------------------
-    def create_patient(self) -> Patient | None:
+    def create_patient(self) -> None:
+        """Register the patient the form shows, on the job thread (the button says
+        "Saving…"): a namesake not acknowledged is named instead (`_created`); the patient
+        registered is then chosen, unless another was chosen while it was saved."""
         self.create_problem.hide()
+        if "create" in self._asked:
+            return
         if self.registry is None:
             self._show(self.create_problem, "No registry is open.")
-            return None
+            return
         first = self.first_name.text().strip() or None
         last = self.last_name.text().strip() or None
         if first is None and last is None:
             self._show(self.create_problem, "Give the patient's first or last name. (A study "
                        "that keeps no names can register by code from the command line.)")
-            return None
-        namesakes = self.registry.find_patients(first or "", last or "")
-        if namesakes and not self.same_name.isChecked():
-            self.same_name.show()
-            codes = "; ".join(describe(p) for p in namesakes)
-            self._show(self.create_problem,
-                       f"Already registered: {codes}. Choose them from the list, or tick "
-                       f"'{self.same_name.text()}' to register someone new.")
-            self.search_field.setText(" ".join(n for n in (first, last) if n))
-            self.search()
-            return None
+            return
         # a number still typed counts; one refused (out of range, not a number) stops the
         # registration once, so the field's old value is not registered unseen
         refused = commit_all((self.birth_year, self.body_mass, self.upper_arm, self.forearm,
                               self.shoulder_x, self.shoulder_y))
         if refused:
             self._show(self.create_problem, f"Not registered. {refused[0]}")
-            return None
+            return
         shoulder = (_optional_value(self.shoulder_x, CM), _optional_value(self.shoulder_y, CM))
-        try:
-            patient = self.registry.create_patient(
-                first, last,
-                birth_year=(None if self.birth_year.value() == self.birth_year.minimum()
-                            else self.birth_year.value()),
-                side=self.side.currentData(),
-                body_mass_kg=_optional_value(self.body_mass),
-                upper_arm_m=_optional_value(self.upper_arm, CM),
-                forearm_m=_optional_value(self.forearm, CM),
-                shoulder_m=None if None in shoulder else shoulder,
-                sex=self.sex.currentData(), handedness=self.handedness.currentData(),
-            )
-        except RegistryError as exc:
-            self._show(self.create_problem, str(exc))
-            return None
+        fields = dict(
+            birth_year=(None if self.birth_year.value() == self.birth_year.minimum()
+                        else self.birth_year.value()),
+            side=self.side.currentData(),
+            body_mass_kg=_optional_value(self.body_mass),
+            upper_arm_m=_optional_value(self.upper_arm, CM),
+            forearm_m=_optional_value(self.forearm, CM),
+            shoulder_m=None if None in shoulder else shoulder,
+            sex=self.sex.currentData(), handedness=self.handedness.currentData(),
+        )
+        registry, namesakes_said = self.registry, self.same_name.isChecked()
+
+        def save() -> Patient | list[Patient] | Exception:
+            try:
+                if not namesakes_said:
+                    namesakes = registry.find_patients(first or "", last or "")
+                    if namesakes:
+                        return namesakes
+                return registry.create_patient(first, last, **fields)
+            except Exception as exc:  # RegistryError, a station's fault: said as is
+                return exc
+
+        choices = self._choices
+        self._ask("create", save, lambda saved: self._created(saved, first, last, choices))
+
+    def _created(self, saved: Patient | list[Patient] | Exception, first: str | None,
+                 last: str | None, choices: int) -> None:
+        """The registry's answer to Register new patient: the patient registered (chosen
+        if nobody was chosen since the click, `choices`), the namesakes to acknowledge, or
+        the refusal."""
+        if isinstance(saved, Exception):
+            self._show(self.create_problem, str(saved))
+            return
+        if isinstance(saved, list):
+            self.same_name.show()
+            codes = "; ".join(describe(p) for p in saved)
+            self._show(self.create_problem,
+                       f"Already registered: {codes}. Choose them from the list, or tick "
+                       f"'{self.same_name.text()}' to register someone new.")
+            self.search_field.setText(" ".join(n for n in (first, last) if n))
+            self.search()
+            return
         self._clear_new()
+        if choices != self._choices:
+            self.search()  # listed; the patient chosen meanwhile stays chosen
+            return
         self.search_field.blockSignals(True)
-        self.search_field.setText(patient.code)
+        self.search_field.setText(saved.code)
         self.search_field.blockSignals(False)
-        self.choose(patient)
+        self.choose(saved)
         self.search()
         # the new patient's name and stored measurements, at the top of the forms
         self.bring_into_view(self.measurements_label)
         self.bring_into_view(self.patient_label)
-        return patient
 
     def _clear_new(self) -> None:
         for edit in (self.first_name, self.last_name):
@@ -425,10 +552,6 @@ class RegistrationTab(QWidget):
         self.create_problem.hide()
 
     # -- numbers --------------------------------------------------------------------
-    def _enable_numbers(self, on: bool) -> None:
-        for widget in (self.session, self.trial, self.confirm):
-            widget.setEnabled(on)
-
     def _session_edited(self, sessions: dict[int, Session] | None = None) -> None:
         if self._patient is None or self.registry is None:
             return
@@ -457,10 +580,12 @@ class RegistrationTab(QWidget):
             self.unconfirmed.emit()
 
     def confirm_registration(self, numbers: Numbers | None = None) -> Registration | None:
-        """Check the numbers against the registry (`numbers` when they were read for the
-        numbers shown) and, if free, emit `registered`."""
+        """Check the numbers shown against the registry and, if free, emit `registered`:
+        at once with `numbers` when they were read for the numbers shown (the registration
+        returned), else read on the job thread (Confirm says "Checking…") and confirmed
+        once read if the patient and numbers shown are still those of the click."""
         patient = self._patient
-        if patient is None or self.registry is None:
+        if patient is None or self.registry is None or "confirm" in self._asked:
             return None
         refused = commit_all((self.session, self.trial))
         if refused:
@@ -468,24 +593,48 @@ class RegistrationTab(QWidget):
             return None
         code, session, trial = patient.code, self.session.value(), self.trial.value()
         if numbers is not None and (numbers.code, numbers.suggestion.session_number,
-                                    numbers.suggestion.trial_number) != (code, session, trial):
-            numbers = None  # read for other numbers than those shown: read again
-        used = numbers.used if numbers is not None else \
-            session_trials(self.registry, code, session)
+                                    numbers.suggestion.trial_number) == (code, session, trial):
+            return self._confirmed(patient, session, trial,
+                                   (numbers.used, numbers.free, numbers.sessions))
+        registry = self.registry
+
+        def check() -> tuple | Exception:
+            try:
+                used = session_trials(registry, code, session)
+                free = registry.next_trial_number(code, session) \
+                    if isinstance(used, dict) and trial in used else trial
+                return used, free, {s.number: s for s in registry.sessions(code)}
+            except Exception as exc:  # RegistryError, a station's fault: said as is
+                return exc
+
+        def checked(read: tuple | Exception) -> None:
+            if self._patient is not patient or \
+                    (self.session.value(), self.trial.value()) != (session, trial):
+                return  # another patient or other numbers since the click: Confirm again
+            if isinstance(read, Exception):
+                self.show_refusal(read)
+                return
+            self._confirmed(patient, session, trial, read)
+
+        self._ask("confirm", check, checked)
+        return None
+
+    def _confirmed(self, patient: Patient, session: int, trial: int,
+                   read: tuple) -> Registration | None:
+        """Confirm with the registry's (trials of the session by number or its refusal,
+        next free number, sessions by number)."""
+        used, free, sessions = read
+        code = patient.code
         if isinstance(used, RegistryError):
             self.show_refusal(used)
             return None
         if trial in used:
-            free = numbers.free if numbers is not None else \
-                self.registry.next_trial_number(code, session)
             started = used[trial].started_at.astimezone().strftime("%d %b %Y %H:%M")
             self.show_refusal(
                 f"Patient {code} session {session} already has a trial {trial} (started "
                 f"{started}); use {free}, the next free number.")
             return None
         self.trial_problem.hide()
-        sessions = numbers.sessions if numbers is not None else \
-            {s.number: s for s in self.registry.sessions(code)}
         registration = Registration(code, session, trial,
                                     new_session=not used and session not in sessions)
         self._registration = registration

@@ -57,3 +57,16 @@ def session_trials(registry: RecordStore, code: str,
         return {}
     except RegistryError as exc:
         return exc
+
+
+def read_choice(registry: RecordStore, code: str) -> Numbers | Exception:
+    """What choosing patient `code` shows, read in one go on the window's job thread: their
+    `Numbers`, with the clinical record's trials of the suggested session; or what the
+    registry said instead (shown in one line, nothing shown as the patient's)."""
+    try:
+        numbers = read_numbers(registry, code, None)
+        session = numbers.suggestion.session_number
+        return dataclasses.replace(
+            numbers, record=(code, session, trial_items(registry, code, session)))
+    except Exception as exc:  # RegistryError, a station's fault: said, never raised here
+        return exc

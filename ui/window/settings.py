@@ -85,6 +85,7 @@ class RememberedSettings:
         # closed) reaches the window now, so the trial is recorded before it closes
         QApplication.processEvents()
         self.jobs.shutdown()
+        self.registration_tab.drop_answers()  # for a window that is gone
         self._close_registering()  # a Start's trial registered, its answer never taken
         if isinstance(self.registry, StationStore):
             self.registry.close()  # another console may hold its standby now
