@@ -131,6 +131,7 @@ def shoot(app, folder: Path) -> None:
     registration.clinical.by.setText("K. Lee")
     registration.clinical.scores.setText("A=20 B=5 C=6 D=3")
     registration.clinical.record_scale()
+    _wait(app, lambda: not registration.clinical.saving())  # kept on the job thread
     registration.bring_into_view(registration.clinical)
     _wait(app, lambda: True)
     registration.grab().save(str(OUT / "window-registration-clinical-1366x768.png"))

@@ -12,7 +12,7 @@ from app.records.datadir import DataDir
 from app.records.registry import Registry
 from core.trial import THESIS_SUBJECT
 from tests.ui.shown import shown
-from tests.ui.test_tabs_registration import fill_new_patient
+from tests.ui.test_tabs_registration import answering_late, fill_new_patient
 from ui import theme
 from ui.tabs.registration import RegistrationTab
 
@@ -30,6 +30,12 @@ def tab(qtbot, qapp, registry):
 
 def click(qtbot, button):
     qtbot.mouseClick(button, Qt.MouseButton.LeftButton)
+
+
+def press(qtbot, record, button):
+    """`button` clicked, and the registry's answer (on the job thread) shown."""
+    click(qtbot, button)
+    qtbot.waitUntil(lambda: not record.saving(), timeout=60000)
 
 
 def type_into(qtbot, field, text):
@@ -51,25 +57,26 @@ def test_a_therapist_keeps_the_clinical_record_from_the_window(qtbot, tab, regis
         registry.finish_trial(begun.trial_id, "complete", {"rmse_x_m": 0.01})
     tab.clinical.set_patient(registry.patient(patient.code), 1)
     record = tab.clinical
+    qtbot.waitUntil(lambda: record.trial.count() == 2, timeout=60000)  # read on the job thread
     assert record.isEnabled()
     type_into(qtbot, record.by, "K. Lee")
 
     record.scale.setCurrentIndex(record.scale.findData("fugl_meyer"))
     type_into(qtbot, record.scores, "A=20 B=5 C=6 D=3")
-    click(qtbot, record.record_scale_button)
+    press(qtbot, record, record.record_scale_button)
     assert "Fugl-Meyer UE motor 34 kept for session 1" in record.outcome.text()
     type_into(qtbot, record.scores, "A=40 B=5 C=6 D=3")
-    click(qtbot, record.record_scale_button)
+    press(qtbot, record, record.record_scale_button)
     assert "A = 40 is out of range; give a whole number 0-36" in record.outcome.text()
     assert len(registry.scale_entries(patient.code)) == 1
 
     type_into(qtbot, record.note, "tired after the first trial")
-    click(qtbot, record.note_button)
+    press(qtbot, record, record.note_button)
     assert registry.notes(patient.code)[0].text == "tired after the first trial"
     record.trial.setCurrentIndex(0)
     record.note_on_trial.setChecked(True)
     type_into(qtbot, record.note, "coughed at 12 s")
-    click(qtbot, record.note_button)
+    press(qtbot, record, record.note_button)
     first = registry.trials(patient.code, 1)[0].id
     assert [(n.text, n.trial_id) for n in registry.notes(patient.code)] == [
         ("tired after the first trial", None), ("coughed at 12 s", first)]
@@ -79,20 +86,20 @@ def test_a_therapist_keeps_the_clinical_record_from_the_window(qtbot, tab, regis
     assert record.trial.count() == 2
     record.trial.setCurrentIndex(1)
     type_into(qtbot, record.mark_reason, "let go of the handle")
-    click(qtbot, record.invalid_button)
+    press(qtbot, record, record.invalid_button)
     second = registry.trials(patient.code, 1)[1].id
     assert set(registry.invalid_trials(patient.code)) == {second}
     assert record.trial.itemText(1) == "2 (invalid)"
     record.trial.setCurrentIndex(1)
     type_into(qtbot, record.mark_reason, "fine on replay")
-    click(qtbot, record.valid_button)
+    press(qtbot, record, record.valid_button)
     assert registry.invalid_trials(patient.code) == {}
 
     record.field.setCurrentIndex(record.field.findData("upper_arm_m"))
     type_into(qtbot, record.value, "0.30")
     type_into(qtbot, record.correct_reason, "measured again")
     with qtbot.waitSignal(tab.patient_selected) as corrected:
-        click(qtbot, record.correct_button)
+        press(qtbot, record, record.correct_button)
     assert corrected.args[0].upper_arm_m == pytest.approx(0.30)
     assert "upper arm 30.0 cm" in tab.measurements_label.text()
     (audit,) = registry.corrections(patient.code)
@@ -100,7 +107,7 @@ def test_a_therapist_keeps_the_clinical_record_from_the_window(qtbot, tab, regis
 
     type_into(qtbot, record.by, "")
     type_into(qtbot, record.note, "no author")
-    click(qtbot, record.note_button)
+    press(qtbot, record, record.note_button)
     assert "author: give the name" in record.outcome.text()
     assert len(registry.notes(patient.code)) == 2
 
@@ -127,11 +134,71 @@ def test_the_trials_run_since_the_patient_was_chosen_can_be_marked(qtbot, tab, r
     type_into(qtbot, record.by, "K. Lee")
     record.trial.setCurrentIndex(2)
     type_into(qtbot, record.mark_reason, "coughed")
-    click(qtbot, record.invalid_button)
+    press(qtbot, record, record.invalid_button)
     third = registry.trials(code, 1)[2].id
     assert third in registry.invalid_trials(code)
     assert record.outcome.text() == "Trial 3 marked invalid: coughed."
     assert record.trial.currentText() == "3 (invalid)"
     type_into(qtbot, record.mark_reason, "it was fine")
-    click(qtbot, record.valid_button)
+    press(qtbot, record, record.valid_button)
     assert record.outcome.text() == "Trial 3 marked valid again: it was fine."
+
+
+def test_the_record_is_kept_off_the_windows_thread_and_says_only_what_was_kept(
+        qtbot, tab, registry, monkeypatch):
+    """Each action of the record (and the reads that refresh it) asked the registry on the
+    window's thread: on a silent network up to its bounded wait each, the window frozen.
+    On the job thread the button says "Saving…" and nothing is said kept before the
+    registry says so; a write that fails says so in one line; an answer that comes after
+    another patient was chosen is not shown under her."""
+    from ui.tabs.clinical_record import SAVING
+
+    ada = registry.create_patient("Ada", "Lovelace")
+    grace = registry.create_patient("Grace", "Hopper")
+    begun = registry.begin_trial(ada.code, THESIS_SUBJECT, backend="simulator",
+                                 session_number=1)
+    registry.finish_trial(begun.trial_id, "complete", {"rmse_x_m": 0.01})
+    with qtbot.waitSignal(tab.patient_selected, timeout=60000):
+        tab.choose(ada)
+    record = tab.clinical
+    assert record.trial.count() == 1
+    on_window_thread, release = answering_late(monkeypatch, registry, (
+        "add_note", "record_scale", "mark_trial", "correct_patient", "corrections", "trials",
+        "invalid_trials", "sessions", "suggest_registration"))
+    type_into(qtbot, record.by, "K. Lee")
+    type_into(qtbot, record.note, "tired")
+    click(qtbot, record.note_button)
+    assert record.note_button.text() == SAVING
+    assert not record.invalid_button.isEnabled()
+    assert record.outcome.text() == ""  # nothing said kept before the registry says so
+    release.set()
+    qtbot.waitUntil(lambda: not record.saving(), timeout=60000)
+    assert record.outcome.text() == "Note kept for session 1."
+    assert record.note.text() == ""
+
+    type_into(qtbot, record.mark_reason, "coughed")
+    press(qtbot, record, record.invalid_button)
+    assert record.outcome.text() == "Trial 1 marked invalid: coughed."
+    assert record.trial.currentText() == "1 (invalid)"
+
+    def lost(*_args, **_kwargs):
+        raise ConnectionError("the server closed the connection")
+
+    monkeypatch.setattr(registry, "record_scale", lost)
+    type_into(qtbot, record.scores, "30")
+    press(qtbot, record, record.record_scale_button)
+    assert record.outcome.text() == (f"{theme.PROBLEM_SIGN} Not kept: the server closed the "
+                                     "connection")
+    assert record.scores.text() == "30"  # still there to record again
+
+    release.clear()
+    type_into(qtbot, record.note, "second")
+    click(qtbot, record.note_button)
+    with qtbot.waitSignal(tab.patient_selected, timeout=60000) as chosen:
+        tab.choose(grace)
+        release.set()
+    assert chosen.args[0].code == grace.code
+    assert "kept" not in record.outcome.text()  # it was Ada's note, not Grace's
+    assert [n.text for n in registry.notes(ada.code)] == ["tired", "second"]
+    assert registry.notes(grace.code) == []
+    assert on_window_thread == []

@@ -3,6 +3,8 @@ the registry, have a used number refused with the registry's words."""
 
 from __future__ import annotations
 
+import threading
+
 import pytest
 from PySide6.QtCore import Qt
 
@@ -33,6 +35,29 @@ def click(qtbot, button):
 def answered(qtbot, tab) -> None:
     """Once the registry answered what the tab asked on the job thread."""
     qtbot.waitUntil(lambda: not tab.waiting(), timeout=60000)
+
+
+def answering_late(monkeypatch, registry, names) -> tuple[list[str], threading.Event]:
+    """The registry's calls `names` answered, off the window's thread, only once the test
+    sets the event returned (a silent network); the calls made on the window's thread
+    listed (and answered at once: there nothing could set the event)."""
+    on_window_thread: list[str] = []
+    release = threading.Event()
+
+    def watched(name):
+        call = getattr(registry, name)
+
+        def late(*args, **kwargs):
+            if threading.current_thread() is threading.main_thread():
+                on_window_thread.append(name)
+            else:
+                release.wait(60)  # a bound for a hang
+            return call(*args, **kwargs)
+        return late
+
+    for name in names:
+        monkeypatch.setattr(registry, name, watched(name))
+    return on_window_thread, release
 
 
 def fill_new_patient(qtbot, tab, first, last):
@@ -167,8 +192,6 @@ def test_the_registry_is_searched_off_the_windows_thread(qtbot, tab, registry, m
     """A search on a station whose network went silent waited the registry's bounded wait
     (5 s) on the window's thread, the window frozen; it runs on the tab's own thread, and
     the list shows what the newest search found."""
-    import threading
-
     registry.create_patient("Ada", "Lovelace")
     registry.create_patient("Grace", "Hopper")
     asked = []
@@ -195,27 +218,11 @@ def test_confirm_and_a_new_patient_wait_for_the_registry_off_the_windows_thread(
     up to the registry's bounded wait on a silent network (docs/stations.md), the window
     frozen. On the job thread the button says it waits; a Confirm whose numbers were
     edited before the registry answered confirms nothing (the numbers shown are the truth)."""
-    import threading
-
     from ui.tabs.registration import CHECKING, SAVING
 
-    on_window_thread: list[str] = []
-    release = threading.Event()
-
-    def watched(name):
-        call = getattr(registry, name)
-
-        def late(*args, **kwargs):
-            if threading.current_thread() is threading.main_thread():
-                on_window_thread.append(name)
-            else:
-                release.wait(60)  # a silent network, until the test lets it answer
-            return call(*args, **kwargs)
-        return late
-
-    for name in ("find_patients", "create_patient", "suggest_registration", "sessions",
-                 "trials", "next_trial_number", "invalid_trials"):
-        monkeypatch.setattr(registry, name, watched(name))
+    on_window_thread, release = answering_late(monkeypatch, registry, (
+        "find_patients", "create_patient", "suggest_registration", "sessions", "trials",
+        "next_trial_number", "invalid_trials"))
     fill_new_patient(qtbot, tab, "Ada", "Lovelace")
     click(qtbot, tab.create_button)
     assert tab.create_button.text() == SAVING

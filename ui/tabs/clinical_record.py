@@ -4,9 +4,18 @@ marked invalid or valid again, and a correction of the patient's recorded fields
 saying who records it (the registry adds when). What the registry refuses is shown in one
 line under the box; nothing is stored then. The scores are typed as on the command line
 (app.records.typed): a total, or KEY=VALUE scores.
+
+Each action, and each read that refreshes the record (a session's trials), asks the registry
+on the window's job thread (ui.jobs): on a station whose network went silent each call may
+wait the registry's bounded wait (app.records.registry.postgres.deadline, 5 s), the window
+frozen meanwhile. What is recorded is what the fields showed at the click; the button says
+"Saving…" and the record's buttons wait; the outcome line says what the registry kept only
+once it said so, and an answer for a patient no longer shown is not shown.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 from PySide6.QtCore import Signal
 from PySide6.QtWidgets import (
@@ -26,8 +35,10 @@ from app.records.store import RecordStore
 from app.records.typed import typed_scores, typed_value
 from ui import theme
 from ui.fields import ComboBox, SpinBox
+from ui.jobs import Jobs
 
 MAX_NUMBER = 999_999
+SAVING = "Saving…"
 SCORE_HINT = {
     "fugl_meyer": "total 0-66, or A= B= C= D= (0-36, 0-10, 0-14, 0-6)",
     "arat": "total 0-57, or grasp= grip= pinch= gross=",
@@ -42,17 +53,23 @@ class ClinicalRecord(QGroupBox):
 
     recorded = Signal(str)
 
-    def __init__(self, registry: RecordStore | None = None, parent=None) -> None:
+    def __init__(self, registry: RecordStore | None = None, parent=None, *,
+                 jobs: Jobs | None = None) -> None:
         super().__init__("Clinical record", parent)
         self.registry = registry
+        # the window's job thread (one registry call after another); a record on its own
+        # has its own
+        self.jobs = jobs if jobs is not None else Jobs(self)
         self._patient: Patient | None = None
+        self._saving: object | None = None  # the action waiting for the registry: its token
+        self._listing: object | None = None  # the trials being read: their token
         self.by = QLineEdit()
         self.by.setPlaceholderText("the therapist's name")
         self.by.setAccessibleName("Recorded by")
         self.session = SpinBox()
         self.session.setRange(1, MAX_NUMBER)
         self.session.setAccessibleName("Session of the record")
-        self.session.valueChanged.connect(lambda _: self._fill_trials())
+        self.session.valueChanged.connect(lambda _: self._list_trials())
 
         self.scale = ComboBox()
         for scale in SCALES:
@@ -120,6 +137,11 @@ class ClinicalRecord(QGroupBox):
         form.addRow("Trial", mark_row)
         form.addRow("Correct", correct_row)
         form.addRow(self.outcome)
+        self._buttons = {self.record_scale_button: self.record_scale_button.text(),
+                         self.note_button: self.note_button.text(),
+                         self.invalid_button: self.invalid_button.text(),
+                         self.valid_button: self.valid_button.text(),
+                         self.correct_button: self.correct_button.text()}
         self._hint()
         self.set_patient(None)
 
@@ -129,9 +151,10 @@ class ClinicalRecord(QGroupBox):
 
     def hold(self) -> None:
         """Another patient is being chosen (their record read on the job thread): greyed
-        until `set_patient` shows theirs."""
+        until `set_patient` shows theirs; answers for the patient before are not shown."""
         self.setEnabled(False)
         self.outcome.setText("")
+        self._drop_answers()
 
     def set_patient(self, patient: Patient | None, session: int | None = None,
                     items: list[tuple[str, int]] | None = None) -> None:
@@ -139,6 +162,7 @@ class ClinicalRecord(QGroupBox):
         `session` (the latest when None, read here); `items`: that session's
         `trial_items` when read already (on the job thread)."""
         self._patient = patient
+        self._drop_answers()
         self.setEnabled(patient is not None and self.registry is not None)
         # Nobody chosen, the record has nothing to show: hidden, so that the New patient
         # form below it is in view for a first patient (from a fresh clone it was a scroll
@@ -156,59 +180,76 @@ class ClinicalRecord(QGroupBox):
         self._fill_trials(items)
 
     def record_scale(self) -> None:
-        def do():
-            scale = self.scale.currentData()
-            entry = self.registry.record_scale(
-                self._patient.code, self.session.value(), scale, rater=self.by.text(),
-                **typed_scores(scale, self.scores.text().split()))
-            self.scores.clear()
+        registry, code, session = self.registry, self._code(), self.session.value()
+        scale, text, rater = self.scale.currentData(), self.scores.text(), self.by.text()
+
+        def save():
+            return registry.record_scale(code, session, scale, rater=rater,
+                                         **typed_scores(scale, text.split()))
+
+        def kept(entry) -> str:
+            self._clear_if(self.scores, text)
             total = "" if entry.total is None else f" {entry.total}"
             return f"{SCALE_LABELS[scale]}{total} kept for session {entry.session_number}."
-        self._act(do)
+        self._act(self.record_scale_button, save, kept)
 
     def add_note(self) -> None:
-        def do():
-            trial_id = self.trial.currentData() if self.note_on_trial.isChecked() else None
-            if self.note_on_trial.isChecked() and trial_id is None:
-                raise RegistryError(f"session {self.session.value()} has no finished trial "
-                                    "to write the note on")
-            note = self.registry.add_note(self._patient.code, self.session.value(),
-                                          self.note.text(), author=self.by.text(),
-                                          trial_id=trial_id)
-            self.note.clear()
-            where = (f"trial {self.trial.currentText()} of session {note.session_number}"
+        registry, code, session = self.registry, self._code(), self.session.value()
+        on_trial, text, author = self.note_on_trial.isChecked(), self.note.text(), self.by.text()
+        trial_id = self.trial.currentData() if on_trial else None
+        number = self.trial.currentText()
+
+        def save():
+            if on_trial and trial_id is None:
+                raise RegistryError(f"session {session} has no finished trial to write the "
+                                    "note on")
+            return registry.add_note(code, session, text, author=author, trial_id=trial_id)
+
+        def kept(note) -> str:
+            self._clear_if(self.note, text)
+            where = (f"trial {number} of session {note.session_number}"
                      if trial_id else f"session {note.session_number}")
             return f"Note kept for {where}."
-        self._act(do)
+        self._act(self.note_button, save, kept)
 
     def mark(self, valid: bool) -> None:
-        def do():
-            trial_id = self.trial.currentData()
+        registry, code, session = self.registry, self._code(), self.session.value()
+        trial_id, reason, by = self.trial.currentData(), self.mark_reason.text(), self.by.text()
+        number = self.trial.currentText().split()[0] if trial_id is not None else ""
+
+        def save():
             if trial_id is None:
-                raise RegistryError(f"session {self.session.value()} has no finished trial "
-                                    "to mark")
-            mark = self.registry.mark_trial(trial_id, valid=valid,
-                                            reason=self.mark_reason.text(), by=self.by.text())
-            self.mark_reason.clear()
-            self._fill_trials()  # its "(invalid)", the same trial kept chosen
-            number = self.trial.currentText().split()[0]
+                raise RegistryError(f"session {session} has no finished trial to mark")
+            mark = registry.mark_trial(trial_id, valid=valid, reason=reason, by=by)
+            return mark, trial_items(registry, code, session)  # its "(invalid)" shown
+
+        def kept(answer) -> str:
+            mark, items = answer
+            self._clear_if(self.mark_reason, reason)
+            if self.session.value() == session:
+                self._fill_trials(items)  # the same trial kept chosen
             return (f"Trial {number} marked "
                     f"{'valid again' if mark.valid else 'invalid'}: {mark.reason}.")
-        self._act(do)
+        button = self.valid_button if valid else self.invalid_button
+        self._act(button, save, kept)
 
     def correct(self) -> None:
-        def do():
-            field = self.field.currentData()
-            patient = self.registry.correct_patient(
-                self._patient.code, field, typed_value(field, self.value.text()),
-                reason=self.correct_reason.text(), by=self.by.text())
-            self._patient = patient
-            last = self.registry.corrections(patient.code)[-1]
-            self.value.clear()
-            self.correct_reason.clear()
+        registry, code, by = self.registry, self._code(), self.by.text()
+        field, text, reason = (self.field.currentData(), self.value.text(),
+                               self.correct_reason.text())
+
+        def save():
+            patient = registry.correct_patient(code, field, typed_value(field, text),
+                                               reason=reason, by=by)
+            return patient, registry.corrections(code)[-1]
+
+        def kept(answer) -> str:
+            self._patient, last = answer
+            self._clear_if(self.value, text)
+            self._clear_if(self.correct_reason, reason)
             return (f"{field} corrected: {last.old_value!r} → {last.new_value!r} (kept with "
                     "why, who and when).")
-        self._act(do)
+        self._act(self.correct_button, save, kept)
 
     def refresh_trials(self, read: tuple[str, int, list[tuple[str, int]]] | None = None
                        ) -> None:
@@ -216,12 +257,13 @@ class ClinicalRecord(QGroupBox):
         when the patient was chosen, so the trials run since could not be marked, and a
         note on one was refused as "no finished trial"). `read`: (patient code, session,
         `trial_items`) read on the window's job thread, shown when still of the record's
-        patient and session (else read again here)."""
+        patient and session (else read again, on the job thread)."""
         if read is not None and self._patient is not None \
                 and read[:2] == (self._patient.code, self.session.value()):
+            self._listing = None  # newer than any list still being read
             self._fill_trials(read[2])
         else:
-            self._fill_trials()
+            self._list_trials()
 
     def shown_session(self) -> tuple[str, int] | None:
         """(patient code, session) whose trials the record lists; None when nobody."""
@@ -233,30 +275,96 @@ class ClinicalRecord(QGroupBox):
         return self._patient
 
     # -- helpers --------------------------------------------------------------------
-    def _act(self, do) -> None:
+    def _code(self) -> str | None:
+        return None if self._patient is None else self._patient.code
+
+    def _act(self, button: QPushButton, save: Callable[[], object],
+             kept: Callable[[object], str]) -> None:
+        """`save()` (the registry's write, and the reads that show it) on the job thread,
+        `button` saying "Saving…" and the record's buttons waiting meanwhile; once
+        answered for the patient still shown, `kept(answer)` says what was kept (the
+        outcome line, `recorded`), or the registry's refusal is said in one line."""
+        if self._patient is None or self.registry is None or self._saving is not None:
+            return
+        token = self._saving = object()
+
+        def run() -> object:
+            try:
+                return save()
+            except Exception as exc:  # RegistryError, a station's fault: said, not raised
+                return exc
+
+        def answered(answer: object) -> None:
+            if self._saving is not token:
+                return  # another patient shown since
+            self._saving = None
+            self._wait_buttons(None)
+            if isinstance(answer, RegistryError):
+                self.outcome.setText(f"{theme.PROBLEM_SIGN} {answer}")
+                return
+            if isinstance(answer, Exception):
+                self.outcome.setText(f"{theme.PROBLEM_SIGN} Not kept: {answer}")
+                return
+            said = kept(answer)
+            self.outcome.setText(said)
+            self.recorded.emit(said)
+
+        self.outcome.setText("")
+        self._wait_buttons(button)
+        self.jobs.run(run, answered)
+
+    def saving(self) -> bool:
+        """An action waits for the registry's answer."""
+        return self._saving is not None
+
+    def _wait_buttons(self, saving: QPushButton | None) -> None:
+        """The action buttons wait while `saving` (None: none) says "Saving…"."""
+        for button, text in self._buttons.items():
+            button.setEnabled(saving is None)
+            button.setText(SAVING if button is saving else text)
+
+    def _drop_answers(self) -> None:
+        self._saving = self._listing = None
+        self._wait_buttons(None)
+
+    @staticmethod
+    def _clear_if(field: QLineEdit, text: str) -> None:
+        """`field` cleared once what it held at the click is kept (not what was typed
+        since)."""
+        if field.text() == text:
+            field.clear()
+
+    def _list_trials(self) -> None:
+        """The session's finished trials read on the job thread, listed once read if the
+        record still shows that patient and session."""
+        self.trial.clear()
         if self._patient is None or self.registry is None:
             return
-        try:
-            said = do()
-        except RegistryError as exc:
-            self.outcome.setText(f"{theme.PROBLEM_SIGN} {exc}")
-            return
-        self.outcome.setText(said)
-        self.recorded.emit(said)
+        registry, code, session = self.registry, self._patient.code, self.session.value()
+        token = self._listing = object()
+
+        def listed(items: list[tuple[str, int]]) -> None:
+            if self._listing is token and self._code() == code and \
+                    self.session.value() == session:
+                self._listing = None
+                self._fill_trials(items)
+
+        self.jobs.run(lambda: trial_items(registry, code, session), listed)
 
     def _hint(self) -> None:
         self.scores.setPlaceholderText(SCORE_HINT[self.scale.currentData()])
 
-    def _fill_trials(self, items: list[tuple[str, int]] | None = None) -> None:
-        """The session's finished trials (`items` when read already), the one chosen before
-        kept chosen (refilling chose the first: "Trial 1 marked invalid" was said when
-        trial 3 was marked)."""
+    def _fill_trials(self, items: list[tuple[str, int]] | None) -> None:
+        """The session's finished trials as read (None: read on the job thread), the one
+        chosen before kept chosen (refilling chose the first: "Trial 1 marked invalid"
+        was said when trial 3 was marked)."""
+        if items is None:
+            self._list_trials()
+            return
         chosen = self.trial.currentData()
         self.trial.clear()
         if self._patient is None or self.registry is None:
             return
-        if items is None:
-            items = trial_items(self.registry, self._patient.code, self.session.value())
         for label, trial_id in items:
             self.trial.addItem(label, trial_id)
         index = self.trial.findData(chosen)

@@ -236,7 +236,7 @@ class RegistrationTab(QWidget):
         right.setContentsMargins(0, 0, 0, 0)
         right.addWidget(trial_box)
         # the chosen patient's scales, notes, validity marks and corrections (schema v8)
-        self.clinical = ClinicalRecord(registry)
+        self.clinical = ClinicalRecord(registry, jobs=self.jobs)
         self.clinical.recorded.connect(self._recorded)
         right.addWidget(self.clinical)
         right.addWidget(new)
