@@ -331,8 +331,9 @@ class RegistrationTab(QWidget):
         return bool(self._asked)
 
     def drop_answers(self) -> None:
-        """The window closes: answers still to come are not shown."""
+        """The window closes: answers still to come are not shown (the record's too)."""
         self._asked.clear()
+        self.clinical.hold()
 
     def _found(self, text: str, patients: list[Patient]) -> None:
         """The patients a search for `text` found, listed when it is still the newest."""
