@@ -237,19 +237,34 @@ class PlanAndTaskRules:
                 self.builds.append(form)
                 _count("plan Builds")
 
+        # A plan's Start is registered on the job thread (ui.window.start): its trial is
+        # known once the registry answered and the window ran it. Checked before as it
+        # came back from start_trial, none was ever seen, and the trial after it was
+        # taken for the next of the one before ("trial 2's proposal was changed (next
+        # trial 3), not decided by trial 4").
+        watched: dict = {}  # a plan's press: (the form, the registration shown) at it
+        registered = win._registered
+
         def plan_start() -> None:
             if self.pressing:
                 start()
                 return
             form = self._form()
             shown = win.registration_tab.registration()
-            before = win.trial_id
             start()
-            if win.trial_id is not None and win.trial_id != before:
-                self._started(win.trial_id, form, shown)
+            if win.registering():
+                watched[win._press] = (form, shown)
+
+        def plan_registered(press, answer) -> None:
+            registered(press, answer)
+            pressed = watched.pop(press, None)
+            if pressed is not None and not isinstance(answer, Exception) \
+                    and win.trial_id == answer.trial_id:
+                self._started(answer.trial_id, *pressed)
                 _count("plan trials started")
 
         win.build, win.start_trial = plan_build, plan_start
+        win._registered = plan_registered
 
     def _end_the_plan(self) -> None:
         """Stop plan (as the therapist ends it before closing), and wait until it ended."""
