@@ -14,7 +14,8 @@ from tests.ui.session import open_window
 from tests.ui.shown import shown
 from ui import theme
 from ui.tabs.parameters import ParametersTab
-from ui.tabs.registration import NOT_MEASURED, RegistrationTab
+from ui.tabs.registration import RegistrationTab
+from ui.tabs.registration_new import NOT_MEASURED
 
 
 def type_into(qtbot, field, text: str, key=Qt.Key.Key_Return) -> None:
