@@ -245,3 +245,28 @@ def test_confirm_and_a_new_patient_wait_for_the_registry_off_the_windows_thread(
         click(qtbot, tab.confirm)
     assert registered.args[1].trial_number == 2
     assert on_window_thread == []
+
+
+def test_while_a_patient_loads_nothing_of_the_one_before_is_shown(qtbot, tab, registry,
+                                                                   monkeypatch):
+    """Found on the real window: while Grace's record was read, Ada's session note ("1
+    trial so far") and her trials in the clinical record stood under Grace's name."""
+    ada = registry.create_patient("Ada", "Lovelace")
+    grace = registry.create_patient("Grace", "Hopper")
+    begun = registry.begin_trial(ada.code, THESIS_SUBJECT, backend="simulator",
+                                 session_number=1)
+    registry.finish_trial(begun.trial_id, "complete", {"rmse_x_m": 0.01})
+    with qtbot.waitSignal(tab.patient_selected, timeout=60000):
+        tab.choose(ada)
+    assert "1 trial so far" in tab.session_note.text()
+    assert tab.clinical.trial.count() == 1
+    _, release = answering_late(monkeypatch, registry, ("suggest_registration",))
+    tab.choose(grace)
+    assert grace.code in tab.patient_label.text()
+    assert tab.session_note.text() == ""
+    assert tab.clinical.trial.count() == 0
+    assert not tab.clinical.isEnabled()
+    with qtbot.waitSignal(tab.patient_selected, timeout=60000) as chosen:
+        release.set()
+    assert chosen.args[0] == grace
+    assert tab.session_note.text() == "a new session"

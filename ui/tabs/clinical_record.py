@@ -154,6 +154,7 @@ class ClinicalRecord(QGroupBox):
         until `set_patient` shows theirs; answers for the patient before are not shown."""
         self.setEnabled(False)
         self.outcome.setText("")
+        self.trial.clear()  # the patient before's trials
         self._drop_answers()
 
     def set_patient(self, patient: Patient | None, session: int | None = None,

@@ -316,6 +316,7 @@ class RegistrationTab(NewPatient, QWidget):
         self.trial_problem.hide()
         self.patient_label.setText(describe(patient))
         self.measurements_label.setText("Loading the patient's record…")
+        self.session_note.setText("")  # the patient before's; the numbers wait, greyed
         self.clinical.hold()
         registry, code = self.registry, patient.code
         if registry is None:
