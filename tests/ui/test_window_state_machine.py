@@ -251,8 +251,9 @@ class PlanAndTaskRules:
                 return
             form = self._form()
             shown = win.registration_tab.registration()
+            before = win._press  # a Start refused while one registers makes none
             start()
-            if win.registering():
+            if win._press is not None and win._press is not before:
                 watched[win._press] = (form, shown)
 
         def plan_registered(press, answer) -> None:
