@@ -12,7 +12,11 @@ from app.records.datadir import DataDir
 from app.records.registry import Registry
 from core.trial import THESIS_SUBJECT
 from tests.ui.shown import shown
-from tests.ui.test_tabs_registration import answering_late, fill_new_patient
+from tests.ui.test_tabs_registration import (
+    ada_chosen_after_a_trial,
+    answering_late,
+    fill_new_patient,
+)
 from ui import theme
 from ui.tabs.registration import RegistrationTab
 
@@ -153,13 +157,7 @@ def test_the_record_is_kept_off_the_windows_thread_and_says_only_what_was_kept(
     another patient was chosen is not shown under her."""
     from ui.tabs.clinical_record import SAVING
 
-    ada = registry.create_patient("Ada", "Lovelace")
-    grace = registry.create_patient("Grace", "Hopper")
-    begun = registry.begin_trial(ada.code, THESIS_SUBJECT, backend="simulator",
-                                 session_number=1)
-    registry.finish_trial(begun.trial_id, "complete", {"rmse_x_m": 0.01})
-    with qtbot.waitSignal(tab.patient_selected, timeout=60000):
-        tab.choose(ada)
+    ada, grace = ada_chosen_after_a_trial(qtbot, tab, registry)
     record = tab.clinical
     assert record.trial.count() == 1
     on_window_thread, release = answering_late(monkeypatch, registry, (

@@ -60,6 +60,18 @@ def answering_late(monkeypatch, registry, names) -> tuple[list[str], threading.E
     return on_window_thread, release
 
 
+def ada_chosen_after_a_trial(qtbot, tab, registry):
+    """Ada (one finished trial in session 1) chosen, and Grace (none) registered."""
+    ada = registry.create_patient("Ada", "Lovelace")
+    grace = registry.create_patient("Grace", "Hopper")
+    begun = registry.begin_trial(ada.code, THESIS_SUBJECT, backend="simulator",
+                                 session_number=1)
+    registry.finish_trial(begun.trial_id, "complete", {"rmse_x_m": 0.01})
+    with qtbot.waitSignal(tab.patient_selected, timeout=60000):
+        tab.choose(ada)
+    return ada, grace
+
+
 def fill_new_patient(qtbot, tab, first, last):
     qtbot.keyClicks(tab.first_name, first)
     qtbot.keyClicks(tab.last_name, last)
@@ -251,13 +263,7 @@ def test_while_a_patient_loads_nothing_of_the_one_before_is_shown(qtbot, tab, re
                                                                    monkeypatch):
     """Found on the real window: while Grace's record was read, Ada's session note ("1
     trial so far") and her trials in the clinical record stood under Grace's name."""
-    ada = registry.create_patient("Ada", "Lovelace")
-    grace = registry.create_patient("Grace", "Hopper")
-    begun = registry.begin_trial(ada.code, THESIS_SUBJECT, backend="simulator",
-                                 session_number=1)
-    registry.finish_trial(begun.trial_id, "complete", {"rmse_x_m": 0.01})
-    with qtbot.waitSignal(tab.patient_selected, timeout=60000):
-        tab.choose(ada)
+    _, grace = ada_chosen_after_a_trial(qtbot, tab, registry)
     assert "1 trial so far" in tab.session_note.text()
     assert tab.clinical.trial.count() == 1
     _, release = answering_late(monkeypatch, registry, ("suggest_registration",))
