@@ -23,7 +23,6 @@ from PySide6.QtWidgets import (
 
 from app.records.scales import value_label
 from app.records.store import RecordStore
-from app.reports.plain_language import capitalised
 from app.reports.scales_progress import (
     ScaleSeries,
     figure_display_scale,
@@ -34,6 +33,7 @@ from app.reports.scales_progress import (
     scale_series,
     study_series,
 )
+from core.errors import capitalised
 from ui import plots, theme
 from ui.fields import ComboBox
 

@@ -56,6 +56,7 @@ from app.records.station.refresh import (
     write_changes,
 )
 from app.records.station.sync import Synced, SyncRefused, already_sent, replay
+from core.errors import capitalised
 from device.safewrite import OutputRefused, make_private_folders
 
 log = logging.getLogger(__name__)
@@ -282,7 +283,7 @@ class StationRegistry:
         if isinstance(exc, RegistryLoginRefused):  # not the network: say what to do
             self.offline_reason = (f"{self._shown()} refused this station's login: this "
                                    "station records on its own and sends its records once "
-                                   f"it is let in. {str(exc)[:1].upper()}{str(exc)[1:]}")
+                                   f"it is let in. {capitalised(str(exc))}")
         else:
             self.offline_reason = (f"{self._shown()} cannot be reached: this station records "
                                    "on its own and sends its records when it returns")
