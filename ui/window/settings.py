@@ -84,6 +84,7 @@ class RememberedSettings:
         # what the loop and the recorder said as they ended (the trial's fault, its file
         # closed) reaches the window now, so the trial is recorded before it closes
         QApplication.processEvents()
+        self._close_plan_start()  # a Start plan's run being begun: ended, never 'running'
         self.jobs.shutdown()
         self._close_registering()  # a Start's trial registered, its answer never taken
         if isinstance(self.registry, StationStore):
