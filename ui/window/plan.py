@@ -327,14 +327,17 @@ class PlanControl:
         registry = self.registry
         self.jobs.run(lambda: _end_unrun(registry, run_id, why), lambda _: None)
 
-    def _close_plan_start(self) -> None:
+    def _close_plan_start(self) -> bool:
         """The window closes: a run being begun for Start plan is ended on the job thread
-        (by the job itself when its answer has not come yet), never left 'running'."""
+        (by the job itself when its answer has not come yet), never left 'running'. True
+        when one was being begun."""
         awaited, self._plan_starting = self._plan_starting, None
-        if awaited is not None:
-            run_id = awaited.abandon("the console closed before the plan's first round")
-            if run_id is not None:
-                self._end_unrun(run_id, awaited.abandoned)
+        if awaited is None:
+            return False
+        run_id = awaited.abandon("the console closed before the plan's first round")
+        if run_id is not None:
+            self._end_unrun(run_id, awaited.abandoned)
+        return True
 
     def stop_plan(self) -> None:
         if self.plan_runner is not None:

@@ -16,13 +16,15 @@ is refused. When the answer comes the trial is run only if nothing it was presse
 gone: the robot still connected and not held (Disconnect, a fault, the emergency stop), the
 same registration confirmed (another patient chosen, other numbers), the same trial built.
 Otherwise the registered trial is taken back (app.trials.registered: withdrawn, never left
-'recording' with no file), and so it is when the window closes before the answer.
+'recording' with no file), and so it is when the window closes before the answer: the
+window does not wait for it (on a silent network, up to the bounded wait), the job thread
+takes the trial back as the answer comes (ui.window.awaited), and the process ends after.
 """
 
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from app.records.registry import BegunTrial, Registration
 from core.trial import TrialParameters
@@ -31,6 +33,7 @@ from device.loop.states import State
 from device.recording.trialfile import SubjectInfo
 from device.safewrite import os_reason
 from ui.views.readiness import start_needs
+from ui.window.awaited import Awaited
 
 log = logging.getLogger("ui.main_window")
 
@@ -44,9 +47,9 @@ class Press:
     backend: str
     subject: SubjectInfo
     shown: ShownToPatient
-    begun: BegunTrial | None = None
-    """The registry's answer, set on the job thread as it comes (the window closing reads
-    it once the job thread has stopped)."""
+    begun: Awaited[BegunTrial] = field(default_factory=Awaited)
+    """The registry's answer, set on the job thread as it comes; the window closing
+    abandons it (then the trial is taken back there)."""
 
 
 class TrialStart:
@@ -92,12 +95,15 @@ class TrialStart:
 
         def register() -> BegunTrial | Exception:
             try:
-                press.begun = registry.begin_trial(
+                begun = registry.begin_trial(
                     reg.patient_code, press.built, backend=press.backend,
                     session_number=reg.session_number, trial_number=reg.trial_number)
             except Exception as exc:  # RegistryError etc.: the refusal, shown as is
                 return exc
-            return press.begun
+            closed = press.begun.answered(begun)
+            if closed:  # the window closed meanwhile, without waiting for this answer
+                _take_back_unrun(registry, begun, closed)
+            return begun
 
         self._say("Registering the trial…", states=(State.CONNECTED,))
         self.jobs.run(register, lambda answer: self._registered(press, answer))
@@ -164,20 +170,34 @@ class TrialStart:
         """A Start taken (registering) that runs no trial: said to whoever waits for it
         (the plan's runner, ui.window.plan)."""
 
-    def _close_registering(self) -> None:
-        """The window closes (its job thread stopped): a trial registered for a Start whose
-        answer the window never took is taken back, never left 'recording'."""
-        from app.trials.registered import take_back
-
+    def _close_registering(self) -> bool:
+        """The window closes: a Start's trial being registered is abandoned, the window not
+        waiting for the registry's answer; the trial is taken back on the job thread (by
+        the registering job as its answer comes, or after it when the answer came but was
+        not taken), never left 'recording'. True when one was (the job thread may still
+        wait for the registry then)."""
         press, self._press = self._press, None
-        if press is None or press.begun is None:
-            return
-        try:
-            done = take_back(self.registry, press.begun, "the console closed before the "
-                             "trial started")
-        except Exception as exc:  # closing must go on; what stays is said in the log
-            log.error("trial %d registered at Start could not be taken back as the console "
-                      "closed: %s", press.begun.trial_id, exc)
-            return
-        log.info("trial %d registered at Start as the console closed: %s",
-                 press.begun.trial_id, done.words)
+        if press is None:
+            return False
+        why = "the console closed before the trial started"
+        begun = press.begun.abandon(why)
+        if begun is not None:
+            registry = self.registry
+            self.jobs.run(lambda: _take_back_unrun(registry, begun, why), lambda _: None)
+        return True
+
+
+def _take_back_unrun(registry, begun: BegunTrial, why: str) -> None:
+    """On the job thread: the trial registered for a Start the window closed before it
+    ran, taken back (app.trials.registered); a failure is said in the log (the station's
+    next start finishes a trial left 'recording', ui.window.message_line)."""
+    from app.trials.registered import take_back
+
+    try:
+        done = take_back(registry, begun, why)
+    except Exception as exc:  # the window has gone: the log is where it is said
+        log.error("trial %d registered at Start could not be taken back as the console "
+                  "closed: %s", begun.trial_id, exc)
+        return
+    log.info("trial %d registered at Start as the console closed: %s", begun.trial_id,
+             done.words)
