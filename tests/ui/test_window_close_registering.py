@@ -12,9 +12,9 @@ import threading
 
 import pytest
 
+from tests.ui.held import BOUND_S, Held
 from tests.ui.session import build_and_connect, click, open_window, register_patient, short_trial
 from tests.ui.test_window_plan import PLAN, connected_with_plan
-from tests.ui.test_window_plan_waits import BOUND_S, Held
 
 pytestmark = pytest.mark.slow
 

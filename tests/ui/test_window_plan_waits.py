@@ -2,51 +2,23 @@
 copying a template, changing a block and beginning a run. On a shared registry whose
 network drops everything each held the window for its bounded wait
 (app.records.registry.postgres.deadline). Here each registry call answers only once the
-test lets it (`Held`): a window that waits for it on its own thread never returns to the
+test lets it (tests/ui/held.py): a window that waits for it on its own thread never returns to the
 test, and the call gives up after 30 s (a bound for a hang, never a measure of speed).
 Meanwhile the Plan tab says what it waits for and Start plan, Copy and the table wait; an
 answer made stale (another patient chosen, the robot gone) is never shown nor run."""
 
 from __future__ import annotations
 
-import threading
-
 import pytest
 from PySide6.QtWidgets import QApplication
 
 from app.plans.templates import load_template
 from device.loop.states import State
+from tests.ui.held import BOUND_S, Held
 from tests.ui.session import click, ended_window, open_window, register_patient
 from tests.ui.test_window_plan import PLAN, connected_with_plan, shown
 
 pytestmark = pytest.mark.slow
-
-BOUND_S = 30.0
-"""How long a held call waits for the test at most: a hang's bound."""
-
-
-class Held:
-    """The registry's `name`, answering only once the test calls `release` (for the
-    patient `code` only, when given): `asked` is set as the call comes, `waited` says
-    for each whether the test released it before the bound (False: the window waited
-    for it on its own thread, where the test could not)."""
-
-    def __init__(self, monkeypatch, registry, name: str, code: str | None = None) -> None:
-        self.asked = threading.Event()
-        self._released = threading.Event()
-        self.waited: list[bool] = []
-        call = getattr(registry, name)
-
-        def held(*args, **kwargs):
-            if code is None or code in args:
-                self.asked.set()
-                self.waited.append(self._released.wait(BOUND_S))
-            return call(*args, **kwargs)
-
-        monkeypatch.setattr(registry, name, held)
-
-    def release(self) -> None:
-        self._released.set()
 
 
 @pytest.fixture

@@ -10,11 +10,14 @@ emergency-stop click was handled.
 
 One truth: what is registered is what the window showed at the press. Everything the
 trial is registered and run with is taken then (`Press`: the confirmed registration, the
-built trial, the robot's words, what the patient's screen shows); while the registry
-answers, Start says "Registering…", Build waits (ui.views.readiness), and a second Start
-is refused. When the answer comes the trial is run only if nothing it was pressed with has
-gone: the robot still connected and not held (Disconnect, a fault, the emergency stop), the
-same registration confirmed (another patient chosen, other numbers), the same trial built.
+built trial, the robot's words), except what the patient's screen shows, which the
+registry does not hold and the therapist may change while Start registers: the trial's
+file takes it as the trial starts (taken at the press, a change made meanwhile was in no
+file while the screen showed it). While the registry answers, Start says "Registering…",
+Build waits (ui.views.readiness), and a second Start is refused. When the answer comes
+the trial is run only if nothing it was pressed with has gone: the robot still connected
+and not held (Disconnect, a fault, the emergency stop), the same registration confirmed
+(another patient chosen, other numbers), the same trial built.
 Otherwise the registered trial is taken back (app.trials.registered: withdrawn, never left
 'recording' with no file), and so it is when the window closes before the answer: the
 window does not wait for it (on a silent network, up to the bounded wait), the job thread
@@ -28,7 +31,6 @@ from dataclasses import dataclass, field
 
 from app.records.registry import BegunTrial, Registration
 from core.trial import TrialParameters
-from device.loop.messages import ShownToPatient
 from device.loop.states import State
 from device.recording.trialfile import SubjectInfo
 from device.safewrite import os_reason
@@ -46,7 +48,6 @@ class Press:
     built: TrialParameters
     backend: str
     subject: SubjectInfo
-    shown: ShownToPatient
     begun: Awaited[BegunTrial] = field(default_factory=Awaited)
     """The registry's answer, set on the job thread as it comes; the window closing
     abandons it (then the trial is taken back there)."""
@@ -89,8 +90,7 @@ class TrialStart:
         reg = self.registration
         press = self._press = Press(
             reg, self.built, self.backend_label.text() or "simulator",
-            SubjectInfo.from_parameters(self.patient.code, self.built),
-            self.shown_to_patient())
+            SubjectInfo.from_parameters(self.patient.code, self.built))
         registry = self.registry
 
         def register() -> BegunTrial | Exception:
@@ -137,7 +137,9 @@ class TrialStart:
             camera = self.video.camera
             if camera is not None and camera.running:
                 camera.start_recording(answer.path.with_suffix(".mp4"))
-            self.bridge.start_trial(str(answer.path), press.subject, press.shown)
+            # the patient's screen as it is now, the trial starting: the therapist may
+            # have opened, closed or changed it while the registry answered
+            self.bridge.start_trial(str(answer.path), press.subject, self.shown_to_patient())
         except Exception as exc:  # the video cannot be written, the loop is gone, …
             # what was begun goes back with the refusal (app.trials.registered): the trial
             # stayed 'recording' with no file, and Start waited for it for good
