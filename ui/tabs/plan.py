@@ -97,9 +97,10 @@ class PlanTab(QWidget):
         self.status.setWordWrap(True)
         self.status.setStyleSheet("font-weight: bold;")
         self.waiting_line = QLabel("")
-        self.waiting_line.setWordWrap(True)
         self.waiting_line.setStyleSheet("font-style: italic;")
-        self.waiting_line.hide()
+        # its line kept when empty: the table under it stays put (it moved down as the
+        # therapist's change was being saved, and back up)
+        self.waiting_line.setMinimumHeight(self.waiting_line.fontMetrics().lineSpacing())
         column = QVBoxLayout(self)
         column.addLayout(top)
         column.addWidget(self.title)
@@ -145,7 +146,6 @@ class PlanTab(QWidget):
         saved ran the plan before it, the table showing the change)."""
         self.waiting = words
         self.waiting_line.setText(words)
-        self.waiting_line.setVisible(bool(words))
         self.show_running(*self._running)
 
     def show_refusal(self, text: str) -> None:
