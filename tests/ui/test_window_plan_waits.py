@@ -63,6 +63,9 @@ def test_the_plan_is_read_copied_and_changed_off_the_window_s_thread(qtbot, tmp_
         win.start_plan()  # as if pressed
         assert tab.refusal.text().startswith("Start plan refused: the plan is not shown "
                                              "yet (Saving the change to block 2)")
+        tab.table.item(0, 9).setText("45")  # another change, not by the greyed table
+        assert tab.refusal.text().startswith("Not changed: the plan is not shown yet")
+        assert tab.table.item(0, 9).text() == "60"  # the cell shows the plan again
         assert win.plan_runner is None
         changed.release()
         shown(qtbot, win)
