@@ -1,7 +1,6 @@
 """The one-line messages' sentence start (core.errors.capitalised), used by every layer."""
 
-from hypothesis import given
-from hypothesis import strategies as st
+from hypothesis import given, strategies as st
 
 from core.errors import capitalised
 
