@@ -253,9 +253,12 @@ def feedforward_plot(sheet: Sheet, figure: FeedforwardFigure, x0: float,
         sheet.y_in += 0.3
         return
     first, last = figure.force_N[0], figure.force_N[-1]
-    sheet.text(f"Repetition 1: up to {np.max(first):.1f} N; repetition {reps}: up to "
-               f"{np.max(last):.1f} N (limit {figure.limit_N:g} N; the assistance level "
-               f"ran at {figure.levels}).", 9)
+    # one repetition: said once ("repetition 1: …; repetition 1: …" read as a slip)
+    learned = (f"Repetition 1: up to {np.max(first):.1f} N; repetition {reps}: up to "
+               f"{np.max(last):.1f} N" if reps > 1
+               else f"One repetition: up to {np.max(first):.1f} N")
+    sheet.text(f"{learned} (limit {figure.limit_N:g} N; the assistance level ran at "
+               f"{figure.levels}).", 9)
     sheet.gap(0.06)
     ax = sheet.axes(height, x_in=x0, width_in=width)
     for k, row in enumerate(figure.force_N):
