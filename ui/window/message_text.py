@@ -11,7 +11,8 @@ from __future__ import annotations
 
 from PySide6.QtCore import QEvent, QRect, Qt, Signal
 from PySide6.QtGui import QFont, QFontMetrics, QPainter
-from PySide6.QtWidgets import QLabel
+
+from ui.fitting_label import FittingLabel
 
 SMALLEST = 0.6
 """The smallest the font gets (of the window's) to show a long text whole."""
@@ -20,7 +21,7 @@ MORE = "… (click to read it all)"
 WRAP = int(Qt.TextFlag.TextWordWrap)
 
 
-class WholeText(QLabel):
+class WholeText(FittingLabel):
     """A word-wrapped label of fixed height whose text is never cut without saying so: set
     in a smaller font when it needs more lines at its width, and beyond SMALLEST painted as
     its beginning and MORE, a click (`clicked`) then asks for the whole. A fault was cut
@@ -28,6 +29,7 @@ class WholeText(QLabel):
     refusal lost its reason the same way."""
 
     clicked = Signal()
+    REFIT_ON = (QEvent.Type.StyleChange,)  # its own setFont is no change to fit again
 
     def __init__(self, bold: bool = True) -> None:
         super().__init__()
@@ -43,15 +45,6 @@ class WholeText(QLabel):
     def setText(self, text: str) -> None:
         super().setText(text)
         self._fit()
-
-    def resizeEvent(self, event) -> None:
-        super().resizeEvent(event)
-        self._fit()
-
-    def changeEvent(self, event) -> None:
-        super().changeEvent(event)
-        if event.type() == QEvent.Type.StyleChange:  # a new font scale, a problem's bold
-            self._fit()
 
     def is_cut(self) -> bool:
         """The text does not fit its lines even at SMALLEST: its end is not on screen."""
