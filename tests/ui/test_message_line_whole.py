@@ -17,12 +17,13 @@ from ui.window.message_text import MORE
 
 
 def _painted_fits(label) -> bool:
-    """What the label paints fits its fixed lines, in the font it paints with."""
+    """What the label paints fits its fixed lines and their width, in its font."""
     shown = label.shown_text() if hasattr(label, "shown_text") else label.text()
     box = QFontMetrics(label.font()).boundingRect(
         QRect(0, 0, label.contentsRect().width(), 100_000), int(Qt.TextFlag.TextWordWrap),
         shown)
-    return box.height() <= label.contentsRect().height()
+    return (box.height() <= label.contentsRect().height()
+            and box.width() <= label.contentsRect().width())
 
 
 @pytest.fixture
@@ -84,6 +85,9 @@ def test_a_text_too_long_even_set_small_says_there_is_more_and_shows_it_all_on_a
         assert label.is_cut()
         assert label.shown_text().endswith(MORE)
         assert label.shown_text().startswith("⚠ Recording problem: the trial's file")
+        assert "/srv/clinic/folder0/" in label.shown_text()  # a long path cut inside it
+        # cut anyway: as large as the window's words, not in the smallest type
+        assert label.font().pointSizeF() == win.notices.font().pointSizeF()
         assert _painted_fits(label)
         qtbot.mouseClick(label, Qt.MouseButton.LeftButton)
         qtbot.waitUntil(lambda: win.whole_dialog.isVisible(), timeout=5000)

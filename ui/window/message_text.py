@@ -71,9 +71,11 @@ class WholeText(FittingLabel):
         painter.drawText(self.contentsRect(), int(self.alignment()) | WRAP, self._shown)
 
     def _fits(self, font: QFont, text: str) -> bool:
+        """`text` in `font` fits the label's lines, and no word (a file's path) is wider
+        than a line: one would be cut at the right edge."""
         width = max(self.contentsRect().width(), 1)
         needed = QFontMetrics(font).boundingRect(QRect(0, 0, width, 100_000), WRAP, text)
-        return needed.height() <= self.contentsRect().height()
+        return needed.height() <= self.contentsRect().height() and needed.width() <= width
 
     def _fit(self) -> None:
         if self._fitting:
@@ -82,15 +84,18 @@ class WholeText(FittingLabel):
         try:
             base = QFont(self.parentWidget().font() if self.parentWidget() else self.font())
             base.setBold(self._bold)
-            font = QFont(base)
+            fitted = None
             for step in range(round((1.0 - SMALLEST) * 20) + 1):
                 font = QFont(base)
                 font.setPointSizeF(base.pointSizeF() * (1.0 - step / 20))
                 if self._fits(font, self.text()):
+                    fitted = font
                     break
+            # cut anyway: its beginning as large as the window's words, not in small type
+            font = fitted or base
             if font != self.font():
                 self.setFont(font)
-            self._shown = "" if self._fits(font, self.text()) else self._beginning(font)
+            self._shown = "" if fitted is not None else self._beginning(font)
             self.setCursor(Qt.CursorShape.PointingHandCursor if self._shown
                            else Qt.CursorShape.ArrowCursor)
             self.update()
@@ -98,13 +103,24 @@ class WholeText(FittingLabel):
             self._fitting = False
 
     def _beginning(self, font: QFont) -> str:
-        """The longest beginning of the text, cut after a word, that fits with MORE."""
-        words = self.text().split(" ")
-        low, high = 0, len(words)  # words[:low] fits with MORE; words[:high + 1] does not
+        """The longest beginning of the text that fits with MORE (ui.window.message_text:
+        _cut), found by halving."""
+        text = self.text()
+        low, high = 0, len(text)  # _cut(text, low) fits; _cut(text, high + 1) does not
         while low < high:
             middle = (low + high + 1) // 2
-            if self._fits(font, " ".join(words[:middle]).rstrip(",;:.") + MORE):
+            if self._fits(font, _cut(text, middle)):
                 low = middle
             else:
                 high = middle - 1
-        return " ".join(words[:low]).rstrip(",;:.") + MORE
+        return _cut(text, low)
+
+
+def _cut(text: str, characters: int) -> str:
+    """The text's first `characters` and MORE, ending at a word when one ends in the last
+    fifth (a long path is cut inside, or nothing of it would show)."""
+    head = text[:characters]
+    space = head.rfind(" ")
+    if space > 0.8 * characters:
+        head = head[:space]
+    return head.rstrip(" ,;:.") + MORE
