@@ -9,7 +9,7 @@ from __future__ import annotations
 import pytest
 from PySide6.QtCore import QRect, Qt
 from PySide6.QtGui import QFontMetrics
-from PySide6.QtWidgets import QApplication, QPlainTextEdit
+from PySide6.QtWidgets import QApplication, QPlainTextEdit, QPushButton
 
 from tests.ui.session import click, open_window, register_patient
 from ui import theme
@@ -92,6 +92,11 @@ def test_a_text_too_long_even_set_small_says_there_is_more_and_shows_it_all_on_a
         qtbot.mouseClick(label, Qt.MouseButton.LeftButton)
         qtbot.waitUntil(lambda: win.whole_dialog.isVisible(), timeout=5000)
         assert win.whole_dialog.findChild(QPlainTextEdit).toPlainText() == whole
+        # closed by a button: Esc, the way out of a dialog elsewhere, is the emergency stop
+        close = win.whole_dialog.findChild(QPushButton)
+        assert close.text() == "Close"
+        qtbot.mouseClick(close, Qt.MouseButton.LeftButton)
+        assert not win.whole_dialog.isVisible()
         # a short text after it: whole again, nothing to click
         win.say("Trial built. Start when ready.")
         assert not label.is_cut()

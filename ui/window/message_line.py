@@ -121,8 +121,12 @@ class MessageLine:
         dialog.setWindowTitle(title)
         shown = QPlainTextEdit(text)
         shown.setReadOnly(True)
+        # a way to close it that is not Esc: Esc is the emergency stop, in every dialog
+        close = QPushButton("Close")
+        close.clicked.connect(dialog.close)
         layout = QVBoxLayout(dialog)
         layout.addWidget(shown)
+        layout.addWidget(close, 0, Qt.AlignmentFlag.AlignRight)
         dialog.resize(700, 400)
         dialog.show()
         return dialog
