@@ -81,8 +81,11 @@ def assessment_page(task: str, metrics: Mapping[str, float], *, heading: str = "
     notes: list[str] = []
     scores: dict = {}
     if norms is not None and person is None:
-        notes.append("the patient's age, sex or handedness is not recorded: no Z-scores "
-                     "(Registration, or rehab patients ... --sex --handedness)")
+        # where the therapist reading the page records them (a registered patient's
+        # fields are corrected there), not a command line to register them anew
+        notes.append("the patient's year of birth, sex or handedness is not recorded: no "
+                     "Z-scores (record them on the Registration tab: Clinical record, "
+                     "Correct)")
     unscorable = ""  # a person the norms hold no one like: said once, in the task score
     if norms is not None and person is not None:
         try:

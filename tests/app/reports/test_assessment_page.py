@@ -65,6 +65,16 @@ def test_the_figures_read_in_the_units_of_the_rest_of_the_report_not_si():
     assert [line.value for line in area.lines] == ["412 cm²"]
 
 
+def test_without_the_patients_covariates_the_page_says_where_to_record_them(norms):
+    """Trying the window: the Assessments tab told the therapist to run
+    "rehab patients ... --sex --handedness" (a command that registers a new patient)."""
+    page = assessment_page("reaching", METRICS, norms=norms, person=None)
+    (note,) = [n for n in page.notes if "not recorded" in n]
+    assert "no Z-scores" in note
+    assert "Registration tab: Clinical record, Correct" in note
+    assert "rehab " not in note
+
+
 def test_z_scores_and_the_task_score_are_the_norms(norms):
     page = assessment_page("reaching", METRICS, norms=norms, person=PERSON)
     z = {line.key: line.z for line in page.lines}
