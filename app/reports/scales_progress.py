@@ -140,6 +140,15 @@ class ScaleSeries:
         return value_label(self.scale_key)
 
 
+def has_label(key: str) -> bool:
+    """The figure is one a person is shown (the catalogue's or the report's rows'), not a
+    record's bookkeeping (duration_s, tolerance_rad, game_hits: the figure_label of a key
+    neither knows is the key itself)."""
+    from core.assessment import FIGURES
+
+    return key in FIGURES or any(row.key == key for row in ROWS)
+
+
 def figure_label(key: str) -> str:
     """A figure's label with its unit: the catalogue's (core.assessment.FIGURES) or the
     report's rows' (app.reports.metrics_table), else the key."""
