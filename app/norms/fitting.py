@@ -238,8 +238,9 @@ def fit_norms(controls: Controls, source: str, *, simulated: bool = False,
     document = norms_from_fit(model, source, simulated, calibration, folds,
                               len(controls.people))
     document["notes"] = left_out_notes(left_out)
-    notes = {key: f"its λ stopped at the search's bound ({f.transform.lam:.3g}): the "
-                  "transform may not make it normal; check its calibration"
+    notes = {key: f"its λ stopped at the search's bound ({f.transform.lam:.3g}; "
+                  "docs/norms.md, Transform): the transform may not make it normal; check "
+                  "its calibration"
              for key, f in model.figures.items() if f.at_bound}
     return FitReport(document, calibration, left_out, notes)
 

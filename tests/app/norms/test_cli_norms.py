@@ -166,9 +166,9 @@ def test_use_show_mdc_refusals(tmp_path, data, capsys):
 
 
 def test_a_lambda_at_its_bound_is_said(tmp_path, data, capsys):
-    """A figure no power transform within λ ∈ [−5, 5] makes normal (here 30 − e^(1.2z), a
-    long tail on the low side: λ = 5 is as far as the search goes): the fit says so beside
-    its calibration."""
+    """A figure no power transform the search allows makes normal (here 30 − e^(1.2z), a
+    long tail on the low side: λ = 2 is as far as the search goes,
+    core.norms.transforms.lambda_range): the fit says so beside its calibration."""
     import csv
 
     import numpy as np
