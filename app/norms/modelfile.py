@@ -238,6 +238,16 @@ class _Reader:
         except CoreError as exc:
             raise self.fail(where, str(exc)) from None
 
+    def mdc_icc(self, where: str, block: dict) -> tuple[float | None, float | None]:
+        """A figure's or task's optional MDC95 (≥ 0) and ICC (−1 to 1): the ICC was read
+        and dropped before, so nothing could say that an MDC95 rests on no reliability."""
+        mdc, icc = block.get("mdc95"), block.get("icc")
+        if mdc is not None:
+            mdc = self.number(f"{where}.mdc95", mdc, low=0)
+        if icc is not None:
+            icc = self.number(f"{where}.icc", icc, low=-1, high=1)
+        return mdc, icc
+
     def figures(self, value: object, spec: CovariateSpec) -> dict[str, FigureNorm]:
         if not isinstance(value, dict) or not value:
             raise self.fail("figures", "must be an object with at least one figure")
@@ -265,12 +275,8 @@ class _Reader:
             if worse != expected:
                 raise self.fail(f"{where}.worse", f"{worse!r} contradicts the figure, which "
                                 f"is worse {'either way' if expected == 'both' else expected}")
-            mdc = block.get("mdc95")
-            if mdc is not None:
-                mdc = self.number(f"{where}.mdc95", mdc, low=0)
-            if "icc" in block:
-                self.number(f"{where}.icc", block["icc"], low=-1, high=1)
-            out[key] = FigureNorm(transform, Regression(beta, sd, n), worse, mdc)
+            mdc, icc = self.mdc_icc(where, block)
+            out[key] = FigureNorm(transform, Regression(beta, sd, n), worse, mdc, icc)
         return out
 
     def tasks(self, value: object, figures: Mapping[str, FigureNorm]) -> dict[str, TaskNorm]:
@@ -298,12 +304,8 @@ class _Reader:
             mean = self.number(f"{where}.mean", block["mean"])
             sd = self.number(f"{where}.sd", block["sd"], positive=True)
             n = self.whole(f"{where}.n", block["n"], 3)
-            mdc = block.get("mdc95")
-            if mdc is not None:
-                mdc = self.number(f"{where}.mdc95", mdc, low=0)
-            if "icc" in block:
-                self.number(f"{where}.icc", block["icc"], low=-1, high=1)
-            out[task] = TaskNorm(tuple(names), transform, mean, sd, n, mdc)
+            mdc, icc = self.mdc_icc(where, block)
+            out[task] = TaskNorm(tuple(names), transform, mean, sd, n, mdc, icc)
         return out
 
 

@@ -285,15 +285,20 @@ def test_mdc_says_who_the_norms_could_not_score(tmp_path, data, capsys):
 def test_mdc_with_no_reliability_says_so_and_its_sem_is_the_sd(tmp_path, data, capsys):
     """Each figure's second session ranked against the first (the best of session 1 the
     worst of session 2): every ICC(2,1) negative. `rehab norms mdc` prints the ICC as it
-    is, marks it, and the SEM is the SD of the measurements, not SD·√(1 − ICC) above it."""
+    is, marks it, and the SEM is the SD of the measurements, not SD·√(1 − ICC) above it.
+    `rehab norms show` of the file says the same beside those MDC95s (it printed them as
+    any other: the file's ICC was read and dropped)."""
     import csv
     import statistics
+
+    from app.norms.model import NO_RELIABILITY
 
     controls = write_controls(tmp_path / "controls.csv", n=200)
     norms, retest = _fitted_and_retest(tmp_path, capsys, controls)
     with retest.open() as f:
         rows = list(csv.DictReader(f))
-    keys = ["vgr_reaction_time_s", "vgr_max_speed_m_s", "range_area_m2", "range_area_ratio"]
+    keys = ["vgr_reaction_time_s", "vgr_max_speed_m_s", "range_area_m2"]
+    kept = "range_area_ratio"  # measured again as it was: its ICC above 0
     first = [r for r in rows if r["session"] == "1"]
     second = {r["subject"]: r for r in rows if r["session"] == "2"}
     for key in keys:
@@ -313,9 +318,20 @@ def test_mdc_with_no_reliability_says_so_and_its_sem_is_the_sd(tmp_path, data, c
         _, pairs, icc, sem, _mdc, *note = line.split()
         assert int(pairs) == 40, line
         assert float(icc) < 0, line
-        assert " ".join(note) == "no reliability (ICC ≤ 0): SEM = SD", line
+        assert " ".join(note) == NO_RELIABILITY, line
         sd = statistics.stdev(float(r[key]) for r in rows)
         assert float(sem) == pytest.approx(sd, rel=1e-3), line
+    code, out, err = run(["norms", "show", str(tmp_path / "mdc.json")], capsys)
+    assert code == 0, err
+    shown = {}  # each figure's first line: the figures' table (the calibration's follows)
+    for line in out.splitlines():
+        if line.strip():
+            shown.setdefault(line.split()[0], line)
+    for key in keys:
+        assert shown[key].endswith(f"  {NO_RELIABILITY}"), shown[key]
+        assert float(shown[key].split()[-len(NO_RELIABILITY.split()) - 1]) < 0, shown[key]
+    assert float(shown[kept].split()[-1]) > 0, shown[kept]
+    assert NO_RELIABILITY not in shown[kept]
 
 
 def test_too_few_after_a_rare_level_says_the_level_first(tmp_path, data, capsys):
