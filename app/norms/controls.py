@@ -15,8 +15,6 @@ records, and the robot is the file's (`robot_kind`).
 
 from __future__ import annotations
 
-import csv
-import io
 import math
 import os
 import re
@@ -28,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from app.norms.fitting import MAX_TABLE_BYTES, Controls
+from app.norms.fitting import MAX_TABLE_BYTES, Controls, csv_rows
 from app.norms.model import NormsError
 from core.errors import CoreError
 from core.norms.regression import Covariates
@@ -78,11 +76,8 @@ def people_from_table(path: str | Path) -> dict[str, Person]:
     from device.safeinput import check_file
 
     path = check_file(path, what="people table", max_bytes=MAX_TABLE_BYTES)
-    try:
-        rows = list(csv.reader(io.StringIO(path.read_bytes().decode("utf-8-sig"))))
-    except (UnicodeDecodeError, csv.Error):
-        raise NormsError(f"people table {path}: is not CSV text (UTF-8)") from None
-    header = [h.strip() for h in rows[0]] if rows else []
+    rows = csv_rows(path, "people table", "a header and one row per person")
+    header = [h.strip() for h in rows[0]]
     if header != ["subject", "birth_year", "sex", "handedness"]:
         raise NormsError(f"people table {path}: the header must be exactly "
                          "subject,birth_year,sex,handedness")

@@ -103,6 +103,17 @@ def test_fit_refusals(tmp_path, data, capsys):
     _refused(capsys, [*base, "--controls", str(bad)], "line 2: robot")
     bad.write_text(controls.read_text().replace("range_area_m2", "range_area_cm2"))
     _refused(capsys, [*base, "--controls", str(bad)], "column 'range_area_cm2' is neither")
+    # a misspelt figure gets the figure it is closest to, and where the keys are listed
+    bad.write_text(controls.read_text().replace("vgr_reaction_time_s", "reaction_time_s"))
+    _refused(capsys, [*base, "--controls", str(bad)], "did you mean 'vgr_reaction_time_s'? "
+             "the figure keys: `rehab assess tasks`")
+    # a spreadsheet's "CSV" with semicolons (or tabs) and decimal commas: refused as
+    # lacking 'subject' before, the column it had first
+    for separator, name in ((";", "semicolons"), ("\t", "tabs")):
+        bad.write_text(controls.read_text().replace(".", ",").replace(",", separator))
+        _refused(capsys, [*base, "--controls", str(bad)], f"its columns are separated by "
+                 f"{name}, not commas; save it as CSV with commas (and '.' as the decimal "
+                 "point)")
     lines = controls.read_text().splitlines()
     bad.write_text("\n".join([lines[0], lines[1].replace(",female,", ",f,").replace(
         ",male,", ",m,"), *lines[2:]]))

@@ -159,6 +159,11 @@ def test_folder_refusals(tmp_path, data, capsys):
                         "--source", "s", "--output", out], capsys)
     assert code == 2
     assert "line 2: sex" in err
+    bad.write_text(people_csv.read_text().replace(",", ";"))
+    code, _, err = run(["norms", "fit", "--trials", str(folder), "--people", str(bad),
+                        "--source", "s", "--output", out], capsys)
+    assert code == 2
+    assert f"people table {bad}: its columns are separated by semicolons" in err
     code, _, err = run(["norms", "mdc", "--norms", out, "--output", str(tmp_path / "m.json")],
                        capsys)
     assert code == 2
