@@ -28,6 +28,7 @@ from core.errors import CoreError
 from core.norms import fitting
 from core.norms.regression import AGE, CATEGORICAL, COVARIATES, Covariates
 from core.norms.scores import BETTER_TO_WORSE
+from core.norms.transforms import REJECTED
 
 MAX_BOUNDED_FRACTION = 0.05
 """A figure that is a lower bound (FigureSpec.bounded_by: the robot's force limit reached)
@@ -256,9 +257,10 @@ def fit_norms(controls: Controls, source: str, *, simulated: bool = False,
     document = norms_from_fit(model, source, simulated, calibration, folds,
                               len(controls.people))
     document["notes"] = left_out_notes(left_out)
-    notes = {key: f"its λ stopped at the search's bound ({f.transform.lam:.3g}; "
-                  "docs/norms.md, Transform): the transform may not make it normal; check "
-                  "its calibration"
+    notes = {key: f"its λ is held at the search's bound {f.transform.lam:.3g}, which the "
+                  f"controls reject (they would take {f.free_lam:.3g}; likelihood ratio "
+                  f"{f.bound_cost:.1f} > {REJECTED:.2f}; docs/norms.md, Transform): the "
+                  "transform leaves them skewed; check its calibration"
              for key, f in model.figures.items() if f.at_bound}
     return FitReport(document, calibration, left_out, notes)
 

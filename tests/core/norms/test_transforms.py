@@ -138,3 +138,23 @@ def test_lambda_range_by_worse_side():
     both = fit_transform("box-cox", _controls_of_lambda(1.0), worse="both")
     assert both.transform.lam == 0.0
     assert both.at_bound
+
+
+def test_a_bound_is_noted_only_when_the_controls_reject_it():
+    """25 controls, the shipped fit's worse-side bounds: a figure nearly normal and far from
+    0 (a speed 0.3 ± 0.02 m/s, lower worse) is held at λ = 0, which its likelihood cannot
+    tell from 1 (the ratio well under 3.84): no news. A long low tail on a figure where
+    higher is worse (30 − e^(1.2z)) wants λ far above 2: rejected, and said."""
+    rng = np.random.default_rng(0)
+    near_normal = 0.3 + 0.02 * rng.standard_normal(25)
+    held = fit_transform("box-cox", near_normal, worse="lower")
+    assert held.at_bound
+    assert held.transform.lam == 0.0
+    assert held.bound_cost < 3.84
+    assert not held.bound_rejected
+    skewed = 30.0 - np.exp(1.2 * rng.standard_normal(80))
+    rejected = fit_transform("box-cox", skewed, worse="higher")
+    assert rejected.transform.lam == 2.0
+    assert rejected.free_lam > 2.0
+    assert rejected.bound_cost > 3.84
+    assert rejected.bound_rejected
