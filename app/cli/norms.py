@@ -128,6 +128,8 @@ def cmd_show(args: argparse.Namespace) -> int:
         icc = "" if t.icc is None else f", ICC {t.icc:.3f}"
         print(f"task score {task}: {', '.join(t.figures)} (n {t.n}{mdc}{icc})"
               f"{_nil(model, 'task:' + task)}")
+    _said_once(any(model.reliability_note(k) for k in (
+        *model.figures, *(f"task:{t}" for t in model.tasks))))
     if model.notes:
         print(model.notes)
     held = model.calibration.get("held_out") if isinstance(model.calibration, dict) else None
@@ -147,8 +149,17 @@ def _icc(icc: float | None) -> str:
 
 def _nil(model, key: str) -> str:
     """"  <NO_RELIABILITY>" beside an MDC95 whose ICC is ≤ 0, else ""."""
-    note = model.reliability_note(key)
-    return f"  {note}" if note else ""
+    from app.norms.model import NO_RELIABILITY
+
+    return f"  {NO_RELIABILITY}" if model.reliability_note(key) else ""
+
+
+def _said_once(marked: bool) -> None:
+    """Under a table that marked an MDC95 NO_RELIABILITY: what that means, once."""
+    from app.norms.model import NO_RELIABILITY_SAID
+
+    if marked:
+        print(NO_RELIABILITY_SAID)
 
 
 def cmd_fit(args: argparse.Namespace) -> int:
@@ -227,6 +238,7 @@ def cmd_mdc(args: argparse.Namespace) -> int:
     for key, r in result.found.items():
         nil = f"  {NO_RELIABILITY}" if r.icc <= 0 else ""
         print(f"{key:<36} {r.pairs:>5} {r.icc:>9.3f} {r.sem:>9.4g} {r.mdc95:>9.4g}{nil}")
+    _said_once(any(r.icc <= 0 for r in result.found.values()))
     for key, why in result.left_out.items():
         print(f"{key}: {why}")
     for key, why in result.skipped.items():

@@ -54,10 +54,12 @@ def score_text(score: float) -> str:
 
 
 WORST = "(worse than any task score)"
-NO_RELIABILITY = ("no reliability (ICC ≤ 0): SEM = SD, so its MDC95 is the whole spread of "
-                  "the retest's measurements, not an error around a lasting trait")
-"""What `rehab norms mdc`, `rehab norms show` and Progress say beside an MDC95 whose ICC is
-≤ 0 (docs/norms.md, Minimal detectable change)."""
+NO_RELIABILITY = "no reliability (ICC ≤ 0): SEM = SD"
+"""What a table (`rehab norms mdc`, `rehab norms show`) marks beside an MDC95 whose ICC is
+≤ 0 (docs/norms.md, Minimal detectable change), with NO_RELIABILITY_SAID once below it."""
+NO_RELIABILITY_SAID = (f"{NO_RELIABILITY}, so its MDC95 is the whole spread of the retest's "
+                       "measurements, not an error around a lasting trait")
+"""What it means, said once under a table and beside Progress's real changes."""
 
 
 class TaskNotPerformed(NormsError):
@@ -278,11 +280,11 @@ class NormativeModel:
         return self._norm(key).mdc95
 
     def reliability_note(self, key: str) -> str:
-        """NO_RELIABILITY when the figure's (or `task:<id>`'s) test-retest ICC is ≤ 0, else
-        "": its MDC95 is then 2.77 times the measurements' whole SD, not a measurement
+        """NO_RELIABILITY_SAID when the figure's (or `task:<id>`'s) test-retest ICC is ≤ 0,
+        else "": its MDC95 is then 2.77 times the measurements' whole SD, not a measurement
         error under a lasting trait, and whoever reads it must be told."""
         icc = self._norm(key).icc
-        return NO_RELIABILITY if icc is not None and icc <= 0.0 else ""
+        return NO_RELIABILITY_SAID if icc is not None and icc <= 0.0 else ""
 
     def is_real_change(self, key: str, before: float, after: float) -> Change:
         """Whether a figure (or `task:<id>`'s score) moved beyond its MDC95 (eq. 7);

@@ -309,7 +309,7 @@ def test_mdc_with_no_reliability_says_so_and_its_sem_is_the_sd(tmp_path, data, c
     import csv
     import statistics
 
-    from app.norms.model import NO_RELIABILITY
+    from app.norms.model import NO_RELIABILITY, NO_RELIABILITY_SAID
 
     controls = write_controls(tmp_path / "controls.csv", n=200)
     norms, retest = _fitted_and_retest(tmp_path, capsys, controls)
@@ -339,6 +339,7 @@ def test_mdc_with_no_reliability_says_so_and_its_sem_is_the_sd(tmp_path, data, c
         assert " ".join(note) == NO_RELIABILITY, line
         sd = statistics.stdev(float(r[key]) for r in rows)
         assert float(sem) == pytest.approx(sd, rel=1e-3), line
+    assert out.count(NO_RELIABILITY_SAID) == 1  # what it means, once under the table
     code, out, err = run(["norms", "show", str(tmp_path / "mdc.json")], capsys)
     assert code == 0, err
     shown = {}  # each figure's first line: the figures' table (the calibration's follows)
@@ -350,6 +351,7 @@ def test_mdc_with_no_reliability_says_so_and_its_sem_is_the_sd(tmp_path, data, c
         assert float(shown[key].split()[-len(NO_RELIABILITY.split()) - 1]) < 0, shown[key]
     assert float(shown[kept].split()[-1]) > 0, shown[kept]
     assert NO_RELIABILITY not in shown[kept]
+    assert out.count(NO_RELIABILITY_SAID) == 1
 
 
 def test_too_few_after_a_rare_level_says_the_level_first(tmp_path, data, capsys):

@@ -132,7 +132,7 @@ def test_marks_against_an_mdc95_on_no_reliability_say_so(registry, tmp_path):
     """An MDC95 whose test-retest ICC is ≤ 0 (the shipped norms' position sense: no
     lasting trait in the virtual subjects) is the retest's whole spread: the marks line
     says so, and says nothing of the kind for an ICC above 0."""
-    from app.norms.model import NO_RELIABILITY
+    from app.norms.model import NO_RELIABILITY_SAID
 
     document = handmade()
     code = registry.create_patient("Ada", "Example").code
@@ -146,7 +146,7 @@ def test_marks_against_an_mdc95_on_no_reliability_say_so(registry, tmp_path):
         lines[icc] = scale_series(registry, code, RT, "fugl_meyer",
                                   norms=load_norms(path)).marks
     assert lines[-0.03].startswith(f"a real change (beyond MDC95 0.08) at session 2 "
-                                   f"({NO_RELIABILITY}); Norms: hand-made")
+                                   f"({NO_RELIABILITY_SAID}); Norms: hand-made")
     assert lines[0.7].startswith("a real change (beyond MDC95 0.08) at session 2; Norms: ")
 
 
