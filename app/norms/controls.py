@@ -148,6 +148,13 @@ def read_assessments(paths: Iterable[Path], invalid: Mapping[Path, str] | None =
         if not task:
             skipped[str(path)] = "not an assessment trial"
             continue
+        kind = simulated_patient(data.backend)
+        if kind not in (None, "healthy"):
+            # one data folder holds the controls and the patients: the weak virtual
+            # patient's battery was fitted as a 26th healthy control
+            skipped[str(path)] = (f"a simulated {kind} patient ({data.backend}), not a "
+                                  "healthy control")
+            continue
         if data.subject is None or data.status != "complete":
             skipped[str(path)] = (f"its status is {data.status!r}" if data.subject else
                                   "it holds no subject")
@@ -167,6 +174,18 @@ def read_assessments(paths: Iterable[Path], invalid: Mapping[Path, str] | None =
                                       data.subject.side, robot_kind(data.backend,
                                                                     data.summary), metrics))
     return trials, skipped
+
+
+SIMULATED = re.compile(r"simulator \((\w+)[,)]")
+
+
+def simulated_patient(backend: str) -> str | None:
+    """The virtual patient of a simulated trial's backend (`simulator (weak, seed 5)`:
+    `weak`), or None for a trial on the robot or one that names none."""
+    from device.sim.patient_parameters import PATIENT_KINDS
+
+    found = SIMULATED.match(backend or "")
+    return found.group(1) if found and found.group(1) in PATIENT_KINDS else None
 
 
 def invalid_files(registry) -> dict[Path, str]:
