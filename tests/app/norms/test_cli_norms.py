@@ -181,7 +181,7 @@ def test_a_lambda_at_its_bound_is_said(tmp_path, data, capsys):
     long tail on the low side: λ = 2 is as far as the search goes,
     core.norms.transforms.lambda_range): the fit says so beside its calibration. A figure
     held at a bound its controls do not reject (a speed 0.3 ± 0.02 m/s, lower worse, held at
-    λ = 0) is not noted: 25 virtual controls' fit printed 36 such notes of 41 figures."""
+    λ = 0) is not noted: 25 virtual controls' fit printed 35 such notes of 39 figures (none now)."""
     import csv
 
     import numpy as np
