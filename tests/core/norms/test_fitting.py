@@ -142,8 +142,8 @@ def test_a_rare_figure_one_fold_cannot_fit_leaves_the_others_scored():
 
 def test_a_task_score_has_no_ceiling():
     """A task's distance D is Box-Cox transformed, and a greater D is worse: with λ < 0 the
-    transformed D tends to −1/λ, and the task score could never exceed about
-    (−1/λ − mean)/SD (the shipped circle score, λ −0.64: 5.4, whatever the patient did).
+    transformed D tends to −1/λ, and the Z-Task Score could never exceed (−1/λ − mean)/SD
+    (the shipped circle's, λ −0.64: 5.4, a task score of 5.5, whatever the patient did).
     Controls whose D the likelihood bends with λ = −0.5 (one figure's Z built so that its
     one-sided deviation is that D): λ is kept at 0 or above, and a patient ever further
     from them scores ever worse."""
