@@ -10,6 +10,8 @@ positions and sizes of the set-up      cm       the form, the path plots (window
 (centre, shoulder, radius, arm)                 report's Settings line, stored measurements
 position errors (RMSE, per axis)       mm       the big numbers, the error plot, tables
 speeds                                 mm/s     tables, the window's path summary
+an assessment's figures                mm, mm/s the Assessments tab, its PDF page, the
+(catalogued in SI: core.assessment)    °, cm²   session report (`shown`)
 angles (joints, tolerance)             °        everywhere
 assistance level                       %        the form, the report, the progress table
 =====================================  =======  ==========================================
@@ -17,6 +19,7 @@ assistance level                       %        the form, the report, the progre
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 from core.trial import MessageUnits
@@ -47,3 +50,22 @@ def point_cm(point_m: Sequence[float], decimals: int = 1) -> str:
 def assistance_percent(level: float) -> str:
     """'40 %': the assistance level (0–1 inside) as the form shows it."""
     return f"{level * 100:.0f} %"
+
+
+SHOWN = {"m": ("mm", MM_PER_M), "m/s": ("mm/s", MM_S_PER_M_S),
+         "rad": ("°", 180.0 / math.pi), "m²": ("cm²", CM_PER_M ** 2)}
+"""A catalogued figure's SI unit → the unit a person reads it in and the factor to it (a
+unit not here, N, s, a ratio or a count, is read as it is)."""
+
+
+def shown(value_si: float, unit_si: str) -> tuple[float, str]:
+    """A figure's SI value and unit as a person reads them: (2.31, '°') for 0.0403 rad."""
+    unit, factor = SHOWN.get(unit_si, (unit_si, 1.0))
+    return value_si * factor, unit
+
+
+def with_unit(text: str, unit: str) -> str:
+    """'2.31°', '0.81 mm/s', '0.93' (a ratio: unit '1' or '')."""
+    if unit in ("", "1"):
+        return text
+    return f"{text}{unit}" if unit == "°" else f"{text} {unit}"

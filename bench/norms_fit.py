@@ -4,7 +4,9 @@ what the controls were drawn from.
     .venv/bin/python bench/norms_fit.py [--subjects 500] [--folds 5] [--seed 0]
 
 Constructed controls: every figure of core.assessment.FIGURES, each a Box-Cox variable of
-known λ (drawn in [−1, 1.5]) with known coefficients on age, sex, handedness and the tested
+known λ (drawn in [−1, 1.5] within the range the fit searches for the figure's worse side,
+core.norms.transforms.lambda_range: [0, 1.5] when higher is worse, [−1, 0] when lower is,
+0 when either is) with known coefficients on age, sex, handedness and the tested
 side, residual SD 0.1 on the transformed scale, one robot. Fits them as `rehab norms fit`
 does (app.norms.fitting.fit_norms: every figure, every task score, the k-fold
 cross-validated calibration) and prints the time of the fit and of the calibration, and
@@ -25,6 +27,14 @@ from app.norms.fitting import Controls, fit_norms
 from core.assessment import FIGURES
 from core.norms import fitting
 from core.norms.regression import Covariates, spec_of
+from core.norms.scores import BETTER_TO_WORSE
+from core.norms.transforms import lambda_range
+
+WORSE = {key: BETTER_TO_WORSE[spec.better] for key, spec in FIGURES.items()}
+AT_LIMIT = {spec.bounded_by for spec in FIGURES.values() if spec.bounded_by}
+"""Counts of pushes at the robot's limit: 0 in every constructed control (a robot that
+holds more than they push), so that the fit norms the forces those counts bound (a count
+above 0 in more than 5 % of the controls leaves them out, as no spread)."""
 
 SIGMA = 0.1
 
@@ -38,7 +48,11 @@ def controls(n: int, seed: int):
     X = spec_of(people).design(people)
     truth, figures = {}, {}
     for key in FIGURES:
-        lam = float(rng.uniform(-1.0, 1.5))
+        if key in AT_LIMIT:
+            figures[key] = np.zeros(n)
+            continue
+        low, high = lambda_range("box-cox", WORSE[key])
+        lam = float(rng.uniform(max(low, -1.0), min(high, 1.5)))
         age = rng.uniform(-0.004, 0.004)
         # centred on t = 0, so that 1 + λt > 0 for every λ drawn (the inverse exists)
         beta = np.array([-52.5 * age, age, rng.uniform(-0.1, 0.1), rng.uniform(-0.05, 0.05),
@@ -57,20 +71,21 @@ def main() -> None:
     args = parser.parse_args()
     data, truth, X = controls(args.subjects, args.seed)
     start = time.perf_counter()
-    model = fitting.fit_model(data.figures, data.people,
-                              {k: "higher" for k in data.figures}, {}, "box-cox")
+    model = fitting.fit_model({k: data.figures[k] for k in truth}, data.people, WORSE, {},
+                              "box-cox")
     fit_s = time.perf_counter() - start
     start = time.perf_counter()
     report = fit_norms(data, "bench", simulated=True, transform="box-cox", folds=args.folds)
     whole_s = time.perf_counter() - start
     se_age = SIGMA * np.sqrt(np.linalg.inv(X.T @ X)[1, 1])
-    lam_err = [abs(model.figures[k].transform.lam - truth[k][0]) for k in FIGURES]
+    lam_err = [abs(model.figures[k].transform.lam - truth[k][0]) for k in truth]
     age_err = [abs(model.figures[k].regression.coefficients["age_years"] - truth[k][1][1])
-               / se_age for k in FIGURES]
+               / se_age for k in truth]
     held = report.calibration
-    sds = [held[k].sd for k in FIGURES]
-    beyond = [held[k].beyond_1_96 for k in FIGURES]
-    print(f"{args.subjects} controls × {len(FIGURES)} figures, {args.folds}-fold calibration")
+    sds = [held[k].sd for k in truth]
+    beyond = [held[k].beyond_1_96 for k in truth]
+    print(f"{args.subjects} controls × {len(truth)} figures ({len(AT_LIMIT)} counts at the "
+          f"robot's limit 0), {args.folds}-fold calibration")
     print(f"fit of the figures alone: {fit_s:.2f} s; the whole fit with task scores and "
           f"calibration: {whole_s:.2f} s")
     print(f"|λ − λ_true|: median {np.median(lam_err):.3f}, worst {max(lam_err):.3f}")

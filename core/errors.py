@@ -37,6 +37,13 @@ class SingularityError(CoreError, ArithmeticError):
     """A Jacobian or mass matrix is singular where an inverse was required."""
 
 
+def capitalised(text: str) -> str:
+    """`text` begun with a capital, as a sentence that starts with it (the rest as is: a
+    clause written to follow other words, such as a refusal's reason). Every layer's
+    one-line messages build their sentences with it."""
+    return text[:1].upper() + text[1:]
+
+
 def _show(value: object) -> str:
     if isinstance(value, float):
         return "NaN" if math.isnan(value) else f"{value:g}"

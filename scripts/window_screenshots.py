@@ -91,7 +91,7 @@ def session(app, folder: Path, suffix: str, width: int, height: int, scale: floa
             win.build()
             wait(lambda: win.state in (State.BUILT, State.CONNECTED) and not win.stale())
         if win.state == State.BUILT:
-            win.connect_robot()  # as the button does: 'Hands off the handle' first
+            win.connect_robot()  # as the button does (the simulator: 'Connecting the simulator…')
             wait(lambda: win.state == State.CONNECTED)
         settle(0.5)
         win.start_trial()

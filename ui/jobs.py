@@ -51,10 +51,18 @@ class Jobs(QObject):
 
         future.add_done_callback(done)
 
-    def shutdown(self) -> None:
-        """Wait for the jobs given so far, then stop the thread."""
+    @property
+    def closed(self) -> bool:
+        """`shutdown` was called (the window closed): an answer that comes now is stale."""
+        return self._closed
+
+    def shutdown(self, *, wait: bool = True) -> None:
+        """No job is taken from now on; the jobs given so far still run, one after
+        another. `wait`: return once they have (False: return at once, the thread ending
+        after its last job; Python waits for it before the process ends). Called again
+        with `wait`, it waits for them."""
         self._closed = True
-        self._executor.shutdown(wait=True)
+        self._executor.shutdown(wait=wait)
 
     def _deliver(self, callback, result, error, settled) -> None:
         if settled is not None:

@@ -14,11 +14,10 @@ it read "MERGENCY STO").
 
 from __future__ import annotations
 
-from PySide6.QtCore import QEvent, QRect, Qt, Signal
+from PySide6.QtCore import QRect, Qt, Signal
 from PySide6.QtGui import QFont, QFontMetrics, QKeySequence
 from PySide6.QtWidgets import (
     QHBoxLayout,
-    QLabel,
     QPushButton,
     QSizePolicy,
     QVBoxLayout,
@@ -27,6 +26,7 @@ from PySide6.QtWidgets import (
 
 from device.loop.states import State
 from ui import theme
+from ui.fitting_label import FittingLabel
 from ui.views.readiness import Readiness, readiness
 
 # (name, label, key) in the order of a session
@@ -147,7 +147,7 @@ class RobotBar(QWidget):
         self.why.setToolTip(ready.line)
 
 
-class WholeLine(QLabel):
+class WholeLine(FittingLabel):
     """Words that are never cut: one line tall while they fit in one (or say nothing, so
     the bar does not jump as they come and go), as many lines as they need when they do
     not. `whole` is the text shown."""
@@ -164,15 +164,6 @@ class WholeLine(QLabel):
         self.whole = text
         self.setText(text)
         self._fit()
-
-    def resizeEvent(self, event) -> None:
-        super().resizeEvent(event)
-        self._fit()
-
-    def changeEvent(self, event) -> None:
-        super().changeEvent(event)
-        if event.type() in (QEvent.Type.FontChange, QEvent.Type.StyleChange):
-            self._fit()
 
     def lines_needed(self) -> int:
         """Lines the words take at the label's width (the problem role is bold)."""

@@ -89,7 +89,10 @@ def cmd_tasks(args: argparse.Namespace) -> int:
         print(f"  therapist: {p.therapist}")
         print(f"  patient: {p.patient}")
         print(f"  follows: {p.reference}")
-        print("  figures: " + "; ".join(f"{s.label} ({s.unit})" for s in task_figures(task)))
+        # each figure's key beside its label: a controls table's column for `rehab norms
+        # fit` is the key, which no command listed
+        print("  figures: " + "; ".join(f"{s.label} ({s.unit}) {s.key}"
+                                         for s in task_figures(task)))
     return EXIT_OK
 
 

@@ -116,16 +116,20 @@ def cmd_show(args: argparse.Namespace) -> int:
     print(f"controls: age {spec.age_range[0]:g}–{spec.age_range[1]:g} years; " + "; ".join(
         f"{name} {', '.join(levels)}" for name, levels in spec.levels.items()))
     print(f"{'figure':<36} {'transform':<18} {'n':>5} {'resid SD':>9} {'worse':<7} "
-          f"{'MDC95':>9}")
+          f"{'MDC95':>9} {'ICC':>6}")
     for key, f in model.figures.items():
         t = f.transform
         kind = t.kind if t.kind == "none" else f"{t.kind} λ={t.lam:.3g}"
         mdc = "" if f.mdc95 is None else f"{f.mdc95:.4g}"
         print(f"{key:<36} {kind:<18} {f.regression.n:>5} {f.regression.residual_sd:>9.4g} "
-              f"{f.worse:<7} {mdc:>9}")
+              f"{f.worse:<7} {mdc:>9} {_icc(f.icc):>6}{_nil(model, key)}")
     for task, t in model.tasks.items():
         mdc = "" if t.mdc95 is None else f", MDC95 {t.mdc95:.3g}"
-        print(f"task score {task}: {', '.join(t.figures)} (n {t.n}{mdc})")
+        icc = "" if t.icc is None else f", ICC {t.icc:.3f}"
+        print(f"task score {task}: {', '.join(t.figures)} (n {t.n}{mdc}{icc})"
+              f"{_nil(model, 'task:' + task)}")
+    _said_once(any(model.reliability_note(k) for k in (
+        *model.figures, *(f"task:{t}" for t in model.tasks))))
     if model.notes:
         print(model.notes)
     held = model.calibration.get("held_out") if isinstance(model.calibration, dict) else None
@@ -137,6 +141,25 @@ def cmd_show(args: argparse.Namespace) -> int:
         except (KeyError, TypeError, ValueError):
             print("(the file's calibration is not in the form `rehab norms fit` writes)")
     return EXIT_OK
+
+
+def _icc(icc: float | None) -> str:
+    return "" if icc is None else f"{icc:.3f}"
+
+
+def _nil(model, key: str) -> str:
+    """"  <NO_RELIABILITY>" beside an MDC95 whose ICC is ≤ 0, else ""."""
+    from app.norms.model import NO_RELIABILITY
+
+    return f"  {NO_RELIABILITY}" if model.reliability_note(key) else ""
+
+
+def _said_once(marked: bool) -> None:
+    """Under a table that marked an MDC95 NO_RELIABILITY: what that means, once."""
+    from app.norms.model import NO_RELIABILITY_SAID
+
+    if marked:
+        print(NO_RELIABILITY_SAID)
 
 
 def cmd_fit(args: argparse.Namespace) -> int:
@@ -187,6 +210,7 @@ def cmd_use(args: argparse.Namespace) -> int:
 def cmd_mdc(args: argparse.Namespace) -> int:
     from app.norms import write_norms
     from app.norms.fitting import read_controls_table
+    from app.norms.model import NO_RELIABILITY
     from app.norms.retest import ICC_FORM, retest_reliability, with_mdc
 
     if (args.retest is None) == (args.trials is None):
@@ -212,8 +236,9 @@ def cmd_mdc(args: argparse.Namespace) -> int:
     print(f"{'figure or task score':<36} {'pairs':>5} {f'ICC({ICC_FORM})':>9} {'SEM':>9} "
           f"{'MDC95':>9}")
     for key, r in result.found.items():
-        nil = "  no reliability (ICC ≤ 0): SEM = SD" if r.icc <= 0 else ""
+        nil = f"  {NO_RELIABILITY}" if r.icc <= 0 else ""
         print(f"{key:<36} {r.pairs:>5} {r.icc:>9.3f} {r.sem:>9.4g} {r.mdc95:>9.4g}{nil}")
+    _said_once(any(r.icc <= 0 for r in result.found.values()))
     for key, why in result.left_out.items():
         print(f"{key}: {why}")
     for key, why in result.skipped.items():

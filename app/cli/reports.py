@@ -94,34 +94,46 @@ def cmd_progress(args: argparse.Namespace) -> int:
                            + ", ".join(prog.metric_names))
     rows_by_key = {r.key: r for r in ROWS}
     labels = [rows_by_key[m].heading if m in rows_by_key else m for m in wanted]
+    # a column as wide as its heading: two assessment keys ran together in 18 characters
+    widths = [max(18, len(label) + 2) for label in labels]
     print(f"Progress of {args.code}: {_count(len(rows), 'trial')}, "
           f"{_count(len(prog.exercises), 'exercise')}")
     for i, exercise in enumerate(prog.exercises):
         print(f"  exercise {i + 1}: {exercise.label()}")
     print(f"{'session':>7} {'trial':>5} {'ex':>3}  {'status':<15}{'help':<24}"
-          + "".join(f"{label:>18}" for label in labels))
+          + "".join(f"{label:>{w}}" for label, w in zip(labels, widths, strict=True)))
     index = {name: header.index(name) for name in wanted}
     reason = header.index("invalid_reason")
     for i, (row, set_index) in enumerate(zip(rows, prog.exercise_index.tolist(),
                                              strict=True)):
-        cells = []
-        for m in wanted:
-            value = row[index[m]]
-            scale = rows_by_key[m].scale if m in rows_by_key else 1.0
-            unit = rows_by_key[m].unit if m in rows_by_key else ""
-            cells.append(f"{num(value * scale if finite(value) else None)} {unit}".rstrip())
+        cells = [_progress_cell(m, row[index[m]], rows_by_key) for m in wanted]
         levels = prog.levels[i]
         help_text = levels.summary() if prog.levels_recorded[i] else \
             f"{levels.summary()} (built)"
         # --include-invalid: the row says it, and why below the table
         status = "INVALID" if row[reason] else row[5]
         print(f"{row[1]:>7} {row[2]:>5} {set_index + 1:>3}  {status:<15}{help_text:<24}"
-              + "".join(f"{c:>18}" for c in cells))
+              + "".join(f"{c:>{w}}" for c, w in zip(cells, widths, strict=True)))
     for row in rows:
         if row[reason]:
             print(f"  session {row[1]} trial {row[2]} (id {row[0]}) marked invalid: "
                   f"{row[reason]}")
     return 0
+
+
+def _progress_cell(key: str, value, rows_by_key) -> str:
+    """A progress cell: a report row's figure in its display unit with one decimal; any
+    other (an assessment figure of core.assessment.FIGURES, in SI units) to 4 significant
+    digits with its unit: one decimal printed a position error of 0.033 m as 0.0."""
+    from core.assessment import FIGURES
+
+    if key in rows_by_key:
+        r = rows_by_key[key]
+        return f"{num(value * r.scale if finite(value) else None)} {r.unit}".rstrip()
+    if not finite(value):
+        return "–"
+    unit = FIGURES[key].unit if key in FIGURES else ""
+    return f"{value:.4g} {'' if unit == '1' else unit}".rstrip()
 
 
 def _count(n: int, noun: str) -> str:

@@ -15,8 +15,6 @@ records, and the robot is the file's (`robot_kind`).
 
 from __future__ import annotations
 
-import csv
-import io
 import math
 import os
 import re
@@ -28,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from app.norms.fitting import MAX_TABLE_BYTES, Controls
+from app.norms.fitting import MAX_TABLE_BYTES, Controls, csv_rows
 from app.norms.model import NormsError
 from core.errors import CoreError
 from core.norms.regression import Covariates
@@ -78,11 +76,8 @@ def people_from_table(path: str | Path) -> dict[str, Person]:
     from device.safeinput import check_file
 
     path = check_file(path, what="people table", max_bytes=MAX_TABLE_BYTES)
-    try:
-        rows = list(csv.reader(io.StringIO(path.read_bytes().decode("utf-8-sig"))))
-    except (UnicodeDecodeError, csv.Error):
-        raise NormsError(f"people table {path}: is not CSV text (UTF-8)") from None
-    header = [h.strip() for h in rows[0]] if rows else []
+    rows = csv_rows(path, "people table", "a header and one row per person")
+    header = [h.strip() for h in rows[0]]
     if header != ["subject", "birth_year", "sex", "handedness"]:
         raise NormsError(f"people table {path}: the header must be exactly "
                          "subject,birth_year,sex,handedness")
@@ -153,6 +148,13 @@ def read_assessments(paths: Iterable[Path], invalid: Mapping[Path, str] | None =
         if not task:
             skipped[str(path)] = "not an assessment trial"
             continue
+        kind = simulated_patient(data.backend)
+        if kind not in (None, "healthy"):
+            # one data folder holds the controls and the patients: the weak virtual
+            # patient's battery was fitted as a 26th healthy control
+            skipped[str(path)] = (f"a simulated {kind} patient ({data.backend}), not a "
+                                  "healthy control")
+            continue
         if data.subject is None or data.status != "complete":
             skipped[str(path)] = (f"its status is {data.status!r}" if data.subject else
                                   "it holds no subject")
@@ -172,6 +174,18 @@ def read_assessments(paths: Iterable[Path], invalid: Mapping[Path, str] | None =
                                       data.subject.side, robot_kind(data.backend,
                                                                     data.summary), metrics))
     return trials, skipped
+
+
+SIMULATED = re.compile(r"simulator \((\w+)[,)]")
+
+
+def simulated_patient(backend: str) -> str | None:
+    """The virtual patient of a simulated trial's backend (`simulator (weak, seed 5)`:
+    `weak`), or None for a trial on the robot or one that names none."""
+    from device.sim.patient_parameters import PATIENT_KINDS
+
+    found = SIMULATED.match(backend or "")
+    return found.group(1) if found and found.group(1) in PATIENT_KINDS else None
 
 
 def invalid_files(registry) -> dict[Path, str]:

@@ -12,6 +12,7 @@ printed by `rehab norms fit` and `rehab norms show`.
 from __future__ import annotations
 
 import csv
+import difflib
 import io
 import math
 from collections.abc import Mapping
@@ -27,6 +28,7 @@ from core.errors import CoreError
 from core.norms import fitting
 from core.norms.regression import AGE, CATEGORICAL, COVARIATES, Covariates
 from core.norms.scores import BETTER_TO_WORSE
+from core.norms.transforms import REJECTED
 
 MAX_BOUNDED_FRACTION = 0.05
 """A figure that is a lower bound (FigureSpec.bounded_by: the robot's force limit reached)
@@ -75,18 +77,7 @@ def read_controls_table(path: str | Path, *, sessions: bool = False) -> Controls
     from device.safeinput import check_file
 
     path = check_file(path, what="controls table", max_bytes=MAX_TABLE_BYTES)
-    try:
-        text = path.read_bytes().decode("utf-8-sig")
-    except UnicodeDecodeError:
-        raise NormsError(f"controls table {path}: is not UTF-8 text; save it as CSV "
-                         "(UTF-8)") from None
-    try:
-        rows = list(csv.reader(io.StringIO(text)))
-    except csv.Error as exc:
-        raise NormsError(f"controls table {path}: is not CSV ({exc})") from None
-    if not rows:
-        raise NormsError(f"controls table {path}: is empty; give a header and one row per "
-                         "healthy person")
+    rows = csv_rows(path, "controls table", "a header and one row per healthy person")
     header = [h.strip() for h in rows[0]]
     figures, _ = _catalogue()
     needed = [SUBJECT, *([SESSION] if sessions else []), *COVARIATES]
@@ -96,8 +87,11 @@ def read_controls_table(path: str | Path, *, sessions: bool = False) -> Controls
                          f"{', '.join(needed)}, then figure keys)")
     unknown = [h for h in header if h not in needed and h not in figures]
     if unknown:
+        near = difflib.get_close_matches(unknown[0], [*needed, *figures], n=1, cutoff=0.6)
+        hint = f"did you mean {near[0]!r}? " if near else ""
         raise NormsError(f"controls table {path}: column {unknown[0]!r} is neither a "
-                         "covariate nor a figure this console measures (docs/assessments.md)")
+                         f"covariate nor a figure this console measures ({hint}the figure "
+                         "keys: `rehab assess tasks`, docs/assessments.md)")
     if len(set(header)) != len(header):
         raise NormsError(f"controls table {path}: a column appears twice in the header")
     keys = [h for h in header if h in figures]
@@ -136,6 +130,31 @@ def read_controls_table(path: str | Path, *, sessions: bool = False) -> Controls
         raise NormsError(f"controls table {path}: has no rows; one row per healthy person")
     return Controls(tuple(subjects), tuple(people),
                     {k: np.asarray(v, dtype=float) for k, v in values.items()})
+
+
+def csv_rows(path: Path, what: str, expected: str) -> list[list[str]]:
+    """A CSV table's rows (UTF-8, a byte-order mark allowed), refused in one line when it
+    is not CSV text, is empty (`expected`: what it should hold), or has a header of one
+    cell holding ';' or a tab: a spreadsheet's "CSV" with another separator (a European
+    Excel's uses ';'), which was refused as lacking its first column."""
+    try:
+        text = path.read_bytes().decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise NormsError(f"{what} {path}: is not UTF-8 text; save it as CSV (UTF-8)") from None
+    try:
+        rows = list(csv.reader(io.StringIO(text)))
+    except csv.Error as exc:
+        raise NormsError(f"{what} {path}: is not CSV ({exc})") from None
+    if not rows:
+        raise NormsError(f"{what} {path}: is empty; give {expected}")
+    if len(rows[0]) == 1:
+        separator = next((name for mark, name in ((";", "semicolons"), ("\t", "tabs"))
+                          if mark in rows[0][0]), None)
+        if separator is not None:
+            raise NormsError(f"{what} {path}: its columns are separated by {separator}, "
+                             "not commas; save it as CSV with commas (and '.' as the "
+                             "decimal point)")
+    return rows
 
 
 def _figure_value(text: str, key: str, where: str) -> float:
@@ -238,8 +257,10 @@ def fit_norms(controls: Controls, source: str, *, simulated: bool = False,
     document = norms_from_fit(model, source, simulated, calibration, folds,
                               len(controls.people))
     document["notes"] = left_out_notes(left_out)
-    notes = {key: f"its λ stopped at the search's bound ({f.transform.lam:.3g}): the "
-                  "transform may not make it normal; check its calibration"
+    notes = {key: f"its λ is held at the search's bound {f.transform.lam:.3g}, which the "
+                  f"controls reject (they would take {f.free_lam:.3g}; likelihood ratio "
+                  f"{f.bound_cost:.1f} > {REJECTED:.2f}; docs/norms.md, Transform): the "
+                  "transform leaves them skewed; check its calibration"
              for key, f in model.figures.items() if f.at_bound}
     return FitReport(document, calibration, left_out, notes)
 

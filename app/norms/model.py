@@ -54,6 +54,12 @@ def score_text(score: float) -> str:
 
 
 WORST = "(worse than any task score)"
+NO_RELIABILITY = "no reliability (ICC ≤ 0): SEM = SD"
+"""What a table (`rehab norms mdc`, `rehab norms show`) marks beside an MDC95 whose ICC is
+≤ 0 (docs/norms.md, Minimal detectable change), with NO_RELIABILITY_SAID once below it."""
+NO_RELIABILITY_SAID = (f"{NO_RELIABILITY}, so its MDC95 is the whole spread of the retest's "
+                       "measurements, not an error around a lasting trait")
+"""What it means, said once under a table and beside Progress's real changes."""
 
 
 class TaskNotPerformed(NormsError):
@@ -80,6 +86,8 @@ class FigureNorm:
     regression: Regression
     worse: str
     mdc95: float | None = None
+    icc: float | None = None
+    """The test-retest ICC the MDC95 came from (None when the file has none)."""
 
 
 @dataclass(frozen=True)
@@ -93,6 +101,7 @@ class TaskNorm:
     sd: float
     n: int
     mdc95: float | None = None
+    icc: float | None = None
 
 
 EXTRAPOLATED = "(age beyond the controls')"
@@ -258,14 +267,24 @@ class NormativeModel:
                          any(z.extrapolated for z in figures.values()), self.source,
                          self.simulated)
 
-    def mdc95(self, key: str) -> float | None:
-        """The MDC95 of a figure (its units) or a task score (`task:<id>`), or None."""
+    def _norm(self, key: str) -> FigureNorm | TaskNorm:
         if key.startswith("task:"):
             task = self.tasks.get(key[5:])
             if task is None:
                 raise NormsError(f"the norms ({self.source}) hold no task {key[5:]!r}")
-            return task.mdc95
-        return self._figure(key).mdc95
+            return task
+        return self._figure(key)
+
+    def mdc95(self, key: str) -> float | None:
+        """The MDC95 of a figure (its units) or a task score (`task:<id>`), or None."""
+        return self._norm(key).mdc95
+
+    def reliability_note(self, key: str) -> str:
+        """NO_RELIABILITY_SAID when the figure's (or `task:<id>`'s) test-retest ICC is ≤ 0,
+        else "": its MDC95 is then 2.77 times the measurements' whole SD, not a measurement
+        error under a lasting trait, and whoever reads it must be told."""
+        icc = self._norm(key).icc
+        return NO_RELIABILITY_SAID if icc is not None and icc <= 0.0 else ""
 
     def is_real_change(self, key: str, before: float, after: float) -> Change:
         """Whether a figure (or `task:<id>`'s score) moved beyond its MDC95 (eq. 7);

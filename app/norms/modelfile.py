@@ -6,9 +6,10 @@ JSON, not of this format, of a newer version, does not match its content SHA-256
 carries one: a hand-written file need not), lacks a field or has one it does not know (a
 misspelt `mdc_95` would otherwise be silently ignored), holds a number that is not finite
 or out of its range, a transform that is not defined on its own shift, a Box-Cox shift
-that leaves values the figure (or a task's distance, from 0) can take outside its domain
-(a negative shift on a non-negative figure), a λ on a transform 'none', coefficients that
-are not exactly the covariates' columns, or a task combining a figure it does not hold.
+beyond ±MAX_SHIFT or one that leaves values the figure (or a task's distance, from 0) can
+take outside its domain (a negative shift on a non-negative figure), a λ on a transform
+'none', coefficients that are not exactly the covariates' columns, or a task combining a
+figure it does not hold.
 Figures are checked against core.assessment.FIGURES: a key the console does not measure
 is refused, and so is a `worse` side that contradicts the figure's `better`.
 """
@@ -33,6 +34,12 @@ FORMAT_VERSION = 1
 MAX_BYTES = 16 * 2**20
 """A norms file is a few kilobytes per figure; anything above this is not one."""
 MAX_NUMBER = 1e12
+MAX_SHIFT = 1e3
+"""The largest Box-Cox shift (either sign) a file may hold, in the figure's SI unit. A shift
+moves a figure's values above 0; no figure this console measures (an LDLJ of −30, a force
+of 100 N, a time of 60 s) nor a task's distance needs 10³ for that. Far beyond, Box-Cox is
+a straight line in disguise (t ≈ s^(λ−1)·x), and at the 10¹² the file's numbers allowed
+before, x + s keeps a speed of 0.1 m/s to 10⁻⁴ only."""
 TOP_KEYS = {"format", "format_version", "source", "simulated", "created_utc", "covariates",
             "figures", "tasks", "calibration", "notes", "content_sha256"}
 REQUIRED_TOP = {"format", "format_version", "source", "simulated", "covariates", "figures",
@@ -215,6 +222,11 @@ class _Reader:
             raise self.fail(f"{where}.lambda", f"{lam:g} on a transform 'none', which has "
                             "no λ (1 or absent)")
         shift = self.number(f"{where}.shift", block.get("shift", 0.0))
+        if abs(shift) > MAX_SHIFT:
+            raise self.fail(f"{where}.shift", f"{shift:g} is beyond ±{MAX_SHIFT:g}, further "
+                            f"than {of} ever need moving to be above 0; refit the norms "
+                            "(`rehab norms fit`) or give the shift that puts the least of "
+                            "them just above 0")
         if kind == "box-cox" and math.isfinite(lowest) and lowest + shift < 0.0:
             # the values in (lowest, −shift] could never be scored: for a task's distance
             # those are the best scores (a healthy person's), for a figure a patient's
@@ -225,6 +237,16 @@ class _Reader:
             return Transform(kind, lam, shift)
         except CoreError as exc:
             raise self.fail(where, str(exc)) from None
+
+    def mdc_icc(self, where: str, block: dict) -> tuple[float | None, float | None]:
+        """A figure's or task's optional MDC95 (≥ 0) and ICC (−1 to 1): the ICC was read
+        and dropped before, so nothing could say that an MDC95 rests on no reliability."""
+        mdc, icc = block.get("mdc95"), block.get("icc")
+        if mdc is not None:
+            mdc = self.number(f"{where}.mdc95", mdc, low=0)
+        if icc is not None:
+            icc = self.number(f"{where}.icc", icc, low=-1, high=1)
+        return mdc, icc
 
     def figures(self, value: object, spec: CovariateSpec) -> dict[str, FigureNorm]:
         if not isinstance(value, dict) or not value:
@@ -253,12 +275,8 @@ class _Reader:
             if worse != expected:
                 raise self.fail(f"{where}.worse", f"{worse!r} contradicts the figure, which "
                                 f"is worse {'either way' if expected == 'both' else expected}")
-            mdc = block.get("mdc95")
-            if mdc is not None:
-                mdc = self.number(f"{where}.mdc95", mdc, low=0)
-            if "icc" in block:
-                self.number(f"{where}.icc", block["icc"], low=-1, high=1)
-            out[key] = FigureNorm(transform, Regression(beta, sd, n), worse, mdc)
+            mdc, icc = self.mdc_icc(where, block)
+            out[key] = FigureNorm(transform, Regression(beta, sd, n), worse, mdc, icc)
         return out
 
     def tasks(self, value: object, figures: Mapping[str, FigureNorm]) -> dict[str, TaskNorm]:
@@ -286,12 +304,8 @@ class _Reader:
             mean = self.number(f"{where}.mean", block["mean"])
             sd = self.number(f"{where}.sd", block["sd"], positive=True)
             n = self.whole(f"{where}.n", block["n"], 3)
-            mdc = block.get("mdc95")
-            if mdc is not None:
-                mdc = self.number(f"{where}.mdc95", mdc, low=0)
-            if "icc" in block:
-                self.number(f"{where}.icc", block["icc"], low=-1, high=1)
-            out[task] = TaskNorm(tuple(names), transform, mean, sd, n, mdc)
+            mdc, icc = self.mdc_icc(where, block)
+            out[task] = TaskNorm(tuple(names), transform, mean, sd, n, mdc, icc)
         return out
 
 

@@ -23,6 +23,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from app.norms.model import score_text, z_text
+from app.units import shown, with_unit
 from core.assessment import TASK_TITLES, task_figures
 from core.assessment.protocol import protocol
 from core.assessment.strength import StrengthPolar, strength_polar
@@ -40,7 +41,7 @@ class FigureLine:
     key: str
     label: str
     value: str
-    """The value with its unit (SI), or 'not defined'."""
+    """The value with its unit as read (figure_value), or 'not defined'."""
     better: str
     z: float | None
     """Its Z-score (positive = above healthy people like the patient), None without one."""
@@ -80,8 +81,11 @@ def assessment_page(task: str, metrics: Mapping[str, float], *, heading: str = "
     notes: list[str] = []
     scores: dict = {}
     if norms is not None and person is None:
-        notes.append("the patient's age, sex or handedness is not recorded: no Z-scores "
-                     "(Registration, or rehab patients ... --sex --handedness)")
+        # where the therapist reading the page records them (a registered patient's
+        # fields are corrected there), not a command line to register them anew
+        notes.append("the patient's year of birth, sex or handedness is not recorded: no "
+                     "Z-scores (record them on the Registration tab: Clinical record, "
+                     "Correct)")
     unscorable = ""  # a person the norms hold no one like: said once, in the task score
     if norms is not None and person is not None:
         try:
@@ -355,10 +359,12 @@ def page_figure(page: AssessmentPage):
 
 
 def figure_value(value: float, unit: str) -> str:
-    """A figure's value with its unit as reports print it (SI; a count whole, a ratio bare)."""
+    """A figure's SI value (its catalogue's `unit`) as reports print it: in the unit a
+    person reads (app.units.shown: mm, mm/s, °, cm²; SI read in 0.0008121 m/s and 0.04029
+    rad beside the trial's page in mm/s and °), a count whole, a ratio bare."""
     if not math.isfinite(value):
         return "not defined"
     if unit == "count":  # a count, or a mean of counts over the reaches
         return f"{value:.0f}" if float(value).is_integer() else f"{value:.3g}"
-    text = f"{value:.4g}"
-    return text if unit == "1" else f"{text} {unit}"
+    value, unit = shown(value, unit)
+    return with_unit(f"{value:.4g}", unit)

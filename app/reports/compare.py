@@ -45,6 +45,7 @@ from app.reports.plain_language import (
 from app.trials.assistance_timeline import AssistanceInEffect
 from app.trials.reader import TrialData
 from app.units import MM_PER_M
+from core.errors import capitalised
 from core.trial import TrialParameters
 
 
@@ -299,7 +300,7 @@ def compare(kind: str, baseline: Baseline, metrics: Mapping[str, float],
     return Comparison(kind, title, baseline,
                       patient_changes(baseline.metrics, metrics, mode=mode,
                                       comparable=not cautions),
-                      cautions, label or kind[0].upper() + kind[1:])
+                      cautions, label or capitalised(kind))
 
 
 # -- the therapist's table ----------------------------------------------------------------

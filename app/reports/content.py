@@ -60,7 +60,7 @@ from app.trials.assistance_timeline import AssistanceInEffect
 from app.trials.reader import TrialData
 from app.units import CM_PER_M, assistance_percent, point_cm
 from core.assessment.figures import TASK_TITLES
-from core.errors import CoreError
+from core.errors import CoreError, capitalised
 from core.holdtasks import ROBOT_TASKS
 from core.metrics import TrialMetrics
 from core.trial import TrialParameters
@@ -422,7 +422,7 @@ def _column_title(comparison: Comparison) -> str:
     if not comparison.comparable:
         details.append("not compared")
     detail = "; ".join(d for d in details if d)
-    title = comparison.kind[0].upper() + comparison.kind[1:]
+    title = capitalised(comparison.kind)
     return f"{title} ({detail})" if detail else title
 
 

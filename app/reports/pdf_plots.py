@@ -230,6 +230,10 @@ def emg_plots(sheet: Sheet, emg: EmgFigure, torques: TorquesFigure | None, x0: f
         sheet.text(line, 9, color=INK if line.endswith("sound") else VERMILLION)
 
 
+LEARNED_NONE_N = 0.05
+"""Learned help below this everywhere is none: the page's figures, to 0.1 N, say 0.0 N."""
+
+
 def feedforward_plot(sheet: Sheet, figure: FeedforwardFigure, x0: float,
                      width: float) -> None:
     """The help the robot learned along the path, one line per finished repetition, the
@@ -240,10 +244,21 @@ def feedforward_plot(sheet: Sheet, figure: FeedforwardFigure, x0: float,
     sheet.text("The help the robot learned along the path, at the end of each repetition",
                10, weight="bold")
     sheet.gap(0.03)
+    if float(np.max(figure.force_N)) < LEARNED_NONE_N:
+        # every line on the chart's floor, hidden by its axis: an empty chart said nothing
+        sheet.text(f"None: under {LEARNED_NONE_N:g} N at every point of all {reps} "
+                   f"repetitions (limit {figure.limit_N:g} N; the assistance level ran at "
+                   f"{figure.levels}). The hand never fell far enough behind the path for "
+                   "the robot to learn a push along it.", 9)
+        sheet.y_in += 0.3
+        return
     first, last = figure.force_N[0], figure.force_N[-1]
-    sheet.text(f"Repetition 1: up to {np.max(first):.1f} N; repetition {reps}: up to "
-               f"{np.max(last):.1f} N (limit {figure.limit_N:g} N; the assistance level "
-               f"ran at {figure.levels}).", 9)
+    # one repetition: said once ("repetition 1: …; repetition 1: …" read as a slip)
+    learned = (f"Repetition 1: up to {np.max(first):.1f} N; repetition {reps}: up to "
+               f"{np.max(last):.1f} N" if reps > 1
+               else f"One repetition: up to {np.max(first):.1f} N")
+    sheet.text(f"{learned} (limit {figure.limit_N:g} N; the assistance level ran at "
+               f"{figure.levels}).", 9)
     sheet.gap(0.06)
     ax = sheet.axes(height, x_in=x0, width_in=width)
     for k, row in enumerate(figure.force_N):
@@ -251,7 +266,8 @@ def feedforward_plot(sheet: Sheet, figure: FeedforwardFigure, x0: float,
         ax.plot(figure.percent_of_repetition, row, color=BLUE, alpha=shade, linewidth=1.3,
                 label=f"repetition {k + 1}" if k in (0, reps - 1) else None)
     if math.isfinite(figure.limit_N):
-        ax.axhline(figure.limit_N, color=GREY, linestyle=":", linewidth=1.0)
+        ax.axhline(figure.limit_N, color=GREY, linestyle=":", linewidth=1.0,
+                   label=f"limit ({figure.limit_N:g} N)")
     ax.set_xlim(0.0, 100.0)
     ax.set_ylim(bottom=0.0)
     ax.set_xlabel("% of one repetition of the path")

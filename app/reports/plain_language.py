@@ -36,12 +36,6 @@ SHAPE_NAMES = {
     "figure8": "figure eight",
 }
 
-def capitalised(text: str) -> str:
-    """`text` begun with a capital, as a sentence that starts with it (the rest as is: a
-    clause written to follow other words, such as a refusal's reason)."""
-    return text[:1].upper() + text[1:]
-
-
 GAME_TITLES = {"path": "Path game", "reach": "Reaching game"}
 """The games' names (core.trial.GAMES) where a series or a report names a trial's game."""
 

@@ -119,6 +119,9 @@ class ScaleSeries:
     norms_label: str = ""
     """The MDC95 the changes were judged against and the norms' label (NormativeModel.label,
     their source and 'simulated' when they are), when they were judged."""
+    reliability_note: str = ""
+    """NormativeModel.reliability_note of the figure: said beside the marks (an MDC95 on no
+    test-retest reliability was shown as any other)."""
 
     @property
     def marks(self) -> str:
@@ -129,7 +132,8 @@ class ScaleSeries:
         real = [p.session_number for p in self.points if p.real_change]
         said = (f"a real change (beyond MDC95 {self.mdc95:.3g}) at session "
                 f"{', '.join(map(str, real))}" if real else "no change beyond the MDC95")
-        return f"{said}; {self.norms_label}"
+        nil = f" ({self.reliability_note})" if self.reliability_note else ""
+        return f"{said}{nil}; {self.norms_label}"
 
     @property
     def figure_label(self) -> str:
@@ -138,6 +142,15 @@ class ScaleSeries:
     @property
     def scale_label(self) -> str:
         return value_label(self.scale_key)
+
+
+def has_label(key: str) -> bool:
+    """The figure is one a person is shown (the catalogue's or the report's rows'), not a
+    record's bookkeeping (duration_s, tolerance_rad, game_hits: the figure_label of a key
+    neither knows is the key itself)."""
+    from core.assessment import FIGURES
+
+    return key in FIGURES or any(row.key == key for row in ROWS)
 
 
 def figure_label(key: str) -> str:
@@ -213,7 +226,8 @@ def scale_series(registry: RecordStore, code: str, figure_key: str, scale_key: s
     return ScaleSeries(figure_key, scale_key, tuple(points),
                        correlation([p.figure for p in points], [p.scale for p in points]),
                        note, norms.mdc95(figure_key) if judged else None,
-                       norms.label if judged else "")
+                       norms.label if judged else "",
+                       norms.reliability_note(figure_key) if judged else "")
 
 
 def study_series(registry: RecordStore, figure_key: str, scale_key: str, *,

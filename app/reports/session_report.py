@@ -29,6 +29,7 @@ from app.records.scales import (
     SCALES,
 )
 from app.records.store import RecordStore
+from app.reports.assessment_page import figure_value
 from app.reports.pdf_file import write_pdf
 from app.reports.pdf_sheet import BOTTOM_IN, GREY, LEFT_IN, PAGE_IN, VERMILLION, Sheet, fit
 from app.reports.plain_language import SHAPE_NAMES
@@ -188,8 +189,7 @@ def _assessment(registry, patient, trial, norms) -> Assessment:
     rows = []
     for key in keys:
         spec, value = FIGURES[key], trial.metrics[key]
-        unit = "" if spec.unit == "1" else f" {spec.unit}"  # a ratio or score: none
-        shown = "–" if not math.isfinite(value) else f"{value:.3g}{unit}"
+        shown = "–" if not math.isfinite(value) else figure_value(value, spec.unit)
         z = ""
         if who is not None and math.isfinite(value):
             z, why = _z_text(norms, key, value, who)

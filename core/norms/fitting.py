@@ -39,6 +39,10 @@ class FittedFigure:
     regression: Regression
     worse: str
     at_bound: bool
+    """λ is held at a bound of its search that the controls reject (TransformFit
+    .bound_rejected); free_lam and bound_cost say what they would take and at what cost."""
+    free_lam: float | None = None
+    bound_cost: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -105,9 +109,10 @@ def fit_figure(values, people: Sequence[Covariates], spec: CovariateSpec, worse:
         raise ParameterError("controls' values", values.size, f"{len(people)}, one per control")
     design = spec.design(people)
     chosen, shift = kind if isinstance(kind, tuple) else choose(kind, values)
-    fit = fit_transform(chosen, values, design, shift)
+    fit = fit_transform(chosen, values, design, shift, worse)
     regression = fit_regression(spec, design, fit.transform.apply(values))
-    return FittedFigure(fit.transform, regression, worse, fit.at_bound)
+    return FittedFigure(fit.transform, regression, worse, fit.bound_rejected, fit.free_lam,
+                        fit.bound_cost)
 
 
 def fit_task(figures: Sequence[str], z_by_figure: Mapping[str, np.ndarray],
@@ -118,7 +123,7 @@ def fit_task(figures: Sequence[str], z_by_figure: Mapping[str, np.ndarray],
     if not np.all(np.isfinite(distances)) or np.any(distances <= 0.0):
         raise ParameterError("task distances", "a zero or a non-finite one",
                              "positive, finite distances")
-    fit = fit_transform("box-cox", distances)
+    fit = fit_transform("box-cox", distances, worse="higher")  # a greater D is worse
     t = fit.transform.apply(distances)
     return FittedTask(tuple(figures), fit.transform, float(np.mean(t)),
                       float(np.std(t, ddof=1)), int(distances.size))

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from core.errors import capitalised
 from device.errors import DeviceError
 from device.safeinput import InputRefused, read_bytes
 
@@ -37,7 +38,7 @@ class EmgFileError(DeviceError):
     def __init__(self, path: object, problem: str, advice: str = "") -> None:
         self.path, self.problem = path, problem
         text = f"EMG file {path}: {problem}"
-        super().__init__(f"{text}. {advice[:1].upper()}{advice[1:]}" if advice else text)
+        super().__init__(f"{text}. {capitalised(advice)}" if advice else text)
 
 
 @dataclass(frozen=True, slots=True, eq=False)

@@ -54,6 +54,7 @@ from typing import Any
 
 import numpy as np
 
+from core.errors import capitalised
 from device.backend import Tare, tare_of
 from device.errors import (
     BackendError,
@@ -271,7 +272,7 @@ class AtiForceSensor:
         self.tare = tare_of(fx, fy, s.tare_samples / s.sample_rate_Hz, s.tare_spread_limit_N)
         refused = self.tare.refusal()
         if refused:
-            raise TareUnderLoad(refused[0].upper() + refused[1:] + ".")
+            raise TareUnderLoad(capitalised(refused) + ".")
         self._bias[:] = bias
         self._in_stream.relative_to = c.ReadRelativeTo.MOST_RECENT_SAMPLE
         self._in_stream.offset = -1

@@ -88,7 +88,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from core.errors import ParameterError, check_finite, check_range
+from core.errors import ParameterError, capitalised, check_finite, check_range
 from core.robot import RobotModel
 from core.trial import THESIS_SUBJECT, TrialParameters
 from device.backend import SIMULATED, TARE_SPREAD_LIMIT_N, TIMINGS, SensorReading, Tare, tare_of
@@ -299,7 +299,7 @@ class SimulatorBackend:
         self.tare = self._take_zero()
         refused = self.tare.refusal()
         if refused:
-            raise TareUnderLoad(refused[0].upper() + refused[1:] + ".")
+            raise TareUnderLoad(capitalised(refused) + ".")
         self._reset()
         self._is_open = True
 

@@ -93,3 +93,40 @@ def test_a_figure_against_the_fugl_meyer_with_its_correlation(qtbot, tab):
     study = tab.scales.view.series
     assert study.correlation.n == 2  # one point per patient
     assert "Study:" in tab.scales.caption.text()
+
+
+def test_before_any_scale_the_panel_says_where_to_record_one_and_draws_no_empty_axes(
+        qtbot, qapp, tmp_path):
+    """Trying the window: a game patient's Clinical scales offered "duration_s",
+    "tolerance_rad" and "game_hits" among the figures, drew empty axes under a caption
+    that gave a shell command. The figures are the Progress tab's own, named; no axes
+    until there is something to draw; the caption names the window's place."""
+    theme.apply_theme(qapp)
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("P", "Example", side="right").code
+    number = registry.open_session(code).number
+    begun = registry.begin_trial(code, THESIS_SUBJECT, backend="simulator",
+                                 session_number=number)
+    registry.finish_trial(begun.trial_id, "complete",
+                          {RT: 0.01, "duration_s": 20.0, "tolerance_rad": 0.35,
+                           "game_hits": 8.0, "led_pct": 92.0})
+    tab = ProgressTab(registry)
+    shown(qtbot, tab, 1280, 900)
+    with qtbot.waitSignal(tab.progress_loaded, timeout=10000), \
+            qtbot.waitSignal(tab.scales.shown, timeout=10000):
+        tab.set_patient(code)
+    tab.scales_button.click()
+    view = tab.scales.view
+    assert set(view.figures) == {RT, "led_pct"}
+    assert view.series is None
+    assert not tab.scales.plot.isVisible()
+    caption = tab.scales.caption.text()
+    assert "no clinical scales recorded yet" in caption
+    assert "Registration tab" in caption
+    assert "rehab " not in caption
+    assert "`" not in caption
+    registry.record_scale(code, number, "fugl_meyer", total=30, rater="K. Lee")
+    with qtbot.waitSignal(tab.scales.shown, timeout=10000):
+        tab.refresh()
+    assert tab.scales.view.series is not None
+    assert tab.scales.plot.isVisible()

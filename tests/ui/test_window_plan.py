@@ -35,11 +35,23 @@ def window(qtbot, tmp_path, monkeypatch):
     win.close()
 
 
+def shown(qtbot, win) -> None:
+    """The plan's registry call answered and shown (ui.window.plan: on the job thread)."""
+    qtbot.waitUntil(lambda: not win.plan_waiting(), timeout=20000)
+
+
+def start_plan(qtbot, win) -> None:
+    """Start plan pressed, and the run begun in the registry (on the job thread)."""
+    click(qtbot, win.plan_tab.start_button)
+    shown(qtbot, win)
+
+
 def connected_with_plan(qtbot, win, plan=PLAN):
     register_patient(qtbot, win)
     code = win.patient.code
     win.registry.save_plan(code, plan)
     win.show_plan_of(code)
+    shown(qtbot, win)
     short_trial(win)
     click(qtbot, win.robot.buttons["build"])
     qtbot.waitUntil(lambda: win.state == State.BUILT, timeout=20000)
@@ -54,6 +66,7 @@ def test_a_template_copied_and_a_block_changed_in_the_plan_tab(qtbot, window):
     click(qtbot, tab.copy_button)
     assert "Choose the patient first" in tab.refusal.text()
     register_patient(qtbot, win)
+    shown(qtbot, win)
     # the list shows the plans' titles, the copy takes the template (clinic exploration
     # 2 #5: the list showed the files' names, "first-session")
     titles = [tab.templates.itemText(k) for k in range(tab.templates.count())]
@@ -61,10 +74,12 @@ def test_a_template_copied_and_a_block_changed_in_the_plan_tab(qtbot, window):
     assert "five minutes" in tab.templates.itemData(0, Qt.ItemDataRole.ToolTipRole)
     tab.templates.setCurrentText("First session")
     click(qtbot, tab.copy_button)
+    shown(qtbot, win)
     first = win.registry.current_plan(win.patient.code)
     assert first.template == "first-session"
     assert tab.table.rowCount() == 3
     tab.table.item(1, 9).setText("30")  # the circle's rest, s
+    shown(qtbot, win)
     today = win.registry.current_plan(win.patient.code)
     assert today.based_on == first.id
     assert today.plan.blocks[1].rest_s == 30.0
@@ -76,8 +91,11 @@ def test_a_template_copied_and_a_block_changed_in_the_plan_tab(qtbot, window):
     tab.table.item(0, 2).setText("reach")
     assert "block 1.shape = 'd' is not allowed" in tab.refusal.text()
     tab.table.item(0, 1).setText("targets")
+    shown(qtbot, win)
     tab.table.item(0, 2).setText("reach")
+    shown(qtbot, win)
     tab.table.item(0, 3).setText("3")
+    shown(qtbot, win)
     game = win.registry.current_plan(win.patient.code).plan.blocks[0]
     assert (game.shape, game.game, game.rounds) == ("targets", "reach", 3)
     assert tab.table.item(0, 2).text() == "reach"
@@ -91,7 +109,7 @@ def test_start_plan_runs_each_block_through_build_and_start_with_its_rest(qtbot,
     shown: list[str] = []
     set_text = win.plan_tab.status.setText
     win.plan_tab.status.setText = lambda text: (shown.append(text), set_text(text))[-1]
-    click(qtbot, win.plan_tab.start_button)
+    start_plan(qtbot, win)
     assert win.plan_runner is not None
     qtbot.waitUntil(lambda: win.plan_runner is None, timeout=120000)
     assert any(line.startswith("Rest 0:01 after block 1 of 2") for line in shown), shown
@@ -133,7 +151,7 @@ def test_the_patient_s_bar_moves_during_a_block_and_is_whole_at_the_end(qtbot, w
             bars.append(patient.plan.progress)
         return win.plan_runner is None
 
-    click(qtbot, win.plan_tab.start_button)
+    start_plan(qtbot, win)
     qtbot.waitUntil(seen, timeout=120000)
     win._feed_patient_screen()
     bars.append(patient.plan.progress)
@@ -146,7 +164,7 @@ def test_the_patient_s_bar_moves_during_a_block_and_is_whole_at_the_end(qtbot, w
 def test_the_emergency_stop_in_a_rest_ends_the_plan_at_once(qtbot, window):
     win = window
     code = connected_with_plan(qtbot, win, LONG_REST)
-    click(qtbot, win.plan_tab.start_button)
+    start_plan(qtbot, win)
     qtbot.waitUntil(lambda: win.plan_runner is not None and win.plan_runner.phase
                     == "resting", timeout=120000)
     win.emergency_stop()
@@ -170,6 +188,7 @@ def test_a_plan_this_console_cannot_run_is_said_on_the_tab_not_raised(qtbot, tmp
             conn.exec_driver_sql(
                 "UPDATE plans SET plan = replace(plan, '\"circle\"', '\"spiral\"')")
         win.show_plan_of(code)
+        shown(qtbot, win)
         assert "plan cannot be shown" in win.plan_tab.title.text()
         assert "block 2.shape = 'spiral'" in win.plan_tab.title.text()
         assert not win.plan_tab.start_button.isEnabled()
@@ -187,7 +206,7 @@ def test_pause_holds_the_plan_resume_goes_on_and_the_robot_bar_s_stop_ends_it(qt
     long_second = Plan(PLAN.name, (PLAN.blocks[0].replace(rest_s=3.0),
                                    PLAN.blocks[1].replace(repetitions=10)))
     code = connected_with_plan(qtbot, win, long_second)
-    click(qtbot, win.plan_tab.start_button)
+    start_plan(qtbot, win)
     qtbot.waitUntil(lambda: win.plan_runner is not None and win.plan_runner.phase
                     == "resting", timeout=120000)
     click(qtbot, win.plan_tab.pause_button)
@@ -238,7 +257,7 @@ def test_the_plan_s_records_wait_on_the_registry_off_the_window_s_thread(qtbot, 
         return record(*args)
 
     win.registry.record_plan_trial = record_after_a_tick
-    click(qtbot, win.plan_tab.start_button)
+    start_plan(qtbot, win)
     qtbot.waitUntil(lambda: win.plan_runner is None, timeout=120000)
     timer.stop()
     assert handled_first == [True], "the window waited for the plan's record"
@@ -256,6 +275,7 @@ def test_a_block_out_of_reach_is_said_before_build_and_connect(qtbot, tmp_path, 
     win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
     try:
         register_patient(qtbot, win)
+        shown(qtbot, win)
         code = win.patient.code
         p = win.parameters_tab
         p.forearm.setValue(27.0)  # a shorter arm: the forward reach's far end is out of it
@@ -263,6 +283,7 @@ def test_a_block_out_of_reach_is_said_before_build_and_connect(qtbot, tmp_path, 
         tab = win.plan_tab
         tab.templates.setCurrentText("First session")
         click(qtbot, tab.copy_button)
+        shown(qtbot, win)
         click(qtbot, tab.start_button)
         said = tab.refusal.text()
         assert said.startswith("Start plan refused: block 3 (Forward reach): "), said

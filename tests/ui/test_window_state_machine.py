@@ -292,10 +292,12 @@ class PlanAndTaskRules:
             return
         if self.registry.current_plan(code) is None:
             self.registry.save_plan(code, SHORT_PLAN)
-        win.show_plan_of(code)
+        win.show_plan_of(code)  # read on the job thread (ui.window.plan), as is the run begun
+        self._wait(lambda: not win.plan_waiting())
         win.tabs.setCurrentWidget(win.plan_tab)
         if win.plan_tab.start_button.isEnabled():
             self.qtbot.mouseClick(win.plan_tab.start_button, Qt.MouseButton.LeftButton)
+            self._wait(lambda: not win.plan_waiting())
             if win.plan_runner is not None:
                 _count("plans started")
         self._settle()

@@ -58,8 +58,39 @@ def _in_view(area, widget: QWidget) -> bool:
 
 # -- #9: hands off the handle at Connect -------------------------------------------------
 @pytest.mark.slow
-def test_connect_says_hands_off_until_the_zero_is_taken_and_a_zero_under_load_in_one_line(
+def test_connect_to_the_robot_says_hands_off_the_handle_first(qtbot, tmp_path, monkeypatch):
+    """On the robot (the example settings: no card here, so its Connect fails after) the
+    message line says hands off the handle the moment Connect is pressed, before the force
+    sensor takes its zero."""
+    from ui.window.trial import HANDS_OFF
+
+    win = open_window(qtbot, tmp_path, monkeypatch)
+    try:
+        short_trial(win)
+        p = win.parameters_tab
+        p.hardware.setChecked(True)
+        p.settings_path.setText(str(Path(__file__).parents[2] / "resources"
+                                    / "hardware.example.toml"))
+        p.refresh()
+        click(qtbot, win.robot.buttons["build"])
+        qtbot.waitUntil(lambda: win.state == State.BUILT, timeout=60000)
+        said = []
+        win.messages.say = _recording(win.messages.say, said)
+        click(qtbot, win.robot.buttons["connect"])
+        assert said[0] == HANDS_OFF
+        qtbot.waitUntil(lambda: "connect" in enabled(win) or win.state != State.BUILT,
+                        timeout=60000)  # the card's absence answered
+    finally:
+        win.close()
+
+
+@pytest.mark.slow
+def test_the_simulator_never_says_hands_off_and_a_zero_under_load_in_one_line(
         qtbot, tmp_path, monkeypatch):
+    """On the simulator nobody holds a handle: Connect and a Build while connected (which
+    opens the simulator again, a plan's every block) say what happens, never "Hands off the
+    handle" nor that the patient may hold it now. The simulator's zero still refuses a
+    simulated push at Connect in one line (what the robot's does)."""
     import ui.window.trial as window_trial
     from device.loop.messages import BackendConfig
 
@@ -77,7 +108,7 @@ def test_connect_says_hands_off_until_the_zero_is_taken_and_a_zero_under_load_in
         said = []
         win.messages.say = _recording(win.messages.say, said)
         click(qtbot, win.robot.buttons["connect"])
-        assert said[0].startswith("Hands off the handle")
+        assert said[0] == "Connecting the simulator…"
         qtbot.waitUntil(lambda: "zero was taken with a force" in win.message.toolTip(),
                         timeout=60000)
         assert win.message.toolTip().endswith("Take the hands off the handle and connect "
@@ -91,16 +122,15 @@ def test_connect_says_hands_off_until_the_zero_is_taken_and_a_zero_under_load_in
         said.clear()
         click(qtbot, win.robot.buttons["connect"])
         qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=60000)
-        assert said[0].startswith("Hands off the handle")
-        assert any(text.startswith("Zero taken") for text in said)
-        assert "zero taken" in win.message.text().lower()
+        assert said[0] == "Connecting the simulator…"
+        assert win.message.text().startswith("Connected to the simulator. ")
         # built again while connected: the simulator is opened again, with a new zero
-        said.clear()
         short_trial(win)
         win.parameters_tab.radius.setValue(9.0)
         click(qtbot, win.robot.buttons["build"])
-        assert "Hands off the handle" in said[0]
-        qtbot.waitUntil(lambda: any(t.startswith("Zero taken") for t in said), timeout=60000)
+        qtbot.waitUntil(lambda: "Trial built" in win.message.text(), timeout=60000)
+        assert win.state == State.CONNECTED
+        assert not [t for t in said if "handle" in t.lower() or "zero taken" in t.lower()]
     finally:
         win.close()
 
@@ -124,10 +154,11 @@ def test_connect_pressed_twice_while_the_zero_is_taken_still_says_zero_taken(
         assert not win.robot.buttons["connect"].isEnabled()  # its answer not back yet
         win.connect_robot()  # F3 again
         qtbot.waitUntil(lambda: win.state == State.CONNECTED and any(
-            t.startswith("Zero taken") for t in said), timeout=60000)
+            t.startswith("Connected to the simulator") for t in said), timeout=60000)
         assert sent == [1]  # the second press sent nothing to be refused
         assert not [t for t in said if "refused" in t]
-        assert "zero taken" in win.message.text().lower()
+        # (the simulator's word for "Zero taken", which the robot says at this moment)
+        assert win.message.text().startswith("Connected to the simulator. ")
     finally:
         win.close()
 

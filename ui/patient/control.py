@@ -195,9 +195,10 @@ class PatientScreenControl:
 
     def _tell_patient_screen(self) -> None:
         """A change while a trial runs goes into its file at the tick the loop takes it;
-        the trial's start carries the screen as it was then (ui.window.trial). From the
-        Start pressed on (a trial begun in the registry): the loop drops what comes
-        before the trial runs."""
+        the trial's start carries the screen as it is when the window asks the loop to
+        start it, after the registry's answer (ui.window.start: a change made while Start
+        registers is in it). From then on (a trial begun in the registry) a change is sent
+        after the Start: the loop drops what comes while no trial runs."""
         if self.state == State.RUNNING or getattr(self, "trial_id", None) is not None:
             self.bridge.show_to_patient(self.shown_to_patient())
 

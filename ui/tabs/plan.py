@@ -2,7 +2,9 @@
 patient, the plan's blocks in a table (laps, pace, level, tolerance and rest changed in
 place for today: each change is kept as a new plan, the one before as it was), and the
 plan's own buttons: Start plan (after Build and Connect), Pause, Resume and Stop plan,
-with the plan's status line (block k of n, movements, the rest's countdown).
+with the plan's status line (block k of n, movements, the rest's countdown). While the
+registry is asked (the window's job thread: the plan read, a copy or a change saved, a run
+begun) the tab says so and its table, Copy and Start plan wait (`show_waiting`).
 
 Qt only: the window (ui.window.plan) keeps the registry, the runner and the robot.
 """
@@ -50,6 +52,9 @@ class PlanTab(QWidget):
         super().__init__()
         self.plan: Plan | None = None
         self._loading = False
+        self.waiting = ""
+        """What the registry is being asked for, in words ('' when nothing is)."""
+        self._running = (False, False)
         self.templates = QComboBox()
         for k, (name, title, about) in enumerate(templates):
             self.templates.addItem(title, name)
@@ -91,9 +96,15 @@ class PlanTab(QWidget):
         self.status = QLabel("")
         self.status.setWordWrap(True)
         self.status.setStyleSheet("font-weight: bold;")
+        self.waiting_line = QLabel("")
+        self.waiting_line.setStyleSheet("font-style: italic;")
+        # its line kept when empty: the table under it stays put (it moved down as the
+        # therapist's change was being saved, and back up)
+        self.waiting_line.setMinimumHeight(self.waiting_line.fontMetrics().lineSpacing())
         column = QVBoxLayout(self)
         column.addLayout(top)
         column.addWidget(self.title)
+        column.addWidget(self.waiting_line)
         column.addWidget(self.table, 1)
         column.addWidget(self.refusal)
         column.addLayout(buttons)
@@ -120,12 +131,22 @@ class PlanTab(QWidget):
 
     def show_running(self, running: bool, paused: bool) -> None:
         """Which of the plan's buttons apply."""
-        self.start_button.setEnabled(not running and self.plan is not None)
+        self._running = (running, paused)
+        free = not running and not self.waiting
+        self.start_button.setEnabled(free and self.plan is not None)
         self.pause_button.setEnabled(running and not paused)
         self.resume_button.setEnabled(running and paused)
         self.stop_button.setEnabled(running)
-        self.copy_button.setEnabled(not running)
-        self.table.setEnabled(not running)
+        self.copy_button.setEnabled(free)
+        self.table.setEnabled(free)
+
+    def show_waiting(self, words: str) -> None:
+        """The registry is being asked for `words` ('' : its answer is shown): Start plan,
+        Copy and the table wait meanwhile (a Start plan pressed while a change was being
+        saved ran the plan before it, the table showing the change)."""
+        self.waiting = words
+        self.waiting_line.setText(words)
+        self.show_running(*self._running)
 
     def show_refusal(self, text: str) -> None:
         self.refusal.setText(text)
@@ -134,6 +155,10 @@ class PlanTab(QWidget):
         if self._loading or self.plan is None:
             return
         row, col = item.row(), item.column()
+        if self.waiting:  # the table waits (disabled): a change made another way is not sent
+            self._refuse(row, f"the plan is not shown yet ({self.waiting.rstrip('…')}): "
+                              "change it once it is")
+            return
         block = self.plan.blocks[row]
         field = EDITABLE.get(col)
         text = item.text().strip()

@@ -23,17 +23,18 @@ from PySide6.QtWidgets import (
 
 from app.records.scales import value_label
 from app.records.store import RecordStore
-from app.reports.plain_language import capitalised
 from app.reports.scales_progress import (
     ScaleSeries,
     figure_display_scale,
     figure_keys,
     figure_label,
+    has_label,
     mdc_text,
     scale_keys,
     scale_series,
     study_series,
 )
+from core.errors import capitalised
 from ui import plots, theme
 from ui.fields import ComboBox
 
@@ -58,12 +59,15 @@ def scales_view(registry: RecordStore, code: str, figure: str | None, scale: str
     from app.norms import NormsError
     from app.norms.in_use import norms_in_use
 
-    figures = tuple(figure_keys(registry, code, include_invalid=include_invalid))
+    # the figures the Progress tab offers: a trial's bookkeeping (its duration, a game's
+    # hits) named by its key in the list was no figure to set against a scale
+    figures = tuple(k for k in figure_keys(registry, code, include_invalid=include_invalid)
+                    if has_label(k))
     scales = tuple(scale_keys(registry, None if study else code))
     if not figures or not scales:
         what = "no robot figures yet" if not figures else "no clinical scales recorded yet"
         return ScalesView(figures, scales, None, f"Scales against the robot's figures: {what} "
-                          "(record scales with `rehab scales add` or on the Registration tab)")
+                          "(record scales on the Registration tab, under Clinical record)")
     figure = figure if figure in figures else figures[0]
     scale = scale if scale in scales else scales[0]
     if study:
@@ -182,6 +186,8 @@ class ScalesPanel(QWidget):
         item = self.plot.getPlotItem()
         item.clear()
         theme.style_plot(item)
+        # nothing to draw: no empty axes under the caption that says why
+        self.plot.setVisible(series is not None and bool(series.points))
         if series is None or not series.points:
             return
         item.setLabel("bottom", series.scale_label)

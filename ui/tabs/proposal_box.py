@@ -11,7 +11,7 @@ from __future__ import annotations
 from PySide6.QtCore import Signal
 from PySide6.QtWidgets import QGroupBox, QHBoxLayout, QLabel, QPushButton
 
-from app.reports.plain_language import capitalised
+from core.errors import capitalised
 
 
 class ProposalBox(QGroupBox):

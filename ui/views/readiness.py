@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from core.errors import capitalised
 from device.loop.states import State
 
 STALE = "parameters changed since Build: press Build"
@@ -117,10 +118,10 @@ def readiness(state: State, *, form_problem: str, registered: bool, built: bool,
     tooltips = {}
     for name, on in enabled.items():
         words = why.get(name, "")
-        tooltips[name] = (words[0].upper() + words[1:]) if words and not on else ""
+        tooltips[name] = capitalised(words) if not on else ""
     # the line names what holds the next step of the session, on every tab
     if held:
-        line = held[0].upper() + held[1:]
+        line = capitalised(held)
     elif state == State.CONNECTED and needs and not blocked_build:
         line = start_why(needs)
     elif state in (State.IDLE, State.BUILT, State.CONNECTED) and form_problem:
@@ -128,7 +129,7 @@ def readiness(state: State, *, form_problem: str, registered: bool, built: bool,
     elif state in (State.BUILT, State.CONNECTED) and stale:
         line = start_why(STALE)
     elif state == State.CONNECTED and outside:
-        line = outside[0].upper() + outside[1:]
+        line = capitalised(outside)
     else:
         line = ""
     return Readiness(enabled, tooltips, line, registering)

@@ -13,67 +13,19 @@ from __future__ import annotations
 
 import logging
 
-from PySide6.QtCore import QEvent, QRect, Qt, QTimer
-from PySide6.QtGui import QFont, QFontMetrics, QKeySequence, QShortcut
-from PySide6.QtWidgets import QFrame, QHBoxLayout, QLabel, QPushButton, QSizePolicy
+from PySide6.QtCore import Qt, QTimer
+from PySide6.QtGui import QKeySequence, QShortcut
+from PySide6.QtWidgets import QFrame, QHBoxLayout, QPushButton, QSizePolicy
 
 from device.loop.states import State
 from device.safety.faults import Fault
 from ui import theme
 from ui.window.message_line import MESSAGE_LINES, fixed_lines
+from ui.window.message_text import WholeText
 
 log = logging.getLogger("ui.main_window")
 
 CLEAR_DELAY_MS = 20  # ten loop ticks
-SMALLEST = 0.6
-"""The smallest the banner's font gets (of the window's) to show a long fault whole."""
-
-
-class WholeText(QLabel):
-    """The fault banner's words, whole in the banner's fixed lines: set in a smaller font
-    (down to SMALLEST of the window's) when they need more lines at its width. A fault
-    was cut mid-sentence ("…then clear the") with what to do in the part not shown; the
-    whole text is also the tooltip and in the history."""
-
-    def __init__(self) -> None:
-        super().__init__()
-        self._fitting = False
-
-    def setText(self, text: str) -> None:
-        super().setText(text)
-        self._fit()
-
-    def resizeEvent(self, event) -> None:
-        super().resizeEvent(event)
-        self._fit()
-
-    def changeEvent(self, event) -> None:
-        super().changeEvent(event)
-        if event.type() == QEvent.Type.StyleChange:  # a new font scale (ui.theme)
-            self._fit()
-
-    def _fit(self) -> None:
-        if self._fitting:
-            return
-        self._fitting = True
-        try:
-            base = QFont(self.parentWidget().font() if self.parentWidget() else self.font())
-            base.setBold(True)
-            width = max(self.contentsRect().width(), 1)
-            font = QFont(base)
-            for step in range(round((1.0 - SMALLEST) * 20) + 1):
-                font = QFont(base)
-                font.setPointSizeF(base.pointSizeF() * (1.0 - step / 20))
-                needed = QFontMetrics(font).boundingRect(
-                    QRect(0, 0, width, 100_000), int(Qt.TextFlag.TextWordWrap), self.text())
-                if needed.height() <= self.contentsRect().height():
-                    break
-            if font != self.font():
-                self.setFont(font)
-        finally:
-            self._fitting = False
-
-
 
 
 class FaultLatch:

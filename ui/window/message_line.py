@@ -3,9 +3,11 @@ applies), its history (everything said today, with the time) and the status bar 
 robot's state, the robot, the trial, the loop's health).
 
 The event line and the fault banner have a fixed number of lines (`fixed_lines`), so no
-message can grow the window and push the emergency stop off the screen; the whole text is
-the tooltip and in the history. What stays current and when it goes is
-`ui.views.messages`; the loop's health in words is `ui.views.loop_health`.
+message can grow the window and push the emergency stop off the screen; a longer text is
+set smaller, and one longer still says that there is more and shows it whole when clicked
+(ui.window.message_text); the whole text is also the tooltip and in the history. What
+stays current and when it goes is `ui.views.messages`; the loop's health in words is
+`ui.views.loop_health`.
 """
 
 from __future__ import annotations
@@ -30,13 +32,14 @@ from app.trials.finalize import finish_interrupted
 from ui import theme
 from ui.elided_label import ElidedLabel
 from ui.tabs.parameters import HARDWARE
+from ui.window.message_text import WholeText
 
 log = logging.getLogger("ui.main_window")  # the clinic's day log names the window
 
 MESSAGE_LINES = 2
 """Lines of text the event line and the fault banner have: fixed, so that no message can
-grow the window and push the emergency stop off the screen (the full text is the tooltip
-and in the history)."""
+grow the window and push the emergency stop off the screen (the full text a click away, the
+tooltip and in the history)."""
 
 
 class MessageLine:
@@ -47,8 +50,10 @@ class MessageLine:
         (a fault takes the event line under it away): one place of fixed height, so that
         neither moves the tabs or the robot buttons under the mouse, and no blank band
         is kept for a banner that is not there (it took 60 px of a laptop's 768)."""
-        self.message = QLabel()
+        self.message = WholeText(bold=False)
         self.message.setObjectName("console_message")
+        self.message.clicked.connect(lambda: self.show_whole(self.message.toolTip()))
+        self.banner_text.clicked.connect(lambda: self.show_whole(self.banner_text.toolTip()))
         fixed_lines(self.message, MESSAGE_LINES)
         self.message.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Fixed)
         self.notices = QStackedWidget()
@@ -94,21 +99,36 @@ class MessageLine:
         problem = event is not None and event.problem
         colour = theme.PROBLEM_TEXT if problem else theme.TEXT
         sign = f"{theme.PROBLEM_SIGN} " if problem else ""
-        self.message.setStyleSheet(f"color: {colour}; font-weight: bold;" if problem else "")
+        self.message.setStyleSheet(f"color: {colour};" if problem else "")
+        self.message.set_bold(problem)
         self.message.setText("" if event is None else f"{sign}{event.text}")
         self.message.setToolTip("" if event is None else event.text)
 
     def show_history(self) -> QDialog:
         """Everything said this session, oldest first, in a window of its own."""
+        self.history_dialog = self._text_window(
+            "What the console said", "\n".join(self.messages.history()) or "Nothing yet.")
+        return self.history_dialog
+
+    def show_whole(self, text: str) -> QDialog:
+        """The event line's or the banner's text whole, when it was too long for their
+        lines (ui.window.message_text: clicked)."""
+        self.whole_dialog = self._text_window("The whole message", text)
+        return self.whole_dialog
+
+    def _text_window(self, title: str, text: str) -> QDialog:
         dialog = QDialog(self)
-        dialog.setWindowTitle("What the console said")
-        text = QPlainTextEdit("\n".join(self.messages.history()) or "Nothing yet.")
-        text.setReadOnly(True)
+        dialog.setWindowTitle(title)
+        shown = QPlainTextEdit(text)
+        shown.setReadOnly(True)
+        # a way to close it that is not Esc: Esc is the emergency stop, in every dialog
+        close = QPushButton("Close")
+        close.clicked.connect(dialog.close)
         layout = QVBoxLayout(dialog)
-        layout.addWidget(text)
+        layout.addWidget(shown)
+        layout.addWidget(close, 0, Qt.AlignmentFlag.AlignRight)
         dialog.resize(700, 400)
         dialog.show()
-        self.history_dialog = dialog
         return dialog
 
     def _show_health(self) -> None:

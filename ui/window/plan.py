@@ -7,6 +7,9 @@ for a trial); from then on each round is built, started and finished by itself, 
 rests are timed, Pause, Resume and Stop plan act, and the E-STOP or a fault end the plan
 at once. The runner is `plan_runner` while a plan runs (the patient's screen reads its
 state); the status line says block k of n, the movements and the rest's countdown.
+The plan's records (its read, a copy, a change, the run's begin and steps) are asked of
+the registry on the job thread, never held the window on a silent network, and the tab
+waits meanwhile.
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ from core.plan import check_plan
 from device.loop.states import State
 from device.safety.faults import Fault
 from ui.tabs.plan import PlanTab
+from ui.window.awaited import Awaited
 
 log = logging.getLogger("ui.main_window")
 PLAN_TICK_MS = 100
@@ -93,6 +97,10 @@ class PlanControl:
     """The Plan tab and the plan's run (a part of MainWindow)."""
 
     plan_runner: PlanRunner | None = None
+    _plan_asked: object | None = None
+    """The registry call whose answer the Plan tab waits for (`_ask_plan`)."""
+    _plan_starting: Awaited | None = None
+    """Start plan's run being begun in the registry (the window closing ends it)."""
     plan_records = 0
     """The run's records on the job thread, not yet done (the run ends after them)."""
     stored_plan = None
@@ -128,15 +136,55 @@ class PlanControl:
         self.registration_tab.patient_selected.connect(lambda p: self.show_plan_of(p.code))
 
     # ------------------------------------------------------------------ the plan
-    def show_plan_of(self, code: str) -> None:
-        try:
-            self.stored_plan = self.registry.current_plan(code)
-        except Exception as exc:  # a plan this console cannot run, a damaged registry
-            self.stored_plan = None
-            self.plan_tab.set_plan(None, f"Patient {code}'s plan cannot be shown: {exc}")
+    # The plan's records are asked of the registry on the job thread, the Plan tab waiting
+    # meanwhile (PlanTab.show_waiting): on a shared registry whose network drops everything
+    # each call waited its bounded wait (app.records.registry.postgres.deadline) on the
+    # window's thread. An answer is shown only if it is the last one asked (another
+    # patient chosen meanwhile asks for theirs) and the window is still open.
+    def _ask_plan(self, words: str, work, answer, *, dropped=None) -> None:
+        """`work()` on the job thread, the tab saying `words` meanwhile; `answer(result)`
+        (an exception raised is the result) on the window's thread, or `dropped(result)`
+        when a later ask made it stale."""
+        asked = self._plan_asked = object()
+        self.plan_tab.show_waiting(words)
+        self._show_plan_buttons()
+
+        def ask():
+            try:
+                return work()
+            except Exception as exc:  # a refusal or a damaged registry: said on the tab
+                return exc
+
+        def answered(result) -> None:
+            if self.jobs.closed:
+                return  # the window closed: nothing is shown (a run begun is ended there)
+            if self._plan_asked is not asked:
+                if dropped is not None:
+                    dropped(result)
+                return
+            self._plan_asked = None
+            self.plan_tab.show_waiting("")
+            answer(result)
             self._show_plan_buttons()
+
+        self.jobs.run(ask, answered)
+
+    def plan_waiting(self) -> bool:
+        """The registry is being asked for the plan (read, saved, a run begun)."""
+        return self._plan_asked is not None
+
+    def show_plan_of(self, code: str) -> None:
+        """Read patient `code`'s plan (on the job thread) and show it."""
+        self._ask_plan(f"Reading patient {code}'s plan…",
+                       lambda: self.registry.current_plan(code),
+                       lambda stored: self._show_plan(code, stored))
+
+    def _show_plan(self, code: str, stored) -> None:
+        if isinstance(stored, Exception):  # a plan this console cannot run, a damaged registry
+            self.stored_plan = None
+            self.plan_tab.set_plan(None, f"Patient {code}'s plan cannot be shown: {stored}")
             return
-        stored = self.stored_plan
+        self.stored_plan = stored
         if stored is None:
             self.plan_tab.set_plan(None, f"Patient {code} has no plan yet: copy a template "
                                          "to them.")
@@ -144,33 +192,59 @@ class PlanControl:
             origin = f", changed from plan {stored.based_on}" if stored.based_on else ""
             self.plan_tab.set_plan(stored.plan, f"Plan {stored.id} of patient {code}: "
                                                 f"{stored.plan.name}{origin}")
-        self._show_plan_buttons()
+
+    def _save_plan(self, words: str, refused: str, save) -> None:
+        """`save()` on the job thread, then the patient's plan read again and shown (after
+        a refusal too: the table shows what the registry keeps, never the change it
+        refused), with the refusal, `refused` first, in one line."""
+        code = self.patient.code
+
+        def work():
+            try:
+                save()
+            except Exception as exc:  # TemplateError, InvalidRecordError: one line
+                return f"{refused}: {exc}", self.registry.current_plan(code)
+            return "", self.registry.current_plan(code)
+
+        def answer(result) -> None:
+            if isinstance(result, Exception):  # the plan read again could not be
+                self._show_plan(code, result)
+                return
+            refusal, stored = result
+            self._show_plan(code, stored)
+            self.plan_tab.show_refusal(refusal)
+
+        self._ask_plan(words, work, answer)
 
     def _copy_template(self, name: str) -> None:
         if self.patient is None:
             self.plan_tab.show_refusal("Choose the patient first (Registration tab).")
             return
-        try:
+        code = self.patient.code
+
+        def copy() -> None:
             template = load_template(name)
-            self.registry.save_plan(self.patient.code, template.plan, template=name)
-        except Exception as exc:  # TemplateError, RegistryError: one line
-            self.plan_tab.show_refusal(f"Not copied: {exc}")
-            return
-        self.show_plan_of(self.patient.code)
+            self.registry.save_plan(code, template.plan, template=name)
+
+        self._save_plan(f"Copying the template to patient {code}…", "Not copied", copy)
 
     def _change_block(self, index: int, block) -> None:
-        try:
-            self.registry.change_block(self.stored_plan.id, index, block)
-        except Exception as exc:  # InvalidRecordError: one line
-            self.plan_tab.show_refusal(f"Not changed: {exc}")
-            return
-        self.show_plan_of(self.patient.code)
+        stored = self.stored_plan
+        if stored is None or self.patient is None or self.plan_waiting():
+            return  # the table waits while the plan is asked for (PlanTab._edited)
+        self._save_plan(f"Saving the change to block {index + 1}…", "Not changed",
+                        lambda: self.registry.change_block(stored.id, index, block))
 
     def start_plan(self) -> None:
         """Start plan: the plan's first round built and started by the runner; the robot
-        must be connected (Build, Connect) and the patient registered, as for a trial."""
+        must be connected (Build, Connect) and the patient registered, as for a trial. The
+        run is begun in the registry on the job thread ("Starting the plan…"), and the plan
+        runs at the answer only if what it was pressed with still holds."""
         why = ""
-        if self.stored_plan is None or self.patient is None:
+        if self.plan_waiting():
+            why = (f"the plan is not shown yet ({self.plan_tab.waiting.rstrip('…')}): press "
+                   "Start plan once it is")
+        elif self.stored_plan is None or self.patient is None:
             why = "choose the patient and give them a plan first"
         elif self.registration is None:
             why = "confirm the patient's session on the Registration tab first"
@@ -189,18 +263,81 @@ class PlanControl:
         elif not why and self.state != State.CONNECTED:
             why = "connect the robot first (Build, then Connect, hands off the handle)"
         if why:
-            why = why.rstrip(".")  # a check's sentence ends in its own full stop
-            self._say(f"Start plan refused: {why}.", problem=True)
-            self.plan_tab.show_refusal(f"Start plan refused: {why}.")
+            self._refuse_plan(why)
             return
-        run_id = self.registry.begin_plan_run(self.stored_plan.id)
-        self.plan_runner = PlanRunner(self.stored_plan.plan, base,
-                                      WindowConsole(self, run_id),
-                                      next_round=staircase_rounds())
-        self.plan_tab.show_refusal("")
-        self.plan_timer.start()
-        self.plan_runner.start(time.monotonic())
-        self._show_plan_buttons()
+        stored, registration, registry = self.stored_plan, self.registration, self.registry
+        awaited = self._plan_starting = Awaited()
+
+        def begin() -> int:
+            run_id = registry.begin_plan_run(stored.id)
+            abandoned = awaited.answered(run_id)
+            if abandoned:  # the window closed meanwhile: the run ends here, not 'running'
+                _end_unrun(registry, run_id, abandoned)
+            return run_id
+
+        def begun(run_id) -> None:
+            self._plan_starting = None
+            if isinstance(run_id, Exception):
+                self._refuse_plan(f"{run_id}")
+                return
+            gone = self._plan_gone(stored, registration, base)
+            if gone:
+                self._end_unrun(run_id, gone)
+                self._refuse_plan(gone)
+                return
+            self.plan_runner = PlanRunner(stored.plan, base, WindowConsole(self, run_id),
+                                          next_round=staircase_rounds())
+            self.plan_tab.show_refusal("")
+            self.plan_timer.start()
+            self.plan_runner.start(time.monotonic())
+
+        def dropped(run_id) -> None:  # another patient chosen while it was begun
+            self._plan_starting = None
+            if not isinstance(run_id, Exception):
+                self._end_unrun(run_id, "another patient was chosen before the plan started")
+
+        self._ask_plan("Starting the plan…", begin, begun, dropped=dropped)
+
+    def _refuse_plan(self, why: str) -> None:
+        why = why.rstrip(".")  # a check's sentence ends in its own full stop
+        self._say(f"Start plan refused: {why}.", problem=True)
+        self.plan_tab.show_refusal(f"Start plan refused: {why}.")
+
+    def _plan_gone(self, stored, registration, base) -> str:
+        """What Start plan was pressed with and no longer holds, in words ('' when all
+        does): the robot connected and not held, the same patient's session confirmed, the
+        same plan and form."""
+        if self.latch.holds_robot():
+            return self.latch.holds_robot()
+        if self.state != State.CONNECTED:
+            return f"the robot is {self.state.label.lower()}"
+        if self.registration != registration or self.stored_plan is not stored:
+            return ("another patient, session or plan was chosen while the plan was being "
+                    "started: press Start plan again")
+        try:
+            same = self.parameters_tab.parameters() == base
+        except Exception:  # the form refuses what it shows now
+            same = False
+        return "" if same else ("the Parameters tab changed while the plan was being "
+                                "started: press Start plan again")
+
+    def _end_unrun(self, run_id: int, why: str) -> None:
+        """A run begun for a Start plan that runs nothing: ended (stopped, with why) on
+        the job thread, never left 'running'."""
+        registry = self.registry
+        self.jobs.run(lambda: _end_unrun(registry, run_id, why), lambda _: None)
+
+    def _close_plan_start(self) -> bool:
+        """The window closes: a run being begun for Start plan is ended on the job thread
+        (by the job itself when its answer has not come yet), never left 'running'. True
+        when one was being begun."""
+        awaited, self._plan_starting = self._plan_starting, None
+        if awaited is None:
+            return False
+        run_id = awaited.abandon("the console closed before the plan's first round")
+        if run_id is not None:
+            self._end_unrun(run_id, awaited.abandoned)
+        return True
 
     def stop_plan(self) -> None:
         if self.plan_runner is not None:
@@ -284,3 +421,14 @@ class PlanControl:
         runner = self.plan_runner
         self.plan_tab.show_running(runner is not None, runner is not None and
                                    runner.phase == PAUSED)
+
+
+def _end_unrun(registry, run_id: int, why: str) -> None:
+    """On the job thread: the run of a Start plan that ran nothing ended as stopped."""
+    try:
+        registry.end_plan_run(run_id, "stopped", why)
+    except Exception as exc:  # said in the log; the next start marks it interrupted
+        log.error("plan run %d, begun for a Start plan that ran nothing, could not be "
+                  "ended: %s", run_id, exc)
+        return
+    log.info("plan run %d ended before its first round: %s", run_id, why)

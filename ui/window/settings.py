@@ -78,15 +78,22 @@ class RememberedSettings:
         for timer in (self.repaint_timer, self.heartbeat_timer, self.health_timer,
                       self.station_timer):
             timer.stop()
+        # a Start's trial or a plan's run being begun in the registry: the window stops
+        # waiting for the answer (on a silent network it waited up to the bounded wait,
+        # the window frozen); what was begun is taken back on the job thread
+        abandoned = self._close_registering()
+        abandoned = self._close_plan_start() or abandoned
         self.video.close_camera()
         self.close_patient_screen()
         self.bridge.close(self.closing_signal)
         # what the loop and the recorder said as they ended (the trial's fault, its file
         # closed) reaches the window now, so the trial is recorded before it closes
         QApplication.processEvents()
-        self.jobs.shutdown()
-        self.registration_tab.drop_answers()  # for a window that is gone
-        self._close_registering()  # a Start's trial registered, its answer never taken
+        self.registration_tab.drop_answers()  # not shown in a window that is going
         if isinstance(self.registry, StationStore):
-            self.registry.close()  # another console may hold its standby now
+            # after every job: another console may hold its standby now
+            self.jobs.run(self.registry.close, lambda _: None)
+        # the jobs given run on; the window waits for them unless one waits for an answer
+        # it abandoned (then Python waits for the job thread before the process ends)
+        self.jobs.shutdown(wait=not abandoned)
         super().closeEvent(event)

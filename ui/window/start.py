@@ -10,27 +10,32 @@ emergency-stop click was handled.
 
 One truth: what is registered is what the window showed at the press. Everything the
 trial is registered and run with is taken then (`Press`: the confirmed registration, the
-built trial, the robot's words, what the patient's screen shows); while the registry
-answers, Start says "Registering…", Build waits (ui.views.readiness), and a second Start
-is refused. When the answer comes the trial is run only if nothing it was pressed with has
-gone: the robot still connected and not held (Disconnect, a fault, the emergency stop), the
-same registration confirmed (another patient chosen, other numbers), the same trial built.
+built trial, the robot's words), except what the patient's screen shows, which the
+registry does not hold and the therapist may change while Start registers: the trial's
+file takes it as the trial starts (taken at the press, a change made meanwhile was in no
+file while the screen showed it). While the registry answers, Start says "Registering…",
+Build waits (ui.views.readiness), and a second Start is refused. When the answer comes
+the trial is run only if nothing it was pressed with has gone: the robot still connected
+and not held (Disconnect, a fault, the emergency stop), the same registration confirmed
+(another patient chosen, other numbers), the same trial built.
 Otherwise the registered trial is taken back (app.trials.registered: withdrawn, never left
-'recording' with no file), and so it is when the window closes before the answer.
+'recording' with no file), and so it is when the window closes before the answer: the
+window does not wait for it (on a silent network, up to the bounded wait), the job thread
+takes the trial back as the answer comes (ui.window.awaited), and the process ends after.
 """
 
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from app.records.registry import BegunTrial, Registration
 from core.trial import TrialParameters
-from device.loop.messages import ShownToPatient
 from device.loop.states import State
 from device.recording.trialfile import SubjectInfo
 from device.safewrite import os_reason
 from ui.views.readiness import start_needs
+from ui.window.awaited import Awaited
 
 log = logging.getLogger("ui.main_window")
 
@@ -43,10 +48,9 @@ class Press:
     built: TrialParameters
     backend: str
     subject: SubjectInfo
-    shown: ShownToPatient
-    begun: BegunTrial | None = None
-    """The registry's answer, set on the job thread as it comes (the window closing reads
-    it once the job thread has stopped)."""
+    begun: Awaited[BegunTrial] = field(default_factory=Awaited)
+    """The registry's answer, set on the job thread as it comes; the window closing
+    abandons it (then the trial is taken back there)."""
 
 
 class TrialStart:
@@ -86,18 +90,20 @@ class TrialStart:
         reg = self.registration
         press = self._press = Press(
             reg, self.built, self.backend_label.text() or "simulator",
-            SubjectInfo.from_parameters(self.patient.code, self.built),
-            self.shown_to_patient())
+            SubjectInfo.from_parameters(self.patient.code, self.built))
         registry = self.registry
 
         def register() -> BegunTrial | Exception:
             try:
-                press.begun = registry.begin_trial(
+                begun = registry.begin_trial(
                     reg.patient_code, press.built, backend=press.backend,
                     session_number=reg.session_number, trial_number=reg.trial_number)
             except Exception as exc:  # RegistryError etc.: the refusal, shown as is
                 return exc
-            return press.begun
+            closed = press.begun.answered(begun)
+            if closed:  # the window closed meanwhile, without waiting for this answer
+                _take_back_unrun(registry, begun, closed)
+            return begun
 
         self._say("Registering the trial…", states=(State.CONNECTED,))
         self.jobs.run(register, lambda answer: self._registered(press, answer))
@@ -131,7 +137,9 @@ class TrialStart:
             camera = self.video.camera
             if camera is not None and camera.running:
                 camera.start_recording(answer.path.with_suffix(".mp4"))
-            self.bridge.start_trial(str(answer.path), press.subject, press.shown)
+            # the patient's screen as it is now, the trial starting: the therapist may
+            # have opened, closed or changed it while the registry answered
+            self.bridge.start_trial(str(answer.path), press.subject, self.shown_to_patient())
         except Exception as exc:  # the video cannot be written, the loop is gone, …
             # what was begun goes back with the refusal (app.trials.registered): the trial
             # stayed 'recording' with no file, and Start waited for it for good
@@ -164,20 +172,34 @@ class TrialStart:
         """A Start taken (registering) that runs no trial: said to whoever waits for it
         (the plan's runner, ui.window.plan)."""
 
-    def _close_registering(self) -> None:
-        """The window closes (its job thread stopped): a trial registered for a Start whose
-        answer the window never took is taken back, never left 'recording'."""
-        from app.trials.registered import take_back
-
+    def _close_registering(self) -> bool:
+        """The window closes: a Start's trial being registered is abandoned, the window not
+        waiting for the registry's answer; the trial is taken back on the job thread (by
+        the registering job as its answer comes, or after it when the answer came but was
+        not taken), never left 'recording'. True when one was (the job thread may still
+        wait for the registry then)."""
         press, self._press = self._press, None
-        if press is None or press.begun is None:
-            return
-        try:
-            done = take_back(self.registry, press.begun, "the console closed before the "
-                             "trial started")
-        except Exception as exc:  # closing must go on; what stays is said in the log
-            log.error("trial %d registered at Start could not be taken back as the console "
-                      "closed: %s", press.begun.trial_id, exc)
-            return
-        log.info("trial %d registered at Start as the console closed: %s",
-                 press.begun.trial_id, done.words)
+        if press is None:
+            return False
+        why = "the console closed before the trial started"
+        begun = press.begun.abandon(why)
+        if begun is not None:
+            registry = self.registry
+            self.jobs.run(lambda: _take_back_unrun(registry, begun, why), lambda _: None)
+        return True
+
+
+def _take_back_unrun(registry, begun: BegunTrial, why: str) -> None:
+    """On the job thread: the trial registered for a Start the window closed before it
+    ran, taken back (app.trials.registered); a failure is said in the log (the station's
+    next start finishes a trial left 'recording', ui.window.message_line)."""
+    from app.trials.registered import take_back
+
+    try:
+        done = take_back(registry, begun, why)
+    except Exception as exc:  # the window has gone: the log is where it is said
+        log.error("trial %d registered at Start could not be taken back as the console "
+                  "closed: %s", begun.trial_id, exc)
+        return
+    log.info("trial %d registered at Start as the console closed: %s", begun.trial_id,
+             done.words)

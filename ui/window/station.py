@@ -16,7 +16,7 @@ from PySide6.QtCore import QTimer
 from PySide6.QtWidgets import QLabel
 
 from app.records.store import StationStore
-from app.reports.plain_language import capitalised
+from core.errors import capitalised
 from device.loop.states import State
 from ui import theme
 

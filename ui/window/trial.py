@@ -37,6 +37,14 @@ HANDS_OFF = ("Hands off the handle: the force sensor is taking its zero. Nobody 
              "the handle until the zero is taken.")
 ZERO_TAKEN = ("Zero taken: the force sensor read nothing on the handle. The patient may "
               "hold the handle now.")
+SIMULATOR_CONNECTING = "Connecting the simulator…"
+"""On the simulator nobody holds a handle: its simulated sensor's zero needs no hands off,
+and telling the therapist to take them off (or that the patient may now hold it) is false."""
+
+
+def on_simulator(backend: BackendConfig | None) -> bool:
+    """The robot built (or about to be) is the simulator, not the hardware."""
+    return backend is not None and backend.kind == "simulator"
 
 
 @dataclass(frozen=True, slots=True)
@@ -117,8 +125,9 @@ class TrialActions:
             self.bridge.build(params, backend)
         else:
             self.bridge.build(params, backend, model=model)
-        self._say(f"Building the trial… {HANDS_OFF}" if reopens else "Building the trial…",
-                  states=(State.CONNECTED,) if reopens else None)
+        hands_off = reopens and not on_simulator(backend)  # a robot's sensor takes a zero
+        self._say(f"Building the trial… {HANDS_OFF}" if hands_off else "Building the trial…",
+                  states=(State.CONNECTED,) if hands_off else None)
 
     def connect_robot(self) -> None:
         """Connect: the force sensor takes its zero in its first quarter second, so nobody
@@ -130,12 +139,14 @@ class TrialActions:
         if self._connecting:
             return
         self._connecting = True
-        self._say(HANDS_OFF, states=(State.BUILT,))
+        self._say(SIMULATOR_CONNECTING if on_simulator(self.built_backend) else HANDS_OFF,
+                  states=(State.BUILT,))
         self.bridge.connect()
         self._refresh_buttons()
 
     def _on_sensor_zeroed(self, _message: str) -> None:
-        self._say(ZERO_TAKEN, states=(State.BUILT, State.CONNECTED))
+        if not on_simulator(self.built_backend):  # the simulator's: nobody to tell
+            self._say(ZERO_TAKEN, states=(State.BUILT, State.CONNECTED))
 
     def _on_handle_area(self, line: str) -> None:
         """Between trials, the loop's word on the handle: outside the exercise area and
@@ -360,12 +371,15 @@ class TrialActions:
             # (each trial's own is in its file and its report)
             self.backend_label.setText(self._robot_words(reason.removeprefix(
                 "connected to the ")))
-        if (self.state == State.CONNECTED and reason.startswith("connected to the ")
-                and self.start_needs()):
-            zero = " (zero taken)" if self.messages.last is not None and \
-                self.messages.last.text == ZERO_TAKEN else ""
-            self._say(f"Connected{zero}. {start_why(self.start_needs())}.",
-                      states=(State.CONNECTED,))
+        if self.state == State.CONNECTED and reason.startswith("connected to the "):
+            needs = self.start_needs()
+            then = f"{start_why(needs)}." if needs else "Start when ready."
+            if on_simulator(self.built_backend):  # no "Zero taken" said it is done
+                self._say(f"Connected to the simulator. {then}", states=(State.CONNECTED,))
+            elif needs:
+                zero = " (zero taken)" if self.messages.last is not None and \
+                    self.messages.last.text == ZERO_TAKEN else ""
+                self._say(f"Connected{zero}. {then}", states=(State.CONNECTED,))
         self._refresh_buttons()
 
     def _on_trial_started(self, path: str, approach: int, total: int) -> None:

@@ -56,6 +56,7 @@ from app.records.station.refresh import (
     write_changes,
 )
 from app.records.station.sync import Synced, SyncRefused, already_sent, replay
+from core.errors import capitalised
 from device.safewrite import OutputRefused, make_private_folders
 
 log = logging.getLogger(__name__)
@@ -213,26 +214,32 @@ class StationRegistry:
         The server is asked without holding the other calls (as `try_sync` reaches it): on
         a silent network its answer waits out the bounded wait
         (app.records.registry.postgres.deadline), and a call of the window's meanwhile
-        waited behind it. The standby is written under the lock, and only when nothing
-        changed it since it was read (a write mirrored meanwhile brought it current)."""
+        waited behind it. So is it for the rare whole build (the standby not as this object
+        left it). The standby is written under the lock, and only when nothing changed it
+        since it was read (a write mirrored meanwhile brought it current); a write that
+        fails leaves it to be built whole next time."""
         path = standby_path(self.data_dir)
         with self._one:
             if self.offline or not self.held or self._server is None \
                     or self._server.research or not self._recent:
                 return
             server, code, built = self._server, self._recent[-1], self._built
-            if built is None or self._changed_since_built(path):
-                self._mirror(only=[code])  # built whole: the standby is not as last left
-                return
-            try:
-                ours = mirrored_seals(path, code)
-            except sqlite3.Error as exc:
-                log.warning("this station's standby registry is built whole again (%s)", exc)
-                self._mirror()
-                return
+            recent, state = list(self._recent), file_state(path)
+            # the standby not as last left (rare: a failure, another program): built whole
+            # from the server's rows, read off the lock as the changes are (it held every
+            # call behind its bounded wait on a silent network)
+            whole = built is None or self._changed_since_built(path)
+            if not whole:
+                try:
+                    ours = mirrored_seals(path, code)
+                except sqlite3.Error as exc:
+                    log.warning("this station's standby registry is built whole again (%s)",
+                                exc)
+                    whole = True
         try:
             with server._read() as conn:
-                changes = server_changes(conn, code, ours)
+                found = (patient_rows(conn, recent) if whole
+                         else server_changes(conn, code, ours))
         except RegistryUnreachable as exc:
             with self._one:
                 if not self.offline and self._server is server:
@@ -242,14 +249,19 @@ class StationRegistry:
             log.warning("this station's standby registry was not brought up to date: %s", exc)
             return
         with self._one:
-            if changes is None or self.offline or self._server is not server \
-                    or self._built is not built or self._changed_since_built(path):
+            if found is None or self.offline or self._server is not server \
+                    or self._built is not built or file_state(path) != state:
                 return  # the next call (or a write's mirror meanwhile) keeps it current
+            if whole:
+                if self._recent == recent:
+                    self._build(found)
+                return
             try:
-                write_changes(path, changes)
+                write_changes(path, found)
             except (RegistryError, sqlite3.Error, OSError) as exc:
+                # built whole at the next keep_current (or write), off the lock
                 log.warning("this station's standby registry is built whole again (%s)", exc)
-                self._mirror()
+                self._built = None
                 return
             self._built = file_state(path)
 
@@ -282,7 +294,7 @@ class StationRegistry:
         if isinstance(exc, RegistryLoginRefused):  # not the network: say what to do
             self.offline_reason = (f"{self._shown()} refused this station's login: this "
                                    "station records on its own and sends its records once "
-                                   f"it is let in. {str(exc)[:1].upper()}{str(exc)[1:]}")
+                                   f"it is let in. {capitalised(str(exc))}")
         else:
             self.offline_reason = (f"{self._shown()} cannot be reached: this station records "
                                    "on its own and sends its records when it returns")

@@ -20,6 +20,12 @@ def test_the_tasks_are_listed_with_their_protocols(data, capsys):
     assert out.count("  patient: ") == len(TASKS)
     assert "2 trials (clockwise, counter-clockwise)" in out
     assert "Reaction time" in out or "reaction time" in out
+    # every figure's key, the column a controls table (`rehab norms fit`) needs
+    for task in TASKS:
+        figures = next(line for line in out.split(f"\n{task}: ", 1)[-1].splitlines()
+                       if line.startswith("  figures: "))
+        for spec in task_figures(task):
+            assert f"{spec.label} ({spec.unit}) {spec.key}" in figures, (task, spec.key)
 
 
 def test_a_task_the_robot_leads_is_listed_as_the_window_says_it(data, capsys):

@@ -111,6 +111,31 @@ def test_unknown_metric_in_progress_is_refused(data, patient, capsys):
     assert "unknown metric 'happiness'" in err
 
 
+def test_progress_shows_an_assessment_figure_with_its_digits(data, patient, capsys):
+    """`rehab progress --metric` with the assessment's figure keys: printed with one
+    decimal in SI units, a position error of 0.033 m was 0.0 and a movement time of 1.007 s
+    1.0, and two long keys ran together in the heading."""
+    from app.records.datadir import DataDir
+    from app.records.registry import Registry
+    from core.assessment import FIGURES
+
+    code, _, err = run(["assess", "run", patient, "--task", "position", "--patient", "weak",
+                        "--seed", "1"], capsys)
+    assert code == 0, err
+    keys = ["position_absolute_error_m", "position_variable_error_m"]
+    code, out, err = run(["progress", patient, *(f"--metric={k}" for k in keys)], capsys)
+    assert code == 0, err
+    lines = out.splitlines()
+    heading = next(line for line in lines if line.lstrip().startswith("session"))
+    assert heading.split()[-2:] == keys
+    (trial,) = Registry(DataDir(data)).trials_for_patient(patient)
+    row = lines[lines.index(heading) + 1]
+    for key in keys:
+        assert FIGURES[key].unit == "m"
+        assert f"{trial.metrics[key]:.4g} m" in row, (key, row)
+        assert 0.001 < trial.metrics[key] < 0.1
+
+
 def test_help_lists_every_command(capsys):
     code, out, _ = run(["--help"], capsys)
     assert code == 0

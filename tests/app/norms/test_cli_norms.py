@@ -103,6 +103,17 @@ def test_fit_refusals(tmp_path, data, capsys):
     _refused(capsys, [*base, "--controls", str(bad)], "line 2: robot")
     bad.write_text(controls.read_text().replace("range_area_m2", "range_area_cm2"))
     _refused(capsys, [*base, "--controls", str(bad)], "column 'range_area_cm2' is neither")
+    # a misspelt figure gets the figure it is closest to, and where the keys are listed
+    bad.write_text(controls.read_text().replace("vgr_reaction_time_s", "reaction_time_s"))
+    _refused(capsys, [*base, "--controls", str(bad)], "did you mean 'vgr_reaction_time_s'? "
+             "the figure keys: `rehab assess tasks`")
+    # a spreadsheet's "CSV" with semicolons (or tabs) and decimal commas: refused as
+    # lacking 'subject' before, the column it had first
+    for separator, name in ((";", "semicolons"), ("\t", "tabs")):
+        bad.write_text(controls.read_text().replace(".", ",").replace(",", separator))
+        _refused(capsys, [*base, "--controls", str(bad)], f"its columns are separated by "
+                 f"{name}, not commas; save it as CSV with commas (and '.' as the decimal "
+                 "point)")
     lines = controls.read_text().splitlines()
     bad.write_text("\n".join([lines[0], lines[1].replace(",female,", ",f,").replace(
         ",male,", ",m,"), *lines[2:]]))
@@ -166,9 +177,11 @@ def test_use_show_mdc_refusals(tmp_path, data, capsys):
 
 
 def test_a_lambda_at_its_bound_is_said(tmp_path, data, capsys):
-    """A figure no power transform within λ ∈ [−5, 5] makes normal (here 30 − e^(1.2z), a
-    long tail on the low side: λ = 5 is as far as the search goes): the fit says so beside
-    its calibration."""
+    """A figure no power transform the search allows makes normal (here 30 − e^(1.2z), a
+    long tail on the low side: λ = 2 is as far as the search goes,
+    core.norms.transforms.lambda_range): the fit says so beside its calibration. A figure
+    held at a bound its controls do not reject (a speed 0.3 ± 0.02 m/s, lower worse, held at
+    λ = 0) is not noted: 25 virtual controls' fit printed 35 such notes of 39 figures (none now)."""
     import csv
 
     import numpy as np
@@ -178,15 +191,20 @@ def test_a_lambda_at_its_bound_is_said(tmp_path, data, capsys):
     with path.open("w", newline="") as f:
         writer = csv.writer(f)
         writer.writerow(["subject", "age_years", "sex", "handedness", "tested_side", "robot",
-                         "vgr_movement_time_s"])
+                         "vgr_movement_time_s", "vgr_max_speed_m_s"])
         for i in range(80):
             writer.writerow([f"C{i}", 40 + i % 30, ["female", "male"][i % 2], "right",
                              ["right", "left"][i % 3 == 0], "simulator-realistic",
-                             float(30 - np.exp(1.2 * rng.standard_normal()))])
+                             float(30 - np.exp(1.2 * rng.standard_normal())),
+                             float(0.3 + 0.02 * rng.standard_normal())])
     code, out, err = run(["norms", "fit", "--controls", str(path), "--source", "s", "--output",
                           str(tmp_path / "n.json")], capsys)
     assert code == 0, err
-    assert "note vgr_movement_time_s: its λ stopped at the search's bound" in out
+    assert ("note vgr_movement_time_s: its λ is held at the search's bound 2, which the "
+            "controls reject (they would take ") in out
+    assert "note vgr_max_speed_m_s" not in out
+    speed = json.loads((tmp_path / "n.json").read_text())["figures"]["vgr_max_speed_m_s"]
+    assert speed["transform"]["lambda"] == 0.0
 
 
 def test_a_failed_use_leaves_the_norms_in_use(tmp_path, data, capsys, monkeypatch):
@@ -285,15 +303,20 @@ def test_mdc_says_who_the_norms_could_not_score(tmp_path, data, capsys):
 def test_mdc_with_no_reliability_says_so_and_its_sem_is_the_sd(tmp_path, data, capsys):
     """Each figure's second session ranked against the first (the best of session 1 the
     worst of session 2): every ICC(2,1) negative. `rehab norms mdc` prints the ICC as it
-    is, marks it, and the SEM is the SD of the measurements, not SD·√(1 − ICC) above it."""
+    is, marks it, and the SEM is the SD of the measurements, not SD·√(1 − ICC) above it.
+    `rehab norms show` of the file says the same beside those MDC95s (it printed them as
+    any other: the file's ICC was read and dropped)."""
     import csv
     import statistics
+
+    from app.norms.model import NO_RELIABILITY, NO_RELIABILITY_SAID
 
     controls = write_controls(tmp_path / "controls.csv", n=200)
     norms, retest = _fitted_and_retest(tmp_path, capsys, controls)
     with retest.open() as f:
         rows = list(csv.DictReader(f))
-    keys = ["vgr_reaction_time_s", "vgr_max_speed_m_s", "range_area_m2", "range_area_ratio"]
+    keys = ["vgr_reaction_time_s", "vgr_max_speed_m_s", "range_area_m2"]
+    kept = "range_area_ratio"  # measured again as it was: its ICC above 0
     first = [r for r in rows if r["session"] == "1"]
     second = {r["subject"]: r for r in rows if r["session"] == "2"}
     for key in keys:
@@ -313,9 +336,22 @@ def test_mdc_with_no_reliability_says_so_and_its_sem_is_the_sd(tmp_path, data, c
         _, pairs, icc, sem, _mdc, *note = line.split()
         assert int(pairs) == 40, line
         assert float(icc) < 0, line
-        assert " ".join(note) == "no reliability (ICC ≤ 0): SEM = SD", line
+        assert " ".join(note) == NO_RELIABILITY, line
         sd = statistics.stdev(float(r[key]) for r in rows)
         assert float(sem) == pytest.approx(sd, rel=1e-3), line
+    assert out.count(NO_RELIABILITY_SAID) == 1  # what it means, once under the table
+    code, out, err = run(["norms", "show", str(tmp_path / "mdc.json")], capsys)
+    assert code == 0, err
+    shown = {}  # each figure's first line: the figures' table (the calibration's follows)
+    for line in out.splitlines():
+        if line.strip():
+            shown.setdefault(line.split()[0], line)
+    for key in keys:
+        assert shown[key].endswith(f"  {NO_RELIABILITY}"), shown[key]
+        assert float(shown[key].split()[-len(NO_RELIABILITY.split()) - 1]) < 0, shown[key]
+    assert float(shown[kept].split()[-1]) > 0, shown[kept]
+    assert NO_RELIABILITY not in shown[kept]
+    assert out.count(NO_RELIABILITY_SAID) == 1
 
 
 def test_too_few_after_a_rare_level_says_the_level_first(tmp_path, data, capsys):

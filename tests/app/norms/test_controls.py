@@ -81,12 +81,20 @@ def test_rows_are_first_sessions_with_covariates(tmp_path):
     trial_file(folder, "C000", 1, 2, when, {"rmse_m": 0.01}, task="")
     (folder / "C001" / "C001_S001_T009_20260308T110000Z.h5").write_bytes(b"\x89HDF garbage")
     trial_file(folder, "X999", 1, 1, when, {"range_area_m2": 0.05, "range_area_ratio": 0.8})
+    # and the weak virtual patient's, registered in the same data folder: it was read as a
+    # healthy control (the 26th of 25 in a walkthrough)
+    weak = trial_file(folder, "C002", 1, 3, when, {"range_area_m2": 0.02,
+                                                   "range_area_ratio": 0.3},
+                      backend="simulator (weak, seed 5)")
     trials, skipped = read_assessments(trial_files(folder))
     assert len(trials) == 13
     reasons = sorted(skipped.values())
-    assert len(reasons) == 2
-    assert reasons[0] == "not an assessment trial"
-    assert reasons[1].startswith("not read: trial file")
+    assert len(reasons) == 3
+    assert reasons[0] == ("a simulated weak patient (simulator (weak, seed 5)), not a healthy "
+                          "control")
+    assert skipped[str(weak)] == reasons[0]
+    assert reasons[1] == "not an assessment trial"
+    assert reasons[2].startswith("not read: trial file")
     controls, left = controls_from_trials(trials, people_from_table(people_csv), FIGURES)
     assert left == {"X999": "no birth year, sex and handedness for this subject (registry or "
                             "people table)"}
@@ -159,6 +167,11 @@ def test_folder_refusals(tmp_path, data, capsys):
                         "--source", "s", "--output", out], capsys)
     assert code == 2
     assert "line 2: sex" in err
+    bad.write_text(people_csv.read_text().replace(",", ";"))
+    code, _, err = run(["norms", "fit", "--trials", str(folder), "--people", str(bad),
+                        "--source", "s", "--output", out], capsys)
+    assert code == 2
+    assert f"people table {bad}: its columns are separated by semicolons" in err
     code, _, err = run(["norms", "mdc", "--norms", out, "--output", str(tmp_path / "m.json")],
                        capsys)
     assert code == 2

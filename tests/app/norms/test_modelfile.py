@@ -71,6 +71,16 @@ MALFORMED = [
      "vgr_max_speed_m_s.transform.shift: -0.1 leaves values the figure can take from 0 "
      "to 0.1 outside Box-Cox's domain (x + shift > 0): no Z-score for them; give a shift "
      "of at least 0."),
+    # a shift no figure needs: Box-Cox becomes a straight line and the figure loses its
+    # digits (10¹² was read before)
+    (f"{RT}/transform/shift", 1e12, "vgr_reaction_time_s.transform.shift: 1e+12 is beyond "
+     "±1000, further than values the figure can take ever need moving to be above 0; refit "
+     "the norms (`rehab norms fit`) or give the shift that puts the least of them just "
+     "above 0."),
+    ("tasks/reaching/transform/shift", 5000.0, "tasks.reaching.transform.shift: 5000 is "
+     "beyond ±1000"),
+    (f"{RT}/transform/shift", -2000.0, "vgr_reaction_time_s.transform.shift: -2000 is "
+     "beyond ±1000"),
     ("tasks/reaching/transform/shift", -2.0, "tasks.reaching.transform.shift: -2 leaves "
      "the task's distances (eq. 3; the least are the best) from 0 to 2 outside"),
     ("figures/vgr_max_speed_m_s/transform/lambda", 0.5, "vgr_max_speed_m_s.transform.lambda: "

@@ -49,6 +49,32 @@ def test_the_figures_in_the_catalogues_order_with_their_units():
     assert all(line.z is None for line in page.lines)
 
 
+def test_the_figures_read_in_the_units_of_the_rest_of_the_report_not_si():
+    """Trying the window: the reaching page said 0.0008121 m/s and 0.04029 rad where the
+    trial's page beside it (and the window) say mm/s and degrees (app.units)."""
+    page = assessment_page("reaching", {"vgr_posture_speed_m_s": 0.0008121,
+                                        "vgr_initial_direction_error_rad": 0.04029,
+                                        "vgr_max_speed_m_s": 0.3323})
+    values = {line.key: line.value for line in page.lines}
+    assert values == {"vgr_posture_speed_m_s": "0.8121 mm/s",
+                      "vgr_initial_direction_error_rad": "2.308°",
+                      "vgr_max_speed_m_s": "332.3 mm/s"}
+    position = assessment_page("position", {"position_absolute_error_m": 0.0125})
+    assert [line.value for line in position.lines] == ["12.5 mm"]
+    area = assessment_page("range", {"range_area_m2": 0.0412})
+    assert [line.value for line in area.lines] == ["412 cm²"]
+
+
+def test_without_the_patients_covariates_the_page_says_where_to_record_them(norms):
+    """Trying the window: the Assessments tab told the therapist to run
+    "rehab patients ... --sex --handedness" (a command that registers a new patient)."""
+    page = assessment_page("reaching", METRICS, norms=norms, person=None)
+    (note,) = [n for n in page.notes if "not recorded" in n]
+    assert "no Z-scores" in note
+    assert "Registration tab: Clinical record, Correct" in note
+    assert "rehab " not in note
+
+
 def test_z_scores_and_the_task_score_are_the_norms(norms):
     page = assessment_page("reaching", METRICS, norms=norms, person=PERSON)
     z = {line.key: line.z for line in page.lines}

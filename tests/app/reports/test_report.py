@@ -461,6 +461,40 @@ def test_an_as_needed_trial_gets_a_page_of_the_help_the_robot_learned(tmp_path):
     assert build_report(read_trial(write_trial_thesis(tmp_path))).feedforward is None
 
 
+def test_the_help_learned_in_a_single_repetition_is_said_once(tmp_path):
+    """Trying the window: a game round of one lap said "Repetition 1: up to 1.0 N;
+    repetition 1: up to 1.0 N"."""
+    params = THESIS_SUBJECT.replace(repetitions=1, assist="as-needed")
+    path = tmp_path / "passive.h5"
+    save(simulate(params, patient="passive"), path)
+    content = build_report(read_trial(path))
+    assert content.feedforward.force_N.shape[0] == 1
+    pdf = write_report_pdf(content, tmp_path / "passive.pdf")
+    text = " ".join(PdfReader(pdf).pages[-1].extract_text().split())
+    learned = content.feedforward.force_N[0].max()
+    assert f"One repetition: up to {learned:.1f} N (limit 3 N;" in text
+    assert "repetition 1: up to" not in text
+
+
+def test_help_learned_nowhere_is_said_in_words_not_drawn_as_an_empty_chart(tmp_path):
+    """Trying the window: a healthy patient's as-needed trial learned 0.0 N everywhere and
+    its page was a chart whose every line lay hidden on its floor. It says so in words."""
+    from app.reports.pdf import report_pages
+
+    params = THESIS_SUBJECT.replace(repetitions=2, assist="as-needed")
+    path = tmp_path / "healthy.h5"
+    save(simulate(params, patient="healthy", seed=3), path)
+    content = build_report(read_trial(path))
+    assert content.feedforward.force_N.max() < 0.05  # learned none
+    help_page = report_pages(content)[-1]
+    assert help_page.axes == []  # no chart
+    pdf = write_report_pdf(content, tmp_path / "healthy.pdf")
+    text = " ".join(PdfReader(pdf).pages[-1].extract_text().split())
+    assert "The help the robot learned along the path" in text
+    assert "None: under 0.05 N at every point of all 2 repetitions" in text
+    assert "Repetition 1: up to" not in text
+
+
 def write_trial_thesis(folder: Path) -> Path:
     path = folder / "thesis.h5"
     save(simulate(SHORT, patient="passive"), path)

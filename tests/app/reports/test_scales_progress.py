@@ -128,6 +128,28 @@ def test_changes_are_marked_real_only_beyond_the_norms_mdc(registry, tmp_path):
     assert [p.real_change for p in held.points] == [None, None, None]
 
 
+def test_marks_against_an_mdc95_on_no_reliability_say_so(registry, tmp_path):
+    """An MDC95 whose test-retest ICC is ≤ 0 (the shipped norms' position sense: no
+    lasting trait in the virtual subjects) is the retest's whole spread: the marks line
+    says so, and says nothing of the kind for an ICC above 0."""
+    from app.norms.model import NO_RELIABILITY_SAID
+
+    document = handmade()
+    code = registry.create_patient("Ada", "Example").code
+    for rt, fm in ((0.50, 20), (0.30, 33)):
+        session_with(registry, code, [rt], fugl_meyer=fm)
+    lines = {}
+    for icc in (-0.03, 0.7):
+        document["figures"][RT]["icc"] = icc
+        path = tmp_path / f"norms{icc}.json"
+        path.write_text(json.dumps(document))
+        lines[icc] = scale_series(registry, code, RT, "fugl_meyer",
+                                  norms=load_norms(path)).marks
+    assert lines[-0.03].startswith(f"a real change (beyond MDC95 0.08) at session 2 "
+                                   f"({NO_RELIABILITY_SAID}); Norms: hand-made")
+    assert lines[0.7].startswith("a real change (beyond MDC95 0.08) at session 2; Norms: ")
+
+
 def test_a_figure_the_norms_do_not_hold_is_said_in_a_short_line(registry, tmp_path):
     """The RMSE against a scale, with norms of the battery's figures in use: the window's
     caption listed every figure the norms hold (39 keys over six lines, the plot pushed

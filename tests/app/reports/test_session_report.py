@@ -80,6 +80,8 @@ def test_the_session_report_says_the_trials_scales_notes_and_z_scores(clinic):
     expected = ((0.49 ** 0.5 - 1) / 0.5 - (-1 + 0.01 * (who_year - 1960))) / 0.1
     assert reaction.z.startswith(f"Z {expected:+.2f}"), assessment.notes
     assert "task score" in assessment.task_score
+    speed = next(r for r in assessment.rows if r.label == "Max speed")
+    assert speed.value == "400 mm/s"  # in the trial page's unit, not 0.4 m/s
 
     path = write_session_report(registry, code, 1, tmp_path / "session.pdf", norms=norms)
     text = text_of(path)

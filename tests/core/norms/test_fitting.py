@@ -8,8 +8,10 @@ import math
 
 import numpy as np
 import pytest
+from scipy import stats
 
-from core.norms.fitting import calibration_of, cross_validate, fit_figure, fit_model
+from core.norms import scores
+from core.norms.fitting import calibration_of, cross_validate, fit_figure, fit_model, fit_task
 from core.norms.regression import Covariates, spec_of
 from core.norms.transforms import Transform, profile_log_likelihood
 
@@ -136,3 +138,21 @@ def test_a_rare_figure_one_fold_cannot_fit_leaves_the_others_scored():
     assert result["task:with_rare"].not_scored == fold_size
     with pytest.raises(Exception, match="all equal"):  # the whole fit still refuses it
         fit_model({"c": np.zeros(n)}, people, {"c": "higher"}, {})
+
+
+def test_a_task_score_has_no_ceiling():
+    """A task's distance D is Box-Cox transformed, and a greater D is worse: with λ < 0 the
+    transformed D tends to −1/λ, and the Z-Task Score could never exceed (−1/λ − mean)/SD
+    (the shipped circle's, λ −0.64: 5.4, a task score of 5.5, whatever the patient did).
+    Controls whose D the likelihood bends with λ = −0.5 (one figure's Z built so that its
+    one-sided deviation is that D): λ is kept at 0 or above, and a patient ever further
+    from them scores ever worse."""
+    t = np.random.default_rng(6).normal(0.0, 0.15, 800)
+    distance = (1.0 - 0.5 * t) ** -2.0  # Box-Cox λ = −0.5 inverse, around D = 1
+    z = stats.norm.isf(2.0 * stats.norm.sf(distance))  # one_sided(z) = distance
+    assert scores.task_distances({"a": z}, {"a": "higher"}, ("a",)) == pytest.approx(distance)
+    task = fit_task(("a",), {"a": z}, {"a": "higher"})
+    assert task.transform.lam >= 0.0
+    far = [float(scores.one_sided((task.transform.apply(d) - task.mean) / task.sd))
+           for d in (10.0, 100.0)]
+    assert far[1] > far[0] > 10.0

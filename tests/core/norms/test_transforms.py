@@ -10,7 +10,13 @@ from hypothesis import example, given, strategies as st
 from scipy import stats
 
 from core.errors import ParameterError
-from core.norms.transforms import Transform, fit_transform, profile_log_likelihood
+from core.norms.transforms import (
+    LAMBDA_RANGE,
+    Transform,
+    fit_transform,
+    lambda_range,
+    profile_log_likelihood,
+)
 
 
 def test_box_cox_by_hand():
@@ -90,3 +96,65 @@ def test_fit_refuses_what_it_cannot_fit():
         fit_transform("yeo-johnson", [1.0, 1.0, 1.0])
     with pytest.raises(ParameterError, match="at least 3"):
         fit_transform("yeo-johnson", [1.0, 2.0])
+
+
+def _controls_of_lambda(lam: float, n: int = 500) -> np.ndarray:
+    """Values normal on the Box-Cox scale of `lam`: the likelihood's λ is about `lam`."""
+    t = np.random.default_rng(4).normal(0.0, 0.05, n)
+    return (1.0 + lam * t) ** (1.0 / lam)
+
+
+def _z(fit, x, controls) -> float:
+    t = fit.transform.apply(controls)
+    return float((fit.transform.apply(x) - t.mean()) / t.std(ddof=1))
+
+
+@pytest.mark.parametrize("worse", ["higher", "lower"])
+def test_the_worse_side_has_no_ceiling(worse):
+    """Controls the likelihood would bend with λ = −4 (higher is worse) or +4 (lower is
+    worse): with that λ (searched in ±5 before) a patient's Z-score stops growing on the
+    worse side (Box-Cox tends to −1/λ): a patient at 100 times the worst control's excess,
+    or at 0, scored about Z 5, as the shipped norms' path length ratio scored 3.99 against
+    its worst control's 3.88. The search keeps λ on the side with no ceiling."""
+    x = _controls_of_lambda(-4.0 if worse == "higher" else 4.0)
+    fit = fit_transform("box-cox", x, shift=0.01, worse=worse)
+    median, edge = float(np.median(x)), float(x.max() if worse == "higher" else x.min())
+    far = median + 100 * (edge - median) if worse == "higher" else 0.0
+    sign = 1.0 if worse == "higher" else -1.0
+    assert sign * _z(fit, far, x) > 20.0
+    assert fit.at_bound
+    assert fit.transform.lam == 0.0
+
+
+def test_lambda_range_by_worse_side():
+    assert lambda_range("box-cox", None) == LAMBDA_RANGE == (-2.0, 2.0)
+    assert lambda_range("box-cox", "higher") == (0.0, 2.0)
+    assert lambda_range("box-cox", "lower") == (-2.0, 0.0)
+    assert lambda_range("yeo-johnson", "lower") == (-2.0, 2.0)
+    assert lambda_range("box-cox", "both") == (0.0, 0.0)
+    assert lambda_range("yeo-johnson", "both") == (0.0, 2.0)
+    with pytest.raises(ParameterError, match="worse side"):
+        lambda_range("box-cox", "up")
+    both = fit_transform("box-cox", _controls_of_lambda(1.0), worse="both")
+    assert both.transform.lam == 0.0
+    assert both.at_bound
+
+
+def test_a_bound_is_noted_only_when_the_controls_reject_it():
+    """25 controls, the shipped fit's worse-side bounds: a figure nearly normal and far from
+    0 (a speed 0.3 ± 0.02 m/s, lower worse) is held at λ = 0, which its likelihood cannot
+    tell from 1 (the ratio well under 3.84): no news. A long low tail on a figure where
+    higher is worse (30 − e^(1.2z)) wants λ far above 2: rejected, and said."""
+    rng = np.random.default_rng(0)
+    near_normal = 0.3 + 0.02 * rng.standard_normal(25)
+    held = fit_transform("box-cox", near_normal, worse="lower")
+    assert held.at_bound
+    assert held.transform.lam == 0.0
+    assert held.bound_cost < 3.84
+    assert not held.bound_rejected
+    skewed = 30.0 - np.exp(1.2 * rng.standard_normal(80))
+    rejected = fit_transform("box-cox", skewed, worse="higher")
+    assert rejected.transform.lam == 2.0
+    assert rejected.free_lam > 2.0
+    assert rejected.bound_cost > 3.84
+    assert rejected.bound_rejected

@@ -61,3 +61,36 @@ def test_a_trial_without_the_patient_s_screen_says_it_was_closed(qtbot, tmp_path
         win.close()
     assert [(e["tick"], e["values"]["open"], e["message"]) for e in shown] == [
         (0, False, "patient's screen closed")]
+
+
+def test_a_change_made_while_start_registers_is_what_the_file_says(qtbot, tmp_path,
+                                                                   monkeypatch):
+    """The screen changed after Start was pressed, before the registry answered (on a
+    shared registry whose network drops everything, up to its bounded wait): the file said
+    what the screen showed at the press, and no event the change, while the patient saw
+    the change through the whole trial. The file now takes the screen as the trial starts."""
+    from tests.ui.held import BOUND_S, Held
+    from tests.ui.session import build_and_connect, click
+
+    win = open_window(qtbot, tmp_path, monkeypatch)
+    try:
+        register_patient(qtbot, win)
+        short_trial(win, duration_s=1.5)
+        qtbot.waitExposed(win.open_patient_screen())
+        build_and_connect(qtbot, win)
+        held = Held(monkeypatch, win.registry, "begin_trial")
+        click(qtbot, win.robot.buttons["start"])
+        assert held.asked.wait(BOUND_S)
+        assert win.registering()
+        win.set_patient_options(mirror=True, rotation_deg=180)  # while it registers
+        held.release()
+        shown = _shown(qtbot, win)
+        screen = win.patient_window.options
+    finally:
+        win.close()
+    assert held.waited == [True]
+    (start,) = shown
+    assert start["tick"] == 0
+    assert start["values"] == {"open": True, "mirror": True, "rotation_deg": 180,
+                               "show_numbers": False, "previous_path": True, "sound": False}
+    assert (screen.mirror, screen.rotation_deg) == (True, 180)  # what the patient saw

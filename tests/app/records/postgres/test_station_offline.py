@@ -463,19 +463,27 @@ def test_a_sync_waiting_on_a_silent_server_holds_no_other_call(tmp_path):
         station.close()
 
 
-def test_keeping_current_on_a_silent_server_holds_no_other_call(department):
+@pytest.mark.parametrize("standby", ["as left", "changed"])
+def test_keeping_current_on_a_silent_server_holds_no_other_call(department, standby):
     """Online, between trials, the window's job thread keeps the standby current
     (keep_current); on a silent network the server's answer waits out the bounded wait,
     and a call of the window's meanwhile (a trial's numbers) waited behind it, the window
     frozen. The server's reading here is one that never answers until the test lets it
-    (no timing involved); the window's own call reaches the server as usual."""
+    (no timing involved); the window's own call reaches the server as usual. A standby
+    changed since this station last left it (another program, a failed write) is built
+    whole, from every recent patient's rows: that reading held the other calls still."""
     import contextlib
+    import os
     import threading
 
     url, network, data = department
     station = StationRegistry(data, network.url(url), station="robot-1")
     code = station.create_patient("Kit", "Sample").code
     _trial(station, code)
+    if standby == "changed":
+        path = standby_path(data)
+        seen = os.stat(path)
+        os.utime(path, ns=(seen.st_atime_ns, seen.st_mtime_ns + 1_000_000_000))
     server = station._server
     reaching, answer = threading.Event(), threading.Event()
     ordinary = server._read
