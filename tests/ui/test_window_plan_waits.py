@@ -101,11 +101,12 @@ def test_a_plan_copied_for_a_patient_no_longer_chosen_is_not_shown(qtbot, tmp_pa
         saved = Held(monkeypatch, win.registry, "save_plan")
         read_other = Held(monkeypatch, win.registry, "current_plan", code=other.code)
         click(qtbot, win.plan_tab.copy_button)
-        win.registration_tab.choose(other)  # asks for the other's plan, after the copy
+        win.registration_tab.choose(other)  # her record read (on the job thread) after
+        # the copy, then her plan asked for
         saved.release()
-        # the copy saved and its plan read: its answer is given to the window as the
+        # the copy saved and its plan read: its answer is given to the window before the
         # other's read begins
-        assert read_other.asked.wait(BOUND_S)
+        qtbot.waitUntil(read_other.asked.is_set, timeout=BOUND_S * 1000)
         QApplication.processEvents()
         assert win.stored_plan is None, "the first patient's plan shown for the other"
         _waits(win, f"Reading patient {other.code}'s plan…")
@@ -133,8 +134,8 @@ def test_a_plan_run_begun_for_a_start_plan_that_cannot_go_on_is_ended(qtbot, win
         gone = "press clear fault"  # the emergency stop or the fault it latched
     else:
         other = win.registry.create_patient("Grace", "Hopper")
-        win.registration_tab.choose(other)
-        gone = "another patient was chosen before the plan started"
+        win.registration_tab.choose(other)  # nobody confirmed while her record loads
+        gone = "another patient"  # chosen before the plan started, or while it was begun
     begun.release()
     qtbot.waitUntil(lambda: [r.status for r in win.registry.plan_runs_for_patient(code)]
                     == ["stopped"], timeout=20000)

@@ -174,7 +174,12 @@ class PlanControl:
         return self._plan_asked is not None
 
     def show_plan_of(self, code: str) -> None:
-        """Read patient `code`'s plan (on the job thread) and show it."""
+        """Read patient `code`'s plan (on the job thread) and show it; another patient's
+        plan shown till then is taken off at once (a patient's choice is read on the job
+        thread too: the plan copied for the patient before could be shown as hers)."""
+        if self.stored_plan is not None and self.stored_plan.patient_code != code:
+            self.stored_plan = None
+            self.plan_tab.set_plan(None, "")
         self._ask_plan(f"Reading patient {code}'s plan…",
                        lambda: self.registry.current_plan(code),
                        lambda stored: self._show_plan(code, stored))
