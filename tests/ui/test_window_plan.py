@@ -287,7 +287,9 @@ def test_a_block_out_of_reach_is_said_before_build_and_connect(qtbot, tmp_path, 
         click(qtbot, tab.start_button)
         said = tab.refusal.text()
         assert said.startswith("Start plan refused: block 3 (Forward reach): "), said
-        assert "this arm reaches 0.57 m" in said
+        # in the form's own units: its refusals say cm (brief hO: the plan's said metres)
+        assert "this arm reaches 57.0 cm" in said, said
+        assert ") m " not in said, said
         assert "Parameters tab's centre" in said
         assert win.plan_runner is None
         assert win.registry.plan_runs_for_patient(code) == []

@@ -23,6 +23,7 @@ from app.games.rounds import staircase_rounds
 from app.plans.dose import trial_dose
 from app.plans.runner import ENDED, PAUSED, PlanRunner
 from app.plans.templates import load_template, template_titles
+from app.units import SCREEN
 from core.plan import check_plan
 from device.loop.states import State
 from device.safety.faults import Fault
@@ -256,7 +257,9 @@ class PlanControl:
             except Exception as exc:  # the form's own refusal
                 why = f"the Parameters tab: {exc}"
             else:
-                problems = check_plan(self.stored_plan.plan, base)
+                # in the form's own units (its refusals say cm), never the check's SI
+                problems = check_plan(self.stored_plan.plan, base, self.parameters_tab.robot,
+                                      units=SCREEN)
                 why = f"{problems[0].rstrip('.')} ({PLACED})" if problems else ""
         if not why and self.latch.holds_robot():
             why = self.latch.holds_robot()
