@@ -297,6 +297,12 @@ def test_a_block_out_of_reach_is_said_before_build_and_connect(qtbot, tmp_path, 
         p.centre_y.setValue(34.0)
         p.refresh()
         click(qtbot, tab.start_button)
+        # on the simulator nobody holds a handle (brief hO): no "hands off" said
+        assert tab.refusal.text() == ("Start plan refused: connect the robot first (Build, "
+                                      "then Connect).")
+        # the robot chosen, the Connect's zero asks the handle free of hands
+        p.robot_choice.hardware.setChecked(True)
+        click(qtbot, tab.start_button)
         assert tab.refusal.text() == ("Start plan refused: connect the robot first (Build, "
                                       "then Connect, hands off the handle).")
     finally:
