@@ -300,6 +300,7 @@ class PlanControl:
             self.plan_tab.show_refusal("")
             self.plan_timer.start()
             self.plan_runner.start(time.monotonic())
+            self._refresh_buttons()  # Build and Start are the plan's now (ui.views.readiness)
 
         def dropped(run_id) -> None:  # another patient chosen while it was begun
             self._plan_starting = None
@@ -426,6 +427,7 @@ class PlanControl:
             self.plan_timer.stop()
             self._say(state.line(), problem=state.outcome not in ("complete",))
             self.plan_runner = None
+            self._refresh_buttons()  # Build and Start are the therapist's again
             # the patient's screen keeps the session's end until the next Build
             self.plan_ended = (state, self.built)
             if self.patient is not None:
