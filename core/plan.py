@@ -36,7 +36,9 @@ from core.trial import (
     RADIUS_RANGE_M,
     REACH_GAME_SHAPES,
     REPETITIONS_RANGE,
+    SI_UNITS,
     TOLERANCE_RANGE_RAD,
+    MessageUnits,
     TrialParameters,
 )
 
@@ -331,16 +333,18 @@ class Plan:
             Block.from_dict(b, f"block {i + 1}") for i, b in enumerate(blocks)))
 
 
-def check_plan(plan: Plan, base: TrialParameters, robot=None) -> tuple[str, ...]:
+def check_plan(plan: Plan, base: TrialParameters, robot=None,
+               units: MessageUnits = SI_UNITS) -> tuple[str, ...]:
     """What keeps `plan` from running for the patient whose setup is `base`: each block's
     trial walked by core.trial.check_trial (the robot's and the arm's reach, the path's
-    speed), one line per block that cannot run, naming it; () when every block can."""
+    speed), one line per block that cannot run, naming it, written in `units` (the
+    window's are the form's own, app.units.SCREEN); () when every block can."""
     from core.trial import check_trial
 
     problems = []
     for k, block in enumerate(plan.blocks, 1):
         try:
-            found = check_trial(block.parameters(base), robot).problems
+            found = check_trial(block.parameters(base), robot, units=units).problems
         except ParameterError as exc:
             found = (str(exc),)
         if found:

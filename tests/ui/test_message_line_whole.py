@@ -41,11 +41,14 @@ def test_a_plans_refusal_reads_whole_in_the_event_line(qtbot, tmp_path, monkeypa
         win.resize(1366, 738)
         qtbot.waitExposed(win)
         register_patient(qtbot, win)
+        # the patient's plan is read on the job thread, Copy greyed meanwhile (ui.window.plan)
+        qtbot.waitUntil(lambda: not win.plan_waiting(), timeout=20000)
         win.tabs.setCurrentWidget(win.plan_tab)
         index = win.plan_tab.templates.findData("endurance")
         win.plan_tab.templates.setCurrentIndex(index)
         click(qtbot, win.plan_tab.copy_button)
-        qtbot.waitUntil(lambda: win.stored_plan is not None, timeout=5000)
+        qtbot.waitUntil(lambda: win.stored_plan is not None and not win.plan_waiting(),
+                        timeout=20000)
         p = win.parameters_tab
         p.shoulder_x.setValue(-3.0)  # the form's D reachable, the plan's figure eight not
         p.shoulder_y.setValue(68.0)

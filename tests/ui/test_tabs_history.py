@@ -205,3 +205,44 @@ def test_progress_lists_every_trial_grouped_by_exercise(qtbot, history):
                 if isinstance(c, pg.PlotDataItem)]
     np.testing.assert_allclose(curve.getOriginalDataset()[1],
                                [trials[1][1].metrics.rmse_x_m * 1000])
+
+
+def test_replay_s_list_names_games_and_assessments_whole_at_a_large_font(qtbot, history):
+    """Found driving the window (brief hO): the list said only numbers, time and status,
+    so a game's round or an assessment task read as any trial of its shape. Each row now
+    names it as Progress's series do, on a second line wrapped at a large font, never cut
+    with "…" (an assessment's name is the longest)."""
+    import datetime
+
+    from PySide6.QtCore import QRect
+    from PySide6.QtGui import QFontMetrics
+    from PySide6.QtWidgets import QApplication
+
+    from app.records.registry import Trial
+    from core.trial import TrialParameters
+
+    registry, code, _ = history
+    started = datetime.datetime(2026, 12, 5, 9, 30, tzinfo=datetime.UTC)
+    kinds = ({"game": "reach", "shape": "reach"},
+             {"assessment": "circle", "shape": "circle", "radius_m": 0.07,
+              "assist": "transparent"})
+    trials = [Trial(k, code, 1, started.date(), k, TrialParameters().replace(**kind)
+                    .to_dict(), "x.h5", {}, "complete", started, None, "simulator", None)
+              for k, kind in enumerate(kinds, 1)]
+    theme.apply_theme(QApplication.instance(), 1.5)
+    try:
+        tab = shown(qtbot, ReplayTab(registry))
+        tab.resize(1366, 600)
+        tab.set_patient(code, trials)
+        QApplication.processEvents()
+        texts = [tab.trials.item(r).text() for r in range(tab.trials.count())]
+        assert texts[0].split("\n")[1].startswith("Assessment: Circle drawing · ")
+        assert texts[1].split("\n")[1].startswith("Reaching game · ")
+        metrics = QFontMetrics(tab.trials.font())
+        for row, text in enumerate(texts):
+            rect = tab.trials.visualItemRect(tab.trials.item(row))
+            needed = metrics.boundingRect(QRect(0, 0, rect.width() - 8, 10_000),
+                                          int(Qt.TextFlag.TextWordWrap), text)
+            assert rect.height() >= needed.height(), (text, rect, needed)
+    finally:
+        theme.apply_theme(QApplication.instance(), 1.0)

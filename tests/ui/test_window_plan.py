@@ -10,7 +10,7 @@ from PySide6.QtCore import Qt
 from app.reports.build import content_for_registry_trial
 from core.plan import Block, Plan
 from device.loop.states import State
-from tests.ui.session import click, open_window, register_patient, short_trial
+from tests.ui.session import click, enabled, open_window, register_patient, short_trial
 
 pytestmark = pytest.mark.slow
 
@@ -177,6 +177,39 @@ def test_the_emergency_stop_in_a_rest_ends_the_plan_at_once(qtbot, window):
     assert len(win.registry.trials_for_patient(code)) == 1  # nothing ran after
 
 
+def test_build_and_start_are_the_plan_s_while_it_rests(qtbot, window):
+    """Found driving the window (brief hO): in the rest between blocks ("Rest 0:57 after
+    block 1 of 2") Build and Start (F5) were green; Start ran the last built round as a
+    trial of its own, registered but not in the plan's record, while the patient's screen
+    said rest, and when it overlapped the rest's end the plan never ended. While the plan
+    runs they are greyed with why; Stop plan gives them back."""
+    from PySide6.QtTest import QTest
+
+    from core.errors import capitalised
+    from ui.views.readiness import PLAN_RUNS
+
+    win = window
+    code = connected_with_plan(qtbot, win, LONG_REST)
+    start_plan(qtbot, win)
+    qtbot.waitUntil(lambda: win.plan_runner is not None and win.plan_runner.phase
+                    == "resting" and not win.saving(), timeout=120000)
+    for name in ("build", "start"):
+        button = win.robot.buttons[name]
+        assert not button.isEnabled(), name
+        assert button.toolTip() == capitalised(PLAN_RUNS)
+    QTest.keyClick(win, Qt.Key.Key_F5)  # the shortcut of a greyed button runs nothing
+    QTest.keyClick(win, Qt.Key.Key_F2)
+    qtbot.wait(500)
+    assert not win.registering()
+    assert win.state == State.CONNECTED
+    assert len(win.registry.trials_for_patient(code)) == 1
+    click(qtbot, win.plan_tab.stop_button)
+    qtbot.waitUntil(lambda: win.plan_runner is None, timeout=20000)
+    assert {"build", "start"} <= enabled(win)  # the therapist's again
+    (run,) = win.registry.plan_runs_for_patient(code)
+    assert run.status == "stopped"
+
+
 def test_a_plan_this_console_cannot_run_is_said_on_the_tab_not_raised(qtbot, tmp_path,
                                                                        monkeypatch):
     win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
@@ -287,13 +320,21 @@ def test_a_block_out_of_reach_is_said_before_build_and_connect(qtbot, tmp_path, 
         click(qtbot, tab.start_button)
         said = tab.refusal.text()
         assert said.startswith("Start plan refused: block 3 (Forward reach): "), said
-        assert "this arm reaches 0.57 m" in said
+        # in the form's own units: its refusals say cm (brief hO: the plan's said metres)
+        assert "this arm reaches 57.0 cm" in said, said
+        assert ") m " not in said, said
         assert "Parameters tab's centre" in said
         assert win.plan_runner is None
         assert win.registry.plan_runs_for_patient(code) == []
         # moved nearer the shoulder on the Parameters tab, the plan waits for the robot only
         p.centre_y.setValue(34.0)
         p.refresh()
+        click(qtbot, tab.start_button)
+        # on the simulator nobody holds a handle (brief hO): no "hands off" said
+        assert tab.refusal.text() == ("Start plan refused: connect the robot first (Build, "
+                                      "then Connect).")
+        # the robot chosen, the Connect's zero asks the handle free of hands
+        p.robot_choice.hardware.setChecked(True)
         click(qtbot, tab.start_button)
         assert tab.refusal.text() == ("Start plan refused: connect the robot first (Build, "
                                       "then Connect, hands off the handle).")

@@ -20,6 +20,7 @@ proposes nothing and decides no proposal: the exercise trial after it does).
 After every step:
 * what Start can run is what the form shows: Start is enabled only while the form shows
   exactly what the loop last took at a Build (the parameters and the robot chosen);
+* while a plan runs, Build and Start are its own: the therapist's are greyed;
 * Start registers what the Registration tab shows confirmed: it is enabled only while
   the tab's registration is the window's, for the patient chosen;
 * the banner is the latch: shown exactly while the loop's e-stop line is held or the loop
@@ -875,6 +876,17 @@ class WindowMachine(PlanAndTaskRules, RuleBasedStateMachine):
             f"register {self.win.registration}")
         assert self.win.registration == shown
         assert shown.patient_code == self.win.patient.code == self.patient.code
+
+    @invariant()
+    def a_running_plan_s_build_and_start_are_its_own(self) -> None:
+        """While a plan runs (a round being built, run or saved, a rest, a pause) the
+        therapist's Build and Start are greyed: pressed in a rest they ran a trial the
+        plan's record does not hold while the patient's screen said rest (brief hO)."""
+        if "start" not in CHECKS or self.win is None or self.win.plan_runner is None:
+            return
+        assert not {"build", "start"} & enabled(self.win), (
+            f"{sorted(enabled(self.win))} green while the plan is "
+            f"{self.win.plan_runner.phase}")
 
     @invariant()
     def the_banner_is_the_latch(self) -> None:

@@ -88,6 +88,10 @@ class ReplayTab(QWidget):
 
         self.trials = QListWidget()
         self.trials.setAccessibleName("Trials of this patient")
+        # each trial two lines (ui.views.moment.describe_trial), wrapped and never cut with
+        # "…" at a large font: an assessment's name is the longest
+        self.trials.setWordWrap(True)
+        self.trials.setSpacing(3)
         self.trials.itemActivated.connect(self._open_item)
         self.open_selected = theme.set_role(QPushButton("Open selected trial"), "primary")
         self.open_selected.clicked.connect(self._open_current)

@@ -8,6 +8,7 @@ import math
 import numpy as np
 
 from app.records.registry import Trial
+from app.reports.progress import exercise_of
 from app.units import CM_PER_M
 from device.loop.pipeline import PHASE_APPROACH, PHASE_EXERCISE, PHASE_HOLD, PHASE_IDLE
 from device.safety.faults import Fault
@@ -56,7 +57,13 @@ def moment(view: TrialView, i: int) -> dict[str, str]:
 
 
 def describe_trial(trial: Trial) -> str:
-    """One line for the list of a patient's trials: numbers, local start time, status."""
+    """Two lines for the list of a patient's trials: numbers, local start time, status;
+    then what it was, named as the Progress tab names its series (an assessment task's or
+    a game's name first: app.reports.progress.Exercise.label), so a game or an
+    assessment is told from the exercise of its shape."""
     started = trial.started_at.astimezone().strftime("%d %b %Y %H:%M")
     status = STATUS_WORDS.get(trial.status, trial.status)
-    return f"Session {trial.session_number}, trial {trial.number} — {started} — {status}"
+    line = f"Session {trial.session_number}, trial {trial.number} — {started} — {status}"
+    if not trial.parameters.get("shape"):  # no exercise stored to name (not "?")
+        return line
+    return f"{line}\n{exercise_of(trial.assist, trial.parameters).label()}"

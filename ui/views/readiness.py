@@ -17,7 +17,11 @@ knows stands in the way:
   says, with where the handle is, not a fault (docs/safety.md, H8);
 * while a Start's trial is being registered (the registry answers on the job thread, a
   shared one on a silent network only after its bounded wait: ui.window.start), Start
-  says "Registering…" and Build waits: what the registry is given is what was built.
+  says "Registering…" and Build waits: what the registry is given is what was built;
+* while a session plan runs (any phase: its rests and a pause too) Build and Start are
+  the plan's (ui.window.plan): pressed in a rest they ran a trial the plan's record does
+  not hold while the patient's screen said rest, and the plan's next Build then met a
+  running robot (brief hO). They are greyed with PLAN_RUNS.
 """
 
 from __future__ import annotations
@@ -32,6 +36,8 @@ SAVING = "the last trial to be saved: a moment"
 NOT_REGISTERED = "a registered patient: Registration tab, choose the patient and press Confirm"
 NOT_BUILT = "a built trial: press Build"
 REGISTERING = "the trial being registered"
+PLAN_RUNS = ("the session plan builds and starts its own trials: press Stop plan (Plan tab) "
+             "to run one of your own")
 
 KEYS = {"build": "F2", "connect": "F3", "disconnect": "F4", "start": "F5", "stop": "F6",
         "save": "F7"}
@@ -83,14 +89,15 @@ def start_why(needs: str) -> str:
 def readiness(state: State, *, form_problem: str, registered: bool, built: bool,
               stale: bool, held: str, unsaved: bool, saving: bool = False,
               connecting: bool = False, outside: str = "",
-              registering: bool = False) -> Readiness:
+              registering: bool = False, plan: bool = False) -> Readiness:
     """The buttons for `state`. `form_problem`: why the form cannot be built ('' when it
     can); `built`: a trial was built; `stale`: the form changed since; `held`: why the latch
     holds the robot ('' when it does not, ui.views.latch.Latch.holds_robot); `unsaved`: a
     finished trial's report is not yet saved; `saving`: the last trial's file is not closed
     yet; `connecting`: a Connect was sent and is not answered yet (the sensor's zero);
     `outside`: the loop's line for a handle outside the exercise area ('' when inside);
-    `registering`: a Start's trial is being registered (Build waits for it)."""
+    `registering`: a Start's trial is being registered (Build waits for it); `plan`: a
+    session plan runs (Build and Start are its own: PLAN_RUNS)."""
     needs = start_needs(registered=registered, built=built, stale=stale, saving=saving,
                         registering=registering)
     build_why = f"Build needs the form fixed: {form_problem}" if form_problem else \
@@ -100,20 +107,21 @@ def readiness(state: State, *, form_problem: str, registered: bool, built: bool,
     # a trial, then a radius the arm cannot reach: the line said "press Build")
     blocked_build = needs in (STALE, NOT_BUILT) and bool(form_problem)
     free = not held
+    mine = not plan  # Build and Start are the therapist's, not a running plan's
     enabled = {
-        "build": free and not build_why and state in (State.IDLE, State.BUILT,
+        "build": free and mine and not build_why and state in (State.IDLE, State.BUILT,
                                                          State.CONNECTED),
         "connect": free and state == State.BUILT and not connecting,
         "disconnect": state in (State.CONNECTED, State.FAULTED),
-        "start": free and not needs and not outside and state == State.CONNECTED,
+        "start": free and mine and not needs and not outside and state == State.CONNECTED,
         "stop": state == State.RUNNING,
         "save": unsaved and state not in (State.RUNNING, State.STOPPING),
     }
     why = {
-        "build": held or build_why,
+        "build": held or (PLAN_RUNS if plan else build_why),
         "connect": held,
-        "start": held or (build_why if blocked_build else start_why(needs) if needs
-                          else outside),
+        "start": held or (PLAN_RUNS if plan else build_why if blocked_build
+                          else start_why(needs) if needs else outside),
     }
     tooltips = {}
     for name, on in enabled.items():
@@ -122,6 +130,8 @@ def readiness(state: State, *, form_problem: str, registered: bool, built: bool,
     # the line names what holds the next step of the session, on every tab
     if held:
         line = capitalised(held)
+    elif plan:  # the next step is the plan's (its status on the Plan tab), not a Build
+        line = ""
     elif state == State.CONNECTED and needs and not blocked_build:
         line = start_why(needs)
     elif state in (State.IDLE, State.BUILT, State.CONNECTED) and form_problem:

@@ -23,11 +23,14 @@ from app.games.rounds import staircase_rounds
 from app.plans.dose import trial_dose
 from app.plans.runner import ENDED, PAUSED, PlanRunner
 from app.plans.templates import load_template, template_titles
+from app.units import SCREEN
 from core.plan import check_plan
 from device.loop.states import State
 from device.safety.faults import Fault
+from ui.tabs.parameters import HARDWARE
 from ui.tabs.plan import PlanTab
 from ui.window.awaited import Awaited
+from ui.window.trial import on_simulator
 
 log = logging.getLogger("ui.main_window")
 PLAN_TICK_MS = 100
@@ -35,6 +38,10 @@ PLACED = ("every block runs at the Parameters tab's centre, for the shoulder and
           "shows: change them there")
 """Where a plan's blocks are placed (core.plan.Block.parameters over the form's trial), said
 with a block the patient cannot reach: the table has no centre to change."""
+CONNECT_FIRST = "connect the robot first (Build, then Connect"
+HANDS_OFF_AT_CONNECT = "hands off the handle"
+"""Said only for the robot: the simulator's sensor takes its zero with nobody at a handle
+(ui.window.trial.on_simulator; the Connect says the same)."""
 
 
 class WindowConsole:
@@ -261,12 +268,15 @@ class PlanControl:
             except Exception as exc:  # the form's own refusal
                 why = f"the Parameters tab: {exc}"
             else:
-                problems = check_plan(self.stored_plan.plan, base)
+                # in the form's own units (its refusals say cm), never the check's SI
+                problems = check_plan(self.stored_plan.plan, base, self.parameters_tab.robot,
+                                      units=SCREEN)
                 why = f"{problems[0].rstrip('.')} ({PLACED})" if problems else ""
         if not why and self.latch.holds_robot():
             why = self.latch.holds_robot()
         elif not why and self.state != State.CONNECTED:
-            why = "connect the robot first (Build, then Connect, hands off the handle)"
+            why = CONNECT_FIRST + ("" if self._plan_on_simulator() else
+                                   f", {HANDS_OFF_AT_CONNECT}") + ")"
         if why:
             self._refuse_plan(why)
             return
@@ -295,6 +305,7 @@ class PlanControl:
             self.plan_tab.show_refusal("")
             self.plan_timer.start()
             self.plan_runner.start(time.monotonic())
+            self._refresh_buttons()  # Build and Start are the plan's now (ui.views.readiness)
 
         def dropped(run_id) -> None:  # another patient chosen while it was begun
             self._plan_starting = None
@@ -302,6 +313,13 @@ class PlanControl:
                 self._end_unrun(run_id, "another patient was chosen before the plan started")
 
         self._ask_plan("Starting the plan…", begin, begun, dropped=dropped)
+
+    def _plan_on_simulator(self) -> bool:
+        """The robot the next Connect connects is the simulator: the one built, or before
+        a Build the one the Parameters tab's Build would build."""
+        if self.state == State.BUILT:
+            return on_simulator(self.built_backend)
+        return self.parameters_tab.backend().name != HARDWARE
 
     def _refuse_plan(self, why: str) -> None:
         why = why.rstrip(".")  # a check's sentence ends in its own full stop
@@ -414,6 +432,7 @@ class PlanControl:
             self.plan_timer.stop()
             self._say(state.line(), problem=state.outcome not in ("complete",))
             self.plan_runner = None
+            self._refresh_buttons()  # Build and Start are the therapist's again
             # the patient's screen keeps the session's end until the next Build
             self.plan_ended = (state, self.built)
             if self.patient is not None:

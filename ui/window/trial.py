@@ -225,7 +225,7 @@ class TrialActions:
             built=self.built is not None, stale=self.stale(), held=self.latch.holds_robot(),
             unsaved=self.unsaved_trial is not None, saving=self.saving(),
             connecting=self._connecting, outside=self.handle_outside,
-            registering=self.registering()))
+            registering=self.registering(), plan=self.plan_runner is not None))
 
     def saving(self) -> bool:
         """A trial is begun and not yet finished into the registry: its file still open,

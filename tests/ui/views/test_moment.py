@@ -60,3 +60,28 @@ def test_a_trial_in_the_list_reads_numbers_time_and_status():
                   started, None, "simulator", None)
     local = started.astimezone().strftime("%d %b %Y %H:%M")
     assert describe_trial(trial) == f"Session 2, trial 3 — {local} — safety stop"
+
+
+@pytest.mark.parametrize(("changes", "named"), [
+    ({"game": "reach", "shape": "reach"}, "Reaching game · "),
+    ({"game": "path"}, "Path game · "),
+    ({"assessment": "circle", "shape": "circle", "radius_m": 0.07, "assist": "transparent"},
+     "Assessment: Circle drawing · Transparent · circle, r 7.0 cm"),
+    ({}, "Thesis mode · D shape, r 10.0 cm"),
+])
+def test_a_trial_in_the_list_says_which_game_or_assessment_it_was(changes, named):
+    """Found driving the window (brief hO): Replay's list said only numbers, time and
+    status, so a game's round or an assessment task read as any trial of its shape. Its
+    second line names it as the Progress tab names its series."""
+    from core.trial import TrialParameters
+
+    started = datetime.datetime(2024, 5, 2, 9, 30, tzinfo=datetime.UTC)
+    parameters = TrialParameters().replace(**changes).to_dict()
+    trial = Trial(7, "PABC234", 2, started.date(), 3, parameters, "trials/x.h5", {},
+                  "complete", started, None, "simulator", None)
+    first, second = describe_trial(trial).split("\n")
+    assert first.startswith("Session 2, trial 3 — ")
+    assert second.startswith(named), second
+    if not changes:
+        assert "game" not in second
+        assert "Assessment" not in second

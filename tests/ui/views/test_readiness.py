@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+from core.errors import capitalised
 from device.loop.states import State
-from ui.views.readiness import STALE, readiness
+from ui.views.readiness import PLAN_RUNS, STALE, readiness
 
 UNREACHABLE = ("point (-30.0, 18.0) cm is 57.87 cm from the shoulder; move the exercise or "
                "the shoulder closer together")
@@ -90,3 +91,20 @@ def test_a_start_being_registered_greys_start_and_build_and_says_so():
     assert not done.registering
     assert done.enabled["start"]
     assert done.enabled["build"]
+
+
+def test_a_running_plan_holds_build_and_start_and_says_why_on_their_tooltips():
+    """In a plan's rest the robot is connected and the last round built: Build and Start
+    were green and ran a trial outside the plan (brief hO). The e-stop's hold is said
+    first; the line does not send the therapist to Build."""
+    ready = readiness(State.CONNECTED, form_problem="", registered=True, built=True,
+                      stale=True, held="", unsaved=True, plan=True)
+    assert not ready.enabled["build"]
+    assert not ready.enabled["start"]
+    assert ready.enabled["save"]
+    assert ready.tooltips["build"] == ready.tooltips["start"] == capitalised(PLAN_RUNS)
+    assert ready.line == ""
+    held = readiness(State.CONNECTED, form_problem="", registered=True, built=True,
+                     stale=False, held="the emergency stop is pressed", unsaved=False,
+                     plan=True)
+    assert held.tooltips["start"] == "The emergency stop is pressed"
