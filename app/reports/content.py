@@ -21,6 +21,7 @@ from pathlib import Path
 from app.assessments.words import planned_exercise_s, robot_task_words
 from app.errors import AppError, TrialFileError
 from app.games.figures import game_line, staircase_text
+from app.games.names import game_title
 from app.learning.library import learned_label
 from app.pose.store import comparison_lines, read_pose
 from app.reports.compare import (
@@ -45,7 +46,6 @@ from app.reports.figures import (
     report_figures,
 )
 from app.reports.plain_language import (
-    GAME_TITLES,
     SHAPE_NAMES,
     PlainLine,
     help_text,
@@ -311,7 +311,7 @@ def _exercise_text(p: TrialParameters) -> str:
         return (f"{TASK_TITLES.get(p.assessment, p.assessment)} (assessment): "
                 f"{_movement_text(p)}")
     if p.game:
-        return f"{GAME_TITLES.get(p.game, p.game)}: {_movement_text(p)}"
+        return f"{game_title(p.game)}: {_movement_text(p)}"
     return _movement_text(p)
 
 

@@ -36,10 +36,6 @@ SHAPE_NAMES = {
     "figure8": "figure eight",
 }
 
-GAME_TITLES = {"path": "Path game", "reach": "Reaching game"}
-"""The games' names (core.trial.GAMES) where a series or a report names a trial's game."""
-
-
 @dataclass(frozen=True, slots=True)
 class PlainLine:
     """One line of the patient's part: `text` in big type, `detail` below it.
