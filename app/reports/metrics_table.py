@@ -70,13 +70,18 @@ ROWS: tuple[MetricRow, ...] = (
               "what the hand put into the handle", short="Patient work"),
     MetricRow("robot_work_share", "Robot's share of the work", "%", 100.0,
               "of the positive work; lower means the patient did more", short="Robot share"),
+    MetricRow("game_score", "Game score", "points", 1.0,
+              "the game's points (core.games.scoring); a game trial only", short="Game score"),
     MetricRow("shoulder_elbow_correlation", "Shoulder–elbow correlation", "", 1.0,
               "how together the two joints moved", short="Shoulder–elbow r"),
 )
 
 
 def display_value(metrics: TrialMetrics | dict, row: MetricRow) -> float:
-    value = metrics[row.key] if isinstance(metrics, dict) else getattr(metrics, row.key)
+    """The row's figure in its display unit; NaN when the metrics have none (a game's score
+    is no TrialMetrics field, and an exercise without a game has none)."""
+    value = (metrics.get(row.key, math.nan) if isinstance(metrics, dict)
+             else getattr(metrics, row.key, math.nan))
     return float(value) * row.scale
 
 
