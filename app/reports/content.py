@@ -51,6 +51,7 @@ from app.reports.plain_language import (
     help_text,
     patient_mode,
     plain_lines,
+    robot_only_lightened,
     seconds_text,
     status_sentence,
 )
@@ -372,7 +373,8 @@ def _plain(values: dict[str, float], parameters: TrialParameters,
     task = getattr(parameters, "assessment", "") or ""
     own = task_lines(task, task_values) if task else ()
     peak = math.nan if task == "strength" else peak_force_N
-    return own + plain_lines(values, mode=patient_mode(parameters), peak_force_N=peak)
+    return own + plain_lines(values, mode=patient_mode(parameters), peak_force_N=peak,
+                             only_lightened=robot_only_lightened(parameters))
 
 
 def _header(code: str, first_name: str | None, session: int | None, number: int | None,
