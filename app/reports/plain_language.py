@@ -181,6 +181,17 @@ def robot_only_lightened(parameters) -> bool:
             and (getattr(parameters, "assessment", "") or "") not in ROBOT_TASKS)
 
 
+def own_pace_task(parameters) -> bool:
+    """An assessment task the patient leads at their own pace (reaching, circle, range; not
+    one the robot leads, core.holdtasks.ROBOT_TASKS): its reference runs on the task's
+    clock, not the patient's, so the distance from it and the push's direction along it
+    measure nothing of the patient (the healthy virtual patient's reaching task: 33 / 31 mm
+    "error" for reaches whose own figures are all normal). Its own figures are the task's
+    (core.assessment)."""
+    task = getattr(parameters, "assessment", "") or ""
+    return bool(task) and task not in ROBOT_TASKS
+
+
 def shoulder_line(rom_rad: float) -> PlainLine:
     return PlainLine(
         "shoulder_rom_rad",

@@ -115,6 +115,29 @@ def test_a_long_trace_is_thinned_for_drawing_but_ends_at_the_hand(qtbot, records
     assert (x[-1], y[-1]) == pytest.approx(tuple(view.column("position")[:, last] * 100))
 
 
+def test_a_task_the_patient_paces_shows_no_error_from_the_task_s_clock(qtbot, records):
+    """A reaching task's reference runs on the task's clock, not the patient's: the tab showed
+    46 mm of "position error" and a directional performance for a healthy patient's free
+    reaches. It shows the hand's path over the layout and says where the task's figures are;
+    an exercise's numbers come back when it shows one."""
+    tab = shown(qtbot, TrajectoryTab())
+    task = TrialView.from_records(
+        records, PARAMETERS.replace(assist="transparent", assessment="reaching"))
+    tab.show_view(task)
+    assert (tab.rmse_x.text(), tab.rmse_y.text(), tab.directional.text()) == ("–", "–", "–")
+    assert "own pace" in tab.rmse_x.detail.text()
+    assert tab.error_plot.isHidden()
+    for line in tab.error_curves:
+        t, _ = line.getOriginalDataset()
+        assert t is None or len(t) == 0
+    assert tab.desired_mark.getData()[0].size == 0
+    x, _ = tab.hand.getOriginalDataset()
+    assert len(x) == len(exercise(records))  # the hand's path is still drawn
+    tab.show_view(TrialView.from_records(records, PARAMETERS))
+    assert tab.rmse_x.text() != "–"
+    assert not tab.error_plot.isHidden()
+
+
 def test_trajectory_flip_and_cursor(qtbot, view):
     tab = shown(qtbot, TrajectoryTab())
     tab.show_view(view)
