@@ -242,6 +242,10 @@ def test_the_robots_share_of_the_work_is_shown_live_and_equals_the_trials_metric
     tab = shown(qtbot, TorquesTab())
     tab.show_view(live)
     assert tab.work_share.text() == f"{metrics.robot_work_share * 100:.0f}"
+    # a transparent trial's motors only lighten the robot: no share of moving the handle
+    tab.show_view(TrialView.from_records(records, PARAMETERS.replace(assist="transparent")))
+    assert tab.work_share.text() == "–"
+    assert "robot's own friction" in tab.work_share.detail.text()
 
 
 def test_live_smoothing_is_throttled(qtbot, records):

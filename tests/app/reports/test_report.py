@@ -550,8 +550,14 @@ def test_a_transparent_trial_s_motors_are_not_said_to_have_moved_the_handle(tmp_
     data = read_trial(path)
     assert data.metrics["robot_work_J"] > 0.0  # the motors did work: on the robot itself
     assert data.metrics["robot_work_share"] > 0.1
-    lines = {line.key: line for line in build_report(data).plain}
+    content = build_report(data)
+    lines = {line.key: line for line in content.plain}
     assert lines["robot_work_share"].text == "You did all of the work of moving the handle."
+    # the therapist's table keeps the net works measured, not a share of moving the handle
+    table = [row.key for row in content.table]
+    assert "robot_work_J" in table
+    assert "patient_work_J" in table
+    assert "robot_work_share" not in table
     assert "the robot did" not in " ".join(line.text for line in lines.values())
     # a task the patient leads runs the same law all through; one the robot leads does not
     assert robot_only_lightened(SHORT.replace(assist="transparent", assessment="reaching"))
