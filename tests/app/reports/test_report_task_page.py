@@ -48,6 +48,8 @@ def test_an_assessment_trials_report_carries_its_task_page(tmp_path):
     assert "the robot did" not in " ".join(line.text for line in content.plain)
     path = write_report_pdf(content, tmp_path / "report.pdf")
     pages = [" ".join(p.extract_text().split()) for p in PdfReader(path).pages]
+    assert "path to follow start your hand" in pages[0]  # the one line is named in the key
+    assert "pushing another way" not in pages[0]
     assert "Circle drawing" in pages[-1]
     assert "Joint independence" in pages[-1]
     assert "figures on the last page" in " ".join(pages)
