@@ -248,6 +248,24 @@ def test_the_robots_share_of_the_work_is_shown_live_and_equals_the_trials_metric
     assert "robot's own friction" in tab.work_share.detail.text()
 
 
+def test_a_replayed_trial_s_work_is_its_file_s(qtbot, tmp_path):
+    """A trial opened from its file sums the work as the live view does: the Torques tab of
+    a replay said "robot 0.00 J, patient 0.00 J" (the view read no torque or joint angle)."""
+    from app.trials.headless import save
+    from app.trials.reader import read_trial
+
+    path = tmp_path / "trial.h5"
+    save(simulate(PARAMETERS.replace(repetitions=1), patient="healthy"), path)
+    data = read_trial(path)
+    view = TrialView.from_trial(data)
+    robot, patient = view.work_J
+    assert robot == pytest.approx(data.metrics["robot_work_J"], rel=1e-9)
+    assert patient == pytest.approx(data.metrics["patient_work_J"], rel=1e-9)
+    tab = shown(qtbot, TorquesTab())
+    tab.show_view(view)
+    assert tab.work_share.text() == f"{data.metrics['robot_work_share'] * 100:.0f}"
+
+
 def test_live_smoothing_is_throttled(qtbot, records):
     tab = shown(qtbot, TorquesTab())
     tab.set_smoothing(True)
