@@ -64,8 +64,8 @@ ROWS: tuple[MetricRow, ...] = (
               "share of the time the patient kept up without the robot's help",
               short="Led"),
     MetricRow("robot_work_J", "Robot's net work", "J", 1.0,
-              "what the motors put into the movement (negative: they held it back); "
-              "transparent: only into the robot's own friction and inertia",
+              "what the motors put in (negative: held back); transparent: the robot's "
+              "own friction",
               short="Robot work"),
     MetricRow("patient_work_J", "Patient's net work", "J", 1.0,
               "what the hand put into the handle", short="Patient work"),
