@@ -8,6 +8,7 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 
+from app.games.names import game_title
 from core.blockwise import spans
 from core.games import GameFigures, GameScorer, game_layout, score_game
 from core.games.staircase import Staircase
@@ -43,7 +44,7 @@ def game_figures_stored(read: Callable[[str, int, int], np.ndarray], n_ticks: in
 
 def game_line(parameters: Mapping, metrics: Mapping) -> str:
     """A game trial's figures in one line for people ('' when the trial is not a game or has
-    no game figures): 'reach game: score 60, 7 hits, 1 miss (88 %), 8.0 s, 0.42 s to hit'."""
+    no game figures): 'Reaching game: score 60, 7 hits, 1 miss (88 %), 8.0 s, 0.42 s to hit'."""
     game = parameters.get("game", "")
     if not game or "game_hits" not in metrics:
         return ""
@@ -55,7 +56,7 @@ def game_line(parameters: Mapping, metrics: Mapping) -> str:
     hits, misses = whole("game_hits"), whole("game_misses")
     success = metrics.get("game_success", math.nan)
     rate = f" ({100.0 * success:.0f} %)" if math.isfinite(success) else ""
-    text = (f"{game} game: score {metrics.get('game_score', math.nan):.0f}, {hits} "
+    text = (f"{game_title(game)}: score {metrics.get('game_score', math.nan):.0f}, {hits} "
             f"hit{'s' * (hits != 1)}, {misses} miss{'es' * (misses != 1)}{rate}, "
             f"{metrics.get('game_time_s', math.nan):.1f} s")
     if game == "reach":

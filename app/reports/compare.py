@@ -376,17 +376,19 @@ def table_order(mode: str) -> tuple[MetricRow, ...]:
 
 def table_rows(metrics: Mapping[str, float], baselines: tuple[Baseline, ...], *,
                mode: str = "thesis", comparable: tuple[bool, ...] | None = None,
-               ) -> tuple[TableRow, ...]:
+               only_lightened: bool = False) -> tuple[TableRow, ...]:
     """Every row of `table_order(mode)` this trial has a value for, each earlier trial's
     value beside it, with the change only where the trials compare (`comparable`, one
-    flag per baseline; all by default): the same rule as the patient's page."""
+    flag per baseline; all by default): the same rule as the patient's page.
+    `only_lightened` (plain_language.robot_only_lightened): no robot's share of the work,
+    whose motors' work went into the robot itself (the net works stay, what was measured)."""
     comparable = comparable if comparable is not None else (True,) * len(baselines)
     metrics = _with_position(metrics)
     earlier_metrics = [_with_position(b.metrics) for b in baselines]
     rows = []
     for row in table_order(mode):
         value = float(metrics.get(row.key, math.nan)) * row.scale
-        if not math.isfinite(value):
+        if not math.isfinite(value) or (only_lightened and row.key == "robot_work_share"):
             continue
         texts, verdicts = [], []
         goal = GOALS.get(row.key, Goal.NONE)

@@ -21,6 +21,7 @@ from pathlib import Path
 from app.assessments.words import planned_exercise_s, robot_task_words
 from app.errors import AppError, TrialFileError
 from app.games.figures import game_line, staircase_text
+from app.games.names import game_title
 from app.learning.library import learned_label
 from app.pose.store import comparison_lines, read_pose
 from app.reports.compare import (
@@ -45,12 +46,12 @@ from app.reports.figures import (
     report_figures,
 )
 from app.reports.plain_language import (
-    GAME_TITLES,
     SHAPE_NAMES,
     PlainLine,
     help_text,
     patient_mode,
     plain_lines,
+    robot_only_lightened,
     seconds_text,
     status_sentence,
 )
@@ -262,7 +263,8 @@ def build_report(
         comparisons=comparisons,
         table=table_rows(values, tuple(c.baseline for c in comparisons),
                          mode=parameters.assist,
-                         comparable=tuple(c.comparable for c in comparisons)) if values else (),
+                         comparable=tuple(c.comparable for c in comparisons),
+                         only_lightened=robot_only_lightened(parameters)) if values else (),
         table_columns=tuple(_column_title(c) for c in comparisons),
         path=figures.path,
         force=figures.force,
@@ -311,7 +313,7 @@ def _exercise_text(p: TrialParameters) -> str:
         return (f"{TASK_TITLES.get(p.assessment, p.assessment)} (assessment): "
                 f"{_movement_text(p)}")
     if p.game:
-        return f"{GAME_TITLES.get(p.game, p.game)}: {_movement_text(p)}"
+        return f"{game_title(p.game)}: {_movement_text(p)}"
     return _movement_text(p)
 
 
@@ -372,7 +374,8 @@ def _plain(values: dict[str, float], parameters: TrialParameters,
     task = getattr(parameters, "assessment", "") or ""
     own = task_lines(task, task_values) if task else ()
     peak = math.nan if task == "strength" else peak_force_N
-    return own + plain_lines(values, mode=patient_mode(parameters), peak_force_N=peak)
+    return own + plain_lines(values, mode=patient_mode(parameters), peak_force_N=peak,
+                             only_lightened=robot_only_lightened(parameters))
 
 
 def _header(code: str, first_name: str | None, session: int | None, number: int | None,

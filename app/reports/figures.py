@@ -23,6 +23,7 @@ import numpy as np
 from app.errors import AppError
 from app.reports.compare import metric_text
 from app.reports.metrics_table import ROWS
+from app.reports.plain_language import own_pace_task
 from app.trials.analysis import help_torque
 from app.trials.reader import TrialData
 from core.errors import CoreError
@@ -277,7 +278,11 @@ def report_figures(trial: TrialData, parameters: TrialParameters, mask: np.ndarr
     if series.force is not None:
         peak = float(np.max(np.hypot(series.force[:, 0], series.force[:, 1])))
     path_runs, labels = runs, DIRECTION_RUN_LABELS
-    if parameters.assist == "as-needed":
+    if own_pace_task(parameters):
+        # the push's direction along a reference on the task's clock says nothing of a
+        # patient moving at their own pace: the hand's path in one line
+        path_runs = ()
+    elif parameters.assist == "as-needed":
         path_runs, labels = (), LED_RUN_LABELS
         help_torque_Nm = help_torque(trial.channels, mask)
         if help_torque_Nm is not None:

@@ -64,19 +64,25 @@ ROWS: tuple[MetricRow, ...] = (
               "share of the time the patient kept up without the robot's help",
               short="Led"),
     MetricRow("robot_work_J", "Robot's net work", "J", 1.0,
-              "what the motors put into the movement (negative: they held it back)",
+              "what the motors put in (negative: held back); transparent: the robot's "
+              "own friction",
               short="Robot work"),
     MetricRow("patient_work_J", "Patient's net work", "J", 1.0,
               "what the hand put into the handle", short="Patient work"),
     MetricRow("robot_work_share", "Robot's share of the work", "%", 100.0,
               "of the positive work; lower means the patient did more", short="Robot share"),
+    MetricRow("game_score", "Game score", "points", 1.0,
+              "the game's points (core.games.scoring); a game trial only", short="Game score"),
     MetricRow("shoulder_elbow_correlation", "Shoulder–elbow correlation", "", 1.0,
               "how together the two joints moved", short="Shoulder–elbow r"),
 )
 
 
 def display_value(metrics: TrialMetrics | dict, row: MetricRow) -> float:
-    value = metrics[row.key] if isinstance(metrics, dict) else getattr(metrics, row.key)
+    """The row's figure in its display unit; NaN when the metrics have none (a game's score
+    is no TrialMetrics field, and an exercise without a game has none)."""
+    value = (metrics.get(row.key, math.nan) if isinstance(metrics, dict)
+             else getattr(metrics, row.key, math.nan))
     return float(value) * row.scale
 
 

@@ -69,7 +69,9 @@ def path_plot(sheet: Sheet, figure: PathFigure | None) -> None:
         matplotlib.lines.Line2D([], [], color=TARGET_GREY, linewidth=7, label="path to follow"),
         matplotlib.lines.Line2D([], [], color=INK, marker="o", markersize=6, linestyle="none",
                                 label="start"),
-        *run_handles(figure.runs, *figure.run_labels),
+        *(run_handles(figure.runs, *figure.run_labels) if figure.runs else
+          # one line, nothing to judge it by (_draw_runs): still named
+          [matplotlib.lines.Line2D([], [], color=INK, linewidth=1.6, label="your hand")]),
     ]
     sheet.legend(handles, LEFT_IN, ncols=4)
     sheet.y_in += 0.2  # the robot's side is written above the drawing

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 from app.trials.assistance_timeline import AssistanceInEffect
 from app.units import CM_PER_M, MM_PER_M
+from core.holdtasks import ROBOT_TASKS
 
 STANDARD_GRAVITY_M_S2 = 9.80665
 
@@ -35,10 +36,6 @@ SHAPE_NAMES = {
     "targets": "point-to-point targets",
     "figure8": "figure eight",
 }
-
-GAME_TITLES = {"path": "Path game", "reach": "Reaching game"}
-"""The games' names (core.trial.GAMES) where a series or a report names a trial's game."""
-
 
 @dataclass(frozen=True, slots=True)
 class PlainLine:
@@ -161,6 +158,40 @@ def work_line(robot_share: float) -> PlainLine:
     )
 
 
+def own_work_line() -> PlainLine:
+    """Who moved the handle when the robot only made itself lighter (`robot_only_lightened`)
+    and the hand did work on the handle: the patient, all of it. The motors' net work
+    (robot_work_J) went into the robot's own friction and inertia (its law is a function of
+    its own state alone, core.control.transparent), so counting it as a share of moving
+    the handle said "the robot did 51 %" under "Robot's help 0 %" (healthy virtual
+    patient, the reaching task: motors 1.41 J, hand 1.37 J)."""
+    return PlainLine(
+        "robot_work_share",
+        "You did all of the work of moving the handle.",
+        "The robot's motors only made up for its own weight and friction; they did not "
+        "push your hand.",
+    )
+
+
+def robot_only_lightened(parameters) -> bool:
+    """The motors ran the transparent law all through the exercise: a transparent exercise
+    or game, or an assessment task the patient leads (reaching, circle, range), not one the
+    robot leads (core.holdtasks.ROBOT_TASKS: it holds the hand, or moves it)."""
+    return (getattr(parameters, "assist", "") == "transparent"
+            and (getattr(parameters, "assessment", "") or "") not in ROBOT_TASKS)
+
+
+def own_pace_task(parameters) -> bool:
+    """An assessment task the patient leads at their own pace (reaching, circle, range; not
+    one the robot leads, core.holdtasks.ROBOT_TASKS): its reference runs on the task's
+    clock, not the patient's, so the distance from it and the push's direction along it
+    measure nothing of the patient (the healthy virtual patient's reaching task: 33 / 31 mm
+    "error" for reaches whose own figures are all normal). Its own figures are the task's
+    (core.assessment)."""
+    task = getattr(parameters, "assessment", "") or ""
+    return bool(task) and task not in ROBOT_TASKS
+
+
 def shoulder_line(rom_rad: float) -> PlainLine:
     return PlainLine(
         "shoulder_rom_rad",
@@ -210,13 +241,16 @@ def patient_mode(parameters) -> str:
 
 
 def plain_lines(metrics: Mapping[str, float], *, mode: str = "thesis",
-                peak_force_N: float = math.nan) -> tuple[PlainLine, ...]:
+                peak_force_N: float = math.nan,
+                only_lightened: bool = False) -> tuple[PlainLine, ...]:
     """The patient's lines for a trial's figures (TrialMetrics.to_dict() names, SI), the
     mode's success figure first (the headline). A figure that is missing or NaN is left
     out. In the as-needed mode the direction of the push is not the patient's figure:
     the robot is nearly transparent along the path, so the force on the handle is only
     what moving it takes (app.trials.progression); nor in the transparent mode, where
-    the distance from the path, the patient's own, comes first."""
+    the distance from the path, the patient's own, comes first. `only_lightened`
+    (`robot_only_lightened`): the motors' work was the robot's own, not a share of moving
+    the handle (`own_work_line`)."""
 
     def value(key: str) -> float:
         return float(metrics.get(key, math.nan))
@@ -238,7 +272,10 @@ def plain_lines(metrics: Mapping[str, float], *, mode: str = "thesis",
         if math.isfinite(percent) and math.isfinite(tolerance):
             lines.append(direction_line(percent, tolerance))
     share = value("robot_work_share")
-    if math.isfinite(share):
+    if only_lightened:
+        if value("patient_work_J") > 0.0:
+            lines.append(own_work_line())
+    elif math.isfinite(share):
         lines.append(work_line(min(max(share, 0.0), 1.0)))
     if math.isfinite(value("shoulder_rom_rad")):
         lines.append(shoulder_line(value("shoulder_rom_rad")))

@@ -32,9 +32,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from app.games.names import game_title
 from app.records.registry import TrialSummary, key_values, parameter_key
 from app.records.store import RecordStore
-from app.reports.plain_language import GAME_TITLES, SHAPE_NAMES, success_key
+from app.reports.plain_language import SHAPE_NAMES, success_key
 from app.trials.assistance_timeline import AssistanceInEffect
 from app.units import cm
 from core.assessment.figures import TASK_TITLES
@@ -93,7 +94,7 @@ class Exercise:
         if self.assessment:
             parts.insert(0, f"Assessment: {TASK_TITLES.get(self.assessment, self.assessment)}")
         elif self.game:
-            parts.insert(0, GAME_TITLES.get(self.game, self.game))
+            parts.insert(0, game_title(self.game))
         if self.controller is not None:
             parts.append(self.controller.upper())
         return " · ".join(parts)

@@ -115,6 +115,29 @@ def test_a_long_trace_is_thinned_for_drawing_but_ends_at_the_hand(qtbot, records
     assert (x[-1], y[-1]) == pytest.approx(tuple(view.column("position")[:, last] * 100))
 
 
+def test_a_task_the_patient_paces_shows_no_error_from_the_task_s_clock(qtbot, records):
+    """A reaching task's reference runs on the task's clock, not the patient's: the tab showed
+    46 mm of "position error" and a directional performance for a healthy patient's free
+    reaches. It shows the hand's path over the layout and says where the task's figures are;
+    an exercise's numbers come back when it shows one."""
+    tab = shown(qtbot, TrajectoryTab())
+    task = TrialView.from_records(
+        records, PARAMETERS.replace(assist="transparent", assessment="reaching"))
+    tab.show_view(task)
+    assert (tab.rmse_x.text(), tab.rmse_y.text(), tab.directional.text()) == ("–", "–", "–")
+    assert "own pace" in tab.rmse_x.detail.text()
+    assert tab.error_plot.isHidden()
+    for line in tab.error_curves:
+        t, _ = line.getOriginalDataset()
+        assert t is None or len(t) == 0
+    assert tab.desired_mark.getData()[0].size == 0
+    x, _ = tab.hand.getOriginalDataset()
+    assert len(x) == len(exercise(records))  # the hand's path is still drawn
+    tab.show_view(TrialView.from_records(records, PARAMETERS))
+    assert tab.rmse_x.text() != "–"
+    assert not tab.error_plot.isHidden()
+
+
 def test_trajectory_flip_and_cursor(qtbot, view):
     tab = shown(qtbot, TrajectoryTab())
     tab.show_view(view)
@@ -219,6 +242,28 @@ def test_the_robots_share_of_the_work_is_shown_live_and_equals_the_trials_metric
     tab = shown(qtbot, TorquesTab())
     tab.show_view(live)
     assert tab.work_share.text() == f"{metrics.robot_work_share * 100:.0f}"
+    # a transparent trial's motors only lighten the robot: no share of moving the handle
+    tab.show_view(TrialView.from_records(records, PARAMETERS.replace(assist="transparent")))
+    assert tab.work_share.text() == "–"
+    assert "robot's own friction" in tab.work_share.detail.text()
+
+
+def test_a_replayed_trial_s_work_is_its_file_s(qtbot, tmp_path):
+    """A trial opened from its file sums the work as the live view does: the Torques tab of
+    a replay said "robot 0.00 J, patient 0.00 J" (the view read no torque or joint angle)."""
+    from app.trials.headless import save
+    from app.trials.reader import read_trial
+
+    path = tmp_path / "trial.h5"
+    save(simulate(PARAMETERS.replace(repetitions=1), patient="healthy"), path)
+    data = read_trial(path)
+    view = TrialView.from_trial(data)
+    robot, patient = view.work_J
+    assert robot == pytest.approx(data.metrics["robot_work_J"], rel=1e-9)
+    assert patient == pytest.approx(data.metrics["patient_work_J"], rel=1e-9)
+    tab = shown(qtbot, TorquesTab())
+    tab.show_view(view)
+    assert tab.work_share.text() == f"{data.metrics['robot_work_share'] * 100:.0f}"
 
 
 def test_live_smoothing_is_throttled(qtbot, records):

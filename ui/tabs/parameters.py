@@ -29,7 +29,7 @@ from __future__ import annotations
 from PySide6.QtCore import QTimer, Signal
 from PySide6.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
 
-from app.reports.plain_language import GAME_TITLES
+from app.games.names import GAME_TITLES
 from app.units import SCREEN
 from core.errors import CoreError, ParameterError, UnreachableError
 from core.robot import RobotModel

@@ -16,6 +16,7 @@ import numpy as np
 from PySide6.QtCore import Signal
 from PySide6.QtWidgets import QCheckBox, QLabel, QWidget
 
+from app.reports.plain_language import robot_only_lightened
 from core.metrics import DEFAULT_TORQUE_CUTOFF_HZ, value_range
 from core.signal import lowpass, min_samples
 from ui import plots, theme
@@ -100,6 +101,11 @@ class TorquesTab(QWidget):
         share = view.robot_work_share
         detail = (f"robot {format_number(robot, 2)} J, patient {format_number(patient, 2)} J, "
                   "over the exercise so far")
+        if robot_only_lightened(view.parameters):
+            # the motors' work went into the robot's own friction and inertia: no share of
+            # moving the handle (plain_language.own_work_line)
+            share = float("nan")
+            detail += "; the motors only made up for the robot's own friction and inertia"
         self.work_share.set_value(share * 100.0, detail)
 
     def _draw_raw(self, view: TrialView) -> None:

@@ -18,6 +18,7 @@ import pyqtgraph as pg
 from PySide6.QtCore import Signal
 from PySide6.QtWidgets import QCheckBox, QLabel, QVBoxLayout, QWidget
 
+from app.reports.plain_language import own_pace_task
 from app.units import CM_PER_M as CM, MM_PER_M as MM
 from core.trial import TrialParameters
 from ui import plots, theme
@@ -115,6 +116,11 @@ class TrajectoryTab(QWidget):
         self._draw_target(view)
         ex = view.exercise
         i = view.current_index
+        own_pace = own_pace_task(view.parameters)
+        self.error_plot.setVisible(not own_pace)
+        if own_pace:
+            self._show_own_pace(view, i)
+            return
         if i < 0:
             self.hand.setData([], [])
             self.hand_mark.setData([], [])
@@ -124,16 +130,7 @@ class TrajectoryTab(QWidget):
         else:
             position = view.column("position")
             self._draw_errors(view, position, min(ex.stop, i + 1))
-            end = min(ex.stop, i + 1)
-            if ex.start < end:
-                # Thinned for drawing, always ending at the newest sample.
-                step = samples.xy_step(end - ex.start)
-                first = ex.start + (end - 1 - ex.start) % step
-                trace = position[:, first:end:step] * CM
-                self.hand.setData(trace[0], trace[1])
-            else:
-                self.hand.setData([], [])
-            self.hand_mark.setData([position[0, i] * CM], [position[1, i] * CM])
+            self._draw_hand(view, position, i)
             desired = view.column("position_desired")[:, i]
             if np.isfinite(desired).all():
                 self.desired_mark.setData([desired[0] * CM], [desired[1] * CM])
@@ -146,6 +143,39 @@ class TrajectoryTab(QWidget):
         self.directional.set_value(
             view.directional_percent,
             f"of the time the push pointed within {tolerance:.0f}° of the path's direction")
+
+    def _draw_hand(self, view: TrialView, position: np.ndarray, i: int) -> None:
+        """The hand's path over the exercise up to sample i, and where it is at i."""
+        ex = view.exercise
+        end = min(ex.stop, i + 1)
+        if ex.start < end:
+            # Thinned for drawing, always ending at the newest sample.
+            step = samples.xy_step(end - ex.start)
+            first = ex.start + (end - 1 - ex.start) % step
+            trace = position[:, first:end:step] * CM
+            self.hand.setData(trace[0], trace[1])
+        else:
+            self.hand.setData([], [])
+        self.hand_mark.setData([position[0, i] * CM], [position[1, i] * CM])
+
+    def _show_own_pace(self, view: TrialView, i: int) -> None:
+        """A task the patient leads at their own pace (own_pace_task): the hand's path over
+        the task's layout, and no error from, or push along, a reference on the task's clock
+        (measured against it, the healthy patient's free reaches read 33 / 31 mm): the
+        task's own figures are on the Assessments tab and the report's task page."""
+        for line in self.error_curves:
+            line.setData([], [])
+        self.desired_mark.setData([], [])
+        if i < 0:
+            self.hand.setData([], [])
+            self.hand_mark.setData([], [])
+        else:
+            self._draw_hand(view, view.column("position"), i)
+        why = ("not for this task: the patient moves at their own pace, not the task's clock; "
+               "its own figures are on the Assessments tab")
+        self.rmse_x.set_value(math.nan, why)
+        self.rmse_y.set_value(math.nan, "")
+        self.directional.set_value(math.nan, "")
 
     def _draw_errors(self, view: TrialView, position: np.ndarray, end: int) -> None:
         """Hand minus desired position on each axis, in mm, over the exercise up to `end`."""

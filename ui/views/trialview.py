@@ -37,6 +37,9 @@ VIEW_CHANNELS = (
     "time", "phase", "position", "position_desired", "direction_desired", "force",
     "force_angle", "assistance_active", "subject_angle_isb", "subject_torque", "state", "fault",
 )
+WORK_CHANNELS = ("torque_applied", "robot_angle")
+"""The channels the work needs beside the view's (core.metrics.mechanical_work): summed as
+they arrive, not kept."""
 # Channels whose range over the exercise is kept as it arrives (force, ROM, torque ranges).
 RANGED_CHANNELS = ("force", "subject_angle_isb", "subject_torque")
 
@@ -127,9 +130,11 @@ class TrialView:
     def from_trial(cls, data: TrialData) -> TrialView:
         """A finished view of a trial file (replay); the file's metrics come along."""
         n = data.n_samples
-        records = np.zeros(n, dtype=np.dtype([(c, RECORD_DTYPE.fields[c][0])
-                                              for c in VIEW_CHANNELS]))
-        for name in VIEW_CHANNELS:
+        # the work's channels too, read as they pass (`_add_work`), not kept: without them a
+        # replay said "robot 0.00 J, patient 0.00 J" of a trial whose file says 1.41 and 1.37
+        names = (*VIEW_CHANNELS, *(c for c in WORK_CHANNELS if c in data.channels))
+        records = np.zeros(n, dtype=np.dtype([(c, RECORD_DTYPE.fields[c][0]) for c in names]))
+        for name in names:
             if name in data.channels:
                 records[name] = data.channels[name]
             elif records[name].dtype.kind == "f":
@@ -252,8 +257,7 @@ class TrialView:
     def _add_work(self, batch: np.ndarray) -> None:
         """The batch's steps of work, with the step from the previous batch's last sample:
         the sums are the trial's, whatever its cut into batches."""
-        names = ("torque_applied", "robot_angle", "force", "position")
-        if not all(name in batch.dtype.names for name in names):
+        if not all(name in batch.dtype.names for name in (*WORK_CHANNELS, "force", "position")):
             return
         steps = batch if self._last_work is None else np.concatenate((self._last_work, batch))
         self._last_work = batch[-1:].copy()

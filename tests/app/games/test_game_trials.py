@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from app.games.figures import game_figures, game_figures_stored, game_line
+from app.games.names import game_title
 from app.records.datadir import DataDir
 from app.records.registry import Registry
 from app.reports.build import content_for_registry_trial
@@ -27,7 +28,7 @@ BATCH = 8  # ticks in one 16 ms batch of the window's timer
 def test_a_game_trial_carries_its_figures_everywhere(data, patient, capsys, tmp_path):
     code, out, err = run(["run", "--code", patient, *GAME], capsys)
     assert code == 0, err
-    assert "reach game: score" in out
+    assert "Reaching game: score" in out
     registry = Registry(DataDir(data))
     (trial,) = registry.trials_for_patient(patient)
     stored = trial.metrics
@@ -67,6 +68,17 @@ def test_a_game_trial_carries_its_figures_everywhere(data, patient, capsys, tmp_
         rows = {r[0]: r[1] for r in csv.reader(f)}
     for name in ("game_score", "game_hits", "game_misses", "game_time_s"):
         assert float(rows[name]) == pytest.approx(stored[name])
+
+
+def test_a_game_line_names_its_game_as_the_report_and_the_progress_do():
+    """The line starts with the game's name written once (app.games.names), capitalised as
+    the report's header and the Progress tab's series say it, not its code ("reach game")."""
+    figures = {"game_score": 30.0, "game_hits": 3.0, "game_misses": 1.0, "game_success": 0.75,
+               "game_time_s": 8.0, "game_time_to_hit_s": 0.5, "game_touches": 0.0,
+               "game_time_outside_s": 1.5}
+    for game, title in (("reach", "Reaching game"), ("path", "Path game")):
+        assert game_title(game) == title
+        assert game_line({"game": game}, figures).startswith(f"{title}: score 30, 3 hits")
 
 
 def test_an_exercise_without_a_game_has_no_game_figures(data, patient, capsys):

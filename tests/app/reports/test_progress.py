@@ -176,3 +176,32 @@ def test_a_trial_still_recording_appears_without_metrics(history):
         running.trial_id, "recording", FILE_MISSING)
     assert last.exercise_index == 0
     assert np.isnan([result.values[name][-1] for name in result.metric_names]).all()
+
+
+def test_a_game_s_score_is_a_figure_of_its_series_only(tmp_path):
+    """The Progress tab offers a game's score over its rounds (metric_keys, the metrics
+    table's rows), and not for an exercise without a game, whose trials have no score."""
+    from app.reports.progress_figure import metric_keys, progress_figure
+
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("Pat", "Games").code
+    game = TrialParameters(game="reach", shape="targets", duration_s=8.0, repetitions=1,
+                           assist="as-needed")
+    for i, (params, metrics) in enumerate((
+            (EASY, {"rmse_x_m": 0.02}),
+            (game, {"rmse_x_m": 0.01, "game_score": 40.0, "game_hits": 4.0}),
+            (game, {"rmse_x_m": 0.01, "game_score": 70.0, "game_hits": 7.0}))):
+        started = T0 + datetime.timedelta(minutes=5 * i)
+        begun = registry.begin_trial(code, params, backend="simulator", session_number=1,
+                                     started_at=started)
+        registry.finish_trial(begun.trial_id, "complete", metrics,
+                              ended_at=started + datetime.timedelta(seconds=30))
+    result = progress(registry, code, check_files=False)
+    games = [i for i, e in enumerate(result.exercises) if e.game == "reach"]
+    plain = [i for i, e in enumerate(result.exercises) if not e.game]
+    assert len(games) == len(plain) == 1
+    assert "game_score" in metric_keys(result, games[0])
+    assert "game_score" not in metric_keys(result, plain[0])
+    figure = progress_figure(result, games[0], "game_score")
+    assert figure.values.tolist() == [40.0, 70.0]
+    assert figure.row.label == "Game score"

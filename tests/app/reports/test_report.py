@@ -535,3 +535,34 @@ def test_the_settings_line_names_the_controller_and_a_learned_model(healthy_file
     assert _settings_text(learned, full).startswith("CT-PID (learned: fnn-robot) controller")
     assert _settings_text(SHORT.replace(controller="ctpid"), full).startswith(
         "CT-PID controller")
+
+
+def test_a_transparent_trial_s_motors_are_not_said_to_have_moved_the_handle(tmp_path):
+    """The transparent robot's torque is a function of its own state alone (its friction,
+    inertia, stiffness: core.control.transparent): its motors' work goes into the robot.
+    Page 1 said "You did 49 % of the work of moving the handle; the robot did 51 %" under
+    "Robot's help 0 % (no help)" for the reaching task (issue of hN's screenshots). The
+    figures stay in the record; the words say who moved the handle."""
+    from app.reports.plain_language import robot_only_lightened
+
+    path = tmp_path / "transparent.h5"
+    save(simulate(SHORT.replace(assist="transparent"), patient="healthy"), path)
+    data = read_trial(path)
+    assert data.metrics["robot_work_J"] > 0.0  # the motors did work: on the robot itself
+    assert data.metrics["robot_work_share"] > 0.1
+    content = build_report(data)
+    lines = {line.key: line for line in content.plain}
+    assert lines["robot_work_share"].text == "You did all of the work of moving the handle."
+    # the therapist's table keeps the net works measured, not a share of moving the handle
+    table = [row.key for row in content.table]
+    assert "robot_work_J" in table
+    assert "patient_work_J" in table
+    assert "robot_work_share" not in table
+    assert "the robot did" not in " ".join(line.text for line in lines.values())
+    # a task the patient leads runs the same law all through; one the robot leads does not
+    assert robot_only_lightened(SHORT.replace(assist="transparent", assessment="reaching"))
+    assert not robot_only_lightened(SHORT.replace(assist="transparent", assessment="position"))
+    assert not robot_only_lightened(SHORT.replace(assist="as-needed"))
+    # the other modes still say the shares
+    share = plain_lines({"robot_work_share": 0.51, "patient_work_J": 1.0})
+    assert share[0].text.endswith("the robot did 51 %.")

@@ -40,8 +40,16 @@ def test_an_assessment_trials_report_carries_its_task_page(tmp_path):
     assert "rmse" not in {line.key for line in content.plain}
     for comparison in content.comparisons:
         assert "rmse" not in {change.key for change in comparison.changes}
+    # nor the hand's path coloured by its push along the dot's clock (the healthy patient's
+    # free reaches read "pushing another way" most of the time), nor a robot's share of the
+    # work of a robot that only made itself lighter (plain_language.robot_only_lightened)
+    assert content.path.runs == ()
+    assert "robot_work_share" not in {row.key for row in content.table}
+    assert "the robot did" not in " ".join(line.text for line in content.plain)
     path = write_report_pdf(content, tmp_path / "report.pdf")
     pages = [" ".join(p.extract_text().split()) for p in PdfReader(path).pages]
+    assert "path to follow start your hand" in pages[0]  # the one line is named in the key
+    assert "pushing another way" not in pages[0]
     assert "Circle drawing" in pages[-1]
     assert "Joint independence" in pages[-1]
     assert "figures on the last page" in " ".join(pages)
