@@ -194,13 +194,29 @@ def test_the_assistance_mode_is_chosen_shown_and_the_level_announced_at_once(qtb
 
 def test_the_transparent_mode_greys_the_level_and_says_it_has_none(qtbot, tab):
     """The transparent mode has no level (core.control.transparent): the field is greyed,
-    its label says so, and the trial the form builds runs at 0 %; another mode gives the
+    its label says so, it shows 0 %, the level the trial the form builds runs at (it
+    showed a greyed "60 %" beside "No help in this mode"), a level set there (a proposal,
+    a plan's block) is kept, not shown nor sent to a running trial; another mode gives the
     field back with the level it held."""
     tab.set_parameters(THESIS_SUBJECT.replace(assist="as-needed", assistance_level=0.6))
     assert tab.assistance.isEnabled()
     tab.assist.setCurrentIndex(tab.assist.findData("transparent"))
     tab.refresh()
     assert not tab.assistance.isEnabled()
+    assert (tab.assistance.value(), tab.assistance.text()) == (0, "0 %")
+    assert tab._values()["assistance_level"] == 0.0
+    sent: list[float] = []
+    tab.assistance_changed.connect(sent.append)
+    tab.assistance.setValue(40)  # as a plan's block or a proposal would, greyed
+    tab.refresh()
+    assert (tab.assistance.value(), sent) == (0, [])
+    tab.assist.setCurrentIndex(tab.assist.findData("as-needed"))
+    tab.refresh()
+    assert tab.parameters().assistance_level == pytest.approx(0.4)
+    tab.assistance.setValue(60)
+    assert sent == [pytest.approx(0.6)]  # the mode's level is sent again
+    tab.assist.setCurrentIndex(tab.assist.findData("transparent"))
+    tab.refresh()
     assert tab.labels["assistance"].text() == "No help in this mode"
     assert "no help" in tab.assistance.toolTip().lower()
     built = tab.parameters()

@@ -187,3 +187,53 @@ def test_a_robot_led_tasks_protocol_says_how_long_it_runs_and_what_the_robot_doe
         "Visually guided reaching: 1 trial, 2 rounds of 48 s (96 s); 8 targets")
     assert protocol_words("circle").startswith(
         "Circle drawing: 2 trials: clockwise, counter-clockwise, each 5 laps of 4 s (20 s);")
+
+
+@pytest.mark.slow
+def test_a_task_set_up_then_a_level_set_runs_at_the_level_the_form_shows(
+        qtbot, tmp_path, monkeypatch):
+    """The state machine's steps (brief hQ): circle drawing set up (transparent), Build,
+    then the level set to 60 % (as a second Build's form would have it) and Build again,
+    Connect and Start. The form showed a greyed "60 %" at Start while the robot, its file
+    and the registry ran at 0 %; it shows 0 %, what runs, and the file says what it
+    showed."""
+    import dataclasses
+
+    import numpy as np
+
+    from core.assessment.protocol import PROTOCOLS
+    from tests.ui.session import build_and_connect
+
+    monkeypatch.setitem(PROTOCOLS, "circle", dataclasses.replace(
+        PROTOCOLS["circle"], repetitions=1, duration_s=2.0))  # one short lap
+    win = open_window(qtbot, tmp_path, monkeypatch)
+    try:
+        register_patient(qtbot, win)
+        tab, p = win.assessments_tab, win.parameters_tab
+        win.tabs.setCurrentWidget(tab)
+        tab.choose("circle")
+        click(qtbot, tab.use_button)
+        click(qtbot, win.robot.buttons["build"])
+        qtbot.waitUntil(lambda: win.state == State.BUILT and win.built is not None,
+                        timeout=60000)
+        p.assistance.setValue(60)
+        p.refresh()
+        win.tabs.setCurrentWidget(p)
+        build_and_connect(qtbot, win)
+        shown = (p.assistance.text(), p._values()["assistance_level"])
+        click(qtbot, win.robot.buttons["start"])
+        qtbot.waitUntil(lambda: win.state == State.RUNNING, timeout=10000)
+        qtbot.waitUntil(lambda: win.state != State.RUNNING, timeout=120000)
+        code = win.patient.code
+        qtbot.waitUntil(lambda: any(t.finished for t in
+                                    win.registry.trials_for_patient(code)), timeout=60000)
+        (trial,) = win.registry.trials_for_patient(code)
+        data = read_trial(win.registry.trial_path(trial))
+        running = np.asarray(data.channels["phase"]).reshape(-1) > 0
+        ran = set(np.asarray(data.channels["assistance_level"]).reshape(-1)[running])
+        assert (data.parameters.assist, trial.parameters["assistance_level"]) == (
+            "transparent", 0.0)
+        assert shown == ("0 %", 0.0), f"the form showed {shown[0]} at Start"
+        assert ran == {shown[1]}
+    finally:
+        win.close()

@@ -982,6 +982,13 @@ class WindowMachine(PlanAndTaskRules, RuleBasedStateMachine):
         assert events == pytest.approx(committed), (
             f"the file's live changes {events} are not the ones committed {run.live}")
         start_level = run.form["assistance_level"]
+        # the level the form showed is the one its parameters run at: in the transparent
+        # mode (an assessment's) TrialParameters makes it 0, and the greyed field showed
+        # the 60 % set before while 0 ran (brief hQ); it shows 0 % there now
+        ran = TrialParameters(**run.form).assistance_level
+        assert ran == start_level, (
+            f"the form showed {start_level:.0%} at Start in the {run.form['assist']} mode, "
+            f"which runs at {ran:.0%}")
         expected = _dedup([start_level, *events])
         assert ticks == pytest.approx(expected), (
             f"the trial ran at {ticks}; the form showed {start_level} at Start and "

@@ -195,7 +195,11 @@ class ParametersTab(ParametersForm, QWidget):
         return self._check
 
     def _assistance_edited(self, percent: int) -> None:
-        if not self._loading:
+        # the transparent mode has no level (a value set there is kept for the next mode,
+        # the field shows 0 %: parameters_form._level_follows_mode)
+        if self.assist.currentData() == "transparent":
+            self._level_follows_mode()
+        elif not self._loading:
             self.assistance_changed.emit(percent / 100.0)
 
     def _edited(self) -> None:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 
+from PySide6.QtCore import QSignalBlocker
 from PySide6.QtWidgets import (
     QAbstractSpinBox,
     QCheckBox,
@@ -189,6 +190,24 @@ class ParametersForm:
         # the transparent mode has no level (core.control.transparent): greyed, and the
         # trial built runs at 0 %
         self.assistance.setEnabled(self.assist.currentData() != "transparent")
+        self._level_follows_mode()
+
+    def _level_follows_mode(self) -> None:
+        """In the transparent mode the field shows 0 %, the level that runs (TrialParameters
+        makes it 0 whatever the field holds): a greyed "60 %" beside "No help in this mode"
+        was what the therapist read while the robot, its file and the registry said 0. The
+        level the field held, or one set while transparent (a proposal, a plan's block), is
+        kept and shown again when another mode is chosen. Quietly: the level that runs does
+        not change (no live change is sent, no Build is asked)."""
+        kept = getattr(self, "_level_kept", None)
+        with QSignalBlocker(self.assistance):
+            if self.assist.currentData() == "transparent":
+                if self.assistance.value() != 0:
+                    self._level_kept = self.assistance.value()
+                    self.assistance.setValue(0)
+            elif kept is not None:
+                self._level_kept = None
+                self.assistance.setValue(kept)
 
     # -- values -------------------------------------------------------------------
     def _values(self) -> dict:
