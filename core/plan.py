@@ -40,6 +40,7 @@ from core.trial import (
     TOLERANCE_RANGE_RAD,
     MessageUnits,
     TrialParameters,
+    level_that_runs,
 )
 
 BLOCKS_RANGE = (1, 20)
@@ -195,6 +196,8 @@ class Block:
                     "the time one lap takes: the pace")
         check_range("assistance_level", self.assistance_level, 0.0, 1.0, "",
                     "0 = no help, 1 = full help")
+        object.__setattr__(self, "assistance_level",
+                           level_that_runs(self.assist, self.assistance_level))
         lo, hi = TOLERANCE_RANGE_RAD
         check_range("tolerance_rad", self.tolerance_rad, lo, hi, "rad",
                     f"{math.degrees(lo):.0f}–{math.degrees(hi):.0f}°")

@@ -197,10 +197,8 @@ class TrialParameters:
         check_range("assistance_level", self.assistance_level, 0.0, 1.0, "",
                     "0 = no help for the subject's effort (thesis: no reduction; as-needed: "
                     "the channel alone), 1 = full help")
-        if self.assist == "transparent":
-            # nothing in the transparent mode acts on a level: the trial, its file and the
-            # registry say 0, the level that ran (core.control.transparent)
-            object.__setattr__(self, "assistance_level", 0.0)
+        object.__setattr__(self, "assistance_level",
+                           level_that_runs(self.assist, self.assistance_level))
         if not isinstance(self.clockwise, bool):
             raise ParameterError("clockwise", self.clockwise, "True or False")
         _game_fields(self)
@@ -426,6 +424,13 @@ def _choice(name: str, value: object, allowed: tuple[str, ...]) -> None:
 _REAL_FIELDS = ("radius_m", "duration_s", "body_mass_kg", "upper_arm_m", "forearm_m",
                 "tolerance_rad", "assistance_level", "target_radius_m",
                 "channel_half_width_m", "time_allowed_s")
+
+
+def level_that_runs(assist: str, assistance_level: float) -> float:
+    """The assistance level a trial of mode `assist` runs at: the transparent mode acts on
+    no level (core.control.transparent), so its trial, its file, its plan block and the
+    registry say 0, the level that ran, never a level the robot did not use."""
+    return 0.0 if assist == "transparent" else assistance_level
 
 
 def target_spacing_s(shape: str, duration_s: float, n_targets: int) -> float:

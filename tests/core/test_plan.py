@@ -109,6 +109,19 @@ def test_a_block_sets_only_the_exercise_on_the_patients_setup():
         "circle", 2, "as-needed", 0.6, 5.0, 0.3, 0.08)
 
 
+
+@settings(max_examples=40, deadline=None)
+@given(blocks)
+def test_a_block_says_the_level_its_trials_run_at(block):
+    """A transparent block showed (Plan tab) and kept (registry) the level it was given,
+    which its trials never ran: the transparent mode acts on no level (core.trial)."""
+    params = block.parameters(THESIS_SUBJECT)
+    assert block.assistance_level == params.assistance_level
+    if block.assist == "transparent":
+        assert block.assistance_level == 0.0
+    changed = Block.from_dict({**block.to_dict(), "assistance_level": 0.6})
+    assert changed.assistance_level == (0.0 if block.assist == "transparent" else 0.6)
+
 def reference(params, fraction=1.0, period_s=0.002):
     """The desired positions of a trial's exercise, its first `fraction`."""
     trajectory = params.trajectory()
