@@ -203,6 +203,17 @@ class MechanicalWork:
     help_J: float = math.nan
 
 
+def drop_old_share(metrics: dict) -> dict:
+    """`metrics` (a trial's, as stored) with a robot_work_share of the definition before
+    the share counted the help alone (MechanicalWork.robot_share; such a record has no
+    robot_help_work_J) made NaN, in place: that share also counted the motors' work on the
+    robot's own friction and mass (a transparent trial's "the robot did 40 %"), so an
+    old record shows no share rather than that one. Its net works stand."""
+    if "robot_work_share" in metrics and "robot_help_work_J" not in metrics:
+        metrics["robot_work_share"] = math.nan
+    return metrics
+
+
 HELP_TORQUE_ZERO_NM = 1e-9
 """A help torque at or under this is none: the as-needed robot added nothing along the path
 (the difference of two torques it computed, zero but for rounding when it did not help)."""
