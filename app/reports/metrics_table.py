@@ -70,7 +70,7 @@ ROWS: tuple[MetricRow, ...] = (
     MetricRow("patient_work_J", "Patient's net work", "J", 1.0,
               "what the hand put into the handle", short="Patient work"),
     MetricRow("robot_work_share", "Robot's share of the work", "%", 100.0,
-              "of the positive work; lower means the patient did more", short="Robot share"),
+              "help only, not its own friction; lower: patient did more", short="Robot share"),
     MetricRow("game_score", "Game score", "points", 1.0,
               "the game's points (core.games.scoring); a game trial only", short="Game score"),
     MetricRow("shoulder_elbow_correlation", "Shoulder–elbow correlation", "", 1.0,
