@@ -347,6 +347,12 @@ class TrialView:
         return (self._robot_J, self._patient_J)
 
     @property
+    def help_J(self) -> float:
+        """The work of the robot's help over the exercise so far (J), as the trial's metric
+        robot_help_work_J; NaN without the parameters or the robot's rates."""
+        return self._help_J if self._ex_count >= 2 else math.nan
+
+    @property
     def robot_work_share(self) -> float:
         """The robot's help's share of the positive work so far (0–1), as the trial's
         metric robot_work_share (core.metrics.MechanicalWork)."""
