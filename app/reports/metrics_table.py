@@ -67,6 +67,8 @@ ROWS: tuple[MetricRow, ...] = (
               "what the motors put in (negative: held back); transparent: the robot's "
               "own friction",
               short="Robot work"),
+    MetricRow("robot_help_work_J", "Robot's help", "J", 1.0,
+              "its pull on the hand, not its own friction", short="Robot help"),
     MetricRow("patient_work_J", "Patient's net work", "J", 1.0,
               "what the hand put into the handle", short="Patient work"),
     MetricRow("robot_work_share", "Robot's share of the work", "%", 100.0,

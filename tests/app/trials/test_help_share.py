@@ -8,6 +8,7 @@ from functools import cache
 import numpy as np
 import pytest
 
+from app.reports.metrics_table import format_metrics
 from app.trials.analysis import analyse, exercise_mask, robots_own_torque
 from app.trials.headless import simulate
 from core.control.guidance import GuidanceGains
@@ -75,3 +76,12 @@ def test_without_the_rates_the_share_is_unknown_not_the_motors_work():
     assert np.isfinite(m.robot_work_J)
     assert np.isnan(m.robot_help_work_J)
     assert np.isnan(m.robot_work_share)
+
+
+def test_the_printed_table_shows_the_help_beside_the_motors_work():
+    """`rehab run` and the therapist's table (app.reports.metrics_table): the share is the
+    help's, so the help's work is a row of its own beside the motors' net work."""
+    m = run("passive", "as-needed")[2]
+    table = format_metrics(m)
+    assert f"Robot's help{'':22}{m.robot_help_work_J:9.2f} J" in table
+    assert f"Robot's net work{'':18}{m.robot_work_J:9.2f} J" in table
