@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
+from functools import cache
 
 import numpy as np
 
@@ -224,6 +225,12 @@ def help_torque(channels: Mapping[str, np.ndarray], mask: np.ndarray):
 
 
 OWN_CHANNELS = ("robot_angle", "robot_rate", "robot_acceleration")
+
+
+@cache  # the live view asks at every batch
+def _model_constants() -> tuple:
+    """The constants of the model the trials run (device.loop.plan: RobotModel())."""
+    return tuple(RobotModel().constants)
 """The recorded channels the robot's own share of its torque is recomputed from."""
 
 
@@ -234,6 +241,6 @@ def robots_own_torque(read: Callable[[str], np.ndarray], names, parameters: Tria
     not finite (the help's work and the robot's share are then NaN)."""
     if not all(name in names for name in OWN_CHANNELS):
         return None
-    own = own_torque(RobotModel().constants, own_shares(parameters.assist, parameters.gains),
+    own = own_torque(_model_constants(), own_shares(parameters.assist, parameters.gains),
                      *(read(name) for name in OWN_CHANNELS))
     return own if np.isfinite(own).all() else None

@@ -26,6 +26,8 @@ the trial ran (RobotModel, device.loop.plan).
 
 from __future__ import annotations
 
+from functools import cache
+
 import numpy as np
 
 from core.control.gains import built
@@ -42,6 +44,7 @@ WHOLE_MODEL = (1.0, 1.0, 1.0)
 """(inertia, friction, stiffness) shares of a tracker that carries the robot's whole model."""
 
 
+@cache  # the live view asks at every batch; the gains line parses the same each time
 def own_shares(assist: str, gains: str) -> tuple[float, float, float]:
     """(c_m, c_f, c_k), the shares of the robot's inertia, friction and stiffness the
     trial's mode (`TrialParameters.assist`) compensated, with its gains line."""
