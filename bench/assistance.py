@@ -6,7 +6,9 @@
    virtual patient × both assistance modes (thesis, as-needed) × both plants (ideal,
    realistic), one headless compiled trial each: the robot's torque RMS over the
    exercise, the robot's and the patient's net work (J), the robot's braking (its
-   negative work), the robot's share of the positive work, and the RMS position error
+   negative work), the net work of its help (the torque beyond what carried the robot's
+   own dynamics, core.control.own), the help's share of the positive work of moving the
+   handle (core.metrics.MechanicalWork), and the RMS position error
    in x and y (mm) against the reference the robot used.
 2. The cost of one tick's `control` kernel compiled (rate estimate → reference →
    controller → assistance), timed around `TickPipeline.control` with
@@ -35,7 +37,8 @@ from device.sim.patient_parameters import PATIENT_KINDS
 def closed_loop(seed: int) -> None:
     print("thesis D, SMC, 5 × 4 s, seed", seed, "(work over the exercise phase)")
     print(f"{'patient':<10}{'mode':<11}{'plant':<10}{'τ RMS N·m':>10}{'W robot J':>10}"
-          f"{'W patient J':>12}{'braking J':>10}{'share %':>8}{'RMSE x/y mm':>14}")
+          f"{'W patient J':>12}{'braking J':>10}{'W help J':>9}{'share %':>8}"
+          f"{'RMSE x/y mm':>14}")
     for patient in PATIENT_KINDS:
         for mode in ("thesis", "as-needed"):
             for plant in ("ideal", "realistic"):
@@ -48,7 +51,7 @@ def closed_loop(seed: int) -> None:
                                                    axis=1))))
                 print(f"{patient:<10}{mode:<11}{plant:<10}{rms:10.4f}{m.robot_work_J:+10.2f}"
                       f"{m.patient_work_J:+12.2f}{m.robot_negative_work_J:+10.2f}"
-                      f"{100 * m.robot_work_share:8.1f}"
+                      f"{m.robot_help_work_J:+9.2f}{100 * m.robot_work_share:8.1f}"
                       f"{1000 * m.rmse_x_m:8.2f}/{1000 * m.rmse_y_m:.2f}"
                       + ("" if trial.status == "complete" else f"  ({trial.status})"))
 

@@ -119,7 +119,7 @@ def _figures(read, n, given, trial, dt_s, speed_file, tolerance_rad, min_force_N
     isb_low, isb_high, isb_sum = np.full(2, math.inf), np.full(2, -math.inf), np.zeros(2)
     torque_low, torque_high = np.full(2, math.inf), np.full(2, -math.inf)
     smooth_low, smooth_high = np.full(2, math.inf), np.full(2, -math.inf)
-    work = np.zeros(3)
+    work = np.zeros(4)
     helped = 0
     path_length, peak = 0.0, -math.inf
     cone = _TimeWithin()
@@ -148,9 +148,11 @@ def _figures(read, n, given, trial, dt_s, speed_file, tolerance_rad, min_force_N
                                       min_force_N)
                 cone.add(t, within[:n - 1 - a] if b == n else within)
             if has("robot_torque_Nm") and has("robot_angle_rad"):
+                own = (with_last("own", read("robot_own_torque_Nm", a, b))
+                       if has("robot_own_torque_Nm") else None)
                 work += work_terms(with_last("tau", read("robot_torque_Nm", a, b)),
                                    with_last("q", read("robot_angle_rad", a, b)),
-                                   with_last("f", f), with_last("p", p))
+                                   with_last("f", f), with_last("p", p), own)
         if has("isb_angles_rad"):
             isb = read("isb_angles_rad", a, b)
             isb_low, isb_high = _low_high(isb, isb_low, isb_high)

@@ -109,8 +109,9 @@ class TrialMetrics:
         reach_sparc, reach_ldlj: means over the reaches where they are defined
         (core.reaches); the initial direction error is the mean of the
         absolute angles (rad), the signed ones are in `reaches`.
-    robot_work_J, patient_work_J, robot_negative_work_J, robot_work_share: who did the
-        work (`mechanical_work`), NaN without the robot's torques and angles.
+    robot_work_J, patient_work_J, robot_negative_work_J, robot_help_work_J,
+        robot_work_share: who did the work (`mechanical_work`), NaN without the robot's
+        torques and angles (the help and the share also without its own torque).
     led_pct: % of the trial time the patient led, the as-needed robot adding no help
         along the path (core.control.guidance: the patient within the delay of the
         clock, or ahead of it); NaN in the thesis mode, which has no such help.
@@ -160,6 +161,7 @@ class TrialMetrics:
     robot_negative_work_J: float = math.nan
     robot_work_share: float = math.nan
     led_pct: float = math.nan
+    robot_help_work_J: float = math.nan
 
     def to_dict(self) -> dict[str, float]:
         """Every scalar figure as a plain float, keyed by field name (SI units,
@@ -182,14 +184,34 @@ class MechanicalWork:
         handle, global frame, eq. 3.34's F).
     robot_negative_J: the robot's braking, Σ min(τ_R · Δθ_R, 0) summed per sample over
         both joints together (≤ 0): work the robot took out of the motion.
-    robot_share: max(robot_J, 0) / (max(robot_J, 0) + max(patient_J, 0)), the robot's
-        share of the positive net work (NaN when neither did any).
+    help_J: net work of the robot's help, Σ (τ_R − τ_own) · Δθ_R: τ_own the torque the
+        mode spent on the robot's own inertia, friction and stiffness (core.control.own,
+        eq. 3.26's left-hand side), so τ_R − τ_own is what reaches the hand (eq. 3.34's
+        J_Rᵀ F_I): the pull toward the path and along it. NaN without τ_own.
+    robot_share: max(help_J, 0) / (max(help_J, 0) + max(patient_J, 0)), the robot's
+        share of the positive net work of moving the handle (NaN when neither did any).
+        Why the help and not robot_J: the motors' work on the robot's own friction and
+        mass moves nothing of the patient; counted, a transparent trial (no help at all)
+        said "the robot did 40 %" and a healthy patient's as-needed one 14 % (the
+        simulator, docs/validation.md), where the help did none.
     """
 
     robot_J: float
     patient_J: float
     robot_negative_J: float
     robot_share: float
+    help_J: float = math.nan
+
+
+def drop_old_share(metrics: dict) -> dict:
+    """`metrics` (a trial's, as stored) with a robot_work_share of the definition before
+    the share counted the help alone (MechanicalWork.robot_share; such a record has no
+    robot_help_work_J) made NaN, in place: that share also counted the motors' work on the
+    robot's own friction and mass (a transparent trial's "the robot did 40 %"), so an
+    old record shows no share rather than that one. Its net works stand."""
+    if "robot_work_share" in metrics and "robot_help_work_J" not in metrics:
+        metrics["robot_work_share"] = math.nan
+    return metrics
 
 
 HELP_TORQUE_ZERO_NM = 1e-9
@@ -205,35 +227,46 @@ def helped_samples(help_torque_Nm) -> np.ndarray:
                   axis=1)
 
 
-def mechanical_work(torque_Nm, angle_rad, force_N, position_m) -> MechanicalWork:
+def mechanical_work(torque_Nm, angle_rad, force_N, position_m,
+                    own_torque_Nm=None) -> MechanicalWork:
     """The robot's and the patient's work from a trial's samples: torques (N, 2) held
     from each sample to the next (the drives' zero-order hold) times the joints' change
     of angle (N, 2), and the hand's force (N, 2) times the handle's displacement (N, 2),
-    each force taken as the mean of the step's two samples."""
-    return work_shares(*work_terms(torque_Nm, angle_rad, force_N, position_m))
+    each force taken as the mean of the step's two samples; own_torque_Nm (N, 2) the
+    part of the torques that carried the robot's own dynamics (core.control.own), for
+    the help and the share (NaN without it)."""
+    return work_shares(*work_terms(torque_Nm, angle_rad, force_N, position_m, own_torque_Nm))
 
 
-def work_terms(torque_Nm, angle_rad, force_N, position_m) -> tuple[float, float, float]:
+def work_terms(torque_Nm, angle_rad, force_N, position_m,
+               own_torque_Nm=None) -> tuple[float, float, float, float]:
     """`mechanical_work`'s sums over the steps between the samples given: (the robot's net
-    work, the patient's, the robot's braking), J. Stretches that share their end samples
-    add up to the whole trial's."""
+    work, the patient's, the robot's braking, the robot's help), J. Stretches that share
+    their end samples add up to the whole trial's."""
     torque = np.asarray(torque_Nm, dtype=float)
     angle = np.asarray(angle_rad, dtype=float)
     force = np.asarray(force_N, dtype=float)
     position = np.asarray(position_m, dtype=float)
-    robot_power = np.sum(torque[:-1] * np.diff(angle, axis=0), axis=1)
+    step = np.diff(angle, axis=0)
+    robot_power = np.sum(torque[:-1] * step, axis=1)
     patient = float(np.sum(0.5 * (force[1:] + force[:-1]) * np.diff(position, axis=0)))
     robot = float(np.sum(robot_power))
     negative = float(np.sum(np.minimum(robot_power, 0.0)))
-    return robot, patient, negative
+    helped = math.nan
+    if own_torque_Nm is not None:
+        helped = float(np.sum((torque[:-1] - np.asarray(own_torque_Nm, dtype=float)[:-1])
+                              * step))
+    return robot, patient, negative, helped
 
 
-def work_shares(robot: float, patient: float, negative: float) -> MechanicalWork:
-    """`mechanical_work` from its sums (`work_terms`): the robot's share of the positive
-    net work."""
-    positive = max(robot, 0.0) + max(patient, 0.0)
-    share = max(robot, 0.0) / positive if positive > 0.0 else math.nan
-    return MechanicalWork(robot, patient, negative, share)
+def work_shares(robot: float, patient: float, negative: float,
+                helped: float = math.nan) -> MechanicalWork:
+    """`mechanical_work` from its sums (`work_terms`): the help's share of the positive
+    net work of moving the handle (MechanicalWork.robot_share)."""
+    positive = max(helped, 0.0) + max(patient, 0.0)
+    share = (max(helped, 0.0) / positive if positive > 0.0 and math.isfinite(helped)
+             else math.nan)
+    return MechanicalWork(robot, patient, negative, share, helped)
 
 
 def rmse_xy(position_m, desired_position_m) -> tuple[float, float]:
@@ -350,6 +383,7 @@ def compute_metrics(
     torque_Nm=None,
     robot_torque_Nm=None,
     robot_angle_rad=None,
+    robot_own_torque_Nm=None,
     help_torque_Nm=None,
     tolerance_rad: float = DEFAULT_TOLERANCE_RAD,
     min_force_N: float = DEFAULT_MIN_FORCE_N,
@@ -369,9 +403,10 @@ def compute_metrics(
     the global frame; isb_angles_rad (N, 2) ISB shoulder, elbow; torque_Nm
     (N, 2) subject's shoulder, elbow torques; robot_torque_Nm (N, 2) the torques the
     drives applied and robot_angle_rad (N, 2) the joints' angles (with force_N, for
-    `mechanical_work`); help_torque_Nm (N, 2) the as-needed robot's help along the path
-    at the joints (for `led_pct`). Every array must be finite; the
-    figures of a channel left as None are NaN.
+    `mechanical_work`), robot_own_torque_Nm (N, 2) their part that carried the robot's
+    own dynamics (core.control.own; for the help and its share); help_torque_Nm (N, 2)
+    the as-needed robot's help along the path at the joints (for `led_pct`). Every
+    array must be finite; the figures of a channel left as None are NaN.
 
     Hand speed is the norm of the derivative of the position after the zero-lag
     Butterworth low-pass at `speed_cutoff_hz` (None: no filtering, for clean
@@ -438,9 +473,11 @@ def compute_metrics(
 
     work = MechanicalWork(nan, nan, nan, nan)
     if robot_torque_Nm is not None and robot_angle_rad is not None and force_N is not None:
+        own = (None if robot_own_torque_Nm is None
+               else as_series("robot_own_torque_Nm", robot_own_torque_Nm, n, 2))
         work = mechanical_work(as_series("robot_torque_Nm", robot_torque_Nm, n, 2),
                                as_series("robot_angle_rad", robot_angle_rad, n, 2),
-                               force, position)
+                               force, position, own)
 
     led = nan
     if help_torque_Nm is not None:
@@ -519,4 +556,5 @@ def assemble(duration_s, rmse, direction_pct, tolerance_rad, min_force_N, force_
         robot_negative_work_J=work.robot_negative_J,
         robot_work_share=work.robot_share,
         led_pct=led,
+        robot_help_work_J=work.help_J,
     )

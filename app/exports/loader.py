@@ -74,6 +74,7 @@ from app.trials.reader import (
     read_trial,
     subject_from_attributes,
 )
+from core.metrics import drop_old_share
 from core.trial import TrialParameters
 from device.loop.pipeline import PHASE_EXERCISE
 from device.recording import h5views
@@ -479,7 +480,7 @@ def _quick_info(path: Path) -> TrialInfo | None:
         n = lengths.pop() if lengths else 0
         if n and "tick" in f["timeseries"] and f["timeseries/tick"][n - 1] == -1:
             return None
-        metrics = {k: float(v) for k, v in _plain(found, "/metrics").items()}
+        metrics = drop_old_share({k: float(v) for k, v in _plain(found, "/metrics").items()})
         summary = _plain(found, "/summary")
         if seal is not None and summary.get("n_samples") != n:
             return None  # the samples' count is sealed in the summary; they disagree

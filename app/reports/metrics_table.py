@@ -67,10 +67,12 @@ ROWS: tuple[MetricRow, ...] = (
               "what the motors put in (negative: held back); transparent: the robot's "
               "own friction",
               short="Robot work"),
+    MetricRow("robot_help_work_J", "Robot's help", "J", 1.0,
+              "its pull on the hand, not its own friction", short="Robot help"),
     MetricRow("patient_work_J", "Patient's net work", "J", 1.0,
               "what the hand put into the handle", short="Patient work"),
     MetricRow("robot_work_share", "Robot's share of the work", "%", 100.0,
-              "of the positive work; lower means the patient did more", short="Robot share"),
+              "help only, not its own friction; lower: patient did more", short="Robot share"),
     MetricRow("game_score", "Game score", "points", 1.0,
               "the game's points (core.games.scoring); a game trial only", short="Game score"),
     MetricRow("shoulder_elbow_correlation", "Shoulder–elbow correlation", "", 1.0,

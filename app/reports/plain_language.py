@@ -147,14 +147,16 @@ def position_line(rmse_x_m: float, rmse_y_m: float, mode: str = "thesis") -> Pla
 
 
 def work_line(robot_share: float) -> PlainLine:
-    """Who moved the handle: the patient's share of the positive net work
-    (core.metrics.mechanical_work), the robot's the rest."""
+    """Who moved the handle: the patient's share of the positive net work of moving it,
+    the robot's help's the rest (core.metrics.MechanicalWork.robot_share: the motors' work
+    on the robot's own friction and mass is not counted)."""
     yours = 100.0 - 100.0 * robot_share
     return PlainLine(
         "robot_work_share",
         f"You did {whole(yours)} % of the work of moving the handle; the robot did "
         f"{whole(100.0 * robot_share)} %.",
-        "Counted over the whole exercise, from your push and the robot's motors.",
+        "Counted over the whole exercise, from your push and the robot's pull on your hand "
+        "(not what its motors spent on its own weight and friction).",
     )
 
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
+from functools import cache
 
 import numpy as np
 
@@ -23,9 +24,11 @@ from app.errors import AppError
 from app.games.figures import game_figures, game_figures_stored
 from core import blockwise
 from core.blockwise import compute_metrics_blockwise, spans
+from core.control.own import own_shares, own_torque
 from core.games import GameFigures
 from core.metrics import TrialMetrics, compute_metrics
 from core.reaches import reaches_from_trajectory
+from core.robot import RobotModel
 from core.trial import TrialParameters
 from device.loop.pipeline import PERIOD_S, PHASE_EXERCISE
 
@@ -51,7 +54,7 @@ class Analysis:
 CHANNELS_USED = ("time", "phase", "position", "position_desired", "direction_desired", "force",
                  "subject_angle",
                  "subject_angle_isb", "subject_torque", "torque_applied", "robot_angle",
-                 "torque_commanded", "torque_controller")
+                 "torque_commanded", "torque_controller", "robot_rate", "robot_acceleration")
 """The recorded channels `analyse` reads (a long trial's analysis reads only these back)."""
 
 
@@ -102,6 +105,8 @@ def analyse(channels: Mapping[str, np.ndarray], parameters: TrialParameters) -> 
         torque_Nm=take("subject_torque"),
         robot_torque_Nm=take("torque_applied") if "torque_applied" in channels else None,
         robot_angle_rad=take("robot_angle") if "robot_angle" in channels else None,
+        robot_own_torque_Nm=robots_own_torque(
+            lambda name: np.asarray(channels[name])[mask], channels, parameters),
         help_torque_Nm=help_torque(channels, mask) if parameters.assist == "as-needed" else None,
         tolerance_rad=parameters.tolerance_rad,
         reaches=_reaches(parameters, start),
@@ -156,6 +161,9 @@ def analyse_stored(read: ReadStretch, n_ticks: int, names: Sequence[str],
             notes.append(_no_value(name, missing))
         else:
             channel[role] = name
+    own = all(name in names for name in OWN_CHANNELS) and all(
+        robots_own_torque(lambda name, a=a, b=b: stretch(name, a, b), names, parameters)
+        is not None for a, b in spans(n, block))
     help_channels = ("torque_commanded", "torque_controller")
     helped = parameters.assist == "as-needed" and all(h in names for h in help_channels)
     if helped:
@@ -166,10 +174,13 @@ def analyse_stored(read: ReadStretch, n_ticks: int, names: Sequence[str],
     def read_role(role: str, a: int, b: int) -> np.ndarray:
         if role == "help_torque_Nm":
             return stretch(help_channels[0], a, b) - stretch(help_channels[1], a, b)
+        if role == "robot_own_torque_Nm":
+            return robots_own_torque(lambda name: stretch(name, a, b), names, parameters)
         return stretch(channel[role], a, b)
 
     start = float(stretch("time", 0, 1)[0])
-    given = [*channel, *(["help_torque_Nm"] if helped else [])]
+    given = [*channel, *(["help_torque_Nm"] if helped else []),
+             *(["robot_own_torque_Nm"] if own else [])]
     metrics = compute_metrics_blockwise(read_role, n, given,
                                         tolerance_rad=parameters.tolerance_rad,
                                         reaches=_reaches(parameters, start), block=block)
@@ -211,3 +222,25 @@ def help_torque(channels: Mapping[str, np.ndarray], mask: np.ndarray):
     helped = (np.asarray(channels["torque_commanded"])[mask]
               - np.asarray(channels["torque_controller"])[mask])
     return helped if np.isfinite(helped).all() else None
+
+
+OWN_CHANNELS = ("robot_angle", "robot_rate", "robot_acceleration")
+
+
+@cache  # the live view asks at every batch
+def _model_constants() -> tuple:
+    """The constants of the model the trials run (device.loop.plan: RobotModel())."""
+    return tuple(RobotModel().constants)
+"""The recorded channels the robot's own share of its torque is recomputed from."""
+
+
+def robots_own_torque(read: Callable[[str], np.ndarray], names, parameters: TrialParameters):
+    """The part of the motors' torque the trial's mode spent on the robot's own dynamics
+    (core.control.own) for the samples `read(name)` gives of the channels in `names`, on
+    the model the trials run (RobotModel); None when a channel it needs is missing or
+    not finite (the help's work and the robot's share are then NaN)."""
+    if not all(name in names for name in OWN_CHANNELS):
+        return None
+    own = own_torque(_model_constants(), own_shares(parameters.assist, parameters.gains),
+                     *(read(name) for name in OWN_CHANNELS))
+    return own if np.isfinite(own).all() else None

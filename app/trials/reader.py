@@ -36,6 +36,7 @@ from app.trials.opening import (
     seal_of,
 )
 from core.errors import CoreError
+from core.metrics import drop_old_share
 from core.trial import TrialParameters
 from device.errors import RecordingError
 from device.recording import h5views
@@ -235,7 +236,7 @@ def _metrics(found: Inventory) -> dict[str, float]:
                    if isinstance(v, bool) or not isinstance(v, int | float))
     if wrong:
         raise Damaged(f"is damaged: /metrics {', '.join(wrong[:3])} is not a number")
-    return {k: float(v) for k, v in values.items()}
+    return drop_old_share({k: float(v) for k, v in values.items()})
 
 
 def _check_format(path: Path, attrs: dict) -> None:

@@ -35,6 +35,7 @@ def recording(n=N):
             "torque_Nm": rng.normal(0, 0.3, (n, 2)) + np.sin(phase)[:, None],
             "robot_torque_Nm": rng.normal(0, 0.2, (n, 2)),
             "robot_angle_rad": np.column_stack((phase, 0.5 * phase)),
+            "robot_own_torque_Nm": rng.normal(0, 0.1, (n, 2)),
             "help_torque_Nm": np.where(rng.random((n, 1)) < 0.3, 0.1, 0.0) * np.ones((1, 2))}
 
 

@@ -26,6 +26,7 @@ from ui.tabs import (
     ViewTab,
 )
 from ui.views import samples
+from ui.views.numbers import format_number
 from ui.views.trialview import TrialView
 
 PARAMETERS = THESIS_SUBJECT.replace(repetitions=2)
@@ -242,6 +243,10 @@ def test_the_robots_share_of_the_work_is_shown_live_and_equals_the_trials_metric
     tab = shown(qtbot, TorquesTab())
     tab.show_view(live)
     assert tab.work_share.text() == f"{metrics.robot_work_share * 100:.0f}"
+    # the share is the help's: its work is the one shown with it
+    assert live.help_J == pytest.approx(metrics.robot_help_work_J, rel=1e-9, abs=1e-12)
+    assert f"robot's help {format_number(metrics.robot_help_work_J, 2)} J" in (
+        tab.work_share.detail.text())
     # a transparent trial's motors only lighten the robot: no share of moving the handle
     tab.show_view(TrialView.from_records(records, PARAMETERS.replace(assist="transparent")))
     assert tab.work_share.text() == "–"

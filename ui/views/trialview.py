@@ -25,8 +25,9 @@ import numpy as np
 
 from app.errors import AppError
 from app.pose.store import read_pose
+from app.trials.analysis import OWN_CHANNELS, robots_own_torque
 from app.trials.reader import TrialData
-from core.metrics import DEFAULT_TOLERANCE_RAD, mechanical_work, rmse_xy
+from core.metrics import DEFAULT_TOLERANCE_RAD, mechanical_work, rmse_xy, work_shares
 from core.trial import TrialParameters
 from device.loop.pipeline import PERIOD_S, PHASE_EXERCISE
 from device.recording.record import RECORD_DTYPE
@@ -37,9 +38,10 @@ VIEW_CHANNELS = (
     "time", "phase", "position", "position_desired", "direction_desired", "force",
     "force_angle", "assistance_active", "subject_angle_isb", "subject_torque", "state", "fault",
 )
-WORK_CHANNELS = ("torque_applied", "robot_angle")
-"""The channels the work needs beside the view's (core.metrics.mechanical_work): summed as
-they arrive, not kept."""
+WORK_CHANNELS = ("torque_applied", *OWN_CHANNELS)
+"""The channels the work needs beside the view's (core.metrics.mechanical_work, the help's
+with the robot's own torque, app.trials.analysis.robots_own_torque): summed as they
+arrive, not kept."""
 # Channels whose range over the exercise is kept as it arrives (force, ROM, torque ranges).
 RANGED_CHANNELS = ("force", "subject_angle_isb", "subject_torque")
 
@@ -111,6 +113,7 @@ class TrialView:
         # who did the work so far (core.metrics.mechanical_work over every exercise step)
         self._robot_J = 0.0
         self._patient_J = 0.0
+        self._help_J = 0.0  # NaN once a step had no robot's own torque (no parameters)
         self._last_work: np.ndarray | None = None  # the last exercise record, for its step
         self._low = {n: np.full(_layout(n)[1], np.inf) for n in RANGED_CHANNELS}
         self._high = {n: np.full(_layout(n)[1], -np.inf) for n in RANGED_CHANNELS}
@@ -257,17 +260,21 @@ class TrialView:
     def _add_work(self, batch: np.ndarray) -> None:
         """The batch's steps of work, with the step from the previous batch's last sample:
         the sums are the trial's, whatever its cut into batches."""
-        if not all(name in batch.dtype.names for name in (*WORK_CHANNELS, "force", "position")):
+        needed = ("torque_applied", "robot_angle", "force", "position")
+        if not all(name in batch.dtype.names for name in needed):
             return
         steps = batch if self._last_work is None else np.concatenate((self._last_work, batch))
         self._last_work = batch[-1:].copy()
         if len(steps) < 2:
             return
+        own = None if self.parameters is None else robots_own_torque(
+            steps.__getitem__, steps.dtype.names, self.parameters)
         done = mechanical_work(steps["torque_applied"], steps["robot_angle"],
-                               steps["force"][:, :2], steps["position"])
+                               steps["force"][:, :2], steps["position"], own)
         if math.isfinite(done.robot_J) and math.isfinite(done.patient_J):
             self._robot_J += done.robot_J
             self._patient_J += done.patient_J
+            self._help_J += done.help_J
 
     # -- sizes ------------------------------------------------------------------
     def __len__(self) -> int:
@@ -340,12 +347,19 @@ class TrialView:
         return (self._robot_J, self._patient_J)
 
     @property
+    def help_J(self) -> float:
+        """The work of the robot's help over the exercise so far (J), as the trial's metric
+        robot_help_work_J; NaN without the parameters or the robot's rates."""
+        return self._help_J if self._ex_count >= 2 else math.nan
+
+    @property
     def robot_work_share(self) -> float:
-        """The robot's share of the positive work so far (0–1), as the trial's metric
-        robot_work_share (core.metrics.MechanicalWork)."""
+        """The robot's help's share of the positive work so far (0–1), as the trial's
+        metric robot_work_share (core.metrics.MechanicalWork)."""
         robot, patient = self.work_J
-        positive = max(robot, 0.0) + max(patient, 0.0)
-        return max(robot, 0.0) / positive if positive > 0.0 else math.nan
+        if math.isnan(robot):
+            return math.nan
+        return work_shares(robot, patient, math.nan, self._help_J).robot_share
 
     def range_of(self, name: str) -> tuple[np.ndarray, np.ndarray]:
         """(lowest, highest) per component over the exercise so far; NaN before any."""

@@ -18,6 +18,7 @@ import orjson
 
 from app.errors import InvalidRecordError
 from core.errors import CoreError
+from core.metrics import drop_old_share
 from core.trial import TrialParameters
 
 NAME_MAX_CHARS = 100
@@ -122,6 +123,7 @@ def parse_metrics(texts: Iterable[str]) -> list[dict[str, float]]:
     parsed = orjson.loads("[" + ",".join(texts) + "]")
     nan = math.nan
     for values in parsed:
+        drop_old_share(values)
         if None in values.values():
             for name in [k for k, v in values.items() if v is None]:
                 values[name] = nan

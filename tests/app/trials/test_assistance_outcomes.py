@@ -4,8 +4,9 @@ good patient, tracks every patient, keeps a learning patient working; the thesis
 on the ideal plant, is what it always was, bit for bit.
 
 Work W over the exercise phase: the robot's Σ τ_applied · Δθ_R, the patient's Σ F · Δp
-at the handle; the robot's share max(W_robot, 0) / (max(W_robot, 0) + max(W_patient, 0))
-(core.metrics.mechanical_work). bench/assistance.py prints the whole table."""
+at the handle, the help's Σ (τ_applied − τ_own) · Δθ_R (τ_own what carried the robot's own
+dynamics, core.control.own); the robot's share max(W_help, 0) / (max(W_help, 0) +
+max(W_patient, 0)) (core.metrics.MechanicalWork). bench/assistance.py prints the whole table."""
 
 import itertools
 import json
