@@ -8,7 +8,7 @@
    exercise, the robot's and the patient's net work (J), the robot's braking (its
    negative work), the net work of its help (the torque beyond what carried the robot's
    own dynamics, core.control.own), the help's share of the positive work of moving the
-   handle (core.metrics.MechanicalWork), and the RMS position error
+   handle (core.work.MechanicalWork), and the RMS position error
    in x and y (mm) against the reference the robot used.
 2. The cost of one tick's `control` kernel compiled (rate estimate → reference →
    controller → assistance), timed around `TickPipeline.control` with

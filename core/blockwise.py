@@ -39,15 +39,11 @@ from core.metrics import (
     DEFAULT_SPEED_CUTOFF_HZ,
     DEFAULT_TOLERANCE_RAD,
     DEFAULT_TORQUE_CUTOFF_HZ,
-    MechanicalWork,
     TrialMetrics,
     _cross,
     assemble,
     checked_options,
     force_within,
-    helped_samples,
-    work_shares,
-    work_terms,
 )
 from core.reaches import (
     DEFAULT_INITIAL_WINDOW_S,
@@ -58,6 +54,7 @@ from core.reaches import (
 )
 from core.signal import MAX_GAP_RATIO, lowpass, second_difference
 from core.smoothness import ldlj_value, sparc_of_blocks
+from core.work import MechanicalWork, helped_samples, work_shares, work_terms
 
 Read = Callable[[str, int, int], np.ndarray]
 """Samples first…stop−1 of a role (a `compute_metrics` argument name) of the trial."""

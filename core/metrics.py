@@ -37,6 +37,7 @@ from core.reaches import (
 )
 from core.signal import as_series, lowpass, sample_interval, smoothed_derivatives
 from core.smoothness import ldlj, sparc
+from core.work import MechanicalWork, helped_samples, mechanical_work
 
 DEFAULT_TOLERANCE_RAD = math.radians(20.0)  # the thesis's choice, section 3.6.1
 # The force sensor resolves 1/24 N per axis. Half a count on each axis moves the
@@ -110,7 +111,7 @@ class TrialMetrics:
         (core.reaches); the initial direction error is the mean of the
         absolute angles (rad), the signed ones are in `reaches`.
     robot_work_J, patient_work_J, robot_negative_work_J, robot_help_work_J,
-        robot_work_share: who did the work (`mechanical_work`), NaN without the robot's
+        robot_work_share: who did the work (`core.work.mechanical_work`), NaN without the robot's
         torques and angles (the help and the share also without its own torque).
     led_pct: % of the trial time the patient led, the as-needed robot adding no help
         along the path (core.control.guidance: the patient within the delay of the
@@ -175,100 +176,6 @@ class TrialMetrics:
 
 
 # ------------------------------------------------------------------ formulas
-@dataclass(frozen=True, slots=True)
-class MechanicalWork:
-    """Who did the work over a stretch of a trial (J).
-
-    robot_J: net work of the motors on the robot, Σ τ_R · Δθ_R (eq. 3.6's input).
-    patient_J: net work of the hand on the handle, Σ F · Δp (F the hand's force on the
-        handle, global frame, eq. 3.34's F).
-    robot_negative_J: the robot's braking, Σ min(τ_R · Δθ_R, 0) summed per sample over
-        both joints together (≤ 0): work the robot took out of the motion.
-    help_J: net work of the robot's help, Σ (τ_R − τ_own) · Δθ_R: τ_own the torque the
-        mode spent on the robot's own inertia, friction and stiffness (core.control.own,
-        eq. 3.26's left-hand side), so τ_R − τ_own is what reaches the hand (eq. 3.34's
-        J_Rᵀ F_I): the pull toward the path and along it. NaN without τ_own.
-    robot_share: max(help_J, 0) / (max(help_J, 0) + max(patient_J, 0)), the robot's
-        share of the positive net work of moving the handle (NaN when neither did any).
-        Why the help and not robot_J: the motors' work on the robot's own friction and
-        mass moves nothing of the patient; counted, a transparent trial (no help at all)
-        said "the robot did 40 %" and a healthy patient's as-needed one 14 % (the
-        simulator, docs/validation.md), where the help did none.
-    """
-
-    robot_J: float
-    patient_J: float
-    robot_negative_J: float
-    robot_share: float
-    help_J: float = math.nan
-
-
-def drop_old_share(metrics: dict) -> dict:
-    """`metrics` (a trial's, as stored) with a robot_work_share of the definition before
-    the share counted the help alone (MechanicalWork.robot_share; such a record has no
-    robot_help_work_J) made NaN, in place: that share also counted the motors' work on the
-    robot's own friction and mass (a transparent trial's "the robot did 40 %"), so an
-    old record shows no share rather than that one. Its net works stand."""
-    if "robot_work_share" in metrics and "robot_help_work_J" not in metrics:
-        metrics["robot_work_share"] = math.nan
-    return metrics
-
-
-HELP_TORQUE_ZERO_NM = 1e-9
-"""A help torque at or under this is none: the as-needed robot added nothing along the path
-(the difference of two torques it computed, zero but for rounding when it did not help)."""
-
-
-def helped_samples(help_torque_Nm) -> np.ndarray:
-    """Per sample, whether the as-needed robot helped along the path: any joint's help
-    torque (N, 2; core.control.guidance) beyond HELP_TORQUE_ZERO_NM. `led_pct` is the
-    share of samples without."""
-    return np.any(np.abs(np.asarray(help_torque_Nm, dtype=float)) > HELP_TORQUE_ZERO_NM,
-                  axis=1)
-
-
-def mechanical_work(torque_Nm, angle_rad, force_N, position_m,
-                    own_torque_Nm=None) -> MechanicalWork:
-    """The robot's and the patient's work from a trial's samples: torques (N, 2) held
-    from each sample to the next (the drives' zero-order hold) times the joints' change
-    of angle (N, 2), and the hand's force (N, 2) times the handle's displacement (N, 2),
-    each force taken as the mean of the step's two samples; own_torque_Nm (N, 2) the
-    part of the torques that carried the robot's own dynamics (core.control.own), for
-    the help and the share (NaN without it)."""
-    return work_shares(*work_terms(torque_Nm, angle_rad, force_N, position_m, own_torque_Nm))
-
-
-def work_terms(torque_Nm, angle_rad, force_N, position_m,
-               own_torque_Nm=None) -> tuple[float, float, float, float]:
-    """`mechanical_work`'s sums over the steps between the samples given: (the robot's net
-    work, the patient's, the robot's braking, the robot's help), J. Stretches that share
-    their end samples add up to the whole trial's."""
-    torque = np.asarray(torque_Nm, dtype=float)
-    angle = np.asarray(angle_rad, dtype=float)
-    force = np.asarray(force_N, dtype=float)
-    position = np.asarray(position_m, dtype=float)
-    step = np.diff(angle, axis=0)
-    robot_power = np.sum(torque[:-1] * step, axis=1)
-    patient = float(np.sum(0.5 * (force[1:] + force[:-1]) * np.diff(position, axis=0)))
-    robot = float(np.sum(robot_power))
-    negative = float(np.sum(np.minimum(robot_power, 0.0)))
-    helped = math.nan
-    if own_torque_Nm is not None:
-        helped = float(np.sum((torque[:-1] - np.asarray(own_torque_Nm, dtype=float)[:-1])
-                              * step))
-    return robot, patient, negative, helped
-
-
-def work_shares(robot: float, patient: float, negative: float,
-                helped: float = math.nan) -> MechanicalWork:
-    """`mechanical_work` from its sums (`work_terms`): the help's share of the positive
-    net work of moving the handle (MechanicalWork.robot_share)."""
-    positive = max(helped, 0.0) + max(patient, 0.0)
-    share = (max(helped, 0.0) / positive if positive > 0.0 and math.isfinite(helped)
-             else math.nan)
-    return MechanicalWork(robot, patient, negative, share, helped)
-
-
 def rmse_xy(position_m, desired_position_m) -> tuple[float, float]:
     """Root-mean-square error per axis (m): √(mean_k (p_k − p_d,k)²), Fig. 3.7."""
     error = np.asarray(position_m, dtype=float) - np.asarray(desired_position_m, dtype=float)
@@ -403,7 +310,7 @@ def compute_metrics(
     the global frame; isb_angles_rad (N, 2) ISB shoulder, elbow; torque_Nm
     (N, 2) subject's shoulder, elbow torques; robot_torque_Nm (N, 2) the torques the
     drives applied and robot_angle_rad (N, 2) the joints' angles (with force_N, for
-    `mechanical_work`), robot_own_torque_Nm (N, 2) their part that carried the robot's
+    `core.work.mechanical_work`), robot_own_torque_Nm (N, 2) their part that carried the robot's
     own dynamics (core.control.own; for the help and its share); help_torque_Nm (N, 2)
     the as-needed robot's help along the path at the joints (for `led_pct`). Every
     array must be finite; the figures of a channel left as None are NaN.

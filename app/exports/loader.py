@@ -74,8 +74,8 @@ from app.trials.reader import (
     read_trial,
     subject_from_attributes,
 )
-from core.metrics import drop_old_share
 from core.trial import TrialParameters
+from core.work import drop_old_share
 from device.loop.pipeline import PHASE_EXERCISE
 from device.recording import h5views
 from device.recording.trialfile import FORMAT_NAME, FORMAT_VERSION, STATUS_RECORDING, SubjectInfo

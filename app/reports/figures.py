@@ -33,10 +33,10 @@ from core.metrics import (
     DEFAULT_TORQUE_CUTOFF_HZ,
     TrialMetrics,
     directional_performance,
-    helped_samples,
 )
 from core.signal import lowpass
 from core.trial import TrialParameters
+from core.work import helped_samples
 
 MIN_RUN_S = 0.05
 OUTLINE_SPACING_M = 0.002

@@ -148,7 +148,7 @@ def position_line(rmse_x_m: float, rmse_y_m: float, mode: str = "thesis") -> Pla
 
 def work_line(robot_share: float) -> PlainLine:
     """Who moved the handle: the patient's share of the positive net work of moving it,
-    the robot's help's the rest (core.metrics.MechanicalWork.robot_share: the motors' work
+    the robot's help's the rest (core.work.MechanicalWork.robot_share: the motors' work
     on the robot's own friction and mass is not counted)."""
     yours = 100.0 - 100.0 * robot_share
     return PlainLine(

@@ -36,8 +36,8 @@ from app.trials.opening import (
     seal_of,
 )
 from core.errors import CoreError
-from core.metrics import drop_old_share
 from core.trial import TrialParameters
+from core.work import drop_old_share
 from device.errors import RecordingError
 from device.recording import h5views
 from device.recording.trialfile import FORMAT_NAME, FORMAT_VERSION, STATUS_RECORDING, SubjectInfo

@@ -231,7 +231,7 @@ def test_torques_ranges_and_smoothing_toggle(qtbot, view, records, metrics):
 def test_the_robots_share_of_the_work_is_shown_live_and_equals_the_trials_metric(
         qtbot, records, metrics):
     """Fed in batches as the window feeds it, the running work equals the analysis's
-    (core.metrics.mechanical_work over the whole exercise), and the Torques tab shows the
+    (core.work.mechanical_work over the whole exercise), and the Torques tab shows the
     robot's share in %: where the therapist sees the robot give way during a trial."""
     live = TrialView(PARAMETERS, initial_capacity=256)
     for i in range(0, len(records), 37):

@@ -99,7 +99,7 @@ class TorquesTab(QWidget):
     def _draw_work(self, view: TrialView) -> None:
         robot, patient = view.work_J
         share = view.robot_work_share
-        # the share counts the help alone (core.metrics.MechanicalWork): its work is shown
+        # the share counts the help alone (core.work.MechanicalWork): its work is shown
         # beside the motors' so that the two are not read as one
         detail = (f"robot's help {format_number(view.help_J, 2)} J (motors "
                   f"{format_number(robot, 2)} J), patient {format_number(patient, 2)} J, "

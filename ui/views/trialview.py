@@ -27,8 +27,9 @@ from app.errors import AppError
 from app.pose.store import read_pose
 from app.trials.analysis import OWN_CHANNELS, robots_own_torque
 from app.trials.reader import TrialData
-from core.metrics import DEFAULT_TOLERANCE_RAD, mechanical_work, rmse_xy, work_shares
+from core.metrics import DEFAULT_TOLERANCE_RAD, rmse_xy
 from core.trial import TrialParameters
+from core.work import mechanical_work, work_shares
 from device.loop.pipeline import PERIOD_S, PHASE_EXERCISE
 from device.recording.record import RECORD_DTYPE
 from ui.views.pose import PoseView
@@ -39,7 +40,7 @@ VIEW_CHANNELS = (
     "force_angle", "assistance_active", "subject_angle_isb", "subject_torque", "state", "fault",
 )
 WORK_CHANNELS = ("torque_applied", *OWN_CHANNELS)
-"""The channels the work needs beside the view's (core.metrics.mechanical_work, the help's
+"""The channels the work needs beside the view's (core.work.mechanical_work, the help's
 with the robot's own torque, app.trials.analysis.robots_own_torque): summed as they
 arrive, not kept."""
 # Channels whose range over the exercise is kept as it arrives (force, ROM, torque ranges).
@@ -110,7 +111,7 @@ class TrialView:
         self._first_t = math.nan
         self._last_t = math.nan
         self._last_within = False
-        # who did the work so far (core.metrics.mechanical_work over every exercise step)
+        # who did the work so far (core.work.mechanical_work over every exercise step)
         self._robot_J = 0.0
         self._patient_J = 0.0
         self._help_J = 0.0  # NaN once a step had no robot's own torque (no parameters)
@@ -355,7 +356,7 @@ class TrialView:
     @property
     def robot_work_share(self) -> float:
         """The robot's help's share of the positive work so far (0–1), as the trial's
-        metric robot_work_share (core.metrics.MechanicalWork)."""
+        metric robot_work_share (core.work.MechanicalWork)."""
         robot, patient = self.work_J
         if math.isnan(robot):
             return math.nan

@@ -18,8 +18,8 @@ import orjson
 
 from app.errors import InvalidRecordError
 from core.errors import CoreError
-from core.metrics import drop_old_share
 from core.trial import TrialParameters
+from core.work import drop_old_share
 
 NAME_MAX_CHARS = 100
 TEXT_MAX_CHARS = 10_000

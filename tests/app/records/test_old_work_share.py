@@ -1,6 +1,6 @@
 """A record analysed before the robot's share of the work counted its help alone (no
 robot_help_work_J beside it) shows no share: that one also counted the motors' work on the
-robot's own friction and mass (core.metrics.drop_old_share). Its net works stand."""
+robot's own friction and mass (core.work.drop_old_share). Its net works stand."""
 
 import math
 

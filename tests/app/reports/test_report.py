@@ -549,7 +549,7 @@ def test_a_transparent_trial_s_motors_are_not_said_to_have_moved_the_handle(tmp_
     save(simulate(SHORT.replace(assist="transparent"), patient="healthy"), path)
     data = read_trial(path)
     assert data.metrics["robot_work_J"] > 0.0  # the motors did work: on the robot itself
-    # the share counts only the help (core.metrics.MechanicalWork): the transparent robot's is none
+    # the share counts only the help (core.work.MechanicalWork): the transparent robot's is none
     assert data.metrics["robot_work_share"] <= 0.01
     content = build_report(data)
     lines = {line.key: line for line in content.plain}

@@ -6,7 +6,7 @@ on the ideal plant, is what it always was, bit for bit.
 Work W over the exercise phase: the robot's Σ τ_applied · Δθ_R, the patient's Σ F · Δp
 at the handle, the help's Σ (τ_applied − τ_own) · Δθ_R (τ_own what carried the robot's own
 dynamics, core.control.own); the robot's share max(W_help, 0) / (max(W_help, 0) +
-max(W_patient, 0)) (core.metrics.MechanicalWork). bench/assistance.py prints the whole table."""
+max(W_patient, 0)) (core.work.MechanicalWork). bench/assistance.py prints the whole table."""
 
 import itertools
 import json

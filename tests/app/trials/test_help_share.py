@@ -1,4 +1,4 @@
-"""The robot's share of the work counts only its help (core.metrics.MechanicalWork,
+"""The robot's share of the work counts only its help (core.work.MechanicalWork,
 core.control.own): the motors' torque that carries the robot's own friction, stiffness
 and mass moves nothing of the patient. Measured in closed loop on the simulator's
 realistic plant, the patient kinds' means (no trial-to-trial variation)."""
