@@ -94,6 +94,8 @@ def format_metrics(metrics: TrialMetrics | dict, *, skip_missing: bool = True) -
         value = display_value(metrics, row)
         if skip_missing and not math.isfinite(value):
             continue
-        shown = f"{value:9.2f}" if math.isfinite(value) else "        –"
+        # a figure that rounds to zero reads 0.00, never "-0.00" (a help of −0.001 J is none)
+        shown = f"{value if round(value, 2) else 0.0:9.2f}" if math.isfinite(value) \
+            else "        –"
         lines.append(f"  {row.label:<34}{shown} {row.unit:<5} {row.meaning}".rstrip())
     return "\n".join(lines)
