@@ -30,7 +30,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 from app.records.registry import Trial
-from app.reports.metrics_table import ROWS, MetricRow
+from app.reports.metrics_table import ROWS, MetricRow, number_text
 from app.reports.plain_language import (
     change_sentence,
     distance_mm_shown,
@@ -318,11 +318,6 @@ class TableRow:
     value_text: str
     earlier_texts: tuple[str, ...]
     verdicts: tuple[str, ...]
-
-
-def number_text(value: float) -> str:
-    """A table figure: two decimals, like the terminal's table (app.reports.metrics_table)."""
-    return f"{value:.2f}" if math.isfinite(value) else "–"
 
 
 def metric_text(row: MetricRow, value_si: float) -> str:

@@ -88,14 +88,21 @@ def display_value(metrics: TrialMetrics | dict, row: MetricRow) -> float:
     return float(value) * row.scale
 
 
+def number_text(value: float) -> str:
+    """A table figure: two decimals, in the terminal's table and the report's; one that
+    rounds to zero reads 0.00, never "-0.00" (a help of −0.001 J is none, not a robot that
+    held the hand back)."""
+    if not math.isfinite(value):
+        return "–"
+    return f"{value if round(value, 2) else 0.0:.2f}"
+
+
 def format_metrics(metrics: TrialMetrics | dict, *, skip_missing: bool = True) -> str:
     lines = []
     for row in ROWS:
         value = display_value(metrics, row)
         if skip_missing and not math.isfinite(value):
             continue
-        # a figure that rounds to zero reads 0.00, never "-0.00" (a help of −0.001 J is none)
-        shown = f"{value if round(value, 2) else 0.0:9.2f}" if math.isfinite(value) \
-            else "        –"
+        shown = f"{number_text(value):>9}"
         lines.append(f"  {row.label:<34}{shown} {row.unit:<5} {row.meaning}".rstrip())
     return "\n".join(lines)

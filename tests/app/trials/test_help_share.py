@@ -93,3 +93,9 @@ def test_a_figure_that_rounds_to_zero_reads_0_00_not_minus_0_00():
     table = format_metrics({"robot_help_work_J": -0.001, "robot_work_J": -0.25})
     assert f"Robot's help{'':22}{'0.00':>9} J" in table
     assert "-0.25 J" in table  # a negative figure that is one stays negative
+    # the report's tables (app.reports.compare) show the same figure the same way
+    from app.reports.compare import metric_text
+    from app.reports.metrics_table import ROWS
+
+    help_row = next(r for r in ROWS if r.key == "robot_help_work_J")
+    assert metric_text(help_row, -0.001) == "0.00 J"
