@@ -120,7 +120,7 @@ class TrialActions:
         # Built while connected, the loop opens the simulator (or a robot of another
         # config) again, and its force sensor takes a new zero (device.loop.process)
         reopens = self.state == State.CONNECTED and (
-            backend.kind == "simulator" or backend != self.built_backend)
+            on_simulator(backend) or backend != self.built_backend)
         if model is None:
             self.bridge.build(params, backend)
         else:
@@ -320,7 +320,7 @@ class TrialActions:
         seed, or "a new seed each trial": not the first one drawn, each trial's own is in
         its file and its report), the hardware as the loop named it at Connect."""
         built = self.built_backend
-        if built is not None and built.kind == "simulator":
+        if on_simulator(built):
             return built.label
         return connected
 
