@@ -10,6 +10,14 @@ from core.assessment.protocol import protocol
 from device.loop.states import State
 from tests.ui.session import build_connect_start, click, open_window, register_patient
 
+WAIT_MS = 30_000
+"""A bound for a hang, never a measure of speed."""
+
+
+def read(qtbot, win) -> None:
+    """Wait for the tab's figures (read on the job thread) to be shown."""
+    qtbot.waitUntil(lambda: not win.assessment_reading(), timeout=WAIT_MS)
+
 
 @pytest.fixture
 def window(qtbot, tmp_path, monkeypatch):
@@ -24,6 +32,7 @@ def test_a_task_is_read_and_set_up_and_a_changed_field_makes_it_an_exercise(qtbo
     assert win.tabs.tabText(win.tabs.indexOf(tab)) == "Assessments"
     register_patient(qtbot, win)
     win.tabs.setCurrentWidget(tab)
+    read(qtbot, win)
     assert "has no visually guided reaching yet" in tab.results.toPlainText()
     tab.choose("circle")
     words = tab.protocol_text.toPlainText()
@@ -73,6 +82,7 @@ def test_a_task_runs_through_the_windows_buttons(qtbot, tmp_path, monkeypatch):
         assert data.metrics["circle_ratio_cw"] == pytest.approx(trial.metrics["circle_ratio_cw"])
         win.tabs.setCurrentWidget(win.parameters_tab)
         win.tabs.setCurrentWidget(tab)
+        read(qtbot, win)
         shown = tab.results.toPlainText()
         assert f"Patient {code}, session 1" in shown
         assert "No normative model in use" in shown or "Norms: " in shown
@@ -133,8 +143,10 @@ def test_the_strength_tasks_polar_plot_shows_its_figures_and_hides_for_other_tas
     register(window.registry, code, METRICS, task="strength", parameters=parameters)
     tab = window.assessments_tab
     window.tabs.setCurrentWidget(tab)
+    read(qtbot, window)
     assert tab.polar.isHidden()  # reaching: no polar plot
     tab.choose("strength")
+    read(qtbot, window)
     assert tab.polar.isVisible()
     assert "Peak force 0°: 10 N" in tab.results.toPlainText()  # the text stays
     theta = np.radians([0, 45, 90, 135, 180, 225, 270, 315, 360])
@@ -158,6 +170,8 @@ def test_the_strength_tasks_polar_plot_shows_its_figures_and_hides_for_other_tas
     assert item.getViewBox().xInverted()
     assert item.getViewBox().yInverted()
     tab.choose("position")
+    assert tab.polar.isHidden()  # at once: hidden while the figures are read
+    read(qtbot, window)
     assert tab.polar.isHidden()
     assert "has no position sense yet" in tab.results.toPlainText()
 

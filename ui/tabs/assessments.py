@@ -6,7 +6,9 @@ latest figures of the task as its report page (app.reports.assessment_page) with
 norms' source under them (the isometric strength task's polar plot beside them:
 ui.tabs.strength_polar), and the page saved as a PDF.
 
-Qt only: the window (ui.main_window) fills it from the registry and the norms in use.
+Qt only: the window (ui.window.assessments) fills it from the registry and the norms in use,
+read on its job thread: the figures say "Loading…" meanwhile, and Save as PDF waits for them
+(it saves the page shown).
 """
 
 from __future__ import annotations
@@ -31,6 +33,9 @@ from core.trial import THESIS_SUBJECT
 from ui import theme
 from ui.tabs.strength_polar import StrengthPolarPlot
 
+LOADING = "Loading…"
+SAVE_PDF = "Save as PDF…"
+
 
 class AssessmentsTab(QWidget):
     use_requested = Signal(str, int)
@@ -50,7 +55,8 @@ class AssessmentsTab(QWidget):
                                    "Connect and Start run it")
         self.use_button.clicked.connect(
             lambda: self.use_requested.emit(self.current_task(), self.trial.currentIndex()))
-        self.pdf_button = QPushButton("Save as PDF…")
+        self.pdf_button = QPushButton(SAVE_PDF)
+        self.pdf_button.setEnabled(False)  # until a page is shown
         self.pdf_button.clicked.connect(lambda: self.pdf_requested.emit(self.current_task()))
         top = QHBoxLayout()
         top.addWidget(QLabel("Task:"))
@@ -103,14 +109,23 @@ class AssessmentsTab(QWidget):
         self.protocol_text.setPlainText(protocol_words(task))
         self.task_changed.emit(task)
 
-    def show_results(self, lines: list[str], polar: StrengthPolar | None = None) -> None:
+    def show_results(self, lines: list[str], polar: StrengthPolar | None = None, *,
+                     page: bool = False) -> None:
         """The report page's lines (app.reports.assessment_page.page_text), or why none,
         and its polar plot beside them when it has one (the strength task's); hidden
-        otherwise."""
+        otherwise. `page`: the lines are a page, which Save as PDF then saves."""
         self.results.setPlainText("\n".join(lines))
         if polar is not None:
             self.polar.show_polar(polar)
         self.polar.setVisible(polar is not None)
+        self.pdf_button.setText(SAVE_PDF)
+        self.pdf_button.setEnabled(page)
+
+    def show_loading(self, what: str) -> None:
+        """The figures being read (`what`, in words): "Loading…" where they will be, and
+        Save as PDF waiting for them; the rest of the tab works meanwhile."""
+        self.show_results([f"{LOADING} {what}"])
+        self.pdf_button.setText(LOADING)
 
     def show_setup(self, text: str) -> None:
         """What the Parameters form holds now for the task, and what to press."""

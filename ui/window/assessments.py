@@ -1,6 +1,16 @@
 """The Assessments tab's part of the window (issue 31): a task's trial put in the Parameters
 form (so Build, Connect and Start run it as any trial), whether the form still holds it,
-and the patient's latest figures of the task as its report page, saved as a PDF."""
+and the patient's latest figures of the task as its report page, saved as a PDF.
+
+The page is read on the window's job thread (ui.jobs), when the tab is shown: it reads the
+registry (the patient's trials, the marks of invalid ones, the patient's record), the norms
+in use and, with norms, the trial's file. Read on the window's thread, on a shared registry
+whose network went silent each call waited the registry's bounded wait
+(app.records.registry.postgres.deadline), the window frozen meanwhile. The tab says
+"Loading…" until the answer and works otherwise; an answer is shown only if it is the last
+one asked, for the patient still chosen; a read that fails is said on the message line with
+its cause; the window closing does not wait for it. Save as PDF saves the page shown.
+"""
 
 from __future__ import annotations
 
@@ -10,7 +20,12 @@ from pathlib import Path
 from PySide6.QtWidgets import QFileDialog
 
 from app.errors import AppError
-from app.reports.assessment_page import page_text, patient_page, write_assessment_pdf
+from app.reports.assessment_page import (
+    AssessmentPage,
+    page_text,
+    patient_page,
+    write_assessment_pdf,
+)
 from core.assessment import TASK_TITLES
 from core.assessment.protocol import protocol
 from core.errors import CoreError
@@ -22,6 +37,11 @@ log = logging.getLogger("ui.main_window")
 
 class AssessmentControl:
     """The Assessments tab and its task set up in the form (a part of MainWindow)."""
+
+    _assessment_asked: object | None = None
+    """The read of the figures the tab waits for (`show_assessment`), None when none."""
+    _assessment_shown: tuple[str, str, AssessmentPage | None] | None = None
+    """(patient code, task, their page or None: no such trial) the tab shows, as read."""
 
     def _build_assessments_tab(self) -> AssessmentsTab:
         self.assessments_tab = AssessmentsTab()
@@ -62,37 +82,80 @@ class AssessmentControl:
         self.assessments_tab.show_setup(text)
 
     def show_assessment(self) -> None:
-        """The patient's latest figures of the tab's task (its report page)."""
-        task = self.assessments_tab.current_task()
+        """The patient's latest figures of the tab's task (its report page), read on the job
+        thread while the tab is shown (again each time it is shown)."""
+        tab = self.assessments_tab
+        task = tab.current_task()
+        self._assessment_asked = self._assessment_shown = None  # an answer coming is stale
         if self.patient is None:
-            self.assessments_tab.show_results(["No patient chosen: choose one on the "
-                                               "Registration tab."])
+            tab.show_results(["No patient chosen: choose one on the Registration tab."])
             return
-        try:
-            page = patient_page(self.registry, self.patient.code, task)
-        except AppError as exc:
-            self.assessments_tab.show_results([f"The figures cannot be shown: {exc}"])
+        if self.tabs.currentWidget() is not tab:
+            tab.show_results([])  # read when the tab is shown, not at every choice
             return
-        if page is None:
-            self.assessments_tab.show_results([f"{self.patient.code} has no "
-                                               f"{protocol(task).name} yet."])
-            return
-        self.assessments_tab.show_results(page_text(page), page.polar)
+        code, registry, name = self.patient.code, self.registry, protocol(task).name
+        asked = self._assessment_asked = object()
+        tab.show_loading(f"reading {code}'s {name} from the registry.")
+
+        def read() -> AssessmentPage | Exception | None:
+            try:
+                return patient_page(registry, code, task)
+            except Exception as exc:  # the registry gone, a damaged record: said, not raised
+                return exc
+
+        def answered(page: AssessmentPage | Exception | None) -> None:
+            if self.jobs.closed or self._assessment_asked is not asked:
+                return  # the window closed, or another task or patient asked for since
+            self._assessment_asked = None
+            choosing = self.registration_tab.choosing()
+            if choosing is not None and choosing.code != code:
+                # another patient chosen, their record still being read: theirs come next
+                tab.show_loading(f"{choosing.code}'s record is being read.")
+                return
+            if isinstance(page, Exception):
+                log.error("the %s of %s could not be read", name, code, exc_info=page)
+                tab.show_results([f"The figures cannot be shown: {page}"])
+                self._say(f"{code}'s {name} could not be read: {page}. Show the Assessments "
+                          "tab again to read it again.", problem=True)
+                return
+            self._assessment_shown = (code, task, page)
+            if page is None:
+                tab.show_results([f"{code} has no {name} yet."])
+                return
+            tab.show_results(page_text(page), page.polar, page=True)
+
+        self.jobs.run(read, answered)
+
+    def assessment_reading(self) -> bool:
+        """The tab waits for the figures it asked for."""
+        return self._assessment_asked is not None
+
+    def _close_assessment(self) -> bool:
+        """The window closes: the figures being read are not waited for (their answer is
+        dropped, the job thread ending after it). True when a read was waited for."""
+        asked, self._assessment_asked = self._assessment_asked, None
+        return asked is not None
 
     def save_assessment_pdf(self, task: str, path: str | Path | None = None) -> Path | None:
-        """The task's report page as a PDF at `path` (asked for when None)."""
+        """The task's report page the tab shows as a PDF at `path` (asked for when
+        None): the page as read, never read again here."""
         if self.patient is None:
             self._say("Choose a patient first.", problem=True)
             return None
-        page = patient_page(self.registry, self.patient.code, task)
+        code, name = self.patient.code, protocol(task).name
+        shown = self._assessment_shown
+        if shown is None or shown[:2] != (code, task):
+            self._say(f"{code}'s {name} is not shown yet: show it on the Assessments tab, "
+                      "then save it.", problem=True)
+            return None
+        page = shown[2]
         if page is None:
-            self._say(f"{self.patient.code} has no {protocol(task).name} to save.",
-                      problem=True)
+            self._say(f"{code} has no {name} to save.", problem=True)
             return None
         if path is None:
             folder = self.registry.data_dir.root
             path, _ = QFileDialog.getSaveFileName(
-                self, "Save the assessment", str(folder / f"{self.patient.code}_{task}.pdf"),
+                self, "Save the assessment", str(folder / f"{code}_{task}.pdf"),
                 "PDF (*.pdf)")
             if not path:
                 return None

@@ -83,6 +83,7 @@ class RememberedSettings:
         # the window frozen); what was begun is taken back on the job thread
         abandoned = self._close_registering()
         abandoned = self._close_plan_start() or abandoned
+        abandoned = self._close_assessment() or abandoned  # a page read: not waited for
         self.video.close_camera()
         self.close_patient_screen()
         self.bridge.close(self.closing_signal)

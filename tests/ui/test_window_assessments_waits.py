@@ -1,0 +1,141 @@
+"""The Assessments tab's figures read on the window's job thread (ui.window.assessments).
+On a shared registry whose network drops
+everything each read held the window for its bounded wait
+(app.records.registry.postgres.deadline). Here each registry call answers only once the
+test lets it (tests/ui/held.py): a window that waits for it on its own thread never returns
+to the test, and the call gives up after 30 s (a bound for a hang, never a measure of
+speed). Meanwhile the tab says "Loading…" and works otherwise; an answer for a patient no
+longer chosen is never shown; a registry gone is said with its cause; closing does not
+wait."""
+
+from __future__ import annotations
+
+import pytest
+
+from core.assessment.protocol import protocol
+from core.trial import THESIS_SUBJECT
+from tests.app.assessments.registered import register
+from tests.ui.held import BOUND_S, Held
+from tests.ui.session import open_window, register_patient
+from ui.tabs.assessments import LOADING
+
+pytestmark = pytest.mark.slow
+
+WAIT_MS = int(BOUND_S * 1000)
+"""A bound for a hang, never a measure of speed."""
+
+REACHING = THESIS_SUBJECT.replace(assist="transparent", shape="targets")
+
+
+def _read(qtbot, win) -> None:
+    qtbot.waitUntil(lambda: not win.assessment_reading(), timeout=WAIT_MS)
+
+
+def _shown_again(qtbot, win, held: Held) -> None:
+    """The tab shown again (its figures read again), the read held."""
+    win.tabs.setCurrentWidget(win.parameters_tab)
+    win.tabs.setCurrentWidget(win.assessments_tab)
+    qtbot.waitUntil(held.asked.is_set, timeout=WAIT_MS)
+    assert held.waited == [], "the window waited for the read on its own thread"
+
+
+def _loading(win) -> None:
+    tab = win.assessments_tab
+    assert tab.results.toPlainText().startswith(LOADING)
+    assert (tab.pdf_button.text(), tab.pdf_button.isEnabled()) == (LOADING, False)
+    assert tab.polar.isHidden()
+    # the rest of the tab works meanwhile
+    assert tab.task.isEnabled()
+    assert tab.use_button.isEnabled()
+
+
+def test_the_figures_are_read_off_the_window_and_another_patient_s_never_shown(
+        qtbot, tmp_path, monkeypatch):
+    win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
+    try:
+        register_patient(qtbot, win)
+        registry, tab = win.registry, win.assessments_tab
+        first = win.patient.code
+        other = registry.create_patient("Grace", "Hopper", body_mass_kg=60.0,
+                                        upper_arm_m=0.29, forearm_m=0.27,
+                                        shoulder_m=(-0.12, 0.73)).code
+        for code, seconds in ((first, 0.4), (other, 0.6)):
+            register(registry, code, {"vgr_reaction_time_s": seconds}, parameters=REACHING)
+        win.tabs.setCurrentWidget(tab)
+        _read(qtbot, win)
+        assert f"Patient {first}, session 1" in tab.results.toPlainText()
+        assert tab.pdf_button.isEnabled()
+        shown: list[str] = []
+        show = tab.show_results
+        monkeypatch.setattr(tab, "show_results", lambda lines, *a, **k: (
+            shown.append("\n".join(lines)), show(lines, *a, **k)))
+
+        held = Held(monkeypatch, registry, "trials_for_patient", code=first)
+        _shown_again(qtbot, win, held)
+        _loading(win)
+        assert win.save_assessment_pdf("reaching", tmp_path / "a.pdf") is None  # not yet
+        # another patient chosen while the first one's figures are read
+        win.registration_tab.choose(registry.patient(other))
+        held.release()
+        qtbot.waitUntil(lambda: f"Patient {other}, session 1" in tab.results.toPlainText(),
+                        timeout=WAIT_MS)
+        _read(qtbot, win)
+        assert held.waited == [True], "the window waited for the figures' read"
+        assert not [text for text in shown if f"Patient {first}" in text], \
+            "the first patient's figures were shown after another was chosen"
+        saved = win.save_assessment_pdf("reaching", tmp_path / "b.pdf")
+        assert saved is not None
+        assert saved.read_bytes().startswith(b"%PDF")
+    finally:
+        win.close()
+
+
+def test_closing_while_the_figures_are_read_does_not_wait(qtbot, tmp_path, monkeypatch):
+    win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
+    register_patient(qtbot, win)
+    code = win.patient.code
+    register(win.registry, code, {"vgr_reaction_time_s": 0.4}, parameters=REACHING)
+    held = Held(monkeypatch, win.registry, "trials_for_patient", code=code)
+    _shown_again(qtbot, win, held)
+    _loading(win)
+    win.close()
+    assert held.waited == [], "closing waited for the figures' read"
+    held.release()
+    win.jobs.shutdown(wait=True)  # the job thread ends after the read
+    assert held.waited == [True]
+
+
+def test_a_registry_gone_is_said_with_its_cause(qtbot, tmp_path, monkeypatch,
+                                                server_registries):
+    """The department's server unreachable (the network to it cut: tests/netcut.py) as the
+    tab reads the figures: the message line says whose figures could not be read and why,
+    and the tab says so where they would be."""
+    from app.records.datadir import DataDir
+    from app.records.registry import Registry
+    from tests.netcut import NetworkCut
+
+    url = server_registries.new()
+    network = NetworkCut(url.port)
+    registry = Registry(DataDir(tmp_path / "data", "test"), server=network.url(url))
+    win = open_window(qtbot, tmp_path, monkeypatch, start_device=False, registry=registry)
+    try:
+        register_patient(qtbot, win)
+        code, tab = win.patient.code, win.assessments_tab
+        win.tabs.setCurrentWidget(tab)
+        _read(qtbot, win)
+        assert "has no visually guided reaching yet" in tab.results.toPlainText()
+        network.cut()
+        win.tabs.setCurrentWidget(win.parameters_tab)
+        win.tabs.setCurrentWidget(tab)
+        _read(qtbot, win)
+        said = win.messages.last
+        assert said.problem
+        assert win.message.text().endswith(said.text)
+        assert said.text.startswith(f"{code}'s {protocol('reaching').name} could not be "
+                                    "read: cannot reach the registry's server "), said.text
+        assert tab.results.toPlainText().startswith("The figures cannot be shown: ")
+        assert not tab.pdf_button.isEnabled()
+    finally:
+        win.close()
+        network.cut()
+
