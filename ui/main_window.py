@@ -328,21 +328,42 @@ class MainWindow(AssessmentControl, PlanControl, TrialStart, AfterTrial, TrialAc
         tabs follow; their pending proposal and trials are read on the job thread (Start
         waits for them, as for the reads after a trial: ui.window.after_trial)."""
         self.patient = patient
-        code, registry = patient.code, self.registry
+        code = patient.code
         self._patient_folders(code)
         self.parameters_tab.apply_patient(patient)
         self.parameters_tab.show_proposal(None)  # a proposal belongs to its patient
         self.progress.set_patient(code)
-        self.replay.set_patient(code, [])
         self.show_assessment()
+        self.read_proposal_and_trials(code)
 
-        def show(read: tuple[Pending, list]) -> None:
-            if self.patient is not None and self.patient.code == code:
-                self._offer_pending_proposal(code, read[0])
-                self.replay.set_patient(code, read[1])
+    def read_proposal_and_trials(self, code: str) -> None:
+        """Patient `code`'s pending proposal and the Replay tab's list read on the job
+        thread (Start waits for them: ui.window.after_trial), shown once read if they are
+        still the patient chosen; the Replay list says "Loading…" meanwhile. A read that
+        fails is said with its cause."""
+        registry = self.registry
+        self.replay.show_loading(code)
 
-        self._read_after(lambda: (pending_offer(registry, code),
-                                  registry.trials_for_patient(code)), show)
+        def read() -> tuple[Pending, list] | Exception:
+            try:
+                return pending_offer(registry, code), registry.trials_for_patient(code)
+            except Exception as exc:  # the registry gone: said, the tabs as they were
+                return exc
+
+        def show(read: tuple[Pending, list] | Exception) -> None:
+            if self.jobs.closed or self.patient is None or self.patient.code != code:
+                return
+            if isinstance(read, Exception):
+                log.error("the proposal and trials of %s could not be read", code,
+                          exc_info=read)
+                self.replay.set_patient(code, [])
+                self._say(f"{code}'s proposal and trials could not be read: {read}. Choose "
+                          "the patient again to read them again.", problem=True)
+                return
+            self._offer_pending_proposal(code, read[0])
+            self.replay.set_patient(code, read[1])
+
+        self._read_after(read, show)
 
     def _patient_folders(self, code: str) -> None:
         """Every file dialog starts in the patient's folder of the data folder (private,
@@ -357,14 +378,12 @@ class MainWindow(AssessmentControl, PlanControl, TrialStart, AfterTrial, TrialAc
         self.replay.files_folder = self.angles.files_folder = str(trials)
         self.report.pdf_folder = str(reports)
 
-    def _offer_pending_proposal(self, code: str, offer: Pending | None = None) -> None:
+    def _offer_pending_proposal(self, code: str, offer: Pending) -> None:
         """The patient's last proposal the registry still holds as pending (made after a
         trial, not yet decided by the next one's start): offered again after a restart.
-        `offer`: as read on the job thread (ui.window.after_trial), else read here."""
+        `offer`: as read on the job thread (ui.window.after_trial)."""
         from app.trials.progression import Proposal
 
-        if offer is None:
-            offer = pending_offer(self.registry, code)
         self.parameters_tab.show_proposal(
             None if offer.proposal is None else Proposal.from_dict(offer.proposal),
             after=offer.after)

@@ -1,5 +1,6 @@
-"""The Assessments tab's figures read on the window's job thread (ui.window.assessments).
-On a shared registry whose network drops
+"""The Assessments tab's figures, and the proposal and Replay list read again after an
+offline station's sync, read on the window's job thread (ui.window.assessments,
+ui.main_window.read_proposal_and_trials). On a shared registry whose network drops
 everything each read held the window for its bounded wait
 (app.records.registry.postgres.deadline). Here each registry call answers only once the
 test lets it (tests/ui/held.py): a window that waits for it on its own thread never returns
@@ -139,3 +140,46 @@ def test_a_registry_gone_is_said_with_its_cause(qtbot, tmp_path, monkeypatch,
         win.close()
         network.cut()
 
+
+def test_after_a_sync_the_proposal_and_replay_list_are_read_off_the_window(
+        qtbot, tmp_path, monkeypatch, server_registries):
+    """An offline station's trial sent to the server as the network returns: the patient's
+    proposal and Replay list are read again (the trial has the server's id now) on the job
+    thread, the list saying "Loading…" and Start waiting meanwhile."""
+    from app.records.datadir import DataDir
+    from app.records.station import StationRegistry
+    from tests.netcut import NetworkCut
+
+    url = server_registries.new()
+    network = NetworkCut(url.port)
+    station = StationRegistry(DataDir(tmp_path / "data", "test"), network.url(url),
+                              station="robot-7")
+    win = open_window(qtbot, tmp_path, monkeypatch, start_device=False, registry=station)
+    try:
+        register_patient(qtbot, win)
+        code = win.patient.code
+        qtbot.waitUntil(lambda: win.reading_after == 0, timeout=WAIT_MS)
+        network.cut()
+        register(station, code, {"vgr_reaction_time_s": 0.4}, parameters=REACHING)
+        assert station.offline
+        network.restore()
+        held = Held(monkeypatch, station, "pending_proposal", code=code)
+        win.check_station()  # the timer's tick, at once: the sync, then the reads
+        qtbot.waitUntil(held.asked.is_set, timeout=WAIT_MS)
+        assert held.waited == [], "the window read the proposal on its own thread"
+        assert not station.offline
+        assert win.replay.list_heading.text() == f"Trials of {code}: {LOADING}"
+        assert win.replay.trials.count() == 0  # the offline id is no longer the trial's
+        assert win.reading_after == 1  # Start waits for it
+        held.release()
+        qtbot.waitUntil(lambda: win.reading_after == 0, timeout=WAIT_MS)
+        assert held.waited == [True], "the window waited for the reads after the sync"
+        (trial,) = station.trials_for_patient(code)
+        assert win.replay.list_heading.text() == f"Trials of {code}"
+        assert [win.replay.trials.item(i).data(0x0100) for i in
+                range(win.replay.trials.count())] == [trial.id]
+        assert trial.status == "complete"
+    finally:
+        win.closing_by_signal = True
+        win.close()
+        network.cut()

@@ -210,6 +210,14 @@ class ReplayTab(QWidget):
         if self.trials.count():
             self.trials.setCurrentRow(0)
 
+    def show_loading(self, code: str) -> None:
+        """Patient `code`'s trials being read (on the window's job thread): the list
+        empty meanwhile (an id it held may no longer be the trial's: a station's sync
+        gives its trials the server's), its heading saying "Loading…"."""
+        self._code = code
+        self.trials.clear()
+        self.list_heading.setText(f"Trials of {code}: Loading…")
+
     def open_file(self, path: str | Path) -> None:
         """Load a trial file off the GUI thread; view_loaded or load_failed follows."""
         path = Path(path)

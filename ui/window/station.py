@@ -6,8 +6,9 @@ The status bar says where the records go now ("Shared registry unreachable: reco
 this station"), the event line says when that begins and ends, and every few seconds, while
 no trial runs, the window asks the station to send what it recorded (on the job thread, after
 any trial still being finished: a sync never comes between a trial's end and its proposal).
-After a sync the patient's progress and proposal are read again: the trials recorded offline
-have their server's ids now.
+After a sync the patient's progress, proposal and Replay list are read again, off the window's
+thread (on a slow network each read held the window): the trials recorded offline have their
+server's ids now.
 """
 
 from __future__ import annotations
@@ -141,6 +142,5 @@ class StationStatus:
         self._show_reach(False)
         if self.patient is not None:  # what the tabs show now has the server's ids
             code = self.patient.code
-            self.progress.set_patient(code)
-            self.replay.set_patient(code)
-            self._offer_pending_proposal(code)
+            self.progress.set_patient(code)  # read on the tab's own threads
+            self.read_proposal_and_trials(code)  # on the job thread: never the window's
