@@ -405,7 +405,9 @@ class WindowMachine(PlanAndTaskRules, RuleBasedStateMachine):
             return
         win = self.win
         if win.banner.isVisible() or win.state == State.FAULTED:
-            self.clear_fault()
+            self.clear_fault()  # the loop is asked once a tick has seen the release
+            self._wait(lambda: win.state != State.FAULTED and not win.banner.isVisible())
+            self._settle()
         tab = win.registration_tab
         self._wait(lambda: not tab.waiting())
         if tab.registration() is None:  # numbers typed that Confirm refuses: chosen
