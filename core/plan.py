@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.assessment.protocol import without_task
 from core.errors import ParameterError, as_number, check_range, check_whole
 from core.trajectory import SHAPES
 from core.trial import (
@@ -231,16 +232,19 @@ class Block:
 
     def parameters(self, base: TrialParameters) -> TrialParameters:
         """The trial of one round: the patient's setup `base` (body, shoulder, centre,
-        controller) with this block's exercise, laps, pace, mode, level and tolerance."""
+        controller) with this block's exercise, laps, pace, mode, level, tolerance and
+        game (none: a plain exercise, whatever game the form held). A task's trial set up
+        in the form is not a setup: its protocol's fields are an exercise's again
+        (core.assessment.protocol.without_task)."""
         changes = {"shape": self.shape, "repetitions": self.laps,
                    "duration_s": self.duration_s, "assist": self.assist,
                    "assistance_level": self.assistance_level,
-                   "tolerance_rad": self.tolerance_rad}
+                   "tolerance_rad": self.tolerance_rad, "game": self.game}
         if self.radius_m is not None:
             changes["radius_m"] = self.radius_m
-        if self.game:
-            changes["game"] = self.game
-        return base.replace(**changes)
+        if not self.game:  # the form's game's own settings go with it
+            changes["staircase"] = changes["neglect_side"] = ""
+        return without_task(base).replace(**changes)
 
     def planned_movements(self, n_targets: int = 8) -> int:
         return self.rounds * self.laps * movements_per_lap(self.shape, n_targets)

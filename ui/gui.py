@@ -24,6 +24,7 @@ def run_gui(font_scale: float | None = None, lsl_outlet: bool = False) -> int:
     from device.lsl.library import LIBLSL_LOG, log_liblsl_into
     from device.stopsignals import STOP_SIGNALS
     from ui import theme
+    from ui.collector import WindowThreadCollector
     from ui.main_window import MainWindow
 
     settings = load_settings()
@@ -34,6 +35,8 @@ def run_gui(font_scale: float | None = None, lsl_outlet: bool = False) -> int:
     app = QApplication.instance() or QApplication(sys.argv[:1])
     app.setApplicationName("Rehabilitation robot console")
     theme.apply_theme(app, font_scale or 1.0)
+    collector = WindowThreadCollector(app)  # no cyclic collection off this thread
+    collector.start()
     bridge = None
     if lsl_outlet:
         from device.lsl.outlet import RobotStateOutlet

@@ -291,3 +291,22 @@ def protocol(task: object) -> Protocol:
         raise ParameterError("task", task, "one of " + ", ".join(TASKS),
                              "the assessment battery's tasks")
     return PROTOCOLS[task]  # type: ignore[index]
+
+
+def without_task(parameters: TrialParameters) -> TrialParameters:
+    """`parameters` as an exercise: when they hold an assessment task's trial (the form
+    after "Set up this trial"), every field its protocol set (`Protocol.parameters`) goes
+    back to an exercise's default, the patient's body, shoulder, side and table centre
+    kept. A session plan's round is built on the form (core.plan.Block.parameters): on a
+    task's trial it ran the block as the task (the strength task's transparent mode
+    refused the block's as-needed one, and the plan ended at its first Build) or with the
+    task's holding controller."""
+    if not parameters.assessment:
+        return parameters
+    task = protocol(parameters.assessment)
+    exercise = TrialParameters()
+    names = ["shape", "radius_m", "n_targets", "duration_s", "repetitions", "timing",
+             "clockwise", "assist", "assistance_level", "assessment"]
+    if task.controller or task.gains:
+        names += ["controller", "gains", "learned_model", "learned_model_sha256"]
+    return parameters.replace(**{name: getattr(exercise, name) for name in names})

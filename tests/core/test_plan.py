@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
+from core.assessment.protocol import PROTOCOLS
 from core.errors import ParameterError
 from core.plan import (
     Block,
@@ -121,6 +122,30 @@ def test_a_block_says_the_level_its_trials_run_at(block):
         assert block.assistance_level == 0.0
     changed = Block.from_dict({**block.to_dict(), "assistance_level": 0.6})
     assert changed.assistance_level == (0.0 if block.assist == "transparent" else 0.6)
+
+@settings(max_examples=40, deadline=None)
+@given(blocks, st.sampled_from(sorted(PROTOCOLS)), st.integers(0, 1))
+def test_a_task_set_up_in_the_form_is_not_a_block_s_setup(block, task, index):
+    """The form after an assessment task's "Set up this trial" is the task's trial: a
+    plan's round built on it ran as the task (the strength task's transparent mode
+    refused an as-needed block, and the plan ended at its first Build) or with the
+    task's holding controller. Its round is the block on the patient's setup alone."""
+    patient = THESIS_SUBJECT.replace(body_mass_kg=70.0, centre_m=(-0.28, 0.32),
+                                     side="left", shoulder_m=(-0.40, 0.70))
+    protocol = PROTOCOLS[task]
+    set_up = protocol.parameters(patient, min(index, protocol.trial_count - 1))
+    assert set_up.assessment == task
+    round_ = block.parameters(set_up)
+    assert round_ == block.parameters(patient)
+    assert round_.assessment == ""
+    assert round_.game == block.game
+
+
+def test_a_block_without_a_game_is_no_game_whatever_the_form_played():
+    played = THESIS_SUBJECT.replace(game="reach", shape="targets")
+    block = Block(shape="circle", repetitions=1, duration_s=4.0)
+    assert block.parameters(played).game == ""
+
 
 def reference(params, fraction=1.0, period_s=0.002):
     """The desired positions of a trial's exercise, its first `fraction`."""

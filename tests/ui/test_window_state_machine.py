@@ -168,6 +168,10 @@ class LateRegistry(Registry):
     def _late(self, reads: bool) -> None:
         gate = self.gate
         if gate is not None and reads == self.reads_held:
+            # asked on the window's own thread, a late answer freezes the window (and
+            # the loop, its heartbeat lost, latches a fault): never wait there
+            assert threading.current_thread() is not threading.main_thread(), (
+                "the window asked the registry on its own thread while it answered late")
             gate.wait(WAIT_MS / 1000)  # a bound for a test that failed meanwhile
 
     def suggest_registration(self, *args, **kwargs):
@@ -384,9 +388,49 @@ class WindowMachine(PlanAndTaskRules, RuleBasedStateMachine):
                 if self.running is not None:
                     self._wait(lambda: self.win.state not in (State.RUNNING, State.STOPPING))
                 self._check_finished(wait=True)
+                self._a_last_trial()
         finally:
             self._close()
             shutil.rmtree(self.folder, ignore_errors=True)
+
+    def _a_last_trial(self) -> None:
+        """After whatever the steps did, the therapist can still run a trial, and its
+        records agree with the form: the fault cleared, the patient confirmed, a shape
+        within reach, then Build, Connect and Start as usual. Every example so ends by
+        checking a trial (the rules alone drew none in some runs of twelve examples: an
+        e-stop in the first steps, Start never green after it, or a shape out of the
+        other patient's reach), and a window that steps leave unable to run one fails
+        here."""
+        if "start" not in CHECKS:
+            return
+        win = self.win
+        if win.banner.isVisible() or win.state == State.FAULTED:
+            self.clear_fault()  # the loop is asked once a tick has seen the release
+            self._wait(lambda: win.state != State.FAULTED and not win.banner.isVisible())
+            self._settle()
+        tab = win.registration_tab
+        self._wait(lambda: not tab.waiting())
+        if tab.registration() is None:  # numbers typed that Confirm refuses: chosen
+            tab.choose(self.patient)     # again, the registry's next numbers are filled in
+            self._wait(lambda: not tab.waiting())
+            self.confirm()
+            self._wait(lambda: tab.registration() is not None)
+        p = win.parameters_tab
+        if p.shape.isEnabled():  # the smallest, slowest circle: within both patients'
+            p.shape.setCurrentIndex(p.shape.findData("circle"))  # reach and the speed limit
+            p.radius.setValue(min(FIELDS["radius"]))
+            p.duration.setValue(max(FIELDS["duration"]))
+            p.refresh()
+            self._settle()
+        before = len(self.started)
+        self.run_a_trial_as_usual()
+        assert len(self.started) > before, (
+            f"after these steps the window runs no trial: {sorted(enabled(win))} green "
+            f"in state {win.state.label}; Build says {win.robot.buttons['build'].toolTip()!r}"
+            f", Start {win.robot.buttons['start'].toolTip()!r}; the robot bar "
+            f"{win.robot.why.toolTip()!r}; last message {win.message.text()!r}")
+        _count("last trials")
+        self.wait_for_the_trial_to_end()
 
     def _wait(self, condition, timeout: int = WAIT_MS) -> None:
         self.qtbot.waitUntil(condition, timeout=timeout)
@@ -668,6 +712,14 @@ class WindowMachine(PlanAndTaskRules, RuleBasedStateMachine):
         run = TrialRun(begun, form[0], form[1].patient_kind, shown)
         self.unchecked.append(run)
         self.started.append(run)
+        if meanwhile in ("nothing", "start again", "build") and win.trial_id is None \
+                and win.state == State.FAULTED:
+            # the host stalled the window past the heartbeat's limit while the registry
+            # answered: the loop latched the fault and refused the Start, whose
+            # registration is taken back (as a Start pressed in a fault would be)
+            self._wait(lambda: self._withdrawn(run))
+            _count("starts taken back after a fault latched while registering")
+            return
         if meanwhile in ("nothing", "start again", "build"):
             assert win.trial_id == begun, f"registered, not run ({meanwhile} meanwhile)"
             self.running = run
