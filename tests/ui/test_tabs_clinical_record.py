@@ -116,6 +116,46 @@ def test_a_therapist_keeps_the_clinical_record_from_the_window(qtbot, tab, regis
     assert len(registry.notes(patient.code)) == 2
 
 
+def test_a_scale_before_the_first_trial_opens_the_session_and_is_said_on_the_message_line(
+        qtbot, tab, registry):
+    """The Fugl-Meyer at the start of a session, before the robot's first trial: it was
+    refused ("a session begins with its first trial") below the fold of the tab, and the
+    window's message line said nothing. Now it opens the session the next trial goes on
+    in; a refusal (a typo in the session) is said on the message line too (`said`)."""
+    fill_new_patient(qtbot, tab, "Ada", "Lovelace")
+    with qtbot.waitSignal(tab.patient_selected) as chosen:
+        click(qtbot, tab.create_button)
+    code = chosen.args[0].code
+    record = tab.clinical
+    qtbot.waitUntil(lambda: record.isEnabled(), timeout=60000)
+    assert (tab.session.value(), record.session.value()) == (1, 1)
+    assert tab.session_note.text() == "a new session"
+    type_into(qtbot, record.by, "K. Lee")
+    record.scale.setCurrentIndex(record.scale.findData("fugl_meyer"))
+    type_into(qtbot, record.scores, "30")
+    said = []
+    tab.said.connect(lambda text, problem: said.append((text, problem)))
+    press(qtbot, record, record.record_scale_button)
+    assert said == [("Clinical record: Fugl-Meyer UE motor 30 kept for session 1.", False)]
+    assert [s.number for s in registry.sessions(code)] == [1]
+    # the Registration's line: the session goes on (read on the job thread)
+    qtbot.waitUntil(lambda: tab.session_note.text().startswith("continues the session of"),
+                    timeout=60000)
+    assert tab.session_note.text().endswith("(0 trials so far)")
+    begun = registry.begin_trial(code, THESIS_SUBJECT, backend="simulator",
+                                 session_number=tab.session.value())
+    assert (begun.session_number, begun.trial_number) == (1, 1)
+
+    record.session.setValue(9)
+    type_into(qtbot, record.scores, "31")
+    press(qtbot, record, record.record_scale_button)
+    refusal = (f"patient {code} has no session 9; give one of their sessions (1) or 2, "
+               "which opens the next")
+    assert said[-1] == (f"Clinical record: {refusal}", True)
+    assert record.outcome.text() == f"{theme.PROBLEM_SIGN} {refusal}"
+    assert len(registry.scale_entries(code)) == 1
+
+
 def test_the_trials_run_since_the_patient_was_chosen_can_be_marked(qtbot, tab, registry):
     """Found trying the window: the record's trial list was filled when the patient was
     chosen, so the three trials run after it could not be marked ("session 1 has no

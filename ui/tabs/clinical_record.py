@@ -49,9 +49,13 @@ SCORE_HINT = {
 
 
 class ClinicalRecord(QGroupBox):
-    """Signals: recorded(str): what was kept, in words (after any of the four)."""
+    """Signals: recorded(str): what was kept, in words (after any of the four);
+    said(str, bool): that, or the registry's refusal (problem True), for the window's
+    message line: the outcome line under the record is below the fold of the Registration
+    tab on a laptop, and a refused scale was said nowhere the therapist looked."""
 
     recorded = Signal(str)
+    said = Signal(str, bool)
 
     def __init__(self, registry: RecordStore | None = None, parent=None, *,
                  jobs: Jobs | None = None) -> None:
@@ -300,15 +304,16 @@ class ClinicalRecord(QGroupBox):
                 return  # another patient shown since
             self._saving = None
             self._wait_buttons(None)
-            if isinstance(answer, RegistryError):
-                self.outcome.setText(f"{theme.PROBLEM_SIGN} {answer}")
-                return
             if isinstance(answer, Exception):
-                self.outcome.setText(f"{theme.PROBLEM_SIGN} Not kept: {answer}")
+                refusal = (str(answer) if isinstance(answer, RegistryError)
+                           else f"Not kept: {answer}")
+                self.outcome.setText(f"{theme.PROBLEM_SIGN} {refusal}")
+                self.said.emit(f"Clinical record: {refusal}", True)
                 return
             said = kept(answer)
             self.outcome.setText(said)
             self.recorded.emit(said)
+            self.said.emit(f"Clinical record: {said}", False)
 
         self.outcome.setText("")
         self._wait_buttons(button)

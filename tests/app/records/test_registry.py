@@ -470,6 +470,76 @@ def test_two_processes_numbering_at_once_take_distinct_numbers(tmp_path, spawn,
     assert [t.number for t in registry.trials(code, 1)] == list(range(1, 101))
 
 
+def _open_sessions(folder: str, server: str | None, code: str, record: str, ready, go,
+                   results) -> None:
+    """25 times: the patient's next session number read, then a scale (`record` "scale")
+    or a trial recorded in it, as a therapist types the number shown a moment before."""
+    registry = Registry(DataDir(Path(folder)), server=server and sa.make_url(server))
+    ready.put(os.getpid())
+    go.wait(CHILD_TIMEOUT_S)
+    numbers = []
+    try:
+        for i in range(25):
+            number = registry.next_session_number(code)
+            if record == "scale":
+                numbers.append(registry.record_scale(code, number, "pain", total=i % 11,
+                                                     rater="K. Lee").session_number)
+            else:
+                numbers.append(registry.begin_trial(code, TrialParameters(),
+                                                    backend="simulator",
+                                                    session_number=number).session_number)
+    except Exception as exc:  # reported to the test rather than lost in the child
+        results.put(f"{type(exc).__name__}: {exc}")
+        raise
+    results.put((record, numbers))
+
+
+def test_a_scale_and_a_trial_opening_sessions_at_once_share_them_without_gaps(
+        tmp_path, spawn, open_registry):
+    """A station recording the Fugl-Meyer that opens a session while another starts the
+    session's first trial: one session, numbered once (the scale's number is allocated
+    where the trial's is, the patient's row locked), on both engines."""
+    data = DataDir(tmp_path / "data")
+    registry = open_registry(data)
+    code = registry.create_patient("Two", "Stations").code
+    server = (registry.server.render_as_string(hide_password=False)
+              if registry.server is not None else None)
+    ready, results, go = spawn.Queue(), spawn.Queue(), spawn.Event()
+    workers = [spawn.Process(target=_open_sessions,
+                             args=(str(data.root), server, code, record, ready, go, results),
+                             name=f"station-{record}") for record in ("scale", "trial")]
+    for worker in workers:
+        worker.start()
+    try:
+        for _ in workers:
+            ready.get(timeout=CHILD_TIMEOUT_S)
+        go.set()
+        batches = [results.get(timeout=CHILD_TIMEOUT_S) for _ in workers]
+    finally:
+        for worker in workers:
+            worker.join(CHILD_TIMEOUT_S)
+            if worker.is_alive():
+                worker.kill()
+                worker.join()
+        for q in (ready, results):
+            q.close()
+            q.join_thread()
+    assert [batch for batch in batches if isinstance(batch, str)] == []
+    assert [w.exitcode for w in workers] == [0, 0]
+
+    registry = open_registry(data)
+    sessions = registry.sessions(code)
+    assert [s.number for s in sessions] == list(range(1, len(sessions) + 1))  # no gap
+    assert sum(s.n_trials for s in sessions) == 25
+    entries = registry.scale_entries(code)
+    assert len(entries) == 25
+    said = dict(batches)
+    assert sorted(said["scale"]) == [e.session_number for e in entries]
+    trials = registry.trials_for_patient(code)
+    assert sorted(said["trial"]) == [t.session_number for t in trials]
+    assert registry.integrity_check() == []
+
+
 @pytest.mark.parametrize("content", [b"", b"\x00" * 4096, b"PK\x03\x04 a zip, not a registry"])
 def test_an_empty_or_foreign_registry_file_is_refused_and_kept_as_it_was(tmp_path, content):
     """A 0-byte registry used to be taken for a new one: every patient gone, every trial
