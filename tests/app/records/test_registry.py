@@ -430,18 +430,13 @@ def spawn(monkeypatch):
     return mp.get_context("spawn")
 
 
-def test_two_processes_numbering_at_once_take_distinct_numbers(tmp_path, spawn,
-                                                               open_registry):
-    """Two consoles on one data folder (SQLite), two stations on one server (PostgreSQL)."""
-    data = DataDir(tmp_path / "data")
-    registry = open_registry(data)
-    code = registry.create_patient("Two", "Consoles").code
-    server = (registry.server.render_as_string(hide_password=False)
-              if registry.server is not None else None)
+def _at_once(spawn, target, argses: list[tuple]) -> list:
+    """`target(*args, ready, go, results)` in a process of its own for each of `argses`,
+    let go together once all are ready; what each put in `results` (no errors: a child's
+    error is a string there, and fails the test)."""
     ready, results, go = spawn.Queue(), spawn.Queue(), spawn.Event()
-    workers = [spawn.Process(target=_begin_many,
-                             args=(str(data.root), server, code, ready, go, results),
-                             name=f"console-{i}") for i in range(2)]
+    workers = [spawn.Process(target=target, args=(*args, ready, go, results),
+                             name=f"console-{i}") for i, args in enumerate(argses)]
     for worker in workers:
         worker.start()
     try:
@@ -458,9 +453,20 @@ def test_two_processes_numbering_at_once_take_distinct_numbers(tmp_path, spawn,
         for q in (ready, results):
             q.close()
             q.join_thread()
-    errors = [batch for batch in batches if isinstance(batch, str)]
-    assert not errors
-    assert [w.exitcode for w in workers] == [0, 0]
+    assert [batch for batch in batches if isinstance(batch, str)] == []
+    assert [w.exitcode for w in workers] == [0] * len(workers)
+    return batches
+
+
+def test_two_processes_numbering_at_once_take_distinct_numbers(tmp_path, spawn,
+                                                               open_registry):
+    """Two consoles on one data folder (SQLite), two stations on one server (PostgreSQL)."""
+    data = DataDir(tmp_path / "data")
+    registry = open_registry(data)
+    code = registry.create_patient("Two", "Consoles").code
+    server = (registry.server.render_as_string(hide_password=False)
+              if registry.server is not None else None)
+    batches = _at_once(spawn, _begin_many, [(str(data.root), server, code)] * 2)
 
     numbers = sorted(n for batch in batches for n, _ in batch)
     assert numbers == list(range(1, 101))
@@ -504,28 +510,8 @@ def test_a_scale_and_a_trial_opening_sessions_at_once_share_them_without_gaps(
     code = registry.create_patient("Two", "Stations").code
     server = (registry.server.render_as_string(hide_password=False)
               if registry.server is not None else None)
-    ready, results, go = spawn.Queue(), spawn.Queue(), spawn.Event()
-    workers = [spawn.Process(target=_open_sessions,
-                             args=(str(data.root), server, code, record, ready, go, results),
-                             name=f"station-{record}") for record in ("scale", "trial")]
-    for worker in workers:
-        worker.start()
-    try:
-        for _ in workers:
-            ready.get(timeout=CHILD_TIMEOUT_S)
-        go.set()
-        batches = [results.get(timeout=CHILD_TIMEOUT_S) for _ in workers]
-    finally:
-        for worker in workers:
-            worker.join(CHILD_TIMEOUT_S)
-            if worker.is_alive():
-                worker.kill()
-                worker.join()
-        for q in (ready, results):
-            q.close()
-            q.join_thread()
-    assert [batch for batch in batches if isinstance(batch, str)] == []
-    assert [w.exitcode for w in workers] == [0, 0]
+    batches = _at_once(spawn, _open_sessions, [(str(data.root), server, code, record)
+                                               for record in ("scale", "trial")])
 
     registry = open_registry(data)
     sessions = registry.sessions(code)
