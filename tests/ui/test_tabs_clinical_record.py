@@ -99,15 +99,37 @@ def test_a_therapist_keeps_the_clinical_record_from_the_window(qtbot, tab, regis
     press(qtbot, record, record.valid_button)
     assert registry.invalid_trials(patient.code) == {}
 
+    # the Correct row in the Registration tab's names and units (it listed upper_arm_m
+    # and took metres where the tab shows cm); the audit keeps SI
+    fields = [record.field.itemText(i) for i in range(record.field.count())]
+    assert "Upper arm (cm)" in fields
+    assert "Shoulder (cm)" in fields
+    assert "Year of birth" in fields
+    assert not [text for text in fields if "_" in text]
     record.field.setCurrentIndex(record.field.findData("upper_arm_m"))
-    type_into(qtbot, record.value, "0.30")
+    assert record.value.placeholderText() == "in cm; none clears it"
+    type_into(qtbot, record.value, "0.30")  # metres, as it used to take
     type_into(qtbot, record.correct_reason, "measured again")
+    press(qtbot, record, record.correct_button)
+    assert "Upper arm 0.3 cm is out of range: give 15 to 50 cm" in record.outcome.text()
+    assert registry.corrections(patient.code) == []
+    type_into(qtbot, record.value, "30")
     with qtbot.waitSignal(tab.patient_selected) as corrected:
         press(qtbot, record, record.correct_button)
     assert corrected.args[0].upper_arm_m == pytest.approx(0.30)
     assert "upper arm 30.0 cm" in tab.measurements_label.text()
+    assert record.outcome.text() == ("Upper arm corrected: 31.0 cm → 30.0 cm (kept with why, "
+                                     "who and when).")
     (audit,) = registry.corrections(patient.code)
-    assert (audit.old_value, audit.new_value, audit.corrected_by) == (0.31, 0.3, "K. Lee")
+    assert (audit.field, audit.old_value, audit.new_value, audit.corrected_by) == (
+        "upper_arm_m", 0.31, 0.3, "K. Lee")
+    record.field.setCurrentIndex(record.field.findData("shoulder_m"))
+    type_into(qtbot, record.value, "-10, 70")
+    type_into(qtbot, record.correct_reason, "chair moved")
+    press(qtbot, record, record.correct_button)
+    assert registry.patient(patient.code).shoulder_m == pytest.approx((-0.10, 0.70))
+    assert record.outcome.text() == ("Shoulder corrected: (-12.0, 73.0) cm → (-10.0, 70.0) cm "
+                                     "(kept with why, who and when).")
 
     type_into(qtbot, record.by, "")
     type_into(qtbot, record.note, "no author")

@@ -30,9 +30,11 @@ from PySide6.QtWidgets import (
 
 from app.errors import RegistryError
 from app.records.registry import CORRECTABLE, Patient
+from app.records.registry.patients import CHOSEN
 from app.records.scales import SCALE_LABELS, SCALES
 from app.records.store import RecordStore
-from app.records.typed import typed_scores, typed_value
+from app.records.typed import FIELD_NAMES, shown_value, typed_scores, typed_shown_value
+from app.units import MEASUREMENT_UNITS
 from ui import theme
 from ui.fields import ComboBox, SpinBox
 from ui.jobs import Jobs
@@ -46,6 +48,12 @@ SCORE_HINT = {
     "pain": "0-10",
     "fatigue": "0-10",
 }
+
+VALUE_HINT = {"birth_year": "a year, e.g. 1961", "shoulder_m": "x,y in cm, e.g. -12,73",
+              **{name: " or ".join(words) for name, (words, _) in CHOSEN.items()},
+              **{name: f"in {unit}" for name, (unit, _) in MEASUREMENT_UNITS.items()
+                 if name != "shoulder_m"}}
+"""What the Correct row's value takes, per field (the units the Registration tab shows)."""
 
 
 class ClinicalRecord(QGroupBox):
@@ -115,11 +123,13 @@ class ClinicalRecord(QGroupBox):
         mark_row.addWidget(self.invalid_button)
         mark_row.addWidget(self.valid_button)
 
+        # the fields by the Registration tab's names, in its units (app.units: cm)
         self.field = ComboBox()
-        for name in CORRECTABLE:
-            self.field.addItem(name, name)
+        for name in sorted(CORRECTABLE, key=FIELD_NAMES.get):
+            unit = MEASUREMENT_UNITS.get(name, ("",))[0]
+            self.field.addItem(f"{FIELD_NAMES[name]}{f' ({unit})' if unit else ''}", name)
+        self.field.currentIndexChanged.connect(self._value_hint)
         self.value = QLineEdit()
-        self.value.setPlaceholderText("new value (SI: kg, m; shoulder X,Y; none)")
         self.value.setAccessibleName("Corrected value")
         self.correct_reason = QLineEdit()
         self.correct_reason.setPlaceholderText("why")
@@ -147,6 +157,7 @@ class ClinicalRecord(QGroupBox):
                          self.valid_button: self.valid_button.text(),
                          self.correct_button: self.correct_button.text()}
         self._hint()
+        self._value_hint()
         self.set_patient(None)
 
     # -- public -------------------------------------------------------------------
@@ -244,7 +255,7 @@ class ClinicalRecord(QGroupBox):
                                self.correct_reason.text())
 
         def save():
-            patient = registry.correct_patient(code, field, typed_value(field, text),
+            patient = registry.correct_patient(code, field, typed_shown_value(field, text),
                                                reason=reason, by=by)
             return patient, registry.corrections(code)[-1]
 
@@ -252,8 +263,8 @@ class ClinicalRecord(QGroupBox):
             self._patient, last = answer
             self._clear_if(self.value, text)
             self._clear_if(self.correct_reason, reason)
-            return (f"{field} corrected: {last.old_value!r} → {last.new_value!r} (kept with "
-                    "why, who and when).")
+            return (f"{FIELD_NAMES[field]} corrected: {shown_value(field, last.old_value)} → "
+                    f"{shown_value(field, last.new_value)} (kept with why, who and when).")
         self._act(self.correct_button, save, kept)
 
     def refresh_trials(self, read: tuple[str, int, list[tuple[str, int]]] | None = None
@@ -359,6 +370,10 @@ class ClinicalRecord(QGroupBox):
 
     def _hint(self) -> None:
         self.scores.setPlaceholderText(SCORE_HINT[self.scale.currentData()])
+
+    def _value_hint(self) -> None:
+        field = self.field.currentData()
+        self.value.setPlaceholderText(VALUE_HINT.get(field, "new value") + "; none clears it")
 
     def _fill_trials(self, items: list[tuple[str, int]] | None) -> None:
         """The session's finished trials as read (None: read on the job thread), the one
