@@ -107,7 +107,8 @@ def test_a_therapist_keeps_the_clinical_record_from_the_window(qtbot, tab, regis
     assert "Year of birth" in fields
     assert not [text for text in fields if "_" in text]
     record.field.setCurrentIndex(record.field.findData("upper_arm_m"))
-    assert record.value.placeholderText() == "in cm; none clears it"
+    assert record.value.placeholderText() == "in cm"
+    assert fields.index("Upper arm (cm)") < fields.index("Forearm (cm)")  # as the form
     type_into(qtbot, record.value, "0.30")  # metres, as it used to take
     type_into(qtbot, record.correct_reason, "measured again")
     press(qtbot, record, record.correct_button)

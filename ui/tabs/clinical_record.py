@@ -125,7 +125,7 @@ class ClinicalRecord(QGroupBox):
 
         # the fields by the Registration tab's names, in its units (app.units: cm)
         self.field = ComboBox()
-        for name in sorted(CORRECTABLE, key=FIELD_NAMES.get):
+        for name in (name for name in FIELD_NAMES if name in CORRECTABLE):  # its order
             unit = MEASUREMENT_UNITS.get(name, ("",))[0]
             self.field.addItem(f"{FIELD_NAMES[name]}{f' ({unit})' if unit else ''}", name)
         self.field.currentIndexChanged.connect(self._value_hint)
@@ -137,7 +137,7 @@ class ClinicalRecord(QGroupBox):
         self.correct_button.clicked.connect(self.correct)
         correct_row = QHBoxLayout()
         correct_row.addWidget(self.field)
-        correct_row.addWidget(self.value, 1)
+        correct_row.addWidget(self.value, 2)
         correct_row.addWidget(self.correct_reason, 1)
         correct_row.addWidget(self.correct_button)
 
@@ -372,8 +372,9 @@ class ClinicalRecord(QGroupBox):
         self.scores.setPlaceholderText(SCORE_HINT[self.scale.currentData()])
 
     def _value_hint(self) -> None:
-        field = self.field.currentData()
-        self.value.setPlaceholderText(VALUE_HINT.get(field, "new value") + "; none clears it")
+        hint = VALUE_HINT.get(self.field.currentData(), "the new value")
+        self.value.setPlaceholderText(hint)
+        self.value.setToolTip(f"{hint}; 'none' clears the field")
 
     def _fill_trials(self, items: list[tuple[str, int]] | None) -> None:
         """The session's finished trials as read (None: read on the job thread), the one
