@@ -263,3 +263,32 @@ def test_the_record_is_kept_off_the_windows_thread_and_says_only_what_was_kept(
     assert [n.text for n in registry.notes(ada.code)] == ["tired", "second"]
     assert registry.notes(grace.code) == []
     assert on_window_thread == []
+
+
+def test_the_windows_message_line_says_what_the_record_kept_or_refused(qtbot, tmp_path,
+                                                                        monkeypatch):
+    """The window's message line (above the tabs, always in view) said nothing of a scale
+    kept or refused: the outcome line is below the fold of the Registration tab."""
+    from tests.ui.session import open_window
+
+    win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
+    try:
+        tab, record = win.registration_tab, win.registration_tab.clinical
+        patient = win.registry.create_patient("Ada", "Lovelace")
+        win.tabs.setCurrentWidget(tab)
+        tab.choose(patient)
+        qtbot.waitUntil(lambda: record.isEnabled(), timeout=60000)
+        type_into(qtbot, record.by, "K. Lee")
+        record.scale.setCurrentIndex(record.scale.findData("pain"))
+        type_into(qtbot, record.scores, "3")
+        press(qtbot, record, record.record_scale_button)
+        assert win.message.text() == "Clinical record: Pain (NRS) 3 kept for session 1."
+        record.session.setValue(5)
+        type_into(qtbot, record.scores, "4")
+        press(qtbot, record, record.record_scale_button)
+        assert win.message.text() == (
+            f"{theme.PROBLEM_SIGN} Clinical record: patient {patient.code} has no session 5; "
+            "give one of their sessions (1) or 2, which opens the next")
+    finally:
+        win.closing_by_signal = True
+        win.close()
