@@ -31,6 +31,11 @@ MM_PER_M = 1000.0
 MM_S_PER_M_S = 1000.0
 """Speeds are shown in mm/s."""
 
+MEASUREMENT_UNITS = {"body_mass_kg": ("kg", 1.0), "upper_arm_m": ("cm", CM_PER_M),
+                     "forearm_m": ("cm", CM_PER_M), "shoulder_m": ("cm", CM_PER_M)}
+"""A patient's stored measurement (the registry's field, SI) → the unit the Registration tab
+shows and takes it in, and the factor from SI (its form, its Correct row)."""
+
 SCREEN = MessageUnits(length="cm", per_m=CM_PER_M, decimals=1,
                       speed="mm/s", per_m_s=MM_S_PER_M_S, speed_decimals=0)
 """The units of the trial check's refusals in the window (core.trial.check_trial)."""

@@ -289,6 +289,7 @@ class MainWindow(AssessmentControl, PlanControl, TrialStart, AfterTrial, TrialAc
         self.replay.cursor_moved.connect(self._on_cursor)
         self.tabs.currentChanged.connect(lambda _i: self._show_current())
         self.emg.said.connect(lambda text, problem: self._say(text, problem))
+        self.registration_tab.said.connect(lambda text, problem: self._say(text, problem))
         self.emg.mvc_recorded.connect(self._store_session_mvcs)
         # a model saved while the console runs appears when the Parameters tab is shown
         self.tabs.currentChanged.connect(self._tab_shown)

@@ -52,7 +52,9 @@ def add_clinical_commands(commands) -> None:
                     "4) for any of " + ", ".join(ASHWORTH_GROUPS) + ". Recording a scale "
                     "again for a session supersedes the earlier entry, which is kept.")
     add.add_argument("code", help="the patient's code")
-    add.add_argument("session", type=session_number, help="the session's number")
+    add.add_argument("session", type=session_number,
+                     help="the session's number; the patient's next one opens it (scales "
+                          "taken before the session's first trial)")
     add.add_argument("scale", choices=SCALES, help="which scale")
     add.add_argument("scores", nargs="+", metavar="SCORE",
                      help="the total, or KEY=VALUE scores")
@@ -72,7 +74,8 @@ def add_clinical_commands(commands) -> None:
                                            "of its trials (--trial). Notes are kept as "
                                            "written.")
     note.add_argument("code", help="the patient's code")
-    note.add_argument("session", type=session_number, help="the session's number")
+    note.add_argument("session", type=session_number,
+                      help="the session's number; the patient's next one opens it")
     note.add_argument("text", help="the note")
     note.add_argument("--trial", type=record_id, help="the trial's id (`rehab trials CODE`)")
     note.add_argument("--by", required=True, help=_BY_HELP)

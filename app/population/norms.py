@@ -11,7 +11,8 @@ learning, new seeds). The norms are fitted on session 1, as a study's controls a
 once; the retest gives each figure's and task score's ICC, SEM and MDC95
 (app.norms.retest). Everything is drawn from the population's seed, the fit's folds from
 seed 0: the same seed and size give the same model (every number; only the file's
-created_utc differs), whatever the number of workers.
+created_utc and the day its source says it was fitted differ), whatever the number of
+workers.
 
 A visit's trials run in memory (app.assessments.runner, `in_memory`): no trial file is
 written, the task figures are computed from the trials' whole arrays by the function a
@@ -20,6 +21,7 @@ trial file's figures come from. The figures are what the model keeps.
 
 from __future__ import annotations
 
+import datetime
 import math
 from dataclasses import dataclass
 
@@ -32,7 +34,7 @@ from app.norms.fitting import Controls, FitReport, fit_norms
 from app.norms.modelfile import norms_document, parse_norms
 from app.norms.retest import retest_reliability, with_mdc
 from app.population.pool import map_subjects
-from core.assessment import FIGURES, TASKS
+from core.assessment import FIGURES, TASK_TITLES, TASKS
 from core.errors import CoreError
 from core.trial import TrialParameters
 from device.sim.population import HANDEDNESS, Subject, draw_population
@@ -115,10 +117,21 @@ class SimulatedNorms:
     """Figure or task → who its test-retest table left out, and why (one line)."""
 
 
-def source_text(n: int, seed: int, tasks, refused: int) -> str:
-    return (f"simulated: {n} virtual healthy subjects of device.sim.population (seed {seed}; "
-            f"{refused} refused) through the battery ({', '.join(tasks)}) on the simulator's "
-            f"realistic plant, two sessions; app.population.norms")
+def source_text(n: int, seed: int, tasks, refused: int, day: datetime.date,
+                retest: bool = True) -> str:
+    """Where simulated norms come from, in words a clinician reads (their label adds
+    "simulated — for demonstration and tests only", app.norms.SIMULATED_LABEL): how many
+    virtual people, the seed that drew them, how many the battery could not test (a task
+    out of the arm's reach), the tasks by their titles, how often, and the day they were
+    fitted. It named the Python module that draws them ("… of device.sim.population")."""
+    titles = [TASK_TITLES[task].lower() for task in tasks]
+    listed = titles[0] if len(titles) == 1 else f"{', '.join(titles[:-1])} and {titles[-1]}"
+    left_out = f"{refused} of them left out, whom the battery could not test" if refused \
+        else "none left out"
+    return (f"{n} virtual healthy adults made by the console's simulator, not measured "
+            f"people (random seed {seed}; {left_out}), each tested "
+            f"{'twice' if retest else 'once'} in {listed} on a simulated robot; fitted "
+            f"{day.day} {day:%b %Y}")
 
 
 def build_simulated_norms(n: int, seed: int, *, workers: int = 2, tasks=TASKS,
@@ -146,7 +159,8 @@ def fit_simulated_norms(rows: list[dict], n: int, seed: int, *, tasks=TASKS,
                          f"of seed {seed} with {n} subjects does not have")
     refused = sum(1 for r in rows if r["refused"] and r["session"] == 1)
     fit = fit_norms(controls_of(rows, by_index, retest=False),
-                    source_text(n, seed, tasks, refused), simulated=True)
+                    source_text(n, seed, tasks, refused, datetime.datetime.now(datetime.UTC)
+                                .date(), retest), simulated=True)
     document, skipped, left_out = fit.document, {}, {}
     if retest:
         model = parse_norms(norms_document(document))

@@ -68,6 +68,22 @@ class AssessmentPage:
     the other tasks and for a strength trial without a direction measured."""
 
 
+def unnormed_notes(norms, figures: Sequence[tuple[str, str]]) -> list[str]:
+    """Why the norms score none of `figures` ((key, label) each) that they left out, one
+    note per reason, not one per figure, and without the norms' source (printed once
+    above the table: the session report repeated it, 300 characters, for each such
+    figure): 'no Z-score for Initial speed ratio, No reaction: every control has the same
+    value: no spread to norm'."""
+    unnormed: dict[str, list[str]] = {}  # why the norms left a figure out → its labels
+    for key, label in figures:
+        why = norms.left_out(key) if key not in norms.figures else ""
+        if why:
+            unnormed.setdefault(why, []).append(label)
+    return [f"no Z-score for {', '.join(labels[:2])}"
+            f"{f' and {len(labels) - 2} more' if len(labels) > 2 else ''}: {why}"
+            for why, labels in unnormed.items()]
+
+
 def assessment_page(task: str, metrics: Mapping[str, float], *, heading: str = "",
                     norms=None, person=None,
                     lines_n: Mapping[int, float] | None = None) -> AssessmentPage:
@@ -93,15 +109,9 @@ def assessment_page(task: str, metrics: Mapping[str, float], *, heading: str = "
         except NormsError as exc:
             unscorable, person = str(exc), None
     lines = []
-    unnormed: dict[str, list[str]] = {}  # why the norms left a figure out → its labels
-    for figure in task_figures(task):
-        value = metrics.get(figure.key)
-        if value is None:
-            continue
-        if norms is not None and figure.key not in norms.figures:
-            why = norms.left_out(figure.key)
-            if why:
-                unnormed.setdefault(why, []).append(figure.label)
+    given = [figure for figure in task_figures(task) if metrics.get(figure.key) is not None]
+    for figure in given:
+        value = metrics[figure.key]
         z = worse = None
         extrapolated = False
         if norms is not None and person is not None and figure.key in norms.figures:
@@ -114,10 +124,8 @@ def assessment_page(task: str, metrics: Mapping[str, float], *, heading: str = "
                 z, worse, extrapolated = scored.z, scored.worse_z, scored.extrapolated
         lines.append(FigureLine(figure.key, figure.label, figure_value(value, figure.unit),
                                 figure.better, z, worse, extrapolated))
-    for why, labels in unnormed.items():  # one note per reason, not one per figure
-        named = ", ".join(labels[:2]) + (f" and {len(labels) - 2} more" if len(labels) > 2
-                                         else "")
-        notes.append(f"no Z-score for {named}: {why}")
+    if norms is not None:
+        notes.extend(unnormed_notes(norms, [(f.key, f.label) for f in given]))
     task_score = "No task score without norms" if norms is None else "No task score"
     if unscorable:
         task_score = f"No task score: {unscorable}"

@@ -29,7 +29,7 @@ from app.records.scales import (
     SCALES,
 )
 from app.records.store import RecordStore
-from app.reports.assessment_page import figure_value
+from app.reports.assessment_page import figure_value, unnormed_notes
 from app.reports.pdf_file import write_pdf
 from app.reports.pdf_sheet import BOTTOM_IN, GREY, LEFT_IN, PAGE_IN, VERMILLION, Sheet, fit
 from app.reports.plain_language import SHAPE_NAMES
@@ -192,10 +192,12 @@ def _assessment(registry, patient, trial, norms) -> Assessment:
         shown = "–" if not math.isfinite(value) else figure_value(value, spec.unit)
         z = ""
         if who is not None and math.isfinite(value):
-            z, why = _z_text(norms, key, value, who)
+            z, why = _z_text(norms, key, value, who) if key in norms.figures else ("–", "")
             if why and why not in notes:
                 notes.append(why)
         rows.append(AssessmentRow(spec.label, shown, z))
+    if who is not None:  # the figures the norms left out: why, once per reason
+        notes.extend(unnormed_notes(norms, [(key, FIGURES[key].label) for key in keys]))
     score = unscorable
     if who is not None:
         from app.norms import NormsError, TaskNotPerformed

@@ -99,21 +99,84 @@ def test_a_therapist_keeps_the_clinical_record_from_the_window(qtbot, tab, regis
     press(qtbot, record, record.valid_button)
     assert registry.invalid_trials(patient.code) == {}
 
+    # the Correct row in the Registration tab's names and units (it listed upper_arm_m
+    # and took metres where the tab shows cm); the audit keeps SI
+    fields = [record.field.itemText(i) for i in range(record.field.count())]
+    assert "Upper arm (cm)" in fields
+    assert "Shoulder (cm)" in fields
+    assert "Year of birth" in fields
+    assert not [text for text in fields if "_" in text]
     record.field.setCurrentIndex(record.field.findData("upper_arm_m"))
-    type_into(qtbot, record.value, "0.30")
+    assert record.value.placeholderText() == "in cm"
+    assert fields.index("Upper arm (cm)") < fields.index("Forearm (cm)")  # as the form
+    type_into(qtbot, record.value, "0.30")  # metres, as it used to take
     type_into(qtbot, record.correct_reason, "measured again")
+    press(qtbot, record, record.correct_button)
+    assert "Upper arm 0.3 cm is out of range: give 15 to 50 cm" in record.outcome.text()
+    assert registry.corrections(patient.code) == []
+    type_into(qtbot, record.value, "30")
     with qtbot.waitSignal(tab.patient_selected) as corrected:
         press(qtbot, record, record.correct_button)
     assert corrected.args[0].upper_arm_m == pytest.approx(0.30)
     assert "upper arm 30.0 cm" in tab.measurements_label.text()
+    assert record.outcome.text() == ("Upper arm corrected: 31.0 cm → 30.0 cm (kept with why, "
+                                     "who and when).")
     (audit,) = registry.corrections(patient.code)
-    assert (audit.old_value, audit.new_value, audit.corrected_by) == (0.31, 0.3, "K. Lee")
+    assert (audit.field, audit.old_value, audit.new_value, audit.corrected_by) == (
+        "upper_arm_m", 0.31, 0.3, "K. Lee")
+    record.field.setCurrentIndex(record.field.findData("shoulder_m"))
+    type_into(qtbot, record.value, "-10, 70")
+    type_into(qtbot, record.correct_reason, "chair moved")
+    press(qtbot, record, record.correct_button)
+    assert registry.patient(patient.code).shoulder_m == pytest.approx((-0.10, 0.70))
+    assert record.outcome.text() == ("Shoulder corrected: (-12.0, 73.0) cm → (-10.0, 70.0) cm "
+                                     "(kept with why, who and when).")
 
     type_into(qtbot, record.by, "")
     type_into(qtbot, record.note, "no author")
     press(qtbot, record, record.note_button)
     assert "author: give the name" in record.outcome.text()
     assert len(registry.notes(patient.code)) == 2
+
+
+def test_a_scale_before_the_first_trial_opens_the_session_and_is_said_on_the_message_line(
+        qtbot, tab, registry):
+    """The Fugl-Meyer at the start of a session, before the robot's first trial: it was
+    refused ("a session begins with its first trial") below the fold of the tab, and the
+    window's message line said nothing. Now it opens the session the next trial goes on
+    in; a refusal (a typo in the session) is said on the message line too (`said`)."""
+    fill_new_patient(qtbot, tab, "Ada", "Lovelace")
+    with qtbot.waitSignal(tab.patient_selected) as chosen:
+        click(qtbot, tab.create_button)
+    code = chosen.args[0].code
+    record = tab.clinical
+    qtbot.waitUntil(lambda: record.isEnabled(), timeout=60000)
+    assert (tab.session.value(), record.session.value()) == (1, 1)
+    assert tab.session_note.text() == "a new session"
+    type_into(qtbot, record.by, "K. Lee")
+    record.scale.setCurrentIndex(record.scale.findData("fugl_meyer"))
+    type_into(qtbot, record.scores, "30")
+    said = []
+    tab.said.connect(lambda text, problem: said.append((text, problem)))
+    press(qtbot, record, record.record_scale_button)
+    assert said == [("Clinical record: Fugl-Meyer UE motor 30 kept for session 1.", False)]
+    assert [s.number for s in registry.sessions(code)] == [1]
+    # the Registration's line: the session goes on (read on the job thread)
+    qtbot.waitUntil(lambda: tab.session_note.text().startswith("continues the session of"),
+                    timeout=60000)
+    assert tab.session_note.text().endswith("(0 trials so far)")
+    begun = registry.begin_trial(code, THESIS_SUBJECT, backend="simulator",
+                                 session_number=tab.session.value())
+    assert (begun.session_number, begun.trial_number) == (1, 1)
+
+    record.session.setValue(9)
+    type_into(qtbot, record.scores, "31")
+    press(qtbot, record, record.record_scale_button)
+    refusal = (f"patient {code} has no session 9; give one of their sessions (1) or 2, "
+               "which opens the next")
+    assert said[-1] == (f"Clinical record: {refusal}", True)
+    assert record.outcome.text() == f"{theme.PROBLEM_SIGN} {refusal}"
+    assert len(registry.scale_entries(code)) == 1
 
 
 def test_the_trials_run_since_the_patient_was_chosen_can_be_marked(qtbot, tab, registry):
@@ -200,3 +263,32 @@ def test_the_record_is_kept_off_the_windows_thread_and_says_only_what_was_kept(
     assert [n.text for n in registry.notes(ada.code)] == ["tired", "second"]
     assert registry.notes(grace.code) == []
     assert on_window_thread == []
+
+
+def test_the_windows_message_line_says_what_the_record_kept_or_refused(qtbot, tmp_path,
+                                                                        monkeypatch):
+    """The window's message line (above the tabs, always in view) said nothing of a scale
+    kept or refused: the outcome line is below the fold of the Registration tab."""
+    from tests.ui.session import open_window
+
+    win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
+    try:
+        tab, record = win.registration_tab, win.registration_tab.clinical
+        patient = win.registry.create_patient("Ada", "Lovelace")
+        win.tabs.setCurrentWidget(tab)
+        tab.choose(patient)
+        qtbot.waitUntil(lambda: record.isEnabled(), timeout=60000)
+        type_into(qtbot, record.by, "K. Lee")
+        record.scale.setCurrentIndex(record.scale.findData("pain"))
+        type_into(qtbot, record.scores, "3")
+        press(qtbot, record, record.record_scale_button)
+        assert win.message.text() == "Clinical record: Pain (NRS) 3 kept for session 1."
+        record.session.setValue(5)
+        type_into(qtbot, record.scores, "4")
+        press(qtbot, record, record.record_scale_button)
+        assert win.message.text() == (
+            f"{theme.PROBLEM_SIGN} Clinical record: patient {patient.code} has no session 5; "
+            "give one of their sessions (1) or 2, which opens the next")
+    finally:
+        win.closing_by_signal = True
+        win.close()

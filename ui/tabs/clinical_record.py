@@ -30,9 +30,11 @@ from PySide6.QtWidgets import (
 
 from app.errors import RegistryError
 from app.records.registry import CORRECTABLE, Patient
+from app.records.registry.patients import CHOSEN
 from app.records.scales import SCALE_LABELS, SCALES
 from app.records.store import RecordStore
-from app.records.typed import typed_scores, typed_value
+from app.records.typed import FIELD_NAMES, shown_value, typed_scores, typed_shown_value
+from app.units import MEASUREMENT_UNITS
 from ui import theme
 from ui.fields import ComboBox, SpinBox
 from ui.jobs import Jobs
@@ -47,11 +49,21 @@ SCORE_HINT = {
     "fatigue": "0-10",
 }
 
+VALUE_HINT = {"birth_year": "a year, e.g. 1961", "shoulder_m": "x,y in cm, e.g. -12,73",
+              **{name: " or ".join(words) for name, (words, _) in CHOSEN.items()},
+              **{name: f"in {unit}" for name, (unit, _) in MEASUREMENT_UNITS.items()
+                 if name != "shoulder_m"}}
+"""What the Correct row's value takes, per field (the units the Registration tab shows)."""
+
 
 class ClinicalRecord(QGroupBox):
-    """Signals: recorded(str): what was kept, in words (after any of the four)."""
+    """Signals: recorded(str): what was kept, in words (after any of the four);
+    said(str, bool): that, or the registry's refusal (problem True), for the window's
+    message line: the outcome line under the record is below the fold of the Registration
+    tab on a laptop, and a refused scale was said nowhere the therapist looked."""
 
     recorded = Signal(str)
+    said = Signal(str, bool)
 
     def __init__(self, registry: RecordStore | None = None, parent=None, *,
                  jobs: Jobs | None = None) -> None:
@@ -111,11 +123,13 @@ class ClinicalRecord(QGroupBox):
         mark_row.addWidget(self.invalid_button)
         mark_row.addWidget(self.valid_button)
 
+        # the fields by the Registration tab's names, in its units (app.units: cm)
         self.field = ComboBox()
-        for name in CORRECTABLE:
-            self.field.addItem(name, name)
+        for name in (name for name in FIELD_NAMES if name in CORRECTABLE):  # its order
+            unit = MEASUREMENT_UNITS.get(name, ("",))[0]
+            self.field.addItem(f"{FIELD_NAMES[name]}{f' ({unit})' if unit else ''}", name)
+        self.field.currentIndexChanged.connect(self._value_hint)
         self.value = QLineEdit()
-        self.value.setPlaceholderText("new value (SI: kg, m; shoulder X,Y; none)")
         self.value.setAccessibleName("Corrected value")
         self.correct_reason = QLineEdit()
         self.correct_reason.setPlaceholderText("why")
@@ -123,7 +137,7 @@ class ClinicalRecord(QGroupBox):
         self.correct_button.clicked.connect(self.correct)
         correct_row = QHBoxLayout()
         correct_row.addWidget(self.field)
-        correct_row.addWidget(self.value, 1)
+        correct_row.addWidget(self.value, 2)
         correct_row.addWidget(self.correct_reason, 1)
         correct_row.addWidget(self.correct_button)
 
@@ -143,6 +157,7 @@ class ClinicalRecord(QGroupBox):
                          self.valid_button: self.valid_button.text(),
                          self.correct_button: self.correct_button.text()}
         self._hint()
+        self._value_hint()
         self.set_patient(None)
 
     # -- public -------------------------------------------------------------------
@@ -240,7 +255,7 @@ class ClinicalRecord(QGroupBox):
                                self.correct_reason.text())
 
         def save():
-            patient = registry.correct_patient(code, field, typed_value(field, text),
+            patient = registry.correct_patient(code, field, typed_shown_value(field, text),
                                                reason=reason, by=by)
             return patient, registry.corrections(code)[-1]
 
@@ -248,8 +263,8 @@ class ClinicalRecord(QGroupBox):
             self._patient, last = answer
             self._clear_if(self.value, text)
             self._clear_if(self.correct_reason, reason)
-            return (f"{field} corrected: {last.old_value!r} → {last.new_value!r} (kept with "
-                    "why, who and when).")
+            return (f"{FIELD_NAMES[field]} corrected: {shown_value(field, last.old_value)} → "
+                    f"{shown_value(field, last.new_value)} (kept with why, who and when).")
         self._act(self.correct_button, save, kept)
 
     def refresh_trials(self, read: tuple[str, int, list[tuple[str, int]]] | None = None
@@ -300,15 +315,16 @@ class ClinicalRecord(QGroupBox):
                 return  # another patient shown since
             self._saving = None
             self._wait_buttons(None)
-            if isinstance(answer, RegistryError):
-                self.outcome.setText(f"{theme.PROBLEM_SIGN} {answer}")
-                return
             if isinstance(answer, Exception):
-                self.outcome.setText(f"{theme.PROBLEM_SIGN} Not kept: {answer}")
+                refusal = (str(answer) if isinstance(answer, RegistryError)
+                           else f"Not kept: {answer}")
+                self.outcome.setText(f"{theme.PROBLEM_SIGN} {refusal}")
+                self.said.emit(f"Clinical record: {refusal}", True)
                 return
             said = kept(answer)
             self.outcome.setText(said)
             self.recorded.emit(said)
+            self.said.emit(f"Clinical record: {said}", False)
 
         self.outcome.setText("")
         self._wait_buttons(button)
@@ -354,6 +370,11 @@ class ClinicalRecord(QGroupBox):
 
     def _hint(self) -> None:
         self.scores.setPlaceholderText(SCORE_HINT[self.scale.currentData()])
+
+    def _value_hint(self) -> None:
+        hint = VALUE_HINT.get(self.field.currentData(), "the new value")
+        self.value.setPlaceholderText(hint)
+        self.value.setToolTip(f"{hint}; 'none' clears the field")
 
     def _fill_trials(self, items: list[tuple[str, int]] | None) -> None:
         """The session's finished trials as read (None: read on the job thread), the one

@@ -52,6 +52,7 @@ from ui.tabs.registration_numbers import (
     read_choice,
     read_numbers,
     session_trials,
+    sessions_read,
 )
 
 LOADING = "Loading…"
@@ -71,11 +72,14 @@ class RegistrationTab(NewPatient, QWidget):
         chosen, a number edited, the registry refused them): the window's Start waits for
         Confirm again, so it never registers a trial under numbers or a patient the tab
         no longer shows.
+    said(str, bool): what the clinical record kept or the registry refused (problem True),
+        for the window's message line.
     """
 
     patient_selected = Signal(object)
     registered = Signal(object, object)
     unconfirmed = Signal()
+    said = Signal(str, bool)  # the clinical record's outcome, for the window's message line
 
     def __init__(self, registry: RecordStore | None = None, parent=None, *,
                  jobs: Jobs | None = None) -> None:
@@ -163,6 +167,7 @@ class RegistrationTab(NewPatient, QWidget):
         # the chosen patient's scales, notes, validity marks and corrections (schema v8)
         self.clinical = ClinicalRecord(registry, jobs=self.jobs)
         self.clinical.recorded.connect(self._recorded)
+        self.clinical.said.connect(self.said)
         right.addWidget(self.clinical)
         right.addWidget(new)
         right.addStretch(1)
@@ -347,7 +352,16 @@ class RegistrationTab(NewPatient, QWidget):
         self.patient_selected.emit(patient)
 
     def _recorded(self, _said: str) -> None:
-        """After a correction the patient's row changed: show it as it is now."""
+        """After a correction the patient's row changed: show it as it is now. A scale or a
+        note may have opened a session: its line says so (read on the job thread)."""
+        if self._patient is not None and self.registry is not None:
+            registry, code = self.registry, self._patient.code
+
+            def show(sessions: dict[int, Session] | Exception) -> None:
+                if isinstance(sessions, dict) and self._patient is not None \
+                        and self._patient.code == code:
+                    self._say_session(sessions)  # a refusal to read: the line as it was
+            self._ask("sessions", lambda: sessions_read(registry, code), show)
         patient = self.clinical.patient
         if patient is not None and self._patient is not None and \
                 patient.code == self._patient.code and patient != self._patient:
@@ -392,6 +406,11 @@ class RegistrationTab(NewPatient, QWidget):
             return
         if sessions is None:
             sessions = {s.number: s for s in self.registry.sessions(self._patient.code)}
+        self._say_session(sessions)
+        self._numbers_edited()
+
+    def _say_session(self, sessions: dict[int, Session]) -> None:
+        """Whether the session shown is new or goes on, from the patient's `sessions`."""
         session = sessions.get(self.session.value())
         if session is None:
             self.session_note.setText("a new session")
@@ -399,7 +418,6 @@ class RegistrationTab(NewPatient, QWidget):
             self.session_note.setText(
                 f"continues the session of {session.date.isoformat()} "
                 f"({session.n_trials} trial{'s' if session.n_trials != 1 else ''} so far)")
-        self._numbers_edited()
 
     def _numbers_edited(self) -> None:
         self._unconfirm()

@@ -70,3 +70,12 @@ def read_choice(registry: RecordStore, code: str) -> Numbers | Exception:
             numbers, record=(code, session, trial_items(registry, code, session)))
     except Exception as exc:  # RegistryError, a station's fault: said, never raised here
         return exc
+
+
+def sessions_read(registry: RecordStore, code: str) -> dict[int, Session] | Exception:
+    """Patient `code`'s sessions by number, read on the window's job thread, or what the
+    registry said instead (never raised there)."""
+    try:
+        return {s.number: s for s in registry.sessions(code)}
+    except Exception as exc:  # RegistryError, a station's fault
+        return exc

@@ -27,7 +27,7 @@ from app.records.registry.patients import (
     patient_by_code,
     patient_id,
 )
-from app.records.registry.sessions import session_id_of
+from app.records.registry.sessions import session_id_of, session_of_a_record
 from app.records.registry.statements import execute
 from app.records.registry.trials import trial_by_id
 from app.records.registry.values import (
@@ -148,12 +148,15 @@ class Clinical(Database):
                      total: int | None = None, parts: dict | None = None,
                      items: dict | None = None, grades: dict | None = None) -> ScaleEntry:
         """Record a scale for the patient's session (app.records.scales.score checks its
-        ranges); a scale recorded again for the session supersedes the earlier entry."""
+        ranges); a scale recorded again for the session supersedes the earlier entry. The
+        patient's next session number opens that session (sessions.session_of_a_record:
+        scales are taken before the first trial)."""
         checked: ScaleScore = score(scale, total=total, parts=parts, items=items,
                                     grades=grades)
         rater = _who("rater", rater)
         with self._write() as conn:
-            session = session_id_of(conn, self.where, code, session_number)
+            session = session_of_a_record(conn, self.where, code, session_number,
+                                          datetime.date.today())
             cursor = execute(conn,
                 "INSERT INTO scales (session_id, scale, total, detail, rater, recorded_at) "
                 "VALUES (?, ?, ?, ?, ?, ?) RETURNING id",
@@ -192,13 +195,15 @@ class Clinical(Database):
     # -- notes -------------------------------------------------------------------------
     def add_note(self, code: str, session_number: int, text: str, *, author: str,
                  trial_id: int | None = None) -> Note:
-        """A note on the patient's session, or on one of its trials (`trial_id`)."""
+        """A note on the patient's session, or on one of its trials (`trial_id`); the
+        patient's next session number opens that session, as a scale does."""
         text = checked_text("note", text, TEXT_MAX_CHARS)
         if not text:
             raise InvalidRecordError("note: write something (it is empty)")
         author = _who("author", author)
         with self._write() as conn:
-            session = session_id_of(conn, self.where, code, session_number)
+            session = session_of_a_record(conn, self.where, code, session_number,
+                                          datetime.date.today())
             if trial_id is not None:
                 trial = trial_by_id(conn, self.where, trial_id)
                 if (trial.patient_code, trial.session_number) != (code, session_number):

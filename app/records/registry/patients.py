@@ -43,6 +43,18 @@ SEXES = ("female", "male")
 HANDEDNESS = ("right", "left")
 """A patient's dominant hand (schema v8): with `side`, whether the dominant arm is tested."""
 
+MEASURED = {
+    "body_mass_kg": (BODY_MASS_RANGE_KG, "kg", "Winter's segment proportions hold for adults"),
+    "upper_arm_m": (UPPER_ARM_RANGE_M, "m", "shoulder to elbow of an adult"),
+    "forearm_m": (FOREARM_RANGE_M, "m", "elbow to wrist of an adult"),
+    "shoulder_m": (POSITION_RANGE_M, "m", ""),  # each of x and y, in the robot frame
+}
+"""A patient's measurements: their range (SI), its unit and what bounds it; the registry
+refuses a value outside in SI, the window in the unit it shows (app.records.typed)."""
+CHOSEN = {"side": (SIDES, "the affected side"), "sex": (SEXES, "not recorded"),
+          "handedness": (HANDEDNESS, "the dominant hand")}
+"""A patient's fields that take one of a few words: the words, and what the field says."""
+
 _PATIENT_COLUMNS = ("code", "first_name", "last_name", "birth_year", "side", "body_mass_kg",
                     "upper_arm_m", "forearm_m", "shoulder_x_m", "shoulder_y_m", "notes",
                     "created_at", "sex", "handedness")
@@ -251,26 +263,31 @@ def _optional_range(name: str, value: object, low: float, high: float, unit: str
         raise InvalidRecordError(str(exc)) from None
 
 
+def birth_years() -> tuple[int, int]:
+    """The years of birth the registry takes: from BIRTH_YEAR_MIN to this year."""
+    return BIRTH_YEAR_MIN, datetime.date.today().year
+
+
+def _measured(name: str, value: object, part: str = "") -> float | None:
+    (low, high), unit, why = MEASURED[name]
+    return _optional_range(name + part, value, low, high, unit, why)
+
+
 def _patient_values(*, first_name, last_name, birth_year, side, body_mass_kg, upper_arm_m,
                     forearm_m, shoulder_m, notes, sex=None, handedness=None) -> dict:
-    this_year = datetime.date.today().year
+    first, last = birth_years()
     if birth_year is not None and (
         isinstance(birth_year, bool) or not isinstance(birth_year, int)
-        or not BIRTH_YEAR_MIN <= birth_year <= this_year
+        or not first <= birth_year <= last
     ):
         raise InvalidRecordError(
-            f"birth_year = {birth_year!r} is not allowed; give a year {BIRTH_YEAR_MIN}-"
-            f"{this_year}, or None"
+            f"birth_year = {birth_year!r} is not allowed; give a year {first}-{last}, or None"
         )
-    if side is not None and side not in SIDES:
-        raise InvalidRecordError(f"side = {side!r}: give one of {', '.join(SIDES)}, or None "
-                                 "(the affected side)")
-    if sex is not None and sex not in SEXES:
-        raise InvalidRecordError(f"sex = {sex!r}: give one of {', '.join(SEXES)}, or None "
-                                 "(not recorded)")
-    if handedness is not None and handedness not in HANDEDNESS:
-        raise InvalidRecordError(f"handedness = {handedness!r}: give one of "
-                                 f"{', '.join(HANDEDNESS)}, or None (the dominant hand)")
+    for name, value in (("side", side), ("sex", sex), ("handedness", handedness)):
+        words, meaning = CHOSEN[name]
+        if value is not None and value not in words:
+            raise InvalidRecordError(f"{name} = {value!r}: give one of {', '.join(words)}, "
+                                     f"or None ({meaning})")
     if shoulder_m is None:
         shoulder = (None, None)
     else:
@@ -280,19 +297,15 @@ def _patient_values(*, first_name, last_name, birth_year, side, body_mass_kg, up
             raise InvalidRecordError(
                 f"shoulder_m = {shoulder_m!r}: give a pair (x, y) in m in the robot frame"
             ) from None
-        shoulder = (_optional_range("shoulder_m[x]", x, *POSITION_RANGE_M, "m"),
-                    _optional_range("shoulder_m[y]", y, *POSITION_RANGE_M, "m"))
+        shoulder = (_measured("shoulder_m", x, "[x]"), _measured("shoulder_m", y, "[y]"))
     return {
         "first_name": _optional_name("first_name", first_name),
         "last_name": _optional_name("last_name", last_name),
         "birth_year": birth_year,
         "side": side,
-        "body_mass_kg": _optional_range("body_mass_kg", body_mass_kg, *BODY_MASS_RANGE_KG,
-                                        "kg", "Winter's segment proportions hold for adults"),
-        "upper_arm_m": _optional_range("upper_arm_m", upper_arm_m, *UPPER_ARM_RANGE_M, "m",
-                                       "shoulder to elbow of an adult"),
-        "forearm_m": _optional_range("forearm_m", forearm_m, *FOREARM_RANGE_M, "m",
-                                     "elbow to wrist of an adult"),
+        "body_mass_kg": _measured("body_mass_kg", body_mass_kg),
+        "upper_arm_m": _measured("upper_arm_m", upper_arm_m),
+        "forearm_m": _measured("forearm_m", forearm_m),
         "shoulder_x_m": shoulder[0],
         "shoulder_y_m": shoulder[1],
         "notes": checked_text("notes", notes if notes is not None else "", TEXT_MAX_CHARS),

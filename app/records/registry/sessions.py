@@ -1,9 +1,12 @@
 """The registry's sessions: one sitting of a patient, numbered from 1 per patient.
 
-A session is opened explicitly (`open_session`) or by the first trial registered in
-it (`begin_trial` in app.records.registry.trials). A number already used is
-refused, naming the next free one; the UNIQUE constraint on (patient, session
-number) backs this up when two consoles number at once.
+A session is opened explicitly (`open_session`) or by its first record, whatever it is:
+a trial (`begin_trial` in app.records.registry.trials), or a scale or a note
+(app.records.registry.clinical: therapists take the Fugl-Meyer before the robot's first
+trial). Both number it in one place (`open_or_continue`), the patient's row locked first,
+so a session a scale opened and the trial after it are one session, also when two stations
+race. A number already used is refused, naming the next free one; the UNIQUE constraint on
+(patient, session number) backs this up when two consoles number at once.
 """
 
 from __future__ import annotations
@@ -147,6 +150,48 @@ def session_id_of(conn: sa.Connection, registry: Path, code: str, number: int) -
                  "they have none yet: a session begins with its first trial")
         raise SessionNotFound(f"patient {code} has no session {number}; {there}")
     return row[0]
+
+
+def session_of_a_record(conn: sa.Connection, registry: Path, code: str, number: int,
+                        day: datetime.date) -> int:
+    """The row id of the patient's session `number` for a scale or a note written in it: an
+    existing session, or the patient's next one, opened by this record (dated `day`) as a
+    trial opens it (`open_or_continue`, the patient's row locked first). Any other number
+    is refused in one line naming the numbers possible (SessionNotFound)."""
+    check_number("session number", number)
+    patient = patient_id(conn, registry, code, lock=True)
+    latest, asked, _ = sessions_for_a_trial(conn, patient, number)
+    next_number = 1 if latest is None else latest[1] + 1
+    if asked is None and number != next_number:
+        numbers = [n for (n,) in execute(
+            conn, "SELECT number FROM sessions WHERE patient_id = ? ORDER BY number",
+            (patient,)).fetchall()]
+        there = (f"give one of their sessions ({_listed(numbers)}) or {next_number}, which "
+                 "opens the next" if numbers else
+                 "they have none yet: give 1, which opens their first")
+        raise SessionNotFound(f"patient {code} has no session {number}; {there}")
+    return open_or_continue(conn, code, patient, number, latest, asked, day)[0]
+
+
+def open_or_continue(conn: sa.Connection, code: str, patient: int, number: int | None,
+                     latest: tuple | None, asked: tuple | None, day: datetime.date,
+                     therapist: str = "", location: str = "") -> tuple[int, int, int]:
+    """(id, number, next trial number) of the session a new record goes in, from what
+    `sessions_for_a_trial` read under the patient's lock: `asked` when there is one, else
+    the patient's next session, opened now (dated `day`, with `therapist` and `location`);
+    `number` None takes the next, another number is refused (numbering.py). The one place
+    a trial, a scale or a note opens a session."""
+    if asked is not None:
+        return asked[0], asked[1], asked[3]
+    next_number = 1 if latest is None else latest[1] + 1
+    if number is None:
+        number = next_number
+    elif number != next_number:
+        raise refuse_number("session", number, next_number, whose=f"patient {code}",
+                            used_on=None)
+    session_id = insert_session(conn, patient, number, day, therapist, location, "")
+    log.info("patient %s: session %d opened", code, number)
+    return session_id, number, 1  # a session opened now has no trial yet
 
 
 def _listed(numbers: list[int]) -> str:

@@ -31,7 +31,7 @@ from app.records.registry.patients import is_code, patient_id
 from app.records.registry.provenance import checked_checksum, file_checksum
 from app.records.registry.sessions import (
     Carried,
-    insert_session,
+    open_or_continue,
     session_id_of,
     sessions_for_a_trial,
 )
@@ -255,19 +255,9 @@ class Trials(Database):
             if session_number is None and latest is not None and \
                     latest[2] == local_day.isoformat():
                 asked = latest  # today's session goes on
-            if asked is None:
-                next_session = 1 if latest is None else latest[1] + 1
-                if session_number is None:
-                    session_number = next_session
-                elif session_number != next_session:
-                    raise refuse_number("session", session_number, next_session,
-                                        whose=f"patient {code}", used_on=None)
-                session_id = insert_session(conn, patient, session_number, local_day,
-                                            therapist, location, "")
-                log.info("patient %s: session %d opened", code, session_number)
-                free = 1  # a session opened now has no trial yet
-            else:
-                session_id, session_number, _, free = asked
+            session_id, session_number, free = open_or_continue(
+                conn, code, patient, session_number, latest, asked, local_day, therapist,
+                location)
             if trial_number is None:
                 trial_number = free
             elif trial_number != free:

@@ -83,6 +83,22 @@ def test_a_therapist_records_scales_notes_marks_and_corrections(data, patient, c
     assert "upper_arm_m: 0.3 → 0.31  (measured again)" in out
 
 
+def test_scales_taken_before_the_first_trial_open_the_session(data, capsys):
+    """`rehab scales add` at the start of a session, before any trial: it was refused ("a
+    session begins with its first trial"); the patient's next number opens it."""
+    code, out, _ = run(["patients", "add", "--first-name", "Bo", "--last-name", "Example"],
+                       capsys)
+    patient = out.strip()
+    code, out, err = run(["scales", "add", patient, "1", "fugl_meyer", "30", "--by", "K. Lee"],
+                         capsys)
+    assert (code, err) == (0, "")
+    assert out == f"{patient} session 1: Fugl-Meyer UE motor 30/66\n"
+    begun = registry_of(data).begin_trial(patient, THESIS_SUBJECT, backend="simulator",
+                                          session_number=1)
+    assert (begun.session_number, begun.trial_number) == (1, 1)
+    assert [s.number for s in registry_of(data).sessions(patient)] == [1]
+
+
 @pytest.mark.parametrize(("args", "needle"), [
     (["scales", "add", "{code}", "1", "fugl_meyer", "67", "--by", "K"],
      "Fugl-Meyer UE motor = 67 is out of range; give a whole number 0-66"),
@@ -97,7 +113,9 @@ def test_a_therapist_records_scales_notes_marks_and_corrections(data, patient, c
     (["scales", "add", "{code}", "1", "pain", "3", "--by", " "], "rater: give the name"),
     (["scales", "add", "{code}", "1", "pain", "3"], "--by"),
     (["scales", "add", "{code}", "7", "pain", "3", "--by", "K"],
-     "has no session 7; their sessions are 1"),
+     "has no session 7; give one of their sessions (1) or 2, which opens the next"),
+    (["note", "{code}", "7", "typo", "--by", "K"],
+     "has no session 7; give one of their sessions (1) or 2, which opens the next"),
     (["scales", "add", "{code}", "0", "pain", "3", "--by", "K"], "not a session number"),
     (["scales", "add", "{code}", "99999999999999999999", "pain", "3", "--by", "K"],
      "not a session number"),

@@ -35,9 +35,9 @@ def shipped():
 
 def _controls(shipped) -> int:
     """The controls the norms were fitted on: the subjects less those refused, as the
-    source says ('500 virtual healthy subjects … (seed 0; 9 refused)')."""
-    found = re.search(r"(\d+) virtual healthy subjects .*\(seed \d+; (\d+) refused\)",
-                      shipped.source)
+    source says ('500 virtual healthy adults … (random seed 0; 12 of them left out …')."""
+    found = re.search(r"(\d+) virtual healthy adults .*\(random seed \d+; (\d+) of them "
+                      r"left out", shipped.source)
     assert found, shipped.source
     return int(found[1]) - int(found[2])
 
@@ -45,10 +45,25 @@ def _controls(shipped) -> int:
 def test_the_shipped_norms_are_verified_and_labelled_simulated(shipped):
     assert shipped.simulated
     assert SIMULATED_LABEL in shipped.label
-    assert shipped.source.startswith("simulated: 500 virtual healthy subjects")
+    assert shipped.source.startswith("500 virtual healthy adults")
     assert set(shipped.tasks) == set(NORMED)
     assert all(t.mdc95 is not None and t.mdc95 > 0 for t in shipped.tasks.values())
     assert all(f.mdc95 is not None and f.mdc95 > 0 for f in shipped.figures.values())
+
+
+def test_the_shipped_norms_say_where_they_come_from_in_words_a_clinician_reads(shipped):
+    """The Assessments tab and the PDF reports printed "simulated: 500 virtual healthy
+    subjects of device.sim.population (seed 0; 12 refused) … ; app.population.norms": a
+    Python module's name. They say it in words, with how many, the seed and the day; the
+    file's text rewritten by the norms' own writer, its checksum verified on load."""
+    assert shipped.label == (
+        "Norms: 500 virtual healthy adults made by the console's simulator, not measured "
+        "people (random seed 0; 12 of them left out, whom the battery could not test), "
+        "each tested twice in visually guided reaching, circle drawing, active range, "
+        "isometric strength and position sense on a simulated robot; fitted 5 Dec 2026 "
+        f"({SIMULATED_LABEL})")
+    assert not re.search(r"[a-z]\.[a-z]", shipped.label)  # no module, no file name
+    assert SHIPPED.read_text(encoding="utf-8").count(shipped.content_sha256) == 1
 
 
 def test_every_held_out_control_is_scored_and_calibrated(shipped):

@@ -4,6 +4,7 @@ the same whatever the number of workers."""
 
 from __future__ import annotations
 
+import datetime
 import math
 
 import pytest
@@ -15,6 +16,7 @@ from app.population.norms import (
     arm_tested,
     battery_figures,
     build_simulated_norms,
+    source_text,
 )
 from device.sim.population import draw_population
 
@@ -30,7 +32,9 @@ def built():
 def test_the_simulated_norms_are_fitted_labelled_and_carry_mdc(built, tmp_path):
     doc = built.document
     assert doc["simulated"] is True
-    assert doc["source"].startswith(f"simulated: {N} virtual healthy subjects")
+    assert doc["source"].startswith(f"{N} virtual healthy adults made by the console's "
+                                    "simulator")
+    assert "each tested twice in circle drawing" in doc["source"]
     assert set(doc["tasks"]) == {"circle"}
     ratio = doc["figures"]["circle_ratio"]
     # a covariate level with fewer than 5 controls is left out, and said so (the fitter,
@@ -73,3 +77,16 @@ def test_the_tested_arm_is_both_sides_and_the_subjects_own():
     dominant = sum(arm_tested(s) == s.handedness for s in subjects)
     assert 70 <= dominant <= 130
     assert sides == [arm_tested(s) for s in draw_population(200, 0)]
+
+
+def test_the_source_says_who_how_many_how_often_and_when_in_words():
+    """It named the module that draws the people (device.sim.population) and the one that
+    fits them; now what a clinician reads under a Z-score."""
+    day = datetime.date(2026, 3, 9)
+    assert source_text(40, 7, ("circle", "position"), 0, day, retest=False) == (
+        "40 virtual healthy adults made by the console's simulator, not measured people "
+        "(random seed 7; none left out), each tested once in circle drawing and position "
+        "sense on a simulated robot; fitted 9 Mar 2026")
+    assert "(random seed 0; 3 of them left out, whom the battery could not test), each " \
+           "tested twice in visually guided reaching, circle drawing and active range" in \
+           source_text(500, 0, ("reaching", "circle", "range"), 3, day)

@@ -430,18 +430,13 @@ def spawn(monkeypatch):
     return mp.get_context("spawn")
 
 
-def test_two_processes_numbering_at_once_take_distinct_numbers(tmp_path, spawn,
-                                                               open_registry):
-    """Two consoles on one data folder (SQLite), two stations on one server (PostgreSQL)."""
-    data = DataDir(tmp_path / "data")
-    registry = open_registry(data)
-    code = registry.create_patient("Two", "Consoles").code
-    server = (registry.server.render_as_string(hide_password=False)
-              if registry.server is not None else None)
+def _at_once(spawn, target, argses: list[tuple]) -> list:
+    """`target(*args, ready, go, results)` in a process of its own for each of `argses`,
+    let go together once all are ready; what each put in `results` (no errors: a child's
+    error is a string there, and fails the test)."""
     ready, results, go = spawn.Queue(), spawn.Queue(), spawn.Event()
-    workers = [spawn.Process(target=_begin_many,
-                             args=(str(data.root), server, code, ready, go, results),
-                             name=f"console-{i}") for i in range(2)]
+    workers = [spawn.Process(target=target, args=(*args, ready, go, results),
+                             name=f"console-{i}") for i, args in enumerate(argses)]
     for worker in workers:
         worker.start()
     try:
@@ -458,9 +453,20 @@ def test_two_processes_numbering_at_once_take_distinct_numbers(tmp_path, spawn,
         for q in (ready, results):
             q.close()
             q.join_thread()
-    errors = [batch for batch in batches if isinstance(batch, str)]
-    assert not errors
-    assert [w.exitcode for w in workers] == [0, 0]
+    assert [batch for batch in batches if isinstance(batch, str)] == []
+    assert [w.exitcode for w in workers] == [0] * len(workers)
+    return batches
+
+
+def test_two_processes_numbering_at_once_take_distinct_numbers(tmp_path, spawn,
+                                                               open_registry):
+    """Two consoles on one data folder (SQLite), two stations on one server (PostgreSQL)."""
+    data = DataDir(tmp_path / "data")
+    registry = open_registry(data)
+    code = registry.create_patient("Two", "Consoles").code
+    server = (registry.server.render_as_string(hide_password=False)
+              if registry.server is not None else None)
+    batches = _at_once(spawn, _begin_many, [(str(data.root), server, code)] * 2)
 
     numbers = sorted(n for batch in batches for n, _ in batch)
     assert numbers == list(range(1, 101))
@@ -468,6 +474,56 @@ def test_two_processes_numbering_at_once_take_distinct_numbers(tmp_path, spawn,
     registry = open_registry(data)
     assert registry.integrity_check() == []
     assert [t.number for t in registry.trials(code, 1)] == list(range(1, 101))
+
+
+def _open_sessions(folder: str, server: str | None, code: str, record: str, ready, go,
+                   results) -> None:
+    """25 times: the patient's next session number read, then a scale (`record` "scale")
+    or a trial recorded in it, as a therapist types the number shown a moment before."""
+    registry = Registry(DataDir(Path(folder)), server=server and sa.make_url(server))
+    ready.put(os.getpid())
+    go.wait(CHILD_TIMEOUT_S)
+    numbers = []
+    try:
+        for i in range(25):
+            number = registry.next_session_number(code)
+            if record == "scale":
+                numbers.append(registry.record_scale(code, number, "pain", total=i % 11,
+                                                     rater="K. Lee").session_number)
+            else:
+                numbers.append(registry.begin_trial(code, TrialParameters(),
+                                                    backend="simulator",
+                                                    session_number=number).session_number)
+    except Exception as exc:  # reported to the test rather than lost in the child
+        results.put(f"{type(exc).__name__}: {exc}")
+        raise
+    results.put((record, numbers))
+
+
+def test_a_scale_and_a_trial_opening_sessions_at_once_share_them_without_gaps(
+        tmp_path, spawn, open_registry):
+    """A station recording the Fugl-Meyer that opens a session while another starts the
+    session's first trial: one session, numbered once (the scale's number is allocated
+    where the trial's is, the patient's row locked), on both engines."""
+    data = DataDir(tmp_path / "data")
+    registry = open_registry(data)
+    code = registry.create_patient("Two", "Stations").code
+    server = (registry.server.render_as_string(hide_password=False)
+              if registry.server is not None else None)
+    batches = _at_once(spawn, _open_sessions, [(str(data.root), server, code, record)
+                                               for record in ("scale", "trial")])
+
+    registry = open_registry(data)
+    sessions = registry.sessions(code)
+    assert [s.number for s in sessions] == list(range(1, len(sessions) + 1))  # no gap
+    assert sum(s.n_trials for s in sessions) == 25
+    entries = registry.scale_entries(code)
+    assert len(entries) == 25
+    said = dict(batches)
+    assert sorted(said["scale"]) == [e.session_number for e in entries]
+    trials = registry.trials_for_patient(code)
+    assert sorted(said["trial"]) == [t.session_number for t in trials]
+    assert registry.integrity_check() == []
 
 
 @pytest.mark.parametrize("content", [b"", b"\x00" * 4096, b"PK\x03\x04 a zip, not a registry"])

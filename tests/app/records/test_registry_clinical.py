@@ -5,15 +5,16 @@ and refuses a row damaged before it."""
 from __future__ import annotations
 
 import contextlib
+import datetime
 import json
 import sqlite3
 
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from app.errors import InvalidRecordError, RegistryError, SchemaError
+from app.errors import InvalidRecordError, RegistryError, SchemaError, SessionNotFound
 from app.records.datadir import DataDir
-from app.records.registry import SCHEMA_VERSION, Registry, seals
+from app.records.registry import SCHEMA_VERSION, Registration, Registry, seals
 from app.records.scales import (
     ARAT_SUBSCALES,
     ASHWORTH_GRADES,
@@ -228,9 +229,54 @@ def test_scales_are_kept_per_session_with_who_and_when_and_a_new_entry_supersede
         registry.record_scale(code, 1, "pain", total=2, rater=" ")
     with pytest.raises(InvalidRecordError, match="Pain \\(NRS\\) = 11 is out of range"):
         registry.record_scale(code, 1, "pain", total=11, rater="K. Lee")
-    with pytest.raises(RegistryError, match="has no session 2"):
-        registry.record_scale(code, 2, "pain", total=2, rater="K. Lee")
+    with pytest.raises(RegistryError, match="has no session 3"):
+        registry.record_scale(code, 3, "pain", total=2, rater="K. Lee")
     assert len(registry.scale_entries(code)) == 3  # nothing stored by a refusal
+
+
+def test_a_scale_or_a_note_before_the_first_trial_opens_the_session_the_trial_goes_on(
+        registry):
+    """Therapists take the Fugl-Meyer, ARAT, Ashworth, pain and fatigue at the start of a
+    session, before the robot's first trial: it was refused ("a session begins with its
+    first trial"). The patient's next session number opens the session, numbered where a
+    trial numbers it; the trials after it go on in it; any other number is refused in one
+    line naming the numbers possible, nothing stored."""
+    code = registry.create_patient("Ada", "Example").code
+    with pytest.raises(SessionNotFound) as refused:
+        registry.record_scale(code, 2, "pain", total=3, rater="K. Lee")
+    assert str(refused.value) == (f"patient {code} has no session 2; they have none yet: "
+                                  "give 1, which opens their first")
+    first = registry.record_scale(code, 1, "fugl_meyer", total=20, rater="K. Lee")
+    registry.record_scale(code, 1, "pain", total=3, rater="K. Lee")
+    assert first.session_number == 1
+    day = first.session_date
+    assert registry.suggest_registration(code, today=day) == Registration(code, 1, 1, False)
+    # at Start (the session's day: a run across midnight opens the next, as ever)
+    noon = datetime.datetime.combine(day, datetime.time(12)).astimezone()
+    begun = registry.begin_trial(code, THESIS_SUBJECT, backend="simulator", started_at=noon)
+    again = registry.begin_trial(code, THESIS_SUBJECT, backend="simulator", session_number=1)
+    assert [(begun.session_number, begun.trial_number),
+            (again.session_number, again.trial_number)] == [(1, 1), (1, 2)]
+    assert [(s.number, s.n_trials) for s in registry.sessions(code)] == [(1, 2)]
+    assert set(registry.session_scales(code)) == {1}
+
+    note = registry.add_note(code, 2, "came in tired", author="K. Lee")  # a note opens too
+    assert note.session_number == 2
+    third = registry.begin_trial(code, THESIS_SUBJECT, backend="simulator", session_number=2)
+    assert (third.session_number, third.trial_number) == (2, 1)
+    assert registry.record_scale(code, 1, "arat", total=30, rater="M. Roy"  # a past one
+                                 ).session_number == 1
+
+    typo = (f"patient {code} has no session 9; give one of their sessions (1 and 2) or 3, "
+            "which opens the next")
+    for record in (lambda: registry.record_scale(code, 9, "pain", total=3, rater="K. Lee"),
+                   lambda: registry.add_note(code, 9, "typo", author="K. Lee")):
+        with pytest.raises(SessionNotFound) as refused:
+            record()
+        assert str(refused.value) == typo
+    assert [(s.number, s.n_trials) for s in registry.sessions(code)] == [(1, 2), (2, 1)]
+    assert len(registry.scale_entries(code)) == 3
+    assert len(registry.notes(code)) == 1
 
 
 def test_what_a_therapist_recorded_cannot_be_changed_or_deleted(registry):

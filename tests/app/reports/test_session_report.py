@@ -92,6 +92,37 @@ def test_the_session_report_says_the_trials_scales_notes_and_z_scores(clinic):
         assert words in text, words
 
 
+def test_figures_the_norms_left_out_are_said_once_per_reason_without_their_source(clinic):
+    """The session report printed "the norms (<their source>) hold no figure …: why" for
+    each figure the fit left out: with the shipped norms, their 300-character source three
+    times under the line that prints it once. One note per reason, as the assessment's own
+    page says it."""
+    registry, code, tmp_path = clinic
+    document = handmade()
+    document["source"] = "Clinic X, 120 healthy adults 21-84 y, measured 2026"
+    document["covariates"]["robot"] = ["simulator-realistic", "simulator"]
+    for figure in document["figures"].values():
+        figure["coefficients"]["robot=simulator"] = 0.0
+    document["notes"] = ("Left out by the fit:\n"
+                         "vgr_initial_speed_ratio: every control has the same value\n"
+                         "vgr_no_reaction_count: every control has the same value")
+    path = tmp_path / "norms.json"
+    path.write_text(json.dumps(document))
+    task = THESIS_SUBJECT.replace(repetitions=1, assessment="reaching")
+    reach = registry.begin_trial(code, task, backend="simulator (healthy, seed 0)",
+                                 session_number=1)
+    write(reach.path, parameters=task, code=code)
+    registry.finish_trial(reach.trial_id, "complete", {
+        "vgr_reaction_time_s": 0.49, "vgr_max_speed_m_s": 0.40,
+        "vgr_initial_speed_ratio": 1.0, "vgr_no_reaction_count": 0.0})
+    content = session_content(registry, code, 1, norms=load_norms(path))
+    notes = [note for a in content.assessments for note in a.notes]
+    assert notes.count("no Z-score for Initial speed ratio, No reaction: every control has "
+                       "the same value") == 1, notes
+    assert not [note for note in notes if "Clinic X" in note]
+    assert content.norms_label == "Norms: Clinic X, 120 healthy adults 21-84 y, measured 2026"
+
+
 def test_the_report_scores_with_the_arm_the_trial_file_says(clinic):
     """The registry's side corrected after the trial (right → left): the report scores with
     the arm the trial's file recorded, as `rehab norms score` and `assess show` do

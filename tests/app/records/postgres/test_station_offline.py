@@ -86,6 +86,31 @@ def test_a_session_goes_on_offline_and_arrives_whole_when_the_server_returns(dep
     assert direct.trial(fourth.trial_id).status == "complete"
 
 
+def test_a_session_a_scale_opened_offline_arrives_once_with_its_trials(department):
+    """The Fugl-Meyer taken before the first trial while the server is down opens the
+    session on the station; the trials go on in it; the sync sends one session, with its
+    scale and its trials, and nothing twice."""
+    url, network, data = department
+    station = StationRegistry(data, network.url(url), station="robot-1")
+    code = station.create_patient("Ada", "Example").code
+    _trial(station, code)  # session 1, online
+    network.cut()
+    scale = station.record_scale(code, 2, "fugl_meyer", total=24, rater="K. Lee")
+    assert station.offline
+    begun = station.begin_trial(code, PARAMS, backend="simulator", session_number=2)
+    station.finish_trial(begun.trial_id, "complete", {"rmse_x_mm": 2.0})
+    assert (scale.session_number, begun.session_number, begun.trial_number) == (2, 2, 1)
+    network.restore()
+    synced = station.try_sync()
+    assert synced is not None, station.sync_problem
+    assert (synced.added["sessions"], synced.added["scales"], synced.trials) == (1, 1, 1)
+    direct = Registry(data, server=url, station="robot-1")
+    assert [(s.number, s.n_trials) for s in direct.sessions(code)] == [(1, 1), (2, 1)]
+    assert [(e.session_number, e.total) for e in direct.scale_entries(code)] == [(2, 24)]
+    assert station.try_sync() is None  # online: nothing more to send, nothing twice
+    assert len(direct.sessions(code)) == 2
+
+
 def test_with_nothing_to_send_the_station_is_back_only_when_the_server_answers(department):
     """Found trying the window as a therapist: a station that went offline on a read, with
     nothing recorded since, said "the shared registry is back" while it was still cut off
