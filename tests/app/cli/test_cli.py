@@ -256,10 +256,10 @@ def test_a_registered_run_is_analysed_once(data, patient, capsys, monkeypatch):
     from app.records.datadir import DataDir
     from app.records.registry import Registry
 
-    def again(channels, parameters):
+    def again(data):
         raise AssertionError("the trial was analysed a second time")
 
-    monkeypatch.setattr("app.trials.finalize.analyse", again)
+    monkeypatch.setattr("app.trials.finalize.analyse_data", again)
     code, _out, err = run(["run", "--code", patient, "--repetitions", "1"], capsys)
     assert code == 0, err
     trial, = Registry(DataDir(data)).trials_for_patient(patient)
