@@ -54,6 +54,13 @@ class Analysis:
                 **(self.assessment or {})}
 
 
+ANALYSIS = "2026-12-06"
+"""Which analysis this is: the date of the last change to what it computes of a trial (a
+figure added or defined anew), as a re-analysis's note names it (app.trials.reanalyse).
+Changed with the figures. 2026-12-05: the robot's share of the work counts its help alone
+(`robot_help_work_J`, core.work); 2026-12-06: the robot's own torque on the model the trial
+ran (its file's `robot`, core.robot_record)."""
+
 CHANNELS_USED = ("time", "phase", "position", "position_desired", "direction_desired", "force",
                  "subject_angle",
                  "subject_angle_isb", "subject_torque", "torque_applied", "robot_angle",

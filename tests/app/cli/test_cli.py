@@ -93,6 +93,16 @@ def test_a_session_from_the_command_line(data, patient, capsys, tmp_path):
         (["run", "--plant", "perfect"], "invalid choice"),
         (["run", "--gains", "smc.lambda_1_s=500"], "smc.lambda_1_s[0]"),
         (["check", "--gains", "pid.kp=3"], "no gains called 'pid'"),
+        (["reanalyse"], "one of the arguments --patient --all is required"),
+        (["reanalyse", "--patient", "P000000", "--all"], "not allowed with argument"),
+        (["reanalyse", "--all", "--session", "1", "--dry-run"], "--session needs --patient"),
+        (["reanalyse", "--patient", "nobody", "--dry-run"], "is not a patient code"),
+        (["reanalyse", "--patient", "P000000", "--dry-run"], "P000000"),
+        (["reanalyse", "--all"], "--by is missing"),
+        (["reanalyse", "--all", "--by", "  "], "--by is missing"),
+        (["reanalyse", "--all", "--by", "x" * 101], "--by has 101 characters"),
+        (["reanalyse", "--patient", "P000000", "--session", "0", "--dry-run"],
+         "give a session number from 1"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(data, patient, capsys, args, needle):
