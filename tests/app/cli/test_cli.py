@@ -136,13 +136,14 @@ def test_progress_shows_an_assessment_figure_with_its_digits(data, patient, caps
     code, out, err = run(["progress", patient, *(f"--metric={k}" for k in keys)], capsys)
     assert code == 0, err
     lines = out.splitlines()
-    heading = next(line for line in lines if line.lstrip().startswith("session"))
-    assert heading.split()[-2:] == keys
+    # an assessment's series: its runs a column each, its figures a line each
+    heading = next(line for line in lines if line.startswith("figure"))
+    assert heading.split() == ["figure", "S1", "T1"]
     (trial,) = Registry(DataDir(data)).trials_for_patient(patient)
-    row = lines[lines.index(heading) + 1]
     for key in keys:
+        row = next(line for line in lines if line.startswith(FIGURES[key].label + "  "))
         assert FIGURES[key].unit == "m"
-        assert f"{trial.metrics[key]:.4g} m" in row, (key, row)
+        assert row.endswith(f"{trial.metrics[key]:.4g} m"), (key, row)
         assert 0.001 < trial.metrics[key] < 0.1
 
 
