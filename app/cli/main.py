@@ -30,6 +30,7 @@ from app.cli.models import add_models_command
 from app.cli.norms import add_norms_commands
 from app.cli.plans import add_plan_commands
 from app.cli.pose import add_pose_command
+from app.cli.reanalyse import add_reanalyse_command
 from app.cli.records import add_patient_commands, add_trials_command
 from app.cli.reports import (
     add_progress_command,
@@ -65,6 +66,7 @@ COMMAND_GROUPS = (
     add_norms_commands,
     add_assess_commands,
     add_study_commands,
+    add_reanalyse_command,
     add_db_commands,
     add_hardware_command,
 )

@@ -10,8 +10,9 @@ import sys
 from app.cli.common import CommandError, finite, num, output_path, record_id, registry_for
 from app.records.datadir import CODE_PATTERN
 from app.records.outcomes import OUTCOME_COLUMNS, patient_outcomes
-from app.reports.metrics_table import ROWS
+from app.reports.metrics_table import ROWS, MetricRow
 from app.reports.progress import progress
+from app.reports.progress_figure import figure_row, figure_rows
 
 
 def _cell(value):
@@ -84,36 +85,24 @@ def cmd_progress(args: argparse.Namespace) -> int:
     if not rows:
         print(f"patient {args.code} has no trials yet")
         return 0
-    # by default each mode's own success figure first, then the thesis's figures
-    default = [*dict.fromkeys(e.success_key for e in prog.exercises), "rmse_x_m", "rmse_y_m",
-               "directional_performance_pct", "shoulder_rom_rad", "elbow_rom_rad"]
-    wanted = args.metrics or [m for m in dict.fromkeys(default) if m in header]
-    unknown = [m for m in wanted if m not in header]
+    unknown = [m for m in args.metrics or () if m not in header]
     if unknown:
         raise CommandError(f"unknown metric {unknown[0]!r}; known: "
                            + ", ".join(prog.metric_names))
-    rows_by_key = {r.key: r for r in ROWS}
-    labels = [rows_by_key[m].heading if m in rows_by_key else m for m in wanted]
-    # a column as wide as its heading: two assessment keys ran together in 18 characters
-    widths = [max(18, len(label) + 2) for label in labels]
     print(f"Progress of {args.code}: {_count(len(rows), 'trial')}, "
           f"{_count(len(prog.exercises), 'exercise')}")
-    for i, exercise in enumerate(prog.exercises):
-        print(f"  exercise {i + 1}: {exercise.label()}")
-    print(f"{'session':>7} {'trial':>5} {'ex':>3}  {'status':<15}{'help':<24}"
-          + "".join(f"{label:>{w}}" for label, w in zip(labels, widths, strict=True)))
-    index = {name: header.index(name) for name in wanted}
+    for index, exercise in enumerate(prog.exercises):
+        members = prog.members(index).tolist()
+        print(f"\nexercise {index + 1}: {exercise.label()} ({_count(len(members), 'trial')})")
+        figures = [_row(key) for key in args.metrics] if args.metrics else [
+            row for row in figure_rows(prog, index)
+            if exercise.assessment or row.key in (exercise.success_key, *EXERCISE_FIGURES)]
+        status = [_status(rows[i], header) for i in members]
+        if exercise.assessment:
+            _print_task(prog, rows, header, members, status, figures)
+        else:
+            _print_exercise(prog, rows, header, members, status, figures)
     reason = header.index("invalid_reason")
-    for i, (row, set_index) in enumerate(zip(rows, prog.exercise_index.tolist(),
-                                             strict=True)):
-        cells = [_progress_cell(m, row[index[m]], rows_by_key) for m in wanted]
-        levels = prog.levels[i]
-        help_text = levels.summary() if prog.levels_recorded[i] else \
-            f"{levels.summary()} (built)"
-        # --include-invalid: the row says it, and why below the table
-        status = "INVALID" if row[reason] else row[5]
-        print(f"{row[1]:>7} {row[2]:>5} {set_index + 1:>3}  {status:<15}{help_text:<24}"
-              + "".join(f"{c:>{w}}" for c, w in zip(cells, widths, strict=True)))
     for row in rows:
         if row[reason]:
             print(f"  session {row[1]} trial {row[2]} (id {row[0]}) marked invalid: "
@@ -121,19 +110,73 @@ def cmd_progress(args: argparse.Namespace) -> int:
     return 0
 
 
-def _progress_cell(key: str, value, rows_by_key) -> str:
-    """A progress cell: a report row's figure in its display unit with one decimal; any
+EXERCISE_FIGURES = ("game_score", "rmse_x_m", "rmse_y_m", "directional_performance_pct",
+                    "shoulder_rom_rad", "elbow_rom_rad")
+"""An exercise's columns by default after its mode's success figure: a game's score and the
+thesis's figures (the others with --metric, every one with --csv). An assessment task's
+series shows its task's own figures (app.reports.progress_figure.figure_rows)."""
+
+
+def _print_exercise(prog, rows, header, members, status, figures) -> None:
+    """An exercise's trials, a line each: its status, the help it ran with, its figures."""
+    labels = [row.heading for row in figures]
+    # a column as wide as its heading: two assessment keys ran together in 18 characters
+    widths = [max(18, len(label) + 2) for label in labels]
+    print(f"{'session':>7} {'trial':>5}  {'status':<15}{'help':<24}"
+          + "".join(f"{label:>{w}}" for label, w in zip(labels, widths, strict=True)))
+    for i, said in zip(members, status, strict=True):
+        row = rows[i]
+        cells = [_progress_cell(f, row[header.index(f.key)]) for f in figures]
+        levels = prog.levels[i]
+        help_text = levels.summary() if prog.levels_recorded[i] else \
+            f"{levels.summary()} (built)"
+        print(f"{row[1]:>7} {row[2]:>5}  {said:<15}{help_text:<24}"
+              + "".join(f"{c:>{w}}" for c, w in zip(cells, widths, strict=True)))
+
+
+def _print_task(prog, rows, header, members, status, figures) -> None:
+    """An assessment task's runs, a column each (session and trial), and its figures, a
+    line each: a task has more figures than a line holds (strength: 19), and few runs."""
+    names = [f"S{rows[i][1]} T{rows[i][2]}" for i in members]
+    lines = [("status", status)] + [
+        (f.label,  # each cell says its unit
+         [_progress_cell(f, rows[i][header.index(f.key)]) for i in members])
+        for f in figures]
+    first = max(len(label) for label, _ in lines) + 2
+    widths = [max(12, len(name) + 2, *(len(cells[k]) + 2 for _, cells in lines))
+              for k, name in enumerate(names)]
+    print(f"{'figure':<{first}}" + "".join(f"{n:>{w}}" for n, w in zip(names, widths,
+                                                                           strict=True)))
+    for label, cells in lines:
+        print(f"{label:<{first}}" + "".join(f"{c:>{w}}" for c, w in zip(cells, widths,
+                                                                          strict=True)))
+
+
+def _status(row, header) -> str:
+    """A trial's status; --include-invalid: INVALID, and why below the tables."""
+    return "INVALID" if row[header.index("invalid_reason")] else row[5]
+
+
+def _row(key: str) -> MetricRow:
+    """A figure asked for by its key: the metrics table's or a task's row, else its key."""
+    try:
+        return figure_row(key)
+    except KeyError:
+        return MetricRow(key, key, "", 1.0, "")
+
+
+def _progress_cell(row: MetricRow, value) -> str:
+    """A progress cell: a metrics table's figure in its display unit with one decimal; any
     other (an assessment figure of core.assessment.FIGURES, in SI units) to 4 significant
     digits with its unit: one decimal printed a position error of 0.033 m as 0.0."""
-    from core.assessment import FIGURES
-
-    if key in rows_by_key:
-        r = rows_by_key[key]
-        return f"{num(value * r.scale if finite(value) else None)} {r.unit}".rstrip()
+    if row.key in ROWS_BY_KEY:
+        return f"{num(value * row.scale if finite(value) else None)} {row.unit}".rstrip()
     if not finite(value):
         return "–"
-    unit = FIGURES[key].unit if key in FIGURES else ""
-    return f"{value:.4g} {'' if unit == '1' else unit}".rstrip()
+    return f"{value:.4g} {row.unit}".rstrip()
+
+
+ROWS_BY_KEY = {row.key: row for row in ROWS}
 
 
 def _count(n: int, noun: str) -> str:

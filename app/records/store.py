@@ -14,7 +14,8 @@ hand, backup and integrity checks, the schema version) are for maintenance and t
 and stay the registry's own. Recomputed metrics (`update_metrics`) are the interface's:
 an assessment's figures join its trial's metrics (app.assessments.runner); so is the
 checksum of a file the console wrote into after its trial (`record_rewritten`,
-app.trials.rewrite).
+app.trials.rewrite), and a trial's figures re-computed from its file with their note
+(`record_reanalysis`, app.trials.reanalyse).
 
 Code that receives a store types it `RecordStore`; code that opens one (the
 command line, the window's start-up) makes a `Registry`.
@@ -116,6 +117,9 @@ class RecordStore(Protocol):
                        replace: bool = False) -> Trial: ...
 
     def record_rewritten(self, trial_id: int, checksum: str) -> Trial: ...
+
+    def record_reanalysis(self, trial_id: int, before: Mapping[str, float],
+                          metrics: Mapping[str, float], note: str, *, by: str) -> Trial: ...
 
     def verify_trial_file(self, trial: Trial | int) -> str | None: ...
 

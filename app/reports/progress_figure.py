@@ -15,6 +15,7 @@ import numpy as np
 
 from app.reports.metrics_table import ROWS, MetricRow
 from app.reports.progress import Exercise, Progress
+from core.assessment.figures import FIGURES, TASKS, task_figures
 
 SLOT_HALF_WIDTH = 0.5
 """Half the width of a trial's slot on the trial axis: a trial's help is drawn across
@@ -59,26 +60,54 @@ class ProgressFigure:
         return f"{self.row.label} ({self.row.unit})" if self.row.unit else self.row.label
 
 
-def metric_keys(progress: Progress, exercise_index: int) -> tuple[str, ...]:
-    """The figures this exercise's trials have, the mode's success figure first, then the
-    metrics table's order."""
+def figure_row(key: str) -> MetricRow:
+    """A figure as a row to show: the metrics table's, or an assessment task's figure
+    (core.assessment.FIGURES: its label and its SI unit, shown as they are; a ratio's or a
+    count's unit is none)."""
+    if key in _ROWS:
+        return _ROWS[key]
+    spec = FIGURES[key]
+    return MetricRow(key, spec.label, "" if spec.unit in ("1", "count") else spec.unit, 1.0,
+                     spec.definition, short=spec.label)
+
+
+def figure_rows(progress: Progress, exercise_index: int) -> tuple[MetricRow, ...]:
+    """The figures of an exercise's series that its trials have, as the Progress tab
+    offers them, its PDF draws them and `rehab progress` prints them. An assessment task's
+    series: the task's own figures (core.assessment.task_figures, the catalogue's order),
+    not the tracking ones, which mean little there (the reference moves at the task's
+    pace, not the patient's: app.reports.plain_language.patient_mode). Any other: the
+    metrics table's, the mode's success figure first."""
     members = progress.members(exercise_index)
-    have = [row.key for row in ROWS if row.key in progress.values
-            and np.isfinite(progress.values[row.key][members]).any()]
-    first = progress.exercises[exercise_index].success_key
-    return tuple(([first] if first in have else []) + [k for k in have if k != first])
+    exercise = progress.exercises[exercise_index]
+
+    def had(key: str) -> bool:
+        return key in progress.values and bool(np.isfinite(progress.values[key][members]).any())
+
+    if exercise.assessment:
+        specs = task_figures(exercise.assessment) if exercise.assessment in TASKS else ()
+        return tuple(figure_row(spec.key) for spec in specs if had(spec.key))
+    have = [row for row in ROWS if had(row.key)]
+    first = exercise.success_key
+    return tuple(sorted(have, key=lambda row: row.key != first))
+
+
+def metric_keys(progress: Progress, exercise_index: int) -> tuple[str, ...]:
+    """The keys of `figure_rows`."""
+    return tuple(row.key for row in figure_rows(progress, exercise_index))
 
 
 def progress_figure(progress: Progress, exercise_index: int,
                     metric: str | None = None) -> ProgressFigure:
     """The figure of one exercise (Progress.exercises[exercise_index]) for `metric` (a
-    metrics table key; None: the mode's success figure, or the first figure it has)."""
+    metrics table key or an assessment task's figure; None: the first of `figure_rows`,
+    the mode's success figure for an exercise)."""
     exercise = progress.exercises[exercise_index]
     members = progress.members(exercise_index)
     if metric is None:
         keys = metric_keys(progress, exercise_index)
         metric = keys[0] if keys else exercise.success_key
-    row = _ROWS[metric]
+    row = figure_row(metric)
     raw = progress.values.get(metric)
     values = (np.full(len(members), math.nan) if raw is None
               else np.asarray(raw[members], dtype=float) * row.scale)

@@ -39,7 +39,7 @@ from app.exports.run import ran_columns
 from app.reports.plain_language import success_key
 from app.reports.progress import exercise_of
 from app.study.schema import COLUMNS, METRIC_PREFIX, NUMBER, TRAILING, fits, frame
-from app.trials.analysis import CHANNELS_USED, analyse
+from app.trials.analysis import CHANNELS_USED, analyse_data
 from app.trials.assistance_timeline import CHANNELS_NEEDED
 from app.trials.reader import TrialData, read_trial
 from core.errors import CoreError
@@ -118,11 +118,8 @@ def metrics(data: TrialData, notes: list[str]) -> dict[str, float]:
     """The trial's metrics as its finalization computes them (app.trials.analysis.analyse
     of the exercise phase), or none, with a note saying why, for a trial that cannot be
     measured."""
-    if data.parameters is None:
-        notes.append("no metrics: the file holds no trial parameters this console can use")
-        return {}
     try:
-        analysis = analyse(data.channels, data.parameters)
+        analysis = analyse_data(data)
     except (AppError, CoreError, ValueError) as exc:  # too little exercise, data refused
         notes.append(f"no metrics: {folded(exc)}")
         return {}

@@ -22,13 +22,16 @@ import numpy as np
 from app.assessments.figures import assessment_figures, assessment_figures_stored
 from app.errors import AppError
 from app.games.figures import game_figures, game_figures_stored
+from app.trials.reader import TrialData
 from core import blockwise
 from core.blockwise import compute_metrics_blockwise, spans
 from core.control.own import own_shares, own_torque
+from core.errors import CoreError
 from core.games import GameFigures
 from core.metrics import TrialMetrics, compute_metrics
 from core.reaches import reaches_from_trajectory
 from core.robot import RobotModel
+from core.robot_record import robot_from_record
 from core.trial import TrialParameters
 from device.loop.pipeline import PERIOD_S, PHASE_EXERCISE
 
@@ -50,6 +53,13 @@ class Analysis:
         return {**self.metrics.to_dict(), **(self.game.to_metrics() if self.game else {}),
                 **(self.assessment or {})}
 
+
+ANALYSIS = "2026-12-06"
+"""Which analysis this is: the date of the last change to what it computes of a trial (a
+figure added or defined anew), as a re-analysis's note names it (app.trials.reanalyse).
+Changed with the figures. 2026-12-05: the robot's share of the work counts its help alone
+(`robot_help_work_J`, core.work); 2026-12-06: the robot's own torque on the model the trial
+ran (its file's `robot`, core.robot_record)."""
 
 CHANNELS_USED = ("time", "phase", "position", "position_desired", "direction_desired", "force",
                  "subject_angle",
@@ -77,8 +87,10 @@ def _no_value(name: str, count: int) -> str:
     return f"{name} has {count} samples without a value; its figures are left out"
 
 
-def analyse(channels: Mapping[str, np.ndarray], parameters: TrialParameters) -> Analysis:
-    """Metrics of the exercise phase of a recorded trial (channels by record name)."""
+def analyse(channels: Mapping[str, np.ndarray], parameters: TrialParameters,
+            robot: RobotModel | None = None) -> Analysis:
+    """Metrics of the exercise phase of a recorded trial (channels by record name), on the
+    robot model it ran (`robot`; None: the default RobotModel, the one the console runs)."""
     mask = exercise_mask(channels)
     notes: list[str] = []
     n_exercise = int(mask.sum())
@@ -106,7 +118,7 @@ def analyse(channels: Mapping[str, np.ndarray], parameters: TrialParameters) -> 
         robot_torque_Nm=take("torque_applied") if "torque_applied" in channels else None,
         robot_angle_rad=take("robot_angle") if "robot_angle" in channels else None,
         robot_own_torque_Nm=robots_own_torque(
-            lambda name: np.asarray(channels[name])[mask], channels, parameters),
+            lambda name: np.asarray(channels[name])[mask], channels, parameters, robot),
         help_torque_Nm=help_torque(channels, mask) if parameters.assist == "as-needed" else None,
         tolerance_rad=parameters.tolerance_rad,
         reaches=_reaches(parameters, start),
@@ -134,16 +146,18 @@ ROLES = (("desired_position_m", "position_desired"), ("desired_direction", "dire
 
 
 def analyse_stored(read: ReadStretch, n_ticks: int, names: Sequence[str],
-                   parameters: TrialParameters, *, block: int | None = None) -> Analysis:
+                   parameters: TrialParameters, *, block: int | None = None,
+                   robot: RobotModel | None = None) -> Analysis:
     """`analyse` of a trial of n_ticks whose channels (`names`) are read a block of `block`
     samples at a time, for a trial too long to hold (core.blockwise: the same figures
     to rounding, without Fig. 3.9's intervals; the same notes). An exercise phase with a
-    gap is analysed whole, as `analyse` does. `block` None: core.blockwise.BLOCK."""
+    gap is analysed whole, as `analyse` does. `block` None: core.blockwise.BLOCK; `robot`
+    as `analyse`'s."""
     block = block or blockwise.BLOCK
     first, n = _exercise_run(read, n_ticks, block)
     if n < 0:
         return analyse({name: read(name, 0, n_ticks) for name in CHANNELS_USED
-                        if name in names}, parameters)
+                        if name in names}, parameters, robot)
     if n < MIN_EXERCISE:
         raise AppError(too_little_exercise(n))
 
@@ -162,8 +176,8 @@ def analyse_stored(read: ReadStretch, n_ticks: int, names: Sequence[str],
         else:
             channel[role] = name
     own = all(name in names for name in OWN_CHANNELS) and all(
-        robots_own_torque(lambda name, a=a, b=b: stretch(name, a, b), names, parameters)
-        is not None for a, b in spans(n, block))
+        robots_own_torque(lambda name, a=a, b=b: stretch(name, a, b), names, parameters,
+                          robot) is not None for a, b in spans(n, block))
     help_channels = ("torque_commanded", "torque_controller")
     helped = parameters.assist == "as-needed" and all(h in names for h in help_channels)
     if helped:
@@ -175,7 +189,8 @@ def analyse_stored(read: ReadStretch, n_ticks: int, names: Sequence[str],
         if role == "help_torque_Nm":
             return stretch(help_channels[0], a, b) - stretch(help_channels[1], a, b)
         if role == "robot_own_torque_Nm":
-            return robots_own_torque(lambda name: stretch(name, a, b), names, parameters)
+            return robots_own_torque(lambda name: stretch(name, a, b), names, parameters,
+                                     robot)
         return stretch(channel[role], a, b)
 
     start = float(stretch("time", 0, 1)[0])
@@ -225,22 +240,52 @@ def help_torque(channels: Mapping[str, np.ndarray], mask: np.ndarray):
 
 
 OWN_CHANNELS = ("robot_angle", "robot_rate", "robot_acceleration")
-
-
-@cache  # the live view asks at every batch
-def _model_constants() -> tuple:
-    """The constants of the model the trials run (device.loop.plan: RobotModel())."""
-    return tuple(RobotModel().constants)
 """The recorded channels the robot's own share of its torque is recomputed from."""
 
 
-def robots_own_torque(read: Callable[[str], np.ndarray], names, parameters: TrialParameters):
+@cache  # the live view asks at every batch
+def _model_constants(robot: RobotModel | None = None) -> tuple:
+    """The constants of the model a trial ran: `robot`, or the default RobotModel (the
+    console's, device.loop.plan) for None. The one place the analysis builds its model."""
+    return tuple((robot or RobotModel()).constants)
+
+
+def robots_own_torque(read: Callable[[str], np.ndarray], names, parameters: TrialParameters,
+                      robot: RobotModel | None = None):
     """The part of the motors' torque the trial's mode spent on the robot's own dynamics
     (core.control.own) for the samples `read(name)` gives of the channels in `names`, on
-    the model the trials run (RobotModel); None when a channel it needs is missing or
-    not finite (the help's work and the robot's share are then NaN)."""
+    the model the trial ran (`robot`; None: the default RobotModel); None when a channel it
+    needs is missing or not finite (the help's work and the robot's share are then NaN)."""
     if not all(name in names for name in OWN_CHANNELS):
         return None
-    own = own_torque(_model_constants(), own_shares(parameters.assist, parameters.gains),
+    own = own_torque(_model_constants(robot),
+                     own_shares(parameters.assist, parameters.gains),
                      *(read(name) for name in OWN_CHANNELS))
     return own if np.isfinite(own).all() else None
+
+
+def robot_of(data: TrialData) -> tuple[RobotModel | None, tuple[str, ...]]:
+    """The robot model the trial file says it ran (its `robot` description,
+    core.robot_record), None for the default one; and a note when the file's description
+    is not a model this console reads (then the default is used, and the note says so)."""
+    if not data.robot:
+        return None, ()
+    try:
+        robot = robot_from_record(data.robot)
+    except CoreError as exc:
+        return None, (f"the file's robot description is not a robot model this console reads "
+                      f"({exc}); the robot's own torque is that of the default model",)
+    return (None if robot == RobotModel() else robot), ()
+
+
+def analyse_data(data: TrialData) -> Analysis:
+    """`analyse` of a trial read from its file (app.trials.reader.read_trial): its
+    parameters and the robot model it ran, as the file records them: the analysis a
+    finished trial gets (app.trials.finalize), a study's (app.study.rows) and a
+    re-analysis's (app.trials.reanalyse). AppError when the file holds no parameters this
+    console can use, or too little exercise."""
+    if data.parameters is None:
+        raise AppError("the file holds no trial parameters this console can use")
+    robot, notes = robot_of(data)
+    analysis = analyse(data.channels, data.parameters, robot)
+    return replace(analysis, notes=(*notes, *analysis.notes)) if notes else analysis

@@ -18,7 +18,7 @@ from app.errors import AppError
 from app.records.assistance import AssistanceInEffect
 from app.records.registry.provenance import file_checksum
 from app.records.store import RecordStore
-from app.trials.analysis import CHANNELS_USED, Analysis, analyse
+from app.trials.analysis import CHANNELS_USED, Analysis, analyse_data
 from app.trials.assistance_timeline import CHANNELS_NEEDED
 from app.trials.progression import Proposal, propose
 from app.trials.reader import TrialData, read_trial
@@ -136,7 +136,7 @@ def _analyse_into(path: Path, data, notes: list[str]) -> tuple[Analysis | None, 
     """The trial's analysis and metrics, written into its file when it was closed; a
     trial that cannot be measured gets a note instead."""
     try:
-        analysis = analyse(data.channels, data.parameters)
+        analysis = analyse_data(data)  # on the robot model the file says it ran
     except (AppError, ValueError) as exc:  # core refuses data it cannot measure, naming it
         notes.append(f"no metrics: {exc}")
         return None, {}

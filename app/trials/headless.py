@@ -176,7 +176,7 @@ def save(trial: SimulatedTrial, path: Path, *, subject_code: str = "SIM") -> Ana
     (refuses, writing nothing, when the trial has too little exercise for its figures)."""
     params = trial.plan.parameters
     channels = {name: trial.records[name] for name in trial.records.dtype.names}
-    analysis = analyse(channels, params)
+    analysis = analyse(channels, params, trial.plan.robot)
     writer = _writer(path, params, trial.plan.robot, trial.plan.period_s, trial.patient,
                      trial.seed, subject_code)
     try:
@@ -224,7 +224,7 @@ def simulate_to_file(
         raise
     try:
         analysis, problem = analyse_stored(writer.read_stretch, trial.n_ticks, names,
-                                           parameters), ""
+                                           parameters, robot=robot), ""
     except AppError as exc:
         analysis, problem = None, str(exc)
     except BaseException:

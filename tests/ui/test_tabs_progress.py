@@ -184,3 +184,29 @@ def test_a_laptop_s_height_shows_the_plots_and_rows_of_the_table(tab):
     tab.resize(1900, 880)
     tab.layout().activate()
     assert splitter.sizes()[2] == dragged
+
+
+def test_an_assessment_s_series_offers_its_task_s_figures(qtbot, qapp, tmp_path):
+    """The battery's position-sense runs: the chooser offered RMSE and directional
+    performance, which mean little where the reference moves at the task's pace; it offers
+    the task's own figures (app.reports.progress_figure.figure_rows), the first drawn."""
+    from core.assessment.protocol import protocol
+
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("Ada", "Example", side="right").code
+    params = protocol("position").parameters(THESIS_SUBJECT)
+    for error in (0.04, 0.03):
+        begun = registry.begin_trial(code, params, backend="simulator")
+        registry.finish_trial(begun.trial_id, "complete", {
+            "position_absolute_error_m": error, "position_not_reproduced_count": 0.0,
+            "rmse_x_m": 0.02, "directional_performance_pct": 40.0})
+    theme.apply_theme(qapp)
+    tab = ProgressTab(registry)
+    shown(qtbot, tab)
+    with qtbot.waitSignal(tab.progress_loaded, timeout=10000):
+        tab.set_patient(code)
+    offered = [tab.metric_choice.itemData(i) for i in range(tab.metric_choice.count())]
+    assert offered == ["position_absolute_error_m", "position_not_reproduced_count"]
+    assert tab.metric_choice.currentText() == "Absolute error (m)"
+    (line,) = _curves(tab.plot)
+    np.testing.assert_allclose(line.getOriginalDataset()[1], [0.04, 0.03])

@@ -36,9 +36,8 @@ from PySide6.QtWidgets import (
 
 from app.records.datadir import REPORTS
 from app.records.store import RecordStore
-from app.reports.metrics_table import ROWS
 from app.reports.progress import Exercise, Progress, progress
-from app.reports.progress_figure import metric_keys, progress_figure, value_span
+from app.reports.progress_figure import figure_rows, progress_figure, value_span
 from ui import plots, theme
 from ui.fields import ComboBox
 from ui.tabs.progress_scales import ScalesPanel
@@ -347,10 +346,9 @@ class ProgressTab(QWidget):
         self.metric_choice.clear()
         if result is not None and index >= 0:
             self._exercise = result.exercises[index]
-            rows = {row.key: row for row in ROWS}
-            keys = metric_keys(result, index)
-            for key in keys:
-                self.metric_choice.addItem(metric_heading(rows[key]), key)
+            # the series' own figures: an assessment task's for its runs (app.reports)
+            for row in figure_rows(result, index):
+                self.metric_choice.addItem(metric_heading(row), row.key)
             # in the same mode keep the figure; another mode opens on its own success figure
             mode = result.exercises[index].mode
             found = self.metric_choice.findData(current) if mode == self._mode else -1

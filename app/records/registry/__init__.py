@@ -16,6 +16,8 @@ or concern, each a module here:
 * plans — session plans per patient and what each run of one did (schema v7);
 * clinical — a session's clinical scales, notes on sessions and trials, trials marked
   invalid (or valid again), a patient's fields corrected with their audit (schema v8);
+* reanalyses — a trial's figures re-computed from its file, stored with a note saying
+  which analysis made them (app.trials.reanalyse);
 * values — the checks of what is given and the JSON of parameters and metrics.
 * seals — every row sealed with the digest of its values, checked before it is read.
 * provenance, stores — the station of each trial and its file's checksum (v10); the shared
@@ -78,6 +80,7 @@ from app.records.registry.plans import PlanRun, Plans, PlanStep, StoredPlan
 from app.records.registry.proposals import Proposals, StoredProposal
 from app.records.registry.provenance import checked_station, station_id
 from app.records.registry.queries import Queries, TrialSummary
+from app.records.registry.reanalyses import Reanalyses
 from app.records.registry.schema import (
     MIGRATE_V1_TO_V2,
     MIGRATE_V2_TO_V3,
@@ -142,7 +145,7 @@ __all__ = [
 
 
 class Registry(Schema, Patients, Sessions, Plans, Clinical, Proposals, Trials, Stores,
-               Queries):
+               Queries, Reanalyses):
     """The registry of one data folder. Opening it migrates the database; with `create`
     (the window, `rehab patients add`) a missing one is created, whole, in a new or empty
     folder (app.records.registry.schema.create_registry_file); without, a missing registry

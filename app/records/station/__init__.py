@@ -65,8 +65,8 @@ WRITES = frozenset((
     "add_note", "begin_plan_run", "begin_trial", "change_block", "correct_patient",
     "create_patient", "end_plan_run", "finish_trial", "interrupt_runs", "mark_trial",
     "open_session", "record_plan_rest", "record_plan_trial", "record_proposal",
-    "record_rewritten", "record_stored", "record_scale", "save_plan", "update_metrics",
-    "update_patient", "update_session", "withdraw_trial"))
+    "record_reanalysis", "record_rewritten", "record_stored", "record_scale", "save_plan",
+    "update_metrics", "update_patient", "update_session", "withdraw_trial"))
 """The calls that record something: after each, online, the standby is mirrored again."""
 
 MIRRORED_PATIENTS = 8

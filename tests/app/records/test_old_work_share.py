@@ -6,10 +6,10 @@ import math
 
 from app.exports.loader import load_trial, read_info
 from app.records.registry.values import metrics_json, parse_metrics
-from app.trials.analysis import Analysis
 from app.trials.headless import save, simulate
 from app.trials.reader import read_trial
 from core.trial import THESIS_SUBJECT
+from tests.old_analysis import analysed_as_before
 
 OLD = {"robot_work_J": 0.67, "patient_work_J": 1.0, "robot_work_share": 0.40}
 
@@ -35,18 +35,11 @@ def test_an_old_trial_file_shows_no_share_to_the_reader_or_the_exports(tmp_path,
     """A file written as the console did before the help's work was a metric (its share
     the motors' whole work): the reader, the export loader's quick path and its full one
     read the share as NaN and keep the net works."""
-    new = Analysis.to_metrics
-
-    def old(self):
-        metrics = new(self)
-        del metrics["robot_help_work_J"]
-        return metrics
-
-    monkeypatch.setattr(Analysis, "to_metrics", old)
     path = tmp_path / "old.h5"
-    save(simulate(THESIS_SUBJECT.replace(repetitions=1, assist="transparent"),
-                  patient="healthy", seed=0), path)
-    monkeypatch.setattr(Analysis, "to_metrics", new)
+    with monkeypatch.context() as patch:
+        analysed_as_before(patch)
+        save(simulate(THESIS_SUBJECT.replace(repetitions=1, assist="transparent"),
+                      patient="healthy", seed=0), path)
     for metrics in (read_trial(path).metrics, read_info(path).metrics,
                     load_trial(path).metrics):
         assert "robot_help_work_J" not in metrics

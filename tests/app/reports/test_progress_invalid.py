@@ -38,7 +38,7 @@ def test_an_invalid_trial_leaves_progress_and_comes_back_when_asked(tmp_path, ca
     assert "3 trials, 1 exercise\n" in out
     # the table says which row is invalid, and why (it used to show it as 'complete')
     (row,) = [line for line in out.splitlines() if line.split()[:2] == ["1", "2"]]
-    assert row.split()[3] == "INVALID"
+    assert row.split()[2] == "INVALID"
     assert (f"  session 1 trial 2 (id {ids[1]}) marked invalid: the robot was bumped"
             in out)
 

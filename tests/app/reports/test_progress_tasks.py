@@ -86,3 +86,37 @@ def test_a_report_names_the_task_or_the_game_it_was(course):
     assert lines[1].startswith("Circle drawing (assessment): circle, radius 7 cm")
     assert lines[4].startswith("Path game: circle, radius 7 cm")
     assert lines[0].startswith("circle, radius 7 cm")
+
+
+def test_an_assessment_s_series_shows_its_task_s_figures_not_the_tracking_ones(course,
+                                                                               capsys):
+    """`rehab progress` printed RMSE and directional performance for the battery's circle,
+    whose reference moves at the task's pace: its own figures (circle ratio, joint
+    independence, …) were not shown. The tab, its PDF and the command choose the figures
+    in one place (figure_rows)."""
+    from app.reports.progress_figure import figure_rows, progress_figure
+    from core.assessment.figures import task_figures
+
+    registry, code = course
+    result = progress(registry, code)
+    rows = figure_rows(result, 1)
+    assert [r.key for r in rows] == [s.key for s in task_figures("circle")]
+    assert progress_figure(result, 1).row.key == "circle_ratio"
+    assert figure_rows(result, 0)[0].key == "rmse_x_m"  # transparent: no "rmse" stored
+    assert "circle_ratio" not in [r.key for r in figure_rows(result, 0)]
+    assert main(["progress", code]) == 0
+    out = capsys.readouterr().out
+    blocks = out.split("\nexercise ")
+    assert len(blocks) == 4
+    task = blocks[2]
+    assert task.startswith("2: Assessment: Circle drawing · ")
+    lines = task.splitlines()
+    assert lines[1].split() == ["figure", "S1", "T2", "S1", "T3"]
+    assert lines[2].split() == ["status", "complete", "complete"]
+    trials = registry.trials_for_patient(code)[1:3]
+    ratio = next(line for line in lines if line.startswith("Circle ratio  "))
+    assert ratio.split()[2:] == [f"{t.metrics['circle_ratio']:.4g}" for t in trials]
+    assert "RMSE" not in task
+    assert "Direction" not in task
+    assert "RMSE x" in blocks[1]
+    assert "Circle ratio" not in blocks[1]

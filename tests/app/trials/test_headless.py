@@ -192,7 +192,7 @@ def test_a_streamed_trial_without_figures_keeps_its_file_and_says_why(tmp_path, 
     from app.errors import AppError
     from app.trials.headless import simulate_to_file
 
-    def too_short(read, n_ticks, names, parameters):
+    def too_short(read, n_ticks, names, parameters, **options):
         raise AppError("the trial has only 3 samples of exercise; at least 64 are needed")
 
     monkeypatch.setattr("app.trials.headless.analyse_stored", too_short)
