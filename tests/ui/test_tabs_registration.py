@@ -129,6 +129,30 @@ def test_create_patient_numbers_and_duplicate_refused(qtbot, tab, registry):
     assert tab.registration() is None
 
 
+@pytest.mark.parametrize(("session", "trial", "said"), [
+    (2, 1, "has no session yet: session 2 would leave a gap; use 1"),
+    (1, 3, "session 1 has no trial yet: trial 3 would leave a gap; use 1"),
+])
+def test_confirm_refuses_numbers_that_start_would(qtbot, tab, registry, session, trial, said):
+    """Numbering is gap-free: Confirm took session 2 of a patient with none, and only
+    Start then said "session 2 would leave a gap" (the window's state machine)."""
+    patient = registry.create_patient("Ada", "Lovelace")
+    with qtbot.waitSignal(tab.patient_selected, timeout=60000):
+        tab.choose(patient)
+    for box, value in ((tab.session, session), (tab.trial, trial)):
+        box.setFocus()
+        box.selectAll()
+        qtbot.keyClicks(box, str(value))
+    with qtbot.assertNotEmitted(tab.registered):
+        click(qtbot, tab.confirm)
+        answered(qtbot, tab)
+    assert tab.registration() is None
+    assert said in tab.trial_problem.text()
+    with pytest.raises(Exception, match="would leave a gap"):  # what Start would meet
+        registry.begin_trial(patient.code, THESIS_SUBJECT, backend="simulator",
+                             session_number=session, trial_number=trial)
+
+
 def test_refusal_from_the_registry_is_shown_as_it_says(qtbot, tab, registry):
     code = registry.create_patient("Alan", "Turing").code
     registry.begin_trial(code, THESIS_SUBJECT, backend="simulator", session_number=1,
@@ -253,9 +277,10 @@ def test_confirm_and_a_new_patient_wait_for_the_registry_off_the_windows_thread(
         answered(qtbot, tab)
     assert tab.registration() is None
     assert tab.confirm.isEnabled()
+    tab.trial.setValue(1)  # a new session's first trial: the only number Start takes
     with qtbot.waitSignal(tab.registered, timeout=60000) as registered:
         click(qtbot, tab.confirm)
-    assert registered.args[1].trial_number == 2
+    assert registered.args[1].trial_number == 1
     assert on_window_thread == []
 
 

@@ -53,6 +53,14 @@ def test_start_waits_for_confirm_after_the_registration_changed(qtbot, win):
     assert win.trial_id is None
     assert not win.registry.trials_for_patient(ada.code)
 
+    # Confirm refuses session 2 of a patient with none (Start would: a gap); session 1 again
+    with qtbot.assertNotEmitted(tab.registered):
+        click(qtbot, tab.confirm)
+        qtbot.waitUntil(lambda: tab.trial_problem.isVisible(), timeout=60000)
+    assert "session 2 would leave a gap; use 1" in tab.trial_problem.text()
+    tab.session.setValue(1)
+    assert tab.registration() is None
+
     # another patient chosen, not confirmed: Start would register Grace under Ada's numbers
     click(qtbot, tab.confirm)
     qtbot.waitUntil(lambda: "start" in enabled(win), timeout=60000)

@@ -49,6 +49,7 @@ from ui.tabs.patient_words import describe, measurements
 from ui.tabs.registration_new import CREATE, NewPatient
 from ui.tabs.registration_numbers import (
     Numbers,
+    gap_refusal,
     read_choice,
     read_numbers,
     session_trials,
@@ -486,6 +487,10 @@ class RegistrationTab(NewPatient, QWidget):
             self.show_refusal(
                 f"Patient {code} session {session} already has a trial {trial} (started "
                 f"{started}); use {free}, the next free number.")
+            return None
+        gap = gap_refusal(code, session, trial, used, sessions)
+        if gap:
+            self.show_refusal(gap)
             return None
         self.trial_problem.hide()
         registration = Registration(code, session, trial,

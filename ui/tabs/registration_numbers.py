@@ -13,6 +13,7 @@ import dataclasses
 
 from app.errors import RegistryError, SessionNotFound
 from app.records.registry import Registration, Session, Trial
+from app.records.registry.numbering import refuse_number
 from app.records.store import RecordStore
 from ui.tabs.clinical_record import trial_items
 
@@ -31,6 +32,27 @@ class Numbers:
     used: dict[int, Trial] | RegistryError
     free: int
     record: tuple[str, int, list[tuple[str, int]]] | None
+
+
+def gap_refusal(code: str, session: int, trial: int, used: dict[int, Trial],
+                sessions: dict[int, Session]) -> str:
+    """Why Start would refuse numbers whose trial is not used yet ('' when it would not):
+    a new session past the patient's next, or a trial past its session's next (numbering
+    is gap-free: app.records.registry.numbering), in the registry's own words. Confirm
+    took session 2 of a patient with none, and only Start said "session 2 would leave a
+    gap" (found by the window's state machine)."""
+    if session in sessions:
+        next_trial = max(used, default=0) + 1
+    else:
+        next_session = max(sessions, default=0) + 1
+        if session != next_session:
+            return str(refuse_number("session", session, next_session,
+                                     whose=f"patient {code}", used_on=None))
+        next_trial = 1
+    if trial != next_trial:
+        return str(refuse_number("trial", trial, next_trial,
+                                 whose=f"patient {code} session {session}", used_on=None))
+    return ""
 
 
 def read_numbers(registry: RecordStore, code: str,
