@@ -366,3 +366,44 @@ def test_the_plan_table_shows_every_cell_and_heading_whole_at_1366(qtbot, name):
         assert table.columnWidth(col) >= needed, (
             f"column {table.horizontalHeaderItem(col).text()!r}: {table.columnWidth(col)} "
             f"px for {needed}")
+
+
+def test_a_disconnect_in_a_rest_pauses_the_plan_and_resume_goes_on_once_connected(
+        qtbot, window):
+    """Disconnect pressed in a rest (brief hU): the plan pauses saying why and what to do,
+    the run's record notes it with its time, nothing is built however long it is held,
+    Resume waits for Connect, and then the plan goes on to its next block. Before, the next
+    round was built at the rest's end, its Start refused (not connected), and the plan
+    ended 'faulted'."""
+    from ui.window.plan import RESUME_WAITS, ROBOT_GONE
+
+    win = window
+    short_rest = Plan(PLAN.name, (PLAN.blocks[0].replace(rest_s=3.0),
+                                  PLAN.blocks[1].replace(repetitions=10)))
+    code = connected_with_plan(qtbot, win, short_rest)
+    start_plan(qtbot, win)
+    qtbot.waitUntil(lambda: win.plan_runner is not None and win.plan_runner.phase
+                    == "resting" and not win.saving(), timeout=120000)
+    click(qtbot, win.robot.buttons["disconnect"])
+    qtbot.waitUntil(lambda: win.state == State.BUILT, timeout=20000)
+    assert win.plan_runner.phase == "paused"
+    assert win.plan_tab.status.text() == f"Plan paused at block 1 of 2: {ROBOT_GONE}"
+    assert win.message.text().endswith(f"Plan paused: {ROBOT_GONE}.")
+    qtbot.wait(4000)  # more than the 3 s rest: a paused plan starts nothing
+    assert win.plan_runner.phase == "paused"
+    assert len(win.registry.trials_for_patient(code)) == 1
+    click(qtbot, win.plan_tab.resume_button)  # not connected: Resume waits
+    assert win.plan_runner.phase == "paused"
+    assert win.message.text().endswith(RESUME_WAITS)
+    click(qtbot, win.robot.buttons["connect"])
+    qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=60000)
+    click(qtbot, win.plan_tab.resume_button)
+    qtbot.waitUntil(lambda: win.state == State.RUNNING, timeout=120000)  # block 2
+    click(qtbot, win.plan_tab.stop_button)
+    qtbot.waitUntil(lambda: win.plan_runner is None, timeout=60000)
+    (run,) = win.registry.plan_runs_for_patient(code)
+    assert run.status == "stopped"
+    assert [(s.kind, s.block) for s in run.steps] == [("trial", 1), ("rest", 1), ("trial", 2)]
+    notes = [n.text for n in win.registry.notes(code)]
+    assert notes == [f"Plan run {run.id}, block 1: paused: {ROBOT_GONE}",
+                     f"Plan run {run.id}, block 1: resumed"]
