@@ -60,6 +60,19 @@ def connected_with_plan(qtbot, win, plan=PLAN):
     return code
 
 
+def in_the_rest(qtbot, win) -> str:
+    """A plan whose second block is long (ten laps, so that a Stop lands in it however
+    slow the machine) started, and waited for in its 3 s rest after block 1 (which polling
+    finds on a loaded machine; one of 1 s was missed); the patient's code."""
+    long_second = Plan(PLAN.name, (PLAN.blocks[0].replace(rest_s=3.0),
+                                   PLAN.blocks[1].replace(repetitions=10)))
+    code = connected_with_plan(qtbot, win, long_second)
+    start_plan(qtbot, win)
+    qtbot.waitUntil(lambda: win.plan_runner is not None and win.plan_runner.phase
+                    == "resting", timeout=120000)
+    return code
+
+
 def test_a_template_copied_and_a_block_changed_in_the_plan_tab(qtbot, window):
     win = window
     tab = win.plan_tab
@@ -234,14 +247,7 @@ def test_pause_holds_the_plan_resume_goes_on_and_the_robot_bar_s_stop_ends_it(qt
     held), Resume goes on to the next block, and the robot bar's Stop (F6's button) in that
     block ends the plan as stopped, the trial stopped early and nothing after it."""
     win = window
-    # the second block long (ten laps) so that the Stop lands in it however slow the machine;
-    # a rest of 3 s, which polling finds on a loaded machine (one of 1 s was missed)
-    long_second = Plan(PLAN.name, (PLAN.blocks[0].replace(rest_s=3.0),
-                                   PLAN.blocks[1].replace(repetitions=10)))
-    code = connected_with_plan(qtbot, win, long_second)
-    start_plan(qtbot, win)
-    qtbot.waitUntil(lambda: win.plan_runner is not None and win.plan_runner.phase
-                    == "resting", timeout=120000)
+    code = in_the_rest(qtbot, win)
     click(qtbot, win.plan_tab.pause_button)
     assert win.plan_tab.status.text().startswith("Plan paused at")
     assert win.plan_tab.resume_button.isEnabled()
@@ -378,12 +384,7 @@ def test_a_disconnect_in_a_rest_pauses_the_plan_and_resume_goes_on_once_connecte
     from ui.window.plan import RESUME_WAITS, ROBOT_GONE
 
     win = window
-    short_rest = Plan(PLAN.name, (PLAN.blocks[0].replace(rest_s=3.0),
-                                  PLAN.blocks[1].replace(repetitions=10)))
-    code = connected_with_plan(qtbot, win, short_rest)
-    start_plan(qtbot, win)
-    qtbot.waitUntil(lambda: win.plan_runner is not None and win.plan_runner.phase
-                    == "resting" and not win.saving(), timeout=120000)
+    code = in_the_rest(qtbot, win)
     click(qtbot, win.robot.buttons["disconnect"])
     qtbot.waitUntil(lambda: win.state == State.BUILT, timeout=20000)
     assert win.plan_runner.phase == "paused"
