@@ -406,9 +406,11 @@ class PlanControl:
 
     def _plan_robot_state(self, state: int, _reason: str) -> None:
         """The robot disconnected while the plan runs (Disconnect between rounds: in a
-        rest, or as a round is built): the plan pauses and says why (ROBOT_GONE)."""
+        rest, or as a round is built): the plan pauses and says why (ROBOT_GONE). Only
+        Disconnect leads to BUILT from a connected robot (device.loop.states); IDLE is the
+        loop's shutdown, as the window closes, which is no pause."""
         runner = self.plan_runner
-        if runner is None or State(state) not in (State.BUILT, State.IDLE) or runner.held \
+        if runner is None or State(state) != State.BUILT or runner.held \
                 or runner.phase == ENDED:
             return
         self._plan_event("robot_gone", ROBOT_GONE)
