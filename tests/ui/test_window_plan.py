@@ -381,14 +381,26 @@ def test_a_disconnect_in_a_rest_pauses_the_plan_and_resume_goes_on_once_connecte
     Resume waits for Connect, and then the plan goes on to its next block. Before, the next
     round was built at the rest's end, its Start refused (not connected), and the plan
     ended 'faulted'."""
+    import threading
+
     from ui.window.plan import RESUME_WAITS, ROBOT_GONE
 
     win = window
+    # the first trial's saved line held back until after the Disconnect (its reads run
+    # after the plan has moved on to the rest, ui.window.after_trial)
+    verify, read_back = win.registry.verify_trial_file, threading.Event()
+    win.registry.verify_trial_file = lambda trial: read_back.wait(60) and verify(trial)
     code = in_the_rest(qtbot, win)
     click(qtbot, win.robot.buttons["disconnect"])
     qtbot.waitUntil(lambda: win.state == State.BUILT, timeout=20000)
     assert win.plan_runner.phase == "paused"
     assert win.plan_tab.status.text() == f"Plan paused at block 1 of 2: {ROBOT_GONE}"
+    assert win.message.text().endswith(f"Plan paused: {ROBOT_GONE}.")
+    read_back.set()
+    qtbot.waitUntil(lambda: not win.saving(), timeout=60000)
+    saved = [line for line in win.messages.history() if "Trial 1 of session 1 saved" in line]
+    assert len(saved) == 1
+    # the saved line came after the pause: the event line says what holds the plan again
     assert win.message.text().endswith(f"Plan paused: {ROBOT_GONE}.")
     qtbot.wait(4000)  # more than the 3 s rest: a paused plan starts nothing
     assert win.plan_runner.phase == "paused"

@@ -414,7 +414,7 @@ class PlanControl:
                 or runner.phase == ENDED:
             return
         self._plan_event("robot_gone", ROBOT_GONE)
-        self._say(f"Plan paused: {ROBOT_GONE}.", problem=True)
+        self._say_held()
 
     def _plan_reply(self, command: str, ok: bool, message: str) -> None:
         if command == "build":
@@ -451,6 +451,18 @@ class PlanControl:
         runner.finished(time.monotonic(), trial_id, done.status, movements, active, figures,
                         done.proposal)
         self._plan_tick()
+
+    def _after_trial(self, done, answers) -> None:
+        """The trial's saved line (ui.window.after_trial) comes after its registry reads,
+        when the plan has already moved on: a plan paused meanwhile for the robot says so
+        again, so the event line shows what holds the plan, not the saved trial."""
+        super()._after_trial(done, answers)
+        runner = self.plan_runner
+        if runner is not None and runner.held and runner.phase != ENDED:
+            self._say_held()
+
+    def _say_held(self) -> None:
+        self._say(f"Plan paused: {self.plan_runner.held}.", problem=True)
 
     def _plan_tick(self) -> None:
         runner = self.plan_runner
