@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from app.errors import AppError
 from app.games.rounds import staircase_rounds
 from app.plans.dose import trial_dose
+from app.plans.record import record_plan_event
 from app.plans.runner import ENDED, PlanRunner, PlanState
 from app.records.registry import StoredPlan
 from app.trials.finalize import finalize_lost, finalize_trial
@@ -99,6 +100,9 @@ class LivePlan:
 
     def record_rest(self, block: int, planned_s: float, taken_s: float) -> None:
         self.registry.record_plan_rest(self.run_id, block, planned_s, taken_s)
+
+    def record_event(self, block: int, words: str) -> None:
+        record_plan_event(self.registry, self.run_id, block, words)
 
     def end(self, status: str, reason: str) -> None:
         self.registry.end_plan_run(self.run_id, status, reason)

@@ -19,6 +19,9 @@ already zeroed the torque). Whatever ends a run, nothing is built or started aft
 Pause: in a rest the countdown stops; in a trial the trial is stopped (the loop cannot
 hold a trial half-way) and, on Resume, the round runs again for the laps it had left;
 while a trial is being built, started or saved, the pause takes effect when it can.
+The robot gone between trials (the therapist's Disconnect in a rest): the plan pauses as
+Pause does, saying why and recording it (`robot_gone`), and Resume goes on once it is
+connected again; it ended 'faulted' at the next round, whose Start the loop refused.
 After a block's trial the console's proposal (app.trials.progression) applies to the
 next block of the same exercise (core.plan.Block.exercise), not to the plan kept in the
 registry: each trial's row records what it ran and whether the proposal was taken.
@@ -49,6 +52,7 @@ class Console(Protocol):
     def record_trial(self, block: int, round_: int, trial_id: int, planned_s: float) -> None:
         ...
     def record_rest(self, block: int, planned_s: float, taken_s: float) -> None: ...
+    def record_event(self, block: int, words: str) -> None: ...
     def end(self, status: str, reason: str) -> None: ...
 
 
@@ -99,6 +103,9 @@ class PlanState:
     outcome: str
     """How the run ended ('' until it does): complete, stopped, emergency_stop, faulted."""
     reason: str
+    held: str = ""
+    """Why the plan is paused when the console paused it (the robot disconnected: what to
+    do, in words), '' when the therapist did or it is not paused."""
     done_share: float = math.nan
     """The plan's exercise done, 0–1: the blocks before this one whole and this block's
     laps done in finished trials, each block weighted by its planned exercise time (as the
@@ -127,6 +134,8 @@ class PlanState:
             return f"Rest {_clock(self.rest_left_s)} after {where.lower()}; " \
                    f"{self.movements_done} of {self.movements_planned} movements"
         if self.phase == PAUSED:
+            if self.held:
+                return f"Plan paused at {where.lower()}: {self.held}"
             return f"Plan paused at {where.lower()}; Resume goes on"
         laps = "1 lap" if self.laps_planned == 1 else f"{self.laps_planned} laps"
         return (f"{where}: {self.block_name or 'exercise'}, {laps}; "
@@ -169,6 +178,7 @@ class PlanRunner:
         self._paused_in_rest = False
         self._parameters: TrialParameters | None = None
         self._start_pending = False
+        self.held = ""  # why the console paused the plan (PlanState.held)
         self.starts = 0  # trials asked to start (the invariants count them)
 
     # ------------------------------------------------------------------ the therapist
@@ -190,6 +200,9 @@ class PlanRunner:
             self._pause_wanted = True
 
     def resume(self, now: float) -> None:
+        if self.held:
+            self.console.record_event(self.index + 1, "resumed")
+            self.held = ""
         if self.phase != PAUSED:
             self._pause_wanted = False if self.phase in (BUILDING, STARTING, SAVING) \
                 else self._pause_wanted
@@ -208,6 +221,18 @@ class PlanRunner:
         if self.phase in (RUNNING, STARTING):
             self.console.stop()
         self._end(now, "stopped", "stopped by the therapist")
+
+    def robot_gone(self, now: float, why: str) -> None:
+        """The robot can take no round now (the therapist disconnected it between trials):
+        the plan pauses as Pause does, `why` says so and what to do, and the run's record
+        says it with its time (Console.record_event); Resume goes on (the console resumes
+        only once the robot is back). Before, the plan went on to the next round, whose
+        Start the loop refused, and ended 'faulted' although nothing had failed."""
+        if self.phase in (IDLE, ENDED) or self.held:
+            return
+        self.held = why
+        self.console.record_event(self.index + 1, f"paused: {why}")
+        self.pause(now)
 
     def emergency_stop(self, now: float, message: str = "emergency stop") -> None:
         """E-STOP: the loop zeroed the torque already; the plan ends at once."""
@@ -258,6 +283,10 @@ class PlanRunner:
     def refused(self, now: float, message: str) -> None:
         """The round's trial could not start."""
         self._start_pending = False
+        if self.phase == STARTING and self.held:  # refused as the robot went: held, the
+            self._pause_wanted = False             # round built again on Resume
+            self.phase = PAUSED
+            return
         if self.phase == STARTING:
             self._end(now, "faulted", f"block {self.index + 1}'s trial did not start: "
                                       f"{message}")
@@ -329,7 +358,7 @@ class PlanRunner:
             block.name, self.round, block.rounds, self.laps_left if self.phase != IDLE
             else block.laps, self.laps_done, done, self.planned_movements(), rest_left,
             self._time_left(now, rest_left), self.outcome, self.reason,
-            *self._shares())
+            self.held if self.phase == PAUSED else "", *self._shares())
 
     def _shares(self) -> tuple[float, float]:
         """(done_share, lap_share) of PlanState: laps, not the movements the files count,
@@ -411,6 +440,7 @@ class PlanRunner:
             left = self._rest_remaining(now) if self.phase == RESTING else self._rest_left
             self._rest_done(now, rest - left)
         self.phase = ENDED
+        self.held = ""  # nothing to resume
         self.outcome, self.reason = outcome, reason
         self.console.end(outcome, reason)
 

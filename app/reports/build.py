@@ -111,10 +111,12 @@ def content_for_registry_trial(
     return dataclasses.replace(content, therapist_header=content.therapist_header + extra)
 
 
-TASK_NOTE = "figures on the last page; the table below is against the moving reference"
-"""The therapist's header line of an assessment trial, after the task's title: the
-trial's table measures the hand against the task's moving reference (the circle's dot, the
-targets' schedule), which the task does not ask the patient to follow."""
+TASK_NOTE = ("its own figures lead the table below, with their Z-scores and the task score "
+             "on the last page; nothing is measured against the task's reference")
+"""The therapist's header line of an assessment trial, after the task's title: the table
+has the task's own figures (app.reports.task_table), not the distance from or direction
+along the task's reference (the circle's dot, the targets' schedule, the robot's move),
+which the task does not ask the patient to follow."""
 
 
 def with_task_page(registry: RecordStore, record: Trial, content: ReportContent

@@ -45,6 +45,7 @@ from app.reports.plain_language import (
 from app.trials.assistance_timeline import AssistanceInEffect
 from app.trials.reader import TrialData
 from app.units import MM_PER_M
+from core.assessment import FIGURES
 from core.errors import capitalised
 from core.trial import TrialParameters
 
@@ -69,8 +70,17 @@ GOALS: dict[str, Goal] = {
     "led_pct": Goal.HIGHER,
     "rmse": Goal.LOWER,
 }
-"""Which way is better for a figure (TrialMetrics names); any other figure has no
-better or worse, only more or less."""
+"""Which way is better for a figure (TrialMetrics names); an assessment task's figure
+goes the way its catalogue says (core.assessment.FIGURES, `goal_of`); any other figure has
+no better or worse, only more or less."""
+
+
+def goal_of(key: str) -> Goal:
+    """Which way is better for figure `key`: GOALS, else the task catalogue's `better`."""
+    if key in GOALS:
+        return GOALS[key]
+    spec = FIGURES.get(key)
+    return Goal(spec.better) if spec is not None and spec.better != "none" else Goal.NONE
 
 UP, DOWN, SAME = "↑", "↓", "="
 
@@ -371,8 +381,10 @@ def table_order(mode: str) -> tuple[MetricRow, ...]:
 
 def table_rows(metrics: Mapping[str, float], baselines: tuple[Baseline, ...], *,
                mode: str = "thesis", comparable: tuple[bool, ...] | None = None,
-               only_lightened: bool = False) -> tuple[TableRow, ...]:
-    """Every row of `table_order(mode)` this trial has a value for, each earlier trial's
+               only_lightened: bool = False,
+               order: tuple[MetricRow, ...] | None = None) -> tuple[TableRow, ...]:
+    """Every row of `order` (default `table_order(mode)`; an assessment task's:
+    app.reports.task_table.task_order) this trial has a value for, each earlier trial's
     value beside it, with the change only where the trials compare (`comparable`, one
     flag per baseline; all by default): the same rule as the patient's page.
     `only_lightened` (plain_language.robot_only_lightened): no robot's share of the work,
@@ -381,12 +393,12 @@ def table_rows(metrics: Mapping[str, float], baselines: tuple[Baseline, ...], *,
     metrics = _with_position(metrics)
     earlier_metrics = [_with_position(b.metrics) for b in baselines]
     rows = []
-    for row in table_order(mode):
+    for row in order if order is not None else table_order(mode):
         value = float(metrics.get(row.key, math.nan)) * row.scale
         if not math.isfinite(value) or (only_lightened and row.key == "robot_work_share"):
             continue
         texts, verdicts = [], []
-        goal = GOALS.get(row.key, Goal.NONE)
+        goal = goal_of(row.key)
         for before, compared in zip(earlier_metrics, comparable, strict=True):
             earlier = float(before.get(row.key, math.nan)) * row.scale
             if not math.isfinite(earlier):

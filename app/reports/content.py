@@ -56,6 +56,7 @@ from app.reports.plain_language import (
     status_sentence,
 )
 from app.reports.plain_task import task_lines
+from app.reports.task_table import task_order
 from app.trials.analysis import MIN_EXERCISE, analyse, exercise_mask, too_little_exercise
 from app.trials.assistance_timeline import AssistanceInEffect
 from app.trials.reader import TrialData
@@ -261,10 +262,14 @@ def build_report(
         levels=levels,
         plain=_plain(values, parameters, task_values, figures.peak_force_N) if values else (),
         comparisons=comparisons,
-        table=table_rows(values, tuple(c.baseline for c in comparisons),
+        # an assessment task's table: its own figures, none against the reference
+        # (app.reports.task_table)
+        table=table_rows({**values, **task_values}, tuple(c.baseline for c in comparisons),
                          mode=parameters.assist,
                          comparable=tuple(c.comparable for c in comparisons),
-                         only_lightened=robot_only_lightened(parameters)) if values else (),
+                         only_lightened=robot_only_lightened(parameters),
+                         order=task_order(parameters.assessment, parameters.assist)
+                         if parameters.assessment else None) if values else (),
         table_columns=tuple(_column_title(c) for c in comparisons),
         path=figures.path,
         force=figures.force,

@@ -270,15 +270,16 @@ def report_figures(trial: TrialData, parameters: TrialParameters, mask: np.ndarr
     was analysed into `metrics`."""
     series = _Series(trial, mask, start_s)
     runs, min_run = _runs(series, parameters, metrics)
+    own_pace = own_pace_task(parameters)
     notes = ()
-    if runs:
+    if runs and not own_pace:  # a task the patient paces draws no runs (below)
         notes = (f"the path and Fig. 3.9 draw runs shorter than {min_run * 1000:.0f} ms in "
                  "the colour around them; the percentage counts every sample",)
     peak = math.nan
     if series.force is not None:
         peak = float(np.max(np.hypot(series.force[:, 0], series.force[:, 1])))
     path_runs, labels = runs, DIRECTION_RUN_LABELS
-    if own_pace_task(parameters):
+    if own_pace:
         # the push's direction along a reference on the task's clock says nothing of a
         # patient moving at their own pace: the hand's path in one line
         path_runs = ()
@@ -290,7 +291,7 @@ def report_figures(trial: TrialData, parameters: TrialParameters, mask: np.ndarr
                                          _min_run(series))
     return Figures(
         _path_figure(series, path_runs, labels, parameters),
-        _force_figure(series, runs, metrics),
+        _force_figure(series, runs, metrics, own_pace=own_pace),
         _angles_figure(series, metrics),
         _torques_figure(series, metrics, trial.sample_period_s),
         peak,
@@ -358,17 +359,27 @@ def _path_figure(series: _Series, runs: tuple[Run, ...],
     return PathFigure(series.position, series.desired, outline, runs, labels)
 
 
-def _force_figure(series: _Series, runs: tuple[Run, ...],
-                  metrics: TrialMetrics) -> ForceFigure | None:
+OWN_PACE_FORCE = ("the hand's push, in one line: its direction along the task's reference "
+                  "(on the task's clock) says nothing of a patient moving at their own pace")
+"""Fig. 3.9's caption for a task the patient paces (plain_language.own_pace_task), in place
+of the share of time within the tolerance of the reference's direction."""
+
+
+def _force_figure(series: _Series, runs: tuple[Run, ...], metrics: TrialMetrics, *,
+                  own_pace: bool = False) -> ForceFigure | None:
+    """Fig. 3.9; for a task the patient paces (`own_pace`) the force in one line, without
+    the directional performance (app.reports.task_table: nor in the therapist's table)."""
     if series.force is None:
         return None
     tolerance = f"{math.degrees(metrics.tolerance_rad):.0f}°"
     x_range = _text("force_range_x_N", metrics.force_range_x_N)
     y_range = _text("force_range_y_N", metrics.force_range_y_N)
+    titles = (f"Hand's force on the handle, x — range {x_range}",
+              f"Hand's force on the handle, y — range {y_range}")
+    if own_pace:
+        return ForceFigure(series.t, series.force, (), titles, "", "", OWN_PACE_FORCE)
     return ForceFigure(
-        series.t, series.force, runs,
-        (f"Hand's force on the handle, x — range {x_range}",
-         f"Hand's force on the handle, y — range {y_range}"),
+        series.t, series.force, runs, titles,
         f"push within ±{tolerance} of the path's direction",
         f"outside ±{tolerance}, or weaker than {metrics.min_force_N:.2f} N",
         f"within ±{tolerance} for "

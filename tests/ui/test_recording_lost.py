@@ -46,7 +46,9 @@ def test_a_trial_whose_file_cannot_be_made_is_finished_with_its_cause_and_the_ne
         # its cause: the fault the window saw, and what happened to the file
         assert lost.end_reason.startswith("The trial file could not be written"), lost
         assert "does not exist" in lost.end_reason, lost
-        assert "Recording problem" in win.message.text()
+        assert any("Recording problem" in line for line in win.messages.history())
+        # and then what the registry keeps of it, in the message line (ui.views.saved)
+        assert "Trial 1 of session 1 registered as recording lost" in win.message.text()
         (folder, moved), = away
         moved.rename(folder)  # the disk is back
 

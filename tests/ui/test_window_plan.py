@@ -60,6 +60,19 @@ def connected_with_plan(qtbot, win, plan=PLAN):
     return code
 
 
+def in_the_rest(qtbot, win) -> str:
+    """A plan whose second block is long (ten laps, so that a Stop lands in it however
+    slow the machine) started, and waited for in its 3 s rest after block 1 (which polling
+    finds on a loaded machine; one of 1 s was missed); the patient's code."""
+    long_second = Plan(PLAN.name, (PLAN.blocks[0].replace(rest_s=3.0),
+                                   PLAN.blocks[1].replace(repetitions=10)))
+    code = connected_with_plan(qtbot, win, long_second)
+    start_plan(qtbot, win)
+    qtbot.waitUntil(lambda: win.plan_runner is not None and win.plan_runner.phase
+                    == "resting", timeout=120000)
+    return code
+
+
 def test_a_template_copied_and_a_block_changed_in_the_plan_tab(qtbot, window):
     win = window
     tab = win.plan_tab
@@ -234,14 +247,7 @@ def test_pause_holds_the_plan_resume_goes_on_and_the_robot_bar_s_stop_ends_it(qt
     held), Resume goes on to the next block, and the robot bar's Stop (F6's button) in that
     block ends the plan as stopped, the trial stopped early and nothing after it."""
     win = window
-    # the second block long (ten laps) so that the Stop lands in it however slow the machine;
-    # a rest of 3 s, which polling finds on a loaded machine (one of 1 s was missed)
-    long_second = Plan(PLAN.name, (PLAN.blocks[0].replace(rest_s=3.0),
-                                   PLAN.blocks[1].replace(repetitions=10)))
-    code = connected_with_plan(qtbot, win, long_second)
-    start_plan(qtbot, win)
-    qtbot.waitUntil(lambda: win.plan_runner is not None and win.plan_runner.phase
-                    == "resting", timeout=120000)
+    code = in_the_rest(qtbot, win)
     click(qtbot, win.plan_tab.pause_button)
     assert win.plan_tab.status.text().startswith("Plan paused at")
     assert win.plan_tab.resume_button.isEnabled()
@@ -366,3 +372,51 @@ def test_the_plan_table_shows_every_cell_and_heading_whole_at_1366(qtbot, name):
         assert table.columnWidth(col) >= needed, (
             f"column {table.horizontalHeaderItem(col).text()!r}: {table.columnWidth(col)} "
             f"px for {needed}")
+
+
+def test_a_disconnect_in_a_rest_pauses_the_plan_and_resume_goes_on_once_connected(
+        qtbot, window):
+    """Disconnect pressed in a rest (brief hU): the plan pauses saying why and what to do,
+    the run's record notes it with its time, nothing is built however long it is held,
+    Resume waits for Connect, and then the plan goes on to its next block. Before, the next
+    round was built at the rest's end, its Start refused (not connected), and the plan
+    ended 'faulted'."""
+    import threading
+
+    from ui.window.plan import RESUME_WAITS, ROBOT_GONE
+
+    win = window
+    # the first trial's saved line held back until after the Disconnect (its reads run
+    # after the plan has moved on to the rest, ui.window.after_trial)
+    verify, read_back = win.registry.verify_trial_file, threading.Event()
+    win.registry.verify_trial_file = lambda trial: read_back.wait(60) and verify(trial)
+    code = in_the_rest(qtbot, win)
+    click(qtbot, win.robot.buttons["disconnect"])
+    qtbot.waitUntil(lambda: win.state == State.BUILT, timeout=20000)
+    assert win.plan_runner.phase == "paused"
+    assert win.plan_tab.status.text() == f"Plan paused at block 1 of 2: {ROBOT_GONE}"
+    assert win.message.text().endswith(f"Plan paused: {ROBOT_GONE}.")
+    read_back.set()
+    qtbot.waitUntil(lambda: not win.saving(), timeout=60000)
+    saved = [line for line in win.messages.history() if "Trial 1 of session 1 saved" in line]
+    assert len(saved) == 1
+    # the saved line came after the pause: the event line says what holds the plan again
+    assert win.message.text().endswith(f"Plan paused: {ROBOT_GONE}.")
+    qtbot.wait(4000)  # more than the 3 s rest: a paused plan starts nothing
+    assert win.plan_runner.phase == "paused"
+    assert len(win.registry.trials_for_patient(code)) == 1
+    click(qtbot, win.plan_tab.resume_button)  # not connected: Resume waits
+    assert win.plan_runner.phase == "paused"
+    assert win.message.text().endswith(RESUME_WAITS)
+    click(qtbot, win.robot.buttons["connect"])
+    qtbot.waitUntil(lambda: win.state == State.CONNECTED, timeout=60000)
+    click(qtbot, win.plan_tab.resume_button)
+    qtbot.waitUntil(lambda: win.state == State.RUNNING, timeout=120000)  # block 2
+    click(qtbot, win.plan_tab.stop_button)
+    qtbot.waitUntil(lambda: win.plan_runner is None, timeout=60000)
+    (run,) = win.registry.plan_runs_for_patient(code)
+    assert run.status == "stopped"
+    assert [(s.kind, s.block) for s in run.steps] == [("trial", 1), ("rest", 1), ("trial", 2)]
+    notes = [n.text for n in win.registry.notes(code)]
+    assert notes == [f"Plan run {run.id}, block 1: paused: {ROBOT_GONE}",
+                     f"Plan run {run.id}, block 1: resumed"]

@@ -1,6 +1,8 @@
 """What the window reads from the registry after each trial, read on its job thread (a part
 of MainWindow): the next trial's numbers after Start's answer, and after a trial is finished
-its patient, the proposal to offer, the Replay tab's list and the numbers again.
+its row read back with its file checked against it (the line that says it is saved, or why
+not: ui.views.saved), its patient, the proposal to offer, the Replay tab's list and the
+numbers again.
 
 Why: read on the window's thread, each read on a station whose network went silent waited
 the registry's bounded wait (app.records.registry.postgres.deadline, 5 s) before the
@@ -17,6 +19,7 @@ import dataclasses
 from app.records.registry import Trial
 from app.records.store import RecordStore
 from ui.tabs.registration_numbers import Numbers
+from ui.views.saved import saved_line
 
 
 @dataclasses.dataclass(frozen=True)
@@ -43,7 +46,10 @@ class Read:
     """The registry's answers after trial `trial_id` for patient `code` (the window's then)."""
 
     code: str | None
-    trial_code: str
+    trial: Trial
+    """The trial as the registry holds it once finished (read back)."""
+    file_problem: str | None
+    """Why its file is not the one registered (Registry.verify_trial_file), None when it is."""
     pending: Pending | None
     trials: list[Trial] | None
     numbers: Numbers | None
@@ -90,7 +96,8 @@ class AfterTrial:
             if self.registration is not None else None
 
         def read() -> Read:
-            return Read(code, registry.trial(trial_id).patient_code,
+            trial = registry.trial(trial_id)
+            return Read(code, trial, registry.verify_trial_file(trial),
                         pending_offer(registry, code) if code is not None else None,
                         registry.trials_for_patient(code) if code is not None else None,
                         numbers() if numbers is not None else None)
@@ -102,9 +109,10 @@ class AfterTrial:
         self.store_trials()  # a copy in the department's trial store, when it has one
 
     def _after_trial(self, done, answers: Read) -> None:
+        self._say(*saved_line(answers.trial, answers.file_problem))
         if answers.code is None or self.patient is None or self.patient.code != answers.code:
             return  # another patient chosen meanwhile: choosing showed their own
-        if done.proposal is None or answers.trial_code != answers.code:
+        if done.proposal is None or answers.trial.patient_code != answers.code:
             # a trial that proposes nothing (an assessment) leaves the exercise's pending
             # proposal where it was: offered still, as after a restart; and a patient
             # chosen while the trial ran is offered their own, never the trial's patient's

@@ -5,8 +5,10 @@ the robot buttons (one truth: the form shows each round's trial as it is built, 
 Start runs what Build built). Start plan needs the robot connected (Build, Connect, as
 for a trial); from then on each round is built, started and finished by itself, the
 rests are timed, Pause, Resume and Stop plan act, and the E-STOP or a fault end the plan
-at once. The runner is `plan_runner` while a plan runs (the patient's screen reads its
-state); the status line says block k of n, the movements and the rest's countdown.
+at once. Disconnect between rounds pauses it, saying why and what to do, and records it
+(ROBOT_GONE); Resume waits for the robot to be connected again. The runner is
+`plan_runner` while a plan runs (the patient's screen reads its state); the status line
+says block k of n, the movements and the rest's countdown.
 The plan's records (its read, a copy, a change, the run's begin and steps) are asked of
 the registry on the job thread, never held the window on a silent network, and the tab
 waits meanwhile.
@@ -21,6 +23,7 @@ from PySide6.QtCore import QTimer
 
 from app.games.rounds import staircase_rounds
 from app.plans.dose import trial_dose
+from app.plans.record import record_plan_event
 from app.plans.runner import ENDED, PAUSED, PlanRunner
 from app.plans.templates import load_template, template_titles
 from app.units import SCREEN
@@ -39,6 +42,10 @@ PLACED = ("every block runs at the Parameters tab's centre, for the shoulder and
 """Where a plan's blocks are placed (core.plan.Block.parameters over the form's trial), said
 with a block the patient cannot reach: the table has no centre to change."""
 CONNECT_FIRST = "connect the robot first (Build, then Connect"
+ROBOT_GONE = "the robot was disconnected; Connect, then Resume"
+"""Why a plan paused itself when the robot was disconnected between its rounds (the
+plan's status line, the message line and its record)."""
+RESUME_WAITS = "Resume waits for the robot: Connect, then Resume."
 HANDS_OFF_AT_CONNECT = "hands off the handle"
 """Said only for the robot: the simulator's sensor takes its zero with nobody at a handle
 (ui.window.trial.on_simulator; the Connect says the same)."""
@@ -79,18 +86,23 @@ class WindowConsole:
     # bounded wait (app.records.registry.postgres.deadline). A failure is said as the
     # job thread's are (MessageLine._job_failed).
     def record_trial(self, block, round_, trial_id, planned_s) -> None:
-        self._record("record_plan_trial", block, round_, trial_id, planned_s)
+        self._record(self.window.registry.record_plan_trial, block, round_, trial_id,
+                     planned_s)
 
     def record_rest(self, block, planned_s, taken_s) -> None:
-        self._record("record_plan_rest", block, planned_s, taken_s)
+        self._record(self.window.registry.record_plan_rest, block, planned_s, taken_s)
+
+    def record_event(self, block, words) -> None:
+        registry = self.window.registry
+        self._record(lambda *args: record_plan_event(registry, *args), block, words)
 
     def end(self, status: str, reason: str) -> None:
-        self._record("end_plan_run", status, reason)
+        self._record(self.window.registry.end_plan_run, status, reason)
         log.info("plan run %d ended: %s %s", self.run_id, status, reason)
 
-    def _record(self, call: str, *args) -> None:
+    def _record(self, record, *args) -> None:
+        """`record(run id, *args)` on the job thread."""
         w, run_id = self.window, self.run_id
-        record = getattr(w.registry, call)
         w.plan_records += 1
 
         def settled() -> None:
@@ -140,6 +152,7 @@ class PlanControl:
         b.fault_raised.connect(self._plan_fault)
         b.loop_lost.connect(lambda message: self._plan_event("fault", message))
         b.replied.connect(self._plan_reply)
+        b.state_changed.connect(self._plan_robot_state)
         self.registration_tab.patient_selected.connect(lambda p: self.show_plan_of(p.code))
 
     # ------------------------------------------------------------------ the plan
@@ -368,6 +381,14 @@ class PlanControl:
             self._plan_tick()
 
     def _plan_command(self, what: str) -> None:
+        if what == "resume" and self.plan_runner is not None and self.state != State.CONNECTED:
+            # the next round needs the robot: resumed without it, its Start was refused and
+            # the plan ended 'faulted'
+            self._say(RESUME_WAITS, problem=True)
+            self.plan_tab.show_refusal(RESUME_WAITS)
+            return
+        if what == "resume":
+            self.plan_tab.show_refusal("")
         if self.plan_runner is not None:
             getattr(self.plan_runner, what)(time.monotonic())
             self._plan_tick()
@@ -382,6 +403,18 @@ class PlanControl:
         if runner is not None:
             getattr(runner, what)(time.monotonic(), *args)
             self._plan_tick()
+
+    def _plan_robot_state(self, state: int, _reason: str) -> None:
+        """The robot disconnected while the plan runs (Disconnect between rounds: in a
+        rest, or as a round is built): the plan pauses and says why (ROBOT_GONE). Only
+        Disconnect leads to BUILT from a connected robot (device.loop.states); IDLE is the
+        loop's shutdown, as the window closes, which is no pause."""
+        runner = self.plan_runner
+        if runner is None or State(state) != State.BUILT or runner.held \
+                or runner.phase == ENDED:
+            return
+        self._plan_event("robot_gone", ROBOT_GONE)
+        self._say_held()
 
     def _plan_reply(self, command: str, ok: bool, message: str) -> None:
         if command == "build":
@@ -418,6 +451,18 @@ class PlanControl:
         runner.finished(time.monotonic(), trial_id, done.status, movements, active, figures,
                         done.proposal)
         self._plan_tick()
+
+    def _after_trial(self, done, answers) -> None:
+        """The trial's saved line (ui.window.after_trial) comes after its registry reads,
+        when the plan has already moved on: a plan paused meanwhile for the robot says so
+        again, so the event line shows what holds the plan, not the saved trial."""
+        super()._after_trial(done, answers)
+        runner = self.plan_runner
+        if runner is not None and runner.held and runner.phase != ENDED:
+            self._say_held()
+
+    def _say_held(self) -> None:
+        self._say(f"Plan paused: {self.plan_runner.held}.", problem=True)
 
     def _plan_tick(self) -> None:
         runner = self.plan_runner

@@ -28,6 +28,7 @@ from ui.tabs.parameters import HARDWARE, BackendChoice
 from ui.views.moment import STATUS_WORDS
 from ui.views.readiness import REGISTERING, readiness, start_needs, start_why
 from ui.views.replay_strip import session_and_trial
+from ui.views.saved import NotSaved, not_saved_line
 from ui.views.trialview import TrialView
 
 log = logging.getLogger("ui.main_window")
@@ -236,16 +237,24 @@ class TrialActions:
         next numbers and the proposal to offer."""
         return self.trial_id is not None or bool(self._finishing) or self.reading_after > 0
 
-    def _finish(self, trial_id: int, work) -> None:
-        """Finish trial `trial_id` into the registry on the job thread (`work`), then show
-        it; Start waits until it is done, whether it succeeds or not."""
+    def _finish(self, trial_id: int, which: str, work) -> None:
+        """Finish trial `trial_id` (`which`, in words) into the registry on the job thread
+        (`work`), then show it; Start waits until it is done, whether it succeeds or not.
+        A failure is said naming the trial and what becomes of it (it was said bare: an
+        error with no trial, after which the therapist did not know what was saved)."""
         self._finishing.add(trial_id)
+
+        def finish():
+            try:
+                return work()
+            except Exception as exc:
+                raise NotSaved(not_saved_line(which, exc)) from exc
 
         def settled() -> None:
             self._finishing.discard(trial_id)
             self._refresh_buttons()
 
-        self.jobs.run(work, lambda done: self._finalized(trial_id, done), settled=settled)
+        self.jobs.run(finish, lambda done: self._finalized(trial_id, done), settled=settled)
 
     def start_needs(self) -> str:
         """What Start waits for beyond the robot's state, in words ("" when nothing)."""
@@ -423,13 +432,14 @@ class TrialActions:
             trial_id = self.trial_id
             reason = "; ".join(part for part in (self.trial_fault, message) if part)
             self.trial_id = None
-            self._finish(trial_id, lambda: finalize_lost(self.registry, trial_id, reason))
+            self._finish(trial_id, session_and_trial(path),
+                         lambda: finalize_lost(self.registry, trial_id, reason))
         if kind == "closed" and self.trial_id is not None:
             from app.trials.finalize import finalize_trial
 
             trial_id, reason = self.trial_id, self.trial_fault
             self.trial_id = None  # Start may run the next trial now (ui.views.readiness)
-            self._finish(trial_id,
+            self._finish(trial_id, session_and_trial(path),
                          lambda: finalize_trial(self.registry, trial_id, status, reason))
             self._store_trial_emg(path)
             self._refresh_buttons()

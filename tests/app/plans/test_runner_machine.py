@@ -8,7 +8,8 @@ order at any moment, and the runner keeps its invariants:
 * the movements and active time it counts are what the trials' files said;
 * a plan that ends 'complete' ran every round of every block for all its laps;
 * the share of the plan done (the patient's bar) never goes back, and is whole at a
-  complete end.
+  complete end;
+* the robot disconnected between trials pauses the plan, recorded, and never ends it.
 """
 
 import math
@@ -17,7 +18,7 @@ import pytest
 from hypothesis import HealthCheck, settings, strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, invariant, precondition, rule
 
-from app.plans.runner import ENDED, IDLE, PAUSED, RESTING, PlanRunner
+from app.plans.runner import ENDED, IDLE, PAUSED, RESTING, RUNNING, PlanRunner
 from core.plan import Block, Plan, movements_per_lap
 from core.trial import THESIS_SUBJECT
 
@@ -29,6 +30,8 @@ PLAN = Plan("Three blocks", (
           name="Circle"),
 ))
 BASE = THESIS_SUBJECT
+GONE = "the robot was disconnected; Connect, then Resume"
+NOT_CONNECTED = "connect to the robot first (press Connect)"
 RARELY = st.integers(0, 99).map(lambda n: n == 37)
 SOMETIMES = st.integers(0, 99).map(lambda n: n % 4 == 3)
 MOSTLY = st.integers(0, 99).map(lambda n: n % 10 != 7)
@@ -45,6 +48,7 @@ class FakeConsole:
         self.ended: tuple | None = None
         self.rests: list[tuple] = []
         self.linked: list[tuple] = []
+        self.events: list[tuple] = []
         self.now = 0.0
 
     def build(self, parameters):
@@ -71,6 +75,10 @@ class FakeConsole:
         assert 0.0 <= taken_s <= planned_s + 1e-9
         self.rests.append((block, planned_s, taken_s, self.now))
 
+    def record_event(self, block, words):
+        assert self.ended is None, "an event recorded after the plan ended"
+        self.events.append((block, words, self.now))
+
     def end(self, status, reason):
         assert self.ended is None, "ended twice"
         self.ended = (status, reason)
@@ -88,11 +96,14 @@ class PlanMachine(RuleBasedStateMachine):
         self.finishes: list[tuple[int, float]] = []  # (block, when) of each trial's end
         self.started_blocks: list[int] = []
         self.share = 0.0  # the share of the plan done, as last read
+        self.connected = True
+        self.gone = 0  # times the robot went while the plan ran
 
     # ---------------------------------------------------------------- the therapist
-    @precondition(lambda self: self.runner.phase == IDLE)
+    @precondition(lambda self: self.runner.phase == IDLE and self.connected)
     @rule()
     def first_start(self):
+        """Start plan needs the robot connected (ui.window.plan.start_plan)."""
         self.runner.start(self.now)
 
     @rule(now=SOMETIMES)
@@ -102,7 +113,23 @@ class PlanMachine(RuleBasedStateMachine):
 
     @rule()
     def resume(self):
-        self.runner.resume(self.now)
+        if self.connected:  # the console's Resume waits for the robot (ui.window.plan)
+            self.runner.resume(self.now)
+
+    @precondition(lambda self: self.connected and self.runner.phase != RUNNING)
+    @rule(now=SOMETIMES)
+    def disconnect(self, now):
+        """The therapist's Disconnect, which the loop takes only between trials."""
+        if now:
+            self.connected = False
+            if self.runner.phase not in (IDLE, ENDED) and not self.runner.held:
+                self.gone += 1
+            self.runner.robot_gone(self.now, GONE)
+
+    @precondition(lambda self: not self.connected)
+    @rule()
+    def connect(self):
+        self.connected = True
 
     # what ends a plan comes at any moment, but rarely enough for plans to reach their
     # later blocks (one draw in ten acts)
@@ -139,6 +166,9 @@ class PlanMachine(RuleBasedStateMachine):
             self.pending_laps = console.building.repetitions
             console.building = None
             self.runner.built(self.now, True)
+        elif console.starting is not None and not self.connected:
+            console.starting = None
+            self.runner.refused(self.now, NOT_CONNECTED)
         elif console.starting is not None:
             block, _ = console.starting
             console.starting = None
@@ -236,6 +266,16 @@ class PlanMachine(RuleBasedStateMachine):
         self.share = state.done_share
         if state.outcome == "complete":
             assert state.done_share == 1.0
+
+    @invariant()
+    def the_robot_gone_pauses_and_is_recorded_never_ends_the_plan(self):
+        assert NOT_CONNECTED not in self.runner.reason
+        paused = [e for e in self.console.events if e[1] == f"paused: {GONE}"]
+        assert len(paused) == self.gone
+        if self.runner.held:
+            assert self.runner.phase != RUNNING or self.console.stop_asked
+            if self.runner.phase == PAUSED:
+                assert self.runner.state(self.now).line().endswith(GONE)
 
     @invariant()
     def the_state_reads(self):
@@ -407,3 +447,55 @@ def test_a_game_block_s_rounds_take_the_staircase_s_difficulty_from_the_rounds_b
     assert console.ended == ("complete", "")
     assert built[0].staircase != built[1].staircase != built[2].staircase
     assert built[1] != built[0]  # every target hit: the next round is harder
+
+
+def test_a_disconnect_in_a_rest_pauses_the_plan_and_resume_goes_on():
+    """The therapist's Disconnect in the rest after block 1: the plan pauses with why and
+    what to do, the rest's clock stops, the run's record says it with its time, nothing is
+    built however long it is held, and Resume goes on with the rest it had left. Before,
+    the next round was built at the rest's end, its Start refused (not connected), and the
+    plan ended 'faulted'."""
+    s = Script()
+    s.runner.start(0.0)
+    s.loop(0.0)
+    assert s.runner.phase == RESTING
+    s.console.now = 0.25
+    s.runner.robot_gone(0.25, GONE)
+    assert s.runner.phase == PAUSED
+    assert s.runner.state(0.3).line() == f"Plan paused at block 1 of 3: {GONE}"
+    assert s.console.events == [(1, f"paused: {GONE}", 0.25)]
+    s.runner.tick(100.0)
+    assert s.console.building is None
+    assert s.console.ended is None
+    assert s.runner.state(100.0).rest_left_s == pytest.approx(0.75)
+    s.console.now = 100.0
+    s.runner.resume(100.0)
+    assert s.console.events[-1] == (1, "resumed", 100.0)
+    assert s.runner.state(100.0).line().startswith("Rest 0:01 after block 1 of 3")
+    s.runner.tick(100.74)
+    assert s.console.building is None
+    s.runner.tick(100.75)
+    assert s.console.building.shape == "reach"
+    assert [r[:3] for r in s.console.rests] == [(1, 1.0, 1.0)]
+
+
+def test_a_start_refused_as_the_robot_went_holds_the_round_not_the_plan():
+    """The robot went as a round's Start was asked (no rest after block 1): the loop's
+    refusal pauses the plan, and Resume builds the round again."""
+    plan = Plan("No rest", (Block(shape="d", repetitions=1, duration_s=2.0, rest_s=0.0),
+                            Block(shape="circle", repetitions=1, duration_s=2.0)))
+    s = Script(plan)
+    s.runner.start(0.0)
+    s.console.building = None
+    s.runner.built(0.0, True)
+    s.runner.robot_gone(0.5, GONE)
+    s.console.starting = None
+    s.runner.refused(0.6, NOT_CONNECTED)
+    assert s.runner.phase == PAUSED
+    assert s.console.ended is None
+    s.runner.resume(9.0)
+    assert s.console.building.shape == "d"
+    assert s.console.building.repetitions == 1
+    s.loop(9.0)
+    s.loop(9.0)
+    assert s.console.ended == ("complete", "")

@@ -52,7 +52,7 @@ def test_an_assessment_trials_report_carries_its_task_page(tmp_path):
     assert "pushing another way" not in pages[0]
     assert "Circle drawing" in pages[-1]
     assert "Joint independence" in pages[-1]
-    assert "figures on the last page" in " ".join(pages)
+    assert "its own figures lead the table below" in " ".join(pages)
 
 
 def test_an_exercises_report_has_no_task_page(tmp_path):
@@ -63,20 +63,70 @@ def test_an_exercises_report_has_no_task_page(tmp_path):
     content = content_for_registry_trial(registry, trial_id)
     assert content.assessment is None
     assert content.plain[0].key == "directional_performance_pct"  # the thesis mode's
+    # the therapist's table as it was: against the path, the mode's success figure first
+    keys = [row.key for row in content.table]
+    assert keys[0] == "directional_performance_pct"
+    assert {"rmse_x_m", "rmse_y_m", "rmse", "path_length_ratio"} <= set(keys)
+    assert content.force.caption.endswith("of the exercise time (directional performance)")
     assert not [h for h in content.therapist_header if h.label == "Task"]
+
+
+def test_an_own_pace_task_s_therapist_table_is_its_own_figures(tmp_path):
+    """The healthy patient's reaching task (at their own pace, not the targets' clock): the
+    therapist's table read 'Position error' and 'Directional performance' against the
+    task's reference, labelled as such, its own figures only on the last page. Now its own
+    figures lead the table, in the units a person reads, and no row is measured against
+    the reference; the joints' ranges and torques, the forces and the works stay."""
+    from app.reports.task_table import REFERENCE_KEYS
+    from core.assessment import task_figures
+
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("Ada", "Reach", birth_year=1960, side="right",
+                                   sex="female", handedness="right").code
+    (trial,) = run_task("reaching", "healthy", seed=3, registry=registry, code=code)
+    content = content_for_registry_trial(registry, trial.trial_id)
+    rows = {row.key: row for row in content.table}
+    own = [f.key for f in task_figures("reaching") if f.key in trial.figures]
+    assert [row.key for row in content.table][:len(own)] == own
+    assert not REFERENCE_KEYS & set(rows)
+    assert rows["vgr_max_speed_m_s"].unit == "mm/s"
+    assert rows["vgr_max_speed_m_s"].value == trial.figures["vgr_max_speed_m_s"] * 1000.0
+    assert rows["vgr_initial_direction_error_rad"].unit == "°"
+    assert rows["vgr_path_length_ratio"].unit == ""
+    assert "lower is better" in rows["vgr_path_length_ratio"].meaning
+    assert {"shoulder_rom_rad", "elbow_rom_rad", "force_range_x_N"} <= set(rows)
+    assert "sparc" not in rows  # the whole trial's, pauses and all: the task's per reach
+    assert "patient_work_J" in rows
+    assert "robot_help_work_J" not in rows  # none by design: the robot only lightened
+    task_line = [h for h in content.therapist_header if h.label == "Task"]
+    assert task_line[0].value == f"Visually guided reaching: {TASK_NOTE}"
+    path = write_report_pdf(content, tmp_path / "report.pdf")
+    therapist = " ".join(PdfReader(path).pages[1].extract_text().split())
+    assert "Initial speed ratio" in therapist
+    assert "Position error" not in therapist
+    assert "directional performance" not in therapist.lower()  # nor Fig. 3.9's caption
+    assert content.force.runs == ()
+    assert "own pace" in content.force.caption
+    assert not [note for note in content.notes if "draw runs" in note]  # none drawn
 
 
 def test_a_short_note_does_not_get_a_page_of_its_own(tmp_path):
     """The weak patient's reaching report: its therapist page's figure table filled the
     page and the one note went alone onto a 'For the therapist (continued)' page; the table
     is now drawn with tighter rows (app.reports.pdf.ROW_HEIGHTS_IN) so the note stays on
-    the therapist's page: the patient's page, the therapist's, the task's."""
+    the therapist's page: the patient's page, the therapist's, the task's. (Its one note
+    was the path's runs', which a task the patient paces no longer draws: a note of that
+    length stands in for it.)"""
+    import dataclasses
+
     registry = Registry(DataDir(tmp_path / "data"))
     code = registry.create_patient("Ada", "Reach", birth_year=1960, side="right",
                                    sex="female", handedness="right").code
     (trial,) = run_task("reaching", "weak", seed=5, registry=registry, code=code)
     content = content_for_registry_trial(registry, trial.trial_id)
-    assert content.notes
+    content = dataclasses.replace(content, notes=(*content.notes, (
+        "the path and Fig. 3.9 draw runs shorter than 240 ms in the colour around them; the "
+        "percentage counts every sample"),))
     path = write_report_pdf(content, tmp_path / "report.pdf")
     pages = [" ".join(p.extract_text().split()) for p in PdfReader(path).pages]
     assert len(pages) == 3
