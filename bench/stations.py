@@ -6,7 +6,9 @@ Run: .venv/bin/python bench/stations.py [--patients 1000] [--trials-per-patient 
 
 A before/after comparison on one fill: `--trees` names source trees (e.g. `git archive`
 of each commit unpacked in a folder); each registration phase runs once per tree, in turn,
-the stations importing `app` from it (the reader and the fill stay this tree's).
+the stations and the progress query's reader importing `app` from it, each tree with a
+share of the patients of its own, filled and written as that tree's registry stores a
+trial's row (bench/stations_trees.py; the fill's code stays this tree's).
 
 A quick run: --patients 100 --trials-per-patient 100.
 
@@ -22,9 +24,10 @@ station's clinic login, and measures:
    core.metrics.TrialMetrics as bench/registry.py makes them. Then VACUUM ANALYZE.
    The registry and the fill are bench/stations_fill.py.
 2. the progress query (Registry.trial_summaries) for random patients through the clinic
-   login: p50 / p99 / max, idle and while the stations register, with this process's CPU
-   time in each call, the query's own time in the server (EXPLAIN ANALYZE, idle), and a
-   bare round trip (SELECT 1) beside it.
+   login, read by a process of its own: p50 / p99 / max, idle and while the stations
+   register, with that process's CPU time in each call, the query's time in the server
+   (EXPLAIN ANALYZE, idle: it sends no row, so decompressing the metrics is not in it),
+   and a bare round trip (SELECT 1) beside it.
 3. registration: `--stations` processes (spawn), each a station with its own
    Registry(…, server=clinic URL), registering trials (begin_trial, then finish_trial with
    metrics, then record_proposal as the console does) for its own patients and, one
@@ -51,7 +54,6 @@ PostgreSQL") has the figures and what they mean.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import math
 import multiprocessing as mp
 import os
@@ -79,6 +81,14 @@ from stations_fill import (  # noqa: E402
     proposal_for,
     single_metrics,
     throwaway_server,
+)
+from stations_trees import (  # noqa: E402
+    read_idle,
+    reader,
+    set_storage,
+    shares,
+    stations_from,
+    tree_storage,
 )
 
 from app.records.registry import Registry  # noqa: E402
@@ -224,28 +234,16 @@ def station(index: int, url: str, folder: str, own: list[str], shared: list[str]
                  starts))
 
 
-@contextlib.contextmanager
-def stations_from(tree: Path):
-    """The station processes spawned meanwhile import `app` from `tree` (a spawned process
-    takes this one's sys.path; this repository stays on it, after `tree`, so that the bench's
-    own modules load as they do here)."""
-    saved = sys.path[:]
-    sys.path.insert(0, str(Path(tree).resolve()))
-    try:
-        yield
-    finally:
-        sys.path[:] = saved
-
-
 def run_stations(bench: Bench, data_root: Path, codes: list[str], n_stations: int,
                  minimum: int, pause_s: float, queries: int, seed: int, proposals: bool,
                  reader_pause_s: float):
     ctx = mp.get_context("spawn")
     shared = codes[:SHARED_PATIENTS]
     rest = codes[SHARED_PATIENTS:]
-    start = ctx.Barrier(n_stations + 1)
+    start = ctx.Barrier(n_stations + 2)  # the stations, the reader and this process
     stop = ctx.Event()
     results = ctx.Queue()
+    read_results = ctx.Queue()
     processes = []
     for i in range(n_stations):
         own = rest[i::n_stations][:25] or rest[:1]
@@ -253,19 +251,18 @@ def run_stations(bench: Bench, data_root: Path, codes: list[str], n_stations: in
         processes.append(ctx.Process(target=station, args=(
             i, bench.clinic_url, str(folder), own, shared, minimum, pause_s, proposals, start,
             stop, results)))
+    # the progress query read by a process of its own meanwhile, importing app as they do
+    processes.append(ctx.Process(target=reader, args=(
+        bench.clinic_url, str(data_root / "reader"), codes, queries, seed, reader_pause_s,
+        start, read_results)))
     for process in processes:
         process.start()
-    reader = Registry(data_root / "reader", server=sa.make_url(bench.clinic_url))
-    reader.trial_summaries(codes[0])
     start.wait(600)
     t0 = time.perf_counter()
-    cpu: list[float] = []
-    read: list[tuple[float, float]] = []  # when each progress query ran
-    samples, _ = progress_queries(reader, codes, queries, random.Random(seed), cpu,
-                                  reader_pause_s, read)
-    trips = round_trips(reader, queries)
+    # its wall and CPU times, when each progress query ran, its round trips
+    samples, cpu, read, trips, _ = read_results.get(timeout=3600)
     stop.set()
-    out = [results.get(timeout=600) for _ in processes]
+    out = [results.get(timeout=600) for _ in processes[:n_stations]]
     wall = time.perf_counter() - t0
     for process in processes:
         process.join(60)
@@ -384,8 +381,15 @@ def main() -> None:
     try:
         bench = make_registry(server)
         print(f"server: {server.path}; {server_settings(bench)}", flush=True)
-        codes, fill_times = fill(bench, data_root, args.patients, args.trials_per_patient,
-                                 args.fill_workers, not args.no_proposals)
+        # each tree's share of the patients filled as its registry stores a trial's row
+        storage = {tree: tree_storage(tree) for tree in args.trees}
+        codes, fill_times = fill(
+            bench, data_root, args.patients, args.trials_per_patient, args.fill_workers,
+            not args.no_proposals, lambda codes: [
+                (share, lambda tree=tree: set_storage(bench.owner_url, storage[tree]))
+                for share, tree in zip(shares(codes, len(args.trees)), args.trees,
+                                       strict=True)])
+        own = dict(zip(args.trees, shares(codes, len(args.trees)), strict=True))
         rows = int(fill_times["rows"])
         print(f"fill: {args.patients} patients in {fill_times['patients']:.1f} s "
               f"(Registry.create_patient); {rows} trials in "
@@ -396,23 +400,23 @@ def main() -> None:
               f"connections); VACUUM ANALYZE {fill_times['analyze']:.1f} s; database "
               f"{fill_times['size_mb']:,.0f} MB", flush=True)
 
-        reader = Registry(data_root / "reader", server=sa.make_url(bench.clinic_url))
-        reader.trial_summaries(codes[0])
-        idle_cpu: list[float] = []
-        idle, n_rows = progress_queries(reader, codes, args.queries, random.Random(1),
-                                        idle_cpu)
-        idle_trips = round_trips(reader, args.queries)
+        idle = {}  # tree: (wall times, CPU times, spans, round trips, rows)
+        for tree in args.trees:
+            set_storage(bench.owner_url, storage[tree])
+            idle[tree] = read_idle(tree, bench.clinic_url, data_root / "reader", own[tree],
+                                   args.queries, seed=1)
         idle_server = server_times(bench, codes, args.queries, random.Random(3))
+        n_rows = max(r[4] for r in idle.values())
         print(f"progress query idle done ({n_rows} trials a patient)", flush=True)
-        del reader
 
         phases = []
         for pause_ms, tree in [(p, t) for p in args.pause_ms for t in args.trees]:
             print(f"load before the stations ({pause_ms:g} ms pause, {tree}): "
                   f"{Path('/proc/loadavg').read_text().strip()}", flush=True)
+            set_storage(bench.owner_url, storage[tree])
             with stations_from(tree):
                 phases.append((pause_ms, *run_stations(
-                    bench, data_root, codes, args.stations, args.station_trials,
+                    bench, data_root, own[tree], args.stations, args.station_trials,
                     pause_ms / 1000.0, args.queries, seed=2 + len(phases),
                     proposals=not args.no_proposals,
                     reader_pause_s=args.reader_pause_ms / 1000.0), tree))
@@ -429,10 +433,17 @@ def main() -> None:
               f"trials ({rows:,} trials); {args.stations} stations, each in a process of its "
               "own")
         print(f"  {'ms':<44} {'p50':>8} {'p99':>8} {'max':>8}  {'n':>6}")
-        print(line("progress query, idle", idle, f"goal p99 < 50 ms; {n_rows} trials"))
-        print(line("  its CPU time in this process", idle_cpu))
-        print(line("  its time in the server (EXPLAIN ANALYZE)", idle_server))
-        print(line("a bare round trip (SELECT 1), idle", idle_trips))
+        for tree, (wall, cpu, _, trips, _) in idle.items():
+            whose = f", app/ of {tree}" if len(args.trees) > 1 else ""
+            print(line(f"progress query, idle{whose}", wall,
+                       f"goal p99 < 50 ms; {n_rows} trials"
+                       + (f"; trials {'un' if storage[tree] else ''}compressed"
+                          if len(args.trees) > 1 else "")))
+            print(line("  its CPU time in the reading process", cpu))
+            print(line("a bare round trip (SELECT 1), idle", trips))
+        # EXPLAIN ANALYZE sends no row: the decompression of compressed metrics is not in it
+        print(line("  its time in the server (EXPLAIN ANALYZE)", idle_server,
+                   "sends no row: no decompression"))
         for pause_ms, out, busy, busy_cpu, trips, wall, read, tree in phases:
             how = "flat out" if not pause_ms else f"{pause_ms:g} ms apart"
             how += f", app/ of {tree}" if len(args.trees) > 1 else ""
@@ -441,7 +452,7 @@ def main() -> None:
                       else f"{args.reader_pause_ms:g} ms apart")
             print(line("progress query meanwhile", busy,
                        f"{reader}, over {read[-1][1] - read[0][0]:.1f} s"))
-            print(line("  its CPU time in this process", busy_cpu))
+            print(line("  its CPU time in the reading process", busy_cpu))
             print(line("a bare round trip (SELECT 1) meanwhile", trips))
             print(line("begin_trial, all stations", [x for o in out for x in o[1]],
                        "goal p99 < 10 ms"))
@@ -491,7 +502,8 @@ def main() -> None:
             for index, _, _, _, _, error, *_ in out:
                 if error:
                     print(f"     station {index} FAILED: {error}")
-        shared = sum(1 for r in registered if r[1] in codes[:SHARED_PATIENTS])
+        shared = sum(1 for r in registered
+                     if r[1] in {c for share in own.values() for c in share[:SHARED_PATIENTS]})
         print(f"  numbering: {len(registered)} trials ({shared} for the {SHARED_PATIENTS} "
               f"patients every station shares): "
               + ("gap-free and unique per patient and session, each stored as handed out"

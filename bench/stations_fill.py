@@ -190,18 +190,25 @@ def fill_worker(url: str, codes: list[str], trials_per_patient: int, seed: int,
 
 
 def fill(bench: Bench, data_root: Path, patients: int, trials_per_patient: int,
-         workers: int, proposals: bool) -> tuple[list[str], dict[str, float]]:
+         workers: int, proposals: bool, shares=None) -> tuple[list[str], dict[str, float]]:
+    """`shares(codes)`: the patients' shares, each with what to do before it is filled
+    (`[(codes, prepare), …]`, prepare a callable or None; bench/stations_trees.py); by
+    default one share, nothing done before."""
     times: dict[str, float] = {}
     t0 = time.perf_counter()
     registry = Registry(data_root / "filler", server=sa.make_url(bench.clinic_url))
     codes = fill_patients(registry, patients)
     times["patients"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    chunks = [codes[i::workers] for i in range(workers)]
+    written = 0
     with mp.get_context("spawn").Pool(workers) as pool:
-        written = sum(pool.starmap(fill_worker, [
-            (bench.clinic_url, chunk, trials_per_patient, 100 + i, proposals)
-            for i, chunk in enumerate(chunks)]))
+        for share, prepare in (shares(codes) if shares else [(codes, None)]):
+            if prepare is not None:
+                prepare()
+            chunks = [share[i::workers] for i in range(workers)]
+            written += sum(pool.starmap(fill_worker, [
+                (bench.clinic_url, chunk, trials_per_patient, 100 + i, proposals)
+                for i, chunk in enumerate(chunks)]))
     times["trials"] = time.perf_counter() - t0
     times["rows"] = written
     t0 = time.perf_counter()

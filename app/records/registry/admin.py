@@ -29,11 +29,13 @@ from app.records.registry import seals
 from app.records.registry.database import CONNECT_TIMEOUT_S, SEALED_FROM, first_line
 from app.records.registry.postgres import (
     MIGRATIONS,
+    TRIALS_UNCOMPRESSED,
     Roles,
     create_registry,
     migrate_registry,
     registry_version,
     seals as pg_seals,
+    trials_uncompressed,
 )
 from app.records.registry.postgres.tables import REGISTRY_TABLES
 from app.records.registry.schema import SCHEMA_VERSION, Schema, check_registry_file
@@ -287,7 +289,13 @@ def _server_schema(location: RegistryURL, roles: Roles, conn: sa.Connection | No
                           f"newer console; this one reads up to v{SCHEMA_VERSION}. "
                           "Update the console; nothing was changed")
     if version == SCHEMA_VERSION:
-        return f"the registry at {where} is at schema v{version}, this console's: nothing to do"
+        if trials_uncompressed(conn):
+            return (f"the registry at {where} is at schema v{version}, this console's: "
+                    "nothing to do")
+        conn.exec_driver_sql(TRIALS_UNCOMPRESSED)
+        return (f"the registry at {where} is at schema v{version}, this console's; its "
+                "trials written from now on are stored uncompressed (a faster progress "
+                "query)")
     if version + 1 not in MIGRATIONS:
         raise SchemaError(f"the registry at {where} has schema v{version}: this console "
                           "has no migration from it on PostgreSQL; nothing was changed")

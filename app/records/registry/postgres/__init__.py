@@ -16,7 +16,7 @@ the server's functions, triggers, grants and views are added by their SQL.
 
 from __future__ import annotations
 
-from sqlalchemy import Connection, insert, inspect, select, update
+from sqlalchemy import Connection, insert, inspect, select, text, update
 from sqlalchemy.dialects import postgresql
 from sqlalchemy.schema import CreateIndex
 
@@ -32,7 +32,14 @@ from app.records.registry.postgres.tables import (
 from app.records.registry.proposals import PENDING_INDEXES, patient_of_trial
 from app.records.registry.seals import sealed_at
 
-__all__ = ["Roles", "create_registry", "migrate_registry", "registry_version"]
+__all__ = [
+    "TRIALS_UNCOMPRESSED",
+    "Roles",
+    "create_registry",
+    "migrate_registry",
+    "registry_version",
+    "trials_uncompressed",
+]
 
 
 def create_registry(conn: Connection, roles: Roles | None = None) -> None:
@@ -48,9 +55,31 @@ def create_registry(conn: Connection, roles: Roles | None = None) -> None:
     # server-side code holds '%' (PL/pgSQL's RAISE): sent as it is, never as a template
     raw = conn.execution_options(no_parameters=True)
     for statement in (*seals.statements(), *numbering.statements(), *PROPOSALS_PATIENT,
-                      *(roles or Roles()).statements()):
+                      *(roles or Roles()).statements(), TRIALS_UNCOMPRESSED):
         raw.exec_driver_sql(statement)
     conn.execute(insert(schema_version).values(version=SCHEMA_VERSION))
+
+
+TRIALS_UNCOMPRESSED = "ALTER TABLE trials SET (toast_tuple_target = 8160)"
+"""A trial's row is kept whole and uncompressed up to 8,160 bytes (the most a page allows).
+
+A trial's row is some 2,200 bytes, 1,400 of them its metrics' JSON: over the server's
+default threshold (2,032 bytes), so the server compressed the metrics (pglz) in every row,
+and the progress query decompressed a patient's 1,000 of them each time it read them,
+6-9 ms of the server's CPU a query, which EXPLAIN ANALYZE does not show (it sends no row).
+Uncompressed, the rows take 15 % more room (docs/performance.md). It is a storage setting,
+not the schema: no column, constraint or seal changes, SQLite has nothing like it, and
+it applies to rows written from then on (the rows already there keep their compression
+until rewritten). create_registry sets it, and `rehab db upgrade` where it is missing
+(admin._server_schema, migrate_registry)."""
+
+
+def trials_uncompressed(conn: Connection) -> bool:
+    """Whether the trials table of `conn`'s registry keeps its rows as TRIALS_UNCOMPRESSED
+    says."""
+    return conn.execute(text(
+        "SELECT coalesce('toast_tuple_target=8160' = ANY(reloptions), false) FROM pg_class "
+        "WHERE oid = 'public.trials'::regclass")).scalar_one()
 
 
 PROPOSALS_PATIENT = (
@@ -192,6 +221,7 @@ def migrate_registry(conn: Connection) -> tuple[int, int]:
     for target in range(version + 1, SCHEMA_VERSION + 1):
         for statement in MIGRATIONS[target]:
             raw.exec_driver_sql(statement)
+    raw.exec_driver_sql(TRIALS_UNCOMPRESSED)  # whatever the version: a setting, not schema
     conn.execute(update(schema_version).values(version=max(version, SCHEMA_VERSION)))
     return version, max(version, SCHEMA_VERSION)
 

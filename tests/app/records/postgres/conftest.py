@@ -51,3 +51,20 @@ class _Engine:
 def registry(postgres_server) -> Registry:
     """A new registry database for the module's tests."""
     return Registry(postgres_server)
+
+
+@pytest.fixture
+def station(tmp_path, monkeypatch):
+    """A station's config folder (REHAB_CONFIG_DIR) and data folder of the test's own;
+    `point(url)` writes the private URL file."""
+    config = tmp_path / "config"
+    config.mkdir(mode=0o700)
+    monkeypatch.setenv("REHAB_CONFIG_DIR", str(config))
+    monkeypatch.setenv("REHAB_DATA_DIR", str(tmp_path / "data"))
+
+    def point(url: str):
+        path = config / "registry.url"
+        path.write_text(url + "\n")
+        path.chmod(0o600)
+        return path
+    return point

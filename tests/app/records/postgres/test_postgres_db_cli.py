@@ -12,29 +12,13 @@ import sqlalchemy as sa
 
 from app.errors import RegistryError
 from app.records.registry import SCHEMA_VERSION
+from app.records.registry.postgres import trials_uncompressed
 from app.records.registry.postgres.seals import PARTS_STABLE
 from app.records.registry.postgres.tables import REGISTRY_TABLES
 from app.records.registry.url import shown_url
 from tests.app.cli.running import run, status_names_the_unsealed_row
 from tests.app.records.postgres.conftest import Registry
 from tests.postgres import HOST, free_port
-
-
-@pytest.fixture
-def station(tmp_path, monkeypatch):
-    """A station's config folder (REHAB_CONFIG_DIR) and data folder of the test's own;
-    `point(url)` writes the private URL file."""
-    config = tmp_path / "config"
-    config.mkdir(mode=0o700)
-    monkeypatch.setenv("REHAB_CONFIG_DIR", str(config))
-    monkeypatch.setenv("REHAB_DATA_DIR", str(tmp_path / "data"))
-
-    def point(url: str):
-        path = config / "registry.url"
-        path.write_text(url + "\n")
-        path.chmod(0o600)
-        return path
-    return point
 
 
 @pytest.fixture
@@ -257,6 +241,7 @@ def _v12_as_it_was(registry: Registry) -> list[str]:
 
 def _as_at_v12(registry: Registry) -> None:
     registry.server.admin_sql(*_v12_as_it_was(registry), "UPDATE schema_version SET version = 12",
+                              "ALTER TABLE trials RESET (toast_tuple_target)",  # before it too
                               database=registry.database)
 
 
@@ -390,6 +375,7 @@ def test_a_v12_registry_on_the_server_is_upgraded_keeping_every_record(
             ).scalar_one() == len(before["proposals"]) == 4
         indexes = set(conn.execute(sa.text(
             "SELECT indexname FROM pg_indexes WHERE tablename = 'proposals'")).scalars())
+        assert trials_uncompressed(conn)  # set by the upgrade, whatever the version
     assert {"proposals_pending_by_patient", "proposals_by_next_trial"} <= indexes
     assert "proposals_pending" not in indexes
     console = Console(DataDir(tmp_path / "data"), server=login, station="robot-1")

@@ -17,7 +17,6 @@ from app.records.registry import Registry
 from core.trial import THESIS_SUBJECT
 from tests.app.cli.running import run
 from tests.app.records.postgres.conftest import Registry as ServerRegistry
-from tests.app.records.postgres.test_postgres_db_cli import station  # noqa: F401 (fixture)
 
 T0 = datetime.datetime(2024, 5, 2, 9, 30, tzinfo=datetime.UTC)
 
@@ -68,7 +67,7 @@ def _everything(registry: Registry) -> dict:
 
 
 def test_a_registry_file_is_copied_onto_the_server_keeping_every_record(
-        postgres_server, station, capsys, tmp_path):  # noqa: F811
+        postgres_server, station, capsys, tmp_path):
     source = _a_clinics_registry(tmp_path / "clinic")
     server = ServerRegistry(postgres_server)
     with server.engine() as engine, engine.begin() as conn:  # made empty by its owner
@@ -93,7 +92,7 @@ def test_a_registry_file_is_copied_onto_the_server_keeping_every_record(
 
 
 def test_a_copy_into_a_registry_holding_records_or_of_a_damaged_file_is_refused_whole(
-        postgres_server, station, capsys, tmp_path):  # noqa: F811
+        postgres_server, station, capsys, tmp_path):
     source = _a_clinics_registry(tmp_path / "clinic")
     server = ServerRegistry(postgres_server)
     login = sa.make_url(server.url(server.clinic_login))
@@ -117,7 +116,7 @@ def test_a_copy_into_a_registry_holding_records_or_of_a_damaged_file_is_refused_
         assert conn.execute(sa.text("SELECT count(*) FROM patients")).scalar_one() == 0
 
 
-def test_from_needs_a_server_and_a_registry_file(station, capsys, tmp_path):  # noqa: F811
+def test_from_needs_a_server_and_a_registry_file(station, capsys, tmp_path):
     _a_clinics_registry(tmp_path / "clinic")
     code, out, err = run(["db", "upgrade", "--from", str(tmp_path / "clinic")], capsys)
     assert (code, out) == (2, "")
@@ -125,7 +124,7 @@ def test_from_needs_a_server_and_a_registry_file(station, capsys, tmp_path):  # 
 
 
 @pytest.mark.parametrize("given", ["", "nowhere"])
-def test_from_without_a_registry_file_is_refused(postgres_server, station, capsys,  # noqa: F811
+def test_from_without_a_registry_file_is_refused(postgres_server, station, capsys,
                                                  tmp_path, given):
     server = ServerRegistry(postgres_server)
     station(server.url())
