@@ -16,6 +16,7 @@ from app.errors import AppError
 from app.records.datadir import DataDir, locate_data_dir
 from app.records.registry import Registry, open_registry
 from app.records.safewrite import check_output
+from app.reports.metrics_table import number_text
 from device.safeinput import check_file, check_folder
 from device.safewrite import folded, os_reason, shown
 
@@ -173,8 +174,9 @@ def mm(value) -> str:
 
 
 def num(value) -> str:
-    """A figure with one decimal; '–' where undefined."""
-    return f"{value:.1f}" if finite(value) else "–"
+    """A figure with one decimal; '–' where undefined; one that rounds to zero reads 0.0,
+    never "-0.0" (`rehab progress` said a transparent trial's help was "-0.0 J")."""
+    return number_text(value, 1) if finite(value) else "–"
 
 
 def rewritten_trial(args: argparse.Namespace, text: str, path: Path, what: str):

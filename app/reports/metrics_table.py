@@ -88,13 +88,13 @@ def display_value(metrics: TrialMetrics | dict, row: MetricRow) -> float:
     return float(value) * row.scale
 
 
-def number_text(value: float) -> str:
-    """A table figure: two decimals, in the terminal's table and the report's; one that
+def number_text(value: float, decimals: int = 2) -> str:
+    """A table figure: two decimals, in the terminal's tables and the report's; one that
     rounds to zero reads 0.00, never "-0.00" (a help of −0.001 J is none, not a robot that
     held the hand back)."""
     if not math.isfinite(value):
         return "–"
-    return f"{value if round(value, 2) else 0.0:.2f}"
+    return f"{value if round(value, decimals) else 0.0:.{decimals}f}"
 
 
 def format_metrics(metrics: TrialMetrics | dict, *, skip_missing: bool = True) -> str:

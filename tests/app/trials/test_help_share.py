@@ -99,3 +99,7 @@ def test_a_figure_that_rounds_to_zero_reads_0_00_not_minus_0_00():
 
     help_row = next(r for r in ROWS if r.key == "robot_help_work_J")
     assert metric_text(help_row, -0.001) == "0.00 J"
+    # and the terminal's one-decimal figures (`rehab progress`: "-0.0 J")
+    from app.cli.common import num
+
+    assert (num(-0.04), num(-0.06), num(float("nan")), num(None)) == ("0.0", "-0.1", "–", "–")
