@@ -148,6 +148,7 @@ def test_confirm_refuses_numbers_that_start_would(qtbot, tab, registry, session,
         answered(qtbot, tab)
     assert tab.registration() is None
     assert said in tab.trial_problem.text()
+    assert f"Patient {patient.code}" in tab.trial_problem.text()  # a sentence, as the others
     with pytest.raises(Exception, match="would leave a gap"):  # what Start would meet
         registry.begin_trial(patient.code, THESIS_SUBJECT, backend="simulator",
                              session_number=session, trial_number=trial)

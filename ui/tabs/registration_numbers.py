@@ -15,6 +15,7 @@ from app.errors import RegistryError, SessionNotFound
 from app.records.registry import Registration, Session, Trial
 from app.records.registry.numbering import refuse_number
 from app.records.store import RecordStore
+from core.errors import capitalised
 from ui.tabs.clinical_record import trial_items
 
 
@@ -46,12 +47,13 @@ def gap_refusal(code: str, session: int, trial: int, used: dict[int, Trial],
     else:
         next_session = max(sessions, default=0) + 1
         if session != next_session:
-            return str(refuse_number("session", session, next_session,
-                                     whose=f"patient {code}", used_on=None))
+            return capitalised(str(refuse_number("session", session, next_session,
+                                                 whose=f"patient {code}", used_on=None)))
         next_trial = 1
     if trial != next_trial:
-        return str(refuse_number("trial", trial, next_trial,
-                                 whose=f"patient {code} session {session}", used_on=None))
+        return capitalised(str(refuse_number("trial", trial, next_trial,
+                                             whose=f"patient {code} session {session}",
+                                             used_on=None)))
     return ""
 
 
