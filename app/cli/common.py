@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 
 from app.errors import AppError
-from app.records.datadir import DataDir, locate_data_dir
+from app.records.datadir import CODE_PATTERN, DataDir, locate_data_dir
 from app.records.registry import Registry, open_registry
 from app.records.safewrite import check_output
 from app.reports.metrics_table import number_text
@@ -171,6 +171,17 @@ def finite(value) -> bool:
 def mm(value) -> str:
     """Metres as millimetres with one decimal; '–' where undefined."""
     return f"{1000 * value:.1f}" if finite(value) else "–"
+
+
+def typed_code(code: str, what: str = "the code") -> str:
+    """`code` when it is a patient code, else the one line that says what one is. The text
+    is not repeated: a name typed where a code goes is not echoed (app.records.datadir.
+    check_code), and text the registry cannot look up (invalid UTF-8 made text) is refused
+    before it is asked."""
+    if not CODE_PATTERN.fullmatch(code):
+        raise CommandError(f"{what} is not a patient code: a code is 'P' and 6 characters of "
+                           "0-9 and A-Z (see `rehab patients`)")
+    return code
 
 
 def num(value) -> str:

@@ -7,11 +7,9 @@ from __future__ import annotations
 import argparse
 import sys
 
-from app.cli.common import CommandError, registry_for
-from app.records.datadir import CODE_PATTERN
+from app.cli.common import CommandError, registry_for, typed_code
 from app.records.registry.values import NAME_MAX_CHARS
 from app.trials.reanalyse import CHANGED, SKIPPED, UNCHANGED, reanalyse, trials_of
-from device.safewrite import shown
 
 
 def add_reanalyse_command(commands) -> None:
@@ -40,9 +38,8 @@ def add_reanalyse_command(commands) -> None:
 
 
 def cmd_reanalyse(args: argparse.Namespace) -> int:
-    if args.patient is not None and not CODE_PATTERN.fullmatch(args.patient):
-        raise CommandError(f"--patient {shown(args.patient)!r} is not a patient code: a code "
-                           "is 'P' and 6 characters of 0-9 and A-Z (see `rehab patients`)")
+    if args.patient is not None:
+        typed_code(args.patient, "--patient")
     if args.session is not None and args.patient is None:
         raise CommandError("--session needs --patient: give the patient whose session it is")
     if args.session is not None and not 1 <= args.session <= 999_999:

@@ -7,8 +7,15 @@ from __future__ import annotations
 import argparse
 import sys
 
-from app.cli.common import CommandError, finite, num, output_path, record_id, registry_for
-from app.records.datadir import CODE_PATTERN
+from app.cli.common import (
+    CommandError,
+    finite,
+    num,
+    output_path,
+    record_id,
+    registry_for,
+    typed_code,
+)
 from app.records.outcomes import OUTCOME_COLUMNS, patient_outcomes
 from app.reports.metrics_table import ROWS, MetricRow
 from app.reports.progress import progress
@@ -45,10 +52,7 @@ def add_progress_command(commands) -> None:
 
 def cmd_progress(args: argparse.Namespace) -> int:
     registry = registry_for(args)
-    if not CODE_PATTERN.fullmatch(args.code):
-        # text the registry cannot even look up (invalid UTF-8 made text failed in SQLite)
-        raise CommandError("not a patient code: a code is 'P' and 6 characters of 0-9 and "
-                           "A-Z (see `rehab patients`)")
+    typed_code(args.code)
     pdf = None
     if args.pdf is not None:
         # checked before any work; inside the data folder only below its reports/ or
@@ -250,9 +254,7 @@ def cmd_session_report(args: argparse.Namespace) -> int:
     from app.reports.session_report import write_session_report
 
     registry = registry_for(args)
-    if not CODE_PATTERN.fullmatch(args.code):
-        raise CommandError("not a patient code: a code is 'P' and 6 characters of 0-9 and "
-                           "A-Z (see `rehab patients`)")
+    typed_code(args.code)
     if not 1 <= args.session <= 999_999:
         raise CommandError(f"session {args.session}: give a session number from 1")
     registry.session(args.code, args.session)  # refuses a session that does not exist
