@@ -73,14 +73,19 @@ class Outcome:
         if self.result == UNCHANGED:
             return f"{head}: unchanged"
         verb = "changed" if self.stored else "would change"
-        return f"{head}: {verb} {len(self.changes)} figure(s): " + "; ".join(
-            f"{key} {figure_text(old)} → {figure_text(new)}" for key, old, new in self.changes)
+        return f"{head}: {verb} {len(self.changes)} figure(s): {changes_text(self.changes)}"
 
 
 def figure_text(value: float) -> str:
     """A figure as the change list and the note write it: 6 significant digits, 'none'
     for NaN (undefined, or not computed then)."""
     return "none" if not math.isfinite(value) else f"{value:.6g}"
+
+
+def changes_text(changes) -> str:
+    """Changed figures as the change list and the note write them: 'key old → new; …'."""
+    return "; ".join(f"{key} {figure_text(old)} → {figure_text(new)}"
+                     for key, old, new in changes)
 
 
 def trials_of(registry: RecordStore, code: str | None = None,
@@ -178,8 +183,7 @@ SAME_TO = 1e-9
 
 def _note(changes, recorded_by: str) -> str:
     """The note stored with the new figures: which analysis, and what changed."""
-    listed = "; ".join(f"{key} {figure_text(old)} → {figure_text(new)}"
-                       for key, old, new in changes[:MAX_NOTE_CHANGES])
+    listed = changes_text(changes[:MAX_NOTE_CHANGES])
     more = len(changes) - MAX_NOTE_CHANGES
     return (f"Figures re-computed from the trial's file (unchanged) by the console's "
             f"analysis of {ANALYSIS} (rehab-console {software_version()}, `rehab "
