@@ -17,7 +17,7 @@ from app.cli.common import (
     typed_code,
 )
 from app.records.outcomes import OUTCOME_COLUMNS, patient_outcomes
-from app.reports.metrics_table import ROWS, MetricRow
+from app.reports.metrics_table import ROW_BY_KEY, MetricRow
 from app.reports.progress import progress
 from app.reports.progress_figure import figure_row, figure_rows
 
@@ -173,14 +173,12 @@ def _progress_cell(row: MetricRow, value) -> str:
     """A progress cell: a metrics table's figure in its display unit with one decimal; any
     other (an assessment figure of core.assessment.FIGURES, in SI units) to 4 significant
     digits with its unit: one decimal printed a position error of 0.033 m as 0.0."""
-    if row.key in ROWS_BY_KEY:
+    if row.key in ROW_BY_KEY:
         return f"{num(value * row.scale if finite(value) else None)} {row.unit}".rstrip()
     if not finite(value):
         return "–"
     return f"{value:.4g} {row.unit}".rstrip()
 
-
-ROWS_BY_KEY = {row.key: row for row in ROWS}
 
 
 def _count(n: int, noun: str) -> str:

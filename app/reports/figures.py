@@ -22,7 +22,7 @@ import numpy as np
 
 from app.errors import AppError
 from app.reports.compare import metric_text
-from app.reports.metrics_table import ROWS
+from app.reports.metrics_table import ROW_BY_KEY
 from app.reports.plain_language import own_pace_task
 from app.trials.analysis import help_torque
 from app.trials.reader import TrialData
@@ -41,7 +41,6 @@ from core.work import helped_samples
 MIN_RUN_S = 0.05
 OUTLINE_SPACING_M = 0.002
 RUNS_PER_AXIS = 400
-_ROW_BY_KEY = {row.key: row for row in ROWS}
 
 
 @dataclass(frozen=True, slots=True)
@@ -344,7 +343,7 @@ def _min_run(series: _Series) -> float:
 
 
 def _text(key: str, value_si: float) -> str:
-    return metric_text(_ROW_BY_KEY[key], value_si)
+    return metric_text(ROW_BY_KEY[key], value_si)
 
 
 DIRECTION_RUN_LABELS = ("your hand: pushing the right way", "your hand: pushing another way")

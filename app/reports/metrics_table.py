@@ -78,6 +78,8 @@ ROWS: tuple[MetricRow, ...] = (
     MetricRow("shoulder_elbow_correlation", "Shoulder–elbow correlation", "", 1.0,
               "how together the two joints moved", short="Shoulder–elbow r"),
 )
+ROW_BY_KEY: dict[str, MetricRow] = {row.key: row for row in ROWS}
+"""The rows by their figure's key."""
 
 
 def display_value(metrics: TrialMetrics | dict, row: MetricRow) -> float:

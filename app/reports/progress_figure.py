@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.reports.metrics_table import ROWS, MetricRow
+from app.reports.metrics_table import ROW_BY_KEY, ROWS, MetricRow
 from app.reports.progress import Exercise, Progress
 from core.assessment.figures import FIGURES, TASKS, task_figures
 
@@ -21,7 +21,6 @@ SLOT_HALF_WIDTH = 0.5
 """Half the width of a trial's slot on the trial axis: a trial's help is drawn across
 position ± this, its changes at their share of the exercise's time; the slots touch, so
 a step from one trial to the next is a vertical riser between them."""
-_ROWS = {row.key: row for row in ROWS}
 
 
 @dataclass(frozen=True, slots=True)
@@ -64,8 +63,8 @@ def figure_row(key: str) -> MetricRow:
     """A figure as a row to show: the metrics table's, or an assessment task's figure
     (core.assessment.FIGURES: its label and its SI unit, shown as they are; a ratio's or a
     count's unit is none)."""
-    if key in _ROWS:
-        return _ROWS[key]
+    if key in ROW_BY_KEY:
+        return ROW_BY_KEY[key]
     spec = FIGURES[key]
     return MetricRow(key, spec.label, "" if spec.unit in ("1", "count") else spec.unit, 1.0,
                      spec.definition, short=spec.label)
