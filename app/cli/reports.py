@@ -170,14 +170,14 @@ def _row(key: str) -> MetricRow:
 
 
 def _progress_cell(row: MetricRow, value) -> str:
-    """A progress cell: a metrics table's figure in its display unit with one decimal; any
-    other (an assessment figure of core.assessment.FIGURES, in SI units) to 4 significant
-    digits with its unit: one decimal printed a position error of 0.033 m as 0.0."""
+    """A progress cell in the row's display unit: a metrics table's figure with one
+    decimal; an assessment figure (core.assessment.FIGURES, catalogue_row: mm, °, cm²) to
+    4 significant digits: one decimal printed a ratio of 0.93 as 0.9."""
     if row.key in ROW_BY_KEY:
         return f"{num(value * row.scale if finite(value) else None)} {row.unit}".rstrip()
     if not finite(value):
         return "–"
-    return f"{value:.4g} {row.unit}".rstrip()
+    return f"{value * row.scale:.4g} {row.unit}".rstrip()
 
 
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from app.units import MM_PER_M, MM_S_PER_M_S
+from app.units import MM_PER_M, MM_S_PER_M_S, shown
 from core.metrics import TrialMetrics
 
 
@@ -80,6 +80,16 @@ ROWS: tuple[MetricRow, ...] = (
 )
 ROW_BY_KEY: dict[str, MetricRow] = {row.key: row for row in ROWS}
 """The rows by their figure's key."""
+
+
+def catalogue_row(figure, meaning: str) -> MetricRow:
+    """An assessment task's figure (a core.assessment.FigureSpec, catalogued in SI) as a
+    row in the unit a person reads it in (app.units.shown: a position error in mm, an
+    angle in °; a ratio's or a count's unit none), wherever it is shown: the therapist's
+    table, Progress, its PDF and `rehab progress` read the same figure in the same unit."""
+    scale, unit = shown(1.0, figure.unit)
+    return MetricRow(figure.key, figure.label, "" if unit in ("1", "count") else unit, scale,
+                     meaning, short=figure.label)
 
 
 def display_value(metrics: TrialMetrics | dict, row: MetricRow) -> float:

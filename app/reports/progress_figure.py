@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.reports.metrics_table import ROW_BY_KEY, ROWS, MetricRow
+from app.reports.metrics_table import ROW_BY_KEY, ROWS, MetricRow, catalogue_row
 from app.reports.progress import Exercise, Progress
 from core.assessment.figures import FIGURES, TASKS, task_figures
 
@@ -61,13 +61,11 @@ class ProgressFigure:
 
 def figure_row(key: str) -> MetricRow:
     """A figure as a row to show: the metrics table's, or an assessment task's figure
-    (core.assessment.FIGURES: its label and its SI unit, shown as they are; a ratio's or a
-    count's unit is none)."""
+    (core.assessment.FIGURES, in the unit the therapist's table shows it: catalogue_row)."""
     if key in ROW_BY_KEY:
         return ROW_BY_KEY[key]
     spec = FIGURES[key]
-    return MetricRow(key, spec.label, "" if spec.unit in ("1", "count") else spec.unit, 1.0,
-                     spec.definition, short=spec.label)
+    return catalogue_row(spec, spec.definition)
 
 
 def figure_rows(progress: Progress, exercise_index: int) -> tuple[MetricRow, ...]:

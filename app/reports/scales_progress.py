@@ -27,7 +27,9 @@ from scipy import stats
 
 from app.records.scales import value_label
 from app.records.store import RecordStore
-from app.reports.metrics_table import ROWS
+from app.reports.metrics_table import ROW_BY_KEY
+from app.reports.progress_figure import figure_row
+from core.assessment.figures import FIGURES
 
 
 @dataclass(frozen=True)
@@ -148,31 +150,26 @@ def has_label(key: str) -> bool:
     """The figure is one a person is shown (the catalogue's or the report's rows'), not a
     record's bookkeeping (duration_s, tolerance_rad, game_hits: the figure_label of a key
     neither knows is the key itself)."""
-    from core.assessment import FIGURES
-
-    return key in FIGURES or any(row.key == key for row in ROWS)
+    return key in FIGURES or key in ROW_BY_KEY
 
 
 def figure_label(key: str) -> str:
-    """A figure's label with its unit: the catalogue's (core.assessment.FIGURES) or the
-    report's rows' (app.reports.metrics_table), else the key."""
-    from core.assessment import FIGURES
-
-    if key in FIGURES:
-        spec = FIGURES[key]
-        return f"{spec.label} ({spec.unit})" if spec.unit else spec.label
-    for row in ROWS:
-        if row.key == key:
-            return f"{row.heading} ({row.unit})" if row.unit else row.heading
-    return key
+    """A figure's label with its display unit (app.reports.progress_figure.figure_row: the
+    report's rows', or an assessment figure's as the therapist's table shows it), else the
+    key."""
+    try:
+        row = figure_row(key)
+    except KeyError:
+        return key
+    return f"{row.heading} ({row.unit})" if row.unit else row.heading
 
 
 def figure_display_scale(key: str) -> float:
     """The factor from the figure's SI value to the unit figure_label names."""
-    for row in ROWS:
-        if row.key == key:
-            return row.scale
-    return 1.0
+    try:
+        return figure_row(key).scale
+    except KeyError:
+        return 1.0
 
 
 def _session_figures(registry: RecordStore, code: str, key: str, include_invalid: bool

@@ -14,8 +14,7 @@ labelled as such, and the task's own figures only on the last page.
 from __future__ import annotations
 
 from app.reports.compare import table_order
-from app.reports.metrics_table import MetricRow
-from app.units import shown
+from app.reports.metrics_table import MetricRow, catalogue_row
 from core.assessment import TASK_TITLES, task_figures
 from core.holdtasks import ROBOT_TASKS
 
@@ -43,10 +42,8 @@ def task_rows(task: str) -> tuple[MetricRow, ...]:
     title = TASK_TITLES.get(task, task)
     rows = []
     for figure in task_figures(task):
-        scale, unit = shown(1.0, figure.unit)
         better = f"; {figure.better} is better" if figure.better != "none" else ""
-        rows.append(MetricRow(figure.key, figure.label, "" if unit in ("1", "count") else unit,
-                              scale, f"{title}'s own figure{better}"))
+        rows.append(catalogue_row(figure, f"{title}'s own figure{better}"))
     return tuple(rows)
 
 

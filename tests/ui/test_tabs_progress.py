@@ -207,6 +207,6 @@ def test_an_assessment_s_series_offers_its_task_s_figures(qtbot, qapp, tmp_path)
         tab.set_patient(code)
     offered = [tab.metric_choice.itemData(i) for i in range(tab.metric_choice.count())]
     assert offered == ["position_absolute_error_m", "position_not_reproduced_count"]
-    assert tab.metric_choice.currentText() == "Absolute error (m)"
+    assert tab.metric_choice.currentText() == "Absolute error (mm)"
     (line,) = _curves(tab.plot)
-    np.testing.assert_allclose(line.getOriginalDataset()[1], [0.04, 0.03])
+    np.testing.assert_allclose(line.getOriginalDataset()[1], [40.0, 30.0])

@@ -124,7 +124,8 @@ def test_unknown_metric_in_progress_is_refused(data, patient, capsys):
 def test_progress_shows_an_assessment_figure_with_its_digits(data, patient, capsys):
     """`rehab progress --metric` with the assessment's figure keys: printed with one
     decimal in SI units, a position error of 0.033 m was 0.0 and a movement time of 1.007 s
-    1.0, and two long keys ran together in the heading."""
+    1.0, and two long keys ran together in the heading. In the therapist's table's unit
+    (mm), not SI."""
     from app.records.datadir import DataDir
     from app.records.registry import Registry
     from core.assessment import FIGURES
@@ -143,7 +144,7 @@ def test_progress_shows_an_assessment_figure_with_its_digits(data, patient, caps
     for key in keys:
         row = next(line for line in lines if line.startswith(FIGURES[key].label + "  "))
         assert FIGURES[key].unit == "m"
-        assert row.endswith(f"{trial.metrics[key]:.4g} m"), (key, row)
+        assert row.endswith(f"{trial.metrics[key] * 1000.0:.4g} mm"), (key, row)
         assert 0.001 < trial.metrics[key] < 0.1
 
 
