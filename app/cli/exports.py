@@ -52,7 +52,7 @@ def add_export_command(commands) -> None:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    from app.exports.run import export_folder, export_patients, export_trials
+    from app.exports.run import export_folder, export_patients, export_registered
 
     if args.folder is not None:
         if not args.folder.strip():
@@ -73,14 +73,15 @@ def cmd_export(args: argparse.Namespace) -> int:
     if args.format != "bids":
         options.update(exercise_only=args.exercise_only, digits=args.digits)
     if args.folder is not None:
-        result = export_folder(source, output, leave_out=_invalid_files(args), **options)
+        leave_out, figures = _registry_knows(args)
+        result = export_folder(source, output, leave_out=leave_out, figures=figures,
+                               **options)
     elif args.codes:
         result = export_patients(registry, args.codes, output,
                                  include_names=args.include_names,
                                  include_invalid=args.include_invalid, **options)
     else:
-        paths = [registry.trial_path(registry.trial(i)) for i in args.trial_ids]
-        result = export_trials(paths, output, **options)
+        result = export_registered(registry, args.trial_ids, output, **options)
     if bar:
         bar.done()
     print(f"exported {result.exported} trial(s) to {result.folder} "
@@ -92,17 +93,19 @@ def cmd_export(args: argparse.Namespace) -> int:
     return 0 if not result.failed else 1
 
 
-def _invalid_files(args: argparse.Namespace) -> list:
-    """The files of the data folder's trials marked invalid, for a --folder export to
-    leave out (none with --include-invalid, or where the data folder has no registry: a
-    study's folder from elsewhere has no marks)."""
-    if args.include_invalid:
-        return []
+def _registry_knows(args: argparse.Namespace) -> tuple[list, dict]:
+    """What the data folder's registry says of a --folder export's files: those of the
+    trials marked invalid, to leave out (none with --include-invalid), and the figures of
+    every trial it holds, which the export writes (app.exports.figures). Nothing where the
+    data folder has no registry: a study's folder from elsewhere has no marks, and its
+    files' figures are theirs."""
+    from app.exports.plan import registered_figures
     from app.records.registry import has_registry, open_registry
 
     data_dir = data_dir_for(args)
     if not has_registry(data_dir):
-        return []
+        return [], {}
     registry = open_registry(data_dir, create=False)
-    return [registry.trial_path(registry.trial(trial_id))
-            for trial_id in registry.invalid_trials()]
+    invalid = [] if args.include_invalid else [
+        registry.trial_path(registry.trial(trial_id)) for trial_id in registry.invalid_trials()]
+    return invalid, registered_figures(registry)

@@ -16,14 +16,18 @@ Formats (each module's doc has the details):
 a BIDS run is always the whole recording, with its events).
 
 Batch exports (`export_patient`, `export_patients`, `export_folder`,
-`export_trials`) put each trial's files in a subfolder (the patient's code, or
+`export_trials`; `export_registered` puts them in the folder itself) put each trial's
+files in a subfolder (the patient's code, or
 the trial file's own subfolder of the source folder) and write ``trials.csv``
 (``trials.tsv`` for TSV), one row per exported trial with its metadata and
 metrics (app.exports.loader's row keys, after `participant`, `session`, `trial` and
-`export_file`), then what the trial ran and what followed it (app.records.outcomes:
-the assistance mode, the levels as built and as they ran, the proposal and its decision,
-why it ended). A trial file that cannot be read is skipped and listed in the
-result's `failed`; `progress(fraction)` is called as trials are done.
+`export_file`), `metrics_source`, then what the trial ran and what followed it
+(app.records.outcomes: the assistance mode, the levels as built and as they ran, the
+proposal and its decision, why it ended). A registered trial's figures are the
+registry's, which `rehab reanalyse` may have re-computed since its file was recorded
+(app.exports.figures: `metrics_source` says whose, and the file's own go beside them).
+A trial file that cannot be read is skipped and listed in the result's `failed`;
+`progress(fraction)` is called as trials are done.
 Exporting into a folder that holds an earlier export adds to it, as a BIDS export does:
 the index (and names.csv) keeps the rows of the other trials whose files are still there
 (app.exports.index).
@@ -49,6 +53,13 @@ from pathlib import Path
 
 from app.exports.bids import export_bids
 from app.exports.columns import check_digits
+from app.exports.figures import (
+    RECORDED,
+    REGISTRY,
+    SOURCE_COLUMN,
+    registry_note,
+    standing_figures,
+)
 from app.exports.files import (
     ExportError,
     OutputExistsError,
@@ -66,6 +77,7 @@ from app.exports.plan import (
     source_for_path,
     sources_from_folder,
     sources_from_registry,
+    sources_of_trials,
     verified_sources,
 )
 from app.exports.table import table_outputs, write_table
@@ -83,6 +95,7 @@ __all__ = [
     "export_folder",
     "export_patient",
     "export_patients",
+    "export_registered",
     "export_trial",
     "export_trials",
 ]
@@ -153,10 +166,14 @@ def export_trials(
         progress(0.0)
     for i, (source, paths) in enumerate(planned.items()):
         def export(source=source):
-            trial = load_trial(source.path)
-            row = {**trial.row(), **ran_columns(trial, source)}  # before any file is made
+            recorded = load_trial(source.path)
+            # the registry's figures where `rehab reanalyse` re-computed them since
+            trial, figures_from = standing_figures(
+                recorded, None if source.figures is None else dict(source.figures))
+            row = {**trial.row(), SOURCE_COLUMN: figures_from,
+                   **ran_columns(trial, source)}  # before any file is made
             files = _write(trial, format, root / source.folder, source.stem, exercise_only,
-                           digits, overwrite)
+                           digits, overwrite, recorded.metrics, figures_from)
             return row, files
 
         done = one_trial(source.path, export, failed, paths)
@@ -169,6 +186,9 @@ def export_trials(
         if progress is not None:
             progress((i + 1) / len(planned))
     notes: list[str] = []
+    from_registry = sum(row[SOURCE_COLUMN] == REGISTRY for row in rows)
+    if from_registry:
+        notes.append(registry_note(from_registry))
     written.append(write_index(index, rows, suffix, overwrite, notes))
     if names:
         written.append(write_names(names_file, names, suffix, overwrite))
@@ -205,17 +225,33 @@ def export_patients(
     notes: list[str] = []
     sources = sources_from_registry(registry, codes, include_invalid=include_invalid,
                                     left_out=left_out, settled=notes)
-    # each file read where the one recorded is (the data folder's, else the trial store's
-    # copy): a file changed since its trial ended is listed, never exported as the trial
+    names = registry_names(registry, codes) if include_names else None
+    result = _export_verified(sources, folder, notes, format=format, names=names,
+                              exercise_only=exercise_only, digits=digits,
+                              overwrite=overwrite, progress=progress)
+    return with_invalid_note(result, len(left_out))
+
+
+def export_registered(registry: RecordStore, trial_ids: Iterable[int],
+                      folder: str | os.PathLike, **options) -> ExportResult:
+    """Export these registered trials (`rehab export --trial`), marked invalid or not, as
+    asked, into `folder` itself; each read where its recorded file is, with the registry's
+    figures, as `export_patients` reads a patient's. Options as for `export_trials`."""
+    notes: list[str] = []
+    sources = sources_of_trials(registry, trial_ids)
+    return _export_verified(sources, folder, notes, **options)
+
+
+def _export_verified(sources: list[TrialSource], folder: str | os.PathLike,
+                     notes: list[str], **options) -> ExportResult:
+    """Export registered trials each read where the one recorded is (the data folder's
+    file, else the trial store's copy): a file changed since its trial ended is listed,
+    never exported as the trial. `notes` (what came before) lead the result's."""
     unverified: list[Failure] = []
     sources = verified_sources(sources, unverified, notes)
-    names = registry_names(registry, codes) if include_names else None
-    result = export_trials(sources, folder, format=format, names=names,
-                           exercise_only=exercise_only, digits=digits, overwrite=overwrite,
-                           progress=progress)
-    result = dataclasses.replace(result, failed=(*unverified, *result.failed),
-                                 notes=(*result.notes, *notes))
-    return with_invalid_note(result, len(left_out))
+    result = export_trials(sources, folder, **options)
+    return dataclasses.replace(result, failed=(*unverified, *result.failed),
+                               notes=(*result.notes, *notes))
 
 
 def with_invalid_note(result: ExportResult, left_out: int) -> ExportResult:
@@ -243,13 +279,16 @@ def export_folder(
     *,
     pattern: str = "**/*.h5",
     leave_out: Collection[Path] = (),
+    figures: Mapping[str, tuple[tuple[str, float], ...]] | None = None,
     **options,
 ) -> ExportResult:
     """Export every trial file matching `pattern` below `source_folder` (a study) but
     those of `leave_out` (a data folder's trials marked invalid: a note says how many
-    were below the folder): CSV/TSV/.mat outputs mirror its subfolders. Options as for
-    `export_trials`."""
-    sources = sources_from_folder(source_folder, pattern, leave_out=leave_out)
+    were below the folder): CSV/TSV/.mat outputs mirror its subfolders. `figures`: the
+    data folder's registry's figures of its trials (app.exports.plan.registered_figures),
+    written for those files in place of their own. Options as for `export_trials`."""
+    sources = sources_from_folder(source_folder, pattern, leave_out=leave_out,
+                                  figures=figures)
     result = export_trials(sources, folder, **options)
     if not leave_out:
         return result
@@ -296,12 +335,17 @@ def _outputs(format: str, folder: Path, stem: str) -> tuple[Path, ...]:
 
 
 def _write(trial: Trial, format: str, folder: Path, stem: str, exercise_only: bool,
-           digits: int | None, overwrite: bool) -> tuple[Path, ...]:
+           digits: int | None, overwrite: bool, recorded: Mapping[str, float] | None = None,
+           figures_from: str = RECORDED) -> tuple[Path, ...]:
+    """The trial's files; `recorded` is its file's own figures when `trial`'s are the
+    registry's, `figures_from` which they are (app.exports.figures)."""
     if format == "mat":
         return (write_mat(trial, folder / f"{stem}.mat", exercise_only=exercise_only,
-                          overwrite=overwrite),)
+                          overwrite=overwrite, recorded=recorded,
+                          figures_from=figures_from),)
     return write_table(trial, folder, stem, suffix=f".{format}", exercise_only=exercise_only,
-                       digits=digits, overwrite=overwrite)
+                       digits=digits, overwrite=overwrite, recorded=recorded,
+                       figures_from=figures_from)
 
 
 def _refuse_duplicates(planned: Mapping[TrialSource, tuple[Path, ...]]) -> None:
