@@ -14,6 +14,7 @@ from app.cli.common import (
     progress_bar,
     record_id,
     registry_for,
+    typed_code,
 )
 
 
@@ -54,6 +55,7 @@ def add_export_command(commands) -> None:
 def cmd_export(args: argparse.Namespace) -> int:
     from app.exports.run import export_folder, export_patients, export_registered
 
+    _check_options(args)
     if args.folder is not None:
         if not args.folder.strip():
             raise CommandError("--folder is empty: give the folder that holds the study's "
@@ -61,6 +63,8 @@ def cmd_export(args: argparse.Namespace) -> int:
         source = input_folder(args.folder, "--folder")
     else:
         registry = registry_for(args)  # before anything is made: a typo makes nothing
+        for code in args.codes or ():
+            typed_code(code, "--patient")
     if args.output is not None:
         if not args.output.strip():
             raise CommandError("--output is empty: give the destination folder")
@@ -91,6 +95,25 @@ def cmd_export(args: argparse.Namespace) -> int:
     for failure in result.failed:
         print(f"  not exported: {failure.path}: {failure.reason}")
     return 0 if not result.failed else 1
+
+
+def _check_options(args: argparse.Namespace) -> None:
+    """An option that does nothing for what was asked is refused, never dropped silently."""
+    if args.format == "bids":
+        given = [name for name, value in (("--digits", args.digits is not None),
+                                          ("--exercise-only", args.exercise_only)) if value]
+        if given:
+            many = len(given) > 1
+            raise CommandError(f"{' and '.join(given)} {'apply' if many else 'applies'} to "
+                               "csv, tsv and mat: a BIDS run is always the whole recording "
+                               f"with every value exact; leave {'them' if many else 'it'} "
+                               "out, or give another --format")
+    if args.include_names and not args.codes:
+        raise CommandError("--include-names works with --patient (the names come from the "
+                           "registry's patients): export by --patient, or leave it out")
+    if args.include_invalid and args.trial_ids:
+        raise CommandError("--include-invalid is for --patient and --folder: --trial exports "
+                           "the trials named, marked invalid or not; leave it out")
 
 
 def _registry_knows(args: argparse.Namespace) -> tuple[list, dict]:

@@ -286,16 +286,21 @@ def export_folder(
     those of `leave_out` (a data folder's trials marked invalid: a note says how many
     were below the folder): CSV/TSV/.mat outputs mirror its subfolders. `figures`: the
     data folder's registry's figures of its trials (app.exports.plan.registered_figures),
-    written for those files in place of their own. Options as for `export_trials`."""
-    sources = sources_from_folder(source_folder, pattern, leave_out=leave_out,
-                                  figures=figures)
-    result = export_trials(sources, folder, **options)
-    if not leave_out:
-        return result
-    root = Path(os.path.realpath(source_folder))
-    below = sum(1 for p in leave_out if os.path.isfile(p)
-                and Path(os.path.realpath(p)).is_relative_to(root))
-    return with_invalid_note(result, below)
+    written for those files in place of their own. Options as for `export_trials`.
+    ExportError, with nothing written, for a folder with no trial file to export (a
+    wrong folder would otherwise make an empty export)."""
+    found = sources_from_folder(source_folder, pattern, figures=figures)
+    left = {os.path.realpath(p) for p in leave_out}
+    sources = [s for s in found if os.path.realpath(s.path) not in left]
+    below = len(found) - len(sources)
+    if not sources:
+        root = Path(os.path.realpath(source_folder))
+        holds = (f"only {below} trial(s) marked invalid (--include-invalid exports them)"
+                 if below else f"no trial files ({pattern.removeprefix('**/')}) below it")
+        raise ExportError(f"the folder {root} holds {holds}. Nothing was written. Give the "
+                          "folder of the .h5 trial files (a data folder's trials/, or a "
+                          "study's copy of them)")
+    return with_invalid_note(export_trials(sources, folder, **options), below)
 
 
 # -- helpers -------------------------------------------------------------------
