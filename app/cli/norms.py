@@ -262,7 +262,10 @@ def _controls_from_trials(args: argparse.Namespace, folder, *, retest: bool):
         registry = registry_for(args)
         people = c.people_from_registry(registry)
         invalid = c.invalid_files(registry)
-    trials, skipped = c.read_assessments(c.trial_files(folder), invalid)
+    files = c.trial_files(folder)
+    trials, skipped = c.read_assessments(files, invalid)
+    if not trials:  # said here: the fit's own refusal would only say none was found
+        _no_assessments(folder, len(files), skipped)
     if retest:
         controls, left = c.retest_from_trials(trials, people, FIGURES)
     else:
@@ -273,6 +276,21 @@ def _controls_from_trials(args: argparse.Namespace, folder, *, retest: bool):
     print(f"{len(trials)} assessment trials of {len({t.subject for t in trials})} people read "
           f"from {folder}")
     return controls
+
+
+def _no_assessments(folder, files: int, skipped: dict[str, str]) -> None:
+    """The one line for a folder that gave no assessment trial to fit: how many trial files
+    it holds, and why the assessments among them were left out (the first's reason)."""
+    left = {where: why for where, why in skipped.items() if why != "not an assessment trial"}
+    if not left:
+        raise CommandError(f"no assessment trial below {folder} ({files} trial file(s), none "
+                           "an assessment's): give the folder of the controls' assessment "
+                           "trials (`rehab assess run` records them)")
+    # a file marked invalid is left out before it is known to be an assessment's
+    where, why = next((item for item in left.items() if not item[1].startswith("marked")),
+                      next(iter(left.items())))
+    raise CommandError(f"no assessment trial below {folder} can be used: {len(left)} left "
+                       f"out, e.g. {where}: {why}")
 
 
 def cmd_score(args: argparse.Namespace) -> int:

@@ -385,3 +385,24 @@ def test_a_patient_at_zero_gets_a_z_score(tmp_path, data, capsys):
     assert z.worse_z > 3
     assert model.task_score("range", {"range_area_m2": 0.0, "range_area_ratio": 0.0},
                             who).score > 3
+
+
+def test_fit_from_trials_says_why_no_assessment_could_be_used(tmp_path, data, patient,
+                                                             capsys):
+    """A folder whose assessments are all a simulated weak patient's said 'no assessment
+    trials found', as if it held none, and the reasons were never printed."""
+    code, _, err = run(["assess", "run", patient, "--task", "range", "--patient", "weak"],
+                       capsys)
+    assert code == 0, err
+    code, _, err = run(["run", "--code", patient, "--repetitions", "1", "--seed", "1"], capsys)
+    assert code == 0, err
+    base = ["norms", "fit", "--source", "s", "--output", str(tmp_path / "n.json")]
+    err = _refused(capsys, [*base, "--trials", str(data / "trials")],
+                   "no assessment trial below")
+    assert "can be used: 1 left out, e.g. " in err
+    assert "a simulated weak patient" in err
+    assert "not a healthy control" in err
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    _refused(capsys, [*base, "--trials", str(empty)],
+             f"no assessment trial below {empty} (0 trial file(s), none an assessment's)")
