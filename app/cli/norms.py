@@ -58,7 +58,8 @@ def add_norms_commands(commands) -> None:
                                        "score. The person is the registry's patient with "
                                        "the file's subject code, or given by --birth-year, "
                                        "--sex and --handedness (a virtual patient).")
-    p.add_argument("trials", nargs="+", help="assessment trial files (.h5)")
+    p.add_argument("trials", nargs="+", help="assessment trial files (.h5), or registered "
+                                             "trials' ids (`rehab assess show CODE`)")
     p.add_argument("--norms", help="a norms file (default: the data folder's)")
     p.add_argument("--birth-year", type=int, help="the person's birth year (with --sex and "
                                                   "--handedness, instead of the registry)")
@@ -318,7 +319,7 @@ def cmd_score(args: argparse.Namespace) -> int:
         return people
 
     for text in args.trials:
-        path = absolute(text)
+        path = _trial_file(args, text)
         if args.birth_year is not None:
             person = Person(args.birth_year, args.sex, args.handedness)
         else:
@@ -329,6 +330,18 @@ def cmd_score(args: argparse.Namespace) -> int:
         else:
             print("\n".join(lines(scores)))
     return EXIT_OK
+
+
+def _trial_file(args: argparse.Namespace, text: str):
+    """The file a TRIALS argument names: a registered trial's, for an id (as `rehab pose`
+    takes one), else the path as given (an id typed was read as a file named '11')."""
+    from app.cli.common import registry_for, trial_id_or_none
+
+    number = trial_id_or_none(text)
+    if number is None:
+        return absolute(text)
+    registry = registry_for(args)
+    return registry.trial_path(registry.trial(number))
 
 
 def _registered(path, registered_people):

@@ -7,6 +7,8 @@ import json
 import pytest
 
 from app.norms import in_use, load_norms
+from app.records.datadir import DataDir
+from app.records.registry import Registry
 from tests.app.cli.running import run
 from tests.app.norms.controls import write_controls, write_retest
 from tests.app.norms.handmade import handmade
@@ -406,3 +408,22 @@ def test_fit_from_trials_says_why_no_assessment_could_be_used(tmp_path, data, pa
     empty.mkdir()
     _refused(capsys, [*base, "--trials", str(empty)],
              f"no assessment trial below {empty} (0 trial file(s), none an assessment's)")
+
+
+def test_score_takes_a_registered_trials_id_as_rehab_pose_does(data, patient, tmp_path,
+                                                               capsys):
+    """`rehab norms score 11` read a file named '11' and said it did not exist."""
+    code, _, err = run(["assess", "run", patient, "--task", "reaching"], capsys)
+    assert code == 0, err
+    (trial,) = Registry(DataDir(data)).trials_for_patient(patient)
+    norms = tmp_path / "norms.json"
+    norms.write_text(json.dumps(handmade()))
+    person = ["--norms", str(norms), "--birth-year", "1960", "--sex", "female",
+              "--handedness", "right"]
+    code, by_id, err = run(["norms", "score", str(trial.id), *person], capsys)
+    assert code == 0, err
+    path = Registry(DataDir(data)).trial_path(trial)
+    code, by_path, err = run(["norms", "score", str(path), *person], capsys)
+    assert code == 0, err
+    assert by_id == by_path
+    _refused(capsys, ["norms", "score", "99", *person], "no trial has the id 99")
