@@ -77,9 +77,8 @@ def cmd_export(args: argparse.Namespace) -> int:
     if args.format != "bids":
         options.update(exercise_only=args.exercise_only, digits=args.digits)
     if args.folder is not None:
-        leave_out, figures = _registry_knows(args)
-        result = export_folder(source, output, leave_out=leave_out, figures=figures,
-                               **options)
+        leave_out, known = _registry_knows(args)
+        result = export_folder(source, output, leave_out=leave_out, known=known, **options)
     elif args.codes:
         result = export_patients(registry, args.codes, output,
                                  include_names=args.include_names,
@@ -118,11 +117,12 @@ def _check_options(args: argparse.Namespace) -> None:
 
 def _registry_knows(args: argparse.Namespace) -> tuple[list, dict]:
     """What the data folder's registry says of a --folder export's files: those of the
-    trials marked invalid, to leave out (none with --include-invalid), and the figures of
-    every trial it holds, which the export writes (app.exports.figures). Nothing where the
+    trials marked invalid, to leave out (none with --include-invalid), and what it says of
+    every trial it holds (its figures, which the export writes, app.exports.figures, and
+    its invalid mark: app.exports.plan.registry_facts). Nothing where the
     data folder has no registry: a study's folder from elsewhere has no marks, and its
     files' figures are theirs."""
-    from app.exports.plan import registered_figures
+    from app.exports.plan import registry_facts
     from app.records.registry import has_registry, open_registry
 
     data_dir = data_dir_for(args)
@@ -131,4 +131,4 @@ def _registry_knows(args: argparse.Namespace) -> tuple[list, dict]:
     registry = open_registry(data_dir, create=False)
     invalid = [] if args.include_invalid else [
         registry.trial_path(registry.trial(trial_id)) for trial_id in registry.invalid_trials()]
-    return invalid, registered_figures(registry)
+    return invalid, registry_facts(registry)

@@ -25,7 +25,7 @@ Layout (one run per trial)::
   RecordingDuration, MotionChannelCount, TrackedPointsCount, a <TYPE>ChannelCount
   per channel type, MissingValues (no custom keys: the legacy validator refuses them).
 * ``sub-<code>_ses-<session>_scans.tsv``: one row per run, its trial's status and
-  parameters (app.exports.bids_scans).
+  parameters, and why the registry marks it invalid (app.exports.bids_scans).
 * ``wall_time`` (LATENCY) counts from the run's first sample (the trial file's counts
   from the robot's Connect).
 * ``participants.tsv``: participant_id and only non-identifying columns:
@@ -248,7 +248,8 @@ def _write_run(trial: Trial, run: _Run, paths: dict[str, Path], overwrite: bool,
     with output(paths["motion.tsv"], overwrite=overwrite, text=True) as stream:
         write_samples(stream, arrays, [c.column for c in channels], "\t", missing="n/a")
     scans.setdefault((run.participant, run.session), []).append(
-        scan_row(paths["motion.tsv"], trial.status, trial.parameter_values))
+        scan_row(paths["motion.tsv"], trial.status, trial.parameter_values,
+                 run.source.invalid_reason))
     if read_emg(trial.path) is not None:
         scans.setdefault("emg", []).append(run.prefix)
     _write_tsv(paths["channels.tsv"], overwrite,

@@ -34,6 +34,9 @@ REGISTRY = "registry"
 SOURCE_COLUMN = "metrics_source"
 """The column (trials.csv, a `_trial` table's key, a `.mat`'s export field) saying whose
 figures the export's are: RECORDED or REGISTRY."""
+INVALID_COLUMN = "invalid_reason"
+"""The column beside it saying why the registry marks the trial invalid ('' when not), as
+`rehab progress --csv` and a study name it."""
 
 
 def standing_figures(trial: Trial, registry: Mapping[str, float] | None

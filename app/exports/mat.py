@@ -26,7 +26,8 @@ Variables (`S = load('trial.mat')`):
                 robot as JSON text)
 ``export``      struct: ``source_file``, ``rows`` ('all' or 'exercise'),
                 ``exported_utc``, ``software_version``, ``metrics_source``
-                ('recorded' or 'registry': whose figures ``metrics`` are)
+                ('recorded' or 'registry': whose figures ``metrics`` are) and, from a
+                registry, ``invalid_reason`` (why it marks the trial invalid; '' if not)
 ``assistance``  struct, when the file has the group: the mode, level and gains, and
                 ``feedforward_N`` (repetitions × bins)
 ``pose``        struct, when ``rehab pose`` ran: the camera's keypoints per frame and its
@@ -79,10 +80,11 @@ def matlab_name(name: str, taken: set[str]) -> str:
 
 def mat_variables(trial: Trial, *, exercise_only: bool = False,
                   recorded: Mapping[str, float] | None = None,
-                  figures_from: str = RECORDED) -> dict:
+                  about: Mapping[str, str] | None = None) -> dict:
     """The variables `write_mat` saves (see the module's doc): `trial.metrics` the figures
-    written as ``metrics``, `recorded` the file's own (default: the same), `figures_from`
-    which those are (app.exports.figures)."""
+    written as ``metrics``, `recorded` the file's own (default: the same), `about` what the
+    registry says of the trial (app.exports.run: metrics_source, invalid_reason), fields of
+    ``export``."""
     recorded = trial.metrics if recorded is None else recorded
     arrays = trial.arrays
     if exercise_only:
@@ -126,7 +128,7 @@ def mat_variables(trial: Trial, *, exercise_only: bool = False,
             "rows": "exercise" if exercise_only else "all",
             "exported_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
             "software_version": software_version(),
-            SOURCE_COLUMN: figures_from,
+            **(about or {SOURCE_COLUMN: RECORDED}),
         },
         **{name: _struct(group) for name, group in trial.groups.items()},
     }
@@ -134,15 +136,15 @@ def mat_variables(trial: Trial, *, exercise_only: bool = False,
 
 def write_mat(trial: Trial, path: Path, *, exercise_only: bool = False,
               overwrite: bool = False, recorded: Mapping[str, float] | None = None,
-              figures_from: str = RECORDED) -> Path:
-    """Write one trial as a compressed MATLAB v5 file (`recorded`, `figures_from`: as for
+              about: Mapping[str, str] | None = None) -> Path:
+    """Write one trial as a compressed MATLAB v5 file (`recorded`, `about`: as for
     `mat_variables`)."""
     # imported here: scipy.io costs about 0.5 s, which every start of the window and of
     # `rehab` would otherwise pay for an export few of them make
     import scipy.io
 
     variables = mat_variables(trial, exercise_only=exercise_only, recorded=recorded,
-                              figures_from=figures_from)
+                              about=about)
     with output(path, overwrite=overwrite) as stream:
         scipy.io.savemat(stream, variables, format="5", do_compression=True,
                          long_field_names=True, oned_as="column")

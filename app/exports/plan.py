@@ -67,6 +67,9 @@ class TrialSource:
     """The registry's figures of the trial, which an export writes (app.exports.figures:
     `rehab reanalyse` may have re-computed them since the file was recorded); None for a
     file no registry knows."""
+    invalid_reason: str | None = None
+    """Why the registry marks the trial invalid (its latest mark), '' when it does not;
+    None for a file no registry knows. An export names it (`invalid_reason`)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -95,12 +98,12 @@ def source_for_path(path: str | os.PathLike, folder: str = "") -> TrialSource:
 
 def sources_from_folder(folder: str | os.PathLike, pattern: str = "**/*.h5", *,
                         leave_out: Collection[Path] = (),
-                        figures: Mapping[str, tuple[tuple[str, float], ...]] | None = None,
+                        known: Mapping[str, Mapping[str, object]] | None = None,
                         ) -> list[TrialSource]:
     """Every file matching `pattern` below `folder`, in path order, but those of
     `leave_out` (absolute paths: a data folder's trials marked invalid); the outputs of
-    each go in the same relative subfolder as the file. `figures` holds a registry's
-    figures of the trials it knows, by their file's real path (`registered_figures`)."""
+    each go in the same relative subfolder as the file. `known` holds what a registry
+    says of the trials it knows, by their file's real path (`registry_facts`)."""
     folder = Path(folder).expanduser().absolute()
     if not folder.is_dir():
         raise AppError(f"the folder {folder} does not exist or is not a folder; give the "
@@ -109,17 +112,20 @@ def sources_from_folder(folder: str | os.PathLike, pattern: str = "**/*.h5", *,
     paths = sorted(p for p in _below(folder, pattern)
                    if p.is_file() and (not left or os.path.realpath(p) not in left))
     sources = [source_for_path(p, _relative_folder(p, folder)) for p in paths]
-    if not figures:
+    if not known:
         return sources
-    return [replace(source, figures=figures.get(os.path.realpath(source.path)))
+    return [replace(source, **known.get(os.path.realpath(source.path), {}))
             for source in sources]
 
 
-def registered_figures(registry: RecordStore) -> dict[str, tuple[tuple[str, float], ...]]:
-    """The registry's figures of every trial it holds, by the real path of the trial's
-    file in its data folder: a folder export of that folder writes them
-    (app.exports.figures)."""
-    return {os.path.realpath(registry.trial_path(trial)): tuple(trial.metrics.items())
+def registry_facts(registry: RecordStore) -> dict[str, dict[str, object]]:
+    """What the registry says of every trial it holds, by the real path of the trial's file
+    in its data folder, as TrialSource fields: its figures (app.exports.figures) and why it
+    is marked invalid ('' when it is not), which a folder export of that folder writes."""
+    marks = registry.invalid_trials()
+    return {os.path.realpath(registry.trial_path(trial)): {
+                "figures": tuple(trial.metrics.items()),
+                "invalid_reason": marks[trial.id].reason if trial.id in marks else ""}
             for patient in registry.patients()
             for trial in registry.trials_for_patient(patient.code)}
 
@@ -167,7 +173,7 @@ def sources_from_registry(registry: RecordStore, codes: str | Iterable[str], *,
     sources = []
     for code in codes:
         proposals = {p.trial_id: p for p in registry.proposals_for_patient(code)}
-        invalid = () if include_invalid else registry.invalid_trials(code)
+        marks = registry.invalid_trials(code)
         trials = registry.trials_for_patient(code)
         lines = settle_all(registry, trials)
         if lines:
@@ -175,11 +181,12 @@ def sources_from_registry(registry: RecordStore, codes: str | Iterable[str], *,
                 settled += lines
             trials = registry.trials_for_patient(code)
         for trial in trials:
-            if trial.id in invalid:
+            if trial.id in marks and not include_invalid:
                 if left_out is not None:
                     left_out.append(trial.id)
                 continue
-            sources.append(registry_source(registry, trial, proposals.get(trial.id), code))
+            sources.append(registry_source(registry, trial, proposals.get(trial.id), code,
+                                           marks.get(trial.id)))
     return sources
 
 
@@ -197,15 +204,18 @@ def sources_of_trials(registry: RecordStore, trial_ids: Iterable[int]) -> list[T
         if trial.patient_code not in proposals:
             proposals[trial.patient_code] = {
                 p.trial_id: p for p in registry.proposals_for_patient(trial.patient_code)}
-    return [registry_source(registry, trial, proposals[trial.patient_code].get(trial.id), "")
+    marks = registry.invalid_trials()
+    return [registry_source(registry, trial, proposals[trial.patient_code].get(trial.id), "",
+                            marks.get(trial.id))
             for trial in trials]
 
 
-def registry_source(registry: RecordStore, trial: Trial, proposal, folder: str
-                    ) -> TrialSource:
+def registry_source(registry: RecordStore, trial: Trial, proposal, folder: str,
+                    mark=None) -> TrialSource:
     """A registered trial as a source, with what the registry knows of it: its numbers,
     what followed it (`proposal`, the one made after it, or None), its file's checksum and
-    store, and its figures; its outputs go in `folder`."""
+    store, its figures and why it is marked invalid (`mark`, its latest invalid mark, or
+    None); its outputs go in `folder`."""
     outcome = trial_outcome(trial, proposal)
     return TrialSource(
         path=registry.trial_path(trial),
@@ -221,6 +231,7 @@ def registry_source(registry: RecordStore, trial: Trial, proposal, folder: str
         stored_copy=None if trial.stored_in is None
         else os.path.join(trial.stored_in, trial.file),
         figures=tuple(trial.metrics.items()),
+        invalid_reason="" if mark is None else mark.reason,
     )
 
 

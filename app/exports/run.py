@@ -21,9 +21,11 @@ files in a subfolder (the patient's code, or
 the trial file's own subfolder of the source folder) and write ``trials.csv``
 (``trials.tsv`` for TSV), one row per exported trial with its metadata and
 metrics (app.exports.loader's row keys, after `participant`, `session`, `trial` and
-`export_file`), `metrics_source`, then what the trial ran and what followed it
-(app.records.outcomes: the assistance mode, the levels as built and as they ran, the
-proposal and its decision, why it ended). A registered trial's figures are the
+`export_file`), then what the trial ran and what followed it (app.records.outcomes: the
+assistance mode, the levels as built and as they ran, the proposal and its decision, why
+it ended), `metrics_source` and `invalid_reason` (why the registry marks it invalid, ''
+when it does not or no registry knows it: with include_invalid those trials are
+exported and named). A registered trial's figures are the
 registry's, which `rehab reanalyse` may have re-computed since its file was recorded
 (app.exports.figures: `metrics_source` says whose, and the file's own go beside them).
 A trial file that cannot be read is skipped and listed in the result's `failed`;
@@ -54,7 +56,7 @@ from pathlib import Path
 from app.exports.bids import export_bids
 from app.exports.columns import check_digits
 from app.exports.figures import (
-    RECORDED,
+    INVALID_COLUMN,
     REGISTRY,
     SOURCE_COLUMN,
     registry_note,
@@ -170,10 +172,10 @@ def export_trials(
             # the registry's figures where `rehab reanalyse` re-computed them since
             trial, figures_from = standing_figures(
                 recorded, None if source.figures is None else dict(source.figures))
-            row = {**trial.row(), SOURCE_COLUMN: figures_from,
-                   **ran_columns(trial, source)}  # before any file is made
+            about = {SOURCE_COLUMN: figures_from, INVALID_COLUMN: source.invalid_reason or ""}
+            row = {**trial.row(), **ran_columns(trial, source), **about}  # before any file
             files = _write(trial, format, root / source.folder, source.stem, exercise_only,
-                           digits, overwrite, recorded.metrics, figures_from)
+                           digits, overwrite, recorded.metrics, about)
             return row, files
 
         done = one_trial(source.path, export, failed, paths)
@@ -279,17 +281,18 @@ def export_folder(
     *,
     pattern: str = "**/*.h5",
     leave_out: Collection[Path] = (),
-    figures: Mapping[str, tuple[tuple[str, float], ...]] | None = None,
+    known: Mapping[str, Mapping[str, object]] | None = None,
     **options,
 ) -> ExportResult:
     """Export every trial file matching `pattern` below `source_folder` (a study) but
     those of `leave_out` (a data folder's trials marked invalid: a note says how many
-    were below the folder): CSV/TSV/.mat outputs mirror its subfolders. `figures`: the
-    data folder's registry's figures of its trials (app.exports.plan.registered_figures),
-    written for those files in place of their own. Options as for `export_trials`.
+    were below the folder): CSV/TSV/.mat outputs mirror its subfolders. `known`: what the
+    data folder's registry says of its trials (app.exports.plan.registry_facts: their
+    figures, written in place of the files' own, and their invalid marks). Options as for
+    `export_trials`.
     ExportError, with nothing written, for a folder with no trial file to export (a
     wrong folder would otherwise make an empty export)."""
-    found = sources_from_folder(source_folder, pattern, figures=figures)
+    found = sources_from_folder(source_folder, pattern, known=known)
     left = {os.path.realpath(p) for p in leave_out}
     sources = [s for s in found if os.path.realpath(s.path) not in left]
     below = len(found) - len(sources)
@@ -341,16 +344,14 @@ def _outputs(format: str, folder: Path, stem: str) -> tuple[Path, ...]:
 
 def _write(trial: Trial, format: str, folder: Path, stem: str, exercise_only: bool,
            digits: int | None, overwrite: bool, recorded: Mapping[str, float] | None = None,
-           figures_from: str = RECORDED) -> tuple[Path, ...]:
+           about: Mapping[str, str] | None = None) -> tuple[Path, ...]:
     """The trial's files; `recorded` is its file's own figures when `trial`'s are the
-    registry's, `figures_from` which they are (app.exports.figures)."""
+    registry's, `about` what the registry says of it (metrics_source, invalid_reason)."""
     if format == "mat":
         return (write_mat(trial, folder / f"{stem}.mat", exercise_only=exercise_only,
-                          overwrite=overwrite, recorded=recorded,
-                          figures_from=figures_from),)
+                          overwrite=overwrite, recorded=recorded, about=about),)
     return write_table(trial, folder, stem, suffix=f".{format}", exercise_only=exercise_only,
-                       digits=digits, overwrite=overwrite, recorded=recorded,
-                       figures_from=figures_from)
+                       digits=digits, overwrite=overwrite, recorded=recorded, about=about)
 
 
 def _refuse_duplicates(planned: Mapping[TrialSource, tuple[Path, ...]]) -> None:

@@ -18,9 +18,10 @@ For a stem S (`.csv` with commas, `.tsv` with tabs; UTF-8, ``\\n`` line ends):
                     in volts (``biceps_V``), at the EMG's own rate
 ``S_trial.csv``     key, value: status, sample period, subject code and
                     anthropometry, every parameter (the row keys of app.exports.loader),
-                    which samples the samples file holds (``rows``: all/exercise), and
+                    which samples the samples file holds (``rows``: all/exercise),
                     whose figures the metrics file's values are (``metrics_source``:
-                    recorded/registry)
+                    recorded/registry) and why the registry marks the trial invalid
+                    (``invalid_reason``, '' when it does not)
 ==================  ===============================================================
 
 One header line and numbers only below it, so every reader takes the file as it is, with
@@ -70,10 +71,11 @@ def table_outputs(folder: Path, stem: str, suffix: str) -> tuple[Path, ...]:
 def write_table(trial: Trial, folder: Path, stem: str, *, suffix: str = ".csv",
                 exercise_only: bool = False, digits: int | None = None,
                 overwrite: bool = False, recorded: Mapping[str, float] | None = None,
-                figures_from: str = RECORDED) -> tuple[Path, ...]:
+                about: Mapping[str, str] | None = None) -> tuple[Path, ...]:
     """Write the samples file and its side files; returns their paths. `trial.metrics`
-    are the figures written as `value`; `recorded` the file's own (default: the same),
-    `figures_from` which those are (app.exports.figures)."""
+    are the figures written as `value`; `recorded` the file's own (default: the same);
+    `about` what the registry says of the trial (app.exports.run: metrics_source,
+    invalid_reason), keys of the `_trial` table."""
     digits = check_digits(digits)
     recorded = trial.metrics if recorded is None else recorded
     delimiter = DELIMITERS[suffix]
@@ -103,7 +105,7 @@ def write_table(trial: Trial, folder: Path, stem: str, *, suffix: str = ".csv",
                 [(name, _number(value, digits), _number(recorded.get(name, math.nan), digits))
                  for name, value in trial.metrics.items()])
     info = {key: value for key, value in trial.row().items() if not key.startswith("metric_")}
-    info[SOURCE_COLUMN] = figures_from
+    info |= about or {SOURCE_COLUMN: RECORDED}
     info |= {"rows": "exercise" if exercise_only else "all", "rows_written": n,
              "notes": " | ".join(trial.notes)}
     _write_rows(trial_file, delimiter, overwrite, ("key", "value"),

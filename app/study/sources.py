@@ -32,7 +32,7 @@ from pathlib import Path, PurePosixPath
 from app.errors import AppError
 from app.exports.plan import (
     TrialSource,
-    registered_figures,
+    registry_facts,
     sources_from_folder,
     sources_from_registry,
 )
@@ -88,8 +88,8 @@ def from_folder(folder: str | os.PathLike, *, registry: RecordStore | None = Non
         raise AppError(f"the study folder {folder} does not exist or is not a folder: give "
                        "the folder that holds the trial files (.h5)")
     marks = _marks_by_file(registry) if registry is not None else {}
-    found = sources_from_folder(root, PATTERN, figures=None if registry is None
-                                else registered_figures(registry))
+    found = sources_from_folder(root, PATTERN, known=None if registry is None
+                                else registry_facts(registry))
     trials, left_out = [], 0
     for source in found:
         reason = marks.get(os.path.realpath(source.path))
