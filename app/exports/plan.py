@@ -26,7 +26,7 @@ from app.exports.files import ExportError
 from app.exports.loader import Failure
 from app.records.datadir import CODE_PATTERN
 from app.records.outcomes import proposal_columns, trial_outcome
-from app.records.registry import Trial
+from app.records.registry import Trial, TrialMark
 from app.records.registry.provenance import file_checksum
 from app.records.store import RecordStore
 from device.errors import DeviceError
@@ -211,7 +211,7 @@ def sources_of_trials(registry: RecordStore, trial_ids: Iterable[int]) -> list[T
 
 
 def registry_source(registry: RecordStore, trial: Trial, proposal, folder: str,
-                    mark=None) -> TrialSource:
+                    mark: TrialMark | None = None) -> TrialSource:
     """A registered trial as a source, with what the registry knows of it: its numbers,
     what followed it (`proposal`, the one made after it, or None), its file's checksum and
     store, its figures and why it is marked invalid (`mark`, its latest invalid mark, or

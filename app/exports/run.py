@@ -15,21 +15,19 @@ Formats (each module's doc has the details):
 `exercise_only=True` keeps only the samples of the exercise phase (CSV/TSV/.mat;
 a BIDS run is always the whole recording, with its events).
 
-Batch exports (`export_patient`, `export_patients`, `export_folder`,
-`export_trials`; `export_registered` puts them in the folder itself) put each trial's
-files in a subfolder (the patient's code, or
-the trial file's own subfolder of the source folder) and write ``trials.csv``
-(``trials.tsv`` for TSV), one row per exported trial with its metadata and
+Batch exports (`export_patient`, `export_patients`, `export_folder`, `export_trials`;
+`export_registered` puts them in the folder itself) put each trial's files in a subfolder
+(the patient's code, or the trial file's own subfolder of the source folder) and write
+``trials.csv`` (``trials.tsv`` for TSV), one row per exported trial with its metadata and
 metrics (app.exports.loader's row keys, after `participant`, `session`, `trial` and
 `export_file`), then what the trial ran and what followed it (app.records.outcomes: the
 assistance mode, the levels as built and as they ran, the proposal and its decision, why
-it ended), `metrics_source` and `invalid_reason` (why the registry marks it invalid, ''
-when it does not or no registry knows it: with include_invalid those trials are
-exported and named). A registered trial's figures are the
-registry's, which `rehab reanalyse` may have re-computed since its file was recorded
-(app.exports.figures: `metrics_source` says whose, and the file's own go beside them).
-A trial file that cannot be read is skipped and listed in the result's `failed`;
-`progress(fraction)` is called as trials are done.
+it ended), `metrics_source` and `invalid_reason` (why the registry marks it invalid: ''
+when it does not or no registry knows it; with include_invalid such trials are exported,
+and named). A registered trial's figures are the registry's, which `rehab reanalyse` may
+have re-computed since its file was recorded (app.exports.figures: `metrics_source` says
+whose, and the file's own go beside them). A trial file that cannot be read is skipped
+and listed in the result's `failed`; `progress(fraction)` is called as trials are done.
 Exporting into a folder that holds an earlier export adds to it, as a BIDS export does:
 the index (and names.csv) keeps the rows of the other trials whose files are still there
 (app.exports.index).
