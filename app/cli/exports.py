@@ -14,6 +14,7 @@ from app.cli.common import (
     progress_bar,
     record_id,
     registry_for,
+    typed_code,
 )
 
 
@@ -52,8 +53,9 @@ def add_export_command(commands) -> None:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    from app.exports.run import export_folder, export_patients, export_trials
+    from app.exports.run import export_folder, export_patients, export_registered
 
+    _check_options(args)
     if args.folder is not None:
         if not args.folder.strip():
             raise CommandError("--folder is empty: give the folder that holds the study's "
@@ -61,6 +63,8 @@ def cmd_export(args: argparse.Namespace) -> int:
         source = input_folder(args.folder, "--folder")
     else:
         registry = registry_for(args)  # before anything is made: a typo makes nothing
+        for code in args.codes or ():
+            typed_code(code, "--patient")
     if args.output is not None:
         if not args.output.strip():
             raise CommandError("--output is empty: give the destination folder")
@@ -73,14 +77,14 @@ def cmd_export(args: argparse.Namespace) -> int:
     if args.format != "bids":
         options.update(exercise_only=args.exercise_only, digits=args.digits)
     if args.folder is not None:
-        result = export_folder(source, output, leave_out=_invalid_files(args), **options)
+        leave_out, known = _registry_knows(args)
+        result = export_folder(source, output, leave_out=leave_out, known=known, **options)
     elif args.codes:
         result = export_patients(registry, args.codes, output,
                                  include_names=args.include_names,
                                  include_invalid=args.include_invalid, **options)
     else:
-        paths = [registry.trial_path(registry.trial(i)) for i in args.trial_ids]
-        result = export_trials(paths, output, **options)
+        result = export_registered(registry, args.trial_ids, output, **options)
     if bar:
         bar.done()
     print(f"exported {result.exported} trial(s) to {result.folder} "
@@ -92,17 +96,39 @@ def cmd_export(args: argparse.Namespace) -> int:
     return 0 if not result.failed else 1
 
 
-def _invalid_files(args: argparse.Namespace) -> list:
-    """The files of the data folder's trials marked invalid, for a --folder export to
-    leave out (none with --include-invalid, or where the data folder has no registry: a
-    study's folder from elsewhere has no marks)."""
-    if args.include_invalid:
-        return []
+def _check_options(args: argparse.Namespace) -> None:
+    """An option that does nothing for what was asked is refused, never dropped silently."""
+    if args.format == "bids":
+        given = [name for name, value in (("--digits", args.digits is not None),
+                                          ("--exercise-only", args.exercise_only)) if value]
+        if given:
+            many = len(given) > 1
+            raise CommandError(f"{' and '.join(given)} {'apply' if many else 'applies'} to "
+                               "csv, tsv and mat: a BIDS run is always the whole recording "
+                               f"with every value exact; leave {'them' if many else 'it'} "
+                               "out, or give another --format")
+    if args.include_names and not args.codes:
+        raise CommandError("--include-names works with --patient (the names come from the "
+                           "registry's patients): export by --patient, or leave it out")
+    if args.include_invalid and args.trial_ids:
+        raise CommandError("--include-invalid is for --patient and --folder: --trial exports "
+                           "the trials named, marked invalid or not; leave it out")
+
+
+def _registry_knows(args: argparse.Namespace) -> tuple[list, dict]:
+    """What the data folder's registry says of a --folder export's files: those of the
+    trials marked invalid, to leave out (none with --include-invalid), and what it says of
+    every trial it holds (its figures, which the export writes, app.exports.figures, and
+    its invalid mark: app.exports.plan.registry_facts). Nothing where the
+    data folder has no registry: a study's folder from elsewhere has no marks, and its
+    files' figures are theirs."""
+    from app.exports.plan import registry_facts
     from app.records.registry import has_registry, open_registry
 
     data_dir = data_dir_for(args)
     if not has_registry(data_dir):
-        return []
+        return [], {}
     registry = open_registry(data_dir, create=False)
-    return [registry.trial_path(registry.trial(trial_id))
-            for trial_id in registry.invalid_trials()]
+    invalid = [] if args.include_invalid else [
+        registry.trial_path(registry.trial(trial_id)) for trial_id in registry.invalid_trials()]
+    return invalid, registry_facts(registry)

@@ -58,7 +58,8 @@ def add_norms_commands(commands) -> None:
                                        "score. The person is the registry's patient with "
                                        "the file's subject code, or given by --birth-year, "
                                        "--sex and --handedness (a virtual patient).")
-    p.add_argument("trials", nargs="+", help="assessment trial files (.h5)")
+    p.add_argument("trials", nargs="+", help="assessment trial files (.h5), or registered "
+                                             "trials' ids (`rehab assess show CODE`)")
     p.add_argument("--norms", help="a norms file (default: the data folder's)")
     p.add_argument("--birth-year", type=int, help="the person's birth year (with --sex and "
                                                   "--handedness, instead of the registry)")
@@ -262,7 +263,10 @@ def _controls_from_trials(args: argparse.Namespace, folder, *, retest: bool):
         registry = registry_for(args)
         people = c.people_from_registry(registry)
         invalid = c.invalid_files(registry)
-    trials, skipped = c.read_assessments(c.trial_files(folder), invalid)
+    files = c.trial_files(folder)
+    trials, skipped = c.read_assessments(files, invalid)
+    if not trials:  # said here: the fit's own refusal would only say none was found
+        _no_assessments(folder, len(files), skipped)
     if retest:
         controls, left = c.retest_from_trials(trials, people, FIGURES)
     else:
@@ -273,6 +277,21 @@ def _controls_from_trials(args: argparse.Namespace, folder, *, retest: bool):
     print(f"{len(trials)} assessment trials of {len({t.subject for t in trials})} people read "
           f"from {folder}")
     return controls
+
+
+def _no_assessments(folder, files: int, skipped: dict[str, str]) -> None:
+    """The one line for a folder that gave no assessment trial to fit: how many trial files
+    it holds, and why the assessments among them were left out (the first's reason)."""
+    left = {where: why for where, why in skipped.items() if why != "not an assessment trial"}
+    if not left:
+        raise CommandError(f"no assessment trial below {folder} ({files} trial file(s), none "
+                           "an assessment's): give the folder of the controls' assessment "
+                           "trials (`rehab assess run` records them)")
+    # a file marked invalid is left out before it is known to be an assessment's
+    where, why = next((item for item in left.items() if not item[1].startswith("marked")),
+                      next(iter(left.items())))
+    raise CommandError(f"no assessment trial below {folder} can be used: {len(left)} left "
+                       f"out, e.g. {where}: {why}")
 
 
 def cmd_score(args: argparse.Namespace) -> int:
@@ -300,7 +319,7 @@ def cmd_score(args: argparse.Namespace) -> int:
         return people
 
     for text in args.trials:
-        path = absolute(text)
+        path = _trial_file(args, text)
         if args.birth_year is not None:
             person = Person(args.birth_year, args.sex, args.handedness)
         else:
@@ -311,6 +330,18 @@ def cmd_score(args: argparse.Namespace) -> int:
         else:
             print("\n".join(lines(scores)))
     return EXIT_OK
+
+
+def _trial_file(args: argparse.Namespace, text: str):
+    """The file a TRIALS argument names: a registered trial's, for an id (as `rehab pose`
+    takes one), else the path as given (an id typed was read as a file named '11')."""
+    from app.cli.common import registry_for, trial_id_or_none
+
+    number = trial_id_or_none(text)
+    if number is None:
+        return absolute(text)
+    registry = registry_for(args)
+    return registry.trial_path(registry.trial(number))
 
 
 def _registered(path, registered_people):

@@ -128,6 +128,12 @@ def cmd_study_analyse(args: argparse.Namespace) -> int:
     if selection.left_out_invalid:
         print(f"  note: {selection.left_out_invalid} trial(s) marked invalid left out "
               "(`rehab trials CODE` says why); --include-invalid analyses them too")
+    stale = int((result.trials.registry_differs.fillna("") != "").sum())
+    if stale:
+        print(f"  note: {stale} trial(s) have figures here that differ from the registry's, "
+              "which an earlier analysis computed and `rehab progress`, the reports and "
+              "`rehab export` show (column registry_differs names them): `rehab reanalyse "
+              "--all --dry-run` lists them, without --dry-run it stores these")
     print(f"  Parquet, by {args.partition_by}: {dataset}")
     print(f"  CSV: {trials_csv}; failures: {failures_csv}")
     # the duckdb Python package (installed with the console) has no command of its own

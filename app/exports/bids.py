@@ -4,12 +4,13 @@ Layout (one run per trial)::
 
     dataset_description.json  README  participants.tsv  participants.json
     sub-<code>/ses-<session>/motion/
-        sub-<code>_ses-<session>_task-<shape>_tracksys-<backend>_run-<trial>_motion.tsv
+        sub-<code>_ses-<session>_task-<task>_tracksys-<backend>_run-<trial>_motion.tsv
         …_motion.json  …_channels.tsv  …_channels.json  …_events.tsv  …_events.json
 
 * `<code>` is the registry's pseudonymous patient code (any character other than a
   letter or digit removed, as BIDS labels require); `<session>` and `<trial>` the
-  registry's numbers; `<shape>` the exercise (d, circle, reach, targets, figure8);
+  registry's numbers; `<task>` an assessment's task (reaching, circle, range, strength,
+  position), else the exercise's shape (d, circle, reach, targets, figure8);
   `<backend>` the robot backend (simulator, quanser), so simulated and measured
   data never share a name.
 * ``_motion.tsv``: no header, as BIDS requires; one column per row of
@@ -24,7 +25,7 @@ Layout (one run per trial)::
   RecordingDuration, MotionChannelCount, TrackedPointsCount, a <TYPE>ChannelCount
   per channel type, MissingValues (no custom keys: the legacy validator refuses them).
 * ``sub-<code>_ses-<session>_scans.tsv``: one row per run, its trial's status and
-  parameters (app.exports.bids_scans).
+  parameters, and why the registry marks it invalid (app.exports.bids_scans).
 * ``wall_time`` (LATENCY) counts from the run's first sample (the trial file's counts
   from the robot's Connect).
 * ``participants.tsv``: participant_id and only non-identifying columns:
@@ -74,6 +75,7 @@ from app.exports.files import ExportError, output, prepare_folder, refuse_existi
 from app.exports.loader import Failure, Trial, TrialInfo, load_trial, read_info
 from app.exports.plan import ExportResult, TrialSource, one_trial
 from app.exports.table import write_samples
+from core.assessment.protocol import PROTOCOLS
 from device.recording.emgfile import read_emg
 from device.recording.trialfile import software_version
 
@@ -207,7 +209,7 @@ def _plan(sources: list[TrialSource], failed: list[Failure]) -> list[_Run]:
                                   "has no BIDS participant; export it from the registry"))
             continue
         run = _Run(source, info, participant, source.session or 1,
-                   bids_label(info.task or "") or "unknown",
+                   bids_label(task_of(info.parameter_values)) or "unknown",
                    bids_label(info.backend.split(" ", 1)[0]) or "robot", source.run or 0)
         (known if source.run else unnumbered).append(run)
 
@@ -246,7 +248,8 @@ def _write_run(trial: Trial, run: _Run, paths: dict[str, Path], overwrite: bool,
     with output(paths["motion.tsv"], overwrite=overwrite, text=True) as stream:
         write_samples(stream, arrays, [c.column for c in channels], "\t", missing="n/a")
     scans.setdefault((run.participant, run.session), []).append(
-        scan_row(paths["motion.tsv"], trial.status, trial.parameter_values))
+        scan_row(paths["motion.tsv"], trial.status, trial.parameter_values,
+                 run.source.invalid_reason))
     if read_emg(trial.path) is not None:
         scans.setdefault("emg", []).append(run.prefix)
     _write_tsv(paths["channels.tsv"], overwrite,
@@ -306,18 +309,38 @@ def _motion_sidecar(trial: Trial, run: _Run, channels: Sequence[BidsChannel]) ->
     return sidecar
 
 
+def task_of(values: Mapping) -> str:
+    """A run's task: an assessment's task (reaching, circle, range, strength, position),
+    else the exercise's shape; an assessment's shape alone would give the reaching, range
+    and position tasks one name, and the strength test (the handle held still) the name
+    of reaches."""
+    assessment = values.get("assessment")
+    if isinstance(assessment, str) and assessment:
+        return assessment
+    shape = values.get("shape")
+    return shape if isinstance(shape, str) else ""
+
+
 def _task_description(values: Mapping) -> str:
+    """The run's task in words: the console's label of its exercise (the mode, the shape,
+    the controller: app.reports.progress.exercise_of, as Progress and a study name it),
+    then an assessment's protocol, or the path the handle was guided along."""
+    from app.reports.progress import exercise_of
+
+    label = exercise_of(str(values.get("assist", "thesis")), values).label()
+    assessment = values.get("assessment")
+    if isinstance(assessment, str) and assessment in PROTOCOLS:
+        return f"{label}. {PROTOCOLS[assessment].therapist}"
     shape = values.get("shape", "?")
-    text = f"guiding the robot's handle along {_PATHS.get(shape, f'a {shape} path')}"
+    text = f"{label}: the handle along {_PATHS.get(shape, f'a {shape} path')}"
     if "radius_m" in values and "repetitions" in values and "duration_s" in values:
         text += (f" (radius {values['radius_m']:.3f} m, {values['repetitions']} × "
                  f"{values['duration_s']:g} s")
         if "clockwise" in values:
             text += ", clockwise" if values["clockwise"] else ", counter-clockwise"
         text += ")"
-    if "controller" in values:
-        text += (f" with the {values['controller']} controller and performance-based "
-                 f"assistance level {values.get('assistance_level', '?')}")
+    if "assistance_level" in values:
+        text += f", assistance level {values['assistance_level']} at the start"
     return text
 
 

@@ -1,5 +1,6 @@
-"""The sessions' `*_scans.tsv` of a BIDS export: one row per run with how the trial ended
-and the parameters it ran with.
+"""The sessions' `*_scans.tsv` of a BIDS export: one row per run with how the trial ended,
+the parameters it ran with and why the registry marks it invalid (a run exported with
+--include-invalid would otherwise read as any other).
 
 BIDS puts what belongs to one recording file and is not a channel or an event in the
 session's scans file (BIDS 1.9, "Scans file": `filename` REQUIRED, other columns
@@ -18,7 +19,7 @@ import json
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
-COLUMNS = ("filename", "trial_status", "trial_parameters")
+COLUMNS = ("filename", "trial_status", "trial_parameters", "invalid_reason")
 SIDECAR = {
     "trial_status": {
         "Description": "how the trial ended, as its file says",
@@ -30,6 +31,11 @@ SIDECAR = {
         "Description": "the trial's parameters as a JSON object, SI units, the names of the "
                        "console's trial files (docs/data-format.md)",
     },
+    "invalid_reason": {
+        "Description": "why the console's registry marks the trial invalid (a run exported "
+                       "with --include-invalid); n/a when it does not, or no registry knew "
+                       "the trial",
+    },
 }
 
 
@@ -38,12 +44,19 @@ def scans_path(root: Path, participant: str, session: int) -> Path:
             / f"sub-{participant}_ses-{session}_scans.tsv")
 
 
-def scan_row(motion_tsv: Path, status: str, parameters: Mapping) -> dict[str, str]:
+def scan_row(motion_tsv: Path, status: str, parameters: Mapping,
+             invalid_reason: str | None = None) -> dict[str, str]:
     """A run's row: its motion file relative to the session's folder."""
     return {"filename": f"{motion_tsv.parent.name}/{motion_tsv.name}",
             "trial_status": status or "n/a",
             "trial_parameters": json.dumps(dict(parameters), ensure_ascii=False,
-                                           allow_nan=False, default=str)}
+                                           allow_nan=False, default=str),
+            "invalid_reason": _one_line(invalid_reason) or "n/a"}
+
+
+def _one_line(text: str | None) -> str:
+    """A reason as one TSV cell: no tab or line break (a therapist's reason may hold them)."""
+    return " ".join((text or "").split())
 
 
 def rows_by(path: Path, key: str) -> dict[str, dict]:

@@ -12,7 +12,10 @@ Variables (`S = load('trial.mat')`):
 ``units``       struct: channel field → units text (``m``, ``rad/s``, ``N*m``, ``1``)
 ``frames``      struct: channel field → frame text
 ``parameters``  struct: the trial parameters (points as 1×2 [x y], flags as logical)
-``metrics``     struct: metric → double (NaN = undefined)
+``metrics``     struct: metric → double (NaN = undefined), the figures the registry
+                stands by (app.exports.figures)
+``metrics_recorded``  struct: the trial file's own figures, as recorded; they differ
+                from ``metrics`` only after `rehab reanalyse` re-computed them
 ``events``      struct of columns: ``time_s``, ``tick`` (E×1), ``kind``, ``message``,
                 ``values`` (E×1 cell arrays of text; ``values`` holds JSON:
                 ``jsondecode(S.events.values{i})``)
@@ -22,7 +25,9 @@ Variables (`S = load('trial.mat')`):
 ``attributes``  struct: the file's root attributes as stored (parameters, subject and
                 robot as JSON text)
 ``export``      struct: ``source_file``, ``rows`` ('all' or 'exercise'),
-                ``exported_utc``, ``software_version``
+                ``exported_utc``, ``software_version``, ``metrics_source``
+                ('recorded' or 'registry': whose figures ``metrics`` are) and, from a
+                registry, ``invalid_reason`` (why it marks the trial invalid; '' if not)
 ``assistance``  struct, when the file has the group: the mode, level and gains, and
                 ``feedforward_N`` (repetitions × bins)
 ``pose``        struct, when ``rehab pose`` ran: the camera's keypoints per frame and its
@@ -50,6 +55,7 @@ from pathlib import Path
 
 import numpy as np
 
+from app.exports.figures import RECORDED, SOURCE_COLUMN
 from app.exports.files import output
 from app.exports.loader import Trial
 from device.recording.trialfile import software_version
@@ -72,8 +78,14 @@ def matlab_name(name: str, taken: set[str]) -> str:
     return candidate
 
 
-def mat_variables(trial: Trial, *, exercise_only: bool = False) -> dict:
-    """The variables `write_mat` saves (see the module's doc)."""
+def mat_variables(trial: Trial, *, exercise_only: bool = False,
+                  recorded: Mapping[str, float] | None = None,
+                  about: Mapping[str, str] | None = None) -> dict:
+    """The variables `write_mat` saves (see the module's doc): `trial.metrics` the figures
+    written as ``metrics``, `recorded` the file's own (default: the same), `about` what the
+    registry says of the trial (app.exports.run: metrics_source, invalid_reason), fields of
+    ``export``."""
+    recorded = trial.metrics if recorded is None else recorded
     arrays = trial.arrays
     if exercise_only:
         mask = trial.exercise
@@ -98,6 +110,7 @@ def mat_variables(trial: Trial, *, exercise_only: bool = False) -> dict:
         "frames": {fields[name]: trial.frames.get(name, "") for name in arrays},
         "parameters": _struct(trial.parameter_values),
         "metrics": _struct({k: float(v) for k, v in trial.metrics.items()}),
+        "metrics_recorded": _struct({k: float(v) for k, v in recorded.items()}),
         "events": {
             "time_s": np.array([e["time_s"] for e in trial.events],
                                dtype=np.float64).reshape(n_events, 1),
@@ -115,19 +128,23 @@ def mat_variables(trial: Trial, *, exercise_only: bool = False) -> dict:
             "rows": "exercise" if exercise_only else "all",
             "exported_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
             "software_version": software_version(),
+            **(about or {SOURCE_COLUMN: RECORDED}),
         },
         **{name: _struct(group) for name, group in trial.groups.items()},
     }
 
 
 def write_mat(trial: Trial, path: Path, *, exercise_only: bool = False,
-              overwrite: bool = False) -> Path:
-    """Write one trial as a compressed MATLAB v5 file."""
+              overwrite: bool = False, recorded: Mapping[str, float] | None = None,
+              about: Mapping[str, str] | None = None) -> Path:
+    """Write one trial as a compressed MATLAB v5 file (`recorded`, `about`: as for
+    `mat_variables`)."""
     # imported here: scipy.io costs about 0.5 s, which every start of the window and of
     # `rehab` would otherwise pay for an export few of them make
     import scipy.io
 
-    variables = mat_variables(trial, exercise_only=exercise_only)
+    variables = mat_variables(trial, exercise_only=exercise_only, recorded=recorded,
+                              about=about)
     with output(path, overwrite=overwrite) as stream:
         scipy.io.savemat(stream, variables, format="5", do_compression=True,
                          long_field_names=True, oned_as="column")

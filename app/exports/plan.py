@@ -16,7 +16,7 @@ import contextlib
 import fnmatch
 import os
 import re
-from collections.abc import Callable, Collection, Iterable, Iterator
+from collections.abc import Callable, Collection, Iterable, Iterator, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path, PurePosixPath
 from typing import TypeVar
@@ -26,6 +26,7 @@ from app.exports.files import ExportError
 from app.exports.loader import Failure
 from app.records.datadir import CODE_PATTERN
 from app.records.outcomes import proposal_columns, trial_outcome
+from app.records.registry import Trial, TrialMark
 from app.records.registry.provenance import file_checksum
 from app.records.store import RecordStore
 from device.errors import DeviceError
@@ -62,6 +63,13 @@ class TrialSource:
     stored_copy: str | None = None
     """Its copy in the shared trial store (`stored_in` and its file, schema v11); None when
     not copied, or from a folder."""
+    figures: tuple[tuple[str, float], ...] | None = None
+    """The registry's figures of the trial, which an export writes (app.exports.figures:
+    `rehab reanalyse` may have re-computed them since the file was recorded); None for a
+    file no registry knows."""
+    invalid_reason: str | None = None
+    """Why the registry marks the trial invalid (its latest mark), '' when it does not;
+    None for a file no registry knows. An export names it (`invalid_reason`)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -89,10 +97,13 @@ def source_for_path(path: str | os.PathLike, folder: str = "") -> TrialSource:
 
 
 def sources_from_folder(folder: str | os.PathLike, pattern: str = "**/*.h5", *,
-                        leave_out: Collection[Path] = ()) -> list[TrialSource]:
+                        leave_out: Collection[Path] = (),
+                        known: Mapping[str, Mapping[str, object]] | None = None,
+                        ) -> list[TrialSource]:
     """Every file matching `pattern` below `folder`, in path order, but those of
     `leave_out` (absolute paths: a data folder's trials marked invalid); the outputs of
-    each go in the same relative subfolder as the file."""
+    each go in the same relative subfolder as the file. `known` holds what a registry
+    says of the trials it knows, by their file's real path (`registry_facts`)."""
     folder = Path(folder).expanduser().absolute()
     if not folder.is_dir():
         raise AppError(f"the folder {folder} does not exist or is not a folder; give the "
@@ -100,7 +111,23 @@ def sources_from_folder(folder: str | os.PathLike, pattern: str = "**/*.h5", *,
     left = {os.path.realpath(p) for p in leave_out}
     paths = sorted(p for p in _below(folder, pattern)
                    if p.is_file() and (not left or os.path.realpath(p) not in left))
-    return [source_for_path(p, _relative_folder(p, folder)) for p in paths]
+    sources = [source_for_path(p, _relative_folder(p, folder)) for p in paths]
+    if not known:
+        return sources
+    return [replace(source, **known.get(os.path.realpath(source.path), {}))
+            for source in sources]
+
+
+def registry_facts(registry: RecordStore) -> dict[str, dict[str, object]]:
+    """What the registry says of every trial it holds, by the real path of the trial's file
+    in its data folder, as TrialSource fields: its figures (app.exports.figures) and why it
+    is marked invalid ('' when it is not), which a folder export of that folder writes."""
+    marks = registry.invalid_trials()
+    return {os.path.realpath(registry.trial_path(trial)): {
+                "figures": tuple(trial.metrics.items()),
+                "invalid_reason": marks[trial.id].reason if trial.id in marks else ""}
+            for patient in registry.patients()
+            for trial in registry.trials_for_patient(patient.code)}
 
 
 MAX_ENTRIES = 1_000_000
@@ -146,7 +173,7 @@ def sources_from_registry(registry: RecordStore, codes: str | Iterable[str], *,
     sources = []
     for code in codes:
         proposals = {p.trial_id: p for p in registry.proposals_for_patient(code)}
-        invalid = () if include_invalid else registry.invalid_trials(code)
+        marks = registry.invalid_trials(code)
         trials = registry.trials_for_patient(code)
         lines = settle_all(registry, trials)
         if lines:
@@ -154,27 +181,58 @@ def sources_from_registry(registry: RecordStore, codes: str | Iterable[str], *,
                 settled += lines
             trials = registry.trials_for_patient(code)
         for trial in trials:
-            if trial.id in invalid:
+            if trial.id in marks and not include_invalid:
                 if left_out is not None:
                     left_out.append(trial.id)
                 continue
-            outcome = trial_outcome(trial, proposals.get(trial.id))
-            sources.append(TrialSource(
-                path=registry.trial_path(trial),
-                stem=PurePosixPath(trial.file).stem,
-                folder=code,
-                participant=code,
-                session=trial.session_number,
-                run=trial.number,
-                outcome=tuple((k, outcome[k]) for k in (*proposal_columns(None),
-                                                        "end_reason")),
-                trial_id=trial.id,
-                station=trial.station,
-                checksum=trial.checksum,
-                stored_copy=None if trial.stored_in is None
-                else os.path.join(trial.stored_in, trial.file),
-            ))
+            sources.append(registry_source(registry, trial, proposals.get(trial.id), code,
+                                           marks.get(trial.id)))
     return sources
+
+
+def sources_of_trials(registry: RecordStore, trial_ids: Iterable[int]) -> list[TrialSource]:
+    """These registered trials, in the order given, their outputs in the export folder
+    itself (`rehab export --trial`); marked invalid or not, as asked. A write into a
+    trial's file that a stopped console left unrecorded is settled first."""
+    from app.trials.rewrite import settle_all
+
+    trials = [registry.trial(trial_id) for trial_id in trial_ids]
+    if settle_all(registry, trials):
+        trials = [registry.trial(trial.id) for trial in trials]
+    proposals: dict[str, dict] = {}
+    for trial in trials:
+        if trial.patient_code not in proposals:
+            proposals[trial.patient_code] = {
+                p.trial_id: p for p in registry.proposals_for_patient(trial.patient_code)}
+    marks = registry.invalid_trials()
+    return [registry_source(registry, trial, proposals[trial.patient_code].get(trial.id), "",
+                            marks.get(trial.id))
+            for trial in trials]
+
+
+def registry_source(registry: RecordStore, trial: Trial, proposal, folder: str,
+                    mark: TrialMark | None = None) -> TrialSource:
+    """A registered trial as a source, with what the registry knows of it: its numbers,
+    what followed it (`proposal`, the one made after it, or None), its file's checksum and
+    store, its figures and why it is marked invalid (`mark`, its latest invalid mark, or
+    None); its outputs go in `folder`."""
+    outcome = trial_outcome(trial, proposal)
+    return TrialSource(
+        path=registry.trial_path(trial),
+        stem=PurePosixPath(trial.file).stem,
+        folder=folder,
+        participant=trial.patient_code,
+        session=trial.session_number,
+        run=trial.number,
+        outcome=tuple((k, outcome[k]) for k in (*proposal_columns(None), "end_reason")),
+        trial_id=trial.id,
+        station=trial.station,
+        checksum=trial.checksum,
+        stored_copy=None if trial.stored_in is None
+        else os.path.join(trial.stored_in, trial.file),
+        figures=tuple(trial.metrics.items()),
+        invalid_reason="" if mark is None else mark.reason,
+    )
 
 
 def verified_place(source: TrialSource) -> tuple[Path, str]:

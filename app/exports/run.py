@@ -15,15 +15,19 @@ Formats (each module's doc has the details):
 `exercise_only=True` keeps only the samples of the exercise phase (CSV/TSV/.mat;
 a BIDS run is always the whole recording, with its events).
 
-Batch exports (`export_patient`, `export_patients`, `export_folder`,
-`export_trials`) put each trial's files in a subfolder (the patient's code, or
-the trial file's own subfolder of the source folder) and write ``trials.csv``
-(``trials.tsv`` for TSV), one row per exported trial with its metadata and
+Batch exports (`export_patient`, `export_patients`, `export_folder`, `export_trials`;
+`export_registered` puts them in the folder itself) put each trial's files in a subfolder
+(the patient's code, or the trial file's own subfolder of the source folder) and write
+``trials.csv`` (``trials.tsv`` for TSV), one row per exported trial with its metadata and
 metrics (app.exports.loader's row keys, after `participant`, `session`, `trial` and
-`export_file`), then what the trial ran and what followed it (app.records.outcomes:
-the assistance mode, the levels as built and as they ran, the proposal and its decision,
-why it ended). A trial file that cannot be read is skipped and listed in the
-result's `failed`; `progress(fraction)` is called as trials are done.
+`export_file`), then what the trial ran and what followed it (app.records.outcomes: the
+assistance mode, the levels as built and as they ran, the proposal and its decision, why
+it ended), `metrics_source` and `invalid_reason` (why the registry marks it invalid: ''
+when it does not or no registry knows it; with include_invalid such trials are exported,
+and named). A registered trial's figures are the registry's, which `rehab reanalyse` may
+have re-computed since its file was recorded (app.exports.figures: `metrics_source` says
+whose, and the file's own go beside them). A trial file that cannot be read is skipped
+and listed in the result's `failed`; `progress(fraction)` is called as trials are done.
 Exporting into a folder that holds an earlier export adds to it, as a BIDS export does:
 the index (and names.csv) keeps the rows of the other trials whose files are still there
 (app.exports.index).
@@ -49,6 +53,13 @@ from pathlib import Path
 
 from app.exports.bids import export_bids
 from app.exports.columns import check_digits
+from app.exports.figures import (
+    INVALID_COLUMN,
+    REGISTRY,
+    SOURCE_COLUMN,
+    registry_note,
+    standing_figures,
+)
 from app.exports.files import (
     ExportError,
     OutputExistsError,
@@ -66,6 +77,7 @@ from app.exports.plan import (
     source_for_path,
     sources_from_folder,
     sources_from_registry,
+    sources_of_trials,
     verified_sources,
 )
 from app.exports.table import table_outputs, write_table
@@ -83,6 +95,7 @@ __all__ = [
     "export_folder",
     "export_patient",
     "export_patients",
+    "export_registered",
     "export_trial",
     "export_trials",
 ]
@@ -153,10 +166,14 @@ def export_trials(
         progress(0.0)
     for i, (source, paths) in enumerate(planned.items()):
         def export(source=source):
-            trial = load_trial(source.path)
-            row = {**trial.row(), **ran_columns(trial, source)}  # before any file is made
+            recorded = load_trial(source.path)
+            # the registry's figures where `rehab reanalyse` re-computed them since
+            trial, figures_from = standing_figures(
+                recorded, None if source.figures is None else dict(source.figures))
+            about = {SOURCE_COLUMN: figures_from, INVALID_COLUMN: source.invalid_reason or ""}
+            row = {**trial.row(), **ran_columns(trial, source), **about}  # before any file
             files = _write(trial, format, root / source.folder, source.stem, exercise_only,
-                           digits, overwrite)
+                           digits, overwrite, recorded.metrics, about)
             return row, files
 
         done = one_trial(source.path, export, failed, paths)
@@ -169,6 +186,9 @@ def export_trials(
         if progress is not None:
             progress((i + 1) / len(planned))
     notes: list[str] = []
+    from_registry = sum(row[SOURCE_COLUMN] == REGISTRY for row in rows)
+    if from_registry:
+        notes.append(registry_note(from_registry))
     written.append(write_index(index, rows, suffix, overwrite, notes))
     if names:
         written.append(write_names(names_file, names, suffix, overwrite))
@@ -205,17 +225,33 @@ def export_patients(
     notes: list[str] = []
     sources = sources_from_registry(registry, codes, include_invalid=include_invalid,
                                     left_out=left_out, settled=notes)
-    # each file read where the one recorded is (the data folder's, else the trial store's
-    # copy): a file changed since its trial ended is listed, never exported as the trial
+    names = registry_names(registry, codes) if include_names else None
+    result = _export_verified(sources, folder, notes, format=format, names=names,
+                              exercise_only=exercise_only, digits=digits,
+                              overwrite=overwrite, progress=progress)
+    return with_invalid_note(result, len(left_out))
+
+
+def export_registered(registry: RecordStore, trial_ids: Iterable[int],
+                      folder: str | os.PathLike, **options) -> ExportResult:
+    """Export these registered trials (`rehab export --trial`), marked invalid or not, as
+    asked, into `folder` itself; each read where its recorded file is, with the registry's
+    figures, as `export_patients` reads a patient's. Options as for `export_trials`."""
+    notes: list[str] = []
+    sources = sources_of_trials(registry, trial_ids)
+    return _export_verified(sources, folder, notes, **options)
+
+
+def _export_verified(sources: list[TrialSource], folder: str | os.PathLike,
+                     notes: list[str], **options) -> ExportResult:
+    """Export registered trials each read where the one recorded is (the data folder's
+    file, else the trial store's copy): a file changed since its trial ended is listed,
+    never exported as the trial. `notes` (what came before) lead the result's."""
     unverified: list[Failure] = []
     sources = verified_sources(sources, unverified, notes)
-    names = registry_names(registry, codes) if include_names else None
-    result = export_trials(sources, folder, format=format, names=names,
-                           exercise_only=exercise_only, digits=digits, overwrite=overwrite,
-                           progress=progress)
-    result = dataclasses.replace(result, failed=(*unverified, *result.failed),
-                                 notes=(*result.notes, *notes))
-    return with_invalid_note(result, len(left_out))
+    result = export_trials(sources, folder, **options)
+    return dataclasses.replace(result, failed=(*unverified, *result.failed),
+                               notes=(*result.notes, *notes))
 
 
 def with_invalid_note(result: ExportResult, left_out: int) -> ExportResult:
@@ -243,20 +279,29 @@ def export_folder(
     *,
     pattern: str = "**/*.h5",
     leave_out: Collection[Path] = (),
+    known: Mapping[str, Mapping[str, object]] | None = None,
     **options,
 ) -> ExportResult:
     """Export every trial file matching `pattern` below `source_folder` (a study) but
     those of `leave_out` (a data folder's trials marked invalid: a note says how many
-    were below the folder): CSV/TSV/.mat outputs mirror its subfolders. Options as for
-    `export_trials`."""
-    sources = sources_from_folder(source_folder, pattern, leave_out=leave_out)
-    result = export_trials(sources, folder, **options)
-    if not leave_out:
-        return result
-    root = Path(os.path.realpath(source_folder))
-    below = sum(1 for p in leave_out if os.path.isfile(p)
-                and Path(os.path.realpath(p)).is_relative_to(root))
-    return with_invalid_note(result, below)
+    were below the folder): CSV/TSV/.mat outputs mirror its subfolders. `known`: what the
+    data folder's registry says of its trials (app.exports.plan.registry_facts: their
+    figures, written in place of the files' own, and their invalid marks). Options as for
+    `export_trials`.
+    ExportError, with nothing written, for a folder with no trial file to export (a
+    wrong folder would otherwise make an empty export)."""
+    found = sources_from_folder(source_folder, pattern, known=known)
+    left = {os.path.realpath(p) for p in leave_out}
+    sources = [s for s in found if os.path.realpath(s.path) not in left]
+    below = len(found) - len(sources)
+    if not sources:
+        root = Path(os.path.realpath(source_folder))
+        holds = (f"only {below} trial(s) marked invalid (--include-invalid exports them)"
+                 if below else f"no trial files ({pattern.removeprefix('**/')}) below it")
+        raise ExportError(f"the folder {root} holds {holds}. Nothing was written. Give the "
+                          "folder of the .h5 trial files (a data folder's trials/, or a "
+                          "study's copy of them)")
+    return with_invalid_note(export_trials(sources, folder, **options), below)
 
 
 # -- helpers -------------------------------------------------------------------
@@ -296,12 +341,15 @@ def _outputs(format: str, folder: Path, stem: str) -> tuple[Path, ...]:
 
 
 def _write(trial: Trial, format: str, folder: Path, stem: str, exercise_only: bool,
-           digits: int | None, overwrite: bool) -> tuple[Path, ...]:
+           digits: int | None, overwrite: bool, recorded: Mapping[str, float] | None = None,
+           about: Mapping[str, str] | None = None) -> tuple[Path, ...]:
+    """The trial's files; `recorded` is its file's own figures when `trial`'s are the
+    registry's, `about` what the registry says of it (metrics_source, invalid_reason)."""
     if format == "mat":
         return (write_mat(trial, folder / f"{stem}.mat", exercise_only=exercise_only,
-                          overwrite=overwrite),)
+                          overwrite=overwrite, recorded=recorded, about=about),)
     return write_table(trial, folder, stem, suffix=f".{format}", exercise_only=exercise_only,
-                       digits=digits, overwrite=overwrite)
+                       digits=digits, overwrite=overwrite, recorded=recorded, about=about)
 
 
 def _refuse_duplicates(planned: Mapping[TrialSource, tuple[Path, ...]]) -> None:

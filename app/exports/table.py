@@ -10,12 +10,18 @@ For a stem S (`.csv` with commas, `.tsv` with tabs; UTF-8, ``\\n`` line ends):
                     default (see app.exports.columns for `digits`); NaN is ``NaN``.
 ``S_columns.csv``   column, channel, component, units, frame, description
 ``S_events.csv``    time_s, tick, kind, message, values (the event's JSON object)
-``S_metrics.csv``   metric, value (names carry their units; NaN = undefined)
+``S_metrics.csv``   metric, value, recorded (names carry their units; NaN = undefined):
+                    `value` the figure the registry stands by, `recorded` the trial
+                    file's own; they differ only after `rehab reanalyse` re-computed it
+                    (app.exports.figures)
 ``S_emg.csv``       when the trial has EMG: time_s (trial time) and one column per muscle
                     in volts (``biceps_V``), at the EMG's own rate
 ``S_trial.csv``     key, value: status, sample period, subject code and
-                    anthropometry, every parameter (the row keys of app.exports.loader), and
-                    which samples the samples file holds (``rows``: all/exercise)
+                    anthropometry, every parameter (the row keys of app.exports.loader),
+                    which samples the samples file holds (``rows``: all/exercise),
+                    whose figures the metrics file's values are (``metrics_source``:
+                    recorded/registry) and why the registry marks the trial invalid
+                    (``invalid_reason``, '' when it does not)
 ==================  ===============================================================
 
 One header line and numbers only below it, so every reader takes the file as it is, with
@@ -31,6 +37,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TextIO
@@ -44,6 +51,7 @@ from app.exports.columns import (
     format_values,
     table_columns,
 )
+from app.exports.figures import RECORDED, SOURCE_COLUMN
 from app.exports.files import output
 from app.exports.loader import Trial
 from device.recording.emgfile import read_emg
@@ -62,9 +70,14 @@ def table_outputs(folder: Path, stem: str, suffix: str) -> tuple[Path, ...]:
 
 def write_table(trial: Trial, folder: Path, stem: str, *, suffix: str = ".csv",
                 exercise_only: bool = False, digits: int | None = None,
-                overwrite: bool = False) -> tuple[Path, ...]:
-    """Write the samples file and its side files; returns their paths."""
+                overwrite: bool = False, recorded: Mapping[str, float] | None = None,
+                about: Mapping[str, str] | None = None) -> tuple[Path, ...]:
+    """Write the samples file and its side files; returns their paths. `trial.metrics`
+    are the figures written as `value`; `recorded` the file's own (default: the same);
+    `about` what the registry says of the trial (app.exports.run: metrics_source,
+    invalid_reason), keys of the `_trial` table."""
     digits = check_digits(digits)
+    recorded = trial.metrics if recorded is None else recorded
     delimiter = DELIMITERS[suffix]
     samples, columns_file, events_file, metrics_file, trial_file, emg_file = table_outputs(
         folder, stem, suffix)
@@ -88,9 +101,11 @@ def write_table(trial: Trial, folder: Path, stem: str, *, suffix: str = ".csv",
                 ("time_s", "tick", "kind", "message", "values"),
                 [(_number(e["time_s"], digits), e["tick"], e["kind"], e["message"],
                   json.dumps(e["values"], ensure_ascii=False)) for e in trial.events])
-    _write_rows(metrics_file, delimiter, overwrite, ("metric", "value"),
-                [(name, _number(value, digits)) for name, value in trial.metrics.items()])
+    _write_rows(metrics_file, delimiter, overwrite, ("metric", "value", "recorded"),
+                [(name, _number(value, digits), _number(recorded.get(name, math.nan), digits))
+                 for name, value in trial.metrics.items()])
     info = {key: value for key, value in trial.row().items() if not key.startswith("metric_")}
+    info |= about or {SOURCE_COLUMN: RECORDED}
     info |= {"rows": "exercise" if exercise_only else "all", "rows_written": n,
              "notes": " | ".join(trial.notes)}
     _write_rows(trial_file, delimiter, overwrite, ("key", "value"),

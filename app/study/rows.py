@@ -21,7 +21,9 @@ failure saying which and where to restore it from, never a row of figures from a
 is not the trial's. A file that cannot be read gives a row whose `failure` says why, in the
 reader's words; the chunk goes on with the next file. A file that reads but cannot be
 measured (too little exercise, no parameters) keeps its row without metrics, and its
-`notes` say why, as the registry keeps such a trial.
+`notes` say why, as the registry keeps such a trial. A registered trial's row names the
+figures the registry holds otherwise (`registry_differs`: an earlier analysis's, which
+the console shows until `rehab reanalyse` stores these).
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ from dataclasses import dataclass
 import pandas as pd
 
 from app.errors import AppError
+from app.exports.figures import differing
 from app.exports.loader import trial_of
 from app.exports.plan import TrialSource, verified_place
 from app.exports.run import ran_columns
@@ -103,7 +106,10 @@ def trial_row(trial: StudyTrial) -> dict:
     row = {key: value for key, value in loaded.row().items()
            if not key.startswith(METRIC_PREFIX)}
     notes.extend(data.notes)
-    row |= {METRIC_PREFIX + name: value for name, value in metrics(data, notes).items()}
+    made = metrics(data, notes)
+    row |= {METRIC_PREFIX + name: value for name, value in made.items()}
+    if trial.source.figures is not None:  # the registry's, which the console shows
+        row["registry_differs"] = ", ".join(differing(made, dict(trial.source.figures)))
     row |= ran_columns(loaded, trial.source)
     values = loaded.parameter_values
     assist = str(values.get("assist", "thesis"))

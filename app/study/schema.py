@@ -84,13 +84,20 @@ RAN = {**{name: NUMBER if name in _OUTCOME_NUMBERS else TEXT for name in OUTCOME
 file; the proposal and its decision from the registry, empty from a folder), and why it
 was marked invalid (only with include_invalid)."""
 
+CHECKED = {"registry_differs": TEXT}
+"""`registry_differs`: the figures (metric names, ', ' between) whose value in the registry
+is not this analysis's: computed by an earlier analysis when the trial ended and not yet
+re-analysed, so `rehab progress`, the reports and the exports show the registry's until
+`rehab reanalyse` stores these (app.exports.figures); '' where the registry holds these
+figures, none for a file no registry knows."""
+
 TRAILING = {"notes": TEXT, "failure": TEXT}
 """`notes`: what the reader recovered and what the analysis left out, ' | ' between;
 `failure`: '' for an analysed trial, else why the file could not be analysed."""
 
 COLUMNS: dict[str, str] = {
     **LEADING, **PARAMETERS, **RAN,
-    **{METRIC_PREFIX + name: NUMBER for name in METRICS}, **TRAILING,
+    **{METRIC_PREFIX + name: NUMBER for name in METRICS}, **CHECKED, **TRAILING,
 }
 """Every column, in order, with its type."""
 

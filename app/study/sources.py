@@ -19,7 +19,8 @@
 Trials the registry marks invalid (`rehab invalid`) are left out and counted, unless
 `include_invalid`; then each row says why it was marked (`invalid_reason`), as
 `rehab progress --include-invalid` and the exports do. A folder's files are matched to the
-marks of the data folder's registry, when it has one (a folder from elsewhere has none).
+marks and the figures of the data folder's registry, when it has one (a folder from
+elsewhere has none).
 """
 
 from __future__ import annotations
@@ -29,7 +30,12 @@ from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
 from app.errors import AppError
-from app.exports.plan import TrialSource, sources_from_folder, sources_from_registry
+from app.exports.plan import (
+    TrialSource,
+    registry_facts,
+    sources_from_folder,
+    sources_from_registry,
+)
 from app.records.datadir import CODE_PATTERN
 from app.records.store import RecordStore
 from app.study.rows import StudyTrial
@@ -82,7 +88,8 @@ def from_folder(folder: str | os.PathLike, *, registry: RecordStore | None = Non
         raise AppError(f"the study folder {folder} does not exist or is not a folder: give "
                        "the folder that holds the trial files (.h5)")
     marks = _marks_by_file(registry) if registry is not None else {}
-    found = sources_from_folder(root, PATTERN)
+    found = sources_from_folder(root, PATTERN, known=None if registry is None
+                                else registry_facts(registry))
     trials, left_out = [], 0
     for source in found:
         reason = marks.get(os.path.realpath(source.path))

@@ -29,13 +29,11 @@ app.trials.finalize runs), from its file as recorded:
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from pathlib import PurePosixPath
 
 from app.errors import AppError
-from app.exports.plan import TrialSource, verified_place
+from app.exports.plan import TrialSource, registry_source, verified_place
 from app.records.registry import Trial
 from app.records.registry.values import metrics_json, parse_metrics
 from app.records.store import RecordStore
@@ -153,11 +151,7 @@ def reanalyse_trial(registry: RecordStore, trial: Trial, *, dry_run: bool = Fals
 
 def _source(registry: RecordStore, trial: Trial) -> TrialSource:
     """The trial as a source to find its recorded file (app.exports.plan)."""
-    return TrialSource(
-        path=registry.trial_path(trial), stem=PurePosixPath(trial.file).stem,
-        trial_id=trial.id, station=trial.station, checksum=trial.checksum,
-        stored_copy=None if trial.stored_in is None else os.path.join(trial.stored_in,
-                                                                      trial.file))
+    return registry_source(registry, trial, None, "")
 
 
 def _unverified(trial: Trial) -> str:

@@ -59,3 +59,37 @@ def test_the_command_line_export_of_a_patient_or_the_trials_folder_leaves_it_out
                               str(out_folder) + "-all", "--include-invalid"], capsys)
         assert status == 0
         assert "exported 3 trial(s)" in out
+
+
+def test_an_invalid_trial_exported_on_request_says_why_it_is_marked(marked, tmp_path, capsys):
+    """With --include-invalid the marked trial was exported as any other: nothing in
+    trials.csv, its `_trial` table, a .mat or a BIDS scans file said it was invalid."""
+    import csv
+
+    import scipy.io
+
+    registry, code, ids = marked
+    stem = registry.trial_path(registry.trial(ids[1])).stem
+    trials = registry.data_dir.trials_dir
+    for what, fmt in ((["--patient", code], "csv"), (["--folder", str(trials)], "csv"),
+                      (["--trial", str(ids[1])], "mat"), (["--patient", code], "bids")):
+        out = tmp_path / f"{what[0][2:]}-{fmt}"
+        extra = [] if what[0] == "--trial" else ["--include-invalid"]
+        status, _, err = run(["export", *what, "--format", fmt, "--output", str(out), *extra],
+                             capsys)
+        assert status == 0, err
+        if fmt == "csv":
+            with (out / "trials.csv").open(encoding="utf-8", newline="") as stream:
+                rows = {int(r["trial"]): r["invalid_reason"] for r in csv.DictReader(stream)}
+            assert rows == {1: "", 2: "let go of the handle", 3: ""}
+            (table,) = out.rglob(f"{stem}_trial.csv")
+            assert "invalid_reason,let go of the handle\n" in table.read_text()
+        elif fmt == "mat":
+            mat = scipy.io.loadmat(out / f"{stem}.mat", simplify_cells=True)
+            assert mat["export"]["invalid_reason"] == "let go of the handle"
+        else:
+            (scans,) = out.rglob("*_scans.tsv")
+            lines = scans.read_text().splitlines()
+            assert lines[0].split("\t")[-1] == "invalid_reason"
+            assert [line.split("\t")[-1] for line in lines[1:]] == [
+                "n/a", "let go of the handle", "n/a"]

@@ -7,6 +7,8 @@ import json
 import pytest
 
 from app.norms import in_use, load_norms
+from app.records.datadir import DataDir
+from app.records.registry import Registry
 from tests.app.cli.running import run
 from tests.app.norms.controls import write_controls, write_retest
 from tests.app.norms.handmade import handmade
@@ -385,3 +387,43 @@ def test_a_patient_at_zero_gets_a_z_score(tmp_path, data, capsys):
     assert z.worse_z > 3
     assert model.task_score("range", {"range_area_m2": 0.0, "range_area_ratio": 0.0},
                             who).score > 3
+
+
+def test_fit_from_trials_says_why_no_assessment_could_be_used(tmp_path, data, patient,
+                                                             capsys):
+    """A folder whose assessments are all a simulated weak patient's said 'no assessment
+    trials found', as if it held none, and the reasons were never printed."""
+    code, _, err = run(["assess", "run", patient, "--task", "range", "--patient", "weak"],
+                       capsys)
+    assert code == 0, err
+    code, _, err = run(["run", "--code", patient, "--repetitions", "1", "--seed", "1"], capsys)
+    assert code == 0, err
+    base = ["norms", "fit", "--source", "s", "--output", str(tmp_path / "n.json")]
+    err = _refused(capsys, [*base, "--trials", str(data / "trials")],
+                   "no assessment trial below")
+    assert "can be used: 1 left out, e.g. " in err
+    assert "a simulated weak patient" in err
+    assert "not a healthy control" in err
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    _refused(capsys, [*base, "--trials", str(empty)],
+             f"no assessment trial below {empty} (0 trial file(s), none an assessment's)")
+
+
+def test_score_takes_a_registered_trials_id_as_rehab_pose_does(data, patient, tmp_path,
+                                                               capsys):
+    """`rehab norms score 11` read a file named '11' and said it did not exist."""
+    code, _, err = run(["assess", "run", patient, "--task", "reaching"], capsys)
+    assert code == 0, err
+    (trial,) = Registry(DataDir(data)).trials_for_patient(patient)
+    norms = tmp_path / "norms.json"
+    norms.write_text(json.dumps(handmade()))
+    person = ["--norms", str(norms), "--birth-year", "1960", "--sex", "female",
+              "--handedness", "right"]
+    code, by_id, err = run(["norms", "score", str(trial.id), *person], capsys)
+    assert code == 0, err
+    path = Registry(DataDir(data)).trial_path(trial)
+    code, by_path, err = run(["norms", "score", str(path), *person], capsys)
+    assert code == 0, err
+    assert by_id == by_path
+    _refused(capsys, ["norms", "score", "99", *person], "no trial has the id 99")

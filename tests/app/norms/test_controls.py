@@ -159,7 +159,7 @@ def test_folder_refusals(tmp_path, data, capsys):
     code, _, err = run(["norms", "fit", "--trials", str(empty), "--people", str(people_csv),
                         "--source", "s", "--output", out], capsys)
     assert code == 2
-    assert "no assessment trials found" in err
+    assert "(0 trial file(s), none an assessment's)" in err
     bad = tmp_path / "bad.csv"
     shutil.copy(people_csv, bad)
     bad.write_text(bad.read_text().replace("female", "f", 1))

@@ -15,6 +15,7 @@ from app.study import sources
 from app.study.run import analyse_study
 from tests.app.cli.running import run
 from tests.app.study.conftest import SOUND
+from tests.old_analysis import analysed_as_before
 
 
 def one_line_refusal(code, out, err):
@@ -249,6 +250,31 @@ def test_the_registry_gives_each_patients_progress_table(registered, client, tmp
     assert code == 0, err
     assert "analysed 3 trial(s)" in out
     assert "1 trial(s) marked invalid left out" in out
+
+
+def test_a_trial_the_registry_holds_older_figures_of_is_named_until_reanalysed(
+        data, patient, client, tmp_path, capsys, monkeypatch):
+    with monkeypatch.context() as patch:  # recorded by the analysis before 2026-12-05
+        analysed_as_before(patch)
+        code, _, err = run(["run", "--code", patient, "--repetitions", "1", "--seed", "3"],
+                           capsys)
+    assert code == 0, err
+    on = ["--scheduler", client.scheduler.address]
+    for source, output in ((patient, "stale"), (str(data / "trials"), "folder")):
+        code, out, err = run(["study", "analyse", source, "--output", str(tmp_path / output),
+                              *on], capsys)
+        assert code == 0, err
+        assert "1 trial(s) have figures here that differ from the registry's" in out
+        table = pd.read_csv(tmp_path / output / "trials.csv", keep_default_na=False)
+        assert list(table["registry_differs"]) == ["robot_work_share, robot_help_work_J"]
+    code, _, err = run(["reanalyse", "--patient", patient, "--by", "R. Searcher"], capsys)
+    assert code == 0, err
+    code, out, err = run(["study", "analyse", patient, "--output", str(tmp_path / "now"),
+                          *on], capsys)
+    assert code == 0, err
+    assert "differ from the registry's" not in out
+    table = pd.read_csv(tmp_path / "now" / "trials.csv", keep_default_na=False)
+    assert list(table["registry_differs"]) == [""]
 
 
 def test_the_command_line_starts_without_dask():
