@@ -78,7 +78,11 @@ def _owner(path: Path, roots: Iterable[Path]) -> tuple[Path, Path] | None:
     return None
 
 
-def _refuse_owned(path: Path, roots: Iterable[Path], what: str) -> None:
+def _refuse_owned(path: Path, roots: Iterable[Path], what: str,
+                  shown: Path | None = None) -> None:
+    """OutputRefused when `path` is a registry's name or what a data folder owns; the line
+    names `shown` (a folder, where `path` is a probe inside it: "…/trials/_" told a user
+    of a file name they never gave) or else `path`."""
     if path.name.startswith(REGISTRY_NAME):
         raise OutputRefused(f"{what} {path} is named like a registry: the console never "
                             "writes over a registry; give another name")
@@ -88,7 +92,7 @@ def _refuse_owned(path: Path, roots: Iterable[Path], what: str) -> None:
     root, inside = owner
     if len(inside.parts) > 1 and inside.parts[0] in OUTPUTS_ALLOWED:
         return
-    raise OutputRefused(f"{what} {path} is inside the data folder {root}, which keeps its "
+    raise OutputRefused(f"{what} {shown or path} is inside the data folder {root}, which keeps its "
                         "registry, trial files and models there: write it elsewhere, or "
                         f"below its {'/ or '.join(OUTPUTS_ALLOWED)}/ folders")
 
@@ -114,7 +118,7 @@ def refuse_owned_folder(folder: str | os.PathLike, *, roots: Iterable[Path] = ()
     """`check_output_folder`'s refusal without making the folder: for a command that
     checks where its outputs go before any work, and makes them after (app.study)."""
     folder = absolute(folder)
-    _refuse_owned(folder / "_", tuple(roots), what)
+    _refuse_owned(folder / "_", tuple(roots), what, shown=folder)
     return folder
 
 
@@ -124,7 +128,7 @@ def check_output_folder(folder: str | os.PathLike, *, roots: Iterable[Path] = ()
     folder's own place unless `owned` (the console's default export folder)."""
     folder = absolute(folder)
     if not owned:
-        _refuse_owned(folder / "_", roots, what)
+        _refuse_owned(folder / "_", roots, what, shown=folder)
     return make_private_folders(folder)
 
 

@@ -179,3 +179,17 @@ def test_the_report_the_data_folder_holds_is_written_again_only_when_asked(kept,
     assert digest(report) == first
     code, _, err = run(["report", "1", "--overwrite"], capsys)
     assert code == 0, err
+
+
+@pytest.mark.parametrize("command", [["export", "--format", "csv", "--folder", "{data}",
+                                      "--output", "{out}"],
+                                     ["study", "analyse", "{data}/trials", "--output", "{out}"]])
+def test_a_refused_output_folder_is_named_as_given(kept, data, capsys, command):
+    """The refusal names the folder the user gave: it said '…/trials/_', a probe's name
+    inside it the user never typed."""
+    inside = data / "trials"
+    args = [a.format(data=data, out=inside) for a in command]
+    code, _, err = run(args, capsys)
+    assert code == 2, err
+    assert f" {inside} is inside the data folder" in err, err
+    assert f"{inside}/_" not in err
