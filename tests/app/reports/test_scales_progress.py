@@ -184,3 +184,49 @@ def test_a_study_has_one_point_per_patient_their_latest_session(registry):
         (rt, float(fm)) for rt, fm in expected)
     assert series.correlation.n == 4
     assert series.correlation.spearman_rho == pytest.approx(-1.0)
+
+
+def test_an_exercise_figure_is_the_session_s_exercises_not_its_assessments(registry):
+    """A session's RMSE against a scale is its exercise trials' mean: a researcher's
+    progress PDF said session 2's RMSE x was 27.1 mm where its D-shape trials were
+    2.3-2.5 mm, the battery's tasks (measured against their own clock) mixed in. A task's
+    own figure stays its trials'."""
+    from core.assessment.protocol import protocol
+
+    code = registry.create_patient("Ada", "Example").code
+    for exercise_rmse, fm in ((0.0030, 20), (0.0024, 30), (0.0020, 40)):
+        number = registry.open_session(code).number
+        for parameters, rmse in ((THESIS_SUBJECT, exercise_rmse),
+                                 (protocol("reaching").parameters(THESIS_SUBJECT), 0.05)):
+            begun = registry.begin_trial(code, parameters, backend="simulator",
+                                         session_number=number)
+            registry.finish_trial(begun.trial_id, "complete",
+                                  {"rmse_x_m": rmse, RT: 0.3 + fm / 1000})
+        registry.record_scale(code, number, "fugl_meyer", total=fm, rater="K. Lee")
+    series = scale_series(registry, code, "rmse_x_m", "fugl_meyer")
+    assert [(p.figure, p.n_trials) for p in series.points] == [
+        (0.0030, 1), (0.0024, 1), (0.0020, 1)]
+    task = scale_series(registry, code, RT, "fugl_meyer")
+    assert [p.n_trials for p in task.points] == [2, 2, 2]  # held by both here: kept
+
+
+def test_a_progress_report_sets_no_assessment_mode_s_figure_against_the_scales(registry):
+    """The battery's tasks run transparent; the report set 'RMSE x/y' (the transparent
+    mode's success figure) against Fugl-Meyer for a patient whose exercises were all as
+    needed, made of nothing but the tasks' trials' distance from their clock."""
+    from app.reports.progress import progress
+    from app.reports.scales_progress import report_series
+    from core.assessment.protocol import protocol
+
+    code = registry.create_patient("Ada", "Example").code
+    for fm in (20, 30, 40):
+        number = registry.open_session(code).number
+        for parameters in (THESIS_SUBJECT, protocol("circle").parameters(THESIS_SUBJECT)):
+            begun = registry.begin_trial(code, parameters, backend="simulator",
+                                         session_number=number)
+            registry.finish_trial(begun.trial_id, "complete",
+                                  {"rmse_x_m": 0.01, "rmse_y_m": 0.01,
+                                   "directional_performance_pct": 50.0 + fm})
+        registry.record_scale(code, number, "fugl_meyer", total=fm, rater="K. Lee")
+    keys = {s.figure_key for s in report_series(registry, progress(registry, code))}
+    assert keys == {"directional_performance_pct"}
