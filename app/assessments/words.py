@@ -13,12 +13,6 @@ from app.units import CM_PER_M
 from core.holdtasks import ROBOT_TASKS
 from core.trial import TrialParameters
 
-ROBOT_ROLE = {"strength": "Robot holds the handle", "position": "Robot moves the hand"}
-"""What the robot does in a task it leads, in a series' name (app.reports.progress.Exercise
-.label) where an exercise names its mode: the tasks record the transparent mode for their
-free stretches, and Progress named the strength test 'Transparent' while the robot held
-the handle still throughout."""
-
 
 def planned_exercise_s(p: TrialParameters) -> float:
     """The exercise's length on its clock: the path's laps, or, for a task the robot

@@ -32,7 +32,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.assessments.words import ROBOT_ROLE
 from app.games.names import game_title
 from app.records.registry import TrialSummary, key_values, parameter_key
 from app.records.store import RecordStore
@@ -88,11 +87,9 @@ class Exercise:
 
     def label(self) -> str:
         """'As needed · D shape, r 10.0 cm · SMC'; an assessment's or a game's name first:
-        'Assessment: Circle drawing · Transparent · circle, r 7.0 cm · SMC'; a task the robot
-        leads names what the robot does instead of the mode ('Assessment: Isometric
-        strength · Robot holds the handle · …': app.assessments.words.ROBOT_ROLE)."""
+        'Assessment: Circle drawing · Transparent · circle, r 7.0 cm · SMC'."""
         shape = SHAPE_NAMES.get(self.shape, self.shape or "?")
-        parts = [ROBOT_ROLE.get(self.assessment) or MODE_NAMES.get(self.mode, self.mode),
+        parts = [MODE_NAMES.get(self.mode, self.mode),
                  shape + (f", r {cm(self.radius_m)}" if self.radius_m is not None else "")]
         if self.assessment:
             parts.insert(0, f"Assessment: {TASK_TITLES.get(self.assessment, self.assessment)}")

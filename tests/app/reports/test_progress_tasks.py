@@ -120,13 +120,3 @@ def test_an_assessment_s_series_shows_its_task_s_figures_not_the_tracking_ones(c
     assert "Direction" not in task
     assert "RMSE x" in blocks[1]
     assert "Circle ratio" not in blocks[1]
-
-
-def test_a_task_the_robot_leads_is_named_by_what_the_robot_does_not_a_mode():
-    """Progress named the strength test 'Isometric strength · Transparent' (the mode its
-    free stretches record) while the robot held the handle still throughout."""
-    strength = Exercise("transparent", "targets", 0.1, "ctpid", assessment="strength")
-    position = Exercise("transparent", "targets", 0.1, "ctpid", assessment="position")
-    assert strength.label().startswith("Assessment: Isometric strength · Robot holds the handle")
-    assert "Robot moves the hand" in position.label()
-    assert "Transparent" not in strength.label() + position.label()
