@@ -5,11 +5,6 @@ performance to the Fugl-Meyer assessment (section 3.6.1), for any figure and sca
 * Per session: the figure is the mean over the session's trials that hold it (finite),
   trials marked invalid left out unless asked; the scale is the session's latest entry
   (app.records.registry.clinical). A session with only one of the two is not a point.
-  A figure of the exercises' (the metrics table's: the distance from the path, the push's
-  direction, the works) is the mean over the session's exercise and game trials only: an
-  assessment task's trials hold them too, measured against the task's own clock or the
-  robot's move (app.reports.task_table), and mixed in they made a session of 2.4 mm
-  D-shape trials read 27.1 mm. An assessment's figure is its task's trials' alone.
 * Across a study: one point per patient, the latest session holding both (a patient's
   sessions are not independent of each other, so they are not pooled).
 * The correlation: Pearson's r (linear) and Spearman's rho (monotonic, on ranks: the
@@ -181,10 +176,7 @@ def _session_figures(registry: RecordStore, code: str, key: str, include_invalid
                      ) -> dict[int, tuple[datetime.date, float, int]]:
     values: dict[int, list[float]] = {}
     dates: dict[int, datetime.date] = {}
-    exercises_only = key not in FIGURES
     for trial in registry.trial_summaries(code, include_invalid=include_invalid):
-        if exercises_only and trial.assessment:
-            continue
         value = trial.metrics.get(key)
         if value is not None and math.isfinite(value):
             values.setdefault(trial.session_number, []).append(float(value))
@@ -194,13 +186,10 @@ def _session_figures(registry: RecordStore, code: str, key: str, include_invalid
 
 def figure_keys(registry: RecordStore, code: str, *, include_invalid: bool = False
                 ) -> list[str]:
-    """The figures the patient's trials hold, in their first appearance's order (an
-    exercise's figure only where an exercise or a game holds it: _session_figures)."""
+    """The figures the patient's trials hold, in their first appearance's order."""
     keys: dict[str, None] = {}
     for trial in registry.trial_summaries(code, include_invalid=include_invalid):
-        keys.update(dict.fromkeys(
-            k for k, v in trial.metrics.items()
-            if math.isfinite(v) and (k in FIGURES or not trial.assessment)))
+        keys.update(dict.fromkeys(k for k, v in trial.metrics.items() if math.isfinite(v)))
     return list(keys)
 
 
@@ -296,8 +285,7 @@ DERIVED = {"rmse": ("rmse_x_m", "rmse_y_m")}
 def report_series(registry: RecordStore, progress, *, include_invalid: bool = False,
                   norms=None) -> tuple[ScaleSeries, ...]:
     """What a progress report sets against the scales: each exercise's success figure
-    (app.reports.progress.Exercise.success_key, once each; an assessment task's series
-    none: its transparent mode's RMSE is not what it measures; for the transparent mode's
+    (app.reports.progress.Exercise.success_key, once each; for the transparent mode's
     combined RMSE its two axes') against each scale total recorded (Fugl-Meyer, ARAT,
     pain, fatigue), where they share sessions."""
     from app.records.scales import SCALE_MAXIMA
@@ -306,8 +294,6 @@ def report_series(registry: RecordStore, progress, *, include_invalid: bool = Fa
     stored = set(figure_keys(registry, progress.patient_code, include_invalid=include_invalid))
     wanted: dict[str, None] = {}
     for exercise in progress.exercises:
-        if exercise.assessment:  # a task's mode is its protocol's, not a success figure
-            continue
         # the transparent mode's headline, the two axes' RMSE combined, is not stored: its
         # two stored figures stand for it
         key = exercise.success_key

@@ -23,7 +23,6 @@ from app.records.registry.database import Database
 from app.records.registry.patients import patient_id
 from app.records.registry.statements import execute
 from app.records.registry.trials import (
-    KEY_PARAMETERS,
     TRIAL_SELECT,
     Trial,
     assistance_from_json,
@@ -33,8 +32,6 @@ from app.records.registry.trials import (
 )
 from app.records.registry.values import parse_metrics
 from device.recording.trialfile import STATUS_RECORDING, STATUSES
-
-_ASSESSMENT_AT = KEY_PARAMETERS.index("assessment")
 
 _ALL_STATUSES = (STATUS_RECORDING, *STATUSES)
 
@@ -82,11 +79,6 @@ class TrialSummary:
     in `key_parameters`, is known."""
     invalid_reason: str | None = None
     """Why the trial was marked invalid (its latest mark, schema v8); None when valid."""
-
-    @property
-    def assessment(self) -> str:
-        """The assessment task the trial was a run of ('' for an exercise or a game)."""
-        return self.key_parameters[_ASSESSMENT_AT] or ""
 
 
 def _summaries(rows: list, invalid: dict[int, str]) -> list[TrialSummary]:
