@@ -1,6 +1,7 @@
 """A task the robot leads (isometric strength, position sense: core.holdtasks) in words,
 once for every place that says what it is: the Assessments tab's protocol, the Parameters
-tab's summary, `rehab assess tasks` and the report's Exercise line.
+tab's summary, `rehab assess tasks` and the report's Exercise line; and a task the patient
+paces, its rounds or laps (`laps_words`), for the protocol and the report alike.
 
 Said as an exercise is ("1 × 3 s, robot transparent", "Path 80 cm per traversal, fastest
 0 mm/s") a 48 s strength trial read as 3 s, with the robot said not to hold the hand it
@@ -21,6 +22,21 @@ def planned_exercise_s(p: TrialParameters) -> float:
     if p.assessment in ROBOT_TASKS:
         return p.trajectory().total_duration_s
     return p.duration_s * p.repetitions
+
+
+def laps_words(p: TrialParameters) -> str:
+    """'2 rounds of 48 s' or '5 laps of 4 s': a task the patient paces, its repetitions as
+    the Assessments tab's protocol and the report's Exercise line both say them. A round
+    visits every target once, a lap goes once round the path ("1 trial, 2 × 48 s each"
+    read as two trials; the report said "2 repetitions of 48 s" of the trial the tab
+    called "2 rounds of 48 s")."""
+    unit = "round" if p.shape == "targets" else "lap"
+    return f"{p.repetitions} {unit}{'s' if p.repetitions != 1 else ''} of {p.duration_s:g} s"
+
+
+TURN_WORDS = {True: "clockwise", False: "counter-clockwise"}
+"""A path's direction (TrialParameters.clockwise) in words, as the circle task's protocol
+names its two trials (core.assessment.protocol); the report said "anticlockwise"."""
 
 
 def robot_task_words(p: TrialParameters, *, past: bool = False) -> str:
