@@ -184,3 +184,31 @@ def test_a_study_has_one_point_per_patient_their_latest_session(registry):
         (rt, float(fm)) for rt, fm in expected)
     assert series.correlation.n == 4
     assert series.correlation.spearman_rho == pytest.approx(-1.0)
+
+
+def test_a_session_s_figure_leaves_out_the_battery_s_trials_that_do_not_measure_it(registry):
+    """Seen in the window: a session of the assessment battery, then a plan, and "Fugl-Meyer
+    against RMSE x" drew 17.5 mm, the mean of all eight trials: the strength task's 0.3 mm
+    (the robot held the hand still) and the active range's 58 mm among them, figures the
+    Trajectory tab says are "not for this task". An assessment trial counts only for its
+    task's own figures (core.assessment.task_figures), as the Progress tab shows it."""
+    from core.assessment.figures import task_figures
+
+    code = registry.create_patient("Ada", "Example").code
+    number = registry.open_session(code).number
+    rmse = "rmse_x_m"
+    own = task_figures("reaching")[0].key
+    for parameters, metrics in (
+            (THESIS_SUBJECT, {rmse: 0.004}),
+            (THESIS_SUBJECT.replace(assessment="reaching", shape="targets", assist="transparent"),
+             {rmse: 0.033, own: 0.4}),
+            (THESIS_SUBJECT.replace(assessment="strength", shape="targets", assist="transparent"),
+             {rmse: 0.0003})):
+        begun = registry.begin_trial(code, parameters, backend="simulator",
+                                     session_number=number)
+        registry.finish_trial(begun.trial_id, "complete", metrics)
+    registry.record_scale(code, number, "fugl_meyer", total=30, rater="K. Lee")
+    (point,) = scale_series(registry, code, rmse, "fugl_meyer").points
+    assert (point.figure, point.n_trials) == (pytest.approx(0.004), 1)
+    (task_point,) = scale_series(registry, code, own, "fugl_meyer").points
+    assert (task_point.figure, task_point.n_trials) == (pytest.approx(0.4), 1)
