@@ -162,17 +162,24 @@ def has_label(key: str) -> bool:
 
 
 def figure_label(key: str) -> str:
-    """A figure's label with its unit: the catalogue's (core.assessment.FIGURES) or the
-    report's rows' (app.reports.metrics_table), else the key."""
+    """A figure's label with its unit (`figure_unit`): the catalogue's
+    (core.assessment.FIGURES) or the report's rows' (app.reports.metrics_table), else the
+    key."""
+    from core.assessment import FIGURES
+
+    unit = figure_unit(key)
+    label = FIGURES[key].label if key in FIGURES else next(
+        (row.heading for row in ROWS if row.key == key), key)
+    return f"{label} ({unit})" if unit else label
+
+
+def figure_unit(key: str) -> str:
+    """The unit a figure is shown in ('' for none or a key neither table knows)."""
     from core.assessment import FIGURES
 
     if key in FIGURES:
-        spec = FIGURES[key]
-        return f"{spec.label} ({spec.unit})" if spec.unit else spec.label
-    for row in ROWS:
-        if row.key == key:
-            return f"{row.heading} ({row.unit})" if row.unit else row.heading
-    return key
+        return FIGURES[key].unit
+    return next((row.unit for row in ROWS if row.key == key), "")
 
 
 def figure_display_scale(key: str) -> float:
