@@ -39,6 +39,13 @@ TURN_WORDS = {True: "clockwise", False: "counter-clockwise"}
 names its two trials (core.assessment.protocol); the report said "anticlockwise"."""
 
 
+ROBOT_ROLE = {"strength": "robot holds the handle still",
+              "position": "robot takes the hand to each target"}
+"""A task the robot leads, in a few words where a series or a trial is named in a list
+(the Progress tab, Replay): named as an exercise ("Transparent · point-to-point targets,
+r 5.0 cm") the strength task read as a transparent reaching exercise."""
+
+
 def robot_task_words(p: TrialParameters, *, past: bool = False) -> str:
     """'8 directions, a push of 3 s each; 1 round, 48 s; the robot holds the handle
     still' (`past`: as the report tells a trial run, 'held')."""
