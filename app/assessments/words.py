@@ -53,11 +53,17 @@ def robot_task_words(p: TrialParameters, *, past: bool = False) -> str:
     total = f"{round(planned_exercise_s(p), 1):g}"
     if p.assessment == "strength":
         what = f"{p.n_targets} directions, a push of {p.duration_s:g} s each"
-        robot = "the robot held the handle still" if past else \
-            "the robot holds the handle still"
     else:
         what = (f"{p.n_targets} targets {p.radius_m * CM_PER_M:.3g} cm from the centre, "
                 f"{p.duration_s:g} s to find each")
-        robot = ("the robot took the hand to each target and back" if past else
-                 "the robot takes the relaxed hand to each target and back, then lets go")
-    return f"{what}; {rounds}, {total} s; {robot}"
+    return f"{what}; {rounds}, {total} s; {robot_doing(p, past=past)}"
+
+
+def robot_doing(p: TrialParameters, *, past: bool = False) -> str:
+    """What the robot does in a task it leads: 'the robot holds the handle still' (`past`:
+    'held'); the report's help line says it too (it said the transparent mode's "the robot
+    only makes itself lighter" under "the robot held the handle still")."""
+    if p.assessment == "strength":
+        return "the robot held the handle still" if past else "the robot holds the handle still"
+    return ("the robot took the hand to each target and back" if past else
+            "the robot takes the relaxed hand to each target and back, then lets go")

@@ -18,7 +18,13 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from app.assessments.words import TURN_WORDS, laps_words, planned_exercise_s, robot_task_words
+from app.assessments.words import (
+    TURN_WORDS,
+    laps_words,
+    planned_exercise_s,
+    robot_doing,
+    robot_task_words,
+)
 from app.errors import AppError, TrialFileError
 from app.games.figures import game_line, staircase_text
 from app.games.names import game_title
@@ -400,7 +406,9 @@ def _header(code: str, first_name: str | None, session: int | None, number: int 
         HeaderItem("Trial", _trial_words(session, number, started_at)),
         HeaderItem("Exercise", _exercise_text(p)),
         *([HeaderItem("Game", game)] if game else []),
-        HeaderItem("Robot's help", help_text(p.assist, levels)),
+        # a task the robot leads: what it did, not what its mode's help would mean
+        HeaderItem("Robot's help", f"{levels.summary()} ({robot_doing(p, past=True)})"
+                   if p.assessment in ROBOT_TASKS else help_text(p.assist, levels)),
         HeaderItem("Ended", ended),
     )
 
