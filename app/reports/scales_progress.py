@@ -33,6 +33,7 @@ from app.records.registry import KEY_PARAMETERS
 from app.records.scales import value_label
 from app.records.store import RecordStore
 from app.reports.metrics_table import ROWS
+from app.units import shown
 from core.assessment import TASKS, task_figures
 
 _ASSESSMENT = KEY_PARAMETERS.index("assessment")
@@ -174,16 +175,22 @@ def figure_label(key: str) -> str:
 
 
 def figure_unit(key: str) -> str:
-    """The unit a figure is shown in ('' for none or a key neither table knows)."""
+    """The unit a figure is shown in ('' for none or a key neither table knows): a task's
+    figure in the unit its page shows (app.units.shown: mm/s, not its SI m/s)."""
     from core.assessment import FIGURES
 
     if key in FIGURES:
-        return FIGURES[key].unit
+        unit = shown(1.0, FIGURES[key].unit)[1]
+        return "" if unit in ("1", "count") else unit
     return next((row.unit for row in ROWS if row.key == key), "")
 
 
 def figure_display_scale(key: str) -> float:
     """The factor from the figure's SI value to the unit figure_label names."""
+    from core.assessment import FIGURES
+
+    if key in FIGURES:
+        return shown(1.0, FIGURES[key].unit)[0]
     for row in ROWS:
         if row.key == key:
             return row.scale

@@ -212,3 +212,17 @@ def test_a_session_s_figure_leaves_out_the_battery_s_trials_that_do_not_measure_
     assert (point.figure, point.n_trials) == (pytest.approx(0.004), 1)
     (task_point,) = scale_series(registry, code, own, "fugl_meyer").points
     assert (task_point.figure, task_point.n_trials) == (pytest.approx(0.4), 1)
+
+
+def test_a_task_s_figure_is_drawn_in_the_unit_the_assessments_tab_shows():
+    """Seen in the window: "against Posture speed (m/s)", its axis 0.00032, where the
+    Assessments tab says 0.3217 mm/s (app.units.shown, the page's units)."""
+    from app.reports.scales_progress import figure_display_scale, figure_label, figure_unit
+    from app.units import shown
+    from core.assessment import FIGURES
+
+    for key, spec in FIGURES.items():
+        factor, unit = shown(1.0, spec.unit)
+        unit = "" if unit in ("1", "count") else unit
+        assert (figure_display_scale(key), figure_unit(key)) == (factor, unit), key
+        assert figure_label(key) == (f"{spec.label} ({unit})" if unit else spec.label)
