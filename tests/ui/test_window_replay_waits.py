@@ -117,3 +117,32 @@ def test_the_list_s_rows_hold_their_files(qtbot, listed):
     paths = [win.replay.trials.item(r).data(Qt.ItemDataRole.UserRole + 1)
              for r in range(2)]
     assert paths == [begun[1].path, begun[0].path]
+
+
+def test_the_list_read_again_meanwhile_keeps_or_says_the_trial_asked_for(qtbot, listed,
+                                                                         monkeypatch):
+    """The list read again while a trial is being found (after a trial, the same patient's
+    ids kept): the trial still opens. Read again after a station's sync (the ids may be
+    the server's now): the ask is dropped, and the tab says so; it said "Loading…" for
+    ever."""
+    win, begun = listed
+    code = win.patient.code
+    held = Held(monkeypatch, win.registry, "trial")
+    _ask_open(qtbot, win, 1, held)
+    # the window's list after a trial
+    win.replay.set_patient(code, win.registry.trials_for_patient(code))
+    with qtbot.waitSignal(win.replay.view_loaded, timeout=WAIT_MS) as loaded:
+        held.release()
+    assert loaded.args[0].source == begun[0].path
+
+    held = Held(monkeypatch, win.registry, "trial")
+    _ask_open(qtbot, win, 0, held)
+    win.replay.show_loading(code)  # the list read again after a sync
+    assert not win.replay.opening()
+    assert win.replay.info.text() == ("The list of trials is being read again: choose the "
+                                      "trial again once it is shown.")
+    held.release()
+    after: list[object] = []
+    win.jobs.run(lambda: None, after.append)
+    qtbot.waitUntil(lambda: after == [None], timeout=WAIT_MS)
+    assert win.replay.view.source == begun[0].path  # the one shown before, kept

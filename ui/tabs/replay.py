@@ -209,9 +209,11 @@ class ReplayTab(QWidget):
 
     def set_patient(self, code: str | None, trials: list[Trial] | None = None) -> None:
         """List this patient's trials from the registry (None: clear the list); `trials`:
-        theirs as read on the window's job thread (ui.window.after_trial), else read here."""
+        theirs as read on the window's job thread (ui.window.after_trial), else read here.
+        A trial being found for the same patient still opens (its id is the same)."""
+        if code != self._code:
+            self._drop_opening()  # another patient's trial: not opened now
         self._code = code
-        self._asked = None  # a trial of the list before: not opened now
         self.trials.clear()
         if code is None or self.registry is None:
             self.list_heading.setText("Trials")
@@ -233,9 +235,10 @@ class ReplayTab(QWidget):
     def show_loading(self, code: str) -> None:
         """Patient `code`'s trials being read (on the window's job thread): the list
         empty meanwhile (an id it held may no longer be the trial's: a station's sync
-        gives its trials the server's), its heading saying "Loading…"."""
+        gives its trials the server's), its heading saying "Loading…". A trial being found
+        by an id from before is not opened, and the tab says so."""
+        self._drop_opening()
         self._code = code
-        self._asked = None
         self.trials.clear()
         self.list_heading.setText(f"Trials of {code}: {LOADING}")
 
@@ -286,6 +289,13 @@ class ReplayTab(QWidget):
         dropped, the job thread ending after it). True when one was."""
         asked, self._asked = self._asked, None
         return asked is not None
+
+    def _drop_opening(self) -> None:
+        """The list is read again: a trial being found by its row's id is not opened (the
+        id may no longer be the trial's), and the tab says so where it said "Loading…"."""
+        if self.drop_opening():
+            self.info.setText("The list of trials is being read again: choose the trial "
+                              "again once it is shown.")
 
     def _open_current(self) -> None:
         item = self.trials.currentItem()
