@@ -179,8 +179,7 @@ class MainWindow(AssessmentControl, PlanControl, TrialStart, AfterTrial, TrialAc
         self.report = ReportTab()
         self.progress = ProgressTab()
         self.progress.set_registry(self.registry)
-        self.replay = ReplayTab()
-        self.replay.set_registry(self.registry)
+        self.replay = ReplayTab(self.registry, jobs=self.jobs)
         self.parameters_tab.robot_choice.settings_folder = str(self.registry.data_dir.root)
         made = (self.instructions, self.registration_tab, self.parameters_tab, self.trajectory,
                 self.force, self.angles, self.torques, self.emg, self.video, self.report,

@@ -322,7 +322,7 @@ class PlanRunner:
         if status == "complete":
             laps = self.laps_left  # the loop completes a trial only after all its laps
         else:
-            per_lap = movements_per_lap(self.blocks[block].shape, self.base.n_targets)
+            per_lap = movements_per_lap(self.blocks[block].shape, self._targets(block))
             laps = min(self.laps_left, int(movements) // per_lap)
         self.laps_done += laps
         self.laps_left -= laps
@@ -379,7 +379,13 @@ class PlanRunner:
         return (sum(weights[:k]) / total + min(done, laps) * lap, lap)
 
     def planned_movements(self) -> int:
-        return sum(b.planned_movements(self.base.n_targets) for b in self.blocks)
+        return sum(b.planned_movements(self._targets(k)) for k, b in enumerate(self.blocks))
+
+    def _targets(self, block: int) -> int:
+        """The targets block `block`'s rounds run with: its own trial's, never the form's
+        (a task's in the form, the position sense's 4, goes back to an exercise's 8 in a
+        round: core.assessment.protocol.without_task; "18 of 10 movements")."""
+        return self.blocks[block].parameters(self.base).n_targets
 
     # ------------------------------------------------------------------ inside
     def _round(self, now: float, first: bool) -> None:

@@ -23,6 +23,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from app.norms.model import score_text, z_text
+from app.records.typed import FIELD_NAMES
 from app.units import shown, with_unit
 from core.assessment import TASK_TITLES, task_figures
 from core.assessment.protocol import protocol
@@ -86,11 +87,14 @@ def unnormed_notes(norms, figures: Sequence[tuple[str, str]]) -> list[str]:
 
 def assessment_page(task: str, metrics: Mapping[str, float], *, heading: str = "",
                     norms=None, person=None,
-                    lines_n: Mapping[int, float] | None = None) -> AssessmentPage:
+                    lines_n: Mapping[int, float] | None = None,
+                    missing: Sequence[str] = ()) -> AssessmentPage:
     """The page of `task` for a trial's `metrics` (its file's or the registry's), with
     Z-scores and the task score when `norms` (app.norms.NormativeModel) and `person`
     (app.norms.Covariates) are given; a strength page's polar plot with the line each
-    direction was shown (`lines_n`, app.assessments.strength.lines_N) when given."""
+    direction was shown (`lines_n`, app.assessments.strength.lines_N) when given.
+    `missing`: the patient's fields the norms need and the registry lacks
+    (missing_covariates), named in the note that says why no Z-scores."""
     from app.norms import NormsError, TaskNotPerformed
 
     spec = protocol(task)
@@ -99,9 +103,8 @@ def assessment_page(task: str, metrics: Mapping[str, float], *, heading: str = "
     if norms is not None and person is None:
         # where the therapist reading the page records them (a registered patient's
         # fields are corrected there), not a command line to register them anew
-        notes.append("the patient's year of birth, sex or handedness is not recorded: no "
-                     "Z-scores (record them on the Registration tab: Clinical record, "
-                     "Correct)")
+        notes.append(f"the patient's {missing_words(missing)} not recorded: no Z-scores "
+                     "(record them on the Registration tab: Clinical record, Correct)")
     unscorable = ""  # a person the norms hold no one like: said once, in the task score
     if norms is not None and person is not None:
         try:
@@ -160,9 +163,10 @@ def not_performed_text(exc) -> str:
     return exc.line
 
 
-COVARIATE_FIELDS = (("birth_year", "birth year"), ("sex", "sex"),
-                    ("handedness", "handedness"), ("side", "tested side"))
-"""The registered patient's fields the norms' covariates come from, with their names."""
+COVARIATE_FIELDS = tuple((field, FIELD_NAMES[field].lower())
+                         for field in ("birth_year", "sex", "handedness", "side"))
+"""The registered patient's fields the norms' covariates come from, with their names as
+the Registration tab gives them (its form, its Correct row), where they are recorded."""
 
 
 def missing_covariates(patient, *, side_known: bool = False) -> tuple[str, ...]:
@@ -172,6 +176,17 @@ def missing_covariates(patient, *, side_known: bool = False) -> tuple[str, ...]:
     return tuple(name for field, name in COVARIATE_FIELDS
                  if getattr(patient, field) in (None, "")
                  and not (side_known and field == "side"))
+
+
+def missing_words(missing: Sequence[str]) -> str:
+    """'sex and handedness are', 'year of birth is' (missing_covariates' names); without
+    names, every field it may be: "the patient's year of birth, sex or handedness is not
+    recorded" sent the therapist who had typed the year looking for a fault."""
+    if not missing:
+        return "year of birth, sex or handedness is"
+    names = (f"{', '.join(missing[:-1])} and {missing[-1]}" if len(missing) > 1
+             else missing[0])
+    return f"{names} {'are' if len(missing) > 1 else 'is'}"
 
 
 def covariates(patient, session_date: datetime.date, backend: str, summary: Mapping,
@@ -251,12 +266,15 @@ def trial_page(registry, trial, trials=None) -> AssessmentPage:
         norms = norms_in_use(registry.data_dir)
     except AppError as exc:
         norms, notes = None, [f"the norms in use cannot be read: {exc}"]
-    person = None
+    person, missing = None, ()
     if norms is not None:
-        person, read = trial_covariates(registry, registry.patient(code), trial)
+        patient = registry.patient(code)
+        person, read = trial_covariates(registry, patient, trial)
         notes += read
+        missing = missing_covariates(patient) if person is None else ()
     page = assessment_page(task, metrics, heading=heading, norms=norms, person=person,
-                           lines_n=_lines_shown(trial) if task == "strength" else None)
+                           lines_n=_lines_shown(trial) if task == "strength" else None,
+                           missing=missing)
     return replace(page, notes=(*page.notes, *notes))
 
 

@@ -18,7 +18,13 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from app.assessments.words import planned_exercise_s, robot_task_words
+from app.assessments.words import (
+    TURN_WORDS,
+    laps_words,
+    planned_exercise_s,
+    robot_doing,
+    robot_task_words,
+)
 from app.errors import AppError, TrialFileError
 from app.games.figures import game_line, staircase_text
 from app.games.names import game_title
@@ -332,11 +338,12 @@ def _movement_text(p: TrialParameters) -> str:
         "targets": f"{p.n_targets} targets {radius} from the centre",
         "figure8": f"figure eight of two {radius} loops",
     }.get(p.shape, f"{shape}, radius {radius}")
-    laps = "1 repetition" if p.repetitions == 1 else f"{p.repetitions} repetitions"
-    turn = "" if p.shape in ("reach", "targets", "figure8") else \
-        (", clockwise" if p.clockwise else ", anticlockwise")
-    return (f"{size}; {laps} of {p.duration_s:g} s, "
-            f"{TIMING_WORDS.get(p.timing, p.timing)}{turn}")
+    # a task's rounds or laps as the Assessments tab says them; an exercise's repetitions
+    # as the Parameters form names them
+    laps = laps_words(p) if p.assessment else \
+        f"{p.repetitions} repetition{'s' if p.repetitions != 1 else ''} of {p.duration_s:g} s"
+    turn = "" if p.shape in ("reach", "targets", "figure8") else f", {TURN_WORDS[p.clockwise]}"
+    return f"{size}; {laps}, {TIMING_WORDS.get(p.timing, p.timing)}{turn}"
 
 
 CONTROLLER_WORDS = {"smc": "SMC", "ctpid": "CT-PID"}
@@ -399,7 +406,9 @@ def _header(code: str, first_name: str | None, session: int | None, number: int 
         HeaderItem("Trial", _trial_words(session, number, started_at)),
         HeaderItem("Exercise", _exercise_text(p)),
         *([HeaderItem("Game", game)] if game else []),
-        HeaderItem("Robot's help", help_text(p.assist, levels)),
+        # a task the robot leads: what it did, not what its mode's help would mean
+        HeaderItem("Robot's help", f"{levels.summary()} ({robot_doing(p, past=True)})"
+                   if p.assessment in ROBOT_TASKS else help_text(p.assist, levels)),
         HeaderItem("Ended", ended),
     )
 

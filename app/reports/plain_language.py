@@ -16,6 +16,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
+from app.assessments.words import TURN_WORDS
 from app.trials.assistance_timeline import AssistanceInEffect
 from app.units import CM_PER_M, MM_PER_M
 from core.holdtasks import ROBOT_TASKS
@@ -400,8 +401,7 @@ def parameter_cautions(before: Mapping, after: Mapping) -> tuple[str, ...]:
     if changed("clockwise"):
         # the other way round uses the joints in another order: the circle task's two ways
         # differ by design (core.assessment.circle: each way's figures apart)
-        now, then = (("clockwise" if v else "anticlockwise")
-                     for v in (after["clockwise"], before["clockwise"]))
+        now, then = (TURN_WORDS[bool(v)] for v in (after["clockwise"], before["clockwise"]))
         sentences.append(f"This trial went round the {noun} the other way ({now}; before, "
                          f"{then}), so the figures do not compare directly.")
     if changed("radius_m"):

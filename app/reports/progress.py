@@ -32,6 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from app.assessments.words import ROBOT_ROLE
 from app.games.names import game_title
 from app.records.registry import TrialSummary, key_values, parameter_key
 from app.records.store import RecordStore
@@ -87,10 +88,14 @@ class Exercise:
 
     def label(self) -> str:
         """'As needed · D shape, r 10.0 cm · SMC'; an assessment's or a game's name first:
-        'Assessment: Circle drawing · Transparent · circle, r 7.0 cm · SMC'."""
+        'Assessment: Circle drawing · Transparent · circle, r 7.0 cm · SMC'; a task the
+        robot leads by what the robot does ('Assessment: Isometric strength · robot holds
+        the handle still · CTPID'), its mode and targets being no exercise's."""
         shape = SHAPE_NAMES.get(self.shape, self.shape or "?")
         parts = [MODE_NAMES.get(self.mode, self.mode),
                  shape + (f", r {cm(self.radius_m)}" if self.radius_m is not None else "")]
+        if self.assessment in ROBOT_ROLE:
+            parts = [ROBOT_ROLE[self.assessment]]
         if self.assessment:
             parts.insert(0, f"Assessment: {TASK_TITLES.get(self.assessment, self.assessment)}")
         elif self.game:

@@ -2,8 +2,12 @@
 patients, with their correlation: the thesis's aim of relating the robot's measures of
 performance to the Fugl-Meyer assessment (section 3.6.1), for any figure and scale.
 
-* Per session: the figure is the mean over the session's trials that hold it (finite),
-  trials marked invalid left out unless asked; the scale is the session's latest entry
+* Per session: the figure is the mean over the session's trials that hold it (finite)
+  and measure it, trials marked invalid left out unless asked. An assessment task's trial
+  measures only its task's own figures (core.assessment.task_figures, as the Progress tab
+  offers them): its file holds the tracking figures too, against a reference that moves
+  at the task's pace (or, for the strength task, holds still), and "RMSE x" of a session
+  of the battery and a plan was the mean of all of them; the scale is the session's latest entry
   (app.records.registry.clinical). A session with only one of the two is not a point.
 * Across a study: one point per patient, the latest session holding both (a patient's
   sessions are not independent of each other, so they are not pooled).
@@ -25,11 +29,15 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from app.records.registry import KEY_PARAMETERS
 from app.records.scales import value_label
 from app.records.store import RecordStore
 from app.reports.metrics_table import ROW_BY_KEY
 from app.reports.progress_figure import figure_row
+from core.assessment import TASKS, task_figures
 from core.assessment.figures import FIGURES
+
+_ASSESSMENT = KEY_PARAMETERS.index("assessment")
 
 
 @dataclass(frozen=True)
@@ -154,14 +162,22 @@ def has_label(key: str) -> bool:
 
 
 def figure_label(key: str) -> str:
-    """A figure's label with its display unit (app.reports.progress_figure.figure_row: the
-    report's rows', or an assessment figure's as the therapist's table shows it), else the
-    key."""
+    """A figure's label with its display unit (`figure_row`: the report's rows', or an
+    assessment figure's as the therapist's table and its page show it), else the key."""
     try:
         row = figure_row(key)
     except KeyError:
         return key
     return f"{row.heading} ({row.unit})" if row.unit else row.heading
+
+
+def figure_unit(key: str) -> str:
+    """The unit a figure is shown in ('' for none or a key neither table knows): a task's
+    figure in the unit its page shows (mm/s, not its SI m/s)."""
+    try:
+        return figure_row(key).unit
+    except KeyError:
+        return ""
 
 
 def figure_display_scale(key: str) -> float:
@@ -178,7 +194,7 @@ def _session_figures(registry: RecordStore, code: str, key: str, include_invalid
     dates: dict[int, datetime.date] = {}
     for trial in registry.trial_summaries(code, include_invalid=include_invalid):
         value = trial.metrics.get(key)
-        if value is not None and math.isfinite(value):
+        if value is not None and math.isfinite(value) and measures(trial, key):
             values.setdefault(trial.session_number, []).append(float(value))
             dates[trial.session_number] = trial.session_date
     return {s: (dates[s], float(np.mean(v)), len(v)) for s, v in values.items()}
@@ -189,8 +205,16 @@ def figure_keys(registry: RecordStore, code: str, *, include_invalid: bool = Fal
     """The figures the patient's trials hold, in their first appearance's order."""
     keys: dict[str, None] = {}
     for trial in registry.trial_summaries(code, include_invalid=include_invalid):
-        keys.update(dict.fromkeys(k for k, v in trial.metrics.items() if math.isfinite(v)))
+        keys.update(dict.fromkeys(k for k, v in trial.metrics.items()
+                                  if math.isfinite(v) and measures(trial, k)))
     return list(keys)
+
+
+def measures(trial, key: str) -> bool:
+    """Whether registered trial `trial` (a TrialSummary) measures figure `key`: any figure
+    for an exercise or a game, only its task's own for an assessment (module notes)."""
+    task = trial.key_parameters[_ASSESSMENT] or ""
+    return task not in TASKS or key in {spec.key for spec in task_figures(task)}
 
 
 def scale_keys(registry: RecordStore, code: str | None = None) -> list[str]:
@@ -285,7 +309,8 @@ DERIVED = {"rmse": ("rmse_x_m", "rmse_y_m")}
 def report_series(registry: RecordStore, progress, *, include_invalid: bool = False,
                   norms=None) -> tuple[ScaleSeries, ...]:
     """What a progress report sets against the scales: each exercise's success figure
-    (app.reports.progress.Exercise.success_key, once each; for the transparent mode's
+    (app.reports.progress.Exercise.success_key, once each; an assessment task's series
+    none: its transparent mode's RMSE is not what it measures; for the transparent mode's
     combined RMSE its two axes') against each scale total recorded (Fugl-Meyer, ARAT,
     pain, fatigue), where they share sessions."""
     from app.records.scales import SCALE_MAXIMA
@@ -294,6 +319,8 @@ def report_series(registry: RecordStore, progress, *, include_invalid: bool = Fa
     stored = set(figure_keys(registry, progress.patient_code, include_invalid=include_invalid))
     wanted: dict[str, None] = {}
     for exercise in progress.exercises:
+        if exercise.assessment:  # a task's mode is its protocol's, not a success figure
+            continue
         # the transparent mode's headline, the two axes' RMSE combined, is not stored: its
         # two stored figures stand for it
         key = exercise.success_key

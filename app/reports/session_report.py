@@ -161,11 +161,11 @@ def _covariates(patient, trial, registry):
     """The norms' covariates of the patient at the trial (assessment_page.trial_covariates:
     the session's date, the trial file's robot and tested side), and what the report says
     of them (None and why when the registry lacks a field the norms need)."""
-    from app.reports.assessment_page import missing_covariates, trial_covariates
+    from app.reports.assessment_page import missing_covariates, missing_words, trial_covariates
 
     who, notes = trial_covariates(registry, patient, trial)
     if who is None:
-        missing = ", ".join(missing_covariates(patient))
+        missing = missing_words(missing_covariates(patient))
         return None, "; ".join([f"no Z-scores: the patient's {missing} not recorded "
                                 "(`rehab correct`)", *notes])
     return who, "; ".join(notes)

@@ -6,6 +6,7 @@ import re
 
 from device.safety.faults import Fault
 from ui.tabs import TABS, InstructionsTab
+from ui.tabs.instructions import INSTRUCTIONS_PATH
 
 
 def test_instructions_cover_the_steps_and_every_fault_banner(qtbot):
@@ -59,3 +60,20 @@ def test_the_connect_step_says_hands_off_in_the_windows_words(qtbot):
     assert "refused in one line" in after  # a zero under load
     # the patient takes the handle only once the zero is taken
     assert after.index("Zero taken") < after.index("the patient holds the handle")
+
+
+def test_every_tab_the_window_shows_is_explained(qtbot, tmp_path, monkeypatch):
+    """Seen going through a clinical day guided by the Instructions tab: it said nothing of
+    the Plan and Assessments tabs (the window adds them beside Parameters, outside TABS), nor
+    of the clinical record (a Fugl-Meyer, a note) or the scales on Progress. Each tab the
+    window shows, and those two parts, is named in bold where the text explains it."""
+    from tests.ui.session import open_window
+
+    win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
+    try:
+        titles = [win.tabs.tabText(i) for i in range(win.tabs.count())]
+    finally:
+        win.close()
+    source = INSTRUCTIONS_PATH.read_text(encoding="utf-8")
+    explained = [*titles[1:], "Clinical record", "Clinical scales"]
+    assert [name for name in explained if f"**{name}**" not in source] == []

@@ -130,3 +130,36 @@ def test_before_any_scale_the_panel_says_where_to_record_one_and_draws_no_empty_
         tab.refresh()
     assert tab.scales.view.series is not None
     assert tab.scales.plot.isVisible()
+
+
+def test_one_session_s_point_is_drawn_on_axes_a_person_can_read(qtbot, qapp, tmp_path):
+    """Seen in the window: one session with a scale, and the axis read "17.53418183452690,
+    17.53418183452692, 17.53418183452694" (pyqtgraph zooms a single value to its last
+    digits). Both axes span at least the unit's least span, as the Progress plots do
+    (app.reports.progress_figure.value_span)."""
+    from PySide6.QtWidgets import QApplication
+
+    from app.reports.progress_figure import MIN_SPAN
+
+    theme.apply_theme(qapp)
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("Ada", "Example", side="right").code
+    number = registry.open_session(code).number
+    begun = registry.begin_trial(code, THESIS_SUBJECT, backend="simulator",
+                                 session_number=number)
+    registry.finish_trial(begun.trial_id, "complete", {RT: 0.0175341818345269})
+    registry.record_scale(code, number, "fugl_meyer", total=36, rater="K. Lee")
+    tab = ProgressTab(registry)
+    shown(qtbot, tab, 1366, 700)
+    with qtbot.waitSignal(tab.progress_loaded, timeout=10000), \
+            qtbot.waitSignal(tab.scales.shown, timeout=10000):
+        tab.set_patient(code)
+    assert tab.scales.figure_choice.currentData() == RT  # the one figure there is
+    tab.scales_button.click()
+    qtbot.waitExposed(tab.scales.plot)
+    QApplication.processEvents()  # pyqtgraph ranges its view as it is laid out
+    (x_low, x_high), (y_low, y_high) = tab.scales.plot.getPlotItem().getViewBox().viewRange()
+    assert y_high - y_low >= MIN_SPAN["mm"], (y_low, y_high)
+    assert y_low < 17.534 < y_high
+    assert x_high - x_low >= 1.0  # a Fugl-Meyer point of its own: its neighbours' scores
+    assert x_low < 36 < x_high

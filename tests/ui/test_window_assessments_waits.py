@@ -183,3 +183,44 @@ def test_after_a_sync_the_proposal_and_replay_list_are_read_off_the_window(
         win.closing_by_signal = True
         win.close()
         network.cut()
+
+
+def test_another_patient_s_record_failing_meanwhile_is_said_on_the_tab(qtbot, tmp_path,
+                                                                      monkeypatch):
+    """The first patient's figures answered while another patient's record is being read
+    (dropped: "Loading…" for the other), then that record's read failing: the tab said
+    "Loading…" for ever. It says the record could not be read and what to do."""
+    from app.errors import RegistryUnreachable
+
+    win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
+    try:
+        register_patient(qtbot, win)
+        registry, tab = win.registry, win.assessments_tab
+        first = win.patient.code
+        other = registry.create_patient("Grace", "Hopper", body_mass_kg=60.0,
+                                        upper_arm_m=0.29, forearm_m=0.27,
+                                        shoulder_m=(-0.12, 0.73))
+        win.tabs.setCurrentWidget(tab)
+        _read(qtbot, win)
+        held = Held(monkeypatch, registry, "trials_for_patient", code=first)
+        _shown_again(qtbot, win, held)
+        suggest = registry.suggest_registration
+
+        def unreachable(code, *args, **kwargs):
+            if code == other.code:
+                raise RegistryUnreachable("cannot reach the registry's server (test)")
+            return suggest(code, *args, **kwargs)
+
+        monkeypatch.setattr(registry, "suggest_registration", unreachable)
+        win.registration_tab.choose(other)
+        held.release()
+        qtbot.waitUntil(lambda: not win.registration_tab.waiting(), timeout=WAIT_MS)
+        _read(qtbot, win)
+        text = tab.results.toPlainText()
+        assert not text.startswith(LOADING), text
+        assert text == (f"{other.code}'s record could not be read: cannot reach the "
+                        "registry's server (test). Choose the patient again on the "
+                        "Registration tab."), text
+        assert (tab.pdf_button.text(), tab.pdf_button.isEnabled()) == ("Save as PDF…", False)
+    finally:
+        win.close()

@@ -24,7 +24,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app.assessments.words import planned_exercise_s, robot_task_words
+from app.assessments.words import laps_words, planned_exercise_s, robot_task_words
 from core.assessment import TASK_TITLES, TASKS, task_figures
 from core.assessment.protocol import protocol
 from core.assessment.strength import StrengthPolar
@@ -144,11 +144,7 @@ def protocol_words(task: str) -> str:
     if task in ROBOT_TASKS:
         runs = f"1 trial: {robot_task_words(spec.parameters(THESIS_SUBJECT))}"
     else:
-        # a round visits every target once, a lap goes once round the circle ("1 trial,
-        # 2 × 48 s each" read as two trials)
-        unit = "round" if spec.shape == "targets" else "lap"
-        laps = (f"{spec.repetitions} {unit}{'s' if spec.repetitions != 1 else ''} of "
-                f"{spec.duration_s:g} s")
+        laps = laps_words(spec.parameters(THESIS_SUBJECT))
         total = round(planned_exercise_s(spec.parameters(THESIS_SUBJECT)), 1)
         runs = (f"{trials}, {'each ' if spec.trial_count > 1 else ''}{laps} ({total:g} s); "
                 f"{exercise}; the robot {spec.robot_mode}")

@@ -23,11 +23,13 @@ from PySide6.QtWidgets import (
 
 from app.records.scales import value_label
 from app.records.store import RecordStore
+from app.reports.progress_figure import value_span
 from app.reports.scales_progress import (
     ScaleSeries,
     figure_display_scale,
     figure_keys,
     figure_label,
+    figure_unit,
     has_label,
     mdc_text,
     scale_keys,
@@ -204,6 +206,13 @@ class ScalesPanel(QWidget):
             item.addItem(pg.ScatterPlotItem(x[real], y[real], symbol="o", size=22,
                                             pen=pg.mkPen(REAL_COLOUR, width=2),
                                             brush=pg.mkBrush(None)))
+        # one session (or sessions alike): pyqtgraph zoomed to the value's last digits
+        # ("17.53418183452692"); each axis spans at least its unit's least, as the
+        # Progress plots do
+        for axis, values, unit in (("x", x, ""), ("y", y, figure_unit(series.figure_key))):
+            low, high = value_span(values, unit)
+            if low < high:
+                item.getViewBox().setRange(**{f"{axis}Range": (low, high)}, padding=0.1)
         study = len({p.code for p in series.points}) > 1
         right = float(x.max())
         for p, px, py in zip(series.points, x, y, strict=True):

@@ -75,12 +75,15 @@ class RegistrationTab(NewPatient, QWidget):
         no longer shows.
     said(str, bool): what the clinical record kept or the registry refused (problem True),
         for the window's message line.
+    choice_failed(Patient, str): the record of a patient chosen could not be read (the
+        registry's words): whatever waited for them to be chosen says so.
     """
 
     patient_selected = Signal(object)
     registered = Signal(object, object)
     unconfirmed = Signal()
     said = Signal(str, bool)  # the clinical record's outcome, for the window's message line
+    choice_failed = Signal(object, str)
 
     def __init__(self, registry: RecordStore | None = None, parent=None, *,
                  jobs: Jobs | None = None) -> None:
@@ -344,6 +347,7 @@ class RegistrationTab(NewPatient, QWidget):
             self.results.setCurrentRow(-1)
             self.results.blockSignals(False)
             self._refresh_buttons()
+            self.choice_failed.emit(patient, str(read))
             return
         self._patient = patient
         self.measurements_label.setText(measurements(patient))

@@ -4,10 +4,18 @@ through it with a slider or play it back; every other tab follows the cursor.
 Reading a trial file is disk work, so it happens off the GUI thread; the loaded
 trial arrives as a `TrialView` (view_loaded), and each move of the slider as a
 time in the trial (cursor_moved). The window hands both to the other tabs.
+
+A trial opened from the list is first found in the registry, on the window's job thread
+(ui.jobs), as the Assessments tab reads its figures: on the window's thread a slow or
+silent shared registry froze the window for its bounded wait. The tab says "Loading…"
+meanwhile; an answer no longer wanted (another trial or a file opened since, another
+patient listed, the window closing) is dropped; closing does not wait for it. Each row
+holds its file's path from the listing, so marking the trial shown reads nothing.
 """
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 
 from PySide6.QtCore import Qt, QTimer, Signal
@@ -33,9 +41,13 @@ from app.records.registry import Trial
 from app.records.store import RecordStore
 from app.trials.reader import read_trial
 from ui import plots, theme
+from ui.jobs import Jobs
 from ui.views.moment import MOMENT_ROWS, describe_trial, moment
 from ui.views.trialview import TrialView
 
+LOADING = "Loading…"
+PATH_ROLE = Qt.ItemDataRole.UserRole + 1
+"""A row's trial file (its id is in UserRole)."""
 PLAY_INTERVAL_MS = 40
 SPEEDS = (0.25, 0.5, 1.0, 2.0, 4.0)
 
@@ -44,8 +56,6 @@ def pose_then_view(path: Path, progress, registry: RecordStore | None = None) ->
     """Pose estimation of a trial's video into its file (app.pose.offline, MediaPipe), then
     the trial read again with it (runs off the GUI thread). A registered trial's file
     keeps its new checksum in `registry` (app.trials.rewrite)."""
-    import contextlib
-
     from app.pose.offline import estimate_pose
     from app.trials.rewrite import rewriting_files
     from device.camera.detector import MediaPipePose
@@ -74,9 +84,14 @@ class ReplayTab(QWidget):
     cursor_moved = Signal(float)
     load_failed = Signal(str)
 
-    def __init__(self, registry: RecordStore | None = None, parent=None) -> None:
+    def __init__(self, registry: RecordStore | None = None, parent=None, *,
+                 jobs: Jobs | None = None) -> None:
         super().__init__(parent)
         self.registry = registry
+        # the window's job thread (registry calls one after another); a tab on its own
+        # has its own
+        self.jobs = jobs if jobs is not None else Jobs(self)
+        self._asked: object | None = None  # the registry read of a trial to open, waited for
         self.files_folder = ""
         """Where Open file… starts: the chosen patient's trials (ui.main_window)."""
         self._code: str | None = None
@@ -194,7 +209,10 @@ class ReplayTab(QWidget):
 
     def set_patient(self, code: str | None, trials: list[Trial] | None = None) -> None:
         """List this patient's trials from the registry (None: clear the list); `trials`:
-        theirs as read on the window's job thread (ui.window.after_trial), else read here."""
+        theirs as read on the window's job thread (ui.window.after_trial), else read here.
+        A trial being found for the same patient still opens (its id is the same)."""
+        if code != self._code:
+            self._drop_opening()  # another patient's trial: not opened now
         self._code = code
         self.trials.clear()
         if code is None or self.registry is None:
@@ -206,6 +224,10 @@ class ReplayTab(QWidget):
         for trial in reversed(trials):
             item = QListWidgetItem(describe_trial(trial))
             item.setData(Qt.ItemDataRole.UserRole, trial.id)
+            # no registry read (a Trial); a stored path outside the data folder is left
+            # out, opening the row says why
+            with contextlib.suppress(AppError):
+                item.setData(PATH_ROLE, self.registry.trial_path(trial))
             self.trials.addItem(item)
         if self.trials.count():
             self.trials.setCurrentRow(0)
@@ -213,24 +235,67 @@ class ReplayTab(QWidget):
     def show_loading(self, code: str) -> None:
         """Patient `code`'s trials being read (on the window's job thread): the list
         empty meanwhile (an id it held may no longer be the trial's: a station's sync
-        gives its trials the server's), its heading saying "Loading…"."""
+        gives its trials the server's), its heading saying "Loading…". A trial being found
+        by an id from before is not opened, and the tab says so."""
+        self._drop_opening()
         self._code = code
         self.trials.clear()
-        self.list_heading.setText(f"Trials of {code}: Loading…")
+        self.list_heading.setText(f"Trials of {code}: {LOADING}")
 
     def open_file(self, path: str | Path) -> None:
         """Load a trial file off the GUI thread; view_loaded or load_failed follows."""
         path = Path(path)
+        self._asked = None  # a trial being found in the registry: not opened now
         self._loading = path
         self.play.setChecked(False)
         self.info.setText(f"Opening {path.name}…")
         self.background.submit(path, load_view, path)
 
     def _open_item(self, item: QListWidgetItem) -> None:
+        """Find the row's trial file in the registry on the job thread, then open it."""
         if self.registry is None:
             return
-        trial = self.registry.trial(item.data(Qt.ItemDataRole.UserRole))
-        self.open_file(self.registry.trial_path(trial))
+        registry, trial_id = self.registry, item.data(Qt.ItemDataRole.UserRole)
+        asked = self._asked = object()
+        self.play.setChecked(False)
+        self.info.setText(f"{LOADING} finding the trial in the registry.")
+
+        def read() -> Path | Exception:
+            try:
+                return registry.trial_path(registry.trial(trial_id))
+            except Exception as exc:  # the registry gone, the trial unknown: said, not raised
+                return exc
+
+        def answered(path: Path | Exception) -> None:
+            if self.jobs.closed or self._asked is not asked:
+                return  # the window closed, or another trial, file or patient since
+            self._asked = None
+            if isinstance(path, Exception):
+                message = (f"The trial could not be read from the registry: {path}. "
+                           "Open it again.")
+                self.info.setText(f"{theme.PROBLEM_SIGN} {message}")
+                self.load_failed.emit(message)
+                return
+            self.open_file(path)
+
+        self.jobs.run(read, answered)
+
+    def opening(self) -> bool:
+        """A trial of the list is being found in the registry."""
+        return self._asked is not None
+
+    def drop_opening(self) -> bool:
+        """The window closes: the trial being found is not waited for (its answer is
+        dropped, the job thread ending after it). True when one was."""
+        asked, self._asked = self._asked, None
+        return asked is not None
+
+    def _drop_opening(self) -> None:
+        """The list is read again: a trial being found by its row's id is not opened (the
+        id may no longer be the trial's), and the tab says so where it said "Loading…"."""
+        if self.drop_opening():
+            self.info.setText("The list of trials is being read again: choose the trial "
+                              "again once it is shown.")
 
     def _open_current(self) -> None:
         item = self.trials.currentItem()
@@ -276,12 +341,8 @@ class ReplayTab(QWidget):
         over a trial opened with Open file…); a file not of this list marks nothing."""
         shown = None
         for row in range(self.trials.count()):
-            item = self.trials.item(row)
-            try:
-                here = self.registry.trial_path(item.data(Qt.ItemDataRole.UserRole))
-            except AppError:  # a row the registry no longer knows: not the one shown
-                continue
-            if here.resolve() == path.resolve():
+            here = self.trials.item(row).data(PATH_ROLE)
+            if here is not None and Path(here).resolve() == path.resolve():
                 shown = row
                 break
         if shown is None:

@@ -31,7 +31,9 @@ RINGS_MAX = 4  # more and their labels crowd a plot a few hundred pixels across
 LABEL_OUT = 1.25
 """Direction labels' centres this many times the outer circle from the centre."""
 REACH = 1.75
-"""The view's half-width, times the outer circle: room for the labels beyond it."""
+"""The view's half-width at least, times the outer circle: room for the labels beyond it
+(more when a label is wider than that leaves room for: `fitted_reach`)."""
+EDGE_PX = 4  # between a label and the plot's edge
 CIRCLE_SAMPLES = 121  # points per grid circle: smooth at any size the tab gives
 
 
@@ -60,6 +62,9 @@ class StrengthPolarPlot(pg.PlotWidget):
         """The circles and the spokes of the force's grid."""
         self.labels: list[pg.TextItem] = []
         """The directions' names and the circles' forces."""
+        self._outer: float | None = None  # the outer circle's force, N, once drawn
+        # the labels keep their size in pixels as the plot's changes: fitted again
+        item.getViewBox().sigResized.connect(self._fit)
 
     def show_polar(self, polar: StrengthPolar) -> None:
         """Draw `polar`: its polygons, a grid fitted to its largest force, its labels."""
@@ -96,8 +101,21 @@ class StrengthPolarPlot(pg.PlotWidget):
             self._label(name + ("\nnot measured" if deg in missing else ""),
                         LABEL_OUT * outer * cos, LABEL_OUT * outer * sin, theme.TEXT,
                         anchor=(0.5, 0.5))
-        reach = REACH * outer
-        item.setRange(xRange=(-reach, reach), yRange=(-reach, reach), padding=0)
+        self._outer = outer
+        self._fit()
+
+    def _fit(self, *_args) -> None:
+        """The view's range: the circles and every label whole inside the plot
+        (`fitted_reach`); "not measured" ran past a narrow plot's edge."""
+        if self._outer is None:
+            return
+        box = self.getPlotItem().getViewBox()
+        sizes = [(label.pos().x(), label.pos().y(), label.textItem.boundingRect().width(),
+                  label.textItem.boundingRect().height()) for label in self.labels
+                 if label.anchor == pg.Point(0.5, 0.5)]
+        reach = fitted_reach(REACH * self._outer, sizes, box.width(), box.height())
+        self.getPlotItem().setRange(xRange=(-reach, reach), yRange=(-reach, reach),
+                                    padding=0)
 
     def _grid_line(self, x: np.ndarray, y: np.ndarray, pen) -> None:
         line = pg.PlotDataItem(x, y, pen=pen)
@@ -123,6 +141,24 @@ class StrengthPolarPlot(pg.PlotWidget):
         label.setPos(x, y)
         self.getPlotItem().addItem(label)
         self.labels.append(label)
+
+
+def fitted_reach(least: float, labels: list[tuple[float, float, float, float]],
+                 width_px: float, height_px: float) -> float:
+    """The view's half-range R (N) to ask for so that each label, centred at (x, y) N and
+    (w, h) px in size, lies whole inside a view box of `width_px` × `height_px`, at
+    least `least`. With the aspect locked the view shows ±R along the box's shorter side,
+    so s = 2R / min(W, H) N per pixel and it shows ±s·W/2 across, ±s·H/2 up; a label fits
+    across when |x| + s·w/2 ≤ s·W/2 − s·EDGE_PX, i.e. s ≥ |x| / ((W − w)/2 − EDGE_PX),
+    and likewise up. A label wider than the box, or a box not laid out yet: `least`."""
+    scale = 0.0
+    for x, y, w, h in labels:
+        for centre, size, room in ((x, w, width_px), (y, h, height_px)):
+            free = (room - size) / 2.0 - EDGE_PX
+            if free <= 0:
+                return least
+            scale = max(scale, abs(centre) / free)
+    return max(least, scale * min(width_px, height_px) / 2.0)
 
 
 def ring_radii_n(largest_n: float) -> tuple[float, ...]:

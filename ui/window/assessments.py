@@ -9,7 +9,10 @@ whose network went silent each call waited the registry's bounded wait
 (app.records.registry.postgres.deadline), the window frozen meanwhile. The tab says
 "Loading…" until the answer and works otherwise; an answer is shown only if it is the last
 one asked, for the patient still chosen; a read that fails is said on the message line with
-its cause; the window closing does not wait for it. Save as PDF saves the page shown.
+its cause; the window closing does not wait for it. An answer that comes while another
+patient's record is being read is dropped, the tab saying it waits for them: their figures
+come once they are chosen, or, their record unreadable, the tab says so (it said
+"Loading…" for ever). Save as PDF saves the page shown.
 """
 
 from __future__ import annotations
@@ -42,12 +45,15 @@ class AssessmentControl:
     """The read of the figures the tab waits for (`show_assessment`), None when none."""
     _assessment_shown: tuple[str, str, AssessmentPage | None] | None = None
     """(patient code, task, their page or None: no such trial) the tab shows, as read."""
+    _assessment_waits_for: str | None = None
+    """The patient whose record the tab waits for (being chosen), None when it does not."""
 
     def _build_assessments_tab(self) -> AssessmentsTab:
         self.assessments_tab = AssessmentsTab()
         self.assessments_tab.use_requested.connect(self.set_up_assessment)
         self.assessments_tab.task_changed.connect(lambda _t: self.show_assessment())
         self.assessments_tab.pdf_requested.connect(lambda task: self.save_assessment_pdf(task))
+        self.registration_tab.choice_failed.connect(self._assessment_choice_failed)
         self.parameters_tab.parameters_changed.connect(lambda *_: self._show_assessment_setup())
         return self.assessments_tab
 
@@ -87,6 +93,7 @@ class AssessmentControl:
         tab = self.assessments_tab
         task = tab.current_task()
         self._assessment_asked = self._assessment_shown = None  # an answer coming is stale
+        self._assessment_waits_for = None
         if self.patient is None:
             tab.show_results(["No patient chosen: choose one on the Registration tab."])
             return
@@ -111,6 +118,7 @@ class AssessmentControl:
             if choosing is not None and choosing.code != code:
                 # another patient chosen, their record still being read: theirs come next
                 tab.show_loading(f"{choosing.code}'s record is being read.")
+                self._assessment_waits_for = choosing.code
                 return
             if isinstance(page, Exception):
                 log.error("the %s of %s could not be read", name, code, exc_info=page)
@@ -125,6 +133,16 @@ class AssessmentControl:
             tab.show_results(page_text(page), page.polar, page=True)
 
         self.jobs.run(read, answered)
+
+    def _assessment_choice_failed(self, patient, message: str) -> None:
+        """The record of the patient the tab waits for could not be read: no figures
+        come, so the tab says why and what to do (the Registration tab says it too)."""
+        if self._assessment_waits_for != patient.code:
+            return
+        self._assessment_waits_for = None
+        self.assessments_tab.show_results([f"{patient.code}'s record could not be read: "
+                                           f"{message}. Choose the patient again on the "
+                                           "Registration tab."])
 
     def assessment_reading(self) -> bool:
         """The tab waits for the figures it asked for."""

@@ -84,6 +84,7 @@ class RememberedSettings:
         abandoned = self._close_registering()
         abandoned = self._close_plan_start() or abandoned
         abandoned = self._close_assessment() or abandoned  # a page read: not waited for
+        abandoned = self.replay.drop_opening() or abandoned  # a trial found: not waited for
         self.video.close_camera()
         self.close_patient_screen()
         self.bridge.close(self.closing_signal)

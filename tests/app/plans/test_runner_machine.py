@@ -499,3 +499,31 @@ def test_a_start_refused_as_the_robot_went_holds_the_round_not_the_plan():
     s.loop(9.0)
     s.loop(9.0)
     assert s.console.ended == ("complete", "")
+
+
+def test_the_planned_movements_are_the_rounds_own_on_a_task_s_form():
+    """Seen in the window: the plan started with the position sense task (4 targets) still
+    in the Parameters form said "Plan complete (…; 18 of 10 movements)": its rounds ran
+    with an exercise's 8 targets (core.assessment.protocol.without_task), the planned
+    count took the form's 4. And a round paused in its first lap counted its laps by 4
+    targets: one lap's 16 movements made two laps done, of two."""
+    from core.assessment.protocol import protocol
+
+    task_form = protocol("position").parameters(BASE)
+    assert task_form.n_targets == 4
+    plan = Plan("Targets", (Block(shape="targets", rounds=1, repetitions=2, duration_s=12.0,
+                                  assist="as-needed", assistance_level=1.0, rest_s=0.0),))
+    console = FakeConsole()
+    runner = PlanRunner(plan, task_form, console)
+    runner.start(0.0)
+    ran = console.building
+    assert ran.n_targets == 8
+    assert runner.planned_movements() == 2 * 2 * ran.n_targets
+    console.building = None  # the loop answers the build, then the start
+    runner.built(0.0, True)
+    console.starting = None
+    runner.started(0.0, 1)
+    runner.pause(0.5)
+    runner.trial_ended(1.0)
+    runner.finished(1.0, 1, "stopped_early", 2 * ran.n_targets, 12.0)  # one lap of two
+    assert (runner.laps_done, runner.laps_left) == (1, 1)

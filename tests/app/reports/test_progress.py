@@ -205,3 +205,17 @@ def test_a_game_s_score_is_a_figure_of_its_series_only(tmp_path):
     figure = progress_figure(result, games[0], "game_score")
     assert figure.values.tolist() == [40.0, 70.0]
     assert figure.row.label == "Game score"
+
+
+def test_a_task_the_robot_leads_is_not_named_as_a_transparent_exercise():
+    """Seen in the window: Progress and Replay named the strength task "Transparent ·
+    point-to-point targets, r 5.0 cm", where its report says the robot held the handle
+    still; and the position sense, where the robot takes the hand, "Transparent" too."""
+    strength = Exercise("transparent", "targets", 0.05, "ctpid", assessment="strength")
+    position = Exercise("transparent", "targets", 0.1, "ctpid", assessment="position")
+    assert strength.label() == ("Assessment: Isometric strength · robot holds the handle "
+                                "still · CTPID")
+    assert position.label() == ("Assessment: Position sense · robot takes the hand to each "
+                                "target · CTPID")
+    circle = Exercise("transparent", "circle", 0.07, "smc", assessment="circle")
+    assert circle.label() == "Assessment: Circle drawing · Transparent · circle, r 7.0 cm · SMC"

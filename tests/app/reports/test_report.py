@@ -235,7 +235,7 @@ def test_a_changed_exercise_comes_with_a_caution():
     ccw = THESIS_SUBJECT.replace(shape="circle", clockwise=False).to_dict()
     cw = THESIS_SUBJECT.replace(shape="circle", clockwise=True).to_dict()
     (only,) = parameter_cautions(cw, ccw)
-    assert only == ("This trial went round the circle the other way (anticlockwise; before, "
+    assert only == ("This trial went round the circle the other way (counter-clockwise; before, "
                     "clockwise), so the figures do not compare directly.")
 
 

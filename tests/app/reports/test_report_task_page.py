@@ -161,3 +161,22 @@ def test_a_robot_led_task_cut_short_says_how_much_of_its_timetable_ran(tmp_path)
                                   f"each; 1 round, {total_s:.0f} s; the robot held the "
                                   "handle still")
     assert f"of {total_s:.0f} seconds" in content.status_text
+
+
+def test_a_robot_led_task_s_help_line_says_what_the_robot_did(tmp_path):
+    """Seen in the window: the strength trial's report said "Exercise: …; the robot held the
+    handle still" and, under it, "Robot's help: 0 % (no help: the robot only makes itself
+    lighter)", the transparent mode's words. The help line says what the robot did."""
+    from core.assessment.protocol import protocol
+
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("Ada", "Strength", side="right").code
+    registry.open_session(code)
+    for task, did in (("strength", "the robot held the handle still"),
+                      ("position", "the robot took the hand to each target and back")):
+        trial_id = register(registry, code, protocol(task).parameters(THESIS_SUBJECT),
+                            session=1)
+        header = {item.label: item.value
+                  for item in content_for_registry_trial(registry, trial_id).header}
+        assert header["Robot's help"] == f"0 % ({did})", header["Robot's help"]
+        assert header["Exercise"].endswith(did)

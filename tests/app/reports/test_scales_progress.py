@@ -184,3 +184,67 @@ def test_a_study_has_one_point_per_patient_their_latest_session(registry):
         (rt, float(fm)) for rt, fm in expected)
     assert series.correlation.n == 4
     assert series.correlation.spearman_rho == pytest.approx(-1.0)
+
+
+def test_a_session_s_figure_leaves_out_the_battery_s_trials_that_do_not_measure_it(registry):
+    """Seen in the window: a session of the assessment battery, then a plan, and "Fugl-Meyer
+    against RMSE x" drew 17.5 mm, the mean of all eight trials: the strength task's 0.3 mm
+    (the robot held the hand still) and the active range's 58 mm among them, figures the
+    Trajectory tab says are "not for this task". An assessment trial counts only for its
+    task's own figures (core.assessment.task_figures), as the Progress tab shows it."""
+    from core.assessment.figures import task_figures
+
+    code = registry.create_patient("Ada", "Example").code
+    number = registry.open_session(code).number
+    rmse = "rmse_x_m"
+    own = task_figures("reaching")[0].key
+    for parameters, metrics in (
+            (THESIS_SUBJECT, {rmse: 0.004}),
+            (THESIS_SUBJECT.replace(assessment="reaching", shape="targets", assist="transparent"),
+             {rmse: 0.033, own: 0.4}),
+            (THESIS_SUBJECT.replace(assessment="strength", shape="targets", assist="transparent"),
+             {rmse: 0.0003})):
+        begun = registry.begin_trial(code, parameters, backend="simulator",
+                                     session_number=number)
+        registry.finish_trial(begun.trial_id, "complete", metrics)
+    registry.record_scale(code, number, "fugl_meyer", total=30, rater="K. Lee")
+    (point,) = scale_series(registry, code, rmse, "fugl_meyer").points
+    assert (point.figure, point.n_trials) == (pytest.approx(0.004), 1)
+    (task_point,) = scale_series(registry, code, own, "fugl_meyer").points
+    assert (task_point.figure, task_point.n_trials) == (pytest.approx(0.4), 1)
+
+
+def test_a_task_s_figure_is_drawn_in_the_unit_the_assessments_tab_shows():
+    """Seen in the window: "against Posture speed (m/s)", its axis 0.00032, where the
+    Assessments tab says 0.3217 mm/s (app.units.shown, the page's units)."""
+    from app.reports.scales_progress import figure_display_scale, figure_label, figure_unit
+    from app.units import shown
+    from core.assessment import FIGURES
+
+    for key, spec in FIGURES.items():
+        factor, unit = shown(1.0, spec.unit)
+        unit = "" if unit in ("1", "count") else unit
+        assert (figure_display_scale(key), figure_unit(key)) == (factor, unit), key
+        assert figure_label(key) == (f"{spec.label} ({unit})" if unit else spec.label)
+
+
+def test_a_progress_report_sets_no_assessment_mode_s_figure_against_the_scales(registry):
+    """The battery's tasks run transparent; the report set 'RMSE x/y' (the transparent
+    mode's success figure) against Fugl-Meyer for a patient whose exercises were all as
+    needed, made of nothing but the tasks' trials' distance from their clock."""
+    from app.reports.progress import progress
+    from app.reports.scales_progress import report_series
+    from core.assessment.protocol import protocol
+
+    code = registry.create_patient("Ada", "Example").code
+    for fm in (20, 30, 40):
+        number = registry.open_session(code).number
+        for parameters in (THESIS_SUBJECT, protocol("circle").parameters(THESIS_SUBJECT)):
+            begun = registry.begin_trial(code, parameters, backend="simulator",
+                                         session_number=number)
+            registry.finish_trial(begun.trial_id, "complete",
+                                  {"rmse_x_m": 0.01, "rmse_y_m": 0.01,
+                                   "directional_performance_pct": 50.0 + fm})
+        registry.record_scale(code, number, "fugl_meyer", total=fm, rater="K. Lee")
+    keys = {s.figure_key for s in report_series(registry, progress(registry, code))}
+    assert keys == {"directional_performance_pct"}

@@ -142,7 +142,7 @@ def test_without_norms_or_covariates_the_report_says_why_no_z(clinic):
     assert "No norms in use" in session_content(registry, code, 1).norms_label
     registry.correct_patient(code, "sex", None, reason="not known", by="K. Lee")
     content = session_content(registry, code, 1, norms=norms_file(tmp_path))
-    assert "sex not recorded" in content.assessments[0].notes[0]
+    assert "sex is not recorded" in content.assessments[0].notes[0]
     assert all(r.z == "" for r in content.assessments[0].rows)
 
 
@@ -289,3 +289,22 @@ def replace_value(row, value):
     from dataclasses import replace
 
     return replace(row, value=value)
+
+
+def test_the_assessment_page_names_the_fields_not_recorded(clinic):
+    """Seen in the window: a patient registered with a year of birth, without sex or
+    handedness, and the Assessments tab said "the patient's year of birth, sex or
+    handedness is not recorded": the therapist who typed the year looked for a fault.
+    The page, and the session report, name the fields missing."""
+    from app.reports.assessment_page import patient_page
+
+    registry, code, tmp_path = clinic
+    for field in ("sex", "handedness"):
+        registry.correct_patient(code, field, None, reason="not known", by="K. Lee")
+    (note, *_) = patient_page(registry, code, "reaching").notes
+    assert note == ("the patient's sex and handedness are not recorded: no Z-scores (record "
+                    "them on the Registration tab: Clinical record, Correct)")
+    (session_note, *_) = session_content(registry, code, 1,
+                                         norms=norms_file(tmp_path)).assessments[0].notes
+    assert session_note.startswith("no Z-scores: the patient's sex and handedness are not "
+                                   "recorded"), session_note
