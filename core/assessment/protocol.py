@@ -249,7 +249,8 @@ PROTOCOLS: dict[str, Protocol] = {
         duration_s=48.0, timing="minimum_jerk", trials=("",), target_hold_s=1.0,
         time_allowed_s=3.0, rest_s=0.0,
         reference="the active range of motion of robot assessments (Kinarm, InMotion); "
-                  "area over the common workspace: this console's"),
+                  "its ratio to the workspace the robot and the arm share is this "
+                  "console's own"),
     "strength": Protocol(
         task="strength", name="isometric strength",
         therapist=(

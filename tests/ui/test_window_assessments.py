@@ -148,7 +148,9 @@ def test_the_strength_tasks_polar_plot_shows_its_figures_and_hides_for_other_tas
     tab.choose("strength")
     read(qtbot, window)
     assert tab.polar.isVisible()
-    assert "Peak force 0°: 10 N" in tab.results.toPlainText()  # the text stays
+    # the text stays, each number held to its unit (a no-break space: the panel wrapped
+    # '… (mean of directions): 10.6' above a lone 'N')
+    assert "Peak force 0°: 10\u00a0N" in tab.results.document().toRawText()
     theta = np.radians([0, 45, 90, 135, 180, 225, 270, 315, 360])
     nan = math.nan
     for curve, radius in ((tab.polar.peak_curve, [10, 12, 20, 14, nan, 9, 0, nan, 10]),

@@ -13,6 +13,8 @@ read on its job thread: the figures say "Loading…" meanwhile, and Save as PDF 
 
 from __future__ import annotations
 
+import re
+
 from PySide6.QtCore import Signal
 from PySide6.QtWidgets import (
     QComboBox,
@@ -114,7 +116,7 @@ class AssessmentsTab(QWidget):
         """The report page's lines (app.reports.assessment_page.page_text), or why none,
         and its polar plot beside them when it has one (the strength task's); hidden
         otherwise. `page`: the lines are a page, which Save as PDF then saves."""
-        self.results.setPlainText("\n".join(lines))
+        self.results.setPlainText("\n".join(unbroken(line) for line in lines))
         if polar is not None:
             self.polar.show_polar(polar)
         self.polar.setVisible(polar is not None)
@@ -130,6 +132,16 @@ class AssessmentsTab(QWidget):
     def show_setup(self, text: str) -> None:
         """What the Parameters form holds now for the task, and what to press."""
         self.setup.setText(text)
+
+
+NUMBER_THEN_WORD = re.compile(r"(?<=\d) (?=[^\s\d(])")
+"""The space after a number and before its unit (or its noun), as in '10.6 N'."""
+
+
+def unbroken(line: str) -> str:
+    """`line` with a number and the unit after it held together (a no-break space): the
+    panel wrapped 'Peak force (mean of directions): 10.6' above a lone 'N'."""
+    return NUMBER_THEN_WORD.sub("\u00a0", line)
 
 
 def protocol_words(task: str) -> str:
