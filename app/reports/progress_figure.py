@@ -117,8 +117,10 @@ def progress_figure(progress: Progress, exercise_index: int,
         exercise, row, positions, values, progress.complete[members].copy(),
         tuple(f"S{progress.session[i]} T{progress.trial[i]}" for i in members),
         help_x, help_y,
-        setting_marks(positions, progress.duration_s[members],
-                      progress.tolerance_rad[members]),
+        # an assessment's pace and tolerance are its protocol's, the same every run, and
+        # its duration is no lap's: a strength test's read "3 s a lap · ±20°" (a push)
+        () if exercise.assessment else setting_marks(
+            positions, progress.duration_s[members], progress.tolerance_rad[members]),
         progress.levels_recorded[members].copy(), live_x, live_y,
     )
 

@@ -120,3 +120,15 @@ def test_an_assessment_s_series_shows_its_task_s_figures_not_the_tracking_ones(c
     assert "Direction" not in task
     assert "RMSE x" in blocks[1]
     assert "Circle ratio" not in blocks[1]
+
+
+def test_an_assessment_series_writes_no_lap_or_tolerance_over_its_trials(course):
+    """The strength test's Progress read '3 s a lap · ±20°' over its first trial: a push,
+    not a lap, and a tolerance its protocol fixes. An exercise keeps its marks."""
+    from app.reports.progress_figure import progress_figure
+
+    registry, code = course
+    result = progress(registry, code)
+    for index, exercise in enumerate(result.exercises):
+        marks = progress_figure(result, index).marks
+        assert (marks == ()) == bool(exercise.assessment), exercise.label()
