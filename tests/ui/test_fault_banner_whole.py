@@ -47,3 +47,25 @@ def test_the_workspace_fault_reads_whole_in_the_banner(qtbot, tmp_path, monkeypa
         win.close()
     finally:
         theme.apply_theme(QApplication.instance(), 1.0)
+
+
+@pytest.mark.parametrize("answer_first", [True, False])
+def test_fault_cleared_is_said_whichever_of_the_answer_and_the_state_comes_first(
+        qtbot, tmp_path, monkeypatch, answer_first):
+    """After Clear fault with the robot connected, the message line stayed empty: the
+    loop's answer came while the window still showed FAULTED, and "Fault cleared." was
+    said only when the state had changed first."""
+    win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
+    try:
+        win._on_state(int(State.CONNECTED), "connected to the simulator")
+        win._on_fault(int(Fault.ESTOP), "emergency stop", {})
+        win._on_state(int(State.FAULTED), "emergency stop")
+        assert win.notices.currentWidget() is win.banner
+        steps = [lambda: win._clear_fault_answered(True, ""),
+                 lambda: win._on_state(int(State.CONNECTED), "fault cleared")]
+        for step in steps if answer_first else steps[::-1]:
+            step()
+        assert win.notices.currentWidget() is win.message
+        assert win.message.text() == "Fault cleared.", win.message.text()
+    finally:
+        win.close()

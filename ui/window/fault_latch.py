@@ -31,6 +31,11 @@ CLEAR_DELAY_MS = 20  # ten loop ticks
 class FaultLatch:
     """The e-stop, the banner and Clear fault (a part of MainWindow)."""
 
+    _cleared_unsaid = False
+    """The loop cleared the fault but still showed FAULTED when it answered: "Fault
+    cleared." is said when its state leaves FAULTED (the answer and the state arrive in
+    either order)."""
+
     def _build_banner(self) -> QFrame:
         self.banner = QFrame()
         self.banner.setObjectName("fault_banner")
@@ -88,13 +93,20 @@ class FaultLatch:
         self._clear_asked = max(0, self._clear_asked - 1)
         if ok:
             if self.state != State.FAULTED:
-                self._say("Fault cleared.", states=(State.IDLE, State.BUILT, State.CONNECTED,
-                                                    State.RUNNING, State.STOPPING))
+                self._say_cleared()
+            else:  # its new state is on its way: said when it comes (_latch_state)
+                self._cleared_unsaid = True
         elif self.state == State.FAULTED:
             self._say(message, problem=True)
         self._show_latch()
 
+    def _say_cleared(self) -> None:
+        self._cleared_unsaid = False
+        self._say("Fault cleared.", states=(State.IDLE, State.BUILT, State.CONNECTED,
+                                            State.RUNNING, State.STOPPING))
+
     def _on_fault(self, code: int, message: str, detail: dict) -> None:
+        self._cleared_unsaid = False  # a new fault: the clear it followed is no news
         log.warning("fault %s: %s %s", Fault(code).label, message,
                     {k: v for k, v in detail.items() if k != "monotonic_s"})
         self.latch.on_fault(code, message)
@@ -110,6 +122,8 @@ class FaultLatch:
         was_faulted = self.latch.state == State.FAULTED
         fault = self.latch.fault_text
         self.latch.on_state(state, reason)
+        if self._cleared_unsaid and state != State.FAULTED and not self.latch.latched:
+            self._say_cleared()
         if was_faulted and state == State.BUILT and not self.latch.latched:
             self._say(f"Disconnected: the robot is off and the fault ({fault}) went with "
                       "the connection.", states=(State.IDLE, State.BUILT))
