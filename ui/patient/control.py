@@ -33,7 +33,7 @@ FULL_SCREEN_KEY = "F11"
 
 
 class PatientScreenControl:
-    """Needs from the window: live, built, state, _say."""
+    """Needs from the window: live, built, state, latch, _say."""
 
     patient_window: PatientWindow | None = None
     patient_options: PatientOptions = PatientOptions()
@@ -211,14 +211,15 @@ class PatientScreenControl:
             return
         live = self.live
         building = self._plan_building()
+        stopped = self.latch.latched  # the e-stop or a fault: said as the banner is
         if self.state != State.RUNNING and building is not None:
             # a plan's next round (or block) is being built: its exercise waiting, not the
             # last trial's end ("Lap 2 of 2", "0:00 left") until the loop answers
-            window.show_parameters(building)
+            window.show_parameters(building, stopped)
         elif live is not None and (self.state == State.RUNNING or live.parameters is self.built):
-            window.show_view(live, self._patient_exercise_start_s)
+            window.show_view(live, self._patient_exercise_start_s, stopped)
         else:
-            window.show_parameters(self.built)
+            window.show_parameters(self.built, stopped)
         self._feed_patient_plan(window)
 
     def _plan_building(self):

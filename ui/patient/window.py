@@ -13,6 +13,7 @@ Colours: white and the Okabe–Ito yellow and sky blue on black, contrast 21:1, 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -45,6 +46,7 @@ from ui.views.patient_geometry import (
 from ui.views.patient_plan import PlanOverlay, overlay
 from ui.views.patient_screen import (
     CUE_READY,
+    CUE_STOPPED,
     PatientFrame,
     PatientOptions,
     Scene,
@@ -120,29 +122,34 @@ class PatientWindow(QWidget):
             self.plan = plan
             self.update()
 
-    def show_parameters(self, parameters) -> None:
-        """No trial running: the exercise to come (or nothing)."""
+    def show_parameters(self, parameters, stopped: bool = False) -> None:
+        """No trial running: the exercise to come (or nothing); `stopped` as in
+        show_view."""
         self._set_scene(parameters)
-        frame = waiting_frame(self.scene)
-        state = ("wait", id(self.scene))
+        frame = stopped_frame(waiting_frame(self.scene), stopped)
+        state = ("wait", id(self.scene), stopped)
         if state != self._shown_state:
             self._shown_state = state
             self.frame = frame
             self.update()
 
-    def show_view(self, view: TrialView, exercise_start_s: float | None = None) -> None:
+    def show_view(self, view: TrialView, exercise_start_s: float | None = None,
+                  stopped: bool = False) -> None:
         """The trial at the view's current sample; repaints only when that changed.
-        `exercise_start_s`: the exercise's start as the loop said it, live (frame_at)."""
+        `exercise_start_s`: the exercise's start as the loop said it, live (frame_at).
+        `stopped`: the console's e-stop or a fault is latched (ui.views.latch): "Stopped"
+        at once, not when the loop's first faulted record reaches the view (0.4 s later
+        on the development VM, the motors already off)."""
         if view.parameters is None:
-            self.show_parameters(None)
+            self.show_parameters(None, stopped)
             return
         self._set_scene(view.parameters)
-        state = (id(view), view.n, view.current_index, view.finished)
+        state = (id(view), view.n, view.current_index, view.finished, stopped)
         if state == self._shown_state:
             return
         self._shown_state = state
-        self.frame = frame_at(view, self.scene, self.options, self.game_feed,
-                              exercise_start_s)
+        self.frame = stopped_frame(frame_at(view, self.scene, self.options, self.game_feed,
+                                            exercise_start_s), stopped)
         if view.cursor is None:  # live: a replay is silent
             self._sound(view, self.frame)
         self.update()
@@ -473,6 +480,14 @@ class PatientWindow(QWidget):
             self.tone = None
         super().closeEvent(event)
         self.closed.emit()
+
+
+def stopped_frame(frame: PatientFrame, stopped: bool) -> PatientFrame:
+    """The frame with "Stopped" for its cue while the e-stop or a fault is latched: no Go,
+    no result, no praise (the therapist explains, ui.views.patient_screen)."""
+    if not stopped or frame.cue == CUE_STOPPED:
+        return frame
+    return dataclasses.replace(frame, cue=CUE_STOPPED, go=False, result="", success=False)
 
 
 def _pen(colour: QColor, width: float) -> QPen:

@@ -212,3 +212,56 @@ def test_the_session_s_end_stays_on_the_patient_s_screen_until_the_next_build(
     window.built = THESIS_SUBJECT  # the next Build
     window._feed_patient_screen()
     assert patient.plan is None
+
+
+def test_the_e_stop_says_stopped_on_the_patient_s_screen_at_once(qtbot, window, tmp_path,
+                                                                monkeypatch):
+    """Pressed mid-trial in the real window, the e-stop's banner came at once but the
+    patient's screen went on saying "Lap 2 of 2" and the last lap's "Lap 1 done!" for
+    0.4 s (measured under Xvfb), until the loop's first faulted record reached the live
+    view: the robot gone limp under a screen that said all was well. It now follows the
+    window's latch, as the banner does; Clear fault gives the trial's own words back.
+    Here no record arrives after the press (no loop runs): the latch alone must say it."""
+    import numpy as np
+
+    from app.trials.headless import simulate_to_file
+    from app.trials.reader import read_trial
+    from core.trial import THESIS_SUBJECT
+    from device.recording.record import RECORD_DTYPE
+    from ui.views.patient_screen import CUE_STOPPED
+    from ui.views.trialview import VIEW_CHANNELS, TrialView
+
+    params = THESIS_SUBJECT.replace(repetitions=2, duration_s=2.0, assist="as-needed")
+    path = tmp_path / "trial.h5"
+    simulate_to_file(params, path, patient="healthy", seed=3)
+    data = read_trial(path)
+    rows = np.zeros(data.n_samples, dtype=[(c, RECORD_DTYPE.fields[c][0])
+                                           for c in VIEW_CHANNELS])
+    for name in VIEW_CHANNELS:
+        rows[name] = data.channels[name]
+    rows = rows[rows["phase"] > 0]
+    exercise = rows["time"][rows["phase"] == 2][0]
+    view = TrialView(data.parameters)
+    view.append(rows[rows["time"] <= exercise + 2.3])  # lap 2, lap 1's result showing
+    monkeypatch.setattr(window.bridge, "estop", lambda on: None)
+    window.live, window.built = view, view.parameters
+    patient = window.open_patient_screen()
+    qtbot.waitExposed(patient, timeout=20000)
+    window._repaint()
+    patient.grab()
+    assert patient.painted["message"].startswith("Lap 1 done!")
+    window.emergency_stop()
+    window._repaint()
+    patient.grab()
+    assert patient.painted["message"] == CUE_STOPPED
+    assert not patient.frame.go
+    assert not patient.frame.success
+    window.clear_fault()
+    window._repaint()
+    patient.grab()
+    assert patient.painted["message"].startswith("Lap 1 done!")
+    window.emergency_stop()  # with nothing shown but the exercise waiting, too
+    window.live = None
+    window._repaint()
+    patient.grab()
+    assert patient.painted["message"] == CUE_STOPPED
