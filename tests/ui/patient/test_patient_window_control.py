@@ -94,8 +94,11 @@ def test_the_patient_window_alone_waits_without_a_trial(qtbot):
     qtbot.addWidget(patient)
     patient.show_parameters(None)
     patient.grab()
-    assert patient.painted == {"cursor": None, "target": None, "attention": None,
-                               "top": ("", "", ""), "message": "Please wait"}
+    shown = ("cursor", "target", "attention", "top", "message")
+    assert {k: patient.painted[k] for k in shown} == {
+        "cursor": None, "target": None, "attention": None, "top": ("", "", ""),
+        "message": "Please wait"}
+    assert "plan" not in patient.painted
 
 
 @pytest.mark.parametrize(("side", "mirror", "turn", "edge"), [

@@ -1,0 +1,148 @@
+"""The patient's screen's words, painted: the top band (the count, the score or the lap, the
+time left), the bottom's cue or result on one line or two, and a session plan's cover (a
+rest's countdown, a pause, the end). Each text is rendered once into a pixmap and kept (the
+screen redraws the same few words at 60 frames a second); sizes come from
+ui.views.patient_geometry (the screen's letter size) and ui.patient.text (what fits)."""
+
+from __future__ import annotations
+
+from PySide6.QtCore import QPointF, QRectF, Qt
+from PySide6.QtGui import QColor, QFont, QPainter
+
+from ui.patient.text import fitted_px, qrect, sized, text_pixmap, thirds, top_band, two_lines
+from ui.views.patient_geometry import ScreenLayout
+from ui.views.patient_plan import PlanOverlay
+from ui.views.patient_screen import CUE_DONE, CUE_OVER, CUE_READY, CUE_STOPPED, PatientFrame
+
+BACKGROUND = QColor("#000000")
+TEXT = QColor("#FFFFFF")
+GO = QColor("#009E73")  # Okabe–Ito bluish green
+TEXT_CACHE = 64  # texts kept as pixmaps: the clock's seconds, laps, results
+
+
+class Words:
+    """The screen's texts as pixmaps, made once per text, size, colour and pixel ratio."""
+
+    def __init__(self) -> None:
+        self._pixmaps: dict = {}
+
+    def draw(self, painter: QPainter, base: QFont, ratio: float, rect: QRectF,
+             align: Qt.AlignmentFlag, text: str, pixel_size: int, colour: QColor,
+             backing: bool = False) -> None:
+        """The text placed in the rect (`base`: the widget's font; `ratio`: its device
+        pixel ratio); `backing`: on black, over what is drawn there."""
+        if not text:
+            return
+        key = (text, pixel_size, colour.rgb(), ratio)
+        pixmap = self._pixmaps.get(key)
+        if pixmap is None:
+            if len(self._pixmaps) > TEXT_CACHE:
+                self._pixmaps.clear()
+            pixmap = text_pixmap(base, text, pixel_size, colour, ratio)
+            self._pixmaps[key] = pixmap
+        scale = pixmap.devicePixelRatio()
+        width, height = pixmap.width() / scale, pixmap.height() / scale
+        if align & Qt.AlignmentFlag.AlignHCenter:
+            x = rect.left() + 0.5 * (rect.width() - width)
+        elif align & Qt.AlignmentFlag.AlignRight:
+            x = rect.right() - width
+        else:
+            x = rect.left()
+        corner = QPointF(x, rect.top() + 0.5 * (rect.height() - height))
+        if backing:
+            painter.fillRect(QRectF(corner.x(), corner.y(), width, height), BACKGROUND)
+        painter.drawPixmap(corner, pixmap)
+
+
+def band_font(base: QFont, bands: ScreenLayout) -> QFont:
+    font = QFont(base)
+    font.setPixelSize(bands.text_px)
+    font.setBold(True)
+    return font
+
+
+def paint_words(painter: QPainter, words: Words, base: QFont, ratio: float,
+                bands: ScreenLayout, frame: PatientFrame, plan: PlanOverlay | None) -> dict:
+    """The top band and the bottom's words of a frame; returns what was painted (for the
+    tests that read the screen: the texts, their pixel sizes)."""
+    font = band_font(base, bands)
+    score = frame.game.score_text if frame.game else ""
+    # with a plan: the block first, then the score in a game or else the lap
+    first, middle = (frame.repetition_text, score) if plan is None else \
+        (plan.block_text, score or frame.repetition_text)
+    texts = (first, middle, frame.time_left_text)
+    # one size for the band, the largest at which the three fit side by side
+    top, places = top_band(font, bands.top, texts)
+    for rect, text, align in zip(places, texts, (Qt.AlignmentFlag.AlignLeft,
+                                                 Qt.AlignmentFlag.AlignHCenter,
+                                                 Qt.AlignmentFlag.AlignRight), strict=True):
+        words.draw(painter, base, ratio, rect, align, text, top, TEXT)
+    bottom = qrect(bands.bottom)
+    message = frame.message
+    if plan is not None and plan.round_text and frame.cue == CUE_READY:
+        message = f"{plan.round_text}. {message}"  # which of the block's rounds
+    lines, good = message_lines(font, bottom, frame, message)
+    colour = GO if good else TEXT
+    rows = [bottom.translated(0, -k * bottom.height()) for k in range(len(lines))][::-1]
+    sizes = tuple(min(bands.text_px, fitted_px(font, row, line))
+                  for row, line in zip(rows, lines, strict=True))
+    for k, (row, line, size) in enumerate(zip(rows, lines, sizes, strict=True)):
+        # a line above the band lies over the table's foot: on black
+        words.draw(painter, base, ratio, row, Qt.AlignmentFlag.AlignHCenter, line, size,
+                   colour, backing=k < len(lines) - 1)
+    if frame.numbers:
+        area = bottom.adjusted(bands.text_px // 4, 0, 0, 0)
+        small = max(8, bands.text_px // 3)
+        for k, line in enumerate(frame.numbers):
+            row = QRectF(area.left(), area.top() + k * area.height() / 2, area.width(),
+                         area.height() / 2)
+            words.draw(painter, base, ratio, row, Qt.AlignmentFlag.AlignLeft, line, small,
+                       TEXT)
+    return {"top": texts, "top_px": top, "message": " ".join(lines),
+            "message_lines": lines, "message_px": sizes}
+
+
+def message_lines(font: QFont, bottom: QRectF, frame: PatientFrame,
+                  message: str) -> tuple[tuple[str, ...], bool]:
+    """The bottom's words as lines, and whether they say it went well (green).
+
+    One line, fitted to the width, while the table is watched (a lap under way, the robot
+    bringing the hand to the start). When it is not (the trial over, or a task the robot
+    leads with the screen blank), words too long for one line at the screen's letter size
+    go on two, the first over the table's foot: shrunk to one line, the position task's
+    "Relax your arm: the robot moves your hand" came to 14 mm, not 20, full screen on 22
+    inches. The end of an exercise gives the last lap's result under its "Well done!" or
+    "Finished." (the result was worked out, and never shown: the line held the cue
+    alone)."""
+    over = frame.cue == CUE_STOPPED or frame.cue.startswith((CUE_DONE, CUE_OVER))
+    if over and frame.result and frame.game is None:
+        return (frame.cue, frame.result), frame.success
+    good = frame.go or (not frame.cue and frame.success)
+    roomy = over or (frame.blank and frame.push is None)
+    if not roomy or fitted_px(font, bottom, message) >= font.pixelSize():
+        return (message,), good
+    return tuple(line for line in two_lines(font, bottom.width(), message) if line), good
+
+
+def paint_plan_cover(painter: QPainter, words: Words, base: QFont, ratio: float,
+                     bands: ScreenLayout, plan: PlanOverlay) -> dict:
+    """A rest, a pause, the end of a plan in place of the table: the block at the top, the
+    words and the countdown large, what comes next at the bottom."""
+    font = band_font(base, bands)
+    top = thirds(bands.top)[0]
+    words.draw(painter, base, ratio, top, Qt.AlignmentFlag.AlignLeft, plan.block_text,
+               fitted_px(font, top, plan.block_text), TEXT)
+    area = qrect(bands.table)
+    upper = QRectF(area.left(), area.top(), area.width(), 0.4 * area.height())
+    count = QRectF(area.left(), upper.bottom(), area.width(), 0.6 * area.height())
+    words.draw(painter, base, ratio, upper, Qt.AlignmentFlag.AlignHCenter, plan.centre,
+               min(2 * bands.text_px, fitted_px(sized(font, 2 * bands.text_px), upper,
+                                                 plan.centre)), TEXT)
+    if plan.countdown:
+        size = min(int(0.8 * count.height()), 4 * bands.text_px)
+        words.draw(painter, base, ratio, count, Qt.AlignmentFlag.AlignHCenter,
+                   plan.countdown, fitted_px(sized(font, size), count, plan.countdown), GO)
+    bottom = qrect(bands.bottom)
+    words.draw(painter, base, ratio, bottom, Qt.AlignmentFlag.AlignHCenter, plan.message,
+               fitted_px(font, bottom, plan.message), TEXT)
+    return {"top": (plan.block_text, "", ""), "plan": (plan.centre, plan.countdown)}
