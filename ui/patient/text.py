@@ -1,6 +1,6 @@
-"""The patient's screen's text and bands, painted: a text's size that fits its place, each
-text rendered once into a pixmap (the screen redraws the same few words at 60 frames a
-second), and the top band cut in three. Pixel sizes come from ui.views.patient_geometry."""
+"""The patient's screen's text, measured: a text's size that fits its place, a text
+rendered into a pixmap, the top band's three texts placed side by side, words cut into two
+lines. Pixel sizes come from ui.views.patient_geometry."""
 
 from __future__ import annotations
 
@@ -47,15 +47,9 @@ def qrect(rect: Rect) -> QRectF:
     return QRectF(rect.left, rect.top, rect.width, rect.height)
 
 
-def thirds(rect: Rect) -> tuple[QRectF, QRectF, QRectF]:
-    """Left, middle and right of a band, inside a margin; the outer two a little wider
-    (the round and the time are longer than the score)."""
-    pad = 0.03 * rect.width
-    inner = rect.width - 2 * pad
-    side, middle, gap = 0.34 * inner, 0.26 * inner, 0.03 * inner
-    return (QRectF(rect.left + pad, rect.top, side, rect.height),
-            QRectF(rect.left + pad + side + gap, rect.top, middle, rect.height),
-            QRectF(rect.left + pad + inner - side, rect.top, side, rect.height))
+def margin(rect: Rect) -> float:
+    """The band's margin at either side (px): the texts and the plan's bar keep inside it."""
+    return 0.03 * rect.width
 
 
 def top_band(font: QFont, rect: Rect, texts: tuple[str, str, str]
@@ -67,7 +61,7 @@ def top_band(font: QFont, rect: Rect, texts: tuple[str, str, str]
     side by side need. The band was cut in fixed thirds, each text fitted to its third:
     "Target 12 of 16" came to 63 % of the screen's letter size (13 mm, not 20, full
     screen on 22 inches) beside an empty middle third."""
-    pad = 0.03 * rect.width
+    pad = margin(rect)
     inner = rect.width - 2 * pad
     gap = 0.03 * inner
     shown = sum(1 for text in texts if text)

@@ -31,7 +31,7 @@ from PySide6.QtWidgets import QWidget
 
 from ui.patient.game_paint import paint_game_layout, paint_game_state
 from ui.patient.sound import Tone
-from ui.patient.text import qrect, thirds
+from ui.patient.text import margin, qrect
 from ui.patient.words import BACKGROUND, GO, Words, paint_plan_cover, paint_words
 from ui.views.patient_game import GameFeed
 from ui.views.patient_geometry import (
@@ -222,7 +222,7 @@ class PatientWindow(QWidget):
         if plan.progress != plan.progress:  # NaN: nothing planned to count
             return
         height = max(6.0, 0.012 * self.height())
-        left = thirds(bands.top)[0].left()
+        left = bands.top.left + margin(bands.top)
         bar = QRectF(left, bands.top.height, self.width() - 2 * left, height)
         painter.fillRect(bar, PROGRESS_LEFT)
         done = QRectF(bar.left(), bar.top(), bar.width() * min(1.0, plan.progress), height)

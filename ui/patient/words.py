@@ -9,7 +9,7 @@ from __future__ import annotations
 from PySide6.QtCore import QPointF, QRectF, Qt
 from PySide6.QtGui import QColor, QFont, QPainter
 
-from ui.patient.text import fitted_px, qrect, sized, text_pixmap, thirds, top_band, two_lines
+from ui.patient.text import fitted_px, qrect, sized, text_pixmap, top_band, two_lines
 from ui.views.patient_geometry import ScreenLayout
 from ui.views.patient_plan import PlanOverlay
 from ui.views.patient_screen import CUE_DONE, CUE_OVER, CUE_READY, CUE_STOPPED, PatientFrame
@@ -129,9 +129,10 @@ def paint_plan_cover(painter: QPainter, words: Words, base: QFont, ratio: float,
     """A rest, a pause, the end of a plan in place of the table: the block at the top, the
     words and the countdown large, what comes next at the bottom."""
     font = band_font(base, bands)
-    top = thirds(bands.top)[0]
-    words.draw(painter, base, ratio, top, Qt.AlignmentFlag.AlignLeft, plan.block_text,
-               fitted_px(font, top, plan.block_text), TEXT)
+    # the block where, and as large as, the running screen's top band puts it
+    top_px, (top, _, _) = top_band(font, bands.top, (plan.block_text, "", ""))
+    words.draw(painter, base, ratio, top, Qt.AlignmentFlag.AlignLeft, plan.block_text, top_px,
+               TEXT)
     area = qrect(bands.table)
     upper = QRectF(area.left(), area.top(), area.width(), 0.4 * area.height())
     count = QRectF(area.left(), upper.bottom(), area.width(), 0.6 * area.height())
@@ -145,4 +146,5 @@ def paint_plan_cover(painter: QPainter, words: Words, base: QFont, ratio: float,
     bottom = qrect(bands.bottom)
     words.draw(painter, base, ratio, bottom, Qt.AlignmentFlag.AlignHCenter, plan.message,
                fitted_px(font, bottom, plan.message), TEXT)
-    return {"top": (plan.block_text, "", ""), "plan": (plan.centre, plan.countdown)}
+    return {"top": (plan.block_text, "", ""), "top_px": top_px,
+            "plan": (plan.centre, plan.countdown)}

@@ -116,3 +116,16 @@ def test_two_lines_cut_after_a_phrase_when_that_fits(qapp):
     assert two_lines(font, 1900, "Relax your arm: the robot moves your hand") == (
         "Relax your arm:", "the robot moves your hand")
     assert two_lines(font, 1900, "Relax") == ("Relax", "")
+
+
+def test_a_rest_s_block_is_as_large_as_the_running_screen_s(full_screen):
+    """The rest's and the pause's cover fitted "Block 2 of 3" to a third of the band (92 px
+    of 113 full screen on 22 inches, 62 of 76 in a window) while the running screen beside
+    it gave the block its full size."""
+    from app.plans.runner import PlanState
+
+    full_screen.show_plan(PlanState("resting", 2, 3, "D shape", 1, 1, 3, 0, 15, 45, 20.0,
+                                    150.0, "", "", done_share=1 / 3, lap_share=1 / 9))
+    full_screen.grab()
+    assert full_screen.painted["top"] == ("Block 2 of 3", "", "")
+    assert full_screen.painted["top_px"] == full_screen.screen_layout().text_px
