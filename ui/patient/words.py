@@ -113,7 +113,11 @@ def message_lines(font: QFont, bottom: QRectF, frame: PatientFrame,
     "Relax your arm: the robot moves your hand" came to 14 mm, not 20, full screen on 22
     inches. The end of an exercise gives the last lap's result under its "Well done!" or
     "Finished." (the result was worked out, and never shown: the line held the cue
-    alone)."""
+    alone). A game's outcome during Go! takes its place."""
+    if frame.go and frame.result:
+        # a game's first target (1.2 s allowed) is hit or missed under Go!'s 1.5 s: said
+        # as it happens, not after Go!, when the hand is on its way to the next
+        return (frame.result,), frame.success
     over = frame.cue == CUE_STOPPED or frame.cue.startswith((CUE_DONE, CUE_OVER))
     if over and frame.result and frame.game is None:
         return (frame.cue, frame.result), frame.success
