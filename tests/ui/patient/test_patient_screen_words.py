@@ -129,3 +129,20 @@ def test_a_rest_s_block_is_as_large_as_the_running_screen_s(full_screen):
     full_screen.grab()
     assert full_screen.painted["top"] == ("Block 2 of 3", "", "")
     assert full_screen.painted["top_px"] == full_screen.screen_layout().text_px
+
+
+@settings(max_examples=80, deadline=None)
+@given(words=st.lists(st.text(alphabet="abcdefgh:,.!", min_size=1, max_size=9), min_size=1,
+                      max_size=9), width=st.integers(50, 2000))
+def test_two_lines_lose_no_word_and_fit_when_a_cut_can(qapp, words, width):
+    font = QFont()
+    font.setPixelSize(60)
+    text = " ".join(words)
+    first, second = two_lines(font, width, text)
+    assert " ".join(line for line in (first, second) if line) == text
+    metrics = QFontMetrics(font)
+    cuts = [(" ".join(words[:k]), " ".join(words[k:])) for k in range(1, len(words))]
+    if any(max(metrics.horizontalAdvance(a), metrics.horizontalAdvance(b)) <= width
+           for a, b in cuts):
+        assert max(metrics.horizontalAdvance(first), metrics.horizontalAdvance(second)) \
+            <= width
