@@ -9,8 +9,8 @@ from __future__ import annotations
 from PySide6.QtCore import QPointF, QRectF, Qt
 from PySide6.QtGui import QColor, QFont, QPainter
 
-from ui.patient.text import fitted_px, qrect, sized, text_pixmap, top_band, two_lines
-from ui.views.patient_geometry import ScreenLayout
+from ui.patient.text import fitted_px, margin, qrect, sized, text_pixmap, top_band, two_lines
+from ui.views.patient_geometry import LINE_SPACING, ScreenLayout
 from ui.views.patient_plan import PlanOverlay
 from ui.views.patient_screen import CUE_DONE, CUE_OVER, CUE_READY, CUE_STOPPED, PatientFrame
 
@@ -28,11 +28,12 @@ class Words:
 
     def draw(self, painter: QPainter, base: QFont, ratio: float, rect: QRectF,
              align: Qt.AlignmentFlag, text: str, pixel_size: int, colour: QColor,
-             backing: bool = False) -> None:
+             backing: bool = False) -> QRectF | None:
         """The text placed in the rect (`base`: the widget's font; `ratio`: its device
-        pixel ratio); `backing`: on black, over what is drawn there."""
+        pixel ratio); `backing`: on black, over what is drawn there. Returns where it
+        went."""
         if not text:
-            return
+            return None
         key = (text, pixel_size, colour.rgb(), ratio)
         pixmap = self._pixmaps.get(key)
         if pixmap is None:
@@ -49,9 +50,11 @@ class Words:
         else:
             x = rect.left()
         corner = QPointF(x, rect.top() + 0.5 * (rect.height() - height))
+        drawn = QRectF(corner.x(), corner.y(), width, height)
         if backing:
-            painter.fillRect(QRectF(corner.x(), corner.y(), width, height), BACKGROUND)
+            painter.fillRect(drawn, BACKGROUND)
         painter.drawPixmap(corner, pixmap)
+        return drawn
 
 
 def band_font(base: QFont, bands: ScreenLayout) -> QFont:
@@ -86,20 +89,43 @@ def paint_words(painter: QPainter, words: Words, base: QFont, ratio: float,
     rows = [bottom.translated(0, -k * bottom.height()) for k in range(len(lines))][::-1]
     sizes = tuple(min(bands.text_px, fitted_px(font, row, line))
                   for row, line in zip(rows, lines, strict=True))
+    drawn = []
     for k, (row, line, size) in enumerate(zip(rows, lines, sizes, strict=True)):
         # a line above the band lies over the table's foot: on black
-        words.draw(painter, base, ratio, row, Qt.AlignmentFlag.AlignHCenter, line, size,
-                   colour, backing=k < len(lines) - 1)
-    if frame.numbers:
-        area = bottom.adjusted(bands.text_px // 4, 0, 0, 0)
-        small = max(8, bands.text_px // 3)
-        for k, line in enumerate(frame.numbers):
-            row = QRectF(area.left(), area.top() + k * area.height() / 2, area.width(),
-                         area.height() / 2)
-            words.draw(painter, base, ratio, row, Qt.AlignmentFlag.AlignLeft, line, small,
-                       TEXT)
+        drawn.append(words.draw(painter, base, ratio, row, Qt.AlignmentFlag.AlignHCenter,
+                                line, size, colour, backing=k < len(lines) - 1))
+    figures = paint_figures(painter, words, base, ratio, bands, frame.numbers)
     return {"top": texts, "top_px": top, "message": " ".join(lines),
-            "message_lines": lines, "message_px": sizes}
+            "message_lines": lines, "message_px": sizes,
+            "message_at": tuple(r for r in drawn if r is not None), "figures_at": figures}
+
+
+FIGURES_SHARE = 0.5
+"""The figures' letters, a share of the screen's letter size: two lines in the table's
+corner beside the exercise (10 mm full screen on 22 inches, read from about 0.75 m)."""
+
+
+def paint_figures(painter: QPainter, words: Words, base: QFont, ratio: float,
+                  bands: ScreenLayout, numbers: tuple[str, ...]) -> tuple[QRectF, ...]:
+    """The clinical figures the therapist chose to show (*Show figures to the patient*),
+    in the table's top left corner, on black, where the exercise, centred, leaves room:
+    they were painted at a third of the letter size over the left of the bottom's words,
+    the two unreadable together."""
+    if not numbers:
+        return ()
+    font = sized(band_font(base, bands), max(8, round(FIGURES_SHARE * bands.text_px)))
+    area = qrect(bands.table)
+    left = bands.top.left + margin(bands.top)  # under the top band's first text
+    corner = QRectF(left, area.top(), 0.4 * area.width(), LINE_SPACING * font.pixelSize())
+    size = min(fitted_px(font, corner, line) for line in numbers)
+    out = []
+    for k, line in enumerate(numbers):
+        row = corner.translated(0, k * corner.height())
+        drawn = words.draw(painter, base, ratio, row, Qt.AlignmentFlag.AlignLeft, line, size,
+                           TEXT, backing=True)
+        if drawn is not None:
+            out.append(drawn)
+    return tuple(out)
 
 
 def message_lines(font: QFont, bottom: QRectF, frame: PatientFrame,

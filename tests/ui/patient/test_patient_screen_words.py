@@ -146,3 +146,23 @@ def test_two_lines_lose_no_word_and_fit_when_a_cut_can(qapp, words, width):
            for a, b in cuts):
         assert max(metrics.horizontalAdvance(first), metrics.horizontalAdvance(second)) \
             <= width
+
+
+@pytest.mark.parametrize("cue", ["", "Well done!"])
+def test_the_figures_shown_to_the_patient_keep_clear_of_the_words(full_screen, cue):
+    """*Show figures to the patient*: the two figures were painted at a third of the
+    letter size over the left end of the bottom's words ("Lap 1 done! Right on the path"
+    with "Off the path 4 mm" across its first word). They now stand in the table's corner,
+    at half the letter size, clear of the words."""
+    frame = PatientFrame(cue, False, (-0.25, 0.3), None, -1, 2, 3, 0.0 if cue else 5.0,
+                         result="Lap 1 done! Right on the path", success=True,
+                         numbers=("Right direction 92 %", "Off the path 4 mm"))
+    painted = _painted(full_screen, frame)
+    figures, words = painted["figures_at"], painted["message_at"]
+    assert len(figures) == 2
+    assert words
+    assert not any(f.intersects(w) for f in figures for w in words)
+    text_px = full_screen.screen_layout().text_px
+    assert all(f.height() >= 0.5 * text_px for f in figures)  # the font's line, ≥ half
+    table = full_screen.screen_layout().table
+    assert all(f.top() >= table.top for f in figures)
