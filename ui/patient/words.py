@@ -140,11 +140,13 @@ def message_lines(font: QFont, bottom: QRectF, frame: PatientFrame,
     inches. The end of an exercise gives the last lap's result under its "Well done!" or
     "Finished." (the result was worked out, and never shown: the line held the cue
     alone). A game's outcome during Go! takes its place."""
+    if frame.cue == CUE_STOPPED:
+        return (CUE_STOPPED,), False  # and nothing else: the therapist explains
     if frame.go and frame.result:
         # a game's first target (1.2 s allowed) is hit or missed under Go!'s 1.5 s: said
         # as it happens, not after Go!, when the hand is on its way to the next
         return (frame.result,), frame.success
-    over = frame.cue == CUE_STOPPED or frame.cue.startswith((CUE_DONE, CUE_OVER))
+    over = frame.cue.startswith((CUE_DONE, CUE_OVER))
     if over and frame.result and frame.game is None:
         return (frame.cue, frame.result), frame.success
     good = frame.go or (not frame.cue and frame.success)

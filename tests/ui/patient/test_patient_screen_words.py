@@ -166,3 +166,11 @@ def test_the_figures_shown_to_the_patient_keep_clear_of_the_words(full_screen, c
     assert all(f.height() >= 0.5 * text_px for f in figures)  # the font's line, ≥ half
     table = full_screen.screen_layout().table
     assert all(f.top() >= table.top for f in figures)
+
+
+def test_stopped_is_said_alone(full_screen):
+    """A fault's record kept the lap's result under "Stopped" once the end gave results
+    two lines (seen under Xvfb after the e-stop): "Stopped", nothing else."""
+    frame = PatientFrame("Stopped", False, (-0.25, 0.3), None, -1, 2, 3, 8.0,
+                         result="Lap 1 done! Right on the path", success=True)
+    assert _painted(full_screen, frame)["message_lines"] == ("Stopped",)
