@@ -23,7 +23,7 @@ from PySide6.QtCore import QTimer
 
 from app.games.rounds import staircase_rounds
 from app.plans.dose import trial_dose
-from app.plans.runner import ENDED, PAUSED, PlanRunner
+from app.plans.runner import ENDED, PAUSED, STARTING, PlanRunner
 from app.plans.templates import load_template, template_titles
 from app.units import SCREEN
 from core.plan import check_plan
@@ -55,6 +55,9 @@ class PlanControl:
     """The Plan tab and the plan's run (a part of MainWindow)."""
 
     plan_runner: PlanRunner | None = None
+    plan_start_waits: tuple[int, int] | None = None
+    """(block, round) of a plan's Start waiting for the last trial to be saved
+    (WindowConsole.start), or None."""
     _plan_asked: object | None = None
     """The registry call whose answer the Plan tab waits for (`_ask_plan`)."""
     _plan_starting: Awaited | None = None
@@ -255,6 +258,7 @@ class PlanControl:
             self.plan_runner = PlanRunner(stored.plan, base, WindowConsole(self, run_id),
                                           next_round=staircase_rounds())
             self.plan_tab.show_refusal("")
+            self.plan_start_waits = None
             self.plan_timer.start()
             self.plan_runner.start(time.monotonic())
             self._refresh_buttons()  # Build and Start are the plan's now (ui.views.readiness)
@@ -409,6 +413,11 @@ class PlanControl:
             return
         now = time.monotonic()
         runner.tick(now)
+        waits = self.plan_start_waits
+        if waits is not None and not self.saving():
+            self.plan_start_waits = None
+            if runner.phase == STARTING:  # not stopped or ended meanwhile
+                runner.console.start(*waits)
         state = runner.state(now)
         self.plan_tab.status.setText(state.line())
         if state.phase == ENDED and self.trial_id is None and runner.trial_id is None \
@@ -416,6 +425,7 @@ class PlanControl:
             self.plan_timer.stop()
             self._say(state.line(), problem=state.outcome not in ("complete",))
             self.plan_runner = None
+            self.plan_start_waits = None  # a Start the run's end made moot
             self._refresh_buttons()  # Build and Start are the therapist's again
             # the patient's screen keeps the session's end until the next Build
             self.plan_ended = (state, self.built)

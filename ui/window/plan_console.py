@@ -33,6 +33,15 @@ class WindowConsole:
 
     def start(self, block: int, round_: int) -> None:
         w = self.window
+        if w.trial_id is None and w.saving():
+            # the last trial still being finished, or the registry's reads after it on the
+            # job thread: Start would be refused ("the last trial to be saved: a moment")
+            # and the plan end as faulted when a round's Build came back first (a game
+            # block's next round, no rest between). The Start waits for them instead:
+            # PlanControl._plan_tick starts it once they are done.
+            w.plan_start_waits = (block, round_)
+            return
+        w.plan_start_waits = None
         w.start_trial()  # the Start button's path: registered, then started
         # refused at once; a Start being registered says a refusal later (_start_not_run)
         if w.trial_id is None and not w.registering():
