@@ -89,11 +89,12 @@ def paint_words(painter: QPainter, words: Words, base: QFont, ratio: float,
     rows = [bottom.translated(0, -k * bottom.height()) for k in range(len(lines))][::-1]
     sizes = tuple(min(bands.text_px, fitted_px(font, row, line))
                   for row, line in zip(rows, lines, strict=True))
-    drawn = []
-    for k, (row, line, size) in enumerate(zip(rows, lines, sizes, strict=True)):
-        # a line above the band lies over the table's foot: on black
-        drawn.append(words.draw(painter, base, ratio, row, Qt.AlignmentFlag.AlignHCenter,
-                                line, size, colour, backing=k < len(lines) - 1))
+    if len(rows) > 1:
+        # the lines above the band lie over the table's foot: the band grows, on black
+        painter.fillRect(QRectF(bottom.left(), rows[0].top(), bottom.width(),
+                                bottom.top() - rows[0].top()), BACKGROUND)
+    drawn = [words.draw(painter, base, ratio, row, Qt.AlignmentFlag.AlignHCenter, line, size,
+                        colour) for row, line, size in zip(rows, lines, sizes, strict=True)]
     figures = paint_figures(painter, words, base, ratio, bands, frame.numbers)
     return {"top": texts, "top_px": top, "message": " ".join(lines),
             "message_lines": lines, "message_px": sizes,
@@ -148,7 +149,11 @@ def message_lines(font: QFont, bottom: QRectF, frame: PatientFrame,
         return (frame.result,), frame.success
     over = frame.cue.startswith((CUE_DONE, CUE_OVER))
     if over and frame.result and frame.game is None:
-        return (frame.cue, frame.result), frame.success
+        # the result itself on two lines if one would shrink it ("Lap 3 over: next time,
+        # follow the whole path" came to 13 mm)
+        result = (frame.result,) if fitted_px(font, bottom, frame.result) >= \
+            font.pixelSize() else two_lines(font, bottom.width(), frame.result)
+        return (frame.cue, *(line for line in result if line)), frame.success
     good = frame.go or (not frame.cue and frame.success)
     roomy = over or (frame.blank and frame.push is None)
     if not roomy or fitted_px(font, bottom, message) >= font.pixelSize():

@@ -72,8 +72,11 @@ def test_the_end_gives_the_last_lap_s_result_under_well_done(full_screen):
     assert painted["message_px"] == (full_screen.screen_layout().text_px,) * 2
     over = PatientFrame("Finished.", False, (-0.25, 0.3), None, -1, 3, 3, 0.0,
                         result="Lap 3 over: next time, follow the whole path")
-    assert _painted(full_screen, over)["message_lines"] == (
-        "Finished.", "Lap 3 over: next time, follow the whole path")
+    painted = _painted(full_screen, over)
+    assert painted["message"] == "Finished. Lap 3 over: next time, follow the whole path"
+    assert painted["message_lines"][0] == "Finished."
+    # the result on two lines rather than shrunk to 13 mm on one
+    assert painted["message_px"] == (full_screen.screen_layout().text_px,) * 3
 
 
 def test_a_lap_under_way_keeps_its_result_on_one_line(full_screen):
