@@ -420,3 +420,35 @@ def test_a_disconnect_in_a_rest_pauses_the_plan_and_resume_goes_on_once_connecte
     notes = [n.text for n in win.registry.notes(code)]
     assert notes == [f"Plan run {run.id}, block 1: paused: {ROBOT_GONE}",
                      f"Plan run {run.id}, block 1: resumed"]
+
+
+def test_a_round_built_before_the_last_trial_s_reads_waits_for_them_to_start(
+        qtbot, window, monkeypatch):
+    """A plan's next round (a game block's, or a block after no rest) was built while the
+    registry's reads after the last trial were still on the job thread: its Start was
+    refused ("the last trial to be saved: a moment") and the plan ended as faulted after
+    one round (seen under Xvfb, a game block of two rounds on a loaded machine). Here the
+    reads answer only once the next round is built: its Start waits for them, then runs."""
+    from app.plans.runner import STARTING
+    from tests.ui.held import Held
+
+    win = window
+    no_rest = Plan("No rest", (PLAN.blocks[0].replace(rest_s=0.0), PLAN.blocks[1]))
+    code = connected_with_plan(qtbot, win, no_rest)
+    reads = Held(monkeypatch, win.registry, "verify_trial_file")  # one of the reads after
+    start_plan(qtbot, win)
+    def next_round_started_or_ended() -> bool:
+        runner = win.plan_runner
+        return reads.asked.is_set() and (runner is None or (
+            runner.index == 1 and runner.phase in (STARTING, "ended")))
+
+    qtbot.waitUntil(next_round_started_or_ended, timeout=120000)
+    assert win.plan_runner is not None
+    assert win.plan_runner.phase == STARTING  # built, its Start waiting
+    assert win.plan_start_waits == (2, 1)
+    reads.release()
+    qtbot.waitUntil(lambda: win.plan_runner is None, timeout=120000)
+    assert reads.waited[0]
+    (run,) = win.registry.plan_runs_for_patient(code)
+    assert run.status == "complete", run.reason
+    assert [(s.kind, s.block) for s in run.steps] == [("trial", 1), ("trial", 2)]

@@ -33,12 +33,15 @@ FULL_SCREEN_KEY = "F11"
 
 
 class PatientScreenControl:
-    """Needs from the window: live, built, state, _say."""
+    """Needs from the window: live, built, state, latch, _say."""
 
     patient_window: PatientWindow | None = None
     patient_options: PatientOptions = PatientOptions()
     _patient_size_warned = False
     _patient_exercise_start_s: float | None = None  # the running trial's, from the loop
+    _patient_trial_end: str = ""
+    """The live trial's status once the loop ended it ("complete", "stopped_early", …),
+    '' while it runs."""
     _plan_bar: tuple = (None, 0.0)
     """(the plan's run the patient's bar was shown for: its runner, or the ended run's
     plan_ended; the bar shown), so that the bar never goes back within a run."""
@@ -61,6 +64,7 @@ class PatientScreenControl:
         # the exercise starts at the tick the approach ends (device.loop.pipeline); the live
         # view may miss the first records, the screen's clock must not
         self.bridge.trial_started.connect(self._patient_trial_started)
+        self.bridge.trial_ended.connect(self._patient_trial_ended)
         return self.patient_button
 
     def _fill_patient_menu(self) -> None:
@@ -136,6 +140,10 @@ class PatientScreenControl:
 
     def _patient_trial_started(self, _path: str, approach: int, _total: int) -> None:
         self._patient_exercise_start_s = approach * PERIOD_S
+        self._patient_trial_end = ""
+
+    def _patient_trial_ended(self, _path: str, status: str, _summary: dict) -> None:
+        self._patient_trial_end = status
 
     def _patient_screen_size(self, words: str, too_small: bool) -> None:
         """Said once each way: the first time the letters are too small, and when they are
@@ -211,14 +219,18 @@ class PatientScreenControl:
             return
         live = self.live
         building = self._plan_building()
+        stopped = self.latch.latched  # the e-stop or a fault: said as the banner is
         if self.state != State.RUNNING and building is not None:
             # a plan's next round (or block) is being built: its exercise waiting, not the
             # last trial's end ("Lap 2 of 2", "0:00 left") until the loop answers
-            window.show_parameters(building)
+            window.show_parameters(building, stopped)
         elif live is not None and (self.state == State.RUNNING or live.parameters is self.built):
-            window.show_view(live, self._patient_exercise_start_s)
+            # a trial Stop (or a plan's Pause) ended early: "Stopped", not its last lap's
+            # result and time left, frozen until the next Build
+            ended_early = self._patient_trial_end not in ("", "complete")
+            window.show_view(live, self._patient_exercise_start_s, stopped or ended_early)
         else:
-            window.show_parameters(self.built)
+            window.show_parameters(self.built, stopped)
         self._feed_patient_plan(window)
 
     def _plan_building(self):

@@ -13,6 +13,7 @@ Colours: white and the Okabe–Ito yellow and sky blue on black, contrast 21:1, 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -30,7 +31,8 @@ from PySide6.QtWidgets import QWidget
 
 from ui.patient.game_paint import paint_game_layout, paint_game_state
 from ui.patient.sound import Tone
-from ui.patient.text import fitted_px, qrect, sized, text_pixmap, thirds
+from ui.patient.text import margin, qrect
+from ui.patient.words import BACKGROUND, GO, Words, paint_plan_cover, paint_words
 from ui.views.patient_game import GameFeed
 from ui.views.patient_geometry import (
     MIN_LETTER_MM,
@@ -44,7 +46,7 @@ from ui.views.patient_geometry import (
 )
 from ui.views.patient_plan import PlanOverlay, overlay
 from ui.views.patient_screen import (
-    CUE_READY,
+    CUE_STOPPED,
     PatientFrame,
     PatientOptions,
     Scene,
@@ -53,18 +55,14 @@ from ui.views.patient_screen import (
 )
 from ui.views.trialview import TrialView
 
-BACKGROUND = QColor("#000000")
-TEXT = QColor("#FFFFFF")
 PATH = QColor("#BFBFBF")
 TARGET = QColor("#F0E442")  # Okabe–Ito yellow
 CURSOR = QColor("#56B4E9")  # Okabe–Ito sky blue
-GO = QColor("#009E73")  # Okabe–Ito bluish green
 PREVIOUS = QColor("#56B4E9")  # the cursor's sky blue, dashed
 OUTSIDE = QColor("#D55E00")  # Okabe–Ito vermillion: the ball outside the channel
 PROGRESS_LEFT = QColor("#3A3A3A")
 ATTENTION = QColor("#E69F00")  # Okabe–Ito orange: the neglected side
 MM_PER_INCH = 25.4
-TEXT_CACHE = 64  # texts kept as pixmaps: the clock's seconds, laps, results
 
 
 class PatientWindow(QWidget):
@@ -98,7 +96,7 @@ class PatientWindow(QWidget):
         self._shown_state: tuple = ()
         self._cached_background: tuple | None = None
         self._attention: str | None = None
-        self._texts: dict = {}
+        self._words = Words()
         self.plan: PlanOverlay | None = None  # the session plan's part, while one runs
         self._readable: bool | None = None  # the letters were readable at 1.5 m, when known
 
@@ -120,29 +118,34 @@ class PatientWindow(QWidget):
             self.plan = plan
             self.update()
 
-    def show_parameters(self, parameters) -> None:
-        """No trial running: the exercise to come (or nothing)."""
+    def show_parameters(self, parameters, stopped: bool = False) -> None:
+        """No trial running: the exercise to come (or nothing); `stopped` as in
+        show_view."""
         self._set_scene(parameters)
-        frame = waiting_frame(self.scene)
-        state = ("wait", id(self.scene))
+        frame = stopped_frame(waiting_frame(self.scene), stopped)
+        state = ("wait", id(self.scene), stopped)
         if state != self._shown_state:
             self._shown_state = state
             self.frame = frame
             self.update()
 
-    def show_view(self, view: TrialView, exercise_start_s: float | None = None) -> None:
+    def show_view(self, view: TrialView, exercise_start_s: float | None = None,
+                  stopped: bool = False) -> None:
         """The trial at the view's current sample; repaints only when that changed.
-        `exercise_start_s`: the exercise's start as the loop said it, live (frame_at)."""
+        `exercise_start_s`: the exercise's start as the loop said it, live (frame_at).
+        `stopped`: the console's e-stop or a fault is latched (ui.views.latch): "Stopped"
+        at once, not when the loop's first faulted record reaches the view (0.4 s later
+        on the development VM, the motors already off)."""
         if view.parameters is None:
-            self.show_parameters(None)
+            self.show_parameters(None, stopped)
             return
         self._set_scene(view.parameters)
-        state = (id(view), view.n, view.current_index, view.finished)
+        state = (id(view), view.n, view.current_index, view.finished, stopped)
         if state == self._shown_state:
             return
         self._shown_state = state
-        self.frame = frame_at(view, self.scene, self.options, self.game_feed,
-                              exercise_start_s)
+        self.frame = stopped_frame(frame_at(view, self.scene, self.options, self.game_feed,
+                                            exercise_start_s), stopped)
         if view.cursor is None:  # live: a replay is silent
             self._sound(view, self.frame)
         self.update()
@@ -198,42 +201,20 @@ class PatientWindow(QWidget):
             # a rest, a pause, the end: the words and the countdown in place of the table
             painter.fillRect(self.rect(), BACKGROUND)
             self.painted = {"cursor": None, "target": None, "attention": None}
-            self._paint_plan_cover(painter, bands, plan)
+            self.painted.update(paint_plan_cover(painter, self._words, self.font(),
+                                                 self.devicePixelRatioF(), bands, plan))
         else:
             painter.drawPixmap(0, 0, self._background(bands, where, frame))
             self.painted = {"cursor": None, "target": None, "attention": self._attention}
             painter.setRenderHint(QPainter.RenderHint.Antialiasing)
             if where is not None:
                 self._paint_moving(painter, where, frame)
-            self._paint_text(painter, bands, frame)
+            self.painted.update(paint_words(painter, self._words, self.font(),
+                                            self.devicePixelRatioF(), bands, frame, self.plan))
         if plan is not None:
             self._paint_progress(painter, bands, plan)
         painter.end()
         self.paints += 1
-
-    def _paint_plan_cover(self, painter: QPainter, bands: ScreenLayout,
-                          plan: PlanOverlay) -> None:
-        font = QFont(self.font())
-        font.setPixelSize(bands.text_px)
-        font.setBold(True)
-        top = thirds(bands.top)[0]
-        self._text(painter, top, Qt.AlignmentFlag.AlignLeft, plan.block_text,
-                   fitted_px(font, top, plan.block_text), TEXT)
-        self.painted["top"] = (plan.block_text, "", "")
-        area = qrect(bands.table)
-        words = QRectF(area.left(), area.top(), area.width(), 0.4 * area.height())
-        count = QRectF(area.left(), words.bottom(), area.width(), 0.6 * area.height())
-        self._text(painter, words, Qt.AlignmentFlag.AlignHCenter, plan.centre,
-                   min(2 * bands.text_px, fitted_px(sized(font, 2 * bands.text_px), words,
-                                                     plan.centre)), TEXT)
-        if plan.countdown:
-            size = min(int(0.8 * count.height()), 4 * bands.text_px)
-            self._text(painter, count, Qt.AlignmentFlag.AlignHCenter, plan.countdown,
-                       fitted_px(sized(font, size), count, plan.countdown), GO)
-        bottom = qrect(bands.bottom)
-        self._text(painter, bottom, Qt.AlignmentFlag.AlignHCenter, plan.message,
-                   fitted_px(font, bottom, plan.message), TEXT)
-        self.painted["plan"] = (plan.centre, plan.countdown)
 
     def _paint_progress(self, painter: QPainter, bands: ScreenLayout,
                         plan: PlanOverlay) -> None:
@@ -241,7 +222,7 @@ class PatientWindow(QWidget):
         if plan.progress != plan.progress:  # NaN: nothing planned to count
             return
         height = max(6.0, 0.012 * self.height())
-        left = thirds(bands.top)[0].left()
+        left = bands.top.left + margin(bands.top)
         bar = QRectF(left, bands.top.height, self.width() - 2 * left, height)
         painter.fillRect(bar, PROGRESS_LEFT)
         done = QRectF(bar.left(), bar.top(), bar.width() * min(1.0, plan.progress), height)
@@ -394,61 +375,6 @@ class PatientWindow(QWidget):
         for target in scene.targets_m:
             painter.drawEllipse(QPointF(*where.to_px(target)), radius, radius)
 
-    def _paint_text(self, painter: QPainter, bands: ScreenLayout, frame: PatientFrame) -> None:
-        font = QFont(self.font())
-        font.setPixelSize(bands.text_px)
-        font.setBold(True)
-        score = frame.game.score_text if frame.game else ""
-        # with a plan: the block first, then the score in a game or else the lap
-        first, middle = (frame.repetition_text, score) if self.plan is None else \
-            (self.plan.block_text, score or frame.repetition_text)
-        cells = tuple(zip(thirds(bands.top), (first, middle, frame.time_left_text),
-                          (Qt.AlignmentFlag.AlignLeft, Qt.AlignmentFlag.AlignHCenter,
-                           Qt.AlignmentFlag.AlignRight), strict=True))
-        # one size for the band, the largest at which every part fits its third
-        top = min(fitted_px(font, rect, text) for rect, text, _ in cells)
-        for rect, text, align in cells:
-            self._text(painter, rect, align, text, top, TEXT)
-        self.painted["top"] = (first, middle, frame.time_left_text)
-        good = frame.go or (not frame.cue and frame.success)
-        bottom = qrect(bands.bottom)
-        message = frame.message
-        if self.plan is not None and self.plan.round_text and frame.cue == CUE_READY:
-            message = f"{self.plan.round_text}. {message}"  # which of the block's rounds
-        self._text(painter, bottom, Qt.AlignmentFlag.AlignHCenter, message,
-                   fitted_px(font, bottom, message), GO if good else TEXT)
-        self.painted["message"] = message
-        if frame.numbers:
-            lines = bottom.adjusted(bands.text_px // 4, 0, 0, 0)
-            small = max(8, bands.text_px // 3)
-            for k, line in enumerate(frame.numbers):
-                row = QRectF(lines.left(), lines.top() + k * lines.height() / 2,
-                             lines.width(), lines.height() / 2)
-                self._text(painter, row, Qt.AlignmentFlag.AlignLeft, line, small, TEXT)
-
-    def _text(self, painter: QPainter, rect: QRectF, align: Qt.AlignmentFlag, text: str,
-              pixel_size: int, colour: QColor) -> None:
-        """The text's pixmap (made once per text, size and colour), placed in the rect."""
-        if not text:
-            return
-        key = (text, pixel_size, colour.rgb(), self.devicePixelRatioF())
-        pixmap = self._texts.get(key)
-        if pixmap is None:
-            if len(self._texts) > TEXT_CACHE:
-                self._texts.clear()
-            pixmap = text_pixmap(self.font(), text, pixel_size, colour,
-                                  self.devicePixelRatioF())
-            self._texts[key] = pixmap
-        ratio = pixmap.devicePixelRatio()
-        width, height = pixmap.width() / ratio, pixmap.height() / ratio
-        if align & Qt.AlignmentFlag.AlignHCenter:
-            x = rect.left() + 0.5 * (rect.width() - width)
-        elif align & Qt.AlignmentFlag.AlignRight:
-            x = rect.right() - width
-        else:
-            x = rect.left()
-        painter.drawPixmap(QPointF(x, rect.top() + 0.5 * (rect.height() - height)), pixmap)
-
     def resizeEvent(self, event) -> None:
         super().resizeEvent(event)
         self._check_size()
@@ -473,6 +399,14 @@ class PatientWindow(QWidget):
             self.tone = None
         super().closeEvent(event)
         self.closed.emit()
+
+
+def stopped_frame(frame: PatientFrame, stopped: bool) -> PatientFrame:
+    """The frame with "Stopped" for its cue while the e-stop or a fault is latched: no Go,
+    no result, no praise (the therapist explains, ui.views.patient_screen)."""
+    if not stopped or frame.cue == CUE_STOPPED:
+        return frame
+    return dataclasses.replace(frame, cue=CUE_STOPPED, go=False, result="", success=False)
 
 
 def _pen(colour: QColor, width: float) -> QPen:

@@ -23,8 +23,7 @@ from PySide6.QtCore import QTimer
 
 from app.games.rounds import staircase_rounds
 from app.plans.dose import trial_dose
-from app.plans.record import record_plan_event
-from app.plans.runner import ENDED, PAUSED, PlanRunner
+from app.plans.runner import ENDED, PAUSED, STARTING, PlanRunner
 from app.plans.templates import load_template, template_titles
 from app.units import SCREEN
 from core.plan import check_plan
@@ -33,6 +32,7 @@ from device.safety.faults import Fault
 from ui.tabs.parameters import HARDWARE
 from ui.tabs.plan import PlanTab
 from ui.window.awaited import Awaited
+from ui.window.plan_console import WindowConsole
 from ui.window.trial import on_simulator
 
 log = logging.getLogger("ui.main_window")
@@ -51,71 +51,13 @@ HANDS_OFF_AT_CONNECT = "hands off the handle"
 (ui.window.trial.on_simulator; the Connect says the same)."""
 
 
-class WindowConsole:
-    """What the runner asks of the window: its Build and Start (the robot buttons' own
-    methods), the loop's Stop, and the registry's record of the run."""
-
-    def __init__(self, window, run_id: int) -> None:
-        self.window = window
-        self.run_id = run_id
-
-    def build(self, parameters) -> None:
-        w = self.window
-        w.parameters_tab.set_parameters(parameters)
-        w._pending_build = None
-        w.build()  # the Build button's path: the form, checked, to the loop
-        if w._pending_build is None:  # refused before the loop was asked
-            last = w.messages.last
-            w.plan_runner.built(time.monotonic(), False, last.text if last else "refused")
-
-    def start(self, block: int, round_: int) -> None:
-        w = self.window
-        w.start_trial()  # the Start button's path: registered, then started
-        # refused at once; a Start being registered says a refusal later (_start_not_run)
-        if w.trial_id is None and not w.registering():
-            last = w.messages.last
-            w.plan_runner.refused(time.monotonic(), last.text if last else "refused")
-
-    def stop(self) -> None:
-        if self.window.state == State.RUNNING:
-            self.window.bridge.stop()
-
-    # The run's records go to the registry on the job thread, in order after the trial's
-    # registration and before its finish: a trial's record is made as it starts, the
-    # robot running, and a shared registry on a silent network held the window for its
-    # bounded wait (app.records.registry.postgres.deadline). A failure is said as the
-    # job thread's are (MessageLine._job_failed).
-    def record_trial(self, block, round_, trial_id, planned_s) -> None:
-        self._record(self.window.registry.record_plan_trial, block, round_, trial_id,
-                     planned_s)
-
-    def record_rest(self, block, planned_s, taken_s) -> None:
-        self._record(self.window.registry.record_plan_rest, block, planned_s, taken_s)
-
-    def record_event(self, block, words) -> None:
-        registry = self.window.registry
-        self._record(lambda *args: record_plan_event(registry, *args), block, words)
-
-    def end(self, status: str, reason: str) -> None:
-        self._record(self.window.registry.end_plan_run, status, reason)
-        log.info("plan run %d ended: %s %s", self.run_id, status, reason)
-
-    def _record(self, record, *args) -> None:
-        """`record(run id, *args)` on the job thread."""
-        w, run_id = self.window, self.run_id
-        w.plan_records += 1
-
-        def settled() -> None:
-            w.plan_records -= 1
-            w._plan_tick()  # the run ends once its records are done
-
-        w.jobs.run(lambda: record(run_id, *args), lambda _: None, settled=settled)
-
-
 class PlanControl:
     """The Plan tab and the plan's run (a part of MainWindow)."""
 
     plan_runner: PlanRunner | None = None
+    plan_start_waits: tuple[int, int] | None = None
+    """(block, round) of a plan's Start waiting for the last trial to be saved
+    (WindowConsole.start), or None."""
     _plan_asked: object | None = None
     """The registry call whose answer the Plan tab waits for (`_ask_plan`)."""
     _plan_starting: Awaited | None = None
@@ -316,6 +258,7 @@ class PlanControl:
             self.plan_runner = PlanRunner(stored.plan, base, WindowConsole(self, run_id),
                                           next_round=staircase_rounds())
             self.plan_tab.show_refusal("")
+            self.plan_start_waits = None
             self.plan_timer.start()
             self.plan_runner.start(time.monotonic())
             self._refresh_buttons()  # Build and Start are the plan's now (ui.views.readiness)
@@ -470,6 +413,11 @@ class PlanControl:
             return
         now = time.monotonic()
         runner.tick(now)
+        waits = self.plan_start_waits
+        if waits is not None and not self.saving():
+            self.plan_start_waits = None
+            if runner.phase == STARTING:  # not stopped or ended meanwhile
+                runner.console.start(*waits)
         state = runner.state(now)
         self.plan_tab.status.setText(state.line())
         if state.phase == ENDED and self.trial_id is None and runner.trial_id is None \
@@ -477,6 +425,7 @@ class PlanControl:
             self.plan_timer.stop()
             self._say(state.line(), problem=state.outcome not in ("complete",))
             self.plan_runner = None
+            self.plan_start_waits = None  # a Start the run's end made moot
             self._refresh_buttons()  # Build and Start are the therapist's again
             # the patient's screen keeps the session's end until the next Build
             self.plan_ended = (state, self.built)

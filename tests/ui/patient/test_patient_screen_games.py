@@ -120,3 +120,27 @@ def test_a_replay_moved_back_scores_again_from_the_start(qtbot, files):
                                            data.channels["position"][:i, 1],
                                            data.channels["phase"][:i])
         assert window.frame.game.state == expected
+
+
+def test_the_first_target_s_outcome_is_said_as_it_happens_not_after_go(qtbot, files):
+    """The first target (1 s allowed here, 1.2 s in the plan's games) is hit or missed
+    while "Go!" shows (1.5 s): its "Hit!" came only after Go!, in the real window a second
+    late, as the hand went for the second target. The outcome now takes Go!'s place."""
+    data = files["reach"]
+    records = _records(data)
+    window = PatientWindow()
+    qtbot.addWidget(window)
+    window.resize(900, 700)
+    view = TrialView(data.parameters)
+    said = None
+    for end in range(BATCH, len(records) + BATCH, BATCH):
+        view.append(records[end - BATCH:end])
+        window.show_view(view)
+        frame = window.frame
+        if frame.go and frame.game is not None and frame.game.result:
+            window.grab()
+            said = window.painted["message"]
+            assert said == frame.game.result
+            break
+    assert said is not None
+    assert said.split()[0] in ("Hit!", "Missed")

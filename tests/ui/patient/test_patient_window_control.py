@@ -94,8 +94,11 @@ def test_the_patient_window_alone_waits_without_a_trial(qtbot):
     qtbot.addWidget(patient)
     patient.show_parameters(None)
     patient.grab()
-    assert patient.painted == {"cursor": None, "target": None, "attention": None,
-                               "top": ("", "", ""), "message": "Please wait"}
+    shown = ("cursor", "target", "attention", "top", "message")
+    assert {k: patient.painted[k] for k in shown} == {
+        "cursor": None, "target": None, "attention": None, "top": ("", "", ""),
+        "message": "Please wait"}
+    assert "plan" not in patient.painted
 
 
 @pytest.mark.parametrize(("side", "mirror", "turn", "edge"), [
@@ -212,3 +215,82 @@ def test_the_session_s_end_stays_on_the_patient_s_screen_until_the_next_build(
     window.built = THESIS_SUBJECT  # the next Build
     window._feed_patient_screen()
     assert patient.plan is None
+
+
+def _mid_trial_view(tmp_path):
+    """A live view of a two-lap D as the window holds it in lap 2, while lap 1's result
+    shows (no loop: the file's samples up to that moment)."""
+    import numpy as np
+
+    from app.trials.headless import simulate_to_file
+    from app.trials.reader import read_trial
+    from core.trial import THESIS_SUBJECT
+    from device.recording.record import RECORD_DTYPE
+    from ui.views.trialview import VIEW_CHANNELS, TrialView
+
+    params = THESIS_SUBJECT.replace(repetitions=2, duration_s=2.0, assist="as-needed")
+    path = tmp_path / "trial.h5"
+    simulate_to_file(params, path, patient="healthy", seed=3)
+    data = read_trial(path)
+    rows = np.zeros(data.n_samples, dtype=[(c, RECORD_DTYPE.fields[c][0])
+                                           for c in VIEW_CHANNELS])
+    for name in VIEW_CHANNELS:
+        rows[name] = data.channels[name]
+    rows = rows[rows["phase"] > 0]
+    exercise = rows["time"][rows["phase"] == 2][0]
+    view = TrialView(data.parameters)
+    view.append(rows[rows["time"] <= exercise + 2.3])
+    return view
+
+
+def _message(window) -> str:
+    window._repaint()
+    window.patient_window.grab()
+    return window.patient_window.painted["message"]
+
+
+def test_the_e_stop_says_stopped_on_the_patient_s_screen_at_once(qtbot, window, tmp_path,
+                                                                monkeypatch):
+    """Pressed mid-trial in the real window, the e-stop's banner came at once but the
+    patient's screen went on saying "Lap 2 of 2" and the last lap's "Lap 1 done!" for
+    0.4 s (measured under Xvfb), until the loop's first faulted record reached the live
+    view: the robot gone limp under a screen that said all was well. It now follows the
+    window's latch, as the banner does; Clear fault gives the trial's own words back.
+    Here no record arrives after the press (no loop runs): the latch alone must say it."""
+    from ui.views.patient_screen import CUE_STOPPED
+
+    view = _mid_trial_view(tmp_path)
+    monkeypatch.setattr(window.bridge, "estop", lambda on: None)
+    window.live, window.built = view, view.parameters
+    patient = window.open_patient_screen()
+    qtbot.waitExposed(patient, timeout=20000)
+    assert _message(window).startswith("Lap 1 done!")
+    window.emergency_stop()
+    assert _message(window) == CUE_STOPPED
+    assert not patient.frame.go
+    assert not patient.frame.success
+    window.clear_fault()
+    assert _message(window).startswith("Lap 1 done!")
+    window.emergency_stop()  # with nothing shown but the exercise waiting, too
+    window.live = None
+    assert _message(window) == CUE_STOPPED
+
+
+def test_a_trial_stopped_early_says_stopped_not_its_last_result(qtbot, window, tmp_path):
+    """Stop pressed in lap 2 of 3 (seen under Xvfb): the patient's screen kept "Lap 2 of
+    3", "0:07 left" and "Lap 1 done! Right on the path" until the next Build, as though the
+    trial were still going. A trial the loop ended early now says "Stopped"; a complete
+    one keeps its own end; the next trial starts clean."""
+    from ui.views.patient_screen import CUE_STOPPED
+
+    view = _mid_trial_view(tmp_path)
+    window.live, window.built = view, view.parameters
+    patient = window.open_patient_screen()
+    qtbot.waitExposed(patient, timeout=20000)
+    assert _message(window).startswith("Lap 1 done!")
+    window.bridge.trial_ended.emit(str(tmp_path / "trial.h5"), "stopped_early", {})
+    assert _message(window) == CUE_STOPPED
+    window.bridge.trial_started.emit(str(tmp_path / "next.h5"), 500, 1500)
+    assert _message(window) != CUE_STOPPED
+    window.bridge.trial_ended.emit(str(tmp_path / "next.h5"), "complete", {})
+    assert _message(window) != CUE_STOPPED
