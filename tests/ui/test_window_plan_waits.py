@@ -148,4 +148,6 @@ def test_a_plan_run_begun_for_a_start_plan_that_cannot_go_on_is_ended(qtbot, win
     assert win.registry.trials_for_patient(code) == []
     if meanwhile == "emergency stop":
         assert win.plan_tab.refusal.text().startswith("Start plan refused: ")
-        assert win.state == State.FAULTED
+        # the loop latches the e-stop at its next tick and says so through its pipe: on a
+        # stalled host that can come after the run's end (failed once in a parallel run)
+        qtbot.waitUntil(lambda: win.state == State.FAULTED, timeout=20000)
