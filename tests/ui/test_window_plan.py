@@ -122,9 +122,15 @@ def test_start_plan_runs_each_block_through_build_and_start_with_its_rest(qtbot,
     shown: list[str] = []
     set_text = win.plan_tab.status.setText
     win.plan_tab.status.setText = lambda text: (shown.append(text), set_text(text))[-1]
+    # the therapist watches the plan on its tab: its trials' start and end took them to
+    # Trajectory, then Report, away from Pause and Stop plan (brief hZ)
+    win.tabs.setCurrentWidget(win.plan_tab)
+    visited: list[str] = []
+    win.tabs.currentChanged.connect(lambda k: visited.append(win.tabs.tabText(k)))
     start_plan(qtbot, win)
     assert win.plan_runner is not None
     qtbot.waitUntil(lambda: win.plan_runner is None, timeout=120000)
+    assert visited == [], visited
     assert any(line.startswith("Rest 0:01 after block 1 of 2") for line in shown), shown
     # the form shows the trial the plan built: what ran is what the tab showed
     assert win.plan_tab.status.text().startswith("Plan complete (Block 2 of 2; 2 of 2 "

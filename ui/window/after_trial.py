@@ -90,7 +90,8 @@ class AfterTrial:
         self.report.load_registry_trial(self.registry, trial_id)
         if self.patient is not None:
             self.progress.set_patient(self.patient.code)  # read on the tab's own threads
-        self.tabs.setCurrentWidget(self.report)
+        if not self.on_running_plan():
+            self.tabs.setCurrentWidget(self.report)
         registry, code = self.registry, self.patient.code if self.patient is not None else None
         numbers = self.registration_tab.numbers_reader() \
             if self.registration is not None else None

@@ -55,6 +55,12 @@ class PlanControl:
     """The Plan tab and the plan's run (a part of MainWindow)."""
 
     plan_runner: PlanRunner | None = None
+
+    def on_running_plan(self) -> bool:
+        """The therapist is on the Plan tab while a plan runs: its trials' start and end
+        leave them there (they took them to Trajectory, then Report, at each round, away
+        from Pause and Stop plan); any other tab follows a trial as for one trial."""
+        return self.plan_runner is not None and self.tabs.currentWidget() is self.plan_tab
     plan_start_waits: tuple[int, int] | None = None
     """(block, round) of a plan's Start waiting for the last trial to be saved
     (WindowConsole.start), or None."""

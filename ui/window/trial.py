@@ -408,7 +408,7 @@ class TrialActions:
         self._say(f"Trial running: {session_and_trial(path)}. Stop (F6) ends it early.",
                   states=(State.RUNNING,))
         self.force_estimate.trial_started(self.built)
-        if not isinstance(self.tabs.currentWidget(), VIEW_TABS):
+        if not isinstance(self.tabs.currentWidget(), VIEW_TABS) and not self.on_running_plan():
             self.tabs.setCurrentWidget(self.trajectory)
 
     def _on_trial_ended(self, path: str, status: str, summary: dict) -> None:
