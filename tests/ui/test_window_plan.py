@@ -378,6 +378,10 @@ def test_the_plan_table_shows_every_cell_and_heading_whole_at_1366(qtbot, name):
         assert table.columnWidth(col) >= needed, (
             f"column {table.horizontalHeaderItem(col).text()!r}: {table.columnWidth(col)} "
             f"px for {needed}")
+    # the blocks are numbered once, in the first column: Qt's row numbers beside it read
+    # "1 | 1. Reaching game" (brief hX)
+    assert table.item(0, 0).text().startswith("1")
+    assert not table.verticalHeader().isVisible()
 
 
 def test_a_disconnect_in_a_rest_pauses_the_plan_and_resume_goes_on_once_connected(

@@ -70,6 +70,9 @@ class PlanTab(QWidget):
         self.title.setWordWrap(True)
         self.table = QTableWidget(0, len(COLUMNS))
         self.table.setHorizontalHeaderLabels(COLUMNS)
+        # the first column numbers the blocks ("1. Reaching game"): Qt's own row numbers
+        # beside it read "1 | 1. Reaching game"
+        self.table.verticalHeader().setVisible(False)
         # each column as wide as its heading and cells (Qt's 100 px cut "1. Warm-up on the
         # D" and "Pace (s a lap)" at 1366 px, beside a third of the table left empty)
         header = self.table.horizontalHeader()
