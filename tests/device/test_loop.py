@@ -29,6 +29,7 @@ from device.recording.messages import RecorderNotice
 from device.recording.trialfile import SubjectInfo
 from device.safety.faults import Fault
 from device.sim.faultinjection import EXPECTED_FAULT
+from tests.device.settle import disconnected
 from tests.patience import HANG_S
 
 PARAMS = THESIS_SUBJECT.replace(repetitions=1)
@@ -60,8 +61,7 @@ def client():
 
 
 def connect(client, params=PARAMS, backend=None):
-    if client.state in (State.CONNECTED, State.FAULTED):
-        client.disconnect()
+    disconnected(client)
     client.estop(False)
     reply = client.build(params, backend or BackendConfig())
     assert reply.ok, reply.message
@@ -561,8 +561,7 @@ def _alive(pid: int) -> bool:
 
 
 def test_hardware_without_its_driver_is_refused_at_connect(client):
-    if client.state in (State.CONNECTED, State.FAULTED):
-        client.disconnect()
+    disconnected(client)
     settings = Path(__file__).resolve().parents[2] / "resources" / "hardware.example.toml"
     reply = client.build(PARAMS, BackendConfig(kind="quanser", hardware_settings=str(settings)))
     assert reply.ok, reply.message
@@ -578,6 +577,8 @@ def test_a_build_with_a_learned_model_it_does_not_name_is_refused(client):
 
     named = PARAMS.replace(controller="ctpid", learned_model="fnn-robot",
                            learned_model_sha256="a" * 64)
+    disconnected(client)  # and no fault latched: the refusal must be the model's
+    client.estop(False)
     reply = client.build(named)
     assert not reply.ok
     assert ("build refused: the trial names the learned model 'fnn-robot' but none was given"

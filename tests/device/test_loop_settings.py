@@ -23,6 +23,7 @@ from device.loop.messages import BackendConfig, TrialEnded
 from device.loop.states import State
 from device.recording.messages import RecorderNotice
 from device.recording.trialfile import SubjectInfo
+from tests.device.settle import disconnected
 
 pytestmark = pytest.mark.slow
 
@@ -46,8 +47,7 @@ def client():
 
 
 def _connect(client, params):
-    if client.state in (State.CONNECTED, State.FAULTED):
-        assert client.disconnect().ok
+    disconnected(client)
     assert client.build(params, WEAK).ok
     assert client.connect().ok
     client.wait_for_samples(10)
@@ -134,8 +134,7 @@ def test_each_simulated_trial_draws_its_own_seed_unless_one_is_fixed(client, tmp
     gave the same figures and Progress on the simulator never changed."""
     drawn = BackendConfig(patient="tremor")  # seed None: a new one per trial
     assert "a new seed each trial" in drawn.label
-    if client.state in (State.CONNECTED, State.FAULTED):
-        assert client.disconnect().ok
+    disconnected(client)
     assert client.build(TINY, drawn).ok
     assert client.connect().ok
     client.wait_for_samples(10)
