@@ -15,7 +15,19 @@ note; EMG channels at different rates are brought to the fastest EMG rate
        0.000000,1.2e-05,0.000000,0.01            (a slower channel's cells end early)
 
    EMGworks may add `Number of points: N` and `start: s` before `Unit:`. The unit is the
-   `Unit:` of each channel.
+   `Unit:` of each channel. As EMGworks really writes them (source: neuromechanist/emgio
+   examples/truncated_trigno_sample.csv, a truncated real export of Trigno Mini sensors)::
+
+       Label: Mini sensor 10: EMG 10 Sampling frequency: 1.259259e+003 Number of points:
+              81141 start: 0.000000e+000 Unit: V Domain Unit: s          (one line)
+       Label: Mini sensor 10: GYRO.X 10 Sampling frequency: 1.481481e+002 … Unit: °/s …
+       Start Trigger Method: None
+       Stop Trigger Method: None
+
+       X[s],"Mini sensor 10: EMG 10",X[s],"Mini sensor 10: ACC.X 10",…
+
+   the line ends `Domain Unit: s`, and `Name: value` lines (the triggers) may stand
+   between the channel lines and the header; a lab's export may say `Unit: Volts`.
 
 2. EMGworks without `Label:` lines (source: praneethnamburi/delsys, PyPI `delsys`,
    tests/fixtures/emgworks.csv, a trimmed real export)::
@@ -82,7 +94,8 @@ from device.emg.emgtext import EmgData, EmgFileError, Text
 _LABEL = re.compile(
     r"^\s*Label:\s*(?P<label>.+?)\s+Sampling frequency:\s*(?P<fs>\S+)"
     r"(?:\s+Number of points:\s*\S+)?(?:\s+start:\s*\S+)?"
-    r"\s+Unit:\s*(?P<unit>.+?)\s+Domain:\s*(?P<domain>\S+)\s*$")
+    r"\s+Unit:\s*(?P<unit>.+?)\s+Domain(?: Unit)?:\s*(?P<domain>\S+)\s*$")
+_SETTING = re.compile(r"^\s*[A-Za-z][A-Za-z ]*:\s*[^,;]*$")  # 'Stop Trigger Method: None'
 _VERSION = re.compile(r"Trigno Discover\s*\(\s*(?P<version>[^)]*?)\s*\)")
 _UNIT = re.compile(r"^(?P<name>.*?)\s*\((?P<unit>[^()]*)\)$")
 _RATE = re.compile(r"^(?P<rate>[0-9.,]+)\s*Hz$")
@@ -131,6 +144,8 @@ def read_emgworks_labels(text: Text) -> EmgData:
                                           "in Hz")
         labels.append((match["label"].strip(), fs, match["unit"].strip()))
     rows = text.rows(k)
+    while rows and rows[0][1][0].lower() != "x[s]" and _SETTING.match(text.lines[rows[0][0] - 1]):
+        rows = rows[1:]  # 'Start Trigger Method: None', … between the channels and the header
     if not rows:
         raise EmgFileError(text.path, f"{layout}: no header row after the 'Label:' lines",
                            "the export is cut; export it again")
