@@ -21,7 +21,7 @@ from fractions import Fraction
 import numpy as np
 from scipy.signal import resample_poly
 
-from device.emg.emgtext import EmgData, EmgFileError, Text
+from device.emg.emgtext import EmgData, EmgFileError, Text, check_range
 
 MAX_DENOMINATOR = 1000
 RATE_TOLERANCE = 1e-4  # relative: rates read from printed time stamps
@@ -39,6 +39,7 @@ class Channel:
     volts: np.ndarray
     lines: np.ndarray
     t_s: np.ndarray | None = None
+    unit: str = ""  # as the file says it; "" when it says none and volts were taken
 
 
 def rate_ratio(rate_hz: float, target_hz: float) -> tuple[int, int] | None:
@@ -75,6 +76,8 @@ def combine(text: Text, layout: str, source: str, channels: list[Channel],
         if c.volts.size < 2:
             raise EmgFileError(path, f"{layout}: {c.volts.size} samples of {c.name}",
                                "a recording needs at least two; export it again")
+        check_range(path, layout, c.name, c.volts, f"in {c.unit} as the file says" if c.unit
+                    else "the export names no unit, so volts were taken")
     top = max(c.rate_hz for c in channels)
     reference = next(c for c in channels if c.rate_hz == top)
     period = 1.0 / top

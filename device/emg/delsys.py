@@ -172,7 +172,8 @@ def read_emgworks_labels(text: Text) -> EmgData:
             skipped[f"{label} ({unit})"] += 1
             continue
         t, v, at = _pairs(text, layout, rows[1:], 2 * j, 2 * j + 1, label)
-        channels.append(Channel(label, fs, float(t[0]) if t.size else 0.0, v * scale, at, t))
+        channels.append(Channel(label, fs, float(t[0]) if t.size else 0.0, v * scale, at, t,
+                                unit))
     return combine(text, layout, "trigno-csv", channels, _listed(skipped))
 
 
@@ -282,10 +283,11 @@ def read_discover(text: Text) -> EmgData:
             t, v, at = _pairs(text, layout, data, j - 1, j, name)
             if t.size >= 2:
                 _check_rate(text, layout, name, t, rate)
-            channels.append(Channel(name, rate, float(t[0]) if t.size else 0.0, v * scale, at, t))
+            channels.append(Channel(name, rate, float(t[0]) if t.size else 0.0, v * scale, at,
+                                    t, unit))
         else:
             v, at, extra = _column(text, layout, data, j, name, round(length_s * rate))
-            channels.append(Channel(name, rate, 0.0, v * scale, at))
+            channels.append(Channel(name, rate, 0.0, v * scale, at, unit=unit))
             if extra:
                 beyond.append(f"{name} ({extra})")
     notes = [f"cells beyond the collection length ({length_s:g} s) ignored: "

@@ -147,3 +147,36 @@ def test_files_that_are_not_there_or_not_text(tmp_path):
     (tmp_path / "binary.csv").write_bytes(b"\xff\xfe\x00\x81binary")
     with pytest.raises(EmgFileError, match="not a text file"):
         read_emg_file(tmp_path / "binary.csv")
+
+
+MICROVOLTS_AS_VOLTS = {
+    # EMG software that writes µV and no unit (a plain CSV: volts were taken)
+    "plain_no_unit": ("time,biceps,triceps\n0,12.5,-3.1\n0.0005,-48.25,7.5\n0.001,3.0,1.0\n",
+                      "biceps reaches 48.25 V", "no unit in its name, so volts were taken"),
+    # the unit said wrong by hand: µV numbers under [V]
+    "plain_said_volts": ("time,biceps [V]\n0,0.5\n0.0005,-187\n0.001,3\n",
+                         "biceps reaches 187 V", "in V as its name says"),
+    # an EMGworks export without Label lines names no unit; µV numbers there
+    "emgworks_plain": ('X[s],"Avanti sensor 1: EMG 1"\n0,-71.5\n0.0005,20\n0.001,3\n',
+                       "Avanti sensor 1: EMG 1 reaches 71.5 V",
+                       "the export names no unit, so volts were taken"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(MICROVOLTS_AS_VOLTS))
+def test_microvolts_read_as_volts_are_refused_not_stored(tmp_path, case):
+    """Surface EMG is never 1 V at an amplifier's input (Trigno ±11 mV, BrainAmp and
+    LiveAmp at most a few hundred mV): a column that reaches it holds µV or mV numbers
+    read as volts, which the file used to store as they were (a 50 V biceps), and % MVC
+    against a live MVC in volts came out a million times too high."""
+    text, peak, why = MICROVOLTS_AS_VOLTS[case]
+    message = _refused_in_one_line(tmp_path, case, text)[1]
+    assert peak in message
+    assert why in message
+    assert "[uV]" in message or "µV" in message
+
+
+def test_emg_up_to_one_volt_still_reads(tmp_path):
+    path = tmp_path / "big.csv"
+    path.write_text("time,biceps [V]\n0,1\n0.0005,-1\n0.001,0.011\n")
+    np.testing.assert_array_equal(read_emg_file(path).samples[:, 0], [1, -1, 0.011])
