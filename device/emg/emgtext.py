@@ -112,17 +112,21 @@ does holds µV or mV numbers read as volts (software that writes µV and no unit
 would be stored a million times too large and set against MVCs in volts."""
 
 
+def beyond_range(name: str, volts: np.ndarray, said: str) -> str | None:
+    """What is wrong, in words, when a channel's samples reach MAX_EMG_V (its name, its
+    peak and how its unit was known: `said`, "in mV as the file says"), else None."""
+    peak = float(np.max(np.abs(volts))) if volts.size else 0.0
+    if not peak > MAX_EMG_V:
+        return None
+    return (f"{name} reaches {peak:.4g} V ({said}), more than surface EMG ever is "
+            f"({MAX_EMG_V:g} V): its numbers are in another unit")
+
+
 def check_range(path: Path, layout: str, name: str, volts: np.ndarray, said: str) -> None:
-    """Refuse a channel whose samples reach MAX_EMG_V, in one line naming it, its peak and
-    how its unit was known (`said`: "in mV as the file says", "no unit in its name, so
-    volts were taken")."""
-    if not volts.size:
-        return
-    peak = float(np.max(np.abs(volts)))
-    if peak > MAX_EMG_V:
-        raise EmgFileError(path, f"{layout}: {name} reaches {peak:.4g} V ({said}), more than "
-                                 f"surface EMG ever is ({MAX_EMG_V:g} V): its numbers are "
-                                 "in another unit",
+    """Refuse a file's channel beyond MAX_EMG_V (beyond_range) in one line."""
+    problem = beyond_range(name, volts, said)
+    if problem:
+        raise EmgFileError(path, f"{layout}: {problem}",
                            "give the unit in the file (a column 'biceps [uV]', or µV, mV in "
                            "the export's settings) and import it again")
 
