@@ -393,7 +393,8 @@ def _open_source(args):
 def cmd_record(args: argparse.Namespace) -> int:
     import time
 
-    from app.emg.importing import csv_column_names
+    from app.emg.importing import EmgImportError, csv_column_names
+    from app.emg.protocol import check_live_range
     from core.emg.mvc import mvc_from_contraction
     from device.emg.capture import EmgCapture
     from device.emg.files import write_plain_csv
@@ -433,6 +434,10 @@ def cmd_record(args: argparse.Namespace) -> int:
     names, renamed = csv_column_names(captured.labels, width)
     if renamed:
         print(f"note: {renamed}")
+    try:  # not a file our own import refuses, nor an MVC of hundreds of volts said to be ok
+        check_live_range(captured.samples, range(width), names, args.source.strip())
+    except EmgImportError as exc:
+        raise CommandError(f"nothing written: {exc}") from None
     write_plain_csv(output, names, captured.stamps_s - captured.stamps_s[0], captured.samples,
                     overwrite=args.overwrite)
     print(f"recorded {captured.samples.shape[0]} samples of {width} channels at "

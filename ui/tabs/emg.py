@@ -397,7 +397,8 @@ class EmgTab(QWidget):
 
         def measure():
             mvc = contraction_mvc(stamps, samples, rate, muscle, channel, settings=settings,
-                                  full_scale_V=full_scale, wanted_s=guided.push_s)
+                                  full_scale_V=full_scale, wanted_s=guided.push_s,
+                                  source=label)
             checked = check_with_trials(trials, [mvc], settings_of={muscle: settings})
             return mvc, checked[muscle], channel, label, settings
 

@@ -226,3 +226,16 @@ def test_only_the_trials_own_samples_are_checked_against_the_mvc(plain_trial, tm
     _, checked = store_trial(path, captured, "trigno:x", session)
     assert all(mvc.ok for mvc in checked.values()), [m.reasons for m in checked.values()]
     assert read_emg(path).time_s[0] < -1.0  # the margin is stored all the same
+
+
+def test_a_contraction_of_microvolts_read_as_volts_is_refused_not_said_ok():
+    """An LSL stream of µV opened as lsl:amp@V: the window said 'MVC 69428193 µV: ok'."""
+    x = wave(int(3 * RATE), [1e-4, 4e-4]) * 1e6
+    t = np.arange(x.shape[0]) / RATE
+    with pytest.raises(EmgImportError) as refused:
+        contraction_mvc(t, x, RATE, "triceps", 1, settings=EmgSettings(), full_scale_V=None,
+                        wanted_s=3.0, source="lsl:amp@V")
+    message = str(refused.value)
+    assert "(channel 2) reaches" in message
+    assert "(in volts as lsl:amp@V gives them), more than surface EMG ever is (1 V)" in message
+    assert message.endswith("(lsl:STREAM_NAME@uV), then record again")
