@@ -5,6 +5,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings, strategies as st
 
 from core.emg.synthetic import TRIGNO_RATE_HZ
 from device.emg.files import (
@@ -180,3 +181,26 @@ def test_emg_up_to_one_volt_still_reads(tmp_path):
     path = tmp_path / "big.csv"
     path.write_text("time,biceps [V]\n0,1\n0.0005,-1\n0.001,0.011\n")
     np.testing.assert_array_equal(read_emg_file(path).samples[:, 0], [1, -1, 0.011])
+
+
+@settings(max_examples=40, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.lists(st.lists(st.floats(-5.0, 5.0, allow_nan=False), min_size=2, max_size=2),
+                min_size=2, max_size=12),
+       st.sampled_from(["V", "mV", "uV"]))
+def test_a_file_reads_exactly_when_no_sample_reaches_a_volt(tmp_path, rows, unit):
+    """Read back, in volts, when every sample is within ±1 V after its unit; otherwise
+    refused in one line naming the first column that is beyond."""
+    scale = {"V": 1.0, "mV": 1e-3, "uV": 1e-6}[unit]
+    path = tmp_path / "any.csv"
+    path.write_text(f"time,a [{unit}],b [{unit}]\n"
+                    + "".join(f"{k * 0.001:.3f},{x!r},{y!r}\n" for k, (x, y) in enumerate(rows)))
+    volts = np.array(rows) * scale
+    beyond = [name for c, name in enumerate("ab") if np.max(np.abs(volts[:, c])) > 1.0]
+    if not beyond:
+        np.testing.assert_array_equal(read_emg_file(path).samples, volts)
+        return
+    with pytest.raises(EmgFileError) as refused:
+        read_emg_file(path)
+    assert f": {beyond[0]} reaches " in str(refused.value)
+    assert "\n" not in str(refused.value)
