@@ -142,17 +142,25 @@ class GuidedMvc:
         return self.clock() > self.push_span[1] + SETTLE_S
 
 
-def check_live_range(samples, columns, names, source: str) -> None:
-    """Refuse, in one line, live samples read in volts that reach a volt (device.emg.
-    emgtext.MAX_EMG_V): the source's numbers are in a smaller unit than it was read in (an
-    LSL stream of µV opened as lsl:NAME@V, or declaring mV), and an MVC of them would be
-    hundreds of volts, said to be ok."""
+def live_range_problem(samples, columns, names, source: str) -> str:
+    """What is wrong, in one line, with live samples read in volts that reach a volt
+    (device.emg.emgtext.MAX_EMG_V): the source's numbers are in a smaller unit than it was
+    read in (an LSL stream of µV opened as lsl:NAME@V, or declaring mV), and an MVC of them
+    would be hundreds of volts, said to be ok. '' when nothing is."""
     x = np.asarray(samples, dtype=float)
     for column, name in zip(columns, names, strict=True):
         problem = beyond_range(name, x[:, column], f"in volts as {source} gives them")
         if problem:
-            raise EmgImportError(f"{problem}: connect the source with the unit its amplifier "
-                                 "sends (lsl:STREAM_NAME@uV), then record again")
+            return (f"{problem}: connect the source with the unit its amplifier sends "
+                    "(lsl:STREAM_NAME@uV), then record")
+    return ""
+
+
+def check_live_range(samples, columns, names, source: str) -> None:
+    """Refuse live samples that reach a volt (live_range_problem)."""
+    problem = live_range_problem(samples, columns, names, source)
+    if problem:
+        raise EmgImportError(problem)
 
 
 def contraction_mvc(stamps_s, samples, rate_hz: float, muscle: str, channel: int, *,
