@@ -88,7 +88,7 @@ import numpy as np
 from core.emg.units import volts_per_unit
 from core.errors import ParameterError
 from core.signal import sample_interval
-from device.emg.channels import Channel, combine
+from device.emg.channels import Channel, combine, printed_grid, trigno_rate
 from device.emg.emgtext import EmgData, EmgFileError, Text
 
 _LABEL = re.compile(
@@ -203,12 +203,18 @@ def read_emgworks_plain(text: Text) -> EmgData:
         if t.size < 2:
             raise EmgFileError(text.path, f"{layout}: {t.size} samples of {name}",
                                "a recording needs at least two; export it again")
-        try:
-            sample_interval(t)  # finite, increasing, no gaps
-        except ParameterError as exc:
-            raise EmgFileError(text.path, f"{layout}: the time column of {name}: {exc}") \
-                from None
-        rate = (t.size - 1) / (t[-1] - t[0])  # the mean: printed stamps round each step
+        rate = (t.size - 1) / (t[-1] - t[0]) if t[-1] > t[0] else 0.0  # the mean:
+        # printed stamps round each step; from 1000 s on they stand still between samples,
+        # and the rate is the Trigno rate whose grid they are
+        on_grid = [r for r in (rate, trigno_rate(rate)) if printed_grid(t, r) is not None]
+        if on_grid:
+            rate = on_grid[0]
+        else:
+            try:
+                sample_interval(t)  # finite, increasing, no gaps
+            except ParameterError as exc:
+                raise EmgFileError(text.path, f"{layout}: the time column of {name}: "
+                                              f"{exc}") from None
         channels.append(Channel(name, float(rate), float(t[0]), v, at, t))
     note = ("units: the export names none; EMGworks writes EMG in volts (its 'Label:' "
             "lines say Unit: V), so volts were taken")

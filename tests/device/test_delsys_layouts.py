@@ -467,3 +467,30 @@ def test_a_damaged_export_is_read_or_refused_in_one_line(tmp_path, collection, e
         return
     assert "\n" not in refusal
     assert refusal.startswith(f"EMG file {path}: ")
+
+
+@settings(max_examples=30, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(start=st.sampled_from([0.0, 12.5, 999.9, 1000.0, 2345.678, 9000.0]),
+       rate=st.sampled_from([1259.259259, 1925.925926, 2222.222222]),
+       n=st.integers(2, 300), labels=st.booleans())
+def test_times_printed_to_seven_digits_read_at_any_point_of_a_long_recording(
+        tmp_path, start, rate, n, labels):
+    """EMGworks prints times as %.7g: from 1000 s on, to the millisecond, so consecutive
+    samples print the same time, and an export of a long recording (or of its part from
+    1000 s on, 'start: 1.000000e+003') was refused: 'the time goes back or stands
+    still'."""
+    true = start + np.arange(n) / rate
+    x = np.round(emg(n, n, "V"), 12)
+    name = "Trigno IM sensor 1: EMG 1 (IM)"
+    head = ([f"Label: {name} Sampling frequency: {rate:.6e} Number of points: {n} start: "
+             f"{start:.6e} Unit: Volts Domain Unit: s", "Start Trigger Method: None", ""]
+            if labels else [])
+    rows = [f"{t:.7g},{v:.7g}" for t, v in zip(true, x, strict=True)]
+    path = write(tmp_path, "\r\n".join([*head, f'X[s],"{name}"', *rows]) + "\r\n",
+                 f"late{n}.csv")
+    data = read_emg_file(path)
+    assert np.all(np.diff(data.t_s) > 0)
+    digit = 10.0 ** (np.floor(np.log10(np.maximum(true, 1e-300))) - 6)
+    assert np.all(np.abs(data.t_s - true) <= digit + 0.1 / rate)
+    np.testing.assert_allclose(data.samples[:, 0], [float(f"{v:.7g}") for v in x])
