@@ -156,7 +156,9 @@ def read_emgworks_labels(text: Text) -> EmgData:
         raise EmgFileError(text.path, f"{layout}: line {header_line}: the header has "
                                       f"{len(header)} columns, expected {2 * len(labels)} (a "
                                       "time column X[s] and a value column for each of the "
-                                      f"{len(labels)} channels)")
+                                      f"{len(labels)} channels)",
+                           "export it again from EMGworks with a time column for each "
+                           "channel")
     for j, (label, _, _) in enumerate(labels):
         if header[2 * j].lower() != "x[s]":
             raise EmgFileError(text.path, f"{layout}: line {header_line}: column {2 * j + 1} "

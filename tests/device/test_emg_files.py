@@ -72,6 +72,12 @@ MALFORMED_TRIGNO = {
     "no_header": ("Label: EMG1 Sampling frequency: 2000 Unit: V Domain: Time\n\n",
                   "no header row"),
     "header_count": (LABELS + "X[s],EMG1,X[s]\n0,1,0\n", "the header has 3 columns, expected 4"),
+    # EMGworks can export one time column for all channels (bensenderling/DAMVi_App
+    # load_csv_Delsys.m: "a time column to be located only in the first column")
+    "one_time_column": (LABELS + "X[s],EMG1,EMG2\n0,1,2\n0.0005,1,2\n",
+                        "expected 4 (a time column X[s] and a value column for each of the 2 "
+                        "channels). Export it again from EMGworks with a time column for each "
+                        "channel"),
     "header_time": (LABELS + "X[s],EMG1,time,EMG2\n0,1,0,1\n", "expected the time column 'X[s]'"),
     "not_number": (LABELS + "X[s],EMG1,X[s],EMG2\n0,1,0,1\n0.0005,abc,0.0005,1\n",
                    "line 5, column 'EMG1': 'abc' is not a number"),
