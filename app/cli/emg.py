@@ -350,9 +350,11 @@ def cmd_streams(args: argparse.Namespace) -> int:
     streams = find_streams(args.wait)
     if not streams:
         print(f"no Lab Streaming Layer stream seen in {args.wait:g} s")
-    for s in streams:
-        print(f"{s.name!r} type {s.type!r}: {s.channel_count} channels at "
-              f"{s.nominal_rate_hz:g} Hz from {s.hostname} ({s.source_id or 'no source id'})")
+    for s in streams:  # an irregular stream (markers) declares rate 0: not one to record
+        rate = (f"at {s.nominal_rate_hz:g} Hz" if s.nominal_rate_hz > 0 else
+                "at no regular rate (markers, not EMG)")
+        print(f"{s.name!r} type {s.type!r}: {s.channel_count} channels {rate} from "
+              f"{s.hostname} ({s.source_id or 'no source id'})")
     return 0
 
 

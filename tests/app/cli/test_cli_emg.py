@@ -314,3 +314,21 @@ def test_record_of_microvolts_read_as_volts_writes_nothing_and_says_why(tmp_path
     assert err.count("\n") == 1
     assert "nothing written: biceps reaches" in err
     assert "(in volts as lsl:amp@V gives them)" in err
+
+
+def test_emg_streams_says_which_stream_has_no_regular_rate(monkeypatch, capsys):
+    """A marker stream (the console's own rehab-robot-events) was listed 'at 0 Hz'."""
+    import types
+
+    from device.lsl import library
+
+    seen = [types.SimpleNamespace(name=name, type=kind, channel_count=1, nominal_rate_hz=rate,
+                                  hostname="vm", source_id="s") for name, kind, rate in
+            (("amp", "EMG", 2000.0), ("rehab-robot-events", "Markers", 0.0))]
+    monkeypatch.setattr(library, "find_streams", lambda wait_s: seen)
+    code, out, _ = run(["emg", "streams", "--wait", "0.1"], capsys)
+    assert code == 0
+    assert "'amp' type 'EMG': 1 channels at 2000 Hz from vm (s)" in out
+    assert ("'rehab-robot-events' type 'Markers': 1 channels at no regular rate (markers, "
+            "not EMG) from vm (s)") in out
+    assert " at 0 Hz" not in out
