@@ -228,8 +228,9 @@ def emgworks_analysis_text(channels, unit="V", rows=None):
     return "\r\n".join(lines) + "\r\n"
 
 
+@pytest.mark.parametrize("bom", [False, True])  # Windows tools may write UTF-8 with a BOM
 @pytest.mark.parametrize(("unit", "per_volt"), [("V", 1.0), ("Volts", 1.0), ("mV", 1e3)])
-def test_emgworks_label_lines_as_emgworks_writes_them(tmp_path, unit, per_volt):
+def test_emgworks_label_lines_as_emgworks_writes_them(tmp_path, unit, per_volt, bom):
     """'Domain Unit: s' (not 'Domain: Time'), trigger lines before the header: the real
     layout was refused at line 1. 'Volts' is what a Chinese lab's export says (a public
     reader's comment: 'Label: 2左股直 10: EMG 10 (IM) Sampling frequency: 2.000000e+003
@@ -240,7 +241,10 @@ def test_emgworks_label_lines_as_emgworks_writes_them(tmp_path, unit, per_volt):
                 ("Mini sensor 10: ACC.X 10", IMU_HZ, np.zeros(36)),
                 ("Mini sensor 10: GYRO.X 10", IMU_HZ, np.zeros(36)),
                 ("Mini sensor 11: EMG 11", rate, b)]
-    data = read_emg_file(write(tmp_path, emgworks_analysis_text(channels, unit)))
+    path = write(tmp_path, emgworks_analysis_text(channels, unit))
+    if bom:
+        path.write_bytes(b"\xef\xbb\xbf" + path.read_bytes())
+    data = read_emg_file(path)
     assert data.source == "trigno-csv"
     assert data.names == ("Mini sensor 10: EMG 10", "Mini sensor 11: EMG 11")
     assert data.rate_hz == pytest.approx(rate)
