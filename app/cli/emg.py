@@ -350,9 +350,11 @@ def cmd_streams(args: argparse.Namespace) -> int:
     streams = find_streams(args.wait)
     if not streams:
         print(f"no Lab Streaming Layer stream seen in {args.wait:g} s")
-    for s in streams:
-        print(f"{s.name!r} type {s.type!r}: {s.channel_count} channels at "
-              f"{s.nominal_rate_hz:g} Hz from {s.hostname} ({s.source_id or 'no source id'})")
+    for s in streams:  # an irregular stream (markers) declares rate 0: not one to record
+        rate = (f"at {s.nominal_rate_hz:g} Hz" if s.nominal_rate_hz > 0 else
+                "at no regular rate (markers, not EMG)")
+        print(f"{s.name!r} type {s.type!r}: {s.channel_count} channels {rate} from "
+              f"{s.hostname} ({s.source_id or 'no source id'})")
     return 0
 
 
@@ -393,7 +395,8 @@ def _open_source(args):
 def cmd_record(args: argparse.Namespace) -> int:
     import time
 
-    from app.emg.importing import csv_column_names
+    from app.emg.importing import EmgImportError, csv_column_names
+    from app.emg.protocol import check_live_range
     from core.emg.mvc import mvc_from_contraction
     from device.emg.capture import EmgCapture
     from device.emg.files import write_plain_csv
@@ -433,6 +436,10 @@ def cmd_record(args: argparse.Namespace) -> int:
     names, renamed = csv_column_names(captured.labels, width)
     if renamed:
         print(f"note: {renamed}")
+    try:  # not a file our own import refuses, nor an MVC of hundreds of volts said to be ok
+        check_live_range(captured.samples, range(width), names, args.source.strip())
+    except EmgImportError as exc:
+        raise CommandError(f"nothing written: {exc}") from None
     write_plain_csv(output, names, captured.stamps_s - captured.stamps_s[0], captured.samples,
                     overwrite=args.overwrite)
     print(f"recorded {captured.samples.shape[0]} samples of {width} channels at "

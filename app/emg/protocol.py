@@ -32,6 +32,7 @@ from app.emg.importing import LIVE_MARGIN_S, EmgImportError, Imported, import_ca
 from core.emg.mvc import Mvc, MvcCriteria, mvc_from_contraction
 from core.emg.processing import EmgSettings, Envelope, envelope
 from core.emg.synthetic import THESIS_MUSCLES
+from device.emg.emgtext import beyond_range
 
 MUSCLE_WORDS = {"biceps": "biceps brachii", "triceps": "triceps brachii",
                 "anterior_deltoid": "anterior deltoid", "posterior_deltoid": "posterior deltoid"}
@@ -141,9 +142,31 @@ class GuidedMvc:
         return self.clock() > self.push_span[1] + SETTLE_S
 
 
+def live_range_problem(samples, columns, names, source: str) -> str:
+    """What is wrong, in one line, with live samples read in volts that reach a volt
+    (device.emg.emgtext.MAX_EMG_V): the source's numbers are in a smaller unit than it was
+    read in (an LSL stream of µV opened as lsl:NAME@V, or declaring mV), and an MVC of them
+    would be hundreds of volts, said to be ok. '' when nothing is."""
+    x = np.asarray(samples, dtype=float)
+    for column, name in zip(columns, names, strict=True):
+        problem = beyond_range(name, x[:, column], f"in volts as {source} gives them")
+        if problem:
+            return (f"{problem}: connect the source with the unit its amplifier sends "
+                    "(lsl:STREAM_NAME@uV), then record")
+    return ""
+
+
+def check_live_range(samples, columns, names, source: str) -> None:
+    """Refuse live samples that reach a volt (live_range_problem)."""
+    problem = live_range_problem(samples, columns, names, source)
+    if problem:
+        raise EmgImportError(problem)
+
+
 def contraction_mvc(stamps_s, samples, rate_hz: float, muscle: str, channel: int, *,
                     settings: EmgSettings, full_scale_V: float | None,
-                    criteria: MvcCriteria | None = None, wanted_s: float) -> Mvc:
+                    criteria: MvcCriteria | None = None, wanted_s: float,
+                    source: str = "the EMG source") -> Mvc:
     """The MVC of one muscle from the live samples of its push (core.emg.mvc), refusing a
     push whose samples do not cover most of it (the source dropped out)."""
     x = np.asarray(samples, dtype=float)
@@ -158,6 +181,7 @@ def contraction_mvc(stamps_s, samples, rate_hz: float, muscle: str, channel: int
         raise EmgImportError(f"{words(muscle)}: only {covered:.1f} s of EMG came during the "
                              f"{wanted_s:g} s contraction (the source dropped samples); "
                              "check its status, then record again")
+    check_live_range(x, [channel], [f"{words(muscle)} (channel {channel + 1})"], source)
     return mvc_from_contraction(x[:, channel], rate_hz, muscle, settings=settings,
                                 full_scale_V=full_scale_V, criteria=criteria)
 

@@ -51,6 +51,7 @@ from core.emg.units import (
     scaling_factor,
     volts_per_unit,
 )
+from device.emg.emgtext import beyond_range
 from device.emg.files import EmgData
 from device.lsl.outlet import EVENT_STREAM, ROBOT_CHANNELS, ROBOT_STREAM
 
@@ -224,7 +225,7 @@ def emg_volts(stream: XdfStream, path: Path,
     labels, units = declared(stream.labels), declared(stream.units)
     factors, types = declared(stream.scaling_factors), declared(stream.types)
     where = f"XDF file {path.name}: stream {stream.name}"
-    kept, scales, left_out = [], [], []
+    kept, scales, left_out, said = [], [], [], []
     for k, written in enumerate(units):
         channel = labels[k] or f"channel {k + 1}"
         why = not_emg_channel(labels[k], types[k], written)
@@ -250,10 +251,17 @@ def emg_volts(stream: XdfStream, path: Path,
                                  "imported")
         kept.append(k)
         scales.append(scale * factor)
+        said.append(f"in {written!r} as the stream declares" if written else
+                    f"in {unit!r} as given with --unit")
     if not kept:
         raise EmgImportError(f"{where} has no EMG channel, only {'; '.join(left_out)}")
     notes = left_out_notes(f"stream {stream.name}", left_out)
     volts = np.asarray(stream.values, dtype=float)[:, kept] * np.asarray(scales)
+    for c, k in enumerate(kept):
+        problem = beyond_range(labels[k] or f"channel {k + 1}", volts[:, c], said[c])
+        if problem:
+            raise EmgImportError(f"{where}: {problem}: give the unit the amplifier sends "
+                                 "with --unit (V, mV or uV), or correct the stream's")
     return volts, kept, notes
 
 

@@ -21,10 +21,38 @@ from fractions import Fraction
 import numpy as np
 from scipy.signal import resample_poly
 
-from device.emg.emgtext import EmgData, EmgFileError, Text
+from device.emg.emgtext import EmgData, EmgFileError, Text, check_range
 
 MAX_DENOMINATOR = 1000
 RATE_TOLERANCE = 1e-4  # relative: rates read from printed time stamps
+PRINTED_DIGITS = 7
+"""EMGworks prints its times with 7 significant digits (`0.0007941176`, `0.01032353` in a
+real export: neuromechanist/emgio examples/truncated_trigno_sample.csv): from 1000 s on
+a time is printed to the millisecond, coarser than a Trigno EMG sample (0.79 ms at
+1259 Hz), so consecutive samples print the same time."""
+DRIFT_PERIODS = 0.1  # how far, in sample periods, a declared rate may drift from the times
+TRIGNO_FRAME_S = 0.0135  # a Trigno base's frame: its rates are whole multiples of 1/frame
+
+
+def trigno_rate(rate_hz: float) -> float:
+    """The Trigno rate (a whole multiple of 1 / TRIGNO_FRAME_S) nearest `rate_hz`: the
+    rate of a file that names none, measured from times printed too coarsely to give it
+    exactly."""
+    return max(1, round(rate_hz * TRIGNO_FRAME_S)) / TRIGNO_FRAME_S
+
+
+def printed_grid(t: np.ndarray, rate_hz: float) -> np.ndarray | None:
+    """The times of samples at `rate_hz` from the first, when the printed times `t` are
+    those times rounded to PRINTED_DIGITS significant digits (each within one of its last
+    digits, the first's rounding included, and DRIFT_PERIODS); else None (a gap, another
+    rate: the caller judges the printed times themselves)."""
+    t = np.asarray(t, dtype=float)
+    if t.size < 2 or not rate_hz > 0:
+        return None
+    grid = t[0] + np.arange(t.size) / rate_hz
+    size = np.maximum(np.abs(grid), np.finfo(float).tiny)
+    digit = 10.0 ** (np.floor(np.log10(size)) - (PRINTED_DIGITS - 1))
+    return grid if bool(np.all(np.abs(t - grid) <= digit + DRIFT_PERIODS / rate_hz)) else None
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -39,6 +67,7 @@ class Channel:
     volts: np.ndarray
     lines: np.ndarray
     t_s: np.ndarray | None = None
+    unit: str = ""  # as the file says it; "" when it says none and volts were taken
 
 
 def rate_ratio(rate_hz: float, target_hz: float) -> tuple[int, int] | None:
@@ -75,6 +104,8 @@ def combine(text: Text, layout: str, source: str, channels: list[Channel],
         if c.volts.size < 2:
             raise EmgFileError(path, f"{layout}: {c.volts.size} samples of {c.name}",
                                "a recording needs at least two; export it again")
+        check_range(path, layout, c.name, c.volts, f"in {c.unit} as the file says" if c.unit
+                    else "the export names no unit, so volts were taken")
     top = max(c.rate_hz for c in channels)
     reference = next(c for c in channels if c.rate_hz == top)
     period = 1.0 / top
@@ -118,6 +149,9 @@ def combine(text: Text, layout: str, source: str, channels: list[Channel],
                                          f"{c.name} ({other[k]:g} s) differs from that of "
                                          f"{reference.name} ({t[k]:g} s)",
                                    "the EMG channels must share a clock")
+        grid = printed_grid(t, top)  # the times printed coarser than a sample, late on
+        if grid is not None:
+            t = grid
     else:
         t = reference.t0_s + np.arange(n) * period
     step = np.diff(t)

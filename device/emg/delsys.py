@@ -15,7 +15,19 @@ note; EMG channels at different rates are brought to the fastest EMG rate
        0.000000,1.2e-05,0.000000,0.01            (a slower channel's cells end early)
 
    EMGworks may add `Number of points: N` and `start: s` before `Unit:`. The unit is the
-   `Unit:` of each channel.
+   `Unit:` of each channel. As EMGworks really writes them (source: neuromechanist/emgio
+   examples/truncated_trigno_sample.csv, a truncated real export of Trigno Mini sensors)::
+
+       Label: Mini sensor 10: EMG 10 Sampling frequency: 1.259259e+003 Number of points:
+              81141 start: 0.000000e+000 Unit: V Domain Unit: s          (one line)
+       Label: Mini sensor 10: GYRO.X 10 Sampling frequency: 1.481481e+002 … Unit: °/s …
+       Start Trigger Method: None
+       Stop Trigger Method: None
+
+       X[s],"Mini sensor 10: EMG 10",X[s],"Mini sensor 10: ACC.X 10",…
+
+   the line ends `Domain Unit: s`, and `Name: value` lines (the triggers) may stand
+   between the channel lines and the header; a lab's export may say `Unit: Volts`.
 
 2. EMGworks without `Label:` lines (source: praneethnamburi/delsys, PyPI `delsys`,
    tests/fixtures/emgworks.csv, a trimmed real export)::
@@ -76,13 +88,14 @@ import numpy as np
 from core.emg.units import volts_per_unit
 from core.errors import ParameterError
 from core.signal import sample_interval
-from device.emg.channels import Channel, combine
+from device.emg.channels import Channel, combine, printed_grid, trigno_rate
 from device.emg.emgtext import EmgData, EmgFileError, Text
 
 _LABEL = re.compile(
     r"^\s*Label:\s*(?P<label>.+?)\s+Sampling frequency:\s*(?P<fs>\S+)"
     r"(?:\s+Number of points:\s*\S+)?(?:\s+start:\s*\S+)?"
-    r"\s+Unit:\s*(?P<unit>.+?)\s+Domain:\s*(?P<domain>\S+)\s*$")
+    r"\s+Unit:\s*(?P<unit>.+?)\s+Domain(?: Unit)?:\s*(?P<domain>\S+)\s*$")
+_SETTING = re.compile(r"^\s*[A-Za-z][A-Za-z ]*:\s*[^,;]*$")  # 'Stop Trigger Method: None'
 _VERSION = re.compile(r"Trigno Discover\s*\(\s*(?P<version>[^)]*?)\s*\)")
 _UNIT = re.compile(r"^(?P<name>.*?)\s*\((?P<unit>[^()]*)\)$")
 _RATE = re.compile(r"^(?P<rate>[0-9.,]+)\s*Hz$")
@@ -131,6 +144,8 @@ def read_emgworks_labels(text: Text) -> EmgData:
                                           "in Hz")
         labels.append((match["label"].strip(), fs, match["unit"].strip()))
     rows = text.rows(k)
+    while rows and rows[0][1][0].lower() != "x[s]" and _SETTING.match(text.lines[rows[0][0] - 1]):
+        rows = rows[1:]  # 'Start Trigger Method: None', … between the channels and the header
     if not rows:
         raise EmgFileError(text.path, f"{layout}: no header row after the 'Label:' lines",
                            "the export is cut; export it again")
@@ -141,7 +156,9 @@ def read_emgworks_labels(text: Text) -> EmgData:
         raise EmgFileError(text.path, f"{layout}: line {header_line}: the header has "
                                       f"{len(header)} columns, expected {2 * len(labels)} (a "
                                       "time column X[s] and a value column for each of the "
-                                      f"{len(labels)} channels)")
+                                      f"{len(labels)} channels)",
+                           "export it again from EMGworks with a time column for each "
+                           "channel")
     for j, (label, _, _) in enumerate(labels):
         if header[2 * j].lower() != "x[s]":
             raise EmgFileError(text.path, f"{layout}: line {header_line}: column {2 * j + 1} "
@@ -157,7 +174,8 @@ def read_emgworks_labels(text: Text) -> EmgData:
             skipped[f"{label} ({unit})"] += 1
             continue
         t, v, at = _pairs(text, layout, rows[1:], 2 * j, 2 * j + 1, label)
-        channels.append(Channel(label, fs, float(t[0]) if t.size else 0.0, v * scale, at, t))
+        channels.append(Channel(label, fs, float(t[0]) if t.size else 0.0, v * scale, at, t,
+                                unit))
     return combine(text, layout, "trigno-csv", channels, _listed(skipped))
 
 
@@ -187,12 +205,18 @@ def read_emgworks_plain(text: Text) -> EmgData:
         if t.size < 2:
             raise EmgFileError(text.path, f"{layout}: {t.size} samples of {name}",
                                "a recording needs at least two; export it again")
-        try:
-            sample_interval(t)  # finite, increasing, no gaps
-        except ParameterError as exc:
-            raise EmgFileError(text.path, f"{layout}: the time column of {name}: {exc}") \
-                from None
-        rate = (t.size - 1) / (t[-1] - t[0])  # the mean: printed stamps round each step
+        rate = (t.size - 1) / (t[-1] - t[0]) if t[-1] > t[0] else 0.0  # the mean:
+        # printed stamps round each step; from 1000 s on they stand still between samples,
+        # and the rate is the Trigno rate whose grid they are
+        on_grid = [r for r in (rate, trigno_rate(rate)) if printed_grid(t, r) is not None]
+        if on_grid:
+            rate = on_grid[0]
+        else:
+            try:
+                sample_interval(t)  # finite, increasing, no gaps
+            except ParameterError as exc:
+                raise EmgFileError(text.path, f"{layout}: the time column of {name}: "
+                                              f"{exc}") from None
         channels.append(Channel(name, float(rate), float(t[0]), v, at, t))
     note = ("units: the export names none; EMGworks writes EMG in volts (its 'Label:' "
             "lines say Unit: V), so volts were taken")
@@ -267,10 +291,11 @@ def read_discover(text: Text) -> EmgData:
             t, v, at = _pairs(text, layout, data, j - 1, j, name)
             if t.size >= 2:
                 _check_rate(text, layout, name, t, rate)
-            channels.append(Channel(name, rate, float(t[0]) if t.size else 0.0, v * scale, at, t))
+            channels.append(Channel(name, rate, float(t[0]) if t.size else 0.0, v * scale, at,
+                                    t, unit))
         else:
             v, at, extra = _column(text, layout, data, j, name, round(length_s * rate))
-            channels.append(Channel(name, rate, 0.0, v * scale, at))
+            channels.append(Channel(name, rate, 0.0, v * scale, at, unit=unit))
             if extra:
                 beyond.append(f"{name} ({extra})")
     notes = [f"cells beyond the collection length ({length_s:g} s) ignored: "

@@ -105,6 +105,32 @@ class Text:
         return value
 
 
+MAX_EMG_V = 1.0
+"""No surface EMG reaches a volt at an amplifier's input (a Delsys Trigno sensor's range is
+±11 mV, Brain Products' BrainAmp and LiveAmp a few hundred mV at most): a channel that
+does holds µV or mV numbers read as volts (software that writes µV and no unit), which
+would be stored a million times too large and set against MVCs in volts."""
+
+
+def beyond_range(name: str, volts: np.ndarray, said: str) -> str | None:
+    """What is wrong, in words, when a channel's samples reach MAX_EMG_V (its name, its
+    peak and how its unit was known: `said`, "in mV as the file says"), else None."""
+    peak = float(np.max(np.abs(volts))) if volts.size else 0.0
+    if not peak > MAX_EMG_V:
+        return None
+    return (f"{name} reaches {peak:.4g} V ({said}), more than surface EMG ever is "
+            f"({MAX_EMG_V:g} V): its numbers are in another unit")
+
+
+def check_range(path: Path, layout: str, name: str, volts: np.ndarray, said: str) -> None:
+    """Refuse a file's channel beyond MAX_EMG_V (beyond_range) in one line."""
+    problem = beyond_range(name, volts, said)
+    if problem:
+        raise EmgFileError(path, f"{layout}: {problem}",
+                           "give the unit in the file (a column 'biceps [uV]', or µV, mV in "
+                           "the export's settings) and import it again")
+
+
 def read_text(path: Path) -> Text:
     """The file's lines, read bounded and without blocking (device.safeinput: a pipe would
     hang the reader, /dev/zero fill the memory), with its delimiter."""

@@ -30,7 +30,7 @@ from core.emg.units import volts_per_unit
 from core.errors import ParameterError
 from core.signal import sample_interval
 from device.emg import delsys
-from device.emg.emgtext import EmgData, EmgFileError, Text, read_text
+from device.emg.emgtext import EmgData, EmgFileError, Text, check_range, read_text
 from device.safewrite import write_text
 
 __all__ = ["EmgData", "EmgFileError", "read_emg_file", "read_plain_csv", "read_trigno_csv",
@@ -81,10 +81,12 @@ def _plain(text: Text, rows) -> EmgData:
                            "the Delsys export as the software wrote it")
     if len(header) < 2:
         raise EmgFileError(path, f"{PLAIN}: no EMG column after the time")
-    names, scales = [], []
+    names, scales, said = [], [], []
     for column in header[1:]:
         match = _UNIT_IN_NAME.match(column)
         name, unit = (match["name"].strip(), match["unit"]) if match else (column, "V")
+        said.append(f"in {unit.strip()} as its name says" if match
+                    else "no unit in its name, so volts were taken")
         scale = volts_per_unit(unit)
         if not name:
             raise EmgFileError(path, f"{PLAIN}: line {header_line}: a column has no name")
@@ -112,8 +114,10 @@ def _plain(text: Text, rows) -> EmgData:
         raise EmgFileError(path, f"{PLAIN}: the time column: {exc}") from None
     # the mean rate: time stamps printed with few decimals make the median step inexact
     rate = (t.size - 1) / (t[-1] - t[0])
-    return EmgData(tuple(names), float(rate), t, array[:, 1:] * np.array(scales), "csv", path,
-                   text.notes)
+    volts = array[:, 1:] * np.array(scales)
+    for c, name in enumerate(names):
+        check_range(path, PLAIN, name, volts[:, c], said[c])
+    return EmgData(tuple(names), float(rate), t, volts, "csv", path, text.notes)
 
 
 # ------------------------------------------------------------------ writing (sample files, tests)

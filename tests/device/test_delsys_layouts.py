@@ -207,6 +207,53 @@ def test_emgworks_with_label_lines_in_both_separators(tmp_path, separator):
     np.testing.assert_allclose(data.samples, x * [1e-3, 1e-6], rtol=1e-15)
 
 
+def emgworks_analysis_text(channels, unit="V", rows=None):
+    """An EMGworks export as its Label lines are really written (neuromechanist/emgio,
+    examples/truncated_trigno_sample.csv, a truncated real export of Trigno Mini sensors):
+    `… Number of points: N start: 0.000000e+000 Unit: V Domain Unit: s`, gyroscopes in
+    `°/s`, 'Start/Stop Trigger Method' lines and a blank line before the quoted header,
+    Windows line ends."""
+    labels = []
+    for name, rate, values in channels:
+        u = unit if "EMG" in name else ("°/s" if "GYRO" in name else "g")
+        labels.append(f"Label: {name} Sampling frequency: {rate:.6e} Number of points: "
+                      f"{len(values)} start: 0.000000e+000 Unit: {u} Domain Unit: s")
+    lines = [*labels, "Start Trigger Method: None", "Stop Trigger Method: None", ""]
+    lines.append(",".join(f'X[s],"{name}"' for name, _, _ in channels))
+    for i in range(max(len(v) for _, _, v in channels)):
+        cells = []
+        for _, rate, v in channels:
+            cells += [f"{i / rate:.7g}", f"{v[i]:.7g}"] if i < len(v) else ["", ""]
+        lines.append(",".join(cells))
+    return "\r\n".join(lines) + "\r\n"
+
+
+@pytest.mark.parametrize("bom", [False, True])  # Windows tools may write UTF-8 with a BOM
+@pytest.mark.parametrize(("unit", "per_volt"), [("V", 1.0), ("Volts", 1.0), ("mV", 1e3)])
+def test_emgworks_label_lines_as_emgworks_writes_them(tmp_path, unit, per_volt, bom):
+    """'Domain Unit: s' (not 'Domain: Time'), trigger lines before the header: the real
+    layout was refused at line 1. 'Volts' is what a Chinese lab's export says (a public
+    reader's comment: 'Label: 2左股直 10: EMG 10 (IM) Sampling frequency: 2.000000e+003
+    Number of points: 58000 start: 0.000000e+000 Unit: Volts Domain Unit: s')."""
+    rate = 1.259259e3
+    a, b = emg(300, 1, "V") * per_volt, emg(300, 2, "V") * per_volt
+    channels = [("Mini sensor 10: EMG 10", rate, a),
+                ("Mini sensor 10: ACC.X 10", IMU_HZ, np.zeros(36)),
+                ("Mini sensor 10: GYRO.X 10", IMU_HZ, np.zeros(36)),
+                ("Mini sensor 11: EMG 11", rate, b)]
+    path = write(tmp_path, emgworks_analysis_text(channels, unit))
+    if bom:
+        path.write_bytes(b"\xef\xbb\xbf" + path.read_bytes())
+    data = read_emg_file(path)
+    assert data.source == "trigno-csv"
+    assert data.names == ("Mini sensor 10: EMG 10", "Mini sensor 11: EMG 11")
+    assert data.rate_hz == pytest.approx(rate)
+    np.testing.assert_allclose(data.samples, np.column_stack([a, b]) / per_volt,
+                               rtol=1e-6, atol=1e-18)
+    assert data.t_s[-1] == pytest.approx(299 / rate, rel=1e-6)
+    assert any("ACC.X 10 (g)" in n and "GYRO.X 10 (°/s)" in n for n in data.notes)
+
+
 def test_a_comma_export_whose_sensor_name_holds_a_semicolon(tmp_path):
     """A sensor named by the lab "Biceps; left" does not make a comma export a ';' one."""
     sensors = basic_sensors()
@@ -424,3 +471,30 @@ def test_a_damaged_export_is_read_or_refused_in_one_line(tmp_path, collection, e
         return
     assert "\n" not in refusal
     assert refusal.startswith(f"EMG file {path}: ")
+
+
+@settings(max_examples=30, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(start=st.sampled_from([0.0, 12.5, 999.9, 1000.0, 2345.678, 9000.0]),
+       rate=st.sampled_from([1259.259259, 1925.925926, 2222.222222]),
+       n=st.integers(2, 300), labels=st.booleans())
+def test_times_printed_to_seven_digits_read_at_any_point_of_a_long_recording(
+        tmp_path, start, rate, n, labels):
+    """EMGworks prints times as %.7g: from 1000 s on, to the millisecond, so consecutive
+    samples print the same time, and an export of a long recording (or of its part from
+    1000 s on, 'start: 1.000000e+003') was refused: 'the time goes back or stands
+    still'."""
+    true = start + np.arange(n) / rate
+    x = np.round(emg(n, n, "V"), 12)
+    name = "Trigno IM sensor 1: EMG 1 (IM)"
+    head = ([f"Label: {name} Sampling frequency: {rate:.6e} Number of points: {n} start: "
+             f"{start:.6e} Unit: Volts Domain Unit: s", "Start Trigger Method: None", ""]
+            if labels else [])
+    rows = [f"{t:.7g},{v:.7g}" for t, v in zip(true, x, strict=True)]
+    path = write(tmp_path, "\r\n".join([*head, f'X[s],"{name}"', *rows]) + "\r\n",
+                 f"late{n}.csv")
+    data = read_emg_file(path)
+    assert np.all(np.diff(data.t_s) > 0)
+    digit = 10.0 ** (np.floor(np.log10(np.maximum(true, 1e-300))) - 6)
+    assert np.all(np.abs(data.t_s - true) <= digit + 0.1 / rate)
+    np.testing.assert_allclose(data.samples[:, 0], [float(f"{v:.7g}") for v in x])

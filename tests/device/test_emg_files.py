@@ -5,6 +5,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings, strategies as st
 
 from core.emg.synthetic import TRIGNO_RATE_HZ
 from device.emg.files import (
@@ -71,6 +72,12 @@ MALFORMED_TRIGNO = {
     "no_header": ("Label: EMG1 Sampling frequency: 2000 Unit: V Domain: Time\n\n",
                   "no header row"),
     "header_count": (LABELS + "X[s],EMG1,X[s]\n0,1,0\n", "the header has 3 columns, expected 4"),
+    # EMGworks can export one time column for all channels (bensenderling/DAMVi_App
+    # load_csv_Delsys.m: "a time column to be located only in the first column")
+    "one_time_column": (LABELS + "X[s],EMG1,EMG2\n0,1,2\n0.0005,1,2\n",
+                        "expected 4 (a time column X[s] and a value column for each of the 2 "
+                        "channels). Export it again from EMGworks with a time column for each "
+                        "channel"),
     "header_time": (LABELS + "X[s],EMG1,time,EMG2\n0,1,0,1\n", "expected the time column 'X[s]'"),
     "not_number": (LABELS + "X[s],EMG1,X[s],EMG2\n0,1,0,1\n0.0005,abc,0.0005,1\n",
                    "line 5, column 'EMG1': 'abc' is not a number"),
@@ -147,3 +154,59 @@ def test_files_that_are_not_there_or_not_text(tmp_path):
     (tmp_path / "binary.csv").write_bytes(b"\xff\xfe\x00\x81binary")
     with pytest.raises(EmgFileError, match="not a text file"):
         read_emg_file(tmp_path / "binary.csv")
+
+
+MICROVOLTS_AS_VOLTS = {
+    # EMG software that writes µV and no unit (a plain CSV: volts were taken)
+    "plain_no_unit": ("time,biceps,triceps\n0,12.5,-3.1\n0.0005,-48.25,7.5\n0.001,3.0,1.0\n",
+                      "biceps reaches 48.25 V", "no unit in its name, so volts were taken"),
+    # the unit said wrong by hand: µV numbers under [V]
+    "plain_said_volts": ("time,biceps [V]\n0,0.5\n0.0005,-187\n0.001,3\n",
+                         "biceps reaches 187 V", "in V as its name says"),
+    # an EMGworks export without Label lines names no unit; µV numbers there
+    "emgworks_plain": ('X[s],"Avanti sensor 1: EMG 1"\n0,-71.5\n0.0005,20\n0.001,3\n',
+                       "Avanti sensor 1: EMG 1 reaches 71.5 V",
+                       "the export names no unit, so volts were taken"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(MICROVOLTS_AS_VOLTS))
+def test_microvolts_read_as_volts_are_refused_not_stored(tmp_path, case):
+    """Surface EMG is never 1 V at an amplifier's input (Trigno ±11 mV, BrainAmp and
+    LiveAmp at most a few hundred mV): a column that reaches it holds µV or mV numbers
+    read as volts, which the file used to store as they were (a 50 V biceps), and % MVC
+    against a live MVC in volts came out a million times too high."""
+    text, peak, why = MICROVOLTS_AS_VOLTS[case]
+    message = _refused_in_one_line(tmp_path, case, text)[1]
+    assert peak in message
+    assert why in message
+    assert "[uV]" in message or "µV" in message
+
+
+def test_emg_up_to_one_volt_still_reads(tmp_path):
+    path = tmp_path / "big.csv"
+    path.write_text("time,biceps [V]\n0,1\n0.0005,-1\n0.001,0.011\n")
+    np.testing.assert_array_equal(read_emg_file(path).samples[:, 0], [1, -1, 0.011])
+
+
+@settings(max_examples=40, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.lists(st.lists(st.floats(-5.0, 5.0, allow_nan=False), min_size=2, max_size=2),
+                min_size=2, max_size=12),
+       st.sampled_from(["V", "mV", "uV"]))
+def test_a_file_reads_exactly_when_no_sample_reaches_a_volt(tmp_path, rows, unit):
+    """Read back, in volts, when every sample is within ±1 V after its unit; otherwise
+    refused in one line naming the first column that is beyond."""
+    scale = {"V": 1.0, "mV": 1e-3, "uV": 1e-6}[unit]
+    path = tmp_path / "any.csv"
+    path.write_text(f"time,a [{unit}],b [{unit}]\n"
+                    + "".join(f"{k * 0.001:.3f},{x!r},{y!r}\n" for k, (x, y) in enumerate(rows)))
+    volts = np.array(rows) * scale
+    beyond = [name for c, name in enumerate("ab") if np.max(np.abs(volts[:, c])) > 1.0]
+    if not beyond:
+        np.testing.assert_array_equal(read_emg_file(path).samples, volts)
+        return
+    with pytest.raises(EmgFileError) as refused:
+        read_emg_file(path)
+    assert f": {beyond[0]} reaches " in str(refused.value)
+    assert "\n" not in str(refused.value)

@@ -132,3 +132,24 @@ def test_a_channel_the_source_left_out_is_said_when_it_connects(qtbot):
     assert text.startswith("EMG streaming from lsl:amp at 1000 Hz.")
     assert "Left out of the LSL stream named 'amp', not EMG: triggerStream" in text
     tab.stop_live()
+
+
+def test_the_tab_says_once_that_the_live_source_gives_a_wrong_unit(qtbot):
+    import types
+
+    import numpy as np
+
+    from ui.views.emg import LiveEmgView
+
+    tab = EmgTab()
+    qtbot.addWidget(tab)
+    tab.capture = types.SimpleNamespace()  # connected; _show_live draws only then
+    said = []
+    tab.said.connect(lambda text, problem: said.append((text, problem)))
+    problem = "EMG1 reaches 365 V (in volts as lsl:amp@V gives them), more than …"
+    view = LiveEmgView(np.zeros(3), np.zeros((3, 1)), ("EMG1",), "µV", problem)
+    tab._show_live(None, view)
+    tab._show_live(None, view)
+    assert said == [(problem, True)]
+    assert problem in tab.live_status.text()
+    tab.capture = None

@@ -86,6 +86,7 @@ class EmgTab(QWidget):
         self.live_status.setWordWrap(True)
         self.capture = None
         self.live_label = ""
+        self.live_problem = ""
         self.lost: tuple | None = None  # (Captured, label) of a source that died
         self.source_ports: dict = {}  # command_port / data_port for a non-standard TCU
         self.opener = plots.Background(self)
@@ -229,6 +230,7 @@ class EmgTab(QWidget):
         source, label = result
         self.capture = EmgCapture(source, latest_s=LIVE_S).start()
         self.live_label = label
+        self.live_problem = ""
         self.lost = None
         self.connect_button.setEnabled(True)
         self.connect_button.setText("Disconnect EMG")
@@ -281,7 +283,7 @@ class EmgTab(QWidget):
         t, x = capture.latest()
         session = None if self.session is None else self.session.copy()
         self.live_worker.submit(None, live_emg_view, t, x, capture.source.rate_hz, session,
-                                getattr(capture.source, "labels", ()))
+                                getattr(capture.source, "labels", ()), self.live_label)
 
     def _show_live(self, _token, view) -> None:
         if view is None or self.capture is None:
@@ -298,6 +300,10 @@ class EmgTab(QWidget):
             item.setLabel("left", f"live RMS envelope ({view.unit})")
         for i, c in enumerate(self.live_curves):
             c.setData(view.t_s, view.values[:, i])
+        if view.problem and view.problem != self.live_problem:  # said once, not each refresh
+            self.live_status.setText(f"{theme.PROBLEM_SIGN} {view.problem}")
+            self._say(view.problem, True)
+        self.live_problem = view.problem
 
     # -- the MVC protocol -----------------------------------------------------------
     def set_session(self, patient: str, session: int) -> None:
@@ -397,7 +403,8 @@ class EmgTab(QWidget):
 
         def measure():
             mvc = contraction_mvc(stamps, samples, rate, muscle, channel, settings=settings,
-                                  full_scale_V=full_scale, wanted_s=guided.push_s)
+                                  full_scale_V=full_scale, wanted_s=guided.push_s,
+                                  source=label)
             checked = check_with_trials(trials, [mvc], settings_of={muscle: settings})
             return mvc, checked[muscle], channel, label, settings
 

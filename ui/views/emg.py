@@ -58,29 +58,32 @@ class LiveEmgView:
     values: np.ndarray  # (K, C) in `unit`
     names: tuple[str, ...]
     unit: str
+    problem: str = ""  # the source's numbers read in too large a unit (one line), or ''
 
 
 def live_emg_view(stamps_s, samples, rate_hz: float, session=None,
-                  labels=()) -> LiveEmgView | None:
+                  labels=(), source: str = "the EMG source") -> LiveEmgView | None:
     """None until the source has given LIVE_MIN_S of EMG. Without the session's MVCs, the
     channels are named as the trial file will keep them (`labels`, the source's own names,
-    app.emg.importing.channel_names)."""
+    app.emg.importing.channel_names). Samples that reach a volt are said at once, before
+    an MVC is recorded of them (app.emg.protocol.live_range_problem)."""
     from app.emg.importing import channel_names
-    from app.emg.protocol import live_percent, seconds_before_newest
+    from app.emg.protocol import live_percent, live_range_problem, seconds_before_newest
     from core.emg.processing import rms_envelope
 
     t = np.asarray(stamps_s, dtype=float)
     if t.size < max(2, round(LIVE_MIN_S * rate_hz)):
         return None
     x = np.asarray(samples, dtype=float)
+    names = channel_names(labels, x.shape[1])
+    problem = live_range_problem(x, range(x.shape[1]), names, source)
     try:
         mapped = session.muscles_with_mvc() if session is not None else ()
         if mapped and all(session.channels[m] < x.shape[1] for m in mapped):
             env, muscles = live_percent(t, x, rate_hz, session)
-            return LiveEmgView(env.t_s, 100.0 * env.values, muscles, "% MVC")
+            return LiveEmgView(env.t_s, 100.0 * env.values, muscles, "% MVC", problem)
         env = rms_envelope(x - x.mean(axis=0), rate_hz,
                            t0_s=seconds_before_newest(x.shape[0], rate_hz))
     except CoreError:  # too little signal yet for the filters: the next refresh will do
         return None
-    return LiveEmgView(env.t_s, 1e6 * env.values, channel_names(labels, env.values.shape[1]),
-                       "µV")
+    return LiveEmgView(env.t_s, 1e6 * env.values, names, "µV", problem)

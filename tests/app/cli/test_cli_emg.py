@@ -290,3 +290,45 @@ def test_emg_streams_sends_liblsl_errors_to_the_data_folder_logs_never_making_on
     code, _, _ = run(["emg", "streams", "--wait", "0.1"], capsys)
     assert code == 0
     assert library._log_file == [data / "logs" / library.LIBLSL_LOG]
+
+
+def test_record_of_microvolts_read_as_volts_writes_nothing_and_says_why(tmp_path, capsys,
+                                                                       monkeypatch):
+    """`rehab emg record lsl:amp@V` of a µV stream wrote the CSV and said 'MVC 69428193 µV,
+    held 2.56 s: ok'; the CSV was then refused by `rehab emg mvc`."""
+    import types
+
+    import app.cli.emg as emg_cli
+
+    plain = read_emg_file(DATA / "plain.csv")
+    data = types.SimpleNamespace(rate_hz=plain.rate_hz, t_s=plain.t_s,
+                                 samples=plain.samples * 1e6)
+    labels = tuple(plain.names)
+    monkeypatch.setattr(emg_cli, "_open_source",
+                        lambda args: (_LabelledSource(data, labels), "lsl:amp"))
+    out_file = tmp_path / "mvc.csv"
+    code, _, err = run(["emg", "record", "lsl:amp@V", "--muscle", "biceps", "--seconds",
+                          "0.3", "--output", str(out_file)], capsys)
+    assert code == 2
+    assert not out_file.exists()
+    assert err.count("\n") == 1
+    assert "nothing written: biceps reaches" in err
+    assert "(in volts as lsl:amp@V gives them)" in err
+
+
+def test_emg_streams_says_which_stream_has_no_regular_rate(monkeypatch, capsys):
+    """A marker stream (the console's own rehab-robot-events) was listed 'at 0 Hz'."""
+    import types
+
+    from device.lsl import library
+
+    seen = [types.SimpleNamespace(name=name, type=kind, channel_count=1, nominal_rate_hz=rate,
+                                  hostname="vm", source_id="s") for name, kind, rate in
+            (("amp", "EMG", 2000.0), ("rehab-robot-events", "Markers", 0.0))]
+    monkeypatch.setattr(library, "find_streams", lambda wait_s: seen)
+    code, out, _ = run(["emg", "streams", "--wait", "0.1"], capsys)
+    assert code == 0
+    assert "'amp' type 'EMG': 1 channels at 2000 Hz from vm (s)" in out
+    assert ("'rehab-robot-events' type 'Markers': 1 channels at no regular rate (markers, "
+            "not EMG) from vm (s)") in out
+    assert " at 0 Hz" not in out

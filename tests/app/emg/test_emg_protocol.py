@@ -226,3 +226,34 @@ def test_only_the_trials_own_samples_are_checked_against_the_mvc(plain_trial, tm
     _, checked = store_trial(path, captured, "trigno:x", session)
     assert all(mvc.ok for mvc in checked.values()), [m.reasons for m in checked.values()]
     assert read_emg(path).time_s[0] < -1.0  # the margin is stored all the same
+
+
+def test_a_contraction_of_microvolts_read_as_volts_is_refused_not_said_ok():
+    """An LSL stream of µV opened as lsl:amp@V: the window said 'MVC 69428193 µV: ok'."""
+    x = wave(int(3 * RATE), [1e-4, 4e-4]) * 1e6
+    t = np.arange(x.shape[0]) / RATE
+    with pytest.raises(EmgImportError) as refused:
+        contraction_mvc(t, x, RATE, "triceps", 1, settings=EmgSettings(), full_scale_V=None,
+                        wanted_s=3.0, source="lsl:amp@V")
+    message = str(refused.value)
+    assert "(channel 2) reaches" in message
+    assert "(in volts as lsl:amp@V gives them), more than surface EMG ever is (1 V)" in message
+    assert message.endswith("(lsl:STREAM_NAME@uV), then record")
+
+
+def test_the_live_view_says_at_once_when_the_source_gives_microvolts_as_volts():
+    """Connected as lsl:amp@V, a µV stream drew envelopes of 10^8 µV and said nothing
+    until an MVC was recorded of it; in volts it says nothing."""
+    from ui.views.emg import live_emg_view
+
+    x = wave(int(2 * RATE), [1e-4, 3e-4])
+    t = 10.0 + np.arange(x.shape[0]) / RATE
+    assert live_emg_view(t, x, RATE, labels=("biceps", "triceps")).problem == ""
+    session = _session_with_mvcs([2e-4, 4e-4, 1e-4])
+    for view, first in ((live_emg_view(t, x * 1e6, RATE, labels=("biceps", "triceps"),
+                                       source="lsl:amp@V"), "biceps"),
+                        (live_emg_view(t, np.column_stack([x, x[:, 0]]) * 1e6, RATE, session,
+                                       source="lsl:amp@V"), "EMG1")):
+        assert view.problem.startswith(f"{first} reaches ")
+        assert "(in volts as lsl:amp@V gives them)" in view.problem
+        assert "\n" not in view.problem

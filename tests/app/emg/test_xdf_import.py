@@ -290,3 +290,20 @@ def test_a_stream_that_stopped_in_the_recording_is_noted_and_one_at_another_rate
     with pytest.raises(EmgImportError, match=r"ran at about 500 Hz from trial time 4.0 s, "
                                              r"not the 1000 Hz it declares"):
         import_xdf(other, xdf)
+
+
+@pytest.mark.parametrize(("declared", "given", "said"), [
+    (None, "V", "in 'V' as given with --unit"),
+    ("mV", None, "in 'mV' as the stream declares")])
+def test_microvolts_given_or_declared_as_larger_units_are_refused(plain_trial, tmp_path,
+                                                                  declared, given, said):
+    """An int16 stream of µV counts (up to ±10000) imported in V or in mV, the unit a lab
+    gave or its amplifier's app declared wrongly: stored as up to 10 kV before."""
+    trial = _live_trial(plain_trial, tmp_path, time.monotonic() - 30.0)
+    xdf, _, _ = _record(tmp_path, trial, unit=declared)
+    with pytest.raises(EmgImportError) as refused:
+        import_xdf(trial, xdf, unit=given)
+    message = str(refused.value)
+    assert "\n" not in message
+    assert f"({said}), more than surface EMG ever is (1 V)" in message
+    assert "with --unit (V, mV or uV)" in message
