@@ -69,11 +69,15 @@ WRITES = frozenset((
     "update_metrics", "update_patient", "update_session", "withdraw_trial"))
 """The calls that record something: after each, online, the standby is mirrored again."""
 
+UNREACHABLE, LOGIN_REFUSED, SYNC_REFUSED = "unreachable", "login refused", "sync refused"
+"""`StationRegistry.offline_cause`: why the station records on its own."""
+
 MIRRORED_PATIENTS = 8
 """The patients a standby holds: the last this station opened or recorded for (a
 station's session is one patient at a time; a day's few fit)."""
 
-__all__ = ["MIRRORED_PATIENTS", "StationRegistry", "SyncRefused", "Synced"]
+__all__ = ["LOGIN_REFUSED", "MIRRORED_PATIENTS", "SYNC_REFUSED", "UNREACHABLE", "StationRegistry",
+           "SyncRefused", "Synced"]
 
 
 class StationRegistry:
@@ -89,6 +93,9 @@ class StationRegistry:
         """Why this station records on its own ('' while it reaches the server)."""
         self.sync_problem = ""
         """Why the last attempt to send the offline records was refused ('' when none)."""
+        self.offline_cause = ""
+        """Why it records on its own as the latest attempt found (UNREACHABLE, LOGIN_REFUSED,
+        SYNC_REFUSED; '' online): the status bar's words."""
         self.synced: list[Synced] = []
         """What each sync sent, in order (the window refreshes what it shows after one)."""
         self._url = server
@@ -120,6 +127,7 @@ class StationRegistry:
         if self._pending():
             self.offline_reason = "records made while the shared registry was unreachable " \
                                   "are waiting to be sent"
+            self.offline_cause = UNREACHABLE
             self.try_sync()
         else:
             self._mirror()
@@ -291,15 +299,21 @@ class StationRegistry:
         return f"the shared registry {server_place(self._url)}"
 
     def _go_offline(self, exc: RegistryUnreachable) -> None:
+        self._not_reached(exc)
+        log.warning("the shared registry cannot be reached; this station records on its "
+                    "own until it returns: %s", exc)
+
+    def _not_reached(self, exc: RegistryUnreachable) -> None:
+        """Why the server was not reached this time (`exc`): `offline_reason`, `offline_cause`."""
         if isinstance(exc, RegistryLoginRefused):  # not the network: say what to do
             self.offline_reason = (f"{self._shown()} refused this station's login: this "
                                    "station records on its own and sends its records once "
                                    f"it is let in. {capitalised(str(exc))}")
+            self.offline_cause = LOGIN_REFUSED
         else:
             self.offline_reason = (f"{self._shown()} cannot be reached: this station records "
                                    "on its own and sends its records when it returns")
-        log.warning("the shared registry cannot be reached; this station records on its "
-                    "own until it returns: %s", exc)
+            self.offline_cause = UNREACHABLE
 
     def try_sync(self) -> Synced | None:
         """Offline and between trials: reach the server, send what this station recorded
@@ -320,7 +334,9 @@ class StationRegistry:
                 server = self._connect(self.data_dir, server=self._url, station=self.station)
             else:
                 server.schema_version()  # reached: nothing to send proves nothing
-        except RegistryUnreachable:
+        except RegistryUnreachable as exc:
+            with self._one:
+                self._not_reached(exc)
             return None
         except RegistryError as exc:
             return self._sync_refused(exc)
@@ -336,11 +352,12 @@ class StationRegistry:
             return None  # a trial or a plan run begun while the server was reached
         try:
             synced = self._sync()
-        except RegistryUnreachable:
+        except RegistryUnreachable as exc:
+            self._not_reached(exc)
             return None
         except RegistryError as exc:
             return self._sync_refused(exc)
-        self.offline_reason = self.sync_problem = ""
+        self.offline_reason = self.sync_problem = self.offline_cause = ""
         self.synced.append(synced)
         self._mirror()
         return synced
@@ -354,6 +371,7 @@ class StationRegistry:
         if self.sync_problem != problem:
             log.error("%s", problem)
         self.sync_problem = problem
+        self.offline_cause = SYNC_REFUSED
 
     def _sync(self) -> Synced:
         path = standby_path(self.data_dir)

@@ -14,7 +14,12 @@ import pytest
 from app.errors import RegistryUnreachable
 from app.records.datadir import DataDir
 from app.records.registry import Registry
-from app.records.station import StationRegistry
+from app.records.station import (
+    LOGIN_REFUSED,
+    SYNC_REFUSED,
+    UNREACHABLE,
+    StationRegistry,
+)
 from app.records.station.mirror import standby_path
 from app.records.store import StationStore
 from core.trial import THESIS_SUBJECT
@@ -52,10 +57,12 @@ def test_a_session_goes_on_offline_and_arrives_whole_when_the_server_returns(dep
     first = _trial(station, code)
     assert not station.offline
 
+    assert station.offline_cause == ""
     network.cut()  # the server goes away mid-session
     second = _trial(station, code, {"rmse_x_mm": 2.5})
     assert station.offline
     assert "cannot be reached" in station.offline_reason
+    assert station.offline_cause == UNREACHABLE
     third = _trial(station, code, {"rmse_x_mm": 3.5})
     station.record_proposal(third.trial_id, {"assistance_level": 0.4})
     station.add_note(code, 1, "good effort after the break", author="therapist A")
@@ -69,6 +76,7 @@ def test_a_session_goes_on_offline_and_arrives_whole_when_the_server_returns(dep
     synced = station.try_sync()
     assert synced.trials == 2
     assert not station.offline
+    assert station.offline_cause == ""
     direct = Registry(data, server=url, station="robot-1")
     on_server = direct.trials_for_patient(code)
     assert _as_recorded(on_server) == _as_recorded(recorded)
@@ -167,16 +175,23 @@ def test_a_number_another_station_gave_meanwhile_refuses_the_sync_and_keeps_ever
     offline = _trial(station, code, {"rmse_x_mm": 9.0})
     other = Registry(DataDir(data.root.parent / "robot-2"), server=url, station="robot-2")
     _trial(other, code)  # robot-2 numbers trial 2 while robot-1 is cut off
+    assert station.offline_cause == UNREACHABLE
     network.restore()
     assert station.try_sync() is None
     assert station.offline
     assert "trial" in station.sync_problem
     assert "refused" in station.sync_problem
     assert "\n" not in station.sync_problem
+    # the server answers: the window must not say 'unreachable' (it did; the therapist
+    # checked a network that worked)
+    assert station.offline_cause == SYNC_REFUSED
     # nothing lost: robot-1 still has its trial 2 and goes on recording on its own
     assert station.trial(offline.trial_id).metrics["rmse_x_mm"] == 9.0
     assert _trial(station, code).trial_id > offline.trial_id
     assert [t.station for t in other.trials_for_patient(code)] == ["robot-1", "robot-2"]
+    network.cut()  # refused, then the network drops: unreachable again, not 'refused'
+    assert station.try_sync() is None
+    assert station.offline_cause == UNREACHABLE
 
 
 @pytest.mark.parametrize("how", ["named again", "kept current"])
@@ -369,6 +384,9 @@ def test_a_login_the_server_refuses_records_on_the_station_and_says_it_is_not_th
     assert "correct the user or password in the registry URL" in reason
     assert "cannot be reached" not in reason
     assert "not-the-password" not in reason
+    assert refused.offline_cause == LOGIN_REFUSED
+    assert refused.try_sync() is None  # still refused: still the login, never 'unreachable'
+    assert refused.offline_cause == LOGIN_REFUSED
     refused.close()
     again = StationRegistry(data, network.url(url), station="robot-1")  # the URL corrected
     assert not again.offline
