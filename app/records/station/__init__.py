@@ -56,6 +56,7 @@ from app.records.station.refresh import (
     write_changes,
 )
 from app.records.station.sync import Synced, SyncRefused, already_sent, replay
+from app.records.station.waiting import clear_refusal, keep_refusal
 from core.errors import capitalised
 from device.safewrite import OutputRefused, make_private_folders
 
@@ -358,6 +359,7 @@ class StationRegistry:
         except RegistryError as exc:
             return self._sync_refused(exc)
         self.offline_reason = self.sync_problem = self.offline_cause = ""
+        clear_refusal(self.data_dir)
         self.synced.append(synced)
         self._mirror()
         return synced
@@ -370,6 +372,10 @@ class StationRegistry:
                    "(docs/stations.md, Offline stations)")
         if self.sync_problem != problem:
             log.error("%s", problem)
+            try:
+                keep_refusal(self.data_dir, problem)  # for `rehab db status`
+            except OSError as exc:  # the station goes on: only the status line lacks it
+                log.warning("the sync's refusal was not kept for rehab db status: %s", exc)
         self.sync_problem = problem
         self.offline_cause = SYNC_REFUSED
 
@@ -433,6 +439,7 @@ class StationRegistry:
                 with contextlib.suppress(FileNotFoundError):
                     os.rename(f"{path}{suffix}", f"{kept}{suffix}")
             self._standby = None
+            clear_refusal(self.data_dir)  # it was about the standby set aside
             self.sync_problem = (f"this station's standby registry was damaged ({exc}); it is "
                                  f"kept as {kept} for the registry's owner, and records made "
                                  "offline that it held were not sent")

@@ -436,6 +436,30 @@ def test_db_status_says_what_waits_on_the_station_whether_the_server_answers_or_
     assert "this station" not in out
     assert "trials 3," in out
 
+    # a sync the server refuses: the line says so, not that the window will send them
+    network.cut()
+    _trial(station, code, {"rmse_x_mm": 7.0})
+    other = Registry(DataDir(data.root.parent / "robot-2"), server=url, station="robot-2")
+    taken = _trial(other, code, finish=False)  # robot-2 numbers trial 4 meanwhile
+    network.restore()
+    assert station.try_sync() is None
+    code_now, out, _ = run(["db", "status"], capsys)
+    assert code_now == 0
+    first = out.splitlines()[0]
+    assert first.startswith(f"this station: 1 trial(s) (1 record(s) in all) recorded or "
+                            f"changed while the shared registry was unreachable wait in "
+                            f"{standby_path(data)}, not on the server yet: the window's last "
+                            "attempt to send them (")
+    assert ") was refused: the records this station made offline were not sent: " in first
+    assert "trial number 4 is not the next one" in first
+    assert "sends them once it runs" not in first
+    # resolved (here: robot-2's trial withdrawn), the next sync goes through: said no more
+    other.withdraw_trial(taken.trial_id, "taken back")
+    assert station.try_sync().trials == 1
+    assert [t.metrics.get("rmse_x_mm") for t in other.trials_for_patient(code)][-1] == 7.0
+    code_now, out, _ = run(["db", "status"], capsys)
+    assert "this station" not in out
+
 
 def test_a_network_that_drops_everything_is_seen_in_seconds_and_the_session_goes_on(
         department, monkeypatch):
