@@ -18,11 +18,11 @@ REASON = "the shared registry 127.0.0.1:5432/rehab cannot be reached: …"
 PROBLEM = "the records this station made offline were not sent: … trial number 3 …"
 
 
-def _shown(cause: str, qtbot) -> QLabel:
+def _shown(cause: str, qtbot, said: list[str] | None = None) -> QLabel:
     label = QLabel("")
     qtbot.addWidget(label)
-    said: list[str] = []
-    win = SimpleNamespace(registry_label=label, _was_offline=True,
+    said = [] if said is None else said
+    win = SimpleNamespace(registry_label=label, _was_offline=False,
                           _say=lambda text, problem=False: said.append(text),
                           registry=SimpleNamespace(offline_cause=cause, sync_problem=PROBLEM,
                                                    offline_reason=REASON))
@@ -44,3 +44,16 @@ def test_the_status_bar_says_why_the_station_records_on_its_own(qtbot, cause, wo
 def test_only_an_unreached_server_is_called_unreachable():
     assert "unreachable" not in LOGIN_REFUSED + SYNC_REFUSED
     assert len({UNREACHABLE, LOGIN_REFUSED, SYNC_REFUSED}) == 3
+
+
+@pytest.mark.parametrize(("cause", "says"), [
+    (station.UNREACHABLE, [REASON]), (station.LOGIN_REFUSED, [REASON]),
+    (station.SYNC_REFUSED, [])])
+def test_going_offline_says_why_once_and_never_after_a_refusal(qtbot, cause, says):
+    """A station opened with records waiting whose sync the server refuses: the window says
+    the refusal as the station opens; the message line then read 'Records made while the
+    shared registry was unreachable are waiting to be sent' over it (a sync that could not
+    come)."""
+    said: list[str] = []
+    _shown(cause, qtbot, said)
+    assert [text.lower() for text in said] == [text.lower() for text in says]

@@ -127,7 +127,10 @@ class StationStatus:
             self.registry_label.setStyleSheet(f"color: {theme.PROBLEM_TEXT};")
             self.registry_label.setToolTip(registry.sync_problem if cause == station.SYNC_REFUSED
                                            else registry.offline_reason)
-            if not self._was_offline:
+            # the refusal was said where it was found (as the station opened, or its sync's
+            # answer); the offline reason then ("… waiting to be sent") said after it,
+            # on the message line over the refusal, promised a sync that could not come
+            if not self._was_offline and cause != station.SYNC_REFUSED:
                 self._say(capitalised(registry.offline_reason),
                           problem=True)
         else:
