@@ -182,6 +182,14 @@ def test_a_number_another_station_gave_meanwhile_refuses_the_sync_and_keeps_ever
     assert "trial" in station.sync_problem
     assert "refused" in station.sync_problem
     assert "\n" not in station.sync_problem
+    # which trial holds the number, and no 'use 3' (the server's words for a typed number,
+    # which nobody can type here)
+    (theirs,) = [t for t in other.trials_for_patient(code) if t.station == "robot-2"]
+    assert (f"was refused by the shared registry 127.0.0.1:{network.port}/{url.database}: "
+            "its number, trial 2 of session 1, is the number of station robot-2's trial "
+            f"begun meanwhile, at {theirs.started_at:%Y-%m-%d %H:%M} UTC. Nothing is lost"
+            ) in station.sync_problem
+    assert "; use " not in station.sync_problem
     # the server answers: the window must not say 'unreachable' (it did; the therapist
     # checked a network that worked)
     assert station.offline_cause == SYNC_REFUSED
@@ -451,7 +459,7 @@ def test_db_status_says_what_waits_on_the_station_whether_the_server_answers_or_
                             f"{standby_path(data)}, not on the server yet: the window's last "
                             "attempt to send them (")
     assert ") was refused: the records this station made offline were not sent: " in first
-    assert "trial number 4 is not the next one" in first
+    assert "its number, trial 4 of session 1, is the number of station robot-2's" in first
     assert "sends them once it runs" not in first
     # resolved (here: robot-2's trial withdrawn), the next sync goes through: said no more
     other.withdraw_trial(taken.trial_id, "taken back")
