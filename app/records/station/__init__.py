@@ -38,14 +38,15 @@ from app.records.registry import Registry
 from app.records.registry.database import file_state
 from app.records.registry.patients import is_code
 from app.records.registry.url import server_place, shown_url
-from app.records.safewrite import atomic_path
 from app.records.station.mirror import (
     OFFLINE,
     StandbyDataDir,
     build_standby,
     changes,
+    keep_sent,
     manifest,
     patient_rows,
+    stamp,
     standby_path,
     standby_rows,
 )
@@ -398,24 +399,11 @@ class StationRegistry:
                 log.warning("the offline records had arrived at the last attempt")
             else:
                 synced = replay(conn, work, self._shown())
-        kept = self._keep_sent(path)
+        kept = keep_sent(path)
+        self._standby = self._built = None
         log.info("sent the offline records to the shared registry: %s added, %s changed; "
                  "the standby kept as %s", synced.added, synced.changed, kept.name)
         return synced
-
-    def _keep_sent(self, path: Path) -> Path:
-        """The standby as it was sent, kept beside it (`synced-<UTC>.sqlite3`), then
-        removed: the next mirror starts from the server."""
-        kept = path.with_name(f"synced-{_stamp()}.sqlite3")
-        with contextlib.closing(sqlite3.connect(path)) as source, \
-                atomic_path(kept, owned=True) as temporary, \
-                contextlib.closing(sqlite3.connect(temporary)) as copy:
-            source.backup(copy)
-        for suffix in ("", "-wal", "-shm"):
-            with contextlib.suppress(FileNotFoundError):
-                os.unlink(f"{path}{suffix}")
-        self._standby = self._built = None
-        return kept
 
     # -- the standby ---------------------------------------------------------------------
     def _standby_registry(self) -> Registry:
@@ -437,7 +425,7 @@ class StationRegistry:
         try:
             self._pending()
         except RegistryError as exc:
-            kept = path.with_name(f"damaged-{_stamp()}.sqlite3")
+            kept = path.with_name(f"damaged-{stamp()}.sqlite3")
             for suffix in ("", "-wal", "-shm"):
                 with contextlib.suppress(FileNotFoundError):
                     os.rename(f"{path}{suffix}", f"{kept}{suffix}")
@@ -519,8 +507,3 @@ class StationRegistry:
                         "cannot be made: %s): this one records on the server only", exc)
             return False
         return True
-
-
-def _stamp() -> str:
-    return datetime.datetime.now(datetime.UTC).strftime("%Y%m%dT%H%M%S.%fZ")
-
