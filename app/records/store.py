@@ -235,6 +235,9 @@ class StationStore(RecordStore, Protocol):
     """Why it records on its own ('' while it reaches the server)."""
     sync_problem: str
     """Why its offline records were not sent ('' when nothing stands in the way)."""
+    offline_cause: str
+    """What keeps it on its own: app.records.station's UNREACHABLE, LOGIN_REFUSED or
+    SYNC_REFUSED ('' while it reaches the server)."""
     synced: list
     """What each sync sent (app.records.station.sync.Synced, its `trials` counted), in
     order: one as it opened sent what an earlier session recorded offline."""

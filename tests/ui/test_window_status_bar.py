@@ -9,7 +9,7 @@ import pytest
 from tests.ui.session import open_window
 from ui import theme
 from ui.views.loop_health import WARN_ROBOT, WARN_SIMULATOR
-from ui.window.station import UNREACHABLE
+from ui.window.station import LOGIN_REFUSED, SYNC_REFUSED, UNREACHABLE
 
 
 @pytest.fixture
@@ -32,8 +32,9 @@ def _laid_out(win):
     return bar
 
 
+@pytest.mark.parametrize("reach", [UNREACHABLE, LOGIN_REFUSED, SYNC_REFUSED])
 @pytest.mark.parametrize("warning", [WARN_SIMULATOR, WARN_ROBOT])
-def test_both_warnings_are_whole_beside_long_robot_words(qtbot, window, warning):
+def test_both_warnings_are_whole_beside_long_robot_words(qtbot, window, warning, reach):
     win = window
     win.state_label.setText("<b>Connected</b>")
     robot = "simulator (healthy, a new seed each trial)"
@@ -41,7 +42,7 @@ def test_both_warnings_are_whole_beside_long_robot_words(qtbot, window, warning)
     win.backend_label.setText(robot)
     win.trial_label.setText(trial)
     win.health_label.setText(warning)
-    win.registry_label.setText(f"{theme.PROBLEM_SIGN} {UNREACHABLE}")
+    win.registry_label.setText(f"{theme.PROBLEM_SIGN} {reach}")
     bar = _laid_out(win)
     for label in (win.health_label, win.registry_label):
         assert label.width() >= label.sizeHint().width(), (

@@ -16,6 +16,7 @@ from __future__ import annotations
 from PySide6.QtCore import QTimer
 from PySide6.QtWidgets import QLabel
 
+from app.records import station
 from app.records.store import StationStore
 from core.errors import capitalised
 from device.loop.states import State
@@ -28,6 +29,18 @@ of the current patient up to the server's: what other stations recorded for them
 
 UNREACHABLE = "Shared registry unreachable: recording on this station"
 """The status bar's words while the server cannot be reached (its cause in the tooltip)."""
+
+LOGIN_REFUSED = "Shared registry refused this login: recording on this station"
+"""… while the server answers and refuses this station's login (what to do in the tooltip)."""
+
+SYNC_REFUSED = "Shared registry refused the offline records: recording on this station"
+"""… while the server answers and refused what this station recorded offline (another
+station recorded for the same patient meanwhile: the registry's owner resolves it; why in
+the tooltip). It said 'unreachable' there, and a therapist checked a network that worked."""
+
+REACH_WORDS = {station.UNREACHABLE: UNREACHABLE, station.LOGIN_REFUSED: LOGIN_REFUSED,
+               station.SYNC_REFUSED: SYNC_REFUSED}
+"""The status bar's words for each `StationRegistry.offline_cause`."""
 
 SYNC_EVERY_MS = 5000
 """How often an offline station tries to reach the server again (a connection refused is
@@ -108,11 +121,16 @@ class StationStatus:
     def _show_reach(self, offline: bool) -> None:
         registry = self.registry
         if offline:
-            problem = registry.sync_problem
-            self.registry_label.setText(f"{theme.PROBLEM_SIGN} {UNREACHABLE}")
+            cause = registry.offline_cause
+            words = REACH_WORDS.get(cause, UNREACHABLE)
+            self.registry_label.setText(f"{theme.PROBLEM_SIGN} {words}")
             self.registry_label.setStyleSheet(f"color: {theme.PROBLEM_TEXT};")
-            self.registry_label.setToolTip(problem or registry.offline_reason)
-            if not self._was_offline:
+            self.registry_label.setToolTip(registry.sync_problem if cause == station.SYNC_REFUSED
+                                           else registry.offline_reason)
+            # the refusal was said where it was found (as the station opened, or its sync's
+            # answer); the offline reason then ("… waiting to be sent") said after it,
+            # on the message line over the refusal, promised a sync that could not come
+            if not self._was_offline and cause != station.SYNC_REFUSED:
                 self._say(capitalised(registry.offline_reason),
                           problem=True)
         else:

@@ -34,7 +34,7 @@ import sqlalchemy as sa
 from sqlalchemy.exc import ArgumentError
 
 from app.errors import RegistryURLError
-from app.records.datadir import DataDir
+from app.records.datadir import OFFLINE, DataDir
 from app.records.settings import ENV_CONFIG_DIR, config_dir
 from device.safewrite import folder_problem, os_reason, shown, user_name
 
@@ -105,6 +105,16 @@ def registry_url(data_dir: DataDir, path: str | os.PathLike | None = None) -> Re
     file is there but not private to this user, or holds no URL this console can use."""
     path = Path(path) if path is not None else url_file()
     text = read_private_line(path)
+    if text is None and (data_dir.root / OFFLINE).is_dir() \
+            and not data_dir.registry_path.exists():
+        # a station's folder (its standby) with its URL file out of reach (another HOME,
+        # sudo, a wrong REHAB_CONFIG_DIR): it said "the registry … is missing, but … holds
+        # trial files: restore the registry from a backup", which the station never had
+        raise RegistryURLError(
+            f"the data folder {data_dir.root} is a station's on a shared registry (it has "
+            f"an {OFFLINE} folder), but there is no registry URL file at {shown(path)}: run "
+            "this as the station's user, set REHAB_CONFIG_DIR to the folder that holds its "
+            "registry.url, or put that file there (mode 600; README, Several stations)")
     if text is None:
         default = sa.URL.create(f"{SQLITE}+{DRIVERS[SQLITE]}",
                                 database=str(data_dir.registry_path))

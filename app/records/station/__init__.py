@@ -38,14 +38,15 @@ from app.records.registry import Registry
 from app.records.registry.database import file_state
 from app.records.registry.patients import is_code
 from app.records.registry.url import server_place, shown_url
-from app.records.safewrite import atomic_path
 from app.records.station.mirror import (
     OFFLINE,
     StandbyDataDir,
     build_standby,
     changes,
+    keep_sent,
     manifest,
     patient_rows,
+    stamp,
     standby_path,
     standby_rows,
 )
@@ -55,7 +56,8 @@ from app.records.station.refresh import (
     server_changes,
     write_changes,
 )
-from app.records.station.sync import Synced, SyncRefused, already_sent, replay
+from app.records.station.sync import Synced, SyncRefused, already_sent, replay, taken_by
+from app.records.station.waiting import clear_refusal, keep_refusal
 from core.errors import capitalised
 from device.safewrite import OutputRefused, make_private_folders
 
@@ -69,11 +71,15 @@ WRITES = frozenset((
     "update_metrics", "update_patient", "update_session", "withdraw_trial"))
 """The calls that record something: after each, online, the standby is mirrored again."""
 
+UNREACHABLE, LOGIN_REFUSED, SYNC_REFUSED = "unreachable", "login refused", "sync refused"
+"""`StationRegistry.offline_cause`: why the station records on its own."""
+
 MIRRORED_PATIENTS = 8
 """The patients a standby holds: the last this station opened or recorded for (a
 station's session is one patient at a time; a day's few fit)."""
 
-__all__ = ["MIRRORED_PATIENTS", "StationRegistry", "SyncRefused", "Synced"]
+__all__ = ["LOGIN_REFUSED", "MIRRORED_PATIENTS", "SYNC_REFUSED", "UNREACHABLE", "StationRegistry",
+           "SyncRefused", "Synced"]
 
 
 class StationRegistry:
@@ -89,6 +95,9 @@ class StationRegistry:
         """Why this station records on its own ('' while it reaches the server)."""
         self.sync_problem = ""
         """Why the last attempt to send the offline records was refused ('' when none)."""
+        self.offline_cause = ""
+        """Why it records on its own as the latest attempt found (UNREACHABLE, LOGIN_REFUSED,
+        SYNC_REFUSED; '' online): the status bar's words."""
         self.synced: list[Synced] = []
         """What each sync sent, in order (the window refreshes what it shows after one)."""
         self._url = server
@@ -120,6 +129,7 @@ class StationRegistry:
         if self._pending():
             self.offline_reason = "records made while the shared registry was unreachable " \
                                   "are waiting to be sent"
+            self.offline_cause = UNREACHABLE
             self.try_sync()
         else:
             self._mirror()
@@ -291,15 +301,21 @@ class StationRegistry:
         return f"the shared registry {server_place(self._url)}"
 
     def _go_offline(self, exc: RegistryUnreachable) -> None:
+        self._not_reached(exc)
+        log.warning("the shared registry cannot be reached; this station records on its "
+                    "own until it returns: %s", exc)
+
+    def _not_reached(self, exc: RegistryUnreachable) -> None:
+        """Why the server was not reached this time (`exc`): `offline_reason`, `offline_cause`."""
         if isinstance(exc, RegistryLoginRefused):  # not the network: say what to do
             self.offline_reason = (f"{self._shown()} refused this station's login: this "
                                    "station records on its own and sends its records once "
                                    f"it is let in. {capitalised(str(exc))}")
+            self.offline_cause = LOGIN_REFUSED
         else:
             self.offline_reason = (f"{self._shown()} cannot be reached: this station records "
                                    "on its own and sends its records when it returns")
-        log.warning("the shared registry cannot be reached; this station records on its "
-                    "own until it returns: %s", exc)
+            self.offline_cause = UNREACHABLE
 
     def try_sync(self) -> Synced | None:
         """Offline and between trials: reach the server, send what this station recorded
@@ -320,7 +336,9 @@ class StationRegistry:
                 server = self._connect(self.data_dir, server=self._url, station=self.station)
             else:
                 server.schema_version()  # reached: nothing to send proves nothing
-        except RegistryUnreachable:
+        except RegistryUnreachable as exc:
+            with self._one:
+                self._not_reached(exc)
             return None
         except RegistryError as exc:
             return self._sync_refused(exc)
@@ -336,24 +354,34 @@ class StationRegistry:
             return None  # a trial or a plan run begun while the server was reached
         try:
             synced = self._sync()
-        except RegistryUnreachable:
+        except RegistryUnreachable as exc:
+            self._not_reached(exc)
             return None
         except RegistryError as exc:
             return self._sync_refused(exc)
-        self.offline_reason = self.sync_problem = ""
+        self.offline_reason = self.sync_problem = self.offline_cause = ""
+        clear_refusal(self.data_dir)
         self.synced.append(synced)
         self._mirror()
         return synced
 
     def _sync_refused(self, exc: RegistryError) -> None:
         """The sync refused (`exc`): kept in `sync_problem`, logged once; nothing lost."""
+        if isinstance(exc, SyncRefused) and exc.taken is not None:
+            with contextlib.suppress(RegistryError), self._server._read() as conn:
+                exc = taken_by(conn, exc, self._shown()) or exc
         problem = (f"the records this station made offline were not sent: {exc}. Nothing "
                    f"is lost: they stay in {standby_path(self.data_dir)} and this station "
                    "goes on recording on its own until the registry's owner resolves it "
                    "(docs/stations.md, Offline stations)")
         if self.sync_problem != problem:
             log.error("%s", problem)
+            try:
+                keep_refusal(self.data_dir, problem)  # for `rehab db status`
+            except OSError as exc:  # the station goes on: only the status line lacks it
+                log.warning("the sync's refusal was not kept for rehab db status: %s", exc)
         self.sync_problem = problem
+        self.offline_cause = SYNC_REFUSED
 
     def _sync(self) -> Synced:
         path = standby_path(self.data_dir)
@@ -371,24 +399,11 @@ class StationRegistry:
                 log.warning("the offline records had arrived at the last attempt")
             else:
                 synced = replay(conn, work, self._shown())
-        kept = self._keep_sent(path)
+        kept = keep_sent(path)
+        self._standby = self._built = None
         log.info("sent the offline records to the shared registry: %s added, %s changed; "
                  "the standby kept as %s", synced.added, synced.changed, kept.name)
         return synced
-
-    def _keep_sent(self, path: Path) -> Path:
-        """The standby as it was sent, kept beside it (`synced-<UTC>.sqlite3`), then
-        removed: the next mirror starts from the server."""
-        kept = path.with_name(f"synced-{_stamp()}.sqlite3")
-        with contextlib.closing(sqlite3.connect(path)) as source, \
-                atomic_path(kept, owned=True) as temporary, \
-                contextlib.closing(sqlite3.connect(temporary)) as copy:
-            source.backup(copy)
-        for suffix in ("", "-wal", "-shm"):
-            with contextlib.suppress(FileNotFoundError):
-                os.unlink(f"{path}{suffix}")
-        self._standby = self._built = None
-        return kept
 
     # -- the standby ---------------------------------------------------------------------
     def _standby_registry(self) -> Registry:
@@ -410,11 +425,12 @@ class StationRegistry:
         try:
             self._pending()
         except RegistryError as exc:
-            kept = path.with_name(f"damaged-{_stamp()}.sqlite3")
+            kept = path.with_name(f"damaged-{stamp()}.sqlite3")
             for suffix in ("", "-wal", "-shm"):
                 with contextlib.suppress(FileNotFoundError):
                     os.rename(f"{path}{suffix}", f"{kept}{suffix}")
             self._standby = None
+            clear_refusal(self.data_dir)  # it was about the standby set aside
             self.sync_problem = (f"this station's standby registry was damaged ({exc}); it is "
                                  f"kept as {kept} for the registry's owner, and records made "
                                  "offline that it held were not sent")
@@ -491,8 +507,3 @@ class StationRegistry:
                         "cannot be made: %s): this one records on the server only", exc)
             return False
         return True
-
-
-def _stamp() -> str:
-    return datetime.datetime.now(datetime.UTC).strftime("%Y%m%dT%H%M%S.%fZ")
-

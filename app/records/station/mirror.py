@@ -23,6 +23,7 @@ only while it holds nothing unsynced: what a station recorded offline is never o
 from __future__ import annotations
 
 import contextlib
+import datetime
 import json
 import os
 import sqlite3
@@ -38,6 +39,7 @@ from app.records.datadir import OFFLINE, REGISTRY_NAME, DataDir
 from app.records.registry import numbering, seals
 from app.records.registry.postgres.tables import REGISTRY_TABLES, metadata
 from app.records.registry.schema import MIGRATIONS, SCHEMA_VERSION
+from app.records.safewrite import atomic_path
 from device.safewrite import make_private_folders
 
 _TRIALS_OF = "SELECT t.id FROM trials t JOIN sessions s ON s.id = t.session_id " \
@@ -129,6 +131,25 @@ def rows_of(conn: sa.Connection, table: str, patient: int, where: str = "",
 
 def standby_path(data_dir: DataDir) -> Path:
     return StandbyDataDir(data_dir.root).registry_path
+
+
+def stamp() -> str:
+    """Now, UTC, for the name of a standby kept aside."""
+    return datetime.datetime.now(datetime.UTC).strftime("%Y%m%dT%H%M%S.%fZ")
+
+
+def keep_sent(path: Path) -> Path:
+    """The standby at `path` as it was sent, kept beside it (`synced-<UTC>.sqlite3`), then
+    removed: the next mirror starts from the server."""
+    kept = path.with_name(f"synced-{stamp()}.sqlite3")
+    with contextlib.closing(sqlite3.connect(path)) as source, \
+            atomic_path(kept, owned=True) as temporary, \
+            contextlib.closing(sqlite3.connect(temporary)) as copy:
+        source.backup(copy)
+    for suffix in ("", "-wal", "-shm"):
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(f"{path}{suffix}")
+    return kept
 
 
 def build_standby(data_dir: DataDir, rows: Patients, server: str, built_at: str) -> None:

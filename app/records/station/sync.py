@@ -40,7 +40,13 @@ from app.records.station.mirror import Change, key_columns
 
 class SyncRefused(RegistryError):
     """The station's offline records cannot be sent as they are: another station changed or
-    numbered the same patient's records meanwhile (the line says which)."""
+    numbered the same patient's records meanwhile (the line says which). `taken`: a trial
+    added offline whose number the server refused, as (the trial, the server's session id,
+    its number), for `taken_by` to name the trial that holds it."""
+
+    def __init__(self, line: str, taken: tuple[str, int, int] | None = None) -> None:
+        super().__init__(line)
+        self.taken = taken
 
 
 @dataclass(frozen=True, slots=True)
@@ -83,8 +89,8 @@ def replay(conn: sa.Connection, work: list[Change], where: str) -> Synced:
     added = dict.fromkeys(REGISTRY_TABLES, 0)
     changed = dict.fromkeys(REGISTRY_TABLES, 0)
     for change in work:
+        values = _mapped(change, ids)
         try:
-            values = _mapped(change, ids)
             if change.mirrored is None:
                 seal = _add(conn, change.table, values, ids[change.table])
                 added[change.table] += 1
@@ -94,14 +100,38 @@ def replay(conn: sa.Connection, work: list[Change], where: str) -> Synced:
         except sa.exc.IntegrityError as exc:  # the server's rules refused the row
             diag = getattr(exc.orig, "diag", None)
             reason = getattr(diag, "message_primary", None) or str(exc.orig).splitlines()[0]
+            taken = (_named(change), values["session_id"], values["number"]) \
+                if change.table == "trials" and change.mirrored is None else None
             raise SyncRefused(f"{_named(change)} was refused by {where} ({reason}): another "
-                              "station recorded for the same patient meanwhile") from None
+                              "station recorded for the same patient meanwhile",
+                              taken) from None
         sent = seals.seal_of(change.table, *(values[c] for c in seals.SEALED[change.table]))
         if seal != sent:
             raise SyncRefused(f"{_named(change)} did not arrive unchanged at {where} (its "
                               "seal there differs from the values sent)")
     return Synced({t: n for t, n in added.items() if n},
                   {t: n for t, n in changed.items() if n}, dict(ids["trials"]))
+
+
+def taken_by(conn: sa.Connection, refused: SyncRefused, where: str) -> str | None:
+    """The refusal of a trial whose number the server holds for another trial, naming that
+    trial's station and start: the server's own words ('… not the next one …; use 12')
+    asked for a number nobody could type, and not whose trial took it. None when the server
+    holds no trial at that number (the refusal was another rule's)."""
+    if refused.taken is None:
+        return None
+    named, session_id, number = refused.taken
+    trials, sessions = metadata.tables["trials"], metadata.tables["sessions"]
+    row = conn.execute(
+        sa.select(trials.c.station, trials.c.started_at, sessions.c.number)
+        .join(sessions, sessions.c.id == trials.c.session_id)
+        .where(trials.c.session_id == session_id, trials.c.number == number)).first()
+    if row is None:
+        return None
+    station, started, session = row
+    return (f"{named} was refused by {where}: its number, trial {number} of session "
+            f"{session}, is the number of station {station or '(not recorded)'}'s trial "
+            f"begun meanwhile, at {started[:16].replace('T', ' ')} UTC")
 
 
 def _values(change: Change) -> dict:

@@ -59,6 +59,21 @@ def test_without_a_url_file_the_data_folders_sqlite_registry_is_used(config, dat
                             f"at {config / URL_NAME}")
 
 
+def test_a_stations_data_folder_without_its_url_file_is_refused_saying_so(config, data_dir):
+    """A station's folder (trial files, its standby in offline/, no registry.sqlite3) opened
+    without its registry.url (another user's HOME, sudo, a wrong REHAB_CONFIG_DIR): it said
+    'the registry … is missing, but … holds 4 trial file(s): restore the registry from a
+    backup', a registry the station never had."""
+    (data_dir.root / "offline").mkdir(parents=True)
+    assert refusal(data_dir) == (
+        f"the data folder {data_dir.root} is a station's on a shared registry (it has an "
+        f"offline folder), but there is no registry URL file at {config / URL_NAME}: run "
+        "this as the station's user, set REHAB_CONFIG_DIR to the folder that holds its "
+        "registry.url, or put that file there (mode 600; README, Several stations)")
+    data_dir.registry_path.write_bytes(b"")  # a folder with a registry of its own: as always
+    assert registry_url(data_dir).engine == "sqlite"
+
+
 def test_a_postgresql_url_is_read_and_shown_without_its_password(config, data_dir):
     write(config, f"# the department's registry\n\npostgresql://station3:{SECRET}@"
                   "registry.clinic.local:5433/rehab\n")

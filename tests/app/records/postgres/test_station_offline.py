@@ -14,7 +14,12 @@ import pytest
 from app.errors import RegistryUnreachable
 from app.records.datadir import DataDir
 from app.records.registry import Registry
-from app.records.station import StationRegistry
+from app.records.station import (
+    LOGIN_REFUSED,
+    SYNC_REFUSED,
+    UNREACHABLE,
+    StationRegistry,
+)
 from app.records.station.mirror import standby_path
 from app.records.store import StationStore
 from core.trial import THESIS_SUBJECT
@@ -52,10 +57,12 @@ def test_a_session_goes_on_offline_and_arrives_whole_when_the_server_returns(dep
     first = _trial(station, code)
     assert not station.offline
 
+    assert station.offline_cause == ""
     network.cut()  # the server goes away mid-session
     second = _trial(station, code, {"rmse_x_mm": 2.5})
     assert station.offline
     assert "cannot be reached" in station.offline_reason
+    assert station.offline_cause == UNREACHABLE
     third = _trial(station, code, {"rmse_x_mm": 3.5})
     station.record_proposal(third.trial_id, {"assistance_level": 0.4})
     station.add_note(code, 1, "good effort after the break", author="therapist A")
@@ -69,6 +76,7 @@ def test_a_session_goes_on_offline_and_arrives_whole_when_the_server_returns(dep
     synced = station.try_sync()
     assert synced.trials == 2
     assert not station.offline
+    assert station.offline_cause == ""
     direct = Registry(data, server=url, station="robot-1")
     on_server = direct.trials_for_patient(code)
     assert _as_recorded(on_server) == _as_recorded(recorded)
@@ -167,16 +175,31 @@ def test_a_number_another_station_gave_meanwhile_refuses_the_sync_and_keeps_ever
     offline = _trial(station, code, {"rmse_x_mm": 9.0})
     other = Registry(DataDir(data.root.parent / "robot-2"), server=url, station="robot-2")
     _trial(other, code)  # robot-2 numbers trial 2 while robot-1 is cut off
+    assert station.offline_cause == UNREACHABLE
     network.restore()
     assert station.try_sync() is None
     assert station.offline
     assert "trial" in station.sync_problem
     assert "refused" in station.sync_problem
     assert "\n" not in station.sync_problem
+    # which trial holds the number, and no 'use 3' (the server's words for a typed number,
+    # which nobody can type here)
+    (theirs,) = [t for t in other.trials_for_patient(code) if t.station == "robot-2"]
+    assert (f"was refused by the shared registry 127.0.0.1:{network.port}/{url.database}: "
+            "its number, trial 2 of session 1, is the number of station robot-2's trial "
+            f"begun meanwhile, at {theirs.started_at:%Y-%m-%d %H:%M} UTC. Nothing is lost"
+            ) in station.sync_problem
+    assert "; use " not in station.sync_problem
+    # the server answers: the window must not say 'unreachable' (it did; the therapist
+    # checked a network that worked)
+    assert station.offline_cause == SYNC_REFUSED
     # nothing lost: robot-1 still has its trial 2 and goes on recording on its own
     assert station.trial(offline.trial_id).metrics["rmse_x_mm"] == 9.0
     assert _trial(station, code).trial_id > offline.trial_id
     assert [t.station for t in other.trials_for_patient(code)] == ["robot-1", "robot-2"]
+    network.cut()  # refused, then the network drops: unreachable again, not 'refused'
+    assert station.try_sync() is None
+    assert station.offline_cause == UNREACHABLE
 
 
 @pytest.mark.parametrize("how", ["named again", "kept current"])
@@ -369,6 +392,9 @@ def test_a_login_the_server_refuses_records_on_the_station_and_says_it_is_not_th
     assert "correct the user or password in the registry URL" in reason
     assert "cannot be reached" not in reason
     assert "not-the-password" not in reason
+    assert refused.offline_cause == LOGIN_REFUSED
+    assert refused.try_sync() is None  # still refused: still the login, never 'unreachable'
+    assert refused.offline_cause == LOGIN_REFUSED
     refused.close()
     again = StationRegistry(data, network.url(url), station="robot-1")  # the URL corrected
     assert not again.offline
@@ -417,6 +443,30 @@ def test_db_status_says_what_waits_on_the_station_whether_the_server_answers_or_
     code_now, out, _ = run(["db", "status"], capsys)
     assert "this station" not in out
     assert "trials 3," in out
+
+    # a sync the server refuses: the line says so, not that the window will send them
+    network.cut()
+    _trial(station, code, {"rmse_x_mm": 7.0})
+    other = Registry(DataDir(data.root.parent / "robot-2"), server=url, station="robot-2")
+    taken = _trial(other, code, finish=False)  # robot-2 numbers trial 4 meanwhile
+    network.restore()
+    assert station.try_sync() is None
+    code_now, out, _ = run(["db", "status"], capsys)
+    assert code_now == 0
+    first = out.splitlines()[0]
+    assert first.startswith(f"this station: 1 trial(s) (1 record(s) in all) recorded or "
+                            f"changed while the shared registry was unreachable wait in "
+                            f"{standby_path(data)}, not on the server yet: the window's last "
+                            "attempt to send them (")
+    assert ") was refused: the records this station made offline were not sent: " in first
+    assert "its number, trial 4 of session 1, is the number of station robot-2's" in first
+    assert "sends them once it runs" not in first
+    # resolved (here: robot-2's trial withdrawn), the next sync goes through: said no more
+    other.withdraw_trial(taken.trial_id, "taken back")
+    assert station.try_sync().trials == 1
+    assert [t.metrics.get("rmse_x_mm") for t in other.trials_for_patient(code)][-1] == 7.0
+    code_now, out, _ = run(["db", "status"], capsys)
+    assert "this station" not in out
 
 
 def test_a_network_that_drops_everything_is_seen_in_seconds_and_the_session_goes_on(
