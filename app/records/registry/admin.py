@@ -56,6 +56,10 @@ class Status:
     damaged: str | None = None
 
 
+NOTHING_TO_DO = ": nothing to do"
+"""The end of an upgrade's line when the registry is already this console's."""
+
+
 def schema_line(version: int | None) -> str:
     """The registry's schema against this console's, and whether an upgrade is due."""
     mine = f"this console v{SCHEMA_VERSION}"
@@ -261,7 +265,9 @@ def _server_upgrade(location: RegistryURL, roles: Roles, source: Path | None = N
                             "or the data folder holding it")
     where = location.shown
     with _read_only(path) as file, _server(location, autocommit=False) as conn, conn.begin():
-        done = _server_schema(location, roles, conn)
+        # the schema's line without its "nothing to do": the copy is something to do
+        # (it read "…, this console's: nothing to do; the registry … copied into it")
+        done = _server_schema(location, roles, conn).removesuffix(NOTHING_TO_DO)
         copied = copy_registry(file, str(path), conn, where)
     rows = ", ".join(f"{table} {n}" for table, n in copied.items())
     return (f"{done}; the registry {path} copied into it ({rows}): every row's seal on the "
@@ -290,8 +296,8 @@ def _server_schema(location: RegistryURL, roles: Roles, conn: sa.Connection | No
                           "Update the console; nothing was changed")
     if version == SCHEMA_VERSION:
         if trials_uncompressed(conn):
-            return (f"the registry at {where} is at schema v{version}, this console's: "
-                    "nothing to do")
+            return (f"the registry at {where} is at schema v{version}, this console's"
+                    f"{NOTHING_TO_DO}")
         conn.exec_driver_sql(TRIALS_UNCOMPRESSED)
         return (f"the registry at {where} is at schema v{version}, this console's; its "
                 "trials written from now on are stored uncompressed (a faster progress "

@@ -79,6 +79,7 @@ def test_a_registry_file_is_copied_onto_the_server_keeping_every_record(
     assert (code, err) == (0, "")
     assert "copied into it (patients 2, sessions 3, trials 4, proposals 4, plans 1" in out
     assert "every row's seal on the server is the file's" in out
+    assert "nothing to do" not in out  # "…: nothing to do; the registry … copied into it"
 
     login = sa.make_url(server.url(server.clinic_login))
     moved = Registry(DataDir(tmp_path / "clinic"), server=login, station="robot-2")
