@@ -23,6 +23,9 @@ def test_a_station_records_a_trial_in_the_shared_registry(qtbot, tmp_path, monke
             "Rehabilitation robot console — station robot-7 · shared registry "
             f"127.0.0.1:{url.port}/{url.database}")
         assert url.password not in win.windowTitle()
+        # where the names are: the tab said "this computer's registry" on a station (hB)
+        assert win.registration_tab.names_note.text().startswith(
+            "Names stay in the department's shared registry")
         register_patient(qtbot, win)
         short_trial(win, duration_s=1.5)
         build_connect_start(qtbot, win)

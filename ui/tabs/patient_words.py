@@ -1,5 +1,6 @@
-"""A patient in the Registration tab's words: one line for the list of patients found, and
-what the registry holds of their measurements (ui.tabs.registration)."""
+"""A patient in the Registration tab's words: one line for the list of patients found,
+what the registry holds of their measurements, and where their names are kept
+(ui.tabs.registration)."""
 
 from __future__ import annotations
 
@@ -35,3 +36,12 @@ def measurements(patient: Patient) -> str:
     missing = 4 - len(parts)
     rest = " The others come from the Parameters tab." if missing else ""
     return "Stored: " + ", ".join(parts) + ". The Parameters tab now uses them." + rest
+
+
+def names_note(registry) -> str:
+    """Where the patients' names are kept, as the tab says it: this computer's registry,
+    or on a station the department's shared one (which said "this computer's")."""
+    shared = registry is not None and bool(registry.location())
+    where = ("the department's shared registry, which only the clinic's logins read"
+             if shared else "this computer's registry")
+    return f"Names stay in {where}. Files and reports carry only the patient's code."

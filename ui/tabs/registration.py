@@ -45,7 +45,7 @@ from ui import plots, theme
 from ui.fields import SpinBox, commit_all
 from ui.jobs import Jobs
 from ui.tabs.clinical_record import SAVING, ClinicalRecord
-from ui.tabs.patient_words import describe, measurements
+from ui.tabs.patient_words import describe, measurements, names_note
 from ui.tabs.registration_new import CREATE, NewPatient
 from ui.tabs.registration_numbers import (
     Numbers,
@@ -158,11 +158,9 @@ class RegistrationTab(NewPatient, QWidget):
         form.addRow(self.trial_problem)
         form.addRow(self.confirm)
         form.addRow(self.confirmed)
-        note = theme.set_role(QLabel(
-            "Names stay in this computer's registry. Files and reports carry only the "
-            "patient's code."), "caption")
-        note.setWordWrap(True)
-        form.addRow(note)
+        self.names_note = theme.set_role(QLabel(names_note(registry)), "caption")
+        self.names_note.setWordWrap(True)
+        form.addRow(self.names_note)
 
         forms = QWidget()
         right = QVBoxLayout(forms)
@@ -193,6 +191,7 @@ class RegistrationTab(NewPatient, QWidget):
     # -- public -------------------------------------------------------------------
     def set_registry(self, registry: RecordStore) -> None:
         self.registry = registry
+        self.names_note.setText(names_note(registry))
         self.clinical.set_registry(registry)
         self.search()
 
@@ -515,3 +514,4 @@ class RegistrationTab(NewPatient, QWidget):
         the therapist just did, never below the fold (issue 27 #15)."""
         QTimer.singleShot(0, self.forms_scroll,
                           lambda: self.forms_scroll.ensureWidgetVisible(widget, 0, 24))
+
