@@ -38,7 +38,9 @@ def test_a_saved_trial_shows_envelopes_and_flags_the_bad_mvc(qtbot, trial_with_e
     qtbot.addWidget(tab)
     view = TrialView.from_trial(read_trial(path))
     tab.show_view(view)
-    assert [c.name() for c in tab.curves] == ["biceps", "triceps", "anterior_deltoid"]
+    # in words, as the live plot and the status line say them (hA: "anterior_deltoid")
+    assert [c.name() for c in tab.curves] == ["biceps brachii", "triceps brachii",
+                                              "anterior deltoid"]
     x, _ = tab.curves[2].getData()
     assert len(x) == view.n
     text = tab.status.text()

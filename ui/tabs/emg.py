@@ -192,7 +192,10 @@ class EmgTab(QWidget):
         item = self.envelopes.getPlotItem()
         for c in self.curves:
             item.removeItem(c)
-        self.curves = [plots.curve(item, theme.SERIES[i % len(theme.SERIES)], name=m, gaps=True)
+        # the muscles in words, as the live plot and the status line name them (the legend
+        # said "anterior_deltoid" beside "anterior deltoid")
+        self.curves = [plots.curve(item, theme.SERIES[i % len(theme.SERIES)], name=words(m),
+                                   gaps=True)
                        for i, m in enumerate(self.data.muscles)]
         for i, c in enumerate(self.curves):
             c.setData(self.data.time_s, self.data.percent[:, i])
