@@ -50,6 +50,13 @@ def _loading(win) -> None:
     assert tab.use_button.isEnabled()
 
 
+def another_patient(registry):
+    """A second patient with every measurement (the tab reads their record as the
+    first's)."""
+    return registry.create_patient("Grace", "Hopper", body_mass_kg=60.0, upper_arm_m=0.29,
+                                   forearm_m=0.27, shoulder_m=(-0.12, 0.73))
+
+
 def test_the_figures_are_read_off_the_window_and_another_patient_s_never_shown(
         qtbot, tmp_path, monkeypatch):
     win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
@@ -57,9 +64,7 @@ def test_the_figures_are_read_off_the_window_and_another_patient_s_never_shown(
         register_patient(qtbot, win)
         registry, tab = win.registry, win.assessments_tab
         first = win.patient.code
-        other = registry.create_patient("Grace", "Hopper", body_mass_kg=60.0,
-                                        upper_arm_m=0.29, forearm_m=0.27,
-                                        shoulder_m=(-0.12, 0.73)).code
+        other = another_patient(registry).code
         for code, seconds in ((first, 0.4), (other, 0.6)):
             register(registry, code, {"vgr_reaction_time_s": seconds}, parameters=REACHING)
         win.tabs.setCurrentWidget(tab)
@@ -197,9 +202,7 @@ def test_another_patient_s_record_failing_meanwhile_is_said_on_the_tab(qtbot, tm
         register_patient(qtbot, win)
         registry, tab = win.registry, win.assessments_tab
         first = win.patient.code
-        other = registry.create_patient("Grace", "Hopper", body_mass_kg=60.0,
-                                        upper_arm_m=0.29, forearm_m=0.27,
-                                        shoulder_m=(-0.12, 0.73))
+        other = another_patient(registry)
         win.tabs.setCurrentWidget(tab)
         _read(qtbot, win)
         held = Held(monkeypatch, registry, "trials_for_patient", code=first)
