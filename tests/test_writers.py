@@ -72,30 +72,33 @@ KNOWN: dict[tuple[str, str], tuple[int, str]] = {
     ("app/records/station/__init__.py", "open('a')"): (
         1, "the standby's lock file, opened to hold an advisory lock for the console's life; "
            "nothing is written to it"),
-    ("app/records/station/__init__.py", "sqlite3.connect"): (
-        2, "the standby as it was sent, copied by SQLite's backup into the temporary of "
-           "app.records.safewrite.atomic_path (a new file, never over one)"),
-    ("app/records/station/__init__.py", "source.backup"): (1, "the same copy"),
-    ("app/records/station/__init__.py", "os.unlink"): (
-        1, "the standby once sent and kept as synced-<UTC>.sqlite3 (its -wal and -shm too)"),
     ("app/records/station/__init__.py", "os.rename"): (
         1, "a damaged standby moved aside as damaged-<UTC>.sqlite3, kept whole, never read"),
     ("app/records/station/waiting.py", "sqlite3.connect"): (
         1, "the standby read only (mode=ro), for `rehab db status` to say what waits in it"),
+    ("app/records/station/waiting.py", "unlink"): (
+        1, "the kept refusal of a sync (offline/sync-refused.txt, written by the guarded "
+           "write), removed once a sync went through: it would say a refusal that no longer "
+           "holds"),
     ("app/records/station/refresh.py", "sqlite3.connect"): (
         2, "the standby brought to the server's rows in place, in one transaction, only while "
            "it holds nothing unsent (as the station last left it); and its manifest read "
            "read-only (mode=ro) before the server is asked"),
     ("app/records/station/mirror.py", "tempfile.mkstemp"): (
         1, "the standby built aside in the station's offline/ folder (0600)"),
-    ("app/records/station/mirror.py", "sqlite3.connect"): (1, "on that temporary"),
+    ("app/records/station/mirror.py", "sqlite3.connect"): (
+        3, "on that temporary; and the standby as it was sent (keep_sent), copied by "
+           "SQLite's backup into the temporary of app.records.safewrite.atomic_path (a new "
+           "file, never over one)"),
+    ("app/records/station/mirror.py", "source.backup"): (1, "that copy"),
     ("app/records/station/mirror.py", "os.replace"): (
         1, "the standby replaced by its new build, only when it holds nothing unsent (its "
            "rows checked against its manifest first): a mirror of the server's rows, which "
            "the server keeps"),
     ("app/records/station/mirror.py", "os.unlink"): (
-        2, "the last build's -wal and -shm before the replace; the temporary when the build "
-           "fails"),
+        3, "the last build's -wal and -shm before the replace; the temporary when the build "
+           "fails; the standby once sent and kept as synced-<UTC>.sqlite3 (its -wal and -shm "
+           "too)"),
     ("app/records/trialstore.py", "os.open for writing"): (
         1, "a trial's copy in the shared trial store, written aside under a new name "
            "(O_EXCL, 0600), fsynced and hashed before it is put in place"),
