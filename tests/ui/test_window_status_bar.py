@@ -13,7 +13,10 @@ from ui.window.station import LOGIN_REFUSED, SYNC_REFUSED, UNREACHABLE
 
 
 @pytest.fixture
-def window(qtbot, tmp_path, monkeypatch):
+def window(qtbot, qapp, tmp_path, monkeypatch):
+    # the console's theme, as the console runs (ui.gui): without it the test measured Qt's
+    # smaller default font when run alone and the theme's after another test had set it
+    theme.apply_theme(qapp)
     win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
     win.resize(1366, 738)
     yield win

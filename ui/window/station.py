@@ -33,10 +33,12 @@ UNREACHABLE = "Shared registry unreachable: recording on this station"
 LOGIN_REFUSED = "Shared registry refused this login: recording on this station"
 """… while the server answers and refuses this station's login (what to do in the tooltip)."""
 
-SYNC_REFUSED = "Shared registry refused the offline records: recording on this station"
+SYNC_REFUSED = "Shared registry refused the sync: recording on this station"
 """… while the server answers and refused what this station recorded offline (another
 station recorded for the same patient meanwhile: the registry's owner resolves it; why in
-the tooltip). It said 'unreachable' there, and a therapist checked a network that worked."""
+the tooltip). It said 'unreachable' there, and a therapist checked a network that worked.
+As short as the other two: beside the robot's timing warning at 1366 px, "… refused the
+offline records: …" was cut."""
 
 REACH_WORDS = {station.UNREACHABLE: UNREACHABLE, station.LOGIN_REFUSED: LOGIN_REFUSED,
                station.SYNC_REFUSED: SYNC_REFUSED}
