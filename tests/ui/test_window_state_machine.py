@@ -1118,6 +1118,10 @@ class WindowMachine(PlanAndTaskRules, RuleBasedStateMachine):
 
         p = self.win.parameters_tab
         box = getattr(p, "proposal", None) or p._proposal_group
+        # a patient chosen reads their pending proposal on the job thread and offers it once
+        # read (ui.main_window, `_read_after`): the check waits for the window's reads, as
+        # Start does (a whole check caught it asserting before the answer was shown)
+        self._wait(lambda: getattr(self.win, "reading_after", 0) == 0)
         assert not box.isHidden(), "the proposal waiting for the next trial is not offered"
         shown = getattr(box, "proposal", None) or getattr(p, "_proposal", None)
         assert shown == Proposal.from_dict(proposal)
