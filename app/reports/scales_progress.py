@@ -34,7 +34,7 @@ from app.records.scales import value_label
 from app.records.store import RecordStore
 from app.reports.metrics_table import ROW_BY_KEY
 from app.reports.progress_figure import figure_row
-from core.assessment import TASKS, task_figures
+from core.assessment import TASKS
 from core.assessment.figures import FIGURES
 
 _ASSESSMENT = KEY_PARAMETERS.index("assessment")
@@ -214,7 +214,10 @@ def measures(trial, key: str) -> bool:
     """Whether registered trial `trial` (a TrialSummary) measures figure `key`: any figure
     for an exercise or a game, only its task's own for an assessment (module notes)."""
     task = trial.key_parameters[_ASSESSMENT] or ""
-    return task not in TASKS or key in {spec.key for spec in task_figures(task)}
+    # the catalogue's entry names its task (what task_figures filters on): one lookup, not
+    # the whole catalogue scanned for each figure of each trial
+    spec = FIGURES.get(key)
+    return task not in TASKS or (spec is not None and spec.task == task)
 
 
 def scale_keys(registry: RecordStore, code: str | None = None) -> list[str]:
