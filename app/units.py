@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from core.trial import MessageUnits
+from core.trial_check import MessageUnits
 
 CM_PER_M = 100.0
 """Positions and sizes of the set-up are shown in cm."""
@@ -38,7 +38,7 @@ shows and takes it in, and the factor from SI (its form, its Correct row)."""
 
 SCREEN = MessageUnits(length="cm", per_m=CM_PER_M, decimals=1,
                       speed="mm/s", per_m_s=MM_S_PER_M_S, speed_decimals=0)
-"""The units of the trial check's refusals in the window (core.trial.check_trial)."""
+"""The units of the trial check's refusals in the window (core.trial_check.check_trial)."""
 
 
 def cm(length_m: float, decimals: int = 1) -> str:

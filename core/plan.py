@@ -37,12 +37,11 @@ from core.trial import (
     RADIUS_RANGE_M,
     REACH_GAME_SHAPES,
     REPETITIONS_RANGE,
-    SI_UNITS,
     TOLERANCE_RANGE_RAD,
-    MessageUnits,
     TrialParameters,
     level_that_runs,
 )
+from core.trial_check import SI_UNITS, MessageUnits
 
 BLOCKS_RANGE = (1, 20)
 """A sitting of 20 blocks is already three hours of exercise at their longest."""
@@ -343,10 +342,10 @@ class Plan:
 def check_plan(plan: Plan, base: TrialParameters, robot=None,
                units: MessageUnits = SI_UNITS) -> tuple[str, ...]:
     """What keeps `plan` from running for the patient whose setup is `base`: each block's
-    trial walked by core.trial.check_trial (the robot's and the arm's reach, the path's
+    trial walked by core.trial_check.check_trial (the robot's and the arm's reach, the path's
     speed), one line per block that cannot run, naming it, written in `units` (the
     window's are the form's own, app.units.SCREEN); () when every block can."""
-    from core.trial import check_trial
+    from core.trial_check import check_trial
 
     problems = []
     for k, block in enumerate(plan.blocks, 1):

@@ -16,7 +16,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from core.robot import RobotModel
-from core.trial import THESIS_AS_PRINTED, THESIS_SUBJECT, check_trial
+from core.trial import THESIS_AS_PRINTED, THESIS_SUBJECT
+from core.trial_check import check_trial
 
 OUT = Path(__file__).resolve().parent.parent / "docs" / "frames.png"
 

@@ -1,5 +1,5 @@
 """`rehab check`: a trial's parameters and reachability for a subject, before any robot
-moves (core.trial.check_trial, printed by app.reports.check). The default command of
+moves (core.trial_check.check_trial, printed by app.reports.check). The default command of
 the headless entry point (`app.cli.main.main`)."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import argparse
 
 from app.cli.common import EXIT_OK, CommandError
 from app.cli.trial_options import add_trial_options, trial_from_args
-from core.trial import check_trial
+from core.trial_check import check_trial
 
 
 def add_check_command(commands) -> None:

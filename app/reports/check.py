@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 
 from app.reports.plain_language import SHAPE_NAMES
-from core.trial import TrialCheck
+from core.trial_check import TrialCheck
 
 
 def format_check(check: TrialCheck) -> str:

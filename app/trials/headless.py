@@ -25,7 +25,8 @@ from app.trials.analysis import Analysis, analyse, analyse_stored
 from core.control.guidance import GuidanceGains
 from core.errors import ParameterError
 from core.robot import RobotModel
-from core.trial import TrialParameters, check_trial
+from core.trial import TrialParameters
+from core.trial_check import check_trial
 from device.compiled.warmup import load_kernels
 from device.loop.engine import Feed, Sink, run_trial
 from device.loop.pipeline import (

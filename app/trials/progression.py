@@ -78,7 +78,8 @@ from dataclasses import dataclass
 
 from app.units import assistance_percent
 from core.errors import CoreError
-from core.trial import DURATION_RANGE_S, TrialParameters, check_trial
+from core.trial import DURATION_RANGE_S, TrialParameters
+from core.trial_check import check_trial
 
 HARDER_AT_PCT = 80.0
 HARDLY_HELPED_PCT = 95.0

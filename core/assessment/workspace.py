@@ -7,7 +7,7 @@ may go out while every point up to it is
   stops before the parallelogram folds flat: device.safety.limits' workspace margin,
   2 cm) and within its software joint limits (core.robot, eq. 3.1 inverted);
 * within the arm's reach with the elbow neither straight nor folded (the same range as a
-  trial's check, core.trial.ELBOW_FLEXION_RANGE_RAD: 10–140°);
+  trial's check, core.trial_check.ELBOW_FLEXION_RANGE_RAD: 10–140°);
 * inside an optional box (the live loop's safety region around the exercise, which stops
   the handle beyond it).
 The region is then the polygon of those farthest points. A ray stops at the first point
@@ -26,7 +26,8 @@ import numpy as np
 from core import robot_terms
 from core.errors import ParameterError
 from core.robot import RobotModel
-from core.trial import ELBOW_FLEXION_RANGE_RAD, TrialParameters
+from core.trial import TrialParameters
+from core.trial_check import ELBOW_FLEXION_RANGE_RAD
 
 ROBOT_MARGIN_M = 0.02
 """The safety supervisor's radial margin inside the robot's reach ring (device.safety.limits

@@ -43,12 +43,12 @@ from core.errors import ParameterError, check_range
 from core.trial import (
     CHANNEL_HALF_WIDTH_RANGE_M,
     DURATION_RANGE_S,
-    MAX_PATH_SPEED_M_S,
     TARGET_RADIUS_RANGE_M,
     TIME_ALLOWED_RANGE_S,
     TrialParameters,
     target_spacing_s,
 )
+from core.trial_check import MAX_PATH_SPEED_M_S
 
 TARGET_SUCCESS = 0.70
 TARGET_RANGE = (0.5, 0.9)
@@ -199,7 +199,7 @@ def default_ladder(base: TrialParameters) -> tuple[Dial, ...]:
     elif base.game == "path":
         ladder.append(Dial("channel_half_width_m",
                            _within(CHANNEL_HALF_WIDTHS_M, CHANNEL_HALF_WIDTH_RANGE_M)))
-        # the fastest traversal the speed limit allows (core.trial.check_trial's rule)
+        # the fastest traversal the speed limit allows (core.trial_check.check_trial's rule)
         fastest = max(DURATION_RANGE_S[0],
                       base.trajectory().peak_speed_m_s * base.duration_s / MAX_PATH_SPEED_M_S)
         paces = tuple(round(base.duration_s * s, 3) for s in PACE_SHARES

@@ -17,7 +17,8 @@ from core.arrays import joint_motion
 from core.assessment.protocol import CUE_EVENT, task_events
 from core.robot import RobotModel
 from core.trajectory import Trajectory
-from core.trial import TrialParameters, check_trial
+from core.trial import TrialParameters
+from core.trial_check import check_trial
 
 PERIOD_S = 0.002
 RATE_CUTOFF_HZ = 20.0

@@ -58,7 +58,7 @@ def circle_at_speed(base: TrialParameters, speed_m_s: float,
     `speed_m_s` (constant speed, `laps` laps)."""
     lap_s = 2.0 * math.pi * radius_m / speed_m_s
     # a hair longer, so that the path's peak speed is not read as a rounding over the
-    # trial's limit (core.trial.MAX_PATH_SPEED_M_S)
+    # trial's limit (core.trial_check.MAX_PATH_SPEED_M_S)
     return base.replace(shape="circle", radius_m=radius_m, duration_s=lap_s * (1.0 + 1e-9),
                         repetitions=laps, timing="constant_speed")
 

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from core.errors import ParameterError, UnreachableError
-from core.trial import THESIS_AS_PRINTED, THESIS_SUBJECT, TrialParameters, check_trial
+from core.trial import THESIS_AS_PRINTED, THESIS_SUBJECT, TrialParameters
+from core.trial_check import check_trial
 
 
 def test_thesis_subject_is_reachable_with_its_ranges():

@@ -37,7 +37,7 @@ def short_trial(win: MainWindow, duration_s: float = 2.0) -> None:
     """One lap of `duration_s` (with at least 1 s of approach before it and 0.5 s of hold
     after). 1.5 s where the test waits for the trial's end and its length is not what is
     tested (the shortest whose 10 cm D or circle stays within the path's speed limit,
-    core.trial.MAX_PATH_SPEED_M_S); 2 s where the test acts while the trial runs."""
+    core.trial_check.MAX_PATH_SPEED_M_S); 2 s where the test acts while the trial runs."""
     p = win.parameters_tab
     p.repetitions.setValue(1)
     p.duration.setValue(duration_s)

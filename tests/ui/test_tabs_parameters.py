@@ -13,13 +13,8 @@ from app.records.datadir import DataDir
 from app.records.registry import Registry
 from core.errors import UnreachableError
 from core.games.staircase import start
-from core.trial import (
-    POSITION_RANGE_M,
-    RADIUS_RANGE_M,
-    THESIS_SUBJECT,
-    TrialParameters,
-    check_trial,
-)
+from core.trial import POSITION_RANGE_M, RADIUS_RANGE_M, THESIS_SUBJECT, TrialParameters
+from core.trial_check import check_trial
 from tests.ui.shown import shown
 from ui import theme
 from ui.tabs.parameters import HARDWARE, SIMULATOR, ParametersTab

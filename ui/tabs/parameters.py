@@ -5,7 +5,7 @@ Fields show the units a therapist reads best (cm for positions and lengths, s,
 kg, °, %) and convert to SI at once; each spin box's limits are the range
 `core.trial.TrialParameters` accepts, so out-of-range values cannot be typed.
 What the limits cannot catch (a path the arm or the robot cannot reach, a path
-too fast) comes from `core.trial.check_trial` and is written under the field to
+too fast) comes from `core.trial_check.check_trial` and is written under the field to
 change, in its own words with the distances.
 
 Numbers count when the therapist commits them (Enter, leaving the field, the
@@ -33,7 +33,8 @@ from app.games.names import GAME_TITLES
 from app.units import SCREEN
 from core.errors import CoreError, ParameterError, UnreachableError
 from core.robot import RobotModel
-from core.trial import TrialCheck, TrialParameters, check_trial
+from core.trial import TrialParameters
+from core.trial_check import TrialCheck, check_trial
 from ui import plots, theme
 from ui.reach_preview import ReachPreview
 from ui.tabs.form_rows import FormRows

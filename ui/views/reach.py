@@ -1,4 +1,4 @@
-"""A trial's check (core.trial.check_trial) as the Parameters tab shows it: the picture of
+"""A trial's check (core.trial_check.check_trial) as the Parameters tab shows it: the picture of
 what can be reached, the summary under it, and each problem under the field to change.
 
 The picture is in cm, like the fields: where the robot's handle can go, the
@@ -19,7 +19,7 @@ from app.assessments.words import robot_task_words
 from app.units import CM_PER_M as CM, MM_S_PER_M_S
 from core.holdtasks import ROBOT_TASKS
 from core.robot import RobotModel
-from core.trial import ELBOW_FLEXION_RANGE_RAD, MAX_PATH_SPEED_M_S, TrialCheck
+from core.trial_check import ELBOW_FLEXION_RANGE_RAD, MAX_PATH_SPEED_M_S, TrialCheck
 from ui.views.samples import split_by_mask
 
 UNREACHABLE_MARK_EVERY = 5  # path points are 2 mm apart

@@ -4,7 +4,8 @@ or unknown one is refused in one line."""
 import pytest
 
 from app.plans.templates import TemplateError, load_template, template_names
-from core.trial import THESIS_SUBJECT, check_trial
+from core.trial import THESIS_SUBJECT
+from core.trial_check import check_trial
 
 
 def test_every_built_in_template_is_a_plan_whose_trials_the_robot_and_arm_reach():

@@ -12,7 +12,8 @@ from core.assessment import TASKS
 from core.assessment.protocol import HOLD_GAINS, PROTOCOLS, cues, protocol, reach_directions_rad
 from core.control.gains import canonical_gains
 from core.errors import ParameterError
-from core.trial import ASSIST_MODES, TrialParameters, check_trial
+from core.trial import ASSIST_MODES, TrialParameters
+from core.trial_check import check_trial
 
 
 def test_every_task_has_one_protocol_with_words_for_both_people():

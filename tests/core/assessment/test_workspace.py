@@ -67,7 +67,7 @@ def _reachable_as_it_was(parameters, robot, x, y, box_m):
     """The point test before the region's bounds were worked out once: the arm built
     and the robot's reach taken at every point."""
     from core import robot_terms
-    from core.trial import ELBOW_FLEXION_RANGE_RAD
+    from core.trial_check import ELBOW_FLEXION_RANGE_RAD
 
     x_min, x_max, y_min, y_max = box_m
     if not (x_min <= x <= x_max and y_min <= y <= y_max):

@@ -16,7 +16,8 @@ from core.games.staircase import (
     notches_at,
     start,
 )
-from core.trial import MAX_PATH_SPEED_M_S, TrialParameters, check_trial
+from core.trial import TrialParameters
+from core.trial_check import MAX_PATH_SPEED_M_S, check_trial
 
 REACH = TrialParameters(game="reach", shape="targets", duration_s=12.0, assist="as-needed",
                         centre_m=(-0.3, 0.35), radius_m=0.08)

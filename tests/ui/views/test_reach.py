@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from core.robot import RobotModel
-from core.trial import ELBOW_FLEXION_RANGE_RAD, THESIS_SUBJECT, check_trial
+from core.trial import THESIS_SUBJECT
+from core.trial_check import ELBOW_FLEXION_RANGE_RAD, check_trial
 from ui.views.reach import (
     UNREACHABLE_MARK_EVERY,
     check_summary,
