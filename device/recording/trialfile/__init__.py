@@ -1,8 +1,9 @@
 """The trial file: one HDF5 file per trial, written live by the recorder (docs/data-format.md).
 
 By job: `layout` (the format's names, tables and rules), `writer` (writing a trial live),
-`whole` (a whole trial at once), `reserve` (the disk space a file holds), `summary` (what
-close computes), `update` (adding to a closed trial: metrics, estimates, EMG, pose).
+`header` (what a new file holds before its first sample), `whole` (a whole trial at once),
+`reserve` (the disk space a file holds), `summary` (what close computes), `update` (adding
+to a closed trial: metrics, estimates, EMG, pose).
 Reading is app.trials.reader's.
 """
 

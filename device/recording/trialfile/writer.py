@@ -1,5 +1,6 @@
 """Writing a trial file while the trial runs (`TrialFileWriter`, the recorder's; the whole
-trial at once is device.recording.trialfile.whole's). The layout is in
+trial at once is device.recording.trialfile.whole's; what the file holds before its first
+sample, device.recording.trialfile.header's). The layout is in
 device.recording.trialfile.layout and docs/data-format.md.
 
 Crash safety, in brief (the document has the reasoning):
@@ -33,7 +34,6 @@ Crash safety, in brief (the document has the reasoning):
 from __future__ import annotations
 
 import contextlib
-import math
 import os
 import time
 from collections.abc import Mapping
@@ -46,15 +46,11 @@ from core.trial import TrialParameters
 from device.errors import RecordingError
 from device.recording.record import CHANNELS, Channel
 from device.recording.trialfile import seal
+from device.recording.trialfile.header import check_header, header_attributes, write_header
 from device.recording.trialfile.layout import (
     CHUNK_ROWS,
-    EVENT_CHUNK_ROWS,
-    EVENT_DTYPE,
-    FORMAT_NAME,
-    FORMAT_VERSION,
     LIBVER,
     MIN_FREE_BYTES,
-    STATUS_RECORDING,
     STATUSES,
     SubjectInfo,
     _assistance_parts,
@@ -62,16 +58,10 @@ from device.recording.trialfile.layout import (
     _check_metrics,
     _check_records,
     _check_scalars,
-    _create_channel_dataset,
     _disk_error,
     _event_row,
     _free_bytes,
-    _plain_mapping,
-    _to_json,
     _write_assistance,
-    _write_channel_table,
-    _write_parameter_group,
-    software_version,
     utc_now_iso,
 )
 from device.recording.trialfile.making import make_file, making_name, publish
@@ -110,56 +100,17 @@ class TrialFileWriter:
     ) -> None:
         self._init_state(path, channels, live, durable, flush_interval_s, chunk_rows,
                          min_free_bytes, reserve_bytes)
-        if not (isinstance(sample_period_s, int | float) and math.isfinite(sample_period_s)
-                and sample_period_s > 0):
-            raise RecordingError(
-                f"sample_period_s = {sample_period_s!r}: give the loop period in s (> 0)"
-            )
-        if not isinstance(parameters, TrialParameters):
-            raise RecordingError("parameters must be a core.trial.TrialParameters")
-        if not isinstance(subject, SubjectInfo):
-            raise RecordingError("subject must be a device.recording.trialfile.SubjectInfo")
+        check_header(sample_period_s, parameters, subject)
         self._bytes_per_minute = self._dtype.itemsize / sample_period_s * 60.0
-        robot_json = _to_json("robot", _plain_mapping(robot))
-        header = {
-            "format": FORMAT_NAME,
-            "format_version": np.int64(FORMAT_VERSION),
-            "software_version": software_version(),
-            "h5py_version": h5py.version.version,
-            "hdf5_version": h5py.version.hdf5_version,
-            "created_utc": utc_now_iso(),
-            "sample_period_s": float(sample_period_s),
-            "backend": str(backend),
-            "parameters": _to_json("parameters", parameters.to_dict()),
-            "subject": _to_json("subject", subject.to_dict()),
-            "robot": robot_json,
-            "status": STATUS_RECORDING,
-        }
+        header = header_attributes(parameters, subject, robot, backend, sample_period_s)
 
         self._open_new()
         try:
-            f = self._file
-            for name, value in header.items():
-                f.attrs[name] = value
-            _write_parameter_group(f.create_group("parameters"), parameters.to_dict())
-            _write_channel_table(f, self._channels)
-            series = f.create_group("timeseries")
-            # Low-level dataset ids: h5py's slicing costs ~40 µs a call in Python, and
-            # every batch makes two calls per channel.
-            self._datasets = [
-                (c.name, _create_channel_dataset(series, c, chunk_rows).id,
-                 () if c.width == 1 else (c.width,))
-                for c in self._channels
-            ]
-            self._events = f.create_dataset(
-                "events", shape=(0,), maxshape=(None,), dtype=EVENT_DTYPE,
-                chunks=(EVENT_CHUNK_ROWS,), fletcher32=True,
-            )
-            # before SWMR, which allows no new attribute: a crashed trial's metadata verify
-            seal.write_header_seal(f)
+            self._datasets, self._events = write_header(
+                self._file, header, parameters, self._channels, chunk_rows)
             self._digests = {name: seal.RunningDigest() for name, _, _ in self._datasets}
             if live:
-                f.swmr_mode = True
+                self._file.swmr_mode = True
             self._flush()
             # after the header: starting SWMR gives back blocks past the file's end
             self._hold_reserve()
