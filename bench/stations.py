@@ -45,7 +45,7 @@ station's clinic login, and measures:
 4. afterwards: every patient's session numbers and every session's trial numbers are
    1..n without gaps or repeats, every trial a station registered is there once, and every
    row matches its seal (app.records.registry.postgres.seals.verify, what `rehab db
-   status` checks), with how long that check took.
+   status` checks), with how long that check took (bench/stations_checks.py).
 
 Prints figures only; asserts nothing. docs/performance.md ("The shared registry on
 PostgreSQL") has the figures and what they mean.
@@ -72,6 +72,7 @@ if str(REPO) not in sys.path:  # tests.postgres, when run as a file
     sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # stations_fill
 
+from stations_checks import check_numbers, server_settings, verify_seals  # noqa: E402
 from stations_fill import (  # noqa: E402
     TRIALS_PER_SESSION,
     Bench,
@@ -92,7 +93,6 @@ from stations_trees import (  # noqa: E402
 )
 
 from app.records.registry import Registry  # noqa: E402
-from app.records.registry.postgres.seals import verify as verify_server_seals  # noqa: E402
 from app.records.registry.queries import _SUMMARY_SELECT  # noqa: E402
 from app.records.registry.statements import translated  # noqa: E402
 
@@ -267,74 +267,6 @@ def run_stations(bench: Bench, data_root: Path, codes: list[str], n_stations: in
     for process in processes:
         process.join(60)
     return sorted(out), samples, cpu, trips, wall, read
-
-
-# -- 4. the checks -------------------------------------------------------------------------
-
-
-def check_numbers(bench: Bench, registered: list[tuple[int, str, int, int]]) -> list[str]:
-    problems = []
-    engine = sa.create_engine(bench.owner_url, poolclass=sa.NullPool)
-    try:
-        with engine.connect() as conn:
-            bad_sessions = conn.execute(sa.text(
-                "SELECT patient_id, count(*), count(DISTINCT number), max(number) "
-                "FROM sessions GROUP BY patient_id "
-                "HAVING count(*) <> count(DISTINCT number) OR max(number) <> count(*) "
-                "OR min(number) <> 1")).all()
-            bad_trials = conn.execute(sa.text(
-                "SELECT session_id, count(*), count(DISTINCT number), max(number) "
-                "FROM trials GROUP BY session_id "
-                "HAVING count(*) <> count(DISTINCT number) OR max(number) <> count(*) "
-                "OR min(number) <> 1")).all()
-            problems += [f"patient {r[0]}: {r[1]} sessions, {r[2]} numbers, highest {r[3]}"
-                         for r in bad_sessions]
-            problems += [f"session {r[0]}: {r[1]} trials, {r[2]} numbers, highest {r[3]}"
-                         for r in bad_trials]
-            ids = [r[0] for r in registered]
-            found = conn.execute(sa.text(
-                "SELECT t.id, p.code, s.number, t.number, t.status FROM trials t "
-                "JOIN sessions s ON s.id = t.session_id JOIN patients p ON p.id = s.patient_id "
-                "WHERE t.id = ANY(:ids)"), {"ids": ids}).all()
-            stored = {r[0]: (r[0], r[1], r[2], r[3]) for r in found}
-            if len(set(ids)) != len(ids):
-                problems.append(f"{len(ids) - len(set(ids))} trial ids handed out twice")
-            wrong = [r for r in registered if stored.get(r[0]) != r]
-            if wrong:
-                problems.append(f"{len(wrong)} registered trials not stored as handed out, "
-                                f"e.g. {wrong[0]}")
-            unfinished = sum(1 for r in found if r[4] != "complete")
-            if unfinished:
-                problems.append(f"{unfinished} registered trials not finished")
-    finally:
-        engine.dispose()
-    return problems
-
-
-def verify_seals(bench: Bench) -> tuple[float, str]:
-    engine = sa.create_engine(bench.owner_url, poolclass=sa.NullPool)
-    t0 = time.perf_counter()
-    try:
-        with engine.connect() as conn:
-            verify_server_seals(conn, bench.database)
-        verdict = "every row matches its seal"
-    except Exception as exc:  # printed: the bench goes on
-        verdict = f"FAILED: {exc}"
-    finally:
-        engine.dispose()
-    return time.perf_counter() - t0, verdict
-
-
-def server_settings(bench: Bench) -> str:
-    engine = sa.create_engine(bench.owner_url, poolclass=sa.NullPool)
-    try:
-        with engine.connect() as conn:
-            version = conn.execute(sa.text("SHOW server_version")).scalar_one()
-            buffers = conn.execute(sa.text("SHOW shared_buffers")).scalar_one()
-            fsync = conn.execute(sa.text("SHOW fsync")).scalar_one()
-    finally:
-        engine.dispose()
-    return f"PostgreSQL {version}, shared_buffers {buffers}, fsync {fsync}"
 
 
 # -- the whole run -------------------------------------------------------------------------
