@@ -72,9 +72,10 @@ from app.errors import AppError
 from app.exports.bids_channels import CHANNEL_TYPES, FRAMES, BidsChannel, bids_channels
 from app.exports.bids_scans import rows_by, scan_row, scans_path, write_scans
 from app.exports.files import ExportError, output, prepare_folder, refuse_existing, write_text
-from app.exports.loader import Failure, Trial, TrialInfo, load_trial, read_info
+from app.exports.loader import Failure
 from app.exports.plan import ExportResult, TrialSource, one_trial
 from app.exports.table import write_samples
+from app.exports.trialinfo import Trial, TrialInfo, load_trial, read_info
 from core.assessment.protocol import PROTOCOLS
 from device.recording.emgfile import read_emg
 from device.recording.trialfile import software_version

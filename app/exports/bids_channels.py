@@ -33,7 +33,7 @@ from app.exports.columns import (
     Column,
     table_columns,
 )
-from app.exports.loader import Trial
+from app.exports.trialinfo import Trial
 from device.recording.record import ARM, GLOBAL, ISB, JOINTS, SENSOR
 
 CHANNEL_TYPES = ("ACCEL", "ANGACCEL", "GYRO", "JNTANG", "LATENCY", "MAGN", "MISC", "ORNT",

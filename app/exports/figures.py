@@ -26,7 +26,7 @@ from collections.abc import Mapping
 from dataclasses import replace
 from types import MappingProxyType
 
-from app.exports.loader import Trial
+from app.exports.trialinfo import Trial
 from app.trials.reanalyse import same_figure
 
 RECORDED = "recorded"

@@ -57,7 +57,7 @@ import numpy as np
 
 from app.exports.figures import RECORDED, SOURCE_COLUMN
 from app.exports.files import output
-from app.exports.loader import Trial
+from app.exports.trialinfo import Trial
 from device.recording.trialfile import software_version
 
 MATLAB_NAME_MAX = 63  # namelengthmax

@@ -67,7 +67,7 @@ from app.exports.files import (
     refuse_existing,
 )
 from app.exports.index import check_mergeable, write_index, write_names
-from app.exports.loader import Failure, Trial, load_trial
+from app.exports.loader import Failure
 from app.exports.mat import write_mat
 from app.exports.plan import (
     ExportResult,
@@ -81,6 +81,7 @@ from app.exports.plan import (
     verified_sources,
 )
 from app.exports.table import table_outputs, write_table
+from app.exports.trialinfo import Trial, load_trial
 from app.records.outcomes import OUTCOME_COLUMNS, level_columns, proposal_columns
 from app.records.store import RecordStore
 from app.trials.assistance_timeline import assistance_in_effect

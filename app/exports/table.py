@@ -53,7 +53,7 @@ from app.exports.columns import (
 )
 from app.exports.figures import RECORDED, SOURCE_COLUMN
 from app.exports.files import output
-from app.exports.loader import Trial
+from app.exports.trialinfo import Trial
 from device.recording.emgfile import read_emg
 
 CHUNK_ROWS = 4096  # keeps memory flat: the text of one chunk at a time

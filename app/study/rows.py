@@ -36,9 +36,9 @@ import pandas as pd
 
 from app.errors import AppError
 from app.exports.figures import differing
-from app.exports.loader import trial_of
 from app.exports.plan import TrialSource, verified_place
 from app.exports.run import ran_columns
+from app.exports.trialinfo import trial_of
 from app.reports.plain_language import success_key
 from app.reports.progress import exercise_of
 from app.study.schema import COLUMNS, METRIC_PREFIX, NUMBER, TRAILING, fits, frame

@@ -22,7 +22,7 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
-from app.exports.loader import flat_parameters
+from app.exports.trialinfo import flat_parameters
 from app.records.outcomes import OUTCOME_COLUMNS
 from core.assessment import FIGURES
 from core.games.scoring import GameFigures
