@@ -31,14 +31,14 @@ tick (`_during`). Faults: device.safety (latched until cleared). Which backend i
 device.loop.backends.
 
 One object, the loop process's state (the connection, the trial, the commands waiting for
-a tick), in three modules by what changes it: the ticks and the states here, the commands
+a tick), in four modules by what changes it: the ticks and the states here, the commands
 and the backend they open in device.loop.commands (LoopCommands), the causes of a stopped
-recording in device.loop.causes (StopCauses); DeviceLoop is all three.
+recording in device.loop.causes (StopCauses), a trial's start and end as the recorder and
+the console hear them in device.loop.trial_run (TrialRun); DeviceLoop is all four.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import faulthandler
 import math
 import select
@@ -56,18 +56,13 @@ from device.loop.messages import (
     FaultRaised,
     Notice,
     Reply,
-    ShownToPatient,
-    Start,
     StateChanged,
-    TrialEnded,
     TrialMarker,
-    TrialStarted,
 )
 from device.loop.pipeline import (
     PERIOD_S,
     TickPipeline,
     TrialPlan,
-    assistance_group,
 )
 from device.loop.realtime import (
     CLOCKS,
@@ -76,9 +71,8 @@ from device.loop.realtime import (
 )
 from device.loop.recorder_watch import RecorderPulse
 from device.loop.states import State
+from device.loop.trial_run import TrialRun, cue_patient
 from device.recording.messages import (
-    BeginTrial,
-    EndTrial,
     TrialEvent,
 )
 from device.recording.ring import RecordRing
@@ -114,7 +108,7 @@ class LoopConfig:
     watchdog by injection whatever the machine's stalls (see the module notes)."""
 
 
-class DeviceLoop(LoopCommands, StopCauses):
+class DeviceLoop(LoopCommands, StopCauses, TrialRun):
     """The loop's state and its ticks. One instance per loop process."""
 
     def __init__(self, console: Connection, recorder: Connection | None, ring: RecordRing,
@@ -284,7 +278,7 @@ class DeviceLoop(LoopCommands, StopCauses):
             if self.task_events:
                 self._tell_task_events()
             if self.trial_tick == self.pipeline.approach_ticks:
-                _cue_patient(self.backend)
+                cue_patient(self.backend)
             if self.trial_tick >= self.pipeline.total_ticks:
                 self._end_trial("complete", "trial complete")
                 self._enter(State.STOPPING, "trial complete; saving")
@@ -323,83 +317,7 @@ class DeviceLoop(LoopCommands, StopCauses):
                 self._send(Reply(command.id, False, f"{kind.value} refused: the robot was "
                                                     "disconnected before it could be done."))
 
-    # ------------------------------------------------------------------ trial
-    def _start_trial(self, command: Start) -> str:
-        self.paused = True
-        # the exercise waits at its start while the drives' torque ramps up (H3)
-        self.pipeline.begin(self.reading.q1_rad, self.reading.q2_rad,
-                            still_s=self.supervisor.limits.restart_ramp_s)
-        # every trial starts from its own settings: a live change belonged to the trial it
-        # was made in (issue 27: one made between trials ran every later trial at it)
-        self.pipeline.set_assistance_level(self.plan.parameters.assistance_level)
-        self.supervisor.restart_ramp()
-        self.trial_path = command.path
-        self.trial_tick = 0
-        self.trial_start_sample_s = self.reading.time_s
-        if self.pipeline.approach_ticks == 0:
-            _cue_patient(self.backend)
-        plan = self.plan
-        self.seed_used = True
-        first_seq = self.ring.write_count
-        self.trial_first_seq = first_seq
-        self.recorder_pulse.reset()
-        self._to_recorder(BeginTrial(
-            command.path, first_seq, plan.parameters, command.subject,
-            dataclasses.asdict(plan.robot), self.opened.label, plan.period_s,
-        ))
-        started = {"approach_ticks": self.pipeline.approach_ticks}
-        if self.opened.kind == "simulator":
-            started["seed"] = self.opened.seed  # the file runs again with it
-            started["robot_seed"] = self.opened.robot_seed  # on the same simulated robot
-        elif self.opened.robot_name:
-            started["robot"] = self.opened.robot_name  # which robot (app.learning.library)
-        self._to_recorder(TrialEvent(0.0, 0, "start", "trial started", started))
-        if command.display is not None:
-            self._tell_shown(command.display, 0)
-        # a task the robot leads: each phase's start, told as the tick comes (core.holdtasks)
-        self.task_events = list(reversed(self.pipeline.task_events()))
-        self._tell_task_events()
-        self._send(TrialStarted(command.path, self.pipeline.approach_ticks,
-                                self.pipeline.total_ticks, self.t0, first_seq))
-        return ""
-
-    def _tell_shown(self, shown: ShownToPatient, tick: int) -> None:
-        """What the patient's screen shows from `tick` on, into the trial file."""
-        self._to_recorder(TrialEvent(tick * self.plan.period_s, tick, "patient_screen",
-                                     shown.message, dict(shown.values)))
-
-    def _tell_task_events(self) -> None:
-        """The task's events whose tick has come, to the recorder and the console."""
-        while self.task_events and self.task_events[-1][0] <= self.trial_tick:
-            tick, kind, message, values = self.task_events.pop()
-            event = TrialEvent(tick * self.plan.period_s, tick, kind, message, values)
-            self._to_recorder(event)
-
-    def _end_trial(self, status: str, message: str, values: dict | None = None) -> None:
-        tick = self.trial_tick
-        time_s = tick * self.plan.period_s
-        self._to_recorder(TrialEvent(time_s, tick, "stop", message, values or {}))
-        summary = {"approach_s": self.pipeline.approach_ticks * self.plan.period_s,
-                   "ticks": float(tick),
-                   # wall_time is perf_counter() − this; on Linux both perf_counter and
-                   # time.monotonic read CLOCK_MONOTONIC, so camera frames stamped with
-                   # time.monotonic() line up with the samples (device.camera.capture).
-                   "wall_time_origin_monotonic_s": self.t0,
-                   # the robot's own clock over the trial: ticks × period on the
-                   # simulator however late the ticks, monotonic seconds on hardware
-                   "robot_clock_s": self.reading.time_s - self.trial_start_sample_s,
-                   "timing": self.backend.timing,
-                   # the simulated robot, as a headless trial's file names it
-                   **_plant_of(self.backend)}
-        # a virtual patient stops its exercise with the trial: a person lets go of the
-        # push and rests their hand while the robot is at zero torque between trials
-        _rest_patient(self.backend)
-        self.end_seq = self.ring.write_count
-        pipeline = self.pipeline
-        self._to_recorder(EndTrial(self.end_seq, status, summary, assistance_group(
-            self.plan.parameters, pipeline.guidance, pipeline.feedforward_history)))
-        self._send(TrialEnded(self.trial_path, status, summary, self.end_seq))
-
+    # ------------------------------------------------------------------ faults
     def _on_fault(self, fault: Fault, loop_t: float) -> None:
         self.fault_reported = fault
         sup = self.supervisor
@@ -458,8 +376,6 @@ class DeviceLoop(LoopCommands, StopCauses):
                                self.trial_first_seq + event.tick, self.clock.now()))
 
 
-
-
 def _next_deadline(deadline: float, now: float, period: float) -> tuple[float, float]:
     """The next deadline on the period's grid after `deadline`, and how late `now` is
     for it. Missed deadlines are skipped, not run back to back: a burst of ticks
@@ -470,30 +386,6 @@ def _next_deadline(deadline: float, now: float, period: float) -> tuple[float, f
     if behind <= 0.0:
         return deadline, 0.0
     return deadline + period * math.ceil(behind / period), behind
-
-
-def _cue_patient(backend: Backend) -> None:
-    """A virtual patient starts the exercise together with the reference."""
-    cue = getattr(backend, "cue_patient", None)
-    if cue is not None:
-        cue()
-
-
-def _plant_of(backend: Backend) -> dict:
-    """The simulated robot a backend runs (through a fault injector), as the trial file's
-    summary names it (device.sim.plant.plant_summary); {} for the real robot."""
-    from device.sim.plant import plant_summary
-
-    backend = getattr(backend, "inner", backend)
-    plant = getattr(backend, "plant", None)
-    return plant_summary(plant.describe() if plant is not None else None)
-
-
-def _rest_patient(backend: Backend) -> None:
-    """A virtual patient stops the exercise together with the trial."""
-    rest = getattr(backend, "rest_patient", None)
-    if rest is not None:
-        rest()
 
 
 def loop_main(console: Connection, recorder: Connection, ring_name: str, estop_flag,
