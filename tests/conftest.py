@@ -198,7 +198,7 @@ def _rig_from_options(config: pytest.Config) -> RigConfig | None:
     # The vendor packages first: without them nothing else matters.
     from device.errors import BackendUnavailable
     from device.hardware.forcesensor import import_nidaqmx
-    from device.hardware.quanser import import_hil
+    from device.hardware.hil import import_hil
 
     asked = f"--quanser-board {board}" if board is not None else f"--nidaq-device {device}"
     try:

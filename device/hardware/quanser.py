@@ -55,8 +55,15 @@ import numpy as np
 from core.motor import MotorParameters
 from core.robot import RobotModel
 from device.backend import REAL_TIME, SensorReading
-from device.errors import BackendError, BackendUnavailable
+from device.errors import BackendError
 from device.hardware.forcesensor import AtiForceSensor
+from device.hardware.hil import (
+    SET_ANALOG_OUTPUT_RANGES_NOT_SUPPORTED,
+    WATCHDOG_CLEAR_NOT_SUPPORTED,
+    hil_error,
+    import_hil,
+    watchdog_expired,
+)
 from device.hardware.settings import HardwareSettings
 
 log = logging.getLogger(__name__)
@@ -68,44 +75,6 @@ Q8_DIGITAL_OUTPUTS = {"q8_usb": 8, "q8": 32}
 
 ENCODER_MODE_X4 = 4  # EncoderQuadratureMode.X4: 4000 counts/rev from a 1000-line encoder
 DIGITAL_TRISTATE = 2  # DigitalState.TRISTATE
-
-_INSTALL = (
-    "Install the Quanser HIL Python API into this Python environment: on Windows the "
-    "quanser_api wheel from the Quanser SDK or QUARC `python` folder "
-    "(`pip install <folder>/quanser_api-*.whl`), on Linux the apt package "
-    "python3-quanser-apis; both need the Quanser SDK's native libraries."
-)
-
-# HIL error numbers (HILError.error_code is their negative).
-_BOARD_NOT_FOUND = 108
-_BOARD_IN_USE = 109
-_BUFFER_OVERFLOW = 111
-_INVALID_BOARD_HANDLE = 113
-_INVALID_ENCODER_CHANNEL = 124
-_INVALID_ANALOG_OUTPUT_CHANNEL = 133
-_UNRECOGNIZED_BOARD_TYPE = 179
-_INVALID_BOARD_IDENTIFIER = 401
-_SET_ANALOG_OUTPUT_RANGES_NOT_SUPPORTED = 461
-_CARD_OPTION_NOT_RECOGNIZED = 573
-_WATCHDOG_NOT_SUPPORTED = range(591, 600)
-_WATCHDOG_CLEAR_NOT_SUPPORTED = 599
-_ANALOG_EXPIRATION_NOT_ZERO = 601
-_DIGITAL_EXPIRATION_NOT_TRISTATE = 602
-_Q8_EXPIRATIONS_NOT_CONFIGURED = 614
-
-
-def import_hil() -> Any:
-    """`quanser.hardware`, imported now. Its cffi layer loads the native HIL
-    libraries at import and raises OSError (not ImportError) without them."""
-    try:
-        from quanser import hardware
-    except (ImportError, OSError) as exc:
-        raise BackendUnavailable(
-            f"The Quanser HIL Python API cannot be loaded here ({type(exc).__name__}: {exc}). "
-            f"{_INSTALL}"
-        ) from exc
-    return hardware
-
 
 class QuanserBackend:
     """The real robot: Q8 card (encoders, amplifiers, watchdog) plus the ATI Nano25.
@@ -215,7 +184,7 @@ class QuanserBackend:
             if q.card_options:
                 card.set_card_specific_options(q.card_options, len(q.card_options) + 1)
             step = "clearing the watchdog"
-            self._call_unless_unsupported(card.watchdog_clear, _WATCHDOG_CLEAR_NOT_SUPPORTED)
+            self._call_unless_unsupported(card.watchdog_clear, WATCHDOG_CLEAR_NOT_SUPPORTED)
             step = "setting the analog output ranges"
             self._set_output_ranges(card)
             step = "zeroing the analog outputs"
@@ -238,7 +207,7 @@ class QuanserBackend:
             card.set_encoder_counts(self._encoder_channels, 2, np.zeros(2, dtype=np.int32))
         except hil.HILError as exc:
             self._abandon()
-            raise self._translate(exc, step) from exc
+            raise hil_error(self.settings, self._card, exc, step) from exc
         except BaseException:
             self._abandon()
             raise
@@ -251,7 +220,7 @@ class QuanserBackend:
             card.watchdog_start(q.watchdog_timeout_s)
         except hil.HILError as exc:
             self._abandon()
-            raise self._translate(exc, "starting the watchdog") from exc
+            raise hil_error(self.settings, self._card, exc, "starting the watchdog") from exc
         except BaseException:
             self._abandon()
             raise
@@ -269,9 +238,9 @@ class QuanserBackend:
             time_s = self._clock()
             alive = card.watchdog_reload()
         except self._hil.HILError as exc:
-            raise self._translate(exc, "reading the encoders") from exc
+            raise hil_error(self.settings, self._card, exc, "reading the encoders") from exc
         if not alive:
-            raise self._watchdog_expired()
+            raise watchdog_expired(self.settings)
         q1, q2 = self.joint_angles(int(self._counts[0]), int(self._counts[1]))
         fx, fy, fz = self.force_sensor.read()
         return SensorReading(time_s, q1, q2, fx, fy, fz)
@@ -293,7 +262,7 @@ class QuanserBackend:
         try:
             card.write_analog(self._output_channels, 2, self._volts)
         except self._hil.HILError as exc:
-            raise self._translate(exc, "writing the motor commands") from exc
+            raise hil_error(self.settings, self._card, exc, "writing the motor commands") from exc
 
     def safe_state(self) -> None:
         """Zero both motor commands. Never raises (the watchdog backs it up)."""
@@ -380,7 +349,7 @@ class QuanserBackend:
         try:
             card.set_analog_output_ranges(ch, 2, np.full(2, -10.0), np.full(2, 10.0))
         except self._hil.HILError as exc:
-            if -exc.error_code != _SET_ANALOG_OUTPUT_RANGES_NOT_SUPPORTED:
+            if -exc.error_code != SET_ANALOG_OUTPUT_RANGES_NOT_SUPPORTED:
                 raise
             log.info("This card's analog output ranges are not programmable; they must be "
                      "±10 V (check the board's jumpers).")
@@ -413,95 +382,6 @@ class QuanserBackend:
         except Exception as exc:
             log.warning("releasing the force sensor after a failed connect: %r", exc)
 
-    def _watchdog_expired(self) -> BackendError:
-        ms = self.settings.quanser.watchdog_timeout_s * 1e3
-        return BackendError(
-            f"The Q8 watchdog expired: the control loop did not answer within {ms:.0f} ms, so the "
-            "card switched the motor outputs off by itself. The robot stays off until it is "
-            "connected again; if this recurs, look at the loop's lateness in the log."
-        )
-
-    def _translate(self, exc: Any, action: str) -> BackendError:
-        """A BackendError (or subclass) for a HILError: what failed, where, what to do."""
-        q = self.settings.quanser
-        code = -int(exc.error_code)
-        board = f"Quanser {q.board_type} board #{q.board_identifier}"
-        source = self.settings.source
-        detail = f"HIL error -{code}{_runtime_text(exc)}"
-        if self._card is not None and action != "opening the card":
-            try:
-                if self._card.watchdog_is_expired():
-                    return self._watchdog_expired()
-            except Exception:  # the card may be gone altogether; report the original error
-                pass
-        if code == _BOARD_NOT_FOUND:
-            return BackendUnavailable(
-                f"{board} was not found ({detail}). Check that it is plugged in and powered and "
-                "that the operating system lists it (Device Manager), and that [quanser] "
-                f"board_type and board_identifier in {source} match it."
-            )
-        if code == _BOARD_IN_USE:
-            return BackendUnavailable(
-                f"{board} is in use by another program ({detail}): stop any QUARC model or "
-                "other console using it, then connect again."
-            )
-        if code == _UNRECOGNIZED_BOARD_TYPE:
-            return BackendUnavailable(
-                f"The HIL driver for board type {q.board_type!r} is not installed ({detail}). "
-                f"Install the Quanser driver for this card, or correct [quanser] board_type in "
-                f"{source}."
-            )
-        if code == _INVALID_BOARD_IDENTIFIER:
-            return BackendError(
-                f"{q.board_identifier!r} is not a valid identifier for {q.board_type} "
-                f"({detail}). Correct [quanser] board_identifier in {source}."
-            )
-        if code == _INVALID_BOARD_HANDLE:
-            return BackendError(
-                f"{board} stopped answering while {action} ({detail}): it was closed or its USB "
-                "cable was pulled. Check the cable, then connect again."
-            )
-        if code == _INVALID_ENCODER_CHANNEL:
-            return BackendError(
-                f"{board} has no encoder channel {list(q.encoder_channels)} ({detail}). Correct "
-                f"[quanser] encoder_channels in {source}."
-            )
-        if code == _INVALID_ANALOG_OUTPUT_CHANNEL:
-            return BackendError(
-                f"{board} has no analog output {list(q.analog_output_channels)} ({detail}). "
-                f"Correct [quanser] analog_output_channels in {source}."
-            )
-        if code == _CARD_OPTION_NOT_RECOGNIZED:
-            return BackendError(
-                f"{board} does not recognise the card options {q.card_options!r} ({detail}). "
-                f"Correct or empty [quanser] card_options in {source}."
-            )
-        if code in (_ANALOG_EXPIRATION_NOT_ZERO, _DIGITAL_EXPIRATION_NOT_TRISTATE,
-                    _Q8_EXPIRATIONS_NOT_CONFIGURED) or code in _WATCHDOG_NOT_SUPPORTED:
-            return BackendUnavailable(
-                f"{board} refused the watchdog configuration while {action} ({detail}). The "
-                "robot is not run without its hardware watchdog: check that board_type matches "
-                "the card (a Q8-series card is required)."
-            )
-        if code == _BUFFER_OVERFLOW:
-            return BackendError(
-                f"{board} reports a buffer overflow while {action} ({detail}): another program "
-                "runs a task on the card. Close it and connect again."
-            )
-        return BackendError(
-            f"{board} failed while {action} ({detail}). Connect again; if it recurs, note the "
-            "error number for the technician."
-        )
-
 
 def _clamp(value: float, limit: float) -> float:
     return limit if value > limit else -limit if value < -limit else value
-
-
-def _runtime_text(exc: Any) -> str:
-    """The HIL runtime's own message, when the native runtime can give one."""
-    try:
-        text = exc.get_error_message()
-    except Exception:
-        return ""
-    return f": {text}" if text else ""
