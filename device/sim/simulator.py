@@ -70,14 +70,9 @@ inverted, with the mounting offset), Gaussian noise added, then quantised to
 from a numpy Generator seeded by `seed`, drawn in blocks, so runs are
 repeatable for a seed.
 
-The zero at Connect: `open()` takes the sensor's zero as the hardware does, averaging
-0.25 s of samples at 2 kHz (docs/hardware.md, Tare), and refuses one taken under load
-(device.backend.Tare: the force moved beyond the sensor's noise). Nobody touches the
-handle unless told to: `push_at_connect_N` is a virtual patient's hand taking hold of
-the handle as the zero starts, its push (global frame, N) rising with a 50 ms time
-constant and trembling at 10 Hz by 5 % (physiological tremor, 8–12 Hz), with the
-sensor's noise and resolution on top, drawn from a child seed of its own. A zero that
-passes is taken as exact: what a push within the noise leaves is within the noise.
+The zero at Connect: `open()` takes the sensor's zero as the hardware does, and refuses
+one taken under load; a virtual patient's hand may take hold of the handle meanwhile
+(`push_at_connect_N`, device.sim.grip).
 """
 
 from __future__ import annotations
@@ -91,9 +86,10 @@ import numpy as np
 from core.errors import ParameterError, capitalised, check_finite, check_range
 from core.robot import RobotModel
 from core.trial import THESIS_SUBJECT, TrialParameters
-from device.backend import SIMULATED, TARE_SPREAD_LIMIT_N, TIMINGS, SensorReading, Tare, tare_of
+from device.backend import SIMULATED, TIMINGS, SensorReading, Tare
 from device.errors import BackendError, SensorRangeError, StateError, TareUnderLoad
 from device.sim import physics
+from device.sim.grip import zero_at_connect
 from device.sim.patients import Patient, VirtualPatient, make_patient
 from device.sim.plant import Plant
 from device.sim.seeds import ROBOT_SEED, check_seed, child_seed
@@ -106,14 +102,6 @@ DEFAULT_STEP_S = 0.001
 MAX_STEP_S = 0.001
 NOISE_BLOCK = 4096
 """Sensor-noise triples drawn from the generator at a time."""
-TARE_S = 0.25
-TARE_RATE_HZ = 2000.0
-"""The zero at Connect: 0.25 s of samples at 2 kHz, as the hardware's default settings."""
-GRIP_RISE_S = 0.05
-GRIP_TREMOR_HZ = 10.0
-GRIP_TREMOR_FRACTION = 0.05
-"""A hand taking hold of the handle (`push_at_connect_N`): its push rises with this time
-constant and trembles at this frequency by this fraction of itself."""
 # A waiting patient's clock: this far before the exercise's start, the desired
 # motion is the start posture at rest (finite, so the tremor's sine stays defined).
 _WAITING_S = 1e9
@@ -304,15 +292,8 @@ class SimulatorBackend:
         self._is_open = True
 
     def _take_zero(self) -> Tare:
-        """The zero's samples as the sensor reads them (the module notes)."""
-        rng = np.random.default_rng(child_seed(self.seed, 2))
-        t = np.arange(round(TARE_S * TARE_RATE_HZ)) / TARE_RATE_HZ
-        grip = (1.0 - np.exp(-t / GRIP_RISE_S)) * (1.0 + GRIP_TREMOR_FRACTION * np.sin(
-            2.0 * math.pi * GRIP_TREMOR_HZ * t + rng.uniform(0.0, 2.0 * math.pi)))
-        sensor, step = self.sensor, self.sensor.resolution_xy_N
-        forces = [np.round((push * grip + sensor.noise_xy_N * rng.standard_normal(t.size))
-                           / step) * step for push in self.push_at_connect_N]
-        return tare_of(*forces, TARE_S, TARE_SPREAD_LIMIT_N)
+        """The zero's samples as the sensor reads them (device.sim.grip)."""
+        return zero_at_connect(self.push_at_connect_N, self.sensor, child_seed(self.seed, 2))
 
     def read(self, now_s: float) -> SensorReading:
         """Advance to `now_s` (whole steps, torques held) and sample the sensors."""
