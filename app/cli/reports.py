@@ -19,7 +19,7 @@ from app.cli.common import (
 from app.records.outcomes import OUTCOME_COLUMNS, patient_outcomes
 from app.reports.metrics_table import ROW_BY_KEY, MetricRow
 from app.reports.progress import progress
-from app.reports.progress_figure import figure_row, figure_rows
+from app.reports.progress_figure import figure_rows, shown_row
 
 
 def _cell(value):
@@ -98,7 +98,7 @@ def cmd_progress(args: argparse.Namespace) -> int:
     for index, exercise in enumerate(prog.exercises):
         members = prog.members(index).tolist()
         print(f"\nexercise {index + 1}: {exercise.label()} ({_count(len(members), 'trial')})")
-        figures = [_row(key) for key in args.metrics] if args.metrics else [
+        figures = [shown_row(key) for key in args.metrics] if args.metrics else [
             row for row in figure_rows(prog, index)
             if exercise.assessment or row.key in (exercise.success_key, *EXERCISE_FIGURES)]
         status = [_status(rows[i], header) for i in members]
@@ -159,14 +159,6 @@ def _print_task(prog, rows, header, members, status, figures) -> None:
 def _status(row, header) -> str:
     """A trial's status; --include-invalid: INVALID, and why below the tables."""
     return "INVALID" if row[header.index("invalid_reason")] else row[5]
-
-
-def _row(key: str) -> MetricRow:
-    """A figure asked for by its key: the metrics table's or a task's row, else its key."""
-    try:
-        return figure_row(key)
-    except KeyError:
-        return MetricRow(key, key, "", 1.0, "")
 
 
 def _progress_cell(row: MetricRow, value) -> str:

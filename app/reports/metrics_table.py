@@ -23,6 +23,21 @@ class MetricRow:
     def heading(self) -> str:
         return self.short or self.label
 
+    @property
+    def label_in_unit(self) -> str:
+        """The figure's name with its display unit, as a heading names it: 'Position
+        error, x (RMSE) (mm)'; the name alone when it has no unit."""
+        return _in_unit(self.label, self.unit)
+
+    @property
+    def heading_in_unit(self) -> str:
+        """The short name with its display unit, as an axis or a chooser names it."""
+        return _in_unit(self.heading, self.unit)
+
+
+def _in_unit(name: str, unit: str) -> str:
+    return f"{name} ({unit})" if unit else name
+
 
 ROWS: tuple[MetricRow, ...] = (
     MetricRow("rmse_x_m", "Position error, x (RMSE)", "mm", MM_PER_M,

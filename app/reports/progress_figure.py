@@ -56,7 +56,7 @@ class ProgressFigure:
 
     @property
     def title(self) -> str:
-        return f"{self.row.label} ({self.row.unit})" if self.row.unit else self.row.label
+        return self.row.label_in_unit
 
 
 def figure_row(key: str) -> MetricRow:
@@ -66,6 +66,16 @@ def figure_row(key: str) -> MetricRow:
         return ROW_BY_KEY[key]
     spec = FIGURES[key]
     return catalogue_row(spec, spec.definition)
+
+
+def shown_row(key: str) -> MetricRow:
+    """`figure_row`, or for a key neither table knows (a record's bookkeeping: duration_s,
+    tolerance_rad, game_hits) a bare row named by its key, unscaled and without a unit:
+    what every place that shows any figure by its key shows it as."""
+    try:
+        return figure_row(key)
+    except KeyError:
+        return MetricRow(key, key, "", 1.0, "")
 
 
 def figure_rows(progress: Progress, exercise_index: int) -> tuple[MetricRow, ...]:

@@ -32,8 +32,8 @@ from scipy import stats
 from app.records.registry import KEY_PARAMETERS
 from app.records.scales import value_label
 from app.records.store import RecordStore
-from app.reports.metrics_table import ROW_BY_KEY
-from app.reports.progress_figure import figure_row
+from app.reports.metrics_table import ROW_BY_KEY, MetricRow
+from app.reports.progress_figure import shown_row
 from core.assessment import TASKS
 from core.assessment.figures import FIGURES
 
@@ -146,8 +146,13 @@ class ScaleSeries:
         return f"{said}{nil}; {self.norms_label}"
 
     @property
+    def figure_row(self) -> MetricRow:
+        """The figure as it is shown: its label, display unit and scale (shown_row)."""
+        return shown_row(self.figure_key)
+
+    @property
     def figure_label(self) -> str:
-        return figure_label(self.figure_key)
+        return self.figure_row.heading_in_unit
 
     @property
     def scale_label(self) -> str:
@@ -156,36 +161,9 @@ class ScaleSeries:
 
 def has_label(key: str) -> bool:
     """The figure is one a person is shown (the catalogue's or the report's rows'), not a
-    record's bookkeeping (duration_s, tolerance_rad, game_hits: the figure_label of a key
-    neither knows is the key itself)."""
+    record's bookkeeping (duration_s, tolerance_rad, game_hits: shown_row names a key
+    neither knows by the key itself)."""
     return key in FIGURES or key in ROW_BY_KEY
-
-
-def figure_label(key: str) -> str:
-    """A figure's label with its display unit (`figure_row`: the report's rows', or an
-    assessment figure's as the therapist's table and its page show it), else the key."""
-    try:
-        row = figure_row(key)
-    except KeyError:
-        return key
-    return f"{row.heading} ({row.unit})" if row.unit else row.heading
-
-
-def figure_unit(key: str) -> str:
-    """The unit a figure is shown in ('' for none or a key neither table knows): a task's
-    figure in the unit its page shows (mm/s, not its SI m/s)."""
-    try:
-        return figure_row(key).unit
-    except KeyError:
-        return ""
-
-
-def figure_display_scale(key: str) -> float:
-    """The factor from the figure's SI value to the unit figure_label names."""
-    try:
-        return figure_row(key).scale
-    except KeyError:
-        return 1.0
 
 
 def _session_figures(registry: RecordStore, code: str, key: str, include_invalid: bool
@@ -283,8 +261,9 @@ def _mark_real_changes(points: list[SessionPoint], key: str, norms
     from app.norms import NormsError
 
     if key not in norms.figures:  # NormsError's line lists every figure they hold
-        return points, (f"the norms ({norms.source}) hold no MDC95 for {figure_label(key)}, "
-                        "not one of their figures: no change is marked real")
+        return points, (f"the norms ({norms.source}) hold no MDC95 for "
+                        f"{shown_row(key).heading_in_unit}, not one of their figures: no "
+                        "change is marked real")
     try:
         mdc = norms.mdc95(key)
     except NormsError as exc:

@@ -348,8 +348,6 @@ def scales_pages(code: str, per_session: dict, series: tuple = ()) -> list[Figur
             if scale in per_session[number]:
                 entry = per_session[number][scale]
                 flow.text(f"{scale_text(entry)} — {entry.rater}")
-    from app.reports.scales_progress import figure_display_scale
-
     for s in series:
         if not s.points:
             continue
@@ -357,7 +355,7 @@ def scales_pages(code: str, per_session: dict, series: tuple = ()) -> list[Figur
             # a plot of one point says nothing (a one-session patient had 8 pages of
             # them, each "n = 1"): the point in a line, and when a plot will come
             p = s.points[0]
-            value = p.figure * figure_display_scale(s.figure_key)
+            value = p.figure * s.figure_row.scale
             flow.text(f"{s.figure_label} against {s.scale_label}: session {p.session_number} "
                       f"only ({s.scale_label} {p.scale:g}; {s.figure_label} {value:.3g}); "
                       "plotted from a "
@@ -366,7 +364,7 @@ def scales_pages(code: str, per_session: dict, series: tuple = ()) -> list[Figur
         flow.room(3.9)
         flow.heading(f"{s.figure_label} against {s.scale_label}")
         axes = flow.sheet.axes(2.4, x_in=LEFT_IN + 0.7, width_in=4.5)
-        factor = figure_display_scale(s.figure_key)
+        factor = s.figure_row.scale
         xs = [p.scale for p in s.points]
         ys = [p.figure * factor for p in s.points]
         axes.plot(xs, ys, linestyle="none", marker="o", color="#0072B2")

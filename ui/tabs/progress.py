@@ -385,8 +385,7 @@ class ProgressTab(QWidget):
             return
         figure = progress_figure(result, index, key)
         # the short name on the axis: the chooser above says it whole
-        row = figure.row
-        item.setLabel("left", f"{row.heading} ({row.unit})" if row.unit else row.heading)
+        item.setLabel("left", figure.row.heading_in_unit)
         theme.style_plot(item)
         theme.style_plot(help_item)
         width = _axis_width()

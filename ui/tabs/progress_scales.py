@@ -23,13 +23,10 @@ from PySide6.QtWidgets import (
 
 from app.records.scales import value_label
 from app.records.store import RecordStore
-from app.reports.progress_figure import value_span
+from app.reports.progress_figure import shown_row, value_span
 from app.reports.scales_progress import (
     ScaleSeries,
-    figure_display_scale,
     figure_keys,
-    figure_label,
-    figure_unit,
     has_label,
     mdc_text,
     scale_keys,
@@ -166,7 +163,7 @@ class ScalesPanel(QWidget):
         if token != self._token:
             return
         self.view = view
-        self._fill(self.figure_choice, view.figures, figure_label,
+        self._fill(self.figure_choice, view.figures, lambda key: shown_row(key).heading_in_unit,
                    view.series.figure_key if view.series else None)
         self._fill(self.scale_choice, view.scales, value_label,
                    view.series.scale_key if view.series else None)
@@ -194,7 +191,7 @@ class ScalesPanel(QWidget):
             return
         item.setLabel("bottom", series.scale_label)
         item.setLabel("left", series.figure_label)
-        factor = figure_display_scale(series.figure_key)
+        factor = series.figure_row.scale
         x = np.array([p.scale for p in series.points])
         y = np.array([p.figure for p in series.points]) * factor
         item.addItem(pg.ScatterPlotItem(x, y, symbol="o", size=11,
@@ -209,7 +206,7 @@ class ScalesPanel(QWidget):
         # one session (or sessions alike): pyqtgraph zoomed to the value's last digits
         # ("17.53418183452692"); each axis spans at least its unit's least, as the
         # Progress plots do
-        for axis, values, unit in (("x", x, ""), ("y", y, figure_unit(series.figure_key))):
+        for axis, values, unit in (("x", x, ""), ("y", y, series.figure_row.unit)):
             low, high = value_span(values, unit)
             if low < high:
                 item.getViewBox().setRange(**{f"{axis}Range": (low, high)}, padding=0.1)

@@ -32,7 +32,7 @@ def metric_rows(result: Progress) -> list[MetricRow]:
 
 def metric_heading(row: MetricRow) -> str:
     """A figure's name with its display unit, as a heading or an axis label."""
-    return f"{row.label} ({row.unit})" if row.unit else row.label
+    return row.label_in_unit
 
 
 def exercise_choice(result: Progress, index: int) -> str:

@@ -217,15 +217,16 @@ def test_a_session_s_figure_leaves_out_the_battery_s_trials_that_do_not_measure_
 def test_a_task_s_figure_is_drawn_in_the_unit_the_assessments_tab_shows():
     """Seen in the window: "against Posture speed (m/s)", its axis 0.00032, where the
     Assessments tab says 0.3217 mm/s (app.units.shown, the page's units)."""
-    from app.reports.scales_progress import figure_display_scale, figure_label, figure_unit
+    from app.reports.progress_figure import shown_row
     from app.units import shown
     from core.assessment import FIGURES
 
     for key, spec in FIGURES.items():
         factor, unit = shown(1.0, spec.unit)
         unit = "" if unit in ("1", "count") else unit
-        assert (figure_display_scale(key), figure_unit(key)) == (factor, unit), key
-        assert figure_label(key) == (f"{spec.label} ({unit})" if unit else spec.label)
+        row = shown_row(key)
+        assert (row.scale, row.unit) == (factor, unit), key
+        assert row.heading_in_unit == (f"{spec.label} ({unit})" if unit else spec.label)
 
 
 def test_a_progress_report_sets_no_assessment_mode_s_figure_against_the_scales(registry):
