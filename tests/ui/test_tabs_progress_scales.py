@@ -35,16 +35,33 @@ def clinic(tmp_path):
     return registry, codes
 
 
+def one_trial(tmp_path, metrics: dict) -> tuple[Registry, str, int]:
+    """A registry with one patient, one session and one finished trial of `metrics`:
+    the patient's code and the session's number."""
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("P", "Example", side="right").code
+    number = registry.open_session(code).number
+    begun = registry.begin_trial(code, THESIS_SUBJECT, backend="simulator",
+                                 session_number=number)
+    registry.finish_trial(begun.trial_id, "complete", metrics)
+    return registry, code, number
+
+
+def opened(qtbot, registry, code: str, width: int = 1280, height: int = 900) -> ProgressTab:
+    """The Progress tab shown on `code`, its progress and its scales panel loaded."""
+    tab = ProgressTab(registry)
+    shown(qtbot, tab, width, height)
+    with qtbot.waitSignal(tab.progress_loaded, timeout=10000), \
+            qtbot.waitSignal(tab.scales.shown, timeout=10000):
+        tab.set_patient(code)
+    return tab
+
+
 @pytest.fixture
 def tab(qtbot, qapp, clinic):
     theme.apply_theme(qapp)
     registry, codes = clinic
-    tab = ProgressTab(registry)
-    shown(qtbot, tab, 1280, 900)
-    with qtbot.waitSignal(tab.progress_loaded, timeout=10000), \
-            qtbot.waitSignal(tab.scales.shown, timeout=10000):
-        tab.set_patient(codes[0])
-    return tab
+    return opened(qtbot, registry, codes[0])
 
 
 def test_an_invalid_trial_disappears_from_progress_and_comes_back_when_asked(qtbot, tab,
@@ -102,19 +119,10 @@ def test_before_any_scale_the_panel_says_where_to_record_one_and_draws_no_empty_
     that gave a shell command. The figures are the Progress tab's own, named; no axes
     until there is something to draw; the caption names the window's place."""
     theme.apply_theme(qapp)
-    registry = Registry(DataDir(tmp_path / "data"))
-    code = registry.create_patient("P", "Example", side="right").code
-    number = registry.open_session(code).number
-    begun = registry.begin_trial(code, THESIS_SUBJECT, backend="simulator",
-                                 session_number=number)
-    registry.finish_trial(begun.trial_id, "complete",
-                          {RT: 0.01, "duration_s": 20.0, "tolerance_rad": 0.35,
-                           "game_hits": 8.0, "led_pct": 92.0})
-    tab = ProgressTab(registry)
-    shown(qtbot, tab, 1280, 900)
-    with qtbot.waitSignal(tab.progress_loaded, timeout=10000), \
-            qtbot.waitSignal(tab.scales.shown, timeout=10000):
-        tab.set_patient(code)
+    registry, code, number = one_trial(tmp_path, {
+        RT: 0.01, "duration_s": 20.0, "tolerance_rad": 0.35, "game_hits": 8.0,
+        "led_pct": 92.0})
+    tab = opened(qtbot, registry, code)
     tab.scales_button.click()
     view = tab.scales.view
     assert set(view.figures) == {RT, "led_pct"}
@@ -142,18 +150,9 @@ def test_one_session_s_point_is_drawn_on_axes_a_person_can_read(qtbot, qapp, tmp
     from app.reports.progress_figure import MIN_SPAN
 
     theme.apply_theme(qapp)
-    registry = Registry(DataDir(tmp_path / "data"))
-    code = registry.create_patient("Ada", "Example", side="right").code
-    number = registry.open_session(code).number
-    begun = registry.begin_trial(code, THESIS_SUBJECT, backend="simulator",
-                                 session_number=number)
-    registry.finish_trial(begun.trial_id, "complete", {RT: 0.0175341818345269})
+    registry, code, number = one_trial(tmp_path, {RT: 0.0175341818345269})
     registry.record_scale(code, number, "fugl_meyer", total=36, rater="K. Lee")
-    tab = ProgressTab(registry)
-    shown(qtbot, tab, 1366, 700)
-    with qtbot.waitSignal(tab.progress_loaded, timeout=10000), \
-            qtbot.waitSignal(tab.scales.shown, timeout=10000):
-        tab.set_patient(code)
+    tab = opened(qtbot, registry, code, 1366, 700)
     assert tab.scales.figure_choice.currentData() == RT  # the one figure there is
     tab.scales_button.click()
     qtbot.waitExposed(tab.scales.plot)
