@@ -207,6 +207,21 @@ class RegistrationTab(PatientSearch, NewPatient, QWidget):
             # at once, the one shown (Start used to keep the old one and be refused)
             self.confirm_registration(numbers)
 
+    def refresh_count(self) -> None:
+        """The session line ("continues the session of …, N trials so far") read again from
+        the registry on the job thread, the numbers and any refusal under them left as they
+        are: after a Start the registry refused (another station's trial in the session,
+        say), the line kept the count from before it."""
+        if self._patient is None or self.registry is None:
+            return
+        registry, code = self.registry, self._patient.code
+
+        def show(sessions: dict[int, Session] | Exception) -> None:
+            if isinstance(sessions, dict) and self._patient is not None \
+                    and self._patient.code == code:
+                self._say_session(sessions)  # a refusal to read: the line as it was
+        self._ask("sessions", lambda: sessions_read(registry, code), show)
+
     def show_refusal(self, refusal: Exception | str) -> None:
         """Show the registry's refusal of the numbers (e.g. DuplicateNumberError raised by
         Registry.begin_trial at Start) under the trial number."""
@@ -281,15 +296,8 @@ class RegistrationTab(PatientSearch, NewPatient, QWidget):
 
     def _recorded(self, _said: str) -> None:
         """After a correction the patient's row changed: show it as it is now. A scale or a
-        note may have opened a session: its line says so (read on the job thread)."""
-        if self._patient is not None and self.registry is not None:
-            registry, code = self.registry, self._patient.code
-
-            def show(sessions: dict[int, Session] | Exception) -> None:
-                if isinstance(sessions, dict) and self._patient is not None \
-                        and self._patient.code == code:
-                    self._say_session(sessions)  # a refusal to read: the line as it was
-            self._ask("sessions", lambda: sessions_read(registry, code), show)
+        note may have opened a session: its line says so (`refresh_count`)."""
+        self.refresh_count()
         patient = self.clinical.patient
         if patient is not None and self._patient is not None and \
                 patient.code == self._patient.code and patient != self._patient:

@@ -358,6 +358,8 @@ class TrialActions:
             # them (ui.window.after_trial): pressed at once, it registered the number the
             # withdrawn trial had moved on from, and the registry refused it as a gap
             self.read_numbers()
+        else:  # nobody confirmed: the session line's count at least, the row gone from it
+            self.registration_tab.refresh_count()
 
     def _on_state(self, state: int, reason: str) -> None:
         if State(state) != self.state:
