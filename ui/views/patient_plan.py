@@ -7,7 +7,8 @@ left) with the block's number in the top band's first place (a block of several 
 says which with the trial's "Get ready": "Round 2 of 3. Get ready") and a bar of the session's
 exercise done under it, which moves as the running trial's time passes (a two-minute
 block's bar does not stand still) and never back (`PlanOverlay.at_least`). During a rest
-the table gives way to "Rest" and its countdown in the largest type; paused, "Pause"; at
+the table gives way to "Rest" and its countdown in the largest type; paused, "Pause" (from
+the press: the trial it stops is no "Stopped" for the patient); at
 the end, the session's outcome in the patient's words. The counts are the plan's own (the
 trials' files, the runner's laps), never recomputed here; the running trial's laps passed
 come from the screen's own clock (`laps_passed`).
@@ -83,7 +84,7 @@ def overlay(state: PlanState | None, laps: float = 0.0) -> PlanOverlay | None:
         more = state.block < state.n_blocks
         return PlanOverlay(block, progress, REST_WORDS, clock(state.rest_left_s),
                            f"Next: block {state.block + 1}" if more else "")
-    if state.phase == PAUSED:
+    if state.phase == PAUSED or state.pausing:
         return PlanOverlay(block, progress, PAUSE_WORDS, "", "Please wait")
     if state.phase == ENDED:
         return PlanOverlay(block, progress, ENDED_WORDS.get(state.outcome, "Stopped"), "",

@@ -184,3 +184,46 @@ def test_a_plan_s_next_block_shows_waiting_as_its_build_is_asked_not_the_last_la
     finally:
         win.plan_runner = None
         win.close()
+
+
+def test_a_pause_in_a_trial_says_pause_at_once_never_stopped(patient):
+    """Brief hT: Pause pressed mid-trial, the patient's screen said "Stopped" for about a
+    second, the loop stopping the trial and its file being saved, before "Pause": the
+    plan was paused only once the trial's file was finished. The patient, who did
+    nothing wrong, read that something had gone wrong. Now "Pause" covers the table from
+    the press, whatever the trial's end says meanwhile."""
+    from app.plans.runner import PAUSED, PlanRunner
+    from core.plan import Block, Plan
+    from ui.patient.window import stopped_frame
+    from ui.views.patient_plan import PAUSE_WORDS
+
+    class Console:
+        """The loop and the registry as the runner sees them: asked, answering later."""
+
+        def __getattr__(self, _name):
+            return lambda *args, **kwargs: None
+
+    plan = Plan("One", (Block(shape="d", repetitions=4, duration_s=2.0, rest_s=0.0),))
+    runner = PlanRunner(plan, THESIS_SUBJECT, Console())
+    runner.start(0.0)
+    runner.built(0.0, True)
+    runner.started(0.0, 1)
+    patient.show_plan(runner.state(0.5))
+    patient.grab()
+    assert patient.plan.centre == ""  # the trial's screen while it runs
+
+    def said(now: float) -> str:
+        # the trial Pause stopped ends early: the console marks its frame "Stopped"
+        # (ui.patient.control) until the next Build
+        patient.frame = stopped_frame(patient.frame, True)
+        patient.show_plan(runner.state(now))
+        patient.grab()
+        return patient.painted.get("plan", ("",))[0] or patient.painted["message"]
+
+    runner.pause(1.0)  # the loop is asked to stop the trial
+    assert said(1.0) == PAUSE_WORDS
+    runner.trial_ended(1.3)  # stopped: its file being finished
+    assert said(1.3) == PAUSE_WORDS
+    runner.finished(2.0, 1, "stopped_early", 1, 0.8)
+    assert runner.phase == PAUSED
+    assert said(2.0) == PAUSE_WORDS
