@@ -70,10 +70,9 @@ def paint_words(painter: QPainter, words: Words, base: QFont, ratio: float,
     tests that read the screen: the texts, their pixel sizes)."""
     font = band_font(base, bands)
     score = frame.game.score_text if frame.game else ""
-    # with a plan: the block first, then the score in a game or else the lap
-    first, middle = (frame.repetition_text, score) if plan is None else \
-        (plan.block_text, score or frame.repetition_text)
-    texts = (first, middle, frame.time_left_text)
+    # a plan's block is said with "Get ready" (PlanOverlay.ready_text), not here: beside
+    # the lap and the time left the three came to 18 mm, not 20, on 22 inches
+    texts = (frame.repetition_text, score, frame.time_left_text)
     # one size for the band, the largest at which the three fit side by side
     top, places = top_band(font, bands.top, texts)
     for rect, text, align in zip(places, texts, (Qt.AlignmentFlag.AlignLeft,
@@ -82,8 +81,8 @@ def paint_words(painter: QPainter, words: Words, base: QFont, ratio: float,
         words.draw(painter, base, ratio, rect, align, text, top, TEXT)
     bottom = qrect(bands.bottom)
     message = frame.message
-    if plan is not None and plan.round_text and frame.cue == CUE_READY:
-        message = f"{plan.round_text}. {message}"  # which of the block's rounds
+    if plan is not None and plan.ready_text and frame.cue == CUE_READY:
+        message = f"{plan.ready_text}. {message}"  # which block, or which of its rounds
     lines, good = message_lines(font, bottom, frame, message)
     colour = GO if good else TEXT
     rows = [bottom.translated(0, -k * bottom.height()) for k in range(len(lines))][::-1]

@@ -54,8 +54,12 @@ def test_the_rest_countdown_replaces_the_table(patient):
 
 def test_during_a_block_the_block_and_the_session_s_progress_show(patient):
     patient.show_plan(_state())
+    patient.frame = PatientFrame(CUE_READY, False, None, None, -1, 0, 5, 12.0)
+    patient.grab()
+    assert patient.painted["message"] == "Block 2 of 3. Get ready"  # the block's first round
+    patient.frame = PatientFrame("", False, None, None, -1, 2, 5, 8.0)
     image = patient.grab().toImage()
-    assert patient.painted["top"][0] == "Block 2 of 3"
+    assert patient.painted["top"] == ("Lap 2 of 5", "", "0:08 left")  # as a trial alone
     assert patient.painted["progress"] == pytest.approx(0.25)
     bands = patient.screen_layout()
     y = round(bands.top.height + 2)
@@ -130,18 +134,19 @@ def test_a_block_of_several_rounds_names_its_round_as_the_status_line_does(patie
     "Round 1 of 3" meaning the trial's lap; the therapist's line said "round 2 of 3"
     meaning the block's trial. Now a lap is a lap and the screen says the block's round
     in the status line's words with the trial's "Get ready" (the top band keeps its
-    size)."""
+    size), the block with its first round's."""
     state = _state(block=1, n_blocks=2, round=2, rounds=3)
     plan = overlay(state)
-    assert (plan.block_text, plan.round_text) == ("Block 1 of 2", "Round 2 of 3")
+    assert (plan.block_text, plan.ready_text) == ("Block 1 of 2", "Round 2 of 3")
     assert state.line().startswith("Block 1 of 2, round 2 of 3")
-    assert overlay(_state(phase="resting", round=3, rounds=3)).round_text == ""
-    assert overlay(_state()).round_text == ""  # one round: no round said
+    assert overlay(_state(phase="resting", round=3, rounds=3)).ready_text == ""
+    assert overlay(_state(round=1, rounds=3)).ready_text == "Block 2 of 3"
+    assert overlay(_state()).ready_text == "Block 2 of 3"  # one round: the block said
     patient.show_plan(state)
     patient.frame = PatientFrame(CUE_READY, False, None, None, -1, 0, 3, 12.0)
     patient.grab()
     assert patient.painted["message"] == "Round 2 of 3. Get ready"
-    assert patient.painted["top"][0] == "Block 1 of 2"
+    assert patient.painted["top"] == ("", "", "0:12 left")
 
 
 def test_a_plan_s_next_block_shows_waiting_as_its_build_is_asked_not_the_last_lap(
@@ -179,7 +184,8 @@ def test_a_plan_s_next_block_shows_waiting_as_its_build_is_asked_not_the_last_la
         win.plan_runner = Runner()
         win._repaint()
         patient.grab()
-        assert patient.painted["top"] == ("Block 2 of 2", "", "0:04 left")
+        assert patient.painted["top"] == ("", "", "0:04 left")
+        assert patient.painted["message"] == "Please wait"
         assert patient.scene.parameters == following
     finally:
         win.plan_runner = None
