@@ -29,7 +29,8 @@ from app.emg.live import KINDS
 from app.emg.protocol import PUSH_S, REST_S, WAITING, SessionMvcs, words
 from core.emg.synthetic import THESIS_MUSCLES
 from ui import plots, theme
-from ui.fields import DoubleSpinBox, SpinBox
+from ui.fields import DoubleSpinBox
+from ui.tabs.emg_channels import ChannelChooser
 from ui.views.emg import EmgView, emg_view, live_emg_view
 from ui.views.trialview import TrialView
 
@@ -120,16 +121,14 @@ class EmgTab(QWidget):
         self.guided_channel = 0
         self.protocol_box = QGroupBox("MVC protocol (one per muscle per session)")
         grid = QGridLayout(self.protocol_box)
-        self.channel_boxes: dict[str, SpinBox] = {}
+        self.channel_boxes: dict[str, ChannelChooser] = {}
         self.mvc_labels: dict[str, QLabel] = {}
         self.record_buttons: dict[str, QPushButton] = {}
         for row, muscle in enumerate(THESIS_MUSCLES):
             grid.addWidget(QLabel(words(muscle)), row, 0)
-            box = SpinBox()
+            box = ChannelChooser()
             box.setAccessibleName(f"{words(muscle)}'s channel")
-            box.setRange(1, 16)
             box.setValue(row + 1)
-            box.setPrefix("EMG")
             box.setToolTip("the source channel (sensor) on this muscle")
             box.valueChanged.connect(lambda value, m=muscle: self._channel_changed(m, value))
             self.channel_boxes[muscle] = box
@@ -235,6 +234,8 @@ class EmgTab(QWidget):
         self.live_label = label
         self.live_problem = ""
         self.lost = None
+        for box in self.channel_boxes.values():  # by the source's own names, if it has any
+            box.name_channels(getattr(source, "labels", ()))
         self.connect_button.setEnabled(True)
         self.connect_button.setText("Disconnect EMG")
         self.live_plot.show()
@@ -394,8 +395,9 @@ class EmgTab(QWidget):
     def _measure(self, guided, capture) -> None:
         """The MVC on the worker: filtering seconds of EMG and reading the session's trials
         must not hold the window."""
+        from app.emg.importing import channel_names
         from app.emg.live import full_scale_of
-        from app.emg.protocol import contraction_mvc
+        from app.emg.protocol import MvcRecord, contraction_mvc
         from app.emg.session import check_with_trials
         from core.emg.processing import EmgSettings
 
@@ -403,26 +405,27 @@ class EmgTab(QWidget):
         rate, muscle, channel = capture.source.rate_hz, guided.muscle, self.guided_channel
         label, trials = self.live_label, list(self.session.trials)
         settings, full_scale = EmgSettings(), full_scale_of(self.live_label)
+        declared = getattr(capture.source, "labels", ())
 
         def measure():
             mvc = contraction_mvc(stamps, samples, rate, muscle, channel, settings=settings,
                                   full_scale_V=full_scale, wanted_s=guided.push_s,
                                   source=label)
             checked = check_with_trials(trials, [mvc], settings_of={muscle: settings})
-            return mvc, checked[muscle], channel, label, settings
+            # the channel in range (contraction_mvc refuses another), named as stored
+            name = channel_names(declared, samples.shape[1])[channel]
+            return mvc, checked[muscle], MvcRecord(mvc, channel, label, settings, name)
 
         self.prompt.setText(f"{words(muscle)}: relax. Computing the MVC …")
         self.measurer.submit(muscle, measure)
 
     def _measured(self, muscle, result) -> None:
-        from app.emg.protocol import MvcRecord
-
-        mvc, checked, channel, label, settings = result
+        _mvc, checked, record = result
         self.guided = None
         self._set_recording(False)
         if self.session is None:
             return
-        self.session.records[muscle] = MvcRecord(mvc, channel, label, settings)
+        self.session.records[muscle] = record
         self.show_mvc(checked)
         self.record_buttons[muscle].setText("Record again")
         self.mvc_recorded.emit(muscle)
