@@ -53,6 +53,10 @@ def mvc_line(mvc) -> str:
 class EmgTab(QWidget):
     said = Signal(str, bool)  # a line for the window's message model: text, problem
     mvc_recorded = Signal(str)  # a muscle's MVC was (re)recorded for the session
+    range_problem = Signal(str)
+    """The live source's numbers reach volts (app.emg.protocol.live_range_problem, in
+    words; '' once they no longer do): seen whether the tab is in view or not, so that a
+    running trial's file can say it (ui.window.trial_emg)."""
 
     def __init__(self, parent=None) -> None:
         super().__init__(parent)
@@ -281,6 +285,9 @@ class EmgTab(QWidget):
             self.stop_live()
             return
         if not self.isVisible():
+            # nothing drawn, but the source's unit is still watched: a trial runs while
+            # another tab is in view, and its file must say what its EMG is
+            self._range_seen(capture)
             return
         if self.live_worker.busy:
             return  # the last refresh is still being computed: skip this one
@@ -304,10 +311,27 @@ class EmgTab(QWidget):
             item.setLabel("left", f"live RMS envelope ({view.unit})")
         for i, c in enumerate(self.live_curves):
             c.setData(view.t_s, view.values[:, i])
-        if view.problem and view.problem != self.live_problem:  # said once, not each refresh
-            self.live_status.setText(f"{theme.PROBLEM_SIGN} {view.problem}")
-            self._say(view.problem, True)
-        self.live_problem = view.problem
+        self._show_problem(view.problem)
+
+    def _range_seen(self, capture) -> None:
+        """The latest seconds' range checked on the window's thread (a maximum: well under
+        a millisecond), the tab out of view."""
+        from app.emg.importing import channel_names
+        from app.emg.protocol import live_range_problem
+
+        _t, x = capture.latest()
+        if x.ndim != 2 or not x.shape[0]:
+            return
+        names = channel_names(getattr(capture.source, "labels", ()), x.shape[1])
+        self._show_problem(live_range_problem(x, range(x.shape[1]), names, self.live_label))
+
+    def _show_problem(self, problem: str) -> None:
+        if problem and problem != self.live_problem:  # said once, not each refresh
+            self.live_status.setText(f"{theme.PROBLEM_SIGN} {problem}")
+            self._say(problem, True)
+        if problem != self.live_problem:
+            self.live_problem = problem
+            self.range_problem.emit(problem)
 
     # -- the MVC protocol -----------------------------------------------------------
     def set_session(self, patient: str, session: int) -> None:

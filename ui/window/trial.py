@@ -371,6 +371,7 @@ class TrialActions:
             self.handle_outside = ""  # the loop says it again once connected between trials
         self._latch_state(self.state, reason)
         self.emg.trial_running = self.state in (State.RUNNING, State.STOPPING)
+        self._note_emg_range(self.emg.live_problem)  # seen before the trial began
         self.messages.set_state(self.state)
         self._show_message()
         self.state_label.setText(f"<b>{self.state.label}</b>")
