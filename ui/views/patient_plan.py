@@ -16,6 +16,7 @@ the running trial's laps passed come from the screen's own clock (`laps_passed`)
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -40,6 +41,9 @@ class PlanOverlay:
     centre: str = ""
     countdown: str = ""
     message: str = ""
+    laps_before: int = 0
+    """Laps of this round its earlier trials ran, a pause having cut them (PlanState.
+    laps_done): the trial run after the pause counts its laps on from them."""
     ready_text: str = ""
     """Where the trial stands in the plan, said with its "Get ready": the block at its
     first round ("Block 2 of 3"), the round at the next ("Round 2 of 3"). Not in the top
@@ -55,8 +59,7 @@ class PlanOverlay:
         half-way counts the laps its file holds, fewer than the clock had passed."""
         if not shown > self.progress:  # NaN either side: as it is
             return self
-        return PlanOverlay(self.block_text, shown, self.centre, self.countdown,
-                           self.message, self.ready_text)
+        return dataclasses.replace(self, progress=shown)
 
 
 def laps_passed(frame: PatientFrame, lap_s: float) -> float:
@@ -92,4 +95,4 @@ def overlay(state: PlanState | None, laps: float = 0.0) -> PlanOverlay | None:
         return PlanOverlay(block, progress, ENDED_WORDS.get(state.outcome, "Stopped"), "",
                            f"{state.movements_done} movements" if state.outcome ==
                            "complete" else "")
-    return PlanOverlay(block, progress, ready_text=ready)
+    return PlanOverlay(block, progress, laps_before=state.laps_done, ready_text=ready)

@@ -233,3 +233,21 @@ def test_a_pause_in_a_trial_says_pause_at_once_never_stopped(patient):
     runner.finished(2.0, 1, "stopped_early", 1, 0.8)
     assert runner.phase == PAUSED
     assert said(2.0) == PAUSE_WORDS
+
+
+def test_a_round_resumed_after_a_pause_counts_its_laps_on(patient):
+    """Seen in the window (brief hT): a five-minute block paused at "Lap 2 of 60" came back
+    as "Lap 1 of 58", the patient's count gone back, the resumed trial counting only the
+    laps it had left. The top band counts the round's laps on from the paused trial's."""
+    state = _state(block=1, laps_planned=58, laps_done=2)
+    patient.show_plan(state)
+    patient.frame = PatientFrame("", False, None, None, -1, 1, 58, 290.0)
+    patient.grab()
+    assert patient.painted["top"][0] == "Lap 3 of 60"
+    patient.frame = PatientFrame(CUE_READY, False, None, None, -1, 0, 58, 290.0)
+    patient.grab()
+    assert patient.painted["top"][0] == ""  # no lap under way yet
+    patient.show_plan(_state(block=1, laps_planned=60, laps_done=0))
+    patient.frame = PatientFrame("", False, None, None, -1, 1, 60, 300.0)
+    patient.grab()
+    assert patient.painted["top"][0] == "Lap 1 of 60"
