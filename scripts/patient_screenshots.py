@@ -5,7 +5,7 @@ moments as the live screen shows them:
     xvfb-run -a -s "-screen 0 1920x1080x24" .venv/bin/python scripts/patient_screenshots.py
 
 Writes docs/screenshots/patient-<what>.png: the D at Go, the D in its second lap (the
-first lap's path faint, "Lap 1 done!"), the path game, the reaching game, a neglect
+first lap's path faint, "Done!" with its quality), the path game, the reaching game, a neglect
 layout (the reaching game turned toward the patient's left, the cue on that side), and a
 session plan's rest. Everything runs in a temporary folder; nothing touches the clinic's
 data. The plan's rest is the state the plan's runner gives during a rest

@@ -32,6 +32,7 @@ from device.loop.messages import (
     StateChanged,
     TrialEnded,
     TrialMarker,
+    TrialNote,
     TrialStarted,
 )
 from device.loop.process import LoopConfig
@@ -135,6 +136,11 @@ class DeviceBridge(QObject):
         """What the patient's screen now shows, to the loop in the order of the commands
         (answered by nothing: a running trial's file records it)."""
         self._put(_Call("show_to_patient", (shown,)))
+
+    def note(self, note: TrialNote) -> None:
+        """Something the console saw, for the running trial's file (device.loop.messages.
+        TrialNote), in the order of the commands; answered by nothing."""
+        self._put(_Call("note", (note,)))
 
     def stop(self) -> None:
         self._put(_Call("stop", ()))

@@ -290,6 +290,7 @@ class MainWindow(AssessmentControl, PlanControl, TrialStart, AfterTrial, TrialAc
         self.emg.said.connect(lambda text, problem: self._say(text, problem))
         self.registration_tab.said.connect(lambda text, problem: self._say(text, problem))
         self.emg.mvc_recorded.connect(self._store_session_mvcs)
+        self.emg.range_problem.connect(self._note_emg_range)
         # a model saved while the console runs appears when the Parameters tab is shown
         self.tabs.currentChanged.connect(self._tab_shown)
 

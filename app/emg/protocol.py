@@ -28,7 +28,14 @@ from pathlib import Path
 
 import numpy as np
 
-from app.emg.importing import LIVE_MARGIN_S, EmgImportError, Imported, import_capture, when_free
+from app.emg.importing import (
+    LIVE_MARGIN_S,
+    EmgImportError,
+    Imported,
+    channel_names,
+    import_capture,
+    when_free,
+)
 from core.emg.mvc import Mvc, MvcCriteria, mvc_from_contraction
 from core.emg.processing import EmgSettings, Envelope, envelope
 from core.emg.synthetic import THESIS_MUSCLES
@@ -64,6 +71,9 @@ class MvcRecord:
     channel: int  # index in the source's channels, from 0
     source: str
     settings: EmgSettings
+    channel_name: str = ""
+    """The channel as the trial file names it (the source's label for it,
+    app.emg.importing.channel_names); '' for EMG<k>, its place."""
 
 
 @dataclass(slots=True)
@@ -89,8 +99,8 @@ class SessionMvcs:
     def measured(self) -> list[tuple]:
         """The MVCs as app.emg.session.store_mvcs takes them: (Mvc, source, channel,
         settings)."""
-        return [(r.mvc, r.source, f"EMG{r.channel + 1}", r.settings)
-                for r in self.records.values()]
+        return [(r.mvc, r.source, r.channel_name or channel_names((), r.channel + 1)[-1],
+                 r.settings) for r in self.records.values()]
 
     def muscles_with_mvc(self) -> tuple[str, ...]:
         return tuple(m for m in self.channels if m in self.records)
@@ -201,8 +211,10 @@ def store_trial(trial_path: str | os.PathLike, captured, label: str,
         raise EmgImportError(f"the EMG source has {width} channels, but channel "
                              f"{outside[0]} is chosen for a muscle; choose its channel")
     chosen = dataclasses.replace(captured, samples=captured.samples[:, columns])
+    # the channels by the source's own names, as the live view and the chooser show them
+    names = channel_names(captured.labels, width)
     done = when_free(lambda: import_capture(
-        trial_path, chosen, names=tuple(f"EMG{c + 1}" for c in columns), muscles=muscles,
+        trial_path, chosen, names=tuple(names[c] for c in columns), muscles=muscles,
         source=label, margin_s=LIVE_MARGIN_S))
     path = Path(trial_path)
     if path not in session.trials:

@@ -114,6 +114,10 @@ class PlanState:
     lap_share: float = 0.0
     """One lap of this block as a share of the plan's exercise (its planned time over its
     laps in all rounds)."""
+    pausing: bool = False
+    """Pause was pressed and the plan pauses once the round in hand allows (the trial
+    stopped and its file finished, the round built): the patient's screen says "Pause"
+    from the press, not the stopped trial's "Stopped"."""
 
     def line(self) -> str:
         """One line for the therapist's status line."""
@@ -358,7 +362,8 @@ class PlanRunner:
             block.name, self.round, block.rounds, self.laps_left if self.phase != IDLE
             else block.laps, self.laps_done, done, self.planned_movements(), rest_left,
             self._time_left(now, rest_left), self.outcome, self.reason,
-            self.held if self.phase == PAUSED else "", *self._shares())
+            self.held if self.phase == PAUSED else "", *self._shares(),
+            self._pause_wanted and self.phase in (BUILDING, STARTING, RUNNING, SAVING))
 
     def _shares(self) -> tuple[float, float]:
         """(done_share, lap_share) of PlanState: laps, not the movements the files count,

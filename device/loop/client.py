@@ -49,6 +49,7 @@ from device.loop.messages import (
     StateChanged,
     Stop,
     TrialEnded,
+    TrialNote,
     TrialStarted,
 )
 from device.loop.process import LoopConfig, loop_main
@@ -315,8 +316,16 @@ class DeviceClient:
     def show_to_patient(self, shown: ShownToPatient) -> None:
         """The patient's screen changed (opened, closed, an option): sent without waiting;
         a running trial's file records it at the tick the loop takes it."""
+        self._send_data(shown)
+
+    def note(self, note: TrialNote) -> None:
+        """Something the console saw, for the running trial's file (messages.TrialNote):
+        sent without waiting, recorded at the tick the loop takes it."""
+        self._send_data(note)
+
+    def _send_data(self, data) -> None:
         try:
-            self._conn.send(shown)
+            self._conn.send(data)
         except (OSError, EOFError) as exc:
             raise DeviceError("the control loop is not running; restart the console") from exc
 

@@ -33,6 +33,7 @@ from device.loop.messages import (
     Shutdown,
     Start,
     Stop,
+    TrialNote,
 )
 from device.loop.pipeline import (
     TickPipeline,
@@ -99,6 +100,12 @@ class LoopCommands:
         if isinstance(command, ShownToPatient):
             if self.state == State.RUNNING:
                 self._tell_shown(command, self.trial_tick)
+            return
+        if isinstance(command, TrialNote):
+            if self.state == State.RUNNING:
+                tick = self.trial_tick
+                self._to_recorder(TrialEvent(tick * self.plan.period_s, tick, command.kind,
+                                             command.message, dict(command.values)))
             return
         kind = COMMAND_KINDS.get(type(command))
         if kind is None:

@@ -156,6 +156,19 @@ class ShownToPatient:
 
 
 @dataclass(frozen=True, slots=True)
+class TrialNote:
+    """Something the console saw while a trial ran that the trial's own samples do not
+    say (a live EMG source whose numbers reach volts: its unit is wrong), for the trial
+    file: the event `kind` with `message` and `values` at the tick the loop takes it
+    (docs/data-format.md). Data, not a command, as ShownToPatient: the loop drops it
+    when no trial runs."""
+
+    kind: str
+    message: str
+    values: dict
+
+
+@dataclass(frozen=True, slots=True)
 class ForceEstimate:
     """The console's latest estimate of the patient's force on the handle (global frame,
     N; NaN when it has none), made from EMG for the trial's tick `tick`: data, not a

@@ -214,3 +214,57 @@ def test_a_stream_that_dies_mid_trial_is_one_line_and_the_trial_completes(
         finally:
             win.emg.stop_live()
             win.close()
+
+
+class MicrovoltsAsVolts:
+    """A live LSL source whose amplifier sends µV that it was opened as volts (lsl:amp@V):
+    two named channels of about 300 "V", stamped on the monotonic clock as they come."""
+
+    rate_hz = 1000.0
+    labels = ("biceps_r", "triceps_r")
+
+    def __init__(self) -> None:
+        import time
+
+        self.next_s = time.monotonic()
+
+    def read(self, timeout_s=0.1):
+        import time
+
+        time.sleep(min(timeout_s, 0.02))
+        n = int((time.monotonic() - self.next_s) * self.rate_hz)
+        stamps = self.next_s + np.arange(max(n, 0)) / self.rate_hz
+        self.next_s += max(n, 0) / self.rate_hz
+        return stamps, 300.0 * np.sin(2 * np.pi * 97.3 * stamps)[:, None] * np.ones((1, 2))
+
+    def close(self) -> None:
+        pass
+
+
+def test_emg_in_the_wrong_unit_is_recorded_with_the_trial_and_its_file_says_so(
+        qtbot, tmp_path, monkeypatch):
+    """Brief hT: a live stream whose numbers look like µV given as V was warned on the EMG
+    tab while the trial stored it without a word: its file held 300 "V" of EMG for any
+    reader after. The record is the truth of the trial: it keeps what the source gave,
+    and says the problem as its event "emg" at the tick the loop took it, within the
+    trial, whatever tab was in view."""
+    win = open_window(qtbot, tmp_path, monkeypatch)
+    try:
+        register_patient(qtbot, win)
+        short_trial(win, duration_s=1.5)
+        win.emg._opened(None, (MicrovoltsAsVolts(), "lsl:amp"))
+        _run_trial(qtbot, win)
+        qtbot.waitUntil(lambda: _said(win, "EMG stored with the trial"), timeout=60000)
+        assert win.tabs.currentWidget() is not win.emg  # the tab was out of view
+        stored = _stored(qtbot, win.trial_path)
+        assert stored.names == MicrovoltsAsVolts.labels
+        assert np.abs(stored.samples).max() > 250.0  # what came, as it came
+        trial = read_trial(win.trial_path)
+        (said,) = [e for e in trial.events if e["kind"] == "emg"]
+        assert "biceps_r reaches" in said["message"]
+        assert "in volts as lsl:amp gives them" in said["message"]
+        assert said["values"] == {"source": "lsl:amp"}
+        assert 0.0 <= said["time_s"] <= float(np.ravel(trial.channels["time"])[-1])
+    finally:
+        win.emg.stop_live()
+        win.close()

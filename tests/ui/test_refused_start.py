@@ -203,3 +203,28 @@ def test_start_waits_for_the_numbers_read_again_after_a_trial_is_taken_back(qtbo
     release.set()
     qtbot.waitUntil(lambda: win.robot.buttons["start"].isEnabled(), timeout=20000)
     assert win.registration.trial_number == 1
+
+
+@pytest.mark.slow
+def test_a_start_the_registry_refuses_shows_the_registrys_count_of_the_session(qtbot,
+                                                                              window):
+    """Brief hT: after a refused Start the Registration tab's "(N trials so far)" was the
+    count before it. Here another station registered trial 1 of the patient's first session
+    while the tab said "a new session": the registry refuses this Start's trial 1, and the
+    tab says the session the registry has, with its one trial, the refusal kept beneath."""
+    win = window
+    _connected(qtbot, win)
+    tab = win.registration_tab
+    assert tab.session_note.text() == "a new session"
+    code = win.patient.code
+    win.registry.begin_trial(code, win.built, backend="simulator", session_number=1,
+                             trial_number=1)  # another station's, meanwhile
+    click(qtbot, win.robot.buttons["start"])
+    qtbot.waitUntil(lambda: any("Start refused" in line for line in win.messages.history()),
+                    timeout=20000)
+    qtbot.waitUntil(lambda: tab.session_note.text().endswith("(1 trial so far)"),
+                    timeout=20000)
+    assert tab.session_note.text().startswith("continues the session of")
+    assert not tab.trial_problem.isHidden()  # the refusal stays where it was said
+    assert tab.trial.value() == 1  # the numbers too: the therapist decides the next
+

@@ -155,3 +155,25 @@ def test_the_tab_says_once_that_the_live_source_gives_a_wrong_unit(qtbot):
     assert said == [(problem, True)]
     assert problem in tab.live_status.text()
     tab.capture = None
+
+
+def test_the_muscles_channels_are_chosen_by_the_names_the_source_declares(qtbot):
+    """Brief hT: the muscle choosers said EMG1, EMG2 … while the LSL stream named its
+    channels. Once a source that names them connects, each chooser shows the names, the
+    channel chosen kept (a source that names none leaves the numbers)."""
+    tab = EmgTab()
+    qtbot.addWidget(tab)
+    biceps = tab.channel_boxes["biceps"]
+    biceps.setValue(3)
+    assert biceps.currentText() == "EMG3"
+
+    class Named(_QuietSource):
+        labels = ("triceps_r", "deltoid_r", "biceps_r")
+
+    tab._opened(None, (Named(), "lsl:amp"))
+    try:
+        assert biceps.value() == 3
+        assert biceps.currentText() == "biceps_r"
+        assert [biceps.itemText(k) for k in range(4)] == [*Named.labels, "EMG4"]
+    finally:
+        tab.stop_live()

@@ -6,6 +6,8 @@ ui.views.patient_geometry (the screen's letter size) and ui.patient.text (what f
 
 from __future__ import annotations
 
+import dataclasses
+
 from PySide6.QtCore import QPointF, QRectF, Qt
 from PySide6.QtGui import QColor, QFont, QPainter
 
@@ -69,11 +71,15 @@ def paint_words(painter: QPainter, words: Words, base: QFont, ratio: float,
     """The top band and the bottom's words of a frame; returns what was painted (for the
     tests that read the screen: the texts, their pixel sizes)."""
     font = band_font(base, bands)
+    if plan is not None and plan.laps_before and frame.repetition > 0:
+        # a round resumed after a pause: its laps go on ("Lap 3 of 60"), not from 1 of the
+        # laps the new trial runs ("Lap 1 of 58", the patient's count gone back)
+        frame = dataclasses.replace(frame, repetition=frame.repetition + plan.laps_before,
+                                    repetitions=frame.repetitions + plan.laps_before)
     score = frame.game.score_text if frame.game else ""
-    # with a plan: the block first, then the score in a game or else the lap
-    first, middle = (frame.repetition_text, score) if plan is None else \
-        (plan.block_text, score or frame.repetition_text)
-    texts = (first, middle, frame.time_left_text)
+    # a plan's block is said with "Get ready" (PlanOverlay.ready_text), not here: beside
+    # the lap and the time left the three came to 18 mm, not 20, on 22 inches
+    texts = (frame.repetition_text, score, frame.time_left_text)
     # one size for the band, the largest at which the three fit side by side
     top, places = top_band(font, bands.top, texts)
     for rect, text, align in zip(places, texts, (Qt.AlignmentFlag.AlignLeft,
@@ -82,8 +88,8 @@ def paint_words(painter: QPainter, words: Words, base: QFont, ratio: float,
         words.draw(painter, base, ratio, rect, align, text, top, TEXT)
     bottom = qrect(bands.bottom)
     message = frame.message
-    if plan is not None and plan.round_text and frame.cue == CUE_READY:
-        message = f"{plan.round_text}. {message}"  # which of the block's rounds
+    if plan is not None and plan.ready_text and frame.cue == CUE_READY:
+        message = f"{plan.ready_text}. {message}"  # which block, or which of its rounds
     lines, good = message_lines(font, bottom, frame, message)
     colour = GO if good else TEXT
     rows = [bottom.translated(0, -k * bottom.height()) for k in range(len(lines))][::-1]

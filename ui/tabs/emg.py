@@ -29,7 +29,8 @@ from app.emg.live import KINDS
 from app.emg.protocol import PUSH_S, REST_S, WAITING, SessionMvcs, words
 from core.emg.synthetic import THESIS_MUSCLES
 from ui import plots, theme
-from ui.fields import DoubleSpinBox, SpinBox
+from ui.fields import DoubleSpinBox
+from ui.tabs.emg_channels import ChannelChooser
 from ui.views.emg import EmgView, emg_view, live_emg_view
 from ui.views.trialview import TrialView
 
@@ -52,6 +53,10 @@ def mvc_line(mvc) -> str:
 class EmgTab(QWidget):
     said = Signal(str, bool)  # a line for the window's message model: text, problem
     mvc_recorded = Signal(str)  # a muscle's MVC was (re)recorded for the session
+    range_problem = Signal(str)
+    """The live source's numbers reach volts (app.emg.protocol.live_range_problem, in
+    words; '' once they no longer do): seen whether the tab is in view or not, so that a
+    running trial's file can say it (ui.window.trial_emg)."""
 
     def __init__(self, parent=None) -> None:
         super().__init__(parent)
@@ -120,16 +125,14 @@ class EmgTab(QWidget):
         self.guided_channel = 0
         self.protocol_box = QGroupBox("MVC protocol (one per muscle per session)")
         grid = QGridLayout(self.protocol_box)
-        self.channel_boxes: dict[str, SpinBox] = {}
+        self.channel_boxes: dict[str, ChannelChooser] = {}
         self.mvc_labels: dict[str, QLabel] = {}
         self.record_buttons: dict[str, QPushButton] = {}
         for row, muscle in enumerate(THESIS_MUSCLES):
             grid.addWidget(QLabel(words(muscle)), row, 0)
-            box = SpinBox()
+            box = ChannelChooser()
             box.setAccessibleName(f"{words(muscle)}'s channel")
-            box.setRange(1, 16)
             box.setValue(row + 1)
-            box.setPrefix("EMG")
             box.setToolTip("the source channel (sensor) on this muscle")
             box.valueChanged.connect(lambda value, m=muscle: self._channel_changed(m, value))
             self.channel_boxes[muscle] = box
@@ -235,6 +238,8 @@ class EmgTab(QWidget):
         self.live_label = label
         self.live_problem = ""
         self.lost = None
+        for box in self.channel_boxes.values():  # by the source's own names, if it has any
+            box.name_channels(getattr(source, "labels", ()))
         self.connect_button.setEnabled(True)
         self.connect_button.setText("Disconnect EMG")
         self.live_plot.show()
@@ -280,6 +285,9 @@ class EmgTab(QWidget):
             self.stop_live()
             return
         if not self.isVisible():
+            # nothing drawn, but the source's unit is still watched: a trial runs while
+            # another tab is in view, and its file must say what its EMG is
+            self._range_seen(capture)
             return
         if self.live_worker.busy:
             return  # the last refresh is still being computed: skip this one
@@ -303,10 +311,27 @@ class EmgTab(QWidget):
             item.setLabel("left", f"live RMS envelope ({view.unit})")
         for i, c in enumerate(self.live_curves):
             c.setData(view.t_s, view.values[:, i])
-        if view.problem and view.problem != self.live_problem:  # said once, not each refresh
-            self.live_status.setText(f"{theme.PROBLEM_SIGN} {view.problem}")
-            self._say(view.problem, True)
-        self.live_problem = view.problem
+        self._show_problem(view.problem)
+
+    def _range_seen(self, capture) -> None:
+        """The latest seconds' range checked on the window's thread (a maximum: well under
+        a millisecond), the tab out of view."""
+        from app.emg.importing import channel_names
+        from app.emg.protocol import live_range_problem
+
+        _t, x = capture.latest()
+        if x.ndim != 2 or not x.shape[0]:
+            return
+        names = channel_names(getattr(capture.source, "labels", ()), x.shape[1])
+        self._show_problem(live_range_problem(x, range(x.shape[1]), names, self.live_label))
+
+    def _show_problem(self, problem: str) -> None:
+        if problem and problem != self.live_problem:  # said once, not each refresh
+            self.live_status.setText(f"{theme.PROBLEM_SIGN} {problem}")
+            self._say(problem, True)
+        if problem != self.live_problem:
+            self.live_problem = problem
+            self.range_problem.emit(problem)
 
     # -- the MVC protocol -----------------------------------------------------------
     def set_session(self, patient: str, session: int) -> None:
@@ -394,8 +419,9 @@ class EmgTab(QWidget):
     def _measure(self, guided, capture) -> None:
         """The MVC on the worker: filtering seconds of EMG and reading the session's trials
         must not hold the window."""
+        from app.emg.importing import channel_names
         from app.emg.live import full_scale_of
-        from app.emg.protocol import contraction_mvc
+        from app.emg.protocol import MvcRecord, contraction_mvc
         from app.emg.session import check_with_trials
         from core.emg.processing import EmgSettings
 
@@ -403,26 +429,27 @@ class EmgTab(QWidget):
         rate, muscle, channel = capture.source.rate_hz, guided.muscle, self.guided_channel
         label, trials = self.live_label, list(self.session.trials)
         settings, full_scale = EmgSettings(), full_scale_of(self.live_label)
+        declared = getattr(capture.source, "labels", ())
 
         def measure():
             mvc = contraction_mvc(stamps, samples, rate, muscle, channel, settings=settings,
                                   full_scale_V=full_scale, wanted_s=guided.push_s,
                                   source=label)
             checked = check_with_trials(trials, [mvc], settings_of={muscle: settings})
-            return mvc, checked[muscle], channel, label, settings
+            # the channel in range (contraction_mvc refuses another), named as stored
+            name = channel_names(declared, samples.shape[1])[channel]
+            return mvc, checked[muscle], MvcRecord(mvc, channel, label, settings, name)
 
         self.prompt.setText(f"{words(muscle)}: relax. Computing the MVC …")
         self.measurer.submit(muscle, measure)
 
     def _measured(self, muscle, result) -> None:
-        from app.emg.protocol import MvcRecord
-
-        mvc, checked, channel, label, settings = result
+        _mvc, checked, record = result
         self.guided = None
         self._set_recording(False)
         if self.session is None:
             return
-        self.session.records[muscle] = MvcRecord(mvc, channel, label, settings)
+        self.session.records[muscle] = record
         self.show_mvc(checked)
         self.record_buttons[muscle].setText("Record again")
         self.mvc_recorded.emit(muscle)

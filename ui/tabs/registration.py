@@ -30,8 +30,6 @@ from PySide6.QtWidgets import (
     QGroupBox,
     QHBoxLayout,
     QLabel,
-    QLineEdit,
-    QListWidget,
     QListWidgetItem,
     QPushButton,
     QVBoxLayout,
@@ -46,6 +44,7 @@ from ui.fields import SpinBox, commit_all
 from ui.jobs import Jobs
 from ui.tabs.clinical_record import SAVING, ClinicalRecord
 from ui.tabs.patient_words import describe, measurements, names_note
+from ui.tabs.registration_find import PatientSearch
 from ui.tabs.registration_new import CREATE, NewPatient
 from ui.tabs.registration_numbers import (
     Numbers,
@@ -59,11 +58,10 @@ from ui.tabs.registration_numbers import (
 LOADING = "Loading…"
 CHECKING = "Checking…"
 CONFIRM = "Use this patient and these numbers"
-SEARCH_DELAY_MS = 150
 MAX_NUMBER = 999_999
 
 
-class RegistrationTab(NewPatient, QWidget):
+class RegistrationTab(PatientSearch, NewPatient, QWidget):
     """Signals:
     patient_selected(Patient): a patient was chosen (their measurements can fill the
         Parameters tab: ParametersTab.apply_patient).
@@ -98,33 +96,7 @@ class RegistrationTab(NewPatient, QWidget):
         self._registration: Registration | None = None
         self._choices = 0  # patients chosen so far: a new patient saved is chosen unless
         # another was chosen while it was being saved
-        self._search_timer = QTimer(self)
-        self._search_timer.setSingleShot(True)
-        self._search_timer.setInterval(SEARCH_DELAY_MS)
-        self._search_timer.timeout.connect(self.search)
-        # the registry searched off the window's thread: on a station whose network went
-        # silent a search waited the registry's bounded wait (5 s) with the window frozen
-        self.searching = plots.Background(self)
-        self.searching.done.connect(self._found)
-        self.searching.failed.connect(self._search_failed)
-        self._search_text: str | None = None  # the text of the newest search asked for
-
-        # Find
-        self.search_field = QLineEdit()
-        self.search_field.setPlaceholderText("part of a name, or a code")
-        self.search_field.setAccessibleName("Find a patient")
-        self.search_field.setClearButtonEnabled(True)
-        self.search_field.textChanged.connect(lambda _text: self._search_timer.start())
-        self.results = QListWidget()
-        self.results.setAccessibleName("Patients found")
-        self.results.currentItemChanged.connect(self._picked)
-        self.found = theme.set_role(QLabel(""), "caption")
-        find = QGroupBox("Find a patient")
-        column = QVBoxLayout(find)
-        column.addWidget(self.search_field)
-        column.addWidget(self.results, 1)
-        column.addWidget(self.found)
-
+        find = self._find_box()
         new = self._new_patient_form()
 
         # This trial
@@ -235,25 +207,28 @@ class RegistrationTab(NewPatient, QWidget):
             # at once, the one shown (Start used to keep the old one and be refused)
             self.confirm_registration(numbers)
 
+    def refresh_count(self) -> None:
+        """The session line ("continues the session of …, N trials so far") read again from
+        the registry on the job thread, the numbers and any refusal under them left as they
+        are: after a Start the registry refused (another station's trial in the session,
+        say), the line kept the count from before it."""
+        if self._patient is None or self.registry is None:
+            return
+        registry, code = self.registry, self._patient.code
+
+        def show(sessions: dict[int, Session] | Exception) -> None:
+            if isinstance(sessions, dict) and self._patient is not None \
+                    and self._patient.code == code:
+                self._say_session(sessions)  # a refusal to read: the line as it was
+        self._ask("sessions", lambda: sessions_read(registry, code), show)
+
     def show_refusal(self, refusal: Exception | str) -> None:
         """Show the registry's refusal of the numbers (e.g. DuplicateNumberError raised by
         Registry.begin_trial at Start) under the trial number."""
         self._unconfirm()
         self._show(self.trial_problem, str(refusal))
 
-    # -- finding ------------------------------------------------------------------
-    def search(self) -> None:
-        """Search the registry for the text typed (on the tab's own thread); the list
-        shows what the newest search found once it is found (`_found`)."""
-        self._search_timer.stop()
-        if self.registry is None:
-            self.results.clear()
-            self.found.setText("No registry is open.")
-            return
-        text = self._search_text = self.search_field.text()
-        self.found.setText("Searching…")
-        self.searching.submit(text, self.registry.search_patients, text)
-
+    # -- choosing -----------------------------------------------------------------
     def choosing(self) -> Patient | None:
         """The patient chosen whose record is being read (None when none is)."""
         return self._choosing
@@ -267,42 +242,6 @@ class RegistrationTab(NewPatient, QWidget):
         """The window closes: answers still to come are not shown (the record's too)."""
         self._asked.clear()
         self.clinical.hold()
-
-    def _found(self, text: str, patients: list[Patient]) -> None:
-        """The patients a search for `text` found, listed when it is still the newest."""
-        if text != self._search_text:
-            return
-        # Filled without a word to `_picked`: the list makes its first item current as it
-        # is filled, and this arrives whenever the search ends, so another patient than
-        # the one chosen meanwhile was chosen in the therapist's place. The current item
-        # is the chosen patient, or none.
-        self.results.blockSignals(True)
-        try:
-            self.results.clear()
-            for patient in patients:
-                item = QListWidgetItem(describe(patient))
-                item.setData(Qt.ItemDataRole.UserRole, patient)
-                self.results.addItem(item)
-            self.results.setCurrentRow(-1)
-            current = self._choosing or self._patient
-            if current is not None:
-                self._select_in_list(current.code)
-        finally:
-            self.results.blockSignals(False)
-        self.found.setText(f"{len(patients)} patient{'s' if len(patients) != 1 else ''} found"
-                           if text.strip() else f"{len(patients)} registered")
-
-    def _search_failed(self, text: str, message: str) -> None:
-        if text == self._search_text:
-            self.results.clear()
-            self.found.setText(f"{theme.PROBLEM_SIGN} {message}")
-
-    def _select_in_list(self, code: str) -> None:
-        for row in range(self.results.count()):
-            item = self.results.item(row)
-            if item.data(Qt.ItemDataRole.UserRole).code == code:
-                self.results.setCurrentItem(item)
-                return
 
     def _picked(self, item: QListWidgetItem | None, _previous=None) -> None:
         if item is None:
@@ -357,15 +296,8 @@ class RegistrationTab(NewPatient, QWidget):
 
     def _recorded(self, _said: str) -> None:
         """After a correction the patient's row changed: show it as it is now. A scale or a
-        note may have opened a session: its line says so (read on the job thread)."""
-        if self._patient is not None and self.registry is not None:
-            registry, code = self.registry, self._patient.code
-
-            def show(sessions: dict[int, Session] | Exception) -> None:
-                if isinstance(sessions, dict) and self._patient is not None \
-                        and self._patient.code == code:
-                    self._say_session(sessions)  # a refusal to read: the line as it was
-            self._ask("sessions", lambda: sessions_read(registry, code), show)
+        note may have opened a session: its line says so (`refresh_count`)."""
+        self.refresh_count()
         patient = self.clinical.patient
         if patient is not None and self._patient is not None and \
                 patient.code == self._patient.code and patient != self._patient:

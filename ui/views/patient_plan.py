@@ -2,19 +2,21 @@
 session's exercise, and the rest's countdown (issue 30, the plan's state:
 app.plans.runner.PlanState, read from the runner as the window repaints).
 
-During a block the screen stays the trial's (the path, the hand, Go, the lap, the time
-left) with the block's number in the top band's first place (a block of several rounds
-says which with the trial's "Get ready": "Round 2 of 3. Get ready") and a bar of the session's
-exercise done under it, which moves as the running trial's time passes (a two-minute
-block's bar does not stand still) and never back (`PlanOverlay.at_least`). During a rest
-the table gives way to "Rest" and its countdown in the largest type; paused, "Pause"; at
-the end, the session's outcome in the patient's words. The counts are the plan's own (the
-trials' files, the runner's laps), never recomputed here; the running trial's laps passed
-come from the screen's own clock (`laps_passed`).
+During a block the screen stays the trial's (the path, the hand, Go, the lap, the time left
+in the top band, as in a trial alone), the block said with its first trial's "Get ready"
+("Block 2 of 3. Get ready"; a block of several rounds says the round with the next: "Round
+2 of 3. Get ready"), and a bar of the session's exercise done under the band, which moves
+as the running trial's time passes (a two-minute block's bar does not stand still) and
+never back (`PlanOverlay.at_least`). During a rest the table gives way to "Rest" and its
+countdown in the largest type; paused, "Pause" (from the press: the trial it stops is no
+"Stopped" for the patient); at the end, the session's outcome in the patient's words. The
+counts are the plan's own (the trials' files, the runner's laps), never recomputed here;
+the running trial's laps passed come from the screen's own clock (`laps_passed`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -39,9 +41,14 @@ class PlanOverlay:
     centre: str = ""
     countdown: str = ""
     message: str = ""
-    round_text: str = ""
-    """"Round 2 of 3" in a block of several rounds, said with the trial's "Get ready"
-    (not in the top band, whose letters would shrink to fit it)."""
+    laps_before: int = 0
+    """Laps of this round its earlier trials ran, a pause having cut them (PlanState.
+    laps_done): the trial run after the pause counts its laps on from them."""
+    ready_text: str = ""
+    """Where the trial stands in the plan, said with its "Get ready": the block at its
+    first round ("Block 2 of 3"), the round at the next ("Round 2 of 3"). Not in the top
+    band: beside the lap and the time left the three came to 18 mm, not 20, full screen
+    on 22 inches (the lap's round, there too, to 16)."""
 
     @property
     def covers_table(self) -> bool:
@@ -52,8 +59,7 @@ class PlanOverlay:
         half-way counts the laps its file holds, fewer than the clock had passed."""
         if not shown > self.progress:  # NaN either side: as it is
             return self
-        return PlanOverlay(self.block_text, shown, self.centre, self.countdown,
-                           self.message, self.round_text)
+        return dataclasses.replace(self, progress=shown)
 
 
 def laps_passed(frame: PatientFrame, lap_s: float) -> float:
@@ -72,9 +78,9 @@ def overlay(state: PlanState | None, laps: float = 0.0) -> PlanOverlay | None:
     if state is None or state.phase == IDLE or state.block <= 0:
         return None
     block = f"Block {state.block} of {state.n_blocks}"
-    # a block of several trials (a game's rounds), in the status line's words
-    rounds = (f"Round {state.round} of {state.rounds}"
-              if state.rounds > 1 and state.phase not in (RESTING, ENDED) else "")
+    # said with "Get ready": a new block, or the next of its trials (a game's rounds) in
+    # the status line's words
+    ready = f"Round {state.round} of {state.rounds}" if state.round > 1 else block
     progress = state.done_share
     if state.phase in (RUNNING, SAVING) and math.isfinite(progress):
         progress = min(1.0, progress + state.lap_share * min(max(laps, 0.0),
@@ -83,10 +89,10 @@ def overlay(state: PlanState | None, laps: float = 0.0) -> PlanOverlay | None:
         more = state.block < state.n_blocks
         return PlanOverlay(block, progress, REST_WORDS, clock(state.rest_left_s),
                            f"Next: block {state.block + 1}" if more else "")
-    if state.phase == PAUSED:
+    if state.phase == PAUSED or state.pausing:
         return PlanOverlay(block, progress, PAUSE_WORDS, "", "Please wait")
     if state.phase == ENDED:
         return PlanOverlay(block, progress, ENDED_WORDS.get(state.outcome, "Stopped"), "",
                            f"{state.movements_done} movements" if state.outcome ==
                            "complete" else "")
-    return PlanOverlay(block, progress, round_text=rounds)
+    return PlanOverlay(block, progress, laps_before=state.laps_done, ready_text=ready)

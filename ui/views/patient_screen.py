@@ -24,12 +24,12 @@ target and back), a *round* one of a plan block's trials, a *block* one of the p
 blocks (ui.views.patient_plan). A task the robot leads counts its pushes or its targets
 ("Push 3 of 16"), not laps.
 
-After each lap of a plain exercise the result comes first ("Lap 1 done!"), then the
-lap's quality in words (`round_quality`: how close the hand kept to the path), the order
-clinicians use (knowledge of results, then of performance); words, not millimetres, as the
-screen shows no clinical figure the therapist has not chosen. A hand that did not follow the
-path (`round_travelled`: less than the path game's share of its length) is told to, not
-praised for staying on it at the start.
+After each lap of a plain exercise the result comes first ("Done!" while the next lap runs,
+"Lap 3 done!" at the end), then the lap's quality in words (`round_quality`: how close the
+hand kept to the path), the order clinicians use (knowledge of results, then of
+performance); words, not millimetres, as the screen shows no clinical figure the therapist
+has not chosen. A hand that did not follow the path (`round_travelled`: less than the path
+game's share of its length) is told to, not praised for staying on it at the start.
 
 The repetition and the time left follow the trial's clock (`duration_s` per
 repetition from the exercise's first sample), the same clock that ends the trial. In
@@ -66,7 +66,7 @@ QUALITY_WORDS = ((0.005, "Right on the path"), (0.015, "Close to the path"))
 is the thesis subject's tracking with the robot's help (8.68 / 7.02 mm RMSE, section 3.6,
 is a whole healthy trial's), 15 mm a third of the D's width off it."""
 QUALITY_ELSE = "Stay closer to the path"
-QUALITY_STILL = "now follow the whole path"
+QUALITY_STILL = "Now follow the whole path"
 QUALITY_STILL_LAST = "next time, follow the whole path"
 """A lap whose hand moved less than COVERAGE of the path's length: still at the start,
 it is on the path, but did not follow it (a relaxed hand in the transparent mode, which
@@ -396,9 +396,25 @@ def _round_result(view: TrialView, p: TrialParameters, t0: float, n: int,
     was a success: the hand followed the path (`round_travelled`)."""
     span = (t0 + (n - 1) * p.duration_s, t0 + n * p.duration_s)
     if round_travelled(view, p, *span):
-        quality = round_quality(view, p, *span)
-        return f"Lap {n} done!" + (f" {quality}" if quality else ""), True
-    return f"Lap {n} over: {QUALITY_STILL_LAST if last else QUALITY_STILL}", False
+        return lap_words(n, round_quality(view, p, *span), last), True
+    return lap_words(n, None, last), False
+
+
+def lap_words(n: int, quality: str | None, last: bool) -> str:
+    """Lap `n`'s result as the screen says it: done with its `quality` ("" when it could
+    not be judged), or not followed (None). At the trial's end with the lap's number
+    ("Lap 3 done! Right on the path", on two lines if need be); during the next lap
+    without it, on one line at the screen's letter size: the top band says which lap is
+    under way, and the table's foot is watched. With the number ("Lap 12 done! Stay
+    closer to the path", "Lap 1 over: now follow the whole path") it was shrunk to 16 mm,
+    not 20, full screen on 22 inches."""
+    if last:
+        if quality is None:
+            return f"Lap {n} over: {QUALITY_STILL_LAST}"
+        return f"Lap {n} done!" + (f" {quality}" if quality else "")
+    if quality is None:
+        return QUALITY_STILL
+    return "Done!" + (f" {quality}" if quality else "")
 
 
 def round_travelled(view: TrialView, parameters: TrialParameters, start_s: float,

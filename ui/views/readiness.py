@@ -33,7 +33,8 @@ from device.loop.states import State
 
 STALE = "parameters changed since Build: press Build"
 SAVING = "the last trial to be saved: a moment"
-NOT_REGISTERED = "a registered patient: Registration tab, choose the patient and press Confirm"
+# the button as ui.tabs.registration names it, in one line under the buttons at 1366 px
+NOT_REGISTERED = "a registered patient: press Use this patient and these numbers (Registration tab)"
 NOT_BUILT = "a built trial: press Build"
 REGISTERING = "the trial being registered"
 PLAN_RUNS = ("the session plan builds and starts its own trials: press Stop plan (Plan tab) "

@@ -122,4 +122,6 @@ class AfterTrial:
             self.parameters_tab.show_proposal(done.proposal)
         if answers.numbers is not None:
             self.registration_tab.refresh_numbers(answers.numbers)
+        else:  # nobody confirmed (a number edited meanwhile): the session line's count
+            self.registration_tab.refresh_count()
         self.replay.set_patient(answers.code, answers.trials)

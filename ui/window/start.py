@@ -120,6 +120,7 @@ class TrialStart:
                     self.registration_tab.selected_patient().code == \
                     press.registration.patient_code:
                 self.registration_tab.show_refusal(answer)
+                self.registration_tab.refresh_count()  # the refusal may say why it changed
             self._start_not_run(str(answer))
             self._refresh_buttons()
             return

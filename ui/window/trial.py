@@ -358,6 +358,8 @@ class TrialActions:
             # them (ui.window.after_trial): pressed at once, it registered the number the
             # withdrawn trial had moved on from, and the registry refused it as a gap
             self.read_numbers()
+        else:  # nobody confirmed: the session line's count at least, the row gone from it
+            self.registration_tab.refresh_count()
 
     def _on_state(self, state: int, reason: str) -> None:
         if State(state) != self.state:
@@ -369,6 +371,7 @@ class TrialActions:
             self.handle_outside = ""  # the loop says it again once connected between trials
         self._latch_state(self.state, reason)
         self.emg.trial_running = self.state in (State.RUNNING, State.STOPPING)
+        self._note_emg_range(self.emg.live_problem)  # seen before the trial began
         self.messages.set_state(self.state)
         self._show_message()
         self.state_label.setText(f"<b>{self.state.label}</b>")

@@ -12,6 +12,24 @@ from app.trials.rewrite import rewriting_files
 class TrialEmg:
     """EMG with the trial (a part of MainWindow)."""
 
+    _emg_noted: int | None = None  # the trial whose file was told the EMG's range problem
+
+    def _note_emg_range(self, problem: str) -> None:
+        """A live EMG source whose numbers reach volts while a trial runs (µV sent as V):
+        the trial still records what came (the file keeps what the source gave, and is
+        the truth of the trial), and its file says the problem as the event "emg" at the
+        tick the loop takes it, once a trial. Before, the EMG tab warned and the file kept
+        365 V of 'EMG' without a word, for any reader after."""
+        from device.loop.messages import TrialNote
+        from device.loop.states import State
+
+        trial = getattr(self, "trial_id", None)
+        if not problem or self.state != State.RUNNING or trial is None \
+                or self._emg_noted == trial:
+            return
+        self._emg_noted = trial
+        self.bridge.note(TrialNote("emg", problem, {"source": self.emg.live_label}))
+
     def _store_trial_emg(self, path: str) -> None:
         """The live EMG source's part of the trial into its file, after the metrics and the
         trial's finish in the registry (one job thread: in that order); the registry then

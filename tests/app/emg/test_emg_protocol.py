@@ -3,6 +3,7 @@ injected clock, the contraction's MVC and its refusals, a trial's live EMG store
 the muscles' names with the session's MVCs checked against it, the live % MVC, and the
 source words (app.emg.live.source_spec)."""
 
+import dataclasses
 import shutil
 
 import numpy as np
@@ -257,3 +258,29 @@ def test_the_live_view_says_at_once_when_the_source_gives_microvolts_as_volts():
         assert view.problem.startswith(f"{first} reaches ")
         assert "(in volts as lsl:amp@V gives them)" in view.problem
         assert "\n" not in view.problem
+
+
+def test_the_source_s_channel_labels_name_the_stored_emg_and_its_mvcs(plain_trial, tmp_path):
+    """Brief hT: an LSL stream that names its channels ("biceps_r", …) had them stored as
+    EMG3, EMG1 … in the trial file, while the live view named them by the stream's labels
+    (app.emg.importing.channel_names says the file keeps them so). The file and its MVCs
+    now name them as the source does; a source that names none keeps EMG<k>."""
+    origin = 5000.0
+    path = shutil.copy(plain_trial, tmp_path / "labelled.h5")
+    with edited(path) as f:
+        f["summary"].attrs["wall_time_origin_monotonic_s"] = origin
+        duration = f["timeseries/time"][-1]
+    n = int((duration + 1.0) * RATE)
+    labels = ("triceps_r", "deltoid_r", "biceps_r")
+    captured = Captured(origin - 0.5 + np.arange(n) / RATE, wave(n, [1e-4, 3e-4, 1e-4]),
+                        RATE, 0, "", labels)
+    session = _session_with_mvcs([2e-4, 2e-4, 2e-4])
+    for muscle, record in session.records.items():
+        session.records[muscle] = dataclasses.replace(
+            record, channel_name=labels[record.channel])
+    store_trial(path, captured, "lsl:amp", session)
+    emg = read_emg(path)
+    assert emg.names == ("biceps_r", "triceps_r", "deltoid_r")
+    assert emg.mvc["biceps"]["channel"] == "biceps_r"
+    unnamed = _session_with_mvcs([2e-4, 2e-4, 2e-4])
+    assert [m[2] for m in unnamed.measured()] == ["EMG3", "EMG1", "EMG2"]

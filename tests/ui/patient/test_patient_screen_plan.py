@@ -54,8 +54,12 @@ def test_the_rest_countdown_replaces_the_table(patient):
 
 def test_during_a_block_the_block_and_the_session_s_progress_show(patient):
     patient.show_plan(_state())
+    patient.frame = PatientFrame(CUE_READY, False, None, None, -1, 0, 5, 12.0)
+    patient.grab()
+    assert patient.painted["message"] == "Block 2 of 3. Get ready"  # the block's first round
+    patient.frame = PatientFrame("", False, None, None, -1, 2, 5, 8.0)
     image = patient.grab().toImage()
-    assert patient.painted["top"][0] == "Block 2 of 3"
+    assert patient.painted["top"] == ("Lap 2 of 5", "", "0:08 left")  # as a trial alone
     assert patient.painted["progress"] == pytest.approx(0.25)
     bands = patient.screen_layout()
     y = round(bands.top.height + 2)
@@ -130,18 +134,19 @@ def test_a_block_of_several_rounds_names_its_round_as_the_status_line_does(patie
     "Round 1 of 3" meaning the trial's lap; the therapist's line said "round 2 of 3"
     meaning the block's trial. Now a lap is a lap and the screen says the block's round
     in the status line's words with the trial's "Get ready" (the top band keeps its
-    size)."""
+    size), the block with its first round's."""
     state = _state(block=1, n_blocks=2, round=2, rounds=3)
     plan = overlay(state)
-    assert (plan.block_text, plan.round_text) == ("Block 1 of 2", "Round 2 of 3")
+    assert (plan.block_text, plan.ready_text) == ("Block 1 of 2", "Round 2 of 3")
     assert state.line().startswith("Block 1 of 2, round 2 of 3")
-    assert overlay(_state(phase="resting", round=3, rounds=3)).round_text == ""
-    assert overlay(_state()).round_text == ""  # one round: no round said
+    assert overlay(_state(phase="resting", round=3, rounds=3)).ready_text == ""
+    assert overlay(_state(round=1, rounds=3)).ready_text == "Block 2 of 3"
+    assert overlay(_state()).ready_text == "Block 2 of 3"  # one round: the block said
     patient.show_plan(state)
     patient.frame = PatientFrame(CUE_READY, False, None, None, -1, 0, 3, 12.0)
     patient.grab()
     assert patient.painted["message"] == "Round 2 of 3. Get ready"
-    assert patient.painted["top"][0] == "Block 1 of 2"
+    assert patient.painted["top"] == ("", "", "0:12 left")
 
 
 def test_a_plan_s_next_block_shows_waiting_as_its_build_is_asked_not_the_last_lap(
@@ -179,8 +184,70 @@ def test_a_plan_s_next_block_shows_waiting_as_its_build_is_asked_not_the_last_la
         win.plan_runner = Runner()
         win._repaint()
         patient.grab()
-        assert patient.painted["top"] == ("Block 2 of 2", "", "0:04 left")
+        assert patient.painted["top"] == ("", "", "0:04 left")
+        assert patient.painted["message"] == "Please wait"
         assert patient.scene.parameters == following
     finally:
         win.plan_runner = None
         win.close()
+
+
+def test_a_pause_in_a_trial_says_pause_at_once_never_stopped(patient):
+    """Brief hT: Pause pressed mid-trial, the patient's screen said "Stopped" for about a
+    second, the loop stopping the trial and its file being saved, before "Pause": the
+    plan was paused only once the trial's file was finished. The patient, who did
+    nothing wrong, read that something had gone wrong. Now "Pause" covers the table from
+    the press, whatever the trial's end says meanwhile."""
+    from app.plans.runner import PAUSED, PlanRunner
+    from core.plan import Block, Plan
+    from ui.patient.window import stopped_frame
+    from ui.views.patient_plan import PAUSE_WORDS
+
+    class Console:
+        """The loop and the registry as the runner sees them: asked, answering later."""
+
+        def __getattr__(self, _name):
+            return lambda *args, **kwargs: None
+
+    plan = Plan("One", (Block(shape="d", repetitions=4, duration_s=2.0, rest_s=0.0),))
+    runner = PlanRunner(plan, THESIS_SUBJECT, Console())
+    runner.start(0.0)
+    runner.built(0.0, True)
+    runner.started(0.0, 1)
+    patient.show_plan(runner.state(0.5))
+    patient.grab()
+    assert patient.plan.centre == ""  # the trial's screen while it runs
+
+    def said(now: float) -> str:
+        # the trial Pause stopped ends early: the console marks its frame "Stopped"
+        # (ui.patient.control) until the next Build
+        patient.frame = stopped_frame(patient.frame, True)
+        patient.show_plan(runner.state(now))
+        patient.grab()
+        return patient.painted.get("plan", ("",))[0] or patient.painted["message"]
+
+    runner.pause(1.0)  # the loop is asked to stop the trial
+    assert said(1.0) == PAUSE_WORDS
+    runner.trial_ended(1.3)  # stopped: its file being finished
+    assert said(1.3) == PAUSE_WORDS
+    runner.finished(2.0, 1, "stopped_early", 1, 0.8)
+    assert runner.phase == PAUSED
+    assert said(2.0) == PAUSE_WORDS
+
+
+def test_a_round_resumed_after_a_pause_counts_its_laps_on(patient):
+    """Seen in the window (brief hT): a five-minute block paused at "Lap 2 of 60" came back
+    as "Lap 1 of 58", the patient's count gone back, the resumed trial counting only the
+    laps it had left. The top band counts the round's laps on from the paused trial's."""
+    state = _state(block=1, laps_planned=58, laps_done=2)
+    patient.show_plan(state)
+    patient.frame = PatientFrame("", False, None, None, -1, 1, 58, 290.0)
+    patient.grab()
+    assert patient.painted["top"][0] == "Lap 3 of 60"
+    patient.frame = PatientFrame(CUE_READY, False, None, None, -1, 0, 58, 290.0)
+    patient.grab()
+    assert patient.painted["top"][0] == ""  # no lap under way yet
+    patient.show_plan(_state(block=1, laps_planned=60, laps_done=0))
+    patient.frame = PatientFrame("", False, None, None, -1, 1, 60, 300.0)
+    patient.grab()
+    assert patient.painted["top"][0] == "Lap 1 of 60"

@@ -4,17 +4,24 @@ into a third; the bottom's long words on two lines where the table needs no watc
 end of an exercise with its last lap's result (seen under Xvfb: the end said "Well done!"
 alone, the result worked out and never shown)."""
 
+import dataclasses
 import itertools
 
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 from PySide6.QtGui import QFont, QFontMetrics
 
-from core.trial import THESIS_SUBJECT
+from core.trial import REPETITIONS_RANGE, THESIS_SUBJECT
 from ui.patient.text import top_band, two_lines
 from ui.patient.window import PatientWindow
 from ui.views.patient_geometry import MIN_LETTER_MM, layout
-from ui.views.patient_screen import TASK_WORDS, PatientFrame
+from ui.views.patient_screen import (
+    QUALITY_ELSE,
+    QUALITY_WORDS,
+    TASK_WORDS,
+    PatientFrame,
+    lap_words,
+)
 
 MM_PER_PX_22_INCH = 22 * 25.4 / (1920**2 + 1080**2) ** 0.5
 
@@ -82,9 +89,61 @@ def test_the_end_gives_the_last_lap_s_result_under_well_done(full_screen):
 def test_a_lap_under_way_keeps_its_result_on_one_line(full_screen):
     """While the hand follows the path the table's foot is not covered."""
     running = PatientFrame("", False, (-0.25, 0.3), None, -1, 2, 3, 6.0,
-                           result="Lap 1 over: now follow the whole path")
-    assert _painted(full_screen, running)["message_lines"] == (
-        "Lap 1 over: now follow the whole path",)
+                           result="Now follow the whole path")
+    assert _painted(full_screen, running)["message_lines"] == ("Now follow the whole path",)
+
+
+@pytest.mark.parametrize("quality", [None, "", *(w for _, w in QUALITY_WORDS), QUALITY_ELSE])
+def test_every_lap_s_result_keeps_the_letter_size_while_the_next_lap_runs(full_screen,
+                                                                         quality):
+    """Brief hT: while the next lap ran, "Lap 1 over: now follow the whole path" was
+    shrunk to one line at 16 mm and "Lap 12 done! Stay closer to the path" to 17, where
+    the screen promises 20. Every result, for every lap a trial can have, at 20 mm on its
+    one line; at the end, on two if need be."""
+    for lap in range(1, REPETITIONS_RANGE[1] + 1):
+        running = PatientFrame("", False, (-0.25, 0.3), None, -1, lap + 1, lap + 1, 3.0,
+                               result=lap_words(lap, quality, last=False))
+        painted = _painted(full_screen, running)
+        assert len(painted["message_lines"]) == 1
+        assert _letter_mm(full_screen, painted["message_px"][0]) >= MIN_LETTER_MM - 1e-9, \
+            painted["message"]
+        end = PatientFrame("Well done!", False, (-0.25, 0.3), None, -1, lap, lap, 0.0,
+                           result=lap_words(lap, quality, last=True))
+        painted = _painted(full_screen, end)
+        assert all(_letter_mm(full_screen, px) >= MIN_LETTER_MM - 1e-9
+                   for px in painted["message_px"]), painted["message"]
+
+
+@pytest.mark.parametrize("rounds", [1, 3])
+def test_a_plan_s_block_keeps_the_letter_size(full_screen, rounds):
+    """Brief hT: a plan's top band of block, lap and time left ("Block 2 of 3", "Lap 2 of
+    3", "0:06 left") came to 18 mm, not 20: three texts side by side do not fit at 20 mm
+    across 22 inches. The block is said with the trial's "Get ready" instead; the band
+    and that line keep the screen's size, and a game's band (its score in the middle) is
+    as large as without a plan."""
+    from types import SimpleNamespace
+
+    from app.plans.runner import PlanState
+
+    def sizes(frame) -> tuple:
+        painted = _painted(full_screen, frame)
+        return (painted["top_px"], *painted["message_px"])
+
+    # a game's frame as the band reads it: its score, the ball inside
+    game = SimpleNamespace(score_text="Score 40", state=SimpleNamespace(inside=True))
+    for block, blocks, laps in ((2, 3, 3), (12, 12, 20)):
+        for round_ in range(1, rounds + 1):
+            state = PlanState("running", block, blocks, "D shape", round_, rounds, laps, 0,
+                              15, 45, 0.0, 150.0, "", "", done_share=1 / 3, lap_share=1 / 9)
+            for cue, lap in (("Get ready", 0), ("", laps)):
+                frame = PatientFrame(cue, False, (-0.25, 0.3), None, -1, lap, laps, 600.0)
+                full_screen.show_plan(state)
+                assert all(_letter_mm(full_screen, px) >= MIN_LETTER_MM - 1e-9
+                           for px in sizes(frame)), full_screen.painted
+                played = dataclasses.replace(frame, time_left_s=90.0, game=game)
+                in_plan = sizes(played)
+                full_screen.show_plan(None)
+                assert in_plan == sizes(played)
 
 
 TEXTS = st.text(alphabet="abc 0123456789:", max_size=18)

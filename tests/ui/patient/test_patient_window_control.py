@@ -264,13 +264,13 @@ def test_the_e_stop_says_stopped_on_the_patient_s_screen_at_once(qtbot, window, 
     window.live, window.built = view, view.parameters
     patient = window.open_patient_screen()
     qtbot.waitExposed(patient, timeout=20000)
-    assert _message(window).startswith("Lap 1 done!")
+    assert _message(window).startswith("Done!")  # the first lap's, the second under way
     window.emergency_stop()
     assert _message(window) == CUE_STOPPED
     assert not patient.frame.go
     assert not patient.frame.success
     window.clear_fault()
-    assert _message(window).startswith("Lap 1 done!")
+    assert _message(window).startswith("Done!")  # the first lap's, the second under way
     window.emergency_stop()  # with nothing shown but the exercise waiting, too
     window.live = None
     assert _message(window) == CUE_STOPPED
@@ -287,7 +287,7 @@ def test_a_trial_stopped_early_says_stopped_not_its_last_result(qtbot, window, t
     window.live, window.built = view, view.parameters
     patient = window.open_patient_screen()
     qtbot.waitExposed(patient, timeout=20000)
-    assert _message(window).startswith("Lap 1 done!")
+    assert _message(window).startswith("Done!")  # the first lap's, the second under way
     window.bridge.trial_ended.emit(str(tmp_path / "trial.h5"), "stopped_early", {})
     assert _message(window) == CUE_STOPPED
     window.bridge.trial_started.emit(str(tmp_path / "next.h5"), 500, 1500)

@@ -120,9 +120,9 @@ def test_each_round_s_end_is_said_for_a_while_after_it():
     r = _records()
     just_after = _frame_at_sample(r, APPROACH + 1000 + 10)
     # the result, then the round's quality: the hand 3 mm off both ways is within 5 mm
-    assert just_after.result == "Lap 1 done! Right on the path"
+    assert just_after.result == "Done! Right on the path"  # the top band says "Lap 2 of 3"
     assert just_after.success
-    assert just_after.message == "Lap 1 done! Right on the path"  # no cue then
+    assert just_after.message == "Done! Right on the path"  # no cue then
     shown = min(RESULT_SHOWN_S, 0.5 * PARAMS.duration_s)  # at most half a round
     assert _frame_at_sample(r, APPROACH + 1000 + round(shown / PERIOD_S) - 1).result
     later = _frame_at_sample(r, APPROACH + 1000 + round(shown / PERIOD_S) + 1)
@@ -166,7 +166,7 @@ def test_after_each_round_its_quality_follows_its_result(off_m, words):
     radial /= np.linalg.norm(radial, axis=1, keepdims=True)
     r["position"] = r["position_desired"] + off_m * radial
     frame = _frame_at_sample(r, APPROACH + 1000 + 10, params=params)
-    assert frame.result == f"Lap 1 done! {words}"
+    assert frame.result == f"Done! {words}"
 
 
 def test_a_hand_that_stayed_still_at_the_start_is_not_told_it_kept_to_the_path():
@@ -179,7 +179,7 @@ def test_a_hand_that_stayed_still_at_the_start_is_not_told_it_kept_to_the_path()
     r = _records(params)
     r["position"] = r["position_desired"][APPROACH]  # still at the start all along
     frame = _frame_at_sample(r, APPROACH + 1000 + 10, params=params)
-    assert frame.result == "Lap 1 over: now follow the whole path"
+    assert frame.result == "Now follow the whole path"
     assert not frame.success
     half = _records(params)  # half of the round, then still: not enough either
     half["position"][APPROACH + 500:] = half["position_desired"][APPROACH + 500]

@@ -108,3 +108,15 @@ def test_a_running_plan_holds_build_and_start_and_says_why_on_their_tooltips():
                      stale=False, held="the emergency stop is pressed", unsaved=False,
                      plan=True)
     assert held.tooltips["start"] == "The emergency stop is pressed"
+
+
+def test_an_unregistered_patient_is_sent_to_the_button_as_it_is_named():
+    """Found trying the window (brief hT): after a refused Start the line said "choose the
+    patient and press Confirm", a button the Registration tab does not have: it says "Use
+    this patient and these numbers"."""
+    from ui.tabs.registration import CONFIRM
+
+    ready = readiness(State.CONNECTED, form_problem="", registered=False, built=True,
+                      stale=False, held="", unsaved=False)
+    assert f"press {CONFIRM}" in ready.line
+    assert "Confirm" not in ready.line
