@@ -77,7 +77,7 @@ def record_trial(conn: sa.Connection, values: dict, recorded: int, since: int,
                trials.c.id.not_in(ours))
         .order_by(trials.c.number)).all()
     # none: the trials the standby knew past the server's last were taken back meanwhile
-    taken = _taken_trials(others, session) if others else \
+    taken = _taken_trials(others) if others else \
         f"the server's session {session} goes up to trial {values['number'] - 1}"
     now = {"trial_id": values["id"], "session": session, "trial": values["number"]}
     _keep(conn, patient, "trial_number", now | {"trial": recorded}, now,
@@ -108,18 +108,44 @@ def record_session(conn: sa.Connection, values: dict, recorded: int, since: int,
     return Renumbered(recorded, None, values["number"], None, (), taken)
 
 
+def said(renumbered: tuple[Renumbered, ...]) -> str:
+    """The renumberings of one sync in one line for the window, the trials that one
+    station's trials pushed on together: 'trials 2, 3 of session 1 are now trials 4, 5:
+    station robot-2 recorded …'."""
+    groups: list[list[Renumbered]] = []
+    for moved in renumbered:
+        last = groups[-1][-1] if groups else None
+        if last is not None and moved.trial is not None and last.trial is not None \
+                and (last.session, last.taken) == (moved.session, moved.taken):
+            groups[-1].append(moved)
+        else:
+            groups.append([moved])
+    lines = []
+    for group in groups:
+        if len(group) == 1:
+            lines.append(group[0].line)
+            continue
+        before = ", ".join(str(m.trial) for m in group)
+        after = ", ".join(str(m.now_trial) for m in group)
+        lines.append(f"trials {before} of session {group[0].session} are now trials "
+                     f"{after}: {group[0].taken}")
+    return "; ".join(lines)
+
+
 def with_trials(renumbered: Renumbered, trial_ids: list[int]) -> Renumbered:
     """A session's renumbering with the server ids of its trials this sync added."""
     return Renumbered(renumbered.session, None, renumbered.now_session, None,
                       tuple(trial_ids), renumbered.taken)
 
 
-def _taken_trials(others, session: int) -> str:
-    """'station robot-2 recorded trial 3 meanwhile (begun … UTC)', one clause each."""
-    said = [f"station {station or '(not recorded)'} recorded trial {number} meanwhile "
-            f"(begun {started[:16].replace('T', ' ')} UTC)"
-            for number, station, started in others]
-    return f"in session {session}, " + ", ".join(said)
+def _taken_trials(others) -> str:
+    """'station robot-2 recorded trial 3 (begun … UTC) meanwhile', one clause a station."""
+    by_station: dict[str, list[str]] = {}
+    for number, station, started in others:
+        by_station.setdefault(station or "(not recorded)", []).append(
+            f"trial {number} (begun {started[:16].replace('T', ' ')} UTC)")
+    return ", ".join(f"station {station} recorded {' and '.join(trials)} meanwhile"
+                     for station, trials in by_station.items())
 
 
 def _taken_session(conn: sa.Connection, trials: sa.Table, session_id: int, number: int,

@@ -34,6 +34,7 @@ recording there; nothing is lost, and the line says what to resolve.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 import sqlalchemy as sa
@@ -44,6 +45,8 @@ from app.records.registry.postgres.tables import REGISTRY_TABLES, metadata
 from app.records.station import renumber
 from app.records.station.mirror import Change, key_columns
 from app.records.station.renumber import Renumbered
+
+log = logging.getLogger(__name__)
 
 
 class SyncRefused(RegistryError):
@@ -65,6 +68,11 @@ class Synced:
     @property
     def trials(self) -> int:
         return self.added.get("trials", 0)
+
+    @property
+    def renumbering(self) -> str:
+        """The renumberings in one line for the window ('' when none)."""
+        return renumber.said(self.renumbered)
 
 
 def already_sent(conn: sa.Connection, work: list[Change]) -> bool:
@@ -106,6 +114,11 @@ def replay(conn: sa.Connection, work: list[Change], where: str, station: str) ->
                 added[change.table] += 1
             else:
                 seal = _change(conn, change, values)
+                if seal is None:
+                    log.warning("%s was decided on the server by another station's trial "
+                                "meanwhile, the trial numbered before this station's: its "
+                                "decision stands", _named(change))
+                    continue
                 changed[change.table] += 1
         except sa.exc.IntegrityError as exc:  # the server's rules refused the row
             diag = getattr(exc.orig, "diag", None)
@@ -170,16 +183,42 @@ def _add(conn: sa.Connection, table: str, values: dict, new_ids: dict[int, int])
     return seal
 
 
-def _change(conn: sa.Connection, change: Change, values: dict) -> str:
+def _change(conn: sa.Connection, change: Change, values: dict) -> str | None:
+    """Write the changed row over the server's, if the server's is still as mirrored; None
+    when it is a proposal another station's trial decided meanwhile (`_decided_meanwhile`:
+    the server's decision stands)."""
     t = metadata.tables[change.table]
     keys = key_columns(change.table)
     where = sa.and_(*(t.c[k] == values[k] for k in keys))
-    now = conn.execute(sa.select(t.c.seal).where(where).with_for_update()).scalar_one_or_none()
-    if now != change.mirrored:
+    row = conn.execute(sa.select(*(t.c[c] for c in seals.SEALED[change.table]), t.c.seal)
+                       .where(where).with_for_update()).one_or_none()
+    if (None if row is None else row[-1]) != change.mirrored:
+        if _decided_meanwhile(change, values, row):
+            return None
         raise SyncRefused(f"{_named(change)} was changed on the server by another station "
                           "while this one was offline")
     return conn.execute(sa.update(t).where(where).values(
         {c: v for c, v in values.items() if c not in keys}).returning(t.c.seal)).scalar_one()
+
+
+def _decided_meanwhile(change: Change, values: dict, row: sa.Row | None) -> bool:
+    """Whether `change` is a pending proposal this station's offline trial decided that a
+    trial of another station decided meanwhile on the server, nothing else of it changed
+    on either side. Both trials came next after the proposal, each on its own station; on
+    the server the other station's took the next number (this station's is sent after it:
+    renumber.py), so the proposal's decision is that trial's, and the server's stands.
+    Refused, every number conflict with a proposal pending (the window records one after
+    each trial) stayed refused, renumbered or not."""
+    if change.table != "proposals" or row is None or row.decision == "pending":
+        return False
+    columns = seals.SEALED["proposals"]
+    undecided = {"decision": "pending", "next_trial_id": None, "decided_at": None}
+
+    def pending(v: dict) -> str:
+        return seals.seal_of("proposals", *((v | undecided)[c] for c in columns))
+
+    return pending(values) == change.mirrored == pending(dict(zip(columns, row[:-1],
+                                                                   strict=True)))
 
 
 def _named(change: Change) -> str:

@@ -22,6 +22,7 @@ from app.records.station import (
     SYNC_REFUSED,
     UNREACHABLE,
     StationRegistry,
+    renumber,
 )
 from app.records.station.mirror import standby_path
 from app.records.station.waiting import keep_refusal
@@ -201,9 +202,11 @@ def test_a_number_another_station_gave_meanwhile_is_renumbered_at_the_sync_and_k
     url, network, data = department
     station = StationRegistry(data, network.url(url), station="robot-1")
     code = station.create_patient("Di", "Sample").code
-    _filed_trial(station, code, {"rmse_x_mm": 1.0})
+    first = _filed_trial(station, code, {"rmse_x_mm": 1.0})
+    station.record_proposal(first.trial_id, {"assistance_level": 0.3})  # as the window does
     network.cut()
     offline = [_filed_trial(station, code, {"rmse_x_mm": 2.0 + n}) for n in range(3)]
+    assert station.proposal(first.trial_id).next_trial_id == offline[0].trial_id
     station.record_proposal(offline[-1].trial_id, {"assistance_level": 0.4})
     station.add_note(code, 1, "tired after the third", author="therapist A",
                      trial_id=offline[-1].trial_id)
@@ -232,17 +235,21 @@ def test_a_number_another_station_gave_meanwhile_is_renumbered_at_the_sync_and_k
     assert [t.metrics["rmse_x_mm"] for t in ours] == [2.0, 3.0, 4.0]  # nothing lost
     assert all(direct.verify_trial_file(t) is None and t.checksum for t in on_server[:1] + ours)
     assert direct.proposal(ours[2].id).proposal == {"assistance_level": 0.4}
+    # the proposal after trial 1 was decided by both stations' next trials: the one that is
+    # trial 2 now, robot-2's, decided it (it refused the sync, renumbered or not)
+    assert direct.proposal(on_server[0].id).next_trial_id == on_server[1].id
     assert [n.trial_id for n in direct.notes(code)] == [ours[2].id]
     assert synced.trial_ids == {b.trial_id: t.id for b, t in zip(offline, ours, strict=True)}
 
     started = [t.started_at for t in other.trials_for_patient(code) if t.station == "robot-2"]
-    took = ("in session 1, station robot-2 recorded trial 2 meanwhile (begun "
-            f"{started[0]:%Y-%m-%d %H:%M} UTC), station robot-2 recorded trial 3 meanwhile "
-            f"(begun {started[1]:%Y-%m-%d %H:%M} UTC)")
+    took = (f"station robot-2 recorded trial 2 (begun {started[0]:%Y-%m-%d %H:%M} UTC) and "
+            f"trial 3 (begun {started[1]:%Y-%m-%d %H:%M} UTC) meanwhile")
     assert [m.line for m in synced.renumbered] == [
         f"trial {before} of session 1 is now trial {after}: {took}"
         for before, after in ((2, 4), (3, 5), (4, 6))]
     assert [m.trial_ids for m in synced.renumbered] == [(t.id,) for t in ours]
+    assert renumber.said(synced.renumbered) == \
+        f"trials 2, 3, 4 of session 1 are now trials 4, 5, 6: {took}"
     kept = _renumberings(direct, code)
     assert [k[:4] for k in kept] == [
         ("trial_number", {"trial_id": t.id, "session": 1, "trial": before},
