@@ -207,6 +207,9 @@ def test_a_number_another_station_gave_meanwhile_is_renumbered_and_said_once(
                         and win.report.content.trial_number == 3)
         qtbot.waitUntil(lambda: any("written again with their numbers" in line
                                     for line in win.messages.history()))
+        # Replay lists it with the registry's number (its file's name keeps the old one)
+        qtbot.waitUntil(lambda: win.replay.trials.count() == 3)
+        assert win.replay.trials.item(0).text().startswith("Session 1, trial 3 — ")
         win.check_station()  # online now: nothing more is sent or said
         assert len([line for line in win.messages.history() if "is now trial" in line]) == 1
     finally:
