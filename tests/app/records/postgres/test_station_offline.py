@@ -192,7 +192,7 @@ def _renumberings(registry, code):
 
 
 def test_a_number_another_station_gave_meanwhile_is_renumbered_at_the_sync_and_kept(
-        department, caplog):
+        department, server_registries, caplog):
     """Issue 32: "syncs when the server returns, without duplicates or lost trials". The
     sync was refused for good when robot-2 numbered trials for the patient while robot-1
     was cut off: nothing let anyone resolve it. Now robot-1's trials arrive under the
@@ -263,6 +263,13 @@ def test_a_number_another_station_gave_meanwhile_is_renumbered_at_the_sync_and_k
         seals.verify(conn, "the shared registry")
     assert len({t.file for t in on_server}) == 6
     assert theirs[0].trial_number == 2
+    # research reads the numbers before and after (ids), not the reason or who
+    research = Registry(DataDir(data.root.parent / "research"),
+                        server=server_registries.as_researcher(url))
+    assert [(c.field, c.old_value, c.new_value) for c in research.corrections(code)] == \
+        [k[:3] for k in kept]
+    assert all(c.reason != k[4] for c, k in zip(research.corrections(code), kept,
+                                                   strict=True))
 
     assert station.try_sync() is None  # online: nothing more to send, nothing twice
     assert len(direct.trials_for_patient(code)) == 6
