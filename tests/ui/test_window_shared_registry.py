@@ -156,6 +156,7 @@ def test_a_number_another_station_gave_meanwhile_is_renumbered_and_said_once(
     from core.trial import THESIS_SUBJECT
     from tests.netcut import NetworkCut
     from tests.ui.session import click, enabled
+    from ui.views.replay_strip import replay_line
 
     url = server_registries.new()
     network = NetworkCut(url.port)
@@ -200,6 +201,7 @@ def test_a_number_another_station_gave_meanwhile_is_renumbered_and_said_once(
                 "sent to it; trial 2 of session 1 is now trial 3: station robot-8 recorded "
                 f"trial 2 (begun {theirs.started_at:%Y-%m-%d %H:%M} UTC) meanwhile")
         qtbot.waitUntil(lambda: any(said in line for line in win.messages.history()))
+        (moved,) = win.registry.synced[-1].trial_ids.values()
         assert win.registry_label.text() == ""
         new_pdf = data.report_path(code, 1, 3, offline.started_at)
         qtbot.waitUntil(lambda: new_pdf.exists() and not old_pdf.exists())
@@ -207,9 +209,18 @@ def test_a_number_another_station_gave_meanwhile_is_renumbered_and_said_once(
                         and win.report.content.trial_number == 3)
         qtbot.waitUntil(lambda: any("written again with their numbers" in line
                                     for line in win.messages.history()))
-        # Replay lists it with the registry's number (its file's name keeps the old one)
+        # the status bar's last trial, and Replay: its list and the line on a replayed trial
+        # (its file's name keeps the old number, which they gave)
+        assert win.trial_label.text() == "session 1, trial 3: complete"
         qtbot.waitUntil(lambda: win.replay.trials.count() == 3)
         assert win.replay.trials.item(0).text().startswith("Session 1, trial 3 — ")
+        win.tabs.setCurrentWidget(win.replay)
+        win.replay.trials.setCurrentRow(0)
+        click(qtbot, win.replay.open_selected)
+        qtbot.waitUntil(lambda: win.replay.view is not None
+                        and win.shown_view is win.replay.view)
+        assert win.shown_view.source == station.trial_path(station.trial(moved))
+        assert f"{code}, session 1, trial 3, " in replay_line(win.shown_view)
         win.check_station()  # online now: nothing more is sent or said
         assert len([line for line in win.messages.history() if "is now trial" in line]) == 1
     finally:

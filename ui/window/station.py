@@ -15,6 +15,8 @@ line, and its report, shown or saved, is made again with the registry's number.
 
 from __future__ import annotations
 
+from pathlib import PurePosixPath
+
 from PySide6.QtCore import QTimer
 from PySide6.QtWidgets import QLabel
 
@@ -157,24 +159,31 @@ class StationStatus:
             self.report.load_registry_trial(self.registry, shown)
         registry, renumbered = self.registry, synced.renumbered
 
-        def rewrite() -> list[str]:
+        def rewrite() -> tuple[list[str], dict[str, str]]:
             from app.reports.build import report_for_registry_trial
 
-            written = []
+            written, numbers = [], {}
             for m in renumbered:
                 for trial_id in m.trial_ids:
                     trial = registry.trial(trial_id)
+                    numbers[PurePosixPath(trial.file).name] = \
+                        f"session {trial.session_number}, trial {trial.number}"
                     old = registry.data_dir.report_path(
                         trial.patient_code, m.session,
                         trial.number if m.trial is None else m.trial, trial.started_at)
                     if old.exists():
                         written.append(report_for_registry_trial(registry, trial_id).name)
                         old.unlink()
-            return written
+            return written, numbers
 
         self.jobs.run(rewrite, self._reports_renumbered)
 
-    def _reports_renumbered(self, written: list[str]) -> None:
+    def _reports_renumbered(self, done: tuple[list[str], dict[str, str]]) -> None:
+        written, numbers = done
+        # the status bar's last trial ('session 1, trial 2: complete', from its file's name)
+        now = numbers.get(self.trial_label.toolTip())
+        if now is not None:
+            self.trial_label.setText(f"{now}:{self.trial_label.text().split(':', 1)[-1]}")
         if written:
             self._say(f"The saved report{'s' if len(written) != 1 else ''} of the trials "
                       f"renumbered written again with their numbers: {', '.join(written)}")
