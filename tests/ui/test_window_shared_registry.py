@@ -110,11 +110,15 @@ def test_the_network_drops_mid_session_and_the_station_records_on_then_sends_it_
     assert other.pending_proposal(code).trial_id == trials[2].id
 
 
+@pytest.mark.parametrize("meanwhile", [False, True])
 def test_what_an_earlier_session_recorded_offline_sent_as_the_window_opens_is_said(
-        qtbot, tmp_path, monkeypatch, server_registries):
+        qtbot, tmp_path, monkeypatch, server_registries, meanwhile):
     """The console closed while the server was away; opened again once it answers, the
     station sends the trials as it opens. The window said nothing of them (the sync while
-    it runs says 'The shared registry is back: 2 trials …')."""
+    it runs says 'The shared registry is back: 2 trials …'). `meanwhile`: robot-8 opened
+    session 1 for the patient meanwhile, so this station's is sent as session 2, said."""
+    import datetime
+
     from app.records.station import StationRegistry
     from core.trial import THESIS_SUBJECT
     from tests.netcut import NetworkCut
@@ -130,13 +134,24 @@ def test_what_an_earlier_session_recorded_offline_sent_as_the_window_opens_is_sa
             begun = earlier.begin_trial(code, THESIS_SUBJECT, backend="simulator")
             earlier.finish_trial(begun.trial_id, "complete", {"rmse_x_mm": 1.0})
         earlier.close()
+        if meanwhile:
+            other = Registry(DataDir(tmp_path / "robot-8"), server=url, station="robot-8")
+            other.begin_trial(code, THESIS_SUBJECT, backend="simulator",
+                              started_at=datetime.datetime.now(datetime.UTC)
+                              - datetime.timedelta(minutes=5))
         network.restore()
         station = StationRegistry(data, network.url(url), station="robot-7")
         win = open_window(qtbot, tmp_path, monkeypatch, registry=station, start_device=False)
         try:
             assert not station.offline
-            assert any("The shared registry took 2 trials this station recorded while it "
-                       "was unreachable" in line for line in win.messages.history())
+            said = "The shared registry took 2 trials this station recorded while it was " \
+                "unreachable"
+            if meanwhile:
+                (theirs, _) = Registry(DataDir(tmp_path / "robot-8"), server=url).sessions(code)
+                said += (f"; session 1 is now session 2: station robot-8 opened session 1 "
+                         f"meanwhile (dated {theirs.date.isoformat()})")
+            assert any(line.endswith(said) for line in win.messages.history()), \
+                win.messages.history()
         finally:
             win.close()
     finally:
