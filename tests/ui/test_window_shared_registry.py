@@ -222,8 +222,8 @@ def test_a_number_another_station_gave_meanwhile_is_renumbered_and_said_once(
         qtbot.waitUntil(lambda: new_pdf.exists() and not old_pdf.exists())
         qtbot.waitUntil(lambda: win.report.content is not None
                         and win.report.content.trial_number == 3)
-        qtbot.waitUntil(lambda: any("written again with their numbers" in line
-                                    for line in win.messages.history()))
+        rewritten = f"written again with the registry's number: {new_pdf.name} (the one"
+        qtbot.waitUntil(lambda: any(rewritten in line for line in win.messages.history()))
         # the status bar's last trial, and Replay: its list and the line on a replayed trial
         # (its file's name keeps the old number, which they gave)
         assert win.trial_label.text() == "session 1, trial 3: complete"

@@ -185,8 +185,10 @@ class StationStatus:
         if now is not None:
             self.trial_label.setText(f"{now}:{self.trial_label.text().split(':', 1)[-1]}")
         if written:
-            self._say(f"The saved report{'s' if len(written) != 1 else ''} of the trials "
-                      f"renumbered written again with their numbers: {', '.join(written)}")
+            many = len(written) != 1
+            self._say(f"The report{'s' if many else ''} saved before the sync written again "
+                      f"with the registry's number{'s' if many else ''}: {', '.join(written)} "
+                      f"(the one{'s' if many else ''} named with the old number removed)")
 
     def _kept_current(self, _) -> None:
         self._syncing = False
