@@ -180,6 +180,9 @@ KNOWN: dict[tuple[str, str], tuple[int, str]] = {
         1, "clearing a dead writer's open-for-write flags in a trial file (h5clear -s)"),
     ("device/recording/trialfile/reserve.py", "os.open for writing"): (
         1, "disk space held beyond the end of a trial file being written (fallocate)"),
+    ("ui/window/station.py", "old.unlink"): (
+        1, "a report PDF in reports/ named and headed with the number a station's sync "
+           "changed, removed once written anew under the registry's"),
     ("ui/window/trial.py", "path.unlink"): (
         1, "the video and its timestamps begun for a trial the loop refused, withdrawn"),
 }

@@ -97,6 +97,7 @@ class ReplayTab(QWidget):
         self._code: str | None = None
         self._view: TrialView | None = None
         self._loading: Path | None = None
+        self._numbers: dict[Path, tuple[int, int]] = {}  # a registered file's (session, trial)
         self.background = plots.Background(self)
         self.background.done.connect(self._loaded)
         self.background.failed.connect(self._failed)
@@ -260,22 +261,24 @@ class ReplayTab(QWidget):
         self.play.setChecked(False)
         self.info.setText(f"{LOADING} finding the trial in the registry.")
 
-        def read() -> Path | Exception:
+        def read() -> tuple[Path, tuple[int, int]] | Exception:
             try:
-                return registry.trial_path(registry.trial(trial_id))
+                trial = registry.trial(trial_id)
+                return registry.trial_path(trial), (trial.session_number, trial.number)
             except Exception as exc:  # the registry gone, the trial unknown: said, not raised
                 return exc
 
-        def answered(path: Path | Exception) -> None:
+        def answered(found: tuple[Path, tuple[int, int]] | Exception) -> None:
             if self.jobs.closed or self._asked is not asked:
                 return  # the window closed, or another trial, file or patient since
             self._asked = None
-            if isinstance(path, Exception):
-                message = (f"The trial could not be read from the registry: {path}. "
+            if isinstance(found, Exception):
+                message = (f"The trial could not be read from the registry: {found}. "
                            "Open it again.")
                 self.info.setText(f"{theme.PROBLEM_SIGN} {message}")
                 self.load_failed.emit(message)
                 return
+            path, self._numbers[path] = found
             self.open_file(path)
 
         self.jobs.run(read, answered)
@@ -316,6 +319,7 @@ class ReplayTab(QWidget):
             return
         self._loading = None
         self._view = view
+        view.numbers = self._numbers.get(Path(path))
         self.title.setText(view.title)
         data_notes = "" if view.finished else " The file was not closed; showing what it holds."
         self.info.setText(f"{view.duration_s:.1f} s, {view.n} samples.{data_notes}")

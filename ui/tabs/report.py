@@ -121,6 +121,13 @@ class ReportTab(QWidget):
         token = self._preparing(("content", self._source))
         self.background.submit(token, _load_file, self._source, options)
 
+    def registry_trial(self) -> int | None:
+        """The id of the registered trial whose report is shown or prepared, None when it
+        is a file's (a replayed or saved trial) or none."""
+        wanted = self._wanted
+        return wanted[1] if isinstance(wanted, tuple) and wanted[0] == "content" \
+            and isinstance(wanted[1], int) else None
+
     def load_registry_trial(self, registry: RecordStore, trial_id: int) -> None:
         """A registered trial's report, compared with the patient's earlier trials."""
         self._source = None

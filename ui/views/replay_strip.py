@@ -28,15 +28,17 @@ def session_and_trial(path: Path | str) -> str:
 
 def which_trial(view: TrialView) -> str:
     """The trial in the therapist's words: 'P1ZTTAQ, session 1, trial 3, 03 Dec 2026
-    10:15', or the file's name when it is not named as the data folder names trials."""
+    10:15', or the file's name when it is not named as the data folder names trials. The
+    numbers are the registry's when the trial was opened from it (`view.numbers`): a trial
+    a station's sync renumbered keeps its file's name, and the line gave the old number."""
     name = view.source.name if view.source is not None else view.title
     match = _STEM.search(name or "")
     if match is None:
         return name or "a trial"
     started = datetime.datetime.strptime(match["stamp"], "%Y%m%dT%H%M%SZ").replace(
         tzinfo=datetime.UTC).astimezone()
-    return (f"{match['code']}, session {int(match['session'])}, trial {int(match['trial'])},"
-            f" {started:%d %b %Y %H:%M}")
+    session, trial = view.numbers or (int(match["session"]), int(match["trial"]))
+    return f"{match['code']}, session {session}, trial {trial}, {started:%d %b %Y %H:%M}"
 
 
 def replay_line(view: TrialView) -> str:

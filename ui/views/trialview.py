@@ -88,6 +88,10 @@ class TrialView:
         self.metrics: dict[str, float] | None = None  # the analysis, once the trial is over
         self.finished = False
         self.source: Path | None = None  # the file a replayed trial came from
+        # (session, trial) as the registry numbers a replayed registered trial: its file's
+        # name keeps the numbers it was recorded under, which a station's sync may have
+        # changed since (app.records.station.renumber)
+        self.numbers: tuple[int, int] | None = None
         self.pose: PoseView | None = None  # the camera's angles, when `rehab pose` ran
         self.video = None  # a replayed trial's video (app.pose.replay.ReplayVideo), if any
         self.title = ""

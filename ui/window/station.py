@@ -8,10 +8,14 @@ no trial runs, the window asks the station to send what it recorded (on the job 
 any trial still being finished: a sync never comes between a trial's end and its proposal).
 After a sync the patient's progress, proposal and Replay list are read again, off the window's
 thread (on a slow network each read held the window): the trials recorded offline have their
-server's ids now.
+server's ids now. A trial sent under another number than it was recorded with (another
+station took its number meanwhile: app.records.station.renumber) is said once on the event
+line, and its report, shown or saved, is made again with the registry's number.
 """
 
 from __future__ import annotations
+
+from pathlib import PurePosixPath
 
 from PySide6.QtCore import QTimer
 from PySide6.QtWidgets import QLabel
@@ -34,11 +38,11 @@ LOGIN_REFUSED = "Shared registry refused this login: recording on this station"
 """… while the server answers and refuses this station's login (what to do in the tooltip)."""
 
 SYNC_REFUSED = "Shared registry refused the sync: recording on this station"
-"""… while the server answers and refused what this station recorded offline (another
-station recorded for the same patient meanwhile: the registry's owner resolves it; why in
-the tooltip). It said 'unreachable' there, and a therapist checked a network that worked.
-As short as the other two: beside the robot's timing warning at 1366 px, "… refused the
-offline records: …" was cut."""
+"""… while the server answers and refused what this station recorded offline (a row
+another station changed meanwhile, not a number: those the sync renumbers; the registry's
+owner resolves it; why in the tooltip). It said 'unreachable' there, and a therapist
+checked a network that worked. As short as the other two: beside the robot's timing
+warning at 1366 px, "… refused the offline records: …" was cut."""
 
 REACH_WORDS = {station.UNREACHABLE: UNREACHABLE, station.LOGIN_REFUSED: LOGIN_REFUSED,
                station.SYNC_REFUSED: SYNC_REFUSED}
@@ -68,11 +72,12 @@ class StationStatus:
         self._storing = False
         self._store_problem = ""
         self.store_trials()  # what an earlier session left to copy
-        sent = sum(s.trials for s in self.registry.synced) \
-            if isinstance(self.registry, StationStore) else 0
+        synced = self.registry.synced if isinstance(self.registry, StationStore) else []
+        sent = sum(s.trials for s in synced)
         if sent:  # sent as the station opened: what an earlier session recorded offline
             self._say(f"The shared registry took {sent} trial{'s' if sent != 1 else ''} this "
-                      "station recorded while it was unreachable")
+                      "station recorded while it was unreachable"
+                      + "".join(f"; {s.renumbering}" for s in synced if s.renumbered))
         problem = self.registry.sync_problem if isinstance(self.registry, StationStore) else ""
         if problem:  # found as it opened (a damaged standby set aside, a sync refused)
             self._said_problem = problem
@@ -140,6 +145,51 @@ class StationStatus:
             self.registry_label.setToolTip("")
         self._was_offline = offline
 
+    def _renumbered_reports(self, synced) -> None:
+        """The reports of trials sent under another number, shown or saved before the sync,
+        made again with the registry's number: the Report tab's (a trial just recorded
+        offline) at once, and a PDF saved offline in reports/ (a derivative, named and
+        headed with the old number) written anew under the new name, the old one removed.
+        The trial file keeps its name: the registry points at it."""
+        moved = {trial for m in synced.renumbered for trial in m.trial_ids}
+        if not moved:
+            return
+        shown = synced.trial_ids.get(self.report.registry_trial())
+        if shown in moved:
+            self.report.load_registry_trial(self.registry, shown)
+        registry, renumbered = self.registry, synced.renumbered
+
+        def rewrite() -> tuple[list[str], dict[str, str]]:
+            from app.reports.build import report_for_registry_trial
+
+            written, numbers = [], {}
+            for m in renumbered:
+                for trial_id in m.trial_ids:
+                    trial = registry.trial(trial_id)
+                    numbers[PurePosixPath(trial.file).name] = \
+                        f"session {trial.session_number}, trial {trial.number}"
+                    old = registry.data_dir.report_path(
+                        trial.patient_code, m.session,
+                        trial.number if m.trial is None else m.trial, trial.started_at)
+                    if old.exists():
+                        written.append(report_for_registry_trial(registry, trial_id).name)
+                        old.unlink()
+            return written, numbers
+
+        self.jobs.run(rewrite, self._reports_renumbered)
+
+    def _reports_renumbered(self, done: tuple[list[str], dict[str, str]]) -> None:
+        written, numbers = done
+        # the status bar's last trial ('session 1, trial 2: complete', from its file's name)
+        now = numbers.get(self.trial_label.toolTip())
+        if now is not None:
+            self.trial_label.setText(f"{now}:{self.trial_label.text().split(':', 1)[-1]}")
+        if written:
+            many = len(written) != 1
+            self._say(f"The report{'s' if many else ''} saved before the sync written again "
+                      f"with the registry's number{'s' if many else ''}: {', '.join(written)} "
+                      f"(the one{'s' if many else ''} named with the old number removed)")
+
     def _kept_current(self, _) -> None:
         self._syncing = False
 
@@ -156,10 +206,14 @@ class StationStatus:
         if self.unsaved_trial in moved:
             self.unsaved_trial = moved[self.unsaved_trial]
         sent = synced.trials
+        # said once, here: which trial has which number now, and whose trial took its own
+        # (the registry keeps it too: a correction of the trial's number)
         self._say("The shared registry is back: " + (
             f"{sent} trial{'s' if sent != 1 else ''} recorded on this station meanwhile "
-            "sent to it" if sent else "nothing was waiting to be sent"))
+            "sent to it" if sent else "nothing was waiting to be sent")
+            + (f"; {synced.renumbering}" if synced.renumbered else ""))
         self._show_reach(False)
+        self._renumbered_reports(synced)
         if self.patient is not None:  # what the tabs show now has the server's ids
             code = self.patient.code
             self.progress.set_patient(code)  # read on the tab's own threads

@@ -56,7 +56,7 @@ from app.records.station.refresh import (
     server_changes,
     write_changes,
 )
-from app.records.station.sync import Synced, SyncRefused, already_sent, replay, taken_by
+from app.records.station.sync import Synced, SyncRefused, already_sent, replay
 from app.records.station.waiting import clear_refusal, keep_refusal
 from core.errors import capitalised
 from device.safewrite import OutputRefused, make_private_folders
@@ -367,9 +367,6 @@ class StationRegistry:
 
     def _sync_refused(self, exc: RegistryError) -> None:
         """The sync refused (`exc`): kept in `sync_problem`, logged once; nothing lost."""
-        if isinstance(exc, SyncRefused) and exc.taken is not None:
-            with contextlib.suppress(RegistryError), self._server._read() as conn:
-                exc = taken_by(conn, exc, self._shown()) or exc
         problem = (f"the records this station made offline were not sent: {exc}. Nothing "
                    f"is lost: they stay in {standby_path(self.data_dir)} and this station "
                    "goes on recording on its own until the registry's owner resolves it "
@@ -398,7 +395,9 @@ class StationRegistry:
                 synced = Synced({}, {}, {})
                 log.warning("the offline records had arrived at the last attempt")
             else:
-                synced = replay(conn, work, self._shown())
+                synced = replay(conn, work, self._shown(), self.station)
+        for moved in synced.renumbered:  # kept in the registry too (sync.py, renumber.py)
+            log.warning("sent under the server's next free number: %s", moved.line)
         kept = keep_sent(path)
         self._standby = self._built = None
         log.info("sent the offline records to the shared registry: %s added, %s changed; "

@@ -14,20 +14,27 @@ behind and is simply made again.
 * A changed row is written over the server's only if the server's row is still what was
   mirrored (its seal): otherwise another station changed it meanwhile and the sync is
   refused, naming the row.
-* The server's own rules hold on each row: a session or trial number another station gave
-  meanwhile is refused by its numbering triggers (the sync is refused, naming it).
+* A session or trial the station added is sent without its number: the server's numbering
+  trigger gives it the next free one (gap-free, unique: postgres/numbering.py). Where
+  another station took the number meanwhile it differs from the one recorded offline, and
+  that renumbering is kept in the registry, sealed, naming the trial that took it
+  (renumber.py); the trials keep their order and their files their names. It was refused,
+  and the station stayed offline for good: nothing let anyone resolve it.
+* The server's other rules hold on each row (refused, naming the row).
 * Every row's seal on the server must equal the seal of the values sent (the same digest on
   both engines): what arrived is exactly what the station recorded, ids aside.
 * A sync whose commit was sent but not answered (the network dropped at that moment) may
   have arrived: the trials it adds are looked up by their file first; all there means it
   did, and it is not sent twice.
 
-Refused, the standby and its trial files stay as they are and the station goes on recording
-there; nothing is lost, and the line says what to resolve.
+Refused (a row another station changed, a row the server's rules refuse, a seal that
+differs), the standby and its trial files stay as they are and the station goes on
+recording there; nothing is lost, and the line says what to resolve.
 """
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 import sqlalchemy as sa
@@ -35,31 +42,37 @@ import sqlalchemy as sa
 from app.errors import RegistryError
 from app.records.registry import seals
 from app.records.registry.postgres.tables import REGISTRY_TABLES, metadata
+from app.records.station import renumber
 from app.records.station.mirror import Change, key_columns
+from app.records.station.renumber import Renumbered
+
+log = logging.getLogger(__name__)
 
 
 class SyncRefused(RegistryError):
-    """The station's offline records cannot be sent as they are: another station changed or
-    numbered the same patient's records meanwhile (the line says which). `taken`: a trial
-    added offline whose number the server refused, as (the trial, the server's session id,
-    its number), for `taken_by` to name the trial that holds it."""
-
-    def __init__(self, line: str, taken: tuple[str, int, int] | None = None) -> None:
-        super().__init__(line)
-        self.taken = taken
+    """The station's offline records cannot be sent as they are: another station changed
+    the same patient's records meanwhile, or the server's rules refused a row (the line
+    says which)."""
 
 
 @dataclass(frozen=True, slots=True)
 class Synced:
-    """What a sync sent: rows per table (added, changed), and the trials' new ids."""
+    """What a sync sent: rows per table (added, changed), the trials' new ids, and the
+    sessions and trials sent under another number than recorded offline."""
 
     added: dict[str, int]
     changed: dict[str, int]
     trial_ids: dict[int, int]  # the standby's id -> the server's
+    renumbered: tuple[Renumbered, ...] = ()
 
     @property
     def trials(self) -> int:
         return self.added.get("trials", 0)
+
+    @property
+    def renumbering(self) -> str:
+        """The renumberings in one line for the window ('' when none)."""
+        return renumber.said(self.renumbered)
 
 
 def already_sent(conn: sa.Connection, work: list[Change]) -> bool:
@@ -83,55 +96,59 @@ def already_sent(conn: sa.Connection, work: list[Change]) -> bool:
     return False
 
 
-def replay(conn: sa.Connection, work: list[Change], where: str) -> Synced:
-    """Send `work` (mirror.changes, in its order) in the caller's transaction on `conn`."""
+def replay(conn: sa.Connection, work: list[Change], where: str, station: str) -> Synced:
+    """Send `work` (mirror.changes, in its order) in the caller's transaction on `conn`;
+    `station`, the station sending it, names who renumbered what (renumber.py)."""
     ids: dict[str, dict[int, int]] = {table: {} for table in REGISTRY_TABLES}
     added = dict.fromkeys(REGISTRY_TABLES, 0)
     changed = dict.fromkeys(REGISTRY_TABLES, 0)
+    renumbered: list[Renumbered] = []
+    sessions_renumbered: dict[int, int] = {}  # the server's session id -> its index above
+    first: dict[str, dict[int, int]] = {table: {} for table in renumber.NUMBERED}
     for change in work:
         values = _mapped(change, ids)
         try:
             if change.mirrored is None:
+                recorded = values.get("number")
                 seal = _add(conn, change.table, values, ids[change.table])
                 added[change.table] += 1
             else:
                 seal = _change(conn, change, values)
+                if seal is None:
+                    log.warning("%s was decided on the server by another station's trial "
+                                "meanwhile, the trial numbered before this station's: its "
+                                "decision stands", _named(change))
+                    continue
                 changed[change.table] += 1
         except sa.exc.IntegrityError as exc:  # the server's rules refused the row
             diag = getattr(exc.orig, "diag", None)
             reason = getattr(diag, "message_primary", None) or str(exc.orig).splitlines()[0]
-            taken = (_named(change), values["session_id"], values["number"]) \
-                if change.table == "trials" and change.mirrored is None else None
-            raise SyncRefused(f"{_named(change)} was refused by {where} ({reason}): another "
-                              "station recorded for the same patient meanwhile",
-                              taken) from None
+            raise SyncRefused(f"{_named(change)} was refused by {where} ({reason})") from None
+        if change.mirrored is None and change.table in renumber.NUMBERED:
+            # the number this sync first sent in the session (of the patient): what the
+            # server holds from there on, but ours, was recorded meanwhile
+            owner = values["session_id" if change.table == "trials" else "patient_id"]
+            since = first[change.table].setdefault(owner, recorded)
+            if values["number"] != recorded:  # another station took the number
+                ours = set(ids[change.table].values())
+                if change.table == "sessions":  # its trials keep their numbers: named below
+                    sessions_renumbered[values["id"]] = len(renumbered)
+                record = renumber.record_session if change.table == "sessions" \
+                    else renumber.record_trial
+                renumbered.append(record(conn, values, recorded, since, ours, station))
         sent = seals.seal_of(change.table, *(values[c] for c in seals.SEALED[change.table]))
         if seal != sent:
             raise SyncRefused(f"{_named(change)} did not arrive unchanged at {where} (its "
                               "seal there differs from the values sent)")
+    trials = metadata.tables["trials"]
+    for session, index in sessions_renumbered.items():  # the trials whose session it is
+        renumbered[index] = renumber.with_trials(renumbered[index], list(conn.execute(
+            sa.select(trials.c.id).where(trials.c.session_id == session,
+                                         trials.c.id.in_(ids["trials"].values()))
+            .order_by(trials.c.number)).scalars()))
     return Synced({t: n for t, n in added.items() if n},
-                  {t: n for t, n in changed.items() if n}, dict(ids["trials"]))
-
-
-def taken_by(conn: sa.Connection, refused: SyncRefused, where: str) -> str | None:
-    """The refusal of a trial whose number the server holds for another trial, naming that
-    trial's station and start: the server's own words ('… not the next one …; use 12')
-    asked for a number nobody could type, and not whose trial took it. None when the server
-    holds no trial at that number (the refusal was another rule's)."""
-    if refused.taken is None:
-        return None
-    named, session_id, number = refused.taken
-    trials, sessions = metadata.tables["trials"], metadata.tables["sessions"]
-    row = conn.execute(
-        sa.select(trials.c.station, trials.c.started_at, sessions.c.number)
-        .join(sessions, sessions.c.id == trials.c.session_id)
-        .where(trials.c.session_id == session_id, trials.c.number == number)).first()
-    if row is None:
-        return None
-    station, started, session = row
-    return (f"{named} was refused by {where}: its number, trial {number} of session "
-            f"{session}, is the number of station {station or '(not recorded)'}'s trial "
-            f"begun meanwhile, at {started[:16].replace('T', ' ')} UTC")
+                  {t: n for t, n in changed.items() if n}, dict(ids["trials"]),
+                  tuple(renumbered))
 
 
 def _values(change: Change) -> dict:
@@ -149,26 +166,59 @@ def _mapped(change: Change, ids: dict[str, dict[int, int]]) -> dict:
 
 
 def _add(conn: sa.Connection, table: str, values: dict, new_ids: dict[int, int]) -> str:
+    """Insert the row; a session or trial without its number (the server's next free one,
+    written into `values`)."""
     t = metadata.tables[table]
     if "id" not in key_columns(table):
         return conn.execute(sa.insert(t).values(values).returning(t.c.seal)).scalar_one()
     local = values.pop("id")
-    server_id, seal = conn.execute(sa.insert(t).values(values)
-                                   .returning(t.c.id, t.c.seal)).one()
+    if table in renumber.NUMBERED:
+        values["number"] = None
+        server_id, seal, values["number"] = conn.execute(
+            sa.insert(t).values(values).returning(t.c.id, t.c.seal, t.c.number)).one()
+    else:
+        server_id, seal = conn.execute(sa.insert(t).values(values)
+                                       .returning(t.c.id, t.c.seal)).one()
     new_ids[local] = values["id"] = server_id
     return seal
 
 
-def _change(conn: sa.Connection, change: Change, values: dict) -> str:
+def _change(conn: sa.Connection, change: Change, values: dict) -> str | None:
+    """Write the changed row over the server's, if the server's is still as mirrored; None
+    when it is a proposal another station's trial decided meanwhile (`_decided_meanwhile`:
+    the server's decision stands)."""
     t = metadata.tables[change.table]
     keys = key_columns(change.table)
     where = sa.and_(*(t.c[k] == values[k] for k in keys))
-    now = conn.execute(sa.select(t.c.seal).where(where).with_for_update()).scalar_one_or_none()
-    if now != change.mirrored:
+    row = conn.execute(sa.select(*(t.c[c] for c in seals.SEALED[change.table]), t.c.seal)
+                       .where(where).with_for_update()).one_or_none()
+    if (None if row is None else row[-1]) != change.mirrored:
+        if _decided_meanwhile(change, values, row):
+            return None
         raise SyncRefused(f"{_named(change)} was changed on the server by another station "
                           "while this one was offline")
     return conn.execute(sa.update(t).where(where).values(
         {c: v for c, v in values.items() if c not in keys}).returning(t.c.seal)).scalar_one()
+
+
+def _decided_meanwhile(change: Change, values: dict, row: sa.Row | None) -> bool:
+    """Whether `change` is a pending proposal this station's offline trial decided that a
+    trial of another station decided meanwhile on the server, nothing else of it changed
+    on either side. Both trials came next after the proposal, each on its own station; on
+    the server the other station's took the next number (this station's is sent after it:
+    renumber.py), so the proposal's decision is that trial's, and the server's stands.
+    Refused, every number conflict with a proposal pending (the window records one after
+    each trial) stayed refused, renumbered or not."""
+    if change.table != "proposals" or row is None or row.decision == "pending":
+        return False
+    columns = seals.SEALED["proposals"]
+    undecided = {"decision": "pending", "next_trial_id": None, "decided_at": None}
+
+    def pending(v: dict) -> str:
+        return seals.seal_of("proposals", *((v | undecided)[c] for c in columns))
+
+    return pending(values) == change.mirrored == pending(dict(zip(columns, row[:-1],
+                                                                   strict=True)))
 
 
 def _named(change: Change) -> str:

@@ -8,8 +8,9 @@ matches its seal") while two of its trials were still only in its standby,
 the line says so. The standby is read, never written: opened read-only, no lock taken
 (a window holding it meanwhile is undisturbed).
 
-When the window's last attempt to send them was refused (another station numbered for the
-same patient meanwhile: app.records.station.sync), the line says that refusal instead of
+When the window's last attempt to send them was refused (a row another station changed
+meanwhile: app.records.station.sync; a number another station gave is no refusal, the sync
+renumbers), the line says that refusal instead of
 "the window sends them": the station keeps it beside the standby (`sync-refused.txt`, one
 line, removed by the next sync that goes through). The line said the window would send them
 while every attempt was refused, and the admin waited for a sync that could not come.

@@ -7,6 +7,7 @@ the server or the network goes down."""
 from __future__ import annotations
 
 import dataclasses
+import datetime
 import shutil
 
 import pytest
@@ -14,13 +15,17 @@ import pytest
 from app.errors import RegistryUnreachable
 from app.records.datadir import DataDir
 from app.records.registry import Registry
+from app.records.registry.postgres import seals
+from app.records.registry.provenance import file_checksum
 from app.records.station import (
     LOGIN_REFUSED,
     SYNC_REFUSED,
     UNREACHABLE,
     StationRegistry,
+    renumber,
 )
 from app.records.station.mirror import standby_path
+from app.records.station.waiting import keep_refusal
 from app.records.store import StationStore
 from core.trial import THESIS_SUBJECT
 from tests.netcut import NetworkCut
@@ -165,38 +170,177 @@ def test_a_trial_open_when_the_server_returns_is_sent_after_it_ends(department):
     assert station.try_sync().trials == 1
 
 
-def test_a_number_another_station_gave_meanwhile_refuses_the_sync_and_keeps_everything(
-        department, caplog):
+def _filed_trial(registry, code, metrics, **given):
+    """A finished trial with a file of its own, its SHA-256 kept as the window keeps it."""
+    begun = registry.begin_trial(code, PARAMS, backend="simulator", **given)
+    path = registry.trial_path(begun.trial_id)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(f"trial {begun.trial_id} {metrics}".encode())
+    registry.finish_trial(begun.trial_id, "complete", metrics,
+                          checksum=file_checksum(path))
+    return begun
+
+
+def _earlier(minutes):
+    """A start some minutes ago: another second than any trial begun now."""
+    return datetime.datetime.now(datetime.UTC) - datetime.timedelta(minutes=10 - minutes)
+
+
+def _renumberings(registry, code):
+    return [(c.field, c.old_value, c.new_value, c.corrected_by, c.reason)
+            for c in registry.corrections(code)]
+
+
+def test_a_number_another_station_gave_meanwhile_is_renumbered_at_the_sync_and_kept(
+        department, server_registries, caplog):
+    """Issue 32: "syncs when the server returns, without duplicates or lost trials". The
+    sync was refused for good when robot-2 numbered trials for the patient while robot-1
+    was cut off: nothing let anyone resolve it. Now robot-1's trials arrive under the
+    server's next free numbers, in their order, gap-free, each file found by its checksum,
+    and each renumbering is a sealed record saying which trial, who, the number before and
+    after, and whose trial took it."""
+    url, network, data = department
+    station = StationRegistry(data, network.url(url), station="robot-1")
+    code = station.create_patient("Di", "Sample").code
+    first = _filed_trial(station, code, {"rmse_x_mm": 1.0})
+    station.record_proposal(first.trial_id, {"assistance_level": 0.3})  # as the window does
+    network.cut()
+    offline = [_filed_trial(station, code, {"rmse_x_mm": 2.0 + n}) for n in range(3)]
+    assert station.proposal(first.trial_id).next_trial_id == offline[0].trial_id
+    station.record_proposal(offline[-1].trial_id, {"assistance_level": 0.4})
+    station.add_note(code, 1, "tired after the third", author="therapist A",
+                     trial_id=offline[-1].trial_id)
+    assert [station.trial(b.trial_id).number for b in offline] == [2, 3, 4]
+    files = [station.trial(b.trial_id).file for b in offline]
+    other = Registry(DataDir(data.root.parent / "robot-2"), server=url, station="robot-2")
+    # robot-2 records trials 2 and 3 (begun at other seconds than ours: a file's name holds
+    # its start to the second, and two files of one name are refused, below)
+    theirs = [_filed_trial(other, code, {"rmse_x_mm": 9.0}, started_at=_earlier(n))
+              for n in range(2)]
+    assert station.offline_cause == UNREACHABLE
+    network.restore()
+    synced = station.try_sync()
+    assert synced is not None, station.sync_problem
+    assert not station.offline
+    assert (station.sync_problem, station.offline_cause) == ("", "")
+    assert synced.trials == 3
+
+    direct = Registry(data, server=url, station="robot-1")
+    on_server = direct.trials_for_patient(code)
+    assert [(t.number, t.station) for t in on_server] == [
+        (1, "robot-1"), (2, "robot-2"), (3, "robot-2"), (4, "robot-1"), (5, "robot-1"),
+        (6, "robot-1")]  # gap-free, robot-1's in the order recorded, nothing twice
+    ours = on_server[3:]
+    assert [t.file for t in ours] == files  # never renamed: the registry points at them
+    assert [t.metrics["rmse_x_mm"] for t in ours] == [2.0, 3.0, 4.0]  # nothing lost
+    assert all(direct.verify_trial_file(t) is None and t.checksum for t in on_server[:1] + ours)
+    assert direct.proposal(ours[2].id).proposal == {"assistance_level": 0.4}
+    # the proposal after trial 1 was decided by both stations' next trials: the one that is
+    # trial 2 now, robot-2's, decided it (it refused the sync, renumbered or not)
+    assert direct.proposal(on_server[0].id).next_trial_id == on_server[1].id
+    assert [n.trial_id for n in direct.notes(code)] == [ours[2].id]
+    assert synced.trial_ids == {b.trial_id: t.id for b, t in zip(offline, ours, strict=True)}
+
+    started = [t.started_at for t in other.trials_for_patient(code) if t.station == "robot-2"]
+    took = (f"station robot-2 recorded trial 2 (begun {started[0]:%Y-%m-%d %H:%M} UTC) and "
+            f"trial 3 (begun {started[1]:%Y-%m-%d %H:%M} UTC) meanwhile")
+    assert [m.line for m in synced.renumbered] == [
+        f"trial {before} of session 1 is now trial {after}: {took}"
+        for before, after in ((2, 4), (3, 5), (4, 6))]
+    assert [m.trial_ids for m in synced.renumbered] == [(t.id,) for t in ours]
+    assert renumber.said(synced.renumbered) == \
+        f"trials 2, 3, 4 of session 1 are now trials 4, 5, 6: {took}"
+    kept = _renumberings(direct, code)
+    assert [k[:4] for k in kept] == [
+        ("trial_number", {"trial_id": t.id, "session": 1, "trial": before},
+         {"trial_id": t.id, "session": 1, "trial": after}, "station robot-1")
+        for t, before, after in zip(ours, (2, 3, 4), (4, 5, 6), strict=True)]
+    assert kept[0][4] == (
+        "recorded on station robot-1 while the shared registry was unreachable, as trial 2 "
+        f"of session 1 (its file {files[0]} keeps that number in its name); {took}; sent at "
+        "the sync as trial 4")
+    with direct._read() as conn:  # sealed by the server, append-only, as every correction
+        seals.verify(conn, "the shared registry")
+    assert len({t.file for t in on_server}) == 6
+    assert theirs[0].trial_number == 2
+    # research reads the numbers before and after (ids), not the reason or who
+    research = Registry(DataDir(data.root.parent / "research"),
+                        server=server_registries.as_researcher(url))
+    assert [(c.field, c.old_value, c.new_value) for c in research.corrections(code)] == \
+        [k[:3] for k in kept]
+    assert all(c.reason != k[4] for c, k in zip(research.corrections(code), kept,
+                                                   strict=True))
+
+    assert station.try_sync() is None  # online: nothing more to send, nothing twice
+    assert len(direct.trials_for_patient(code)) == 6
+    assert len(_renumberings(direct, code)) == 3
+    assert any("trial 2 of session 1 is now trial 4" in r.message for r in caplog.records)
+    # the standby is the server's again: the next trial offline is numbered after them all
+    network.cut()
+    assert _trial(station, code).trial_number == 7
+
+
+def test_a_session_another_station_opened_meanwhile_is_renumbered_with_its_trials(
+        department):
+    url, network, data = department
+    station = StationRegistry(data, network.url(url), station="robot-1")
+    code = station.create_patient("Di", "Sample").code
+    _trial(station, code)
+    network.cut()
+    station.record_scale(code, 2, "fugl_meyer", total=30, rater="K. Lee")
+    mine = [_filed_trial(station, code, {"rmse_x_mm": 3.0}, session_number=2)
+            for _ in range(2)]
+    files = [station.trial(b.trial_id).file for b in mine]
+    other = Registry(DataDir(data.root.parent / "robot-2"), server=url, station="robot-2")
+    _trial(other, code)  # robot-2 records trial 2 of session 1 (after robot-1's drop)
+    other.begin_trial(code, PARAMS, backend="simulator", session_number=2,
+                      started_at=_earlier(0))  # and opens session 2
+    network.restore()
+    synced = station.try_sync()
+    assert synced is not None, station.sync_problem
+    direct = Registry(data, server=url, station="robot-1")
+    assert [(s.number, s.n_trials) for s in direct.sessions(code)] == [(1, 2), (2, 1), (3, 2)]
+    ours = [t for t in direct.trials_for_patient(code) if t.session_number == 3]
+    assert [t.number for t in ours] == [1, 2]
+    assert [t.file for t in ours] == files
+    assert all(direct.verify_trial_file(t) is None and t.checksum for t in ours)
+    assert [(e.session_number, e.total) for e in direct.scale_entries(code)] == [(3, 30)]
+    (moved,) = synced.renumbered
+    today = direct.sessions(code)[1].date
+    assert moved.line == ("session 2 is now session 3: station robot-2 opened session 2 "
+                          f"meanwhile (dated {today.isoformat()})")
+    assert moved.trial_ids == tuple(t.id for t in ours)
+    (kept,) = _renumberings(direct, code)
+    session_id = kept[2]["session_id"]  # the server's id of robot-1's session
+    assert kept[:4] == ("session_number", {"session_id": session_id, "session": 2},
+                        {"session_id": session_id, "session": 3}, "station robot-1")
+    with direct._read() as conn:
+        assert conn.exec_driver_sql("SELECT number FROM sessions WHERE id = %s",
+                                    (session_id,)).scalar_one() == 3
+
+
+def test_a_row_another_station_changed_meanwhile_still_refuses_the_sync(department):
+    """Not a number: a patient's field corrected on both stations. The station cannot tell
+    which correction is right, so it keeps its records, says so in one line, and goes on."""
     url, network, data = department
     station = StationRegistry(data, network.url(url), station="robot-1")
     code = station.create_patient("Di", "Sample").code
     _trial(station, code)
     network.cut()
     offline = _trial(station, code, {"rmse_x_mm": 9.0})
+    station.correct_patient(code, "upper_arm_m", 0.31, reason="measured again", by="A")
     other = Registry(DataDir(data.root.parent / "robot-2"), server=url, station="robot-2")
-    _trial(other, code)  # robot-2 numbers trial 2 while robot-1 is cut off
-    assert station.offline_cause == UNREACHABLE
+    other.correct_patient(code, "upper_arm_m", 0.29, reason="measured again", by="B")
     network.restore()
     assert station.try_sync() is None
     assert station.offline
-    assert "trial" in station.sync_problem
-    assert "refused" in station.sync_problem
-    assert "\n" not in station.sync_problem
-    # which trial holds the number, and no 'use 3' (the server's words for a typed number,
-    # which nobody can type here)
-    (theirs,) = [t for t in other.trials_for_patient(code) if t.station == "robot-2"]
-    assert (f"was refused by the shared registry 127.0.0.1:{network.port}/{url.database}: "
-            "its number, trial 2 of session 1, is the number of station robot-2's trial "
-            f"begun meanwhile, at {theirs.started_at:%Y-%m-%d %H:%M} UTC. Nothing is lost"
-            ) in station.sync_problem
-    assert "; use " not in station.sync_problem
-    # the server answers: the window must not say 'unreachable' (it did; the therapist
-    # checked a network that worked)
     assert station.offline_cause == SYNC_REFUSED
-    # nothing lost: robot-1 still has its trial 2 and goes on recording on its own
-    assert station.trial(offline.trial_id).metrics["rmse_x_mm"] == 9.0
-    assert _trial(station, code).trial_id > offline.trial_id
-    assert [t.station for t in other.trials_for_patient(code)] == ["robot-1", "robot-2"]
+    assert "\n" not in station.sync_problem
+    assert "was changed on the server by another station while this one was offline" \
+        in station.sync_problem
+    assert station.trial(offline.trial_id).metrics["rmse_x_mm"] == 9.0  # nothing lost
+    assert [t.station for t in other.trials_for_patient(code)] == ["robot-1"]  # none sent
+    assert _trial(station, code).trial_id > offline.trial_id  # the station goes on
     network.cut()  # refused, then the network drops: unreachable again, not 'refused'
     assert station.try_sync() is None
     assert station.offline_cause == UNREACHABLE
@@ -289,18 +433,24 @@ def test_a_sync_whose_answer_was_lost_is_not_sent_twice(department):
     code = station.create_patient("Gus", "Sample").code
     network.cut()
     _trial(station, code)
+    other = Registry(DataDir(data.root.parent / "robot-2"), server=url, station="robot-2")
+    other.begin_trial(code, PARAMS, backend="simulator", started_at=_earlier(0))  # its 1
     path = standby_path(data)
     sent = path.with_name("as-sent.sqlite3")
     shutil.copy(path, sent)
     network.restore()
-    assert station.try_sync().trials == 1
+    synced = station.try_sync()
+    assert (synced.trials, len(synced.renumbered)) == (1, 1)  # its session sent as 2
     # the commit arrived but its answer did not: the station still holds the same records
     shutil.copy(sent, path)
     station.offline_reason = "the answer to the last sync was lost"
     again = station.try_sync()
-    assert (again.added, again.changed) == ({}, {})  # found there, not sent again
+    assert (again.added, again.changed, again.renumbered) == ({}, {}, ())  # not sent again
     assert not station.offline
-    assert [t.number for t in Registry(data, server=url).trials_for_patient(code)] == [1]
+    direct = Registry(data, server=url)
+    assert [(t.session_number, t.number, t.station)
+            for t in direct.trials_for_patient(code)] == [(1, 1, "robot-2"), (2, 1, "robot-1")]
+    assert len(direct.corrections(code)) == 1  # its renumbering kept once
 
 
 def test_a_second_console_on_the_folder_uses_the_server_only(department):
@@ -444,27 +594,52 @@ def test_db_status_says_what_waits_on_the_station_whether_the_server_answers_or_
     assert "this station" not in out
     assert "trials 3," in out
 
-    # a sync the server refuses: the line says so, not that the window will send them
+    # another station's number meanwhile: the sync goes through, renumbered, and nothing is
+    # said waiting (it said 'the window's last attempt to send them … was refused' for good)
     network.cut()
     _trial(station, code, {"rmse_x_mm": 7.0})
     other = Registry(DataDir(data.root.parent / "robot-2"), server=url, station="robot-2")
-    taken = _trial(other, code, finish=False)  # robot-2 numbers trial 4 meanwhile
+    other.begin_trial(code, PARAMS, backend="simulator", started_at=_earlier(0))  # its 4
+    network.restore()
+    synced = station.try_sync()
+    assert synced is not None, station.sync_problem
+    assert [m.line.split(":")[0] for m in synced.renumbered] == [
+        "trial 4 of session 1 is now trial 5"]
+    code_now, out, _ = run(["db", "status"], capsys)
+    assert code_now == 0
+    assert "this station" not in out
+    assert "trials 5," in out
+
+    # a sync the server refuses (a row robot-2 changed meanwhile): the line says so, not
+    # that the window will send them
+    network.cut()
+    _trial(station, code, {"rmse_x_mm": 8.0})
+    station.correct_patient(code, "upper_arm_m", 0.31, reason="measured again", by="A")
+    other.correct_patient(code, "upper_arm_m", 0.29, reason="measured again", by="B")
     network.restore()
     assert station.try_sync() is None
     code_now, out, _ = run(["db", "status"], capsys)
     assert code_now == 0
     first = out.splitlines()[0]
-    assert first.startswith(f"this station: 1 trial(s) (1 record(s) in all) recorded or "
+    assert first.startswith(f"this station: 1 trial(s) (3 record(s) in all) recorded or "
                             f"changed while the shared registry was unreachable wait in "
                             f"{standby_path(data)}, not on the server yet: the window's last "
                             "attempt to send them (")
     assert ") was refused: the records this station made offline were not sent: " in first
-    assert "its number, trial 4 of session 1, is the number of station robot-2's" in first
+    assert "was changed on the server by another station while this one was offline" in first
     assert "sends them once it runs" not in first
-    # resolved (here: robot-2's trial withdrawn), the next sync goes through: said no more
-    other.withdraw_trial(taken.trial_id, "taken back")
-    assert station.try_sync().trials == 1
-    assert [t.metrics.get("rmse_x_mm") for t in other.trials_for_patient(code)][-1] == 7.0
+    # a sync that goes through removes the refusal kept (here: one kept by hand beside a
+    # standby that sends)
+    station.close()
+    shutil.rmtree(data.root / "offline")
+    again = StationRegistry(data, network.url(url), station="robot-1")
+    again.trial_summaries(code)  # the patient opened: in the standby
+    network.cut()
+    _trial(again, code)
+    keep_refusal(data, "an earlier refusal")
+    assert "an earlier refusal" in run(["db", "status"], capsys)[1]
+    network.restore()
+    assert again.try_sync().trials == 1
     code_now, out, _ = run(["db", "status"], capsys)
     assert "this station" not in out
 
