@@ -55,7 +55,11 @@ def test_a_saved_trial_shows_envelopes_and_flags_the_bad_mvc(qtbot, trial_with_e
 
 def test_nothing_to_show_is_one_line(qtbot, trial_with_emg, tmp_path):
     _, no_mvc = trial_with_emg
-    assert "no MVC for biceps" in emg_view(no_mvc).message
+    said = emg_view(no_mvc).message
+    assert "no MVC for biceps" in said
+    # the window's way, not the command line's (found trying the window, brief hT)
+    assert "MVC protocol on this tab" in said
+    assert "rehab emg mvc" not in said
     assert "No trial file yet" in emg_view(None).message
     bare = shutil.copy(no_mvc, tmp_path / "bare.h5")
     with edited(bare) as f:

@@ -46,6 +46,14 @@ def emg_view(path: Path | None) -> EmgView:
                                    "trial, connect the EMG source on this tab before "
                                    "Start.")
         notes = stored.notes
+        missing = [m for m in stored.muscles if m not in stored.mvc]
+        if missing:
+            # in the therapist's words: the way in the window is the tab's own protocol
+            # (app.emg.session says `rehab emg mvc`, the command line's)
+            return EmgView(message=f"This trial has no MVC for {', '.join(missing)}: record "
+                                   "each muscle's MVC in the MVC protocol on this tab (a "
+                                   "source connected); the session's trials then show in "
+                                   "% MVC.", notes=notes)
         env = trial_envelopes(path)
     except (AppError, CoreError, DeviceError) as exc:
         return EmgView(message=str(exc), notes=notes)
