@@ -200,7 +200,35 @@ class EmgCapture:
         origin = getattr(self.source, "origin_s", None)
         if origin is not None:
             t = origin + (forgotten + np.arange(t.size)) / rate
+        else:
+            t, moved = increasing(t, rate)
+            if moved:
+                notes = (*notes, moved)
         span = (t[-1] - t[0]) * rate + 1 if t.size > 1 else t.size
         missing = max(0, round(span) - t.size)
         return Captured(t, x, rate, missing, self.error,
                         labels if len(labels) == x.shape[1] else (), notes)
+
+
+STAMP_STEP_SHARE = 0.01
+"""The least step between two stamps made to follow each other, a share of the sample
+period: far below the jitter it repairs, so the samples keep the times they were given."""
+
+
+def increasing(stamps_s: np.ndarray, rate_hz: float) -> tuple[np.ndarray, str]:
+    """The stamps made strictly increasing, and what was done in words ('' when nothing
+    was). An LSL sender that stamps each chunk as it pushes it gives the chunk's first
+    sample a stamp back-dated by the rate, which a late push puts before the last chunk's
+    last (seen under load: 2 ms back); the trial file's EMG times only ever increase,
+    and its reader refused the whole EMG as damaged. A stamp not after the one before
+    is moved to just after it, the samples kept in the order they came."""
+    floor = STAMP_STEP_SHARE / rate_hz
+    step = floor * np.arange(stamps_s.size)
+    fixed = np.maximum.accumulate(stamps_s - step) + step  # max(t_k, fixed_{k-1} + floor)
+    moved = fixed != stamps_s
+    if not moved.any():
+        return stamps_s, ""
+    back = float(np.max(fixed - stamps_s))
+    return fixed, (f"{int(moved.sum())} samples' stamps were not after the sample before "
+                   f"(by up to {1e3 * back:.1f} ms, the sender's jitter) and were moved to "
+                   "just after it, in the order they came")

@@ -55,7 +55,11 @@ def test_a_saved_trial_shows_envelopes_and_flags_the_bad_mvc(qtbot, trial_with_e
 
 def test_nothing_to_show_is_one_line(qtbot, trial_with_emg, tmp_path):
     _, no_mvc = trial_with_emg
-    assert "no MVC for biceps" in emg_view(no_mvc).message
+    said = emg_view(no_mvc).message
+    assert "no MVC for biceps" in said
+    # the window's way, not the command line's (found trying the window, brief hT)
+    assert "MVC protocol on this tab" in said
+    assert "rehab emg mvc" not in said
     assert "No trial file yet" in emg_view(None).message
     bare = shutil.copy(no_mvc, tmp_path / "bare.h5")
     with edited(bare) as f:
@@ -177,3 +181,22 @@ def test_the_muscles_channels_are_chosen_by_the_names_the_source_declares(qtbot)
         assert [biceps.itemText(k) for k in range(4)] == [*Named.labels, "EMG4"]
     finally:
         tab.stop_live()
+
+
+def test_what_the_file_says_of_its_emg_is_shown_with_it(qtbot, trial_with_emg, tmp_path):
+    """Found trying the window (brief hT): the trial file keeps what is wrong with its EMG
+    (`/emg` notes: the capture ended early, stamps the sender put out of order and that
+    were moved), and nothing showed it: the EMG tab looked as for any trial. The tab says
+    each note under the envelopes."""
+    import json
+
+    synthetic, _ = trial_with_emg
+    noted = shutil.copy(synthetic, tmp_path / "noted.h5")
+    note = "the capture ended early: the source stopped"
+    with edited(noted) as f:
+        f["emg"].attrs["notes"] = json.dumps([note])
+    assert emg_view(noted).notes == (note,)
+    tab = EmgTab()
+    qtbot.addWidget(tab)
+    tab.show_view(TrialView.from_trial(read_trial(noted)))
+    assert f"The EMG: {note}." in tab.status.text()

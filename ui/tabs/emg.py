@@ -208,6 +208,7 @@ class EmgTab(QWidget):
             line.setData(view.time[ex], torque[j, ex])
         plots.show_whole(self.torques.getPlotItem(), view.time)
         lines = [self.data.message] if self.data.message else []
+        lines += [f"{theme.PROBLEM_SIGN} The EMG: {note}." for note in self.data.notes]
         for muscle, peak in self.data.peaks.items():
             flags = self.data.flags.get(muscle, ())
             quality = "MVC ok" if not flags else theme.PROBLEM_SIGN + " MVC " + \

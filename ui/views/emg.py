@@ -23,6 +23,10 @@ class EmgView:
     muscles: tuple[str, ...] = ()
     flags: dict = field(default_factory=dict)
     message: str = ""
+    notes: tuple[str, ...] = ()
+    """What the trial file says is wrong with its EMG (device.recording.emgfile, `notes`:
+    the capture ended early, samples missing, stamps moved): shown with it, not only
+    kept in the file."""
 
     @property
     def peaks(self) -> dict[str, float]:
@@ -34,15 +38,26 @@ class EmgView:
 def emg_view(path: Path | None) -> EmgView:
     if path is None:
         return EmgView(message="No trial file yet: EMG shows here once a trial is saved.")
+    notes: tuple[str, ...] = ()
     try:
-        if read_emg(path) is None:
+        stored = read_emg(path)
+        if stored is None:
             return EmgView(message="This trial has no EMG. To record it with the next "
                                    "trial, connect the EMG source on this tab before "
                                    "Start.")
+        notes = stored.notes
+        missing = [m for m in stored.muscles if m not in stored.mvc]
+        if missing:
+            # in the therapist's words: the way in the window is the tab's own protocol
+            # (app.emg.session says `rehab emg mvc`, the command line's)
+            return EmgView(message=f"This trial has no MVC for {', '.join(missing)}: record "
+                                   "each muscle's MVC in the MVC protocol on this tab (a "
+                                   "source connected); the session's trials then show in "
+                                   "% MVC.", notes=notes)
         env = trial_envelopes(path)
     except (AppError, CoreError, DeviceError) as exc:
-        return EmgView(message=str(exc))
-    return EmgView(env.time_s, 100.0 * env.values, env.muscles, env.flags)
+        return EmgView(message=str(exc), notes=notes)
+    return EmgView(env.time_s, 100.0 * env.values, env.muscles, env.flags, notes=notes)
 
 
 LIVE_MIN_S = 0.5  # the band-pass's start-up needs some signal before an envelope means much

@@ -319,3 +319,25 @@ def test_what_the_source_said_of_itself_is_kept_with_the_trial_s_emg(plain_trial
     assert left_out in done.notes
     assert left_out in read_emg(trial).notes
 
+
+
+def test_stamps_that_go_back_are_kept_in_order_and_said(plain_trial, tmp_path):
+    """Seen in the window (brief hT): an LSL sender that stamps each chunk as it pushes it
+    put a chunk's first stamp 2 ms before the last chunk's last; the trial stored the EMG
+    as it came and its reader then refused the trial's whole EMG as damaged ("/emg/time
+    goes from -1.8934 to -1.8954 s at sample 99; it only ever increases"). The capture
+    now keeps the samples in the order they came, each stamp after the one before, and
+    says so with the EMG."""
+    first = 100.0 + np.arange(99) / 1000.0
+    late = first[-1] - 0.002 + np.arange(1, 51) / 1000.0  # back-dated 2 ms
+    source = _Quiet([first, late])
+    captured = _ended(EmgCapture(source, stall_s=1.0, clock=source.clock).start())
+    assert (np.diff(captured.stamps_s) > 0).all()
+    np.testing.assert_array_equal(captured.stamps_s[:99], first)
+    np.testing.assert_array_equal(captured.stamps_s[-48:], late[-48:])  # past the overlap
+    (said,) = [n for n in captured.notes if "stamps" in n]
+    assert said.startswith("2 samples' stamps were not after the sample before (by up to 1.0")
+    path = _live_trial(plain_trial, tmp_path, 100.0)
+    import_capture(path, captured, names=("a", "b"), source="lsl:amp")
+    stored = read_emg(path)  # refused as damaged before
+    assert said in stored.notes
