@@ -39,6 +39,7 @@ from app.errors import AppError
 from app.pose.replay import ReplayVideo
 from app.records.registry import Trial
 from app.records.store import RecordStore
+from app.records.trialplace import file_to_read
 from app.trials.reader import read_trial
 from ui import plots, theme
 from ui.jobs import Jobs
@@ -46,6 +47,14 @@ from ui.views.moment import MOMENT_ROWS, describe_trial, moment
 from ui.views.trialview import TrialView
 
 LOADING = "Loading…"
+
+
+class _NotHere(Exception):
+    """The trial's file cannot be read on this station (app.records.trialplace says why:
+    on the station that recorded it, not yet in the trial store; its store's copy not the
+    file recorded …): said as it is, not as a registry problem."""
+
+
 PATH_ROLE = Qt.ItemDataRole.UserRole + 1
 """A row's trial file (its id is in UserRole)."""
 PLAY_INTERVAL_MS = 40
@@ -97,6 +106,9 @@ class ReplayTab(QWidget):
         self._code: str | None = None
         self._view: TrialView | None = None
         self._loading: Path | None = None
+        self._from_store: tuple[Path, str, Path | None] | None = None
+        """The trial being opened from the shared trial store: its copy, the note saying
+        so, and its row's path (its data folder's)."""
         self.background = plots.Background(self)
         self.background.done.connect(self._loaded)
         self.background.failed.connect(self._failed)
@@ -246,6 +258,7 @@ class ReplayTab(QWidget):
         """Load a trial file off the GUI thread; view_loaded or load_failed follows."""
         path = Path(path)
         self._asked = None  # a trial being found in the registry: not opened now
+        self._from_store = None
         self._loading = path
         self.play.setChecked(False)
         self.info.setText(f"Opening {path.name}…")
@@ -260,23 +273,32 @@ class ReplayTab(QWidget):
         self.play.setChecked(False)
         self.info.setText(f"{LOADING} finding the trial in the registry.")
 
-        def read() -> Path | Exception:
+        def read() -> tuple[Path, str] | Exception:
             try:
-                return registry.trial_path(registry.trial(trial_id))
+                trial = registry.trial(trial_id)
             except Exception as exc:  # the registry gone, the trial unknown: said, not raised
                 return exc
+            try:  # its data folder's file, else the trial store's copy, checked
+                return file_to_read(registry, trial)
+            except AppError as exc:
+                return _NotHere(str(exc))
 
-        def answered(path: Path | Exception) -> None:
+        def answered(found: tuple[Path, str] | Exception) -> None:
             if self.jobs.closed or self._asked is not asked:
                 return  # the window closed, or another trial, file or patient since
             self._asked = None
-            if isinstance(path, Exception):
-                message = (f"The trial could not be read from the registry: {path}. "
+            if isinstance(found, Exception):
+                said = str(found)
+                message = (f"{said[:1].upper()}{said[1:]}." if isinstance(found, _NotHere) else
+                           f"The trial could not be read from the registry: {found}. "
                            "Open it again.")
                 self.info.setText(f"{theme.PROBLEM_SIGN} {message}")
                 self.load_failed.emit(message)
                 return
+            path, note = found
             self.open_file(path)
+            if note:  # the store's copy: said once it is shown, and it marks its row
+                self._from_store = (path, note, item.data(PATH_ROLE))
 
         self.jobs.run(read, answered)
 
@@ -318,6 +340,10 @@ class ReplayTab(QWidget):
         self._view = view
         self.title.setText(view.title)
         data_notes = "" if view.finished else " The file was not closed; showing what it holds."
+        stored = self._from_store if self._from_store is not None \
+            and self._from_store[0] == path else None
+        if stored is not None:
+            data_notes += f" {stored[1][0].upper()}{stored[1][1:]}."
         self.info.setText(f"{view.duration_s:.1f} s, {view.n} samples.{data_notes}")
         self.slider.blockSignals(True)
         self.slider.setRange(0, max(view.n - 1, 0))
@@ -328,12 +354,17 @@ class ReplayTab(QWidget):
         view.cursor = float(view.time[0]) if view.n else None
         self._show_time()
         has_video = view.video is not None and view.finished and view.source is not None
-        self.pose_button.setEnabled(has_video and not self.pose_job.busy)
+        # the store's copy is the recording station's proven file: never written into here
+        self.pose_button.setEnabled(has_video and stored is None and not self.pose_job.busy)
         if not has_video:
             self.pose_status.setText("No video was recorded with this trial.")
+        elif stored is not None:
+            self.pose_status.setText("Opened from the trial store: the joint angles from its "
+                                     "video are found at the station that recorded it.")
         elif self._loading_after_pose is not path:
             self.pose_status.setText("")
-        self._mark_in_list(Path(path))
+        self._mark_in_list(Path(stored[2]) if stored is not None and stored[2] is not None
+                           else Path(path))
         self.view_loaded.emit(view)
 
     def _mark_in_list(self, path: Path) -> None:
