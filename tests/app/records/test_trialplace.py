@@ -131,3 +131,33 @@ def test_replay_reads_the_store_s_copy_only_when_it_is_the_file_recorded(departm
             file_to_read(robot_1, waiting)
     else:  # the stations' one data folder: the reader says the file is missing
         assert file_to_read(robot_1, waiting) == (robot_1.trial_path(waiting), "")
+
+
+def test_rehab_progress_and_its_pdf_name_each_trial_s_station(department, monkeypatch,
+                                                              capsys, tmp_path):
+    """`rehab progress` at robot-1: a station column, and a line for each trial whose file
+    cannot be read here saying why; its PDF's table names the station too."""
+    import argparse
+
+    from app.cli import reports
+    from app.reports.progress_pdf import write_progress_pdf
+    from tests.app.reports.made import page_texts
+
+    robot_1, code, (_, lost), (_, _, _, waiting), _, on_server = department
+    robot_1.trial_path(lost).unlink()
+    monkeypatch.setattr(reports, "registry_for", lambda args: robot_1)
+    assert reports.cmd_progress(argparse.Namespace(
+        code=code, metrics=None, csv=False, include_invalid=False, pdf=None)) == 0
+    out = capsys.readouterr().out.splitlines()
+    heading = next(line for line in out if line.lstrip().startswith("session"))
+    assert heading.split()[:4] == ["session", "trial", "station", "status"]
+    listed = [line.split() for line in out if line.lstrip()[:1].isdigit()]
+    assert [cells[2] for cells in listed] == ["robot-1"] * 2 + ["robot-2"] * 4
+    assert [line for line in out if line.startswith("  session ")] == [
+        f"  session 1 trial 2 (id {lost.id}): file missing",
+        f"  session 1 trial {waiting.number} (id {waiting.id}): "
+        + ("on station robot-2, not yet in the trial store" if on_server else "file missing")]
+
+    pages = page_texts(write_progress_pdf(progress(robot_1, code), tmp_path / "p.pdf"))
+    assert "Station" in pages[0]
+    assert pages[0].count("robot-2") == 4
