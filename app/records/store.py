@@ -51,8 +51,10 @@ class RecordStore(Protocol):
         """The data folder the trial files and reports live in."""
         ...
 
-    station: str | None
-    """This console's station id, which its trials record (Trial.station)."""
+    @property
+    def station(self) -> str | None:
+        """This console's station id, which its trials record (Trial.station)."""
+        ...
 
     def location(self) -> str: ...
 

@@ -107,32 +107,30 @@ def file_to_read(registry: RecordStore, trial: Trial) -> tuple[Path, str]:
     if state == FILE_OK or (state in (FILE_MISSING, FILE_UNREADABLE)
                             and trial.stored_in is None):
         return here, ""
+    # named as the lists name it (Replay's, the Progress table's), with the id the
+    # command line takes
+    named = f"session {trial.session_number}, trial {trial.number} (id {trial.id})"
     if state == FILE_AT_STATION:
-        raise AppError(at_station_words(trial.id, trial.station)
-                       + f": open it at {trial.station}, or here once that station has "
-                       "copied it (it does after each trial, when it reaches the store)")
+        raise AppError(f"the file of {named} is on station {trial.station}, not yet in the "
+                       f"trial store: open it at {trial.station}, or here once that station "
+                       "has copied it (it does after each trial, when it reaches the store)")
     copy = Path(trial.stored_in, trial.file)
     if state == FILE_STORE_UNREACHABLE:
-        raise AppError(f"trial {trial.id}'s file is not in this station's data folder and "
-                       f"the trial store {trial.stored_in} holding its copy cannot be reached "
+        raise AppError(f"the file of {named} is not in this station's data folder and the "
+                       f"trial store {trial.stored_in} holding its copy cannot be reached "
                        "from here (is the network folder mounted?)")
     try:
         found = file_checksum(copy)
     except OSError as exc:
-        raise AppError(f"trial {trial.id}'s file is not in this station's data folder and its "
+        raise AppError(f"the file of {named} is not in this station's data folder and its "
                        f"copy in the trial store {copy} cannot be read "
                        f"({exc.strerror or exc}): restore it from a backup") from None
     if trial.checksum is not None and found != trial.checksum:
-        raise AppError(f"trial {trial.id}'s copy in the trial store {copy} is not the file "
+        raise AppError(f"the copy of {named} in the trial store {copy} is not the file "
                        f"recorded: its SHA-256 is {found[:12]}…, the registry's "
                        f"{trial.checksum[:12]}… (changed or replaced since the trial ended); "
                        "it is not opened: restore it from a backup")
     return copy, f"read from the trial store's copy {copy}"
-
-
-def at_station_words(trial_id: int, station: str | None) -> str:
-    """A trial another station recorded whose file it has not copied into the store yet."""
-    return f"trial {trial_id}'s file is on station {station}, not yet in the trial store"
 
 
 def _signature(root: str, file: str) -> str:

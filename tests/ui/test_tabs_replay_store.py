@@ -55,6 +55,7 @@ def test_replay_opens_another_station_s_trial_from_the_store(qtbot, robot_1):
     tab = shown(qtbot, ReplayTab(registry))
     tab.set_patient(code)
     assert tab.trials.count() == 2  # the newest first: the trial not yet copied
+    assert tab.trials.item(1).text().split("\n")[0].endswith(" — complete — at robot-2")
 
     with qtbot.waitSignal(tab.view_loaded, timeout=WAIT_MS) as loaded:
         _open_row(qtbot, tab, 1)
@@ -67,6 +68,6 @@ def test_replay_opens_another_station_s_trial_from_the_store(qtbot, robot_1):
     with qtbot.waitSignal(tab.load_failed, timeout=WAIT_MS) as failed:
         _open_row(qtbot, tab, 0)
     assert failed.args[0].startswith(
-        f"Trial {waiting.id}'s file is on station robot-2, not yet in the trial store: open "
-        "it at robot-2")
+        f"The file of session 1, trial {waiting.number} (id {waiting.id}) is on station "
+        "robot-2, not yet in the trial store: open it at robot-2")
     assert failed.args[0] in tab.info.text()

@@ -234,7 +234,7 @@ class ReplayTab(QWidget):
         if trials is None:
             trials = self.registry.trials_for_patient(code)
         for trial in reversed(trials):
-            item = QListWidgetItem(describe_trial(trial))
+            item = QListWidgetItem(describe_trial(trial, self.registry.station))
             item.setData(Qt.ItemDataRole.UserRole, trial.id)
             # no registry read (a Trial); a stored path outside the data folder is left
             # out, opening the row says why

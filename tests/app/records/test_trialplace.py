@@ -117,17 +117,19 @@ def test_replay_reads_the_store_s_copy_only_when_it_is_the_file_recorded(departm
         copy, f"read from the trial store's copy {copy}")
 
     _flip_last_byte(store / damaged.file)
-    with pytest.raises(AppError, match=rf"trial {damaged.id}'s copy in the trial store .* "
-                                       r"is not the file recorded: its SHA-256 is"):
+    with pytest.raises(AppError, match=rf"^the copy of session 1, trial {damaged.number} "
+                                       rf"\(id {damaged.id}\) in the trial store .* is not "
+                                       r"the file recorded: its SHA-256 is"):
         file_to_read(robot_1, damaged)
     (store / gone.file).unlink()
     with pytest.raises(AppError, match=r"cannot be read \(No such file or directory\): "
                                        "restore it from a backup"):
         file_to_read(robot_1, gone)
     if on_server:
-        with pytest.raises(AppError, match=rf"^trial {waiting.id}'s file is on station "
-                                           "robot-2, not yet in the trial store: open it at "
-                                           "robot-2, or here once that station has copied"):
+        with pytest.raises(AppError, match=rf"^the file of session 1, trial {waiting.number} "
+                                           rf"\(id {waiting.id}\) is on station robot-2, not "
+                                           "yet in the trial store: open it at robot-2, or "
+                                           "here once that station has copied"):
             file_to_read(robot_1, waiting)
     else:  # the stations' one data folder: the reader says the file is missing
         assert file_to_read(robot_1, waiting) == (robot_1.trial_path(waiting), "")
