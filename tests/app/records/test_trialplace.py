@@ -163,3 +163,17 @@ def test_rehab_progress_and_its_pdf_name_each_trial_s_station(department, monkey
     pages = page_texts(write_progress_pdf(progress(robot_1, code), tmp_path / "p.pdf"))
     assert "Station" in pages[0]
     assert pages[0].count("robot-2") == 4
+
+
+def test_rehab_report_reads_another_station_s_trial_from_the_store(department):
+    """`rehab report ID` (and the Report of a registered trial) at robot-1 for a trial of
+    robot-2: its store's copy, checked; one not yet copied says where it is."""
+    from app.reports.build import content_for_registry_trial
+
+    robot_1, _, _, (stored, *_, waiting), _, on_server = department
+    content = content_for_registry_trial(robot_1, stored.id)
+    assert (content.session_number, content.trial_number) == (1, stored.number)
+    if on_server:
+        with pytest.raises(AppError, match="is on station robot-2, not yet in the trial "
+                                           "store"):
+            content_for_registry_trial(robot_1, waiting.id)
