@@ -189,8 +189,8 @@ def _plots(sheet: Sheet, figure: ProgressFigure) -> None:
     sheet.y_in += 1.5 + (0.75 if n > 12 else 0.5)
 
 
-COLUMNS = (("Session", 0.5), ("Trial", 0.4), ("Date", 0.85), ("Station", 0.65),
-           ("Status", 0.95), ("Robot's help", 1.5), ("Pace (s)", 0.6), ("Tol. (°)", 0.55))
+COLUMNS = (("Session", 0.6), ("Trial", 0.45), ("Date", 0.8), ("Station", 0.6),
+           ("Status", 0.9), ("Robot's help", 1.4), ("Pace (s)", 0.6), ("Tol. (°)", 0.55))
 """The table's leading columns (heading, width in inches); the exercise's figure takes the
 rest of the line. The station that recorded each trial: a patient seen at several."""
 
