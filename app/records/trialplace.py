@@ -94,13 +94,16 @@ class TrialPlaces:
         return reachable
 
 
-def file_to_read(registry: RecordStore, trial: Trial) -> tuple[Path, str]:
+def file_to_read(registry: RecordStore, trial: Trial, *, checked: bool = True
+                 ) -> tuple[Path, str]:
     """The file to open for a registered trial on this station, and a note when it is the
     shared trial store's copy ('' otherwise). The data folder's file when it is whole
     (read as it always was); else the store's copy, only when its SHA-256 is the checksum
-    kept at the trial's end. AppError (one line) when neither can be read here: a trial of
-    another station not yet in the store says so and where it is; a file missing or
-    damaged here and never copied is the reader's to name (the path returned)."""
+    kept at the trial's end (`checked` False: on its HDF5 signature, as the progress's
+    file state takes it; for a count over many trials' files, the plans' dose). AppError
+    (one line) when neither can be read here: a trial of another station not yet in the
+    store says so and where it is; a file missing or damaged here and never copied is the
+    reader's to name (the path returned)."""
     places = TrialPlaces(registry)
     here = registry.trial_path(trial)
     state = places.state(trial.file, trial.stored_in, trial.station)
@@ -115,6 +118,9 @@ def file_to_read(registry: RecordStore, trial: Trial) -> tuple[Path, str]:
                        f"trial store: open it at {trial.station}, or here once that station "
                        "has copied it (it does after each trial, when it reaches the store)")
     copy = Path(trial.stored_in, trial.file)
+    note = f"read from the trial store's copy {copy}"
+    if state == FILE_IN_STORE and not checked:
+        return copy, note
     if state == FILE_STORE_UNREACHABLE:
         raise AppError(f"the file of {named} is not in this station's data folder and the "
                        f"trial store {trial.stored_in} holding its copy cannot be reached "
@@ -130,7 +136,7 @@ def file_to_read(registry: RecordStore, trial: Trial) -> tuple[Path, str]:
                        f"recorded: its SHA-256 is {found[:12]}…, the registry's "
                        f"{trial.checksum[:12]}… (changed or replaced since the trial ended); "
                        "it is not opened: restore it from a backup")
-    return copy, f"read from the trial store's copy {copy}"
+    return copy, note
 
 
 def _signature(root: str, file: str) -> str:

@@ -177,3 +177,22 @@ def test_rehab_report_reads_another_station_s_trial_from_the_store(department):
         with pytest.raises(AppError, match="is on station robot-2, not yet in the trial "
                                            "store"):
             content_for_registry_trial(robot_1, waiting.id)
+
+
+def test_the_plans_dose_counts_another_station_s_run_from_the_store(department):
+    """A session plan run at robot-2: robot-1's Progress (and its PDF) counts its movements
+    from the store's copies; it counted nothing ('does not exist')."""
+    from app.plans.dose import run_dose
+    from app.plans.templates import load_template
+    from app.records.registry import Registry
+
+    robot_1, code, _, (stored, *_), _, _ = department
+    # robot-2 on the same registry (its data folder does not matter to a plan run)
+    robot_2 = Registry(robot_1.data_dir, server=robot_1.server, station="robot-2")
+    run = robot_2.begin_plan_run(
+        robot_2.save_plan(code, load_template("first-session").plan).id)
+    robot_2.record_plan_trial(run, 1, 1, stored.id, 3.0)
+    robot_2.end_plan_run(run, "stopped", "the therapist pressed Stop")
+    dose = run_dose(robot_1, run)
+    assert dose.notes == []
+    assert dose.movements > 0
