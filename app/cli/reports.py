@@ -18,7 +18,7 @@ from app.cli.common import (
 )
 from app.records.outcomes import OUTCOME_COLUMNS, patient_outcomes
 from app.reports.metrics_table import ROW_BY_KEY, MetricRow
-from app.reports.progress import progress
+from app.reports.progress import file_note, progress
 from app.reports.progress_figure import figure_rows, shown_row
 
 
@@ -111,6 +111,12 @@ def cmd_progress(args: argparse.Namespace) -> int:
         if row[reason]:
             print(f"  session {row[1]} trial {row[2]} (id {row[0]}) marked invalid: "
                   f"{row[reason]}")
+    # a file this station cannot read: lost, or still on the station that recorded it
+    for trial, state, usable in zip(prog.trials, prog.file_states, prog.file_ok.tolist(),
+                                    strict=True):
+        if not usable:
+            print(f"  session {trial.session_number} trial {trial.number} (id {trial.id}): "
+                  f"{file_note(state, trial.station)}")
     return 0
 
 
@@ -126,7 +132,9 @@ def _print_exercise(prog, rows, header, members, status, figures) -> None:
     labels = [row.heading for row in figures]
     # a column as wide as its heading: two assessment keys ran together in 18 characters
     widths = [max(18, len(label) + 2) for label in labels]
-    print(f"{'session':>7} {'trial':>5}  {'status':<15}{'help':<24}"
+    station = header.index("station")
+    at = max(9, *(len(rows[i][station]) + 2 for i in members))
+    print(f"{'session':>7} {'trial':>5}  {'station':<{at}}{'status':<15}{'help':<24}"
           + "".join(f"{label:>{w}}" for label, w in zip(labels, widths, strict=True)))
     for i, said in zip(members, status, strict=True):
         row = rows[i]
@@ -134,7 +142,7 @@ def _print_exercise(prog, rows, header, members, status, figures) -> None:
         levels = prog.levels[i]
         help_text = levels.summary() if prog.levels_recorded[i] else \
             f"{levels.summary()} (built)"
-        print(f"{row[1]:>7} {row[2]:>5}  {said:<15}{help_text:<24}"
+        print(f"{row[1]:>7} {row[2]:>5}  {row[station]:<{at}}{said:<15}{help_text:<24}"
               + "".join(f"{c:>{w}}" for c, w in zip(cells, widths, strict=True)))
 
 
@@ -142,7 +150,8 @@ def _print_task(prog, rows, header, members, status, figures) -> None:
     """An assessment task's runs, a column each (session and trial), and its figures, a
     line each: a task has more figures than a line holds (strength: 19), and few runs."""
     names = [f"S{rows[i][1]} T{rows[i][2]}" for i in members]
-    lines = [("status", status)] + [
+    station = header.index("station")
+    lines = [("station", [rows[i][station] for i in members]), ("status", status)] + [
         (f.label,  # each cell says its unit
          [_progress_cell(f, rows[i][header.index(f.key)]) for i in members])
         for f in figures]

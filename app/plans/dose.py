@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from app.errors import AppError
+from app.records.trialplace import file_to_read
 from core.plan import Plan, movements_in_path
 from core.trial import TrialParameters
 from device.loop.pipeline import PHASE_EXERCISE, PHASE_HOLD
@@ -150,7 +151,9 @@ def run_dose(registry, run_id: int) -> RunDose:
         block.trials.append(step.trial_id)
         trial = registry.trial(step.trial_id)
         try:
-            done = trial_dose(registry.trial_path(trial))
+            # here, else the trial store's copy (another station's run), on its signature:
+            # a dose counts over every trial of the latest runs
+            done = trial_dose(file_to_read(registry, trial, checked=False)[0])
         except AppError as exc:
             dose.notes.append(f"trial {trial.id} counts nothing: {exc}")
             continue

@@ -51,6 +51,11 @@ class RecordStore(Protocol):
         """The data folder the trial files and reports live in."""
         ...
 
+    @property
+    def station(self) -> str | None:
+        """This console's station id, which its trials record (Trial.station)."""
+        ...
+
     def location(self) -> str: ...
 
     # -- patients ------------------------------------------------------------------

@@ -34,6 +34,7 @@ from app.errors import AppError
 from app.records.datadir import REPORTS
 from app.records.registry import Trial
 from app.records.store import RecordStore
+from app.records.trialplace import file_to_read
 from app.reports.compare import Baseline, Comparison, TableRow, as_baseline
 from app.reports.content import HeaderItem, ReportContent, build_report
 from app.reports.figures import (
@@ -76,11 +77,14 @@ def content_for_registry_trial(
     previous complete trial and the last complete trial of their previous session
     (from the registry's figures, so a missing earlier file does not matter).
 
-    Raises TrialNotFound for an unknown id and TrialFileError, naming the file,
-    when the trial's file is missing or damaged.
+    The file is this station's, else the shared trial store's copy when it is the file
+    recorded (app.records.trialplace). Raises TrialNotFound for an unknown id, AppError
+    for a file still on the station that recorded it or a store's copy that cannot be
+    read, and TrialFileError, naming the file, when the trial's file is missing or
+    damaged.
     """
     record = registry.trial(trial_id)
-    data = read_trial(registry.trial_path(record))
+    data = read_trial(file_to_read(registry, record)[0])
     first_name = None
     if include_first_name:
         first_name = registry.patient(record.patient_code).first_name
@@ -171,7 +175,7 @@ def registry_baseline(registry: RecordStore, trial: Trial | None) -> Baseline | 
     if baseline.levels is not None:
         return baseline
     try:
-        data = read_trial(registry.trial_path(trial), channels=CHANNELS_NEEDED)
+        data = read_trial(file_to_read(registry, trial)[0], channels=CHANNELS_NEEDED)
     except AppError:
         return baseline
     return dataclasses.replace(baseline, levels=data.assistance_in_effect())

@@ -18,15 +18,16 @@ The levels are those the trial ran at, changes during it included
 kept them shows the level it was built with (`levels_recorded` False).
 
 Metrics come from the registry, so a trial whose file is missing or unreadable still
-appears; `file_state` says which ('ok', 'missing', 'unreadable'). The file check opens each
-file and reads its 8-byte HDF5 signature (about 4 µs a file on a local disk); pass
-check_files=False on a slow network share.
+appears; `file_state` says where its file is (app.records.trialplace: 'ok' here,
+'in_store' the shared trial store's copy, 'at_station' on the station that recorded it and
+not yet in the store, 'store_unreachable', 'missing', 'unreadable'). The file check opens
+each file and reads its 8-byte HDF5 signature (about 4 µs a file on a local disk), the
+store's only for a file not whole here; pass check_files=False on a slow network share.
 """
 
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -36,36 +37,40 @@ from app.assessments.words import ROBOT_ROLE
 from app.games.names import game_title
 from app.records.registry import TrialSummary, key_values, parameter_key
 from app.records.store import RecordStore
+from app.records.trialplace import (  # noqa: F401 (the file states, named here too)
+    FILE_AT_STATION,
+    FILE_IN_STORE,
+    FILE_MISSING,
+    FILE_OK,
+    FILE_STORE_UNREACHABLE,
+    FILE_UNCHECKED,
+    FILE_UNREADABLE,
+    FILE_USABLE,
+    HDF5_SIGNATURE,
+    TrialPlaces,
+)
 from app.reports.plain_language import SHAPE_NAMES, success_key
 from app.trials.assistance_timeline import AssistanceInEffect
 from app.units import cm
 from core.assessment.figures import TASK_TITLES
-
-FILE_OK = "ok"
-FILE_MISSING = "missing"
-FILE_UNREADABLE = "unreadable"
-FILE_UNCHECKED = "unchecked"
-
-_FILE_USABLE = frozenset((FILE_OK, FILE_UNCHECKED))
-
-HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 
 MODE_NAMES = {"as-needed": "As needed", "thesis": "Thesis mode", "transparent": "Transparent"}
 # TrialSummary.key_parameters' order (app.records.registry.KEY_PARAMETERS)
 _SHAPE, _RADIUS, _DURATION, _TOLERANCE, _LEVEL, _CONTROLLER, _ASSESSMENT, _GAME = range(8)
 
 TABLE_COLUMNS = ("trial_id", "session", "trial", "date", "started_at", "status", "file_state",
-                 "exercise", "shape", "radius_m", "controller", "assessment", "game",
+                 "station", "exercise", "shape", "radius_m", "controller", "assessment", "game",
                  "set_duration_s", "set_tolerance_rad", "invalid_reason")
 """The table's leading columns; one column per metric follows, in `metric_names` order.
 `exercise` numbers the series (1, 2, … in `exercises`' order). The pace and the tolerance
 are prefixed `set_`: some metrics repeat them (duration_s, tolerance_rad) and a table must
-not have two columns of one name. The assistance mode and the levels each trial ran at are
-the records' (app.records.outcomes, which `rehab progress --csv` appends), not repeated
-here. `assessment` and `game` name the assessment task or the game a trial was a run of
-('' for neither; core.trial.TrialParameters). `invalid_reason` is '' for a valid trial,
-why it was marked invalid otherwise (only with include_invalid: invalid trials are left
-out by default)."""
+not have two columns of one name. `station` is the station that recorded the trial (''
+before schema v10), `file_state` where its file is (the module's doc). The assistance mode
+and the levels each trial ran at are the records' (app.records.outcomes, which `rehab
+progress --csv` appends), not repeated here. `assessment` and `game` name the assessment
+task or the game a trial was a run of ('' for neither; core.trial.TrialParameters).
+`invalid_reason` is '' for a valid trial, why it was marked invalid otherwise (only with
+include_invalid: invalid trials are left out by default)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -118,7 +123,7 @@ class ProgressRow:
 
     @property
     def file_ok(self) -> bool:
-        return self.file_state in _FILE_USABLE
+        return self.file_state in FILE_USABLE
 
 
 @dataclass(frozen=True, slots=True)
@@ -226,7 +231,8 @@ class Progress:
             exercise = self.exercises[index]
             rows.append((
                 t.id, t.session_number, t.number, t.session_date.isoformat(),
-                t.started_at.isoformat(), t.status, state, index + 1, exercise.shape,
+                t.started_at.isoformat(), t.status, state, t.station or "", index + 1,
+                exercise.shape,
                 exercise.radius_m, exercise.controller, exercise.assessment,
                 exercise.game, float(self.duration_s[i]),
                 float(self.tolerance_rad[i]), t.invalid_reason or "",
@@ -242,7 +248,7 @@ def progress(registry: RecordStore, code: str, *, check_files: bool = True,
     `invalid_reason`)."""
     trials = registry.trial_summaries(code, include_invalid=include_invalid)
     n = len(trials)
-    root = str(registry.data_dir.root).rstrip("/\\") + os.sep
+    places = TrialPlaces(registry) if check_files else None
 
     exercises: dict[Exercise, int] = {}
     # Most trials share a few settings: each set of raw values is canonicalised once
@@ -268,7 +274,8 @@ def progress(registry: RecordStore, code: str, *, check_files: bool = True,
         recorded[i] = trial.assistance is not None
         levels.append(built if trial.assistance is None else trial.assistance)
         metric_names.update(dict.fromkeys(trial.metrics))
-        states.append(_file_state(root, trial.file) if check_files else FILE_UNCHECKED)
+        states.append(FILE_UNCHECKED if places is None else
+                      places.state(trial.file, trial.stored_in, trial.station))
 
     names = tuple(metric_names)
     matrix = _metric_matrix(trials, names)
@@ -286,7 +293,7 @@ def progress(registry: RecordStore, code: str, *, check_files: bool = True,
                                     count=n)),
         trial=_frozen(np.fromiter((t.number for t in trials), dtype=np.int64, count=n)),
         trial_id=_frozen(np.fromiter((t.id for t in trials), dtype=np.int64, count=n)),
-        file_ok=_frozen(np.fromiter((s in _FILE_USABLE for s in states), dtype=bool, count=n)),
+        file_ok=_frozen(np.fromiter((s in FILE_USABLE for s in states), dtype=bool, count=n)),
         complete=_frozen(np.fromiter((t.status == "complete" for t in trials), dtype=bool,
                                      count=n)),
         duration_s=_frozen(duration),
@@ -295,6 +302,20 @@ def progress(registry: RecordStore, code: str, *, check_files: bool = True,
         levels_recorded=_frozen(recorded),
         values={name: _frozen(matrix[:, j]) for j, name in enumerate(names)},
     )
+
+
+_FILE_NOTES = {FILE_IN_STORE: "file in the trial store", FILE_MISSING: "file missing",
+               FILE_UNREADABLE: "file unreadable",
+               FILE_STORE_UNREACHABLE: "file in a trial store not reachable here"}
+
+
+def file_note(state: str, station: str | None) -> str:
+    """Where a trial's file is, as the progress says it after the trial's status (the
+    Progress tab, `rehab progress`, its PDF): '' for a file here or not checked; a file on
+    the station that recorded it and not yet in the trial store is not "missing"."""
+    if state == FILE_AT_STATION:
+        return f"on station {station}, not yet in the trial store"
+    return _FILE_NOTES.get(state, "")
 
 
 def exercise_of(assist: str, parameters: Mapping) -> Exercise:
@@ -327,28 +348,6 @@ def _metric_matrix(trials: list[TrialSummary], names: tuple[str, ...]) -> np.nda
     matrix = np.array(lists, dtype=np.float64).reshape(len(trials), len(names))
     matrix.flags.writeable = False
     return matrix
-
-
-def _file_state(root: str, file: str) -> str:
-    """root ends with a separator. Plain string work: pathlib and os.path.join
-    cost more than the open itself, 1,000 times over."""
-    if file.startswith("/") or ".." in file.split("/") or ":" in file or "\\" in file:
-        return FILE_UNREADABLE  # not a path the registry writes
-    try:
-        fd = os.open(root + (file if os.sep == "/" else file.replace("/", os.sep)),
-                     os.O_RDONLY)
-    except FileNotFoundError:
-        return FILE_MISSING
-    except OSError:  # no permission, a folder
-        return FILE_UNREADABLE
-    try:
-        head = os.read(fd, len(HDF5_SIGNATURE))
-    except OSError:
-        return FILE_UNREADABLE
-    finally:
-        os.close(fd)
-    # HDF5 files written by h5py without a user block carry the signature at 0.
-    return FILE_OK if head == HDF5_SIGNATURE else FILE_UNREADABLE
 
 
 def _frozen(array: np.ndarray) -> np.ndarray:

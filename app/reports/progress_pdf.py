@@ -189,8 +189,10 @@ def _plots(sheet: Sheet, figure: ProgressFigure) -> None:
     sheet.y_in += 1.5 + (0.75 if n > 12 else 0.5)
 
 
-COLUMNS = (("Session", 0.6), ("Trial", 0.45), ("Date", 0.85), ("Status", 0.95),
-           ("Robot's help", 1.75), ("Pace (s)", 0.6), ("Tol. (°)", 0.55))
+COLUMNS = (("Session", 0.6), ("Trial", 0.45), ("Date", 0.8), ("Station", 0.6),
+           ("Status", 0.9), ("Robot's help", 1.4), ("Pace (s)", 0.6), ("Tol. (°)", 0.55))
+"""The table's leading columns (heading, width in inches); the exercise's figure takes the
+rest of the line. The station that recorded each trial: a patient seen at several."""
 
 
 def _table(sheet: Sheet, progress: Progress, figure: ProgressFigure,
@@ -217,7 +219,7 @@ def _table(sheet: Sheet, progress: Progress, figure: ProgressFigure,
             f"{assistance_percent(levels.at_start)} (built)"
         value = values[first + k]
         cells = (str(trial.session_number), str(trial.number), trial.session_date.isoformat(),
-                 trial.status.replace("_", " "), help_text,
+                 trial.station or "", trial.status.replace("_", " "), help_text,
                  f"{progress.duration_s[i]:g}",
                  f"{np.degrees(progress.tolerance_rad[i]):.0f}",
                  f"{value:.2f}" if np.isfinite(value) else "–")

@@ -186,7 +186,7 @@ def test_progress_lists_every_trial_grouped_by_exercise(qtbot, history):
     for row, (_, analysis) in enumerate(trials):
         assert tab.table.item(row, 0).text() == ("1", "1", "2")[row]
         assert tab.table.item(row, column).text() == f"{analysis.metrics.rmse_x_m * 1000:.2f}"
-    assert "r 12.0 cm" in tab.table.item(1, 4).text()
+    assert "r 12.0 cm" in tab.table.item(1, heads.index("Exercise")).text()
 
     # two exercises (two sizes), one series each; the latest trial's shown first
     assert tab.exercise_choice.count() == 2

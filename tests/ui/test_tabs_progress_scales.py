@@ -13,6 +13,7 @@ from core.trial import THESIS_SUBJECT
 from tests.ui.shown import shown
 from ui import theme
 from ui.tabs import ProgressTab
+from ui.views.progress_table import LEADING_HEADINGS
 
 RT = "rmse_x_m"
 
@@ -78,7 +79,8 @@ def test_an_invalid_trial_disappears_from_progress_and_comes_back_when_asked(qtb
             qtbot.waitSignal(tab.scales.shown, timeout=10000):
         tab.include_invalid.setChecked(True)
     assert tab.table.rowCount() == 4
-    statuses = [tab.table.item(r, 3).text() for r in range(4)]
+    status = LEADING_HEADINGS.index("Status")
+    statuses = [tab.table.item(r, status).text() for r in range(4)]
     assert statuses[1].endswith("INVALID: let go of the handle")
     assert tab.scales.view.series.points[1].figure == pytest.approx(0.015)
 

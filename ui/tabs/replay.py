@@ -39,6 +39,7 @@ from app.errors import AppError
 from app.pose.replay import ReplayVideo
 from app.records.registry import Trial
 from app.records.store import RecordStore
+from app.records.trialplace import file_to_read
 from app.trials.reader import read_trial
 from ui import plots, theme
 from ui.jobs import Jobs
@@ -46,6 +47,14 @@ from ui.views.moment import MOMENT_ROWS, describe_trial, moment
 from ui.views.trialview import TrialView
 
 LOADING = "Loading…"
+
+
+class _NotHere(Exception):
+    """The trial's file cannot be read on this station (app.records.trialplace says why:
+    on the station that recorded it, not yet in the trial store; its store's copy not the
+    file recorded …): said as it is, not as a registry problem."""
+
+
 PATH_ROLE = Qt.ItemDataRole.UserRole + 1
 """A row's trial file (its id is in UserRole)."""
 PLAY_INTERVAL_MS = 40
@@ -98,6 +107,9 @@ class ReplayTab(QWidget):
         self._view: TrialView | None = None
         self._loading: Path | None = None
         self._numbers: dict[Path, tuple[int, int]] = {}  # a registered file's (session, trial)
+        self._from_store: tuple[Path, str, Path | None] | None = None
+        """The trial being opened from the shared trial store: its copy, the note saying
+        so, and its row's path (its data folder's)."""
         self.background = plots.Background(self)
         self.background.done.connect(self._loaded)
         self.background.failed.connect(self._failed)
@@ -223,7 +235,7 @@ class ReplayTab(QWidget):
         if trials is None:
             trials = self.registry.trials_for_patient(code)
         for trial in reversed(trials):
-            item = QListWidgetItem(describe_trial(trial))
+            item = QListWidgetItem(describe_trial(trial, self.registry.station))
             item.setData(Qt.ItemDataRole.UserRole, trial.id)
             # no registry read (a Trial); a stored path outside the data folder is left
             # out, opening the row says why
@@ -247,6 +259,7 @@ class ReplayTab(QWidget):
         """Load a trial file off the GUI thread; view_loaded or load_failed follows."""
         path = Path(path)
         self._asked = None  # a trial being found in the registry: not opened now
+        self._from_store = None
         self._loading = path
         self.play.setChecked(False)
         self.info.setText(f"Opening {path.name}…")
@@ -261,25 +274,33 @@ class ReplayTab(QWidget):
         self.play.setChecked(False)
         self.info.setText(f"{LOADING} finding the trial in the registry.")
 
-        def read() -> tuple[Path, tuple[int, int]] | Exception:
+        def read() -> tuple[Path, str, tuple[int, int]] | Exception:
             try:
                 trial = registry.trial(trial_id)
-                return registry.trial_path(trial), (trial.session_number, trial.number)
             except Exception as exc:  # the registry gone, the trial unknown: said, not raised
                 return exc
+            try:  # its data folder's file, else the trial store's copy, checked
+                path, note = file_to_read(registry, trial)
+            except AppError as exc:
+                return _NotHere(str(exc))
+            return path, note, (trial.session_number, trial.number)
 
-        def answered(found: tuple[Path, tuple[int, int]] | Exception) -> None:
+        def answered(found: tuple[Path, str, tuple[int, int]] | Exception) -> None:
             if self.jobs.closed or self._asked is not asked:
                 return  # the window closed, or another trial, file or patient since
             self._asked = None
             if isinstance(found, Exception):
-                message = (f"The trial could not be read from the registry: {found}. "
+                said = str(found)
+                message = (f"{said[:1].upper()}{said[1:]}." if isinstance(found, _NotHere) else
+                           f"The trial could not be read from the registry: {found}. "
                            "Open it again.")
                 self.info.setText(f"{theme.PROBLEM_SIGN} {message}")
                 self.load_failed.emit(message)
                 return
-            path, self._numbers[path] = found
+            path, note, self._numbers[path] = found
             self.open_file(path)
+            if note:  # the store's copy: said once it is shown, and it marks its row
+                self._from_store = (path, note, item.data(PATH_ROLE))
 
         self.jobs.run(read, answered)
 
@@ -322,6 +343,10 @@ class ReplayTab(QWidget):
         view.numbers = self._numbers.get(Path(path))
         self.title.setText(view.title)
         data_notes = "" if view.finished else " The file was not closed; showing what it holds."
+        stored = self._from_store if self._from_store is not None \
+            and self._from_store[0] == path else None
+        if stored is not None:
+            data_notes += f" {stored[1][0].upper()}{stored[1][1:]}."
         self.info.setText(f"{view.duration_s:.1f} s, {view.n} samples.{data_notes}")
         self.slider.blockSignals(True)
         self.slider.setRange(0, max(view.n - 1, 0))
@@ -332,12 +357,17 @@ class ReplayTab(QWidget):
         view.cursor = float(view.time[0]) if view.n else None
         self._show_time()
         has_video = view.video is not None and view.finished and view.source is not None
-        self.pose_button.setEnabled(has_video and not self.pose_job.busy)
+        # the store's copy is the recording station's proven file: never written into here
+        self.pose_button.setEnabled(has_video and stored is None and not self.pose_job.busy)
         if not has_video:
             self.pose_status.setText("No video was recorded with this trial.")
+        elif stored is not None:
+            self.pose_status.setText("Opened from the trial store: the joint angles from its "
+                                     "video are found at the station that recorded it.")
         elif self._loading_after_pose is not path:
             self.pose_status.setText("")
-        self._mark_in_list(Path(path))
+        self._mark_in_list(Path(stored[2]) if stored is not None and stored[2] is not None
+                           else Path(path))
         self.view_loaded.emit(view)
 
     def _mark_in_list(self, path: Path) -> None:

@@ -56,14 +56,18 @@ def moment(view: TrialView, i: int) -> dict[str, str]:
     }
 
 
-def describe_trial(trial: Trial) -> str:
-    """Two lines for the list of a patient's trials: numbers, local start time, status;
-    then what it was, named as the Progress tab names its series (an assessment task's or
-    a game's name first: app.reports.progress.Exercise.label), so a game or an
-    assessment is told from the exercise of its shape."""
+def describe_trial(trial: Trial, station: str | None = None) -> str:
+    """Two lines for the list of a patient's trials: numbers, local start time, status,
+    and the station that recorded it when not this one (`station`: a patient seen at
+    several stations of a shared registry); then what it was, named as the Progress tab
+    names its series (an assessment task's or a game's name first:
+    app.reports.progress.Exercise.label), so a game or an assessment is told from the
+    exercise of its shape."""
     started = trial.started_at.astimezone().strftime("%d %b %Y %H:%M")
     status = STATUS_WORDS.get(trial.status, trial.status)
     line = f"Session {trial.session_number}, trial {trial.number} — {started} — {status}"
+    if trial.station is not None and trial.station != station:
+        line += f" — at {trial.station}"
     if not trial.parameters.get("shape"):  # no exercise stored to name (not "?")
         return line
     return f"{line}\n{exercise_of(trial.assist, trial.parameters).label()}"

@@ -1,7 +1,7 @@
 """A patient's progress (app.reports.progress) as the Progress tab shows it in words: the
 line that sums it up, the exercises and figures it can plot, and its table, one row a
-trial with its status, its exercise, the help, pace and tolerance it ran with, and every
-figure in display units."""
+trial with the station that recorded it, its status and where its file is, its exercise,
+the help, pace and tolerance it ran with, and every figure in display units."""
 
 from __future__ import annotations
 
@@ -10,15 +10,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.reports.metrics_table import ROWS, MetricRow
-from app.reports.progress import FILE_OK, FILE_UNCHECKED, Progress
+from app.reports.progress import Progress, file_note
 from app.units import assistance_percent
 from ui.views.numbers import format_number
 
 STATUS_WORDS = {"complete": "complete", "stopped_early": "stopped early",
                 "faulted": "safety stop", "recording_lost": "recording lost",
                 "recording": "recording"}
-LEADING_HEADINGS = ("Session", "Trial", "Date", "Status", "Exercise", "Robot's help",
-                    "Pace (s a lap)", "Tolerance (°)")
+LEADING_HEADINGS = ("Session", "Trial", "Date", "Station", "Status", "Exercise",
+                    "Robot's help", "Pace (s a lap)", "Tolerance (°)")
 
 
 def metric_rows(result: Progress) -> list[MetricRow]:
@@ -83,12 +83,12 @@ def progress_table(result: Progress) -> ProgressTable:
     rows = []
     for i, summary in enumerate(result.trials):
         status = STATUS_WORDS.get(summary.status, summary.status)
-        if result.file_states[i] not in (FILE_OK, FILE_UNCHECKED):
-            status += f" (file {result.file_states[i]})"
+        if note := file_note(result.file_states[i], summary.station):
+            status += f" ({note})"
         if summary.invalid_reason:
             status += f" — INVALID: {summary.invalid_reason}"
         cells = [str(summary.session_number), str(summary.number),
-                 summary.session_date.isoformat(), status,
+                 summary.session_date.isoformat(), summary.station or "", status,
                  result.exercises[int(result.exercise_index[i])].label(),
                  help_text(result, i), format_number(float(result.duration_s[i]), 2),
                  format_number(float(np.degrees(result.tolerance_rad[i])), 0)]

@@ -9,10 +9,13 @@ from app.records.datadir import DataDir
 from app.records.registry import Registry
 from app.records.store import RecordStore, StationStore
 
+PROPERTIES = ("data_dir", "station")
+"""What the interface reads of a store besides its calls."""
+
 
 def interface_members() -> list[str]:
     return sorted(name for name in vars(RecordStore)
-                  if not name.startswith("_") and name not in ("data_dir",))
+                  if not name.startswith("_") and name not in PROPERTIES)
 
 
 def station_members() -> list[str]:
@@ -25,6 +28,7 @@ def test_the_registry_is_a_record_store(open_registry):
     registry = open_registry()
     assert isinstance(registry, RecordStore)
     assert isinstance(registry.data_dir, DataDir)
+    assert open_registry(station="robot-2").station == "robot-2"
 
 
 def test_every_call_of_the_interface_has_the_registrys_signature():
@@ -53,7 +57,7 @@ def test_app_and_ui_ask_a_registry_only_what_the_interface_lists():
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[3]
-    allowed = set(interface_members()) | set(station_members()) | {"data_dir"}
+    allowed = set(interface_members()) | set(station_members()) | set(PROPERTIES)
     asked: dict[str, set[str]] = {}
     for folder in ("app", "ui"):
         for path in (root / folder).rglob("*.py"):

@@ -62,6 +62,20 @@ def test_a_trial_in_the_list_reads_numbers_time_and_status():
     assert describe_trial(trial) == f"Session 2, trial 3 — {local} — safety stop"
 
 
+def test_a_trial_another_station_recorded_says_which_in_the_list():
+    """A patient seen at robot-1 and robot-2: robot-1's list names robot-2's trials."""
+    import dataclasses
+
+    started = datetime.datetime(2024, 5, 2, 9, 30, tzinfo=datetime.UTC)
+    trial = dataclasses.replace(
+        Trial(7, "PABC234", 2, started.date(), 3, {}, "trials/x.h5", {}, "complete",
+              started, None, "simulator", None), station="robot-2")
+    local = started.astimezone().strftime("%d %b %Y %H:%M")
+    assert describe_trial(trial, "robot-1") == \
+        f"Session 2, trial 3 — {local} — complete — at robot-2"
+    assert describe_trial(trial, "robot-2") == f"Session 2, trial 3 — {local} — complete"
+
+
 @pytest.mark.parametrize(("changes", "named"), [
     ({"game": "reach", "shape": "reach"}, "Reaching game · "),
     ({"game": "path"}, "Path game · "),

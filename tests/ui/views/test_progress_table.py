@@ -58,18 +58,19 @@ def test_one_row_a_trial_with_status_file_state_exercise_and_figures(history):
     first, second, third = table.rows
     assert first[:2] == ("1", "1")
     assert third[:2] == ("2", "1")
-    assert first[3] == "complete (file missing)"
-    assert second[3] == "stopped early (file missing)"
-    assert first[4] == history.exercises[0].label() == third[4] != second[4]
+    assert first[3] == ""  # a registry without a station id: none to name
+    assert first[4] == "complete (file missing)"
+    assert second[4] == "stopped early (file missing)"
+    assert first[5] == history.exercises[0].label() == third[5] != second[5]
     # registered without the levels it ran: the built level, said so
-    assert first[5:8] == ("100 % (built)", "4.00", "20")
-    assert first[8:] == ("61.25", "4.00")
-    assert third[9] == "3.00"
+    assert first[6:9] == ("100 % (built)", "4.00", "20")
+    assert first[9:] == ("61.25", "4.00")
+    assert third[10] == "3.00"
 
 
 def test_numbers_are_right_aligned_and_words_left():
-    assert [ProgressTable.right_aligned(c) for c in range(10)] == [
-        True, True, False, False, False, False, True, True, True, True]
+    assert [ProgressTable.right_aligned(c) for c in range(11)] == [
+        True, True, False, False, False, False, False, True, True, True, True]
 
 
 def test_a_figures_heading_carries_its_unit():
