@@ -255,6 +255,41 @@ def test_four_marked_points_replace_the_handle_fit(trial, tmp_path, capsys, monk
     assert attrs["camera_vs_solver_elbow_rmse_rad"] < np.radians(1.0)
 
 
+def test_a_video_that_never_shows_the_whole_arm_is_refused_with_marked_points(
+        trial, tmp_path, capsys, monkeypatch):
+    """With four marked points no wrist is needed to fit the camera: a video whose wrist
+    the model never saw on the handle wrote an empty /pose, printed dashes and exit 0."""
+    import dataclasses
+
+    from core.pose.homography import apply
+    from core.pose.keypoints import WRIST
+
+    path, filmed = trial
+    visibility = filmed.visibility.copy()
+    visibility[:, WRIST] = 0.2  # the hand always hidden (a sleeve, the edge of the picture)
+    hidden = dataclasses.replace(filmed, visibility=visibility)
+    marks_m = np.array([[-0.55, 0.15], [0.05, 0.15], [0.05, 0.80], [-0.55, 0.80]])
+    marks = tmp_path / "marks.csv"
+    marks.write_text("u_px,v_px,x_m,y_m\n" + "".join(
+        f"{u:.3f},{v:.3f},{x},{y}\n"
+        for (u, v), (x, y) in zip(apply(filmed.camera, marks_m), marks_m, strict=True)))
+    import device.camera.detector as detector
+
+    monkeypatch.setattr(detector, "MediaPipePose",
+                        lambda side, video: ReplayDetector(hidden, side))
+    before = path.read_bytes()
+    assert main(["pose", str(path), "--marks", str(marks)]) == 2
+    out, err = capsys.readouterr()
+    assert "written to" not in out
+    line = err.splitlines()[-1]
+    n = filmed.stamps_s.size
+    assert line.startswith("rehab pose: error: video trial.avi: the whole arm is seen in "
+                           f"none of its {n} frames (the shoulder in "), line
+    assert "the wrist on the handle in 0)" in line
+    assert path.read_bytes() == before
+    assert read_pose(path) is None
+
+
 @pytest.mark.parametrize(("text", "match"), [
     ("x,y\n1,2\n", "first line must be u_px,v_px,x_m,y_m"),
     ("u_px,v_px,x_m,y_m\n1,2,3\n", "four numbers"),
