@@ -267,6 +267,17 @@ def test_train_writes_into_the_data_folders_models_by_default(trials, tmp_path, 
                         str(tmp_path / "u.h5")], capsys)
     assert code == 2
     assert "nothing.json: missing: no such file" in err
+    # sliding mode asked for beside the model: refused, not run as the CT-PID unsaid
+    code, _, err = run(["run", "--learned-model", "fnn-r", "--controller", "smc",
+                        "--output", str(tmp_path / "v.h5")], capsys)
+    assert code == 2
+    assert err.count("\n") == 1
+    assert "--learned-model runs the computed-torque PID" in err
+    assert "leave out --controller smc" in err
+    assert not (tmp_path / "v.h5").exists()
+    code, _, err = run(["run", "--learned-model", "fnn-r", "--controller", "ctpid",
+                        "--repetitions", "1", "--output", str(tmp_path / "w.h5")], capsys)
+    assert code == 0, err
 
 
 def test_components_of_a_delan_against_the_analytic_model(files, trained, tmp_path, capsys):
