@@ -474,8 +474,11 @@ def cmd_record(args: argparse.Namespace) -> int:
         check_live_range(captured.samples, range(width), names, args.source.strip())
     except EmgImportError as exc:
         raise CommandError(f"nothing written: {exc}") from None
-    write_plain_csv(output, names, captured.stamps_s - captured.stamps_s[0], captured.samples,
-                    overwrite=args.overwrite)
+    # one sample a period: the capture's samples follow each other (a source that stops or
+    # jumps ends it, device.emg.capture), while an LSL sender's chunk stamps jitter by its
+    # pushes, 37 ms once, which the file's readers refuse as a gap in the recording
+    times = np.arange(captured.samples.shape[0]) / captured.rate_hz
+    write_plain_csv(output, names, times, captured.samples, overwrite=args.overwrite)
     print(f"recorded {captured.samples.shape[0]} samples of {width} channels at "
           f"{captured.rate_hz:g} Hz from {label} into {output}"
           + (f"; {captured.missing} missing" if captured.missing else ""))

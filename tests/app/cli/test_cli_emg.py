@@ -274,6 +274,46 @@ def test_record_names_its_columns_by_the_stream_labels_and_mvc_picks_them(
     assert read_emg(trial).mvc["biceps"]["channel"] == labels[column]
 
 
+class _JitteredSource(_LabelledSource):
+    """An LSL stream whose sender pushed one chunk 37 ms late (a stalled computer): its
+    stamps jump ahead, then the next chunk's overlap it, as liblsl stamps chunks at their
+    push."""
+
+    def read(self, timeout_s=0.1):
+        k = self.sent
+        stamps, samples = super().read(timeout_s)
+        if stamps.size and k == 1000:
+            stamps = stamps + 0.037
+        return stamps, samples
+
+
+def test_a_recording_whose_stamps_jitter_is_read_back_by_emg_mvc(made, tmp_path, capsys,
+                                                                monkeypatch):
+    """`rehab emg record lsl:…` wrote the stream's stamps as its time column; a chunk pushed
+    late made a 37 ms jump, and `rehab emg mvc` refused the console's own recording ('a gap
+    of 0.037126 s after sample 11286')."""
+    import app.cli.emg as emg_cli
+
+    path, channel = made[2]["biceps"]
+    contraction = read_emg_file(path)
+    source = _JitteredSource(contraction, contraction.names)
+    monkeypatch.setattr(emg_cli, "_open_source", lambda args: (source, "lsl:amp"))
+    out_file = tmp_path / "mvc.csv"
+    code, _, err = run(["emg", "record", "lsl:amp", "--seconds", "1", "--output",
+                          str(out_file), "--muscle", "biceps", "--channel",
+                          str(contraction.names.index(channel) + 1)], capsys)
+    assert code == 0, err
+    recorded = read_emg_file(out_file)
+    n = recorded.t_s.size
+    assert n > 1500
+    np.testing.assert_allclose(recorded.t_s, np.arange(n) / contraction.rate_hz, atol=1e-6)
+    np.testing.assert_array_equal(recorded.samples, contraction.samples[:n])
+    trial = shutil.copy(made[1], tmp_path / "s.h5")
+    code, _, err = run(["emg", "mvc", str(trial), "--contraction",
+                        f"biceps={out_file}:{channel}"], capsys)
+    assert code == 0, err
+
+
 def test_record_keeps_emg_numbers_for_labels_a_csv_cannot_hold(tmp_path, capsys,
                                                               monkeypatch):
     data = read_emg_file(DATA / "plain.csv")
