@@ -441,6 +441,11 @@ def cmd_record(args: argparse.Namespace) -> int:
     if args.source.strip().startswith("lsl:"):
         _liblsl_log(args)
     source, label = _open_source(args)
+    width = getattr(source, "channel_count", None)
+    if width is not None and not 1 <= args.channel <= width:
+        # before the prompt: a patient was told to contract for a channel that is not there
+        source.close()
+        raise CommandError(f"--channel {args.channel}: the source has channels 1 to {width}")
     for note in getattr(source, "notes", ()):  # an LSL stream's trigger channel left out
         print(f"note: {note}", flush=True)
     capture = EmgCapture(source).start()

@@ -169,6 +169,29 @@ def test_record_a_guided_mvc_from_the_fake_trigno(tmp_path, capsys):
     assert "already exists" in err
 
 
+def test_a_channel_the_source_lacks_is_refused_before_the_patient_is_told_to_contract(
+        tmp_path, capsys):
+    """`--channel 17` on a 16-slot base station was refused only after 'Contract the biceps
+    as hard as you can … now' and the whole recording: the patient pushed for nothing."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "trigno_server", Path(__file__).parents[2] / "device" / "fakes" / "trigno_server.py")
+    fake = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(fake)
+    out_file = tmp_path / "mvc.csv"
+    with fake.FakeTrignoServer() as server:
+        code, out, err = run(["emg", "record", "trigno:127.0.0.1", "--seconds", "0.6",
+                              "--output", str(out_file), "--muscle", "biceps", "--channel",
+                              "17", "--command-port", str(server.command_port),
+                              "--data-port", str(server.data_port)], capsys)
+    assert code == 2
+    assert "Contract" not in out
+    assert err.count("\n") == 1
+    assert "--channel 17: the source has channels 1 to 16" in err
+    assert not out_file.exists()
+
+
 class _EndingSource:
     """A source that streams 0.3 s at 1 kHz, then fails as an unplugged base station."""
 
