@@ -431,6 +431,34 @@ def test_the_detector_on_every_kth_frame(trial):
             estimate_pose(path, ReplayDetector(filmed), detect_every=k)
 
 
+def test_the_command_says_how_many_of_the_videos_frames_the_model_saw(trial, capsys,
+                                                                      monkeypatch):
+    """With --every 3 it printed "88 frames of trial.mp4" for a video of 264: the
+    researcher read a video cut short."""
+    path, filmed = trial
+    import device.camera.detector as detector
+
+    class EveryThird(ReplayDetector):
+        def detect(self, image_bgr):
+            k = ArmKeypoints(self.filmed.keypoints_px[self.calls],
+                             self.filmed.visibility[self.calls])
+            self.calls += 3
+            return k
+
+    monkeypatch.setattr(detector, "MediaPipePose",
+                        lambda side, video: EveryThird(filmed, side))
+    assert main(["pose", str(path), "--every", "3"]) == 0
+    first = capsys.readouterr().out.splitlines()[0]
+    n = filmed.stamps_s.size
+    assert first.startswith(f"trial.h5: {len(range(0, n, 3))} of the {n} frames of trial.avi "
+                            "through the model, "), first
+    monkeypatch.setattr(detector, "MediaPipePose",
+                        lambda side, video: ReplayDetector(filmed, side))
+    assert main(["pose", str(path)]) == 0
+    first = capsys.readouterr().out.splitlines()[0]
+    assert first.startswith(f"trial.h5: {n} frames of trial.avi through the model, "), first
+
+
 def test_the_command_refuses_every_out_of_range(trial, capsys):
     path, _ = trial
     assert main(["pose", str(path), "--every", "11"]) == 2
