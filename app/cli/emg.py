@@ -256,11 +256,13 @@ def cmd_show(args: argparse.Namespace) -> int:
 
     path = trial_file(args, args.trial)
     emg = trial_emg(path)
-    # a synthetic subject's EMG has no source file: no empty field after its comma
-    origin = (emg.attrs.get("source"), emg.attrs.get("source_file"))
+    # a synthetic subject's EMG has no source file: no empty field after its comma; a live
+    # capture's is its source ('lsl:amp'), said once, not "(lsl:amp, lsl:amp)"
+    origin = dict.fromkeys(str(v) for v in (emg.attrs.get("source"),
+                                            emg.attrs.get("source_file")) if v)
     print(f"{path.name}: {len(emg.names)} EMG channels at {emg.rate_hz:g} Hz, "
           f"{emg.time_s.size} samples, trial time {emg.time_s[0]:.3f}–{emg.time_s[-1]:.3f} s "
-          f"({', '.join(str(v) for v in origin if v)})")
+          f"({', '.join(origin)})")
     for note in emg.notes:  # kept with the EMG as it was stored
         print(f"  note: {note}")
     if not emg.mvc:

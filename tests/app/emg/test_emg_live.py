@@ -139,6 +139,22 @@ def test_an_lsl_capture_whose_chunks_overlap_lands_in_a_readable_trial(plain_tri
     np.testing.assert_allclose(emg.time_s, stamps - origin, atol=5e-3)
 
 
+def test_emg_show_names_a_live_source_once(plain_trial, tmp_path, capsys):
+    """A live capture's source is also its 'source file': `rehab emg show` printed
+    '(lsl:amp, lsl:amp)'."""
+    from app.cli.main import main
+    from device.emg.capture import Captured
+
+    trial = _live_trial(plain_trial, tmp_path, 100.0)
+    samples = np.random.default_rng(0).normal(0.0, 1e-4, (2000, 2))
+    captured = Captured(101.0 + np.arange(2000) / 2000.0, samples, 2000.0, 0, "", ("a", "b"),
+                        ())
+    import_capture(trial, captured, names=("a", "b"), source="lsl:amp")
+    assert main(["emg", "show", str(trial)]) == 0
+    first = capsys.readouterr().out.splitlines()[0]
+    assert first.endswith(" s (lsl:amp)"), first
+
+
 def test_a_source_lost_mid_trial_keeps_what_it_had(plain_trial, tmp_path):
     origin = time.monotonic()
     with fake.FakeTrignoServer() as server:
