@@ -26,7 +26,9 @@ from app.cli.common import (
     trial_id_or_none,
 )
 from app.records.safewrite import check_output_folder
-from core.trial import MODEL_NAME
+from core.trial import MODEL_NAME, THESIS_SUBJECT, TOLERANCE_RANGE_RAD
+
+MAX_DEMO_TRIALS = 10
 
 XDF_SUFFIXES = (".xdf", ".xdfz")
 """LabRecorder's recordings (app.emg.xdf), read by pyxdf."""
@@ -127,9 +129,18 @@ def add_emg_commands(commands) -> None:
                                    "whose joint torques drive a muscle model, app.emg.subjects) "
                                    "with its EMG in the trial file, and write its MVC "
                                    "contractions as CSV files, to try `rehab emg mvc` and "
-                                   "`rehab emg show` on.")
+                                   "`rehab emg show` on; with --trials 3 --tolerance 30, "
+                                   "the trials an EMG model for the assistance is trained "
+                                   "and held out on (`rehab emg model --for-assistance`).")
     p.add_argument("folder", help="where to write (created; existing files are kept)")
     p.add_argument("--subject", type=int, default=2, help="which synthetic subject (1-99)")
+    p.add_argument("--trials", type=int, default=1,
+                   help="how many trials of the subject (1-10, default 1), each its own "
+                        "seed: two or more let `rehab emg model --test` hold one out")
+    p.add_argument("--tolerance", type=float, default=math.degrees(THESIS_SUBJECT.tolerance_rad),
+                   metavar="DEG",
+                   help="the trials' tolerance cone in degrees (default the thesis's 20); "
+                        "an EMG model is approved for the cone its trials had, and wider")
     p.add_argument("--bad-mvc", type=float, metavar="SHARE",
                    help="the anterior deltoid's MVC effort as a share of a maximum, e.g. 0.15 "
                         "(the thesis's subject 2)")
@@ -245,11 +256,13 @@ def cmd_show(args: argparse.Namespace) -> int:
 
     path = trial_file(args, args.trial)
     emg = trial_emg(path)
-    # a synthetic subject's EMG has no source file: no empty field after its comma
-    origin = (emg.attrs.get("source"), emg.attrs.get("source_file"))
+    # a synthetic subject's EMG has no source file: no empty field after its comma; a live
+    # capture's is its source ('lsl:amp'), said once, not "(lsl:amp, lsl:amp)"
+    origin = dict.fromkeys(str(v) for v in (emg.attrs.get("source"),
+                                            emg.attrs.get("source_file")) if v)
     print(f"{path.name}: {len(emg.names)} EMG channels at {emg.rate_hz:g} Hz, "
           f"{emg.time_s.size} samples, trial time {emg.time_s[0]:.3f}–{emg.time_s[-1]:.3f} s "
-          f"({', '.join(str(v) for v in origin if v)})")
+          f"({', '.join(origin)})")
     for note in emg.notes:  # kept with the EMG as it was stored
         print(f"  note: {note}")
     if not emg.mvc:
@@ -359,12 +372,25 @@ def cmd_streams(args: argparse.Namespace) -> int:
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
-    from app.emg.subjects import Subject, contraction_path, record_trial, write_contractions
+    from app.emg.subjects import (
+        DEMO_PARAMETERS,
+        Subject,
+        contraction_path,
+        record_trial,
+        write_contractions,
+    )
 
     if not 1 <= args.subject <= 99:
         raise CommandError(f"--subject {args.subject}: give a number from 1 to 99")
     if args.bad_mvc is not None and not 0.01 <= args.bad_mvc <= 1.0:
         raise CommandError(f"--bad-mvc {args.bad_mvc}: give a share from 0.01 to 1")
+    if not 1 <= args.trials <= MAX_DEMO_TRIALS:
+        raise CommandError(f"--trials {args.trials}: give a number from 1 to "
+                           f"{MAX_DEMO_TRIALS}")
+    lo, hi = (math.degrees(r) for r in TOLERANCE_RANGE_RAD)
+    if not (math.isfinite(args.tolerance) and lo <= args.tolerance <= hi):
+        raise CommandError(f"--tolerance {args.tolerance:g}: give a cone from {lo:g} to "
+                           f"{hi:g} degrees")
     if not args.folder.strip():
         raise CommandError("the folder is empty: give where to write")
     folder = absolute(args.folder)
@@ -372,17 +398,27 @@ def cmd_demo(args: argparse.Namespace) -> int:
     subject = Subject.drawn(args.subject, bad_mvc=bad)
     # every file it will write checked first: existing files are kept, none half-made
     check_output_folder(folder, roots=data_roots(args), what="the demo folder")
-    trial = output_path(args, str(folder / f"synthetic_S{args.subject}.h5"),
-                        what="the demo's trial")
+    stems = ([f"synthetic_S{args.subject}"] if args.trials == 1 else
+             [f"synthetic_S{args.subject}_{k + 1}" for k in range(args.trials)])
+    trials = [output_path(args, str(folder / f"{stem}.h5"), what="the demo's trial")
+              for stem in stems]
     for muscle in subject.muscles:
         output_path(args, str(contraction_path(folder, subject, 1, muscle)),
                     what="the demo's MVC file")
-    record_trial(trial, subject, seed=0, engine=args.engine)
+    parameters = DEMO_PARAMETERS.replace(tolerance_rad=math.radians(args.tolerance))
+    for seed, trial in enumerate(trials):
+        record_trial(trial, subject, seed=seed, parameters=parameters, engine=args.engine)
+        print(f"wrote {trial}", flush=True)
     contractions = write_contractions(folder, subject, session=1)
-    print(f"wrote {trial}")
+    names = " ".join(str(t) for t in trials)
     options = " ".join(f"--contraction {m}={p}:{ch}" for m, (p, ch) in contractions.items())
-    print(f"next: rehab emg mvc {trial} {options}")
-    print(f"then: rehab emg show {trial}")
+    print(f"next: rehab emg mvc {names} {options}")
+    print(f"then: rehab emg show {trials[0]}")
+    if len(trials) > 1:
+        print(f"and: rehab emg model {names} --test {trials[-1]} --for-assistance "
+              f"--save s{args.subject}")
+        print(f"last, if it passes: rehab run --force-estimate s{args.subject} "
+              f"--tolerance {args.tolerance:g} --emg-subject {args.subject}")
     return 0
 
 
@@ -407,6 +443,11 @@ def cmd_record(args: argparse.Namespace) -> int:
     if args.source.strip().startswith("lsl:"):
         _liblsl_log(args)
     source, label = _open_source(args)
+    width = getattr(source, "channel_count", None)
+    if width is not None and not 1 <= args.channel <= width:
+        # before the prompt: a patient was told to contract for a channel that is not there
+        source.close()
+        raise CommandError(f"--channel {args.channel}: the source has channels 1 to {width}")
     for note in getattr(source, "notes", ()):  # an LSL stream's trigger channel left out
         print(f"note: {note}", flush=True)
     capture = EmgCapture(source).start()
@@ -440,8 +481,11 @@ def cmd_record(args: argparse.Namespace) -> int:
         check_live_range(captured.samples, range(width), names, args.source.strip())
     except EmgImportError as exc:
         raise CommandError(f"nothing written: {exc}") from None
-    write_plain_csv(output, names, captured.stamps_s - captured.stamps_s[0], captured.samples,
-                    overwrite=args.overwrite)
+    # one sample a period: the capture's samples follow each other (a source that stops or
+    # jumps ends it, device.emg.capture), while an LSL sender's chunk stamps jitter by its
+    # pushes, 37 ms once, which the file's readers refuse as a gap in the recording
+    times = np.arange(captured.samples.shape[0]) / captured.rate_hz
+    write_plain_csv(output, names, times, captured.samples, overwrite=args.overwrite)
     print(f"recorded {captured.samples.shape[0]} samples of {width} channels at "
           f"{captured.rate_hz:g} Hz from {label} into {output}"
           + (f"; {captured.missing} missing" if captured.missing else ""))

@@ -134,8 +134,12 @@ def _print(outcome) -> None:
     from app.pose.offline import reference_lines
 
     r = outcome.result
-    print(f"{outcome.trial.path.name}: {r.frames} frames of {outcome.video.path.name}, "
-          f"{r.frames_seen} with the whole arm seen")
+    # with --every the model saw only some of the video's frames: say both, as a file of
+    # 264 frames read as "88 frames of trial.mp4"
+    shown = (f"{r.frames} frames" if r.frames >= outcome.video.frames else
+             f"{r.frames} of the {outcome.video.frames} frames")
+    print(f"{outcome.trial.path.name}: {shown} of {outcome.video.path.name} through the "
+          f"model, {r.frames_seen} with the whole arm seen")
     print(f"camera map: {r.homography.describe()}")
     print("camera vs equation solver (ISB angles, camera − solver):")
     print(f"  {'joint':<9}{'RMSE':>9}{'bias':>9}{'samples':>9}")

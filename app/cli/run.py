@@ -95,6 +95,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     args.seed = draw_seed() if args.seed is None else args.seed
     model = None
     if args.learned_model:
+        if args.controller == "smc":
+            # the model stands in for M, C and f of the computed-torque PID; sliding mode
+            # has no place for it, and running ctpid instead would not be what was asked
+            raise CommandError("--learned-model runs the computed-torque PID with the model "
+                               "in place of M, C and f: leave out --controller smc")
         params, model = _with_learned_model(params, args.learned_model, data_dir_for(args))
     feed, options = None, {}
     if args.force_estimate is not None:

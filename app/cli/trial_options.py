@@ -54,8 +54,9 @@ def add_trial_options(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--side", choices=SIDES, default=d.side, help="arm in use")
     group.add_argument("--tolerance", type=float, default=math.degrees(d.tolerance_rad),
                        help="directional tolerance in degrees (default 20)")
-    group.add_argument("--controller", choices=CONTROLLERS, default=d.controller,
-                       help="smc (default): sliding mode; ctpid: computed-torque PID")
+    group.add_argument("--controller", choices=CONTROLLERS, default=None,
+                       help="smc (default): sliding mode; ctpid: computed-torque PID (what "
+                            "--learned-model runs)")
     group.add_argument("--assist", choices=ASSIST_MODES, default="as-needed",
                        help="as-needed (default): a compliant channel whose reference moves "
                             "with the patient, help along the path the patient earns back; "
@@ -116,7 +117,7 @@ def trial_from_args(args: argparse.Namespace) -> TrialParameters:
         "forearm_m": args.forearm,
         "side": args.side,
         "tolerance_rad": math.radians(args.tolerance),
-        "controller": args.controller,
+        "controller": args.controller or base.controller,
         "assistance_level": level / 100.0,
         "assist": args.assist,
         "gains": args.gains,

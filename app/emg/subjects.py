@@ -75,6 +75,11 @@ class Subject:
                    float(rng.uniform(4.0, 8.0)))
 
 
+# the thesis's subjects moved the handle with the motors giving no help: the push is theirs
+DEMO_PARAMETERS = THESIS_SUBJECT.replace(repetitions=1, assistance_level=0.0)
+"""A synthetic subject's trial unless told otherwise: one D of the thesis's, no help."""
+
+
 @dataclass(frozen=True, slots=True, eq=False)
 class SyntheticTrial:
     path: Path
@@ -88,8 +93,7 @@ def record_trial(path: str | os.PathLike, subject: Subject, *, seed: int,
                  parameters: TrialParameters | None = None,
                  engine: str = "auto") -> SyntheticTrial:
     """A headless trial of the subject's virtual patient, with its EMG in `/emg`."""
-    parameters = parameters or THESIS_SUBJECT.replace(repetitions=1, assistance_level=0.0)
-    # the thesis's subjects moved the handle with the motors giving no help: the push is theirs
+    parameters = parameters or DEMO_PARAMETERS
     options = {"drive_N": subject.drive_N} if subject.patient != "passive" else None
     trial = simulate(parameters, patient=subject.patient, seed=seed, engine=engine,
                      patient_options=options)

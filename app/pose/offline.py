@@ -23,7 +23,7 @@ from core.errors import ParameterError
 from core.pose.angles import DEFAULT_DRIFT_LIMIT_M
 from core.pose.compare import JointError, ReferenceAngles, joint_errors, read_reference_csv
 from core.pose.homography import DEFAULT_MAX_RESIDUAL_MM, Homography, fit_from_points
-from core.pose.keypoints import DEFAULT_MIN_VISIBILITY
+from core.pose.keypoints import DEFAULT_MIN_VISIBILITY, ELBOW, SHOULDER, WRIST
 from core.pose.pipeline import PoseResult, pose_from_keypoints
 from core.pose.timebase import covered_span, frame_times, resample
 from device.camera.detector import MEDIAPIPE_VERSION, PoseDetector
@@ -135,6 +135,7 @@ def estimate_pose(
         trial.parameters.arm(), c["time"], c["position"], c["subject_angle"],
         stamps_t[index], px, vis, homography=homography, min_visibility=min_visibility,
         max_residual_mm=max_residual_mm, drift_limit_m=drift_limit_m)
+    _check_arm_seen(result, video)
     reference_errors = None
     if reference is not None:
         def times_of(frames: np.ndarray) -> np.ndarray:
@@ -149,6 +150,21 @@ def estimate_pose(
                                                max_residual_mm, drift_limit_m, index, px, vis,
                                                detect_every))
     return OfflinePose(trial, video, result, reference_errors)
+
+
+def _check_arm_seen(result: PoseResult, video: VideoInfo) -> None:
+    """Refuse a run that gives no angle at all: with marked points no wrist is needed to
+    fit the camera, so a video in which the model never saw the whole arm (a wrong camera,
+    the arm out of the picture, the wrist always off the handle) got as far as writing an
+    empty /pose and printing dashes, exit 0."""
+    if result.frames_seen > 0:
+        return
+    seen = np.isfinite(result.keypoints_m).all(axis=2).sum(axis=0)
+    raise VideoError(
+        f"video {video.path.name}: the whole arm is seen in none of its {result.frames} "
+        f"frames (the shoulder in {seen[SHOULDER]}, the elbow in {seen[ELBOW]}, the wrist "
+        f"on the handle in {seen[WRIST]}), so it gives no angles; check that the camera "
+        "sees the patient's arm and the handle")
 
 
 def _check_trial(trial: TrialData) -> None:

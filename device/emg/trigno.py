@@ -47,6 +47,8 @@ class TrignoError(DeviceError):
 class TrignoClient:
     """Command and EMG data connections to a Trigno Control Utility."""
 
+    channel_count = CHANNELS  # every read has a column per sensor slot, paired or not
+
     def __init__(self, host: str = "localhost", *, model: str = "trigno",
                  command_port: int = COMMAND_PORT, data_port: int | None = None,
                  timeout_s: float = 3.0, clock: Callable[[], float] = time.monotonic) -> None:

@@ -107,6 +107,33 @@ def test_the_emg_inlet_receives_every_sample_on_the_local_clock():
     inlet.close()
 
 
+def test_chunks_stamped_at_their_push_come_out_in_order_and_a_gap_stays_a_gap():
+    """A sender that pushes chunks without stamps gets liblsl's: the chunk's last sample at
+    the push, the others back at the nominal rate, so a push a few ms early makes its chunk
+    overlap the one before. `rehab emg record lsl:…` wrote those stamps as its time column,
+    and `rehab emg mvc` and `emg import` then refused the console's own recording ('not
+    increasing at sample 752')."""
+    name = _unique()
+    rate = 2000.0
+    outlet = _emg_outlet(name, channels=2, rate=rate)
+    inlet = LslEmgInlet(name, timeout_s=5.0).open(5.0)
+    _wait_for(outlet.have_consumers, "the inlet connecting")
+    sent = (1e-4 * np.arange(1200 * 2).reshape(1200, 2)).astype(np.float32)
+    start = pylsl.local_clock()
+    stamps = start + np.arange(1200) / rate
+    stamps[400:] -= 0.003  # the second chunk pushed 3 ms early: 6 samples overlap
+    stamps[800:] += 0.5 + 0.003  # the sender away half a second: a real gap
+    for k in range(0, 1200, 400):
+        outlet.push_chunk(sent[k:k + 400], timestamp=stamps[k:k + 400].tolist())
+    t, x = _receive(inlet, 1200)
+    np.testing.assert_array_equal(x, sent.astype(float))  # every sample, in order
+    assert (np.diff(t) > 0).all()
+    np.testing.assert_allclose(t, stamps, atol=4e-3)  # within the push's jitter
+    assert t[800] - t[799] == pytest.approx(stamps[800] - stamps[799], abs=1e-6)  # 0.5 s
+    assert np.ptp(t[700:] - stamps[700:]) < 1e-6  # in order again: as sent (clock offset)
+    inlet.close()
+
+
 @pytest.mark.parametrize(("fmt", "dtype", "unit", "volts"), [
     (pylsl.cf_int16, np.int16, "microvolts", 1e-6),
     (pylsl.cf_int32, np.int32, "uV", 1e-6),

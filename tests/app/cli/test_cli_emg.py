@@ -99,6 +99,49 @@ def test_demo_writes_a_trial_to_try_the_commands_on(tmp_path, capsys):
     assert "already exists" in err
 
 
+def test_demo_makes_the_trials_an_emg_model_for_the_assistance_needs(tmp_path, capsys):
+    """The README's chain `emg model --for-assistance --save`, then `run --force-estimate
+    --tolerance 30`, needs several trials of one subject at a wide cone; `emg demo` made one
+    trial at the thesis's 20°, so a researcher without recorded EMG could not start it."""
+    import math
+
+    from app.trials.reader import read_trial
+
+    code, out, err = run(["emg", "demo", str(tmp_path / "d"), "--subject", "1",
+                          "--trials", "2", "--tolerance", "30", "--engine", "python"], capsys)
+    assert code == 0, err
+    trials = [tmp_path / "d" / f"synthetic_S1_{k}.h5" for k in (1, 2)]
+    for path in trials:
+        assert math.degrees(read_trial(path).parameters.tolerance_rad) == pytest.approx(30.0)
+    lines = {line.split(": ", 1)[0]: line.split(": ", 1)[1] for line in out.splitlines()
+             if line.startswith(("next: ", "and: "))}
+    code, _, err = run(lines["next"].removeprefix("rehab ").split(), capsys)
+    assert code == 0, err
+    model = lines["and"].removeprefix("rehab ").split()
+    assert model[:2] == ["emg", "model"]
+    assert model[model.index("--test") + 1] == str(trials[1])
+    # the linear baseline, to be quick: the trials are taken, held out at their own cone
+    code, out, err = run([*model[:model.index("--for-assistance")], "--model", "linear"],
+                         capsys)
+    assert code == 0, err
+    assert "held-out trials" in out
+    assert "(30°)" in out
+
+
+@pytest.mark.parametrize(("option", "said"), [
+    (["--trials", "0"], "--trials 0: give a number from 1 to 10"),
+    (["--trials", "11"], "--trials 11: give a number from 1 to 10"),
+    (["--tolerance", "nan"], "--tolerance nan: give a cone from 1 to 90 degrees"),
+    (["--tolerance", "95"], "--tolerance 95: give a cone from 1 to 90 degrees"),
+])
+def test_demo_refuses_a_bad_count_or_cone_in_one_line(tmp_path, capsys, option, said):
+    code, _, err = run(["emg", "demo", str(tmp_path / "d"), *option], capsys)
+    assert code == 2
+    assert said in err
+    assert err.count("\n") == 1
+    assert not (tmp_path / "d").exists()
+
+
 def test_record_a_guided_mvc_from_the_fake_trigno(tmp_path, capsys):
     import importlib.util
 
@@ -124,6 +167,29 @@ def test_record_a_guided_mvc_from_the_fake_trigno(tmp_path, capsys):
     code, _, err = run(["emg", "record", "trigno:127.0.0.1", "--output", str(out_file)], capsys)
     assert code == 2
     assert "already exists" in err
+
+
+def test_a_channel_the_source_lacks_is_refused_before_the_patient_is_told_to_contract(
+        tmp_path, capsys):
+    """`--channel 17` on a 16-slot base station was refused only after 'Contract the biceps
+    as hard as you can … now' and the whole recording: the patient pushed for nothing."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "trigno_server", Path(__file__).parents[2] / "device" / "fakes" / "trigno_server.py")
+    fake = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(fake)
+    out_file = tmp_path / "mvc.csv"
+    with fake.FakeTrignoServer() as server:
+        code, out, err = run(["emg", "record", "trigno:127.0.0.1", "--seconds", "0.6",
+                              "--output", str(out_file), "--muscle", "biceps", "--channel",
+                              "17", "--command-port", str(server.command_port),
+                              "--data-port", str(server.data_port)], capsys)
+    assert code == 2
+    assert "Contract" not in out
+    assert err.count("\n") == 1
+    assert "--channel 17: the source has channels 1 to 16" in err
+    assert not out_file.exists()
 
 
 class _EndingSource:
@@ -229,6 +295,46 @@ def test_record_names_its_columns_by_the_stream_labels_and_mvc_picks_them(
         values.append(read_emg(trial).mvc["biceps"]["value_V"])
     assert values[0] == values[1]
     assert read_emg(trial).mvc["biceps"]["channel"] == labels[column]
+
+
+class _JitteredSource(_LabelledSource):
+    """An LSL stream whose sender pushed one chunk 37 ms late (a stalled computer): its
+    stamps jump ahead, then the next chunk's overlap it, as liblsl stamps chunks at their
+    push."""
+
+    def read(self, timeout_s=0.1):
+        k = self.sent
+        stamps, samples = super().read(timeout_s)
+        if stamps.size and k == 1000:
+            stamps = stamps + 0.037
+        return stamps, samples
+
+
+def test_a_recording_whose_stamps_jitter_is_read_back_by_emg_mvc(made, tmp_path, capsys,
+                                                                monkeypatch):
+    """`rehab emg record lsl:…` wrote the stream's stamps as its time column; a chunk pushed
+    late made a 37 ms jump, and `rehab emg mvc` refused the console's own recording ('a gap
+    of 0.037126 s after sample 11286')."""
+    import app.cli.emg as emg_cli
+
+    path, channel = made[2]["biceps"]
+    contraction = read_emg_file(path)
+    source = _JitteredSource(contraction, contraction.names)
+    monkeypatch.setattr(emg_cli, "_open_source", lambda args: (source, "lsl:amp"))
+    out_file = tmp_path / "mvc.csv"
+    code, _, err = run(["emg", "record", "lsl:amp", "--seconds", "1", "--output",
+                          str(out_file), "--muscle", "biceps", "--channel",
+                          str(contraction.names.index(channel) + 1)], capsys)
+    assert code == 0, err
+    recorded = read_emg_file(out_file)
+    n = recorded.t_s.size
+    assert n > 1500
+    np.testing.assert_allclose(recorded.t_s, np.arange(n) / contraction.rate_hz, atol=1e-6)
+    np.testing.assert_array_equal(recorded.samples, contraction.samples[:n])
+    trial = shutil.copy(made[1], tmp_path / "s.h5")
+    code, _, err = run(["emg", "mvc", str(trial), "--contraction",
+                        f"biceps={out_file}:{channel}"], capsys)
+    assert code == 0, err
 
 
 def test_record_keeps_emg_numbers_for_labels_a_csv_cannot_hold(tmp_path, capsys,

@@ -113,6 +113,48 @@ def test_an_lsl_capture_lands_in_the_trial(plain_trial, tmp_path):
     np.testing.assert_allclose(emg.time_s, 1.0 + np.arange(4000) / 2000.0, atol=5e-3)
 
 
+def test_an_lsl_capture_whose_chunks_overlap_lands_in_a_readable_trial(plain_trial, tmp_path):
+    """EMG software that pushes chunks without stamps gets liblsl's (the last sample at the
+    push, the others back at the nominal rate): a push 3 ms early overlaps the chunk
+    before. Stored as they came, the trial's /emg read back as damaged ('/emg/time goes
+    from … it only ever increases'), the EMG of a live trial lost."""
+    name = f"test-{uuid.uuid4().hex[:12]}"
+    outlet = _lsl_emg_outlet(name, ("a", "b"), "V", pylsl.cf_float32)
+    inlet = LslEmgInlet(name, channels=2, rate_hz=2000.0, timeout_s=5.0).open(5.0)
+    _wait_for_consumers(outlet)
+    origin = time.monotonic()
+    capture = EmgCapture(inlet).start()
+    sent = np.arange(2000 * 2, dtype=np.float32).reshape(2000, 2) * 1e-7
+    stamps = origin + 1.0 + np.arange(2000) / 2000.0
+    stamps[500:] -= 0.003
+    for k in range(0, 2000, 500):
+        outlet.push_chunk(sent[k:k + 500], timestamp=stamps[k:k + 500].tolist())
+    _capture_until(capture, 2000)
+    captured = capture.stop()
+    trial = _live_trial(plain_trial, tmp_path, origin)
+    import_capture(trial, captured, names=("a", "b"), source=f"lsl:{name}")
+    emg = read_emg(trial)
+    np.testing.assert_allclose(emg.samples, sent.astype(float))
+    assert (np.diff(emg.time_s) > 0).all()
+    np.testing.assert_allclose(emg.time_s, stamps - origin, atol=5e-3)
+
+
+def test_emg_show_names_a_live_source_once(plain_trial, tmp_path, capsys):
+    """A live capture's source is also its 'source file': `rehab emg show` printed
+    '(lsl:amp, lsl:amp)'."""
+    from app.cli.main import main
+    from device.emg.capture import Captured
+
+    trial = _live_trial(plain_trial, tmp_path, 100.0)
+    samples = np.random.default_rng(0).normal(0.0, 1e-4, (2000, 2))
+    captured = Captured(101.0 + np.arange(2000) / 2000.0, samples, 2000.0, 0, "", ("a", "b"),
+                        ())
+    import_capture(trial, captured, names=("a", "b"), source="lsl:amp")
+    assert main(["emg", "show", str(trial)]) == 0
+    first = capsys.readouterr().out.splitlines()[0]
+    assert first.endswith(" s (lsl:amp)"), first
+
+
 def test_a_source_lost_mid_trial_keeps_what_it_had(plain_trial, tmp_path):
     origin = time.monotonic()
     with fake.FakeTrignoServer() as server:

@@ -255,6 +255,41 @@ def test_four_marked_points_replace_the_handle_fit(trial, tmp_path, capsys, monk
     assert attrs["camera_vs_solver_elbow_rmse_rad"] < np.radians(1.0)
 
 
+def test_a_video_that_never_shows_the_whole_arm_is_refused_with_marked_points(
+        trial, tmp_path, capsys, monkeypatch):
+    """With four marked points no wrist is needed to fit the camera: a video whose wrist
+    the model never saw on the handle wrote an empty /pose, printed dashes and exit 0."""
+    import dataclasses
+
+    from core.pose.homography import apply
+    from core.pose.keypoints import WRIST
+
+    path, filmed = trial
+    visibility = filmed.visibility.copy()
+    visibility[:, WRIST] = 0.2  # the hand always hidden (a sleeve, the edge of the picture)
+    hidden = dataclasses.replace(filmed, visibility=visibility)
+    marks_m = np.array([[-0.55, 0.15], [0.05, 0.15], [0.05, 0.80], [-0.55, 0.80]])
+    marks = tmp_path / "marks.csv"
+    marks.write_text("u_px,v_px,x_m,y_m\n" + "".join(
+        f"{u:.3f},{v:.3f},{x},{y}\n"
+        for (u, v), (x, y) in zip(apply(filmed.camera, marks_m), marks_m, strict=True)))
+    import device.camera.detector as detector
+
+    monkeypatch.setattr(detector, "MediaPipePose",
+                        lambda side, video: ReplayDetector(hidden, side))
+    before = path.read_bytes()
+    assert main(["pose", str(path), "--marks", str(marks)]) == 2
+    out, err = capsys.readouterr()
+    assert "written to" not in out
+    line = err.splitlines()[-1]
+    n = filmed.stamps_s.size
+    assert line.startswith("rehab pose: error: video trial.avi: the whole arm is seen in "
+                           f"none of its {n} frames (the shoulder in "), line
+    assert "the wrist on the handle in 0)" in line
+    assert path.read_bytes() == before
+    assert read_pose(path) is None
+
+
 @pytest.mark.parametrize(("text", "match"), [
     ("x,y\n1,2\n", "first line must be u_px,v_px,x_m,y_m"),
     ("u_px,v_px,x_m,y_m\n1,2,3\n", "four numbers"),
@@ -394,6 +429,34 @@ def test_the_detector_on_every_kth_frame(trial):
     for k in (0, 11, 2.5, True):
         with pytest.raises(ParameterError, match="detect_every"):
             estimate_pose(path, ReplayDetector(filmed), detect_every=k)
+
+
+def test_the_command_says_how_many_of_the_videos_frames_the_model_saw(trial, capsys,
+                                                                      monkeypatch):
+    """With --every 3 it printed "88 frames of trial.mp4" for a video of 264: the
+    researcher read a video cut short."""
+    path, filmed = trial
+    import device.camera.detector as detector
+
+    class EveryThird(ReplayDetector):
+        def detect(self, image_bgr):
+            k = ArmKeypoints(self.filmed.keypoints_px[self.calls],
+                             self.filmed.visibility[self.calls])
+            self.calls += 3
+            return k
+
+    monkeypatch.setattr(detector, "MediaPipePose",
+                        lambda side, video: EveryThird(filmed, side))
+    assert main(["pose", str(path), "--every", "3"]) == 0
+    first = capsys.readouterr().out.splitlines()[0]
+    n = filmed.stamps_s.size
+    assert first.startswith(f"trial.h5: {len(range(0, n, 3))} of the {n} frames of trial.avi "
+                            "through the model, "), first
+    monkeypatch.setattr(detector, "MediaPipePose",
+                        lambda side, video: ReplayDetector(filmed, side))
+    assert main(["pose", str(path)]) == 0
+    first = capsys.readouterr().out.splitlines()[0]
+    assert first.startswith(f"trial.h5: {n} frames of trial.avi through the model, "), first
 
 
 def test_the_command_refuses_every_out_of_range(trial, capsys):
