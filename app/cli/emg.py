@@ -17,7 +17,6 @@ from app.cli.common import (
     CommandError,
     absolute,
     data_dir_for,
-    data_roots,
     input_file,
     output_path,
     registry_for,
@@ -25,10 +24,8 @@ from app.cli.common import (
     subcommands,
     trial_id_or_none,
 )
-from app.records.safewrite import check_output_folder
-from core.trial import MODEL_NAME, THESIS_SUBJECT, TOLERANCE_RANGE_RAD
-
-MAX_DEMO_TRIALS = 10
+from app.cli.emg_demo import cmd_demo
+from core.trial import MODEL_NAME, THESIS_SUBJECT
 
 XDF_SUFFIXES = (".xdf", ".xdfz")
 """LabRecorder's recordings (app.emg.xdf), read by pyxdf."""
@@ -83,8 +80,8 @@ def add_emg_commands(commands) -> None:
     p = sub.add_parser("record", help="record a live EMG source to a CSV (e.g. an MVC, guided)",
                        description="Record a Trigno base station (Trigno Control Utility) or an "
                                    "LSL EMG stream for a few seconds into a plain CSV. With "
-                                   "--muscle, guide an MVC: prompt the contraction, then check "
-                                   "it (too short, saturated) at once.")
+                                   "--muscle, guide an MVC: a rest, the contraction, then check "
+                                   "it (too short, saturated, no effort above the rest) at once.")
     p.add_argument("source", help="trigno:HOST, avanti:HOST or lsl:STREAM_NAME")
     p.add_argument("--seconds", type=float, default=5.0, help="how long (default 5 s)")
     p.add_argument("--output", required=True, help="the CSV to write (an existing file is "
@@ -93,6 +90,10 @@ def add_emg_commands(commands) -> None:
     p.add_argument("--muscle", help="guide and check an MVC of this muscle")
     p.add_argument("--channel", type=int, default=1,
                    help="the muscle's channel, from 1 (default 1)")
+    p.add_argument("--rest", type=float, default=3.0,
+                   help="with --muscle: seconds of rest before the contraction, the level "
+                        "it must rise above (default 3 s; 0 leaves that check out); not "
+                        "written to the CSV")
     p.add_argument("--command-port", type=int, default=50040, help=argparse.SUPPRESS)
     p.add_argument("--data-port", type=int, help=argparse.SUPPRESS)
     p.set_defaults(func=cmd_record)
@@ -371,57 +372,6 @@ def cmd_streams(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_demo(args: argparse.Namespace) -> int:
-    from app.emg.subjects import (
-        DEMO_PARAMETERS,
-        Subject,
-        contraction_path,
-        record_trial,
-        write_contractions,
-    )
-
-    if not 1 <= args.subject <= 99:
-        raise CommandError(f"--subject {args.subject}: give a number from 1 to 99")
-    if args.bad_mvc is not None and not 0.01 <= args.bad_mvc <= 1.0:
-        raise CommandError(f"--bad-mvc {args.bad_mvc}: give a share from 0.01 to 1")
-    if not 1 <= args.trials <= MAX_DEMO_TRIALS:
-        raise CommandError(f"--trials {args.trials}: give a number from 1 to "
-                           f"{MAX_DEMO_TRIALS}")
-    lo, hi = (math.degrees(r) for r in TOLERANCE_RANGE_RAD)
-    if not (math.isfinite(args.tolerance) and lo <= args.tolerance <= hi):
-        raise CommandError(f"--tolerance {args.tolerance:g}: give a cone from {lo:g} to "
-                           f"{hi:g} degrees")
-    if not args.folder.strip():
-        raise CommandError("the folder is empty: give where to write")
-    folder = absolute(args.folder)
-    bad = {"anterior_deltoid": args.bad_mvc} if args.bad_mvc is not None else None
-    subject = Subject.drawn(args.subject, bad_mvc=bad)
-    # every file it will write checked first: existing files are kept, none half-made
-    check_output_folder(folder, roots=data_roots(args), what="the demo folder")
-    stems = ([f"synthetic_S{args.subject}"] if args.trials == 1 else
-             [f"synthetic_S{args.subject}_{k + 1}" for k in range(args.trials)])
-    trials = [output_path(args, str(folder / f"{stem}.h5"), what="the demo's trial")
-              for stem in stems]
-    for muscle in subject.muscles:
-        output_path(args, str(contraction_path(folder, subject, 1, muscle)),
-                    what="the demo's MVC file")
-    parameters = DEMO_PARAMETERS.replace(tolerance_rad=math.radians(args.tolerance))
-    for seed, trial in enumerate(trials):
-        record_trial(trial, subject, seed=seed, parameters=parameters, engine=args.engine)
-        print(f"wrote {trial}", flush=True)
-    contractions = write_contractions(folder, subject, session=1)
-    names = " ".join(str(t) for t in trials)
-    options = " ".join(f"--contraction {m}={p}:{ch}" for m, (p, ch) in contractions.items())
-    print(f"next: rehab emg mvc {names} {options}")
-    print(f"then: rehab emg show {trials[0]}")
-    if len(trials) > 1:
-        print(f"and: rehab emg model {names} --test {trials[-1]} --for-assistance "
-              f"--save s{args.subject}")
-        print(f"last, if it passes: rehab run --force-estimate s{args.subject} "
-              f"--tolerance {args.tolerance:g} --emg-subject {args.subject}")
-    return 0
-
-
 def _open_source(args):
     from app.emg.live import open_source
 
@@ -429,6 +379,7 @@ def _open_source(args):
 
 
 def cmd_record(args: argparse.Namespace) -> int:
+    import dataclasses
     import time
 
     from app.emg.importing import EmgImportError, csv_column_names
@@ -439,6 +390,8 @@ def cmd_record(args: argparse.Namespace) -> int:
 
     if not (np.isfinite(args.seconds) and 0.2 <= args.seconds <= 600):
         raise CommandError(f"--seconds {args.seconds}: give 0.2 to 600 s")
+    if not (np.isfinite(args.rest) and 0 <= args.rest <= 60):
+        raise CommandError(f"--rest {args.rest}: give 0 to 60 s")
     output = output_path(args, args.output, overwrite=args.overwrite)
     if args.source.strip().startswith("lsl:"):
         _liblsl_log(args)
@@ -451,10 +404,21 @@ def cmd_record(args: argparse.Namespace) -> int:
     for note in getattr(source, "notes", ()):  # an LSL stream's trigger channel left out
         print(f"note: {note}", flush=True)
     capture = EmgCapture(source).start()
+    resting = args.rest if args.muscle else 0.0
+    if resting:  # the level the push must rise above (core.emg.mvc: no effort above rest)
+        print(f"Rest, relaxed ({resting:g} s) …", flush=True)
+        if capture.wait_ended(resting):
+            captured = capture.stop()
+            raise CommandError("the source stopped during the rest, before the contraction"
+                               + (f": {captured.error}" if captured.error else "")
+                               + "; nothing written: check the source, then record again")
+    began = time.monotonic()
+    # the rest ends with the samples it brought: counted, as a source may restamp the
+    # whole recording evenly at its end (device.emg.capture.stop)
+    rest_count = capture.snapshot().samples.shape[0] if resting else None
     if args.muscle:
         print(f"Contract the {args.muscle} as hard as you can, and hold it "
               f"({args.seconds:g} s) … now", flush=True)
-    began = time.monotonic()
     # the source ending (unplugged, the base station stopped) ends the recording at once:
     # the patient is not kept contracting for the rest of --seconds
     ended_early = capture.wait_ended(args.seconds)
@@ -466,6 +430,11 @@ def cmd_record(args: argparse.Namespace) -> int:
               + "; the recording ends here, with what came", flush=True)
     if args.muscle:
         print("Relax.")
+    rest_samples = None
+    if rest_count is not None:  # the rest's samples are the check's, the CSV the push's
+        rest_samples = captured.samples[:rest_count]
+        captured = dataclasses.replace(captured, stamps_s=captured.stamps_s[rest_count:],
+                                       samples=captured.samples[rest_count:])
     if captured.samples.shape[0] < 2:
         raise CommandError(f"no EMG came from {label}" + (f": {captured.error}"
                                                          if captured.error else ""))
@@ -492,8 +461,10 @@ def cmd_record(args: argparse.Namespace) -> int:
     if captured.error and not ended_early:
         print(f"warning: the source stopped early: {captured.error}")
     if args.muscle:
+        rest = None if rest_samples is None or rest_samples.shape[0] < 2 else \
+            rest_samples[:, args.channel - 1]
         mvc = mvc_from_contraction(captured.samples[:, args.channel - 1], captured.rate_hz,
-                                   args.muscle)
+                                   args.muscle, rest=rest)
         print(f"{args.muscle}: MVC {1e6 * mvc.value_V:.0f} µV, held {mvc.hold_s:.2f} s: "
               + ("ok" if mvc.ok else "FLAGGED: " + ", ".join(mvc.flags)))
         for reason in mvc.reasons:

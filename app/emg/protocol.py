@@ -126,6 +126,12 @@ class GuidedMvc:
         self.started_s = clock()
 
     @property
+    def rest_span(self) -> tuple[float, float]:
+        """Monotonic start and end of the rest before the push: the resting level the push
+        must rise above (core.emg.mvc, no effort above rest)."""
+        return self.started_s, self.started_s + self.rest_s
+
+    @property
     def push_span(self) -> tuple[float, float]:
         """Monotonic start and end of the push."""
         start = self.started_s + self.rest_s
@@ -176,9 +182,11 @@ def check_live_range(samples, columns, names, source: str) -> None:
 def contraction_mvc(stamps_s, samples, rate_hz: float, muscle: str, channel: int, *,
                     settings: EmgSettings, full_scale_V: float | None,
                     criteria: MvcCriteria | None = None, wanted_s: float,
-                    source: str = "the EMG source") -> Mvc:
+                    source: str = "the EMG source", rest_samples=None) -> Mvc:
     """The MVC of one muscle from the live samples of its push (core.emg.mvc), refusing a
-    push whose samples do not cover most of it (the source dropped out)."""
+    push whose samples do not cover most of it (the source dropped out); with
+    `rest_samples` (the source's samples of the rest before it, all channels) the push
+    must rise above the rest."""
     x = np.asarray(samples, dtype=float)
     if x.ndim != 2 or x.shape[0] < 2:
         raise EmgImportError(f"{words(muscle)}: no EMG came during the contraction; check the "
@@ -192,8 +200,13 @@ def contraction_mvc(stamps_s, samples, rate_hz: float, muscle: str, channel: int
                              f"{wanted_s:g} s contraction (the source dropped samples); "
                              "check its status, then record again")
     check_live_range(x, [channel], [f"{words(muscle)} (channel {channel + 1})"], source)
+    rest = None
+    if rest_samples is not None:
+        quiet = np.asarray(rest_samples, dtype=float)
+        if quiet.ndim == 2 and quiet.shape[0] >= 2 and channel < quiet.shape[1]:
+            rest = quiet[:, channel]
     return mvc_from_contraction(x[:, channel], rate_hz, muscle, settings=settings,
-                                full_scale_V=full_scale_V, criteria=criteria)
+                                full_scale_V=full_scale_V, criteria=criteria, rest=rest)
 
 
 def store_trial(trial_path: str | os.PathLike, captured, label: str,

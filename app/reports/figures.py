@@ -129,6 +129,7 @@ def emg_figure(trial: TrialData, mask: np.ndarray, start_s: float) -> EmgFigure 
     except (EmgImportError, DeviceError, CoreError):
         return None
     words = {"too_short": "too short", "saturated": "saturated",
+             "no_effort_above_rest": "no effort above rest: the % MVC means nothing",
              "below_trial_activity": "lower than the trial's own activity: not a maximal "
                                      "effort, record it again"}
     quality = tuple(f"{m.replace('_', ' ')}: MVC "

@@ -15,6 +15,13 @@ A contraction is flagged when it is
 * saturated: raw samples sit at the amplifier's full scale (given), or the same
   extreme value repeats (the flat tops of clipping, when the range is unknown);
   the true maximum is then unknown;
+* no effort above rest (given the rest before the push, as the guided protocol and `rehab
+  emg record --muscle` record it): the push's median envelope stays within the resting
+  envelope's mean + `onset_sd` standard deviations, the threshold by which a muscle's
+  onset is detected against its baseline (Hodges & Bui 1996, Electroencephalogr Clin
+  Neurophysiol 101:511, k = 3). A push of resting noise (a sensor off the skin or on
+  the wrong muscle, a patient who did not push) otherwise passed as an MVC of, say, 15 µV
+  held for 8 s, and every trial normalised by it read as thousands of % MVC;
 * lower than the trial's own activity: the trial's envelope reaches the MVC
   (`trial_peak_fraction`), or its 95th percentile reaches `trial_typical_fraction`
   of it (a planar reach without load holds 10–40 % MVC; 90 % says the MVC was not
@@ -32,8 +39,9 @@ from core.errors import ParameterError, check_positive, check_range
 
 TOO_SHORT = "too_short"
 SATURATED = "saturated"
+NO_EFFORT = "no_effort_above_rest"
 BELOW_TRIAL = "below_trial_activity"
-FLAGS = (TOO_SHORT, SATURATED, BELOW_TRIAL)
+FLAGS = (TOO_SHORT, SATURATED, NO_EFFORT, BELOW_TRIAL)
 
 
 @dataclass(frozen=True, slots=True)
@@ -47,9 +55,11 @@ class MvcCriteria:
     repeated_extreme_samples: int = 4  # the same |max| this many times: flat tops
     trial_peak_fraction: float = 1.0
     trial_typical_fraction: float = 0.6
+    onset_sd: float = 3.0  # Hodges & Bui 1996: baseline mean + 3 SD
 
     def __post_init__(self) -> None:
         check_positive("min_hold_s", self.min_hold_s, "s")
+        check_positive("onset_sd", self.onset_sd)
         check_range("hold_fraction", self.hold_fraction, 0.0, 1.0, low_open=True)
         check_range("trial_typical_fraction", self.trial_typical_fraction, 0.0, 1.0,
                     low_open=True)
@@ -86,10 +96,13 @@ def mvc_from_contraction(
     settings: EmgSettings | None = None,
     full_scale_V: float | None = None,
     criteria: MvcCriteria | None = None,
+    rest=None,
 ) -> Mvc:
     """The MVC of one muscle from its raw contraction recording `emg` (N,) in V: the
-    maximum of its RMS envelope, with the too-short and saturated checks. The
-    check against a trial's activity needs the trial: `check_against_trial`."""
+    maximum of its RMS envelope, with the too-short and saturated checks, and with
+    `rest` (the same channel's raw EMG while the patient rested just before, V) the
+    no-effort-above-rest check. The check against a trial's activity needs the trial:
+    `check_against_trial`."""
     criteria = criteria or MvcCriteria()
     raw = np.asarray(emg, dtype=float)
     if raw.ndim != 1:
@@ -115,8 +128,36 @@ def mvc_from_contraction(
         reasons.append(f"{muscle}: {100 * clipped:.2f} % of the samples are at the "
                        "amplifier's limit, so the true maximum is unknown; lower the gain "
                        "or check the electrode contact, and record again")
+    above = _above_rest(values, rest, fs_hz, settings, criteria)
+    if above is not None:
+        flags.append(NO_EFFORT)
+        reasons.append(f"{muscle}: no effort above rest: the push's EMG ({1e6 * above[0]:.1f} "
+                       f"µV, its median) stays within the resting level ({1e6 * above[1]:.1f} "
+                       f"µV, mean + {criteria.onset_sd:g} SD); check that the electrode is on "
+                       "the muscle and on the skin, and that the patient pushes, then record "
+                       "again (a muscle with no voluntary EMG has no MVC to normalise by)")
     return Mvc(muscle, value, float(env.t_s[peak]), hold_s, clipped, tuple(flags),
                tuple(reasons))
+
+
+def _above_rest(push_envelope, rest, fs_hz: float, settings: EmgSettings | None,
+                criteria: MvcCriteria) -> tuple[float, float] | None:
+    """(push median, rest threshold) in V when the push does not rise above the rest's
+    onset threshold (module docstring); None when it does, or with no usable rest."""
+    if rest is None:
+        return None
+    quiet = np.asarray(rest, dtype=float)
+    if quiet.ndim != 1 or quiet.size < 2:
+        return None
+    try:
+        resting = envelope(quiet, fs_hz, settings).values
+    except ParameterError:  # shorter than one envelope window: nothing to compare with
+        return None
+    if resting.size < 2:
+        return None
+    threshold = float(resting.mean() + criteria.onset_sd * resting.std())
+    level = float(np.median(push_envelope))
+    return (level, threshold) if level <= threshold else None
 
 
 def check_against_trial(mvc: Mvc, trial_envelope_V, criteria: MvcCriteria | None = None) -> Mvc:

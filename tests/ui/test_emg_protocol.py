@@ -16,14 +16,19 @@ FULL_SCALE_V = 0.011  # the Trigno's range (app.emg.live.FULL_SCALE_V)
 
 class Muscles:
     """What the fake base station's sensors pick up: a 100 Hz burst-free contraction on
-    each channel at `level` V, clipped at the amplifier's range where `level` exceeds it."""
+    each channel at `level` V, clipped at the amplifier's range where `level` exceeds it;
+    while the window's guided protocol says rest (`resting`, set by the fixture), a
+    relaxed muscle's `rest_level` instead (the push must rise above it, core.emg.mvc)."""
 
     def __init__(self, rate_hz: float) -> None:
         self.rate_hz = rate_hz
         self.level = np.full(16, 2e-4)
+        self.rest_level = 5e-6
+        self.resting = lambda: False
 
     def __call__(self, k: np.ndarray) -> np.ndarray:
-        wave = np.sin(2 * np.pi * 100.0 * k[:, None] / self.rate_hz) * self.level[None, :]
+        level = np.full(16, self.rest_level) if self.resting() else self.level
+        wave = np.sin(2 * np.pi * 100.0 * k[:, None] / self.rate_hz) * level[None, :]
         return np.clip(wave, -FULL_SCALE_V, FULL_SCALE_V).astype("<f4")
 
 
@@ -36,10 +41,18 @@ def window(qtbot, tmp_path, monkeypatch):
 
 
 @pytest.fixture
-def server():
+def server(window):
     with fake.FakeTrignoServer() as s:
         s.signal = Muscles(s.rate_hz)
+        s.signal.resting = lambda: _resting(window)
         yield s
+
+
+def _resting(win) -> bool:
+    from app.emg.protocol import REST
+
+    guided = win.emg.guided
+    return guided is not None and guided.step().phase == REST
 
 
 def connect_trigno(qtbot, win, server) -> None:
@@ -53,7 +66,7 @@ def connect_trigno(qtbot, win, server) -> None:
 
 
 def short_protocol(win) -> None:
-    win.emg.rest_seconds.setValue(0.2)
+    win.emg.rest_seconds.setValue(0.6)
     win.emg.push_seconds.setValue(1.5)
 
 
@@ -111,6 +124,25 @@ def test_a_push_too_short_is_flagged(qtbot, window, server):
     line, _ = record(qtbot, win, "anterior_deltoid")
     assert "too short. Record again." in line
     assert "ask for a 3–5 s maximal effort" in win.emg.mvc_labels["anterior_deltoid"].toolTip()
+
+
+def test_a_push_no_stronger_than_the_rest_is_flagged(qtbot, window, server):
+    """A push of resting noise (the electrode off the skin or on the wrong muscle, a
+    patient who did not push) passed as an MVC 'ok', and every trial normalised by it read
+    as many times 100 % MVC: the push must rise above the rest (Hodges & Bui's onset
+    threshold, core.emg.mvc)."""
+    win = window
+    register_patient(qtbot, win)
+    connect_trigno(qtbot, win, server)
+    short_protocol(win)
+    server.signal.level[0] = server.signal.rest_level  # the biceps' sensor: rest throughout
+    line, _ = record(qtbot, win, "biceps")
+    assert "no effort above rest. Record again." in line, line
+    assert "check that the electrode is on the muscle" in \
+        win.emg.mvc_labels["biceps"].toolTip()
+    server.signal.level[0] = 2e-4
+    again, _ = record(qtbot, win, "biceps")
+    assert again.endswith(": ok"), again
 
 
 def test_the_protocol_refuses_without_a_session_or_a_source(qtbot, window):

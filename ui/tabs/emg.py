@@ -38,6 +38,7 @@ LIVE_S = 5.0
 LIVE_REFRESH_MS = 200
 PROTOCOL_TICK_MS = 100  # the countdown's refresh
 FLAG_WORDS = {"too_short": "too short", "saturated": "saturated",
+              "no_effort_above_rest": "no effort above rest",
               "below_trial_activity": "lower than the trial's activity"}
 
 
@@ -427,6 +428,7 @@ class EmgTab(QWidget):
         from core.emg.processing import EmgSettings
 
         stamps, samples = capture.between(*guided.push_span)
+        _, resting = capture.between(*guided.rest_span)
         rate, muscle, channel = capture.source.rate_hz, guided.muscle, self.guided_channel
         label, trials = self.live_label, list(self.session.trials)
         settings, full_scale = EmgSettings(), full_scale_of(self.live_label)
@@ -435,7 +437,7 @@ class EmgTab(QWidget):
         def measure():
             mvc = contraction_mvc(stamps, samples, rate, muscle, channel, settings=settings,
                                   full_scale_V=full_scale, wanted_s=guided.push_s,
-                                  source=label)
+                                  source=label, rest_samples=resting)
             checked = check_with_trials(trials, [mvc], settings_of={muscle: settings})
             # the channel in range (contraction_mvc refuses another), named as stored
             name = channel_names(declared, samples.shape[1])[channel]

@@ -153,6 +153,7 @@ def test_record_a_guided_mvc_from_the_fake_trigno(tmp_path, capsys):
     with fake.FakeTrignoServer() as server:
         code, out, err = run(["emg", "record", "trigno:127.0.0.1", "--seconds", "0.6",
                               "--output", str(out_file), "--muscle", "biceps", "--channel", "3",
+                              "--rest", "0",
                               "--command-port", str(server.command_port),
                               "--data-port", str(server.data_port)], capsys)
     assert code == 0, err
@@ -223,7 +224,7 @@ def test_record_ends_at_once_when_its_source_stops_keeping_what_came(tmp_path, c
     monkeypatch.setattr(emg_cli, "_open_source", lambda args: (source, "trigno:test"))
     out_file = tmp_path / "mvc.csv"
     code, out, err = run(["emg", "record", "trigno:test", "--seconds", "3", "--output",
-                          str(out_file), "--muscle", "biceps"], capsys)
+                          str(out_file), "--muscle", "biceps", "--rest", "0"], capsys)
     assert code == 1, err
     lines = out.splitlines()
     stopped = next(i for i, line in enumerate(lines) if line.startswith("the source stopped"))
@@ -323,7 +324,7 @@ def test_a_recording_whose_stamps_jitter_is_read_back_by_emg_mvc(made, tmp_path,
     monkeypatch.setattr(emg_cli, "_open_source", lambda args: (source, "lsl:amp"))
     out_file = tmp_path / "mvc.csv"
     code, _, err = run(["emg", "record", "lsl:amp", "--seconds", "1", "--output",
-                          str(out_file), "--muscle", "biceps", "--channel",
+                          str(out_file), "--muscle", "biceps", "--rest", "0", "--channel",
                           str(contraction.names.index(channel) + 1)], capsys)
     assert code == 0, err
     recorded = read_emg_file(out_file)
@@ -413,8 +414,8 @@ def test_record_of_microvolts_read_as_volts_writes_nothing_and_says_why(tmp_path
     monkeypatch.setattr(emg_cli, "_open_source",
                         lambda args: (_LabelledSource(data, labels), "lsl:amp"))
     out_file = tmp_path / "mvc.csv"
-    code, _, err = run(["emg", "record", "lsl:amp@V", "--muscle", "biceps", "--seconds",
-                          "0.3", "--output", str(out_file)], capsys)
+    code, _, err = run(["emg", "record", "lsl:amp@V", "--muscle", "biceps", "--rest", "0",
+                        "--seconds", "0.3", "--output", str(out_file)], capsys)
     assert code == 2
     assert not out_file.exists()
     assert err.count("\n") == 1
@@ -438,3 +439,50 @@ def test_emg_streams_says_which_stream_has_no_regular_rate(monkeypatch, capsys):
     assert ("'rehab-robot-events' type 'Markers': 1 channels at no regular rate (markers, "
             "not EMG) from vm (s)") in out
     assert " at 0 Hz" not in out
+
+
+class _RestingSource:
+    """A muscle that never contracts (an electrode off the skin, a patient who did not
+    push): 15 µV of noise at 2 kHz, as long as it is read, its stamps its own."""
+
+    rate_hz = 2000.0
+
+    def __init__(self):
+        self.rng, self.sent = np.random.default_rng(5), 0
+
+    def read(self, timeout_s=0.1):
+        import time
+
+        time.sleep(0.002)
+        k = self.sent
+        self.sent += 100
+        return 1000.0 + np.arange(k, self.sent) / self.rate_hz, \
+            self.rng.normal(0.0, 15e-6, (100, 1))
+
+    def close(self):
+        pass
+
+
+def test_a_guided_mvc_with_no_effort_above_the_rest_is_flagged(tmp_path, capsys, monkeypatch):
+    """`rehab emg record --muscle biceps` on resting noise said 'MVC 15 µV, held 8.56 s: ok'
+    (hR). It now records a rest first (not written to the CSV) and the push must rise
+    above it."""
+    import app.cli.emg as emg_cli
+
+    monkeypatch.setattr(emg_cli, "_open_source", lambda args: (_RestingSource(), "lsl:amp"))
+    out_file = tmp_path / "mvc.csv"
+    code, out, err = run(["emg", "record", "lsl:amp", "--muscle", "biceps", "--rest", "1",
+                          "--seconds", "1.5", "--output", str(out_file)], capsys)
+    assert code == 0, err
+    lines = out.splitlines()
+    assert lines.index("Rest, relaxed (1 s) …") < next(
+        i for i, line in enumerate(lines) if line.startswith("Contract the biceps"))
+    assert "FLAGGED: no_effort_above_rest" in out
+    assert "warning: biceps: no effort above rest" in out
+    # the CSV holds the contraction only: its first time is 0, its samples after the rest's
+    assert read_emg_file(out_file).t_s[0] == 0.0
+    code, _, err = run(["emg", "record", "lsl:amp", "--muscle", "biceps", "--rest", "-1",
+                        "--output", str(tmp_path / "x.csv")], capsys)
+    assert code == 2
+    assert err.count("\n") == 1
+    assert "--rest -1" in err

@@ -102,3 +102,26 @@ def test_criteria_and_recordings_are_validated():
     with pytest.raises(ParameterError, match="full_scale_V"):
         mvc_from_contraction(np.random.default_rng(0).standard_normal(4000), FS, "b",
                              full_scale_V=-1.0)
+
+
+def test_a_push_no_stronger_than_the_rest_is_flagged_and_a_real_one_is_not():
+    """Resting noise recorded as the push (a sensor off the skin, a patient who did not
+    push) passed as an MVC of 15 µV 'ok'. With the rest before it, the push's median
+    envelope must rise above the rest's mean + 3 SD (Hodges & Bui 1996); without a rest
+    nothing changes."""
+    from core.emg.mvc import NO_EFFORT
+
+    rng = np.random.default_rng(3)
+    fs = 2000.0
+    rest = rng.normal(0.0, 15e-6, int(3 * fs))
+    noise = rng.normal(0.0, 15e-6, int(5 * fs))
+    flagged = mvc_from_contraction(noise, fs, "biceps", rest=rest)
+    assert flagged.flags == (NO_EFFORT,)
+    assert "no effort above rest" in flagged.reasons[0]
+    assert mvc_from_contraction(noise, fs, "biceps").flags == ()  # no rest: not judged
+    # a weak paretic push, 2.5 times the resting noise after a 0.5 s reaction, passes
+    weak = np.concatenate([rng.normal(0.0, 15e-6, int(0.5 * fs)),
+                           rng.normal(0.0, 37.5e-6, int(4.5 * fs))])
+    assert NO_EFFORT not in mvc_from_contraction(weak, fs, "biceps", rest=rest).flags
+    # a rest shorter than one envelope window cannot be judged against
+    assert mvc_from_contraction(noise, fs, "biceps", rest=rest[:100]).flags == ()
