@@ -6,8 +6,6 @@ ui.views.patient_geometry (the screen's letter size) and ui.patient.text (what f
 
 from __future__ import annotations
 
-import dataclasses
-
 from PySide6.QtCore import QPointF, QRectF, Qt
 from PySide6.QtGui import QColor, QFont, QPainter
 
@@ -71,11 +69,10 @@ def paint_words(painter: QPainter, words: Words, base: QFont, ratio: float,
     """The top band and the bottom's words of a frame; returns what was painted (for the
     tests that read the screen: the texts, their pixel sizes)."""
     font = band_font(base, bands)
-    if plan is not None and plan.laps_before and frame.repetition > 0:
+    if plan is not None:
         # a round resumed after a pause: its laps go on ("Lap 3 of 60"), not from 1 of the
         # laps the new trial runs ("Lap 1 of 58", the patient's count gone back)
-        frame = dataclasses.replace(frame, repetition=frame.repetition + plan.laps_before,
-                                    repetitions=frame.repetitions + plan.laps_before)
+        frame = frame.counted_on(plan.laps_before)
     score = frame.game.score_text if frame.game else ""
     # a plan's block is said with "Get ready" (PlanOverlay.ready_text), not here: beside
     # the lap and the time left the three came to 18 mm, not 20, on 22 inches

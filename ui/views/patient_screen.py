@@ -40,6 +40,7 @@ hand gets round; the time left stays what ends the trial.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -235,6 +236,25 @@ class PatientFrame:
     counted: str = "Lap"
     """What `repetition` counts, in the patient's word: laps, or a task's pushes or
     targets (TASK_COUNTED)."""
+    result_lap: int = 0
+    """The lap the result names by its number (the end's "Lap 3 done!"), 0 if none."""
+    result_quality: str | None = ""
+    """That lap's quality in words, as `lap_words` takes it."""
+
+    def counted_on(self, laps_before: int) -> PatientFrame:
+        """The same frame counting its laps on from `laps_before` run earlier (a plan's
+        round resumed after a pause): the top band's lap and, at the end, the last lap's
+        number in its result. Only the band was counted on, and a round resumed at "Lap 3
+        of 60" ended saying "Lap 58 done!" under "Lap 60 of 60"."""
+        if laps_before <= 0 or self.repetition <= 0:
+            return self
+        result, lap = self.result, self.result_lap
+        if lap > 0:
+            lap += laps_before
+            result = lap_words(lap, self.result_quality, last=True)
+        return dataclasses.replace(self, repetition=self.repetition + laps_before,
+                                   repetitions=self.repetitions + laps_before,
+                                   result=result, result_lap=lap)
 
     @property
     def message(self) -> str:
@@ -324,6 +344,7 @@ def frame_at(view: TrialView, scene: Scene, options: PatientOptions,
                                     t0 + (repetition - 1) * p.duration_s)
     numbers = _numbers(view) if options.show_numbers and started else ()
     result, success = "", False
+    result_lap, quality = 0, ""
     played = game.at(view, exercise_start_s) if game is not None else None
     if played is not None:
         result, success = played.result, played.success
@@ -335,11 +356,14 @@ def frame_at(view: TrialView, scene: Scene, options: PatientOptions,
         into = elapsed - (repetition - 1) * p.duration_s
         # at most half a lap: the lap under way is what matters
         if into < min(RESULT_SHOWN_S, 0.5 * p.duration_s):
-            result, success = _round_result(view, p, t0, repetition - 1)
+            quality = _lap_judged(view, p, t0, repetition - 1)
+            result, success = lap_words(repetition - 1, quality, False), quality is not None
     elif started and cue == CUE_DONE and scene.task is None:
         # the last lap's result, which no next lap shows, with the end; a hand that
         # did not follow the path is not praised for it
-        result, success = _round_result(view, p, t0, repetition, last=True)
+        quality = _lap_judged(view, p, t0, repetition)
+        result, success = lap_words(repetition, quality, True), quality is not None
+        result_lap = repetition
         if not success:
             cue = CUE_OVER
     if scene.task is not None:
@@ -347,7 +371,8 @@ def frame_at(view: TrialView, scene: Scene, options: PatientOptions,
     return PatientFrame(cue, cue == CUE_GO, cursor, target, active, repetition,
                         p.repetitions, left, previous_path_m=previous, numbers=numbers,
                         sample=i, result=result, success=success, game=played,
-                        exercise_started_s=t0)
+                        exercise_started_s=t0, result_lap=result_lap,
+                        result_quality=quality)
 
 
 def _task_frame(view: TrialView, scene: Scene, i: int, cue: str, cursor, started: bool,
@@ -390,14 +415,13 @@ def _task_frame(view: TrialView, scene: Scene, i: int, cue: str, cursor, started
                         blank=blank, push=push, counted=counted)
 
 
-def _round_result(view: TrialView, p: TrialParameters, t0: float, n: int,
-                  last: bool = False) -> tuple[str, bool]:
-    """Lap `n`'s result in words (knowledge of results, then its quality) and whether it
-    was a success: the hand followed the path (`round_travelled`)."""
+def _lap_judged(view: TrialView, p: TrialParameters, t0: float, n: int) -> str | None:
+    """Lap `n`'s quality in words ("" when it cannot be judged), or None when the hand did
+    not follow the path (`round_travelled`): a success is a lap whose hand followed it."""
     span = (t0 + (n - 1) * p.duration_s, t0 + n * p.duration_s)
     if round_travelled(view, p, *span):
-        return lap_words(n, round_quality(view, p, *span), last), True
-    return lap_words(n, None, last), False
+        return round_quality(view, p, *span)
+    return None
 
 
 def lap_words(n: int, quality: str | None, last: bool) -> str:
