@@ -21,7 +21,17 @@ line; the other channels are read when their unit is a voltage and their type EM
 (one in milliGs that does not say it is an accelerometer).
 
 The inlet asks liblsl to correct a remote sender's clock onto this machine's
-(`proc_clocksync`), so its stamps are this machine's monotonic seconds.
+(`proc_clocksync`), so its stamps are this machine's monotonic seconds, and for nothing
+else: the stamps come as the sender gave them, and what the capture does to them is said
+with the trial's EMG (device.emg.capture). liblsl's other post-processing would hide what
+the record must say. `proc_monotonize` sets a stamp that goes back equal to the one
+before (liblsl's time_postprocessor: `if (value < last_value_) value = last_value_`): the
+trial file's EMG times must increase, so the capture would still move it, and its note
+would say "by up to 0.0 ms", the sender's 1.5 ms lost. `proc_dejitter` replaces every
+stamp by a line fitted over the last 90 s (a recursive least-squares fit on the sample
+count): 100 samples lost at the sender (a 50 ms step) came as 1.4 ms steps spread over
+the next ones, counted as 125 missing, and no stamp was the sender's (measured on this
+machine's loopback, tests/device/test_lsl.py).
 """
 
 from __future__ import annotations
@@ -87,6 +97,7 @@ class LslEmgInlet:
         if rate_hz is not None and abs(info.nominal_srate() - rate_hz) > 0.01 * rate_hz:
             raise LslError(f"{what} runs at {info.nominal_srate():g} Hz, {rate_hz:g} Hz "
                            "expected")
+        # the clock offset only, not proc_dejitter or proc_monotonize (module docstring)
         self._inlet = lsl.StreamInlet(info, max_buflen=buffer_s,
                                       processing_flags=lsl.proc_clocksync)
         try:  # a resolved stream's info is its header; the description comes from the sender

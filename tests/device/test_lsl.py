@@ -107,6 +107,39 @@ def test_the_emg_inlet_receives_every_sample_on_the_local_clock():
     inlet.close()
 
 
+def test_the_inlet_keeps_the_stamps_as_sent_so_the_file_says_what_was_moved_and_lost():
+    """The inlet asks liblsl for its clock offset only (proc_clocksync), not to dejitter or
+    monotonize (device.lsl.inlet says why). Measured here (brief hT): with proc_monotonize
+    a stamp that went back came equal to the one before, which the trial file refuses as
+    well, and nothing told how many; with proc_dejitter every stamp was replaced by a
+    regression line and 100 lost samples (a 50 ms step) were smeared into 1.4 ms steps,
+    counted as 125. The capture repairs the one stamp that went back and says by how
+    much, and the hole keeps its size."""
+    from device.emg.capture import EmgCapture
+
+    name = _unique()
+    outlet = _emg_outlet(name, channels=2, rate=2000.0)
+    inlet = LslEmgInlet(name, channels=2, rate_hz=2000.0, timeout_s=5.0).open(5.0)
+    _wait_for(outlet.have_consumers, "the inlet connecting")
+    now = pylsl.local_clock()
+    index = np.concatenate((np.arange(200), np.arange(300, 500)))  # 100 lost
+    stamps = now + index / 2000.0
+    stamps[100:200] -= 0.002  # the second chunk back-dated 2 ms: it goes back
+    for k in range(0, 400, 100):
+        outlet.push_chunk(np.zeros((100, 2), np.float32), timestamp=stamps[k:k + 100].tolist())
+    # started once all is sent (the inlet buffers it): a host's stall between the start
+    # and the first push is no source that stopped (STALL_S)
+    capture = EmgCapture(inlet).start()
+    _wait_for(lambda: capture.snapshot().stamps_s.size >= 400, "400 samples arriving")
+    captured = capture.stop()
+    assert (np.diff(captured.stamps_s) > 0).all()
+    assert captured.missing == 100
+    (said,) = [n for n in captured.notes if "stamps" in n]
+    depth_ms = float(said.split("by up to ")[1].split(" ms")[0])
+    assert depth_ms >= 1.0, said  # the stamp went back 1.5 ms: said as it was
+    np.testing.assert_allclose(captured.stamps_s[200:], stamps[200:], atol=5e-3)
+
+
 @pytest.mark.parametrize(("fmt", "dtype", "unit", "volts"), [
     (pylsl.cf_int16, np.int16, "microvolts", 1e-6),
     (pylsl.cf_int32, np.int32, "uV", 1e-6),
