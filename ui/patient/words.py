@@ -1,7 +1,7 @@
 """The patient's screen's words, painted: the top band (the count, the time left), the
 bottom's cue or result on one line or two (a game's score beside it), and a session plan's
-cover (a rest's countdown, a pause, the end). Each text is rendered once into a pixmap and kept (the
-screen redraws the same few words at 60 frames a second); sizes come from
+cover (a rest's countdown, a pause, the end). Each text is rendered once into a pixmap and
+kept (the screen redraws the same few words at 60 frames a second); sizes come from
 ui.views.patient_geometry (the screen's letter size) and ui.patient.text (what fits)."""
 
 from __future__ import annotations
@@ -117,10 +117,10 @@ def score_beside(font: QFont, bottom: Rect, lines: tuple[str, ...], score: str
     """Where the bottom's one line and a game's score go side by side at the screen's
     letter size, as the top band's lap and time left above them (the line at the left,
     the score at the right: centred, a hit's "Hit! 0.5 s" was pushed against the score
-    and read as one phrase with it), or None: no score, or the
-    line and the score do not fit together, the line then said alone ("Keep moving round",
-    which scores nothing) and the score back when the line is gone. At the end the cue
-    says the score ("Well done! Score 40"), and "Stopped" is said alone.
+    and read as one phrase with it), or None: no score, or the line and the score do not
+    fit together, the line then said alone ("Keep moving round", which scores nothing)
+    and the score back when the line is gone. At the end the cue says the score ("Well
+    done! Score 40"), and "Stopped" is said alone.
 
     The score stood in the top band's middle, beside the lap and the time left: the three
     came to 19.2–19.7 mm, 17.2 with ten laps, full screen on 22 inches, where the screen

@@ -25,11 +25,11 @@ blocks (ui.views.patient_plan). A task the robot leads counts its pushes or its 
 ("Push 3 of 16"), not laps.
 
 After each lap of a plain exercise the result comes first ("Done!" while the next lap runs,
-"Lap 3 done!" at the end), then the lap's quality in words (`round_quality`: how close the
-hand kept to the path), the order clinicians use (knowledge of results, then of
-performance); words, not millimetres, as the screen shows no clinical figure the therapist
-has not chosen. A hand that did not follow the path (`round_travelled`: less than the path
-game's share of its length) is told to, not praised for staying on it at the start.
+"Lap 3 done!" at the end), then the lap's quality in words (how close the hand kept to the
+path), the order clinicians use (knowledge of results, then of performance); words, not
+millimetres, as the screen shows no clinical figure the therapist has not chosen. A hand
+that did not follow the path (less than the path game's share of its length) is told to,
+not praised for staying on it at the start (ui.views.patient_laps judges a lap).
 
 The repetition and the time left follow the trial's clock (`duration_s` per
 repetition from the exercise's first sample), the same clock that ends the trial. In
@@ -47,32 +47,17 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from core.games import GameLayout, game_layout
-from core.games.layout import distance_to_path
-from core.games.scoring import COVERAGE
 from core.holdtasks import ROBOT_TASKS, TaskTrajectory
 from core.trial import TrialParameters
 from device.loop.pipeline import PHASE_APPROACH, PHASE_EXERCISE, PHASE_HOLD
 from ui.views.patient_game import RESULT_SHOWN_S, GameFeed, GameFrame
+from ui.views.patient_laps import lap_judged, lap_words
 from ui.views.trialview import TrialView
 
 GO_SHOWN_S = 1.5  # long enough to read at a glance, short enough not to linger
 PATH_SPACING_M = 0.004
 TARGET_RADIUS_M = 0.015  # a reach target's drawn radius when no game sets one
 PREVIOUS_PATH_POINTS = 400
-QUALITY_POINTS = 50
-"""Samples of a lap its quality is judged on, spread evenly over it (one judgement per
-frame, cheap at 60 frames a second)."""
-QUALITY_WORDS = ((0.005, "Right on the path"), (0.015, "Close to the path"))
-"""The hand's RMS distance from the path over a lap (m) at most which each is said: 5 mm
-is the thesis subject's tracking with the robot's help (8.68 / 7.02 mm RMSE, section 3.6,
-is a whole healthy trial's), 15 mm a third of the D's width off it."""
-QUALITY_ELSE = "Stay closer to the path"
-QUALITY_STILL = "Now follow the whole path"
-QUALITY_STILL_LAST = "next time, follow the whole path"
-"""A lap whose hand moved less than COVERAGE of the path's length: still at the start,
-it is on the path, but did not follow it (a relaxed hand in the transparent mode, which
-nothing moves); said in white, not as a success."""
-
 CUE_WAIT = "Please wait"
 CUE_READY = "Get ready"
 CUE_GO = "Go!"
@@ -242,10 +227,9 @@ class PatientFrame:
     """That lap's quality in words, as `lap_words` takes it."""
 
     def counted_on(self, laps_before: int) -> PatientFrame:
-        """The same frame counting its laps on from `laps_before` run earlier (a plan's
-        round resumed after a pause): the top band's lap and, at the end, the last lap's
-        number in its result. Only the band was counted on, and a round resumed at "Lap 3
-        of 60" ended saying "Lap 58 done!" under "Lap 60 of 60"."""
+        """The frame counting its laps on from `laps_before` run earlier (a plan's round
+        resumed after a pause): the band's lap and the end's "Lap 60 done!" alike (only
+        the band was, and the end said "Lap 58 done!" under "Lap 60 of 60")."""
         if laps_before <= 0 or self.repetition <= 0:
             return self
         result, lap = self.result, self.result_lap
@@ -356,12 +340,12 @@ def frame_at(view: TrialView, scene: Scene, options: PatientOptions,
         into = elapsed - (repetition - 1) * p.duration_s
         # at most half a lap: the lap under way is what matters
         if into < min(RESULT_SHOWN_S, 0.5 * p.duration_s):
-            quality = _lap_judged(view, p, t0, repetition - 1)
+            quality = lap_judged(view, p, t0, repetition - 1)
             result, success = lap_words(repetition - 1, quality, False), quality is not None
     elif started and cue == CUE_DONE and scene.task is None:
         # the last lap's result, which no next lap shows, with the end; a hand that
         # did not follow the path is not praised for it
-        quality = _lap_judged(view, p, t0, repetition)
+        quality = lap_judged(view, p, t0, repetition)
         result, success = lap_words(repetition, quality, True), quality is not None
         result_lap = repetition
         if not success:
@@ -413,69 +397,6 @@ def _task_frame(view: TrialView, scene: Scene, i: int, cue: str, cursor, started
     return PatientFrame(TASK_WORDS.get(stretch.phase, ""), False, None if blank else cursor,
                         None, -1, number, total, left, sample=i, exercise_started_s=t0,
                         blank=blank, push=push, counted=counted)
-
-
-def _lap_judged(view: TrialView, p: TrialParameters, t0: float, n: int) -> str | None:
-    """Lap `n`'s quality in words ("" when it cannot be judged), or None when the hand did
-    not follow the path (`round_travelled`): a success is a lap whose hand followed it."""
-    span = (t0 + (n - 1) * p.duration_s, t0 + n * p.duration_s)
-    if round_travelled(view, p, *span):
-        return round_quality(view, p, *span)
-    return None
-
-
-def lap_words(n: int, quality: str | None, last: bool) -> str:
-    """Lap `n`'s result as the screen says it: done with its `quality` ("" when it could
-    not be judged), or not followed (None). At the trial's end with the lap's number
-    ("Lap 3 done! Right on the path", on two lines if need be); during the next lap
-    without it, on one line at the screen's letter size: the top band says which lap is
-    under way, and the table's foot is watched. With the number ("Lap 12 done! Stay
-    closer to the path", "Lap 1 over: now follow the whole path") it was shrunk to 16 mm,
-    not 20, full screen on 22 inches."""
-    if last:
-        if quality is None:
-            return f"Lap {n} over: {QUALITY_STILL_LAST}"
-        return f"Lap {n} done!" + (f" {quality}" if quality else "")
-    if quality is None:
-        return QUALITY_STILL
-    return "Done!" + (f" {quality}" if quality else "")
-
-
-def round_travelled(view: TrialView, parameters: TrialParameters, start_s: float,
-                    end_s: float) -> bool:
-    """The hand moved at least COVERAGE of the path's length between `start_s` and
-    `end_s` (trial clock), the path game's rule for a lap that counts
-    (core.games.scoring); True when the view holds too little of the round to judge."""
-    a, b = np.searchsorted(view.time, [start_s, end_s])
-    if b - a < 2:
-        return True
-    position = view.column("position")[:, a:b]
-    steps = np.diff(position, axis=1)
-    moved = float(np.nansum(np.hypot(steps[0], steps[1])))
-    return moved >= COVERAGE * parameters.path().length
-
-
-def round_quality(view: TrialView, parameters: TrialParameters, start_s: float,
-                  end_s: float) -> str:
-    """The quality of the round between `start_s` and `end_s` (trial clock) in words: the
-    hand's RMS distance from the path (core.games.layout.distance_to_path, the path game's
-    formula) over QUALITY_POINTS of its samples, against QUALITY_WORDS; "" when the view
-    holds too little of the round to judge."""
-    a, b = np.searchsorted(view.time, [start_s, end_s])
-    if b - a < 2:
-        return ""
-    picks = np.linspace(a, b - 1, min(QUALITY_POINTS, b - a)).astype(int)
-    position = view.column("position")[:, picks]
-    finite = np.isfinite(position).all(axis=0)
-    if not finite.any():
-        return ""
-    path = parameters.path()
-    off = [distance_to_path(path, float(x), float(y)) for x, y in position[:, finite].T]
-    rms = math.sqrt(sum(d * d for d in off) / len(off))
-    for most, words in QUALITY_WORDS:
-        if rms <= most:
-            return words
-    return QUALITY_ELSE
 
 
 def _active_target(scene: Scene, target, direction) -> int:

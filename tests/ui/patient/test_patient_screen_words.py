@@ -15,13 +15,8 @@ from core.trial import REPETITIONS_RANGE, THESIS_SUBJECT
 from ui.patient.text import top_band, two_lines
 from ui.patient.window import PatientWindow
 from ui.views.patient_geometry import MIN_LETTER_MM, layout
-from ui.views.patient_screen import (
-    QUALITY_ELSE,
-    QUALITY_WORDS,
-    TASK_WORDS,
-    PatientFrame,
-    lap_words,
-)
+from ui.views.patient_laps import QUALITY_ELSE, QUALITY_WORDS, lap_words
+from ui.views.patient_screen import TASK_WORDS, PatientFrame
 
 MM_PER_PX_22_INCH = 22 * 25.4 / (1920**2 + 1080**2) ** 0.5
 
