@@ -221,7 +221,9 @@ def increasing(stamps_s: np.ndarray, rate_hz: float) -> tuple[np.ndarray, str]:
     sample a stamp back-dated by the rate, which a late push puts before the last chunk's
     last (seen under load: 2 ms back); the trial file's EMG times only ever increase,
     and its reader refused the whole EMG as damaged. A stamp not after the one before
-    is moved to just after it, the samples kept in the order they came."""
+    is moved to just after it, the samples kept in the order they came. Done here, not by
+    liblsl's proc_monotonize, which leaves the stamp equal and tells nobody
+    (device.lsl.inlet)."""
     floor = STAMP_STEP_SHARE / rate_hz
     step = floor * np.arange(stamps_s.size)
     fixed = np.maximum.accumulate(stamps_s - step) + step  # max(t_k, fixed_{k-1} + floor)

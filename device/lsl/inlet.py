@@ -21,17 +21,17 @@ line; the other channels are read when their unit is a voltage and their type EM
 (one in milliGs that does not say it is an accelerometer).
 
 The inlet asks liblsl to correct a remote sender's clock onto this machine's
-(`proc_clocksync`), so its stamps are this machine's monotonic seconds.
-
-Order. A sender that pushes chunks without stamps of its own gets liblsl's: the chunk's
-last sample at the moment of the push, the others back from it at the nominal rate, so a
-push a few milliseconds early makes its chunk overlap the one before. Those stamps went
-backwards, and `rehab emg record`'s CSV of them was refused by the console's own readers
-(`emg mvc`, `emg import`: times must increase). Each stamp is therefore kept at least
-ORDER_STEP of a sample period after the one before (across reads too): an overlap is taken
-up within a few samples, a stamp that was in order is unchanged, and a real gap (a sender
-away and back) stays a gap. Not dejittered further: the stamps stay within the push's
-jitter of the truth, as liblsl gave them.
+(`proc_clocksync`), so its stamps are this machine's monotonic seconds, and for nothing
+else: the stamps come as the sender gave them, and what the capture does to them is said
+with the trial's EMG (device.emg.capture). liblsl's other post-processing would hide what
+the record must say. `proc_monotonize` sets a stamp that goes back equal to the one
+before (liblsl's time_postprocessor: `if (value < last_value_) value = last_value_`): the
+trial file's EMG times must increase, so the capture would still move it, and its note
+would say "by up to 0.0 ms", the sender's 1.5 ms lost. `proc_dejitter` replaces every
+stamp by a line fitted over the last 90 s (a recursive least-squares fit on the sample
+count): 100 samples lost at the sender (a 50 ms step) came as 1.4 ms steps spread over
+the next ones, counted as 125 missing, and no stamp was the sender's (measured on this
+machine's loopback, tests/device/test_lsl.py).
 """
 
 from __future__ import annotations
@@ -47,8 +47,6 @@ from core.emg.units import (
 )
 from device.lsl.library import LslError, channel_descriptions, pylsl, summary
 
-ORDER_STEP = 0.9
-"""The least step between two stamps, in sample periods (module docstring, Order)."""
 DUPLICATE_LOOK_S = 1.0
 """How long to look for a second stream of the name: liblsl answers resolves in waves, and
 with discovery confined to this machine the second stream came after 0.5 s."""
@@ -99,6 +97,7 @@ class LslEmgInlet:
         if rate_hz is not None and abs(info.nominal_srate() - rate_hz) > 0.01 * rate_hz:
             raise LslError(f"{what} runs at {info.nominal_srate():g} Hz, {rate_hz:g} Hz "
                            "expected")
+        # the clock offset only, not proc_dejitter or proc_monotonize (module docstring)
         self._inlet = lsl.StreamInlet(info, max_buflen=buffer_s,
                                       processing_flags=lsl.proc_clocksync)
         try:  # a resolved stream's info is its header; the description comes from the sender
@@ -119,7 +118,6 @@ class LslEmgInlet:
         # as wide as the stream, trigger channels and all
         self._buffer = np.empty((max(1024, int(self.rate_hz)), info.channel_count()),
                                 dtype=fmt)
-        self._last_stamp: float | None = None
 
     def open(self, timeout_s: float = 3.0) -> LslEmgInlet:
         try:
@@ -145,22 +143,7 @@ class LslEmgInlet:
         n = len(stamps)
         samples = self._buffer[:n] if self._columns is None else \
             self._buffer[:n, self._columns]
-        return self._in_order(np.asarray(stamps, dtype=float)), \
-            samples.astype(float) * self.volts_per_unit
-
-    def _in_order(self, stamps: np.ndarray) -> np.ndarray:
-        """The stamps running forward: each at least ORDER_STEP of a period after the one
-        before, this read's first after the last read's (module docstring, Order)."""
-        if stamps.size == 0:
-            return stamps
-        floor = ORDER_STEP / self.rate_hz
-        k = np.arange(stamps.size)
-        base = stamps - k * floor
-        if self._last_stamp is not None:
-            base[0] = max(base[0], self._last_stamp + floor)
-        out = k * floor + np.maximum.accumulate(base)
-        self._last_stamp = float(out[-1])
-        return out
+        return np.asarray(stamps, dtype=float), samples.astype(float) * self.volts_per_unit
 
     def close(self) -> None:
         self._inlet.close_stream()

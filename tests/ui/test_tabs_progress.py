@@ -210,3 +210,51 @@ def test_an_assessment_s_series_offers_its_task_s_figures(qtbot, qapp, tmp_path)
     assert tab.metric_choice.currentText() == "Absolute error (mm)"
     (line,) = _curves(tab.plot)
     np.testing.assert_allclose(line.getOriginalDataset()[1], [40.0, 30.0])
+
+
+def test_markers_at_100_percent_are_drawn_whole(qtbot, qapp, tmp_path):
+    """Brief hT: a trial at 100 % cut short is drawn hollow, and its ring was half cut at
+    the plot's top: the axis ended 5 % of the span above 100 %, fewer pixels than the
+    marker's radius on a laptop's plot. Every marker, filled or hollow, lies whole inside
+    the plot, at the laptop's height and a tall screen's, and after a resize."""
+    from PySide6.QtCore import QPointF
+
+    theme.apply_theme(qapp)
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("Ada", "Example", side="right").code
+    number = registry.open_session(code).number
+    for status, pct in (("complete", 80.0), ("complete", 100.0), ("stopped_early", 100.0),
+                        ("complete", 95.0)):
+        begun = registry.begin_trial(code, THESIS_SUBJECT, backend="simulator",
+                                     session_number=number)
+        registry.finish_trial(begun.trial_id, status, {"directional_performance_pct": pct})
+    tab = ProgressTab(registry)
+    shown(qtbot, tab, 1358, 547)  # as in the window at 1366 × 768
+    with qtbot.waitSignal(tab.progress_loaded, timeout=10000):
+        tab.set_patient(code)
+    assert tab.metric_choice.currentData() == "directional_performance_pct"
+
+    def check() -> None:
+        qapp.processEvents()
+        box = tab.plot.getPlotItem().getViewBox()
+        inside = box.sceneBoundingRect()
+        markers = 0
+        for item in tab.plot.getPlotItem().items:
+            scatter = item.scatter if isinstance(item, pg.PlotDataItem) else item
+            if not isinstance(scatter, pg.ScatterPlotItem):
+                continue
+            for point in scatter.points():
+                centre = box.mapViewToScene(QPointF(point.pos()))
+                radius = 0.5 * point.size() + point.pen().widthF()
+                assert inside.top() <= centre.y() - radius, (point.pos(), point.size())
+                assert centre.y() + radius <= inside.bottom(), (point.pos(), point.size())
+                markers += 1
+        assert markers == 4
+
+    check()
+    tab.resize(1900, 1000)
+    tab.layout().activate()
+    check()
+    tab.resize(1358, 547)
+    tab.layout().activate()
+    check()

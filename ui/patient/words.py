@@ -1,18 +1,16 @@
-"""The patient's screen's words, painted: the top band (the count, the score or the lap, the
-time left), the bottom's cue or result on one line or two, and a session plan's cover (a
-rest's countdown, a pause, the end). Each text is rendered once into a pixmap and kept (the
-screen redraws the same few words at 60 frames a second); sizes come from
+"""The patient's screen's words, painted: the top band (the count, the time left), the
+bottom's cue or result on one line or two (a game's score beside it), and a session plan's
+cover (a rest's countdown, a pause, the end). Each text is rendered once into a pixmap and
+kept (the screen redraws the same few words at 60 frames a second); sizes come from
 ui.views.patient_geometry (the screen's letter size) and ui.patient.text (what fits)."""
 
 from __future__ import annotations
-
-import dataclasses
 
 from PySide6.QtCore import QPointF, QRectF, Qt
 from PySide6.QtGui import QColor, QFont, QPainter
 
 from ui.patient.text import fitted_px, margin, qrect, sized, text_pixmap, top_band, two_lines
-from ui.views.patient_geometry import LINE_SPACING, ScreenLayout
+from ui.views.patient_geometry import LINE_SPACING, Rect, ScreenLayout
 from ui.views.patient_plan import PlanOverlay
 from ui.views.patient_screen import CUE_DONE, CUE_OVER, CUE_READY, CUE_STOPPED, PatientFrame
 
@@ -71,16 +69,15 @@ def paint_words(painter: QPainter, words: Words, base: QFont, ratio: float,
     """The top band and the bottom's words of a frame; returns what was painted (for the
     tests that read the screen: the texts, their pixel sizes)."""
     font = band_font(base, bands)
-    if plan is not None and plan.laps_before and frame.repetition > 0:
+    if plan is not None:
         # a round resumed after a pause: its laps go on ("Lap 3 of 60"), not from 1 of the
         # laps the new trial runs ("Lap 1 of 58", the patient's count gone back)
-        frame = dataclasses.replace(frame, repetition=frame.repetition + plan.laps_before,
-                                    repetitions=frame.repetitions + plan.laps_before)
-    score = frame.game.score_text if frame.game else ""
-    # a plan's block is said with "Get ready" (PlanOverlay.ready_text), not here: beside
-    # the lap and the time left the three came to 18 mm, not 20, on 22 inches
-    texts = (frame.repetition_text, score, frame.time_left_text)
-    # one size for the band, the largest at which the three fit side by side
+        frame = frame.counted_on(plan.laps_before)
+    # a plan's block is said with "Get ready" (PlanOverlay.ready_text), and a game's score
+    # at the bottom (score_beside), not here: beside the lap and the time left either
+    # came to 17–19 mm, not 20, full screen on 22 inches
+    texts = (frame.repetition_text, "", frame.time_left_text)
+    # one size for the band, the largest at which its texts fit side by side
     top, places = top_band(font, bands.top, texts)
     for rect, text, align in zip(places, texts, (Qt.AlignmentFlag.AlignLeft,
                                                  Qt.AlignmentFlag.AlignHCenter,
@@ -99,12 +96,42 @@ def paint_words(painter: QPainter, words: Words, base: QFont, ratio: float,
         # the lines above the band lie over the table's foot: the band grows, on black
         painter.fillRect(QRectF(bottom.left(), rows[0].top(), bottom.width(),
                                 bottom.top() - rows[0].top()), BACKGROUND)
+    score = frame.game.score_text if frame.game is not None and \
+        frame.cue != CUE_STOPPED and not frame.cue.startswith((CUE_DONE, CUE_OVER)) else ""
+    beside = score_beside(font, bands.bottom, lines, score)
+    if beside is not None:
+        rows = [beside[0]]  # the text's own width: centred in it is at its left
+        words.draw(painter, base, ratio, beside[1], Qt.AlignmentFlag.AlignRight, score,
+                   bands.text_px, TEXT)
     drawn = [words.draw(painter, base, ratio, row, Qt.AlignmentFlag.AlignHCenter, line, size,
                         colour) for row, line, size in zip(rows, lines, sizes, strict=True)]
     figures = paint_figures(painter, words, base, ratio, bands, frame.numbers)
-    return {"top": texts, "top_px": top, "message": " ".join(lines),
+    return {"top": texts, "top_px": top, "score": score if beside is not None else "",
+            "message": " ".join(lines),
             "message_lines": lines, "message_px": sizes,
             "message_at": tuple(r for r in drawn if r is not None), "figures_at": figures}
+
+
+def score_beside(font: QFont, bottom: Rect, lines: tuple[str, ...], score: str
+                 ) -> tuple[QRectF, QRectF] | None:
+    """Where the bottom's one line and a game's score go side by side at the screen's
+    letter size, as the top band's lap and time left above them (the line at the left,
+    the score at the right: centred, a hit's "Hit! 0.5 s" was pushed against the score
+    and read as one phrase with it), or None: no score, or the line and the score do not
+    fit together, the line then said alone ("Keep moving round", which scores nothing)
+    and the score back when the line is gone. At the end the cue says the score ("Well
+    done! Score 40"), and "Stopped" is said alone.
+
+    The score stood in the top band's middle, beside the lap and the time left: the three
+    came to 19.2–19.7 mm, 17.2 with ten laps, full screen on 22 inches, where the screen
+    promises 20. The bottom is where the game's results are said, and a hit's "+10" and
+    the score's step are then read together."""
+    if not score or len(lines) != 1:
+        return None
+    size, (left, _, right) = top_band(font, bottom, (lines[0], "", score))
+    if size < font.pixelSize():
+        return None
+    return left, right
 
 
 FIGURES_SHARE = 0.5

@@ -54,6 +54,10 @@ HELP_TOP = 150.0  # the help plot's top (%): room above 100 % for the pace and t
 HELP_COLOUR = theme.SERIES[2]
 PLOT_LEAST_LINES = 5.5  # the series plot's readable least, in text lines: four ticks
 HELP_LEAST_LINES = 5.0  # the help plot's: its trial axis, its title and 0-100 %
+POINT_PX = 11  # a trial that ran the whole exercise: a filled disc
+CUT_SHORT_PX = 15  # one that did not: a hollow ring, larger, off the line
+MARKER_ROOM_PX = 0.5 * CUT_SHORT_PX + 2  # the largest marker's radius and its pen's width
+VALUE_PADDING = 0.05  # the series' span's share left above and below it
 KEY = (f"<span style='color:{theme.BLUE}'>●</span> complete &nbsp; "
        f"<span style='color:{theme.VERMILLION}'>○</span> did not run to its end &nbsp; "
        f"<span style='color:{HELP_COLOUR}'>━</span> the robot's help as it ran (%), "
@@ -170,6 +174,8 @@ class ProgressTab(QWidget):
         self.plot = plots.make_plot("", "")
         self.help_plot = plots.make_plot("trial (session, trial)", "help (%)")
         self.help_plot.setXLink(self.plot)
+        self._value_span: tuple[float, float] | None = None
+        self.plot.getPlotItem().getViewBox().sigResized.connect(self._fit_values)
         self.table = QTableWidget()
         self.table.setEditTriggers(QTableWidget.EditTrigger.NoEditTriggers)
         self.table.verticalHeader().hide()
@@ -379,6 +385,7 @@ class ProgressTab(QWidget):
         item, help_item = self.plot.getPlotItem(), self.help_plot.getPlotItem()
         item.clear()
         help_item.clear()
+        self._value_span = None
         index = self.exercise_choice.currentIndex()
         key = self.metric_choice.currentData()
         if result is None or index < 0 or key is None:
@@ -398,12 +405,13 @@ class ProgressTab(QWidget):
         # cover only part of the exercise and make no trend with the others
         whole = shown & figure.complete
         item.addItem(pg.PlotDataItem(x[whole], y[whole], pen=theme.pen(theme.BLUE),
-                                     symbol="o", symbolSize=11,
+                                     symbol="o", symbolSize=POINT_PX,
                                      symbolPen=theme.pen(theme.BLUE),
                                      symbolBrush=pg.mkBrush(theme.BLUE)))
         partial = shown & ~figure.complete
         if partial.any():
-            item.addItem(pg.ScatterPlotItem(x[partial], y[partial], symbol="o", size=15,
+            item.addItem(pg.ScatterPlotItem(x[partial], y[partial], symbol="o",
+                                            size=CUT_SHORT_PX,
                                             pen=theme.pen(theme.VERMILLION),
                                             brush=pg.mkBrush("w")))
         help_item.addItem(pg.PlotDataItem(figure.help_x, figure.help_y,
@@ -431,8 +439,25 @@ class ProgressTab(QWidget):
         if n:
             item.setXRange(0.5, n + 0.5, padding=0)
             low, high = value_span(y, figure.row.unit)
-            if low < high:
-                item.setYRange(low, high, padding=0.05)
+            self._value_span = (low, high) if low < high else None
+            self._fit_values()
+
+    def _fit_values(self, *_) -> None:
+        """The series' y axis: its values' span (value_span) and room above and below for
+        a whole marker. Padded by 5 % of the span alone, the axis ended 3–5 px above
+        100 % on a laptop's plot, and a trial at 100 % cut short (a 15 px ring) was drawn
+        half cut at the top; the room is worked out in pixels, again at each resize."""
+        if self._value_span is None:
+            return
+        low, high = self._value_span
+        box = self.plot.getPlotItem().getViewBox()
+        span = high - low
+        height = box.height()
+        # a pad p (value units) shows span + 2p over the box's height: the marker's
+        # radius r (px) fits when p ≥ r·span / (height − 2r)
+        room = MARKER_ROOM_PX * span / max(height - 2 * MARKER_ROOM_PX, 1.0)
+        pad = max(VALUE_PADDING * span, room)
+        box.setYRange(low - pad, high + pad, padding=0)
 
     def _choose_pdf(self) -> None:
         if self._progress is None or self.registry is None:

@@ -25,11 +25,11 @@ blocks (ui.views.patient_plan). A task the robot leads counts its pushes or its 
 ("Push 3 of 16"), not laps.
 
 After each lap of a plain exercise the result comes first ("Done!" while the next lap runs,
-"Lap 3 done!" at the end), then the lap's quality in words (`round_quality`: how close the
-hand kept to the path), the order clinicians use (knowledge of results, then of
-performance); words, not millimetres, as the screen shows no clinical figure the therapist
-has not chosen. A hand that did not follow the path (`round_travelled`: less than the path
-game's share of its length) is told to, not praised for staying on it at the start.
+"Lap 3 done!" at the end), then the lap's quality in words (how close the hand kept to the
+path), the order clinicians use (knowledge of results, then of performance); words, not
+millimetres, as the screen shows no clinical figure the therapist has not chosen. A hand
+that did not follow the path (less than the path game's share of its length) is told to,
+not praised for staying on it at the start (ui.views.patient_laps judges a lap).
 
 The repetition and the time left follow the trial's clock (`duration_s` per
 repetition from the exercise's first sample), the same clock that ends the trial. In
@@ -40,38 +40,24 @@ hand gets round; the time left stays what ends the trial.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from core.games import GameLayout, game_layout
-from core.games.layout import distance_to_path
-from core.games.scoring import COVERAGE
 from core.holdtasks import ROBOT_TASKS, TaskTrajectory
 from core.trial import TrialParameters
 from device.loop.pipeline import PHASE_APPROACH, PHASE_EXERCISE, PHASE_HOLD
 from ui.views.patient_game import RESULT_SHOWN_S, GameFeed, GameFrame
+from ui.views.patient_laps import lap_judged, lap_words
 from ui.views.trialview import TrialView
 
 GO_SHOWN_S = 1.5  # long enough to read at a glance, short enough not to linger
 PATH_SPACING_M = 0.004
 TARGET_RADIUS_M = 0.015  # a reach target's drawn radius when no game sets one
 PREVIOUS_PATH_POINTS = 400
-QUALITY_POINTS = 50
-"""Samples of a lap its quality is judged on, spread evenly over it (one judgement per
-frame, cheap at 60 frames a second)."""
-QUALITY_WORDS = ((0.005, "Right on the path"), (0.015, "Close to the path"))
-"""The hand's RMS distance from the path over a lap (m) at most which each is said: 5 mm
-is the thesis subject's tracking with the robot's help (8.68 / 7.02 mm RMSE, section 3.6,
-is a whole healthy trial's), 15 mm a third of the D's width off it."""
-QUALITY_ELSE = "Stay closer to the path"
-QUALITY_STILL = "Now follow the whole path"
-QUALITY_STILL_LAST = "next time, follow the whole path"
-"""A lap whose hand moved less than COVERAGE of the path's length: still at the start,
-it is on the path, but did not follow it (a relaxed hand in the transparent mode, which
-nothing moves); said in white, not as a success."""
-
 CUE_WAIT = "Please wait"
 CUE_READY = "Get ready"
 CUE_GO = "Go!"
@@ -235,6 +221,24 @@ class PatientFrame:
     counted: str = "Lap"
     """What `repetition` counts, in the patient's word: laps, or a task's pushes or
     targets (TASK_COUNTED)."""
+    result_lap: int = 0
+    """The lap the result names by its number (the end's "Lap 3 done!"), 0 if none."""
+    result_quality: str | None = ""
+    """That lap's quality in words, as `lap_words` takes it."""
+
+    def counted_on(self, laps_before: int) -> PatientFrame:
+        """The frame counting its laps on from `laps_before` run earlier (a plan's round
+        resumed after a pause): the band's lap and the end's "Lap 60 done!" alike (only
+        the band was, and the end said "Lap 58 done!" under "Lap 60 of 60")."""
+        if laps_before <= 0 or self.repetition <= 0:
+            return self
+        result, lap = self.result, self.result_lap
+        if lap > 0:
+            lap += laps_before
+            result = lap_words(lap, self.result_quality, last=True)
+        return dataclasses.replace(self, repetition=self.repetition + laps_before,
+                                   repetitions=self.repetitions + laps_before,
+                                   result=result, result_lap=lap)
 
     @property
     def message(self) -> str:
@@ -324,6 +328,7 @@ def frame_at(view: TrialView, scene: Scene, options: PatientOptions,
                                     t0 + (repetition - 1) * p.duration_s)
     numbers = _numbers(view) if options.show_numbers and started else ()
     result, success = "", False
+    result_lap, quality = 0, ""
     played = game.at(view, exercise_start_s) if game is not None else None
     if played is not None:
         result, success = played.result, played.success
@@ -335,11 +340,14 @@ def frame_at(view: TrialView, scene: Scene, options: PatientOptions,
         into = elapsed - (repetition - 1) * p.duration_s
         # at most half a lap: the lap under way is what matters
         if into < min(RESULT_SHOWN_S, 0.5 * p.duration_s):
-            result, success = _round_result(view, p, t0, repetition - 1)
+            quality = lap_judged(view, p, t0, repetition - 1)
+            result, success = lap_words(repetition - 1, quality, False), quality is not None
     elif started and cue == CUE_DONE and scene.task is None:
         # the last lap's result, which no next lap shows, with the end; a hand that
         # did not follow the path is not praised for it
-        result, success = _round_result(view, p, t0, repetition, last=True)
+        quality = lap_judged(view, p, t0, repetition)
+        result, success = lap_words(repetition, quality, True), quality is not None
+        result_lap = repetition
         if not success:
             cue = CUE_OVER
     if scene.task is not None:
@@ -347,7 +355,8 @@ def frame_at(view: TrialView, scene: Scene, options: PatientOptions,
     return PatientFrame(cue, cue == CUE_GO, cursor, target, active, repetition,
                         p.repetitions, left, previous_path_m=previous, numbers=numbers,
                         sample=i, result=result, success=success, game=played,
-                        exercise_started_s=t0)
+                        exercise_started_s=t0, result_lap=result_lap,
+                        result_quality=quality)
 
 
 def _task_frame(view: TrialView, scene: Scene, i: int, cue: str, cursor, started: bool,
@@ -388,70 +397,6 @@ def _task_frame(view: TrialView, scene: Scene, i: int, cue: str, cursor, started
     return PatientFrame(TASK_WORDS.get(stretch.phase, ""), False, None if blank else cursor,
                         None, -1, number, total, left, sample=i, exercise_started_s=t0,
                         blank=blank, push=push, counted=counted)
-
-
-def _round_result(view: TrialView, p: TrialParameters, t0: float, n: int,
-                  last: bool = False) -> tuple[str, bool]:
-    """Lap `n`'s result in words (knowledge of results, then its quality) and whether it
-    was a success: the hand followed the path (`round_travelled`)."""
-    span = (t0 + (n - 1) * p.duration_s, t0 + n * p.duration_s)
-    if round_travelled(view, p, *span):
-        return lap_words(n, round_quality(view, p, *span), last), True
-    return lap_words(n, None, last), False
-
-
-def lap_words(n: int, quality: str | None, last: bool) -> str:
-    """Lap `n`'s result as the screen says it: done with its `quality` ("" when it could
-    not be judged), or not followed (None). At the trial's end with the lap's number
-    ("Lap 3 done! Right on the path", on two lines if need be); during the next lap
-    without it, on one line at the screen's letter size: the top band says which lap is
-    under way, and the table's foot is watched. With the number ("Lap 12 done! Stay
-    closer to the path", "Lap 1 over: now follow the whole path") it was shrunk to 16 mm,
-    not 20, full screen on 22 inches."""
-    if last:
-        if quality is None:
-            return f"Lap {n} over: {QUALITY_STILL_LAST}"
-        return f"Lap {n} done!" + (f" {quality}" if quality else "")
-    if quality is None:
-        return QUALITY_STILL
-    return "Done!" + (f" {quality}" if quality else "")
-
-
-def round_travelled(view: TrialView, parameters: TrialParameters, start_s: float,
-                    end_s: float) -> bool:
-    """The hand moved at least COVERAGE of the path's length between `start_s` and
-    `end_s` (trial clock), the path game's rule for a lap that counts
-    (core.games.scoring); True when the view holds too little of the round to judge."""
-    a, b = np.searchsorted(view.time, [start_s, end_s])
-    if b - a < 2:
-        return True
-    position = view.column("position")[:, a:b]
-    steps = np.diff(position, axis=1)
-    moved = float(np.nansum(np.hypot(steps[0], steps[1])))
-    return moved >= COVERAGE * parameters.path().length
-
-
-def round_quality(view: TrialView, parameters: TrialParameters, start_s: float,
-                  end_s: float) -> str:
-    """The quality of the round between `start_s` and `end_s` (trial clock) in words: the
-    hand's RMS distance from the path (core.games.layout.distance_to_path, the path game's
-    formula) over QUALITY_POINTS of its samples, against QUALITY_WORDS; "" when the view
-    holds too little of the round to judge."""
-    a, b = np.searchsorted(view.time, [start_s, end_s])
-    if b - a < 2:
-        return ""
-    picks = np.linspace(a, b - 1, min(QUALITY_POINTS, b - a)).astype(int)
-    position = view.column("position")[:, picks]
-    finite = np.isfinite(position).all(axis=0)
-    if not finite.any():
-        return ""
-    path = parameters.path()
-    off = [distance_to_path(path, float(x), float(y)) for x, y in position[:, finite].T]
-    rms = math.sqrt(sum(d * d for d in off) / len(off))
-    for most, words in QUALITY_WORDS:
-        if rms <= most:
-            return words
-    return QUALITY_ELSE
 
 
 def _active_target(scene: Scene, target, direction) -> int:

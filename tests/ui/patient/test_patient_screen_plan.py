@@ -251,3 +251,29 @@ def test_a_round_resumed_after_a_pause_counts_its_laps_on(patient):
     patient.frame = PatientFrame("", False, None, None, -1, 1, 60, 300.0)
     patient.grab()
     assert patient.painted["top"][0] == "Lap 1 of 60"
+
+
+@pytest.mark.parametrize("followed", [True, False])
+def test_a_resumed_round_s_end_names_the_lap_the_band_counted(patient, followed):
+    """Brief hT: a round resumed after a pause ended saying "Lap 58 done!" under a top band
+    "Lap 60 of 60": the band counted the laps on from the paused trial's, the last lap's
+    result kept the resumed trial's own number. Both say the round's lap."""
+    from tests.ui.views.timetable import on_the_path
+    from ui.views.patient_screen import PatientOptions, Scene, frame_at
+    from ui.views.trialview import TrialView
+
+    params = THESIS_SUBJECT.replace(repetitions=3, duration_s=2.0)
+    records = on_the_path(params, 300, 100)
+    if not followed:
+        records["position"] = records["position_desired"][300]  # the hand left at the start
+    view = TrialView(params)
+    view.append(records)
+    patient.show_parameters(params)
+    patient.show_plan(_state(block=1, laps_planned=3, laps_done=57))
+    patient.frame = frame_at(view, Scene.of(params), PatientOptions())
+    patient.grab()
+    assert patient.painted["top"][0] == "Lap 60 of 60"
+    said = "Lap 60 done! Right on the path" if followed else \
+        "Lap 60 over: next time, follow the whole path"
+    assert patient.painted["message"].endswith(said)
+    assert "58" not in patient.painted["message"]

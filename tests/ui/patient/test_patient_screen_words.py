@@ -15,13 +15,8 @@ from core.trial import REPETITIONS_RANGE, THESIS_SUBJECT
 from ui.patient.text import top_band, two_lines
 from ui.patient.window import PatientWindow
 from ui.views.patient_geometry import MIN_LETTER_MM, layout
-from ui.views.patient_screen import (
-    QUALITY_ELSE,
-    QUALITY_WORDS,
-    TASK_WORDS,
-    PatientFrame,
-    lap_words,
-)
+from ui.views.patient_laps import QUALITY_ELSE, QUALITY_WORDS, lap_words
+from ui.views.patient_screen import TASK_WORDS, PatientFrame
 
 MM_PER_PX_22_INCH = 22 * 25.4 / (1920**2 + 1080**2) ** 0.5
 
@@ -236,3 +231,35 @@ def test_stopped_is_said_alone(full_screen):
     frame = PatientFrame("Stopped", False, (-0.25, 0.3), None, -1, 2, 3, 8.0,
                          result="Lap 1 done! Right on the path", success=True)
     assert _painted(full_screen, frame)["message_lines"] == ("Stopped",)
+
+
+@pytest.mark.parametrize("laps", [3, 10, REPETITIONS_RANGE[1]])
+def test_a_game_s_lap_time_and_score_keep_the_letter_size(full_screen, laps):
+    """Brief hT: a game's top band of lap, score and time left ("Lap 3 of 3", "Score 40",
+    "1:30 left") came to 19.2–19.7 mm full screen on 22 inches, 17.2 with ten laps: three
+    texts side by side do not fit at 20 mm. The band keeps the lap and the time left; the
+    score stands at the right of the bottom, beside the game's result, at the letter size
+    too, for every lap count and score a game can have (its longest time left: 120 s a
+    lap). A result too long to share the line is said alone, at the letter size."""
+    from types import SimpleNamespace
+
+    text_px = full_screen.screen_layout().text_px
+    most = f"Score {laps * 16 * 10}"  # every target of 16 hit, every lap
+    for score in ("Score 0", "Score 40", "Score -120", most):
+        game = SimpleNamespace(score_text=score, state=SimpleNamespace(inside=True))
+        for result in ("", "Hit! 12.3 s", "Missed", "Clean lap! +10", "88.8 s outside"):
+            for cue, lap in (("Go!", 1), ("", laps)):
+                frame = PatientFrame(cue, cue == "Go!", (-0.25, 0.3), None, -1, lap, laps,
+                                     120.0 * laps, result=result, game=game)
+                painted = _painted(full_screen, frame)
+                assert painted["top_px"] == text_px, painted["top"]
+                assert painted["score"] == score, painted
+                assert painted["message_px"] == (text_px,), painted
+        alone = PatientFrame("", False, (-0.25, 0.3), None, -1, 2, laps, 60.0,
+                             result="Keep moving round", game=game)
+        painted = _painted(full_screen, alone)
+        assert painted["message_px"] == (text_px,)
+        assert painted["score"] in ("", score)
+    end = PatientFrame("Well done! Score 40", False, (-0.25, 0.3), None, -1, laps, laps, 0.0,
+                       game=game)
+    assert _painted(full_screen, end)["score"] == ""  # the end's cue says it
