@@ -44,11 +44,12 @@ def window(qtbot, tmp_path, monkeypatch):
 def server(window):
     with fake.FakeTrignoServer() as s:
         s.signal = Muscles(s.rate_hz)
-        s.signal.resting = lambda: _resting(window)
+        s.signal.resting = lambda: resting(window)
         yield s
 
 
-def _resting(win) -> bool:
+def resting(win) -> bool:
+    """The window's guided MVC says rest (the fake muscles relax)."""
     from app.emg.protocol import REST
 
     guided = win.emg.guided

@@ -15,7 +15,7 @@ from device.errors import RecordingError
 from device.loop.states import State
 from device.recording.emgfile import read_emg
 from tests.ui.session import click, fake_trigno, open_window, register_patient, short_trial
-from tests.ui.test_emg_protocol import Muscles, connect_trigno, record, short_protocol
+from tests.ui.test_emg_protocol import Muscles, connect_trigno, record, resting, short_protocol
 from ui.views.emg import emg_view
 
 pytestmark = pytest.mark.slow
@@ -125,6 +125,7 @@ def test_the_session_mvcs_give_live_and_stored_percent_mvc(qtbot, tmp_path, monk
     win = open_window(qtbot, tmp_path, monkeypatch)
     with fake.FakeTrignoServer() as server:
         server.signal = Muscles(server.rate_hz)
+        server.signal.resting = lambda: resting(win)
         try:
             register_patient(qtbot, win)
             short_trial(win)

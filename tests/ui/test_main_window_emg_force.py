@@ -27,7 +27,7 @@ from tests.ui.session import (
     open_window,
     register_patient,
 )
-from tests.ui.test_emg_protocol import Muscles, connect_trigno, record, short_protocol
+from tests.ui.test_emg_protocol import Muscles, connect_trigno, record, resting, short_protocol
 from tests.ui.test_main_window_emg import _readable
 
 pytestmark = pytest.mark.slow
@@ -70,6 +70,7 @@ def console(qtbot, tmp_path, monkeypatch, approved):
     win = open_window(qtbot, tmp_path, monkeypatch)
     with fake.FakeTrignoServer() as server:
         server.signal = Muscles(server.rate_hz)
+        server.signal.resting = lambda: resting(win)
         yield win, server
 
 
