@@ -17,7 +17,8 @@ A contraction is flagged when it is
   the true maximum is then unknown;
 * no effort above rest (given the rest before the push, as the guided protocol and `rehab
   emg record --muscle` record it): the push's median envelope stays within the resting
-  envelope's mean + `onset_sd` standard deviations, the threshold by which a muscle's
+  envelope's mean + `onset_sd` standard deviations (the rest's first third left out, the
+  patient settling), the threshold by which a muscle's
   onset is detected against its baseline (Hodges & Bui 1996, Electroencephalogr Clin
   Neurophysiol 101:511, k = 3). A push of resting noise (a sensor off the skin or on
   the wrong muscle, a patient who did not push) otherwise passed as an MVC of, say, 15 µV
@@ -42,6 +43,8 @@ SATURATED = "saturated"
 NO_EFFORT = "no_effort_above_rest"
 BELOW_TRIAL = "below_trial_activity"
 FLAGS = (TOO_SHORT, SATURATED, NO_EFFORT, BELOW_TRIAL)
+REST_SETTLING = 3
+"""The rest's first 1/REST_SETTLING is not its resting level (`_above_rest`)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -149,6 +152,10 @@ def _above_rest(push_envelope, rest, fs_hz: float, settings: EmgSettings | None,
     quiet = np.asarray(rest, dtype=float)
     if quiet.ndim != 1 or quiet.size < 2:
         return None
+    # its first third left out: the patient still settling after being told to rest, and
+    # samples from before the word stamped into it by the source's latency (a window test
+    # under load: the push's level read as the rest's, the push then not above it)
+    quiet = quiet[quiet.size // REST_SETTLING:]
     try:
         resting = envelope(quiet, fs_hz, settings).values
     except ParameterError:  # shorter than one envelope window: nothing to compare with

@@ -67,7 +67,7 @@ def connect_trigno(qtbot, win, server) -> None:
 
 
 def short_protocol(win) -> None:
-    win.emg.rest_seconds.setValue(0.6)
+    win.emg.rest_seconds.setValue(1.2)  # its last 0.8 s the resting level (core.emg.mvc)
     win.emg.push_seconds.setValue(1.5)
 
 

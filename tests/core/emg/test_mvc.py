@@ -125,3 +125,18 @@ def test_a_push_no_stronger_than_the_rest_is_flagged_and_a_real_one_is_not():
     assert NO_EFFORT not in mvc_from_contraction(weak, fs, "biceps", rest=rest).flags
     # a rest shorter than one envelope window cannot be judged against
     assert mvc_from_contraction(noise, fs, "biceps", rest=rest[:100]).flags == ()
+
+
+def test_the_rests_first_third_is_not_its_resting_level():
+    """A window test under load: samples from before 'rest' (at the push's level) were
+    stamped into the rest's start, the rest's mean + 3 SD rose to the push's level, and a
+    sound MVC was flagged 'no effort above rest'. The patient settles during the rest's
+    first third, which is left out."""
+    from core.emg.mvc import NO_EFFORT
+
+    rng = np.random.default_rng(4)
+    fs = 2000.0
+    rest = np.concatenate([rng.normal(0.0, 200e-6, int(0.3 * fs)),  # still pushing
+                           rng.normal(0.0, 5e-6, int(0.9 * fs))])
+    push = rng.normal(0.0, 200e-6, int(5 * fs))
+    assert NO_EFFORT not in mvc_from_contraction(push, fs, "triceps", rest=rest).flags
