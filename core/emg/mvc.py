@@ -17,8 +17,9 @@ A contraction is flagged when it is
   the true maximum is then unknown;
 * no effort above rest (given the rest before the push, as the guided protocol and `rehab
   emg record --muscle` record it): the push's median envelope stays within the resting
-  envelope's mean + `onset_sd` standard deviations (the rest's first third left out, the
-  patient settling), the threshold by which a muscle's
+  envelope's median + `onset_sd` robust standard deviations (1.4826 × its median absolute
+  deviation, so that a few samples of the push stamped into the rest do not raise it; the
+  rest's first third left out, the patient settling), the threshold by which a muscle's
   onset is detected against its baseline (Hodges & Bui 1996, Electroencephalogr Clin
   Neurophysiol 101:511, k = 3). A push of resting noise (a sensor off the skin or on
   the wrong muscle, a patient who did not push) otherwise passed as an MVC of, say, 15 µV
@@ -58,7 +59,7 @@ class MvcCriteria:
     repeated_extreme_samples: int = 4  # the same |max| this many times: flat tops
     trial_peak_fraction: float = 1.0
     trial_typical_fraction: float = 0.6
-    onset_sd: float = 3.0  # Hodges & Bui 1996: baseline mean + 3 SD
+    onset_sd: float = 3.0  # Hodges & Bui 1996: baseline + 3 SD (here its robust form)
 
     def __post_init__(self) -> None:
         check_positive("min_hold_s", self.min_hold_s, "s")
@@ -136,7 +137,7 @@ def mvc_from_contraction(
         flags.append(NO_EFFORT)
         reasons.append(f"{muscle}: no effort above rest: the push's EMG ({1e6 * above[0]:.1f} "
                        f"µV, its median) stays within the resting level ({1e6 * above[1]:.1f} "
-                       f"µV, mean + {criteria.onset_sd:g} SD); check that the electrode is on "
+                       f"µV, median + {criteria.onset_sd:g} SD); check that the electrode is on "
                        "the muscle and on the skin, and that the patient pushes, then record "
                        "again (a muscle with no voluntary EMG has no MVC to normalise by)")
     return Mvc(muscle, value, float(env.t_s[peak]), hold_s, clipped, tuple(flags),
@@ -162,7 +163,12 @@ def _above_rest(push_envelope, rest, fs_hz: float, settings: EmgSettings | None,
         return None
     if resting.size < 2:
         return None
-    threshold = float(resting.mean() + criteria.onset_sd * resting.std())
+    # the robust form of mean + k SD (median, and the MAD scaled to a normal SD): a patient
+    # who starts the push before the word, or samples stamped across the boundary, are a
+    # few outliers that blew the SD up to the push's level (a whole check under load)
+    centre = float(np.median(resting))
+    spread = 1.4826 * float(np.median(np.abs(resting - centre)))
+    threshold = centre + criteria.onset_sd * spread
     level = float(np.median(push_envelope))
     return (level, threshold) if level <= threshold else None
 

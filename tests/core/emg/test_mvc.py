@@ -140,3 +140,18 @@ def test_the_rests_first_third_is_not_its_resting_level():
                            rng.normal(0.0, 5e-6, int(0.9 * fs))])
     push = rng.normal(0.0, 200e-6, int(5 * fs))
     assert NO_EFFORT not in mvc_from_contraction(push, fs, "triceps", rest=rest).flags
+
+
+def test_a_push_begun_before_the_word_still_leaves_the_rest_its_level():
+    """A whole check: the fake muscles' push samples landed in the rest's last part (a
+    patient who starts before 'PUSH' does the same), the rest's mean + 3 SD rose to the
+    push's level and a sound MVC, saturated or not, read 'no effort above rest'. The
+    threshold is the robust one: median + 3 × 1.4826 MAD."""
+    from core.emg.mvc import NO_EFFORT
+
+    rng = np.random.default_rng(6)
+    fs = 2000.0
+    rest = np.concatenate([rng.normal(0.0, 5e-6, int(1.0 * fs)),
+                           rng.normal(0.0, 200e-6, int(0.2 * fs))])  # began early
+    push = rng.normal(0.0, 200e-6, int(5 * fs))
+    assert NO_EFFORT not in mvc_from_contraction(push, fs, "triceps", rest=rest).flags
