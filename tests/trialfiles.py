@@ -14,6 +14,16 @@ SEAL, SEAL_SHA256, HEADER_SHA256 = "seal", "seal_sha256", "header_sha256"
 """The seal's root attributes (device.recording.trialfile.seal)."""
 
 
+def flip_last_byte(path) -> None:
+    """One bit of a file's last byte flipped: a trial file changed after it was finished
+    (or its copy damaged in a trial store), whose SHA-256 is no longer the one recorded."""
+    with open(path, "r+b") as file:
+        file.seek(-1, 2)
+        last = file.read(1)
+        file.seek(-1, 2)
+        file.write(bytes([last[0] ^ 1]))
+
+
 @contextlib.contextmanager
 def edited(path):
     """h5py's file opened to change it, sealed again on leaving (when it was sealed): a

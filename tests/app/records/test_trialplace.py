@@ -31,6 +31,7 @@ from app.reports.progress import (
 from app.trials.finalize import finalize_trial
 from app.trials.headless import save, simulate
 from core.trial import THESIS_SUBJECT
+from tests.trialfiles import flip_last_byte
 from ui.views.progress_table import progress_table
 
 PARAMS = THESIS_SUBJECT.replace(duration_s=2.0)
@@ -40,14 +41,6 @@ def _finished(registry, code):
     begun = registry.begin_trial(code, PARAMS, backend="simulator")
     save(simulate(PARAMS, patient="healthy"), begun.path, subject_code=code)
     return registry.trial(finalize_trial(registry, begun.trial_id).trial_id)
-
-
-def _flip_last_byte(path) -> None:
-    with open(path, "r+b") as file:
-        file.seek(-1, 2)
-        last = file.read(1)
-        file.seek(-1, 2)
-        file.write(bytes([last[0] ^ 1]))
 
 
 @pytest.fixture
@@ -77,7 +70,7 @@ def test_each_trial_says_its_station_and_where_its_file_is(department):
     robot_1, code, (_, lost), (_, gone, damaged, _), store, on_server = department
     robot_1.trial_path(lost).unlink()  # robot-1's own, never copied: really missing
     (store / gone.file).unlink()  # copied, then lost from the store
-    _flip_last_byte(store / damaged.file)  # its copy damaged in the store
+    flip_last_byte(store / damaged.file)  # its copy damaged in the store
 
     summaries = robot_1.trial_summaries(code)
     assert [(s.station, s.stored_in) for s in summaries] == [
@@ -116,7 +109,7 @@ def test_replay_reads_the_store_s_copy_only_when_it_is_the_file_recorded(departm
     assert file_to_read(robot_1, stored) == (
         copy, f"read from the trial store's copy {copy}")
 
-    _flip_last_byte(store / damaged.file)
+    flip_last_byte(store / damaged.file)
     with pytest.raises(AppError, match=rf"^the copy of session 1, trial {damaged.number} "
                                        rf"\(id {damaged.id}\) in the trial store .* is not "
                                        r"the file recorded: its SHA-256 is"):

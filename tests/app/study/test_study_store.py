@@ -19,16 +19,9 @@ from app.study.rows import analyse_trials
 from app.trials.finalize import finalize_trial
 from app.trials.headless import save, simulate
 from core.trial import THESIS_SUBJECT
+from tests.trialfiles import flip_last_byte
 
 PARAMS = THESIS_SUBJECT.replace(duration_s=2.0)
-
-
-def _flip_last_byte(path) -> None:
-    with open(path, "r+b") as file:
-        file.seek(-1, 2)
-        last = file.read(1)
-        file.seek(-1, 2)
-        file.write(bytes([last[0] ^ 1]))
 
 
 @pytest.fixture
@@ -62,10 +55,10 @@ def test_each_trial_is_read_where_its_recorded_file_is(department):
     assert all("trial store" not in row.notes for row in whole.values())
 
     registry.trial_path(first).unlink()  # the data folder's file gone: the store's is read
-    _flip_last_byte(registry.trial_path(second))  # changed here, whole in the store
-    _flip_last_byte(registry.trial_path(third))  # changed here and in the store
-    _flip_last_byte(store / third.file)
-    _flip_last_byte(registry.trial_path(fourth))  # changed here, not copied yet
+    flip_last_byte(registry.trial_path(second))  # changed here, whole in the store
+    flip_last_byte(registry.trial_path(third))  # changed here and in the store
+    flip_last_byte(store / third.file)
+    flip_last_byte(registry.trial_path(fourth))  # changed here, not copied yet
     rows = _rows(registry, code)
 
     for trial, why in ((first, "is missing"), (second, "is not the file recorded")):
@@ -91,8 +84,8 @@ def test_each_trial_is_read_where_its_recorded_file_is(department):
 def test_an_export_takes_the_same_files_and_lists_the_others(department, tmp_path):
     registry, code, (first, _, third, _), store = department
     registry.trial_path(first).unlink()
-    _flip_last_byte(registry.trial_path(third))
-    _flip_last_byte(store / third.file)
+    flip_last_byte(registry.trial_path(third))
+    flip_last_byte(store / third.file)
     result = export_patients(registry, [code], tmp_path / "export")
     assert result.exported == 3
     assert [f.reason.split(":")[0] for f in result.failed] == [f"trial {third.id}"]
