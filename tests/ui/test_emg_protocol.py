@@ -3,6 +3,8 @@ source, see its status, record each muscle's MVC (rest, push with a countdown, t
 and its quality at once), record a flagged one again; a missing or misconfigured source
 is one line. Against the fake Trigno Control Utility (tests/device/fakes)."""
 
+import time
+
 import numpy as np
 import pytest
 
@@ -17,18 +19,26 @@ FULL_SCALE_V = 0.011  # the Trigno's range (app.emg.live.FULL_SCALE_V)
 class Muscles:
     """What the fake base station's sensors pick up: a 100 Hz burst-free contraction on
     each channel at `level` V, clipped at the amplifier's range where `level` exceeds it;
-    while the window's guided protocol says rest (`resting`, set by the fixture), a
-    relaxed muscle's `rest_level` instead (the push must rise above it, core.emg.mvc)."""
+    a sample whose time the window's guided protocol gave to rest (`resting`, set by the
+    fixture) a relaxed muscle's `rest_level` instead (the push must rise above it,
+    core.emg.mvc). A sample's time is the stream's: its first sample's plus k / rate, as
+    a sensor samples the muscle when the sample is due. Not the moment the fake's thread
+    makes it: a thread the machine stalled through a rest catches up after it, and the
+    rest's samples (stamped by k / rate, device.emg.trigno) read as the push's level."""
 
     def __init__(self, rate_hz: float) -> None:
         self.rate_hz = rate_hz
         self.level = np.full(16, 2e-4)
         self.rest_level = 5e-6
-        self.resting = lambda: False
+        self.resting = lambda t_s: np.zeros(t_s.shape, dtype=bool)
+        self.first_s = None  # monotonic time of sample 0
 
     def __call__(self, k: np.ndarray) -> np.ndarray:
-        level = np.full(16, self.rest_level) if self.resting() else self.level
-        wave = np.sin(2 * np.pi * 100.0 * k[:, None] / self.rate_hz) * level[None, :]
+        if self.first_s is None:
+            self.first_s = time.monotonic() - k[0] / self.rate_hz
+        rest = self.resting(self.first_s + k / self.rate_hz)
+        level = np.where(rest[:, None], self.rest_level, self.level[None, :])
+        wave = np.sin(2 * np.pi * 100.0 * k[:, None] / self.rate_hz) * level
         return np.clip(wave, -FULL_SCALE_V, FULL_SCALE_V).astype("<f4")
 
 
@@ -44,16 +54,30 @@ def window(qtbot, tmp_path, monkeypatch):
 def server(window):
     with fake.FakeTrignoServer() as s:
         s.signal = Muscles(s.rate_hz)
-        s.signal.resting = lambda: resting(window)
+        s.signal.resting = lambda t_s: resting(window, t_s)
         yield s
 
 
-def resting(win) -> bool:
-    """The window's guided MVC says rest (the fake muscles relax)."""
-    from app.emg.protocol import REST
-
+def resting(win, t_s: np.ndarray) -> np.ndarray:
+    """Which of the monotonic times `t_s` the window's guided MVC gave to rest (the fake
+    muscles relax)."""
     guided = win.emg.guided
-    return guided is not None and guided.step().phase == REST
+    if guided is None:
+        return np.zeros(t_s.shape, dtype=bool)
+    start_s, end_s = guided.rest_span
+    return (t_s >= start_s) & (t_s < end_s)
+
+
+def test_a_stalled_stream_keeps_each_sample_at_its_own_time():
+    """The fake's own check: the samples of a rest made after the rest (the thread
+    stalled) are still the rest's, as a real sensor's are (a whole check flagged a sound
+    MVC 'no effort above rest' when they were made at the push's level)."""
+    muscles = Muscles(2000.0)
+    muscles.resting = lambda t_s: (t_s >= muscles.first_s + 1.0) & (t_s < muscles.first_s + 2.0)
+    muscles(np.arange(0, 26))
+    k = np.arange(2000, 4000)  # the rest's samples, made late
+    assert np.abs(muscles(k)).max() <= muscles.rest_level
+    assert np.abs(muscles(np.arange(4000, 4400))).max() > 0.9 * 2e-4
 
 
 def connect_trigno(qtbot, win, server) -> None:

@@ -125,7 +125,7 @@ def test_the_session_mvcs_give_live_and_stored_percent_mvc(qtbot, tmp_path, monk
     win = open_window(qtbot, tmp_path, monkeypatch)
     with fake.FakeTrignoServer() as server:
         server.signal = Muscles(server.rate_hz)
-        server.signal.resting = lambda: resting(win)
+        server.signal.resting = lambda t_s: resting(win, t_s)
         try:
             register_patient(qtbot, win)
             short_trial(win)

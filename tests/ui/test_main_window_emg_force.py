@@ -70,7 +70,7 @@ def console(qtbot, tmp_path, monkeypatch, approved):
     win = open_window(qtbot, tmp_path, monkeypatch)
     with fake.FakeTrignoServer() as server:
         server.signal = Muscles(server.rate_hz)
-        server.signal.resting = lambda: resting(win)
+        server.signal.resting = lambda t_s: resting(win, t_s)
         yield win, server
 
 
