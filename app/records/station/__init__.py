@@ -38,6 +38,7 @@ from app.records.registry import Registry
 from app.records.registry.database import file_state
 from app.records.registry.patients import is_code
 from app.records.registry.url import server_place, shown_url
+from app.records.station import secondname
 from app.records.station.mirror import (
     OFFLINE,
     StandbyDataDir,
@@ -396,6 +397,9 @@ class StationRegistry:
                 log.warning("the offline records had arrived at the last attempt")
             else:
                 synced = replay(conn, work, self._shown(), self.station)
+                # before the commit: a trial registered under a second name is found by it
+                # once the server has it
+                secondname.make(self.data_dir, synced.second_names)
         for moved in synced.renumbered:  # kept in the registry too (sync.py, renumber.py)
             log.warning("sent under the server's next free number: %s", moved.line)
         kept = keep_sent(path)
