@@ -18,6 +18,7 @@ import shutil
 
 import pytest
 
+from app.errors import AppError
 from app.records.datadir import DataDir
 from app.records.registry import Registry
 from app.records.registry.postgres import seals
@@ -142,6 +143,13 @@ def test_a_renumbered_trial_whose_file_name_another_station_has_arrives_under_a_
     assert not (store / recorded.file).exists()  # robot-2's name there stays robot-2's
     assert direct.verify_trial_file(ours.id) is None  # here and in the store
     assert file_to_read(direct, direct.trial(ours.id)) == (linked, "")
+    # robot-2's trial has the name of robot-1's own file here: never opened for it (it
+    # was, robot-1's recording shown as robot-2's trial), found at robot-2 or in the store
+    theirs = direct.trial(other.trial_id)
+    with pytest.raises(AppError, match="on station robot-2, not yet in the trial store"):
+        file_to_read(direct, theirs)
+    assert store_pending(robot_2, store).problems == []
+    assert file_to_read(direct, direct.trial(other.trial_id))[0] == store / theirs.file
 
     # the commit arrived but its answer did not: the station still holds the same records
     shutil.copy(sent, standby_path(data))
