@@ -25,8 +25,9 @@ from app.records.registry.postgres import seals
 from app.records.registry.provenance import file_checksum
 from app.records.station import StationRegistry, renumber
 from app.records.station.mirror import standby_path
-from app.records.trialplace import HDF5_SIGNATURE, file_to_read
+from app.records.trialplace import FILE_AT_STATION, FILE_OK, HDF5_SIGNATURE, file_to_read
 from app.records.trialstore import store_pending
+from app.reports.progress import progress
 from core.trial import THESIS_SUBJECT
 from tests.netcut import NetworkCut
 
@@ -146,6 +147,7 @@ def test_a_renumbered_trial_whose_file_name_another_station_has_arrives_under_a_
     # robot-2's trial has the name of robot-1's own file here: never opened for it (it
     # was, robot-1's recording shown as robot-2's trial), found at robot-2 or in the store
     theirs = direct.trial(other.trial_id)
+    assert progress(direct, code).file_states == (FILE_OK, FILE_AT_STATION, FILE_OK)
     with pytest.raises(AppError, match="on station robot-2, not yet in the trial store"):
         file_to_read(direct, theirs)
     assert store_pending(robot_2, store).problems == []
