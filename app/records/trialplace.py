@@ -64,10 +64,19 @@ class TrialPlaces:
         self.shared = bool(registry.location())
         self._reachable: dict[str, bool] = {}
 
-    def state(self, file: str, stored_in: str | None, station: str | None) -> str:
+    def state(self, file: str, stored_in: str | None, station: str | None,
+              checksum: str | None = None) -> str:
         """The state of a trial's file (FILE_*) from what the registry records of it: its
-        relative path, the store holding its copy and the station that recorded it."""
+        relative path, the store holding its copy and the station that recorded it; with its
+        `checksum`, a file of its name here that is not it is taken for none (below)."""
         here = _signature(self.root, file)
+        if here == FILE_OK and checksum is not None and self.elsewhere(station) \
+                and file_checksum(self.root + file) != checksum:
+            # Another station's trial, and a file of its name here that is another: this
+            # station's own recording, registered under a second name because that trial
+            # has its name (app.records.station.secondname). Only such an oddity is hashed:
+            # another station's files are not in this folder.
+            here = FILE_MISSING
         if here == FILE_OK:
             return FILE_OK
         if stored_in is not None:
@@ -106,7 +115,7 @@ def file_to_read(registry: RecordStore, trial: Trial, *, checked: bool = True
     reader's to name (the path returned)."""
     places = TrialPlaces(registry)
     here = registry.trial_path(trial)
-    state = places.state(trial.file, trial.stored_in, trial.station)
+    state = places.state(trial.file, trial.stored_in, trial.station, trial.checksum)
     if state == FILE_OK or (state in (FILE_MISSING, FILE_UNREADABLE)
                             and trial.stored_in is None):
         return here, ""

@@ -275,7 +275,7 @@ def progress(registry: RecordStore, code: str, *, check_files: bool = True,
         levels.append(built if trial.assistance is None else trial.assistance)
         metric_names.update(dict.fromkeys(trial.metrics))
         states.append(FILE_UNCHECKED if places is None else
-                      places.state(trial.file, trial.stored_in, trial.station))
+                      places.state(trial.file, trial.stored_in, trial.station, trial.checksum))
 
     names = tuple(metric_names)
     matrix = _metric_matrix(trials, names)

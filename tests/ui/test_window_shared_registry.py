@@ -158,13 +158,17 @@ def test_what_an_earlier_session_recorded_offline_sent_as_the_window_opens_is_sa
         network.cut()
 
 
+@pytest.mark.parametrize("theirs_begun", ["minutes before", "in the same second"])
 def test_a_number_another_station_gave_meanwhile_is_renumbered_and_said_once(
-        qtbot, tmp_path, monkeypatch, server_registries):
+        qtbot, tmp_path, monkeypatch, server_registries, theirs_begun):
     """Issue 32: robot-7 is cut off, records trial 2 and saves its report; robot-8 records
     trial 2 for the same patient meanwhile. The sync was refused for good ("… until the
     registry's owner resolves it", which nothing let anyone do). Now robot-7's trial
     arrives as trial 3, the event line says so once, the Report tab and the saved PDF
-    show the registry's number, and the trial's file keeps its name and is found."""
+    show the registry's number, and the trial's file keeps its name and is found.
+    robot-8's trial begun in the same second (its clock behind) has the file's name: the
+    trial arrives under the name trial 3 gives, a second name of the file, and the status
+    bar's last trial, named by the file recorded, says trial 3 too (it said trial 2)."""
     import datetime
 
     from app.records.station import StationRegistry
@@ -203,9 +207,11 @@ def test_a_number_another_station_gave_meanwhile_is_renumbered_and_said_once(
         qtbot.waitUntil(lambda: "start" in enabled(win))
 
         other = Registry(DataDir(tmp_path / "robot-8"), server=url, station="robot-8")
+        their_start = offline.started_at - datetime.timedelta(minutes=5) \
+            if theirs_begun == "minutes before" else offline.started_at.replace(
+                microsecond=(offline.started_at.microsecond + 1) % 1_000_000)
         begun = other.begin_trial(code, THESIS_SUBJECT, backend="simulator",
-                                  started_at=offline.started_at
-                                  - datetime.timedelta(minutes=5))
+                                  started_at=their_start)
         other.finish_trial(begun.trial_id, "complete", {"rmse_x_mm": 1.0})
         theirs = other.trial(begun.trial_id)
 
@@ -245,8 +251,15 @@ def test_a_number_another_station_gave_meanwhile_is_renumbered_and_said_once(
     trials = direct.trials_for_patient(code)
     assert [(t.number, t.station) for t in trials] == [
         (1, "robot-7"), (2, "robot-8"), (3, "robot-7")]
-    assert trials[2].file == offline.file  # never renamed
+    if theirs_begun == "minutes before":
+        assert trials[2].file == offline.file  # never renamed
+    else:  # robot-8's has that name: a second name of the same file
+        assert trials[1].file == offline.file
+        assert trials[2].file == data.trial_file(code, 1, 3, offline.started_at)
+        assert station.trial_path(trials[2]).samefile(data.resolve(offline.file))
     assert trials[2].checksum == offline.checksum == file_checksum(station.trial_path(trials[2]))
-    (kept,) = direct.corrections(code)
+    kept = direct.corrections(code)[0]
     assert (kept.field, kept.old_value["trial"], kept.new_value["trial"], kept.corrected_by) \
         == ("trial_number", 2, 3, "station robot-7")
+    assert [c.field for c in direct.corrections(code)[1:]] == \
+        ([] if theirs_begun == "minutes before" else ["trial_file"])

@@ -150,7 +150,8 @@ class StationStatus:
         made again with the registry's number: the Report tab's (a trial just recorded
         offline) at once, and a PDF saved offline in reports/ (a derivative, named and
         headed with the old number) written anew under the new name, the old one removed.
-        The trial file keeps its name: the registry points at it."""
+        The trial file keeps its name: the registry points at it, or at a second name of it
+        where another station's trial has its name (app.records.station.secondname)."""
         moved = {trial for m in synced.renumbered for trial in m.trial_ids}
         if not moved:
             return
@@ -158,6 +159,8 @@ class StationStatus:
         if shown in moved:
             self.report.load_registry_trial(self.registry, shown)
         registry, renumbered = self.registry, synced.renumbered
+        # the name each file was recorded under, where the registry has it under a second
+        recorded = {n.trial_id: PurePosixPath(n.file).name for n in synced.second_names}
 
         def rewrite() -> tuple[list[str], dict[str, str]]:
             from app.reports.build import report_for_registry_trial
@@ -166,8 +169,10 @@ class StationStatus:
             for m in renumbered:
                 for trial_id in m.trial_ids:
                     trial = registry.trial(trial_id)
-                    numbers[PurePosixPath(trial.file).name] = \
-                        f"session {trial.session_number}, trial {trial.number}"
+                    named = f"session {trial.session_number}, trial {trial.number}"
+                    numbers[PurePosixPath(trial.file).name] = named
+                    if trial_id in recorded:
+                        numbers[recorded[trial_id]] = named
                     old = registry.data_dir.report_path(
                         trial.patient_code, m.session,
                         trial.number if m.trial is None else m.trial, trial.started_at)
@@ -180,7 +185,8 @@ class StationStatus:
 
     def _reports_renumbered(self, done: tuple[list[str], dict[str, str]]) -> None:
         written, numbers = done
-        # the status bar's last trial ('session 1, trial 2: complete', from its file's name)
+        # the status bar's last trial ('session 1, trial 2: complete', from the name of the
+        # file it recorded)
         now = numbers.get(self.trial_label.toolTip())
         if now is not None:
             self.trial_label.setText(f"{now}:{self.trial_label.text().split(':', 1)[-1]}")

@@ -42,7 +42,7 @@ _ALL_STATUSES = (STATUS_RECORDING, *STATUSES)
 # parsing each row's whole object in Python was a fifth of the query's time on SQLite.
 _SUMMARY_SELECT = """
     SELECT t.id, s.number, s.date, t.number, t.status, t.started_at, t.file,
-           t.parameters, t.assistance, t.station, t.stored_in, t.metrics
+           t.parameters, t.assistance, t.station, t.stored_in, t.checksum, t.metrics
     FROM trials t
     JOIN sessions s ON s.id = t.session_id
     WHERE s.patient_id = ?
@@ -84,6 +84,9 @@ class TrialSummary:
     stored_in: str | None = None
     """The shared trial store holding its proven copy (Trial.stored_in, schema v11): the
     file is at `file` below it; None when not copied (yet)."""
+    checksum: str | None = None
+    """Its file's SHA-256 as finished (Trial.checksum, schema v10); None before it finished,
+    without a file, or before v10."""
 
 
 def _summaries(rows: list, invalid: dict[int, str]) -> list[TrialSummary]:
@@ -101,7 +104,7 @@ def _summaries(rows: list, invalid: dict[int, str]) -> list[TrialSummary]:
             found = keys[r[7]] = _key_parameters(r[7])
         out.append(TrialSummary(r[0], r[1], date(r[2]), r[3], r[4], moment(r[5]), r[6],
                                 found[0], values, found[1], assistance_from_json(r[8]),
-                                invalid.get(r[0]), r[9], r[10]))
+                                invalid.get(r[0]), r[9], r[10], r[11]))
     return out
 
 

@@ -62,11 +62,13 @@ class Renumbered:
 
 
 def record_trial(conn: sa.Connection, values: dict, recorded: int, since: int,
-                 ours: set[int], station: str) -> Renumbered:
+                 ours: set[int], station: str, file: str | None = None) -> Renumbered:
     """Trial `values` (as inserted, its server id and number) recorded offline as number
     `recorded`: the renumbering kept in `corrections`. The server's trials of the session
     from number `since` (the first this sync sent there) that are not `ours` (the server
-    ids of the trials this sync added) were recorded meanwhile: they took the numbers."""
+    ids of the trials this sync added) were recorded meanwhile: they took the numbers.
+    `file`: the name its file was recorded under, where another station's trial has it and
+    the trial is registered under a second name (secondname.py); None: its own."""
     trials, sessions = metadata.tables["trials"], metadata.tables["sessions"]
     patient, session = conn.execute(
         sa.select(sessions.c.patient_id, sessions.c.number)
@@ -80,11 +82,14 @@ def record_trial(conn: sa.Connection, values: dict, recorded: int, since: int,
     taken = _taken_trials(others) if others else \
         f"the server's session {session} goes up to trial {values['number'] - 1}"
     now = {"trial_id": values["id"], "session": session, "trial": values["number"]}
-    _keep(conn, patient, "trial_number", now | {"trial": recorded}, now,
-          f"recorded on station {values['station'] or station} while the shared registry "
-          f"was unreachable, as trial {recorded} of session {session} (its file "
-          f"{values['file']} keeps that number in its name); {taken}; sent at the sync as "
-          f"trial {values['number']}", station)
+    named = f"its file {values['file']} keeps that number in its name" if file is None else (
+        f"its file {file} keeps that number in its name; registered under the second name "
+        f"{values['file']}, below")
+    keep_correction(
+        conn, patient, "trial_number", now | {"trial": recorded}, now,
+        f"recorded on station {values['station'] or station} while the shared registry was "
+        f"unreachable, as trial {recorded} of session {session} ({named}); {taken}; sent at "
+        f"the sync as trial {values['number']}", station)
     return Renumbered(session, recorded, session, values["number"], (values["id"],), taken)
 
 
@@ -101,10 +106,11 @@ def record_session(conn: sa.Connection, values: dict, recorded: int, since: int,
     taken = "; ".join(_taken_session(conn, trials, *row) for row in others) or \
         f"the server's sessions go up to {values['number'] - 1}"
     now = {"session_id": values["id"], "session": values["number"]}
-    _keep(conn, values["patient_id"], "session_number", now | {"session": recorded}, now,
-          f"opened on station {station} while the shared registry was unreachable, as "
-          f"session {recorded}; {taken}; sent at the sync as session {values['number']} "
-          "(its trials keep their numbers and their files' names)", station)
+    keep_correction(
+        conn, values["patient_id"], "session_number", now | {"session": recorded}, now,
+        f"opened on station {station} while the shared registry was unreachable, as session "
+        f"{recorded}; {taken}; sent at the sync as session {values['number']} (its trials "
+        "keep their numbers and their files)", station)
     return Renumbered(recorded, None, values["number"], None, (), taken)
 
 
@@ -156,8 +162,9 @@ def _taken_session(conn: sa.Connection, trials: sa.Table, session_id: int, numbe
     return f"{who} opened session {number} meanwhile (dated {date})"
 
 
-def _keep(conn: sa.Connection, patient: int, field: str, old: dict, new: dict, reason: str,
-          station: str) -> None:
+def keep_correction(conn: sa.Connection, patient: int, field: str, old: dict, new: dict,
+                    reason: str, station: str) -> None:
+    """A correction this sync made (`station`'s), sealed by the server as every one."""
     corrections = metadata.tables["corrections"]
     conn.execute(sa.insert(corrections).values(
         patient_id=patient, field=field, old_value=json.dumps(old), new_value=json.dumps(new),

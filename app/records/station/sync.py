@@ -20,11 +20,16 @@ behind and is simply made again.
   that renumbering is kept in the registry, sealed, naming the trial that took it
   (renumber.py); the trials keep their order and their files their names. It was refused,
   and the station stayed offline for good: nothing let anyone resolve it.
+* A trial whose file's name another station's trial has on the server (two stations'
+  clocks apart: one name for the patient's trial N) is registered under the name its new
+  number gives, a second name of the same file in the data folder (secondname.py; the
+  station makes it before the transaction commits). It was refused for good too.
 * The server's other rules hold on each row (refused, naming the row).
 * Every row's seal on the server must equal the seal of the values sent (the same digest on
   both engines): what arrived is exactly what the station recorded, ids aside.
 * A sync whose commit was sent but not answered (the network dropped at that moment) may
-  have arrived: the trials it adds are looked up by their file first; all there means it
+  have arrived: the trials it adds are looked up by their file first (one another
+  station's trial has: among that patient's, by start and station); all there means it
   did, and it is not sent twice.
 
 Refused (a row another station changed, a row the server's rules refuse, a seal that
@@ -42,9 +47,10 @@ import sqlalchemy as sa
 from app.errors import RegistryError
 from app.records.registry import seals
 from app.records.registry.postgres.tables import REGISTRY_TABLES, metadata
-from app.records.station import renumber
+from app.records.station import renumber, secondname
 from app.records.station.mirror import Change, key_columns
 from app.records.station.renumber import Renumbered
+from app.records.station.secondname import SecondName
 
 log = logging.getLogger(__name__)
 
@@ -57,13 +63,16 @@ class SyncRefused(RegistryError):
 
 @dataclass(frozen=True, slots=True)
 class Synced:
-    """What a sync sent: rows per table (added, changed), the trials' new ids, and the
-    sessions and trials sent under another number than recorded offline."""
+    """What a sync sent: rows per table (added, changed), the trials' new ids, the
+    sessions and trials sent under another number than recorded offline, and the trials
+    registered under a second name of their file (made in the data folder before the
+    transaction commits: secondname.make)."""
 
     added: dict[str, int]
     changed: dict[str, int]
     trial_ids: dict[int, int]  # the standby's id -> the server's
     renumbered: tuple[Renumbered, ...] = ()
+    second_names: tuple[SecondName, ...] = ()
 
     @property
     def trials(self) -> int:
@@ -87,7 +96,9 @@ def already_sent(conn: sa.Connection, work: list[Change]) -> bool:
     found = {tuple(r) for r in conn.execute(
         sa.select(trials.c.file, trials.c.started_at, trials.c.station)
         .where(trials.c.file.in_([v["file"] for v in added])))}
-    there = sum((v["file"], v["started_at"], v["station"]) in found for v in added)
+    held = {file for file, _, _ in found}
+    there = sum((v["file"], v["started_at"], v["station"]) in found
+                or (v["file"] in held and _under_a_second_name(conn, v)) for v in added)
     if there == len(added):
         return True
     if there:
@@ -105,12 +116,20 @@ def replay(conn: sa.Connection, work: list[Change], where: str, station: str) ->
     renumbered: list[Renumbered] = []
     sessions_renumbered: dict[int, int] = {}  # the server's session id -> its index above
     first: dict[str, dict[int, int]] = {table: {} for table in renumber.NUMBERED}
+    holders = secondname.holders(conn, [_values(c)["file"] for c in work
+                                        if c.table == "trials" and c.mirrored is None])
+    second_names: list[SecondName] = []
     for change in work:
         values = _mapped(change, ids)
+        file = values.get("file") if change.table == "trials" else None
+        renamed = change.mirrored is None and file in holders
         try:
             if change.mirrored is None:
                 recorded = values.get("number")
-                seal = _add(conn, change.table, values, ids[change.table])
+                if renamed:  # its name another station's trial has: the one its number gives
+                    values["file"], values["number"] = secondname.numbered_name(conn, values)
+                seal = _add(conn, change.table, values, ids[change.table],
+                            numbered=not renamed)
                 added[change.table] += 1
             else:
                 seal = _change(conn, change, values)
@@ -133,9 +152,15 @@ def replay(conn: sa.Connection, work: list[Change], where: str, station: str) ->
                 ours = set(ids[change.table].values())
                 if change.table == "sessions":  # its trials keep their numbers: named below
                     sessions_renumbered[values["id"]] = len(renumbered)
-                record = renumber.record_session if change.table == "sessions" \
-                    else renumber.record_trial
-                renumbered.append(record(conn, values, recorded, since, ours, station))
+                if change.table == "sessions":
+                    renumbered.append(renumber.record_session(conn, values, recorded, since,
+                                                              ours, station))
+                else:
+                    renumbered.append(renumber.record_trial(
+                        conn, values, recorded, since, ours, station,
+                        file if renamed else None))
+        if renamed:
+            second_names.append(secondname.record(conn, values, file, holders[file], station))
         sent = seals.seal_of(change.table, *(values[c] for c in seals.SEALED[change.table]))
         if seal != sent:
             raise SyncRefused(f"{_named(change)} did not arrive unchanged at {where} (its "
@@ -148,7 +173,22 @@ def replay(conn: sa.Connection, work: list[Change], where: str, station: str) ->
             .order_by(trials.c.number)).scalars()))
     return Synced({t: n for t, n in added.items() if n},
                   {t: n for t, n in changed.items() if n}, dict(ids["trials"]),
-                  tuple(renumbered))
+                  tuple(renumbered), tuple(second_names))
+
+
+def _under_a_second_name(conn: sa.Connection, values: dict) -> bool:
+    """Whether trial `values`, whose file's name another station's trial has, is on the
+    server under a second name (secondname.py): a trial of that patient begun at its start
+    to the microsecond by its station."""
+    trials, sessions = metadata.tables["trials"], metadata.tables["sessions"]
+    holder = trials.alias("holder")
+    patient = (sa.select(sessions.c.patient_id)
+               .join(holder, holder.c.session_id == sessions.c.id)
+               .where(holder.c.file == values["file"]).scalar_subquery())
+    return conn.execute(
+        sa.select(trials.c.id).join(sessions, sessions.c.id == trials.c.session_id)
+        .where(sessions.c.patient_id == patient, trials.c.started_at == values["started_at"],
+               trials.c.station == values["station"])).first() is not None
 
 
 def _values(change: Change) -> dict:
@@ -165,15 +205,18 @@ def _mapped(change: Change, ids: dict[str, dict[int, int]]) -> dict:
     return values
 
 
-def _add(conn: sa.Connection, table: str, values: dict, new_ids: dict[int, int]) -> str:
+def _add(conn: sa.Connection, table: str, values: dict, new_ids: dict[int, int], *,
+         numbered: bool = True) -> str:
     """Insert the row; a session or trial without its number (the server's next free one,
-    written into `values`)."""
+    written into `values`) unless not `numbered` (its number given: the trigger checks it
+    is the next)."""
     t = metadata.tables[table]
     if "id" not in key_columns(table):
         return conn.execute(sa.insert(t).values(values).returning(t.c.seal)).scalar_one()
     local = values.pop("id")
     if table in renumber.NUMBERED:
-        values["number"] = None
+        if numbered:
+            values["number"] = None
         server_id, seal, values["number"] = conn.execute(
             sa.insert(t).values(values).returning(t.c.id, t.c.seal, t.c.number)).one()
     else:
