@@ -20,6 +20,7 @@ from app.cli.common import (
     progress_bar,
     subcommands,
 )
+from core.learning.pendulum import MAX_BASE_SPEED_M_S
 
 MODELS = ("fnn", "rnn", "delan")
 
@@ -43,7 +44,10 @@ def add_learn_commands(commands) -> None:
     _overwrite_option(pendulum)
     pendulum.add_argument("--speeds", type=_positive, nargs="+", metavar="RAD_S",
                           help="the rod's speeds, one cycle each (default: the thesis's "
-                               "1,000 speeds); none is held out unless --held-out names it")
+                               "1,000 speeds, 1 to 10); each must keep the base under "
+                               f"{MAX_BASE_SPEED_M_S:g} m/s, or the line refusing it names "
+                               "the speeds that do; none is held out unless --held-out "
+                               "names it")
     pendulum.add_argument("--held-out", type=_positive, metavar="RAD_S",
                           help="the speed of the cycle kept out of training (default 5 "
                                "with the thesis's speeds)")
@@ -147,11 +151,20 @@ def add_learn_commands(commands) -> None:
 
 def cmd_pendulum(args: argparse.Namespace) -> int:
     from app.learning.workflow import make_pendulum_file
-    from core.learning.pendulum import HELD_OUT_SPEED_RAD_S
+    from core.learning.pendulum import HELD_OUT_SPEED_RAD_S, THESIS_SPEEDS_RAD_S, speed_refusal
 
     held = args.held_out
+    for speed in args.speeds or ():
+        refused = speed_refusal(speed)
+        if refused:
+            raise CommandError(f"--speeds {speed:g}: {refused}")
     if held is None and args.speeds is None:
         held = HELD_OUT_SPEED_RAD_S
+    if held is not None and args.speeds is None and not any(
+            math.isclose(held, s, rel_tol=0, abs_tol=1e-9) for s in THESIS_SPEEDS_RAD_S):
+        raise CommandError(f"--held-out {held:g} is none of the thesis's speeds (1 + k/111 "
+                           "rad/s, k = 0 … 999, such as 5): name one, or give --speeds "
+                           "with it among them")
     if held is not None and args.speeds is not None and not any(
             math.isclose(held, s, rel_tol=0, abs_tol=1e-9) for s in args.speeds):
         raise CommandError(f"--held-out {held:g} is none of --speeds: the held-out cycle "

@@ -126,6 +126,18 @@ def test_bad_input_is_one_line_and_exit_2(files, trained, tmp_path, capsys):
         (["learn", "pendulum", "--output", str(tmp_path / "x.h5"), "--speeds", "0"],
          "must be a finite number > 0"),
         (["learn", "pendulum", "--output", str(tmp_path / "no" / "x.h5")], "does not exist"),
+        # a speed no pendulum on a track is driven at: the base would slide faster than a
+        # bullet (fast) or run away under the friction's push (slow)
+        (["learn", "pendulum", "--output", str(tmp_path / "x.h5"), "--speeds", "2", "1e9"],
+         "--speeds 1e+09: at 1e+09 rad/s the base would slide at 1.31e+08 m/s"),
+        (["learn", "pendulum", "--output", str(tmp_path / "x.h5"), "--speeds", "0.01"],
+         "give speeds from 0.47 to 76.7 rad/s"),
+        (["learn", "pendulum", "--output", str(tmp_path / "x.h5"), "--speeds", "1e200"],
+         "more m/s than a number holds"),
+        # held out of the thesis's speeds, it must be one of them: no cycle was held out
+        # while the line said one was
+        (["learn", "pendulum", "--output", str(tmp_path / "x.h5"), "--held-out", "5.5"],
+         "--held-out 5.5 is none of the thesis's speeds"),
     ]
     for args, message in cases:
         code, _, err = run(args, capsys)
