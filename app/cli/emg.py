@@ -277,6 +277,12 @@ def cmd_show(args: argparse.Namespace) -> int:
     print(f"{path.name}: {len(emg.names)} EMG channels at {emg.rate_hz:g} Hz, "
           f"{emg.time_s.size} samples, trial time {emg.time_s[0]:.3f}–{emg.time_s[-1]:.3f} s "
           f"({', '.join(origin)})")
+    offsets = [offset for _, offset in emg.clock_offsets]
+    if offsets:  # a live LSL capture: what was added to the sender's stamps
+        print("  clock: liblsl's clock offset added to the LSL sender's stamps, "
+              + (f"{offsets[0]:.6f} s" if len(set(offsets)) == 1 else
+                 f"{len(offsets)} estimates from {min(offsets):.6f} to {max(offsets):.6f} s")
+              + " (/emg clock_offsets)")
     for note in emg.notes:  # kept with the EMG as it was stored
         print(f"  note: {note}")
     if not emg.mvc:
