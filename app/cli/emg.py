@@ -52,7 +52,9 @@ def add_emg_commands(commands) -> None:
                                      "(default: the channel names)")
     p.add_argument("--offset", type=float, default=0.0, metavar="S",
                    help="trial time of the EMG file's time 0, s (default 0: started together; "
-                        "not for an XDF recording, which has its own clock)")
+                        "negative, as --offset=-1.5, when the EMG started first; some of the "
+                        "EMG must fall within the trial; not for an XDF recording, which has "
+                        "its own clock)")
     p.add_argument("--stream", help="the XDF recording's EMG stream by name (default: the one "
                                     "stream of type EMG)")
     p.add_argument("--unit", help="the unit of an XDF EMG stream's channels that declare none "

@@ -116,7 +116,18 @@ def import_emg_file(
     data = read_emg_file(emg_path)
     clock = ("file time + offset_s: the EMG recording started with the trial" if offset_s == 0
              else "file time + offset_s: the delay between the two starts, as given")
-    return store(trial, data, data.t_s + float(offset_s), muscles=muscles, clock=clock,
+    trial_time = data.t_s + float(offset_s)
+    duration = trial.n_samples * trial.sample_period_s
+    # EMG wholly beside the trial normalises and shows nothing of it; far enough away the
+    # times no longer increase (their steps below a double's resolution), read as damage
+    if not (trial_time[0] <= duration and trial_time[-1] >= 0.0
+            and (np.diff(trial_time) > 0).all()):
+        raise EmgImportError(
+            f"an offset of {offset_s:g} s puts the EMG at trial time {trial_time[0]:.6g}–"
+            f"{trial_time[-1]:.6g} s, none of it within the trial (0–{duration:.2f} s): give "
+            "the trial time of the EMG file's time 0, the delay between the two starts "
+            f"(from {-data.t_s[-1]:.2f} to {duration - data.t_s[0]:.2f} s for this file)")
+    return store(trial, data, trial_time, muscles=muscles, clock=clock,
                  offset_s=float(offset_s), replace=replace)
 
 

@@ -361,6 +361,15 @@ def test_record_keeps_emg_numbers_for_labels_a_csv_cannot_hold(tmp_path, capsys,
     (["emg", "show", "99"], "no registry"),
     (["emg", "import", "{plain}", "missing.csv"], "does not exist"),
     (["emg", "import", "{plain}", str(DATA / "plain.csv"), "--offset", "nan"], "--offset"),
+    # EMG wholly beside the trial was stored ("covers 0 %"), and at 1e300 s stored times
+    # that no longer increased, so the trial's EMG then read as damaged
+    (["emg", "import", "{plain}", str(DATA / "plain.csv"), "--offset", "1e9"],
+     "an offset of 1e+09 s puts the EMG at trial time 1e+09–1e+09 s, none of it within "
+     "the trial (0–"),
+    (["emg", "import", "{plain}", str(DATA / "plain.csv"), "--offset=-1e9"],
+     "none of it within the trial"),
+    (["emg", "import", "{plain}", str(DATA / "plain.csv"), "--offset", "1e300"],
+     "none of it within the trial"),
     (["emg", "import", "{plain}", str(DATA / "plain.csv"), "--muscles", "a,b"],
      "2 muscles given for 3"),
     (["emg", "mvc", "{plain}", "--contraction", "biceps"], "MUSCLE=FILE"),
