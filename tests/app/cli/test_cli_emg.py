@@ -131,8 +131,10 @@ def test_demo_makes_the_trials_an_emg_model_for_the_assistance_needs(tmp_path, c
 @pytest.mark.parametrize(("option", "said"), [
     (["--trials", "0"], "--trials 0: give a number from 1 to 10"),
     (["--trials", "11"], "--trials 11: give a number from 1 to 10"),
-    (["--tolerance", "nan"], "--tolerance nan: give a cone from 1 to 90 degrees"),
-    (["--tolerance", "95"], "--tolerance 95: give a cone from 1 to 90 degrees"),
+    (["--tolerance", "nan"], "--tolerance = NaN is not allowed; allowed: a cone from 1 to "
+                             "90 degrees"),
+    (["--tolerance", "95"], "--tolerance = 95 is not allowed; allowed: a cone from 1 to 90 "
+                            "degrees"),
 ])
 def test_demo_refuses_a_bad_count_or_cone_in_one_line(tmp_path, capsys, option, said):
     code, _, err = run(["emg", "demo", str(tmp_path / "d"), *option], capsys)
