@@ -118,6 +118,20 @@ def test_bad_input_is_one_line_and_exit_2(files, trained, tmp_path, capsys):
           str(tmp_path / "m.json"), "--hidden", "8,x"], "is not sizes such as 16,16"),
         (["learn", "train", "--model", "fnn", "--data", p, "--output",
           str(tmp_path / "m.json"), "--learning-rate", "-1"], "must be a finite number > 0"),
+        # accepted before: 1e9 saved a diverged model (cross-validation RMSE 1e8), 1e8
+        # epochs would have trained for years, a mass scale a network has none of was
+        # dropped without a word
+        (["learn", "train", "--model", "fnn", "--data", p, "--output",
+          str(tmp_path / "m.json"), "--learning-rate", "1e9"],
+         "--learning-rate 1e+09: give at most 1"),
+        (["learn", "train", "--model", "fnn", "--data", p, "--output",
+          str(tmp_path / "m.json"), "--epochs", "100000000"],
+         "--epochs 100000000: give at most 10,000"),
+        (["learn", "train", "--model", "fnn", "--data", p, "--output",
+          str(tmp_path / "m.json"), "--mass-scale", "0.5"],
+         "--mass-scale is the DeLaN's (its mass matrix's unit); a fnn has none"),
+        (["learn", "train", "--model", "delan", "--data", p, "--output",
+          str(tmp_path / "m.json"), "--mass-scale", "1e9"], "--mass-scale 1e+09: give 0.001"),
         (["learn", "evaluate", "--model", str(tmp_path / "none.json"), "--data", p],
          "missing: no such file"),
         (["learn", "evaluate", "--model", p, "--data", p], "is not a JSON model file"),
