@@ -25,6 +25,8 @@ from app.cli.common import (
     trial_id_or_none,
 )
 from app.cli.emg_demo import cmd_demo
+from core.emg.force import USABLE_CONE_AGREEMENT
+from core.emg.models import USABLE_R2
 from core.trial import MODEL_NAME, THESIS_SUBJECT
 
 XDF_SUFFIXES = (".xdf", ".xdfz")
@@ -50,7 +52,9 @@ def add_emg_commands(commands) -> None:
                                      "(default: the channel names)")
     p.add_argument("--offset", type=float, default=0.0, metavar="S",
                    help="trial time of the EMG file's time 0, s (default 0: started together; "
-                        "not for an XDF recording, which has its own clock)")
+                        "negative, as --offset=-1.5, when the EMG started first; some of the "
+                        "EMG must fall within the trial; not for an XDF recording, which has "
+                        "its own clock)")
     p.add_argument("--stream", help="the XDF recording's EMG stream by name (default: the one "
                                     "stream of type EMG)")
     p.add_argument("--unit", help="the unit of an XDF EMG stream's channels that declare none "
@@ -103,10 +107,15 @@ def add_emg_commands(commands) -> None:
                        description="Fit an EMG-to-joint-torque model (linear baseline, the "
                                    "thesis's network, or the muscle model) on the trials' "
                                    "% MVC envelopes and torques, and score it held out: on "
-                                   "the --test trials, or leaving one subject out. With "
+                                   "the --test trials, or leaving one subject out; the "
+                                   "force its torques imply on the handle is scored by "
+                                   "replaying each held-out trial as the live console would "
+                                   "have received its EMG (--latency). With "
                                    "--for-assistance, refuse (exit 2, saying why) a model "
-                                   "that does not reach held-out R² 0.60 at both joints or "
-                                   "does not beat the linear baseline.")
+                                   f"that does not reach held-out R² {USABLE_R2:.2f} at both "
+                                   "joints, does not beat the linear baseline, or whose "
+                                   "force does not judge the tolerance cone as the sensor "
+                                   f"does on {USABLE_CONE_AGREEMENT:.0%} of the samples.")
     p.add_argument("trials", nargs="+", help="trials with EMG and MVCs (ids or files)")
     p.add_argument("--model", choices=("linear", "network", "muscle"), default="network",
                    help="network (default): the thesis's feed-forward network; linear: the "
@@ -117,9 +126,15 @@ def add_emg_commands(commands) -> None:
     p.add_argument("--for-assistance", action="store_true",
                    help="require the model to pass, as the patient's force estimate")
     p.add_argument("--latency", type=float, default=0.05, metavar="S",
-                   help="with --for-assistance: how late the live EMG source delivers each "
-                        "sample (s, default 0.05; `bench/emg.py --only lsl` measures an LSL "
-                        "stream's); the held-out trials are replayed with it")
+                   help="how late the live EMG source delivers each sample (s, 0 to 1, "
+                        "default 0.05): each held-out trial's force is replayed with, at "
+                        "each estimate, only the EMG recorded this long before it (with or "
+                        "without --for-assistance). A model saved with --save is bound to "
+                        "it: `rehab run --force-estimate` refuses a later source, and the "
+                        "window makes no estimate from EMG older than it plus the step between "
+                        "estimates. Give the source's worst: `bench/emg.py --only "
+                        "lsl` measures this computer's LSL inlet with a sender of its own "
+                        "(p99, max), to which the amplifier's own delay adds")
     p.add_argument("--save", metavar="NAME",
                    help="with --for-assistance: save the passing model as NAME in the data "
                         "folder's models/emg/, for `rehab run --force-estimate NAME`")
@@ -264,6 +279,12 @@ def cmd_show(args: argparse.Namespace) -> int:
     print(f"{path.name}: {len(emg.names)} EMG channels at {emg.rate_hz:g} Hz, "
           f"{emg.time_s.size} samples, trial time {emg.time_s[0]:.3f}–{emg.time_s[-1]:.3f} s "
           f"({', '.join(origin)})")
+    offsets = [offset for _, offset in emg.clock_offsets]
+    if offsets:  # a live LSL capture: what was added to the sender's stamps
+        print("  clock: liblsl's clock offset added to the LSL sender's stamps, "
+              + (f"{offsets[0]:.6f} s" if len(set(offsets)) == 1 else
+                 f"{len(offsets)} estimates from {min(offsets):.6f} to {max(offsets):.6f} s")
+              + " (/emg clock_offsets)")
     for note in emg.notes:  # kept with the EMG as it was stored
         print(f"  note: {note}")
     if not emg.mvc:
@@ -289,8 +310,6 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 def cmd_model(args: argparse.Namespace) -> int:
     from app.emg.validation import approve, check_model
-    from core.emg.force import USABLE_CONE_AGREEMENT
-    from core.emg.models import USABLE_R2
 
     if not (np.isfinite(args.latency) and 0.0 <= args.latency <= 1.0):
         raise CommandError(f"--latency {args.latency}: give a delay from 0 to 1 s")

@@ -5,11 +5,10 @@ EMG-to-torque model for the assistance, a run with it) end to end (app.emg.subje
 from __future__ import annotations
 
 import argparse
-import math
 
 from app.cli.common import CommandError, absolute, data_roots, output_path
+from app.cli.trial_options import tolerance_rad
 from app.records.safewrite import check_output_folder
-from core.trial import TOLERANCE_RANGE_RAD
 
 MAX_DEMO_TRIALS = 10
 
@@ -30,10 +29,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     if not 1 <= args.trials <= MAX_DEMO_TRIALS:
         raise CommandError(f"--trials {args.trials}: give a number from 1 to "
                            f"{MAX_DEMO_TRIALS}")
-    lo, hi = (math.degrees(r) for r in TOLERANCE_RANGE_RAD)
-    if not (math.isfinite(args.tolerance) and lo <= args.tolerance <= hi):
-        raise CommandError(f"--tolerance {args.tolerance:g}: give a cone from {lo:g} to "
-                           f"{hi:g} degrees")
+    cone_rad = tolerance_rad(args.tolerance)
     if not args.folder.strip():
         raise CommandError("the folder is empty: give where to write")
     folder = absolute(args.folder)
@@ -48,7 +44,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     for muscle in subject.muscles:
         output_path(args, str(contraction_path(folder, subject, 1, muscle)),
                     what="the demo's MVC file")
-    parameters = DEMO_PARAMETERS.replace(tolerance_rad=math.radians(args.tolerance))
+    parameters = DEMO_PARAMETERS.replace(tolerance_rad=cone_rad)
     for seed, trial in enumerate(trials):
         record_trial(trial, subject, seed=seed, parameters=parameters, engine=args.engine)
         print(f"wrote {trial}", flush=True)

@@ -20,8 +20,21 @@ from app.cli.common import (
     progress_bar,
     subcommands,
 )
+from core.learning.pendulum import MAX_BASE_SPEED_M_S
 
 MODELS = ("fnn", "rnn", "delan")
+MAX_EPOCHS = 10_000
+"""The most epochs a training may be given: 100 by default, and early stopping ends most
+runs before; 10,000 of the thesis's data are about a day of a core, 1e8 were accepted and
+would have run for years."""
+MAX_LEARNING_RATE = 1.0
+"""Adam's first step may be at most this: the defaults are 3e-3 and 1e-2, and a step above 1
+moves every weight past its own scale (1e9 was accepted, and saved a model whose
+cross-validation RMSE was 1e8 into the models the Parameters tab offers)."""
+DEFAULT_MASS_SCALE = 3.0
+MASS_SCALE_RANGE = (1e-3, 1e3)
+"""The DeLaN's Cholesky unit, √ of a mass matrix's entries (kg, kg·m²): from a gram's
+worth to a thousand tonnes'."""
 
 
 def add_learn_commands(commands) -> None:
@@ -43,7 +56,10 @@ def add_learn_commands(commands) -> None:
     _overwrite_option(pendulum)
     pendulum.add_argument("--speeds", type=_positive, nargs="+", metavar="RAD_S",
                           help="the rod's speeds, one cycle each (default: the thesis's "
-                               "1,000 speeds); none is held out unless --held-out names it")
+                               "1,000 speeds, 1 to 10); each must keep the base under "
+                               f"{MAX_BASE_SPEED_M_S:g} m/s, or the line refusing it names "
+                               "the speeds that do; none is held out unless --held-out "
+                               "names it")
     pendulum.add_argument("--held-out", type=_positive, metavar="RAD_S",
                           help="the speed of the cycle kept out of training (default 5 "
                                "with the thesis's speeds)")
@@ -89,7 +105,8 @@ def add_learn_commands(commands) -> None:
     _overwrite_option(train)
     train.add_argument("--hidden", type=_layers, metavar="N[,N…]",
                        help="hidden layer sizes (default fnn 24,24; rnn 12; delan 16,16)")
-    train.add_argument("--epochs", type=_whole, default=100, help="at most (default 100)")
+    train.add_argument("--epochs", type=_whole, default=100,
+                       help=f"at most (default 100, up to {MAX_EPOCHS:,})")
     train.add_argument("--folds", type=_whole, default=5,
                        help="k of k-fold cross-validation (default 5; 1: one validation "
                             "split of 20 %% of the cycles)")
@@ -98,7 +115,8 @@ def add_learn_commands(commands) -> None:
                             "sequences)")
     train.add_argument("--learning-rate", type=_positive,
                        help="Adam's first step size, decayed to 1e-4 along a cosine "
-                            "(default fnn and rnn 3e-3, delan 1e-2)")
+                            "(default fnn and rnn 3e-3, delan 1e-2; at most "
+                            f"{MAX_LEARNING_RATE:g})")
     train.add_argument("--patience", type=_whole, default=20,
                        help="epochs without a better validation error before stopping, "
                             "counted from the middle of --epochs, once the rate has come "
@@ -108,10 +126,11 @@ def add_learn_commands(commands) -> None:
                        help="coordinates the dynamics does not depend on, left out of the "
                             "models' positions (default: those the file names; none: give "
                             "the option alone)")
-    train.add_argument("--mass-scale", type=_positive, default=3.0,
-                       help="DeLaN: unit of its Cholesky factor, of the order of √ of the "
-                            "mass matrix's entries (default 3, for the pendulum; 0.5 for "
-                            "the robot)")
+    train.add_argument("--mass-scale", type=_positive,
+                       help="delan only: unit of its Cholesky factor, of the order of √ of "
+                            "the mass matrix's entries, "
+                            f"{MASS_SCALE_RANGE[0]:g} to {MASS_SCALE_RANGE[1]:g} (default "
+                            f"{DEFAULT_MASS_SCALE:g}, for the pendulum; 0.5 for the robot)")
     train.add_argument("--name", help="the model's name (default: the output file's stem; "
                                       "without --output, MODEL-DATA from the two files)")
     train.set_defaults(func=cmd_train)
@@ -147,11 +166,20 @@ def add_learn_commands(commands) -> None:
 
 def cmd_pendulum(args: argparse.Namespace) -> int:
     from app.learning.workflow import make_pendulum_file
-    from core.learning.pendulum import HELD_OUT_SPEED_RAD_S
+    from core.learning.pendulum import HELD_OUT_SPEED_RAD_S, THESIS_SPEEDS_RAD_S, speed_refusal
 
     held = args.held_out
+    for speed in args.speeds or ():
+        refused = speed_refusal(speed)
+        if refused:
+            raise CommandError(f"--speeds {speed:g}: {refused}")
     if held is None and args.speeds is None:
         held = HELD_OUT_SPEED_RAD_S
+    if held is not None and args.speeds is None and not any(
+            math.isclose(held, s, rel_tol=0, abs_tol=1e-9) for s in THESIS_SPEEDS_RAD_S):
+        raise CommandError(f"--held-out {held:g} is none of the thesis's speeds (1 + k/111 "
+                           "rad/s, k = 0 … 999, such as 5): name one, or give --speeds "
+                           "with it among them")
     if held is not None and args.speeds is not None and not any(
             math.isclose(held, s, rel_tol=0, abs_tol=1e-9) for s in args.speeds):
         raise CommandError(f"--held-out {held:g} is none of --speeds: the held-out cycle "
@@ -181,9 +209,27 @@ def cmd_robot_data(args: argparse.Namespace) -> int:
 def cmd_train(args: argparse.Namespace) -> int:
     from app.learning.workflow import train_file
 
+    if args.epochs > MAX_EPOCHS:
+        raise CommandError(f"--epochs {args.epochs}: give at most {MAX_EPOCHS:,} (default "
+                           "100; early stopping ends most runs before): so many would train "
+                           "for days")
+    if args.learning_rate is not None and args.learning_rate > MAX_LEARNING_RATE:
+        raise CommandError(f"--learning-rate {args.learning_rate:g}: give at most "
+                           f"{MAX_LEARNING_RATE:g} (default fnn and rnn 3e-3, delan 1e-2): a "
+                           "larger first step throws every weight past its scale and the "
+                           "training diverges")
+    if args.mass_scale is not None and args.model != "delan":
+        raise CommandError(f"--mass-scale is the DeLaN's (its mass matrix's unit); a "
+                           f"{args.model} has none: leave it out")
+    low, high = MASS_SCALE_RANGE
+    if args.mass_scale is not None and not low <= args.mass_scale <= high:
+        raise CommandError(f"--mass-scale {args.mass_scale:g}: give {low:g} to {high:g}, "
+                           "√ of the mass matrix's entries in kg and kg·m² (3 for the "
+                           "pendulum, 0.5 for the robot)")
+    mass_scale = DEFAULT_MASS_SCALE if args.mass_scale is None else args.mass_scale
     options = {"epochs": args.epochs, "folds": args.folds, "batch_size": args.batch_size,
                "learning_rate": args.learning_rate, "patience": args.patience,
-               "seed": args.seed, "mass_scale": args.mass_scale}
+               "seed": args.seed, "mass_scale": mass_scale}
     if args.hidden:
         options["hidden"] = args.hidden
     data = absolute(args.data)

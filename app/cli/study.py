@@ -14,7 +14,12 @@ Everything is checked before any work: a bad input is one line and exit code 2.
 from __future__ import annotations
 
 import argparse
+import json
 import os
+import re
+import shlex
+import sys
+from pathlib import Path
 
 from app.cli.common import (
     CommandError,
@@ -136,10 +141,7 @@ def cmd_study_analyse(args: argparse.Namespace) -> int:
               "--all --dry-run` lists them, without --dry-run it stores these")
     print(f"  Parquet, by {args.partition_by}: {dataset}")
     print(f"  CSV: {trials_csv}; failures: {failures_csv}")
-    # the duckdb Python package (installed with the console) has no command of its own
-    print("  query: .venv/bin/python -c \"import duckdb; duckdb.sql(\\\"SELECT patient, "
-          f"count(*) FROM read_parquet('{dataset}/*/*.parquet', hive_partitioning = true) "
-          "GROUP BY patient\\\").show()\"")
+    print(f"  query: {query_line(dataset)}")
     for failure in result.failures.itertuples(index=False):
         print(f"  not analysed: {failure.file}: {failure.reason}")
     return 0 if result.failures.empty else 1
@@ -167,3 +169,24 @@ def _selection(args: argparse.Namespace, sources):
     registry = registry_for(args) if has_registry(data_dir) else None
     return sources.from_folder(folder, registry=registry,
                                include_invalid=args.include_invalid, site=args.site)
+
+
+def query_line(dataset: Path) -> str:
+    """A shell line that counts the rows of each patient of `dataset` with DuckDB, to paste
+    as it is from any folder: the duckdb Python package (installed with the console) has
+    no command of its own, so it runs in this console's own Python, named by its whole
+    path (`.venv/bin/python` ran only from the console's folder), and the path is quoted
+    for SQL, Python and the shell in turn."""
+    files = "'" + f"{dataset}/*/*.parquet".replace("'", "''") + "'"
+    sql = (f"SELECT patient, count(*) FROM read_parquet({files}, hive_partitioning = true) "
+           "GROUP BY patient")
+    code = f"import duckdb; duckdb.sql({json.dumps(sql)}).show()"
+    if "!" in code:  # an interactive shell expands it even between double quotes
+        return f"{shlex.quote(sys.executable)} -c {shlex.quote(code)}"
+    # between double quotes, as the README writes it: the SQL's own quotes stay readable
+    quoted = SHELL_DOUBLE_QUOTED.sub(r"\\\g<0>", code)
+    return f'{shlex.quote(sys.executable)} -c "{quoted}"'
+
+
+SHELL_DOUBLE_QUOTED = re.compile(r'[\\"$`]')
+"""What a shell still reads between double quotes, each escaped with a backslash."""

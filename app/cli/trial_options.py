@@ -18,8 +18,22 @@ from core.trial import (
     SIDES,
     THESIS_AS_PRINTED,
     THESIS_SUBJECT,
+    TOLERANCE_RANGE_RAD,
     TrialParameters,
 )
+
+OPTION_OF_FIELD = {
+    "shape": "--shape", "centre_m": "--centre", "radius_m": "--radius",
+    "duration_s": "--duration", "repetitions": "--repetitions", "timing": "--timing",
+    "n_targets": "--targets", "body_mass_kg": "--body-mass", "upper_arm_m": "--upper-arm",
+    "forearm_m": "--forearm", "shoulder_m": "--shoulder", "side": "--side",
+    "tolerance_rad": "--tolerance", "controller": "--controller", "assist": "--assist",
+    "assistance_level": "--assistance", "gains": "--gains",
+    "game": "--game", "target_radius_m": "--target-radius",
+    "time_allowed_s": "--time-allowed", "n_distractors": "--distractors",
+    "channel_half_width_m": "--channel-width", "neglect_side": "--neglect-side",
+}
+"""The option each of the trial's fields is given by: a refusal names it, as typed."""
 
 
 def add_trial_options(parser: argparse.ArgumentParser) -> None:
@@ -95,12 +109,13 @@ def add_trial_options(parser: argparse.ArgumentParser) -> None:
 
 
 def trial_from_args(args: argparse.Namespace) -> TrialParameters:
-    """TrialParameters from parsed options; raises core.errors.ParameterError."""
+    """TrialParameters from parsed options; a refusal (ParameterError) names the option
+    that was typed, and the field too where its value is in other units."""
     base = THESIS_AS_PRINTED if args.thesis_as_printed else THESIS_SUBJECT
     level = 100 * base.assistance_level if args.assistance is None else args.assistance
     if args.assist == "transparent" and args.assistance not in (None, 0.0):
         # the trial would run (and record) 0 whatever was asked: say so, not do it silently
-        raise ParameterError("assistance", args.assistance, "left out (or 0)",
+        raise ParameterError("--assistance", args.assistance, "left out (or 0)",
                              "the transparent mode has no assistance level: nothing in it "
                              "acts on one")
     changes = {
@@ -116,9 +131,9 @@ def trial_from_args(args: argparse.Namespace) -> TrialParameters:
         "upper_arm_m": args.upper_arm,
         "forearm_m": args.forearm,
         "side": args.side,
-        "tolerance_rad": math.radians(args.tolerance),
+        "tolerance_rad": tolerance_rad(args.tolerance),
         "controller": args.controller or base.controller,
-        "assistance_level": level / 100.0,
+        "assistance_level": assistance_level(level),
         "assist": args.assist,
         "gains": args.gains,
         "game": args.game or "",
@@ -130,4 +145,33 @@ def trial_from_args(args: argparse.Namespace) -> TrialParameters:
     }
     if not args.thesis_as_printed:
         changes["shoulder_m"] = tuple(args.shoulder)
-    return base.replace(**changes)
+    try:
+        return base.replace(**changes)
+    except ParameterError as exc:
+        # said by the option that was typed: "tolerance_rad = 1.7e+07 … rad" answered a
+        # --tolerance given in degrees, "assistance_level = 2" an --assistance of 200 %
+        option = OPTION_OF_FIELD.get(exc.field.split("[")[0])
+        if option is None:
+            raise
+        raise ParameterError(f"{option} ({exc.field})", exc.value, exc.allowed,
+                             exc.why) from None
+
+
+def tolerance_rad(degrees: float) -> float:
+    """--tolerance, given in degrees, in radians; refused in the degrees it was given when
+    outside the cones a trial may have (core.trial.TOLERANCE_RANGE_RAD)."""
+    lo, hi = (math.degrees(r) for r in TOLERANCE_RANGE_RAD)
+    if not (math.isfinite(degrees) and lo <= degrees <= hi):
+        raise ParameterError("--tolerance", float(degrees), f"a cone from {lo:g} to {hi:g} "
+                             "degrees", "beyond 90° a push against the path would count "
+                             "as help")
+    return math.radians(degrees)
+
+
+def assistance_level(percent: float) -> float:
+    """--assistance, given in percent, as the fraction a trial takes; refused in percent
+    when it is no level from 0 to 100 %."""
+    if not (math.isfinite(percent) and 0.0 <= percent <= 100.0):
+        raise ParameterError("--assistance", float(percent), "0 to 100 %",
+                             "0: no help for the patient's effort, 100: full help")
+    return percent / 100.0

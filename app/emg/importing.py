@@ -79,9 +79,11 @@ def muscles_for(data_names: tuple[str, ...], muscles: list[str] | None) -> tuple
 
 
 def store(trial: TrialData, data: EmgData, trial_time_s: np.ndarray, *, muscles, clock: str,
-          offset_s: float, replace: bool, notes: tuple[str, ...] = ()) -> Imported:
+          offset_s: float, replace: bool, notes: tuple[str, ...] = (),
+          clock_offsets: tuple[tuple[float, float], ...] = ()) -> Imported:
     """The EMG into the trial's file, with its notes (the data's, `notes`, and how much of
-    the trial it covers): in the file, not only said (device.recording.emgfile)."""
+    the trial it covers) and the clock offsets a live source added to its stamps (trial
+    time, offset s): in the file, not only said (device.recording.emgfile)."""
     names = muscles_for(data.names, muscles)
     duration = trial.n_samples * trial.sample_period_s
     inside = np.clip(trial_time_s, 0.0, duration)
@@ -92,7 +94,8 @@ def store(trial: TrialData, data: EmgData, trial_time_s: np.ndarray, *, muscles,
                      f"({trial_time_s[0]:.2f}–{trial_time_s[-1]:.2f} s of {duration:.2f} s)")
     write_emg(trial.path, names=data.names, muscles=names, rate_hz=data.rate_hz,
               time_s=trial_time_s, samples=data.samples, source=data.source, clock=clock,
-              offset_s=offset_s, source_file=data.path.name, replace=replace, notes=notes)
+              offset_s=offset_s, source_file=data.path.name, replace=replace, notes=notes,
+              clock_offsets=clock_offsets)
     return Imported(trial.path, data.names, names, data.rate_hz, trial_time_s.size,
                     float(trial_time_s[0]), float(trial_time_s[-1]), covers, tuple(notes))
 
@@ -113,7 +116,18 @@ def import_emg_file(
     data = read_emg_file(emg_path)
     clock = ("file time + offset_s: the EMG recording started with the trial" if offset_s == 0
              else "file time + offset_s: the delay between the two starts, as given")
-    return store(trial, data, data.t_s + float(offset_s), muscles=muscles, clock=clock,
+    trial_time = data.t_s + float(offset_s)
+    duration = trial.n_samples * trial.sample_period_s
+    # EMG wholly beside the trial normalises and shows nothing of it; far enough away the
+    # times no longer increase (their steps below a double's resolution), read as damage
+    if not (trial_time[0] <= duration and trial_time[-1] >= 0.0
+            and (np.diff(trial_time) > 0).all()):
+        raise EmgImportError(
+            f"an offset of {offset_s:g} s puts the EMG at trial time {trial_time[0]:.6g}–"
+            f"{trial_time[-1]:.6g} s, none of it within the trial (0–{duration:.2f} s): give "
+            "the trial time of the EMG file's time 0, the delay between the two starts "
+            f"(from {-data.t_s[-1]:.2f} to {duration - data.t_s[0]:.2f} s for this file)")
+    return store(trial, data, trial_time, muscles=muscles, clock=clock,
                  offset_s=float(offset_s), replace=replace)
 
 
@@ -143,10 +157,30 @@ def import_capture(trial_path: str | os.PathLike, captured, *, names, muscles=No
         notes.append(f"{captured.missing} samples missing in the capture")
     if captured.error:
         notes.append(f"the capture ended early: {captured.error}")
+    clock = ("monotonic stamps through /summary wall_time_origin_monotonic_s and "
+             "/timeseries/wall_time")
+    offsets = offsets_over(getattr(captured, "clock_offsets", ()), captured.stamps_s)
+    if offsets:
+        clock = (f"the LSL sender's stamps plus the clock offsets in clock_offsets (liblsl's "
+                 f"time_correction), then {clock}")
+    begun = trial_time_from_monotonic(trial, [t for t, _ in offsets]) if offsets else ()
     return store(trial, data, trial_time_from_monotonic(trial, captured.stamps_s),
-                 muscles=muscles, clock="monotonic stamps through /summary "
-                 "wall_time_origin_monotonic_s and /timeseries/wall_time", offset_s=0.0,
-                 replace=replace, notes=tuple(notes))
+                 muscles=muscles, clock=clock, offset_s=0.0, replace=replace,
+                 notes=tuple(notes),
+                 clock_offsets=tuple((float(t), o) for t, (_, o) in zip(begun, offsets,
+                                                                          strict=True)))
+
+
+def offsets_over(offsets, stamps_s: np.ndarray) -> list[tuple[float, float]]:
+    """The clock offsets (first stamp, offset s) that were added over `stamps_s`
+    (increasing): the one in effect at the first stamp, from that stamp, and each begun
+    after it up to the last; none for no stamps."""
+    if not len(offsets) or not stamps_s.size:
+        return []
+    first, last = float(stamps_s[0]), float(stamps_s[-1])
+    before = [o for t, o in offsets if t <= first]
+    head = [(first, float(before[-1]))] if before else []
+    return head + [(float(t), float(o)) for t, o in offsets if first < t <= last]
 
 
 def channel_names(declared, width: int) -> tuple[str, ...]:

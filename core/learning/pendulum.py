@@ -15,11 +15,12 @@ number as the dimensionally consistent g (M + (m/2) cos θ2).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from core.errors import check_positive, check_range
+from core.errors import ParameterError, check_positive, check_range
 
 G = 9.81  # m/s², as the thesis's ADAMS model
 SYSTEM = "sliding-inverted-pendulum"
@@ -107,19 +108,103 @@ HELD_OUT_SPEED_RAD_S = 5.0                       # Table 2.1's test cycle
 SAMPLES_PER_CYCLE = 101
 
 
+MAX_BASE_SPEED_M_S = 10.0
+"""The fastest the base may slide in a cycle. Eq. 2.39's friction pushes the base the
+whole sweep, so a slow sweep drives it ever faster (46 m/s and 370 m of track at 0.1
+rad/s), and the rod's swing flings it at a fast one (13 m/s at 100 rad/s, 130 at 1,000,
+with 330 g on the base and 11 kN·m on the rod): no pendulum on a track moves so, and a
+data set of such cycles teaches a model nothing of the thesis's pendulum. The thesis's
+1 … 10 rad/s keep the base under 5 m/s."""
+
+
 def generate(speeds_rad_s=THESIS_SPEEDS_RAD_S, pendulum: Pendulum | None = None,
              samples_per_cycle: int = SAMPLES_PER_CYCLE, first_cycle: int = 0) -> PendulumData:
     """One cycle per speed: the rod driven at ω from −45° to 45° (eq. 2.37–2.38), the base's
     acceleration from the first row of eq. 2.36 with f of eq. 2.39, its rate and position by
     backward Euler from rest, τ from the second row (eq. 2.40). 1,000 speeds of 1 … 10
-    rad/s (the default) give the thesis's 101,000 samples, the 5 rad/s cycle among them."""
+    rad/s (the default) give the thesis's 101,000 samples, the 5 rad/s cycle among them.
+    A speed whose cycle slides the base faster than MAX_BASE_SPEED_M_S is refused
+    (`speed_refusal` says why, `speed_limits` which speeds may be given)."""
     pendulum = pendulum or Pendulum()
+    data = _cycles(speeds_rad_s, pendulum, samples_per_cycle, first_cycle)
+    fast = ~(base_top_speeds(data) <= MAX_BASE_SPEED_M_S)  # NaN: beyond float's range
+    if np.any(fast):
+        k = int(np.argmax(fast))
+        raise ParameterError("speeds_rad_s", float(data.speeds_rad_s[k]),
+                             _speeds_allowed(pendulum),
+                             _too_fast(float(data.speeds_rad_s[k]),
+                                       float(base_top_speeds(data)[k])))
+    return data
+
+
+def base_top_speeds(data: PendulumData) -> np.ndarray:
+    """Each cycle's fastest slide of the base, |ẋ1| (m/s), (cycles,)."""
+    per_cycle = np.abs(data.qd[:, 0]).reshape(data.speeds_rad_s.size, -1)
+    return per_cycle.max(axis=1)
+
+
+def speed_refusal(speed_rad_s: float, pendulum: Pendulum | None = None) -> str:
+    """Why the rod cannot be driven at `speed_rad_s` for a cycle ("" if it can)."""
+    top = float(base_top_speeds(_cycles([speed_rad_s], pendulum or Pendulum()))[0])
+    if top <= MAX_BASE_SPEED_M_S:  # NaN (beyond float's range) is refused
+        return ""
+    return (f"{_too_fast(speed_rad_s, top)}; give speeds from "
+            f"{_speeds_allowed(pendulum or Pendulum())}")
+
+
+def speed_limits(pendulum: Pendulum | None = None) -> tuple[float, float]:
+    """The slowest and fastest rod speeds (rad/s) whose cycle keeps the base within
+    MAX_BASE_SPEED_M_S: its top speed falls as the friction's push gets less time, then
+    rises as the swing flings it, so each limit is found by bisection on its side of the
+    gentlest speed."""
+    pendulum = pendulum or Pendulum()
+
+    def top(speed: float) -> float:
+        return float(base_top_speeds(_cycles([speed], pendulum))[0])
+
+    grid = np.geomspace(1e-3, 1e4, 141)
+    gentlest = float(grid[int(np.argmin([top(w) for w in grid]))])
+
+    def edge(inside: float, outside: float) -> float:
+        for _ in range(60):
+            middle = math.sqrt(inside * outside)
+            inside, outside = (middle, outside) if top(middle) <= MAX_BASE_SPEED_M_S else (
+                inside, middle)
+        return inside
+
+    return edge(gentlest, 1e-3), edge(gentlest, 1e4)
+
+
+def _too_fast(speed_rad_s: float, top_m_s: float) -> str:
+    top = f"{top_m_s:.3g} m/s" if math.isfinite(top_m_s) else "more m/s than a number holds"
+    return (f"at {speed_rad_s:g} rad/s the base would slide at {top} "
+            f"(eq. 2.36 with eq. 2.39's friction), over the {MAX_BASE_SPEED_M_S:g} m/s "
+            "a pendulum on a track can")
+
+
+def _speeds_allowed(pendulum: Pendulum) -> str:
+    low, high = speed_limits(pendulum)
+    # rounded inwards, so that the speeds the line names are themselves allowed
+    return (f"{math.ceil(low * 100) / 100:g} to {math.floor(high * 10) / 10:g} rad/s "
+            "(the thesis's: 1 to 10)")
+
+
+def _cycles(speeds_rad_s, pendulum: Pendulum, samples_per_cycle: int = SAMPLES_PER_CYCLE,
+            first_cycle: int = 0) -> PendulumData:
+    """generate's cycles, whatever the base's speed."""
     speeds = np.asarray(speeds_rad_s, dtype=float).reshape(-1)
     if speeds.size == 0 or not np.all(np.isfinite(speeds)) or np.any(speeds <= 0.0):
         raise ValueError("the rod's speeds must be finite and > 0 rad/s")
     n = int(samples_per_cycle)
     if n < 2:
         raise ValueError("a cycle needs at least 2 samples")
+    # a speed beyond float's range gives inf and NaN, which generate then refuses
+    with np.errstate(over="ignore", invalid="ignore"):
+        return _integrated(speeds, pendulum, n, first_cycle)
+
+
+def _integrated(speeds: np.ndarray, pendulum: Pendulum, n: int,
+                first_cycle: int) -> PendulumData:
     M, m, L = pendulum.base_mass_kg, pendulum.rod_mass_kg, pendulum.rod_length_m
     sweep = np.pi / 2.0
     theta2 = -np.pi / 4.0 + np.linspace(0.0, sweep, n)              # (n,)

@@ -49,6 +49,10 @@ class Captured:
     notes: tuple[str, ...] = ()
     """What the source said of itself when it opened (an LSL stream's trigger channel left
     out: device.lsl.inlet), kept with the EMG it gave (app.emg.importing)."""
+    clock_offsets: tuple[tuple[float, float], ...] = ()
+    """The clock offsets the source added to put its stamps on this machine's clock (an
+    LSL inlet's: device.lsl.inlet), each with the first stamp it was added to; () for a
+    source stamped on this machine's clock (a Trigno)."""
 
 
 class EmgCapture:
@@ -191,10 +195,11 @@ class EmgCapture:
             labels = tuple(labels[k] for k in self.channels) if max(
                 self.channels, default=-1) < len(labels) else ()
         notes = tuple(getattr(self.source, "notes", ()) or ())
+        offsets = tuple(getattr(self.source, "clock_offsets", ()) or ())
         if not chunks:
             width = 0 if self.channels is None else len(self.channels)
             return Captured(np.empty(0), np.empty((0, width)), rate, 0, self.error, labels,
-                            notes)
+                            notes, offsets)
         t = np.concatenate([c[0] for c in chunks])
         x = np.concatenate([c[1] for c in chunks])
         origin = getattr(self.source, "origin_s", None)
@@ -207,7 +212,7 @@ class EmgCapture:
         span = (t[-1] - t[0]) * rate + 1 if t.size > 1 else t.size
         missing = max(0, round(span) - t.size)
         return Captured(t, x, rate, missing, self.error,
-                        labels if len(labels) == x.shape[1] else (), notes)
+                        labels if len(labels) == x.shape[1] else (), notes, offsets)
 
 
 STAMP_STEP_SHARE = 0.01

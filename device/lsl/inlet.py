@@ -20,18 +20,23 @@ line; the other channels are read when their unit is a voltage and their type EM
 (core.emg.units.EMG_TYPES), and the stream is refused in one line for any other channel
 (one in milliGs that does not say it is an accelerometer).
 
-The inlet asks liblsl to correct a remote sender's clock onto this machine's
-(`proc_clocksync`), so its stamps are this machine's monotonic seconds, and for nothing
+The inlet puts a remote sender's stamps onto this machine's clock by adding liblsl's
+clock offset (`time_correction`, re-estimated by liblsl every few seconds) to each chunk
+as it reads it, so its stamps are this machine's monotonic seconds, and does nothing
 else: the stamps come as the sender gave them, and what the capture does to them is said
-with the trial's EMG (device.emg.capture). liblsl's other post-processing would hide what
-the record must say. `proc_monotonize` sets a stamp that goes back equal to the one
-before (liblsl's time_postprocessor: `if (value < last_value_) value = last_value_`): the
-trial file's EMG times must increase, so the capture would still move it, and its note
-would say "by up to 0.0 ms", the sender's 1.5 ms lost. `proc_dejitter` replaces every
-stamp by a line fitted over the last 90 s (a recursive least-squares fit on the sample
-count): 100 samples lost at the sender (a 50 ms step) came as 1.4 ms steps spread over
-the next ones, counted as 125 missing, and no stamp was the sender's (measured on this
-machine's loopback, tests/device/test_lsl.py).
+with the trial's EMG (device.emg.capture). It adds the offset itself rather than asking
+liblsl to (`proc_clocksync`, "equivalent to manually adding the time_correction()" in
+pylsl's words) so that it knows which offsets it added and from which sample:
+`clock_offsets` keeps each, and the trial file's EMG keeps them (docs/data-format.md,
+`/emg` `clock_offsets`); with proc_clocksync they were applied and told to nobody.
+liblsl's other post-processing would hide what the record must say. `proc_monotonize`
+sets a stamp that goes back equal to the one before (liblsl's time_postprocessor: `if
+(value < last_value_) value = last_value_`): the trial file's EMG times must increase, so
+the capture would still move it, and its note would say "by up to 0.0 ms", the sender's
+1.5 ms lost. `proc_dejitter` replaces every stamp by a line fitted over the last 90 s (a
+recursive least-squares fit on the sample count): 100 samples lost at the sender (a 50 ms
+step) came as 1.4 ms steps spread over the next ones, counted as 125 missing, and no
+stamp was the sender's (measured on this machine's loopback, tests/device/test_lsl.py).
 """
 
 from __future__ import annotations
@@ -97,9 +102,17 @@ class LslEmgInlet:
         if rate_hz is not None and abs(info.nominal_srate() - rate_hz) > 0.01 * rate_hz:
             raise LslError(f"{what} runs at {info.nominal_srate():g} Hz, {rate_hz:g} Hz "
                            "expected")
-        # the clock offset only, not proc_dejitter or proc_monotonize (module docstring)
+        # no post-processing: the clock offset is added in `read`, and neither
+        # proc_dejitter nor proc_monotonize is asked for (module docstring)
         self._inlet = lsl.StreamInlet(info, max_buflen=buffer_s,
-                                      processing_flags=lsl.proc_clocksync)
+                                      processing_flags=lsl.proc_none)
+        self._no_estimate = lsl.util.TimeoutError
+        self.clock_offset_s = 0.0
+        """The clock offset added to the latest stamps (s): liblsl's estimate of this
+        machine's clock less the sender's."""
+        self.clock_offsets: list[tuple[float, float]] = []
+        """Each clock offset added (s) with the first stamp it was added to (this
+        machine's monotonic s), in order: each holds until the next begins."""
         try:  # a resolved stream's info is its header; the description comes from the sender
             described = channel_descriptions(self._inlet.info(timeout=timeout_s))
         except Exception as exc:  # pylsl's TimeoutError or LostError
@@ -124,7 +137,7 @@ class LslEmgInlet:
             self._inlet.open_stream(timeout=timeout_s)
             # the first clock-offset estimate takes a while; have it before the trial, not
             # in the first read (which would then hold the first samples back)
-            self.clock_offset_s = self._inlet.time_correction(timeout=timeout_s)
+            self.clock_offset_s = float(self._inlet.time_correction(timeout=timeout_s))
         except Exception as exc:  # pylsl raises its TimeoutError or LostError
             raise LslError(f"the LSL stream {self.summary.name!r} did not open in "
                            f"{timeout_s:g} s ({type(exc).__name__})") from None
@@ -137,13 +150,29 @@ class LslEmgInlet:
             _, stamps = self._inlet.pull_chunk(timeout=timeout_s,
                                                max_samples=self._buffer.shape[0],
                                                dest_obj=self._buffer, min_samples=1)
+            if len(stamps):
+                offset = self._latest_offset()
         except Exception as exc:  # pylsl's LostError: the sender went away
             raise LslError(f"the LSL stream {self.summary.name!r} was lost "
                            f"({type(exc).__name__}); check the EMG software") from None
         n = len(stamps)
         samples = self._buffer[:n] if self._columns is None else \
             self._buffer[:n, self._columns]
-        return np.asarray(stamps, dtype=float), samples.astype(float) * self.volts_per_unit
+        corrected = np.asarray(stamps, dtype=float)
+        if n:
+            corrected += offset
+            if not self.clock_offsets or self.clock_offsets[-1][1] != offset:
+                self.clock_offsets.append((float(corrected[0]), offset))
+            self.clock_offset_s = offset
+        return corrected, samples.astype(float) * self.volts_per_unit
+
+    def _latest_offset(self) -> float:
+        """liblsl's latest estimate, at once (it re-estimates in the background); the last
+        one added while it has none (being re-estimated after the stream recovered)."""
+        try:
+            return float(self._inlet.time_correction(timeout=0.0))
+        except self._no_estimate:
+            return self.clock_offset_s
 
     def close(self) -> None:
         self._inlet.close_stream()

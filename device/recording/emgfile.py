@@ -12,6 +12,7 @@ like `/metrics`), checksummed like every other dataset.
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
 from collections.abc import Mapping, Sequence
@@ -60,6 +61,13 @@ class EmgGroup:
             return ()
         return tuple(str(note) for note in value)
 
+    @property
+    def clock_offsets(self) -> tuple[tuple[float, float], ...]:
+        """The clock offsets added to a live LSL capture's stamps to put them on this
+        machine's clock, each (trial time it began, offset s): () when none was added (a
+        Trigno, a file, a file of before they were kept; the reader checked them)."""
+        return tuple((float(t), float(o)) for t, o in self.attrs.get("clock_offsets", []))
+
 
 def write_emg(
     path: str | os.PathLike,
@@ -75,13 +83,16 @@ def write_emg(
     source_file: str = "",
     replace: bool = False,
     notes: Sequence[str] = (),
+    clock_offsets: Sequence[tuple[float, float]] = (),
 ) -> None:
     """Store EMG in a closed trial file's `/emg` group. `time_s` is already trial time;
     `clock` says in words how it was mapped, `offset_s` the shift applied (trial time =
     source time + offset_s); `notes`, what is wrong with it in words (a capture that ended
     early, samples missing, a hole in a recording, part of the trial not covered), kept
-    with it: said on screen or printed only, they were lost with the session. Refuses a
-    file being recorded, and replacing EMG unless `replace`."""
+    with it: said on screen or printed only, they were lost with the session;
+    `clock_offsets`, (trial time, offset s) of each clock offset a live LSL capture added
+    to the sender's stamps, from that time on (none: no attribute). Refuses a file being
+    recorded, and replacing EMG unless `replace`."""
     t = np.asarray(time_s, dtype=np.float64)
     x = np.asarray(samples, dtype=np.float64)
     if x.ndim != 2 or x.shape != (t.size, len(names)) or len(muscles) != len(names):
@@ -104,6 +115,9 @@ def write_emg(
                 "imported_utc": utc_now_iso(), "n_samples": np.int64(t.size),
                 "notes": json.dumps([str(note) for note in notes]),
             })
+            if clock_offsets:
+                group.attrs["clock_offsets"] = json.dumps(
+                    [[float(t), float(o)] for t, o in clock_offsets])
             rows = max(1, min(CHUNK_ROWS, t.size))
             time_ds = group.create_dataset("time", data=t, chunks=(rows,), fletcher32=True)
             time_ds.attrs["units"] = "s"
@@ -184,6 +198,7 @@ def _read(path: Path) -> EmgGroup | None:
                for muscle, entry in h5views.items(group.get("mvc", {}))}
         attrs = {k: _attr(v) for k, v in h5views.items(group.attrs)}
         _check_notes(attrs)
+        _check_clock_offsets(attrs)
         return EmgGroup(names, muscles, rate_hz, time_s, samples, attrs, mvc)
 
 
@@ -247,6 +262,20 @@ def _check_notes(attrs: dict) -> None:
     if not isinstance(notes, list) or not all(isinstance(n, str) for n in notes):
         raise Damaged(f"is damaged: /emg notes is {str(notes)[:40]!r}, not the JSON list of "
                       "texts the console writes")
+
+
+def _check_clock_offsets(attrs: dict) -> None:
+    """The clock offsets added to an LSL capture's stamps (absent for other sources and in
+    older files): a JSON list of [trial time s, offset s] pairs of finite numbers, in time
+    order, as the console writes them."""
+    offsets = attrs.get("clock_offsets", [])
+    pairs = isinstance(offsets, list) and all(
+        isinstance(p, list) and len(p) == 2 and all(
+            isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v)
+            for v in p) for p in offsets)
+    if not pairs or any(a[0] > b[0] for a, b in itertools.pairwise(offsets)):
+        raise Damaged(f"is damaged: /emg clock_offsets is {str(offsets)[:40]!r}, not the JSON "
+                      "list of [time s, offset s] pairs in time order the console writes")
 
 
 def _checked_mvc(muscle: str, entry: dict) -> dict:

@@ -140,6 +140,30 @@ def test_the_inlet_keeps_the_stamps_as_sent_so_the_file_says_what_was_moved_and_
     np.testing.assert_allclose(captured.stamps_s[200:], stamps[200:], atol=5e-3)
 
 
+def test_the_inlet_keeps_every_clock_offset_it_added_to_the_stamps():
+    """liblsl's clock offset was added to the stamps (proc_clocksync) and known to nobody:
+    the record could not say what was done to the sender's stamps. The inlet adds it
+    itself and keeps each offset with the first stamp it was added to, so every stamp is
+    the sender's plus the offset kept for it, to the last bit of a double."""
+    name = _unique()
+    outlet = _emg_outlet(name, channels=2, rate=2000.0)
+    inlet = LslEmgInlet(name, channels=2, rate_hz=2000.0, timeout_s=5.0).open(5.0)
+    _wait_for(outlet.have_consumers, "the inlet connecting")
+    sent = pylsl.local_clock() + np.arange(2000) / 2000.0
+    for k in range(0, 2000, 100):
+        outlet.push_chunk(np.zeros((100, 2), np.float32), timestamp=sent[k:k + 100].tolist())
+    t, _ = _receive(inlet, 2000)
+    starts = np.array([start for start, _ in inlet.clock_offsets])
+    offsets = np.array([offset for _, offset in inlet.clock_offsets])
+    assert starts[0] == t[0]  # the first offset from the first sample on
+    assert (np.diff(starts) > 0).all()
+    assert np.all(np.abs(offsets) < 5e-3)  # one machine: a clock offset of almost nothing
+    added = offsets[np.searchsorted(starts, t, side="right") - 1]
+    np.testing.assert_array_equal(t - added, sent)
+    assert inlet.clock_offset_s == offsets[-1]
+    inlet.close()
+
+
 @pytest.mark.parametrize(("fmt", "dtype", "unit", "volts"), [
     (pylsl.cf_int16, np.int16, "microvolts", 1e-6),
     (pylsl.cf_int32, np.int32, "uV", 1e-6),

@@ -31,7 +31,17 @@ def test_thesis_as_printed_is_refused_in_one_line_with_exit_2(capsys):
     [
         (["check", "--radius", "-1"], "radius_m"),
         (["check", "--body-mass", "300"], "body_mass_kg"),
-        (["check", "--tolerance", "nan"], "tolerance_rad"),
+        (["check", "--tolerance", "nan"], "--tolerance = NaN is not allowed; allowed: a "
+                                          "cone from 1 to 90 degrees"),
+        # said in the option's own terms: "tolerance_rad = 1.74533e+07 … rad" answered
+        # degrees, "assistance_level = 2" an --assistance of 200 %
+        (["check", "--tolerance", "1e9"], "--tolerance = 1e+09 is not allowed; allowed: a "
+                                          "cone from 1 to 90 degrees"),
+        (["check", "--assistance", "200"], "--assistance = 200 is not allowed; allowed: 0 "
+                                           "to 100 %"),
+        (["check", "--radius", "5"], "--radius (radius_m) = 5 is not allowed"),
+        (["check", "--shoulder", "5", "0.7"], "--shoulder (shoulder_m[x]) = 5 is not "
+                                              "allowed"),
         (["check", "--radius", "abc"], "invalid float"),
         (["check", "--shape", "square"], "invalid choice"),
         (["check", "--no-such-option"], "unrecognized"),

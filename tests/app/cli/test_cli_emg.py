@@ -131,8 +131,10 @@ def test_demo_makes_the_trials_an_emg_model_for_the_assistance_needs(tmp_path, c
 @pytest.mark.parametrize(("option", "said"), [
     (["--trials", "0"], "--trials 0: give a number from 1 to 10"),
     (["--trials", "11"], "--trials 11: give a number from 1 to 10"),
-    (["--tolerance", "nan"], "--tolerance nan: give a cone from 1 to 90 degrees"),
-    (["--tolerance", "95"], "--tolerance 95: give a cone from 1 to 90 degrees"),
+    (["--tolerance", "nan"], "--tolerance = NaN is not allowed; allowed: a cone from 1 to "
+                             "90 degrees"),
+    (["--tolerance", "95"], "--tolerance = 95 is not allowed; allowed: a cone from 1 to 90 "
+                            "degrees"),
 ])
 def test_demo_refuses_a_bad_count_or_cone_in_one_line(tmp_path, capsys, option, said):
     code, _, err = run(["emg", "demo", str(tmp_path / "d"), *option], capsys)
@@ -361,6 +363,15 @@ def test_record_keeps_emg_numbers_for_labels_a_csv_cannot_hold(tmp_path, capsys,
     (["emg", "show", "99"], "no registry"),
     (["emg", "import", "{plain}", "missing.csv"], "does not exist"),
     (["emg", "import", "{plain}", str(DATA / "plain.csv"), "--offset", "nan"], "--offset"),
+    # EMG wholly beside the trial was stored ("covers 0 %"), and at 1e300 s stored times
+    # that no longer increased, so the trial's EMG then read as damaged
+    (["emg", "import", "{plain}", str(DATA / "plain.csv"), "--offset", "1e9"],
+     "an offset of 1e+09 s puts the EMG at trial time 1e+09–1e+09 s, none of it within "
+     "the trial (0–"),
+    (["emg", "import", "{plain}", str(DATA / "plain.csv"), "--offset=-1e9"],
+     "none of it within the trial"),
+    (["emg", "import", "{plain}", str(DATA / "plain.csv"), "--offset", "1e300"],
+     "none of it within the trial"),
     (["emg", "import", "{plain}", str(DATA / "plain.csv"), "--muscles", "a,b"],
      "2 muscles given for 3"),
     (["emg", "mvc", "{plain}", "--contraction", "biceps"], "MUSCLE=FILE"),

@@ -69,6 +69,27 @@ def test_a_model_whose_torques_pass_is_still_refused_when_its_force_misjudges_th
     assert "muscle model, held out (held-out trials): shoulder R²" in err
 
 
+def test_latency_replays_every_run_s_force_as_its_help_says(trials, capsys, monkeypatch):
+    """`--latency`'s help said "with --for-assistance:" while every run's force (its cone
+    judged alike) is replayed with it, and its description left out the cone's 80 %."""
+    held = str(trials[1])
+    forces = []
+    for latency in ("0", "0.5"):
+        code, out, err = run(["emg", "model", *map(str, trials), "--model", "linear",
+                              "--test", held, "--latency", latency], capsys)
+        assert code == 0, err
+        forces.append(out[out.index("force RMSE"):].split("passes")[0].split("fails")[0])
+    assert forces[0] != forces[1]  # half a second later, the force it implies differs
+    monkeypatch.setenv("COLUMNS", "1000")  # argparse wraps no line (nor a --for-assistance)
+    code, out, _ = run(["emg", "model", "--help"], capsys)
+    assert code == 0
+    text = " ".join(out.split())
+    assert "with or without --for-assistance" in text
+    assert "with --for-assistance: how late" not in text
+    assert "on 80% of the samples" in text
+    assert "`rehab run --force-estimate` refuses a later source" in text
+
+
 @pytest.fixture(scope="module")
 def wide(emg_subject_1):
     """Subject 1's session with a 30° cone: the cone its EMG estimate is shown to judge

@@ -118,6 +118,20 @@ def test_bad_input_is_one_line_and_exit_2(files, trained, tmp_path, capsys):
           str(tmp_path / "m.json"), "--hidden", "8,x"], "is not sizes such as 16,16"),
         (["learn", "train", "--model", "fnn", "--data", p, "--output",
           str(tmp_path / "m.json"), "--learning-rate", "-1"], "must be a finite number > 0"),
+        # accepted before: 1e9 saved a diverged model (cross-validation RMSE 1e8), 1e8
+        # epochs would have trained for years, a mass scale a network has none of was
+        # dropped without a word
+        (["learn", "train", "--model", "fnn", "--data", p, "--output",
+          str(tmp_path / "m.json"), "--learning-rate", "1e9"],
+         "--learning-rate 1e+09: give at most 1"),
+        (["learn", "train", "--model", "fnn", "--data", p, "--output",
+          str(tmp_path / "m.json"), "--epochs", "100000000"],
+         "--epochs 100000000: give at most 10,000"),
+        (["learn", "train", "--model", "fnn", "--data", p, "--output",
+          str(tmp_path / "m.json"), "--mass-scale", "0.5"],
+         "--mass-scale is the DeLaN's (its mass matrix's unit); a fnn has none"),
+        (["learn", "train", "--model", "delan", "--data", p, "--output",
+          str(tmp_path / "m.json"), "--mass-scale", "1e9"], "--mass-scale 1e+09: give 0.001"),
         (["learn", "evaluate", "--model", str(tmp_path / "none.json"), "--data", p],
          "missing: no such file"),
         (["learn", "evaluate", "--model", p, "--data", p], "is not a JSON model file"),
@@ -126,6 +140,18 @@ def test_bad_input_is_one_line_and_exit_2(files, trained, tmp_path, capsys):
         (["learn", "pendulum", "--output", str(tmp_path / "x.h5"), "--speeds", "0"],
          "must be a finite number > 0"),
         (["learn", "pendulum", "--output", str(tmp_path / "no" / "x.h5")], "does not exist"),
+        # a speed no pendulum on a track is driven at: the base would slide faster than a
+        # bullet (fast) or run away under the friction's push (slow)
+        (["learn", "pendulum", "--output", str(tmp_path / "x.h5"), "--speeds", "2", "1e9"],
+         "--speeds 1e+09: at 1e+09 rad/s the base would slide at 1.31e+08 m/s"),
+        (["learn", "pendulum", "--output", str(tmp_path / "x.h5"), "--speeds", "0.01"],
+         "give speeds from 0.47 to 76.7 rad/s"),
+        (["learn", "pendulum", "--output", str(tmp_path / "x.h5"), "--speeds", "1e200"],
+         "more m/s than a number holds"),
+        # held out of the thesis's speeds, it must be one of them: no cycle was held out
+        # while the line said one was
+        (["learn", "pendulum", "--output", str(tmp_path / "x.h5"), "--held-out", "5.5"],
+         "--held-out 5.5 is none of the thesis's speeds"),
     ]
     for args, message in cases:
         code, _, err = run(args, capsys)

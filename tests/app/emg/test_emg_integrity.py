@@ -61,3 +61,25 @@ def test_an_edited_emg_group_is_refused_by_every_reader(with_emg, tmp_path, caps
     assert code == 2
     assert err.count("\n") == 1
     assert "FLAGGED" not in out
+
+
+@pytest.mark.parametrize(("stored", "said"), [
+    ('[[0.5, 1000.0], [0.2, 1000.004]]', "[[0.5, 1000.0], [0.2, 1000.004]]"),
+    ('[[0.5, "1000"]]', "[[0.5, '1000']]"),
+    ('[[0.5, NaN]]', "[[0.5, nan]]"),
+    ('[[0.5, 1000.0]', "[[0.5, 1000.0]"),
+], ids=["out of order", "text", "NaN", "cut"])
+def test_clock_offsets_that_are_not_the_console_s_are_refused(with_emg, tmp_path, stored,
+                                                              said):
+    """The clock offsets an LSL capture added to the sender's stamps (/emg clock_offsets)
+    are what says how its times were made: an edit that the file's seal was made again
+    over is refused as the other /emg edits are, not read as some other offsets."""
+    path = shutil.copy(with_emg, tmp_path / "trial.h5")
+    with edited(path) as f:
+        f["emg"].attrs["clock_offsets"] = stored
+    with pytest.raises(DeviceError, match="/emg clock_offsets is ") as caught:
+        read_emg(path)
+    assert said[:40] in str(caught.value)
+    with edited(path) as f:  # as the console writes them, they read
+        f["emg"].attrs["clock_offsets"] = "[[0.5, 1000.0], [2.5, 1000.004]]"
+    assert read_emg(path).clock_offsets == ((0.5, 1000.0), (2.5, 1000.004))

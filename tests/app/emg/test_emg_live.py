@@ -19,6 +19,7 @@ from device.emg.capture import EmgCapture
 from device.emg.trigno import TrignoClient
 from device.lsl.inlet import LslEmgInlet
 from device.recording.emgfile import read_emg
+from tests.app.cli.running import run
 from tests.trialfiles import edited
 
 _spec = importlib.util.spec_from_file_location(
@@ -111,6 +112,47 @@ def test_an_lsl_capture_lands_in_the_trial(plain_trial, tmp_path):
     np.testing.assert_allclose(emg.samples, sent.astype(float))
     # the sender's stamps, mapped: 1 s after the origin is trial time 1 s
     np.testing.assert_allclose(emg.time_s, 1.0 + np.arange(4000) / 2000.0, atol=5e-3)
+
+
+def test_an_lsl_capture_s_trial_file_says_which_clock_offsets_were_added(plain_trial,
+                                                                          tmp_path, capsys):
+    """A sender on another computer stamps by its own clock; liblsl's offset between it and
+    this machine's was added to every stamp, changed as liblsl re-estimated it, and the
+    trial file said nothing of it (docs/data-format.md only described it). /emg
+    `clock_offsets` now keeps each offset added, from the trial time it began. The sender's
+    clock is put 1000 s behind by its stamps, and liblsl's estimate (1 ms or less apart on
+    one machine) is given as that computer's would be: 1000 s, then 4 ms more."""
+    name = f"test-{uuid.uuid4().hex[:12]}"
+    outlet = _lsl_emg_outlet(name, ("a", "b"), "V", pylsl.cf_float32)
+    inlet = LslEmgInlet(name, channels=2, rate_hz=2000.0, timeout_s=5.0).open(5.0)
+    _wait_for_consumers(outlet)
+    estimate = [1000.0]
+    inlet._inlet.time_correction = lambda timeout: estimate[0]
+    origin = time.monotonic()
+    capture = EmgCapture(inlet).start()
+    sent = np.arange(4000 * 2, dtype=np.float32).reshape(4000, 2) * 1e-7
+    theirs = origin + 1.0 - 1000.0 + np.arange(4000) / 2000.0  # the sender's clock
+    outlet.push_chunk(sent[:2000], timestamp=theirs[:2000].tolist())
+    _capture_until(capture, 2000)
+    estimate[0] = 1000.004  # liblsl's next estimate: the clocks drifted 4 ms apart
+    outlet.push_chunk(sent[2000:], timestamp=theirs[2000:].tolist())
+    _capture_until(capture, 4000)
+    captured = capture.stop()
+    trial = _live_trial(plain_trial, tmp_path, origin)
+    import_capture(trial, captured, names=("a", "b"), source=f"lsl:{name}")
+    emg = read_emg(trial)
+    first = 1.0 + np.arange(4000) / 2000.0
+    first[2000:] += 0.004
+    np.testing.assert_allclose(emg.time_s, first, atol=5e-3)
+    (start, offset), (changed, later) = emg.clock_offsets
+    assert (offset, later) == (1000.0, 1000.004)
+    assert start == emg.time_s[0]
+    assert changed == emg.time_s[2000]
+    assert "clock_offsets" in emg.attrs["clock"]
+    code, out, err = run(["emg", "show", str(trial)], capsys)
+    assert code == 0, err
+    assert "clock: liblsl's clock offset added to the LSL sender's stamps, 2 estimates " \
+           "from 1000.000000 to 1000.004000 s (/emg clock_offsets)" in out
 
 
 def test_an_lsl_capture_whose_chunks_overlap_lands_in_a_readable_trial(plain_trial, tmp_path):

@@ -4,10 +4,15 @@ one line and exit code 2, refused before a cluster starts or a file is written."
 
 from __future__ import annotations
 
+import re
+import shutil
+import subprocess
+
 import numpy as np
 import pandas as pd
 import pytest
 
+from app.cli.study import query_line
 from app.records.datadir import DataDir
 from app.records.registry import Registry
 from app.reports.progress import progress
@@ -39,6 +44,19 @@ def test_a_folder_is_analysed_listing_what_could_not_be_read(study, client, tmp_
                                                             "trials.csv"]
     table = pd.read_csv(out_folder / "trials.csv")
     assert len(table) == SOUND
+    # the query it prints runs as pasted, from any folder ('.venv/bin/python' ran only from
+    # the console's), and on a folder whose name a shell or SQL would read otherwise
+    (query,) = [line.split("query: ", 1)[1] for line in out.splitlines() if "query: " in line]
+    odd = tmp_path / "it's \"a\" $HOME `study`"
+    odder = tmp_path / "wow!"  # quoted otherwise: ! is read between double quotes too
+    shutil.copytree(out_folder / "trials", odd)
+    shutil.copytree(out_folder / "trials", odder)
+    for line in (query, query_line(odd), query_line(odder)):
+        counted = subprocess.run(["bash", "-c", line], cwd=tmp_path, capture_output=True,
+                                 text=True, timeout=120)
+        assert counted.returncode == 0, counted.stderr
+        assert sum(int(n) for n in re.findall(r"│\s*\S+\s*│\s*(\d+)\s*│", counted.stdout)) \
+            == SOUND, counted.stdout
     # again: the results are kept, in one line, before any work
     code, out, err = run(["study", "analyse", str(study), "--output", str(out_folder)],
                          capsys)

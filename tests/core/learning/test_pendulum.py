@@ -86,3 +86,20 @@ def test_bad_pendulum_refused():
 def test_held_out_speed_must_be_a_cycle():
     with pytest.raises(ValueError, match=r"no cycle at 5\.5"):
         pd.held_out_mask(pd.generate([1.0, 2.0]), 5.5)
+
+
+def test_speeds_that_fling_or_run_away_the_base_are_refused():
+    """The base's top speed (from the samples) bounds the rod's speeds on both sides: the
+    friction's push over a slow sweep, the swing at a fast one."""
+    low, high = pd.speed_limits()
+    for speed in (low, high):
+        top = pd.base_top_speeds(pd.generate([speed]))[0]
+        assert top == pytest.approx(pd.MAX_BASE_SPEED_M_S, rel=1e-6)
+    assert 0.4 < low < 1.0  # the thesis's 1 … 10 inside
+    assert 10.0 < high < 100.0
+    for speed in (low * 0.99, high * 1.01, 1e9, 1e200):
+        with pytest.raises(ParameterError, match="the base would slide at"):
+            pd.generate([3.0, speed])
+        assert pd.speed_refusal(speed).startswith(f"at {speed:g} rad/s")
+    assert pd.speed_refusal(low * 1.01) == pd.speed_refusal(high * 0.99) == ""
+    assert np.all(pd.base_top_speeds(pd.generate()) < 5.0)
