@@ -231,7 +231,13 @@ def test_build_and_start_are_the_plan_s_while_it_rests(qtbot, window):
     assert len(win.registry.trials_for_patient(code)) == 1
     click(qtbot, win.plan_tab.stop_button)
     qtbot.waitUntil(lambda: win.plan_runner is None, timeout=20000)
-    assert {"build", "start"} <= enabled(win)  # the therapist's again
+    # the therapist's again: Build, and Start once the form (back to the trial before
+    # the plan, not the block built) is built
+    assert "build" in enabled(win)
+    assert win.robot.buttons["start"].toolTip() != capitalised(PLAN_RUNS)
+    assert win.stale()
+    click(qtbot, win.robot.buttons["build"])
+    qtbot.waitUntil(lambda: not win.stale() and "start" in enabled(win), timeout=20000)
     (run,) = win.registry.plan_runs_for_patient(code)
     assert run.status == "stopped"
 
