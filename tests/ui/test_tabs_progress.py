@@ -14,7 +14,7 @@ from app.records.datadir import DataDir
 from app.records.registry import Registry
 from app.reports.progress_figure import progress_figure
 from core.trial import THESIS_SUBJECT
-from tests.app.reports.made import staircase_course
+from tests.app.reports.made import many_trials, staircase_course
 from tests.ui.shown import shown
 from ui import theme
 from ui.tabs import ProgressTab
@@ -268,13 +268,8 @@ def test_hundreds_of_trials_keep_the_end_markers_and_the_pace_whole(qtbot, qapp,
     registry = Registry(DataDir(tmp_path / "data"))
     code = registry.create_patient("Many", "Trials").code
     n = 300
-    for k in range(n):
-        # the pace changes at the last trial: a mark over the right end too
-        parameters = THESIS_SUBJECT.replace(duration_s=3.0 if k == n - 1 else 4.0)
-        begun = registry.begin_trial(code, parameters, backend="simulator",
-                                     session_number=1 + k // 10)
-        registry.finish_trial(begun.trial_id, "complete",
-                              {"directional_performance_pct": 60.0 + k % 7})
+    # the pace changes at the last trial: a mark over the right end too
+    many_trials(registry, code, n, lambda k: 3.0 if k == n - 1 else 4.0)
     theme.apply_theme(qapp)
     tab = shown(qtbot, ProgressTab(registry), 1366, 738)
     with qtbot.waitSignal(tab.progress_loaded, timeout=30000):

@@ -37,7 +37,12 @@ from PySide6.QtWidgets import (
 from app.records.datadir import REPORTS
 from app.records.store import RecordStore
 from app.reports.progress import Exercise, Progress, progress
-from app.reports.progress_figure import figure_rows, progress_figure, value_span
+from app.reports.progress_figure import (
+    figure_rows,
+    progress_figure,
+    trial_limits,
+    value_span,
+)
 from ui import plots, theme
 from ui.fields import ComboBox
 from ui.tabs.progress_scales import ScalesPanel
@@ -459,10 +464,7 @@ class ProgressTab(QWidget):
             return
         item = self.plot.getPlotItem()
         width = max(item.getViewBox().width(), 1.0)
-        # trials 1…n; a pad p (trials) shows n − 1 + 2p over the box's width: the marker's
-        # radius r (px) fits when p ≥ r·(n − 1) / (width − 2r)
-        pad = max(0.5, MARKER_ROOM_PX * (n - 1) / max(width - 2 * MARKER_ROOM_PX, 1.0))
-        low, high = 1.0 - pad, n + pad
+        low, high = trial_limits(n, width, MARKER_ROOM_PX)
         item.setXRange(low, high, padding=0)
         trials_per_px = (high - low) / width
         for text, position in self._marks:
