@@ -79,7 +79,14 @@ class EmgTab(QWidget):
         # the live source
         self.live_plot = plots.make_plot("time (s)", "live EMG<br>(µV)")
         self.live_plot.hide()
-        plots.legend(self.live_plot.getPlotItem())
+        # its key in the panel beside it, wrapped in as many lines as the names need: a
+        # key above the plot showed the source's 16 channels on one row wider than the
+        # plot (EMG7, EMG8 off its right, the plot widened past its window) and, once the
+        # MVCs made them three muscles, spread these over that width, 'anterior deltoid'
+        # cut; in rows it would take the height the plot's label needs at 1366 × 768
+        self.live_key = theme.set_role(QLabel(""), "caption")
+        self.live_key.setWordWrap(True)
+        self.live_key.setAccessibleName("live EMG key")
         self.live_curves = []
         self.live_unit = ""
         self.source_kind = QComboBox()
@@ -116,7 +123,8 @@ class EmgTab(QWidget):
         column.addWidget(self.live_plot, 6)  # its key takes two rows for 16 channels
         plots.plot_with_panel(self, stack, (), (self.status, self.source_kind,
                                                  self.source_edit, self.connect_button,
-                                                 self.live_status, self.protocol_box))
+                                                 self.live_status, self.live_key,
+                                                 self.protocol_box))
 
     def _build_protocol(self) -> None:
         """The guided MVC protocol: each muscle's source channel, its MVC and a button to
@@ -307,8 +315,12 @@ class EmgTab(QWidget):
         if [c.name() for c in self.live_curves] != list(names):
             for c in self.live_curves:
                 item.removeItem(c)
-            self.live_curves = [plots.curve(item, theme.SERIES[i % len(theme.SERIES)], name=n)
-                                for i, n in enumerate(names)]
+            colours = [theme.SERIES[i % len(theme.SERIES)] for i in range(len(names))]
+            self.live_curves = [plots.curve(item, colour, name=n)
+                                for colour, n in zip(colours, names, strict=True)]
+            self.live_key.setText(" &nbsp; ".join(
+                f"<span style='color:{colour}'>━</span>&nbsp;{n}"
+                for colour, n in zip(colours, names, strict=True)))
         if view.unit != self.live_unit:
             self.live_unit = view.unit
             item.setLabel("left", f"live EMG<br>({view.unit})")
