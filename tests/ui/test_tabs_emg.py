@@ -46,7 +46,7 @@ def test_a_saved_trial_shows_envelopes_and_flags_the_bad_mvc(qtbot, trial_with_e
     text = tab.status.text()
     assert "anterior deltoid: up to" in text
     assert "lower than the trial's activity" in text
-    assert "biceps: up to" in text
+    assert "biceps brachii: up to" in text  # as the key names it
     assert text.count("MVC ok") == 2
     tab.set_cursor(1.0)
     assert tab.cursors[0].isVisible()

@@ -223,7 +223,8 @@ class EmgTab(QWidget):
         for muscle, peak in self.data.peaks.items():
             flags = self.data.flags.get(muscle, ())
             quality = "MVC ok" if not flags else f"{theme.PROBLEM_SIGN} MVC {short_flags(flags)}"
-            lines.append(f"{muscle.replace('_', ' ')}: up to {peak:.0f} % MVC; {quality}")
+            # named as the key above names it ('biceps brachii', not 'biceps')
+            lines.append(f"{words(muscle)}: up to {peak:.0f} % MVC; {quality}")
         self.status.setText("\n".join(lines))
 
     # -- the live source ------------------------------------------------------------
