@@ -118,6 +118,7 @@ class EmgFigure:
 def emg_figure(trial: TrialData, mask: np.ndarray, start_s: float) -> EmgFigure | None:
     """The EMG figure of a trial with EMG and an MVC per muscle, else None."""
     from app.emg.importing import EmgImportError
+    from app.emg.mvc_words import long_flags
     from app.emg.session import trial_envelopes
     from device.errors import DeviceError
     from device.recording.emgfile import read_emg
@@ -128,13 +129,8 @@ def emg_figure(trial: TrialData, mask: np.ndarray, start_s: float) -> EmgFigure 
         env = trial_envelopes(trial.path)
     except (EmgImportError, DeviceError, CoreError):
         return None
-    words = {"too_short": "too short", "saturated": "saturated",
-             "no_effort_above_rest": "no effort above rest: the % MVC means nothing",
-             "below_trial_activity": "lower than the trial's own activity: not a maximal "
-                                     "effort, record it again"}
     quality = tuple(f"{m.replace('_', ' ')}: MVC "
-                    + ("sound" if not env.flags[m] else
-                       "; ".join(words.get(f, f) for f in env.flags[m]))
+                    + (long_flags(env.flags[m]) if env.flags[m] else "sound")
                     for m in env.muscles)
     t = np.asarray(trial.channels["time"], dtype=float)[mask] - start_s
     return EmgFigure(t, 100.0 * env.values[mask], env.muscles, quality)

@@ -195,6 +195,11 @@ def _measured(lines: list[str], size_pt: float, weight: str, limit: float) -> li
     return checked or [""]
 
 
+def text_width_pt(text: str, size_pt: float, weight: str = "normal") -> float:
+    """How wide `text` is set at `size_pt` in the sheets' font (its advance), in points."""
+    return _width_pt(text, size_pt, weight)
+
+
 @functools.lru_cache(maxsize=4096)
 def _width_pt(text: str, size_pt: float, weight: str) -> float:
     """The advance of `text` in DejaVu Sans, unhinted as in the PDF (linear in the size,

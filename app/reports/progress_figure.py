@@ -212,5 +212,16 @@ def value_span(values: np.ndarray, unit: str) -> tuple[float, float]:
     return low, high
 
 
+def trial_limits(n: int, length: float, radius: float) -> tuple[float, float]:
+    """The trial axis's ends for trials 1…n drawn along `length` (px on screen, inches on
+    paper), so that a marker of `radius` (the same unit) at either end is whole: half a
+    slot beyond each end, or more when the slots are narrower than the marker (300
+    trials on a laptop's plot left 1.3 px beside the end markers, drawn half cut). A pad
+    p (trials) shows n − 1 + 2p over `length`: the marker fits when
+    p ≥ radius·(n − 1) / (length − 2·radius)."""
+    pad = max(SLOT_HALF_WIDTH, radius * (n - 1) / max(length - 2.0 * radius, 1e-9))
+    return 1.0 - pad, n + pad
+
+
 def _same(a: float, b: float) -> bool:
     return (math.isnan(a) and math.isnan(b)) or math.isclose(a, b, rel_tol=1e-9)

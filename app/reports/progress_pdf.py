@@ -30,9 +30,15 @@ from app.reports.pdf_sheet import (
     VERMILLION,
     Sheet,
     fit,
+    text_width_pt,
 )
 from app.reports.progress import Progress
-from app.reports.progress_figure import ProgressFigure, progress_figure, value_span
+from app.reports.progress_figure import (
+    ProgressFigure,
+    progress_figure,
+    trial_limits,
+    value_span,
+)
 from app.units import assistance_percent
 
 log = logging.getLogger(__name__)
@@ -42,6 +48,10 @@ ROW_H_IN = 0.17
 BOTTOM_ROOM_IN = 0.7
 DOSE_LINE_IN = 0.18  # a line of the dose's table at 8 pt, with its leading
 MAX_LABELLED_TICKS = 30
+MARKER_ROOM_PT = 5.5  # the largest marker's radius (8 pt across) and its edge
+MARK_PT = 6.5  # the pace's and tolerance's words over the help
+MARK_ROWS = (103.0, 113.0)  # their rows' baselines (%), above the help's 100 %
+MARK_GAP_PT = 4.0  # the least space between two marks on a row
 
 
 def write_progress_pdf(progress: Progress, path: str | os.PathLike, *,
@@ -165,7 +175,7 @@ def _plots(sheet: Sheet, figure: ProgressFigure) -> None:
     if low < high:
         margin = 0.05 * (high - low)
         top.set_ylim(low - margin, high + margin)
-    top.set_xlim(0.5, n + 0.5)
+    top.set_xlim(*trial_limits(n, width, MARKER_ROOM_PT / 72.0))
     top.tick_params(labelbottom=False)
     top.grid(True, color="#E6E6E6", linewidth=0.5)
     sheet.y_in += 2.9 + 0.15
@@ -173,13 +183,12 @@ def _plots(sheet: Sheet, figure: ProgressFigure) -> None:
     bottom.plot(figure.help_x, figure.help_y, color=HELP_COLOUR, linewidth=2)
     bottom.plot(figure.live_x, figure.live_y, linestyle="none", marker="D", markersize=5,
                 color=INK)
-    for mark in figure.marks:
-        bottom.annotate(mark.text, (mark.position, 104.0), ha="center", va="bottom",
-                        fontsize=6.5, color=INK, rotation=0 if n <= 12 else 60)
+    low, high = trial_limits(n, width, MARKER_ROOM_PT / 72.0)
+    _marks(bottom, figure, low, high, width)
     bottom.set_ylim(0.0, 125.0)
     bottom.set_yticks([0, 25, 50, 75, 100])
     bottom.set_ylabel("robot's help (%)")
-    bottom.set_xlim(0.5, n + 0.5)
+    bottom.set_xlim(low, high)
     bottom.sharex(top)
     if n <= MAX_LABELLED_TICKS:
         bottom.set_xticks(figure.positions, figure.ticks, rotation=90 if n > 12 else 0,
@@ -187,6 +196,25 @@ def _plots(sheet: Sheet, figure: ProgressFigure) -> None:
     bottom.set_xlabel("trial (session, trial)")
     bottom.grid(True, color="#E6E6E6", linewidth=0.5)
     sheet.y_in += 1.5 + (0.75 if n > 12 else 0.5)
+
+
+def _marks(axes, figure: ProgressFigure, low: float, high: float, width_in: float) -> None:
+    """The pace and the tolerance written over the trial where they changed, level, in
+    one of MARK_ROWS rows above 100 %: each whole inside the plot (as near its trial as
+    fits), on the first row where it clears the mark before it; one that clears none is
+    left to the table under the plot, which says every trial's pace and tolerance. Turned
+    by 60° over more than 12 trials, they ran out of the plot into the series above."""
+    per_pt = (high - low) / (width_in * 72.0)  # trials a point
+    ends = [-np.inf] * len(MARK_ROWS)  # where each row's last mark ends (trials)
+    for mark in figure.marks:
+        half = 0.5 * text_width_pt(mark.text, MARK_PT) * per_pt
+        edge = half + 0.5 * MARK_GAP_PT * per_pt  # off the plot's frame
+        x = min(max(float(mark.position), low + edge), max(high - edge, low + edge))
+        free = [row for row, end in enumerate(ends) if x - half > end]
+        if free:
+            ends[free[0]] = x + half + MARK_GAP_PT * per_pt
+            axes.annotate(mark.text, (x, MARK_ROWS[free[0]]), ha="center", va="bottom",
+                          fontsize=MARK_PT, color=INK)
 
 
 COLUMNS = (("Session", 0.6), ("Trial", 0.45), ("Date", 0.8), ("Station", 0.6),

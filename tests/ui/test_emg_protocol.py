@@ -125,8 +125,7 @@ def test_each_muscle_guided_flagged_then_recorded_again(qtbot, window, server):
     assert lines["biceps"].startswith("biceps brachii: MVC")
     assert lines["biceps"].endswith(": ok")
     assert "saturated. Record again." in lines["triceps"]
-    assert "amplifier's limit" in win.message.text() or \
-        "amplifier's limit" in "\n".join(win.messages.history())
+    assert "amplifier's limit" in win.emg.mvc_labels["triceps"].toolTip()
     assert win.emg.record_buttons["triceps"].text() == "Record again"
     session = win.emg.session
     assert set(session.records) == set(THESIS_MUSCLES)
@@ -168,6 +167,41 @@ def test_a_push_no_stronger_than_the_rest_is_flagged(qtbot, window, server):
     server.signal.level[0] = 2e-4
     again, _ = record(qtbot, win, "biceps")
     assert again.endswith(": ok"), again
+
+
+def test_a_flagged_mvc_is_said_in_short_with_what_to_do_and_the_tab_is_whole(
+        qtbot, window, server, caplog):
+    """At 1366 × 768 with the source streaming (three plots stacked) the envelope's label
+    was cut ("EMG envelope (% MV"); a flagged MVC's message line was its row and its whole
+    reason, a paragraph set in small type. The line says the flag in short and what to do;
+    the reason is the row's tooltip and in the day log."""
+    import pyqtgraph as pg
+
+    win = window
+    win.resize(1366, 738)
+    qtbot.waitExposed(win)
+    register_patient(qtbot, win)
+    connect_trigno(qtbot, win, server)
+    short_protocol(win)
+    server.signal.level[0] = server.signal.rest_level  # the biceps' sensor: rest throughout
+    with caplog.at_level("WARNING", logger="ui.tabs.emg"):
+        record(qtbot, win, "biceps")
+    text = win.message.text()
+    assert text.startswith("⚠ biceps brachii's MVC: no effort above rest. Check that the "
+                           "electrode is on the muscle"), text
+    assert text.count("⚠") == 1
+    assert "then record again" in text
+    assert "median" not in text  # the reason's figures: in the tooltip and the log
+    assert "the push's EMG" in win.emg.mvc_labels["biceps"].toolTip()
+    assert any("the push's EMG" in r.getMessage() for r in caplog.records)
+    # in the window's own size, not squeezed
+    assert win.message.font().pointSizeF() >= 0.99 * win.font().pointSizeF()
+    qtbot.waitUntil(lambda: win.emg.live_plot.isVisible(), timeout=5000)
+    for plot in win.emg.findChildren(pg.PlotWidget):
+        if plot.isVisible():
+            left = plot.getPlotItem().getAxis("left")
+            text_px = left.label.boundingRect().width()  # drawn turned by 90°
+            assert text_px <= left.geometry().height() + 1, left.labelText
 
 
 def test_the_protocol_refuses_without_a_session_or_a_source(qtbot, window):

@@ -167,7 +167,8 @@ def test_the_session_mvcs_give_live_and_stored_percent_mvc(qtbot, tmp_path, monk
             assert stored.mvc["biceps"]["flags"] == []
             history = "\n".join(win.messages.history())
             assert "anterior deltoid: MVC" in history
-            assert "lower than the trial's activity. Record again." in history
+            assert "MVC: lower than the trial's activity. Ask for a maximal push, then record " \
+                    "again" in history
             assert "lower than the trial's activity" in emg.mvc_labels["anterior_deltoid"].text()
             view = _readable(qtbot, lambda: emg_view(win.trial_path) if
                              not emg_view(win.trial_path).message else None)

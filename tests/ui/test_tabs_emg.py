@@ -46,7 +46,7 @@ def test_a_saved_trial_shows_envelopes_and_flags_the_bad_mvc(qtbot, trial_with_e
     text = tab.status.text()
     assert "anterior deltoid: up to" in text
     assert "lower than the trial's activity" in text
-    assert "biceps: up to" in text
+    assert "biceps brachii: up to" in text  # as the key names it
     assert text.count("MVC ok") == 2
     tab.set_cursor(1.0)
     assert tab.cursors[0].isVisible()
@@ -200,3 +200,45 @@ def test_what_the_file_says_of_its_emg_is_shown_with_it(qtbot, trial_with_emg, t
     qtbot.addWidget(tab)
     tab.show_view(TrialView.from_trial(read_trial(noted)))
     assert f"The EMG: {note}." in tab.status.text()
+
+
+def test_the_live_key_fits_its_plot_when_the_channels_become_muscles(qtbot):
+    """The live plot's key showed the source's 16 channels on one row wider than the plot
+    (EMG7, EMG8 off its right), widening the plot past its window; once the MVCs turned
+    the channels into three muscles, these were spread over the old width and 'anterior
+    deltoid' was cut. The key is in the panel beside the plot, wrapped, every name whole;
+    the plot keeps its widget's width."""
+    import numpy as np
+    from PySide6.QtWidgets import QApplication
+
+    from ui import theme
+    from ui.views.emg import LiveEmgView
+
+    theme.apply_theme(QApplication.instance())  # the window's type, as the clinic sees it
+    tab = EmgTab()
+    qtbot.addWidget(tab)
+    tab.resize(1366, 600)
+    tab.show()
+    qtbot.waitExposed(tab)
+    tab.live_plot.show()
+    tab.capture = object()  # as if a source streamed: the tab draws what comes
+    plot = tab.live_plot
+    for names, shown, unit in (
+            ([f"EMG{c}" for c in range(1, 17)], [f"EMG{c}" for c in range(1, 17)], "µV"),
+            (["biceps", "triceps", "anterior_deltoid"],
+             ["biceps brachii", "triceps brachii", "anterior deltoid"], "% MVC")):
+        view = LiveEmgView(np.linspace(-1.0, 0.0, 10), np.ones((10, len(names))),
+                           tuple(names), unit)
+        tab._show_live(None, view)
+        for _ in range(5):  # laid out (the key, then the plot round it) and painted
+            QApplication.processEvents()
+            tab.grab()
+        assert plot.getPlotItem().sceneBoundingRect().width() <= plot.width()
+        key = tab.live_key
+        assert key.isVisible()
+        assert key.width() <= key.parentWidget().width()
+        for name in shown:
+            assert f"&nbsp;{name}" in key.text()
+        assert len(tab.live_curves) == len(names)
+    assert "EMG16" not in tab.live_key.text()  # the key of what is drawn now
+    tab.capture = None

@@ -14,10 +14,11 @@ from app.records.datadir import DataDir
 from app.records.registry import Registry
 from app.reports.progress_figure import progress_figure
 from core.trial import THESIS_SUBJECT
-from tests.app.reports.made import staircase_course
+from tests.app.reports.made import many_trials, staircase_course
 from tests.ui.shown import shown
 from ui import theme
 from ui.tabs import ProgressTab
+from ui.tabs.progress import CUT_SHORT_PX
 
 
 @pytest.fixture(scope="module")
@@ -258,3 +259,37 @@ def test_markers_at_100_percent_are_drawn_whole(qtbot, qapp, tmp_path):
     tab.resize(1358, 547)
     tab.layout().activate()
     check()
+
+
+def test_hundreds_of_trials_keep_the_end_markers_and_the_pace_whole(qtbot, qapp, tmp_path):
+    """A patient with 300 trials: padded by half a trial (1.3 px on a laptop's plot) the
+    first and the last trial's markers were drawn half cut at the plot's ends, and the
+    first trial's pace ('4 s a lap · ±20°', centred over it) was cut in half at the left."""
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("Many", "Trials").code
+    n = 300
+    # the pace changes at the last trial: a mark over the right end too
+    many_trials(registry, code, n, lambda k: 3.0 if k == n - 1 else 4.0)
+    theme.apply_theme(qapp)
+    tab = shown(qtbot, ProgressTab(registry), 1366, 738)
+    with qtbot.waitSignal(tab.progress_loaded, timeout=30000):
+        tab.set_patient(code)
+    qapp.processEvents()
+    tab.grab()  # painted: the marks take their size on screen
+    box = tab.plot.getPlotItem().getViewBox()
+    (line,) = _curves(tab.plot)
+    x, y = line.getOriginalDataset()
+    assert len(x) == n
+    inside = box.sceneBoundingRect()
+    for end in (0, n - 1):
+        centre = box.mapViewToScene(pg.Point(x[end], y[end]))
+        radius = 0.5 * CUT_SHORT_PX  # room for the largest marker, whole
+        assert inside.left() + radius <= centre.x() <= inside.right() - radius, end
+    help_box = tab.help_plot.getPlotItem().getViewBox().sceneBoundingRect()
+    texts = [item for item in tab.help_plot.getPlotItem().items
+             if isinstance(item, pg.TextItem)]
+    assert [t.toPlainText() for t in texts] == ["4 s a lap · ±20°", "3 s a lap"]
+    for text in texts:
+        drawn = text.mapRectToScene(text.boundingRect())
+        assert help_box.left() <= drawn.left(), text.toPlainText()
+        assert drawn.right() <= help_box.right(), text.toPlainText()

@@ -64,6 +64,11 @@ def test_replay_opens_another_station_s_trial_from_the_store(qtbot, robot_1):
     assert f"Read from the trial store's copy {copy}." in tab.info.text()
     assert tab.trials.currentRow() == 1  # its row marked, though read from elsewhere
     assert not tab.pose_button.isEnabled()  # the store's proven copy is never written
+    # the store keeps no video: whether one was recorded is not known here, and it would
+    # be at robot-2 (it said "No video was recorded with this trial")
+    assert "No video was recorded" not in tab.pose_status.text()
+    assert "a video of this trial, if one was recorded, is at station robot-2" in \
+        tab.pose_status.text()
 
     with qtbot.waitSignal(tab.load_failed, timeout=WAIT_MS) as failed:
         _open_row(qtbot, tab, 0)

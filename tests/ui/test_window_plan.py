@@ -127,6 +127,7 @@ def test_start_plan_runs_each_block_through_build_and_start_with_its_rest(qtbot,
     win.tabs.setCurrentWidget(win.plan_tab)
     visited: list[str] = []
     win.tabs.currentChanged.connect(lambda k: visited.append(win.tabs.tabText(k)))
+    before = win.parameters_tab.parameters()
     start_plan(qtbot, win)
     assert win.plan_runner is not None
     qtbot.waitUntil(lambda: win.plan_runner is None, timeout=120000)
@@ -142,7 +143,13 @@ def test_start_plan_runs_each_block_through_build_and_start_with_its_rest(qtbot,
     assert [t.status for t in trials] == ["complete", "complete"]
     assert [t.parameters["shape"] for t in trials] == ["d", "circle"]
     assert win.built.shape == "circle"
-    assert win.parameters_tab.parameters().shape == "circle"
+    # the form back to the trial before the plan, and said: the therapist's next trial
+    # of their own ran the plan's last block (its 5 minutes) when the form kept it
+    assert win.parameters_tab.parameters() == before
+    assert "The Parameters tab is back to the trial it showed before the plan: press " \
+        "Build" in "\n".join(win.messages.history())
+    assert win.stale()  # Start waits for Build: the form is not the circle built
+    assert "start" not in enabled(win)
     assert win.state == State.CONNECTED
     # the dose on the Progress tab and in the trial's report, from the files
     qtbot.waitUntil(lambda: "Two short blocks (run 1): complete, 2 of 2 movements" in
@@ -224,7 +231,13 @@ def test_build_and_start_are_the_plan_s_while_it_rests(qtbot, window):
     assert len(win.registry.trials_for_patient(code)) == 1
     click(qtbot, win.plan_tab.stop_button)
     qtbot.waitUntil(lambda: win.plan_runner is None, timeout=20000)
-    assert {"build", "start"} <= enabled(win)  # the therapist's again
+    # the therapist's again: Build, and Start once the form (back to the trial before
+    # the plan, not the block built) is built
+    assert "build" in enabled(win)
+    assert win.robot.buttons["start"].toolTip() != capitalised(PLAN_RUNS)
+    assert win.stale()
+    click(qtbot, win.robot.buttons["build"])
+    qtbot.waitUntil(lambda: not win.stale() and "start" in enabled(win), timeout=20000)
     (run,) = win.registry.plan_runs_for_patient(code)
     assert run.status == "stopped"
 

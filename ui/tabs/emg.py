@@ -11,6 +11,7 @@ Every status line and refusal also goes to the window's message model (`said`)."
 
 from __future__ import annotations
 
+import logging
 import time
 
 from PySide6.QtCore import QTimer, Signal
@@ -26,6 +27,7 @@ from PySide6.QtWidgets import (
 )
 
 from app.emg.live import KINDS
+from app.emg.mvc_words import short_flags, todo
 from app.emg.protocol import PUSH_S, REST_S, WAITING, SessionMvcs, words
 from core.emg.synthetic import THESIS_MUSCLES
 from ui import plots, theme
@@ -37,9 +39,7 @@ from ui.views.trialview import TrialView
 LIVE_S = 5.0
 LIVE_REFRESH_MS = 200
 PROTOCOL_TICK_MS = 100  # the countdown's refresh
-FLAG_WORDS = {"too_short": "too short", "saturated": "saturated",
-              "no_effort_above_rest": "no effort above rest",
-              "below_trial_activity": "lower than the trial's activity"}
+log = logging.getLogger(__name__)  # the day log: a flagged MVC's reasons with their figures
 
 
 def mvc_line(mvc) -> str:
@@ -47,8 +47,7 @@ def mvc_line(mvc) -> str:
     head = f"{words(mvc.muscle)}: MVC {1e6 * mvc.value_V:.0f} µV, held {mvc.hold_s:.1f} s"
     if mvc.ok:
         return f"{head}: ok"
-    flags = ", ".join(FLAG_WORDS.get(f, f) for f in mvc.flags)
-    return f"{head}: {theme.PROBLEM_SIGN} {flags}. Record again."
+    return f"{head}: {theme.PROBLEM_SIGN} {short_flags(mvc.flags)}. Record again."
 
 
 class EmgTab(QWidget):
@@ -64,8 +63,11 @@ class EmgTab(QWidget):
         self._view: TrialView | None = None
         self._shown: tuple = ()
         self.data = EmgView()
-        self.envelopes = plots.make_plot("time (s)", "EMG envelope (% MVC)")
-        self.torques = plots.make_plot("time (s)", "torque (N·m)")
+        # labels on two short lines, and the time said once under the torques (the axes
+        # are linked): at 1366 × 768 with the live plot too, each plot's axis is 60-120 px
+        # high, and "EMG envelope (% MVC)" was cut to "EMG envelope (% MV"
+        self.envelopes = plots.make_plot("", "EMG<br>(% MVC)")
+        self.torques = plots.make_plot("time (s)", "torque<br>(N·m)")
         self.torques.setXLink(self.envelopes)
         item = self.envelopes.getPlotItem()
         plots.legend(item)
@@ -75,9 +77,16 @@ class EmgTab(QWidget):
         self.status = theme.set_role(QLabel(""), "caption")
         self.status.setWordWrap(True)
         # the live source
-        self.live_plot = plots.make_plot("time (s)", "live RMS envelope (µV)")
+        self.live_plot = plots.make_plot("time (s)", "live EMG<br>(µV)")
         self.live_plot.hide()
-        plots.legend(self.live_plot.getPlotItem())
+        # its key in the panel beside it, wrapped in as many lines as the names need: a
+        # key above the plot showed the source's 16 channels on one row wider than the
+        # plot (EMG7, EMG8 off its right, the plot widened past its window) and, once the
+        # MVCs made them three muscles, spread these over that width, 'anterior deltoid'
+        # cut; in rows it would take the height the plot's label needs at 1366 × 768
+        self.live_key = theme.set_role(QLabel(""), "caption")
+        self.live_key.setWordWrap(True)
+        self.live_key.setAccessibleName("live EMG key")
         self.live_curves = []
         self.live_unit = ""
         self.source_kind = QComboBox()
@@ -109,12 +118,13 @@ class EmgTab(QWidget):
         stack = QWidget()
         column = QVBoxLayout(stack)
         column.setContentsMargins(0, 0, 0, 0)
-        column.addWidget(self.envelopes, 1)
-        column.addWidget(self.torques, 1)
-        column.addWidget(self.live_plot, 1)
+        column.addWidget(self.envelopes, 5)
+        column.addWidget(self.torques, 5)
+        column.addWidget(self.live_plot, 6)  # its key takes two rows for 16 channels
         plots.plot_with_panel(self, stack, (), (self.status, self.source_kind,
                                                  self.source_edit, self.connect_button,
-                                                 self.live_status, self.protocol_box))
+                                                 self.live_status, self.live_key,
+                                                 self.protocol_box))
 
     def _build_protocol(self) -> None:
         """The guided MVC protocol: each muscle's source channel, its MVC and a button to
@@ -212,9 +222,9 @@ class EmgTab(QWidget):
         lines += [f"{theme.PROBLEM_SIGN} The EMG: {note}." for note in self.data.notes]
         for muscle, peak in self.data.peaks.items():
             flags = self.data.flags.get(muscle, ())
-            quality = "MVC ok" if not flags else theme.PROBLEM_SIGN + " MVC " + \
-                ", ".join(FLAG_WORDS.get(f, f) for f in flags)
-            lines.append(f"{muscle.replace('_', ' ')}: up to {peak:.0f} % MVC; {quality}")
+            quality = "MVC ok" if not flags else f"{theme.PROBLEM_SIGN} MVC {short_flags(flags)}"
+            # named as the key above names it ('biceps brachii', not 'biceps')
+            lines.append(f"{words(muscle)}: up to {peak:.0f} % MVC; {quality}")
         self.status.setText("\n".join(lines))
 
     # -- the live source ------------------------------------------------------------
@@ -306,11 +316,16 @@ class EmgTab(QWidget):
         if [c.name() for c in self.live_curves] != list(names):
             for c in self.live_curves:
                 item.removeItem(c)
-            self.live_curves = [plots.curve(item, theme.SERIES[i % len(theme.SERIES)], name=n)
-                                for i, n in enumerate(names)]
+            colours = [theme.SERIES[i % len(theme.SERIES)] for i in range(len(names))]
+            self.live_curves = [plots.curve(item, colour, name=n)
+                                for colour, n in zip(colours, names, strict=True)]
+            self.live_key.setText(" &nbsp; ".join(
+                f"<span style='color:{colour}'>━</span>&nbsp;{n}"
+                for colour, n in zip(colours, names, strict=True)))
         if view.unit != self.live_unit:
             self.live_unit = view.unit
-            item.setLabel("left", f"live RMS envelope ({view.unit})")
+            item.setLabel("left", f"live EMG<br>({view.unit})")
+            theme.style_plot(item)  # a bare setLabel sets it in pyqtgraph's larger type
         for i, c in enumerate(self.live_curves):
             c.setData(view.t_s, view.values[:, i])
         self._show_problem(view.problem)
@@ -458,12 +473,20 @@ class EmgTab(QWidget):
         self.mvc_recorded.emit(muscle)
 
     def show_mvc(self, mvc) -> None:
-        """A muscle's MVC with its quality, in its row, the prompt and the messages."""
+        """A muscle's MVC with its quality, in its row and the prompt; the message line
+        says a flagged one in short with what to do (its reasons, a paragraph each, are the
+        row's tooltip and in the day log: said whole, they filled the line in small type)."""
         line = mvc_line(mvc)
         self.mvc_labels[mvc.muscle].setText(line)
         self.mvc_labels[mvc.muscle].setToolTip("\n".join(mvc.reasons))
         self.prompt.setText(line)
-        self._say(line if mvc.ok else f"{line} {' '.join(mvc.reasons)}", not mvc.ok)
+        if mvc.ok:
+            self._say(line)
+            return
+        for reason in mvc.reasons:
+            log.warning("MVC flagged: %s", reason)
+        self._say(f"{words(mvc.muscle)}'s MVC: {short_flags(mvc.flags)}. {todo(mvc.flags)} "
+                  "(why: point at its row on the EMG tab).", True)
 
     def _measure_failed(self, _token, message: str) -> None:
         self.guided = None

@@ -37,7 +37,12 @@ from PySide6.QtWidgets import (
 from app.records.datadir import REPORTS
 from app.records.store import RecordStore
 from app.reports.progress import Exercise, Progress, progress
-from app.reports.progress_figure import figure_rows, progress_figure, value_span
+from app.reports.progress_figure import (
+    figure_rows,
+    progress_figure,
+    trial_limits,
+    value_span,
+)
 from ui import plots, theme
 from ui.fields import ComboBox
 from ui.tabs.progress_scales import ScalesPanel
@@ -175,7 +180,10 @@ class ProgressTab(QWidget):
         self.help_plot = plots.make_plot("trial (session, trial)", "help (%)")
         self.help_plot.setXLink(self.plot)
         self._value_span: tuple[float, float] | None = None
+        self._trial_count = 0
+        self._marks: list[tuple[pg.TextItem, float]] = []  # the pace's, over their trial
         self.plot.getPlotItem().getViewBox().sigResized.connect(self._fit_values)
+        self.plot.getPlotItem().getViewBox().sigResized.connect(self._fit_trials)
         self.table = QTableWidget()
         self.table.setEditTriggers(QTableWidget.EditTrigger.NoEditTriggers)
         self.table.verticalHeader().hide()
@@ -386,6 +394,7 @@ class ProgressTab(QWidget):
         item.clear()
         help_item.clear()
         self._value_span = None
+        self._trial_count, self._marks = 0, []
         index = self.exercise_choice.currentIndex()
         key = self.metric_choice.currentData()
         if result is None or index < 0 or key is None:
@@ -427,6 +436,7 @@ class ProgressTab(QWidget):
             text.setFont(theme.axis_font())
             text.setPos(mark.position, HELP_TOP)
             help_item.addItem(text)
+            self._marks.append((text, float(mark.position)))
         help_item.setYRange(0.0, HELP_TOP, padding=0)
         help_item.getAxis("left").setTicks([[(v, f"{v}") for v in (0, 50, 100)]])
         n = len(figure.positions)
@@ -437,10 +447,31 @@ class ProgressTab(QWidget):
             axis.setTicks(None)
         item.getAxis("bottom").setTicks([[(p, "") for p in figure.positions.tolist()]])
         if n:
-            item.setXRange(0.5, n + 0.5, padding=0)
+            self._trial_count = n
+            self._fit_trials()
             low, high = value_span(y, figure.row.unit)
             self._value_span = (low, high) if low < high else None
             self._fit_values()
+
+    def _fit_trials(self, *_) -> None:
+        """The trial axis: the first and the last trial's markers whole at its ends, and
+        each pace and tolerance written whole over its trial. Padded by half a trial, 300
+        trials on a laptop's plot left 1.3 px beside the end markers (drawn half cut) and
+        cut the first trial's pace in half at the left; the room is worked out in pixels,
+        again at each resize."""
+        n = self._trial_count
+        if not n:
+            return
+        item = self.plot.getPlotItem()
+        width = max(item.getViewBox().width(), 1.0)
+        low, high = trial_limits(n, width, MARKER_ROOM_PX)
+        item.setXRange(low, high, padding=0)
+        trials_per_px = (high - low) / width
+        for text, position in self._marks:
+            # centred over its trial, or as near as keeps it whole inside the plot
+            half = 0.5 * text.boundingRect().width() * trials_per_px
+            text.setPos(min(max(position, low + half), max(high - half, low + half)),
+                        HELP_TOP)
 
     def _fit_values(self, *_) -> None:
         """The series' y axis: its values' span (value_span) and room above and below for

@@ -107,7 +107,9 @@ class ReplayTab(QWidget):
         self._view: TrialView | None = None
         self._loading: Path | None = None
         self._numbers: dict[Path, tuple[int, int]] = {}  # a registered file's (session, trial)
-        self._from_store: tuple[Path, str, Path | None] | None = None
+        # a trial read from the trial store: (its copy, the note, its row's path, the
+        # station that recorded it)
+        self._from_store: tuple[Path, str, Path | None, str] | None = None
         """The trial being opened from the shared trial store: its copy, the note saying
         so, and its row's path (its data folder's)."""
         self.background = plots.Background(self)
@@ -283,9 +285,10 @@ class ReplayTab(QWidget):
                 path, note = file_to_read(registry, trial)
             except AppError as exc:
                 return _NotHere(str(exc))
-            return path, note, (trial.session_number, trial.number)
+            return path, note, (trial.session_number, trial.number), trial.station
 
-        def answered(found: tuple[Path, str, tuple[int, int]] | Exception) -> None:
+        def answered(found: tuple[Path, str, tuple[int, int], str | None] | Exception
+                     ) -> None:
             if self.jobs.closed or self._asked is not asked:
                 return  # the window closed, or another trial, file or patient since
             self._asked = None
@@ -297,10 +300,10 @@ class ReplayTab(QWidget):
                 self.info.setText(f"{theme.PROBLEM_SIGN} {message}")
                 self.load_failed.emit(message)
                 return
-            path, note, self._numbers[path] = found
+            path, note, self._numbers[path], station = found
             self.open_file(path)
             if note:  # the store's copy: said once it is shown, and it marks its row
-                self._from_store = (path, note, item.data(PATH_ROLE))
+                self._from_store = (path, note, item.data(PATH_ROLE), station or "")
 
         self.jobs.run(read, answered)
 
@@ -359,11 +362,18 @@ class ReplayTab(QWidget):
         has_video = view.video is not None and view.finished and view.source is not None
         # the store's copy is the recording station's proven file: never written into here
         self.pose_button.setEnabled(has_video and stored is None and not self.pose_job.busy)
-        if not has_video:
-            self.pose_status.setText("No video was recorded with this trial.")
-        elif stored is not None:
-            self.pose_status.setText("Opened from the trial store: the joint angles from its "
-                                     "video are found at the station that recorded it.")
+        if stored is not None:
+            # the store keeps trial files, never videos; neither the file nor the registry
+            # says whether the station filmed the trial ("No video was recorded" said so of
+            # a trial whose video was on its station)
+            at = f"station {stored[3]}" if stored[3] else "the station that recorded it"
+            self.pose_status.setText(
+                "Opened from the trial store, which keeps trial files, not videos: a video "
+                f"of this trial, if one was recorded, is at {at}, and its joint angles from "
+                "the video are found there.")
+        elif not has_video:
+            self.pose_status.setText("No video beside this trial's file: none was recorded "
+                                     "with it, or it was not copied with the file.")
         elif self._loading_after_pose is not path:
             self.pose_status.setText("")
         self._mark_in_list(Path(stored[2]) if stored is not None and stored[2] is not None

@@ -74,6 +74,10 @@ class PlanControl:
     plan_ended = None
     """(the ended run's last PlanState, the trial built then): what the patient's screen
     shows once the runner is gone, until another trial is built."""
+    plan_form_before: tuple[str, object] | None = None
+    """(the patient's code, the Parameters form) as Start plan was pressed: the form goes
+    back to it when the plan ends (it kept the last block's trial, and the therapist's
+    next trial of their own ran the plan's 5-minute block)."""
 
     def _build_plan_tab(self) -> PlanTab:
         self.plan_runner = None
@@ -263,6 +267,7 @@ class PlanControl:
                 return
             self.plan_runner = PlanRunner(stored.plan, base, WindowConsole(self, run_id),
                                           next_round=staircase_rounds())
+            self.plan_form_before = (registration.patient_code, base)
             self.plan_tab.show_refusal("")
             self.plan_start_waits = None
             self.plan_timer.start()
@@ -429,7 +434,8 @@ class PlanControl:
         if state.phase == ENDED and self.trial_id is None and runner.trial_id is None \
                 and not self.plan_records:
             self.plan_timer.stop()
-            self._say(state.line(), problem=state.outcome not in ("complete",))
+            self._say(state.line() + self._form_back(),
+                      problem=state.outcome not in ("complete",))
             self.plan_runner = None
             self.plan_start_waits = None  # a Start the run's end made moot
             self._refresh_buttons()  # Build and Start are the therapist's again
@@ -440,6 +446,17 @@ class PlanControl:
                 self.progress.set_patient(self.patient.code)  # the run's dose, as it ended
             self.plan_tab.status.setText(state.line())
         self._show_plan_buttons()
+
+    def _form_back(self) -> str:
+        """The Parameters form back to what it showed as Start plan was pressed, for the
+        same patient (another's form is theirs); the words that say so ('' when not)."""
+        before, self.plan_form_before = self.plan_form_before, None
+        registration = self.registration
+        if before is None or registration is None or registration.patient_code != before[0]:
+            return ""
+        self.parameters_tab.set_parameters(before[1])
+        return (" The Parameters tab is back to the trial it showed before the plan: press "
+                "Build to run it.")
 
     def _show_plan_buttons(self) -> None:
         runner = self.plan_runner

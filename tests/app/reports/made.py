@@ -76,6 +76,19 @@ def register(registry: Registry, code: str, parameters: TrialParameters, *, sess
     return begun.trial_id
 
 
+def many_trials(registry: Registry, code: str, n: int, pace_s) -> None:
+    """`n` complete thesis-mode trials of the D, ten a session, registered with a figure and
+    no file (Progress reads the registry), the k-th at `pace_s(k)` s a lap: a patient's
+    hundreds of trials in a second or two."""
+    from core.trial import THESIS_SUBJECT
+
+    for k in range(n):
+        begun = registry.begin_trial(code, THESIS_SUBJECT.replace(duration_s=pace_s(k)),
+                                     backend="simulator", session_number=1 + k // 10)
+        registry.finish_trial(begun.trial_id, "complete",
+                              {"directional_performance_pct": 60.0 + k % 7})
+
+
 def page_texts(path) -> list[str]:
     return [" ".join(page.extract_text().split()) for page in PdfReader(path).pages]
 

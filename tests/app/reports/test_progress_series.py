@@ -13,7 +13,7 @@ from app.records.datadir import DataDir
 from app.records.registry import Registry
 from app.reports.progress import progress
 from core.trial import THESIS_SUBJECT
-from tests.app.reports.made import page_texts, staircase_course
+from tests.app.reports.made import many_trials, page_texts, staircase_course
 
 SHORT = THESIS_SUBJECT.replace(repetitions=1)
 
@@ -125,3 +125,40 @@ def test_the_printed_line_joins_only_the_trials_that_ran_to_their_end(course):
     assert line.get_linestyle() == "-"
     assert hollow.get_xdata().tolist() == [5]
     assert hollow.get_linestyle() == "None"
+
+
+def test_hundreds_of_trials_print_whole_end_markers_and_level_marks_inside_the_plot(
+        tmp_path):
+    """300 trials, the pace changing every 20th: padded by half a trial the end markers
+    were cut at the plot's edges, and the pace's words, turned by 60°, ran out of the
+    help's plot into the series above. The marks are level, inside the help's plot, and
+    never over each other."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from app.reports.progress_pdf import MARKER_ROOM_PT, progress_pages
+
+    registry = Registry(DataDir(tmp_path / "data"))
+    code = registry.create_patient("Many", "Trials").code
+    n = 300
+    many_trials(registry, code, n, lambda k: 4.0 - 0.1 * (k // 20))
+    page = progress_pages(progress(registry, code))[0]
+    renderer = FigureCanvasAgg(page).get_renderer()
+    top, bottom = page.axes[:2]
+    box = top.get_window_extent(renderer)
+    line = top.lines[0]
+    ends = top.transData.transform([(x, 60.0) for x in line.get_xdata()[[0, -1]]])
+    room = MARKER_ROOM_PT * page.dpi / 72.0
+    assert box.x0 + room <= ends[0][0]
+    assert ends[1][0] <= box.x1 - room
+    marks = [t for t in bottom.texts if t.get_text().endswith(("s a lap", "±20°"))]
+    assert marks
+    assert marks[0].get_text() == "4 s a lap · ±20°"
+    plot = bottom.get_window_extent(renderer)
+    drawn = [t.get_window_extent(renderer) for t in marks]
+    for text, extent in zip(marks, drawn, strict=True):
+        assert text.get_rotation() == 0
+        assert plot.x0 <= extent.x0
+        assert extent.x1 <= plot.x1
+        assert extent.y1 <= plot.y1, text.get_text()
+    for k, a in enumerate(drawn):
+        assert not any(a.overlaps(b) for b in drawn[k + 1:])
