@@ -392,8 +392,14 @@ def _plain(values: dict[str, float], parameters: TrialParameters,
     game = game_result_line(parameters.game, game_values) if parameters.game else None
     own += (game,) if game is not None else ()
     peak = math.nan if task == "strength" else peak_force_N
-    return own + plain_lines(values, mode=patient_mode(parameters), peak_force_N=peak,
-                             only_lightened=robot_only_lightened(parameters))
+    lines = plain_lines(values, mode=patient_mode(parameters), peak_force_N=peak,
+                        only_lightened=robot_only_lightened(parameters))
+    if parameters.game:
+        # a game shows its own targets or channel, never the moving ring the distance is
+        # measured from (ui.views.patient_screen): a patient read how near they kept to
+        # a ring they had not seen; the figure stays on the therapist's page
+        lines = tuple(line for line in lines if line.key != "rmse")
+    return own + lines
 
 
 def _header(code: str, first_name: str | None, session: int | None, number: int | None,

@@ -68,3 +68,15 @@ def test_no_game_no_line():
     assert game_result_line("reach", {"game_score": math.nan, "game_hits": 1.0,
                                       "game_misses": 0.0}) is None
 
+
+@pytest.mark.parametrize("parameters", [REACH, PATH], ids=["reach", "path"])
+def test_a_game_s_report_speaks_of_no_ring_the_game_did_not_show(parameters, tmp_path):
+    """A game shows its targets or its channel, not the moving ring the position error is
+    measured from: the patient's lines say nothing of a ring; the therapist's table keeps
+    the figure."""
+    path = tmp_path / "game.h5"
+    simulate_to_file(parameters, path, patient="weak", seed=4)
+    content = build_report(read_trial(path))
+    said = " ".join(f"{line.text} {line.detail}" for line in content.plain)
+    assert not re.search(r"\bring\b", said), said
+    assert {"rmse_x_m", "rmse_y_m"} <= {row.key for row in content.table}
