@@ -14,7 +14,9 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 
+from app.games.names import game_title
 from app.reports.plain_language import PlainLine, seconds_text
+from app.units import CM_PER_M
 from core.games.scoring import DISTRACTOR_POINTS, POINTS_PER_S_OUTSIDE
 
 GAME_KEY = "game_score"
@@ -62,3 +64,51 @@ def game_result_line(game: str, metrics: Mapping[str, float]) -> PlainLine | Non
                    f"({POINTS_PER_S_OUTSIDE:.0f} points off a second)")
     return PlainLine(GAME_KEY, text, detail + ".")
 
+
+def game_cautions(before: Mapping, after: Mapping) -> tuple[str, ...]:
+    """Why a game trial's figures do not compare with an earlier trial's for reasons other
+    than the patient (TrialParameters field names and SI values, as
+    plain_language.parameter_cautions takes them): one trial a game and the other not, or
+    another game (the screen showed other things to do: a game shows no moving ring), or
+    the same game at another difficulty (the staircase's dials between rounds,
+    core.games.staircase; its help and pace are the help's and the pace's cautions). Seen in
+    the window: a reaching game's third round, given 1.2 s a target where the second had
+    1.5 s, was called "worse" for leading the movement 89 % of the time, not 93 %."""
+    game, game_before = after.get("game") or "", before.get("game") or ""
+    if game != game_before:
+        now, then = (f"the {game_title(g).lower()}" if g else "the exercise without a game"
+                     for g in (game, game_before))
+        return (f"This trial was {now} (before, {then}), so the figures do not compare "
+                "directly.",)
+    if not game:
+        return ()
+    cautions = []
+    for key, (smaller, larger, shown, said) in _DIALS.get(game, {}).items():
+        a, b = before.get(key), after.get(key)
+        if a is None or b is None or math.isclose(a, b, rel_tol=1e-9, abs_tol=1e-12):
+            continue
+        words = smaller if b < a else larger
+        cautions.append(f"The game {words} ({said.format(shown(b))}; before, {shown(a)}), "
+                        "so the figures do not compare directly.")
+    return tuple(cautions)
+
+
+def _cm(value_m: float) -> str:
+    return f"{value_m * CM_PER_M:.1f} cm"
+
+
+_DIALS = {
+    "reach": {
+        "time_allowed_s": ("gave less time to reach a target", "gave more time to reach a "
+                           "target", lambda s: f"{s:.2f} s", "{}"),
+        "target_radius_m": ("had smaller targets", "had larger targets", _cm, "radius {}"),
+        "n_distractors": ("had fewer crossed-out circles", "had more crossed-out circles",
+                          lambda n: f"{n:.0f}", "{}"),
+    },
+    "path": {
+        "channel_half_width_m": ("had a narrower channel", "had a wider channel", _cm,
+                                 "{} either side of the path"),
+    },
+}
+"""A game's difficulty dials whose change is not said elsewhere: (words when smaller,
+words when larger, the value as shown, the words round this trial's value)."""
