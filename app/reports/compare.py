@@ -31,6 +31,7 @@ from dataclasses import dataclass
 
 from app.records.registry import Trial
 from app.reports.metrics_table import ROWS, MetricRow, number_text
+from app.reports.plain_game import game_cautions
 from app.reports.plain_language import (
     change_sentence,
     distance_mm_shown,
@@ -299,6 +300,7 @@ def compare(kind: str, baseline: Baseline, metrics: Mapping[str, float],
     cautions: tuple[str, ...] = (PARTIAL_CAUTION,) if partial else ()
     if baseline.parameters is not None and parameters is not None:
         cautions += parameter_cautions(baseline.parameters, parameters.to_dict())
+        cautions += game_cautions(baseline.parameters, parameters.to_dict())
         if levels is not None:
             if baseline.levels is None:
                 cautions += (UNKNOWN_HELP_CAUTION,)

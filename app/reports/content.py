@@ -51,6 +51,7 @@ from app.reports.figures import (
     TorquesFigure,
     report_figures,
 )
+from app.reports.plain_game import game_result_line
 from app.reports.plain_language import (
     SHAPE_NAMES,
     PlainLine,
@@ -266,7 +267,8 @@ def build_report(
         simulated=simulated,
         mode=parameters.assist,
         levels=levels,
-        plain=_plain(values, parameters, task_values, figures.peak_force_N) if values else (),
+        plain=_plain(values, parameters, task_values, figures.peak_force_N,
+                     game_values) if values else (),
         comparisons=comparisons,
         # an assessment task's table: its own figures, none against the reference
         # (app.reports.task_table)
@@ -379,15 +381,25 @@ def _trial_words(session: int | None, number: int | None,
 
 
 def _plain(values: dict[str, float], parameters: TrialParameters,
-           task_values: dict[str, float], peak_force_N: float) -> tuple[PlainLine, ...]:
+           task_values: dict[str, float], peak_force_N: float,
+           game_values: dict[str, float]) -> tuple[PlainLine, ...]:
     """The patient's lines: an assessment trial's task figures in words first
-    (app.reports.plain_task), then what every trial has (plain_language.plain_lines; a
-    strength trial's firmest push is its task's line, not said twice)."""
+    (app.reports.plain_task), a game's result (app.reports.plain_game: what the patient
+    played for), then what every trial has (plain_language.plain_lines; a strength trial's
+    firmest push is its task's line, not said twice)."""
     task = getattr(parameters, "assessment", "") or ""
     own = task_lines(task, task_values) if task else ()
+    game = game_result_line(parameters.game, game_values) if parameters.game else None
+    own += (game,) if game is not None else ()
     peak = math.nan if task == "strength" else peak_force_N
-    return own + plain_lines(values, mode=patient_mode(parameters), peak_force_N=peak,
-                             only_lightened=robot_only_lightened(parameters))
+    lines = plain_lines(values, mode=patient_mode(parameters), peak_force_N=peak,
+                        only_lightened=robot_only_lightened(parameters))
+    if parameters.game:
+        # a game shows its own targets or channel, never the moving ring the distance is
+        # measured from (ui.views.patient_screen): a patient read how near they kept to
+        # a ring they had not seen; the figure stays on the therapist's page
+        lines = tuple(line for line in lines if line.key != "rmse")
+    return own + lines
 
 
 def _header(code: str, first_name: str | None, session: int | None, number: int | None,

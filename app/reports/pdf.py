@@ -72,6 +72,8 @@ _PLOT_SPAN = (LEFT_IN + 0.55, PLOT_RIGHT_IN - LEFT_IN - 0.55)  # a full-width pl
 FOOTER_IN = 0.1  # room kept above the footer line
 MIN_SCALE = 0.8
 PRIMARY_MIN_SCALE = 0.92
+NOTHING_TO_COMPARE = ("No earlier trial of this exercise, with this kind of help from the "
+                      "robot, to compare with yet.")
 
 
 def write_report_pdf(content: ReportContent, path: str | os.PathLike) -> Path:
@@ -177,7 +179,9 @@ def _page_one_texts(sheet: Sheet, content: ReportContent) -> None:
     sheet.text("Since last time", 16 * primary, weight="bold", scaled=False)
     sheet.gap(0.06)
     if not content.comparisons:
-        sheet.text("There is no earlier trial to compare with yet.", 12)
+        # only trials of the same exercise and mode are compared (build.earlier_like): the
+        # patient may well have done others before this one
+        sheet.text(NOTHING_TO_COMPARE, 12)
         return
     _changes_table(sheet, content.comparisons)
 

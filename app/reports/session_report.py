@@ -19,6 +19,7 @@ from pathlib import Path
 
 from matplotlib.figure import Figure
 
+from app.games.names import game_title
 from app.records.scales import (
     ARAT,
     ASHWORTH,
@@ -132,6 +133,11 @@ def session_content(registry: RecordStore, code: str, number: int, *, norms=None
         what = (f"assessment: {TASK_TITLES.get(task, task)}" if task else
                 f"{SHAPE_NAMES.get(p.get('shape'), p.get('shape', '?'))}, "
                 f"{p.get('assist', 'thesis')}")
+        if p.get("game") and not task:
+            # a session of games read as plain exercises: the game and its score
+            score = t.metrics.get("game_score", math.nan)
+            scored = f", score {score:.0f}" if math.isfinite(score) else ""
+            what = f"{game_title(p['game'])}{scored}: {what}"
         mark = invalid.get(t.id)
         validity = f"INVALID: {mark.reason} ({mark.marked_by})" if mark else "valid"
         rows.append((str(t.number), t.started_at.strftime("%Y-%m-%d %H:%M"),

@@ -19,6 +19,7 @@ on the screen as in the file.
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
 
@@ -43,6 +44,11 @@ class GameFrame:
     result: str
     success: bool
     """The result shown is a hit (or a clean lap): the screen encourages."""
+
+    targets: int = 0
+    """The reaching game's targets in the trial (0 in the path game)."""
+    targets_shown: int = 0
+    """Of them, those lit so far (its onset passed): the one to hit is the last."""
 
     @property
     def score_text(self) -> str:
@@ -75,6 +81,7 @@ class GameFeed:
         self._last_t = -math.inf
         self._scorer = GameScorer(layout)
         self._state = self._scorer.state
+        self._onsets = [target.onset_s for target in layout.targets]
 
     def at(self, view: TrialView, start_s: float | None = None) -> GameFrame:
         """The game at the view's current sample (its newest live, its cursor in replay);
@@ -111,4 +118,6 @@ class GameFeed:
         hit = None
         if success and self.layout.game == "reach":
             hit = targets[state.last.index]
-        return GameFrame(state, open_target, hit, words, success)
+        # the layout's targets come in order of onset
+        shown = bisect.bisect_right(self._onsets, state.t_s) if state.started else 0
+        return GameFrame(state, open_target, hit, words, success, len(targets), shown)

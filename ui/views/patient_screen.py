@@ -249,6 +249,13 @@ class PatientFrame:
     def repetition_text(self) -> str:
         if self.repetitions <= 0 or self.repetition <= 0:
             return ""
+        game = self.game
+        if game is not None and self.repetitions == 1 and game.targets_shown > 0:
+            # a reaching game of one lap counts its targets (16 at most: the band keeps the
+            # letter size): a plan's round of one lap round 8 said "Lap 1 of 1" from its
+            # first target to its last. More laps (a round resumed after a pause too) are
+            # counted as laps
+            return f"Target {game.targets_shown} of {game.targets}"
         return f"{self.counted} {self.repetition} of {self.repetitions}"
 
     @property

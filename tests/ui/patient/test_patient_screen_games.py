@@ -7,6 +7,8 @@ games' scorer fed the file's samples up to that moment, at the end the figures
 layout puts it, a hit is said ("Hit!") and the ball turns vermillion outside the channel.
 """
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -144,3 +146,40 @@ def test_the_first_target_s_outcome_is_said_as_it_happens_not_after_go(qtbot, fi
             break
     assert said is not None
     assert said.split()[0] in ("Hit!", "Missed")
+
+
+def test_the_reaching_game_s_band_counts_its_targets(qtbot, files):
+    """A round of one lap round its targets said "Lap 1 of 1" from its first target to its
+    last (seen in the window): the band counts the targets lit so far, on to all of them,
+    the one to hit being the last counted; a game of more laps counts its laps."""
+    data = files["reach"]
+    layout = game_layout(data.parameters)
+    onsets = np.array([target.onset_s for target in layout.targets])
+    records = _records(data)
+    start = records["time"][np.flatnonzero(records["phase"] == PHASE_EXERCISE)[0]]
+    window = PatientWindow()
+    qtbot.addWidget(window)
+    window.resize(900, 700)
+    view = TrialView(data.parameters)
+    said = []
+    for end in range(BATCH, len(records) + BATCH, BATCH):
+        view.append(records[end - BATCH:end])
+        window.show_view(view)
+        last = records[min(end, len(records)) - 1]
+        if last["phase"] < PHASE_EXERCISE:
+            continue
+        lit = int((onsets <= last["time"] - start + 1e-9).sum())
+        if lit == 0:
+            continue
+        assert window.frame.repetition_text == f"Target {lit} of {len(onsets)}"
+        if window.frame.game.open_target is not None:
+            assert window.frame.game.open_target == layout.targets[lit - 1]
+        said.append(lit)
+    assert said == sorted(said)  # never back
+    assert said[-1] == len(onsets) == 4
+    window.grab()  # painted: the band says it
+    assert window.painted["top"][0] == "Target 4 of 4"
+    # a plan's round resumed after a pause: its laps are counted on, as laps
+    assert window.frame.counted_on(2).repetition_text == "Lap 3 of 3"
+    laps = dataclasses.replace(window.frame, repetition=2, repetitions=2)
+    assert laps.repetition_text == "Lap 2 of 2"

@@ -125,7 +125,8 @@ def test_a_plan_s_block_keeps_the_letter_size(full_screen, rounds):
         return (painted["top_px"], *painted["message_px"])
 
     # a game's frame as the band reads it: its score, the ball inside
-    game = SimpleNamespace(score_text="Score 40", state=SimpleNamespace(inside=True))
+    game = SimpleNamespace(score_text="Score 40", state=SimpleNamespace(inside=True),
+                           targets=0, targets_shown=0)
     for block, blocks, laps in ((2, 3, 3), (12, 12, 20)):
         for round_ in range(1, rounds + 1):
             state = PlanState("running", block, blocks, "D shape", round_, rounds, laps, 0,
@@ -246,7 +247,8 @@ def test_a_game_s_lap_time_and_score_keep_the_letter_size(full_screen, laps):
     text_px = full_screen.screen_layout().text_px
     most = f"Score {laps * 16 * 10}"  # every target of 16 hit, every lap
     for score in ("Score 0", "Score 40", "Score -120", most):
-        game = SimpleNamespace(score_text=score, state=SimpleNamespace(inside=True))
+        game = SimpleNamespace(score_text=score, state=SimpleNamespace(inside=True),
+                               targets=0, targets_shown=0)
         for result in ("", "Hit! 12.3 s", "Missed", "Clean lap! +10", "88.8 s outside"):
             for cue, lap in (("Go!", 1), ("", laps)):
                 frame = PatientFrame(cue, cue == "Go!", (-0.25, 0.3), None, -1, lap, laps,
@@ -263,3 +265,17 @@ def test_a_game_s_lap_time_and_score_keep_the_letter_size(full_screen, laps):
     end = PatientFrame("Well done! Score 40", False, (-0.25, 0.3), None, -1, laps, laps, 0.0,
                        game=game)
     assert _painted(full_screen, end)["score"] == ""  # the end's cue says it
+
+
+def test_a_reaching_game_s_target_count_keeps_the_letter_size(full_screen):
+    """A reaching game of one lap counts its targets in the band (16 at most,
+    core.trial.TARGETS_RANGE), beside its longest time left (120 s), at the letter size."""
+    from types import SimpleNamespace
+
+    game = SimpleNamespace(score_text="Score 160", state=SimpleNamespace(inside=True),
+                           targets=16, targets_shown=16)
+    frame = PatientFrame("", False, (-0.25, 0.3), None, -1, 1, 1, 120.0,
+                         result="Hit! 12.3 s", game=game)
+    painted = _painted(full_screen, frame)
+    assert painted["top"] == ("Target 16 of 16", "", "2:00 left")
+    assert painted["top_px"] == full_screen.screen_layout().text_px
