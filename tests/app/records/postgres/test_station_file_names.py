@@ -63,16 +63,24 @@ def _one_second():
     return second.replace(microsecond=250_000), second.replace(microsecond=750_000)
 
 
-def _taken_offline(department):
-    """robot-1 records trial 1 online, trial 2 offline; robot-2 records trial 2 meanwhile,
-    its file of the same name. (station, code, robot-1's offline trial, robot-2's)."""
-    url, network, data, robot_2 = department
+def _one_trial_offline(department):
+    """robot-1 records trial 1 online, then, the network cut, trial 2 offline: (station,
+    code, that trial, a start in the same second for another trial of the name)."""
+    url, network, data, _robot_2 = department
     station = StationRegistry(data, network.url(url), station="robot-1")
     code = station.create_patient("Di", "Sample").code
     _filed_trial(station, code, {"rmse_x_mm": 1.0})
     network.cut()
     ours, theirs = _one_second()
     mine = _filed_trial(station, code, {"rmse_x_mm": 2.0}, started_at=ours)
+    return station, code, mine, theirs
+
+
+def _taken_offline(department):
+    """robot-1 records trial 1 online, trial 2 offline; robot-2 records trial 2 meanwhile,
+    its file of the same name. (station, code, robot-1's offline trial, robot-2's)."""
+    _url, network, _data, robot_2 = department
+    station, code, mine, theirs = _one_trial_offline(department)
     other = _filed_trial(robot_2, code, {"rmse_x_mm": 9.0}, started_at=theirs)
     assert robot_2.trial(other.trial_id).file == station.trial(mine.trial_id).file  # one name
     network.restore()
@@ -217,12 +225,7 @@ def test_this_stations_own_trial_left_recording_under_the_name_is_finished_as_lo
     finalized it from the file of its name, this trial's, writing that row's metrics into
     it."""
     url, network, data, _robot_2 = department
-    station = StationRegistry(data, network.url(url), station="robot-1")
-    code = station.create_patient("Di", "Sample").code
-    _filed_trial(station, code, {"rmse_x_mm": 1.0})
-    network.cut()
-    ours, theirs = _one_second()
-    mine = _filed_trial(station, code, {"rmse_x_mm": 2.0}, started_at=ours)
+    station, code, mine, theirs = _one_trial_offline(department)
     direct = Registry(data, server=url, station="robot-1")
     lost = direct.begin_trial(code, PARAMS, backend="simulator", started_at=theirs)
     assert lost.file == station.trial(mine.trial_id).file
