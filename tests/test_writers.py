@@ -69,11 +69,18 @@ KNOWN: dict[tuple[str, str], tuple[int, str]] = {
     ("app/records/registry/schema.py", "os.unlink"): (
         1, "the new registry's temporary -wal and -shm, once its only connection closed"),
     ("app/records/registry/snapshot.py", "sqlite3.connect"): (1, "':memory:', no file"),
-    ("app/records/station/__init__.py", "open('a')"): (
+    ("app/records/station/standby.py", "open('a')"): (
         1, "the standby's lock file, opened to hold an advisory lock for the console's life; "
            "nothing is written to it"),
-    ("app/records/station/__init__.py", "os.rename"): (
+    ("app/records/station/standby.py", "os.rename"): (
         1, "a damaged standby moved aside as damaged-<UTC>.sqlite3, kept whole, never read"),
+    ("app/records/station/secondname.py", "os.link"): (
+        1, "a trial file's second name (its number on the server) as a hard link to the file "
+           "recorded: a link fails when the name is taken, so it is never over a file, and "
+           "the file recorded is left as it is"),
+    ("app/records/station/secondname.py", "path.unlink"): (
+        1, "the second names this sync attempt made, taken away when the server's "
+           "transaction does not commit (links to files that stay under their first names)"),
     ("app/records/station/waiting.py", "sqlite3.connect"): (
         1, "the standby read only (mode=ro), for `rehab db status` to say what waits in it"),
     ("app/records/station/waiting.py", "unlink"): (

@@ -108,12 +108,13 @@ def test_the_path_game_on_the_simulator_scores_laps():
 
 
 @pytest.mark.parametrize(("args", "needle"), [
-    (["--game", "reach"], "shape = 'd' is not allowed"),
-    (["--game", "reach", "--shape", "targets", "--time-allowed", "2"], "time_allowed_s = 2"),
-    (["--game", "path", "--channel-width", "0.5"], "channel_half_width_m = 0.5"),
+    (["--game", "reach"], "--shape (shape) = 'd' is not allowed"),
+    (["--game", "reach", "--shape", "targets", "--time-allowed", "2"],
+     "--time-allowed (time_allowed_s) = 2"),
+    (["--game", "path", "--channel-width", "0.5"], "--channel-width (channel_half_width_m) = 0.5"),
     (["--game", "reach", "--shape", "reach", "--distractors", "3", "--duration", "2"],
-     "n_distractors = 3"),
-    (["--neglect-side", "left"], "neglect_side = 'left'"),
+     "--distractors (n_distractors) = 3"),
+    (["--neglect-side", "left"], "--neglect-side (neglect_side) = 'left'"),
     (["--game", "pong"], "invalid choice"),
 ])
 def test_a_bad_game_on_the_command_line_is_one_line(data, capsys, args, needle):
