@@ -47,8 +47,9 @@ DEBOUNCE_MS = 120
 PATIENT_MEASUREMENTS = {"body_mass": "body_mass_kg", "upper_arm": "upper_arm_m",
                         "forearm": "forearm_m", "shoulder": "shoulder_m"}
 """The form's rows (their error keys) a registered patient may have stored, by the
-Patient's attribute: a patient chosen without one keeps the form's value, which is the
-previous patient's, so it is refused until the therapist gives it (`apply_patient`)."""
+Patient's attribute: a patient chosen without one keeps the form's value, which is not
+theirs (another patient's, the last trial's), so it is refused until the therapist gives it
+(`apply_patient`)."""
 MEASUREMENT_WORDS = {"body_mass": "body mass", "upper_arm": "upper arm", "forearm": "forearm",
                      "shoulder": "shoulder position"}
 GAME_WORDS = {game: f"the {title.lower()}" for game, title in GAME_TITLES.items()}
@@ -103,8 +104,8 @@ class ParametersTab(ParametersForm, QWidget):
         self.status.setWordWrap(True)
         self.keep_measurements = QPushButton("Use these values for this patient")
         self.keep_measurements.setToolTip(
-            "The patient chosen has none stored: the values shown were the previous "
-            "patient's. Press once you have checked them against this patient.")
+            "The patient chosen has not stored them: the values shown are another patient's "
+            "or the last trial's. Press once you have checked them against this patient.")
         self.keep_measurements.clicked.connect(self._keep_measurements)
         self.keep_measurements.hide()
         # the console's proposal for the next trial (app.trials.progression): above the
@@ -300,19 +301,19 @@ class ParametersTab(ParametersForm, QWidget):
         self.parameters_changed.emit(self._parameters, self._problem)
 
     def _refuse_unconfirmed(self) -> None:
-        """The patient chosen has not stored these measurements: the form's values are the
-        previous patient's, refused (first, under their rows) until given."""
+        """The patient chosen has not stored these measurements: the form's values are not
+        theirs (another patient's, the last trial's), refused under their rows until given."""
         if not self._unconfirmed:
             return
         keys = [key for key in PATIENT_MEASUREMENTS if key in self._unconfirmed]
         for key in keys:
-            self._show_error(key, "not stored for this patient: the value shown was the "
-                                  "previous patient's; enter this patient's")
+            self._show_error(key, "not stored for this patient: the value shown is not "
+                                  "theirs; enter theirs")
         words = ", ".join(MEASUREMENT_WORDS[key] for key in keys)
         verb = "is" if len(keys) == 1 else "are"
-        self._problem = (f"this patient's {words} {verb} not stored, and the form still shows "
-                         "the previous patient's: enter them, or press 'Use these values "
-                         "for this patient' once checked")
+        self._problem = (f"this patient's {words} {verb} not stored, and the values shown are "
+                         "not theirs (another patient's or the last trial's): enter them, or "
+                         "press 'Use these values for this patient' once checked")
         self._parameters = None
         self._error = CoreError(self._problem)
 
