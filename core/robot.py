@@ -49,6 +49,12 @@ from core.motor import MotorParameters
 
 _DEG = math.pi / 180.0
 
+WORKSPACE_MARGIN_M = 0.02
+"""The safety supervisor's radial margin inside the robot's reach ring: the handle must stay
+this far inside it, so it stops before the parallelogram folds flat at the spread limits
+(device.safety.limits.SafetyLimits.workspace_margin_m's default; a trial's reach check
+takes the same band, `RobotModel.reach_band_m`)."""
+
 
 @dataclass(frozen=True, slots=True)
 class Link:
@@ -263,6 +269,12 @@ class RobotModel:
     def reach_max_m(self) -> float:
         """Farthest reachable distance from the motor axes within the spread limits."""
         return self._reach(self.limits.spread_min_rad)
+
+    def reach_band_m(self, margin_m: float = WORKSPACE_MARGIN_M) -> tuple[float, float]:
+        """The distances from the motor axes the handle may take with `margin_m` kept
+        inside the reach ring on both sides: the safety supervisor's band (its workspace
+        margin) and, with the path's tracking allowance added, a trial check's."""
+        return (self.reach_min_m + margin_m, self.reach_max_m - margin_m)
 
     def _reach(self, spread: float) -> float:
         l2, l4 = self.l2_m, self.l4_m

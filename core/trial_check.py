@@ -16,7 +16,7 @@ import numpy as np
 
 from core.arm import ArmModel
 from core.errors import UnreachableError
-from core.robot import RobotModel
+from core.robot import WORKSPACE_MARGIN_M, RobotModel
 from core.trial import TrialParameters
 
 # The arm must stay bent: a straight arm is singular (eq. 3.32 has no inverse)
@@ -24,6 +24,19 @@ from core.trial import TrialParameters
 ELBOW_FLEXION_RANGE_RAD = (math.radians(10.0), math.radians(140.0))
 # Peak speed of the desired path; rehabilitation reaches rarely exceed 0.5 m/s.
 MAX_PATH_SPEED_M_S = 0.5
+PATH_TRACKING_ALLOWANCE_M = 0.02
+"""How far the hand may stray from the path toward the robot's motors or away from them
+without the safety supervisor stopping the trial: a path is checked against the
+supervisor's reach band (core.robot.WORKSPACE_MARGIN_M inside the reach ring) narrowed by
+this on both sides. At centre (-20, -10) cm the old check (the ring and the spread limits
+only) said ready and the simulated weak patient's trial stopped 13 cm from the motor axes,
+at the band's edge (2026-12-06)."""
+
+
+def path_band_m(robot: RobotModel) -> tuple[float, float]:
+    """The distances from the motor axes a trial's path must keep: the safety supervisor's
+    band less the tracking allowance (one formula, RobotModel.reach_band_m)."""
+    return robot.reach_band_m(WORKSPACE_MARGIN_M + PATH_TRACKING_ALLOWANCE_M)
 
 
 @dataclass(frozen=True, slots=True)
@@ -121,6 +134,26 @@ def check_trial(
             robot_ok[i] = False
             x, y = points[i]
             robot_problem = robot_problem or f"point {u.of_point((x, y))}: {reason}"
+    # ... and far enough inside the ring that the patient's straying from the path does not
+    # take the handle out of the safety supervisor's band (a fault mid-trial)
+    band_lo, band_hi = path_band_m(robot)
+    radius = np.hypot(points[:, 0], points[:, 1])
+    outside_band = robot_ok & ((radius < band_lo) | (radius > band_hi))
+    if outside_band.any() and not robot_problem:
+        i = int(np.argmin(radius)) if radius.min() < band_lo else int(np.argmax(radius))
+        shift = band_lo - radius[i] if radius[i] < band_lo else radius[i] - band_hi
+        shift = math.ceil(shift * 1000.0) / 1000.0  # to the mm above, never "0.000 m"
+        toward = "away from" if radius[i] < band_lo else "toward"
+        robot_problem = (
+            f"point {u.of_point(points[i])} is {u.of_length(radius[i])} from the robot's "
+            f"motor axes; a path must stay {u.of_length(band_lo)}–{u.of_length(band_hi)} "
+            f"from them (the safety stop's {u.of_length(WORKSPACE_MARGIN_M)} inside the "
+            f"robot's reach, and {u.of_length(PATH_TRACKING_ALLOWANCE_M)} for the hand "
+            f"straying from the path). Move the exercise's centre at least "
+            f"{u.of_length(shift, 1)} {toward} the robot's motors, or make it "
+            "smaller."
+        )
+    robot_ok &= ~outside_band
     if robot_problem:
         problems.append(robot_problem)
 

@@ -25,14 +25,13 @@ import numpy as np
 
 from core import robot_terms
 from core.errors import ParameterError
-from core.robot import RobotModel
+from core.robot import WORKSPACE_MARGIN_M, RobotModel
 from core.trial import TrialParameters
 from core.trial_check import ELBOW_FLEXION_RANGE_RAD
 
-ROBOT_MARGIN_M = 0.02
-"""The safety supervisor's radial margin inside the robot's reach ring (device.safety.limits
-SafetyLimits.workspace_margin_m; core cannot import device, so the value is repeated here
-and tests/core/assessment/test_workspace.py checks they agree)."""
+ROBOT_MARGIN_M = WORKSPACE_MARGIN_M
+"""The safety supervisor's radial margin inside the robot's reach ring (core.robot, the
+default of device.safety.limits SafetyLimits.workspace_margin_m)."""
 RAYS = 180
 COARSE_STEP_M = 0.005
 FINE_STEPS = 10
@@ -59,7 +58,7 @@ class _Region:
         lo, hi = ELBOW_FLEXION_RANGE_RAD
         self.robot = robot
         self.box_m = box_m
-        self.radius_m = (robot.reach_min_m + ROBOT_MARGIN_M, robot.reach_max_m - ROBOT_MARGIN_M)
+        self.radius_m = robot.reach_band_m(ROBOT_MARGIN_M)
         self.shoulder_m = (arm.shoulder_x_m, arm.shoulder_y_m)
         self.ring_m = (arm.reach_at_elbow_flexion(hi), arm.reach_at_elbow_flexion(lo))
 

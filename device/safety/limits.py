@@ -14,6 +14,7 @@ import numpy as np
 
 from core.errors import ParameterError, check_positive, check_range
 from core.motor import MotorParameters
+from core.robot import WORKSPACE_MARGIN_M
 
 _THESIS_MOTOR = MotorParameters()
 
@@ -106,7 +107,7 @@ class SafetyLimits:
     late_tick_s: float = 0.010
     late_run_ticks: int = 10
     heartbeat_timeout_s: float = 0.5
-    workspace_margin_m: float = 0.02
+    workspace_margin_m: float = WORKSPACE_MARGIN_M
     region_m: tuple[float, float, float, float] | None = None
 
     def __post_init__(self) -> None:

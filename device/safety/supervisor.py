@@ -88,8 +88,7 @@ class SafetySupervisor:
                 )
             full.append(min(lim.torque_limit_Nm,
                             motor.joint_torque_from_current(lim.current_limit_A)))
-        reach_min = self._robot.reach_min_m + lim.workspace_margin_m
-        reach_max = self._robot.reach_max_m - lim.workspace_margin_m
+        reach_min, reach_max = self._robot.reach_band_m(lim.workspace_margin_m)
         if reach_min >= reach_max:
             raise ParameterError(
                 "workspace_margin_m", lim.workspace_margin_m,

@@ -171,6 +171,52 @@ def test_a_patients_measurements_fill_the_arm(qtbot, tab, tmp_path):
     assert tab.upper_arm.text() == "28.00 cm"
 
 
+def test_a_patient_without_stored_measurements_never_runs_with_the_previous_ones(
+        qtbot, tab, tmp_path):
+    """Choosing a patient with no stored body and shoulder values kept the previous
+    patient's in the form, and Build took them: the new patient's trial ran with another's
+    arm. They are now refused under their rows until given (typed, or kept once checked)."""
+    registry = Registry(DataDir(tmp_path / "data"))
+    sam = registry.create_patient("Sam", "Lefty", body_mass_kg=64.0, upper_arm_m=0.32,
+                                  forearm_m=0.29, side="right", shoulder_m=(-0.12, 0.70))
+    ada = registry.create_patient("Ada", "Plain", body_mass_kg=58.0)  # no arm stored
+    tab.apply_patient(sam)
+    assert tab.parameters().upper_arm_m == pytest.approx(0.32)
+    tab.apply_patient(ada)
+    with pytest.raises(Exception, match="upper arm, forearm, shoulder position are not"):
+        tab.parameters()
+    assert tab.shown() is None  # a trial built for Sam is stale, so Start cannot run it
+    for key in ("upper_arm", "forearm", "shoulder"):
+        assert not tab.errors[key].isHidden()
+    assert tab.errors["body_mass"].isHidden()  # hers, stored
+    assert tab.keep_measurements.isVisible()
+    # typed for her: that row counts; the others are still refused
+    type_into(qtbot, tab.upper_arm, "31")
+    with pytest.raises(Exception, match="forearm, shoulder position are not"):
+        tab.parameters()
+    tab.keep_measurements.click()  # the rest checked against her and kept
+    assert tab.parameters().upper_arm_m == pytest.approx(0.31)
+    assert tab.parameters().body_mass_kg == pytest.approx(58.0)
+    assert not tab.keep_measurements.isVisible()
+    tab.apply_patient(ada)  # the same patient again: the values are already hers
+    assert tab.parameters().upper_arm_m == pytest.approx(0.31)
+    tab.apply_patient(sam)  # all stored: nothing to give
+    assert tab.parameters().forearm_m == pytest.approx(0.29)
+    tab.apply_patient(ada)  # and back: the form holds Sam's arm again, refused again
+    with pytest.raises(Exception, match="not stored"):
+        tab.parameters()
+
+
+def test_the_first_patient_without_stored_measurements_is_refused_too(qtbot, tab, tmp_path):
+    """The form's values at the start are the defaults or the settings' last trial (maybe
+    another patient's): not this patient's either."""
+    registry = Registry(DataDir(tmp_path / "data"))
+    tab.apply_patient(registry.create_patient("Ada", "Plain", shoulder_m=(-0.12, 0.73)))
+    with pytest.raises(Exception, match="body mass, upper arm, forearm are not stored"):
+        tab.parameters()
+    assert tab.errors["shoulder"].isHidden()
+
+
 def test_the_assistance_mode_is_chosen_shown_and_the_level_announced_at_once(qtbot, tab):
     assert tab.parameters().assist == "as-needed"  # the window's default
     names = [tab.assist.itemText(i) for i in range(tab.assist.count())]

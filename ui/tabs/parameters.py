@@ -27,7 +27,7 @@ are shown.
 from __future__ import annotations
 
 from PySide6.QtCore import QTimer, Signal
-from PySide6.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
+from PySide6.QtWidgets import QHBoxLayout, QLabel, QPushButton, QVBoxLayout, QWidget
 
 from app.games.names import GAME_TITLES
 from app.units import SCREEN
@@ -44,6 +44,14 @@ from ui.tabs.proposal_box import ProposalBox
 from ui.views.reach import check_summary, field_key, problem_fields, reach_picture
 
 DEBOUNCE_MS = 120
+PATIENT_MEASUREMENTS = {"body_mass": "body_mass_kg", "upper_arm": "upper_arm_m",
+                        "forearm": "forearm_m", "shoulder": "shoulder_m"}
+"""The form's rows (their error keys) a registered patient may have stored, by the
+Patient's attribute: a patient chosen without one keeps the form's value, which is not
+theirs (another patient's, the last trial's), so it is refused until the therapist gives it
+(`apply_patient`)."""
+MEASUREMENT_WORDS = {"body_mass": "body mass", "upper_arm": "upper arm", "forearm": "forearm",
+                     "shoulder": "shoulder position"}
 GAME_WORDS = {game: f"the {title.lower()}" for game, title in GAME_TITLES.items()}
 """A game the form holds (a session plan's round: ui.tabs.parameters_form.HIDDEN_FIELDS),
 said in the status line, since no field shows it."""
@@ -77,6 +85,10 @@ class ParametersTab(ParametersForm, QWidget):
         self._error: CoreError | None = None
         self._problem = ""
         self._loading = False
+        self._unconfirmed: set[str] = set()  # rows the patient chosen has not stored
+        # whose measurements the form holds: None for the defaults or the settings' last
+        # trial's (which may be another patient's: refused too)
+        self._measured_for: str | None = None
         self._debounce = QTimer(self)
         self._debounce.setSingleShot(True)
         self._debounce.setInterval(DEBOUNCE_MS)
@@ -90,6 +102,12 @@ class ParametersTab(ParametersForm, QWidget):
         self.summary.setWordWrap(True)
         self.status = QLabel("")
         self.status.setWordWrap(True)
+        self.keep_measurements = QPushButton("Use these values for this patient")
+        self.keep_measurements.setToolTip(
+            "The patient chosen has not stored them: the values shown are another patient's "
+            "or the last trial's. Press once you have checked them against this patient.")
+        self.keep_measurements.clicked.connect(self._keep_measurements)
+        self.keep_measurements.hide()
         # the console's proposal for the next trial (app.trials.progression): above the
         # picture, where it stays in view however the form is scrolled
         self.proposal = ProposalBox()
@@ -108,6 +126,7 @@ class ParametersTab(ParametersForm, QWidget):
         right.addWidget(self.preview, 1)
         right.addWidget(self.summary)
         right.addWidget(self.status)
+        right.addWidget(self.keep_measurements)
         layout = QHBoxLayout(self)
         layout.addWidget(scroll, 5)
         layout.addLayout(right, 6)
@@ -144,6 +163,22 @@ class ParametersTab(ParametersForm, QWidget):
         self.assistance.valueChanged.connect(self._assistance_edited)
         self.gains.textChanged.connect(self._edited)
         self.clockwise.toggled.connect(self._edited)
+        for key, boxes in self._measurement_boxes().items():
+            for box in boxes:  # a value given for the patient chosen counts as theirs
+                box.valueChanged.connect(lambda _v, key=key: self._measurement_given(key))
+
+    def _measurement_boxes(self) -> dict:
+        return {"body_mass": (self.body_mass,), "upper_arm": (self.upper_arm,),
+                "forearm": (self.forearm,), "shoulder": (self.shoulder_x, self.shoulder_y)}
+
+    def _measurement_given(self, key: str) -> None:
+        if not self._loading:
+            self._unconfirmed.discard(key)
+
+    def _keep_measurements(self) -> None:
+        self._unconfirmed.clear()
+        self.refresh()
+        self.edited.emit()
 
     # -- preview ------------------------------------------------------------------
     @property
@@ -172,8 +207,17 @@ class ParametersTab(ParametersForm, QWidget):
 
     def apply_patient(self, patient) -> None:
         """Take a registered patient's measurements (app.records.registry.Patient)."""
+        # one truth: a trial never runs with another patient's arm. What the patient has
+        # not stored is refused (under its field, Build refused) until the therapist types
+        # it or keeps the value shown for this patient
+        if self._measured_for != patient.code:
+            self._unconfirmed = {key for key, attribute in PATIENT_MEASUREMENTS.items()
+                                 if getattr(patient, attribute) is None}
+        self._measured_for = patient.code
         current = self._parameters or self._lenient()
         self.set_parameters(current.replace(**patient.trial_overrides()))
+        self.refresh()
+        self.edited.emit()  # a trial built for the previous patient is stale
 
     def _lenient(self) -> TrialParameters:
         try:
@@ -214,6 +258,8 @@ class ParametersTab(ParametersForm, QWidget):
         """The parameters the form shows now, as Build would take them before its reach
         check (None when the values themselves are refused); cheap, for comparing with
         the trial built."""
+        if self._unconfirmed:
+            return None
         try:
             return TrialParameters(**self._values())
         except CoreError:
@@ -230,6 +276,7 @@ class ParametersTab(ParametersForm, QWidget):
         self._check = None
         self._parameters = None
         self._error: CoreError | None = None
+        self.keep_measurements.setVisible(bool(self._unconfirmed))
         try:
             parameters = TrialParameters(**values)
         except ParameterError as exc:
@@ -247,10 +294,28 @@ class ParametersTab(ParametersForm, QWidget):
             else:
                 self._problem = check.problems[0]
                 self._error = UnreachableError(self._problem)
+            self._refuse_unconfirmed()
         picture = None if self._check is None else reach_picture(self._check, values["shoulder_m"])
         self.preview.show_picture(picture, values["shoulder_m"])
         self._show_summary()
         self.parameters_changed.emit(self._parameters, self._problem)
+
+    def _refuse_unconfirmed(self) -> None:
+        """The patient chosen has not stored these measurements: the form's values are not
+        theirs (another patient's, the last trial's), refused under their rows until given."""
+        if not self._unconfirmed:
+            return
+        keys = [key for key in PATIENT_MEASUREMENTS if key in self._unconfirmed]
+        for key in keys:
+            self._show_error(key, "not stored for this patient: the value shown is not "
+                                  "theirs; enter theirs")
+        words = ", ".join(MEASUREMENT_WORDS[key] for key in keys)
+        verb = "is" if len(keys) == 1 else "are"
+        self._problem = (f"this patient's {words} {verb} not stored, and the values shown are "
+                         "not theirs (another patient's or the last trial's): enter them, or "
+                         "press 'Use these values for this patient' once checked")
+        self._parameters = None
+        self._error = CoreError(self._problem)
 
     def _show_error(self, key: str, message: str) -> None:
         label = self.errors.get(key) or self.errors["shape"]

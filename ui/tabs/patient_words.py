@@ -30,11 +30,14 @@ def measurements(patient: Patient) -> str:
         parts.append(f"forearm {cm(patient.forearm_m)}")
     if patient.shoulder_m is not None:
         parts.append(f"shoulder at {point_cm(patient.shoulder_m)}")
+    # the form's values for what is not stored are not this patient's (another patient's,
+    # the last trial's): the Parameters tab refuses them until given
+    # (ui.tabs.parameters.apply_patient)
+    given = "give them in the Parameters tab, which refuses its values until then"
     if not parts:
-        return ("No measurements stored: the Parameters tab's body and shoulder values are "
-                "used.")
+        return f"No measurements stored: {given}."
     missing = 4 - len(parts)
-    rest = " The others come from the Parameters tab." if missing else ""
+    rest = f" For the others, {given}." if missing else ""
     return "Stored: " + ", ".join(parts) + ". The Parameters tab now uses them." + rest
 
 

@@ -19,7 +19,12 @@ from app.assessments.words import robot_task_words
 from app.units import CM_PER_M as CM, MM_S_PER_M_S
 from core.holdtasks import ROBOT_TASKS
 from core.robot import RobotModel
-from core.trial_check import ELBOW_FLEXION_RANGE_RAD, MAX_PATH_SPEED_M_S, TrialCheck
+from core.trial_check import (
+    ELBOW_FLEXION_RANGE_RAD,
+    MAX_PATH_SPEED_M_S,
+    TrialCheck,
+    path_band_m,
+)
 from ui.views.samples import split_by_mask
 
 UNREACHABLE_MARK_EVERY = 5  # path points are 2 mm apart
@@ -36,7 +41,11 @@ def robot_workspace(robot: RobotModel, step_m: float = 0.005) -> tuple[np.ndarra
     xs = np.arange(-extent, extent + step_m / 2, step_m)
     x, y = np.meshgrid(xs, xs, indexing="ij")
     q1, q2 = robot.ik_terms(x, y)
-    ok = np.isfinite(q1) & np.isfinite(q2)
+    # where a path may lie: inside the reach band the trial check keeps (the safety margin
+    # and the room to stray from the path), within the joint limits
+    band_lo, band_hi = path_band_m(robot)
+    radius = np.hypot(x, y)
+    ok = np.isfinite(q1) & np.isfinite(q2) & (radius >= band_lo) & (radius <= band_hi)
     for i in np.flatnonzero(ok):
         if robot.limit_problem(float(q1.flat[i]), float(q2.flat[i])):
             ok.flat[i] = False

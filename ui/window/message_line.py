@@ -72,16 +72,27 @@ class MessageLine:
 
     def _build_status_bar(self) -> None:
         self.state_label = QLabel("Idle")
-        # the robot's and the trial's words give way (cut, whole in the tooltip) so that
-        # the warnings at the right, which say what to do, are whole at 1366 px
+        # the robot's words give way (cut, whole in the tooltip; they are in the Parameters
+        # tab too) so that the trial's ("session 12, trial 104: stopped early", short and
+        # said nowhere else while it runs) and the warnings at the right, which say what to
+        # do, are whole at 1366 px
         self.backend_label = ElidedLabel("")
         self.health_label = QLabel("")
         self.health_label.setObjectName("loop_timing")
-        self.trial_label = ElidedLabel("")
+        self.trial_label = QLabel("")
         bar = self.statusBar()
         for widget in (self.state_label, self.backend_label, self.trial_label):
             bar.addWidget(widget)
-        bar.addPermanentWidget(self.health_label)
+        # the warnings, one above the other at the right: side by side (the loop's timing
+        # and the shared registry unreachable, 1060 px together) they left the trial's
+        # words "sessi…" at 1366 px. The registry's line (ui.window.station) shows only
+        # while it says something, so the bar is one line high otherwise
+        self.status_warnings = QWidget()
+        column = QVBoxLayout(self.status_warnings)
+        column.setContentsMargins(0, 0, 0, 0)
+        column.setSpacing(0)
+        column.addWidget(self.health_label, 0, Qt.AlignmentFlag.AlignRight)
+        bar.addPermanentWidget(self.status_warnings)
 
     def say(self, text: str, problem: bool = False) -> None:
         """A new line in the message line (and its history)."""

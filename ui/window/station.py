@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from pathlib import PurePosixPath
 
-from PySide6.QtCore import QTimer
+from PySide6.QtCore import Qt, QTimer
 from PySide6.QtWidgets import QLabel
 
 from app.records import station
@@ -60,7 +60,9 @@ class StationStatus:
     def _build_station_status(self) -> None:
         self.registry_label = QLabel("")
         self.registry_label.setObjectName("registry_reach")
-        self.statusBar().addPermanentWidget(self.registry_label)
+        self.registry_label.hide()  # shown while offline (_show_reach)
+        self.status_warnings.layout().addWidget(self.registry_label, 0,
+                                                Qt.AlignmentFlag.AlignRight)
         self._was_offline = False
         self._syncing = False
         self._ticks_online = 0
@@ -134,6 +136,7 @@ class StationStatus:
             self.registry_label.setStyleSheet(f"color: {theme.PROBLEM_TEXT};")
             self.registry_label.setToolTip(registry.sync_problem if cause == station.SYNC_REFUSED
                                            else registry.offline_reason)
+            self.registry_label.show()
             # the refusal was said where it was found (as the station opened, or its sync's
             # answer); the offline reason then ("… waiting to be sent") said after it,
             # on the message line over the refusal, promised a sync that could not come
@@ -143,6 +146,7 @@ class StationStatus:
         else:
             self.registry_label.setText("")
             self.registry_label.setToolTip("")
+            self.registry_label.hide()
         self._was_offline = offline
 
     def _renumbered_reports(self, synced) -> None:

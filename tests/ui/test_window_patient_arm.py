@@ -1,0 +1,61 @@
+"""One truth: a trial never runs with another patient's arm. Ada's trial built and
+connected, then Bob chosen and confirmed, who has no measurements stored: the form kept
+Ada's body and shoulder values and Start ran Bob's trial with them (its file and the
+registry recorded Ada's arm under Bob's code). Now Start waits and Build is refused until
+Bob's values are given, and the trial built then carries them."""
+
+from __future__ import annotations
+
+import pytest
+
+from tests.ui import session
+
+pytestmark = pytest.mark.slow
+
+WAIT_MS = 60_000
+"""A bound for a hang, never a measure of speed."""
+
+
+def test_a_patient_without_measurements_never_runs_with_the_last_ones(qtbot, tmp_path,
+                                                                      monkeypatch):
+    win = session.open_window(qtbot, tmp_path, monkeypatch)
+    try:
+        tab, form = win.registration_tab, win.parameters_tab
+        session.register_patient(qtbot, win)  # Ada, her arm stored, confirmed
+        session.short_trial(win, duration_s=1.5)
+        session.build_and_connect(qtbot, win)
+        qtbot.waitUntil(lambda: "start" in session.enabled(win), timeout=WAIT_MS)
+        assert win.built.upper_arm_m == pytest.approx(0.30)
+
+        bob = win.registry.create_patient("Bob", "Bare", side="right")
+        tab.choose(bob)
+        qtbot.waitUntil(lambda: not tab.waiting() and tab.confirm.isEnabled(), timeout=WAIT_MS)
+        session.click(qtbot, tab.confirm)
+        qtbot.waitUntil(lambda: win.registration is not None
+                        and win.patient.code == bob.code, timeout=WAIT_MS)
+        # Ada's trial is not Bob's: Start waits, and F5 registers nothing
+        assert "start" not in session.enabled(win)
+        win.start_trial()
+        assert win.trial_id is None
+        assert not win.registering()
+        win.build()
+        assert "not stored" in win.message.text()
+
+        # Bob's values given in the form: Build takes them
+        form.body_mass.setValue(82.0)
+        form.upper_arm.setValue(33.0)
+        form.forearm.setValue(29.0)
+        form.shoulder_x.setValue(-14.0)
+        form.shoulder_y.setValue(71.0)
+        form.refresh()
+        qtbot.waitUntil(lambda: "build" in session.enabled(win), timeout=WAIT_MS)
+        session.click(qtbot, win.robot.buttons["build"])
+        qtbot.waitUntil(lambda: win.built is not None
+                        and win.built.upper_arm_m == pytest.approx(0.33),
+                        timeout=WAIT_MS)
+        built = win.built
+        assert (built.body_mass_kg, built.forearm_m) == (pytest.approx(82.0),
+                                                         pytest.approx(0.29))
+        assert built.shoulder_m == pytest.approx((-0.14, 0.71))
+    finally:
+        win.close()
