@@ -21,24 +21,27 @@ def describe(patient: Patient) -> str:
 def measurements(patient: Patient) -> str:
     """The patient's stored measurements, in the form's units (kg, cm), and what happens
     to the ones not stored."""
-    parts = []
-    if patient.body_mass_kg is not None:
-        parts.append(f"body mass {patient.body_mass_kg:.1f} kg")
-    if patient.upper_arm_m is not None:
-        parts.append(f"upper arm {cm(patient.upper_arm_m)}")
-    if patient.forearm_m is not None:
-        parts.append(f"forearm {cm(patient.forearm_m)}")
-    if patient.shoulder_m is not None:
-        parts.append(f"shoulder at {point_cm(patient.shoulder_m)}")
+    stored, missing = [], []
+    for value, words, what in (
+            (patient.body_mass_kg, lambda v: f"body mass {v:.1f} kg", "body mass"),
+            (patient.upper_arm_m, lambda v: f"upper arm {cm(v)}", "upper arm"),
+            (patient.forearm_m, lambda v: f"forearm {cm(v)}", "forearm"),
+            (patient.shoulder_m, lambda v: f"shoulder at {point_cm(v)}",
+             "shoulder position")):
+        (stored if value is not None else missing).append(
+            words(value) if value is not None else what)
     # the form's values for what is not stored are not this patient's (another patient's,
     # the last trial's): the Parameters tab refuses them until given
-    # (ui.tabs.parameters.apply_patient)
-    given = "give them in the Parameters tab, which refuses its values until then"
-    if not parts:
-        return f"No measurements stored: {given}."
-    missing = 4 - len(parts)
-    rest = f" For the others, {given}." if missing else ""
-    return "Stored: " + ", ".join(parts) + ". The Parameters tab now uses them." + rest
+    # (ui.tabs.parameters.apply_patient); name them, so the therapist knows what to measure
+    if not stored:
+        return ("No measurements stored: give the body mass, arm lengths and shoulder "
+                "position in the Parameters tab, which refuses its values until then.")
+    said = "Stored: " + ", ".join(stored) + ". The Parameters tab now uses them."
+    if not missing:
+        return said
+    them = "it" if len(missing) == 1 else "them"
+    return (f"{said} Not stored: the {' and the '.join(missing)}; give {them} in the "
+            "Parameters tab, which refuses its values until then.")
 
 
 def names_note(registry) -> str:
