@@ -11,7 +11,6 @@ GUI thread.
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +25,6 @@ from PySide6.QtWidgets import (
     QHeaderView,
     QLabel,
     QPushButton,
-    QSplitter,
     QStackedWidget,
     QTableWidget,
     QTableWidgetItem,
@@ -46,6 +44,7 @@ from app.reports.progress_figure import (
 from ui import plots, theme
 from ui.fields import ComboBox
 from ui.tabs.progress_scales import ScalesPanel
+from ui.tabs.progress_sizes import Splitter, axis_width, fit_choice, label_least
 from ui.views.progress_table import (
     exercise_choice,
     metric_heading,
@@ -86,21 +85,6 @@ def _write_pdf(result: Progress, path: Path, registry=None) -> Path:
                               scales=registry.session_scales(code),
                               series=report_series(registry, result, include_invalid=included,
                                                    norms=norms_in_use(registry.data_dir)))
-
-
-def _label_least(plot) -> int:
-    """The height (px) a plot needs for its left axis's title, drawn turned by 90°, to be
-    whole beside the axis: at 1366 × 768 "help (%)" was cut to "elp (" when the table took
-    the room. The title's length plus what the plot holds above and below the axis (its
-    title, its bottom axis), as the plot lays them out."""
-    item = plot.getPlotItem()
-    left = item.getAxis("left")
-    if not (left.isVisible() and left.labelText):
-        return 0
-    # the plot's own layout, whatever its height now (before the tab is first shown it is
-    # laid out at pyqtgraph's default size): the bottom axis and the margins
-    around = max(0, round(item.geometry().height() - left.geometry().height()))
-    return math.ceil(left.label.boundingRect().width()) + around + 2
 
 
 class ProgressTab(QWidget):
@@ -192,7 +176,7 @@ class ProgressTab(QWidget):
         # few rows whole, the plots their readable least) until the therapist drags a
         # handle; then their sizes are the therapist's
         self._split_dragged = False
-        self.splitter = _Splitter(self._fit_split)
+        self.splitter = Splitter(self._fit_split)
         self.splitter.splitterMoved.connect(self._split_moved)
         self.splitter.addWidget(self.plot)
         self.splitter.addWidget(self.help_plot)
@@ -274,8 +258,8 @@ class ProgressTab(QWidget):
         room = self.splitter.height() - 2 * self.splitter.handleWidth()
         sizes = split_sizes(room, table.rowCount(),
                             table.verticalHeader().defaultSectionSize(), chrome,
-                            max(round(PLOT_LEAST_LINES * line), _label_least(self.plot)),
-                            max(round(HELP_LEAST_LINES * line), _label_least(self.help_plot)))
+                            max(round(PLOT_LEAST_LINES * line), label_least(self.plot)),
+                            max(round(HELP_LEAST_LINES * line), label_least(self.help_plot)))
         if list(sizes) != self.splitter.sizes():
             self.splitter.setSizes(list(sizes))
 
@@ -348,7 +332,7 @@ class ProgressTab(QWidget):
         else:
             index = int(result.exercise_index[-1]) if len(result) else 0
         self.exercise_choice.setCurrentIndex(index)
-        _fit(self.exercise_choice)
+        fit_choice(self.exercise_choice)
         self.exercise_choice.blockSignals(False)
         self._exercise_changed()
 
@@ -404,7 +388,7 @@ class ProgressTab(QWidget):
         item.setLabel("left", figure.row.heading_in_unit)
         theme.style_plot(item)
         theme.style_plot(help_item)
-        width = _axis_width()
+        width = axis_width()
         for axis in (item.getAxis("left"), help_item.getAxis("left")):
             axis.setWidth(width)
         x, y = figure.positions.astype(float), figure.values
@@ -499,33 +483,3 @@ class ProgressTab(QWidget):
                                               "PDF (*.pdf)")
         if path:
             self.save_pdf(path)
-
-
-def _axis_width() -> int:
-    """One width for both plots' left axes, so their trial axes line up: the widest tick
-    they draw ('−000.00', a figure's ticks; the help's '100') beside the turned label, at
-    the current font (a fixed 60 px laid the label over the ticks at font scale 1.5)."""
-    metrics = QFontMetrics(theme.axis_font())
-    return (metrics.horizontalAdvance("−000.00") + metrics.height()
-            + round(4 * theme.font_scale()) + 8)
-
-
-def _fit(choice: QComboBox) -> None:
-    """Wide enough for its longest item at the current font, with room for the arrow: the
-    exercises' names must read whole ("As needed · D shape, r 10.0 cm · SMC — 7 trials")."""
-    metrics = choice.fontMetrics()
-    longest = max((metrics.horizontalAdvance(choice.itemText(i)) for i in range(choice.count())),
-                  default=0)
-    choice.setMinimumWidth(longest + round(56 * theme.font_scale()))
-
-
-class _Splitter(QSplitter):
-    """A vertical splitter that asks for its parts' default heights as it is resized."""
-
-    def __init__(self, fit) -> None:
-        super().__init__(Qt.Orientation.Vertical)
-        self._fit = fit
-
-    def resizeEvent(self, event) -> None:
-        super().resizeEvent(event)
-        self._fit()
