@@ -40,18 +40,11 @@ from ui.reach_preview import ReachPreview
 from ui.tabs.form_rows import FormRows
 from ui.tabs.parameters_devices import HARDWARE, SIMULATOR, BackendChoice
 from ui.tabs.parameters_form import ParametersForm
+from ui.tabs.patient_words import MEASUREMENT_WORDS, PATIENT_MEASUREMENTS
 from ui.tabs.proposal_box import ProposalBox
 from ui.views.reach import check_summary, field_key, problem_fields, reach_picture
 
 DEBOUNCE_MS = 120
-PATIENT_MEASUREMENTS = {"body_mass": "body_mass_kg", "upper_arm": "upper_arm_m",
-                        "forearm": "forearm_m", "shoulder": "shoulder_m"}
-"""The form's rows (their error keys) a registered patient may have stored, by the
-Patient's attribute: a patient chosen without one keeps the form's value, which is not
-theirs (another patient's, the last trial's), so it is refused until the therapist gives it
-(`apply_patient`)."""
-MEASUREMENT_WORDS = {"body_mass": "body mass", "upper_arm": "upper arm", "forearm": "forearm",
-                     "shoulder": "shoulder position"}
 GAME_WORDS = {game: f"the {title.lower()}" for game, title in GAME_TITLES.items()}
 """A game the form holds (a session plan's round: ui.tabs.parameters_form.HIDDEN_FIELDS),
 said in the status line, since no field shows it."""

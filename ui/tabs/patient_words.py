@@ -18,18 +18,28 @@ def describe(patient: Patient) -> str:
     return ", ".join(parts)
 
 
+PATIENT_MEASUREMENTS = {"body_mass": "body_mass_kg", "upper_arm": "upper_arm_m",
+                        "forearm": "forearm_m", "shoulder": "shoulder_m"}
+"""The Parameters form's rows (their error keys) a registered patient may have stored, by
+the Patient's attribute (ui.tabs.parameters refuses the ones not stored until given)."""
+MEASUREMENT_WORDS = {"body_mass": "body mass", "upper_arm": "upper arm", "forearm": "forearm",
+                     "shoulder": "shoulder position"}
+_STORED_WORDS = {"body_mass": lambda v: f"body mass {v:.1f} kg",
+                 "upper_arm": lambda v: f"upper arm {cm(v)}",
+                 "forearm": lambda v: f"forearm {cm(v)}",
+                 "shoulder": lambda v: f"shoulder at {point_cm(v)}"}
+
+
 def measurements(patient: Patient) -> str:
-    """The patient's stored measurements, in the form's units (kg, cm), and what happens
-    to the ones not stored."""
+    """The patient's stored measurements, in the form's units (kg, cm), and the ones not
+    stored, named."""
     stored, missing = [], []
-    for value, words, what in (
-            (patient.body_mass_kg, lambda v: f"body mass {v:.1f} kg", "body mass"),
-            (patient.upper_arm_m, lambda v: f"upper arm {cm(v)}", "upper arm"),
-            (patient.forearm_m, lambda v: f"forearm {cm(v)}", "forearm"),
-            (patient.shoulder_m, lambda v: f"shoulder at {point_cm(v)}",
-             "shoulder position")):
-        (stored if value is not None else missing).append(
-            words(value) if value is not None else what)
+    for key, attribute in PATIENT_MEASUREMENTS.items():
+        value = getattr(patient, attribute)
+        if value is None:
+            missing.append(MEASUREMENT_WORDS[key])
+        else:
+            stored.append(_STORED_WORDS[key](value))
     # the form's values for what is not stored are not this patient's (another patient's,
     # the last trial's): the Parameters tab refuses them until given
     # (ui.tabs.parameters.apply_patient); name them, so the therapist knows what to measure
