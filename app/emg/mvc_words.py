@@ -18,7 +18,9 @@ class FlagWords:
 
     @property
     def long(self) -> str:
-        return f"{self.short}: {self.meaning}"
+        """The flag with what it means, for a report (its short words alone where the
+        meaning is not known: a newer file's flag)."""
+        return f"{self.short}: {self.meaning}" if self.meaning else self.short
 
 
 FLAG_WORDS = {
@@ -46,8 +48,7 @@ def short_flags(flags) -> str:
 
 def long_flags(flags) -> str:
     """The flags with what each means, for a report: '…; …'."""
-    return "; ".join(flag_words(f).long if flag_words(f).meaning else flag_words(f).short
-                     for f in flags)
+    return "; ".join(flag_words(f).long for f in flags)
 
 
 def todo(flags) -> str:
