@@ -175,13 +175,11 @@ def cmd_pendulum(args: argparse.Namespace) -> int:
             raise CommandError(f"--speeds {speed:g}: {refused}")
     if held is None and args.speeds is None:
         held = HELD_OUT_SPEED_RAD_S
-    if held is not None and args.speeds is None and not any(
-            math.isclose(held, s, rel_tol=0, abs_tol=1e-9) for s in THESIS_SPEEDS_RAD_S):
+    if held is not None and args.speeds is None and not _one_of(held, THESIS_SPEEDS_RAD_S):
         raise CommandError(f"--held-out {held:g} is none of the thesis's speeds (1 + k/111 "
                            "rad/s, k = 0 … 999, such as 5): name one, or give --speeds "
                            "with it among them")
-    if held is not None and args.speeds is not None and not any(
-            math.isclose(held, s, rel_tol=0, abs_tol=1e-9) for s in args.speeds):
+    if held is not None and args.speeds is not None and not _one_of(held, args.speeds):
         raise CommandError(f"--held-out {held:g} is none of --speeds: the held-out cycle "
                            "must be one of the speeds")
     output = output_path(args, args.output, overwrite=args.overwrite)
@@ -190,6 +188,11 @@ def cmd_pendulum(args: argparse.Namespace) -> int:
     held_text = f", cycle at {held:g} rad/s held out" if held is not None else ""
     print(f"{output}: {len(data):,} samples, {cycles} cycles{held_text}")
     return EXIT_OK
+
+
+def _one_of(speed: float, speeds) -> bool:
+    """Whether `speed` (rad/s) is one of `speeds`, as typed to the printed digits."""
+    return any(math.isclose(speed, s, rel_tol=0, abs_tol=1e-9) for s in speeds)
 
 
 def cmd_robot_data(args: argparse.Namespace) -> int:
