@@ -92,7 +92,8 @@ def main() -> int:
         shoot("neglect")
         window.show_view(live_until(data["d"], 0.0))
         window.show_plan(PlanState("resting", 1, 3, "D shape", 1, 1, 3, 0, 15, 45, 43.4,
-                                   150.0, "", "", done_share=1 / 3, lap_share=1 / 9))
+                                   150.0, "", "", done_share=1 / 3, lap_share=1 / 9,
+                                   next_trial=reach.replace(n_distractors=0), next_rounds=3))
         shoot("rest")
         window.close()
     return 0

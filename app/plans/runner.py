@@ -118,6 +118,12 @@ class PlanState:
     """Pause was pressed and the plan pauses once the round in hand allows (the trial
     stopped and its file finished, the round built): the patient's screen says "Pause"
     from the press, not the stopped trial's "Stopped"."""
+    next_trial: TrialParameters | None = None
+    """During a rest (paused in it too): the next block's trial as its first round runs
+    it (the block's exercise, game and laps on the patient's setup, a proposal taken
+    included), for the patient's screen to say what comes next; None otherwise."""
+    next_rounds: int = 0
+    """The next block's rounds (0 with no `next_trial`)."""
 
     def line(self) -> str:
         """One line for the therapist's status line."""
@@ -357,13 +363,18 @@ class PlanRunner:
         elif self.phase == PAUSED and self._paused_in_rest:
             rest_left = self._rest_left
         done = sum(c.movements for c in self.counts)
+        # a rest comes between two blocks: the one after it is what the patient waits for
+        resting = self.phase == RESTING or (self.phase == PAUSED and self._paused_in_rest)
+        upcoming = self.blocks[self.index + 1] if resting else None
         return PlanState(
             self.phase, 0 if self.phase == IDLE else self.index + 1, len(self.blocks),
             block.name, self.round, block.rounds, self.laps_left if self.phase != IDLE
             else block.laps, self.laps_done, done, self.planned_movements(), rest_left,
             self._time_left(now, rest_left), self.outcome, self.reason,
             self.held if self.phase == PAUSED else "", *self._shares(),
-            self._pause_wanted and self.phase in (BUILDING, STARTING, RUNNING, SAVING))
+            self._pause_wanted and self.phase in (BUILDING, STARTING, RUNNING, SAVING),
+            upcoming.parameters(self.base) if upcoming is not None else None,
+            upcoming.rounds if upcoming is not None else 0)
 
     def _shares(self) -> tuple[float, float]:
         """(done_share, lap_share) of PlanState: laps, not the movements the files count,

@@ -197,15 +197,25 @@ def message_lines(font: QFont, bottom: QRectF, frame: PatientFrame,
 def paint_plan_cover(painter: QPainter, words: Words, base: QFont, ratio: float,
                      bands: ScreenLayout, plan: PlanOverlay) -> dict:
     """A rest, a pause, the end of a plan in place of the table: the block at the top, the
-    words and the countdown large, what comes next at the bottom."""
+    words and the countdown large, what comes next at the bottom, on two lines when one
+    would shrink it below the screen's letter size ("Next: Reaching game, 3 rounds of 6
+    targets" came to 95 % of it, edge to edge, full screen on 22 inches), the countdown
+    then a line shorter."""
     font = band_font(base, bands)
     # the block where, and as large as, the running screen's top band puts it
     top_px, (top, _, _) = top_band(font, bands.top, (plan.block_text, "", ""))
     words.draw(painter, base, ratio, top, Qt.AlignmentFlag.AlignLeft, plan.block_text, top_px,
                TEXT)
+    bottom = qrect(bands.bottom)
+    inside = bottom.adjusted(margin(bands.bottom), 0, -margin(bands.bottom), 0)
+    lines = (plan.message,)
+    if fitted_px(font, inside, plan.message) < font.pixelSize():
+        lines = tuple(line for line in two_lines(font, inside.width(), plan.message) if line)
+    above = (len(lines) - 1) * bottom.height()  # the lines over the table's foot
     area = qrect(bands.table)
     upper = QRectF(area.left(), area.top(), area.width(), 0.4 * area.height())
-    count = QRectF(area.left(), upper.bottom(), area.width(), 0.6 * area.height())
+    count = QRectF(area.left(), upper.bottom(), area.width(),
+                   0.6 * area.height() - above)
     words.draw(painter, base, ratio, upper, Qt.AlignmentFlag.AlignHCenter, plan.centre,
                min(2 * bands.text_px, fitted_px(sized(font, 2 * bands.text_px), upper,
                                                  plan.centre)), TEXT)
@@ -213,8 +223,9 @@ def paint_plan_cover(painter: QPainter, words: Words, base: QFont, ratio: float,
         size = min(int(0.8 * count.height()), 4 * bands.text_px)
         words.draw(painter, base, ratio, count, Qt.AlignmentFlag.AlignHCenter,
                    plan.countdown, fitted_px(sized(font, size), count, plan.countdown), GO)
-    bottom = qrect(bands.bottom)
-    words.draw(painter, base, ratio, bottom, Qt.AlignmentFlag.AlignHCenter, plan.message,
-               fitted_px(font, bottom, plan.message), TEXT)
+    rows = [bottom.translated(0, -k * bottom.height()) for k in range(len(lines))][::-1]
+    sizes = tuple(fitted_px(font, inside, line) for line in lines)
+    for row, line, size in zip(rows, lines, sizes, strict=True):
+        words.draw(painter, base, ratio, row, Qt.AlignmentFlag.AlignHCenter, line, size, TEXT)
     return {"top": (plan.block_text, "", ""), "top_px": top_px,
-            "plan": (plan.centre, plan.countdown)}
+            "plan": (plan.centre, plan.countdown), "plan_lines": lines, "plan_px": sizes}

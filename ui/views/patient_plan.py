@@ -8,7 +8,8 @@ in the top band, as in a trial alone), the block said with its first trial's "Ge
 2 of 3. Get ready"), and a bar of the session's exercise done under the band, which moves
 as the running trial's time passes (a two-minute block's bar does not stand still) and
 never back (`PlanOverlay.at_least`). During a rest the table gives way to "Rest" and its
-countdown in the largest type; paused, "Pause" (from the press: the trial it stops is no
+countdown in the largest type, and what comes next in the patient's words (`next_words`);
+paused, "Pause" (from the press: the trial it stops is no
 "Stopped" for the patient); at the end, the session's outcome in the patient's words. The
 counts are the plan's own (the trials' files, the runner's laps), never recomputed here;
 the running trial's laps passed come from the screen's own clock (`laps_passed`).
@@ -17,10 +18,15 @@ the running trial's laps passed come from the screen's own clock (`laps_passed`)
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass
 
+from app.games.names import game_title
 from app.plans.runner import ENDED, IDLE, PAUSED, RESTING, RUNNING, SAVING, PlanState
+from app.reports.plain_language import SHAPE_NAMES
+from core.games import game_layout
+from core.trial import TrialParameters
 from ui.views.patient_screen import PatientFrame, clock
 
 PAUSE_WORDS = "Pause"
@@ -88,7 +94,7 @@ def overlay(state: PlanState | None, laps: float = 0.0) -> PlanOverlay | None:
     if state.phase == RESTING:
         more = state.block < state.n_blocks
         return PlanOverlay(block, progress, REST_WORDS, clock(state.rest_left_s),
-                           f"Next: block {state.block + 1}" if more else "")
+                           next_words(state.next_trial, state.next_rounds) if more else "")
     if state.phase == PAUSED or state.pausing:
         return PlanOverlay(block, progress, PAUSE_WORDS, "", "Please wait")
     if state.phase == ENDED:
@@ -96,3 +102,29 @@ def overlay(state: PlanState | None, laps: float = 0.0) -> PlanOverlay | None:
                            f"{state.movements_done} movements" if state.outcome ==
                            "complete" else "")
     return PlanOverlay(block, progress, laps_before=state.laps_done, ready_text=ready)
+
+
+def next_words(trial: TrialParameters | None, rounds: int) -> str:
+    """What comes after a rest, in the patient's words: the game by its name, or the
+    exercise by the name the patient's report gives it, and how much of it, counted as
+    the screen will count it (a reaching game of one lap by its targets, anything else
+    by its laps: PatientFrame.repetition_text): "Next: Reaching game, 3 rounds of 8
+    targets", "Next: D shape, 5 laps". The rest's length is the countdown above it. It
+    said "Next: block 3", which tells a patient nothing."""
+    if trial is None:
+        return ""
+    name = game_title(trial.game) if trial.game else SHAPE_NAMES.get(trial.shape, trial.shape)
+    count, unit = trial.repetitions, "lap"
+    if trial.game == "reach" and trial.repetitions == 1:
+        count, unit = _targets(trial), "target"
+    amount = f"{count} {unit}{'s' * (count != 1)}"
+    if rounds > 1:
+        amount = f"{rounds} rounds of {amount}"
+    return f"Next: {name[:1].upper()}{name[1:]}, {amount}"
+
+
+@functools.lru_cache(maxsize=4)
+def _targets(trial: TrialParameters) -> int:
+    """The reaching game's targets in one round (its layout's: core.games.game_layout),
+    worked out once per trial, not at each of the rest's 60 frames a second."""
+    return len(game_layout(trial).targets)

@@ -339,6 +339,24 @@ def test_a_plan_runs_its_blocks_rounds_and_rests_in_order():
     assert s.runner.state(3.0).line().startswith("Plan complete")
 
 
+def test_a_rest_says_which_block_comes_next_as_it_will_run():
+    """The patient's screen said "Next: block 2" in a rest: the state carries the next
+    block's trial (its exercise, game and laps) and rounds, for it to say what comes."""
+    s = Script()
+    s.runner.start(0.0)
+    assert s.runner.state(0.0).next_trial is None  # no rest: nothing to announce
+    s.loop(0.0)
+    resting = s.runner.state(0.4)
+    assert (resting.next_trial.shape, resting.next_trial.repetitions,
+            resting.next_rounds) == ("reach", 1, 2)
+    assert resting.next_trial.radius_m == 0.06  # the block's, on the patient's setup
+    s.runner.pause(0.5)
+    assert s.runner.state(0.6).next_trial.shape == "reach"  # paused in the rest too
+    s.runner.resume(0.6)
+    s.runner.tick(2.0)
+    assert s.runner.state(2.0).next_trial is None  # the block is under way
+
+
 def test_the_share_done_counts_laps_weighted_by_each_block_s_planned_time():
     """The patient's bar (PlanState.done_share): each block of PLAN plans 4 s of
     exercise, a third of the plan; within a block each lap its share, so a block of

@@ -34,7 +34,9 @@ def patient(qtbot):
 
 
 def test_the_rest_countdown_replaces_the_table(patient):
-    patient.show_plan(_state(phase="resting", rest_left_s=44.2))
+    patient.show_plan(_state(phase="resting", rest_left_s=44.2,
+                             next_trial=THESIS_SUBJECT.replace(shape="circle", repetitions=4),
+                             next_rounds=1))
     image = patient.grab().toImage()
     assert patient.painted["plan"] == ("Rest", "0:45")
     assert patient.painted["top"] == ("Block 2 of 3", "", "")
@@ -45,11 +47,49 @@ def test_the_rest_countdown_replaces_the_table(patient):
                  for y in range(round(area.top + 0.4 * area.height),
                                 round(area.top + area.height), 4))
     assert greens > 50  # the countdown, large, in green
-    assert patient.plan.message == "Next: block 3"
+    assert patient.plan.message == "Next: Circle, 4 laps"
     patient.show_plan(_state(phase="resting", rest_left_s=3.0, block=3))
     patient.grab()
     assert patient.painted["plan"] == ("Rest", "0:03")
     assert patient.plan.message == ""  # the last block: nothing next
+
+
+@pytest.mark.parametrize(("next_trial", "rounds", "words"), [
+    (dict(shape="targets", game="reach", repetitions=1, n_targets=6), 3,
+     "Next: Reaching game, 3 rounds of 6 targets"),
+    (dict(shape="targets", game="reach", repetitions=2, n_targets=6), 1,
+     "Next: Reaching game, 2 laps"),
+    (dict(game="path", repetitions=2, assist="transparent"), 3,
+     "Next: Path game, 3 rounds of 2 laps"),
+    (dict(repetitions=1), 1, "Next: D shape, 1 lap"),
+])
+def test_a_rest_says_what_comes_next_in_the_patient_s_words(next_trial, rounds, words):
+    """It said "Next: block 2": the patient is told the game or the exercise by the name
+    their report gives it, and how much, counted as the screen will count it (a reaching
+    game of one lap by its targets)."""
+    state = _state(phase="resting", rest_left_s=30.0,
+                   next_trial=THESIS_SUBJECT.replace(**next_trial), next_rounds=rounds)
+    assert overlay(state).message == words
+
+
+def test_the_next_block_goes_on_two_lines_rather_than_shrink(qtbot):
+    """One line of "Next: Reaching game, 3 rounds of 6 targets" came to 95 % of the
+    screen's letter size, edge to edge: two lines keep the size."""
+    window = PatientWindow()
+    qtbot.addWidget(window)
+    window.resize(1920, 1080)
+    window.show_parameters(THESIS_SUBJECT)
+    reach = THESIS_SUBJECT.replace(shape="targets", game="reach", repetitions=1, n_targets=6)
+    window.show_plan(_state(phase="resting", rest_left_s=30.0, next_trial=reach,
+                            next_rounds=3))
+    window.grab()
+    text_px = window.screen_layout().text_px
+    assert window.painted["plan_lines"] == ("Next: Reaching game,", "3 rounds of 6 targets")
+    assert window.painted["plan_px"] == (text_px, text_px)
+    window.show_plan(_state(phase="resting", rest_left_s=30.0,
+                            next_trial=THESIS_SUBJECT.replace(repetitions=5), next_rounds=1))
+    window.grab()
+    assert window.painted["plan_lines"] == ("Next: D shape, 5 laps",)  # one line fits
 
 
 def test_during_a_block_the_block_and_the_session_s_progress_show(patient):
