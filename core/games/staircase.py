@@ -39,6 +39,8 @@ import json
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from core.errors import ParameterError, check_range
 from core.trial import (
     CHANNEL_HALF_WIDTH_RANGE_M,
@@ -63,6 +65,18 @@ TIME_SHARES = (1.0, 0.8, 0.64, 0.51, 0.41, 0.33)
 """The reaching game's time allowed as a share of the time between two targets."""
 TARGET_RADII_M = (0.03, 0.024, 0.019, 0.015, 0.012, 0.01, 0.008)
 CHANNEL_HALF_WIDTHS_M = (0.04, 0.032, 0.025, 0.02, 0.016, 0.012, 0.01, 0.008, 0.006)
+"""The path game's channel half-widths, widest first; a path's ladder keeps those that fit
+it (`channel_widths`)."""
+CHANNEL_SHARE_OF_INSIDE = 2.0 / 3.0
+"""The widest channel's half-width as a share of the path's inside half-width (half the
+narrower side of the box round the path: r/2 for a D of radius r, r for a circle or a
+loop of the figure eight): the channel's two inner edges leave a third of the inside
+between them, so a hand cutting across the inside leaves the channel. At 4 cm either
+side whatever the path, the first rung covered the whole inside of a 6 cm D (3 cm from
+the path at most): it could not be lost."""
+NO_INSIDE_M = 0.001
+"""A path whose box is narrower than this has no inside (the straight reach, out and back
+on one line): its channel is not bounded by one."""
 PACE_SHARES = (1.0, 0.85, 0.72, 0.61)
 """The path game's traversal time as a share of the prescribed one."""
 
@@ -197,8 +211,7 @@ def default_ladder(base: TrialParameters) -> tuple[Dial, ...]:
         ladder += [Dial("time_allowed_s", tuple(times)),
                    Dial("target_radius_m", _within(TARGET_RADII_M, TARGET_RADIUS_RANGE_M))]
     elif base.game == "path":
-        ladder.append(Dial("channel_half_width_m",
-                           _within(CHANNEL_HALF_WIDTHS_M, CHANNEL_HALF_WIDTH_RANGE_M)))
+        ladder.append(Dial("channel_half_width_m", channel_widths(base)))
         # the fastest traversal the speed limit allows (core.trial_check.check_trial's rule)
         fastest = max(DURATION_RANGE_S[0],
                       base.trajectory().peak_speed_m_s * base.duration_s / MAX_PATH_SPEED_M_S)
@@ -210,6 +223,21 @@ def default_ladder(base: TrialParameters) -> tuple[Dial, ...]:
         raise ParameterError("game", base.game, "'path' or 'reach'",
                              "a staircase sets a game's difficulty")
     return tuple(ladder)
+
+
+def channel_widths(base: TrialParameters) -> tuple[float, ...]:
+    """The path game's channel half-widths on the base's path, widest first: those of
+    CHANNEL_HALF_WIDTHS_M within the trial's range and at most CHANNEL_SHARE_OF_INSIDE of
+    the path's inside half-width (all of them on a path with no inside), the narrowest
+    at least (a path too small for any keeps it)."""
+    row = _within(CHANNEL_HALF_WIDTHS_M, CHANNEL_HALF_WIDTH_RANGE_M)
+    inside_m = 0.5 * float(np.ptp(base.trajectory().path.points(), axis=0).min())
+    if inside_m < NO_INSIDE_M:
+        return row
+    # to the row's 0.1 mm: the box of points 2 mm apart falls short of the arc's
+    # by micrometres, which would drop a 6 cm D's 2 cm
+    widest = round(CHANNEL_SHARE_OF_INSIDE * inside_m, 4)
+    return tuple(v for v in row if v <= widest) or row[-1:]
 
 
 def start(base: TrialParameters, *, rung: int = 0, locked: bool = False,

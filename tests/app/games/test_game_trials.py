@@ -107,6 +107,22 @@ def test_the_path_game_on_the_simulator_scores_laps():
     assert math.isnan(figures.mean_time_to_hit_s)
 
 
+def test_the_path_game_s_first_round_on_a_small_d_is_won_by_effort_and_then_challenges():
+    """On the Games template's path block (two 6 s laps of the D, transparent) on a 6 cm
+    D, the first channel (4 cm either side) held the whole inside of the D: a weak arm won
+    its first three rounds. The first channel now fits the D: the healthy and the weak
+    virtual patients win round 1, and the weak one loses a round within four."""
+    from app.games.virtual import play_rounds
+
+    base = TrialParameters(game="path", shape="d", radius_m=0.06, duration_s=6.0,
+                           repetitions=2, assist="transparent")
+    (healthy,) = play_rounds(base, "healthy", 1, seed=100)
+    assert (healthy.figures.hits, healthy.figures.misses) == (2, 0)
+    weak = play_rounds(base, "weak", 4, seed=100)
+    assert (weak[0].figures.hits, weak[0].figures.misses) == (2, 0)
+    assert any(r.figures.misses for r in weak[1:])
+
+
 @pytest.mark.parametrize(("args", "needle"), [
     (["--game", "reach"], "--shape (shape) = 'd' is not allowed"),
     (["--game", "reach", "--shape", "targets", "--time-allowed", "2"],

@@ -7,10 +7,14 @@ import pytest
 from hypothesis import given, strategies as st
 
 from core.errors import ParameterError
+from core.games import game_layout
+from core.games.layout import distance_to_path
 from core.games.staircase import (
+    CHANNEL_HALF_WIDTHS_M,
     CREDIT_LIMIT,
     Dial,
     Staircase,
+    channel_widths,
     default_ladder,
     next_round,
     notches_at,
@@ -94,6 +98,28 @@ def test_every_rung_of_the_default_ladders_is_a_valid_reachable_trial():
     assert hardest.channel_half_width_m < PATH.channel_half_width_m
     assert [d.field for d in path.ladder] == ["assistance_level", "channel_half_width_m",
                                               "duration_s"]
+
+
+def test_the_first_channel_fits_the_path_it_is_played_on():
+    """A 4 cm channel either side covered the whole inside of a 6 cm D (nowhere inside is
+    more than 3 cm from the path): the first rung could not be lost. The widest channel
+    is two thirds of the path's inside half-width, so the middle of the D's inside is out
+    of it; paths with room keep the row's 4 cm, a straight reach (no inside) the row."""
+    small = PATH.replace(shape="d", radius_m=0.06, assist="transparent")
+    (dial,) = start(small).ladder[:1]
+    assert dial.field == "channel_half_width_m"
+    first = Staircase(start(small).ladder, 0).apply(small)
+    layout = game_layout(first)
+    cx, cy = first.centre_m
+    middle = distance_to_path(layout.path, cx + 0.5 * first.radius_m, cy)  # 3 cm
+    assert first.channel_half_width_m < middle
+    assert first.channel_half_width_m == 0.02  # the row's own value, recorded as played
+    assert channel_widths(small)[-1] == CHANNEL_HALF_WIDTHS_M[-1]  # as hard at the end
+    for roomy in (small.replace(radius_m=0.15), small.replace(shape="circle"),
+                  small.replace(shape="reach")):
+        assert channel_widths(roomy) == CHANNEL_HALF_WIDTHS_M, roomy.shape
+    tiny = small.replace(radius_m=0.02)  # 1 cm of inside: the narrowest alone
+    assert channel_widths(tiny) == CHANNEL_HALF_WIDTHS_M[-1:]
 
 
 def test_the_state_travels_with_the_rounds_parameters_and_restarts_there():
