@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import pytest
 
-from app.plans.dose import trial_dose
+from app.plans.dose import BlockDose, RunDose, trial_dose
 from app.trials.headless import simulate_to_file
 from core.plan import movements_per_lap
 from core.trial import TrialParameters
@@ -43,3 +43,19 @@ def test_a_healthy_hand_s_last_lap_in_the_transparent_mode_counts(tmp_path, dura
     path = tmp_path / "trial.h5"
     simulate_to_file(parameters, path, patient="healthy", seed=3)
     assert trial_dose(path).movements == 2
+
+
+def test_the_time_done_is_shown_beside_the_planned_never_as_an_overrun():
+    """The Progress tab read "0:51 of 0:50 active" after a plan done in full: the
+    as-needed mode's exercise runs on past the clock by up to the guidance's delay (the
+    test above), and "51 of 50" read as an overrun. Done and planned are each said for
+    what they are, in the tab's line, the session report's and the dose table."""
+    dose = RunDose(4, "complete", [
+        BlockDose(1, "Reaching game", 24, 36.0, 60.0, 24, 36.6, 60.0),
+        BlockDose(2, "Path game", 6, 14.0, 0.0, 6, 14.3, 0.0)])
+    table = dose.table()
+    assert not any("0:51 of 0:50" in line for line in table)
+    assert table[0].split()[-4:] == ["active", "(planned)", "rest", "(planned)"]
+    assert table[1].split()[-4:] == ["0:37", "(0:36)", "1:00", "(1:00)"]
+    assert table[-1].split()[-4:] == ["0:51", "(0:50)", "1:00", "(1:00)"]
+    assert dose.summary() == "30 of 30 movements, 0:51 active (0:50 planned), 1:00 of rest"
