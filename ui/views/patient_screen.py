@@ -339,7 +339,11 @@ def frame_at(view: TrialView, scene: Scene, options: PatientOptions,
     played = game.at(view, exercise_start_s) if game is not None else None
     if played is not None:
         result, success = played.result, played.success
-        target = None  # a game shows its own targets, not the robot's reference
+        if played.state.game == "reach":
+            target = None  # the reaching game shows its own targets, not the reference
+        # the path game keeps the reference's ring, the lap's clock on the path: nothing
+        # else says which way round the channel goes, nor how fast (in the transparent
+        # mode, where the game is played, the handle goes wherever it is pushed)
         if cue == CUE_DONE and played.state.started:
             # praise for points scored; a game with none ends in plain words
             cue = f"{CUE_DONE if played.state.score > 0 else CUE_OVER} {played.score_text}"

@@ -183,3 +183,38 @@ def test_the_reaching_game_s_band_counts_its_targets(qtbot, files):
     assert window.frame.counted_on(2).repetition_text == "Lap 3 of 3"
     laps = dataclasses.replace(window.frame, repetition=2, repetitions=2)
     assert laps.repetition_text == "Lap 2 of 2"
+
+
+def test_the_path_game_shows_where_the_lap_s_clock_is_on_the_path(qtbot, files, tmp_path):
+    """The path game, played in the transparent mode, showed the channel and the ball and
+    nothing else: no cue said which way round to go, nor how fast (the handle goes where it
+    is pushed). It keeps the plain exercise's ring at the reference, the lap's clock on
+    the path; the reaching game still shows its own targets instead."""
+    params = PATH.replace(assist="transparent", assistance_level=0.0, repetitions=1,
+                          channel_half_width_m=0.02)
+    simulate_to_file(params, tmp_path / "path.h5", patient="weak", seed=4)
+    window = PatientWindow()
+    qtbot.addWidget(window)
+    window.resize(900, 700)
+    for data, ring in ((read_trial(tmp_path / "path.h5"), True), (files["reach"], False)):
+        records = _records(data)
+        view = TrialView(data.parameters)
+        exercise = np.flatnonzero(records["phase"] == PHASE_EXERCISE)
+        # half-way through the first lap (the reach: its second target open)
+        end = exercise[0] + int(0.5 * data.parameters.duration_s / data.sample_period_s)
+        for start in range(0, end, BATCH):
+            view.append(records[start:min(start + BATCH, end)])
+        window.show_view(view)
+        image = window.grab().toImage()
+        if not ring:
+            assert window.frame.target_m is None
+            continue
+        desired = records["position_desired"][end - 1]
+        np.testing.assert_allclose(window.frame.target_m, desired)
+        centre = window.placement().to_px(desired)
+        np.testing.assert_allclose(window.painted["target"], centre)
+        radius = window.placement().length_px(window.scene.target_radius_m)
+        on_ring = [image.pixelColor(round(centre[0] + radius * np.cos(a)),
+                                    round(centre[1] + radius * np.sin(a))) == TARGET
+                   for a in np.linspace(0.0, 2.0 * np.pi, 24, endpoint=False)]
+        assert sum(on_ring) >= 6  # the ring, where the ball does not cover it
