@@ -16,7 +16,7 @@ from ui.views.patient_screen import PatientFrame
 
 CHANNEL = QColor("#3A3A3A")
 CHANNEL_EDGE = QColor("#BFBFBF")
-TARGET = QColor("#F0E442")
+TARGET = QColor("#F0E442")  # Okabe–Ito yellow: the target, and the plain exercise's ring
 HIT = QColor("#009E73")
 DISTRACTOR = QColor("#CC79A7")
 HOME = QColor("#BFBFBF")

@@ -29,7 +29,7 @@ from PySide6.QtGui import (
 )
 from PySide6.QtWidgets import QWidget
 
-from ui.patient.game_paint import paint_game_layout, paint_game_state
+from ui.patient.game_paint import TARGET, paint_game_layout, paint_game_state
 from ui.patient.sound import Tone
 from ui.patient.text import margin, qrect
 from ui.patient.words import BACKGROUND, GO, Words, paint_plan_cover, paint_words
@@ -56,7 +56,6 @@ from ui.views.patient_screen import (
 from ui.views.trialview import TrialView
 
 PATH = QColor("#BFBFBF")
-TARGET = QColor("#F0E442")  # Okabe–Ito yellow
 CURSOR = QColor("#56B4E9")  # Okabe–Ito sky blue
 PREVIOUS = QColor("#56B4E9")  # the cursor's sky blue, dashed
 OUTSIDE = QColor("#D55E00")  # Okabe–Ito vermillion: the ball outside the channel
