@@ -1,6 +1,6 @@
 """A session plan on the patient's screen, without Qt: which block, how far through the
 session's exercise, and the rest's countdown (issue 30, the plan's state:
-app.plans.runner.PlanState, read from the runner as the window repaints).
+app.plans.plan_state.PlanState, read from the runner as the window repaints).
 
 During a block the screen stays the trial's (the path, the hand, Go, the lap, the time left
 in the top band, as in a trial alone), the block said with its first trial's "Get ready"
@@ -23,7 +23,7 @@ import math
 from dataclasses import dataclass
 
 from app.games.names import game_title
-from app.plans.runner import ENDED, IDLE, PAUSED, RESTING, RUNNING, SAVING, PlanState
+from app.plans.plan_state import ENDED, IDLE, PAUSED, RESTING, RUNNING, SAVING, PlanState
 from app.reports.plain_language import SHAPE_NAMES
 from core.games import game_layout
 from core.trial import TrialParameters
