@@ -25,6 +25,7 @@ from app.cli.common import (
     trial_id_or_none,
 )
 from app.cli.emg_demo import cmd_demo
+from app.emg.muscle_words import MUSCLE_WORDS
 from core.emg.force import USABLE_CONE_AGREEMENT
 from core.emg.models import USABLE_R2
 from core.trial import MODEL_NAME, THESIS_SUBJECT
@@ -91,7 +92,9 @@ def add_emg_commands(commands) -> None:
     p.add_argument("--output", required=True, help="the CSV to write (an existing file is "
                                                    "kept unless --overwrite)")
     p.add_argument("--overwrite", action="store_true", help="replace the --output file")
-    p.add_argument("--muscle", help="guide and check an MVC of this muscle")
+    p.add_argument("--muscle", choices=tuple(MUSCLE_WORDS), metavar="MUSCLE",
+                   help="guide and check an MVC of this muscle: "
+                        + ", ".join(MUSCLE_WORDS))
     p.add_argument("--channel", type=int, default=1,
                    help="the muscle's channel, from 1 (default 1)")
     p.add_argument("--rest", type=float, default=3.0,

@@ -36,29 +36,17 @@ from app.emg.importing import (
     import_capture,
     when_free,
 )
+from app.emg.muscle_words import EFFORT_WORDS, words
 from core.emg.mvc import Mvc, MvcCriteria, mvc_from_contraction
 from core.emg.processing import EmgSettings, Envelope, envelope
 from core.emg.synthetic import THESIS_MUSCLES
 from device.emg.emgtext import beyond_range
 
-MUSCLE_WORDS = {"biceps": "biceps brachii", "triceps": "triceps brachii",
-                "anterior_deltoid": "anterior deltoid", "posterior_deltoid": "posterior deltoid"}
-# the isometric effort that loads each muscle most, against a fixed handle or a hand
-EFFORT_WORDS = {"biceps": "bend the elbow (at 90°) against the resistance",
-                "triceps": "straighten the elbow (at 90°) against the resistance",
-                "anterior_deltoid": "lift the arm forward (shoulder at 90°) against the "
-                                    "resistance",
-                "posterior_deltoid": "pull the arm back (shoulder at 90°) against the "
-                                     "resistance"}
 REST_S = 3.0
 PUSH_S = 5.0  # MVC protocols ask for 3–5 s (core.emg.mvc)
 SETTLE_S = 2.0  # how long after the push its last samples may still be on their way
 
 REST, PUSH, WAITING, DONE = "rest", "push", "waiting", "done"
-
-
-def words(muscle: str) -> str:
-    return MUSCLE_WORDS.get(muscle, muscle.replace("_", " "))
 
 
 @dataclass(frozen=True, slots=True)

@@ -114,15 +114,15 @@ class EmgFigure:
     muscles: tuple[str, ...]
     quality: tuple[str, ...]
     names: tuple[str, ...] = ()
-    """The muscles in words, as the EMG tab names them (app.emg.protocol.words: 'biceps
+    """The muscles in words, as the EMG tab names them (app.emg.muscle_words: 'biceps
     brachii', where the page said 'biceps' beside the tab's 'biceps brachii')."""
 
 
 def emg_figure(trial: TrialData, mask: np.ndarray, start_s: float) -> EmgFigure | None:
     """The EMG figure of a trial with EMG and an MVC per muscle, else None."""
     from app.emg.importing import EmgImportError
+    from app.emg.muscle_words import words
     from app.emg.mvc_words import long_flags
-    from app.emg.protocol import words
     from app.emg.session import trial_envelopes
     from device.errors import DeviceError
     from device.recording.emgfile import read_emg

@@ -27,8 +27,9 @@ from PySide6.QtWidgets import (
 )
 
 from app.emg.live import KINDS
+from app.emg.muscle_words import words
 from app.emg.mvc_words import short_flags, todo
-from app.emg.protocol import PUSH_S, REST_S, WAITING, SessionMvcs, words
+from app.emg.protocol import PUSH_S, REST_S, WAITING, SessionMvcs
 from core.emg.synthetic import THESIS_MUSCLES
 from ui import plots, theme
 from ui.fields import DoubleSpinBox

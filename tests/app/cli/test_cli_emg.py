@@ -196,6 +196,23 @@ def test_a_channel_the_source_lacks_is_refused_before_the_patient_is_told_to_con
     assert not out_file.exists()
 
 
+def test_record_refuses_a_muscle_it_does_not_know_saying_the_ones_it_does(tmp_path, capsys):
+    """`--muscle bicep` was taken as it was typed: the patient was asked to contract 'the
+    bicep' and the CSV's MVC was of a muscle no trial names. Refused in one line that lists
+    the muscles accepted (app.emg.muscle_words), before any source is opened."""
+    from app.emg.muscle_words import MUSCLE_WORDS
+
+    out_file = tmp_path / "mvc.csv"
+    code, out, err = run(["emg", "record", "lsl:nothing-here", "--output", str(out_file),
+                          "--muscle", "bicep"], capsys)
+    assert code == 2
+    assert len(err.strip().splitlines()) == 1
+    assert "argument --muscle: invalid choice: 'bicep'" in err
+    assert all(muscle in err for muscle in MUSCLE_WORDS)
+    assert not out
+    assert not out_file.exists()
+
+
 class _EndingSource:
     """A source that streams 0.3 s at 1 kHz, then fails as an unplugged base station."""
 

@@ -45,8 +45,8 @@ def test_a_trial_with_emg_reports_its_envelopes_and_the_bad_mvc(subject_2):
 
 def test_the_emg_page_names_the_muscles_as_the_emg_tab_does(subject_2):
     """The page said 'biceps' and 'anterior deltoid: MVC …' where the EMG tab says 'biceps
-    brachii': both name them by app.emg.protocol.words, the one map of muscle names."""
-    from app.emg.protocol import words
+    brachii': both name them by app.emg.muscle_words, the one map of muscle names."""
+    from app.emg.muscle_words import words
 
     path, folder = subject_2
     content = build_report(read_trial(path))
