@@ -283,11 +283,14 @@ def cmd_show(args: argparse.Namespace) -> int:
           f"{emg.time_s.size} samples, trial time {emg.time_s[0]:.3f}–{emg.time_s[-1]:.3f} s "
           f"({', '.join(origin)})")
     offsets = [offset for _, offset in emg.clock_offsets]
-    if offsets:  # a live LSL capture: what was added to the sender's stamps
-        print("  clock: liblsl's clock offset added to the LSL sender's stamps, "
-              + (f"{offsets[0]:.6f} s" if len(set(offsets)) == 1 else
-                 f"{len(offsets)} estimates from {min(offsets):.6f} to {max(offsets):.6f} s")
-              + " (/emg clock_offsets)")
+    if offsets:  # what was added to the sender's stamps: a live LSL capture's, an XDF's
+        said = (f"{offsets[0]:.6f} s" if len(set(offsets)) == 1 else
+                f"{len(offsets)} estimates from {min(offsets):.6f} to {max(offsets):.6f} s")
+        print("  clock: " + ("LabRecorder's clock offsets of the EMG stream, a line through "
+                             "them added to the sender's stamps by pyxdf"
+                             if emg.attrs.get("source") == "xdf" else
+                             "liblsl's clock offset added to the LSL sender's stamps")
+              + f", {said} (/emg clock_offsets)")
     for note in emg.notes:  # kept with the EMG as it was stored
         print(f"  note: {note}")
     if not emg.mvc:
