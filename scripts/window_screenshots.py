@@ -209,7 +209,7 @@ def live_emg(win, wait, settle, shoot) -> None:
             wait(lambda m=muscle: emg.guided is None and not emg.measurer.busy
                  and "MVC" in emg.mvc_labels[m].text())
         wait(lambda: emg.live_unit == "% MVC" and "not drawn" in emg.live_key.text())
-        settle(1.0)
+        settle(3.0)  # the plot's whole 5 s
         shoot("emg-live", emg)
         emg.stop_live()
 
