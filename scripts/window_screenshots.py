@@ -145,6 +145,7 @@ def session(app, folder: Path, suffix: str, width: int, height: int, scale: floa
     wait(lambda: win.report.content is not None)
     shoot("report", win.report)
     shoot("emg", win.emg)
+    live_emg(win, wait, settle, shoot)
     shoot("parameters-proposal", p)
     shoot("stale", win.trajectory)  # the level changed during the trial: Build first
 
@@ -180,6 +181,37 @@ def session(app, folder: Path, suffix: str, width: int, height: int, scale: floa
     win.closing_by_signal = True
     win.close()
     settle(0.5)
+
+
+def live_emg(win, wait, settle, shoot) -> None:
+    """The EMG tab streaming from a base station: the fake Trigno Control Utility of the
+    device tests (its 16 channels, channel c a sine of c µV), the biceps's MVC recorded,
+    the anterior deltoid's too short (flagged), the triceps's not yet; disconnected after,
+    so that no later trial keeps EMG."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "trigno_server", ROOT / "tests" / "device" / "fakes" / "trigno_server.py")
+    fake = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(fake)
+    emg = win.emg
+    win.tabs.setCurrentWidget(emg)
+    with fake.FakeTrignoServer() as server:
+        emg.source_edit.setText("trigno:127.0.0.1")
+        emg.source_ports = {"command_port": server.command_port,
+                            "data_port": server.data_port}
+        emg.connect_button.click()
+        wait(lambda: len(emg.live_curves) == 3)
+        emg.rest_seconds.setValue(0.0)
+        for muscle, push_s in (("biceps", 2.0), ("anterior_deltoid", 0.6)):
+            emg.push_seconds.setValue(push_s)
+            emg.record_mvc(muscle)
+            wait(lambda m=muscle: emg.guided is None and not emg.measurer.busy
+                 and "MVC" in emg.mvc_labels[m].text())
+        wait(lambda: emg.live_unit == "% MVC" and "not drawn" in emg.live_key.text())
+        settle(3.0)  # the plot's whole 5 s
+        shoot("emg-live", emg)
+        emg.stop_live()
 
 
 if __name__ == "__main__":

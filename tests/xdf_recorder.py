@@ -7,7 +7,9 @@ FileHeader (tag 1, XML), per stream a StreamHeader (tag 2: stream id uint32, the
 full info XML as liblsl gives it), Samples (tag 3: stream id, a variable-length sample count,
 then per sample a time-stamp byte 8 and the double stamp, and the values in the stream's
 format, or for strings a variable-length length and the bytes per channel), ClockOffset
-(tag 4: stream id, collection time and offset, doubles) and a StreamFooter (tag 6, XML).
+(tag 4: stream id, collection time and offset, doubles; the collection time on the
+sender's clock, this clock's time less the offset, as LabRecorder's XDF writer writes it)
+and a StreamFooter (tag 6, XML).
 The stamps are the sender's (no clock correction in the inlet), and the clock offsets are
 what liblsl's time_correction measures, as LabRecorder records them; pyxdf then puts every
 stream on this computer's clock. All senders here share this machine's clock, so a test
@@ -81,6 +83,9 @@ class XdfRecorder:
         self.clocks_ahead = dict(clocks_ahead or {})
         """Seconds each sender's clock (by source id) runs ahead of this machine's: its
         recorded clock offsets (this clock minus the sender's) are that much lower."""
+        self.written: dict[str, list[tuple[float, float]]] = {}
+        """The clock offsets `stop` wrote for each stream (by source id): (collection time
+        on the sender's clock, offset s), the known offsets a reader must find."""
         # the streams resolved in one wave and their inlets opened side by side: each
         # inlet's info, opening and first clock offset are round trips (about 0.7 s a
         # stream, one after another)
@@ -131,8 +136,11 @@ class XdfRecorder:
                 count = len(take.stamps[start:start + 100])
                 out.append(_chunk(3, head + _varlen(count) + block))
             ahead = self.clocks_ahead.get(self.source_ids[sid - 1], 0.0)
-            for when, value in take.offsets:
-                out.append(_chunk(4, head + struct.pack("<dd", when, value - ahead)))
+            written = self.written.setdefault(self.source_ids[sid - 1], [])
+            for now, value in take.offsets:
+                offset = value - ahead
+                written.append((now - offset, offset))
+                out.append(_chunk(4, head + struct.pack("<dd", now - offset, offset)))
             first = take.stamps[0] if take.stamps else 0.0
             last = take.stamps[-1] if take.stamps else 0.0
             footer = (f'<?xml version="1.0"?><info><first_timestamp>{first!r}</first_timestamp>'

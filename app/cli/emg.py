@@ -25,6 +25,7 @@ from app.cli.common import (
     trial_id_or_none,
 )
 from app.cli.emg_demo import cmd_demo
+from app.emg.muscle_words import MUSCLE_WORDS
 from core.emg.force import USABLE_CONE_AGREEMENT
 from core.emg.models import USABLE_R2
 from core.trial import MODEL_NAME, THESIS_SUBJECT
@@ -91,7 +92,9 @@ def add_emg_commands(commands) -> None:
     p.add_argument("--output", required=True, help="the CSV to write (an existing file is "
                                                    "kept unless --overwrite)")
     p.add_argument("--overwrite", action="store_true", help="replace the --output file")
-    p.add_argument("--muscle", help="guide and check an MVC of this muscle")
+    p.add_argument("--muscle", choices=tuple(MUSCLE_WORDS), metavar="MUSCLE",
+                   help="guide and check an MVC of this muscle: "
+                        + ", ".join(MUSCLE_WORDS))
     p.add_argument("--channel", type=int, default=1,
                    help="the muscle's channel, from 1 (default 1)")
     p.add_argument("--rest", type=float, default=3.0,
@@ -280,11 +283,14 @@ def cmd_show(args: argparse.Namespace) -> int:
           f"{emg.time_s.size} samples, trial time {emg.time_s[0]:.3f}–{emg.time_s[-1]:.3f} s "
           f"({', '.join(origin)})")
     offsets = [offset for _, offset in emg.clock_offsets]
-    if offsets:  # a live LSL capture: what was added to the sender's stamps
-        print("  clock: liblsl's clock offset added to the LSL sender's stamps, "
-              + (f"{offsets[0]:.6f} s" if len(set(offsets)) == 1 else
-                 f"{len(offsets)} estimates from {min(offsets):.6f} to {max(offsets):.6f} s")
-              + " (/emg clock_offsets)")
+    if offsets:  # what was added to the sender's stamps: a live LSL capture's, an XDF's
+        said = (f"{offsets[0]:.6f} s" if len(set(offsets)) == 1 else
+                f"{len(offsets)} estimates from {min(offsets):.6f} to {max(offsets):.6f} s")
+        print("  clock: " + ("LabRecorder's clock offsets of the EMG stream, a line through "
+                             "them added to the sender's stamps by pyxdf"
+                             if emg.attrs.get("source") == "xdf" else
+                             "liblsl's clock offset added to the LSL sender's stamps")
+              + f", {said} (/emg clock_offsets)")
     for note in emg.notes:  # kept with the EMG as it was stored
         print(f"  note: {note}")
     if not emg.mvc:

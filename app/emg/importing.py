@@ -82,8 +82,9 @@ def store(trial: TrialData, data: EmgData, trial_time_s: np.ndarray, *, muscles,
           offset_s: float, replace: bool, notes: tuple[str, ...] = (),
           clock_offsets: tuple[tuple[float, float], ...] = ()) -> Imported:
     """The EMG into the trial's file, with its notes (the data's, `notes`, and how much of
-    the trial it covers) and the clock offsets a live source added to its stamps (trial
-    time, offset s): in the file, not only said (device.recording.emgfile)."""
+    the trial it covers) and the clock offsets added to its stamps (trial time, offset s:
+    a live LSL source's, or those pyxdf applied to an XDF recording's): in the file, not
+    only said (device.recording.emgfile)."""
     names = muscles_for(data.names, muscles)
     duration = trial.n_samples * trial.sample_period_s
     inside = np.clip(trial_time_s, 0.0, duration)

@@ -36,29 +36,17 @@ from app.emg.importing import (
     import_capture,
     when_free,
 )
+from app.emg.muscle_words import EFFORT_WORDS, words
 from core.emg.mvc import Mvc, MvcCriteria, mvc_from_contraction
 from core.emg.processing import EmgSettings, Envelope, envelope
 from core.emg.synthetic import THESIS_MUSCLES
 from device.emg.emgtext import beyond_range
 
-MUSCLE_WORDS = {"biceps": "biceps brachii", "triceps": "triceps brachii",
-                "anterior_deltoid": "anterior deltoid", "posterior_deltoid": "posterior deltoid"}
-# the isometric effort that loads each muscle most, against a fixed handle or a hand
-EFFORT_WORDS = {"biceps": "bend the elbow (at 90°) against the resistance",
-                "triceps": "straighten the elbow (at 90°) against the resistance",
-                "anterior_deltoid": "lift the arm forward (shoulder at 90°) against the "
-                                    "resistance",
-                "posterior_deltoid": "pull the arm back (shoulder at 90°) against the "
-                                     "resistance"}
 REST_S = 3.0
 PUSH_S = 5.0  # MVC protocols ask for 3–5 s (core.emg.mvc)
 SETTLE_S = 2.0  # how long after the push its last samples may still be on their way
 
 REST, PUSH, WAITING, DONE = "rest", "push", "waiting", "done"
-
-
-def words(muscle: str) -> str:
-    return MUSCLE_WORDS.get(muscle, muscle.replace("_", " "))
 
 
 @dataclass(frozen=True, slots=True)
@@ -78,8 +66,9 @@ class MvcRecord:
 
 @dataclass(slots=True)
 class SessionMvcs:
-    """The MVCs of one patient's session, the source channel under each muscle, and the
-    session's trial files they were stored in."""
+    """The MVCs of one patient's session, the source channel under each muscle, the
+    session's trial files they were stored in, and each MVC's flags as last judged (the
+    contraction's own, then against the session's trials: `judged`)."""
 
     patient: str
     session: int
@@ -87,11 +76,12 @@ class SessionMvcs:
                                                               enumerate(THESIS_MUSCLES)})
     records: dict[str, MvcRecord] = field(default_factory=dict)
     trials: list[Path] = field(default_factory=list)
+    flags: dict[str, tuple[str, ...]] = field(default_factory=dict)
 
     def copy(self) -> SessionMvcs:
         """A copy another thread may read while this one records the next MVC."""
         return SessionMvcs(self.patient, self.session, dict(self.channels),
-                           dict(self.records), list(self.trials))
+                           dict(self.records), list(self.trials), dict(self.flags))
 
     def belongs_to(self, patient: str, session: int) -> bool:
         return (self.patient, self.session) == (patient, session)
@@ -102,8 +92,27 @@ class SessionMvcs:
         return [(r.mvc, r.source, r.channel_name or channel_names((), r.channel + 1)[-1],
                  r.settings) for r in self.records.values()]
 
-    def muscles_with_mvc(self) -> tuple[str, ...]:
-        return tuple(m for m in self.channels if m in self.records)
+    def judged(self, mvc: Mvc) -> None:
+        """A muscle's MVC as last checked (by itself, or against the session's trials: a
+        trial stored later may flag an MVC recorded ok)."""
+        self.flags[mvc.muscle] = tuple(mvc.flags)
+
+    def forget(self, muscle: str) -> bool:
+        """The muscle's MVC dropped (its channel changed); whether it had one."""
+        self.flags.pop(muscle, None)
+        return self.records.pop(muscle, None) is not None
+
+    def flags_of(self, muscle: str) -> tuple[str, ...]:
+        """The flags of the muscle's MVC as last judged (its contraction's own until then)."""
+        record = self.records[muscle]
+        return self.flags.get(muscle, tuple(record.mvc.flags))
+
+    def normalised_muscles(self) -> tuple[str, ...]:
+        """The muscles whose MVC is usable, in channel order: one whose MVC is flagged (too
+        short, saturated, below the trial's activity) is no reference to read % MVC by
+        until it is recorded again (the live view showed it at about 100 % MVC while the
+        tab said to record it again)."""
+        return tuple(m for m in self.channels if m in self.records and not self.flags_of(m))
 
 
 @dataclass(frozen=True, slots=True)
@@ -246,12 +255,14 @@ def seconds_before_newest(n_samples: int, rate_hz: float) -> float:
     return -(int(n_samples) - 1) / float(rate_hz)
 
 
-def live_percent(stamps_s, samples, rate_hz: float,
-                 session: SessionMvcs) -> tuple[Envelope, tuple[str, ...]]:
-    """The last seconds' envelopes of the session's muscles that have an MVC, in fractions
-    of it, stamped in seconds before the newest sample; processed with the MVCs' own
-    settings (core.emg.processing.envelope), as the saved trial will be."""
-    muscles = session.muscles_with_mvc()
+def live_percent(stamps_s, samples, rate_hz: float, session: SessionMvcs,
+                 muscles: tuple[str, ...] | None = None) -> tuple[Envelope, tuple[str, ...]]:
+    """The last seconds' envelopes of the session's muscles that have a usable MVC
+    (`SessionMvcs.normalised_muscles`), in fractions of it, stamped in seconds before the
+    newest sample; processed with the MVCs' own settings (core.emg.processing.envelope),
+    as the saved trial will be; `muscles`, some of them (the ones on channels the source
+    has)."""
+    muscles = session.normalised_muscles() if muscles is None else muscles
     t = np.asarray(stamps_s, dtype=float)
     x = np.asarray(samples, dtype=float)
     if not muscles or t.size < 2:

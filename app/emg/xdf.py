@@ -6,6 +6,8 @@ console's `rehab-robot` stream and its markers (`rehab gui --lsl-outlet`,
 device.lsl.outlet). pyxdf reads the file and puts every stream on the recording computer's
 clock (LabRecorder's clock-offset chunks; `synchronize_clocks`); the stamps are kept as
 they were sent (no dejittering), since the robot's are the exact times of its sensor reads.
+The EMG stream's clock offsets pyxdf applied are kept with the EMG (`/emg`
+`clock_offsets`, each at the trial time it was measured: `applied_offsets`).
 
 The trial's own records say when each tick's sensor was read on the console's clock
 (`/summary` wall_time_origin_monotonic_s + `wall_time`), and the robot stream carries the
@@ -37,7 +39,7 @@ import itertools
 import logging
 import os
 import struct
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -83,6 +85,11 @@ class XdfStream:
     stamps: np.ndarray
     values: object  # (k, C) numbers, or a list of lists of strings for a marker stream
     types: tuple[str, ...] = ()
+    clock_times: np.ndarray = field(default_factory=lambda: np.empty(0))
+    """When LabRecorder measured each clock offset of the stream, on the sender's clock
+    (it writes its own time less the offset: XDF's ClockOffset CollectionTime)."""
+    clock_values: np.ndarray = field(default_factory=lambda: np.empty(0))
+    """Each offset measured: the recording computer's clock less the sender's, s."""
 
 
 class _Heard(logging.Handler):
@@ -108,7 +115,8 @@ def read_xdf(path: str | os.PathLike) -> tuple[list[XdfStream], tuple[str, ...]]
     logger.addHandler(heard)
     logger.propagate = False
     try:
-        streams, _ = pyxdf.load_xdf(str(path), dejitter_timestamps=False)
+        streams, _ = pyxdf.load_xdf(str(path), synchronize_clocks=True,
+                                    dejitter_timestamps=False)
         read = [_stream(s) for s in streams]
     except (OSError, ValueError, KeyError, IndexError, EOFError, RuntimeError, TypeError,
             AttributeError, SyntaxError, struct.error) as exc:
@@ -151,7 +159,9 @@ def _stream(raw: dict) -> XdfStream:
     return XdfStream(_first(info, "name"), _first(info, "type"), _first(info, "source_id"),
                      float(_first(info, "nominal_srate", "0") or 0),
                      _first(info, "channel_format"), tuple(labels), tuple(units), tuple(factors),
-                     stamps, values, tuple(types))
+                     stamps, values, tuple(types),
+                     np.asarray(raw.get("clock_times", []), dtype=float),
+                     np.asarray(raw.get("clock_values", []), dtype=float))
 
 
 def clock_offset(trial: TrialData, robot: XdfStream, name: str) -> float:
@@ -184,6 +194,22 @@ def clock_offset(trial: TrialData, robot: XdfStream, name: str) -> float:
         f"{trial.path.name} (at best {100 * best:.0f} % of its ticks at their times and "
         "positions): record the trial with the console's LSL outlet on (rehab gui "
         "--lsl-outlet) and give the recording that was running during it")
+
+
+def applied_offsets(trial: TrialData, emg: XdfStream,
+                    offset: float) -> tuple[tuple[float, float], ...]:
+    """LabRecorder's clock offsets of the EMG stream, which pyxdf applied (its
+    synchronize_clocks adds to the sender's stamps a line fitted through them, one per
+    stretch between clock resets), each (trial time it was measured, offset s), in time
+    order, for the trial file's `/emg` `clock_offsets`: what was added to the stamps is
+    kept, not only applied. A measurement's time is on the sender's clock; plus its offset
+    it is on the recording's, and less `offset` (recording clock − console clock) on the
+    console's."""
+    if not emg.clock_values.size:
+        return ()
+    when = trial_time_from_monotonic(trial, emg.clock_times + emg.clock_values - offset)
+    order = np.argsort(when, kind="stable")
+    return tuple((float(when[k]), float(emg.clock_values[k])) for k in order)
 
 
 def _robot_column(robot: XdfStream, label: str) -> int:
@@ -332,7 +358,10 @@ def import_xdf(trial_path: str | os.PathLike, xdf_path: str | os.PathLike, *,
              f"{offset:.6f} s; {markers} robot markers in the recording", *left_out, *holes,
              *damage)
     data = EmgData(names, emg.rate_hz, trial_time, volts, "xdf", path, notes)
-    clock = ("LSL stamps of the XDF recording, less the offset at which the trial's ticks "
-             f"are in its {ROBOT_STREAM} stream")
+    applied = applied_offsets(trial, emg, offset)
+    clock = ("LSL stamps of the XDF recording"
+             + (", plus the line pyxdf fitted through LabRecorder's clock offsets of the EMG "
+                "stream (in clock_offsets)" if applied else "")
+             + f", less the offset at which the trial's ticks are in its {ROBOT_STREAM} stream")
     return store(trial, data, trial_time, muscles=muscles, clock=clock, offset_s=0.0,
-                 replace=replace)
+                 replace=replace, clock_offsets=applied)

@@ -113,11 +113,15 @@ class EmgFigure:
     percent: np.ndarray  # (N, muscles)
     muscles: tuple[str, ...]
     quality: tuple[str, ...]
+    names: tuple[str, ...] = ()
+    """The muscles in words, as the EMG tab names them (app.emg.muscle_words: 'biceps
+    brachii', where the page said 'biceps' beside the tab's 'biceps brachii')."""
 
 
 def emg_figure(trial: TrialData, mask: np.ndarray, start_s: float) -> EmgFigure | None:
     """The EMG figure of a trial with EMG and an MVC per muscle, else None."""
     from app.emg.importing import EmgImportError
+    from app.emg.muscle_words import words
     from app.emg.mvc_words import long_flags
     from app.emg.session import trial_envelopes
     from device.errors import DeviceError
@@ -129,11 +133,12 @@ def emg_figure(trial: TrialData, mask: np.ndarray, start_s: float) -> EmgFigure 
         env = trial_envelopes(trial.path)
     except (EmgImportError, DeviceError, CoreError):
         return None
-    quality = tuple(f"{m.replace('_', ' ')}: MVC "
+    quality = tuple(f"{words(m)}: MVC "
                     + (long_flags(env.flags[m]) if env.flags[m] else "sound")
                     for m in env.muscles)
     t = np.asarray(trial.channels["time"], dtype=float)[mask] - start_s
-    return EmgFigure(t, 100.0 * env.values[mask], env.muscles, quality)
+    return EmgFigure(t, 100.0 * env.values[mask], env.muscles, quality,
+                     tuple(words(m) for m in env.muscles))
 
 
 @dataclass(frozen=True, slots=True, eq=False)

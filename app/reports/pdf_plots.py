@@ -204,8 +204,8 @@ def emg_plots(sheet: Sheet, emg: EmgFigure, torques: TorquesFigure | None, x0: f
     per muscle on its MVC."""
     height = 2.2
     handles = [matplotlib.lines.Line2D([], [], color=c, linestyle=ls, linewidth=1.4,
-                                       label=m.replace("_", " "))
-               for (c, ls), m in zip(_MUSCLE_STYLES, emg.muscles, strict=False)]
+                                       label=name)
+               for (c, ls), name in zip(_MUSCLE_STYLES, emg.names, strict=False)]
     sheet.text("Envelopes in % of the session's MVC (RMS, 0.125 s window)", 10, weight="bold")
     sheet.gap(0.03)
     sheet.legend(handles, x0 - 0.55, ncols=len(handles), size=7.5)

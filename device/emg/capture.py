@@ -126,11 +126,22 @@ class EmgCapture:
         return self._running.is_set()
 
     def latest(self) -> tuple[np.ndarray, np.ndarray]:
-        """The last `latest_s` seconds captured (for a live view), copied."""
+        """The last `latest_s` seconds captured (for a live view), copied: the reads from
+        the newest back to the first that reaches `latest_s` before the newest stamp,
+        however many a second the source gives (the 250 newest were taken, as if no source
+        gave more than 50 a second: a Trigno base station's came about 130 a second, and
+        the live plot showed 1.3-2 s of its 5)."""
+        chunks = []
         with self._lock:
-            chunks = list(self._chunks[-max(1, int(self.latest_s * 50)):])
+            if self._chunks:
+                oldest = float(self._chunks[-1][0][-1]) - self.latest_s
+                for chunk in reversed(self._chunks):
+                    chunks.append(chunk)
+                    if chunk[0][0] <= oldest:
+                        break
         if not chunks:
             return np.empty(0), np.empty((0, 0))
+        chunks.reverse()
         t = np.concatenate([c[0] for c in chunks])
         x = np.concatenate([c[1] for c in chunks])
         keep = t >= t[-1] - self.latest_s

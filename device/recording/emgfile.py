@@ -64,8 +64,10 @@ class EmgGroup:
     @property
     def clock_offsets(self) -> tuple[tuple[float, float], ...]:
         """The clock offsets added to a live LSL capture's stamps to put them on this
-        machine's clock, each (trial time it began, offset s): () when none was added (a
-        Trigno, a file, a file of before they were kept; the reader checked them)."""
+        machine's clock, each (trial time it began, offset s), or those LabRecorder
+        measured for an XDF recording's EMG stream, through which pyxdf fitted what it
+        added, each (trial time measured, offset s): () when none was added (a Trigno, a
+        file, a file of before they were kept; the reader checked them)."""
         return tuple((float(t), float(o)) for t, o in self.attrs.get("clock_offsets", []))
 
 
@@ -91,7 +93,8 @@ def write_emg(
     early, samples missing, a hole in a recording, part of the trial not covered), kept
     with it: said on screen or printed only, they were lost with the session;
     `clock_offsets`, (trial time, offset s) of each clock offset a live LSL capture added
-    to the sender's stamps, from that time on (none: no attribute). Refuses a file being
+    to the sender's stamps, from that time on, or of each that pyxdf fitted its correction
+    of an XDF recording's EMG stream through (none: no attribute). Refuses a file being
     recorded, and replacing EMG unless `replace`."""
     t = np.asarray(time_s, dtype=np.float64)
     x = np.asarray(samples, dtype=np.float64)

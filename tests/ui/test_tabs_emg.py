@@ -89,11 +89,21 @@ def test_a_live_trigno_streams_its_envelopes_and_disconnects(qtbot):
         qtbot.waitUntil(lambda: tab.live_status.text().startswith("EMG streaming from "
                                                                   "trigno:127.0.0.1"),
                         timeout=60000)
-        qtbot.waitUntil(lambda: len(tab.live_curves) == 16, timeout=60000)
-        x, y = tab.live_curves[15].getData()
-        # channel 16 of the fake: 16 µV × a sine, RMS 16/√2 µV
-        assert y[-1] == pytest.approx(16 / 2 ** 0.5, rel=0.1)
+        # the muscles on channels, named as the tab names them; not the base station's 16
+        # channels, most of them empty sensors (they were all drawn until the MVCs)
+        qtbot.waitUntil(lambda: len(tab.live_curves) == 3, timeout=60000)
+        assert [c.name() for c in tab.live_curves] == [
+            "biceps brachii", "triceps brachii", "anterior deltoid"]
+        assert "channels 4–16 streaming, not on a muscle: not drawn" in tab.live_key.text()
+        x, y = tab.live_curves[2].getData()
+        # channel 3 of the fake: 3 µV × a sine, RMS 3/√2 µV
+        assert y[-1] == pytest.approx(3 / 2 ** 0.5, rel=0.1)
         assert x[-1] <= 0.0  # seconds before now
+        tab.channel_boxes["anterior_deltoid"].setValue(16)  # its sensor is the 16th
+        qtbot.waitUntil(lambda: "channels 3–15 streaming" in tab.live_key.text(),
+                        timeout=60000)
+        qtbot.waitUntil(lambda: tab.live_curves[2].getData()[1][-1] == pytest.approx(
+            16 / 2 ** 0.5, rel=0.1), timeout=60000)
         tab.connect_button.click()
         assert tab.capture is None
         assert tab.live_status.text().startswith("Disconnected from trigno:127.0.0.1 after")
@@ -242,3 +252,47 @@ def test_the_live_key_fits_its_plot_when_the_channels_become_muscles(qtbot):
         assert len(tab.live_curves) == len(names)
     assert "EMG16" not in tab.live_key.text()  # the key of what is drawn now
     tab.capture = None
+
+
+def test_an_mvc_the_tab_flags_is_no_reference_for_the_live_percent(qtbot):
+    """The tab's row said the deltoid's MVC was lower than the trial's activity (a trial
+    stored after it was recorded, ui.window.trial_emg), yet the live plot read the deltoid
+    in % of it, at about 100 %. What the tab says of an MVC (show_mvc) is what the live
+    view reads % MVC by: a flagged one is said beside the key until recorded again."""
+    import dataclasses
+
+    import numpy as np
+
+    from app.emg.protocol import MvcRecord
+    from core.emg.mvc import BELOW_TRIAL, Mvc
+    from core.emg.processing import EmgSettings
+    from ui.views.emg import live_emg_view
+
+    tab = EmgTab()
+    qtbot.addWidget(tab)
+    tab.set_session("P1", 1)
+    for channel, muscle in enumerate(("biceps", "triceps", "anterior_deltoid")):
+        mvc = Mvc(muscle, 1e-4, 1.0, 2.0, 0.0, (), ())
+        tab.session.records[muscle] = MvcRecord(mvc, channel, "trigno:x", EmgSettings())
+        tab.show_mvc(mvc)
+    rate = 2000.0
+    t = np.arange(int(2 * rate)) / rate
+    x = 1e-4 * np.sin(2 * np.pi * 97.3 * t)[:, None] * np.ones(3)
+
+    def drawn():
+        return live_emg_view(t, x, rate, tab.session.copy()).names
+
+    assert drawn() == ("biceps", "triceps", "anterior_deltoid")
+    flagged = dataclasses.replace(tab.session.records["anterior_deltoid"].mvc,
+                                  flags=(BELOW_TRIAL,), reasons=("lower than the trial",))
+    tab.show_mvc(flagged)
+    assert "lower than the trial's activity" in tab.mvc_labels["anterior_deltoid"].text()
+    assert drawn() == ("biceps", "triceps")
+    tab.capture = object()  # as if a source streamed: the tab draws what comes
+    tab._show_live(None, live_emg_view(t, x, rate, tab.session.copy()))
+    assert "anterior deltoid: not drawn, its MVC is lower than the trial's activity" in \
+        tab.live_key.text()
+    assert tab.live_unit == "% MVC"
+    tab.capture = None
+    tab.show_mvc(tab.session.records["anterior_deltoid"].mvc)  # recorded again, ok
+    assert drawn() == ("biceps", "triceps", "anterior_deltoid")

@@ -11,6 +11,7 @@ Every status line and refusal also goes to the window's message model (`said`)."
 
 from __future__ import annotations
 
+import html
 import logging
 import time
 
@@ -27,8 +28,9 @@ from PySide6.QtWidgets import (
 )
 
 from app.emg.live import KINDS
+from app.emg.muscle_words import words
 from app.emg.mvc_words import short_flags, todo
-from app.emg.protocol import PUSH_S, REST_S, WAITING, SessionMvcs, words
+from app.emg.protocol import PUSH_S, REST_S, WAITING, SessionMvcs
 from core.emg.synthetic import THESIS_MUSCLES
 from ui import plots, theme
 from ui.fields import DoubleSpinBox
@@ -305,23 +307,31 @@ class EmgTab(QWidget):
             return  # the last refresh is still being computed: skip this one
         t, x = capture.latest()
         session = None if self.session is None else self.session.copy()
+        # before a patient is registered, the muscles the choosers put on channels
         self.live_worker.submit(None, live_emg_view, t, x, capture.source.rate_hz, session,
-                                getattr(capture.source, "labels", ()), self.live_label)
+                                getattr(capture.source, "labels", ()), self.live_label,
+                                self._channels())
 
     def _show_live(self, _token, view) -> None:
         if view is None or self.capture is None:
             return
         item = self.live_plot.getPlotItem()
         names = tuple(words(n) for n in view.names)
+        colours = [theme.SERIES[i % len(theme.SERIES)] for i in range(len(names))]
         if [c.name() for c in self.live_curves] != list(names):
             for c in self.live_curves:
                 item.removeItem(c)
-            colours = [theme.SERIES[i % len(theme.SERIES)] for i in range(len(names))]
             self.live_curves = [plots.curve(item, colour, name=n)
                                 for colour, n in zip(colours, names, strict=True)]
-            self.live_key.setText(" &nbsp; ".join(
-                f"<span style='color:{colour}'>━</span>&nbsp;{n}"
-                for colour, n in zip(colours, names, strict=True)))
+        # what streams but is not drawn, quietly under the key (a muscle without a usable
+        # MVC, the channels no muscle is on)
+        key = " &nbsp; ".join(f"<span style='color:{colour}'>━</span>&nbsp;{n}"
+                              for colour, n in zip(colours, names, strict=True))
+        key += "".join(f"<br><span style='color:{theme.MUTED}'>"
+                       f"{html.escape(line, quote=False)}</span>"
+                       for line in view.aside)
+        if key != self.live_key.text():
+            self.live_key.setText(key)
         if view.unit != self.live_unit:
             self.live_unit = view.unit
             item.setLabel("left", f"live EMG<br>({view.unit})")
@@ -368,7 +378,7 @@ class EmgTab(QWidget):
         if self.session is None:
             return
         self.session.channels[muscle] = value - 1
-        if self.session.records.pop(muscle, None) is not None:
+        if self.session.forget(muscle):
             self.mvc_labels[muscle].setText(f"{words(muscle)}: no MVC yet (its channel "
                                             "changed: record it again)")
 
@@ -477,6 +487,9 @@ class EmgTab(QWidget):
         says a flagged one in short with what to do (its reasons, a paragraph each, are the
         row's tooltip and in the day log: said whole, they filled the line in small type)."""
         line = mvc_line(mvc)
+        if self.session is not None and mvc.muscle in self.session.records:
+            # the live view reads % MVC only by an MVC this row does not flag
+            self.session.judged(mvc)
         self.mvc_labels[mvc.muscle].setText(line)
         self.mvc_labels[mvc.muscle].setToolTip("\n".join(mvc.reasons))
         self.prompt.setText(line)

@@ -9,6 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
+from app.emg.muscle_words import words
+from app.emg.mvc_words import short_flags
+from app.emg.protocol import live_percent, seconds_before_newest
 from app.emg.session import trial_envelopes
 from app.errors import AppError
 from core.errors import CoreError
@@ -65,40 +68,83 @@ LIVE_MIN_S = 0.5  # the band-pass's start-up needs some signal before an envelop
 
 @dataclass(frozen=True, slots=True, eq=False)
 class LiveEmgView:
-    """The live source's last seconds as the tab draws them: each muscle's envelope in
-    % MVC once the session has its MVC (app.emg.protocol.live_percent, processed like the
-    MVC), otherwise each channel's RMS envelope in µV; stamped in s before now."""
+    """The live source's last seconds as the tab draws them: the muscles the tab assigns a
+    channel, each muscle's envelope in % MVC once the session has a usable MVC of it
+    (app.emg.protocol.live_percent, processed like the MVC), otherwise their RMS envelopes
+    in µV; stamped in s before now. With no muscle assigned, every channel in µV."""
 
     t_s: np.ndarray
     values: np.ndarray  # (K, C) in `unit`
-    names: tuple[str, ...]
+    names: tuple[str, ...]  # the muscles (their keys), or the channels when none is assigned
     unit: str
     problem: str = ""  # the source's numbers read in too large a unit (one line), or ''
+    aside: tuple[str, ...] = ()
+    """What streams but is not drawn, a line each: a muscle not in % MVC while others are
+    (no MVC yet, or its MVC flagged), a muscle on a channel the source lacks, and the
+    channels no muscle is on."""
 
 
 def live_emg_view(stamps_s, samples, rate_hz: float, session=None,
-                  labels=(), source: str = "the EMG source") -> LiveEmgView | None:
-    """None until the source has given LIVE_MIN_S of EMG. Without the session's MVCs, the
-    channels are named as the trial file will keep them (`labels`, the source's own names,
+                  labels=(), source: str = "the EMG source",
+                  assigned=None) -> LiveEmgView | None:
+    """None until the source has given LIVE_MIN_S of EMG. The muscles drawn are the
+    session's (`session.channels`), else `assigned` (muscle -> channel from 0: the tab's
+    choosers before a patient is registered); the 16 channels of a base station, most of
+    them empty sensors, were drawn until the MVCs. With neither, the channels are named as
+    the trial file will keep them (`labels`, the source's own names,
     app.emg.importing.channel_names). Samples that reach a volt are said at once, before
     an MVC is recorded of them (app.emg.protocol.live_range_problem)."""
     from app.emg.importing import channel_names
-    from app.emg.protocol import live_percent, live_range_problem, seconds_before_newest
+    from app.emg.protocol import live_range_problem
     from core.emg.processing import rms_envelope
 
     t = np.asarray(stamps_s, dtype=float)
     if t.size < max(2, round(LIVE_MIN_S * rate_hz)):
         return None
     x = np.asarray(samples, dtype=float)
-    names = channel_names(labels, x.shape[1])
-    problem = live_range_problem(x, range(x.shape[1]), names, source)
+    width = x.shape[1]
+    names = channel_names(labels, width)
+    problem = live_range_problem(x, range(width), names, source)
+    muscles = dict(session.channels if session is not None else assigned or {})
+    drawn = {m: c for m, c in muscles.items() if 0 <= c < width}
+    aside = [f"{words(m)}: its channel {c + 1} is not in the source (channels 1 to {width})"
+             for m, c in muscles.items() if m not in drawn]
+    normalised = tuple(m for m in (session.normalised_muscles() if session is not None
+                                   else ()) if m in drawn)
     try:
-        mapped = session.muscles_with_mvc() if session is not None else ()
-        if mapped and all(session.channels[m] < x.shape[1] for m in mapped):
-            env, muscles = live_percent(t, x, rate_hz, session)
-            return LiveEmgView(env.t_s, 100.0 * env.values, muscles, "% MVC", problem)
-        env = rms_envelope(x - x.mean(axis=0), rate_hz,
-                           t0_s=seconds_before_newest(x.shape[0], rate_hz))
+        if normalised:
+            env, _ = live_percent(t, x, rate_hz, session, normalised)
+            aside += [_not_normalised(m, session) for m in drawn if m not in normalised]
+            shown, unit, values = normalised, "% MVC", 100.0 * env.values
+        else:
+            columns = list(drawn.values()) if muscles else list(range(width))
+            shown = tuple(drawn) if muscles else tuple(names)
+            env = rms_envelope(x[:, columns] - x[:, columns].mean(axis=0), rate_hz,
+                               t0_s=seconds_before_newest(x.shape[0], rate_hz))
+            unit, values = "µV", 1e6 * env.values
     except CoreError:  # too little signal yet for the filters: the next refresh will do
         return None
-    return LiveEmgView(env.t_s, 1e6 * env.values, names, "µV", problem)
+    free = sorted(set(range(width)) - set(drawn.values()))
+    if muscles and free:
+        aside.append(f"{_spans(free)} streaming, not on a muscle: not drawn")
+    return LiveEmgView(env.t_s, values, shown, unit, problem, tuple(aside))
+
+
+def _not_normalised(muscle: str, session) -> str:
+    """Why a muscle is not drawn while the others are in % MVC."""
+    if muscle not in session.records:
+        return f"{words(muscle)}: no MVC yet, not drawn in % MVC"
+    return (f"{words(muscle)}: not drawn, its MVC is {short_flags(session.flags_of(muscle))}"
+            ": record it again")
+
+
+def _spans(channels: list[int]) -> str:
+    """Channels from 0 as the tab numbers them: 'channel 4', 'channels 1, 4–16'."""
+    runs: list[list[int]] = []
+    for c in channels:
+        if runs and c == runs[-1][-1] + 1:
+            runs[-1].append(c)
+        else:
+            runs.append([c])
+    text = ", ".join(f"{r[0] + 1}–{r[-1] + 1}" if len(r) > 1 else f"{r[0] + 1}" for r in runs)
+    return f"channel{'s' if len(channels) > 1 else ''} {text}"

@@ -224,6 +224,43 @@ def test_a_source_lost_mid_trial_keeps_what_it_had(plain_trial, tmp_path):
         import_capture(trial, empty, names=(), source="trigno-tcp", replace=True)
 
 
+class _SmallReads:
+    """A source of 10 samples a read at 2 kHz (200 reads a second of its stamps), given as
+    fast as it is read, 8 s of them, then nothing."""
+
+    rate_hz = 2000.0
+
+    def __init__(self) -> None:
+        self.sent = 0
+
+    def read(self, timeout_s=0.1):
+        if self.sent >= 16000:
+            time.sleep(0.005)
+            return np.empty(0), np.empty((0, 1))
+        k, self.sent = self.sent, self.sent + 10
+        return 100.0 + np.arange(k, self.sent) / self.rate_hz, np.zeros((10, 1))
+
+    def close(self) -> None:
+        pass
+
+
+def test_the_live_seconds_are_whole_from_a_source_of_many_small_reads():
+    """The live view's last 5 s were the capture's 250 newest reads: a Trigno base station's
+    came about 130 a second, and the EMG tab's live plot showed 1.3-2 s."""
+    capture = EmgCapture(_SmallReads(), latest_s=5.0, stall_s=3600.0).start()
+    try:
+        deadline = time.monotonic() + 60.0
+        while (capture.last_stamp_s or 0.0) < 100.0 + 15999 / 2000.0:
+            assert time.monotonic() < deadline, "the source's reads did not all arrive"
+            time.sleep(0.01)
+        t, x = capture.latest()
+    finally:
+        capture.stop()
+    assert t[-1] == pytest.approx(100.0 + 15999 / 2000.0)
+    assert t[-1] - t[0] == pytest.approx(5.0, abs=1e-3)
+    assert x.shape == (t.size, 1)
+
+
 def test_a_capture_forgets_what_came_before_and_keeps_its_clock():
     """A source streaming across a session keeps only what the next trial may need; the
     samples kept keep their stamps on the even Trigno clock and their values."""

@@ -199,6 +199,58 @@ def test_the_live_view_names_the_channels_as_the_trial_file_will():
     assert live_emg_view(t, x, RATE).names == ("EMG1", "EMG2")
 
 
+def test_the_live_view_draws_the_assigned_muscles_and_says_the_other_channels():
+    """A base station's 16 channels, most of them empty sensors, were all drawn before any
+    MVC: the live view draws the muscles the tab puts on channels, in µV until their MVCs,
+    and says in one quiet line which channels stream on no muscle."""
+    from ui.views.emg import live_emg_view
+
+    levels = [1e-5 * (c + 1) for c in range(16)]  # channel c at (c+1) × 10 µV
+    x = wave(int(2 * RATE), levels)
+    t = 10.0 + np.arange(x.shape[0]) / RATE
+    session = SessionMvcs("P1", 1, channels={"biceps": 2, "triceps": 0, "anterior_deltoid": 1})
+    for view in (live_emg_view(t, x, RATE, session),
+                 live_emg_view(t, x, RATE, assigned=dict(session.channels))):
+        assert view.unit == "µV"
+        assert view.names == ("biceps", "triceps", "anterior_deltoid")
+        np.testing.assert_allclose(view.values[-1], np.array([30, 10, 20]) / 2 ** 0.5,
+                                   rtol=0.1)
+        assert view.aside == ("channels 4–16 streaming, not on a muscle: not drawn",)
+    session.channels["triceps"] = 16  # a 17th channel: the source has none
+    assert live_emg_view(t, x, RATE, session).aside == (
+        "triceps brachii: its channel 17 is not in the source (channels 1 to 16)",
+        "channels 1, 4–16 streaming, not on a muscle: not drawn")
+
+
+def test_a_muscle_whose_mvc_is_flagged_is_not_read_in_percent_of_it():
+    """The deltoid's MVC flagged (below the trial's activity: a trial stored after it was
+    recorded) was still the live view's reference: the deltoid showed at about 100 % MVC
+    while its row said to record it again. Only usable MVCs give % MVC; the others are
+    said beside the key, with the flag, until recorded again."""
+    from ui.views.emg import live_emg_view
+
+    session = _session_with_mvcs([2e-4, 2e-4, 2e-4])
+    x = wave(int(2 * RATE), [2e-4, 1e-4, 2e-4])  # each at (or half) its MVC
+    t = 10.0 + np.arange(x.shape[0]) / RATE
+    assert live_emg_view(t, x, RATE, session).names == ("biceps", "triceps",
+                                                         "anterior_deltoid")
+    flagged = dataclasses.replace(session.records["anterior_deltoid"].mvc, flags=(BELOW_TRIAL,))
+    session.judged(flagged)
+    view = live_emg_view(t, x, RATE, session)
+    assert view.unit == "% MVC"
+    assert view.names == ("biceps", "triceps")
+    assert view.aside == ("anterior deltoid: not drawn, its MVC is lower than the trial's "
+                          "activity: record it again",)
+    session.judged(session.records["anterior_deltoid"].mvc)  # recorded again, ok
+    assert live_emg_view(t, x, RATE, session).names[-1] == "anterior_deltoid"
+    # every MVC flagged: nothing to read % MVC by, the muscles in µV
+    for muscle in ("biceps", "triceps", "anterior_deltoid"):
+        session.judged(dataclasses.replace(session.records[muscle].mvc, flags=(BELOW_TRIAL,)))
+    view = live_emg_view(t, x, RATE, session)
+    assert view.unit == "µV"
+    assert view.names == ("biceps", "triceps", "anterior_deltoid")
+
+
 def test_the_source_words():
     assert source_spec("trigno", " 192.168.1.20 ") == "trigno:192.168.1.20"
     assert source_spec("lsl", "Delsys EMG") == "lsl:Delsys EMG"

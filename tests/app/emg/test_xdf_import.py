@@ -8,6 +8,7 @@ import shutil
 import time
 import uuid
 
+import h5py
 import numpy as np
 import pylsl
 import pytest
@@ -17,6 +18,7 @@ from app.emg.xdf import import_xdf
 from app.trials.headless import save, simulate
 from app.trials.reader import read_trial
 from core.trial import THESIS_SUBJECT
+from device.errors import DeviceError
 from device.loop.messages import TrialMarker
 from device.lsl.outlet import RobotStateOutlet
 from device.recording.emgfile import read_emg
@@ -81,12 +83,13 @@ def _wait(condition, what, timeout=HANG_S):
 
 def _record(tmp_path, trial_path, emg_start_s=0.5, unit="microvolts", with_robot=True,
             periods=None, scaling=None, console_ahead_s=0.0, emg_ahead_s=0.0, extra=(),
-            kind=None):
+            kind=None, written=None):
     """Record the trial's ticks as the console's outlet publishes them, an int16 EMG
     stream of known samples at known stamps, and a marker; returns (xdf, stamps, samples),
     the stamps on the console's clock. The console's and the EMG computer's clocks run
     `console_ahead_s` and `emg_ahead_s` ahead of the recording computer's (the trial's
-    clock origin is on the console's)."""
+    clock origin is on the console's). `written`, a dict, gets the EMG stream's clock
+    offsets as the recorder wrote them (tests.xdf_recorder.XdfRecorder.written)."""
     data = read_trial(trial_path)
     origin = float(data.summary["wall_time_origin_monotonic_s"])
     tag = uuid.uuid4().hex[:10]
@@ -121,6 +124,8 @@ def _record(tmp_path, trial_path, emg_start_s=0.5, unit="microvolts", with_robot
     recorder.wait_for({emg_source: len(samples)} | (
         {robot_source: len(records), robot_source + "-events": 1} if with_robot else {}))
     path = recorder.stop(tmp_path / f"{tag}.xdf")
+    if written is not None:
+        written["emg"] = recorder.written[emg_source]
     return path, stamps, samples
 
 
@@ -159,6 +164,44 @@ def test_the_emg_of_a_computer_on_another_clock_lands_within_one_sample(
     done, _ = _landed(trial, xdf, stamps, samples)
     said = float(done.notes[0].split("console clock = ")[1].split(" s")[0])
     assert said == pytest.approx(-console_ahead_s, abs=1e-3)  # less the offset liblsl measured
+
+
+def test_the_clock_offsets_pyxdf_applied_are_kept_with_the_emg_sealed_and_shown(
+        plain_trial, tmp_path, capsys):
+    """pyxdf added LabRecorder's clock offsets to the EMG stream's stamps and the import
+    kept no record of them (a live LSL capture keeps its own in /emg clock_offsets): each
+    offset the recording holds for the EMG stream is now in the trial's /emg, at the
+    trial time it was measured, in the sealed file, and `rehab emg show` says them."""
+    console_ahead_s, emg_ahead_s = 12.125, -3600.0625
+    trial = _live_trial(plain_trial, tmp_path, time.monotonic() - 30.0)
+    written = {}
+    xdf, stamps, samples = _record(tmp_path, trial, console_ahead_s=console_ahead_s,
+                                   emg_ahead_s=emg_ahead_s, written=written)
+    _, emg = _landed(trial, xdf, stamps, samples)
+    known = written["emg"]
+    assert len(known) == 2  # as the recorder opened the stream and as it stopped
+    assert [offset for _, offset in emg.clock_offsets] == [offset for _, offset in known]
+    # measured on the sender's clock at collection + offset on the recording computer's,
+    # which the console's runs console_ahead_s ahead of
+    when = trial_time_from_monotonic(read_trial(trial), [
+        collected + offset + console_ahead_s for collected, offset in known])
+    np.testing.assert_allclose([t for t, _ in emg.clock_offsets], when, atol=1e-3)
+    assert "clock_offsets" in emg.attrs["clock"]
+    with h5py.File(trial, "r+") as f:  # the file's seal covers them
+        f["emg"].attrs["clock_offsets"] = "[[0.5, 1.0]]"
+    with pytest.raises(DeviceError, match="does not match its seal"):
+        read_emg(trial)
+    again = _live_trial(plain_trial, tmp_path, read_trial(trial).summary[
+        "wall_time_origin_monotonic_s"], name="again.h5")
+    import_xdf(again, xdf)
+    code, out, err = run(["emg", "show", str(again)], capsys)
+    assert code == 0, err
+    line = next(line for line in out.splitlines() if line.startswith("  clock: "))
+    assert line.startswith("  clock: LabRecorder's clock offsets of the EMG stream, a line "
+                           "through them added to the sender's stamps by pyxdf, ")
+    assert line.endswith(" s (/emg clock_offsets)")
+    for _, offset in known:  # one value, or the lowest and highest of them
+        assert f"{offset:.6f}" in line
 
 
 def test_a_raw_integer_stream_is_imported_in_volts_by_its_scaling_factor(plain_trial,

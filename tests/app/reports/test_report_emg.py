@@ -34,13 +34,28 @@ def test_a_trial_with_emg_reports_its_envelopes_and_the_bad_mvc(subject_2):
     assert emg.percent.shape == (emg.t_s.size, 3)
     assert emg.t_s[0] == pytest.approx(0.0, abs=0.01)  # from the exercise's start
     assert np.nanmax(emg.percent[:, 2]) > 80.0  # the bad MVC reads as most of an MVC
-    assert emg.quality[0] == "biceps: MVC sound"
+    assert emg.quality[0] == "biceps brachii: MVC sound"
     assert "not a maximal effort" in emg.quality[2]
     pdf = PdfReader(write_report_pdf(content, folder / "report.pdf"))
     assert len(pdf.pages) == 3
     text = pdf.pages[2].extract_text()
     assert "Muscle activity (surface EMG)" in text
     assert "record it again" in text
+
+
+def test_the_emg_page_names_the_muscles_as_the_emg_tab_does(subject_2):
+    """The page said 'biceps' and 'anterior deltoid: MVC …' where the EMG tab says 'biceps
+    brachii': both name them by app.emg.muscle_words, the one map of muscle names."""
+    from app.emg.muscle_words import words
+
+    path, folder = subject_2
+    content = build_report(read_trial(path))
+    assert content.emg.names == tuple(words(m) for m in content.emg.muscles)
+    assert content.emg.names[:2] == ("biceps brachii", "triceps brachii")
+    text = " ".join(PdfReader(write_report_pdf(content, folder / "names.pdf")).pages[2]
+                    .extract_text().split())
+    for name in content.emg.names:
+        assert f"{name}: MVC" in text
 
 
 def test_a_trial_without_mvc_has_no_emg_page(subject_2, tmp_path):
