@@ -23,6 +23,8 @@ import numpy as np
 from app.emg.estimate import HOP_S, ArmState, ForceEstimator
 from app.emg.feed import EstimateLog
 from app.emg.modelfile import EmgModelFile
+from app.emg.muscle_words import words
+from app.emg.mvc_words import short_flags
 
 
 def refusal(model: EmgModelFile, parameters, capture, session) -> str:
@@ -35,13 +37,23 @@ def refusal(model: EmgModelFile, parameters, capture, session) -> str:
                 "the EMG source on the EMG tab first")
     missing = [m for m in model.muscles if session is None or m not in session.records]
     if missing:
-        return (f"EMG model {model.name} takes {', '.join(model.muscles)}: record the MVC of "
-                f"{', '.join(missing)} on the EMG tab first")
+        return (f"EMG model {model.name} takes {_named(model.muscles)}: record the MVC of "
+                f"{_named(missing)} on the EMG tab first")
+    # the estimate is read in % of each MVC: one the EMG tab flagged is no reference for it
+    flagged = [m for m in model.muscles if session.flags_of(m)]
+    if flagged:
+        return "; ".join(f"the MVC of {words(m)} is {short_flags(session.flags_of(m))}"
+                         for m in flagged) + (f": EMG model {model.name} reads each muscle in "
+                                              "% of its MVC, record it again on the EMG tab")
     other = [m for m in model.muscles if session.records[m].settings != model.settings]
     if other:
-        return (f"the MVC of {', '.join(other)} was made with other EMG settings (window, band "
+        return (f"the MVC of {_named(other)} was made with other EMG settings (window, band "
                 f"or notch) than EMG model {model.name} was trained with; record it again")
     return ""
+
+
+def _named(muscles) -> str:
+    return ", ".join(words(m) for m in muscles)
 
 
 class LiveForceFeed:
