@@ -239,13 +239,18 @@ def test_the_values_used_for_a_patient_are_kept_in_their_record_with_who_and_why
         tab.keep_measurements.click()  # nobody named: the record keeps who
     assert "Checked by" in tab.status.text()
     tab.checked_by.setText("K. Lee")
+    tab.upper_arm.setFocus()
+    tab.upper_arm.selectAll()
+    qtbot.keyClicks(tab.upper_arm, "33")  # on the screen, not yet committed
     with qtbot.waitSignal(tab.keep_asked, timeout=2000) as asked:
         tab.keep_measurements.click()
     code, values, by = asked.args
     assert (code, by) == (ada.code, "K. Lee")
     assert set(values) == {"upper_arm_m", "forearm_m", "shoulder_m"}  # not her body mass
     assert values["forearm_m"] == (pytest.approx(0.27), pytest.approx(
-        "confirmed on the Parameters tab (typed for this patient)"))
+        "confirmed on the Parameters tab: typed for this patient"))
+    assert values["upper_arm_m"] == (pytest.approx(0.33), pytest.approx(
+        "confirmed on the Parameters tab: typed for this patient"))  # what it showed
     assert values["shoulder_m"][0] == pytest.approx(
         (tab.shoulder_x.value() / 100, tab.shoulder_y.value() / 100))  # shown in cm
     assert "checked against this patient" in values["shoulder_m"][1]
@@ -253,7 +258,7 @@ def test_the_values_used_for_a_patient_are_kept_in_their_record_with_who_and_why
     with pytest.raises(Exception, match="not stored"):
         tab.parameters()  # not in her record yet
     tab.keep_answered("upper_arm_m = 9 is not allowed")
-    assert "not kept: upper_arm_m = 9" in tab.status.text()
+    assert "Not kept: upper_arm_m = 9" in tab.status.text()
     assert tab.keep_measurements.isEnabled()
 
 
@@ -429,3 +434,28 @@ def test_a_plan_s_game_round_set_in_the_form_is_built_as_that_game(qtbot, tab):
     assert got.repetitions == 2
     assert [getattr(got, f) for f in fields] == [getattr(plain, f) for f in fields]
     assert "game" not in tab.status.text()
+
+
+def test_the_patient_rows_not_stored_are_brought_into_view(qtbot, qapp, tmp_path):
+    """On a laptop the Patient rows are below the fold: a therapist read "not stored" and
+    saw only the exercise's fields. Once per patient chosen, the form scrolls to them."""
+    theme.apply_theme(qapp)
+    tab = ParametersTab()
+    qtbot.addWidget(tab)
+    tab.resize(1366, 500)
+    registry = Registry(DataDir(tmp_path / "data"))
+    tab.apply_patient(registry.create_patient("Ada", "Plain", body_mass_kg=58.0))
+    tab.show()  # chosen on the Registration tab, then the Parameters tab shown
+    qtbot.waitExposed(tab)
+
+    def in_view(label) -> bool:
+        return not label.visibleRegion().isEmpty()
+
+    qtbot.waitUntil(lambda: in_view(tab.errors["upper_arm"]), timeout=5000)
+    bar = tab._form_scroll.verticalScrollBar()
+    bar.setValue(0)  # the therapist scrolls back up: left there
+    tab.hide()
+    tab.show()
+    qtbot.waitExposed(tab)
+    qapp.processEvents()
+    assert bar.value() == 0

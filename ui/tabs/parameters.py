@@ -120,7 +120,9 @@ class ParametersTab(ParametersForm, QWidget):
             "as a correction of the Registration tab's clinical record is.")
         self.keep_measurements.clicked.connect(self._keep_measurements)
         self.checked_by = QLineEdit()
-        self.checked_by.setPlaceholderText("your name, kept with the values")
+        self.checked_by.setPlaceholderText("your name")
+        self.checked_by.setToolTip("Kept in the patient's record with the values, as who "
+                                   "checked them")
         self.checked_by.setAccessibleName("Checked by")
         self.checked_by.returnPressed.connect(self._keep_measurements)
         self._keep_row = QWidget()
@@ -141,7 +143,10 @@ class ParametersTab(ParametersForm, QWidget):
                       self._control_group, self.robot_choice):
             column.addWidget(group)
         column.addStretch(1)
-        scroll = plots.vertical_scroll(form, 460)
+        scroll = self._form_scroll = plots.vertical_scroll(form, 460)
+        # the patient's rows refused are below the fold on a laptop: shown once the tab is
+        # (a therapist read "not stored" and saw only the exercise's fields)
+        self._bring_patient_rows = False
 
         right = QVBoxLayout()
         right.addWidget(self.proposal)
@@ -203,10 +208,14 @@ class ParametersTab(ParametersForm, QWidget):
         kept in it (the window writes them: keep_asked), saying who checked them."""
         if not self._missing or self._keeping or self._measured_for is None:
             return
+        # a number still being typed is what the therapist sees, and keeps (as Build does)
+        if refused := self.commit_edits():
+            self._say_keep(f"Not kept: {refused[0]}")
+            return
         by = self.checked_by.text().strip()
         if not by:
-            self._say_keep("give your name in 'Checked by': the patient's record keeps who "
-                           "confirmed their measurements")
+            self._say_keep("Not kept: give your name in 'Checked by'; the patient's record "
+                           "keeps who confirmed their measurements")
             self.checked_by.setFocus()
             return
         values = self._values()
@@ -216,7 +225,7 @@ class ParametersTab(ParametersForm, QWidget):
                 field = PATIENT_MEASUREMENTS[key]  # the Patient's and the trial's name
                 how = ("typed for this patient" if key in self._given
                        else "the value shown, checked against this patient")
-                kept[field] = (values[field], f"confirmed on the Parameters tab ({how})")
+                kept[field] = (values[field], f"confirmed on the Parameters tab: {how}")
         self._keeping = True
         self.keep_measurements.setEnabled(False)
         self.keep_measurements.setText(SAVING)
@@ -231,7 +240,7 @@ class ParametersTab(ParametersForm, QWidget):
         self.keep_measurements.setText(KEEP)
         self.refresh()
         if refusal:
-            self._say_keep(f"not kept: {refusal}")
+            self._say_keep(f"Not kept: {refusal}")
 
     def _say_keep(self, words: str) -> None:
         self.status.setText(f"{theme.PROBLEM_SIGN} {words}")
@@ -273,11 +282,26 @@ class ParametersTab(ParametersForm, QWidget):
         self._missing = {key for key, attribute in PATIENT_MEASUREMENTS.items()
                          if getattr(patient, attribute) is None}
         self._given &= self._missing
+        self._bring_patient_rows = bool(self._missing - self._given)
         self._measured_for = patient.code
         current = self._parameters or self._lenient()
         self.set_parameters(current.replace(**patient.trial_overrides()))
         self.refresh()
         self.edited.emit()  # a trial built for the previous patient is stale
+        if self.isVisible():
+            self._show_patient_rows()
+
+    def showEvent(self, event) -> None:  # Qt calls it when the tab is shown
+        super().showEvent(event)
+        self._show_patient_rows()
+
+    def _show_patient_rows(self) -> None:
+        """The form scrolled to the patient's rows when some are refused as not stored, once
+        per patient chosen (after the layout has placed them)."""
+        if self._bring_patient_rows:
+            self._bring_patient_rows = False
+            QTimer.singleShot(0, lambda: self._form_scroll.ensureWidgetVisible(
+                self._patient_group, 0, 0))
 
     def _lenient(self) -> TrialParameters:
         try:
