@@ -145,15 +145,12 @@ def file_to_read(registry: RecordStore, trial: Trial, *, checked: bool = True
     (one line) when neither can be read here: a trial of another station not yet in the
     store says so and where it is; a file missing or damaged here and never copied is the
     reader's to name (the path returned)."""
+    if lost := no_file_of_its_own(registry, trial):
+        raise AppError(lost)
     places = TrialPlaces(registry)
     # named as the lists name it (Replay's, the Progress table's), with the id the
     # command line takes
     named = _named(trial)
-    owner = places.recording_of_name(trial, trial.patient_code)
-    if owner is not None:
-        raise AppError(f"{named} was recorded as lost and has no file of its own: the file "
-                       f"of its name is the recording of {_named(registry.trial(owner))}, "
-                       "which the registry keeps under a second name; open that one")
     here = registry.trial_path(trial)
     state = places.state(trial.file, trial.stored_in, trial.station, trial.checksum)
     if state == FILE_OK or (state in (FILE_MISSING, FILE_UNREADABLE)
@@ -183,6 +180,20 @@ def file_to_read(registry: RecordStore, trial: Trial, *, checked: bool = True
                        f"{trial.checksum[:12]}… (changed or replaced since the trial ended); "
                        "it is not opened: restore it from a backup")
     return copy, note
+
+
+def no_file_of_its_own(registry: RecordStore, trial: Trial) -> str:
+    """'' but for a row finished as recording lost under the name of another trial's file
+    (TrialPlaces.recording_of_name): then why nothing is opened for it, in the words
+    Replay, the report and the exports say. Asks the registry only for a lost row."""
+    if trial.status != STATUS_LOST:
+        return ""
+    owner = TrialPlaces(registry).recording_of_name(trial, trial.patient_code)
+    if owner is None:
+        return ""
+    return (f"{_named(trial)} was recorded as lost and has no file of its own: the file of "
+            f"its name is the recording of {_named(registry.trial(owner))}, which the "
+            "registry keeps under a second name")
 
 
 def _named(trial: Trial) -> str:

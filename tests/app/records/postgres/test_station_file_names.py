@@ -14,11 +14,13 @@ from __future__ import annotations
 import datetime
 import errno
 import os
+import re
 import shutil
 
 import pytest
 
 from app.errors import AppError
+from app.exports.plan import sources_from_registry, verified_sources
 from app.records.datadir import DataDir
 from app.records.registry import Registry
 from app.records.registry.postgres import seals
@@ -288,3 +290,10 @@ def test_a_row_finished_as_recording_lost_opens_no_other_trials_recording(depart
     assert file_to_read(robot_2, robot_2.trial(sent.id))[0] == store / sent.file
     with pytest.raises(AppError, match=said):
         file_to_read(robot_2, robot_2.trial(lost.trial_id))
+    # an export, a study, a reanalysis: the same recording was read as the lost row's too
+    failed, notes = [], []
+    exported = verified_sources(sources_from_registry(direct, code), failed, notes)
+    assert [s.trial_id for s in exported] == [t.id for t in direct.trials_for_patient(code)
+                                             if t.id != lost.trial_id]
+    (refused,) = failed
+    assert re.search(said, refused.reason)
