@@ -87,3 +87,31 @@ def test_a_patient_without_measurements_never_runs_with_the_last_ones(qtbot, tmp
         assert built.shoulder_m == pytest.approx((-0.14, 0.71))
     finally:
         win.close()
+
+
+def test_measurements_the_registry_refuses_to_keep_are_said_and_build_still_waits(
+        qtbot, tmp_path, monkeypatch):
+    """The registry's refusal (here: it cannot be written) is said on the message line and
+    under the Keep button; nothing runs with values the record does not have."""
+    from app.errors import RegistryError
+
+    win = session.open_window(qtbot, tmp_path, monkeypatch)
+    try:
+        tab, form = win.registration_tab, win.parameters_tab
+        bob = win.registry.create_patient("Bob", "Bare", side="right")
+        tab.choose(bob)
+        qtbot.waitUntil(lambda: not tab.waiting() and tab.confirm.isEnabled(), timeout=WAIT_MS)
+
+        def refused(*_args, **_kwargs):
+            raise RegistryError("the registry cannot be written just now")
+
+        monkeypatch.setattr(win.registry, "correct_patient", refused)
+        form.checked_by.setText("K. Lee")
+        form.keep_measurements.click()
+        qtbot.waitUntil(lambda: form.keep_measurements.isEnabled(), timeout=WAIT_MS)
+        assert f"{bob.code}'s measurements were not kept" in win.message.text()
+        assert "Not kept: the registry cannot be written just now" in form.status.text()
+        assert "build" not in session.enabled(win)
+        assert win.registry.patient(bob.code).body_mass_kg is None
+    finally:
+        win.close()

@@ -50,8 +50,9 @@ class KeptMeasurements:
 
         def saved(answer: tuple[Patient | None, Exception | None]) -> None:
             patient, refused = answer
-            self.parameters_tab.keep_answered(str(refused) if refused else "")
             current = self.patient is not None and self.patient.code == code
+            # a refusal for a patient chosen before is said on the message line only
+            self.parameters_tab.keep_answered(str(refused) if refused and current else "")
             if patient is not None and current:
                 # shown as the record is now; the Parameters tab follows (patient_selected)
                 self.registration_tab.show_changed(patient)
