@@ -7,7 +7,8 @@ The window only arranges and forwards: the loop runs in its own process behind
 never waits. Its jobs are the modules of `ui.window`, each a part of the window: the robot
 buttons and the trial's life (`trial`, `start`, `trial_emg`), the e-stop and the fault banner
 (`fault_latch`), the event line and the status bar (`message_line`), what it remembers
-(`settings`). What is left here is the window itself: its tabs, their layout and wiring,
+(`settings`), the measurements the Parameters tab keeps in the patient's record
+(`kept_measurements`). What is left here is the window itself: its tabs, their layout and wiring,
 the other tabs' events and the live view.
 """
 
@@ -67,6 +68,7 @@ from ui.views.trialview import TrialView
 from ui.window.after_trial import AfterTrial, Pending, pending_offer
 from ui.window.assessments import AssessmentControl
 from ui.window.fault_latch import FaultLatch
+from ui.window.kept_measurements import KeptMeasurements
 from ui.window.message_line import MessageLine
 from ui.window.plan import PlanControl
 from ui.window.settings import RememberedSettings
@@ -84,7 +86,7 @@ HEALTH_MS = 500
 
 class MainWindow(AssessmentControl, PlanControl, TrialStart, AfterTrial, TrialActions, TrialEmg,
                  FaultLatch, MessageLine, RememberedSettings, StationStatus, PatientScreenControl,
-                 QMainWindow):
+                 KeptMeasurements, QMainWindow):
     """The therapist's console."""
 
     def __init__(self, registry: RecordStore, *, bridge: DeviceBridge | None = None,
@@ -278,6 +280,7 @@ class MainWindow(AssessmentControl, PlanControl, TrialStart, AfterTrial, TrialAc
         self.registration_tab.registered.connect(self._on_registered)
         self.registration_tab.unconfirmed.connect(self._on_unconfirmed)
         self.registration_tab.patient_selected.connect(self._on_patient)
+        self._connect_kept_measurements()
         self.parameters_tab.parameters_changed.connect(lambda *_: self._refresh_buttons())
         # at once, not after the check's debounce: Start must never run a stale trial
         self.parameters_tab.edited.connect(self._refresh_buttons)

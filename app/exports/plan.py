@@ -29,6 +29,7 @@ from app.records.outcomes import proposal_columns, trial_outcome
 from app.records.registry import Trial, TrialMark
 from app.records.registry.provenance import file_checksum
 from app.records.store import RecordStore
+from app.records.trialplace import no_file_of_its_own
 from device.errors import DeviceError
 from device.safewrite import folded
 
@@ -70,6 +71,11 @@ class TrialSource:
     invalid_reason: str | None = None
     """Why the registry marks the trial invalid (its latest mark), '' when it does not;
     None for a file no registry knows. An export names it (`invalid_reason`)."""
+    no_file: str = ""
+    """Why a registered row has no file of its own, '' for every other: a row finished as
+    recording lost under the name of another trial's file
+    (app.records.trialplace.no_file_of_its_own), whose path is that trial's recording:
+    never read for it."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -232,6 +238,7 @@ def registry_source(registry: RecordStore, trial: Trial, proposal, folder: str,
         else os.path.join(trial.stored_in, trial.file),
         figures=tuple(trial.metrics.items()),
         invalid_reason="" if mark is None else mark.reason,
+        no_file=no_file_of_its_own(registry, trial),
     )
 
 
@@ -242,6 +249,8 @@ def verified_place(source: TrialSource) -> tuple[Path, str]:
     line, each place and what is wrong with it) when no place holds the file recorded. A
     source without a checksum (a folder's, or a trial recorded before v10) is read from
     its path as it is."""
+    if source.no_file:
+        raise AppError(f"trial {source.trial_id}: {source.no_file}; not read")
     places = [source.path]
     if source.stored_copy is not None:
         places.append(Path(source.stored_copy))

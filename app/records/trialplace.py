@@ -27,7 +27,7 @@ import os
 from pathlib import Path
 
 from app.errors import AppError
-from app.records.registry import Trial
+from app.records.registry import Trial, TrialSummary
 from app.records.registry.provenance import file_checksum
 from app.records.store import RecordStore
 
@@ -41,6 +41,10 @@ copied it into the trial store yet: it is on that station."""
 FILE_STORE_UNREACHABLE = "store_unreachable"
 """Not whole here; the trial store recorded as holding it is not reachable from here (its
 folder is not there: the network folder not mounted)."""
+FILE_OF_ANOTHER = "of_another"
+"""A row finished as recording lost, with no file of its own: the file of its name is
+another trial's recording, which the sync registered under a second name
+(app.records.station.secondname). Never opened for it."""
 FILE_MISSING = "missing"
 FILE_UNREADABLE = "unreadable"
 FILE_UNCHECKED = "unchecked"
@@ -49,6 +53,7 @@ FILE_USABLE = frozenset((FILE_OK, FILE_IN_STORE, FILE_UNCHECKED))
 """The states whose trial can be opened here (Replay, a report)."""
 
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+STATUS_LOST = "recording_lost"
 
 
 class TrialPlaces:
@@ -57,12 +62,39 @@ class TrialPlaces:
     each trial store's folder checked once)."""
 
     def __init__(self, registry: RecordStore) -> None:
+        self.registry = registry
         self.root = str(registry.data_dir.root).rstrip("/\\") + os.sep
         self.station = registry.station
         # location() is '' for the data folder's own registry, where every station's files
         # are in that one folder
         self.shared = bool(registry.location())
         self._reachable: dict[str, bool] = {}
+        self._second_names: dict[str, dict[str, int]] = {}  # per patient, read once
+
+    def trial_state(self, trial: Trial | TrialSummary, code: str) -> str:
+        """The state of patient `code`'s trial's file (FILE_*): `state`, or FILE_OF_ANOTHER
+        for a row finished as recording lost under the name of another trial's file."""
+        if self.recording_of_name(trial, code) is not None:
+            return FILE_OF_ANOTHER
+        return self.state(trial.file, trial.stored_in, trial.station, trial.checksum)
+
+    def recording_of_name(self, trial: Trial | TrialSummary, code: str) -> int | None:
+        """For a row of patient `code` finished as recording lost: the id of the trial
+        whose recording the file of its name is, when the sync registered that one under a
+        second name (its `trial_file` correction, app.records.station.secondname); None
+        when the file of its name is its own. The registered name, the first one, was the
+        row's too: opened for it, that trial's recording was shown as the lost row's. Only
+        lost rows ask the registry, once per patient."""
+        if trial.status != STATUS_LOST:
+            return None
+        names = self._second_names.get(code)
+        if names is None:
+            names = self._second_names[code] = {
+                c.old_value["file"]: c.old_value["trial_id"]
+                for c in self.registry.corrections(code)
+                if c.field == "trial_file" and isinstance(c.old_value, dict)}
+        owner = names.get(trial.file)
+        return owner if owner != trial.id else None
 
     def state(self, file: str, stored_in: str | None, station: str | None,
               checksum: str | None = None) -> str:
@@ -113,15 +145,17 @@ def file_to_read(registry: RecordStore, trial: Trial, *, checked: bool = True
     (one line) when neither can be read here: a trial of another station not yet in the
     store says so and where it is; a file missing or damaged here and never copied is the
     reader's to name (the path returned)."""
+    if lost := no_file_of_its_own(registry, trial):
+        raise AppError(lost)
     places = TrialPlaces(registry)
+    # named as the lists name it (Replay's, the Progress table's), with the id the
+    # command line takes
+    named = _named(trial)
     here = registry.trial_path(trial)
     state = places.state(trial.file, trial.stored_in, trial.station, trial.checksum)
     if state == FILE_OK or (state in (FILE_MISSING, FILE_UNREADABLE)
                             and trial.stored_in is None):
         return here, ""
-    # named as the lists name it (Replay's, the Progress table's), with the id the
-    # command line takes
-    named = f"session {trial.session_number}, trial {trial.number} (id {trial.id})"
     if state == FILE_AT_STATION:
         raise AppError(f"the file of {named} is on station {trial.station}, not yet in the "
                        f"trial store: open it at {trial.station}, or here once that station "
@@ -146,6 +180,24 @@ def file_to_read(registry: RecordStore, trial: Trial, *, checked: bool = True
                        f"{trial.checksum[:12]}… (changed or replaced since the trial ended); "
                        "it is not opened: restore it from a backup")
     return copy, note
+
+
+def no_file_of_its_own(registry: RecordStore, trial: Trial) -> str:
+    """'' but for a row finished as recording lost under the name of another trial's file
+    (TrialPlaces.recording_of_name): then why nothing is opened for it, in the words
+    Replay, the report and the exports say. Asks the registry only for a lost row."""
+    if trial.status != STATUS_LOST:
+        return ""
+    owner = TrialPlaces(registry).recording_of_name(trial, trial.patient_code)
+    if owner is None:
+        return ""
+    return (f"{_named(trial)} was recorded as lost and has no file of its own: the file of "
+            f"its name is the recording of {_named(registry.trial(owner))}, which the "
+            "registry keeps under a second name")
+
+
+def _named(trial: Trial) -> str:
+    return f"session {trial.session_number}, trial {trial.number} (id {trial.id})"
 
 
 def _signature(root: str, file: str) -> str:

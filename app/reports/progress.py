@@ -41,6 +41,7 @@ from app.records.trialplace import (  # noqa: F401 (the file states, named here 
     FILE_AT_STATION,
     FILE_IN_STORE,
     FILE_MISSING,
+    FILE_OF_ANOTHER,
     FILE_OK,
     FILE_STORE_UNREACHABLE,
     FILE_UNCHECKED,
@@ -275,7 +276,7 @@ def progress(registry: RecordStore, code: str, *, check_files: bool = True,
         levels.append(built if trial.assistance is None else trial.assistance)
         metric_names.update(dict.fromkeys(trial.metrics))
         states.append(FILE_UNCHECKED if places is None else
-                      places.state(trial.file, trial.stored_in, trial.station, trial.checksum))
+                      places.trial_state(trial, code))
 
     names = tuple(metric_names)
     matrix = _metric_matrix(trials, names)
@@ -305,6 +306,8 @@ def progress(registry: RecordStore, code: str, *, check_files: bool = True,
 
 
 _FILE_NOTES = {FILE_IN_STORE: "file in the trial store", FILE_MISSING: "file missing",
+               FILE_OF_ANOTHER: "no file of its own: the file of its name is another "
+                                "trial's recording",
                FILE_UNREADABLE: "file unreadable",
                FILE_STORE_UNREACHABLE: "file in a trial store not reachable here"}
 

@@ -175,7 +175,8 @@ def test_a_patient_without_stored_measurements_never_runs_with_the_previous_ones
         qtbot, tab, tmp_path):
     """Choosing a patient with no stored body and shoulder values kept the previous
     patient's in the form, and Build took them: the new patient's trial ran with another's
-    arm. They are now refused under their rows until given (typed, or kept once checked)."""
+    arm. They are now refused under their rows until given (typed, or checked) and kept in
+    the patient's record."""
     registry = Registry(DataDir(tmp_path / "data"))
     sam = registry.create_patient("Sam", "Lefty", body_mass_kg=64.0, upper_arm_m=0.32,
                                   forearm_m=0.29, side="right", shoulder_m=(-0.12, 0.70))
@@ -190,21 +191,75 @@ def test_a_patient_without_stored_measurements_never_runs_with_the_previous_ones
         assert not tab.errors[key].isHidden()
     assert tab.errors["body_mass"].isHidden()  # hers, stored
     assert tab.keep_measurements.isVisible()
-    # typed for her: that row counts; the others are still refused
+    # typed for her: that row is hers; the others are still not
     type_into(qtbot, tab.upper_arm, "31")
     with pytest.raises(Exception, match="forearm, shoulder position are not"):
         tab.parameters()
-    tab.keep_measurements.click()  # the rest checked against her and kept
+    assert "typed for this patient" in tab.errors["upper_arm"].text()
+    _keep_in_record(qtbot, tab, registry)  # the rest checked against her and kept
     assert tab.parameters().upper_arm_m == pytest.approx(0.31)
     assert tab.parameters().body_mass_kg == pytest.approx(58.0)
     assert not tab.keep_measurements.isVisible()
-    tab.apply_patient(ada)  # the same patient again: the values are already hers
-    assert tab.parameters().upper_arm_m == pytest.approx(0.31)
     tab.apply_patient(sam)  # all stored: nothing to give
     assert tab.parameters().forearm_m == pytest.approx(0.29)
-    tab.apply_patient(ada)  # and back: the form holds Sam's arm again, refused again
+    tab.apply_patient(registry.patient(ada.code))  # and back: hers now, from her record
+    assert tab.parameters().forearm_m == pytest.approx(0.29)
+    assert tab.parameters().upper_arm_m == pytest.approx(0.31)
+    tab.apply_patient(ada)  # as she was registered, nothing stored: refused again
     with pytest.raises(Exception, match="not stored"):
         tab.parameters()
+
+
+def _keep_in_record(qtbot, tab, registry) -> None:
+    """Press Keep with a name, and do what the window does with what the tab asks
+    (ui.window.kept_measurements): each field kept by the registry's correction, the
+    patient's record as it is then given back to the tab."""
+    tab.checked_by.setText("K. Lee")
+    with qtbot.waitSignal(tab.keep_asked, timeout=2000) as asked:
+        tab.keep_measurements.click()
+    code, values, by = asked.args
+    for field, (value, reason) in values.items():
+        patient = registry.correct_patient(code, field, value, reason=reason, by=by)
+    tab.keep_answered()
+    tab.apply_patient(patient)
+
+
+def test_the_values_used_for_a_patient_are_kept_in_their_record_with_who_and_why(
+        qtbot, tab, tmp_path):
+    """'Use these values for this patient' let the trial run with them, and the patient's
+    record still had none: the next time the same refusal came back, and the registry, the
+    report and the exports could not say what the patient measures. The values the
+    therapist confirms (typed, or the ones shown, checked) are asked to be kept in the
+    record, with who checked them and how each was given; until then Build is refused."""
+    registry = Registry(DataDir(tmp_path / "data"))
+    ada = registry.create_patient("Ada", "Plain", body_mass_kg=58.0)
+    tab.apply_patient(ada)
+    type_into(qtbot, tab.forearm, "27")
+    with qtbot.assertNotEmitted(tab.keep_asked):
+        tab.keep_measurements.click()  # nobody named: the record keeps who
+    assert "Checked by" in tab.status.text()
+    tab.checked_by.setText("K. Lee")
+    tab.upper_arm.setFocus()
+    tab.upper_arm.selectAll()
+    qtbot.keyClicks(tab.upper_arm, "33")  # on the screen, not yet committed
+    with qtbot.waitSignal(tab.keep_asked, timeout=2000) as asked:
+        tab.keep_measurements.click()
+    code, values, by = asked.args
+    assert (code, by) == (ada.code, "K. Lee")
+    assert set(values) == {"upper_arm_m", "forearm_m", "shoulder_m"}  # not her body mass
+    assert values["forearm_m"] == (pytest.approx(0.27), pytest.approx(
+        "confirmed on the Parameters tab: typed for this patient"))
+    assert values["upper_arm_m"] == (pytest.approx(0.33), pytest.approx(
+        "confirmed on the Parameters tab: typed for this patient"))  # what it showed
+    assert values["shoulder_m"][0] == pytest.approx(
+        (tab.shoulder_x.value() / 100, tab.shoulder_y.value() / 100))  # shown in cm
+    assert "checked against this patient" in values["shoulder_m"][1]
+    assert tab.keep_measurements.text() == "Saving…"  # until the registry answers
+    with pytest.raises(Exception, match="not stored"):
+        tab.parameters()  # not in her record yet
+    tab.keep_answered("upper_arm_m = 9 is not allowed")
+    assert "Not kept: upper_arm_m = 9" in tab.status.text()
+    assert tab.keep_measurements.isEnabled()
 
 
 def test_the_first_patient_without_stored_measurements_is_refused_too(qtbot, tab, tmp_path):
@@ -379,3 +434,28 @@ def test_a_plan_s_game_round_set_in_the_form_is_built_as_that_game(qtbot, tab):
     assert got.repetitions == 2
     assert [getattr(got, f) for f in fields] == [getattr(plain, f) for f in fields]
     assert "game" not in tab.status.text()
+
+
+def test_the_patient_rows_not_stored_are_brought_into_view(qtbot, qapp, tmp_path):
+    """On a laptop the Patient rows are below the fold: a therapist read "not stored" and
+    saw only the exercise's fields. Once per patient chosen, the form scrolls to them."""
+    theme.apply_theme(qapp)
+    tab = ParametersTab()
+    qtbot.addWidget(tab)
+    tab.resize(1366, 500)
+    registry = Registry(DataDir(tmp_path / "data"))
+    tab.apply_patient(registry.create_patient("Ada", "Plain", body_mass_kg=58.0))
+    tab.show()  # chosen on the Registration tab, then the Parameters tab shown
+    qtbot.waitExposed(tab)
+
+    def in_view(label) -> bool:
+        return not label.visibleRegion().isEmpty()
+
+    qtbot.waitUntil(lambda: in_view(tab.errors["upper_arm"]), timeout=5000)
+    bar = tab._form_scroll.verticalScrollBar()
+    bar.setValue(0)  # the therapist scrolls back up: left there
+    tab.hide()
+    tab.show()
+    qtbot.waitExposed(tab)
+    qapp.processEvents()
+    assert bar.value() == 0

@@ -290,6 +290,12 @@ class ClinicalRecord(QGroupBox):
         """The patient as corrected last."""
         return self._patient
 
+    def patient_changed(self, patient: Patient) -> None:
+        """The record's patient's row changed elsewhere (the Parameters tab kept their
+        measurements): this one is now theirs."""
+        if self._patient is not None and patient.code == self._patient.code:
+            self._patient = patient
+
     # -- helpers --------------------------------------------------------------------
     def _code(self) -> str | None:
         return None if self._patient is None else self._patient.code

@@ -27,7 +27,14 @@ are shown.
 from __future__ import annotations
 
 from PySide6.QtCore import QTimer, Signal
-from PySide6.QtWidgets import QHBoxLayout, QLabel, QPushButton, QVBoxLayout, QWidget
+from PySide6.QtWidgets import (
+    QHBoxLayout,
+    QLabel,
+    QLineEdit,
+    QPushButton,
+    QVBoxLayout,
+    QWidget,
+)
 
 from app.games.names import GAME_TITLES
 from app.units import SCREEN
@@ -45,6 +52,8 @@ from ui.tabs.proposal_box import ProposalBox
 from ui.views.reach import check_summary, field_key, problem_fields, reach_picture
 
 DEBOUNCE_MS = 120
+KEEP = "Keep these values in the patient's record"
+SAVING = "Saving…"
 GAME_WORDS = {game: f"the {title.lower()}" for game, title in GAME_TITLES.items()}
 """A game the form holds (a session plan's round: ui.tabs.parameters_form.HIDDEN_FIELDS),
 said in the status line, since no field shows it."""
@@ -60,6 +69,9 @@ class ParametersTab(ParametersForm, QWidget):
     assistance_changed(level): the level (0–1) the therapist committed, at once.
     camera_changed(camera source or None): int index or file path; None without camera.
     backend_changed(BackendChoice).
+    keep_asked(code, {field: (SI value, reason)}, who): the measurements the chosen
+        patient's record lacks, as the form holds them, to be kept in it (the registry's
+        audited correction, Registry.correct_patient); answered with `keep_answered`.
     """
 
     parameters_changed = Signal(object, str)
@@ -69,6 +81,7 @@ class ParametersTab(ParametersForm, QWidget):
     arrows), at once (not debounced): a running trial takes it live."""
     camera_changed = Signal(object)
     backend_changed = Signal(object)
+    keep_asked = Signal(str, object, str)
 
     def __init__(self, robot: RobotModel | None = None, parent=None) -> None:
         super().__init__(parent)
@@ -78,7 +91,11 @@ class ParametersTab(ParametersForm, QWidget):
         self._error: CoreError | None = None
         self._problem = ""
         self._loading = False
-        self._unconfirmed: set[str] = set()  # rows the patient chosen has not stored
+        # One truth in the patient's record: the rows the patient chosen has not stored
+        # refuse Build until their values are kept in the record (keep_asked); `_given`,
+        # the ones of them typed for this patient (the others hold values not theirs)
+        self._missing: set[str] = set()
+        self._given: set[str] = set()
         # whose measurements the form holds: None for the defaults or the settings' last
         # trial's (which may be another patient's: refused too)
         self._measured_for: str | None = None
@@ -95,12 +112,27 @@ class ParametersTab(ParametersForm, QWidget):
         self.summary.setWordWrap(True)
         self.status = QLabel("")
         self.status.setWordWrap(True)
-        self.keep_measurements = QPushButton("Use these values for this patient")
+        self.keep_measurements = QPushButton(KEEP)
         self.keep_measurements.setToolTip(
-            "The patient chosen has not stored them: the values shown are another patient's "
-            "or the last trial's. Press once you have checked them against this patient.")
+            "The patient chosen has not stored them. Enter theirs (the values shown are "
+            "another patient's or the last trial's), or check the ones shown against this "
+            "patient; then press: they are kept in the patient's record, with your name, "
+            "as a correction of the Registration tab's clinical record is.")
         self.keep_measurements.clicked.connect(self._keep_measurements)
-        self.keep_measurements.hide()
+        self.checked_by = QLineEdit()
+        self.checked_by.setPlaceholderText("your name")
+        self.checked_by.setToolTip("Kept in the patient's record with the values, as who "
+                                   "checked them")
+        self.checked_by.setAccessibleName("Checked by")
+        self.checked_by.returnPressed.connect(self._keep_measurements)
+        self._keep_row = QWidget()
+        keep_row = QHBoxLayout(self._keep_row)
+        keep_row.setContentsMargins(0, 0, 0, 0)
+        keep_row.addWidget(QLabel("Checked by"))
+        keep_row.addWidget(self.checked_by, 1)
+        keep_row.addWidget(self.keep_measurements)
+        self._keep_row.hide()
+        self._keeping = False  # kept values wait for the registry's answer
         # the console's proposal for the next trial (app.trials.progression): above the
         # picture, where it stays in view however the form is scrolled
         self.proposal = ProposalBox()
@@ -111,7 +143,10 @@ class ParametersTab(ParametersForm, QWidget):
                       self._control_group, self.robot_choice):
             column.addWidget(group)
         column.addStretch(1)
-        scroll = plots.vertical_scroll(form, 460)
+        scroll = self._form_scroll = plots.vertical_scroll(form, 460)
+        # the patient's rows refused are below the fold on a laptop: shown once the tab is
+        # (a therapist read "not stored" and saw only the exercise's fields)
+        self._bring_patient_rows = False
 
         right = QVBoxLayout()
         right.addWidget(self.proposal)
@@ -119,7 +154,7 @@ class ParametersTab(ParametersForm, QWidget):
         right.addWidget(self.preview, 1)
         right.addWidget(self.summary)
         right.addWidget(self.status)
-        right.addWidget(self.keep_measurements)
+        right.addWidget(self._keep_row)
         layout = QHBoxLayout(self)
         layout.addWidget(scroll, 5)
         layout.addLayout(right, 6)
@@ -165,13 +200,51 @@ class ParametersTab(ParametersForm, QWidget):
                 "forearm": (self.forearm,), "shoulder": (self.shoulder_x, self.shoulder_y)}
 
     def _measurement_given(self, key: str) -> None:
-        if not self._loading:
-            self._unconfirmed.discard(key)
+        if not self._loading and key in self._missing:
+            self._given.add(key)
 
     def _keep_measurements(self) -> None:
-        self._unconfirmed.clear()
+        """The measurements the patient's record lacks, as the form shows them, asked to be
+        kept in it (the window writes them: keep_asked), saying who checked them."""
+        if not self._missing or self._keeping or self._measured_for is None:
+            return
+        # a number still being typed is what the therapist sees, and keeps (as Build does)
+        if refused := self.commit_edits():
+            self._say_keep(f"Not kept: {refused[0]}")
+            return
+        by = self.checked_by.text().strip()
+        if not by:
+            self._say_keep("Not kept: give your name in 'Checked by'; the patient's record "
+                           "keeps who confirmed their measurements")
+            self.checked_by.setFocus()
+            return
+        values = self._values()
+        kept = {}
+        for key in PATIENT_MEASUREMENTS:
+            if key in self._missing:
+                field = PATIENT_MEASUREMENTS[key]  # the Patient's and the trial's name
+                how = ("typed for this patient" if key in self._given
+                       else "the value shown, checked against this patient")
+                kept[field] = (values[field], f"confirmed on the Parameters tab: {how}")
+        self._keeping = True
+        self.keep_measurements.setEnabled(False)
+        self.keep_measurements.setText(SAVING)
+        self.keep_asked.emit(self._measured_for, kept, by)
+
+    def keep_answered(self, refusal: str = "") -> None:
+        """The registry answered `keep_asked`: the button back; `refusal`, why nothing (or
+        not all) was kept, said under it. What was kept comes as the patient's record
+        changed (apply_patient)."""
+        self._keeping = False
+        self.keep_measurements.setEnabled(True)
+        self.keep_measurements.setText(KEEP)
         self.refresh()
-        self.edited.emit()
+        if refusal:
+            self._say_keep(f"Not kept: {refusal}")
+
+    def _say_keep(self, words: str) -> None:
+        self.status.setText(f"{theme.PROBLEM_SIGN} {words}")
+        theme.switch_role(self.status, "problem")
 
     # -- preview ------------------------------------------------------------------
     @property
@@ -200,17 +273,35 @@ class ParametersTab(ParametersForm, QWidget):
 
     def apply_patient(self, patient) -> None:
         """Take a registered patient's measurements (app.records.registry.Patient)."""
-        # one truth: a trial never runs with another patient's arm. What the patient has
-        # not stored is refused (under its field, Build refused) until the therapist types
-        # it or keeps the value shown for this patient
+        # one truth: a trial never runs with another patient's arm, nor with values the
+        # patient's record does not have. What the patient has not stored is refused (under
+        # its field, Build refused) until kept in their record: typed, or the value shown
+        # checked against them (the values typed for them stay while they are chosen)
         if self._measured_for != patient.code:
-            self._unconfirmed = {key for key, attribute in PATIENT_MEASUREMENTS.items()
-                                 if getattr(patient, attribute) is None}
+            self._given = set()
+        self._missing = {key for key, attribute in PATIENT_MEASUREMENTS.items()
+                         if getattr(patient, attribute) is None}
+        self._given &= self._missing
+        self._bring_patient_rows = bool(self._missing - self._given)
         self._measured_for = patient.code
         current = self._parameters or self._lenient()
         self.set_parameters(current.replace(**patient.trial_overrides()))
         self.refresh()
         self.edited.emit()  # a trial built for the previous patient is stale
+        if self.isVisible():
+            self._show_patient_rows()
+
+    def showEvent(self, event) -> None:  # Qt calls it when the tab is shown
+        super().showEvent(event)
+        self._show_patient_rows()
+
+    def _show_patient_rows(self) -> None:
+        """The form scrolled to the patient's rows when some are refused as not stored, once
+        per patient chosen (after the layout has placed them)."""
+        if self._bring_patient_rows:
+            self._bring_patient_rows = False
+            QTimer.singleShot(0, lambda: self._form_scroll.ensureWidgetVisible(
+                self._patient_group, 0, 0))
 
     def _lenient(self) -> TrialParameters:
         try:
@@ -251,7 +342,7 @@ class ParametersTab(ParametersForm, QWidget):
         """The parameters the form shows now, as Build would take them before its reach
         check (None when the values themselves are refused); cheap, for comparing with
         the trial built."""
-        if self._unconfirmed:
+        if self._missing:
             return None
         try:
             return TrialParameters(**self._values())
@@ -269,7 +360,7 @@ class ParametersTab(ParametersForm, QWidget):
         self._check = None
         self._parameters = None
         self._error: CoreError | None = None
-        self.keep_measurements.setVisible(bool(self._unconfirmed))
+        self._keep_row.setVisible(bool(self._missing))
         try:
             parameters = TrialParameters(**values)
         except ParameterError as exc:
@@ -287,26 +378,35 @@ class ParametersTab(ParametersForm, QWidget):
             else:
                 self._problem = check.problems[0]
                 self._error = UnreachableError(self._problem)
-            self._refuse_unconfirmed()
+            self._refuse_missing()
         picture = None if self._check is None else reach_picture(self._check, values["shoulder_m"])
         self.preview.show_picture(picture, values["shoulder_m"])
         self._show_summary()
         self.parameters_changed.emit(self._parameters, self._problem)
 
-    def _refuse_unconfirmed(self) -> None:
+    def _refuse_missing(self) -> None:
         """The patient chosen has not stored these measurements: the form's values are not
-        theirs (another patient's, the last trial's), refused under their rows until given."""
-        if not self._unconfirmed:
+        theirs (another patient's, the last trial's) unless typed for them, and a trial
+        runs only with what their record holds: refused under their rows until kept."""
+        if not self._missing:
             return
-        keys = [key for key in PATIENT_MEASUREMENTS if key in self._unconfirmed]
+        keys = [key for key in PATIENT_MEASUREMENTS if key in self._missing]
         for key in keys:
-            self._show_error(key, "not stored for this patient: the value shown is not "
-                                  "theirs; enter theirs")
-        words = ", ".join(MEASUREMENT_WORDS[key] for key in keys)
-        verb = "is" if len(keys) == 1 else "are"
-        self._problem = (f"this patient's {words} {verb} not stored, and the values shown are "
-                         "not theirs (another patient's or the last trial's): enter them, or "
-                         "press 'Use these values for this patient' once checked")
+            self._show_error(key, "typed for this patient, not in their record yet"
+                             if key in self._given else "not stored for this patient: the "
+                             "value shown is not theirs; enter theirs")
+        shown = [key for key in keys if key not in self._given]
+        named = shown or keys
+        words = ", ".join(MEASUREMENT_WORDS[key] for key in named)
+        verb = "is" if len(named) == 1 else "are"
+        if shown:
+            self._problem = (f"this patient's {words} {verb} not stored, and the values shown "
+                             "are not theirs (another patient's or the last trial's): enter "
+                             f"them, or check them, then press '{KEEP}'"
+                             + (" (it keeps the ones typed too)" if shown != keys else ""))
+        else:  # every one typed for them
+            self._problem = (f"this patient's {words} typed here {verb} not in their record "
+                             f"yet: press '{KEEP}'")
         self._parameters = None
         self._error = CoreError(self._problem)
 

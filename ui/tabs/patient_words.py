@@ -41,17 +41,19 @@ def measurements(patient: Patient) -> str:
         else:
             stored.append(_STORED_WORDS[key](value))
     # the form's values for what is not stored are not this patient's (another patient's,
-    # the last trial's): the Parameters tab refuses them until given
+    # the last trial's): the Parameters tab refuses them until given and kept in the record
     # (ui.tabs.parameters.apply_patient); name them, so the therapist knows what to measure
     if not stored:
         return ("No measurements stored: give the body mass, arm lengths and shoulder "
-                "position in the Parameters tab, which refuses its values until then.")
+                "position in the Parameters tab, which keeps them in the patient's record "
+                "and refuses its values until then.")
     said = "Stored: " + ", ".join(stored) + ". The Parameters tab now uses them."
     if not missing:
         return said
     them = "it" if len(missing) == 1 else "them"
     return (f"{said} Not stored: the {' and the '.join(missing)}; give {them} in the "
-            "Parameters tab, which refuses its values until then.")
+            "Parameters tab, which keeps them in the patient's record and refuses its "
+            "values until then.")
 
 
 def names_note(registry) -> str:

@@ -299,12 +299,23 @@ class RegistrationTab(PatientSearch, NewPatient, QWidget):
         note may have opened a session: its line says so (`refresh_count`)."""
         self.refresh_count()
         patient = self.clinical.patient
-        if patient is not None and self._patient is not None and \
-                patient.code == self._patient.code and patient != self._patient:
-            self._patient = patient
-            self.patient_label.setText(describe(patient))
-            self.measurements_label.setText(measurements(patient))
-            self.patient_selected.emit(patient)
+        if patient is not None:
+            self.show_changed(patient)
+
+    def show_changed(self, patient: Patient) -> None:
+        """The chosen patient's row as it is now, changed by a correction (the clinical
+        record's, or the measurements kept from the Parameters tab): shown, the record
+        told, and the tabs (patient_selected). A row of another patient is not shown."""
+        if self._patient is None or patient.code != self._patient.code \
+                or patient == self._patient:
+            return
+        self._patient = patient
+        # the record's patient too: after its next scale or note it showed the row it last
+        # corrected, the measurements kept since gone again
+        self.clinical.patient_changed(patient)
+        self.patient_label.setText(describe(patient))
+        self.measurements_label.setText(measurements(patient))
+        self.patient_selected.emit(patient)
 
     def _ask(self, kind: str, work: Callable[[], object],
              show: Callable[[object], None]) -> None:

@@ -14,20 +14,29 @@ from __future__ import annotations
 import datetime
 import errno
 import os
+import re
 import shutil
 
 import pytest
 
 from app.errors import AppError
+from app.exports.plan import sources_from_registry, verified_sources
 from app.records.datadir import DataDir
 from app.records.registry import Registry
 from app.records.registry.postgres import seals
 from app.records.registry.provenance import file_checksum
 from app.records.station import StationRegistry, renumber
 from app.records.station.mirror import standby_path
-from app.records.trialplace import FILE_AT_STATION, FILE_OK, HDF5_SIGNATURE, file_to_read
+from app.records.trialplace import (
+    FILE_AT_STATION,
+    FILE_OF_ANOTHER,
+    FILE_OK,
+    HDF5_SIGNATURE,
+    file_to_read,
+)
 from app.records.trialstore import store_pending
-from app.reports.progress import progress
+from app.reports.build import content_for_registry_trial
+from app.reports.progress import file_note, progress
 from core.trial import THESIS_SUBJECT
 from tests.netcut import NetworkCut
 
@@ -243,3 +252,48 @@ def test_this_stations_own_trial_left_recording_under_the_name_is_finished_as_lo
     assert data.resolve(sent.file).read_bytes() == content
     assert direct.verify_trial_file(sent) is None
     assert direct.corrections(code)[-1].reason.endswith("is finished as recording lost")
+
+
+def test_a_row_finished_as_recording_lost_opens_no_other_trials_recording(department,
+                                                                          tmp_path):
+    """The row finished as recording lost has the name of the file the station recorded
+    for the trial sent under its second name: chosen in Progress or History and opened in
+    Replay (or `rehab report`), it opened that trial's recording as its own. It has no
+    file of its own: Progress says so, and Replay and the report refuse it, naming whose
+    recording the file of its name is; that trial still opens, here and from the store."""
+    url, network, data, robot_2 = department
+    station, code, _mine, theirs = _one_trial_offline(department)
+    direct = Registry(data, server=url, station="robot-1")
+    lost = direct.begin_trial(code, PARAMS, backend="simulator", started_at=theirs)
+    network.restore()
+    assert station.try_sync() is not None, station.sync_problem
+    (sent,) = [t for t in direct.trials_for_patient(code) if t.number == 3]
+    said = (r"session 1, trial 2 \(id \d+\) was recorded as lost and has no file of its "
+            rf"own: the file of its name is the recording of session 1, trial 3 \(id "
+            rf"{sent.id}\)")
+    for registry in (direct, station, robot_2):  # this station, offline or not, and another
+        with pytest.raises(AppError, match=said):
+            file_to_read(registry, registry.trial(lost.trial_id))
+    with pytest.raises(AppError, match=said):
+        content_for_registry_trial(direct, lost.trial_id)
+    assert file_to_read(direct, sent) == (data.resolve(sent.file), "")
+    states = dict(zip(progress(direct, code).trial_id.tolist(),
+                      progress(direct, code).file_states, strict=True))
+    assert states[lost.trial_id] == FILE_OF_ANOTHER
+    assert states[sent.id] == FILE_OK
+    assert file_note(FILE_OF_ANOTHER, "robot-1") == (
+        "no file of its own: the file of its name is another trial's recording")
+
+    store = tmp_path / "store"
+    store.mkdir(mode=0o700)
+    assert store_pending(direct, store).problems == []
+    assert file_to_read(robot_2, robot_2.trial(sent.id))[0] == store / sent.file
+    with pytest.raises(AppError, match=said):
+        file_to_read(robot_2, robot_2.trial(lost.trial_id))
+    # an export, a study, a reanalysis: the same recording was read as the lost row's too
+    failed, notes = [], []
+    exported = verified_sources(sources_from_registry(direct, code), failed, notes)
+    assert [s.trial_id for s in exported] == [t.id for t in direct.trials_for_patient(code)
+                                             if t.id != lost.trial_id]
+    (refused,) = failed
+    assert re.search(said, refused.reason)
