@@ -29,7 +29,7 @@ from app.records.outcomes import proposal_columns, trial_outcome
 from app.records.registry import Trial, TrialMark
 from app.records.registry.provenance import file_checksum
 from app.records.store import RecordStore
-from app.records.trialplace import no_file_of_its_own
+from app.records.trialplace import TrialPlaces, no_file_of_its_own
 from device.errors import DeviceError
 from device.safewrite import folded
 
@@ -120,20 +120,49 @@ def sources_from_folder(folder: str | os.PathLike, pattern: str = "**/*.h5", *,
     sources = [source_for_path(p, _relative_folder(p, folder)) for p in paths]
     if not known:
         return sources
-    return [replace(source, **known.get(os.path.realpath(source.path), {}))
-            for source in sources]
+    found = {os.path.realpath(p) for p in paths}
+    out = []
+    for source in sources:
+        facts = dict(known.get(os.path.realpath(source.path), {}))
+        # the name a lost row kept is the recording registered under its second name:
+        # exported once, under that name, unless the folder lacks it
+        if facts.pop(SAME_RECORDING_AS, None) in found:
+            continue
+        out.append(replace(source, **facts))
+    return out
 
 
 def registry_facts(registry: RecordStore) -> dict[str, dict[str, object]]:
     """What the registry says of every trial it holds, by the real path of the trial's file
     in its data folder, as TrialSource fields: its figures (app.exports.figures) and why it
-    is marked invalid ('' when it is not), which a folder export of that folder writes."""
+    is marked invalid ('' when it is not), which a folder export of that folder writes. A
+    row finished as recording lost under another trial's file name has none: that name is
+    given the other trial's facts and its second name (SAME_RECORDING_AS), so the folder's
+    export reads the recording once, as the trial it is."""
     marks = registry.invalid_trials()
-    return {os.path.realpath(registry.trial_path(trial)): {
-                "figures": tuple(trial.metrics.items()),
-                "invalid_reason": marks[trial.id].reason if trial.id in marks else ""}
-            for patient in registry.patients()
-            for trial in registry.trials_for_patient(patient.code)}
+    places = TrialPlaces(registry)
+    facts: dict[str, dict[str, object]] = {}
+    first_names: dict[str, Trial] = {}
+    for patient in registry.patients():
+        for trial in registry.trials_for_patient(patient.code):
+            path = os.path.realpath(registry.trial_path(trial))
+            owner = places.recording_of_name(trial, patient.code)
+            if owner is not None:  # a lost row: the file of its name is the owner's
+                first_names[path] = registry.trial(owner)
+                continue
+            facts[path] = {"figures": tuple(trial.metrics.items()),
+                           "invalid_reason": marks[trial.id].reason if trial.id in marks
+                           else ""}
+    for path, owner in first_names.items():
+        second = os.path.realpath(registry.trial_path(owner))
+        facts[path] = {**facts.get(second, {}), SAME_RECORDING_AS: second}
+    return facts
+
+
+SAME_RECORDING_AS = "same_recording_as"
+"""In `registry_facts`, beside a file name a row finished as recording lost kept
+(app.records.trialplace.TrialPlaces.recording_of_name): the real path of the second name
+the sync registered that recording under (app.records.station.secondname)."""
 
 
 MAX_ENTRIES = 1_000_000

@@ -20,7 +20,12 @@ import shutil
 import pytest
 
 from app.errors import AppError
-from app.exports.plan import sources_from_registry, verified_sources
+from app.exports.plan import (
+    registry_facts,
+    sources_from_folder,
+    sources_from_registry,
+    verified_sources,
+)
 from app.records.datadir import DataDir
 from app.records.registry import Registry
 from app.records.registry.postgres import seals
@@ -297,3 +302,12 @@ def test_a_row_finished_as_recording_lost_opens_no_other_trials_recording(depart
                                              if t.id != lost.trial_id]
     (refused,) = failed
     assert re.search(said, refused.reason)
+    # a folder export of the data folder (its registry's facts beside each file): the first
+    # name and the second are one recording, exported once as the trial it is, never twice
+    # and never with the lost row's figures
+    found = sources_from_folder(data.trials_dir, known=registry_facts(direct))
+    named = {os.path.realpath(data.resolve(t.file)): t
+             for t in direct.trials_for_patient(code) if t.id != lost.trial_id}
+    assert sorted(os.path.realpath(s.path) for s in found) == sorted(named)
+    for source in found:
+        assert source.figures == tuple(named[os.path.realpath(source.path)].metrics.items())
