@@ -173,6 +173,11 @@ def mm(value) -> str:
     return f"{1000 * value:.1f}" if finite(value) else "–"
 
 
+def counted(n: int, noun: str) -> str:
+    """'1 cycle', '1,000 cycles': a count and its noun, plural but for one."""
+    return f"{n:,} {noun}{'' if n == 1 else 's'}"
+
+
 def typed_code(code: str, what: str = "the code") -> str:
     """`code` when it is a patient code, else the one line that says what one is. The text
     is not repeated: a name typed where a code goes is not echoed (app.records.datadir.
