@@ -8,6 +8,7 @@ per generalised force on any file in that format (docs/data-format.md, "Dynamics
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import math
 
@@ -237,7 +238,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     if args.hidden:
         options["hidden"] = args.hidden
     data = absolute(args.data)
-    name, owned = args.name, args.output is None
+    name, owned, checked = args.name, args.output is None, None
     if args.output is not None:
         # checked before the training, which may take minutes, and again when written
         output = output_path(args, args.output, overwrite=args.overwrite, inputs=[data])
@@ -252,14 +253,17 @@ def cmd_train(args: argparse.Namespace) -> int:
             raise CommandError("--overwrite needs --output: a model in the data folder's "
                                "models/ is never replaced (trials name it); give another "
                                "--name")
-        output = data_dir_for(args).ensure("models") / f"{name}.json"
+        data_dir = data_dir_for(args)
+        output = data_dir.models_dir / f"{name}.json"
+        # made once the data are found trainable: a refused run leaves no data folder
+        checked = functools.partial(data_dir.ensure, "models")
         if output.exists():
             raise CommandError(f"{output} already exists and is kept (trials may name it); "
                                "give another --name")
     bar = progress_bar(f"training {args.model}")
     trained = train_file(data, output, args.model, cyclic=args.cyclic, name=name,
                          progress=bar.update if bar else None, overwrite=args.overwrite,
-                         owned=owned, **options)
+                         owned=owned, checked=checked, **options)
     if bar:
         bar.done()
     rmse = ", ".join(f"{k} {v:.4g} {trained.units[k]}"

@@ -69,10 +69,13 @@ class TrainedModel:
 def train_file(data_path: str | Path, output: str | Path, kind: str, *,
                cyclic: Sequence[str] | None = None, name: str | None = None,
                progress: Callable[[float], None] | None = None, overwrite: bool = False,
-               owned: bool = False, **options) -> TrainedModel:
+               owned: bool = False, checked: Callable[[], object] | None = None,
+               **options) -> TrainedModel:
     """Train a `kind` model on the file's samples (its held-out cycles left out) and write
     the model file (`overwrite`, `owned`: app.learning.modelfile.write_model's).
-    `options` are core.learning.training.TrainingOptions' fields."""
+    `checked` is called once the data and the options are found trainable, before the
+    training (the command line makes the data folder's models/ there, so a refused run
+    makes nothing). `options` are core.learning.training.TrainingOptions' fields."""
     data = read_dataset(data_path)
     try:
         indices = cyclic_indices(data, cyclic)
@@ -92,6 +95,8 @@ def train_file(data_path: str | Path, output: str | Path, kind: str, *,
         raise DatasetError(data_path, f"has {np.unique(train_data.cycle).size} training "
                            f"cycles; {opts.folds}-fold cross-validation needs {needed}",
                            "Give more cycles, or fewer --folds.")
+    if checked is not None:
+        checked()
     try:
         result = train(train_data.q, train_data.qd, train_data.qdd, train_data.tau,
                        train_data.cycle, opts, progress=progress)

@@ -290,6 +290,11 @@ def test_train_writes_into_the_data_folders_models_by_default(trials, tmp_path, 
                 "--without-hand-force", "--acceleration", "estimated"], capsys)[0] == 0
     args = ["learn", "train", "--model", "fnn", "--data", str(tmp_path / "r.h5"),
             "--epochs", "2", "--folds", "1", "--hidden", "4"]
+    # refused data (two trials, five folds) made the data folder and its models/ all the same
+    code, _, err = run([*args, "--folds", "5"], capsys)  # the last --folds counts
+    assert code == 2
+    assert "5-fold cross-validation needs 5" in err
+    assert not (tmp_path / "data").exists()
     code, out, _ = run(args, capsys)
     assert code == 0
     folder = tmp_path / "data" / "models"
