@@ -54,6 +54,25 @@ def test_the_first_patient_starts_a_registry_in_a_new_folder(tmp_path, capsys):
     assert out.startswith("P")
 
 
+@pytest.mark.parametrize(("typed", "said"), [
+    (["--upper-arm", "30"], "--upper-arm (upper_arm_m) = 30 is not allowed; allowed: "
+                            "[0.15, 0.5] m"),  # cm typed where m go, as a newcomer may
+    (["--shoulder", "5", "0.7"], "--shoulder (shoulder_m[x]) = 5 is not allowed"),
+    (["--birth-year", "1800"], "--birth-year (birth_year) = 1800 is not allowed"),
+])
+def test_a_refused_first_patient_starts_no_registry(tmp_path, capsys, typed, said):
+    """A first `patients add` with a value out of range made the data folder and an empty
+    registry before the registry refused the patient, and the refusal named the registry's
+    field (upper_arm_m) rather than the option typed. The values are checked first."""
+    new = tmp_path / "data"
+    code, _, err = run(["--data-dir", str(new), "patients", "add", "--first-name", "A",
+                        *typed], capsys)
+    assert code == 2
+    assert err.count("\n") == 1, err
+    assert said in err
+    assert not new.exists()
+
+
 def test_a_run_without_a_patient_creates_nothing(tmp_path, capsys):
     """The README's first `rehab run --patient weak`, from a fresh clone: it made the data
     folder and a file in its trials/simulated/ that no command lists, where the README

@@ -116,7 +116,8 @@ def test_every_help_is_printed(capsys):
     (["check", "--radius", "0.08", "--shoulder", "inf", "0.72"],
      "allowed: a finite number in [-1.5, 1.5] m"),
     (["patients", "add", "--first-name", "B", "--body-mass", "nan"],
-     "body_mass_kg = NaN is not allowed; allowed: a finite number in [20, 250] kg"),
+     "--body-mass (body_mass_kg) = NaN is not allowed; allowed: a finite number in [20, "
+     "250] kg"),
     (["run", "--duration", "nan"], "allowed: a finite number in [1, 120] s"),
 ], ids=lambda a: " ".join(a)[:50] if isinstance(a, list) else "")
 def test_nan_or_inf_is_told_the_range_to_give(argv, said, capsys):
