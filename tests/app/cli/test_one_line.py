@@ -127,3 +127,20 @@ def test_nan_or_inf_is_told_the_range_to_give(argv, said, capsys):
     assert code == 2
     assert len(err.strip().splitlines()) == 1, err
     assert said in err
+
+
+@pytest.mark.parametrize(("argv", "said"), [
+    (["patients", "add", "--first-name", "B", "--body-mass", "70kg"],
+     "rehab patients add: error: --body-mass '70kg' is not a number (kg) (see rehab patients "
+     "add --help)"),
+    (["patients", "add", "--upper-arm", "30cm"],
+     "--upper-arm '30cm' is not a number (shoulder to elbow, m)"),
+    (["run", "--seed", "1.5"], "rehab run: error: --seed '1.5' is not a whole number (see"),
+])
+def test_a_value_that_is_no_number_is_said_so_with_its_unit(argv, said, capsys):
+    """argparse said "argument --body-mass: invalid float value: '70kg'": a newcomer who
+    typed the unit learnt neither that a bare number was wanted nor in which unit."""
+    code, _, err = run(argv, capsys)
+    assert code == 2
+    assert len(err.strip().splitlines()) == 1, err
+    assert said in err
