@@ -88,13 +88,15 @@ def check_range(
     low_open: bool = False,
 ) -> float:
     """Return `value` when it is finite and inside [low, high] (or (low, high])."""
-    number = check_finite(field, value, unit)
+    allowed = f"{'(' if low_open else '['}{low:g}, {high:g}]{_unit(unit)}"
+    try:
+        number = check_finite(field, value, unit)
+    except ParameterError:
+        # NaN, inf or no number: the range to give too, not only 'a finite number'
+        raise ParameterError(field, value, f"a finite number in {allowed}", why) from None
     below = number <= low if low_open else number < low
     if below or number > high:
-        bracket = "(" if low_open else "["
-        raise ParameterError(
-            field, number, f"{bracket}{low:g}, {high:g}]{_unit(unit)}", why
-        )
+        raise ParameterError(field, number, allowed, why)
     return number
 
 

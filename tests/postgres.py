@@ -231,6 +231,11 @@ def start_initdb(bin_dir: Path) -> Server:
     try:
         return _start_initdb(bin_dir, folder, user)
     except BaseException:
+        # a Ctrl-C while `pg_ctl start` ran may leave a server running on the folder
+        if (folder / "data" / "postmaster.pid").exists():
+            subprocess.run(_as_server_user([str(bin_dir / "pg_ctl"), "-D", str(folder / "data"),
+                                            "-m", "immediate", "-w", "stop"]),
+                           capture_output=True, check=False, cwd=folder)
         shutil.rmtree(folder, ignore_errors=True)
         raise
 
@@ -432,20 +437,34 @@ def main(argv: list[str]) -> int:
     if argv != ["run"]:
         print("usage: python -m tests.postgres run", file=sys.stderr)
         return 2
+    # Ctrl-C and kill stop the server, also where SIGINT came ignored (a job started with
+    # `&` from a script inherits SIG_IGN, and Python then never raises KeyboardInterrupt)
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, _interrupted)
     try:
         server = start()
     except ServerError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:
+        return 0  # stopped while starting: start() removed what it made
     try:
         print(f"PostgreSQL ({server.path}): {server.url()}", flush=True)
         print("Ctrl-C stops it and removes it.", flush=True)
-        signal.signal(signal.SIGTERM, lambda *_: sys.exit(0))
         with contextlib.suppress(KeyboardInterrupt):
-            signal.pause()
+            while True:
+                signal.pause()
     finally:
+        # no second Ctrl-C half-way through the stop: it would leave the folder behind
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
         server.stop()
+    print("Stopped and removed.", flush=True)
     return 0
+
+
+def _interrupted(signum, frame) -> None:
+    raise KeyboardInterrupt
 
 
 if __name__ == "__main__":

@@ -103,7 +103,7 @@ def add_clinical_commands(commands) -> None:
     correct = commands.add_parser(
         "correct", help="correct a patient's recorded field (kept in an audit trail)",
         description="Correct one of a patient's fields: " + ", ".join(CORRECTABLE)
-                    + ". SI units (kg, m); shoulder_m as X,Y (a value starting with '-' after "
+                    + ". SI units (kg, m); shoulder_m as x,y (a value starting with '-' after "
                     "'--': rehab correct CODE shoulder_m --reason R --by B -- -0.12,0.73); "
                     "'none' clears a field. The "
                     "old value, the new one, why, who and when are kept.")

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import sys
 from pathlib import Path
 
@@ -28,12 +29,34 @@ class CommandError(Exception):
     """A command failed for a reason the user can fix; the message is the one line shown."""
 
 
+_NOT_A_NUMBER = re.compile(r"argument (?P<option>\S+?): invalid (?P<kind>int|float) value: "
+                           r"(?P<value>'[^']*')")
+"""argparse's refusal of a value its type= int or float cannot read."""
+SHORT_HELP = 60
+"""A help this long or shorter (a unit: 'kg', 'shoulder to elbow, m') is said with a value
+it cannot read."""
+
+
 class Parser(argparse.ArgumentParser):
     """argparse with one-line errors that point to --help."""
 
     def error(self, message: str) -> None:
-        sys.stderr.write(f"{self.prog}: error: {folded(message)} (see {self.prog} --help)\n")
+        sys.stderr.write(f"{self.prog}: error: {folded(self._said(message))} "
+                         f"(see {self.prog} --help)\n")
         raise SystemExit(EXIT_BAD_INPUT)
+
+    def _said(self, message: str) -> str:
+        """'argument --body-mass: invalid float value: '70kg'' as '--body-mass '70kg' is
+        not a number (kg)': what was wrong, and the option's unit when its help is short."""
+        wrong = _NOT_A_NUMBER.fullmatch(message)
+        if wrong is None:
+            return message
+        option = wrong["option"].split("/")[-1]
+        number = "a whole number" if wrong["kind"] == "int" else "a number"
+        action = self._option_string_actions.get(option)
+        unit = self._get_formatter()._expand_help(action) if action and action.help else ""
+        unit = f" ({unit})" if unit and len(unit) <= SHORT_HELP else ""
+        return f"{option} {wrong['value']} is not {number}{unit}"
 
 
 def subcommands(parser: argparse.ArgumentParser, *, dest: str = "action",
@@ -171,6 +194,11 @@ def finite(value) -> bool:
 def mm(value) -> str:
     """Metres as millimetres with one decimal; '–' where undefined."""
     return f"{1000 * value:.1f}" if finite(value) else "–"
+
+
+def counted(n: int, noun: str) -> str:
+    """'1 cycle', '1,000 cycles': a count and its noun, plural but for one."""
+    return f"{n:,} {noun}{'' if n == 1 else 's'}"
 
 
 def typed_code(code: str, what: str = "the code") -> str:

@@ -8,6 +8,7 @@ per generalised force on any file in that format (docs/data-format.md, "Dynamics
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import math
 
@@ -15,6 +16,7 @@ from app.cli.common import (
     EXIT_OK,
     CommandError,
     absolute,
+    counted,
     data_dir_for,
     output_path,
     progress_bar,
@@ -186,7 +188,7 @@ def cmd_pendulum(args: argparse.Namespace) -> int:
     data = make_pendulum_file(output, args.speeds, held, overwrite=args.overwrite)
     cycles = len(data.description["cycle_speeds_rad_s"])
     held_text = f", cycle at {held:g} rad/s held out" if held is not None else ""
-    print(f"{output}: {len(data):,} samples, {cycles} cycles{held_text}")
+    print(f"{output}: {len(data):,} samples, {counted(cycles, 'cycle')}{held_text}")
     return EXIT_OK
 
 
@@ -204,7 +206,7 @@ def cmd_robot_data(args: argparse.Namespace) -> int:
     data = robot_dataset(trials, acceleration=args.acceleration,
                          without_hand_force=args.without_hand_force, system=args.system)
     write_dataset(output, data, overwrite=args.overwrite)
-    print(f"{output}: {len(data):,} samples, {len(args.trials)} trials, "
+    print(f"{output}: {len(data):,} samples, {counted(len(args.trials), 'trial')}, "
           f"system {data.system}")
     return EXIT_OK
 
@@ -236,7 +238,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     if args.hidden:
         options["hidden"] = args.hidden
     data = absolute(args.data)
-    name, owned = args.name, args.output is None
+    name, owned, checked = args.name, args.output is None, None
     if args.output is not None:
         # checked before the training, which may take minutes, and again when written
         output = output_path(args, args.output, overwrite=args.overwrite, inputs=[data])
@@ -251,20 +253,24 @@ def cmd_train(args: argparse.Namespace) -> int:
             raise CommandError("--overwrite needs --output: a model in the data folder's "
                                "models/ is never replaced (trials name it); give another "
                                "--name")
-        output = data_dir_for(args).ensure("models") / f"{name}.json"
+        data_dir = data_dir_for(args)
+        output = data_dir.models_dir / f"{name}.json"
+        # made once the data are found trainable: a refused run leaves no data folder
+        checked = functools.partial(data_dir.ensure, "models")
         if output.exists():
             raise CommandError(f"{output} already exists and is kept (trials may name it); "
                                "give another --name")
     bar = progress_bar(f"training {args.model}")
     trained = train_file(data, output, args.model, cyclic=args.cyclic, name=name,
                          progress=bar.update if bar else None, overwrite=args.overwrite,
-                         owned=owned, **options)
+                         owned=owned, checked=checked, **options)
     if bar:
         bar.done()
-    rmse = ", ".join(f"{k} {v:.4g}" for k, v in trained.cross_validation_rmse.items())
-    print(f"{trained.path}: {args.model}, {trained.parameters} parameters, "
-          f"{trained.samples:,} training samples, {trained.training_seconds:.1f} s; "
-          f"cross-validation RMSE {rmse}")
+    rmse = ", ".join(f"{k} {v:.4g} {trained.units[k]}"
+                     for k, v in trained.cross_validation_rmse.items())
+    print(f"{trained.path}: {args.model}, {counted(trained.parameters, 'parameter')}, "
+          f"{counted(trained.samples, 'training sample')}, "
+          f"{trained.training_seconds:.1f} s; cross-validation RMSE {rmse}")
     return EXIT_OK
 
 
@@ -273,13 +279,16 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
     result = evaluate_file(absolute(args.model), absolute(args.data), args.all_cycles)
     if args.json:
-        print(json.dumps({"rmse": result.rmse, "parameters": result.parameters}))
+        print(json.dumps({"rmse": result.rmse, "units": result.units,
+                          "parameters": result.parameters}, ensure_ascii=False))
         return EXIT_OK
-    print(f"{result.samples:,} samples, {result.cycles} cycles ({result.which}); "
-          f"{result.parameters} parameters")
+    cycles = (counted(result.cycles, "held-out cycle") if result.held_out else
+              f"{counted(result.cycles, 'cycle')}, the whole file")
+    print(f"{counted(result.samples, 'sample')}, {cycles}; "
+          f"{counted(result.parameters, 'parameter')}")
     width = max(len(k) for k in result.rmse)
     for force, value in result.rmse.items():
-        print(f"  RMSE {force:<{width}}  {value:.6g}")
+        print(f"  RMSE {force:<{width}}  {value:.6g} {result.units[force]}")
     return EXIT_OK
 
 
@@ -291,11 +300,13 @@ def cmd_components(args: argparse.Namespace) -> int:
                          suffixes=(".png",))
     c = components_file(model, data, cycle=args.cycle)
     rmse = c.rmse()
-    print(f"{c.tau.shape[0]:,} samples of {c.system}: RMSE against the analytic model")
-    print(f"  {'component':<12}" + "".join(f"{force:>12}" for force in c.forces))
+    print(f"{counted(c.tau.shape[0], 'sample')} of {c.system}: RMSE against the analytic "
+          "model")
+    heads = [f"{force} ({c.units[force]})" for force in c.forces]
+    print(f"  {'component':<12}" + "".join(f"{head:>14}" for head in heads))
     for name in (*COMPONENTS, "total"):
         label = "total (data)" if name == "total" else name
-        print(f"  {label:<12}" + "".join(f"{v:>12.4g}" for v in rmse[name]))
+        print(f"  {label:<12}" + "".join(f"{v:>14.4g}" for v in rmse[name]))
     plot_components(c, output, title=f"{model.name} on {c.system}", overwrite=args.overwrite)
     print(f"figure: {output}")
     return EXIT_OK

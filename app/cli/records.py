@@ -65,8 +65,22 @@ def cmd_patients(args: argparse.Namespace) -> int:
     return 0
 
 
+PATIENT_OPTIONS = {"first_name": "--first-name", "last_name": "--last-name",
+                   "birth_year": "--birth-year", "side": "--side", "sex": "--sex",
+                   "handedness": "--handedness", "body_mass_kg": "--body-mass",
+                   "upper_arm_m": "--upper-arm", "forearm_m": "--forearm",
+                   "shoulder_m": "--shoulder", "notes": "--notes"}
+"""The option each of a patient's fields is given by: a refusal names it, as typed."""
+
+
 def cmd_patients_add(args: argparse.Namespace) -> int:
-    # the first patient starts a registry (in a new or empty folder only)
+    values = dict(birth_year=args.birth_year, side=args.side, body_mass_kg=args.body_mass,
+                  upper_arm_m=args.upper_arm, forearm_m=args.forearm,
+                  shoulder_m=tuple(args.shoulder) if args.shoulder else None,
+                  notes=args.notes, sex=args.sex, handedness=args.handedness)
+    _check_patient(args.first_name, args.last_name, values)
+    # the first patient starts a registry (in a new or empty folder only): once the
+    # patient's values are found good, so a refused first patient leaves no registry
     registry = registry_for(args, create=True)
     if (args.first_name or args.last_name) and not args.same_name:
         namesakes = registry.find_patients(args.first_name or "", args.last_name or "")
@@ -76,14 +90,25 @@ def cmd_patients_add(args: argparse.Namespace) -> int:
                               for p in namesakes)
             raise CommandError(f"already registered: {known}. Use that code, or give "
                                "--same-name to register a different person with this name")
-    patient = registry.create_patient(
-        args.first_name, args.last_name, birth_year=args.birth_year, side=args.side,
-        body_mass_kg=args.body_mass, upper_arm_m=args.upper_arm, forearm_m=args.forearm,
-        shoulder_m=tuple(args.shoulder) if args.shoulder else None, notes=args.notes,
-        sex=args.sex, handedness=args.handedness,
-    )
+    patient = registry.create_patient(args.first_name, args.last_name, **values)
     print(patient.code)
     return 0
+
+
+def _check_patient(first_name, last_name, values: dict) -> None:
+    """The registry's checks of a new patient's values, before any registry is opened;
+    a refusal names the option typed ('--upper-arm (upper_arm_m) = 30 …', in m)."""
+    from app.errors import InvalidRecordError
+    from app.records.registry.patients import _patient_values
+
+    try:
+        _patient_values(first_name=first_name, last_name=last_name, **values)
+    except InvalidRecordError as exc:
+        field, said = str(exc).partition(" ")[::2]
+        option = PATIENT_OPTIONS.get(field.split("[")[0])
+        if option is None:
+            raise
+        raise CommandError(f"{option} ({field}) {said}") from None
 
 
 # ------------------------------------------------------------------ trials

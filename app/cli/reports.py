@@ -9,6 +9,7 @@ import sys
 
 from app.cli.common import (
     CommandError,
+    counted,
     finite,
     num,
     output_path,
@@ -93,11 +94,11 @@ def cmd_progress(args: argparse.Namespace) -> int:
     if unknown:
         raise CommandError(f"unknown metric {unknown[0]!r}; known: "
                            + ", ".join(prog.metric_names))
-    print(f"Progress of {args.code}: {_count(len(rows), 'trial')}, "
-          f"{_count(len(prog.exercises), 'exercise')}")
+    print(f"Progress of {args.code}: {counted(len(rows), 'trial')}, "
+          f"{counted(len(prog.exercises), 'exercise')}")
     for index, exercise in enumerate(prog.exercises):
         members = prog.members(index).tolist()
-        print(f"\nexercise {index + 1}: {exercise.label()} ({_count(len(members), 'trial')})")
+        print(f"\nexercise {index + 1}: {exercise.label()} ({counted(len(members), 'trial')})")
         figures = [shown_row(key) for key in args.metrics] if args.metrics else [
             row for row in figure_rows(prog, index)
             if exercise.assessment or row.key in (exercise.success_key, *EXERCISE_FIGURES)]
@@ -181,9 +182,6 @@ def _progress_cell(row: MetricRow, value) -> str:
     return f"{value * row.scale:.4g} {row.unit}".rstrip()
 
 
-
-def _count(n: int, noun: str) -> str:
-    return f"{n} {noun}{'' if n == 1 else 's'}"
 
 
 # ------------------------------------------------------------------ report

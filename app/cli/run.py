@@ -1,11 +1,14 @@
 """`rehab run`: a whole trial simulated headless with a virtual patient, as fast as it goes
-(app.trials.headless), its file written and its metrics printed; with `--code`, registered
-for a patient whose body sizes replace the trial options'."""
+(app.trials.headless), its metrics printed; its file written to `--output`, or with
+`--code` registered for a patient whose body sizes replace the trial options'. Without
+either nothing is kept and no data folder is touched."""
 
 from __future__ import annotations
 
 import argparse
 import sys
+import tempfile
+from pathlib import Path
 
 from app.cli.common import (
     EXIT_OK,
@@ -21,9 +24,11 @@ from app.cli.trial_options import add_trial_options, trial_from_args
 
 def add_run_command(commands) -> None:
     run_cmd = commands.add_parser(
-        "run", help="simulate a whole trial headless, save it and print its metrics",
-        description="Run a trial on the simulator with a virtual patient as fast as it goes, "
-                    "write its trial file and print the metrics table.",
+        "run", help="simulate a whole trial headless and print its metrics (--output or "
+                    "--code keeps it)",
+        description="Run a trial on the simulator with a virtual patient as fast as it goes "
+                    "and print the metrics table; its trial file is kept with --output, or "
+                    "registered for a patient with --code (nothing is kept without either).",
     )
     add_trial_options(run_cmd)
     from device.sim.patient_parameters import PATIENT_KINDS
@@ -34,8 +39,9 @@ def add_run_command(commands) -> None:
                          help="the trial's seed (the virtual patient's draws and the sensor "
                               "noise), a whole number from 0; default: a new one for every "
                               "trial, printed and kept in its file")
-    run_cmd.add_argument("--output", help="trial file to write (default: a new file in the "
-                                          "data folder's trials/simulated)")
+    run_cmd.add_argument("--output", help="trial file to write (default: none kept; the "
+                                          "figures are printed, and with --code the trial "
+                                          "is registered in the data folder)")
     run_cmd.add_argument("--code", help="register the trial for this patient (their body "
                                         "sizes replace the trial options')")
     run_cmd.add_argument("--new-session", action="store_true",
@@ -77,8 +83,6 @@ def add_run_command(commands) -> None:
 
 def cmd_run(args: argparse.Namespace) -> int:
     """Simulate a whole trial headless, write its file and print its metrics."""
-    import datetime
-
     from app.games.figures import game_line
     from app.reports.metrics_table import format_metrics
     from app.trials.registered import registered_trial
@@ -136,18 +140,15 @@ def cmd_run(args: argparse.Namespace) -> int:
                               if args.new_session else None) as begun:
             path = begun.path
             trial, analysis, problem = _simulate(params, path, run)
-    else:
-        if args.output:
-            path = output_path(args, args.output)
-        else:
-            from app.records.datadir import SIMULATED, TRIALS
-
-            stamp = datetime.datetime.now(datetime.UTC).strftime("%Y%m%dT%H%M%SZ")
-            folder = data_dir_for(args).ensure(TRIALS, SIMULATED)
-            path = folder / f"SIM_{args.patient}_{stamp}.h5"
-            if path.exists():
-                raise CommandError(f"{path} already exists; run again in a second")
+    elif args.output:
+        path = output_path(args, args.output)
         trial, analysis, problem = _simulate(params, path, run)
+    else:
+        # without --output or --code nothing is kept: trying `rehab run` from a fresh clone
+        # once made the data folder (and trials/simulated/), files no command lists
+        with tempfile.TemporaryDirectory(prefix="rehab-run-") as scratch:
+            trial, analysis, problem = _simulate(params, Path(scratch) / "trial.h5", run)
+        path = None
     if begun is not None:
         from app.trials.finalize import finalize_trial
 
@@ -163,7 +164,8 @@ def cmd_run(args: argparse.Namespace) -> int:
           f"{trial.elapsed_s:.2f} s ({trial.speed_vs_real_time:.0f}× real time, "
           f"{trial.engine} engine{loaded}), {args.patient} virtual patient, seed {args.seed}, "
           f"{args.plant} plant, {params.assist} assistance")
-    print(f"File: {path}")
+    print(f"File: {path}" if path else
+          "File: not kept (--output FILE keeps it; --code CODE registers it for a patient)")
     if analysis is None:
         print(f"No figures: {problem}")
     else:

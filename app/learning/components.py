@@ -24,7 +24,7 @@ import numpy as np
 from app.errors import AppError
 from app.learning.dataset import Dataset, read_dataset
 from app.learning.modelfile import ModelFile, read_model
-from app.learning.workflow import ROBOT_SYSTEM_PREFIX, held_out
+from app.learning.workflow import ROBOT_SYSTEM_PREFIX, force_units, held_out
 from core.learning import inference, pendulum as pd
 from core.robot import RobotModel
 
@@ -41,6 +41,7 @@ class Components:
 
     system: str
     forces: tuple[str, ...]
+    units: dict[str, str]  # each force's (app.learning.workflow.force_units)
     learned: dict[str, np.ndarray]
     analytic: dict[str, np.ndarray]
     total: np.ndarray
@@ -65,7 +66,8 @@ def torque_components(model: ModelFile, data: Dataset) -> Components:
     terms = inference.delan_terms(model.spec, model.params, data.q, data.qd, data.qdd)
     learned = {"inertial": terms.inertial, "coriolis": terms.coriolis,
                "potential": terms.gravity, "dissipative": terms.dissipative}
-    return Components(data.system, data.forces, learned, analytic, terms.total, data.tau)
+    return Components(data.system, data.forces, force_units(data), learned, analytic,
+                      terms.total, data.tau)
 
 
 def components_file(model_path: str | os.PathLike, data_path: str | os.PathLike, *,
@@ -131,7 +133,7 @@ def plot_components(c: Components, path: str | os.PathLike, *, title: str = "",
                     label="analytic model")
             ax.plot(x, c.learned[name][:, col], color="tab:orange", linestyle="--",
                     linewidth=1.2, label="DeLaN")
-            ax.set_title(f"{TITLES[name]}: {force}", fontsize=9)
+            ax.set_title(f"{TITLES[name]}: {force} ({c.units[force]})", fontsize=9)
             ax.grid(alpha=0.3)
     axes[0, 0].legend(fontsize=8)
     for ax in axes[-1]:

@@ -63,15 +63,19 @@ class TrainedModel:
     cross_validation_rmse: dict[str, float]
     training_seconds: float
     samples: int
+    units: dict[str, str]  # each force's (force_units)
 
 
 def train_file(data_path: str | Path, output: str | Path, kind: str, *,
                cyclic: Sequence[str] | None = None, name: str | None = None,
                progress: Callable[[float], None] | None = None, overwrite: bool = False,
-               owned: bool = False, **options) -> TrainedModel:
+               owned: bool = False, checked: Callable[[], object] | None = None,
+               **options) -> TrainedModel:
     """Train a `kind` model on the file's samples (its held-out cycles left out) and write
     the model file (`overwrite`, `owned`: app.learning.modelfile.write_model's).
-    `options` are core.learning.training.TrainingOptions' fields."""
+    `checked` is called once the data and the options are found trainable, before the
+    training (the command line makes the data folder's models/ there, so a refused run
+    makes nothing). `options` are core.learning.training.TrainingOptions' fields."""
     data = read_dataset(data_path)
     try:
         indices = cyclic_indices(data, cyclic)
@@ -91,6 +95,8 @@ def train_file(data_path: str | Path, output: str | Path, kind: str, *,
         raise DatasetError(data_path, f"has {np.unique(train_data.cycle).size} training "
                            f"cycles; {opts.folds}-fold cross-validation needs {needed}",
                            "Give more cycles, or fewer --folds.")
+    if checked is not None:
+        checked()
     try:
         result = train(train_data.q, train_data.qd, train_data.qdd, train_data.tau,
                        train_data.cycle, opts, progress=progress)
@@ -108,7 +114,7 @@ def train_file(data_path: str | Path, output: str | Path, kind: str, *,
                        summary, opts.hyper_parameters(), metrics, overwrite=overwrite,
                        owned=owned)
     return TrainedModel(path, metrics["parameters"], metrics["cross_validation_rmse"],
-                        metrics["training_seconds"], len(train_data))
+                        metrics["training_seconds"], len(train_data), force_units(data))
 
 
 @dataclass(frozen=True)
@@ -117,7 +123,8 @@ class Evaluation:
     parameters: int
     samples: int
     cycles: int
-    which: str  # "held-out cycles" or "all cycles"
+    held_out: bool  # the file's held-out cycles, else all its cycles
+    units: dict[str, str]  # each force's (force_units)
 
 
 def evaluate_file(model_path: str | Path, data_path: str | Path,
@@ -128,20 +135,40 @@ def evaluate_file(model_path: str | Path, data_path: str | Path,
     data = read_dataset(data_path)
     model.check_data(data)
     mask = held_out(data)
-    which = "held-out cycles"
-    if all_cycles or not mask.any():
-        mask, which = np.ones(len(data), bool), "all cycles"
+    held = not all_cycles and mask.any()
+    if not held:
+        mask = np.ones(len(data), bool)
     part = data.select(mask)
     predicted = inference.predict(model.spec, model.params, part.q, part.qd, part.qdd,
                                   part.cycle)
     rmse = np.sqrt(np.mean((predicted - part.tau) ** 2, axis=0))
     return Evaluation(dict(zip(data.forces, map(float, rmse), strict=True)),
-                      model.parameters, len(part), int(np.unique(part.cycle).size), which)
+                      model.parameters, len(part), int(np.unique(part.cycle).size), bool(held),
+                      force_units(data))
 
 
 ROBOT_SYSTEM_PREFIX = "rehab-robot"
 """What the `system` of robot data begins with (`robot_dataset` names it `robot_system`
 of what its trials ran on): a model trained on such data is a model of the robot."""
+
+
+ROBOT_FORCE_UNIT = "N·m"
+"""The robot's generalised forces are its joints' torques."""
+SI_FORCE_UNIT = "SI"
+"""A force of a system the console has no model of: SI as the format asks, but the file
+does not say whether it is a force (N) or a torque (N·m)."""
+
+
+def force_units(data: Dataset) -> dict[str, str]:
+    """Each generalised force's SI unit, by its name in `data`: the pendulum's N and N·m
+    (by position: a researcher may rename them), a robot's N·m, another system's 'SI'."""
+    if data.system == pd.SYSTEM and data.dof == len(pd.FORCE_UNITS):
+        units = pd.FORCE_UNITS
+    elif data.system.startswith(ROBOT_SYSTEM_PREFIX):
+        units = (ROBOT_FORCE_UNIT,) * data.dof
+    else:
+        units = (SI_FORCE_UNIT,) * data.dof
+    return dict(zip(data.forces, units, strict=True))
 
 
 def robot_system(ran_on: str) -> str:

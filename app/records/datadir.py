@@ -52,7 +52,8 @@ from device.safewrite import OutputRefused, folder_problem, make_private_folders
 ENV_DATA_DIR = "REHAB_DATA_DIR"
 REGISTRY_NAME = "registry.sqlite3"
 TRIALS = "trials"
-# trials/simulated: `rehab run` without --code writes its unregistered trials there
+# trials/simulated: where `rehab run` without --code wrote its unregistered trials until
+# 2026-12-06 (now it keeps none); a data folder may still hold them
 SIMULATED = "simulated"
 REPORTS = "reports"
 PRIVATE_FOLDER = safewrite.PRIVATE_FOLDER
@@ -415,7 +416,7 @@ def foreign_entries(root: Path) -> str:
 
 def registered_trial_count(trials_dir: Path) -> int:
     """How many trial files below `trials_dir` a registry would own: every .h5 but those of
-    its simulated/ folder, which `rehab run` writes without --code and never registers. A
+    its simulated/ folder, which `rehab run` wrote without --code and never registered. A
     registry missing beside the others orphans them (check_registry_file); the simulated
     ones alone orphan nothing, so they must not stop a first `rehab patients add`."""
     if not trials_dir.is_dir():

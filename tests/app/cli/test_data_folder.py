@@ -54,12 +54,52 @@ def test_the_first_patient_starts_a_registry_in_a_new_folder(tmp_path, capsys):
     assert out.startswith("P")
 
 
+@pytest.mark.parametrize(("typed", "said"), [
+    (["--upper-arm", "30"], "--upper-arm (upper_arm_m) = 30 is not allowed; allowed: "
+                            "[0.15, 0.5] m"),  # cm typed where m go, as a newcomer may
+    (["--shoulder", "5", "0.7"], "--shoulder (shoulder_m[x]) = 5 is not allowed"),
+    (["--birth-year", "1800"], "--birth-year (birth_year) = 1800 is not allowed"),
+])
+def test_a_refused_first_patient_starts_no_registry(tmp_path, capsys, typed, said):
+    """A first `patients add` with a value out of range made the data folder and an empty
+    registry before the registry refused the patient, and the refusal named the registry's
+    field (upper_arm_m) rather than the option typed. The values are checked first."""
+    new = tmp_path / "data"
+    code, _, err = run(["--data-dir", str(new), "patients", "add", "--first-name", "A",
+                        *typed], capsys)
+    assert code == 2
+    assert err.count("\n") == 1, err
+    assert said in err
+    assert not new.exists()
+
+
+def test_a_run_without_a_patient_creates_nothing(tmp_path, capsys):
+    """The README's first `rehab run --patient weak`, from a fresh clone: it made the data
+    folder and a file in its trials/simulated/ that no command lists, where the README
+    says only `patients add` starts a data folder. It prints the figures and keeps nothing
+    (its file only with --output, or registered with --code)."""
+    new = tmp_path / "data"
+    code, out, err = run(["--data-dir", str(new), "run", "--patient", "weak", "--repetitions",
+                          "1", "--duration", "3"], capsys)
+    assert code == 0, err
+    assert "File: not kept (--output FILE keeps it; --code CODE registers it" in out
+    assert "Directional performance" in out
+    assert not new.exists()
+    kept = tmp_path / "kept.h5"
+    code, out, err = run(["--data-dir", str(new), "run", "--repetitions", "1", "--duration",
+                          "3", "--output", str(kept)], capsys)
+    assert code == 0, err
+    assert f"File: {kept}" in out
+    assert kept.is_file()
+    assert not new.exists()
+
+
 def test_simulated_trials_before_the_first_patient_do_not_block_the_registry(tmp_path,
                                                                              capsys):
-    """The README's order: `rehab run --patient weak` first (its unregistered file goes to
-    trials/simulated/), then `rehab patients add`. The simulated files belong to no
-    registry, so they orphan nothing; they used to be counted as a lost registry's trials
-    and every first `patients add` was refused."""
+    """A data folder where an earlier console's `rehab run --patient weak` (before
+    2026-12-06) left its unregistered file in trials/simulated/, then `rehab patients add`.
+    The simulated files belong to no registry, so they orphan nothing; they used to be
+    counted as a lost registry's trials and every first `patients add` was refused."""
     new = tmp_path / "data"
     simulated = new / "trials" / "simulated"
     simulated.mkdir(parents=True)

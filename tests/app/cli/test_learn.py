@@ -2,6 +2,7 @@
 evaluate it (text and JSON), and bad input as one line with exit code 2."""
 
 import json
+import re
 import subprocess
 import sys
 
@@ -39,7 +40,7 @@ def trained(files):
 def test_pendulum_writes_the_thesis_data_set(tmp_path, capsys):
     code, out, _ = run(["learn", "pendulum", "--output", str(tmp_path / "p.h5")], capsys)
     assert code == 0
-    assert "101,000 samples, 1000 cycles, cycle at 5 rad/s held out" in out
+    assert "101,000 samples, 1,000 cycles, cycle at 5 rad/s held out" in out
     with h5py.File(tmp_path / "p.h5") as f:
         assert f["q"].shape == (101_000, 2)
         assert f.attrs["system"] == "sliding-inverted-pendulum"
@@ -56,14 +57,16 @@ def test_train_then_evaluate(files, trained, kind, capsys):
     code, out, _ = run(["learn", "evaluate", "--model", str(trained[kind]),
                         "--data", str(files / "p.h5")], capsys)
     assert code == 0
-    assert "101 samples, 1 cycles (held-out cycles)" in out
-    assert "RMSE f" in out
-    assert "RMSE tau" in out
+    # units on every figure, one cycle said so ('1 cycles', RMSEs without a unit before)
+    assert "101 samples, 1 held-out cycle; " in out
+    assert re.search(r"RMSE f    [0-9.e+-]+ N\n", out), out
+    assert re.search(r"RMSE tau  [0-9.e+-]+ N·m\n", out), out
     code, out, _ = run(["learn", "evaluate", "--model", str(trained[kind]),
                         "--data", str(files / "p.h5"), "--json"], capsys)
     result = json.loads(out)
-    assert set(result) == {"rmse", "parameters"}
+    assert set(result) == {"rmse", "units", "parameters"}
     assert set(result["rmse"]) == {"f", "tau"}
+    assert result["units"] == {"f": "N", "tau": "N·m"}
     assert result["parameters"] == document["parameters"]
     assert all(np.isfinite(v) and v > 0 for v in result["rmse"].values())
 
@@ -84,7 +87,7 @@ def test_evaluate_computes_the_rmse(files, trained, capsys):
                                rtol=1e-12)
     _, out, _ = run(["learn", "evaluate", "--model", str(trained["fnn"]), "--data",
                      str(files / "p.h5"), "--all-cycles"], capsys)
-    assert "808 samples, 8 cycles (all cycles)" in out
+    assert "808 samples, 8 cycles, the whole file; " in out
 
 
 def test_evaluate_a_researchers_file_by_its_force_names(files, trained, tmp_path, capsys):
@@ -97,6 +100,15 @@ def test_evaluate_a_researchers_file_by_its_force_names(files, trained, tmp_path
                         str(tmp_path / "own.h5"), "--json"], capsys)
     assert code == 0
     assert set(json.loads(out)["rmse"]) == {"push", "torque"}
+    # the pendulum's units by position, whatever the forces' names
+    assert json.loads(out)["units"] == {"push": "N", "torque": "N·m"}
+    # the same samples as a system the console has no model of: SI, N or N·m unknown
+    with h5py.File(tmp_path / "own.h5", "r+") as f:
+        f.attrs["system"] = "a-lab-arm"
+    from app.learning.dataset import read_dataset
+    from app.learning.workflow import force_units
+
+    assert force_units(read_dataset(tmp_path / "own.h5")) == {"push": "SI", "torque": "SI"}
 
 
 def test_bad_input_is_one_line_and_exit_2(files, trained, tmp_path, capsys):
@@ -214,6 +226,12 @@ def test_robot_data_from_recorded_trials(trials, tmp_path, capsys):
                         str(tmp_path / "r.h5")], capsys)
     assert code == 0
     assert "2 trials, system rehab-robot-simulator" in out
+    code, out, _ = run(["learn", "robot-data", "--trials", paths[0], "--output",
+                        str(tmp_path / "one.h5")], capsys)
+    assert "1 trial, system" in out  # not '1 trials'
+    from app.learning.workflow import force_units
+
+    assert set(force_units(read_dataset(tmp_path / "one.h5")).values()) == {"N·m"}
     assert run(["learn", "robot-data", "--trials", *paths, "--output", str(tmp_path / "w.h5"),
                 "--without-hand-force"], capsys)[0] == 0
     assert run(["learn", "robot-data", "--trials", *paths, "--output", str(tmp_path / "t.h5"),
@@ -272,11 +290,17 @@ def test_train_writes_into_the_data_folders_models_by_default(trials, tmp_path, 
                 "--without-hand-force", "--acceleration", "estimated"], capsys)[0] == 0
     args = ["learn", "train", "--model", "fnn", "--data", str(tmp_path / "r.h5"),
             "--epochs", "2", "--folds", "1", "--hidden", "4"]
+    # refused data (two trials, five folds) made the data folder and its models/ all the same
+    code, _, err = run([*args, "--folds", "5"], capsys)  # the last --folds counts
+    assert code == 2
+    assert "5-fold cross-validation needs 5" in err
+    assert not (tmp_path / "data").exists()
     code, out, _ = run(args, capsys)
     assert code == 0
     folder = tmp_path / "data" / "models"
     assert model_names(folder) == ["fnn-r"]
     assert str(folder / "fnn-r.json") in out
+    assert re.search(r"cross-validation RMSE tau_R1 \S+ N·m, tau_R2 \S+ N·m$", out.strip()), out
     assert robot_model(folder, "fnn-r").spec["kind"] == "fnn"
     code, _, err = run(args, capsys)  # the same name again: refused, not replaced
     assert code == 2
@@ -325,6 +349,8 @@ def test_components_of_a_delan_against_the_analytic_model(files, trained, tmp_pa
     assert code == 0, err
     assert out.read_bytes().startswith(b"\x89PNG")
     assert "sliding-inverted-pendulum: RMSE against the analytic model" in text
+    assert "f (N)" in text  # each force's column with its unit
+    assert "tau (N·m)" in text
     for name in (*COMPONENTS, "total (data)"):
         assert f"  {name}" in text
     c = components_file(trained["delan"], files / "p.h5")

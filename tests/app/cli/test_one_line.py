@@ -108,3 +108,39 @@ def test_every_help_is_printed(capsys):
         code, out, err = run([*path, "--help"], capsys)
         assert code == 0, (path, err)
         assert out.startswith("usage: rehab")
+
+
+@pytest.mark.parametrize(("argv", "said"), [
+    (["check", "--radius", "nan", "--shoulder", "-0.10", "0.72"],
+     "--radius (radius_m) = NaN is not allowed; allowed: a finite number in [0.02, 0.25] m"),
+    (["check", "--radius", "0.08", "--shoulder", "inf", "0.72"],
+     "allowed: a finite number in [-1.5, 1.5] m"),
+    (["patients", "add", "--first-name", "B", "--body-mass", "nan"],
+     "--body-mass (body_mass_kg) = NaN is not allowed; allowed: a finite number in [20, "
+     "250] kg"),
+    (["run", "--duration", "nan"], "allowed: a finite number in [1, 120] s"),
+], ids=lambda a: " ".join(a)[:50] if isinstance(a, list) else "")
+def test_nan_or_inf_is_told_the_range_to_give(argv, said, capsys):
+    """nan passes float(), and a range check refused it as 'allowed: a finite number m':
+    what was wrong, not what to give. The one line names the range too."""
+    code, _, err = run(argv, capsys)
+    assert code == 2
+    assert len(err.strip().splitlines()) == 1, err
+    assert said in err
+
+
+@pytest.mark.parametrize(("argv", "said"), [
+    (["patients", "add", "--first-name", "B", "--body-mass", "70kg"],
+     "rehab patients add: error: --body-mass '70kg' is not a number (kg) (see rehab patients "
+     "add --help)"),
+    (["patients", "add", "--upper-arm", "30cm"],
+     "--upper-arm '30cm' is not a number (shoulder to elbow, m)"),
+    (["run", "--seed", "1.5"], "rehab run: error: --seed '1.5' is not a whole number (see"),
+])
+def test_a_value_that_is_no_number_is_said_so_with_its_unit(argv, said, capsys):
+    """argparse said "argument --body-mass: invalid float value: '70kg'": a newcomer who
+    typed the unit learnt neither that a bare number was wanted nor in which unit."""
+    code, _, err = run(argv, capsys)
+    assert code == 2
+    assert len(err.strip().splitlines()) == 1, err
+    assert said in err

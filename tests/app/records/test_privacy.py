@@ -75,7 +75,7 @@ def test_a_folder_others_can_write_is_refused_and_left_as_it_was(tmp_path, bits,
         os.chown(shared, -1, 65534)  # nogroup: a group of others
     os.chmod(shared, bits)
     for argv in (["patients"], ["patients", "add", "--first-name", "A"], ["trials", "P0000000"],
-                 ["run", "--repetitions", "1", "--duration", "3"]):
+                 ["run", "--code", "P0000000", "--repetitions", "1", "--duration", "3"]):
         code, _, err = run(["--data-dir", str(shared), *argv], capsys)
         assert code == 2, argv
         assert err.count("\n") == 1, err

@@ -4,13 +4,16 @@ over TCP with a password, and gone when stopped."""
 from __future__ import annotations
 
 import os
+import signal
 import socket
+import subprocess
+import sys
 
 import psycopg
 import pytest
 
 import tests.postgres
-from tests.postgres import FORCE_ENV, HOST, start, start_initdb
+from tests.postgres import FORCE_ENV, HOST, REPO, start, start_initdb
 
 
 def test_the_server_listens_on_127_0_0_1_only_and_asks_for_a_password(postgres_server):
@@ -68,3 +71,40 @@ def test_a_port_taken_between_its_choice_and_the_start_is_chosen_again(postgres_
             assert conn.execute("SELECT 1").fetchone()[0] == 1
     finally:
         server.stop()
+
+
+STOP_BOUND_S = 120
+
+
+def test_ctrl_c_stops_the_server_run_by_hand_and_removes_it(postgres_server):
+    """`python -m tests.postgres run` (scripts/postgres-server run) ignored Ctrl-C when its
+    shell had started it as a job with `&`: SIGINT came ignored, Python never raised
+    KeyboardInterrupt, and the server ran on until killed. Sent SIGINT, it stops the
+    server, removes its folder and exits 0, however it was started."""
+    helper = subprocess.Popen(
+        [sys.executable, "-m", "tests.postgres", "run"], cwd=REPO, text=True,
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+        env={**os.environ, "PYTHONPATH": str(REPO)},
+        # as a background job of a script: SIGINT ignored from the start
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    try:
+        lines = []
+        while not lines or not lines[-1].startswith("Ctrl-C"):
+            line = helper.stdout.readline()
+            assert line, f"the helper ended before its server ran: {''.join(lines)}"
+            lines.append(line)
+        path = lines[0].split("(", 1)[1].split("):", 1)[0]
+        helper.send_signal(signal.SIGINT)
+        # a bound for a helper that never stops, not a timing: stopping takes a second
+        rest, _ = helper.communicate(timeout=STOP_BOUND_S)
+    finally:
+        if helper.poll() is None:
+            helper.terminate()  # SIGTERM: its server stopped before it goes
+            helper.communicate(timeout=STOP_BOUND_S)
+    assert helper.returncode == 0, rest
+    assert "Stopped and removed." in rest
+    if path.startswith("initdb"):
+        folder, port = path.split(" ")[2], int(path.rsplit(" ", 1)[1].rstrip(")"))
+        assert not os.path.exists(folder)
+        with socket.socket() as probe:
+            assert probe.connect_ex((HOST, port)) != 0
