@@ -367,6 +367,23 @@ def test_a_block_out_of_reach_is_said_before_build_and_connect(qtbot, tmp_path, 
         win.close()
 
 
+def test_the_chosen_template_says_what_it_holds_before_it_is_copied(qtbot):
+    """The Plan tab showed a bare "Endurance" over an empty table: what a template holds
+    was only its tooltip, so the therapist copied it to the patient to find out. The
+    chosen template's own words are in view under the list, and follow the choice."""
+    from app.plans.templates import load_template, template_titles
+    from ui.tabs.plan import PlanTab
+
+    titles = template_titles()
+    tab = PlanTab(titles)
+    qtbot.addWidget(tab)
+    tab.show()
+    for index, (name, title, _about) in enumerate(titles):
+        tab.templates.setCurrentIndex(index)
+        assert tab.about.isVisible()
+        assert tab.about.text() == f"{title}: {load_template(name).about}"
+
+
 @pytest.mark.parametrize("name", ["first-session", "reaching", "endurance", "games"])
 def test_the_plan_table_shows_every_cell_and_heading_whole_at_1366(qtbot, name):
     """The Plan tab on a 1366 px laptop (brief hI): the table kept Qt's 100 px columns and

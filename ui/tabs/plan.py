@@ -66,6 +66,12 @@ class PlanTab(QWidget):
         top.addWidget(QLabel("Template:"))
         top.addWidget(self.templates, 1)
         top.addWidget(self.copy_button)
+        # what the chosen template holds, in view before it is copied: only its tooltip
+        # said it, and the list showed a bare "Endurance" over an empty table
+        self.about = QLabel("")
+        self.about.setWordWrap(True)
+        self.templates.currentIndexChanged.connect(self._show_about)
+        self._show_about()
         self.title = QLabel("No patient chosen: choose one on the Registration tab.")
         self.title.setWordWrap(True)
         self.table = QTableWidget(0, len(COLUMNS))
@@ -106,6 +112,7 @@ class PlanTab(QWidget):
         self.waiting_line.setMinimumHeight(self.waiting_line.fontMetrics().lineSpacing())
         column = QVBoxLayout(self)
         column.addLayout(top)
+        column.addWidget(self.about)
         column.addWidget(self.title)
         column.addWidget(self.waiting_line)
         column.addWidget(self.table, 1)
@@ -131,6 +138,10 @@ class PlanTab(QWidget):
                     self.table.setItem(row, col, item)
         finally:
             self._loading = False
+
+    def _show_about(self) -> None:
+        about = self.templates.currentData(Qt.ItemDataRole.ToolTipRole) or ""
+        self.about.setText(f"{self.templates.currentText()}: {about}" if about else "")
 
     def show_running(self, running: bool, paused: bool) -> None:
         """Which of the plan's buttons apply."""
