@@ -96,8 +96,11 @@ ROWS: tuple[MetricRow, ...] = (
               "what the motors put in (negative: held back); transparent: the robot's "
               "own friction",
               short="Robot work"),
-    MetricRow("robot_help_work_J", "Robot's help", "J", 1.0,
-              "its pull on the hand, not its own friction", short="Robot help"),
+    # not "Robot's help": the report's header, the Progress tab and the Parameters tab call
+    # the assistance level (100 %) so, and the two sat in one report as 100 % and −0.22 J
+    MetricRow("robot_help_work_J", "Work of the robot's help", "J", 1.0,
+              "its pull on the hand, not its own friction (negative: against the hand)",
+              short="Help's work"),
     MetricRow("patient_work_J", "Patient's net work", "J", 1.0,
               "what the hand put into the handle", short="Patient work"),
     MetricRow("robot_work_share", "Robot's share of the work", "%", 100.0,
@@ -131,9 +134,8 @@ def display_value(metrics: TrialMetrics | dict, row: MetricRow) -> float:
 
 def number_text(value: float, decimals: int = 2) -> str:
     """A table figure: two decimals unless told (MetricRow.places), in the terminal's
-    tables and the report's; one that
-    rounds to zero reads 0.00, never "-0.00" (a help of −0.001 J is none, not a robot that
-    held the hand back)."""
+    tables and the report's; one that rounds to zero reads 0.00, never "-0.00" (a help of
+    −0.001 J is none, not a robot that held the hand back)."""
     if not math.isfinite(value):
         return "–"
     return f"{value if round(value, decimals) else 0.0:.{decimals}f}"
