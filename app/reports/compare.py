@@ -333,8 +333,9 @@ class TableRow:
 
 
 def metric_text(row: MetricRow, value_si: float) -> str:
-    """'8.68 mm', '78.00 %', '42.17°', '0.84 N': a figure with its display unit."""
-    shown = number_text(value_si * row.scale)
+    """'8.7 mm', '78 %', '42.2°', '0.84 N': a figure with its display unit, in its
+    row's decimals (MetricRow.places)."""
+    shown = number_text(value_si * row.scale, row.places)
     if not row.unit:
         return shown
     return f"{shown}{row.unit}" if row.unit == "°" else f"{shown} {row.unit}"
@@ -348,7 +349,7 @@ PATIENT_RESOLUTION = {"mm": 1.0, "%": 1.0, "°": 1.0}
 def _resolved(row: MetricRow, value: float) -> float:
     step = PATIENT_RESOLUTION.get(row.unit)
     if step is None:
-        return float(number_text(value))
+        return float(number_text(value, row.places))
     shown = round(value / step) * step
     # the patient reads a distance as at least 1 mm (plain_language.distance_mm_shown)
     return max(shown, 1.0) if row.unit == "mm" else shown
@@ -411,14 +412,14 @@ def table_rows(metrics: Mapping[str, float], baselines: tuple[Baseline, ...], *,
             # unit (whole mm, %, degrees), else at the table's: the table never says
             # "worse" where the patient's page says "the same".
             if not compared:
-                texts.append(f"was {number_text(earlier)}")
+                texts.append(f"was {number_text(earlier, row.places)}")
                 verdicts.append("")
                 continue
             a, b = _resolved(row, earlier), _resolved(row, value)
             word = verdict(goal, a, b)
             # the cell reads as the change *to* this trial, not as a verdict on the earlier
-            texts.append(f"was {number_text(earlier)}: now {arrow(a, b)} {word}")
+            texts.append(f"was {number_text(earlier, row.places)}: now {arrow(a, b)} {word}")
             verdicts.append(word)
         rows.append(TableRow(row.key, row.label, row.unit, row.meaning, value,
-                             number_text(value), tuple(texts), tuple(verdicts)))
+                             number_text(value, row.places), tuple(texts), tuple(verdicts)))
     return tuple(rows)

@@ -18,6 +18,14 @@ class MetricRow:
     scale: float  # SI value × scale = display value
     meaning: str
     short: str = ""  # a column heading
+    decimals: int = -1  # the figure's decimals in a table; -1: its unit's (UNIT_DECIMALS)
+
+    @property
+    def places(self) -> int:
+        """The decimals the figure is written with: as the window's tabs write it where
+        they show it (0.9 mm, 31 %, 45.8°), never finer than the measurement means (a
+        speed to the mm/s, not "130.36 mm/s")."""
+        return self.decimals if self.decimals >= 0 else UNIT_DECIMALS.get(self.unit, 2)
 
     @property
     def heading(self) -> str:
@@ -33,6 +41,12 @@ class MetricRow:
     def heading_in_unit(self) -> str:
         """The short name with its display unit, as an axis or a chooser names it."""
         return _in_unit(self.heading, self.unit)
+
+
+UNIT_DECIMALS = {"mm": 1, "%": 0, "°": 1, "mm/s": 0}
+"""Display unit → decimals in the tables, as the Trajectory, Force and Joint angles tabs
+and the patient's page write the same figures (ui.tabs: 0.9 mm, 31 %, 45.8°); any other
+unit two (N, N·m, J, s, ratios)."""
 
 
 def _in_unit(name: str, unit: str) -> str:
@@ -82,8 +96,11 @@ ROWS: tuple[MetricRow, ...] = (
               "what the motors put in (negative: held back); transparent: the robot's "
               "own friction",
               short="Robot work"),
-    MetricRow("robot_help_work_J", "Robot's help", "J", 1.0,
-              "its pull on the hand, not its own friction", short="Robot help"),
+    # not "Robot's help": the report's header, the Progress tab and the Parameters tab call
+    # the assistance level (100 %) so, and the two sat in one report as 100 % and −0.22 J
+    MetricRow("robot_help_work_J", "Work of the robot's help", "J", 1.0,
+              "its pull on the hand, not its own friction (negative: against the hand)",
+              short="Help's work"),
     MetricRow("patient_work_J", "Patient's net work", "J", 1.0,
               "what the hand put into the handle", short="Patient work"),
     MetricRow("robot_work_share", "Robot's share of the work", "%", 100.0,
@@ -116,9 +133,9 @@ def display_value(metrics: TrialMetrics | dict, row: MetricRow) -> float:
 
 
 def number_text(value: float, decimals: int = 2) -> str:
-    """A table figure: two decimals, in the terminal's tables and the report's; one that
-    rounds to zero reads 0.00, never "-0.00" (a help of −0.001 J is none, not a robot that
-    held the hand back)."""
+    """A table figure: two decimals unless told (MetricRow.places), in the terminal's
+    tables and the report's; one that rounds to zero reads 0.00, never "-0.00" (a help of
+    −0.001 J is none, not a robot that held the hand back)."""
     if not math.isfinite(value):
         return "–"
     return f"{value if round(value, decimals) else 0.0:.{decimals}f}"
@@ -130,6 +147,6 @@ def format_metrics(metrics: TrialMetrics | dict, *, skip_missing: bool = True) -
         value = display_value(metrics, row)
         if skip_missing and not math.isfinite(value):
             continue
-        shown = f"{number_text(value):>9}"
+        shown = f"{number_text(value, row.places):>9}"
         lines.append(f"  {row.label:<34}{shown} {row.unit:<5} {row.meaning}".rstrip())
     return "\n".join(lines)

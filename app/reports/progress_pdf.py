@@ -17,6 +17,7 @@ import matplotlib.lines
 import numpy as np
 from matplotlib.figure import Figure
 
+from app.reports.metrics_table import number_text
 from app.reports.pdf_file import write_pdf
 from app.reports.pdf_sheet import (
     BLUE,
@@ -250,7 +251,7 @@ def _table(sheet: Sheet, progress: Progress, figure: ProgressFigure,
                  trial.station or "", trial.status.replace("_", " "), help_text,
                  f"{progress.duration_s[i]:g}",
                  f"{np.degrees(progress.tolerance_rad[i]):.0f}",
-                 f"{value:.2f}" if np.isfinite(value) else "–")
+                 number_text(value, figure.row.places))
         x = LEFT_IN
         for text, (_, width) in zip(cells, headings, strict=True):
             sheet.fig.text(sheet.fx(x), sheet.fy(sheet.y_in), fit(text, size, width - 0.05),

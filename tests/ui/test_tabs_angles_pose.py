@@ -50,6 +50,7 @@ def test_the_camera_is_drawn_beside_the_solver_with_its_agreement(qtbot, qapp, p
     assert np.isnan(y).any()  # gaps are drawn as gaps
     text = tab.camera_note.text()
     rmse = math.degrees(pose["attrs"]["camera_vs_solver_elbow_rmse_rad"])
+    assert tab.legend_names() == ["shoulder", "elbow", "shoulder, camera", "elbow, camera"]
     assert f"Elbow: {rmse:.1f}° RMSE" in text
     assert "Table 3.4" in text
     assert "Shoulder moved up to" in text
@@ -69,6 +70,8 @@ def test_without_a_pose_the_panel_says_how_to_get_one(qtbot, qapp, tmp_path):
     assert "rehab" not in tab.camera_note.text()
     assert tab.camera_curves[0].getOriginalDataset()[0] is None or \
         len(tab.camera_curves[0].getOriginalDataset()[0]) == 0
+    # the legend names no camera curve that is not drawn (it named both on every trial)
+    assert tab.legend_names() == ["shoulder", "elbow"]
 
 
 def test_a_researcher_compares_solver_and_camera_with_reference_angles(qtbot, qapp, posed,

@@ -25,8 +25,8 @@ from ui.tabs import (
     TrajectoryTab,
     ViewTab,
 )
+from ui.tabs.torques import help_words
 from ui.views import samples
-from ui.views.numbers import format_number
 from ui.views.trialview import TrialView
 
 PARAMETERS = THESIS_SUBJECT.replace(repetitions=2)
@@ -245,12 +245,33 @@ def test_the_robots_share_of_the_work_is_shown_live_and_equals_the_trials_metric
     assert tab.work_share.text() == f"{metrics.robot_work_share * 100:.0f}"
     # the share is the help's: its work is the one shown with it
     assert live.help_J == pytest.approx(metrics.robot_help_work_J, rel=1e-9, abs=1e-12)
-    assert f"robot's help {format_number(metrics.robot_help_work_J, 2)} J" in (
-        tab.work_share.detail.text())
+    assert help_words(metrics.robot_help_work_J) in tab.work_share.detail.text()
     # a transparent trial's motors only lighten the robot: no share of moving the handle
     tab.show_view(TrialView.from_records(records, PARAMETERS.replace(assist="transparent")))
     assert tab.work_share.text() == "–"
     assert "robot's own friction" in tab.work_share.detail.text()
+
+
+def test_the_work_line_says_a_negative_help_as_holding_back_and_so_far_only_live(
+        qtbot, records):
+    """The Torques tab read "robot's help −0.22 J … over the exercise so far" beside a
+    share of 0 % after the trial had ended: a negative help is the robot holding the hand
+    back, and a finished trial's work is the whole exercise's, not "so far"."""
+    assert help_words(-0.2249) == "the robot held the hand back 0.22 J"
+    assert help_words(0.31) == "robot's help 0.31 J"
+    assert help_words(-0.001) == "robot's help 0.00 J"
+    assert help_words(math.nan) == "robot's help – J"
+    live = TrialView(PARAMETERS, initial_capacity=256)
+    live.append(records)
+    tab = shown(qtbot, TorquesTab())
+    tab.show_view(live)
+    assert tab.work_share.detail.text().endswith("over the exercise so far")
+    live.finished = True
+    tab.show_view(live)
+    detail = tab.work_share.detail.text()
+    assert detail.endswith("over the exercise")
+    assert "so far" not in detail
+    assert help_words(live.help_J) in detail
 
 
 def test_a_replayed_trial_s_work_is_its_file_s(qtbot, tmp_path):

@@ -91,6 +91,11 @@ def test_a_template_copied_and_a_block_changed_in_the_plan_tab(qtbot, window):
     first = win.registry.current_plan(win.patient.code)
     assert first.template == "first-session"
     assert tab.table.rowCount() == 3
+    # the blocks in the words of the Parameters and Progress tabs, not the plan's codes
+    # (the cells read "d", "none", "as-needed")
+    assert [tab.table.item(0, col).text() for col in (1, 2, 6)] == [
+        "D shape", "none", "As needed"]
+    assert tab.table.item(2, 1).text() == "Reach out and back"
     tab.table.item(1, 9).setText("30")  # the circle's rest, s
     shown(qtbot, win)
     today = win.registry.current_plan(win.patient.code)
@@ -103,15 +108,15 @@ def test_a_template_copied_and_a_block_changed_in_the_plan_tab(qtbot, window):
     # a block made a game: the reaching game needs the targets or a reach
     tab.table.item(0, 2).setText("reach")
     assert "block 1.shape = 'd' is not allowed" in tab.refusal.text()
-    tab.table.item(0, 1).setText("targets")
+    tab.table.item(0, 1).setText("Targets (centre-out)")  # a cell takes the name it shows
     shown(qtbot, win)
-    tab.table.item(0, 2).setText("reach")
+    tab.table.item(0, 2).setText("Reaching game")
     shown(qtbot, win)
     tab.table.item(0, 3).setText("3")
     shown(qtbot, win)
     game = win.registry.current_plan(win.patient.code).plan.blocks[0]
     assert (game.shape, game.game, game.rounds) == ("targets", "reach", 3)
-    assert tab.table.item(0, 2).text() == "reach"
+    assert tab.table.item(0, 2).text() == "Reaching game"
 
 
 def test_start_plan_runs_each_block_through_build_and_start_with_its_rest(qtbot, window):
@@ -365,6 +370,23 @@ def test_a_block_out_of_reach_is_said_before_build_and_connect(qtbot, tmp_path, 
                                       "then Connect, hands off the handle).")
     finally:
         win.close()
+
+
+def test_the_chosen_template_says_what_it_holds_before_it_is_copied(qtbot):
+    """The Plan tab showed a bare "Endurance" over an empty table: what a template holds
+    was only its tooltip, so the therapist copied it to the patient to find out. The
+    chosen template's own words are in view under the list, and follow the choice."""
+    from app.plans.templates import load_template, template_titles
+    from ui.tabs.plan import PlanTab
+
+    titles = template_titles()
+    tab = PlanTab(titles)
+    qtbot.addWidget(tab)
+    tab.show()
+    for index, (name, title, _about) in enumerate(titles):
+        tab.templates.setCurrentIndex(index)
+        assert tab.about.isVisible()
+        assert tab.about.text() == f"{title}: {load_template(name).about}"
 
 
 @pytest.mark.parametrize("name", ["first-session", "reaching", "endurance", "games"])

@@ -35,6 +35,9 @@ class AnglesTab(QWidget):
             plots.curve(item, theme.VERMILLION, dashed=True, name="elbow, camera",
                         gaps=True),
         ]
+        # named in the legend only while drawn: "shoulder, camera" stood in the legend of
+        # every trial, over a note saying the trial had no camera angles
+        self._camera_in_legend(False)
         self.cursor_line = plots.cursor_line(item)
         self.rom = [plots.BigNumber(f"{joint.capitalize()} range of motion", "°")
                     for joint in JOINTS]
@@ -83,6 +86,7 @@ class AnglesTab(QWidget):
             number.set_value(high[j] - low[j], f"from {format_number(low[j])}° to "
                                                f"{format_number(high[j])}°")
         pose = view.pose
+        self._camera_in_legend(pose is not None)
         if pose is None:
             for line in self.camera_curves:
                 line.setData([], [])
@@ -96,6 +100,18 @@ class AnglesTab(QWidget):
             self.camera_note.setText(pose.comparison_text())
         self.reference_button.setEnabled(pose is not None and view.source is not None)
         plots.place_cursor(self.cursor_line, view.cursor)
+
+    def legend_names(self) -> list[str]:
+        """The names the plot's legend shows, in order."""
+        return [label.text for _sample, label in self.plot.getPlotItem().legend.items]
+
+    def _camera_in_legend(self, shown: bool) -> None:
+        legend = self.plot.getPlotItem().legend
+        for line in self.camera_curves:
+            if shown and legend.getLabel(line) is None:
+                legend.addItem(line, line.name())
+            elif not shown and legend.getLabel(line) is not None:
+                legend.removeItem(line)
 
     def choose_reference(self) -> None:
         path, _ = QFileDialog.getOpenFileName(self, "Reference angles", self.files_folder,

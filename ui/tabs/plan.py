@@ -26,7 +26,10 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from app.games.names import GAME_TITLES
+from app.reports.progress import MODE_NAMES
 from core.plan import Block, Plan
+from ui.tabs.parameters_fields import SHAPE_NAMES
 
 COLUMNS = ("Block", "Exercise", "Game", "Rounds", "Laps", "Pace (s a lap)", "Mode",
            "Level (%)", "Tolerance (°)", "Rest (s)")
@@ -35,6 +38,22 @@ EDITABLE = {1: "shape", 2: "game", 3: "rounds", 4: "repetitions", 5: "duration_s
 """Table column -> the block's field it changes (in the column's display unit; a game is
 'path', 'reach' or empty for none)."""
 TEXT_FIELDS = ("shape", "game", "assist")
+TEXT_NAMES = {"shape": SHAPE_NAMES, "game": {"": "none", **GAME_TITLES}, "assist": MODE_NAMES}
+"""A text field's codes -> the names a cell shows, as the Parameters and Progress tabs name
+them ('D shape', 'Reaching game', 'As needed'; the cells read 'd', 'reach', 'as-needed').
+A cell takes either back."""
+
+
+def text_value(field: str, text: str) -> str:
+    """The code a typed `text` names in a text field ('As needed' or 'as-needed':
+    'as-needed'; 'none' or nothing: no game); anything else as typed, for Block to refuse."""
+    typed = text.strip().lower()
+    for code, name in TEXT_NAMES[field].items():
+        if typed in (code, name.lower()):
+            return code
+    if field == "game" and typed in ("-", "none"):
+        return ""
+    return typed.removesuffix(" game") if field == "game" else typed
 
 
 class PlanTab(QWidget):
@@ -66,6 +85,12 @@ class PlanTab(QWidget):
         top.addWidget(QLabel("Template:"))
         top.addWidget(self.templates, 1)
         top.addWidget(self.copy_button)
+        # what the chosen template holds, in view before it is copied: only its tooltip
+        # said it, and the list showed a bare "Endurance" over an empty table
+        self.about = QLabel("")
+        self.about.setWordWrap(True)
+        self.templates.currentIndexChanged.connect(self._show_about)
+        self._show_about()
         self.title = QLabel("No patient chosen: choose one on the Registration tab.")
         self.title.setWordWrap(True)
         self.table = QTableWidget(0, len(COLUMNS))
@@ -106,6 +131,7 @@ class PlanTab(QWidget):
         self.waiting_line.setMinimumHeight(self.waiting_line.fontMetrics().lineSpacing())
         column = QVBoxLayout(self)
         column.addLayout(top)
+        column.addWidget(self.about)
         column.addWidget(self.title)
         column.addWidget(self.waiting_line)
         column.addWidget(self.table, 1)
@@ -131,6 +157,10 @@ class PlanTab(QWidget):
                     self.table.setItem(row, col, item)
         finally:
             self._loading = False
+
+    def _show_about(self) -> None:
+        about = self.templates.currentData(Qt.ItemDataRole.ToolTipRole) or ""
+        self.about.setText(f"{self.templates.currentText()}: {about}" if about else "")
 
     def show_running(self, running: bool, paused: bool) -> None:
         """Which of the plan's buttons apply."""
@@ -166,8 +196,7 @@ class PlanTab(QWidget):
         field = EDITABLE.get(col)
         text = item.text().strip()
         if field in TEXT_FIELDS:
-            value = text.lower().removesuffix(" game") if field == "game" else text.lower()
-            value = "" if field == "game" and value in ("", "none", "-") else value
+            value = text_value(field, text)
         else:
             try:
                 value = float(text.replace(",", "."))
@@ -197,9 +226,11 @@ class PlanTab(QWidget):
 def _cells(row: int, block: Block) -> tuple[str, ...]:
     laps = str(block.repetitions) if block.repetitions is not None else (
         f"{block.laps} ({block.active_s / 60:g} min)")
-    return (f"{row + 1}. {block.name}" if block.name else str(row + 1), block.shape,
-            block.game or "none", str(block.rounds), laps, f"{block.duration_s:g}",
-            block.assist, f"{block.assistance_level * 100:.0f}",
+    return (f"{row + 1}. {block.name}" if block.name else str(row + 1),
+            TEXT_NAMES["shape"].get(block.shape, block.shape),
+            TEXT_NAMES["game"].get(block.game, block.game), str(block.rounds), laps,
+            f"{block.duration_s:g}", TEXT_NAMES["assist"].get(block.assist, block.assist),
+            f"{block.assistance_level * 100:.0f}",
             f"{math.degrees(block.tolerance_rad):.0f}", f"{block.rest_s:g}")
 
 

@@ -10,6 +10,7 @@ switched on for a finished trial, at most once a second while a trial runs.
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -32,6 +33,17 @@ def smooth_torques(torque: np.ndarray, dt_s: float) -> tuple[np.ndarray, np.ndar
     smoothed = lowpass(torque.T, dt_s, DEFAULT_TORQUE_CUTOFF_HZ, nan_policy="interpolate",
                        name="subject_torque").T
     return smoothed, value_range(smoothed.T)
+
+
+def help_words(help_J: float) -> str:
+    """The robot's help as the therapist reads it: a negative help is the robot holding
+    the hand back (its pull against the hand's way), said so rather than as a help of
+    "−0.22 J" beside a share of 0 %."""
+    if math.isfinite(help_J) and round(help_J, 2) < 0.0:
+        return f"the robot held the hand back {format_number(-help_J, 2)} J"
+    # one that rounds to zero is none, never "−0.00" (metrics_table.number_text)
+    shown = abs(help_J) if math.isfinite(help_J) and not round(help_J, 2) else help_J
+    return f"robot's help {format_number(shown, 2)} J"
 
 
 class TorquesTab(QWidget):
@@ -101,9 +113,9 @@ class TorquesTab(QWidget):
         share = view.robot_work_share
         # the share counts the help alone (core.work.MechanicalWork): its work is shown
         # beside the motors' so that the two are not read as one
-        detail = (f"robot's help {format_number(view.help_J, 2)} J (motors "
-                  f"{format_number(robot, 2)} J), patient {format_number(patient, 2)} J, "
-                  "over the exercise so far")
+        detail = (f"{help_words(view.help_J)} (motors {format_number(robot, 2)} J), "
+                  f"patient {format_number(patient, 2)} J, over the exercise"
+                  f"{'' if view.finished else ' so far'}")
         if robot_only_lightened(view.parameters):
             # the motors' work went into the robot's own friction and inertia: no share of
             # moving the handle (plain_language.own_work_line)

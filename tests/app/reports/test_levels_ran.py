@@ -52,6 +52,19 @@ def test_the_report_says_the_levels_the_trial_ran(course):
         therapist["Settings"]
 
 
+def test_the_report_names_the_level_and_the_help_s_work_apart(course):
+    """The report's header said "Robot's help 100 %" (the level) and its table "Robot's
+    help −0.22 J" (the work of the robot's pull on the hand): one name for two figures. The
+    table's row names the work, and no name of the header is a row's."""
+    registry, ids, _ = course
+    content = content_for_registry_trial(registry, ids["held"])
+    header = {item.label for item in (*content.header, *content.therapist_header)}
+    rows = {row.label: row for row in content.table}
+    assert "Robot's help" in header
+    assert not header & set(rows)
+    assert rows["Work of the robot's help"].unit == "J"
+
+
 def test_help_changed_during_a_trial_is_not_compared(course):
     registry, ids, _ = course
     lowered = content_for_registry_trial(registry, ids["lowered"])

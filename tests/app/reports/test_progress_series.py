@@ -108,6 +108,13 @@ def test_progress_prints_a_page_an_exercise(course, tmp_path):
     assert "Thesis mode · D shape, r 10.0 cm · SMC" in second
     assert "Directional performance (%)" in second
     assert "Led the movement" not in second
+    # each trial's figure as the report's table and the tabs write it ("99", not "99.05")
+    result = progress(registry, code)
+    led = [float(v) for v in result.values["led_pct"] if np.isfinite(v)]
+    assert led
+    for value in led:
+        assert f"{value:.0f}" in first
+        assert f"{value:.2f}" not in first
 
 
 def test_the_printed_line_joins_only_the_trials_that_ran_to_their_end(course):

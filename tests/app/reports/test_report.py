@@ -22,7 +22,8 @@ from app.reports.build import (
     report_for_registry_trial,
     write_report_pdf,
 )
-from app.reports.compare import patient_changes, table_rows
+from app.reports.compare import metric_text, patient_changes, table_rows
+from app.reports.metrics_table import ROW_BY_KEY, format_metrics
 from app.reports.plain_language import force_text, mass_text, parameter_cautions, plain_lines
 from app.trials.assistance_timeline import AssistanceInEffect
 from app.trials.headless import save, simulate
@@ -94,14 +95,14 @@ def test_the_pdf_has_two_pages_and_the_thesis_figures_computed_from_the_file(
     torque = trial.channels["subject_torque"][ex]
     torque_range = torque.max(axis=0) - torque.min(axis=0)
 
-    assert f"Position error, x (RMSE) (mm) {rmse_mm[0]:.2f}" in text
-    assert f"Position error, y (RMSE) (mm) {rmse_mm[1]:.2f}" in text
-    assert f"{percent:.2f} %" in text
+    assert f"Position error, x (RMSE) (mm) {rmse_mm[0]:.1f}" in text
+    assert f"Position error, y (RMSE) (mm) {rmse_mm[1]:.1f}" in text
+    assert f"{percent:.0f} %" in text
     assert f"You pushed in the right direction {round(percent)} % of the time" in text
     assert f"range {np.ptp(force[:, 0]):.2f} N" in text
     assert f"range {np.ptp(force[:, 1]):.2f} N" in text
-    assert f"range of motion {rom[0]:.2f}°" in text
-    assert f"range of motion {rom[1]:.2f}°" in text
+    assert f"range of motion {rom[0]:.1f}°" in text
+    assert f"range of motion {rom[1]:.1f}°" in text
     assert f"range {torque_range[0]:.2f} N·m raw" in text
     assert f"Your shoulder moved through {round(rom[0])}°" in text
     # the therapist's page names the thesis's figures; the patient's page is plain words
@@ -192,14 +193,14 @@ def test_ranges_of_motion_are_more_or_less_never_better_or_worse():
     assert changes["shoulder_rom_rad"].text == "Shoulder movement: 30° → 45°, more"
 
 
-def test_the_therapist_table_compares_at_two_decimals_with_each_figure_s_goal():
+def test_the_therapist_table_compares_each_figure_with_its_goal():
     now = {"rmse_x_m": 0.004, "directional_performance_pct": 70.0, "path_length_ratio": 1.02,
            "force_range_x_N": 3.0}
     earlier = Baseline({"rmse_x_m": 0.006, "directional_performance_pct": 80.0,
                         "path_length_ratio": 0.95, "force_range_x_N": 3.0})
     rows = {row.key: row for row in table_rows(now, (earlier,))}
-    assert rows["rmse_x_m"].value_text == "4.00"
-    assert rows["rmse_x_m"].earlier_texts == ("was 6.00: now ↓ better",)
+    assert rows["rmse_x_m"].value_text == "4.0"
+    assert rows["rmse_x_m"].earlier_texts == ("was 6.0: now ↓ better",)
     assert rows["directional_performance_pct"].verdicts == ("worse",)
     assert rows["path_length_ratio"].verdicts == ("better",)  # 1.02 is nearer 1 than 0.95
     assert rows["force_range_x_N"].verdicts == ("same",)
@@ -216,7 +217,26 @@ def test_the_table_never_says_worse_where_the_patients_page_says_the_same():
     rows = {row.key: row for row in table_rows(after, (Baseline(before),))}
     assert patient["directional_performance_pct"] == "same"
     assert rows["directional_performance_pct"].verdicts == ("same",)
-    assert rows["rmse_x_m"].earlier_texts == ("was 1.02: now = same",)
+    assert rows["rmse_x_m"].earlier_texts == ("was 1.0: now = same",)
+
+
+def test_the_therapist_table_writes_each_figure_as_the_tabs_and_the_patient_do():
+    """The therapist's table read "Mean speed 130.36 mm/s", "Led the movement 99.05 %",
+    "Shoulder range of motion 46.22°" and "0.86 mm" where the Trajectory tab said 0.9 mm,
+    the Force tab 31 %, the Joint angles tab 45.8° and the patient's page 99 %: each figure
+    is written in its unit's decimals, as the tabs write it (and the terminal's table)."""
+    metrics = {"rmse_x_m": 0.00086, "led_pct": 99.05, "directional_performance_pct": 30.68,
+               "shoulder_rom_rad": math.radians(46.22), "mean_speed_m_s": 0.13036,
+               "force_range_x_N": 11.24, "robot_work_share": 0.0, "movement_time_s": 20.3}
+    rows = {row.key: row.value_text for row in table_rows(metrics, (), mode="as-needed")}
+    assert rows == {"rmse_x_m": "0.9", "led_pct": "99", "directional_performance_pct": "31",
+                    "shoulder_rom_rad": "46.2", "mean_speed_m_s": "130",
+                    "force_range_x_N": "11.24", "robot_work_share": "0",
+                    "movement_time_s": "20.30"}
+    assert metric_text(ROW_BY_KEY["mean_speed_m_s"], 0.21079) == "211 mm/s"
+    terminal = format_metrics(metrics)
+    assert "130 mm/s" in terminal
+    assert "99.05" not in terminal
 
 
 def test_a_changed_exercise_comes_with_a_caution():

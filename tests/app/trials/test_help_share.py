@@ -83,7 +83,7 @@ def test_the_printed_table_shows_the_help_beside_the_motors_work():
     help's, so the help's work is a row of its own beside the motors' net work."""
     m = run("passive", "as-needed")[2]
     table = format_metrics(m)
-    assert f"Robot's help{'':22}{m.robot_help_work_J:9.2f} J" in table
+    assert f"Work of the robot's help{'':10}{m.robot_help_work_J:9.2f} J" in table
     assert f"Robot's net work{'':18}{m.robot_work_J:9.2f} J" in table
 
 
@@ -91,7 +91,7 @@ def test_a_figure_that_rounds_to_zero_reads_0_00_not_minus_0_00():
     """A transparent trial's help (−0.001 J: the rounding of two equal torques) read
     "Robot's help  -0.00 J" in `rehab run`'s table, as if the robot had held the hand back."""
     table = format_metrics({"robot_help_work_J": -0.001, "robot_work_J": -0.25})
-    assert f"Robot's help{'':22}{'0.00':>9} J" in table
+    assert f"Work of the robot's help{'':10}{'0.00':>9} J" in table
     assert "-0.25 J" in table  # a negative figure that is one stays negative
     # the report's tables (app.reports.compare) show the same figure the same way
     from app.reports.compare import metric_text
