@@ -42,7 +42,7 @@ def test_thesis_as_printed_is_refused_in_one_line_with_exit_2(capsys):
         (["check", "--radius", "5"], "--radius (radius_m) = 5 is not allowed"),
         (["check", "--shoulder", "5", "0.7"], "--shoulder (shoulder_m[x]) = 5 is not "
                                               "allowed"),
-        (["check", "--radius", "abc"], "invalid float"),
+        (["check", "--radius", "abc"], "--radius 'abc' is not a number"),
         (["check", "--shape", "square"], "invalid choice"),
         (["check", "--no-such-option"], "unrecognized"),
     ],

@@ -81,12 +81,13 @@ def test_ctrl_c_stops_the_server_run_by_hand_and_removes_it(postgres_server):
     shell had started it as a job with `&`: SIGINT came ignored, Python never raised
     KeyboardInterrupt, and the server ran on until killed. Sent SIGINT, it stops the
     server, removes its folder and exits 0, however it was started."""
+    # as a background job of a script: SIGINT ignored from the start, by the shell's trap
+    # (an ignored signal stays ignored across exec). Not preexec_fn: it makes subprocess
+    # fork this test process, which JAX (loaded by other tests in it) warns against
     helper = subprocess.Popen(
-        [sys.executable, "-m", "tests.postgres", "run"], cwd=REPO, text=True,
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-        env={**os.environ, "PYTHONPATH": str(REPO)},
-        # as a background job of a script: SIGINT ignored from the start
-        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+        ["sh", "-c", 'trap "" INT; exec "$0" -m tests.postgres run', sys.executable],
+        cwd=REPO, text=True, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+        env={**os.environ, "PYTHONPATH": str(REPO)})
     try:
         lines = []
         while not lines or not lines[-1].startswith("Ctrl-C"):
