@@ -26,8 +26,8 @@ def test_an_assessment_trials_report_carries_its_task_page(tmp_path):
     assert page is not None
     assert page.title == "Circle drawing"
     values = {line.key: line.value for line in page.lines}
-    assert values["circle_ratio"] == f"{ccw.figures['circle_ratio']:.4g}"
-    assert values["circle_sparc_cw"] == f"{cw.figures['circle_sparc_cw']:.4g}"
+    assert values["circle_ratio"] == f"{ccw.figures['circle_ratio']:.2f}"  # a ratio's two
+    assert values["circle_sparc_cw"] == f"{cw.figures['circle_sparc_cw']:.2f}"
     assert "trial 2" in page.heading
     # the data folder's norms in use (the shipped simulated ones): Z-scores and the label
     assert any(line.z is not None for line in page.lines)
