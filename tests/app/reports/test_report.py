@@ -71,6 +71,18 @@ def healthy_pdf(healthy_file, tmp_path_factory) -> Path:
     return write_report_pdf(content, tmp_path_factory.mktemp("pdf") / "report.pdf")
 
 
+def test_the_note_on_how_the_colours_are_drawn_is_a_plain_sentence(healthy_file):
+    """Trying a session: the therapist's page read "the path and Fig. 3.9 draw runs
+    shorter than 51 ms in the colour around them": a lowercase fragment in jargon."""
+    content = build_report(read_trial(healthy_file))
+    (note,) = [n for n in content.notes if "percentage counts" in n]
+    assert note.startswith("In the drawings of the path and of the force, a colour that "
+                           "lasts less than ")
+    assert note.endswith("percentage counts every moment.")
+    assert "Fig." not in note
+    assert "runs" not in note
+
+
 # -- the PDF -------------------------------------------------------------------------------
 
 def test_the_pdf_has_two_pages_and_the_thesis_figures_computed_from_the_file(
