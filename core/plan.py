@@ -357,9 +357,9 @@ def check_plan(plan: Plan, base: TrialParameters, robot=None,
         if found:
             line = f"block {k} ({block.name or block.shape}): {found[0]}"
             radius = fitting_radius_m(block, base, robot)
-            if radius is not None:  # the change the Plan tab's table can make
-                line = (f"{line.rstrip('.')}; or give block {k} the radius "
-                        f"{_size(units, radius)}: it fits then.")
+            if radius is not None:  # the size at which it would run, said as a fact:
+                # the window's Plan table has no radius to change (rehab plan change has)
+                line = f"{line.rstrip('.')}; at a radius of {_size(units, radius)} it fits."
             problems.append(line)
     return tuple(problems)
 

@@ -94,7 +94,7 @@ def test_the_first_session_template_fits_the_arm_that_was_refused_and_says_what_
     refusal = check_plan(as_written, base)
     assert refusal
     assert "block 3 (Forward reach)" in refusal[0]
-    assert "give block 3 the radius" in refusal[0]  # what to change, in the same line
+    assert refusal[0].endswith("; at a radius of 0.05 m it fits.")  # what would, one line
     fitted = load_template("first-session", fit_to=base)
     assert check_plan(fitted.plan, base) == ()
     assert fitted.plan.blocks[:2] == as_written.blocks[:2]
