@@ -343,8 +343,9 @@ def check_plan(plan: Plan, base: TrialParameters, robot=None,
                units: MessageUnits = SI_UNITS) -> tuple[str, ...]:
     """What keeps `plan` from running for the patient whose setup is `base`: each block's
     trial walked by core.trial_check.check_trial (the robot's and the arm's reach, the path's
-    speed), one line per block that cannot run, naming it, written in `units` (the
-    window's are the form's own, app.units.SCREEN); () when every block can."""
+    speed), one line per block that cannot run, naming it and, when a smaller size would
+    run, that size (fitting_radius_m), written in `units` (the window's are the form's own,
+    app.units.SCREEN); () when every block can."""
     from core.trial_check import check_trial
 
     problems = []
@@ -354,8 +355,70 @@ def check_plan(plan: Plan, base: TrialParameters, robot=None,
         except ParameterError as exc:
             found = (str(exc),)
         if found:
-            problems.append(f"block {k} ({block.name or block.shape}): {found[0]}")
+            line = f"block {k} ({block.name or block.shape}): {found[0]}"
+            radius = fitting_radius_m(block, base, robot)
+            if radius is not None:  # the size at which it would run, said as a fact:
+                # the window's Plan table has no radius to change (rehab plan change has)
+                line = f"{line.rstrip('.')}; at a radius of {_size(units, radius)} it fits."
+            problems.append(line)
     return tuple(problems)
+
+
+FIT_STEP_M = 0.005
+"""A block too large for the patient is made smaller half a centimetre at a time: the
+sizes the Parameters tab's radius field is typed in."""
+
+
+def fitting_radius_m(block: Block, base: TrialParameters, robot=None) -> float | None:
+    """The largest size (radius_m, on the half-centimetre below the block's own, or the
+    setup's when the block keeps it) at which `block` runs for the patient whose setup is
+    `base`; None when it runs as it is or no size from RADIUS_RANGE_M's smallest up does
+    (then its centre or the shoulder must move: check_plan says where)."""
+    from core.trial_check import check_trial
+
+    def runs(radius_m: float | None) -> bool:
+        try:
+            changed = block if radius_m is None else block.replace(radius_m=radius_m)
+            return check_trial(changed.parameters(base), robot).ok
+        except ParameterError:
+            return False
+
+    if runs(None):
+        return None
+    size = block.radius_m if block.radius_m is not None else base.radius_m
+    steps = math.floor((size - RADIUS_RANGE_M[0]) / FIT_STEP_M + 1e-9)
+    for k in range(steps, -1, -1):
+        radius = round(RADIUS_RANGE_M[0] + k * FIT_STEP_M, 6)
+        if radius < size and runs(radius):
+            return radius
+    return None
+
+
+def fit_plan(plan: Plan, base: TrialParameters, robot=None,
+             units: MessageUnits = SI_UNITS) -> tuple[Plan, tuple[str, ...]]:
+    """`plan` (a template) made to fit the patient whose setup is `base`: each block the
+    robot or the arm cannot follow made as small as it needs (fitting_radius_m), and one
+    line per block so changed, naming it and its new size, in `units`. A block no size
+    fits is left as it is; check_plan refuses it, saying what to move."""
+    notes = []
+    for k, block in enumerate(plan.blocks, 1):
+        radius = fitting_radius_m(block, base, robot)
+        if radius is None:
+            continue
+        size = block.radius_m if block.radius_m is not None else base.radius_m
+        plan = plan.with_block(k - 1, block.replace(radius_m=radius))
+        notes.append(f"block {k} ({block.name or block.shape}): radius "
+                     f"{_size(units, radius)}, not {_size(units, size)}, "
+                     "to stay within this patient's reach and the robot's")
+    return plan, tuple(notes)
+
+
+def _size(units: MessageUnits, radius_m: float) -> str:
+    """A fitted size in `units`, with the one decimal more its half centimetre needs
+    ("5.5 cm", "0.055 m") and no more ("5 cm" stays "5.0 cm", not "5.00 cm")."""
+    shown = radius_m * units.per_m
+    exact = abs(round(shown, units.decimals) - shown) < 1e-9
+    return units.of_length(radius_m, 0 if exact else 1)
 
 
 def _choice(name: str, value: object, allowed: tuple[str, ...]) -> None:

@@ -87,12 +87,17 @@ def cmd_templates(args: argparse.Namespace) -> int:
 
 def cmd_copy(args: argparse.Namespace) -> int:
     from app.plans.templates import load_template
+    from core.trial import TrialParameters
 
-    template = load_template(args.template)
     registry = registry_for(args)
+    # fitted to the setup a plan run starts from (app.plans.live.LivePlan's)
+    base = TrialParameters().replace(**registry.patient(args.code).trial_overrides())
+    template = load_template(args.template, fit_to=base)
     stored = registry.save_plan(args.code, template.plan, template=template.name)
     print(f"Plan {stored.id} for patient {args.code}: {stored.plan.name} (from the template "
           f"{template.name}), {len(stored.plan.blocks)} blocks")
+    for line in template.fitted:
+        print(f"  fitted to the patient: {line}")
     return EXIT_OK
 
 

@@ -1,7 +1,9 @@
 """The built-in plan templates: JSON files in resources/plans, one plan each, read and
 checked as any plan (core.plan). The clinic may add its own there; a template is copied
 to a patient (the registry keeps the copy, app.records.registry.plans) and changed for
-the day there, never in place."""
+the day there, never in place. A template is written for a typical adult at the console's
+default centre; copied to a patient, it is fitted to them (core.plan.fit_plan: a block
+their arm or the robot cannot follow made smaller), and each change said in one line."""
 
 from __future__ import annotations
 
@@ -11,7 +13,9 @@ from pathlib import Path
 
 from app.errors import AppError
 from core.errors import CoreError
-from core.plan import Plan
+from core.plan import Plan, fit_plan
+from core.trial import TrialParameters
+from core.trial_check import SI_UNITS, MessageUnits
 
 TEMPLATES_DIR = Path(__file__).resolve().parents[2] / "resources" / "plans"
 MAX_TEMPLATE_BYTES = 256 * 1024
@@ -28,6 +32,8 @@ class Template:
     name: str
     about: str
     plan: Plan
+    fitted: tuple[str, ...] = ()
+    """One line per block made smaller to fit the patient (load_template's fit_to)."""
 
 
 def template_names(folder: Path = TEMPLATES_DIR) -> list[str]:
@@ -49,9 +55,14 @@ def template_titles(folder: Path = TEMPLATES_DIR) -> list[tuple[str, str, str]]:
     return titles
 
 
-def load_template(name: str, folder: Path = TEMPLATES_DIR) -> Template:
+def load_template(name: str, folder: Path = TEMPLATES_DIR, *,
+                  fit_to: TrialParameters | None = None, robot=None,
+                  units: MessageUnits = SI_UNITS) -> Template:
     """The template `name`, checked; TemplateError in one line naming the file and what is
-    wrong (or, for an unknown name, the names there are)."""
+    wrong (or, for an unknown name, the names there are). With `fit_to`, the setup of the
+    patient it is copied to, its plan fitted to them (core.plan.fit_plan, said in `units`):
+    the "First session" reach of 12 cm went 57.9 cm from the shoulder of an arm reaching
+    57 cm and Start plan refused it."""
     names = template_names(folder)
     if name not in names:
         raise TemplateError(f"no plan template {name!r}; the templates are: "
@@ -73,7 +84,10 @@ def load_template(name: str, folder: Path = TEMPLATES_DIR) -> Template:
         plan = Plan.from_dict(values["plan"])
     except CoreError as exc:
         raise TemplateError(f"plan template {path}: {exc}") from None
-    return Template(name, values["about"], plan)
+    if fit_to is None:
+        return Template(name, values["about"], plan)
+    plan, fitted = fit_plan(plan, fit_to, robot, units)
+    return Template(name, values["about"], plan, fitted)
 
 
 def _refuse_constant(name: str):

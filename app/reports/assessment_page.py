@@ -24,6 +24,7 @@ from pathlib import Path
 
 from app.norms.model import score_text, z_text
 from app.records.typed import FIELD_NAMES
+from app.reports.metrics_table import number_text, unit_places
 from app.units import shown, with_unit
 from core.assessment import TASK_TITLES, task_figures
 from core.assessment.protocol import protocol
@@ -125,7 +126,8 @@ def assessment_page(task: str, metrics: Mapping[str, float], *, heading: str = "
             else:
                 scores[figure.key] = scored
                 z, worse, extrapolated = scored.z, scored.worse_z, scored.extrapolated
-        lines.append(FigureLine(figure.key, figure.label, figure_value(value, figure.unit),
+        lines.append(FigureLine(figure.key, figure.label,
+                                figure_value(value, figure.unit, figure.key),
                                 figure.better, z, worse, extrapolated))
     if norms is not None:
         notes.extend(unnormed_notes(norms, [(f.key, f.label) for f in given]))
@@ -384,13 +386,22 @@ def page_figure(page: AssessmentPage):
     return figure
 
 
-def figure_value(value: float, unit: str) -> str:
+FIGURE_DECIMALS = {"vgr_posture_speed_m_s": 1}
+"""A figure whose decimals are not its unit's (as MetricRow.decimals for the report's
+rows): a hand held still drifts at about 1 mm/s, which its unit's whole mm/s would write
+as 1 or 0 (the posture speed is read to a tenth, 0.8 mm/s)."""
+
+
+def figure_value(value: float, unit: str, key: str = "") -> str:
     """A figure's SI value (its catalogue's `unit`) as reports print it: in the unit a
     person reads (app.units.shown: mm, mm/s, °, cm²; SI read in 0.0008121 m/s and 0.04029
-    rad beside the trial's page in mm/s and °), a count whole, a ratio bare."""
+    rad beside the trial's page in mm/s and °) with that unit's decimals, the report's
+    rows' rule (unit_places, or the figure's own FIGURE_DECIMALS for `key`: four
+    significant digits wrote "Circle ratio 0.9171", "116.7 mm/s" where the report wrote
+    0.92 and 117), a count whole, a ratio bare."""
     if not math.isfinite(value):
         return "not defined"
     if unit == "count":  # a count, or a mean of counts over the reaches
         return f"{value:.0f}" if float(value).is_integer() else f"{value:.3g}"
     value, unit = shown(value, unit)
-    return with_unit(f"{value:.4g}", unit)
+    return with_unit(number_text(value, FIGURE_DECIMALS.get(key, unit_places(unit))), unit)

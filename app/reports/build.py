@@ -102,6 +102,7 @@ def content_for_registry_trial(
         # the file's own status says more (e.g. still recording).
         status=record.status if record.finished else None,
         end_reason=record.end_reason,
+        least_change=norms_mdc(registry) if record.parameters.get("assessment") else None,
     )
     from app.plans.dose import trial_plan_lines
 
@@ -121,6 +122,22 @@ TASK_NOTE = ("its own figures lead the table below, with their Z-scores and the 
 has the task's own figures (app.reports.task_table), not the distance from or direction
 along the task's reference (the circle's dot, the targets' schedule, the robot's move),
 which the task does not ask the patient to follow."""
+
+
+def norms_mdc(registry: RecordStore) -> dict[str, float]:
+    """The minimal detectable change (MDC95, SI) of each figure the data folder's norms in
+    use know one for: a task's change within it is noise (compare.table_rows). Empty when
+    there are no norms or they cannot be read (the task page says why)."""
+    from app.errors import AppError
+    from app.norms.in_use import norms_in_use
+
+    try:
+        norms = norms_in_use(registry.data_dir)
+    except AppError:
+        return {}
+    if norms is None:
+        return {}
+    return {key: mdc for key in norms.figures if (mdc := norms.mdc95(key)) is not None}
 
 
 def with_task_page(registry: RecordStore, record: Trial, content: ReportContent

@@ -84,6 +84,7 @@ def goal_of(key: str) -> Goal:
     return Goal(spec.better) if spec is not None and spec.better != "none" else Goal.NONE
 
 UP, DOWN, SAME = "↑", "↓", "="
+NOISE_ARROW = "≈"
 
 
 @dataclass(frozen=True, slots=True)
@@ -346,6 +347,25 @@ PATIENT_RESOLUTION = {"mm": 1.0, "%": 1.0, "°": 1.0}
 (plain_language: whole mm, whole %, whole degrees)."""
 
 
+NOISE = "about the same"
+"""The verdict on a change too small to mean anything (_within_noise)."""
+
+
+def _within_noise(row: MetricRow, before: float, after: float,
+                  least_si: float | None) -> bool:
+    """Whether a change of a figure (display units, as _resolved shows them) is noise:
+    smaller than its minimal detectable change where the console knows one (`least_si`,
+    the norms' MDC95, SI), else, for a figure the patient's page does not round
+    (PATIENT_RESOLUTION), no more than one step of its last shown decimal, which two
+    readings a hair apart can differ by (0.9149 and 0.9151 show 0.91 and 0.92). The
+    table called "LDLJ −16.27, was −16.25" and a circle ratio of 0.92 after 0.91 worse."""
+    if least_si is not None and math.isfinite(least_si):
+        return abs(after - before) < least_si * row.scale
+    if row.unit in PATIENT_RESOLUTION:
+        return False  # as the patient's page compares it: whole mm, %, degrees
+    return abs(after - before) <= 10.0 ** -row.places * (1.0 + 1e-9)
+
+
 def _resolved(row: MetricRow, value: float) -> float:
     step = PATIENT_RESOLUTION.get(row.unit)
     if step is None:
@@ -385,13 +405,18 @@ def table_order(mode: str) -> tuple[MetricRow, ...]:
 def table_rows(metrics: Mapping[str, float], baselines: tuple[Baseline, ...], *,
                mode: str = "thesis", comparable: tuple[bool, ...] | None = None,
                only_lightened: bool = False,
-               order: tuple[MetricRow, ...] | None = None) -> tuple[TableRow, ...]:
+               order: tuple[MetricRow, ...] | None = None,
+               least_change: Mapping[str, float] | None = None) -> tuple[TableRow, ...]:
     """Every row of `order` (default `table_order(mode)`; an assessment task's:
     app.reports.task_table.task_order) this trial has a value for, each earlier trial's
     value beside it, with the change only where the trials compare (`comparable`, one
     flag per baseline; all by default): the same rule as the patient's page.
     `only_lightened` (plain_language.robot_only_lightened): no robot's share of the work,
-    whose motors' work went into the robot itself (the net works stay, what was measured)."""
+    whose motors' work went into the robot itself (the net works stay, what was measured).
+    `least_change`: a figure's minimal detectable change (SI, the norms' MDC95) by key; a
+    change within it, or within the figure's shown precision, is "about the same"
+    (_within_noise)."""
+    least_change = least_change or {}
     comparable = comparable if comparable is not None else (True,) * len(baselines)
     metrics = _with_position(metrics)
     earlier_metrics = [_with_position(b.metrics) for b in baselines]
@@ -416,9 +441,12 @@ def table_rows(metrics: Mapping[str, float], baselines: tuple[Baseline, ...], *,
                 verdicts.append("")
                 continue
             a, b = _resolved(row, earlier), _resolved(row, value)
-            word = verdict(goal, a, b)
+            if a != b and _within_noise(row, a, b, least_change.get(row.key)):
+                word, way = NOISE, NOISE_ARROW
+            else:
+                word, way = verdict(goal, a, b), arrow(a, b)
             # the cell reads as the change *to* this trial, not as a verdict on the earlier
-            texts.append(f"was {number_text(earlier, row.places)}: now {arrow(a, b)} {word}")
+            texts.append(f"was {number_text(earlier, row.places)}: now {way} {word}")
             verdicts.append(word)
         rows.append(TableRow(row.key, row.label, row.unit, row.meaning, value,
                              number_text(value, row.places), tuple(texts), tuple(verdicts)))

@@ -15,6 +15,7 @@ from __future__ import annotations
 import datetime
 import math
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -166,6 +167,7 @@ def build_report(
     started_at: datetime.datetime | None = None,
     status: str | None = None,
     end_reason: str = "",
+    least_change: Mapping[str, float] | None = None,
 ) -> ReportContent:
     """The report of a read trial file.
 
@@ -176,7 +178,9 @@ def build_report(
     status override what the file says (the registry knows them better); the numbers
     default to those in the file's name (app.records.datadir.trial_stem). end_reason,
     the registry's words for why the trial ended, is shown as a fault when the file
-    does not hold it (a dead recorder, a full disk).
+    does not hold it (a dead recorder, a full disk). least_change: the figures' minimal
+    detectable changes (SI, the norms' MDC95), within which the table's comparison says
+    "about the same" (compare.table_rows).
     """
     parameters = trial.parameters
     if parameters is None:
@@ -277,7 +281,8 @@ def build_report(
                          comparable=tuple(c.comparable for c in comparisons),
                          only_lightened=robot_only_lightened(parameters),
                          order=task_order(parameters.assessment, parameters.assist)
-                         if parameters.assessment else None) if values else (),
+                         if parameters.assessment else None,
+                         least_change=least_change) if values else (),
         table_columns=tuple(_column_title(c) for c in comparisons),
         path=figures.path,
         force=figures.force,

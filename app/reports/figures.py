@@ -274,8 +274,11 @@ def report_figures(trial: TrialData, parameters: TrialParameters, mask: np.ndarr
     own_pace = own_pace_task(parameters)
     notes = ()
     if runs and not own_pace:  # a task the patient paces draws no runs (below)
-        notes = (f"the path and Fig. 3.9 draw runs shorter than {min_run * 1000:.0f} ms in "
-                 "the colour around them; the percentage counts every sample",)
+        # the therapist's page: a sentence in plain words, no figure numbers (it read "the
+        # path and Fig. 3.9 draw runs shorter than 51 ms in the colour around them")
+        notes = (f"In the drawings of the path and of the force, a colour that lasts less "
+                 f"than {min_run * 1000:.0f} ms is drawn in the colour around it, so the "
+                 "lines stay readable; the percentage counts every moment.",)
     peak = math.nan
     if series.force is not None:
         peak = float(np.max(np.hypot(series.force[:, 0], series.force[:, 1])))

@@ -25,7 +25,7 @@ class MetricRow:
         """The decimals the figure is written with: as the window's tabs write it where
         they show it (0.9 mm, 31 %, 45.8°), never finer than the measurement means (a
         speed to the mm/s, not "130.36 mm/s")."""
-        return self.decimals if self.decimals >= 0 else UNIT_DECIMALS.get(self.unit, 2)
+        return self.decimals if self.decimals >= 0 else unit_places(self.unit)
 
     @property
     def heading(self) -> str:
@@ -43,10 +43,17 @@ class MetricRow:
         return _in_unit(self.heading, self.unit)
 
 
-UNIT_DECIMALS = {"mm": 1, "%": 0, "°": 1, "mm/s": 0}
+UNIT_DECIMALS = {"mm": 1, "%": 0, "°": 1, "mm/s": 0, "cm²": 0}
 """Display unit → decimals in the tables, as the Trajectory, Force and Joint angles tabs
-and the patient's page write the same figures (ui.tabs: 0.9 mm, 31 %, 45.8°); any other
-unit two (N, N·m, J, s, ratios)."""
+and the patient's page write the same figures (ui.tabs: 0.9 mm, 31 %, 45.8°; an area
+reached to the square centimetre, 412 cm²); any other unit two (N, N·m, J, s, ratios)."""
+
+
+def unit_places(unit: str) -> int:
+    """The decimals a figure shown in display `unit` is written with (UNIT_DECIMALS): the
+    one rule of the report's rows, the Progress tab's table and the assessments' figures,
+    so the same figure reads alike wherever it is."""
+    return UNIT_DECIMALS.get(unit, 2)
 
 
 def _in_unit(name: str, unit: str) -> str:

@@ -195,7 +195,7 @@ def _assessment(registry, patient, trial, norms) -> Assessment:
     rows = []
     for key in keys:
         spec, value = FIGURES[key], trial.metrics[key]
-        shown = "–" if not math.isfinite(value) else figure_value(value, spec.unit)
+        shown = "–" if not math.isfinite(value) else figure_value(value, spec.unit, spec.key)
         z = ""
         if who is not None and math.isfinite(value):
             z, why = _z_text(norms, key, value, who) if key in norms.figures else ("–", "")

@@ -216,7 +216,7 @@ def propose(parameters: TrialParameters, metrics: dict, status: str,
                    if level == 0.0 else f"{shown}, so the assistance was hardly needed")
             kept = f" (the assistance stays at {assistance_percent(level)})" if helping else ""
             return Proposal(level, faster, tolerance, "speed",
-                            f"{why}: faster, {duration:g} s → {faster:g} s per "
+                            f"{why}: faster, {paces(duration, faster)} per "
                             f"traversal{kept}", speed_step=step)
         if helping:
             return less_assistance()
@@ -242,9 +242,18 @@ def propose(parameters: TrialParameters, metrics: dict, status: str,
     if slower > duration:
         helped = " with full assistance" if level_acts else ""
         return Proposal(level, slower, tolerance, "speed",
-                        f"{shown}{helped}: slower, {duration:g} s → "
-                        f"{slower:g} s per traversal", speed_step=step)
+                        f"{shown}{helped}: slower, {paces(duration, slower)} per "
+                        "traversal", speed_step=step)
     return same(f"{shown} at the easiest settings: the same again")
+
+
+def paces(before_s: float, after_s: float) -> str:
+    """'4.5 s → 4.1 s': a pace's change in the words of a proposal, to a tenth of a second
+    as the Parameters tab's "Time per traversal" shows it (the proposal wrote
+    "4.5 s → 4.05 s"), a hundredth when the two would read alike. Display only: the
+    proposal keeps the exact value (Proposal.duration_s), and that is what is applied."""
+    places = 1 if f"{before_s:.1f}" != f"{after_s:.1f}" else 2
+    return f"{before_s:.{places}f} s → {after_s:.{places}f} s"
 
 
 def level_acts_in(assist: str) -> bool:

@@ -92,7 +92,9 @@ def progress_table(result: Progress) -> ProgressTable:
                  result.exercises[int(result.exercise_index[i])].label(),
                  help_text(result, i), format_number(float(result.duration_s[i]), 2),
                  format_number(float(np.degrees(result.tolerance_rad[i])), 0)]
-        cells += [format_number(float(result.values[r.key][i]) * r.scale, 2) for r in figures]
+        # each figure in its unit's decimals, as the report and the tabs write it
+        cells += [format_number(float(result.values[r.key][i]) * r.scale, r.places)
+                  for r in figures]
         rows.append(tuple(cells))
     return ProgressTable((*LEADING_HEADINGS, *(metric_heading(r) for r in figures)),
                          tuple(rows))

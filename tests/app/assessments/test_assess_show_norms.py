@@ -68,7 +68,7 @@ def test_each_figure_s_z_and_the_task_score_are_the_hand_computation(tmp_path, r
     assert (round(z_rt, 2), round(z_speed, 2)) == (-2.7, -1.6)  # test_model's values
     assert re.search(rf"Reaction time: 0\.49 s +Z {z_rt:+.2f}\n", out), out
     assert re.search(rf"Max speed: 300 mm/s +Z {z_speed:+.2f}\n", out), out
-    assert re.search(r"SPARC: -1\.6\n", out), out  # the norms hold no SPARC: no Z
+    assert re.search(r"SPARC: -1\.60\n", out), out  # the norms hold no SPARC: no Z
     # the task score: each deviation one-sided (worse higher for the reaction time, lower
     # for the speed), their root-sum-square, Box-Cox, standardised, mapped half-normal
     task = document["tasks"]["reaching"]
@@ -150,7 +150,7 @@ def test_an_age_beyond_the_controls_is_said_on_each_figure(tmp_path, registry, c
                      out), out
     assert re.search(r"Max speed: 300 mm/s +Z [-+]\d\.\d\d \(age beyond the controls'\)\n",
                      out), out
-    assert re.search(r"SPARC: -1\.6\n", out), out  # no Z-score, nothing beyond
+    assert re.search(r"SPARC: -1\.60\n", out), out  # no Z-score, nothing beyond
     code = _patient(registry)  # 60: within the controls' ages
     register(registry, code, METRICS)
     status, out, err = run(["assess", "show", code], capsys)

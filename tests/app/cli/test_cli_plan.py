@@ -71,3 +71,18 @@ def test_a_bad_change_is_refused_in_one_line_and_keeps_the_plan(patient, capsys,
     assert err.count("\n") == 1
     _, out, _ = run(["plan", "show", patient], capsys)
     assert "Plan 1 of patient" in out  # no new plan was saved
+
+
+def test_a_template_copied_to_a_patient_it_does_not_fit_is_fitted_and_says_how(data, capsys):
+    """Shoulder (-12, 73) cm and an arm reaching 57 cm: the First session's 12 cm reach
+    went 57.9 cm from the shoulder and the plan was refused at Start."""
+    code, out, _ = run(["patients", "add", "--first-name", "Bea", "--body-mass", "70",
+                        "--upper-arm", "0.30", "--forearm", "0.27", "--side", "right",
+                        "--shoulder", "-0.12", "0.73"], capsys)
+    patient = out.strip()
+    code, out, _ = run(["plan", "copy", "first-session", patient], capsys)
+    assert code == 0
+    assert ("  fitted to the patient: block 3 (Forward reach): radius 0.05 m, not 0.06 m, "
+            "to stay within this patient's reach and the robot's") in out
+    code, out, _ = run(["plan", "show", patient], capsys)
+    assert "3. Forward reach: reach" in out

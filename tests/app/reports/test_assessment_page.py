@@ -56,9 +56,12 @@ def test_the_figures_read_in_the_units_of_the_rest_of_the_report_not_si():
                                         "vgr_initial_direction_error_rad": 0.04029,
                                         "vgr_max_speed_m_s": 0.3323})
     values = {line.key: line.value for line in page.lines}
-    assert values == {"vgr_posture_speed_m_s": "0.8121 mm/s",
-                      "vgr_initial_direction_error_rad": "2.308°",
-                      "vgr_max_speed_m_s": "332.3 mm/s"}
+    # in each unit's decimals, as the report's rows write them (MetricRow.places; four
+    # significant digits wrote "332.3 mm/s" where the report wrote 332), the posture
+    # speed, about 1 mm/s, to a tenth
+    assert values == {"vgr_posture_speed_m_s": "0.8 mm/s",
+                      "vgr_initial_direction_error_rad": "2.3°",
+                      "vgr_max_speed_m_s": "332 mm/s"}
     position = assessment_page("position", {"position_absolute_error_m": 0.0125})
     assert [line.value for line in position.lines] == ["12.5 mm"]
     area = assessment_page("range", {"range_area_m2": 0.0412})
@@ -171,9 +174,9 @@ def test_the_circle_page_joins_the_latest_trial_each_way_round(tmp_path):
     circle(1, 0.6)
     page = patient_page(registry, code, "circle")
     values = {line.key: line.value for line in page.lines}
-    assert values["circle_ratio"] == "0.7"  # the mean of the two ways
-    assert values["circle_ratio_cw"] == "0.8"
-    assert values["circle_ratio_ccw"] == "0.6"
+    assert values["circle_ratio"] == "0.70"  # the mean of the two ways
+    assert values["circle_ratio_cw"] == "0.80"
+    assert values["circle_ratio_ccw"] == "0.60"
     assert "with trial 1" in page.heading
 
 

@@ -25,6 +25,7 @@ from app.reports.build import (
 from app.reports.compare import metric_text, patient_changes, table_rows
 from app.reports.metrics_table import ROW_BY_KEY, format_metrics
 from app.reports.plain_language import force_text, mass_text, parameter_cautions, plain_lines
+from app.reports.task_table import task_order
 from app.trials.assistance_timeline import AssistanceInEffect
 from app.trials.headless import save, simulate
 from app.trials.reader import read_trial
@@ -68,6 +69,18 @@ def healthy_file(tmp_path_factory) -> Path:
 def healthy_pdf(healthy_file, tmp_path_factory) -> Path:
     content = build_report(read_trial(healthy_file))
     return write_report_pdf(content, tmp_path_factory.mktemp("pdf") / "report.pdf")
+
+
+def test_the_note_on_how_the_colours_are_drawn_is_a_plain_sentence(healthy_file):
+    """Trying a session: the therapist's page read "the path and Fig. 3.9 draw runs
+    shorter than 51 ms in the colour around them": a lowercase fragment in jargon."""
+    content = build_report(read_trial(healthy_file))
+    (note,) = [n for n in content.notes if "percentage counts" in n]
+    assert note.startswith("In the drawings of the path and of the force, a colour that "
+                           "lasts less than ")
+    assert note.endswith("percentage counts every moment.")
+    assert "Fig." not in note
+    assert "runs" not in note
 
 
 # -- the PDF -------------------------------------------------------------------------------
@@ -205,6 +218,25 @@ def test_the_therapist_table_compares_each_figure_with_its_goal():
     assert rows["path_length_ratio"].verdicts == ("better",)  # 1.02 is nearer 1 than 0.95
     assert rows["force_range_x_N"].verdicts == ("same",)
     assert "sparc" not in rows  # not in this trial: no row
+
+
+def test_a_change_within_the_shown_precision_or_the_mdc_is_about_the_same():
+    """Trying a session: the table said "LDLJ −16.27, was −16.25: now ↓ worse" and called
+    a circle ratio of 0.91 after 0.92 worse. A change of one shown step, or within the
+    figure's MDC95 where the norms give one, is "about the same"; beyond it, a verdict."""
+    order = task_order("circle", "transparent")
+    before = {"circle_ratio": 0.92, "circle_ldlj": -16.25, "circle_sparc": -1.50}
+    after = {"circle_ratio": 0.91, "circle_ldlj": -16.27, "circle_sparc": -1.60}
+    rows = {row.key: row for row in table_rows(after, (Baseline(before),), order=order,
+                                               least_change={"circle_ldlj": 0.12})}
+    assert rows["circle_ratio"].earlier_texts == ("was 0.92: now ≈ about the same",)
+    assert rows["circle_ldlj"].verdicts == ("about the same",)  # within its MDC95
+    assert rows["circle_sparc"].verdicts == ("worse",)  # 0.10: ten steps, no MDC given
+    # a change beyond the MDC is one
+    rows = {row.key: row for row in table_rows(
+        {"circle_ldlj": -16.50}, (Baseline(before),), order=order,
+        least_change={"circle_ldlj": 0.12})}
+    assert rows["circle_ldlj"].verdicts == ("worse",)
 
 
 def test_the_table_never_says_worse_where_the_patients_page_says_the_same():

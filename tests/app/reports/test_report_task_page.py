@@ -26,8 +26,8 @@ def test_an_assessment_trials_report_carries_its_task_page(tmp_path):
     assert page is not None
     assert page.title == "Circle drawing"
     values = {line.key: line.value for line in page.lines}
-    assert values["circle_ratio"] == f"{ccw.figures['circle_ratio']:.4g}"
-    assert values["circle_sparc_cw"] == f"{cw.figures['circle_sparc_cw']:.4g}"
+    assert values["circle_ratio"] == f"{ccw.figures['circle_ratio']:.2f}"  # a ratio's two
+    assert values["circle_sparc_cw"] == f"{cw.figures['circle_sparc_cw']:.2f}"
     assert "trial 2" in page.heading
     # the data folder's norms in use (the shipped simulated ones): Z-scores and the label
     assert any(line.z is not None for line in page.lines)
@@ -107,7 +107,8 @@ def test_an_own_pace_task_s_therapist_table_is_its_own_figures(tmp_path):
     assert "directional performance" not in therapist.lower()  # nor Fig. 3.9's caption
     assert content.force.runs == ()
     assert "own pace" in content.force.caption
-    assert not [note for note in content.notes if "draw runs" in note]  # none drawn
+    # none drawn
+    assert not [note for note in content.notes if "percentage counts every moment" in note]
 
 
 def test_a_short_note_does_not_get_a_page_of_its_own(tmp_path):
@@ -125,8 +126,9 @@ def test_a_short_note_does_not_get_a_page_of_its_own(tmp_path):
     (trial,) = run_task("reaching", "weak", seed=5, registry=registry, code=code)
     content = content_for_registry_trial(registry, trial.trial_id)
     content = dataclasses.replace(content, notes=(*content.notes, (
-        "the path and Fig. 3.9 draw runs shorter than 240 ms in the colour around them; the "
-        "percentage counts every sample"),))
+        "In the drawings of the path and of the force, a colour that lasts less than 240 ms "
+        "is drawn in the colour around it, so the lines stay readable; the percentage counts "
+        "every moment."),))
     path = write_report_pdf(content, tmp_path / "report.pdf")
     pages = [" ".join(p.extract_text().split()) for p in PdfReader(path).pages]
     assert len(pages) == 3

@@ -11,7 +11,7 @@ from app.records.datadir import DataDir
 from app.records.registry import Registry
 from app.trials.finalize import finalize_trial
 from app.trials.headless import save, simulate
-from app.trials.progression import Proposal, propose
+from app.trials.progression import Proposal, paces, propose
 from core.trial import THESIS_SUBJECT
 
 P = THESIS_SUBJECT  # the thesis mode: success is the time inside the cone
@@ -145,6 +145,16 @@ def test_the_assistance_settles_as_a_staircase_instead_of_swinging():
     assert after(down.applied_to(as_needed), 9.0, old).assistance_level == pytest.approx(0.4)
 
 
+def test_a_pace_is_said_to_a_tenth_of_a_second_and_applied_exactly():
+    """Trying a session: "4.5 s → 4.05 s per traversal", a hundredth the form does not
+    show. Said to a tenth (a hundredth only where a tenth would read the same); the
+    proposal applies the exact value."""
+    faster = propose(A.replace(assistance_level=0.0, duration_s=4.5), led(90.0), "complete")
+    assert faster.duration_s == pytest.approx(4.05)
+    assert "faster, 4.5 s → 4.0 s per traversal" in faster.reason  # 4.05 to a tenth
+    assert paces(1.43, 1.40) == "1.43 s → 1.40 s"
+
+
 def test_the_pace_settles_as_a_staircase_instead_of_swinging():
     """The wrong-way patient kept up at 1.56 s per traversal and not at 1.40 s even with
     full help, and a fixed 10 % step proposed the two in turn for ever. Each turn back
@@ -159,7 +169,8 @@ def test_the_pace_settles_as_a_staircase_instead_of_swinging():
     assert (faster.duration_s, faster.speed_step) == (pytest.approx(1.4), -0.1)
     slower = after(faster.applied_to(as_needed), 31.0, faster)  # falls behind: back, half
     assert (slower.duration_s, slower.speed_step) == (pytest.approx(1.47), 0.05)
-    assert "1.4 s → 1.47 s" in slower.reason
+    # a tenth of a second as the form shows the pace; the proposal keeps 1.47 s
+    assert "1.4 s → 1.5 s per traversal" in slower.reason
     again = after(slower.applied_to(as_needed), 97.0, slower)
     assert (again.duration_s, again.speed_step) == (pytest.approx(1.43), -0.025)
     back = after(again.applied_to(as_needed), 31.0, again)

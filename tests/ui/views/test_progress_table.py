@@ -64,8 +64,10 @@ def test_one_row_a_trial_with_status_file_state_exercise_and_figures(history):
     assert first[5] == history.exercises[0].label() == third[5] != second[5]
     # registered without the levels it ran: the built level, said so
     assert first[6:9] == ("100 % (built)", "4.00", "20")
-    assert first[9:] == ("61.25", "4.00")
-    assert third[10] == "3.00"
+    # each figure in its unit's decimals (MetricRow.places), as the report writes it:
+    # the % whole, the mm to a tenth (the table wrote "61.25", "4.00")
+    assert first[9:] == ("61", "4.0")
+    assert third[10] == "3.0"
 
 
 def test_numbers_are_right_aligned_and_words_left():
