@@ -40,6 +40,10 @@ INCH_M = 0.0254
 POSITION_RANGE_M = (-1.5, 1.5)
 RADIUS_RANGE_M = (0.02, 0.25)
 DURATION_RANGE_S = (1.0, 120.0)
+DURATION_DECIMALS = 2
+"""The traversal time's resolution, in decimals of a second: what the Parameters form keeps
+and what a proposal steps it by (app.trials.progression), so a proposal taken runs as
+proposed. Hundredths: the pace's staircase steps down to 2.5 %, 0.04 s of a 1.5 s lap."""
 REPETITIONS_RANGE = (1, 100)
 TOLERANCE_RANGE_RAD = (math.radians(1.0), math.radians(90.0))
 TARGETS_RANGE = (2, 16)

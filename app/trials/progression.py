@@ -78,7 +78,7 @@ from dataclasses import dataclass
 
 from app.units import assistance_percent
 from core.errors import CoreError
-from core.trial import DURATION_RANGE_S, TrialParameters
+from core.trial import DURATION_DECIMALS, DURATION_RANGE_S, TrialParameters
 from core.trial_check import check_trial
 
 HARDER_AT_PCT = 80.0
@@ -210,7 +210,7 @@ def propose(parameters: TrialParameters, metrics: dict, status: str,
         if helping and not hardly_helped:
             return less_assistance()
         step = speed_step(-1, previous)
-        faster = round(duration * (1.0 + step), 2)
+        faster = paced(duration, step)
         if faster >= DURATION_RANGE_S[0] and _reachable(parameters.replace(duration_s=faster)):
             why = (shown if not level_acts else f"{shown} with no assistance"
                    if level == 0.0 else f"{shown}, so the assistance was hardly needed")
@@ -238,7 +238,7 @@ def propose(parameters: TrialParameters, metrics: dict, status: str,
                         f"{shown}: more assistance, {assistance_percent(level)} → "
                         f"{assistance_percent(new)}", round(new - level, 2))
     step = speed_step(+1, previous)
-    slower = round(min(DURATION_RANGE_S[1], duration * (1.0 + step)), 2)
+    slower = min(DURATION_RANGE_S[1], paced(duration, step))
     if slower > duration:
         helped = " with full assistance" if level_acts else ""
         return Proposal(level, slower, tolerance, "speed",
@@ -247,13 +247,23 @@ def propose(parameters: TrialParameters, metrics: dict, status: str,
     return same(f"{shown} at the easiest settings: the same again")
 
 
+def paced(duration_s: float, step: float) -> float:
+    """The traversal time `duration_s`·(1 + `step`) in the form's resolution
+    (DURATION_DECIMALS), at least one of its steps away from `duration_s` in the step's
+    direction. The form kept tenths of a second and a proposal hundredths: a proposal of
+    4.05 s was taken as 4.0 s, ran as 4.0 s and was recorded as changed by the therapist,
+    not as taken."""
+    scale = 10 ** DURATION_DECIMALS
+    units = round(duration_s * (1.0 + step) * scale)
+    if units == round(duration_s * scale):
+        units += 1 if step > 0 else -1
+    return units / scale
+
+
 def paces(before_s: float, after_s: float) -> str:
-    """'4.5 s → 4.1 s': a pace's change in the words of a proposal, to a tenth of a second
-    as the Parameters tab's "Time per traversal" shows it (the proposal wrote
-    "4.5 s → 4.05 s"), a hundredth when the two would read alike. Display only: the
-    proposal keeps the exact value (Proposal.duration_s), and that is what is applied."""
-    places = 1 if f"{before_s:.1f}" != f"{after_s:.1f}" else 2
-    return f"{before_s:.{places}f} s → {after_s:.{places}f} s"
+    """'4.5 s → 4.05 s': a pace's change in the words of a proposal, each as the Parameters
+    form keeps it (DURATION_DECIMALS: `paced`), so what is said is what is applied."""
+    return f"{before_s:g} s → {after_s:g} s"
 
 
 def level_acts_in(assist: str) -> bool:

@@ -355,6 +355,23 @@ def test_the_proposal_for_the_next_trial_is_shown_and_taken_with_one_click(qtbot
     assert not tab._proposal_group.isVisible()
 
 
+@pytest.mark.parametrize("duration_s", [4.5, 1.56, 7.3, 2.2])
+def test_a_pace_proposal_taken_runs_as_proposed(qtbot, tab, duration_s):
+    """A proposal of 4.05 s per traversal, taken, put 4.0 s in the form (it kept tenths):
+    the trial ran 4.0 s and the registry recorded the proposal as changed, not taken."""
+    from app.records.registry.proposals import _decision
+    from app.trials.progression import propose
+
+    tab.set_parameters(tab.parameters().replace(duration_s=duration_s, assistance_level=0.0))
+    before = tab.parameters()
+    proposal = propose(before, {"led_pct": 95.0}, "complete")
+    assert proposal.change == "speed"
+    tab.show_proposal(proposal)
+    qtbot.mouseClick(tab.use_proposal, Qt.MouseButton.LeftButton)
+    assert tab.parameters().duration_s == proposal.duration_s
+    assert _decision(proposal.to_dict(), before, tab.parameters()) == "accepted"
+
+
 def test_the_proposal_waits_while_the_form_holds_an_assessment_task(qtbot, tab):
     """Taken while the form held the battery's circle, the proposal changed the pace its
     protocol fixes: the trial became an exercise, said nowhere but in the form (brief hI)."""

@@ -27,6 +27,7 @@ from core.trajectory import SHAPES, TIMINGS
 from core.trial import (
     ASSIST_MODES,
     CONTROLLERS,
+    DURATION_DECIMALS,
     DURATION_RANGE_S,
     POSITION_RANGE_M,
     RADIUS_RANGE_M,
@@ -83,7 +84,7 @@ class ParametersForm:
         pos_lo, pos_hi = (v * CM for v in POSITION_RANGE_M)
         self.shape = combo(SHAPE_NAMES, SHAPES)
         self.radius = spin(RADIUS_RANGE_M[0] * CM, RADIUS_RANGE_M[1] * CM, 2, " cm", 0.5)
-        self.duration = spin(*DURATION_RANGE_S, 1, " s", 0.5)
+        self.duration = spin(*DURATION_RANGE_S, DURATION_DECIMALS, " s", 0.5)
         self.centre_x = spin(pos_lo, pos_hi, 2, " cm", 1.0)
         self.centre_y = spin(pos_lo, pos_hi, 2, " cm", 1.0)
         self.clockwise = QCheckBox("Clockwise")

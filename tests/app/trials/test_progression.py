@@ -11,8 +11,8 @@ from app.records.datadir import DataDir
 from app.records.registry import Registry
 from app.trials.finalize import finalize_trial
 from app.trials.headless import save, simulate
-from app.trials.progression import Proposal, paces, propose
-from core.trial import THESIS_SUBJECT
+from app.trials.progression import Proposal, paced, propose
+from core.trial import DURATION_DECIMALS, THESIS_SUBJECT
 
 P = THESIS_SUBJECT  # the thesis mode: success is the time inside the cone
 A = THESIS_SUBJECT.replace(assist="as-needed")  # success is the share the patient led
@@ -145,14 +145,23 @@ def test_the_assistance_settles_as_a_staircase_instead_of_swinging():
     assert after(down.applied_to(as_needed), 9.0, old).assistance_level == pytest.approx(0.4)
 
 
-def test_a_pace_is_said_to_a_tenth_of_a_second_and_applied_exactly():
-    """Trying a session: "4.5 s → 4.05 s per traversal", a hundredth the form does not
-    show. Said to a tenth (a hundredth only where a tenth would read the same); the
-    proposal applies the exact value."""
+def test_a_pace_is_said_as_the_form_keeps_it_and_one_step_of_it_at_least():
+    """Trying a session: "4.5 s → 4.05 s per traversal" where the form showed and kept
+    tenths, so the proposal taken ran 4.0 s. The form keeps hundredths (DURATION_DECIMALS),
+    a proposal is in them and said as it is applied, and never rounds back to the pace it
+    changes."""
     faster = propose(A.replace(assistance_level=0.0, duration_s=4.5), led(90.0), "complete")
-    assert faster.duration_s == pytest.approx(4.05)
-    assert "faster, 4.5 s → 4.0 s per traversal" in faster.reason  # 4.05 to a tenth
-    assert paces(1.43, 1.40) == "1.43 s → 1.40 s"
+    assert faster.duration_s == 4.05
+    assert "faster, 4.5 s → 4.05 s per traversal" in faster.reason
+    assert (paced(1.0, 0.001), paced(1.0, -0.001), paced(4.5, -0.1)) == (1.01, 0.99, 4.05)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.floats(1.0, 120.0), st.sampled_from((-0.1, -0.05, -0.025, 0.025, 0.05, 0.1)))
+def test_a_paced_proposal_is_in_the_form_s_hundredths_and_moves(duration, step):
+    new = paced(duration, step)
+    assert new == round(new, DURATION_DECIMALS)
+    assert (new - duration) * step > 0
 
 
 def test_the_pace_settles_as_a_staircase_instead_of_swinging():
@@ -169,8 +178,7 @@ def test_the_pace_settles_as_a_staircase_instead_of_swinging():
     assert (faster.duration_s, faster.speed_step) == (pytest.approx(1.4), -0.1)
     slower = after(faster.applied_to(as_needed), 31.0, faster)  # falls behind: back, half
     assert (slower.duration_s, slower.speed_step) == (pytest.approx(1.47), 0.05)
-    # a tenth of a second as the form shows the pace; the proposal keeps 1.47 s
-    assert "1.4 s → 1.5 s per traversal" in slower.reason
+    assert "1.4 s → 1.47 s per traversal" in slower.reason  # as the form keeps it
     again = after(slower.applied_to(as_needed), 97.0, slower)
     assert (again.duration_s, again.speed_step) == (pytest.approx(1.43), -0.025)
     back = after(again.applied_to(as_needed), 31.0, again)
