@@ -431,6 +431,8 @@ class PlanControl:
                 runner.console.start(*waits)
         state = runner.state(now)
         self.plan_tab.status.setText(state.line())
+        # the blocks as the robot runs them, a proposal taken included
+        self.plan_tab.show_run(runner.plan, runner.blocks)
         if state.phase == ENDED and self.trial_id is None and runner.trial_id is None \
                 and not self.plan_records:
             self.plan_timer.stop()
