@@ -60,6 +60,7 @@ from ui.tabs import (
     TrajectoryTab,
     VideoTab,
 )
+from ui.tabs.replay import PATH_ROLE
 from ui.views.latch import Latch
 from ui.views.loop_health import LoopHealth
 from ui.views.messages import Messages
@@ -110,6 +111,7 @@ class MainWindow(AssessmentControl, PlanControl, TrialStart, AfterTrial, TrialAc
         self._finishing: set[int] = set()  # trials being finished into the registry
         self.live: TrialView | None = None
         self.shown_view: TrialView | None = None
+        self.live_report: int | None = None  # the registered trial of the live view's report
         self.latch = Latch()  # the e-stop and the loop's fault: the banner is this
         self._clear_asked = 0  # Clear faults sent, not yet answered
         self.built_setup: BuiltSetup | None = None  # what the form showed at Build
@@ -237,7 +239,7 @@ class MainWindow(AssessmentControl, PlanControl, TrialStart, AfterTrial, TrialAc
     def _show_replay_strip(self) -> None:
         view = self.shown_view
         replaying = view is not None and view is not self.live
-        on_a_view = isinstance(self.tabs.currentWidget(), (*VIEW_TABS, ReplayTab))
+        on_a_view = isinstance(self.tabs.currentWidget(), (*VIEW_TABS, ReportTab, ReplayTab))
         self.replay_strip.setVisible(replaying and on_a_view)
         if replaying:
             text = replay_line(view)
@@ -416,6 +418,8 @@ class MainWindow(AssessmentControl, PlanControl, TrialStart, AfterTrial, TrialAc
         for tab in self.view_tabs:
             tab.show_view(view)
         self._show_replay_strip()
+        if self.tabs.currentWidget() is self.report:
+            self._show_report()
         # the trial's video follows the slider too (the Video tab shows its last frame)
         self.video.show_replay(view.video)
         if view.video is not None and view.n:
@@ -443,4 +447,36 @@ class MainWindow(AssessmentControl, PlanControl, TrialStart, AfterTrial, TrialAc
         tab = self.tabs.currentWidget()
         if self.shown_view is not None and isinstance(tab, VIEW_TABS):
             tab.show_view(self.shown_view)
+        elif tab is self.report:
+            self._show_report()
         self._show_replay_strip()
+
+    def _show_report(self) -> None:
+        """The Report tab shows the report of the trial on view: a replayed trial's (the
+        registry's report, with its comparisons, when it is one of the Replay list's
+        trials), else the live trial's. It kept the last live trial's report under a
+        replay, so the window showed one trial replayed and another's report."""
+        view = self.shown_view
+        if view is not None and view is not self.live:
+            trial_id = replayed_trial(self.replay, view)
+            if trial_id is None:
+                self.report.show_view(view)
+            elif self.report.registry_trial() != trial_id:
+                self.report.load_registry_trial(self.registry, trial_id)
+        elif self.live_report is None:
+            self.report.show_waiting()
+        elif self.report.registry_trial() != self.live_report:
+            self.report.load_registry_trial(self.registry, self.live_report)
+
+
+def replayed_trial(replay: ReplayTab, view: TrialView) -> int | None:
+    """The registry's id of the trial `view` replays when it is one of the Replay tab's
+    list (its row holds the file's path), else None (a file opened with Open file…)."""
+    if view.source is None:
+        return None
+    for row in range(replay.trials.count()):
+        item = replay.trials.item(row)
+        here = item.data(PATH_ROLE)
+        if here is not None and Path(here) == Path(view.source):
+            return item.data(Qt.ItemDataRole.UserRole)
+    return None

@@ -3,8 +3,10 @@
 The tabs that draw a trial follow the `ViewTab` protocol: the window calls
 `show_view(view)` on the visible one from its 30–60 Hz timer while a trial runs
 (and once on each when a replay loads), and `set_cursor(t)` on all of them when
-the replay's slider moves. The others (instructions, registration, parameters,
-video, replay) have their own signals and methods.
+the replay's slider moves. The Report tab follows the view too, once per trial: the
+window gives it the replayed trial (or the live trial's registered report) when it is
+shown or a replay loads. The others (instructions, registration, parameters, video,
+replay) have their own signals and methods.
 """
 
 from __future__ import annotations

@@ -2,7 +2,9 @@
 patient, the plan's blocks in a table (laps, pace, level, tolerance and rest changed in
 place for today: each change is kept as a new plan, the one before as it was), and the
 plan's own buttons: Start plan (after Build and Connect), Pause, Resume and Stop plan,
-with the plan's status line (block k of n, movements, the rest's countdown). While the
+with the plan's status line (block k of n, movements, the rest's countdown). While a plan
+runs, and after, the table shows its blocks as the run runs them (`show_run`: a proposal
+taken, in bold, named under the table). While the
 registry is asked (the window's job thread: the plan read, a copy or a change saved, a run
 begun) the tab says so and its table, Copy and Start plan wait (`show_waiting`).
 
@@ -70,6 +72,9 @@ class PlanTab(QWidget):
         name (the list showed the files' names, "endurance")."""
         super().__init__()
         self.plan: Plan | None = None
+        self._run: tuple[Plan, tuple[Block, ...]] | None = None
+        """The plan run and its blocks as the runner runs them (or ran them), shown in
+        place of the plan's while it is the plan shown."""
         self._loading = False
         self.waiting = ""
         """What the registry is being asked for, in words ('' when nothing is)."""
@@ -135,28 +140,65 @@ class PlanTab(QWidget):
         column.addWidget(self.title)
         column.addWidget(self.waiting_line)
         column.addWidget(self.table, 1)
+        self.run_changes = QLabel("")
+        self.run_changes.setWordWrap(True)
+        column.addWidget(self.run_changes)
         column.addWidget(self.refusal)
         column.addLayout(buttons)
         column.addWidget(self.status)
         self.show_running(False, False)
 
     def set_plan(self, plan: Plan | None, title: str) -> None:
-        """Show `plan` (None: none yet) under `title`."""
+        """Show `plan` (None: none yet) under `title`; the run's blocks stay in its place
+        while it is the plan run (the window reads the stored plan again at the run's end:
+        the table showed the plan and not what ran)."""
         self.plan = plan
+        if self._run is not None and self._run[0] != plan:
+            self._run = None
         self.title.setText(title)
         self.refusal.setText("")
+        self._fill()
+
+    def show_run(self, plan: Plan, blocks) -> None:
+        """The blocks of `plan` as its run runs them (app.plans.runner.PlanRunner.blocks:
+        the console's proposal after a trial applies to a later block of the same
+        exercise), and after the run as they ran. The table said the plan's 4 s a lap
+        while the robot ran block 3 at the proposal's 4.5 s."""
+        run = (plan, tuple(blocks))
+        if run != self._run:
+            self._run = run
+            self._fill()
+
+    def _fill(self) -> None:
+        plan = self.plan
+        planned = plan.blocks if plan is not None else ()
+        shown = self._run[1] if self._run is not None and len(self._run[1]) == len(planned) \
+            else planned
+        changes = []
         self._loading = True
         try:
-            blocks = plan.blocks if plan is not None else ()
-            self.table.setRowCount(len(blocks))
-            for row, block in enumerate(blocks):
-                for col, text in enumerate(_cells(row, block)):
+            self.table.setRowCount(len(shown))
+            for row, block in enumerate(shown):
+                cells, plan_cells = _cells(row, block), _cells(row, planned[row])
+                changed = [f"{COLUMNS[col].lower()} {text} (planned {plan_cells[col]})"
+                           for col, text in enumerate(cells) if text != plan_cells[col]]
+                if changed:
+                    changes.append(f"block {row + 1}, " + ", ".join(changed))
+                for col, text in enumerate(cells):
                     item = QTableWidgetItem(text)
                     if col not in EDITABLE or (col == 4 and block.repetitions is None):
                         item.setFlags(item.flags() & ~_editable_flag())
+                    if text != plan_cells[col]:
+                        font = item.font()
+                        font.setBold(True)
+                        item.setFont(font)
+                        item.setToolTip(f"The plan says {plan_cells[col]}: {PROPOSED}.")
                     self.table.setItem(row, col, item)
         finally:
             self._loading = False
+        self.run_changes.setText(
+            f"Changed in this run by the console's proposal: {'; '.join(changes)}."
+            if changes else "")
 
     def _show_about(self) -> None:
         about = self.templates.currentData(Qt.ItemDataRole.ToolTipRole) or ""
@@ -221,6 +263,10 @@ class PlanTab(QWidget):
         self.refusal.setText(f"Not changed: {text}")
         self.set_plan(self.plan, self.title.text())  # the cell shows the plan again
         self.refusal.setText(f"Not changed: {text}")
+
+
+PROPOSED = ("the console's proposal after an earlier trial of the same exercise changed "
+            "it for this run")
 
 
 def _cells(row: int, block: Block) -> tuple[str, ...]:

@@ -115,6 +115,18 @@ class ReportTab(QWidget):
         if view.source != self._source:
             self.load_file(view.source)
 
+    def show_waiting(self) -> None:
+        """No trial on view has a report yet (none saved since the console started): the
+        page empties and says so."""
+        self._wanted = None
+        self._source = None
+        self._content = None
+        self._clear()
+        self._set_buttons()
+        theme.set_role(self.message, "caption")
+        self.message.style().polish(self.message)
+        self.message.setText(WAITING)
+
     def load_file(self, path: str | Path, **options) -> None:
         """Build the report of a trial file (options go to app.reports.build.build_report)."""
         self._source = Path(path)

@@ -56,6 +56,14 @@ class Messages:
         self._last = event
         return event
 
+    def withdraw(self, event: Event | None) -> bool:
+        """`event` is no longer true (what it said was done or changed): it leaves the line,
+        not the history, if it is still the line's; True when it was."""
+        if event is None or self._last is not event:
+            return False
+        self._last = None
+        return True
+
     def set_state(self, state: State) -> None:
         """The robot's state changed: an event that does not belong to the new one is
         over."""

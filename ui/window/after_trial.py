@@ -87,6 +87,7 @@ class AfterTrial:
         thread, then shown (`_after_trial`); then its report can be saved (`unsaved_trial`:
         what waits for a trial to be done waits for all of it)."""
         self._live_from_file(done.path)
+        self.live_report = trial_id
         self.report.load_registry_trial(self.registry, trial_id)
         if self.patient is not None:
             self.progress.set_patient(self.patient.code)  # read on the tab's own threads

@@ -33,6 +33,7 @@ from core.assessment import TASK_TITLES
 from core.assessment.protocol import protocol
 from core.errors import CoreError
 from core.trial import TrialParameters
+from device.loop.states import State
 from ui.tabs.assessments import AssessmentsTab
 
 log = logging.getLogger("ui.main_window")
@@ -70,8 +71,17 @@ class AssessmentControl:
         self.parameters_tab.set_parameters(trial)
         self.parameters_tab.edited.emit()
         self._say(f"{TASK_TITLES[task]}, trial {index + 1} of {protocol(task).trial_count}, "
-                  "is in the Parameters form: press Build, Connect and Start.")
+                  f"is in the Parameters form: press {self._buttons_to_run()}.")
         self._show_assessment_setup()
+
+    def _buttons_to_run(self) -> str:
+        """The robot buttons that run the form's trial from here, in order: "Build,
+        Connect and Start" said Connect to a connected robot, whose Connect is greyed."""
+        press = [] if self.built is not None and not self.stale() else ["Build"]
+        if self.state != State.CONNECTED:
+            press.append("Connect")
+        press.append("Start")
+        return press[0] if len(press) == 1 else f"{', '.join(press[:-1])} and {press[-1]}"
 
     def _show_assessment_setup(self) -> None:
         shown = self.parameters_tab.shown()

@@ -98,12 +98,19 @@ class MessageLine:
         """A new line in the message line (and its history)."""
         self._say(text, problem=problem)
 
-    def _say(self, text: str, problem: bool = False, states=None) -> None:
+    def _say(self, text: str, problem: bool = False, states=None):
         """A new event line; `states`: the robot states it stays current in (it leaves the
-        line, not the history, when the robot leaves them; ui.views.messages)."""
-        self.messages.say(text, problem=problem, states=states)
+        line, not the history, when the robot leaves them; ui.views.messages). Returns the
+        event, for a part of the window to withdraw once it no longer holds."""
+        event = self.messages.say(text, problem=problem, states=states)
         self._show_message()
         (log.warning if problem else log.info)("%s", text)
+        return event
+
+    def _withdraw(self, event) -> None:
+        """`event`'s line is no longer true: off the line if it is still shown there."""
+        if self.messages.withdraw(event):
+            self._show_message()
 
     def _show_message(self) -> None:
         event = self.messages.last

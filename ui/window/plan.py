@@ -82,6 +82,7 @@ class PlanControl:
     def _build_plan_tab(self) -> PlanTab:
         self.plan_runner = None
         self.stored_plan = None
+        self._plan_refusal = None  # the event line of the last Start plan refused
         self.plan_tab = PlanTab(template_titles())
         t = self.plan_tab
         t.copy_requested.connect(self._copy_template)
@@ -162,6 +163,9 @@ class PlanControl:
             self.plan_tab.set_plan(None, f"Patient {code}'s plan cannot be shown: {stored}")
             return
         self.stored_plan = stored
+        # a Start plan refusal was of the plan shown before: it stayed over the new one
+        self._withdraw(self._plan_refusal)
+        self._plan_refusal = None
         if stored is None:
             self.plan_tab.set_plan(None, f"Patient {code} has no plan yet: copy a template "
                                          "to them.")
@@ -290,7 +294,7 @@ class PlanControl:
 
     def _refuse_plan(self, why: str) -> None:
         why = why.rstrip(".")  # a check's sentence ends in its own full stop
-        self._say(f"Start plan refused: {why}.", problem=True)
+        self._plan_refusal = self._say(f"Start plan refused: {why}.", problem=True)
         self.plan_tab.show_refusal(f"Start plan refused: {why}.")
 
     def _plan_gone(self, stored, registration, base) -> str:
@@ -431,10 +435,13 @@ class PlanControl:
                 runner.console.start(*waits)
         state = runner.state(now)
         self.plan_tab.status.setText(state.line())
+        # the blocks as the robot runs them, a proposal taken included
+        self.plan_tab.show_run(runner.plan, runner.blocks)
         if state.phase == ENDED and self.trial_id is None and runner.trial_id is None \
                 and not self.plan_records:
             self.plan_timer.stop()
-            self._say(state.line() + self._form_back(),
+            line = state.line()  # "Plan complete (…)": a sentence before the next
+            self._say(line + ("" if line.endswith(".") else ".") + self._form_back(),
                       problem=state.outcome not in ("complete",))
             self.plan_runner = None
             self.plan_start_waits = None  # a Start the run's end made moot

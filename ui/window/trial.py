@@ -215,7 +215,11 @@ class TrialActions:
             self._say(f"The trial ended before the robot took {level:.0%}: the trial ran "
                       "without it. Press Build to run the next trial at it.", problem=True)
 
+    _start_needs_said = None
+    """(the event line, what it said Start needs) while it says Start needs something."""
+
     def _refresh_buttons(self) -> None:
+        self._start_needs_still()
         tab = self.parameters_tab
         problem = tab.problem() or tab.backend_problem()
         if not problem and tab.check() is None:
@@ -227,6 +231,20 @@ class TrialActions:
             unsaved=self.unsaved_trial is not None, saving=self.saving(),
             connecting=self._connecting, outside=self.handle_outside,
             registering=self.registering(), plan=self.plan_runner is not None))
+
+    def _start_needs_still(self) -> None:
+        """The event line that said what Start needs, once that changed, says what it needs
+        now ("Start when ready." when nothing): "Start needs a registered patient…" stayed
+        after the patient was confirmed, over a green Start."""
+        said = self._start_needs_said
+        if said is None or self.messages.last is not said[0]:
+            self._start_needs_said = None
+            return
+        needs = self.start_needs()
+        if needs != said[1]:
+            event = self._say(f"{start_why(needs)}." if needs else "Start when ready.",
+                              states=(State.CONNECTED,))
+            self._start_needs_said = (event, needs) if needs else None
 
     def saving(self) -> bool:
         """A trial is begun and not yet finished into the registry: its file still open,
@@ -386,12 +404,15 @@ class TrialActions:
         if self.state == State.CONNECTED and reason.startswith("connected to the "):
             needs = self.start_needs()
             then = f"{start_why(needs)}." if needs else "Start when ready."
+            said = None
             if on_simulator(self.built_backend):  # no "Zero taken" said it is done
-                self._say(f"Connected to the simulator. {then}", states=(State.CONNECTED,))
+                said = self._say(f"Connected to the simulator. {then}",
+                                 states=(State.CONNECTED,))
             elif needs:
                 zero = " (zero taken)" if self.messages.last is not None and \
                     self.messages.last.text == ZERO_TAKEN else ""
-                self._say(f"Connected{zero}. {then}", states=(State.CONNECTED,))
+                said = self._say(f"Connected{zero}. {then}", states=(State.CONNECTED,))
+            self._start_needs_said = (said, needs) if needs else None
         self._refresh_buttons()
 
     def _on_trial_started(self, path: str, approach: int, total: int) -> None:
