@@ -8,7 +8,7 @@ import pytest
 from PySide6.QtCore import Qt
 
 from app.reports.build import content_for_registry_trial
-from core.plan import Block, Plan
+from core.plan import Block, Plan, check_plan
 from device.loop.states import State
 from tests.ui.session import click, enabled, open_window, register_patient, short_trial
 
@@ -329,6 +329,31 @@ def test_the_plan_s_records_wait_on_the_registry_off_the_window_s_thread(qtbot, 
     assert [(s.kind, s.block) for s in run.steps] == [("trial", 1)]
 
 
+def test_a_template_is_copied_fitted_to_the_patient_s_arm(qtbot, tmp_path, monkeypatch):
+    """Trying a session: the First session template, copied for a patient of 57 cm of arm,
+    was refused at Start plan (block 3's reach 57.9 cm from the shoulder). Copied, it is
+    fitted to the arm on the Parameters tab, the line says what was made smaller, and
+    Start plan no longer refuses it for reach."""
+    win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
+    try:
+        register_patient(qtbot, win)
+        shown(qtbot, win)
+        p = win.parameters_tab
+        p.forearm.setValue(27.0)
+        p.refresh()
+        tab = win.plan_tab
+        tab.templates.setCurrentText("First session")
+        click(qtbot, tab.copy_button)
+        shown(qtbot, win)
+        assert tab.refusal.text().startswith("Fitted to this patient: block 3 (Forward "
+                                             "reach): radius "), tab.refusal.text()
+        assert not check_plan(win.stored_plan.plan, p.parameters(), p.robot)
+        click(qtbot, tab.start_button)
+        assert "Forward reach" not in tab.refusal.text(), tab.refusal.text()
+    finally:
+        win.close()
+
+
 def test_a_block_out_of_reach_is_said_before_build_and_connect(qtbot, tmp_path, monkeypatch):
     """A therapist's first plan (brief hI): the First session template for a patient of
     57 cm of arm; Start plan, pressed before Build and Connect, said "connect the robot
@@ -341,17 +366,19 @@ def test_a_block_out_of_reach_is_said_before_build_and_connect(qtbot, tmp_path, 
         shown(qtbot, win)
         code = win.patient.code
         p = win.parameters_tab
-        p.forearm.setValue(27.0)  # a shorter arm: the forward reach's far end is out of it
-        p.refresh()
         tab = win.plan_tab
         tab.templates.setCurrentText("First session")
         click(qtbot, tab.copy_button)
         shown(qtbot, win)
+        # copied for this arm; then a shorter arm on the form: the forward reach's far end
+        # is out of it (a plan copied is not fitted again behind the therapist's back)
+        p.forearm.setValue(27.0)
+        p.refresh()
         click(qtbot, tab.start_button)
         said = tab.refusal.text()
         assert said.startswith("Start plan refused: block 3 (Forward reach): "), said
         # in the form's own units: its refusals say cm (brief hO: the plan's said metres)
-        assert "this arm reaches 57.0 cm" in said, said
+        assert " cm from the shoulder" in said, said
         assert ") m " not in said, said
         assert "Parameters tab's centre" in said
         assert win.plan_runner is None

@@ -177,15 +177,16 @@ class PlanControl:
     def _save_plan(self, words: str, refused: str, save) -> None:
         """`save()` on the job thread, then the patient's plan read again and shown (after
         a refusal too: the table shows what the registry keeps, never the change it
-        refused), with the refusal, `refused` first, in one line."""
+        refused), with the refusal, `refused` first, in one line, or what `save()` says
+        (a str: a template fitted to the patient)."""
         code = self.patient.code
 
         def work():
             try:
-                save()
+                said = save()
             except Exception as exc:  # TemplateError, InvalidRecordError: one line
                 return f"{refused}: {exc}", self.registry.current_plan(code)
-            return "", self.registry.current_plan(code)
+            return said or "", self.registry.current_plan(code)
 
         def answer(result) -> None:
             if isinstance(result, Exception):  # the plan read again could not be
@@ -202,10 +203,23 @@ class PlanControl:
             self.plan_tab.show_refusal("Choose the patient first (Registration tab).")
             return
         code = self.patient.code
+        # fitted to the patient's arm and the robot as the form has them (core.plan.fit_plan):
+        # the First session's reach was copied as it is and refused at Start plan for an arm
+        # of 57 cm. A form that refuses (a measurement not kept yet) copies it as it is:
+        # Start plan checks it against the form then
+        try:
+            setup = self.parameters_tab.parameters()
+        except Exception:  # the form's own refusal, said under its field
+            setup = None
+        robot = self.parameters_tab.robot
 
-        def copy() -> None:
-            template = load_template(name)
+        def copy() -> str:
+            template = load_template(name, fit_to=setup, robot=robot, units=SCREEN)
             self.registry.save_plan(code, template.plan, template=name)
+            if not template.fitted:
+                return ""
+            return "Fitted to this patient: " + "; ".join(
+                line.rstrip(".") for line in template.fitted) + "."
 
         self._save_plan(f"Copying the template to patient {code}…", "Not copied", copy)
 
