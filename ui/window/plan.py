@@ -186,7 +186,8 @@ class PlanControl:
                 said = save()
             except Exception as exc:  # TemplateError, InvalidRecordError: one line
                 return f"{refused}: {exc}", self.registry.current_plan(code)
-            return said or "", self.registry.current_plan(code)
+            # the other saves return what the registry gives back: nothing to say
+            return said if isinstance(said, str) else "", self.registry.current_plan(code)
 
         def answer(result) -> None:
             if isinstance(result, Exception):  # the plan read again could not be
