@@ -124,6 +124,10 @@ def test_the_python_api_is_a_dask_dataframe_of_the_same_rows(selection, result, 
 
 
 def test_the_local_cluster_listens_on_127_0_0_1_only_and_has_no_dashboard(client):
+    # the workers as they register, not as the scheduler knew them at one moment: a loaded
+    # host had them unregistered (0 workers) when the whole check asked (a bound, not a
+    # timing)
+    client.wait_for_workers(2, timeout=120)
     info = client.scheduler_info(n_workers=-1)
     addresses = [client.scheduler.address, *info["workers"],
                  *(w["nanny"] for w in info["workers"].values())]
