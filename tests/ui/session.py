@@ -100,6 +100,33 @@ def open_window(qtbot, tmp_path, monkeypatch, *, start_device: bool = True,
     return win
 
 
+def window_with_trials(qtbot, tmp_path, monkeypatch, wait_ms: int, n: int = 2):
+    """A window with no loop whose patient has `n` registered trials, listed on the Replay
+    tab: (the window, the trials begun)."""
+    from core.trial import THESIS_SUBJECT
+    from tests.app.assessments.registered import register
+
+    win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
+    register_patient(qtbot, win)
+    code = win.patient.code
+    begun = [register(win.registry, code, {}, task="", parameters=THESIS_SUBJECT)
+             for _ in range(n)]
+    win.read_proposal_and_trials(code)
+    qtbot.waitUntil(lambda: win.reading_after == 0, timeout=wait_ms)
+    assert win.replay.trials.count() == n
+    return win, begun
+
+
+def window_with_plan(qtbot, tmp_path, monkeypatch, plan, wait_ms: int) -> MainWindow:
+    """A window with no loop whose patient has `plan`, shown on the Plan tab."""
+    win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
+    register_patient(qtbot, win)
+    win.registry.save_plan(win.patient.code, plan)
+    win.show_plan_of(win.patient.code)
+    qtbot.waitUntil(lambda: not win.plan_waiting(), timeout=wait_ms)
+    return win
+
+
 def fake_trigno():
     """The fake Trigno Control Utility of the device tests (tests/device/fakes)."""
     import importlib.util

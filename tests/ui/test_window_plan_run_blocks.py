@@ -12,7 +12,7 @@ import pytest
 from app.plans.runner import PlanRunner
 from core.plan import Block, Plan
 from core.trial import THESIS_SUBJECT
-from tests.ui.session import open_window, register_patient
+from tests.ui.session import window_with_plan
 
 pytestmark = pytest.mark.slow
 
@@ -36,12 +36,8 @@ class Console:
 
 
 def test_the_table_shows_the_blocks_as_the_run_runs_them(qtbot, tmp_path, monkeypatch):
-    win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
-    register_patient(qtbot, win)
+    win = window_with_plan(qtbot, tmp_path, monkeypatch, PLAN, WAIT_MS)
     code = win.patient.code
-    win.registry.save_plan(code, PLAN)
-    win.show_plan_of(code)
-    qtbot.waitUntil(lambda: not win.plan_waiting(), timeout=WAIT_MS)
     tab = win.plan_tab
     assert tab.table.item(2, PACE).text() == "4"
     stored = tab.plan

@@ -15,10 +15,8 @@ import pytest
 from PySide6.QtCore import Qt
 
 from app.errors import RegistryUnreachable
-from core.trial import THESIS_SUBJECT
-from tests.app.assessments.registered import register
 from tests.ui.held import BOUND_S, Held
-from tests.ui.session import click, open_window, register_patient
+from tests.ui.session import click, window_with_trials
 from ui.tabs.replay import LOADING
 
 pytestmark = pytest.mark.slow
@@ -30,15 +28,8 @@ WAIT_MS = int(BOUND_S * 1000)
 @pytest.fixture
 def listed(qtbot, tmp_path, monkeypatch):
     """A window on the Replay tab, its patient's two trials listed (the newest first)."""
-    win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
-    register_patient(qtbot, win)
-    code = win.patient.code
-    begun = [register(win.registry, code, {}, task="", parameters=THESIS_SUBJECT)
-             for _ in range(2)]
-    win.read_proposal_and_trials(code)
-    qtbot.waitUntil(lambda: win.reading_after == 0, timeout=WAIT_MS)
+    win, begun = window_with_trials(qtbot, tmp_path, monkeypatch, WAIT_MS)
     win.tabs.setCurrentWidget(win.replay)
-    assert win.replay.trials.count() == 2
     yield win, begun
     win.close()
 

@@ -9,9 +9,7 @@ from __future__ import annotations
 
 import pytest
 
-from core.trial import THESIS_SUBJECT
-from tests.app.assessments.registered import register
-from tests.ui.session import click, open_window, register_patient
+from tests.ui.session import click, window_with_trials
 from ui.tabs.replay import load_view
 from ui.tabs.report import WAITING
 
@@ -24,14 +22,7 @@ WAIT_MS = 30_000
 @pytest.fixture
 def two_trials(qtbot, tmp_path, monkeypatch):
     """A window whose patient has two registered trials, listed on the Replay tab."""
-    win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
-    register_patient(qtbot, win)
-    code = win.patient.code
-    begun = [register(win.registry, code, {}, task="", parameters=THESIS_SUBJECT)
-             for _ in range(2)]
-    win.read_proposal_and_trials(code)
-    qtbot.waitUntil(lambda: win.reading_after == 0, timeout=WAIT_MS)
-    assert win.replay.trials.count() == 2
+    win, begun = window_with_trials(qtbot, tmp_path, monkeypatch, WAIT_MS)
     yield win, begun
     win.close()
 

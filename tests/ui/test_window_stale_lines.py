@@ -13,7 +13,13 @@ from app.plans.runner import ENDED, PlanRunner
 from core.plan import Block, Plan
 from core.trial import THESIS_SUBJECT
 from device.loop.states import State
-from tests.ui.session import click, open_window, register_patient, short_trial
+from tests.ui.session import (
+    click,
+    open_window,
+    register_patient,
+    short_trial,
+    window_with_plan,
+)
 
 pytestmark = pytest.mark.slow
 
@@ -68,12 +74,7 @@ def test_start_s_need_gives_way_once_met_and_an_assessment_names_the_buttons_tha
 
 def test_a_start_plan_refusal_leaves_the_line_once_the_plan_is_changed(
         qtbot, tmp_path, monkeypatch):
-    win = open_window(qtbot, tmp_path, monkeypatch, start_device=False)
-    register_patient(qtbot, win)
-    code = win.patient.code
-    win.registry.save_plan(code, PLAN)
-    win.show_plan_of(code)
-    qtbot.waitUntil(lambda: not win.plan_waiting(), timeout=WAIT_MS)
+    win = window_with_plan(qtbot, tmp_path, monkeypatch, PLAN, WAIT_MS)
     click(qtbot, win.plan_tab.start_button)  # the robot not connected
     assert win.message.text().startswith("⚠ Start plan refused:")
     before = win.stored_plan.id
