@@ -185,7 +185,8 @@ def test_progress_lists_every_trial_grouped_by_exercise(qtbot, history):
     column = heads.index("Position error, x (RMSE) (mm)")
     for row, (_, analysis) in enumerate(trials):
         assert tab.table.item(row, 0).text() == ("1", "1", "2")[row]
-        assert tab.table.item(row, column).text() == f"{analysis.metrics.rmse_x_m * 1000:.2f}"
+        # mm: one place, as the report writes it
+        assert tab.table.item(row, column).text() == f"{analysis.metrics.rmse_x_m * 1000:.1f}"
     assert "r 12.0 cm" in tab.table.item(1, heads.index("Exercise")).text()
 
     # two exercises (two sizes), one series each; the latest trial's shown first

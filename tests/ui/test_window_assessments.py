@@ -150,7 +150,8 @@ def test_the_strength_tasks_polar_plot_shows_its_figures_and_hides_for_other_tas
     assert tab.polar.isVisible()
     # the text stays, each number held to its unit (a no-break space: the panel wrapped
     # '… (mean of directions): 10.6' above a lone 'N')
-    assert "Peak force 0°: 10\u00a0N" in tab.results.document().toRawText()
+    # (in the report's places for N: two)
+    assert "Peak force 0°: 10.00\u00a0N" in tab.results.document().toRawText()
     theta = np.radians([0, 45, 90, 135, 180, 225, 270, 315, 360])
     nan = math.nan
     for curve, radius in ((tab.polar.peak_curve, [10, 12, 20, 14, nan, 9, 0, nan, 10]),

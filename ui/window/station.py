@@ -159,6 +159,9 @@ class StationStatus:
         moved = {trial for m in synced.renumbered for trial in m.trial_ids}
         if not moved:
             return
+        # the live trial's report, which the Report tab goes back to after a replay, by the
+        # number the registry now has for it (it went back to the old one)
+        self.live_report = synced.trial_ids.get(self.live_report, self.live_report)
         shown = synced.trial_ids.get(self.report.registry_trial())
         if shown in moved:
             self.report.load_registry_trial(self.registry, shown)

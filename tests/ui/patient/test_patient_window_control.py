@@ -181,7 +181,11 @@ class _EndedPlan:
     trial_id = None
 
     def __init__(self, outcome: str) -> None:
+        from core.plan import Block, Plan
+
         self.outcome = outcome
+        self.plan = Plan("Session", (Block(shape="d", repetitions=1, duration_s=4.0),))
+        self.blocks = self.plan.blocks  # as the run ran them (the window's Plan tab shows them)
 
     def tick(self, now: float) -> None:
         pass
