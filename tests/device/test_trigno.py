@@ -1,20 +1,16 @@
 """The Trigno Control Utility client against a fake TCU on localhost that follows its TCP
 protocol (tests/device/fakes/trigno_server.py)."""
 
-import importlib.util
 import socket
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from device.emg.trigno import EMG_PORT, TrignoClient, TrignoError
+from tests.fake_trigno import fake_trigno
 
-_spec = importlib.util.spec_from_file_location(
-    "trigno_server", Path(__file__).parent / "fakes" / "trigno_server.py")
-fake = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(fake)
+fake = fake_trigno()
 
 
 def _client(server, **kw):

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from PySide6.QtCore import Qt
 
+from tests.fake_trigno import fake_trigno  # noqa: F401  (the UI tests take it from here)
 from ui.main_window import MainWindow
 
 
@@ -125,15 +126,3 @@ def window_with_plan(qtbot, tmp_path, monkeypatch, plan, wait_ms: int) -> MainWi
     win.show_plan_of(win.patient.code)
     qtbot.waitUntil(lambda: not win.plan_waiting(), timeout=wait_ms)
     return win
-
-
-def fake_trigno():
-    """The fake Trigno Control Utility of the device tests (tests/device/fakes)."""
-    import importlib.util
-    from pathlib import Path
-
-    spec = importlib.util.spec_from_file_location(
-        "trigno_server", Path(__file__).parents[1] / "device" / "fakes" / "trigno_server.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module

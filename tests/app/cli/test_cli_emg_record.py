@@ -9,6 +9,7 @@ import pytest
 
 from device.emg.files import read_emg_file
 from tests.app.cli.running import run
+from tests.fake_trigno import fake_trigno
 
 DATA = Path(__file__).parents[2] / "data" / "emg"
 
@@ -16,19 +17,8 @@ DATA = Path(__file__).parents[2] / "data" / "emg"
 pytestmark = pytest.mark.usefixtures("data")  # the folders of tests/app/cli/conftest.py
 
 
-def _fake_trigno():
-    """The fake Trigno Control Utility of the device tests (tests/device/fakes)."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location(
-        "trigno_server", Path(__file__).parents[2] / "device" / "fakes" / "trigno_server.py")
-    fake = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(fake)
-    return fake
-
-
 def test_record_a_guided_mvc_from_the_fake_trigno(tmp_path, capsys):
-    fake = _fake_trigno()
+    fake = fake_trigno()
     out_file = tmp_path / "mvc.csv"
     with fake.FakeTrignoServer() as server:
         code, out, err = run(["emg", "record", "trigno:127.0.0.1", "--seconds", "0.6",
@@ -54,7 +44,7 @@ def test_a_channel_the_source_lacks_is_refused_before_the_patient_is_told_to_con
         tmp_path, capsys):
     """`--channel 17` on a 16-slot base station was refused only after 'Contract the biceps
     as hard as you can … now' and the whole recording: the patient pushed for nothing."""
-    fake = _fake_trigno()
+    fake = fake_trigno()
     out_file = tmp_path / "mvc.csv"
     with fake.FakeTrignoServer() as server:
         code, out, err = run(["emg", "record", "trigno:127.0.0.1", "--seconds", "0.6",

@@ -2,11 +2,9 @@
 stream, stored in the trial file on the trial's clock; a source lost mid-trial keeps what
 it had and says why."""
 
-import importlib.util
 import shutil
 import time
 import uuid
-from pathlib import Path
 
 import numpy as np
 import pylsl
@@ -20,12 +18,10 @@ from device.emg.trigno import TrignoClient
 from device.lsl.inlet import LslEmgInlet
 from device.recording.emgfile import read_emg
 from tests.app.cli.running import run
+from tests.fake_trigno import fake_trigno
 from tests.trialfiles import edited
 
-_spec = importlib.util.spec_from_file_location(
-    "trigno_server", Path(__file__).parents[2] / "device" / "fakes" / "trigno_server.py")
-fake = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(fake)
+fake = fake_trigno()
 
 
 @pytest.fixture(scope="module")
